@@ -1,0 +1,215 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * RMD protocol codec, V2.0 and V3.x: bytes <-> decoded messages.
+ *
+ * Layer 1 of DESIGN.md: pure functions, no I/O, clock, globals (other than
+ * const tables), allocation or logging.  Every function here is rt-safe.
+ *
+ * The codec is table driven.  Each command of each protocol has a
+ * struct rmd_cmd_spec that names the command and lists, for the request and
+ * for the reply, which little-endian integer field sits at which bytes and
+ * what one LSB is worth in the protocol's native unit (0.01 A, 1 dps,
+ * 0.01 deg, 0.1 V, ...).  One interpreter encodes and decodes all of them,
+ * so a command is exactly as right as its table row, and the table rows are
+ * checked against the manuals' worked examples in tests/test_codec.c.
+ *
+ * A decoded message keeps the raw wire integers (struct rmd_msg.v[]), so
+ * decode(encode(x)) == x holds exactly; rmd_msg_get() scales a field to the
+ * native unit using the row's scale.
+ */
+#ifndef RMD_CODEC_H
+#define RMD_CODEC_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rmd/frame.h"
+
+enum rmd_proto {
+	RMD_PROTO_V3 = 0, /* replies on 0x240 + ID */
+	RMD_PROTO_V2,	  /* replies on 0x140 + ID */
+	RMD_PROTO_MIT,	  /* 0x400 + ID / 0x500 + ID, see rmd/mit.h */
+};
+
+enum rmd_dir {
+	RMD_DIR_REQUEST = 0, /* host -> motor */
+	RMD_DIR_REPLY,	     /* motor -> host */
+	RMD_DIR_UNKNOWN,     /* V2 uses 0x140 + ID both ways */
+};
+
+/*
+ * Every quantity any frame carries.  The value of field F is msg.v[F], the
+ * raw integer from the wire (sign-extended where the row says signed).
+ * The comment gives the JSON key rmdctl prints (rmd_field_key()).
+ */
+enum rmd_field {
+	RMD_FLD_TEMP = 0,    /* temperature_c */
+	RMD_FLD_CURRENT,     /* current_a: iq, measured or setpoint */
+	RMD_FLD_SPEED,	     /* speed_dps: measured or setpoint */
+	RMD_FLD_ANGLE,	     /* angle_deg: measured or setpoint */
+	RMD_FLD_MAX_SPEED,   /* max_speed_dps: speed limit of a move */
+	RMD_FLD_SPIN_DIR,    /* spin_direction: V2 0xA6/0xA7, 0 = cw */
+	RMD_FLD_ENCODER,     /* encoder: counts */
+	RMD_FLD_ENCODER_RAW, /* encoder_raw: counts, without offset */
+	RMD_FLD_ENCODER_OFF, /* encoder_offset: counts */
+	RMD_FLD_VOLTAGE,     /* voltage_v */
+	RMD_FLD_ERROR,	     /* error_code (+ "errors": names) */
+	RMD_FLD_BRAKE,	     /* brake_released: 1 released, 0 locked */
+	RMD_FLD_PHASE_A,     /* phase_a_a */
+	RMD_FLD_PHASE_B,     /* phase_b_a */
+	RMD_FLD_PHASE_C,     /* phase_c_a */
+	RMD_FLD_CURR_KP,     /* current_kp */
+	RMD_FLD_CURR_KI,     /* current_ki */
+	RMD_FLD_SPD_KP,	     /* speed_kp */
+	RMD_FLD_SPD_KI,	     /* speed_ki */
+	RMD_FLD_POS_KP,	     /* position_kp */
+	RMD_FLD_POS_KI,	     /* position_ki */
+	RMD_FLD_ACCEL,	     /* accel_dps2 */
+	RMD_FLD_INDEX,	     /* index: 0x43 accel index, 0x20 function */
+	RMD_FLD_VALUE,	     /* value: 0x20 function parameter */
+	RMD_FLD_MODE,	     /* mode: 0x70 run mode (rmd_run_mode_name) */
+	RMD_FLD_POWER,	     /* power_w */
+	RMD_FLD_RUNTIME,     /* runtime_ms */
+	RMD_FLD_VERSION,     /* version_date: yyyymmdd */
+	RMD_FLD_TIMEOUT,     /* timeout_ms: 0xB3 comm-loss protection */
+	RMD_FLD_BAUD,	     /* baud_code: 0xB4 */
+	RMD_FLD_MODEL,	     /* model: up to 7 ASCII bytes, first in LSB */
+	RMD_FLD_READ_FLAG,   /* read_flag: 0x79, 1 read, 0 write */
+	RMD_FLD_CAN_ID,	     /* can_id_value: 0x79 */
+	RMD_FLD_CURRENT_1,   /* current_1_a: V2 0x280, motor 1 */
+	RMD_FLD_CURRENT_2,   /* current_2_a */
+	RMD_FLD_CURRENT_3,   /* current_3_a */
+	RMD_FLD_CURRENT_4,   /* current_4_a */
+	RMD_FLD_BATTERY,     /* battery_v: V2 0x72 */
+	RMD_FLD_COUNT
+};
+
+/* One field of a frame's data: little-endian, `size` bytes from `off`. */
+struct rmd_field_spec {
+	uint8_t field; /* enum rmd_field */
+	uint8_t off;   /* first byte in data[] */
+	uint8_t size;  /* 1..7 */
+	bool is_signed;
+	double scale; /* native unit per LSB (1.0 for counts and codes) */
+};
+
+#define RMD_LAYOUT_MAX 7
+
+struct rmd_layout {
+	uint8_t n;
+	struct rmd_field_spec f[RMD_LAYOUT_MAX];
+};
+
+/* struct rmd_cmd_spec.flags */
+enum {
+	RMD_CMD_NO_REPLY = 1u << 0,	/* V3 §2.25: 0x76 resets, does not answer */
+	RMD_CMD_ECHO = 1u << 1,		/* reply repeats the request's data */
+	RMD_CMD_RANDOM_REPLY = 1u << 2, /* V3 §2.31: 0xB4 reply is noise */
+	RMD_CMD_NO_CMD_BYTE = 1u << 3,	/* data[0] is not the command byte */
+	RMD_CMD_ROM = 1u << 4,		/* writes the motor's ROM (flash) */
+	RMD_CMD_MOVES = 1u << 5,	/* may move the motor */
+};
+
+struct rmd_cmd_spec {
+	uint8_t cmd;	  /* command byte, data[0] */
+	const char *name; /* short snake_case name, e.g. "read_status_1" */
+	uint8_t flags;
+	struct rmd_layout req; /* fields of the host's request */
+	struct rmd_layout rep; /* fields of the motor's reply */
+};
+
+/*
+ * A decoded message.  `present` has bit F set when v[F] was decoded; encode
+ * reads v[F] for every field the layout lists and ignores `present`.
+ */
+struct rmd_msg {
+	uint8_t cmd;
+	uint64_t present;
+	int64_t v[RMD_FLD_COUNT];
+};
+
+/* Where a frame goes: from its CAN identifier. */
+struct rmd_addr {
+	enum rmd_dir dir;
+	uint8_t motor_id; /* 1..32; 0 for 0x280 and 0x300 */
+	bool broadcast;	  /* 0x280 (both protocols) or 0x300 (V3) */
+};
+
+/*
+ * Pseudo command byte of the V2 0x280 four-torque frame (V2 §4.1), whose
+ * data carries no command byte.  Its row is found with this value.
+ */
+#define RMD_V2_CMD_MULTI_TORQUE 0x00u
+
+/* The row for `cmd` of `proto` (V2 or V3), or NULL if there is none. */
+const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd);
+
+/*
+ * All rows of a protocol, for tools and tests that walk every command.
+ * Returns the count and stores the array in *rows.
+ */
+size_t rmd_cmd_table(enum rmd_proto proto, const struct rmd_cmd_spec **rows);
+
+/*
+ * Classify a CAN identifier.  Returns 0, or -EINVAL when the identifier is
+ * not one the protocol uses (e.g. 0x240 + ID under V2, or ID 0 or > 32).
+ */
+int rmd_addr_from_id(enum rmd_proto proto, uint32_t can_id, struct rmd_addr *addr);
+
+/*
+ * Encode `msg` as a frame for motor `motor_id` (1..32).  For a request,
+ * motor_id 0 means the 0x280 frame: the V3 broadcast of one command, or,
+ * with msg->cmd == RMD_V2_CMD_MULTI_TORQUE under V2, the four-torque frame.
+ * V3 0x79 goes to 0x300 whatever the motor_id.
+ * Fields that do not fit their width give -ERANGE; an unknown command
+ * -ENOENT; a bad motor_id or direction -EINVAL.  Reserved bytes are zero.
+ */
+int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const struct rmd_msg *msg,
+	       struct rmd_frame *out);
+
+/*
+ * Decode the data of `f` in direction `dir` (RMD_DIR_UNKNOWN: decided from
+ * the identifier, and for V2's shared identifiers by which layout the
+ * reserved bytes fit, request first).  Fills msg->cmd, ->present and ->v;
+ * stores the direction used in *dir_out when not NULL.
+ * Returns 0; -EBADMSG when the DLC is not 8; -EINVAL for an identifier the
+ * protocol does not use; -ENOENT for an unknown command (msg->cmd is still
+ * set, nothing is present).
+ */
+int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f,
+	       struct rmd_msg *msg, enum rmd_dir *dir_out);
+
+/* Set field `fld` of `msg` to the raw value `raw` and mark it present. */
+void rmd_msg_set(struct rmd_msg *msg, enum rmd_field fld, int64_t raw);
+
+/* True when field `fld` was decoded. */
+bool rmd_msg_has(const struct rmd_msg *msg, enum rmd_field fld);
+
+/* The field spec of `fld` in the request or reply layout of `spec`, or NULL. */
+const struct rmd_field_spec *rmd_layout_field(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
+					      enum rmd_field fld);
+
+/* JSON key of a field (see enum rmd_field). */
+const char *rmd_field_key(enum rmd_field fld);
+
+/*
+ * Error flags -> names, for the protocol's error table (V3 §2.12 table 1,
+ * V2 §3.31 tables 1 and 2).  Stores up to `max` static snake_case names in
+ * names[] and returns how many flags are set (may exceed max).
+ */
+size_t rmd_error_names(enum rmd_proto proto, uint16_t code, const char **names, size_t max);
+
+/* Name of a 0x70 run mode value ("current_loop", ...), or NULL. */
+const char *rmd_run_mode_name(enum rmd_proto proto, uint8_t mode);
+
+/* 0xB5 model field -> NUL-terminated string (buf of >= 8 bytes). */
+void rmd_model_string(int64_t raw, char buf[8]);
+
+/* String of up to 7 ASCII characters -> 0xB5 model field value. */
+int64_t rmd_model_raw(const char *s);
+
+/* 0xB2 version date yyyymmdd -> true when it is a plausible calendar date. */
+bool rmd_version_date_valid(uint32_t yyyymmdd);
+
+#endif /* RMD_CODEC_H */

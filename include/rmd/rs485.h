@@ -1,0 +1,39 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * RS485 framing (V3 §1.2.2): 0x3E | ID | LEN=8 | D0..D7 | CRC16 (Modbus
+ * CRC-16, low byte first), 13 bytes.  ID 1..32, or 0xCD to address every
+ * motor (V3 §6).  The data field is exactly the CAN data field.
+ *
+ * Pure and rt-safe.
+ */
+#ifndef RMD_RS485_H
+#define RMD_RS485_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rmd/frame.h"
+
+#define RMD_RS485_HEADER 0x3Eu
+#define RMD_RS485_BROADCAST 0xCDu
+#define RMD_RS485_FRAME_LEN 13u
+
+/* Modbus CRC-16 (poly 0xA001 reflected, init 0xFFFF). */
+uint16_t rmd_crc16_modbus(const uint8_t *buf, size_t len);
+
+/*
+ * Build a 13-byte frame for `id` around data[8] into out.
+ * Returns RMD_RS485_FRAME_LEN, or -EINVAL for an id that is neither 1..32
+ * nor 0xCD.
+ */
+int rmd_rs485_build(uint8_t id, const uint8_t data[RMD_FRAME_LEN], uint8_t *out, size_t out_len);
+
+/*
+ * Parse a frame from buf (len bytes).  Returns the number of bytes consumed
+ * (13) and fills *id and data; -EAGAIN when more bytes are needed;
+ * -EPROTO for a bad header; -EMSGSIZE for a length byte other than 8;
+ * -EBADMSG for a CRC mismatch.
+ */
+int rmd_rs485_parse(const uint8_t *buf, size_t len, uint8_t *id, uint8_t data[RMD_FRAME_LEN]);
+
+#endif /* RMD_RS485_H */

@@ -1,0 +1,305 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The codec's interpreter: one encoder and one decoder for every row of the
+ * V2 and V3 command tables (src/codec_v2.c, src/codec_v3.c).
+ * Everything here is pure and rt-safe.
+ */
+#include <errno.h>
+#include <string.h>
+
+#include "rmd/codec.h"
+#include "codec_tables.h"
+
+static const char *const field_keys[RMD_FLD_COUNT] = {
+	[RMD_FLD_TEMP] = "temperature_c",
+	[RMD_FLD_CURRENT] = "current_a",
+	[RMD_FLD_SPEED] = "speed_dps",
+	[RMD_FLD_ANGLE] = "angle_deg",
+	[RMD_FLD_MAX_SPEED] = "max_speed_dps",
+	[RMD_FLD_SPIN_DIR] = "spin_direction",
+	[RMD_FLD_ENCODER] = "encoder",
+	[RMD_FLD_ENCODER_RAW] = "encoder_raw",
+	[RMD_FLD_ENCODER_OFF] = "encoder_offset",
+	[RMD_FLD_VOLTAGE] = "voltage_v",
+	[RMD_FLD_ERROR] = "error_code",
+	[RMD_FLD_BRAKE] = "brake_released",
+	[RMD_FLD_PHASE_A] = "phase_a_a",
+	[RMD_FLD_PHASE_B] = "phase_b_a",
+	[RMD_FLD_PHASE_C] = "phase_c_a",
+	[RMD_FLD_CURR_KP] = "current_kp",
+	[RMD_FLD_CURR_KI] = "current_ki",
+	[RMD_FLD_SPD_KP] = "speed_kp",
+	[RMD_FLD_SPD_KI] = "speed_ki",
+	[RMD_FLD_POS_KP] = "position_kp",
+	[RMD_FLD_POS_KI] = "position_ki",
+	[RMD_FLD_ACCEL] = "accel_dps2",
+	[RMD_FLD_INDEX] = "index",
+	[RMD_FLD_VALUE] = "value",
+	[RMD_FLD_MODE] = "mode",
+	[RMD_FLD_POWER] = "power_w",
+	[RMD_FLD_RUNTIME] = "runtime_ms",
+	[RMD_FLD_VERSION] = "version_date",
+	[RMD_FLD_TIMEOUT] = "timeout_ms",
+	[RMD_FLD_BAUD] = "baud_code",
+	[RMD_FLD_MODEL] = "model",
+	[RMD_FLD_READ_FLAG] = "read_flag",
+	[RMD_FLD_CAN_ID] = "can_id_value",
+	[RMD_FLD_CURRENT_1] = "current_1_a",
+	[RMD_FLD_CURRENT_2] = "current_2_a",
+	[RMD_FLD_CURRENT_3] = "current_3_a",
+	[RMD_FLD_CURRENT_4] = "current_4_a",
+	[RMD_FLD_BATTERY] = "battery_v",
+};
+
+const char *rmd_field_key(enum rmd_field fld)
+{
+	if ((unsigned)fld >= RMD_FLD_COUNT || !field_keys[fld])
+		return "unknown";
+	return field_keys[fld];
+}
+
+size_t rmd_cmd_table(enum rmd_proto proto, const struct rmd_cmd_spec **rows)
+{
+	switch (proto) {
+	case RMD_PROTO_V3:
+		*rows = rmd_v3_cmds;
+		return rmd_v3_ncmds;
+	case RMD_PROTO_V2:
+		*rows = rmd_v2_cmds;
+		return rmd_v2_ncmds;
+	case RMD_PROTO_MIT:
+		break;
+	}
+	*rows = NULL;
+	return 0;
+}
+
+const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd)
+{
+	const struct rmd_cmd_spec *rows;
+	size_t n = rmd_cmd_table(proto, &rows);
+
+	for (size_t i = 0; i < n; i++)
+		if (rows[i].cmd == cmd)
+			return &rows[i];
+	return NULL;
+}
+
+static bool id_in(uint32_t can_id, uint32_t base, uint8_t *motor_id)
+{
+	if (can_id <= base || can_id > base + RMD_MAX_MOTORS)
+		return false;
+	*motor_id = (uint8_t)(can_id - base);
+	return true;
+}
+
+int rmd_addr_from_id(enum rmd_proto proto, uint32_t can_id, struct rmd_addr *addr)
+{
+	memset(addr, 0, sizeof(*addr));
+	switch (proto) {
+	case RMD_PROTO_V3:
+		if (id_in(can_id, RMD_CAN_REQ_BASE, &addr->motor_id)) {
+			addr->dir = RMD_DIR_REQUEST;
+			return 0;
+		}
+		if (id_in(can_id, RMD_CAN_V3_REPLY_BASE, &addr->motor_id)) {
+			addr->dir = RMD_DIR_REPLY;
+			return 0;
+		}
+		/* V3 §4: the 0x79 request and its reply both use 0x300. */
+		if (can_id == RMD_CAN_SET_ID) {
+			addr->dir = RMD_DIR_UNKNOWN;
+			addr->broadcast = true;
+			return 0;
+		}
+		break;
+	case RMD_PROTO_V2:
+		/* V2 §1: requests and replies share 0x140 + ID. */
+		if (id_in(can_id, RMD_CAN_REQ_BASE, &addr->motor_id)) {
+			addr->dir = RMD_DIR_UNKNOWN;
+			return 0;
+		}
+		break;
+	case RMD_PROTO_MIT:
+		if (id_in(can_id, RMD_CAN_MIT_REQ_BASE, &addr->motor_id)) {
+			addr->dir = RMD_DIR_REQUEST;
+			return 0;
+		}
+		if (id_in(can_id, RMD_CAN_MIT_REPLY_BASE, &addr->motor_id)) {
+			addr->dir = RMD_DIR_REPLY;
+			return 0;
+		}
+		return -EINVAL;
+	}
+	if (can_id == RMD_CAN_MULTI) {
+		addr->dir = RMD_DIR_REQUEST;
+		addr->broadcast = true;
+		return 0;
+	}
+	return -EINVAL;
+}
+
+static const struct rmd_layout *layout_of(const struct rmd_cmd_spec *spec, enum rmd_dir dir)
+{
+	if (dir == RMD_DIR_REPLY && !(spec->flags & RMD_CMD_ECHO))
+		return &spec->rep;
+	return &spec->req;
+}
+
+const struct rmd_field_spec *rmd_layout_field(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
+					      enum rmd_field fld)
+{
+	const struct rmd_layout *l = layout_of(spec, dir);
+
+	for (unsigned i = 0; i < l->n; i++)
+		if (l->f[i].field == fld)
+			return &l->f[i];
+	return NULL;
+}
+
+void rmd_msg_set(struct rmd_msg *msg, enum rmd_field fld, int64_t raw)
+{
+	msg->v[fld] = raw;
+	msg->present |= UINT64_C(1) << fld;
+}
+
+bool rmd_msg_has(const struct rmd_msg *msg, enum rmd_field fld)
+{
+	return (unsigned)fld < RMD_FLD_COUNT && (msg->present >> fld) & 1;
+}
+
+static bool fits(const struct rmd_field_spec *fs, int64_t raw)
+{
+	unsigned bits = 8u * fs->size;
+
+	if (fs->is_signed)
+		return raw >= -(INT64_C(1) << (bits - 1)) && raw < (INT64_C(1) << (bits - 1));
+	return raw >= 0 && raw < (INT64_C(1) << bits);
+}
+
+static void put_le(uint8_t *p, unsigned size, int64_t raw)
+{
+	uint64_t u = (uint64_t)raw;
+
+	for (unsigned i = 0; i < size; i++, u >>= 8)
+		p[i] = (uint8_t)u;
+}
+
+static int64_t get_le(const uint8_t *p, unsigned size, bool is_signed)
+{
+	uint64_t u = 0;
+	unsigned bits = 8u * size;
+
+	for (unsigned i = size; i-- > 0;)
+		u = (u << 8) | p[i];
+	if (is_signed && (u >> (bits - 1)) & 1)
+		u |= ~UINT64_C(0) << bits;
+	return (int64_t)u;
+}
+
+static uint32_t frame_id(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id,
+			 const struct rmd_cmd_spec *spec)
+{
+	/* V3 §4: 0x79 is addressed to every motor on 0x300, both ways. */
+	if (proto == RMD_PROTO_V3 && spec->cmd == 0x79)
+		return RMD_CAN_SET_ID;
+	if (dir == RMD_DIR_REQUEST)
+		return motor_id ? RMD_CAN_REQ_BASE + motor_id : RMD_CAN_MULTI;
+	return (proto == RMD_PROTO_V3 ? RMD_CAN_V3_REPLY_BASE : RMD_CAN_REQ_BASE) + motor_id;
+}
+
+int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const struct rmd_msg *msg,
+	       struct rmd_frame *out)
+{
+	const struct rmd_cmd_spec *spec;
+	const struct rmd_layout *l;
+
+	if (proto == RMD_PROTO_MIT || motor_id > RMD_MAX_MOTORS ||
+	    (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY))
+		return -EINVAL;
+	spec = rmd_cmd_find(proto, msg->cmd);
+	if (!spec)
+		return -ENOENT;
+	/* A reply always comes from one motor; V2's 0x280 carries only torques. */
+	if (motor_id == 0 && dir == RMD_DIR_REPLY && !(proto == RMD_PROTO_V3 && spec->cmd == 0x79))
+		return -EINVAL;
+	if (proto == RMD_PROTO_V2 && (motor_id == 0) != (spec->cmd == RMD_V2_CMD_MULTI_TORQUE))
+		return -EINVAL;
+
+	l = layout_of(spec, dir);
+	memset(out, 0, sizeof(*out));
+	out->can_id = frame_id(proto, dir, motor_id, spec);
+	out->len = RMD_FRAME_LEN;
+	if (!(spec->flags & RMD_CMD_NO_CMD_BYTE))
+		out->data[0] = spec->cmd;
+	for (unsigned i = 0; i < l->n; i++) {
+		const struct rmd_field_spec *fs = &l->f[i];
+
+		if (!fits(fs, msg->v[fs->field]))
+			return -ERANGE;
+		put_le(&out->data[fs->off], fs->size, msg->v[fs->field]);
+	}
+	return 0;
+}
+
+/* True when every byte that no field of `l` covers (the command byte aside) is zero. */
+static bool reserved_bytes_zero(const struct rmd_cmd_spec *spec, const struct rmd_layout *l,
+				const uint8_t *data)
+{
+	bool used[RMD_FRAME_LEN] = { false };
+
+	if (!(spec->flags & RMD_CMD_NO_CMD_BYTE))
+		used[0] = true;
+	for (unsigned i = 0; i < l->n; i++)
+		for (unsigned b = 0; b < l->f[i].size; b++)
+			used[l->f[i].off + b] = true;
+	for (unsigned b = 0; b < RMD_FRAME_LEN; b++)
+		if (!used[b] && data[b])
+			return false;
+	return true;
+}
+
+int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f,
+	       struct rmd_msg *msg, enum rmd_dir *dir_out)
+{
+	const struct rmd_cmd_spec *spec;
+	const struct rmd_layout *l;
+	struct rmd_addr addr;
+	int r;
+
+	memset(msg, 0, sizeof(*msg));
+	if (f->len != RMD_FRAME_LEN)
+		return -EBADMSG;
+	if (proto == RMD_PROTO_MIT)
+		return -EINVAL;
+	r = rmd_addr_from_id(proto, f->can_id, &addr);
+	if (r < 0)
+		return r;
+	if (dir == RMD_DIR_UNKNOWN)
+		dir = addr.dir;
+	else if (addr.dir != RMD_DIR_UNKNOWN && addr.dir != dir)
+		return -EINVAL;
+
+	if (proto == RMD_PROTO_V2 && f->can_id == RMD_CAN_MULTI)
+		spec = rmd_cmd_find(proto, RMD_V2_CMD_MULTI_TORQUE);
+	else
+		spec = rmd_cmd_find(proto, f->data[0]);
+	if (!spec || (spec->flags & RMD_CMD_NO_CMD_BYTE && f->can_id != RMD_CAN_MULTI)) {
+		msg->cmd = f->data[0];
+		return -ENOENT;
+	}
+	if (dir == RMD_DIR_UNKNOWN)
+		dir = reserved_bytes_zero(spec, &spec->req, f->data) ? RMD_DIR_REQUEST :
+								       RMD_DIR_REPLY;
+	if (dir_out)
+		*dir_out = dir;
+
+	msg->cmd = spec->cmd;
+	l = layout_of(spec, dir);
+	for (unsigned i = 0; i < l->n; i++) {
+		const struct rmd_field_spec *fs = &l->f[i];
+
+		rmd_msg_set(msg, fs->field, get_le(&f->data[fs->off], fs->size, fs->is_signed));
+	}
+	return 0;
+}

@@ -1,0 +1,31 @@
+/* SPDX-License-Identifier: MIT */
+/* Internal: the command tables the codec interpreter (src/codec.c) reads. */
+#ifndef RMD_CODEC_TABLES_H
+#define RMD_CODEC_TABLES_H
+
+#include <stddef.h>
+
+#include "rmd/codec.h"
+
+extern const struct rmd_cmd_spec rmd_v3_cmds[];
+extern const size_t rmd_v3_ncmds;
+extern const struct rmd_cmd_spec rmd_v2_cmds[];
+extern const size_t rmd_v2_ncmds;
+
+/* Table-writing shorthands: signed / unsigned little-endian fields. */
+#define RMD_S(fld, off, size, scale)                        \
+	{                                                   \
+		RMD_FLD_##fld, (off), (size), true, (scale) \
+	}
+#define RMD_U(fld, off, size, scale)                         \
+	{                                                    \
+		RMD_FLD_##fld, (off), (size), false, (scale) \
+	}
+#define RMD_LAYOUT(...)                                                 \
+	{                                                               \
+		.n = sizeof((struct rmd_field_spec[]){ __VA_ARGS__ }) / \
+		     sizeof(struct rmd_field_spec),                     \
+		.f = { __VA_ARGS__ }                                    \
+	}
+
+#endif /* RMD_CODEC_TABLES_H */

@@ -1,0 +1,27 @@
+#!/bin/sh
+# Run every test binary given on the command line, keep going after a
+# failure, and close with one summary line that CI reads:
+#   tests: N passed, N failed
+set -u
+passed=0
+failed=0
+bad=""
+for t in "$@"; do
+	out=$(mktemp)
+	"$t" >"$out" 2>&1
+	rc=$?
+	cat "$out"
+	# cmocka: "[  PASSED  ] 12 test(s)." and "[  FAILED  ] 1 test(s), listed below:"
+	p=$(sed -n 's/^\[  PASSED  \] \([0-9]*\) test(s)\./\1/p' "$out" | tail -n 1)
+	f=$(sed -n 's/^\[  FAILED  \] \([0-9]*\) test(s), listed below:/\1/p' "$out" | tail -n 1)
+	passed=$((passed + ${p:-0}))
+	failed=$((failed + ${f:-0}))
+	if [ "$rc" -ne 0 ]; then
+		bad="$bad $(basename "$t")"
+		[ -z "$f" ] && failed=$((failed + 1))
+	fi
+	rm -f "$out"
+done
+[ -n "$bad" ] && echo "failing suites:$bad"
+echo "tests: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
