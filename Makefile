@@ -27,6 +27,10 @@ endif
 
 WARN := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wformat=2 \
 	-Wswitch-enum -Wvla
+# CI (CI=true) builds with -Werror.
+ifeq ($(CI),true)
+WERROR ?= 1
+endif
 ifeq ($(WERROR),1)
 WARN += -Werror
 endif
@@ -56,7 +60,14 @@ TEST_LIBS := -lcmocka
 
 LIBS := -lm
 
-.PHONY: all test install uninstall format format-check clean
+.PHONY: all test install uninstall format format-check clean deps
+
+# Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
+DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev can-utils python3
+
+deps:
+	apt-get update -qq
+	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(DEB_PACKAGES)
 all: $(LIB) $(PROGS) $(TESTS)
 
 $(BUILD)/%.o: %.c
