@@ -36,7 +36,11 @@ WARN += -Werror
 endif
 HARDEN := -D_FORTIFY_SOURCE=2 -fstack-protector-strong -fPIE
 
-override CFLAGS += -std=gnu11 $(WARN) $(HARDEN) $(SAN_FLAGS) -Iinclude -I$(BUILD)/gen -MMD -MP
+PKGS := libmodbus
+PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
+
+override CFLAGS += -std=gnu11 $(WARN) $(HARDEN) $(SAN_FLAGS) -Iinclude -I$(BUILD)/gen $(PKG_CFLAGS) -MMD -MP
 override LDFLAGS += -pie -Wl,-z,relro,-z,now $(SAN_FLAGS)
 
 ifeq ($(V),1)
@@ -58,12 +62,13 @@ TEST_SRCS := $(wildcard tests/test_*.c)
 TESTS := $(TEST_SRCS:tests/%.c=$(BUILD)/tests/%)
 TEST_LIBS := -lcmocka
 
-LIBS := -lm
+LIBS := $(PKG_LIBS) -lm
 
 .PHONY: all test install uninstall format format-check clean deps
 
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
-DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev can-utils python3
+DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev can-utils \
+	python3
 
 deps:
 	apt-get update -qq

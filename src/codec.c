@@ -259,11 +259,23 @@ static bool reserved_bytes_zero(const struct rmd_cmd_spec *spec, const struct rm
 	return true;
 }
 
+static void decode_fields(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
+			  const struct rmd_frame *f, struct rmd_msg *msg)
+{
+	const struct rmd_layout *l = layout_of(spec, dir);
+
+	msg->cmd = spec->cmd;
+	for (unsigned i = 0; i < l->n; i++) {
+		const struct rmd_field_spec *fs = &l->f[i];
+
+		rmd_msg_set(msg, fs->field, get_le(&f->data[fs->off], fs->size, fs->is_signed));
+	}
+}
+
 int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f,
 	       struct rmd_msg *msg, enum rmd_dir *dir_out)
 {
 	const struct rmd_cmd_spec *spec;
-	const struct rmd_layout *l;
 	struct rmd_addr addr;
 	int r;
 
@@ -288,18 +300,43 @@ int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f
 		msg->cmd = f->data[0];
 		return -ENOENT;
 	}
+	/* V3 §4: 0x300 carries 0x79 and nothing else, and 0x79 travels only there. */
+	if (proto == RMD_PROTO_V3 && (f->can_id == RMD_CAN_SET_ID) != (spec->cmd == 0x79)) {
+		msg->cmd = spec->cmd;
+		return -EINVAL;
+	}
 	if (dir == RMD_DIR_UNKNOWN)
 		dir = reserved_bytes_zero(spec, &spec->req, f->data) ? RMD_DIR_REQUEST :
 								       RMD_DIR_REPLY;
 	if (dir_out)
 		*dir_out = dir;
 
-	msg->cmd = spec->cmd;
-	l = layout_of(spec, dir);
-	for (unsigned i = 0; i < l->n; i++) {
-		const struct rmd_field_spec *fs = &l->f[i];
+	decode_fields(spec, dir, f, msg);
+	return 0;
+}
 
-		rmd_msg_set(msg, fs->field, get_le(&f->data[fs->off], fs->size, fs->is_signed));
+int rmd_decode_as(enum rmd_proto proto, enum rmd_dir dir, uint8_t cmd, const struct rmd_frame *f,
+		  struct rmd_msg *msg)
+{
+	const struct rmd_cmd_spec *spec;
+	struct rmd_addr addr;
+	int r;
+
+	memset(msg, 0, sizeof(*msg));
+	if (f->len != RMD_FRAME_LEN)
+		return -EBADMSG;
+	if (proto == RMD_PROTO_MIT || (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY))
+		return -EINVAL;
+	r = rmd_addr_from_id(proto, f->can_id, &addr);
+	if (r < 0)
+		return r;
+	if (addr.dir != RMD_DIR_UNKNOWN && addr.dir != dir)
+		return -EINVAL;
+	spec = rmd_cmd_find(proto, cmd);
+	if (!spec) {
+		msg->cmd = cmd;
+		return -ENOENT;
 	}
+	decode_fields(spec, dir, f, msg);
 	return 0;
 }

@@ -1,20 +1,29 @@
 // SPDX-License-Identifier: MIT
 /*
  * Codec tests: the manuals' worked examples as named vectors, seeded random
- * round trips over every row of both tables, and malformed frames.
+ * round trips over every row of both tables, malformed frames, the tables'
+ * own consistency, and the name helpers of src/codec_names.c.
+ *
+ * Random round trips take their seed from RMD_TEST_SEED, else the clock;
+ * the seed is printed, and every failure names it.
  */
 #include <errno.h>
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include <cmocka.h>
 
 #include "rmd/codec.h"
+
+#define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
 
 /* "241#9A320001E5010400" -> frame.  Test helper; aborts the test on bad hex. */
 static struct rmd_frame frame_from(const char *s)
@@ -28,33 +37,1106 @@ static struct rmd_frame frame_from(const char *s)
 	while (s[0] && s[1] && f.len < RMD_FRAME_LEN) {
 		char byte[3] = { s[0], s[1], 0 };
 
-		f.data[f.len++] = (uint8_t)strtoul(byte, NULL, 16);
+		f.data[f.len++] = (uint8_t)strtoul(byte, &end, 16);
+		assert_true(*end == '\0');
 		s += 2;
 	}
+	assert_true(*s == '\0');
 	return f;
 }
 
-static void test_v3_status1_example(void **state)
+/* ---- Manual vectors ---------------------------------------------------- */
+
+/* One decoded field: raw wire integer and the value the manual states. */
+struct fv {
+	enum rmd_field fld;
+	int64_t raw;
+	double native; /* raw * row scale, in the manual's unit */
+};
+
+struct vec {
+	const char *name;
+	enum rmd_proto proto;
+	enum rmd_dir dir; /* the layout the frame is read with */
+	const char *frame;
+	uint8_t cmd;
+	size_t n;
+	struct fv f[RMD_LAYOUT_MAX];
+};
+
+#define F(fld, raw, native)                    \
+	{                                      \
+		RMD_FLD_##fld, (raw), (native) \
+	}
+#define V(name, proto, dir, frame, cmd, ...)                                      \
+	{                                                                         \
+		(name), RMD_PROTO_##proto, RMD_DIR_##dir, (frame), (cmd),         \
+			sizeof((struct fv[]){ __VA_ARGS__ }) / sizeof(struct fv), \
+		{                                                                 \
+			__VA_ARGS__                                               \
+		}                                                                 \
+	}
+#define V0(name_, proto_, dir_, frame_, cmd_)                                        \
+	{                                                                            \
+		.name = (name_), .proto = RMD_PROTO_##proto_, .dir = RMD_DIR_##dir_, \
+		.frame = (frame_), .cmd = (cmd_)                                     \
+	}
+
+/* V3 §2.1 .. §2.3 examples: 0x55 / 0x19 for every loop (85 and 25 units). */
+#define PID_V3                                                                                \
+	F(CURR_KP, 0x55, 85), F(CURR_KI, 0x19, 25), F(SPD_KP, 0x55, 85), F(SPD_KI, 0x19, 25), \
+		F(POS_KP, 0x55, 85), F(POS_KI, 0x19, 25)
+/* V3 status-2 replies: 50 degC, 1 A, 500 dps, 45 deg and their negatives. */
+#define ST2_POS F(TEMP, 50, 50), F(CURRENT, 100, 1.0), F(SPEED, 500, 500), F(ANGLE, 45, 45)
+#define ST2_NEG F(TEMP, 50, 50), F(CURRENT, -100, -1.0), F(SPEED, -500, -500), F(ANGLE, -45, -45)
+/* V2 §3.1 .. §3.18: kp = 0.25 is 0.25 * 16777216 = 4194304 in Q24. */
+#define Q24_QUARTER(fld) F(fld, 4194304, 0.25)
+/* V3 §2.32.4: "X8S2V10", data[1] in the least significant byte. */
+#define MODEL_X8S2V10 INT64_C(0x30315632533858)
+
+/*
+ * 126 vectors:
+ * - 90 V3 CAN example frames: every CAN frame printed in §2.1 .. §2.33,
+ *   §3.2 and §4.4 of rmd-can-rs485-protocol-v3.6-zh.txt, in manual order
+ *   (§2.15, §2.16, §2.26 and §2.27 print none; §5's MIT frames belong to
+ *   the MIT packing tests, the RS485 frames to the RS485 framing tests).
+ * - 36 V2 vectors: the V2 manual prints no frame; its only worked values
+ *   are the Q24 gain examples of §3.1 .. §3.18 (0.25 = 4194304), written
+ *   here as the request and reply frames its data tables define.
+ */
+static const struct vec vectors[] = {
+	/* V3 §2.1.4 */
+	V0("v3 §2.1.4 ex1 request", V3, REQUEST, "141#3000000000000000", 0x30),
+	V("v3 §2.1.4 ex1 reply", V3, REPLY, "241#3000551955195519", 0x30, PID_V3),
+	/* V3 §2.2.4 */
+	V("v3 §2.2.4 ex1 request", V3, REQUEST, "141#3100551955195519", 0x31, PID_V3),
+	V("v3 §2.2.4 ex1 reply", V3, REPLY, "241#3100551955195519", 0x31, PID_V3),
+	/* V3 §2.3.4 */
+	V("v3 §2.3.4 ex1 request", V3, REQUEST, "141#3200551955195519", 0x32, PID_V3),
+	V("v3 §2.3.4 ex1 reply", V3, REPLY, "241#3200551955195519", 0x32, PID_V3),
+	/* V3 §2.4.4 */
+	V0("v3 §2.4.4 ex1 request", V3, REQUEST, "141#4200000000000000", 0x42),
+	V("v3 §2.4.4 ex1 reply", V3, REPLY, "241#4200000010270000", 0x42, F(ACCEL, 10000, 10000)),
+	/* V3 §2.5.5 */
+	V("v3 §2.5.5 ex1 request", V3, REQUEST, "141#4300000010270000", 0x43, F(INDEX, 0, 0),
+	  F(ACCEL, 10000, 10000)),
+	V("v3 §2.5.5 ex1 reply", V3, REPLY, "241#4300000010270000", 0x43, F(INDEX, 0, 0),
+	  F(ACCEL, 10000, 10000)),
+	V("v3 §2.5.5 ex2 request", V3, REQUEST, "141#4301000010270000", 0x43, F(INDEX, 1, 1),
+	  F(ACCEL, 10000, 10000)),
+	V("v3 §2.5.5 ex2 reply", V3, REPLY, "241#4301000010270000", 0x43, F(INDEX, 1, 1),
+	  F(ACCEL, 10000, 10000)),
+	V("v3 §2.5.5 ex3 request", V3, REQUEST, "141#4302000010270000", 0x43, F(INDEX, 2, 2),
+	  F(ACCEL, 10000, 10000)),
+	V("v3 §2.5.5 ex3 reply", V3, REPLY, "241#4302000010270000", 0x43, F(INDEX, 2, 2),
+	  F(ACCEL, 10000, 10000)),
+	V("v3 §2.5.5 ex4 request", V3, REQUEST, "141#4303000010270000", 0x43, F(INDEX, 3, 3),
+	  F(ACCEL, 10000, 10000)),
+	V("v3 §2.5.5 ex4 reply", V3, REPLY, "241#4303000010270000", 0x43, F(INDEX, 3, 3),
+	  F(ACCEL, 10000, 10000)),
+	/* V3 §2.6.4 .. §2.10.4 */
+	V0("v3 §2.6.4 ex1 request", V3, REQUEST, "141#6000000000000000", 0x60),
+	V("v3 §2.6.4 ex1 reply", V3, REPLY, "241#6000000010270000", 0x60, F(ENCODER, 10000, 10000)),
+	V0("v3 §2.7.4 ex1 request", V3, REQUEST, "141#6100000000000000", 0x61),
+	V("v3 §2.7.4 ex1 reply", V3, REPLY, "241#6100000010270000", 0x61,
+	  F(ENCODER_RAW, 10000, 10000)),
+	V0("v3 §2.8.4 ex1 request", V3, REQUEST, "141#6200000000000000", 0x62),
+	V("v3 §2.8.4 ex1 reply", V3, REPLY, "241#6200000010270000", 0x62,
+	  F(ENCODER_OFF, 10000, 10000)),
+	V("v3 §2.9.4 ex1 request", V3, REQUEST, "141#6300000010270000", 0x63,
+	  F(ENCODER_OFF, 10000, 10000)),
+	V("v3 §2.9.4 ex1 reply", V3, REPLY, "241#6300000010270000", 0x63,
+	  F(ENCODER_OFF, 10000, 10000)),
+	V0("v3 §2.10.4 ex1 request", V3, REQUEST, "141#6400000000000000", 0x64),
+	V("v3 §2.10.4 ex1 reply", V3, REPLY, "241#6400000010270000", 0x64,
+	  F(ENCODER_OFF, 10000, 10000)),
+	/* V3 §2.11.4: 36000 * 0.01 = 360 deg */
+	V0("v3 §2.11.4 ex1 request", V3, REQUEST, "141#9200000000000000", 0x92),
+	V("v3 §2.11.4 ex1 reply", V3, REPLY, "241#92000000A08C0000", 0x92, F(ANGLE, 36000, 360.0)),
+	/* V3 §2.12.4: 50 degC, brake released, 48.5 V, low voltage */
+	V0("v3 §2.12.4 ex1 request", V3, REQUEST, "141#9A00000000000000", 0x9A),
+	V("v3 §2.12.4 ex1 reply", V3, REPLY, "241#9A320001E5010400", 0x9A, F(TEMP, 50, 50),
+	  F(BRAKE, 1, 1), F(VOLTAGE, 485, 48.5), F(ERROR, 4, 4)),
+	/* V3 §2.13.4 */
+	V0("v3 §2.13.4 ex1 request", V3, REQUEST, "141#9C00000000000000", 0x9C),
+	V("v3 §2.13.4 ex1 reply", V3, REPLY, "241#9C326400F4012D00", 0x9C, ST2_POS),
+	/* V3 §2.14.4: 30.1 A, -15.2 A, -16 A */
+	V0("v3 §2.14.4 ex1 request", V3, REQUEST, "141#9D00000000000000", 0x9D),
+	V("v3 §2.14.4 ex1 reply", V3, REPLY, "241#9D32C20B10FAC0F9", 0x9D, F(TEMP, 50, 50),
+	  F(PHASE_A, 3010, 30.1), F(PHASE_B, -1520, -15.2), F(PHASE_C, -1600, -16.0)),
+	/* V3 §2.17.4: 1 A and -1 A */
+	V("v3 §2.17.4 ex1 request", V3, REQUEST, "141#A100000064000000", 0xA1,
+	  F(CURRENT, 100, 1.0)),
+	V("v3 §2.17.4 ex1 reply", V3, REPLY, "241#A1326400F4012D00", 0xA1, ST2_POS),
+	V("v3 §2.17.4 ex2 request", V3, REQUEST, "141#A10000009CFF0000", 0xA1,
+	  F(CURRENT, -100, -1.0)),
+	V("v3 §2.17.4 ex2 reply", V3, REPLY, "241#A1329CFF0CFED3FF", 0xA1, ST2_NEG),
+	/* V3 §2.18.4: 100 dps and -100 dps */
+	V("v3 §2.18.4 ex1 request", V3, REQUEST, "141#A200000010270000", 0xA2,
+	  F(SPEED, 10000, 100.0)),
+	V("v3 §2.18.4 ex1 reply", V3, REPLY, "241#A2326400F4012D00", 0xA2, ST2_POS),
+	V("v3 §2.18.4 ex2 request", V3, REQUEST, "141#A2000000F0D8FFFF", 0xA2,
+	  F(SPEED, -10000, -100.0)),
+	V("v3 §2.18.4 ex2 reply", V3, REPLY, "241#A2329CFF0CFED3FF", 0xA2, ST2_NEG),
+	/* V3 §2.19.4: 1 deg */
+	V("v3 §2.19.4 ex1 request", V3, REQUEST, "141#A300000064000000", 0xA3, F(ANGLE, 100, 1.0)),
+	V("v3 §2.19.4 ex1 reply", V3, REPLY, "241#A3326400F4012D00", 0xA3, ST2_POS),
+	/* V3 §2.20.4: 500 dps limit, 360 deg and -360 deg */
+	V("v3 §2.20.4 ex1 request", V3, REQUEST, "141#A400F401A08C0000", 0xA4,
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, 36000, 360.0)),
+	V("v3 §2.20.4 ex1 reply", V3, REPLY, "241#A4326400F4012D00", 0xA4, ST2_POS),
+	V("v3 §2.20.4 ex2 request", V3, REQUEST, "141#A400F4016073FFFF", 0xA4,
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, -36000, -360.0)),
+	V("v3 §2.20.4 ex2 reply", V3, REPLY, "241#A4329CFF0CFED3FF", 0xA4, ST2_NEG),
+	/* V3 §2.21.4: 0x1388 = 5000 * 0.01 = 50 dps, 1 deg */
+	V("v3 §2.21.4 ex1 request", V3, REQUEST, "141#A500881364000000", 0xA5,
+	  F(MAX_SPEED, 5000, 50.0), F(ANGLE, 100, 1.0)),
+	V("v3 §2.21.4 ex1 reply", V3, REPLY, "241#A5326400F4012D00", 0xA5, ST2_POS),
+	/* V3 §2.22.4: 500 dps limit, +360 deg and -360 deg from here */
+	V("v3 §2.22.4 ex1 request", V3, REQUEST, "141#A800F401A08C0000", 0xA8,
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, 36000, 360.0)),
+	V("v3 §2.22.4 ex1 reply", V3, REPLY, "241#A8326400F4012D00", 0xA8, ST2_POS),
+	V("v3 §2.22.4 ex2 request", V3, REQUEST, "141#A800F4016073FFFF", 0xA8,
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, -36000, -360.0)),
+	V("v3 §2.22.4 ex2 reply", V3, REPLY, "241#A8329CFF0CFED3FF", 0xA8, ST2_NEG),
+	/* V3 §2.23.4: position loop */
+	V0("v3 §2.23.4 ex1 request", V3, REQUEST, "141#7000000000000000", 0x70),
+	V("v3 §2.23.4 ex1 reply", V3, REPLY, "241#7000000000000003", 0x70, F(MODE, 3, 3)),
+	/* V3 §2.24.4: 200 W */
+	V0("v3 §2.24.4 ex1 request", V3, REQUEST, "141#7100000000000000", 0x71),
+	V("v3 §2.24.4 ex1 reply", V3, REPLY, "241#710000000000D007", 0x71, F(POWER, 2000, 200.0)),
+	/* V3 §2.25.4: no reply */
+	V0("v3 §2.25.4 ex1 request", V3, REQUEST, "141#7600000000000000", 0x76),
+	/* V3 §2.28.4: 268435456 ms */
+	V0("v3 §2.28.4 ex1 request", V3, REQUEST, "141#B100000000000000", 0xB1),
+	V("v3 §2.28.4 ex1 reply", V3, REPLY, "241#B100000000000010", 0xB1,
+	  F(RUNTIME, 268435456, 268435456.0)),
+	/* V3 §2.29.4: 2022-02-06 */
+	V0("v3 §2.29.4 ex1 request", V3, REQUEST, "141#B200000000000000", 0xB2),
+	V("v3 §2.29.4 ex1 reply", V3, REPLY, "241#B20000002E893401", 0xB2,
+	  F(VERSION, 20220206, 20220206.0)),
+	/*
+	 * V3 §2.30.4.  Example 2's reply is printed as example 1's all-zero
+	 * frame although §2.30.3 says it echoes 1000 ms: tested as printed.
+	 */
+	V("v3 §2.30.4 ex1 request", V3, REQUEST, "141#B300000000000000", 0xB3, F(TIMEOUT, 0, 0)),
+	V("v3 §2.30.4 ex1 reply", V3, REPLY, "241#B300000000000000", 0xB3, F(TIMEOUT, 0, 0)),
+	V("v3 §2.30.4 ex2 request", V3, REQUEST, "141#B3000000E8030000", 0xB3,
+	  F(TIMEOUT, 1000, 1000.0)),
+	V("v3 §2.30.4 ex2 reply (printed as zeros)", V3, REPLY, "241#B300000000000000", 0xB3,
+	  F(TIMEOUT, 0, 0)),
+	/* V3 §2.31.4: baud codes 0, 1, 2 (the reply is noise) */
+	V("v3 §2.31.4 ex1 request", V3, REQUEST, "141#B400000000000000", 0xB4, F(BAUD, 0, 0)),
+	V("v3 §2.31.4 ex2 request", V3, REQUEST, "141#B400000000000001", 0xB4, F(BAUD, 1, 1)),
+	V("v3 §2.31.4 ex3 request", V3, REQUEST, "141#B400000000000002", 0xB4, F(BAUD, 2, 2)),
+	/* V3 §2.32.4: "X8S2V10" */
+	V0("v3 §2.32.4 ex1 request", V3, REQUEST, "141#B500000000000000", 0xB5),
+	V("v3 §2.32.4 ex1 reply", V3, REPLY, "241#B558385332563130", 0xB5,
+	  F(MODEL, MODEL_X8S2V10, (double)MODEL_X8S2V10)),
+	/*
+	 * V3 §2.33.5: index 1 (clear multi-turn), index 2 value 1 (CAN ID
+	 * filter on; the text says "Data[1] = 0x01" for the byte 0x02: typo).
+	 */
+	V("v3 §2.33.5 ex1 request", V3, REQUEST, "141#2001000000000000", 0x20, F(INDEX, 1, 1),
+	  F(VALUE, 0, 0)),
+	V("v3 §2.33.5 ex1 reply", V3, REPLY, "241#2001000000000000", 0x20, F(INDEX, 1, 1),
+	  F(VALUE, 0, 0)),
+	V("v3 §2.33.5 ex2 request", V3, REQUEST, "141#2002000001000000", 0x20, F(INDEX, 2, 2),
+	  F(VALUE, 1, 1)),
+	V("v3 §2.33.5 ex2 reply", V3, REPLY, "241#2002000001000000", 0x20, F(INDEX, 2, 2),
+	  F(VALUE, 1, 1)),
+	/* V3 §3.2: one command to every motor on 0x280, one reply per motor */
+	V0("v3 §3.2 ex1 request", V3, REQUEST, "280#8000000000000000", 0x80),
+	V0("v3 §3.2 ex1 reply motor 1", V3, REPLY, "241#8000000000000000", 0x80),
+	V0("v3 §3.2 ex1 reply motor 2", V3, REPLY, "242#8000000000000000", 0x80),
+	V0("v3 §3.2 ex1 reply motor 3", V3, REPLY, "243#8000000000000000", 0x80),
+	V0("v3 §3.2 ex1 reply motor 4", V3, REPLY, "244#8000000000000000", 0x80),
+	V0("v3 §3.2 ex2 request", V3, REQUEST, "280#6000000000000000", 0x60),
+	V("v3 §3.2 ex2 reply motor 1", V3, REPLY, "241#6000000010270000", 0x60,
+	  F(ENCODER, 10000, 10000)),
+	V("v3 §3.2 ex2 reply motor 2", V3, REPLY, "242#60000000204E0000", 0x60,
+	  F(ENCODER, 20000, 20000)),
+	V("v3 §3.2 ex2 reply motor 3", V3, REPLY, "243#6000000030750000", 0x60,
+	  F(ENCODER, 30000, 30000)),
+	V("v3 §3.2 ex2 reply motor 4", V3, REPLY, "244#60000000409C0000", 0x60,
+	  F(ENCODER, 40000, 40000)),
+	/*
+	 * V3 §4.4: 0x79 on 0x300.  A write's reply is the request itself
+	 * (§4.3) and reads with the request layout; a read's reply carries
+	 * the reply identifier 0x242 at data[6..7].
+	 */
+	V("v3 §4.4 ex1 request", V3, REQUEST, "300#7900000000000002", 0x79, F(READ_FLAG, 0, 0),
+	  F(CAN_ID, 2, 2)),
+	V("v3 §4.4 ex1 reply (write echo)", V3, REQUEST, "300#7900000000000002", 0x79,
+	  F(READ_FLAG, 0, 0), F(CAN_ID, 2, 2)),
+	V("v3 §4.4 ex2 request", V3, REQUEST, "300#7900010000000000", 0x79, F(READ_FLAG, 1, 1),
+	  F(CAN_ID, 0, 0)),
+	V("v3 §4.4 ex2 reply", V3, REPLY, "300#7900010000004202", 0x79, F(READ_FLAG, 1, 1),
+	  F(CAN_ID, 0x242, 0x242)),
+
+	/* V2 §3.1 .. §3.6: read a gain; the reply holds 0.25 in Q24 */
+	V0("v2 §3.1 request", V2, REQUEST, "141#3000000000000000", 0x30),
+	V("v2 §3.1 reply kp=0.25", V2, REPLY, "141#3000000000004000", 0x30, Q24_QUARTER(POS_KP)),
+	V0("v2 §3.2 request", V2, REQUEST, "141#3100000000000000", 0x31),
+	V("v2 §3.2 reply ki=0.25", V2, REPLY, "141#3100000000004000", 0x31, Q24_QUARTER(POS_KI)),
+	V0("v2 §3.3 request", V2, REQUEST, "141#3200000000000000", 0x32),
+	V("v2 §3.3 reply kp=0.25", V2, REPLY, "141#3200000000004000", 0x32, Q24_QUARTER(SPD_KP)),
+	V0("v2 §3.4 request", V2, REQUEST, "141#3300000000000000", 0x33),
+	V("v2 §3.4 reply ki=0.25", V2, REPLY, "141#3300000000004000", 0x33, Q24_QUARTER(SPD_KI)),
+	V0("v2 §3.5 request", V2, REQUEST, "141#3400000000000000", 0x34),
+	V("v2 §3.5 reply kp=0.25", V2, REPLY, "141#3400000000004000", 0x34, Q24_QUARTER(CURR_KP)),
+	V0("v2 §3.6 request", V2, REQUEST, "141#3500000000000000", 0x35),
+	V("v2 §3.6 reply ki=0.25", V2, REPLY, "141#3500000000004000", 0x35, Q24_QUARTER(CURR_KI)),
+	/* V2 §3.7 .. §3.18: write 0.25 in Q24; the reply echoes */
+	V("v2 §3.7 request kp=0.25", V2, REQUEST, "141#3600000000004000", 0x36,
+	  Q24_QUARTER(POS_KP)),
+	V("v2 §3.7 reply", V2, REPLY, "141#3600000000004000", 0x36, Q24_QUARTER(POS_KP)),
+	V("v2 §3.8 request ki=0.25", V2, REQUEST, "141#3700000000004000", 0x37,
+	  Q24_QUARTER(POS_KI)),
+	V("v2 §3.8 reply", V2, REPLY, "141#3700000000004000", 0x37, Q24_QUARTER(POS_KI)),
+	V("v2 §3.9 request kp=0.25", V2, REQUEST, "141#3800000000004000", 0x38,
+	  Q24_QUARTER(SPD_KP)),
+	V("v2 §3.9 reply", V2, REPLY, "141#3800000000004000", 0x38, Q24_QUARTER(SPD_KP)),
+	V("v2 §3.10 request ki=0.25", V2, REQUEST, "141#3900000000004000", 0x39,
+	  Q24_QUARTER(SPD_KI)),
+	V("v2 §3.10 reply", V2, REPLY, "141#3900000000004000", 0x39, Q24_QUARTER(SPD_KI)),
+	V("v2 §3.11 request kp=0.25", V2, REQUEST, "141#3A00000000004000", 0x3A,
+	  Q24_QUARTER(CURR_KP)),
+	V("v2 §3.11 reply", V2, REPLY, "141#3A00000000004000", 0x3A, Q24_QUARTER(CURR_KP)),
+	V("v2 §3.12 request ki=0.25", V2, REQUEST, "141#3B00000000004000", 0x3B,
+	  Q24_QUARTER(CURR_KI)),
+	V("v2 §3.12 reply", V2, REPLY, "141#3B00000000004000", 0x3B, Q24_QUARTER(CURR_KI)),
+	V("v2 §3.13 request kp=0.25", V2, REQUEST, "141#3C00000000004000", 0x3C,
+	  Q24_QUARTER(POS_KP)),
+	V("v2 §3.13 reply", V2, REPLY, "141#3C00000000004000", 0x3C, Q24_QUARTER(POS_KP)),
+	V("v2 §3.14 request ki=0.25", V2, REQUEST, "141#3D00000000004000", 0x3D,
+	  Q24_QUARTER(POS_KI)),
+	V("v2 §3.14 reply", V2, REPLY, "141#3D00000000004000", 0x3D, Q24_QUARTER(POS_KI)),
+	V("v2 §3.15 request kp=0.25", V2, REQUEST, "141#3E00000000004000", 0x3E,
+	  Q24_QUARTER(SPD_KP)),
+	V("v2 §3.15 reply", V2, REPLY, "141#3E00000000004000", 0x3E, Q24_QUARTER(SPD_KP)),
+	V("v2 §3.16 request ki=0.25", V2, REQUEST, "141#3F00000000004000", 0x3F,
+	  Q24_QUARTER(SPD_KI)),
+	V("v2 §3.16 reply", V2, REPLY, "141#3F00000000004000", 0x3F, Q24_QUARTER(SPD_KI)),
+	V("v2 §3.17 request kp=0.25", V2, REQUEST, "141#4000000000004000", 0x40,
+	  Q24_QUARTER(CURR_KP)),
+	V("v2 §3.17 reply", V2, REPLY, "141#4000000000004000", 0x40, Q24_QUARTER(CURR_KP)),
+	V("v2 §3.18 request ki=0.25", V2, REQUEST, "141#4100000000004000", 0x41,
+	  Q24_QUARTER(CURR_KI)),
+	V("v2 §3.18 reply", V2, REPLY, "141#4100000000004000", 0x41, Q24_QUARTER(CURR_KI)),
+};
+
+#define N_V3_VECTORS 90
+#define N_V2_VECTORS 36
+
+static uint64_t field_mask(const struct vec *v)
+{
+	uint64_t m = 0;
+
+	for (size_t i = 0; i < v->n; i++)
+		m |= UINT64_C(1) << v->f[i].fld;
+	return m;
+}
+
+/* Decode `f` and compare with the vector's fields; `dir` may be UNKNOWN. */
+static void check_decode(const struct vec *v, const struct rmd_frame *f, enum rmd_dir dir)
+{
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(v->proto, v->cmd);
+	struct rmd_msg m;
+	enum rmd_dir dir_out = RMD_DIR_UNKNOWN;
+	int r;
+
+	r = rmd_decode(v->proto, dir, f, &m, &dir_out);
+	if (r != 0)
+		fail_msg("%s: decode (dir %d) returned %d", v->name, dir, r);
+	if (m.cmd != v->cmd)
+		fail_msg("%s: decoded cmd 0x%02x, want 0x%02x", v->name, m.cmd, v->cmd);
+	if (dir != RMD_DIR_UNKNOWN && dir_out != dir)
+		fail_msg("%s: decoded as dir %d, want %d", v->name, dir_out, dir);
+	if (m.present != field_mask(v))
+		fail_msg("%s: dir %d decoded fields 0x%llx, want 0x%llx", v->name, dir,
+			 (unsigned long long)m.present, (unsigned long long)field_mask(v));
+	for (size_t i = 0; i < v->n; i++) {
+		const struct fv *e = &v->f[i];
+		const struct rmd_field_spec *fs = rmd_layout_field(spec, dir_out, e->fld);
+		double native;
+
+		if (m.v[e->fld] != e->raw)
+			fail_msg("%s: %s = %lld, want %lld", v->name, rmd_field_key(e->fld),
+				 (long long)m.v[e->fld], (long long)e->raw);
+		if (!fs)
+			fail_msg("%s: %s not in the layout", v->name, rmd_field_key(e->fld));
+		native = (double)m.v[e->fld] * fs->scale;
+		if (fabs(native - e->native) > 1e-9 * fmax(1.0, fabs(e->native)))
+			fail_msg("%s: %s = %.9g in native units, manual says %.9g", v->name,
+				 rmd_field_key(e->fld), native, e->native);
+	}
+}
+
+static void check_encode(const struct vec *v, const struct rmd_frame *want)
+{
+	struct rmd_addr addr;
+	struct rmd_msg m = { .cmd = v->cmd };
+	struct rmd_frame out;
+	int r;
+
+	assert_int_equal(rmd_addr_from_id(v->proto, want->can_id, &addr), 0);
+	for (size_t i = 0; i < v->n; i++)
+		rmd_msg_set(&m, v->f[i].fld, v->f[i].raw);
+	r = rmd_encode(v->proto, v->dir, addr.motor_id, &m, &out);
+	if (r != 0)
+		fail_msg("%s: encode returned %d", v->name, r);
+	if (out.can_id != want->can_id || out.len != want->len ||
+	    memcmp(out.data, want->data, RMD_FRAME_LEN) != 0)
+		fail_msg("%s: encoded %03X#%02X%02X%02X%02X%02X%02X%02X%02X (len %u)", v->name,
+			 out.can_id, out.data[0], out.data[1], out.data[2], out.data[3],
+			 out.data[4], out.data[5], out.data[6], out.data[7], out.len);
+}
+
+static void test_manual_vectors(void **state)
+{
+	size_t n_v3 = 0, n_v2 = 0;
+
+	(void)state;
+	for (size_t i = 0; i < ARRAY_SIZE(vectors); i++) {
+		const struct vec *v = &vectors[i];
+		struct rmd_frame f = frame_from(v->frame);
+
+		if (f.len != RMD_FRAME_LEN)
+			fail_msg("%s: vector frame has %u bytes", v->name, f.len);
+		check_decode(v, &f, v->dir);
+		/*
+		 * Direction from the identifier, and for V2 and 0x300 by the
+		 * reserved bytes: the values must not change (an echo may be
+		 * read as its request, which has the same fields).
+		 */
+		check_decode(v, &f, RMD_DIR_UNKNOWN);
+		check_encode(v, &f);
+		if (v->proto == RMD_PROTO_V3)
+			n_v3++;
+		else
+			n_v2++;
+	}
+	assert_int_equal(n_v3, N_V3_VECTORS);
+	assert_int_equal(n_v2, N_V2_VECTORS);
+	print_message("codec: %zu manual vectors checked (%zu V3 example frames, "
+		      "%zu V2 frames from worked values)\n",
+		      n_v3 + n_v2, n_v3, n_v2);
+}
+
+/* ---- Table consistency ------------------------------------------------- */
+
+static const uint8_t v3_cmds[] = {
+	0x30, 0x31, 0x32, 0x42, 0x43, 0x60, 0x61, 0x62, 0x63, 0x64, 0x92, 0x9A,
+	0x9C, 0x9D, 0x80, 0x81, 0xA1, 0xA2, 0xA3, 0xA4, 0xA5, 0xA8, 0x70, 0x71,
+	0x76, 0x77, 0x78, 0xB1, 0xB2, 0xB3, 0xB4, 0xB5, 0x20, 0x79,
+};
+
+static const uint8_t v2_cmds[] = {
+	0x30,
+	0x31,
+	0x32,
+	0x33,
+	0x34,
+	0x35,
+	0x36,
+	0x37,
+	0x38,
+	0x39,
+	0x3A,
+	0x3B,
+	0x3C,
+	0x3D,
+	0x3E,
+	0x3F,
+	0x40,
+	0x41,
+	0x42,
+	0x43,
+	0x60,
+	0x61,
+	0x62,
+	0x63,
+	0x64,
+	0x90,
+	0x91,
+	0x19,
+	0x92,
+	0x94,
+	0x9A,
+	0x9C,
+	0x9D,
+	0x80,
+	0x81,
+	0x88,
+	0xA1,
+	0xA2,
+	0xA3,
+	0xA4,
+	0xA5,
+	0xA6,
+	0xA7,
+	0xA8,
+	0x70,
+	0x71,
+	0x72,
+	0x73,
+	0x76,
+	0x77,
+	0x78,
+	0x79,
+	RMD_V2_CMD_MULTI_TORQUE,
+};
+
+static bool snake_case(const char *s)
+{
+	if (!s || !*s || *s == '_')
+		return false;
+	for (; *s; s++)
+		if (!((*s >= 'a' && *s <= 'z') || (*s >= '0' && *s <= '9') || *s == '_'))
+			return false;
+	return true;
+}
+
+/* V2 §3.48: the only reply whose data starts at data[0] with a command byte row. */
+static bool reply_overlaps_cmd_byte(enum rmd_proto proto, uint8_t cmd)
+{
+	return proto == RMD_PROTO_V2 && cmd == 0x73;
+}
+
+static void check_layout(enum rmd_proto proto, const struct rmd_cmd_spec *s,
+			 const struct rmd_layout *l, bool is_reply)
+{
+	bool used[RMD_FRAME_LEN] = { false };
+	uint64_t seen = 0;
+
+	if (l->n > RMD_LAYOUT_MAX)
+		fail_msg("%s: layout of %u fields", s->name, l->n);
+	if (!(s->flags & RMD_CMD_NO_CMD_BYTE) &&
+	    !(is_reply && reply_overlaps_cmd_byte(proto, s->cmd)))
+		used[0] = true;
+	for (unsigned i = 0; i < l->n; i++) {
+		const struct rmd_field_spec *fs = &l->f[i];
+
+		if (fs->field >= RMD_FLD_COUNT || !strcmp(rmd_field_key(fs->field), "unknown"))
+			fail_msg("%s: field %u has no key", s->name, fs->field);
+		if ((seen >> fs->field) & 1)
+			fail_msg("%s: field %s twice", s->name, rmd_field_key(fs->field));
+		seen |= UINT64_C(1) << fs->field;
+		if (fs->size < 1 || fs->size > 7 || fs->off + fs->size > RMD_FRAME_LEN)
+			fail_msg("%s: %s at %u+%u", s->name, rmd_field_key(fs->field), fs->off,
+				 fs->size);
+		if (!(fs->scale > 0))
+			fail_msg("%s: %s scale %g", s->name, rmd_field_key(fs->field), fs->scale);
+		for (unsigned b = fs->off; b < fs->off + fs->size; b++) {
+			if (used[b])
+				fail_msg("%s: byte %u used twice", s->name, b);
+			used[b] = true;
+		}
+	}
+}
+
+static void check_table(enum rmd_proto proto, const uint8_t *want, size_t nwant)
+{
+	const struct rmd_cmd_spec *rows;
+	size_t n = rmd_cmd_table(proto, &rows);
+
+	assert_int_equal(n, nwant);
+	for (size_t i = 0; i < nwant; i++)
+		if (!rmd_cmd_find(proto, want[i]))
+			fail_msg("proto %d: command 0x%02x missing", proto, want[i]);
+	for (size_t i = 0; i < n; i++) {
+		const struct rmd_cmd_spec *s = &rows[i];
+
+		if (!snake_case(s->name))
+			fail_msg("proto %d 0x%02x: name \"%s\" is not snake_case", proto, s->cmd,
+				 s->name ? s->name : "(null)");
+		for (size_t j = 0; j < i; j++)
+			if (rows[j].cmd == s->cmd || !strcmp(rows[j].name, s->name))
+				fail_msg("proto %d: rows %zu and %zu clash", proto, j, i);
+		if ((s->flags & RMD_CMD_ECHO) && s->rep.n)
+			fail_msg("%s: echo row with a reply layout", s->name);
+		if ((s->flags & (RMD_CMD_NO_REPLY | RMD_CMD_RANDOM_REPLY)) && s->rep.n)
+			fail_msg("%s: no usable reply, yet a reply layout", s->name);
+		check_layout(proto, s, &s->req, false);
+		check_layout(proto, s, &s->rep, true);
+	}
+}
+
+static void test_tables(void **state)
+{
+	(void)state;
+	check_table(RMD_PROTO_V3, v3_cmds, ARRAY_SIZE(v3_cmds));
+	check_table(RMD_PROTO_V2, v2_cmds, ARRAY_SIZE(v2_cmds));
+	assert_true(RMD_FLD_COUNT <= 64);
+	for (int f = 0; f < RMD_FLD_COUNT; f++)
+		if (!snake_case(rmd_field_key((enum rmd_field)f)) ||
+		    !strcmp(rmd_field_key((enum rmd_field)f), "unknown"))
+			fail_msg("field %d has no snake_case key", f);
+	/* Flags the daemon relies on: ROM writes and motion. */
+	assert_true(rmd_cmd_find(RMD_PROTO_V3, 0xB3)->flags & RMD_CMD_ROM);
+	assert_true(rmd_cmd_find(RMD_PROTO_V3, 0xB3)->flags & RMD_CMD_ECHO);
+	assert_true(rmd_cmd_find(RMD_PROTO_V3, 0x76)->flags & RMD_CMD_NO_REPLY);
+	assert_false(rmd_cmd_find(RMD_PROTO_V2, 0x76)->flags & RMD_CMD_NO_REPLY);
+	assert_true(rmd_cmd_find(RMD_PROTO_V3, 0xB4)->flags & RMD_CMD_RANDOM_REPLY);
+	assert_true(rmd_cmd_find(RMD_PROTO_V3, 0x32)->flags & RMD_CMD_ROM);
+	assert_false(rmd_cmd_find(RMD_PROTO_V3, 0x31)->flags & RMD_CMD_ROM);
+	assert_true(rmd_cmd_find(RMD_PROTO_V2, 0x3C)->flags & RMD_CMD_ROM);
+	assert_false(rmd_cmd_find(RMD_PROTO_V2, 0x36)->flags & RMD_CMD_ROM);
+	assert_true(rmd_cmd_find(RMD_PROTO_V3, 0xA1)->flags & RMD_CMD_MOVES);
+	assert_false(rmd_cmd_find(RMD_PROTO_V3, 0x80)->flags & RMD_CMD_MOVES);
+	assert_false(rmd_cmd_find(RMD_PROTO_V3, 0x9A)->flags & RMD_CMD_MOVES);
+	assert_null(rmd_cmd_find(RMD_PROTO_MIT, 0xA1));
+}
+
+/* ---- Seeded random round trips ----------------------------------------- */
+
+static uint64_t seed_used;
+
+static uint64_t rng_next(uint64_t *s)
+{
+	/* splitmix64 */
+	uint64_t z = (*s += UINT64_C(0x9E3779B97F4A7C15));
+
+	z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+	z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
+	return z ^ (z >> 31);
+}
+
+/* A random raw value that fits `fs`, edges (min, max, 0, -1) one time in four. */
+static int64_t rng_field(uint64_t *s, const struct rmd_field_spec *fs)
+{
+	unsigned bits = 8u * fs->size;
+	int64_t lo = fs->is_signed ? -(INT64_C(1) << (bits - 1)) : 0;
+	int64_t hi = fs->is_signed ? (INT64_C(1) << (bits - 1)) - 1 : (INT64_C(1) << bits) - 1;
+	uint64_t r = rng_next(s);
+
+	switch (r & 7) {
+	case 0:
+		return lo;
+	case 1:
+		return hi;
+	default:
+		break;
+	}
+	r = rng_next(s) & ((UINT64_C(1) << bits) - 1);
+	if (fs->is_signed && (r >> (bits - 1)) & 1)
+		r |= ~UINT64_C(0) << bits;
+	return (int64_t)r;
+}
+
+static const struct rmd_layout *layout_for(const struct rmd_cmd_spec *s, enum rmd_dir dir)
+{
+	return dir == RMD_DIR_REPLY && !(s->flags & RMD_CMD_ECHO) ? &s->rep : &s->req;
+}
+
+static void round_trip_row(enum rmd_proto proto, const struct rmd_cmd_spec *s, enum rmd_dir dir,
+			   uint64_t *rng)
+{
+	const struct rmd_layout *l = layout_for(s, dir);
+	bool multi = s->flags & RMD_CMD_NO_CMD_BYTE;
+
+	for (int iter = 0; iter < 200; iter++) {
+		struct rmd_msg in = { .cmd = s->cmd }, out;
+		struct rmd_frame f;
+		enum rmd_dir dir_out;
+		uint8_t motor = multi ? 0 : (uint8_t)(1 + rng_next(rng) % RMD_MAX_MOTORS);
+		int r;
+
+		/* V3 §3: any request may go to every motor on 0x280. */
+		if (proto == RMD_PROTO_V3 && dir == RMD_DIR_REQUEST && rng_next(rng) % 8 == 0)
+			motor = 0;
+		for (unsigned i = 0; i < l->n; i++) {
+			int64_t raw = rng_field(rng, &l->f[i]);
+
+			/* V2 §3.48: a TF reply is found only when data[0] is 0x73. */
+			if (l->f[i].off == 0 && !multi)
+				raw = (int64_t)(((uint64_t)raw & ~UINT64_C(0xFF)) | s->cmd);
+			rmd_msg_set(&in, l->f[i].field, raw);
+		}
+		r = rmd_encode(proto, dir, motor, &in, &f);
+		if (r != 0)
+			fail_msg("seed %llu: proto %d %s dir %d motor %u: encode %d",
+				 (unsigned long long)seed_used, proto, s->name, dir, motor, r);
+		r = rmd_decode(proto, dir, &f, &out, &dir_out);
+		if (r != 0 || out.cmd != s->cmd || dir_out != dir || out.present != in.present)
+			fail_msg("seed %llu: proto %d %s dir %d: decode %d cmd 0x%02x present "
+				 "0x%llx, want 0x%llx",
+				 (unsigned long long)seed_used, proto, s->name, dir, r, out.cmd,
+				 (unsigned long long)out.present, (unsigned long long)in.present);
+		for (unsigned i = 0; i < l->n; i++) {
+			enum rmd_field fld = (enum rmd_field)l->f[i].field;
+
+			if (out.v[fld] != in.v[fld])
+				fail_msg("seed %llu: proto %d %s dir %d: %s %lld -> %lld",
+					 (unsigned long long)seed_used, proto, s->name, dir,
+					 rmd_field_key(fld), (long long)in.v[fld],
+					 (long long)out.v[fld]);
+		}
+	}
+}
+
+static void round_trip_table(enum rmd_proto proto, uint64_t *rng)
+{
+	const struct rmd_cmd_spec *rows;
+	size_t n = rmd_cmd_table(proto, &rows);
+
+	for (size_t i = 0; i < n; i++) {
+		round_trip_row(proto, &rows[i], RMD_DIR_REQUEST, rng);
+		if (rows[i].flags & RMD_CMD_NO_CMD_BYTE) {
+			/* V2 §4.1: the four-torque frame has no reply of its own. */
+			struct rmd_msg m = { .cmd = rows[i].cmd };
+			struct rmd_frame f;
+
+			assert_int_equal(rmd_encode(proto, RMD_DIR_REPLY, 1, &m, &f), -EINVAL);
+			assert_int_equal(rmd_encode(proto, RMD_DIR_REPLY, 0, &m, &f), -EINVAL);
+			continue;
+		}
+		round_trip_row(proto, &rows[i], RMD_DIR_REPLY, rng);
+	}
+}
+
+static void test_round_trip(void **state)
+{
+	const char *env = getenv("RMD_TEST_SEED");
+	uint64_t rng;
+
+	(void)state;
+	seed_used = env && *env ? strtoull(env, NULL, 0) : (uint64_t)time(NULL);
+	print_message("codec: round-trip seed %llu (set RMD_TEST_SEED to repeat)\n",
+		      (unsigned long long)seed_used);
+	rng = seed_used;
+	round_trip_table(RMD_PROTO_V3, &rng);
+	round_trip_table(RMD_PROTO_V2, &rng);
+}
+
+/* ---- Malformed frames and bad arguments ------------------------------- */
+
+static int decode_hex(enum rmd_proto proto, enum rmd_dir dir, const char *hex, struct rmd_msg *m)
+{
+	struct rmd_frame f = frame_from(hex);
+
+	return rmd_decode(proto, dir, &f, m, NULL);
+}
+
+static void test_bad_length(void **state)
 {
 	struct rmd_frame f = frame_from("241#9A320001E5010400");
 	struct rmd_msg m;
-	const char *names[4];
 
 	(void)state;
-	assert_int_equal(rmd_decode(RMD_PROTO_V3, RMD_DIR_UNKNOWN, &f, &m, NULL), 0);
-	assert_int_equal(m.cmd, 0x9A);
+	for (uint8_t len = 0; len < RMD_FRAME_LEN; len++) {
+		f.len = len;
+		assert_int_equal(rmd_decode(RMD_PROTO_V3, RMD_DIR_UNKNOWN, &f, &m, NULL), -EBADMSG);
+		f.can_id = 0x141;
+		assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_UNKNOWN, &f, &m, NULL), -EBADMSG);
+		f.can_id = 0x241;
+	}
+	f.len = 9;
+	assert_int_equal(rmd_decode(RMD_PROTO_V3, RMD_DIR_UNKNOWN, &f, &m, NULL), -EBADMSG);
+}
+
+static void test_bad_id(void **state)
+{
+	static const struct {
+		enum rmd_proto proto;
+		const char *hex;
+	} bad[] = {
+		{ RMD_PROTO_V2, "241#9C00000000000000" }, /* V3 reply range under V2 */
+		{ RMD_PROTO_V2, "300#7900010000000000" }, /* V2 has no 0x300 */
+		{ RMD_PROTO_V2, "140#9C00000000000000" }, /* ID 0 */
+		{ RMD_PROTO_V2, "161#9C00000000000000" }, /* ID 33 */
+		{ RMD_PROTO_V3, "140#9C00000000000000" },
+		{ RMD_PROTO_V3, "161#9C00000000000000" },
+		{ RMD_PROTO_V3, "240#9C00000000000000" },
+		{ RMD_PROTO_V3, "261#9C00000000000000" },
+		{ RMD_PROTO_V3, "401#9C00000000000000" }, /* MIT identifiers */
+		{ RMD_PROTO_V3, "7FF#9C00000000000000" },
+		{ RMD_PROTO_V3, "300#8000000000000000" }, /* V3 §4: 0x300 is 0x79 only */
+		{ RMD_PROTO_V3, "141#7900010000000000" }, /* and 0x79 is 0x300 only */
+		{ RMD_PROTO_MIT, "141#9C00000000000000" },
+	};
+	struct rmd_addr a;
+	struct rmd_msg m;
+
+	(void)state;
+	for (size_t i = 0; i < ARRAY_SIZE(bad); i++)
+		if (decode_hex(bad[i].proto, RMD_DIR_UNKNOWN, bad[i].hex, &m) != -EINVAL)
+			fail_msg("%s under proto %d: not -EINVAL", bad[i].hex, bad[i].proto);
+	assert_int_equal(rmd_addr_from_id(RMD_PROTO_V2, 0x241, &a), -EINVAL);
+	assert_int_equal(rmd_addr_from_id(RMD_PROTO_V3, 0x161, &a), -EINVAL);
+	assert_int_equal(rmd_addr_from_id(RMD_PROTO_V3, 0x140, &a), -EINVAL);
+	assert_int_equal(rmd_addr_from_id(RMD_PROTO_V3, 0x160, &a), 0);
+	assert_int_equal(a.motor_id, 32);
+	assert_int_equal(a.dir, RMD_DIR_REQUEST);
+	assert_int_equal(rmd_addr_from_id(RMD_PROTO_V3, 0x280, &a), 0);
+	assert_true(a.broadcast);
+	assert_int_equal(rmd_addr_from_id(RMD_PROTO_V3, 0x300, &a), 0);
+	assert_true(a.broadcast);
+	assert_int_equal(a.dir, RMD_DIR_UNKNOWN);
+	assert_int_equal(rmd_addr_from_id(RMD_PROTO_V2, 0x141, &a), 0);
+	assert_int_equal(a.dir, RMD_DIR_UNKNOWN);
+
+	/* A direction the identifier contradicts. */
+	assert_int_equal(decode_hex(RMD_PROTO_V3, RMD_DIR_REQUEST, "241#9A320001E5010400", &m),
+			 -EINVAL);
+	assert_int_equal(decode_hex(RMD_PROTO_V3, RMD_DIR_REPLY, "141#9A00000000000000", &m),
+			 -EINVAL);
+	assert_int_equal(decode_hex(RMD_PROTO_V3, RMD_DIR_REPLY, "280#8000000000000000", &m),
+			 -EINVAL);
+	assert_int_equal(decode_hex(RMD_PROTO_V2, RMD_DIR_REPLY, "280#0100020003000400", &m),
+			 -EINVAL);
+}
+
+static void test_unknown_command(void **state)
+{
+	struct rmd_msg m;
+
+	(void)state;
+	assert_int_equal(decode_hex(RMD_PROTO_V3, RMD_DIR_UNKNOWN, "141#FF00000000000000", &m),
+			 -ENOENT);
+	assert_int_equal(m.cmd, 0xFF);
+	assert_int_equal(m.present, 0);
+	/* V2-only commands under V3 and V3-only commands under V2. */
+	assert_int_equal(decode_hex(RMD_PROTO_V3, RMD_DIR_UNKNOWN, "241#9400000000001234", &m),
+			 -ENOENT);
+	assert_int_equal(m.cmd, 0x94);
+	assert_int_equal(decode_hex(RMD_PROTO_V2, RMD_DIR_UNKNOWN, "141#B500000000000000", &m),
+			 -ENOENT);
+	assert_int_equal(m.cmd, 0xB5);
+	/* The V2 four-torque row's pseudo command 0x00 is not a command byte. */
+	assert_int_equal(decode_hex(RMD_PROTO_V2, RMD_DIR_UNKNOWN, "141#0000000000000000", &m),
+			 -ENOENT);
+	assert_int_equal(m.cmd, 0x00);
+	assert_int_equal(m.present, 0);
+
+	{
+		struct rmd_msg in = { .cmd = 0xFF };
+		struct rmd_frame f;
+
+		assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &in, &f), -ENOENT);
+		in.cmd = 0x94;
+		assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &in, &f), -ENOENT);
+	}
+}
+
+static void test_encode_errors(void **state)
+{
+	struct rmd_msg m = { .cmd = 0xA1 };
+	struct rmd_frame f;
+
+	(void)state;
+	/* Out of range for the field's width. */
+	rmd_msg_set(&m, RMD_FLD_CURRENT, 32768);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &m, &f), -ERANGE);
+	rmd_msg_set(&m, RMD_FLD_CURRENT, -32769);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &m, &f), -ERANGE);
+	rmd_msg_set(&m, RMD_FLD_CURRENT, -32768);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &m, &f), 0);
+
+	m = (struct rmd_msg){ .cmd = 0xA4 };
+	rmd_msg_set(&m, RMD_FLD_MAX_SPEED, -1);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &m, &f), -ERANGE);
+	rmd_msg_set(&m, RMD_FLD_MAX_SPEED, 65536);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &m, &f), -ERANGE);
+	rmd_msg_set(&m, RMD_FLD_MAX_SPEED, 65535);
+	rmd_msg_set(&m, RMD_FLD_ANGLE, INT64_C(2147483648));
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &m, &f), -ERANGE);
+
+	m = (struct rmd_msg){ .cmd = 0xB5 };
+	rmd_msg_set(&m, RMD_FLD_MODEL, INT64_C(1) << 56);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REPLY, 1, &m, &f), -ERANGE);
+
+	m = (struct rmd_msg){ .cmd = 0x92 };
+	rmd_msg_set(&m, RMD_FLD_ANGLE, INT64_C(1) << 55);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 1, &m, &f), -ERANGE);
+	rmd_msg_set(&m, RMD_FLD_ANGLE, -(INT64_C(1) << 55));
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 1, &m, &f), 0);
+
+	/* Bad motor, direction or protocol. */
+	m = (struct rmd_msg){ .cmd = 0x9A };
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 33, &m, &f), -EINVAL);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_UNKNOWN, 1, &m, &f), -EINVAL);
+	assert_int_equal(rmd_encode(RMD_PROTO_MIT, RMD_DIR_REQUEST, 1, &m, &f), -EINVAL);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REPLY, 0, &m, &f), -EINVAL);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REQUEST, 0, &m, &f), -EINVAL);
+	m.cmd = RMD_V2_CMD_MULTI_TORQUE;
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REQUEST, 1, &m, &f), -EINVAL);
+
+	/* V3 0x79 goes to 0x300 whatever the motor. */
+	m = (struct rmd_msg){ .cmd = 0x79 };
+	rmd_msg_set(&m, RMD_FLD_READ_FLAG, 1);
+	rmd_msg_set(&m, RMD_FLD_CAN_ID, 0);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 5, &m, &f), 0);
+	assert_int_equal(f.can_id, 0x300);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REPLY, 0, &m, &f), 0);
+	assert_int_equal(f.can_id, 0x300);
+}
+
+static void test_v2_multi_torque(void **state)
+{
+	const struct rmd_cmd_spec *s = rmd_cmd_find(RMD_PROTO_V2, RMD_V2_CMD_MULTI_TORQUE);
+	struct rmd_msg m = { .cmd = RMD_V2_CMD_MULTI_TORQUE }, d;
+	struct rmd_frame f, want = frame_from("280#D00730F8E803FFFF");
+	enum rmd_dir dir;
+
+	(void)state;
+	assert_non_null(s);
+	rmd_msg_set(&m, RMD_FLD_CURRENT_1, 2000);
+	rmd_msg_set(&m, RMD_FLD_CURRENT_2, -2000);
+	rmd_msg_set(&m, RMD_FLD_CURRENT_3, 1000);
+	rmd_msg_set(&m, RMD_FLD_CURRENT_4, -1);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REQUEST, 0, &m, &f), 0);
+	assert_int_equal(f.can_id, 0x280);
+	assert_memory_equal(f.data, want.data, RMD_FRAME_LEN);
+
+	assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_UNKNOWN, &f, &d, &dir), 0);
+	assert_int_equal(dir, RMD_DIR_REQUEST);
+	assert_int_equal(d.cmd, RMD_V2_CMD_MULTI_TORQUE);
+	assert_int_equal(d.present, m.present);
+	assert_int_equal(d.v[RMD_FLD_CURRENT_1], 2000);
+	assert_int_equal(d.v[RMD_FLD_CURRENT_2], -2000);
+	assert_int_equal(d.v[RMD_FLD_CURRENT_3], 1000);
+	assert_int_equal(d.v[RMD_FLD_CURRENT_4], -1);
+	/* V2 §4.1: 2000 is 32 A. */
+	assert_true(fabs(2000 * rmd_layout_field(s, RMD_DIR_REQUEST, RMD_FLD_CURRENT_1)->scale -
+			 32.0) < 1e-12);
+}
+
+static void test_v2_direction_guess(void **state)
+{
+	struct rmd_frame f;
+	struct rmd_msg m;
+	enum rmd_dir dir;
+
+	(void)state;
+	/* A read request is all zero after the command byte. */
+	f = frame_from("141#9C00000000000000");
+	assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_UNKNOWN, &f, &m, &dir), 0);
+	assert_int_equal(dir, RMD_DIR_REQUEST);
+	assert_int_equal(m.present, 0);
+	/* Its reply fills the reserved bytes. */
+	f = frame_from("141#9C326400F4012D00");
+	assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_UNKNOWN, &f, &m, &dir), 0);
+	assert_int_equal(dir, RMD_DIR_REPLY);
 	assert_int_equal(m.v[RMD_FLD_TEMP], 50);
-	assert_int_equal(m.v[RMD_FLD_BRAKE], 1);
-	assert_int_equal(m.v[RMD_FLD_VOLTAGE], 485);
-	assert_int_equal(m.v[RMD_FLD_ERROR], 4);
-	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 4, names, 4), 1);
+	assert_int_equal(m.v[RMD_FLD_CURRENT], 100);
+	assert_int_equal(m.v[RMD_FLD_SPEED], 500);
+	assert_int_equal(m.v[RMD_FLD_ENCODER], 45);
+	/* A control request (data[1..3] zero) and its reply. */
+	f = frame_from("141#A100000064000000");
+	assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_UNKNOWN, &f, &m, &dir), 0);
+	assert_int_equal(dir, RMD_DIR_REQUEST);
+	assert_int_equal(m.v[RMD_FLD_CURRENT], 100);
+	f = frame_from("141#A1326400F4012D00");
+	assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_UNKNOWN, &f, &m, &dir), 0);
+	assert_int_equal(dir, RMD_DIR_REPLY);
+	assert_int_equal(m.v[RMD_FLD_SPEED], 500);
+	/* An echo reads as its request: the same fields either way. */
+	f = frame_from("141#3600000000004000");
+	assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_UNKNOWN, &f, &m, &dir), 0);
+	assert_int_equal(dir, RMD_DIR_REQUEST);
+	assert_int_equal(m.v[RMD_FLD_POS_KP], 4194304);
+	/* dir_out may be NULL. */
+	assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_UNKNOWN, &f, &m, NULL), 0);
+	/* V3 0x300: an echoed write reads as a request, a read reply as a reply. */
+	f = frame_from("300#7900010000004202");
+	assert_int_equal(rmd_decode(RMD_PROTO_V3, RMD_DIR_UNKNOWN, &f, &m, &dir), 0);
+	assert_int_equal(dir, RMD_DIR_REPLY);
+	assert_int_equal(m.v[RMD_FLD_CAN_ID], 0x242);
+}
+
+/* V2 §3.29: the 56-bit multi-turn angle, and its negative form. */
+static void test_v2_multi_turn_56bit(void **state)
+{
+	struct rmd_msg m;
+
+	(void)state;
+	/* 360.00 deg: the manual's layout with a 0 flag byte. */
+	assert_int_equal(decode_hex(RMD_PROTO_V2, RMD_DIR_REPLY, "141#92A08C0000000000", &m), 0);
+	assert_int_equal(m.v[RMD_FLD_ANGLE], 36000);
+	/* -360.00 deg as the int64's first seven bytes. */
+	assert_int_equal(decode_hex(RMD_PROTO_V2, RMD_DIR_REPLY, "141#926073FFFFFFFFFF", &m), 0);
+	assert_int_equal(m.v[RMD_FLD_ANGLE], -36000);
+}
+
+/* V2 §3.48: the TF reply has no command byte. */
+static void test_v2_tf_reply(void **state)
+{
+	struct rmd_msg m = { .cmd = 0x73 }, d;
+	struct rmd_frame f;
+	int r;
+
+	(void)state;
+	rmd_msg_set(&m, RMD_FLD_CURRENT, 0x0110); /* 2.72 A */
+	rmd_msg_set(&m, RMD_FLD_SPEED, -5);
+	rmd_msg_set(&m, RMD_FLD_ENCODER, 123456);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 1, &m, &f), 0);
+	assert_int_equal(f.data[0], 0x10);
+	assert_int_equal(f.data[1], 0x01);
+	/* Not recognisable: data[0] names another command (or none). */
+	r = rmd_decode(RMD_PROTO_V2, RMD_DIR_REPLY, &f, &d, NULL);
+	assert_false(r == 0 && d.cmd == 0x73);
+	/* A caller that sent 0x73 decodes the reply as 0x73. */
+	assert_int_equal(rmd_decode_as(RMD_PROTO_V2, RMD_DIR_REPLY, 0x73, &f, &d), 0);
+	assert_int_equal(d.cmd, 0x73);
+	assert_int_equal(d.v[RMD_FLD_CURRENT], 0x0110);
+	assert_int_equal(d.v[RMD_FLD_SPEED], -5);
+	assert_int_equal(d.v[RMD_FLD_ENCODER], 123456);
+	assert_int_equal(rmd_decode_as(RMD_PROTO_V2, RMD_DIR_REPLY, 0xEE, &f, &d), -ENOENT);
+	f.len = 7;
+	assert_int_equal(rmd_decode_as(RMD_PROTO_V2, RMD_DIR_REPLY, 0x73, &f, &d), -EBADMSG);
+	f.len = 8;
+	/* Recognised when data[0] happens to be 0x73. */
+	rmd_msg_set(&m, RMD_FLD_CURRENT, 0x0173);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 1, &m, &f), 0);
+	assert_int_equal(rmd_decode(RMD_PROTO_V2, RMD_DIR_REPLY, &f, &d, NULL), 0);
+	assert_int_equal(d.cmd, 0x73);
+	assert_int_equal(d.v[RMD_FLD_CURRENT], 0x0173);
+	assert_int_equal(d.v[RMD_FLD_SPEED], -5);
+	assert_int_equal(d.v[RMD_FLD_ENCODER], 123456);
+	/* The request does carry the command byte. */
+	assert_int_equal(decode_hex(RMD_PROTO_V2, RMD_DIR_UNKNOWN, "141#73000A0040E20100", &d), 0);
+	assert_int_equal(d.cmd, 0x73);
+	assert_int_equal(d.v[RMD_FLD_CURRENT], 10); /* §3.48: 10 is 0.1 A */
+	assert_int_equal(d.v[RMD_FLD_ENCODER], 123456);
+}
+
+/* V2 §3.37: the unsafe loop-switch reply decodes as an encoder of 0x00F6. */
+static void test_v2_unsafe_reply(void **state)
+{
+	struct rmd_msg m;
+	const char *names[2];
+
+	(void)state;
+	assert_int_equal(decode_hex(RMD_PROTO_V2, RMD_DIR_REPLY, "141#A10000000000F600", &m), 0);
+	assert_int_equal(m.v[RMD_FLD_TEMP], 0);
+	assert_int_equal(m.v[RMD_FLD_CURRENT], 0);
+	assert_int_equal(m.v[RMD_FLD_ENCODER], 0xF6);
+	assert_int_equal(rmd_error_names(RMD_PROTO_V2, (uint16_t)m.v[RMD_FLD_ENCODER], names, 2),
+			 1);
+	assert_string_equal(names[0], "loop_switch_unsafe");
+}
+
+/* ---- Names ------------------------------------------------------------- */
+
+static void test_error_names(void **state)
+{
+	const char *names[16];
+
+	(void)state;
+	/* V3 §2.12.4: 0x0004 is low voltage. */
+	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0x0004, names, 16), 1);
 	assert_string_equal(names[0], "low_voltage");
+	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0, names, 16), 0);
+	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0x3000, names, 16), 2);
+	assert_string_equal(names[0], "over_temperature");
+	assert_string_equal(names[1], "encoder_calibration_error");
+	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0x0012, names, 16), 2);
+	assert_string_equal(names[0], "stall");
+	assert_string_equal(names[1], "phase_overcurrent");
+	/* A bit §2.12 does not name keeps a name. */
+	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0x0001, names, 16), 1);
+	assert_string_equal(names[0], "unknown_0x0001");
+	/* More flags than room: the count, and only `max` names stored. */
+	names[1] = NULL;
+	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0xFFFF, names, 1), 16);
+	assert_null(names[1]);
+	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0xFFFF, NULL, 0), 16);
+	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0xFFFF, names, 16), 16);
+	for (int i = 0; i < 16; i++)
+		if (!snake_case(names[i]))
+			fail_msg("V3 error name \"%s\" is not snake_case", names[i]);
+
+	/* V2 §3.31 table 1, with "0x0000" read as bit 0. */
+	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x0001, names, 16), 1);
+	assert_string_equal(names[0], "hardware_overcurrent");
+	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x0030, names, 16), 2);
+	assert_string_equal(names[0], "overcurrent");
+	assert_string_equal(names[1], "brake_open_failed");
+	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0xFFFF, names, 16), 16);
+	for (int i = 0; i < 16; i++)
+		if (!snake_case(names[i]))
+			fail_msg("V2 error name \"%s\" is not snake_case", names[i]);
+	/* V2 §3.31 table 2: whole codes. */
+	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x00F0, names, 16), 1);
+	assert_string_equal(names[0], "pid_rom_write_unsafe");
+	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x00F3, names, 16), 1);
+	assert_string_equal(names[0], "brake_not_open");
+	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x00F4, names, 0), 1);
+	assert_int_equal(rmd_error_names(RMD_PROTO_MIT, 0x0004, names, 16), 0);
+}
+
+static void test_run_mode_names(void **state)
+{
+	(void)state;
+	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V3, 1), "current_loop");
+	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V3, 2), "speed_loop");
+	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V3, 3), "position_loop");
+	assert_null(rmd_run_mode_name(RMD_PROTO_V3, 0));
+	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V2, 0), "current_loop");
+	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V2, 1), "speed_loop");
+	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V2, 2), "position_loop");
+	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V2, 0xFF), "init");
+	assert_null(rmd_run_mode_name(RMD_PROTO_V2, 3));
+	assert_null(rmd_run_mode_name(RMD_PROTO_MIT, 1));
+}
+
+static void test_model(void **state)
+{
+	char buf[8];
+
+	(void)state;
+	rmd_model_string(MODEL_X8S2V10, buf);
+	assert_string_equal(buf, "X8S2V10");
+	assert_true(rmd_model_raw("X8S2V10") == MODEL_X8S2V10);
+	assert_true(rmd_model_raw("X8S2V10-extra") == MODEL_X8S2V10);
+	rmd_model_string(rmd_model_raw("RMD"), buf);
+	assert_string_equal(buf, "RMD");
+	assert_true(rmd_model_raw("") == 0);
+	assert_true(rmd_model_raw(NULL) == 0);
+	rmd_model_string(0, buf);
+	assert_string_equal(buf, "");
+	rmd_model_string(INT64_C(0x7F4101), buf);
+	assert_string_equal(buf, "?A?");
+}
+
+static void test_version_date(void **state)
+{
+	(void)state;
+	assert_true(rmd_version_date_valid(20220206)); /* V3 §2.29.4 */
+	assert_true(rmd_version_date_valid(20211126)); /* V3 §2.29.3 */
+	assert_true(rmd_version_date_valid(20240229));
+	assert_true(rmd_version_date_valid(20001231));
+	assert_false(rmd_version_date_valid(20230229));
+	assert_false(rmd_version_date_valid(20220230));
+	assert_false(rmd_version_date_valid(20221301));
+	assert_false(rmd_version_date_valid(20220100));
+	assert_false(rmd_version_date_valid(20220001));
+	assert_false(rmd_version_date_valid(19991231));
+	assert_false(rmd_version_date_valid(0));
+	assert_false(rmd_version_date_valid(UINT32_MAX));
 }
 
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v3_status1_example),
+		cmocka_unit_test(test_manual_vectors),
+		cmocka_unit_test(test_tables),
+		cmocka_unit_test(test_round_trip),
+		cmocka_unit_test(test_bad_length),
+		cmocka_unit_test(test_bad_id),
+		cmocka_unit_test(test_unknown_command),
+		cmocka_unit_test(test_encode_errors),
+		cmocka_unit_test(test_v2_multi_torque),
+		cmocka_unit_test(test_v2_direction_guess),
+		cmocka_unit_test(test_v2_multi_turn_56bit),
+		cmocka_unit_test(test_v2_tf_reply),
+		cmocka_unit_test(test_v2_unsafe_reply),
+		cmocka_unit_test(test_error_names),
+		cmocka_unit_test(test_run_mode_names),
+		cmocka_unit_test(test_model),
+		cmocka_unit_test(test_version_date),
 	};
 
 	return cmocka_run_group_tests_name("codec", tests, NULL, NULL);

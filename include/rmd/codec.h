@@ -14,8 +14,8 @@
  * checked against the manuals' worked examples in tests/test_codec.c.
  *
  * A decoded message keeps the raw wire integers (struct rmd_msg.v[]), so
- * decode(encode(x)) == x holds exactly; rmd_msg_get() scales a field to the
- * native unit using the row's scale.
+ * decode(encode(x)) == x holds exactly; rmd_layout_field() gives a field's
+ * row entry, whose scale turns the raw value into the native unit.
  */
 #ifndef RMD_CODEC_H
 #define RMD_CODEC_H
@@ -49,7 +49,7 @@ enum rmd_field {
 	RMD_FLD_SPEED,	     /* speed_dps: measured or setpoint */
 	RMD_FLD_ANGLE,	     /* angle_deg: measured or setpoint */
 	RMD_FLD_MAX_SPEED,   /* max_speed_dps: speed limit of a move */
-	RMD_FLD_SPIN_DIR,    /* spin_direction: V2 0xA6/0xA7, 0 = cw */
+	RMD_FLD_SPIN_DIR,    /* spin_direction: V2 0xA5/0xA6, 0 = cw */
 	RMD_FLD_ENCODER,     /* encoder: counts */
 	RMD_FLD_ENCODER_RAW, /* encoder_raw: counts, without offset */
 	RMD_FLD_ENCODER_OFF, /* encoder_offset: counts */
@@ -179,6 +179,15 @@ int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const s
  */
 int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f,
 	       struct rmd_msg *msg, enum rmd_dir *dir_out);
+
+/*
+ * Decode the data of `f` as command `cmd` in direction `dir`, without
+ * looking at data[0]: for replies that carry no command byte (V2 §3.48,
+ * the 0x73 TF reply), matched by the caller to the request it sent.
+ * Returns 0, -EBADMSG, -EINVAL or -ENOENT as rmd_decode().
+ */
+int rmd_decode_as(enum rmd_proto proto, enum rmd_dir dir, uint8_t cmd, const struct rmd_frame *f,
+		  struct rmd_msg *msg);
 
 /* Set field `fld` of `msg` to the raw value `raw` and mark it present. */
 void rmd_msg_set(struct rmd_msg *msg, enum rmd_field fld, int64_t raw);
