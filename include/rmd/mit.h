@@ -4,8 +4,20 @@
  * v_des, kp, kd and t_ff (12 bits each) as big-endian bit fields; replies on
  * 0x500 + ID carry the motor's ID, position (16), velocity (12) and
  * torque (12).  u = (x - min) * (2^bits - 1) / (max - min), clamped first,
- * rounded to nearest.  Ranges are per motor (firmware differ).
+ * rounded to nearest (halves away from zero).  Ranges are per motor
+ * (firmware differ).
  *
+ * Request data field (V3 §5.2), p/v/kp/kd/t being the unsigned codes:
+ *   D0 = p[15:8]   D1 = p[7:0]
+ *   D2 = v[11:4]   D3 = v[3:0] << 4 | kp[11:8]   D4 = kp[7:0]
+ *   D5 = kd[11:4]  D6 = kd[3:0] << 4 | t[11:8]   D7 = t[7:0]
+ * Reply data field (V3 §5.3):
+ *   D0 = motor ID (1..32, equal to the CAN ID - 0x500)
+ *   D1 = p[15:8]   D2 = p[7:0]
+ *   D3 = v[11:4]   D4 = v[3:0] << 4 | t[11:8]    D5 = t[7:0]
+ *   D6, D7 unused (0 when we encode, ignored when we decode)
+ *
+ * Every function here writes its outputs only when it succeeds.
  * Pure and rt-safe.
  */
 #ifndef RMD_MIT_H
@@ -42,23 +54,51 @@ struct rmd_mit_reply {
 	double torque_nm;
 };
 
-/* Ranges with min < max and all finite: true. */
+/*
+ * True when every pair has finite min < max with a finite span, and the
+ * gains cannot go negative (kp_min >= 0, kd_min >= 0: a negative gain is a
+ * destabilising command no firmware range needs).
+ */
 bool rmd_mit_ranges_valid(const struct rmd_mit_ranges *r);
 
-/* Quantise x into `bits` over [min, max]: clamp (NaN -> min), round. */
+/*
+ * Quantise x into `bits` (1..32) over [min, max]: clamp (NaN -> min),
+ * round to nearest, halves away from zero.  Returns 0 for bits outside 1..32
+ * or an invalid range.  The encoders below refuse NaN and ±Inf before they
+ * get here; this primitive alone has no error channel.
+ */
 uint32_t rmd_mit_to_uint(double x, double min, double max, unsigned bits);
+/*
+ * The value of code u: min + u * (max - min) / (2^bits - 1); code 0 gives
+ * exactly min and code 2^bits - 1 exactly max, a larger u is clamped to it.
+ * NaN for bits outside 1..32 or an invalid range.
+ */
 double rmd_mit_from_uint(uint32_t u, double min, double max, unsigned bits);
 
-/* Encode a request for motor_id (1..32).  Returns 0 or -EINVAL. */
+/*
+ * Encode a request for motor_id (1..32).  Values outside the ranges are
+ * clamped.  Returns 0, or -EINVAL for a bad id, invalid ranges, or any NaN
+ * or infinite field (never a silent "min" command).
+ */
 int rmd_mit_encode_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id,
 		       const struct rmd_mit_cmd *cmd, struct rmd_frame *out);
-/* Decode a request frame (0x401..0x420).  Returns 0, -EBADMSG or -EINVAL. */
+/*
+ * Decode a request frame (0x401..0x420).  Returns 0, -EINVAL for another
+ * CAN ID or invalid ranges, -EBADMSG for a DLC other than 8.
+ */
 int rmd_mit_decode_cmd(const struct rmd_mit_ranges *r, const struct rmd_frame *f, uint8_t *motor_id,
 		       struct rmd_mit_cmd *cmd);
-/* Encode a reply (0x500 + ID).  Returns 0 or -EINVAL. */
+/*
+ * Encode a reply (0x500 + ID).  Returns 0, or -EINVAL for an id outside
+ * 1..32, invalid ranges, or a NaN or infinite field.
+ */
 int rmd_mit_encode_reply(const struct rmd_mit_ranges *r, const struct rmd_mit_reply *rep,
 			 struct rmd_frame *out);
-/* Decode a reply (0x501..0x520).  Returns 0, -EBADMSG or -EINVAL. */
+/*
+ * Decode a reply (0x501..0x520).  Returns 0, -EINVAL for another CAN ID or
+ * invalid ranges, -EBADMSG for a DLC other than 8 or a D0 that is not the
+ * motor ID of the CAN ID.
+ */
 int rmd_mit_decode_reply(const struct rmd_mit_ranges *r, const struct rmd_frame *f,
 			 struct rmd_mit_reply *rep);
 

@@ -1,0 +1,221 @@
+// SPDX-License-Identifier: MIT
+/*
+ * MIT motion mode packing (V3 §5), bytes <-> SI values over per-motor ranges.
+ *
+ * Quantisation divides by 2^bits - 1 (DESIGN.md), so code 0 is min and the
+ * top code is max.  The manual's worked example (V3 §5.4) divides the 16-bit
+ * position by 65536 (58982 / 65536 * 25 - 12.5 = 9.9998, printed "9.99") but
+ * every 12-bit field by 4095; with 65536 the top code could never reach
+ * p_max.  Both divisors give the manual's 0xE666 for 10.0 rad, and with
+ * 65535 that code is an exact half (58981.5) that round-to-nearest lifts to
+ * 58982, as the example shows; v (2093.91 -> 0x82E), kp (81.9 -> 0x052) and
+ * t_ff (2900.625 -> 0xB55) confirm rounding rather than truncation.
+ *
+ * Everything here is pure and rt-safe.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "rmd/mit.h"
+
+/* V3 §5.2, §5.3: field widths. */
+#define P_BITS 16
+#define V_BITS 12
+#define KP_BITS 12
+#define KD_BITS 12
+#define T_BITS 12
+
+const struct rmd_mit_ranges rmd_mit_default_ranges = {
+	.p_min = -12.5,
+	.p_max = 12.5,
+	.v_min = -45.0,
+	.v_max = 45.0,
+	.t_min = -24.0,
+	.t_max = 24.0,
+	.kp_min = 0.0,
+	.kp_max = 500.0,
+	.kd_min = 0.0,
+	.kd_max = 5.0,
+};
+
+static bool range_ok(double min, double max)
+{
+	return isfinite(min) && isfinite(max) && min < max && isfinite(max - min);
+}
+
+static bool bits_ok(unsigned bits)
+{
+	return bits >= 1 && bits <= 32;
+}
+
+/* 2^bits - 1, for bits 1..32. */
+static uint32_t top_code(unsigned bits)
+{
+	return UINT32_MAX >> (32 - bits);
+}
+
+static bool mit_id_ok(uint8_t id)
+{
+	return id >= 1 && id <= RMD_MAX_MOTORS;
+}
+
+bool rmd_mit_ranges_valid(const struct rmd_mit_ranges *r)
+{
+	return r && range_ok(r->p_min, r->p_max) && range_ok(r->v_min, r->v_max) &&
+	       range_ok(r->t_min, r->t_max) && range_ok(r->kp_min, r->kp_max) &&
+	       range_ok(r->kd_min, r->kd_max) && r->kp_min >= 0.0 && r->kd_min >= 0.0;
+}
+
+uint32_t rmd_mit_to_uint(double x, double min, double max, unsigned bits)
+{
+	uint32_t top;
+	double u;
+
+	if (!bits_ok(bits) || !range_ok(min, max))
+		return 0;
+	top = top_code(bits);
+	/* Clamp first; !(x > min) also catches NaN. */
+	if (!(x > min))
+		return 0;
+	if (x >= max)
+		return top;
+	/* Multiply before dividing, as the formula reads: exact halves stay exact. */
+	u = round((x - min) * (double)top / (max - min));
+	return u >= (double)top ? top : (uint32_t)u;
+}
+
+double rmd_mit_from_uint(uint32_t u, double min, double max, unsigned bits)
+{
+	uint32_t top;
+
+	if (!bits_ok(bits) || !range_ok(min, max))
+		return NAN;
+	top = top_code(bits);
+	if (u == 0)
+		return min;
+	if (u >= top)
+		return max;
+	return min + (double)u * (max - min) / (double)top;
+}
+
+static bool cmd_finite(const struct rmd_mit_cmd *c)
+{
+	return isfinite(c->p_des_rad) && isfinite(c->v_des_rad_s) && isfinite(c->kp) &&
+	       isfinite(c->kd) && isfinite(c->t_ff_nm);
+}
+
+int rmd_mit_encode_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id,
+		       const struct rmd_mit_cmd *cmd, struct rmd_frame *out)
+{
+	uint32_t p, v, kp, kd, t;
+
+	if (!mit_id_ok(motor_id) || !rmd_mit_ranges_valid(r) || !cmd_finite(cmd))
+		return -EINVAL;
+
+	p = rmd_mit_to_uint(cmd->p_des_rad, r->p_min, r->p_max, P_BITS);
+	v = rmd_mit_to_uint(cmd->v_des_rad_s, r->v_min, r->v_max, V_BITS);
+	kp = rmd_mit_to_uint(cmd->kp, r->kp_min, r->kp_max, KP_BITS);
+	kd = rmd_mit_to_uint(cmd->kd, r->kd_min, r->kd_max, KD_BITS);
+	t = rmd_mit_to_uint(cmd->t_ff_nm, r->t_min, r->t_max, T_BITS);
+
+	out->can_id = RMD_CAN_MIT_REQ_BASE + motor_id;
+	out->len = RMD_FRAME_LEN;
+	out->data[0] = (uint8_t)(p >> 8);
+	out->data[1] = (uint8_t)p;
+	out->data[2] = (uint8_t)(v >> 4);
+	out->data[3] = (uint8_t)((v & 0xFu) << 4 | kp >> 8);
+	out->data[4] = (uint8_t)kp;
+	out->data[5] = (uint8_t)(kd >> 4);
+	out->data[6] = (uint8_t)((kd & 0xFu) << 4 | t >> 8);
+	out->data[7] = (uint8_t)t;
+	return 0;
+}
+
+int rmd_mit_decode_cmd(const struct rmd_mit_ranges *r, const struct rmd_frame *f, uint8_t *motor_id,
+		       struct rmd_mit_cmd *cmd)
+{
+	const uint8_t *d = f->data;
+	uint32_t p, v, kp, kd, t;
+
+	if (!rmd_mit_ranges_valid(r) || f->can_id <= RMD_CAN_MIT_REQ_BASE ||
+	    f->can_id > RMD_CAN_MIT_REQ_BASE + RMD_MAX_MOTORS)
+		return -EINVAL;
+	if (f->len != RMD_FRAME_LEN)
+		return -EBADMSG;
+
+	p = (uint32_t)d[0] << 8 | d[1];
+	v = (uint32_t)d[2] << 4 | d[3] >> 4;
+	kp = (uint32_t)(d[3] & 0xFu) << 8 | d[4];
+	kd = (uint32_t)d[5] << 4 | d[6] >> 4;
+	t = (uint32_t)(d[6] & 0xFu) << 8 | d[7];
+
+	*motor_id = (uint8_t)(f->can_id - RMD_CAN_MIT_REQ_BASE);
+	cmd->p_des_rad = rmd_mit_from_uint(p, r->p_min, r->p_max, P_BITS);
+	cmd->v_des_rad_s = rmd_mit_from_uint(v, r->v_min, r->v_max, V_BITS);
+	cmd->kp = rmd_mit_from_uint(kp, r->kp_min, r->kp_max, KP_BITS);
+	cmd->kd = rmd_mit_from_uint(kd, r->kd_min, r->kd_max, KD_BITS);
+	cmd->t_ff_nm = rmd_mit_from_uint(t, r->t_min, r->t_max, T_BITS);
+	return 0;
+}
+
+/*
+ * V3 §5.3.  The reply table names its fields p_des, v_des and t_ff but they
+ * are the measured position, velocity and torque.  The §5.4 reply example
+ * is garbled: it prints D2 = 0x65 while its own text says p = 0xE666, and it
+ * has no D3 row.  The layout table and the example's field values (p 0xE666,
+ * v 0x82E, t 0xB55, D4 = 0xEB = v[3:0] << 4 | t[11:8]) agree on
+ * 501#01E66682EB550000, which is what this encodes.
+ */
+int rmd_mit_encode_reply(const struct rmd_mit_ranges *r, const struct rmd_mit_reply *rep,
+			 struct rmd_frame *out)
+{
+	uint32_t p, v, t;
+
+	if (!mit_id_ok(rep->motor_id) || !rmd_mit_ranges_valid(r) || !isfinite(rep->pos_rad) ||
+	    !isfinite(rep->vel_rad_s) || !isfinite(rep->torque_nm))
+		return -EINVAL;
+
+	p = rmd_mit_to_uint(rep->pos_rad, r->p_min, r->p_max, P_BITS);
+	v = rmd_mit_to_uint(rep->vel_rad_s, r->v_min, r->v_max, V_BITS);
+	t = rmd_mit_to_uint(rep->torque_nm, r->t_min, r->t_max, T_BITS);
+
+	out->can_id = RMD_CAN_MIT_REPLY_BASE + rep->motor_id;
+	out->len = RMD_FRAME_LEN;
+	out->data[0] = rep->motor_id;
+	out->data[1] = (uint8_t)(p >> 8);
+	out->data[2] = (uint8_t)p;
+	out->data[3] = (uint8_t)(v >> 4);
+	out->data[4] = (uint8_t)((v & 0xFu) << 4 | t >> 8);
+	out->data[5] = (uint8_t)t;
+	out->data[6] = 0;
+	out->data[7] = 0;
+	return 0;
+}
+
+int rmd_mit_decode_reply(const struct rmd_mit_ranges *r, const struct rmd_frame *f,
+			 struct rmd_mit_reply *rep)
+{
+	const uint8_t *d = f->data;
+	uint32_t p, v, t;
+	uint8_t id;
+
+	if (!rmd_mit_ranges_valid(r) || f->can_id <= RMD_CAN_MIT_REPLY_BASE ||
+	    f->can_id > RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
+		return -EINVAL;
+	id = (uint8_t)(f->can_id - RMD_CAN_MIT_REPLY_BASE);
+	/* A D0 that disagrees with the CAN ID cannot be matched to one motor. */
+	if (f->len != RMD_FRAME_LEN || d[0] != id)
+		return -EBADMSG;
+
+	p = (uint32_t)d[1] << 8 | d[2];
+	v = (uint32_t)d[3] << 4 | d[4] >> 4;
+	t = (uint32_t)(d[4] & 0xFu) << 8 | d[5];
+
+	rep->motor_id = id;
+	rep->pos_rad = rmd_mit_from_uint(p, r->p_min, r->p_max, P_BITS);
+	rep->vel_rad_s = rmd_mit_from_uint(v, r->v_min, r->v_max, V_BITS);
+	rep->torque_nm = rmd_mit_from_uint(t, r->t_min, r->t_max, T_BITS);
+	return 0;
+}

@@ -1,0 +1,212 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl: command-line tool for RMD motors (layer 7 of DESIGN.md).
+ *
+ *   rmdctl decode ...   candump text -> decoded quantities (rmdctl_decode.c)
+ *   rmdctl encode ...   one command -> a frame in cansend syntax (rmdctl_encode.c)
+ *
+ * Subcommands are rows of `cmds` below: adding one is a new row and a
+ * rmdctl_<name>.c file.  Exit statuses: 0 ok, 1 data errors, 2 usage.
+ * Everything here is non-rt.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rmdctl.h"
+
+static const struct rmdctl_cmd cmds[] = {
+	{ "decode", "print candump output as decoded quantities (text or JSON)", rmdctl_decode_run,
+	  rmdctl_decode_usage },
+	{ "encode", "print one command as a frame in cansend syntax", rmdctl_encode_run,
+	  rmdctl_encode_usage },
+};
+#define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
+
+void rmdctl_err(const char *sub, const char *fmt, ...)
+{
+	va_list ap;
+
+	fprintf(stderr, "rmdctl %s: ", sub);
+	va_start(ap, fmt);
+	vfprintf(stderr, fmt, ap);
+	va_end(ap);
+	fputc('\n', stderr);
+}
+
+int rmdctl_parse_proto(const char *s, enum rmd_proto *proto)
+{
+	if (!strcmp(s, "v3") || !strcmp(s, "V3"))
+		*proto = RMD_PROTO_V3;
+	else if (!strcmp(s, "v2") || !strcmp(s, "V2"))
+		*proto = RMD_PROTO_V2;
+	else if (!strcmp(s, "mit") || !strcmp(s, "MIT"))
+		*proto = RMD_PROTO_MIT;
+	else
+		return -EINVAL;
+	return 0;
+}
+
+const char *rmdctl_proto_name(enum rmd_proto proto)
+{
+	switch (proto) {
+	case RMD_PROTO_V3:
+		return "V3";
+	case RMD_PROTO_V2:
+		return "V2";
+	case RMD_PROTO_MIT:
+		return "MIT";
+	}
+	return "?";
+}
+
+int rmdctl_parse_double(const char *s, double *v)
+{
+	char *end;
+
+	errno = 0;
+	*v = strtod(s, &end);
+	if (end == s || *end != '\0' || errno == ERANGE || !isfinite(*v))
+		return -EINVAL;
+	return 0;
+}
+
+int rmdctl_parse_mit_ranges(const char *s, struct rmd_mit_ranges *r)
+{
+	double m[5];
+	const char *p = s;
+
+	for (unsigned i = 0; i < 5; i++) {
+		char num[64];
+		size_t n = strcspn(p, ",");
+
+		if (n == 0 || n >= sizeof(num) || (i < 4 && p[n] != ',') || (i == 4 && p[n]))
+			return -EINVAL;
+		memcpy(num, p, n);
+		num[n] = '\0';
+		if (rmdctl_parse_double(num, &m[i]) < 0 || m[i] <= 0)
+			return -EINVAL;
+		p += n + (i < 4);
+	}
+	*r = (struct rmd_mit_ranges){
+		.p_min = -m[0],
+		.p_max = m[0],
+		.v_min = -m[1],
+		.v_max = m[1],
+		.t_min = -m[2],
+		.t_max = m[2],
+		.kp_min = 0,
+		.kp_max = m[3],
+		.kd_min = 0,
+		.kd_max = m[4],
+	};
+	return rmd_mit_ranges_valid(r) ? 0 : -EINVAL;
+}
+
+/* Key suffixes that carry a unit (see enum rmd_field). */
+static const struct {
+	const char *suffix;
+	const char *unit;
+} unit_suffixes[] = {
+	{ "_c", "°C" },	   { "_a", "A" }, { "_dps", "dps" }, { "_dps2", "dps/s" },
+	{ "_deg", "deg" }, { "_v", "V" }, { "_w", "W" },     { "_ms", "ms" },
+};
+
+void rmdctl_field_label(enum rmd_field fld, char *label, size_t size, const char **unit)
+{
+	const char *key = rmd_field_key(fld);
+	size_t n = strlen(key);
+
+	*unit = "";
+	for (size_t i = 0; i < sizeof(unit_suffixes) / sizeof(unit_suffixes[0]); i++) {
+		size_t sl = strlen(unit_suffixes[i].suffix);
+
+		if (n > sl && !strcmp(key + n - sl, unit_suffixes[i].suffix)) {
+			*unit = unit_suffixes[i].unit;
+			n -= sl;
+			break;
+		}
+	}
+	if (size == 0)
+		return;
+	if (n >= size)
+		n = size - 1;
+	for (size_t i = 0; i < n; i++)
+		label[i] = key[i] == '_' ? ' ' : key[i];
+	label[n] = '\0';
+}
+
+void rmdctl_fmt_real(char *buf, size_t size, double v, int digits)
+{
+	if (!isfinite(v)) {
+		snprintf(buf, size, "null");
+		return;
+	}
+	if (v == 0)
+		v = 0; /* no "-0" */
+	snprintf(buf, size, "%.*g", digits, v);
+}
+
+static void usage(FILE *f)
+{
+	fprintf(f, "usage: rmdctl COMMAND [ARGS...]\n"
+		   "       rmdctl help [COMMAND]\n"
+		   "\n"
+		   "Tool for MyActuator RMD servo motors (protocols V2, V3 and MIT mode).\n"
+		   "\n"
+		   "commands:\n");
+	for (size_t i = 0; i < NCMDS; i++)
+		fprintf(f, "  %-10s %s\n", cmds[i].name, cmds[i].summary);
+	fprintf(f, "\n"
+		   "`rmdctl COMMAND --help` describes one command.\n"
+		   "\n"
+		   "exit status: 0 ok, 1 data errors (bad input lines, I/O, values the codec\n"
+		   "refuses), 2 usage errors.\n");
+}
+
+static const struct rmdctl_cmd *find_cmd(const char *name)
+{
+	for (size_t i = 0; i < NCMDS; i++)
+		if (!strcmp(cmds[i].name, name))
+			return &cmds[i];
+	return NULL;
+}
+
+static bool is_help(const char *s)
+{
+	return !strcmp(s, "-h") || !strcmp(s, "--help") || !strcmp(s, "help");
+}
+
+int main(int argc, char **argv)
+{
+	const struct rmdctl_cmd *cmd;
+
+	if (argc < 2) {
+		usage(stderr);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (is_help(argv[1])) {
+		if (argc == 2) {
+			usage(stdout);
+			return RMDCTL_EXIT_OK;
+		}
+		cmd = find_cmd(argv[2]);
+		if (!cmd || argc > 3) {
+			fprintf(stderr, "rmdctl: no help for \"%s\"\n", argv[2]);
+			usage(stderr);
+			return RMDCTL_EXIT_USAGE;
+		}
+		cmd->usage(stdout);
+		return RMDCTL_EXIT_OK;
+	}
+	cmd = find_cmd(argv[1]);
+	if (!cmd) {
+		fprintf(stderr, "rmdctl: unknown command \"%s\"\n", argv[1]);
+		usage(stderr);
+		return RMDCTL_EXIT_USAGE;
+	}
+	return cmd->run(argc - 1, argv + 1);
+}

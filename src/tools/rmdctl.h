@@ -1,0 +1,62 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * rmdctl internals: the subcommand table's entries and the helpers the
+ * subcommands share.  Everything here is non-rt (a command-line tool).
+ */
+#ifndef RMDCTL_H
+#define RMDCTL_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdio.h>
+
+#include "rmd/codec.h"
+#include "rmd/mit.h"
+
+/* Exit statuses of every subcommand (printed by `rmdctl --help`). */
+enum {
+	RMDCTL_EXIT_OK = 0,    /* everything worked */
+	RMDCTL_EXIT_DATA = 1,  /* bad input data, I/O error, or a codec refusal */
+	RMDCTL_EXIT_USAGE = 2, /* bad command line */
+};
+
+/* One subcommand: `rmdctl NAME ARGS...` calls run(argc, argv) with argv[0] == NAME. */
+struct rmdctl_cmd {
+	const char *name;
+	const char *summary;
+	int (*run)(int argc, char **argv);
+	void (*usage)(FILE *f);
+};
+
+int rmdctl_decode_run(int argc, char **argv);
+void rmdctl_decode_usage(FILE *f);
+int rmdctl_encode_run(int argc, char **argv);
+void rmdctl_encode_usage(FILE *f);
+
+/* "rmdctl SUB: message\n" on stderr. */
+void rmdctl_err(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* "v3" / "v2" / "mit" -> *proto.  Returns 0 or -EINVAL. */
+int rmdctl_parse_proto(const char *s, enum rmd_proto *proto);
+/* "V3" / "V2" / "MIT", for messages. */
+const char *rmdctl_proto_name(enum rmd_proto proto);
+
+/*
+ * "P,V,T,KP,KD" -> ranges p ±P rad, v ±V rad/s, t ±T N·m, kp 0..KP, kd 0..KD.
+ * Returns 0 or -EINVAL.
+ */
+int rmdctl_parse_mit_ranges(const char *s, struct rmd_mit_ranges *r);
+
+/* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
+int rmdctl_parse_double(const char *s, double *v);
+
+/*
+ * Human label and unit of a field, derived from its JSON key: "voltage_v" ->
+ * "voltage", "V"; "encoder" -> "encoder", "".  label gets at most size - 1 chars.
+ */
+void rmdctl_field_label(enum rmd_field fld, char *label, size_t size, const char **unit);
+
+/* A number as JSON and humans want it: no exponent noise ("48.5"), NaN/Inf as "null". */
+void rmdctl_fmt_real(char *buf, size_t size, double v, int digits);
+
+#endif /* RMDCTL_H */

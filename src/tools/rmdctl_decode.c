@@ -1,0 +1,702 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl decode: candump text in, one decoded line (text or JSON) per frame out.
+ *
+ * Walks the codec's table row of each frame, so every command the tables
+ * describe is decoded, in the row's field order and native units.  A line
+ * that is not can-utils text is reported on stderr with its number and
+ * decoding goes on; a well-formed frame the protocol does not know is printed
+ * as "unknown" with its bytes.  Non-rt.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rmd/candump.h"
+#include "rmd/codec.h"
+#include "rmd/mit.h"
+#include "rmdctl.h"
+
+#define SUB "decode"
+/* Longest input line, newline excluded; candump's own lines stay under 120. */
+#define LINE_MAX_CHARS 511
+/* Digits of MIT values (quantised to 12..16 bits) and of table-scaled fields. */
+#define MIT_DIGITS 10
+#define FIELD_DIGITS 15
+#define MAX_ERROR_NAMES 16
+
+struct decode_opts {
+	enum rmd_proto proto;
+	bool json;
+	enum rmd_dir dir; /* RMD_DIR_UNKNOWN: from the identifier */
+	struct rmd_mit_ranges ranges;
+};
+
+/* What one frame turned out to be. */
+struct decoded {
+	const struct rmd_candump_line *line;
+	enum rmd_proto proto; /* V2 or V3 for table rows; MIT */
+	bool addr_ok;	      /* the identifier belongs to the protocol */
+	struct rmd_addr addr;
+	enum rmd_dir dir;
+	int cmd;	  /* command byte, or -1 when the frame has none */
+	const char *name; /* row name, "mit" or "unknown" */
+	char note[96];	  /* why "unknown" */
+	const struct rmd_cmd_spec *spec;
+	struct rmd_msg msg;
+	bool mit_req, mit_rep;
+	struct rmd_mit_cmd mc;
+	struct rmd_mit_reply mr;
+};
+
+/* Output in progress: JSON object or one text line. */
+struct out {
+	FILE *f;
+	bool json;
+	unsigned n; /* quantities written so far */
+};
+
+void rmdctl_decode_usage(FILE *f)
+{
+	fprintf(f,
+		"usage: rmdctl decode [--protocol v3|v2|mit] [--json] [--mit-ranges P,V,T,KP,KD]\n"
+		"                     [--direction request|reply] [FILE]\n"
+		"\n"
+		"Reads candump output from FILE (or stdin, or \"-\") and prints each frame\n"
+		"decoded, one line per frame.  Accepted line shapes (hex in either case):\n"
+		"  candump:     \"  can0  241   [8]  9A 32 00 01 E5 01 04 00\"\n"
+		"               (with -ta/-td/-tz timestamps, -x and -a columns)\n"
+		"  candump -l:  \"(1700000000.000000) can0 241#9A320001E5010400\"\n"
+		"  cansend:     \"241#9A320001E5010400\"\n"
+		"Blank lines and lines starting with '#' are skipped.\n"
+		"\n"
+		"  --protocol P    v3 (default): requests 0x140+ID, replies 0x240+ID, and\n"
+		"                  MIT frames on 0x400+ID / 0x500+ID; mit: the same;\n"
+		"                  v2: 0x140+ID both ways, 0x280 four torques\n"
+		"  --json          one JSON object per frame: can_id, motor_id, direction,\n"
+		"                  cmd (null when the frame has no command byte), name, raw,\n"
+		"                  then the quantities in native units under the codec's\n"
+		"                  field keys (temperature_c, voltage_v, ...), \"errors\" with\n"
+		"                  error_code, position_rad, velocity_rad_s, torque_nm, kp,\n"
+		"                  kd for MIT frames, and interface and timestamp when the\n"
+		"                  line has them; \"note\" says why a frame is \"unknown\"\n"
+		"  --mit-ranges P,V,T,KP,KD\n"
+		"                  MIT ranges: position ±P rad, velocity ±V rad/s, torque\n"
+		"                  ±T N·m, kp 0..KP, kd 0..KD (default 12.5,45,24,500,5)\n"
+		"  --direction D   decode every frame as a request or a reply (V2 shares\n"
+		"                  identifiers both ways; by default the codec decides)\n"
+		"\n"
+		"exit status: 0 every line parsed; 1 some line could not be parsed (each is\n"
+		"reported on stderr as \"rmdctl decode: line N: reason\") or I/O failed;\n"
+		"2 usage error.  Frames the protocol does not know are not errors: they\n"
+		"print as \"unknown\" with their bytes.\n");
+}
+
+/* ---- output primitives ---------------------------------------------------------------- */
+
+/* A JSON string: quotes, backslashes, control and non-ASCII bytes escaped. */
+static void json_str(FILE *f, const char *s, size_t len)
+{
+	fputc('"', f);
+	for (size_t i = 0; i < len; i++) {
+		unsigned char c = (unsigned char)s[i];
+
+		if (c == '"' || c == '\\')
+			fprintf(f, "\\%c", c);
+		else if (c < 0x20 || c >= 0x7f)
+			fprintf(f, "\\u%04x", c);
+		else
+			fputc(c, f);
+	}
+	fputc('"', f);
+}
+
+/* Text for humans: non-printable bytes as \xNN. */
+static void text_str(FILE *f, const char *s, size_t len)
+{
+	for (size_t i = 0; i < len; i++) {
+		unsigned char c = (unsigned char)s[i];
+
+		if (c < 0x20 || c >= 0x7f || c == '\\' || c == '"')
+			fprintf(f, "\\x%02X", c);
+		else
+			fputc(c, f);
+	}
+}
+
+/* Start of a quantity: separator, then JSON key or human label. */
+static void q_begin(struct out *o, const char *key, const char *label)
+{
+	if (o->json) {
+		fputc(',', o->f);
+		json_str(o->f, key, strlen(key));
+		fputc(':', o->f);
+	} else {
+		fputs(o->n ? ", " : ": ", o->f);
+		if (label && *label)
+			fprintf(o->f, "%s ", label);
+	}
+	o->n++;
+}
+
+static void q_unit(struct out *o, const char *unit)
+{
+	if (!o->json && unit && *unit)
+		fprintf(o->f, " %s", unit);
+}
+
+static void q_real(struct out *o, const char *key, const char *label, double v, int digits,
+		   const char *unit)
+{
+	char buf[48];
+
+	rmdctl_fmt_real(buf, sizeof(buf), v, digits);
+	q_begin(o, key, label);
+	fputs(buf, o->f);
+	q_unit(o, unit);
+}
+
+static void q_int(struct out *o, const char *key, const char *label, int64_t v, const char *unit)
+{
+	q_begin(o, key, label);
+	fprintf(o->f, "%" PRId64, v);
+	q_unit(o, unit);
+}
+
+/* ---- one field of a table row --------------------------------------------------------- */
+
+static void field_errors(struct out *o, enum rmd_proto proto, int64_t raw)
+{
+	const char *names[MAX_ERROR_NAMES];
+	uint16_t code = (uint16_t)raw;
+	size_t n = rmd_error_names(proto, code, names, MAX_ERROR_NAMES);
+	size_t shown = n < MAX_ERROR_NAMES ? n : MAX_ERROR_NAMES;
+
+	if (o->json) {
+		q_int(o, rmd_field_key(RMD_FLD_ERROR), NULL, raw, NULL);
+		fputs(",\"errors\":[", o->f);
+		for (size_t i = 0; i < shown; i++) {
+			if (i)
+				fputc(',', o->f);
+			json_str(o->f, names[i], strlen(names[i]));
+		}
+		fputc(']', o->f);
+		return;
+	}
+	q_begin(o, NULL, "errors");
+	fprintf(o->f, "0x%04X", (unsigned)code);
+	if (shown) {
+		fputs(" (", o->f);
+		for (size_t i = 0; i < shown; i++)
+			fprintf(o->f, "%s%s", i ? ", " : "", names[i]);
+		fputs(n > shown ? ", ...)" : ")", o->f);
+	}
+}
+
+static void field_mode(struct out *o, enum rmd_proto proto, int64_t raw)
+{
+	const char *name = rmd_run_mode_name(proto, (uint8_t)raw);
+
+	if (o->json) {
+		q_int(o, rmd_field_key(RMD_FLD_MODE), NULL, raw, NULL);
+		fputs(",\"mode_name\":", o->f);
+		if (name)
+			json_str(o->f, name, strlen(name));
+		else
+			fputs("null", o->f);
+		return;
+	}
+	q_int(o, NULL, "mode", raw, NULL);
+	if (name)
+		fprintf(o->f, " (%s)", name);
+}
+
+static void field_model(struct out *o, int64_t raw)
+{
+	char buf[8];
+
+	rmd_model_string(raw, buf);
+	buf[sizeof(buf) - 1] = '\0';
+	q_begin(o, rmd_field_key(RMD_FLD_MODEL), "model");
+	if (o->json) {
+		json_str(o->f, buf, strlen(buf));
+	} else {
+		fputc('"', o->f);
+		text_str(o->f, buf, strlen(buf));
+		fputc('"', o->f);
+	}
+}
+
+static void field(struct out *o, enum rmd_proto proto, const struct rmd_field_spec *fs, int64_t raw)
+{
+	enum rmd_field fld = (enum rmd_field)fs->field;
+	const char *unit;
+	char label[40];
+
+	/* Fields with a name, a list or a truth value rather than a number. */
+	if (fld == RMD_FLD_ERROR) {
+		field_errors(o, proto, raw);
+		return;
+	}
+	if (fld == RMD_FLD_MODE) {
+		field_mode(o, proto, raw);
+		return;
+	}
+	if (fld == RMD_FLD_MODEL) {
+		field_model(o, raw);
+		return;
+	}
+	if (fld == RMD_FLD_BRAKE) {
+		q_begin(o, rmd_field_key(fld), NULL);
+		if (o->json)
+			fputs(raw ? "true" : "false", o->f);
+		else
+			fputs(raw ? "brake released" : "brake locked", o->f);
+		return;
+	}
+	rmdctl_field_label(fld, label, sizeof(label), &unit);
+	if (fs->scale == 1.0)
+		q_int(o, rmd_field_key(fld), label, raw, unit);
+	else
+		q_real(o, rmd_field_key(fld), label, (double)raw * fs->scale, FIELD_DIGITS, unit);
+}
+
+/* ---- one frame ------------------------------------------------------------------------ */
+
+static const char *dir_name(enum rmd_dir dir)
+{
+	switch (dir) {
+	case RMD_DIR_REQUEST:
+		return "request";
+	case RMD_DIR_REPLY:
+		return "reply";
+	case RMD_DIR_UNKNOWN:
+		break;
+	}
+	return "unknown";
+}
+
+static void print_time(FILE *f, const struct rmd_candump_line *l)
+{
+	fprintf(f, "%" PRIu64 ".%0*" PRIu32, l->time_sec, (int)l->time_digits, l->time_frac);
+}
+
+static void print_header(struct out *o, const struct decoded *d)
+{
+	const struct rmd_candump_line *l = d->line;
+	const struct rmd_frame *f = &l->frame;
+	FILE *out = o->f;
+
+	if (o->json) {
+		fprintf(out, "{\"can_id\":%" PRIu32 ",\"motor_id\":", f->can_id);
+		if (d->addr_ok)
+			fprintf(out, "%u", (unsigned)d->addr.motor_id);
+		else
+			fputs("null", out);
+		fprintf(out, ",\"direction\":\"%s\",\"cmd\":", dir_name(d->dir));
+		if (d->cmd >= 0)
+			fprintf(out, "%d", d->cmd);
+		else
+			fputs("null", out);
+		fputs(",\"name\":", out);
+		json_str(out, d->name, strlen(d->name));
+		fputs(",\"raw\":\"", out);
+		for (unsigned i = 0; i < f->len; i++)
+			fprintf(out, "%02X", f->data[i]);
+		fputc('"', out);
+		if (d->addr_ok && d->addr.broadcast)
+			fputs(",\"broadcast\":true", out);
+		if (d->note[0]) {
+			fputs(",\"note\":", out);
+			json_str(out, d->note, strlen(d->note));
+		}
+		return;
+	}
+	if (l->has_time) {
+		fputc('(', out);
+		print_time(out, l);
+		fputs(") ", out);
+	}
+	if (l->iface[0]) {
+		text_str(out, l->iface, strlen(l->iface));
+		fputc(' ', out);
+	}
+	fprintf(out, "%03" PRIX32, f->can_id);
+	if (d->addr_ok && d->addr.broadcast)
+		fputs(" broadcast", out);
+	else if (d->addr_ok)
+		fprintf(out, " motor %u", (unsigned)d->addr.motor_id);
+	if (d->dir != RMD_DIR_UNKNOWN)
+		fprintf(out, " %s", dir_name(d->dir));
+	fprintf(out, " %s", d->name);
+	if (d->note[0])
+		fprintf(out, " (%s)", d->note);
+}
+
+static void print_trailer(struct out *o, const struct decoded *d)
+{
+	const struct rmd_candump_line *l = d->line;
+	const struct rmd_frame *f = &l->frame;
+
+	if (!o->json) {
+		if (!d->spec && !d->mit_req && !d->mit_rep) {
+			fputc(':', o->f);
+			for (unsigned i = 0; i < f->len; i++)
+				fprintf(o->f, " %02X", f->data[i]);
+		}
+		fputc('\n', o->f);
+		return;
+	}
+	if (l->iface[0]) {
+		fputs(",\"interface\":", o->f);
+		json_str(o->f, l->iface, strlen(l->iface));
+	}
+	if (l->has_time) {
+		fputs(",\"timestamp\":", o->f);
+		print_time(o->f, l);
+	}
+	fputs("}\n", o->f);
+}
+
+/*
+ * The fields a frame of `spec` carries in direction `dir`; codec.h: the reply
+ * of an echoing row repeats the request.
+ */
+static const struct rmd_layout *layout_of(const struct rmd_cmd_spec *spec, enum rmd_dir dir)
+{
+	if (dir == RMD_DIR_REPLY && !(spec->flags & RMD_CMD_ECHO))
+		return &spec->rep;
+	return &spec->req;
+}
+
+static void print_decoded(FILE *f, bool json, const struct decoded *d)
+{
+	struct out o = { f, json, 0 };
+	/* MIT values are 12..16-bit codes: 6 digits are all a human needs. */
+	int mit_digits = json ? MIT_DIGITS : 6;
+
+	print_header(&o, d);
+	if (d->spec) {
+		const struct rmd_layout *lay = layout_of(d->spec, d->dir);
+
+		for (unsigned i = 0; i < lay->n; i++)
+			if (rmd_msg_has(&d->msg, (enum rmd_field)lay->f[i].field))
+				field(&o, d->proto, &lay->f[i], d->msg.v[lay->f[i].field]);
+	} else if (d->mit_req) {
+		q_real(&o, "position_rad", "position", d->mc.p_des_rad, mit_digits, "rad");
+		q_real(&o, "velocity_rad_s", "velocity", d->mc.v_des_rad_s, mit_digits, "rad/s");
+		q_real(&o, "kp", "kp", d->mc.kp, mit_digits, "N·m/rad");
+		q_real(&o, "kd", "kd", d->mc.kd, mit_digits, "N·m·s/rad");
+		q_real(&o, "torque_nm", "torque", d->mc.t_ff_nm, mit_digits, "N·m");
+	} else if (d->mit_rep) {
+		q_real(&o, "position_rad", "position", d->mr.pos_rad, mit_digits, "rad");
+		q_real(&o, "velocity_rad_s", "velocity", d->mr.vel_rad_s, mit_digits, "rad/s");
+		q_real(&o, "torque_nm", "torque", d->mr.torque_nm, mit_digits, "N·m");
+	}
+	print_trailer(&o, d);
+}
+
+static bool dlc_ok(struct decoded *d)
+{
+	if (d->line->frame.len == RMD_FRAME_LEN)
+		return true;
+	snprintf(d->note, sizeof(d->note), "DLC %u; RMD frames carry 8 bytes",
+		 (unsigned)d->line->frame.len);
+	return false;
+}
+
+/* V3 §5: MIT frames, 0x400 + ID requests and 0x500 + ID replies. */
+static void decode_mit(const struct decode_opts *opts, struct decoded *d)
+{
+	const struct rmd_frame *f = &d->line->frame;
+	uint8_t id;
+
+	d->proto = RMD_PROTO_MIT;
+	d->dir = d->addr.dir;
+	if (opts->dir != RMD_DIR_UNKNOWN && opts->dir != d->addr.dir) {
+		snprintf(d->note, sizeof(d->note), "identifier %03" PRIX32 " carries MIT %ss",
+			 f->can_id, dir_name(d->addr.dir));
+		return;
+	}
+	if (!dlc_ok(d))
+		return;
+	if (d->addr.dir == RMD_DIR_REQUEST) {
+		if (rmd_mit_decode_cmd(&opts->ranges, f, &id, &d->mc) == 0) {
+			d->mit_req = true;
+			d->name = "mit";
+			return;
+		}
+	} else if (rmd_mit_decode_reply(&opts->ranges, f, &d->mr) == 0) {
+		d->mit_rep = true;
+		d->name = "mit";
+		return;
+	}
+	snprintf(d->note, sizeof(d->note), "not a valid MIT %s%s", dir_name(d->addr.dir),
+		 d->addr.dir == RMD_DIR_REPLY ? ": D0 is not the motor id" : "");
+}
+
+/* A frame of a V2 or V3 table. */
+static void decode_table(enum rmd_proto proto, const struct decode_opts *opts, struct decoded *d)
+{
+	const struct rmd_frame *f = &d->line->frame;
+	enum rmd_dir dir = RMD_DIR_UNKNOWN;
+	int r;
+
+	d->proto = proto;
+	d->dir = d->addr.dir != RMD_DIR_UNKNOWN ? d->addr.dir : opts->dir;
+	if (f->len > 0 && !(proto == RMD_PROTO_V2 && f->can_id == RMD_CAN_MULTI))
+		d->cmd = f->data[0];
+	if (opts->dir != RMD_DIR_UNKNOWN && d->addr.dir != RMD_DIR_UNKNOWN &&
+	    opts->dir != d->addr.dir) {
+		snprintf(d->note, sizeof(d->note), "identifier %03" PRIX32 " carries %s %ss",
+			 f->can_id, rmdctl_proto_name(proto), dir_name(d->addr.dir));
+		return;
+	}
+	if (!dlc_ok(d))
+		return;
+	r = rmd_decode(proto, opts->dir, f, &d->msg, &dir);
+	if (r == -ENOENT) {
+		snprintf(d->note, sizeof(d->note), "command 0x%02X is not in the %s table",
+			 (unsigned)f->data[0], rmdctl_proto_name(proto));
+		return;
+	}
+	if (r < 0) {
+		snprintf(d->note, sizeof(d->note), "the %s codec refused it: %s",
+			 rmdctl_proto_name(proto), strerror(-r));
+		return;
+	}
+	d->spec = rmd_cmd_find(proto, d->msg.cmd);
+	if (!d->spec) {
+		snprintf(d->note, sizeof(d->note), "no table row for command 0x%02X",
+			 (unsigned)d->msg.cmd);
+		return;
+	}
+	d->dir = dir;
+	d->name = d->spec->name;
+	d->cmd = d->spec->flags & RMD_CMD_NO_CMD_BYTE ? -1 : d->spec->cmd;
+	if (d->spec->flags & RMD_CMD_RANDOM_REPLY && dir == RMD_DIR_REPLY)
+		snprintf(d->note, sizeof(d->note), "this command's reply content is meaningless");
+}
+
+static void decode_frame(const struct decode_opts *opts, const struct rmd_candump_line *line,
+			 struct decoded *d)
+{
+	enum rmd_proto proto = opts->proto == RMD_PROTO_MIT ? RMD_PROTO_V3 : opts->proto;
+
+	memset(d, 0, sizeof(*d));
+	d->line = line;
+	d->cmd = -1;
+	d->name = "unknown";
+	d->dir = opts->dir;
+	d->proto = proto;
+	/* MIT motors run V3 firmware: under v3 and mit both, 0x4xx/0x5xx are MIT. */
+	if (proto == RMD_PROTO_V3 &&
+	    rmd_addr_from_id(RMD_PROTO_MIT, line->frame.can_id, &d->addr) == 0) {
+		d->addr_ok = true;
+		decode_mit(opts, d);
+		return;
+	}
+	if (rmd_addr_from_id(proto, line->frame.can_id, &d->addr) < 0) {
+		if (line->frame.len > 0)
+			d->cmd = line->frame.data[0];
+		snprintf(d->note, sizeof(d->note), "not an identifier of protocol %s",
+			 rmdctl_proto_name(opts->proto));
+		return;
+	}
+	d->addr_ok = true;
+	decode_table(proto, opts, d);
+}
+
+/* ---- input ---------------------------------------------------------------------------- */
+
+enum line_status {
+	LINE_OK,
+	LINE_EOF,
+	LINE_TOO_LONG, /* the rest of it was read and dropped */
+	LINE_NUL,      /* holds a NUL byte */
+};
+
+/* One line into buf (LINE_MAX_CHARS + 1 bytes), newline stripped. */
+static enum line_status read_line(FILE *in, char *buf, size_t *len)
+{
+	enum line_status st = LINE_OK;
+	size_t n = 0;
+	int c;
+
+	while ((c = getc(in)) != EOF && c != '\n') {
+		if (c == '\0' && st == LINE_OK)
+			st = LINE_NUL;
+		if (n < LINE_MAX_CHARS)
+			buf[n++] = (char)c;
+		else
+			st = LINE_TOO_LONG;
+	}
+	buf[n] = '\0';
+	*len = n;
+	if (c == EOF && n == 0 && st == LINE_OK)
+		return LINE_EOF;
+	return st;
+}
+
+static bool skip_line(const char *s)
+{
+	s += strspn(s, " \t\r");
+	return *s == '\0' || *s == '#';
+}
+
+/* The offending text of a refused line, quoted, at most 40 characters. */
+static void bad_line(unsigned long lineno, const char *buf, const struct rmd_candump_line *l)
+{
+	char tok[48];
+	size_t n = l->err_len < 40 ? l->err_len : 40, o = 0;
+
+	for (size_t i = 0; i < n && o + 5 < sizeof(tok); i++) {
+		unsigned char c = (unsigned char)buf[l->err_off + i];
+
+		if (c < 0x20 || c >= 0x7f || c == '"' || c == '\\')
+			o += (size_t)snprintf(tok + o, sizeof(tok) - o, "\\x%02X", c);
+		else
+			tok[o++] = (char)c;
+	}
+	tok[o] = '\0';
+	if (l->err_len)
+		rmdctl_err(SUB, "line %lu: %s \"%s%s\"", lineno, rmd_candump_strerror(l->err), tok,
+			   l->err_len > n ? "..." : "");
+	else
+		rmdctl_err(SUB, "line %lu: %s", lineno, rmd_candump_strerror(l->err));
+}
+
+static int decode_stream(FILE *in, const struct decode_opts *opts)
+{
+	char buf[LINE_MAX_CHARS + 1];
+	unsigned long lineno = 0;
+	int status = RMDCTL_EXIT_OK;
+	enum line_status st;
+	size_t len;
+
+	while ((st = read_line(in, buf, &len)) != LINE_EOF) {
+		struct rmd_candump_line line;
+		struct decoded d;
+
+		lineno++;
+		if (st == LINE_TOO_LONG) {
+			rmdctl_err(SUB, "line %lu: longer than %d characters", lineno,
+				   LINE_MAX_CHARS);
+			status = RMDCTL_EXIT_DATA;
+			continue;
+		}
+		if (st == LINE_NUL) {
+			rmdctl_err(SUB, "line %lu: contains a NUL byte", lineno);
+			status = RMDCTL_EXIT_DATA;
+			continue;
+		}
+		if (skip_line(buf))
+			continue;
+		if (rmd_candump_parse(buf, &line) < 0) {
+			bad_line(lineno, buf, &line);
+			status = RMDCTL_EXIT_DATA;
+			continue;
+		}
+		decode_frame(opts, &line, &d);
+		print_decoded(stdout, opts->json, &d);
+	}
+	if (ferror(in)) {
+		rmdctl_err(SUB, "read error after line %lu", lineno);
+		status = RMDCTL_EXIT_DATA;
+	}
+	return status;
+}
+
+int rmdctl_decode_run(int argc, char **argv)
+{
+	static const struct option longopts[] = {
+		{ "protocol", required_argument, NULL, 'p' },
+		{ "json", no_argument, NULL, 'j' },
+		{ "mit-ranges", required_argument, NULL, 'm' },
+		{ "direction", required_argument, NULL, 'd' },
+		{ "help", no_argument, NULL, 'h' },
+		{ NULL, 0, NULL, 0 },
+	};
+	struct decode_opts opts = {
+		.proto = RMD_PROTO_V3,
+		.dir = RMD_DIR_UNKNOWN,
+		.ranges = rmd_mit_default_ranges,
+	};
+	const char *path = NULL;
+	FILE *in = stdin;
+	int c, status;
+
+	optind = 0; /* glibc: full re-initialisation */
+	opterr = 0;
+	while ((c = getopt_long(argc, argv, ":p:jm:d:h", longopts, NULL)) != -1) {
+		switch (c) {
+		case 'p':
+			if (rmdctl_parse_proto(optarg, &opts.proto) < 0) {
+				rmdctl_err(SUB, "unknown protocol \"%s\" (v3, v2 or mit)", optarg);
+				goto usage;
+			}
+			break;
+		case 'j':
+			opts.json = true;
+			break;
+		case 'm':
+			if (rmdctl_parse_mit_ranges(optarg, &opts.ranges) < 0) {
+				rmdctl_err(
+					SUB,
+					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
+					optarg);
+				goto usage;
+			}
+			break;
+		case 'd':
+			if (!strcmp(optarg, "request")) {
+				opts.dir = RMD_DIR_REQUEST;
+			} else if (!strcmp(optarg, "reply")) {
+				opts.dir = RMD_DIR_REPLY;
+			} else {
+				rmdctl_err(SUB, "bad --direction \"%s\" (request or reply)",
+					   optarg);
+				goto usage;
+			}
+			break;
+		case 'h':
+			rmdctl_decode_usage(stdout);
+			return RMDCTL_EXIT_OK;
+		case ':':
+			rmdctl_err(SUB, "option \"%s\" needs a value", argv[optind - 1]);
+			goto usage;
+		default:
+			rmdctl_err(SUB, "unknown option \"%s\"", argv[optind - 1]);
+			goto usage;
+		}
+	}
+	if (argc - optind > 1) {
+		rmdctl_err(SUB, "one FILE at most");
+		goto usage;
+	}
+	if (optind < argc && strcmp(argv[optind], "-")) {
+		path = argv[optind];
+		in = fopen(path, "r");
+		if (!in) {
+			rmdctl_err(SUB, "%s: %s", path, strerror(errno));
+			return RMDCTL_EXIT_DATA;
+		}
+	}
+	/* Live use (candump can0 | rmdctl decode | ...) wants each line as it comes. */
+	setvbuf(stdout, NULL, _IOLBF, 0);
+	status = decode_stream(in, &opts);
+	if (path)
+		fclose(in);
+	if (fflush(stdout) != 0 || ferror(stdout)) {
+		rmdctl_err(SUB, "write error: %s", strerror(errno));
+		status = RMDCTL_EXIT_DATA;
+	}
+	return status;
+
+usage:
+	rmdctl_decode_usage(stderr);
+	return RMDCTL_EXIT_USAGE;
+}

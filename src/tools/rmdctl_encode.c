@@ -1,0 +1,698 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl encode: one command in native units -> one frame in cansend syntax,
+ * so that `cansend can0 $(rmdctl encode --id 1 torque 1.0)` works.
+ *
+ * Each command below names, per protocol, a command byte and which field of
+ * that byte's table row each argument fills; the value is converted with the
+ * row's scale, so the codec tables stay the one place that knows the wire.
+ * Values that do not fit the field, or a range the manual documents, are
+ * refused: never wrapped, never clamped.  Non-rt.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rmd/codec.h"
+#include "rmd/frame.h"
+#include "rmd/mit.h"
+#include "rmdctl.h"
+
+#define SUB "encode"
+#define MAX_ARGS 4
+
+enum {
+	P_V3 = 1u << RMD_PROTO_V3,
+	P_V2 = 1u << RMD_PROTO_V2,
+	P_BOTH = P_V3 | P_V2,
+};
+
+struct enc_ctx {
+	enum rmd_proto proto;	 /* as given: v3, v2 or mit */
+	enum rmd_proto table;	 /* V3 or V2: whose rows (mit uses V3's) */
+	int motor_id;		 /* 1..32, or -1 when --id was not given */
+	struct rmd_mit_ranges r; /* for `mit` */
+};
+
+/* One way to spell a command: protocols, argument count, command byte, fields filled. */
+struct variant {
+	unsigned protos;
+	unsigned nargs;
+	uint8_t cmd;
+	bool multi; /* V2 §4.1 0x280 frame: no --id */
+	enum rmd_field fld[MAX_ARGS];
+};
+
+struct enc_cmd;
+typedef int (*enc_custom_fn)(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc,
+			     char **argv, struct rmd_frame *out);
+
+struct enc_cmd {
+	const char *name;
+	const char *args;
+	const char *help;
+	enc_custom_fn custom; /* parses its own arguments; variants unused */
+	struct variant v[3];
+};
+
+#define V(p, c, n, ...)                                                         \
+	{                                                                       \
+		.protos = (p), .cmd = (c), .nargs = (n), .fld = { __VA_ARGS__ } \
+	}
+#define V0(p, c)                                      \
+	{                                             \
+		.protos = (p), .cmd = (c), .nargs = 0 \
+	}
+#define F(x) RMD_FLD_##x
+
+static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+		   struct rmd_frame *out);
+static int enc_raw(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+		   struct rmd_frame *out);
+static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+			struct rmd_frame *out);
+
+/* Command bytes: V3 §2.x and V2 §3.x of the manuals, named in each help text. */
+static const struct enc_cmd enc_cmds[] = {
+	{ "torque",
+	  "AMPS",
+	  "torque current setpoint (0xA1)",
+	  NULL,
+	  { V(P_BOTH, 0xA1, 1, F(CURRENT)) } },
+	{ "speed", "DPS", "speed setpoint (0xA2)", NULL, { V(P_BOTH, 0xA2, 1, F(SPEED)) } },
+	{ "position",
+	  "DEG [MAX_DPS]",
+	  "absolute multi-turn position: V3 0xA4 (MAX_DPS required: the manual gives\n"
+	  "no \"unlimited\" value, use position-track); V2 0xA3, or 0xA4 with MAX_DPS",
+	  NULL,
+	  { V(P_V3, 0xA4, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA3, 1, F(ANGLE)),
+	    V(P_V2, 0xA4, 2, F(ANGLE), F(MAX_SPEED)) } },
+	{ "position-track",
+	  "DEG",
+	  "position tracking, no speed limit (0xA3)",
+	  NULL,
+	  { V(P_BOTH, 0xA3, 1, F(ANGLE)) } },
+	{ "position-track-limited",
+	  "DEG MAX_DPS",
+	  "position tracking with a speed limit (V3 0xA5)",
+	  NULL,
+	  { V(P_V3, 0xA5, 2, F(ANGLE), F(MAX_SPEED)) } },
+	{ "increment",
+	  "DEG [MAX_DPS]",
+	  "relative move from the current position: V3 0xA8 (MAX_DPS required);\n"
+	  "V2 0xA7, or 0xA8 with MAX_DPS",
+	  NULL,
+	  { V(P_V3, 0xA8, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA7, 1, F(ANGLE)),
+	    V(P_V2, 0xA8, 2, F(ANGLE), F(MAX_SPEED)) } },
+	{ "stop", "", "stop the motor, keep its state (0x81)", NULL, { V0(P_BOTH, 0x81) } },
+	{ "off", "", "output off, state cleared (0x80)", NULL, { V0(P_BOTH, 0x80) } },
+	{ "run", "", "resume after stop (V2 0x88)", NULL, { V0(P_V2, 0x88) } },
+	{ "brake-release", "", "release the brake (0x77)", NULL, { V0(P_BOTH, 0x77) } },
+	{ "brake-lock", "", "lock the brake (0x78)", NULL, { V0(P_BOTH, 0x78) } },
+	{ "reset", "", "reset the motor's controller; no reply (0x76)", NULL, { V0(P_BOTH, 0x76) } },
+	{ "status1",
+	  "",
+	  "read temperature, voltage, brake, errors (0x9A)",
+	  NULL,
+	  { V0(P_BOTH, 0x9A) } },
+	{ "status2",
+	  "",
+	  "read temperature, current, speed, angle (0x9C)",
+	  NULL,
+	  { V0(P_BOTH, 0x9C) } },
+	{ "status3", "", "read phase currents (0x9D)", NULL, { V0(P_BOTH, 0x9D) } },
+	{ "read-angle", "", "read the multi-turn angle (0x92)", NULL, { V0(P_BOTH, 0x92) } },
+	{ "model", "", "read the model string (V3 0xB5)", NULL, { V0(P_V3, 0xB5) } },
+	{ "version", "", "read the firmware date (V3 0xB2)", NULL, { V0(P_V3, 0xB2) } },
+	{ "runtime", "", "read the time since power-up (V3 0xB1)", NULL, { V0(P_V3, 0xB1) } },
+	{ "mode", "", "read the run mode (0x70)", NULL, { V0(P_BOTH, 0x70) } },
+	{ "power", "", "read the power (0x71)", NULL, { V0(P_BOTH, 0x71) } },
+	{ "timeout",
+	  "MS",
+	  "set the comm-loss protection time, 0 = off; stored in ROM, set it once\n"
+	  "(V3 0xB3)",
+	  NULL,
+	  { V(P_V3, 0xB3, 1, F(TIMEOUT)) } },
+	{ "accel-read", "", "read the acceleration (0x42)", NULL, { V0(P_BOTH, 0x42) } },
+	{ "accel",
+	  "[INDEX] DPS2",
+	  "write an acceleration: V3 0x43 takes INDEX 0..3 (position accel/decel,\n"
+	  "speed accel/decel) and DPS2 100..60000; V2 0x43 takes DPS2 only",
+	  NULL,
+	  { V(P_V3, 0x43, 2, F(INDEX), F(ACCEL)), V(P_V2, 0x43, 1, F(ACCEL)) } },
+	{ "pid-read",
+	  "[LOOP]",
+	  "read PID gains: V3 0x30 reads all six; V2 reads one, LOOP = position-kp,\n"
+	  "position-ki, speed-kp, speed-ki, current-kp or current-ki (0x30..0x35)",
+	  enc_pid_read,
+	  { { 0 } } },
+	{ "multi-torque",
+	  "A1 A2 A3 A4",
+	  "torque currents of motors 1..4 in one 0x280 frame (V2 only; no --id)",
+	  NULL,
+	  { { .protos = P_V2,
+	      .cmd = RMD_V2_CMD_MULTI_TORQUE,
+	      .nargs = 4,
+	      .multi = true,
+	      .fld = { F(CURRENT_1), F(CURRENT_2), F(CURRENT_3), F(CURRENT_4) } } } },
+	{ "mit",
+	  "P V KP KD T",
+	  "MIT motion mode on 0x400+ID: position rad, velocity rad/s, kp, kd,\n"
+	  "feed-forward torque N·m, each within --mit-ranges (V3 firmware)",
+	  enc_mit,
+	  { { 0 } } },
+	{ "raw",
+	  "CMD [FIELD=VALUE ...]",
+	  "any command of the protocol's table: CMD is its byte in hex (9A or 0x9A)\n"
+	  "or its row name (read_status_1); FIELD is a request field key as\n"
+	  "`rmdctl decode --json` prints it (current_a, angle_deg, ...), VALUE in\n"
+	  "that key's native unit; fields not given are 0",
+	  enc_raw,
+	  { { 0 } } },
+};
+#define NENC (sizeof(enc_cmds) / sizeof(enc_cmds[0]))
+
+/*
+ * Ranges the manuals document beyond the width of a field.  Checked by every
+ * command, `raw` included.
+ */
+static const struct limit {
+	unsigned protos;
+	uint8_t cmd;
+	enum rmd_field fld;
+	double lo, hi; /* native units */
+	const char *cite;
+} limits[] = {
+	{ P_V2, 0xA1, F(CURRENT), -32, 32, "V2 §3.37: iqControl -2000..2000 is -32..32 A" },
+	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_1), -32, 32,
+	  "V2 §4.1: -2000..2000 is -32..32 A" },
+	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_2), -32, 32,
+	  "V2 §4.1: -2000..2000 is -32..32 A" },
+	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_3), -32, 32,
+	  "V2 §4.1: -2000..2000 is -32..32 A" },
+	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_4), -32, 32,
+	  "V2 §4.1: -2000..2000 is -32..32 A" },
+	{ P_V2, 0x43, F(ACCEL), 0, 10000, "V2 §3.20: 0..10000 dps/s" },
+	{ P_V3, 0x43, F(ACCEL), 100, 60000, "V3 §2.5.1: 100..60000 dps/s" },
+	{ P_V3, 0x43, F(INDEX), 0, 3, "V3 §2.5.4: index 0..3" },
+	{ P_V3, 0x20, F(INDEX), 1, 4, "V3 §2.33.4: index 1..4" },
+};
+
+void rmdctl_encode_usage(FILE *f)
+{
+	fprintf(f,
+		"usage: rmdctl encode [--protocol v3|v2|mit] [--id N] [--mit-ranges P,V,T,KP,KD]\n"
+		"                     COMMAND [ARGS...]\n"
+		"\n"
+		"Prints one request frame in cansend syntax (\"141#A100000064000000\"):\n"
+		"  cansend can0 $(rmdctl encode --id 1 torque 1.0)\n"
+		"Options come before COMMAND, so negative values need no quoting.\n"
+		"\n"
+		"  --protocol P    v3 (default), v2, or mit (= v3 tables plus `mit`)\n"
+		"  --id N          motor 1..32 (every command but multi-torque)\n"
+		"  --mit-ranges P,V,T,KP,KD\n"
+		"                  MIT ranges: position ±P rad, velocity ±V rad/s, torque\n"
+		"                  ±T N·m, kp 0..KP, kd 0..KD (default 12.5,45,24,500,5)\n"
+		"\n"
+		"Values are in the unit named (A, dps, deg, ms, dps/s) and are rounded to\n"
+		"the protocol's resolution; a value the frame cannot carry is refused.\n"
+		"\n"
+		"commands:\n");
+	for (size_t i = 0; i < NENC; i++) {
+		const struct enc_cmd *ec = &enc_cmds[i];
+		const char *h = ec->help;
+
+		fprintf(f, "  %s%s%s\n", ec->name, *ec->args ? " " : "", ec->args);
+		while (*h) {
+			size_t n = strcspn(h, "\n");
+
+			fprintf(f, "      %.*s\n", (int)n, h);
+			h += n + (h[n] == '\n');
+		}
+	}
+	fprintf(f, "\n"
+		   "exit status: 0 frame printed; 1 the codec table lacks the command or refused\n"
+		   "the frame; 2 usage error (unknown command, bad or out-of-range value).\n");
+}
+
+static void cmd_usage(const struct enc_cmd *ec)
+{
+	fprintf(stderr, "usage: rmdctl encode [OPTIONS] %s%s%s\n", ec->name, *ec->args ? " " : "",
+		ec->args);
+	fprintf(stderr, "       (`rmdctl encode --help` lists every command)\n");
+}
+
+/* ---- values -> fields ----------------------------------------------------------------- */
+
+static const struct limit *find_limit(enum rmd_proto table, uint8_t cmd, enum rmd_field fld)
+{
+	for (size_t i = 0; i < sizeof(limits) / sizeof(limits[0]); i++)
+		if (limits[i].protos & (1u << table) && limits[i].cmd == cmd &&
+		    limits[i].fld == fld)
+			return &limits[i];
+	return NULL;
+}
+
+/*
+ * Native value v -> raw integer of field `fld` of `spec`'s request, stored in
+ * msg.  Refuses what the field cannot carry or the manual rules out.
+ */
+static int set_field(const struct enc_ctx *ctx, const char *what, const struct rmd_cmd_spec *spec,
+		     enum rmd_field fld, double v, struct rmd_msg *msg)
+{
+	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, fld);
+	const struct limit *lim = find_limit(ctx->table, spec->cmd, fld);
+	const char *unit;
+	char label[40], vs[48], los[48], his[48];
+	unsigned bits;
+	int64_t lo, hi;
+	double q;
+
+	if (!fs) {
+		rmdctl_err(SUB, "%s: the %s table row 0x%02X (%s) has no request field %s", what,
+			   rmdctl_proto_name(ctx->table), spec->cmd, spec->name,
+			   rmd_field_key(fld));
+		return RMDCTL_EXIT_DATA;
+	}
+	bits = 8u * fs->size;
+	lo = fs->is_signed ? -(INT64_C(1) << (bits - 1)) : 0;
+	hi = fs->is_signed ? (INT64_C(1) << (bits - 1)) - 1 : (INT64_C(1) << bits) - 1;
+	if (lim) {
+		int64_t llo = (int64_t)ceil(lim->lo / fs->scale - 1e-9);
+		int64_t lhi = (int64_t)floor(lim->hi / fs->scale + 1e-9);
+
+		lo = llo > lo ? llo : lo;
+		hi = lhi < hi ? lhi : hi;
+	}
+	q = v / fs->scale;
+	if (isfinite(q) && q > (double)lo - 0.5 && q < (double)hi + 0.5) {
+		rmd_msg_set(msg, fld, (int64_t)llround(q));
+		return 0;
+	}
+	rmdctl_field_label(fld, label, sizeof(label), &unit);
+	rmdctl_fmt_real(vs, sizeof(vs), v, 15);
+	rmdctl_fmt_real(los, sizeof(los), (double)lo * fs->scale, 15);
+	rmdctl_fmt_real(his, sizeof(his), (double)hi * fs->scale, 15);
+	if (lim)
+		rmdctl_err(SUB, "%s: %s = %s%s%s is out of range %s..%s%s%s (%s)", what,
+			   rmd_field_key(fld), vs, *unit ? " " : "", unit, los, his,
+			   *unit ? " " : "", unit, lim->cite);
+	else
+		rmdctl_err(
+			SUB,
+			"%s: %s = %s%s%s is out of range %s..%s%s%s (a %s %u-bit field of 0x%02X)",
+			what, rmd_field_key(fld), vs, *unit ? " " : "", unit, los, his,
+			*unit ? " " : "", unit, fs->is_signed ? "signed" : "unsigned", bits,
+			spec->cmd);
+	return RMDCTL_EXIT_USAGE;
+}
+
+static int need_id(const struct enc_ctx *ctx, const struct enc_cmd *ec)
+{
+	if (ctx->motor_id > 0)
+		return 0;
+	rmdctl_err(SUB, "%s needs --id N (motor 1..%d)", ec->name, RMD_MAX_MOTORS);
+	cmd_usage(ec);
+	return RMDCTL_EXIT_USAGE;
+}
+
+static const struct rmd_cmd_spec *find_row(const struct enc_ctx *ctx, const char *what, uint8_t cmd)
+{
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(ctx->table, cmd);
+
+	if (!spec)
+		rmdctl_err(SUB, "%s: command 0x%02X is not in the %s codec table", what, cmd,
+			   rmdctl_proto_name(ctx->table));
+	return spec;
+}
+
+static int finish(const struct enc_ctx *ctx, const char *what, const struct rmd_cmd_spec *spec,
+		  bool multi, const struct rmd_msg *msg, struct rmd_frame *out)
+{
+	int r = rmd_encode(ctx->table, RMD_DIR_REQUEST, multi ? 0 : (uint8_t)ctx->motor_id, msg,
+			   out);
+
+	if (r < 0) {
+		rmdctl_err(SUB, "%s: the %s codec refused 0x%02X (%s): %s", what,
+			   rmdctl_proto_name(ctx->table), spec->cmd, spec->name, strerror(-r));
+		return RMDCTL_EXIT_DATA;
+	}
+	return 0;
+}
+
+static int parse_value(const struct enc_cmd *ec, const char *s, double *v)
+{
+	if (rmdctl_parse_double(s, v) == 0)
+		return 0;
+	rmdctl_err(SUB, "%s: \"%s\" is not a number", ec->name, s);
+	cmd_usage(ec);
+	return RMDCTL_EXIT_USAGE;
+}
+
+/* ---- commands ------------------------------------------------------------------------- */
+
+static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+			struct rmd_frame *out)
+{
+	const struct variant *v = NULL;
+	const struct rmd_cmd_spec *spec;
+	struct rmd_msg msg = { 0 };
+	bool in_proto = false;
+	int r;
+
+	for (size_t i = 0; i < sizeof(ec->v) / sizeof(ec->v[0]) && ec->v[i].protos; i++) {
+		if (!(ec->v[i].protos & (1u << ctx->table)))
+			continue;
+		in_proto = true;
+		if (ec->v[i].nargs == (unsigned)argc) {
+			v = &ec->v[i];
+			break;
+		}
+	}
+	if (!in_proto) {
+		rmdctl_err(SUB, "%s: not a command of protocol %s%s", ec->name,
+			   rmdctl_proto_name(ctx->proto),
+			   ctx->table == RMD_PROTO_V3 ? " (V2 only: --protocol v2)" :
+							" (V3 only: --protocol v3)");
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (!v) {
+		rmdctl_err(SUB, "%s: wrong number of arguments for protocol %s", ec->name,
+			   rmdctl_proto_name(ctx->proto));
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (!v->multi && (r = need_id(ctx, ec)) != 0)
+		return r;
+	spec = find_row(ctx, ec->name, v->cmd);
+	if (!spec)
+		return RMDCTL_EXIT_DATA;
+	msg.cmd = v->cmd;
+	for (unsigned i = 0; i < v->nargs; i++) {
+		double val;
+
+		r = parse_value(ec, argv[i], &val);
+		if (r)
+			return r;
+		r = set_field(ctx, ec->name, spec, v->fld[i], val, &msg);
+		if (r)
+			return r;
+	}
+	return finish(ctx, ec->name, spec, v->multi, &msg, out);
+}
+
+static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+			struct rmd_frame *out)
+{
+	/* V2 §2: one read command per gain, in this order from 0x30. */
+	static const char *const loops[] = { "position-kp", "position-ki", "speed-kp",
+					     "speed-ki",    "current-kp",  "current-ki" };
+	const struct rmd_cmd_spec *spec;
+	struct rmd_msg msg = { 0 };
+	uint8_t cmd = 0x30;
+	int r;
+
+	if (argc != (ctx->table == RMD_PROTO_V2 ? 1 : 0)) {
+		rmdctl_err(SUB, "%s: protocol %s takes %s", ec->name, rmdctl_proto_name(ctx->proto),
+			   ctx->table == RMD_PROTO_V2 ? "one LOOP" : "no argument");
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (argc == 1) {
+		size_t i;
+
+		for (i = 0; i < sizeof(loops) / sizeof(loops[0]); i++)
+			if (!strcmp(argv[0], loops[i]))
+				break;
+		if (i == sizeof(loops) / sizeof(loops[0])) {
+			rmdctl_err(SUB, "%s: unknown LOOP \"%s\"", ec->name, argv[0]);
+			cmd_usage(ec);
+			return RMDCTL_EXIT_USAGE;
+		}
+		cmd = (uint8_t)(0x30 + i);
+	}
+	if ((r = need_id(ctx, ec)) != 0)
+		return r;
+	spec = find_row(ctx, ec->name, cmd);
+	if (!spec)
+		return RMDCTL_EXIT_DATA;
+	msg.cmd = cmd;
+	return finish(ctx, ec->name, spec, false, &msg, out);
+}
+
+static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+		   struct rmd_frame *out)
+{
+	static const char *const names[] = { "position", "velocity", "kp", "kd", "torque" };
+	static const char *const units[] = { " rad", " rad/s", "", "", " N·m" };
+	const struct rmd_mit_ranges *r = &ctx->r;
+	const double lo[] = { r->p_min, r->v_min, r->kp_min, r->kd_min, r->t_min };
+	const double hi[] = { r->p_max, r->v_max, r->kp_max, r->kd_max, r->t_max };
+	double v[5];
+	struct rmd_mit_cmd mc;
+	int ret;
+
+	if (ctx->proto == RMD_PROTO_V2) {
+		rmdctl_err(SUB, "mit: MIT mode is V3 firmware's (use --protocol v3 or mit)");
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (argc != 5) {
+		rmdctl_err(SUB, "mit: needs 5 values");
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if ((ret = need_id(ctx, ec)) != 0)
+		return ret;
+	for (int i = 0; i < 5; i++) {
+		char vs[48], los[48], his[48];
+
+		ret = parse_value(ec, argv[i], &v[i]);
+		if (ret)
+			return ret;
+		if (v[i] >= lo[i] && v[i] <= hi[i])
+			continue;
+		/* rmd_mit_encode_cmd() would clamp: say so instead. */
+		rmdctl_fmt_real(vs, sizeof(vs), v[i], 10);
+		rmdctl_fmt_real(los, sizeof(los), lo[i], 10);
+		rmdctl_fmt_real(his, sizeof(his), hi[i], 10);
+		rmdctl_err(SUB, "mit: %s %s%s is out of range %s..%s%s (--mit-ranges)", names[i],
+			   vs, units[i], los, his, units[i]);
+		return RMDCTL_EXIT_USAGE;
+	}
+	mc = (struct rmd_mit_cmd){
+		.p_des_rad = v[0], .v_des_rad_s = v[1], .kp = v[2], .kd = v[3], .t_ff_nm = v[4]
+	};
+	ret = rmd_mit_encode_cmd(r, (uint8_t)ctx->motor_id, &mc, out);
+	if (ret < 0) {
+		rmdctl_err(SUB, "mit: the MIT codec refused it: %s", strerror(-ret));
+		return RMDCTL_EXIT_DATA;
+	}
+	return 0;
+}
+
+/* Row of `table` by name ("read_status_1", '-' for '_' allowed) or hex byte ("9A", "0x9A"). */
+static const struct rmd_cmd_spec *raw_row(const struct enc_ctx *ctx, const char *s)
+{
+	const struct rmd_cmd_spec *rows;
+	size_t n = rmd_cmd_table(ctx->table, &rows);
+	unsigned long cmd;
+	char *end;
+
+	for (size_t i = 0; i < n; i++) {
+		const char *a = rows[i].name, *b = s;
+
+		while (*a && (*a == *b || (*a == '_' && *b == '-'))) {
+			a++;
+			b++;
+		}
+		if (!*a && !*b)
+			return &rows[i];
+	}
+	errno = 0;
+	cmd = strtoul(s, &end, 16);
+	if (end == s || *end || errno || cmd > 0xFF || *s == '-' || *s == '+') {
+		rmdctl_err(SUB, "raw: \"%s\" is neither a command byte nor a %s row name", s,
+			   rmdctl_proto_name(ctx->table));
+		return NULL;
+	}
+	return find_row(ctx, "raw", (uint8_t)cmd);
+}
+
+static int enc_raw(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+		   struct rmd_frame *out)
+{
+	const struct rmd_cmd_spec *spec;
+	struct rmd_msg msg = { 0 };
+	uint64_t given = 0;
+	bool multi;
+	int r;
+
+	if (argc < 1) {
+		rmdctl_err(SUB, "raw: needs CMD");
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	spec = raw_row(ctx, argv[0]);
+	if (!spec)
+		return RMDCTL_EXIT_USAGE;
+	multi = spec->flags & RMD_CMD_NO_CMD_BYTE;
+	if (!multi && (r = need_id(ctx, ec)) != 0)
+		return r;
+	msg.cmd = spec->cmd;
+	for (int i = 1; i < argc; i++) {
+		const char *eq = strchr(argv[i], '=');
+		const struct rmd_field_spec *fs = NULL;
+		size_t klen = eq ? (size_t)(eq - argv[i]) : 0;
+		double v;
+
+		for (unsigned j = 0; eq && j < spec->req.n; j++) {
+			const char *key = rmd_field_key((enum rmd_field)spec->req.f[j].field);
+
+			if (strlen(key) == klen && !strncmp(key, argv[i], klen))
+				fs = &spec->req.f[j];
+		}
+		if (!fs) {
+			rmdctl_err(SUB, "raw: \"%s\" is not FIELD=VALUE with a request field of %s",
+				   argv[i], spec->name);
+			fprintf(stderr, "request fields of %s:", spec->name);
+			for (unsigned j = 0; j < spec->req.n; j++)
+				fprintf(stderr, " %s",
+					rmd_field_key((enum rmd_field)spec->req.f[j].field));
+			fprintf(stderr, "%s\n", spec->req.n ? "" : " none");
+			return RMDCTL_EXIT_USAGE;
+		}
+		if (given & (UINT64_C(1) << fs->field)) {
+			rmdctl_err(SUB, "raw: %s given twice",
+				   rmd_field_key((enum rmd_field)fs->field));
+			return RMDCTL_EXIT_USAGE;
+		}
+		given |= UINT64_C(1) << fs->field;
+		if (fs->field == RMD_FLD_MODEL) {
+			/* V3 §2.32: up to 7 ASCII characters. */
+			if (strlen(eq + 1) > 7) {
+				rmdctl_err(SUB, "raw: model is at most 7 characters");
+				return RMDCTL_EXIT_USAGE;
+			}
+			rmd_msg_set(&msg, RMD_FLD_MODEL, rmd_model_raw(eq + 1));
+			continue;
+		}
+		if (fs->field == RMD_FLD_BRAKE &&
+		    (!strcmp(eq + 1, "true") || !strcmp(eq + 1, "false")))
+			v = !strcmp(eq + 1, "true");
+		else if ((r = parse_value(ec, eq + 1, &v)) != 0)
+			return r;
+		r = set_field(ctx, "raw", spec, (enum rmd_field)fs->field, v, &msg);
+		if (r)
+			return r;
+	}
+	return finish(ctx, "raw", spec, multi, &msg, out);
+}
+
+/* ---- main ----------------------------------------------------------------------------- */
+
+static void print_frame(const struct rmd_frame *f)
+{
+	/* can-utils cansend: 3 hex digits of standard id, '#', two per byte. */
+	printf("%03" PRIX32 "#", f->can_id);
+	for (unsigned i = 0; i < f->len; i++)
+		printf("%02X", f->data[i]);
+	putchar('\n');
+}
+
+int rmdctl_encode_run(int argc, char **argv)
+{
+	static const struct option longopts[] = {
+		{ "protocol", required_argument, NULL, 'p' },
+		{ "id", required_argument, NULL, 'i' },
+		{ "mit-ranges", required_argument, NULL, 'm' },
+		{ "help", no_argument, NULL, 'h' },
+		{ NULL, 0, NULL, 0 },
+	};
+	struct enc_ctx ctx = {
+		.proto = RMD_PROTO_V3,
+		.motor_id = -1,
+		.r = rmd_mit_default_ranges,
+	};
+	const struct enc_cmd *ec = NULL;
+	struct rmd_frame frame;
+	char *end;
+	long id;
+	int c, r;
+
+	optind = 0; /* glibc: full re-initialisation */
+	opterr = 0;
+	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
+	while ((c = getopt_long(argc, argv, "+:p:i:m:h", longopts, NULL)) != -1) {
+		switch (c) {
+		case 'p':
+			if (rmdctl_parse_proto(optarg, &ctx.proto) < 0) {
+				rmdctl_err(SUB, "unknown protocol \"%s\" (v3, v2 or mit)", optarg);
+				goto usage;
+			}
+			break;
+		case 'i':
+			errno = 0;
+			id = strtol(optarg, &end, 10);
+			if (end == optarg || *end || errno || id < 1 || id > RMD_MAX_MOTORS) {
+				rmdctl_err(SUB, "bad --id \"%s\" (motor 1..%d)", optarg,
+					   RMD_MAX_MOTORS);
+				goto usage;
+			}
+			ctx.motor_id = (int)id;
+			break;
+		case 'm':
+			if (rmdctl_parse_mit_ranges(optarg, &ctx.r) < 0) {
+				rmdctl_err(
+					SUB,
+					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
+					optarg);
+				goto usage;
+			}
+			break;
+		case 'h':
+			rmdctl_encode_usage(stdout);
+			return RMDCTL_EXIT_OK;
+		case ':':
+			rmdctl_err(SUB, "option \"%s\" needs a value", argv[optind - 1]);
+			goto usage;
+		default:
+			rmdctl_err(SUB, "unknown option \"%s\"", argv[optind - 1]);
+			goto usage;
+		}
+	}
+	ctx.table = ctx.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
+	if (optind >= argc) {
+		rmdctl_err(SUB, "missing COMMAND");
+		goto usage;
+	}
+	for (size_t i = 0; i < NENC; i++)
+		if (!strcmp(enc_cmds[i].name, argv[optind]))
+			ec = &enc_cmds[i];
+	if (!ec) {
+		rmdctl_err(SUB, "unknown command \"%s\"", argv[optind]);
+		goto usage;
+	}
+	optind++;
+	if (ec->custom)
+		r = ec->custom(&ctx, ec, argc - optind, argv + optind, &frame);
+	else
+		r = enc_variants(&ctx, ec, argc - optind, argv + optind, &frame);
+	if (r)
+		return r;
+	print_frame(&frame);
+	if (fflush(stdout) != 0) {
+		rmdctl_err(SUB, "write error: %s", strerror(errno));
+		return RMDCTL_EXIT_DATA;
+	}
+	return RMDCTL_EXIT_OK;
+
+usage:
+	rmdctl_encode_usage(stderr);
+	return RMDCTL_EXIT_USAGE;
+}

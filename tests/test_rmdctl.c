@@ -1,0 +1,685 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl end to end: runs the built binary ($RMDCTL, else $BUILD/rmdctl,
+ * else build/rmdctl) on tests/data/candump-sample.log ($RMDCTL_TESTDATA
+ * overrides the folder) and on encode commands, and checks stdout, stderr
+ * and exit statuses.  JSON lines are checked by substrings and, when python3
+ * exists, parsed by Python's json module.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+static char rmdctl[4096];
+static char sample[4096];
+
+struct run {
+	int status; /* exit status, or 128 + signal */
+	char *out;
+	char *err;
+};
+
+static char *slurp(FILE *f)
+{
+	long n;
+	char *buf;
+
+	fflush(f);
+	fseek(f, 0, SEEK_END);
+	n = ftell(f);
+	assert_true(n >= 0);
+	rewind(f);
+	buf = malloc((size_t)n + 1);
+	assert_non_null(buf);
+	assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+	buf[n] = '\0';
+	return buf;
+}
+
+/* Run rmdctl with args (NULL-terminated) and `len` bytes of stdin. */
+static void run_argv_n(struct run *r, const char *input, size_t len, const char *const *args)
+{
+	const char *argv[32];
+	FILE *in = tmpfile(), *out = tmpfile(), *err = tmpfile();
+	size_t n = 0;
+	pid_t pid;
+	int ws;
+
+	assert_non_null(in);
+	assert_non_null(out);
+	assert_non_null(err);
+	argv[n++] = rmdctl;
+	for (; args[n - 1] && n < 31; n++)
+		argv[n] = args[n - 1];
+	argv[n] = NULL;
+	if (len)
+		assert_int_equal(fwrite(input, 1, len, in), len);
+	fflush(in);
+	rewind(in);
+	pid = fork();
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		dup2(fileno(in), 0);
+		dup2(fileno(out), 1);
+		dup2(fileno(err), 2);
+		execv(rmdctl, (char *const *)argv);
+		_exit(127);
+	}
+	assert_int_equal(waitpid(pid, &ws, 0), pid);
+	r->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+	r->out = slurp(out);
+	r->err = slurp(err);
+	fclose(in);
+	fclose(out);
+	fclose(err);
+}
+
+/* Run rmdctl with args (NULL-terminated) and stdin text (NULL: empty). */
+static void run_argv(struct run *r, const char *input, const char *const *args)
+{
+	run_argv_n(r, input, input ? strlen(input) : 0, args);
+}
+
+#define RUN(r, input, ...) run_argv((r), (input), (const char *const[]){ __VA_ARGS__, NULL })
+
+static void run_free(struct run *r)
+{
+	free(r->out);
+	free(r->err);
+}
+
+static void assert_has(const char *hay, const char *needle, const char *what)
+{
+	if (!strstr(hay, needle))
+		fail_msg("%s: \"%s\" missing from:\n%s", what, needle, hay);
+}
+
+static void assert_lacks(const char *hay, const char *needle, const char *what)
+{
+	if (strstr(hay, needle))
+		fail_msg("%s: \"%s\" unexpected in:\n%s", what, needle, hay);
+}
+
+static size_t count_lines(const char *s)
+{
+	size_t n = 0;
+
+	for (; *s; s++)
+		n += *s == '\n';
+	return n;
+}
+
+/* The output line holding `needle`, copied into buf; fails when there is none. */
+static const char *line_with(const char *out, const char *needle, char *buf, size_t size)
+{
+	const char *hit = strstr(out, needle), *start, *end;
+
+	if (!hit)
+		fail_msg("no line holds \"%s\" in:\n%s", needle, out);
+	for (start = hit; start > out && start[-1] != '\n'; start--)
+		;
+	end = strchr(hit, '\n');
+	if (!end)
+		end = hit + strlen(hit);
+	assert_true((size_t)(end - start) < size);
+	memcpy(buf, start, (size_t)(end - start));
+	buf[end - start] = '\0';
+	return buf;
+}
+
+/* The number after "key": in a JSON line. */
+static double json_num(const char *line, const char *key)
+{
+	char pat[64];
+	const char *p;
+
+	snprintf(pat, sizeof(pat), "\"%s\":", key);
+	p = strstr(line, pat);
+	if (!p)
+		fail_msg("key %s missing from %s", key, line);
+	return strtod(p + strlen(pat), NULL);
+}
+
+static int setup(void **state)
+{
+	const char *env = getenv("RMDCTL"), *build = getenv("BUILD");
+	const char *data = getenv("RMDCTL_TESTDATA");
+
+	(void)state;
+	if (env && *env)
+		snprintf(rmdctl, sizeof(rmdctl), "%s", env);
+	else
+		snprintf(rmdctl, sizeof(rmdctl), "%s/rmdctl", build && *build ? build : "build");
+	snprintf(sample, sizeof(sample), "%s/candump-sample.log",
+		 data && *data ? data : "tests/data");
+	if (access(rmdctl, X_OK) != 0) {
+		print_error("rmdctl binary \"%s\" not found (set RMDCTL or BUILD)\n", rmdctl);
+		return -1;
+	}
+	if (access(sample, R_OK) != 0) {
+		print_error("test data \"%s\" not found (run from the repository root)\n", sample);
+		return -1;
+	}
+	return 0;
+}
+
+/* ---- decode --------------------------------------------------------------------------- */
+
+struct json_expect {
+	const char *raw; /* finds the line */
+	const char *has[8];
+};
+
+static const struct json_expect sample_json[] = {
+	{ "\"raw\":\"9A00000000000000\"",
+	  { "\"can_id\":321,", "\"motor_id\":1,", "\"direction\":\"request\"", "\"cmd\":154,",
+	    "\"name\":\"read_status_1\"", "\"interface\":\"can0\"" } },
+	/* V3 §2.12.4 */
+	{ "\"raw\":\"9A320001E5010400\"",
+	  { "{\"can_id\":577,\"motor_id\":1,\"direction\":\"reply\",\"cmd\":154,"
+	    "\"name\":\"read_status_1\",\"raw\":\"9A320001E5010400\"",
+	    "\"temperature_c\":50,", "\"voltage_v\":48.5,", "\"brake_released\":true",
+	    "\"error_code\":4,", "\"errors\":[\"low_voltage\"]" } },
+	/* V3 §2.17.4 example 1 */
+	{ "\"raw\":\"A100000064000000\"",
+	  { "\"name\":\"torque\"", "\"current_a\":1", "\"direction\":\"request\"",
+	    "\"timestamp\":1700000000.000000", "\"interface\":\"can0\"" } },
+	{ "\"raw\":\"A1326400F4012D00\"",
+	  { "\"temperature_c\":50,", "\"current_a\":1,", "\"speed_dps\":500,", "\"angle_deg\":45",
+	    "\"timestamp\":1700000000.000412" } },
+	/* V3 §2.18.4 example 2, lowercase on input */
+	{ "\"raw\":\"A2000000F0D8FFFF\"", { "\"name\":\"speed\"", "\"speed_dps\":-100" } },
+	{ "\"raw\":\"A2329CFF0CFED3FF\"",
+	  { "\"current_a\":-1,", "\"speed_dps\":-500,", "\"angle_deg\":-45" } },
+	/* V3 §2.20.4 example 1, candump -td */
+	{ "\"raw\":\"A400F401A08C0000\"",
+	  { "\"cmd\":164,", "\"max_speed_dps\":500", "\"angle_deg\":360",
+	    "\"timestamp\":0.000123" } },
+	/* V3 §2.32.4, §2.29.4, §2.23.4, §2.24.4, §2.11.4, §2.30.4 */
+	{ "\"raw\":\"B558385332563130\"", { "\"model\":\"X8S2V10\"" } },
+	{ "\"raw\":\"B20000002E893401\"", { "\"version_date\":20220206" } },
+	{ "\"raw\":\"7000000000000003\"", { "\"mode\":3," } },
+	{ "\"raw\":\"710000000000D007\"", { "\"power_w\":200" } },
+	{ "\"raw\":\"92000000A08C0000\"", { "\"angle_deg\":360" } },
+	{ "\"raw\":\"B3000000E8030000\"", { "\"timeout_ms\":1000", "\"direction\":\"reply\"" } },
+	/* V3 §5.4 */
+	{ "\"raw\":\"E66682E052333B55\"",
+	  { "\"can_id\":1025,", "\"motor_id\":1,", "\"direction\":\"request\"", "\"cmd\":null",
+	    "\"name\":\"mit\"", "\"kd\":1,", "\"torque_nm\":10.004" } },
+	{ "\"raw\":\"01E66682EB550000\"",
+	  { "\"can_id\":1281,", "\"direction\":\"reply\"", "\"name\":\"mit\"",
+	    "\"torque_nm\":10.004", "\"timestamp\":1700000001.000000" } },
+	/* Unknown command, unknown identifier, broadcast, echo. */
+	{ "\"raw\":\"C700000000000000\"", { "\"name\":\"unknown\"", "\"cmd\":199," } },
+	{ "\"raw\":\"1122334455667788\"",
+	  { "\"can_id\":291,", "\"motor_id\":null", "\"name\":\"unknown\"" } },
+	{ "\"can_id\":640,",
+	  { "\"name\":\"motor_off\"", "\"motor_id\":0,", "\"broadcast\":true" } },
+	{ "\"can_id\":578,",
+	  { "\"name\":\"motor_off\"", "\"motor_id\":2,", "\"direction\":\"reply\"" } },
+};
+
+/* Frames in the sample that parse; the other five lines are malformed. */
+#define SAMPLE_FRAMES 19
+
+static void test_decode_json_sample(void **state)
+{
+	struct run r;
+	char line[1024];
+
+	(void)state;
+	RUN(&r, NULL, "decode", "--json", sample);
+	assert_int_equal(r.status, 1);
+	assert_int_equal(count_lines(r.out), SAMPLE_FRAMES);
+	for (size_t i = 0; i < sizeof(sample_json) / sizeof(sample_json[0]); i++) {
+		const struct json_expect *e = &sample_json[i];
+
+		line_with(r.out, e->raw, line, sizeof(line));
+		for (size_t j = 0; j < 8 && e->has[j]; j++)
+			assert_has(line, e->has[j], e->raw);
+	}
+	/* MIT values by number: the codes are exact, the decimals are not. */
+	line_with(r.out, "\"raw\":\"E66682E052333B55\"", line, sizeof(line));
+	assert_true(fabs(json_num(line, "position_rad") - 10.0) < 1e-3);
+	assert_true(fabs(json_num(line, "velocity_rad_s") - 1.021) < 1e-2);
+	assert_true(fabs(json_num(line, "kp") - 10.012) < 1e-3);
+	/* No line lacks a key, none has an interface it did not have. */
+	line_with(r.out, "\"raw\":\"A2000000F0D8FFFF\"", line, sizeof(line));
+	assert_lacks(line, "interface", "bare line");
+	assert_lacks(line, "timestamp", "bare line");
+	run_free(&r);
+}
+
+static void test_decode_errors(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, NULL, "decode", "--json", sample);
+	assert_int_equal(r.status, 1);
+	assert_has(r.err, "rmdctl decode: line 19: bad hex byte \"ZZ\"\n", "stderr");
+	assert_has(r.err, "rmdctl decode: line 20: truncated", "stderr");
+	assert_has(r.err, "rmdctl decode: line 21: missing '#'", "stderr");
+	assert_has(r.err, "rmdctl decode: line 22: DLC greater than 8 \"[9]\"", "stderr");
+	assert_has(r.err, "rmdctl decode: line 23: CAN id too large", "stderr");
+	assert_int_equal(count_lines(r.err), 5);
+	run_free(&r);
+}
+
+static void test_decode_text(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, NULL, "decode", sample);
+	assert_int_equal(r.status, 1);
+	assert_int_equal(count_lines(r.out), SAMPLE_FRAMES);
+	assert_has(r.out,
+		   "can0 241 motor 1 reply read_status_1: temperature 50 °C, brake released, "
+		   "voltage 48.5 V, errors 0x0004 (low_voltage)\n",
+		   "text");
+	assert_has(r.out, "141 motor 1 request speed: speed -100 dps\n", "text");
+	assert_has(r.out, "model \"X8S2V10\"", "text");
+	assert_has(r.out, "can0 141 motor 1 request unknown", "text");
+	assert_has(r.out, "C7 00 00 00 00 00 00 00\n", "text");
+	assert_has(r.out, "401 motor 1 request mit: position ", "text");
+	run_free(&r);
+}
+
+static void test_decode_stdin(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "# comment\n\n   \n241#9A320001E5010400\n  # indented comment\n", "decode",
+	    "--json");
+	assert_int_equal(r.status, 0);
+	assert_int_equal(count_lines(r.out), 1);
+	assert_has(r.out, "\"voltage_v\":48.5", "stdin");
+	assert_string_equal(r.err, "");
+	run_free(&r);
+
+	RUN(&r, "241#9A320001E5010400", "decode", "--json", "-"); /* no final newline */
+	assert_int_equal(r.status, 0);
+	assert_int_equal(count_lines(r.out), 1);
+	run_free(&r);
+
+	RUN(&r, "", "decode");
+	assert_int_equal(r.status, 0);
+	assert_string_equal(r.out, "");
+	run_free(&r);
+}
+
+static void test_decode_long_line(void **state)
+{
+	char input[2048];
+	struct run r;
+
+	(void)state;
+	memset(input, 'A', 1500);
+	snprintf(input + 1500, sizeof(input) - 1500, "\n241#9A320001E5010400\n");
+	RUN(&r, input, "decode", "--json");
+	assert_int_equal(r.status, 1);
+	assert_has(r.err, "rmdctl decode: line 1: longer than", "long line");
+	assert_int_equal(count_lines(r.out), 1);
+	assert_has(r.out, "\"temperature_c\":50", "after a long line");
+	run_free(&r);
+}
+
+static void test_decode_nul_and_binary(void **state)
+{
+	static const char junk[] = "\x01\x02\xff\xfe#\x7f\n241#9A32\0\n241#9A320001E5010400\n";
+	struct run r;
+
+	(void)state;
+	run_argv_n(&r, junk, sizeof(junk) - 1, (const char *const[]){ "decode", "--json", NULL });
+	assert_int_equal(r.status, 1);
+	assert_has(r.err, "rmdctl decode: line 1: bad CAN id \"\\x01\\x02\\xFF\\xFE\"", "binary");
+	assert_has(r.err, "rmdctl decode: line 2: contains a NUL byte", "NUL");
+	assert_int_equal(count_lines(r.out), 1);
+	assert_has(r.out, "\"voltage_v\":48.5", "binary");
+	run_free(&r);
+}
+
+static void test_decode_mit_ranges(void **state)
+{
+	char line[1024];
+	struct run r;
+
+	(void)state;
+	/* t_ff code 2901 over ±18 N·m: -18 + 2901 * 36 / 4095 = 7.5033 */
+	RUN(&r, "401#E66682E052333B55\n", "decode", "--json", "--mit-ranges", "12.5,45,18,500,5");
+	assert_int_equal(r.status, 0);
+	line_with(r.out, "\"name\":\"mit\"", line, sizeof(line));
+	assert_true(fabs(json_num(line, "torque_nm") - 7.5033) < 1e-3);
+	run_free(&r);
+
+	RUN(&r, "", "decode", "--mit-ranges", "1,2,3");
+	assert_int_equal(r.status, 2);
+	run_free(&r);
+	RUN(&r, "", "decode", "--mit-ranges", "1,2,3,4,-5");
+	assert_int_equal(r.status, 2);
+	run_free(&r);
+}
+
+static void test_decode_v2_and_direction(void **state)
+{
+	char line[1024];
+	struct run r;
+
+	(void)state;
+	RUN(&r, "141#9A00000000000000\n141#9A320000E5010400\n280#64009CFFC8000000\n", "decode",
+	    "--json", "--protocol", "v2");
+	assert_int_equal(r.status, 0);
+	line_with(r.out, "\"raw\":\"9A00000000000000\"", line, sizeof(line));
+	assert_has(line, "\"direction\":\"request\"", "v2 request");
+	line_with(r.out, "\"raw\":\"9A320000E5010400\"", line, sizeof(line));
+	assert_has(line, "\"direction\":\"reply\"", "v2 reply");
+	assert_has(line, "\"voltage_v\":48.5", "v2 reply");
+	assert_has(line, "\"errors\":[\"low_voltage\"]", "v2 reply");
+	line_with(r.out, "\"can_id\":640", line, sizeof(line));
+	assert_has(line, "\"cmd\":null", "v2 multi torque");
+	assert_true(fabs(json_num(line, "current_1_a") - 1.6) < 1e-9);
+	assert_true(fabs(json_num(line, "current_2_a") + 1.6) < 1e-9);
+	run_free(&r);
+
+	/* --direction forces V2's shared identifiers one way; a V3 reply id cannot be a request. */
+	RUN(&r, "141#9A00000000000000\n", "decode", "--json", "--protocol", "v2", "--direction",
+	    "reply");
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "\"direction\":\"reply\"", "forced");
+	run_free(&r);
+	RUN(&r, "241#9A320001E5010400\n", "decode", "--json", "--direction", "request");
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "\"name\":\"unknown\"", "contradiction");
+	run_free(&r);
+}
+
+/* Every line of --json output is a JSON object Python's parser accepts. */
+static void test_decode_json_valid(void **state)
+{
+	char cmd[sizeof(rmdctl) + sizeof(sample) + 512];
+	int rc;
+
+	(void)state;
+	if (system("command -v python3 >/dev/null 2>&1") != 0) {
+		print_message("SKIPPED: python3 not found, JSON validity not checked\n");
+		skip();
+	}
+	snprintf(cmd, sizeof(cmd),
+		 "'%s' decode --json '%s' 2>/dev/null | python3 -c '"
+		 "import json, sys\n"
+		 "n = 0\n"
+		 "for line in sys.stdin:\n"
+		 "    assert isinstance(json.loads(line), dict), line\n"
+		 "    n += 1\n"
+		 "sys.exit(0 if n == %d else 1)'",
+		 rmdctl, sample, SAMPLE_FRAMES);
+	rc = system(cmd);
+	assert_int_equal(rc, 0);
+}
+
+/* ---- encode --------------------------------------------------------------------------- */
+
+struct enc_vector {
+	const char *name;
+	const char *args[10];
+	const char *out; /* stdout, or NULL when refused */
+	int status;
+};
+
+static const struct enc_vector enc[] = {
+	{ "V3 §2.17.4 ex 1", { "--id", "1", "torque", "1.0" }, "141#A100000064000000\n", 0 },
+	{ "V3 §2.17.4 ex 2", { "--id", "1", "torque", "-1" }, "141#A10000009CFF0000\n", 0 },
+	{ "V3 §2.18.4 ex 1", { "--id", "1", "speed", "100" }, "141#A200000010270000\n", 0 },
+	{ "V3 §2.18.4 ex 2", { "--id", "1", "speed", "-100" }, "141#A2000000F0D8FFFF\n", 0 },
+	{ "V3 §2.19.4", { "--id", "1", "position-track", "1" }, "141#A300000064000000\n", 0 },
+	{ "V3 §2.20.4 ex 1",
+	  { "--id", "1", "position", "360", "500" },
+	  "141#A400F401A08C0000\n",
+	  0 },
+	{ "V3 §2.20.4 ex 2",
+	  { "--id", "1", "position", "-360", "500" },
+	  "141#A400F4016073FFFF\n",
+	  0 },
+	{ "V3 §2.21.4",
+	  { "--id", "1", "position-track-limited", "1", "50" },
+	  "141#A500881364000000\n",
+	  0 },
+	{ "V3 §2.22.4", { "--id", "1", "increment", "-360", "500" }, "141#A800F4016073FFFF\n", 0 },
+	{ "V3 §2.30.4", { "--id", "1", "timeout", "1000" }, "141#B3000000E8030000\n", 0 },
+	{ "V3 §2.5.5", { "--id", "1", "accel", "0", "10000" }, "141#4300000010270000\n", 0 },
+	{ "V3 §2.12.4", { "--id", "1", "status1" }, "141#9A00000000000000\n", 0 },
+	{ "off motor 2", { "--id", "2", "off" }, "142#8000000000000000\n", 0 },
+	{ "model motor 32", { "--id", "32", "model" }, "160#B500000000000000\n", 0 },
+	{ "V3 §5.4",
+	  { "--id", "1", "mit", "10", "1.021", "10", "1", "10" },
+	  "401#E66682E052333B55\n",
+	  0 },
+	{ "mit protocol",
+	  { "--protocol", "mit", "--id", "1", "mit", "10", "1.021", "10", "1", "10" },
+	  "401#E66682E052333B55\n",
+	  0 },
+	{ "raw by byte",
+	  { "--id", "1", "raw", "0xA1", "current_a=1" },
+	  "141#A100000064000000\n",
+	  0 },
+	{ "raw by name",
+	  { "--id", "1", "raw", "torque", "current_a=-1" },
+	  "141#A10000009CFF0000\n",
+	  0 },
+	{ "V2 multi torque",
+	  { "--protocol", "v2", "multi-torque", "1.6", "-1.6", "3.2", "0" },
+	  "280#64009CFFC8000000\n",
+	  0 },
+	{ "V2 position",
+	  { "--protocol", "v2", "--id", "1", "position", "360" },
+	  "141#A3000000A08C0000\n",
+	  0 },
+	{ "V2 position limited",
+	  { "--protocol", "v2", "--id", "1", "position", "360", "500" },
+	  "141#A400F401A08C0000\n",
+	  0 },
+	{ "V2 run", { "--protocol", "v2", "--id", "1", "run" }, "141#8800000000000000\n", 0 },
+	/* Refusals. */
+	{ "no id", { "torque", "1" }, NULL, 2 },
+	{ "id 0", { "--id", "0", "torque", "1" }, NULL, 2 },
+	{ "id 33", { "--id", "33", "torque", "1" }, NULL, 2 },
+	{ "id junk", { "--id", "1x", "torque", "1" }, NULL, 2 },
+	{ "no command", { "--id", "1" }, NULL, 2 },
+	{ "unknown command", { "--id", "1", "spin" }, NULL, 2 },
+	{ "not a number", { "--id", "1", "torque", "one" }, NULL, 2 },
+	{ "nan", { "--id", "1", "torque", "nan" }, NULL, 2 },
+	{ "too many args", { "--id", "1", "torque", "1", "2" }, NULL, 2 },
+	{ "too few args", { "--id", "1", "speed" }, NULL, 2 },
+	{ "torque too large", { "--id", "1", "torque", "400" }, NULL, 2 },
+	{ "speed too large", { "--id", "1", "speed", "1e300" }, NULL, 2 },
+	{ "negative timeout", { "--id", "1", "timeout", "-1" }, NULL, 2 },
+	{ "max speed too large", { "--id", "1", "position", "0", "70000" }, NULL, 2 },
+	{ "accel index", { "--id", "1", "accel", "7", "1000" }, NULL, 2 },
+	{ "V3 position without limit", { "--id", "1", "position", "90" }, NULL, 2 },
+	{ "mit out of range", { "--id", "1", "mit", "13", "0", "0", "0", "0" }, NULL, 2 },
+	{ "mit negative kp", { "--id", "1", "mit", "0", "0", "-1", "0", "0" }, NULL, 2 },
+	{ "mit under V2",
+	  { "--protocol", "v2", "--id", "1", "mit", "0", "0", "0", "0", "0" },
+	  NULL,
+	  2 },
+	{ "multi torque under V3", { "multi-torque", "1", "2", "3", "4" }, NULL, 2 },
+	{ "V2 torque over 32 A", { "--protocol", "v2", "--id", "1", "torque", "33" }, NULL, 2 },
+	{ "V2 model", { "--protocol", "v2", "--id", "1", "model" }, NULL, 2 },
+	{ "bad protocol", { "--protocol", "v4", "--id", "1", "stop" }, NULL, 2 },
+	{ "raw bad field", { "--id", "1", "raw", "0xA1", "speed_dps=1" }, NULL, 2 },
+	{ "raw bad cmd", { "--id", "1", "raw", "zz" }, NULL, 2 },
+};
+
+static void test_encode(void **state)
+{
+	(void)state;
+	for (size_t i = 0; i < sizeof(enc) / sizeof(enc[0]); i++) {
+		const struct enc_vector *v = &enc[i];
+		const char *args[12] = { "encode" };
+		struct run r;
+		size_t n = 1;
+
+		for (; n < 11 && v->args[n - 1]; n++)
+			args[n] = v->args[n - 1];
+		args[n] = NULL;
+		run_argv(&r, NULL, args);
+		if (r.status != v->status)
+			fail_msg("%s: exit %d, want %d; stderr:\n%s", v->name, r.status, v->status,
+				 r.err);
+		if (v->out && strcmp(r.out, v->out))
+			fail_msg("%s: printed \"%s\", want \"%s\"", v->name, r.out, v->out);
+		if (!v->out && (r.out[0] || !r.err[0]))
+			fail_msg("%s: refusal printed \"%s\" on stdout, \"%s\" on stderr", v->name,
+				 r.out, r.err);
+		run_free(&r);
+	}
+}
+
+static void test_encode_messages(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, NULL, "encode", "--id", "1", "torque", "400");
+	assert_has(r.err, "out of range", "torque 400");
+	assert_has(r.err, "current_a", "torque 400");
+	run_free(&r);
+	RUN(&r, NULL, "encode", "--id", "1", "mit", "0", "50", "0", "0", "0");
+	assert_has(r.err, "velocity 50 rad/s is out of range", "mit");
+	run_free(&r);
+	RUN(&r, NULL, "encode", "torque", "1");
+	assert_has(r.err, "--id", "no id");
+	assert_has(r.err, "usage: rmdctl encode", "no id");
+	run_free(&r);
+}
+
+/* encode | decode: what comes out is what went in. */
+static void test_encode_decode_round_trip(void **state)
+{
+	struct run e, d;
+	char line[1024];
+
+	(void)state;
+	RUN(&e, NULL, "encode", "--id", "7", "position-track-limited", "-12.34", "56.78");
+	assert_int_equal(e.status, 0);
+	RUN(&d, e.out, "decode", "--json");
+	assert_int_equal(d.status, 0);
+	line_with(d.out, "\"name\"", line, sizeof(line));
+	assert_has(line, "\"motor_id\":7,", "round trip");
+	assert_has(line, "\"angle_deg\":-12.34", "round trip");
+	assert_has(line, "\"max_speed_dps\":56.78", "round trip");
+	run_free(&e);
+	run_free(&d);
+}
+
+/* ---- help and dispatch ---------------------------------------------------------------- */
+
+static void test_help(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, NULL, "--help");
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "usage: rmdctl", "--help");
+	assert_has(r.out, "decode", "--help");
+	assert_has(r.out, "encode", "--help");
+	assert_has(r.out, "exit status", "--help");
+	run_free(&r);
+
+	RUN(&r, NULL, "help");
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "usage: rmdctl", "help");
+	run_free(&r);
+
+	RUN(&r, NULL, "help", "encode");
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "usage: rmdctl encode", "help encode");
+	run_free(&r);
+
+	RUN(&r, NULL, "decode", "--help");
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "usage: rmdctl decode", "decode --help");
+	run_free(&r);
+
+	RUN(&r, NULL, "encode", "--help");
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "multi-torque", "encode --help");
+	run_free(&r);
+}
+
+static void test_usage_errors(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, NULL, "frobnicate");
+	assert_int_equal(r.status, 2);
+	assert_has(r.err, "usage: rmdctl", "unknown subcommand");
+	assert_string_equal(r.out, "");
+	run_free(&r);
+
+	RUN(&r, NULL, "decode", "--bogus");
+	assert_int_equal(r.status, 2);
+	assert_has(r.err, "usage: rmdctl decode", "unknown option");
+	run_free(&r);
+
+	RUN(&r, NULL, "decode", "--protocol", "v9");
+	assert_int_equal(r.status, 2);
+	run_free(&r);
+
+	RUN(&r, NULL, "decode", "--direction", "sideways");
+	assert_int_equal(r.status, 2);
+	run_free(&r);
+
+	RUN(&r, NULL, "decode", "--protocol");
+	assert_int_equal(r.status, 2);
+	run_free(&r);
+
+	RUN(&r, NULL, "decode", "/nonexistent/candump.log");
+	assert_int_equal(r.status, 1);
+	assert_has(r.err, "/nonexistent/candump.log", "missing file");
+	run_free(&r);
+
+	/* argc == 1 */
+	run_argv(&r, NULL, (const char *const[]){ NULL });
+	assert_int_equal(r.status, 2);
+	assert_has(r.err, "usage: rmdctl", "no arguments");
+	run_free(&r);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_decode_json_sample),
+		cmocka_unit_test(test_decode_errors),
+		cmocka_unit_test(test_decode_text),
+		cmocka_unit_test(test_decode_stdin),
+		cmocka_unit_test(test_decode_long_line),
+		cmocka_unit_test(test_decode_nul_and_binary),
+		cmocka_unit_test(test_decode_mit_ranges),
+		cmocka_unit_test(test_decode_v2_and_direction),
+		cmocka_unit_test(test_decode_json_valid),
+		cmocka_unit_test(test_encode),
+		cmocka_unit_test(test_encode_messages),
+		cmocka_unit_test(test_encode_decode_round_trip),
+		cmocka_unit_test(test_help),
+		cmocka_unit_test(test_usage_errors),
+	};
+
+	return cmocka_run_group_tests_name("rmdctl", tests, setup, NULL);
+}
