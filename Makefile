@@ -65,6 +65,7 @@ TEST_LIBS := -lcmocka
 LIBS := $(PKG_LIBS) -lm
 
 .PHONY: all test install uninstall format format-check clean deps
+.SECONDARY:
 
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev can-utils \

@@ -139,7 +139,7 @@ int rmd_addr_from_id(enum rmd_proto proto, uint32_t can_id, struct rmd_addr *add
 	return -EINVAL;
 }
 
-static const struct rmd_layout *layout_of(const struct rmd_cmd_spec *spec, enum rmd_dir dir)
+const struct rmd_layout *rmd_cmd_layout(const struct rmd_cmd_spec *spec, enum rmd_dir dir)
 {
 	if (dir == RMD_DIR_REPLY && !(spec->flags & RMD_CMD_ECHO))
 		return &spec->rep;
@@ -149,7 +149,7 @@ static const struct rmd_layout *layout_of(const struct rmd_cmd_spec *spec, enum 
 const struct rmd_field_spec *rmd_layout_field(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 					      enum rmd_field fld)
 {
-	const struct rmd_layout *l = layout_of(spec, dir);
+	const struct rmd_layout *l = rmd_cmd_layout(spec, dir);
 
 	for (unsigned i = 0; i < l->n; i++)
 		if (l->f[i].field == fld)
@@ -226,7 +226,7 @@ int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const s
 	if (proto == RMD_PROTO_V2 && (motor_id == 0) != (spec->cmd == RMD_V2_CMD_MULTI_TORQUE))
 		return -EINVAL;
 
-	l = layout_of(spec, dir);
+	l = rmd_cmd_layout(spec, dir);
 	memset(out, 0, sizeof(*out));
 	out->can_id = frame_id(proto, dir, motor_id, spec);
 	out->len = RMD_FRAME_LEN;
@@ -262,7 +262,7 @@ static bool reserved_bytes_zero(const struct rmd_cmd_spec *spec, const struct rm
 static void decode_fields(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 			  const struct rmd_frame *f, struct rmd_msg *msg)
 {
-	const struct rmd_layout *l = layout_of(spec, dir);
+	const struct rmd_layout *l = rmd_cmd_layout(spec, dir);
 
 	msg->cmd = spec->cmd;
 	for (unsigned i = 0; i < l->n; i++) {

@@ -195,6 +195,9 @@ void rmd_msg_set(struct rmd_msg *msg, enum rmd_field fld, int64_t raw);
 /* True when field `fld` was decoded. */
 bool rmd_msg_has(const struct rmd_msg *msg, enum rmd_field fld);
 
+/* The layout of `spec` in direction `dir` (an echoing row's reply is its request). */
+const struct rmd_layout *rmd_cmd_layout(const struct rmd_cmd_spec *spec, enum rmd_dir dir);
+
 /* The field spec of `fld` in the request or reply layout of `spec`, or NULL. */
 const struct rmd_field_spec *rmd_layout_field(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 					      enum rmd_field fld);

@@ -14,6 +14,32 @@
  * the host's and the motors', occupies the wire for its exact bit-stuffed
  * length in arbitration order; motors answer after a turnaround with
  * jitter; faults are injected here.
+ *
+ * The motor model (src/sim_motor.c) in brief; the file's comments cite the
+ * manual section behind each behaviour:
+ * - Units: position, speed and torque at the output shaft.  The encoder
+ *   sits on the motor rotor (V3 §2.13.4: 16384 lines and gear ratio 6 make
+ *   98304 counts per output turn), so one output turn is
+ *   2^encoder_bits * gear_ratio multi-turn counts (0x60..0x64), and the
+ *   V2 single-turn encoder (0x90, 0x9C) counts one motor turn.
+ * - Multi-turn position is RAM: a power cycle or 0x76 wraps the angle into
+ *   [-180, 180) deg unless 0x20 index 4 saved it.  Zero offsets written
+ *   with 0x63/0x64 (V2 also 0x91/0x19) go to ROM and apply at the next
+ *   start (V3 §2.9.1, §2.10.1).
+ * - The brake is locked at power-on (V3 §2.27.1).  While it is locked the
+ *   shaft does not move and the drive holds its output at zero (it does
+ *   not fight its own brake; V2 §3.31 table 2 "motor brake is not open"),
+ *   keeping the commanded mode, which resumes when 0x77 releases it.
+ * - Faults (V3 §2.12 table 1, levels from §8.2): any active error bit cuts
+ *   the output.  Level-1 faults (stall, phase over-current, calibration)
+ *   latch and clear the mode until a restart; level-2 faults clear with
+ *   their cause and the mode resumes.  Motion commands are answered but
+ *   not executed while faulted (V3 §2.17.1).
+ * - Comm-loss protection (V3 §2.30, 0xB3, ROM) arms at the first frame
+ *   addressed to the motor after a start.  When it trips: output off,
+ *   mode cleared, brake locked, a 0xF1 frame at once and then every
+ *   second (seen on V4 firmware, DESIGN.md); the first frame after that is
+ *   echoed on the reply identifier and not executed.
  */
 #ifndef RMD_SIM_H
 #define RMD_SIM_H
@@ -27,29 +53,55 @@
 
 #define RMD_SIM_STEP_NS 50000 /* physics step: 50 us */
 
+/* V3 §2.12 table 1 error bits (V2 §3.31 table 1 uses the same values). */
+#define RMD_SIM_ERR_STALL 0x0002u	  /* level 1 (§8.2) */
+#define RMD_SIM_ERR_LOW_VOLTAGE 0x0004u	  /* level 2 */
+#define RMD_SIM_ERR_OVER_VOLTAGE 0x0008u  /* level 2 */
+#define RMD_SIM_ERR_PHASE_CURRENT 0x0010u /* level 1 */
+#define RMD_SIM_ERR_POWER 0x0040u	  /* level 2 */
+#define RMD_SIM_ERR_CALIBRATION 0x0080u	  /* level 1 */
+#define RMD_SIM_ERR_OVERSPEED 0x0100u	  /* level 2 */
+#define RMD_SIM_ERR_OVER_TEMP 0x1000u	  /* level 2 */
+#define RMD_SIM_ERR_ENCODER_CAL 0x2000u	  /* level 2 */
+/* Faults that latch until a restart (V3 §8.2 "一级"; V2's 0x0001 too). */
+#define RMD_SIM_ERR_LEVEL1 \
+	(0x0001u | RMD_SIM_ERR_STALL | RMD_SIM_ERR_PHASE_CURRENT | RMD_SIM_ERR_CALIBRATION)
+
+/* The unsolicited frame after a comm-loss trip: data[0], rest zero. */
+#define RMD_SIM_CMD_COMM_LOST 0xF1u
+
 /* Physical and firmware parameters of one simulated motor. */
 struct rmd_sim_motor_params {
-	uint8_t id;	      /* 1..32 */
+	uint8_t id;	      /* 1..32: the CAN ID at first power-on */
 	enum rmd_proto proto; /* V3, V2 or MIT (MIT motors also speak V3) */
 	double inertia_kgm2;  /* at the output shaft, rotor reflected */
 	double viscous_nm_s_rad;
 	double coulomb_nm;
 	double kt_nm_a;	   /* output-shaft torque per amp of iq */
 	double gear_ratio; /* motor turns per output turn */
+	unsigned pole_pairs;
 	double max_current_a;
-	double load_nm;	      /* constant external torque on the shaft */
-	double max_speed_dps; /* over-speed fault above this */
+	double load_nm;		 /* constant external torque on the shaft */
+	double max_speed_dps;	 /* over-speed fault above this */
+	double fw_max_speed_dps; /* the firmware's "Max Speed" (0xA3, V2 0xA5/0xA7) */
 	double phase_resistance_ohm;
 	double thermal_resistance_c_w; /* winding to ambient */
 	double thermal_tau_s;
 	double ambient_c;
 	double supply_v;
-	unsigned encoder_bits; /* single-turn resolution, e.g. 16 */
+	double over_temp_c;	  /* over-temperature fault above this ... */
+	double over_temp_clear_c; /* ... until it cools below this */
+	double under_voltage_v;	  /* low-voltage fault below this */
+	double over_voltage_v;	  /* over-voltage fault above this */
+	double stall_time_s;	  /* near-limit current at ~zero speed this long: stall */
+	bool has_brake;		  /* false: 0x77/0x78 echo, the shaft is never held */
+	unsigned encoder_bits;	  /* motor-side single-turn resolution, 8..24 */
 	struct rmd_mit_ranges mit;
 	char model[8];	       /* 0xB5, e.g. "X8S2V10" */
 	uint32_t version_date; /* 0xB2, e.g. 20220206 */
 	double turnaround_ns;  /* request end to reply start, mean */
 	double turnaround_jitter_ns;
+	uint64_t seed; /* PRNG seed; 0: derived from id */
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */
@@ -57,67 +109,127 @@ void rmd_sim_motor_params_default(struct rmd_sim_motor_params *p, uint8_t id, en
 
 enum rmd_sim_ctrl {
 	RMD_SIM_OFF = 0,   /* output off (0x80, power-on, comm-loss) */
-	RMD_SIM_HOLD,	   /* 0x81 stop: hold position */
-	RMD_SIM_TORQUE,	   /* 0xA1 */
+	RMD_SIM_HOLD,	   /* 0x81 stop: decelerate, then hold position */
+	RMD_SIM_TORQUE,	   /* 0xA1 (and V2 0x280) */
 	RMD_SIM_SPEED,	   /* 0xA2 */
-	RMD_SIM_POS_TRACK, /* 0xA3 (and V3 0xA5 with a speed limit) */
-	RMD_SIM_POS_ABS,   /* 0xA4 (V2 0xA6), planned trapezoid */
+	RMD_SIM_POS_TRACK, /* V3 0xA3 (and V3 0xA5 with a speed limit) */
+	RMD_SIM_POS_ABS,   /* 0xA4, 0xA8, V2 0xA3/0xA5..0xA7: planned trapezoid */
 	RMD_SIM_MIT,	   /* 0x400 + ID */
 };
 
-/* Rom/ram settings and live state of one motor.  Caller allocates. */
+/* PI gains, in the order of enum rmd_field RMD_FLD_CURR_KP..RMD_FLD_POS_KI. */
+#define RMD_SIM_NPID 6
+
+/* Settings the firmware keeps: one copy in ROM (flash), one running in RAM. */
+struct rmd_sim_settings {
+	uint8_t can_id;			/* V3 §4 / V2 §3.52 */
+	int64_t pid[RMD_SIM_NPID];	/* V3 uint8 units (§2.1), V2 Q24 (§3.1) */
+	uint32_t accel_dps2[4];		/* 0x43 index 0..3 (V3 §2.5.4); 0: no limit */
+	int64_t encoder_offset;		/* multi-turn zero, counts (0x62..0x64) */
+	uint16_t encoder_offset_single; /* V2 0x90/0x91/0x19 */
+	uint32_t comm_timeout_ms;	/* 0xB3; 0 = off */
+	uint8_t baud_code;		/* 0xB4 */
+	bool can_filter;		/* 0x20 index 2: ignore 0x280 and 0x300 */
+	bool multiturn_save;		/* 0x20 index 4: keep multi-turn at power-off */
+};
+
+/*
+ * Rom/ram settings and live state of one motor.  Caller allocates.  The
+ * fields are readable for the sim bus and tools; change them only through
+ * the functions below (params p may be tuned between calls: ambient_c,
+ * supply_v and load_nm are read at every step).
+ */
 struct rmd_sim_motor {
 	struct rmd_sim_motor_params p;
+	struct rmd_sim_settings rom;
+	struct rmd_sim_settings ram; /* ram.can_id is the motor's ID now */
+	bool clear_multiturn;	     /* 0x20 index 1: wrap at the next start (ROM) */
+	bool error_reports;	     /* 0x20 index 3: 0x9A every 100 ms while faulted */
 	/* mechanics, output shaft */
-	double pos_rad; /* multi-turn, RAM only */
+	double pos_rad; /* multi-turn, from the encoder's raw zero; RAM only */
 	double vel_rad_s;
 	double iq_a;
 	double temp_c;
-	int64_t t_ns; /* physics time reached */
+	int64_t t_ns;	 /* physics time reached */
+	int64_t boot_ns; /* last power-on or reset */
 	/* control */
 	enum rmd_sim_ctrl ctrl;
-	double sp_current_a, sp_speed_rad_s, sp_pos_rad, sp_max_speed_rad_s;
-	double traj_pos_rad, traj_vel_rad_s; /* planner state of 0xA4 */
+	enum rmd_sim_ctrl ctrl_stopped; /* V2 0x81 keeps the mode for 0x88 */
+	double sp_current_a;
+	double sp_speed_rad_s;	 /* 0xA2 target */
+	double ramp_speed_rad_s; /* 0xA2 reference under the 0x43 limits */
+	double ramp_acc_rad_s2;
+	double sp_pos_rad; /* target, in the pos_rad frame */
+	double sp_max_speed_rad_s;
+	double hold_pos_rad; /* where 0x81 stops; the mode's target stays for V2 0x88 */
+	double traj_pos_rad, traj_vel_rad_s, traj_acc_rad_s2; /* planner state */
+	double speed_int_a;				      /* speed-loop integrator */
+	double tf_current_a;				      /* V2 0x73 feed-forward */
 	struct rmd_mit_cmd mit;
 	bool brake_locked;
-	uint16_t errors; /* V3 §2.12 table 1 bits */
-	/* RAM / ROM settings */
-	uint8_t pid[6];		  /* V3 0x30..0x32 */
-	uint32_t accel_dps2[4];	  /* V3 0x43 index 0..3 */
-	int32_t encoder_offset;	  /* ROM */
-	uint32_t comm_timeout_ms; /* 0xB3, ROM; 0 = off */
-	bool can_filter;	  /* 0x20 index 2, ROM */
-	bool error_reports;	  /* 0x20 index 3 */
+	/* faults */
+	uint16_t errors;	 /* reported: live | latched | injected */
+	uint16_t errors_live;	 /* level-2 conditions present now */
+	uint16_t errors_latched; /* level-1 faults, until restart */
+	uint16_t errors_injected;
+	double stall_s;
 	/* comm-loss protection (V3 §2.30) */
+	bool comm_armed;
 	int64_t last_rx_ns;
 	bool comm_lost;
-	bool echo_next; /* first command after recovery only echoed */
+	bool echo_next; /* first command after a trip only echoed */
 	int64_t next_f1_ns;
 	int64_t next_9a_ns;
-	int64_t boot_ns;
 	bool present; /* false: disappeared, answers nothing */
 	uint64_t rng;
 };
 
+/* Power the motor on at now_ns: ROM defaults, brake locked.  rt-safe. */
 void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_params *p,
 			int64_t now_ns);
 
-/* Advance physics to now_ns in fixed steps. */
+/* Advance physics to now_ns in fixed steps (earlier times: no-op).  rt-safe. */
 void rmd_sim_motor_step(struct rmd_sim_motor *m, int64_t now_ns);
 
 /*
  * The motor sees frame f (any identifier: it picks what is addressed to it,
  * 0x140 + ID, 0x280, 0x300, 0x400 + ID) at now_ns.  Replies go to out[]
  * (at most `max`); returns their count (0 when the frame is not for it or
- * is not answered).
+ * is not answered).  Never fails on any input.  rt-safe.
  */
 int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct rmd_frame *f,
 			  struct rmd_frame *out, int max);
 
-/* Unsolicited frames due by now_ns (0xF1 each second after a comm-loss trip, 0x9A error reports every 100 ms). */
+/*
+ * Unsolicited frames due by now_ns (0xF1 each second after a comm-loss
+ * trip, 0x9A error reports every 100 ms).  Frames that did not fit in
+ * `max` stay due.  rt-safe.
+ */
 int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame *out, int max);
 
-/* Power cycle: RAM lost (multi-turn wraps to +-180 deg), ROM kept, brake locked. */
+/*
+ * When the next unsolicited frame falls due if nothing else happens
+ * (INT64_MAX: none scheduled), so a bus can step to exactly that time.
+ * rt-safe.
+ */
+int64_t rmd_sim_motor_next_event_ns(const struct rmd_sim_motor *m);
+
+/* Power cycle: RAM lost (multi-turn wraps to +-180 deg), ROM kept, brake locked.  rt-safe. */
 void rmd_sim_motor_power_cycle(struct rmd_sim_motor *m, int64_t now_ns);
+
+/*
+ * Fault injection: these error bits (RMD_SIM_ERR_*) are reported and act
+ * like real faults until another call replaces them (0 clears).  rt-safe.
+ */
+void rmd_sim_motor_set_error(struct rmd_sim_motor *m, uint16_t bits);
+
+/* Reseed the motor's PRNG (0: derive from the ID).  rt-safe. */
+void rmd_sim_motor_seed(struct rmd_sim_motor *m, uint64_t seed);
+
+/* Next value of the motor's PRNG (xorshift64*).  rt-safe. */
+uint64_t rmd_sim_motor_rand(struct rmd_sim_motor *m);
+
+/* A turnaround for the next reply: mean +- uniform jitter, >= 0.  rt-safe. */
+int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m);
 
 #endif /* RMD_SIM_H */

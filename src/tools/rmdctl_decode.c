@@ -361,17 +361,6 @@ static void print_trailer(struct out *o, const struct decoded *d)
 	fputs("}\n", o->f);
 }
 
-/*
- * The fields a frame of `spec` carries in direction `dir`; codec.h: the reply
- * of an echoing row repeats the request.
- */
-static const struct rmd_layout *layout_of(const struct rmd_cmd_spec *spec, enum rmd_dir dir)
-{
-	if (dir == RMD_DIR_REPLY && !(spec->flags & RMD_CMD_ECHO))
-		return &spec->rep;
-	return &spec->req;
-}
-
 static void print_decoded(FILE *f, bool json, const struct decoded *d)
 {
 	struct out o = { f, json, 0 };
@@ -380,7 +369,7 @@ static void print_decoded(FILE *f, bool json, const struct decoded *d)
 
 	print_header(&o, d);
 	if (d->spec) {
-		const struct rmd_layout *lay = layout_of(d->spec, d->dir);
+		const struct rmd_layout *lay = rmd_cmd_layout(d->spec, d->dir);
 
 		for (unsigned i = 0; i < lay->n; i++)
 			if (rmd_msg_has(&d->msg, (enum rmd_field)lay->f[i].field))

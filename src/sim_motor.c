@@ -1,0 +1,1518 @@
+// SPDX-License-Identifier: MIT
+/*
+ * A simulated RMD motor behind its frame interface (DESIGN.md layer 3):
+ * lifecycle, settings (RAM/ROM), comm-loss protection, unsolicited frames
+ * every command of the V2.0 and V3.6 manuals, and under them the mechanics,
+ * the firmware's control loops, temperature and fault detection.
+ *
+ * Requests are decoded and replies encoded by the codec's tables
+ * (rmd_decode / rmd_encode), so the motor speaks exactly the bytes the
+ * daemon parses; values are scaled with each row's own LSB.  Commands the
+ * manual answers with "the same data as the host sent" are echoed byte for
+ * byte.  Section numbers (§) are the manuals': "V3 §" is
+ * rmd-can-rs485-protocol-v3.6-zh.txt, "V2 §" rmd-can-protocol-v2.0-en.txt.
+ *
+ * No allocation, I/O or clock: time comes in as now_ns.  Every function
+ * here is rt-safe.
+ */
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "rmd/codec.h"
+#include "rmd/mit.h"
+#include "rmd/sim.h"
+
+/* DESIGN.md (seen on V4 firmware): a 0xF1 frame each second after a trip. */
+#define COMM_LOST_PERIOD_NS INT64_C(1000000000)
+/* V3 §2.33.4 index 3: while faulted, 0x9A every 100 ms. */
+#define ERROR_REPORT_PERIOD_NS INT64_C(100000000)
+/* V2 §3.47: auxiliary (encoder backup) battery; no figure given, 3.6 V cell. */
+#define BATTERY_V 3.6
+/* V3 §2.1.4: the example's gains 0x55/0x19, taken as the factory values. */
+static const int64_t v3_pid_default[RMD_SIM_NPID] = { 85, 25, 85, 25, 85, 25 };
+/* V2 §3.1: Q24 gains; the manual's example value 0.25 taken as factory value. */
+#define V2_PID_DEFAULT (INT64_C(1) << 22)
+/* V3 §2.4.4: the example's 10000 dps/s, taken as the factory value. */
+#define ACCEL_DEFAULT_DPS2 10000u
+
+/* -------------------------------------------------------------------------- */
+/* Parameters, PRNG                                                           */
+
+void rmd_sim_motor_params_default(struct rmd_sim_motor_params *p, uint8_t id, enum rmd_proto proto)
+{
+	memset(p, 0, sizeof(*p));
+	p->id = id;
+	p->proto = proto;
+	/* An X8-class geared actuator (X8-S2 V10), all at the output shaft. */
+	p->inertia_kgm2 = 0.005;
+	p->viscous_nm_s_rad = 0.02;
+	p->coulomb_nm = 0.1;
+	p->kt_nm_a = 2.0;
+	p->gear_ratio = 6.0;
+	p->pole_pairs = 10;
+	p->max_current_a = 20.0;
+	p->load_nm = 0.0;
+	/* Beyond the ~1190 dps no-load speed at 48 V: only a load gets there. */
+	p->max_speed_dps = 1500.0;
+	p->fw_max_speed_dps = 1000.0;
+	p->phase_resistance_ohm = 0.3;
+	p->thermal_resistance_c_w = 2.0;
+	p->thermal_tau_s = 300.0;
+	p->ambient_c = 25.0;
+	p->supply_v = 48.0;
+	p->over_temp_c = 80.0;
+	p->over_temp_clear_c = 70.0;
+	p->under_voltage_v = 24.0;
+	p->over_voltage_v = 60.0;
+	p->stall_time_s = 1.0;
+	p->has_brake = true;
+	p->encoder_bits = 16;
+	p->mit = rmd_mit_default_ranges;
+	memcpy(p->model, "X8S2V10", 8);
+	p->version_date = 20220206;
+	/* DESIGN.md: motors answer 0.5-0.8 ms after a request. */
+	p->turnaround_ns = 500000.0;
+	p->turnaround_jitter_ns = 100000.0;
+	p->seed = 0;
+}
+
+/* splitmix64: spreads a small seed (the ID) over all 64 bits, never 0 out. */
+static uint64_t mix_seed(uint64_t x)
+{
+	x += UINT64_C(0x9E3779B97F4A7C15);
+	x = (x ^ (x >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+	x = (x ^ (x >> 27)) * UINT64_C(0x94D049BB133111EB);
+	x ^= x >> 31;
+	return x ? x : UINT64_C(0x2545F4914F6CDD1D);
+}
+
+void rmd_sim_motor_seed(struct rmd_sim_motor *m, uint64_t seed)
+{
+	m->rng = mix_seed(seed ? seed : m->p.id);
+}
+
+uint64_t rmd_sim_motor_rand(struct rmd_sim_motor *m)
+{
+	uint64_t x = m->rng ? m->rng : mix_seed(0);
+
+	x ^= x >> 12;
+	x ^= x << 25;
+	x ^= x >> 27;
+	m->rng = x;
+	return x * UINT64_C(0x2545F4914F6CDD1D);
+}
+
+int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m)
+{
+	double u = (double)(rmd_sim_motor_rand(m) >> 11) * 0x1.0p-53; /* [0, 1) */
+	double t = m->p.turnaround_ns + (2.0 * u - 1.0) * m->p.turnaround_jitter_ns;
+
+	if (!(t > 0.0))
+		return 0;
+	if (t > 1e15)
+		return INT64_C(1000000000000000);
+	return (int64_t)llround(t);
+}
+
+/* Replace nonsense (zero inertia, NaN, ...) by the defaults: never divide by 0. */
+static void sanitize(struct rmd_sim_motor_params *p)
+{
+	struct rmd_sim_motor_params d;
+
+	rmd_sim_motor_params_default(&d, p->id, p->proto);
+	if (p->id < 1 || p->id > RMD_MAX_MOTORS)
+		p->id = 1;
+	if (p->proto != RMD_PROTO_V2 && p->proto != RMD_PROTO_MIT)
+		p->proto = RMD_PROTO_V3;
+#define POSITIVE(f)                                   \
+	do {                                          \
+		if (!(p->f > 0.0) || !isfinite(p->f)) \
+			p->f = d.f;                   \
+	} while (0)
+#define FINITE_NONNEG(f)                               \
+	do {                                           \
+		if (!(p->f >= 0.0) || !isfinite(p->f)) \
+			p->f = d.f;                    \
+	} while (0)
+	POSITIVE(inertia_kgm2);
+	POSITIVE(kt_nm_a);
+	POSITIVE(gear_ratio);
+	POSITIVE(max_current_a);
+	POSITIVE(max_speed_dps);
+	POSITIVE(fw_max_speed_dps);
+	POSITIVE(thermal_resistance_c_w);
+	POSITIVE(thermal_tau_s);
+	POSITIVE(stall_time_s);
+	FINITE_NONNEG(viscous_nm_s_rad);
+	FINITE_NONNEG(coulomb_nm);
+	FINITE_NONNEG(phase_resistance_ohm);
+	FINITE_NONNEG(supply_v);
+	FINITE_NONNEG(turnaround_ns);
+	FINITE_NONNEG(turnaround_jitter_ns);
+#undef POSITIVE
+#undef FINITE_NONNEG
+	if (!isfinite(p->load_nm))
+		p->load_nm = 0.0;
+	if (!isfinite(p->ambient_c))
+		p->ambient_c = d.ambient_c;
+	if (!isfinite(p->over_temp_c) || !isfinite(p->over_temp_clear_c) ||
+	    p->over_temp_clear_c > p->over_temp_c) {
+		p->over_temp_c = d.over_temp_c;
+		p->over_temp_clear_c = d.over_temp_clear_c;
+	}
+	if (!isfinite(p->under_voltage_v) || !isfinite(p->over_voltage_v) ||
+	    p->under_voltage_v >= p->over_voltage_v) {
+		p->under_voltage_v = d.under_voltage_v;
+		p->over_voltage_v = d.over_voltage_v;
+	}
+	if (p->encoder_bits < 8 || p->encoder_bits > 24)
+		p->encoder_bits = d.encoder_bits;
+	if (!rmd_mit_ranges_valid(&p->mit))
+		p->mit = d.mit;
+	p->model[sizeof(p->model) - 1] = '\0';
+}
+
+/* -------------------------------------------------------------------------- */
+/* Model: units and encoder                                                   */
+
+#define STEP_S ((double)RMD_SIM_STEP_NS * 1e-9)
+/*
+ * Firmware loop tuning, from the motor's own inertia and torque constant
+ * (the firmware is tuned for its motor): speed loop bandwidth 100 Hz,
+ * position loop a fifth of it.  The current loop is ideal.
+ */
+#define SPEED_BW_RAD_S (2.0 * M_PI * 100.0)
+#define POS_BW_RAD_S (SPEED_BW_RAD_S / 5.0)
+/* Gains written with 0x31/0x32 (V2 0x36..0x41) scale these, within 0..4x. */
+#define GAIN_SCALE_MAX 4.0
+/* V3 §8.2 "stall": the current near its limit while the speed stays low. */
+#define STALL_CURRENT_FRACTION 0.8
+#define STALL_SPEED_RAD_S 0.2
+/* Hysteresis of the level-2 faults, which clear by themselves (V3 §8.2). */
+#define VOLTAGE_HYSTERESIS_V 1.0
+#define OVERSPEED_CLEAR_FRACTION 0.9
+
+static double deg(double radians)
+{
+	return radians * (180.0 / M_PI);
+}
+
+static double rad(double degrees)
+{
+	return degrees * (M_PI / 180.0);
+}
+
+static double clamp(double x, double lo, double hi)
+{
+	return x < lo ? lo : x > hi ? hi : x;
+}
+
+/* Multi-turn counts per output radian: the encoder is on the motor (V3 §2.13.4). */
+static double counts_per_rad(const struct rmd_sim_motor *m)
+{
+	return ldexp(1.0, (int)m->p.encoder_bits) * m->p.gear_ratio / (2.0 * M_PI);
+}
+
+/* The multi-turn encoder value without offset (V3 §2.7, 0x61). */
+static int64_t raw_counts(const struct rmd_sim_motor *m)
+{
+	return (int64_t)llround(clamp(m->pos_rad * counts_per_rad(m), -0x1p62, 0x1p62));
+}
+
+/* The zero offset in use (V3 §2.8), as an output angle. */
+static double offset_rad(const struct rmd_sim_motor *m)
+{
+	return (double)m->ram.encoder_offset / counts_per_rad(m);
+}
+
+/* The output shaft angle the motor reports: from its zero (V3 §2.11). */
+static double angle_rad(const struct rmd_sim_motor *m)
+{
+	return m->pos_rad - offset_rad(m);
+}
+
+/* 0x43 index (V3 §2.5.4) in rad/s^2; 0 is taken as "no limit". */
+static double accel_rad(const struct rmd_sim_motor *m, unsigned index)
+{
+	uint32_t a = m->ram.accel_dps2[index];
+
+	return a ? rad((double)a) : INFINITY;
+}
+
+/* Electrical power drawn: copper loss plus shaft power, >= 0 (V3 §2.24). */
+static double power_w(const struct rmd_sim_motor *m)
+{
+	double iq = m->iq_a;
+	double p = 1.5 * m->p.phase_resistance_ohm * iq * iq + m->p.kt_nm_a * iq * m->vel_rad_s;
+
+	return p > 0.0 ? p : 0.0;
+}
+
+/* -------------------------------------------------------------------------- */
+/* Model: faults                                                              */
+
+/* Output off and the running state cleared (V3 §2.15.1). */
+static void off_state(struct rmd_sim_motor *m)
+{
+	m->ctrl = RMD_SIM_OFF;
+	m->ctrl_stopped = RMD_SIM_OFF;
+	m->sp_current_a = 0.0;
+	m->sp_speed_rad_s = 0.0;
+	m->ramp_speed_rad_s = 0.0;
+	m->ramp_acc_rad_s2 = 0.0;
+	m->sp_pos_rad = m->pos_rad;
+	m->sp_max_speed_rad_s = 0.0;
+	m->hold_pos_rad = m->pos_rad;
+	m->traj_pos_rad = m->pos_rad;
+	m->traj_vel_rad_s = 0.0;
+	m->traj_acc_rad_s2 = 0.0;
+	m->speed_int_a = 0.0;
+	m->tf_current_a = 0.0;
+	memset(&m->mit, 0, sizeof(m->mit));
+	m->iq_a = 0.0;
+}
+
+/*
+ * Combine the error sources.  A level-1 fault (V3 §8.2 "一级": cannot
+ * recover, restart needed) also clears the mode; a level-2 one only holds
+ * the output off while it lasts.  The first error of a run schedules an
+ * error report at once (V3 §2.33.4 index 3).
+ */
+static void update_errors(struct rmd_sim_motor *m)
+{
+	uint16_t e = m->errors_live | m->errors_latched | m->errors_injected;
+
+	if (e && !m->errors)
+		m->next_9a_ns = m->t_ns;
+	if ((e & RMD_SIM_ERR_LEVEL1) && m->ctrl != RMD_SIM_OFF)
+		off_state(m);
+	m->errors = e;
+}
+
+/* Fault detection after a step of dt seconds (V3 §2.12 table 1, §8.2). */
+static void detect_faults(struct rmd_sim_motor *m, double dt)
+{
+	const struct rmd_sim_motor_params *p = &m->p;
+	uint16_t live = m->errors_live;
+	double vmax = rad(p->max_speed_dps), v = fabs(m->vel_rad_s);
+
+	if (m->temp_c > p->over_temp_c)
+		live |= RMD_SIM_ERR_OVER_TEMP;
+	else if (m->temp_c < p->over_temp_clear_c)
+		live &= (uint16_t)~RMD_SIM_ERR_OVER_TEMP;
+	if (p->supply_v < p->under_voltage_v)
+		live |= RMD_SIM_ERR_LOW_VOLTAGE;
+	else if (p->supply_v >= p->under_voltage_v + VOLTAGE_HYSTERESIS_V)
+		live &= (uint16_t)~RMD_SIM_ERR_LOW_VOLTAGE;
+	if (p->supply_v > p->over_voltage_v)
+		live |= RMD_SIM_ERR_OVER_VOLTAGE;
+	else if (p->supply_v <= p->over_voltage_v - VOLTAGE_HYSTERESIS_V)
+		live &= (uint16_t)~RMD_SIM_ERR_OVER_VOLTAGE;
+	if (v > vmax)
+		live |= RMD_SIM_ERR_OVERSPEED;
+	else if (v < OVERSPEED_CLEAR_FRACTION * vmax)
+		live &= (uint16_t)~RMD_SIM_ERR_OVERSPEED;
+	m->errors_live = live;
+
+	if (fabs(m->iq_a) >= STALL_CURRENT_FRACTION * p->max_current_a && v < STALL_SPEED_RAD_S)
+		m->stall_s += dt;
+	else
+		m->stall_s = 0.0;
+	if (m->stall_s > p->stall_time_s)
+		m->errors_latched |= RMD_SIM_ERR_STALL;
+	update_errors(m);
+}
+
+/* -------------------------------------------------------------------------- */
+/* Model: the firmware's control loops                                        */
+
+/* The shaft is held by the brake. */
+static bool held(const struct rmd_sim_motor *m)
+{
+	return m->p.has_brake && m->brake_locked;
+}
+
+/*
+ * Gain i (enum rmd_field order from RMD_FLD_CURR_KP) relative to the
+ * factory value.  V3 §2.1.1: uint8 units of a model-dependent maximum.
+ */
+static double gain_scale(const struct rmd_sim_motor *m, unsigned i)
+{
+	double def = (double)(m->p.proto == RMD_PROTO_V2 ? V2_PID_DEFAULT : v3_pid_default[i]);
+
+	return clamp((double)m->ram.pid[i] / def, 0.0, GAIN_SCALE_MAX);
+}
+
+/* The window iq can take: the current limit and the supply voltage. */
+static void iq_window(const struct rmd_sim_motor *m, double *lo, double *hi)
+{
+	const struct rmd_sim_motor_params *p = &m->p;
+	/* q-axis back-EMF per output rad/s (amplitude-invariant dq: kt / 1.5). */
+	double emf = p->kt_nm_a / 1.5 * m->vel_rad_s;
+	/* Space-vector modulation reaches Vdc / sqrt(3) per phase. */
+	double vq = p->supply_v / sqrt(3.0);
+
+	*lo = -p->max_current_a;
+	*hi = p->max_current_a;
+	if (p->phase_resistance_ohm > 0.0) {
+		*lo = fmax(*lo, (-vq - emf) / p->phase_resistance_ohm);
+		*hi = fmin(*hi, (vq - emf) / p->phase_resistance_ohm);
+	}
+	if (*lo > *hi)
+		*lo = *hi = clamp(0.0, *lo, *hi);
+}
+
+/* Speed PI with feed-forward; dt > 0 integrates, with anti-windup. */
+static double speed_loop(struct rmd_sim_motor *m, double v_ref, double ff_a, double dt)
+{
+	double kp0 = m->p.inertia_kgm2 * SPEED_BW_RAD_S / m->p.kt_nm_a;
+	double kp = kp0 * gain_scale(m, RMD_FLD_SPD_KP - RMD_FLD_CURR_KP);
+	double ki = kp0 * SPEED_BW_RAD_S / 4.0 * gain_scale(m, RMD_FLD_SPD_KI - RMD_FLD_CURR_KP);
+	double e = v_ref - m->vel_rad_s, lo, hi, u;
+
+	iq_window(m, &lo, &hi);
+	u = kp * e + m->speed_int_a + ff_a;
+	if (dt > 0.0 && !((u >= hi && e > 0.0) || (u <= lo && e < 0.0)))
+		m->speed_int_a = clamp(m->speed_int_a + ki * e * dt, -m->p.max_current_a,
+				       m->p.max_current_a);
+	return u;
+}
+
+static double pos_gain(const struct rmd_sim_motor *m)
+{
+	return POS_BW_RAD_S * gain_scale(m, RMD_FLD_POS_KP - RMD_FLD_CURR_KP);
+}
+
+/*
+ * 0xA2 speed reference under the 0x43 limits (V3 §2.5.4): index 2 when
+ * the speed grows (either direction), index 3 when it falls in the same
+ * direction.
+ */
+static void ramp_step(struct rmd_sim_motor *m, double dt)
+{
+	double r = m->ramp_speed_rad_s, d = m->sp_speed_rad_s - r, a, nr;
+	bool faster = r == 0.0 || (d > 0.0) == (r > 0.0);
+
+	if (dt <= 0.0)
+		return;
+	a = accel_rad(m, faster ? 2 : 3);
+	nr = (isinf(a) || fabs(d) <= a * dt) ? m->sp_speed_rad_s : r + copysign(a * dt, d);
+	m->ramp_acc_rad_s2 = (nr - r) / dt;
+	m->ramp_speed_rad_s = nr;
+}
+
+/*
+ * The trapezoid planner of the absolute moves (0xA4 family, V3 §2.20):
+ * accelerate at 0x43 index 0 up to the move's max speed, brake at index 1
+ * along v = sqrt(2 a d) so the target is reached at rest, then hold it.
+ */
+static void plan_step(struct rmd_sim_motor *m, double target, double vmax, double dt)
+{
+	double acc = accel_rad(m, 0), dec = accel_rad(m, 1);
+	double v = m->traj_vel_rad_s, d = target - m->traj_pos_rad;
+	double vdes, rate, vn, pn;
+
+	if (dt <= 0.0)
+		return;
+	if (d == 0.0 && v == 0.0) {
+		m->traj_acc_rad_s2 = 0.0;
+		return;
+	}
+	vdes = vmax;
+	if (!isinf(dec))
+		vdes = fmin(vdes, sqrt(2.0 * dec * fabs(d)));
+	vdes = copysign(vdes, d);
+	/* Growing speed (from rest or in its direction): acceleration. */
+	rate = (v == 0.0 || (vdes - v > 0.0) == (v > 0.0)) ? acc : dec;
+	vn = isinf(rate) ? vdes : v + clamp(vdes - v, -rate * dt, rate * dt);
+	pn = m->traj_pos_rad + 0.5 * (v + vn) * dt;
+	/* Reached or crossed the target at (almost) rest: arrived. */
+	if ((target - pn) * d <= 0.0 && (isinf(dec) || fabs(vn) <= 2.0 * dec * dt)) {
+		pn = target;
+		vn = 0.0;
+	}
+	m->traj_acc_rad_s2 = (vn - v) / dt;
+	m->traj_vel_rad_s = vn;
+	m->traj_pos_rad = pn;
+}
+
+/*
+ * The current the firmware asks for now; dt > 0 also advances ramps,
+ * planner and integrator by dt.  While the output is cut (fault, brake
+ * locked) the mode is kept but its loops restart from the shaft's state.
+ */
+static double control(struct rmd_sim_motor *m, double dt)
+{
+	const struct rmd_sim_motor_params *p = &m->p;
+	double iq = 0.0, v_ref, lo, hi;
+
+	if (m->ctrl == RMD_SIM_OFF)
+		return 0.0;
+	if (m->errors || held(m)) {
+		m->speed_int_a = 0.0;
+		m->ramp_speed_rad_s = m->vel_rad_s;
+		m->traj_pos_rad = m->pos_rad;
+		m->traj_vel_rad_s = m->vel_rad_s;
+		m->traj_acc_rad_s2 = 0.0;
+		return 0.0;
+	}
+	switch (m->ctrl) {
+	case RMD_SIM_TORQUE:
+		iq = m->sp_current_a;
+		break;
+	case RMD_SIM_SPEED:
+		ramp_step(m, dt);
+		iq = speed_loop(m, m->ramp_speed_rad_s,
+				p->inertia_kgm2 * m->ramp_acc_rad_s2 / p->kt_nm_a + m->tf_current_a,
+				dt);
+		break;
+	case RMD_SIM_POS_TRACK:
+		/* V3 §2.19.1: position error through the PI, speed within the limit. */
+		v_ref = clamp(pos_gain(m) * (m->sp_pos_rad - m->pos_rad), -m->sp_max_speed_rad_s,
+			      m->sp_max_speed_rad_s);
+		iq = speed_loop(m, v_ref, m->tf_current_a, dt);
+		break;
+	case RMD_SIM_POS_ABS:
+	case RMD_SIM_HOLD:
+		if (m->ctrl == RMD_SIM_HOLD)
+			plan_step(m, m->hold_pos_rad, rad(p->fw_max_speed_dps), dt);
+		else
+			plan_step(m, m->sp_pos_rad, m->sp_max_speed_rad_s, dt);
+		v_ref = m->traj_vel_rad_s + pos_gain(m) * (m->traj_pos_rad - m->pos_rad);
+		iq = speed_loop(m, v_ref,
+				p->inertia_kgm2 * m->traj_acc_rad_s2 / p->kt_nm_a + m->tf_current_a,
+				dt);
+		break;
+	case RMD_SIM_MIT:
+		/* V3 §5.1: IqRef = [kp (p_des - p) + kd (v_des - v) + t_ff] / KT. */
+		iq = (m->mit.kp * (m->mit.p_des_rad - angle_rad(m)) +
+		      m->mit.kd * (m->mit.v_des_rad_s - m->vel_rad_s) + m->mit.t_ff_nm) /
+		     p->kt_nm_a;
+		break;
+	case RMD_SIM_OFF:
+		break;
+	}
+	iq_window(m, &lo, &hi);
+	return isnan(iq) ? 0.0 : clamp(iq, lo, hi);
+}
+
+/* -------------------------------------------------------------------------- */
+/* Model: mechanics and heat                                                  */
+
+/*
+ * One semi-implicit Euler step at the output shaft:
+ * J dv/dt = kt iq - load - viscous v - coulomb sign(v).  At rest, a drive
+ * within the Coulomb friction leaves the shaft at rest (no chatter), and a
+ * step in which friction alone would reverse the speed ends at rest.
+ */
+static void mechanics(struct rmd_sim_motor *m, double dt)
+{
+	const struct rmd_sim_motor_params *p = &m->p;
+	double drive = p->kt_nm_a * m->iq_a - p->load_nm, v0 = m->vel_rad_s, a, v1;
+
+	if (held(m)) {
+		m->vel_rad_s = 0.0;
+		return;
+	}
+	if (v0 == 0.0) {
+		if (fabs(drive) <= p->coulomb_nm)
+			return;
+		a = (drive - copysign(p->coulomb_nm, drive)) / p->inertia_kgm2;
+	} else {
+		a = (drive - p->viscous_nm_s_rad * v0 - copysign(p->coulomb_nm, v0)) /
+		    p->inertia_kgm2;
+	}
+	v1 = v0 + a * dt;
+	if (v0 != 0.0 && (v1 > 0.0) != (v0 > 0.0) && fabs(drive) <= p->coulomb_nm)
+		v1 = 0.0;
+	if (!isfinite(v1))
+		v1 = 0.0;
+	m->vel_rad_s = v1;
+	m->pos_rad += v1 * dt;
+}
+
+/* dT/dt = (P_cu - (T - T_amb) / R_th) / C_th, C_th = tau / R_th; P_cu = 1.5 R iq^2. */
+static void thermal(struct rmd_sim_motor *m, double dt)
+{
+	const struct rmd_sim_motor_params *p = &m->p;
+	double pcu = 1.5 * p->phase_resistance_ohm * m->iq_a * m->iq_a;
+	double c = p->thermal_tau_s / p->thermal_resistance_c_w;
+
+	m->temp_c += dt * (pcu - (m->temp_c - p->ambient_c) / p->thermal_resistance_c_w) / c;
+}
+
+/*
+ * V3 §2.30: no frame for longer than the 0xB3 time cuts the output and
+ * locks the brake; DESIGN.md: 0xF1 frames from then on, each second.
+ */
+static void check_comm(struct rmd_sim_motor *m)
+{
+	if (!m->comm_armed || m->comm_lost || !m->ram.comm_timeout_ms || m->p.proto == RMD_PROTO_V2)
+		return;
+	if (m->t_ns - m->last_rx_ns <= (int64_t)m->ram.comm_timeout_ms * 1000000)
+		return;
+	off_state(m);
+	m->brake_locked = true;
+	m->comm_lost = true;
+	m->echo_next = true;
+	m->next_f1_ns = m->t_ns;
+}
+
+static void step_once(struct rmd_sim_motor *m)
+{
+	m->t_ns += RMD_SIM_STEP_NS;
+	check_comm(m);
+	m->iq_a = control(m, STEP_S);
+	mechanics(m, STEP_S);
+	thermal(m, STEP_S);
+	detect_faults(m, STEP_S);
+}
+
+/*
+ * Steps that change nothing but the temperature, from now on: the shaft at
+ * rest and staying so, no current, no fault that time could clear, and
+ * not past the comm-loss deadline.  0 when the motor is not that idle.
+ */
+static int64_t idle_steps(const struct rmd_sim_motor *m, int64_t n)
+{
+	const struct rmd_sim_motor_params *p = &m->p;
+	uint16_t steady = RMD_SIM_ERR_LOW_VOLTAGE | RMD_SIM_ERR_OVER_VOLTAGE;
+
+	if (m->vel_rad_s != 0.0 || m->iq_a != 0.0 || m->stall_s != 0.0)
+		return 0;
+	if (m->ctrl != RMD_SIM_OFF && !m->errors && !held(m))
+		return 0;
+	if (!held(m) && fabs(p->load_nm) > p->coulomb_nm)
+		return 0;
+	if (m->errors_live & (uint16_t)~steady)
+		return 0;
+	if (m->temp_c > p->over_temp_c || p->ambient_c > p->over_temp_c)
+		return 0;
+	if (m->comm_armed && !m->comm_lost && m->ram.comm_timeout_ms &&
+	    m->p.proto != RMD_PROTO_V2) {
+		int64_t deadline = m->last_rx_ns + (int64_t)m->ram.comm_timeout_ms * 1000000;
+		int64_t k = (deadline - m->t_ns) / RMD_SIM_STEP_NS;
+
+		if (k < n)
+			n = k;
+	}
+	return n;
+}
+
+void rmd_sim_motor_step(struct rmd_sim_motor *m, int64_t now_ns)
+{
+	while (now_ns - m->t_ns >= RMD_SIM_STEP_NS) {
+		int64_t n = idle_steps(m, (now_ns - m->t_ns) / RMD_SIM_STEP_NS);
+
+		if (n > 1) {
+			const struct rmd_sim_motor_params *p = &m->p;
+
+			m->t_ns += n * RMD_SIM_STEP_NS;
+			m->temp_c =
+				p->ambient_c + (m->temp_c - p->ambient_c) *
+						       exp(-(double)n * STEP_S / p->thermal_tau_s);
+			control(m, 0.0);
+			detect_faults(m, 0.0);
+			continue;
+		}
+		step_once(m);
+	}
+}
+
+/* -------------------------------------------------------------------------- */
+/* Lifecycle                                                                  */
+
+static void rom_defaults(struct rmd_sim_motor *m)
+{
+	struct rmd_sim_settings *r = &m->rom;
+
+	memset(r, 0, sizeof(*r));
+	r->can_id = m->p.id;
+	for (unsigned i = 0; i < RMD_SIM_NPID; i++)
+		r->pid[i] = m->p.proto == RMD_PROTO_V2 ? V2_PID_DEFAULT : v3_pid_default[i];
+	for (unsigned i = 0; i < 4; i++)
+		r->accel_dps2[i] = ACCEL_DEFAULT_DPS2;
+	r->baud_code = 1; /* V3 §2.31.1: 1 is CAN 1 Mbit/s */
+	/* V3 §3.1: off, so 0x280 reaches the motor out of the box. */
+	r->can_filter = false;
+	r->multiturn_save = false;
+}
+
+/*
+ * Start the firmware: power-on or 0x76.  RAM settings come from ROM, the
+ * multi-turn count is lost (DESIGN.md) unless 0x20 index 4 saved it and
+ * index 1 did not ask to clear it (V3 §2.33.4), the brake is locked
+ * (V3 §2.27.1: the brake state without power) and the shaft is at rest.
+ */
+static void boot(struct rmd_sim_motor *m, int64_t now_ns)
+{
+	m->ram = m->rom;
+	m->error_reports = false;
+	if (!m->rom.multiturn_save || m->clear_multiturn) {
+		double off = offset_rad(m);
+		double a = m->pos_rad - off;
+
+		a -= 2.0 * M_PI * floor((a + M_PI) / (2.0 * M_PI));
+		m->pos_rad = off + a;
+	}
+	m->clear_multiturn = false;
+	m->vel_rad_s = 0.0;
+	off_state(m);
+	m->brake_locked = true;
+	m->errors_latched = 0;
+	m->comm_armed = false;
+	m->comm_lost = false;
+	m->echo_next = false;
+	m->next_f1_ns = 0;
+	m->next_9a_ns = 0;
+	m->boot_ns = now_ns;
+	detect_faults(m, 0.0);
+}
+
+void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_params *p,
+			int64_t now_ns)
+{
+	memset(m, 0, sizeof(*m));
+	m->p = *p;
+	sanitize(&m->p);
+	rom_defaults(m);
+	m->pos_rad = 0.0;
+	m->temp_c = m->p.ambient_c;
+	m->t_ns = now_ns;
+	m->present = true;
+	rmd_sim_motor_seed(m, m->p.seed);
+	boot(m, now_ns);
+}
+
+void rmd_sim_motor_power_cycle(struct rmd_sim_motor *m, int64_t now_ns)
+{
+	rmd_sim_motor_step(m, now_ns);
+	boot(m, now_ns > m->t_ns ? now_ns : m->t_ns);
+}
+
+void rmd_sim_motor_set_error(struct rmd_sim_motor *m, uint16_t bits)
+{
+	m->errors_injected = bits;
+	update_errors(m);
+}
+
+/* -------------------------------------------------------------------------- */
+/* Reply building                                                             */
+
+/* Raw value range of a field, as integers. */
+static void field_range(const struct rmd_field_spec *fs, int64_t *lo, int64_t *hi)
+{
+	unsigned bits = 8u * fs->size;
+
+	if (bits > 63)
+		bits = 63;
+	if (fs->is_signed) {
+		*lo = -(INT64_C(1) << (bits - 1));
+		*hi = (INT64_C(1) << (bits - 1)) - 1;
+	} else {
+		*lo = 0;
+		*hi = (bits == 63) ? INT64_MAX : (INT64_C(1) << bits) - 1;
+	}
+}
+
+/* Reply field `fld` of `spec` (if its layout has it) = raw, saturated to the field. */
+static void put_int(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_field fld,
+		    int64_t raw)
+{
+	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REPLY, fld);
+	int64_t lo, hi;
+
+	if (!fs)
+		return;
+	field_range(fs, &lo, &hi);
+	rmd_msg_set(msg, fld, raw < lo ? lo : raw > hi ? hi : raw);
+}
+
+/*
+ * Reply field `fld` = `native` in the field's unit (the key's unit: A, dps,
+ * deg, V, ...), divided by the row's LSB, rounded and saturated: e.g. the
+ * int16 angle of V3 §2.13.3 stops at +-32767 deg.
+ */
+static void put(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_field fld,
+		double native)
+{
+	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REPLY, fld);
+	double raw;
+	int64_t lo, hi;
+
+	if (!fs)
+		return;
+	raw = fs->scale > 0.0 ? native / fs->scale : native;
+	field_range(fs, &lo, &hi);
+	if (isnan(raw))
+		raw = 0.0;
+	if (raw <= (double)lo)
+		rmd_msg_set(msg, fld, lo);
+	else if (raw >= (double)hi)
+		rmd_msg_set(msg, fld, hi);
+	else
+		put_int(msg, spec, fld, (int64_t)llround(raw));
+}
+
+/* Request field `fld` in its native unit, or `def` when the row lacks it. */
+static double get(const struct rmd_cmd_spec *spec, const struct rmd_msg *msg, enum rmd_field fld,
+		  double def)
+{
+	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, fld);
+
+	if (!fs || !rmd_msg_has(msg, fld))
+		return def;
+	return (double)msg->v[fld] * (fs->scale > 0.0 ? fs->scale : 1.0);
+}
+
+/* "The reply is the same as the request": the request's bytes on the reply id. */
+static int echo(const struct rmd_frame *f, uint32_t reply_id, struct rmd_frame *out, int max)
+{
+	if (max < 1 || !out)
+		return 0;
+	*out = *f;
+	out->can_id = reply_id;
+	return 1;
+}
+
+static int emit(const struct rmd_sim_motor *m, enum rmd_proto proto, const struct rmd_msg *msg,
+		struct rmd_frame *out, int max)
+{
+	struct rmd_frame fr;
+
+	if (max < 1 || !out)
+		return 0;
+	if (rmd_encode(proto, RMD_DIR_REPLY, m->ram.can_id, msg, &fr) < 0)
+		return 0;
+	*out = fr;
+	return 1;
+}
+
+/* A reply message for command `cmd`, its row in *spec (NULL: no such row). */
+static void msg_for(enum rmd_proto proto, uint8_t cmd, struct rmd_msg *msg,
+		    const struct rmd_cmd_spec **spec)
+{
+	memset(msg, 0, sizeof(*msg));
+	msg->cmd = cmd;
+	*spec = rmd_cmd_find(proto, cmd);
+}
+
+/* [0, 360) */
+static double wrap360(double d)
+{
+	d = fmod(d, 360.0);
+	return d < 0.0 ? d + 360.0 : d;
+}
+
+/* Motor-side single-turn encoder, V2 §3.26 / §3.32: 0..2^bits-1 (16 bits at most). */
+static uint32_t encoder_single_raw(const struct rmd_sim_motor *m)
+{
+	unsigned bits = m->p.encoder_bits;
+	uint64_t c = (uint64_t)raw_counts(m) & ((UINT64_C(1) << bits) - 1);
+
+	return (uint32_t)(bits > 16 ? c >> (bits - 16) : c);
+}
+
+static uint32_t encoder_single_mask(const struct rmd_sim_motor *m)
+{
+	unsigned bits = m->p.encoder_bits > 16 ? 16 : m->p.encoder_bits;
+
+	return (1u << bits) - 1;
+}
+
+static uint32_t encoder_single(const struct rmd_sim_motor *m)
+{
+	return (encoder_single_raw(m) - m->ram.encoder_offset_single) & encoder_single_mask(m);
+}
+
+/*
+ * Status 2, the reply of 0x9C and of every motion command: V3 §2.13.3
+ * (temperature, iq, speed, output angle in deg), V2 §3.32 (iq in 33/2048 A,
+ * single-turn encoder instead of the angle).
+ */
+static void fill_status2(const struct rmd_sim_motor *m, struct rmd_msg *msg,
+			 const struct rmd_cmd_spec *spec)
+{
+	put(msg, spec, RMD_FLD_TEMP, m->temp_c);
+	put(msg, spec, RMD_FLD_CURRENT, m->iq_a);
+	put(msg, spec, RMD_FLD_SPEED, deg(m->vel_rad_s));
+	put(msg, spec, RMD_FLD_ANGLE, deg(angle_rad(m)));
+	put_int(msg, spec, RMD_FLD_ENCODER, encoder_single(m));
+}
+
+/* Status 1, V3 §2.12.3 / V2 §3.31: temperature, brake, voltage, error flags. */
+static void fill_status1(const struct rmd_sim_motor *m, struct rmd_msg *msg,
+			 const struct rmd_cmd_spec *spec)
+{
+	put(msg, spec, RMD_FLD_TEMP, m->temp_c);
+	/* V3 §2.12.3: data[3] is the brake command state, 1 released. */
+	put_int(msg, spec, RMD_FLD_BRAKE, m->brake_locked ? 0 : 1);
+	put(msg, spec, RMD_FLD_VOLTAGE, m->p.supply_v);
+	put_int(msg, spec, RMD_FLD_ERROR, m->errors);
+}
+
+/* Status 3, V3 §2.14.3 / V2 §3.33: phase currents from iq (id = 0). */
+static void fill_status3(const struct rmd_sim_motor *m, struct rmd_msg *msg,
+			 const struct rmd_cmd_spec *spec)
+{
+	double th = m->pos_rad * m->p.gear_ratio * (double)m->p.pole_pairs;
+
+	put(msg, spec, RMD_FLD_TEMP, m->temp_c);
+	put(msg, spec, RMD_FLD_PHASE_A, -m->iq_a * sin(th));
+	put(msg, spec, RMD_FLD_PHASE_B, -m->iq_a * sin(th - 2.0 * M_PI / 3.0));
+	put(msg, spec, RMD_FLD_PHASE_C, -m->iq_a * sin(th + 2.0 * M_PI / 3.0));
+}
+
+/* Run mode, V3 §2.23.3 (1 current, 2 speed, 3 position) / V2 §3.45 (0, 1, 2, 0xFF). */
+static uint8_t run_mode(const struct rmd_sim_motor *m, enum rmd_proto proto)
+{
+	uint8_t base = proto == RMD_PROTO_V2 ? 0 : 1;
+
+	switch (m->ctrl) {
+	case RMD_SIM_TORQUE:
+	case RMD_SIM_MIT:
+		return base;
+	case RMD_SIM_SPEED:
+		return base + 1;
+	case RMD_SIM_POS_TRACK:
+	case RMD_SIM_POS_ABS:
+	case RMD_SIM_HOLD:
+		return base + 2;
+	case RMD_SIM_OFF:
+		break;
+	}
+	/* V2: "not in three-ring mode" 0xFF; V3 lists no value: 0. */
+	return proto == RMD_PROTO_V2 ? 0xFF : 0x00;
+}
+
+/* -------------------------------------------------------------------------- */
+/* Motion commands                                                            */
+
+static bool speed_loop_mode(enum rmd_sim_ctrl c)
+{
+	switch (c) {
+	case RMD_SIM_SPEED:
+	case RMD_SIM_POS_TRACK:
+	case RMD_SIM_POS_ABS:
+	case RMD_SIM_HOLD:
+		return true;
+	case RMD_SIM_OFF:
+	case RMD_SIM_TORQUE:
+	case RMD_SIM_MIT:
+		break;
+	}
+	return false;
+}
+
+/* Switch mode; the speed loop takes over the present current without a bump. */
+static void enter(struct rmd_sim_motor *m, enum rmd_sim_ctrl c)
+{
+	if (speed_loop_mode(c) && !speed_loop_mode(m->ctrl))
+		m->speed_int_a = m->iq_a;
+	if (c == RMD_SIM_SPEED && m->ctrl != RMD_SIM_SPEED)
+		m->ramp_speed_rad_s = m->vel_rad_s;
+	if ((c == RMD_SIM_POS_ABS || c == RMD_SIM_HOLD) && m->ctrl != RMD_SIM_POS_ABS &&
+	    m->ctrl != RMD_SIM_HOLD) {
+		m->traj_pos_rad = m->pos_rad;
+		m->traj_vel_rad_s = m->vel_rad_s;
+		m->traj_acc_rad_s2 = 0.0;
+	}
+	m->ctrl = c;
+}
+
+/* Max speed of a move: the command's, or the firmware's when it gives 0 or none. */
+static double move_speed(const struct rmd_sim_motor *m, double dps)
+{
+	if (!(dps > 0.0))
+		dps = m->p.fw_max_speed_dps;
+	return rad(dps);
+}
+
+/* Planned move to `target` (pos_rad frame) at up to `vmax`: 0xA4 and kin. */
+static void move_to(struct rmd_sim_motor *m, double target, double vmax)
+{
+	enter(m, RMD_SIM_POS_ABS);
+	m->sp_pos_rad = target;
+	m->sp_max_speed_rad_s = vmax;
+}
+
+/*
+ * Stop (V3 §2.16.1: brake the speed to zero and hold, not moved by outside
+ * forces; V2 §3.35: keep the mode for 0x88).  The stop decelerates at the
+ * position-planning deceleration (0x43 index 1), then holds there.
+ */
+static void stop_hold(struct rmd_sim_motor *m)
+{
+	double dec = accel_rad(m, 1), v = m->vel_rad_s;
+
+	if (m->ctrl != RMD_SIM_HOLD && m->ctrl != RMD_SIM_OFF)
+		m->ctrl_stopped = m->ctrl;
+	enter(m, RMD_SIM_HOLD);
+	m->traj_pos_rad = m->pos_rad;
+	m->traj_vel_rad_s = v;
+	m->hold_pos_rad = m->pos_rad + (isinf(dec) ? 0.0 : v * fabs(v) / (2.0 * dec));
+}
+
+/*
+ * V2 §3.41, §3.42: single-turn target 0..359.99 deg, turning clockwise
+ * (0, the direction in which the §3.30 angle grows) or counter-clockwise (1).
+ */
+static double single_turn_target(const struct rmd_sim_motor *m, double target_deg, int64_t dir)
+{
+	double delta = wrap360(wrap360(target_deg) - wrap360(deg(angle_rad(m))));
+
+	if (dir != 0 && delta > 0.0)
+		delta -= 360.0;
+	return m->pos_rad + rad(delta);
+}
+
+/*
+ * 0xA1..0xA8 (V3 §2.17..§2.22, V2 §3.37..§3.44).  V3 §2.17.1: a control
+ * command runs only when the motor has no fault; it is answered anyway.
+ */
+static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct rmd_cmd_spec *spec,
+		   const struct rmd_msg *msg)
+{
+	double ang = rad(get(spec, msg, RMD_FLD_ANGLE, 0.0));
+	double vmax = move_speed(m, get(spec, msg, RMD_FLD_MAX_SPEED, 0.0));
+	double off = offset_rad(m);
+	bool v2 = proto == RMD_PROTO_V2;
+
+	if (m->errors)
+		return;
+	switch (msg->cmd) {
+	case 0xA1:
+		enter(m, RMD_SIM_TORQUE);
+		m->sp_current_a = get(spec, msg, RMD_FLD_CURRENT, 0.0);
+		break;
+	case 0xA2:
+		enter(m, RMD_SIM_SPEED);
+		m->sp_speed_rad_s = rad(get(spec, msg, RMD_FLD_SPEED, 0.0));
+		break;
+	case 0xA3:
+		/* V2 §3.39: absolute, with the firmware's speed and acceleration. */
+		if (v2) {
+			move_to(m, ang + off, vmax);
+			break;
+		}
+		/* V3 §2.19.1: direct tracking through the position PI. */
+		enter(m, RMD_SIM_POS_TRACK);
+		m->sp_pos_rad = ang + off;
+		m->sp_max_speed_rad_s = vmax;
+		break;
+	case 0xA4:
+		/* V3 §2.20 / V2 §3.40: absolute, planned with 0x43 index 0/1. */
+		move_to(m, ang + off, vmax);
+		break;
+	case 0xA5:
+		if (v2) {
+			move_to(m, single_turn_target(m, deg(ang), msg->v[RMD_FLD_SPIN_DIR]), vmax);
+			break;
+		}
+		/* V3 §2.21: tracking with a speed limit (0.01 dps, row-scaled). */
+		enter(m, RMD_SIM_POS_TRACK);
+		m->sp_pos_rad = ang + off;
+		m->sp_max_speed_rad_s = vmax;
+		break;
+	case 0xA6:
+		move_to(m, single_turn_target(m, deg(ang), msg->v[RMD_FLD_SPIN_DIR]), vmax);
+		break;
+	case 0xA7:
+	case 0xA8:
+		/* V3 §2.22.1 / V2 §3.43: the increment starts at the current position. */
+		move_to(m, m->pos_rad + ang, vmax);
+		break;
+	default:
+		break;
+	}
+}
+
+/* After a command changed the control state: the current it asks for now. */
+static void settle(struct rmd_sim_motor *m)
+{
+	m->iq_a = control(m, 0.0);
+}
+
+/* -------------------------------------------------------------------------- */
+/* Commands                                                                   */
+
+static void put_pid(const struct rmd_sim_motor *m, struct rmd_msg *msg,
+		    const struct rmd_cmd_spec *spec)
+{
+	for (unsigned i = 0; i < RMD_SIM_NPID; i++)
+		put_int(msg, spec, (enum rmd_field)(RMD_FLD_CURR_KP + i), m->ram.pid[i]);
+}
+
+/* V3 §2.2/§2.3, V2 §3.7..§3.18: the gains the request carries, to RAM (and ROM). */
+static void store_pid(struct rmd_sim_motor *m, const struct rmd_msg *msg, bool rom)
+{
+	for (unsigned i = 0; i < RMD_SIM_NPID; i++) {
+		enum rmd_field fld = (enum rmd_field)(RMD_FLD_CURR_KP + i);
+
+		if (!rmd_msg_has(msg, fld))
+			continue;
+		m->ram.pid[i] = msg->v[fld];
+		if (rom)
+			m->rom.pid[i] = msg->v[fld];
+	}
+}
+
+/* V3 §2.33: function control. */
+static void function_control(struct rmd_sim_motor *m, const struct rmd_msg *msg, int64_t now_ns)
+{
+	bool on = msg->v[RMD_FLD_VALUE] != 0;
+
+	switch (msg->v[RMD_FLD_INDEX]) {
+	case 1: /* clear the multi-turn value, saved, effective after restart */
+		m->clear_multiturn = true;
+		break;
+	case 2: /* CAN ID filter, saved in flash */
+		m->ram.can_filter = m->rom.can_filter = on;
+		break;
+	case 3: /* 0x9A every 100 ms while an error lasts (RAM: not said saved) */
+		if (on && !m->error_reports)
+			m->next_9a_ns = now_ns;
+		m->error_reports = on;
+		break;
+	case 4: /* save the multi-turn value at power-off (kept: it must outlive it) */
+		m->ram.multiturn_save = m->rom.multiturn_save = on;
+		break;
+	default:
+		break;
+	}
+}
+
+/*
+ * One command of the V3 table (also on 0x280, and the V3 side of MIT
+ * motors) or of the V2 table.  Returns the number of replies in out[].
+ */
+static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
+		   const struct rmd_frame *f, uint32_t reply_id, struct rmd_frame *out, int max)
+{
+	const struct rmd_cmd_spec *spec, *rspec;
+	struct rmd_msg req, rep;
+	bool v2 = proto == RMD_PROTO_V2;
+	uint8_t cmd;
+
+	if (rmd_decode(proto, RMD_DIR_REQUEST, f, &req, NULL) < 0)
+		return 0;
+	cmd = req.cmd;
+	spec = rmd_cmd_find(proto, cmd);
+	if (!spec)
+		return 0;
+	msg_for(proto, cmd, &rep, &rspec);
+
+	/* V2 §3.1 .. §3.18: one Q24 gain per command. */
+	if (v2 && cmd >= 0x30 && cmd <= 0x41) {
+		if (cmd <= 0x35) {
+			put_pid(m, &rep, rspec);
+			return emit(m, proto, &rep, out, max);
+		}
+		store_pid(m, &req, cmd >= 0x3C);
+		return echo(f, reply_id, out, max);
+	}
+
+	switch (cmd) {
+	case 0x30: /* V3 §2.1 */
+		put_pid(m, &rep, rspec);
+		return emit(m, proto, &rep, out, max);
+	case 0x31: /* V3 §2.2: RAM */
+	case 0x32: /* V3 §2.3: RAM and ROM */
+		store_pid(m, &req, cmd == 0x32);
+		return echo(f, reply_id, out, max);
+	case 0x42: /* V3 §2.4 / V2 §3.19: no index in the request; index 0 */
+		put_int(&rep, rspec, RMD_FLD_ACCEL, m->ram.accel_dps2[0]);
+		return emit(m, proto, &rep, out, max);
+	case 0x43:
+		if (v2) {
+			/* V2 §3.20: one acceleration, RAM only. */
+			int64_t a = req.v[RMD_FLD_ACCEL];
+			uint32_t u = a < 0 ? 0 : a > UINT32_MAX ? UINT32_MAX : (uint32_t)a;
+
+			for (unsigned i = 0; i < 4; i++)
+				m->ram.accel_dps2[i] = u;
+		} else if (req.v[RMD_FLD_INDEX] >= 0 && req.v[RMD_FLD_INDEX] < 4) {
+			/* V3 §2.5: RAM and ROM, by index (§2.5.4). */
+			unsigned i = (unsigned)req.v[RMD_FLD_INDEX];
+
+			m->ram.accel_dps2[i] = m->rom.accel_dps2[i] =
+				(uint32_t)req.v[RMD_FLD_ACCEL];
+		}
+		return echo(f, reply_id, out, max);
+	case 0x60: /* V3 §2.6 / V2 §3.21: raw minus offset */
+		put_int(&rep, rspec, RMD_FLD_ENCODER, raw_counts(m) - m->ram.encoder_offset);
+		return emit(m, proto, &rep, out, max);
+	case 0x61: /* V3 §2.7 / V2 §3.22 */
+		put_int(&rep, rspec, RMD_FLD_ENCODER_RAW, raw_counts(m));
+		return emit(m, proto, &rep, out, max);
+	case 0x62: /* V3 §2.8 / V2 §3.23: the offset in use */
+		put_int(&rep, rspec, RMD_FLD_ENCODER_OFF, m->ram.encoder_offset);
+		return emit(m, proto, &rep, out, max);
+	case 0x63: /* V3 §2.9 / V2 §3.24: ROM, effective after a restart */
+		m->rom.encoder_offset = req.v[RMD_FLD_ENCODER_OFF];
+		return echo(f, reply_id, out, max);
+	case 0x64: /* V3 §2.10 / V2 §3.25: here becomes zero, in ROM, after a restart */
+		m->rom.encoder_offset = raw_counts(m);
+		put_int(&rep, rspec, RMD_FLD_ENCODER_OFF, m->rom.encoder_offset);
+		return emit(m, proto, &rep, out, max);
+	case 0x70: /* V3 §2.23 / V2 §3.45 */
+		put_int(&rep, rspec, RMD_FLD_MODE, run_mode(m, proto));
+		return emit(m, proto, &rep, out, max);
+	case 0x71: /* V3 §2.24 / V2 §3.46: 0.1 W */
+		put(&rep, rspec, RMD_FLD_POWER, power_w(m));
+		return emit(m, proto, &rep, out, max);
+	case 0x72: /* V2 §3.47 */
+		put(&rep, rspec, RMD_FLD_BATTERY, BATTERY_V);
+		return emit(m, proto, &rep, out, max);
+	case 0x73: { /* V2 §3.48: feed-forward current; the reply has no command byte */
+		int n;
+
+		m->tf_current_a = get(spec, &req, RMD_FLD_CURRENT, 0.0);
+		settle(m);
+		put(&rep, rspec, RMD_FLD_CURRENT, m->iq_a);
+		put(&rep, rspec, RMD_FLD_SPEED, deg(m->vel_rad_s));
+		put_int(&rep, rspec, RMD_FLD_ENCODER, raw_counts(m) - m->ram.encoder_offset);
+		n = emit(m, proto, &rep, out, max);
+		return n;
+	}
+	case 0x76: {
+		/* V3 §2.25: resets and does not answer; V2 §3.49: echoes first. */
+		int n = v2 ? echo(f, reply_id, out, max) : 0;
+
+		boot(m, now_ns);
+		return n;
+	}
+	case 0x77: /* V3 §2.26 / V2 §3.50 */
+	case 0x78: /* V3 §2.27 / V2 §3.51 */
+		m->brake_locked = cmd == 0x78;
+		settle(m);
+		return echo(f, reply_id, out, max);
+	case 0x79: {
+		/* V3 §4 (on 0x300, routed by the caller) / V2 §3.52: 1 read, 0 write. */
+		int64_t id = req.v[RMD_FLD_CAN_ID];
+
+		if (req.v[RMD_FLD_READ_FLAG] == 1) {
+			put_int(&rep, rspec, RMD_FLD_READ_FLAG, 1);
+			/* V3 §4.4 example 2: the reply identifier 0x240 + ID; V2: the ID. */
+			put_int(&rep, rspec, RMD_FLD_CAN_ID,
+				v2 ? m->ram.can_id : RMD_CAN_V3_REPLY_BASE + m->ram.can_id);
+			return emit(m, proto, &rep, out, max);
+		}
+		if (req.v[RMD_FLD_READ_FLAG] != 0 || id < 1 || id > RMD_MAX_MOTORS)
+			return 0;
+		/* §4.3 / §3.52: a write returns the request, then the new ID holds. */
+		{
+			int n = echo(f, reply_id, out, max);
+
+			m->ram.can_id = m->rom.can_id = (uint8_t)id;
+			return n;
+		}
+	}
+	case 0x80: /* V3 §2.15 / V2 §3.34: output off, state cleared */
+		off_state(m);
+		return echo(f, reply_id, out, max);
+	case 0x81: /* V3 §2.16 / V2 §3.35 */
+		if (!m->errors)
+			stop_hold(m);
+		settle(m);
+		return echo(f, reply_id, out, max);
+	case 0x88: /* V2 §3.36: resume the mode held before 0x81 */
+		if (!m->errors && m->ctrl == RMD_SIM_HOLD && m->ctrl_stopped != RMD_SIM_OFF)
+			enter(m, m->ctrl_stopped);
+		settle(m);
+		return echo(f, reply_id, out, max);
+	case 0x90: /* V2 §3.26: single-turn encoder, raw, offset */
+		put_int(&rep, rspec, RMD_FLD_ENCODER, encoder_single(m));
+		put_int(&rep, rspec, RMD_FLD_ENCODER_RAW, encoder_single_raw(m));
+		put_int(&rep, rspec, RMD_FLD_ENCODER_OFF, m->ram.encoder_offset_single);
+		return emit(m, proto, &rep, out, max);
+	case 0x91: /* V2 §3.27: ROM */
+		m->rom.encoder_offset_single =
+			(uint16_t)(req.v[RMD_FLD_ENCODER_OFF] & encoder_single_mask(m));
+		return echo(f, reply_id, out, max);
+	case 0x19: /* V2 §3.28: here becomes the single-turn zero, after re-power */
+		m->rom.encoder_offset_single = (uint16_t)encoder_single_raw(m);
+		put_int(&rep, rspec, RMD_FLD_ENCODER_OFF, m->rom.encoder_offset_single);
+		return emit(m, proto, &rep, out, max);
+	case 0x92: /* V3 §2.11 / V2 §3.29: output shaft multi-turn angle */
+		put(&rep, rspec, RMD_FLD_ANGLE, deg(angle_rad(m)));
+		return emit(m, proto, &rep, out, max);
+	case 0x94: { /* V2 §3.30: 0..35999, 0.01 deg, growing clockwise */
+		const struct rmd_field_spec *fs =
+			rmd_layout_field(rspec, RMD_DIR_REPLY, RMD_FLD_ANGLE);
+		double lsb = fs && fs->scale > 0.0 ? fs->scale : 0.01;
+		int64_t turn = llround(360.0 / lsb);
+		int64_t a = llround(wrap360(deg(angle_rad(m))) / lsb);
+
+		put_int(&rep, rspec, RMD_FLD_ANGLE, a >= turn ? a - turn : a);
+		return emit(m, proto, &rep, out, max);
+	}
+	case 0x9A: /* V3 §2.12 / V2 §3.31 */
+		fill_status1(m, &rep, rspec);
+		return emit(m, proto, &rep, out, max);
+	case 0x9C: /* V3 §2.13 / V2 §3.32 */
+		fill_status2(m, &rep, rspec);
+		return emit(m, proto, &rep, out, max);
+	case 0x9D: /* V3 §2.14 / V2 §3.33 */
+		fill_status3(m, &rep, rspec);
+		return emit(m, proto, &rep, out, max);
+	case 0xA1:
+	case 0xA2:
+	case 0xA3:
+	case 0xA4:
+	case 0xA5:
+	case 0xA6:
+	case 0xA7:
+	case 0xA8:
+		motion(m, proto, spec, &req);
+		settle(m);
+		fill_status2(m, &rep, rspec);
+		return emit(m, proto, &rep, out, max);
+	case 0xB1: /* V3 §2.28: ms since power-on or reset, uint32 */
+		put_int(&rep, rspec, RMD_FLD_RUNTIME,
+			(int64_t)(((uint64_t)(now_ns - m->boot_ns) / 1000000u) & UINT32_MAX));
+		return emit(m, proto, &rep, out, max);
+	case 0xB2: /* V3 §2.29 */
+		put_int(&rep, rspec, RMD_FLD_VERSION, m->p.version_date);
+		return emit(m, proto, &rep, out, max);
+	case 0xB3: /* V3 §2.30: ROM, echoed */
+		m->ram.comm_timeout_ms = m->rom.comm_timeout_ms = (uint32_t)req.v[RMD_FLD_TIMEOUT];
+		return echo(f, reply_id, out, max);
+	case 0xB4: { /* V3 §2.31: stored; "the reply is random content" */
+		uint64_t r = rmd_sim_motor_rand(m);
+
+		m->ram.baud_code = m->rom.baud_code = (uint8_t)req.v[RMD_FLD_BAUD];
+		if ((r & 1) || max < 1 || !out)
+			return 0;
+		memset(out, 0, sizeof(*out));
+		out->can_id = reply_id;
+		out->len = RMD_FRAME_LEN;
+		r = rmd_sim_motor_rand(m);
+		memcpy(out->data, &r, RMD_FRAME_LEN);
+		return 1;
+	}
+	case 0xB5: /* V3 §2.32: seven ASCII bytes */
+		put_int(&rep, rspec, RMD_FLD_MODEL, rmd_model_raw(m->p.model));
+		return emit(m, proto, &rep, out, max);
+	case 0x20: /* V3 §2.33.3: echoed */
+		function_control(m, &req, now_ns);
+		return echo(f, reply_id, out, max);
+	default:
+		return 0;
+	}
+}
+
+/* V2 §4.1: motor k (1..4) takes torque k and answers like 0xA1 (§4.2). */
+static int v2_multi_torque(struct rmd_sim_motor *m, const struct rmd_frame *f,
+			   struct rmd_frame *out, int max)
+{
+	const struct rmd_cmd_spec *spec, *a1;
+	struct rmd_msg req, rep;
+	enum rmd_field fld = (enum rmd_field)(RMD_FLD_CURRENT_1 + m->ram.can_id - 1);
+
+	if (rmd_decode(RMD_PROTO_V2, RMD_DIR_REQUEST, f, &req, NULL) < 0)
+		return 0;
+	spec = rmd_cmd_find(RMD_PROTO_V2, RMD_V2_CMD_MULTI_TORQUE);
+	if (!spec)
+		return 0;
+	if (!m->errors) {
+		enter(m, RMD_SIM_TORQUE);
+		m->sp_current_a = get(spec, &req, fld, 0.0);
+	}
+	settle(m);
+	msg_for(RMD_PROTO_V2, 0xA1, &rep, &a1);
+	if (!a1)
+		return 0;
+	fill_status2(m, &rep, a1);
+	return emit(m, RMD_PROTO_V2, &rep, out, max);
+}
+
+/* V3 §5: MIT motion mode; the reply on 0x500 + ID. */
+static int mit_command(struct rmd_sim_motor *m, const struct rmd_frame *f, struct rmd_frame *out,
+		       int max)
+{
+	struct rmd_mit_cmd cmd;
+	struct rmd_mit_reply rep;
+	uint8_t id;
+
+	if (rmd_mit_decode_cmd(&m->p.mit, f, &id, &cmd) < 0)
+		return 0;
+	if (!m->errors) {
+		enter(m, RMD_SIM_MIT);
+		m->mit = cmd;
+	}
+	settle(m);
+	if (max < 1 || !out)
+		return 0;
+	rep.motor_id = m->ram.can_id;
+	rep.pos_rad = angle_rad(m);
+	rep.vel_rad_s = m->vel_rad_s;
+	rep.torque_nm = m->p.kt_nm_a * m->iq_a;
+	return rmd_mit_encode_reply(&m->p.mit, &rep, out) < 0 ? 0 : 1;
+}
+
+/*
+ * A frame addressed to the motor arrived: comm-loss bookkeeping (V3 §2.30).
+ * True when this is the first frame after a trip, to be echoed only.
+ */
+static bool note_rx(struct rmd_sim_motor *m, int64_t now_ns)
+{
+	bool echo_only = m->echo_next;
+
+	m->comm_armed = true;
+	m->last_rx_ns = now_ns;
+	m->comm_lost = false;
+	m->echo_next = false;
+	return echo_only;
+}
+
+enum route { R_NONE, R_SINGLE, R_BROADCAST, R_SET_ID, R_V2_MULTI, R_MIT };
+
+/* Which of the motor's inputs a frame reaches, if any. */
+static enum route route_of(const struct rmd_sim_motor *m, uint32_t can_id)
+{
+	uint8_t id = m->ram.can_id;
+	bool v2 = m->p.proto == RMD_PROTO_V2;
+
+	if (can_id == RMD_CAN_REQ_BASE + id)
+		return R_SINGLE;
+	if (can_id == RMD_CAN_MULTI) {
+		/* V2 §4.1: motors 1..4 only.  V3 §3.1: only with the filter off. */
+		if (v2)
+			return id >= 1 && id <= 4 ? R_V2_MULTI : R_NONE;
+		return m->ram.can_filter ? R_NONE : R_BROADCAST;
+	}
+	/* V3 §4.1: every motor takes 0x300, unless its filter is on (§2.33.4). */
+	if (can_id == RMD_CAN_SET_ID && !v2)
+		return m->ram.can_filter ? R_NONE : R_SET_ID;
+	if (can_id == RMD_CAN_MIT_REQ_BASE + id && m->p.proto == RMD_PROTO_MIT)
+		return R_MIT;
+	return R_NONE;
+}
+
+int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct rmd_frame *f,
+			  struct rmd_frame *out, int max)
+{
+	enum rmd_proto proto;
+	enum route r;
+	uint32_t reply_id;
+
+	if (!m || !f)
+		return 0;
+	rmd_sim_motor_step(m, now_ns);
+	if (!m->present || f->len != RMD_FRAME_LEN)
+		return 0;
+	r = route_of(m, f->can_id);
+	if (r == R_NONE)
+		return 0;
+
+	proto = m->p.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
+	switch (r) {
+	case R_SET_ID:
+		reply_id = RMD_CAN_SET_ID;
+		break;
+	case R_MIT:
+		reply_id = RMD_CAN_MIT_REPLY_BASE + m->ram.can_id;
+		break;
+	case R_NONE:
+	case R_SINGLE:
+	case R_BROADCAST:
+	case R_V2_MULTI:
+	default:
+		reply_id = (proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) +
+			   m->ram.can_id;
+		break;
+	}
+
+	/* DESIGN.md: after a comm-loss trip the first command is only echoed. */
+	if (note_rx(m, now_ns))
+		return echo(f, reply_id, out, max);
+
+	switch (r) {
+	case R_MIT:
+		return mit_command(m, f, out, max);
+	case R_V2_MULTI:
+		return v2_multi_torque(m, f, out, max);
+	case R_SET_ID:
+	case R_SINGLE:
+	case R_BROADCAST:
+		return command(m, proto, now_ns, f, reply_id, out, max);
+	case R_NONE:
+		break;
+	}
+	return 0;
+}
+
+/* -------------------------------------------------------------------------- */
+/* Unsolicited frames                                                         */
+
+static bool reporting(const struct rmd_sim_motor *m)
+{
+	return m->p.proto != RMD_PROTO_V2 && m->error_reports && m->errors;
+}
+
+int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame *out, int max)
+{
+	int n = 0;
+
+	if (!m)
+		return 0;
+	rmd_sim_motor_step(m, now_ns);
+	if (!m->present || !out)
+		max = 0;
+	/* DESIGN.md: 0xF1 each second while the protection holds (V4 firmware). */
+	while (m->comm_lost && m->next_f1_ns <= now_ns) {
+		if (n >= max) {
+			if (m->present && out)
+				break;
+			m->next_f1_ns += COMM_LOST_PERIOD_NS; /* lost: nobody hears it */
+			continue;
+		}
+		memset(&out[n], 0, sizeof(out[n]));
+		out[n].can_id = RMD_CAN_V3_REPLY_BASE + m->ram.can_id;
+		out[n].len = RMD_FRAME_LEN;
+		out[n].data[0] = RMD_SIM_CMD_COMM_LOST;
+		n++;
+		m->next_f1_ns += COMM_LOST_PERIOD_NS;
+	}
+	/* V3 §2.33.4 index 3: the 0x9A reply every 100 ms while faulted. */
+	while (reporting(m) && m->next_9a_ns <= now_ns) {
+		const struct rmd_cmd_spec *spec;
+		struct rmd_msg rep;
+
+		if (n >= max) {
+			if (m->present && out)
+				break;
+			m->next_9a_ns += ERROR_REPORT_PERIOD_NS;
+			continue;
+		}
+		msg_for(RMD_PROTO_V3, 0x9A, &rep, &spec);
+		if (!spec)
+			break;
+		fill_status1(m, &rep, spec);
+		n += emit(m, RMD_PROTO_V3, &rep, &out[n], max - n);
+		m->next_9a_ns += ERROR_REPORT_PERIOD_NS;
+	}
+	return n;
+}
+
+int64_t rmd_sim_motor_next_event_ns(const struct rmd_sim_motor *m)
+{
+	int64_t t = INT64_MAX;
+
+	if (m->comm_lost) {
+		t = m->next_f1_ns;
+	} else if (m->comm_armed && m->ram.comm_timeout_ms && m->p.proto != RMD_PROTO_V2) {
+		/* The trip, and its first 0xF1, at the first step past the timeout. */
+		int64_t due = m->last_rx_ns + (int64_t)m->ram.comm_timeout_ms * 1000000 + 1;
+		int64_t k =
+			due > m->t_ns ? (due - m->t_ns + RMD_SIM_STEP_NS - 1) / RMD_SIM_STEP_NS : 1;
+
+		t = m->t_ns + k * RMD_SIM_STEP_NS;
+	}
+	if (reporting(m) && m->next_9a_ns < t)
+		t = m->next_9a_ns;
+	return t;
+}
