@@ -54,9 +54,12 @@ LIB_SRCS := $(wildcard src/*.c)
 LIB_OBJS := $(LIB_SRCS:%.c=$(BUILD)/%.o)
 LIB := $(BUILD)/librmd.a
 
+# Each program is src/tools/<name>.c plus its src/tools/<name>_*.c parts.
 RMDCTL_SRCS := $(wildcard src/tools/rmdctl*.c)
 RMDCTL := $(BUILD)/rmdctl
-PROGS := $(if $(RMDCTL_SRCS),$(RMDCTL))
+RMDSIM_SRCS := $(wildcard src/tools/rmd-sim*.c)
+RMDSIM := $(BUILD)/rmd-sim
+PROGS := $(if $(RMDCTL_SRCS),$(RMDCTL)) $(if $(RMDSIM_SRCS),$(RMDSIM))
 
 TEST_SRCS := $(wildcard tests/test_*.c)
 TESTS := $(TEST_SRCS:tests/%.c=$(BUILD)/tests/%)
@@ -89,6 +92,10 @@ $(RMDCTL): $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+$(RMDSIM): $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 $(BUILD)/tests/%: $(BUILD)/tests/%.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)
@@ -98,9 +105,10 @@ test: all
 
 install: all
 	install -D -m 0755 $(RMDCTL) $(DESTDIR)$(BINDIR)/rmdctl
+	$(if $(RMDSIM_SRCS),install -D -m 0755 $(RMDSIM) $(DESTDIR)$(BINDIR)/rmd-sim)
 
 uninstall:
-	rm -f $(DESTDIR)$(BINDIR)/rmdctl
+	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim
 
 FORMAT_SRCS = $(shell find src include tests bench examples -name '*.[ch]' 2>/dev/null)
 
