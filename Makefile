@@ -36,7 +36,7 @@ WARN += -Werror
 endif
 HARDEN := -D_FORTIFY_SOURCE=2 -fstack-protector-strong -fPIE
 
-PKGS := libmodbus
+PKGS := libmodbus libcyaml yaml-0.1
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 
@@ -59,7 +59,9 @@ RMDCTL_SRCS := $(wildcard src/tools/rmdctl*.c)
 RMDCTL := $(BUILD)/rmdctl
 RMDSIM_SRCS := $(wildcard src/tools/rmd-sim*.c)
 RMDSIM := $(BUILD)/rmd-sim
-PROGS := $(if $(RMDCTL_SRCS),$(RMDCTL)) $(if $(RMDSIM_SRCS),$(RMDSIM))
+RMDD_SRCS := $(wildcard src/tools/rmdd*.c)
+RMDD := $(BUILD)/rmdd
+PROGS := $(if $(RMDCTL_SRCS),$(RMDCTL)) $(if $(RMDSIM_SRCS),$(RMDSIM)) $(if $(RMDD_SRCS),$(RMDD))
 
 TEST_SRCS := $(wildcard tests/test_*.c)
 TESTS := $(TEST_SRCS:tests/%.c=$(BUILD)/tests/%)
@@ -71,8 +73,8 @@ LIBS := $(PKG_LIBS) -lm
 .SECONDARY:
 
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
-DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev can-utils \
-	python3
+DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
+	libcyaml-dev libyaml-dev can-utils python3
 
 deps:
 	apt-get update -qq
@@ -93,6 +95,10 @@ $(RMDCTL): $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
 $(RMDSIM): $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
+$(RMDD): $(RMDD_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
