@@ -1,0 +1,89 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The SocketCAN transport (DESIGN.md layer 2): one raw CAN socket per
+ * interface behind struct rmd_bus_ops.
+ *
+ * The socket is non-blocking and admits, through a kernel filter, only the
+ * reply identifiers of the configured motors and the error frames that
+ * describe the controller's state; every other frame on the bus is dropped
+ * in the kernel, before it costs the rt loop anything.  Frames we send are
+ * not looped back to us (CAN_RAW_RECV_OWN_MSGS off), but other programs on
+ * the machine (candump) still see them (CAN_RAW_LOOPBACK on).
+ *
+ * send() writes a batch with one sendmmsg(2); what the queue refuses
+ * (ENOBUFS: txqueuelen full; EAGAIN: socket send buffer full) is counted in
+ * stats.tx_busy and left to the caller for the next cycle.  recv() drains
+ * the socket with recvmmsg(2) and stamps each frame with the kernel's
+ * receive time, converted to CLOCK_MONOTONIC.  Error frames are never
+ * returned: they move bus->state and count in stats.
+ */
+#ifndef RMD_BUS_SOCKETCAN_H
+#define RMD_BUS_SOCKETCAN_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include "rmd/bus.h"
+#include "rmd/codec.h"
+
+/* Most frames one send() or one recvmmsg(2) call moves. */
+#define RMD_SOCKETCAN_BATCH 64
+
+/*
+ * Default receive buffer.  A CAN frame costs the socket about 1 KiB of
+ * buffer (sk_buff overhead), so 1 MiB holds ~1000 frames: 125 ms of a
+ * saturated 1 Mbit/s bus, far more than the rt loop may ever fall behind.
+ */
+#define RMD_SOCKETCAN_RCVBUF_DEFAULT (1 << 20)
+
+/* A motor whose replies the socket admits. */
+struct rmd_socketcan_motor {
+	uint8_t id;	      /* 1..32 */
+	enum rmd_proto proto; /* V3: 0x240 + ID; V2: 0x140 + ID; MIT: 0x500 + ID and 0x240 + ID */
+};
+
+struct rmd_socketcan_opts {
+	const struct rmd_socketcan_motor *motors;
+	unsigned n_motors;
+	bool set_id_replies; /* also admit 0x300 (V3 §4: 0x79 replies on 0x300) */
+	/*
+	 * Most frames the caller sends on this bus in one cycle.  The
+	 * interface's txqueuelen must hold them or the tail of every burst
+	 * is refused; 0 skips the check.
+	 */
+	unsigned burst;
+	int rcvbuf_bytes; /* SO_RCVBUF request; 0: RMD_SOCKETCAN_RCVBUF_DEFAULT */
+};
+
+/*
+ * Open CAN interface `ifname` as `bus` (caller allocates; zeroed by
+ * close).  Checks that the interface exists, is a CAN interface, is up and
+ * that its txqueuelen holds opts->burst frames; otherwise returns -errno
+ * and stores in err a one-line message that names the command fixing it:
+ *   -EAFNOSUPPORT / -EPROTONOSUPPORT  the kernel has no SocketCAN (CAN_RAW)
+ *   -ENODEV       no such interface, or not a CAN interface
+ *   -ENETDOWN     interface down
+ *   -ENOBUFS      txqueuelen below opts->burst
+ *   -EINVAL       bad name or motor list
+ * opts NULL admits every standard data frame (a sniffer) and skips the
+ * txqueuelen check.  An interface that is up without carrier (a controller
+ * left bus-off with no restart-ms) opens with bus->state RMD_BUS_OFF.
+ * Non-rt: allocates.
+ */
+int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
+		       const struct rmd_socketcan_opts *opts, char *err, size_t errlen);
+
+/* The receive buffer the kernel granted, in bytes (it may cap the request). Non-rt. */
+int rmd_socketcan_rcvbuf(const struct rmd_bus *bus);
+
+struct can_frame;
+
+/*
+ * Apply one error frame (CAN_ERR_FLAG set) to bus->state and bus->stats:
+ * every error frame counts in stats.bus_errors, every change of state in
+ * stats.state_changes.  Exposed for tests, which cannot make vcan go
+ * bus-off.  Rt-safe.
+ */
+void rmd_socketcan_error_frame(struct rmd_bus *bus, const struct can_frame *cf);
+
+#endif /* RMD_BUS_SOCKETCAN_H */
