@@ -1,0 +1,138 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The RS485 transport (DESIGN.md layer 2): one serial line of V3 motors
+ * behind struct rmd_bus_ops, framed as V3 §1.2.2 (rmd/rs485.h).
+ *
+ * libmodbus opens and configures the port (RTU context: 8N1 raw termios,
+ * the kernel's RS485 mode where the driver has one); the frames themselves
+ * are read and written non-blocking on its descriptor, never through
+ * libmodbus's request functions, which speak Modbus and block in select().
+ *
+ * Identifiers.  The layers above see the same identifiers as on CAN:
+ *   send  0x140 + ID (ID 1..32)  ->  RS485 id ID                 (V3 §1.2.2)
+ *   send  0x280                  ->  RS485 id 0xCD, every motor  (V3 §3, §6)
+ *   send  0x300 (0x79 set ID)    ->  RS485 id 0xCD               (V3 §4, §7)
+ *   recv  RS485 id ID (1..32)    ->  0x240 + ID                  (V3 §1.1.2)
+ *   recv  RS485 id 0xCD          ->  0x300: only the 0x79 reply comes from
+ *                                    0xCD (V3 §7.3), as it comes on 0x300 on
+ *                                    CAN (V3 §4.3)
+ * Every other identifier (MIT 0x400 + ID has no RS485 form) and any length
+ * but 8 (V3 §1.2.2) is refused.  V2 motors have no RS485 interface.
+ *
+ * Half duplex.  The line is one shared pair of wires: send() queues frames
+ * and the transport writes the next request only when the previous one was
+ * answered or its reply timeout expired.  A unicast request is answered by
+ * the first frame from its id whose command byte (D0) is the request's; a
+ * broadcast (0xCD) request by opts.broadcast_replies such frames from any
+ * id, or ends at its own timeout.  Every valid frame is returned by recv(),
+ * answer or not (unsolicited 0x9A reports, late replies); the caller
+ * matches replies to motors by identifier and command byte, as on CAN.
+ *
+ * Nothing blocks or sleeps: the queue advances inside send() and recv(),
+ * at their now_ns; timeouts are judged only in recv(), after it has read
+ * what arrived, so a caller that sends and never receives stalls the
+ * queue rather than losing answers.  Between calls a caller waits on fd()
+ * for replies and until rmd_rs485_deadline_ns() for timeouts.
+ *
+ * Receive time.  Every received frame's t_ns is the now_ns of the recv()
+ * call that read it (a tty has no receive stamp), so it is late by up to
+ * the caller's polling interval.
+ */
+#ifndef RMD_BUS_RS485_H
+#define RMD_BUS_RS485_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rmd/bus.h"
+
+/* Requests one bus queues; send() takes what fits and counts the rest in stats.tx_busy. */
+#define RMD_RS485_QUEUE 64
+
+/* Fixed part of the default reply timeout (a motor answers within 0.5-0.8 ms, DESIGN.md). */
+#define RMD_RS485_TURNAROUND_NS 2000000
+
+struct rmd_rs485_opts {
+	/* V3 §1.2.1: 115200, 500000, 1000000, 1500000 or 2000000 bit/s. */
+	uint32_t baud;
+	/*
+	 * Time from our write() of a request to the end of its answer.  0:
+	 * RMD_RS485_TURNAROUND_NS plus the wire time of the request and of
+	 * the reply at this baud (4.26 ms at 115200, 2.26 ms at 1000000).
+	 */
+	int64_t reply_timeout_ns;
+	/*
+	 * Replies a broadcast request waits for before the next request goes
+	 * out: the number of motors on the line.  0: unknown, every broadcast
+	 * lasts its whole timeout.
+	 */
+	unsigned broadcast_replies;
+	/*
+	 * Timeout of a broadcast request.  0: reply_timeout_ns plus one reply's
+	 * wire time per expected reply (RMD_MAX_MOTORS when broadcast_replies
+	 * is 0), since the motors answer one after the other.
+	 */
+	int64_t broadcast_timeout_ns;
+	/*
+	 * The adapter hears its own transmission (a two-wire transceiver whose
+	 * receiver stays enabled): the first frame equal to the request in
+	 * flight is that echo, dropped and counted in rmd_rs485_stats.echoes.
+	 * Leave it off otherwise: several replies (0x80, 0xB3, 0x79 write)
+	 * are byte for byte the request.
+	 */
+	bool local_echo;
+};
+
+/* Counters of this transport beyond struct rmd_bus_stats. */
+struct rmd_rs485_stats {
+	uint64_t reply_timeouts;   /* requests whose answer did not come in time */
+	uint64_t broadcasts_short; /* broadcasts that ended with fewer than broadcast_replies */
+	uint64_t dropped_bytes; /* skipped while resynchronising (counted in rx_errors per run) */
+	uint64_t echoes;	/* own requests heard back, with opts.local_echo */
+};
+
+/*
+ * Open serial device `device` (e.g. "/dev/ttyUSB0") as `bus` (caller
+ * allocates; zeroed by close) and configure it: opts->baud 8N1 raw, and the
+ * kernel's RS485 mode, in which the driver drives RTS (the transceiver's
+ * direction) around each of our writes.  libmodbus's own RTS switching
+ * only runs inside its Modbus send path, which this transport bypasses, so
+ * a port without kernel RS485 mode must switch direction by itself, as
+ * USB RS485 adapters do.  The port is opened exclusively (TIOCEXCL).
+ *
+ * Returns 0, with err holding "" or a one-line notice for the caller to
+ * log (no kernel RS485 mode: a pseudo-terminal, or an adapter that must
+ * switch direction itself).  Otherwise returns -errno with a one-line
+ * message in err that names the device and what to do:
+ *   -EINVAL   opts NULL, a baud V3 §1.2.1 does not list, a negative timeout
+ *   -ENOENT   no such device
+ *   -EACCES   permission denied (group dialout)
+ *   -EBUSY    the port is held by another program
+ *   -ENOTTY   not a serial port
+ * Non-rt: allocates.
+ */
+int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs485_opts *opts,
+		   char *err, size_t errlen);
+
+/* Wire time of one 13-byte frame at `baud`, 8N1 (10 bits a byte), rounded up. Pure. */
+int64_t rmd_rs485_frame_ns(uint32_t baud);
+
+/* The reply timeout the bus uses (opts.reply_timeout_ns or its default). Rt-safe. */
+int64_t rmd_rs485_reply_timeout_ns(const struct rmd_bus *bus);
+
+/*
+ * When send() or recv() must next be called for the queue to advance
+ * without a reply arriving: the deadline of the request in flight, the
+ * time of a write that the tty refused (retry; 0 after a write error), or
+ * INT64_MAX when nothing is queued.  Rt-safe.
+ */
+int64_t rmd_rs485_deadline_ns(const struct rmd_bus *bus);
+
+/* Requests queued or in flight. Rt-safe. */
+unsigned rmd_rs485_pending(const struct rmd_bus *bus);
+
+/* Copy this transport's own counters. Rt-safe. */
+void rmd_rs485_stats(const struct rmd_bus *bus, struct rmd_rs485_stats *out);
+
+#endif /* RMD_BUS_RS485_H */

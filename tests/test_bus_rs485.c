@@ -1,0 +1,859 @@
+// SPDX-License-Identifier: MIT
+/*
+ * RS485 transport tests on a real pseudo-terminal pair: the bus opens the
+ * slave path as a user opens /dev/ttyUSB0, and the master side plays the
+ * motors, either from a thread (struct fake: up to three motors answering
+ * with the manual's examples after a set delay) or byte by byte from the
+ * test itself.  Nothing sleeps for a result: every wait polls a descriptor
+ * against a bounded deadline.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <pthread.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "rmd/bus_rs485.h"
+#include "rmd/rs485.h"
+
+#define MS 1000000LL
+#define LIMIT_NS (10000 * MS) /* no test waits longer than this for anything */
+/*
+ * Reply timeouts.  The fake motors run in a thread of a loaded machine (a
+ * VM whose wake-up latency peaks near 50 ms): an answer the test needs gets
+ * ANSWER_NS; a test that needs a timeout and an answer on the same bus uses
+ * SHORT_NS, still well above that latency.
+ */
+#define ANSWER_NS (2000 * MS)
+#define SHORT_NS (150 * MS)
+#define MAX_SEEN 64
+
+/* V3 §2.12.4: 0x9A reply, 50 °C, brake released, 48.5 V, low-voltage error. */
+static const uint8_t status1_reply[RMD_FRAME_LEN] = {
+	0x9A, 0x32, 0x00, 0x01, 0xE5, 0x01, 0x04, 0x00
+};
+static const uint8_t status1_req[RMD_FRAME_LEN] = { 0x9A };
+static const uint8_t off_req[RMD_FRAME_LEN] = { 0x80 };
+
+static int64_t now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
+}
+
+static struct timespec ts_of(int64_t ns)
+{
+	struct timespec ts = { .tv_sec = ns / 1000000000LL, .tv_nsec = ns % 1000000000LL };
+
+	return ts;
+}
+
+/* Motors on the master side of the pty, run by a thread. */
+struct fake {
+	int master;
+	uint64_t present;	/* bit n: motor n answers */
+	int64_t delay_ns;	/* request to reply */
+	unsigned corrupt_first; /* replies sent with a broken CRC */
+	const uint8_t *garbage; /* written before every reply */
+	size_t garbage_len;
+	bool echo; /* hear our own request back, like a two-wire adapter */
+
+	pthread_t thread;
+	atomic_bool stop;
+	/* Written by the thread, read after the join. */
+	unsigned requests;
+	unsigned overlaps; /* requests that came while an answer was owed */
+	unsigned bad_bytes;
+	uint8_t seen_id[MAX_SEEN];
+	uint8_t seen_cmd[MAX_SEEN];
+	int64_t seen_ns[MAX_SEEN];
+};
+
+static void fake_write(struct fake *fk, const uint8_t *buf, size_t len)
+{
+	while (len) {
+		ssize_t w = write(fk->master, buf, len);
+
+		if (w < 0) {
+			if (errno == EINTR || errno == EAGAIN)
+				continue;
+			return;
+		}
+		buf += w;
+		len -= (size_t)w;
+	}
+}
+
+static void fake_reply(struct fake *fk, uint8_t id, const uint8_t data[RMD_FRAME_LEN])
+{
+	uint8_t wire[RMD_RS485_FRAME_LEN];
+
+	rmd_rs485_build(id, data, wire, sizeof(wire));
+	if (fk->corrupt_first) {
+		fk->corrupt_first--;
+		wire[RMD_RS485_FRAME_LEN - 1] ^= 0x5A;
+	}
+	if (fk->garbage_len)
+		fake_write(fk, fk->garbage, fk->garbage_len);
+	fake_write(fk, wire, sizeof(wire));
+}
+
+/* What the motors owe: one request's answers, written at due_ns. */
+#define OWED_MAX 8 /* a power of two */
+struct owed {
+	int64_t due_ns;
+	uint8_t id;
+	uint8_t data[RMD_FRAME_LEN];
+};
+
+static void fake_answer(struct fake *fk, const struct owed *o)
+{
+	const uint8_t *data = o->data[0] == 0x9A ? status1_reply : o->data;
+
+	if (o->id != RMD_RS485_BROADCAST) {
+		if (fk->present & (1ull << o->id))
+			fake_reply(fk, o->id, data);
+		return;
+	}
+	if (o->data[0] == 0x79) { /* V3 §7.3: the ID command answers from 0xCD */
+		fake_reply(fk, RMD_RS485_BROADCAST, o->data);
+		return;
+	}
+	for (uint8_t id = 1; id <= RMD_MAX_MOTORS; id++) /* V3 §6.2: each from its own ID */
+		if (fk->present & (1ull << id))
+			fake_reply(fk, id, data);
+}
+
+static void *fake_run(void *arg)
+{
+	struct fake *fk = arg;
+	uint8_t buf[512];
+	size_t len = 0;
+	struct owed owed[OWED_MAX];
+	unsigned oh = 0, ot = 0; /* answers owed: owed[oh..ot) */
+
+	while (!atomic_load(&fk->stop)) {
+		struct pollfd pfd = { .fd = fk->master, .events = POLLIN };
+		int64_t wait = 5 * MS;
+		struct timespec ts;
+		ssize_t got;
+
+		if (oh != ot) {
+			wait = owed[oh % OWED_MAX].due_ns - now_ns();
+			if (wait < 0)
+				wait = 0;
+		}
+		ts = ts_of(wait);
+		if (ppoll(&pfd, 1, &ts, NULL) > 0 && (pfd.revents & POLLIN)) {
+			got = read(fk->master, buf + len, sizeof(buf) - len);
+			if (got > 0)
+				len += (size_t)got;
+		}
+		for (;;) {
+			uint8_t id, data[RMD_FRAME_LEN];
+			int r = rmd_rs485_parse(buf, len, &id, data);
+
+			if (r == -EAGAIN)
+				break;
+			if (r < 0) {
+				fk->bad_bytes++;
+				memmove(buf, buf + 1, --len);
+				continue;
+			}
+			memmove(buf, buf + r, len -= (size_t)r);
+			if (fk->requests < MAX_SEEN) {
+				fk->seen_id[fk->requests] = id;
+				fk->seen_cmd[fk->requests] = data[0];
+				fk->seen_ns[fk->requests] = now_ns();
+			}
+			fk->requests++;
+			if (oh != ot)
+				fk->overlaps++;
+			if (ot - oh < OWED_MAX) {
+				struct owed *o = &owed[ot++ % OWED_MAX];
+
+				o->due_ns = now_ns() + fk->delay_ns;
+				o->id = id;
+				memcpy(o->data, data, sizeof(o->data));
+			}
+			if (fk->echo) {
+				uint8_t wire[RMD_RS485_FRAME_LEN];
+
+				rmd_rs485_build(id, data, wire, sizeof(wire));
+				fake_write(fk, wire, sizeof(wire));
+			}
+		}
+		while (oh != ot && now_ns() >= owed[oh % OWED_MAX].due_ns)
+			fake_answer(fk, &owed[oh++ % OWED_MAX]);
+	}
+	return NULL;
+}
+
+/*
+ * The one fake of the running test, outside its stack frame so that the
+ * teardown can still stop the thread after a failed assertion.
+ */
+static struct fake the_fake;
+static bool fake_running;
+
+static struct fake *fake_new(struct fake tmpl)
+{
+	the_fake = tmpl;
+	return &the_fake;
+}
+
+static void fake_start(struct fake *fk)
+{
+	atomic_store(&fk->stop, false);
+	assert_int_equal(pthread_create(&fk->thread, NULL, fake_run, fk), 0);
+	fake_running = true;
+}
+
+static void fake_stop(struct fake *fk)
+{
+	atomic_store(&fk->stop, true);
+	fake_running = false;
+	assert_int_equal(pthread_join(fk->thread, NULL), 0);
+}
+
+static int teardown(void **state)
+{
+	(void)state;
+	if (fake_running)
+		fake_stop(&the_fake);
+	return 0;
+}
+
+/* A pty pair: the master fd for the test, the slave's path for the bus. */
+struct pty {
+	int master;
+	char path[64];
+};
+
+static void pty_open(struct pty *pt)
+{
+	pt->master = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+	assert_true(pt->master >= 0);
+	assert_int_equal(grantpt(pt->master), 0);
+	assert_int_equal(unlockpt(pt->master), 0);
+	assert_int_equal(ptsname_r(pt->master, pt->path, sizeof(pt->path)), 0);
+}
+
+static void open_bus(struct rmd_bus *bus, struct pty *pt, const struct rmd_rs485_opts *opts)
+{
+	char err[256];
+	int r;
+
+	pty_open(pt);
+	r = rmd_rs485_open(bus, pt->path, opts, err, sizeof(err));
+	if (r < 0)
+		fail_msg("rmd_rs485_open(%s): %d: %s", pt->path, r, err);
+	assert_string_equal(bus->ops->kind, "rs485");
+}
+
+static void close_bus(struct rmd_bus *bus, struct pty *pt)
+{
+	rmd_bus_close(bus);
+	close(pt->master);
+}
+
+static struct rmd_frame frame(uint32_t can_id, const uint8_t data[RMD_FRAME_LEN])
+{
+	struct rmd_frame f = { .can_id = can_id, .len = RMD_FRAME_LEN };
+
+	memcpy(f.data, data, RMD_FRAME_LEN);
+	return f;
+}
+
+/*
+ * Drive the bus until it has returned `want` frames and holds at most
+ * `pending` requests, or until limit_ns: wait on its fd, but no longer than
+ * its own deadline.  Returns the number of frames stored in out.
+ */
+static unsigned drive_to(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, unsigned want,
+			 unsigned pending, int64_t limit_ns)
+{
+	unsigned n = 0;
+
+	for (;;) {
+		struct pollfd pfd = { .fd = rmd_bus_fd(bus), .events = POLLIN };
+		int64_t t = now_ns(), until = limit_ns;
+		struct timespec ts;
+		int r;
+
+		if ((n >= want && rmd_rs485_pending(bus) <= pending) || t >= limit_ns)
+			return n;
+		if (rmd_rs485_deadline_ns(bus) < until)
+			until = rmd_rs485_deadline_ns(bus);
+		ts = ts_of(until > t ? until - t : 0);
+		ppoll(&pfd, 1, &ts, NULL);
+		r = rmd_bus_recv(bus, out + n, max - n, now_ns());
+		assert_true(r >= 0);
+		n += (unsigned)r;
+	}
+}
+
+/* drive_to() until every request is answered or timed out. */
+static unsigned drive(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, unsigned want,
+		      int64_t limit_ns)
+{
+	return drive_to(bus, out, max, want, 0, limit_ns);
+}
+
+/* Until fd is readable, within LIMIT_NS. */
+static void wait_readable(int fd)
+{
+	struct pollfd pfd = { .fd = fd, .events = POLLIN };
+	struct timespec ts = ts_of(LIMIT_NS);
+
+	assert_int_equal(ppoll(&pfd, 1, &ts, NULL), 1);
+}
+
+/* Read exactly len bytes the bus wrote, within LIMIT_NS. */
+static void master_read(int master, uint8_t *buf, size_t len)
+{
+	int64_t limit = now_ns() + LIMIT_NS;
+
+	while (len) {
+		struct pollfd pfd = { .fd = master, .events = POLLIN };
+		int64_t t = now_ns();
+		struct timespec ts;
+		ssize_t got;
+
+		if (t >= limit)
+			fail_msg("the bus wrote %zu bytes too few", len);
+		ts = ts_of(limit - t);
+		if (ppoll(&pfd, 1, &ts, NULL) <= 0)
+			continue;
+		got = read(master, buf, len);
+		if (got > 0) {
+			buf += got;
+			len -= (size_t)got;
+		}
+	}
+}
+
+/* Nothing more from the bus within wait_ns. */
+static void master_quiet(int master, int64_t wait_ns)
+{
+	struct pollfd pfd = { .fd = master, .events = POLLIN };
+	struct timespec ts = ts_of(wait_ns);
+
+	assert_int_equal(ppoll(&pfd, 1, &ts, NULL), 0);
+}
+
+static void master_write_frame(int master, uint8_t id, const uint8_t data[RMD_FRAME_LEN])
+{
+	uint8_t wire[RMD_RS485_FRAME_LEN];
+
+	assert_int_equal(rmd_rs485_build(id, data, wire, sizeof(wire)), RMD_RS485_FRAME_LEN);
+	assert_int_equal(write(master, wire, sizeof(wire)), sizeof(wire));
+}
+
+static void assert_rx(const struct rmd_bus_rx *rx, uint32_t can_id,
+		      const uint8_t data[RMD_FRAME_LEN])
+{
+	if (rx->f.can_id != can_id)
+		fail_msg("got 0x%03x, want 0x%03x", rx->f.can_id, can_id);
+	assert_int_equal(rx->f.len, RMD_FRAME_LEN);
+	assert_memory_equal(rx->f.data, data, RMD_FRAME_LEN);
+}
+
+static void test_frame_time(void **state)
+{
+	(void)state;
+	/* 13 bytes of 10 bits. */
+	assert_int_equal(rmd_rs485_frame_ns(1000000), 130000);
+	assert_int_equal(rmd_rs485_frame_ns(2000000), 65000);
+	assert_int_equal(rmd_rs485_frame_ns(115200), 1128473);
+	assert_int_equal(rmd_rs485_frame_ns(0), 0);
+}
+
+static void test_open_errors(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 9600 };
+	struct rmd_bus bus = { 0 };
+	struct pty pt;
+	char err[256];
+
+	(void)state;
+	pty_open(&pt);
+	assert_int_equal(rmd_rs485_open(&bus, pt.path, &opts, err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, pt.path));
+	assert_non_null(strstr(err, "115200, 500000, 1000000, 1500000 or 2000000"));
+	assert_null(bus.ops);
+
+	opts.baud = 1000000;
+	assert_int_equal(rmd_rs485_open(&bus, pt.path, NULL, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_rs485_open(&bus, "/dev/ttyRMDnone", &opts, err, sizeof(err)), -ENOENT);
+	assert_non_null(strstr(err, "/dev/ttyRMDnone: no such device"));
+	assert_int_equal(rmd_rs485_open(&bus, "/dev/null", &opts, err, sizeof(err)), -ENOTTY);
+	assert_string_equal(err, "/dev/null: not a serial port");
+	opts.reply_timeout_ns = -1;
+	assert_int_equal(rmd_rs485_open(&bus, pt.path, &opts, err, sizeof(err)), -EINVAL);
+	assert_null(bus.ops);
+	close(pt.master);
+}
+
+/* The pty has no RS485 mode: the open succeeds with a notice; 2 Mbit/s really is set. */
+static void test_open_pty(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 2000000 };
+	struct rmd_bus bus;
+	struct termios tios;
+	struct pty pt;
+	char err[256];
+
+	(void)state;
+	pty_open(&pt);
+	assert_int_equal(rmd_rs485_open(&bus, pt.path, &opts, err, sizeof(err)), 0);
+	assert_non_null(strstr(err, pt.path));
+	assert_non_null(strstr(err, "pseudo-terminal"));
+	assert_string_equal(bus.name, pt.path);
+	assert_true(rmd_bus_fd(&bus) >= 0);
+	assert_int_equal(tcgetattr(rmd_bus_fd(&bus), &tios), 0);
+	assert_true(cfgetospeed(&tios) == B2000000);
+	assert_true(cfgetispeed(&tios) == B2000000);
+	/* V3 §1.2.1 default: 2 ms turnaround + request and reply wire time. */
+	assert_int_equal(rmd_rs485_reply_timeout_ns(&bus), 2000000 + 2 * 65000);
+	assert_int_equal(rmd_rs485_deadline_ns(&bus), INT64_MAX);
+	close_bus(&bus, &pt);
+	assert_null(bus.ops);
+	rmd_bus_close(&bus); /* twice: a no-op */
+}
+
+static void test_round_trip(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = ANSWER_NS };
+	struct fake *fk = fake_new((struct fake){ .present = 1u << 1 });
+	struct rmd_frame f = frame(0x141, status1_req);
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct pty pt;
+	int64_t t0, t1;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	t0 = now_ns();
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
+	assert_int_equal(rmd_rs485_pending(&bus), 1);
+	assert_int_equal(rmd_rs485_deadline_ns(&bus), t0 + ANSWER_NS);
+	assert_int_equal(drive(&bus, rx, 4, 1, t0 + LIMIT_NS), 1);
+	t1 = now_ns();
+	fake_stop(fk);
+
+	assert_rx(&rx[0], 0x241, status1_reply);
+	assert_true(rx[0].t_ns > t0 && rx[0].t_ns <= t1);
+	assert_int_equal(fk->requests, 1);
+	assert_int_equal(fk->seen_id[0], 1);
+	assert_int_equal(fk->seen_cmd[0], 0x9A);
+	assert_int_equal(fk->bad_bytes, 0);
+	assert_int_equal(bus.stats.tx_frames, 1);
+	assert_int_equal(bus.stats.rx_frames, 1);
+	assert_int_equal(bus.stats.rx_errors, 0);
+	close_bus(&bus, &pt);
+}
+
+/* Six requests to three motors in one send(): the wire carries one at a time. */
+static void test_one_request_at_a_time(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = ANSWER_NS };
+	struct fake *fk = fake_new((struct fake){ .present = 0xEu, .delay_ns = 3 * MS });
+	struct rmd_frame f[6];
+	struct rmd_bus_rx rx[8];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+
+	(void)state;
+	for (unsigned i = 0; i < 6; i++)
+		f[i] = frame(0x141 + i % 3, status1_req);
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	assert_int_equal(rmd_bus_send(&bus, f, 6, now_ns()), 6);
+	assert_int_equal(rmd_rs485_pending(&bus), 6);
+	assert_int_equal(drive(&bus, rx, 8, 6, now_ns() + LIMIT_NS), 6);
+	fake_stop(fk);
+
+	assert_int_equal(fk->overlaps, 0);
+	assert_int_equal(fk->requests, 6);
+	for (unsigned i = 0; i < 6; i++) {
+		assert_int_equal(fk->seen_id[i], 1 + i % 3);
+		assert_rx(&rx[i], 0x241 + i % 3, status1_reply);
+		if (i)
+			assert_true(rx[i].t_ns >=
+				    rx[i - 1].t_ns + 2 * MS); /* delay_ns, less slack */
+	}
+	rmd_rs485_stats(&bus, &xs);
+	assert_int_equal(xs.reply_timeouts, 0);
+	assert_int_equal(bus.stats.tx_frames, 6);
+	assert_int_equal(bus.stats.rx_frames, 6);
+	close_bus(&bus, &pt);
+}
+
+/* A silent motor costs its reply timeout, then the queue moves on. */
+static void test_silent_motor_times_out(void **state)
+{
+	const int64_t timeout = SHORT_NS;
+	struct rmd_rs485_opts opts = { .baud = 115200, .reply_timeout_ns = timeout };
+	struct fake *fk = fake_new((struct fake){ .present = 1u << 1 });
+	struct rmd_frame f[2] = { frame(0x145, status1_req), frame(0x141, status1_req) };
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+	int64_t t0;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	t0 = now_ns();
+	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
+	/* Motor 5 never answers: nothing but the timeout ends its request. */
+	assert_int_equal(drive(&bus, rx, 4, 1, t0 + LIMIT_NS), 1);
+	fake_stop(fk);
+
+	assert_rx(&rx[0], 0x241, status1_reply);
+	assert_int_equal(fk->requests, 2);
+	assert_int_equal(fk->seen_id[0], 5);
+	assert_int_equal(fk->seen_id[1], 1);
+	/* Motor 1 was asked once motor 5's time was up, not before (and not much later). */
+	assert_true(fk->seen_ns[1] >= t0 + timeout);
+	assert_true(fk->seen_ns[1] < t0 + timeout + 1000 * MS);
+	/* Motor 1's answer is late only on a machine that stalls the fake for SHORT_NS. */
+	rmd_rs485_stats(&bus, &xs);
+	assert_in_range(xs.reply_timeouts, 1, 2);
+	close_bus(&bus, &pt);
+}
+
+/* A reply with a broken CRC is dropped and counted; its request times out. */
+static void test_bad_crc_dropped(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = SHORT_NS };
+	struct fake *fk = fake_new((struct fake){ .present = 1u << 1, .corrupt_first = 1 });
+	struct rmd_frame f[2] = { frame(0x141, status1_req), frame(0x141, status1_req) };
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	assert_int_equal(rmd_bus_send(&bus, f, 2, now_ns()), 2);
+	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
+	fake_stop(fk);
+
+	assert_rx(&rx[0], 0x241, status1_reply);
+	assert_int_equal(bus.stats.rx_errors, 1);
+	assert_int_equal(bus.stats.rx_frames, 1);
+	rmd_rs485_stats(&bus, &xs);
+	assert_in_range(xs.reply_timeouts, 1, 2); /* 2: the good answer came late */
+	assert_int_equal(xs.dropped_bytes, RMD_RS485_FRAME_LEN);
+	assert_int_equal(fk->overlaps, 0);
+	close_bus(&bus, &pt);
+}
+
+/* Line noise before a reply, stray headers in it, is skipped: one error per run. */
+static void test_garbage_skipped(void **state)
+{
+	static const uint8_t noise[] = { 0x00, 0xFF, 0x3E, 0x55, 0xAA, 0x3E, 0x01, 0x07, 0x3E };
+	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = ANSWER_NS };
+	struct fake *fk = fake_new((struct fake){
+		.present = 1u << 2, .garbage = noise, .garbage_len = sizeof(noise) });
+	struct rmd_frame f = frame(0x142, status1_req);
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
+	fake_stop(fk);
+
+	assert_rx(&rx[0], 0x242, status1_reply);
+	assert_int_equal(bus.stats.rx_errors, 1);
+	rmd_rs485_stats(&bus, &xs);
+	assert_int_equal(xs.dropped_bytes, sizeof(noise));
+	assert_int_equal(xs.reply_timeouts, 0);
+	close_bus(&bus, &pt);
+}
+
+/* V3 §6.2: one 0xCD request, every motor answers from its own ID. */
+static void test_broadcast(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 1000000,
+				       .reply_timeout_ns = ANSWER_NS,
+				       .broadcast_replies = 3,
+				       .broadcast_timeout_ns = 5000 * MS };
+	struct fake *fk = fake_new((struct fake){ .present = 0xEu, .delay_ns = 2 * MS });
+	struct rmd_frame f[2] = { frame(0x280, off_req), frame(0x142, status1_req) };
+	struct rmd_bus_rx rx[8];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+	int64_t t0;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	t0 = now_ns();
+	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
+	assert_int_equal(rmd_rs485_deadline_ns(&bus), t0 + 5000 * MS);
+	assert_int_equal(drive(&bus, rx, 8, 4, t0 + LIMIT_NS), 4);
+	fake_stop(fk);
+
+	assert_rx(&rx[0], 0x241, off_req);
+	assert_rx(&rx[1], 0x242, off_req);
+	assert_rx(&rx[2], 0x243, off_req);
+	assert_rx(&rx[3], 0x242, status1_reply);
+	/* Ended by the third answer, long before its 5 s timeout. */
+	assert_true(rx[3].t_ns < t0 + 5000 * MS);
+	assert_int_equal(fk->requests, 2);
+	assert_int_equal(fk->seen_id[0], RMD_RS485_BROADCAST);
+	assert_int_equal(fk->seen_cmd[0], 0x80);
+	assert_int_equal(fk->overlaps, 0);
+	rmd_rs485_stats(&bus, &xs);
+	assert_int_equal(xs.reply_timeouts, 0);
+	assert_int_equal(xs.broadcasts_short, 0);
+	close_bus(&bus, &pt);
+}
+
+/* Unknown motor count: the broadcast lasts its timeout, which is no error. */
+static void test_broadcast_unknown_count(void **state)
+{
+	const int64_t timeout = SHORT_NS;
+	struct rmd_rs485_opts opts = { .baud = 1000000, .broadcast_timeout_ns = timeout };
+	struct fake *fk = fake_new((struct fake){ .present = 0x6u });
+	struct rmd_frame f = frame(0x280, off_req);
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+	int64_t t0, t1;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	t0 = now_ns();
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
+	assert_int_equal(drive(&bus, rx, 4, 2, t0 + LIMIT_NS), 2);
+	t1 = now_ns();
+	fake_stop(fk);
+
+	assert_rx(&rx[0], 0x241, off_req);
+	assert_rx(&rx[1], 0x242, off_req);
+	assert_true(t1 >= t0 + timeout);
+	rmd_rs485_stats(&bus, &xs);
+	assert_int_equal(xs.reply_timeouts, 0);
+	assert_int_equal(xs.broadcasts_short, 0);
+	close_bus(&bus, &pt);
+}
+
+/* V3 §4 / §7: 0x79 goes out on 0x300 as 0xCD, and its answer from 0xCD comes back on 0x300. */
+static void test_set_id_mapping(void **state)
+{
+	static const uint8_t read_id[RMD_FRAME_LEN] = { 0x79, 0x00, 0x01 };
+	struct rmd_rs485_opts opts = { .baud = 500000,
+				       .broadcast_replies = 1,
+				       .broadcast_timeout_ns = ANSWER_NS };
+	struct fake *fk = fake_new((struct fake){ .present = 1u << 2 });
+	struct rmd_frame f = frame(0x300, read_id);
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
+	fake_stop(fk);
+
+	assert_int_equal(fk->seen_id[0], RMD_RS485_BROADCAST);
+	assert_rx(&rx[0], 0x300, read_id);
+	rmd_rs485_stats(&bus, &xs);
+	assert_int_equal(xs.broadcasts_short, 0);
+	close_bus(&bus, &pt);
+}
+
+/* A two-wire adapter hears the request: with local_echo the echo is dropped,
+ * even for 0x80, whose answer is byte for byte the request. */
+static void test_local_echo(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 1000000,
+				       .reply_timeout_ns = ANSWER_NS,
+				       .local_echo = true };
+	struct fake *fk =
+		fake_new((struct fake){ .present = 1u << 1, .echo = true, .delay_ns = 1 * MS });
+	struct rmd_frame f[2] = { frame(0x141, off_req), frame(0x141, status1_req) };
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	fk->master = pt.master;
+	fake_start(fk);
+	assert_int_equal(rmd_bus_send(&bus, f, 2, now_ns()), 2);
+	assert_int_equal(drive(&bus, rx, 4, 2, now_ns() + LIMIT_NS), 2);
+	fake_stop(fk);
+
+	assert_rx(&rx[0], 0x241, off_req);
+	assert_rx(&rx[1], 0x241, status1_reply);
+	rmd_rs485_stats(&bus, &xs);
+	assert_int_equal(xs.echoes, 2);
+	assert_int_equal(xs.reply_timeouts, 0);
+	assert_int_equal(fk->overlaps, 0);
+	close_bus(&bus, &pt);
+}
+
+/*
+ * Byte by byte from the master: a reply split across reads, an unsolicited
+ * frame, a late answer that must not end the next request.
+ */
+static void test_partial_and_late_frames(void **state)
+{
+	static const uint8_t angle_req[RMD_FRAME_LEN] = { 0x92 };
+	const int64_t timeout = 500 * MS;
+	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = timeout };
+	struct rmd_frame f[2] = { frame(0x141, status1_req), frame(0x142, angle_req) };
+	uint8_t wire[RMD_RS485_FRAME_LEN], want[RMD_RS485_FRAME_LEN];
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct rmd_rs485_stats xs;
+	struct pty pt;
+	int64_t t0;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	t0 = now_ns();
+	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
+	master_read(pt.master, wire, RMD_RS485_FRAME_LEN);
+	rmd_rs485_build(1, status1_req, want, sizeof(want));
+	assert_memory_equal(wire, want, RMD_RS485_FRAME_LEN);
+
+	/* Motor 1 answers too late: only its timeout sends the request for motor 2. */
+	assert_int_equal(drive_to(&bus, rx, 4, 0, 1, t0 + 10 * MS), 0);
+	assert_int_equal(rmd_rs485_pending(&bus), 2);
+	master_quiet(pt.master, 0);
+	assert_int_equal(drive_to(&bus, rx, 4, 0, 1, t0 + LIMIT_NS), 0);
+	assert_true(now_ns() >= t0 + timeout);
+	rmd_rs485_stats(&bus, &xs);
+	assert_int_equal(xs.reply_timeouts, 1);
+	assert_int_equal(rmd_rs485_pending(&bus), 1);
+	master_read(pt.master, wire, RMD_RS485_FRAME_LEN);
+	rmd_rs485_build(2, angle_req, want, sizeof(want));
+	assert_memory_equal(wire, want, RMD_RS485_FRAME_LEN);
+
+	/* The late answer, in two pieces, is passed on but answers nothing. */
+	rmd_rs485_build(1, status1_reply, wire, sizeof(wire));
+	assert_int_equal(write(pt.master, wire, 5), 5);
+	wait_readable(rmd_bus_fd(&bus));
+	assert_int_equal(rmd_bus_recv(&bus, rx, 4, now_ns()), 0);
+	assert_int_equal(write(pt.master, wire + 5, RMD_RS485_FRAME_LEN - 5),
+			 RMD_RS485_FRAME_LEN - 5);
+	/* An unsolicited 0x9A from motor 2 has the wrong command byte to answer 0x92. */
+	master_write_frame(pt.master, 2, status1_reply);
+	assert_int_equal(drive_to(&bus, rx, 4, 2, 1, now_ns() + LIMIT_NS), 2);
+	assert_rx(&rx[0], 0x241, status1_reply);
+	assert_rx(&rx[1], 0x242, status1_reply);
+	assert_int_equal(rmd_rs485_pending(&bus), 1);
+
+	master_write_frame(pt.master, 2, angle_req);
+	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
+	assert_rx(&rx[0], 0x242, angle_req);
+	assert_int_equal(rmd_rs485_pending(&bus), 0);
+	assert_int_equal(bus.stats.rx_errors, 0);
+	rmd_rs485_stats(&bus, &xs);
+	assert_int_equal(xs.reply_timeouts, 1);
+	close_bus(&bus, &pt);
+}
+
+static void test_send_refusals(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 1000000 };
+	struct rmd_frame f[RMD_RS485_QUEUE + 6];
+	struct rmd_bus bus;
+	struct pty pt;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+
+	/* No RS485 form: MIT (V3 §5 is CAN only), id 0 and 33, short frames. */
+	f[0] = frame(0x401, status1_req);
+	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), -EINVAL);
+	f[0] = frame(0x140, status1_req);
+	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), -EINVAL);
+	f[0] = frame(0x161, status1_req);
+	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), -EINVAL);
+	f[0] = frame(0x141, status1_req);
+	f[1] = frame(0x142, status1_req);
+	f[1].len = 7;
+	assert_int_equal(rmd_bus_send(&bus, f, 2, now_ns()), -EINVAL);
+	assert_int_equal(rmd_rs485_pending(&bus), 0);
+	assert_int_equal(bus.stats.tx_frames, 0);
+
+	/* A full queue takes what fits; the rest is the caller's, counted. */
+	for (unsigned i = 0; i < RMD_RS485_QUEUE + 6; i++)
+		f[i] = frame(0x141 + i % 32, status1_req);
+	assert_int_equal(rmd_bus_send(&bus, f, RMD_RS485_QUEUE + 6, now_ns()), RMD_RS485_QUEUE);
+	assert_int_equal(bus.stats.tx_busy, 6);
+	assert_int_equal(rmd_rs485_pending(&bus), RMD_RS485_QUEUE);
+	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), 0);
+	assert_int_equal(bus.stats.tx_busy, 7);
+	assert_int_equal(bus.stats.tx_frames, 1);
+	close_bus(&bus, &pt);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test_teardown(test_frame_time, teardown),
+		cmocka_unit_test_teardown(test_open_errors, teardown),
+		cmocka_unit_test_teardown(test_open_pty, teardown),
+		cmocka_unit_test_teardown(test_round_trip, teardown),
+		cmocka_unit_test_teardown(test_one_request_at_a_time, teardown),
+		cmocka_unit_test_teardown(test_silent_motor_times_out, teardown),
+		cmocka_unit_test_teardown(test_bad_crc_dropped, teardown),
+		cmocka_unit_test_teardown(test_garbage_skipped, teardown),
+		cmocka_unit_test_teardown(test_broadcast, teardown),
+		cmocka_unit_test_teardown(test_broadcast_unknown_count, teardown),
+		cmocka_unit_test_teardown(test_set_id_mapping, teardown),
+		cmocka_unit_test_teardown(test_local_echo, teardown),
+		cmocka_unit_test_teardown(test_partial_and_late_frames, teardown),
+		cmocka_unit_test_teardown(test_send_refusals, teardown),
+	};
+
+	return cmocka_run_group_tests_name("bus_rs485", tests, NULL, NULL);
+}
