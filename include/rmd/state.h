@@ -1,0 +1,163 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * What the rt loop (layer 5) and the bridge (layer 6) hand each other
+ * through rmd/spsc.h: validated setpoints in, state snapshots and health
+ * out, and fixed-size event records for the logger.  Plain fixed-size
+ * structs, SI units at the output shaft, so the rt side copies and never
+ * allocates or parses.
+ *
+ * Motors are addressed by their index in the configuration (0..n-1), the
+ * same index LCM messages use.
+ */
+#ifndef RMD_STATE_H
+#define RMD_STATE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "rmd/bus.h"
+#include "rmd/frame.h"
+
+/* Control modes; the values are those of rmd.command_t's mode field. */
+enum rmd_mode {
+	RMD_MODE_TORQUE = 0,   /* torque_nm (current = torque / Kt) */
+	RMD_MODE_SPEED = 1,    /* vel_rad_s */
+	RMD_MODE_POSITION = 2, /* pos_rad, limited to max_vel_rad_s */
+	RMD_MODE_MIT = 3,      /* pos, vel, kp, kd, torque feed-forward */
+	RMD_MODE_COUNT
+};
+
+/* Motor lifecycle (DESIGN.md); the values are those of rmd.state_t. */
+enum rmd_lifecycle {
+	RMD_LC_PROBE = 0, /* asking model, version, status */
+	RMD_LC_READY,	  /* answered; output off, brake engaged */
+	RMD_LC_ENABLED,	  /* running the commanded mode */
+	RMD_LC_FAULT,	  /* error flags set */
+	RMD_LC_LOST,	  /* N consecutive missed replies; re-probed slowly */
+	RMD_LC_SAFE,	  /* the safe action holds it until re-enabled */
+	RMD_LC_COUNT
+};
+
+enum rmd_safe_action {
+	RMD_SAFE_STOP = 0, /* 0x81: stop, hold position with the motor's own loop */
+	RMD_SAFE_HOLD,	   /* keep the last position setpoint */
+	RMD_SAFE_DAMP,	   /* MIT/torque damping: torque = -kd * velocity */
+	RMD_SAFE_BRAKE,	   /* 0x80 output off, then 0x78 brake */
+	RMD_SAFE_COUNT
+};
+
+/* One motor's setpoint, already validated and clamped to its limits. */
+struct rmd_setpoint {
+	bool enable;
+	uint8_t mode; /* enum rmd_mode */
+	double pos_rad;
+	double vel_rad_s;
+	double torque_nm;
+	double kp; /* N·m/rad, MIT */
+	double kd; /* N·m·s/rad, MIT */
+	double max_vel_rad_s;
+};
+
+/* A controller's command, as the bridge hands it to the rt loop. */
+struct rmd_command {
+	int64_t rx_ns;	  /* CLOCK_MONOTONIC when the bridge accepted it */
+	int64_t stamp_us; /* the controller's own timestamp */
+	int64_t seq;	  /* the controller's sequence number */
+	uint32_t present; /* bit i: m[i] carries a setpoint for motor i */
+	struct rmd_setpoint m[RMD_MAX_MOTORS];
+};
+
+struct rmd_motor_state {
+	uint8_t lifecycle; /* enum rmd_lifecycle */
+	uint8_t mode;	   /* enum rmd_mode in force */
+	double pos_rad;
+	double vel_rad_s;
+	double torque_nm;
+	double current_a;
+	double temp_c;
+	double voltage_v;
+	uint16_t error_code;
+	uint32_t reply_age_cycles; /* cycles since the last reply (0: this cycle) */
+	int64_t reply_latency_ns;  /* request sent -> reply received, last reply */
+	uint64_t missed_replies;   /* replies that never came, total */
+};
+
+/* State of every motor after one cycle. */
+struct rmd_snapshot {
+	int64_t t_ns;
+	uint64_t cycle;
+	uint32_t n;
+	struct rmd_motor_state m[RMD_MAX_MOTORS];
+};
+
+struct rmd_loop_stats {
+	uint64_t cycles;
+	uint64_t overruns;   /* cycles whose wake-up came after the next deadline */
+	int64_t wake_min_ns; /* wake-up latency: actual - intended wake-up */
+	int64_t wake_avg_ns;
+	int64_t wake_p99_ns;
+	int64_t wake_max_ns;
+	int64_t cycle_max_ns; /* longest time from wake-up to going back to sleep */
+	uint64_t plan_misses; /* cycles whose frames could not all be sent */
+};
+
+struct rmd_bus_health {
+	char name[32];
+	uint8_t state; /* enum rmd_bus_state */
+	double load;   /* fraction of wire time used, last window */
+	struct rmd_bus_stats stats;
+};
+
+enum rmd_watchdog_state {
+	RMD_WD_IDLE = 0, /* no controller has enabled anything yet */
+	RMD_WD_OK,	 /* commands arrive in time */
+	RMD_WD_TRIPPED,	 /* safe action latched until re-enable */
+};
+
+struct rmd_health {
+	int64_t t_ns;
+	struct rmd_loop_stats loop;
+	uint32_t nbuses;
+	struct rmd_bus_health bus[RMD_MAX_BUSES];
+	uint8_t watchdog;	     /* enum rmd_watchdog_state */
+	uint64_t safe_action_events; /* times a safe action was applied */
+	uint64_t commands_accepted;
+	uint64_t commands_rejected;
+	uint64_t rejected_by_kind[16]; /* indexed by enum rmd_reject */
+};
+
+/* Why the bridge refused a command message (counted in rmd_health). */
+enum rmd_reject {
+	RMD_REJ_DECODE = 0, /* not a command_t (fingerprint, truncated) */
+	RMD_REJ_COUNT,	    /* motor count out of range */
+	RMD_REJ_INDEX,	    /* motor index out of range or repeated */
+	RMD_REJ_NONFINITE,  /* NaN or Inf */
+	RMD_REJ_MODE,	    /* unknown mode, or one the motor cannot do */
+	RMD_REJ_LIMIT,	    /* gains or limits out of range (setpoints are clamped, not refused) */
+	RMD_REJ_STALE,	    /* timestamp too old, or sequence went back */
+	RMD_REJ_KINDS
+};
+
+/* Things the rt loop reports; a normal thread logs them on change. */
+enum rmd_event_kind {
+	RMD_EV_MOTOR_STATE = 0, /* a = old lifecycle, b = new lifecycle */
+	RMD_EV_MOTOR_ERROR,	/* a = error code */
+	RMD_EV_BUS_STATE,	/* a = enum rmd_bus_state */
+	RMD_EV_OVERRUN,		/* a = cycles skipped */
+	RMD_EV_WATCHDOG,	/* a = enum rmd_watchdog_state */
+	RMD_EV_SAFE_ACTION,	/* a = enum rmd_safe_action */
+	RMD_EV_PROBE,		/* a = 0 ok, -errno; b = model/version detail */
+	RMD_EV_SEND_FAILED,	/* a = -errno, b = frames not sent */
+	RMD_EV_UNEXPECTED,	/* a = CAN id, b = first data byte */
+};
+
+struct rmd_event {
+	int64_t t_ns;
+	uint16_t kind; /* enum rmd_event_kind */
+	uint8_t motor; /* config index, or 0xFF */
+	uint8_t bus;   /* config index, or 0xFF */
+	int64_t a;
+	int64_t b;
+};
+
+#endif /* RMD_STATE_H */
