@@ -1,0 +1,783 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The simulated CAN bus: a discrete-event model of one wire.  The bus's
+ * time jumps from event to event (end of frame, wire free, a frame ready,
+ * a motor's unsolicited frame due, a fault window opening or closing);
+ * at each it does, in this order: open/close fault windows, deliver the
+ * frame whose end of frame it is, collect the motors' unsolicited frames,
+ * and, if the wire is idle, start the arbitration winner.
+ *
+ * All of it is rt-safe: fixed arrays, linear scans bounded by their sizes.
+ */
+#include <errno.h>
+#include <string.h>
+
+#include "rmd/can_timing.h"
+#include "rmd/sim_bus.h"
+
+_Static_assert((RMD_SIM_BUS_TXQ & (RMD_SIM_BUS_TXQ - 1)) == 0, "TXQ: power of two");
+_Static_assert((RMD_SIM_BUS_MOTQ & (RMD_SIM_BUS_MOTQ - 1)) == 0, "MOTQ: power of two");
+_Static_assert((RMD_SIM_BUS_RXQ & (RMD_SIM_BUS_RXQ - 1)) == 0, "RXQ: power of two");
+_Static_assert((RMD_SIM_BUS_HIST & (RMD_SIM_BUS_HIST - 1)) == 0, "HIST: power of two");
+
+/* ---- PRNG: splitmix64 to seed, xorshift64* to draw ---------------------- */
+
+static uint64_t splitmix(uint64_t x)
+{
+	x += UINT64_C(0x9E3779B97F4A7C15);
+	x = (x ^ (x >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+	x = (x ^ (x >> 27)) * UINT64_C(0x94D049BB133111EB);
+	x ^= x >> 31;
+	return x ? x : UINT64_C(0x2545F4914F6CDD1D);
+}
+
+static uint64_t rng_next(struct rmd_sim_bus *bus)
+{
+	uint64_t x = bus->rng;
+
+	x ^= x >> 12;
+	x ^= x << 25;
+	x ^= x >> 27;
+	bus->rng = x;
+	return x * UINT64_C(0x2545F4914F6CDD1D);
+}
+
+/* True with probability p; p >= 1 and p <= 0 draw nothing. */
+static bool roll(struct rmd_sim_bus *bus, double p)
+{
+	if (p >= 1.0)
+		return true;
+	if (!(p > 0.0))
+		return false;
+	return (double)(rng_next(bus) >> 11) * 0x1.0p-53 < p;
+}
+
+/* ---- fault table helpers ------------------------------------------------- */
+
+static const char *const kind_names[RMD_SIM_FAULT_COUNT] = {
+	[RMD_SIM_FAULT_DROP] = "drop",
+	[RMD_SIM_FAULT_DELAY] = "delay",
+	[RMD_SIM_FAULT_BAD_DLC] = "bad_dlc",
+	[RMD_SIM_FAULT_GARBAGE] = "garbage",
+	[RMD_SIM_FAULT_WRONG_ID] = "wrong_id",
+	[RMD_SIM_FAULT_DISAPPEAR] = "disappear",
+	[RMD_SIM_FAULT_ERROR_FLAG] = "error_flag",
+	[RMD_SIM_FAULT_BUS_OFF] = "bus_off",
+	[RMD_SIM_FAULT_FLOOD] = "flood",
+};
+
+const char *rmd_sim_fault_kind_name(enum rmd_sim_fault_kind kind)
+{
+	return (unsigned)kind < RMD_SIM_FAULT_COUNT ? kind_names[kind] : NULL;
+}
+
+int rmd_sim_fault_kind_from_name(const char *name)
+{
+	for (int k = 0; name && k < RMD_SIM_FAULT_COUNT; k++)
+		if (strcmp(name, kind_names[k]) == 0)
+			return k;
+	return -EINVAL;
+}
+
+/* Kinds that act over a window rather than on single frames. */
+static bool window_kind(enum rmd_sim_fault_kind kind)
+{
+	switch (kind) {
+	case RMD_SIM_FAULT_DISAPPEAR:
+	case RMD_SIM_FAULT_ERROR_FLAG:
+	case RMD_SIM_FAULT_BUS_OFF:
+	case RMD_SIM_FAULT_FLOOD:
+		return true;
+	case RMD_SIM_FAULT_DROP:
+	case RMD_SIM_FAULT_DELAY:
+	case RMD_SIM_FAULT_BAD_DLC:
+	case RMD_SIM_FAULT_GARBAGE:
+	case RMD_SIM_FAULT_WRONG_ID:
+	case RMD_SIM_FAULT_COUNT:
+		break;
+	}
+	return false;
+}
+
+static bool window_open(const struct rmd_sim_fault *f, int64_t t)
+{
+	return t >= f->start_ns && (f->end_ns == 0 || t < f->end_ns);
+}
+
+static bool fault_hits(const struct rmd_sim_fault *f, const struct rmd_sim_motor *m)
+{
+	return f->motor_id == 0 || f->motor_id == m->p.id;
+}
+
+static bool is_bus_off(const struct rmd_sim_bus *bus)
+{
+	for (unsigned k = 0; k < bus->n_faults; k++)
+		if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_BUS_OFF)
+			return true;
+	return false;
+}
+
+static bool is_absent(const struct rmd_sim_bus *bus, unsigned i)
+{
+	for (unsigned k = 0; k < bus->n_faults; k++)
+		if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_DISAPPEAR &&
+		    fault_hits(&bus->faults[k], &bus->motors[i]))
+			return true;
+	return false;
+}
+
+static int validate_fault(const struct rmd_sim_fault *f)
+{
+	if ((unsigned)f->kind >= RMD_SIM_FAULT_COUNT || f->motor_id > RMD_MAX_MOTORS)
+		return -EINVAL;
+	if (f->end_ns != 0 && f->end_ns <= f->start_ns)
+		return -EINVAL;
+	if (!window_kind(f->kind) && !(f->probability >= 0.0 && f->probability <= 1.0))
+		return -EINVAL;
+	switch (f->kind) {
+	case RMD_SIM_FAULT_DELAY:
+		return f->param >= 0 ? 0 : -EINVAL;
+	case RMD_SIM_FAULT_BAD_DLC:
+		return f->param >= 0 && f->param < RMD_FRAME_LEN ? 0 : -EINVAL;
+	case RMD_SIM_FAULT_WRONG_ID:
+		return f->param >= 1 && f->param <= RMD_MAX_MOTORS ? 0 : -EINVAL;
+	case RMD_SIM_FAULT_DISAPPEAR:
+		return f->param == 0 || f->param == 1 ? 0 : -EINVAL;
+	case RMD_SIM_FAULT_ERROR_FLAG:
+		return f->param >= 0 && f->param <= 0xFFFF ? 0 : -EINVAL;
+	case RMD_SIM_FAULT_BUS_OFF:
+		return f->motor_id == 0 ? 0 : -EINVAL;
+	case RMD_SIM_FAULT_FLOOD:
+		return f->motor_id == 0 && f->param > 0 && f->can_id <= 0x7FF ? 0 : -EINVAL;
+	case RMD_SIM_FAULT_DROP:
+	case RMD_SIM_FAULT_GARBAGE:
+	case RMD_SIM_FAULT_COUNT:
+		break;
+	}
+	return 0;
+}
+
+/* ---- queues --------------------------------------------------------------- */
+
+static void deliver_host(struct rmd_sim_bus *bus, const struct rmd_frame *f, int64_t t)
+{
+	unsigned used = bus->rxq_head - bus->rxq_tail;
+	unsigned i = bus->rxq_head & (RMD_SIM_BUS_RXQ - 1);
+
+	if (used >= RMD_SIM_BUS_RXQ) {
+		bus->stats.rxq_dropped++;
+		bus->stats.errors++;
+		return;
+	}
+	bus->rxq[i] = *f;
+	bus->rxq_t_ns[i] = t;
+	bus->rxq_head++;
+	bus->stats.rx_delivered++;
+	if (used + 1 > bus->stats.rxq_hwm)
+		bus->stats.rxq_hwm = used + 1;
+}
+
+static void push_motor_frame(struct rmd_sim_bus *bus, unsigned src, const struct rmd_frame *f,
+			     int64_t ready_ns)
+{
+	struct rmd_sim_pending *p;
+
+	if (bus->motq_n >= RMD_SIM_BUS_MOTQ) {
+		bus->stats.motq_dropped++;
+		bus->stats.errors++;
+		return;
+	}
+	p = &bus->motq[bus->motq_n++];
+	p->f = *f;
+	p->ready_ns = ready_ns;
+	p->seq = bus->seq++;
+	p->src = (int)src;
+	if (bus->motq_n > bus->stats.motq_hwm)
+		bus->stats.motq_hwm = bus->motq_n;
+}
+
+/* Reply identifiers that carry the motor's ID as an offset. */
+static bool rebase_id(uint32_t *can_id, uint8_t own, uint8_t other)
+{
+	uint32_t base = *can_id - own;
+
+	if (base != RMD_CAN_REQ_BASE && base != RMD_CAN_V3_REPLY_BASE &&
+	    base != RMD_CAN_MIT_REPLY_BASE)
+		return false;
+	*can_id = base + other;
+	return true;
+}
+
+/*
+ * A frame motor i transmits, produced at t: the per-frame faults act on it,
+ * then it waits for the wire from ready_ns on.
+ */
+static void motor_emit(struct rmd_sim_bus *bus, unsigned i, struct rmd_frame f, int64_t t,
+		       int64_t ready_ns)
+{
+	struct rmd_sim_motor *m = &bus->motors[i];
+
+	for (unsigned k = 0; k < bus->n_faults; k++) {
+		const struct rmd_sim_fault *ft = &bus->faults[k];
+
+		if (window_kind(ft->kind) || !fault_hits(ft, m) || !window_open(ft, t))
+			continue;
+		if (!roll(bus, ft->probability))
+			continue;
+		switch (ft->kind) {
+		case RMD_SIM_FAULT_DROP:
+			bus->stats.faults[ft->kind]++;
+			return;
+		case RMD_SIM_FAULT_DELAY:
+			ready_ns += ft->param;
+			break;
+		case RMD_SIM_FAULT_BAD_DLC:
+			f.len = (uint8_t)ft->param;
+			break;
+		case RMD_SIM_FAULT_GARBAGE:
+			for (unsigned j = 0; j < RMD_FRAME_LEN; j++)
+				f.data[j] = (uint8_t)rng_next(bus);
+			break;
+		case RMD_SIM_FAULT_WRONG_ID:
+			if (!rebase_id(&f.can_id, m->ram.can_id, (uint8_t)ft->param))
+				continue; /* 0x300 and the like carry no ID: not hit */
+			break;
+		case RMD_SIM_FAULT_DISAPPEAR:
+		case RMD_SIM_FAULT_ERROR_FLAG:
+		case RMD_SIM_FAULT_BUS_OFF:
+		case RMD_SIM_FAULT_FLOOD:
+		case RMD_SIM_FAULT_COUNT:
+			continue;
+		}
+		bus->stats.faults[ft->kind]++;
+	}
+	push_motor_frame(bus, i, &f, ready_ns);
+}
+
+/* ---- the wire ------------------------------------------------------------- */
+
+/* Take the frame off the wire unfinished (bus-off, sender gone). */
+static void abort_wire(struct rmd_sim_bus *bus, int64_t t)
+{
+	bus->wire_busy = false;
+	bus->wire_free_ns = t;
+}
+
+/* Discard the waiting frames of motor i (i < 0: of every motor). */
+static unsigned discard_motor_frames(struct rmd_sim_bus *bus, int i)
+{
+	unsigned n = 0;
+
+	for (unsigned j = 0; j < bus->motq_n;) {
+		if (i < 0 || bus->motq[j].src == i) {
+			bus->motq[j] = bus->motq[--bus->motq_n];
+			n++;
+		} else {
+			j++;
+		}
+	}
+	return n;
+}
+
+/* Make the motors' injected error bits those of the open ERROR_FLAG windows. */
+static void sync_error_flags(struct rmd_sim_bus *bus, int64_t t)
+{
+	for (unsigned i = 0; i < bus->n_motors; i++) {
+		struct rmd_sim_motor *m = &bus->motors[i];
+		uint16_t bits = 0;
+
+		for (unsigned k = 0; k < bus->n_faults; k++)
+			if (bus->fault_active[k] &&
+			    bus->faults[k].kind == RMD_SIM_FAULT_ERROR_FLAG &&
+			    fault_hits(&bus->faults[k], m))
+				bits |= (uint16_t)bus->faults[k].param;
+		if (bits != bus->injected[i]) {
+			rmd_sim_motor_step(m, t);
+			rmd_sim_motor_set_error(m, bits);
+			bus->injected[i] = bits;
+		}
+	}
+}
+
+static void open_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
+{
+	const struct rmd_sim_fault *f = &bus->faults[k];
+
+	switch (f->kind) {
+	case RMD_SIM_FAULT_DISAPPEAR:
+		for (unsigned i = 0; i < bus->n_motors; i++) {
+			if (!fault_hits(f, &bus->motors[i]))
+				continue;
+			/* Without power the drive lets go and the brake locks. */
+			if (f->param == 1)
+				rmd_sim_motor_power_cycle(&bus->motors[i], t);
+			bus->stats.absent_lost += discard_motor_frames(bus, (int)i);
+			if (bus->wire_busy && bus->wire.src == (int)i) {
+				abort_wire(bus, t);
+				bus->stats.absent_lost++;
+			}
+		}
+		break;
+	case RMD_SIM_FAULT_BUS_OFF: {
+		/* The controllers drop what they hold, like a SocketCAN restart. */
+		unsigned lost = bus->txq_n + discard_motor_frames(bus, -1) + bus->wire_busy;
+
+		bus->txq_n = 0;
+		if (bus->wire_busy)
+			abort_wire(bus, t);
+		bus->stats.busoff_lost += lost;
+		bus->stats.errors += lost;
+		break;
+	}
+	case RMD_SIM_FAULT_FLOOD:
+		bus->flood_next_ns[k] = f->start_ns;
+		return; /* FLOOD counts frames, not windows */
+	case RMD_SIM_FAULT_ERROR_FLAG:
+	case RMD_SIM_FAULT_DROP:
+	case RMD_SIM_FAULT_DELAY:
+	case RMD_SIM_FAULT_BAD_DLC:
+	case RMD_SIM_FAULT_GARBAGE:
+	case RMD_SIM_FAULT_WRONG_ID:
+	case RMD_SIM_FAULT_COUNT:
+		break;
+	}
+	bus->stats.faults[f->kind]++;
+}
+
+static void close_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
+{
+	const struct rmd_sim_fault *f = &bus->faults[k];
+
+	if (f->kind != RMD_SIM_FAULT_DISAPPEAR || f->param != 1)
+		return;
+	/* It lost power: it boots when it comes back. */
+	for (unsigned i = 0; i < bus->n_motors; i++)
+		if (fault_hits(f, &bus->motors[i]))
+			rmd_sim_motor_power_cycle(&bus->motors[i], t);
+}
+
+/* Open and close the windows as of time t. */
+static void apply_windows(struct rmd_sim_bus *bus, int64_t t)
+{
+	bool errors_changed = false;
+
+	for (unsigned k = 0; k < bus->n_faults; k++) {
+		bool open;
+
+		if (!window_kind(bus->faults[k].kind))
+			continue;
+		open = window_open(&bus->faults[k], t);
+		if (open == bus->fault_active[k])
+			continue;
+		bus->fault_active[k] = open;
+		if (open)
+			open_window(bus, k, t);
+		else
+			close_window(bus, k, t);
+		errors_changed |= bus->faults[k].kind == RMD_SIM_FAULT_ERROR_FLAG;
+	}
+	if (errors_changed)
+		sync_error_flags(bus, t);
+}
+
+/* The frame on the wire reaches its end of frame: everyone takes it. */
+static void finish_frame(struct rmd_sim_bus *bus)
+{
+	const struct rmd_sim_pending *w = &bus->wire;
+	int64_t t = bus->wire_eof_ns;
+	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
+	unsigned h = bus->hist_n++ & (RMD_SIM_BUS_HIST - 1);
+
+	bus->wire_busy = false;
+	bus->stats.bits += bus->wire_bits;
+	bus->stats.busy_ns += bus->wire_free_ns - bus->wire_start_ns;
+	bus->hist_start_ns[h] = bus->wire_start_ns;
+	bus->hist_free_ns[h] = bus->wire_free_ns;
+	if (bus->tap)
+		bus->tap(bus->tap_ctx, w, bus->wire_start_ns, t);
+	if (w->src == RMD_SIM_SRC_HOST)
+		bus->stats.frames_host++;
+	else if (w->src == RMD_SIM_SRC_FOREIGN)
+		bus->stats.frames_foreign++;
+	else
+		bus->stats.frames_motor++;
+
+	for (unsigned i = 0; i < bus->n_motors; i++) {
+		struct rmd_sim_motor *m = &bus->motors[i];
+		int n;
+
+		if ((int)i == w->src || is_absent(bus, i))
+			continue;
+		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_BUS_MAX_REPLIES);
+		for (int j = 0; j < n; j++)
+			motor_emit(bus, i, out[j], t, t + rmd_sim_motor_turnaround_ns(m));
+	}
+	if (w->src != RMD_SIM_SRC_HOST)
+		deliver_host(bus, &w->f, t);
+}
+
+/* The motors' unsolicited frames due by t. */
+static void poll_motors(struct rmd_sim_bus *bus, int64_t t)
+{
+	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
+	bool off = is_bus_off(bus);
+
+	for (unsigned i = 0; i < bus->n_motors; i++) {
+		struct rmd_sim_motor *m = &bus->motors[i];
+		bool absent = is_absent(bus, i);
+
+		/* Frames that did not fit stay due: a few rounds take them all. */
+		for (unsigned round = 0; round < 8 && rmd_sim_motor_next_event_ns(m) <= t;
+		     round++) {
+			int n = rmd_sim_motor_poll(m, t, out, RMD_SIM_BUS_MAX_REPLIES);
+
+			for (int j = 0; j < n; j++) {
+				if (absent) {
+					bus->stats.absent_lost++;
+				} else if (off) {
+					bus->stats.busoff_lost++;
+					bus->stats.errors++;
+				} else {
+					motor_emit(bus, i, out[j], t, t);
+				}
+			}
+			if (n < RMD_SIM_BUS_MAX_REPLIES)
+				break;
+		}
+	}
+}
+
+/* a goes before b in arbitration. */
+static bool wins(const struct rmd_sim_pending *a, const struct rmd_sim_pending *b)
+{
+	uint32_t ia = a->f.can_id & 0x7FFu, ib = b->f.can_id & 0x7FFu;
+
+	if (ia != ib)
+		return ia < ib;
+	if (a->ready_ns != b->ready_ns)
+		return a->ready_ns < b->ready_ns;
+	return a->seq < b->seq;
+}
+
+/* The host frames allowed to compete: all, or only the oldest (FIFO). */
+static bool host_competes(const struct rmd_sim_bus *bus, unsigned j)
+{
+	if (!(bus->flags & RMD_SIM_BUS_HOST_FIFO))
+		return true;
+	for (unsigned k = 0; k < bus->txq_n; k++)
+		if (bus->txq[k].seq < bus->txq[j].seq)
+			return false;
+	return true;
+}
+
+/* Arbitration at t on an idle wire: the winner goes on the wire. */
+static void start_frame(struct rmd_sim_bus *bus, int64_t t)
+{
+	struct rmd_sim_pending flood;
+	const struct rmd_sim_pending *best = NULL;
+	struct rmd_sim_pending *pool = NULL;
+	unsigned *pool_n = NULL;
+	unsigned best_j = 0, best_flood = 0;
+
+	for (unsigned j = 0; j < bus->txq_n; j++) {
+		if (bus->txq[j].ready_ns <= t && host_competes(bus, j) &&
+		    (!best || wins(&bus->txq[j], best))) {
+			best = &bus->txq[j];
+			pool = bus->txq;
+			pool_n = &bus->txq_n;
+			best_j = j;
+		}
+	}
+	for (unsigned j = 0; j < bus->motq_n; j++) {
+		if (bus->motq[j].ready_ns <= t && (!best || wins(&bus->motq[j], best))) {
+			best = &bus->motq[j];
+			pool = bus->motq;
+			pool_n = &bus->motq_n;
+			best_j = j;
+		}
+	}
+	for (unsigned k = 0; k < bus->n_faults; k++) {
+		struct rmd_sim_pending c = { 0 };
+
+		if (!bus->fault_active[k] || bus->faults[k].kind != RMD_SIM_FAULT_FLOOD ||
+		    bus->flood_next_ns[k] > t)
+			continue;
+		c.f.can_id = bus->faults[k].can_id;
+		c.f.len = RMD_FRAME_LEN;
+		c.ready_ns = bus->flood_next_ns[k];
+		c.src = RMD_SIM_SRC_FOREIGN;
+		if (!best || wins(&c, best)) {
+			flood = c;
+			best = &flood;
+			pool = NULL;
+			best_flood = k;
+		}
+	}
+	if (!best)
+		return;
+
+	bus->wire = *best;
+	if (pool) {
+		pool[best_j] = pool[--*pool_n];
+	} else {
+		for (unsigned j = 0; j < RMD_FRAME_LEN; j++)
+			bus->wire.f.data[j] = (uint8_t)rng_next(bus);
+		bus->flood_next_ns[best_flood] += bus->faults[best_flood].param;
+		bus->stats.faults[RMD_SIM_FAULT_FLOOD]++;
+	}
+	bus->wire_busy = true;
+	bus->wire_bits = rmd_can_frame_bits(&bus->wire.f);
+	bus->wire_start_ns = t;
+	bus->wire_eof_ns = t + rmd_can_wire_ns(bus->wire_bits - RMD_CAN_IFS_BITS, bus->bitrate);
+	bus->wire_free_ns = t + rmd_can_wire_ns(bus->wire_bits, bus->bitrate);
+}
+
+static int64_t min64(int64_t a, int64_t b)
+{
+	return a < b ? a : b;
+}
+
+/* The next time after t at which something happens, capped at until. */
+static int64_t next_event(const struct rmd_sim_bus *bus, int64_t t, int64_t until)
+{
+	int64_t n = until;
+
+	if (bus->wire_busy) {
+		n = min64(n, bus->wire_eof_ns);
+	} else if (t < bus->wire_free_ns) {
+		n = min64(n, bus->wire_free_ns);
+	} else {
+		for (unsigned j = 0; j < bus->txq_n; j++)
+			if (bus->txq[j].ready_ns > t)
+				n = min64(n, bus->txq[j].ready_ns);
+		for (unsigned j = 0; j < bus->motq_n; j++)
+			if (bus->motq[j].ready_ns > t)
+				n = min64(n, bus->motq[j].ready_ns);
+		for (unsigned k = 0; k < bus->n_faults; k++)
+			if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_FLOOD &&
+			    bus->flood_next_ns[k] > t)
+				n = min64(n, bus->flood_next_ns[k]);
+	}
+	for (unsigned k = 0; k < bus->n_faults; k++) {
+		const struct rmd_sim_fault *f = &bus->faults[k];
+
+		if (!window_kind(f->kind))
+			continue;
+		if (f->start_ns > t)
+			n = min64(n, f->start_ns);
+		if (f->end_ns > t)
+			n = min64(n, f->end_ns);
+	}
+	for (unsigned i = 0; i < bus->n_motors; i++) {
+		int64_t e = rmd_sim_motor_next_event_ns(&bus->motors[i]);
+
+		if (e > t)
+			n = min64(n, e);
+	}
+	return n;
+}
+
+int rmd_sim_bus_advance(struct rmd_sim_bus *bus, int64_t until_ns)
+{
+	uint64_t delivered = bus->stats.rx_delivered;
+
+	if (until_ns < bus->now_ns)
+		return 0;
+	for (;;) {
+		int64_t t = bus->now_ns;
+		int64_t next;
+
+		apply_windows(bus, t);
+		if (bus->wire_busy && bus->wire_eof_ns <= t)
+			finish_frame(bus);
+		poll_motors(bus, t);
+		if (!bus->wire_busy && t >= bus->wire_free_ns && t < until_ns && !is_bus_off(bus))
+			start_frame(bus, t);
+		next = next_event(bus, t, until_ns);
+		if (next <= t)
+			break;
+		bus->now_ns = next;
+	}
+	for (unsigned i = 0; i < bus->n_motors; i++)
+		rmd_sim_motor_step(&bus->motors[i], until_ns);
+	return (int)(bus->stats.rx_delivered - delivered);
+}
+
+/* ---- API ----------------------------------------------------------------- */
+
+int rmd_sim_bus_init(struct rmd_sim_bus *bus, uint32_t bitrate, uint64_t seed, unsigned flags)
+{
+	if (bitrate == 0 || (flags & ~(unsigned)RMD_SIM_BUS_HOST_FIFO))
+		return -EINVAL;
+	memset(bus, 0, sizeof(*bus));
+	bus->bitrate = bitrate;
+	bus->flags = flags;
+	bus->txq_len = RMD_SIM_BUS_TXQ;
+	bus->seed = seed;
+	bus->rng = splitmix(seed);
+	return 0;
+}
+
+void rmd_sim_bus_fini(struct rmd_sim_bus *bus)
+{
+	(void)bus;
+}
+
+int rmd_sim_bus_set_txqueuelen(struct rmd_sim_bus *bus, unsigned len)
+{
+	if (len < 1 || len > RMD_SIM_BUS_TXQ)
+		return -EINVAL;
+	bus->txq_len = len;
+	return 0;
+}
+
+int rmd_sim_bus_add_motor(struct rmd_sim_bus *bus, const struct rmd_sim_motor_params *p,
+			  int64_t now_ns)
+{
+	struct rmd_sim_motor_params q = *p;
+	unsigned i = bus->n_motors;
+
+	if (p->id < 1 || p->id > RMD_MAX_MOTORS)
+		return -EINVAL;
+	if (rmd_sim_bus_motor(bus, p->id))
+		return -EEXIST;
+	if (i >= RMD_MAX_MOTORS)
+		return -ENOSPC;
+	rmd_sim_bus_advance(bus, now_ns);
+	if (q.seed == 0)
+		q.seed = splitmix(bus->seed ^ ((uint64_t)p->id << 56));
+	rmd_sim_motor_init(&bus->motors[i], &q, bus->now_ns);
+	bus->injected[i] = 0;
+	bus->n_motors++;
+	sync_error_flags(bus, bus->now_ns);
+	return (int)i;
+}
+
+void rmd_sim_bus_set_tap(struct rmd_sim_bus *bus, rmd_sim_bus_tap_fn *fn, void *ctx)
+{
+	bus->tap = fn;
+	bus->tap_ctx = ctx;
+}
+
+struct rmd_sim_motor *rmd_sim_bus_motor(struct rmd_sim_bus *bus, uint8_t id)
+{
+	for (unsigned i = 0; i < bus->n_motors; i++)
+		if (bus->motors[i].p.id == id)
+			return &bus->motors[i];
+	return NULL;
+}
+
+int rmd_sim_bus_set_faults(struct rmd_sim_bus *bus, const struct rmd_sim_fault *faults, size_t n)
+{
+	int r;
+
+	if (n > RMD_SIM_BUS_MAX_FAULTS)
+		return -E2BIG;
+	for (size_t k = 0; k < n; k++) {
+		r = validate_fault(&faults[k]);
+		if (r < 0)
+			return r;
+	}
+	/* Close the old table's open windows now. */
+	for (unsigned k = 0; k < bus->n_faults; k++) {
+		if (bus->fault_active[k]) {
+			bus->fault_active[k] = false;
+			close_window(bus, k, bus->now_ns);
+		}
+	}
+	bus->n_faults = 0;
+	sync_error_flags(bus, bus->now_ns);
+
+	memcpy(bus->faults, faults, n * sizeof(*faults));
+	memset(bus->fault_active, 0, sizeof(bus->fault_active));
+	bus->n_faults = (unsigned)n;
+	apply_windows(bus, bus->now_ns);
+	return 0;
+}
+
+int rmd_sim_bus_send(struct rmd_sim_bus *bus, int64_t now_ns, const struct rmd_frame *frames,
+		     unsigned n)
+{
+	unsigned taken = 0;
+
+	rmd_sim_bus_advance(bus, now_ns);
+	if (is_bus_off(bus)) {
+		bus->stats.busoff_lost += n;
+		bus->stats.errors += n;
+		return -ENETDOWN;
+	}
+	while (taken < n && bus->txq_n < bus->txq_len) {
+		struct rmd_sim_pending *p;
+
+		/* Classical CAN 2.0A only, as a CAN_RAW socket would insist. */
+		if (frames[taken].can_id > 0x7FFu || frames[taken].len > RMD_FRAME_LEN)
+			break;
+		p = &bus->txq[bus->txq_n++];
+		p->f = frames[taken++];
+		p->ready_ns = bus->now_ns;
+		p->seq = bus->seq++;
+		p->src = RMD_SIM_SRC_HOST;
+	}
+	if (bus->txq_n > bus->stats.txq_hwm)
+		bus->stats.txq_hwm = bus->txq_n;
+	if (taken < n) {
+		if (bus->txq_n < bus->txq_len) /* stopped at a bad frame */
+			return taken ? (int)taken : -EINVAL;
+		bus->stats.tx_refused += n - taken;
+		bus->stats.errors += n - taken;
+		if (taken == 0)
+			return -ENOBUFS;
+	}
+	return (int)taken;
+}
+
+int rmd_sim_bus_recv(struct rmd_sim_bus *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns)
+{
+	unsigned n = 0;
+
+	while (n < max && bus->rxq_tail != bus->rxq_head) {
+		unsigned i = bus->rxq_tail++ & (RMD_SIM_BUS_RXQ - 1);
+
+		out[n] = bus->rxq[i];
+		if (t_ns)
+			t_ns[n] = bus->rxq_t_ns[i];
+		n++;
+	}
+	return (int)n;
+}
+
+enum rmd_bus_state rmd_sim_bus_state(const struct rmd_sim_bus *bus)
+{
+	return is_bus_off(bus) ? RMD_BUS_OFF : RMD_BUS_ACTIVE;
+}
+
+/* Length of [a0, a1) inside [b0, b1). */
+static int64_t overlap(int64_t a0, int64_t a1, int64_t b0, int64_t b1)
+{
+	int64_t lo = a0 > b0 ? a0 : b0, hi = a1 < b1 ? a1 : b1;
+
+	return hi > lo ? hi - lo : 0;
+}
+
+int rmd_sim_bus_load(const struct rmd_sim_bus *bus, int64_t window_ns, double *pct)
+{
+	int64_t to = bus->now_ns, from = to - window_ns, busy = 0;
+	unsigned kept = bus->hist_n < RMD_SIM_BUS_HIST ? bus->hist_n : RMD_SIM_BUS_HIST;
+
+	if (window_ns <= 0)
+		return -EINVAL;
+	if (bus->hist_n > RMD_SIM_BUS_HIST &&
+	    bus->hist_start_ns[bus->hist_n & (RMD_SIM_BUS_HIST - 1)] > from)
+		return -ERANGE;
+	for (unsigned j = 0; j < kept; j++)
+		busy += overlap(bus->hist_start_ns[j], bus->hist_free_ns[j], from, to);
+	if (bus->wire_busy)
+		busy += overlap(bus->wire_start_ns, bus->wire_free_ns, from, to);
+	*pct = 100.0 * (double)busy / (double)window_ns;
+	return 0;
+}
+
+unsigned rmd_sim_bus_pending(const struct rmd_sim_bus *bus)
+{
+	return bus->txq_n + bus->motq_n;
+}
