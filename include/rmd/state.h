@@ -18,7 +18,11 @@
 #include "rmd/bus.h"
 #include "rmd/frame.h"
 
-/* Control modes; the values are those of rmd.command_t's mode field. */
+/*
+ * Control modes; the values are those of rmd.command_t's mode field and of
+ * enum rmd_ctrl_mode in rmd/config.h (the daemon checks they agree).
+ * The safe actions are enum rmd_safe_action in rmd/config.h.
+ */
 enum rmd_mode {
 	RMD_MODE_TORQUE = 0,   /* torque_nm (current = torque / Kt) */
 	RMD_MODE_SPEED = 1,    /* vel_rad_s */
@@ -36,14 +40,6 @@ enum rmd_lifecycle {
 	RMD_LC_LOST,	  /* N consecutive missed replies; re-probed slowly */
 	RMD_LC_SAFE,	  /* the safe action holds it until re-enabled */
 	RMD_LC_COUNT
-};
-
-enum rmd_safe_action {
-	RMD_SAFE_STOP = 0, /* 0x81: stop, hold position with the motor's own loop */
-	RMD_SAFE_HOLD,	   /* keep the last position setpoint */
-	RMD_SAFE_DAMP,	   /* MIT/torque damping: torque = -kd * velocity */
-	RMD_SAFE_BRAKE,	   /* 0x80 output off, then 0x78 brake */
-	RMD_SAFE_COUNT
 };
 
 /* One motor's setpoint, already validated and clamped to its limits. */
@@ -145,7 +141,7 @@ enum rmd_event_kind {
 	RMD_EV_BUS_STATE,	/* a = enum rmd_bus_state */
 	RMD_EV_OVERRUN,		/* a = cycles skipped */
 	RMD_EV_WATCHDOG,	/* a = enum rmd_watchdog_state */
-	RMD_EV_SAFE_ACTION,	/* a = enum rmd_safe_action */
+	RMD_EV_SAFE_ACTION,	/* a = enum rmd_safe_action (rmd/config.h) */
 	RMD_EV_PROBE,		/* a = 0 ok, -errno; b = model/version detail */
 	RMD_EV_SEND_FAILED,	/* a = -errno, b = frames not sent */
 	RMD_EV_UNEXPECTED,	/* a = CAN id, b = first data byte */
