@@ -33,6 +33,23 @@ void rmdctl_decode_usage(FILE *f);
 int rmdctl_encode_run(int argc, char **argv);
 void rmdctl_encode_usage(FILE *f);
 
+/* Device commands (rmdctl_dev.c): one run for all, argv[0] picks the command. */
+int rmdctl_dev_run(int argc, char **argv);
+void rmdctl_scan_usage(FILE *f);
+void rmdctl_info_usage(FILE *f);
+void rmdctl_status_usage(FILE *f);
+void rmdctl_monitor_usage(FILE *f);
+void rmdctl_set_id_usage(FILE *f);
+void rmdctl_set_zero_usage(FILE *f);
+void rmdctl_set_timeout_usage(FILE *f);
+void rmdctl_accel_usage(FILE *f);
+void rmdctl_pid_usage(FILE *f);
+void rmdctl_brake_usage(FILE *f);
+void rmdctl_stop_usage(FILE *f);
+void rmdctl_off_usage(FILE *f);
+void rmdctl_reset_usage(FILE *f);
+void rmdctl_move_usage(FILE *f);
+
 /* "rmdctl SUB: message\n" on stderr. */
 void rmdctl_err(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 

@@ -1,0 +1,80 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The in-process simulated transport (DESIGN.md layer 2): a struct
+ * rmd_sim_bus (rmd/sim_bus.h) with its motors, behind struct rmd_bus_ops,
+ * so rmdd and rmdctl run with no hardware and never know it.
+ *
+ * Time.  The sim bus keeps its own clock, which starts at 0; the caller's
+ * now_ns is CLOCK_MONOTONIC.  The first send() or recv() fixes the epoch:
+ * sim time = now_ns - (now_ns of that first call), so the motors power on
+ * when the bus is first used.  send() runs the wire up to now and queues
+ * the frames; recv() runs the wire up to now (motor physics included) and
+ * pops what was delivered by then, stamped with its end of frame in the
+ * caller's time.  A reply therefore comes a turnaround (0.5 ms +- jitter)
+ * plus the wire time of request and reply after the request, never at
+ * once, and only to a caller that calls recv() again later: fd() is -1,
+ * the caller steps its clock forward (rmd/txn.h sleeps in small steps).
+ *
+ * Not thread-safe (one owner, like the sim bus).  send/recv/fd are rt-safe
+ * (bounded work, no allocation, no syscalls); open and close are not.
+ */
+#ifndef RMD_BUS_SIM_H
+#define RMD_BUS_SIM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rmd/bus.h"
+#include "rmd/codec.h"
+#include "rmd/sim.h"
+#include "rmd/sim_bus.h"
+
+#define RMD_BUS_SIM_BITRATE 1000000 /* default: 1 Mbit/s */
+#define RMD_BUS_SIM_SEED 1	    /* default PRNG seed: runs are reproducible */
+
+/* One motor on the simulated bus. */
+struct rmd_bus_sim_motor {
+	uint8_t id;				   /* 1..32 */
+	enum rmd_proto proto;			   /* V3, V2 or MIT */
+	const struct rmd_sim_motor_params *params; /* NULL: rmd_sim_motor_params_default() */
+};
+
+struct rmd_bus_sim_opts {
+	const struct rmd_bus_sim_motor *motors;
+	unsigned n_motors;   /* 0..RMD_MAX_MOTORS */
+	uint32_t bitrate;    /* bit/s; 0: RMD_BUS_SIM_BITRATE */
+	uint64_t seed;	     /* faults' and jitter PRNG; 0: RMD_BUS_SIM_SEED */
+	unsigned flags;	     /* RMD_SIM_BUS_* (RMD_SIM_BUS_HOST_FIFO: like SocketCAN) */
+	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_BUS_TXQ; 0: the sim bus's default */
+	const struct rmd_sim_fault *faults; /* in sim time (see above); may be NULL */
+	unsigned n_faults;
+};
+
+/*
+ * Open a simulated bus called `name` (for messages, e.g. "sim0"; truncated
+ * to fit bus->name) as `bus` (caller allocates; zeroed by close) with the
+ * motors of opts.  Returns 0, or -errno with a one-line message in err:
+ *   -EINVAL  opts NULL, a motor id outside 1..32, a bad bitrate, queue
+ *            length or fault entry
+ *   -EEXIST  two motors with one id
+ *   -E2BIG   more than RMD_MAX_MOTORS motors or RMD_SIM_BUS_MAX_FAULTS faults
+ *   -ENOMEM  out of memory
+ * Non-rt: allocates.
+ */
+int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus_sim_opts *opts,
+		     char *err, size_t errlen);
+
+/*
+ * The simulated bus behind `bus`, for fault injection and inspection
+ * (motors, statistics), or NULL when `bus` is not a sim bus.  Its times are
+ * sim times: see rmd_bus_sim_time_ns().  Rt-safe.
+ */
+struct rmd_sim_bus *rmd_bus_sim_get(struct rmd_bus *bus);
+
+/*
+ * Sim time of the caller's now_ns: now_ns minus the epoch, or 0 before the
+ * first send() or recv() (which will make now_ns the epoch).  Rt-safe.
+ */
+int64_t rmd_bus_sim_time_ns(const struct rmd_bus *bus, int64_t now_ns);
+
+#endif /* RMD_BUS_SIM_H */

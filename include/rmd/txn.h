@@ -1,0 +1,99 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Request/reply transactions over any bus (struct rmd_bus_ops), for callers
+ * outside the rt loop: rmdctl, and bring-up probes (0xB5, 0xB2, 0x9A) before
+ * the rt loop starts.
+ *
+ * A batch of requests goes out at once (pipelined: the bus takes what it
+ * can, the rest follows as it drains), then each request waits for its own
+ * answer, matched by reply identifier and command byte, never by "the next
+ * frame": replies of other motors, late replies and unsolicited frames are
+ * not mistaken for it (DESIGN.md "Turnaround").  What did not answer by its
+ * deadline is sent again, up to `tries` sends in all.  A silent motor thus
+ * costs at most tries * (timeout + its place in the batch * spacing); the
+ * call never hangs.
+ *
+ * Time is CLOCK_MONOTONIC.  The caller sleeps: in poll(2) on the bus's fd,
+ * or, for a bus without one (the sim bus, whose time advances with each
+ * call's now_ns), in short clock_nanosleep() steps.  Non-rt throughout.
+ */
+#ifndef RMD_TXN_H
+#define RMD_TXN_H
+
+#include <signal.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "rmd/bus.h"
+#include "rmd/codec.h"
+
+/* Per-try wait for an answer: a motor answers in 0.5-0.8 ms, USB adds ~1 ms (DESIGN.md). */
+#define RMD_TXN_TIMEOUT_NS 5000000
+#define RMD_TXN_TRIES 3
+/*
+ * Wire time a request and its reply add to the requests queued behind them
+ * on CAN: 2 frames of at most 135 bits (DESIGN.md) at 500 kbit/s, rounded up.
+ */
+#define RMD_TXN_CAN_SPACING_NS 300000
+/* Longest sleep between two looks at a bus without fd (the sim bus). */
+#define RMD_TXN_STEP_NS 100000
+
+/* One request and its answer. */
+struct rmd_txn {
+	/* filled by rmd_txn_prepare() or the caller */
+	struct rmd_frame req;
+	uint32_t reply_id; /* identifier the answer comes on */
+	uint8_t reply_cmd; /* its data[0] */
+	bool any_cmd;	   /* the answer has no command byte: match by identifier */
+	bool no_reply;	   /* nothing answers (V3 0x76): done once sent */
+	/* results */
+	bool done;	       /* answered (or, no_reply, sent) */
+	unsigned tries;	       /* sends made */
+	struct rmd_bus_rx rep; /* the answer, when done and !no_reply */
+	/* rmd_txn_run() internals */
+	bool sent;
+	int64_t deadline_ns;
+};
+
+struct rmd_txn_opts {
+	int64_t timeout_ns; /* per try, from the request's send; 0: RMD_TXN_TIMEOUT_NS */
+	unsigned tries;	    /* sends per request; 0: RMD_TXN_TRIES */
+	/*
+	 * Added to the deadline of the k-th request of a batch k times: the
+	 * time one request holds up the next.  0: from the bus kind (RS485:
+	 * its reply timeout, half duplex; CAN: RMD_TXN_CAN_SPACING_NS; sim:
+	 * the same).
+	 */
+	int64_t spacing_ns;
+	/* When not NULL and set (by a signal handler), rmd_txn_run() returns -EINTR. */
+	volatile sig_atomic_t *stop;
+};
+
+/*
+ * Fill t for the request `msg` (V2 or V3 table row) to motor `motor_id`:
+ * the frame, and the identifier and command byte its answer carries (V3
+ * replies on 0x240 + ID, 0x79 on 0x300; V2 on 0x140 + ID).  A row without
+ * reply (V3 0x76) or with a meaningless one (0xB4) is marked no_reply.
+ * Returns 0 or rmd_encode()'s -errno.  Non-rt.
+ */
+int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
+		    const struct rmd_msg *msg);
+
+/* True when rx answers t (identifier and command byte).  Pure. */
+bool rmd_txn_matches(const struct rmd_txn *t, const struct rmd_frame *rx);
+
+/*
+ * Send t[0..n) and collect their answers, retrying those that did not
+ * answer in time.  Frames already received when the call starts are
+ * dropped first: they came before the requests and answer none of them.
+ * Returns how many of t[] are done (t[i].done tells which), -EINTR when
+ * opts->stop was set, or a bus error (-errno of send or recv).  Non-rt:
+ * blocks, at most about tries * (timeout + n * spacing).
+ */
+int rmd_txn_run(struct rmd_bus *bus, struct rmd_txn *t, unsigned n,
+		const struct rmd_txn_opts *opts);
+
+/* CLOCK_MONOTONIC now, in ns.  Non-rt (any thread may call it, but it is a syscall). */
+int64_t rmd_txn_now_ns(void);
+
+#endif /* RMD_TXN_H */

@@ -1,0 +1,244 @@
+// SPDX-License-Identifier: MIT
+/*
+ * Request/reply transactions over any bus: pipelined sends, answers
+ * matched by identifier and command byte, per-request deadlines, retries.
+ * See rmd/txn.h.  Non-rt.
+ */
+#define _GNU_SOURCE /* ppoll */
+#include <errno.h>
+#include <poll.h>
+#include <string.h>
+#include <time.h>
+
+#include "rmd/bus_rs485.h"
+#include "rmd/txn.h"
+
+/* Frames one send() or recv() call moves here. */
+#define TXN_BATCH 64
+/* Longest sleep in poll(2) between two recv() calls: the RS485 queue advances only in them. */
+#define TXN_POLL_SLICE_NS 1000000
+
+int64_t rmd_txn_now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
+		    const struct rmd_msg *msg)
+{
+	const struct rmd_cmd_spec *spec;
+	int r;
+
+	memset(t, 0, sizeof(*t));
+	if (proto == RMD_PROTO_MIT)
+		proto = RMD_PROTO_V3; /* MIT motors answer the V3 table (V3 §5) */
+	spec = rmd_cmd_find(proto, msg->cmd);
+	if (!spec)
+		return -ENOENT;
+	/* A broadcast (0x280) has many answers: not a transaction. */
+	if (motor_id == 0 && !(proto == RMD_PROTO_V3 && spec->cmd == 0x79))
+		return -EINVAL;
+	r = rmd_encode(proto, RMD_DIR_REQUEST, motor_id, msg, &t->req);
+	if (r < 0)
+		return r;
+	if (proto == RMD_PROTO_V2)
+		t->reply_id = t->req.can_id; /* V2 §1: replies share 0x140 + ID */
+	else if (t->req.can_id == RMD_CAN_SET_ID)
+		t->reply_id = RMD_CAN_SET_ID; /* V3 §4.3: 0x79 answers on 0x300 */
+	else
+		t->reply_id = RMD_CAN_V3_REPLY_BASE + motor_id;
+	t->reply_cmd = spec->cmd;
+	t->any_cmd = spec->flags & RMD_CMD_NO_CMD_BYTE;
+	/* V3 §2.25: 0x76 does not answer; V3 §2.31: 0xB4's answer is noise, when it comes. */
+	t->no_reply = spec->flags & (RMD_CMD_NO_REPLY | RMD_CMD_RANDOM_REPLY);
+	return 0;
+}
+
+bool rmd_txn_matches(const struct rmd_txn *t, const struct rmd_frame *rx)
+{
+	if (rx->can_id != t->reply_id)
+		return false;
+	return t->any_cmd || (rx->len >= 1 && rx->data[0] == t->reply_cmd);
+}
+
+static int64_t spacing_of(const struct rmd_bus *bus, const struct rmd_txn_opts *opts)
+{
+	if (opts && opts->spacing_ns > 0)
+		return opts->spacing_ns;
+	/* Half duplex: each request waits for the previous answer or its timeout. */
+	if (!strcmp(bus->ops->kind, "rs485"))
+		return rmd_rs485_reply_timeout_ns(bus);
+	return RMD_TXN_CAN_SPACING_NS;
+}
+
+static bool stopped(const struct rmd_txn_opts *opts)
+{
+	return opts && opts->stop && *opts->stop;
+}
+
+/* Take every frame received so far; each answers the first waiting request it matches. */
+static int collect(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t now_ns)
+{
+	struct rmd_bus_rx rx[TXN_BATCH];
+	int r;
+
+	do {
+		r = rmd_bus_recv(bus, rx, TXN_BATCH, now_ns);
+		if (r < 0)
+			return r;
+		for (int k = 0; k < r; k++) {
+			for (unsigned i = 0; i < n; i++) {
+				/* Any try's answer will do: matched, it answers this request. */
+				if (t[i].done || !t[i].tries || t[i].no_reply ||
+				    !rmd_txn_matches(&t[i], &rx[k].f))
+					continue;
+				t[i].done = true;
+				t[i].rep = rx[k];
+				break;
+			}
+		}
+	} while (r == TXN_BATCH);
+	return 0;
+}
+
+/* Send what of this round is not sent yet, as much as the bus takes. */
+static int send_some(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t now_ns,
+		     int64_t timeout_ns, int64_t spacing_ns, unsigned *k)
+{
+	struct rmd_frame frames[TXN_BATCH];
+	unsigned idx[TXN_BATCH], m = 0;
+	int r;
+
+	for (unsigned i = 0; i < n && m < TXN_BATCH; i++) {
+		if (t[i].done || t[i].sent)
+			continue;
+		idx[m] = i;
+		frames[m++] = t[i].req;
+	}
+	if (m == 0)
+		return 0;
+	r = rmd_bus_send(bus, frames, m, now_ns);
+	if (r < 0)
+		return r;
+	for (int j = 0; j < r; j++) {
+		struct rmd_txn *x = &t[idx[j]];
+
+		x->sent = true;
+		x->tries++;
+		x->deadline_ns = now_ns + timeout_ns + (int64_t)*k * spacing_ns;
+		(*k)++;
+		if (x->no_reply)
+			x->done = true;
+	}
+	return r;
+}
+
+/* Sleep until frames arrive or until_ns, whichever is first (EINTR ends it early). */
+static void wait_until(struct rmd_bus *bus, int64_t now_ns, int64_t until_ns)
+{
+	int64_t d = until_ns - now_ns;
+	int fd = rmd_bus_fd(bus);
+
+	if (d <= 0)
+		return;
+	if (fd < 0) {
+		struct timespec ts;
+
+		if (d > RMD_TXN_STEP_NS)
+			until_ns = now_ns + RMD_TXN_STEP_NS;
+		ts.tv_sec = until_ns / 1000000000;
+		ts.tv_nsec = until_ns % 1000000000;
+		clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
+		return;
+	}
+	if (d > TXN_POLL_SLICE_NS)
+		d = TXN_POLL_SLICE_NS;
+	{
+		struct pollfd pfd = { .fd = fd, .events = POLLIN };
+		struct timespec ts = { .tv_sec = d / 1000000000, .tv_nsec = d % 1000000000 };
+
+		ppoll(&pfd, 1, &ts, NULL);
+	}
+}
+
+/* One round: send every waiting request once, wait for answers until the last deadline. */
+static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t timeout_ns,
+		      int64_t spacing_ns, const struct rmd_txn_opts *opts)
+{
+	/* A bus that takes no frame at all (bus-off, a stuck queue) ends the round too. */
+	int64_t end_ns = rmd_txn_now_ns() + timeout_ns + (int64_t)n * spacing_ns;
+	unsigned k = 0;
+
+	for (unsigned i = 0; i < n; i++)
+		t[i].sent = false;
+	for (;;) {
+		int64_t now = rmd_txn_now_ns(), next = INT64_MAX;
+		bool waiting = false, unsent = false;
+		int r;
+
+		if (stopped(opts))
+			return -EINTR;
+		if (now < end_ns) {
+			r = send_some(bus, t, n, now, timeout_ns, spacing_ns, &k);
+			if (r < 0)
+				return r;
+		}
+		r = collect(bus, t, n, now);
+		if (r < 0)
+			return r;
+		for (unsigned i = 0; i < n; i++) {
+			if (t[i].done)
+				continue;
+			if (!t[i].sent) {
+				unsent = now < end_ns;
+				continue;
+			}
+			if (t[i].deadline_ns > now) {
+				waiting = true;
+				if (t[i].deadline_ns < next)
+					next = t[i].deadline_ns;
+			}
+		}
+		if (!waiting && !unsent)
+			return 0;
+		/* The bus refused frames: look again soon, it drains as the wire runs. */
+		if (unsent && next > now + RMD_TXN_STEP_NS)
+			next = now + RMD_TXN_STEP_NS;
+		if (unsent && next > end_ns)
+			next = end_ns;
+		wait_until(bus, now, next);
+	}
+}
+
+int rmd_txn_run(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, const struct rmd_txn_opts *opts)
+{
+	int64_t timeout_ns = opts && opts->timeout_ns > 0 ? opts->timeout_ns : RMD_TXN_TIMEOUT_NS;
+	unsigned tries = opts && opts->tries > 0 ? opts->tries : RMD_TXN_TRIES;
+	int64_t spacing_ns = spacing_of(bus, opts);
+	unsigned done = 0;
+	int r;
+
+	for (unsigned i = 0; i < n; i++) {
+		t[i].done = false;
+		t[i].tries = 0;
+		t[i].sent = false;
+	}
+	/* Nothing received before the requests left can answer them. */
+	r = collect(bus, t, 0, rmd_txn_now_ns());
+	if (r < 0)
+		return r;
+	for (unsigned round = 0; round < tries; round++) {
+		r = round_once(bus, t, n, timeout_ns, spacing_ns, opts);
+		if (r < 0)
+			return r;
+		done = 0;
+		for (unsigned i = 0; i < n; i++)
+			done += t[i].done;
+		if (done == n)
+			break;
+	}
+	return (int)done;
+}

@@ -1,0 +1,846 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl device commands and the transports under them:
+ * - the sim bus backend through the ops table (rmd/bus_sim.h): a request
+ *   is answered a turnaround plus wire time later, never at once;
+ * - bus specs (rmd/bus_open.h) and request/reply transactions (rmd/txn.h);
+ * - the built rmdctl ($RMDCTL, else $BUILD/rmdctl, else build/rmdctl) run
+ *   as a real process against --bus sim:1-3.  Simulated motors live in the
+ *   rmdctl process, so each run starts with fresh motors: a move is
+ *   checked by the final angle the same run reports.
+ */
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "rmd/bus.h"
+#include "rmd/bus_open.h"
+#include "rmd/bus_sim.h"
+#include "rmd/codec.h"
+#include "rmd/sim_bus.h"
+#include "rmd/txn.h"
+
+#define MS 1000000LL
+#define US 1000LL
+/* Caller clock of the unit tests: any origin will do, the first call is the sim's epoch. */
+#define T0 (5 * 1000000000LL)
+/* A child that runs longer than this is killed: a hang fails the test, never stalls it. */
+#define CHILD_LIMIT_S 20
+
+static char rmdctl[4096];
+
+/* ---- sim bus through the ops table ------------------------------------------------------ */
+
+static void open_sim(struct rmd_bus *bus, const uint8_t *ids, unsigned n, enum rmd_proto proto)
+{
+	struct rmd_bus_sim_motor m[RMD_MAX_MOTORS];
+	struct rmd_bus_sim_opts o = { .motors = m, .n_motors = n };
+	char err[256];
+	int r;
+
+	for (unsigned i = 0; i < n; i++)
+		m[i] = (struct rmd_bus_sim_motor){ .id = ids[i], .proto = proto };
+	r = rmd_bus_sim_open(bus, "sim0", &o, err, sizeof(err));
+	if (r < 0)
+		fail_msg("rmd_bus_sim_open: %d %s", r, err);
+}
+
+static struct rmd_frame request(enum rmd_proto proto, uint8_t id, uint8_t cmd)
+{
+	struct rmd_msg m = { .cmd = cmd };
+	struct rmd_frame f;
+
+	assert_int_equal(rmd_encode(proto, RMD_DIR_REQUEST, id, &m, &f), 0);
+	return f;
+}
+
+static void test_sim_ops_basics(void **state)
+{
+	struct rmd_bus bus;
+	const uint8_t ids[] = { 1, 2 };
+
+	(void)state;
+	open_sim(&bus, ids, 2, RMD_PROTO_V3);
+	assert_string_equal(bus.ops->kind, "sim");
+	assert_string_equal(bus.name, "sim0");
+	assert_int_equal(rmd_bus_fd(&bus), -1);
+	assert_int_equal(bus.state, RMD_BUS_ACTIVE);
+	assert_non_null(rmd_bus_sim_get(&bus));
+	assert_int_equal(rmd_bus_sim_get(&bus)->n_motors, 2);
+	/* Before the first call there is no epoch. */
+	assert_int_equal(rmd_bus_sim_time_ns(&bus, T0), 0);
+	rmd_bus_close(&bus);
+	assert_null(bus.ops);
+	assert_null(bus.priv);
+	rmd_bus_close(&bus); /* closed: no-op */
+	rmd_bus_close(NULL);
+}
+
+/* A request is answered a turnaround (0.5 ms +- 0.1) plus two frames' wire time later. */
+static void test_sim_ops_reply_timing(void **state)
+{
+	struct rmd_bus bus;
+	struct rmd_bus_rx rx[8];
+	const uint8_t ids[] = { 1, 2 };
+	struct rmd_frame f = request(RMD_PROTO_V3, 2, 0x9A);
+	struct rmd_msg msg;
+	enum rmd_dir dir;
+	int n;
+
+	(void)state;
+	open_sim(&bus, ids, 2, RMD_PROTO_V3);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, T0), 1);
+	assert_int_equal(rmd_bus_sim_time_ns(&bus, T0 + 7), 7);
+	/* Not instantly, and not before the turnaround's lower bound. */
+	assert_int_equal(rmd_bus_recv(&bus, rx, 8, T0), 0);
+	assert_int_equal(rmd_bus_recv(&bus, rx, 8, T0 + 400 * US), 0);
+	n = rmd_bus_recv(&bus, rx, 8, T0 + 2 * MS);
+	assert_int_equal(n, 1);
+	assert_int_equal(rx[0].f.can_id, RMD_CAN_V3_REPLY_BASE + 2);
+	assert_int_equal(rx[0].f.data[0], 0x9A);
+	/* Stamped in the caller's clock at the reply's end of frame. */
+	if (rx[0].t_ns < T0 + 500 * US || rx[0].t_ns > T0 + 1000 * US)
+		fail_msg("reply at +%lld us, expected 500..1000",
+			 (long long)(rx[0].t_ns - T0) / US);
+	assert_int_equal(rmd_decode(RMD_PROTO_V3, RMD_DIR_REPLY, &rx[0].f, &msg, &dir), 0);
+	assert_int_equal(msg.cmd, 0x9A);
+	assert_int_equal(msg.v[RMD_FLD_VOLTAGE], 480); /* 48 V at 0.1 V */
+	assert_int_equal(bus.stats.tx_frames, 1);
+	assert_int_equal(bus.stats.rx_frames, 1);
+	/* Nothing more: a motor that is not there answers nothing. */
+	f = request(RMD_PROTO_V3, 9, 0x9A);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, T0 + 3 * MS), 1);
+	assert_int_equal(rmd_bus_recv(&bus, rx, 8, T0 + 20 * MS), 0);
+	rmd_bus_close(&bus);
+}
+
+/* Several requests on one wire: replies come one after another, each matched by id and command. */
+static void test_sim_ops_pipelined(void **state)
+{
+	struct rmd_bus bus;
+	struct rmd_bus_rx rx[16];
+	const uint8_t ids[] = { 1, 2, 3 };
+	struct rmd_frame f[6];
+	bool seen[4][2] = { { false } };
+	int n;
+
+	(void)state;
+	open_sim(&bus, ids, 3, RMD_PROTO_V3);
+	for (unsigned i = 0; i < 3; i++) {
+		f[2 * i] = request(RMD_PROTO_V3, ids[i], 0xB5);
+		f[2 * i + 1] = request(RMD_PROTO_V3, ids[i], 0xB2);
+	}
+	assert_int_equal(rmd_bus_send(&bus, f, 6, T0), 6);
+	n = rmd_bus_recv(&bus, rx, 16, T0 + 10 * MS);
+	assert_int_equal(n, 6);
+	for (int i = 0; i < n; i++) {
+		unsigned id = rx[i].f.can_id - RMD_CAN_V3_REPLY_BASE;
+
+		assert_in_range(id, 1, 3);
+		assert_true(rx[i].f.data[0] == 0xB5 || rx[i].f.data[0] == 0xB2);
+		seen[id][rx[i].f.data[0] == 0xB2] = true;
+		if (i > 0)
+			assert_true(rx[i].t_ns > rx[i - 1].t_ns); /* one wire: no two at once */
+	}
+	for (unsigned id = 1; id <= 3; id++)
+		assert_true(seen[id][0] && seen[id][1]);
+	rmd_bus_close(&bus);
+}
+
+/* A full TX queue takes what fits and counts the rest as busy, like SocketCAN. */
+static void test_sim_ops_txqueue(void **state)
+{
+	struct rmd_bus_sim_motor m = { .id = 1, .proto = RMD_PROTO_V3 };
+	struct rmd_bus_sim_opts o = { .motors = &m, .n_motors = 1, .txqueuelen = 2 };
+	struct rmd_frame f[5];
+	struct rmd_bus bus;
+	char err[256];
+
+	(void)state;
+	assert_int_equal(rmd_bus_sim_open(&bus, "sim0", &o, err, sizeof(err)), 0);
+	for (unsigned i = 0; i < 5; i++)
+		f[i] = request(RMD_PROTO_V3, 1, 0x9A);
+	assert_int_equal(rmd_bus_send(&bus, f, 5, T0), 2);
+	assert_int_equal(bus.stats.tx_busy, 3);
+	/* Still full at the same instant: nothing taken, not an error. */
+	assert_int_equal(rmd_bus_send(&bus, f, 3, T0), 0);
+	assert_int_equal(bus.stats.tx_busy, 6);
+	rmd_bus_close(&bus);
+}
+
+static void test_sim_ops_bus_off(void **state)
+{
+	struct rmd_bus_sim_motor m = { .id = 1, .proto = RMD_PROTO_V3 };
+	struct rmd_sim_fault fault = { .kind = RMD_SIM_FAULT_BUS_OFF,
+				       .start_ns = 1 * MS,
+				       .end_ns = 3 * MS };
+	struct rmd_bus_sim_opts o = { .motors = &m, .n_motors = 1, .faults = &fault, .n_faults = 1 };
+	struct rmd_frame f = request(RMD_PROTO_V3, 1, 0x9A);
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	char err[256];
+
+	(void)state;
+	assert_int_equal(rmd_bus_sim_open(&bus, "sim0", &o, err, sizeof(err)), 0);
+	assert_int_equal(rmd_bus_recv(&bus, rx, 4, T0), 0); /* epoch */
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, T0 + 2 * MS), -ENETDOWN);
+	assert_int_equal(bus.state, RMD_BUS_OFF);
+	assert_int_equal(rmd_bus_recv(&bus, rx, 4, T0 + 4 * MS), 0);
+	assert_int_equal(bus.state, RMD_BUS_ACTIVE);
+	assert_int_equal(bus.stats.state_changes, 2);
+	rmd_bus_close(&bus);
+}
+
+static void test_sim_open_errors(void **state)
+{
+	struct rmd_bus_sim_motor dup[2] = { { .id = 3, .proto = RMD_PROTO_V3 },
+					    { .id = 3, .proto = RMD_PROTO_V2 } };
+	struct rmd_bus_sim_motor bad = { .id = 33, .proto = RMD_PROTO_V3 };
+	struct rmd_bus_sim_opts o = { .motors = dup, .n_motors = 2 };
+	struct rmd_bus bus;
+	char err[256];
+
+	(void)state;
+	assert_int_equal(rmd_bus_sim_open(&bus, "simx", &o, err, sizeof(err)), -EEXIST);
+	assert_non_null(strstr(err, "simx"));
+	assert_null(bus.ops);
+	o.motors = &bad;
+	o.n_motors = 1;
+	assert_int_equal(rmd_bus_sim_open(&bus, "simx", &o, err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "33"));
+	assert_int_equal(rmd_bus_sim_open(&bus, "simx", NULL, err, sizeof(err)), -EINVAL);
+	o.motors = NULL;
+	assert_int_equal(rmd_bus_sim_open(&bus, "simx", &o, err, sizeof(err)), -EINVAL);
+	o.n_motors = 0;
+	o.txqueuelen = 1000;
+	assert_int_equal(rmd_bus_sim_open(&bus, "simx", &o, err, sizeof(err)), -EINVAL);
+}
+
+/* ---- bus specs -------------------------------------------------------------------------- */
+
+static void test_parse_ids(void **state)
+{
+	uint8_t ids[RMD_MAX_MOTORS];
+
+	(void)state;
+	assert_int_equal(rmd_bus_open_parse_ids("1-3,7", ids), 4);
+	assert_memory_equal(ids, ((uint8_t[]){ 1, 2, 3, 7 }), 4);
+	assert_int_equal(rmd_bus_open_parse_ids("32,5", ids), 2);
+	assert_int_equal(ids[0], 5);
+	assert_int_equal(rmd_bus_open_parse_ids("1-32", ids), 32);
+	assert_int_equal(rmd_bus_open_parse_ids("", ids), -EINVAL);
+	assert_int_equal(rmd_bus_open_parse_ids("0", ids), -EINVAL);
+	assert_int_equal(rmd_bus_open_parse_ids("33", ids), -EINVAL);
+	assert_int_equal(rmd_bus_open_parse_ids("3-1", ids), -EINVAL);
+	assert_int_equal(rmd_bus_open_parse_ids("1,1", ids), -EINVAL);
+	assert_int_equal(rmd_bus_open_parse_ids("1-3,2", ids), -EINVAL);
+	assert_int_equal(rmd_bus_open_parse_ids("1,", ids), -EINVAL);
+	assert_int_equal(rmd_bus_open_parse_ids("1 2", ids), -EINVAL);
+	assert_int_equal(rmd_bus_open_parse_ids("-1", ids), -EINVAL);
+}
+
+static void test_open_spec(void **state)
+{
+	struct rmd_bus_open_opts v2 = { .proto = RMD_PROTO_V2 };
+	struct rmd_sim_bus *sim;
+	struct rmd_bus bus;
+	char err[256];
+
+	(void)state;
+	assert_true(rmd_bus_open_is_sim("sim"));
+	assert_true(rmd_bus_open_is_sim("sim:1"));
+	assert_false(rmd_bus_open_is_sim("simcan0"));
+	assert_false(rmd_bus_open_is_sim("can0"));
+
+	assert_int_equal(rmd_bus_open_spec(&bus, "sim", NULL, err, sizeof(err)), 0);
+	assert_string_equal(bus.ops->kind, "sim");
+	sim = rmd_bus_sim_get(&bus);
+	assert_non_null(sim);
+	assert_int_equal(sim->n_motors, RMD_BUS_OPEN_SIM_MOTORS);
+	for (uint8_t id = 1; id <= RMD_BUS_OPEN_SIM_MOTORS; id++)
+		assert_non_null(rmd_sim_bus_motor(sim, id));
+	rmd_bus_close(&bus);
+
+	assert_int_equal(rmd_bus_open_spec(&bus, "sim:1-3,7", &v2, err, sizeof(err)), 0);
+	assert_string_equal(bus.name, "sim:1-3,7");
+	sim = rmd_bus_sim_get(&bus);
+	assert_int_equal(sim->n_motors, 4);
+	assert_non_null(rmd_sim_bus_motor(sim, 7));
+	assert_null(rmd_sim_bus_motor(sim, 4));
+	assert_int_equal(rmd_sim_bus_motor(sim, 7)->p.proto, RMD_PROTO_V2);
+	rmd_bus_close(&bus);
+
+	assert_int_equal(rmd_bus_open_spec(&bus, "sim:", NULL, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_bus_open_spec(&bus, "sim:0-3", NULL, err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "sim:0-3"));
+	assert_int_equal(rmd_bus_open_spec(&bus, "", NULL, err, sizeof(err)), -EINVAL);
+	/* A path is RS485; V2 has none. */
+	assert_int_equal(rmd_bus_open_spec(&bus, "/dev/ttyRMDnone", &v2, err, sizeof(err)),
+			 -EINVAL);
+	assert_non_null(strstr(err, "V2"));
+	assert_true(rmd_bus_open_spec(&bus, "/dev/ttyRMDnone", NULL, err, sizeof(err)) < 0);
+	assert_non_null(strstr(err, "/dev/ttyRMDnone"));
+	/* Anything else is SocketCAN: this kernel may lack it, the name is missing anyway. */
+	assert_true(rmd_bus_open_spec(&bus, "rmdnone0", NULL, err, sizeof(err)) < 0);
+	assert_non_null(strstr(err, "rmdnone0"));
+	assert_null(bus.ops);
+}
+
+/* ---- transactions over the sim bus ------------------------------------------------------ */
+
+static int64_t mono_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+static void test_txn_sim(void **state)
+{
+	struct rmd_txn_opts o = { .timeout_ns = 5 * MS, .tries = 3 };
+	const uint8_t ids[] = { 1, 2, 3 };
+	struct rmd_msg m9a = { .cmd = 0x9A }, mb5 = { .cmd = 0xB5 };
+	struct rmd_txn t[4];
+	struct rmd_bus bus;
+	int64_t start, took;
+
+	(void)state;
+	open_sim(&bus, ids, 3, RMD_PROTO_V3);
+	assert_int_equal(rmd_txn_prepare(&t[0], RMD_PROTO_V3, 3, &m9a), 0);
+	assert_int_equal(rmd_txn_prepare(&t[1], RMD_PROTO_V3, 9, &m9a), 0);
+	assert_int_equal(rmd_txn_prepare(&t[2], RMD_PROTO_V3, 1, &mb5), 0);
+	assert_int_equal(rmd_txn_prepare(&t[3], RMD_PROTO_V3, 2, &m9a), 0);
+	assert_int_equal(t[0].reply_id, RMD_CAN_V3_REPLY_BASE + 3);
+	assert_int_equal(t[0].reply_cmd, 0x9A);
+	start = mono_ns();
+	assert_int_equal(rmd_txn_run(&bus, t, 4, &o), 3);
+	took = mono_ns() - start;
+	assert_true(t[0].done && t[2].done && t[3].done);
+	assert_false(t[1].done);
+	assert_int_equal(t[0].tries, 1);
+	assert_int_equal(t[1].tries, 3);
+	/* Each answer is its own motor's, for its own command. */
+	assert_int_equal(t[0].rep.f.can_id, RMD_CAN_V3_REPLY_BASE + 3);
+	assert_int_equal(t[2].rep.f.can_id, RMD_CAN_V3_REPLY_BASE + 1);
+	assert_int_equal(t[2].rep.f.data[0], 0xB5);
+	assert_int_equal(t[3].rep.f.can_id, RMD_CAN_V3_REPLY_BASE + 2);
+	/* A silent motor costs about tries * timeout, never a hang (generous: this is a VM). */
+	if (took < 15 * MS || took > 1000 * MS)
+		fail_msg("took %lld ms", (long long)took / MS);
+	/* A reset answers nothing: done once sent. */
+	{
+		struct rmd_msg m76 = { .cmd = 0x76 };
+
+		assert_int_equal(rmd_txn_prepare(&t[0], RMD_PROTO_V3, 1, &m76), 0);
+		assert_true(t[0].no_reply);
+		assert_int_equal(rmd_txn_run(&bus, t, 1, &o), 1);
+	}
+	rmd_bus_close(&bus);
+}
+
+static void test_txn_matching(void **state)
+{
+	struct rmd_msg m = { .cmd = 0x79 };
+	struct rmd_frame rx = { .can_id = 0x243, .len = 8, .data = { 0x9C } };
+	struct rmd_txn t;
+
+	(void)state;
+	assert_int_equal(rmd_txn_prepare(&t, RMD_PROTO_V3, 3, &(struct rmd_msg){ .cmd = 0x9A }), 0);
+	assert_false(rmd_txn_matches(&t, &rx)); /* same motor, other command */
+	rx.data[0] = 0x9A;
+	assert_true(rmd_txn_matches(&t, &rx));
+	rx.can_id = 0x242;
+	assert_false(rmd_txn_matches(&t, &rx)); /* other motor */
+	rx.can_id = 0x143;
+	assert_false(rmd_txn_matches(&t, &rx)); /* a request, not a V3 reply */
+	/* V2 answers on 0x140 + ID; V3 0x79 on 0x300. */
+	assert_int_equal(rmd_txn_prepare(&t, RMD_PROTO_V2, 3, &(struct rmd_msg){ .cmd = 0x9A }), 0);
+	assert_int_equal(t.reply_id, 0x143);
+	rmd_msg_set(&m, RMD_FLD_READ_FLAG, 1);
+	assert_int_equal(rmd_txn_prepare(&t, RMD_PROTO_V3, 3, &m), 0);
+	assert_int_equal(t.req.can_id, RMD_CAN_SET_ID);
+	assert_int_equal(t.reply_id, RMD_CAN_SET_ID);
+	/* A broadcast is not a transaction. */
+	assert_int_equal(rmd_txn_prepare(&t, RMD_PROTO_V3, 0, &(struct rmd_msg){ .cmd = 0x9A }),
+			 -EINVAL);
+}
+
+/* ---- rmdctl as a process ---------------------------------------------------------------- */
+
+struct run {
+	int status; /* exit status, or 128 + signal */
+	char *out;
+	char *err;
+	int64_t took_ns;
+};
+
+static char *slurp(FILE *f)
+{
+	long n;
+	char *buf;
+
+	fflush(f);
+	fseek(f, 0, SEEK_END);
+	n = ftell(f);
+	assert_true(n >= 0);
+	rewind(f);
+	buf = malloc((size_t)n + 1);
+	assert_non_null(buf);
+	assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+	buf[n] = '\0';
+	return buf;
+}
+
+/* Run rmdctl with args (NULL-terminated), stdin a file (never a terminal). */
+static void run_argv(struct run *r, const char *const *args)
+{
+	const char *argv[40];
+	FILE *in = tmpfile(), *out = tmpfile(), *err = tmpfile();
+	size_t n = 0;
+	int64_t start;
+	pid_t pid;
+	int ws;
+
+	assert_non_null(in);
+	assert_non_null(out);
+	assert_non_null(err);
+	argv[n++] = rmdctl;
+	for (; args[n - 1] && n < 39; n++)
+		argv[n] = args[n - 1];
+	argv[n] = NULL;
+	/* A "y" on stdin must not count as confirmation: it is not a terminal. */
+	fputs("y\n", in);
+	fflush(in);
+	rewind(in);
+	start = mono_ns();
+	pid = fork();
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		dup2(fileno(in), 0);
+		dup2(fileno(out), 1);
+		dup2(fileno(err), 2);
+		unsetenv("RMDCTL_BUS");
+		alarm(CHILD_LIMIT_S);
+		execv(rmdctl, (char *const *)argv);
+		_exit(127);
+	}
+	assert_int_equal(waitpid(pid, &ws, 0), pid);
+	r->took_ns = mono_ns() - start;
+	r->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+	r->out = slurp(out);
+	r->err = slurp(err);
+	fclose(in);
+	fclose(out);
+	fclose(err);
+}
+
+#define RUN(r, ...) run_argv((r), (const char *const[]){ __VA_ARGS__, NULL })
+
+static void run_free(struct run *r)
+{
+	free(r->out);
+	free(r->err);
+}
+
+static void assert_has(const char *hay, const char *needle, const char *what)
+{
+	if (!strstr(hay, needle))
+		fail_msg("%s: \"%s\" missing from:\n%s", what, needle, hay);
+}
+
+static void assert_lacks(const char *hay, const char *needle, const char *what)
+{
+	if (strstr(hay, needle))
+		fail_msg("%s: \"%s\" unexpected in:\n%s", what, needle, hay);
+}
+
+static void assert_status(const struct run *r, int status, const char *what)
+{
+	if (r->status != status)
+		fail_msg("%s: exit %d, expected %d\nstdout:\n%s\nstderr:\n%s", what, r->status,
+			 status, r->out, r->err);
+}
+
+/* The number after "key": in a JSON line; fails when absent. */
+static double json_num(const char *line, const char *key)
+{
+	char pat[64];
+	const char *p;
+
+	snprintf(pat, sizeof(pat), "\"%s\":", key);
+	p = strstr(line, pat);
+	if (!p)
+		fail_msg("no %s in %s", pat, line);
+	return strtod(p + strlen(pat), NULL);
+}
+
+static size_t count_lines(const char *s)
+{
+	size_t n = 0;
+
+	for (; *s; s++)
+		n += *s == '\n';
+	return n;
+}
+
+static void test_scan(void **state)
+{
+	struct run r;
+	char want[128];
+
+	(void)state;
+	RUN(&r, "scan", "--bus", "sim:1-3", "--json");
+	assert_status(&r, 0, "scan");
+	assert_int_equal(count_lines(r.out), 3);
+	for (int id = 1; id <= 3; id++) {
+		snprintf(want, sizeof(want),
+			 "\"motor_id\":%d,\"protocol\":\"V3\",\"model\":\"X8S2V10\","
+			 "\"version_date\":20220206,",
+			 id);
+		assert_has(r.out, want, "scan --json");
+	}
+	assert_lacks(r.out, "\"motor_id\":4,", "scan --json");
+	assert_has(r.out, "\"bus\":\"sim:1-3\"", "scan --json");
+	assert_has(r.out, "\"errors\":[]", "scan --json");
+	/* Pipelined probes of 32 ids: well under a second even with 29 silent ones. */
+	if (r.took_ns > 2000 * MS)
+		fail_msg("scan took %lld ms", (long long)r.took_ns / MS);
+	run_free(&r);
+
+	RUN(&r, "scan", "--bus", "sim:1-3");
+	assert_status(&r, 0, "scan text");
+	assert_has(r.out, "X8S2V10", "scan text");
+	assert_has(r.out, "20220206", "scan text");
+	assert_has(r.out, "3 motors answered", "scan text");
+	run_free(&r);
+
+	/* Nothing there: exit 1 with the bus named. */
+	RUN(&r, "scan", "10-12", "--bus", "sim:1-3");
+	assert_status(&r, 1, "scan of empty ids");
+	assert_has(r.err, "sim:1-3: no motor answered", "scan of empty ids");
+	run_free(&r);
+}
+
+static void test_status(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "status", "2", "--bus", "sim:1-3", "--json");
+	assert_status(&r, 0, "status 2");
+	assert_has(r.out, "\"motor_id\":2,", "status 2");
+	assert_int_equal((int)json_num(r.out, "temperature_c"), 25);
+	assert_true(fabs(json_num(r.out, "voltage_v") - 48) < 0.5);
+	assert_has(r.out, "\"error_code\":0,\"errors\":[]", "status 2");
+	assert_has(r.out, "\"brake_released\":false", "status 2");
+	assert_has(r.out, "\"angle_deg\":0", "status 2");
+	assert_has(r.out, "\"speed_dps\":", "status 2");
+	assert_has(r.out, "\"current_a\":", "status 2");
+	run_free(&r);
+
+	RUN(&r, "status", "1", "--bus", "sim:1-3");
+	assert_status(&r, 0, "status text");
+	assert_has(r.out, "voltage", "status text");
+	assert_has(r.out, "errors           none", "status text");
+	run_free(&r);
+}
+
+/* A missing motor: an error naming bus, motor, command and timeout, in bounded time. */
+static void test_status_missing(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "status", "9", "--bus", "sim:1-3");
+	assert_status(&r, 1, "status 9");
+	assert_has(r.err, "sim:1-3: motor 9 did not answer 0x9A within 5 ms (3 tries)", "status 9");
+	assert_string_equal(r.out, "");
+	/* 3 tries of 5 ms; generous for a VM with 50 ms hiccups. */
+	if (r.took_ns > 1500 * MS)
+		fail_msg("status 9 took %lld ms", (long long)r.took_ns / MS);
+	run_free(&r);
+
+	RUN(&r, "status", "9", "--bus", "sim:1-3", "--timeout", "2", "--tries", "1");
+	assert_status(&r, 1, "status 9 --tries 1");
+	assert_has(r.err, "motor 9 did not answer 0x9A within 2 ms (1 try)", "--tries 1");
+	run_free(&r);
+}
+
+static void test_move(void **state)
+{
+	struct run r;
+	double angle;
+
+	(void)state;
+	RUN(&r, "move", "2", "10", "--yes", "--bus", "sim:1-3", "--json");
+	assert_status(&r, 0, "move 2 10");
+	assert_has(r.out, "\"motor_id\":2,", "move");
+	assert_has(r.out, "\"arrived\":true", "move");
+	angle = json_num(r.out, "angle_deg");
+	if (fabs(angle - 10) > 0.2)
+		fail_msg("move ended at %g deg", angle);
+	run_free(&r);
+
+	/* Negative angles are arguments, not options; text output reports the final angle. */
+	RUN(&r, "move", "3", "-5", "--speed", "60", "--yes", "--bus", "sim:1-3");
+	assert_status(&r, 0, "move 3 -5");
+	assert_has(r.out, "at -5.00 deg (target -5.00", "move 3 -5");
+	run_free(&r);
+}
+
+/* No --yes and no terminal: refuse before anything reaches the bus. */
+static void test_move_unconfirmed(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "move", "2", "10", "--bus", "sim:1-3", "--trace");
+	assert_status(&r, 2, "move without --yes");
+	assert_has(r.err, "refusing to move motor 2", "move without --yes");
+	assert_has(r.err, "--yes", "move without --yes");
+	/* --trace prints every frame sent: none was. */
+	assert_lacks(r.err, " TX ", "move without --yes");
+	assert_string_equal(r.out, "");
+	run_free(&r);
+
+	/* The same holds for ROM writes. */
+	RUN(&r, "set-timeout", "2", "500", "--bus", "sim:1-3", "--trace");
+	assert_status(&r, 2, "set-timeout without --yes");
+	assert_lacks(r.err, " TX ", "set-timeout without --yes");
+	run_free(&r);
+	RUN(&r, "brake", "2", "off", "--bus", "sim:1-3", "--trace");
+	assert_status(&r, 2, "brake off without --yes");
+	assert_lacks(r.err, " TX ", "brake off without --yes");
+	run_free(&r);
+}
+
+static void test_move_limits(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "move", "2", "10", "--speed", "500", "--yes", "--bus", "sim:1-3");
+	assert_status(&r, 2, "move too fast");
+	assert_has(r.err, "--force", "move too fast");
+	run_free(&r);
+	RUN(&r, "move", "2", "720", "--yes", "--bus", "sim:1-3", "--trace");
+	assert_status(&r, 2, "move too far");
+	assert_lacks(r.err, "#A4", "move too far"); /* read its angle, never sent the move */
+	run_free(&r);
+	RUN(&r, "move", "2", "30", "--no-wait", "--yes", "--bus", "sim:1-3");
+	assert_status(&r, 0, "move --no-wait");
+	assert_has(r.out, "not waiting", "move --no-wait");
+	run_free(&r);
+}
+
+static void test_set_timeout(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "set-timeout", "2", "500", "--yes", "--bus", "sim:1-3", "--trace");
+	assert_status(&r, 0, "set-timeout");
+	assert_has(r.out, "500 ms", "set-timeout");
+	assert_has(r.out, "echo verified", "set-timeout");
+	/* V3 §2.30: 0xB3 with 500 = 0x1F4 at data[4..7], echoed. */
+	assert_has(r.err, "TX 142#B3000000F4010000", "set-timeout trace");
+	assert_has(r.err, "RX 242#B3000000F4010000", "set-timeout trace");
+	run_free(&r);
+
+	RUN(&r, "set-timeout", "7", "500", "--yes", "--bus", "sim:1-3");
+	assert_status(&r, 1, "set-timeout of a missing motor");
+	assert_has(r.err, "motor 7 did not answer 0xB3", "set-timeout missing");
+	run_free(&r);
+}
+
+static void test_other_commands(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "info", "1", "--bus", "sim:1-3", "--json");
+	assert_status(&r, 0, "info");
+	assert_has(r.out, "\"model\":\"X8S2V10\"", "info");
+	assert_has(r.out, "\"accel_dps2\":", "info");
+	assert_has(r.out, "\"position_kp\":", "info");
+	assert_has(r.out, "\"timeout_ms\":null", "info");
+	run_free(&r);
+
+	RUN(&r, "monitor", "--once", "--json", "--bus", "sim");
+	assert_status(&r, 0, "monitor --once");
+	assert_int_equal(count_lines(r.out), 4); /* plain "sim": motors 1..4 */
+	assert_has(r.out, "\"motor_id\":4,", "monitor --once");
+	run_free(&r);
+
+	RUN(&r, "monitor", "1,5", "--once", "--bus", "sim:1-3");
+	assert_status(&r, 1, "monitor with a missing motor");
+	assert_has(r.out, "no answer", "monitor with a missing motor");
+	assert_lacks(r.out, "\033[", "monitor --once"); /* no screen control codes */
+	run_free(&r);
+
+	RUN(&r, "pid", "3", "10", "20", "30", "40", "50", "60", "--bus", "sim:1-3", "--json");
+	assert_status(&r, 0, "pid write RAM");
+	assert_has(r.out, "\"current_kp\":10,", "pid write");
+	run_free(&r);
+
+	RUN(&r, "accel", "3", "speed-accel", "20000", "--yes", "--bus", "sim:1-3");
+	assert_status(&r, 0, "accel write");
+	run_free(&r);
+
+	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:2");
+	assert_status(&r, 0, "set-id alone on the bus");
+	assert_has(r.out, "motor 2 is now motor 9", "set-id");
+	run_free(&r);
+
+	/* V3 0x79 reaches every motor: with others on the bus it refuses. */
+	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:1-3");
+	assert_status(&r, 1, "set-id with other motors");
+	assert_has(r.err, "3 motors answer", "set-id with other motors");
+	run_free(&r);
+
+	RUN(&r, "reset", "1", "--bus", "sim:1-3");
+	assert_status(&r, 0, "reset");
+	run_free(&r);
+
+	RUN(&r, "scan", "--protocol", "v2", "--bus", "sim:1-2", "--json");
+	assert_status(&r, 0, "scan v2");
+	assert_has(r.out, "\"protocol\":\"V2\"", "scan v2");
+	assert_has(r.out, "\"model\":null", "scan v2"); /* V2 has no 0xB5 */
+	run_free(&r);
+}
+
+static void test_usage_errors(void **state)
+{
+	static const char *const bad[][10] = {
+		{ "status", "--bus", "sim", NULL },
+		{ "status", "0", "--bus", "sim", NULL },
+		{ "status", "33", "--bus", "sim", NULL },
+		{ "status", "1", "2", "--bus", "sim", NULL },
+		{ "status", "1", "--bogus", NULL },
+		{ "status", "1", "--rom", "--bus", "sim", NULL },
+		{ "status", "1", "--timeout", "0", NULL },
+		{ "status", "1", "--tries", NULL },
+		{ "move", "1", "abc", "--bus", "sim", NULL },
+		{ "move", "1", "--bus", "sim", NULL },
+		{ "brake", "1", "maybe", "--bus", "sim", NULL },
+		{ "pid", "1", "300", "1", "1", "1", "1", "1", NULL },
+		{ "pid", "1", "1", "2", "--bus", "sim", NULL },
+		{ "accel", "1", "9", "500", "--bus", "sim", NULL },
+		{ "set-id", "3", "3", "--bus", "sim", NULL },
+		{ "set-timeout", "1", "-5", "--bus", "sim", NULL },
+		{ "scan", "1-40", "--bus", "sim", NULL },
+		{ "scan", "--protocol", "v9", NULL },
+	};
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+		struct run r;
+		char what[128];
+
+		snprintf(what, sizeof(what), "%s %s %s", bad[i][0], bad[i][1] ? bad[i][1] : "",
+			 bad[i][1] && bad[i][2] ? bad[i][2] : "");
+		run_argv(&r, bad[i]);
+		assert_status(&r, 2, what);
+		assert_has(r.err, "rmdctl ", what);
+		run_free(&r);
+	}
+}
+
+static void test_help(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "--help");
+	assert_status(&r, 0, "--help");
+	assert_has(r.out, "scan", "--help");
+	assert_has(r.out, "move", "--help");
+	run_free(&r);
+	RUN(&r, "move", "--help");
+	assert_status(&r, 0, "move --help");
+	assert_has(r.out, "usage: rmdctl move", "move --help");
+	assert_has(r.out, "--yes", "move --help");
+	assert_has(r.out, "nothing persists", "move --help");
+	run_free(&r);
+	RUN(&r, "help", "scan");
+	assert_status(&r, 0, "help scan");
+	assert_has(r.out, "usage: rmdctl scan", "help scan");
+	run_free(&r);
+}
+
+/* A bus that cannot be opened: exit 1 with the transport's message. */
+static void test_bus_errors(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "status", "1", "--bus", "/dev/ttyRMDnone");
+	assert_status(&r, 1, "no serial port");
+	assert_has(r.err, "/dev/ttyRMDnone", "no serial port");
+	run_free(&r);
+	RUN(&r, "status", "1", "--bus", "rmdnone0");
+	assert_status(&r, 1, "no CAN interface");
+	assert_has(r.err, "rmdnone0", "no CAN interface");
+	run_free(&r);
+}
+
+/* Process tests need the built binary. */
+static int need_rmdctl(void **state)
+{
+	const char *env = getenv("RMDCTL"), *build = getenv("BUILD");
+
+	(void)state;
+	if (env && *env)
+		snprintf(rmdctl, sizeof(rmdctl), "%s", env);
+	else
+		snprintf(rmdctl, sizeof(rmdctl), "%s/rmdctl", build && *build ? build : "build");
+	if (access(rmdctl, X_OK) != 0) {
+		print_error("rmdctl binary \"%s\" not found (set RMDCTL or BUILD)\n", rmdctl);
+		return -1;
+	}
+	return 0;
+}
+
+#define PROC_TEST(f) cmocka_unit_test_setup(f, need_rmdctl)
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_sim_ops_basics),
+		cmocka_unit_test(test_sim_ops_reply_timing),
+		cmocka_unit_test(test_sim_ops_pipelined),
+		cmocka_unit_test(test_sim_ops_txqueue),
+		cmocka_unit_test(test_sim_ops_bus_off),
+		cmocka_unit_test(test_sim_open_errors),
+		cmocka_unit_test(test_parse_ids),
+		cmocka_unit_test(test_open_spec),
+		cmocka_unit_test(test_txn_sim),
+		cmocka_unit_test(test_txn_matching),
+		PROC_TEST(test_scan),
+		PROC_TEST(test_status),
+		PROC_TEST(test_status_missing),
+		PROC_TEST(test_move),
+		PROC_TEST(test_move_unconfirmed),
+		PROC_TEST(test_move_limits),
+		PROC_TEST(test_set_timeout),
+		PROC_TEST(test_other_commands),
+		PROC_TEST(test_usage_errors),
+		PROC_TEST(test_help),
+		PROC_TEST(test_bus_errors),
+	};
+
+	return cmocka_run_group_tests_name("rmdctl_dev", tests, NULL, NULL);
+}
