@@ -6,7 +6,7 @@
  *   rmdctl encode ...   one command -> a frame in cansend syntax (rmdctl_encode.c)
  *
  * Subcommands are rows of `cmds` below: adding one is a new row and a
- * rmdctl_<name>.c file.  Exit statuses: 0 ok, 1 data errors, 2 usage.
+ * rmdctl_<name>.c file.  Exit statuses: 0 ok, 1 data or device errors, 2 usage.
  * Everything here is non-rt.
  */
 #include <errno.h>
@@ -179,12 +179,13 @@ static void usage(FILE *f)
 		   "\n"
 		   "commands:\n");
 	for (size_t i = 0; i < NCMDS; i++)
-		fprintf(f, "  %-10s %s\n", cmds[i].name, cmds[i].summary);
+		fprintf(f, "  %-12s %s\n", cmds[i].name, cmds[i].summary);
 	fprintf(f, "\n"
 		   "`rmdctl COMMAND --help` describes one command.\n"
 		   "\n"
-		   "exit status: 0 ok, 1 data errors (bad input lines, I/O, values the codec\n"
-		   "refuses), 2 usage errors.\n");
+		   "exit status: 0 ok; 1 data or device errors (bad input lines, I/O, values\n"
+		   "the codec refuses, a motor or bus that failed); 2 usage errors, and\n"
+		   "refused confirmations or safety limits.\n");
 }
 
 static const struct rmdctl_cmd *find_cmd(const char *name)
