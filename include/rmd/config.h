@@ -1,0 +1,233 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * rmdd's configuration (DESIGN.md layer 7): a YAML file -> a plain struct
+ * rmd_config.
+ *
+ * The file is read with libyaml's event parser into a small tree that
+ * remembers the line of every key and value, and walked against schema
+ * tables (src/config.c): every key is checked for its type and range, every
+ * unknown key is refused with the list of allowed ones, and every error
+ * names the file, the line and the key path and says what is allowed:
+ *
+ *   sim-12.yaml:14: motors[3].id: 40 is out of range (1..32)
+ *   x.yaml:7: buses[0].type: "canbus" is not one of socketcan, rs485, sim
+ *
+ * examples/rmdd.yaml documents every key.  Units are SI at the output shaft
+ * (rad, rad/s, N·m, A), times in the unit their key names (_ms, _us, _s).
+ *
+ * The result holds no pointers: strings are copied into fixed arrays and
+ * the lists are fixed arrays sized by RMD_MAX_BUSES and RMD_MAX_MOTORS, so
+ * the rt loop reads it without allocating, and it may be copied with
+ * memcpy.  The bus budget (can every bus carry its motors at the loop rate)
+ * is the planner's job (rmd/plan.h), not the loader's.
+ */
+#ifndef RMD_CONFIG_H
+#define RMD_CONFIG_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rmd/codec.h"
+#include "rmd/frame.h"
+#include "rmd/mit.h"
+#include "rmd/sim.h"
+#include "rmd/sim_bus.h"
+
+#define RMD_CONFIG_NAME_LEN 32	  /* motor and bus names, NUL included */
+#define RMD_CONFIG_IFNAME_LEN 16  /* IFNAMSIZ */
+#define RMD_CONFIG_PATH_LEN 128	  /* RS485 device path */
+#define RMD_CONFIG_URL_LEN 256	  /* LCM provider URL */
+#define RMD_CONFIG_PREFIX_LEN 32  /* LCM channel prefix */
+#define RMD_CONFIG_SOURCE_LEN 256 /* the file the config came from */
+#define RMD_CONFIG_MAX_CPUS 64	  /* entries of loop.cpu_affinity */
+
+#define RMD_CONFIG_RATE_MAX_HZ 2000 /* loop.rate_hz: 1..this */
+/* STYLE.md / DESIGN.md: SCHED_FIFO 1..49; IRQ threads sit at 50. */
+#define RMD_CONFIG_PRIO_MAX 49
+#define RMD_CONFIG_DIVISOR_MAX 1000 /* motors[].rate_divisor: 1..this */
+
+#define RMD_CONFIG_DEFAULT_RATE_HZ 1000
+#define RMD_CONFIG_DEFAULT_PRIORITY 40
+#define RMD_CONFIG_DEFAULT_BITRATE 1000000
+#define RMD_CONFIG_DEFAULT_BAUD 1000000
+/* DESIGN.md "Turnaround": a motor answers 0.5-0.8 ms after a request. */
+#define RMD_CONFIG_DEFAULT_RS485_TURNAROUND_NS 800000
+#define RMD_CONFIG_DEFAULT_COMM_LOSS_MS 100
+#define RMD_CONFIG_DEFAULT_MISSED_LOST 10
+#define RMD_CONFIG_DEFAULT_COMMAND_TIMEOUT_MS 100
+#define RMD_CONFIG_DEFAULT_STATUS_POLL_HZ 10.0
+#define RMD_CONFIG_DEFAULT_LCM_URL "udpm://239.255.76.67:7667?ttl=0"
+#define RMD_CONFIG_DEFAULT_CHANNEL_PREFIX "RMD_"
+#define RMD_CONFIG_DEFAULT_STALE_MS 100
+#define RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS 100
+/* SocketCAN's default txqueuelen (DESIGN.md), used by the sim bus too. */
+#define RMD_CONFIG_DEFAULT_SIM_TXQUEUELEN 10
+
+enum rmd_bus_kind {
+	RMD_BUS_KIND_SOCKETCAN = 0, /* "socketcan": a CAN netdev */
+	RMD_BUS_KIND_RS485,	    /* "rs485": a serial line, V3 motors only */
+	RMD_BUS_KIND_SIM,	    /* "sim": in-process simulated motors */
+};
+
+/* What a motor is commanded with (and what its setpoint means). */
+enum rmd_ctrl_mode {
+	RMD_CTRL_TORQUE = 0, /* "torque": V2/V3 0xA1 (iq), V2 0x280 */
+	RMD_CTRL_SPEED,	     /* "speed": 0xA2 */
+	RMD_CTRL_POSITION,   /* "position": V3 0xA4 / V2 0xA4 */
+	RMD_CTRL_MIT,	     /* "mit": V3 §5, 0x400 + ID */
+};
+
+/* What rmdd does to a motor when its controller goes quiet or it is lost. */
+enum rmd_safe_action {
+	RMD_SAFE_STOP = 0, /* "stop": output off (0x80), the shaft turns freely */
+	RMD_SAFE_HOLD,	   /* "hold": 0x81, decelerate and hold the position */
+	RMD_SAFE_DAMP,	   /* "damp": zero speed with a torque limit (MIT: kp 0, kd > 0) */
+	RMD_SAFE_BRAKE,	   /* "brake": output off and brake locked (0x80 + 0x78) */
+};
+
+/* Whom a lost motor's safe action applies to. */
+enum rmd_lost_action {
+	RMD_LOST_MOTOR = 0, /* "motor": the lost motor only */
+	RMD_LOST_ALL,	    /* "all": every motor */
+};
+
+/* What bring-up does when a configured motor does not answer the probe. */
+enum rmd_on_missing {
+	RMD_MISSING_REFUSE = 0, /* "refuse": exit with the report */
+	RMD_MISSING_START,	/* "start": run the others, re-probe the missing */
+};
+
+/* Which shaft a protocol's angles and speeds belong to. */
+enum rmd_units {
+	RMD_UNITS_OUTPUT = 0, /* "output": V3 firmware; no conversion but direction */
+	RMD_UNITS_ROTOR,      /* "rotor": divided by gear_ratio (some V2 firmware) */
+};
+
+struct rmd_config_loop {
+	unsigned rate_hz;		    /* cycles per second, 1..RMD_CONFIG_RATE_MAX_HZ */
+	unsigned rt_priority;		    /* SCHED_FIFO, 1..RMD_CONFIG_PRIO_MAX */
+	uint16_t cpus[RMD_CONFIG_MAX_CPUS]; /* affinity of the rt thread; none: any */
+	unsigned n_cpus;
+};
+
+struct rmd_config_safety {
+	uint32_t comm_loss_ms;	      /* 0xB3 (V3 §2.30, ROM) written at bring-up; 0: off */
+	unsigned missed_replies_lost; /* consecutive missed replies: the motor is lost */
+	uint32_t command_timeout_ms;  /* controller silent this long: safe_action */
+	enum rmd_safe_action safe_action;
+	enum rmd_lost_action lost_motor_action;
+};
+
+struct rmd_config_probe {
+	enum rmd_on_missing on_missing;
+};
+
+struct rmd_config_lcm {
+	char url[RMD_CONFIG_URL_LEN];
+	char channel_prefix[RMD_CONFIG_PREFIX_LEN];
+	unsigned state_every_n;	   /* publish motor state every n cycles */
+	uint32_t stale_ms;	   /* reject commands this much older than the newest; 0: off */
+	uint32_t health_period_ms; /* publish health this often */
+};
+
+/* A sim bus's simulator: wire, motor model, faults (rmd/sim_bus.h). */
+struct rmd_config_sim {
+	uint64_t seed;	     /* faults' and motors' PRNG; 0: 1 */
+	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_BUS_TXQ */
+	bool host_fifo;	     /* RMD_SIM_BUS_HOST_FIFO: frames leave in send order */
+	/*
+	 * The model of every motor on this bus (id, proto, kt_nm_a, gear_ratio
+	 * and mit are the motor's own: see struct rmd_config_motor.sim).
+	 */
+	struct rmd_sim_motor_params motor;
+	struct rmd_sim_fault faults[RMD_SIM_BUS_MAX_FAULTS];
+	unsigned n_faults;
+};
+
+struct rmd_config_bus {
+	char name[RMD_CONFIG_NAME_LEN]; /* [a-z0-9_], unique; for messages and LCM */
+	enum rmd_bus_kind kind;
+	char interface[RMD_CONFIG_IFNAME_LEN]; /* socketcan: netdev name (default: name) */
+	char device[RMD_CONFIG_PATH_LEN];      /* rs485: serial device */
+	uint32_t bitrate;		       /* socketcan, sim: bit/s */
+	uint32_t baud;			       /* rs485: bit/s (V3 §1.2.1) */
+	int64_t turnaround_ns;	   /* rs485: request end to reply start, budgeted per request */
+	struct rmd_config_sim sim; /* sim only */
+	unsigned line;		   /* of the entry in the file, for messages */
+};
+
+struct rmd_config_limits {
+	/* Output-shaft position window; omitted: none (-inf, +inf). */
+	double position_min_rad, position_max_rad;
+	double velocity_rad_s; /* |velocity| setpoint limit; omitted: none (+inf) */
+	double torque_nm;      /* |torque| setpoint limit; omitted: none (+inf) */
+};
+
+struct rmd_config_motor {
+	char name[RMD_CONFIG_NAME_LEN]; /* [a-z0-9_], unique */
+	unsigned bus;			/* index into rmd_config.buses[] */
+	uint8_t id;			/* 1..32, unique per bus */
+	enum rmd_proto proto;
+	enum rmd_ctrl_mode mode;
+	int direction;	   /* +1, or -1: the motor turns the other way */
+	double gear_ratio; /* motor turns per output turn, > 0 */
+	enum rmd_units units;
+	double zero_offset_rad;	     /* output-shaft position that rmdd reports as 0 */
+	double torque_constant_nm_a; /* output N·m per A of iq; 0: unknown (MIT only) */
+	struct rmd_config_limits limits;
+	struct rmd_mit_ranges mit; /* MIT packing ranges (V3 §5.1) */
+	unsigned rate_divisor;	   /* commanded every n-th cycle, 1.. */
+	double status_poll_hz;	   /* 0x9A polls per second; 0: none */
+	/*
+	 * The simulated motor on a sim bus: the bus's model with this motor's
+	 * overrides, id, proto, kt (when given), gear ratio and MIT ranges.
+	 */
+	struct rmd_sim_motor_params sim;
+	unsigned line; /* of the entry in the file, for messages */
+};
+
+struct rmd_config {
+	char source[RMD_CONFIG_SOURCE_LEN]; /* the file, or "(built-in sim)" */
+	struct rmd_config_loop loop;
+	struct rmd_config_safety safety;
+	struct rmd_config_probe probe;
+	struct rmd_config_lcm lcm;
+	struct rmd_config_bus buses[RMD_MAX_BUSES];
+	unsigned n_buses;
+	struct rmd_config_motor motors[RMD_MAX_MOTORS];
+	unsigned n_motors;
+};
+
+/* Every default, no buses and no motors.  Non-rt. */
+void rmd_config_defaults(struct rmd_config *cfg);
+
+/*
+ * Load and validate the YAML file at `path` into *cfg (defaults for what it
+ * leaves out).  Returns 0, -errno when the file cannot be read, or -EINVAL
+ * for a file with errors; err then holds one line per error (up to a few
+ * dozen, joined with '\n', no trailing newline), each naming the file, the
+ * line and the key.  *cfg is unspecified after a failure.  Non-rt:
+ * allocates while parsing, frees before it returns.
+ */
+int rmd_config_load(const char *path, struct rmd_config *cfg, char *err, size_t errlen);
+
+/*
+ * The configuration `rmdd --sim` runs: `nmotors` (1..RMD_MAX_MOTORS) V3
+ * torque-mode motors with the simulator's default model, three per 1 Mbit/s
+ * sim bus (the most that fit at 1 kHz, DESIGN.md), at 1 kHz.  Returns 0 or
+ * -EINVAL.  Non-rt.
+ */
+int rmd_config_sim_default(struct rmd_config *cfg, unsigned nmotors);
+
+/* The index of the bus or motor called `name`, or -ENOENT.  rt-safe. */
+int rmd_config_bus_find(const struct rmd_config *cfg, const char *name);
+int rmd_config_motor_find(const struct rmd_config *cfg, const char *name);
+
+/* Names as the file spells them ("socketcan", "v3", "torque", "damp", ...).  rt-safe. */
+const char *rmd_bus_kind_name(enum rmd_bus_kind kind);
+const char *rmd_proto_key(enum rmd_proto proto);
+const char *rmd_ctrl_mode_name(enum rmd_ctrl_mode mode);
+const char *rmd_safe_action_name(enum rmd_safe_action action);
+
+#endif /* RMD_CONFIG_H */

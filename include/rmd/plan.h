@@ -1,0 +1,177 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Per-bus cycle plans (DESIGN.md layer 4): which requests go out on which
+ * bus in which cycle, and what that costs on the wire in the worst case.
+ *
+ * Each cycle the rt loop sends, on every bus, the requests of
+ * rmd_plan_cycle(), all at the start of the cycle; the replies come back
+ * in the same or the next cycle.  A bus's budget per cycle is the worst-
+ * case wire time of all those frames, requests and replies:
+ *
+ *   CAN and sim buses: frames * rmd_can_frame_bits_worst(8) bits at the
+ *     bitrate (worst-case stuffing, interframe space included): 135 us per
+ *     frame at 1 Mbit/s, so a motor (request + reply) costs 270 us.
+ *   RS485: half duplex, one request at a time: per request, the request and
+ *     its reply (13 bytes of 10 bits each at the baud) plus the bus's
+ *     turnaround (the motor's answer time, during which the line is idle).
+ *
+ * A bus whose busiest cycle does not fit in the cycle is refused with the
+ * numbers and what would fit:
+ *
+ *   can0: 5 motors at 1000 Hz need 1350 µs per cycle worst case, the cycle
+ *   is 1000 µs: use ≤ 3 motors, or a rate ≤ 740 Hz
+ *
+ * How the requests are chosen:
+ * - Control frames.  A motor is commanded every rate_divisor-th cycle; the
+ *   planner gives each motor a phase so that motors with divisors > 1 take
+ *   turns.  The pattern repeats every `hc` cycles (the lcm of the bus's
+ *   divisors, at most RMD_PLAN_MAX_HC).
+ * - V2 0x280 (V2 §4.1): one frame carries the torques of motors 1..4, each
+ *   of which answers on 0x140 + ID.  Every V2 motor with ID 1..4 on a bus
+ *   takes that frame, so the planner batches them when there are at least
+ *   two, all in torque mode with one rate divisor, and no V3 or MIT motor
+ *   shares the bus (a V3 motor whose CAN-ID filter is off takes 0x280 as a
+ *   broadcast command, V3 §3, and would read a torque byte as the command).
+ *   4 V2 motors then cost 5 frames instead of 8.
+ * - Status polls: 0x9A (V3 §2.12, V2 §3.31: temperature, voltage, error
+ *   flags; MIT replies carry none of these, V2/V3 control replies carry
+ *   only the temperature) at each motor's status_poll_hz.  At most one poll
+ *   per bus per cycle: one every `poll_every` cycles (a multiple of hc),
+ *   taking the motors in a weighted round robin (`polls`).  A poll is an
+ *   extra request when the cycle has room for it; otherwise it takes the
+ *   place of the polled motor's control frame in that cycle (the motor
+ *   keeps its last setpoint for one more cycle).  A poll for a motor in a
+ *   0x280 frame cannot take its place, so it needs the room.
+ *
+ * The plan holds fixed arrays only; rmd_plan_cycle() reads it without
+ * allocating.
+ */
+#ifndef RMD_PLAN_H
+#define RMD_PLAN_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "rmd/codec.h"
+#include "rmd/config.h"
+#include "rmd/frame.h"
+
+#define RMD_PLAN_MAX_HC 64     /* control pattern of one bus: lcm of its rate divisors */
+#define RMD_PLAN_MAX_POLLS 256 /* entries of one bus's poll round robin */
+/* Requests of one bus in one cycle: a 0x280 frame, every motor, a poll. */
+#define RMD_PLAN_MAX_SLOTS (RMD_MAX_MOTORS + 2)
+
+/* RS485 (V3 §1.2.2): 13 bytes a frame, 10 bits a byte (8N1). */
+#define RMD_PLAN_RS485_FRAME_BITS (13u * 10u)
+
+enum rmd_slot_kind {
+	RMD_SLOT_CONTROL = 0, /* a motor's setpoint: V2/V3 0x140 + ID, MIT 0x400 + ID */
+	RMD_SLOT_V2_TORQUES,  /* V2 §4.1 0x280: the torques of the batched motors */
+	RMD_SLOT_STATUS,      /* 0x9A on 0x140 + ID (MIT motors speak V3 too) */
+};
+
+/* One request of a cycle. */
+struct rmd_plan_slot {
+	enum rmd_slot_kind kind;
+	uint8_t motor;	 /* CONTROL, STATUS: index into cfg->motors[]; V2_TORQUES: 0 */
+	uint8_t replies; /* frames that answer it */
+	uint16_t can_id; /* identifier of the request */
+};
+
+/* Why a bus with two or more V2 motors with ID 1..4 has no 0x280 frame. */
+enum rmd_plan_batch {
+	RMD_BATCH_NONE = 0,  /* fewer than two candidates */
+	RMD_BATCH_ON,	     /* batched */
+	RMD_BATCH_MODES,     /* a candidate is not in torque mode */
+	RMD_BATCH_DIVISORS,  /* the candidates' rate divisors differ */
+	RMD_BATCH_V3_ON_BUS, /* a V3 or MIT motor shares the bus */
+};
+
+/* One entry of a bus's poll round robin. */
+struct rmd_plan_poll {
+	uint8_t motor; /* index into cfg->motors[] */
+	uint8_t cycle; /* goes in the cycles n with n % poll_every == cycle (< hc) */
+	bool replaces; /* takes the place of the motor's control frame */
+};
+
+/* What the plan knows of a motor. */
+struct rmd_plan_motor {
+	uint8_t bus;   /* index into cfg->buses[] and plan->bus[] */
+	uint8_t local; /* bit of the motor in its bus's masks */
+	uint8_t id;
+	enum rmd_proto proto;
+	unsigned divisor;
+	unsigned phase;	    /* commanded in cycles n with n % divisor == phase */
+	bool batched;	    /* in the bus's 0x280 frame */
+	double poll_hz;	    /* status polls per second it gets */
+	unsigned polls;	    /* its entries in the round robin */
+	unsigned replacing; /* of those, how many take a control frame's place */
+};
+
+struct rmd_plan_bus {
+	enum rmd_bus_kind kind;
+	unsigned n_motors;
+	uint8_t motors[RMD_MAX_MOTORS]; /* cfg->motors[] indices, in file order */
+	/* Control pattern: repeats every hc cycles. */
+	unsigned hc;
+	uint32_t due[RMD_PLAN_MAX_HC];	    /* bit `local`: commanded in cycles n % hc == c */
+	uint16_t frames[RMD_PLAN_MAX_HC];   /* wire frames of cycle c, without polls */
+	uint16_t requests[RMD_PLAN_MAX_HC]; /* requests of cycle c, without polls */
+	uint32_t batched;		    /* bits of the motors in the 0x280 frame */
+	enum rmd_plan_batch batch;
+	/* Status polls: one in every poll_every cycles (0: none), round robin. */
+	unsigned poll_every;
+	unsigned n_polls;
+	struct rmd_plan_poll polls[RMD_PLAN_MAX_POLLS];
+	uint64_t hyperperiod; /* the whole schedule repeats every this many cycles */
+	/* Budget, worst case. */
+	uint32_t bitrate;      /* bit/s (RS485: baud) */
+	unsigned frame_bits;   /* per frame, worst case */
+	int64_t turnaround_ns; /* per request (RS485); 0 for CAN */
+	int64_t control_ns;    /* busiest cycle without polls */
+	int64_t worst_ns;      /* busiest cycle, polls included */
+	unsigned max_frames;   /* frames of the busiest cycle */
+	unsigned max_requests; /* most requests in one cycle: the TX burst */
+	double avg_frames;     /* frames per cycle over the hyperperiod */
+	double avg_ns;	       /* wire time per cycle over the hyperperiod */
+	bool feasible;
+};
+
+struct rmd_plan {
+	unsigned rate_hz;
+	int64_t period_ns; /* 1e9 / rate_hz, rounded down */
+	unsigned n_buses;
+	struct rmd_plan_bus bus[RMD_MAX_BUSES];
+	unsigned n_motors;
+	struct rmd_plan_motor motor[RMD_MAX_MOTORS];
+	bool feasible; /* every bus fits */
+};
+
+/*
+ * Plan every bus of a validated configuration.  Returns 0 when every bus
+ * fits; -ENOSPC when one does not (the plan is still filled in for
+ * rmd_plan_print(), with that bus's feasible false), with one line per
+ * problem in err, as above; -EINVAL for a configuration the loader would
+ * not have produced, or rate divisors whose pattern is longer than
+ * RMD_PLAN_MAX_HC cycles.  Non-rt.
+ */
+int rmd_plan_build(const struct rmd_config *cfg, struct rmd_plan *plan, char *err, size_t errlen);
+
+/* The plan and budget of every bus, for `rmdd --check-config`.  Non-rt. */
+void rmd_plan_print(const struct rmd_plan *plan, const struct rmd_config *cfg, FILE *out);
+
+/*
+ * The requests of bus `bus` in cycle `n` (counted from 0 at the loop's
+ * start) into out[]: the 0x280 frame first, then control frames in file
+ * order, then the status poll.  Returns the count (0 for a bus out of
+ * range).  rt-safe: no allocation, bounded by RMD_PLAN_MAX_SLOTS.
+ */
+unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
+			struct rmd_plan_slot out[RMD_PLAN_MAX_SLOTS]);
+
+/* Worst-case wire time of `frames` frames and `requests` requests on bus b.  rt-safe. */
+int64_t rmd_plan_cost_ns(const struct rmd_plan_bus *b, unsigned frames, unsigned requests);
+
+#endif /* RMD_PLAN_H */

@@ -1,0 +1,610 @@
+// SPDX-License-Identifier: MIT
+/*
+ * Configuration loader: the examples load, defaults apply, and every kind
+ * of bad input gives an error that names the file, the line and the key.
+ *
+ * Data: examples/ and tests/data/config/ under the repository root (the
+ * current directory; $RMD_SRCDIR overrides).  Inline cases are written to a
+ * temporary file first.
+ */
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "rmd/config.h"
+
+#define ERR_LEN 8192
+
+static char srcdir[1024] = ".";
+static struct rmd_config cfg; /* large: off the stack */
+static char err[ERR_LEN];
+
+static void path_of(char *out, size_t len, const char *rel)
+{
+	snprintf(out, len, "%s/%s", srcdir, rel);
+}
+
+static int load_rel(const char *rel)
+{
+	char path[2048];
+
+	path_of(path, sizeof(path), rel);
+	return rmd_config_load(path, &cfg, err, sizeof(err));
+}
+
+/* Write yaml to a temporary file named after `tag`, load it. */
+static int load_str(const char *tag, const char *yaml)
+{
+	char path[256];
+	FILE *f;
+	int fd, r;
+
+	snprintf(path, sizeof(path), "/tmp/rmd-test-%s-XXXXXX", tag);
+	fd = mkstemp(path);
+	assert_true(fd >= 0);
+	f = fdopen(fd, "w");
+	assert_non_null(f);
+	fputs(yaml, f);
+	fclose(f);
+	r = rmd_config_load(path, &cfg, err, sizeof(err));
+	unlink(path);
+	return r;
+}
+
+static void expect_in(const char *haystack, const char *needle)
+{
+	if (!strstr(haystack, needle))
+		fail_msg("expected \"%s\" in:\n%s", needle, haystack);
+}
+
+static const char minimal[] =
+	"buses:\n"
+	"  - {name: can0, type: socketcan}\n"
+	"motors:\n"
+	"  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2}\n";
+
+/* ------------------------------------------------------------------ */
+
+static void test_examples_load(void **state)
+{
+	static const char *const files[] = {
+		"examples/rmdd.yaml",
+		"examples/sim-12.yaml",
+		"examples/v2-batch.yaml",
+		"examples/rs485.yaml",
+		"examples/sim-faults.yaml",
+		"tests/data/config/five-per-bus.yaml", /* loads; the planner refuses it */
+	};
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(files) / sizeof(files[0]); i++) {
+		int r = load_rel(files[i]);
+
+		if (r)
+			fail_msg("%s: %d:\n%s", files[i], r, err);
+		assert_string_equal(err, "");
+	}
+}
+
+static void test_example_sim12(void **state)
+{
+	const struct rmd_config_motor *m;
+
+	(void)state;
+	assert_int_equal(load_rel("examples/sim-12.yaml"), 0);
+	assert_int_equal(cfg.n_buses, 4);
+	assert_int_equal(cfg.n_motors, 12);
+	for (unsigned b = 0; b < 4; b++) {
+		assert_int_equal(cfg.buses[b].kind, RMD_BUS_KIND_SIM);
+		assert_int_equal(cfg.buses[b].bitrate, 1000000);
+		assert_int_equal(cfg.buses[b].sim.seed, b + 1);
+	}
+	for (unsigned i = 0; i < 12; i++) {
+		m = &cfg.motors[i];
+		assert_int_equal(m->bus, i / 3);
+		assert_int_equal(m->id, i % 3 + 1);
+		/* the simulated motor takes the motor's own id and protocol */
+		assert_int_equal(m->sim.id, m->id);
+		assert_int_equal(m->sim.proto, m->proto);
+	}
+	m = &cfg.motors[2];
+	assert_string_equal(m->name, "fl_knee");
+	assert_int_equal(m->proto, RMD_PROTO_MIT);
+	assert_int_equal(m->mode, RMD_CTRL_MIT);
+	assert_int_equal(m->direction, -1);
+	/* limits through a YAML alias */
+	assert_true(m->limits.torque_nm == 18.0);
+	assert_true(m->limits.velocity_rad_s == 20.0);
+	assert_true(isinf(m->limits.position_max_rad) && m->limits.position_max_rad > 0);
+	m = &cfg.motors[7];
+	assert_int_equal(m->proto, RMD_PROTO_V3);
+	assert_true(m->torque_constant_nm_a == 2.0);
+	assert_true(m->sim.kt_nm_a == 2.0);
+	assert_true(m->sim.gear_ratio == 6.0);
+	assert_int_equal(cfg.safety.safe_action, RMD_SAFE_DAMP);
+	assert_int_equal(rmd_config_motor_find(&cfg, "rr_knee"), 11);
+	assert_int_equal(rmd_config_bus_find(&cfg, "rl"), 2);
+	assert_int_equal(rmd_config_bus_find(&cfg, "xx"), -ENOENT);
+}
+
+static void test_example_rmdd(void **state)
+{
+	const struct rmd_config_bus *b;
+	const struct rmd_config_motor *m;
+	int i;
+
+	(void)state;
+	assert_int_equal(load_rel("examples/rmdd.yaml"), 0);
+	assert_int_equal(cfg.loop.n_cpus, 1);
+	assert_int_equal(cfg.loop.cpus[0], 2);
+	i = rmd_config_bus_find(&cfg, "can1");
+	assert_true(i >= 0);
+	assert_string_equal(cfg.buses[i].interface, "can1"); /* defaults to the name */
+	i = rmd_config_bus_find(&cfg, "grip");
+	assert_string_equal(cfg.buses[i].interface, "can2");
+	i = rmd_config_bus_find(&cfg, "sim0");
+	b = &cfg.buses[i];
+	assert_int_equal(b->sim.n_faults, 2);
+	assert_int_equal(b->sim.faults[0].kind, RMD_SIM_FAULT_DROP);
+	assert_true(b->sim.faults[0].probability == 0.001);
+	assert_int_equal(b->sim.faults[1].kind, RMD_SIM_FAULT_DISAPPEAR);
+	assert_int_equal(b->sim.faults[1].start_ns, 30000000000LL);
+	assert_int_equal(b->sim.faults[1].end_ns, 31000000000LL);
+	assert_int_equal(b->sim.faults[1].param, 1);
+	assert_true(b->sim.motor.turnaround_ns == 500000.0);
+	i = rmd_config_motor_find(&cfg, "spare");
+	m = &cfg.motors[i];
+	assert_true(m->sim.load_nm == 0.5);	   /* the motor's override */
+	assert_true(m->sim.inertia_kgm2 == 0.005); /* the bus's model */
+	i = rmd_config_motor_find(&cfg, "wrist_pitch");
+	m = &cfg.motors[i];
+	assert_true(m->mit.t_min == -18.0 && m->mit.t_max == 18.0);
+	assert_true(m->mit.kp_max == 500.0);
+	i = rmd_config_motor_find(&cfg, "grip_l");
+	m = &cfg.motors[i];
+	assert_int_equal(m->units, RMD_UNITS_ROTOR);
+	assert_int_equal(m->rate_divisor, 2);
+	assert_true(m->status_poll_hz == 5.0);
+}
+
+static void test_defaults(void **state)
+{
+	const struct rmd_config_motor *m = &cfg.motors[0];
+	const struct rmd_config_bus *b = &cfg.buses[0];
+
+	(void)state;
+	assert_int_equal(load_str("defaults", minimal), 0);
+	assert_int_equal(cfg.loop.rate_hz, 1000);
+	assert_int_equal(cfg.loop.rt_priority, 40);
+	assert_int_equal(cfg.loop.n_cpus, 0);
+	assert_int_equal(cfg.safety.comm_loss_ms, 100);
+	assert_int_equal(cfg.safety.missed_replies_lost, 10);
+	assert_int_equal(cfg.safety.command_timeout_ms, 100);
+	assert_int_equal(cfg.safety.safe_action, RMD_SAFE_DAMP);
+	assert_int_equal(cfg.safety.lost_motor_action, RMD_LOST_ALL);
+	assert_int_equal(cfg.probe.on_missing, RMD_MISSING_REFUSE);
+	assert_string_equal(cfg.lcm.url, "udpm://239.255.76.67:7667?ttl=0");
+	assert_string_equal(cfg.lcm.channel_prefix, "RMD_");
+	assert_int_equal(cfg.lcm.state_every_n, 1);
+	assert_int_equal(cfg.lcm.stale_ms, 100);
+	assert_int_equal(b->kind, RMD_BUS_KIND_SOCKETCAN);
+	assert_string_equal(b->interface, "can0");
+	assert_int_equal(b->bitrate, 1000000);
+	assert_int_equal(b->line, 2);
+	assert_int_equal(m->proto, RMD_PROTO_V3);
+	assert_int_equal(m->mode, RMD_CTRL_TORQUE);
+	assert_int_equal(m->direction, 1);
+	assert_true(m->gear_ratio == 1.0);
+	assert_int_equal(m->units, RMD_UNITS_OUTPUT);
+	assert_true(m->zero_offset_rad == 0.0);
+	assert_int_equal(m->rate_divisor, 1);
+	assert_true(m->status_poll_hz == 10.0);
+	assert_true(isinf(m->limits.position_min_rad) && m->limits.position_min_rad < 0);
+	assert_true(isinf(m->limits.position_max_rad) && m->limits.position_max_rad > 0);
+	assert_true(isinf(m->limits.velocity_rad_s));
+	assert_true(isinf(m->limits.torque_nm));
+	assert_memory_equal(&m->mit, &rmd_mit_default_ranges, sizeof(m->mit));
+	assert_int_equal(m->line, 4);
+	expect_in(cfg.source, "/tmp/rmd-test-defaults-");
+
+	/* rmd_config_defaults() alone */
+	rmd_config_defaults(&cfg);
+	assert_int_equal(cfg.n_buses, 0);
+	assert_int_equal(cfg.n_motors, 0);
+	assert_int_equal(cfg.loop.rate_hz, RMD_CONFIG_DEFAULT_RATE_HZ);
+}
+
+/* A file of tests/data/config and what its error must say. */
+struct bad_file {
+	const char *file;
+	int ret;
+	const char *expect[3]; /* substrings of err, "FILE:LINE: key: ..." first */
+};
+
+static const struct bad_file bad_files[] = {
+	{ "syntax.yaml", -EINVAL, { "syntax.yaml:7: motors[0].id", "syntax error" } },
+	{ "unknown-key.yaml",
+	  -EINVAL,
+	  { "unknown-key.yaml:9: motors[0].speed_limit: unknown key",
+	    "allowed: name, bus, id, protocol, mode" } },
+	{ "wrong-type.yaml",
+	  -EINVAL,
+	  { "wrong-type.yaml:6: motors[0].id: expected an integer, got \"one\"",
+	    "wrong-type.yaml:9: motors[0].limits: expected a mapping" } },
+	{ "id-range.yaml",
+	  -EINVAL,
+	  { "id-range.yaml:7: motors[3].id: 40 is out of range (1..32)" } },
+	{ "priority-99.yaml",
+	  -EINVAL,
+	  { "priority-99.yaml:3: loop.rt_priority: 99 is out of range (1..49)", "IRQ threads",
+	    "50" } },
+	{ "dup-id.yaml",
+	  -EINVAL,
+	  { "dup-id.yaml:7: motors[2].id: 1 is already the id of motors[0] (m1, line 5) on bus can0",
+	    "dup-id.yaml:8: motors[3].name: \"m1\" is already the name of motors[0] (line 5)" } },
+	{ "missing-bus.yaml",
+	  -EINVAL,
+	  { "missing-bus.yaml:6: motors[1].bus: \"can9\" is not a bus; buses: can0, can1" } },
+	{ "nan.yaml",
+	  -EINVAL,
+	  { "nan.yaml:10: motors[0].limits.torque_nm: .nan is not allowed",
+	    "nan.yaml:11: motors[0].limits.velocity_rad_s: .inf is not allowed" } },
+	{ "empty.yaml", -EINVAL, { "empty.yaml:1: buses, motors: required keys missing" } },
+	{ "bus-type.yaml",
+	  -EINVAL,
+	  { "bus-type.yaml:6: buses[1].type: \"canbus\" is not one of socketcan, rs485, sim" } },
+	{ "mit-mode.yaml",
+	  -EINVAL,
+	  { "mit-mode.yaml:5: motors[0].mode: torque: a mit protocol motor runs in mode mit",
+	    "mit-mode.yaml:7: motors[2].protocol: v2 has no RS485 form",
+	    "mit-mode.yaml:8: motors[3].limits.position_min_rad: 1 must be below "
+	    "position_max_rad" } },
+};
+
+static void test_bad_files(void **state)
+{
+	(void)state;
+	for (size_t i = 0; i < sizeof(bad_files) / sizeof(bad_files[0]); i++) {
+		const struct bad_file *t = &bad_files[i];
+		char rel[256];
+		int r;
+
+		snprintf(rel, sizeof(rel), "tests/data/config/%s", t->file);
+		r = load_rel(rel);
+		if (r != t->ret)
+			fail_msg("%s: returned %d, expected %d:\n%s", t->file, r, t->ret, err);
+		for (size_t k = 0; k < 3 && t->expect[k]; k++)
+			expect_in(err, t->expect[k]);
+		/* no trailing newline; one line per error */
+		assert_true(err[0] != '\0' && err[strlen(err) - 1] != '\n');
+	}
+}
+
+static void test_nonexistent(void **state)
+{
+	(void)state;
+	assert_int_equal(rmd_config_load("/nonexistent/rmdd.yaml", &cfg, err, sizeof(err)),
+			 -ENOENT);
+	expect_in(err, "/nonexistent/rmdd.yaml: cannot open: No such file or directory");
+}
+
+/* Inline cases: YAML and what the error says. */
+struct bad_str {
+	const char *name;
+	const char *yaml;
+	const char *expect[2];
+};
+
+#define BUS "buses:\n  - {name: can0, type: socketcan}\n"
+#define MOTORS "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+
+static const struct bad_str bad_strs[] = {
+	{ "duplicate-key",
+	  BUS MOTORS "loop:\n  rate_hz: 500\n  rate_hz: 1000\n",
+	  { ":7: loop.rate_hz: duplicate key (first at line 6)" } },
+	{ "unknown-top",
+	  BUS MOTORS "lopo: {}\n",
+	  { ":5: lopo: unknown key (did you mean loop?); allowed: loop, safety" } },
+	{ "missing-motors", BUS, { ":1: motors: required key missing" } },
+	{ "top-seq", "- a\n- b\n", { ":1: (top level): expected a mapping" } },
+	{ "negative-id",
+	  BUS "motors:\n  - {name: m1, bus: can0, id: -1, mode: torque}\n",
+	  { ":4: motors[0].id: -1 is out of range (1..32)" } },
+	{ "priority-0",
+	  BUS MOTORS "loop: {rt_priority: 0}\n",
+	  { "loop.rt_priority: 0 is out of range (1..49)" } },
+	{ "priority-50",
+	  BUS MOTORS "loop: {rt_priority: 50}\n",
+	  { "loop.rt_priority: 50 is out of range" } },
+	{ "rate-0",
+	  BUS MOTORS "loop: {rate_hz: 0}\n",
+	  { "loop.rate_hz: 0 is out of range (1..2000)" } },
+	{ "float-for-int",
+	  BUS MOTORS "loop: {rate_hz: 1000.5}\n",
+	  { "loop.rate_hz: expected an integer" } },
+	{ "quoted-number",
+	  BUS MOTORS "loop: {rate_hz: \"1000\"}\n",
+	  { "loop.rate_hz: expected an integer, got \"1000\"" } },
+	{ "bad-bool",
+	  "buses:\n  - {name: s, type: sim, sim: {host_fifo: maybe}}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":2: buses[0].sim.host_fifo: expected true or false, got \"maybe\"" } },
+	{ "bad-name",
+	  BUS
+	  "motors:\n  - {name: Knee-L, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":4: motors[0].name: \"Knee-L\" is not a name" } },
+	{ "long-name",
+	  BUS
+	  "motors:\n  - {name: a_name_that_is_far_too_long_for_rmdd, bus: can0, id: 1, mode: torque}\n",
+	  { "motors[0].name: \"a_name_that_is_far_too_long_for_rmdd\" is too long (at most 31" } },
+	{ "missing-id",
+	  BUS "motors:\n  - {name: m1, bus: can0, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":4: motors[0].id: required key missing" } },
+	{ "missing-bus-key",
+	  BUS "motors:\n  - {name: m1, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":4: motors[0].bus: required key missing (buses: can0)" } },
+	{ "bad-mode",
+	  BUS "motors:\n  - {name: m1, bus: can0, id: 1, mode: current, torque_constant_nm_a: 2}\n",
+	  { ":4: motors[0].mode: \"current\" is not one of torque, speed, position, mit" } },
+	{ "direction-0",
+	  BUS
+	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, direction: 0, torque_constant_nm_a: 2}\n",
+	  { "motors[0].direction: 0 is out of range (+1 or -1)" } },
+	{ "gear-negative",
+	  BUS
+	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, gear_ratio: -6, torque_constant_nm_a: 2}\n",
+	  { "motors[0].gear_ratio: -6 is out of range (> 0" } },
+	{ "no-kt",
+	  BUS "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque}\n",
+	  { ":4: motors[0].torque_constant_nm_a: required for protocol v3" } },
+	{ "mit-range",
+	  BUS "motors:\n  - name: m1\n    bus: can0\n    id: 1\n    protocol: mit\n    mode: mit\n"
+	      "    mit: {t_min: 5, t_max: -5}\n",
+	  { ":9: motors[0].mit.t_min: 5 must be below t_max (-5)" } },
+	{ "big-number",
+	  BUS
+	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 1e999}\n",
+	  { "motors[0].torque_constant_nm_a: 1e999 is too large" } },
+	{ "can-bitrate",
+	  "buses:\n  - {name: can0, type: socketcan, bitrate: 250000}\n" MOTORS,
+	  { ":2: buses[0].bitrate: 250000 is not a bitrate RMD motors speak" } },
+	{ "key-for-other-type",
+	  "buses:\n  - {name: can0, type: socketcan, device: /dev/ttyUSB0}\n" MOTORS,
+	  { ":2: buses[0].device: only for type rs485 (this bus is socketcan)" } },
+	{ "rs485-no-device",
+	  "buses:\n  - {name: rs0, type: rs485}\n"
+	  "motors:\n  - {name: m1, bus: rs0, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":2: buses[0].device: required for type rs485" } },
+	{ "rs485-baud",
+	  "buses:\n  - {name: rs0, type: rs485, device: /dev/ttyS0, baud: 9600}\n"
+	  "motors:\n  - {name: m1, bus: rs0, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":2: buses[0].baud: 9600 is not a baud rate RMD motors speak" } },
+	{ "dup-bus",
+	  "buses:\n  - {name: can0, type: socketcan}\n  - {name: can0, type: socketcan}\n" MOTORS,
+	  { ":3: buses[1].name: \"can0\" is already the name of buses[0] (line 2)" } },
+	{ "sim-on-can",
+	  BUS
+	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2, sim: {load_nm: 1}}\n",
+	  { ":4: motors[0].sim: only for motors on a sim bus (can0 is socketcan)" } },
+	{ "fault-kind",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: explode}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.faults[0].kind: \"explode\" is not one of drop, delay" } },
+	{ "fault-motor",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: drop, motor: 7}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.faults[0].motor: no motor with id 7 on bus s" } },
+	{ "fault-param",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: bad_dlc, param: 9}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.faults[0].param: 9 is out of range for bad_dlc (0..7" } },
+	{ "fault-window",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: bus_off, start_s: 5, end_s: 2}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.faults[0].end_s: must be after start_s" } },
+	{ "sim-model",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      motor:\n        under_voltage_v: 50\n"
+	  "        over_voltage_v: 40\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.motor.under_voltage_v: 50 must be below over_voltage_v (40)" } },
+	{ "poll-too-fast",
+	  BUS
+	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2, rate_divisor: 4, status_poll_hz: 300}\n",
+	  { ":4: motors[0].status_poll_hz: 300 is more than the motor's command rate (250 Hz" } },
+	{ "comm-loss-short",
+	  BUS
+	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2, rate_divisor: 10}\n"
+	  "safety: {comm_loss_ms: 20}\n",
+	  { ":5: safety.comm_loss_ms: 20 ms is shorter than 5 command periods of motor m1 (50 ms)" } },
+	{ "timeout-short",
+	  BUS MOTORS "loop: {rate_hz: 100}\nsafety: {command_timeout_ms: 15, comm_loss_ms: 0}\n",
+	  { ":6: safety.command_timeout_ms: 15 ms is shorter than two cycles (20 ms at 100 Hz)" } },
+	{ "lcm-url",
+	  BUS MOTORS "lcm: {url: localhost}\n",
+	  { ":5: lcm.url: \"localhost\" is not an LCM provider URL" } },
+	{ "two-documents", BUS MOTORS "---\n" BUS, { ":5: a second YAML document" } },
+	{ "bad-alias",
+	  BUS MOTORS "loop: *nothing\n",
+	  { ":5: loop: alias *nothing names no complete anchor" } },
+	{ "tab",
+	  BUS MOTORS "loop:\n\trate_hz: 5\n",
+	  { ":6: loop: syntax error: found character that cannot start any token" } },
+};
+
+static void test_bad_strings(void **state)
+{
+	(void)state;
+	for (size_t i = 0; i < sizeof(bad_strs) / sizeof(bad_strs[0]); i++) {
+		const struct bad_str *t = &bad_strs[i];
+		int r = load_str(t->name, t->yaml);
+
+		if (r != -EINVAL)
+			fail_msg("%s: returned %d, expected -EINVAL:\n%s", t->name, r, err);
+		for (size_t k = 0; k < 2 && t->expect[k]; k++)
+			if (!strstr(err, t->expect[k]))
+				fail_msg("%s: expected \"%s\" in:\n%s", t->name, t->expect[k], err);
+		/* every line names the file */
+		expect_in(err, "/tmp/rmd-test-");
+	}
+}
+
+/* 33 motors: one too many, named at the 33rd entry's line. */
+static void test_too_many_motors(void **state)
+{
+	static char yaml[8192];
+	size_t k = 0;
+
+	(void)state;
+	k += (size_t)snprintf(yaml + k, sizeof(yaml) - k, BUS "motors:\n");
+	for (unsigned i = 0; i < RMD_MAX_MOTORS + 1; i++)
+		k += (size_t)snprintf(yaml + k, sizeof(yaml) - k,
+				      "  - {name: m%u, bus: can0, id: %u, mode: torque, "
+				      "torque_constant_nm_a: 2}\n",
+				      i, i % 32 + 1);
+	assert_int_equal(load_str("too-many", yaml), -EINVAL);
+	expect_in(err, ":36: motors: 33 entries, at most 32 allowed");
+}
+
+/* Values that must load, and how they are stored. */
+static void test_good_values(void **state)
+{
+	(void)state;
+	assert_int_equal(
+		load_str("good",
+			 "loop: {rate_hz: 500, rt_priority: 49, cpu_affinity: [1, 3]}\n"
+			 "safety: {comm_loss_ms: 0, safe_action: brake, lost_motor_action: motor,\n"
+			 "         missed_replies_lost: 3, command_timeout_ms: 50}\n"
+			 "probe: {on_missing: start}\n"
+			 "lcm: {url: 'memq://', channel_prefix: ARM_, state_every_n: 2}\n"
+			 "buses:\n"
+			 "  - {name: s, type: sim, bitrate: 500000,\n"
+			 "     sim: {seed: 0x10, txqueuelen: 64, host_fifo: no,\n"
+			 "           faults: [{kind: flood, can_id: 0x7FF, param: 100000},\n"
+			 "                    {kind: error_flag, motor: 2, param: 0x1000}]}}\n"
+			 "  - {name: rs0, type: rs485, device: /dev/ttyUSB1, baud: 115200,\n"
+			 "     turnaround_us: 250.5}\n"
+			 "motors:\n"
+			 "  - {name: m1, bus: s, id: 1, protocol: mit, mode: mit, direction: -1,\n"
+			 "     zero_offset_rad: -0.25, rate_divisor: 2, status_poll_hz: 0,\n"
+			 "     sim: {has_brake: off, model: X6}}\n"
+			 "  - {name: m2, bus: s, id: 2, protocol: v2, mode: speed, units: rotor,\n"
+			 "     gear_ratio: 9, torque_constant_nm_a: +1.5e0}\n"
+			 "  - {name: m3, bus: rs0, id: 1, mode: position, torque_constant_nm_a: 2,\n"
+			 "     limits: {position_min_rad: -1, position_max_rad: 1}}\n"),
+		0);
+	assert_string_equal(err, "");
+	assert_int_equal(cfg.loop.rate_hz, 500);
+	assert_int_equal(cfg.loop.rt_priority, 49);
+	assert_int_equal(cfg.loop.n_cpus, 2);
+	assert_int_equal(cfg.loop.cpus[1], 3);
+	assert_int_equal(cfg.safety.comm_loss_ms, 0);
+	assert_int_equal(cfg.safety.safe_action, RMD_SAFE_BRAKE);
+	assert_int_equal(cfg.safety.lost_motor_action, RMD_LOST_MOTOR);
+	assert_int_equal(cfg.safety.missed_replies_lost, 3);
+	assert_int_equal(cfg.probe.on_missing, RMD_MISSING_START);
+	assert_string_equal(cfg.lcm.url, "memq://");
+	assert_string_equal(cfg.lcm.channel_prefix, "ARM_");
+	assert_int_equal(cfg.lcm.state_every_n, 2);
+	assert_int_equal(cfg.buses[0].bitrate, 500000);
+	assert_int_equal(cfg.buses[0].sim.seed, 16);
+	assert_int_equal(cfg.buses[0].sim.txqueuelen, 64);
+	assert_false(cfg.buses[0].sim.host_fifo);
+	assert_int_equal(cfg.buses[0].sim.n_faults, 2);
+	assert_int_equal(cfg.buses[0].sim.faults[0].kind, RMD_SIM_FAULT_FLOOD);
+	assert_int_equal(cfg.buses[0].sim.faults[0].can_id, 0x7FF);
+	assert_int_equal(cfg.buses[0].sim.faults[0].param, 100000);
+	assert_int_equal(cfg.buses[0].sim.faults[1].motor_id, 2);
+	assert_int_equal(cfg.buses[0].sim.faults[1].param, 0x1000);
+	assert_true(cfg.buses[0].sim.faults[1].probability == 1.0);
+	assert_int_equal(cfg.buses[1].kind, RMD_BUS_KIND_RS485);
+	assert_string_equal(cfg.buses[1].device, "/dev/ttyUSB1");
+	assert_int_equal(cfg.buses[1].baud, 115200);
+	assert_int_equal(cfg.buses[1].turnaround_ns, 250500);
+	assert_int_equal(cfg.motors[0].direction, -1);
+	assert_true(cfg.motors[0].zero_offset_rad == -0.25);
+	assert_true(cfg.motors[0].status_poll_hz == 0.0);
+	assert_false(cfg.motors[0].sim.has_brake);
+	assert_string_equal(cfg.motors[0].sim.model, "X6");
+	assert_int_equal(cfg.motors[0].sim.proto, RMD_PROTO_MIT);
+	assert_true(cfg.motors[0].torque_constant_nm_a == 0.0); /* optional for MIT */
+	assert_true(cfg.motors[0].sim.kt_nm_a == 2.0);		/* the model's */
+	assert_int_equal(cfg.motors[1].proto, RMD_PROTO_V2);
+	assert_int_equal(cfg.motors[1].units, RMD_UNITS_ROTOR);
+	assert_true(cfg.motors[1].sim.gear_ratio == 9.0);
+	assert_true(cfg.motors[1].sim.kt_nm_a == 1.5);
+	assert_int_equal(cfg.motors[2].bus, 1);
+	assert_true(cfg.motors[2].limits.position_max_rad == 1.0);
+}
+
+/* A small err buffer is cut, never overrun, and stays a string. */
+static void test_small_err_buffer(void **state)
+{
+	char small[24];
+	char path[2048];
+
+	(void)state;
+	memset(small, 'x', sizeof(small));
+	path_of(path, sizeof(path), "tests/data/config/mit-mode.yaml");
+	assert_int_equal(rmd_config_load(path, &cfg, small, sizeof(small)), -EINVAL);
+	assert_true(strlen(small) < sizeof(small));
+	assert_int_equal(rmd_config_load(path, &cfg, NULL, 0), -EINVAL);
+}
+
+static void test_sim_default(void **state)
+{
+	(void)state;
+	assert_int_equal(rmd_config_sim_default(&cfg, 0), -EINVAL);
+	assert_int_equal(rmd_config_sim_default(&cfg, RMD_MAX_MOTORS + 1), -EINVAL);
+	assert_int_equal(rmd_config_sim_default(&cfg, 12), 0);
+	assert_int_equal(cfg.n_buses, 4);
+	assert_int_equal(cfg.n_motors, 12);
+	for (unsigned i = 0; i < 12; i++) {
+		assert_int_equal(cfg.motors[i].bus, i / 3);
+		assert_int_equal(cfg.motors[i].id, i % 3 + 1);
+		assert_int_equal(cfg.motors[i].sim.id, i % 3 + 1);
+		assert_true(cfg.motors[i].torque_constant_nm_a > 0);
+	}
+	for (unsigned b = 0; b < 4; b++)
+		assert_int_equal(cfg.buses[b].kind, RMD_BUS_KIND_SIM);
+	assert_string_equal(cfg.buses[3].name, "sim3");
+	assert_int_equal(rmd_config_sim_default(&cfg, 32), 0);
+	assert_int_equal(cfg.n_buses, 11);
+	assert_int_equal(rmd_config_sim_default(&cfg, 1), 0);
+	assert_int_equal(cfg.n_buses, 1);
+}
+
+static void test_names(void **state)
+{
+	(void)state;
+	assert_string_equal(rmd_bus_kind_name(RMD_BUS_KIND_RS485), "rs485");
+	assert_string_equal(rmd_proto_key(RMD_PROTO_MIT), "mit");
+	assert_string_equal(rmd_proto_key(RMD_PROTO_V2), "v2");
+	assert_string_equal(rmd_ctrl_mode_name(RMD_CTRL_POSITION), "position");
+	assert_string_equal(rmd_safe_action_name(RMD_SAFE_HOLD), "hold");
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_examples_load), cmocka_unit_test(test_example_sim12),
+		cmocka_unit_test(test_example_rmdd),  cmocka_unit_test(test_defaults),
+		cmocka_unit_test(test_bad_files),     cmocka_unit_test(test_nonexistent),
+		cmocka_unit_test(test_bad_strings),   cmocka_unit_test(test_too_many_motors),
+		cmocka_unit_test(test_good_values),   cmocka_unit_test(test_small_err_buffer),
+		cmocka_unit_test(test_sim_default),   cmocka_unit_test(test_names),
+	};
+	const char *dir = getenv("RMD_SRCDIR");
+
+	if (dir && *dir)
+		snprintf(srcdir, sizeof(srcdir), "%s", dir);
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
