@@ -1,0 +1,1218 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmd-sim configuration: the settings the command line and the config file
+ * share, their validation, and the fault syntax.  One table lists every
+ * motor parameter with its range and unit; the same table drives the long
+ * options (rmd-sim.c), the config file keys and --help, so a parameter is
+ * added in exactly one place.
+ *
+ * Settings are recorded in the order given and replayed onto each motor's
+ * struct rmd_sim_motor_params by sim_config_finish(): every global setting
+ * first, then the motor's own ([motor N] sections, --set N:KEY=VALUE), so
+ * a per-motor value wins over a global one wherever each came from.
+ *
+ * Non-rt.
+ */
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <net/if.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rmd/codec.h"
+#include "rmd/mit.h"
+#include "rmd/sim.h"
+#include "rmd/sim_bus.h"
+#include "rmd-sim.h"
+
+#define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
+
+/* V3 §1.2.1: the RS485 rates. */
+static const uint32_t bauds[] = { 115200, 500000, 1000000, 1500000, 2000000 };
+#define BAUD_LIST "115200, 500000, 1000000, 1500000 or 2000000 (V3 §1.2.1)"
+
+/* Fault times and delays: seconds and microseconds, bounded to keep int64 ns far from overflow. */
+#define MAX_TIME_S 1e6
+#define MAX_DELAY_US 1e7
+
+/* -------------------------------------------------------------------------- */
+/* The motor parameter table                                                  */
+
+enum ptype {
+	T_REAL,	   /* double, [min, max] (min excluded when min_open) */
+	T_US,	   /* double ns field, given in microseconds */
+	T_UINT,	   /* unsigned, [min, max] */
+	T_BOOL,	   /* bool: yes/no, true/false, on/off, 1/0 */
+	T_PROTO,   /* enum rmd_proto: v3, v2, mit */
+	T_MODEL,   /* char[8]: 1..7 printable ASCII characters */
+	T_VERSION, /* uint32_t yyyymmdd */
+	T_MIT,	   /* struct rmd_mit_ranges from "P,V,T,KP,KD" */
+};
+
+struct param {
+	const char *key;
+	enum ptype type;
+	size_t off;
+	double min, max;
+	bool min_open;
+	const char *unit;
+	const char *help;
+};
+
+#define PARAM(k, t, field, lo, hi, open, unit, help)                                         \
+	{                                                                                    \
+		k, t, offsetof(struct rmd_sim_motor_params, field), lo, hi, open, unit, help \
+	}
+
+static const struct param params[] = {
+	PARAM("protocol", T_PROTO, proto, 0, 0, false, "",
+	      "v3, v2 or mit (MIT motors also speak V3)"),
+	PARAM("model", T_MODEL, model, 0, 0, false, "", "0xB5 model string, 1..7 ASCII characters"),
+	PARAM("version", T_VERSION, version_date, 0, 0, false, "", "0xB2 firmware date, yyyymmdd"),
+	PARAM("inertia", T_REAL, inertia_kgm2, 0, 1000, true, "kg·m²",
+	      "inertia at the output shaft, rotor reflected"),
+	PARAM("viscous", T_REAL, viscous_nm_s_rad, 0, 1000, false, "N·m·s/rad", "viscous friction"),
+	PARAM("coulomb", T_REAL, coulomb_nm, 0, 1000, false, "N·m", "Coulomb friction"),
+	PARAM("kt", T_REAL, kt_nm_a, 0, 1000, true, "N·m/A", "output torque per amp of iq"),
+	PARAM("gear", T_REAL, gear_ratio, 1, 1000, false, "",
+	      "gear ratio, motor turns per output turn"),
+	PARAM("pole-pairs", T_UINT, pole_pairs, 1, 64, false, "", "rotor pole pairs"),
+	PARAM("max-current", T_REAL, max_current_a, 0, 1000, true, "A", "drive current limit"),
+	PARAM("load", T_REAL, load_nm, -1000, 1000, false, "N·m",
+	      "constant external torque on the shaft"),
+	PARAM("max-speed", T_REAL, max_speed_dps, 0, 100000, true, "dps",
+	      "over-speed fault above this"),
+	PARAM("fw-max-speed", T_REAL, fw_max_speed_dps, 0, 100000, true, "dps",
+	      "the firmware's Max Speed (0xA3, V2 0xA5/0xA7)"),
+	PARAM("resistance", T_REAL, phase_resistance_ohm, 0, 100, false, "Ω", "phase resistance"),
+	PARAM("thermal-resistance", T_REAL, thermal_resistance_c_w, 0, 1000, true, "°C/W",
+	      "winding to ambient"),
+	PARAM("thermal-tau", T_REAL, thermal_tau_s, 0, 1e6, true, "s", "thermal time constant"),
+	PARAM("ambient", T_REAL, ambient_c, -60, 150, false, "°C", "ambient temperature"),
+	PARAM("supply", T_REAL, supply_v, 0, 1000, false, "V", "supply voltage"),
+	PARAM("over-temp", T_REAL, over_temp_c, -60, 300, false, "°C",
+	      "over-temperature fault above this"),
+	PARAM("over-temp-clear", T_REAL, over_temp_clear_c, -60, 300, false, "°C",
+	      "... until the winding cools below this"),
+	PARAM("under-voltage", T_REAL, under_voltage_v, 0, 1000, false, "V",
+	      "low-voltage fault below this"),
+	PARAM("over-voltage", T_REAL, over_voltage_v, 0, 1000, false, "V",
+	      "over-voltage fault above this"),
+	PARAM("stall-time", T_REAL, stall_time_s, 0, 3600, true, "s",
+	      "near-limit current at standstill this long: stall fault"),
+	PARAM("brake", T_BOOL, has_brake, 0, 0, false, "",
+	      "the motor has a holding brake (yes/no)"),
+	PARAM("encoder-bits", T_UINT, encoder_bits, 8, 24, false, "",
+	      "motor-side single-turn encoder resolution"),
+	PARAM("mit-ranges", T_MIT, mit, 0, 0, false, "",
+	      "MIT ranges P,V,T,KP,KD: p ±P rad, v ±V rad/s, t ±T N·m, kp 0..KP, kd 0..KD"),
+	PARAM("turnaround-us", T_US, turnaround_ns, 0, 1e6, false, "µs",
+	      "request end to reply start, mean"),
+	PARAM("jitter-us", T_US, turnaround_jitter_ns, 0, 1e6, false, "µs",
+	      "turnaround jitter, uniform ±"),
+};
+
+/* Settings that apply to the whole program, not to one motor. */
+static const struct {
+	const char *key;
+	const char *arg;
+	const char *help;
+} globals[] = {
+	{ "can", "IFACE", "SocketCAN interface to answer on (e.g. vcan0)" },
+	{ "serial", "DEVICE", "RS485 serial device to answer on (e.g. /dev/ttyUSB0)" },
+	{ "baud", "B", "serial rate: " BAUD_LIST "; default 115200" },
+	{ "local-echo", "",
+	  "serial: the adapter hears its own replies; drop them (config: yes/no)" },
+	{ "motors", "LIST", "motor ids, e.g. 1-4,7 (default 1)" },
+	{ "fault", "SPEC", "inject a fault, repeatable (see FAULTS)" },
+	{ "seed", "N", "seed of every random choice (jitter, faults); default 1" },
+	{ "verbosity", "LEVEL", "quiet, normal or frames (as -q, default, -v)" },
+};
+
+static const struct param *find_param(const char *key)
+{
+	for (size_t i = 0; i < ARRAY_SIZE(params); i++)
+		if (!strcmp(params[i].key, key))
+			return &params[i];
+	return NULL;
+}
+
+static bool is_global(const char *key)
+{
+	for (size_t i = 0; i < ARRAY_SIZE(globals); i++)
+		if (!strcmp(globals[i].key, key))
+			return true;
+	return false;
+}
+
+const char *sim_config_key(unsigned i, bool *is_flag)
+{
+	if (i < ARRAY_SIZE(globals)) {
+		*is_flag = !strcmp(globals[i].key, "local-echo");
+		return globals[i].key;
+	}
+	i -= (unsigned)ARRAY_SIZE(globals);
+	*is_flag = false;
+	return i < ARRAY_SIZE(params) ? params[i].key : NULL;
+}
+
+const char *sim_proto_name(enum rmd_proto proto)
+{
+	switch (proto) {
+	case RMD_PROTO_V3:
+		return "V3";
+	case RMD_PROTO_V2:
+		return "V2";
+	case RMD_PROTO_MIT:
+		return "MIT";
+	}
+	return "?";
+}
+
+void sim_config_help(void)
+{
+	printf("Wire and program:\n");
+	for (size_t i = 0; i < ARRAY_SIZE(globals); i++)
+		printf("  --%s%s%s\n      %s\n", globals[i].key, *globals[i].arg ? " " : "",
+		       globals[i].arg, globals[i].help);
+	printf("\nMotor parameters (for every motor; per motor in a [motor N] section or with\n"
+	       "--set N:KEY=VALUE):\n");
+	for (size_t i = 0; i < ARRAY_SIZE(params); i++) {
+		const struct param *p = &params[i];
+
+		printf("  --%s VALUE\n      %s", p->key, p->help);
+		if (p->type == T_REAL || p->type == T_US || p->type == T_UINT)
+			printf(", %s%g..%g%s%s", p->min_open ? ">" : "", p->min, p->max,
+			       *p->unit ? " " : "", p->unit);
+		printf("\n");
+	}
+}
+
+/* -------------------------------------------------------------------------- */
+/* Value parsers: whole string, C locale                                      */
+
+static int parse_real(const char *s, double *v)
+{
+	char *end;
+
+	errno = 0;
+	*v = strtod(s, &end);
+	if (end == s || *end != '\0' || errno == ERANGE || !isfinite(*v) ||
+	    isspace((unsigned char)*s))
+		return -EINVAL;
+	return 0;
+}
+
+static int parse_u64(const char *s, uint64_t *v)
+{
+	char *end;
+
+	if (!*s || *s == '-' || *s == '+' || isspace((unsigned char)*s))
+		return -EINVAL;
+	errno = 0;
+	/* Decimal, or hex with 0x; never octal ("010" is ten). */
+	*v = strtoull(s, &end, (s[0] == '0' && (s[1] == 'x' || s[1] == 'X')) ? 16 : 10);
+	if (*end != '\0' || errno == ERANGE)
+		return -EINVAL;
+	return 0;
+}
+
+static int parse_bool(const char *s, bool *b)
+{
+	static const char *const yes[] = { "yes", "true", "on", "1" };
+	static const char *const no[] = { "no", "false", "off", "0" };
+
+	for (size_t i = 0; i < ARRAY_SIZE(yes); i++) {
+		if (!strcasecmp(s, yes[i])) {
+			*b = true;
+			return 0;
+		}
+		if (!strcasecmp(s, no[i])) {
+			*b = false;
+			return 0;
+		}
+	}
+	return -EINVAL;
+}
+
+static int parse_proto(const char *s, enum rmd_proto *proto)
+{
+	if (!strcasecmp(s, "v3"))
+		*proto = RMD_PROTO_V3;
+	else if (!strcasecmp(s, "v2"))
+		*proto = RMD_PROTO_V2;
+	else if (!strcasecmp(s, "mit"))
+		*proto = RMD_PROTO_MIT;
+	else
+		return -EINVAL;
+	return 0;
+}
+
+/* "P,V,T,KP,KD", each > 0. */
+static int parse_mit(const char *s, struct rmd_mit_ranges *r)
+{
+	double m[5];
+	const char *p = s;
+
+	for (unsigned i = 0; i < 5; i++) {
+		char num[64];
+		size_t n = strcspn(p, ",");
+
+		if (n == 0 || n >= sizeof(num) || (i < 4 && p[n] != ',') || (i == 4 && p[n]))
+			return -EINVAL;
+		memcpy(num, p, n);
+		num[n] = '\0';
+		if (parse_real(num, &m[i]) < 0 || !(m[i] > 0) || m[i] > 1e6)
+			return -EINVAL;
+		p += n + (i < 4);
+	}
+	*r = (struct rmd_mit_ranges){
+		.p_min = -m[0],
+		.p_max = m[0],
+		.v_min = -m[1],
+		.v_max = m[1],
+		.t_min = -m[2],
+		.t_max = m[2],
+		.kp_min = 0,
+		.kp_max = m[3],
+		.kd_min = 0,
+		.kd_max = m[4],
+	};
+	return rmd_mit_ranges_valid(r) ? 0 : -EINVAL;
+}
+
+/* "1-4,7": ids 1..32, ascending ranges. */
+static int parse_motors(const char *s, uint32_t *mask)
+{
+	uint32_t m = 0;
+	const char *p = s;
+
+	if (!*p)
+		return -EINVAL;
+	for (;;) {
+		char *end;
+		unsigned long a, b;
+
+		if (!isdigit((unsigned char)*p))
+			return -EINVAL;
+		a = strtoul(p, &end, 10);
+		b = a;
+		if (*end == '-') {
+			p = end + 1;
+			if (!isdigit((unsigned char)*p))
+				return -EINVAL;
+			b = strtoul(p, &end, 10);
+		}
+		if (a < 1 || b > RMD_MAX_MOTORS || a > b)
+			return -EINVAL;
+		for (unsigned long i = a; i <= b; i++)
+			m |= UINT32_C(1) << (i - 1);
+		if (*end == '\0')
+			break;
+		if (*end != ',')
+			return -EINVAL;
+		p = end + 1;
+	}
+	*mask = m;
+	return 0;
+}
+
+void sim_format_motors(uint32_t mask, char *buf, size_t size)
+{
+	size_t n = 0;
+
+	buf[0] = '\0';
+	for (unsigned i = 0; i < RMD_MAX_MOTORS && n < size; i++) {
+		unsigned j = i;
+
+		if (!(mask & (UINT32_C(1) << i)))
+			continue;
+		while (j + 1 < RMD_MAX_MOTORS && (mask & (UINT32_C(1) << (j + 1))))
+			j++;
+		if (j > i)
+			n += (size_t)snprintf(buf + n, size - n, "%s%u-%u", n ? "," : "", i + 1,
+					      j + 1);
+		else
+			n += (size_t)snprintf(buf + n, size - n, "%s%u", n ? "," : "", i + 1);
+		i = j;
+	}
+}
+
+/* -------------------------------------------------------------------------- */
+/* Motor parameters                                                           */
+
+/* Apply one parameter to p; on a bad value, store what is allowed in `allowed`. */
+static int apply_param(struct rmd_sim_motor_params *p, const struct param *spec, const char *value,
+		       char *allowed, size_t size)
+{
+	char *field = (char *)p + spec->off;
+	double v;
+	uint64_t u;
+
+	switch (spec->type) {
+	case T_REAL:
+	case T_US:
+		if (parse_real(value, &v) < 0 || v > spec->max || v < spec->min ||
+		    (spec->min_open && v == spec->min)) {
+			snprintf(allowed, size, "a number %s %g and <= %g%s%s",
+				 spec->min_open ? ">" : ">=", spec->min, spec->max,
+				 *spec->unit ? ", in " : "", spec->unit);
+			return -EINVAL;
+		}
+		if (spec->type == T_US)
+			v *= 1000.0;
+		memcpy(field, &v, sizeof(v));
+		return 0;
+	case T_UINT: {
+		unsigned x;
+
+		if (parse_u64(value, &u) < 0 || u < spec->min || u > spec->max) {
+			snprintf(allowed, size, "an integer %g..%g", spec->min, spec->max);
+			return -EINVAL;
+		}
+		x = (unsigned)u;
+		memcpy(field, &x, sizeof(x));
+		return 0;
+	}
+	case T_BOOL: {
+		bool b;
+
+		if (parse_bool(value, &b) < 0) {
+			snprintf(allowed, size, "yes or no (true/false, on/off, 1/0)");
+			return -EINVAL;
+		}
+		memcpy(field, &b, sizeof(b));
+		return 0;
+	}
+	case T_PROTO: {
+		enum rmd_proto proto;
+
+		if (parse_proto(value, &proto) < 0) {
+			snprintf(allowed, size, "v3, v2 or mit");
+			return -EINVAL;
+		}
+		memcpy(field, &proto, sizeof(proto));
+		return 0;
+	}
+	case T_MODEL: {
+		size_t n = strlen(value);
+
+		for (size_t i = 0; i < n; i++) {
+			if (value[i] < 0x21 || value[i] > 0x7E)
+				n = 0;
+		}
+		if (n < 1 || n > 7) {
+			snprintf(allowed, size,
+				 "1..7 printable ASCII characters without spaces "
+				 "(V3 §2.32)");
+			return -EINVAL;
+		}
+		memset(field, 0, sizeof(p->model));
+		memcpy(field, value, n);
+		return 0;
+	}
+	case T_VERSION: {
+		uint32_t d;
+
+		if (parse_u64(value, &u) < 0 || u > UINT32_MAX ||
+		    !rmd_version_date_valid((uint32_t)u)) {
+			snprintf(allowed, size, "a date yyyymmdd, e.g. 20220206 (V3 §2.29)");
+			return -EINVAL;
+		}
+		d = (uint32_t)u;
+		memcpy(field, &d, sizeof(d));
+		return 0;
+	}
+	case T_MIT: {
+		struct rmd_mit_ranges r;
+
+		if (parse_mit(value, &r) < 0) {
+			snprintf(allowed, size,
+				 "P,V,T,KP,KD: five numbers > 0, e.g. "
+				 "12.5,45,24,500,5 (V3 §5.1)");
+			return -EINVAL;
+		}
+		memcpy(field, &r, sizeof(r));
+		return 0;
+	}
+	}
+	snprintf(allowed, size, "?");
+	return -EINVAL;
+}
+
+/* -------------------------------------------------------------------------- */
+/* Faults                                                                     */
+
+#define FAULT_SYNTAX                                                                           \
+	"drop:ID:P, delay:ID:US:P, bad_dlc:ID:DLC:P, garbage:ID:P, wrong_id:ID:OTHER:P "       \
+	"(each with an optional @START_S-END_S window), disappear:ID:START_S:END_S[:reboot], " \
+	"error:ID:BITS:AT_S[:END_S], flood:CANID:PERIOD_US:START_S[:END_S]"
+
+struct fault_syntax {
+	enum rmd_sim_fault_kind kind;
+	const char *syntax;
+};
+
+static const struct fault_syntax fault_syntaxes[] = {
+	{ RMD_SIM_FAULT_DROP, "drop:ID:P[@START_S-END_S]" },
+	{ RMD_SIM_FAULT_DELAY, "delay:ID:US:P[@START_S-END_S]" },
+	{ RMD_SIM_FAULT_BAD_DLC, "bad_dlc:ID:DLC:P[@START_S-END_S]" },
+	{ RMD_SIM_FAULT_GARBAGE, "garbage:ID:P[@START_S-END_S]" },
+	{ RMD_SIM_FAULT_WRONG_ID, "wrong_id:ID:OTHER_ID:P[@START_S-END_S]" },
+	{ RMD_SIM_FAULT_DISAPPEAR, "disappear:ID:START_S:END_S[:reboot]" },
+	{ RMD_SIM_FAULT_ERROR_FLAG, "error:ID:BITS:AT_S[:END_S]" },
+	{ RMD_SIM_FAULT_FLOOD, "flood:CANID:PERIOD_US:START_S[:END_S]" },
+};
+
+static const char *fault_syntax(enum rmd_sim_fault_kind kind)
+{
+	for (size_t i = 0; i < ARRAY_SIZE(fault_syntaxes); i++)
+		if (fault_syntaxes[i].kind == kind)
+			return fault_syntaxes[i].syntax;
+	return FAULT_SYNTAX;
+}
+
+/* The kind called `name` ("error" and '-' spellings too), or -EINVAL. */
+static int fault_kind(const char *name)
+{
+	char buf[32];
+	size_t n = strlen(name);
+
+	if (n >= sizeof(buf))
+		return -EINVAL;
+	for (size_t i = 0; i <= n; i++)
+		buf[i] = name[i] == '-' ? '_' : (char)tolower((unsigned char)name[i]);
+	if (!strcmp(buf, "error") || !strcmp(buf, "error_flag"))
+		return RMD_SIM_FAULT_ERROR_FLAG;
+	for (int k = 0; k < RMD_SIM_FAULT_COUNT; k++) {
+		const char *kn = rmd_sim_fault_kind_name((enum rmd_sim_fault_kind)k);
+
+		if (kn && !strcmp(kn, buf))
+			return k;
+	}
+	return -EINVAL;
+}
+
+/* A time in seconds, 0..MAX_TIME_S, to ns. */
+static int parse_seconds(const char *s, int64_t *ns)
+{
+	double v;
+
+	if (parse_real(s, &v) < 0 || v < 0 || v > MAX_TIME_S)
+		return -EINVAL;
+	*ns = (int64_t)llround(v * 1e9);
+	return 0;
+}
+
+static int parse_probability(const char *s, double *p)
+{
+	if (parse_real(s, p) < 0 || *p < 0 || *p > 1)
+		return -EINVAL;
+	return 0;
+}
+
+/* "*" or 0: every motor; else 1..32. */
+static int parse_fault_motor(const char *s, uint8_t *id)
+{
+	uint64_t v;
+
+	if (!strcmp(s, "*")) {
+		*id = 0;
+		return 0;
+	}
+	if (parse_u64(s, &v) < 0 || v > RMD_MAX_MOTORS)
+		return -EINVAL;
+	*id = (uint8_t)v;
+	return 0;
+}
+
+/* Error bits: a number 1..0xFFFF, or V3 §2.12 table 1 names joined by '+'. */
+static int parse_error_bits(const char *s, int64_t *bits)
+{
+	uint64_t v;
+	char buf[SIM_VALUE_MAX];
+	char *save = NULL, *tok;
+	uint32_t acc = 0;
+
+	if (parse_u64(s, &v) == 0) {
+		if (v < 1 || v > 0xFFFF)
+			return -EINVAL;
+		*bits = (int64_t)v;
+		return 0;
+	}
+	if (strlen(s) >= sizeof(buf))
+		return -EINVAL;
+	strcpy(buf, s);
+	for (tok = strtok_r(buf, "+", &save); tok; tok = strtok_r(NULL, "+", &save)) {
+		bool found = false;
+
+		for (unsigned b = 0; b < 16 && !found; b++) {
+			const char *name = NULL;
+
+			if (rmd_error_names(RMD_PROTO_V3, (uint16_t)(1u << b), &name, 1) == 1 &&
+			    name && strncmp(name, "unknown", 7) && !strcmp(name, tok)) {
+				acc |= 1u << b;
+				found = true;
+			}
+		}
+		if (!found)
+			return -EINVAL;
+	}
+	if (!acc)
+		return -EINVAL;
+	*bits = acc;
+	return 0;
+}
+
+static void error_bit_names(char *buf, size_t size)
+{
+	size_t n = 0;
+
+	buf[0] = '\0';
+	for (unsigned b = 0; b < 16 && n < size; b++) {
+		const char *name = NULL;
+
+		if (rmd_error_names(RMD_PROTO_V3, (uint16_t)(1u << b), &name, 1) == 1 && name &&
+		    strncmp(name, "unknown", 7))
+			n += (size_t)snprintf(buf + n, size - n, "%s%s", n ? ", " : "", name);
+	}
+}
+
+#define MAX_FAULT_FIELDS 6
+
+static int fault_error(const char *where, const char *spec, const char *what,
+		       enum rmd_sim_fault_kind kind)
+{
+	sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": %s; syntax %s", where, spec, what,
+		fault_syntax(kind));
+	return -EINVAL;
+}
+
+static int parse_fault(struct sim_config *c, const char *spec, const char *where)
+{
+	char buf[SIM_VALUE_MAX], *fld[MAX_FAULT_FIELDS], *window, *p;
+	struct rmd_sim_fault f;
+	unsigned n = 0;
+	int kind;
+	bool per_frame;
+
+	if (strlen(spec) >= sizeof(buf)) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: fault longer than %zu characters", where,
+			sizeof(buf) - 1);
+		return -EINVAL;
+	}
+	strcpy(buf, spec);
+	window = strchr(buf, '@');
+	if (window)
+		*window++ = '\0';
+	for (p = buf; n < MAX_FAULT_FIELDS;) {
+		fld[n++] = p;
+		p = strchr(p, ':');
+		if (!p)
+			break;
+		*p++ = '\0';
+	}
+	if (p) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": too many ':' fields; faults: %s", where,
+			spec, FAULT_SYNTAX);
+		return -EINVAL;
+	}
+	kind = fault_kind(fld[0]);
+	if (kind < 0) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": unknown fault \"%s\"; faults: %s", where,
+			spec, fld[0], FAULT_SYNTAX);
+		return -EINVAL;
+	}
+	memset(&f, 0, sizeof(f));
+	f.kind = (enum rmd_sim_fault_kind)kind;
+	per_frame = false;
+
+	switch (f.kind) {
+	case RMD_SIM_FAULT_DROP:
+	case RMD_SIM_FAULT_GARBAGE:
+		per_frame = true;
+		if (n != 3)
+			return fault_error(where, spec, "expected 3 fields", f.kind);
+		if (parse_probability(fld[2], &f.probability) < 0)
+			return fault_error(where, spec, "P must be a probability 0..1", f.kind);
+		break;
+	case RMD_SIM_FAULT_DELAY:
+	case RMD_SIM_FAULT_BAD_DLC:
+	case RMD_SIM_FAULT_WRONG_ID: {
+		double v;
+
+		per_frame = true;
+		if (n != 4)
+			return fault_error(where, spec, "expected 4 fields", f.kind);
+		if (parse_probability(fld[3], &f.probability) < 0)
+			return fault_error(where, spec, "P must be a probability 0..1", f.kind);
+		if (parse_real(fld[2], &v) < 0)
+			v = -1;
+		if (f.kind == RMD_SIM_FAULT_DELAY) {
+			if (v < 0 || v > MAX_DELAY_US)
+				return fault_error(where, spec, "US must be 0..10000000 µs",
+						   f.kind);
+			f.param = (int64_t)llround(v * 1000.0);
+		} else if (f.kind == RMD_SIM_FAULT_BAD_DLC) {
+			if (v < 0 || v > 7 || v != floor(v))
+				return fault_error(where, spec, "DLC must be 0..7", f.kind);
+			f.param = (int64_t)v;
+		} else {
+			if (v < 1 || v > RMD_MAX_MOTORS || v != floor(v))
+				return fault_error(where, spec, "OTHER_ID must be 1..32", f.kind);
+			f.param = (int64_t)v;
+		}
+		break;
+	}
+	case RMD_SIM_FAULT_DISAPPEAR:
+		if (n != 4 && n != 5)
+			return fault_error(where, spec, "expected 4 or 5 fields", f.kind);
+		if (parse_seconds(fld[2], &f.start_ns) < 0)
+			return fault_error(where, spec, "START_S must be 0..1e6 s", f.kind);
+		if (*fld[3] && parse_seconds(fld[3], &f.end_ns) < 0)
+			return fault_error(where, spec, "END_S must be empty (never) or 0..1e6 s",
+					   f.kind);
+		if (n == 5) {
+			if (strcmp(fld[4], "reboot"))
+				return fault_error(where, spec,
+						   "the 5th field can only be \"reboot\"", f.kind);
+			f.param = 1;
+		}
+		break;
+	case RMD_SIM_FAULT_ERROR_FLAG: {
+		char names[512];
+
+		if (n != 4 && n != 5)
+			return fault_error(where, spec, "expected 4 or 5 fields", f.kind);
+		if (parse_error_bits(fld[2], &f.param) < 0) {
+			char what[640];
+
+			error_bit_names(names, sizeof(names));
+			snprintf(what, sizeof(what),
+				 "BITS must be a number 1..0xffff or names joined by '+' (%s)",
+				 names);
+			return fault_error(where, spec, what, f.kind);
+		}
+		if (parse_seconds(fld[3], &f.start_ns) < 0)
+			return fault_error(where, spec, "AT_S must be 0..1e6 s", f.kind);
+		if (n == 5 && *fld[4] && parse_seconds(fld[4], &f.end_ns) < 0)
+			return fault_error(where, spec, "END_S must be empty (never) or 0..1e6 s",
+					   f.kind);
+		break;
+	}
+	case RMD_SIM_FAULT_FLOOD: {
+		uint64_t id;
+		double us;
+
+		if (n != 4 && n != 5)
+			return fault_error(where, spec, "expected 4 or 5 fields", f.kind);
+		if (parse_u64(fld[1], &id) < 0 || id > 0x7FF)
+			return fault_error(where, spec,
+					   "CANID must be an 11-bit identifier 0..0x7ff", f.kind);
+		f.can_id = (uint32_t)id;
+		if (parse_real(fld[2], &us) < 0 || us < 100 || us > MAX_DELAY_US)
+			return fault_error(where, spec, "PERIOD_US must be 100..10000000 µs",
+					   f.kind);
+		f.param = (int64_t)llround(us * 1000.0);
+		if (parse_seconds(fld[3], &f.start_ns) < 0)
+			return fault_error(where, spec, "START_S must be 0..1e6 s", f.kind);
+		if (n == 5 && *fld[4] && parse_seconds(fld[4], &f.end_ns) < 0)
+			return fault_error(where, spec, "END_S must be empty (never) or 0..1e6 s",
+					   f.kind);
+		break;
+	}
+	case RMD_SIM_FAULT_BUS_OFF:
+		sim_log(SIM_LOG_ERR,
+			"rmd-sim: %s \"%s\": bus_off cannot be injected on a real wire (the "
+			"kernel's CAN controller owns the bus state); use the in-process sim bus, or "
+			"`ip link set IFACE down`",
+			where, spec);
+		return -EINVAL;
+	case RMD_SIM_FAULT_COUNT:
+	default:
+		return fault_error(where, spec, "unknown fault", f.kind);
+	}
+
+	if (f.kind != RMD_SIM_FAULT_FLOOD && parse_fault_motor(fld[1], &f.motor_id) < 0)
+		return fault_error(where, spec, "ID must be a motor id 1..32 or * (every motor)",
+				   f.kind);
+	if (window && !per_frame)
+		return fault_error(where, spec,
+				   "this fault takes its window in its fields, not '@'", f.kind);
+	if (window) {
+		char *dash = strchr(window, '-');
+
+		if (!dash)
+			return fault_error(where, spec,
+					   "the window is @START_S-END_S (END_S may be "
+					   "empty)",
+					   f.kind);
+		*dash = '\0';
+		if (parse_seconds(window, &f.start_ns) < 0 ||
+		    (dash[1] && parse_seconds(dash + 1, &f.end_ns) < 0))
+			return fault_error(where, spec, "window times must be 0..1e6 s", f.kind);
+	}
+	if (f.end_ns && f.end_ns <= f.start_ns)
+		return fault_error(where, spec, "the end must come after the start", f.kind);
+	if (c->n_faults >= RMD_SIM_BUS_MAX_FAULTS) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": more than %d faults", where, spec,
+			RMD_SIM_BUS_MAX_FAULTS);
+		return -EINVAL;
+	}
+	c->faults[c->n_faults] = f;
+	snprintf(c->fault_text[c->n_faults], sizeof(c->fault_text[0]), "%s", spec);
+	snprintf(c->fault_where[c->n_faults], sizeof(c->fault_where[0]), "%s", where);
+	c->n_faults++;
+	return 0;
+}
+
+/* -------------------------------------------------------------------------- */
+/* Settings                                                                   */
+
+void sim_config_init(struct sim_config *c)
+{
+	memset(c, 0, sizeof(*c));
+	c->wire = SIM_WIRE_NONE;
+	c->baud = 115200;
+	c->motors = 1;
+	c->seed = 1;
+	c->verbosity = SIM_NORMAL;
+}
+
+/* Key with '_' as '-', lower case; false when it does not fit. */
+static bool normalize_key(const char *key, char out[SIM_KEY_MAX])
+{
+	size_t n = strlen(key);
+
+	if (n == 0 || n >= SIM_KEY_MAX)
+		return false;
+	for (size_t i = 0; i <= n; i++)
+		out[i] = key[i] == '_' ? '-' : (char)tolower((unsigned char)key[i]);
+	return true;
+}
+
+static int set_global(struct sim_config *c, const char *key, const char *value, const char *where)
+{
+	if (!strcmp(key, "can")) {
+		if (!*value || strlen(value) >= IFNAMSIZ || strchr(value, '/') ||
+		    strpbrk(value, " \t:")) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s \"%s\": expected a network interface name of 1..%d "
+				"characters without '/', ':' or blanks (e.g. can0, vcan0)",
+				where, value, IFNAMSIZ - 1);
+			return -EINVAL;
+		}
+		c->wire = SIM_WIRE_CAN;
+		snprintf(c->device, sizeof(c->device), "%s", value);
+		return 0;
+	}
+	if (!strcmp(key, "serial")) {
+		if (!*value || strlen(value) >= sizeof(c->device)) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s \"%s\": expected a serial device path of 1..%zu "
+				"characters (e.g. /dev/ttyUSB0)",
+				where, value, sizeof(c->device) - 1);
+			return -EINVAL;
+		}
+		c->wire = SIM_WIRE_SERIAL;
+		snprintf(c->device, sizeof(c->device), "%s", value);
+		return 0;
+	}
+	if (!strcmp(key, "baud")) {
+		uint64_t b;
+
+		if (parse_u64(value, &b) == 0) {
+			for (size_t i = 0; i < ARRAY_SIZE(bauds); i++) {
+				if (bauds[i] == b) {
+					c->baud = (uint32_t)b;
+					snprintf(c->baud_where, sizeof(c->baud_where), "%s", where);
+					return 0;
+				}
+			}
+		}
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected " BAUD_LIST, where, value);
+		return -EINVAL;
+	}
+	if (!strcmp(key, "local-echo")) {
+		if (parse_bool(value, &c->local_echo) < 0) {
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected yes or no", where,
+				value);
+			return -EINVAL;
+		}
+		snprintf(c->echo_where, sizeof(c->echo_where), "%s", where);
+		return 0;
+	}
+	if (!strcmp(key, "motors")) {
+		if (parse_motors(value, &c->motors) < 0) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s \"%s\": expected motor ids 1..32 as a list of ids and "
+				"ascending ranges, e.g. 1-4,7",
+				where, value);
+			return -EINVAL;
+		}
+		return 0;
+	}
+	if (!strcmp(key, "fault"))
+		return parse_fault(c, value, where);
+	if (!strcmp(key, "seed")) {
+		if (parse_u64(value, &c->seed) < 0) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s \"%s\": expected an unsigned 64-bit integer (decimal, or "
+				"hex with 0x)",
+				where, value);
+			return -EINVAL;
+		}
+		return 0;
+	}
+	if (!strcmp(key, "verbosity")) {
+		if (!strcasecmp(value, "quiet")) {
+			c->verbosity = SIM_QUIET;
+		} else if (!strcasecmp(value, "normal")) {
+			c->verbosity = SIM_NORMAL;
+		} else if (!strcasecmp(value, "frames")) {
+			c->verbosity = SIM_FRAMES;
+		} else {
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected quiet, normal or frames",
+				where, value);
+			return -EINVAL;
+		}
+		sim_set_verbosity(c->verbosity);
+		return 0;
+	}
+	sim_log(SIM_LOG_ERR, "rmd-sim: %s: unknown setting", where);
+	return -EINVAL;
+}
+
+int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const char *value,
+		   const char *where)
+{
+	char k[SIM_KEY_MAX], allowed[256];
+	const struct param *spec;
+	struct rmd_sim_motor_params scratch;
+	struct sim_setting *s;
+
+	if (!normalize_key(key, k)) {
+		sim_log(SIM_LOG_ERR,
+			"rmd-sim: %s: \"%s\" is not a setting (rmd-sim --help lists "
+			"them)",
+			where, key);
+		return -EINVAL;
+	}
+	if (is_global(k)) {
+		if (motor) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s: \"%s\" applies to the whole program, not to motor %u "
+				"(put it before any [motor N] section, without N:)",
+				where, k, motor);
+			return -EINVAL;
+		}
+		return set_global(c, k, value, where);
+	}
+	spec = find_param(k);
+	if (!spec) {
+		sim_log(SIM_LOG_ERR,
+			"rmd-sim: %s: \"%s\" is not a setting (rmd-sim --help lists "
+			"them)",
+			where, key);
+		return -EINVAL;
+	}
+	rmd_sim_motor_params_default(&scratch, motor ? motor : 1, RMD_PROTO_V3);
+	if (apply_param(&scratch, spec, value, allowed, sizeof(allowed)) < 0) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected %s", where, value, allowed);
+		return -EINVAL;
+	}
+	if (strlen(value) >= SIM_VALUE_MAX) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: value longer than %d characters", where,
+			SIM_VALUE_MAX - 1);
+		return -EINVAL;
+	}
+	if (c->n_settings >= SIM_MAX_SETTINGS) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: more than %d settings", where, SIM_MAX_SETTINGS);
+		return -EINVAL;
+	}
+	s = &c->settings[c->n_settings++];
+	s->motor = motor;
+	snprintf(s->key, sizeof(s->key), "%s", k);
+	snprintf(s->value, sizeof(s->value), "%s", value);
+	snprintf(s->where, sizeof(s->where), "%s", where);
+	if (motor && !(c->motor_refs & (UINT32_C(1) << (motor - 1)))) {
+		c->motor_refs |= UINT32_C(1) << (motor - 1);
+		snprintf(c->motor_ref_where[motor - 1], sizeof(c->motor_ref_where[0]), "%s", where);
+	}
+	return 0;
+}
+
+int sim_config_set_arg(struct sim_config *c, const char *arg, const char *where)
+{
+	char key[SIM_KEY_MAX + 8], w[SIM_WHERE_MAX];
+	const char *eq = strchr(arg, '='), *colon, *k = arg;
+	uint64_t id = 0;
+	size_t n;
+
+	colon = strchr(arg, ':');
+	if (colon && eq && colon < eq) {
+		char num[8];
+
+		n = (size_t)(colon - arg);
+		if (n == 0 || n >= sizeof(num))
+			goto bad;
+		memcpy(num, arg, n);
+		num[n] = '\0';
+		if (parse_u64(num, &id) < 0 || id < 1 || id > RMD_MAX_MOTORS)
+			goto bad;
+		k = colon + 1;
+	}
+	if (!eq || eq == k || (size_t)(eq - k) >= sizeof(key))
+		goto bad;
+	n = (size_t)(eq - k);
+	memcpy(key, k, n);
+	key[n] = '\0';
+	snprintf(w, sizeof(w), "%s %.*s", where, (int)(eq - arg), arg);
+	return sim_config_set(c, (uint8_t)id, key, eq + 1, w);
+bad:
+	sim_log(SIM_LOG_ERR,
+		"rmd-sim: %s \"%s\": expected [ID:]KEY=VALUE, ID a motor id 1..32, KEY a motor "
+		"parameter (rmd-sim --help lists them)",
+		where, arg);
+	return -EINVAL;
+}
+
+/* -------------------------------------------------------------------------- */
+/* Config file                                                                */
+
+static char *trim(char *s)
+{
+	char *e;
+
+	while (isspace((unsigned char)*s))
+		s++;
+	e = s + strlen(s);
+	while (e > s && isspace((unsigned char)e[-1]))
+		*--e = '\0';
+	return s;
+}
+
+/* "[motor N]" or "[global]": the section's motor (0: global), or -EINVAL. */
+static int parse_section(char *line)
+{
+	char *end = strchr(line, ']'), *s;
+	uint64_t id;
+
+	if (!end || *trim(end + 1))
+		return -EINVAL;
+	*end = '\0';
+	s = trim(line + 1);
+	if (!strcasecmp(s, "global"))
+		return 0;
+	if (strncasecmp(s, "motor", 5) || !isspace((unsigned char)s[5]))
+		return -EINVAL;
+	s = trim(s + 5);
+	if (parse_u64(s, &id) < 0 || id < 1 || id > RMD_MAX_MOTORS)
+		return -EINVAL;
+	return (int)id;
+}
+
+int sim_config_file(struct sim_config *c, const char *path)
+{
+	char line[1024], where[SIM_WHERE_MAX];
+	unsigned lineno = 0;
+	int motor = 0, r = 0;
+	FILE *f = fopen(path, "re");
+
+	if (!f) {
+		int e = errno;
+
+		sim_log(SIM_LOG_ERR, "rmd-sim: --config %s: %s", path, strerror(e));
+		return -e;
+	}
+	while (fgets(line, sizeof(line), f)) {
+		char *s, *eq, *key, *value, *hash;
+		size_t n = strlen(line);
+
+		lineno++;
+		if (n == sizeof(line) - 1 && line[n - 1] != '\n' && !feof(f)) {
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s:%u: line longer than %zu characters",
+				path, lineno, sizeof(line) - 2);
+			r = -EINVAL;
+			break;
+		}
+		s = trim(line);
+		if (!*s || *s == '#' || *s == ';')
+			continue;
+		/* A comment after a section or a value starts with a blank and '#'. */
+		for (hash = strchr(s, '#'); hash; hash = strchr(hash + 1, '#')) {
+			if (isspace((unsigned char)hash[-1])) {
+				*hash = '\0';
+				s = trim(s);
+				break;
+			}
+		}
+		if (*s == '[') {
+			int m = parse_section(s);
+
+			if (m < 0) {
+				sim_log(SIM_LOG_ERR,
+					"rmd-sim: %s:%u: expected a section [global] or [motor N], "
+					"N 1..32",
+					path, lineno);
+				r = -EINVAL;
+				continue;
+			}
+			motor = m;
+			if (motor && !(c->motor_refs & (UINT32_C(1) << (motor - 1)))) {
+				c->motor_refs |= UINT32_C(1) << (motor - 1);
+				snprintf(c->motor_ref_where[motor - 1],
+					 sizeof(c->motor_ref_where[0]), "%s:%u: [motor %d]", path,
+					 lineno, motor);
+			}
+			continue;
+		}
+		eq = strchr(s, '=');
+		if (!eq) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s:%u: expected KEY = VALUE, a [section] or "
+				"a # comment",
+				path, lineno);
+			r = -EINVAL;
+			continue;
+		}
+		*eq = '\0';
+		key = trim(s);
+		value = eq + 1;
+		value = trim(value);
+		snprintf(where, sizeof(where), "%s:%u: %s", path, lineno, key);
+		if (!strcasecmp(key, "config")) {
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s: config files do not include others",
+				where);
+			r = -EINVAL;
+			continue;
+		}
+		if (sim_config_set(c, (uint8_t)motor, key, value, where) < 0)
+			r = -EINVAL;
+	}
+	if (ferror(f)) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: --config %s: read error", path);
+		r = -EIO;
+	}
+	fclose(f);
+	return r;
+}
+
+/* -------------------------------------------------------------------------- */
+/* Final checks                                                               */
+
+/* splitmix64, to give each motor its own jitter stream from the one seed. */
+static uint64_t mix(uint64_t x)
+{
+	x += UINT64_C(0x9E3779B97F4A7C15);
+	x = (x ^ (x >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+	x = (x ^ (x >> 27)) * UINT64_C(0x94D049BB133111EB);
+	x ^= x >> 31;
+	return x ? x : 1;
+}
+
+static int build_motor(struct sim_config *c, uint8_t id)
+{
+	struct rmd_sim_motor_params *p = &c->params[id - 1];
+	char allowed[256];
+
+	rmd_sim_motor_params_default(p, id, RMD_PROTO_V3);
+	/* Every global setting, then the motor's own. */
+	for (int pass = 0; pass < 2; pass++) {
+		for (unsigned i = 0; i < c->n_settings; i++) {
+			const struct sim_setting *s = &c->settings[i];
+
+			if (pass == 0 ? s->motor != 0 : s->motor != id)
+				continue;
+			if (apply_param(p, find_param(s->key), s->value, allowed, sizeof(allowed)) <
+			    0)
+				return -EINVAL; /* checked when recorded */
+		}
+	}
+	p->id = id;
+	p->seed = mix(c->seed ^ ((uint64_t)id << 56));
+	if (!(p->over_temp_clear_c < p->over_temp_c)) {
+		sim_log(SIM_LOG_ERR,
+			"rmd-sim: motor %u: over-temp-clear (%g °C) must be below over-temp (%g °C)",
+			id, p->over_temp_clear_c, p->over_temp_c);
+		return -EINVAL;
+	}
+	if (!(p->under_voltage_v < p->over_voltage_v)) {
+		sim_log(SIM_LOG_ERR,
+			"rmd-sim: motor %u: under-voltage (%g V) must be below over-voltage (%g V)",
+			id, p->under_voltage_v, p->over_voltage_v);
+		return -EINVAL;
+	}
+	if (c->wire == SIM_WIRE_SERIAL && p->proto == RMD_PROTO_V2) {
+		sim_log(SIM_LOG_ERR,
+			"rmd-sim: motor %u: protocol v2 on --serial: V2.0 motors have no RS485 "
+			"interface (the V2 manual is CAN only); use --can, or protocol v3",
+			id);
+		return -EINVAL;
+	}
+	return 0;
+}
+
+int sim_config_finish(struct sim_config *c)
+{
+	char list[128];
+	int r = 0;
+
+	sim_format_motors(c->motors, list, sizeof(list));
+	if (c->wire == SIM_WIRE_NONE) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: no wire: give --can IFACE or --serial DEVICE "
+				     "(rmd-sim --help)");
+		return -EINVAL;
+	}
+	if (c->wire == SIM_WIRE_CAN && c->baud_where[0]) {
+		sim_log(SIM_LOG_ERR,
+			"rmd-sim: %s: a baud rate applies to --serial only; CAN's "
+			"bitrate belongs to the interface (ip link set ... bitrate)",
+			c->baud_where);
+		return -EINVAL;
+	}
+	if (c->wire == SIM_WIRE_CAN && c->echo_where[0] && c->local_echo) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: local echo applies to --serial only",
+			c->echo_where);
+		return -EINVAL;
+	}
+	for (unsigned i = 0; i < RMD_MAX_MOTORS; i++) {
+		uint32_t bit = UINT32_C(1) << i;
+
+		if ((c->motor_refs & bit) && !(c->motors & bit)) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s: configures motor %u, which is not simulated (motors: "
+				"%s); add it to --motors / motors =",
+				c->motor_ref_where[i], i + 1, list);
+			r = -EINVAL;
+		}
+	}
+	for (unsigned i = 0; i < c->n_faults; i++) {
+		const struct rmd_sim_fault *f = &c->faults[i];
+
+		if (f->kind != RMD_SIM_FAULT_FLOOD && f->motor_id &&
+		    !(c->motors & (UINT32_C(1) << (f->motor_id - 1)))) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s \"%s\": motor %u is not simulated (motors: %s)",
+				c->fault_where[i], c->fault_text[i], f->motor_id, list);
+			r = -EINVAL;
+		}
+		if (f->kind == RMD_SIM_FAULT_FLOOD && c->wire != SIM_WIRE_CAN) {
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s \"%s\": flood needs --can (an RS485 line has no "
+				"arbitration to win)",
+				c->fault_where[i], c->fault_text[i]);
+			r = -EINVAL;
+		}
+	}
+	if (r < 0)
+		return r;
+	for (unsigned i = 0; i < RMD_MAX_MOTORS; i++) {
+		if ((c->motors & (UINT32_C(1) << i)) && build_motor(c, (uint8_t)(i + 1)) < 0)
+			r = -EINVAL;
+	}
+	return r;
+}

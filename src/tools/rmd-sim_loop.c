@@ -1,0 +1,1393 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmd-sim's event loop: simulated motors behind a real wire.
+ *
+ * One thread, one epoll set: the wire (a SocketCAN raw socket or a serial
+ * line), a timerfd on CLOCK_MONOTONIC and a signalfd for SIGINT/SIGTERM.
+ * Motor time is CLOCK_MONOTONIC in ns.
+ *
+ * - A frame that arrives goes to every present motor at its arrival time
+ *   (rmd_sim_motor_receive()).  Each reply is due a turnaround later
+ *   (rmd_sim_motor_turnaround_ns()) and waits in a queue ordered by due
+ *   time; unsolicited frames (rmd_sim_motor_poll(): 0xF1, 0x9A reports)
+ *   are due when the motor says (rmd_sim_motor_next_event_ns()).
+ * - The timer is armed for the earliest of: the queue's head, the motors'
+ *   next unsolicited frame, a fault window's edge, a flood frame, a write
+ *   retry, the physics tick (every motor stepped every 10 ms, so a long
+ *   quiet spell never costs a long catch-up) and the once-a-second check of
+ *   the CAN interface's state.
+ * - A write that the kernel refuses for lack of room (ENOBUFS from a CAN
+ *   queue of txqueuelen frames, EAGAIN) is counted and retried 200 µs later,
+ *   in order; it is never fatal.
+ *
+ * Faults are struct rmd_sim_fault entries, with the semantics of
+ * rmd/sim_bus.h where they apply to a real wire: per-frame kinds act on
+ * each frame a motor transmits (evaluated when it becomes ready), in table
+ * order, a drop ending the list; DISAPPEAR and ERROR_FLAG act over their
+ * window; FLOOD writes a foreign frame every period (CAN only); BUS_OFF is
+ * refused by the config (the kernel owns a real bus's state).
+ *
+ * RS485 (V3 §1.2.2, §6, §7) maps to the CAN identifiers the motors speak,
+ * as the RS485 bus backend does on the host's side (rmd/bus_rs485.h):
+ *   rx  id 1..32               -> 0x140 + id
+ *   rx  id 0xCD, D0 = 0x79     -> 0x300 (V3 §7: RS485-ID setting)
+ *   rx  id 0xCD, other D0      -> 0x280 (V3 §6: every motor)
+ *   tx  0x240 + ID             -> id ID
+ *   tx  0x300 (0x79 reply)     -> id 0xCD (V3 §7.3); a read's value 0x240 + ID
+ *                                 becomes ID (§7.4 example 2 answers "0x0002")
+ *
+ * Non-rt: a normal process; it logs from the loop.
+ */
+#define _GNU_SOURCE
+
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <net/if.h>
+#include <sys/epoll.h>
+#include <sys/ioctl.h>
+#include <sys/prctl.h>
+#include <sys/signalfd.h>
+#include <sys/socket.h>
+#include <sys/timerfd.h>
+
+#include <linux/can.h>
+#include <linux/can/raw.h>
+#include <linux/serial.h>
+
+#include "rmd/codec.h"
+#include "rmd/rs485.h"
+#include "rmd/sim.h"
+#include "rmd/sim_bus.h"
+#include "rmd-sim.h"
+
+#define NS_PER_S INT64_C(1000000000)
+#define NS_PER_MS INT64_C(1000000)
+#define NS_PER_US INT64_C(1000)
+
+#define TXQ 1024			 /* frames waiting for their due time */
+#define TICK_NS (10 * NS_PER_MS)	 /* physics step of idle motors */
+#define HOUSEKEEPING_NS NS_PER_S	 /* CAN interface state check */
+#define RETRY_NS (200 * NS_PER_US)	 /* after ENOBUFS / EAGAIN */
+#define RX_BUF 4096			 /* serial bytes not parsed yet */
+#define TX_BUF 16384			 /* serial bytes not written yet */
+#define ECHO_RING 64			 /* serial frames whose echo may come */
+#define ECHO_EXPIRY_NS (500 * NS_PER_MS) /* an echo later than this is not one */
+#define MAX_READS 256			 /* frames read per wake-up, then timers */
+#define RS485_BROADCAST_CMD_SET_ID 0x79u /* V3 §7 */
+
+struct slot {
+	struct rmd_sim_motor m;
+	uint8_t id;   /* params id: the one faults and messages name */
+	bool absent;  /* a DISAPPEAR window is open */
+	bool powered; /* false while a DISAPPEAR:reboot window is open */
+	uint16_t injected;
+};
+
+struct txe {
+	int64_t due_ns;
+	uint64_t seq;
+	int src; /* slot index, or RMD_SIM_SRC_FOREIGN */
+	struct rmd_frame f;
+};
+
+struct stats {
+	uint64_t rx_frames; /* frames received (serial: valid frames) */
+	uint64_t rx_taken;  /* ... that at least one motor answered */
+	uint64_t tx_frames; /* frames written */
+	uint64_t tx_busy;   /* writes refused for lack of room, retried */
+	uint64_t tx_errors; /* writes that failed otherwise (frame lost) */
+	uint64_t txq_overflow;
+	uint64_t rx_errors;   /* read errors */
+	uint64_t noise_bytes; /* serial bytes skipped to resynchronise */
+	uint64_t echoes;      /* serial: own frames heard back */
+	uint64_t absent_lost; /* frames of a disappeared motor */
+	uint64_t unmappable;  /* frames with no RS485 form */
+	uint64_t faults[RMD_SIM_FAULT_COUNT];
+};
+
+struct echo {
+	uint8_t bytes[RMD_RS485_FRAME_LEN];
+	int64_t t_ns;
+};
+
+struct sim {
+	const struct sim_config *cfg;
+	const char *name; /* the wire, for messages */
+	int64_t t0;
+	struct slot slots[RMD_MAX_MOTORS];
+	unsigned n;
+	bool fault_open[RMD_SIM_BUS_MAX_FAULTS];
+	int64_t flood_next[RMD_SIM_BUS_MAX_FAULTS];
+	uint64_t rng;
+
+	struct txe q[TXQ]; /* binary heap on (due_ns, seq) */
+	unsigned qn;
+	uint64_t seq;
+	int64_t retry_ns; /* 0: the head may be written now */
+
+	int fd, epfd, tfd, sfd;
+	bool serial;
+	bool if_down;
+	uint32_t ep_events; /* what the wire fd is registered for */
+
+	uint8_t rx[RX_BUF];
+	size_t rxn;
+	bool noise_warned;
+	uint8_t tx[TX_BUF];
+	size_t txn;
+	struct echo echo[ECHO_RING];
+	unsigned echo_head, echo_n;
+
+	int64_t next_tick_ns, next_house_ns;
+	uint64_t tx_errors_logged;
+	struct stats st;
+	int status;	 /* exit status once stopping */
+	const char *why; /* why we stop */
+	bool stop;
+};
+
+static int64_t now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
+}
+
+static uint64_t rnd(struct sim *s)
+{
+	uint64_t x = s->rng;
+
+	x ^= x >> 12;
+	x ^= x << 25;
+	x ^= x >> 27;
+	s->rng = x;
+	return x * UINT64_C(0x2545F4914F6CDD1D);
+}
+
+/* True with probability p. */
+static bool roll(struct sim *s, double p)
+{
+	if (p >= 1.0)
+		return true;
+	if (p <= 0.0)
+		return false;
+	return (double)(rnd(s) >> 11) * 0x1.0p-53 < p;
+}
+
+/* ---- the queue of due frames ----------------------------------------------------------- */
+
+static bool before(const struct txe *a, const struct txe *b)
+{
+	return a->due_ns < b->due_ns || (a->due_ns == b->due_ns && a->seq < b->seq);
+}
+
+static bool q_push(struct sim *s, int src, const struct rmd_frame *f, int64_t due_ns)
+{
+	unsigned i;
+
+	if (s->qn >= TXQ) {
+		if (!s->st.txq_overflow++)
+			sim_log(SIM_LOG_WARNING,
+				"rmd-sim: %s: more than %d frames waiting to be sent; dropping "
+				"(counted in the exit summary)",
+				s->name, TXQ);
+		return false;
+	}
+	i = s->qn++;
+	s->q[i] = (struct txe){ .due_ns = due_ns, .seq = s->seq++, .src = src, .f = *f };
+	while (i > 0) {
+		unsigned parent = (i - 1) / 2;
+		struct txe t;
+
+		if (!before(&s->q[i], &s->q[parent]))
+			break;
+		t = s->q[i];
+		s->q[i] = s->q[parent];
+		s->q[parent] = t;
+		i = parent;
+	}
+	return true;
+}
+
+static void q_pop(struct sim *s)
+{
+	unsigned i = 0;
+
+	if (!s->qn)
+		return;
+	s->q[0] = s->q[--s->qn];
+	for (;;) {
+		unsigned l = 2 * i + 1, r = l + 1, m = i;
+		struct txe t;
+
+		if (l < s->qn && before(&s->q[l], &s->q[m]))
+			m = l;
+		if (r < s->qn && before(&s->q[r], &s->q[m]))
+			m = r;
+		if (m == i)
+			break;
+		t = s->q[i];
+		s->q[i] = s->q[m];
+		s->q[m] = t;
+		i = m;
+	}
+}
+
+/* ---- logging of frames ----------------------------------------------------------------- */
+
+/* The slot whose current ID is `id`, or NULL. */
+static struct slot *slot_by_can_id(struct sim *s, unsigned id)
+{
+	for (unsigned i = 0; i < s->n; i++)
+		if (s->slots[i].m.ram.can_id == id)
+			return &s->slots[i];
+	return NULL;
+}
+
+/* How to decode a request with identifier can_id: the addressed motor's protocol. */
+static enum rmd_proto request_proto(struct sim *s, uint32_t can_id,
+				    const struct rmd_mit_ranges **mit)
+{
+	struct slot *sl = NULL;
+
+	*mit = NULL;
+	if (can_id > RMD_CAN_REQ_BASE && can_id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
+		sl = slot_by_can_id(s, can_id - RMD_CAN_REQ_BASE);
+	else if (can_id > RMD_CAN_MIT_REQ_BASE && can_id <= RMD_CAN_MIT_REQ_BASE + RMD_MAX_MOTORS)
+		sl = slot_by_can_id(s, can_id - RMD_CAN_MIT_REQ_BASE);
+	else if (can_id == RMD_CAN_MULTI)
+		sl = &s->slots[0];
+	if (!sl)
+		return RMD_PROTO_V3;
+	if (sl->m.p.proto == RMD_PROTO_MIT) {
+		*mit = &sl->m.p.mit;
+		return can_id > RMD_CAN_MIT_REQ_BASE ? RMD_PROTO_MIT : RMD_PROTO_V3;
+	}
+	return sl->m.p.proto;
+}
+
+static void hex(char *buf, size_t size, const uint8_t *b, size_t n)
+{
+	size_t k = 0;
+
+	buf[0] = '\0';
+	for (size_t i = 0; i < n && k + 4 < size; i++)
+		k += (size_t)snprintf(buf + k, size - k, "%s%02X", i ? " " : "", b[i]);
+}
+
+static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_t rs485_id)
+{
+	char desc[512], data[32];
+	const struct rmd_mit_ranges *mit;
+	enum rmd_proto proto;
+
+	if (!sim_log_enabled(SIM_LOG_DEBUG))
+		return;
+	proto = request_proto(s, f->can_id, &mit);
+	sim_describe(desc, sizeof(desc), proto, RMD_DIR_REQUEST, mit, f);
+	hex(data, sizeof(data), f->data, f->len);
+	if (s->serial)
+		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: rx id 0x%02X [%u] %s  (0x%03X) %s; %d repl%s",
+			s->name, rs485_id, f->len, data, f->can_id, desc, answers,
+			answers == 1 ? "y" : "ies");
+	else
+		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: rx %03X [%u] %s  %s; %d repl%s", s->name,
+			f->can_id, f->len, data, desc, answers, answers == 1 ? "y" : "ies");
+}
+
+/* e: the frame as scheduled; wire: its data as written (RS485: after the id mapping). */
+static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *wire, int rs485_id)
+{
+	char desc[512], data[32], who[32];
+	const struct rmd_mit_ranges *mit = NULL;
+	enum rmd_proto proto = RMD_PROTO_V3;
+
+	if (!sim_log_enabled(SIM_LOG_DEBUG))
+		return;
+	if (e->src >= 0) {
+		const struct slot *sl = &s->slots[e->src];
+
+		proto = sl->m.p.proto;
+		mit = &sl->m.p.mit;
+		if (proto == RMD_PROTO_MIT &&
+		    !(e->f.can_id > RMD_CAN_MIT_REPLY_BASE &&
+		      e->f.can_id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS))
+			proto = RMD_PROTO_V3;
+		snprintf(who, sizeof(who), "motor %u", sl->id);
+		sim_describe(desc, sizeof(desc), proto, RMD_DIR_REPLY, mit, wire);
+	} else {
+		snprintf(who, sizeof(who), "flood");
+		snprintf(desc, sizeof(desc), "(foreign frame)");
+	}
+	hex(data, sizeof(data), wire->data, wire->len);
+	if (s->serial)
+		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: tx id 0x%02X [%u] %s  (0x%03X) %s: %s",
+			s->name, (unsigned)rs485_id, wire->len, data, e->f.can_id, who, desc);
+	else
+		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: tx %03X [%u] %s  %s: %s", s->name, e->f.can_id,
+			e->f.len, data, who, desc);
+}
+
+/* ---- faults ---------------------------------------------------------------------------- */
+
+static bool per_frame_kind(enum rmd_sim_fault_kind k)
+{
+	switch (k) {
+	case RMD_SIM_FAULT_DROP:
+	case RMD_SIM_FAULT_DELAY:
+	case RMD_SIM_FAULT_BAD_DLC:
+	case RMD_SIM_FAULT_GARBAGE:
+	case RMD_SIM_FAULT_WRONG_ID:
+		return true;
+	case RMD_SIM_FAULT_DISAPPEAR:
+	case RMD_SIM_FAULT_ERROR_FLAG:
+	case RMD_SIM_FAULT_BUS_OFF:
+	case RMD_SIM_FAULT_FLOOD:
+	case RMD_SIM_FAULT_COUNT:
+		break;
+	}
+	return false;
+}
+
+/* [start, end) relative to the start of the program; end 0: open. */
+static bool in_window(const struct sim *s, const struct rmd_sim_fault *f, int64_t t_ns)
+{
+	int64_t rel = t_ns - s->t0;
+
+	return rel >= f->start_ns && (!f->end_ns || rel < f->end_ns);
+}
+
+static bool fault_hits(const struct rmd_sim_fault *f, const struct slot *sl)
+{
+	return !f->motor_id || f->motor_id == sl->id;
+}
+
+/* The same kind of identifier for motor `other` (WRONG_ID); false when it carries no ID. */
+static bool retarget(uint32_t *can_id, unsigned other)
+{
+	static const uint32_t bases[] = { RMD_CAN_V3_REPLY_BASE, RMD_CAN_REQ_BASE,
+					  RMD_CAN_MIT_REPLY_BASE };
+
+	for (size_t i = 0; i < sizeof(bases) / sizeof(bases[0]); i++) {
+		if (*can_id > bases[i] && *can_id <= bases[i] + RMD_MAX_MOTORS) {
+			*can_id = bases[i] + other;
+			return true;
+		}
+	}
+	return false;
+}
+
+/*
+ * Per-frame faults on a frame motor slot `sl` transmits, ready at *ready:
+ * false when it is dropped.
+ */
+static bool apply_faults(struct sim *s, const struct slot *sl, struct rmd_frame *f, int64_t *ready)
+{
+	const struct sim_config *c = s->cfg;
+
+	for (unsigned i = 0; i < c->n_faults; i++) {
+		const struct rmd_sim_fault *ft = &c->faults[i];
+
+		if (!per_frame_kind(ft->kind) || !fault_hits(ft, sl) || !in_window(s, ft, *ready) ||
+		    !roll(s, ft->probability))
+			continue;
+		switch (ft->kind) {
+		case RMD_SIM_FAULT_DROP:
+			s->st.faults[ft->kind]++;
+			return false;
+		case RMD_SIM_FAULT_DELAY:
+			*ready += ft->param;
+			break;
+		case RMD_SIM_FAULT_BAD_DLC:
+			f->len = (uint8_t)ft->param;
+			break;
+		case RMD_SIM_FAULT_GARBAGE:
+			for (unsigned k = 0; k < RMD_FRAME_LEN; k++)
+				f->data[k] = (uint8_t)(rnd(s) >> 56);
+			break;
+		case RMD_SIM_FAULT_WRONG_ID:
+			/* 0x300 and the like carry no ID: not hit (as rmd/sim_bus.h). */
+			if (!retarget(&f->can_id, (unsigned)ft->param))
+				continue;
+			break;
+		case RMD_SIM_FAULT_DISAPPEAR:
+		case RMD_SIM_FAULT_ERROR_FLAG:
+		case RMD_SIM_FAULT_BUS_OFF:
+		case RMD_SIM_FAULT_FLOOD:
+		case RMD_SIM_FAULT_COUNT:
+			continue;
+		}
+		s->st.faults[ft->kind]++;
+	}
+	return true;
+}
+
+/* A motor's frame, ready at `ready`: faults, then the queue. */
+static void emit(struct sim *s, unsigned idx, struct rmd_frame *f, int64_t ready)
+{
+	if (!apply_faults(s, &s->slots[idx], f, &ready))
+		return;
+	q_push(s, (int)idx, f, ready);
+}
+
+/* Open/close fault windows at now; flood frames that fell due. */
+static void update_faults(struct sim *s, int64_t now)
+{
+	const struct sim_config *c = s->cfg;
+
+	for (unsigned i = 0; i < c->n_faults; i++) {
+		const struct rmd_sim_fault *f = &c->faults[i];
+		bool open;
+
+		if (per_frame_kind(f->kind))
+			continue;
+		open = in_window(s, f, now);
+		if (open != s->fault_open[i]) {
+			s->fault_open[i] = open;
+			if (open && f->kind != RMD_SIM_FAULT_FLOOD)
+				s->st.faults[f->kind]++;
+			if (open && f->kind == RMD_SIM_FAULT_FLOOD)
+				s->flood_next[i] = s->t0 + f->start_ns;
+			sim_log(SIM_LOG_NOTICE, "rmd-sim: fault \"%s\" %s at %.3f s",
+				c->fault_text[i], open ? "begins" : "ends",
+				(double)(now - s->t0) / 1e9);
+		}
+		while (f->kind == RMD_SIM_FAULT_FLOOD && open && s->flood_next[i] <= now) {
+			struct rmd_frame fr = { .can_id = f->can_id, .len = RMD_FRAME_LEN };
+
+			q_push(s, RMD_SIM_SRC_FOREIGN, &fr, s->flood_next[i]);
+			s->st.faults[RMD_SIM_FAULT_FLOOD]++;
+			s->flood_next[i] += f->param;
+		}
+	}
+
+	/* Each motor's state from the windows open now. */
+	for (unsigned k = 0; k < s->n; k++) {
+		struct slot *sl = &s->slots[k];
+		bool absent = false, powered = true;
+		uint16_t bits = 0;
+
+		for (unsigned i = 0; i < c->n_faults; i++) {
+			const struct rmd_sim_fault *f = &c->faults[i];
+
+			if (!s->fault_open[i] || !fault_hits(f, sl))
+				continue;
+			if (f->kind == RMD_SIM_FAULT_DISAPPEAR) {
+				absent = true;
+				if (f->param == 1)
+					powered = false;
+			} else if (f->kind == RMD_SIM_FAULT_ERROR_FLAG) {
+				bits |= (uint16_t)f->param;
+			}
+		}
+		if (bits != sl->injected) {
+			rmd_sim_motor_step(&sl->m, now);
+			rmd_sim_motor_set_error(&sl->m, bits);
+			sl->injected = bits;
+		}
+		if (!powered && sl->powered) {
+			/* Without power the drive lets go and the brake locks (as rmd/sim_bus.h). */
+			rmd_sim_motor_power_cycle(&sl->m, now);
+			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u loses power", sl->id);
+		}
+		if (powered && !sl->powered) {
+			/* sim_bus.h DISAPPEAR param 1: it boots at the end of the window. */
+			rmd_sim_motor_power_cycle(&sl->m, now);
+			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u powered again: boots", sl->id);
+		}
+		sl->absent = absent;
+		sl->powered = powered;
+	}
+}
+
+/* When a fault window opens or closes next, or a flood frame falls due (INT64_MAX: never). */
+static int64_t next_fault_event(const struct sim *s, int64_t now)
+{
+	const struct sim_config *c = s->cfg;
+	int64_t t = INT64_MAX;
+
+	for (unsigned i = 0; i < c->n_faults; i++) {
+		const struct rmd_sim_fault *f = &c->faults[i];
+		int64_t start = s->t0 + f->start_ns,
+			end = f->end_ns ? s->t0 + f->end_ns : INT64_MAX;
+		int64_t e;
+
+		if (per_frame_kind(f->kind))
+			continue;
+		if (!s->fault_open[i]) {
+			e = now < start ? start : INT64_MAX;
+		} else {
+			e = end;
+			if (f->kind == RMD_SIM_FAULT_FLOOD && s->flood_next[i] < e)
+				e = s->flood_next[i];
+		}
+		if (e < t)
+			t = e;
+	}
+	return t;
+}
+
+/* ---- the motors ------------------------------------------------------------------------ */
+
+/* A frame arrived at t: every present motor sees it.  Returns the replies scheduled. */
+static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
+{
+	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
+	int total = 0;
+
+	for (unsigned i = 0; i < s->n; i++) {
+		struct slot *sl = &s->slots[i];
+		int n;
+
+		if (sl->absent)
+			continue;
+		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_BUS_MAX_REPLIES);
+		for (int k = 0; k < n; k++)
+			emit(s, i, &out[k], t + rmd_sim_motor_turnaround_ns(&sl->m));
+		total += n;
+	}
+	return total;
+}
+
+/* Unsolicited frames due by now, and the physics tick. */
+static void run_motors(struct sim *s, int64_t now)
+{
+	struct rmd_frame out[8];
+	bool tick = now >= s->next_tick_ns;
+
+	for (unsigned i = 0; i < s->n; i++) {
+		struct slot *sl = &s->slots[i];
+		int n;
+
+		if (rmd_sim_motor_next_event_ns(&sl->m) <= now) {
+			n = rmd_sim_motor_poll(&sl->m, now, out,
+					       (int)(sizeof(out) / sizeof(out[0])));
+			for (int k = 0; k < n; k++) {
+				if (sl->absent)
+					s->st.absent_lost++;
+				else
+					emit(s, i, &out[k], now);
+			}
+		}
+		if (tick)
+			rmd_sim_motor_step(&sl->m, now);
+	}
+	if (tick)
+		s->next_tick_ns = now + TICK_NS;
+}
+
+/* ---- the CAN wire ---------------------------------------------------------------------- */
+
+static void set_down(struct sim *s, bool down, const char *how)
+{
+	if (down == s->if_down)
+		return;
+	s->if_down = down;
+	if (down)
+		sim_log(SIM_LOG_WARNING,
+			"rmd-sim: %s: interface is down (%s); frames are lost "
+			"until it is up",
+			s->name, how);
+	else
+		sim_log(SIM_LOG_NOTICE, "rmd-sim: %s: interface is up again", s->name);
+}
+
+static void stop(struct sim *s, int status, const char *why)
+{
+	if (s->stop)
+		return;
+	s->stop = true;
+	s->status = status;
+	s->why = why;
+}
+
+/* Is the interface up?  Stops the program when it was removed. */
+static void check_interface(struct sim *s)
+{
+	struct ifreq ifr;
+
+	memset(&ifr, 0, sizeof(ifr));
+	snprintf(ifr.ifr_name, sizeof(ifr.ifr_name), "%s", s->name);
+	if (ioctl(s->fd, SIOCGIFFLAGS, &ifr) < 0) {
+		if (errno == ENODEV) {
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
+			stop(s, SIM_EXIT_RUN, "the interface was removed");
+		}
+		return;
+	}
+	set_down(s, !(ifr.ifr_flags & IFF_UP), "flags");
+}
+
+static int can_open(struct sim *s)
+{
+	/* V2 §1, V3 §1.1.2: requests 0x140 + ID, 0x280, 0x300, MIT 0x400 + ID (ID 1..32). */
+	const canid_t std = CAN_EFF_FLAG | CAN_RTR_FLAG;
+	const struct can_filter filters[] = {
+		{ RMD_CAN_REQ_BASE, (CAN_SFF_MASK & ~0x1Fu) | std }, /* 0x140..0x15F */
+		{ RMD_CAN_REQ_BASE + 32, CAN_SFF_MASK | std },
+		{ RMD_CAN_MULTI, CAN_SFF_MASK | std },
+		{ RMD_CAN_SET_ID, CAN_SFF_MASK | std },
+		{ RMD_CAN_MIT_REQ_BASE, (CAN_SFF_MASK & ~0x1Fu) | std }, /* 0x400..0x41F */
+		{ RMD_CAN_MIT_REQ_BASE + 32, CAN_SFF_MASK | std },
+	};
+	struct sockaddr_can addr;
+	int fd, rcvbuf = 1 << 20;
+	unsigned ifindex;
+
+	fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+	if (fd < 0) {
+		int e = errno;
+
+		if (e == EAFNOSUPPORT)
+			sim_log(SIM_LOG_ERR,
+				"rmd-sim: %s: this kernel has no SocketCAN (AF_CAN): load the can "
+				"and can_raw modules, or run inside tests/vm/vm-run",
+				s->name);
+		else
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s: CAN socket: %s", s->name, strerror(e));
+		return -e;
+	}
+	ifindex = if_nametoindex(s->name);
+	if (!ifindex) {
+		sim_log(SIM_LOG_ERR,
+			"rmd-sim: %s: no such interface (for a virtual one: ip link add dev %s type "
+			"vcan && ip link set up %s)",
+			s->name, s->name, s->name);
+		close(fd);
+		return -ENODEV;
+	}
+	if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters, sizeof(filters)) < 0) {
+		int e = errno;
+
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: CAN_RAW_FILTER: %s", s->name, strerror(e));
+		close(fd);
+		return -e;
+	}
+	/* A burst of requests must not overflow the socket: ask for 1 MiB (capped by rmem_max). */
+	(void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
+	memset(&addr, 0, sizeof(addr));
+	addr.can_family = AF_CAN;
+	addr.can_ifindex = (int)ifindex;
+	if (bind(fd, (struct sockaddr *)&addr, sizeof(addr)) < 0) {
+		int e = errno;
+
+		if (e == ENODEV)
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s: not a CAN interface", s->name);
+		else
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s: bind: %s", s->name, strerror(e));
+		close(fd);
+		return -e;
+	}
+	s->fd = fd;
+	check_interface(s);
+	return 0;
+}
+
+/* Write one frame: 0, -EAGAIN to retry later, or -errno when it is lost. */
+static int can_write(struct sim *s, const struct rmd_frame *f)
+{
+	struct can_frame cf;
+	ssize_t w;
+	int e;
+
+	memset(&cf, 0, sizeof(cf));
+	cf.can_id = f->can_id & CAN_SFF_MASK;
+	cf.can_dlc = f->len <= CAN_MAX_DLEN ? f->len : CAN_MAX_DLEN;
+	memcpy(cf.data, f->data, cf.can_dlc);
+	w = write(s->fd, &cf, sizeof(cf));
+	e = w < 0 ? errno : 0;
+	if (e == ENETDOWN) {
+		/* A socket keeps the ENETDOWN of a link that went down: once up, it is stale. */
+		check_interface(s);
+		if (!s->if_down) {
+			w = write(s->fd, &cf, sizeof(cf));
+			e = w < 0 ? errno : 0;
+		}
+	}
+	if (w == (ssize_t)sizeof(cf)) {
+		set_down(s, false, "");
+		return 0;
+	}
+	if (w >= 0)
+		return -EIO;
+	if (e == ENOBUFS || e == EAGAIN)
+		return -EAGAIN;
+	if (e == ENETDOWN)
+		set_down(s, true, "write: ENETDOWN");
+	return -e;
+}
+
+static void can_read(struct sim *s)
+{
+	for (unsigned i = 0; i < MAX_READS && !s->stop; i++) {
+		struct can_frame cf;
+		struct rmd_frame f;
+		ssize_t r = read(s->fd, &cf, sizeof(cf));
+		int answers;
+		int64_t t;
+
+		if (r < 0) {
+			if (errno == EAGAIN || errno == EINTR)
+				return;
+			if (errno == ENETDOWN) {
+				set_down(s, true, "read: ENETDOWN");
+				continue;
+			}
+			if (errno == ENODEV) {
+				sim_log(SIM_LOG_ERR, "rmd-sim: %s: the interface was removed",
+					s->name);
+				stop(s, SIM_EXIT_RUN, "the interface was removed");
+				return;
+			}
+			if (!s->st.rx_errors++)
+				sim_log(SIM_LOG_WARNING, "rmd-sim: %s: read: %s", s->name,
+					strerror(errno));
+			return;
+		}
+		if (r != (ssize_t)sizeof(cf)) {
+			s->st.rx_errors++;
+			continue;
+		}
+		t = now_ns();
+		set_down(s, false, "");
+		if (cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))
+			continue;
+		memset(&f, 0, sizeof(f));
+		f.can_id = cf.can_id & CAN_SFF_MASK;
+		f.len = cf.can_dlc <= RMD_FRAME_LEN ? cf.can_dlc : RMD_FRAME_LEN;
+		memcpy(f.data, cf.data, f.len);
+		s->st.rx_frames++;
+		answers = deliver(s, &f, t);
+		if (answers)
+			s->st.rx_taken++;
+		log_rx(s, &f, answers, 0);
+	}
+}
+
+/* ---- the serial wire ------------------------------------------------------------------- */
+
+static int baud_speed(uint32_t baud, speed_t *speed)
+{
+	switch (baud) {
+	case 115200:
+		*speed = B115200;
+		return 0;
+	case 500000:
+		*speed = B500000;
+		return 0;
+	case 1000000:
+		*speed = B1000000;
+		return 0;
+	case 1500000:
+		*speed = B1500000;
+		return 0;
+	case 2000000:
+		*speed = B2000000;
+		return 0;
+	default:
+		return -EINVAL;
+	}
+}
+
+static int serial_open(struct sim *s)
+{
+	struct termios tio;
+	struct serial_rs485 rs;
+	speed_t speed;
+	int fd, e;
+
+	fd = open(s->name, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+	if (fd < 0) {
+		e = errno;
+		if (e == ENOENT)
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s: no such device", s->name);
+		else if (e == EACCES)
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s: permission denied (join group dialout)",
+				s->name);
+		else
+			sim_log(SIM_LOG_ERR, "rmd-sim: %s: %s", s->name, strerror(e));
+		return -e;
+	}
+	if (tcgetattr(fd, &tio) < 0) {
+		e = errno;
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: not a serial port (%s)", s->name, strerror(e));
+		goto err_close;
+	}
+	if (ioctl(fd, TIOCEXCL) < 0) {
+		e = errno;
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: TIOCEXCL: %s", s->name, strerror(e));
+		goto err_close;
+	}
+	if (baud_speed(s->cfg->baud, &speed) < 0) {
+		e = EINVAL;
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: baud %u unsupported", s->name, s->cfg->baud);
+		goto err_close;
+	}
+	/* V3 §1.2: 8 data bits, no parity, one stop bit, no flow control. */
+	cfmakeraw(&tio);
+	tio.c_cflag &= ~(tcflag_t)(CSTOPB | PARENB | CRTSCTS | CSIZE);
+	tio.c_cflag |= CS8 | CLOCAL | CREAD;
+	tio.c_cc[VMIN] = 0;
+	tio.c_cc[VTIME] = 0;
+	if (cfsetispeed(&tio, speed) < 0 || cfsetospeed(&tio, speed) < 0 ||
+	    tcsetattr(fd, TCSANOW, &tio) < 0) {
+		e = errno;
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: the driver refuses %u baud 8N1 raw: %s", s->name,
+			s->cfg->baud, strerror(e));
+		goto err_close;
+	}
+	tcflush(fd, TCIOFLUSH);
+	/* The kernel's RS485 mode drives the transceiver's direction around our writes. */
+	memset(&rs, 0, sizeof(rs));
+	if (ioctl(fd, TIOCGRS485, &rs) == 0) {
+		rs.flags |= SER_RS485_ENABLED | SER_RS485_RTS_ON_SEND;
+		rs.flags &= ~(__u32)SER_RS485_RTS_AFTER_SEND;
+		if (ioctl(fd, TIOCSRS485, &rs) == 0)
+			sim_log(SIM_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
+	} else {
+		sim_log(SIM_LOG_INFO,
+			"rmd-sim: %s: no kernel RS485 mode (a pseudo-terminal, or an adapter that "
+			"switches direction by itself)",
+			s->name);
+	}
+	s->fd = fd;
+	return 0;
+err_close:
+	close(fd);
+	return -e;
+}
+
+/* Where the reply of a motor goes on RS485 (mapping at the top of this file). */
+static int rs485_id_of(const struct rmd_frame *f, uint8_t *id)
+{
+	static const uint32_t bases[] = { RMD_CAN_V3_REPLY_BASE, RMD_CAN_REQ_BASE };
+
+	for (size_t i = 0; i < sizeof(bases) / sizeof(bases[0]); i++) {
+		if (f->can_id > bases[i] && f->can_id <= bases[i] + RMD_MAX_MOTORS) {
+			*id = (uint8_t)(f->can_id - bases[i]);
+			return 0;
+		}
+	}
+	if (f->can_id == RMD_CAN_SET_ID) {
+		*id = RMD_RS485_BROADCAST;
+		return 0;
+	}
+	return -EINVAL;
+}
+
+/* Serial bytes out: as much as the tty takes; the rest waits for EPOLLOUT. */
+static void serial_flush(struct sim *s)
+{
+	while (s->txn) {
+		ssize_t w = write(s->fd, s->tx, s->txn);
+
+		if (w < 0) {
+			if (errno == EINTR)
+				continue;
+			if (errno == EAGAIN)
+				break;
+			if (!s->st.tx_errors++)
+				sim_log(SIM_LOG_WARNING, "rmd-sim: %s: write: %s", s->name,
+					strerror(errno));
+			s->txn = 0;
+			break;
+		}
+		memmove(s->tx, s->tx + w, s->txn - (size_t)w);
+		s->txn -= (size_t)w;
+	}
+}
+
+/* Build the RS485 form of f into the output buffer: 0, -EAGAIN (full) or -EINVAL. */
+static int serial_write(struct sim *s, const struct rmd_frame *f, uint8_t *id_out,
+			struct rmd_frame *wire)
+{
+	uint8_t b[RMD_RS485_FRAME_LEN], *data = wire->data;
+	size_t n;
+	uint8_t id;
+	uint16_t crc;
+
+	if (rs485_id_of(f, &id) < 0) {
+		s->st.unmappable++;
+		return -EINVAL;
+	}
+	*id_out = id;
+	*wire = *f;
+	/* V3 §7.4 example 2: the RS485 read answers the ID itself, not 0x240 + ID. */
+	if (f->can_id == RMD_CAN_SET_ID && data[0] == RS485_BROADCAST_CMD_SET_ID && data[2] == 1) {
+		unsigned v = (unsigned)data[6] | (unsigned)data[7] << 8;
+
+		if (v > RMD_CAN_V3_REPLY_BASE && v <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
+			v -= RMD_CAN_V3_REPLY_BASE;
+			data[6] = (uint8_t)v;
+			data[7] = 0;
+		}
+	}
+	if (f->len == RMD_FRAME_LEN) {
+		if (rmd_rs485_build(id, data, b, sizeof(b)) < 0)
+			return -EINVAL;
+		n = RMD_RS485_FRAME_LEN;
+	} else {
+		/* BAD_DLC fault: the length byte says len and that many bytes follow. */
+		b[0] = RMD_RS485_HEADER;
+		b[1] = id;
+		b[2] = f->len;
+		memcpy(b + 3, data, f->len);
+		crc = rmd_crc16_modbus(b, 3u + f->len);
+		b[3 + f->len] = (uint8_t)(crc & 0xFF);
+		b[4 + f->len] = (uint8_t)(crc >> 8);
+		n = 5u + f->len;
+	}
+	if (s->txn + n > sizeof(s->tx))
+		return -EAGAIN;
+	memcpy(s->tx + s->txn, b, n);
+	s->txn += n;
+	if (s->cfg->local_echo && n == RMD_RS485_FRAME_LEN) {
+		struct echo *e = &s->echo[(s->echo_head + s->echo_n) % ECHO_RING];
+
+		if (s->echo_n == ECHO_RING) {
+			s->echo_head = (s->echo_head + 1) % ECHO_RING;
+			s->echo_n--;
+			e = &s->echo[(s->echo_head + s->echo_n) % ECHO_RING];
+		}
+		memcpy(e->bytes, b, n);
+		e->t_ns = now_ns();
+		s->echo_n++;
+	}
+	return 0;
+}
+
+/* With --local-echo: is this frame our own, heard back?  Drops expired entries. */
+static bool own_echo(struct sim *s, const uint8_t *b, int64_t t)
+{
+	while (s->echo_n && t - s->echo[s->echo_head].t_ns > ECHO_EXPIRY_NS) {
+		s->echo_head = (s->echo_head + 1) % ECHO_RING;
+		s->echo_n--;
+	}
+	if (!s->echo_n || memcmp(s->echo[s->echo_head].bytes, b, RMD_RS485_FRAME_LEN))
+		return false;
+	s->echo_head = (s->echo_head + 1) % ECHO_RING;
+	s->echo_n--;
+	s->st.echoes++;
+	return true;
+}
+
+/* Frames in the receive buffer; line noise is skipped a byte at a time (rmd/rs485.h). */
+static void serial_parse(struct sim *s, int64_t t)
+{
+	size_t off = 0, skipped = 0;
+
+	while (off < s->rxn) {
+		uint8_t id, data[RMD_FRAME_LEN];
+		struct rmd_frame f;
+		int r = rmd_rs485_parse(s->rx + off, s->rxn - off, &id, data), answers;
+
+		if (r == -EAGAIN)
+			break;
+		if (r < 0) {
+			off++;
+			skipped++;
+			continue;
+		}
+		if (s->cfg->local_echo && own_echo(s, s->rx + off, t)) {
+			off += (size_t)r;
+			continue;
+		}
+		off += (size_t)r;
+		memset(&f, 0, sizeof(f));
+		f.len = RMD_FRAME_LEN;
+		memcpy(f.data, data, sizeof(data));
+		if (id == RMD_RS485_BROADCAST)
+			f.can_id = data[0] == RS485_BROADCAST_CMD_SET_ID ? RMD_CAN_SET_ID :
+									   RMD_CAN_MULTI;
+		else
+			f.can_id = RMD_CAN_REQ_BASE + id;
+		s->st.rx_frames++;
+		answers = deliver(s, &f, t);
+		if (answers)
+			s->st.rx_taken++;
+		log_rx(s, &f, answers, id);
+	}
+	if (off) {
+		memmove(s->rx, s->rx + off, s->rxn - off);
+		s->rxn -= off;
+	}
+	if (skipped) {
+		s->st.noise_bytes += skipped;
+		sim_log(s->noise_warned ? SIM_LOG_DEBUG : SIM_LOG_WARNING,
+			"rmd-sim: %s: skipped %zu byte%s of line noise to resynchronise%s", s->name,
+			skipped, skipped == 1 ? "" : "s",
+			s->noise_warned ? "" : " (further noise is counted in the exit summary)");
+		s->noise_warned = true;
+	}
+}
+
+static void serial_read(struct sim *s, bool hup)
+{
+	for (;;) {
+		ssize_t r = read(s->fd, s->rx + s->rxn, sizeof(s->rx) - s->rxn);
+
+		if (r > 0) {
+			s->rxn += (size_t)r;
+			serial_parse(s, now_ns());
+			continue;
+		}
+		if (r < 0 && errno == EINTR)
+			continue;
+		if (!hup && (r == 0 || errno == EAGAIN))
+			return;
+		/* EIO or end of file with a hang-up: the other side closed the line. */
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
+			r < 0 ? strerror(errno) : "end of file");
+		stop(s, SIM_EXIT_RUN, "hang-up");
+		return;
+	}
+}
+
+/* ---- writing due frames ---------------------------------------------------------------- */
+
+static void write_due(struct sim *s, int64_t now)
+{
+	if (s->retry_ns && now < s->retry_ns)
+		return;
+	s->retry_ns = 0;
+	while (s->qn && s->q[0].due_ns <= now) {
+		struct txe e = s->q[0];
+		struct rmd_frame wire = e.f;
+		uint8_t id = 0;
+		int r;
+
+		if (e.src >= 0 && s->slots[e.src].absent) {
+			/* It disappeared after the frame was scheduled. */
+			s->st.absent_lost++;
+			q_pop(s);
+			continue;
+		}
+		r = s->serial ? serial_write(s, &e.f, &id, &wire) : can_write(s, &e.f);
+		if (r == -EAGAIN) {
+			s->st.tx_busy++;
+			s->retry_ns = now + RETRY_NS;
+			break;
+		}
+		q_pop(s);
+		if (r == -EINVAL && s->serial) {
+			if (sim_log_enabled(SIM_LOG_DEBUG))
+				sim_log(SIM_LOG_DEBUG,
+					"rmd-sim: %s: 0x%03X has no RS485 form; not sent", s->name,
+					e.f.can_id);
+			continue;
+		}
+		if (r < 0) {
+			s->st.tx_errors++;
+			if (s->st.tx_errors >= s->tx_errors_logged * 2 + 1) {
+				sim_log(SIM_LOG_WARNING,
+					"rmd-sim: %s: write: %s (%" PRIu64 " frames "
+					"lost so far)",
+					s->name, strerror(-r), s->st.tx_errors);
+				s->tx_errors_logged = s->st.tx_errors;
+			}
+			continue;
+		}
+		s->st.tx_frames++;
+		log_tx(s, &e, &wire, id);
+	}
+	if (s->serial)
+		serial_flush(s);
+}
+
+/* ---- the loop -------------------------------------------------------------------------- */
+
+static int64_t next_deadline(const struct sim *s, int64_t now)
+{
+	int64_t t = s->next_tick_ns, e;
+
+	if (!s->serial && s->next_house_ns < t)
+		t = s->next_house_ns;
+	if (s->qn) {
+		e = s->q[0].due_ns;
+		if (s->retry_ns > e)
+			e = s->retry_ns;
+		if (e < t)
+			t = e;
+	}
+	for (unsigned i = 0; i < s->n; i++) {
+		e = rmd_sim_motor_next_event_ns(&s->slots[i].m);
+		if (e < t)
+			t = e;
+	}
+	e = next_fault_event(s, now);
+	return e < t ? e : t;
+}
+
+static void arm(struct sim *s, int64_t t)
+{
+	struct itimerspec its;
+
+	memset(&its, 0, sizeof(its));
+	if (t < 1)
+		t = 1; /* 0 would disarm it */
+	its.it_value.tv_sec = (time_t)(t / NS_PER_S);
+	its.it_value.tv_nsec = (long)(t % NS_PER_S);
+	timerfd_settime(s->tfd, TFD_TIMER_ABSTIME, &its, NULL);
+}
+
+static void watch_out(struct sim *s, bool on)
+{
+	uint32_t ev = EPOLLIN | (on ? EPOLLOUT : 0);
+	struct epoll_event e = { .events = ev, .data.u32 = 0 };
+
+	if (ev == s->ep_events)
+		return;
+	if (epoll_ctl(s->epfd, EPOLL_CTL_MOD, s->fd, &e) == 0)
+		s->ep_events = ev;
+}
+
+static void process(struct sim *s, int64_t now)
+{
+	update_faults(s, now);
+	run_motors(s, now);
+	if (!s->serial && now >= s->next_house_ns) {
+		check_interface(s);
+		s->next_house_ns = now + HOUSEKEEPING_NS;
+	}
+	write_due(s, now);
+}
+
+static void summary_faults(const struct sim *s, char *buf, size_t size)
+{
+	size_t n = 0;
+
+	buf[0] = '\0';
+	for (int k = 0; k < RMD_SIM_FAULT_COUNT && n < size; k++) {
+		const char *name = rmd_sim_fault_kind_name((enum rmd_sim_fault_kind)k);
+
+		if (s->st.faults[k])
+			n += (size_t)snprintf(buf + n, size - n, "%s %s %" PRIu64,
+					      n ? "," : "; faults:", name ? name : "?",
+					      s->st.faults[k]);
+	}
+}
+
+static void log_startup(const struct sim *s)
+{
+	static char desc[RMD_MAX_MOTORS][256];
+	const struct sim_config *c = s->cfg;
+	uint32_t done = 0;
+
+	if (!sim_log_enabled(SIM_LOG_INFO))
+		return;
+	sim_log(SIM_LOG_INFO, "rmd-sim: %s: %s, %u motor%s, seed %" PRIu64, s->name,
+		s->serial ? "RS485 line" : "SocketCAN", s->n, s->n == 1 ? "" : "s", c->seed);
+	if (s->serial)
+		sim_log(SIM_LOG_INFO, "rmd-sim: %s: %u baud 8N1%s", s->name, c->baud,
+			c->local_echo ? ", local echo dropped" : "");
+	/* One line per set of motors that are alike. */
+	for (unsigned i = 0; i < s->n; i++) {
+		const struct rmd_sim_motor_params *p = &s->slots[i].m.p;
+
+		snprintf(desc[i], sizeof(desc[i]),
+			 "%s %s (fw %u), inertia %g kg·m², kt %g N·m/A, gear %g, load %g N·m, "
+			 "supply %g V, %sbrake, turnaround %g±%g µs",
+			 sim_proto_name(p->proto), p->model, p->version_date, p->inertia_kgm2,
+			 p->kt_nm_a, p->gear_ratio, p->load_nm, p->supply_v,
+			 p->has_brake ? "" : "no ", p->turnaround_ns / 1e3,
+			 p->turnaround_jitter_ns / 1e3);
+	}
+	for (unsigned i = 0; i < s->n; i++) {
+		uint32_t same = 0;
+		char list[128];
+
+		if (done & (UINT32_C(1) << i))
+			continue;
+		for (unsigned j = i; j < s->n; j++) {
+			if (!strcmp(desc[i], desc[j])) {
+				same |= UINT32_C(1) << (s->slots[j].id - 1);
+				done |= UINT32_C(1) << j;
+			}
+		}
+		sim_format_motors(same, list, sizeof(list));
+		sim_log(SIM_LOG_INFO, "rmd-sim: motor%s %s: %s", (same & (same - 1)) ? "s" : "",
+			list, desc[i]);
+	}
+	for (unsigned i = 0; i < s->n; i++)
+		if (s->serial && s->slots[i].m.p.proto == RMD_PROTO_MIT)
+			sim_log(SIM_LOG_INFO,
+				"rmd-sim: motor %u: MIT frames have no RS485 form; it "
+				"answers V3 commands",
+				s->slots[i].id);
+	for (unsigned i = 0; i < c->n_faults; i++)
+		sim_log(SIM_LOG_INFO, "rmd-sim: fault %u: %s", i + 1, c->fault_text[i]);
+}
+
+static void log_summary(const struct sim *s, int64_t now)
+{
+	char faults[512];
+
+	summary_faults(s, faults, sizeof(faults));
+	sim_log(s->status == SIM_EXIT_OK ? SIM_LOG_INFO : SIM_LOG_ERR,
+		"rmd-sim: %s: stopped (%s) after %.3f s: frames in %" PRIu64 " (answered %" PRIu64
+		"), out %" PRIu64 "; tx retries %" PRIu64 ", tx errors %" PRIu64
+		", queue overflows %" PRIu64 ", rx errors %" PRIu64 ", line noise %" PRIu64
+		" bytes, echoes %" PRIu64 ", lost while absent %" PRIu64
+		", without RS485 form %" PRIu64 "%s",
+		s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
+		s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors, s->st.txq_overflow,
+		s->st.rx_errors, s->st.noise_bytes, s->st.echoes, s->st.absent_lost,
+		s->st.unmappable, faults);
+}
+
+static void handle_signal(struct sim *s)
+{
+	struct signalfd_siginfo si;
+
+	while (read(s->sfd, &si, sizeof(si)) == (ssize_t)sizeof(si)) {
+		if (si.ssi_signo == SIGINT)
+			stop(s, SIM_EXIT_OK, "SIGINT");
+		else if (si.ssi_signo == SIGTERM)
+			stop(s, SIM_EXIT_OK, "SIGTERM");
+	}
+}
+
+static int add_fd(struct sim *s, int fd, uint32_t events, uint32_t tag)
+{
+	struct epoll_event e = { .events = events, .data.u32 = tag };
+
+	return epoll_ctl(s->epfd, EPOLL_CTL_ADD, fd, &e);
+}
+
+enum { TAG_WIRE = 0, TAG_TIMER, TAG_SIGNAL };
+
+int sim_run(const struct sim_config *c)
+{
+	static struct sim sim;
+	struct sim *s = &sim;
+	sigset_t mask;
+	int r;
+
+	memset(s, 0, sizeof(*s));
+	s->cfg = c;
+	s->name = c->device;
+	s->serial = c->wire == SIM_WIRE_SERIAL;
+	s->fd = s->epfd = s->tfd = s->sfd = -1;
+	s->rng = c->seed * UINT64_C(0x9E3779B97F4A7C15) + UINT64_C(0x2545F4914F6CDD1D);
+	if (!s->rng)
+		s->rng = 1;
+
+	/* Replies are due within a turnaround: keep the kernel's timer slack at 1 µs. */
+	(void)prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0);
+	signal(SIGPIPE, SIG_IGN);
+	sigemptyset(&mask);
+	sigaddset(&mask, SIGINT);
+	sigaddset(&mask, SIGTERM);
+	if (sigprocmask(SIG_BLOCK, &mask, NULL) < 0) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: sigprocmask: %s", strerror(errno));
+		return SIM_EXIT_RUN;
+	}
+	s->sfd = signalfd(-1, &mask, SFD_NONBLOCK | SFD_CLOEXEC);
+	s->tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+	s->epfd = epoll_create1(EPOLL_CLOEXEC);
+	if (s->sfd < 0 || s->tfd < 0 || s->epfd < 0) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: signalfd/timerfd/epoll: %s", strerror(errno));
+		r = SIM_EXIT_RUN;
+		goto err_close_fds;
+	}
+	if ((s->serial ? serial_open(s) : can_open(s)) < 0) {
+		r = SIM_EXIT_RUN;
+		goto err_close_fds;
+	}
+	s->ep_events = EPOLLIN;
+	if (add_fd(s, s->fd, EPOLLIN, TAG_WIRE) < 0 || add_fd(s, s->tfd, EPOLLIN, TAG_TIMER) < 0 ||
+	    add_fd(s, s->sfd, EPOLLIN, TAG_SIGNAL) < 0) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: epoll_ctl: %s", strerror(errno));
+		r = SIM_EXIT_RUN;
+		goto err_close_wire;
+	}
+
+	s->t0 = now_ns();
+	for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++) {
+		struct slot *sl;
+
+		if (!(c->motors & (UINT32_C(1) << (id - 1))))
+			continue;
+		sl = &s->slots[s->n++];
+		sl->id = (uint8_t)id;
+		sl->powered = true;
+		rmd_sim_motor_init(&sl->m, &c->params[id - 1], s->t0);
+	}
+	s->next_tick_ns = s->t0 + TICK_NS;
+	s->next_house_ns = s->t0 + HOUSEKEEPING_NS;
+	log_startup(s);
+	sim_log(SIM_LOG_INFO, "rmd-sim: %s: ready", s->name);
+
+	while (!s->stop) {
+		struct epoll_event ev[4];
+		int64_t now = now_ns();
+		int n;
+
+		process(s, now);
+		if (s->stop)
+			break;
+		if (s->serial)
+			watch_out(s, s->txn > 0);
+		arm(s, next_deadline(s, now));
+		n = epoll_wait(s->epfd, ev, 4, -1);
+		if (n < 0) {
+			if (errno == EINTR)
+				continue;
+			sim_log(SIM_LOG_ERR, "rmd-sim: epoll_wait: %s", strerror(errno));
+			stop(s, SIM_EXIT_RUN, "epoll_wait failed");
+			break;
+		}
+		for (int i = 0; i < n; i++) {
+			uint32_t e = ev[i].events;
+
+			switch (ev[i].data.u32) {
+			case TAG_SIGNAL:
+				handle_signal(s);
+				break;
+			case TAG_TIMER: {
+				uint64_t ticks;
+
+				while (read(s->tfd, &ticks, sizeof(ticks)) > 0)
+					;
+				break;
+			}
+			case TAG_WIRE:
+				if (s->serial) {
+					if (e & EPOLLOUT)
+						serial_flush(s);
+					if (e & (EPOLLIN | EPOLLHUP | EPOLLERR))
+						serial_read(s, (e & EPOLLHUP) != 0);
+				} else if (e & (EPOLLIN | EPOLLERR)) {
+					can_read(s);
+				}
+				break;
+			default:
+				break;
+			}
+		}
+	}
+	log_summary(s, now_ns());
+	r = s->status;
+
+err_close_wire:
+	if (s->fd >= 0)
+		close(s->fd);
+err_close_fds:
+	if (s->epfd >= 0)
+		close(s->epfd);
+	if (s->tfd >= 0)
+		close(s->tfd);
+	if (s->sfd >= 0)
+		close(s->sfd);
+	return r;
+}
