@@ -1,0 +1,211 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The LCM bridge (DESIGN.md layer 6): a normal-priority thread that owns
+ * rmdd's LCM instance.  It is the only thread that calls LCM.
+ *
+ *   PREFIX "COMMAND"         in   rmd.command_t: decoded, validated, clamped,
+ *                                 handed to the rt loop as struct rmd_command
+ *   PREFIX "STATE"           out  rmd.state_t from each struct rmd_snapshot
+ *                                 (or every state_every-th cycle)
+ *   PREFIX "HEALTH"          out  rmd.health_t, every health_period_ns, from
+ *                                 the newest struct rmd_health plus the
+ *                                 bridge's own command counters
+ *   PREFIX "CONFIG"          out  rmd.config_t, at start and on request
+ *   PREFIX "CONFIG_REQUEST"  in   any message: publish config_t again
+ *
+ * The rt loop and the bridge meet only in three triple buffers (rmd/spsc.h)
+ * that the daemon owns and passes to both: the bridge writes commands and
+ * reads snapshots and health, never blocking the rt thread.
+ *
+ * A command that breaks a rule is rejected as a whole (never partly
+ * applied), counted by enum rmd_reject kind and logged once per kind;
+ * setpoints outside a motor's limits are clamped and counted.  The rules
+ * are in docs/lcm.md.
+ *
+ * Lifecycle (chrony style, caller allocates): rmd_bridge_opts_init(),
+ * fill in, rmd_bridge_init(), rmd_bridge_start(), ..., rmd_bridge_stop(),
+ * rmd_bridge_fini().  All of it is non-rt.
+ */
+#ifndef RMD_BRIDGE_H
+#define RMD_BRIDGE_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include <lcm/lcm.h>
+
+#include "rmd/frame.h"
+#include "rmd/spsc.h"
+#include "rmd/state.h"
+
+/* Traffic stays on this host: multicast with a time-to-live of 0. */
+#define RMD_BRIDGE_DEFAULT_URL "udpm://239.255.76.67:7667?ttl=0"
+#define RMD_BRIDGE_DEFAULT_PREFIX "RMD_"
+#define RMD_BRIDGE_DEFAULT_STALE_MS 100
+#define RMD_BRIDGE_DEFAULT_HEALTH_PERIOD_NS 100000000 /* 10 Hz */
+/* Longest sleep between looks at the snapshots: half a 1 kHz period (without notify_fd). */
+#define RMD_BRIDGE_DEFAULT_POLL_NS 500000
+/*
+ * Kernel receive buffer asked of a udpm:// URL that does not set
+ * recv_buf_size: tens of milliseconds of a 20 kHz command flood (a
+ * command_t is two datagrams).  The kernel caps it at net.core.rmem_max
+ * (docs/lcm.md).
+ */
+#define RMD_BRIDGE_UDPM_RCVBUF (4 << 20)
+
+#define RMD_BRIDGE_URL_LEN 256
+#define RMD_BRIDGE_PREFIX_LEN 32
+#define RMD_BRIDGE_NAME_LEN 32
+
+/* Bit of struct rmd_bridge_motor.modes for each enum rmd_mode. */
+#define RMD_BRIDGE_MODE_BIT(mode) (1u << (mode))
+#define RMD_BRIDGE_MODES_ALL ((1u << RMD_MODE_COUNT) - 1)
+
+/* What the bridge needs to know of a motor (filled from the configuration). */
+struct rmd_bridge_motor {
+	char name[RMD_BRIDGE_NAME_LEN];
+	uint8_t bus;	       /* index into rmd_bridge_opts.bus[] */
+	uint8_t id;	       /* 1..32 on its bus */
+	char protocol[8];      /* "v2", "v3", "mit": informational, for config_t */
+	uint8_t modes;	       /* RMD_BRIDGE_MODE_BIT()s the motor may be commanded in */
+	double pos_min_rad;    /* setpoints are clamped to [pos_min_rad, pos_max_rad] */
+	double pos_max_rad;    /*   (+-INFINITY: no limit) */
+	double vel_max_rad_s;  /* |velocity| and max_velocity clamp (INFINITY: none) */
+	double torque_max_nm;  /* |torque| clamp (INFINITY: none) */
+	double kp_min, kp_max; /* MIT stiffness range, N·m/rad: outside is rejected */
+	double kd_min, kd_max; /* MIT damping range, N·m·s/rad: outside is rejected */
+};
+
+struct rmd_bridge_bus {
+	char name[RMD_BRIDGE_NAME_LEN];
+	char kind[16]; /* "socketcan", "rs485", "sim" */
+	uint32_t bitrate;
+};
+
+struct rmd_bridge_opts {
+	/* LCM provider URL; udpm:// without recv_buf_size gets RMD_BRIDGE_UDPM_RCVBUF. */
+	char url[RMD_BRIDGE_URL_LEN];
+	char prefix[RMD_BRIDGE_PREFIX_LEN]; /* channel prefix */
+
+	unsigned nmotors; /* 1..RMD_MAX_MOTORS */
+	struct rmd_bridge_motor motor[RMD_MAX_MOTORS];
+	unsigned nbuses; /* 0..RMD_MAX_BUSES */
+	struct rmd_bridge_bus bus[RMD_MAX_BUSES];
+
+	int64_t period_ns;	  /* rt loop period, for config_t */
+	unsigned state_every;	  /* publish state_t every n-th cycle; 0 or 1: every snapshot */
+	int stale_ms;		  /* reject utime this much older than the newest; 0: no check */
+	int64_t health_period_ns; /* health_t period */
+	int64_t poll_ns;	  /* longest sleep when nothing wakes the bridge */
+
+	/*
+	 * The hand-overs, created by the daemon with rmd_latest_init() and
+	 * the sizes of struct rmd_command, rmd_snapshot and rmd_health.  The
+	 * bridge is the only writer of `commands` and the only reader of the
+	 * other two.  snapshots and health may be NULL (nothing published);
+	 * health's buffer zeroed, so health_t reads zeros until the rt loop
+	 * publishes.
+	 */
+	struct rmd_latest *commands;
+	struct rmd_latest *snapshots;
+	struct rmd_latest *health;
+
+	/*
+	 * An eventfd the rt loop writes after each snapshot, so the bridge
+	 * publishes it at once instead of at its next poll; -1: none.
+	 */
+	int notify_fd;
+
+	FILE *log; /* rejections and errors, "<4>rmdd: ..." lines; NULL: stderr */
+};
+
+/* Counters, totals since rmd_bridge_init(). */
+struct rmd_bridge_stats {
+	uint64_t accepted;
+	uint64_t rejected;
+	uint64_t rejected_by_kind[RMD_REJ_KINDS];
+	uint64_t clamped; /* accepted commands with at least one clamped setpoint */
+	uint64_t states_published;
+	uint64_t health_published;
+	uint64_t configs_published;
+	uint64_t publish_errors;
+	uint64_t lcm_errors; /* lcm_handle failures */
+};
+
+struct rmd_bridge_buf; /* decode and encode buffers, bridge thread only */
+
+struct rmd_bridge {
+	struct rmd_bridge_opts opts;
+	lcm_t *lcm;
+	lcm_subscription_t *sub_command;
+	lcm_subscription_t *sub_config_req;
+	int stop_fd; /* eventfd: rmd_bridge_stop() wakes the thread */
+	pthread_t thread;
+	bool running;
+	struct rmd_bridge_buf *buf;
+	char url[RMD_BRIDGE_URL_LEN + 32]; /* as given to lcm_create() */
+
+	char ch_command[RMD_BRIDGE_PREFIX_LEN + 16];
+	char ch_state[RMD_BRIDGE_PREFIX_LEN + 16];
+	char ch_health[RMD_BRIDGE_PREFIX_LEN + 16];
+	char ch_config[RMD_BRIDGE_PREFIX_LEN + 16];
+	char ch_config_req[RMD_BRIDGE_PREFIX_LEN + 16];
+
+	/* Owned by the bridge thread. */
+	int64_t last_seq;
+	int64_t newest_utime;
+	bool have_seq;
+	bool have_utime;
+	unsigned logged; /* bit per enum rmd_reject already logged */
+	bool clamp_logged;
+	bool state_sent;
+	uint64_t last_state_cycle;
+	int64_t next_health_ns;
+	bool config_wanted;
+
+	/* Written by the bridge thread, read by anyone (rmd_bridge_get_stats). */
+	atomic_uint_fast64_t n_accepted;
+	atomic_uint_fast64_t n_rejected[RMD_REJ_KINDS];
+	atomic_uint_fast64_t n_clamped;
+	atomic_uint_fast64_t n_states;
+	atomic_uint_fast64_t n_health;
+	atomic_uint_fast64_t n_configs;
+	atomic_uint_fast64_t n_publish_errors;
+	atomic_uint_fast64_t n_lcm_errors;
+};
+
+/* Defaults: URL, prefix, periods, stale_ms; no motors, no buses, notify_fd -1.  Non-rt. */
+void rmd_bridge_opts_init(struct rmd_bridge_opts *opts);
+
+/*
+ * Check `opts`, create the LCM instance and subscribe.  Returns 0, or
+ * -EINVAL (bad options) / -EIO (LCM could not be created or subscribed)
+ * with the reason in err.  On failure nothing needs undoing.  Non-rt.
+ */
+int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, char *err,
+		    size_t errlen);
+
+/*
+ * Start the bridge thread (SCHED_OTHER whatever the caller's policy, all
+ * signals blocked); it publishes config_t first.  Returns 0 or -errno.
+ * Non-rt.
+ */
+int rmd_bridge_start(struct rmd_bridge *b);
+
+/* Wake the thread, wait for it to end.  A bridge that was not started is left as is.  Non-rt. */
+void rmd_bridge_stop(struct rmd_bridge *b);
+
+/* Stop if running, unsubscribe, destroy the LCM instance.  Non-rt. */
+void rmd_bridge_fini(struct rmd_bridge *b);
+
+/* The counters, from any thread.  Non-rt (but lock-free). */
+void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st);
+
+/* Name of a reject kind, for messages: "decode", "count", ...  Non-rt. */
+const char *rmd_bridge_reject_name(enum rmd_reject kind);
+
+#endif /* RMD_BRIDGE_H */

@@ -1,0 +1,907 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The LCM bridge thread: commands in (decode, validate, clamp, hand over),
+ * state, health and configuration out.  See rmd/bridge.h and docs/lcm.md.
+ */
+#define _GNU_SOURCE /* ppoll, pthread_setname_np */
+
+#include <ctype.h>
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sys/eventfd.h>
+
+#include "rmd/bridge.h"
+#include "rmd/rmd_command_t.h"
+#include "rmd/rmd_config_t.h"
+#include "rmd/rmd_health_t.h"
+#include "rmd/rmd_motor_config_t.h"
+#include "rmd/rmd_state_t.h"
+
+/* The LCM constants are the C enums' values (lcm_types/ and rmd/state.h, rmd/bus.h). */
+_Static_assert(RMD_COMMAND_T_MAX_MOTORS == RMD_MAX_MOTORS &&
+		       RMD_STATE_T_MAX_MOTORS == RMD_MAX_MOTORS &&
+		       RMD_HEALTH_T_MAX_BUSES == RMD_MAX_BUSES,
+	       "array sizes");
+_Static_assert(RMD_COMMAND_T_MODE_TORQUE == RMD_MODE_TORQUE &&
+		       RMD_COMMAND_T_MODE_SPEED == RMD_MODE_SPEED &&
+		       RMD_COMMAND_T_MODE_POSITION == RMD_MODE_POSITION &&
+		       RMD_COMMAND_T_MODE_MIT == RMD_MODE_MIT && RMD_MODE_COUNT == 4,
+	       "modes");
+_Static_assert(RMD_STATE_T_LC_PROBE == RMD_LC_PROBE && RMD_STATE_T_LC_READY == RMD_LC_READY &&
+		       RMD_STATE_T_LC_ENABLED == RMD_LC_ENABLED &&
+		       RMD_STATE_T_LC_FAULT == RMD_LC_FAULT && RMD_STATE_T_LC_LOST == RMD_LC_LOST &&
+		       RMD_STATE_T_LC_SAFE == RMD_LC_SAFE && RMD_LC_COUNT == 6,
+	       "lifecycle");
+_Static_assert(RMD_HEALTH_T_WD_IDLE == RMD_WD_IDLE && RMD_HEALTH_T_WD_OK == RMD_WD_OK &&
+		       RMD_HEALTH_T_WD_TRIPPED == RMD_WD_TRIPPED,
+	       "watchdog");
+_Static_assert(RMD_HEALTH_T_REJ_DECODE == RMD_REJ_DECODE &&
+		       RMD_HEALTH_T_REJ_COUNT == RMD_REJ_COUNT &&
+		       RMD_HEALTH_T_REJ_INDEX == RMD_REJ_INDEX &&
+		       RMD_HEALTH_T_REJ_NONFINITE == RMD_REJ_NONFINITE &&
+		       RMD_HEALTH_T_REJ_MODE == RMD_REJ_MODE &&
+		       RMD_HEALTH_T_REJ_LIMIT == RMD_REJ_LIMIT &&
+		       RMD_HEALTH_T_REJ_STALE == RMD_REJ_STALE &&
+		       RMD_HEALTH_T_REJ_KINDS == RMD_REJ_KINDS,
+	       "reject kinds");
+_Static_assert(RMD_BUS_HEALTH_T_BUS_ACTIVE == RMD_BUS_ACTIVE &&
+		       RMD_BUS_HEALTH_T_BUS_WARNING == RMD_BUS_WARNING &&
+		       RMD_BUS_HEALTH_T_BUS_PASSIVE == RMD_BUS_PASSIVE &&
+		       RMD_BUS_HEALTH_T_BUS_OFF == RMD_BUS_OFF,
+	       "bus states");
+_Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_MIT) &&
+		       RMD_MOTOR_CONFIG_T_MODE_BIT_TORQUE == RMD_BRIDGE_MODE_BIT(RMD_MODE_TORQUE),
+	       "mode bits");
+
+/* Messages handled per wake-up at most, so the health timer is never starved. */
+#define DRAIN_MAX 4096
+
+/* Queued command messages LCM keeps for us before it drops (its default is 30). */
+#define COMMAND_QUEUE 4096
+
+/* Room for one encoded state_t or health_t (about 2.5 KiB and 1.6 KiB). */
+#define ENC_MAX 8192
+
+struct rmd_bridge_buf {
+	rmd_command_t msg;
+	struct rmd_command cmd;
+	rmd_state_t state;
+	rmd_health_t health;
+	char bus_name[RMD_MAX_BUSES][RMD_BRIDGE_NAME_LEN];
+	rmd_config_t config;
+	rmd_bus_config_t config_bus[RMD_MAX_BUSES];
+	rmd_motor_config_t config_motor[RMD_MAX_MOTORS];
+	unsigned char enc[ENC_MAX];
+};
+
+static const char *const reject_names[RMD_REJ_KINDS] = {
+	[RMD_REJ_DECODE] = "decode",	   [RMD_REJ_COUNT] = "count", [RMD_REJ_INDEX] = "index",
+	[RMD_REJ_NONFINITE] = "nonfinite", [RMD_REJ_MODE] = "mode",   [RMD_REJ_LIMIT] = "limit",
+	[RMD_REJ_STALE] = "stale",
+};
+
+static const char *const mode_names[RMD_MODE_COUNT] = {
+	[RMD_MODE_TORQUE] = "torque",
+	[RMD_MODE_SPEED] = "speed",
+	[RMD_MODE_POSITION] = "position",
+	[RMD_MODE_MIT] = "mit",
+};
+
+const char *rmd_bridge_reject_name(enum rmd_reject kind)
+{
+	return (unsigned)kind < RMD_REJ_KINDS ? reject_names[kind] : "?";
+}
+
+static int64_t now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+static void count(atomic_uint_fast64_t *c)
+{
+	atomic_fetch_add_explicit(c, 1, memory_order_relaxed);
+}
+
+static uint64_t read_count(atomic_uint_fast64_t *c)
+{
+	return atomic_load_explicit(c, memory_order_relaxed);
+}
+
+__attribute__((format(printf, 2, 3))) static void logf_(struct rmd_bridge *b, const char *fmt, ...)
+{
+	FILE *f = b->opts.log ? b->opts.log : stderr;
+	va_list ap;
+
+	va_start(ap, fmt);
+	vfprintf(f, fmt, ap);
+	va_end(ap);
+	fflush(f);
+}
+
+void rmd_bridge_opts_init(struct rmd_bridge_opts *opts)
+{
+	memset(opts, 0, sizeof(*opts));
+	snprintf(opts->url, sizeof(opts->url), "%s", RMD_BRIDGE_DEFAULT_URL);
+	snprintf(opts->prefix, sizeof(opts->prefix), "%s", RMD_BRIDGE_DEFAULT_PREFIX);
+	opts->period_ns = 1000000;
+	opts->state_every = 1;
+	opts->stale_ms = RMD_BRIDGE_DEFAULT_STALE_MS;
+	opts->health_period_ns = RMD_BRIDGE_DEFAULT_HEALTH_PERIOD_NS;
+	opts->poll_ns = RMD_BRIDGE_DEFAULT_POLL_NS;
+	opts->notify_fd = -1;
+}
+
+/* ---- validation of one command message --------------------------------- */
+
+static const char *motor_name(const struct rmd_bridge *b, unsigned i)
+{
+	return b->opts.motor[i].name;
+}
+
+/*
+ * Count a rejection and log the first of its kind.  Returns kind, so the
+ * checks read `return reject(...)`.
+ */
+__attribute__((format(printf, 3, 4))) static int reject(struct rmd_bridge *b, enum rmd_reject kind,
+							const char *fmt, ...)
+{
+	char why[200];
+	va_list ap;
+
+	count(&b->n_rejected[kind]);
+	if (b->logged & (1u << kind))
+		return kind;
+	b->logged |= 1u << kind;
+	va_start(ap, fmt);
+	vsnprintf(why, sizeof(why), fmt, ap);
+	va_end(ap);
+	logf_(b,
+	      "<4>rmdd: rejected %s: %s; further rejections of this kind are counted in "
+	      "health_t\n",
+	      b->ch_command, why);
+	return kind;
+}
+
+static bool mode_uses_pos(int mode)
+{
+	return mode == RMD_MODE_POSITION || mode == RMD_MODE_MIT;
+}
+
+static bool mode_uses_vel(int mode)
+{
+	return mode == RMD_MODE_SPEED || mode == RMD_MODE_MIT;
+}
+
+static bool mode_uses_torque(int mode)
+{
+	return mode == RMD_MODE_TORQUE || mode == RMD_MODE_MIT;
+}
+
+static void list_modes(unsigned modes, char *buf, size_t len)
+{
+	size_t n = 0;
+
+	buf[0] = '\0';
+	for (unsigned m = 0; m < RMD_MODE_COUNT; m++)
+		if (modes & RMD_BRIDGE_MODE_BIT(m) && n < len)
+			n += snprintf(buf + n, len - n, "%s%s", n ? ", " : "", mode_names[m]);
+}
+
+/* The structural rules: count, indices, modes, finite values, gain ranges. */
+static int check_entries(struct rmd_bridge *b, const rmd_command_t *msg)
+{
+	unsigned n = b->opts.nmotors, seen = 0;
+
+	if (msg->count < 0 || msg->count > RMD_MAX_MOTORS || (unsigned)msg->count > n)
+		return reject(b, RMD_REJ_COUNT,
+			      "motor count %d out of range (0..%u configured motors)", msg->count,
+			      n);
+	for (int k = 0; k < msg->count; k++) {
+		const rmd_motor_command_t *e = &msg->motor[k];
+		const struct rmd_bridge_motor *m;
+		const char *bad = NULL;
+		double bad_v = 0;
+
+		if (e->index < 0 || (unsigned)e->index >= n)
+			return reject(b, RMD_REJ_INDEX, "motor index %d out of range (0..%u)",
+				      e->index, n - 1);
+		if (seen & (1u << e->index))
+			return reject(b, RMD_REJ_INDEX, "motor index %d (%s) appears twice",
+				      e->index, motor_name(b, e->index));
+		seen |= 1u << e->index;
+		m = &b->opts.motor[e->index];
+		if (e->enable != 0 && e->enable != 1)
+			return reject(b, RMD_REJ_MODE, "motor %d (%s): enable %d is not 0 or 1",
+				      e->index, m->name, e->enable);
+		if (e->mode < 0 || e->mode >= RMD_MODE_COUNT)
+			return reject(b, RMD_REJ_MODE,
+				      "motor %d (%s): unknown mode %d (0 torque, 1 speed, "
+				      "2 position, 3 mit)",
+				      e->index, m->name, e->mode);
+		if (e->enable && !(m->modes & RMD_BRIDGE_MODE_BIT(e->mode))) {
+			char allowed[64];
+
+			list_modes(m->modes, allowed, sizeof(allowed));
+			return reject(b, RMD_REJ_MODE, "motor %d (%s): mode %s not allowed (%s)",
+				      e->index, m->name, mode_names[e->mode], allowed);
+		}
+		if (!isfinite(e->position))
+			bad = "position", bad_v = e->position;
+		else if (!isfinite(e->velocity))
+			bad = "velocity", bad_v = e->velocity;
+		else if (!isfinite(e->torque))
+			bad = "torque", bad_v = e->torque;
+		else if (!isfinite(e->kp))
+			bad = "kp", bad_v = e->kp;
+		else if (!isfinite(e->kd))
+			bad = "kd", bad_v = e->kd;
+		else if (!isfinite(e->max_velocity))
+			bad = "max_velocity", bad_v = e->max_velocity;
+		if (bad)
+			return reject(b, RMD_REJ_NONFINITE, "motor %d (%s): %s is %f", e->index,
+				      m->name, bad, bad_v);
+		if (e->max_velocity < 0)
+			return reject(b, RMD_REJ_LIMIT, "motor %d (%s): max_velocity %g < 0",
+				      e->index, m->name, e->max_velocity);
+		if (e->mode == RMD_MODE_MIT && (e->kp < m->kp_min || e->kp > m->kp_max))
+			return reject(b, RMD_REJ_LIMIT,
+				      "motor %d (%s): kp %g outside the MIT range %g..%g", e->index,
+				      m->name, e->kp, m->kp_min, m->kp_max);
+		if (e->mode == RMD_MODE_MIT && (e->kd < m->kd_min || e->kd > m->kd_max))
+			return reject(b, RMD_REJ_LIMIT,
+				      "motor %d (%s): kd %g outside the MIT range %g..%g", e->index,
+				      m->name, e->kd, m->kd_min, m->kd_max);
+	}
+	return -1;
+}
+
+/* Sequence and timestamp against the newest accepted command. */
+static int check_order(struct rmd_bridge *b, const rmd_command_t *msg)
+{
+	int64_t stale_us = (int64_t)b->opts.stale_ms * 1000;
+
+	if (msg->seq == 0)
+		return -1; /* a (re)starting controller */
+	if (b->have_seq && msg->seq < b->last_seq)
+		return reject(b, RMD_REJ_STALE,
+			      "seq %" PRId64 " went back (newest accepted %" PRId64 "; 0 restarts)",
+			      msg->seq, b->last_seq);
+	if (stale_us > 0 && msg->utime != 0 && b->have_utime &&
+	    msg->utime < b->newest_utime - stale_us)
+		return reject(b, RMD_REJ_STALE,
+			      "utime %" PRId64 " is %" PRId64 " ms older than the newest "
+			      "accepted command (limit %d ms)",
+			      msg->utime, (b->newest_utime - msg->utime) / 1000, b->opts.stale_ms);
+	return -1;
+}
+
+struct clamp_note {
+	bool any;
+	int motor;
+	const char *field;
+	double from, to;
+};
+
+static double clamp(double x, double lo, double hi, struct clamp_note *note, int motor,
+		    const char *field)
+{
+	double y = x < lo ? lo : x > hi ? hi : x;
+
+	if (y != x && !note->any) /* the first one, for the log line */
+		*note = (struct clamp_note){ true, motor, field, x, y };
+	return y;
+}
+
+/* Fill the hand-over from a message that passed every check. */
+static void fill_command(struct rmd_bridge *b, const rmd_command_t *msg, struct rmd_command *cmd,
+			 struct clamp_note *note)
+{
+	memset(cmd, 0, sizeof(*cmd));
+	cmd->stamp_us = msg->utime;
+	cmd->seq = msg->seq;
+	for (int k = 0; k < msg->count; k++) {
+		const rmd_motor_command_t *e = &msg->motor[k];
+		const struct rmd_bridge_motor *m = &b->opts.motor[e->index];
+		struct rmd_setpoint *sp = &cmd->m[e->index];
+		double vmax = m->vel_max_rad_s, tmax = m->torque_max_nm;
+		int i = e->index;
+
+		cmd->present |= 1u << i;
+		sp->enable = e->enable;
+		sp->mode = (uint8_t)e->mode;
+		if (mode_uses_pos(e->mode))
+			sp->pos_rad = clamp(e->position, m->pos_min_rad, m->pos_max_rad, note, i,
+					    "position");
+		if (mode_uses_vel(e->mode))
+			sp->vel_rad_s = clamp(e->velocity, -vmax, vmax, note, i, "velocity");
+		if (mode_uses_torque(e->mode))
+			sp->torque_nm = clamp(e->torque, -tmax, tmax, note, i, "torque");
+		if (e->mode == RMD_MODE_MIT) {
+			sp->kp = e->kp;
+			sp->kd = e->kd;
+		}
+		if (e->mode == RMD_MODE_POSITION) {
+			/* 0 asks for the motor's limit; 0 is handed on when it has none. */
+			double mv = e->max_velocity;
+
+			if (isfinite(vmax))
+				mv = mv == 0 ? vmax : clamp(mv, 0, vmax, note, i, "max_velocity");
+			sp->max_vel_rad_s = mv;
+		}
+	}
+}
+
+static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct rmd_bridge *b = user;
+	struct rmd_bridge_buf *buf = b->buf;
+	rmd_command_t *msg = &buf->msg;
+	struct clamp_note note = { 0 };
+	int r;
+
+	(void)channel;
+	r = rmd_command_t_decode(rbuf->data, 0, rbuf->data_size, msg);
+	if (r < 0) {
+		int64_t want = __rmd_command_t_get_hash();
+		uint64_t got = 0;
+
+		memset(msg, 0, sizeof(*msg));
+		if (rbuf->data_size < 8) {
+			reject(b, RMD_REJ_DECODE, "%u bytes: too short for any LCM type",
+			       (unsigned)rbuf->data_size);
+			return;
+		}
+		for (int i = 0; i < 8; i++)
+			got = got << 8 | ((const uint8_t *)rbuf->data)[i];
+		if (got != (uint64_t)want)
+			reject(b, RMD_REJ_DECODE,
+			       "not an rmd.command_t (fingerprint %016" PRIx64
+			       ", expected %016" PRIx64 ")",
+			       got, (uint64_t)want);
+		else
+			reject(b, RMD_REJ_DECODE, "truncated: %u bytes, an rmd.command_t has %d",
+			       (unsigned)rbuf->data_size, rmd_command_t_encoded_size(msg));
+		return;
+	}
+	if ((uint32_t)r != rbuf->data_size) {
+		reject(b, RMD_REJ_DECODE, "%u bytes after the end of an rmd.command_t",
+		       (unsigned)(rbuf->data_size - (uint32_t)r));
+		return;
+	}
+	if (check_entries(b, msg) >= 0 || check_order(b, msg) >= 0)
+		return;
+
+	if (msg->seq == 0)
+		b->have_seq = b->have_utime = false;
+	if (!b->have_seq || msg->seq > b->last_seq)
+		b->last_seq = msg->seq;
+	b->have_seq = true;
+	if (msg->utime != 0 && (!b->have_utime || msg->utime > b->newest_utime)) {
+		b->newest_utime = msg->utime;
+		b->have_utime = true;
+	}
+
+	fill_command(b, msg, &buf->cmd, &note);
+	buf->cmd.rx_ns = now_ns();
+	rmd_latest_put(b->opts.commands, &buf->cmd);
+	count(&b->n_accepted);
+	if (note.any) {
+		count(&b->n_clamped);
+		if (!b->clamp_logged) {
+			b->clamp_logged = true;
+			logf_(b,
+			      "<5>rmdd: %s: motor %d (%s): %s %g clamped to %g; further clamps are "
+			      "counted in health_t\n",
+			      b->ch_command, note.motor, motor_name(b, note.motor), note.field,
+			      note.from, note.to);
+		}
+	}
+}
+
+static void on_config_request(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct rmd_bridge *b = user;
+
+	(void)rbuf;
+	(void)channel;
+	b->config_wanted = true;
+}
+
+/* ---- publishing --------------------------------------------------------- */
+
+static int32_t sat32(int64_t v)
+{
+	return v > INT32_MAX ? INT32_MAX : v < INT32_MIN ? INT32_MIN : (int32_t)v;
+}
+
+static int64_t sat64(uint64_t v)
+{
+	return v > INT64_MAX ? INT64_MAX : (int64_t)v;
+}
+
+/* Encoding into our own buffer spares the allocation of the generated X_publish(). */
+static bool publish_encoded(struct rmd_bridge *b, const char *channel, int n)
+{
+	if (n < 0 || lcm_publish(b->lcm, channel, b->buf->enc, (unsigned)n) < 0) {
+		count(&b->n_publish_errors);
+		return false;
+	}
+	return true;
+}
+
+static void publish_state(struct rmd_bridge *b)
+{
+	const struct rmd_snapshot *s;
+	rmd_state_t *st = &b->buf->state;
+	int n;
+
+	if (!b->opts.snapshots || !rmd_latest_get(b->opts.snapshots, (const void **)&s))
+		return;
+	if (b->state_sent && s->cycle - b->last_state_cycle < b->opts.state_every)
+		return;
+	b->state_sent = true;
+	b->last_state_cycle = s->cycle;
+
+	st->utime = s->t_ns / 1000;
+	st->cycle = sat64(s->cycle);
+	st->count = (int16_t)(s->n < RMD_MAX_MOTORS ? s->n : RMD_MAX_MOTORS);
+	for (int i = 0; i < RMD_MAX_MOTORS; i++) {
+		const struct rmd_motor_state *m = &s->m[i];
+		rmd_motor_state_t *o = &st->motor[i];
+
+		if (i >= st->count) {
+			memset(o, 0, sizeof(*o));
+			continue;
+		}
+		o->index = (int16_t)i;
+		o->lifecycle = (int8_t)m->lifecycle;
+		o->mode = (int8_t)m->mode;
+		o->position = m->pos_rad;
+		o->velocity = m->vel_rad_s;
+		o->torque = m->torque_nm;
+		o->current = m->current_a;
+		o->temperature = m->temp_c;
+		o->voltage = m->voltage_v;
+		o->error_code = m->error_code;
+		o->reply_age_cycles = sat32(m->reply_age_cycles);
+		o->reply_latency_us = sat32(m->reply_latency_ns / 1000);
+		o->missed_replies = sat64(m->missed_replies);
+	}
+	n = rmd_state_t_encode(b->buf->enc, 0, ENC_MAX, st);
+	if (publish_encoded(b, b->ch_state, n))
+		count(&b->n_states);
+}
+
+static void publish_health(struct rmd_bridge *b, int64_t now)
+{
+	static const struct rmd_health none;
+	const struct rmd_health *h = &none;
+	rmd_health_t *o = &b->buf->health;
+	int n;
+
+	if (b->opts.health)
+		rmd_latest_get(b->opts.health, (const void **)&h);
+	o->utime = now / 1000;
+	o->cycles = sat64(h->loop.cycles);
+	o->overruns = sat64(h->loop.overruns);
+	o->plan_misses = sat64(h->loop.plan_misses);
+	o->wake_min_us = h->loop.wake_min_ns / 1e3;
+	o->wake_avg_us = h->loop.wake_avg_ns / 1e3;
+	o->wake_p99_us = h->loop.wake_p99_ns / 1e3;
+	o->wake_max_us = h->loop.wake_max_ns / 1e3;
+	o->cycle_max_us = h->loop.cycle_max_ns / 1e3;
+	o->bus_count = (int16_t)(h->nbuses < RMD_MAX_BUSES ? h->nbuses : RMD_MAX_BUSES);
+	for (int i = 0; i < RMD_MAX_BUSES; i++) {
+		const struct rmd_bus_health *bh = &h->bus[i];
+		rmd_bus_health_t *ob = &o->bus[i];
+		char *name = b->buf->bus_name[i];
+
+		if (i >= o->bus_count) {
+			name[0] = '\0';
+			*ob = (rmd_bus_health_t){ .name = name };
+			continue;
+		}
+		/* The rt loop's name, else the configured one; never unterminated. */
+		snprintf(name, RMD_BRIDGE_NAME_LEN, "%.*s", (int)sizeof(bh->name),
+			 bh->name[0] ? bh->name :
+				       ((unsigned)i < b->opts.nbuses ? b->opts.bus[i].name : ""));
+		ob->name = name;
+		ob->state = (int8_t)bh->state;
+		ob->load = bh->load;
+		ob->tx_frames = sat64(bh->stats.tx_frames);
+		ob->rx_frames = sat64(bh->stats.rx_frames);
+		ob->tx_busy = sat64(bh->stats.tx_busy);
+		ob->rx_errors = sat64(bh->stats.rx_errors);
+		ob->bus_errors = sat64(bh->stats.bus_errors);
+		ob->state_changes = sat64(bh->stats.state_changes);
+	}
+	o->watchdog = (int8_t)h->watchdog;
+	o->safe_action_events = sat64(h->safe_action_events);
+
+	/* The bridge is the one that counts commands. */
+	o->commands_accepted = sat64(read_count(&b->n_accepted));
+	o->commands_rejected = 0;
+	for (int k = 0; k < RMD_REJ_KINDS; k++) {
+		o->rejected_by_kind[k] = sat64(read_count(&b->n_rejected[k]));
+		o->commands_rejected += o->rejected_by_kind[k];
+	}
+	o->commands_clamped = sat64(read_count(&b->n_clamped));
+
+	n = rmd_health_t_encode(b->buf->enc, 0, ENC_MAX, o);
+	if (publish_encoded(b, b->ch_health, n))
+		count(&b->n_health);
+}
+
+static void publish_config(struct rmd_bridge *b)
+{
+	struct rmd_bridge_opts *op = &b->opts;
+	rmd_config_t *c = &b->buf->config;
+
+	c->utime = now_ns() / 1000;
+	c->prefix = op->prefix;
+	c->period_us = sat32(op->period_ns / 1000);
+	c->state_every = sat32(op->state_every);
+	c->stale_ms = op->stale_ms;
+	c->bus_count = (int16_t)op->nbuses;
+	c->bus = b->buf->config_bus;
+	for (unsigned i = 0; i < op->nbuses; i++) {
+		c->bus[i].name = op->bus[i].name;
+		c->bus[i].kind = op->bus[i].kind;
+		c->bus[i].bitrate = sat32(op->bus[i].bitrate);
+	}
+	c->motor_count = (int16_t)op->nmotors;
+	c->motor = b->buf->config_motor;
+	for (unsigned i = 0; i < op->nmotors; i++) {
+		const struct rmd_bridge_motor *m = &op->motor[i];
+
+		c->motor[i] = (rmd_motor_config_t){
+			.index = (int16_t)i,
+			.name = op->motor[i].name,
+			.bus = m->bus,
+			.id = m->id,
+			.protocol = op->motor[i].protocol,
+			.modes = (int8_t)m->modes,
+			.position_min = m->pos_min_rad,
+			.position_max = m->pos_max_rad,
+			.velocity_max = m->vel_max_rad_s,
+			.torque_max = m->torque_max_nm,
+			.kp_min = m->kp_min,
+			.kp_max = m->kp_max,
+			.kd_min = m->kd_min,
+			.kd_max = m->kd_max,
+		};
+	}
+	/* Rare, so the generated publish (it allocates) is fine here. */
+	if (rmd_config_t_publish(b->lcm, b->ch_config, c) < 0)
+		count(&b->n_publish_errors);
+	else
+		count(&b->n_configs);
+}
+
+/* ---- the thread --------------------------------------------------------- */
+
+/*
+ * Handle what LCM has queued, and look at the snapshots after each message
+ * (an atomic load when there is none): a flood of commands never holds
+ * back the state.
+ */
+static void drain(struct rmd_bridge *b)
+{
+	for (int n = 0; n < DRAIN_MAX; n++) {
+		int r = lcm_handle_timeout(b->lcm, 0);
+
+		publish_state(b);
+		if (r < 0) {
+			if (read_count(&b->n_lcm_errors) == 0)
+				logf_(b,
+				      "<4>rmdd: LCM receive failed; further failures are counted\n");
+			count(&b->n_lcm_errors);
+		}
+		if (r <= 0)
+			return;
+	}
+}
+
+static void *bridge_main(void *arg)
+{
+	struct rmd_bridge *b = arg;
+	struct pollfd fds[3] = {
+		{ .fd = b->stop_fd, .events = POLLIN },
+		{ .fd = lcm_get_fileno(b->lcm), .events = POLLIN },
+		{ .fd = b->opts.notify_fd, .events = POLLIN },
+	};
+	nfds_t nfds = b->opts.notify_fd >= 0 ? 3 : 2;
+	int64_t now = now_ns();
+
+	pthread_setname_np(pthread_self(), "rmd-bridge");
+	publish_config(b);
+	b->next_health_ns = now + b->opts.health_period_ns;
+	for (;;) {
+		int64_t wait = b->opts.poll_ns;
+		struct timespec ts;
+
+		now = now_ns();
+		if (b->next_health_ns - now < wait)
+			wait = b->next_health_ns - now > 0 ? b->next_health_ns - now : 0;
+		ts.tv_sec = wait / 1000000000;
+		ts.tv_nsec = wait % 1000000000;
+		if (ppoll(fds, nfds, &ts, NULL) < 0 && errno != EINTR) {
+			logf_(b, "<3>rmdd: LCM bridge: poll: %s; the bridge stops\n",
+			      strerror(errno));
+			break;
+		}
+		if (fds[0].revents)
+			break;
+		if (nfds > 2 && fds[2].revents & POLLIN) {
+			uint64_t v;
+
+			if (read(fds[2].fd, &v, sizeof(v)) < 0) {
+				/* another reader got there first, or the fd is broken: poll decides */
+			}
+		}
+		if (fds[1].revents & POLLIN)
+			drain(b);
+		publish_state(b);
+		now = now_ns();
+		if (now >= b->next_health_ns) {
+			publish_health(b, now);
+			b->next_health_ns += b->opts.health_period_ns;
+			if (b->next_health_ns <= now) /* late: skip, never catch up in a burst */
+				b->next_health_ns = now + b->opts.health_period_ns;
+		}
+		if (b->config_wanted) {
+			b->config_wanted = false;
+			publish_config(b);
+		}
+	}
+	return NULL;
+}
+
+/* ---- lifecycle ----------------------------------------------------------- */
+
+static bool prefix_ok(const char *p)
+{
+	for (; *p; p++)
+		if (!isalnum((unsigned char)*p) && !strchr("_-./", *p))
+			return false;
+	return true;
+}
+
+/* LCM subscribes by regular expression: escape what is not a letter or digit. */
+static void channel_regex(char *out, size_t len, const char *prefix, const char *name)
+{
+	size_t n = 0;
+
+	for (const char *p = prefix; *p && n + 3 < len; p++) {
+		if (!isalnum((unsigned char)*p) && *p != '_')
+			out[n++] = '\\';
+		out[n++] = *p;
+	}
+	snprintf(out + n, len - n, "%s", name);
+}
+
+static bool latest_ok(const struct rmd_latest *l, size_t size, bool optional)
+{
+	return l ? l->size == size : optional;
+}
+
+static int check_opts(const struct rmd_bridge_opts *o, char *err, size_t errlen)
+{
+	if (!o->url[0] || strnlen(o->url, sizeof(o->url)) == sizeof(o->url))
+		return snprintf(err, errlen, "LCM url empty or too long"), -EINVAL;
+	if (strnlen(o->prefix, sizeof(o->prefix)) == sizeof(o->prefix) || !prefix_ok(o->prefix))
+		return snprintf(err, errlen,
+				"LCM channel prefix \"%.*s\": up to %d of A-Z a-z 0-9 _ - . /",
+				(int)sizeof(o->prefix), o->prefix, RMD_BRIDGE_PREFIX_LEN - 1),
+		       -EINVAL;
+	if (o->nmotors < 1 || o->nmotors > RMD_MAX_MOTORS)
+		return snprintf(err, errlen, "%u motors (1..%d)", o->nmotors, RMD_MAX_MOTORS),
+		       -EINVAL;
+	if (o->nbuses > RMD_MAX_BUSES)
+		return snprintf(err, errlen, "%u buses (0..%d)", o->nbuses, RMD_MAX_BUSES), -EINVAL;
+	if (!latest_ok(o->commands, sizeof(struct rmd_command), false) ||
+	    !latest_ok(o->snapshots, sizeof(struct rmd_snapshot), true) ||
+	    !latest_ok(o->health, sizeof(struct rmd_health), true))
+		return snprintf(err, errlen, "hand-over buffers missing or of the wrong size"),
+		       -EINVAL;
+	if (o->stale_ms < 0 || o->health_period_ns <= 0 || o->poll_ns <= 0)
+		return snprintf(err, errlen, "stale_ms < 0, or a period <= 0"), -EINVAL;
+	for (unsigned i = 0; i < o->nbuses; i++)
+		if (strnlen(o->bus[i].name, RMD_BRIDGE_NAME_LEN) == RMD_BRIDGE_NAME_LEN ||
+		    strnlen(o->bus[i].kind, sizeof(o->bus[i].kind)) == sizeof(o->bus[i].kind))
+			return snprintf(err, errlen, "bus %u: name or kind unterminated", i),
+			       -EINVAL;
+	for (unsigned i = 0; i < o->nmotors; i++) {
+		const struct rmd_bridge_motor *m = &o->motor[i];
+
+		if (strnlen(m->name, RMD_BRIDGE_NAME_LEN) == RMD_BRIDGE_NAME_LEN ||
+		    strnlen(m->protocol, sizeof(m->protocol)) == sizeof(m->protocol))
+			return snprintf(err, errlen, "motor %u: name or protocol unterminated", i),
+			       -EINVAL;
+		if (!m->modes || m->modes & ~RMD_BRIDGE_MODES_ALL)
+			return snprintf(err, errlen, "motor %u (%s): modes 0x%x", i, m->name,
+					m->modes),
+			       -EINVAL;
+		/* Written so that NaN fails each comparison. */
+		if (!(m->pos_min_rad <= m->pos_max_rad) || !(m->vel_max_rad_s >= 0) ||
+		    !(m->torque_max_nm >= 0) || !(m->kp_min <= m->kp_max) ||
+		    !(m->kd_min <= m->kd_max))
+			return snprintf(err, errlen,
+					"motor %u (%s): limits: position min > max, a negative "
+					"maximum, a gain range min > max, or NaN",
+					i, m->name),
+			       -EINVAL;
+	}
+	return 0;
+}
+
+/* A udpm URL gets a receive buffer that rides out a flood, unless it names one. */
+static void lcm_url(char *out, size_t len, const char *url)
+{
+	if (strncmp(url, "udpm://", 7) != 0 || strstr(url, "recv_buf_size="))
+		snprintf(out, len, "%s", url);
+	else
+		snprintf(out, len, "%s%crecv_buf_size=%d", url, strchr(url, '?') ? '&' : '?',
+			 RMD_BRIDGE_UDPM_RCVBUF);
+}
+
+int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, char *err,
+		    size_t errlen)
+{
+	char re[2 * RMD_BRIDGE_PREFIX_LEN + 16];
+	int r;
+
+	memset(b, 0, sizeof(*b));
+	b->stop_fd = -1;
+	r = check_opts(opts, err, errlen);
+	if (r < 0)
+		return r;
+	b->opts = *opts;
+	if (b->opts.state_every == 0)
+		b->opts.state_every = 1;
+	snprintf(b->ch_command, sizeof(b->ch_command), "%sCOMMAND", opts->prefix);
+	snprintf(b->ch_state, sizeof(b->ch_state), "%sSTATE", opts->prefix);
+	snprintf(b->ch_health, sizeof(b->ch_health), "%sHEALTH", opts->prefix);
+	snprintf(b->ch_config, sizeof(b->ch_config), "%sCONFIG", opts->prefix);
+	snprintf(b->ch_config_req, sizeof(b->ch_config_req), "%sCONFIG_REQUEST", opts->prefix);
+
+	b->buf = calloc(1, sizeof(*b->buf));
+	if (!b->buf) {
+		snprintf(err, errlen, "out of memory");
+		return -ENOMEM;
+	}
+	b->stop_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	if (b->stop_fd < 0) {
+		r = -errno;
+		snprintf(err, errlen, "eventfd: %s", strerror(-r));
+		goto err_free_buf;
+	}
+	lcm_url(b->url, sizeof(b->url), opts->url);
+	b->lcm = lcm_create(b->url);
+	if (!b->lcm) {
+		snprintf(err, errlen,
+			 "LCM: cannot create \"%s\" (bad URL, or multicast not routable: see "
+			 "docs/lcm.md)",
+			 b->url);
+		r = -EIO;
+		goto err_close_stop;
+	}
+	channel_regex(re, sizeof(re), opts->prefix, "COMMAND");
+	b->sub_command = lcm_subscribe(b->lcm, re, on_command, b);
+	channel_regex(re, sizeof(re), opts->prefix, "CONFIG_REQUEST");
+	b->sub_config_req = lcm_subscribe(b->lcm, re, on_config_request, b);
+	if (!b->sub_command || !b->sub_config_req) {
+		snprintf(err, errlen,
+			 "LCM \"%s\": cannot subscribe (multicast not routable? see "
+			 "docs/lcm.md)",
+			 b->url);
+		r = -EIO;
+		goto err_destroy_lcm;
+	}
+	lcm_subscription_set_queue_capacity(b->sub_command, COMMAND_QUEUE);
+	return 0;
+
+err_destroy_lcm:
+	lcm_destroy(b->lcm);
+	b->lcm = NULL;
+err_close_stop:
+	close(b->stop_fd);
+	b->stop_fd = -1;
+err_free_buf:
+	free(b->buf);
+	b->buf = NULL;
+	return r;
+}
+
+int rmd_bridge_start(struct rmd_bridge *b)
+{
+	struct sched_param sp = { .sched_priority = 0 };
+	sigset_t all, old;
+	pthread_attr_t attr;
+	int r;
+
+	if (b->running)
+		return -EALREADY;
+	r = -pthread_attr_init(&attr);
+	if (r)
+		return r;
+	/* A normal thread even when the daemon's main thread runs SCHED_FIFO. */
+	r = -pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
+	if (!r)
+		r = -pthread_attr_setschedpolicy(&attr, SCHED_OTHER);
+	if (!r)
+		r = -pthread_attr_setschedparam(&attr, &sp);
+	if (!r) {
+		/* Signals belong to the main thread: the new thread starts with all blocked. */
+		sigfillset(&all);
+		pthread_sigmask(SIG_SETMASK, &all, &old);
+		r = -pthread_create(&b->thread, &attr, bridge_main, b);
+		pthread_sigmask(SIG_SETMASK, &old, NULL);
+	}
+	pthread_attr_destroy(&attr);
+	if (!r)
+		b->running = true;
+	return r;
+}
+
+void rmd_bridge_stop(struct rmd_bridge *b)
+{
+	uint64_t one = 1;
+
+	if (!b->running)
+		return;
+	if (write(b->stop_fd, &one, sizeof(one)) < 0) {
+		/* an eventfd write fails only on overflow: already signalled */
+	}
+	pthread_join(b->thread, NULL);
+	b->running = false;
+	if (read(b->stop_fd, &one, sizeof(one)) < 0) {
+		/* nothing to clear */
+	}
+}
+
+void rmd_bridge_fini(struct rmd_bridge *b)
+{
+	rmd_bridge_stop(b);
+	if (b->lcm) {
+		if (b->sub_command)
+			lcm_unsubscribe(b->lcm, b->sub_command);
+		if (b->sub_config_req)
+			lcm_unsubscribe(b->lcm, b->sub_config_req);
+		lcm_destroy(b->lcm);
+		b->lcm = NULL;
+	}
+	if (b->stop_fd >= 0)
+		close(b->stop_fd);
+	b->stop_fd = -1;
+	free(b->buf);
+	b->buf = NULL;
+}
+
+void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
+{
+	memset(st, 0, sizeof(*st));
+	st->accepted = read_count(&b->n_accepted);
+	for (int k = 0; k < RMD_REJ_KINDS; k++) {
+		st->rejected_by_kind[k] = read_count(&b->n_rejected[k]);
+		st->rejected += st->rejected_by_kind[k];
+	}
+	st->clamped = read_count(&b->n_clamped);
+	st->states_published = read_count(&b->n_states);
+	st->health_published = read_count(&b->n_health);
+	st->configs_published = read_count(&b->n_configs);
+	st->publish_errors = read_count(&b->n_publish_errors);
+	st->lcm_errors = read_count(&b->n_lcm_errors);
+}
