@@ -688,7 +688,8 @@ int rmd_sim_bus_set_faults(struct rmd_sim_bus *bus, const struct rmd_sim_fault *
 	bus->n_faults = 0;
 	sync_error_flags(bus, bus->now_ns);
 
-	memcpy(bus->faults, faults, n * sizeof(*faults));
+	if (n)
+		memcpy(bus->faults, faults, n * sizeof(*faults));
 	memset(bus->fault_active, 0, sizeof(bus->fault_active));
 	bus->n_faults = (unsigned)n;
 	apply_windows(bus, bus->now_ns);

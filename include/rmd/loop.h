@@ -23,6 +23,57 @@
  *
  * For tests the same cycle runs without a thread and with an injected
  * clock: rmd_loop_cycle(l, now) does steps 1..5 for the tick at `now`.
+ *
+ * Matching and deadlines.  Each motor keeps a small ring of its
+ * outstanding requests (reply identifier, command byte, send time); a
+ * reply takes the oldest one it matches, and its latency is its receive
+ * time minus that send time.  A request unanswered by its deadline (send
+ * time + the larger of 2 periods and the bus's worst-case cycle plus
+ * RMD_LOOP_REPLY_MARGIN_NS; RS485 buses, whose requests wait for one
+ * another, thus get longer) is missed, and so is one the bus did not take.  A reply that repeats its request
+ * byte for byte where the command does not echo is the "only echoed"
+ * first frame after a comm-loss trip: the motor is there, its values are
+ * not.  Unmatched frames: 0x9A updates temperature, voltage and errors,
+ * 0xF1 (the motor's comm-loss protection tripped) makes the motor lost,
+ * anything else is counted and reported (RMD_EV_UNEXPECTED, at most once
+ * a second per bus).
+ *
+ * Lifecycle.  PROBE until bring-up (or a first reply); READY motors are
+ * only read (0x9C in their control slot, 0x9A polls), never moved; a
+ * command with enable = 1 makes a READY or SAFE motor ENABLED (0x77 brake
+ * release once, V3 §2.26, then its setpoints), enable = 0 makes it READY
+ * (0x80 output off and 0x78 brake locked, once).  Error flags (0x9A) ->
+ * FAULT (with the safe action when it was ENABLED), cleared -> READY.
+ * safety.missed_replies_lost missed replies in a row -> LOST, with the safe
+ * action for the motor (and every enabled motor, SAFE, when
+ * lost_motor_action is all); a LOST motor is re-probed with 0x9A every
+ * RMD_LOOP_REPROBE_NS and returns to READY.  A motor that returns from
+ * LOST or FAULT, or was made SAFE by another motor's loss, needs an
+ * explicit enable = 0 before enable = 1 takes it again, so a controller
+ * streaming enable = 1 does not restart it unawares.  Host watchdog: no
+ * command for safety.command_timeout_ms while a motor is ENABLED -> the
+ * safe action for every enabled motor (SAFE), RMD_WD_TRIPPED, latched
+ * until a command with an enable newer than the trip.
+ *
+ * Safe actions, per motor: stop 0x80; hold 0x81; brake 0x80 then 0x78;
+ * damp: MIT frames with kp 0, kd > 0 in every control slot (MIT motors),
+ * else 0xA2 speed 0 once.  A setpoint with NaN/Inf is never encoded: the
+ * first frame of the safe action goes out instead, and is counted.
+ *
+ * Frames.  Each bus gets exactly the requests rmd_plan_cycle() lists, in
+ * one send call; what the bus does not take is counted (plan_misses) and
+ * dropped (setpoints are never sent late), except one-shot frames (0x80,
+ * 0x78, 0x81, ...), which wait for the next cycle.  A control slot of a
+ * motor that is not ENABLED carries a one-shot if one waits, else a status
+ * read (0x9C on 0x140 + ID; for MIT motors too: it cannot move the motor,
+ * while even a zero-gain MIT frame would take it out of its brake-held
+ * stand-still).  The V2 0x280 frame goes out only while one of its motors
+ * is ENABLED (the others' slots carry 0 A: the frame cannot skip a motor)
+ * and none of them has a one-shot waiting; one-shots take the slot first,
+ * as many as its budget holds, and with nobody to drive it carries a
+ * round-robin 0x9C.
+ *
+ * Measured values not yet received are NaN in the snapshot.
  */
 #ifndef RMD_LOOP_H
 #define RMD_LOOP_H
@@ -50,7 +101,55 @@ struct rmd_loop_opts {
 	/* Time source; NULL: clock_gettime(CLOCK_MONOTONIC).  Tests inject one. */
 	int64_t (*now_ns)(void *ctx);
 	void *now_ctx;
+	/*
+	 * Bring-up and rmd_loop_stop_motors() wait for replies in steps of
+	 * this (ctx: now_ctx); NULL: clock_nanosleep(), or poll(2) on a
+	 * bus's fd.  A test with an injected clock advances it here.
+	 */
+	void (*sleep_ns)(void *ctx, int64_t ns);
 	bool require_rt; /* refuse to run without SCHED_FIFO and mlockall */
+};
+
+/* A lost motor is re-probed (0x9A) this often: 2 Hz. */
+#define RMD_LOOP_REPROBE_NS 500000000
+/*
+ * Reply deadline beyond a bus's worst-case cycle (DESIGN.md: a motor answers
+ * in 0.5-0.8 ms, USB adapters add ~1 ms): 3 ms at 1 kHz on a full bus.
+ */
+#define RMD_LOOP_REPLY_MARGIN_NS 2000000
+/* Bring-up: tries per request and the wait of one try (RS485: its reply timeout + 1 ms). */
+#define RMD_LOOP_PROBE_TRIES 3
+#define RMD_LOOP_PROBE_TIMEOUT_NS 5000000
+/* Stack the rt thread gets, and how much of it is touched before the first cycle. */
+#define RMD_LOOP_STACK_SIZE (1024 * 1024)
+#define RMD_LOOP_PREFAULT_STACK (256 * 1024)
+
+/*
+ * An event kind beyond enum rmd_event_kind (rmd/state.h): real-time
+ * scheduling was not granted.  a = -errno, b = RMD_LOOP_RT_*.  Sent once by
+ * rmd_loop_start() when it runs anyway.
+ */
+#define RMD_LOOP_EV_RT 0x100
+enum {
+	RMD_LOOP_RT_MLOCK = 1,	  /* mlockall() failed */
+	RMD_LOOP_RT_FIFO = 2,	  /* SCHED_FIFO refused: normal priority */
+	RMD_LOOP_RT_AFFINITY = 3, /* the CPU affinity could not be set */
+};
+
+/* Counters beyond struct rmd_loop_stats (rmd_loop_get_counters()). */
+struct rmd_loop_counters {
+	uint64_t replies;	  /* matched to a request */
+	uint64_t missed;	  /* requests whose deadline passed */
+	uint64_t echoes;	  /* requests echoed instead of answered (after a comm-loss trip) */
+	uint64_t unsolicited;	  /* used without a request: 0x9A reports, 0xF1 */
+	uint64_t unexpected;	  /* neither matched nor used (late replies included) */
+	uint64_t bad_replies;	  /* matched, but could not be decoded */
+	uint64_t nonfinite;	  /* setpoints with NaN/Inf: safe frame sent instead */
+	uint64_t unsupported;	  /* setpoints in a mode the motor cannot take: same */
+	uint64_t clamped;	  /* setpoints clamped to a limit */
+	uint64_t frames_not_sent; /* frames a bus did not take */
+	uint64_t commands;	  /* commands taken from the bridge */
+	uint64_t safe_actions;	  /* safe actions applied, per motor */
 };
 
 /* Allocate and prefault everything the loop will touch.  NULL + err on failure.  Non-rt. */
@@ -62,9 +161,25 @@ void rmd_loop_free(struct rmd_loop *l);
 /*
  * Bring-up, before the thread starts (non-rt, may block for a bounded
  * time): probe every motor (0xB5 model, 0xB2 version, 0x9A status), write
- * the configured 0xB3 comm-loss time once and check its echo.  Fills
- * `report` with one line per motor (found, missing, unexpected).  Returns
- * 0, or -ENODEV when a motor is missing and the config says refuse.
+ * the configured 0xB3 comm-loss time once and check its echo.  V2 has no
+ * 0xB5, 0xB2 or 0xB3: V2 motors are probed with 0x9A, and 0x92 anchors
+ * their unwrapped encoder position.  Each request is tried
+ * RMD_LOOP_PROBE_TRIES times, RMD_LOOP_PROBE_TIMEOUT_NS each.  Fills
+ * `report` (no trailing newline) with one line per motor, e.g.
+ *
+ *   sim0: motor 2 (knee_l): X8S2V10, firmware 20220206, 48.5 V, 25 °C, 0xB3 set to 100 ms
+ *   can1: motor 5 (hip_r): missing (no answer to 0xB5 in 3 tries of 5 ms)
+ *
+ * and one per unexpected motor: every id not configured on a bus is asked
+ * for its status (0x9A) once, and one that answers is reported (and an
+ * RMD_EV_PROBE event with motor 0xFF, a = -EEXIST, b = its id), e.g.
+ *
+ *   can0: motor 7: unexpected (answers, but is not configured)
+ *
+ * Found motors are READY (FAULT with error flags),
+ * missing ones LOST (re-probed by the cycle).  Returns 0, -ENODEV when a
+ * motor is missing and probe.on_missing is refuse, or -EBUSY while the
+ * thread runs.
  */
 int rmd_loop_bringup(struct rmd_loop *l, char *report, size_t len);
 
@@ -75,17 +190,28 @@ int rmd_loop_bringup(struct rmd_loop *l, char *report, size_t len);
 void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
 
 /*
- * Stop every motor: V3 0x280 broadcast of 0x81/0x80 where every motor on a
- * bus is V3 with the CAN filter off, else one frame per motor; brakes if
- * configured.  The motors' 0xB3 protection stays in place.  rt-safe.
+ * Stop every motor: 0x80 (output off) to every motor, one frame each, and
+ * 0x78 (brake locked) after it when the safe action is brake; then every
+ * motor is READY.  The V3 0x280 broadcast would do it in one frame, but it
+ * reaches only motors whose CAN-ID filter is off (V3 §3, 0x20 index 2), and
+ * the configuration cannot promise that, so it is not used.  The motors'
+ * 0xB3 protection stays in place.  Frames the bus refuses are sent again
+ * for at most ~10 ms (opts.sleep_ns or clock_nanosleep between tries), and
+ * then their echoes are awaited for at most one reply deadline, so they
+ * are on the wire when it returns.  rt-safe (bounded, no allocation).
  */
 void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now_ns);
 
 /*
  * Start the SCHED_FIFO thread (priority and CPU affinity from the config,
  * mlockall, prefaulted stack).  Without the privilege it says so once
- * through the event ring and runs at normal priority, unless require_rt.
- * Returns 0 or -errno.  Non-rt.
+ * through the event ring (RMD_LOOP_EV_RT) and runs at normal priority,
+ * unless require_rt: then -EPERM.  Between ticks the thread collects
+ * replies from the buses that have a descriptor (poll(2)), so RS485 queues
+ * advance and replies are stamped as they come; buses without one (sim)
+ * are read at the next tick.  The thread runs on CLOCK_MONOTONIC: -EINVAL
+ * when opts.now_ns was given; -EBUSY when it runs already.  Returns 0 or
+ * -errno.  Non-rt.
  */
 int rmd_loop_start(struct rmd_loop *l);
 
@@ -108,5 +234,8 @@ void rmd_loop_get_stats(const struct rmd_loop *l, struct rmd_loop_stats *out);
 
 /* Copy of the newest snapshot; safe from any thread (non-rt). */
 void rmd_loop_get_snapshot(const struct rmd_loop *l, struct rmd_snapshot *out);
+
+/* Copy of the counters so far; safe from any thread. */
+void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *out);
 
 #endif /* RMD_LOOP_H */

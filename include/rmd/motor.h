@@ -1,0 +1,212 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * One motor's units, in one place (DESIGN.md "Units"): SI at the output
+ * shaft, as LCM and the configuration speak them, <-> the protocol's
+ * native units on the wire (0.01 A, 0.01 dps, 0.01 deg, MIT codes), with
+ * the motor's direction, zero offset, torque constant and gear ratio.
+ *
+ * Frames of reference.  "Native" is what the motor measures at its output
+ * shaft (its rotor, divided by gear_ratio, when the config says units:
+ * rotor).  rmdd reports
+ *
+ *   pos_rad    = direction * (native_rad - zero_offset_rad)
+ *   vel_rad_s  = direction * native_rad_s
+ *   torque_nm  = direction * native_nm       (= direction * iq * Kt)
+ *   current_a  = direction * iq
+ *
+ * so zero_offset_rad is the native output position that rmdd reports as 0,
+ * and commands go the other way: native = direction * pos + zero_offset.
+ *
+ * Setpoints.  rmd_motor_encode() clamps every value to the motor's limits
+ * (config limits: position window, |velocity|, |torque|; MIT ranges) and
+ * refuses NaN and Inf BEFORE anything is encoded: a non-finite value never
+ * reaches the wire; the caller sends the safe action's frame instead
+ * (rmd_motor_encode_safe()) and counts it.  Frames per mode and protocol:
+ *
+ *   torque    V3 §2.17 / V2 §3.37 0xA1: iq = torque / Kt (V3 0.01 A,
+ *             V2 32 A / 2000); V2 §4.1 0x280 for batched motors
+ *   speed     V3 §2.18 / V2 §3.38 0xA2: 0.01 dps
+ *   position  V3 §2.20 / V2 §3.40 0xA4: 0.01 deg, maxSpeed 1 dps
+ *   mit       V3 §5 on 0x400 + ID (rmd_mit_encode_cmd(), the motor's ranges)
+ *
+ * MIT motors also answer the V3 command set on 0x140 + ID (V3 §5), so every
+ * non-MIT frame for them (status reads, 0x80, 0xB3, ...) is a V3 frame.
+ *
+ * Replies.  rmd_motor_decode() turns a reply (V3 0x240 + ID, V2 0x140 + ID,
+ * MIT 0x500 + ID) into SI values and says which it carried.  V3 control
+ * replies carry the output angle in whole degrees (V3 §2.13.3, int16);
+ * V2's carry the rotor's single-turn encoder (V2 §3.32, 16 bits a rotor
+ * turn), which rmd_motor_decode() unwraps into a multi-turn output angle
+ * from a reference set with rmd_motor_set_v2_reference() (the 0x92 angle
+ * read at bring-up; without one V2 positions start at 0).
+ *
+ * Everything here is rt-safe: no allocation, no I/O, no clock.
+ */
+#ifndef RMD_MOTOR_H
+#define RMD_MOTOR_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "rmd/codec.h"
+#include "rmd/config.h"
+#include "rmd/frame.h"
+#include "rmd/mit.h"
+#include "rmd/state.h"
+
+/*
+ * Damping of the MIT "damp" safe action (kp 0, kd this, clamped into the
+ * motor's kd range); the configuration has no key for it yet.
+ */
+#define RMD_MOTOR_DAMP_KD 1.0
+
+/* V2 §3.32: the single-turn encoder counts 2^16 a rotor turn. */
+#define RMD_MOTOR_V2_ENCODER_COUNTS 65536
+
+/*
+ * Pseudo command of MIT replies (0x500 + ID carries no command byte), for
+ * matching a reply to its request: command bytes are 0x00..0xFF.
+ */
+#define RMD_MOTOR_CMD_MIT 0x100u
+
+/* The unsolicited frame of a motor whose comm-loss protection tripped (DESIGN.md). */
+#define RMD_MOTOR_CMD_COMM_LOST 0xF1u
+
+/* rmd_motor_encode() *flags */
+enum {
+	RMD_MOTOR_CLAMPED = 1u << 0, /* a value was clamped to a limit or range */
+};
+
+/* What a decoded reply carried: struct rmd_motor_reply.have */
+enum {
+	RMD_MOTOR_HAVE_POS = 1u << 0,
+	RMD_MOTOR_HAVE_VEL = 1u << 1,
+	RMD_MOTOR_HAVE_TORQUE = 1u << 2, /* torque_nm, and current_a */
+	RMD_MOTOR_HAVE_TEMP = 1u << 3,
+	RMD_MOTOR_HAVE_VOLTAGE = 1u << 4,
+	RMD_MOTOR_HAVE_ERROR = 1u << 5, /* error_code (0x9A) */
+	RMD_MOTOR_HAVE_BRAKE = 1u << 6,
+	RMD_MOTOR_HAVE_MODEL = 1u << 7,	  /* 0xB5 */
+	RMD_MOTOR_HAVE_VERSION = 1u << 8, /* 0xB2 */
+	RMD_MOTOR_HAVE_TIMEOUT = 1u << 9, /* 0xB3 echo */
+};
+
+/* A motor's conversion parameters (from its config entry) and decode state. */
+struct rmd_motor {
+	uint8_t id;
+	enum rmd_proto proto;
+	enum rmd_ctrl_mode mode;
+	double dir;		  /* +1 or -1 */
+	double native_per_output; /* 1, or gear_ratio when the protocol speaks the rotor */
+	double gear_ratio;	  /* rotor turns per output turn (encoder counts) */
+	double zero_offset_rad;
+	double kt_nm_a; /* output N·m per A of iq; 0: unknown */
+	struct rmd_config_limits limits;
+	struct rmd_mit_ranges mit;
+	double damp_kd;
+	/* V2 position: the rotor encoder unwrapped from a reference */
+	bool v2_have_ref;      /* a reference angle was set */
+	double v2_ref_rad;     /* native output angle at the anchor */
+	bool v2_anchored;      /* the first encoder value after the reference is seen */
+	uint16_t v2_enc_last;  /* last encoder value */
+	int64_t v2_enc_counts; /* unwrapped counts since the anchor */
+};
+
+/* A reply in SI at the output shaft (see the top of this file). */
+struct rmd_motor_reply {
+	uint16_t cmd;  /* command byte, or RMD_MOTOR_CMD_MIT */
+	unsigned have; /* RMD_MOTOR_HAVE_* */
+	double pos_rad;
+	double vel_rad_s;
+	double torque_nm; /* NaN when Kt is unknown and the frame carries current */
+	double current_a; /* NaN when Kt is unknown and the frame carries torque (MIT) */
+	double temp_c;
+	double voltage_v;
+	uint16_t error_code;
+	bool brake_released;
+	char model[8];		  /* 0xB5, NUL-terminated */
+	uint32_t version_date;	  /* 0xB2, yyyymmdd */
+	uint32_t comm_timeout_ms; /* 0xB3 */
+};
+
+/*
+ * Take a validated config entry.  Returns 0, or -EINVAL for a direction
+ * other than +-1, a gear ratio <= 0, an id outside 1..32, invalid MIT
+ * ranges for an MIT motor, or a V2/V3 motor without torque constant.
+ */
+int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c);
+
+/*
+ * Encode setpoint sp for the motor, in the setpoint's mode (sp->mode, enum
+ * rmd_mode), as one frame.  Values are clamped (RMD_MOTOR_CLAMPED in
+ * *flags, which may be NULL).  Returns 0; -EDOM when a value the mode uses
+ * is NaN or infinite (nothing encoded); -EOPNOTSUPP for a mode the
+ * protocol cannot do (MIT on a V2/V3 motor, an unknown mode) or torque
+ * without a torque constant.
+ */
+int rmd_motor_encode(const struct rmd_motor *m, const struct rmd_setpoint *sp,
+		     struct rmd_frame *out, unsigned *flags);
+
+/*
+ * The frames of safe action `a` for this motor (1 or 2, returned):
+ * stop 0x80 (V3 §2.15, V2 §3.34); hold 0x81 (V3 §2.16, V2 §3.35); damp: MIT
+ * kp 0, kd RMD_MOTOR_DAMP_KD, zero velocity and torque on 0x400 + ID for
+ * MIT motors, 0xA2 speed 0 for the others (neither V2 nor V3 0xA2 has a
+ * torque limit); brake 0x80 then 0x78 (V3 §2.27, V2 §3.51).
+ */
+int rmd_motor_encode_safe(const struct rmd_motor *m, enum rmd_safe_action a,
+			  struct rmd_frame out[2]);
+
+/*
+ * A request without fields (0x80, 0x81, 0x78, 0x9A, 0x9C, 0x92, 0xB2,
+ * 0xB5, ...) on 0x140 + ID, from the motor's table (V3 for MIT motors).
+ * Returns 0, or -ENOENT when the protocol has no such command.
+ */
+int rmd_motor_encode_cmd(const struct rmd_motor *m, uint8_t cmd, struct rmd_frame *out);
+
+/* V3 §2.30 0xB3 comm-loss time (ms, 0: off).  -EOPNOTSUPP for V2, which has none. */
+int rmd_motor_encode_comm_timeout(const struct rmd_motor *m, uint32_t ms, struct rmd_frame *out);
+
+/*
+ * V2 §4.1 0x280: the torques of motors with ID 1..4.  m[k] is the motor
+ * with ID k + 1 on the bus, or NULL (its slot carries 0 A); torque_nm[k] is
+ * clamped to that motor's limit (RMD_MOTOR_CLAMPED in *flags) and
+ * converted with its Kt and direction.  A non-finite torque is sent as 0 A,
+ * the frame's only "no torque", and counted in *nonfinite.  flags and
+ * nonfinite may be NULL.  Returns 0, or -EINVAL when a motor is not a V2
+ * motor with that ID and a torque constant.
+ */
+int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double torque_nm[4],
+			      struct rmd_frame *out, unsigned *flags, unsigned *nonfinite);
+
+/*
+ * The identifier and command a reply to `req` (a frame of this motor)
+ * comes with: V3 and MIT-as-V3 on 0x240 + ID, V2 on 0x140 + ID, MIT on
+ * 0x500 + ID (cmd RMD_MOTOR_CMD_MIT); a V2 0x280 frame is answered like
+ * 0xA1 (V2 §4.2).
+ */
+void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req, uint32_t *reply_id,
+			 uint16_t *cmd);
+
+/*
+ * Decode a reply of this motor into r.  Returns 0; -EINVAL when the frame
+ * is not a reply of this motor; -EBADMSG for a bad length or MIT id byte;
+ * -ENOENT for a command the codec does not know (r->cmd is still set: the
+ * 0xF1 comm-loss frame comes back this way).  Updates the V2 unwrap state.
+ */
+int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r);
+
+/* Copy what r carried into the state (position, speed, torque, ...).  rt-safe. */
+void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st);
+
+/*
+ * V2: the native output angle (rad) read with 0x92 at bring-up; the next
+ * encoder value decoded is taken to be there.
+ */
+void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad);
+
+/* The native output position (rad) of a reported position, and back. */
+double rmd_motor_to_native_pos(const struct rmd_motor *m, double pos_rad);
+double rmd_motor_from_native_pos(const struct rmd_motor *m, double native_rad);
+
+#endif /* RMD_MOTOR_H */

@@ -1,0 +1,1031 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rt loop tests: rmd_loop_cycle() driven with an injected clock over
+ * in-process simulated buses (rmd_bus_sim_open(); the sim's time follows
+ * the now_ns each call passes).  A tap on every sim bus records the frames
+ * the host put on the wire, so a test checks what actually went out.
+ *
+ * Covered: bring-up and its report; READY motors are read, never moved;
+ * an enabled position command moves a motor to its target; reply latency
+ * and age; frames per cycle as planned; missed replies -> LOST -> safe
+ * action, re-probe -> READY and not ENABLED; lost_motor_action all; error
+ * flags -> FAULT -> READY; a comm-loss trip (0xF1, the echoed first frame);
+ * the host watchdog trips after command_timeout_ms + 1 cycle and a new
+ * enable lifts it; NaN never reaches the wire; stop_motors; overruns; the
+ * V2 0x280 frame; MIT motors; health.
+ */
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <cmocka.h>
+
+#include "rmd/bus_sim.h"
+#include "rmd/config.h"
+#include "rmd/loop.h"
+#include "rmd/plan.h"
+#include "rmd/sim.h"
+#include "rmd/sim_bus.h"
+#include "rmd/spsc.h"
+#include "rmd/state.h"
+
+#define MS INT64_C(1000000)
+#define US INT64_C(1000)
+#define TRACE_MAX 65536
+#define EVENTS_MAX 8192
+
+/* ---- the injected clock ---------------------------------------------------- */
+
+static int64_t t_now;
+
+static int64_t fake_now(void *ctx)
+{
+	(void)ctx;
+	return t_now;
+}
+
+static void fake_sleep(void *ctx, int64_t ns)
+{
+	(void)ctx;
+	t_now += ns;
+}
+
+/* ---- frames the host put on the wire --------------------------------------- */
+
+struct sent {
+	unsigned bus;
+	struct rmd_frame f;
+	int64_t t_ns; /* caller's clock, start of frame */
+};
+
+static struct sent trace[TRACE_MAX];
+static unsigned trace_n;
+
+/* ---- the rig ---------------------------------------------------------------- */
+
+struct rig {
+	struct rmd_config cfg;
+	struct rmd_plan plan;
+	struct rmd_bus buses[RMD_MAX_BUSES];
+	int64_t epoch[RMD_MAX_BUSES]; /* caller time at sim time 0 */
+	struct rmd_latest cmds, snaps, health;
+	struct rmd_command cmd_buf[3];
+	struct rmd_snapshot snap_buf[3];
+	struct rmd_health health_buf[3];
+	struct rmd_ring events;
+	struct rmd_event ev_buf[1024];
+	struct rmd_loop *l;
+	struct rmd_command cmd; /* the command the test builds */
+	char report[4096];
+};
+
+static struct rig R;
+static struct rmd_event evs[EVENTS_MAX];
+static unsigned nev;
+
+static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
+{
+	unsigned b = (unsigned)(uintptr_t)ctx;
+
+	(void)eof_ns;
+	if (p->src != RMD_SIM_SRC_HOST || trace_n >= TRACE_MAX)
+		return;
+	trace[trace_n++] = (struct sent){ .bus = b, .f = p->f, .t_ns = start_ns + R.epoch[b] };
+}
+
+static void events_pump(void)
+{
+	struct rmd_event e;
+
+	while (rmd_ring_pop(&R.events, &e))
+		if (nev < EVENTS_MAX)
+			evs[nev++] = e;
+}
+
+static unsigned count_ev(unsigned kind, int motor)
+{
+	unsigned n = 0;
+
+	events_pump();
+	for (unsigned k = 0; k < nev; k++)
+		if (evs[k].kind == kind && (motor < 0 || evs[k].motor == motor))
+			n++;
+	return n;
+}
+
+typedef void tweak_fn(struct rmd_config *cfg);
+
+/* Every sim motor follows its config entry (after a tweak changed it). */
+static void sync_sim(struct rmd_config *cfg)
+{
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		struct rmd_config_motor *m = &cfg->motors[i];
+
+		m->sim.id = m->id;
+		m->sim.proto = m->proto;
+		m->sim.mit = m->mit;
+		m->sim.gear_ratio = m->gear_ratio;
+		if (m->torque_constant_nm_a > 0)
+			m->sim.kt_nm_a = m->torque_constant_nm_a;
+	}
+}
+
+static void open_buses(void)
+{
+	char err[256];
+
+	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
+		const struct rmd_config_bus *cb = &R.cfg.buses[b];
+		struct rmd_bus_sim_motor ms[RMD_MAX_MOTORS];
+		struct rmd_bus_sim_opts o = {
+			.motors = ms,
+			.bitrate = cb->bitrate,
+			.seed = cb->sim.seed,
+			.flags = cb->sim.host_fifo ? RMD_SIM_BUS_HOST_FIFO : 0,
+			.txqueuelen = cb->sim.txqueuelen,
+			.faults = cb->sim.faults,
+			.n_faults = cb->sim.n_faults,
+		};
+
+		for (unsigned i = 0; i < R.cfg.n_motors; i++) {
+			const struct rmd_config_motor *m = &R.cfg.motors[i];
+
+			if (m->bus == b)
+				ms[o.n_motors++] = (struct rmd_bus_sim_motor){ .id = m->id,
+									       .proto = m->proto,
+									       .params = &m->sim };
+		}
+		if (rmd_bus_sim_open(&R.buses[b], cb->name, &o, err, sizeof(err)))
+			fail_msg("sim bus %s: %s", cb->name, err);
+		rmd_sim_bus_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
+	}
+}
+
+/*
+ * n V3 motors three to a sim bus (rmd_config_sim_default()), tweaked, and a
+ * loop on them, on the injected clock or (real) on CLOCK_MONOTONIC.
+ */
+static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
+{
+	struct rmd_loop_opts o;
+	char err[1024];
+	int r;
+
+	memset(&R, 0, sizeof(R));
+	trace_n = 0;
+	nev = 0;
+	t_now = 1000 * MS;
+	assert_int_equal(rmd_config_sim_default(&R.cfg, n), 0);
+	R.cfg.safety.safe_action = RMD_SAFE_STOP;
+	R.cfg.safety.lost_motor_action = RMD_LOST_MOTOR;
+	if (tweak)
+		tweak(&R.cfg);
+	sync_sim(&R.cfg);
+	r = rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err));
+	if (r)
+		fail_msg("plan: %s", err);
+	open_buses();
+	rmd_latest_init(&R.cmds, R.cmd_buf, sizeof(struct rmd_command));
+	rmd_latest_init(&R.snaps, R.snap_buf, sizeof(struct rmd_snapshot));
+	rmd_latest_init(&R.health, R.health_buf, sizeof(struct rmd_health));
+	assert_int_equal(rmd_ring_init(&R.events, R.ev_buf, 1024, sizeof(struct rmd_event)), 0);
+	o = (struct rmd_loop_opts){
+		.cfg = &R.cfg,
+		.plan = &R.plan,
+		.buses = R.buses,
+		.commands = &R.cmds,
+		.snapshots = &R.snaps,
+		.health = &R.health,
+		.events = &R.events,
+		.now_ns = real ? NULL : fake_now,
+		.sleep_ns = real ? NULL : fake_sleep,
+	};
+	R.l = rmd_loop_new(&o, err, sizeof(err));
+	if (!R.l)
+		fail_msg("rmd_loop_new: %s", err);
+}
+
+static void rig_up(unsigned n, tweak_fn *tweak)
+{
+	rig_up_clock(n, tweak, false);
+}
+
+static void rig_down(void)
+{
+	rmd_loop_free(R.l);
+	R.l = NULL;
+	for (unsigned b = 0; b < R.cfg.n_buses; b++)
+		rmd_bus_close(&R.buses[b]);
+}
+
+/* Bring-up, then the clock on a whole millisecond; the epochs for the tap. */
+static void bring_up(void)
+{
+	int r = rmd_loop_bringup(R.l, R.report, sizeof(R.report));
+
+	if (r)
+		fail_msg("bring-up: %d\n%s", r, R.report);
+	t_now = (t_now / MS + 1) * MS;
+	for (unsigned b = 0; b < R.cfg.n_buses; b++)
+		R.epoch[b] = t_now - rmd_bus_sim_time_ns(&R.buses[b], t_now);
+}
+
+static int64_t period(void)
+{
+	return R.plan.period_ns;
+}
+
+/* n cycles, one period apart; with_cmd: publish R.cmd before each. */
+static void run(unsigned n, bool with_cmd)
+{
+	for (unsigned k = 0; k < n; k++) {
+		if (with_cmd) {
+			R.cmd.rx_ns = t_now;
+			R.cmd.seq++;
+			rmd_latest_put(&R.cmds, &R.cmd);
+		}
+		rmd_loop_cycle(R.l, t_now);
+		t_now += period();
+	}
+	events_pump();
+}
+
+static void cmd_clear(void)
+{
+	memset(&R.cmd, 0, sizeof(R.cmd));
+}
+
+static struct rmd_setpoint *cmd_motor(unsigned i, bool enable, enum rmd_mode mode)
+{
+	struct rmd_setpoint *sp = &R.cmd.m[i];
+
+	R.cmd.present |= 1u << i;
+	memset(sp, 0, sizeof(*sp));
+	sp->enable = enable;
+	sp->mode = (uint8_t)mode;
+	return sp;
+}
+
+static struct rmd_snapshot snap(void)
+{
+	struct rmd_snapshot s;
+
+	rmd_loop_get_snapshot(R.l, &s);
+	return s;
+}
+
+static struct rmd_sim_motor *sim_motor(unsigned i)
+{
+	const struct rmd_config_motor *m = &R.cfg.motors[i];
+
+	return rmd_sim_bus_motor(rmd_bus_sim_get(&R.buses[m->bus]), m->id);
+}
+
+static unsigned lifecycle(unsigned i)
+{
+	return snap().m[i].lifecycle;
+}
+
+/* Host frames to motor i (its 0x140 + ID or 0x400 + ID) with command byte cmd since trace[from]. */
+static unsigned sent_to(unsigned i, int cmd, unsigned from)
+{
+	const struct rmd_config_motor *m = &R.cfg.motors[i];
+	unsigned n = 0;
+
+	for (unsigned k = from; k < trace_n; k++) {
+		const struct sent *s = &trace[k];
+
+		if (s->bus != m->bus)
+			continue;
+		if (cmd == 0x400 && s->f.can_id == 0x400u + m->id)
+			n++;
+		else if (cmd != 0x400 && s->f.can_id == 0x140u + m->id && s->f.data[0] == cmd)
+			n++;
+	}
+	return n;
+}
+
+static bool moves_frame(const struct rmd_frame *f)
+{
+	uint8_t c = f->data[0];
+
+	if (f->can_id >= 0x400 || f->can_id == 0x280)
+		return true;
+	return (c >= 0xA1 && c <= 0xA8) || c == 0x77 || c == 0x88;
+}
+
+/* n 0 clears the table (f then points at a dummy: rmd_sim_bus_set_faults() memcpy()s it) */
+static void set_faults(unsigned bus, const struct rmd_sim_fault *f, size_t n)
+{
+	static const struct rmd_sim_fault none;
+
+	assert_int_equal(rmd_sim_bus_set_faults(rmd_bus_sim_get(&R.buses[bus]), f ? f : &none, n),
+			 0);
+}
+
+static int64_t sim_time(unsigned bus)
+{
+	return rmd_bus_sim_time_ns(&R.buses[bus], t_now);
+}
+
+/* ---- tests ------------------------------------------------------------------- */
+
+static void test_bringup_ready_not_moved(void **state)
+{
+	struct rmd_loop_counters c;
+	struct rmd_snapshot s;
+	uint64_t tx0, want = 0;
+	const char *p;
+	unsigned n = 0;
+
+	(void)state;
+	rig_up(3, NULL);
+	bring_up();
+	for (p = R.report; (p = strstr(p, "X8S2V10, firmware 20220206, 48.0 V, 25 °C, "
+					  "0xB3 set to 100 ms"));
+	     p++)
+		n++;
+	if (n != 3)
+		fail_msg("report:\n%s", R.report);
+	assert_non_null(strstr(R.report, "sim0: motor 2 (motor2): "));
+	assert_int_equal(count_ev(RMD_EV_PROBE, -1), 3);
+	for (unsigned i = 0; i < 3; i++) {
+		assert_int_equal(lifecycle(i), RMD_LC_READY);
+		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100);
+	}
+
+	/* no command: polled for 2 s, never moved, frames exactly as planned */
+	tx0 = R.buses[0].stats.tx_frames;
+	for (unsigned k = 0; k < 2000; k++) {
+		struct rmd_plan_slot slots[RMD_PLAN_MAX_SLOTS];
+
+		want += rmd_plan_cycle(&R.plan, 0, k, slots);
+	}
+	trace_n = 0;
+	run(2000, false);
+	assert_int_equal(R.buses[0].stats.tx_frames - tx0, want);
+	for (unsigned k = 0; k < trace_n; k++)
+		if (moves_frame(&trace[k].f))
+			fail_msg("frame %03X#%02X sent to a READY motor", trace[k].f.can_id,
+				 trace[k].f.data[0]);
+	s = snap();
+	for (unsigned i = 0; i < 3; i++) {
+		struct rmd_sim_motor *m = sim_motor(i);
+
+		assert_int_equal(s.m[i].lifecycle, RMD_LC_READY);
+		assert_int_equal(m->ctrl, RMD_SIM_OFF);
+		assert_true(m->brake_locked);
+		assert_false(m->comm_lost); /* the reads keep 0xB3 from tripping */
+		assert_true(s.m[i].reply_age_cycles <= 1);
+		assert_int_equal(s.m[i].missed_replies, 0);
+		assert_float_equal(s.m[i].temp_c, 25.0, 1.0);
+		assert_float_equal(s.m[i].voltage_v, 48.0, 0.05);
+		assert_true(isfinite(s.m[i].pos_rad));
+		assert_int_equal(s.m[i].error_code, 0);
+	}
+	rmd_loop_get_counters(R.l, &c);
+	assert_int_equal(c.missed, 0);
+	assert_int_equal(c.unexpected, 0);
+	assert_true(c.replies >= want - 6);
+	rig_down();
+}
+
+static void test_bringup_unexpected(void **state)
+{
+	struct rmd_sim_motor_params p;
+
+	(void)state;
+	rig_up(3, NULL);
+	/* a motor on the wire that the configuration does not know */
+	p = R.cfg.motors[0].sim;
+	p.id = 7;
+	p.seed = 0;
+	assert_true(rmd_sim_bus_add_motor(rmd_bus_sim_get(&R.buses[0]), &p, 0) >= 0);
+	bring_up();
+	if (!strstr(R.report, "sim0: motor 7: unexpected (answers, but is not configured)"))
+		fail_msg("report:\n%s", R.report);
+	assert_int_equal(count_ev(RMD_EV_PROBE, 0xFF), 1);
+	for (unsigned k = 0; k < nev; k++)
+		if (evs[k].kind == RMD_EV_PROBE && evs[k].motor == 0xFF)
+			assert_true(evs[k].a == -EEXIST && evs[k].b == 7);
+	/* and it is never spoken to again */
+	trace_n = 0;
+	run(500, false);
+	for (unsigned k = 0; k < trace_n; k++)
+		assert_int_not_equal(trace[k].f.can_id, 0x147);
+	rig_down();
+}
+
+static void missing_start(struct rmd_config *cfg)
+{
+	cfg->probe.on_missing = RMD_MISSING_START;
+}
+
+static void test_bringup_missing(void **state)
+{
+	struct rmd_sim_fault gone = {
+		.kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 2, .start_ns = 0, .end_ns = 0
+	};
+
+	(void)state;
+	/* refuse: -ENODEV, and the report says which and how it was asked */
+	rig_up(3, NULL);
+	set_faults(0, &gone, 1);
+	assert_int_equal(rmd_loop_bringup(R.l, R.report, sizeof(R.report)), -ENODEV);
+	assert_non_null(strstr(R.report, "sim0: motor 2 (motor2): missing (no answer to 0xB5 in 3 "
+					 "tries of 5 ms)"));
+	assert_non_null(strstr(R.report, "sim0: motor 3 (motor3): X8S2V10"));
+	for (unsigned k = 0; k < nev; k++)
+		if (evs[k].kind == RMD_EV_PROBE)
+			assert_int_equal(evs[k].a, evs[k].motor == 1 ? -ENODEV : 0);
+	rig_down();
+
+	/* start: the others run, the missing one is LOST and re-probed at 2 Hz */
+	rig_up(3, missing_start);
+	set_faults(0, &gone, 1);
+	assert_int_equal(rmd_loop_bringup(R.l, R.report, sizeof(R.report)), 0);
+	t_now = (t_now / MS + 1) * MS;
+	assert_int_equal(lifecycle(1), RMD_LC_LOST);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	trace_n = 0;
+	run(2000, false);
+	{
+		unsigned probes = sent_to(1, 0x9A, 0);
+
+		if (probes < 4 || probes > 5)
+			fail_msg("%u re-probes in 2 s", probes);
+	}
+	set_faults(0, NULL, 0); /* it comes back */
+	run(600, false);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	rig_down();
+}
+
+static void position_tweak(struct rmd_config *cfg)
+{
+	cfg->motors[0].mode = RMD_CTRL_POSITION;
+	cfg->motors[0].limits.velocity_rad_s = 5.0;
+	cfg->motors[0].limits.position_min_rad = -2.0;
+	cfg->motors[0].limits.position_max_rad = 2.0;
+}
+
+static void test_enable_position_moves(void **state)
+{
+	struct rmd_setpoint *sp;
+	struct rmd_snapshot s;
+	struct rmd_sim_motor *m;
+
+	(void)state;
+	rig_up(3, position_tweak);
+	bring_up();
+	run(100, false);
+	cmd_clear();
+	sp = cmd_motor(0, true, RMD_MODE_POSITION);
+	sp->pos_rad = 1.0;
+	sp->max_vel_rad_s = 3.0;
+	run(1500, true);
+	s = snap();
+	m = sim_motor(0);
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_ENABLED);
+	assert_int_equal(s.m[0].mode, RMD_MODE_POSITION);
+	/* V3 control replies carry whole degrees (V3 §2.13.3) */
+	assert_float_equal(s.m[0].pos_rad, 1.0, 0.6 * M_PI / 180.0 + 0.001);
+	assert_float_equal(m->pos_rad, 1.0, 0.01);
+	assert_float_equal(s.m[0].vel_rad_s, 0.0, 0.05);
+	/* the others were not enabled and did not move */
+	assert_int_equal(s.m[1].lifecycle, RMD_LC_READY);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
+	/* DESIGN.md: answers 0.5-0.8 ms after the request, plus wire time */
+	for (unsigned i = 0; i < 3; i++) {
+		if (s.m[i].reply_latency_ns < 500 * US || s.m[i].reply_latency_ns > 1200 * US)
+			fail_msg("motor %u: latency %lld ns", i,
+				 (long long)s.m[i].reply_latency_ns);
+		assert_true(s.m[i].reply_age_cycles <= 1);
+		assert_int_equal(s.m[i].missed_replies, 0);
+	}
+	assert_true(s.m[0].reply_latency_ns <= 900 * US);
+	if (getenv("RMD_TEST_VERBOSE"))
+		for (unsigned i = 0; i < 3; i++)
+			print_message("motor %u: latency %lld us, age %u\n", i,
+				      (long long)(s.m[i].reply_latency_ns / US),
+				      s.m[i].reply_age_cycles);
+	/* a target beyond the window is clamped to it */
+	sp->pos_rad = 10.0;
+	run(1500, true);
+	assert_float_equal(sim_motor(0)->pos_rad, 2.0, 0.01);
+	rig_down();
+}
+
+static void test_lost_and_recovery(void **state)
+{
+	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
+				      .motor_id = 2,
+				      .probability = 1.0 };
+	unsigned n_lost = 0, from;
+	struct rmd_snapshot s;
+
+	(void)state;
+	rig_up(3, NULL);
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 3; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(200, true);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_SPEED);
+
+	drop.start_ns = sim_time(0);
+	set_faults(0, &drop, 1);
+	from = trace_n;
+	/* each cycle one more missed reply, N = 10 in a row: LOST */
+	for (unsigned k = 0; k < 30 && !n_lost; k++) {
+		run(1, true);
+		if (lifecycle(1) == RMD_LC_LOST)
+			n_lost = k + 1;
+	}
+	s = snap();
+	if (n_lost < R.cfg.safety.missed_replies_lost ||
+	    n_lost > R.cfg.safety.missed_replies_lost + 3)
+		fail_msg("lost after %u cycles", n_lost);
+	assert_true(s.m[1].missed_replies >= R.cfg.safety.missed_replies_lost);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 1), 1);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
+	/* the safe action (stop) went out to it; the others keep running */
+	run(5, true);
+	assert_int_equal(sent_to(1, 0x80, from), 1);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
+
+	/* it answers again: READY, not ENABLED, though enable = 1 keeps coming */
+	set_faults(0, NULL, 0);
+	run(1200, true);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
+	/* enable = 0, then 1: the controller means it */
+	cmd_motor(1, false, RMD_MODE_SPEED);
+	run(2, true);
+	cmd_motor(1, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(20, true);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_SPEED);
+	rig_down();
+}
+
+static void lost_all(struct rmd_config *cfg)
+{
+	cfg->safety.lost_motor_action = RMD_LOST_ALL;
+	cfg->safety.safe_action = RMD_SAFE_HOLD;
+}
+
+static void test_lost_all(void **state)
+{
+	struct rmd_sim_fault gone = { .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 3 };
+	unsigned from;
+
+	(void)state;
+	rig_up(3, lost_all);
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 3; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
+	run(100, true);
+	gone.start_ns = sim_time(0);
+	set_faults(0, &gone, 1);
+	from = trace_n;
+	run(30, true);
+	assert_int_equal(lifecycle(2), RMD_LC_LOST);
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	assert_int_equal(lifecycle(1), RMD_LC_SAFE);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, -1), 3);
+	/* hold: 0x81 to each */
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(sent_to(i, 0x81, from), 1);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_HOLD);
+	/* the streaming enable does not restart them ... */
+	run(50, true);
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	/* ... an enable = 0 first does */
+	cmd_motor(0, false, RMD_MODE_SPEED);
+	run(2, true);
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
+	run(5, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(lifecycle(1), RMD_LC_SAFE);
+	rig_down();
+}
+
+static void test_fault_flags(void **state)
+{
+	struct rmd_sim_fault hot = { .kind = RMD_SIM_FAULT_ERROR_FLAG,
+				     .motor_id = 1,
+				     .param = RMD_SIM_ERR_OVER_TEMP };
+	struct rmd_snapshot s;
+
+	(void)state;
+	rig_up(3, NULL);
+	bring_up();
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_TORQUE)->torque_nm = 0.0;
+	run(50, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	hot.start_ns = sim_time(0);
+	hot.end_ns = hot.start_ns + 500 * MS;
+	set_faults(0, &hot, 1);
+	run(300, true); /* 0x9A polls at 10 Hz */
+	s = snap();
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_FAULT);
+	assert_int_equal(s.m[0].error_code, RMD_SIM_ERR_OVER_TEMP);
+	assert_int_equal(count_ev(RMD_EV_MOTOR_ERROR, 0), 1);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 1); /* it was enabled */
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	run(500, true);
+	s = snap();
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
+	assert_int_equal(s.m[0].error_code, 0);
+	rig_down();
+}
+
+static void test_comm_loss_trip(void **state)
+{
+	struct rmd_loop_counters c;
+	bool f1 = false;
+
+	(void)state;
+	rig_up(3, NULL);
+	bring_up();
+	run(100, false);
+	/* the loop stalls for 300 ms: the motors' 0xB3 (100 ms) trips, 0xF1 comes */
+	t_now += 300 * MS;
+	run(1, false);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_LOST);
+	for (unsigned k = 0; k < nev; k++)
+		f1 |= evs[k].kind == RMD_EV_MOTOR_ERROR && evs[k].b == 0xF1;
+	assert_true(f1);
+	assert_int_equal(count_ev(RMD_EV_OVERRUN, -1), 1);
+	/* re-probed: the first frame is only echoed, the motor is back */
+	run(700, false);
+	rmd_loop_get_counters(R.l, &c);
+	assert_true(c.echoes >= 3);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_READY);
+	rig_down();
+}
+
+static void test_watchdog(void **state)
+{
+	const struct rmd_health *h;
+	const void *p;
+	int64_t last_cmd, first80 = INT64_MAX;
+	unsigned from;
+
+	(void)state;
+	rig_up(3, NULL);
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 2; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(150, true);
+	assert_true(rmd_latest_get(&R.health, &p));
+	h = p;
+	assert_int_equal(h->watchdog, RMD_WD_OK);
+	last_cmd = t_now - period();
+	from = trace_n;
+	/* the controller goes quiet */
+	run(200, false);
+	for (unsigned k = from; k < trace_n; k++)
+		if (trace[k].f.data[0] == 0x80 && trace[k].t_ns < first80)
+			first80 = trace[k].t_ns;
+	/* sent in the first cycle past command_timeout_ms, on the wire right after */
+	if (first80 < last_cmd + 100 * MS || first80 > last_cmd + 101 * MS + 300 * US)
+		fail_msg("0x80 at +%lld us", (long long)((first80 - last_cmd) / US));
+	assert_int_equal(sent_to(0, 0x80, from), 1);
+	assert_int_equal(sent_to(1, 0x80, from), 1);
+	assert_int_equal(sent_to(2, 0x80, from), 0); /* never enabled */
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	assert_int_equal(lifecycle(2), RMD_LC_READY);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, -1), 2);
+	assert_true(rmd_latest_get(&R.health, &p));
+	h = p;
+	assert_int_equal(h->watchdog, RMD_WD_TRIPPED);
+	assert_int_equal(h->safe_action_events, 2);
+	/* latched: nothing changes without a command */
+	run(300, false);
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	/* a new enable lifts it */
+	run(150, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
+	assert_true(rmd_latest_get(&R.health, &p));
+	h = p;
+	assert_int_equal(h->watchdog, RMD_WD_OK);
+	rig_down();
+}
+
+static void mit_third(struct rmd_config *cfg)
+{
+	cfg->motors[2].proto = RMD_PROTO_MIT;
+	cfg->motors[2].mode = RMD_CTRL_MIT;
+}
+
+static void test_nan_never_on_wire(void **state)
+{
+	struct rmd_loop_counters c;
+	struct rmd_setpoint *sp;
+	unsigned from;
+
+	(void)state;
+	rig_up(3, mit_third);
+	bring_up();
+	/* a READY MIT motor is read with V3 0x9C, never sent an MIT frame */
+	run(100, false);
+	assert_int_equal(sent_to(2, 0x400, 0), 0);
+	assert_true(sent_to(2, 0x9C, 0) > 50);
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_TORQUE)->torque_nm = NAN;
+	cmd_motor(1, true, RMD_MODE_SPEED)->vel_rad_s = INFINITY;
+	sp = cmd_motor(2, true, RMD_MODE_MIT);
+	sp->kp = NAN;
+	sp->kd = 1.0;
+	from = trace_n;
+	run(100, true);
+	/* the safe action's frame (stop) instead, every control slot */
+	assert_int_equal(sent_to(0, 0xA1, from), 0);
+	assert_int_equal(sent_to(1, 0xA2, from), 0);
+	assert_int_equal(sent_to(2, 0x400, from), 0);
+	assert_true(sent_to(0, 0x80, from) >= 90);
+	assert_true(sent_to(2, 0x80, from) >= 90);
+	rmd_loop_get_counters(R.l, &c);
+	assert_true(c.nonfinite >= 270);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
+	/* finite again: the frames go out */
+	cmd_motor(0, true, RMD_MODE_TORQUE)->torque_nm = 0.1;
+	sp = cmd_motor(2, true, RMD_MODE_MIT);
+	sp->kd = 0.5;
+	from = trace_n;
+	run(50, true);
+	assert_true(sent_to(0, 0xA1, from) >= 45);
+	assert_true(sent_to(2, 0x400, from) >= 45);
+	assert_int_equal(sim_motor(2)->ctrl, RMD_SIM_MIT);
+	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+	/* MIT replies: position, speed, torque */
+	assert_true(isfinite(snap().m[2].torque_nm));
+	rig_down();
+}
+
+static void brake_safe(struct rmd_config *cfg)
+{
+	cfg->safety.safe_action = RMD_SAFE_BRAKE;
+}
+
+static void test_stop_motors(void **state)
+{
+	unsigned from;
+
+	(void)state;
+	rig_up(6, brake_safe); /* two buses */
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 6; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
+	run(300, true);
+	assert_float_equal(sim_motor(4)->vel_rad_s, 2.0, 0.2);
+	from = trace_n;
+	rmd_loop_stop_motors(R.l, t_now);
+	run(5, false); /* the wire delivers them */
+	for (unsigned i = 0; i < 6; i++) {
+		assert_int_equal(sent_to(i, 0x80, from), 1);
+		assert_int_equal(sent_to(i, 0x78, from), 1);
+		assert_int_equal(lifecycle(i), RMD_LC_READY);
+		assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
+		assert_true(sim_motor(i)->brake_locked);
+		/* 0xB3 stays in place */
+		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100);
+	}
+	rig_down();
+}
+
+static void test_overrun(void **state)
+{
+	struct rmd_loop_stats st;
+
+	(void)state;
+	rig_up(3, NULL);
+	bring_up();
+	rmd_loop_cycle(R.l, t_now);
+	rmd_loop_cycle(R.l, t_now + period());
+	rmd_loop_cycle(R.l, t_now + 3 * period()); /* the tick at +2 never ran */
+	rmd_loop_cycle(R.l, t_now + 4 * period() + 20 * US);
+	rmd_loop_cycle(R.l, t_now + 8 * period());
+	rmd_loop_get_stats(R.l, &st);
+	assert_int_equal(st.cycles, 5);
+	assert_int_equal(st.overruns, 1 + 3);
+	/* the first overrun is reported at once, the next within a second later */
+	assert_int_equal(count_ev(RMD_EV_OVERRUN, -1), 1);
+	assert_int_equal(evs[nev - 1].a, 1);
+	assert_int_equal(st.wake_min_ns, 0);
+	assert_int_equal(st.wake_max_ns, 20 * US);
+	assert_true(st.wake_p99_ns >= 20 * US * 3 / 4 && st.wake_p99_ns <= 20 * US);
+	assert_int_equal(rmd_loop_heartbeat(R.l), 5);
+	t_now += 9 * period();
+	run(1000, false);
+	assert_int_equal(count_ev(RMD_EV_OVERRUN, -1), 2);
+	for (unsigned k = 0, n = 0; k < nev; k++)
+		if (evs[k].kind == RMD_EV_OVERRUN && ++n == 2)
+			assert_int_equal(evs[k].a, 3);
+	rig_down();
+}
+
+static void v2_batch(struct rmd_config *cfg)
+{
+	for (unsigned i = 0; i < 4; i++) {
+		struct rmd_config_motor *m = &cfg->motors[i];
+
+		m->bus = 0;
+		m->id = (uint8_t)(i + 1);
+		m->proto = RMD_PROTO_V2;
+		m->mode = RMD_CTRL_TORQUE;
+		m->status_poll_hz = 0; /* no room for polls beside a full 0x280 cycle */
+	}
+	cfg->n_buses = 1;
+}
+
+static void test_v2_batch(void **state)
+{
+	struct rmd_snapshot s;
+	unsigned from, n280 = 0;
+
+	(void)state;
+	rig_up(4, v2_batch);
+	assert_int_equal(R.plan.bus[0].batch, RMD_BATCH_ON);
+	bring_up();
+	assert_non_null(strstr(R.report, "sim0: motor 3 (motor3): V2 (no model or version query), "
+					 "48.0 V, 25 °C, no 0xB3 in V2"));
+	trace_n = 0;
+	run(100, false);
+	for (unsigned k = 0; k < trace_n; k++)
+		assert_false(moves_frame(&trace[k].f));
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_TORQUE)->torque_nm = 0.5;
+	cmd_motor(1, true, RMD_MODE_TORQUE)->torque_nm = -0.5;
+	from = trace_n;
+	run(200, true);
+	for (unsigned k = from; k < trace_n; k++)
+		n280 += trace[k].f.can_id == 0x280;
+	assert_true(n280 >= 195);
+	s = snap();
+	/* 0.5 N·m at 2 N·m/A: 0.25 A, measured in 33/2048 A steps */
+	assert_float_equal(s.m[0].current_a, 0.25, 0.02);
+	assert_float_equal(s.m[1].current_a, -0.25, 0.02);
+	assert_true(s.m[0].vel_rad_s > 0.5);
+	assert_true(s.m[1].vel_rad_s < -0.5);
+	assert_true(s.m[0].pos_rad > 0.1);
+	for (unsigned i = 0; i < 4; i++) {
+		assert_true(s.m[i].reply_age_cycles <= 1);
+		assert_int_equal(s.m[i].missed_replies, 0);
+	}
+	/* the motors not enabled get 0 A in their slots: no torque */
+	assert_float_equal(sim_motor(2)->vel_rad_s, 0.0, 1e-6);
+	rig_down();
+}
+
+static void test_bus_off(void **state)
+{
+	struct rmd_sim_fault off = { .kind = RMD_SIM_FAULT_BUS_OFF };
+	struct rmd_loop_stats st;
+	struct rmd_loop_counters c;
+
+	(void)state;
+	rig_up(3, NULL);
+	bring_up();
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(100, true);
+	off.start_ns = sim_time(0);
+	off.end_ns = off.start_ns + 50 * MS;
+	set_faults(0, &off, 1);
+	run(30, true);
+	/* nothing leaves: each request unsent is a missed reply, N in a row: LOST */
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_LOST);
+	assert_int_equal(count_ev(RMD_EV_BUS_STATE, -1), 1);
+	assert_true(count_ev(RMD_EV_SEND_FAILED, -1) >= 1);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 1);
+	rmd_loop_get_stats(R.l, &st);
+	rmd_loop_get_counters(R.l, &c);
+	assert_true(st.plan_misses >= 25);
+	assert_true(c.frames_not_sent >= 30);
+	/* the bus comes back: the stop still waiting goes out, the motors are found again */
+	run(1000, true);
+	assert_int_equal(count_ev(RMD_EV_BUS_STATE, -1), 2);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_READY);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
+	rig_down();
+}
+
+static void test_health(void **state)
+{
+	const struct rmd_health *h;
+	const void *p;
+
+	(void)state;
+	rig_up(6, NULL);
+	bring_up();
+	run(250, false);
+	assert_true(rmd_latest_get(&R.health, &p));
+	h = p;
+	assert_int_equal(h->nbuses, 2);
+	assert_string_equal(h->bus[1].name, "sim1");
+	assert_int_equal(h->bus[0].state, RMD_BUS_ACTIVE);
+	assert_true(h->bus[0].load > 0.2 && h->bus[0].load < 1.0);
+	assert_int_equal(h->loop.cycles, 201);
+	assert_int_equal(h->watchdog, RMD_WD_IDLE);
+	assert_true(h->bus[0].stats.tx_frames > 600);
+	rig_down();
+}
+
+static void test_thread(void **state)
+{
+	struct timespec ms = { .tv_nsec = 1000000 };
+	struct rmd_loop_stats st;
+	int r;
+
+	(void)state;
+	/* the thread keeps CLOCK_MONOTONIC: not with an injected clock */
+	rig_up(3, NULL);
+	assert_int_equal(rmd_loop_start(R.l), -EINVAL);
+	rig_down();
+
+	rig_up_clock(3, NULL, true);
+	r = rmd_loop_bringup(R.l, R.report, sizeof(R.report));
+	if (r)
+		fail_msg("bring-up: %d\n%s", r, R.report);
+	r = rmd_loop_start(R.l);
+	if (r)
+		fail_msg("rmd_loop_start: %s", strerror(-r));
+	assert_int_equal(rmd_loop_start(R.l), -EBUSY);
+	/* wait for 300 cycles, 5 s at most */
+	for (unsigned k = 0; k < 5000 && rmd_loop_heartbeat(R.l) < 300; k++)
+		nanosleep(&ms, NULL);
+	rmd_loop_request_stop(R.l);
+	assert_int_equal(rmd_loop_join(R.l), 0);
+	rmd_loop_get_stats(R.l, &st);
+	assert_true(st.cycles >= 300);
+	assert_true(st.wake_max_ns >= st.wake_p99_ns && st.wake_p99_ns >= st.wake_min_ns);
+	for (unsigned i = 0; i < 3; i++) {
+		assert_int_equal(lifecycle(i), RMD_LC_READY);
+		/* on the way out, the thread stopped every motor */
+		assert_int_equal(sent_to(i, 0x80, 0), 1);
+	}
+	events_pump();
+	for (unsigned k = 0; k < nev; k++)
+		if (evs[k].kind == RMD_LOOP_EV_RT && getenv("RMD_TEST_VERBOSE"))
+			print_message("no real time: %s (%lld)\n",
+				      evs[k].b == RMD_LOOP_RT_MLOCK ? "mlockall" :
+				      evs[k].b == RMD_LOOP_RT_FIFO  ? "SCHED_FIFO" :
+								      "affinity",
+				      (long long)evs[k].a);
+	if (getenv("RMD_TEST_VERBOSE"))
+		print_message("%llu cycles, %llu overruns, wake-up %lld/%lld/%lld/%lld us\n",
+			      (unsigned long long)st.cycles, (unsigned long long)st.overruns,
+			      (long long)st.wake_min_ns / 1000, (long long)st.wake_avg_ns / 1000,
+			      (long long)st.wake_p99_ns / 1000, (long long)st.wake_max_ns / 1000);
+	rig_down();
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_bringup_ready_not_moved),
+		cmocka_unit_test(test_bringup_missing),
+		cmocka_unit_test(test_bringup_unexpected),
+		cmocka_unit_test(test_enable_position_moves),
+		cmocka_unit_test(test_lost_and_recovery),
+		cmocka_unit_test(test_lost_all),
+		cmocka_unit_test(test_fault_flags),
+		cmocka_unit_test(test_comm_loss_trip),
+		cmocka_unit_test(test_watchdog),
+		cmocka_unit_test(test_nan_never_on_wire),
+		cmocka_unit_test(test_stop_motors),
+		cmocka_unit_test(test_overrun),
+		cmocka_unit_test(test_v2_batch),
+		cmocka_unit_test(test_bus_off),
+		cmocka_unit_test(test_health),
+		cmocka_unit_test(test_thread),
+	};
+
+	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);
+}

@@ -1,0 +1,329 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The rt cycle allocates nothing (STYLE.md "Tests", issue 5 acceptance).
+ *
+ * Linked with -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free
+ * (the Makefile's rule for this binary): every call from rmdd's code goes
+ * through the counters below.  After set-up (config, plan, sim buses, loop,
+ * bring-up) counting starts, and 12 000 cycles run with commands flowing
+ * and everything the cycle can do happening at least once: setpoints in
+ * every mode, MIT frames, NaN setpoints, clamping, status polls, a motor
+ * lost and found again, an error flag, the host watchdog tripping and
+ * lifted, an overrun, health snapshots, events drained, the V2 0x280 frame,
+ * and rmd_loop_stop_motors().  Not one allocation may happen.
+ *
+ * AddressSanitizer intercepts malloc itself, so under SANITIZE=1 the test
+ * is skipped with a message.
+ */
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "rmd/bus_sim.h"
+#include "rmd/config.h"
+#include "rmd/loop.h"
+#include "rmd/plan.h"
+#include "rmd/sim_bus.h"
+#include "rmd/spsc.h"
+#include "rmd/state.h"
+
+#if defined(__SANITIZE_ADDRESS__)
+#define UNDER_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define UNDER_ASAN 1
+#endif
+#endif
+#ifndef UNDER_ASAN
+#define UNDER_ASAN 0
+#endif
+
+#define MS INT64_C(1000000)
+#define CYCLES 12000
+
+/* ---- the wrapped allocator ------------------------------------------------------ */
+
+static volatile bool counting;
+static volatile unsigned long n_calls;
+
+void *__real_malloc(size_t size);
+void *__real_calloc(size_t n, size_t size);
+void *__real_realloc(void *p, size_t size);
+void __real_free(void *p);
+void *__wrap_malloc(size_t size);
+void *__wrap_calloc(size_t n, size_t size);
+void *__wrap_realloc(void *p, size_t size);
+void __wrap_free(void *p);
+
+void *__wrap_malloc(size_t size)
+{
+	if (counting)
+		n_calls++;
+	return __real_malloc(size);
+}
+
+void *__wrap_calloc(size_t n, size_t size)
+{
+	if (counting)
+		n_calls++;
+	return __real_calloc(n, size);
+}
+
+void *__wrap_realloc(void *p, size_t size)
+{
+	if (counting)
+		n_calls++;
+	return __real_realloc(p, size);
+}
+
+void __wrap_free(void *p)
+{
+	if (counting)
+		n_calls++;
+	__real_free(p);
+}
+
+/* ---- the injected clock ----------------------------------------------------------- */
+
+static int64_t t_now;
+
+static int64_t fake_now(void *ctx)
+{
+	(void)ctx;
+	return t_now;
+}
+
+static void fake_sleep(void *ctx, int64_t ns)
+{
+	(void)ctx;
+	t_now += ns;
+}
+
+/* ---- the rig ----------------------------------------------------------------------- */
+
+static struct rmd_config cfg;
+static struct rmd_plan plan;
+static struct rmd_bus buses[RMD_MAX_BUSES];
+static struct rmd_latest cmds, snaps, health;
+static struct rmd_command cmd_buf[3], cmd;
+static struct rmd_snapshot snap_buf[3], snap;
+static struct rmd_health health_buf[3];
+static struct rmd_ring events;
+static struct rmd_event ev_buf[256];
+static char report[4096];
+
+/* sim0: V3 position, V3 speed, MIT; sim1: V3 torque x3; sim2: four V2 in one 0x280 frame */
+static void make_config(void)
+{
+	assert_int_equal(rmd_config_sim_default(&cfg, 10), 0);
+	cfg.safety.safe_action = RMD_SAFE_DAMP;
+	cfg.safety.lost_motor_action = RMD_LOST_ALL;
+	cfg.motors[0].mode = RMD_CTRL_POSITION;
+	cfg.motors[0].limits.position_min_rad = -1.0;
+	cfg.motors[0].limits.position_max_rad = 1.0;
+	cfg.motors[1].mode = RMD_CTRL_SPEED;
+	cfg.motors[2].proto = RMD_PROTO_MIT;
+	cfg.motors[2].mode = RMD_CTRL_MIT;
+	for (unsigned i = 6; i < 10; i++) {
+		cfg.motors[i].bus = 2;
+		cfg.motors[i].id = (uint8_t)(i - 5);
+		cfg.motors[i].proto = RMD_PROTO_V2;
+		cfg.motors[i].status_poll_hz = 0;
+	}
+	cfg.n_buses = 3;
+	for (unsigned i = 0; i < cfg.n_motors; i++) {
+		cfg.motors[i].sim.id = cfg.motors[i].id;
+		cfg.motors[i].sim.proto = cfg.motors[i].proto;
+	}
+}
+
+static void open_buses(void)
+{
+	char err[256];
+
+	for (unsigned b = 0; b < cfg.n_buses; b++) {
+		struct rmd_bus_sim_motor ms[RMD_MAX_MOTORS];
+		struct rmd_bus_sim_opts o = {
+			.motors = ms,
+			.bitrate = cfg.buses[b].bitrate,
+			.seed = cfg.buses[b].sim.seed,
+			.flags = RMD_SIM_BUS_HOST_FIFO,
+			.txqueuelen = cfg.buses[b].sim.txqueuelen,
+		};
+
+		for (unsigned i = 0; i < cfg.n_motors; i++)
+			if (cfg.motors[i].bus == b)
+				ms[o.n_motors++] = (struct rmd_bus_sim_motor){
+					.id = cfg.motors[i].id,
+					.proto = cfg.motors[i].proto,
+					.params = &cfg.motors[i].sim,
+				};
+		if (rmd_bus_sim_open(&buses[b], cfg.buses[b].name, &o, err, sizeof(err)))
+			fail_msg("%s", err);
+	}
+}
+
+/* This cycle's command: every mode, now and then NaN, a pause for the watchdog. */
+static void command_for(unsigned k)
+{
+	memset(&cmd, 0, sizeof(cmd));
+	cmd.rx_ns = t_now;
+	cmd.seq = k;
+	for (unsigned i = 0; i < cfg.n_motors; i++) {
+		struct rmd_setpoint *sp = &cmd.m[i];
+
+		cmd.present |= 1u << i;
+		/* a disable now and then: the motors brought back from LOST take it as the edge */
+		sp->enable = k % 1000 != 500;
+		sp->mode = (uint8_t)cfg.motors[i].mode;
+		sp->pos_rad = 2.0 * sin(k * 0.001); /* beyond the window: clamped */
+		sp->vel_rad_s = 0.5 * cos(k * 0.002);
+		sp->torque_nm = 0.2 * sin(k * 0.003);
+		sp->kp = 5.0;
+		sp->kd = 0.2;
+		sp->max_vel_rad_s = 2.0;
+		if (k % 97 == 0)
+			sp->torque_nm = NAN;
+		if (k % 89 == 0)
+			sp->pos_rad = INFINITY;
+	}
+}
+
+static void test_cycle_allocates_nothing(void **state)
+{
+	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
+				      .motor_id = 2,
+				      .probability = 1.0 };
+	struct rmd_sim_fault hot = { .kind = RMD_SIM_FAULT_ERROR_FLAG,
+				     .motor_id = 1,
+				     .param = RMD_SIM_ERR_OVER_TEMP };
+	struct rmd_loop_counters c;
+	struct rmd_loop_stats st;
+	struct rmd_loop_opts o;
+	struct rmd_loop *l;
+	struct rmd_event ev;
+	unsigned long n;
+	unsigned nev = 0;
+	char err[1024];
+	int r;
+
+	(void)state;
+	if (UNDER_ASAN)
+		skip();
+	t_now = 1000 * MS;
+	make_config();
+	r = rmd_plan_build(&cfg, &plan, err, sizeof(err));
+	if (r)
+		fail_msg("%s", err);
+	assert_int_equal(plan.bus[2].batch, RMD_BATCH_ON);
+	open_buses();
+	rmd_latest_init(&cmds, cmd_buf, sizeof(struct rmd_command));
+	rmd_latest_init(&snaps, snap_buf, sizeof(struct rmd_snapshot));
+	rmd_latest_init(&health, health_buf, sizeof(struct rmd_health));
+	assert_int_equal(rmd_ring_init(&events, ev_buf, 256, sizeof(struct rmd_event)), 0);
+	o = (struct rmd_loop_opts){
+		.cfg = &cfg,
+		.plan = &plan,
+		.buses = buses,
+		.commands = &cmds,
+		.snapshots = &snaps,
+		.health = &health,
+		.events = &events,
+		.now_ns = fake_now,
+		.sleep_ns = fake_sleep,
+	};
+	l = rmd_loop_new(&o, err, sizeof(err));
+	if (!l)
+		fail_msg("%s", err);
+	r = rmd_loop_bringup(l, report, sizeof(report));
+	if (r)
+		fail_msg("bring-up %d:\n%s", r, report);
+	t_now = (t_now / MS + 1) * MS;
+
+	/* the wrap is in place: the counters see a call */
+	counting = true;
+	{
+		void *volatile p = malloc(16);
+
+		free(p);
+	}
+	counting = false;
+	assert_int_equal(n_calls, 2);
+	n_calls = 0;
+
+	counting = true;
+	for (unsigned k = 0; k < CYCLES; k++) {
+		const void *p;
+
+		if (k == 2000) {
+			drop.start_ns = rmd_bus_sim_time_ns(&buses[0], t_now);
+			drop.end_ns = drop.start_ns + 50 * MS;
+			rmd_sim_bus_set_faults(rmd_bus_sim_get(&buses[0]), &drop, 1);
+		}
+		if (k == 4000) {
+			hot.start_ns = rmd_bus_sim_time_ns(&buses[1], t_now);
+			hot.end_ns = hot.start_ns + 300 * MS;
+			rmd_sim_bus_set_faults(rmd_bus_sim_get(&buses[1]), &hot, 1);
+		}
+		if (k == 7000)
+			t_now += 5 * MS; /* an overrun */
+		/* the controller is silent for 300 ms from 8000 */
+		if (k < 8000 || k >= 8300) {
+			command_for(k);
+			rmd_latest_put(&cmds, &cmd);
+		}
+		rmd_loop_cycle(l, t_now);
+		t_now += plan.period_ns;
+		while (rmd_ring_pop(&events, &ev))
+			nev++;
+		rmd_latest_get(&snaps, &p);
+		rmd_latest_get(&health, &p);
+	}
+	rmd_loop_get_snapshot(l, &snap);
+	rmd_loop_get_stats(l, &st);
+	rmd_loop_get_counters(l, &c);
+	rmd_loop_stop_motors(l, t_now);
+	counting = false;
+	n = n_calls;
+
+	if (n)
+		fail_msg("%lu allocator calls in %d cycles", n, CYCLES);
+	/* and it did all of that */
+	assert_int_equal(st.cycles, CYCLES);
+	assert_int_equal(st.overruns, 5);
+	assert_true(c.nonfinite > 0);
+	assert_true(c.clamped > 0);
+	assert_true(c.missed >= cfg.safety.missed_replies_lost);
+	assert_true(c.safe_actions >= 3);
+	assert_true(c.replies > 40000);
+	assert_true(nev > 20);
+	for (unsigned i = 0; i < cfg.n_motors; i++)
+		if (snap.m[i].lifecycle != RMD_LC_ENABLED)
+			fail_msg("motor %u ends in lifecycle %u", i, snap.m[i].lifecycle);
+	print_message("%d cycles, %llu replies, %llu missed, %u events, 0 allocations\n", CYCLES,
+		      (unsigned long long)c.replies, (unsigned long long)c.missed, nev);
+	rmd_loop_free(l);
+	for (unsigned b = 0; b < cfg.n_buses; b++)
+		rmd_bus_close(&buses[b]);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_cycle_allocates_nothing),
+	};
+
+	if (UNDER_ASAN)
+		fprintf(stderr, "test_loop_alloc: AddressSanitizer intercepts malloc; "
+				"skipped (run the build without SANITIZE=1)\n");
+	return cmocka_run_group_tests_name("loop_alloc", tests, NULL, NULL);
+}

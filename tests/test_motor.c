@@ -1,0 +1,786 @@
+// SPDX-License-Identifier: MIT
+/*
+ * motor tests: SI at the output shaft <-> native units for every protocol,
+ * both ways, with direction -1, zero offsets, torque constants, rotor
+ * units and MIT ranges; the manuals' worked examples as vectors (V3 §2.17,
+ * §2.18, §2.20, §2.12, §5.4); clamping; NaN and Inf refused before
+ * anything is encoded; the V2 0x280 frame; safe-action frames; reply keys;
+ * and the V2 encoder unwrapped into a multi-turn position.
+ */
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "rmd/config.h"
+#include "rmd/mit.h"
+#include "rmd/motor.h"
+
+#define DEG (M_PI / 180.0)
+
+/* "141#A100000000000000" -> frame; fails the test on bad hex. */
+static struct rmd_frame frame_from(const char *s)
+{
+	struct rmd_frame f = { 0 };
+	const char *p;
+	char *end;
+
+	f.can_id = (uint32_t)strtoul(s, &end, 16);
+	if (*end != '#')
+		fail_msg("bad frame text \"%s\"", s);
+	p = end + 1;
+	while (p[0] && p[1] && f.len < RMD_FRAME_LEN) {
+		char byte[3] = { p[0], p[1], 0 };
+
+		f.data[f.len++] = (uint8_t)strtoul(byte, &end, 16);
+		if (*end)
+			fail_msg("bad frame text \"%s\"", s);
+		p += 2;
+	}
+	return f;
+}
+
+static void frame_text(const struct rmd_frame *f, char *buf, size_t len)
+{
+	int n = snprintf(buf, len, "%03X#", (unsigned)f->can_id);
+
+	for (unsigned k = 0; k < f->len && n > 0 && (size_t)n < len; k++)
+		n += snprintf(buf + n, len - (size_t)n, "%02X", f->data[k]);
+}
+
+static void assert_frame(const char *name, const struct rmd_frame *got, const char *want)
+{
+	char g[40];
+
+	frame_text(got, g, sizeof(g));
+	if (strcmp(g, want))
+		fail_msg("%s: got %s, want %s", name, g, want);
+}
+
+/* A config entry with the defaults the loader gives, then the test's values. */
+static struct rmd_config_motor cfg_motor(uint8_t id, enum rmd_proto proto, enum rmd_ctrl_mode mode)
+{
+	struct rmd_config_motor c;
+
+	memset(&c, 0, sizeof(c));
+	snprintf(c.name, sizeof(c.name), "m%u", id);
+	c.id = id;
+	c.proto = proto;
+	c.mode = mode;
+	c.direction = 1;
+	c.gear_ratio = 1.0;
+	c.units = RMD_UNITS_OUTPUT;
+	c.torque_constant_nm_a = 2.0;
+	c.limits.position_min_rad = -INFINITY;
+	c.limits.position_max_rad = INFINITY;
+	c.limits.velocity_rad_s = INFINITY;
+	c.limits.torque_nm = INFINITY;
+	c.mit = rmd_mit_default_ranges;
+	c.rate_divisor = 1;
+	return c;
+}
+
+static struct rmd_motor motor_of(const struct rmd_config_motor *c)
+{
+	struct rmd_motor m;
+
+	assert_int_equal(rmd_motor_init(&m, c), 0);
+	return m;
+}
+
+static struct rmd_setpoint sp_mode(enum rmd_mode mode)
+{
+	struct rmd_setpoint sp = { .enable = true, .mode = (uint8_t)mode };
+
+	return sp;
+}
+
+static void test_init_refuses(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	struct rmd_motor m;
+
+	(void)state;
+	c.direction = 0;
+	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
+	c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	c.torque_constant_nm_a = 0;
+	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
+	c = cfg_motor(1, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	c.torque_constant_nm_a = 0; /* fine for MIT: its frames carry torque */
+	assert_int_equal(rmd_motor_init(&m, &c), 0);
+	c.mit.kd_min = c.mit.kd_max;
+	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
+	c = cfg_motor(33, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
+	c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	c.gear_ratio = 0;
+	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
+}
+
+struct enc_vec {
+	const char *name;
+	enum rmd_proto proto;
+	int dir;
+	double gear;
+	enum rmd_units units;
+	double zero;
+	double kt;
+	struct rmd_setpoint sp;
+	const char *hex;
+};
+
+static const struct enc_vec enc_vecs[] = {
+	/* V3 §2.17.4: iq -1 A = 0xFF9C */
+	{ "V3 §2.17.4 torque",
+	  RMD_PROTO_V3,
+	  1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.0,
+	  2.0,
+	  { .enable = true, .mode = RMD_MODE_TORQUE, .torque_nm = -2.0 },
+	  "141#A10000009CFF0000" },
+	/* direction -1 turns the sign: +2 N·m is -1 A on the wire */
+	{ "V3 torque, direction -1",
+	  RMD_PROTO_V3,
+	  -1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.0,
+	  2.0,
+	  { .enable = true, .mode = RMD_MODE_TORQUE, .torque_nm = 2.0 },
+	  "141#A10000009CFF0000" },
+	/* Kt: 1 N·m at 0.5 N·m/A is 2 A = 200 */
+	{ "V3 torque, Kt 0.5",
+	  RMD_PROTO_V3,
+	  1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.0,
+	  0.5,
+	  { .enable = true, .mode = RMD_MODE_TORQUE, .torque_nm = 1.0 },
+	  "141#A1000000C8000000" },
+	/* V3 §2.18.4 example 1: 100 dps = 10000 */
+	{ "V3 §2.18.4 speed",
+	  RMD_PROTO_V3,
+	  1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.0,
+	  2.0,
+	  { .enable = true, .mode = RMD_MODE_SPEED, .vel_rad_s = 100.0 * DEG },
+	  "141#A200000010270000" },
+	/* V3 §2.18.4 example 2: -100 dps, here from +100 dps and direction -1 */
+	{ "V3 speed, direction -1",
+	  RMD_PROTO_V3,
+	  -1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.0,
+	  2.0,
+	  { .enable = true, .mode = RMD_MODE_SPEED, .vel_rad_s = 100.0 * DEG },
+	  "141#A2000000F0D8FFFF" },
+	/* rotor units: 100/6 dps at the output is 100 dps at the rotor */
+	{ "V3 speed, rotor units",
+	  RMD_PROTO_V3,
+	  1,
+	  6.0,
+	  RMD_UNITS_ROTOR,
+	  0.0,
+	  2.0,
+	  { .enable = true, .mode = RMD_MODE_SPEED, .vel_rad_s = 100.0 / 6.0 * DEG },
+	  "141#A200000010270000" },
+	/* V3 §2.20.4 example 1: 360 deg at up to 500 dps */
+	{ "V3 §2.20.4 position",
+	  RMD_PROTO_V3,
+	  1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.0,
+	  2.0,
+	  { .enable = true,
+	    .mode = RMD_MODE_POSITION,
+	    .pos_rad = 2.0 * M_PI,
+	    .max_vel_rad_s = 500.0 * DEG },
+	  "141#A400F401A08C0000" },
+	/* zero offset and direction: native = -pos + 0.5 rad; -2 pi + 0.5 -> 2 pi */
+	{ "V3 position, zero offset, direction -1",
+	  RMD_PROTO_V3,
+	  -1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  2.0 * M_PI - 1.0,
+	  2.0,
+	  { .enable = true,
+	    .mode = RMD_MODE_POSITION,
+	    .pos_rad = -1.0,
+	    .max_vel_rad_s = 500.0 * DEG },
+	  "141#A400F401A08C0000" },
+	/* V2 §3.37: iq -2000..2000 is -32..32 A; 0.8 A = 50 */
+	{ "V2 torque",
+	  RMD_PROTO_V2,
+	  1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.0,
+	  0.5,
+	  { .enable = true, .mode = RMD_MODE_TORQUE, .torque_nm = 0.4 },
+	  "141#A100000032000000" },
+	/* V2 §3.38: 0.01 dps like V3 */
+	{ "V2 speed",
+	  RMD_PROTO_V2,
+	  1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.0,
+	  0.5,
+	  { .enable = true, .mode = RMD_MODE_SPEED, .vel_rad_s = 100.0 * DEG },
+	  "141#A200000010270000" },
+	/* V2 §3.40 with rotor units: 60 deg at the output is 360 at the rotor */
+	{ "V2 position, rotor units",
+	  RMD_PROTO_V2,
+	  1,
+	  6.0,
+	  RMD_UNITS_ROTOR,
+	  0.0,
+	  0.5,
+	  { .enable = true,
+	    .mode = RMD_MODE_POSITION,
+	    .pos_rad = 60.0 * DEG,
+	    .max_vel_rad_s = 500.0 / 6.0 * DEG },
+	  "142#A400F401A08C0000" },
+	/* V3 §5.4 example 1 (p 10, v 1.02, kp 10, kd 1, t 10) through direction -1
+	 * and a zero offset of 0.5 rad: native p = -(-9.5) + 0.5 = 10 */
+	{ "MIT §5.4, direction -1, zero offset",
+	  RMD_PROTO_MIT,
+	  -1,
+	  1.0,
+	  RMD_UNITS_OUTPUT,
+	  0.5,
+	  0.0,
+	  { .enable = true,
+	    .mode = RMD_MODE_MIT,
+	    .pos_rad = -9.5,
+	    .vel_rad_s = -1.02,
+	    .kp = 10.0,
+	    .kd = 1.0,
+	    .torque_nm = -10.0 },
+	  "401#E66682E052333B55" },
+};
+
+static void test_encode_vectors(void **state)
+{
+	(void)state;
+	for (size_t i = 0; i < sizeof(enc_vecs) / sizeof(enc_vecs[0]); i++) {
+		const struct enc_vec *v = &enc_vecs[i];
+		uint8_t id = strstr(v->hex, "142#") ? 2 : 1;
+		struct rmd_config_motor c = cfg_motor(id, v->proto, RMD_CTRL_TORQUE);
+		struct rmd_motor m;
+		struct rmd_frame f;
+		unsigned fl = 99;
+		int r;
+
+		c.direction = v->dir;
+		c.gear_ratio = v->gear;
+		c.units = v->units;
+		c.zero_offset_rad = v->zero;
+		c.torque_constant_nm_a = v->kt;
+		m = motor_of(&c);
+		r = rmd_motor_encode(&m, &v->sp, &f, &fl);
+		if (r)
+			fail_msg("%s: encode returned %d", v->name, r);
+		assert_frame(v->name, &f, v->hex);
+		if (fl)
+			fail_msg("%s: flagged as clamped", v->name);
+	}
+}
+
+static void test_clamp(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_POSITION);
+	struct rmd_setpoint sp = sp_mode(RMD_MODE_POSITION);
+	struct rmd_motor m;
+	struct rmd_frame f;
+	unsigned fl;
+
+	(void)state;
+	c.limits.position_min_rad = -1.0;
+	c.limits.position_max_rad = 2.0 * M_PI;
+	c.limits.velocity_rad_s = 500.0 * DEG;
+	c.limits.torque_nm = 2.0;
+	m = motor_of(&c);
+
+	/* beyond the window and the speed limit: clamped to 360 deg at 500 dps */
+	sp.pos_rad = 100.0;
+	sp.max_vel_rad_s = 1000.0;
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, &fl), 0);
+	assert_true(fl & RMD_MOTOR_CLAMPED);
+	assert_frame("position clamped", &f, "141#A400F401A08C0000");
+
+	/* max velocity 0: the configured limit */
+	sp.pos_rad = 2.0 * M_PI;
+	sp.max_vel_rad_s = 0.0;
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, &fl), 0);
+	assert_int_equal(fl, 0);
+	assert_frame("max speed from the limit", &f, "141#A400F401A08C0000");
+
+	/* torque: |t| <= 2 N·m, Kt 2: -1 A */
+	sp = sp_mode(RMD_MODE_TORQUE);
+	sp.torque_nm = -50.0;
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, &fl), 0);
+	assert_true(fl & RMD_MOTOR_CLAMPED);
+	assert_frame("torque clamped", &f, "141#A10000009CFF0000");
+
+	/* speed: |v| <= 500 dps */
+	sp = sp_mode(RMD_MODE_SPEED);
+	sp.vel_rad_s = -1e6;
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, &fl), 0);
+	assert_true(fl & RMD_MOTOR_CLAMPED);
+	assert_frame("speed clamped", &f, "141#A2000000B03CFFFF");
+
+	/* beyond the wire's own range: int16 iq saturates at 327.67 A */
+	c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	c.torque_constant_nm_a = 0.001;
+	m = motor_of(&c);
+	sp = sp_mode(RMD_MODE_TORQUE);
+	sp.torque_nm = 1.0;
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, &fl), 0);
+	assert_true(fl & RMD_MOTOR_CLAMPED);
+	assert_frame("iq saturated", &f, "141#A1000000FF7F0000");
+}
+
+static void test_clamp_mit(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(3, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_setpoint sp = sp_mode(RMD_MODE_MIT);
+	struct rmd_mit_cmd got;
+	struct rmd_motor m;
+	struct rmd_frame f;
+	unsigned fl;
+	uint8_t id;
+
+	(void)state;
+	c.mit.t_min = -18.0; /* some firmware (DESIGN.md) */
+	c.mit.t_max = 18.0;
+	c.limits.position_max_rad = 1.0;
+	c.limits.torque_nm = 30.0;
+	m = motor_of(&c);
+	sp.pos_rad = 5.0;
+	sp.vel_rad_s = 0.0;
+	sp.kp = 1000.0; /* above kp_max 500 */
+	sp.kd = 2.0;
+	sp.torque_nm = 25.0; /* within the limit, above the range */
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, &fl), 0);
+	assert_true(fl & RMD_MOTOR_CLAMPED);
+	assert_int_equal(f.can_id, 0x403);
+	assert_int_equal(rmd_mit_decode_cmd(&c.mit, &f, &id, &got), 0);
+	assert_int_equal(id, 3);
+	assert_float_equal(got.p_des_rad, 1.0, 25.0 / 65535);
+	assert_float_equal(got.kp, 500.0, 1e-9);
+	assert_float_equal(got.kd, 2.0, 5.0 / 4095);
+	assert_float_equal(got.t_ff_nm, 18.0, 1e-9);
+}
+
+static void test_nonfinite_refused(void **state)
+{
+	static const double bad[] = { NAN, INFINITY, -INFINITY };
+	struct rmd_config_motor cv3 = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	struct rmd_config_motor cmit = cfg_motor(1, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_motor v3 = motor_of(&cv3), mit = motor_of(&cmit);
+
+	(void)state;
+	for (size_t k = 0; k < 3; k++) {
+		/* every field each mode uses, one at a time */
+		struct {
+			const struct rmd_motor *m;
+			enum rmd_mode mode;
+			size_t field; /* offset into struct rmd_setpoint */
+		} cases[] = {
+			{ &v3, RMD_MODE_TORQUE, offsetof(struct rmd_setpoint, torque_nm) },
+			{ &v3, RMD_MODE_SPEED, offsetof(struct rmd_setpoint, vel_rad_s) },
+			{ &v3, RMD_MODE_POSITION, offsetof(struct rmd_setpoint, pos_rad) },
+			{ &v3, RMD_MODE_POSITION, offsetof(struct rmd_setpoint, max_vel_rad_s) },
+			{ &mit, RMD_MODE_MIT, offsetof(struct rmd_setpoint, pos_rad) },
+			{ &mit, RMD_MODE_MIT, offsetof(struct rmd_setpoint, vel_rad_s) },
+			{ &mit, RMD_MODE_MIT, offsetof(struct rmd_setpoint, torque_nm) },
+			{ &mit, RMD_MODE_MIT, offsetof(struct rmd_setpoint, kp) },
+			{ &mit, RMD_MODE_MIT, offsetof(struct rmd_setpoint, kd) },
+		};
+
+		for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+			struct rmd_setpoint sp = sp_mode(cases[i].mode);
+			struct rmd_frame f, before;
+			unsigned fl = 0x55;
+
+			memcpy((char *)&sp + cases[i].field, &bad[k], sizeof(double));
+			memset(&f, 0xAA, sizeof(f));
+			before = f;
+			if (rmd_motor_encode(cases[i].m, &sp, &f, &fl) != -EDOM)
+				fail_msg("case %zu, value %g: not refused", i, bad[k]);
+			if (memcmp(&f, &before, sizeof(f)) || fl != 0x55)
+				fail_msg("case %zu, value %g: output touched", i, bad[k]);
+		}
+	}
+	/* a NaN in a field the mode does not use is no matter */
+	{
+		struct rmd_setpoint sp = sp_mode(RMD_MODE_TORQUE);
+		struct rmd_frame f;
+
+		sp.pos_rad = NAN;
+		sp.kp = INFINITY;
+		assert_int_equal(rmd_motor_encode(&v3, &sp, &f, NULL), 0);
+	}
+}
+
+static void test_unsupported(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	struct rmd_motor m = motor_of(&c);
+	struct rmd_setpoint sp = sp_mode(RMD_MODE_MIT);
+	struct rmd_frame f;
+
+	(void)state;
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, NULL), -EOPNOTSUPP);
+	sp.mode = 17;
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, NULL), -EOPNOTSUPP);
+	/* an MIT motor takes V3 frames too: torque needs Kt, speed does not */
+	c = cfg_motor(4, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	c.torque_constant_nm_a = 0;
+	m = motor_of(&c);
+	sp = sp_mode(RMD_MODE_TORQUE);
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, NULL), -EOPNOTSUPP);
+	sp = sp_mode(RMD_MODE_SPEED);
+	assert_int_equal(rmd_motor_encode(&m, &sp, &f, NULL), 0);
+	assert_frame("MIT motor, V3 speed", &f, "144#A200000000000000");
+}
+
+static void test_v2_batch(void **state)
+{
+	struct rmd_config_motor c[4];
+	struct rmd_motor m[4];
+	const struct rmd_motor *ms[4];
+	double t[4] = { 0.4, 0.4, NAN, 100.0 };
+	struct rmd_frame f;
+	unsigned fl = 0, bad = 0;
+
+	(void)state;
+	for (unsigned k = 0; k < 4; k++) {
+		c[k] = cfg_motor((uint8_t)(k + 1), RMD_PROTO_V2, RMD_CTRL_TORQUE);
+		c[k].torque_constant_nm_a = 0.5;
+		c[k].limits.torque_nm = 5.0;
+	}
+	c[1].direction = -1;
+	for (unsigned k = 0; k < 4; k++) {
+		m[k] = motor_of(&c[k]);
+		ms[k] = &m[k];
+	}
+	/* 0.8 A = 50, -0.8 A = -50, NaN -> 0 A, 100 N·m -> 5 N·m = 10 A = 625 */
+	assert_int_equal(rmd_motor_encode_v2_batch(ms, t, &f, &fl, &bad), 0);
+	assert_frame("0x280", &f, "280#3200CEFF00007102");
+	assert_int_equal(bad, 1);
+	assert_true(fl & RMD_MOTOR_CLAMPED);
+	/* a missing motor's slot is 0 A */
+	ms[0] = NULL;
+	assert_int_equal(rmd_motor_encode_v2_batch(ms, t, &f, NULL, NULL), 0);
+	assert_frame("0x280 without motor 1", &f, "280#0000CEFF00007102");
+	/* a motor in the wrong slot is refused */
+	ms[0] = &m[1];
+	assert_int_equal(rmd_motor_encode_v2_batch(ms, t, &f, NULL, NULL), -EINVAL);
+}
+
+static void test_safe_frames(void **state)
+{
+	struct rmd_config_motor cv3 = cfg_motor(2, RMD_PROTO_V3, RMD_CTRL_POSITION);
+	struct rmd_config_motor cmit = cfg_motor(2, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_motor v3 = motor_of(&cv3), mit = motor_of(&cmit);
+	struct rmd_frame f[2];
+	struct rmd_mit_cmd got;
+	uint8_t id;
+
+	(void)state;
+	assert_int_equal(rmd_motor_encode_safe(&v3, RMD_SAFE_STOP, f), 1);
+	assert_frame("stop", &f[0], "142#8000000000000000");
+	assert_int_equal(rmd_motor_encode_safe(&v3, RMD_SAFE_HOLD, f), 1);
+	assert_frame("hold", &f[0], "142#8100000000000000");
+	assert_int_equal(rmd_motor_encode_safe(&v3, RMD_SAFE_BRAKE, f), 2);
+	assert_frame("brake 1", &f[0], "142#8000000000000000");
+	assert_frame("brake 2", &f[1], "142#7800000000000000");
+	assert_int_equal(rmd_motor_encode_safe(&v3, RMD_SAFE_DAMP, f), 1);
+	assert_frame("damp V3", &f[0], "142#A200000000000000");
+	/* MIT motors: stop etc. in V3 on 0x140 + ID, damp in MIT */
+	assert_int_equal(rmd_motor_encode_safe(&mit, RMD_SAFE_STOP, f), 1);
+	assert_frame("stop MIT", &f[0], "142#8000000000000000");
+	assert_int_equal(rmd_motor_encode_safe(&mit, RMD_SAFE_DAMP, f), 1);
+	assert_int_equal(f[0].can_id, 0x402);
+	assert_int_equal(rmd_mit_decode_cmd(&cmit.mit, &f[0], &id, &got), 0);
+	assert_float_equal(got.kp, 0.0, 1e-12);
+	assert_float_equal(got.kd, RMD_MOTOR_DAMP_KD, 5.0 / 4095);
+	assert_float_equal(got.v_des_rad_s, 0.0, 90.0 / 4095);
+	assert_float_equal(got.t_ff_nm, 0.0, 48.0 / 4095);
+}
+
+static void test_commands_and_keys(void **state)
+{
+	struct rmd_config_motor cv2 = cfg_motor(5, RMD_PROTO_V2, RMD_CTRL_TORQUE);
+	struct rmd_config_motor cv3 = cfg_motor(5, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	struct rmd_config_motor cmit = cfg_motor(5, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_motor v2 = motor_of(&cv2), v3 = motor_of(&cv3), mit = motor_of(&cmit);
+	struct rmd_setpoint sp = sp_mode(RMD_MODE_MIT);
+	struct rmd_frame f;
+	uint32_t id;
+	uint16_t cmd;
+
+	(void)state;
+	assert_int_equal(rmd_motor_encode_cmd(&v3, 0x9C, &f), 0);
+	assert_frame("0x9C", &f, "145#9C00000000000000");
+	rmd_motor_reply_key(&v3, &f, &id, &cmd);
+	assert_int_equal(id, 0x245);
+	assert_int_equal(cmd, 0x9C);
+	rmd_motor_reply_key(&v2, &f, &id, &cmd);
+	assert_int_equal(id, 0x145);
+	assert_int_equal(cmd, 0x9C);
+	rmd_motor_reply_key(&mit, &f, &id, &cmd);
+	assert_int_equal(id, 0x245);
+	assert_int_equal(rmd_motor_encode(&mit, &sp, &f, NULL), 0);
+	rmd_motor_reply_key(&mit, &f, &id, &cmd);
+	assert_int_equal(id, 0x505);
+	assert_int_equal(cmd, RMD_MOTOR_CMD_MIT);
+	f = frame_from("280#0000000000000000");
+	rmd_motor_reply_key(&v2, &f, &id, &cmd);
+	assert_int_equal(id, 0x145);
+	assert_int_equal(cmd, 0xA1);
+	/* V2 has neither 0xB5 nor 0xB3 */
+	assert_int_equal(rmd_motor_encode_cmd(&v2, 0xB5, &f), -ENOENT);
+	assert_int_equal(rmd_motor_encode_comm_timeout(&v2, 100, &f), -EOPNOTSUPP);
+	assert_int_equal(rmd_motor_encode_comm_timeout(&mit, 100, &f), 0);
+	assert_frame("0xB3 100 ms", &f, "145#B300000064000000");
+}
+
+static void test_decode_v3(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_POSITION);
+	struct rmd_motor_reply r;
+	struct rmd_motor_state st = { 0 };
+	struct rmd_motor m;
+	struct rmd_frame f;
+
+	(void)state;
+	c.direction = -1;
+	c.zero_offset_rad = 0.1;
+	c.torque_constant_nm_a = 2.0;
+	m = motor_of(&c);
+	/* V3 §2.20.4 reply: 50 degC, 1 A, 500 dps, 45 deg */
+	f = frame_from("241#A4326400F4012D00");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_int_equal(r.cmd, 0xA4);
+	assert_int_equal(r.have, RMD_MOTOR_HAVE_POS | RMD_MOTOR_HAVE_VEL | RMD_MOTOR_HAVE_TORQUE |
+					 RMD_MOTOR_HAVE_TEMP);
+	assert_float_equal(r.temp_c, 50.0, 1e-9);
+	assert_float_equal(r.current_a, -1.0, 1e-9);
+	assert_float_equal(r.torque_nm, -2.0, 1e-9);
+	assert_float_equal(r.vel_rad_s, -500.0 * DEG, 1e-9);
+	assert_float_equal(r.pos_rad, -(45.0 * DEG - 0.1), 1e-9);
+	rmd_motor_apply(&r, &st);
+	assert_float_equal(st.pos_rad, r.pos_rad, 0);
+	assert_float_equal(st.torque_nm, -2.0, 1e-9);
+
+	/* V3 §2.12.4: 50 degC, brake released, 48.5 V, error 0x0004 (low voltage) */
+	f = frame_from("241#9A320001E5010400");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_true(r.have & RMD_MOTOR_HAVE_ERROR);
+	assert_float_equal(r.voltage_v, 48.5, 1e-9);
+	assert_int_equal(r.error_code, 0x0004);
+	assert_true(r.brake_released);
+	rmd_motor_apply(&r, &st);
+	assert_int_equal(st.error_code, 4);
+	assert_float_equal(st.voltage_v, 48.5, 1e-9);
+	assert_float_equal(st.pos_rad, -(45.0 * DEG - 0.1), 1e-9); /* kept */
+
+	/* 0xB3 echo, 0xB5 model, 0xB2 version */
+	f = frame_from("241#B300000064000000");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_int_equal(r.comm_timeout_ms, 100);
+	f = frame_from("241#B558385332563130");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_string_equal(r.model, "X8S2V10");
+	f = frame_from("241#B20000002E893401");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_int_equal(r.version_date, 20220206);
+
+	/* not this motor's, bad length, unknown command (0xF1 after a comm-loss trip) */
+	f = frame_from("242#9A320001E5010400");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EINVAL);
+	f = frame_from("141#9A320001E5010400");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EINVAL);
+	f = frame_from("241#9A3200");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EBADMSG);
+	f = frame_from("241#F100000000000000");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), -ENOENT);
+	assert_int_equal(r.cmd, RMD_MOTOR_CMD_COMM_LOST);
+}
+
+static void test_decode_v3_rotor(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_SPEED);
+	struct rmd_motor_reply r;
+	struct rmd_motor m;
+	struct rmd_frame f;
+
+	(void)state;
+	c.gear_ratio = 6.0;
+	c.units = RMD_UNITS_ROTOR;
+	m = motor_of(&c);
+	f = frame_from("241#9C326400F4012D00");
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_float_equal(r.vel_rad_s, 500.0 / 6.0 * DEG, 1e-9);
+	assert_float_equal(r.pos_rad, 45.0 / 6.0 * DEG, 1e-9);
+}
+
+static void test_decode_v2_unwrap(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(2, RMD_PROTO_V2, RMD_CTRL_TORQUE);
+	const struct rmd_cmd_spec *a1 = rmd_cmd_find(RMD_PROTO_V2, 0xA1);
+	struct rmd_motor_reply r;
+	struct rmd_motor m;
+	struct rmd_msg msg;
+	struct rmd_frame f;
+	const double per_count = 2.0 * M_PI / 65536.0 / 6.0;
+
+	(void)state;
+	assert_non_null(a1);
+	c.gear_ratio = 6.0;
+	c.units = RMD_UNITS_ROTOR;
+	c.torque_constant_nm_a = 0.5;
+	c.direction = -1;
+	m = motor_of(&c);
+	rmd_motor_set_v2_reference(&m, 1.0); /* the 0x92 angle at bring-up */
+
+	memset(&msg, 0, sizeof(msg));
+	msg.cmd = 0xA1;
+	rmd_msg_set(&msg, RMD_FLD_TEMP, 30);
+	rmd_msg_set(&msg, RMD_FLD_CURRENT, 2048); /* V2 §3.37: 33 A */
+	rmd_msg_set(&msg, RMD_FLD_SPEED, 600);	  /* rotor dps */
+	rmd_msg_set(&msg, RMD_FLD_ENCODER, 65000);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &msg, &f), 0);
+	assert_int_equal(f.can_id, 0x142);
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_float_equal(r.current_a, -33.0, 1e-9);
+	assert_float_equal(r.torque_nm, -16.5, 1e-9);
+	assert_float_equal(r.vel_rad_s, -100.0 * DEG, 1e-9);
+	assert_float_equal(r.pos_rad, -1.0, 1e-12); /* anchored at the reference */
+
+	/* across the wrap: 65000 -> 500 is +1036 counts */
+	rmd_msg_set(&msg, RMD_FLD_ENCODER, 500);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &msg, &f), 0);
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_float_equal(r.pos_rad, -(1.0 + 1036 * per_count), 1e-12);
+	/* and back down across it */
+	rmd_msg_set(&msg, RMD_FLD_ENCODER, 65535);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &msg, &f), 0);
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_float_equal(r.pos_rad, -(1.0 + 535 * per_count), 1e-12);
+
+	/* V2 replies come on 0x140 + ID, not 0x240 + ID */
+	f.can_id = 0x242;
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EINVAL);
+}
+
+static void test_decode_mit(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_mit_reply rep = {
+		.motor_id = 1, .pos_rad = 10.0, .vel_rad_s = 1.0, .torque_nm = 5.0
+	};
+	struct rmd_motor_reply r;
+	struct rmd_motor m;
+	struct rmd_frame f;
+
+	(void)state;
+	c.direction = -1;
+	c.zero_offset_rad = 0.5;
+	c.torque_constant_nm_a = 2.5;
+	m = motor_of(&c);
+	assert_int_equal(rmd_mit_encode_reply(&c.mit, &rep, &f), 0);
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_int_equal(r.cmd, RMD_MOTOR_CMD_MIT);
+	assert_float_equal(r.pos_rad, -9.5, 25.0 / 65535);
+	assert_float_equal(r.vel_rad_s, -1.0, 90.0 / 4095);
+	assert_float_equal(r.torque_nm, -5.0, 48.0 / 4095);
+	assert_float_equal(r.current_a, r.torque_nm / 2.5, 1e-12);
+	/* without Kt, the current is unknown */
+	c.torque_constant_nm_a = 0;
+	m = motor_of(&c);
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_true(isnan(r.current_a));
+	/* the D0 id byte must agree with the identifier */
+	f.data[0] = 2;
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EBADMSG);
+	/* a V3 motor takes no MIT replies */
+	c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	m = motor_of(&c);
+	f.data[0] = 1;
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EINVAL);
+}
+
+/* Seeded round trip: encode a position, read the angle back through a 0x92-like reply. */
+static void test_position_round_trip(void **state)
+{
+	unsigned seed = 12345;
+
+	(void)state;
+	for (int i = 0; i < 2000; i++) {
+		struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_POSITION);
+		struct rmd_setpoint sp = sp_mode(RMD_MODE_POSITION);
+		struct rmd_motor_reply r;
+		struct rmd_motor m;
+		struct rmd_frame f;
+		int32_t raw;
+
+		c.direction = rand_r(&seed) & 1 ? 1 : -1;
+		c.zero_offset_rad = (rand_r(&seed) % 2000 - 1000) / 100.0;
+		c.gear_ratio = 1 + rand_r(&seed) % 50;
+		c.units = rand_r(&seed) & 1 ? RMD_UNITS_ROTOR : RMD_UNITS_OUTPUT;
+		m = motor_of(&c);
+		sp.pos_rad = (rand_r(&seed) % 20000 - 10000) / 1000.0;
+		assert_int_equal(rmd_motor_encode(&m, &sp, &f, NULL), 0);
+		/* the 0xA4 angle as a V3 §2.11 0x92 reply (both 0.01 deg, int32) */
+		memcpy(&raw, &f.data[4], 4);
+		f.can_id = 0x241;
+		memset(f.data, 0, sizeof(f.data));
+		f.data[0] = 0x92;
+		memcpy(&f.data[4], &raw, 4);
+		assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+		if (fabs(r.pos_rad - sp.pos_rad) > 0.005 * DEG * c.gear_ratio + 1e-9)
+			fail_msg("seed 12345, case %d: %g -> %g", i, sp.pos_rad, r.pos_rad);
+	}
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_init_refuses),
+		cmocka_unit_test(test_encode_vectors),
+		cmocka_unit_test(test_clamp),
+		cmocka_unit_test(test_clamp_mit),
+		cmocka_unit_test(test_nonfinite_refused),
+		cmocka_unit_test(test_unsupported),
+		cmocka_unit_test(test_v2_batch),
+		cmocka_unit_test(test_safe_frames),
+		cmocka_unit_test(test_commands_and_keys),
+		cmocka_unit_test(test_decode_v3),
+		cmocka_unit_test(test_decode_v3_rotor),
+		cmocka_unit_test(test_decode_v2_unwrap),
+		cmocka_unit_test(test_decode_mit),
+		cmocka_unit_test(test_position_round_trip),
+	};
+
+	return cmocka_run_group_tests_name("motor", tests, NULL, NULL);
+}
