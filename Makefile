@@ -38,7 +38,7 @@ WARN += -Werror
 endif
 HARDEN := -D_FORTIFY_SOURCE=2 -fstack-protector-strong -fPIE
 
-PKGS := libmodbus yaml-0.1 lcm
+PKGS := libmodbus yaml-0.1 lcm libsystemd
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 
@@ -94,7 +94,7 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 liblcm-dev liblcm-bin libglib2.0-dev \
-	liblcm-java default-jdk-headless
+	liblcm-java default-jdk-headless libsystemd-dev
 
 deps:
 	apt-get update -qq
@@ -169,12 +169,40 @@ $(BUILD)/tests/test_loop_alloc: override LDFLAGS += -Wl,--wrap=malloc,--wrap=cal
 test: all
 	$(Q)BUILD=$(BUILD) tests/run-tests.sh $(TESTS)
 
+# rmdd's systemd units (systemd also searches /usr/local/lib/systemd/system),
+# its configuration (an existing one is never overwritten: a user's edits
+# survive `make install`), and the examples: configurations and the
+# systemd-networkd files that bring CAN interfaces up (copy them to
+# /etc/systemd/network/ to use them).
+SYSTEMDUNITDIR ?= $(PREFIX)/lib/systemd/system
+EXAMPLESDIR ?= $(PREFIX)/share/rmdd/examples
+RMDD_CONF := $(DESTDIR)$(SYSCONFDIR)/rmdd/rmdd.yaml
+RMDD_EXAMPLES := $(wildcard examples/*.yaml) systemd/80-can.network systemd/80-can.link
+
 install: all
 	install -D -m 0755 $(RMDCTL) $(DESTDIR)$(BINDIR)/rmdctl
 	$(if $(RMDSIM_SRCS),install -D -m 0755 $(RMDSIM) $(DESTDIR)$(BINDIR)/rmd-sim)
+	install -D -m 0755 $(RMDD) $(DESTDIR)$(BINDIR)/rmdd
+	install -d $(DESTDIR)$(SYSTEMDUNITDIR) $(DESTDIR)$(EXAMPLESDIR)
+	sed -e 's|@BINDIR@|$(BINDIR)|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' \
+		systemd/rmdd.service.in >$(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
+	chmod 0644 $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
+	install -m 0644 systemd/rmdd-can@.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
+	install -m 0644 $(RMDD_EXAMPLES) $(DESTDIR)$(EXAMPLESDIR)/
+	@if [ -e $(RMDD_CONF) ]; then \
+		echo "install: kept the existing $(RMDD_CONF); the new example is $(DESTDIR)$(EXAMPLESDIR)/rmdd.yaml"; \
+	else \
+		echo "install -D -m 0644 examples/rmdd.yaml $(RMDD_CONF)"; \
+		install -D -m 0644 examples/rmdd.yaml $(RMDD_CONF); \
+	fi
+	@echo "install: edit $(SYSCONFDIR)/rmdd/rmdd.yaml, then: systemctl daemon-reload && systemctl enable --now rmdd"
 
 uninstall:
-	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim
+	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd
+	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
+	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
+	-rmdir $(DESTDIR)$(EXAMPLESDIR) $(DESTDIR)$(PREFIX)/share/rmdd 2>/dev/null
+	@echo "uninstall: kept $(RMDD_CONF) (your configuration); remove it by hand"
 
 FORMAT_SRCS = $(shell find src include tests bench examples -name '*.[ch]' 2>/dev/null)
 

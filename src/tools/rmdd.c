@@ -4,22 +4,59 @@
  *
  *   rmdd --check-config FILE   load FILE, plan every bus, print the plan;
  *                              exit 0 when it fits, 1 with the errors
- *   rmdd [--config FILE] [--require-rt]   run the daemon (FILE defaults
- *                              to RMDD_DEFAULT_CONFIG)
- *   rmdd --sim [--require-rt]  run on built-in simulated motors
+ *   rmdd [--config FILE]       run the daemon (FILE defaults to
+ *                              RMDD_DEFAULT_CONFIG)
+ *   rmdd --sim [N]             run on N built-in simulated motors
  *
- * main() parses the options into struct rmdd_opts and runs one mode.
+ * The lifecycle (chrony style): main() builds everything, then starts the
+ * threads, and tears down in reverse order; only main() exits.
+ *
+ *   load the configuration -> plan every bus (refuse an infeasible one)
+ *   -> open every bus -> hand-over buffers and the event ring
+ *   -> rmd_loop_new() -> bring-up (probe, 0xB3; report; refuse per config)
+ *   -> LCM bridge init -> bridge thread -> rt loop thread (SCHED_FIFO, or
+ *   one warning and normal priority unless --require-rt) -> monitor thread
+ *   -> READY=1 -> the main thread serves signals (signalfd) and systemd:
+ *      SIGUSR1     print the statistics, keep running
+ *      SIGHUP      ignored (a new configuration needs a restart)
+ *      SIGTERM/INT stop the loop (it stops every motor, 0xB3 stays), join
+ *                  it, print the statistics, stop the bridge, close the
+ *                  buses, exit 0
+ *      every second: STATUS=; every WATCHDOG_USEC/2: WATCHDOG=1, only
+ *      when the loop completed cycles since the last ping.
+ *
+ * Threads: the rt loop (SCHED_FIFO, loop.rt_priority), the LCM bridge and
+ * the monitor (SCHED_OTHER), and the main thread (SCHED_OTHER; it leaves
+ * a SCHED_FIFO it was started with, e.g. by CPUSchedulingPolicy=, after
+ * bring-up).  Every signal is blocked in every thread and read from the
+ * main thread's signalfd.
+ *
+ * Test hook: RMDD_TEST_STALL_AFTER_MS=N in the environment makes the main
+ * thread stop the rt loop N ms after it started, without joining it or
+ * telling anyone: the loop thread exits (stopping the motors), its
+ * heartbeat freezes, and the real watchdog logic must stop the pings.
+ *
  * Exit statuses: 0 ok, 1 failure, 2 usage.  Non-rt.
  */
+#define _GNU_SOURCE /* signalfd, sched_* */
 #include <errno.h>
 #include <getopt.h>
+#include <inttypes.h>
+#include <poll.h>
+#include <sched.h>
+#include <signal.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sys/signalfd.h>
 
 #include "rmd/config.h"
 #include "rmd/plan.h"
+#include "rmdd.h"
 
 #ifndef RMD_VERSION
 #define RMD_VERSION "0.1.0"
@@ -28,7 +65,18 @@
 #define RMDD_DEFAULT_CONFIG "/etc/rmdd/rmdd.yaml"
 #endif
 
-#define ERR_LEN 8192 /* config and plan messages */
+#define RMDD_SIM_DEFAULT_MOTORS 6 /* rmdd --sim: two 1 Mbit/s sim buses of three motors */
+
+#define NS_PER_S INT64_C(1000000000)
+#define NS_PER_MS INT64_C(1000000)
+#define STATUS_PERIOD_NS NS_PER_S
+/* The main thread looks at the loop's heartbeat this often ... */
+#define LOOK_PERIOD_NS (100 * NS_PER_MS)
+/* ... and calls it stalled after this many periods without a cycle, and at least: */
+#define STALL_PERIODS 5
+#define STALL_MIN_NS (500 * NS_PER_MS)
+/* READY=1 waits this long at most for the loop's first cycle. */
+#define FIRST_CYCLE_WAIT_NS (2 * NS_PER_S)
 
 enum rmdd_mode {
 	MODE_RUN = 0, /* the daemon, from a config file */
@@ -40,15 +88,36 @@ enum rmdd_mode {
 
 struct rmdd_opts {
 	enum rmdd_mode mode;
-	const char *config; /* --config or --check-config FILE */
-	bool require_rt;    /* refuse to run without SCHED_FIFO and mlockall */
+	const char *config;	/* --config or --check-config FILE */
+	bool config_given;	/* --config: no fallback message for a missing default */
+	unsigned sim_motors;	/* --sim [N] */
+	const char *lcm_url;	/* --lcm-url: replaces the configuration's lcm.url */
+	bool require_rt;	/* refuse to run without SCHED_FIFO and mlockall */
+	int64_t stall_after_ns; /* RMDD_TEST_STALL_AFTER_MS */
+};
+
+/* Everything the daemon builds, in the order it builds it. */
+struct rmdd {
+	struct rmd_config cfg;
+	struct rmd_plan plan;
+	int sfd; /* signalfd: SIGTERM, SIGINT, SIGUSR1, SIGHUP */
+	struct rmd_bus buses[RMD_MAX_BUSES];
+	/* hand-overs: bridge -> loop, loop -> bridge, loop -> monitor -> bridge */
+	struct rmd_latest commands, snapshots, health_loop, health_bridge;
+	struct rmd_ring events;
+	void *buf_commands, *buf_snapshots, *buf_health_loop, *buf_health_bridge, *buf_events;
+	struct rmd_loop *loop;
+	struct rmdd_monitor mon;
+	struct rmd_bridge bridge;
+	struct rmdd_notify notify;
+	struct rmdd_stats_src stats;
 };
 
 static void usage(FILE *out)
 {
 	fprintf(out,
-		"usage: rmdd [--config FILE] [--require-rt]\n"
-		"       rmdd --sim [--require-rt]\n"
+		"usage: rmdd [--config FILE] [--require-rt] [--lcm-url URL] [-v|-q]\n"
+		"       rmdd --sim [N] [--require-rt] [--lcm-url URL] [-v|-q]\n"
 		"       rmdd --check-config FILE\n"
 		"\n"
 		"Drives MyActuator RMD motors on CAN buses and RS485 lines at up to 1 kHz\n"
@@ -57,11 +126,47 @@ static void usage(FILE *out)
 		"  -c, --config FILE        configuration (default %s)\n"
 		"  -C, --check-config FILE  check FILE and print each bus's plan and budget;\n"
 		"                           exit 0 when every bus fits, 1 otherwise\n"
-		"  -s, --sim                run on built-in simulated motors\n"
+		"  -s, --sim [N]            run on N (1..%d, default %d) built-in simulated\n"
+		"                           motors, three per simulated 1 Mbit/s bus, at 1 kHz\n"
+		"  -l, --lcm-url URL        LCM provider instead of the configuration's lcm.url\n"
+		"                           (memq:// keeps all traffic inside rmdd)\n"
 		"  -r, --require-rt         exit unless SCHED_FIFO and mlockall are granted\n"
+		"  -v, --verbose            also debug messages\n"
+		"  -q, --quiet              only warnings and errors\n"
 		"  -h, --help               this text\n"
-		"  -V, --version            version\n",
-		RMDD_DEFAULT_CONFIG);
+		"  -V, --version            version\n"
+		"\n"
+		"Signals: SIGTERM or SIGINT stop every motor and exit 0 after printing the\n"
+		"statistics; SIGUSR1 prints them and keeps running; SIGHUP is ignored.\n"
+		"Exit status: 0 ok, 1 failure (configuration, plan, bus, bring-up, LCM,\n"
+		"--require-rt), 2 bad command line.\n",
+		RMDD_DEFAULT_CONFIG, RMD_MAX_MOTORS, RMDD_SIM_DEFAULT_MOTORS);
+}
+
+/* "6" -> 6 when it is a motor count 1..RMD_MAX_MOTORS. */
+static int parse_count(const char *s, unsigned *out)
+{
+	char *end;
+	unsigned long v;
+
+	if (!s || !*s || *s < '0' || *s > '9')
+		return -EINVAL;
+	errno = 0;
+	v = strtoul(s, &end, 10);
+	if (errno || *end || v < 1 || v > RMD_MAX_MOTORS)
+		return -EINVAL;
+	*out = (unsigned)v;
+	return 0;
+}
+
+static bool all_digits(const char *s)
+{
+	if (!s || !*s)
+		return false;
+	for (; *s; s++)
+		if (*s < '0' || *s > '9')
+			return false;
+	return true;
 }
 
 /* Fill o from the command line.  Returns 0, or -EINVAL after a message. */
@@ -70,21 +175,27 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 	static const struct option longopts[] = {
 		{ "config", required_argument, NULL, 'c' },
 		{ "check-config", required_argument, NULL, 'C' },
-		{ "sim", no_argument, NULL, 's' },
+		{ "sim", optional_argument, NULL, 's' },
+		{ "lcm-url", required_argument, NULL, 'l' },
 		{ "require-rt", no_argument, NULL, 'r' },
+		{ "verbose", no_argument, NULL, 'v' },
+		{ "quiet", no_argument, NULL, 'q' },
 		{ "help", no_argument, NULL, 'h' },
 		{ "version", no_argument, NULL, 'V' },
 		{ NULL, 0, NULL, 0 },
 	};
 	bool sim = false, check = false;
+	const char *env;
 	int c;
 
 	memset(o, 0, sizeof(*o));
 	o->config = RMDD_DEFAULT_CONFIG;
-	while ((c = getopt_long(argc, argv, "c:C:srhV", longopts, NULL)) != -1) {
+	o->sim_motors = RMDD_SIM_DEFAULT_MOTORS;
+	while ((c = getopt_long(argc, argv, "c:C:s::l:rvqhV", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'c':
 			o->config = optarg;
+			o->config_given = true;
 			break;
 		case 'C':
 			o->config = optarg;
@@ -92,9 +203,26 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 			break;
 		case 's':
 			sim = true;
+			/* "--sim 12" as well as "--sim=12" */
+			if (!optarg && optind < argc && all_digits(argv[optind]))
+				optarg = argv[optind++];
+			if (optarg && parse_count(optarg, &o->sim_motors)) {
+				fprintf(stderr, "rmdd: --sim %s: the motor count is 1..%d\n",
+					optarg, RMD_MAX_MOTORS);
+				return -EINVAL;
+			}
+			break;
+		case 'l':
+			o->lcm_url = optarg;
 			break;
 		case 'r':
 			o->require_rt = true;
+			break;
+		case 'v':
+			rmdd_log_level = 7;
+			break;
+		case 'q':
+			rmdd_log_level = 4;
 			break;
 		case 'h':
 			o->mode = MODE_HELP;
@@ -116,6 +244,18 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 		fprintf(stderr, "rmdd: --sim and --check-config exclude each other\n");
 		return -EINVAL;
 	}
+	if (sim && o->config_given) {
+		fprintf(stderr, "rmdd: --sim and --config exclude each other\n");
+		return -EINVAL;
+	}
+	if (o->lcm_url && (!o->lcm_url[0] || strlen(o->lcm_url) >= RMD_CONFIG_URL_LEN)) {
+		fprintf(stderr, "rmdd: --lcm-url: empty, or longer than %d characters\n",
+			RMD_CONFIG_URL_LEN - 1);
+		return -EINVAL;
+	}
+	env = getenv("RMDD_TEST_STALL_AFTER_MS");
+	if (env && *env)
+		o->stall_after_ns = strtoll(env, NULL, 10) * NS_PER_MS;
 	o->mode = check ? MODE_CHECK : sim ? MODE_SIM : MODE_RUN;
 	return 0;
 }
@@ -125,22 +265,481 @@ static int check_config(const char *path)
 {
 	static struct rmd_config cfg; /* large: off the stack */
 	static struct rmd_plan plan;
-	char err[ERR_LEN];
+	char err[RMDD_ERR_LEN];
 	int r;
 
 	r = rmd_config_load(path, &cfg, err, sizeof(err));
 	if (r) {
 		fprintf(stderr, "%s\n", err);
-		return 1;
+		return RMDD_EXIT_FAIL;
 	}
 	r = rmd_plan_build(&cfg, &plan, err, sizeof(err));
 	rmd_plan_print(&plan, &cfg, stdout);
 	fflush(stdout);
 	if (r) {
 		fprintf(stderr, "%s\n", err);
-		return 1;
+		return RMDD_EXIT_FAIL;
 	}
-	return 0;
+	return RMDD_EXIT_OK;
+}
+
+/* Print a multi-line message, one log line per line. */
+static void log_lines(int level, const char *text)
+{
+	const char *p = text;
+
+	while (*p) {
+		const char *nl = strchr(p, '\n');
+		int n = nl ? (int)(nl - p) : (int)strlen(p);
+
+		rmdd_log(level, "%.*s", n, p);
+		p += n + (nl ? 1 : 0);
+	}
+}
+
+/* ---- building ------------------------------------------------------------- */
+
+/* Configuration and plan.  Returns an exit status. */
+static int load(struct rmdd *d, const struct rmdd_opts *o)
+{
+	static char err[RMDD_ERR_LEN];
+	int r;
+
+	if (o->mode == MODE_SIM) {
+		r = rmd_config_sim_default(&d->cfg, o->sim_motors);
+		if (r) {
+			rmdd_log(3, "--sim %u: cannot build the simulated configuration",
+				 o->sim_motors);
+			return RMDD_EXIT_FAIL;
+		}
+	} else {
+		if (!o->config_given && access(o->config, F_OK) < 0 && errno == ENOENT) {
+			rmdd_log(3,
+				 "no configuration: %s does not exist; pass --config FILE (see "
+				 "examples/rmdd.yaml), or --sim to run on simulated motors",
+				 o->config);
+			return RMDD_EXIT_USAGE;
+		}
+		r = rmd_config_load(o->config, &d->cfg, err, sizeof(err));
+		if (r) {
+			log_lines(3, err);
+			return RMDD_EXIT_FAIL;
+		}
+	}
+	if (o->lcm_url)
+		snprintf(d->cfg.lcm.url, sizeof(d->cfg.lcm.url), "%s", o->lcm_url);
+	r = rmd_plan_build(&d->cfg, &d->plan, err, sizeof(err));
+	if (r) {
+		log_lines(3, err);
+		rmdd_log(3, "%s: the plan does not fit; `rmdd --check-config %s` prints it",
+			 d->cfg.source, d->cfg.source);
+		return RMDD_EXIT_FAIL;
+	}
+	return RMDD_EXIT_OK;
+}
+
+/* Block the signals main serves (every thread inherits the mask) and open the signalfd. */
+static int signals_open(struct rmdd *d)
+{
+	sigset_t set;
+
+	sigemptyset(&set);
+	sigaddset(&set, SIGTERM);
+	sigaddset(&set, SIGINT);
+	sigaddset(&set, SIGUSR1);
+	sigaddset(&set, SIGHUP);
+	if (sigprocmask(SIG_BLOCK, &set, NULL) < 0)
+		return -errno;
+	/* a closed stderr reader or LCM socket must not kill the daemon */
+	signal(SIGPIPE, SIG_IGN);
+	d->sfd = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
+	return d->sfd < 0 ? -errno : 0;
+}
+
+static void *zalloc3(size_t size)
+{
+	return calloc(3, size);
+}
+
+/* Triple buffers and the event ring.  Returns 0 or -ENOMEM. */
+static int handovers_init(struct rmdd *d)
+{
+	d->buf_commands = zalloc3(sizeof(struct rmd_command));
+	d->buf_snapshots = zalloc3(sizeof(struct rmd_snapshot));
+	d->buf_health_loop = zalloc3(sizeof(struct rmd_health));
+	d->buf_health_bridge = zalloc3(sizeof(struct rmd_health));
+	d->buf_events = calloc(RMDD_EVENT_SLOTS, sizeof(struct rmd_event));
+	if (!d->buf_commands || !d->buf_snapshots || !d->buf_health_loop || !d->buf_health_bridge ||
+	    !d->buf_events)
+		return -ENOMEM;
+	rmd_latest_init(&d->commands, d->buf_commands, sizeof(struct rmd_command));
+	rmd_latest_init(&d->snapshots, d->buf_snapshots, sizeof(struct rmd_snapshot));
+	rmd_latest_init(&d->health_loop, d->buf_health_loop, sizeof(struct rmd_health));
+	rmd_latest_init(&d->health_bridge, d->buf_health_bridge, sizeof(struct rmd_health));
+	return rmd_ring_init(&d->events, d->buf_events, RMDD_EVENT_SLOTS, sizeof(struct rmd_event));
+}
+
+static void handovers_free(struct rmdd *d)
+{
+	free(d->buf_events);
+	free(d->buf_health_bridge);
+	free(d->buf_health_loop);
+	free(d->buf_snapshots);
+	free(d->buf_commands);
+}
+
+/* Bring-up with its report.  Returns an exit status. */
+static int bringup(struct rmdd *d)
+{
+	static char report[RMDD_ERR_LEN];
+	unsigned missing = 0;
+	int r;
+
+	r = rmd_loop_bringup(d->loop, report, sizeof(report));
+	rmdd_log(6, "bring-up of %u motor(s) on %u bus(es):", d->cfg.n_motors, d->cfg.n_buses);
+	for (const char *p = report; *p;) {
+		const char *nl = strchr(p, '\n');
+		int n = nl ? (int)(nl - p) : (int)strlen(p);
+		bool bad = memmem(p, (size_t)n, "missing", 7) ||
+			   memmem(p, (size_t)n, "unexpected", 10) ||
+			   memmem(p, (size_t)n, "NOT", 3) || memmem(p, (size_t)n, "no answer", 9);
+
+		missing += memmem(p, (size_t)n, ": missing", 9) != NULL;
+		rmdd_log(bad ? 4 : 6, "  %.*s", n, p);
+		p += n + (nl ? 1 : 0);
+	}
+	/* what bring-up reported through the ring (probe results) goes out now */
+	rmdd_monitor_drain(&d->mon);
+	if (r == -ENODEV) {
+		rmdd_log(
+			3,
+			"%u motor(s) missing and probe.on_missing is refuse in %s (set it to start "
+			"to run without them)",
+			missing, d->cfg.source);
+		return RMDD_EXIT_FAIL;
+	}
+	if (r < 0) {
+		rmdd_log(3, "bring-up failed: %s", strerror(-r));
+		return RMDD_EXIT_FAIL;
+	}
+	return RMDD_EXIT_OK;
+}
+
+/*
+ * A main thread started at SCHED_FIFO (CPUSchedulingPolicy=) would compete
+ * with the rt loop: it goes back to SCHED_OTHER once bring-up is done.
+ */
+static void main_thread_normal(const struct rmdd *d)
+{
+	struct sched_param sp = { .sched_priority = 0 };
+	int pol = sched_getscheduler(0);
+
+	if (pol != SCHED_FIFO && pol != SCHED_RR)
+		return;
+	if (sched_setscheduler(0, SCHED_OTHER, &sp) == 0)
+		rmdd_log(7,
+			 "main thread: SCHED_OTHER (started real-time; the rt loop takes "
+			 "loop.rt_priority %u)",
+			 d->cfg.loop.rt_priority);
+	else
+		rmdd_log(4, "main thread: cannot leave SCHED_%s: %s",
+			 pol == SCHED_FIFO ? "FIFO" : "RR", strerror(errno));
+}
+
+/*
+ * READY=1 means the loop runs: wait (up to FIRST_CYCLE_WAIT_NS) until it
+ * completed a cycle, so the first STATUS= shows the motors as bring-up
+ * left them.  A loop that does not start is reported, and the watchdog
+ * gets no ping from it.
+ */
+static void wait_first_cycle(struct rmdd *d)
+{
+	const struct timespec step = { 0, NS_PER_MS };
+	int64_t end = rmdd_now_ns() + FIRST_CYCLE_WAIT_NS;
+
+	while (rmd_loop_heartbeat(d->loop) == 0) {
+		if (rmdd_now_ns() >= end) {
+			rmdd_log(3, "rt loop: no cycle completed %.1f s after its start",
+				 (double)FIRST_CYCLE_WAIT_NS / 1e9);
+			return;
+		}
+		nanosleep(&step, NULL);
+	}
+}
+
+/* ---- serving --------------------------------------------------------------- */
+
+/* The rt loop's liveness, as the main thread sees its heartbeat. */
+struct liveness {
+	uint64_t hb;	  /* heartbeat at the last look */
+	int64_t advanced; /* when a look last saw it move */
+	int64_t stall_ns; /* no move for this long: stalled */
+	bool stalled;
+};
+
+/* Look at the heartbeat; log when the loop stalls or runs again. */
+static void look(struct liveness *lv, struct rmdd *d, int64_t now)
+{
+	uint64_t hb = rmd_loop_heartbeat(d->loop);
+
+	if (hb != lv->hb) {
+		lv->hb = hb;
+		lv->advanced = now;
+		if (lv->stalled)
+			rmdd_log(5, "rt loop: cycles complete again");
+		lv->stalled = false;
+	} else if (!lv->stalled && now - lv->advanced >= lv->stall_ns) {
+		lv->stalled = true;
+		rmdd_log(3, "rt loop: no cycle completed in the last %.1f s%s",
+			 (double)(now - lv->advanced) / 1e9,
+			 d->notify.watchdog_ns ? "; the systemd watchdog is no longer fed" : "");
+	}
+}
+
+static void handle_signal(struct rmdd *d, int sig)
+{
+	switch (sig) {
+	case SIGUSR1:
+		rmdd_stats_print(&d->stats, "SIGUSR1");
+		break;
+	case SIGHUP:
+		rmdd_log(5, "SIGHUP ignored: a new configuration takes a restart "
+			    "(systemctl restart rmdd)");
+		break;
+	default:
+		break;
+	}
+}
+
+/*
+ * Wait for signals; feed systemd.  Returns the signal that ends the daemon
+ * (SIGTERM or SIGINT), or -errno.
+ *
+ * The main thread wakes at least every LOOK_PERIOD_NS to look at the
+ * loop's heartbeat.  WATCHDOG=1 goes out every WATCHDOG_USEC/2, and only
+ * when the heartbeat moved since the previous ping: a stuck loop stops the
+ * pings and systemd restarts the service.  STATUS= every second.
+ */
+static int serve(struct rmdd *d, const struct rmdd_opts *o)
+{
+	const int64_t ping_every = d->notify.ping_every_ns;
+	int64_t now = rmdd_now_ns(), t_status = now;
+	int64_t next_status = now + STATUS_PERIOD_NS, next_ping = now + ping_every;
+	int64_t next_look = now + LOOK_PERIOD_NS;
+	int64_t stall_at = o->stall_after_ns > 0 ? now + o->stall_after_ns : 0;
+	struct liveness lv = {
+		.hb = rmd_loop_heartbeat(d->loop),
+		.advanced = now,
+		.stall_ns = STALL_PERIODS * d->plan.period_ns > STALL_MIN_NS ?
+				    STALL_PERIODS * d->plan.period_ns :
+				    STALL_MIN_NS,
+	};
+	uint64_t hb_ping = lv.hb, hb_status = lv.hb;
+
+	for (;;) {
+		struct pollfd pfd = { .fd = d->sfd, .events = POLLIN };
+		struct signalfd_siginfo si;
+		int64_t next = next_status < next_look ? next_status : next_look;
+		int r;
+
+		if (ping_every && next_ping < next)
+			next = next_ping;
+		if (stall_at && stall_at < next)
+			next = stall_at;
+		r = poll(&pfd, 1, next > now ? (int)((next - now + NS_PER_MS - 1) / NS_PER_MS) : 0);
+		if (r < 0 && errno != EINTR)
+			return -errno;
+		while (read(d->sfd, &si, sizeof(si)) == (ssize_t)sizeof(si)) {
+			if (si.ssi_signo == SIGTERM || si.ssi_signo == SIGINT)
+				return (int)si.ssi_signo;
+			handle_signal(d, (int)si.ssi_signo);
+		}
+		now = rmdd_now_ns();
+		if (stall_at && now >= stall_at) {
+			rmdd_log(4, "test hook RMDD_TEST_STALL_AFTER_MS: the rt loop stops now and "
+				    "nobody is told");
+			rmd_loop_request_stop(d->loop);
+			stall_at = 0;
+		}
+		if (now >= next_look) {
+			look(&lv, d, now);
+			next_look = now + LOOK_PERIOD_NS;
+		}
+		if (ping_every && now >= next_ping) {
+			uint64_t hb = rmd_loop_heartbeat(d->loop);
+
+			/* a stuck loop is not kept alive by this timer */
+			if (hb != hb_ping)
+				rmdd_notify_watchdog(&d->notify);
+			hb_ping = hb;
+			next_ping += ping_every;
+			if (next_ping <= now)
+				next_ping = now + ping_every;
+		}
+		if (now >= next_status) {
+			uint64_t hb = rmd_loop_heartbeat(d->loop);
+			double secs = (double)(now - t_status) / 1e9;
+			char status[256];
+
+			look(&lv, d, now);
+			rmdd_stats_status(&d->stats, secs > 0 ? (double)(hb - hb_status) / secs : 0,
+					  lv.stalled, status, sizeof(status));
+			rmdd_notify_status(&d->notify, status);
+			rmdd_log(7, "status: %s", status);
+			hb_status = hb;
+			t_status = now;
+			next_status += STATUS_PERIOD_NS;
+			if (next_status <= now)
+				next_status = now + STATUS_PERIOD_NS;
+		}
+	}
+}
+
+/* ---- the daemon ---------------------------------------------------------------- */
+
+static int run(const struct rmdd_opts *o)
+{
+	struct rmdd *d = calloc(1, sizeof(*d));
+	struct rmd_bridge_opts bo;
+	struct rmd_loop_opts lo;
+	char err[512], status[256];
+	int r, ret = RMDD_EXIT_FAIL;
+
+	if (!d) {
+		rmdd_log(3, "out of memory");
+		return RMDD_EXIT_FAIL;
+	}
+	d->sfd = -1;
+	ret = load(d, o);
+	if (ret != RMDD_EXIT_OK)
+		goto err_free;
+	ret = RMDD_EXIT_FAIL;
+	r = signals_open(d);
+	if (r < 0) {
+		rmdd_log(3, "signalfd: %s", strerror(-r));
+		goto err_free;
+	}
+	rmdd_notify_init(&d->notify);
+	if (rmdd_buses_open(&d->cfg, &d->plan, d->buses) < 0)
+		goto err_close_signals;
+	if (handovers_init(d) < 0) {
+		rmdd_log(3, "out of memory");
+		goto err_free_handovers;
+	}
+
+	lo = (struct rmd_loop_opts){
+		.cfg = &d->cfg,
+		.plan = &d->plan,
+		.buses = d->buses,
+		.commands = &d->commands,
+		.snapshots = &d->snapshots,
+		.health = &d->health_loop,
+		.events = &d->events,
+		.require_rt = o->require_rt,
+	};
+	d->loop = rmd_loop_new(&lo, err, sizeof(err));
+	if (!d->loop) {
+		rmdd_log(3, "%s", err);
+		goto err_free_handovers;
+	}
+	r = rmdd_monitor_init(&d->mon, &d->cfg, d->loop, &d->events, &d->health_loop,
+			      &d->health_bridge);
+	if (r < 0) {
+		rmdd_log(3, "monitor: %s", strerror(-r));
+		goto err_free_loop;
+	}
+	d->stats = (struct rmdd_stats_src){
+		.cfg = &d->cfg,
+		.plan = &d->plan,
+		.loop = d->loop,
+		.mon = &d->mon,
+		.bridge = &d->bridge,
+		.events = &d->events,
+	};
+	if (bringup(d) != RMDD_EXIT_OK)
+		goto err_fini_monitor;
+
+	/* before LCM: a thread it may create must not inherit a real-time policy */
+	main_thread_normal(d);
+	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, &d->commands, &d->snapshots, &d->health_bridge);
+	r = rmd_bridge_init(&d->bridge, &bo, err, sizeof(err));
+	if (r < 0) {
+		rmdd_log(3, "LCM: %s; --lcm-url memq:// runs without LCM traffic", err);
+		goto err_fini_monitor;
+	}
+
+	r = rmd_bridge_start(&d->bridge);
+	if (r < 0) {
+		rmdd_log(3, "LCM bridge thread: %s", strerror(-r));
+		goto err_fini_bridge;
+	}
+	d->stats.start_ns = rmdd_now_ns();
+	r = rmd_loop_start(d->loop);
+	if (r == -EPERM && o->require_rt) {
+		rmdd_log(3,
+			 "--require-rt: SCHED_FIFO priority %u or mlockall refused (%s): run as "
+			 "root, or with LimitRTPRIO=49 and LimitMEMLOCK=infinity "
+			 "(systemd/rmdd.service)",
+			 d->cfg.loop.rt_priority, strerror(-r));
+		goto err_stop_bridge;
+	}
+	if (r < 0) {
+		rmdd_log(3, "rt loop thread: %s", strerror(-r));
+		goto err_stop_bridge;
+	}
+	r = rmdd_monitor_start(&d->mon);
+	if (r < 0) {
+		rmdd_log(3, "monitor thread: %s", strerror(-r));
+		goto err_stop_loop;
+	}
+
+	wait_first_cycle(d);
+	rmdd_log(5,
+		 "running: %u motor(s) on %u bus(es) at %u Hz from %s; LCM %s, channels %s*; "
+		 "SIGUSR1 prints statistics",
+		 d->cfg.n_motors, d->cfg.n_buses, d->cfg.loop.rate_hz, d->cfg.source,
+		 d->cfg.lcm.url, d->cfg.lcm.channel_prefix);
+	rmdd_stats_status(&d->stats, (double)d->plan.rate_hz, false, status, sizeof(status));
+	rmdd_notify_ready(&d->notify, status);
+
+	r = serve(d, o);
+	if (r < 0)
+		rmdd_log(3, "signalfd: %s; stopping", strerror(-r));
+	else
+		rmdd_log(5, "%s: stopping every motor", strsignal(r));
+	rmdd_notify_stopping(&d->notify, "stopping every motor");
+	ret = r < 0 ? RMDD_EXIT_FAIL : RMDD_EXIT_OK;
+
+err_stop_loop:
+	rmd_loop_request_stop(d->loop);
+	r = rmd_loop_join(d->loop);
+	if (r < 0)
+		rmdd_log(3, "rt loop thread: join: %s", strerror(-r));
+	if (ret == RMDD_EXIT_OK) {
+		rmdd_stats_print(&d->stats, "exit");
+		rmdd_log(5,
+			 "every motor was sent stop (0x80)%s; their comm-loss protection (0xB3) "
+			 "stays set",
+			 d->cfg.safety.safe_action == RMD_SAFE_BRAKE ? " and brake (0x78)" : "");
+	}
+err_stop_bridge:
+	rmd_bridge_stop(&d->bridge);
+	rmdd_monitor_stop(&d->mon);
+err_fini_bridge:
+	rmd_bridge_fini(&d->bridge);
+err_fini_monitor:
+	rmdd_monitor_fini(&d->mon);
+err_free_loop:
+	rmd_loop_free(d->loop);
+err_free_handovers:
+	handovers_free(d);
+	rmdd_buses_close(d->buses, d->cfg.n_buses);
+err_close_signals:
+	if (d->sfd >= 0)
+		close(d->sfd);
+err_free:
+	free(d);
+	return ret;
 }
 
 int main(int argc, char **argv)
@@ -148,20 +747,19 @@ int main(int argc, char **argv)
 	struct rmdd_opts o;
 
 	if (parse_args(argc, argv, &o))
-		return 2;
+		return RMDD_EXIT_USAGE;
 	switch (o.mode) {
 	case MODE_HELP:
 		usage(stdout);
-		return 0;
+		return RMDD_EXIT_OK;
 	case MODE_VERSION:
 		printf("rmdd %s\n", RMD_VERSION);
-		return 0;
+		return RMDD_EXIT_OK;
 	case MODE_CHECK:
 		return check_config(o.config);
 	case MODE_RUN:
 	case MODE_SIM:
 		break;
 	}
-	fprintf(stderr, "rmdd: the real-time loop is not built yet\n");
-	return 1;
+	return run(&o);
 }

@@ -1,0 +1,183 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * rmdd internals: the daemon's parts and what they share.
+ *
+ *   rmdd.c         options, the lifecycle (build, start, serve, tear down)
+ *   rmdd_buses.c   open every configured bus
+ *   rmdd_lcm.c     the LCM bridge's options from the configuration
+ *   rmdd_log.c     stderr logging, and the monitor thread: drains the rt
+ *                  loop's event ring and logs on change, forwards health to
+ *                  the bridge, samples each motor's reply latency
+ *   rmdd_stats.c   the statistics (SIGUSR1, exit) and the STATUS= line
+ *   rmdd_notify.c  systemd: READY=1, STATUS=, WATCHDOG=1, STOPPING=1
+ *
+ * Everything here is non-rt: the only rt code of the daemon is the loop
+ * (src/loop.c), which these parts never call into except through its
+ * thread-safe getters.
+ */
+#ifndef RMDD_H
+#define RMDD_H
+
+#include <pthread.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "rmd/bridge.h"
+#include "rmd/bus.h"
+#include "rmd/config.h"
+#include "rmd/loop.h"
+#include "rmd/plan.h"
+#include "rmd/spsc.h"
+#include "rmd/state.h"
+
+/* Exit statuses (rmdd --help prints them). */
+enum {
+	RMDD_EXIT_OK = 0,    /* ran and stopped on SIGTERM/SIGINT, or --check-config fits */
+	RMDD_EXIT_FAIL = 1,  /* configuration, plan, bus, bring-up, LCM or rt refused */
+	RMDD_EXIT_USAGE = 2, /* bad command line */
+};
+
+#define RMDD_ERR_LEN 8192 /* config, plan and bring-up messages */
+
+/* Event ring between the rt loop and the monitor: 4096 records of 32 bytes. */
+#define RMDD_EVENT_SLOTS 4096
+/* The monitor looks at the ring, health and the snapshot this often. */
+#define RMDD_MONITOR_PERIOD_NS 5000000
+/* Reply latency histogram: 4 buckets per octave of nanoseconds. */
+#define RMDD_LAT_SUB 4
+#define RMDD_LAT_BUCKETS (64 * RMDD_LAT_SUB)
+
+/* ---- logging (rmdd_log.c) ---------------------------------------------- */
+
+/* Most verbose level printed: 4 with -q, 6 by default, 7 with -v. */
+extern int rmdd_log_level;
+
+/* "<level>rmdd: message\n" on stderr, when level <= rmdd_log_level. */
+void rmdd_log(int level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* The same whatever rmdd_log_level says: the statistics were asked for. */
+void rmdd_log_always(int level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* ---- the monitor thread (rmdd_log.c) ------------------------------------ */
+
+/* One motor's reply latency as sampled by the monitor. */
+struct rmdd_lat {
+	uint64_t n;
+	int64_t min_ns, max_ns, sum_ns;
+	uint32_t hist[RMDD_LAT_BUCKETS];
+};
+
+struct rmdd_monitor {
+	const struct rmd_config *cfg;
+	struct rmd_loop *loop;
+	struct rmd_ring *events;
+	struct rmd_latest *health_in;  /* loop -> monitor */
+	struct rmd_latest *health_out; /* monitor -> bridge (NULL: none) */
+
+	pthread_t thread;
+	bool running;
+	int stop_fd; /* eventfd: rmdd_monitor_stop() wakes the thread */
+
+	/* Owned by the thread. */
+	uint64_t prev_cycle;
+	bool have_prev;
+	uint64_t ring_dropped;
+	int64_t overrun_window_ns; /* start of the current one-second overrun summary */
+	uint64_t overruns_logged, overruns_pending, skipped_pending;
+
+	/* Shared with the main thread, under lock. */
+	pthread_mutex_t lock;
+	bool have_health;
+	struct rmd_health health;
+	struct rmdd_lat lat[RMD_MAX_MOTORS];
+};
+
+/*
+ * Set up (no thread yet).  health_out may be NULL.  Returns 0 or -errno.
+ */
+int rmdd_monitor_init(struct rmdd_monitor *m, const struct rmd_config *cfg, struct rmd_loop *loop,
+		      struct rmd_ring *events, struct rmd_latest *health_in,
+		      struct rmd_latest *health_out);
+
+/* Drain the event ring now, in the caller's thread (before the thread starts, after it stops). */
+void rmdd_monitor_drain(struct rmdd_monitor *m);
+
+/* Start the thread (SCHED_OTHER, every signal blocked).  Returns 0 or -errno. */
+int rmdd_monitor_start(struct rmdd_monitor *m);
+
+/* Wake the thread, join it, drain what is left.  A monitor not started: a drain. */
+void rmdd_monitor_stop(struct rmdd_monitor *m);
+
+void rmdd_monitor_fini(struct rmdd_monitor *m);
+
+/* Copies for the main thread: the newest health (false: none yet), the latency samples. */
+bool rmdd_monitor_health(struct rmdd_monitor *m, struct rmd_health *out);
+void rmdd_monitor_latency(struct rmdd_monitor *m, struct rmdd_lat out[RMD_MAX_MOTORS]);
+
+/* Name of a lifecycle state ("ready", "lost", ...). */
+const char *rmdd_lifecycle_name(unsigned lc);
+
+/* ---- buses (rmdd_buses.c) ----------------------------------------------- */
+
+/*
+ * Open every bus of cfg into buses[] (cfg->n_buses of them, in config
+ * order), with the plan's burst for SocketCAN.  On failure logs which bus
+ * and how to fix it, closes what it opened and returns -errno.
+ */
+int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_plan *plan,
+		    struct rmd_bus buses[RMD_MAX_BUSES]);
+
+/* Close n buses (rmd_bus_close() on each). */
+void rmdd_buses_close(struct rmd_bus *buses, unsigned n);
+
+/* ---- LCM (rmdd_lcm.c) ----------------------------------------------------- */
+
+/* Fill bridge options from the configuration, the plan and the hand-overs. */
+void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
+		   const struct rmd_plan *plan, struct rmd_latest *commands,
+		   struct rmd_latest *snapshots, struct rmd_latest *health);
+
+/* ---- statistics (rmdd_stats.c) --------------------------------------------- */
+
+struct rmdd_stats_src {
+	const struct rmd_config *cfg;
+	const struct rmd_plan *plan;
+	struct rmd_loop *loop;
+	struct rmdd_monitor *mon;
+	struct rmd_bridge *bridge; /* NULL: no LCM */
+	struct rmd_ring *events;
+	int64_t start_ns; /* CLOCK_MONOTONIC when the loop started */
+};
+
+/* The statistics on stderr, whatever -q says; `why` heads them ("SIGUSR1", "exit"). */
+void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why);
+
+/*
+ * The one-line STATUS= summary: "12 motors: enabled 0, ready 12; loop 1000 Hz,
+ * p99 45 us, 0 overruns; controller idle; loop ok".  hz: measured cycles per
+ * second; stalled: the heartbeat did not advance.
+ */
+void rmdd_stats_status(const struct rmdd_stats_src *s, double hz, bool stalled, char *buf,
+		       size_t len);
+
+/* ---- systemd (rmdd_notify.c) --------------------------------------------- */
+
+struct rmdd_notify {
+	bool active;	       /* NOTIFY_SOCKET is set */
+	int64_t watchdog_ns;   /* WATCHDOG_USEC for this process; 0: no watchdog */
+	int64_t ping_every_ns; /* half of it, as sd_watchdog_enabled(3) advises */
+};
+
+/* Read the environment.  Nothing is ever sent when NOTIFY_SOCKET is unset. */
+void rmdd_notify_init(struct rmdd_notify *n);
+void rmdd_notify_ready(const struct rmdd_notify *n, const char *status);
+void rmdd_notify_status(const struct rmdd_notify *n, const char *status);
+void rmdd_notify_watchdog(const struct rmdd_notify *n);
+void rmdd_notify_stopping(const struct rmdd_notify *n, const char *status);
+
+/* CLOCK_MONOTONIC in nanoseconds. */
+int64_t rmdd_now_ns(void);
+
+#endif /* RMDD_H */

@@ -1,0 +1,545 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdd's logging and its monitor thread.
+ *
+ * Logging: one line per call on stderr, "<N>rmdd: ..." with the syslog
+ * level N (STYLE.md), so the journal keeps the levels.  stderr is
+ * unbuffered and glibc writes one formatted call in one write(2), so lines
+ * of different threads never mix.
+ *
+ * The monitor is a normal-priority thread that wakes every
+ * RMDD_MONITOR_PERIOD_NS and
+ *   - drains the rt loop's event ring and logs each event with its context
+ *     ("can0: motor 3 (knee_l): lost (10 missed replies in a row)"); the
+ *     loop sends events only on change, and overruns are summed up to one
+ *     line a second here;
+ *   - takes the loop's health (its only reader) and passes it on to the
+ *     bridge through a second triple buffer, keeping a copy for the
+ *     statistics and STATUS=; the bridge reads health ten times a second,
+ *     so the extra hop (at most one monitor period) does not matter;
+ *   - samples every motor's reply latency from the loop's snapshot (the
+ *     snapshot carries the latest reply's latency only, so this is a
+ *     sample: one value per motor per monitor period, when a new reply
+ *     came in).
+ * Everything here is non-rt.
+ */
+#define _GNU_SOURCE /* pthread_setname_np */
+#include <errno.h>
+#include <inttypes.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sys/eventfd.h>
+
+#include "rmd/codec.h"
+#include "rmdd.h"
+
+#define NS_PER_S INT64_C(1000000000)
+
+int rmdd_log_level = 6;
+
+__attribute__((format(printf, 2, 0))) static void vlog(int level, const char *fmt, va_list ap)
+{
+	char line[1024];
+
+	vsnprintf(line, sizeof(line), fmt, ap);
+	fprintf(stderr, "<%d>rmdd: %s\n", level, line);
+}
+
+void rmdd_log(int level, const char *fmt, ...)
+{
+	va_list ap;
+
+	if (level > rmdd_log_level)
+		return;
+	va_start(ap, fmt);
+	vlog(level, fmt, ap);
+	va_end(ap);
+}
+
+void rmdd_log_always(int level, const char *fmt, ...)
+{
+	va_list ap;
+
+	va_start(ap, fmt);
+	vlog(level, fmt, ap);
+	va_end(ap);
+}
+
+int64_t rmdd_now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
+}
+
+const char *rmdd_lifecycle_name(unsigned lc)
+{
+	static const char *const names[RMD_LC_COUNT] = {
+		[RMD_LC_PROBE] = "probe", [RMD_LC_READY] = "ready", [RMD_LC_ENABLED] = "enabled",
+		[RMD_LC_FAULT] = "fault", [RMD_LC_LOST] = "lost",   [RMD_LC_SAFE] = "safe",
+	};
+
+	return lc < RMD_LC_COUNT ? names[lc] : "?";
+}
+
+/* ---- events ---------------------------------------------------------------- */
+
+/* "can0: motor 3 (knee_l)" for motor index i, or "motor 40" when out of range. */
+static void motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t len)
+{
+	const struct rmd_config_motor *c;
+
+	if (i >= cfg->n_motors) {
+		snprintf(buf, len, "motor #%u", i);
+		return;
+	}
+	c = &cfg->motors[i];
+	snprintf(buf, len, "%s: motor %u (%s)",
+		 c->bus < cfg->n_buses ? cfg->buses[c->bus].name : "?", c->id, c->name);
+}
+
+static const char *bus_name(const struct rmd_config *cfg, unsigned b)
+{
+	return b < cfg->n_buses ? cfg->buses[b].name : "?";
+}
+
+static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	const char *action = rmd_safe_action_name(cfg->safety.safe_action);
+	unsigned from = (unsigned)e->a, to = (unsigned)e->b;
+	char ctx[96];
+
+	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	switch ((enum rmd_lifecycle)to) {
+	case RMD_LC_LOST:
+		if (from == RMD_LC_PROBE)
+			rmdd_log(4, "%s: missing at bring-up; probed again every %d ms", ctx,
+				 (int)(RMD_LOOP_REPROBE_NS / 1000000));
+		else
+			rmdd_log(
+				4,
+				"%s: lost (%u missed replies in a row)%s%s; probed again every %d ms",
+				ctx, cfg->safety.missed_replies_lost,
+				from == RMD_LC_ENABLED ? "; safe action " : "",
+				from == RMD_LC_ENABLED ? action : "",
+				(int)(RMD_LOOP_REPROBE_NS / 1000000));
+		break;
+	case RMD_LC_FAULT:
+		rmdd_log(4, "%s: fault (error flags set)%s%s", ctx,
+			 from == RMD_LC_ENABLED ? "; safe action " : "",
+			 from == RMD_LC_ENABLED ? action : "");
+		break;
+	case RMD_LC_SAFE:
+		rmdd_log(4, "%s: safe action %s, held until the controller enables it again", ctx,
+			 action);
+		break;
+	case RMD_LC_READY:
+		if (from == RMD_LC_LOST || from == RMD_LC_FAULT)
+			rmdd_log(5,
+				 "%s: back (%s -> ready); send enable 0, then 1, to run it again",
+				 ctx, rmdd_lifecycle_name(from));
+		else if (from == RMD_LC_PROBE)
+			rmdd_log(7, "%s: ready", ctx);
+		else
+			rmdd_log(6, "%s: %s -> ready", ctx, rmdd_lifecycle_name(from));
+		break;
+	case RMD_LC_ENABLED:
+		rmdd_log(6, "%s: enabled", ctx);
+		break;
+	case RMD_LC_PROBE:
+	case RMD_LC_COUNT:
+		rmdd_log(7, "%s: %s -> %s", ctx, rmdd_lifecycle_name(from),
+			 rmdd_lifecycle_name(to));
+		break;
+	}
+}
+
+static void log_motor_error(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	const char *names[8];
+	char ctx[96], list[256];
+	uint16_t code = (uint16_t)e->a;
+	enum rmd_proto proto = RMD_PROTO_V3;
+	size_t n, used = 0;
+
+	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	if (!code) {
+		rmdd_log(5, "%s: error flags cleared", ctx);
+		return;
+	}
+	if (e->motor < cfg->n_motors && cfg->motors[e->motor].proto == RMD_PROTO_V2)
+		proto = RMD_PROTO_V2;
+	n = rmd_error_names(proto, code, names, 8);
+	list[0] = '\0';
+	for (size_t k = 0; k < n && k < 8 && used < sizeof(list); k++)
+		used += (size_t)snprintf(list + used, sizeof(list) - used, "%s%s", k ? ", " : "",
+					 names[k]);
+	rmdd_log(4, "%s: error flags 0x%04X (%s)", ctx, code, n ? list : "unknown bits");
+}
+
+static void log_bus_state(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	enum rmd_bus_state s = (enum rmd_bus_state)e->a;
+	const char *name = bus_name(cfg, e->bus);
+
+	switch (s) {
+	case RMD_BUS_OFF:
+		rmdd_log(3,
+			 "%s: bus-off: the controller left the bus (a CAN interface needs "
+			 "restart-ms, see systemd/80-can.network)",
+			 name);
+		break;
+	case RMD_BUS_PASSIVE:
+	case RMD_BUS_WARNING:
+		rmdd_log(4, "%s: error %s", name, rmd_bus_state_name(s));
+		break;
+	case RMD_BUS_ACTIVE:
+		rmdd_log(5, "%s: error active again", name);
+		break;
+	}
+}
+
+static void log_watchdog(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	switch ((enum rmd_watchdog_state)e->a) {
+	case RMD_WD_TRIPPED:
+		rmdd_log(4,
+			 "controller: no command for %u ms: safe action %s on every enabled motor, "
+			 "held until a command enables them again",
+			 (unsigned)cfg->safety.command_timeout_ms,
+			 rmd_safe_action_name(cfg->safety.safe_action));
+		break;
+	case RMD_WD_OK:
+		rmdd_log(5, "controller: commands arrive, motors enabled");
+		break;
+	case RMD_WD_IDLE:
+		rmdd_log(6, "controller: idle");
+		break;
+	}
+}
+
+/* The RMD_LOOP_EV_RT events of one drain, said in one line. */
+struct rt_note {
+	bool any;
+	int err[4];
+};
+
+static void log_rt(const struct rt_note *rt)
+{
+	char what[256];
+	size_t used = 0;
+
+	if (!rt->any)
+		return;
+	what[0] = '\0';
+	if (rt->err[RMD_LOOP_RT_FIFO])
+		used += (size_t)snprintf(
+			what + used, sizeof(what) - used,
+			"SCHED_FIFO refused (%s), the loop runs at normal priority",
+			strerror(-rt->err[RMD_LOOP_RT_FIFO]));
+	if (rt->err[RMD_LOOP_RT_MLOCK] && used < sizeof(what))
+		used += (size_t)snprintf(what + used, sizeof(what) - used, "%smlockall failed (%s)",
+					 used ? "; " : "", strerror(-rt->err[RMD_LOOP_RT_MLOCK]));
+	if (rt->err[RMD_LOOP_RT_AFFINITY] && used < sizeof(what))
+		snprintf(what + used, sizeof(what) - used, "%sCPU affinity refused (%s)",
+			 used ? "; " : "", strerror(-rt->err[RMD_LOOP_RT_AFFINITY]));
+	rmdd_log(4,
+		 "no real-time guarantees: %s. Run as root, or with LimitRTPRIO=49 and "
+		 "LimitMEMLOCK=infinity (systemd/rmdd.service); --require-rt refuses to run "
+		 "without them",
+		 what);
+}
+
+static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct rt_note *rt)
+{
+	const struct rmd_config *cfg = m->cfg;
+	char ctx[96];
+
+	if (e->kind == RMD_LOOP_EV_RT) {
+		if (e->b > 0 && e->b < 4) {
+			rt->any = true;
+			rt->err[e->b] = e->a ? (int)e->a : -EPERM;
+		}
+		return;
+	}
+	switch ((enum rmd_event_kind)e->kind) {
+	case RMD_EV_MOTOR_STATE:
+		log_motor_state(cfg, e);
+		break;
+	case RMD_EV_MOTOR_ERROR:
+		log_motor_error(cfg, e);
+		break;
+	case RMD_EV_BUS_STATE:
+		log_bus_state(cfg, e);
+		break;
+	case RMD_EV_OVERRUN:
+		/* the first of each second now, the rest summed up by overrun_summary() */
+		if (!m->overruns_pending && !m->overruns_logged) {
+			rmdd_log(4,
+				 "rt loop: overrun: woke %" PRId64 " period(s) late, skipped them",
+				 e->a);
+			m->overruns_logged = 1;
+			m->overrun_window_ns = e->t_ns;
+		} else {
+			m->overruns_pending++;
+			m->skipped_pending += (uint64_t)(e->a > 0 ? e->a : 0);
+		}
+		break;
+	case RMD_EV_WATCHDOG:
+		log_watchdog(cfg, e);
+		break;
+	case RMD_EV_SAFE_ACTION:
+		motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+		rmdd_log(7, "%s: safe action %s sent", ctx,
+			 rmd_safe_action_name((enum rmd_safe_action)e->a));
+		break;
+	case RMD_EV_PROBE:
+		motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+		if (e->a)
+			rmdd_log(7, "%s: probe: %s", ctx, strerror((int)-e->a));
+		else
+			rmdd_log(7, "%s: probe: answered", ctx);
+		break;
+	case RMD_EV_SEND_FAILED:
+		rmdd_log(4, "%s: send failed (%s): %" PRId64 " frame(s) not sent",
+			 bus_name(cfg, e->bus), e->a ? strerror((int)-e->a) : "queue full", e->b);
+		break;
+	case RMD_EV_UNEXPECTED:
+		if (e->b >= 0)
+			rmdd_log(5,
+				 "%s: unexpected frame 0x%03" PRIX64 " command 0x%02" PRIX64
+				 " (neither a reply nor a report; at most one such line a second)",
+				 bus_name(cfg, e->bus), (uint64_t)e->a, (uint64_t)e->b);
+		else
+			rmdd_log(5, "%s: unexpected empty frame 0x%03" PRIX64,
+				 bus_name(cfg, e->bus), (uint64_t)e->a);
+		break;
+	default:
+		rmdd_log(7, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
+		break;
+	}
+}
+
+/* Once a second: the overruns that followed the first one. */
+static void overrun_summary(struct rmdd_monitor *m, int64_t now)
+{
+	if (!m->overruns_logged || now - m->overrun_window_ns < NS_PER_S)
+		return;
+	if (m->overruns_pending)
+		rmdd_log(4,
+			 "rt loop: %" PRIu64 " more overrun(s) in the last second, %" PRIu64
+			 " period(s) skipped",
+			 m->overruns_pending, m->skipped_pending);
+	m->overrun_window_ns = now;
+	m->overruns_logged = m->overruns_pending ? 1 : 0;
+	m->overruns_pending = 0;
+	m->skipped_pending = 0;
+}
+
+void rmdd_monitor_drain(struct rmdd_monitor *m)
+{
+	struct rt_note rt = { 0 };
+	struct rmd_event e;
+	uint64_t dropped;
+
+	while (rmd_ring_pop(m->events, &e))
+		log_event(m, &e, &rt);
+	log_rt(&rt);
+	dropped = rmd_ring_dropped(m->events);
+	if (dropped != m->ring_dropped) {
+		rmdd_log(4, "%" PRIu64 " rt loop event(s) lost: the ring was full",
+			 dropped - m->ring_dropped);
+		m->ring_dropped = dropped;
+	}
+}
+
+/* ---- health and latency ------------------------------------------------------ */
+
+static void forward_health(struct rmdd_monitor *m)
+{
+	const void *p;
+
+	if (!m->health_in || !rmd_latest_get(m->health_in, &p))
+		return;
+	if (m->health_out)
+		rmd_latest_put(m->health_out, p);
+	pthread_mutex_lock(&m->lock);
+	memcpy(&m->health, p, sizeof(m->health));
+	m->have_health = true;
+	pthread_mutex_unlock(&m->lock);
+}
+
+static unsigned lat_bucket(int64_t ns)
+{
+	uint64_t v = ns > 0 ? (uint64_t)ns : 0;
+	unsigned msb;
+
+	if (v < RMDD_LAT_SUB)
+		return (unsigned)v;
+	msb = 63u - (unsigned)__builtin_clzll(v);
+	return msb * RMDD_LAT_SUB + (unsigned)((v >> (msb - 2)) & 3u);
+}
+
+static void lat_add(struct rmdd_lat *l, int64_t ns)
+{
+	if (!l->n || ns < l->min_ns)
+		l->min_ns = ns;
+	if (!l->n || ns > l->max_ns)
+		l->max_ns = ns;
+	l->n++;
+	l->sum_ns += ns;
+	l->hist[lat_bucket(ns)]++;
+}
+
+static void sample_latency(struct rmdd_monitor *m)
+{
+	static struct rmd_snapshot s; /* the monitor thread's alone */
+	uint64_t since;
+
+	rmd_loop_get_snapshot(m->loop, &s);
+	if (!m->have_prev || s.cycle < m->prev_cycle) {
+		m->have_prev = true;
+		m->prev_cycle = s.cycle;
+		return;
+	}
+	since = s.cycle - m->prev_cycle;
+	if (!since)
+		return;
+	m->prev_cycle = s.cycle;
+	pthread_mutex_lock(&m->lock);
+	for (unsigned i = 0; i < s.n && i < RMD_MAX_MOTORS; i++) {
+		const struct rmd_motor_state *ms = &s.m[i];
+
+		/* a reply came since the last look */
+		if (ms->reply_age_cycles < since && ms->reply_latency_ns > 0)
+			lat_add(&m->lat[i], ms->reply_latency_ns);
+	}
+	pthread_mutex_unlock(&m->lock);
+}
+
+bool rmdd_monitor_health(struct rmdd_monitor *m, struct rmd_health *out)
+{
+	bool have;
+
+	pthread_mutex_lock(&m->lock);
+	have = m->have_health;
+	if (have)
+		memcpy(out, &m->health, sizeof(*out));
+	pthread_mutex_unlock(&m->lock);
+	return have;
+}
+
+void rmdd_monitor_latency(struct rmdd_monitor *m, struct rmdd_lat out[RMD_MAX_MOTORS])
+{
+	pthread_mutex_lock(&m->lock);
+	memcpy(out, m->lat, sizeof(m->lat));
+	pthread_mutex_unlock(&m->lock);
+}
+
+/* ---- the thread ----------------------------------------------------------------- */
+
+static void *monitor_main(void *arg)
+{
+	struct rmdd_monitor *m = arg;
+	struct pollfd pfd = { .fd = m->stop_fd, .events = POLLIN };
+	const struct timespec period = { 0, RMDD_MONITOR_PERIOD_NS };
+
+	pthread_setname_np(pthread_self(), "rmdd-monitor");
+	for (;;) {
+		int r = ppoll(&pfd, 1, &period, NULL);
+
+		if (r > 0)
+			break;
+		rmdd_monitor_drain(m);
+		overrun_summary(m, rmdd_now_ns());
+		forward_health(m);
+		sample_latency(m);
+	}
+	return NULL;
+}
+
+int rmdd_monitor_init(struct rmdd_monitor *m, const struct rmd_config *cfg, struct rmd_loop *loop,
+		      struct rmd_ring *events, struct rmd_latest *health_in,
+		      struct rmd_latest *health_out)
+{
+	int r;
+
+	memset(m, 0, sizeof(*m));
+	m->cfg = cfg;
+	m->loop = loop;
+	m->events = events;
+	m->health_in = health_in;
+	m->health_out = health_out;
+	m->stop_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	if (m->stop_fd < 0)
+		return -errno;
+	r = -pthread_mutex_init(&m->lock, NULL);
+	if (r) {
+		close(m->stop_fd);
+		m->stop_fd = -1;
+	}
+	return r;
+}
+
+int rmdd_monitor_start(struct rmdd_monitor *m)
+{
+	struct sched_param sp = { .sched_priority = 0 };
+	pthread_attr_t attr;
+	sigset_t all, old;
+	int r;
+
+	if (m->running)
+		return -EALREADY;
+	r = -pthread_attr_init(&attr);
+	if (r)
+		return r;
+	/* a normal thread whatever the main thread runs at */
+	r = -pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
+	if (!r)
+		r = -pthread_attr_setschedpolicy(&attr, SCHED_OTHER);
+	if (!r)
+		r = -pthread_attr_setschedparam(&attr, &sp);
+	if (!r) {
+		/* signals belong to the main thread's signalfd */
+		sigfillset(&all);
+		pthread_sigmask(SIG_SETMASK, &all, &old);
+		r = -pthread_create(&m->thread, &attr, monitor_main, m);
+		pthread_sigmask(SIG_SETMASK, &old, NULL);
+	}
+	pthread_attr_destroy(&attr);
+	if (!r)
+		m->running = true;
+	return r;
+}
+
+void rmdd_monitor_stop(struct rmdd_monitor *m)
+{
+	uint64_t one = 1;
+
+	if (m->running) {
+		if (write(m->stop_fd, &one, sizeof(one)) < 0) {
+			/* only on overflow: already signalled */
+		}
+		pthread_join(m->thread, NULL);
+		m->running = false;
+	}
+	rmdd_monitor_drain(m);
+	forward_health(m);
+	overrun_summary(m, INT64_MAX);
+}
+
+void rmdd_monitor_fini(struct rmdd_monitor *m)
+{
+	rmdd_monitor_stop(m);
+	if (m->stop_fd >= 0)
+		close(m->stop_fd);
+	m->stop_fd = -1;
+	pthread_mutex_destroy(&m->lock);
+}

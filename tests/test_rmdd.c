@@ -1,0 +1,800 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdd end to end: real processes and real signals.  Runs the built daemon
+ * ($RMDD, else $BUILD/rmdd, else build/rmdd) on built-in simulated motors
+ * with LCM on memq:// (no network needed) and checks
+ *   - systemd's protocol through a fake NOTIFY_SOCKET: READY=1, STATUS=,
+ *     WATCHDOG=1 every WATCHDOG_USEC/2, and no WATCHDOG=1 once the rt loop
+ *     stalls (RMDD_TEST_STALL_AFTER_MS stops the loop thread; the main
+ *     thread keeps running and must notice the frozen heartbeat);
+ *   - SIGTERM and SIGINT: exit 0 with the statistics; SIGUSR1: the
+ *     statistics, and the daemon keeps running; SIGHUP: ignored;
+ *   - configuration, plan, bus and bring-up errors: exit 1 with the
+ *     message; a bad command line: exit 2;
+ *   - a process started at SCHED_FIFO (CPUSchedulingPolicy=) keeps only
+ *     the rt loop thread real-time;
+ *   - a lost motor is logged once, with its bus, id and name;
+ *   - without the privilege for SCHED_FIFO and mlockall (RLIMIT_RTPRIO and
+ *     RLIMIT_MEMLOCK 0, CAP_SYS_NICE and CAP_IPC_LOCK dropped from the
+ *     bounding set before exec): one warning and running, or exit 1 with
+ *     --require-rt.
+ * Every wait is poll(2) on a pipe or socket with a deadline, never sleep().
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <sched.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <dirent.h>
+#include <linux/capability.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+
+#include <cmocka.h>
+
+#define OUT_MAX (256 * 1024)
+#define EXIT_NO_CAPS 77 /* the child could not drop its capabilities */
+
+static char rmdd[4096];
+static char tmpdir[256];
+/* The daemon a test runs, killed by the per-test teardown if a failure left it running. */
+static pid_t live_pid;
+
+struct proc {
+	pid_t pid;
+	int fd; /* the child's stdout and stderr */
+	bool eof;
+	size_t len;
+	char out[OUT_MAX];
+};
+
+struct spawn_opts {
+	const char *notify_socket; /* NOTIFY_SOCKET */
+	const char *watchdog_usec; /* WATCHDOG_USEC, with WATCHDOG_PID = the child */
+	const char *watchdog_pid;  /* WATCHDOG_PID as given (a mismatch) */
+	const char *stall_ms;	   /* RMDD_TEST_STALL_AFTER_MS */
+	bool no_rt;		   /* take away the real-time privileges */
+	int fifo_prio;		   /* start at SCHED_FIFO (CPUSchedulingPolicy=); 0: no */
+};
+
+static int64_t now_ms(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+}
+
+/* In the child: no SCHED_FIFO, no mlockall, even as root. */
+static void drop_rt(void)
+{
+	struct rlimit zero = { 0, 0 };
+
+	if (setrlimit(RLIMIT_RTPRIO, &zero) < 0 || setrlimit(RLIMIT_MEMLOCK, &zero) < 0)
+		_exit(EXIT_NO_CAPS);
+	/* exec recomputes root's capabilities from the bounding set */
+	if (prctl(PR_CAPBSET_DROP, CAP_SYS_NICE, 0, 0, 0) < 0 ||
+	    prctl(PR_CAPBSET_DROP, CAP_IPC_LOCK, 0, 0, 0) < 0)
+		_exit(EXIT_NO_CAPS);
+	prctl(PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL, 0, 0, 0);
+}
+
+/* Start rmdd with args (NULL-terminated), output to p->fd. */
+static void spawn(struct proc *p, const struct spawn_opts *so, const char *const *args)
+{
+	const char *argv[32];
+	size_t n = 0;
+	int pfd[2];
+
+	memset(p, 0, sizeof(*p));
+	argv[n++] = rmdd;
+	for (; *args && n < 31; args++)
+		argv[n++] = *args;
+	argv[n] = NULL;
+	assert_int_equal(pipe2(pfd, O_CLOEXEC), 0);
+	p->pid = fork();
+	assert_true(p->pid >= 0);
+	if (p->pid == 0) {
+		char pid[32];
+
+		dup2(pfd[1], 1);
+		dup2(pfd[1], 2);
+		unsetenv("NOTIFY_SOCKET");
+		unsetenv("WATCHDOG_USEC");
+		unsetenv("WATCHDOG_PID");
+		unsetenv("RMDD_TEST_STALL_AFTER_MS");
+		if (so && so->notify_socket)
+			setenv("NOTIFY_SOCKET", so->notify_socket, 1);
+		if (so && so->watchdog_usec) {
+			setenv("WATCHDOG_USEC", so->watchdog_usec, 1);
+			snprintf(pid, sizeof(pid), "%d", (int)getpid());
+			setenv("WATCHDOG_PID", so->watchdog_pid ? so->watchdog_pid : pid, 1);
+		}
+		if (so && so->stall_ms)
+			setenv("RMDD_TEST_STALL_AFTER_MS", so->stall_ms, 1);
+		if (so && so->no_rt)
+			drop_rt();
+		if (so && so->fifo_prio) {
+			struct sched_param sp = { .sched_priority = so->fifo_prio };
+
+			if (sched_setscheduler(0, SCHED_FIFO, &sp) < 0)
+				_exit(EXIT_NO_CAPS);
+		}
+		execv(rmdd, (char *const *)argv);
+		_exit(127);
+	}
+	close(pfd[1]);
+	p->fd = pfd[0];
+	live_pid = p->pid;
+}
+
+/* Read what is there, waiting at most timeout_ms.  False at EOF. */
+static bool pump(struct proc *p, int timeout_ms)
+{
+	struct pollfd pfd = { .fd = p->fd, .events = POLLIN };
+	ssize_t r;
+
+	if (p->eof)
+		return false;
+	if (poll(&pfd, 1, timeout_ms) <= 0)
+		return true;
+	r = read(p->fd, p->out + p->len, OUT_MAX - 1 - p->len);
+	if (r <= 0) {
+		p->eof = true;
+		return false;
+	}
+	p->len += (size_t)r;
+	p->out[p->len] = '\0';
+	return true;
+}
+
+/* Wait until the output holds `needle`.  Fails the test after timeout_ms. */
+static void wait_for(struct proc *p, const char *needle, int timeout_ms)
+{
+	int64_t end = now_ms() + timeout_ms;
+
+	while (!strstr(p->out, needle)) {
+		int64_t left = end - now_ms();
+
+		if (left <= 0 || !pump(p, (int)left))
+			fail_msg("no \"%s\" from rmdd within %d ms; its output:\n%s", needle,
+				 timeout_ms, p->out);
+	}
+}
+
+/* Read to EOF and reap.  Returns the exit status (128 + signal when killed). */
+static int finish(struct proc *p, int timeout_ms)
+{
+	int64_t end = now_ms() + timeout_ms;
+	int ws;
+
+	while (!p->eof) {
+		int64_t left = end - now_ms();
+
+		if (left <= 0) {
+			kill(p->pid, SIGKILL);
+			waitpid(p->pid, &ws, 0);
+			live_pid = 0;
+			close(p->fd);
+			fail_msg("rmdd did not exit within %d ms; its output:\n%s", timeout_ms,
+				 p->out);
+		}
+		pump(p, (int)left);
+	}
+	close(p->fd);
+	assert_int_equal(waitpid(p->pid, &ws, 0), p->pid);
+	live_pid = 0;
+	return WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+}
+
+/* Run to the end; returns the exit status. */
+static int run(struct proc *p, const char *const *args)
+{
+	spawn(p, NULL, args);
+	return finish(p, 10000);
+}
+
+static void expect_in(const struct proc *p, const char *needle)
+{
+	if (!strstr(p->out, needle))
+		fail_msg("expected \"%s\" in rmdd's output:\n%s", needle, p->out);
+}
+
+static unsigned count_of(const char *hay, const char *needle)
+{
+	unsigned n = 0;
+
+	for (const char *s = hay; (s = strstr(s, needle)); s += strlen(needle))
+		n++;
+	return n;
+}
+
+static void write_file(const char *path, const char *text)
+{
+	FILE *f = fopen(path, "w");
+
+	assert_non_null(f);
+	fputs(text, f);
+	assert_int_equal(fclose(f), 0);
+}
+
+static const char *const SIM3[] = { "--sim", "3", "--lcm-url", "memq://", NULL };
+
+/* ---- command line and configuration errors ----------------------------------- */
+
+static void test_usage_errors(void **state)
+{
+	static struct proc p;
+	static const char *const bogus[] = { "--bogus", NULL };
+	static const char *const sim0[] = { "--sim", "0", NULL };
+	static const char *const sim40[] = { "--sim=40", NULL };
+	static const char *const both[] = { "--sim", "--config", "x.yaml", NULL };
+	static const char *const extra[] = { "--sim", "3", "extra", NULL };
+	static const char *const help[] = { "--help", NULL };
+
+	(void)state;
+	assert_int_equal(run(&p, bogus), 2);
+	expect_in(&p, "usage: rmdd");
+	assert_int_equal(run(&p, sim0), 2);
+	expect_in(&p, "--sim 0: the motor count is 1..32");
+	assert_int_equal(run(&p, sim40), 2);
+	assert_int_equal(run(&p, both), 2);
+	expect_in(&p, "exclude each other");
+	assert_int_equal(run(&p, extra), 2);
+	expect_in(&p, "unexpected argument \"extra\"");
+	assert_int_equal(run(&p, help), 0);
+	expect_in(&p, "SIGUSR1");
+}
+
+static void test_no_default_config(void **state)
+{
+	static struct proc p;
+	static const char *const none[] = { NULL };
+
+	(void)state;
+	if (access("/etc/rmdd/rmdd.yaml", F_OK) == 0) {
+		fprintf(stderr, "SKIP: /etc/rmdd/rmdd.yaml exists, rmdd would run it\n");
+		skip();
+	}
+	assert_int_equal(run(&p, none), 2);
+	expect_in(&p, "<3>rmdd: no configuration: /etc/rmdd/rmdd.yaml does not exist");
+	expect_in(&p, "--sim");
+}
+
+static void test_bad_config(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, NULL };
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/bad.yaml", tmpdir);
+	write_file(path, "loop:\n  rate_hz: 1000\n  bogus_key: 3\n");
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p, "<3>rmdd: ");
+	expect_in(&p, "bad.yaml:3:");
+	expect_in(&p, "bogus_key");
+
+	snprintf(path, sizeof(path), "%s/does-not-exist.yaml", tmpdir);
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p, "does-not-exist.yaml");
+}
+
+static void test_infeasible_plan(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/five.yaml", tmpdir);
+	write_file(path, "loop: {rate_hz: 1000}\n"
+			 "buses:\n"
+			 "  - {name: s0, type: sim}\n"
+			 "motors:\n"
+			 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: d, bus: s0, id: 4, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: e, bus: s0, id: 5, mode: torque, torque_constant_nm_a: 2}\n");
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p, "s0: 5 motors at 1000 Hz need");
+	expect_in(&p, "the cycle is 1000 µs");
+	expect_in(&p, "--check-config");
+	/* nothing was started */
+	assert_null(strstr(p.out, "running:"));
+}
+
+static void test_bus_error_names_the_bus(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/nocan.yaml", tmpdir);
+	write_file(path,
+		   "buses:\n"
+		   "  - {name: s0, type: sim}\n"
+		   "  - {name: rmdtest9, type: socketcan}\n"
+		   "motors:\n"
+		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		   "  - {name: b, bus: rmdtest9, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
+	assert_int_equal(run(&p, args), 1);
+	/* file:line of the bus entry, its name and kind, the transport's fix */
+	expect_in(&p, "nocan.yaml:3: bus rmdtest9 (socketcan): ");
+	expect_in(&p, "rmdtest9");
+}
+
+static void test_missing_motor_refused(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/missing.yaml", tmpdir);
+	write_file(path,
+		   "probe: {on_missing: refuse}\n"
+		   "buses:\n"
+		   "  - name: s0\n"
+		   "    type: sim\n"
+		   "    sim:\n"
+		   "      faults:\n"
+		   "        - {kind: disappear, motor: 2, start_s: 0, param: 0}\n"
+		   "motors:\n"
+		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		   "  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n");
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p, "<4>rmdd:   s0: motor 2 (knee): missing");
+	expect_in(&p, "1 motor(s) missing and probe.on_missing is refuse");
+	assert_null(strstr(p.out, "running:"));
+}
+
+/* ---- signals -------------------------------------------------------------------- */
+
+/* How many of pid's threads run SCHED_FIFO (at priority prio, when prio > 0). */
+static unsigned fifo_threads(pid_t pid, int prio)
+{
+	char dir[64];
+	struct dirent *e;
+	unsigned n = 0;
+	DIR *d;
+
+	snprintf(dir, sizeof(dir), "/proc/%d/task", (int)pid);
+	d = opendir(dir);
+	if (!d)
+		return 0;
+	while ((e = readdir(d))) {
+		struct sched_param sp;
+		pid_t tid = (pid_t)atoi(e->d_name);
+
+		if (tid > 0 && sched_getscheduler(tid) == SCHED_FIFO &&
+		    sched_getparam(tid, &sp) == 0 && (prio <= 0 || sp.sched_priority == prio))
+			n++;
+	}
+	closedir(d);
+	return n;
+}
+
+static bool has_fifo_thread(pid_t pid, int prio)
+{
+	return fifo_threads(pid, prio) > 0;
+}
+
+static void expect_statistics(const struct proc *p, const char *why)
+{
+	char head[64];
+
+	snprintf(head, sizeof(head), "<6>rmdd: statistics (%s) after ", why);
+	expect_in(p, head);
+	expect_in(p, "  loop: wake-up latency min ");
+	expect_in(p, " p99 ");
+	expect_in(p, "  loop: overruns ");
+	expect_in(p, ", plan misses ");
+	expect_in(p, "  bus sim0 (sim, 1000000 bit/s, 3 motors): load ");
+	expect_in(p, "  motor motor3 (sim0 id 3, v3): ready; reply latency min ");
+	expect_in(p, "; missed ");
+	expect_in(p, "  lcm: commands accepted 0");
+}
+
+static void stop_with(int sig, const char *name)
+{
+	static struct proc p;
+	char line[64];
+
+	static const char *const args[] = { "--sim", "3", "--lcm-url", "memq://", "-v", NULL };
+
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running: 3 motor(s) on 1 bus(es) at 1000 Hz", 5000);
+	/* the rt loop thread at the configuration's priority (default 40) */
+	if (geteuid() == 0)
+		assert_true(has_fifo_thread(p.pid, 40));
+	/* the first STATUS summary comes after a second: health is in by then */
+	wait_for(&p, "<7>rmdd: status: 3 motors: enabled 0, ready 3; loop ", 5000);
+	kill(p.pid, sig);
+	assert_int_equal(finish(&p, 5000), 0);
+	snprintf(line, sizeof(line), "<5>rmdd: %s: stopping every motor", name);
+	expect_in(&p, line);
+	expect_statistics(&p, "exit");
+	expect_in(&p, "every motor was sent stop (0x80)");
+	assert_null(strstr(p.out, "no real-time guarantees"));
+}
+
+static void test_sigterm(void **state)
+{
+	(void)state;
+	stop_with(SIGTERM, strsignal(SIGTERM));
+}
+
+static void test_sigint(void **state)
+{
+	(void)state;
+	stop_with(SIGINT, strsignal(SIGINT));
+}
+
+static void test_sigusr1_and_sighup_keep_running(void **state)
+{
+	static const char *const args[] = { "--sim", "3", "--lcm-url", "memq://", "-v", NULL };
+	static struct proc p;
+	int ws;
+
+	(void)state;
+
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	/* the first STATUS summary comes after a second: health is in by then */
+	wait_for(&p, "<7>rmdd: status: ", 5000);
+	kill(p.pid, SIGUSR1);
+	wait_for(&p, "  lcm: commands accepted", 5000);
+	expect_statistics(&p, "SIGUSR1");
+	assert_int_equal(waitpid(p.pid, &ws, WNOHANG), 0);
+	kill(p.pid, SIGHUP);
+	wait_for(&p, "SIGHUP ignored", 5000);
+	kill(p.pid, SIGUSR1);
+	/* a second block of statistics: the daemon still answers */
+	{
+		int64_t end = now_ms() + 5000;
+
+		while (count_of(p.out, "statistics (SIGUSR1)") < 2 && now_ms() < end)
+			pump(&p, 100);
+		assert_int_equal(count_of(p.out, "statistics (SIGUSR1)"), 2);
+	}
+	assert_int_equal(waitpid(p.pid, &ws, WNOHANG), 0);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	expect_statistics(&p, "exit");
+}
+
+static void test_lost_motor_logged_with_context(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/lose.yaml", tmpdir);
+	write_file(path,
+		   "safety: {missed_replies_lost: 10}\n"
+		   "buses:\n"
+		   "  - name: s0\n"
+		   "    type: sim\n"
+		   "    sim:\n"
+		   "      faults:\n"
+		   "        - {kind: disappear, motor: 3, start_s: 0.3, end_s: 0.6, param: 0}\n"
+		   "motors:\n"
+		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		   "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		   "  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	wait_for(&p, "<4>rmdd: s0: motor 3 (knee_l): lost (10 missed replies in a row)", 5000);
+	wait_for(&p, "<5>rmdd: s0: motor 3 (knee_l): back (lost -> ready)", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	/* logged on change: once each */
+	assert_int_equal(count_of(p.out, "(knee_l): lost"), 1);
+	assert_null(strstr(p.out, "(a): lost"));
+}
+
+/* Started at SCHED_FIFO, as CPUSchedulingPolicy=fifo does: only the rt loop stays real-time. */
+static void test_started_fifo_only_the_loop_stays(void **state)
+{
+	static struct proc p;
+	struct spawn_opts so = { .fifo_prio = 40 };
+	int st;
+
+	(void)state;
+	spawn(&p, &so, SIM3);
+	while (!p.eof && !strstr(p.out, "running:"))
+		pump(&p, 5000);
+	if (p.eof) {
+		st = finish(&p, 1000);
+		if (st == EXIT_NO_CAPS) {
+			fprintf(stderr, "SKIP: cannot start a process at SCHED_FIFO here\n");
+			skip();
+		}
+		fail_msg("rmdd exited (%d):\n%s", st, p.out);
+	}
+	assert_int_equal(sched_getscheduler(p.pid), SCHED_OTHER);
+	assert_int_equal(fifo_threads(p.pid, 0), 1);
+	assert_int_equal(fifo_threads(p.pid, 40), 1);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+}
+
+/* ---- systemd ------------------------------------------------------------------- */
+
+struct notify {
+	int fd;
+	char path[300];
+};
+
+static void notify_open(struct notify *n, const char *name)
+{
+	struct sockaddr_un sa = { .sun_family = AF_UNIX };
+
+	snprintf(n->path, sizeof(n->path), "%s/%s", tmpdir, name);
+	unlink(n->path);
+	n->fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+	assert_true(n->fd >= 0);
+	assert_true(strlen(n->path) < sizeof(sa.sun_path));
+	strcpy(sa.sun_path, n->path);
+	assert_int_equal(bind(n->fd, (struct sockaddr *)&sa, sizeof(sa)), 0);
+}
+
+static void notify_close(struct notify *n)
+{
+	close(n->fd);
+	unlink(n->path);
+}
+
+/* One datagram within timeout_ms into buf (NUL-terminated); false on timeout. */
+static bool notify_recv(struct notify *n, char *buf, size_t len, int timeout_ms)
+{
+	struct pollfd pfd = { .fd = n->fd, .events = POLLIN };
+	ssize_t r;
+
+	if (timeout_ms < 0 || poll(&pfd, 1, timeout_ms) <= 0)
+		return false;
+	r = recv(n->fd, buf, len - 1, 0);
+	if (r < 0)
+		return false;
+	buf[r] = '\0';
+	return true;
+}
+
+/* Count the datagrams with `what` (and those with STATUS=) in the next ms; keep the last STATUS. */
+static unsigned notify_count(struct notify *n, struct proc *p, int ms, const char *what,
+			     unsigned *statuses, char *last_status, size_t len)
+{
+	int64_t end = now_ms() + ms;
+	unsigned count = 0;
+	char buf[1024];
+
+	if (statuses)
+		*statuses = 0;
+	for (int64_t left; (left = end - now_ms()) > 0;) {
+		/* keep the daemon's pipe drained, it must never block on stderr */
+		pump(p, 0);
+		if (!notify_recv(n, buf, sizeof(buf), left > 50 ? 50 : (int)left))
+			continue;
+		if (strstr(buf, what))
+			count++;
+		if (strstr(buf, "STATUS=")) {
+			if (statuses)
+				(*statuses)++;
+			if (last_status)
+				snprintf(last_status, len, "%s", strstr(buf, "STATUS="));
+		}
+	}
+	return count;
+}
+
+static void test_notify_ready_watchdog_and_stall(void **state)
+{
+	static struct proc p;
+	struct notify n;
+	struct spawn_opts so = {
+		.watchdog_usec = "200000", /* pings every 100 ms */
+		.stall_ms = "1200",
+	};
+	char buf[1024], status[1024] = "";
+	unsigned pings, statuses;
+	int64_t t_ready;
+
+	(void)state;
+	notify_open(&n, "notify-wd");
+	so.notify_socket = n.path;
+	spawn(&p, &so, SIM3);
+	/* READY=1 with a STATUS= summary comes first */
+	assert_true(notify_recv(&n, buf, sizeof(buf), 5000));
+	t_ready = now_ms();
+	if (!strstr(buf, "READY=1"))
+		fail_msg("first notification is not READY=1: %s", buf);
+	assert_non_null(strstr(buf, "STATUS=3 motors: enabled 0, ready 3"));
+
+	/* the loop runs: WATCHDOG=1 about every 100 ms, STATUS= every second */
+	pings = notify_count(&n, &p, 900, "WATCHDOG=1", &statuses, status, sizeof(status));
+	if (pings < 4)
+		fail_msg("%u WATCHDOG=1 in 900 ms, expected about 9", pings);
+
+	/* the loop stops at 1200 ms; give the last ping of its cycles until 1500 ms */
+	notify_count(&n, &p, (int)(t_ready + 1500 - now_ms()), "WATCHDOG=1", NULL, NULL, 0);
+	pings = notify_count(&n, &p, 1800, "WATCHDOG=1", &statuses, status, sizeof(status));
+	if (pings)
+		fail_msg("%u WATCHDOG=1 after the loop stalled; output:\n%s", pings, p.out);
+	/* the main thread is alive and says why */
+	assert_true(statuses >= 1);
+	if (!strstr(status, "LOOP STALLED"))
+		fail_msg("last status does not tell of the stall: %s", status);
+	wait_for(&p, "<3>rmdd: rt loop: no cycle completed", 2000);
+	expect_in(&p, "the systemd watchdog is no longer fed");
+
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	notify_close(&n);
+}
+
+static void test_notify_without_watchdog(void **state)
+{
+	static struct proc p;
+	struct notify n;
+	struct spawn_opts so = { 0 };
+	char buf[1024];
+	unsigned pings, statuses;
+	bool stopping = false;
+
+	(void)state;
+	notify_open(&n, "notify-nowd");
+	so.notify_socket = n.path;
+	/* WATCHDOG_PID names another process: the watchdog is not ours */
+	so.watchdog_usec = "200000";
+	so.watchdog_pid = "1";
+	spawn(&p, &so, SIM3);
+	assert_true(notify_recv(&n, buf, sizeof(buf), 5000));
+	assert_non_null(strstr(buf, "READY=1"));
+	pings = notify_count(&n, &p, 1300, "WATCHDOG=1", &statuses, NULL, 0);
+	assert_int_equal(pings, 0);
+	assert_true(statuses >= 1);
+	kill(p.pid, SIGTERM);
+	while (notify_recv(&n, buf, sizeof(buf), 3000))
+		if (strstr(buf, "STOPPING=1"))
+			stopping = true;
+	assert_true(stopping);
+	assert_int_equal(finish(&p, 5000), 0);
+	notify_close(&n);
+}
+
+/* ---- real-time privileges -------------------------------------------------------- */
+
+static void test_no_rt_warns_once_and_runs(void **state)
+{
+	static struct proc p;
+	struct spawn_opts so = { .no_rt = true };
+
+	(void)state;
+	spawn(&p, &so, SIM3);
+	while (!p.eof && !strstr(p.out, "running:"))
+		pump(&p, 5000);
+	if (p.eof) {
+		int st = finish(&p, 1000);
+
+		if (st == EXIT_NO_CAPS) {
+			fprintf(stderr, "SKIP: cannot drop CAP_SYS_NICE/CAP_IPC_LOCK here (%s)\n",
+				strerror(EPERM));
+			skip();
+		}
+		fail_msg("rmdd exited (%d) without the rt privilege:\n%s", st, p.out);
+	}
+	wait_for(&p, "<4>rmdd: no real-time guarantees: SCHED_FIFO refused", 2000);
+	expect_in(&p, "mlockall failed");
+	assert_false(has_fifo_thread(p.pid, 40));
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	assert_int_equal(count_of(p.out, "no real-time guarantees"), 1);
+}
+
+static void test_require_rt_refuses(void **state)
+{
+	static struct proc p;
+	struct spawn_opts so = { .no_rt = true };
+	static const char *const args[] = { "--sim",	    "3", "--lcm-url", "memq://",
+					    "--require-rt", NULL };
+	int st;
+
+	(void)state;
+	spawn(&p, &so, args);
+	st = finish(&p, 10000);
+	if (st == EXIT_NO_CAPS) {
+		fprintf(stderr, "SKIP: cannot drop CAP_SYS_NICE/CAP_IPC_LOCK here\n");
+		skip();
+	}
+	assert_int_equal(st, 1);
+	expect_in(&p, "<3>rmdd: --require-rt: SCHED_FIFO priority 40 or mlockall refused");
+	assert_null(strstr(p.out, "running:"));
+}
+
+/* ---- set-up ----------------------------------------------------------------------- */
+
+static int setup(void **state)
+{
+	const char *env = getenv("RMDD"), *build = getenv("BUILD");
+
+	(void)state;
+	if (env && *env)
+		snprintf(rmdd, sizeof(rmdd), "%s", env);
+	else
+		snprintf(rmdd, sizeof(rmdd), "%s/rmdd", build && *build ? build : "build");
+	if (access(rmdd, X_OK) < 0) {
+		fprintf(stderr, "test_rmdd: %s: %s (set RMDD or BUILD)\n", rmdd, strerror(errno));
+		return -1;
+	}
+	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_rmdd.XXXXXX");
+	if (!mkdtemp(tmpdir))
+		return -1;
+	/* a daemon that outlives a failed test must not keep a pipe of ours */
+	signal(SIGPIPE, SIG_IGN);
+	return 0;
+}
+
+/* After each test: no daemon outlives it, whatever failed. */
+static int reap(void **state)
+{
+	(void)state;
+	if (live_pid > 0) {
+		kill(live_pid, SIGKILL);
+		waitpid(live_pid, NULL, 0);
+		live_pid = 0;
+	}
+	return 0;
+}
+
+static int teardown(void **state)
+{
+	char cmd[300];
+
+	(void)state;
+	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
+	return system(cmd) == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test_teardown(test_usage_errors, reap),
+		cmocka_unit_test_teardown(test_no_default_config, reap),
+		cmocka_unit_test_teardown(test_bad_config, reap),
+		cmocka_unit_test_teardown(test_infeasible_plan, reap),
+		cmocka_unit_test_teardown(test_bus_error_names_the_bus, reap),
+		cmocka_unit_test_teardown(test_missing_motor_refused, reap),
+		cmocka_unit_test_teardown(test_sigterm, reap),
+		cmocka_unit_test_teardown(test_sigint, reap),
+		cmocka_unit_test_teardown(test_sigusr1_and_sighup_keep_running, reap),
+		cmocka_unit_test_teardown(test_lost_motor_logged_with_context, reap),
+		cmocka_unit_test_teardown(test_started_fifo_only_the_loop_stays, reap),
+		cmocka_unit_test_teardown(test_notify_ready_watchdog_and_stall, reap),
+		cmocka_unit_test_teardown(test_notify_without_watchdog, reap),
+		cmocka_unit_test_teardown(test_no_rt_warns_once_and_runs, reap),
+		cmocka_unit_test_teardown(test_require_rt_refuses, reap),
+	};
+
+	return cmocka_run_group_tests_name("rmdd", tests, setup, teardown);
+}
