@@ -1,11 +1,44 @@
 #!/bin/sh
-# Run every test binary given on the command line, keep going after a
-# failure, and close with one summary line that CI reads:
+# Run test binaries, keep going after a failure, and close with one
+# summary line that CI reads:
 #   tests: N passed, N failed
+#
+#   tests/run-tests.sh [--vcan SUITE...] -- SUITE...
+#
+# SUITEs after "--" run here.  SUITEs after --vcan need real SocketCAN with
+# vcan0..vcan2: they run through tests/vm/vm-run (on this host when its
+# kernel has vcan, else in a QEMU guest booting Debian's kernel); when
+# neither is possible they are skipped with one loud line saying why.
+#
 # A suite that runs longer than RMD_SUITE_TIMEOUT seconds (default 600) is
 # killed and counted as failed: a hang must never stall CI.
+# --tally FILE (internal): write "passed failed" to FILE instead of the line.
 set -u
 limit=${RMD_SUITE_TIMEOUT:-600}
+here=$(dirname "$0")
+vcan=""
+tally=""
+while [ $# -gt 0 ]; do
+	case "$1" in
+	--vcan)
+		shift
+		while [ $# -gt 0 ] && [ "$1" != "--" ]; do
+			vcan="$vcan $1"
+			shift
+		done
+		;;
+	--tally)
+		tally=$2
+		shift 2
+		;;
+	--)
+		shift
+		break
+		;;
+	*) break ;;
+	esac
+done
+
 passed=0
 failed=0
 bad=""
@@ -26,6 +59,31 @@ for t in "$@"; do
 	fi
 	rm -f "$out"
 done
-[ -n "$bad" ] && echo "failing suites:$bad"
-echo "tests: $passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+
+if [ -n "$vcan" ]; then
+	echo "== SocketCAN suites on vcan:$vcan"
+	if "$here/vm/vm-available"; then
+		t=$(mktemp /tmp/rmd-tally.XXXXXX)
+		# shellcheck disable=SC2086 # the suite list is meant to split
+		"$here/vm/vm-run" --vcan 3 --timeout $((limit * 3)) -- \
+			"$here/run-tests.sh" --tally "$t" -- $vcan
+		rc=$?
+		if read -r p f <"$t" 2>/dev/null; then
+			passed=$((passed + p))
+			failed=$((failed + f))
+		fi
+		if [ "$rc" -ne 0 ]; then
+			bad="$bad vcan-suites(rc=$rc)"
+			[ -s "$t" ] || failed=$((failed + 1))
+		fi
+		rm -f "$t"
+	fi
+fi
+
+if [ -n "$tally" ]; then
+	echo "$passed $failed" >"$tally"
+else
+	[ -n "$bad" ] && echo "failing suites:$bad"
+	echo "tests: $passed passed, $failed failed"
+fi
+[ "$failed" -eq 0 ] && [ -z "$bad" ]
