@@ -19,6 +19,7 @@
 
 #include <sys/eventfd.h>
 
+#include "rmd/thread.h"
 #include "rmd/bridge.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_t.h"
@@ -827,30 +828,11 @@ err_free_buf:
 
 int rmd_bridge_start(struct rmd_bridge *b)
 {
-	struct sched_param sp = { .sched_priority = 0 };
-	sigset_t all, old;
-	pthread_attr_t attr;
 	int r;
 
 	if (b->running)
 		return -EALREADY;
-	r = -pthread_attr_init(&attr);
-	if (r)
-		return r;
-	/* A normal thread even when the daemon's main thread runs SCHED_FIFO. */
-	r = -pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
-	if (!r)
-		r = -pthread_attr_setschedpolicy(&attr, SCHED_OTHER);
-	if (!r)
-		r = -pthread_attr_setschedparam(&attr, &sp);
-	if (!r) {
-		/* Signals belong to the main thread: the new thread starts with all blocked. */
-		sigfillset(&all);
-		pthread_sigmask(SIG_SETMASK, &all, &old);
-		r = -pthread_create(&b->thread, &attr, bridge_main, b);
-		pthread_sigmask(SIG_SETMASK, &old, NULL);
-	}
-	pthread_attr_destroy(&attr);
+	r = rmd_thread_start_normal(&b->thread, bridge_main, b);
 	if (!r)
 		b->running = true;
 	return r;

@@ -36,6 +36,7 @@
 
 #include <sys/eventfd.h>
 
+#include "rmd/thread.h"
 #include "rmd/codec.h"
 #include "rmdd.h"
 
@@ -490,30 +491,11 @@ int rmdd_monitor_init(struct rmdd_monitor *m, const struct rmd_config *cfg, stru
 
 int rmdd_monitor_start(struct rmdd_monitor *m)
 {
-	struct sched_param sp = { .sched_priority = 0 };
-	pthread_attr_t attr;
-	sigset_t all, old;
 	int r;
 
 	if (m->running)
 		return -EALREADY;
-	r = -pthread_attr_init(&attr);
-	if (r)
-		return r;
-	/* a normal thread whatever the main thread runs at */
-	r = -pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
-	if (!r)
-		r = -pthread_attr_setschedpolicy(&attr, SCHED_OTHER);
-	if (!r)
-		r = -pthread_attr_setschedparam(&attr, &sp);
-	if (!r) {
-		/* signals belong to the main thread's signalfd */
-		sigfillset(&all);
-		pthread_sigmask(SIG_SETMASK, &all, &old);
-		r = -pthread_create(&m->thread, &attr, monitor_main, m);
-		pthread_sigmask(SIG_SETMASK, &old, NULL);
-	}
-	pthread_attr_destroy(&attr);
+	r = rmd_thread_start_normal(&m->thread, monitor_main, m);
 	if (!r)
 		m->running = true;
 	return r;
