@@ -10,6 +10,9 @@
 #   WERROR=1             warnings are errors (CI sets it)
 #   V=1                  echo every command
 
+# `make` alone builds everything (the deps rule below comes first in the file).
+.DEFAULT_GOAL := all
+
 PREFIX ?= /usr/local
 BINDIR ?= $(PREFIX)/bin
 SYSCONFDIR ?= /etc

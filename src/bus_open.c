@@ -8,25 +8,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rmd/err.h"
 #include "rmd/bus_open.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/bus_sim.h"
 #include "rmd/bus_socketcan.h"
 
 #define SIM_PREFIX "sim"
-
-__attribute__((format(printf, 4, 5))) static int fail(char *err, size_t errlen, int r,
-						      const char *fmt, ...)
-{
-	va_list ap;
-
-	if (err && errlen) {
-		va_start(ap, fmt);
-		vsnprintf(err, errlen, fmt, ap);
-		va_end(ap);
-	}
-	return r;
-}
 
 /* One decimal id 1..32 at *s; advances *s.  Returns the id or -EINVAL. */
 static int parse_id(const char **s)
@@ -108,10 +96,11 @@ static int open_sim(struct rmd_bus *bus, const char *spec, const struct rmd_bus_
 	} else {
 		n = rmd_bus_open_parse_ids(list + 1, ids);
 		if (n < 0)
-			return fail(err, errlen, -EINVAL,
-				    "\"%s\": bad motor list after \"sim:\" (ids 1..%d, each once, "
-				    "e.g. sim:1-3,7)",
-				    spec, RMD_MAX_MOTORS);
+			return rmd_errf(
+				err, errlen, -EINVAL,
+				"\"%s\": bad motor list after \"sim:\" (ids 1..%d, each once, "
+				"e.g. sim:1-3,7)",
+				spec, RMD_MAX_MOTORS);
 	}
 	for (int i = 0; i < n; i++)
 		motors[i] = (struct rmd_bus_sim_motor){ .id = ids[i], .proto = o->proto };
@@ -135,9 +124,9 @@ static int open_rs485(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 
 	/* V3 §1.2: RS485 frames carry the V3 command set; V2 is CAN only. */
 	if (o->proto == RMD_PROTO_V2)
-		return fail(err, errlen, -EINVAL,
-			    "%s: protocol V2 has no RS485 interface (V2 motors are CAN only)",
-			    spec);
+		return rmd_errf(err, errlen, -EINVAL,
+				"%s: protocol V2 has no RS485 interface (V2 motors are CAN only)",
+				spec);
 	return rmd_rs485_open(bus, spec, &ro, err, errlen);
 }
 
@@ -149,7 +138,8 @@ static int open_socketcan(struct rmd_bus *bus, const char *spec, const struct rm
 	unsigned n = 0;
 
 	if (o->n_ids > RMD_MAX_MOTORS || (o->n_ids && !o->ids))
-		return fail(err, errlen, -EINVAL, "%s: bad motor list (%u ids)", spec, o->n_ids);
+		return rmd_errf(err, errlen, -EINVAL, "%s: bad motor list (%u ids)", spec,
+				o->n_ids);
 	if (o->n_ids) {
 		for (unsigned i = 0; i < o->n_ids; i++)
 			motors[n++] =
@@ -176,10 +166,12 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 	if (err && errlen)
 		err[0] = '\0';
 	if (!spec || !*spec)
-		return fail(err, errlen, -EINVAL,
-			    "empty bus name (a CAN interface, a serial device path or \"sim\")");
+		return rmd_errf(
+			err, errlen, -EINVAL,
+			"empty bus name (a CAN interface, a serial device path or \"sim\")");
 	if (o->proto != RMD_PROTO_V3 && o->proto != RMD_PROTO_V2 && o->proto != RMD_PROTO_MIT)
-		return fail(err, errlen, -EINVAL, "%s: unknown protocol %d", spec, (int)o->proto);
+		return rmd_errf(err, errlen, -EINVAL, "%s: unknown protocol %d", spec,
+				(int)o->proto);
 	if (rmd_bus_open_is_sim(spec))
 		return open_sim(bus, spec, o, err, errlen);
 	if (spec[0] == '/')

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rmd/err.h"
 #include "rmd/bus_sim.h"
 
 /* Frames moved from the sim bus per rmd_sim_bus_recv() call (stack buffer). */
@@ -118,19 +119,6 @@ static const struct rmd_bus_ops sim_ops = {
 	.close = sim_close,
 };
 
-__attribute__((format(printf, 4, 5))) static int fail(char *err, size_t errlen, int r,
-						      const char *fmt, ...)
-{
-	va_list ap;
-
-	if (err && errlen) {
-		va_start(ap, fmt);
-		vsnprintf(err, errlen, fmt, ap);
-		va_end(ap);
-	}
-	return r;
-}
-
 /* Power on the motors of opts at sim time 0.  Non-rt. */
 static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_sim_opts *opts,
 		      char *err, size_t errlen)
@@ -141,12 +129,12 @@ static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_
 		int r;
 
 		if (m->id < 1 || m->id > RMD_MAX_MOTORS)
-			return fail(err, errlen, -EINVAL, "%s: motor id %u out of range 1..%d",
-				    name, m->id, RMD_MAX_MOTORS);
+			return rmd_errf(err, errlen, -EINVAL, "%s: motor id %u out of range 1..%d",
+					name, m->id, RMD_MAX_MOTORS);
 		if (m->proto != RMD_PROTO_V3 && m->proto != RMD_PROTO_V2 &&
 		    m->proto != RMD_PROTO_MIT)
-			return fail(err, errlen, -EINVAL, "%s: motor %u: unknown protocol %d", name,
-				    m->id, (int)m->proto);
+			return rmd_errf(err, errlen, -EINVAL, "%s: motor %u: unknown protocol %d",
+					name, m->id, (int)m->proto);
 		if (m->params)
 			params = *m->params;
 		else
@@ -155,9 +143,10 @@ static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_
 		params.proto = m->proto;
 		r = rmd_sim_bus_add_motor(&p->sim, &params, 0);
 		if (r == -EEXIST)
-			return fail(err, errlen, r, "%s: motor id %u given twice", name, m->id);
+			return rmd_errf(err, errlen, r, "%s: motor id %u given twice", name, m->id);
 		if (r < 0)
-			return fail(err, errlen, r, "%s: motor %u: %s", name, m->id, strerror(-r));
+			return rmd_errf(err, errlen, r, "%s: motor %u: %s", name, m->id,
+					strerror(-r));
 	}
 	return 0;
 }
@@ -174,35 +163,35 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	if (!name || !name[0])
 		name = "sim";
 	if (!opts)
-		return fail(err, errlen, -EINVAL, "%s: no options", name);
+		return rmd_errf(err, errlen, -EINVAL, "%s: no options", name);
 	if (opts->n_motors > RMD_MAX_MOTORS)
-		return fail(err, errlen, -E2BIG, "%s: %u motors, at most %d", name, opts->n_motors,
-			    RMD_MAX_MOTORS);
+		return rmd_errf(err, errlen, -E2BIG, "%s: %u motors, at most %d", name,
+				opts->n_motors, RMD_MAX_MOTORS);
 	if (opts->n_motors && !opts->motors)
-		return fail(err, errlen, -EINVAL, "%s: %u motors but no motor list", name,
-			    opts->n_motors);
+		return rmd_errf(err, errlen, -EINVAL, "%s: %u motors but no motor list", name,
+				opts->n_motors);
 	if (opts->n_faults > RMD_SIM_BUS_MAX_FAULTS)
-		return fail(err, errlen, -E2BIG, "%s: %u faults, at most %d", name, opts->n_faults,
-			    RMD_SIM_BUS_MAX_FAULTS);
+		return rmd_errf(err, errlen, -E2BIG, "%s: %u faults, at most %d", name,
+				opts->n_faults, RMD_SIM_BUS_MAX_FAULTS);
 	if (opts->n_faults && !opts->faults)
-		return fail(err, errlen, -EINVAL, "%s: %u faults but no fault list", name,
-			    opts->n_faults);
+		return rmd_errf(err, errlen, -EINVAL, "%s: %u faults but no fault list", name,
+				opts->n_faults);
 
 	p = calloc(1, sizeof(*p));
 	if (!p)
-		return fail(err, errlen, -ENOMEM, "%s: out of memory", name);
+		return rmd_errf(err, errlen, -ENOMEM, "%s: out of memory", name);
 	r = rmd_sim_bus_init(&p->sim, opts->bitrate ? opts->bitrate : RMD_BUS_SIM_BITRATE,
 			     opts->seed ? opts->seed : RMD_BUS_SIM_SEED, opts->flags);
 	if (r < 0) {
-		r = fail(err, errlen, r, "%s: bad bitrate %u or flags 0x%x", name, opts->bitrate,
-			 opts->flags);
+		r = rmd_errf(err, errlen, r, "%s: bad bitrate %u or flags 0x%x", name,
+			     opts->bitrate, opts->flags);
 		goto err_free;
 	}
 	if (opts->txqueuelen) {
 		r = rmd_sim_bus_set_txqueuelen(&p->sim, opts->txqueuelen);
 		if (r < 0) {
-			r = fail(err, errlen, r, "%s: TX queue length %u out of range 1..%d", name,
-				 opts->txqueuelen, RMD_SIM_BUS_TXQ);
+			r = rmd_errf(err, errlen, r, "%s: TX queue length %u out of range 1..%d",
+				     name, opts->txqueuelen, RMD_SIM_BUS_TXQ);
 			goto err_fini;
 		}
 	}
@@ -212,7 +201,7 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	if (opts->n_faults) {
 		r = rmd_sim_bus_set_faults(&p->sim, opts->faults, opts->n_faults);
 		if (r < 0) {
-			r = fail(err, errlen, r, "%s: bad fault table: %s", name, strerror(-r));
+			r = rmd_errf(err, errlen, r, "%s: bad fault table: %s", name, strerror(-r));
 			goto err_fini;
 		}
 	}

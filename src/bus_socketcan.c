@@ -25,6 +25,7 @@
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
 
+#include "rmd/err.h"
 #include "rmd/bus_socketcan.h"
 
 #define BATCH RMD_SOCKETCAN_BATCH
@@ -70,19 +71,6 @@ struct socketcan {
 	struct can_frame rx_cf[BATCH];
 	union ctrl_buf rx_ctrl[BATCH];
 };
-
-__attribute__((format(printf, 4, 5))) static int fail(char *err, size_t errlen, int ret,
-						      const char *fmt, ...)
-{
-	va_list ap;
-
-	if (err && errlen) {
-		va_start(ap, fmt);
-		vsnprintf(err, errlen, fmt, ap);
-		va_end(ap);
-	}
-	return ret;
-}
 
 static int64_t timespec_ns(const struct timespec *ts)
 {
@@ -140,14 +128,14 @@ static int build_filters(const char *ifname, const struct rmd_socketcan_opts *op
 		return 1;
 	}
 	if (opts->n_motors && !opts->motors)
-		return fail(err, errlen, -EINVAL, "%s: %u motors but no motor list", ifname,
-			    opts->n_motors);
+		return rmd_errf(err, errlen, -EINVAL, "%s: %u motors but no motor list", ifname,
+				opts->n_motors);
 	for (unsigned i = 0; i < opts->n_motors; i++) {
 		const struct rmd_socketcan_motor *m = &opts->motors[i];
 
 		if (m->id < 1 || m->id > RMD_MAX_MOTORS)
-			return fail(err, errlen, -EINVAL, "%s: motor id %u out of range 1..%d",
-				    ifname, m->id, RMD_MAX_MOTORS);
+			return rmd_errf(err, errlen, -EINVAL, "%s: motor id %u out of range 1..%d",
+					ifname, m->id, RMD_MAX_MOTORS);
 		switch (m->proto) {
 		case RMD_PROTO_V3:
 			n = add_filter(f, n, RMD_CAN_V3_REPLY_BASE + m->id);
@@ -166,8 +154,8 @@ static int build_filters(const char *ifname, const struct rmd_socketcan_opts *op
 			n = add_filter(f, n, RMD_CAN_V3_REPLY_BASE + m->id);
 			break;
 		default:
-			return fail(err, errlen, -EINVAL, "%s: motor %u: unknown protocol %d",
-				    ifname, m->id, (int)m->proto);
+			return rmd_errf(err, errlen, -EINVAL, "%s: motor %u: unknown protocol %d",
+					ifname, m->id, (int)m->proto);
 		}
 	}
 	if (opts->set_id_replies)
@@ -203,21 +191,23 @@ static int check_interface(int fd, const char *ifname, const struct rmd_socketca
 	memcpy(ifr.ifr_name, ifname, strlen(ifname) + 1);
 
 	if (ioctl(fd, SIOCGIFHWADDR, &ifr) < 0)
-		return fail(err, errlen, -errno, "%s: SIOCGIFHWADDR: %s", ifname, strerror(errno));
+		return rmd_errf(err, errlen, -errno, "%s: SIOCGIFHWADDR: %s", ifname,
+				strerror(errno));
 	if (ifr.ifr_hwaddr.sa_family != ARPHRD_CAN)
-		return fail(
+		return rmd_errf(
 			err, errlen, -ENODEV,
 			"%s: not a CAN interface (link type %u): list them with `ip -details link show`",
 			ifname, ifr.ifr_hwaddr.sa_family);
 
 	if (ioctl(fd, SIOCGIFFLAGS, &ifr) < 0)
-		return fail(err, errlen, -errno, "%s: SIOCGIFFLAGS: %s", ifname, strerror(errno));
+		return rmd_errf(err, errlen, -errno, "%s: SIOCGIFFLAGS: %s", ifname,
+				strerror(errno));
 	if (!(ifr.ifr_flags & IFF_UP)) {
 		if (is_virtual_can(ifname))
-			return fail(err, errlen, -ENETDOWN,
-				    "%s: interface is down: run `ip link set %s up`", ifname,
-				    ifname);
-		return fail(
+			return rmd_errf(err, errlen, -ENETDOWN,
+					"%s: interface is down: run `ip link set %s up`", ifname,
+					ifname);
+		return rmd_errf(
 			err, errlen, -ENETDOWN,
 			"%s: interface is down: run `ip link set %s up type can bitrate 1000000 restart-ms 100`",
 			ifname, ifname);
@@ -226,14 +216,15 @@ static int check_interface(int fd, const char *ifname, const struct rmd_socketca
 	*carrier = ifr.ifr_flags & IFF_RUNNING;
 
 	if (ioctl(fd, SIOCGIFTXQLEN, &ifr) < 0)
-		return fail(err, errlen, -errno, "%s: SIOCGIFTXQLEN: %s", ifname, strerror(errno));
+		return rmd_errf(err, errlen, -errno, "%s: SIOCGIFTXQLEN: %s", ifname,
+				strerror(errno));
 	/*
 	 * txqueuelen 0: the device has no transmit queue to overflow.  (vcan
 	 * reports 1000 but runs the noqueue qdisc: it takes every frame inside
 	 * sendmsg, and only a real controller's queue ever fills.)
 	 */
 	if (opts && opts->burst && ifr.ifr_qlen > 0 && (unsigned)ifr.ifr_qlen < opts->burst)
-		return fail(
+		return rmd_errf(
 			err, errlen, -ENOBUFS,
 			"%s: txqueuelen %d cannot hold a %u-frame cycle: run `ip link set %s txqueuelen %u`",
 			ifname, ifr.ifr_qlen, opts->burst, ifname,
@@ -265,19 +256,21 @@ static int setup_socket(int fd, const char *ifname, unsigned ifindex,
 		return n;
 	if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, n ? filters : NULL,
 		       (socklen_t)(n * sizeof(filters[0]))) < 0)
-		return fail(err, errlen, -errno, "%s: CAN_RAW_FILTER: %s", ifname, strerror(errno));
+		return rmd_errf(err, errlen, -errno, "%s: CAN_RAW_FILTER: %s", ifname,
+				strerror(errno));
 	if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof(err_mask)) < 0)
-		return fail(err, errlen, -errno, "%s: CAN_RAW_ERR_FILTER: %s", ifname,
-			    strerror(errno));
+		return rmd_errf(err, errlen, -errno, "%s: CAN_RAW_ERR_FILTER: %s", ifname,
+				strerror(errno));
 	r = set_int(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, 0);
 	if (r < 0)
-		return fail(err, errlen, r, "%s: CAN_RAW_RECV_OWN_MSGS: %s", ifname, strerror(-r));
+		return rmd_errf(err, errlen, r, "%s: CAN_RAW_RECV_OWN_MSGS: %s", ifname,
+				strerror(-r));
 
 	/* SO_RCVBUFFORCE passes net.core.rmem_max with CAP_NET_ADMIN; else capped there. */
 	if (set_int(fd, SOL_SOCKET, SO_RCVBUFFORCE, want) < 0) {
 		r = set_int(fd, SOL_SOCKET, SO_RCVBUF, want);
 		if (r < 0)
-			return fail(err, errlen, r, "%s: SO_RCVBUF: %s", ifname, strerror(-r));
+			return rmd_errf(err, errlen, r, "%s: SO_RCVBUF: %s", ifname, strerror(-r));
 	}
 	len = sizeof(*rcvbuf);
 	if (getsockopt(fd, SOL_SOCKET, SO_RCVBUF, rcvbuf, &len) < 0)
@@ -285,16 +278,16 @@ static int setup_socket(int fd, const char *ifname, unsigned ifindex,
 
 	r = set_int(fd, SOL_SOCKET, SO_TIMESTAMPNS, 1);
 	if (r < 0)
-		return fail(err, errlen, r, "%s: SO_TIMESTAMPNS: %s", ifname, strerror(-r));
+		return rmd_errf(err, errlen, r, "%s: SO_TIMESTAMPNS: %s", ifname, strerror(-r));
 	r = set_int(fd, SOL_SOCKET, SO_RXQ_OVFL, 1);
 	if (r < 0)
-		return fail(err, errlen, r, "%s: SO_RXQ_OVFL: %s", ifname, strerror(-r));
+		return rmd_errf(err, errlen, r, "%s: SO_RXQ_OVFL: %s", ifname, strerror(-r));
 
 	memset(&addr, 0, sizeof(addr));
 	addr.can_family = AF_CAN;
 	addr.can_ifindex = (int)ifindex;
 	if (bind(fd, (struct sockaddr *)&addr, sizeof(addr)) < 0)
-		return fail(err, errlen, -errno, "%s: bind: %s", ifname, strerror(errno));
+		return rmd_errf(err, errlen, -errno, "%s: bind: %s", ifname, strerror(errno));
 	return 0;
 }
 
@@ -521,35 +514,36 @@ int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 	if (err && errlen)
 		err[0] = '\0';
 	if (!ifname || !ifname[0] || strlen(ifname) >= IFNAMSIZ)
-		return fail(err, errlen, -EINVAL,
-			    "\"%s\": not an interface name (1..%d characters)",
-			    ifname ? ifname : "(null)", IFNAMSIZ - 1);
+		return rmd_errf(err, errlen, -EINVAL,
+				"\"%s\": not an interface name (1..%d characters)",
+				ifname ? ifname : "(null)", IFNAMSIZ - 1);
 
 	fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
 	if (fd < 0) {
 		r = -errno;
 		if (r == -EAFNOSUPPORT)
-			return fail(
+			return rmd_errf(
 				err, errlen, r,
 				"%s: this kernel has no SocketCAN (socket(AF_CAN): %s): run `modprobe can_raw`, or use a kernel built with CONFIG_CAN (tests: tests/vm/vm-run)",
 				ifname, strerror(-r));
 		if (r == -EPROTONOSUPPORT)
-			return fail(
+			return rmd_errf(
 				err, errlen, r,
 				"%s: this kernel has no CAN_RAW protocol (%s): run `modprobe can_raw`",
 				ifname, strerror(-r));
-		return fail(err, errlen, r, "%s: socket(AF_CAN): %s", ifname, strerror(-r));
+		return rmd_errf(err, errlen, r, "%s: socket(AF_CAN): %s", ifname, strerror(-r));
 	}
 
 	ifindex = if_nametoindex(ifname);
 	if (ifindex == 0) {
 		r = -errno;
 		if (r == -ENODEV || r == -ENXIO)
-			r = fail(err, errlen, -ENODEV,
-				 "%s: no such interface (is the driver loaded? `ip link show`)",
-				 ifname);
+			r = rmd_errf(err, errlen, -ENODEV,
+				     "%s: no such interface (is the driver loaded? `ip link show`)",
+				     ifname);
 		else
-			r = fail(err, errlen, r, "%s: if_nametoindex: %s", ifname, strerror(-r));
+			r = rmd_errf(err, errlen, r, "%s: if_nametoindex: %s", ifname,
+				     strerror(-r));
 		goto err_close_socket;
 	}
 	r = check_interface(fd, ifname, opts, &carrier, err, errlen);
@@ -561,7 +555,7 @@ int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 
 	p = calloc(1, sizeof(*p));
 	if (!p) {
-		r = fail(err, errlen, -ENOMEM, "%s: out of memory", ifname);
+		r = rmd_errf(err, errlen, -ENOMEM, "%s: out of memory", ifname);
 		goto err_close_socket;
 	}
 	p->fd = fd;

@@ -26,6 +26,7 @@
 #include <sys/mman.h>
 #include <time.h>
 
+#include "rmd/err.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
@@ -1337,18 +1338,6 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 /* ------------------------------------------------------------------ */
 /* Construction (non-rt) */
 
-/* Non-rt. */
-__attribute__((format(printf, 3, 4))) static void errf(char *err, size_t len, const char *fmt, ...)
-{
-	va_list ap;
-
-	if (!err || !len)
-		return;
-	va_start(ap, fmt);
-	vsnprintf(err, len, fmt, ap);
-	va_end(ap);
-}
-
 /* rt-safe. */
 static int64_t max64(int64_t a, int64_t b)
 {
@@ -1365,7 +1354,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 	if (err && errlen)
 		err[0] = '\0';
 	if (!opts || !opts->cfg || !opts->plan || (!opts->buses && opts->cfg->n_buses)) {
-		errf(err, errlen, "loop: no configuration, plan or buses");
+		rmd_errf(err, errlen, 0, "loop: no configuration, plan or buses");
 		return NULL;
 	}
 	cfg = opts->cfg;
@@ -1373,23 +1362,24 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 	if (cfg->n_buses > RMD_MAX_BUSES || cfg->n_motors > RMD_MAX_MOTORS ||
 	    plan->n_buses != cfg->n_buses || plan->n_motors != cfg->n_motors ||
 	    plan->rate_hz != cfg->loop.rate_hz || plan->period_ns <= 0) {
-		errf(err, errlen, "loop: the plan was not built from this configuration");
+		rmd_errf(err, errlen, 0, "loop: the plan was not built from this configuration");
 		return NULL;
 	}
 	if (!plan->feasible) {
-		errf(err, errlen, "loop: the plan does not fit (rmdd --check-config tells why)");
+		rmd_errf(err, errlen, 0,
+			 "loop: the plan does not fit (rmdd --check-config tells why)");
 		return NULL;
 	}
 	if ((opts->commands && opts->commands->size != sizeof(struct rmd_command)) ||
 	    (opts->snapshots && opts->snapshots->size != sizeof(struct rmd_snapshot)) ||
 	    (opts->health && opts->health->size != sizeof(struct rmd_health)) ||
 	    (opts->events && opts->events->rec_size != sizeof(struct rmd_event))) {
-		errf(err, errlen, "loop: a hand-over buffer has the wrong record size");
+		rmd_errf(err, errlen, 0, "loop: a hand-over buffer has the wrong record size");
 		return NULL;
 	}
 	l = calloc(1, sizeof(*l));
 	if (!l) {
-		errf(err, errlen, "loop: out of memory");
+		rmd_errf(err, errlen, 0, "loop: out of memory");
 		return NULL;
 	}
 	/* touch every page now: the rt thread must not fault them in */
@@ -1404,7 +1394,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 		struct lbus *lb = &l->bus[b];
 
 		if (!opts->buses[b].ops) {
-			errf(err, errlen, "loop: bus %s is not open", cfg->buses[b].name);
+			rmd_errf(err, errlen, 0, "loop: bus %s is not open", cfg->buses[b].name);
 			free(l);
 			return NULL;
 		}
@@ -1421,7 +1411,8 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 		int r = rmd_motor_init(&lm->m, c);
 
 		if (r < 0 || c->bus >= l->n_buses) {
-			errf(err, errlen, "loop: motor %s: invalid conversion parameters", c->name);
+			rmd_errf(err, errlen, 0, "loop: motor %s: invalid conversion parameters",
+				 c->name);
 			free(l);
 			return NULL;
 		}

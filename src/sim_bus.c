@@ -12,6 +12,7 @@
 #include <errno.h>
 #include <string.h>
 
+#include "rmd/rng.h"
 #include "rmd/can_timing.h"
 #include "rmd/sim_bus.h"
 
@@ -19,38 +20,6 @@ _Static_assert((RMD_SIM_BUS_TXQ & (RMD_SIM_BUS_TXQ - 1)) == 0, "TXQ: power of tw
 _Static_assert((RMD_SIM_BUS_MOTQ & (RMD_SIM_BUS_MOTQ - 1)) == 0, "MOTQ: power of two");
 _Static_assert((RMD_SIM_BUS_RXQ & (RMD_SIM_BUS_RXQ - 1)) == 0, "RXQ: power of two");
 _Static_assert((RMD_SIM_BUS_HIST & (RMD_SIM_BUS_HIST - 1)) == 0, "HIST: power of two");
-
-/* ---- PRNG: splitmix64 to seed, xorshift64* to draw ---------------------- */
-
-static uint64_t splitmix(uint64_t x)
-{
-	x += UINT64_C(0x9E3779B97F4A7C15);
-	x = (x ^ (x >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-	x = (x ^ (x >> 27)) * UINT64_C(0x94D049BB133111EB);
-	x ^= x >> 31;
-	return x ? x : UINT64_C(0x2545F4914F6CDD1D);
-}
-
-static uint64_t rng_next(struct rmd_sim_bus *bus)
-{
-	uint64_t x = bus->rng;
-
-	x ^= x >> 12;
-	x ^= x << 25;
-	x ^= x >> 27;
-	bus->rng = x;
-	return x * UINT64_C(0x2545F4914F6CDD1D);
-}
-
-/* True with probability p; p >= 1 and p <= 0 draw nothing. */
-static bool roll(struct rmd_sim_bus *bus, double p)
-{
-	if (p >= 1.0)
-		return true;
-	if (!(p > 0.0))
-		return false;
-	return (double)(rng_next(bus) >> 11) * 0x1.0p-53 < p;
-}
 
 /* ---- fault table helpers ------------------------------------------------- */
 
@@ -222,7 +191,7 @@ static void motor_emit(struct rmd_sim_bus *bus, unsigned i, struct rmd_frame f, 
 
 		if (window_kind(ft->kind) || !fault_hits(ft, m) || !window_open(ft, t))
 			continue;
-		if (!roll(bus, ft->probability))
+		if (!rmd_rng_roll(&bus->rng, ft->probability))
 			continue;
 		switch (ft->kind) {
 		case RMD_SIM_FAULT_DROP:
@@ -236,7 +205,7 @@ static void motor_emit(struct rmd_sim_bus *bus, unsigned i, struct rmd_frame f, 
 			break;
 		case RMD_SIM_FAULT_GARBAGE:
 			for (unsigned j = 0; j < RMD_FRAME_LEN; j++)
-				f.data[j] = (uint8_t)rng_next(bus);
+				f.data[j] = (uint8_t)rmd_rng_next(&bus->rng);
 			break;
 		case RMD_SIM_FAULT_WRONG_ID:
 			if (!rebase_id(&f.can_id, m->ram.can_id, (uint8_t)ft->param))
@@ -521,7 +490,7 @@ static void start_frame(struct rmd_sim_bus *bus, int64_t t)
 		pool[best_j] = pool[--*pool_n];
 	} else {
 		for (unsigned j = 0; j < RMD_FRAME_LEN; j++)
-			bus->wire.f.data[j] = (uint8_t)rng_next(bus);
+			bus->wire.f.data[j] = (uint8_t)rmd_rng_next(&bus->rng);
 		bus->flood_next_ns[best_flood] += bus->faults[best_flood].param;
 		bus->stats.faults[RMD_SIM_FAULT_FLOOD]++;
 	}
@@ -614,7 +583,7 @@ int rmd_sim_bus_init(struct rmd_sim_bus *bus, uint32_t bitrate, uint64_t seed, u
 	bus->flags = flags;
 	bus->txq_len = RMD_SIM_BUS_TXQ;
 	bus->seed = seed;
-	bus->rng = splitmix(seed);
+	bus->rng = rmd_rng_seed(seed);
 	return 0;
 }
 
@@ -645,7 +614,7 @@ int rmd_sim_bus_add_motor(struct rmd_sim_bus *bus, const struct rmd_sim_motor_pa
 		return -ENOSPC;
 	rmd_sim_bus_advance(bus, now_ns);
 	if (q.seed == 0)
-		q.seed = splitmix(bus->seed ^ ((uint64_t)p->id << 56));
+		q.seed = rmd_rng_seed(bus->seed ^ ((uint64_t)p->id << 56));
 	rmd_sim_motor_init(&bus->motors[i], &q, bus->now_ns);
 	bus->injected[i] = 0;
 	bus->n_motors++;

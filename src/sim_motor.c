@@ -20,6 +20,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "rmd/rng.h"
 #include "rmd/codec.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
@@ -79,29 +80,16 @@ void rmd_sim_motor_params_default(struct rmd_sim_motor_params *p, uint8_t id, en
 }
 
 /* splitmix64: spreads a small seed (the ID) over all 64 bits, never 0 out. */
-static uint64_t mix_seed(uint64_t x)
-{
-	x += UINT64_C(0x9E3779B97F4A7C15);
-	x = (x ^ (x >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-	x = (x ^ (x >> 27)) * UINT64_C(0x94D049BB133111EB);
-	x ^= x >> 31;
-	return x ? x : UINT64_C(0x2545F4914F6CDD1D);
-}
-
 void rmd_sim_motor_seed(struct rmd_sim_motor *m, uint64_t seed)
 {
-	m->rng = mix_seed(seed ? seed : m->p.id);
+	m->rng = rmd_rng_seed(seed ? seed : m->p.id);
 }
 
 uint64_t rmd_sim_motor_rand(struct rmd_sim_motor *m)
 {
-	uint64_t x = m->rng ? m->rng : mix_seed(0);
-
-	x ^= x >> 12;
-	x ^= x << 25;
-	x ^= x >> 27;
-	m->rng = x;
-	return x * UINT64_C(0x2545F4914F6CDD1D);
+	if (!m->rng)
+		m->rng = rmd_rng_seed(0);
+	return rmd_rng_next(&m->rng);
 }
 
 int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m)

@@ -63,6 +63,7 @@
 #include <linux/can/raw.h>
 #include <linux/serial.h>
 
+#include "rmd/rng.h"
 #include "rmd/codec.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
@@ -161,27 +162,6 @@ static int64_t now_ns(void)
 
 	clock_gettime(CLOCK_MONOTONIC, &ts);
 	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
-}
-
-static uint64_t rnd(struct sim *s)
-{
-	uint64_t x = s->rng;
-
-	x ^= x >> 12;
-	x ^= x << 25;
-	x ^= x >> 27;
-	s->rng = x;
-	return x * UINT64_C(0x2545F4914F6CDD1D);
-}
-
-/* True with probability p. */
-static bool roll(struct sim *s, double p)
-{
-	if (p >= 1.0)
-		return true;
-	if (p <= 0.0)
-		return false;
-	return (double)(rnd(s) >> 11) * 0x1.0p-53 < p;
 }
 
 /* ---- the queue of due frames ----------------------------------------------------------- */
@@ -399,7 +379,7 @@ static bool apply_faults(struct sim *s, const struct slot *sl, struct rmd_frame 
 		const struct rmd_sim_fault *ft = &c->faults[i];
 
 		if (!per_frame_kind(ft->kind) || !fault_hits(ft, sl) || !in_window(s, ft, *ready) ||
-		    !roll(s, ft->probability))
+		    !rmd_rng_roll(&s->rng, ft->probability))
 			continue;
 		switch (ft->kind) {
 		case RMD_SIM_FAULT_DROP:
@@ -413,7 +393,7 @@ static bool apply_faults(struct sim *s, const struct slot *sl, struct rmd_frame 
 			break;
 		case RMD_SIM_FAULT_GARBAGE:
 			for (unsigned k = 0; k < RMD_FRAME_LEN; k++)
-				f->data[k] = (uint8_t)(rnd(s) >> 56);
+				f->data[k] = (uint8_t)(rmd_rng_next(&s->rng) >> 56);
 			break;
 		case RMD_SIM_FAULT_WRONG_ID:
 			/* 0x300 and the like carry no ID: not hit (as rmd/sim_bus.h). */
