@@ -1914,7 +1914,7 @@ int rmd_loop_start(struct rmd_loop *l)
 		r = -errno;
 		if (l->o.require_rt)
 			return -EPERM;
-		event(l, now, RMD_LOOP_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_MLOCK);
+		event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_MLOCK);
 	}
 	/*
 	 * Every fallback is decided, and said through the event ring, before
@@ -1923,12 +1923,12 @@ int rmd_loop_start(struct rmd_loop *l)
 	for (;;) {
 		r = create_thread(l, fifo, cpus);
 		if (r == -EPERM && fifo && !l->o.require_rt) {
-			event(l, now, RMD_LOOP_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_FIFO);
+			event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_FIFO);
 			fifo = false;
 			continue;
 		}
 		if (r == -EINVAL && cpus && !l->o.require_rt) {
-			event(l, now, RMD_LOOP_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_AFFINITY);
+			event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_AFFINITY);
 			cpus = false;
 			continue;
 		}

@@ -992,7 +992,7 @@ static void test_thread(void **state)
 	}
 	events_pump();
 	for (unsigned k = 0; k < nev; k++)
-		if (evs[k].kind == RMD_LOOP_EV_RT && getenv("RMD_TEST_VERBOSE"))
+		if (evs[k].kind == RMD_EV_RT && getenv("RMD_TEST_VERBOSE"))
 			print_message("no real time: %s (%lld)\n",
 				      evs[k].b == RMD_LOOP_RT_MLOCK ? "mlockall" :
 				      evs[k].b == RMD_LOOP_RT_FIFO  ? "SCHED_FIFO" :

@@ -124,12 +124,7 @@ struct rmd_loop_opts {
 #define RMD_LOOP_STACK_SIZE (1024 * 1024)
 #define RMD_LOOP_PREFAULT_STACK (256 * 1024)
 
-/*
- * An event kind beyond enum rmd_event_kind (rmd/state.h): real-time
- * scheduling was not granted.  a = -errno, b = RMD_LOOP_RT_*.  Sent once by
- * rmd_loop_start() when it runs anyway.
- */
-#define RMD_LOOP_EV_RT 0x100
+/* What RMD_EV_RT (rmd/state.h) reports in b: which real-time request failed. */
 enum {
 	RMD_LOOP_RT_MLOCK = 1,	  /* mlockall() failed */
 	RMD_LOOP_RT_FIFO = 2,	  /* SCHED_FIFO refused: normal priority */
@@ -205,7 +200,7 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now_ns);
 /*
  * Start the SCHED_FIFO thread (priority and CPU affinity from the config,
  * mlockall, prefaulted stack).  Without the privilege it says so once
- * through the event ring (RMD_LOOP_EV_RT) and runs at normal priority,
+ * through the event ring (RMD_EV_RT) and runs at normal priority,
  * unless require_rt: then -EPERM.  Between ticks the thread collects
  * replies from the buses that have a descriptor (poll(2)), so RS485 queues
  * advance and replies are stamped as they come; buses without one (sim)

@@ -226,7 +226,7 @@ static void log_watchdog(const struct rmd_config *cfg, const struct rmd_event *e
 	}
 }
 
-/* The RMD_LOOP_EV_RT events of one drain, said in one line. */
+/* The RMD_EV_RT events of one drain, said in one line. */
 struct rt_note {
 	bool any;
 	int err[4];
@@ -263,14 +263,13 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 	const struct rmd_config *cfg = m->cfg;
 	char ctx[96];
 
-	if (e->kind == RMD_LOOP_EV_RT) {
+	switch ((enum rmd_event_kind)e->kind) {
+	case RMD_EV_RT:
 		if (e->b > 0 && e->b < 4) {
 			rt->any = true;
 			rt->err[e->b] = e->a ? (int)e->a : -EPERM;
 		}
-		return;
-	}
-	switch ((enum rmd_event_kind)e->kind) {
+		break;
 	case RMD_EV_MOTOR_STATE:
 		log_motor_state(cfg, e);
 		break;
