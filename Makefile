@@ -163,6 +163,15 @@ $(RMDD): $(RMDD_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# The C example controller (examples/README.md): liblcm and the generated
+# rmd types only, which it takes from the library.
+SINE_CONTROLLER := $(BUILD)/sine_controller
+all: $(SINE_CONTROLLER)
+$(BUILD)/examples/sine_controller.o: | $(GEN_HDRS)
+$(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 $(BUILD)/tests/%: $(BUILD)/tests/%.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)

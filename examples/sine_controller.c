@@ -1,0 +1,728 @@
+// SPDX-License-Identifier: MIT
+/*
+ * sine_controller: an rmdd controller in C.  Every motor that can follows a
+ * sine, in position mode or in MIT mode, and the tracking error is printed
+ * once a second.  It uses nothing of rmdd but its LCM types (lcm_types/,
+ * generated into build/gen) and liblcm:
+ *
+ *   make build/sine_controller
+ *   rmdd --config examples/sim-sine.yaml &
+ *   build/sine_controller --mode position
+ *   build/sine_controller --mode mit --kp 20 --kd 1
+ *
+ * What it does, in order:
+ *   1. asks for rmdd's configuration (anything on PREFIX "CONFIG_REQUEST";
+ *      config_t comes back on PREFIX "CONFIG") and gives up after 2 s with a
+ *      message: rmdd is not running, or not on this URL and prefix;
+ *   2. picks every motor whose modes (config_t motor.modes) allow the mode,
+ *      and checks --kp and --kd against each MIT motor's gain ranges;
+ *   3. centres each sine on the motor's position (state_t), inside its
+ *      position limits;
+ *   4. sends enable = 0 and waits for READY (a motor back from a fault or
+ *      a loss takes enable = 1 only after an enable = 0: docs/lcm.md);
+ *   5. publishes command_t at --rate Hz, every driven motor in each
+ *      message (rmdd keeps only the newest), and from every state_t adds
+ *      up target - position per motor: RMS and largest magnitude, printed
+ *      once a second;
+ *   6. on Ctrl-C, SIGTERM or the end of --duration: enable = 0 to every
+ *      driven motor, the whole run's error, exit 0.  Exit 1 when rmdd is
+ *      not there or goes away, 2 for a bad command line.
+ *
+ * Single-threaded: poll(2) on LCM's descriptor until the next publish.
+ * Non-rt (an example: a real controller would run its loop at SCHED_FIFO).
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <lcm/lcm.h>
+
+#include "rmd/rmd_command_t.h"
+#include "rmd/rmd_config_request_t.h"
+#include "rmd/rmd_config_t.h"
+#include "rmd/rmd_state_t.h"
+
+#define PROG "sine_controller"
+#define DEFAULT_URL "udpm://239.255.76.67:7667?ttl=0"
+#define DEFAULT_PREFIX "RMD_"
+
+#define NS_PER_S INT64_C(1000000000)
+#define NS_PER_MS INT64_C(1000000)
+#define CONFIG_WAIT_NS (2 * NS_PER_S)	    /* no config_t within this: rmdd is not there */
+#define CONFIG_ASK_NS (250 * NS_PER_MS)	    /* ask again this often while waiting */
+#define STATE_WAIT_NS NS_PER_S		    /* no state_t for this long: rmdd went away */
+#define READY_WAIT_NS (500 * NS_PER_MS)	    /* enable = 0, then READY within this */
+#define PRINT_PERIOD_NS NS_PER_S	    /* the tracking error, once a second */
+#define STOP_REPEAT 3			    /* enable = 0 goes out this often ... */
+#define STOP_GAP_NS (5 * NS_PER_MS)	    /* ... this far apart (UDP may drop one) */
+#define MAX_MOTORS RMD_COMMAND_T_MAX_MOTORS /* 32 */
+#define NAME_LEN 64
+
+enum exit_status {
+	EXIT_OK = 0,
+	EXIT_FAIL = 1,	/* rmdd not there, gone, or refusing */
+	EXIT_USAGE = 2, /* bad command line, or options the motors cannot take */
+};
+
+struct opts {
+	bool mit; /* --mode mit, else position */
+	double amplitude_rad;
+	double freq_hz;
+	double rate_hz;
+	double kp, kd;
+	const char *url;
+	const char *prefix;
+	double duration_s; /* 0: until Ctrl-C */
+};
+
+/* What we keep of config_t: one motor's name and limits. */
+struct motor_cfg {
+	int index;
+	char name[NAME_LEN];
+	int modes; /* RMD_MOTOR_CONFIG_T_MODE_BIT_* */
+	double pos_min, pos_max;
+	double kp_min, kp_max, kd_min, kd_max;
+};
+
+/* Squared errors, largest magnitude and samples over a window. */
+struct err_acc {
+	double sum_sq;
+	double max_abs;
+	unsigned long n;
+};
+
+/* A motor we drive. */
+struct motor {
+	const struct motor_cfg *cfg;
+	double center_rad;
+	int lifecycle; /* from state_t, -1 before the first */
+	bool was_enabled;
+	struct err_acc window, total;
+};
+
+struct ctl {
+	struct opts o;
+	lcm_t *lcm;
+	char ch_command[96], ch_config[96], ch_config_req[96], ch_state[96];
+
+	bool have_config;
+	int period_us, bus_count, motor_count;
+	struct motor_cfg cfg[MAX_MOTORS];
+
+	bool have_state;
+	int state_count;
+	int state_lc[MAX_MOTORS];
+	double state_pos[MAX_MOTORS];
+	unsigned long n_states;
+
+	struct motor m[MAX_MOTORS];
+	int n;
+	int64_t t0_ns; /* the sine's time 0; 0: not running yet */
+	int64_t seq;
+	rmd_command_t msg;
+	uint8_t buf[4096]; /* an encoded command_t is 1.7 kB */
+};
+
+static volatile sig_atomic_t stop_signal;
+
+static const char *const lc_names[] = { "probe", "ready", "enabled", "fault", "lost", "safe" };
+
+static const char *lc_name(int lc)
+{
+	return lc >= 0 && lc < (int)(sizeof(lc_names) / sizeof(lc_names[0])) ? lc_names[lc] :
+									       "unknown";
+}
+
+static int64_t now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
+}
+
+static void on_signal(int sig)
+{
+	stop_signal = sig;
+}
+
+static void usage(FILE *out)
+{
+	fprintf(out,
+		"usage: " PROG " [--mode position|mit] [--amplitude RAD] [--freq HZ] [--rate HZ]\n"
+		"                       [--kp KP] [--kd KD] [--url URL] [--prefix P] [--duration S]\n"
+		"\n"
+		"Makes every rmdd motor that takes the mode follow a sine around its position,\n"
+		"and prints each motor's tracking error (target - position, RMS and max) once a\n"
+		"second.  Ctrl-C sends enable = 0 to those motors and exits 0.\n"
+		"\n"
+		"  -m, --mode MODE      position (default) or mit\n"
+		"  -a, --amplitude RAD  sine amplitude (default 0.5)\n"
+		"  -f, --freq HZ        sine frequency (default 0.5)\n"
+		"  -r, --rate HZ        commands per second (default 500)\n"
+		"  -p, --kp KP          MIT stiffness, N*m/rad (default 20)\n"
+		"  -d, --kd KD          MIT damping, N*m*s/rad (default 1)\n"
+		"  -u, --url URL        LCM URL (default $LCM_DEFAULT_URL, else %s)\n"
+		"  -P, --prefix P       rmdd's channel prefix (default " DEFAULT_PREFIX ")\n"
+		"  -t, --duration S     stop after S seconds (default 0: until Ctrl-C)\n"
+		"  -h, --help           this text\n"
+		"\n"
+		"Exit status: 0 stopped, 1 rmdd not running or gone, 2 bad options.\n",
+		DEFAULT_URL);
+}
+
+/* "0.5" -> 0.5 when it is a finite number in [min, max].  Returns 0 or -EINVAL. */
+static int parse_num(const char *opt, const char *s, double min, double max, double *out)
+{
+	char *end;
+	double v;
+
+	errno = 0;
+	v = strtod(s, &end);
+	if (errno || end == s || *end || !isfinite(v) || v < min || v > max) {
+		fprintf(stderr, PROG ": --%s %s: a number in %g..%g\n", opt, s, min, max);
+		return -EINVAL;
+	}
+	*out = v;
+	return 0;
+}
+
+/* Fill o from the command line.  Returns 0, 1 (--help printed) or -EINVAL after a message. */
+static int parse_args(int argc, char **argv, struct opts *o)
+{
+	static const struct option longopts[] = {
+		{ "mode", required_argument, NULL, 'm' },
+		{ "amplitude", required_argument, NULL, 'a' },
+		{ "freq", required_argument, NULL, 'f' },
+		{ "rate", required_argument, NULL, 'r' },
+		{ "kp", required_argument, NULL, 'p' },
+		{ "kd", required_argument, NULL, 'd' },
+		{ "url", required_argument, NULL, 'u' },
+		{ "prefix", required_argument, NULL, 'P' },
+		{ "duration", required_argument, NULL, 't' },
+		{ "help", no_argument, NULL, 'h' },
+		{ NULL, 0, NULL, 0 },
+	};
+	const char *env = getenv("LCM_DEFAULT_URL");
+	int c, r = 0;
+
+	*o = (struct opts){
+		.amplitude_rad = 0.5,
+		.freq_hz = 0.5,
+		.rate_hz = 500,
+		.kp = 20,
+		.kd = 1,
+		.url = env && *env ? env : DEFAULT_URL,
+		.prefix = DEFAULT_PREFIX,
+	};
+	while (!r && (c = getopt_long(argc, argv, "m:a:f:r:p:d:u:P:t:h", longopts, NULL)) != -1) {
+		switch (c) {
+		case 'm':
+			if (strcmp(optarg, "mit") && strcmp(optarg, "position")) {
+				fprintf(stderr, PROG ": --mode %s: position or mit\n", optarg);
+				r = -EINVAL;
+			}
+			o->mit = !strcmp(optarg, "mit");
+			break;
+		case 'a':
+			r = parse_num("amplitude", optarg, 0, 100, &o->amplitude_rad);
+			break;
+		case 'f':
+			r = parse_num("freq", optarg, 0, 100, &o->freq_hz);
+			break;
+		case 'r':
+			r = parse_num("rate", optarg, 1, 10000, &o->rate_hz);
+			break;
+		case 'p':
+			r = parse_num("kp", optarg, 0, 1e6, &o->kp);
+			break;
+		case 'd':
+			r = parse_num("kd", optarg, 0, 1e6, &o->kd);
+			break;
+		case 'u':
+			o->url = optarg;
+			break;
+		case 'P':
+			o->prefix = optarg;
+			break;
+		case 't':
+			r = parse_num("duration", optarg, 0, 1e9, &o->duration_s);
+			break;
+		case 'h':
+			usage(stdout);
+			return 1;
+		default:
+			usage(stderr);
+			return -EINVAL;
+		}
+	}
+	if (!r && optind < argc) {
+		fprintf(stderr, PROG ": unexpected argument \"%s\"\n", argv[optind]);
+		r = -EINVAL;
+	}
+	if (!r && strlen(o->prefix) > 64) {
+		fprintf(stderr, PROG ": --prefix: at most 64 characters\n");
+		r = -EINVAL;
+	}
+	return r;
+}
+
+/* ---- LCM ------------------------------------------------------------------ */
+
+static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
+		      void *user)
+{
+	struct ctl *c = user;
+	int n = msg->motor_count < MAX_MOTORS ? msg->motor_count : MAX_MOTORS;
+
+	(void)rbuf;
+	(void)channel;
+	if (c->have_config) /* the motors do not change while rmdd runs */
+		return;
+	c->period_us = msg->period_us;
+	c->bus_count = msg->bus_count;
+	c->motor_count = n > 0 ? n : 0;
+	for (int i = 0; i < c->motor_count; i++) {
+		const rmd_motor_config_t *mc = &msg->motor[i];
+		struct motor_cfg *m = &c->cfg[i];
+
+		m->index = mc->index;
+		snprintf(m->name, sizeof(m->name), "%s", mc->name);
+		m->modes = mc->modes;
+		m->pos_min = mc->position_min;
+		m->pos_max = mc->position_max;
+		m->kp_min = mc->kp_min;
+		m->kp_max = mc->kp_max;
+		m->kd_min = mc->kd_min;
+		m->kd_max = mc->kd_max;
+	}
+	c->have_config = true;
+}
+
+static double target_rad(const struct ctl *c, const struct motor *m, double t)
+{
+	return m->center_rad + c->o.amplitude_rad * sin(2 * M_PI * c->o.freq_hz * t);
+}
+
+static void acc_add(struct err_acc *a, double e)
+{
+	a->sum_sq += e * e;
+	if (fabs(e) > a->max_abs)
+		a->max_abs = fabs(e);
+	a->n++;
+}
+
+/* Tracking error and lifecycle changes of the driven motors, from one state_t. */
+static void track(struct ctl *c, double t)
+{
+	for (int k = 0; k < c->n; k++) {
+		struct motor *m = &c->m[k];
+		int i = m->cfg->index, lc;
+
+		if (i < 0 || i >= c->state_count)
+			continue;
+		lc = c->state_lc[i];
+		if (lc != m->lifecycle) {
+			/* said once: a motor that leaves ENABLED (safe action, fault, loss) */
+			if (m->was_enabled)
+				printf(PROG ": %s: now %s\n", m->cfg->name, lc_name(lc));
+			m->lifecycle = lc;
+			m->was_enabled |= lc == RMD_STATE_T_LC_ENABLED;
+		}
+		if (lc == RMD_STATE_T_LC_ENABLED && isfinite(c->state_pos[i])) {
+			double e = target_rad(c, m, t) - c->state_pos[i];
+
+			acc_add(&m->window, e);
+			acc_add(&m->total, e);
+		}
+	}
+}
+
+static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
+		     void *user)
+{
+	struct ctl *c = user;
+	int n = msg->count < MAX_MOTORS ? msg->count : MAX_MOTORS;
+
+	(void)rbuf;
+	(void)channel;
+	c->state_count = n > 0 ? n : 0;
+	for (int i = 0; i < c->state_count; i++) {
+		c->state_lc[i] = msg->motor[i].lifecycle;
+		c->state_pos[i] = msg->motor[i].position;
+	}
+	c->have_state = true;
+	c->n_states++;
+	if (c->t0_ns)
+		track(c, (double)(now_ns() - c->t0_ns) / 1e9);
+}
+
+/* Handle messages until `deadline` (CLOCK_MONOTONIC ns) or a signal.  -errno on failure. */
+static int handle_until(struct ctl *c, int64_t deadline)
+{
+	struct pollfd pfd = { .fd = lcm_get_fileno(c->lcm), .events = POLLIN };
+
+	while (!stop_signal) {
+		int64_t left = deadline - now_ns();
+		struct timespec ts;
+		int r;
+
+		if (left <= 0)
+			return 0;
+		ts = (struct timespec){ .tv_sec = left / NS_PER_S, .tv_nsec = left % NS_PER_S };
+		r = ppoll(&pfd, 1, &ts, NULL);
+		if (r < 0 && errno != EINTR)
+			return -errno;
+		if (r > 0 && lcm_handle(c->lcm) < 0)
+			return -EIO;
+	}
+	return 0;
+}
+
+static void request_config(struct ctl *c)
+{
+	rmd_config_request_t req = { .utime = now_ns() / 1000 };
+
+	rmd_config_request_t_publish(c->lcm, c->ch_config_req, &req);
+}
+
+/*
+ * One command_t for every driven motor: the sine at time t, or enable = 0.
+ * Encoded into our own buffer (the generated _publish() allocates each
+ * time).  Returns 0 or -EIO.
+ */
+static int publish(struct ctl *c, bool enable, double t)
+{
+	rmd_command_t *msg = &c->msg;
+	double w = 2 * M_PI * c->o.freq_hz;
+	int len;
+
+	memset(msg, 0, sizeof(*msg));
+	msg->utime = now_ns() / 1000;
+	msg->seq = c->seq++;
+	msg->count = (int16_t)c->n;
+	for (int k = 0; k < c->n; k++) {
+		rmd_motor_command_t *mc = &msg->motor[k];
+
+		mc->index = (int16_t)c->m[k].cfg->index;
+		mc->enable = enable;
+		mc->mode = c->o.mit ? RMD_COMMAND_T_MODE_MIT : RMD_COMMAND_T_MODE_POSITION;
+		mc->position = target_rad(c, &c->m[k], t);
+		if (c->o.mit) {
+			mc->velocity = c->o.amplitude_rad * w * cos(w * t);
+			mc->kp = c->o.kp;
+			mc->kd = c->o.kd;
+		}
+		/* position mode: max_velocity 0 = the motor's configured velocity_max */
+	}
+	len = rmd_command_t_encode(c->buf, 0, (int)sizeof(c->buf), msg);
+	if (len < 0 || lcm_publish(c->lcm, c->ch_command, c->buf, (unsigned)len) < 0)
+		return -EIO;
+	return 0;
+}
+
+/* ---- the run ---------------------------------------------------------------- */
+
+static int wait_config(struct ctl *c)
+{
+	int64_t end = now_ns() + CONFIG_WAIT_NS;
+
+	while (!c->have_config && !stop_signal) {
+		int64_t now = now_ns(), next = now + CONFIG_ASK_NS;
+
+		if (now >= end) {
+			fprintf(stderr,
+				PROG ": no rmd.config_t on %s within %.0f s: is rmdd running, with "
+				     "--lcm-url %s and channel prefix %s?\n",
+				c->ch_config, (double)CONFIG_WAIT_NS / 1e9, c->o.url, c->o.prefix);
+			return -ETIMEDOUT;
+		}
+		request_config(c);
+		if (handle_until(c, next < end ? next : end) < 0)
+			return -EIO;
+	}
+	return 0;
+}
+
+/* Every motor whose modes allow ours.  Returns an exit status. */
+static int choose_motors(struct ctl *c)
+{
+	int bit = c->o.mit ? RMD_MOTOR_CONFIG_T_MODE_BIT_MIT : RMD_MOTOR_CONFIG_T_MODE_BIT_POSITION;
+	const char *mode = c->o.mit ? "mit" : "position";
+	char left_out[MAX_MOTORS * (NAME_LEN + 1)] = "";
+	size_t used = 0;
+
+	printf(PROG ": rmdd at %s: %d motors on %d buses, loop %.0f Hz, prefix %s\n", c->o.url,
+	       c->motor_count, c->bus_count, c->period_us > 0 ? 1e6 / c->period_us : 0.0,
+	       c->o.prefix);
+	for (int i = 0; i < c->motor_count; i++) {
+		const struct motor_cfg *mc = &c->cfg[i];
+
+		if (!(mc->modes & bit)) {
+			used += (size_t)snprintf(left_out + used, sizeof(left_out) - used, " %s",
+						 mc->name);
+			continue;
+		}
+		if (c->o.mit && !(c->o.kp >= mc->kp_min && c->o.kp <= mc->kp_max &&
+				  c->o.kd >= mc->kd_min && c->o.kd <= mc->kd_max)) {
+			fprintf(stderr,
+				PROG ": %s: --kp %g --kd %g outside its ranges kp %g..%g, "
+				     "kd %g..%g\n",
+				mc->name, c->o.kp, c->o.kd, mc->kp_min, mc->kp_max, mc->kd_min,
+				mc->kd_max);
+			return EXIT_USAGE;
+		}
+		c->m[c->n++] = (struct motor){ .cfg = mc, .lifecycle = -1 };
+	}
+	if (!c->n) {
+		fprintf(stderr,
+			PROG ": no motor of rmdd's configuration takes %s mode "
+			     "(examples/sim-sine.yaml has both kinds)\n",
+			mode);
+		return EXIT_FAIL;
+	}
+	if (used)
+		printf(PROG ": left alone (no %s mode):%s\n", mode, left_out);
+	return EXIT_OK;
+}
+
+/* Centre each sine on the motor's position, moved inside its limits.  Returns an exit status. */
+static int set_centers(struct ctl *c)
+{
+	int64_t end = now_ns() + STATE_WAIT_NS;
+	double amp = c->o.amplitude_rad;
+
+	while (!c->have_state && !stop_signal && now_ns() < end)
+		if (handle_until(c, end) < 0)
+			return EXIT_FAIL;
+	if (!c->have_state) {
+		if (stop_signal)
+			return EXIT_OK;
+		fprintf(stderr, PROG ": no rmd.state_t on %s within %.0f s\n", c->ch_state,
+			(double)STATE_WAIT_NS / 1e9);
+		return EXIT_FAIL;
+	}
+	for (int k = 0; k < c->n; k++) {
+		struct motor *m = &c->m[k];
+		int i = m->cfg->index;
+		double p = i >= 0 && i < c->state_count ? c->state_pos[i] : 0;
+		double lo = m->cfg->pos_min + amp, hi = m->cfg->pos_max - amp;
+
+		if (!isfinite(p))
+			p = 0; /* no reply yet */
+		if (lo > hi) {
+			fprintf(stderr,
+				PROG ": %s: --amplitude %g does not fit its position limits "
+				     "%g..%g rad\n",
+				m->cfg->name, amp, m->cfg->pos_min, m->cfg->pos_max);
+			return EXIT_USAGE;
+		}
+		m->center_rad = p < lo ? lo : p > hi ? hi : p;
+	}
+	return EXIT_OK;
+}
+
+static bool all_ready(const struct ctl *c)
+{
+	for (int k = 0; k < c->n; k++) {
+		int i = c->m[k].cfg->index;
+
+		if (i < 0 || i >= c->state_count || c->state_lc[i] != RMD_STATE_T_LC_READY)
+			return false;
+	}
+	return true;
+}
+
+/* enable = 0, then wait for READY: a motor back from a fault or loss needs it. */
+static int disable_first(struct ctl *c)
+{
+	int64_t end = now_ns() + READY_WAIT_NS;
+
+	if (publish(c, false, 0) < 0)
+		return -EIO;
+	while (!stop_signal && now_ns() < end && !all_ready(c))
+		if (handle_until(c, now_ns() + 10 * NS_PER_MS) < 0)
+			return -EIO;
+	for (int k = 0; k < c->n; k++) {
+		int i = c->m[k].cfg->index;
+		int lc = i >= 0 && i < c->state_count ? c->state_lc[i] : -1;
+
+		if (lc != RMD_STATE_T_LC_READY)
+			printf(PROG ": %s: %s, not ready: it may not follow\n", c->m[k].cfg->name,
+			       lc_name(lc));
+	}
+	return 0;
+}
+
+static void print_acc(const struct ctl *c, const struct motor *m, const struct err_acc *a,
+		      const char *head)
+{
+	const char *mode = c->o.mit ? "mit" : "position";
+
+	if (a->n)
+		printf("%s %-12s %-8s tracking error rms %.5f rad  max %.5f rad  (%lu states)\n",
+		       head, m->cfg->name, mode, sqrt(a->sum_sq / (double)a->n), a->max_abs, a->n);
+	else
+		printf("%s %-12s %-8s tracking error none: the motor is %s, not enabled\n", head,
+		       m->cfg->name, mode, lc_name(m->lifecycle));
+}
+
+static void print_window(struct ctl *c, double t)
+{
+	char head[32];
+
+	snprintf(head, sizeof(head), "[%6.1f s]", t);
+	for (int k = 0; k < c->n; k++) {
+		print_acc(c, &c->m[k], &c->m[k].window, head);
+		c->m[k].window = (struct err_acc){ 0 };
+	}
+}
+
+/* Stream the sine until a signal, --duration, or rmdd goes quiet.  Returns an exit status. */
+static int stream(struct ctl *c)
+{
+	int64_t period = (int64_t)(1e9 / c->o.rate_hz);
+	int64_t t0 = now_ns(), next_pub = t0, next_print = t0 + PRINT_PERIOD_NS;
+	int64_t duration = (int64_t)(c->o.duration_s * 1e9), last_look = t0;
+	unsigned long last_states = c->n_states;
+
+	c->t0_ns = t0;
+	while (!stop_signal) {
+		int64_t now = now_ns(), next;
+		double t = (double)(now - t0) / 1e9;
+
+		if (duration && now - t0 >= duration)
+			break;
+		if (now >= next_pub) {
+			if (publish(c, true, t) < 0) {
+				fprintf(stderr, PROG ": LCM publish failed: stopping\n");
+				return EXIT_FAIL;
+			}
+			next_pub += period;
+			if (next_pub <= now) /* late: skip, never catch up in a burst */
+				next_pub = now + period;
+		}
+		if (now >= next_print) {
+			print_window(c, t);
+			next_print += PRINT_PERIOD_NS;
+		}
+		if (now - last_look >= STATE_WAIT_NS) {
+			if (c->n_states == last_states) {
+				fprintf(stderr,
+					PROG ": no state_t from rmdd for %.0f s: stopping\n",
+					(double)STATE_WAIT_NS / 1e9);
+				return EXIT_FAIL;
+			}
+			last_states = c->n_states;
+			last_look = now;
+		}
+		next = next_pub < next_print ? next_pub : next_print;
+		if (duration && t0 + duration < next)
+			next = t0 + duration;
+		if (handle_until(c, next) < 0) {
+			fprintf(stderr, PROG ": LCM receive failed: stopping\n");
+			return EXIT_FAIL;
+		}
+	}
+	return EXIT_OK;
+}
+
+/* enable = 0 for every driven motor, STOP_REPEAT times, and the whole run's error. */
+static void shutdown_motors(struct ctl *c)
+{
+	const struct timespec gap = { 0, STOP_GAP_NS };
+	double t = c->t0_ns ? (double)(now_ns() - c->t0_ns) / 1e9 : 0;
+
+	for (int k = 0; k < STOP_REPEAT; k++) {
+		if (publish(c, false, t) < 0)
+			fprintf(stderr, PROG ": LCM publish of enable = 0 failed\n");
+		nanosleep(&gap, NULL);
+	}
+	printf(PROG ": stopped: enable = 0 sent to %d motors\n", c->n);
+	for (int k = 0; k < c->n; k++)
+		print_acc(c, &c->m[k], &c->m[k].total, PROG ": whole run:");
+}
+
+static int run(struct ctl *c)
+{
+	rmd_config_t_subscription_t *sub_config;
+	rmd_state_t_subscription_t *sub_state;
+	int ret;
+
+	c->lcm = lcm_create(c->o.url);
+	if (!c->lcm) {
+		fprintf(stderr,
+			PROG ": LCM %s: cannot create (bad URL, or multicast not routable: see "
+			     "docs/lcm.md)\n",
+			c->o.url);
+		return EXIT_FAIL;
+	}
+	snprintf(c->ch_command, sizeof(c->ch_command), "%sCOMMAND", c->o.prefix);
+	snprintf(c->ch_config, sizeof(c->ch_config), "%sCONFIG", c->o.prefix);
+	snprintf(c->ch_config_req, sizeof(c->ch_config_req), "%sCONFIG_REQUEST", c->o.prefix);
+	snprintf(c->ch_state, sizeof(c->ch_state), "%sSTATE", c->o.prefix);
+	/* LCM subscribes by regular expression: the prefix is taken as written. */
+	sub_config = rmd_config_t_subscribe(c->lcm, c->ch_config, on_config, c);
+	sub_state = rmd_state_t_subscribe(c->lcm, c->ch_state, on_state, c);
+	if (!sub_config || !sub_state) {
+		fprintf(stderr, PROG ": LCM %s: cannot subscribe (see docs/lcm.md)\n", c->o.url);
+		ret = EXIT_FAIL;
+		goto err_destroy;
+	}
+
+	ret = wait_config(c) < 0 ? EXIT_FAIL : EXIT_OK;
+	if (ret != EXIT_OK || stop_signal)
+		goto err_destroy;
+	ret = choose_motors(c);
+	if (ret == EXIT_OK)
+		ret = set_centers(c);
+	if (ret != EXIT_OK || stop_signal)
+		goto err_destroy;
+	printf(PROG ": %s mode on %d motors:", c->o.mit ? "mit" : "position", c->n);
+	for (int k = 0; k < c->n; k++)
+		printf(" %s", c->m[k].cfg->name);
+	printf("; amplitude %g rad, %g Hz, %g commands/s", c->o.amplitude_rad, c->o.freq_hz,
+	       c->o.rate_hz);
+	if (c->o.mit)
+		printf(", kp %g, kd %g", c->o.kp, c->o.kd);
+	printf("\n");
+
+	if (disable_first(c) < 0)
+		ret = EXIT_FAIL;
+	else
+		ret = stream(c);
+	shutdown_motors(c);
+
+err_destroy:
+	if (sub_state)
+		rmd_state_t_unsubscribe(c->lcm, sub_state);
+	if (sub_config)
+		rmd_config_t_unsubscribe(c->lcm, sub_config);
+	lcm_destroy(c->lcm);
+	return ret;
+}
+
+int main(int argc, char **argv)
+{
+	static struct ctl c; /* ~8 kB of buffers: off the stack */
+	struct sigaction sa = { .sa_handler = on_signal };
+
+	int r = parse_args(argc, argv, &c.o);
+
+	if (r)
+		return r < 0 ? EXIT_USAGE : EXIT_OK;
+	setvbuf(stdout, NULL, _IOLBF, 0);
+	sigemptyset(&sa.sa_mask);
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+	return run(&c);
+}

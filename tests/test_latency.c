@@ -1,0 +1,771 @@
+// SPDX-License-Identifier: MIT
+/*
+ * Latency from a controller's publish to the frame leaving rmdd (issue 6:
+ * "within one cycle plus 200 µs at p99 on the sim bus"), measured in one
+ * process for precision.  The daemon's pieces are built as rmdd builds
+ * them: rmd_config_sim_default() (one V3 motor on a 1 Mbit/s sim bus at
+ * 1 kHz), the plan, the sim bus (rmd_bus_sim_open), the triple buffers and
+ * the event ring, rmd_loop_new/bringup/start (SCHED_FIFO when granted) and
+ * the LCM bridge on a udpm URL of its own on loopback.  The test thread is
+ * the controller: it publishes command_t at ~200 Hz (random phase against
+ * the loop's ticks), each with a torque of its own, so the 0xA1 frame that
+ * carries it is recognisable by its current field (bytes 4..5).
+ *
+ * Three times are taken for each setpoint's first frame:
+ *   hand-over  CLOCK_MONOTONIC when the rt loop hands the frame to the bus:
+ *              a shim around the sim transport's send op reads the clock
+ *              and calls the real one (with SocketCAN this is the write);
+ *   tick       the `now` of the cycle that sent it (the loop's wake-up);
+ *   wire       when the frame starts on the simulated wire, from the sim
+ *              bus's tap (rmd_sim_bus_set_tap) in sim time + the epoch.
+ * The sim bus runs its wire in model time, driven by the loop's now at each
+ * send and recv: a frame handed over in a cycle starts on the wire at that
+ * cycle's now when the wire is idle (ours leads the cycle), later when
+ * frames queued before it hold the wire, and the tap reports it only inside
+ * a later advance.  So the wire time says where the frame sits in the
+ * bus's schedule, not when rmdd let go of it; the assertion is on the
+ * hand-over, read from the clock at the call, which is what rmdd controls.
+ * Both are printed.
+ *
+ * The machine's own noise is measured in the same run: the rt loop's own
+ * wake-up statistics (SCHED_FIFO: what cyclictest would show), and a probe
+ * thread at normal priority, like the bridge's, that sleeps to every 1 ms
+ * with clock_nanosleep(TIMER_ABSTIME) and records how late it wakes.  The
+ * p99 is judged against one cycle + 200 us + twice that probe's p99 (a
+ * command crosses two normal-priority wake-ups: LCM's receive thread and
+ * the bridge), DESIGN.md's rule for this noisy virtual machine; whether
+ * the plain bound held is printed too.  What a bridge of no delay would give (the first cycle
+ * after each publish) is printed too, so the part of the latency the tick
+ * imposes is told from the part the LCM receive path and the bridge add.
+ *
+ * Multicast on loopback must be routable (see tests/test_bridge.c): the
+ * suite routes it when root, and otherwise skips, loudly.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <math.h>
+#include <pthread.h>
+#include <sched.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sys/prctl.h>
+
+#include <cmocka.h>
+#include <lcm/lcm.h>
+
+#include "rmd/bridge.h"
+#include "rmd/bus_sim.h"
+#include "rmd/config.h"
+#include "rmd/loop.h"
+#include "rmd/motor.h"
+#include "rmd/plan.h"
+#include "rmd/rmd_command_t.h"
+#include "rmd/sim_bus.h"
+#include "rmd/spsc.h"
+#include "rmd/state.h"
+
+#define NS_PER_US INT64_C(1000)
+#define NS_PER_MS INT64_C(1000000)
+#define NS_PER_S INT64_C(1000000000)
+
+#define N_PUBLISH 1000		       /* setpoints measured */
+#define PUBLISH_GAP_NS (5 * NS_PER_MS) /* ~200 Hz, plus a random 0..1 ms */
+#define MARGIN_NS (200 * NS_PER_US)    /* issue 6: one cycle plus 200 us at p99 */
+#define MAX_RECORDS 16384	       /* every cycle's frame for 16 s */
+#define EVENT_SLOTS 4096
+#define PROBE_MAX 16384 /* jitter probe samples (1 ms apart) */
+#define PREFIX "LAT_"
+
+/* A frame of ours seen by the shim or the tap: its code and times. */
+struct rec {
+	int16_t code;
+	int64_t t_ns;	 /* hand-over (shim: CLOCK_MONOTONIC) or wire start (tap: sim time) */
+	int64_t tick_ns; /* shim: the loop's now; tap: the frame's ready time (sim time) */
+};
+
+/*
+ * Written by the rt thread only (shim and tap), read after it stopped:
+ * every cycle's torque frame as handed over, the first of each setpoint on
+ * the wire.
+ */
+struct probe {
+	uint32_t can_id; /* our motor's request identifier */
+	struct rec handover[MAX_RECORDS];
+	unsigned n_handover;
+	struct rec wire[MAX_RECORDS];
+	unsigned n_wire;
+	int16_t last_wire;
+};
+
+static struct probe probe;
+static const struct rmd_bus_ops *real_ops;
+static struct rmd_bus_ops shim_ops;
+static bool no_multicast;
+
+static int64_t now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
+}
+
+/* The code of a torque frame of ours: its current field (V3 §2.17, 0xA1, bytes 4..5); else 0. */
+static int16_t frame_code(const struct rmd_frame *f)
+{
+	if (f->can_id != probe.can_id || f->len < 6 || f->data[0] != 0xA1)
+		return 0;
+	return (int16_t)(uint16_t)(f->data[4] | f->data[5] << 8);
+}
+
+/* rt-safe: the hand-over of every frame the loop sends, timed, then the real send. */
+static int shim_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n, int64_t now)
+{
+	int64_t t = now_ns();
+	int r = real_ops->send(bus, frames, n, now);
+
+	for (int k = 0; k < r; k++) {
+		int16_t code = frame_code(&frames[k]);
+
+		if (code && probe.n_handover < MAX_RECORDS)
+			probe.handover[probe.n_handover++] =
+				(struct rec){ .code = code, .t_ns = t, .tick_ns = now };
+	}
+	return r;
+}
+
+/* rt-safe: the sim bus's candump, in sim time. */
+static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
+{
+	int16_t code = frame_code(&p->f);
+
+	(void)ctx;
+	(void)eof_ns;
+	if (p->src != RMD_SIM_SRC_HOST || !code || code == probe.last_wire)
+		return;
+	probe.last_wire = code;
+	if (probe.n_wire < MAX_RECORDS)
+		probe.wire[probe.n_wire++] =
+			(struct rec){ .code = code, .t_ns = start_ns, .tick_ns = p->ready_ns };
+}
+
+/* ---- the jitter probe ------------------------------------------------------------ */
+
+struct jitter {
+	atomic_bool stop;
+	unsigned n;
+	int64_t lat_ns[PROBE_MAX];
+};
+
+static void *jitter_main(void *arg)
+{
+	struct jitter *j = arg;
+	int64_t next = now_ns() + NS_PER_MS;
+
+	while (!atomic_load(&j->stop) && j->n < PROBE_MAX) {
+		struct timespec ts = { next / NS_PER_S, next % NS_PER_S };
+
+		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR)
+			;
+		j->lat_ns[j->n++] = now_ns() - next;
+		next += NS_PER_MS;
+		if (next < now_ns()) /* never catch up in a burst */
+			next = now_ns() + NS_PER_MS;
+	}
+	return NULL;
+}
+
+/* ---- statistics ---------------------------------------------------------------------- */
+
+static int cmp64(const void *a, const void *b)
+{
+	int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+
+	return (x > y) - (x < y);
+}
+
+/* Percentile p (0..100) of n sorted values: the smallest with at least p% at or below it. */
+static int64_t pct(const int64_t *v, unsigned n, double p)
+{
+	unsigned k;
+
+	if (!n)
+		return 0;
+	k = (unsigned)ceil(p / 100.0 * n);
+	return v[k ? k - 1 : 0];
+}
+
+struct dist {
+	unsigned n;
+	int64_t min, p50, p90, p99, p999, max;
+};
+
+/* Sort v and summarise it. */
+static struct dist summarise(int64_t *v, unsigned n)
+{
+	struct dist d = { .n = n };
+
+	qsort(v, n, sizeof(v[0]), cmp64);
+	if (!n)
+		return d;
+	d.min = v[0];
+	d.p50 = pct(v, n, 50);
+	d.p90 = pct(v, n, 90);
+	d.p99 = pct(v, n, 99);
+	d.p999 = pct(v, n, 99.9);
+	d.max = v[n - 1];
+	return d;
+}
+
+static void print_dist(const char *what, const struct dist *d)
+{
+	print_message("%-34s n %4u  min %5.0f  p50 %5.0f  p90 %5.0f  p99 %5.0f  p99.9 %5.0f  "
+		      "max %6.0f us\n",
+		      what, d->n, d->min / 1e3, d->p50 / 1e3, d->p90 / 1e3, d->p99 / 1e3,
+		      d->p999 / 1e3, d->max / 1e3);
+}
+
+/* A histogram of sorted v in 100 us buckets up to 2 ms, one line each (empty ones left out). */
+static void print_hist(const int64_t *v, unsigned n)
+{
+	unsigned k = 0;
+
+	for (int b = 0; b <= 20 && k < n; b++) {
+		int64_t hi = b < 20 ? (int64_t)(b + 1) * 100 * NS_PER_US : INT64_MAX;
+		unsigned c = 0;
+
+		while (k < n && v[k] < hi) {
+			c++;
+			k++;
+		}
+		if (!c)
+			continue;
+		if (b < 20)
+			print_message("  %4d..%4d us %5u %.*s\n", b * 100, (b + 1) * 100, c,
+				      (int)(c * 60 / n),
+				      "##################################"
+				      "##########################");
+		else
+			print_message("  >= 2000 us   %5u\n", c);
+	}
+}
+
+/* ---- multicast on loopback -------------------------------------------------------------- */
+
+static int probe_got;
+
+static void on_probe(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	(void)rbuf;
+	(void)channel;
+	(void)user;
+	probe_got = 1;
+}
+
+static bool multicast_works(void)
+{
+	char url[80];
+	lcm_t *l;
+
+	snprintf(url, sizeof(url), "udpm://239.255.76.67:%d?ttl=0", 7600 + getpid() % 97);
+	l = lcm_create(url);
+	if (!l)
+		return false;
+	probe_got = 0;
+	if (lcm_subscribe(l, "PROBE", on_probe, NULL)) {
+		for (int i = 0; i < 5 && !probe_got; i++) {
+			lcm_publish(l, "PROBE", "x", 1);
+			lcm_handle_timeout(l, 100);
+		}
+	}
+	lcm_destroy(l);
+	return probe_got;
+}
+
+static int group_setup(void **state)
+{
+	(void)state;
+	if (multicast_works())
+		return 0;
+	if (geteuid() == 0) {
+		fprintf(stderr, "test_latency: routing multicast on loopback: "
+				"ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n");
+		if (system("ip link set lo up multicast on && "
+			   "(ip route add 224.0.0.0/4 dev lo 2>/dev/null || true)") != 0)
+			fprintf(stderr, "test_latency: ip failed\n");
+		if (multicast_works())
+			return 0;
+	}
+	fprintf(stderr,
+		"\n*** test_latency: SKIPPING: LCM multicast on loopback is not routable%s.\n"
+		"*** As root: ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n\n",
+		geteuid() ? " and this is not root" : " even after routing it");
+	no_multicast = true;
+	return 0;
+}
+
+/* ---- the daemon's pieces ----------------------------------------------------------------- */
+
+struct daemon {
+	struct rmd_config cfg;
+	struct rmd_plan plan;
+	struct rmd_bus bus[RMD_MAX_BUSES];
+	unsigned n_open;
+	struct rmd_latest commands, snapshots, health;
+	struct rmd_command cmd_buf[3];
+	struct rmd_snapshot snap_buf[3];
+	struct rmd_health health_buf[3];
+	struct rmd_ring events;
+	struct rmd_event event_buf[EVENT_SLOTS];
+	struct rmd_loop *loop;
+	struct rmd_bridge bridge;
+	bool bridge_init, loop_started;
+	bool fifo;		/* the rt loop runs at SCHED_FIFO */
+	struct rmd_motor motor; /* our own copy, to know a setpoint's frame */
+	char url[96];
+	FILE *log;
+};
+
+/* Open every bus of cfg as rmdd does (src/tools/rmdd_buses.c), all sim buses here. */
+static void open_buses(struct daemon *d)
+{
+	for (unsigned b = 0; b < d->cfg.n_buses; b++) {
+		const struct rmd_config_bus *cb = &d->cfg.buses[b];
+		struct rmd_bus_sim_motor motors[RMD_MAX_MOTORS];
+		struct rmd_bus_sim_opts o = {
+			.motors = motors,
+			.bitrate = cb->bitrate,
+			.seed = cb->sim.seed,
+			.flags = cb->sim.host_fifo ? RMD_SIM_BUS_HOST_FIFO : 0,
+			.txqueuelen = cb->sim.txqueuelen,
+			.faults = cb->sim.faults,
+			.n_faults = cb->sim.n_faults,
+		};
+		char err[256];
+
+		assert_int_equal(cb->kind, RMD_BUS_KIND_SIM);
+		for (unsigned i = 0; i < d->cfg.n_motors; i++) {
+			const struct rmd_config_motor *m = &d->cfg.motors[i];
+
+			if (m->bus != b)
+				continue;
+			motors[o.n_motors].id = m->id;
+			motors[o.n_motors].proto = m->proto;
+			motors[o.n_motors].params = &m->sim;
+			o.n_motors++;
+		}
+		if (rmd_bus_sim_open(&d->bus[b], cb->name, &o, err, sizeof(err)) < 0)
+			fail_msg("rmd_bus_sim_open %s: %s", cb->name, err);
+		d->n_open++;
+	}
+}
+
+/* The bridge's options from the configuration, as rmdd fills them (src/tools/rmdd_lcm.c). */
+static void bridge_opts(struct daemon *d, struct rmd_bridge_opts *o)
+{
+	rmd_bridge_opts_init(o);
+	snprintf(o->url, sizeof(o->url), "%s", d->url);
+	snprintf(o->prefix, sizeof(o->prefix), "%s", PREFIX);
+	o->nmotors = d->cfg.n_motors;
+	for (unsigned i = 0; i < d->cfg.n_motors; i++) {
+		const struct rmd_config_motor *c = &d->cfg.motors[i];
+		struct rmd_bridge_motor *m = &o->motor[i];
+
+		snprintf(m->name, sizeof(m->name), "%s", c->name);
+		m->bus = (uint8_t)c->bus;
+		m->id = c->id;
+		snprintf(m->protocol, sizeof(m->protocol), "%s", rmd_proto_key(c->proto));
+		m->modes = RMD_BRIDGE_MODE_BIT(RMD_MODE_TORQUE) |
+			   RMD_BRIDGE_MODE_BIT(RMD_MODE_SPEED) |
+			   RMD_BRIDGE_MODE_BIT(RMD_MODE_POSITION);
+		m->pos_min_rad = c->limits.position_min_rad;
+		m->pos_max_rad = c->limits.position_max_rad;
+		m->vel_max_rad_s = c->limits.velocity_rad_s;
+		m->torque_max_nm = c->limits.torque_nm;
+	}
+	o->nbuses = d->cfg.n_buses;
+	for (unsigned b = 0; b < d->cfg.n_buses; b++) {
+		snprintf(o->bus[b].name, sizeof(o->bus[b].name), "%s", d->cfg.buses[b].name);
+		snprintf(o->bus[b].kind, sizeof(o->bus[b].kind), "sim");
+		o->bus[b].bitrate = d->cfg.buses[b].bitrate;
+	}
+	o->period_ns = d->plan.period_ns;
+	o->state_every = d->cfg.lcm.state_every_n;
+	o->stale_ms = (int)d->cfg.lcm.stale_ms;
+	o->commands = &d->commands;
+	o->snapshots = &d->snapshots;
+	o->health = &d->health;
+	o->log = d->log;
+}
+
+static int setup(void **state)
+{
+	static unsigned test_no;
+	struct daemon *d;
+	struct rmd_bridge_opts bo;
+	struct rmd_loop_opts lo;
+	struct rmd_sim_bus *sim;
+	char err[512], report[2048];
+	int64_t t;
+
+	*state = NULL;
+	if (no_multicast)
+		return 0;
+	d = calloc(1, sizeof(*d));
+	assert_non_null(d);
+	*state = d;
+	snprintf(d->url, sizeof(d->url), "udpm://239.255.76.67:%d?ttl=0",
+		 46000 + (int)(getpid() % 400) * 40 + (int)(test_no++ % 40));
+	d->log = tmpfile();
+	assert_non_null(d->log);
+
+	/* rmdd --sim 1: one V3 motor on a 1 Mbit/s sim bus, at 1 kHz */
+	assert_int_equal(rmd_config_sim_default(&d->cfg, 1), 0);
+	if (rmd_plan_build(&d->cfg, &d->plan, err, sizeof(err)) < 0)
+		fail_msg("plan: %s", err);
+	open_buses(d);
+	rmd_latest_init(&d->commands, d->cmd_buf, sizeof(d->cmd_buf[0]));
+	rmd_latest_init(&d->snapshots, d->snap_buf, sizeof(d->snap_buf[0]));
+	rmd_latest_init(&d->health, d->health_buf, sizeof(d->health_buf[0]));
+	assert_int_equal(
+		rmd_ring_init(&d->events, d->event_buf, EVENT_SLOTS, sizeof(d->event_buf[0])), 0);
+	lo = (struct rmd_loop_opts){
+		.cfg = &d->cfg,
+		.plan = &d->plan,
+		.buses = d->bus,
+		.commands = &d->commands,
+		.snapshots = &d->snapshots,
+		.health = &d->health,
+		.events = &d->events,
+	};
+	d->loop = rmd_loop_new(&lo, err, sizeof(err));
+	if (!d->loop)
+		fail_msg("rmd_loop_new: %s", err);
+	if (rmd_loop_bringup(d->loop, report, sizeof(report)) < 0)
+		fail_msg("bring-up: %s", report);
+	assert_int_equal(rmd_motor_init(&d->motor, &d->cfg.motors[0]), 0);
+	probe = (struct probe){ .can_id = 0x140u + d->cfg.motors[0].id };
+
+	/* the wire's candump, then the hand-over shim (the sim bus is found by its ops) */
+	sim = rmd_bus_sim_get(&d->bus[0]);
+	assert_non_null(sim);
+	rmd_sim_bus_set_tap(sim, tap, NULL);
+	real_ops = d->bus[0].ops;
+	shim_ops = *real_ops;
+	shim_ops.send = shim_send;
+	d->bus[0].ops = &shim_ops;
+
+	bridge_opts(d, &bo);
+	if (rmd_bridge_init(&d->bridge, &bo, err, sizeof(err)) < 0)
+		fail_msg("rmd_bridge_init: %s", err);
+	d->bridge_init = true;
+	assert_int_equal(rmd_bridge_start(&d->bridge), 0);
+	assert_int_equal(rmd_loop_start(d->loop), 0);
+	d->loop_started = true;
+	/* rmd_loop_start() says in the ring, before the thread runs, what it was refused */
+	d->fifo = true;
+	for (struct rmd_event ev; rmd_ring_pop(&d->events, &ev);)
+		if (ev.kind == RMD_EV_RT && ev.b == RMD_LOOP_RT_FIFO)
+			d->fifo = false;
+	/* the loop runs: its first cycle */
+	t = now_ns() + 2 * NS_PER_S;
+	while (rmd_loop_heartbeat(d->loop) == 0 && now_ns() < t)
+		sched_yield();
+	assert_true(rmd_loop_heartbeat(d->loop) > 0);
+	return 0;
+}
+
+static int teardown(void **state)
+{
+	struct daemon *d = *state;
+
+	if (!d)
+		return 0;
+	if (d->loop_started) {
+		rmd_loop_request_stop(d->loop);
+		rmd_loop_join(d->loop);
+	}
+	if (d->bridge_init)
+		rmd_bridge_fini(&d->bridge);
+	rmd_loop_free(d->loop);
+	if (d->n_open && d->bus[0].ops == &shim_ops)
+		d->bus[0].ops = real_ops;
+	for (unsigned b = d->n_open; b-- > 0;)
+		rmd_bus_close(&d->bus[b]);
+	fclose(d->log);
+	free(d);
+	return 0;
+}
+
+/* ---- the test ------------------------------------------------------------------------------ */
+
+/* Setpoint k's code: alternating sign, unique within 200 setpoints (1 s). */
+static int16_t code_of(unsigned k)
+{
+	int v = 10 + (int)(k / 2 % 100);
+
+	return (int16_t)(k & 1 ? -v : v);
+}
+
+/* A one-motor torque command with the given torque, stamped now. */
+static rmd_command_t torque_cmd(int64_t seq, double torque_nm)
+{
+	rmd_command_t m;
+
+	memset(&m, 0, sizeof(m));
+	m.utime = now_ns() / 1000;
+	m.seq = seq;
+	m.count = 1;
+	m.motor[0].index = 0;
+	m.motor[0].enable = 1;
+	m.motor[0].mode = RMD_COMMAND_T_MODE_TORQUE;
+	m.motor[0].torque = torque_nm;
+	return m;
+}
+
+static enum rmd_lifecycle lifecycle(struct daemon *d)
+{
+	struct rmd_snapshot s;
+
+	rmd_loop_get_snapshot(d->loop, &s);
+	return (enum rmd_lifecycle)s.m[0].lifecycle;
+}
+
+/*
+ * The setpoint a record carries: the publish q >= from with its code and
+ * published before the record (records come in time order, and a code
+ * repeats only 200 setpoints later), or -1.  offset: the record's time to
+ * CLOCK_MONOTONIC.
+ */
+static int match(const struct rec *r, int64_t offset, const int64_t *t_pub, unsigned from)
+{
+	int q = -1;
+
+	for (unsigned k = from; k < N_PUBLISH && k < from + 200; k++) {
+		if (t_pub[k] > r->t_ns + offset)
+			break;
+		if (code_of(k) == r->code)
+			q = (int)k;
+	}
+	return q;
+}
+
+static void test_publish_to_frame_latency(void **state)
+{
+	struct daemon *d = *state;
+	static int64_t t_pub[N_PUBLISH], first_out[N_PUBLISH], first_tick[N_PUBLISH];
+	static int64_t first_wire[N_PUBLISH], lat[N_PUBLISH], lat_tick[N_PUBLISH];
+	static int64_t lat_wire[N_PUBLISH], ideal[N_PUBLISH], wake[PROBE_MAX];
+	static struct jitter jit;
+	static uint8_t buf[4096];
+	const int64_t period = d ? d->plan.period_ns : 0;
+	const bool fifo = d && d->fifo;
+	double torque[N_PUBLISH];
+	struct rmd_loop_stats ls;
+	struct dist dl, dt, dw, di, dj;
+	int64_t allowance;
+	pthread_t jth;
+	lcm_t *pub;
+	int64_t seq = 0, t, epoch, next_out, next_tick, next_wire;
+	unsigned superseded = 0, n_wire = 0, missed_first = 0;
+	uint64_t seed = (uint64_t)now_ns();
+
+	if (!d)
+		skip();
+	/* Each setpoint's torque, and the code its 0xA1 frame will carry. */
+	for (unsigned k = 0; k < N_PUBLISH; k++) {
+		struct rmd_setpoint s = { .enable = true, .mode = RMD_MODE_TORQUE };
+		struct rmd_frame f;
+
+		torque[k] = code_of(k) * 0.01 * d->cfg.motors[0].torque_constant_nm_a;
+		s.torque_nm = torque[k];
+		assert_int_equal(rmd_motor_encode(&d->motor, &s, &f, NULL), 0);
+		assert_int_equal(frame_code(&f), code_of(k));
+	}
+
+	pub = lcm_create(d->url);
+	assert_non_null(pub);
+	/* enable, torque 0, until the loop drives the motor */
+	t = now_ns() + 2 * NS_PER_S;
+	while (lifecycle(d) != RMD_LC_ENABLED && now_ns() < t) {
+		rmd_command_t m = torque_cmd(seq++, 0);
+		struct timespec ts = { 0, PUBLISH_GAP_NS };
+
+		assert_int_equal(rmd_command_t_publish(pub, PREFIX "COMMAND", &m), 0);
+		nanosleep(&ts, NULL);
+	}
+	if (lifecycle(d) != RMD_LC_ENABLED)
+		fail_msg("the motor was not enabled within 2 s");
+	assert_int_equal(pthread_create(&jth, NULL, jitter_main, &jit), 0);
+	/* the controller: N setpoints, ~200 Hz with a random phase against the ticks */
+	t = now_ns();
+	for (unsigned k = 0; k < N_PUBLISH; k++) {
+		rmd_command_t m = torque_cmd(seq++, torque[k]);
+		int len = rmd_command_t_encode(buf, 0, (int)sizeof(buf), &m);
+		struct timespec ts;
+
+		assert_true(len > 0);
+		seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+		t += PUBLISH_GAP_NS + (int64_t)((seed >> 33) % (uint64_t)NS_PER_MS);
+		ts = (struct timespec){ t / NS_PER_S, t % NS_PER_S };
+		clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
+		t_pub[k] = now_ns();
+		assert_int_equal(lcm_publish(pub, PREFIX "COMMAND", buf, (unsigned)len), 0);
+	}
+	/* the last one out, then stop everything that writes what we read */
+	t = now_ns() + 100 * NS_PER_MS;
+	while (now_ns() < t)
+		sched_yield();
+	atomic_store(&jit.stop, true);
+	pthread_join(jth, NULL);
+	rmd_loop_get_stats(d->loop, &ls);
+	rmd_loop_request_stop(d->loop);
+	assert_int_equal(rmd_loop_join(d->loop), 0);
+	d->loop_started = false;
+	lcm_destroy(pub);
+	d->bus[0].ops = real_ops;
+	t = now_ns();
+	epoch = t - rmd_bus_sim_time_ns(&d->bus[0], t);
+
+	/*
+	 * Each record is the first frame of a new setpoint: match it to the
+	 * latest publish of its code before it.  A setpoint that never got a
+	 * frame of its own (a newer one replaced it within one cycle: "newest
+	 * wins") counts with the next frame that carried a newer one.
+	 */
+	for (unsigned k = 0; k < N_PUBLISH; k++)
+		first_out[k] = first_tick[k] = first_wire[k] = INT64_MAX;
+	for (unsigned j = 0, k = 0; j < probe.n_handover; j++) {
+		int q;
+
+		/* the first frame of each setpoint */
+		if (j && probe.handover[j].code == probe.handover[j - 1].code)
+			continue;
+		q = match(&probe.handover[j], 0, t_pub, k);
+		if (q < 0)
+			continue;
+		k = (unsigned)q;
+		if (first_out[k] == INT64_MAX) {
+			first_out[k] = probe.handover[j].t_ns;
+			first_tick[k] = probe.handover[j].tick_ns;
+		}
+	}
+	for (unsigned j = 0, k = 0; j < probe.n_wire; j++) {
+		int q = match(&probe.wire[j], epoch, t_pub, k);
+
+		if (q < 0)
+			continue;
+		k = (unsigned)q;
+		if (first_wire[k] == INT64_MAX)
+			first_wire[k] = probe.wire[j].t_ns + epoch;
+	}
+	next_out = next_tick = next_wire = INT64_MAX;
+	for (unsigned k = N_PUBLISH; k-- > 0;) {
+		if (first_out[k] == INT64_MAX) {
+			superseded++;
+		} else {
+			next_out = first_out[k];
+			next_tick = first_tick[k];
+		}
+		if (first_wire[k] != INT64_MAX)
+			next_wire = first_wire[k];
+		lat[k] = next_out - t_pub[k];
+		lat_tick[k] = next_tick - t_pub[k];
+		lat_wire[k] = next_wire - t_pub[k];
+		n_wire += next_wire != INT64_MAX;
+	}
+	assert_true(next_out != INT64_MAX);
+	/*
+	 * Where a bridge of no delay would have put each setpoint: the first
+	 * cycle that handed a frame over after the publish (its take of the
+	 * command comes a few microseconds before).  A setpoint that went out
+	 * later missed it because the bridge took longer than the time left.
+	 */
+	for (unsigned k = 0, j = 0; k < N_PUBLISH; k++) {
+		while (j < probe.n_handover && probe.handover[j].t_ns < t_pub[k])
+			j++;
+		ideal[k] = j < probe.n_handover ? probe.handover[j].t_ns - t_pub[k] : INT64_MAX;
+		missed_first += lat[k] > ideal[k];
+	}
+	for (unsigned k = 0; k < jit.n; k++)
+		wake[k] = jit.lat_ns[k];
+
+	dl = summarise(lat, N_PUBLISH);
+	dt = summarise(lat_tick, N_PUBLISH);
+	dw = summarise(lat_wire, n_wire);
+	di = summarise(ideal, N_PUBLISH);
+	dj = summarise(wake, jit.n);
+	print_message("publish -> frame, %u setpoints at ~%.0f Hz, loop %u Hz (period %lld us), "
+		      "%u replaced by a newer one within a cycle\n",
+		      N_PUBLISH, 1e9 / (PUBLISH_GAP_NS + NS_PER_MS / 2), d->plan.rate_hz,
+		      (long long)(period / NS_PER_US), superseded);
+	print_dist("hand-over to the bus (asserted):", &dl);
+	print_dist("the cycle's tick (loop's now):", &dt);
+	print_dist("start on the simulated wire:", &dw);
+	print_hist(lat, N_PUBLISH);
+	print_dist("a bridge of no delay would give:", &di);
+	print_message("%u of %u setpoints (%.1f%%) missed the first cycle after their publish: "
+		      "the bridge (LCM receive, decode, checks, hand-over) took longer than the "
+		      "time left before that cycle\n",
+		      missed_first, N_PUBLISH, 100.0 * missed_first / N_PUBLISH);
+	print_message("noise in the same run: the rt loop's wake-up (%s) and a probe thread at "
+		      "normal priority like the bridge's (clock_nanosleep every 1 ms):\n",
+		      fifo ? "SCHED_FIFO, cyclictest's view" : "NOT real-time: SCHED_FIFO refused");
+	print_dist("  probe wake-up latency:", &dj);
+	print_message("  rt loop wake-up latency: min %lld  avg %lld  p99 %lld  max %lld us; "
+		      "%llu cycles, %llu periods skipped, longest cycle %lld us\n",
+		      (long long)(ls.wake_min_ns / NS_PER_US),
+		      (long long)(ls.wake_avg_ns / NS_PER_US),
+		      (long long)(ls.wake_p99_ns / NS_PER_US),
+		      (long long)(ls.wake_max_ns / NS_PER_US), (unsigned long long)ls.cycles,
+		      (unsigned long long)ls.overruns, (long long)(ls.cycle_max_ns / NS_PER_US));
+	/*
+	 * DESIGN.md: this machine is itself a VM whose scheduler wakes threads
+	 * milliseconds late at times; latency is judged against the noise
+	 * measured in the same run.  A command crosses two normal-priority
+	 * wake-ups before the rt loop sees it (LCM's udpm receive thread, then
+	 * the bridge), each exposed to the noise the probe measured, so the
+	 * bound is one cycle + 200 us + twice the probe's p99.  Whether the
+	 * plain bound (one cycle + 200 us) held is printed either way.
+	 */
+	allowance = 2 * dj.p99;
+	print_message("strict bound: p99 <= period + 200 us = %lld us: p99 is %.0f us: %s\n",
+		      (long long)((period + MARGIN_NS) / NS_PER_US), dl.p99 / 1e3,
+		      dl.p99 <= period + MARGIN_NS ? "held" : "NOT held on this machine");
+	print_message("judged bound: period + 200 us + 2 x probe p99 (%.0f us) = %lld us\n",
+		      dj.p99 / 1e3, (long long)((period + MARGIN_NS + allowance) / NS_PER_US));
+
+	/* every setpoint went out, none before it was published */
+	assert_true(dl.min > 0);
+	assert_true(dl.max < INT64_MAX / 2);
+	if (dl.p99 > period + MARGIN_NS + allowance)
+		fail_msg("publish -> frame p99 %.0f us > one cycle + 200 us + 2 x the machine's "
+			 "normal-priority wake-up p99 (%lld us); a bridge of no delay would give "
+			 "p99 %.0f us, and %.1f%% of the setpoints missed the first cycle after "
+			 "their publish.  The machine's noise in the same run: jitter probe p99 "
+			 "%.0f us, max %.0f us; rt loop wake-up p99 %lld us, max %lld us%s",
+			 dl.p99 / 1e3, (long long)((period + MARGIN_NS + allowance) / NS_PER_US),
+			 di.p99 / 1e3, 100.0 * missed_first / N_PUBLISH, dj.p99 / 1e3, dj.max / 1e3,
+			 (long long)(ls.wake_p99_ns / NS_PER_US),
+			 (long long)(ls.wake_max_ns / NS_PER_US),
+			 fifo ? "" : " (the rt loop had no SCHED_FIFO: run as root)");
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test_setup_teardown(test_publish_to_frame_latency, setup, teardown),
+	};
+
+	return cmocka_run_group_tests_name("latency", tests, group_setup, NULL);
+}

@@ -1,0 +1,1519 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdd over real LCM, with real processes: each test starts the built
+ * daemon ($RMDD, else $BUILD/rmdd, else build/rmdd) on simulated motors
+ * (three V3 motors that take position setpoints on sim0, three MIT motors
+ * on sim1, at 1 kHz) with a udpm URL of its own on loopback, and acts as
+ * its controller:
+ *   - setpoints go in, the simulated motors move, state_t follows them;
+ *     health_t and config_t say what they should;
+ *   - malformed and hostile commands (wrong fingerprint, truncated,
+ *     trailing bytes, count > 32, index out of range, NaN/Inf, bad modes,
+ *     gains out of range, stale) are rejected, counted per kind in
+ *     health_t and logged once per kind; none moves a motor;
+ *   - a 20 kHz flood, one message in ten hostile, is counted while the rt
+ *     loop keeps its cycle and the controller's own commands get through;
+ *   - controller silence trips the watchdog: the safe action, health_t
+ *     says so, and a new command with enable clears it;
+ *   - the example controllers (build/sine_controller, examples/sine.py when
+ *     Python has `lcm`) track a sine and print the tracking error, stop
+ *     cleanly on SIGINT (enable = 0, exit 0), and refuse to start without
+ *     rmdd.
+ *
+ * Multicast on loopback must be routable: when it is not, the suite routes
+ * it itself when root (as tests/test_bridge.c does) and otherwise skips
+ * every test, loudly.  Every wait has a deadline; every child is killed by
+ * the per-test teardown whatever failed, and dies with the suite
+ * (PR_SET_PDEATHSIG).  RMD_TEST_FILTER=test_flood runs one test.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <math.h>
+#include <poll.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sys/prctl.h>
+#include <sys/stat.h>
+#include <sys/syscall.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+
+#include <cmocka.h>
+#include <lcm/eventlog.h>
+#include <lcm/lcm.h>
+
+#include "rmd/rmd_command_t.h"
+#include "rmd/rmd_config_request_t.h"
+#include "rmd/rmd_config_t.h"
+#include "rmd/rmd_health_t.h"
+#include "rmd/rmd_state_t.h"
+
+#define NMOTORS 6
+#define NPOS 3 /* motors 0..2: V3, position (no MIT); 3..5: MIT */
+#define RATE_HZ 1000
+#define COMMAND_TIMEOUT_MS 100
+#define CTL_PERIOD_MS 5 /* the test controller publishes at 200 Hz */
+#define MIT_KP 30.0
+#define MIT_KD 1.5
+#define FLOOD_HZ 20000
+#define FLOOD_S 1
+#define LOG_MAX (256 * 1024)
+
+#define NS_PER_MS INT64_C(1000000)
+#define NS_PER_S INT64_C(1000000000)
+
+/* The daemon's configuration: examples/sim-sine.yaml, with every timing spelled out. */
+static const char config_yaml[] =
+	"loop: {rate_hz: 1000, rt_priority: 40}\n"
+	"safety: {comm_loss_ms: 100, command_timeout_ms: 100, safe_action: damp,\n"
+	"         lost_motor_action: all}\n"
+	"probe: {on_missing: refuse}\n"
+	"lcm: {channel_prefix: RMD_, state_every_n: 1, stale_ms: 100, health_period_ms: 100}\n"
+	"buses:\n"
+	"  - {name: sim0, type: sim, sim: {seed: 1}}\n"
+	"  - {name: sim1, type: sim, sim: {seed: 2}}\n"
+	"motors:\n"
+	"  - {name: pos_1, bus: sim0, id: 1, mode: position, torque_constant_nm_a: 2.0,\n"
+	"     limits: &v3 {position_min_rad: -3, position_max_rad: 3, velocity_rad_s: 20,\n"
+	"                  torque_nm: 10}}\n"
+	"  - {name: pos_2, bus: sim0, id: 2, mode: position, torque_constant_nm_a: 2.0,\n"
+	"     limits: *v3}\n"
+	"  - {name: pos_3, bus: sim0, id: 3, mode: position, torque_constant_nm_a: 2.0,\n"
+	"     limits: *v3, direction: -1}\n"
+	"  - {name: mit_1, bus: sim1, id: 1, protocol: mit, mode: mit,\n"
+	"     limits: &mit {position_min_rad: -3, position_max_rad: 3, velocity_rad_s: 20,\n"
+	"                   torque_nm: 18}, mit: {t_min: -18, t_max: 18}}\n"
+	"  - {name: mit_2, bus: sim1, id: 2, protocol: mit, mode: mit, limits: *mit,\n"
+	"     mit: {t_min: -18, t_max: 18}}\n"
+	"  - {name: mit_3, bus: sim1, id: 3, protocol: mit, mode: mit, limits: *mit,\n"
+	"     mit: {t_min: -18, t_max: 18}, direction: -1}\n";
+
+static char rmdd_bin[512], sine_bin[512], sine_py[1024], pythonpath[512];
+static char tmpdir[256], cfg_path[320];
+static bool no_multicast, have_python, have_logger;
+static unsigned test_no;
+
+struct fixture {
+	char url[96];
+	char log[320]; /* rmdd's stdout and stderr */
+	char child_log[320];
+	pid_t rmdd;
+	pid_t child; /* an example controller, while one runs */
+
+	lcm_t *pub; /* publishes only: no reader thread copies the flood */
+	lcm_t *sub; /* listens to STATE, HEALTH, CONFIG */
+	rmd_state_t_subscription_t *state_sub;
+	rmd_health_t_subscription_t *health_sub;
+	rmd_config_t_subscription_t *config_sub;
+
+	rmd_state_t state;
+	uint64_t n_states;
+	rmd_health_t *health;
+	uint64_t n_health;
+	rmd_config_t *config;
+
+	int64_t seq;
+	int64_t last_pub_ns;	/* when stream() last published */
+	int64_t fresh_after_ns; /* done_fresh_health(): a health_t newer than this */
+	double target[NMOTORS];
+	uint8_t buf[4096];
+};
+
+static int64_t now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
+}
+
+static void pump(struct fixture *f, int ms);
+
+/* Until `cond` holds or `ms` pass, handling what the listener receives. */
+#define WAIT_UNTIL(f, cond, ms)                                    \
+	do {                                                       \
+		int64_t end_ = now_ns() + (int64_t)(ms)*NS_PER_MS; \
+		while (!(cond) && now_ns() < end_)                 \
+			pump(f, 1);                                \
+	} while (0)
+
+/* ---- files ------------------------------------------------------------------- */
+
+/* The whole file, NUL-terminated, in a static buffer ("" when unreadable). */
+static const char *slurp(const char *path)
+{
+	static char buf[LOG_MAX];
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	size_t len = 0;
+	ssize_t r;
+
+	buf[0] = '\0';
+	if (fd < 0)
+		return buf;
+	while (len < sizeof(buf) - 1 && (r = read(fd, buf + len, sizeof(buf) - 1 - len)) > 0)
+		len += (size_t)r;
+	buf[len] = '\0';
+	close(fd);
+	return buf;
+}
+
+static unsigned count_of(const char *hay, const char *needle)
+{
+	unsigned n = 0;
+
+	for (const char *s = hay; (s = strstr(s, needle)); s += strlen(needle))
+		n++;
+	return n;
+}
+
+static bool first_existing(char *out, size_t len, const char *const *candidates, int mode)
+{
+	for (; *candidates; candidates++) {
+		if (access(*candidates, mode) == 0) {
+			snprintf(out, len, "%s", *candidates);
+			return true;
+		}
+	}
+	return false;
+}
+
+/* ---- processes ----------------------------------------------------------------- */
+
+/* Start argv[0] (searched in PATH) with its output to `log`; it dies with us. */
+static pid_t spawn(const char *const *argv, const char *log, bool with_pythonpath)
+{
+	pid_t pid = fork();
+
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+
+		prctl(PR_SET_PDEATHSIG, SIGKILL);
+		if (fd < 0)
+			_exit(126);
+		dup2(fd, 1);
+		dup2(fd, 2);
+		unsetenv("LCM_DEFAULT_URL");
+		unsetenv("NOTIFY_SOCKET");
+		unsetenv("RMDD_TEST_STALL_AFTER_MS");
+		if (with_pythonpath)
+			setenv("PYTHONPATH", pythonpath, 1);
+		execvp(argv[0], (char *const *)argv);
+		_exit(127);
+	}
+	return pid;
+}
+
+/*
+ * Wait up to timeout_ms for pid to end.  Returns its exit status (128 +
+ * signal when killed), or -1 when it still runs.
+ */
+static int wait_exit(pid_t pid, int timeout_ms)
+{
+	int64_t end = now_ns() + (int64_t)timeout_ms * NS_PER_MS;
+	int pfd = (int)syscall(SYS_pidfd_open, pid, 0);
+	int ws;
+
+	for (;;) {
+		pid_t r = waitpid(pid, &ws, WNOHANG);
+		int64_t left = end - now_ns();
+
+		if (r == pid)
+			break;
+		if (r < 0 || left <= 0) {
+			if (pfd >= 0)
+				close(pfd);
+			return -1;
+		}
+		if (pfd >= 0) {
+			struct pollfd p = { .fd = pfd, .events = POLLIN };
+
+			poll(&p, 1, (int)(left / NS_PER_MS) + 1);
+		} else {
+			struct timespec ts = { 0, NS_PER_MS };
+
+			nanosleep(&ts, NULL);
+		}
+	}
+	if (pfd >= 0)
+		close(pfd);
+	return WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+}
+
+/* Ask a child to stop (sig), then SIGKILL after timeout_ms.  Returns its status. */
+static int stop_child(pid_t *pid, int sig, int timeout_ms)
+{
+	int st;
+
+	if (*pid <= 0)
+		return -1;
+	kill(*pid, sig);
+	st = wait_exit(*pid, timeout_ms);
+	if (st < 0) {
+		kill(*pid, SIGKILL);
+		st = wait_exit(*pid, 5000);
+	}
+	*pid = 0;
+	return st;
+}
+
+/* ---- multicast on loopback ------------------------------------------------------- */
+
+static int probe_got;
+
+static void on_probe(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	(void)rbuf;
+	(void)channel;
+	(void)user;
+	probe_got = 1;
+}
+
+static bool multicast_works(void)
+{
+	char url[80];
+	lcm_t *l;
+
+	snprintf(url, sizeof(url), "udpm://239.255.76.67:%d?ttl=0", 7600 + getpid() % 97);
+	l = lcm_create(url);
+	if (!l)
+		return false;
+	probe_got = 0;
+	if (lcm_subscribe(l, "PROBE", on_probe, NULL)) {
+		for (int i = 0; i < 5 && !probe_got; i++) {
+			lcm_publish(l, "PROBE", "x", 1);
+			lcm_handle_timeout(l, 100);
+		}
+	}
+	lcm_destroy(l);
+	return probe_got;
+}
+
+static bool route_multicast(void)
+{
+	if (multicast_works())
+		return true;
+	if (geteuid() == 0) {
+		fprintf(stderr, "test_lcm_system: routing multicast on loopback: "
+				"ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n");
+		if (system("ip link set lo up multicast on && "
+			   "(ip route add 224.0.0.0/4 dev lo 2>/dev/null || true)") != 0)
+			fprintf(stderr, "test_lcm_system: ip failed\n");
+		if (multicast_works())
+			return true;
+	}
+	fprintf(stderr,
+		"\n*** test_lcm_system: SKIPPING every test: LCM multicast on loopback is not "
+		"routable%s.\n*** As root: ip link set lo multicast on; "
+		"ip route add 224.0.0.0/4 dev lo\n\n",
+		geteuid() ? " and this is not root" : " even after routing it");
+	return false;
+}
+
+/* ---- suite set-up ----------------------------------------------------------------- */
+
+static int group_setup(void **state)
+{
+	const char *build = getenv("BUILD"), *env;
+	char dir[512], exe[512], c1[600], c2[600], c3[600];
+	const char *cands[4];
+	ssize_t n;
+	FILE *fp;
+
+	(void)state;
+	if (!build || !*build)
+		build = "build";
+	env = getenv("RMDD");
+	if (env && *env)
+		snprintf(rmdd_bin, sizeof(rmdd_bin), "%s", env);
+	else
+		snprintf(rmdd_bin, sizeof(rmdd_bin), "%s/rmdd", build);
+	env = getenv("SINE_CONTROLLER");
+	if (env && *env)
+		snprintf(sine_bin, sizeof(sine_bin), "%s", env);
+	else
+		snprintf(sine_bin, sizeof(sine_bin), "%s/sine_controller", build);
+	snprintf(pythonpath, sizeof(pythonpath), "%s/python", build);
+	if (access(rmdd_bin, X_OK) < 0) {
+		fprintf(stderr, "test_lcm_system: %s: %s (set RMDD or BUILD)\n", rmdd_bin,
+			strerror(errno));
+		return -1;
+	}
+
+	/* examples/sine.py: here, or two or three levels above this binary */
+	n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+	exe[n > 0 ? n : 0] = '\0';
+	snprintf(dir, sizeof(dir), "%s", exe);
+	if (strrchr(dir, '/'))
+		*strrchr(dir, '/') = '\0';
+	snprintf(c1, sizeof(c1), "examples/sine.py");
+	snprintf(c2, sizeof(c2), "%s/../../examples/sine.py", dir);
+	snprintf(c3, sizeof(c3), "%s/../../../examples/sine.py", dir);
+	cands[0] = c1;
+	cands[1] = c2;
+	cands[2] = c3;
+	cands[3] = NULL;
+	if (!first_existing(sine_py, sizeof(sine_py), cands, R_OK))
+		sine_py[0] = '\0';
+
+	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_lcm_system.XXXXXX");
+	if (!mkdtemp(tmpdir))
+		return -1;
+	snprintf(cfg_path, sizeof(cfg_path), "%s/sim-sine.yaml", tmpdir);
+	fp = fopen(cfg_path, "w");
+	if (!fp)
+		return -1;
+	fputs(config_yaml, fp);
+	if (fclose(fp))
+		return -1;
+	signal(SIGPIPE, SIG_IGN);
+	no_multicast = !route_multicast();
+
+	have_logger = system("command -v lcm-logger >/dev/null 2>&1") == 0;
+	/* Python with `lcm` and the generated rmd package, for examples/sine.py */
+	if (sine_py[0]) {
+		char cmd[3000], init[600], top[PATH_MAX];
+
+		/* no `make lcm-python`: generate the package here, from the .lcm files */
+		snprintf(init, sizeof(init), "%s/rmd/__init__.py", pythonpath);
+		/* the checkout: two levels above examples/sine.py */
+		if (!realpath(sine_py, top))
+			top[0] = '\0';
+		for (int up = 0; up < 2 && strrchr(top, '/'); up++)
+			*strrchr(top, '/') = '\0';
+		if (access(init, R_OK) < 0 && top[0]) {
+			snprintf(pythonpath, sizeof(pythonpath), "%s/python", tmpdir);
+			snprintf(cmd, sizeof(cmd),
+				 "lcm-gen -p --ppath '%s' '%s'/lcm_types/*.lcm >/dev/null 2>&1",
+				 pythonpath, top);
+			if (system(cmd) == 0)
+				fprintf(stderr,
+					"test_lcm_system: no %s (make lcm-python): generated the "
+					"Python types into %s\n",
+					init, pythonpath);
+		}
+
+		snprintf(cmd, sizeof(cmd),
+			 "PYTHONPATH='%s' python3 -c 'import lcm, rmd' >/dev/null 2>&1",
+			 pythonpath);
+		have_python = system(cmd) == 0;
+	}
+	return 0;
+}
+
+static int group_teardown(void **state)
+{
+	char cmd[300];
+
+	(void)state;
+	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
+	return system(cmd) == 0 ? 0 : -1;
+}
+
+/* ---- the listener ------------------------------------------------------------------ */
+
+static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
+		     void *user)
+{
+	struct fixture *f = user;
+
+	(void)rbuf;
+	(void)channel;
+	f->state = *msg; /* fixed-size: a plain copy */
+	f->n_states++;
+}
+
+static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_health_t *msg,
+		      void *user)
+{
+	struct fixture *f = user;
+
+	(void)rbuf;
+	(void)channel;
+	if (f->health)
+		rmd_health_t_destroy(f->health);
+	f->health = rmd_health_t_copy(msg);
+	f->n_health++;
+}
+
+static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
+		      void *user)
+{
+	struct fixture *f = user;
+
+	(void)rbuf;
+	(void)channel;
+	if (f->config)
+		rmd_config_t_destroy(f->config);
+	f->config = rmd_config_t_copy(msg);
+}
+
+static void listen_on(struct fixture *f)
+{
+	f->sub = lcm_create(f->url);
+	assert_non_null(f->sub);
+	f->state_sub = rmd_state_t_subscribe(f->sub, "RMD_STATE", on_state, f);
+	f->health_sub = rmd_health_t_subscribe(f->sub, "RMD_HEALTH", on_health, f);
+	f->config_sub = rmd_config_t_subscribe(f->sub, "RMD_CONFIG", on_config, f);
+	assert_non_null(f->state_sub);
+	assert_non_null(f->health_sub);
+	assert_non_null(f->config_sub);
+}
+
+static void listen_off(struct fixture *f)
+{
+	if (!f->sub)
+		return;
+	rmd_state_t_unsubscribe(f->sub, f->state_sub);
+	rmd_health_t_unsubscribe(f->sub, f->health_sub);
+	rmd_config_t_unsubscribe(f->sub, f->config_sub);
+	lcm_destroy(f->sub);
+	f->sub = NULL;
+}
+
+static void pump(struct fixture *f, int ms)
+{
+	if (f->sub) {
+		lcm_handle_timeout(f->sub, ms);
+	} else {
+		struct timespec ts = { 0, (long)ms * NS_PER_MS };
+
+		nanosleep(&ts, NULL);
+	}
+}
+
+/* ---- fixture ------------------------------------------------------------------------ */
+
+static int setup(void **state)
+{
+	struct fixture *f;
+	int port;
+
+	*state = NULL;
+	if (no_multicast)
+		return 0;
+	f = calloc(1, sizeof(*f));
+	assert_non_null(f);
+	/* A port per process and test: parallel suites (test_bridge too) do not hear each other. */
+	port = 45000 + (int)(getpid() % 500) * 40 + (int)(test_no++ % 40);
+	snprintf(f->url, sizeof(f->url), "udpm://239.255.76.67:%d?ttl=0", port);
+	snprintf(f->log, sizeof(f->log), "%s/rmdd.%u.log", tmpdir, test_no);
+	snprintf(f->child_log, sizeof(f->child_log), "%s/child.%u.log", tmpdir, test_no);
+	f->pub = lcm_create(f->url);
+	assert_non_null(f->pub);
+	*state = f;
+	return 0;
+}
+
+/* After each test: no child outlives it, whatever failed. */
+static int teardown(void **state)
+{
+	struct fixture *f = *state;
+
+	if (!f)
+		return 0;
+	stop_child(&f->child, SIGKILL, 2000);
+	if (f->rmdd > 0 && stop_child(&f->rmdd, SIGTERM, 5000) != 0)
+		fprintf(stderr, "test_lcm_system: rmdd did not stop cleanly; its output:\n%s\n",
+			slurp(f->log));
+	listen_off(f);
+	lcm_destroy(f->pub);
+	if (f->health)
+		rmd_health_t_destroy(f->health);
+	if (f->config)
+		rmd_config_t_destroy(f->config);
+	free(f);
+	return 0;
+}
+
+static struct fixture *fixture(void **state)
+{
+	if (!*state)
+		skip();
+	return *state;
+}
+
+static void request_config(struct fixture *f)
+{
+	rmd_config_request_t req = { .utime = now_ns() / 1000 };
+
+	assert_int_equal(rmd_config_request_t_publish(f->pub, "RMD_CONFIG_REQUEST", &req), 0);
+}
+
+/* Start rmdd on this test's URL and wait for its config_t (asked for every 200 ms). */
+static void start_rmdd(struct fixture *f)
+{
+	const char *argv[] = { rmdd_bin, "--config", cfg_path, "--lcm-url", f->url, NULL };
+	int64_t end = now_ns() + 10 * NS_PER_S, next = 0;
+
+	f->rmdd = spawn(argv, f->log, false);
+	listen_on(f);
+	while (!f->config || !f->n_states) {
+		int st;
+
+		if (now_ns() >= end)
+			fail_msg("no config_t and state_t from rmdd within 10 s; its output:\n%s",
+				 slurp(f->log));
+		st = wait_exit(f->rmdd, 0);
+		if (st >= 0) {
+			f->rmdd = 0;
+			fail_msg("rmdd exited (%d) at start; its output:\n%s", st, slurp(f->log));
+		}
+		if (now_ns() >= next) {
+			request_config(f);
+			next = now_ns() + 200 * NS_PER_MS;
+		}
+		pump(f, 5);
+	}
+}
+
+/* The newest health_t that rmdd sent after `after_ns` (our clock = rmdd's CLOCK_MONOTONIC). */
+static const rmd_health_t *health_after(struct fixture *f, int64_t after_ns, int timeout_ms)
+{
+	WAIT_UNTIL(f, f->health && f->health->utime * 1000 > after_ns, timeout_ms);
+	if (!f->health || f->health->utime * 1000 <= after_ns)
+		fail_msg("no health_t from rmdd within %d ms; its output:\n%s", timeout_ms,
+			 slurp(f->log));
+	return f->health;
+}
+
+/* ---- commands ---------------------------------------------------------------------- */
+
+static rmd_command_t cmd_new(struct fixture *f)
+{
+	rmd_command_t m;
+
+	memset(&m, 0, sizeof(m));
+	m.utime = now_ns() / 1000;
+	m.seq = ++f->seq;
+	return m;
+}
+
+/*
+ * Every motor: V3 motors in position mode, MIT motors in MIT mode, each
+ * towards f->target[i]; enable as given.
+ */
+static rmd_command_t cmd_all(struct fixture *f, bool enable)
+{
+	rmd_command_t m = cmd_new(f);
+
+	m.count = NMOTORS;
+	for (int i = 0; i < NMOTORS; i++) {
+		rmd_motor_command_t *c = &m.motor[i];
+
+		c->index = (int16_t)i;
+		c->enable = enable;
+		c->position = f->target[i];
+		if (i < NPOS) {
+			c->mode = RMD_COMMAND_T_MODE_POSITION;
+		} else {
+			c->mode = RMD_COMMAND_T_MODE_MIT;
+			c->kp = MIT_KP;
+			c->kd = MIT_KD;
+		}
+	}
+	return m;
+}
+
+static void send_cmd(struct fixture *f, const rmd_command_t *m)
+{
+	assert_int_equal(rmd_command_t_publish(f->pub, "RMD_COMMAND", m), 0);
+}
+
+static void send_raw(struct fixture *f, const void *data, int len)
+{
+	assert_int_equal(lcm_publish(f->pub, "RMD_COMMAND", data, (unsigned)len), 0);
+}
+
+static bool all_in(const struct fixture *f, int lc)
+{
+	if (f->state.count != NMOTORS)
+		return false;
+	for (int i = 0; i < NMOTORS; i++)
+		if (f->state.motor[i].lifecycle != lc)
+			return false;
+	return true;
+}
+
+static bool all_at_target(const struct fixture *f, double tol)
+{
+	if (!all_in(f, RMD_STATE_T_LC_ENABLED))
+		return false;
+	for (int i = 0; i < NMOTORS; i++)
+		if (!(fabs(f->state.motor[i].position - f->target[i]) < tol))
+			return false;
+	return true;
+}
+
+/*
+ * Publish cmd_all(enable) every CTL_PERIOD_MS, as a controller does, until
+ * done(f) or ms pass.  Returns whether done(f) held.
+ */
+static bool stream(struct fixture *f, bool enable, int ms,
+		   bool (*done)(const struct fixture *f, int arg), int arg)
+{
+	int64_t end = now_ns() + (int64_t)ms * NS_PER_MS, next = 0;
+
+	while (!done(f, arg)) {
+		int64_t now = now_ns();
+
+		if (now >= end)
+			return false;
+		if (now >= next) {
+			rmd_command_t m = cmd_all(f, enable);
+
+			send_cmd(f, &m);
+			f->last_pub_ns = now_ns();
+			next = now + CTL_PERIOD_MS * NS_PER_MS;
+		}
+		pump(f, 1);
+	}
+	return true;
+}
+
+static bool done_lifecycle(const struct fixture *f, int lc)
+{
+	return all_in(f, lc);
+}
+
+static bool done_target(const struct fixture *f, int tol_mrad)
+{
+	return all_at_target(f, tol_mrad / 1000.0);
+}
+
+static bool done_fresh_health(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return f->health && f->health->utime * 1000 > f->fresh_after_ns;
+}
+
+/*
+ * The next health_t, while the controller keeps streaming (a controller
+ * that stopped to wait would trip the watchdog).
+ */
+static const rmd_health_t *stream_health(struct fixture *f, bool enable)
+{
+	f->fresh_after_ns = now_ns();
+	if (!stream(f, enable, 1000, done_fresh_health, 0))
+		fail_msg("no health_t from rmdd within 1 s; its output:\n%s", slurp(f->log));
+	return f->health;
+}
+
+static bool done_never(const struct fixture *f, int arg)
+{
+	(void)f;
+	(void)arg;
+	return false;
+}
+
+/* Hold every motor where it is (enabled), as a controller that just started would. */
+static void enable_in_place(struct fixture *f)
+{
+	for (int i = 0; i < NMOTORS; i++) {
+		double p = f->state.motor[i].position;
+
+		f->target[i] = isfinite(p) ? p : 0;
+	}
+	if (!stream(f, true, 2000, done_lifecycle, RMD_STATE_T_LC_ENABLED))
+		fail_msg("motors not enabled within 2 s; rmdd's output:\n%s", slurp(f->log));
+}
+
+static void disable_all(struct fixture *f)
+{
+	if (!stream(f, false, 2000, done_lifecycle, RMD_STATE_T_LC_READY))
+		fail_msg("motors not ready within 2 s of enable = 0; rmdd's output:\n%s",
+			 slurp(f->log));
+}
+
+/* ---- tests: the round trip ------------------------------------------------------------ */
+
+static void test_setpoints_move_the_motors(void **state)
+{
+	struct fixture *f = fixture(state);
+	const rmd_config_t *c;
+	const rmd_health_t *h;
+	rmd_state_t s0;
+	int64_t t0;
+
+	start_rmdd(f);
+	c = f->config;
+	/* config_t: what tools label the motors with */
+	assert_string_equal(c->prefix, "RMD_");
+	assert_int_equal(c->period_us, 1000000 / RATE_HZ);
+	assert_int_equal(c->bus_count, 2);
+	assert_string_equal(c->bus[1].name, "sim1");
+	assert_string_equal(c->bus[1].kind, "sim");
+	assert_int_equal(c->motor_count, NMOTORS);
+	assert_string_equal(c->motor[0].name, "pos_1");
+	assert_string_equal(c->motor[5].name, "mit_3");
+	for (int i = 0; i < NMOTORS; i++) {
+		assert_int_equal(c->motor[i].index, i);
+		assert_true(c->motor[i].modes & RMD_MOTOR_CONFIG_T_MODE_BIT_POSITION);
+		assert_int_equal(!!(c->motor[i].modes & RMD_MOTOR_CONFIG_T_MODE_BIT_MIT),
+				 i >= NPOS);
+	}
+	assert_true(c->motor[3].kp_max >= MIT_KP && c->motor[3].kd_max >= MIT_KD);
+	/* state_t before any command: every motor probed and ready, nothing moves */
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	assert_true(all_in(f, RMD_STATE_T_LC_READY));
+	s0 = f->state;
+
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = i < NPOS ? 0.8 : -0.6;
+	t0 = now_ns();
+	if (!stream(f, true, 5000, done_target, 20)) {
+		for (int i = 0; i < NMOTORS; i++)
+			print_message("motor %d: lifecycle %d, position %.4f rad, target %.4f\n", i,
+				      f->state.motor[i].lifecycle, f->state.motor[i].position,
+				      f->target[i]);
+		fail_msg("the motors did not reach their targets within 5 s; rmdd's output:\n%s",
+			 slurp(f->log));
+	}
+	print_message("setpoints: every motor within 20 mrad of its target after %.0f ms\n",
+		      (now_ns() - t0) / 1e6);
+	/* state_t: the modes commanded, fresh replies, the supply, cycles advancing */
+	assert_true(f->state.cycle > s0.cycle);
+	assert_true(f->state.utime > s0.utime);
+	for (int i = 0; i < NMOTORS; i++) {
+		const rmd_motor_state_t *m = &f->state.motor[i];
+
+		assert_int_equal(m->index, i);
+		assert_int_equal(m->mode,
+				 i < NPOS ? RMD_COMMAND_T_MODE_POSITION : RMD_COMMAND_T_MODE_MIT);
+		assert_true(m->reply_age_cycles <= 5);
+		assert_true(fabs(m->voltage - 48) < 1);
+		assert_true(isfinite(m->temperature) && isfinite(m->velocity));
+	}
+	/* health_t: a controller in charge, nothing rejected, the buses busy */
+	h = stream_health(f, true);
+	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
+	assert_true(h->commands_accepted > 10);
+	assert_int_equal(h->commands_rejected, 0);
+	assert_int_equal(h->safe_action_events, 0);
+	assert_int_equal(h->bus_count, 2);
+	assert_string_equal(h->bus[0].name, "sim0");
+	for (int b = 0; b < 2; b++) {
+		assert_true(h->bus[b].load > 0.5 && h->bus[b].load <= 1.0);
+		assert_true(h->bus[b].tx_frames > 100 && h->bus[b].rx_frames > 100);
+		assert_int_equal(h->bus[b].state, RMD_BUS_HEALTH_T_BUS_ACTIVE);
+	}
+	assert_true(h->cycles > 0);
+
+	/* and back: enable = 0 makes them ready, where they stand */
+	disable_all(f);
+}
+
+/* ---- tests: hostile messages ------------------------------------------------------------ */
+
+/* A harmless valid command: motor 0 off.  Hostile ones are made from it. */
+static rmd_command_t cmd_off(struct fixture *f)
+{
+	rmd_command_t m = cmd_new(f);
+
+	m.count = 1;
+	m.motor[0].index = 0;
+	m.motor[0].enable = 0;
+	m.motor[0].mode = RMD_COMMAND_T_MODE_POSITION;
+	return m;
+}
+
+/* Encode m into f->buf; returns the length. */
+static int encode(struct fixture *f, const rmd_command_t *m)
+{
+	int len = rmd_command_t_encode(f->buf, 0, (int)sizeof(f->buf), m);
+
+	assert_true(len > 0);
+	return len;
+}
+
+static void test_hostile_messages_rejected_and_counted(void **state)
+{
+	struct fixture *f = fixture(state);
+	int64_t want[RMD_HEALTH_T_REJ_KINDS] = { 0 };
+	int64_t accepted = 0, rejected = 0;
+	rmd_config_request_t other = { .utime = 1 };
+	rmd_command_t m;
+	const rmd_health_t *h;
+	const char *log;
+	int len;
+
+	start_rmdd(f);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+
+	m = cmd_off(f);
+	send_cmd(f, &m);
+	accepted++;
+
+	/* decode: another type, truncated, trailing bytes, empty */
+	len = rmd_config_request_t_encode(f->buf, 0, (int)sizeof(f->buf), &other);
+	send_raw(f, f->buf, len);
+	m = cmd_off(f);
+	len = encode(f, &m);
+	send_raw(f, f->buf, len - 10);
+	send_raw(f, f->buf, len + 4);
+	send_raw(f, f->buf, 0);
+	want[RMD_HEALTH_T_REJ_DECODE] += 4;
+
+	/* count: > 32, < 0, more than the configured motors */
+	m = cmd_off(f);
+	m.count = 33;
+	send_cmd(f, &m);
+	m.count = -1;
+	send_cmd(f, &m);
+	m.count = NMOTORS + 1;
+	for (int i = 0; i < m.count; i++)
+		m.motor[i] = (rmd_motor_command_t){ .index = (int16_t)i, .mode = 2 };
+	send_cmd(f, &m);
+	want[RMD_HEALTH_T_REJ_COUNT] += 3;
+
+	/* index: out of range, negative, twice in one message */
+	m = cmd_off(f);
+	m.motor[0].index = 40;
+	send_cmd(f, &m);
+	m.motor[0].index = -1;
+	send_cmd(f, &m);
+	m = cmd_off(f);
+	m.count = 2;
+	m.motor[1] = m.motor[0];
+	send_cmd(f, &m);
+	want[RMD_HEALTH_T_REJ_INDEX] += 3;
+
+	/* non-finite: NaN where the mode reads it, Inf where it does not */
+	m = cmd_off(f);
+	m.motor[0].enable = 1;
+	m.motor[0].position = NAN;
+	send_cmd(f, &m);
+	m = cmd_off(f);
+	m.motor[0].kp = INFINITY;
+	send_cmd(f, &m);
+	want[RMD_HEALTH_T_REJ_NONFINITE] += 2;
+
+	/* mode: unknown, MIT on a motor without it, enable neither 0 nor 1 */
+	m = cmd_off(f);
+	m.motor[0].mode = 9;
+	send_cmd(f, &m);
+	m = cmd_off(f);
+	m.motor[0].enable = 1;
+	m.motor[0].mode = RMD_COMMAND_T_MODE_MIT;
+	m.motor[0].kp = MIT_KP;
+	m.motor[0].kd = MIT_KD;
+	send_cmd(f, &m);
+	m = cmd_off(f);
+	m.motor[0].enable = 2;
+	send_cmd(f, &m);
+	want[RMD_HEALTH_T_REJ_MODE] += 3;
+
+	/* limit: kp beyond the MIT range, a negative speed limit */
+	m = cmd_off(f);
+	m.motor[0] = (rmd_motor_command_t){
+		.index = 3, .enable = 1, .mode = RMD_COMMAND_T_MODE_MIT, .kp = 600, .kd = 1
+	};
+	send_cmd(f, &m);
+	m = cmd_off(f);
+	m.motor[0].max_velocity = -1;
+	send_cmd(f, &m);
+	want[RMD_HEALTH_T_REJ_LIMIT] += 2;
+
+	/* stale: the sequence goes back; a timestamp 1 s older than the newest */
+	m = cmd_off(f);
+	send_cmd(f, &m);
+	accepted++;
+	m.seq -= 5;
+	send_cmd(f, &m);
+	m = cmd_off(f);
+	m.utime -= 1000000;
+	send_cmd(f, &m);
+	want[RMD_HEALTH_T_REJ_STALE] += 2;
+
+	for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
+		rejected += want[k];
+	WAIT_UNTIL(f,
+		   f->health && f->health->commands_rejected == rejected &&
+			   f->health->commands_accepted == accepted,
+		   3000);
+	h = f->health;
+	assert_non_null(h);
+	for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
+		if (h->rejected_by_kind[k] != want[k])
+			fail_msg("rejected_by_kind[%d] = %lld, want %lld", k,
+				 (long long)h->rejected_by_kind[k], (long long)want[k]);
+	assert_int_equal(h->commands_rejected, rejected);
+	assert_int_equal(h->commands_accepted, accepted);
+	assert_int_equal(h->commands_clamped, 0);
+	/* none of them moved anything: every motor is still ready, nobody in charge */
+	assert_true(all_in(f, RMD_STATE_T_LC_READY));
+	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_IDLE);
+	assert_int_equal(h->safe_action_events, 0);
+	/* each kind logged once, with its reason */
+	log = slurp(f->log);
+	if (count_of(log, "<4>rmdd: rejected RMD_COMMAND: ") != RMD_HEALTH_T_REJ_KINDS)
+		fail_msg("want one log line per reject kind; rmdd's output:\n%s", log);
+	assert_non_null(strstr(log, "further rejections of this kind are counted in health_t"));
+	print_message("hostile: %lld rejected (by kind %lld %lld %lld %lld %lld %lld %lld), "
+		      "%lld accepted\n",
+		      (long long)rejected, (long long)want[0], (long long)want[1],
+		      (long long)want[2], (long long)want[3], (long long)want[4],
+		      (long long)want[5], (long long)want[6], (long long)accepted);
+}
+
+/* The flood kept its pace, and no sanitizer slows everything down. */
+static bool flood_kept_pace(int64_t elapsed_ns)
+{
+#if defined(__SANITIZE_ADDRESS__)
+	(void)elapsed_ns;
+	return false;
+#else
+	return elapsed_ns < FLOOD_S * 1500 * NS_PER_MS;
+#endif
+}
+
+/*
+ * Message i of the flood: one in ten is hostile, of five kinds in turn; the
+ * others are the controller's own.  Returns the REJ_* kind of a hostile
+ * one, -1 for a good one.
+ */
+static int flood_send(struct fixture *f, int i)
+{
+	static const rmd_config_request_t other = { .utime = 2 };
+	rmd_command_t m = cmd_all(f, true);
+	int len, kind = -1;
+
+	switch (i % 10 == 9 ? (i / 10) % 5 : -1) {
+	case 0:
+		m.motor[1].position = NAN;
+		kind = RMD_HEALTH_T_REJ_NONFINITE;
+		break;
+	case 1:
+		m.motor[2].index = 40;
+		kind = RMD_HEALTH_T_REJ_INDEX;
+		break;
+	case 2:
+		m.count = 33;
+		kind = RMD_HEALTH_T_REJ_COUNT;
+		break;
+	case 3: /* truncated */
+		len = encode(f, &m);
+		send_raw(f, f->buf, len / 2);
+		return RMD_HEALTH_T_REJ_DECODE;
+	case 4: /* another type */
+		len = rmd_config_request_t_encode(f->buf, 0, (int)sizeof(f->buf), &other);
+		send_raw(f, f->buf, len);
+		return RMD_HEALTH_T_REJ_DECODE;
+	default:
+		break;
+	}
+	len = encode(f, &m);
+	send_raw(f, f->buf, len);
+	return kind;
+}
+
+static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
+{
+	struct fixture *f = fixture(state);
+	const int n = FLOOD_HZ * FLOOD_S;
+	int64_t sent_good = 0, sent_bad[RMD_HEALTH_T_REJ_KINDS] = { 0 }, bad = 0;
+	rmd_health_t *h0, *h1;
+	int64_t t, t0, t1, ticks, cycles, overruns, got_bad = 0;
+	double rate;
+
+	start_rmdd(f);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	enable_in_place(f);
+	stream(f, true, 300, done_never, 0);
+	h0 = rmd_health_t_copy(stream_health(f, true));
+	assert_int_equal(h0->watchdog, RMD_HEALTH_T_WD_OK);
+
+	/* No listener during the flood: its LCM thread would copy all of it. */
+	listen_off(f);
+	prctl(PR_SET_TIMERSLACK, 1UL); /* 50 us steps: the default slack would halve the rate */
+	t0 = t = now_ns();
+	for (int i = 0; i < n; i++) {
+		int kind = flood_send(f, i);
+
+		if (kind < 0) {
+			sent_good++;
+		} else {
+			sent_bad[kind]++;
+			bad++;
+		}
+		/* a late sender catches up without sleeping */
+		t += NS_PER_S / FLOOD_HZ;
+		if (now_ns() < t) {
+			struct timespec ts = { t / NS_PER_S, t % NS_PER_S };
+
+			clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
+		}
+	}
+	t1 = now_ns();
+	listen_on(f);
+	/* the controller goes on; health_t after the flood, once the counts settle */
+	stream(f, true, 300, done_never, 0);
+	WAIT_UNTIL(f,
+		   f->health && f->health->utime * 1000 > t1 + 200 * NS_PER_MS &&
+			   f->health->commands_rejected - h0->commands_rejected == bad,
+		   flood_kept_pace(t1 - t0) ? 3000 : 1000);
+	stream(f, true, 1, done_never, 0);
+	assert_non_null(f->health);
+	h1 = rmd_health_t_copy(f->health);
+
+	ticks = (h1->utime - h0->utime) * 1000 / (NS_PER_S / RATE_HZ);
+	cycles = h1->cycles - h0->cycles;
+	overruns = h1->overruns - h0->overruns;
+	rate = (double)cycles / ((double)(h1->utime - h0->utime) / 1e6);
+	for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
+		got_bad += h1->rejected_by_kind[k] - h0->rejected_by_kind[k];
+	print_message("flood: %d messages (%lld hostile) in %.3f s\n", n, (long long)bad,
+		      (t1 - t0) / 1e9);
+	print_message("flood: rmdd accepted %lld, rejected %lld (decode %lld, count %lld, "
+		      "index %lld, non-finite %lld)\n",
+		      (long long)(h1->commands_accepted - h0->commands_accepted),
+		      (long long)got_bad,
+		      (long long)(h1->rejected_by_kind[0] - h0->rejected_by_kind[0]),
+		      (long long)(h1->rejected_by_kind[1] - h0->rejected_by_kind[1]),
+		      (long long)(h1->rejected_by_kind[2] - h0->rejected_by_kind[2]),
+		      (long long)(h1->rejected_by_kind[3] - h0->rejected_by_kind[3]));
+	print_message("flood: rt loop %lld cycles in %.3f s (%.1f Hz), %lld periods skipped, "
+		      "wake-up p99 %.0f us, max %.0f us\n",
+		      (long long)cycles, (h1->utime - h0->utime) / 1e6, rate, (long long)overruns,
+		      h1->wake_p99_us, h1->wake_max_us);
+
+	/* nothing misclassified: each rejection is of the kind sent */
+	for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
+		assert_true(h1->rejected_by_kind[k] - h0->rejected_by_kind[k] <= sent_bad[k]);
+	assert_true(h1->commands_accepted - h0->commands_accepted <=
+		    sent_good + 400 /* the controller's own, around the flood */);
+	if (flood_kept_pace(t1 - t0)) {
+		/* every hostile message is counted, as what it was */
+		for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
+			assert_int_equal(h1->rejected_by_kind[k] - h0->rejected_by_kind[k],
+					 sent_bad[k]);
+	} else {
+		print_message("flood: sanitizer build, or the sender fell behind %d Hz: "
+			      "checking what arrived, not that all did\n",
+			      FLOOD_HZ);
+		assert_true(got_bad * 2 >= bad);
+	}
+	/*
+	 * The rt loop kept its cycle: its schedule advanced with the clock
+	 * (every period is run or counted as skipped; health_t samples the
+	 * loop's counters every 100 cycles, hence the slack), and it ran at
+	 * least 90% of the periods.  The hostile messages never reached it:
+	 * the controller's commands kept the watchdog fed, the motors enabled.
+	 */
+	if (cycles + overruns < ticks * 80 / 100)
+		fail_msg("the rt loop's schedule advanced %lld periods in %lld ms",
+			 (long long)(cycles + overruns), (long long)ticks);
+	if (cycles < (cycles + overruns) * 90 / 100)
+		fail_msg("the rt loop ran %lld of %lld periods (%lld skipped) through the flood",
+			 (long long)cycles, (long long)(cycles + overruns), (long long)overruns);
+	assert_int_equal(h1->watchdog, RMD_HEALTH_T_WD_OK);
+	assert_int_equal(h1->safe_action_events, h0->safe_action_events);
+	assert_int_equal(h1->commands_clamped, h0->commands_clamped);
+	assert_true(all_in(f, RMD_STATE_T_LC_ENABLED));
+	rmd_health_t_destroy(h0);
+	rmd_health_t_destroy(h1);
+	disable_all(f);
+}
+
+/* ---- tests: the watchdog ------------------------------------------------------------------ */
+
+static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
+{
+	struct fixture *f = fixture(state);
+	const rmd_health_t *h;
+	int64_t t_quiet, t_safe, t_trip, safe0;
+
+	start_rmdd(f);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	enable_in_place(f);
+	stream(f, true, 300, done_never, 0);
+	h = stream_health(f, true);
+	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
+	safe0 = h->safe_action_events;
+
+	/* the controller goes quiet: state_t shows the safe action first (every cycle) ... */
+	t_quiet = f->last_pub_ns;
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_SAFE), 2000);
+	if (!all_in(f, RMD_STATE_T_LC_SAFE))
+		fail_msg("no safe action 2 s after the last command; rmdd's output:\n%s",
+			 slurp(f->log));
+	t_safe = f->state.utime * 1000;
+	/* ... then health_t (10 Hz) */
+	WAIT_UNTIL(f, f->health->watchdog == RMD_HEALTH_T_WD_TRIPPED, 1000);
+	h = f->health;
+	if (h->watchdog != RMD_HEALTH_T_WD_TRIPPED)
+		fail_msg("health_t does not report the trip; rmdd's output:\n%s", slurp(f->log));
+	t_trip = h->utime * 1000;
+	print_message("watchdog: every motor safe in state_t %.0f ms after the last command "
+		      "(command timeout %d ms), health_t reported it %.0f ms after; safe actions "
+		      "%lld -> %lld\n",
+		      (t_safe - t_quiet) / 1e6, COMMAND_TIMEOUT_MS, (t_trip - t_quiet) / 1e6,
+		      (long long)safe0, (long long)h->safe_action_events);
+	/* not before the timeout, soon after it, and counted */
+	assert_true(t_safe - t_quiet >= (COMMAND_TIMEOUT_MS - 5) * NS_PER_MS);
+	assert_true(t_safe - t_quiet <= 5 * COMMAND_TIMEOUT_MS * NS_PER_MS);
+	assert_true(h->safe_action_events >= safe0 + 1);
+	WAIT_UNTIL(f, strstr(slurp(f->log), "<4>rmdd: controller: no command for 100 ms"), 1000);
+	assert_non_null(strstr(slurp(f->log), "<4>rmdd: controller: no command for 100 ms"));
+
+	/* latched: it stays tripped while nobody speaks */
+	WAIT_UNTIL(f, false, 300);
+	assert_int_equal(f->health->watchdog, RMD_HEALTH_T_WD_TRIPPED);
+	assert_true(all_in(f, RMD_STATE_T_LC_SAFE));
+
+	/* a new command with enable clears it */
+	safe0 = f->health->safe_action_events;
+	if (!stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED))
+		fail_msg("enable after the trip did not re-enable the motors; rmdd's output:\n%s",
+			 slurp(f->log));
+	h = stream_health(f, true);
+	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
+	assert_int_equal(h->safe_action_events, safe0);
+	disable_all(f);
+}
+
+/* ---- tests: the examples -------------------------------------------------------------------- */
+
+/* "whole run: NAME MODE tracking error rms X rad": X of each line, and how many lines. */
+static unsigned whole_run_rms(const char *out, double *max_rms)
+{
+	unsigned n = 0;
+
+	*max_rms = 0;
+	for (const char *s = out; (s = strstr(s, "whole run:")); s++) {
+		const char *r = strstr(s, "tracking error rms ");
+		const char *eol = strchr(s, '\n');
+		double v;
+
+		if (!r || (eol && r > eol))
+			continue;
+		v = strtod(r + strlen("tracking error rms "), NULL);
+		if (v > *max_rms)
+			*max_rms = v;
+		n++;
+	}
+	return n;
+}
+
+/* Run an example controller to its end (--duration) and check what it printed. */
+static void run_example(struct fixture *f, const char *const *argv, bool python, unsigned motors,
+			const char *mode)
+{
+	const char *out;
+	double rms = 0;
+	int st;
+
+	f->child = spawn(argv, f->child_log, python);
+	st = wait_exit(f->child, 20000);
+	if (st < 0)
+		fail_msg("%s did not end within 20 s; its output:\n%s", argv[0],
+			 slurp(f->child_log));
+	f->child = 0;
+	out = slurp(f->child_log);
+	if (st != 0)
+		fail_msg("%s exited %d; its output:\n%s\nrmdd's:\n%s", argv[0], st, out,
+			 slurp(f->log));
+	/* a line a second per motor, then the whole run's */
+	if (count_of(out, "tracking error rms ") < 3 * motors || whole_run_rms(out, &rms) != motors)
+		fail_msg("%s: want tracking error lines for %u motors; its output:\n%s", argv[0],
+			 motors, out);
+	assert_true(count_of(out, mode) >= motors);
+	/* it tracks: the error is a small part of the 0.5 rad amplitude */
+	if (!(rms < 0.1))
+		fail_msg("%s: tracking error rms %.4f rad; its output:\n%s", argv[0], rms, out);
+	assert_non_null(strstr(out, "enable = 0 sent"));
+	print_message("%s --mode %s: %u motors, largest whole-run rms error %.4f rad\n", argv[0],
+		      strstr(mode, "mit") ? "mit" : "position", motors, rms);
+	/* and it left the motors ready */
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 1000);
+	assert_true(all_in(f, RMD_STATE_T_LC_READY));
+}
+
+static void test_c_example_tracks_a_sine(void **state)
+{
+	struct fixture *f = fixture(state);
+	const char *pos[] = { sine_bin, "--url", f->url, "--duration", "3", NULL };
+	const char *mit[] = { sine_bin, "--url", f->url, "--duration", "3",   "--mode",
+			      "mit",	"--kp",	 "30",	 "--kd",       "1.5", NULL };
+
+	if (access(sine_bin, X_OK) < 0)
+		fail_msg("%s: %s (make build/sine_controller, or set SINE_CONTROLLER)", sine_bin,
+			 strerror(errno));
+	start_rmdd(f);
+	run_example(f, pos, false, NMOTORS, "position");
+	run_example(f, mit, false, NMOTORS - NPOS, "mit     ");
+	assert_non_null(strstr(slurp(f->child_log), "left alone (no mit mode): pos_1 pos_2 pos_3"));
+}
+
+/* Without Python's lcm and the rmd package: say so, loudly.  True when missing. */
+static bool python_missing(const char *what)
+{
+	if (have_python)
+		return false;
+	fprintf(stderr,
+		"\n*** test_lcm_system: SKIPPING %s: %s.\n"
+		"*** pip install lcm; make lcm-python (BUILD=%s)\n\n",
+		what,
+		!sine_py[0] ? "examples/sine.py not found" :
+			      "python3 cannot import lcm and rmd (PYTHONPATH=BUILD/python)",
+		pythonpath);
+	return true;
+}
+
+static void test_python_example_tracks_a_sine(void **state)
+{
+	struct fixture *f = fixture(state);
+	const char *argv[] = { "python3", sine_py, "--url", f->url, "--duration", "3", NULL };
+
+	if (python_missing("the Python example"))
+		skip();
+	start_rmdd(f);
+	run_example(f, argv, true, NMOTORS, "position");
+}
+
+/* SIGINT: enable = 0 to every motor, exit 0; the watchdog then has nothing to trip. */
+static void test_ctrl_c_stops_cleanly(void **state)
+{
+	struct fixture *f = fixture(state);
+	const char *argv[] = { sine_bin, "--url", f->url, "--mode", "mit", NULL };
+	const rmd_health_t *h;
+	int st;
+
+	start_rmdd(f);
+	f->child = spawn(argv, f->child_log, false);
+	WAIT_UNTIL(f,
+		   f->state.motor[NPOS].lifecycle == RMD_STATE_T_LC_ENABLED &&
+			   f->state.motor[NMOTORS - 1].lifecycle == RMD_STATE_T_LC_ENABLED,
+		   5000);
+	if (f->state.motor[NPOS].lifecycle != RMD_STATE_T_LC_ENABLED)
+		fail_msg("the controller did not enable the MIT motors; its output:\n%s",
+			 slurp(f->child_log));
+	WAIT_UNTIL(f, false, 500);
+	st = stop_child(&f->child, SIGINT, 3000);
+	if (st != 0)
+		fail_msg("SIGINT: exit %d; its output:\n%s", st, slurp(f->child_log));
+	assert_non_null(strstr(slurp(f->child_log), "stopped: enable = 0 sent to 3 motors"));
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 500);
+	assert_true(all_in(f, RMD_STATE_T_LC_READY));
+	/* well past the command timeout: no motor enabled, so no trip and no safe action */
+	WAIT_UNTIL(f, false, 3 * COMMAND_TIMEOUT_MS);
+	h = health_after(f, now_ns(), 1000);
+	assert_int_equal(h->safe_action_events, 0);
+	assert_int_not_equal(h->watchdog, RMD_HEALTH_T_WD_TRIPPED);
+	assert_true(all_in(f, RMD_STATE_T_LC_READY));
+}
+
+/* Without rmdd the examples say so within ~2 s and exit 1. */
+static void test_examples_refuse_without_rmdd(void **state)
+{
+	struct fixture *f = fixture(state);
+	const char *c_argv[] = { sine_bin, "--url", f->url, NULL };
+	const char *py_argv[] = { "python3", sine_py, "--url", f->url, NULL };
+	int64_t t0 = now_ns();
+	int st;
+
+	f->child = spawn(c_argv, f->child_log, false);
+	st = wait_exit(f->child, 5000);
+	f->child = st < 0 ? f->child : 0;
+	assert_int_equal(st, 1);
+	assert_true(now_ns() - t0 < 4 * NS_PER_S);
+	assert_non_null(strstr(slurp(f->child_log), "no rmd.config_t on RMD_CONFIG within 2 s: "
+						    "is rmdd running"));
+	if (python_missing("the Python half of this test"))
+		return;
+	t0 = now_ns();
+	f->child = spawn(py_argv, f->child_log, true);
+	st = wait_exit(f->child, 8000);
+	f->child = st < 0 ? f->child : 0;
+	if (st != 1)
+		fail_msg("sine.py without rmdd: exit %d; its output:\n%s", st, slurp(f->child_log));
+	assert_non_null(strstr(slurp(f->child_log), "no rmd.config_t on RMD_CONFIG within 2 s"));
+	print_message("without rmdd: sine.py gave up after %.1f s\n", (now_ns() - t0) / 1e9);
+}
+
+/* ---- tests: recording ------------------------------------------------------------------------- */
+
+/* What a log holds: events per channel, the states decoded. */
+struct log_summary {
+	unsigned states, health, commands, configs, other;
+	rmd_state_t last_enabled; /* the newest state with every motor enabled */
+	bool have_enabled;
+	bool cycles_increase;
+};
+
+static void read_log(const char *path, struct log_summary *ls)
+{
+	lcm_eventlog_t *log = lcm_eventlog_create(path, "r");
+	lcm_eventlog_event_t *ev;
+	int64_t last_cycle = -1;
+
+	memset(ls, 0, sizeof(*ls));
+	ls->cycles_increase = true;
+	if (!log)
+		fail_msg("lcm_eventlog_create(%s) failed", path);
+	while ((ev = lcm_eventlog_read_next_event(log))) {
+		if (!strcmp(ev->channel, "RMD_STATE")) {
+			rmd_state_t s;
+			bool all;
+
+			assert_true(rmd_state_t_decode(ev->data, 0, (int)ev->datalen, &s) > 0);
+			ls->states++;
+			if (s.cycle <= last_cycle)
+				ls->cycles_increase = false;
+			last_cycle = s.cycle;
+			all = s.count == NMOTORS;
+			for (int i = 0; all && i < NMOTORS; i++)
+				all = s.motor[i].lifecycle == RMD_STATE_T_LC_ENABLED;
+			if (all) {
+				ls->last_enabled = s;
+				ls->have_enabled = true;
+			}
+			rmd_state_t_decode_cleanup(&s);
+		} else if (!strcmp(ev->channel, "RMD_HEALTH")) {
+			ls->health++;
+		} else if (!strcmp(ev->channel, "RMD_COMMAND")) {
+			ls->commands++;
+		} else if (!strcmp(ev->channel, "RMD_CONFIG")) {
+			ls->configs++;
+		} else {
+			ls->other++;
+		}
+		lcm_eventlog_free_event(ev);
+	}
+	lcm_eventlog_destroy(log);
+}
+
+/* The decode recipe of examples/README.md, with the generated Python types. */
+static const char decode_py[] =
+	"import sys, lcm, rmd\n"
+	"n, last = 0, None\n"
+	"for ev in lcm.EventLog(sys.argv[1], 'r'):\n"
+	"    if ev.channel == 'RMD_STATE':\n"
+	"        s = rmd.state_t.decode(ev.data)\n"
+	"        n += 1\n"
+	"        if all(s.motor[i].lifecycle == rmd.state_t.LC_ENABLED for i in range(s.count)):\n"
+	"            last = s\n"
+	"print('states', n)\n"
+	"print('enabled', ' '.join('%.4f' % last.motor[i].position for i in range(last.count)))\n";
+
+/* lcm-logger records rmdd's channels; the log decodes into the states the motors were in. */
+static void test_logger_records_state(void **state)
+{
+	struct fixture *f = fixture(state);
+	char path[400], py[400], url_opt[160];
+	const char *argv[] = { "lcm-logger", url_opt, "-c", "RMD_.*", "-f", "-q", path, NULL };
+	struct log_summary ls;
+	struct stat st;
+	int64_t end;
+	int rc;
+
+	if (!have_logger) {
+		fprintf(stderr,
+			"\n*** test_lcm_system: SKIPPING the lcm-logger test: no lcm-logger "
+			"in PATH (apt install liblcm-bin)\n\n");
+		skip();
+	}
+	snprintf(path, sizeof(path), "%s/run.%u.lcmlog", tmpdir, test_no);
+	snprintf(url_opt, sizeof(url_opt), "--lcm-url=%s", f->url);
+	start_rmdd(f);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->child = spawn(argv, f->child_log, false);
+	/* the logger writes once it hears something (it flushes every 100 ms) */
+	end = now_ns() + 3 * NS_PER_S;
+	while (!(stat(path, &st) == 0 && st.st_size > 0) && now_ns() < end)
+		pump(f, 5);
+	if (!(stat(path, &st) == 0 && st.st_size > 0))
+		fail_msg("lcm-logger wrote nothing within 3 s; its output:\n%s",
+			 slurp(f->child_log));
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = i < NPOS ? -0.5 : 0.7;
+	if (!stream(f, true, 5000, done_target, 20))
+		fail_msg("the motors did not reach their targets; rmdd's output:\n%s",
+			 slurp(f->log));
+	stream(f, true, 300, done_never, 0);
+	disable_all(f);
+	rc = stop_child(&f->child, SIGINT, 3000);
+	if (rc != 0)
+		fail_msg("lcm-logger: exit %d on SIGINT; its output:\n%s", rc, slurp(f->child_log));
+
+	read_log(path, &ls);
+	print_message("lcm-logger: %u state_t, %u health_t, %u command_t, %u config_t, "
+		      "%u other\n",
+		      ls.states, ls.health, ls.commands, ls.configs, ls.other);
+	assert_true(ls.states > 300);
+	assert_true(ls.health >= 3);
+	assert_true(ls.commands > 50);
+	assert_true(ls.cycles_increase);
+	assert_int_equal(ls.other, 0);
+	assert_true(ls.have_enabled);
+	for (int i = 0; i < NMOTORS; i++)
+		if (!(fabs(ls.last_enabled.motor[i].position - f->target[i]) < 0.02))
+			fail_msg("logged state: motor %d at %.4f rad, target %.4f", i,
+				 ls.last_enabled.motor[i].position, f->target[i]);
+
+	/* the same log through the generated Python types (examples/README.md) */
+	if (python_missing("decoding the log in Python"))
+		return;
+	snprintf(py, sizeof(py), "%s/decode.py", tmpdir);
+	{
+		FILE *fp = fopen(py, "w");
+		const char *py_argv[] = { "python3", py, path, NULL };
+		const char *out;
+		char want[32];
+
+		assert_non_null(fp);
+		fputs(decode_py, fp);
+		assert_int_equal(fclose(fp), 0);
+		f->child = spawn(py_argv, f->child_log, true);
+		rc = wait_exit(f->child, 20000);
+		f->child = rc < 0 ? f->child : 0;
+		out = slurp(f->child_log);
+		if (rc != 0)
+			fail_msg("decoding the log in Python: exit %d:\n%s", rc, out);
+		snprintf(want, sizeof(want), "states %u\n", ls.states);
+		assert_non_null(strstr(out, want));
+		for (int i = 0; i < NMOTORS; i++) {
+			char pos[32];
+
+			snprintf(pos, sizeof(pos), "%s%.4f", i ? " " : "enabled ",
+				 ls.last_enabled.motor[i].position);
+			if (!strstr(out, pos))
+				fail_msg("Python decoded the log otherwise: want \"%s\" in:\n%s",
+					 pos, out);
+		}
+	}
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test_setup_teardown(test_setpoints_move_the_motors, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_hostile_messages_rejected_and_counted, setup,
+						teardown),
+		cmocka_unit_test_setup_teardown(test_flood_counted_while_the_loop_keeps_its_cycle,
+						setup, teardown),
+		cmocka_unit_test_setup_teardown(
+			test_silence_trips_the_watchdog_and_enable_clears_it, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_c_example_tracks_a_sine, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_python_example_tracks_a_sine, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_ctrl_c_stops_cleanly, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_examples_refuse_without_rmdd, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_logger_records_state, setup, teardown),
+	};
+
+	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood* */
+		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
+	return cmocka_run_group_tests_name("lcm_system", tests, group_setup, group_teardown);
+}
