@@ -25,6 +25,7 @@
 #include <string.h>
 #include <sys/mman.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "rmd/err.h"
 #include "rmd/bus_rs485.h"
@@ -1121,8 +1122,16 @@ static void publish(struct rmd_loop *l, int64_t now)
 	fill_snapshot(l, now);
 	wake_summary(l);
 	pub_write(l);
-	if (l->o.snapshots)
+	if (l->o.snapshots) {
 		rmd_latest_put(l->o.snapshots, s);
+		if (l->o.snapshot_fd > 0) {
+			uint64_t one = 1;
+			/* Non-blocking; EAGAIN means the bridge has a wake-up pending anyway. */
+			ssize_t w = write(l->o.snapshot_fd, &one, sizeof(one));
+
+			(void)w;
+		}
+	}
 	if (l->o.health && l->cycle >= l->next_health_cycle) {
 		fill_health(l, rmd_latest_write_slot(l->o.health), now);
 		rmd_latest_publish(l->o.health);

@@ -98,6 +98,11 @@ struct rmd_loop_opts {
 	struct rmd_latest *snapshots; /* loop -> bridge: struct rmd_snapshot */
 	struct rmd_latest *health;    /* loop -> bridge: struct rmd_health */
 	struct rmd_ring *events;      /* loop -> logger: struct rmd_event */
+	/*
+	 * An eventfd (non-blocking) the loop writes after each snapshot, so the
+	 * bridge publishes it at once instead of at its next poll; <= 0: none.
+	 */
+	int snapshot_fd;
 	/* Time source; NULL: clock_gettime(CLOCK_MONOTONIC).  Tests inject one. */
 	int64_t (*now_ns)(void *ctx);
 	void *now_ctx;

@@ -52,6 +52,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <sys/eventfd.h>
 #include <sys/signalfd.h>
 
 #include "rmd/config.h"
@@ -100,7 +101,8 @@ struct rmdd_opts {
 struct rmdd {
 	struct rmd_config cfg;
 	struct rmd_plan plan;
-	int sfd; /* signalfd: SIGTERM, SIGINT, SIGUSR1, SIGHUP */
+	int sfd;	 /* signalfd: SIGTERM, SIGINT, SIGUSR1, SIGHUP */
+	int snapshot_fd; /* eventfd: the loop pokes the bridge after each snapshot */
 	struct rmd_bus buses[RMD_MAX_BUSES];
 	/* hand-overs: bridge -> loop, loop -> bridge, loop -> monitor -> bridge */
 	struct rmd_latest commands, snapshots, health_loop, health_bridge;
@@ -376,11 +378,16 @@ static int handovers_init(struct rmdd *d)
 	rmd_latest_init(&d->snapshots, d->buf_snapshots, sizeof(struct rmd_snapshot));
 	rmd_latest_init(&d->health_loop, d->buf_health_loop, sizeof(struct rmd_health));
 	rmd_latest_init(&d->health_bridge, d->buf_health_bridge, sizeof(struct rmd_health));
+	d->snapshot_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	if (d->snapshot_fd < 0)
+		return -errno;
 	return rmd_ring_init(&d->events, d->buf_events, RMDD_EVENT_SLOTS, sizeof(struct rmd_event));
 }
 
 static void handovers_free(struct rmdd *d)
 {
+	if (d->snapshot_fd > 0)
+		close(d->snapshot_fd);
 	free(d->buf_events);
 	free(d->buf_health_bridge);
 	free(d->buf_health_loop);
@@ -610,6 +617,7 @@ static int run(const struct rmdd_opts *o)
 		return RMDD_EXIT_FAIL;
 	}
 	d->sfd = -1;
+	d->snapshot_fd = -1;
 	ret = load(d, o);
 	if (ret != RMDD_EXIT_OK)
 		goto err_free;
@@ -622,8 +630,9 @@ static int run(const struct rmdd_opts *o)
 	rmdd_notify_init(&d->notify);
 	if (rmdd_buses_open(&d->cfg, &d->plan, d->buses) < 0)
 		goto err_close_signals;
-	if (handovers_init(d) < 0) {
-		rmdd_log(3, "out of memory");
+	r = handovers_init(d);
+	if (r < 0) {
+		rmdd_log(3, "hand-over buffers: %s", strerror(-r));
 		goto err_free_handovers;
 	}
 
@@ -635,6 +644,7 @@ static int run(const struct rmdd_opts *o)
 		.snapshots = &d->snapshots,
 		.health = &d->health_loop,
 		.events = &d->events,
+		.snapshot_fd = d->snapshot_fd,
 		.require_rt = o->require_rt,
 	};
 	d->loop = rmd_loop_new(&lo, err, sizeof(err));
@@ -662,6 +672,7 @@ static int run(const struct rmdd_opts *o)
 	/* before LCM: a thread it may create must not inherit a real-time policy */
 	main_thread_normal(d);
 	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, &d->commands, &d->snapshots, &d->health_bridge);
+	bo.notify_fd = d->snapshot_fd;
 	r = rmd_bridge_init(&d->bridge, &bo, err, sizeof(err));
 	if (r < 0) {
 		rmdd_log(3, "LCM: %s; --lcm-url memq:// runs without LCM traffic", err);
