@@ -170,6 +170,9 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 {
 	/* A bus that takes no frame at all (bus-off, a stuck queue) ends the round too. */
 	int64_t end_ns = rmd_txn_now_ns() + timeout_ns + (int64_t)n * spacing_ns;
+	/* RS485: how long the round may wait for the transport's queue to empty (below). */
+	int64_t drain_end_ns = end_ns + (int64_t)RMD_RS485_QUEUE * spacing_ns;
+	bool rs485 = !strcmp(bus->ops->kind, "rs485");
 	unsigned k = 0;
 
 	for (unsigned i = 0; i < n; i++)
@@ -201,6 +204,25 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 				if (t[i].deadline_ns < next)
 					next = t[i].deadline_ns;
 			}
+		}
+		/*
+		 * Half-duplex RS485 writes each queued request only after the
+		 * previous one's answer or timeout, judged when recv() runs,
+		 * so it falls behind the deadlines above.  A request given up
+		 * on here still goes out later, ahead of the next round's and
+		 * the next batch's, which then time out in turn (32 silent ids
+		 * of a scan starve its 0xB5/0xB2 reads).  So the round lasts
+		 * until the queue is empty, waking at the transport's own
+		 * deadline; late answers still count (collect()).
+		 */
+		if (rs485 && rmd_rs485_pending(bus) && now < drain_end_ns) {
+			int64_t due = rmd_rs485_deadline_ns(bus);
+
+			if (due <= now) /* a write the tty refused: retry soon */
+				due = now + RMD_TXN_STEP_NS;
+			waiting = true;
+			if (due < next)
+				next = due;
 		}
 		if (!waiting && !unsent)
 			return 0;

@@ -1,0 +1,786 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl over a real serial line (issue 4: "the same scan works over a
+ * pseudo-terminal against rmd-sim in RS485 mode"): the built rmd-sim
+ * ($RMDSIM, else $BUILD/rmd-sim, else build/rmd-sim) and rmdctl ($RMDCTL,
+ * else $BUILD/rmdctl, else build/rmdctl) run as real child processes, each
+ * on its own pseudo-terminal, because each wants a device path:
+ *
+ *   rmd-sim --serial A  ==  pty A  ==  relay thread  ==  pty B  ==  rmdctl --bus B
+ *
+ * The relay copies bytes between the two masters both ways, unchanged: a
+ * null-modem cable in software.  One rmd-sim serves the whole group, so a
+ * motor moved by one rmdctl run is still there for the next.
+ *
+ * The test holds each slave open itself, never reading it, so that a
+ * master does not hang up (POLLHUP on every poll) while no program has
+ * the line open, e.g. between two rmdctl runs.
+ *
+ * Nothing sleeps to wait for a result: every wait polls a descriptor until
+ * a deadline (generous, for sanitizers and slow VMs); a child that outlives
+ * its deadline is killed and the test fails.
+ */
+/*
+ * Runs that must succeed get a 20 ms per-try timeout instead of rmdctl's
+ * 5 ms: three processes and a relay thread share this 2-CPU VM, and a
+ * 15 ms stall is not what these tests are about.  The silent-motor test
+ * keeps the default, where the bound is the point.
+ */
+#define OK_TIMEOUT_MS 20
+#define OK_TIMEOUT_ARG "20"
+#define _GNU_SOURCE
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <poll.h>
+#include <pthread.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sys/eventfd.h>
+#include <sys/ioctl.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+
+#include <cmocka.h>
+
+#include "rmd/bus_rs485.h"
+#include "rmd/rs485.h"
+#include "rmd/txn.h"
+
+#define MS 1000000LL
+#define BAUD 1000000
+#define BAUD_ARG "1000000"
+#define READY_MS 15000	   /* rmd-sim's start, under ASan inside a VM */
+#define RUN_LIMIT_MS 20000 /* any rmdctl run; beyond it: killed, a hang */
+#define EXIT_MS 5000	   /* SIGTERM to exit */
+/* Process start, bus open and exit around the transactions, under ASan on a busy host. */
+#define MARGIN_MS 1000
+#define RELAY_BUF 4096
+#define LOG_MAX (1 << 16)
+
+/* One rmdctl run. */
+struct run {
+	int status; /* exit status, or 128 + signal */
+	char out[LOG_MAX];
+	char err[LOG_MAX];
+	int64_t took_ns;
+};
+
+/* Bytes in flight from one master to the other. */
+struct relay_dir {
+	int from, to;
+	uint8_t buf[RELAY_BUF];
+	size_t len;
+	atomic_ullong bytes; /* copied so far */
+};
+
+struct pty {
+	int master;
+	int hold; /* our own descriptor of the slave, never read */
+	char path[64];
+};
+
+struct rig {
+	char rmdsim[4096];
+	char rmdctl[4096];
+	struct pty a, b; /* a: rmd-sim's end; b: rmdctl's end */
+	struct relay_dir a2b, b2a;
+	int stop;	      /* eventfd: the relay ends */
+	atomic_int relay_err; /* errno that ended the relay early, or 0 */
+	pthread_t relay;
+	bool relay_started;
+	pid_t sim; /* 0 when not running */
+	int sim_log_fd;
+	char sim_log[LOG_MAX];
+	size_t sim_logn;
+	struct run run; /* the last rmdctl run (too big for the stack of a test) */
+};
+
+static int64_t mono_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+static int ms_left(int64_t deadline_ns)
+{
+	int64_t left = deadline_ns - mono_ns();
+
+	return left <= 0 ? 0 : (int)((left + MS - 1) / MS);
+}
+
+/* Append what fd has now (non-blocking) to buf; false at end of file. */
+static bool slurp_into(int fd, char *buf, size_t *n, size_t cap)
+{
+	for (;;) {
+		char tmp[4096];
+		ssize_t r = read(fd, tmp, sizeof(tmp));
+
+		if (r == 0)
+			return false;
+		if (r < 0)
+			return errno == EAGAIN || errno == EINTR;
+		if (*n + (size_t)r >= cap) {
+			/* Keep the newest half. */
+			size_t keep = cap / 2;
+
+			if (keep > *n)
+				keep = *n;
+			memmove(buf, buf + *n - keep, keep);
+			*n = keep;
+		}
+		if ((size_t)r >= cap - *n)
+			r = (ssize_t)(cap - *n - 1);
+		memcpy(buf + *n, tmp, (size_t)r);
+		*n += (size_t)r;
+		buf[*n] = '\0';
+	}
+}
+
+static void drain_sim_log(struct rig *g)
+{
+	/* At its end (rmd-sim gone) the pipe is closed, or every poll on it would return at once. */
+	if (g->sim_log_fd >= 0 &&
+	    !slurp_into(g->sim_log_fd, g->sim_log, &g->sim_logn, sizeof(g->sim_log))) {
+		close(g->sim_log_fd);
+		g->sim_log_fd = -1;
+	}
+}
+
+/* ---- the line: two pseudo-terminals and the relay between them -------------------------- */
+
+static int raw_tty(int fd)
+{
+	struct termios tio;
+
+	if (tcgetattr(fd, &tio) < 0)
+		return -errno;
+	cfmakeraw(&tio);
+	if (tcsetattr(fd, TCSANOW, &tio) < 0)
+		return -errno;
+	return 0;
+}
+
+static int pty_open(struct pty *p)
+{
+	p->master = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+	if (p->master < 0)
+		return -errno;
+	if (grantpt(p->master) < 0 || unlockpt(p->master) < 0 ||
+	    ptsname_r(p->master, p->path, sizeof(p->path)) != 0)
+		return -errno;
+	if (raw_tty(p->master) < 0 || fcntl(p->master, F_SETFL, O_NONBLOCK) < 0)
+		return -errno;
+	p->hold = open(p->path, O_RDWR | O_NOCTTY | O_CLOEXEC | O_NONBLOCK);
+	if (p->hold < 0)
+		return -errno;
+	/* Raw before any program opens it: no echo, no line editing, no CR/NL mapping. */
+	return raw_tty(p->hold);
+}
+
+static void pty_close(struct pty *p)
+{
+	if (p->hold >= 0)
+		close(p->hold);
+	if (p->master >= 0)
+		close(p->master);
+	p->hold = p->master = -1;
+}
+
+/* Write what d holds to its destination, as much as it takes now. */
+static int relay_flush(struct relay_dir *d)
+{
+	while (d->len) {
+		ssize_t w = write(d->to, d->buf, d->len);
+
+		if (w < 0)
+			return errno == EAGAIN || errno == EINTR ? 0 : -errno;
+		memmove(d->buf, d->buf + w, d->len - (size_t)w);
+		d->len -= (size_t)w;
+		atomic_fetch_add(&d->bytes, (unsigned long long)w);
+	}
+	return 0;
+}
+
+static int relay_fill(struct relay_dir *d)
+{
+	ssize_t r = read(d->from, d->buf + d->len, sizeof(d->buf) - d->len);
+
+	if (r < 0)
+		return errno == EAGAIN || errno == EINTR ? 0 : -errno;
+	if (r == 0)
+		return -EPIPE;
+	d->len += (size_t)r;
+	/* Straight on: the motors' 5 ms reply timeout leaves no room for a poll round trip. */
+	return relay_flush(d);
+}
+
+static short relay_events(const struct relay_dir *in, const struct relay_dir *out)
+{
+	return (short)((in->len < sizeof(in->buf) ? POLLIN : 0) | (out->len ? POLLOUT : 0));
+}
+
+static void *relay_main(void *arg)
+{
+	struct rig *g = arg;
+	int r = 0;
+
+	while (!r) {
+		struct pollfd p[3] = {
+			{ .fd = g->stop, .events = POLLIN },
+			{ .fd = g->a.master, .events = relay_events(&g->a2b, &g->b2a) },
+			{ .fd = g->b.master, .events = relay_events(&g->b2a, &g->a2b) },
+		};
+
+		if (poll(p, 3, -1) < 0) {
+			r = errno == EINTR ? 0 : -errno;
+			continue;
+		}
+		if (p[0].revents)
+			break;
+		/* With the slaves held open a master never hangs up: anything else is an error. */
+		if ((p[1].revents | p[2].revents) & (POLLERR | POLLHUP | POLLNVAL)) {
+			r = -EPIPE;
+			break;
+		}
+		if (p[1].revents & POLLIN)
+			r = relay_fill(&g->a2b);
+		if (!r && (p[2].revents & POLLIN))
+			r = relay_fill(&g->b2a);
+		if (!r && (p[1].revents & POLLOUT))
+			r = relay_flush(&g->b2a);
+		if (!r && (p[2].revents & POLLOUT))
+			r = relay_flush(&g->a2b);
+	}
+	atomic_store(&g->relay_err, -r);
+	return NULL;
+}
+
+static void relay_check(struct rig *g)
+{
+	int e = atomic_load(&g->relay_err);
+
+	if (e)
+		fail_msg("the relay between the pseudo-terminals stopped: %s", strerror(e));
+}
+
+/* ---- child processes -------------------------------------------------------------------- */
+
+/* fork + exec path argv, stdin /dev/null, stdout and stderr to the pipes' write ends. */
+static pid_t spawn(const char *path, const char *const *argv, int out_fd, int err_fd)
+{
+	pid_t pid = fork();
+
+	if (pid != 0)
+		return pid;
+	/* The child: async-signal-safe calls only (the relay thread runs in the parent). */
+	{
+		int null = open("/dev/null", O_RDONLY);
+
+		if (null >= 0)
+			dup2(null, STDIN_FILENO);
+		dup2(out_fd, STDOUT_FILENO);
+		dup2(err_fd, STDERR_FILENO);
+		/* A crashed test must not leave motors (or a hung rmdctl) behind. */
+		prctl(PR_SET_PDEATHSIG, SIGKILL);
+		execv(path, (char *const *)argv);
+		_exit(127);
+	}
+}
+
+static bool sim_alive(struct rig *g)
+{
+	int st;
+
+	if (g->sim <= 0)
+		return false;
+	if (waitpid(g->sim, &st, WNOHANG) == g->sim) {
+		g->sim = 0;
+		return false;
+	}
+	return true;
+}
+
+static void need_sim(struct rig *g)
+{
+	relay_check(g);
+	drain_sim_log(g);
+	if (!sim_alive(g))
+		fail_msg("rmd-sim is not running; its log:\n%s", g->sim_log);
+}
+
+/* Run rmdctl with args (NULL-terminated); rmd-sim's log is drained meanwhile. */
+static void run_argv(struct rig *g, struct run *r, const char *const *args)
+{
+	const char *argv[48];
+	int out[2], err[2], st;
+	size_t n = 0, outn = 0, errn = 0;
+	bool out_open = true, err_open = true, exited = false;
+	int64_t start, deadline;
+	pid_t pid;
+
+	argv[n++] = g->rmdctl;
+	for (; *args && n < 47; args++)
+		argv[n++] = *args;
+	argv[n] = NULL;
+	r->out[0] = r->err[0] = '\0';
+	assert_int_equal(pipe2(out, O_CLOEXEC), 0);
+	assert_int_equal(pipe2(err, O_CLOEXEC), 0);
+	/*
+	 * rmdctl sets TIOCEXCL on the line, and our own descriptor keeps the
+	 * tty, and that flag, alive after it closes: clear it, as the last
+	 * close does on a real port, or the next run gets EBUSY (unless root).
+	 */
+	assert_int_equal(ioctl(g->b.hold, TIOCNXCL), 0);
+	start = mono_ns();
+	deadline = start + RUN_LIMIT_MS * MS;
+	pid = spawn(g->rmdctl, argv, out[1], err[1]);
+	assert_true(pid > 0);
+	close(out[1]);
+	close(err[1]);
+	fcntl(out[0], F_SETFL, O_NONBLOCK);
+	fcntl(err[0], F_SETFL, O_NONBLOCK);
+	while (out_open || err_open) {
+		struct pollfd p[3] = {
+			{ .fd = out_open ? out[0] : -1, .events = POLLIN },
+			{ .fd = err_open ? err[0] : -1, .events = POLLIN },
+			{ .fd = g->sim_log_fd, .events = POLLIN },
+		};
+
+		if (!ms_left(deadline))
+			break;
+		poll(p, 3, ms_left(deadline));
+		if (out_open)
+			out_open = slurp_into(out[0], r->out, &outn, sizeof(r->out));
+		if (err_open)
+			err_open = slurp_into(err[0], r->err, &errn, sizeof(r->err));
+		drain_sim_log(g);
+	}
+	close(out[0]);
+	close(err[0]);
+	/* Both pipes closed: it has exited, or is about to; look every 5 ms. */
+	while (!out_open && !err_open && ms_left(deadline)) {
+		pid_t w = waitpid(pid, &st, WNOHANG);
+
+		assert_true(w >= 0);
+		if (w == pid) {
+			exited = true;
+			break;
+		}
+		poll(NULL, 0, 5);
+	}
+	r->took_ns = mono_ns() - start;
+	if (!exited) {
+		kill(pid, SIGKILL);
+		waitpid(pid, NULL, 0);
+		fail_msg("rmdctl %s did not end within %d ms; stderr so far:\n%s", argv[1],
+			 RUN_LIMIT_MS, r->err);
+	}
+	r->status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+#define RUN(g, r, ...) run_argv((g), (r), (const char *const[]){ __VA_ARGS__, NULL })
+
+/* needle in hay, a part of r's output; else fail with both of r's streams. */
+static void assert_has(const struct run *r, const char *hay, const char *needle, const char *what)
+{
+	if (!strstr(hay, needle))
+		fail_msg("%s: \"%s\" missing from:\n%s\nstdout:\n%s\nstderr:\n%s", what, needle,
+			 hay, r->out, r->err);
+}
+
+static void assert_status(const struct run *r, int status, const char *what)
+{
+	if (r->status != status)
+		fail_msg("%s: exit %d, expected %d\nstdout:\n%s\nstderr:\n%s", what, r->status,
+			 status, r->out, r->err);
+}
+
+static void assert_sim_log(const struct rig *g, const char *needle, const char *what)
+{
+	if (!strstr(g->sim_log, needle))
+		fail_msg("%s: \"%s\" missing from rmd-sim's log:\n%s", what, needle, g->sim_log);
+}
+
+/* The number after "key": in a JSON line; fails when absent. */
+static double json_num(const char *line, const char *key)
+{
+	char pat[64];
+	const char *p;
+
+	snprintf(pat, sizeof(pat), "\"%s\":", key);
+	p = strstr(line, pat);
+	if (!p)
+		fail_msg("no %s in %s", pat, line);
+	return strtod(p + strlen(pat), NULL);
+}
+
+static double ms_of(int64_t ns)
+{
+	return (double)ns / 1e6;
+}
+
+/*
+ * Longest a batch of n requests may keep rmd_txn_run() busy on this line
+ * when nobody answers (rmd/txn.h): tries * (timeout + n * spacing), where
+ * the spacing of half-duplex RS485 is the transport's default reply timeout
+ * (rmd/bus_rs485.h: RMD_RS485_TURNAROUND_NS + a request's and a reply's
+ * wire time).
+ */
+static int64_t silent_ns(unsigned n, int64_t timeout_ns, unsigned tries)
+{
+	int64_t spacing_ns = RMD_RS485_TURNAROUND_NS + 2 * rmd_rs485_frame_ns(BAUD);
+
+	return (int64_t)tries * (timeout_ns + (int64_t)n * spacing_ns);
+}
+
+/* ---- setup ------------------------------------------------------------------------------ */
+
+static void find_prog(char *out, size_t size, const char *env, const char *name)
+{
+	const char *e = getenv(env), *build = getenv("BUILD");
+
+	if (e && *e)
+		snprintf(out, size, "%s", e);
+	else
+		snprintf(out, size, "%s/%s", build && *build ? build : "build", name);
+}
+
+static int group_teardown(void **state);
+
+static int group_setup(void **state)
+{
+	struct rig *g = calloc(1, sizeof(*g));
+	const char *argv[] = { NULL, "--serial", NULL, "--baud", BAUD_ARG, "--motors", "1-3", NULL };
+	int logp[2], r;
+	int64_t deadline;
+
+	if (!g)
+		return -1;
+	*state = g;
+	g->a.master = g->a.hold = g->b.master = g->b.hold = -1;
+	g->stop = g->sim_log_fd = -1;
+	atomic_init(&g->a2b.bytes, 0);
+	atomic_init(&g->b2a.bytes, 0);
+	atomic_init(&g->relay_err, 0);
+	find_prog(g->rmdsim, sizeof(g->rmdsim), "RMDSIM", "rmd-sim");
+	find_prog(g->rmdctl, sizeof(g->rmdctl), "RMDCTL", "rmdctl");
+	if (access(g->rmdsim, X_OK) != 0 || access(g->rmdctl, X_OK) != 0) {
+		print_error("rmd-sim \"%s\" or rmdctl \"%s\" not built (set RMDSIM, RMDCTL or "
+			    "BUILD)\n",
+			    g->rmdsim, g->rmdctl);
+		goto err;
+	}
+	/* --bus below is the only bus: no default from the environment. */
+	unsetenv("RMDCTL_BUS");
+
+	r = pty_open(&g->a);
+	if (r == 0)
+		r = pty_open(&g->b);
+	if (r < 0) {
+		print_error("pseudo-terminals: %s\n", strerror(-r));
+		goto err;
+	}
+	g->a2b = (struct relay_dir){ .from = g->a.master, .to = g->b.master };
+	g->b2a = (struct relay_dir){ .from = g->b.master, .to = g->a.master };
+	g->stop = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	if (g->stop < 0)
+		goto err;
+	r = pthread_create(&g->relay, NULL, relay_main, g);
+	if (r) {
+		print_error("pthread_create: %s\n", strerror(r));
+		goto err;
+	}
+	g->relay_started = true;
+
+	if (pipe2(logp, O_CLOEXEC) < 0)
+		goto err;
+	argv[0] = g->rmdsim;
+	argv[2] = g->a.path;
+	g->sim = spawn(g->rmdsim, argv, logp[1], logp[1]);
+	close(logp[1]);
+	g->sim_log_fd = logp[0];
+	if (g->sim < 0) {
+		g->sim = 0;
+		goto err;
+	}
+	fcntl(g->sim_log_fd, F_SETFL, O_NONBLOCK);
+	deadline = mono_ns() + READY_MS * MS;
+	for (;;) {
+		struct pollfd p = { .fd = g->sim_log_fd, .events = POLLIN };
+
+		drain_sim_log(g);
+		if (strstr(g->sim_log, ": ready"))
+			break;
+		if (!ms_left(deadline) || !sim_alive(g)) {
+			print_error("rmd-sim did not get ready; its log:\n%s\n", g->sim_log);
+			goto err;
+		}
+		poll(&p, 1, ms_left(deadline) < 50 ? ms_left(deadline) : 50);
+	}
+	print_message("line: rmd-sim on %s, rmdctl on %s, %d baud\n", g->a.path, g->b.path, BAUD);
+	return 0;
+
+err:
+	group_teardown(state);
+	*state = NULL;
+	return -1;
+}
+
+static int group_teardown(void **state)
+{
+	struct rig *g = *state;
+
+	if (!g)
+		return 0;
+	if (g->sim > 0) {
+		kill(g->sim, SIGKILL);
+		waitpid(g->sim, NULL, 0);
+	}
+	if (g->relay_started) {
+		uint64_t one = 1;
+
+		if (write(g->stop, &one, sizeof(one)) != sizeof(one))
+			print_error("relay stop: %s\n", strerror(errno));
+		pthread_join(g->relay, NULL);
+	}
+	if (g->stop >= 0)
+		close(g->stop);
+	if (g->sim_log_fd >= 0)
+		close(g->sim_log_fd);
+	pty_close(&g->a);
+	pty_close(&g->b);
+	free(g);
+	return 0;
+}
+
+/* ---- the tests -------------------------------------------------------------------------- */
+
+/* scan finds exactly motors 1..3, with model and firmware date, in bounded time. */
+static void test_scan(void **state)
+{
+	struct rig *g = *state;
+	/* 32 probes, then 0xB5 and 0xB2 of the three that answered. */
+	int64_t bound = silent_ns(RMD_MAX_MOTORS, OK_TIMEOUT_MS * MS, RMD_TXN_TRIES) +
+			silent_ns(6, OK_TIMEOUT_MS * MS, RMD_TXN_TRIES) + MARGIN_MS * MS;
+	struct run *r = &g->run;
+	char want[256];
+	unsigned seen = 0, lines = 0;
+
+	need_sim(g);
+	RUN(g, r, "scan", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout", OK_TIMEOUT_ARG,
+	    "--json");
+	assert_status(r, 0, "scan --json");
+	/* issue 4: "on a pseudo-terminal those settings are skipped with a notice" */
+	assert_has(r, r->err, "pseudo-terminal", "scan --json stderr");
+	for (const char *p = r->out, *nl; *p; p = nl + 1) {
+		char line[1024];
+		int id;
+
+		nl = strchr(p, '\n');
+		assert_non_null(nl);
+		assert_true((size_t)(nl - p) < sizeof(line));
+		memcpy(line, p, (size_t)(nl - p));
+		line[nl - p] = '\0';
+		lines++;
+		id = (int)json_num(line, "motor_id");
+		if (id < 1 || id > 3 || (seen & (1u << id)))
+			fail_msg("scan: unexpected or repeated motor %d:\n%s", id, r->out);
+		seen |= 1u << id;
+		snprintf(
+			want, sizeof(want),
+			"{\"bus\":\"%s\",\"motor_id\":%d,\"protocol\":\"V3\",\"model\":\"X8S2V10\","
+			"\"version_date\":20220206,",
+			g->b.path, id);
+		assert_has(r, line, want, "scan --json");
+		assert_has(r, line, "\"errors\":[]", "scan --json");
+	}
+	assert_int_equal(lines, 3);
+	assert_int_equal(seen, 0xE);
+	print_message("scan --json: %.0f ms (bound %.0f ms)\n", ms_of(r->took_ns), ms_of(bound));
+	if (r->took_ns > bound)
+		fail_msg("scan took %.0f ms, more than %.0f", ms_of(r->took_ns), ms_of(bound));
+
+	/* The table a person reads. */
+	RUN(g, r, "scan", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout", OK_TIMEOUT_ARG);
+	assert_status(r, 0, "scan");
+	assert_has(r, r->out, "X8S2V10", "scan");
+	assert_has(r, r->out, "20220206", "scan");
+	snprintf(want, sizeof(want), "%s: 3 motors answered (32 ids probed", g->b.path);
+	assert_has(r, r->out, want, "scan");
+}
+
+static void test_status(void **state)
+{
+	struct rig *g = *state;
+	struct run *r = &g->run;
+	char want[128];
+
+	need_sim(g);
+	RUN(g, r, "status", "2", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout",
+	    OK_TIMEOUT_ARG, "--json");
+	assert_status(r, 0, "status 2");
+	snprintf(want, sizeof(want), "{\"bus\":\"%s\",\"motor_id\":2,", g->b.path);
+	assert_has(r, r->out, want, "status 2");
+	assert_int_equal((int)json_num(r->out, "temperature_c"), 25);
+	assert_true(fabs(json_num(r->out, "voltage_v") - 48) < 0.5);
+	assert_has(r, r->out, "\"error_code\":0,\"errors\":[]", "status 2");
+	assert_has(r, r->out, "\"brake_released\":false", "status 2");
+	assert_true(fabs(json_num(r->out, "angle_deg")) < 0.2);
+	assert_has(r, r->out, "\"speed_dps\":", "status 2");
+	assert_has(r, r->out, "\"current_a\":", "status 2");
+	print_message("status 2: %.0f ms\n", ms_of(r->took_ns));
+}
+
+/* move reports arrival; the next process's status (same rmd-sim) finds the shaft there. */
+static void test_move_then_status(void **state)
+{
+	struct rig *g = *state;
+	struct run *r = &g->run;
+	double angle;
+
+	need_sim(g);
+	RUN(g, r, "move", "2", "15", "--yes", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout",
+	    OK_TIMEOUT_ARG, "--json");
+	assert_status(r, 0, "move 2 15");
+	assert_has(r, r->out, "\"motor_id\":2,", "move 2 15");
+	assert_has(r, r->out, "\"arrived\":true", "move 2 15");
+	angle = json_num(r->out, "angle_deg");
+	if (fabs(angle - 15) > 0.2)
+		fail_msg("move 2 15 ended at %g deg", angle);
+	print_message("move 2 15: %.0f ms (moved %.2f s)\n", ms_of(r->took_ns),
+		      json_num(r->out, "elapsed_s"));
+
+	RUN(g, r, "status", "2", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout",
+	    OK_TIMEOUT_ARG, "--json");
+	assert_status(r, 0, "status 2 after the move");
+	angle = json_num(r->out, "angle_deg");
+	if (fabs(angle - 15) > 0.3)
+		fail_msg("status 2 after move 2 15: angle %g deg", angle);
+	assert_has(r, r->out, "\"brake_released\":true", "status 2 after the move");
+
+	/* Only motor 2 moved. */
+	RUN(g, r, "status", "1", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout",
+	    OK_TIMEOUT_ARG, "--json");
+	assert_status(r, 0, "status 1 after the move");
+	assert_true(fabs(json_num(r->out, "angle_deg")) < 0.2);
+}
+
+/* A silent id: exit 1 with bus, motor, command, timeout and tries named, within the bound. */
+static void check_silent(struct rig *g, const char *const *args, int64_t timeout_ns, unsigned tries)
+{
+	/* status asks 3 things of the motor in one batch (0x9A, 0x92, 0x9C). */
+	int64_t least = (int64_t)tries * timeout_ns;
+	int64_t bound = silent_ns(3, timeout_ns, tries) + MARGIN_MS * MS;
+	struct run *r = &g->run;
+	char want[256];
+
+	need_sim(g);
+	run_argv(g, r, args);
+	assert_status(r, 1, "status 9");
+	snprintf(want, sizeof(want), "%s: motor 9 did not answer 0x9A within %lld ms (%u %s)",
+		 g->b.path, (long long)(timeout_ns / MS), tries, tries == 1 ? "try" : "tries");
+	assert_has(r, r->err, want, "status 9");
+	assert_string_equal(r->out, "");
+	print_message("status 9 (%lld ms x %u): %.0f ms (at least %.0f, bound %.0f)\n",
+		      (long long)(timeout_ns / MS), tries, ms_of(r->took_ns), ms_of(least),
+		      ms_of(bound));
+	/* It waited for the answer each try, and not longer than the batch can take. */
+	if (r->took_ns < least || r->took_ns > bound)
+		fail_msg("status 9 took %.0f ms, expected %.0f..%.0f", ms_of(r->took_ns),
+			 ms_of(least), ms_of(bound));
+}
+
+static void test_status_silent(void **state)
+{
+	struct rig *g = *state;
+	struct run *r;
+
+	{
+		const char *const args[] = { "status", "9",	 "--bus", g->b.path,
+					     "--baud", BAUD_ARG, NULL };
+
+		check_silent(g, args, RMD_TXN_TIMEOUT_NS, RMD_TXN_TRIES);
+	}
+	{
+		const char *const args[] = { "status",	"9",	  "--bus",     g->b.path,
+					     "--baud",	BAUD_ARG, "--timeout", "20",
+					     "--tries", "2",	  NULL };
+
+		check_silent(g, args, 20 * MS, 2);
+	}
+	/* The line is not left wedged. */
+	r = &g->run;
+	RUN(g, r, "status", "3", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout",
+	    OK_TIMEOUT_ARG, "--json");
+	assert_status(r, 0, "status 3 after the silent id");
+}
+
+/* SIGTERM: exit 0 with the summary; every byte relayed was a whole frame, none was noise. */
+static void test_sim_sigterm(void **state)
+{
+	struct rig *g = *state;
+	unsigned long long a2b, b2a;
+	int64_t deadline;
+	int st = -1;
+
+	need_sim(g);
+	assert_int_equal(kill(g->sim, SIGTERM), 0);
+	deadline = mono_ns() + EXIT_MS * MS;
+	for (;;) {
+		struct pollfd p = { .fd = g->sim_log_fd, .events = POLLIN };
+		pid_t w = waitpid(g->sim, &st, WNOHANG);
+
+		drain_sim_log(g);
+		if (w == g->sim) {
+			g->sim = 0;
+			break;
+		}
+		if (!ms_left(deadline))
+			fail_msg("rmd-sim still running %d ms after SIGTERM; log:\n%s", EXIT_MS,
+				 g->sim_log);
+		/* Its log wakes us, its exit closes the pipe; look again every 20 ms. */
+		poll(&p, 1, ms_left(deadline) < 20 ? ms_left(deadline) : 20);
+	}
+	drain_sim_log(g);
+	if (!WIFEXITED(st) || WEXITSTATUS(st) != 0)
+		fail_msg("rmd-sim after SIGTERM: status 0x%x; log:\n%s", (unsigned)st, g->sim_log);
+	assert_sim_log(g, "stopped (SIGTERM)", "rmd-sim summary");
+	assert_sim_log(g, "line noise 0 bytes", "rmd-sim summary");
+	relay_check(g);
+	a2b = atomic_load(&g->a2b.bytes);
+	b2a = atomic_load(&g->b2a.bytes);
+	print_message("relayed: %llu bytes to rmdctl, %llu to rmd-sim\n", a2b, b2a);
+	assert_true(a2b > 0 && b2a > 0);
+	assert_int_equal(a2b % RMD_RS485_FRAME_LEN, 0);
+	assert_int_equal(b2a % RMD_RS485_FRAME_LEN, 0);
+}
+
+int main(void)
+{
+	/* In order: one rmd-sim for all, stopped by the last. */
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_scan),
+		cmocka_unit_test(test_status),
+		cmocka_unit_test(test_move_then_status),
+		cmocka_unit_test(test_status_silent),
+		cmocka_unit_test(test_sim_sigterm),
+	};
+
+	return cmocka_run_group_tests_name("rmdctl_rs485", tests, group_setup, group_teardown);
+}
