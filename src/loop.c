@@ -167,6 +167,8 @@ struct rmd_loop {
 	atomic_bool stop;
 	pthread_t thread;
 	bool running;
+	bool locked;   /* mlockall done, or refused: */
+	int mlock_err; /* -errno of the refusal, said when the thread starts */
 };
 
 /* ------------------------------------------------------------------ */
@@ -1520,6 +1522,15 @@ static void probe_stray(struct rmd_loop *l, unsigned b, const struct rmd_frame *
 		l->bus[b].unexpected_ids |= 1u << (mid - 1);
 }
 
+/* True when the reply to `cmd` repeats the request (RMD_CMD_ECHO).  Non-rt. */
+static bool cmd_echoes(const struct lmotor *lm, uint8_t cmd)
+{
+	enum rmd_proto proto = lm->m.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(proto, cmd);
+
+	return spec && (spec->flags & RMD_CMD_ECHO);
+}
+
 /*
  * One request to lm and its answer, with retries.  Returns 0 with the
  * answer in *rep, or -ETIMEDOUT.
@@ -1529,15 +1540,18 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_fr
 		      unsigned tries, int64_t timeout_ns, struct rmd_frame *rep)
 {
 	struct lbus *lb = &l->bus[lm->bus];
+	bool check_echo, echo_seen = false;
 	uint32_t rid;
 	uint16_t cmd;
 
 	rmd_motor_reply_key(&lm->m, req, &rid, &cmd);
+	check_echo = cmd != RMD_MOTOR_CMD_MIT && !cmd_echoes(lm, (uint8_t)cmd);
 	for (unsigned t = 0; t < tries; t++) {
 		int64_t now = clock_now(l), deadline = now + timeout_ns;
+		bool resend = false;
 
 		rmd_bus_send(lb->bus, req, 1, now);
-		for (;;) {
+		while (!resend) {
 			int n;
 
 			now = clock_now(l);
@@ -1545,14 +1559,27 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_fr
 			for (int k = 0; k < n; k++) {
 				const struct rmd_frame *f = &lb->rx[k].f;
 
-				if (f->can_id == rid && f->len &&
-				    (cmd == RMD_MOTOR_CMD_MIT || f->data[0] == cmd)) {
-					*rep = *f;
-					return 0;
+				if (f->can_id != rid || !f->len ||
+				    (cmd != RMD_MOTOR_CMD_MIT && f->data[0] != cmd)) {
+					probe_stray(l, lm->bus, f);
+					continue;
 				}
-				probe_stray(l, lm->bus, f);
+				/*
+				 * A copy of a request whose answer is no copy: a motor
+				 * whose comm-loss protection tripped echoes the first
+				 * command and does not execute it.  Ask again; a second
+				 * copy is the answer (V3 0x70 in mode 0 is all zeros).
+				 */
+				if (check_echo && !echo_seen && f->len == req->len &&
+				    !memcmp(f->data, req->data, req->len)) {
+					echo_seen = true;
+					resend = true;
+					break;
+				}
+				*rep = *f;
+				return 0;
 			}
-			if (now >= deadline)
+			if (resend || now >= deadline)
 				break;
 			if (n < RX_BATCH)
 				wait_bus(l, lb->bus,
@@ -1651,20 +1678,6 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 		else
 			rep_add(rp, ", no 0x92 angle: positions start at 0");
 		rep_add(rp, ", no 0xB3 in V2 (no comm-loss protection)");
-	} else {
-		/* V3 §2.30: ROM; written once here, never in the cycle */
-		struct rmd_frame req, echo;
-		uint32_t ms = l->cfg->safety.comm_loss_ms;
-
-		if (rmd_motor_encode_comm_timeout(&lm->m, ms, &req) < 0 ||
-		    probe_xfer(l, lm, &req, tries, timeout, &echo) < 0)
-			rep_add(rp, ", no answer to 0xB3");
-		else if (echo.len != req.len || memcmp(echo.data, req.data, RMD_FRAME_LEN))
-			rep_add(rp, ", 0xB3 NOT confirmed (the echo differs)");
-		else if (ms)
-			rep_add(rp, ", 0xB3 set to %u ms", (unsigned)ms);
-		else
-			rep_add(rp, ", 0xB3 off (comm-loss protection disabled)");
 	}
 	rep_add(rp, "\n");
 	now = clock_now(l);
@@ -1724,6 +1737,50 @@ static void scan_bus(struct rmd_loop *l, unsigned b)
 }
 
 /* Non-rt. */
+/*
+ * V3 §2.30: write the comm-loss protection time (ROM) to every motor of bus
+ * b that answered the probe, and check each echo, as the last step of
+ * bring-up: a motor starts counting at the write, and the loop's first
+ * cycle follows at once.  One report line per bus.  Non-rt.
+ */
+static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct report *rp)
+{
+	struct lbus *lb = &l->bus[b];
+	uint32_t ms = l->cfg->safety.comm_loss_ms;
+	int64_t timeout = RMD_LOOP_PROBE_TIMEOUT_NS;
+	unsigned set = 0;
+	bool any = false;
+
+	if (lb->cb->kind == RMD_BUS_KIND_RS485)
+		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + NS_PER_MS;
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+		const struct rmd_config_motor *c = &l->cfg->motors[i];
+		struct rmd_frame req, echo;
+
+		if (lm->bus != b || lm->m.proto == RMD_PROTO_V2 || lm->st.lifecycle == RMD_LC_LOST)
+			continue;
+		if (!any)
+			rep_add(rp, "%s: comm-loss protection (0xB3) %s", lb->cb->name,
+				ms ? "" : "off (disabled by safety.comm_loss_ms: 0)");
+		if (ms && !any)
+			rep_add(rp, "%u ms:", (unsigned)ms);
+		any = true;
+		if (rmd_motor_encode_comm_timeout(&lm->m, ms, &req) < 0 ||
+		    probe_xfer(l, lm, &req, RMD_LOOP_PROBE_TRIES, timeout, &echo) < 0) {
+			rep_add(rp, " motor %u (%s) did not answer 0xB3;", c->id, c->name);
+		} else if (echo.len != req.len || memcmp(echo.data, req.data, RMD_FRAME_LEN)) {
+			rep_add(rp, " motor %u (%s) NOT confirmed (the echo differs);", c->id,
+				c->name);
+		} else {
+			rep_add(rp, " %u", c->id);
+			set++;
+		}
+	}
+	if (any)
+		rep_add(rp, " (%u set, echo verified)\n", set);
+}
+
 int rmd_loop_bringup(struct rmd_loop *l, char *report, size_t len)
 {
 	struct report rp = { .buf = report, .len = len };
@@ -1767,6 +1824,9 @@ int rmd_loop_bringup(struct rmd_loop *l, char *report, size_t len)
 			event(l, now, RMD_EV_PROBE, 0xFF, b, -EEXIST, id);
 		}
 	}
+	/* last, so that no motor goes quiet between its 0xB3 and the first cycle */
+	for (unsigned b = 0; b < l->n_buses; b++)
+		arm_comm_loss(l, b, &rp);
 	if (rp.used && report[rp.used - 1] == '\n')
 		report[--rp.used] = '\0';
 	/* what bring-up found is the state before the first cycle */
@@ -1908,6 +1968,20 @@ static int create_thread(struct rmd_loop *l, bool fifo, bool cpus)
 }
 
 /* Non-rt. */
+int rmd_loop_lock_memory(struct rmd_loop *l)
+{
+	if (l->locked)
+		return 0;
+	if (mlockall(MCL_CURRENT | MCL_FUTURE) < 0) {
+		if (l->o.require_rt)
+			return -EPERM;
+		/* said by rmd_loop_start(), with the other real-time refusals */
+		l->mlock_err = -errno;
+	}
+	l->locked = true;
+	return 0;
+}
+
 int rmd_loop_start(struct rmd_loop *l)
 {
 	bool fifo = true, cpus = l->cfg->loop.n_cpus > 0;
@@ -1919,12 +1993,11 @@ int rmd_loop_start(struct rmd_loop *l)
 	if (l->o.now_ns)
 		return -EINVAL;
 	atomic_store(&l->stop, false);
-	if (mlockall(MCL_CURRENT | MCL_FUTURE) < 0) {
-		r = -errno;
-		if (l->o.require_rt)
-			return -EPERM;
-		event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_MLOCK);
-	}
+	r = rmd_loop_lock_memory(l);
+	if (r < 0)
+		return r;
+	if (l->mlock_err)
+		event(l, now, RMD_EV_RT, 0xFF, 0xFF, l->mlock_err, RMD_LOOP_RT_MLOCK);
 	/*
 	 * Every fallback is decided, and said through the event ring, before
 	 * the thread exists: the ring has one producer at a time.

@@ -54,6 +54,7 @@ int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
 	t->any_cmd = spec->flags & RMD_CMD_NO_CMD_BYTE;
 	/* V3 §2.25: 0x76 does not answer; V3 §2.31: 0xB4's answer is noise, when it comes. */
 	t->no_reply = spec->flags & (RMD_CMD_NO_REPLY | RMD_CMD_RANDOM_REPLY);
+	t->check_echo = !(spec->flags & RMD_CMD_ECHO);
 	return 0;
 }
 
@@ -95,6 +96,12 @@ static int collect(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t n
 				if (t[i].done || !t[i].tries || t[i].no_reply ||
 				    !rmd_txn_matches(&t[i], &rx[k].f))
 					continue;
+				if (t[i].check_echo && !t[i].echo_seen &&
+				    rx[k].f.len == t[i].req.len &&
+				    !memcmp(rx[k].f.data, t[i].req.data, t[i].req.len)) {
+					t[i].echo_seen = true; /* only echoed: the next try answers */
+					break;
+				}
 				t[i].done = true;
 				t[i].rep = rx[k];
 				break;

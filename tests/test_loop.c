@@ -348,11 +348,13 @@ static void test_bringup_ready_not_moved(void **state)
 	(void)state;
 	rig_up(3, NULL);
 	bring_up();
-	for (p = R.report; (p = strstr(p, "X8S2V10, firmware 20220206, 48.0 V, 25 °C, "
-					  "0xB3 set to 100 ms"));
-	     p++)
+	for (p = R.report; (p = strstr(p, "X8S2V10, firmware 20220206, 48.0 V, 25 °C\n")); p++)
 		n++;
 	if (n != 3)
+		fail_msg("report:\n%s", R.report);
+	/* 0xB3 is written last, to every motor, after all probes */
+	if (!strstr(R.report, "sim0: comm-loss protection (0xB3) 100 ms: 1 2 3 (3 set, echo "
+			      "verified)"))
 		fail_msg("report:\n%s", R.report);
 	assert_non_null(strstr(R.report, "sim0: motor 2 (motor2): "));
 	assert_int_equal(count_ev(RMD_EV_PROBE, -1), 3);

@@ -203,6 +203,15 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
 void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now_ns);
 
 /*
+ * mlockall(MCL_CURRENT | MCL_FUTURE), once.  rmd_loop_start() does it if
+ * nobody did; the daemon calls it before bring-up, because locking a big
+ * process can take long and must not fall between the 0xB3 writes and the
+ * first cycle.  Without the privilege it says so through the event ring
+ * and returns 0, unless require_rt (then -EPERM).  Non-rt.
+ */
+int rmd_loop_lock_memory(struct rmd_loop *l);
+
+/*
  * Start the SCHED_FIFO thread (priority and CPU affinity from the config,
  * mlockall, prefaulted stack).  Without the privilege it says so once
  * through the event ring (RMD_EV_RT) and runs at normal priority,

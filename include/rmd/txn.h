@@ -46,6 +46,16 @@ struct rmd_txn {
 	uint8_t reply_cmd; /* its data[0] */
 	bool any_cmd;	   /* the answer has no command byte: match by identifier */
 	bool no_reply;	   /* nothing answers (V3 0x76): done once sent */
+	/*
+	 * The command's reply is not a copy of the request, so a frame that
+	 * repeats the request byte for byte is, the first time, the echo of a
+	 * motor whose comm-loss protection tripped (it echoes the first
+	 * command after and does not execute it): the request is sent again.
+	 * A second identical answer is taken as the answer (V3 0x70 in mode 0
+	 * really is all zeros).
+	 */
+	bool check_echo;
+	bool echo_seen;
 	/* results */
 	bool done;	       /* answered (or, no_reply, sent) */
 	unsigned tries;	       /* sends made */

@@ -666,9 +666,19 @@ static int run(const struct rmdd_opts *o)
 		.bridge = &d->bridge,
 		.events = &d->events,
 	};
-	if (bringup(d) != RMDD_EXIT_OK)
+	/*
+	 * Everything slow comes before bring-up, which ends with the 0xB3
+	 * writes: from then on every motor counts its comm-loss time, and the
+	 * first cycle must follow at once.
+	 */
+	r = rmd_loop_lock_memory(d->loop);
+	if (r < 0) {
+		rmdd_log(3,
+			 "--require-rt: mlockall refused (%s): run as root, or with "
+			 "LimitMEMLOCK=infinity (systemd/rmdd.service)",
+			 strerror(-r));
 		goto err_fini_monitor;
-
+	}
 	/* before LCM: a thread it may create must not inherit a real-time policy */
 	main_thread_normal(d);
 	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, &d->commands, &d->snapshots, &d->health_bridge);
@@ -678,12 +688,14 @@ static int run(const struct rmdd_opts *o)
 		rmdd_log(3, "LCM: %s; --lcm-url memq:// runs without LCM traffic", err);
 		goto err_fini_monitor;
 	}
-
 	r = rmd_bridge_start(&d->bridge);
 	if (r < 0) {
 		rmdd_log(3, "LCM bridge thread: %s", strerror(-r));
 		goto err_fini_bridge;
 	}
+	if (bringup(d) != RMDD_EXIT_OK)
+		goto err_stop_bridge;
+
 	d->stats.start_ns = rmdd_now_ns();
 	r = rmd_loop_start(d->loop);
 	if (r == -EPERM && o->require_rt) {

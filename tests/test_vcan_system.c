@@ -1,0 +1,2123 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The whole system on real SocketCAN: issue 5's and issue 4's acceptance in
+ * the VM.  Every program is the built one, run as a real process
+ * ($BUILD/rmd-sim, $BUILD/rmdd, $BUILD/rmdctl, candump from can-utils), and
+ * this test is the controller (LCM, generated rmd_command_t).
+ *
+ *   rmdctl    rmd-sim simulates motors 1-3 on vcan0 with three models and
+ *             firmware dates: `rmdctl scan` lists exactly them; a motor
+ *             nobody simulates gives "did not answer" and exit 1 within
+ *             its stated timeout; `rmdctl move` moves motor 2 and `rmdctl
+ *             status` shows it arrived.
+ *   system    rmd-sim on each bus of tests/data/vcan/system.yaml (8 motors
+ *             on vcan0..vcan2), candump on all of them, rmdd on that file:
+ *             - rate: every motor ENABLED in state_t; in candump, one
+ *               request per motor per cycle rmdd ran (state_t's cycle
+ *               numbers), at >= MIN_RATE_FRACTION of the configured rate;
+ *               SIGUSR1 prints the statistics and rmdd runs on;
+ *             - watchdog: the controller goes quiet; health_t TRIPPED, and
+ *               every motor's safe-action frame within command_timeout +
+ *               1 cycle of the first cycle that carried the last command
+ *               (+ rmdd's own wake-up latency and skipped ticks, see the
+ *               test); a new enable clears it;
+ *             - SIGTERM: 0x80 to every motor, each answered, no setpoint
+ *               after it, exit 0 with the statistics;
+ *             - kill -9: every motor's own 0xB3 protection trips (its
+ *               0xF1 in candump comm_loss_ms after the last frame it heard,
+ *               + COMM_SLACK_MS); 0x9A reads, by hand and by rmdctl, show
+ *               the brake locked and the output off.
+ *
+ * Time: candump -L stamps frames with the kernel's receive time
+ * (CLOCK_REALTIME), so the test takes its own reference times from the same
+ * clock.  candump's log is read as it grows; a marker frame (MARKER_ID, no
+ * motor or rmdd listens to it) sent on every bus tells when the log has
+ * caught up with "now".
+ *
+ * Run it with (tests/vm/README.md):
+ *   make BUILD=build/vsys build/vsys/tests/test_vcan_system build/vsys/rmdd \
+ *        build/vsys/rmd-sim build/vsys/rmdctl
+ *   BUILD=build/vsys tests/vm/vm-run --vcan 3 --timeout 900 -- \
+ *        build/vsys/tests/test_vcan_system
+ * (RMD_VSYS_KEEP=DIR keeps candump's log and rmdd's configuration in DIR.)
+ * Without AF_CAN every test is skipped after one loud line.  Nothing
+ * sleeps to wait for a result: every wait polls until a deadline, and
+ * every child is killed in the teardown (and by PR_SET_PDEATHSIG).
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <math.h>
+#include <poll.h>
+#include <sched.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <net/if.h>
+#include <sys/prctl.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+
+#include <linux/can.h>
+#include <linux/can/raw.h>
+
+#include <cmocka.h>
+#include <lcm/lcm.h>
+
+#include "rmd/candump.h"
+#include "rmd/codec.h"
+#include "rmd/config.h"
+#include "rmd/frame.h"
+#include "rmd/rmd_command_t.h"
+#include "rmd/rmd_health_t.h"
+#include "rmd/rmd_state_t.h"
+
+#define NS_PER_MS INT64_C(1000000)
+#define NS_PER_S INT64_C(1000000000)
+
+/*
+ * Margins.  The guest runs under TCG, about 8x slower than the host
+ * (tests/vm/README.md); starting a program from the 9p share takes 0.1-1 s.
+ */
+#define READY_MS 20000	   /* rmd-sim, candump, rmdd up (rmdd: bring-up of 8 motors) */
+#define ENABLE_MS 10000	   /* enable -> every motor ENABLED in state_t */
+#define TOOL_MS 30000	   /* one rmdctl run */
+#define EXIT_MS 15000	   /* SIGTERM -> rmdd gone */
+#define SYNC_MS 10000	   /* candump's log catches up with a marker */
+#define EXEC_SLACK_MS 3000 /* rmdctl: process start and exit in the guest */
+/*
+ * The safe action's delay (test_system_watchdog): SEND_SLACK_MS for a
+ * cycle's frames to leave after its tick; LCM_SLACK_MS for the hop from the
+ * test's publish to rmdd's bridge (UDP multicast on loopback, the bridge
+ * thread's wake-up, both SCHED_OTHER in the emulated guest: measured 2..23
+ * ms from the publish to the first cycle that sent the command).
+ */
+#define SEND_SLACK_MS 2
+#define LCM_SLACK_MS 30
+/*
+ * rmd-sim trips at its first 100 µs physics step past the 0xB3 time
+ * (src/sim_motor.c), on a timerfd, counting from when it read the last
+ * frame.  Its reads and its timer run at SCHED_FIFO, but the guest's
+ * emulated CPUs themselves lose the host's CPUs for milliseconds at a time
+ * on a loaded host (measured: 0.6..15.5 ms late).  50 ms still tells the
+ * 0xB3 trip (comm_loss_ms) from anything else (0xF1 repeats each second).
+ */
+#define COMM_SLACK_MS 50
+/*
+ * The simulated motors are the hardware: a real motor answers whatever the
+ * host's load.  rmd-sim (event-driven, never spinning) runs at SCHED_FIFO
+ * above rmdd's loop (loop.rt_priority 40), so the guest's two emulated
+ * CPUs, shared with rmdd, candump and this test, do not starve it.
+ */
+#define SIM_FIFO_PRIO 45
+#define MIN_RATE_FRACTION 0.8 /* requests per second per motor, of the loop rate */
+#define SETTLE_MS 300	      /* steady state before a measurement window */
+#define WINDOW_MS 1000	      /* the rate window */
+#define RATE_WINDOWS 3
+#define CTL_PERIOD_MS 10 /* the controller publishes at 100 Hz */
+#define KEEPALIVE_MS 50	 /* see keepalive() */
+#define MARKER_ID 0x7E0u /* not a motor's, not rmdd's: nobody answers it */
+#define OUT_MAX (512 * 1024)
+#define URL_PLACEHOLDER "@LCM_URL@" /* in tests/data/vcan/system.yaml */
+#define MAX_KIDS 8
+#define NBUS_MAX 3
+
+#define SETPOINT_RAD 0.2
+#define MAX_VEL_RAD_S 1.0
+
+/* ---- state ---------------------------------------------------------------- */
+
+/* A child process whose stdout and stderr (or stderr only) the test reads. */
+struct kid {
+	char name[32];
+	pid_t pid; /* 0: free slot */
+	int fd;	   /* -1 at EOF */
+	bool reaped;
+	int status; /* exit status, or 128 + signal */
+	size_t len;
+	char *out; /* OUT_MAX; the oldest half is dropped when full */
+};
+
+/* One frame of candump's log. */
+struct cframe {
+	int64_t t_ns; /* kernel receive time, CLOCK_REALTIME */
+	uint16_t id;
+	uint8_t bus; /* index into the configuration's buses */
+	uint8_t len;
+	uint8_t data[RMD_FRAME_LEN];
+};
+
+struct health {
+	int64_t utime;
+	int64_t cycles, overruns, plan_misses;
+	double wake_avg_us, wake_p99_us, wake_max_us, cycle_max_us;
+	int8_t watchdog;
+	int64_t safe_action_events;
+	int64_t accepted, rejected;
+};
+
+static struct {
+	bool have_can;
+	char build[512];
+	char rmdd[600], rmdsim[600], rmdctl[600];
+	char dir[128];	   /* /dev/shm/rmd-vsys-PID */
+	char cfgpath[192]; /* the configuration rmdd runs */
+	char logpath[192]; /* candump's log */
+	struct rmd_config cfg;
+	unsigned nbus;
+
+	struct kid kids[MAX_KIDS];
+	struct kid *sims[NBUS_MAX], *candump, *rmdd_kid;
+
+	/* candump's log */
+	int log_fd;
+	char lbuf[256 * 1024];
+	size_t llen;
+	struct cframe *frames;
+	size_t nframes, cap;
+	unsigned bad_lines, drop_lines;
+	char drop_text[160];
+	int can_fd[NBUS_MAX]; /* markers and the test's own requests */
+	uint32_t marker;
+	uint32_t marker_seen[NBUS_MAX];
+
+	/* LCM */
+	char url[96];
+	lcm_t *lcm;
+	rmd_state_t_subscription_t *sub_state;
+	rmd_health_t_subscription_t *sub_health;
+	uint64_t n_state, n_health;
+	int16_t st_count;
+	int64_t st_utime; /* state_t.utime: the loop's cycle time, rmdd's CLOCK_MONOTONIC */
+	int64_t st_cycle;
+	int8_t lc[RMD_MAX_MOTORS];
+	struct health h;
+
+	/* the controller */
+	bool ctl_on;
+	bool ctl_enable;
+	int64_t seq;
+	int64_t next_pub;      /* CLOCK_MONOTONIC */
+	int64_t last_pub_real; /* CLOCK_REALTIME just before the last publish */
+	uint64_t n_pub;
+
+	unsigned edge_toggles; /* enable = 0 sent to get enable = 1 taken */
+
+	/* keepalive(): a read to one motor every KEEPALIVE_MS */
+	int ka_bus;
+	unsigned ka_id;
+	int64_t ka_next;
+} S;
+
+/* ---- small helpers ----------------------------------------------------------- */
+
+static int64_t mono_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
+}
+
+static int64_t real_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_REALTIME, &ts);
+	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
+}
+
+static double ms_of(int64_t ns)
+{
+	return (double)ns / 1e6;
+}
+
+static const char *iface(unsigned b)
+{
+	return S.cfg.buses[b].interface;
+}
+
+/* The request byte of a mode's setpoint: V3 §2.17 0xA1, §2.18 0xA2, §2.20 0xA4. */
+static uint8_t control_cmd(enum rmd_ctrl_mode mode)
+{
+	switch (mode) {
+	case RMD_CTRL_TORQUE:
+		return 0xA1;
+	case RMD_CTRL_SPEED:
+		return 0xA2;
+	case RMD_CTRL_POSITION:
+		return 0xA4;
+	case RMD_CTRL_MIT:
+		break;
+	}
+	return 0;
+}
+
+/*
+ * The first frame of the configured safe action (include/rmd/loop.h): V3
+ * §2.15 0x80 output off, §2.16 0x81 stop and hold, §2.18 0xA2 speed 0.
+ */
+static uint8_t safe_cmd(enum rmd_safe_action a)
+{
+	switch (a) {
+	case RMD_SAFE_STOP:
+	case RMD_SAFE_BRAKE:
+		return 0x80;
+	case RMD_SAFE_HOLD:
+		return 0x81;
+	case RMD_SAFE_DAMP:
+		return 0xA2;
+	}
+	return 0;
+}
+
+/* The last lines of a child's output, for failure messages. */
+static const char *tail_of(const struct kid *k)
+{
+	size_t n = 3000;
+
+	if (!k || !k->out)
+		return "(no output)";
+	return k->len > n ? k->out + k->len - n : k->out;
+}
+
+/* ---- children ----------------------------------------------------------------- */
+
+/* In the child: die with the test, stdin from /dev/null, no inherited descriptors. */
+static void child_prepare(int out_fd, int err_fd)
+{
+	int null = open("/dev/null", O_RDONLY);
+
+	prctl(PR_SET_PDEATHSIG, SIGKILL);
+	if (null >= 0)
+		dup2(null, 0);
+	dup2(out_fd, 1);
+	dup2(err_fd, 2);
+	for (int fd = 3; fd < 1024; fd++)
+		close(fd);
+	signal(SIGPIPE, SIG_DFL);
+}
+
+/*
+ * Start argv[0] (a path, or a name looked up in PATH) as a child.  Its
+ * stdout goes to out_path when given, else with stderr into the kid's
+ * buffer.  fifo > 0: at SCHED_FIFO priority fifo (as root), else as is.
+ */
+static struct kid *spawn_prio(const char *name, const char *const *argv, const char *out_path,
+			      int fifo)
+{
+	struct kid *k;
+	int pfd[2], ofd = -1;
+	unsigned slot = 0;
+
+	while (slot < MAX_KIDS - 1 && S.kids[slot].pid)
+		slot++;
+	if (S.kids[slot].pid)
+		fail_msg("no free child slot for %s", name);
+	k = &S.kids[slot];
+	memset(k, 0, sizeof(*k));
+	snprintf(k->name, sizeof(k->name), "%s", name);
+	k->out = calloc(1, OUT_MAX);
+	assert_non_null(k->out);
+	assert_int_equal(pipe2(pfd, O_CLOEXEC), 0);
+	if (out_path) {
+		ofd = open(out_path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+		if (ofd < 0)
+			fail_msg("%s: %s", out_path, strerror(errno));
+	}
+	k->pid = fork();
+	assert_true(k->pid >= 0);
+	if (k->pid == 0) {
+		child_prepare(ofd >= 0 ? ofd : pfd[1], pfd[1]);
+		if (fifo > 0) {
+			struct sched_param sp = { .sched_priority = fifo };
+
+			if (sched_setscheduler(0, SCHED_FIFO, &sp) < 0)
+				fprintf(stderr,
+					"test: SCHED_FIFO %d: %s; running at normal priority\n",
+					fifo, strerror(errno));
+		}
+		execvp(argv[0], (char *const *)argv);
+		fprintf(stderr, "exec %s: %s\n", argv[0], strerror(errno));
+		_exit(127);
+	}
+	close(pfd[1]);
+	if (ofd >= 0)
+		close(ofd);
+	k->fd = pfd[0];
+	fcntl(k->fd, F_SETFL, O_NONBLOCK);
+	return k;
+}
+
+static struct kid *spawn(const char *name, const char *const *argv, const char *out_path)
+{
+	return spawn_prio(name, argv, out_path, 0);
+}
+
+static void kid_read(struct kid *k)
+{
+	for (;;) {
+		ssize_t r;
+
+		if (k->len >= OUT_MAX - 4096) {
+			size_t drop = k->len / 2;
+
+			memmove(k->out, k->out + drop, k->len - drop);
+			k->len -= drop;
+		}
+		r = read(k->fd, k->out + k->len, OUT_MAX - 1 - k->len);
+		if (r > 0) {
+			k->len += (size_t)r;
+			k->out[k->len] = '\0';
+			continue;
+		}
+		if (r == 0 || (errno != EAGAIN && errno != EINTR)) {
+			close(k->fd);
+			k->fd = -1;
+		}
+		return;
+	}
+}
+
+/* Reap k if it exited.  True when it has. */
+static bool kid_poll_exit(struct kid *k)
+{
+	int ws;
+
+	if (k->reaped)
+		return true;
+	if (waitpid(k->pid, &ws, WNOHANG) != k->pid)
+		return false;
+	k->reaped = true;
+	k->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+	return true;
+}
+
+static void kid_free(struct kid *k)
+{
+	if (!k || !k->pid)
+		return;
+	if (!k->reaped) {
+		kill(k->pid, SIGKILL);
+		waitpid(k->pid, NULL, 0);
+	}
+	if (k->fd >= 0)
+		close(k->fd);
+	free(k->out);
+	memset(k, 0, sizeof(*k));
+	k->fd = -1;
+}
+
+static void kids_kill_all(void)
+{
+	for (unsigned i = 0; i < MAX_KIDS; i++)
+		kid_free(&S.kids[i]);
+	for (unsigned b = 0; b < NBUS_MAX; b++)
+		S.sims[b] = NULL;
+	S.candump = S.rmdd_kid = NULL;
+}
+
+/* ---- candump's log ---------------------------------------------------------------- */
+
+static int bus_of_iface(const char *name)
+{
+	for (unsigned b = 0; b < S.nbus; b++)
+		if (!strcmp(name, iface(b)))
+			return (int)b;
+	return -1;
+}
+
+static void take_line(const char *line)
+{
+	struct rmd_candump_line cl;
+	struct cframe *f;
+	int64_t frac;
+	int b;
+
+	if (strstr(line, "DROPCOUNT")) {
+		S.drop_lines++;
+		snprintf(S.drop_text, sizeof(S.drop_text), "%.150s", line);
+		return;
+	}
+	if (rmd_candump_parse(line, &cl) < 0 || !cl.has_time) {
+		S.bad_lines++;
+		return;
+	}
+	b = bus_of_iface(cl.iface);
+	if (b < 0)
+		return;
+	if (cl.frame.can_id == MARKER_ID && cl.frame.len == 8 && cl.frame.data[0] == 'M') {
+		uint32_t m;
+
+		memcpy(&m, &cl.frame.data[4], sizeof(m));
+		if (m > S.marker_seen[b])
+			S.marker_seen[b] = m;
+		return;
+	}
+	if (S.nframes == S.cap) {
+		size_t cap = S.cap ? 2 * S.cap : 65536;
+		struct cframe *nf = realloc(S.frames, cap * sizeof(*nf));
+
+		assert_non_null(nf);
+		S.frames = nf;
+		S.cap = cap;
+	}
+	frac = cl.time_frac;
+	for (unsigned d = cl.time_digits; d < 9; d++)
+		frac *= 10;
+	f = &S.frames[S.nframes++];
+	f->t_ns = (int64_t)cl.time_sec * NS_PER_S + frac;
+	f->id = (uint16_t)cl.frame.can_id;
+	f->bus = (uint8_t)b;
+	f->len = cl.frame.len;
+	memcpy(f->data, cl.frame.data, sizeof(f->data));
+}
+
+/* Parse what candump wrote since the last call. */
+static void tail_log(void)
+{
+	if (S.log_fd < 0)
+		return;
+	for (;;) {
+		ssize_t r = read(S.log_fd, S.lbuf + S.llen, sizeof(S.lbuf) - 1 - S.llen);
+		char *p = S.lbuf, *nl;
+
+		if (r <= 0)
+			return;
+		S.llen += (size_t)r;
+		while ((nl = memchr(p, '\n', S.llen - (size_t)(p - S.lbuf)))) {
+			*nl = '\0';
+			take_line(p);
+			p = nl + 1;
+		}
+		S.llen -= (size_t)(p - S.lbuf);
+		memmove(S.lbuf, p, S.llen);
+		if (S.llen >= sizeof(S.lbuf) - 1)
+			S.llen = 0; /* a line this long is no candump line */
+	}
+}
+
+/* Forget the frames logged so far (each step looks at its own). */
+static void log_forget(void)
+{
+	S.nframes = 0;
+}
+
+static void can_send(unsigned b, uint32_t id, const uint8_t data[8])
+{
+	struct can_frame cf = { .can_id = id, .len = 8 };
+	ssize_t w;
+
+	memcpy(cf.data, data, 8);
+	w = write(S.can_fd[b], &cf, sizeof(cf));
+	if (w != (ssize_t)sizeof(cf))
+		fail_msg("%s: write 0x%03X: %s", iface(b), (unsigned)id,
+			 w < 0 ? strerror(errno) : "short write");
+}
+
+static int can_open(unsigned b, bool receive)
+{
+	struct sockaddr_can addr = { .can_family = AF_CAN };
+	int fd = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC | SOCK_NONBLOCK, CAN_RAW);
+
+	if (fd < 0)
+		fail_msg("socket(PF_CAN): %s", strerror(errno));
+	if (!receive)
+		setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, NULL, 0);
+	addr.can_ifindex = (int)if_nametoindex(iface(b));
+	if (!addr.can_ifindex || bind(fd, (struct sockaddr *)&addr, sizeof(addr)) < 0)
+		fail_msg("bind %s: %s", iface(b), strerror(errno));
+	return fd;
+}
+
+/* ---- the controller and the event loop ------------------------------------------------ */
+
+static void on_state(const lcm_recv_buf_t *rb, const char *ch, const rmd_state_t *m, void *u)
+{
+	(void)rb;
+	(void)ch;
+	(void)u;
+	S.n_state++;
+	S.st_count = m->count;
+	S.st_utime = m->utime;
+	S.st_cycle = m->cycle;
+	for (int i = 0; i < m->count && i < RMD_MAX_MOTORS; i++)
+		S.lc[i] = m->motor[i].lifecycle;
+}
+
+static void on_health(const lcm_recv_buf_t *rb, const char *ch, const rmd_health_t *m, void *u)
+{
+	(void)rb;
+	(void)ch;
+	(void)u;
+	S.n_health++;
+	S.h = (struct health){
+		.utime = m->utime,
+		.cycles = m->cycles,
+		.overruns = m->overruns,
+		.plan_misses = m->plan_misses,
+		.wake_avg_us = m->wake_avg_us,
+		.wake_p99_us = m->wake_p99_us,
+		.wake_max_us = m->wake_max_us,
+		.cycle_max_us = m->cycle_max_us,
+		.watchdog = m->watchdog,
+		.safe_action_events = m->safe_action_events,
+		.accepted = m->commands_accepted,
+		.rejected = m->commands_rejected,
+	};
+}
+
+static void publish(void)
+{
+	rmd_command_t c;
+
+	memset(&c, 0, sizeof(c));
+	c.utime = mono_ns() / 1000;
+	c.seq = ++S.seq;
+	c.count = (int16_t)S.cfg.n_motors;
+	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+		rmd_motor_command_t *m = &c.motor[i];
+
+		m->index = (int16_t)i;
+		m->enable = S.ctl_enable;
+		m->mode = RMD_COMMAND_T_MODE_POSITION;
+		m->position = SETPOINT_RAD;
+		/* alternating: the frames tell which command a cycle carried */
+		m->max_velocity = MAX_VEL_RAD_S + (double)(c.seq & 1) * 0.05;
+	}
+	S.last_pub_real = real_ns();
+	if (rmd_command_t_publish(S.lcm, "RMD_COMMAND", &c) < 0)
+		fail_msg("LCM publish on %s failed", S.url);
+	S.n_pub++;
+}
+
+/*
+ * A motor whose 0xB3 protection tripped only echoes the first frame it
+ * hears next (DESIGN.md), and trips again comm_loss_ms after the last
+ * one.  A program that starts longer than that after the previous frame
+ * (rmdctl in the guest: 0.1-1 s) always meets a freshly tripped motor.
+ * keepalive() reads one motor's status 2 (0x9C, V3 §2.13: changes nothing)
+ * every KEEPALIVE_MS so that a tool run meanwhile gets real answers.
+ */
+static void keepalive(int64_t now)
+{
+	static const uint8_t read_9c[8] = { 0x9C };
+
+	if (S.ka_bus < 0 || now < S.ka_next)
+		return;
+	can_send((unsigned)S.ka_bus, RMD_CAN_REQ_BASE + S.ka_id, read_9c);
+	S.ka_next = now + KEEPALIVE_MS * NS_PER_MS;
+}
+
+/*
+ * Wait at most max_ms for anything to happen, and handle it: LCM messages,
+ * children's output, the controller's next command, candump's log.
+ */
+static void service(int max_ms)
+{
+	struct pollfd p[MAX_KIDS + 1];
+	struct kid *who[MAX_KIDS + 1];
+	int64_t now = mono_ns();
+	int n = 0, t = max_ms;
+
+	if (S.ctl_on) {
+		int64_t due = (S.next_pub - now + NS_PER_MS - 1) / NS_PER_MS;
+
+		if (due < t)
+			t = due < 0 ? 0 : (int)due;
+	}
+	if (S.ka_bus >= 0) {
+		int64_t due = (S.ka_next - now + NS_PER_MS - 1) / NS_PER_MS;
+
+		if (due < t)
+			t = due < 0 ? 0 : (int)due;
+	}
+	if (S.lcm) {
+		p[n] = (struct pollfd){ .fd = lcm_get_fileno(S.lcm), .events = POLLIN };
+		who[n++] = NULL;
+	}
+	for (unsigned i = 0; i < MAX_KIDS; i++)
+		if (S.kids[i].pid && S.kids[i].fd >= 0) {
+			p[n] = (struct pollfd){ .fd = S.kids[i].fd, .events = POLLIN };
+			who[n++] = &S.kids[i];
+		}
+	if (poll(p, (nfds_t)n, t) > 0) {
+		for (int i = 0; i < n; i++) {
+			if (!p[i].revents)
+				continue;
+			if (who[i]) {
+				kid_read(who[i]);
+				continue;
+			}
+			for (int k = 0; k < 200 && lcm_handle_timeout(S.lcm, 0) > 0; k++)
+				;
+		}
+	}
+	now = mono_ns();
+	if (S.ctl_on && now >= S.next_pub) {
+		publish();
+		S.next_pub += CTL_PERIOD_MS * NS_PER_MS;
+		if (S.next_pub <= now) /* late: skip ahead, no burst */
+			S.next_pub = now + CTL_PERIOD_MS * NS_PER_MS;
+	}
+	keepalive(now);
+	tail_log();
+}
+
+/* Let everything run for ms milliseconds (a measurement window, not a wait for a result). */
+static void run_for(int ms)
+{
+	int64_t end = mono_ns() + ms * NS_PER_MS;
+
+	for (int64_t now = mono_ns(); now < end; now = mono_ns())
+		service((int)((end - now + NS_PER_MS - 1) / NS_PER_MS));
+}
+
+static void controller(bool on, bool enable)
+{
+	if (on && !S.ctl_on)
+		S.next_pub = mono_ns();
+	S.ctl_on = on;
+	S.ctl_enable = enable;
+}
+
+/*
+ * Wait until candump's log holds everything sent on every bus before this
+ * call.  The marker goes out again every 200 ms: candump may not listen
+ * yet when the first one passes.
+ */
+static void sync_log(void)
+{
+	uint8_t d[8] = { 'M', 'R', 'K' };
+	int64_t now = mono_ns(), end = now + SYNC_MS * NS_PER_MS, resend = now;
+	uint32_t want = ++S.marker;
+
+	memcpy(&d[4], &want, sizeof(want));
+	for (;;) {
+		bool all = true;
+
+		for (unsigned b = 0; b < S.nbus; b++)
+			all &= S.marker_seen[b] >= want;
+		if (all)
+			return;
+		now = mono_ns();
+		if (now > end)
+			fail_msg(
+				"candump's log %s did not show marker %u within %d ms; candump:\n%s",
+				S.logpath, (unsigned)want, SYNC_MS, tail_of(S.candump));
+		if (now >= resend) {
+			for (unsigned b = 0; b < S.nbus; b++)
+				if (S.marker_seen[b] < want)
+					can_send(b, MARKER_ID, d);
+			resend = now + 200 * NS_PER_MS;
+		}
+		service(5);
+	}
+}
+
+/* Wait until a child's output holds needle. */
+static void wait_output(struct kid *k, const char *needle, int ms)
+{
+	int64_t end = mono_ns() + ms * NS_PER_MS;
+
+	while (!strstr(k->out, needle)) {
+		if (mono_ns() > end || (k->fd < 0 && !strstr(k->out, needle)))
+			fail_msg("%s: no \"%s\" within %d ms%s; its output:\n%s", k->name, needle,
+				 ms, k->fd < 0 ? " (it exited)" : "", tail_of(k));
+		service(20);
+	}
+}
+
+/* Wait for k to exit; its status (128 + signal when killed). */
+static int wait_exit(struct kid *k, int ms)
+{
+	int64_t end = mono_ns() + ms * NS_PER_MS;
+
+	while (!kid_poll_exit(k) || k->fd >= 0) {
+		if (mono_ns() > end)
+			fail_msg("%s (pid %d) did not exit within %d ms; its output:\n%s", k->name,
+				 (int)k->pid, ms, tail_of(k));
+		service(10);
+	}
+	return k->status;
+}
+
+/* ---- one tool run ------------------------------------------------------------------ */
+
+struct run {
+	int rc;
+	double ms;
+	char out[16384];
+	char err[4096];
+};
+
+/* Read from fd into buf (what does not fit is read and dropped).  False at EOF. */
+static bool pipe_take(int fd, char *buf, size_t size, size_t *len)
+{
+	char sink[4096];
+	bool room = *len + 1 < size;
+	ssize_t k = room ? read(fd, buf + *len, size - 1 - *len) : read(fd, sink, sizeof(sink));
+
+	if (k <= 0)
+		return false;
+	if (room)
+		*len += (size_t)k;
+	return true;
+}
+
+/* Run argv[0] (a path) to its end, at most TOOL_MS; its output and status in *r. */
+static void run_tool(struct run *r, const char *const *argv)
+{
+	int po[2], pe[2];
+	size_t no = 0, ne = 0;
+	bool eo = false, ee = false;
+	int64_t t0 = mono_ns(), end = t0 + TOOL_MS * NS_PER_MS;
+	pid_t pid;
+	int ws;
+
+	memset(r, 0, sizeof(*r));
+	assert_int_equal(pipe2(po, O_CLOEXEC), 0);
+	assert_int_equal(pipe2(pe, O_CLOEXEC), 0);
+	pid = fork();
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		child_prepare(po[1], pe[1]);
+		execv(argv[0], (char *const *)argv);
+		fprintf(stderr, "exec %s: %s\n", argv[0], strerror(errno));
+		_exit(127);
+	}
+	close(po[1]);
+	close(pe[1]);
+	while (!eo || !ee) {
+		struct pollfd p[2] = { { .fd = eo ? -1 : po[0], .events = POLLIN },
+				       { .fd = ee ? -1 : pe[0], .events = POLLIN } };
+
+		if (mono_ns() > end) {
+			kill(pid, SIGKILL);
+			waitpid(pid, NULL, 0);
+			close(po[0]);
+			close(pe[0]);
+			fail_msg("%s %s hung: no exit within %d ms; output so far:\n%.*s%.*s",
+				 argv[0], argv[1], TOOL_MS, (int)no, r->out, (int)ne, r->err);
+		}
+		if (poll(p, 2, 5) > 0) {
+			if (p[0].revents)
+				eo = !pipe_take(po[0], r->out, sizeof(r->out), &no);
+			if (p[1].revents)
+				ee = !pipe_take(pe[0], r->err, sizeof(r->err), &ne);
+		}
+		service(0);
+	}
+	close(po[0]);
+	close(pe[0]);
+	while (waitpid(pid, &ws, WNOHANG) != pid) {
+		if (mono_ns() > end) {
+			kill(pid, SIGKILL);
+			waitpid(pid, &ws, 0);
+			break;
+		}
+		service(5);
+	}
+	r->ms = ms_of(mono_ns() - t0);
+	r->rc = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+}
+
+/* ---- JSON lines of rmdctl ------------------------------------------------------------ */
+
+static const char *json_at(const char *line, const char *key)
+{
+	char pat[64];
+	const char *p;
+
+	snprintf(pat, sizeof(pat), "\"%s\":", key);
+	p = strstr(line, pat);
+	return p ? p + strlen(pat) : NULL;
+}
+
+static double json_num(const char *line, const char *key)
+{
+	const char *p = json_at(line, key);
+
+	if (!p)
+		fail_msg("key \"%s\" missing from %s", key, line);
+	return strtod(p, NULL);
+}
+
+static bool json_bool(const char *line, const char *key)
+{
+	const char *p = json_at(line, key);
+
+	if (!p)
+		fail_msg("key \"%s\" missing from %s", key, line);
+	return !strncmp(p, "true", 4);
+}
+
+static void json_str(const char *line, const char *key, char *out, size_t len)
+{
+	const char *p = json_at(line, key);
+	size_t n = 0;
+
+	if (!p || *p != '"')
+		fail_msg("string \"%s\" missing from %s", key, line);
+	for (p++; *p && *p != '"' && n + 1 < len; p++)
+		out[n++] = *p;
+	out[n] = '\0';
+}
+
+/* The n-th (0-based) line of text starting with '{', copied into line; false when none. */
+static bool json_line(const char *text, unsigned n, char *line, size_t len)
+{
+	for (const char *p = text; p && *p;) {
+		const char *nl = strchr(p, '\n');
+		size_t l = nl ? (size_t)(nl - p) : strlen(p);
+
+		if (*p == '{' && n-- == 0) {
+			snprintf(line, len, "%.*s", (int)l, p);
+			return true;
+		}
+		p = nl ? nl + 1 : NULL;
+	}
+	return false;
+}
+
+/* ---- environment -------------------------------------------------------------------- */
+
+/* NULL when SocketCAN and vcan0..vcan2 are here, else why not. */
+static const char *no_socketcan(void)
+{
+	int fd = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
+
+	if (fd < 0)
+		return "no SocketCAN here (make test runs this suite in the VM)";
+	close(fd);
+	if (!if_nametoindex("vcan0") || !if_nametoindex("vcan1") || !if_nametoindex("vcan2"))
+		return "no vcan0..vcan2 here (tests/vm/vm-run --vcan 3 creates them)";
+	return NULL;
+}
+
+static void paths_init(void)
+{
+	const char *b = getenv("BUILD");
+
+	snprintf(S.build, sizeof(S.build), "%s", b && *b ? b : "build");
+	snprintf(S.rmdd, sizeof(S.rmdd), "%s/rmdd", S.build);
+	snprintf(S.rmdsim, sizeof(S.rmdsim), "%s/rmd-sim", S.build);
+	snprintf(S.rmdctl, sizeof(S.rmdctl), "%s/rmdctl", S.build);
+	snprintf(S.dir, sizeof(S.dir), "/dev/shm/rmd-vsys-%d", (int)getpid());
+	snprintf(S.cfgpath, sizeof(S.cfgpath), "%s/rmdd.yaml", S.dir);
+	snprintf(S.logpath, sizeof(S.logpath), "%s/candump.log", S.dir);
+	S.log_fd = -1;
+	S.ka_bus = -1;
+	for (unsigned k = 0; k < NBUS_MAX; k++)
+		S.can_fd[k] = -1;
+}
+
+static void need_exec(const char *path)
+{
+	if (access(path, X_OK) != 0)
+		fail_msg("%s not found or not executable: build it, e.g. make BUILD=%s %s", path,
+			 S.build, path);
+}
+
+/* tests/data/vcan/system.yaml with URL_PLACEHOLDER replaced, into S.cfgpath; then load it. */
+static void write_config(void)
+{
+	const char *src = getenv("RMD_SRCDIR");
+	char tpl[256], err[4096], *text, *at;
+	FILE *in, *out;
+	long n;
+
+	snprintf(tpl, sizeof(tpl), "%s/tests/data/vcan/system.yaml", src && *src ? src : ".");
+	in = fopen(tpl, "r");
+	if (!in)
+		fail_msg("%s: %s (run from the repository root, or set RMD_SRCDIR)", tpl,
+			 strerror(errno));
+	fseek(in, 0, SEEK_END);
+	n = ftell(in);
+	rewind(in);
+	text = calloc(1, (size_t)n + 1);
+	assert_non_null(text);
+	assert_int_equal(fread(text, 1, (size_t)n, in), (size_t)n);
+	fclose(in);
+	if (!strstr(text, URL_PLACEHOLDER))
+		fail_msg("%s has no %s", tpl, URL_PLACEHOLDER);
+	/* a port per run: concurrent runs never hear each other */
+	snprintf(S.url, sizeof(S.url), "udpm://239.255.76.67:%d?ttl=0",
+		 20000 + (int)(getpid() % 20000));
+	out = fopen(S.cfgpath, "w");
+	assert_non_null(out);
+	for (const char *p = text; *p;) {
+		at = strstr(p, URL_PLACEHOLDER);
+		if (!at) {
+			fputs(p, out);
+			break;
+		}
+		fprintf(out, "%.*s%s", (int)(at - p), p, S.url);
+		p = at + strlen(URL_PLACEHOLDER);
+	}
+	assert_int_equal(fclose(out), 0);
+	free(text);
+	if (rmd_config_load(S.cfgpath, &S.cfg, err, sizeof(err)) < 0)
+		fail_msg("%s (from %s): %s", S.cfgpath, tpl, err);
+	S.nbus = S.cfg.n_buses;
+	if (S.nbus > NBUS_MAX)
+		fail_msg("%s: %u buses, the test handles %d", tpl, S.nbus, NBUS_MAX);
+	for (unsigned b = 0; b < S.nbus; b++)
+		if (S.cfg.buses[b].kind != RMD_BUS_KIND_SOCKETCAN)
+			fail_msg("%s: bus %s is not socketcan", tpl, S.cfg.buses[b].name);
+	for (unsigned i = 0; i < S.cfg.n_motors; i++)
+		if (S.cfg.motors[i].proto != RMD_PROTO_V3 ||
+		    S.cfg.motors[i].mode != RMD_CTRL_POSITION)
+			fail_msg("%s: motor %s: the test drives V3 motors in position mode", tpl,
+				 S.cfg.motors[i].name);
+}
+
+/* ---- the system's fixture: rmd-sim per bus, candump, LCM -------------------------- */
+
+static void sims_start(void)
+{
+	for (unsigned b = 0; b < S.nbus; b++) {
+		char list[128] = "", seed[16], name[32];
+		size_t n = 0;
+		const char *argv[16];
+		unsigned a = 0;
+
+		for (unsigned i = 0; i < S.cfg.n_motors; i++)
+			if (S.cfg.motors[i].bus == b)
+				n += (size_t)snprintf(list + n, sizeof(list) - n, "%s%u",
+						      n ? "," : "", S.cfg.motors[i].id);
+		snprintf(seed, sizeof(seed), "%u", b + 1);
+		snprintf(name, sizeof(name), "rmd-sim %s", iface(b));
+		argv[a++] = S.rmdsim;
+		argv[a++] = "--can";
+		argv[a++] = iface(b);
+		argv[a++] = "--motors";
+		argv[a++] = list;
+		argv[a++] = "--seed";
+		argv[a++] = seed;
+		argv[a] = NULL;
+		S.sims[b] = spawn_prio(name, argv, NULL, SIM_FIFO_PRIO);
+	}
+	for (unsigned b = 0; b < S.nbus; b++)
+		wait_output(S.sims[b], ": ready", READY_MS);
+}
+
+static void candump_start(void)
+{
+	const char *argv[8 + NBUS_MAX];
+	unsigned a = 0;
+
+	argv[a++] = "candump";
+	argv[a++] = "-L";
+	argv[a++] = "-d";
+	argv[a++] = "-r";
+	argv[a++] = "4194304";
+	for (unsigned b = 0; b < S.nbus; b++)
+		argv[a++] = iface(b);
+	argv[a] = NULL;
+	S.candump = spawn("candump", argv, S.logpath);
+	S.log_fd = open(S.logpath, O_RDONLY | O_CLOEXEC);
+	if (S.log_fd < 0)
+		fail_msg("%s: %s", S.logpath, strerror(errno));
+	for (unsigned b = 0; b < S.nbus; b++)
+		S.can_fd[b] = can_open(b, false);
+	/* candump has no "ready": its first logged marker says it listens */
+	sync_log();
+}
+
+static void lcm_start(void)
+{
+	S.lcm = lcm_create(S.url);
+	if (!S.lcm)
+		fail_msg("lcm_create(%s) failed: multicast on loopback? (tests/vm/net-setup)",
+			 S.url);
+	S.sub_state = rmd_state_t_subscribe(S.lcm, "RMD_STATE", on_state, NULL);
+	S.sub_health = rmd_health_t_subscribe(S.lcm, "RMD_HEALTH", on_health, NULL);
+	assert_non_null(S.sub_state);
+	assert_non_null(S.sub_health);
+}
+
+static bool fixture_tried, fixture_up;
+
+static void system_begin(void)
+{
+	if (!S.have_can)
+		skip();
+	if (fixture_tried) {
+		if (!fixture_up)
+			fail_msg("rmd-sim, candump or LCM did not start in an earlier test");
+		return;
+	}
+	fixture_tried = true;
+	need_exec(S.rmdd);
+	need_exec(S.rmdsim);
+	need_exec(S.rmdctl);
+	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
+		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
+	write_config();
+	sims_start();
+	candump_start();
+	lcm_start();
+	fixture_up = true;
+	print_message("system: %u motors on %u buses, loop %u Hz, command timeout %u ms, safe "
+		      "action 0x%02X, comm-loss (0xB3) %u ms, LCM %s\n",
+		      S.cfg.n_motors, S.nbus, S.cfg.loop.rate_hz, S.cfg.safety.command_timeout_ms,
+		      safe_cmd(S.cfg.safety.safe_action), S.cfg.safety.comm_loss_ms, S.url);
+}
+
+static bool rmdd_running(void)
+{
+	return S.rmdd_kid && !kid_poll_exit(S.rmdd_kid);
+}
+
+/* Print rmdd's bring-up report (the lines between "bring-up" and "running"). */
+static void print_bringup(const struct kid *k)
+{
+	const char *p = strstr(k->out, "bring-up of");
+
+	for (; p && *p;) {
+		const char *nl = strchr(p, '\n');
+		int n = nl ? (int)(nl - p) : (int)strlen(p);
+
+		if (memmem(p, (size_t)n, "rmdd: running", 13))
+			break;
+		print_message("  rmdd: %.*s\n", n, p);
+		p = nl ? nl + 1 : NULL;
+	}
+}
+
+static void rmdd_start(void)
+{
+	const char *argv[] = { S.rmdd, "--config", S.cfgpath, NULL };
+
+	if (S.rmdd_kid)
+		kid_free(S.rmdd_kid);
+	S.rmdd_kid = spawn("rmdd", argv, NULL);
+	wait_output(S.rmdd_kid, "rmdd: running:", READY_MS);
+	print_bringup(S.rmdd_kid);
+	/* DESIGN.md: after a comm-loss trip the first command is only echoed */
+	if (strstr(S.rmdd_kid->out, "(no model)"))
+		fail_msg("bring-up took the echo of 0xB5 from a motor whose 0xB3 protection had "
+			 "tripped for its model (\"(no model)\"):\n%s",
+			 S.rmdd_kid->out);
+}
+
+static bool all_lc(int8_t lc)
+{
+	if (S.st_count < (int16_t)S.cfg.n_motors)
+		return false;
+	for (unsigned i = 0; i < S.cfg.n_motors; i++)
+		if (S.lc[i] != lc)
+			return false;
+	return true;
+}
+
+static const char *lc_list(void)
+{
+	static char s[256];
+	size_t n = 0;
+
+	s[0] = '\0';
+	for (unsigned i = 0; i < S.cfg.n_motors && n < sizeof(s) - 16; i++)
+		n += (size_t)snprintf(s + n, sizeof(s) - n, "%s%s=%d", i ? " " : "",
+				      S.cfg.motors[i].name, S.lc[i]);
+	return s;
+}
+
+/* ---- frame queries ------------------------------------------------------------------ */
+
+/* f is on bus b with identifier id and command byte cmd (-1: any), and t0 <= t < t1. */
+static bool frame_is(const struct cframe *f, unsigned b, unsigned id, int cmd, int64_t t0,
+		     int64_t t1)
+{
+	return f->bus == b && f->id == id && (cmd < 0 || f->data[0] == cmd) && f->t_ns >= t0 &&
+	       f->t_ns < t1;
+}
+
+/* The earliest (latest; how many) of the frames from index `from` on that frame_is(). */
+static const struct cframe *first_frame(size_t from, unsigned b, unsigned id, int cmd, int64_t t0,
+					int64_t t1)
+{
+	const struct cframe *best = NULL;
+
+	/* the log merges three sockets: not strictly in time order */
+	for (size_t i = from; i < S.nframes; i++)
+		if (frame_is(&S.frames[i], b, id, cmd, t0, t1) &&
+		    (!best || S.frames[i].t_ns < best->t_ns))
+			best = &S.frames[i];
+	return best;
+}
+
+static const struct cframe *last_frame(size_t from, unsigned b, unsigned id, int cmd, int64_t t0,
+				       int64_t t1)
+{
+	const struct cframe *best = NULL;
+
+	for (size_t i = from; i < S.nframes; i++)
+		if (frame_is(&S.frames[i], b, id, cmd, t0, t1) &&
+		    (!best || S.frames[i].t_ns >= best->t_ns))
+			best = &S.frames[i];
+	return best;
+}
+
+static unsigned count_frames(size_t from, unsigned b, unsigned id, int cmd, int64_t t0, int64_t t1)
+{
+	unsigned n = 0;
+
+	for (size_t i = from; i < S.nframes; i++)
+		n += frame_is(&S.frames[i], b, id, cmd, t0, t1);
+	return n;
+}
+
+#define T_END INT64_MAX
+
+static unsigned req_id(unsigned i)
+{
+	return RMD_CAN_REQ_BASE + S.cfg.motors[i].id;
+}
+
+static unsigned rep_id(unsigned i)
+{
+	return RMD_CAN_V3_REPLY_BASE + S.cfg.motors[i].id;
+}
+
+/* Wait (publishing as the controller is set) until every motor is in lifecycle lc. */
+static bool wait_all_lc(int8_t lc, int ms)
+{
+	int64_t end = mono_ns() + ms * NS_PER_MS;
+	uint64_t n0 = S.n_state;
+
+	while (S.n_state == n0 || !all_lc(lc)) {
+		if (mono_ns() > end)
+			return false;
+		service(10);
+	}
+	return true;
+}
+
+/*
+ * Enable every motor and wait until state_t shows them ENABLED.  rmdd
+ * takes enable = 1 for a motor that came back from LOST only after an
+ * enable = 0 (include/rmd/loop.h, "need_edge"); a motor still READY a
+ * second after enable = 1 gets what rmdd's log asks for: enable = 0 (once
+ * every motor is READY), then 1 again.  Returns the time taken, ms.
+ */
+static double enable_all(void)
+{
+	int64_t t0 = mono_ns(), end = t0 + ENABLE_MS * NS_PER_MS;
+
+	for (;;) {
+		controller(true, true);
+		if (wait_all_lc(RMD_STATE_T_LC_ENABLED, 1000))
+			return ms_of(mono_ns() - t0);
+		if (mono_ns() > end)
+			fail_msg("not every motor ENABLED %d ms after enable (lifecycles %s; "
+				 "%" PRIu64 " state_t, %" PRIu64 " health_t received); rmdd:\n%s",
+				 ENABLE_MS, lc_list(), S.n_state, S.n_health, tail_of(S.rmdd_kid));
+		S.edge_toggles++;
+		controller(true, false);
+		wait_all_lc(RMD_STATE_T_LC_READY, 2000);
+		run_for(3 * CTL_PERIOD_MS);
+	}
+}
+
+/*
+ * rmdd has just started: report what its start did to the motors.  Its
+ * bring-up writes 0xB3 (comm_loss_ms) and ends with the scan of the ids
+ * not configured (0x9A to 0x160 last); the loop's first cycle comes after
+ * LCM, mlockall and the thread's start.  A gap longer than comm_loss_ms
+ * trips every motor's protection (0xF1) before rmdd drives it.
+ */
+static void report_start(int64_t t_start)
+{
+	const struct cframe *scan_end = NULL, *first = NULL;
+	unsigned trips = 0;
+
+	sync_log();
+	for (size_t i = 0; i < S.nframes; i++) {
+		const struct cframe *f = &S.frames[i];
+
+		if (f->t_ns >= t_start && f->id == RMD_CAN_REQ_BASE + RMD_MAX_MOTORS &&
+		    (!scan_end || f->t_ns > scan_end->t_ns))
+			scan_end = f;
+	}
+	if (!scan_end) {
+		print_message("rmdd start: no bring-up scan (0x160) in candump's log\n");
+		return;
+	}
+	for (size_t i = 0; i < S.nframes; i++) {
+		const struct cframe *f = &S.frames[i];
+
+		for (unsigned m = 0; m < S.cfg.n_motors; m++)
+			if (frame_is(f, S.cfg.motors[m].bus, req_id(m), -1, scan_end->t_ns + 1,
+				     T_END) &&
+			    (!first || f->t_ns < first->t_ns))
+				first = f;
+	}
+	/* a motor that heard the bring-up sends 0xF1 only when it trips anew */
+	for (unsigned m = 0; first && m < S.cfg.n_motors; m++)
+		trips += first_frame(0, S.cfg.motors[m].bus, rep_id(m), 0xF1, scan_end->t_ns + 1,
+				     first->t_ns + 1) != NULL;
+	print_message("rmdd start: bring-up's last frame to the first cycle's: %.0f ms "
+		      "(comm_loss_ms %u); motors whose 0xB3 protection tripped meanwhile: %u%s\n",
+		      first ? ms_of(first->t_ns - scan_end->t_ns) : -1.0, S.cfg.safety.comm_loss_ms,
+		      trips,
+		      trips ? " -- rmdd let them go silent between bring-up and its first cycle" :
+			      "");
+	if (trips)
+		fail_msg("%u motor(s) tripped their comm-loss protection between bring-up and "
+			 "the first cycle",
+			 trips);
+}
+
+static void rmdd_up_and_enabled(void)
+{
+	if (!rmdd_running()) {
+		int64_t t_start = real_ns();
+		unsigned toggles = S.edge_toggles;
+		double ms;
+
+		rmdd_start();
+		ms = enable_all();
+		report_start(t_start);
+		print_message("enable: every motor ENABLED in state_t %.0f ms after the first "
+			      "enable%s\n",
+			      ms,
+			      S.edge_toggles != toggles ? " (after enable = 0 first, as rmdd asked "
+							  "for motors back from LOST)" :
+							  "");
+		return;
+	}
+	enable_all();
+}
+
+/* For failure messages: motor i's frames in the log, times relative to t_ref. */
+static const char *motor_frames(unsigned i, int64_t t_ref)
+{
+	static char text[8192];
+	const struct rmd_config_motor *m = &S.cfg.motors[i];
+	size_t n = 0, first = 0, count = 0;
+
+	for (size_t k = 0; k < S.nframes; k++)
+		if (S.frames[k].bus == m->bus &&
+		    (S.frames[k].id == req_id(i) || S.frames[k].id == rep_id(i)))
+			count++;
+	text[0] = '\0';
+	for (size_t k = 0; k < S.nframes && n < sizeof(text) - 64; k++) {
+		const struct cframe *f = &S.frames[k];
+
+		if (f->bus != m->bus || (f->id != req_id(i) && f->id != rep_id(i)))
+			continue;
+		if (first++ + 40 < count)
+			continue;
+		n += (size_t)snprintf(text + n, sizeof(text) - n, "  %+9.2f ms %03X %02X\n",
+				      ms_of(f->t_ns - t_ref), f->id, f->data[0]);
+	}
+	return text;
+}
+
+/* ---- test 1: rmdctl against rmd-sim on vcan0 ---------------------------------------- */
+
+struct expect_motor {
+	unsigned id;
+	const char *model;
+	unsigned date;
+};
+
+static const struct expect_motor scan_motors[] = {
+	{ 1, "X8S2V10", 20220206 }, /* rmd-sim's default */
+	{ 2, "X6S2V3", 20230315 },
+	{ 3, "X4V2", 20210601 },
+};
+
+static int rmdctl_teardown(void **state)
+{
+	(void)state;
+	kids_kill_all();
+	return 0;
+}
+
+static void test_rmdctl_scan_move(void **state)
+{
+	const char *sim_argv[] = { S.rmdsim,
+				   "--can",
+				   "vcan0",
+				   "--motors",
+				   "1-3",
+				   "--set",
+				   "2:model=X6S2V3",
+				   "--set",
+				   "2:version=20230315",
+				   "--set",
+				   "3:model=X4V2",
+				   "--set",
+				   "3:version=20210601",
+				   NULL };
+	const char *scan[] = { S.rmdctl, "scan", "--bus", "vcan0", "--json", NULL };
+	const char *scan1[] = { S.rmdctl, "scan", "--bus", "vcan1", NULL };
+	const char *st1[] = { S.rmdctl, "status", "1", "--bus", "vcan0", "--json", NULL };
+	const char *st9[] = { S.rmdctl, "status", "9", "--bus", "vcan0", NULL };
+	const char *move[] = { S.rmdctl, "move", "2", "10", "--yes", "--bus", "vcan0", NULL };
+	const char *st2[] = { S.rmdctl, "status", "2", "--bus", "vcan0", "--json", NULL };
+	double try_ms, tries;
+	static struct run r;
+	char line[1024], model[16];
+	struct kid *sim;
+	double base_ms, angle;
+
+	(void)state;
+	if (!S.have_can)
+		skip();
+	need_exec(S.rmdsim);
+	need_exec(S.rmdctl);
+	sim = spawn("rmd-sim vcan0", sim_argv, NULL);
+	wait_output(sim, ": ready", READY_MS);
+
+	/* scan: exactly the simulated motors, with their models and dates */
+	run_tool(&r, scan);
+	if (r.rc != 0)
+		fail_msg("rmdctl scan --bus vcan0: exit %d\n%s%s", r.rc, r.out, r.err);
+	for (unsigned k = 0; k < 3; k++) {
+		const struct expect_motor *e = &scan_motors[k];
+
+		if (!json_line(r.out, k, line, sizeof(line)))
+			fail_msg("rmdctl scan: %u motor(s) listed, expected 3:\n%s", k, r.out);
+		json_str(line, "model", model, sizeof(model));
+		if ((unsigned)json_num(line, "motor_id") != e->id || strcmp(model, e->model) ||
+		    (unsigned)json_num(line, "version_date") != e->date)
+			fail_msg("rmdctl scan line %u: expected id %u, %s, %u; got %s", k, e->id,
+				 e->model, e->date, line);
+	}
+	if (json_line(r.out, 3, line, sizeof(line)))
+		fail_msg("rmdctl scan lists a motor nobody simulates: %s", line);
+	print_message("scan vcan0: exactly motors 1 X8S2V10 20220206, 2 X6S2V3 20230315, 3 X4V2 "
+		      "20210601 (%.0f ms)\n",
+		      r.ms);
+
+	/* a bus without motors: exit 1, said so, no hang */
+	run_tool(&r, scan1);
+	if (r.rc != 1)
+		fail_msg("rmdctl scan --bus vcan1 (no motors): exit %d, expected 1\n%s%s", r.rc,
+			 r.out, r.err);
+	print_message("scan vcan1 (no motors): exit 1 in %.0f ms: %s", r.ms, r.err);
+
+	/* a silent motor: "did not answer", exit 1, within the stated timeout */
+	run_tool(&r, st1);
+	if (r.rc != 0)
+		fail_msg("rmdctl status 1: exit %d\n%s%s", r.rc, r.out, r.err);
+	base_ms = r.ms;
+	run_tool(&r, st9);
+	if (r.rc != 1 || !strstr(r.err, "motor 9 did not answer"))
+		fail_msg("rmdctl status 9 (nobody simulates it): exit %d, expected 1 with "
+			 "\"motor 9 did not answer\"; stderr:\n%s",
+			 r.rc, r.err);
+	/* the time it states, e.g. "within 5 ms (3 tries), nor 0x92, 0x9C": three requests */
+	{
+		const char *w = strstr(r.err, "within ");
+
+		if (!w || sscanf(w, "within %lf ms (%lf tries)", &try_ms, &tries) != 2)
+			fail_msg("rmdctl status 9: no \"within N ms (N tries)\" in: %s", r.err);
+	}
+	print_message("status 9 (silent): exit 1 after %.0f ms, %.0f ms more than an answered "
+		      "status (stated: 3 requests x %.0f tries x %.0f ms = %.0f ms): %s",
+		      r.ms, r.ms - base_ms, tries, try_ms, 3 * tries * try_ms, r.err);
+	if (r.ms > 3 * tries * try_ms + EXEC_SLACK_MS)
+		fail_msg("rmdctl status 9 took %.0f ms: more than %.0f ms + %d ms to start", r.ms,
+			 3 * tries * try_ms, EXEC_SLACK_MS);
+
+	/* move motor 2 to 10 degrees; status shows it there, and the others stayed */
+	run_tool(&r, move);
+	if (r.rc != 0)
+		fail_msg("rmdctl move 2 10: exit %d\n%s%s", r.rc, r.out, r.err);
+	print_message("move: %s", r.out);
+	run_tool(&r, st2);
+	if (r.rc != 0 || !json_line(r.out, 0, line, sizeof(line)))
+		fail_msg("rmdctl status 2: exit %d\n%s%s", r.rc, r.out, r.err);
+	angle = json_num(line, "angle_deg");
+	print_message("status 2 after the move: angle %.2f deg (%s)\n", angle, line);
+	if (fabs(angle - 10.0) > 0.5)
+		fail_msg("motor 2 at %.2f deg after rmdctl move 2 10", angle);
+	run_tool(&r, st1);
+	if (r.rc != 0 || !json_line(r.out, 0, line, sizeof(line)))
+		fail_msg("rmdctl status 1: exit %d\n%s%s", r.rc, r.out, r.err);
+	if (fabs(json_num(line, "angle_deg")) > 0.5)
+		fail_msg("motor 1 moved though only motor 2 was told to: %s", line);
+	kid_free(sim);
+}
+
+/* ---- test 2: enable, and the frames per cycle ------------------------------------------ */
+
+/* Wait for the next state_t; its cycle number and time (rmdd's CLOCK_MONOTONIC, ns). */
+static void next_state(int64_t *cycle, int64_t *t_ns)
+{
+	int64_t end = mono_ns() + 2 * NS_PER_S;
+	uint64_t n = S.n_state;
+
+	while (S.n_state == n) {
+		if (mono_ns() > end)
+			fail_msg("no state_t from rmdd for 2 s");
+		service(2);
+	}
+	*cycle = S.st_cycle;
+	*t_ns = S.st_utime * 1000;
+}
+
+/* One rate window's verdict. */
+struct window {
+	double secs, loop_hz;
+	int64_t cycles;
+	double worst_sp, max_sp; /* lowest and highest setpoints per second of a motor */
+	double poll_hz;		 /* the highest status_poll_hz configured */
+	char per_cycle_err[256];
+};
+
+/*
+ * Measure one window: what rmdd ran (cycles, from state_t) and what
+ * candump saw (requests and replies per motor).  Prints everything; fills
+ * w->per_cycle_err when a motor did not get one request per cycle.
+ */
+static void rate_window(struct window *w)
+{
+	struct health h0, h1;
+	int64_t t0, t1, c0, c1, off;
+	double rate = S.cfg.loop.rate_hz;
+
+	memset(w, 0, sizeof(*w));
+	w->worst_sp = 1e9;
+	sync_log();
+	log_forget();
+	/*
+	 * The window runs from one state_t to another: state_t carries the
+	 * loop's cycle number and the time of that cycle (rmdd's
+	 * CLOCK_MONOTONIC; candump stamps CLOCK_REALTIME).  A cycle sends its
+	 * frames just after its time, so the frames of cycles c0+1 .. c1 lie
+	 * between t0 and t1, each shifted by half a period to be safe.
+	 */
+	off = real_ns() - mono_ns();
+	h0 = S.h;
+	next_state(&c0, &t0);
+	run_for(WINDOW_MS);
+	next_state(&c1, &t1);
+	h1 = S.h;
+	sync_log();
+	t0 += off + (int64_t)(5e8 / rate);
+	t1 += off + (int64_t)(5e8 / rate);
+	w->secs = (double)(t1 - t0) / 1e9;
+	w->cycles = c1 - c0;
+	w->loop_hz = (double)w->cycles / w->secs;
+
+	print_message("window %.3f s: rmdd ran %" PRId64 " cycles = %.1f Hz of the configured %u "
+		      "Hz (%.1f%%); overruns %" PRId64 ", plan misses %" PRId64 "; wake-up avg "
+		      "%.0f us, p99 %.0f us, max %.0f us, cycle max %.0f us\n",
+		      w->secs, w->cycles, w->loop_hz, S.cfg.loop.rate_hz, 100.0 * w->loop_hz / rate,
+		      h1.overruns - h0.overruns, h1.plan_misses - h0.plan_misses, h1.wake_avg_us,
+		      h1.wake_p99_us, h1.wake_max_us, h1.cycle_max_us);
+	for (unsigned b = 0; b < S.nbus; b++) {
+		unsigned bus_frames = 0;
+
+		for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+			const struct rmd_config_motor *m = &S.cfg.motors[i];
+			unsigned req, sp, poll9a, rep;
+			double cyc = (double)w->cycles;
+
+			if (m->bus != b)
+				continue;
+			req = count_frames(0, b, req_id(i), -1, t0, t1);
+			sp = count_frames(0, b, req_id(i), control_cmd(m->mode), t0, t1);
+			poll9a = count_frames(0, b, req_id(i), 0x9A, t0, t1);
+			rep = count_frames(0, b, rep_id(i), -1, t0, t1);
+			bus_frames += req + rep;
+			print_message("  %s motor %u (%s): %.0f requests/s = %.0f setpoints 0x%02X "
+				      "(%.1f%% of %u Hz) + %.0f status 0x9A; %.0f replies/s; per "
+				      "cycle %.3f requests, %.3f setpoints\n",
+				      iface(b), m->id, m->name, req / w->secs, sp / w->secs,
+				      control_cmd(m->mode), 100.0 * sp / w->secs / rate,
+				      S.cfg.loop.rate_hz, poll9a / w->secs, rep / w->secs,
+				      cyc > 0 ? req / cyc : 0, cyc > 0 ? sp / cyc : 0);
+			if (sp / w->secs < w->worst_sp)
+				w->worst_sp = sp / w->secs;
+			if (sp / w->secs > w->max_sp)
+				w->max_sp = sp / w->secs;
+			if (m->status_poll_hz > w->poll_hz)
+				w->poll_hz = m->status_poll_hz;
+			/* one request per motor per cycle; on a bus with room, polls extra */
+			if (!w->per_cycle_err[0] &&
+			    (req < 0.98 * cyc - 2 || req > 1.02 * cyc + poll9a + 2 ||
+			     sp + poll9a < req || rep < req * 9 / 10))
+				snprintf(w->per_cycle_err, sizeof(w->per_cycle_err),
+					 "%s motor %u: %u requests (%u setpoints, %u status polls) "
+					 "and %u replies in %" PRId64 " cycles",
+					 iface(b), m->id, req, sp, poll9a, rep, w->cycles);
+		}
+		print_message("  %s: %.2f frames per cycle (requests + replies)\n", iface(b),
+			      w->cycles ? (double)bus_frames / (double)w->cycles : 0);
+	}
+}
+
+static void test_system_rate(void **state)
+{
+	struct window w;
+	unsigned k;
+	double rate, want = 0;
+
+	(void)state;
+	system_begin();
+	rate = S.cfg.loop.rate_hz;
+	if (rmdd_running())
+		enable_all();
+	else
+		rmdd_up_and_enabled();
+	run_for(SETTLE_MS);
+	/*
+	 * A window passes when every motor got one request per cycle rmdd ran
+	 * and setpoints at MIN_RATE_FRACTION of the configured rate at least
+	 * (less the status polls that take a setpoint's place on a full bus).
+	 * Both depend on the emulated guest getting the host's CPUs (a starved
+	 * loop overruns, loses replies, and in the end motors): the first of up
+	 * to RATE_WINDOWS windows that passes counts; every one is printed.
+	 */
+	for (k = 0; k < RATE_WINDOWS; k++) {
+		rate_window(&w);
+		want = MIN_RATE_FRACTION * (rate - w.poll_hz);
+		if (!w.per_cycle_err[0] && w.worst_sp < want)
+			snprintf(w.per_cycle_err, sizeof(w.per_cycle_err),
+				 "the slowest motor got %.0f setpoints/s, below %.0f%% of %.0f Hz "
+				 "less %.0f Hz of status polls",
+				 w.worst_sp, 100.0 * MIN_RATE_FRACTION, rate, w.poll_hz);
+		if (!w.per_cycle_err[0] && w.max_sp > 1.02 * rate + 2)
+			snprintf(w.per_cycle_err, sizeof(w.per_cycle_err),
+				 "a motor got %.0f setpoints/s, above the %.0f Hz loop rate",
+				 w.max_sp, rate);
+		if (!w.per_cycle_err[0])
+			break;
+		print_message("  window %u: %s\n", k + 1, w.per_cycle_err);
+	}
+	if (k == RATE_WINDOWS)
+		fail_msg("no window of %u passed; the last: %s", RATE_WINDOWS, w.per_cycle_err);
+	print_message("rate: window %u: every motor got one request per cycle rmdd ran; setpoints "
+		      "per motor %.0f .. %.0f per second = %.1f .. %.1f%% of %.0f Hz (at least "
+		      "%.0f/s required)\n",
+		      k + 1, w.worst_sp, w.max_sp, 100.0 * w.worst_sp / rate,
+		      100.0 * w.max_sp / rate, rate, want);
+	print_message("candump: %u unparsed lines, %u DROPCOUNT lines%s%s\n", S.bad_lines,
+		      S.drop_lines, S.drop_lines ? ": " : "", S.drop_text);
+
+	/* SIGUSR1: the statistics, and rmdd keeps running */
+	kill(S.rmdd_kid->pid, SIGUSR1);
+	wait_output(S.rmdd_kid, "statistics (SIGUSR1)", EXIT_MS);
+	{
+		uint64_t n = S.n_state;
+
+		run_for(200);
+		if (!rmdd_running() || S.n_state == n)
+			fail_msg("rmdd stopped after SIGUSR1; its output:\n%s",
+				 tail_of(S.rmdd_kid));
+	}
+	print_message("SIGUSR1: statistics printed, rmdd keeps running\n");
+}
+
+/* ---- test 3: the controller goes quiet ------------------------------------------------- */
+
+/*
+ * The first of the frames to motor i, before t_end, that carry the same
+ * setpoint as the last one: the first cycle that had the last command.
+ * The controller alternates max_velocity, so consecutive commands differ.
+ */
+static const struct cframe *first_of_last_setpoint(unsigned i, int64_t t_end)
+{
+	const struct rmd_config_motor *m = &S.cfg.motors[i];
+	const struct cframe *last =
+		last_frame(0, m->bus, req_id(i), control_cmd(m->mode), 0, t_end);
+	const struct cframe *first = NULL;
+
+	if (!last)
+		return NULL;
+	for (size_t k = 0; k < S.nframes; k++) {
+		const struct cframe *f = &S.frames[k];
+
+		if (!frame_is(f, m->bus, req_id(i), control_cmd(m->mode), 0, t_end))
+			continue;
+		if (memcmp(f->data, last->data, sizeof(f->data)))
+			first = NULL; /* an earlier command's setpoint */
+		else if (!first)
+			first = f;
+	}
+	return first;
+}
+
+static void test_system_watchdog(void **state)
+{
+	double limit_ms, pub_limit_ms, period_ms, wake_ms;
+	double max_ms = 0, min_ms = 1e9, max_pub = 0, min_pub = 1e9;
+	int64_t t_last, t_en, end, skipped;
+	struct health h0;
+	uint8_t sc;
+
+	(void)state;
+	system_begin();
+	sc = safe_cmd(S.cfg.safety.safe_action);
+	period_ms = 1000.0 / S.cfg.loop.rate_hz;
+	rmdd_up_and_enabled();
+	sync_log();
+	log_forget(); /* keep what runs up to the event: the last frames before it count */
+	run_for(SETTLE_MS);
+
+	/* "kill" the controller: no command after this one */
+	h0 = S.h;
+	controller(false, true);
+	t_last = S.last_pub_real;
+	end = mono_ns() + 3 * NS_PER_S;
+	while (S.h.watchdog != RMD_HEALTH_T_WD_TRIPPED || !all_lc(RMD_STATE_T_LC_SAFE)) {
+		if (mono_ns() > end)
+			fail_msg("controller quiet for 3 s: health_t watchdog %d (expected TRIPPED "
+				 "%d), lifecycles %s; rmdd:\n%s",
+				 S.h.watchdog, RMD_HEALTH_T_WD_TRIPPED, lc_list(),
+				 tail_of(S.rmdd_kid));
+		service(10);
+	}
+	sync_log();
+	/*
+	 * The command arrived (the bridge stamped it) before the first cycle
+	 * that sent its setpoint and after the cycle before.  The loop trips
+	 * at its first tick more than command_timeout after the arrival: at
+	 * most timeout + 1 cycle after that first cycle, plus what rmdd itself
+	 * reports about its schedule: its worst wake-up latency, and one
+	 * period for each tick it skipped (overruns) meanwhile; SEND_SLACK_MS
+	 * for the frames to leave after the tick.  From the test's publish on,
+	 * the LCM hop comes on top (LCM_SLACK_MS).
+	 */
+	skipped = S.h.overruns - h0.overruns;
+	wake_ms = S.h.wake_max_us / 1000.0;
+	limit_ms = S.cfg.safety.command_timeout_ms + period_ms + wake_ms +
+		   (double)skipped * period_ms + SEND_SLACK_MS;
+	pub_limit_ms = limit_ms + LCM_SLACK_MS;
+	print_message("controller quiet: health_t TRIPPED, every motor SAFE.  Safe action 0x%02X "
+		      "after the first cycle that carried the last command: limit = timeout %u ms "
+		      "+ 1 cycle %.1f ms + rmdd's worst wake-up %.2f ms + %" PRId64 " skipped "
+		      "tick(s) x %.1f ms + %d ms = %.1f ms; after the test published it: + LCM "
+		      "hop %d ms = %.1f ms\n",
+		      sc, S.cfg.safety.command_timeout_ms, period_ms, wake_ms, skipped, period_ms,
+		      SEND_SLACK_MS, limit_ms, LCM_SLACK_MS, pub_limit_ms);
+	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+		const struct rmd_config_motor *m = &S.cfg.motors[i];
+		const struct cframe *f = first_frame(0, m->bus, req_id(i), sc, t_last, T_END);
+		const struct cframe *arrived, *echo;
+		unsigned after;
+		double d, d_pub;
+
+		if (!f)
+			fail_msg("%s motor %u: no 0x%02X after the controller went quiet",
+				 iface(m->bus), m->id, sc);
+		arrived = first_of_last_setpoint(i, f->t_ns);
+		if (!arrived)
+			fail_msg("%s motor %u: no setpoint logged before the safe action",
+				 iface(m->bus), m->id);
+		echo = first_frame(0, m->bus, rep_id(i), sc, f->t_ns, T_END);
+		after = count_frames(0, m->bus, req_id(i), control_cmd(m->mode), f->t_ns, T_END);
+		d = ms_of(f->t_ns - arrived->t_ns);
+		d_pub = ms_of(f->t_ns - t_last);
+		print_message("  %s motor %u: last command first sent %+.2f ms after its publish; "
+			      "0x%02X %.2f ms after that (%.2f ms after the publish), answered %s, "
+			      "setpoints after it: %u\n",
+			      iface(m->bus), m->id, ms_of(arrived->t_ns - t_last), sc, d, d_pub,
+			      echo ? "yes" : "NO", after);
+		if (d > max_ms)
+			max_ms = d;
+		if (d < min_ms)
+			min_ms = d;
+		if (d_pub > max_pub)
+			max_pub = d_pub;
+		if (d_pub < min_pub)
+			min_pub = d_pub;
+		if (d_pub < S.cfg.safety.command_timeout_ms - 1.0)
+			fail_msg("%s motor %u: safe action %.2f ms after the last command, before "
+				 "the %u ms timeout",
+				 iface(m->bus), m->id, d_pub, S.cfg.safety.command_timeout_ms);
+		if (d > limit_ms || d_pub > pub_limit_ms)
+			fail_msg(
+				"%s motor %u: safe action %.2f ms after the first cycle with the "
+				"last command (limit %.1f), %.2f ms after its publish (limit %.1f); "
+				"frames (ms after the publish):\n%s",
+				iface(m->bus), m->id, d, limit_ms, d_pub, pub_limit_ms,
+				motor_frames(i, t_last));
+		if (!echo)
+			fail_msg("%s motor %u: no answer to the safe action 0x%02X", iface(m->bus),
+				 m->id, sc);
+		if (after)
+			fail_msg("%s motor %u: %u setpoints after the safe action", iface(m->bus),
+				 m->id, after);
+	}
+	print_message("safe action delay: after the first cycle with the last command %.2f .. "
+		      "%.2f ms (limit %.1f; timeout + 1 cycle alone: %.1f); after the publish "
+		      "%.2f .. %.2f ms (limit %.1f); safe_action_events %" PRId64 "\n",
+		      min_ms, max_ms, limit_ms, S.cfg.safety.command_timeout_ms + period_ms,
+		      min_pub, max_pub, pub_limit_ms, S.h.safe_action_events);
+
+	/* a new enable lifts it */
+	log_forget();
+	t_en = real_ns();
+	{
+		double ms = enable_all();
+
+		end = mono_ns() + 3 * NS_PER_S;
+		while (S.h.watchdog != RMD_HEALTH_T_WD_OK) {
+			if (mono_ns() > end)
+				fail_msg("re-enabled, but health_t watchdog stays %d",
+					 S.h.watchdog);
+			service(10);
+		}
+		run_for(100);
+		sync_log();
+		for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+			const struct rmd_config_motor *m = &S.cfg.motors[i];
+
+			if (!count_frames(0, m->bus, req_id(i), control_cmd(m->mode), t_en, T_END))
+				fail_msg("%s motor %u: no setpoint after the re-enable",
+					 iface(m->bus), m->id);
+		}
+		print_message(
+			"re-enable: every motor ENABLED after %.0f ms, health_t OK, setpoints "
+			"flow again\n",
+			ms);
+	}
+}
+
+/* ---- test 4: SIGTERM ------------------------------------------------------------------ */
+
+static void test_system_sigterm(void **state)
+{
+	int64_t t_term, t0;
+	double max_ms = 0, exit_ms;
+	int st;
+	const char *p;
+
+	(void)state;
+	system_begin();
+	rmdd_up_and_enabled();
+	sync_log();
+	log_forget(); /* keep what runs up to the event: the last frames before it count */
+	run_for(SETTLE_MS);
+	t_term = real_ns();
+	t0 = mono_ns();
+	kill(S.rmdd_kid->pid, SIGTERM); /* the controller keeps publishing meanwhile */
+	st = wait_exit(S.rmdd_kid, EXIT_MS);
+	exit_ms = ms_of(mono_ns() - t0);
+	controller(false, false);
+	if (st != 0)
+		fail_msg("rmdd: exit status %d after SIGTERM; its output:\n%s", st,
+			 tail_of(S.rmdd_kid));
+	if (!strstr(S.rmdd_kid->out, "statistics (exit)") ||
+	    !strstr(S.rmdd_kid->out, "every motor was sent stop (0x80)"))
+		fail_msg("rmdd: no statistics or stop report after SIGTERM; its output:\n%s",
+			 tail_of(S.rmdd_kid));
+	sync_log();
+	print_message("SIGTERM: rmdd exit 0 after %.0f ms, statistics printed:\n", exit_ms);
+	p = strstr(S.rmdd_kid->out, "statistics (exit)");
+	for (int k = 0; p && k < 4; k++) {
+		const char *nl = strchr(p, '\n');
+
+		print_message("  %.*s\n", nl ? (int)(nl - p) : (int)strlen(p), p);
+		p = nl ? nl + 1 : NULL;
+	}
+	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+		const struct rmd_config_motor *m = &S.cfg.motors[i];
+		const struct cframe *f = first_frame(0, m->bus, req_id(i), 0x80, t_term, T_END);
+		const struct cframe *echo;
+		unsigned after;
+
+		if (!f)
+			fail_msg("%s motor %u: no stop (0x80) after SIGTERM", iface(m->bus), m->id);
+		echo = first_frame(0, m->bus, rep_id(i), 0x80, f->t_ns, T_END);
+		after = count_frames(0, m->bus, req_id(i), control_cmd(m->mode), f->t_ns, T_END);
+		if (!echo)
+			fail_msg("%s motor %u: did not answer the stop", iface(m->bus), m->id);
+		if (after)
+			fail_msg("%s motor %u: %u setpoints after the stop", iface(m->bus), m->id,
+				 after);
+		if (ms_of(f->t_ns - t_term) > max_ms)
+			max_ms = ms_of(f->t_ns - t_term);
+	}
+	print_message("SIGTERM: 0x80 to all %u motors, each answered, within %.1f ms of the "
+		      "signal; no setpoint after it\n",
+		      S.cfg.n_motors, max_ms);
+}
+
+/* ---- test 5: kill -9, the motors' own protection ------------------------------------------ */
+
+/* Send 0x9A to motor i and return its answer (the frame), failing after ms. */
+static struct rmd_frame read_9a(int fd, unsigned i, int ms)
+{
+	static const uint8_t req[8] = { 0x9A };
+	const struct rmd_config_motor *m = &S.cfg.motors[i];
+	int64_t end = mono_ns() + ms * NS_PER_MS;
+	struct can_frame cf;
+	struct rmd_frame f = { 0 };
+
+	can_send(m->bus, req_id(i), req);
+	for (;;) {
+		struct pollfd p = { .fd = fd, .events = POLLIN };
+
+		if (mono_ns() > end)
+			fail_msg("%s motor %u: no answer to 0x9A within %d ms", iface(m->bus),
+				 m->id, ms);
+		poll(&p, 1, 10);
+		while (read(fd, &cf, sizeof(cf)) == (ssize_t)sizeof(cf)) {
+			if (cf.can_id == rep_id(i) && cf.len == 8 && cf.data[0] == 0x9A) {
+				f.can_id = cf.can_id;
+				f.len = cf.len;
+				memcpy(f.data, cf.data, 8);
+				return f;
+			}
+		}
+		service(0);
+	}
+}
+
+static void test_system_kill9(void **state)
+{
+	double loss, max_ms = 0, min_ms = 1e9;
+	int64_t t_kill, end;
+	bool all;
+	int st;
+	static struct run r;
+	char line[1024];
+
+	(void)state;
+	system_begin();
+	loss = S.cfg.safety.comm_loss_ms;
+	rmdd_up_and_enabled();
+	sync_log();
+	log_forget(); /* keep what runs up to the event: the last frames before it count */
+	run_for(SETTLE_MS);
+	t_kill = real_ns();
+	kill(S.rmdd_kid->pid, SIGKILL);
+	st = wait_exit(S.rmdd_kid, EXIT_MS);
+	controller(false, false);
+	assert_int_equal(st, 128 + SIGKILL);
+
+	/* every motor's 0xF1 (comm-loss protection tripped) */
+	end = mono_ns() + (int64_t)(loss + 3000) * NS_PER_MS;
+	do {
+		all = true;
+		run_for(50);
+		sync_log();
+		for (unsigned i = 0; i < S.cfg.n_motors; i++)
+			all &= first_frame(0, S.cfg.motors[i].bus, rep_id(i), 0xF1, t_kill,
+					   T_END) != NULL;
+		if (!all && mono_ns() > end)
+			fail_msg("kill -9 rmdd: not every motor sent 0xF1 within %.0f ms",
+				 loss + 3000);
+	} while (!all);
+	print_message("kill -9 rmdd: each motor's 0xF1 after the last frame it heard (limit "
+		      "comm_loss %.0f ms + %d ms):\n",
+		      loss, COMM_SLACK_MS);
+	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+		const struct rmd_config_motor *m = &S.cfg.motors[i];
+		const struct cframe *f1 = first_frame(0, m->bus, rep_id(i), 0xF1, t_kill, T_END);
+		const struct cframe *last = last_frame(0, m->bus, req_id(i), -1, 0, f1->t_ns);
+		double d;
+
+		if (!last)
+			fail_msg("%s motor %u: no request logged before its 0xF1; its last frames "
+				 "(ms after the kill):\n%s",
+				 iface(m->bus), m->id, motor_frames(i, t_kill));
+		d = ms_of(f1->t_ns - last->t_ns);
+		print_message("  %s motor %u: last request 0x%02X at %+.2f ms of the kill, 0xF1 "
+			      "%.2f ms after it\n",
+			      iface(m->bus), m->id, last->data[0], ms_of(last->t_ns - t_kill), d);
+		if (d > max_ms)
+			max_ms = d;
+		if (d < min_ms)
+			min_ms = d;
+		if (d < loss - 1.0 || d > loss + COMM_SLACK_MS)
+			fail_msg("%s motor %u: 0xF1 %.2f ms after the last frame, expected %.0f .. "
+				 "%.0f ms; its last frames (ms after the kill):\n%s",
+				 iface(m->bus), m->id, d, loss, loss + COMM_SLACK_MS,
+				 motor_frames(i, t_kill));
+	}
+	print_message("0xB3 trip after the last frame: min %.2f ms, max %.2f ms\n", min_ms, max_ms);
+
+	/* 0x9A by hand: the first frame after the trip is only echoed, then the brake is locked */
+	for (unsigned b = 0; b < S.nbus; b++) {
+		int fd = can_open(b, true);
+		struct can_filter flt = { .can_id = RMD_CAN_V3_REPLY_BASE, .can_mask = 0x7E0 };
+
+		setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, &flt, sizeof(flt));
+		for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+			const struct rmd_config_motor *m = &S.cfg.motors[i];
+			struct rmd_frame e, f;
+			struct rmd_msg msg;
+
+			if (m->bus != b)
+				continue;
+			e = read_9a(fd, i, 2000);
+			f = read_9a(fd, i, 2000);
+			if (rmd_decode(RMD_PROTO_V3, RMD_DIR_REPLY, &f, &msg, NULL) < 0 ||
+			    !rmd_msg_has(&msg, RMD_FLD_BRAKE))
+				fail_msg("%s motor %u: 0x9A answer does not decode", iface(b),
+					 m->id);
+			print_message(
+				"  %s motor %u: 0x9A after the trip: first %s, then brake %s, "
+				"%.1f V, %" PRId64 " degC\n",
+				iface(b), m->id,
+				memcmp(e.data, (const uint8_t[8]){ 0x9A }, 8) ? "answered" :
+										"only echoed",
+				msg.v[RMD_FLD_BRAKE] ? "RELEASED" : "locked",
+				(double)msg.v[RMD_FLD_VOLTAGE] / 10.0, msg.v[RMD_FLD_TEMP]);
+			if (!memcmp(f.data, (const uint8_t[8]){ 0x9A }, 8))
+				fail_msg("%s motor %u: second 0x9A only echoed too", iface(b),
+					 m->id);
+			if (msg.v[RMD_FLD_BRAKE])
+				fail_msg("%s motor %u: brake released after the comm-loss trip",
+					 iface(b), m->id);
+		}
+		close(fd);
+	}
+
+	/* rmdctl status on every motor (kept awake meanwhile, see keepalive()) */
+	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+		const struct rmd_config_motor *m = &S.cfg.motors[i];
+		char id[8];
+		const char *argv[] = { S.rmdctl,      "status", id,  "--bus",
+				       iface(m->bus), "--json", NULL };
+
+		snprintf(id, sizeof(id), "%u", m->id);
+		S.ka_bus = (int)m->bus;
+		S.ka_id = m->id;
+		S.ka_next = 0;
+		service(0);
+		run_tool(&r, argv);
+		S.ka_bus = -1;
+		if (r.rc != 0 || !json_line(r.out, 0, line, sizeof(line)))
+			fail_msg("rmdctl status %u --bus %s: exit %d\n%s%s", m->id, iface(m->bus),
+				 r.rc, r.out, r.err);
+		print_message("  rmdctl status %u --bus %s: brake_released %s, %.0f V, current "
+			      "%.2f A, speed %.0f dps, angle %.2f deg\n",
+			      m->id, iface(m->bus),
+			      json_bool(line, "brake_released") ? "true" : "false",
+			      json_num(line, "voltage_v"), json_num(line, "current_a"),
+			      json_num(line, "speed_dps"), json_num(line, "angle_deg"));
+		if (json_bool(line, "brake_released") || json_num(line, "voltage_v") < 1 ||
+		    fabs(json_num(line, "current_a")) > 0.05 ||
+		    fabs(json_num(line, "speed_dps")) > 1)
+			fail_msg("rmdctl status %u --bus %s after the trip: %s", m->id,
+				 iface(m->bus), line);
+	}
+	print_message("kill -9 rmdd: every motor stopped by its own 0xB3 protection, brake "
+		      "locked\n");
+
+	/* rmdctl on a motor whose protection tripped, nobody keeping it awake */
+	{
+		const struct rmd_config_motor *m = &S.cfg.motors[0];
+		const char *argv[] = { S.rmdctl,      "status", "1", "--bus",
+				       iface(m->bus), "--json", NULL };
+		int64_t t = real_ns();
+
+		assert_int_equal(m->id, 1);
+		end = mono_ns() + (int64_t)(loss + 3000) * NS_PER_MS;
+		for (;;) {
+			run_for(50);
+			sync_log();
+			if (first_frame(0, m->bus, rep_id(0), 0xF1, t, T_END))
+				break;
+			if (mono_ns() > end)
+				fail_msg("%s motor 1: no 0xF1 %.0f ms after rmdctl", iface(m->bus),
+					 loss + 3000);
+		}
+		run_tool(&r, argv);
+		if (r.rc != 0 || !json_line(r.out, 0, line, sizeof(line)))
+			fail_msg("rmdctl status 1 --bus %s: exit %d\n%s%s", iface(m->bus), r.rc,
+				 r.out, r.err);
+		print_message("rmdctl status 1 --bus %s on the tripped motor: %s\n", iface(m->bus),
+			      line);
+		if (json_num(line, "voltage_v") < 1 && json_num(line, "temperature_c") < 1)
+			fail_msg("rmdctl took the motor's echo of 0x9A (the first frame after a "
+				 "comm-loss trip, DESIGN.md) for its status: %s",
+				 line);
+	}
+}
+
+/* ---- main ------------------------------------------------------------------------ */
+
+/* RMD_VSYS_KEEP=DIR: keep candump's log and the configuration there (the guest's /dev/shm is its own). */
+static void keep_files(void)
+{
+	const char *dir = getenv("RMD_VSYS_KEEP");
+	const char *files[] = { S.logpath, S.cfgpath };
+
+	if (!dir || !*dir)
+		return;
+	for (unsigned k = 0; k < 2; k++) {
+		char dst[512], buf[65536];
+		const char *base = strrchr(files[k], '/') + 1;
+		int in = open(files[k], O_RDONLY | O_CLOEXEC), out;
+		ssize_t n;
+
+		snprintf(dst, sizeof(dst), "%s/%s", dir, base);
+		out = open(dst, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+		while (in >= 0 && out >= 0 && (n = read(in, buf, sizeof(buf))) > 0)
+			if (write(out, buf, (size_t)n) != n)
+				break;
+		if (in >= 0)
+			close(in);
+		if (out >= 0)
+			close(out);
+	}
+}
+
+static int group_teardown(void **state)
+{
+	(void)state;
+	kids_kill_all();
+	keep_files();
+	if (S.lcm) {
+		if (S.sub_state)
+			rmd_state_t_unsubscribe(S.lcm, S.sub_state);
+		if (S.sub_health)
+			rmd_health_t_unsubscribe(S.lcm, S.sub_health);
+		lcm_destroy(S.lcm);
+		S.lcm = NULL;
+	}
+	for (unsigned b = 0; b < NBUS_MAX; b++)
+		if (S.can_fd[b] >= 0)
+			close(S.can_fd[b]);
+	if (S.log_fd >= 0)
+		close(S.log_fd);
+	free(S.frames);
+	unlink(S.cfgpath);
+	unlink(S.logpath);
+	rmdir(S.dir);
+	return 0;
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test_teardown(test_rmdctl_scan_move, rmdctl_teardown),
+		cmocka_unit_test(test_system_rate),
+		cmocka_unit_test(test_system_watchdog),
+		cmocka_unit_test(test_system_sigterm),
+		cmocka_unit_test(test_system_kill9),
+	};
+	const char *why;
+
+	signal(SIGPIPE, SIG_IGN);
+	paths_init();
+	why = no_socketcan();
+	S.have_can = !why;
+	if (why)
+		printf("SKIP: %s\n", why);
+	return cmocka_run_group_tests_name("vcan_system", tests, NULL, group_teardown);
+}
