@@ -99,7 +99,8 @@ static int collect(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t n
 				if (t[i].check_echo && !t[i].echo_seen &&
 				    rx[k].f.len == t[i].req.len &&
 				    !memcmp(rx[k].f.data, t[i].req.data, t[i].req.len)) {
-					t[i].echo_seen = true; /* only echoed: the next try answers */
+					t[i].echo_seen =
+						true; /* only echoed: the next try answers */
 					break;
 				}
 				t[i].done = true;
