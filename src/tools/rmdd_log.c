@@ -36,6 +36,7 @@
 
 #include <sys/eventfd.h>
 
+#include "rmd/motor.h"
 #include "rmd/thread.h"
 #include "rmd/codec.h"
 #include "rmdd.h"
@@ -126,7 +127,8 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 		else
 			rmdd_log(
 				4,
-				"%s: lost (%u missed replies in a row)%s%s; probed again every %d ms",
+				"%s: lost (%u missed replies in a row, or a 0xF1 above)%s%s; probed "
+				"again every %d ms",
 				ctx, cfg->safety.missed_replies_lost,
 				from == RMD_LC_ENABLED ? "; safe action " : "",
 				from == RMD_LC_ENABLED ? action : "",
@@ -171,6 +173,14 @@ static void log_motor_error(const struct rmd_config *cfg, const struct rmd_event
 	size_t n, used = 0;
 
 	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	if (e->b == RMD_MOTOR_CMD_COMM_LOST) {
+		/* DESIGN.md: the motor heard nothing for its 0xB3 time */
+		rmdd_log(4,
+			 "%s: its comm-loss protection tripped (0xF1): output off, brake locked; "
+			 "treated as lost",
+			 ctx);
+		return;
+	}
 	if (!code) {
 		rmdd_log(5, "%s: error flags cleared", ctx);
 		return;
