@@ -1365,12 +1365,22 @@ static void test_rmdctl_scan_move(void **state)
 				   "--set",
 				   "3:version=20210601",
 				   NULL };
-	const char *scan[] = { S.rmdctl, "scan", "--bus", "vcan0", "--json", NULL };
+	/*
+	 * A 50 ms per-try timeout for what must answer: the guest is emulated
+	 * (~8x slower) and, in the sanitizer build, rmd-sim answers later than
+	 * rmdctl's 5 ms default.  The silent id keeps the default.
+	 */
+	const char *scan[] = {
+		S.rmdctl, "scan", "--bus", "vcan0", "--timeout", "50", "--json", NULL
+	};
 	const char *scan1[] = { S.rmdctl, "scan", "--bus", "vcan1", NULL };
-	const char *st1[] = { S.rmdctl, "status", "1", "--bus", "vcan0", "--json", NULL };
+	const char *st1[] = { S.rmdctl,	   "status", "1",      "--bus", "vcan0",
+			      "--timeout", "50",     "--json", NULL };
 	const char *st9[] = { S.rmdctl, "status", "9", "--bus", "vcan0", NULL };
-	const char *move[] = { S.rmdctl, "move", "2", "10", "--yes", "--bus", "vcan0", NULL };
-	const char *st2[] = { S.rmdctl, "status", "2", "--bus", "vcan0", "--json", NULL };
+	const char *move[] = { S.rmdctl, "move",  "2",	       "10", "--yes",
+			       "--bus",	 "vcan0", "--timeout", "50", NULL };
+	const char *st2[] = { S.rmdctl,	   "status", "2",      "--bus", "vcan0",
+			      "--timeout", "50",     "--json", NULL };
 	double try_ms, tries;
 	static struct run r;
 	char line[1024], model[16];
@@ -1990,8 +2000,8 @@ static void test_system_kill9(void **state)
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
 		const struct rmd_config_motor *m = &S.cfg.motors[i];
 		char id[8];
-		const char *argv[] = { S.rmdctl,      "status", id,  "--bus",
-				       iface(m->bus), "--json", NULL };
+		const char *argv[] = { S.rmdctl,    "status", id,	"--bus", iface(m->bus),
+				       "--timeout", "50",     "--json", NULL };
 
 		snprintf(id, sizeof(id), "%u", m->id);
 		S.ka_bus = (int)m->bus;
@@ -2021,8 +2031,8 @@ static void test_system_kill9(void **state)
 	/* rmdctl on a motor whose protection tripped, nobody keeping it awake */
 	{
 		const struct rmd_config_motor *m = &S.cfg.motors[0];
-		const char *argv[] = { S.rmdctl,      "status", "1", "--bus",
-				       iface(m->bus), "--json", NULL };
+		const char *argv[] = { S.rmdctl,    "status", "1",	"--bus", iface(m->bus),
+				       "--timeout", "50",     "--json", NULL };
 		int64_t t = real_ns();
 
 		assert_int_equal(m->id, 1);
