@@ -1019,21 +1019,31 @@ static int flood_send(struct fixture *f, int i)
 	return kind;
 }
 
+/* Periods run of those due: cycles / (cycles + skipped). */
+static double ran_fraction(int64_t cycles, int64_t skipped)
+{
+	return cycles + skipped > 0 ? (double)cycles / (double)(cycles + skipped) : 1.0;
+}
+
 static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 {
 	struct fixture *f = fixture(state);
 	const int n = FLOOD_HZ * FLOOD_S;
 	int64_t sent_good = 0, sent_bad[RMD_HEALTH_T_REJ_KINDS] = { 0 }, bad = 0;
-	rmd_health_t *h0, *h1;
+	rmd_health_t *hb, *h0, *h1;
 	int64_t t, t0, t1, ticks, cycles, overruns, got_bad = 0;
-	double rate;
+	double rate, base_ran, need;
 
 	start_rmdd(f);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 	enable_in_place(f);
 	stream(f, true, 300, done_never, 0);
+	/* a quiet second with the controller streaming: the machine's own baseline */
+	hb = rmd_health_t_copy(stream_health(f, true));
+	stream(f, true, 1000, done_never, 0);
 	h0 = rmd_health_t_copy(stream_health(f, true));
 	assert_int_equal(h0->watchdog, RMD_HEALTH_T_WD_OK);
+	base_ran = ran_fraction(h0->cycles - hb->cycles, h0->overruns - hb->overruns);
 
 	/* No listener during the flood: its LCM thread would copy all of it. */
 	listen_off(f);
@@ -1115,13 +1125,26 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 	if (cycles + overruns < ticks * 80 / 100)
 		fail_msg("the rt loop's schedule advanced %lld periods in %lld ms",
 			 (long long)(cycles + overruns), (long long)ticks);
-	if (cycles < (cycles + overruns) * 90 / 100)
-		fail_msg("the rt loop ran %lld of %lld periods (%lld skipped) through the flood",
-			 (long long)cycles, (long long)(cycles + overruns), (long long)overruns);
+	/*
+	 * This machine is a VM whose own scheduler makes the loop skip periods
+	 * now and then (DESIGN.md): judged against the quiet second before,
+	 * the flood may cost at most 10 points of the periods run (90% when
+	 * the quiet second ran them all).
+	 */
+	need = (base_ran < 1.0 ? base_ran : 1.0) - 0.10;
+	print_message("flood: the loop ran %.1f%% of its periods; in the quiet second before, "
+		      "%.1f%%; needed %.1f%%\n",
+		      100.0 * ran_fraction(cycles, overruns), 100.0 * base_ran, 100.0 * need);
+	if (ran_fraction(cycles, overruns) < need)
+		fail_msg("the rt loop ran %lld of %lld periods (%lld skipped) through the flood, "
+			 "%.1f%% against %.1f%% in the quiet second before",
+			 (long long)cycles, (long long)(cycles + overruns), (long long)overruns,
+			 100.0 * ran_fraction(cycles, overruns), 100.0 * base_ran);
 	assert_int_equal(h1->watchdog, RMD_HEALTH_T_WD_OK);
 	assert_int_equal(h1->safe_action_events, h0->safe_action_events);
 	assert_int_equal(h1->commands_clamped, h0->commands_clamped);
 	assert_true(all_in(f, RMD_STATE_T_LC_ENABLED));
+	rmd_health_t_destroy(hb);
 	rmd_health_t_destroy(h0);
 	rmd_health_t_destroy(h1);
 	disable_all(f);
