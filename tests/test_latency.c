@@ -340,32 +340,11 @@ struct daemon {
 static void open_buses(struct daemon *d)
 {
 	for (unsigned b = 0; b < d->cfg.n_buses; b++) {
-		const struct rmd_config_bus *cb = &d->cfg.buses[b];
-		struct rmd_bus_sim_motor motors[RMD_MAX_MOTORS];
-		struct rmd_bus_sim_opts o = {
-			.motors = motors,
-			.bitrate = cb->bitrate,
-			.seed = cb->sim.seed,
-			.flags = cb->sim.host_fifo ? RMD_SIM_BUS_HOST_FIFO : 0,
-			.txqueuelen = cb->sim.txqueuelen,
-			.faults = cb->sim.faults,
-			.n_faults = cb->sim.n_faults,
-		};
 		char err[256];
 
-		assert_int_equal(cb->kind, RMD_BUS_KIND_SIM);
-		for (unsigned i = 0; i < d->cfg.n_motors; i++) {
-			const struct rmd_config_motor *m = &d->cfg.motors[i];
-
-			if (m->bus != b)
-				continue;
-			motors[o.n_motors].id = m->id;
-			motors[o.n_motors].proto = m->proto;
-			motors[o.n_motors].params = &m->sim;
-			o.n_motors++;
-		}
-		if (rmd_bus_sim_open(&d->bus[b], cb->name, &o, err, sizeof(err)) < 0)
-			fail_msg("rmd_bus_sim_open %s: %s", cb->name, err);
+		assert_int_equal(d->cfg.buses[b].kind, RMD_BUS_KIND_SIM);
+		if (rmd_config_open_sim_bus(&d->cfg, b, &d->bus[b], err, sizeof(err)) < 0)
+			fail_msg("sim bus %s: %s", d->cfg.buses[b].name, err);
 		d->n_open++;
 	}
 }

@@ -142,28 +142,8 @@ static void open_buses(void)
 	char err[256];
 
 	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
-		const struct rmd_config_bus *cb = &R.cfg.buses[b];
-		struct rmd_bus_sim_motor ms[RMD_MAX_MOTORS];
-		struct rmd_bus_sim_opts o = {
-			.motors = ms,
-			.bitrate = cb->bitrate,
-			.seed = cb->sim.seed,
-			.flags = cb->sim.host_fifo ? RMD_SIM_BUS_HOST_FIFO : 0,
-			.txqueuelen = cb->sim.txqueuelen,
-			.faults = cb->sim.faults,
-			.n_faults = cb->sim.n_faults,
-		};
-
-		for (unsigned i = 0; i < R.cfg.n_motors; i++) {
-			const struct rmd_config_motor *m = &R.cfg.motors[i];
-
-			if (m->bus == b)
-				ms[o.n_motors++] = (struct rmd_bus_sim_motor){ .id = m->id,
-									       .proto = m->proto,
-									       .params = &m->sim };
-		}
-		if (rmd_bus_sim_open(&R.buses[b], cb->name, &o, err, sizeof(err)))
-			fail_msg("sim bus %s: %s", cb->name, err);
+		if (rmd_config_open_sim_bus(&R.cfg, b, &R.buses[b], err, sizeof(err)))
+			fail_msg("sim bus %s: %s", R.cfg.buses[b].name, err);
 		rmd_sim_bus_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
 	}
 }

@@ -48,34 +48,6 @@ static int open_rs485(struct rmd_bus *bus, const struct rmd_config *cfg, unsigne
 	return rmd_rs485_open(bus, cb->device, &o, err, errlen);
 }
 
-static int open_sim(struct rmd_bus *bus, const struct rmd_config *cfg, unsigned b, char *err,
-		    size_t errlen)
-{
-	const struct rmd_config_bus *cb = &cfg->buses[b];
-	struct rmd_bus_sim_motor motors[RMD_MAX_MOTORS];
-	struct rmd_bus_sim_opts o = {
-		.motors = motors,
-		.bitrate = cb->bitrate,
-		.seed = cb->sim.seed,
-		.flags = cb->sim.host_fifo ? RMD_SIM_BUS_HOST_FIFO : 0,
-		.txqueuelen = cb->sim.txqueuelen,
-		.faults = cb->sim.faults,
-		.n_faults = cb->sim.n_faults,
-	};
-
-	for (unsigned i = 0; i < cfg->n_motors; i++) {
-		const struct rmd_config_motor *m = &cfg->motors[i];
-
-		if (m->bus != b || o.n_motors >= RMD_MAX_MOTORS)
-			continue;
-		motors[o.n_motors].id = m->id;
-		motors[o.n_motors].proto = m->proto;
-		motors[o.n_motors].params = &m->sim;
-		o.n_motors++;
-	}
-	return rmd_bus_sim_open(bus, cb->name, &o, err, errlen);
-}
-
 int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_plan *plan,
 		    struct rmd_bus buses[RMD_MAX_BUSES])
 {
@@ -96,7 +68,7 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_plan *plan,
 			r = open_rs485(&buses[b], cfg, b, err, sizeof(err));
 			break;
 		case RMD_BUS_KIND_SIM:
-			r = open_sim(&buses[b], cfg, b, err, sizeof(err));
+			r = rmd_config_open_sim_bus(cfg, b, &buses[b], err, sizeof(err));
 			break;
 		}
 		if (r < 0) {
