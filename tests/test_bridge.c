@@ -32,6 +32,7 @@
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
+#include "lcm_loopback.h"
 #include "rmd/bridge.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
@@ -107,57 +108,10 @@ static void pump(struct fixture *f);
 
 /* ---- multicast on loopback ---------------------------------------------- */
 
-static int probe_got;
-
-static void on_probe(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
-{
-	(void)rbuf;
-	(void)channel;
-	(void)user;
-	probe_got = 1;
-}
-
-static bool multicast_works(void)
-{
-	char url[80];
-	lcm_t *l;
-
-	snprintf(url, sizeof(url), "udpm://239.255.76.67:%d?ttl=0", 7600 + getpid() % 97);
-	l = lcm_create(url);
-	if (!l)
-		return false;
-	probe_got = 0;
-	if (lcm_subscribe(l, "PROBE", on_probe, NULL)) {
-		for (int i = 0; i < 5 && !probe_got; i++) {
-			lcm_publish(l, "PROBE", "x", 1);
-			lcm_handle_timeout(l, 100);
-		}
-	}
-	lcm_destroy(l);
-	return probe_got;
-}
-
 static int group_setup(void **state)
 {
 	(void)state;
-	if (multicast_works())
-		return 0;
-	if (geteuid() == 0) {
-		fprintf(stderr, "test_bridge: routing multicast on loopback: "
-				"ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n");
-		/* "up" too: a fresh network namespace starts with lo down. */
-		if (system("ip link set lo up multicast on && "
-			   "(ip route add 224.0.0.0/4 dev lo 2>/dev/null || true)") != 0)
-			fprintf(stderr, "test_bridge: ip failed\n");
-		if (multicast_works())
-			return 0;
-	}
-	fprintf(stderr,
-		"\n*** test_bridge: SKIPPING every test: LCM multicast on loopback is not "
-		"routable%s.\n*** As root: ip link set lo multicast on; "
-		"ip route add 224.0.0.0/4 dev lo\n\n",
-		geteuid() ? " and this is not root" : " even after routing it");
-	no_multicast = true;
+	no_multicast = !lcm_loopback_ready("test_bridge");
 	return 0;
 }
 

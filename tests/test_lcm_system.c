@@ -54,6 +54,7 @@
 #include <lcm/eventlog.h>
 #include <lcm/lcm.h>
 
+#include "lcm_loopback.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
@@ -269,59 +270,6 @@ static int stop_child(pid_t *pid, int sig, int timeout_ms)
 	return st;
 }
 
-/* ---- multicast on loopback ------------------------------------------------------- */
-
-static int probe_got;
-
-static void on_probe(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
-{
-	(void)rbuf;
-	(void)channel;
-	(void)user;
-	probe_got = 1;
-}
-
-static bool multicast_works(void)
-{
-	char url[80];
-	lcm_t *l;
-
-	snprintf(url, sizeof(url), "udpm://239.255.76.67:%d?ttl=0", 7600 + getpid() % 97);
-	l = lcm_create(url);
-	if (!l)
-		return false;
-	probe_got = 0;
-	if (lcm_subscribe(l, "PROBE", on_probe, NULL)) {
-		for (int i = 0; i < 5 && !probe_got; i++) {
-			lcm_publish(l, "PROBE", "x", 1);
-			lcm_handle_timeout(l, 100);
-		}
-	}
-	lcm_destroy(l);
-	return probe_got;
-}
-
-static bool route_multicast(void)
-{
-	if (multicast_works())
-		return true;
-	if (geteuid() == 0) {
-		fprintf(stderr, "test_lcm_system: routing multicast on loopback: "
-				"ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n");
-		if (system("ip link set lo up multicast on && "
-			   "(ip route add 224.0.0.0/4 dev lo 2>/dev/null || true)") != 0)
-			fprintf(stderr, "test_lcm_system: ip failed\n");
-		if (multicast_works())
-			return true;
-	}
-	fprintf(stderr,
-		"\n*** test_lcm_system: SKIPPING every test: LCM multicast on loopback is not "
-		"routable%s.\n*** As root: ip link set lo multicast on; "
-		"ip route add 224.0.0.0/4 dev lo\n\n",
-		geteuid() ? " and this is not root" : " even after routing it");
-	return false;
-}
-
 /* ---- suite set-up ----------------------------------------------------------------- */
 
 static int group_setup(void **state)
@@ -379,7 +327,7 @@ static int group_setup(void **state)
 	if (fclose(fp))
 		return -1;
 	signal(SIGPIPE, SIG_IGN);
-	no_multicast = !route_multicast();
+	no_multicast = !lcm_loopback_ready("test_lcm_system");
 
 	have_logger = system("command -v lcm-logger >/dev/null 2>&1") == 0;
 	/* Python with `lcm` and the generated rmd package, for examples/sine.py */
