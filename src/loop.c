@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "rmd/hist.h"
 #include "rmd/err.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/loop.h"
@@ -41,13 +42,11 @@
 #define RX_ROUNDS 8			/* recv() calls per bus per drain: bounded work */
 #define TX_MAX (RMD_PLAN_MAX_SLOTS + 8) /* frames of one bus in one cycle */
 #define EVENT_INTERVAL_NS NS_PER_S	/* repeated bus events: at most one a second */
-#define HIST_SUB 4			/* wake-up histogram: 4 buckets per octave */
-#define HIST_BUCKETS (64 * HIST_SUB)
-#define COLLECT_GUARD_NS 50000	  /* stop polling the buses this long before the tick */
-#define COLLECT_MIN_STEP_NS 50000 /* shortest wait between two looks at the buses */
-#define STOP_TRIES 50		  /* rmd_loop_stop_motors(): sends per bus ... */
-#define STOP_STEP_NS 200000	  /* ... this far apart */
-#define PROBE_STEP_NS 100000	  /* bring-up: longest wait between two looks */
+#define COLLECT_GUARD_NS 50000		/* stop polling the buses this long before the tick */
+#define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
+#define STOP_TRIES 50			/* rmd_loop_stop_motors(): sends per bus ... */
+#define STOP_STEP_NS 200000		/* ... this far apart */
+#define PROBE_STEP_NS 100000		/* bring-up: longest wait between two looks */
 #define REPORT_LINE 256
 
 /* What a frame of a cycle is, to book it once the bus took it. */
@@ -144,7 +143,7 @@ struct rmd_loop {
 	/* statistics */
 	struct rmd_loop_stats stats;
 	struct rmd_loop_counters cnt;
-	uint64_t hist[HIST_BUCKETS];
+	uint64_t hist[RMD_HIST_BUCKETS];
 	uint64_t wake_n;
 	int64_t wake_sum;
 	uint64_t safe_events;
@@ -265,38 +264,12 @@ static void set_lifecycle(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecy
 }
 
 /* ------------------------------------------------------------------ */
-/* Wake-up latency: a log-scale histogram (4 buckets per octave) */
-
-/* rt-safe. */
-static unsigned hist_bucket(int64_t ns)
-{
-	uint64_t v = ns > 0 ? (uint64_t)ns : 0;
-	unsigned msb;
-
-	if (v < HIST_SUB)
-		return (unsigned)v;
-	msb = 63u - (unsigned)__builtin_clzll(v);
-	return msb * HIST_SUB + (unsigned)((v >> (msb - 2)) & 3u);
-}
-
-/* The largest value of bucket b.  rt-safe. */
-static int64_t hist_upper(unsigned b)
-{
-	unsigned msb = b / HIST_SUB, sub = b % HIST_SUB;
-
-	if (b < HIST_SUB)
-		return b;
-	if (msb >= 62)
-		return INT64_MAX;
-	return (int64_t)(((uint64_t)(HIST_SUB + sub + 1) << (msb - 2)) - 1);
-}
-
 /* rt-safe. */
 static void wake_record(struct rmd_loop *l, int64_t lat)
 {
 	if (lat < 0)
 		lat = 0;
-	l->hist[hist_bucket(lat)]++;
+	l->hist[rmd_hist_bucket(lat)]++;
 	l->wake_n++;
 	l->wake_sum += lat;
 	if (l->wake_n == 1 || lat < l->stats.wake_min_ns)
@@ -314,10 +287,10 @@ static void wake_summary(struct rmd_loop *l)
 		return;
 	l->stats.wake_avg_ns = l->wake_sum / (int64_t)l->wake_n;
 	want = l->wake_n - l->wake_n / 100; /* the 99th percentile, rounded up */
-	for (unsigned b = 0; b < HIST_BUCKETS; b++) {
+	for (unsigned b = 0; b < RMD_HIST_BUCKETS; b++) {
 		sum += l->hist[b];
 		if (sum >= want) {
-			int64_t up = hist_upper(b);
+			int64_t up = rmd_hist_upper(b);
 
 			l->stats.wake_p99_ns = up < l->stats.wake_max_ns ? up :
 									   l->stats.wake_max_ns;

@@ -24,6 +24,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "rmd/hist.h"
 #include "rmd/bridge.h"
 #include "rmd/bus.h"
 #include "rmd/config.h"
@@ -45,9 +46,6 @@ enum {
 #define RMDD_EVENT_SLOTS 4096
 /* The monitor looks at the ring, health and the snapshot this often. */
 #define RMDD_MONITOR_PERIOD_NS 5000000
-/* Reply latency histogram: 4 buckets per octave of nanoseconds. */
-#define RMDD_LAT_SUB 4
-#define RMDD_LAT_BUCKETS (64 * RMDD_LAT_SUB)
 
 /* ---- logging (rmdd_log.c) ---------------------------------------------- */
 
@@ -66,7 +64,7 @@ void rmdd_log_always(int level, const char *fmt, ...) __attribute__((format(prin
 struct rmdd_lat {
 	uint64_t n;
 	int64_t min_ns, max_ns, sum_ns;
-	uint32_t hist[RMDD_LAT_BUCKETS];
+	uint32_t hist[RMD_HIST_BUCKETS];
 };
 
 struct rmdd_monitor {

@@ -36,6 +36,7 @@
 
 #include <sys/eventfd.h>
 
+#include "rmd/hist.h"
 #include "rmd/motor.h"
 #include "rmd/thread.h"
 #include "rmd/codec.h"
@@ -386,17 +387,6 @@ static void forward_health(struct rmdd_monitor *m)
 	pthread_mutex_unlock(&m->lock);
 }
 
-static unsigned lat_bucket(int64_t ns)
-{
-	uint64_t v = ns > 0 ? (uint64_t)ns : 0;
-	unsigned msb;
-
-	if (v < RMDD_LAT_SUB)
-		return (unsigned)v;
-	msb = 63u - (unsigned)__builtin_clzll(v);
-	return msb * RMDD_LAT_SUB + (unsigned)((v >> (msb - 2)) & 3u);
-}
-
 static void lat_add(struct rmdd_lat *l, int64_t ns)
 {
 	if (!l->n || ns < l->min_ns)
@@ -405,7 +395,7 @@ static void lat_add(struct rmdd_lat *l, int64_t ns)
 		l->max_ns = ns;
 	l->n++;
 	l->sum_ns += ns;
-	l->hist[lat_bucket(ns)]++;
+	l->hist[rmd_hist_bucket(ns)]++;
 }
 
 static void sample_latency(struct rmdd_monitor *m)

@@ -26,26 +26,14 @@ static double us(int64_t ns)
 	return (double)ns / NS_PER_US;
 }
 
-/* The largest value of histogram bucket b (RMDD_LAT_SUB buckets per octave). */
-static int64_t bucket_upper(unsigned b)
-{
-	unsigned msb = b / RMDD_LAT_SUB, sub = b % RMDD_LAT_SUB;
-
-	if (b < RMDD_LAT_SUB)
-		return b;
-	if (msb >= 62)
-		return INT64_MAX;
-	return (int64_t)(((uint64_t)(RMDD_LAT_SUB + sub + 1) << (msb - 2)) - 1);
-}
-
 static int64_t lat_p99(const struct rmdd_lat *l)
 {
 	uint64_t want = l->n - l->n / 100, sum = 0;
 
-	for (unsigned b = 0; b < RMDD_LAT_BUCKETS; b++) {
+	for (unsigned b = 0; b < RMD_HIST_BUCKETS; b++) {
 		sum += l->hist[b];
 		if (sum >= want) {
-			int64_t up = bucket_upper(b);
+			int64_t up = rmd_hist_upper(b);
 
 			return up < l->max_ns ? up : l->max_ns;
 		}
