@@ -17,6 +17,8 @@
 #include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "rmd/mit.h"
 
@@ -218,4 +220,38 @@ int rmd_mit_decode_reply(const struct rmd_mit_ranges *r, const struct rmd_frame 
 	rep->vel_rad_s = rmd_mit_from_uint(v, r->v_min, r->v_max, V_BITS);
 	rep->torque_nm = rmd_mit_from_uint(t, r->t_min, r->t_max, T_BITS);
 	return 0;
+}
+
+int rmd_mit_ranges_parse(const char *s, struct rmd_mit_ranges *r)
+{
+	double m[5];
+	const char *p = s;
+
+	for (unsigned i = 0; i < 5; i++) {
+		char num[64], *end;
+		size_t n = strcspn(p, ",");
+
+		if (n == 0 || n >= sizeof(num) || (i < 4 && p[n] != ',') || (i == 4 && p[n]))
+			return -EINVAL;
+		memcpy(num, p, n);
+		num[n] = '\0';
+		errno = 0;
+		m[i] = strtod(num, &end);
+		if (end == num || *end || errno == ERANGE || !isfinite(m[i]) || !(m[i] > 0))
+			return -EINVAL;
+		p += n + (i < 4);
+	}
+	*r = (struct rmd_mit_ranges){
+		.p_min = -m[0],
+		.p_max = m[0],
+		.v_min = -m[1],
+		.v_max = m[1],
+		.t_min = -m[2],
+		.t_max = m[2],
+		.kp_min = 0,
+		.kp_max = m[3],
+		.kd_min = 0,
+		.kd_max = m[4],
+	};
+	return rmd_mit_ranges_valid(r) ? 0 : -EINVAL;
 }

@@ -755,6 +755,35 @@ static void test_reply_random_round_trip(void **state)
 	}
 }
 
+/* "P,V,T,KP,KD" maxima, as rmdctl --mit-ranges and rmd-sim take them. */
+static void test_ranges_parse(void **state)
+{
+	static const char *const bad[] = { "",
+					   "12.5,45,24,500",
+					   "12.5,45,24,500,5,1",
+					   "12.5,,24,500,5",
+					   "12.5,45,24,500,0",
+					   "-1,45,24,500,5",
+					   "x,45,24,500,5",
+					   "12.5,45,24,500,5 ",
+					   "nan,45,24,500,5",
+					   "inf,45,24,500,5",
+					   "1e999,45,24,500,5" };
+	struct rmd_mit_ranges r = { 0 }, before;
+
+	(void)state;
+	assert_int_equal(rmd_mit_ranges_parse("12.5,45,24,500,5", &r), 0);
+	assert_memory_equal(&r, &rmd_mit_default_ranges, sizeof(r));
+	assert_int_equal(rmd_mit_ranges_parse("12.5,45,18,500,5", &r), 0);
+	assert_true(r.t_min == -18.0 && r.t_max == 18.0 && r.kp_min == 0.0);
+	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+		before = r;
+		if (rmd_mit_ranges_parse(bad[i], &r) != -EINVAL)
+			fail_msg("\"%s\" was accepted", bad[i]);
+		assert_memory_equal(&r, &before, sizeof(r));
+	}
+}
+
 int main(void)
 {
 	const char *env = getenv("RMD_TEST_SEED");
@@ -774,6 +803,7 @@ int main(void)
 		cmocka_unit_test(test_reply_manual_example_values),
 		cmocka_unit_test(test_reply_bad),
 		cmocka_unit_test(test_reply_random_round_trip),
+		cmocka_unit_test(test_ranges_parse),
 	};
 
 	seed = env && *env ? strtoull(env, NULL, 0) : (uint64_t)time(NULL);

@@ -62,6 +62,13 @@ struct rmd_mit_reply {
 bool rmd_mit_ranges_valid(const struct rmd_mit_ranges *r);
 
 /*
+ * Ranges from their maxima "P,V,T,KP,KD" (e.g. "12.5,45,24,500,5", V3
+ * §5.1): position, velocity and torque symmetric, kp and kd from 0; each a
+ * finite number > 0.  Returns 0 or -EINVAL (r untouched on error).
+ */
+int rmd_mit_ranges_parse(const char *maxima, struct rmd_mit_ranges *r);
+
+/*
  * Quantise x into `bits` (1..32) over [min, max]: clamp (NaN -> min),
  * round to nearest, halves away from zero.  Returns 0 for bits outside 1..32
  * or an invalid range.  The encoders below refuse NaN and ±Inf before they

@@ -251,37 +251,16 @@ static int parse_proto(const char *s, enum rmd_proto *proto)
 	return 0;
 }
 
-/* "P,V,T,KP,KD", each > 0. */
+/* "P,V,T,KP,KD", each > 0 and at most 1e6. */
 static int parse_mit(const char *s, struct rmd_mit_ranges *r)
 {
-	double m[5];
-	const char *p = s;
+	struct rmd_mit_ranges t;
 
-	for (unsigned i = 0; i < 5; i++) {
-		char num[64];
-		size_t n = strcspn(p, ",");
-
-		if (n == 0 || n >= sizeof(num) || (i < 4 && p[n] != ',') || (i == 4 && p[n]))
-			return -EINVAL;
-		memcpy(num, p, n);
-		num[n] = '\0';
-		if (parse_real(num, &m[i]) < 0 || !(m[i] > 0) || m[i] > 1e6)
-			return -EINVAL;
-		p += n + (i < 4);
-	}
-	*r = (struct rmd_mit_ranges){
-		.p_min = -m[0],
-		.p_max = m[0],
-		.v_min = -m[1],
-		.v_max = m[1],
-		.t_min = -m[2],
-		.t_max = m[2],
-		.kp_min = 0,
-		.kp_max = m[3],
-		.kd_min = 0,
-		.kd_max = m[4],
-	};
-	return rmd_mit_ranges_valid(r) ? 0 : -EINVAL;
+	if (rmd_mit_ranges_parse(s, &t) < 0 || t.p_max > 1e6 || t.v_max > 1e6 || t.t_max > 1e6 ||
+	    t.kp_max > 1e6 || t.kd_max > 1e6)
+		return -EINVAL;
+	*r = t;
+	return 0;
 }
 
 /* "1-4,7": ids 1..32, ascending ranges. */

@@ -94,38 +94,6 @@ int rmdctl_parse_double(const char *s, double *v)
 	return 0;
 }
 
-int rmdctl_parse_mit_ranges(const char *s, struct rmd_mit_ranges *r)
-{
-	double m[5];
-	const char *p = s;
-
-	for (unsigned i = 0; i < 5; i++) {
-		char num[64];
-		size_t n = strcspn(p, ",");
-
-		if (n == 0 || n >= sizeof(num) || (i < 4 && p[n] != ',') || (i == 4 && p[n]))
-			return -EINVAL;
-		memcpy(num, p, n);
-		num[n] = '\0';
-		if (rmdctl_parse_double(num, &m[i]) < 0 || m[i] <= 0)
-			return -EINVAL;
-		p += n + (i < 4);
-	}
-	*r = (struct rmd_mit_ranges){
-		.p_min = -m[0],
-		.p_max = m[0],
-		.v_min = -m[1],
-		.v_max = m[1],
-		.t_min = -m[2],
-		.t_max = m[2],
-		.kp_min = 0,
-		.kp_max = m[3],
-		.kd_min = 0,
-		.kd_max = m[4],
-	};
-	return rmd_mit_ranges_valid(r) ? 0 : -EINVAL;
-}
-
 /* Key suffixes that carry a unit (see enum rmd_field). */
 static const struct {
 	const char *suffix;

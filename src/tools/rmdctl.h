@@ -58,12 +58,6 @@ int rmdctl_parse_proto(const char *s, enum rmd_proto *proto);
 /* "V3" / "V2" / "MIT", for messages. */
 const char *rmdctl_proto_name(enum rmd_proto proto);
 
-/*
- * "P,V,T,KP,KD" -> ranges p ±P rad, v ±V rad/s, t ±T N·m, kp 0..KP, kd 0..KD.
- * Returns 0 or -EINVAL.
- */
-int rmdctl_parse_mit_ranges(const char *s, struct rmd_mit_ranges *r);
-
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
 

@@ -632,7 +632,7 @@ int rmdctl_decode_run(int argc, char **argv)
 			opts.json = true;
 			break;
 		case 'm':
-			if (rmdctl_parse_mit_ranges(optarg, &opts.ranges) < 0) {
+			if (rmd_mit_ranges_parse(optarg, &opts.ranges) < 0) {
 				rmdctl_err(
 					SUB,
 					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",

@@ -647,7 +647,7 @@ int rmdctl_encode_run(int argc, char **argv)
 			ctx.motor_id = (int)id;
 			break;
 		case 'm':
-			if (rmdctl_parse_mit_ranges(optarg, &ctx.r) < 0) {
+			if (rmd_mit_ranges_parse(optarg, &ctx.r) < 0) {
 				rmdctl_err(
 					SUB,
 					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
