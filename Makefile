@@ -4,6 +4,7 @@
 #   make test            run every cmocka suite (tests/run-tests.sh)
 #   make install         PREFIX=/usr/local DESTDIR=
 #   make format-check    clang-format, kernel layout
+#   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      Python LCM types into $(BUILD)/python (package `rmd`)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
 #   SANITIZE=1           ASan + UBSan (objects go to build/san)
@@ -45,7 +46,7 @@ PKGS := libmodbus yaml-0.1 lcm libsystemd
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 
-override CFLAGS += -std=gnu11 $(WARN) $(HARDEN) $(SAN_FLAGS) -Iinclude -I$(BUILD)/gen $(PKG_CFLAGS) -MMD -MP
+override CFLAGS += -std=gnu11 $(WARN) $(HARDEN) $(SAN_FLAGS) -Iinclude -Isrc -I$(BUILD)/gen $(PKG_CFLAGS) -MMD -MP
 override LDFLAGS += -pie -Wl,-z,relro,-z,now $(SAN_FLAGS)
 
 ifeq ($(V),1)
@@ -54,22 +55,31 @@ else
 Q := @
 endif
 
-# Layers 1..: every src/*.c is a library module; src/tools/*.c are programs.
-LIB_SRCS := $(wildcard src/*.c)
+# The library's layers are folders (docs/design.md): util, proto, sim and
+# config (the model), bus, rt, svc.  `make check-layers` keeps includes
+# pointing down.  src/tools/<program>/ are the programs, src/tools/common/
+# what they share.
+LAYERS := util proto sim config bus rt svc
+LIB_SRCS := $(foreach l,$(LAYERS),$(wildcard src/$(l)/*.c))
 LIB_OBJS := $(LIB_SRCS:%.c=$(BUILD)/%.o)
 LIB := $(BUILD)/librmd.a
 
-# Each program is src/tools/<name>.c plus its src/tools/<name>_*.c parts.
-RMDCTL_SRCS := $(wildcard src/tools/rmdctl*.c)
+# Each program is the folder src/tools/<name>/ plus src/tools/common/.
+TOOL_COMMON_SRCS := $(wildcard src/tools/common/*.c)
+RMDCTL_SRCS := $(wildcard src/tools/rmdctl/*.c) $(TOOL_COMMON_SRCS)
 RMDCTL := $(BUILD)/rmdctl
-RMDSIM_SRCS := $(wildcard src/tools/rmd-sim*.c)
+RMDSIM_SRCS := $(wildcard src/tools/rmd-sim/*.c) $(TOOL_COMMON_SRCS)
 RMDSIM := $(BUILD)/rmd-sim
-RMDD_SRCS := $(wildcard src/tools/rmdd*.c)
+RMDD_SRCS := $(wildcard src/tools/rmdd/*.c) $(TOOL_COMMON_SRCS)
 RMDD := $(BUILD)/rmdd
 PROGS := $(if $(RMDCTL_SRCS),$(RMDCTL)) $(if $(RMDSIM_SRCS),$(RMDSIM)) $(if $(RMDD_SRCS),$(RMDD))
 
-TEST_SRCS := $(wildcard tests/test_*.c)
+# Suites: tests/unit/ (one module, in process) and tests/system/ (real
+# processes, sockets, pseudo-terminals); tests/harness/ is linked into each.
+TEST_SRCS := $(wildcard tests/unit/test_*.c tests/system/test_*.c)
 TESTS := $(TEST_SRCS:tests/%.c=$(BUILD)/tests/%)
+HARNESS_SRCS := $(wildcard tests/harness/*.c)
+HARNESS_OBJS := $(HARNESS_SRCS:%.c=$(BUILD)/%.o)
 TEST_LIBS := -lcmocka
 
 LIBS := $(PKG_LIBS) -lm
@@ -91,7 +101,7 @@ GEN_CFLAGS := -Wno-unused-parameter
 LCM_PYTHON := $(BUILD)/python/rmd/__init__.py
 LCM_JAVA := $(BUILD)/rmd_types.jar
 
-.PHONY: all test install uninstall format format-check clean deps
+.PHONY: all test install uninstall format format-check check-layers clean deps
 .SECONDARY:
 
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
@@ -131,7 +141,7 @@ $(BUILD)/gen/%.o: $(BUILD)/gen/%.c
 $(LIB): $(GEN_OBJS)
 
 # The generated headers exist before anything that may include them is compiled.
-$(LIB_OBJS) $(TESTS:%=%.o) $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) \
+$(LIB_OBJS) $(TESTS:%=%.o) $(HARNESS_OBJS) $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) \
 	$(RMDD_SRCS:%.c=$(BUILD)/%.o): | $(GEN_HDRS)
 
 lcm-python: $(LCM_PYTHON)
@@ -172,12 +182,15 @@ $(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
-$(BUILD)/tests/%: $(BUILD)/tests/%.o $(LIB)
+# Suites include the harness as "harness/<name>.h".
+$(BUILD)/tests/%.o: override CFLAGS += -Itests
+
+$(BUILD)/tests/%: $(BUILD)/tests/%.o $(HARNESS_OBJS) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)
 
 # STYLE.md: the rt cycle is linked with malloc & co. wrapped, to count them.
-$(BUILD)/tests/test_loop_alloc: override LDFLAGS += -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free
+$(BUILD)/tests/unit/test_loop_alloc: override LDFLAGS += -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free
 
 # Suites that need real SocketCAN (vcan0..vcan2): run on this host when its
 # kernel has vcan, else in a QEMU guest (tests/vm/README.md), else skipped
@@ -233,6 +246,11 @@ FORMAT_SRCS = $(shell find src include tests bench examples -name '*.[ch]' 2>/de
 
 format:
 	$(CLANG_FORMAT) -i $(FORMAT_SRCS)
+
+# Includes point down the layers, no include circle, and nothing outside the
+# bus layer names a transport (tests/check-layers says what it checks).
+check-layers:
+	$(Q)tests/check-layers .
 
 format-check:
 	$(Q)$(CLANG_FORMAT) --dry-run -Werror $(FORMAT_SRCS) && echo "format-check: ok"

@@ -11,7 +11,7 @@
  * what one LSB is worth in the protocol's native unit (0.01 A, 1 dps,
  * 0.01 deg, 0.1 V, ...).  One interpreter encodes and decodes all of them,
  * so a command is exactly as right as its table row, and the table rows are
- * checked against the manuals' worked examples in tests/test_codec.c.
+ * checked against the manuals' worked examples in tests/unit/test_codec.c.
  *
  * A decoded message keeps the raw wire integers (struct rmd_msg.v[]), so
  * decode(encode(x)) == x holds exactly; rmd_layout_field() gives a field's

@@ -103,7 +103,4 @@ bool rmd_txn_matches(const struct rmd_txn *t, const struct rmd_frame *rx);
 int rmd_txn_run(struct rmd_bus *bus, struct rmd_txn *t, unsigned n,
 		const struct rmd_txn_opts *opts);
 
-/* CLOCK_MONOTONIC now, in ns.  Non-rt (any thread may call it, but it is a syscall). */
-int64_t rmd_txn_now_ns(void);
-
 #endif /* RMD_TXN_H */

@@ -6,7 +6,7 @@
  * The MIT motion mode (§5) is not a command byte: see rmd/mit.h.
  *
  * Every row is checked against the manual's worked examples in
- * tests/test_codec.c.  Where the text and an example disagree the example
+ * tests/unit/test_codec.c.  Where the text and an example disagree the example
  * bytes decided, and the row says so.
  */
 #include "codec_tables.h"

@@ -27,21 +27,19 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "rmd/time.h"
 #include "rmd/hist.h"
 #include "rmd/err.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 
-#define NS_PER_S INT64_C(1000000000)
-#define NS_PER_MS INT64_C(1000000)
-
 #define OUTSTANDING 8			/* requests in flight per motor */
 #define ONESHOTS 4			/* one-shot frames waiting per motor */
 #define RX_BATCH 64			/* frames per recv() call */
 #define RX_ROUNDS 8			/* recv() calls per bus per drain: bounded work */
 #define TX_MAX (RMD_PLAN_MAX_SLOTS + 8) /* frames of one bus in one cycle */
-#define EVENT_INTERVAL_NS NS_PER_S	/* repeated bus events: at most one a second */
+#define EVENT_INTERVAL_NS RMD_NS_PER_S	/* repeated bus events: at most one a second */
 #define COLLECT_GUARD_NS 50000		/* stop polling the buses this long before the tick */
 #define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
 #define STOP_TRIES 50			/* rmd_loop_stop_motors(): sends per bus ... */
@@ -174,24 +172,15 @@ struct rmd_loop {
 /* Small helpers (rt-safe) */
 
 /* rt-safe. */
-static int64_t mono_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
-}
-
-/* rt-safe. */
 static int64_t clock_now(const struct rmd_loop *l)
 {
-	return l->o.now_ns ? l->o.now_ns(l->o.now_ctx) : mono_ns();
+	return l->o.now_ns ? l->o.now_ns(l->o.now_ctx) : rmd_now_ns();
 }
 
 /* rt-safe. */
 static struct timespec to_ts(int64_t ns)
 {
-	struct timespec ts = { .tv_sec = ns / NS_PER_S, .tv_nsec = ns % NS_PER_S };
+	struct timespec ts = { .tv_sec = ns / RMD_NS_PER_S, .tv_nsec = ns % RMD_NS_PER_S };
 
 	return ts;
 }
@@ -751,7 +740,7 @@ static void take_command(struct rmd_loop *l, int64_t now)
 /* rt-safe. */
 static void watchdog(struct rmd_loop *l, int64_t now)
 {
-	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * NS_PER_MS;
+	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * RMD_NS_PER_MS;
 	bool any = false;
 
 	if (l->wd != RMD_WD_OK || timeout <= 0 || now - l->last_cmd_rx_ns <= timeout)
@@ -1594,14 +1583,14 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 	int ret;
 
 	if (lb->cb->kind == RMD_BUS_KIND_RS485)
-		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + NS_PER_MS;
+		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + RMD_NS_PER_MS;
 	rep_add(rp, "%s: motor %u (%s): ", bus, c->id, c->name);
 	/* V3 §2.32 model; V2 has no model or version query: its status answers */
 	ret = probe_cmd(l, lm, first, tries, timeout, &r);
 	now = clock_now(l);
 	if (ret < 0) {
 		rep_add(rp, "missing (no answer to 0x%02X in %u tries of %lld ms)\n", first, tries,
-			(long long)(timeout / NS_PER_MS));
+			(long long)(timeout / RMD_NS_PER_MS));
 		event(l, now, RMD_EV_PROBE, i, lm->bus, -ENODEV, 0);
 		oneshot_clear(lm);
 		lm->next_probe_ns = now;
@@ -1725,7 +1714,7 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct report *rp)
 	bool any = false;
 
 	if (lb->cb->kind == RMD_BUS_KIND_RS485)
-		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + NS_PER_MS;
+		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + RMD_NS_PER_MS;
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 		const struct rmd_config_motor *c = &l->cfg->motors[i];
@@ -1850,7 +1839,7 @@ static void collect_until_tick(struct rmd_loop *l)
 	if (!n)
 		return;
 	while (!stopping(l)) {
-		int64_t now = mono_ns(), until = l->next_tick_ns - COLLECT_GUARD_NS;
+		int64_t now = rmd_now_ns(), until = l->next_tick_ns - COLLECT_GUARD_NS;
 		struct timespec ts;
 		int r;
 
@@ -1873,7 +1862,7 @@ static void collect_until_tick(struct rmd_loop *l)
 		r = ppoll(pfd, n, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return;
-		now = mono_ns();
+		now = rmd_now_ns();
 		for (unsigned k = 0; k < n; k++)
 			drain(l, which[k], now);
 	}
@@ -1886,12 +1875,12 @@ static void *thread_main(void *arg)
 	int64_t now;
 
 	prefault_stack();
-	now = mono_ns();
+	now = rmd_now_ns();
 	while (!stopping(l)) {
 		struct timespec ts;
 
 		rmd_loop_cycle(l, now);
-		now = mono_ns();
+		now = rmd_now_ns();
 		/* the work ran past the next tick: skip it, never catch up in a burst */
 		if (now > l->next_tick_ns)
 			skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns + 1);
@@ -1900,9 +1889,9 @@ static void *thread_main(void *arg)
 		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR &&
 		       !stopping(l))
 			;
-		now = mono_ns();
+		now = rmd_now_ns();
 	}
-	rmd_loop_stop_motors(l, mono_ns());
+	rmd_loop_stop_motors(l, rmd_now_ns());
 	return NULL;
 }
 
@@ -1958,7 +1947,7 @@ int rmd_loop_lock_memory(struct rmd_loop *l)
 int rmd_loop_start(struct rmd_loop *l)
 {
 	bool fifo = true, cpus = l->cfg->loop.n_cpus > 0;
-	int64_t now = mono_ns();
+	int64_t now = rmd_now_ns();
 	int r;
 
 	if (l->running)

@@ -17,13 +17,13 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "rmdd.h"
+#include "rmd/time.h"
 
-#define NS_PER_US 1000.0
+#include "rmdd.h"
 
 static double us(int64_t ns)
 {
-	return (double)ns / NS_PER_US;
+	return (double)ns / (double)RMD_NS_PER_US;
 }
 
 static int64_t lat_p99(const struct rmdd_lat *l)
@@ -130,7 +130,7 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 	struct rmd_loop_stats st;
 	struct rmd_loop_counters c;
 	bool have_h;
-	double secs = (double)(rmdd_now_ns() - s->start_ns) / 1e9;
+	double secs = (double)(rmd_now_ns() - s->start_ns) / 1e9;
 
 	rmd_loop_get_stats(s->loop, &st);
 	rmd_loop_get_counters(s->loop, &c);

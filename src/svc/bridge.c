@@ -19,6 +19,7 @@
 
 #include <sys/eventfd.h>
 
+#include "rmd/time.h"
 #include "rmd/thread.h"
 #include "rmd/bridge.h"
 #include "rmd/rmd_command_t.h"
@@ -100,14 +101,6 @@ static const char *const mode_names[RMD_MODE_COUNT] = {
 const char *rmd_bridge_reject_name(enum rmd_reject kind)
 {
 	return (unsigned)kind < RMD_REJ_KINDS ? reject_names[kind] : "?";
-}
-
-static int64_t now_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
 }
 
 static void count(atomic_uint_fast64_t *c)
@@ -395,7 +388,7 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 	}
 
 	fill_command(b, msg, &buf->cmd, &note);
-	buf->cmd.rx_ns = now_ns();
+	buf->cmd.rx_ns = rmd_now_ns();
 	rmd_latest_put(b->opts.commands, &buf->cmd);
 	count(&b->n_accepted);
 	if (note.any) {
@@ -550,7 +543,7 @@ static void publish_config(struct rmd_bridge *b)
 	struct rmd_bridge_opts *op = &b->opts;
 	rmd_config_t *c = &b->buf->config;
 
-	c->utime = now_ns() / 1000;
+	c->utime = rmd_now_ns() / 1000;
 	c->prefix = op->prefix;
 	c->period_us = sat32(op->period_ns / 1000);
 	c->state_every = sat32(op->state_every);
@@ -624,7 +617,7 @@ static void *bridge_main(void *arg)
 		{ .fd = b->opts.notify_fd, .events = POLLIN },
 	};
 	nfds_t nfds = b->opts.notify_fd >= 0 ? 3 : 2;
-	int64_t now = now_ns();
+	int64_t now = rmd_now_ns();
 
 	pthread_setname_np(pthread_self(), "rmd-bridge");
 	publish_config(b);
@@ -633,7 +626,7 @@ static void *bridge_main(void *arg)
 		int64_t wait = b->opts.poll_ns;
 		struct timespec ts;
 
-		now = now_ns();
+		now = rmd_now_ns();
 		if (b->next_health_ns - now < wait)
 			wait = b->next_health_ns - now > 0 ? b->next_health_ns - now : 0;
 		ts.tv_sec = wait / 1000000000;
@@ -655,7 +648,7 @@ static void *bridge_main(void *arg)
 		if (fds[1].revents & POLLIN)
 			drain(b);
 		publish_state(b);
-		now = now_ns();
+		now = rmd_now_ns();
 		if (now >= b->next_health_ns) {
 			publish_health(b, now);
 			b->next_health_ns += b->opts.health_period_ns;

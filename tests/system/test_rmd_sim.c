@@ -8,7 +8,7 @@
  *   the test writes V3 §1.2.2 frames on the master and parses the replies
  *   (CRC checked by rmd_rs485_parse, data decoded by rmd_decode).
  * - SocketCAN: needs AF_CAN and vcan0 (root for the link up/down case):
- *     tests/vm/vm-run --vcan 1 -- build/tests/test_rmd_sim
+ *     tests/vm/vm-run --vcan 1 -- build/tests/system/test_rmd_sim
  *   Without SocketCAN those tests are skipped with one loud line.
  *
  * Nothing sleeps to wait for a result: every wait polls a descriptor until
@@ -841,7 +841,7 @@ static bool have_vcan0(void)
 	if (fd < 0) {
 		print_message(
 			"[ SKIPPED  ] *** SocketCAN tests: no AF_CAN on this kernel (%s); run "
-			"tests/vm/vm-run --vcan 1 -- %s/tests/test_rmd_sim ***\n",
+			"tests/vm/vm-run --vcan 1 -- %s/tests/system/test_rmd_sim ***\n",
 			strerror(errno), getenv("BUILD") ? getenv("BUILD") : "build");
 		return false;
 	}

@@ -35,10 +35,10 @@
  * caught up with "now".
  *
  * Run it with (tests/vm/README.md):
- *   make BUILD=build/vsys build/vsys/tests/test_vcan_system build/vsys/rmdd \
+ *   make BUILD=build/vsys build/vsys/tests/system/test_vcan_system build/vsys/rmdd \
  *        build/vsys/rmd-sim build/vsys/rmdctl
  *   BUILD=build/vsys tests/vm/vm-run --vcan 3 --timeout 900 -- \
- *        build/vsys/tests/test_vcan_system
+ *        build/vsys/tests/system/test_vcan_system
  * (RMD_VSYS_KEEP=DIR keeps candump's log and rmdd's configuration in DIR.)
  * Without AF_CAN every test is skipped after one loud line.  Nothing
  * sleeps to wait for a result: every wait polls until a deadline, and
@@ -76,6 +76,7 @@
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
+#include "rmd/time.h"
 #include "rmd/candump.h"
 #include "rmd/codec.h"
 #include "rmd/config.h"

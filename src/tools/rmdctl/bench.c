@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "rmd/time.h"
 #include "rmd/bus.h"
 #include "rmd/bus_open.h"
 #include "rmd/bus_rs485.h"
@@ -725,7 +726,7 @@ static int run_scan(struct dev *d, int argc, char **argv)
 	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS], info[2 * RMD_MAX_MOTORS];
 	bool v3 = d->proto != RMD_PROTO_V2;
-	int64_t t0 = rmd_txn_now_ns();
+	int64_t t0 = rmd_now_ns();
 	unsigned n, ni = 0;
 	int m, r;
 	char ms[32];
@@ -788,7 +789,7 @@ static int run_scan(struct dev *d, int argc, char **argv)
 			   ms_str(ms, sizeof(ms), d->timeout_ms), d->tries);
 	else if (!d->json)
 		printf("%s: %d motor%s answered (%u ids probed in %.0f ms)\n", d->name, m,
-		       m == 1 ? "" : "s", n, (double)(rmd_txn_now_ns() - t0) / 1e6);
+		       m == 1 ? "" : "s", n, (double)(rmd_now_ns() - t0) / 1e6);
 	close_bus(d);
 	return m > 0 ? RMDCTL_EXIT_OK : RMDCTL_EXIT_DATA;
 }
@@ -908,7 +909,7 @@ static void monitor_table(struct dev *d, const uint8_t *ids, unsigned n, const s
 	static const enum rmd_field cols[] = { RMD_FLD_TEMP,  RMD_FLD_VOLTAGE, RMD_FLD_ANGLE,
 					       RMD_FLD_SPEED, RMD_FLD_CURRENT, RMD_FLD_BRAKE,
 					       RMD_FLD_ERROR };
-	double t_s = (double)(rmd_txn_now_ns() - d->t0_ns) / 1e9;
+	double t_s = (double)(rmd_now_ns() - d->t0_ns) / 1e9;
 	char ms[32];
 
 	if (d->json) {
@@ -985,7 +986,7 @@ static int run_monitor(struct dev *d, int argc, char **argv)
 		n = (unsigned)m;
 		memcpy(ids, found, n);
 	}
-	next = rmd_txn_now_ns();
+	next = rmd_now_ns();
 	while (!interrupted) {
 		for (unsigned i = 0; i < n; i++)
 			status_reqs(&q[3 * i], ids[i]);
@@ -1001,8 +1002,8 @@ static int run_monitor(struct dev *d, int argc, char **argv)
 			break;
 		}
 		next += period;
-		if (next < rmd_txn_now_ns())
-			next = rmd_txn_now_ns(); /* late: skip, never catch up in a burst */
+		if (next < rmd_now_ns())
+			next = rmd_now_ns(); /* late: skip, never catch up in a burst */
 		sleep_until(next);
 	}
 	close_bus(d);
@@ -1119,7 +1120,7 @@ static int run_set_id(struct dev *d, int argc, char **argv)
 		goto out;
 	}
 	/* The new id answers, the old one no longer does. */
-	until = rmd_txn_now_ns() + SET_ID_WAIT_NS;
+	until = rmd_now_ns() + SET_ID_WAIT_NS;
 	do {
 		struct req v[2];
 
@@ -1133,7 +1134,7 @@ static int run_set_id(struct dev *d, int argc, char **argv)
 			r = others_renumbered(d, found, (unsigned)m, old_id, new_id);
 			goto out;
 		}
-	} while (rmd_txn_now_ns() < until && !interrupted);
+	} while (rmd_now_ns() < until && !interrupted);
 	rmdctl_err(d->sub, "%s: motor %u echoed the new id %u, but id %u %s and id %u %s", d->name,
 		   old_id, new_id, new_id, "does not answer as expected", old_id,
 		   "may still answer");
@@ -1528,7 +1529,7 @@ static int run_reset(struct dev *d, int argc, char **argv)
 	r = v2 ? ask(d, &q) : run_reqs(d, &q, 1);
 	if (r)
 		goto out;
-	t_reset = rmd_txn_now_ns();
+	t_reset = rmd_now_ns();
 	until = t_reset + RESET_WAIT_NS;
 	/* Back when it answers again: V3 runtime (0xB1) restarts at 0; V2 has only 0x9A. */
 	r = RMDCTL_EXIT_DATA;
@@ -1538,7 +1539,7 @@ static int run_reset(struct dev *d, int argc, char **argv)
 		req_init(&q, id, v2 ? 0x9A : 0xB1);
 		if (run_reqs(d, &q, 1))
 			goto out;
-		now = rmd_txn_now_ns();
+		now = rmd_now_ns();
 		if (q.ok && (v2 || q.rep.v[RMD_FLD_RUNTIME] <= (now - t_reset) / 1000000 + 100)) {
 			printf("%s: motor %u: reset (0x76), answering again after %.0f ms%s\n",
 			       d->name, id, (double)(now - t_reset) / 1e6,
@@ -1547,7 +1548,7 @@ static int run_reset(struct dev *d, int argc, char **argv)
 			goto out;
 		}
 		sleep_until(now + RESET_POLL_NS);
-	} while (rmd_txn_now_ns() < until && !interrupted);
+	} while (rmd_now_ns() < until && !interrupted);
 	rmdctl_err(d->sub, "%s: motor %u: sent 0x76, but it did not answer again within %.0f s",
 		   d->name, id, RESET_WAIT_NS / 1e9);
 out:
@@ -1594,7 +1595,7 @@ static int move_wait(struct dev *d, uint8_t id, double from, double target, doub
 		     const char **why)
 {
 	double travel = fabs(target - from), last = from;
-	int64_t t0 = rmd_txn_now_ns(), last_progress = t0;
+	int64_t t0 = rmd_now_ns(), last_progress = t0;
 	int64_t limit = t0 + (int64_t)(travel / d->speed_dps * 1.5e9) + MOVE_SLACK_NS;
 	unsigned near = 0;
 	int r;
@@ -1603,7 +1604,7 @@ static int move_wait(struct dev *d, uint8_t id, double from, double target, doub
 	for (;;) {
 		int64_t now;
 
-		sleep_until(rmd_txn_now_ns() + MOVE_POLL_NS);
+		sleep_until(rmd_now_ns() + MOVE_POLL_NS);
 		if (interrupted) {
 			*why = "interrupted";
 			return RMDCTL_EXIT_DATA;
@@ -1613,7 +1614,7 @@ static int move_wait(struct dev *d, uint8_t id, double from, double target, doub
 			*why = interrupted ? "interrupted" : "lost contact";
 			return r;
 		}
-		now = rmd_txn_now_ns();
+		now = rmd_now_ns();
 		/* Two polls in a row within tolerance: arrived and settled. */
 		near = fabs(*final - target) <= MOVE_TOL_DEG ? near + 1 : 0;
 		if (near >= 2)
@@ -1718,7 +1719,7 @@ static int run_move(struct dev *d, int argc, char **argv)
 		r = RMDCTL_EXIT_USAGE;
 		goto out;
 	}
-	t0 = rmd_txn_now_ns();
+	t0 = rmd_now_ns();
 	r = ask(d, &q[0]);
 	if (r)
 		goto out;
@@ -1745,11 +1746,11 @@ static int run_move(struct dev *d, int argc, char **argv)
 		json_begin(d, id);
 		printf(",\"from_deg\":%.2f,\"target_deg\":%.2f,\"angle_deg\":%.2f,\"arrived\":true,"
 		       "\"elapsed_s\":%.3f}\n",
-		       from, target, final, (double)(rmd_txn_now_ns() - t0) / 1e9);
+		       from, target, final, (double)(rmd_now_ns() - t0) / 1e9);
 	} else {
 		printf("%s: motor %u: at %.2f deg (target %.2f, from %.2f) after %.2f s, holding "
 		       "position\n",
-		       d->name, id, final, target, from, (double)(rmd_txn_now_ns() - t0) / 1e9);
+		       d->name, id, final, target, from, (double)(rmd_now_ns() - t0) / 1e9);
 	}
 out:
 	close_bus(d);
@@ -2116,7 +2117,7 @@ int rmdctl_dev_run(int argc, char **argv)
 	d.tries = RMD_TXN_TRIES;
 	d.speed_dps = MOVE_SPEED_DPS;
 	d.interval_ms = MONITOR_INTERVAL_MS;
-	d.t0_ns = rmd_txn_now_ns();
+	d.t0_ns = rmd_now_ns();
 
 	pos = calloc((size_t)argc + 1, sizeof(*pos));
 	if (!pos) {

@@ -63,6 +63,7 @@
 #include <linux/can/raw.h>
 #include <linux/serial.h>
 
+#include "rmd/time.h"
 #include "rmd/rng.h"
 #include "rmd/codec.h"
 #include "rmd/rs485.h"
@@ -70,20 +71,16 @@
 #include "rmd/sim_bus.h"
 #include "rmd-sim.h"
 
-#define NS_PER_S INT64_C(1000000000)
-#define NS_PER_MS INT64_C(1000000)
-#define NS_PER_US INT64_C(1000)
-
-#define TXQ 1024			 /* frames waiting for their due time */
-#define TICK_NS (10 * NS_PER_MS)	 /* physics step of idle motors */
-#define HOUSEKEEPING_NS NS_PER_S	 /* CAN interface state check */
-#define RETRY_NS (200 * NS_PER_US)	 /* after ENOBUFS / EAGAIN */
-#define RX_BUF 4096			 /* serial bytes not parsed yet */
-#define TX_BUF 16384			 /* serial bytes not written yet */
-#define ECHO_RING 64			 /* serial frames whose echo may come */
-#define ECHO_EXPIRY_NS (500 * NS_PER_MS) /* an echo later than this is not one */
-#define MAX_READS 256			 /* frames read per wake-up, then timers */
-#define RS485_BROADCAST_CMD_SET_ID 0x79u /* V3 §7 */
+#define TXQ 1024			     /* frames waiting for their due time */
+#define TICK_NS (10 * RMD_NS_PER_MS)	     /* physics step of idle motors */
+#define HOUSEKEEPING_NS RMD_NS_PER_S	     /* CAN interface state check */
+#define RETRY_NS (200 * RMD_NS_PER_US)	     /* after ENOBUFS / EAGAIN */
+#define RX_BUF 4096			     /* serial bytes not parsed yet */
+#define TX_BUF 16384			     /* serial bytes not written yet */
+#define ECHO_RING 64			     /* serial frames whose echo may come */
+#define ECHO_EXPIRY_NS (500 * RMD_NS_PER_MS) /* an echo later than this is not one */
+#define MAX_READS 256			     /* frames read per wake-up, then timers */
+#define RS485_BROADCAST_CMD_SET_ID 0x79u     /* V3 §7 */
 
 struct slot {
 	struct rmd_sim_motor m;
@@ -155,14 +152,6 @@ struct sim {
 	const char *why; /* why we stop */
 	bool stop;
 };
-
-static int64_t now_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
-}
 
 /* ---- the queue of due frames ----------------------------------------------------------- */
 
@@ -738,7 +727,7 @@ static void can_read(struct sim *s)
 			s->st.rx_errors++;
 			continue;
 		}
-		t = now_ns();
+		t = rmd_now_ns();
 		set_down(s, false, "");
 		if (cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))
 			continue;
@@ -940,7 +929,7 @@ static int serial_write(struct sim *s, const struct rmd_frame *f, uint8_t *id_ou
 			e = &s->echo[(s->echo_head + s->echo_n) % ECHO_RING];
 		}
 		memcpy(e->bytes, b, n);
-		e->t_ns = now_ns();
+		e->t_ns = rmd_now_ns();
 		s->echo_n++;
 	}
 	return 0;
@@ -1018,7 +1007,7 @@ static void serial_read(struct sim *s, bool hup)
 
 		if (r > 0) {
 			s->rxn += (size_t)r;
-			serial_parse(s, now_ns());
+			serial_parse(s, rmd_now_ns());
 			continue;
 		}
 		if (r < 0 && errno == EINTR)
@@ -1115,8 +1104,8 @@ static void arm(struct sim *s, int64_t t)
 	memset(&its, 0, sizeof(its));
 	if (t < 1)
 		t = 1; /* 0 would disarm it */
-	its.it_value.tv_sec = (time_t)(t / NS_PER_S);
-	its.it_value.tv_nsec = (long)(t % NS_PER_S);
+	its.it_value.tv_sec = (time_t)(t / RMD_NS_PER_S);
+	its.it_value.tv_nsec = (long)(t % RMD_NS_PER_S);
 	timerfd_settime(s->tfd, TFD_TIMER_ABSTIME, &its, NULL);
 }
 
@@ -1292,7 +1281,7 @@ int sim_run(const struct sim_config *c)
 		goto err_close_wire;
 	}
 
-	s->t0 = now_ns();
+	s->t0 = rmd_now_ns();
 	for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++) {
 		struct slot *sl;
 
@@ -1310,7 +1299,7 @@ int sim_run(const struct sim_config *c)
 
 	while (!s->stop) {
 		struct epoll_event ev[4];
-		int64_t now = now_ns();
+		int64_t now = rmd_now_ns();
 		int n;
 
 		process(s, now);
@@ -1356,7 +1345,7 @@ int sim_run(const struct sim_config *c)
 			}
 		}
 	}
-	log_summary(s, now_ns());
+	log_summary(s, rmd_now_ns());
 	r = s->status;
 
 err_close_wire:

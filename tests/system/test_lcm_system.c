@@ -21,7 +21,7 @@
  *     rmdd.
  *
  * Multicast on loopback must be routable: when it is not, the suite routes
- * it itself when root (as tests/test_bridge.c does) and otherwise skips
+ * it itself when root (as tests/unit/test_bridge.c does) and otherwise skips
  * every test, loudly.  Every wait has a deadline; every child is killed by
  * the per-test teardown whatever failed, and dies with the suite
  * (PR_SET_PDEATHSIG).  RMD_TEST_FILTER=test_flood runs one test.
@@ -54,7 +54,8 @@
 #include <lcm/eventlog.h>
 #include <lcm/lcm.h>
 
-#include "lcm_loopback.h"
+#include "harness/lcm_loopback.h"
+#include "rmd/time.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"

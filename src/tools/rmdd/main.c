@@ -55,6 +55,7 @@
 #include <sys/eventfd.h>
 #include <sys/signalfd.h>
 
+#include "rmd/time.h"
 #include "rmd/config.h"
 #include "rmd/plan.h"
 #include "rmdd.h"
@@ -68,16 +69,14 @@
 
 #define RMDD_SIM_DEFAULT_MOTORS 6 /* rmdd --sim: two 1 Mbit/s sim buses of three motors */
 
-#define NS_PER_S INT64_C(1000000000)
-#define NS_PER_MS INT64_C(1000000)
-#define STATUS_PERIOD_NS NS_PER_S
+#define STATUS_PERIOD_NS RMD_NS_PER_S
 /* The main thread looks at the loop's heartbeat this often ... */
-#define LOOK_PERIOD_NS (100 * NS_PER_MS)
+#define LOOK_PERIOD_NS (100 * RMD_NS_PER_MS)
 /* ... and calls it stalled after this many periods without a cycle, and at least: */
 #define STALL_PERIODS 5
-#define STALL_MIN_NS (500 * NS_PER_MS)
+#define STALL_MIN_NS (500 * RMD_NS_PER_MS)
 /* READY=1 waits this long at most for the loop's first cycle. */
-#define FIRST_CYCLE_WAIT_NS (2 * NS_PER_S)
+#define FIRST_CYCLE_WAIT_NS (2 * RMD_NS_PER_S)
 
 enum rmdd_mode {
 	MODE_RUN = 0, /* the daemon, from a config file */
@@ -257,7 +256,7 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 	}
 	env = getenv("RMDD_TEST_STALL_AFTER_MS");
 	if (env && *env)
-		o->stall_after_ns = strtoll(env, NULL, 10) * NS_PER_MS;
+		o->stall_after_ns = strtoll(env, NULL, 10) * RMD_NS_PER_MS;
 	o->mode = check ? MODE_CHECK : sim ? MODE_SIM : MODE_RUN;
 	return 0;
 }
@@ -461,11 +460,11 @@ static void main_thread_normal(const struct rmdd *d)
  */
 static void wait_first_cycle(struct rmdd *d)
 {
-	const struct timespec step = { 0, NS_PER_MS };
-	int64_t end = rmdd_now_ns() + FIRST_CYCLE_WAIT_NS;
+	const struct timespec step = { 0, RMD_NS_PER_MS };
+	int64_t end = rmd_now_ns() + FIRST_CYCLE_WAIT_NS;
 
 	while (rmd_loop_heartbeat(d->loop) == 0) {
-		if (rmdd_now_ns() >= end) {
+		if (rmd_now_ns() >= end) {
 			rmdd_log(3, "rt loop: no cycle completed %.1f s after its start",
 				 (double)FIRST_CYCLE_WAIT_NS / 1e9);
 			return;
@@ -530,7 +529,7 @@ static void handle_signal(struct rmdd *d, int sig)
 static int serve(struct rmdd *d, const struct rmdd_opts *o)
 {
 	const int64_t ping_every = d->notify.ping_every_ns;
-	int64_t now = rmdd_now_ns(), t_status = now;
+	int64_t now = rmd_now_ns(), t_status = now;
 	int64_t next_status = now + STATUS_PERIOD_NS, next_ping = now + ping_every;
 	int64_t next_look = now + LOOK_PERIOD_NS;
 	int64_t stall_at = o->stall_after_ns > 0 ? now + o->stall_after_ns : 0;
@@ -553,7 +552,8 @@ static int serve(struct rmdd *d, const struct rmdd_opts *o)
 			next = next_ping;
 		if (stall_at && stall_at < next)
 			next = stall_at;
-		r = poll(&pfd, 1, next > now ? (int)((next - now + NS_PER_MS - 1) / NS_PER_MS) : 0);
+		r = poll(&pfd, 1,
+			 next > now ? (int)((next - now + RMD_NS_PER_MS - 1) / RMD_NS_PER_MS) : 0);
 		if (r < 0 && errno != EINTR)
 			return -errno;
 		while (read(d->sfd, &si, sizeof(si)) == (ssize_t)sizeof(si)) {
@@ -561,7 +561,7 @@ static int serve(struct rmdd *d, const struct rmdd_opts *o)
 				return (int)si.ssi_signo;
 			handle_signal(d, (int)si.ssi_signo);
 		}
-		now = rmdd_now_ns();
+		now = rmd_now_ns();
 		if (stall_at && now >= stall_at) {
 			rmdd_log(4, "test hook RMDD_TEST_STALL_AFTER_MS: the rt loop stops now and "
 				    "nobody is told");
@@ -696,7 +696,7 @@ static int run(const struct rmdd_opts *o)
 	if (bringup(d) != RMDD_EXIT_OK)
 		goto err_stop_bridge;
 
-	d->stats.start_ns = rmdd_now_ns();
+	d->stats.start_ns = rmd_now_ns();
 	r = rmd_loop_start(d->loop);
 	if (r == -EPERM && o->require_rt) {
 		rmdd_log(3,

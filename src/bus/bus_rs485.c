@@ -18,12 +18,12 @@
 
 #include <modbus.h>
 
+#include "rmd/time.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/rs485.h"
 
 _Static_assert((RMD_RS485_QUEUE & (RMD_RS485_QUEUE - 1)) == 0, "queue is a power-of-two ring");
 
-#define NS_PER_S 1000000000LL
 #define WIRE_DATA 3	 /* V3 §1.2.2: header, id, length, then D0..D7 */
 #define BITS_PER_BYTE 10 /* 8N1: start, 8 data, stop */
 #define RX_BUF 256	 /* bytes read and not yet parsed */
@@ -89,7 +89,7 @@ int64_t rmd_rs485_frame_ns(uint32_t baud)
 
 	if (baud == 0)
 		return 0;
-	return (bits * NS_PER_S + baud - 1) / baud;
+	return (bits * RMD_NS_PER_S + baud - 1) / baud;
 }
 
 static int baud_speed(uint32_t baud, speed_t *speed)

@@ -4,7 +4,7 @@
  *
  * The error-frame parser is a pure function and runs everywhere.  The rest
  * needs a kernel with SocketCAN and vcan: run it as
- *   tests/vm/vm-run --vcan 3 -- build/tests/test_bus_socketcan
+ *   tests/vm/vm-run --vcan 3 -- build/tests/unit/test_bus_socketcan
  * which gives vcan0..vcan2, up, and root (the tests create and delete more
  * interfaces with ip(8), and put a netem qdisc on vcan1).  Without SocketCAN
  * those tests are skipped with one loud line.
@@ -39,6 +39,7 @@
 
 #include <cmocka.h>
 
+#include "rmd/time.h"
 #include "rmd/bus_socketcan.h"
 
 #define NS_PER_MS 1000000LL

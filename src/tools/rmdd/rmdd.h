@@ -175,7 +175,4 @@ void rmdd_notify_status(const struct rmdd_notify *n, const char *status);
 void rmdd_notify_watchdog(const struct rmdd_notify *n);
 void rmdd_notify_stopping(const struct rmdd_notify *n, const char *status);
 
-/* CLOCK_MONOTONIC in nanoseconds. */
-int64_t rmdd_now_ns(void);
-
 #endif /* RMDD_H */

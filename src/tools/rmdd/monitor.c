@@ -36,13 +36,12 @@
 
 #include <sys/eventfd.h>
 
+#include "rmd/time.h"
 #include "rmd/hist.h"
 #include "rmd/motor.h"
 #include "rmd/thread.h"
 #include "rmd/codec.h"
 #include "rmdd.h"
-
-#define NS_PER_S INT64_C(1000000000)
 
 int rmdd_log_level = 6;
 
@@ -72,14 +71,6 @@ void rmdd_log_always(int level, const char *fmt, ...)
 	va_start(ap, fmt);
 	vlog(level, fmt, ap);
 	va_end(ap);
-}
-
-int64_t rmdd_now_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
 }
 
 const char *rmdd_lifecycle_name(unsigned lc)
@@ -341,7 +332,7 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 /* Once a second: the overruns that followed the first one. */
 static void overrun_summary(struct rmdd_monitor *m, int64_t now)
 {
-	if (!m->overruns_logged || now - m->overrun_window_ns < NS_PER_S)
+	if (!m->overruns_logged || now - m->overrun_window_ns < RMD_NS_PER_S)
 		return;
 	if (m->overruns_pending)
 		rmdd_log(4,
@@ -458,7 +449,7 @@ static void *monitor_main(void *arg)
 		if (r > 0)
 			break;
 		rmdd_monitor_drain(m);
-		overrun_summary(m, rmdd_now_ns());
+		overrun_summary(m, rmd_now_ns());
 		forward_health(m);
 		sample_latency(m);
 	}

@@ -10,6 +10,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "rmd/time.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/txn.h"
 
@@ -17,14 +18,6 @@
 #define TXN_BATCH 64
 /* Longest sleep in poll(2) between two recv() calls: the RS485 queue advances only in them. */
 #define TXN_POLL_SLICE_NS 1000000
-
-int64_t rmd_txn_now_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
 
 int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
 		    const struct rmd_msg *msg)
@@ -177,7 +170,7 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 		      int64_t spacing_ns, const struct rmd_txn_opts *opts)
 {
 	/* A bus that takes no frame at all (bus-off, a stuck queue) ends the round too. */
-	int64_t end_ns = rmd_txn_now_ns() + timeout_ns + (int64_t)n * spacing_ns;
+	int64_t end_ns = rmd_now_ns() + timeout_ns + (int64_t)n * spacing_ns;
 	/* RS485: how long the round may wait for the transport's queue to empty (below). */
 	int64_t drain_end_ns = end_ns + (int64_t)RMD_RS485_QUEUE * spacing_ns;
 	bool rs485 = !strcmp(bus->ops->kind, "rs485");
@@ -186,7 +179,7 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 	for (unsigned i = 0; i < n; i++)
 		t[i].sent = false;
 	for (;;) {
-		int64_t now = rmd_txn_now_ns(), next = INT64_MAX;
+		int64_t now = rmd_now_ns(), next = INT64_MAX;
 		bool waiting = false, unsent = false;
 		int r;
 
@@ -257,7 +250,7 @@ int rmd_txn_run(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, const struct
 		t[i].sent = false;
 	}
 	/* Nothing received before the requests left can answer them. */
-	r = collect(bus, t, 0, rmd_txn_now_ns());
+	r = collect(bus, t, 0, rmd_now_ns());
 	if (r < 0)
 		return r;
 	for (unsigned round = 0; round < tries; round++) {

@@ -38,7 +38,7 @@
  * after each publish) is printed too, so the part of the latency the tick
  * imposes is told from the part the LCM receive path and the bridge add.
  *
- * Multicast on loopback must be routable (see tests/test_bridge.c): the
+ * Multicast on loopback must be routable (see tests/unit/test_bridge.c): the
  * suite routes it when root, and otherwise skips, loudly.
  */
 #define _GNU_SOURCE
@@ -63,7 +63,8 @@
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
-#include "lcm_loopback.h"
+#include "harness/lcm_loopback.h"
+#include "rmd/time.h"
 #include "rmd/bridge.h"
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"

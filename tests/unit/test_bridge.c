@@ -32,7 +32,7 @@
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
-#include "lcm_loopback.h"
+#include "harness/lcm_loopback.h"
 #include "rmd/bridge.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
