@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 /*
  * The real-time loop: one cycle per tick over every bus, reply matching and
- * deadlines, motor lifecycle, host watchdog, safe actions, the SCHED_FIFO
- * thread, and bring-up.  See rmd/loop.h for the behaviour.
+ * deadlines, motor lifecycle, host watchdog, safe actions, publishing and
+ * stop.  See rmd/loop.h for the behaviour; bring-up is bringup.c, the
+ * thread rt_thread.c, and what the three share is loop_priv.h.
  *
  * Everything the cycle touches lives in struct rmd_loop, allocated and
  * written once by rmd_loop_new(): fixed arrays sized by RMD_MAX_MOTORS and
@@ -17,168 +18,31 @@
 #include <math.h>
 #include <poll.h>
 #include <pthread.h>
-#include <sched.h>
-#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "rmd/time.h"
 #include "rmd/hist.h"
 #include "rmd/err.h"
-#include "rmd/bus_rs485.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
-
-#define OUTSTANDING 8			/* requests in flight per motor */
-#define ONESHOTS 4			/* one-shot frames waiting per motor */
-#define RX_BATCH 64			/* frames per recv() call */
-#define RX_ROUNDS 8			/* recv() calls per bus per drain: bounded work */
-#define TX_MAX (RMD_PLAN_MAX_SLOTS + 8) /* frames of one bus in one cycle */
-#define EVENT_INTERVAL_NS RMD_NS_PER_S	/* repeated bus events: at most one a second */
-#define COLLECT_GUARD_NS 50000		/* stop polling the buses this long before the tick */
-#define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
-#define STOP_TRIES 50			/* rmd_loop_stop_motors(): sends per bus ... */
-#define STOP_STEP_NS 200000		/* ... this far apart */
-#define PROBE_STEP_NS 100000		/* bring-up: longest wait between two looks */
-#define REPORT_LINE 256
-
-/* What a frame of a cycle is, to book it once the bus took it. */
-enum req_kind {
-	REQ_CONTROL = 0, /* a setpoint, or a safe action's streamed frame */
-	REQ_STATUS,	 /* a status read (0x9A, 0x9C) */
-	REQ_ONESHOT,	 /* the head of the motor's one-shot queue */
-	REQ_BATCH,	 /* V2 0x280: one request, every batched motor answers */
-};
-
-/* A request in flight. */
-struct outstanding {
-	bool used;
-	bool echo_is_reply; /* the command's answer repeats it (0x80, 0xB3, ...) */
-	uint16_t cmd;	    /* command byte of the answer, or RMD_MOTOR_CMD_MIT */
-	uint32_t reply_id;
-	uint64_t seq; /* send order */
-	int64_t sent_ns;
-	int64_t deadline_ns;
-	uint8_t data[RMD_FRAME_LEN]; /* the request, to tell an echo */
-};
-
-struct lmotor {
-	struct rmd_motor m;
-	uint8_t bus;
-	struct rmd_motor_state st;
-	struct outstanding os[OUTSTANDING];
-	uint64_t seq;
-	unsigned consecutive;	/* missed replies in a row */
-	struct rmd_setpoint sp; /* in force while ENABLED */
-	bool need_edge;		/* enable = 1 counts only after an enable = 0 */
-	struct rmd_frame oneshot[ONESHOTS];
-	unsigned n_oneshot;
-	bool damp_stream; /* SAFE with MIT damp: the damp frame in every control slot */
-	int64_t next_probe_ns;
-	bool replied;
-	uint64_t last_reply_cycle;
-	/* bring-up */
-	char model[8];
-	uint32_t version;
-};
-
-struct txmeta {
-	uint8_t motor; /* config index; unused for REQ_BATCH */
-	uint8_t kind;  /* enum req_kind */
-};
-
-struct lbus {
-	struct rmd_bus *bus;
-	const struct rmd_plan_bus *pb;
-	const struct rmd_config_bus *cb;
-	/* reply identifier -> config index + 1 (0: no motor) */
-	uint8_t by_v3[RMD_MAX_MOTORS + 1];  /* 0x240 + ID: V3 and MIT motors */
-	uint8_t by_v2[RMD_MAX_MOTORS + 1];  /* 0x140 + ID: V2 motors */
-	uint8_t by_mit[RMD_MAX_MOTORS + 1]; /* 0x500 + ID */
-	int64_t reply_ns;		    /* reply deadline after the send */
-	struct rmd_bus_rx rx[RX_BATCH];
-	struct rmd_frame tx[TX_MAX];
-	struct txmeta meta[TX_MAX];
-	unsigned ntx;
-	unsigned batch_rr; /* round robin of the 0x280 slot's status reads */
-	uint8_t state_seen;
-	bool failing;
-	int64_t ev_send_ns, ev_unexpected_ns;
-	bool ev_send_any, ev_unexpected_any;
-	/* load over the last health window */
-	uint64_t frames_t0;
-	int64_t load_t0;
-	double load;
-	uint32_t unexpected_ids; /* bring-up: ids that answered but are not configured */
-};
-
-struct rmd_loop {
-	struct rmd_loop_opts o;
-	const struct rmd_config *cfg;
-	const struct rmd_plan *plan;
-	unsigned n_buses, n_motors;
-	int64_t period_ns;
-	struct lbus bus[RMD_MAX_BUSES];
-	struct lmotor mot[RMD_MAX_MOTORS];
-
-	/* schedule */
-	bool started;
-	int64_t next_tick_ns;
-	uint64_t cycle; /* index of the cycle running, from 0 */
-
-	/* commands and the host watchdog */
-	struct rmd_command cmd;
-	bool have_cmd;
-	int64_t last_cmd_rx_ns;
-	uint8_t wd; /* enum rmd_watchdog_state */
-	int64_t trip_ns;
-
-	/* statistics */
-	struct rmd_loop_stats stats;
-	struct rmd_loop_counters cnt;
-	uint64_t hist[RMD_HIST_BUCKETS];
-	uint64_t wake_n;
-	int64_t wake_sum;
-	uint64_t safe_events;
-	uint64_t ov_pending; /* ticks skipped, not yet reported */
-	bool ov_any;
-	int64_t ov_ev_ns;
-	uint64_t next_health_cycle;
-	unsigned health_every;
-
-	/* work copies */
-	struct rmd_snapshot snap;
-
-	/* for rmd_loop_get_*(): a sequence lock, written by the loop only */
-	atomic_uint pub_seq;
-	struct rmd_snapshot pub_snap;
-	struct rmd_loop_stats pub_stats;
-	struct rmd_loop_counters pub_cnt;
-
-	atomic_uint_fast64_t heartbeat;
-	atomic_bool stop;
-	pthread_t thread;
-	bool running;
-	bool locked;   /* mlockall done, or refused: */
-	int mlock_err; /* -errno of the refusal, said when the thread starts */
-};
+#include "loop_priv.h"
 
 /* ------------------------------------------------------------------ */
 /* Small helpers (rt-safe) */
 
 /* rt-safe. */
-static int64_t clock_now(const struct rmd_loop *l)
+int64_t loop_now(const struct rmd_loop *l)
 {
 	return l->o.now_ns ? l->o.now_ns(l->o.now_ctx) : rmd_now_ns();
 }
 
 /* rt-safe. */
-static struct timespec to_ts(int64_t ns)
+struct timespec loop_ts(int64_t ns)
 {
 	struct timespec ts = { .tv_sec = ns / RMD_NS_PER_S, .tv_nsec = ns % RMD_NS_PER_S };
 
@@ -196,12 +60,12 @@ static void sleep_plain(const struct rmd_loop *l, int64_t ns)
 		l->o.sleep_ns(l->o.now_ctx, ns);
 		return;
 	}
-	ts = to_ts(ns);
+	ts = loop_ts(ns);
 	clock_nanosleep(CLOCK_MONOTONIC, 0, &ts, NULL);
 }
 
 /* Wait up to ns for frames on bus (poll(2) on its fd when it has one).  Non-rt. */
-static void wait_bus(const struct rmd_loop *l, struct rmd_bus *bus, int64_t ns)
+void loop_wait_bus(const struct rmd_loop *l, struct rmd_bus *bus, int64_t ns)
 {
 	int fd;
 
@@ -212,15 +76,15 @@ static void wait_bus(const struct rmd_loop *l, struct rmd_bus *bus, int64_t ns)
 		sleep_plain(l, ns);
 	} else {
 		struct pollfd pfd = { .fd = fd, .events = POLLIN };
-		struct timespec ts = to_ts(ns);
+		struct timespec ts = loop_ts(ns);
 
 		ppoll(&pfd, 1, &ts, NULL);
 	}
 }
 
 /* rt-safe. */
-static void event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, unsigned bus,
-		  int64_t a, int64_t b)
+void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, unsigned bus,
+		int64_t a, int64_t b)
 {
 	struct rmd_event e = {
 		.t_ns = t,
@@ -242,14 +106,14 @@ static unsigned idx_of(const struct rmd_loop *l, const struct lmotor *lm)
 }
 
 /* rt-safe. */
-static void set_lifecycle(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
+void loop_set_lifecycle(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
 {
 	uint8_t old = lm->st.lifecycle;
 
 	if (old == lc)
 		return;
 	lm->st.lifecycle = (uint8_t)lc;
-	event(l, now, RMD_EV_MOTOR_STATE, idx_of(l, lm), lm->bus, old, lc);
+	loop_event(l, now, RMD_EV_MOTOR_STATE, idx_of(l, lm), lm->bus, old, lc);
 }
 
 /* ------------------------------------------------------------------ */
@@ -350,7 +214,7 @@ static struct outstanding *os_match(struct lmotor *lm, uint32_t id, uint16_t cmd
 }
 
 /* rt-safe. */
-static void oneshot_clear(struct lmotor *lm)
+void loop_oneshot_clear(struct lmotor *lm)
 {
 	lm->n_oneshot = 0;
 }
@@ -392,7 +256,7 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 	struct rmd_frame f[2];
 	int n;
 
-	oneshot_clear(lm);
+	loop_oneshot_clear(lm);
 	lm->damp_stream = false;
 	if (a == RMD_SAFE_DAMP && lm->m.proto == RMD_PROTO_MIT && stream) {
 		lm->damp_stream = true;
@@ -405,7 +269,7 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 	}
 	l->safe_events++;
 	l->cnt.safe_actions++;
-	event(l, now, RMD_EV_SAFE_ACTION, idx_of(l, lm), lm->bus, a, 0);
+	loop_event(l, now, RMD_EV_SAFE_ACTION, idx_of(l, lm), lm->bus, a, 0);
 }
 
 /* An ENABLED motor gets the safe action and becomes SAFE.  rt-safe. */
@@ -415,7 +279,7 @@ static void make_safe(struct rmd_loop *l, struct lmotor *lm, bool need_edge, int
 		return;
 	queue_safe(l, lm, true, now);
 	lm->need_edge = need_edge;
-	set_lifecycle(l, lm, RMD_LC_SAFE, now);
+	loop_set_lifecycle(l, lm, RMD_LC_SAFE, now);
 }
 
 /* rt-safe. */
@@ -425,13 +289,13 @@ static void motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 
 	if (old == RMD_LC_LOST)
 		return;
-	oneshot_clear(lm);
+	loop_oneshot_clear(lm);
 	lm->damp_stream = false;
 	if (old == RMD_LC_ENABLED)
 		queue_safe(l, lm, false, now);
 	lm->need_edge = true;
 	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-	set_lifecycle(l, lm, RMD_LC_LOST, now);
+	loop_set_lifecycle(l, lm, RMD_LC_LOST, now);
 	if (l->cfg->safety.lost_motor_action == RMD_LOST_ALL)
 		for (unsigned j = 0; j < l->n_motors; j++)
 			if (&l->mot[j] != lm)
@@ -460,10 +324,10 @@ static void alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	case RMD_LC_LOST:
 		/* safe-action frames still waiting go out yet */
 		lm->need_edge = true;
-		set_lifecycle(l, lm, RMD_LC_READY, now);
+		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
 		break;
 	case RMD_LC_PROBE:
-		set_lifecycle(l, lm, RMD_LC_READY, now);
+		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
 		break;
 	case RMD_LC_READY:
 	case RMD_LC_ENABLED:
@@ -475,7 +339,7 @@ static void alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 }
 
 /* Error flags from a 0x9A answer or report.  prev: the code before it.  rt-safe. */
-static void note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now)
+void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now)
 {
 	uint16_t code = lm->st.error_code;
 	uint8_t lc = lm->st.lifecycle;
@@ -483,21 +347,22 @@ static void note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, in
 	if (code) {
 		if (lc == RMD_LC_FAULT) {
 			if (code != prev)
-				event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, code, 0);
+				loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, code,
+					   0);
 			return;
 		}
 		if (lc == RMD_LC_ENABLED)
 			queue_safe(l, lm, false, now);
 		else
-			oneshot_clear(lm);
+			loop_oneshot_clear(lm);
 		lm->damp_stream = false;
 		lm->need_edge = true;
-		event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, code, 0);
-		set_lifecycle(l, lm, RMD_LC_FAULT, now);
+		loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, code, 0);
+		loop_set_lifecycle(l, lm, RMD_LC_FAULT, now);
 	} else if (lc == RMD_LC_FAULT) {
 		lm->need_edge = true;
-		event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, 0, 0);
-		set_lifecycle(l, lm, RMD_LC_READY, now);
+		loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, 0, 0);
+		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
 	}
 }
 
@@ -505,7 +370,7 @@ static void note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, in
 /* Receiving */
 
 /* rt-safe. */
-static void unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now)
+void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now)
 {
 	struct lbus *lb = &l->bus[b];
 
@@ -514,11 +379,11 @@ static void unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f
 		return;
 	lb->ev_unexpected_any = true;
 	lb->ev_unexpected_ns = now;
-	event(l, now, RMD_EV_UNEXPECTED, 0xFF, b, f->can_id, f->len ? f->data[0] : -1);
+	loop_event(l, now, RMD_EV_UNEXPECTED, 0xFF, b, f->can_id, f->len ? f->data[0] : -1);
 }
 
 /* The motor a received identifier belongs to, or NULL.  rt-safe. */
-static struct lmotor *motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
+struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
 {
 	const struct lbus *lb = &l->bus[b];
 	unsigned k = 0;
@@ -543,7 +408,7 @@ static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 		return false;
 	rmd_motor_apply(&r, &lm->st);
 	if (r.have & RMD_MOTOR_HAVE_ERROR)
-		note_errors(l, lm, prev, now);
+		loop_note_errors(l, lm, prev, now);
 	return true;
 }
 
@@ -551,13 +416,13 @@ static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
 	const struct rmd_frame *f = &rx->f;
-	struct lmotor *lm = motor_of(l, b, f->can_id);
+	struct lmotor *lm = loop_motor_of(l, b, f->can_id);
 	int64_t now = rx->t_ns;
 	struct outstanding *o;
 	uint16_t cmd;
 
 	if (!lm || !f->len) {
-		unexpected(l, b, f, now);
+		loop_unexpected(l, b, f, now);
 		return;
 	}
 	cmd = f->can_id > RMD_CAN_MIT_REPLY_BASE ? RMD_MOTOR_CMD_MIT : f->data[0];
@@ -583,8 +448,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		/* DESIGN.md: the motor's comm-loss protection tripped; its output is off */
 		l->cnt.unsolicited++;
 		if (lm->st.lifecycle != RMD_LC_LOST) {
-			event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), b, lm->st.error_code,
-			      RMD_MOTOR_CMD_COMM_LOST);
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), b, lm->st.error_code,
+				   RMD_MOTOR_CMD_COMM_LOST);
 			motor_lost(l, lm, now);
 		}
 		return;
@@ -597,11 +462,11 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			l->cnt.bad_replies++;
 		return;
 	}
-	unexpected(l, b, f, now);
+	loop_unexpected(l, b, f, now);
 }
 
 /* Take every frame that has arrived on bus b by now.  Bounded.  rt-safe. */
-static void drain(struct rmd_loop *l, unsigned b, int64_t now)
+void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
 {
 	struct lbus *lb = &l->bus[b];
 
@@ -648,14 +513,14 @@ static void enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd
 	case RMD_LC_SAFE:
 		if (lm->need_edge)
 			return;
-		oneshot_clear(lm);
+		loop_oneshot_clear(lm);
 		lm->damp_stream = false;
 		/* V3 §2.26 / V2 §3.50: the brake opens before the first setpoint */
 		if (rmd_motor_encode_cmd(&lm->m, 0x77, &f) == 0)
 			oneshot_push(lm, &f);
 		lm->sp = *sp;
 		lm->st.mode = sp->mode;
-		set_lifecycle(l, lm, RMD_LC_ENABLED, now);
+		loop_set_lifecycle(l, lm, RMD_LC_ENABLED, now);
 		break;
 	case RMD_LC_ENABLED:
 		lm->sp = *sp;
@@ -678,7 +543,7 @@ static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
 	case RMD_LC_ENABLED:
 	case RMD_LC_SAFE:
-		oneshot_clear(lm);
+		loop_oneshot_clear(lm);
 		lm->damp_stream = false;
 		/* READY: output off (V3 §2.15), brake locked (V3 §2.27) */
 		if (rmd_motor_encode_cmd(&lm->m, 0x80, &f) == 0)
@@ -686,7 +551,7 @@ static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 		if (rmd_motor_encode_cmd(&lm->m, 0x78, &f) == 0)
 			oneshot_push(lm, &f);
 		lm->st.mode = (uint8_t)l->cfg->motors[idx_of(l, lm)].mode;
-		set_lifecycle(l, lm, RMD_LC_READY, now);
+		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
 		break;
 	case RMD_LC_READY:
 	case RMD_LC_PROBE:
@@ -703,7 +568,7 @@ static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t 
 	if (l->wd == s)
 		return;
 	l->wd = (uint8_t)s;
-	event(l, now, RMD_EV_WATCHDOG, 0xFF, 0xFF, s, 0);
+	loop_event(l, now, RMD_EV_WATCHDOG, 0xFF, 0xFF, s, 0);
 }
 
 /* rt-safe. */
@@ -990,7 +855,8 @@ static bool send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 	if (!lb->failing || !lb->ev_send_any || now - lb->ev_send_ns >= EVENT_INTERVAL_NS) {
 		lb->ev_send_any = true;
 		lb->ev_send_ns = now;
-		event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, r < 0 ? r : -ENOBUFS, lb->ntx - taken);
+		loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, r < 0 ? r : -ENOBUFS,
+			   lb->ntx - taken);
 	}
 	lb->failing = true;
 	return false;
@@ -1000,7 +866,7 @@ static bool send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 /* Publishing */
 
 /* rt-safe. */
-static void pub_write(struct rmd_loop *l)
+void loop_pub_write(struct rmd_loop *l)
 {
 	atomic_fetch_add_explicit(&l->pub_seq, 1, memory_order_relaxed);
 	atomic_thread_fence(memory_order_release);
@@ -1062,7 +928,7 @@ static void fill_health(struct rmd_loop *l, struct rmd_health *h, int64_t now)
 }
 
 /* rt-safe. */
-static void fill_snapshot(struct rmd_loop *l, int64_t now)
+void loop_fill_snapshot(struct rmd_loop *l, int64_t now)
 {
 	struct rmd_snapshot *s = &l->snap;
 
@@ -1083,9 +949,9 @@ static void publish(struct rmd_loop *l, int64_t now)
 {
 	struct rmd_snapshot *s = &l->snap;
 
-	fill_snapshot(l, now);
+	loop_fill_snapshot(l, now);
 	wake_summary(l);
-	pub_write(l);
+	loop_pub_write(l);
 	if (l->o.snapshots) {
 		rmd_latest_put(l->o.snapshots, s);
 		if (l->o.snapshot_fd > 0) {
@@ -1111,7 +977,7 @@ static void bus_states(struct rmd_loop *l, int64_t now)
 
 		if (lb->bus->state != lb->state_seen) {
 			lb->state_seen = (uint8_t)lb->bus->state;
-			event(l, now, RMD_EV_BUS_STATE, 0xFF, b, lb->state_seen, 0);
+			loop_event(l, now, RMD_EV_BUS_STATE, 0xFF, b, lb->state_seen, 0);
 		}
 	}
 }
@@ -1129,14 +995,14 @@ static void overrun_event(struct rmd_loop *l, int64_t now)
 {
 	if (!l->ov_pending || (l->ov_any && now - l->ov_ev_ns < EVENT_INTERVAL_NS))
 		return;
-	event(l, now, RMD_EV_OVERRUN, 0xFF, 0xFF, (int64_t)l->ov_pending, 0);
+	loop_event(l, now, RMD_EV_OVERRUN, 0xFF, 0xFF, (int64_t)l->ov_pending, 0);
 	l->ov_pending = 0;
 	l->ov_any = true;
 	l->ov_ev_ns = now;
 }
 
 /* Overruns: a tick whose whole period passed unserved is skipped and counted.  rt-safe. */
-static void skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped)
+void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped)
 {
 	if (skipped <= 0)
 		return;
@@ -1158,7 +1024,7 @@ static void schedule(struct rmd_loop *l, int64_t now)
 		return;
 	}
 	if (now - l->next_tick_ns >= l->period_ns)
-		skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns);
+		loop_skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns);
 	tick = l->next_tick_ns;
 	l->next_tick_ns = tick + l->period_ns;
 	wake_record(l, now - tick);
@@ -1172,7 +1038,7 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 
 	schedule(l, now);
 	for (unsigned b = 0; b < l->n_buses; b++)
-		drain(l, b, now);
+		loop_drain(l, b, now);
 	check_deadlines(l, now);
 	take_command(l, now);
 	watchdog(l, now);
@@ -1183,7 +1049,7 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 	bus_states(l, now);
 	overrun_event(l, now);
 	l->stats.cycles = l->cycle + 1;
-	end = clock_now(l);
+	end = loop_now(l);
 	if (end - now > l->stats.cycle_max_ns)
 		l->stats.cycle_max_ns = end - now;
 	publish(l, now);
@@ -1279,31 +1145,31 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 		if (!left)
 			break;
 		sleep_plain(l, STOP_STEP_NS);
-		now = clock_now(l);
+		now = loop_now(l);
 		/* the sim and RS485 queues advance as they are read */
 		for (unsigned b = 0; b < l->n_buses; b++)
-			drain(l, b, now);
+			loop_drain(l, b, now);
 	}
 	for (unsigned b = 0; b < l->n_buses; b++)
 		if (off[b] < l->bus[b].ntx)
-			event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, -ENOBUFS,
-			      l->bus[b].ntx - off[b]);
+			loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, -ENOBUFS,
+				   l->bus[b].ntx - off[b]);
 	/* Wait for the echoes (a reply deadline at most): the frames are out. */
 	for (int64_t waited = 0; waited < max_reply_ns(l) && outstanding_any(l);
 	     waited += STOP_STEP_NS) {
 		sleep_plain(l, STOP_STEP_NS);
-		now = clock_now(l);
+		now = loop_now(l);
 		for (unsigned b = 0; b < l->n_buses; b++)
-			drain(l, b, now);
+			loop_drain(l, b, now);
 	}
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		oneshot_clear(lm);
+		loop_oneshot_clear(lm);
 		lm->damp_stream = false;
 		if (lm->st.lifecycle == RMD_LC_ENABLED || lm->st.lifecycle == RMD_LC_SAFE) {
 			lm->st.mode = (uint8_t)l->cfg->motors[i].mode;
-			set_lifecycle(l, lm, RMD_LC_READY, now);
+			loop_set_lifecycle(l, lm, RMD_LC_READY, now);
 		}
 	}
 }
@@ -1425,7 +1291,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 	l->snap.n = l->n_motors;
 	for (unsigned i = 0; i < l->n_motors; i++)
 		l->snap.m[i] = l->mot[i].st;
-	pub_write(l);
+	loop_pub_write(l);
 	return l;
 }
 
@@ -1439,566 +1305,4 @@ void rmd_loop_free(struct rmd_loop *l)
 		rmd_loop_join(l);
 	}
 	free(l);
-}
-
-/* ------------------------------------------------------------------ */
-/* Bring-up (non-rt) */
-
-struct report {
-	char *buf;
-	size_t len, used;
-};
-
-/* Non-rt. */
-__attribute__((format(printf, 2, 3))) static void rep_add(struct report *r, const char *fmt, ...)
-{
-	va_list ap;
-	int n;
-
-	if (!r->buf || !r->len || r->used + 1 >= r->len)
-		return;
-	va_start(ap, fmt);
-	n = vsnprintf(r->buf + r->used, r->len - r->used, fmt, ap);
-	va_end(ap);
-	if (n > 0)
-		r->used += (size_t)n;
-	if (r->used >= r->len)
-		r->used = r->len - 1;
-}
-
-/* Bring-up: a frame nobody asked for; remember ids that are not configured.  Non-rt (bring-up). */
-static void probe_stray(struct rmd_loop *l, unsigned b, const struct rmd_frame *f)
-{
-	uint32_t id = f->can_id;
-	unsigned mid = 0;
-
-	if (motor_of(l, b, id))
-		return;
-	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
-		mid = id - RMD_CAN_V3_REPLY_BASE;
-	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
-		mid = id - RMD_CAN_REQ_BASE;
-	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
-		mid = id - RMD_CAN_MIT_REPLY_BASE;
-	if (mid)
-		l->bus[b].unexpected_ids |= 1u << (mid - 1);
-}
-
-/* True when the reply to `cmd` repeats the request (RMD_CMD_ECHO).  Non-rt. */
-static bool cmd_echoes(const struct lmotor *lm, uint8_t cmd)
-{
-	enum rmd_proto proto = lm->m.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(proto, cmd);
-
-	return spec && (spec->flags & RMD_CMD_ECHO);
-}
-
-/*
- * One request to lm and its answer, with retries.  Returns 0 with the
- * answer in *rep, or -ETIMEDOUT.
- * Non-rt: blocks for a bounded time.
- */
-static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *req,
-		      unsigned tries, int64_t timeout_ns, struct rmd_frame *rep)
-{
-	struct lbus *lb = &l->bus[lm->bus];
-	bool check_echo, echo_seen = false;
-	uint32_t rid;
-	uint16_t cmd;
-
-	rmd_motor_reply_key(&lm->m, req, &rid, &cmd);
-	check_echo = cmd != RMD_MOTOR_CMD_MIT && !cmd_echoes(lm, (uint8_t)cmd);
-	for (unsigned t = 0; t < tries; t++) {
-		int64_t now = clock_now(l), deadline = now + timeout_ns;
-		bool resend = false;
-
-		rmd_bus_send(lb->bus, req, 1, now);
-		while (!resend) {
-			int n;
-
-			now = clock_now(l);
-			n = rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now);
-			for (int k = 0; k < n; k++) {
-				const struct rmd_frame *f = &lb->rx[k].f;
-
-				if (f->can_id != rid || !f->len ||
-				    (cmd != RMD_MOTOR_CMD_MIT && f->data[0] != cmd)) {
-					probe_stray(l, lm->bus, f);
-					continue;
-				}
-				/*
-				 * A copy of a request whose answer is no copy: a motor
-				 * whose comm-loss protection tripped echoes the first
-				 * command and does not execute it.  Ask again; a second
-				 * copy is the answer (V3 0x70 in mode 0 is all zeros).
-				 */
-				if (check_echo && !echo_seen && f->len == req->len &&
-				    !memcmp(f->data, req->data, req->len)) {
-					echo_seen = true;
-					resend = true;
-					break;
-				}
-				*rep = *f;
-				return 0;
-			}
-			if (resend || now >= deadline)
-				break;
-			if (n < RX_BATCH)
-				wait_bus(l, lb->bus,
-					 deadline - now < PROBE_STEP_NS ? deadline - now :
-									  PROBE_STEP_NS);
-		}
-	}
-	return -ETIMEDOUT;
-}
-
-/* Non-rt. */
-static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, unsigned tries,
-		     int64_t timeout_ns, struct rmd_motor_reply *r)
-{
-	struct rmd_frame req, rep;
-	int ret = rmd_motor_encode_cmd(&lm->m, cmd, &req);
-
-	if (ret < 0)
-		return ret;
-	ret = probe_xfer(l, lm, &req, tries, timeout_ns, &rep);
-	if (ret < 0)
-		return ret;
-	return rmd_motor_decode(&lm->m, &rep, r) < 0 ? -EBADMSG : 0;
-}
-
-/* Probe motor i and write its report line.  Returns 0, or -ENODEV when it is missing.  Non-rt. */
-static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
-{
-	const struct rmd_config_motor *c = &l->cfg->motors[i];
-	struct lmotor *lm = &l->mot[i];
-	struct lbus *lb = &l->bus[lm->bus];
-	const char *bus = lb->cb->name;
-	bool v2 = lm->m.proto == RMD_PROTO_V2;
-	const unsigned tries = RMD_LOOP_PROBE_TRIES;
-	int64_t timeout = RMD_LOOP_PROBE_TIMEOUT_NS;
-	struct rmd_motor_reply r;
-	uint8_t first = v2 ? 0x9A : 0xB5;
-	int64_t now;
-	int ret;
-
-	if (lb->cb->kind == RMD_BUS_KIND_RS485)
-		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + RMD_NS_PER_MS;
-	rep_add(rp, "%s: motor %u (%s): ", bus, c->id, c->name);
-	/* V3 §2.32 model; V2 has no model or version query: its status answers */
-	ret = probe_cmd(l, lm, first, tries, timeout, &r);
-	now = clock_now(l);
-	if (ret < 0) {
-		rep_add(rp, "missing (no answer to 0x%02X in %u tries of %lld ms)\n", first, tries,
-			(long long)(timeout / RMD_NS_PER_MS));
-		event(l, now, RMD_EV_PROBE, i, lm->bus, -ENODEV, 0);
-		oneshot_clear(lm);
-		lm->next_probe_ns = now;
-		lm->need_edge = true;
-		set_lifecycle(l, lm, RMD_LC_LOST, now);
-		return -ENODEV;
-	}
-	if (!v2) {
-		snprintf(lm->model, sizeof(lm->model), "%s", r.model);
-		/* V3 §2.29 firmware date */
-		if (probe_cmd(l, lm, 0xB2, tries, timeout, &r) == 0)
-			lm->version = r.version_date;
-		rep_add(rp, "%s", lm->model[0] ? lm->model : "(no model)");
-		if (!lm->version)
-			rep_add(rp, ", no answer to 0xB2");
-		else if (rmd_version_date_valid(lm->version))
-			rep_add(rp, ", firmware %u", (unsigned)lm->version);
-		else
-			rep_add(rp, ", firmware date %u implausible", (unsigned)lm->version);
-		/* V3 §2.12 status 1 */
-		ret = probe_cmd(l, lm, 0x9A, tries, timeout, &r);
-	} else {
-		rep_add(rp, "V2 (no model or version query)");
-	}
-	if (ret == 0) {
-		rmd_motor_apply(&r, &lm->st);
-		rep_add(rp, ", %.1f V, %.0f °C", r.voltage_v, r.temp_c);
-		if (r.error_code) {
-			const char *names[4];
-			size_t n = rmd_error_names(v2 ? RMD_PROTO_V2 : RMD_PROTO_V3, r.error_code,
-						   names, 4);
-
-			rep_add(rp, ", errors 0x%04X (", r.error_code);
-			for (size_t k = 0; k < n && k < 4; k++)
-				rep_add(rp, "%s%s", k ? ", " : "", names[k]);
-			rep_add(rp, "%s)", n > 4 ? ", ..." : "");
-		}
-	} else {
-		rep_add(rp, ", no answer to 0x9A");
-	}
-	if (v2) {
-		/* V2 §3.29: the multi-turn angle anchors the unwrapped encoder */
-		if (probe_cmd(l, lm, 0x92, tries, timeout, &r) == 0 &&
-		    (r.have & RMD_MOTOR_HAVE_POS))
-			rmd_motor_set_v2_reference(&lm->m,
-						   rmd_motor_to_native_pos(&lm->m, r.pos_rad));
-		else
-			rep_add(rp, ", no 0x92 angle: positions start at 0");
-		rep_add(rp, ", no 0xB3 in V2 (no comm-loss protection)");
-	}
-	rep_add(rp, "\n");
-	now = clock_now(l);
-	event(l, now, RMD_EV_PROBE, i, lm->bus, 0, lm->version);
-	lm->consecutive = 0;
-	lm->need_edge = false;
-	set_lifecycle(l, lm, RMD_LC_READY, now);
-	if (lm->st.error_code)
-		note_errors(l, lm, 0, now);
-	return 0;
-}
-
-/*
- * Ask every id that is not configured on bus b for its status (0x9A, read
- * only; V3 §2.12 on 0x140 + ID, which V2 motors take as well), all at
- * once, and note who answers.  Bounded: one try, the wire time of the
- * requests (RS485: one reply timeout each) plus RMD_LOOP_PROBE_TIMEOUT_NS.
- * Non-rt.
- */
-static void scan_bus(struct rmd_loop *l, unsigned b)
-{
-	struct lbus *lb = &l->bus[b];
-	struct rmd_frame req[RMD_MAX_MOTORS];
-	unsigned n = 0, off = 0;
-	int64_t now = clock_now(l), end;
-
-	for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++) {
-		struct rmd_msg msg;
-
-		if (lb->by_v3[id] || lb->by_v2[id] || lb->by_mit[id])
-			continue;
-		memset(&msg, 0, sizeof(msg));
-		msg.cmd = 0x9A;
-		if (rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, (uint8_t)id, &msg, &req[n]) == 0)
-			n++;
-	}
-	if (lb->cb->kind == RMD_BUS_KIND_RS485)
-		end = now + (int64_t)(n + 1) * rmd_rs485_reply_timeout_ns(lb->bus);
-	else
-		end = now + rmd_plan_cost_ns(lb->pb, 2 * n, n);
-	end += RMD_LOOP_PROBE_TIMEOUT_NS;
-	while (now < end) {
-		int r;
-
-		if (off < n) {
-			r = rmd_bus_send(lb->bus, req + off, n - off, now);
-			if (r > 0)
-				off += (unsigned)r;
-		}
-		r = rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now);
-		for (int k = 0; k < r; k++)
-			probe_stray(l, b, &lb->rx[k].f);
-		if (r < RX_BATCH)
-			wait_bus(l, lb->bus, end - now < PROBE_STEP_NS ? end - now : PROBE_STEP_NS);
-		now = clock_now(l);
-	}
-}
-
-/* Non-rt. */
-/*
- * V3 §2.30: write the comm-loss protection time (ROM) to every motor of bus
- * b that answered the probe, and check each echo, as the last step of
- * bring-up: a motor starts counting at the write, and the loop's first
- * cycle follows at once.  One report line per bus.  Non-rt.
- */
-static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct report *rp)
-{
-	struct lbus *lb = &l->bus[b];
-	uint32_t ms = l->cfg->safety.comm_loss_ms;
-	int64_t timeout = RMD_LOOP_PROBE_TIMEOUT_NS;
-	unsigned set = 0;
-	bool any = false;
-
-	if (lb->cb->kind == RMD_BUS_KIND_RS485)
-		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + RMD_NS_PER_MS;
-	for (unsigned i = 0; i < l->n_motors; i++) {
-		struct lmotor *lm = &l->mot[i];
-		const struct rmd_config_motor *c = &l->cfg->motors[i];
-		struct rmd_frame req, echo;
-
-		if (lm->bus != b || lm->m.proto == RMD_PROTO_V2 || lm->st.lifecycle == RMD_LC_LOST)
-			continue;
-		if (!any)
-			rep_add(rp, "%s: comm-loss protection (0xB3) %s", lb->cb->name,
-				ms ? "" : "off (disabled by safety.comm_loss_ms: 0)");
-		if (ms && !any)
-			rep_add(rp, "%u ms:", (unsigned)ms);
-		any = true;
-		if (rmd_motor_encode_comm_timeout(&lm->m, ms, &req) < 0 ||
-		    probe_xfer(l, lm, &req, RMD_LOOP_PROBE_TRIES, timeout, &echo) < 0) {
-			rep_add(rp, " motor %u (%s) did not answer 0xB3;", c->id, c->name);
-		} else if (echo.len != req.len || memcmp(echo.data, req.data, RMD_FRAME_LEN)) {
-			rep_add(rp, " motor %u (%s) NOT confirmed (the echo differs);", c->id,
-				c->name);
-		} else {
-			rep_add(rp, " %u", c->id);
-			set++;
-		}
-	}
-	if (any)
-		rep_add(rp, " (%u set, echo verified)\n", set);
-}
-
-int rmd_loop_bringup(struct rmd_loop *l, char *report, size_t len)
-{
-	struct report rp = { .buf = report, .len = len };
-	unsigned missing = 0;
-
-	if (report && len)
-		report[0] = '\0';
-	if (l->running)
-		return -EBUSY;
-	for (unsigned b = 0; b < l->n_buses; b++) {
-		struct lbus *lb = &l->bus[b];
-		int64_t now = clock_now(l);
-
-		lb->unexpected_ids = 0;
-		/* what came before the first request answers none of them */
-		while (rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now) == RX_BATCH)
-			;
-	}
-	for (unsigned i = 0; i < l->n_motors; i++)
-		if (probe_motor(l, i, &rp) < 0)
-			missing++;
-	for (unsigned b = 0; b < l->n_buses; b++) {
-		struct lbus *lb = &l->bus[b];
-		int64_t now = clock_now(l);
-		int n;
-
-		/* late answers tell of ids too */
-		while ((n = rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now)) > 0) {
-			for (int k = 0; k < n; k++)
-				probe_stray(l, b, &lb->rx[k].f);
-			if (n < RX_BATCH)
-				break;
-		}
-		scan_bus(l, b);
-		now = clock_now(l);
-		for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++) {
-			if (!(lb->unexpected_ids & (1u << (id - 1))))
-				continue;
-			rep_add(&rp, "%s: motor %u: unexpected (answers, but is not configured)\n",
-				lb->cb->name, id);
-			event(l, now, RMD_EV_PROBE, 0xFF, b, -EEXIST, id);
-		}
-	}
-	/* last, so that no motor goes quiet between its 0xB3 and the first cycle */
-	for (unsigned b = 0; b < l->n_buses; b++)
-		arm_comm_loss(l, b, &rp);
-	if (rp.used && report[rp.used - 1] == '\n')
-		report[--rp.used] = '\0';
-	/* what bring-up found is the state before the first cycle */
-	fill_snapshot(l, clock_now(l));
-	pub_write(l);
-	if (missing && l->cfg->probe.on_missing == RMD_MISSING_REFUSE)
-		return -ENODEV;
-	return 0;
-}
-
-/* ------------------------------------------------------------------ */
-/* The thread */
-
-/* rt thread, before its first cycle. */
-static void __attribute__((noinline)) prefault_stack(void)
-{
-	volatile unsigned char buf[RMD_LOOP_PREFAULT_STACK];
-
-	for (size_t i = 0; i < sizeof(buf); i += 4096)
-		buf[i] = 0;
-}
-
-/* rt-safe. */
-static bool stopping(const struct rmd_loop *l)
-{
-	return atomic_load_explicit(&l->stop, memory_order_acquire);
-}
-
-/*
- * Between ticks: wait on the buses that have a descriptor and read what
- * comes (and let the RS485 queues advance at their deadlines), until just
- * before the next tick.
- * rt-safe.
- */
-static void collect_until_tick(struct rmd_loop *l)
-{
-	struct pollfd pfd[RMD_MAX_BUSES];
-	unsigned which[RMD_MAX_BUSES], n = 0;
-
-	for (unsigned b = 0; b < l->n_buses; b++) {
-		int fd = rmd_bus_fd(l->bus[b].bus);
-
-		if (fd < 0)
-			continue;
-		pfd[n] = (struct pollfd){ .fd = fd, .events = POLLIN };
-		which[n++] = b;
-	}
-	if (!n)
-		return;
-	while (!stopping(l)) {
-		int64_t now = rmd_now_ns(), until = l->next_tick_ns - COLLECT_GUARD_NS;
-		struct timespec ts;
-		int r;
-
-		if (now >= until)
-			return;
-		for (unsigned k = 0; k < n; k++) {
-			unsigned b = which[k];
-
-			if (l->bus[b].cb->kind == RMD_BUS_KIND_RS485) {
-				int64_t d = rmd_rs485_deadline_ns(l->bus[b].bus);
-
-				/* at least a short step: a past deadline must not spin */
-				if (d < now + COLLECT_MIN_STEP_NS)
-					d = now + COLLECT_MIN_STEP_NS;
-				if (d < until)
-					until = d;
-			}
-		}
-		ts = to_ts(until - now);
-		r = ppoll(pfd, n, &ts, NULL);
-		if (r < 0 && errno != EINTR)
-			return;
-		now = rmd_now_ns();
-		for (unsigned k = 0; k < n; k++)
-			drain(l, which[k], now);
-	}
-}
-
-/* The rt thread. */
-static void *thread_main(void *arg)
-{
-	struct rmd_loop *l = arg;
-	int64_t now;
-
-	prefault_stack();
-	now = rmd_now_ns();
-	while (!stopping(l)) {
-		struct timespec ts;
-
-		rmd_loop_cycle(l, now);
-		now = rmd_now_ns();
-		/* the work ran past the next tick: skip it, never catch up in a burst */
-		if (now > l->next_tick_ns)
-			skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns + 1);
-		collect_until_tick(l);
-		ts = to_ts(l->next_tick_ns);
-		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR &&
-		       !stopping(l))
-			;
-		now = rmd_now_ns();
-	}
-	rmd_loop_stop_motors(l, rmd_now_ns());
-	return NULL;
-}
-
-/* Create the thread with SCHED_FIFO (fifo) and the configured CPUs (cpus).  Non-rt. */
-static int create_thread(struct rmd_loop *l, bool fifo, bool cpus)
-{
-	const struct rmd_config_loop *cl = &l->cfg->loop;
-	struct sched_param sp = { .sched_priority = (int)cl->rt_priority };
-	pthread_attr_t attr;
-	int r;
-
-	r = -pthread_attr_init(&attr);
-	if (r)
-		return r;
-	r = -pthread_attr_setstacksize(&attr, RMD_LOOP_STACK_SIZE);
-	if (!r && fifo) {
-		r = -pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
-		if (!r)
-			r = -pthread_attr_setschedpolicy(&attr, SCHED_FIFO);
-		if (!r)
-			r = -pthread_attr_setschedparam(&attr, &sp);
-	}
-	if (!r && cpus) {
-		cpu_set_t set;
-
-		CPU_ZERO(&set);
-		for (unsigned k = 0; k < cl->n_cpus && k < RMD_CONFIG_MAX_CPUS; k++)
-			if (cl->cpus[k] < CPU_SETSIZE)
-				CPU_SET(cl->cpus[k], &set);
-		r = -pthread_attr_setaffinity_np(&attr, sizeof(set), &set);
-	}
-	if (!r)
-		r = -pthread_create(&l->thread, &attr, thread_main, l);
-	pthread_attr_destroy(&attr);
-	return r;
-}
-
-/* Non-rt. */
-int rmd_loop_lock_memory(struct rmd_loop *l)
-{
-	if (l->locked)
-		return 0;
-	if (mlockall(MCL_CURRENT | MCL_FUTURE) < 0) {
-		if (l->o.require_rt)
-			return -EPERM;
-		/* said by rmd_loop_start(), with the other real-time refusals */
-		l->mlock_err = -errno;
-	}
-	l->locked = true;
-	return 0;
-}
-
-int rmd_loop_start(struct rmd_loop *l)
-{
-	bool fifo = true, cpus = l->cfg->loop.n_cpus > 0;
-	int64_t now = rmd_now_ns();
-	int r;
-
-	if (l->running)
-		return -EBUSY;
-	if (l->o.now_ns)
-		return -EINVAL;
-	atomic_store(&l->stop, false);
-	r = rmd_loop_lock_memory(l);
-	if (r < 0)
-		return r;
-	if (l->mlock_err)
-		event(l, now, RMD_EV_RT, 0xFF, 0xFF, l->mlock_err, RMD_LOOP_RT_MLOCK);
-	/*
-	 * Every fallback is decided, and said through the event ring, before
-	 * the thread exists: the ring has one producer at a time.
-	 */
-	for (;;) {
-		r = create_thread(l, fifo, cpus);
-		if (r == -EPERM && fifo && !l->o.require_rt) {
-			event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_FIFO);
-			fifo = false;
-			continue;
-		}
-		if (r == -EINVAL && cpus && !l->o.require_rt) {
-			event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_AFFINITY);
-			cpus = false;
-			continue;
-		}
-		break;
-	}
-	if (r)
-		return r;
-	l->running = true;
-	return 0;
-}
-
-/* rt-safe and async-signal-safe. */
-void rmd_loop_request_stop(struct rmd_loop *l)
-{
-	atomic_store_explicit(&l->stop, true, memory_order_release);
-}
-
-/* Non-rt. */
-int rmd_loop_join(struct rmd_loop *l)
-{
-	int r;
-
-	if (!l->running)
-		return 0;
-	r = -pthread_join(l->thread, NULL);
-	if (!r)
-		l->running = false;
-	return r;
 }

@@ -1,0 +1,176 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The rt loop's private parts, shared by the files of src/rt/ that make up
+ * struct rmd_loop's behaviour (rmd/loop.h is the public face):
+ *
+ *   loop.c       construction, the cycle and what it calls   rt-safe
+ *   bringup.c    probing and arming the motors before start  non-rt
+ *   rt_thread.c  the SCHED_FIFO thread and its set-up        rt-safe / non-rt
+ *
+ * Nothing outside src/rt/ includes this header.
+ */
+#ifndef RMD_LOOP_PRIV_H
+#define RMD_LOOP_PRIV_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <time.h>
+
+#include "rmd/hist.h"
+#include "rmd/loop.h"
+#include "rmd/motor.h"
+
+#define OUTSTANDING 8			/* requests in flight per motor */
+#define ONESHOTS 4			/* one-shot frames waiting per motor */
+#define RX_BATCH 64			/* frames per recv() call */
+#define RX_ROUNDS 8			/* recv() calls per bus per drain: bounded work */
+#define TX_MAX (RMD_PLAN_MAX_SLOTS + 8) /* frames of one bus in one cycle */
+#define EVENT_INTERVAL_NS RMD_NS_PER_S	/* repeated bus events: at most one a second */
+#define COLLECT_GUARD_NS 50000		/* stop polling the buses this long before the tick */
+#define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
+#define STOP_TRIES 50			/* rmd_loop_stop_motors(): sends per bus ... */
+#define STOP_STEP_NS 200000		/* ... this far apart */
+#define PROBE_STEP_NS 100000		/* bring-up: longest wait between two looks */
+#define REPORT_LINE 256
+
+/* What a frame of a cycle is, to book it once the bus took it. */
+enum req_kind {
+	REQ_CONTROL = 0, /* a setpoint, or a safe action's streamed frame */
+	REQ_STATUS,	 /* a status read (0x9A, 0x9C) */
+	REQ_ONESHOT,	 /* the head of the motor's one-shot queue */
+	REQ_BATCH,	 /* V2 0x280: one request, every batched motor answers */
+};
+
+/* A request in flight. */
+struct outstanding {
+	bool used;
+	bool echo_is_reply; /* the command's answer repeats it (0x80, 0xB3, ...) */
+	uint16_t cmd;	    /* command byte of the answer, or RMD_MOTOR_CMD_MIT */
+	uint32_t reply_id;
+	uint64_t seq; /* send order */
+	int64_t sent_ns;
+	int64_t deadline_ns;
+	uint8_t data[RMD_FRAME_LEN]; /* the request, to tell an echo */
+};
+
+struct lmotor {
+	struct rmd_motor m;
+	uint8_t bus;
+	struct rmd_motor_state st;
+	struct outstanding os[OUTSTANDING];
+	uint64_t seq;
+	unsigned consecutive;	/* missed replies in a row */
+	struct rmd_setpoint sp; /* in force while ENABLED */
+	bool need_edge;		/* enable = 1 counts only after an enable = 0 */
+	struct rmd_frame oneshot[ONESHOTS];
+	unsigned n_oneshot;
+	bool damp_stream; /* SAFE with MIT damp: the damp frame in every control slot */
+	int64_t next_probe_ns;
+	bool replied;
+	uint64_t last_reply_cycle;
+	/* bring-up */
+	char model[8];
+	uint32_t version;
+};
+
+struct txmeta {
+	uint8_t motor; /* config index; unused for REQ_BATCH */
+	uint8_t kind;  /* enum req_kind */
+};
+
+struct lbus {
+	struct rmd_bus *bus;
+	const struct rmd_plan_bus *pb;
+	const struct rmd_config_bus *cb;
+	/* reply identifier -> config index + 1 (0: no motor) */
+	uint8_t by_v3[RMD_MAX_MOTORS + 1];  /* 0x240 + ID: V3 and MIT motors */
+	uint8_t by_v2[RMD_MAX_MOTORS + 1];  /* 0x140 + ID: V2 motors */
+	uint8_t by_mit[RMD_MAX_MOTORS + 1]; /* 0x500 + ID */
+	int64_t reply_ns;		    /* reply deadline after the send */
+	struct rmd_bus_rx rx[RX_BATCH];
+	struct rmd_frame tx[TX_MAX];
+	struct txmeta meta[TX_MAX];
+	unsigned ntx;
+	unsigned batch_rr; /* round robin of the 0x280 slot's status reads */
+	uint8_t state_seen;
+	bool failing;
+	int64_t ev_send_ns, ev_unexpected_ns;
+	bool ev_send_any, ev_unexpected_any;
+	/* load over the last health window */
+	uint64_t frames_t0;
+	int64_t load_t0;
+	double load;
+	uint32_t unexpected_ids; /* bring-up: ids that answered but are not configured */
+};
+
+struct rmd_loop {
+	struct rmd_loop_opts o;
+	const struct rmd_config *cfg;
+	const struct rmd_plan *plan;
+	unsigned n_buses, n_motors;
+	int64_t period_ns;
+	struct lbus bus[RMD_MAX_BUSES];
+	struct lmotor mot[RMD_MAX_MOTORS];
+
+	/* schedule */
+	bool started;
+	int64_t next_tick_ns;
+	uint64_t cycle; /* index of the cycle running, from 0 */
+
+	/* commands and the host watchdog */
+	struct rmd_command cmd;
+	bool have_cmd;
+	int64_t last_cmd_rx_ns;
+	uint8_t wd; /* enum rmd_watchdog_state */
+	int64_t trip_ns;
+
+	/* statistics */
+	struct rmd_loop_stats stats;
+	struct rmd_loop_counters cnt;
+	uint64_t hist[RMD_HIST_BUCKETS];
+	uint64_t wake_n;
+	int64_t wake_sum;
+	uint64_t safe_events;
+	uint64_t ov_pending; /* ticks skipped, not yet reported */
+	bool ov_any;
+	int64_t ov_ev_ns;
+	uint64_t next_health_cycle;
+	unsigned health_every;
+
+	/* work copies */
+	struct rmd_snapshot snap;
+
+	/* for rmd_loop_get_*(): a sequence lock, written by the loop only */
+	atomic_uint pub_seq;
+	struct rmd_snapshot pub_snap;
+	struct rmd_loop_stats pub_stats;
+	struct rmd_loop_counters pub_cnt;
+
+	atomic_uint_fast64_t heartbeat;
+	atomic_bool stop;
+	pthread_t thread;
+	bool running;
+	bool locked;   /* mlockall done, or refused: */
+	int mlock_err; /* -errno of the refusal, said when the thread starts */
+};
+
+/* Helpers of loop.c that bring-up and the thread use too.  rt-safe unless said. */
+int64_t loop_now(const struct rmd_loop *l);
+struct timespec loop_ts(int64_t ns);
+/* Wait up to ns for frames on bus (ppoll on its fd when it has one).  Non-rt. */
+void loop_wait_bus(const struct rmd_loop *l, struct rmd_bus *bus, int64_t ns);
+void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, unsigned bus,
+		int64_t a, int64_t b);
+void loop_set_lifecycle(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
+void loop_oneshot_clear(struct lmotor *lm);
+void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now);
+void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
+struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id);
+void loop_drain(struct rmd_loop *l, unsigned b, int64_t now);
+void loop_pub_write(struct rmd_loop *l);
+void loop_fill_snapshot(struct rmd_loop *l, int64_t now);
+void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
+
+#endif /* RMD_LOOP_PRIV_H */

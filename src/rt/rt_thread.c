@@ -1,0 +1,220 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The SCHED_FIFO thread that runs rmd_loop_cycle() at every tick: memory
+ * locking, the prefaulted stack, CPU affinity and priority, collecting
+ * replies between ticks, start, stop and join.  The thread body is rt-safe;
+ * its set-up and tear-down are non-rt.
+ */
+#define _GNU_SOURCE /* ppoll, pthread_setaffinity_np */
+#include <errno.h>
+#include <poll.h>
+#include <pthread.h>
+#include <sched.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/mman.h>
+
+#include "rmd/bus_rs485.h"
+#include "rmd/time.h"
+#include "loop_priv.h"
+
+/* rt thread, before its first cycle. */
+static void __attribute__((noinline)) prefault_stack(void)
+{
+	volatile unsigned char buf[RMD_LOOP_PREFAULT_STACK];
+
+	for (size_t i = 0; i < sizeof(buf); i += 4096)
+		buf[i] = 0;
+}
+
+/* rt-safe. */
+static bool stopping(const struct rmd_loop *l)
+{
+	return atomic_load_explicit(&l->stop, memory_order_acquire);
+}
+
+/*
+ * Between ticks: wait on the buses that have a descriptor and read what
+ * comes (and let the RS485 queues advance at their deadlines), until just
+ * before the next tick.
+ * rt-safe.
+ */
+static void collect_until_tick(struct rmd_loop *l)
+{
+	struct pollfd pfd[RMD_MAX_BUSES];
+	unsigned which[RMD_MAX_BUSES], n = 0;
+
+	for (unsigned b = 0; b < l->n_buses; b++) {
+		int fd = rmd_bus_fd(l->bus[b].bus);
+
+		if (fd < 0)
+			continue;
+		pfd[n] = (struct pollfd){ .fd = fd, .events = POLLIN };
+		which[n++] = b;
+	}
+	if (!n)
+		return;
+	while (!stopping(l)) {
+		int64_t now = rmd_now_ns(), until = l->next_tick_ns - COLLECT_GUARD_NS;
+		struct timespec ts;
+		int r;
+
+		if (now >= until)
+			return;
+		for (unsigned k = 0; k < n; k++) {
+			unsigned b = which[k];
+
+			if (l->bus[b].cb->kind == RMD_BUS_KIND_RS485) {
+				int64_t d = rmd_rs485_deadline_ns(l->bus[b].bus);
+
+				/* at least a short step: a past deadline must not spin */
+				if (d < now + COLLECT_MIN_STEP_NS)
+					d = now + COLLECT_MIN_STEP_NS;
+				if (d < until)
+					until = d;
+			}
+		}
+		ts = loop_ts(until - now);
+		r = ppoll(pfd, n, &ts, NULL);
+		if (r < 0 && errno != EINTR)
+			return;
+		now = rmd_now_ns();
+		for (unsigned k = 0; k < n; k++)
+			loop_drain(l, which[k], now);
+	}
+}
+
+/* The rt thread. */
+static void *thread_main(void *arg)
+{
+	struct rmd_loop *l = arg;
+	int64_t now;
+
+	prefault_stack();
+	now = rmd_now_ns();
+	while (!stopping(l)) {
+		struct timespec ts;
+
+		rmd_loop_cycle(l, now);
+		now = rmd_now_ns();
+		/* the work ran past the next tick: skip it, never catch up in a burst */
+		if (now > l->next_tick_ns)
+			loop_skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns + 1);
+		collect_until_tick(l);
+		ts = loop_ts(l->next_tick_ns);
+		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR &&
+		       !stopping(l))
+			;
+		now = rmd_now_ns();
+	}
+	rmd_loop_stop_motors(l, rmd_now_ns());
+	return NULL;
+}
+
+/* Create the thread with SCHED_FIFO (fifo) and the configured CPUs (cpus).  Non-rt. */
+static int create_thread(struct rmd_loop *l, bool fifo, bool cpus)
+{
+	const struct rmd_config_loop *cl = &l->cfg->loop;
+	struct sched_param sp = { .sched_priority = (int)cl->rt_priority };
+	pthread_attr_t attr;
+	int r;
+
+	r = -pthread_attr_init(&attr);
+	if (r)
+		return r;
+	r = -pthread_attr_setstacksize(&attr, RMD_LOOP_STACK_SIZE);
+	if (!r && fifo) {
+		r = -pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
+		if (!r)
+			r = -pthread_attr_setschedpolicy(&attr, SCHED_FIFO);
+		if (!r)
+			r = -pthread_attr_setschedparam(&attr, &sp);
+	}
+	if (!r && cpus) {
+		cpu_set_t set;
+
+		CPU_ZERO(&set);
+		for (unsigned k = 0; k < cl->n_cpus && k < RMD_CONFIG_MAX_CPUS; k++)
+			if (cl->cpus[k] < CPU_SETSIZE)
+				CPU_SET(cl->cpus[k], &set);
+		r = -pthread_attr_setaffinity_np(&attr, sizeof(set), &set);
+	}
+	if (!r)
+		r = -pthread_create(&l->thread, &attr, thread_main, l);
+	pthread_attr_destroy(&attr);
+	return r;
+}
+
+/* Non-rt. */
+int rmd_loop_lock_memory(struct rmd_loop *l)
+{
+	if (l->locked)
+		return 0;
+	if (mlockall(MCL_CURRENT | MCL_FUTURE) < 0) {
+		if (l->o.require_rt)
+			return -EPERM;
+		/* said by rmd_loop_start(), with the other real-time refusals */
+		l->mlock_err = -errno;
+	}
+	l->locked = true;
+	return 0;
+}
+
+int rmd_loop_start(struct rmd_loop *l)
+{
+	bool fifo = true, cpus = l->cfg->loop.n_cpus > 0;
+	int64_t now = rmd_now_ns();
+	int r;
+
+	if (l->running)
+		return -EBUSY;
+	if (l->o.now_ns)
+		return -EINVAL;
+	atomic_store(&l->stop, false);
+	r = rmd_loop_lock_memory(l);
+	if (r < 0)
+		return r;
+	if (l->mlock_err)
+		loop_event(l, now, RMD_EV_RT, 0xFF, 0xFF, l->mlock_err, RMD_LOOP_RT_MLOCK);
+	/*
+	 * Every fallback is decided, and said through the event ring, before
+	 * the thread exists: the ring has one producer at a time.
+	 */
+	for (;;) {
+		r = create_thread(l, fifo, cpus);
+		if (r == -EPERM && fifo && !l->o.require_rt) {
+			loop_event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_FIFO);
+			fifo = false;
+			continue;
+		}
+		if (r == -EINVAL && cpus && !l->o.require_rt) {
+			loop_event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_AFFINITY);
+			cpus = false;
+			continue;
+		}
+		break;
+	}
+	if (r)
+		return r;
+	l->running = true;
+	return 0;
+}
+
+/* rt-safe and async-signal-safe. */
+void rmd_loop_request_stop(struct rmd_loop *l)
+{
+	atomic_store_explicit(&l->stop, true, memory_order_release);
+}
+
+/* Non-rt. */
+int rmd_loop_join(struct rmd_loop *l)
+{
+	int r;
+
+	if (!l->running)
+		return 0;
+	r = -pthread_join(l->thread, NULL);
+	if (!r)
+		l->running = false;
+	return r;
+}
