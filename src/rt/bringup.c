@@ -58,8 +58,7 @@ static void probe_stray(struct rmd_loop *l, unsigned b, const struct rmd_frame *
 /* True when the reply to `cmd` repeats the request (RMD_CMD_ECHO).  Non-rt. */
 static bool cmd_echoes(const struct lmotor *lm, uint8_t cmd)
 {
-	enum rmd_proto proto = lm->m.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(proto, cmd);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(lm->m.proto, cmd);
 
 	return spec && (spec->flags & RMD_CMD_ECHO);
 }

@@ -162,7 +162,7 @@ static bool echo_is_reply(const struct rmd_motor *m, const struct rmd_frame *f)
 
 	if (f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len)
 		return false;
-	spec = rmd_cmd_find(m->proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3, f->data[0]);
+	spec = rmd_cmd_find(m->proto, f->data[0]);
 	return spec && (spec->flags & RMD_CMD_ECHO);
 }
 

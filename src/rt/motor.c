@@ -17,12 +17,6 @@
 
 #define DEG_PER_RAD (180.0 / M_PI)
 
-/* The command table a motor's 0x140 + ID frames use: MIT motors speak V3 (V3 §5).  rt-safe. */
-static enum rmd_proto table_of(const struct rmd_motor *m)
-{
-	return m->proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
-}
-
 /* rt-safe. */
 static double clampf(double x, double lo, double hi, unsigned *fl)
 {
@@ -146,7 +140,7 @@ double rmd_motor_from_native_pos(const struct rmd_motor *m, double native_rad)
 /* Encode msg on 0x140 + ID with the motor's table.  rt-safe. */
 static int encode_msg(const struct rmd_motor *m, const struct rmd_msg *msg, struct rmd_frame *out)
 {
-	return rmd_encode(table_of(m), RMD_DIR_REQUEST, m->id, msg, out);
+	return rmd_encode(m->proto, RMD_DIR_REQUEST, m->id, msg, out);
 }
 
 /* rt-safe. */
@@ -154,7 +148,7 @@ int rmd_motor_encode_cmd(const struct rmd_motor *m, uint8_t cmd, struct rmd_fram
 {
 	struct rmd_msg msg;
 
-	if (!rmd_cmd_find(table_of(m), cmd))
+	if (!rmd_cmd_find(m->proto, cmd))
 		return -ENOENT;
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = cmd;
@@ -167,7 +161,7 @@ int rmd_motor_encode_comm_timeout(const struct rmd_motor *m, uint32_t ms, struct
 	struct rmd_msg msg;
 
 	/* V3 §2.30; V2 has no comm-loss protection command. */
-	if (table_of(m) == RMD_PROTO_V2)
+	if (m->proto == RMD_PROTO_V2)
 		return -EOPNOTSUPP;
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = 0xB3;
@@ -185,7 +179,7 @@ static double torque_to_iq(const struct rmd_motor *m, double torque_nm)
 static int encode_torque(const struct rmd_motor *m, double torque_nm, struct rmd_frame *out,
 			 unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(table_of(m), 0xA1);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA1);
 	struct rmd_msg msg;
 	double lim = m->limits.torque_nm;
 
@@ -204,7 +198,7 @@ static int encode_torque(const struct rmd_motor *m, double torque_nm, struct rmd
 static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_frame *out,
 			unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(table_of(m), 0xA2);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA2);
 	struct rmd_msg msg;
 	double lim = m->limits.velocity_rad_s;
 
@@ -225,7 +219,7 @@ static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_
 static int encode_position(const struct rmd_motor *m, double pos_rad, double max_vel_rad_s,
 			   struct rmd_frame *out, unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(table_of(m), 0xA4);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA4);
 	const struct rmd_config_limits *lim = &m->limits;
 	struct rmd_msg msg;
 	double native, mv;
@@ -400,8 +394,7 @@ void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req,
 		*cmd = 0xA1;
 		return;
 	}
-	*reply_id =
-		(table_of(m) == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
+	*reply_id = (m->proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
 	*cmd = req->len ? req->data[0] : 0;
 }
 
@@ -450,7 +443,7 @@ static int decode_mit(struct rmd_motor *m, const struct rmd_frame *f, struct rmd
 int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
 {
 	const struct rmd_cmd_spec *spec;
-	enum rmd_proto proto = table_of(m);
+	enum rmd_proto proto = rmd_proto_table(m->proto);
 	struct rmd_msg msg;
 	int ret;
 
