@@ -162,10 +162,8 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 		rep_add(rp, "missing (no answer to 0x%02X in %u tries of %lld ms)\n", first, tries,
 			(long long)(timeout / RMD_NS_PER_MS));
 		loop_event(l, now, RMD_EV_PROBE, i, lm->bus, -ENODEV, 0);
-		loop_oneshot_clear(lm);
-		lm->next_probe_ns = now;
-		lm->need_edge = true;
-		loop_set_lifecycle(l, lm, RMD_LC_LOST, now);
+		loop_enter(l, lm, RMD_LC_LOST, now);
+		lm->next_probe_ns = now; /* the first cycle probes again */
 		return -ENODEV;
 	}
 	if (!v2) {
@@ -215,8 +213,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 	now = loop_now(l);
 	loop_event(l, now, RMD_EV_PROBE, i, lm->bus, 0, lm->version);
 	lm->consecutive = 0;
-	lm->need_edge = false;
-	loop_set_lifecycle(l, lm, RMD_LC_READY, now);
+	loop_enter(l, lm, RMD_LC_READY, now);
 	if (lm->st.error_code)
 		loop_note_errors(l, lm, 0, now);
 	return 0;

@@ -105,17 +105,6 @@ static unsigned idx_of(const struct rmd_loop *l, const struct lmotor *lm)
 	return (unsigned)(lm - l->mot);
 }
 
-/* rt-safe. */
-void loop_set_lifecycle(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
-{
-	uint8_t old = lm->st.lifecycle;
-
-	if (old == lc)
-		return;
-	lm->st.lifecycle = (uint8_t)lc;
-	loop_event(l, now, RMD_EV_MOTOR_STATE, idx_of(l, lm), lm->bus, old, lc);
-}
-
 /* ------------------------------------------------------------------ */
 /* rt-safe. */
 static void wake_record(struct rmd_loop *l, int64_t lat)
@@ -213,10 +202,11 @@ static struct outstanding *os_match(struct lmotor *lm, uint32_t id, uint16_t cmd
 	return best;
 }
 
-/* rt-safe. */
-void loop_oneshot_clear(struct lmotor *lm)
+/* Forget the one-shots waiting and the damp stream.  rt-safe. */
+void loop_frames_drop(struct lmotor *lm)
 {
 	lm->n_oneshot = 0;
+	lm->damp_stream = false;
 }
 
 /* rt-safe. */
@@ -256,8 +246,6 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 	struct rmd_frame f[2];
 	int n;
 
-	loop_oneshot_clear(lm);
-	lm->damp_stream = false;
 	if (a == RMD_SAFE_DAMP && lm->m.proto == RMD_PROTO_MIT && stream) {
 		lm->damp_stream = true;
 	} else {
@@ -267,39 +255,106 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 		if (n <= 0 && rmd_motor_encode_cmd(&lm->m, 0x80, &f[0]) == 0)
 			oneshot_push(lm, &f[0]);
 	}
-	l->safe_events++;
 	l->cnt.safe_actions++;
 	loop_event(l, now, RMD_EV_SAFE_ACTION, idx_of(l, lm), lm->bus, a, 0);
 }
 
-/* An ENABLED motor gets the safe action and becomes SAFE.  rt-safe. */
-static void make_safe(struct rmd_loop *l, struct lmotor *lm, bool need_edge, int64_t now)
+/* rt-safe. */
+static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
 {
-	if (lm->st.lifecycle != RMD_LC_ENABLED)
+	struct rmd_frame f;
+
+	if (rmd_motor_encode_cmd(&lm->m, cmd, &f) == 0)
+		oneshot_push(lm, &f);
+}
+
+/*
+ * The one place a motor changes lifecycle state: the entry actions of lc,
+ * then RMD_EV_MOTOR_STATE.  Nothing happens when lm is in lc already.
+ *
+ *   ENABLED  V3 §2.26 / V2 §3.50: the brake opens before the first setpoint.
+ *   SAFE     the safe action, streamed (MIT damp in every control slot).
+ *   READY    from ENABLED or SAFE: output off (V3 §2.15) and brake locked
+ *            (V3 §2.27), the configured mode; from PROBE: nothing waits.
+ *   LOST,    the safe action once when it was ENABLED, else nothing waits;
+ *   FAULT    FAULT reports the error code; LOST re-probes after
+ *            RMD_LOOP_REPROBE_NS.
+ *
+ * The enable-edge rule (rmd/loop.h): a motor that enters LOST or FAULT,
+ * returns from them, or is made SAFE for any reason but the host
+ * watchdog, takes enable = 1 only after an enable = 0; a motor found at
+ * bring-up takes it at once.  (A watchdog trip is lifted by any newer
+ * enable.)  Leaving FAULT reports error code 0.
+ * rt-safe.
+ */
+void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
+{
+	enum rmd_lifecycle old = (enum rmd_lifecycle)lm->st.lifecycle;
+	bool was_on = old == RMD_LC_ENABLED || old == RMD_LC_SAFE;
+
+	if (old == lc)
 		return;
-	queue_safe(l, lm, true, now);
-	lm->need_edge = need_edge;
-	loop_set_lifecycle(l, lm, RMD_LC_SAFE, now);
+	if (lc != RMD_LC_READY || was_on) {
+		/* LOST -> READY keeps them: the safe action still waiting goes out yet */
+		loop_frames_drop(lm);
+	}
+	switch (lc) {
+	case RMD_LC_ENABLED:
+		push_oneshot_cmd(lm, 0x77);
+		break;
+	case RMD_LC_SAFE:
+		queue_safe(l, lm, true, now);
+		lm->need_edge = l->wd != RMD_WD_TRIPPED;
+		break;
+	case RMD_LC_READY:
+		if (was_on) {
+			push_oneshot_cmd(lm, 0x80);
+			push_oneshot_cmd(lm, 0x78);
+			lm->st.mode = (uint8_t)lm->m.mode;
+		} else if (old == RMD_LC_PROBE) {
+			lm->need_edge = false;
+		} else {
+			lm->need_edge = true;
+		}
+		if (old == RMD_LC_FAULT)
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, 0, 0);
+		break;
+	case RMD_LC_LOST:
+	case RMD_LC_FAULT:
+		if (old == RMD_LC_ENABLED)
+			queue_safe(l, lm, false, now);
+		lm->need_edge = true;
+		if (lc == RMD_LC_LOST)
+			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
+		else
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus,
+				   lm->st.error_code, 0);
+		break;
+	case RMD_LC_PROBE:
+	case RMD_LC_COUNT:
+		break;
+	}
+	lm->st.lifecycle = (uint8_t)lc;
+	loop_event(l, now, RMD_EV_MOTOR_STATE, idx_of(l, lm), lm->bus, old, lc);
+}
+
+/* An ENABLED motor gets the safe action and becomes SAFE.  rt-safe. */
+static void make_safe(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	if (lm->st.lifecycle == RMD_LC_ENABLED)
+		loop_enter(l, lm, RMD_LC_SAFE, now);
 }
 
 /* rt-safe. */
 static void motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	uint8_t old = lm->st.lifecycle;
-
-	if (old == RMD_LC_LOST)
+	if (lm->st.lifecycle == RMD_LC_LOST)
 		return;
-	loop_oneshot_clear(lm);
-	lm->damp_stream = false;
-	if (old == RMD_LC_ENABLED)
-		queue_safe(l, lm, false, now);
-	lm->need_edge = true;
-	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-	loop_set_lifecycle(l, lm, RMD_LC_LOST, now);
+	loop_enter(l, lm, RMD_LC_LOST, now);
 	if (l->cfg->safety.lost_motor_action == RMD_LOST_ALL)
 		for (unsigned j = 0; j < l->n_motors; j++)
 			if (&l->mot[j] != lm)
-				make_safe(l, &l->mot[j], true, now);
+				make_safe(l, &l->mot[j], now);
 }
 
 /* rt-safe. */
@@ -320,49 +375,22 @@ static void alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	lm->consecutive = 0;
 	lm->replied = true;
 	lm->last_reply_cycle = l->cycle;
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
-	case RMD_LC_LOST:
-		/* safe-action frames still waiting go out yet */
-		lm->need_edge = true;
-		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
-		break;
-	case RMD_LC_PROBE:
-		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
-		break;
-	case RMD_LC_READY:
-	case RMD_LC_ENABLED:
-	case RMD_LC_FAULT:
-	case RMD_LC_SAFE:
-	case RMD_LC_COUNT:
-		break;
-	}
+	if (lm->st.lifecycle == RMD_LC_LOST || lm->st.lifecycle == RMD_LC_PROBE)
+		loop_enter(l, lm, RMD_LC_READY, now);
 }
 
 /* Error flags from a 0x9A answer or report.  prev: the code before it.  rt-safe. */
 void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now)
 {
 	uint16_t code = lm->st.error_code;
-	uint8_t lc = lm->st.lifecycle;
 
-	if (code) {
-		if (lc == RMD_LC_FAULT) {
-			if (code != prev)
-				loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, code,
-					   0);
-			return;
-		}
-		if (lc == RMD_LC_ENABLED)
-			queue_safe(l, lm, false, now);
-		else
-			loop_oneshot_clear(lm);
-		lm->damp_stream = false;
-		lm->need_edge = true;
+	if (lm->st.lifecycle != RMD_LC_FAULT) {
+		if (code)
+			loop_enter(l, lm, RMD_LC_FAULT, now);
+	} else if (!code) {
+		loop_enter(l, lm, RMD_LC_READY, now);
+	} else if (code != prev) {
 		loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, code, 0);
-		loop_set_lifecycle(l, lm, RMD_LC_FAULT, now);
-	} else if (lc == RMD_LC_FAULT) {
-		lm->need_edge = true;
-		loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, 0, 0);
-		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
 	}
 }
 
@@ -506,21 +534,14 @@ static void check_deadlines(struct rmd_loop *l, int64_t now)
 static void enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			 int64_t now)
 {
-	struct rmd_frame f;
-
 	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
 	case RMD_LC_READY:
 	case RMD_LC_SAFE:
 		if (lm->need_edge)
 			return;
-		loop_oneshot_clear(lm);
-		lm->damp_stream = false;
-		/* V3 §2.26 / V2 §3.50: the brake opens before the first setpoint */
-		if (rmd_motor_encode_cmd(&lm->m, 0x77, &f) == 0)
-			oneshot_push(lm, &f);
 		lm->sp = *sp;
 		lm->st.mode = sp->mode;
-		loop_set_lifecycle(l, lm, RMD_LC_ENABLED, now);
+		loop_enter(l, lm, RMD_LC_ENABLED, now);
 		break;
 	case RMD_LC_ENABLED:
 		lm->sp = *sp;
@@ -537,21 +558,11 @@ static void enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd
 /* rt-safe. */
 static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	struct rmd_frame f;
-
-	lm->need_edge = false;
+	lm->need_edge = false; /* the enable = 0 the edge rule waits for */
 	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
 	case RMD_LC_ENABLED:
 	case RMD_LC_SAFE:
-		loop_oneshot_clear(lm);
-		lm->damp_stream = false;
-		/* READY: output off (V3 §2.15), brake locked (V3 §2.27) */
-		if (rmd_motor_encode_cmd(&lm->m, 0x80, &f) == 0)
-			oneshot_push(lm, &f);
-		if (rmd_motor_encode_cmd(&lm->m, 0x78, &f) == 0)
-			oneshot_push(lm, &f);
-		lm->st.mode = (uint8_t)l->cfg->motors[idx_of(l, lm)].mode;
-		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
+		loop_enter(l, lm, RMD_LC_READY, now);
 		break;
 	case RMD_LC_READY:
 	case RMD_LC_PROBE:
@@ -617,7 +628,7 @@ static void watchdog(struct rmd_loop *l, int64_t now)
 	l->trip_ns = now;
 	set_watchdog(l, RMD_WD_TRIPPED, now);
 	for (unsigned i = 0; i < l->n_motors; i++)
-		make_safe(l, &l->mot[i], false, now);
+		make_safe(l, &l->mot[i], now);
 }
 
 /* ------------------------------------------------------------------ */
@@ -924,7 +935,7 @@ static void fill_health(struct rmd_loop *l, struct rmd_health *h, int64_t now)
 		bh->stats = lb->bus->stats;
 	}
 	h->watchdog = l->wd;
-	h->safe_action_events = l->safe_events;
+	h->safe_action_events = l->cnt.safe_actions;
 }
 
 /* rt-safe. */
@@ -1165,12 +1176,10 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		loop_oneshot_clear(lm);
-		lm->damp_stream = false;
-		if (lm->st.lifecycle == RMD_LC_ENABLED || lm->st.lifecycle == RMD_LC_SAFE) {
-			lm->st.mode = (uint8_t)l->cfg->motors[i].mode;
-			loop_set_lifecycle(l, lm, RMD_LC_READY, now);
-		}
+		if (lm->st.lifecycle == RMD_LC_ENABLED || lm->st.lifecycle == RMD_LC_SAFE)
+			loop_enter(l, lm, RMD_LC_READY, now);
+		/* the stop frames went out above: nothing waits any more */
+		loop_frames_drop(lm);
 	}
 }
 

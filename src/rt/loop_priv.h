@@ -132,7 +132,6 @@ struct rmd_loop {
 	uint64_t hist[RMD_HIST_BUCKETS];
 	uint64_t wake_n;
 	int64_t wake_sum;
-	uint64_t safe_events;
 	uint64_t ov_pending; /* ticks skipped, not yet reported */
 	bool ov_any;
 	int64_t ov_ev_ns;
@@ -163,8 +162,8 @@ struct timespec loop_ts(int64_t ns);
 void loop_wait_bus(const struct rmd_loop *l, struct rmd_bus *bus, int64_t ns);
 void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, unsigned bus,
 		int64_t a, int64_t b);
-void loop_set_lifecycle(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
-void loop_oneshot_clear(struct lmotor *lm);
+void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
+void loop_frames_drop(struct lmotor *lm);
 void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now);
 void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
 struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id);
