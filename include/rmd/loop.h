@@ -198,7 +198,9 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
  * 0xB3 protection stays in place.  Frames the bus refuses are sent again
  * for at most ~10 ms (opts.sleep_ns or clock_nanosleep between tries), and
  * then their echoes are awaited for at most one reply deadline, so they
- * are on the wire when it returns.  rt-safe (bounded, no allocation).
+ * are on the wire when it returns.  Bounded, blocking (it sleeps between
+ * tries; no allocation): not for the cycle, but fine at the end of the rt
+ * thread or in a test.
  */
 void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now_ns);
 
