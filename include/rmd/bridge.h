@@ -38,15 +38,11 @@
 
 #include <lcm/lcm.h>
 
+#include "rmd/config.h"
 #include "rmd/frame.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
-/* Traffic stays on this host: multicast with a time-to-live of 0. */
-#define RMD_BRIDGE_DEFAULT_URL "udpm://239.255.76.67:7667?ttl=0"
-#define RMD_BRIDGE_DEFAULT_PREFIX "RMD_"
-#define RMD_BRIDGE_DEFAULT_STALE_MS 100
-#define RMD_BRIDGE_DEFAULT_HEALTH_PERIOD_NS 100000000 /* 10 Hz */
 /* Longest sleep between looks at the snapshots: half a 1 kHz period (without notify_fd). */
 #define RMD_BRIDGE_DEFAULT_POLL_NS 500000
 /*
@@ -120,7 +116,13 @@ struct rmd_bridge_opts {
 	 */
 	int notify_fd;
 
-	FILE *log; /* rejections and errors, "<4>rmdd: ..." lines; NULL: stderr */
+	/*
+	 * Where rejections and errors go: one call per message, with its
+	 * syslog level (3 error, 4 warning, 5 notice) and no prefix or
+	 * newline; the caller says whose message it is.  NULL: dropped.
+	 */
+	void (*log)(void *ctx, int level, const char *msg);
+	void *log_ctx;
 };
 
 /* Counters, totals since rmd_bridge_init(). */
@@ -178,7 +180,11 @@ struct rmd_bridge {
 	atomic_uint_fast64_t n_lcm_errors;
 };
 
-/* Defaults: URL, prefix, periods, stale_ms; no motors, no buses, notify_fd -1.  Non-rt. */
+/*
+ * Defaults: URL, prefix, stale_ms and the health period of rmd/config.h
+ * (RMD_CONFIG_DEFAULT_*), a 1 kHz period; no motors, no buses, notify_fd
+ * -1, no log.  Non-rt.
+ */
 void rmd_bridge_opts_init(struct rmd_bridge_opts *opts);
 
 /*

@@ -13,7 +13,8 @@
  *      watchdog and each motor's lifecycle;
  *   4. sends this cycle's frames (rmd_plan_cycle()) on every bus, setpoints
  *      converted, clamped and encoded by rmd/motor.h;
- *   5. publishes a state snapshot (and ~10 Hz health) to the bridge;
+ *   5. publishes a state snapshot (and ~10 Hz health) to the bridge and,
+ *      under a sequence lock, to rmd_loop_get_*();
  *   6. sleeps to the next tick; overruns are counted and the schedule skips
  *      ahead, never catching up in a burst.
  *
@@ -100,7 +101,8 @@ struct rmd_loop_opts {
 	struct rmd_ring *events;      /* loop -> logger: struct rmd_event */
 	/*
 	 * An eventfd (non-blocking) the loop writes after each snapshot, so the
-	 * bridge publishes it at once instead of at its next poll; <= 0: none.
+	 * bridge publishes it at once instead of at its next poll; -1: none
+	 * (0 is a valid descriptor).
 	 */
 	int snapshot_fd;
 	/* Time source; NULL: clock_gettime(CLOCK_MONOTONIC).  Tests inject one. */
@@ -248,5 +250,12 @@ void rmd_loop_get_snapshot(const struct rmd_loop *l, struct rmd_snapshot *out);
 
 /* Copy of the counters so far; safe from any thread. */
 void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *out);
+
+/*
+ * Copy of the newest health (the one the loop also puts in opts.health,
+ * every lcm.health_period_ms); safe from any thread (non-rt).  Returns
+ * false, *out untouched, before the loop has made one.
+ */
+bool rmd_loop_get_health(const struct rmd_loop *l, struct rmd_health *out);
 
 #endif /* RMD_LOOP_H */

@@ -152,6 +152,11 @@ void loop_pub_write(struct rmd_loop *l)
 	memcpy(&l->pub_snap, &l->snap, sizeof(l->snap));
 	l->pub_stats = l->stats;
 	l->pub_cnt = l->cnt;
+	if (l->health_fresh) {
+		memcpy(&l->pub_health, &l->health, sizeof(l->health));
+		l->pub_have_health = true;
+		l->health_fresh = false;
+	}
 	atomic_fetch_add_explicit(&l->pub_seq, 1, memory_order_release);
 }
 
@@ -175,9 +180,11 @@ static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_
 	}
 }
 
-/* rt-safe. */
-static void fill_health(struct rmd_loop *l, struct rmd_health *h, int64_t now)
+/* The health of the window since the last one, into l->health.  rt-safe. */
+static void fill_health(struct rmd_loop *l, int64_t now)
 {
+	struct rmd_health *h = &l->health;
+
 	memset(h, 0, sizeof(*h));
 	h->t_ns = now;
 	h->loop = l->stats;
@@ -204,6 +211,7 @@ static void fill_health(struct rmd_loop *l, struct rmd_health *h, int64_t now)
 	}
 	h->watchdog = l->wd;
 	h->safe_action_events = l->cnt.safe_actions;
+	l->health_fresh = true;
 }
 
 /* rt-safe. */
@@ -228,12 +236,18 @@ static void publish(struct rmd_loop *l, int64_t now)
 {
 	struct rmd_snapshot *s = &l->snap;
 
+	bool health = l->cycle >= l->next_health_cycle;
+
 	loop_fill_snapshot(l, now);
 	wake_summary(l);
+	if (health) {
+		fill_health(l, now);
+		l->next_health_cycle = l->cycle + l->health_every;
+	}
 	loop_pub_write(l);
 	if (l->o.snapshots) {
 		rmd_latest_put(l->o.snapshots, s);
-		if (l->o.snapshot_fd > 0) {
+		if (l->o.snapshot_fd >= 0) {
 			uint64_t one = 1;
 			/* Non-blocking; EAGAIN means the bridge has a wake-up pending anyway. */
 			ssize_t w = write(l->o.snapshot_fd, &one, sizeof(one));
@@ -241,11 +255,8 @@ static void publish(struct rmd_loop *l, int64_t now)
 			(void)w;
 		}
 	}
-	if (l->o.health && l->cycle >= l->next_health_cycle) {
-		fill_health(l, rmd_latest_write_slot(l->o.health), now);
-		rmd_latest_publish(l->o.health);
-		l->next_health_cycle = l->cycle + l->health_every;
-	}
+	if (health && l->o.health)
+		rmd_latest_put(l->o.health, &l->health);
 }
 
 /* rt-safe. */
@@ -352,6 +363,18 @@ void rmd_loop_get_stats(const struct rmd_loop *l, struct rmd_loop_stats *out)
 void rmd_loop_get_snapshot(const struct rmd_loop *l, struct rmd_snapshot *out)
 {
 	pub_read(l, out, &l->pub_snap, sizeof(*out));
+}
+
+/* Any thread; non-rt. */
+bool rmd_loop_get_health(const struct rmd_loop *l, struct rmd_health *out)
+{
+	bool have;
+
+	/* pub_have_health never goes back to false: health read after it is one */
+	pub_read(l, &have, &l->pub_have_health, sizeof(have));
+	if (have)
+		pub_read(l, out, &l->pub_health, sizeof(*out));
+	return have;
 }
 
 /* Any thread; non-rt. */

@@ -145,12 +145,16 @@ struct rmd_loop {
 
 	/* work copies */
 	struct rmd_snapshot snap;
+	struct rmd_health health; /* filled every health_every cycles */
+	bool health_fresh;	  /* filled, not yet in pub_health */
 
 	/* for rmd_loop_get_*(): a sequence lock, written by the loop only */
 	atomic_uint pub_seq;
 	struct rmd_snapshot pub_snap;
 	struct rmd_loop_stats pub_stats;
 	struct rmd_loop_counters pub_cnt;
+	bool pub_have_health; /* pub_health was written once */
+	struct rmd_health pub_health;
 
 	atomic_uint_fast64_t heartbeat;
 	atomic_bool stop;

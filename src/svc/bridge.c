@@ -113,26 +113,30 @@ static uint64_t read_count(atomic_uint_fast64_t *c)
 	return atomic_load_explicit(c, memory_order_relaxed);
 }
 
-__attribute__((format(printf, 2, 3))) static void logf_(struct rmd_bridge *b, const char *fmt, ...)
+/* One message to the caller's log sink, at syslog level `level`. */
+__attribute__((format(printf, 3, 4))) static void logf_(struct rmd_bridge *b, int level,
+							const char *fmt, ...)
 {
-	FILE *f = b->opts.log ? b->opts.log : stderr;
+	char msg[512];
 	va_list ap;
 
+	if (!b->opts.log)
+		return;
 	va_start(ap, fmt);
-	vfprintf(f, fmt, ap);
+	vsnprintf(msg, sizeof(msg), fmt, ap);
 	va_end(ap);
-	fflush(f);
+	b->opts.log(b->opts.log_ctx, level, msg);
 }
 
 void rmd_bridge_opts_init(struct rmd_bridge_opts *opts)
 {
 	memset(opts, 0, sizeof(*opts));
-	snprintf(opts->url, sizeof(opts->url), "%s", RMD_BRIDGE_DEFAULT_URL);
-	snprintf(opts->prefix, sizeof(opts->prefix), "%s", RMD_BRIDGE_DEFAULT_PREFIX);
+	snprintf(opts->url, sizeof(opts->url), "%s", RMD_CONFIG_DEFAULT_LCM_URL);
+	snprintf(opts->prefix, sizeof(opts->prefix), "%s", RMD_CONFIG_DEFAULT_CHANNEL_PREFIX);
 	opts->period_ns = 1000000;
 	opts->state_every = 1;
-	opts->stale_ms = RMD_BRIDGE_DEFAULT_STALE_MS;
-	opts->health_period_ns = RMD_BRIDGE_DEFAULT_HEALTH_PERIOD_NS;
+	opts->stale_ms = RMD_CONFIG_DEFAULT_STALE_MS;
+	opts->health_period_ns = (int64_t)RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS * RMD_NS_PER_MS;
 	opts->poll_ns = RMD_BRIDGE_DEFAULT_POLL_NS;
 	opts->notify_fd = -1;
 }
@@ -161,9 +165,7 @@ __attribute__((format(printf, 3, 4))) static int reject(struct rmd_bridge *b, en
 	va_start(ap, fmt);
 	vsnprintf(why, sizeof(why), fmt, ap);
 	va_end(ap);
-	logf_(b,
-	      "<4>rmdd: rejected %s: %s; further rejections of this kind are counted in "
-	      "health_t\n",
+	logf_(b, 4, "rejected %s: %s; further rejections of this kind are counted in health_t",
 	      b->ch_command, why);
 	return kind;
 }
@@ -395,9 +397,9 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		count(&b->n_clamped);
 		if (!b->clamp_logged) {
 			b->clamp_logged = true;
-			logf_(b,
-			      "<5>rmdd: %s: motor %d (%s): %s %g clamped to %g; further clamps are "
-			      "counted in health_t\n",
+			logf_(b, 5,
+			      "%s: motor %d (%s): %s %g clamped to %g; further clamps are "
+			      "counted in health_t",
 			      b->ch_command, note.motor, motor_name(b, note.motor), note.field,
 			      note.from, note.to);
 		}
@@ -599,8 +601,7 @@ static void drain(struct rmd_bridge *b)
 		publish_state(b);
 		if (r < 0) {
 			if (read_count(&b->n_lcm_errors) == 0)
-				logf_(b,
-				      "<4>rmdd: LCM receive failed; further failures are counted\n");
+				logf_(b, 4, "LCM receive failed; further failures are counted");
 			count(&b->n_lcm_errors);
 		}
 		if (r <= 0)
@@ -632,8 +633,7 @@ static void *bridge_main(void *arg)
 		ts.tv_sec = wait / 1000000000;
 		ts.tv_nsec = wait % 1000000000;
 		if (ppoll(fds, nfds, &ts, NULL) < 0 && errno != EINTR) {
-			logf_(b, "<3>rmdd: LCM bridge: poll: %s; the bridge stops\n",
-			      strerror(errno));
+			logf_(b, 3, "LCM bridge: poll: %s; the bridge stops", strerror(errno));
 			break;
 		}
 		if (fds[0].revents)

@@ -341,7 +341,6 @@ static void bridge_opts(struct daemon *d, struct rmd_bridge_opts *o)
 	o->commands = &d->commands;
 	o->snapshots = &d->snapshots;
 	o->health = &d->health;
-	o->log = d->log;
 }
 
 static int setup(void **state)
@@ -383,6 +382,7 @@ static int setup(void **state)
 		.snapshots = &d->snapshots,
 		.health = &d->health,
 		.events = &d->events,
+		.snapshot_fd = -1,
 	};
 	d->loop = rmd_loop_new(&lo, err, sizeof(err));
 	if (!d->loop)

@@ -184,6 +184,7 @@ static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
 		.snapshots = &R.snaps,
 		.health = &R.health,
 		.events = &R.events,
+		.snapshot_fd = -1,
 		.now_ns = real ? NULL : fake_now,
 		.sleep_ns = real ? NULL : fake_sleep,
 	};

@@ -35,6 +35,13 @@ static unsigned motor_modes(const struct rmd_config_motor *c, const struct rmd_p
 	return modes;
 }
 
+/* The bridge's messages, as rmdd's own; whatever -q says, as before. */
+static void bridge_log(void *ctx, int level, const char *msg)
+{
+	(void)ctx;
+	rmdd_log_always(level, "%s", msg);
+}
+
 void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 		   const struct rmd_plan *plan, struct rmd_latest *commands,
 		   struct rmd_latest *snapshots, struct rmd_latest *health)
@@ -80,5 +87,6 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	o->commands = commands;
 	o->snapshots = snapshots;
 	o->health = health;
-	o->log = stderr;
+	o->log = bridge_log;
+	o->log_ctx = NULL;
 }
