@@ -85,6 +85,7 @@
 
 #include "rmd/bus.h"
 #include "rmd/config.h"
+#include "rmd/motor.h"
 #include "rmd/plan.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
@@ -250,6 +251,13 @@ void rmd_loop_get_snapshot(const struct rmd_loop *l, struct rmd_snapshot *out);
 
 /* Copy of the counters so far; safe from any thread. */
 void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *out);
+
+/*
+ * Motor i's record (rmd/motor.h), built by rmd_loop_new(): its identity,
+ * limits and ranges do not change, so any thread may read them; NULL for
+ * i out of range.  Non-rt.
+ */
+const struct rmd_motor *rmd_loop_motor(const struct rmd_loop *l, unsigned i);
 
 /*
  * Copy of the newest health (the one the loop also puts in opts.health,

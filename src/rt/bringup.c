@@ -71,7 +71,7 @@ static bool cmd_echoes(const struct lmotor *lm, uint8_t cmd)
 static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *req,
 		      unsigned tries, int64_t timeout_ns, struct rmd_frame *rep)
 {
-	struct lbus *lb = &l->bus[lm->bus];
+	struct lbus *lb = &l->bus[lm->m.bus];
 	bool check_echo, echo_seen = false;
 	uint32_t rid;
 	uint16_t cmd;
@@ -93,7 +93,7 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_fr
 
 				if (f->can_id != rid || !f->len ||
 				    (cmd != RMD_MOTOR_CMD_MIT && f->data[0] != cmd)) {
-					probe_stray(l, lm->bus, f);
+					probe_stray(l, lm->m.bus, f);
 					continue;
 				}
 				/*
@@ -142,7 +142,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 {
 	const struct rmd_config_motor *c = &l->cfg->motors[i];
 	struct lmotor *lm = &l->mot[i];
-	struct lbus *lb = &l->bus[lm->bus];
+	struct lbus *lb = &l->bus[lm->m.bus];
 	const char *bus = lb->cb->name;
 	bool v2 = lm->m.proto == RMD_PROTO_V2;
 	const unsigned tries = RMD_LOOP_PROBE_TRIES;
@@ -161,7 +161,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 	if (ret < 0) {
 		rep_add(rp, "missing (no answer to 0x%02X in %u tries of %lld ms)\n", first, tries,
 			(long long)(timeout / RMD_NS_PER_MS));
-		loop_event(l, now, RMD_EV_PROBE, i, lm->bus, -ENODEV, 0);
+		loop_event(l, now, RMD_EV_PROBE, i, lm->m.bus, -ENODEV, 0);
 		loop_enter(l, lm, RMD_LC_LOST, now);
 		lm->next_probe_ns = now; /* the first cycle probes again */
 		return -ENODEV;
@@ -211,7 +211,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 	}
 	rep_add(rp, "\n");
 	now = loop_now(l);
-	loop_event(l, now, RMD_EV_PROBE, i, lm->bus, 0, lm->version);
+	loop_event(l, now, RMD_EV_PROBE, i, lm->m.bus, 0, lm->version);
 	lm->consecutive = 0;
 	loop_enter(l, lm, RMD_LC_READY, now);
 	if (lm->st.error_code)
@@ -288,7 +288,8 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct report *rp)
 		const struct rmd_config_motor *c = &l->cfg->motors[i];
 		struct rmd_frame req, echo;
 
-		if (lm->bus != b || lm->m.proto == RMD_PROTO_V2 || lm->st.lifecycle == RMD_LC_LOST)
+		if (lm->m.bus != b || lm->m.proto == RMD_PROTO_V2 ||
+		    lm->st.lifecycle == RMD_LC_LOST)
 			continue;
 		if (!any)
 			rep_add(rp, "%s: comm-loss protection (0xB3) %s", lb->cb->name,

@@ -53,7 +53,7 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 			oneshot_push(lm, &f[0]);
 	}
 	l->cnt.safe_actions++;
-	loop_event(l, now, RMD_EV_SAFE_ACTION, loop_idx(l, lm), lm->bus, a, 0);
+	loop_event(l, now, RMD_EV_SAFE_ACTION, loop_idx(l, lm), lm->m.bus, a, 0);
 }
 
 /* rt-safe. */
@@ -114,7 +114,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			lm->need_edge = true;
 		}
 		if (old == RMD_LC_FAULT)
-			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->bus, 0, 0);
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, 0, 0);
 		break;
 	case RMD_LC_LOST:
 	case RMD_LC_FAULT:
@@ -124,7 +124,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		if (lc == RMD_LC_LOST)
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 		else
-			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->bus,
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
 				   lm->st.error_code, 0);
 		break;
 	case RMD_LC_PROBE:
@@ -132,7 +132,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		break;
 	}
 	lm->st.lifecycle = (uint8_t)lc;
-	loop_event(l, now, RMD_EV_MOTOR_STATE, loop_idx(l, lm), lm->bus, old, lc);
+	loop_event(l, now, RMD_EV_MOTOR_STATE, loop_idx(l, lm), lm->m.bus, old, lc);
 }
 
 /* An ENABLED motor gets the safe action and becomes SAFE.  rt-safe. */
@@ -187,7 +187,7 @@ void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int6
 	} else if (!code) {
 		loop_enter(l, lm, RMD_LC_READY, now);
 	} else if (code != prev) {
-		loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->bus, code, 0);
+		loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, code, 0);
 	}
 }
 

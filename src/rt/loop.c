@@ -366,6 +366,12 @@ void rmd_loop_get_snapshot(const struct rmd_loop *l, struct rmd_snapshot *out)
 }
 
 /* Any thread; non-rt. */
+const struct rmd_motor *rmd_loop_motor(const struct rmd_loop *l, unsigned i)
+{
+	return i < l->n_motors ? &l->mot[i].m : NULL;
+}
+
+/* Any thread; non-rt. */
 bool rmd_loop_get_health(const struct rmd_loop *l, struct rmd_health *out)
 {
 	bool have;
@@ -555,7 +561,6 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 			free(l);
 			return NULL;
 		}
-		lm->bus = (uint8_t)c->bus;
 		lb = &l->bus[c->bus];
 		switch (c->proto) {
 		case RMD_PROTO_V2:

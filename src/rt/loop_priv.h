@@ -61,8 +61,7 @@ struct outstanding {
 };
 
 struct lmotor {
-	struct rmd_motor m;
-	uint8_t bus;
+	struct rmd_motor m; /* the motor's one record: identity, bus, limits, ... */
 	struct rmd_motor_state st;
 	struct outstanding os[OUTSTANDING];
 	uint64_t seq;

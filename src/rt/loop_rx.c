@@ -56,7 +56,7 @@ void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *
 	o->echo_is_reply = echo_is_reply(&lm->m, f);
 	o->seq = lm->seq++;
 	o->sent_ns = now;
-	o->deadline_ns = now + l->bus[lm->bus].reply_ns;
+	o->deadline_ns = now + l->bus[lm->m.bus].reply_ns;
 	memcpy(o->data, f->data, sizeof(o->data));
 }
 

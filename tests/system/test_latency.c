@@ -315,7 +315,7 @@ static void bridge_opts(struct daemon *d, struct rmd_bridge_opts *o)
 	o->nmotors = d->cfg.n_motors;
 	for (unsigned i = 0; i < d->cfg.n_motors; i++) {
 		const struct rmd_config_motor *c = &d->cfg.motors[i];
-		struct rmd_bridge_motor *m = &o->motor[i];
+		struct rmd_motor_info *m = &o->motor[i];
 
 		snprintf(m->name, sizeof(m->name), "%s", c->name);
 		m->bus = (uint8_t)c->bus;

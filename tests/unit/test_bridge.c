@@ -124,7 +124,7 @@ static void fill_opts(struct rmd_bridge_opts *o, const char *url)
 	snprintf(o->prefix, sizeof(o->prefix), "%s", PREFIX);
 	o->nmotors = NMOTORS;
 	for (unsigned i = 0; i < NMOTORS; i++) {
-		struct rmd_bridge_motor *m = &o->motor[i];
+		struct rmd_motor_info *m = &o->motor[i];
 
 		snprintf(m->name, sizeof(m->name), "m%u", i);
 		m->bus = (uint8_t)(i / 3);

@@ -676,7 +676,7 @@ static int run(const struct rmdd_opts *o)
 	}
 	/* before LCM: a thread it may create must not inherit a real-time policy */
 	main_thread_normal(d);
-	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, &d->commands, &d->snapshots, &d->health);
+	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, d->loop, &d->commands, &d->snapshots, &d->health);
 	bo.notify_fd = d->snapshot_fd;
 	r = rmd_bridge_init(&d->bridge, &bo, err, sizeof(err));
 	if (r < 0) {

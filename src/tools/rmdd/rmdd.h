@@ -126,8 +126,9 @@ void rmdd_buses_close(struct rmd_bus *buses, unsigned n);
 
 /* Fill bridge options from the configuration, the plan and the hand-overs. */
 void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
-		   const struct rmd_plan *plan, struct rmd_latest *commands,
-		   struct rmd_latest *snapshots, struct rmd_latest *health);
+		   const struct rmd_plan *plan, const struct rmd_loop *loop,
+		   struct rmd_latest *commands, struct rmd_latest *snapshots,
+		   struct rmd_latest *health);
 
 /* ---- statistics (rmdd_stats.c) --------------------------------------------- */
 
