@@ -19,8 +19,9 @@
  *
  * A command that breaks a rule is rejected as a whole (never partly
  * applied), counted by enum rmd_reject kind and logged once per kind;
- * setpoints outside a motor's limits are clamped and counted.  The rules
- * are in docs/lcm.md.
+ * setpoints outside a motor's limits are clamped (rmd_motor_clamp(), the
+ * rule the rt loop's encoder applies too) and counted.  The rules are in
+ * docs/lcm.md.
  *
  * Lifecycle (chrony style, caller allocates): rmd_bridge_opts_init(),
  * fill in, rmd_bridge_init(), rmd_bridge_start(), ..., rmd_bridge_stop(),
@@ -34,19 +35,15 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
-#include <stdio.h>
 
 #include <lcm/lcm.h>
 
+#include "rmd/config.h"
 #include "rmd/frame.h"
+#include "rmd/motor.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
-/* Traffic stays on this host: multicast with a time-to-live of 0. */
-#define RMD_BRIDGE_DEFAULT_URL "udpm://239.255.76.67:7667?ttl=0"
-#define RMD_BRIDGE_DEFAULT_PREFIX "RMD_"
-#define RMD_BRIDGE_DEFAULT_STALE_MS 100
-#define RMD_BRIDGE_DEFAULT_HEALTH_PERIOD_NS 100000000 /* 10 Hz */
 /* Longest sleep between looks at the snapshots: half a 1 kHz period (without notify_fd). */
 #define RMD_BRIDGE_DEFAULT_POLL_NS 500000
 /*
@@ -61,24 +58,9 @@
 #define RMD_BRIDGE_PREFIX_LEN 32
 #define RMD_BRIDGE_NAME_LEN 32
 
-/* Bit of struct rmd_bridge_motor.modes for each enum rmd_mode. */
-#define RMD_BRIDGE_MODE_BIT(mode) (1u << (mode))
-#define RMD_BRIDGE_MODES_ALL ((1u << RMD_MODE_COUNT) - 1)
-
-/* What the bridge needs to know of a motor (filled from the configuration). */
-struct rmd_bridge_motor {
-	char name[RMD_BRIDGE_NAME_LEN];
-	uint8_t bus;	       /* index into rmd_bridge_opts.bus[] */
-	uint8_t id;	       /* 1..32 on its bus */
-	char protocol[8];      /* "v2", "v3", "mit": informational, for config_t */
-	uint8_t modes;	       /* RMD_BRIDGE_MODE_BIT()s the motor may be commanded in */
-	double pos_min_rad;    /* setpoints are clamped to [pos_min_rad, pos_max_rad] */
-	double pos_max_rad;    /*   (+-INFINITY: no limit) */
-	double vel_max_rad_s;  /* |velocity| and max_velocity clamp (INFINITY: none) */
-	double torque_max_nm;  /* |torque| clamp (INFINITY: none) */
-	double kp_min, kp_max; /* MIT stiffness range, N·m/rad: outside is rejected */
-	double kd_min, kd_max; /* MIT damping range, N·m·s/rad: outside is rejected */
-};
+/* Bit of struct rmd_motor_info.modes for each enum rmd_mode (rmd/motor.h). */
+#define RMD_BRIDGE_MODE_BIT(mode) RMD_MOTOR_MODE_BIT(mode)
+#define RMD_BRIDGE_MODES_ALL RMD_MOTOR_MODES_ALL
 
 struct rmd_bridge_bus {
 	char name[RMD_BRIDGE_NAME_LEN];
@@ -91,9 +73,9 @@ struct rmd_bridge_opts {
 	char url[RMD_BRIDGE_URL_LEN];
 	char prefix[RMD_BRIDGE_PREFIX_LEN]; /* channel prefix */
 
-	unsigned nmotors; /* 1..RMD_MAX_MOTORS */
-	struct rmd_bridge_motor motor[RMD_MAX_MOTORS];
-	unsigned nbuses; /* 0..RMD_MAX_BUSES */
+	unsigned nmotors;			     /* 1..RMD_MAX_MOTORS */
+	struct rmd_motor_info motor[RMD_MAX_MOTORS]; /* rmd_motor_info() fills them */
+	unsigned nbuses;			     /* 0..RMD_MAX_BUSES */
 	struct rmd_bridge_bus bus[RMD_MAX_BUSES];
 
 	int64_t period_ns;	  /* rt loop period, for config_t */
@@ -120,7 +102,13 @@ struct rmd_bridge_opts {
 	 */
 	int notify_fd;
 
-	FILE *log; /* rejections and errors, "<4>rmdd: ..." lines; NULL: stderr */
+	/*
+	 * Where rejections and errors go: one call per message, with its
+	 * syslog level (3 error, 4 warning, 5 notice) and no prefix or
+	 * newline; the caller says whose message it is.  NULL: dropped.
+	 */
+	void (*log)(void *ctx, int level, const char *msg);
+	void *log_ctx;
 };
 
 /* Counters, totals since rmd_bridge_init(). */
@@ -178,7 +166,11 @@ struct rmd_bridge {
 	atomic_uint_fast64_t n_lcm_errors;
 };
 
-/* Defaults: URL, prefix, periods, stale_ms; no motors, no buses, notify_fd -1.  Non-rt. */
+/*
+ * Defaults: URL, prefix, stale_ms and the health period of rmd/config.h
+ * (RMD_CONFIG_DEFAULT_*), a 1 kHz period; no motors, no buses, notify_fd
+ * -1, no log.  Non-rt.
+ */
 void rmd_bridge_opts_init(struct rmd_bridge_opts *opts);
 
 /*

@@ -142,12 +142,20 @@ struct rmd_addr {
  */
 #define RMD_V2_CMD_MULTI_TORQUE 0x00u
 
-/* The row for `cmd` of `proto` (V2 or V3), or NULL if there is none. */
+/*
+ * The command table a protocol's 0x140 + ID frames use: V2's for V2, V3's
+ * for V3 and for MIT (V3 §5: MIT motors also speak V3).  Every function
+ * below that takes a proto reads it through this, so RMD_PROTO_MIT means
+ * "the V3 table" everywhere in the codec.
+ */
+enum rmd_proto rmd_proto_table(enum rmd_proto proto);
+
+/* The row for `cmd` in the table of `proto`, or NULL if there is none.  O(1). */
 const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd);
 
 /*
- * All rows of a protocol, for tools and tests that walk every command.
- * Returns the count and stores the array in *rows.
+ * All rows of a protocol's table, for tools and tests that walk every
+ * command.  Returns the count and stores the array in *rows.
  */
 size_t rmd_cmd_table(enum rmd_proto proto, const struct rmd_cmd_spec **rows);
 

@@ -13,7 +13,8 @@
  *      watchdog and each motor's lifecycle;
  *   4. sends this cycle's frames (rmd_plan_cycle()) on every bus, setpoints
  *      converted, clamped and encoded by rmd/motor.h;
- *   5. publishes a state snapshot (and ~10 Hz health) to the bridge;
+ *   5. publishes a state snapshot (and ~10 Hz health) to the bridge and,
+ *      under a sequence lock, to rmd_loop_get_*();
  *   6. sleeps to the next tick; overruns are counted and the schedule skips
  *      ahead, never catching up in a burst.
  *
@@ -84,6 +85,7 @@
 
 #include "rmd/bus.h"
 #include "rmd/config.h"
+#include "rmd/motor.h"
 #include "rmd/plan.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
@@ -100,7 +102,8 @@ struct rmd_loop_opts {
 	struct rmd_ring *events;      /* loop -> logger: struct rmd_event */
 	/*
 	 * An eventfd (non-blocking) the loop writes after each snapshot, so the
-	 * bridge publishes it at once instead of at its next poll; <= 0: none.
+	 * bridge publishes it at once instead of at its next poll; -1: none
+	 * (0 is a valid descriptor).
 	 */
 	int snapshot_fd;
 	/* Time source; NULL: clock_gettime(CLOCK_MONOTONIC).  Tests inject one. */
@@ -198,7 +201,9 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
  * 0xB3 protection stays in place.  Frames the bus refuses are sent again
  * for at most ~10 ms (opts.sleep_ns or clock_nanosleep between tries), and
  * then their echoes are awaited for at most one reply deadline, so they
- * are on the wire when it returns.  rt-safe (bounded, no allocation).
+ * are on the wire when it returns.  Bounded, blocking (it sleeps between
+ * tries; no allocation): not for the cycle, but fine at the end of the rt
+ * thread or in a test.
  */
 void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now_ns);
 
@@ -246,5 +251,19 @@ void rmd_loop_get_snapshot(const struct rmd_loop *l, struct rmd_snapshot *out);
 
 /* Copy of the counters so far; safe from any thread. */
 void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *out);
+
+/*
+ * Motor i's record (rmd/motor.h), built by rmd_loop_new(): its identity,
+ * limits and ranges do not change, so any thread may read them; NULL for
+ * i out of range.  Non-rt.
+ */
+const struct rmd_motor *rmd_loop_motor(const struct rmd_loop *l, unsigned i);
+
+/*
+ * Copy of the newest health (the one the loop also puts in opts.health,
+ * every lcm.health_period_ms); safe from any thread (non-rt).  Returns
+ * false, *out untouched, before the loop has made one.
+ */
+bool rmd_loop_get_health(const struct rmd_loop *l, struct rmd_health *out);
 
 #endif /* RMD_LOOP_H */

@@ -91,8 +91,15 @@ enum {
 	RMD_MOTOR_HAVE_TIMEOUT = 1u << 9, /* 0xB3 echo */
 };
 
-/* A motor's conversion parameters (from its config entry) and decode state. */
+/*
+ * The one record of a motor, built once from its config entry by
+ * rmd_motor_init(): identity, conversions, limits, MIT ranges; and its
+ * decode state.  The plan, the loop and (through struct rmd_motor_info)
+ * the bridge read it; nothing else keeps a copy of these facts.
+ */
 struct rmd_motor {
+	const char *name; /* the config entry's, which outlives the motor */
+	uint8_t bus;	  /* index into cfg->buses[] */
 	uint8_t id;
 	enum rmd_proto proto;
 	enum rmd_ctrl_mode mode;
@@ -110,6 +117,52 @@ struct rmd_motor {
 	bool v2_anchored;      /* the first encoder value after the reference is seen */
 	uint16_t v2_enc_last;  /* last encoder value */
 	int64_t v2_enc_counts; /* unwrapped counts since the anchor */
+};
+
+/* Bit of a modes mask (rmd_motor_modes()) for each enum rmd_mode. */
+#define RMD_MOTOR_MODE_BIT(mode) (1u << (mode))
+#define RMD_MOTOR_MODES_ALL ((1u << RMD_MODE_COUNT) - 1)
+
+#define RMD_MOTOR_NAME_LEN 32
+
+/*
+ * What a motor is, for those that check commands against it (the LCM
+ * bridge) and describe it (config_t), filled by rmd_motor_info().
+ */
+struct rmd_motor_info {
+	char name[RMD_MOTOR_NAME_LEN];
+	uint8_t bus;	       /* index into the buses */
+	uint8_t id;	       /* 1..32 on its bus */
+	char protocol[8];      /* "v2", "v3", "mit": informational, for config_t */
+	uint8_t modes;	       /* RMD_MOTOR_MODE_BIT()s the motor may be commanded in */
+	double pos_min_rad;    /* setpoints are clamped to [pos_min_rad, pos_max_rad] */
+	double pos_max_rad;    /*   (+-INFINITY: no limit) */
+	double vel_max_rad_s;  /* |velocity| and max_velocity clamp (INFINITY: none) */
+	double torque_max_nm;  /* |torque| clamp (INFINITY: none) */
+	double kp_min, kp_max; /* MIT stiffness range, N·m/rad: outside is rejected */
+	double kd_min, kd_max; /* MIT damping range, N·m·s/rad: outside is rejected */
+};
+
+/* Which setpoint values a mode uses (the others are not read).  rt-safe. */
+static inline bool rmd_mode_uses_pos(unsigned mode)
+{
+	return mode == RMD_MODE_POSITION || mode == RMD_MODE_MIT;
+}
+
+static inline bool rmd_mode_uses_vel(unsigned mode)
+{
+	return mode == RMD_MODE_SPEED || mode == RMD_MODE_MIT;
+}
+
+static inline bool rmd_mode_uses_torque(unsigned mode)
+{
+	return mode == RMD_MODE_TORQUE || mode == RMD_MODE_MIT;
+}
+
+/* The first value rmd_motor_clamp() changed, for a log line. */
+struct rmd_motor_clamp_note {
+	const char *field; /* "position", "velocity", "torque", "max_velocity" */
+	double from, to;
 };
 
 /* A reply in SI at the output shaft (see the top of this file). */
@@ -135,6 +188,29 @@ struct rmd_motor_reply {
  * ranges for an MIT motor, or a V2/V3 motor without torque constant.
  */
 int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c);
+
+/*
+ * The modes the motor can be commanded in, RMD_MOTOR_MODE_BIT()s: torque
+ * only with a torque constant; speed and position unless `batched` (a
+ * motor in a V2 0x280 frame takes torques only: the frame carries nothing
+ * else); MIT only on an MIT motor.  rmd_motor_encode() refuses the others.
+ */
+unsigned rmd_motor_modes(const struct rmd_motor *m, bool batched);
+
+/* The motor as the bridge sees it (modes as rmd_motor_modes()).  Non-rt. */
+void rmd_motor_info(const struct rmd_motor *m, bool batched, struct rmd_motor_info *out);
+
+/*
+ * Clamp the values mode sp->mode uses to the limits (docs/lcm.md "What
+ * rmdd does with a command"): position to [min, max]; velocity and torque
+ * to +-their limit; in position mode max_vel_rad_s to [0, velocity limit],
+ * 0 meaning the limit (and staying 0 without one).  Gains are not touched.
+ * Returns how many values changed; the first in *note (may be NULL).  The
+ * one copy of the rule: the bridge clamps (and counts) with it, and so
+ * does rmd_motor_encode().
+ */
+unsigned rmd_motor_clamp(const struct rmd_config_limits *lim, struct rmd_setpoint *sp,
+			 struct rmd_motor_clamp_note *note);
 
 /*
  * Encode setpoint sp for the motor, in the setpoint's mode (sp->mode, enum

@@ -117,9 +117,6 @@ struct rmd_health {
 	struct rmd_bus_health bus[RMD_MAX_BUSES];
 	uint8_t watchdog;	     /* enum rmd_watchdog_state */
 	uint64_t safe_action_events; /* times a safe action was applied */
-	uint64_t commands_accepted;
-	uint64_t commands_rejected;
-	uint64_t rejected_by_kind[16]; /* indexed by enum rmd_reject */
 };
 
 /* Why the bridge refused a command message (counted in rmd_health). */

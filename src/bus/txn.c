@@ -26,8 +26,7 @@ int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
 	int r;
 
 	memset(t, 0, sizeof(*t));
-	if (proto == RMD_PROTO_MIT)
-		proto = RMD_PROTO_V3; /* MIT motors answer the V3 table (V3 §5) */
+	proto = rmd_proto_table(proto); /* MIT motors answer the V3 table (V3 §5) */
 	spec = rmd_cmd_find(proto, msg->cmd);
 	if (!spec)
 		return -ENOENT;

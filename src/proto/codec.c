@@ -58,31 +58,50 @@ const char *rmd_field_key(enum rmd_field fld)
 	return field_keys[fld];
 }
 
+enum rmd_proto rmd_proto_table(enum rmd_proto proto)
+{
+	/* V3 §5: an MIT motor answers the V3 command set on 0x140 + ID. */
+	return proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
+}
+
 size_t rmd_cmd_table(enum rmd_proto proto, const struct rmd_cmd_spec **rows)
 {
-	switch (proto) {
-	case RMD_PROTO_V3:
-		*rows = rmd_v3_cmds;
-		return rmd_v3_ncmds;
-	case RMD_PROTO_V2:
+	if (rmd_proto_table(proto) == RMD_PROTO_V2) {
 		*rows = rmd_v2_cmds;
 		return rmd_v2_ncmds;
-	case RMD_PROTO_MIT:
-		break;
 	}
-	*rows = NULL;
-	return 0;
+	*rows = rmd_v3_cmds;
+	return rmd_v3_ncmds;
+}
+
+/*
+ * Command byte -> row index + 1 (0: no row), per table (V3, V2): filled
+ * once when the program is loaded, before any thread runs, and only read
+ * afterwards, so rmd_cmd_find() is one lookup on the rt path.
+ */
+static uint8_t cmd_index[2][256];
+
+__attribute__((constructor)) static void cmd_index_build(void)
+{
+	for (unsigned t = 0; t < 2; t++) {
+		const struct rmd_cmd_spec *rows;
+		size_t n = rmd_cmd_table(t ? RMD_PROTO_V2 : RMD_PROTO_V3, &rows);
+
+		for (size_t i = n; i-- > 0;) /* the first row of a byte wins, as a scan would */
+			cmd_index[t][rows[i].cmd] = (uint8_t)(i + 1);
+	}
 }
 
 const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd)
 {
 	const struct rmd_cmd_spec *rows;
-	size_t n = rmd_cmd_table(proto, &rows);
+	unsigned t = rmd_proto_table(proto) == RMD_PROTO_V2;
+	unsigned k = cmd_index[t][cmd];
 
-	for (size_t i = 0; i < n; i++)
-		if (rows[i].cmd == cmd)
-			return &rows[i];
-	return NULL;
+	if (!k)
+		return NULL;
+	rmd_cmd_table(proto, &rows);
+	return &rows[k - 1];
 }
 
 static bool id_in(uint32_t can_id, uint32_t base, uint8_t *motor_id)
@@ -214,8 +233,8 @@ int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const s
 	const struct rmd_cmd_spec *spec;
 	const struct rmd_layout *l;
 
-	if (proto == RMD_PROTO_MIT || motor_id > RMD_MAX_MOTORS ||
-	    (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY))
+	proto = rmd_proto_table(proto);
+	if (motor_id > RMD_MAX_MOTORS || (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY))
 		return -EINVAL;
 	spec = rmd_cmd_find(proto, msg->cmd);
 	if (!spec)
@@ -282,8 +301,7 @@ int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f
 	memset(msg, 0, sizeof(*msg));
 	if (f->len != RMD_FRAME_LEN)
 		return -EBADMSG;
-	if (proto == RMD_PROTO_MIT)
-		return -EINVAL;
+	proto = rmd_proto_table(proto);
 	r = rmd_addr_from_id(proto, f->can_id, &addr);
 	if (r < 0)
 		return r;
@@ -325,7 +343,8 @@ int rmd_decode_as(enum rmd_proto proto, enum rmd_dir dir, uint8_t cmd, const str
 	memset(msg, 0, sizeof(*msg));
 	if (f->len != RMD_FRAME_LEN)
 		return -EBADMSG;
-	if (proto == RMD_PROTO_MIT || (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY))
+	proto = rmd_proto_table(proto);
+	if (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY)
 		return -EINVAL;
 	r = rmd_addr_from_id(proto, f->can_id, &addr);
 	if (r < 0)

@@ -58,8 +58,7 @@ static void probe_stray(struct rmd_loop *l, unsigned b, const struct rmd_frame *
 /* True when the reply to `cmd` repeats the request (RMD_CMD_ECHO).  Non-rt. */
 static bool cmd_echoes(const struct lmotor *lm, uint8_t cmd)
 {
-	enum rmd_proto proto = lm->m.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(proto, cmd);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(lm->m.proto, cmd);
 
 	return spec && (spec->flags & RMD_CMD_ECHO);
 }
@@ -72,7 +71,7 @@ static bool cmd_echoes(const struct lmotor *lm, uint8_t cmd)
 static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *req,
 		      unsigned tries, int64_t timeout_ns, struct rmd_frame *rep)
 {
-	struct lbus *lb = &l->bus[lm->bus];
+	struct lbus *lb = &l->bus[lm->m.bus];
 	bool check_echo, echo_seen = false;
 	uint32_t rid;
 	uint16_t cmd;
@@ -94,7 +93,7 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_fr
 
 				if (f->can_id != rid || !f->len ||
 				    (cmd != RMD_MOTOR_CMD_MIT && f->data[0] != cmd)) {
-					probe_stray(l, lm->bus, f);
+					probe_stray(l, lm->m.bus, f);
 					continue;
 				}
 				/*
@@ -143,7 +142,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 {
 	const struct rmd_config_motor *c = &l->cfg->motors[i];
 	struct lmotor *lm = &l->mot[i];
-	struct lbus *lb = &l->bus[lm->bus];
+	struct lbus *lb = &l->bus[lm->m.bus];
 	const char *bus = lb->cb->name;
 	bool v2 = lm->m.proto == RMD_PROTO_V2;
 	const unsigned tries = RMD_LOOP_PROBE_TRIES;
@@ -162,11 +161,9 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 	if (ret < 0) {
 		rep_add(rp, "missing (no answer to 0x%02X in %u tries of %lld ms)\n", first, tries,
 			(long long)(timeout / RMD_NS_PER_MS));
-		loop_event(l, now, RMD_EV_PROBE, i, lm->bus, -ENODEV, 0);
-		loop_oneshot_clear(lm);
-		lm->next_probe_ns = now;
-		lm->need_edge = true;
-		loop_set_lifecycle(l, lm, RMD_LC_LOST, now);
+		loop_event(l, now, RMD_EV_PROBE, i, lm->m.bus, -ENODEV, 0);
+		loop_enter(l, lm, RMD_LC_LOST, now);
+		lm->next_probe_ns = now; /* the first cycle probes again */
 		return -ENODEV;
 	}
 	if (!v2) {
@@ -214,10 +211,9 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
 	}
 	rep_add(rp, "\n");
 	now = loop_now(l);
-	loop_event(l, now, RMD_EV_PROBE, i, lm->bus, 0, lm->version);
+	loop_event(l, now, RMD_EV_PROBE, i, lm->m.bus, 0, lm->version);
 	lm->consecutive = 0;
-	lm->need_edge = false;
-	loop_set_lifecycle(l, lm, RMD_LC_READY, now);
+	loop_enter(l, lm, RMD_LC_READY, now);
 	if (lm->st.error_code)
 		loop_note_errors(l, lm, 0, now);
 	return 0;
@@ -292,7 +288,8 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct report *rp)
 		const struct rmd_config_motor *c = &l->cfg->motors[i];
 		struct rmd_frame req, echo;
 
-		if (lm->bus != b || lm->m.proto == RMD_PROTO_V2 || lm->st.lifecycle == RMD_LC_LOST)
+		if (lm->m.bus != b || lm->m.proto == RMD_PROTO_V2 ||
+		    lm->st.lifecycle == RMD_LC_LOST)
 			continue;
 		if (!any)
 			rep_add(rp, "%s: comm-loss protection (0xB3) %s", lb->cb->name,

@@ -1,9 +1,15 @@
 // SPDX-License-Identifier: MIT
 /*
- * The real-time loop: one cycle per tick over every bus, reply matching and
- * deadlines, motor lifecycle, host watchdog, safe actions, publishing and
- * stop.  See rmd/loop.h for the behaviour; bring-up is bringup.c, the
- * thread rt_thread.c, and what the three share is loop_priv.h.
+ * The real-time loop: its construction, the cycle (rmd_loop_cycle(), in
+ * the order rmd/loop.h gives), the schedule, publishing, the getters and
+ * stopping the motors.  See rmd/loop.h for the behaviour.  Receiving is
+ * loop_rx.c, the lifecycle and commands lifecycle.c, sending loop_tx.c,
+ * bring-up bringup.c, the thread rt_thread.c; what they share is
+ * loop_priv.h.
+ *
+ * Execution context: rmd_loop_cycle() and what it calls are rt-safe;
+ * rmd_loop_stop_motors() is bounded but blocking (it sleeps between
+ * sends); construction is non-rt; the getters are non-rt, any thread.
  *
  * Everything the cycle touches lives in struct rmd_loop, allocated and
  * written once by rmd_loop_new(): fixed arrays sized by RMD_MAX_MOTORS and
@@ -99,23 +105,6 @@ void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, un
 		rmd_ring_push(l->o.events, &e);
 }
 
-/* rt-safe. */
-static unsigned idx_of(const struct rmd_loop *l, const struct lmotor *lm)
-{
-	return (unsigned)(lm - l->mot);
-}
-
-/* rt-safe. */
-void loop_set_lifecycle(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
-{
-	uint8_t old = lm->st.lifecycle;
-
-	if (old == lc)
-		return;
-	lm->st.lifecycle = (uint8_t)lc;
-	loop_event(l, now, RMD_EV_MOTOR_STATE, idx_of(l, lm), lm->bus, old, lc);
-}
-
 /* ------------------------------------------------------------------ */
 /* rt-safe. */
 static void wake_record(struct rmd_loop *l, int64_t lat)
@@ -153,716 +142,6 @@ static void wake_summary(struct rmd_loop *l)
 }
 
 /* ------------------------------------------------------------------ */
-/* Requests in flight */
-
-/* rt-safe. */
-static bool echo_is_reply(const struct rmd_motor *m, const struct rmd_frame *f)
-{
-	const struct rmd_cmd_spec *spec;
-
-	if (f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len)
-		return false;
-	spec = rmd_cmd_find(m->proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3, f->data[0]);
-	return spec && (spec->flags & RMD_CMD_ECHO);
-}
-
-static void miss(struct rmd_loop *l, struct lmotor *lm, int64_t now);
-
-/* rt-safe. */
-static void os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now)
-{
-	struct outstanding *o = NULL, *oldest = NULL;
-
-	for (unsigned k = 0; k < OUTSTANDING; k++) {
-		struct outstanding *e = &lm->os[k];
-
-		if (!e->used) {
-			o = e;
-			break;
-		}
-		if (!oldest || e->seq < oldest->seq)
-			oldest = e;
-	}
-	if (!o) {
-		/* full: the oldest has waited longest, it counts as missed */
-		o = oldest;
-		o->used = false;
-		miss(l, lm, now);
-	}
-	memset(o, 0, sizeof(*o));
-	o->used = true;
-	rmd_motor_reply_key(&lm->m, f, &o->reply_id, &o->cmd);
-	o->echo_is_reply = echo_is_reply(&lm->m, f);
-	o->seq = lm->seq++;
-	o->sent_ns = now;
-	o->deadline_ns = now + l->bus[lm->bus].reply_ns;
-	memcpy(o->data, f->data, sizeof(o->data));
-}
-
-/* The oldest request of lm that frame f (id, cmd) answers, or NULL.  rt-safe. */
-static struct outstanding *os_match(struct lmotor *lm, uint32_t id, uint16_t cmd)
-{
-	struct outstanding *best = NULL;
-
-	for (unsigned k = 0; k < OUTSTANDING; k++) {
-		struct outstanding *e = &lm->os[k];
-
-		if (e->used && e->reply_id == id && e->cmd == cmd && (!best || e->seq < best->seq))
-			best = e;
-	}
-	return best;
-}
-
-/* rt-safe. */
-void loop_oneshot_clear(struct lmotor *lm)
-{
-	lm->n_oneshot = 0;
-}
-
-/* rt-safe. */
-static void oneshot_push(struct lmotor *lm, const struct rmd_frame *f)
-{
-	if (lm->n_oneshot < ONESHOTS)
-		lm->oneshot[lm->n_oneshot++] = *f;
-}
-
-/* rt-safe. */
-static void oneshot_pop(struct lmotor *lm)
-{
-	if (!lm->n_oneshot)
-		return;
-	for (unsigned k = 1; k < lm->n_oneshot; k++)
-		lm->oneshot[k - 1] = lm->oneshot[k];
-	lm->n_oneshot--;
-}
-
-/* ------------------------------------------------------------------ */
-/* Lifecycle and safe actions */
-
-/* rt-safe. */
-static enum rmd_safe_action safe_action(const struct rmd_loop *l)
-{
-	return l->cfg->safety.safe_action;
-}
-
-/*
- * Queue the safe action's frames for lm.  stream: a SAFE motor with MIT damp
- * gets the damp frame in every control slot instead of once.
- * rt-safe.
- */
-static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64_t now)
-{
-	enum rmd_safe_action a = safe_action(l);
-	struct rmd_frame f[2];
-	int n;
-
-	loop_oneshot_clear(lm);
-	lm->damp_stream = false;
-	if (a == RMD_SAFE_DAMP && lm->m.proto == RMD_PROTO_MIT && stream) {
-		lm->damp_stream = true;
-	} else {
-		n = rmd_motor_encode_safe(&lm->m, a, f);
-		for (int k = 0; k < n; k++)
-			oneshot_push(lm, &f[k]);
-		if (n <= 0 && rmd_motor_encode_cmd(&lm->m, 0x80, &f[0]) == 0)
-			oneshot_push(lm, &f[0]);
-	}
-	l->safe_events++;
-	l->cnt.safe_actions++;
-	loop_event(l, now, RMD_EV_SAFE_ACTION, idx_of(l, lm), lm->bus, a, 0);
-}
-
-/* An ENABLED motor gets the safe action and becomes SAFE.  rt-safe. */
-static void make_safe(struct rmd_loop *l, struct lmotor *lm, bool need_edge, int64_t now)
-{
-	if (lm->st.lifecycle != RMD_LC_ENABLED)
-		return;
-	queue_safe(l, lm, true, now);
-	lm->need_edge = need_edge;
-	loop_set_lifecycle(l, lm, RMD_LC_SAFE, now);
-}
-
-/* rt-safe. */
-static void motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now)
-{
-	uint8_t old = lm->st.lifecycle;
-
-	if (old == RMD_LC_LOST)
-		return;
-	loop_oneshot_clear(lm);
-	lm->damp_stream = false;
-	if (old == RMD_LC_ENABLED)
-		queue_safe(l, lm, false, now);
-	lm->need_edge = true;
-	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-	loop_set_lifecycle(l, lm, RMD_LC_LOST, now);
-	if (l->cfg->safety.lost_motor_action == RMD_LOST_ALL)
-		for (unsigned j = 0; j < l->n_motors; j++)
-			if (&l->mot[j] != lm)
-				make_safe(l, &l->mot[j], true, now);
-}
-
-/* rt-safe. */
-static void miss(struct rmd_loop *l, struct lmotor *lm, int64_t now)
-{
-	unsigned n = l->cfg->safety.missed_replies_lost ? l->cfg->safety.missed_replies_lost : 1;
-
-	lm->st.missed_replies++;
-	l->cnt.missed++;
-	lm->consecutive++;
-	if (lm->consecutive >= n && lm->st.lifecycle != RMD_LC_LOST)
-		motor_lost(l, lm, now);
-}
-
-/* The motor answered something: it is there.  rt-safe. */
-static void alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
-{
-	lm->consecutive = 0;
-	lm->replied = true;
-	lm->last_reply_cycle = l->cycle;
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
-	case RMD_LC_LOST:
-		/* safe-action frames still waiting go out yet */
-		lm->need_edge = true;
-		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
-		break;
-	case RMD_LC_PROBE:
-		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
-		break;
-	case RMD_LC_READY:
-	case RMD_LC_ENABLED:
-	case RMD_LC_FAULT:
-	case RMD_LC_SAFE:
-	case RMD_LC_COUNT:
-		break;
-	}
-}
-
-/* Error flags from a 0x9A answer or report.  prev: the code before it.  rt-safe. */
-void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now)
-{
-	uint16_t code = lm->st.error_code;
-	uint8_t lc = lm->st.lifecycle;
-
-	if (code) {
-		if (lc == RMD_LC_FAULT) {
-			if (code != prev)
-				loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, code,
-					   0);
-			return;
-		}
-		if (lc == RMD_LC_ENABLED)
-			queue_safe(l, lm, false, now);
-		else
-			loop_oneshot_clear(lm);
-		lm->damp_stream = false;
-		lm->need_edge = true;
-		loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, code, 0);
-		loop_set_lifecycle(l, lm, RMD_LC_FAULT, now);
-	} else if (lc == RMD_LC_FAULT) {
-		lm->need_edge = true;
-		loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), lm->bus, 0, 0);
-		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
-	}
-}
-
-/* ------------------------------------------------------------------ */
-/* Receiving */
-
-/* rt-safe. */
-void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now)
-{
-	struct lbus *lb = &l->bus[b];
-
-	l->cnt.unexpected++;
-	if (lb->ev_unexpected_any && now - lb->ev_unexpected_ns < EVENT_INTERVAL_NS)
-		return;
-	lb->ev_unexpected_any = true;
-	lb->ev_unexpected_ns = now;
-	loop_event(l, now, RMD_EV_UNEXPECTED, 0xFF, b, f->can_id, f->len ? f->data[0] : -1);
-}
-
-/* The motor a received identifier belongs to, or NULL.  rt-safe. */
-struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
-{
-	const struct lbus *lb = &l->bus[b];
-	unsigned k = 0;
-
-	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
-		k = lb->by_v3[id - RMD_CAN_V3_REPLY_BASE];
-	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
-		k = lb->by_v2[id - RMD_CAN_REQ_BASE];
-	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
-		k = lb->by_mit[id - RMD_CAN_MIT_REPLY_BASE];
-	return k ? &l->mot[k - 1] : NULL;
-}
-
-/* Decode f into lm's state; false when it cannot be decoded.  rt-safe. */
-static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
-			int64_t now)
-{
-	struct rmd_motor_reply r;
-	uint16_t prev = lm->st.error_code;
-
-	if (rmd_motor_decode(&lm->m, f, &r) < 0)
-		return false;
-	rmd_motor_apply(&r, &lm->st);
-	if (r.have & RMD_MOTOR_HAVE_ERROR)
-		loop_note_errors(l, lm, prev, now);
-	return true;
-}
-
-/* rt-safe. */
-static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
-{
-	const struct rmd_frame *f = &rx->f;
-	struct lmotor *lm = loop_motor_of(l, b, f->can_id);
-	int64_t now = rx->t_ns;
-	struct outstanding *o;
-	uint16_t cmd;
-
-	if (!lm || !f->len) {
-		loop_unexpected(l, b, f, now);
-		return;
-	}
-	cmd = f->can_id > RMD_CAN_MIT_REPLY_BASE ? RMD_MOTOR_CMD_MIT : f->data[0];
-	o = os_match(lm, f->can_id, cmd);
-	if (o) {
-		bool echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
-			    !memcmp(f->data, o->data, RMD_FRAME_LEN);
-
-		o->used = false;
-		l->cnt.replies++;
-		lm->st.reply_latency_ns = rx->t_ns - o->sent_ns;
-		alive(l, lm, now);
-		if (echo) {
-			/* DESIGN.md: after a comm-loss trip the first command is only echoed */
-			l->cnt.echoes++;
-			return;
-		}
-		if (!take_values(l, lm, f, now))
-			l->cnt.bad_replies++;
-		return;
-	}
-	if (cmd == RMD_MOTOR_CMD_COMM_LOST) {
-		/* DESIGN.md: the motor's comm-loss protection tripped; its output is off */
-		l->cnt.unsolicited++;
-		if (lm->st.lifecycle != RMD_LC_LOST) {
-			loop_event(l, now, RMD_EV_MOTOR_ERROR, idx_of(l, lm), b, lm->st.error_code,
-				   RMD_MOTOR_CMD_COMM_LOST);
-			motor_lost(l, lm, now);
-		}
-		return;
-	}
-	if (cmd == 0x9A) {
-		/* V3 §2.33.4 index 3: error reports every 100 ms, unasked */
-		l->cnt.unsolicited++;
-		alive(l, lm, now);
-		if (!take_values(l, lm, f, now))
-			l->cnt.bad_replies++;
-		return;
-	}
-	loop_unexpected(l, b, f, now);
-}
-
-/* Take every frame that has arrived on bus b by now.  Bounded.  rt-safe. */
-void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
-{
-	struct lbus *lb = &l->bus[b];
-
-	for (unsigned round = 0; round < RX_ROUNDS; round++) {
-		int n = rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now);
-
-		if (n <= 0)
-			return;
-		for (int k = 0; k < n; k++)
-			handle_frame(l, b, &lb->rx[k]);
-		if (n < RX_BATCH)
-			return;
-	}
-}
-
-/* rt-safe. */
-static void check_deadlines(struct rmd_loop *l, int64_t now)
-{
-	for (unsigned i = 0; i < l->n_motors; i++) {
-		struct lmotor *lm = &l->mot[i];
-
-		for (unsigned k = 0; k < OUTSTANDING; k++) {
-			struct outstanding *o = &lm->os[k];
-
-			if (o->used && o->deadline_ns <= now) {
-				o->used = false;
-				miss(l, lm, now);
-			}
-		}
-	}
-}
-
-/* ------------------------------------------------------------------ */
-/* Commands and the host watchdog */
-
-/* rt-safe. */
-static void enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
-			 int64_t now)
-{
-	struct rmd_frame f;
-
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
-	case RMD_LC_READY:
-	case RMD_LC_SAFE:
-		if (lm->need_edge)
-			return;
-		loop_oneshot_clear(lm);
-		lm->damp_stream = false;
-		/* V3 §2.26 / V2 §3.50: the brake opens before the first setpoint */
-		if (rmd_motor_encode_cmd(&lm->m, 0x77, &f) == 0)
-			oneshot_push(lm, &f);
-		lm->sp = *sp;
-		lm->st.mode = sp->mode;
-		loop_set_lifecycle(l, lm, RMD_LC_ENABLED, now);
-		break;
-	case RMD_LC_ENABLED:
-		lm->sp = *sp;
-		lm->st.mode = sp->mode;
-		break;
-	case RMD_LC_PROBE:
-	case RMD_LC_FAULT:
-	case RMD_LC_LOST:
-	case RMD_LC_COUNT:
-		break;
-	}
-}
-
-/* rt-safe. */
-static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
-{
-	struct rmd_frame f;
-
-	lm->need_edge = false;
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
-	case RMD_LC_ENABLED:
-	case RMD_LC_SAFE:
-		loop_oneshot_clear(lm);
-		lm->damp_stream = false;
-		/* READY: output off (V3 §2.15), brake locked (V3 §2.27) */
-		if (rmd_motor_encode_cmd(&lm->m, 0x80, &f) == 0)
-			oneshot_push(lm, &f);
-		if (rmd_motor_encode_cmd(&lm->m, 0x78, &f) == 0)
-			oneshot_push(lm, &f);
-		lm->st.mode = (uint8_t)l->cfg->motors[idx_of(l, lm)].mode;
-		loop_set_lifecycle(l, lm, RMD_LC_READY, now);
-		break;
-	case RMD_LC_READY:
-	case RMD_LC_PROBE:
-	case RMD_LC_FAULT:
-	case RMD_LC_LOST:
-	case RMD_LC_COUNT:
-		break;
-	}
-}
-
-/* rt-safe. */
-static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t now)
-{
-	if (l->wd == s)
-		return;
-	l->wd = (uint8_t)s;
-	loop_event(l, now, RMD_EV_WATCHDOG, 0xFF, 0xFF, s, 0);
-}
-
-/* rt-safe. */
-static void take_command(struct rmd_loop *l, int64_t now)
-{
-	const struct rmd_command *c = &l->cmd;
-	const void *p;
-	bool any_enable = false;
-
-	if (!l->o.commands || !rmd_latest_get(l->o.commands, &p))
-		return;
-	memcpy(&l->cmd, p, sizeof(l->cmd));
-	l->cnt.commands++;
-	if (!l->have_cmd || c->rx_ns > l->last_cmd_rx_ns)
-		l->last_cmd_rx_ns = c->rx_ns;
-	l->have_cmd = true;
-	/* A command from before the trip does not lift it. */
-	if (l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns)
-		return;
-	for (unsigned i = 0; i < l->n_motors; i++) {
-		if (!(c->present & (1u << i)))
-			continue;
-		if (c->m[i].enable) {
-			any_enable = true;
-			enable_motor(l, &l->mot[i], &c->m[i], now);
-		} else {
-			disable_motor(l, &l->mot[i], now);
-		}
-	}
-	if (any_enable)
-		set_watchdog(l, RMD_WD_OK, now);
-}
-
-/* rt-safe. */
-static void watchdog(struct rmd_loop *l, int64_t now)
-{
-	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * RMD_NS_PER_MS;
-	bool any = false;
-
-	if (l->wd != RMD_WD_OK || timeout <= 0 || now - l->last_cmd_rx_ns <= timeout)
-		return;
-	for (unsigned i = 0; i < l->n_motors; i++)
-		any |= l->mot[i].st.lifecycle == RMD_LC_ENABLED;
-	if (!any)
-		return;
-	l->trip_ns = now;
-	set_watchdog(l, RMD_WD_TRIPPED, now);
-	for (unsigned i = 0; i < l->n_motors; i++)
-		make_safe(l, &l->mot[i], false, now);
-}
-
-/* ------------------------------------------------------------------ */
-/* Sending */
-
-/* rt-safe. */
-static void push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind)
-{
-	if (lb->ntx >= TX_MAX)
-		return;
-	lb->tx[lb->ntx] = *f;
-	lb->meta[lb->ntx] = (struct txmeta){ .motor = (uint8_t)motor, .kind = (uint8_t)kind };
-	lb->ntx++;
-}
-
-/* rt-safe. */
-static void push_cmd(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, uint8_t cmd)
-{
-	struct rmd_frame f;
-
-	if (rmd_motor_encode_cmd(&lm->m, cmd, &f) == 0)
-		push_tx(lb, &f, idx_of(l, lm), REQ_STATUS);
-}
-
-/* A lost motor's 0x9A re-probe, when one is due.  rt-safe. */
-static void push_reprobe(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
-{
-	if (now < lm->next_probe_ns)
-		return;
-	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-	push_cmd(l, lb, lm, 0x9A);
-}
-
-/* The setpoint's frame, or the safe action's first frame instead of a refused one.  rt-safe. */
-static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
-{
-	struct rmd_frame f, safe[2];
-	unsigned fl = 0;
-	int r = rmd_motor_encode(&lm->m, &lm->sp, &f, &fl);
-
-	if (r == 0) {
-		if (fl & RMD_MOTOR_CLAMPED)
-			l->cnt.clamped++;
-		push_tx(lb, &f, idx_of(l, lm), REQ_CONTROL);
-		return;
-	}
-	if (r == -EDOM)
-		l->cnt.nonfinite++;
-	else
-		l->cnt.unsupported++;
-	if (rmd_motor_encode_safe(&lm->m, safe_action(l), safe) > 0)
-		push_tx(lb, &safe[0], idx_of(l, lm), REQ_CONTROL);
-	else
-		push_cmd(l, lb, lm, 0x80);
-}
-
-/* rt-safe. */
-static void add_control(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
-{
-	struct rmd_frame f[2];
-
-	/* one-shots first: an ENABLED motor's brake release, the others' stops */
-	if (lm->n_oneshot) {
-		push_tx(lb, &lm->oneshot[0], idx_of(l, lm), REQ_ONESHOT);
-		return;
-	}
-	if (lm->st.lifecycle == RMD_LC_ENABLED) {
-		push_setpoint(l, lb, lm);
-		return;
-	}
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
-	case RMD_LC_SAFE:
-		if (lm->damp_stream && rmd_motor_encode_safe(&lm->m, RMD_SAFE_DAMP, f) == 1) {
-			push_tx(lb, &f[0], idx_of(l, lm), REQ_CONTROL);
-			break;
-		}
-		push_cmd(l, lb, lm, 0x9C);
-		break;
-	case RMD_LC_PROBE:
-	case RMD_LC_READY:
-	case RMD_LC_FAULT:
-		/* read only: V3 §2.13 / V2 §3.32 status 2 (MIT motors answer V3) */
-		push_cmd(l, lb, lm, 0x9C);
-		break;
-	case RMD_LC_LOST:
-		push_reprobe(l, lb, lm, now);
-		break;
-	case RMD_LC_ENABLED:
-	case RMD_LC_COUNT:
-		break;
-	}
-}
-
-/* rt-safe. */
-static void add_status(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
-{
-	if (lm->st.lifecycle == RMD_LC_LOST)
-		push_reprobe(l, lb, lm, now);
-	else
-		push_cmd(l, lb, lm, 0x9A);
-}
-
-/* The V2 0x280 slot (rmd/loop.h "Frames").  rt-safe. */
-static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
-{
-	const struct rmd_plan_bus *pb = lb->pb;
-	const struct rmd_motor *ms[4] = { NULL };
-	double torque[4] = { 0 };
-	bool any = false, queued = false;
-	struct rmd_frame f;
-	unsigned fl = 0, bad = 0, room = (1u + (unsigned)__builtin_popcount(pb->batched)) / 2u;
-
-	/*
-	 * One-shots first (brake releases, stops), as many as fit in the
-	 * frame's budget (1 + n frames; a one-shot and its answer are 2).
-	 */
-	for (unsigned k = 0; k < pb->n_motors && room; k++) {
-		struct lmotor *lm = &l->mot[pb->motors[k]];
-
-		if ((pb->batched & (1u << k)) && lm->n_oneshot) {
-			push_tx(lb, &lm->oneshot[0], idx_of(l, lm), REQ_ONESHOT);
-			queued = true;
-			room--;
-		}
-	}
-	if (queued)
-		return;
-	for (unsigned k = 0; k < pb->n_motors; k++) {
-		struct lmotor *lm = &l->mot[pb->motors[k]];
-
-		if (!(pb->batched & (1u << k)) || lm->m.id < 1 || lm->m.id > 4)
-			continue;
-		ms[lm->m.id - 1] = &lm->m;
-		if (lm->st.lifecycle != RMD_LC_ENABLED)
-			continue;
-		any = true;
-		if (lm->sp.mode == RMD_MODE_TORQUE) {
-			torque[lm->m.id - 1] = lm->sp.torque_nm;
-		} else {
-			l->cnt.unsupported++; /* 0 A: the frame carries torques only */
-		}
-	}
-	if (any) {
-		if (rmd_motor_encode_v2_batch(ms, torque, &f, &fl, &bad) == 0) {
-			l->cnt.nonfinite += bad;
-			if (fl & RMD_MOTOR_CLAMPED)
-				l->cnt.clamped++;
-			push_tx(lb, &f, 0, REQ_BATCH);
-		}
-		return;
-	}
-	/* Nobody to drive: one status read, the motors in turn. */
-	for (unsigned n = 0; n < pb->n_motors; n++) {
-		unsigned k = lb->batch_rr++ % pb->n_motors;
-		struct lmotor *lm = &l->mot[pb->motors[k]];
-
-		if (!(pb->batched & (1u << k)))
-			continue;
-		if (lm->st.lifecycle == RMD_LC_LOST) {
-			if (now < lm->next_probe_ns)
-				continue;
-			push_reprobe(l, lb, lm, now);
-		} else {
-			push_cmd(l, lb, lm, 0x9C);
-		}
-		return;
-	}
-}
-
-/* Book frame k of bus b, which the bus took.  rt-safe. */
-static void commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now)
-{
-	const struct txmeta *mt = &lb->meta[k];
-	const struct rmd_frame *f = &lb->tx[k];
-
-	if (mt->kind == REQ_BATCH) {
-		for (unsigned j = 0; j < lb->pb->n_motors; j++)
-			if (lb->pb->batched & (1u << j))
-				os_add(l, &l->mot[lb->pb->motors[j]], f, now);
-		return;
-	}
-	if (mt->kind == REQ_ONESHOT)
-		oneshot_pop(&l->mot[mt->motor]);
-	os_add(l, &l->mot[mt->motor], f, now);
-}
-
-/* Send the cycle's frames of bus b in one call.  False when it did not take them all.  rt-safe. */
-static bool send_bus(struct rmd_loop *l, unsigned b, int64_t now)
-{
-	struct lbus *lb = &l->bus[b];
-	struct rmd_plan_slot slots[RMD_PLAN_MAX_SLOTS];
-	unsigned n = rmd_plan_cycle(l->plan, b, l->cycle, slots);
-	unsigned taken;
-	int r;
-
-	lb->ntx = 0;
-	for (unsigned s = 0; s < n; s++) {
-		switch (slots[s].kind) {
-		case RMD_SLOT_CONTROL:
-			add_control(l, lb, &l->mot[slots[s].motor], now);
-			break;
-		case RMD_SLOT_V2_TORQUES:
-			add_batch(l, lb, now);
-			break;
-		case RMD_SLOT_STATUS:
-			add_status(l, lb, &l->mot[slots[s].motor], now);
-			break;
-		}
-	}
-	if (!lb->ntx)
-		return true;
-	r = rmd_bus_send(lb->bus, lb->tx, lb->ntx, now);
-	taken = r > 0 ? (unsigned)r : 0;
-	for (unsigned k = 0; k < taken && k < lb->ntx; k++)
-		commit(l, lb, k, now);
-	if (taken >= lb->ntx) {
-		lb->failing = false;
-		return true;
-	}
-	/*
-	 * Dropped: the next cycle sends fresh setpoints; one-shots stay
-	 * queued.  A request that never left gets no reply either: it counts
-	 * as missed, so a bus that takes nothing (bus-off) loses its motors.
-	 */
-	l->cnt.frames_not_sent += lb->ntx - taken;
-	for (unsigned k = taken; k < lb->ntx; k++) {
-		if (lb->meta[k].kind != REQ_BATCH) {
-			miss(l, &l->mot[lb->meta[k].motor], now);
-			continue;
-		}
-		for (unsigned j = 0; j < lb->pb->n_motors; j++)
-			if (lb->pb->batched & (1u << j))
-				miss(l, &l->mot[lb->pb->motors[j]], now);
-	}
-	if (!lb->failing || !lb->ev_send_any || now - lb->ev_send_ns >= EVENT_INTERVAL_NS) {
-		lb->ev_send_any = true;
-		lb->ev_send_ns = now;
-		loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, r < 0 ? r : -ENOBUFS,
-			   lb->ntx - taken);
-	}
-	lb->failing = true;
-	return false;
-}
-
-/* ------------------------------------------------------------------ */
 /* Publishing */
 
 /* rt-safe. */
@@ -873,6 +152,11 @@ void loop_pub_write(struct rmd_loop *l)
 	memcpy(&l->pub_snap, &l->snap, sizeof(l->snap));
 	l->pub_stats = l->stats;
 	l->pub_cnt = l->cnt;
+	if (l->health_fresh) {
+		memcpy(&l->pub_health, &l->health, sizeof(l->health));
+		l->pub_have_health = true;
+		l->health_fresh = false;
+	}
 	atomic_fetch_add_explicit(&l->pub_seq, 1, memory_order_release);
 }
 
@@ -896,9 +180,11 @@ static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_
 	}
 }
 
-/* rt-safe. */
-static void fill_health(struct rmd_loop *l, struct rmd_health *h, int64_t now)
+/* The health of the window since the last one, into l->health.  rt-safe. */
+static void fill_health(struct rmd_loop *l, int64_t now)
 {
+	struct rmd_health *h = &l->health;
+
 	memset(h, 0, sizeof(*h));
 	h->t_ns = now;
 	h->loop = l->stats;
@@ -924,7 +210,8 @@ static void fill_health(struct rmd_loop *l, struct rmd_health *h, int64_t now)
 		bh->stats = lb->bus->stats;
 	}
 	h->watchdog = l->wd;
-	h->safe_action_events = l->safe_events;
+	h->safe_action_events = l->cnt.safe_actions;
+	l->health_fresh = true;
 }
 
 /* rt-safe. */
@@ -949,12 +236,18 @@ static void publish(struct rmd_loop *l, int64_t now)
 {
 	struct rmd_snapshot *s = &l->snap;
 
+	bool health = l->cycle >= l->next_health_cycle;
+
 	loop_fill_snapshot(l, now);
 	wake_summary(l);
+	if (health) {
+		fill_health(l, now);
+		l->next_health_cycle = l->cycle + l->health_every;
+	}
 	loop_pub_write(l);
 	if (l->o.snapshots) {
 		rmd_latest_put(l->o.snapshots, s);
-		if (l->o.snapshot_fd > 0) {
+		if (l->o.snapshot_fd >= 0) {
 			uint64_t one = 1;
 			/* Non-blocking; EAGAIN means the bridge has a wake-up pending anyway. */
 			ssize_t w = write(l->o.snapshot_fd, &one, sizeof(one));
@@ -962,11 +255,8 @@ static void publish(struct rmd_loop *l, int64_t now)
 			(void)w;
 		}
 	}
-	if (l->o.health && l->cycle >= l->next_health_cycle) {
-		fill_health(l, rmd_latest_write_slot(l->o.health), now);
-		rmd_latest_publish(l->o.health);
-		l->next_health_cycle = l->cycle + l->health_every;
-	}
+	if (health && l->o.health)
+		rmd_latest_put(l->o.health, &l->health);
 }
 
 /* rt-safe. */
@@ -1039,11 +329,11 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 	schedule(l, now);
 	for (unsigned b = 0; b < l->n_buses; b++)
 		loop_drain(l, b, now);
-	check_deadlines(l, now);
-	take_command(l, now);
-	watchdog(l, now);
+	loop_check_deadlines(l, now);
+	loop_take_command(l, now);
+	loop_watchdog(l, now);
 	for (unsigned b = 0; b < l->n_buses; b++)
-		all_sent &= send_bus(l, b, now);
+		all_sent &= loop_send_bus(l, b, now);
 	if (!all_sent)
 		l->stats.plan_misses++;
 	bus_states(l, now);
@@ -1076,6 +366,24 @@ void rmd_loop_get_snapshot(const struct rmd_loop *l, struct rmd_snapshot *out)
 }
 
 /* Any thread; non-rt. */
+const struct rmd_motor *rmd_loop_motor(const struct rmd_loop *l, unsigned i)
+{
+	return i < l->n_motors ? &l->mot[i].m : NULL;
+}
+
+/* Any thread; non-rt. */
+bool rmd_loop_get_health(const struct rmd_loop *l, struct rmd_health *out)
+{
+	bool have;
+
+	/* pub_have_health never goes back to false: health read after it is one */
+	pub_read(l, &have, &l->pub_have_health, sizeof(have));
+	if (have)
+		pub_read(l, out, &l->pub_health, sizeof(*out));
+	return have;
+}
+
+/* Any thread; non-rt. */
 void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *out)
 {
 	pub_read(l, out, &l->pub_cnt, sizeof(*out));
@@ -1105,11 +413,11 @@ static int64_t max_reply_ns(const struct rmd_loop *l)
 	return m;
 }
 
-/* rt-safe. */
+/* Bounded, blocking: sleeps between sends (rmd/loop.h). */
 void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 {
 	unsigned off[RMD_MAX_BUSES] = { 0 };
-	bool brake = safe_action(l) == RMD_SAFE_BRAKE;
+	bool brake = loop_safe_action(l) == RMD_SAFE_BRAKE;
 
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		struct lbus *lb = &l->bus[b];
@@ -1121,9 +429,9 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 
 			/* V3 §2.15 / V2 §3.34 output off; V3 §2.27 / V2 §3.51 brake locked */
 			if (rmd_motor_encode_cmd(&lm->m, 0x80, &f) == 0)
-				push_tx(lb, &f, idx_of(l, lm), REQ_STATUS);
+				loop_push_tx(lb, &f, loop_idx(l, lm), REQ_STATUS);
 			if (brake && rmd_motor_encode_cmd(&lm->m, 0x78, &f) == 0)
-				push_tx(lb, &f, idx_of(l, lm), REQ_STATUS);
+				loop_push_tx(lb, &f, loop_idx(l, lm), REQ_STATUS);
 		}
 	}
 	for (unsigned t = 0; t < STOP_TRIES; t++) {
@@ -1137,7 +445,7 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 				continue;
 			r = rmd_bus_send(lb->bus, lb->tx + off[b], lb->ntx - off[b], now);
 			for (int k = 0; k < r; k++)
-				commit(l, lb, off[b] + (unsigned)k, now);
+				loop_commit(l, lb, off[b] + (unsigned)k, now);
 			if (r > 0)
 				off[b] += (unsigned)r;
 			left |= off[b] < lb->ntx;
@@ -1165,12 +473,10 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		loop_oneshot_clear(lm);
-		lm->damp_stream = false;
-		if (lm->st.lifecycle == RMD_LC_ENABLED || lm->st.lifecycle == RMD_LC_SAFE) {
-			lm->st.mode = (uint8_t)l->cfg->motors[i].mode;
-			loop_set_lifecycle(l, lm, RMD_LC_READY, now);
-		}
+		if (lm->st.lifecycle == RMD_LC_ENABLED || lm->st.lifecycle == RMD_LC_SAFE)
+			loop_enter(l, lm, RMD_LC_READY, now);
+		/* the stop frames went out above: nothing waits any more */
+		loop_frames_drop(lm);
 	}
 }
 
@@ -1255,7 +561,6 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 			free(l);
 			return NULL;
 		}
-		lm->bus = (uint8_t)c->bus;
 		lb = &l->bus[c->bus];
 		switch (c->proto) {
 		case RMD_PROTO_V2:

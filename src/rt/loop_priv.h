@@ -3,7 +3,11 @@
  * The rt loop's private parts, shared by the files of src/rt/ that make up
  * struct rmd_loop's behaviour (rmd/loop.h is the public face):
  *
- *   loop.c       construction, the cycle and what it calls   rt-safe
+ *   loop.c       construction, the cycle, schedule, publishing,
+ *                getters, stopping the motors                 rt-safe / non-rt
+ *   loop_rx.c    requests in flight, matching, deadlines      rt-safe
+ *   lifecycle.c  loop_enter(), commands, the host watchdog    rt-safe
+ *   loop_tx.c    a cycle's frames, one send, booking          rt-safe
  *   bringup.c    probing and arming the motors before start  non-rt
  *   rt_thread.c  the SCHED_FIFO thread and its set-up        rt-safe / non-rt
  *
@@ -19,6 +23,7 @@
 #include <time.h>
 
 #include "rmd/hist.h"
+#include "rmd/time.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 
@@ -56,8 +61,7 @@ struct outstanding {
 };
 
 struct lmotor {
-	struct rmd_motor m;
-	uint8_t bus;
+	struct rmd_motor m; /* the motor's one record: identity, bus, limits, ... */
 	struct rmd_motor_state st;
 	struct outstanding os[OUTSTANDING];
 	uint64_t seq;
@@ -132,7 +136,6 @@ struct rmd_loop {
 	uint64_t hist[RMD_HIST_BUCKETS];
 	uint64_t wake_n;
 	int64_t wake_sum;
-	uint64_t safe_events;
 	uint64_t ov_pending; /* ticks skipped, not yet reported */
 	bool ov_any;
 	int64_t ov_ev_ns;
@@ -141,12 +144,16 @@ struct rmd_loop {
 
 	/* work copies */
 	struct rmd_snapshot snap;
+	struct rmd_health health; /* filled every health_every cycles */
+	bool health_fresh;	  /* filled, not yet in pub_health */
 
 	/* for rmd_loop_get_*(): a sequence lock, written by the loop only */
 	atomic_uint pub_seq;
 	struct rmd_snapshot pub_snap;
 	struct rmd_loop_stats pub_stats;
 	struct rmd_loop_counters pub_cnt;
+	bool pub_have_health; /* pub_health was written once */
+	struct rmd_health pub_health;
 
 	atomic_uint_fast64_t heartbeat;
 	atomic_bool stop;
@@ -156,21 +163,49 @@ struct rmd_loop {
 	int mlock_err; /* -errno of the refusal, said when the thread starts */
 };
 
-/* Helpers of loop.c that bring-up and the thread use too.  rt-safe unless said. */
+/* Config index of lm.  rt-safe. */
+static inline unsigned loop_idx(const struct rmd_loop *l, const struct lmotor *lm)
+{
+	return (unsigned)(lm - l->mot);
+}
+
+/* rt-safe. */
+static inline enum rmd_safe_action loop_safe_action(const struct rmd_loop *l)
+{
+	return l->cfg->safety.safe_action;
+}
+
+/* loop.c.  rt-safe unless said. */
 int64_t loop_now(const struct rmd_loop *l);
 struct timespec loop_ts(int64_t ns);
 /* Wait up to ns for frames on bus (ppoll on its fd when it has one).  Non-rt. */
 void loop_wait_bus(const struct rmd_loop *l, struct rmd_bus *bus, int64_t ns);
 void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, unsigned bus,
 		int64_t a, int64_t b);
-void loop_set_lifecycle(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
-void loop_oneshot_clear(struct lmotor *lm);
-void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now);
-void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
-struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id);
-void loop_drain(struct rmd_loop *l, unsigned b, int64_t now);
 void loop_pub_write(struct rmd_loop *l);
 void loop_fill_snapshot(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
+
+/* loop_rx.c.  rt-safe. */
+void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now);
+void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
+struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id);
+void loop_drain(struct rmd_loop *l, unsigned b, int64_t now);
+void loop_check_deadlines(struct rmd_loop *l, int64_t now);
+
+/* lifecycle.c.  rt-safe. */
+void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
+void loop_frames_drop(struct lmotor *lm);
+void loop_motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now);
+void loop_miss(struct rmd_loop *l, struct lmotor *lm, int64_t now);
+void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now);
+void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now);
+void loop_take_command(struct rmd_loop *l, int64_t now);
+void loop_watchdog(struct rmd_loop *l, int64_t now);
+
+/* loop_tx.c.  rt-safe. */
+void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind);
+void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now);
+bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now);
 
 #endif /* RMD_LOOP_PRIV_H */

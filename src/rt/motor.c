@@ -11,17 +11,12 @@
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "rmd/motor.h"
 
 #define DEG_PER_RAD (180.0 / M_PI)
-
-/* The command table a motor's 0x140 + ID frames use: MIT motors speak V3 (V3 §5).  rt-safe. */
-static enum rmd_proto table_of(const struct rmd_motor *m)
-{
-	return m->proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
-}
 
 /* rt-safe. */
 static double clampf(double x, double lo, double hi, unsigned *fl)
@@ -111,6 +106,8 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	default:
 		return -EINVAL;
 	}
+	m->name = c->name;
+	m->bus = (uint8_t)c->bus;
 	m->id = c->id;
 	m->proto = c->proto;
 	m->mode = c->mode;
@@ -132,6 +129,76 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 }
 
 /* rt-safe. */
+unsigned rmd_motor_modes(const struct rmd_motor *m, bool batched)
+{
+	unsigned modes = 0;
+
+	if (m->kt_nm_a > 0.0)
+		modes |= RMD_MOTOR_MODE_BIT(RMD_MODE_TORQUE);
+	if (batched)
+		return modes;
+	modes |= RMD_MOTOR_MODE_BIT(RMD_MODE_SPEED) | RMD_MOTOR_MODE_BIT(RMD_MODE_POSITION);
+	if (m->proto == RMD_PROTO_MIT)
+		modes |= RMD_MOTOR_MODE_BIT(RMD_MODE_MIT);
+	return modes;
+}
+
+/* Non-rt. */
+void rmd_motor_info(const struct rmd_motor *m, bool batched, struct rmd_motor_info *out)
+{
+	bool mit = m->proto == RMD_PROTO_MIT;
+
+	memset(out, 0, sizeof(*out));
+	snprintf(out->name, sizeof(out->name), "%s", m->name ? m->name : "");
+	out->bus = m->bus;
+	out->id = m->id;
+	snprintf(out->protocol, sizeof(out->protocol), "%s", rmd_proto_key(m->proto));
+	out->modes = (uint8_t)rmd_motor_modes(m, batched);
+	out->pos_min_rad = m->limits.position_min_rad;
+	out->pos_max_rad = m->limits.position_max_rad;
+	out->vel_max_rad_s = m->limits.velocity_rad_s;
+	out->torque_max_nm = m->limits.torque_nm;
+	/* gains matter to MIT commands only; other motors get an empty range */
+	out->kp_min = mit ? m->mit.kp_min : 0;
+	out->kp_max = mit ? m->mit.kp_max : 0;
+	out->kd_min = mit ? m->mit.kd_min : 0;
+	out->kd_max = mit ? m->mit.kd_max : 0;
+}
+
+/* x within [lo, hi]; the first change of a rmd_motor_clamp() call goes in *note.  rt-safe. */
+static double clamp_value(double x, double lo, double hi, const char *field, unsigned *n,
+			  struct rmd_motor_clamp_note *note)
+{
+	double y = x < lo ? lo : x > hi ? hi : x;
+
+	if (y != x && !(*n)++ && note)
+		*note = (struct rmd_motor_clamp_note){ field, x, y };
+	return y;
+}
+
+/* rt-safe. */
+unsigned rmd_motor_clamp(const struct rmd_config_limits *lim, struct rmd_setpoint *sp,
+			 struct rmd_motor_clamp_note *note)
+{
+	double vmax = lim->velocity_rad_s, tmax = lim->torque_nm;
+	unsigned n = 0;
+
+	if (rmd_mode_uses_pos(sp->mode))
+		sp->pos_rad = clamp_value(sp->pos_rad, lim->position_min_rad, lim->position_max_rad,
+					  "position", &n, note);
+	if (rmd_mode_uses_vel(sp->mode))
+		sp->vel_rad_s = clamp_value(sp->vel_rad_s, -vmax, vmax, "velocity", &n, note);
+	if (rmd_mode_uses_torque(sp->mode))
+		sp->torque_nm = clamp_value(sp->torque_nm, -tmax, tmax, "torque", &n, note);
+	/* 0 asks for the motor's limit; 0 stays when it has none (the firmware's own) */
+	if (sp->mode == RMD_MODE_POSITION && isfinite(vmax))
+		sp->max_vel_rad_s = sp->max_vel_rad_s == 0 ? vmax :
+							     clamp_value(sp->max_vel_rad_s, 0, vmax,
+									 "max_velocity", &n, note);
+	return n;
+}
+
+/* rt-safe. */
 double rmd_motor_to_native_pos(const struct rmd_motor *m, double pos_rad)
 {
 	return m->dir * pos_rad + m->zero_offset_rad;
@@ -146,7 +213,7 @@ double rmd_motor_from_native_pos(const struct rmd_motor *m, double native_rad)
 /* Encode msg on 0x140 + ID with the motor's table.  rt-safe. */
 static int encode_msg(const struct rmd_motor *m, const struct rmd_msg *msg, struct rmd_frame *out)
 {
-	return rmd_encode(table_of(m), RMD_DIR_REQUEST, m->id, msg, out);
+	return rmd_encode(m->proto, RMD_DIR_REQUEST, m->id, msg, out);
 }
 
 /* rt-safe. */
@@ -154,7 +221,7 @@ int rmd_motor_encode_cmd(const struct rmd_motor *m, uint8_t cmd, struct rmd_fram
 {
 	struct rmd_msg msg;
 
-	if (!rmd_cmd_find(table_of(m), cmd))
+	if (!rmd_cmd_find(m->proto, cmd))
 		return -ENOENT;
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = cmd;
@@ -167,7 +234,7 @@ int rmd_motor_encode_comm_timeout(const struct rmd_motor *m, uint32_t ms, struct
 	struct rmd_msg msg;
 
 	/* V3 §2.30; V2 has no comm-loss protection command. */
-	if (table_of(m) == RMD_PROTO_V2)
+	if (m->proto == RMD_PROTO_V2)
 		return -EOPNOTSUPP;
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = 0xB3;
@@ -181,36 +248,32 @@ static double torque_to_iq(const struct rmd_motor *m, double torque_nm)
 	return m->dir * torque_nm / m->kt_nm_a;
 }
 
-/* 0xA1 with `torque_nm` (reported frame), clamped to the limit.  rt-safe. */
+/* 0xA1 with `torque_nm` (reported frame, within the limit).  rt-safe. */
 static int encode_torque(const struct rmd_motor *m, double torque_nm, struct rmd_frame *out,
 			 unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(table_of(m), 0xA1);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA1);
 	struct rmd_msg msg;
-	double lim = m->limits.torque_nm;
 
 	if (!spec)
 		return -EOPNOTSUPP;
 	if (!(m->kt_nm_a > 0.0))
 		return -EOPNOTSUPP;
-	torque_nm = clampf(torque_nm, -lim, lim, fl);
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = 0xA1;
 	put(&msg, spec, RMD_FLD_CURRENT, torque_to_iq(m, torque_nm), fl);
 	return encode_msg(m, &msg, out);
 }
 
-/* 0xA2 at vel_rad_s (reported frame), clamped to the limit.  rt-safe. */
+/* 0xA2 at vel_rad_s (reported frame, within the limit).  rt-safe. */
 static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_frame *out,
 			unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(table_of(m), 0xA2);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA2);
 	struct rmd_msg msg;
-	double lim = m->limits.velocity_rad_s;
 
 	if (!spec)
 		return -EOPNOTSUPP;
-	vel_rad_s = clampf(vel_rad_s, -lim, lim, fl);
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = 0xA2;
 	put(&msg, spec, RMD_FLD_SPEED, m->dir * vel_rad_s * DEG_PER_RAD * m->native_per_output, fl);
@@ -218,56 +281,40 @@ static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_
 }
 
 /*
- * 0xA4 to pos_rad at up to max_vel_rad_s (0: the velocity limit, or, with
- * none, maxSpeed 0, which leaves the speed to the firmware's own limit).
- * rt-safe.
+ * 0xA4 to pos_rad at up to mv_rad_s (both within the limits; maxSpeed 0
+ * leaves the speed to the firmware's own limit).  rt-safe.
  */
-static int encode_position(const struct rmd_motor *m, double pos_rad, double max_vel_rad_s,
+static int encode_position(const struct rmd_motor *m, double pos_rad, double mv_rad_s,
 			   struct rmd_frame *out, unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(table_of(m), 0xA4);
-	const struct rmd_config_limits *lim = &m->limits;
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA4);
+	double native = rmd_motor_to_native_pos(m, pos_rad);
 	struct rmd_msg msg;
-	double native, mv;
 
 	if (!spec)
 		return -EOPNOTSUPP;
-	pos_rad = clampf(pos_rad, lim->position_min_rad, lim->position_max_rad, fl);
-	native = rmd_motor_to_native_pos(m, pos_rad);
-	mv = fabs(max_vel_rad_s);
-	if (mv > 0.0)
-		mv = clampf(mv, 0.0, lim->velocity_rad_s, fl);
-	else if (isfinite(lim->velocity_rad_s))
-		mv = lim->velocity_rad_s;
-	else
-		mv = 0.0;
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = 0xA4;
 	put(&msg, spec, RMD_FLD_ANGLE, native * DEG_PER_RAD * m->native_per_output, fl);
-	put(&msg, spec, RMD_FLD_MAX_SPEED, mv * DEG_PER_RAD * m->native_per_output, fl);
+	put(&msg, spec, RMD_FLD_MAX_SPEED, mv_rad_s * DEG_PER_RAD * m->native_per_output, fl);
 	return encode_msg(m, &msg, out);
 }
 
 /*
- * MIT frame (V3 §5.2) from reported-frame values; ranges clamp
- * (rmd_mit_encode_cmd()).  rt-safe.
+ * MIT frame (V3 §5.2) from reported-frame values within the limits; the
+ * MIT ranges clamp too (rmd_mit_encode_cmd()).  rt-safe.
  */
 static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 		      struct rmd_frame *out, unsigned *fl)
 {
-	const struct rmd_config_limits *lim = &m->limits;
 	const struct rmd_mit_ranges *r = &m->mit;
 	struct rmd_mit_cmd c;
-	double p, v, t;
 
 	if (m->proto != RMD_PROTO_MIT)
 		return -EOPNOTSUPP;
-	p = clampf(sp->pos_rad, lim->position_min_rad, lim->position_max_rad, fl);
-	v = clampf(sp->vel_rad_s, -lim->velocity_rad_s, lim->velocity_rad_s, fl);
-	t = clampf(sp->torque_nm, -lim->torque_nm, lim->torque_nm, fl);
-	c.p_des_rad = clampf(rmd_motor_to_native_pos(m, p), r->p_min, r->p_max, fl);
-	c.v_des_rad_s = clampf(m->dir * v, r->v_min, r->v_max, fl);
-	c.t_ff_nm = clampf(m->dir * t, r->t_min, r->t_max, fl);
+	c.p_des_rad = clampf(rmd_motor_to_native_pos(m, sp->pos_rad), r->p_min, r->p_max, fl);
+	c.v_des_rad_s = clampf(m->dir * sp->vel_rad_s, r->v_min, r->v_max, fl);
+	c.t_ff_nm = clampf(m->dir * sp->torque_nm, r->t_min, r->t_max, fl);
 	c.kp = clampf(sp->kp, r->kp_min, r->kp_max, fl);
 	c.kd = clampf(sp->kd, r->kd_min, r->kd_max, fl);
 	return rmd_mit_encode_cmd(r, m->id, &c, out) < 0 ? -EOPNOTSUPP : 0;
@@ -277,30 +324,34 @@ static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 int rmd_motor_encode(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 		     struct rmd_frame *out, unsigned *flags)
 {
+	struct rmd_setpoint c = *sp; /* clamped to the limits */
 	unsigned fl = 0;
 	int r;
 
+	c.max_vel_rad_s = fabs(c.max_vel_rad_s);
+	if (rmd_motor_clamp(&m->limits, &c, NULL))
+		fl |= RMD_MOTOR_CLAMPED;
 	switch ((enum rmd_mode)sp->mode) {
 	case RMD_MODE_TORQUE:
 		if (!isfinite(sp->torque_nm))
 			return -EDOM;
-		r = encode_torque(m, sp->torque_nm, out, &fl);
+		r = encode_torque(m, c.torque_nm, out, &fl);
 		break;
 	case RMD_MODE_SPEED:
 		if (!isfinite(sp->vel_rad_s))
 			return -EDOM;
-		r = encode_speed(m, sp->vel_rad_s, out, &fl);
+		r = encode_speed(m, c.vel_rad_s, out, &fl);
 		break;
 	case RMD_MODE_POSITION:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->max_vel_rad_s))
 			return -EDOM;
-		r = encode_position(m, sp->pos_rad, sp->max_vel_rad_s, out, &fl);
+		r = encode_position(m, c.pos_rad, c.max_vel_rad_s, out, &fl);
 		break;
 	case RMD_MODE_MIT:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->vel_rad_s) ||
 		    !isfinite(sp->torque_nm) || !isfinite(sp->kp) || !isfinite(sp->kd))
 			return -EDOM;
-		r = encode_mit(m, sp, out, &fl);
+		r = encode_mit(m, &c, out, &fl);
 		break;
 	case RMD_MODE_COUNT:
 	default:
@@ -362,7 +413,7 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
 	for (unsigned k = 0; k < 4; k++) {
 		enum rmd_field fld = (enum rmd_field)(RMD_FLD_CURRENT_1 + k);
 		const struct rmd_motor *mk = m[k];
-		double t;
+		struct rmd_setpoint t = { .mode = RMD_MODE_TORQUE };
 
 		rmd_msg_set(&msg, fld, 0);
 		if (!mk)
@@ -373,8 +424,10 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
 			bad++;
 			continue;
 		}
-		t = clampf(torque_nm[k], -mk->limits.torque_nm, mk->limits.torque_nm, &fl);
-		put(&msg, spec, fld, torque_to_iq(mk, t), &fl);
+		t.torque_nm = torque_nm[k];
+		if (rmd_motor_clamp(&mk->limits, &t, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
+		put(&msg, spec, fld, torque_to_iq(mk, t.torque_nm), &fl);
 	}
 	if (rmd_encode(RMD_PROTO_V2, RMD_DIR_REQUEST, 0, &msg, out) < 0)
 		return -EINVAL;
@@ -400,8 +453,7 @@ void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req,
 		*cmd = 0xA1;
 		return;
 	}
-	*reply_id =
-		(table_of(m) == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
+	*reply_id = (m->proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
 	*cmd = req->len ? req->data[0] : 0;
 }
 
@@ -450,7 +502,7 @@ static int decode_mit(struct rmd_motor *m, const struct rmd_frame *f, struct rmd
 int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
 {
 	const struct rmd_cmd_spec *spec;
-	enum rmd_proto proto = table_of(m);
+	enum rmd_proto proto = rmd_proto_table(m->proto);
 	struct rmd_msg msg;
 	int ret;
 

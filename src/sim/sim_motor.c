@@ -1396,7 +1396,7 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 	if (r == R_NONE)
 		return 0;
 
-	proto = m->p.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
+	proto = rmd_proto_table(m->p.proto);
 	switch (r) {
 	case R_SET_ID:
 		reply_id = RMD_CAN_SET_ID;

@@ -12,6 +12,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -113,26 +114,30 @@ static uint64_t read_count(atomic_uint_fast64_t *c)
 	return atomic_load_explicit(c, memory_order_relaxed);
 }
 
-__attribute__((format(printf, 2, 3))) static void logf_(struct rmd_bridge *b, const char *fmt, ...)
+/* One message to the caller's log sink, at syslog level `level`. */
+__attribute__((format(printf, 3, 4))) static void logf_(struct rmd_bridge *b, int level,
+							const char *fmt, ...)
 {
-	FILE *f = b->opts.log ? b->opts.log : stderr;
+	char msg[512];
 	va_list ap;
 
+	if (!b->opts.log)
+		return;
 	va_start(ap, fmt);
-	vfprintf(f, fmt, ap);
+	vsnprintf(msg, sizeof(msg), fmt, ap);
 	va_end(ap);
-	fflush(f);
+	b->opts.log(b->opts.log_ctx, level, msg);
 }
 
 void rmd_bridge_opts_init(struct rmd_bridge_opts *opts)
 {
 	memset(opts, 0, sizeof(*opts));
-	snprintf(opts->url, sizeof(opts->url), "%s", RMD_BRIDGE_DEFAULT_URL);
-	snprintf(opts->prefix, sizeof(opts->prefix), "%s", RMD_BRIDGE_DEFAULT_PREFIX);
+	snprintf(opts->url, sizeof(opts->url), "%s", RMD_CONFIG_DEFAULT_LCM_URL);
+	snprintf(opts->prefix, sizeof(opts->prefix), "%s", RMD_CONFIG_DEFAULT_CHANNEL_PREFIX);
 	opts->period_ns = 1000000;
 	opts->state_every = 1;
-	opts->stale_ms = RMD_BRIDGE_DEFAULT_STALE_MS;
-	opts->health_period_ns = RMD_BRIDGE_DEFAULT_HEALTH_PERIOD_NS;
+	opts->stale_ms = RMD_CONFIG_DEFAULT_STALE_MS;
+	opts->health_period_ns = (int64_t)RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS * RMD_NS_PER_MS;
 	opts->poll_ns = RMD_BRIDGE_DEFAULT_POLL_NS;
 	opts->notify_fd = -1;
 }
@@ -161,26 +166,9 @@ __attribute__((format(printf, 3, 4))) static int reject(struct rmd_bridge *b, en
 	va_start(ap, fmt);
 	vsnprintf(why, sizeof(why), fmt, ap);
 	va_end(ap);
-	logf_(b,
-	      "<4>rmdd: rejected %s: %s; further rejections of this kind are counted in "
-	      "health_t\n",
+	logf_(b, 4, "rejected %s: %s; further rejections of this kind are counted in health_t",
 	      b->ch_command, why);
 	return kind;
-}
-
-static bool mode_uses_pos(int mode)
-{
-	return mode == RMD_MODE_POSITION || mode == RMD_MODE_MIT;
-}
-
-static bool mode_uses_vel(int mode)
-{
-	return mode == RMD_MODE_SPEED || mode == RMD_MODE_MIT;
-}
-
-static bool mode_uses_torque(int mode)
-{
-	return mode == RMD_MODE_TORQUE || mode == RMD_MODE_MIT;
 }
 
 static void list_modes(unsigned modes, char *buf, size_t len)
@@ -204,7 +192,7 @@ static int check_entries(struct rmd_bridge *b, const rmd_command_t *msg)
 			      n);
 	for (int k = 0; k < msg->count; k++) {
 		const rmd_motor_command_t *e = &msg->motor[k];
-		const struct rmd_bridge_motor *m;
+		const struct rmd_motor_info *m;
 		const char *bad = NULL;
 		double bad_v = 0;
 
@@ -281,24 +269,14 @@ static int check_order(struct rmd_bridge *b, const rmd_command_t *msg)
 	return -1;
 }
 
+/* The first clamp of a command, for the log line. */
 struct clamp_note {
 	bool any;
 	int motor;
-	const char *field;
-	double from, to;
+	struct rmd_motor_clamp_note what;
 };
 
-static double clamp(double x, double lo, double hi, struct clamp_note *note, int motor,
-		    const char *field)
-{
-	double y = x < lo ? lo : x > hi ? hi : x;
-
-	if (y != x && !note->any) /* the first one, for the log line */
-		*note = (struct clamp_note){ true, motor, field, x, y };
-	return y;
-}
-
-/* Fill the hand-over from a message that passed every check. */
+/* Fill the hand-over from a message that passed every check; clamp as rmd/motor.h says. */
 static void fill_command(struct rmd_bridge *b, const rmd_command_t *msg, struct rmd_command *cmd,
 			 struct clamp_note *note)
 {
@@ -307,33 +285,34 @@ static void fill_command(struct rmd_bridge *b, const rmd_command_t *msg, struct 
 	cmd->seq = msg->seq;
 	for (int k = 0; k < msg->count; k++) {
 		const rmd_motor_command_t *e = &msg->motor[k];
-		const struct rmd_bridge_motor *m = &b->opts.motor[e->index];
+		const struct rmd_motor_info *m = &b->opts.motor[e->index];
+		const struct rmd_config_limits lim = {
+			.position_min_rad = m->pos_min_rad,
+			.position_max_rad = m->pos_max_rad,
+			.velocity_rad_s = m->vel_max_rad_s,
+			.torque_nm = m->torque_max_nm,
+		};
 		struct rmd_setpoint *sp = &cmd->m[e->index];
-		double vmax = m->vel_max_rad_s, tmax = m->torque_max_nm;
-		int i = e->index;
+		struct rmd_motor_clamp_note what;
 
-		cmd->present |= 1u << i;
+		cmd->present |= 1u << e->index;
 		sp->enable = e->enable;
 		sp->mode = (uint8_t)e->mode;
-		if (mode_uses_pos(e->mode))
-			sp->pos_rad = clamp(e->position, m->pos_min_rad, m->pos_max_rad, note, i,
-					    "position");
-		if (mode_uses_vel(e->mode))
-			sp->vel_rad_s = clamp(e->velocity, -vmax, vmax, note, i, "velocity");
-		if (mode_uses_torque(e->mode))
-			sp->torque_nm = clamp(e->torque, -tmax, tmax, note, i, "torque");
-		if (e->mode == RMD_MODE_MIT) {
+		/* what the mode uses; the rest stays 0 */
+		if (rmd_mode_uses_pos(sp->mode))
+			sp->pos_rad = e->position;
+		if (rmd_mode_uses_vel(sp->mode))
+			sp->vel_rad_s = e->velocity;
+		if (rmd_mode_uses_torque(sp->mode))
+			sp->torque_nm = e->torque;
+		if (sp->mode == RMD_MODE_MIT) {
 			sp->kp = e->kp;
 			sp->kd = e->kd;
 		}
-		if (e->mode == RMD_MODE_POSITION) {
-			/* 0 asks for the motor's limit; 0 is handed on when it has none. */
-			double mv = e->max_velocity;
-
-			if (isfinite(vmax))
-				mv = mv == 0 ? vmax : clamp(mv, 0, vmax, note, i, "max_velocity");
-			sp->max_vel_rad_s = mv;
-		}
+		if (sp->mode == RMD_MODE_POSITION)
+			sp->max_vel_rad_s = e->max_velocity;
+		if (rmd_motor_clamp(&lim, sp, &what) && !note->any)
+			*note = (struct clamp_note){ true, e->index, what };
 	}
 }
 
@@ -395,11 +374,11 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		count(&b->n_clamped);
 		if (!b->clamp_logged) {
 			b->clamp_logged = true;
-			logf_(b,
-			      "<5>rmdd: %s: motor %d (%s): %s %g clamped to %g; further clamps are "
-			      "counted in health_t\n",
-			      b->ch_command, note.motor, motor_name(b, note.motor), note.field,
-			      note.from, note.to);
+			logf_(b, 5,
+			      "%s: motor %d (%s): %s %g clamped to %g; further clamps are "
+			      "counted in health_t",
+			      b->ch_command, note.motor, motor_name(b, note.motor), note.what.field,
+			      note.what.from, note.what.to);
 		}
 	}
 }
@@ -558,7 +537,7 @@ static void publish_config(struct rmd_bridge *b)
 	c->motor_count = (int16_t)op->nmotors;
 	c->motor = b->buf->config_motor;
 	for (unsigned i = 0; i < op->nmotors; i++) {
-		const struct rmd_bridge_motor *m = &op->motor[i];
+		const struct rmd_motor_info *m = &op->motor[i];
 
 		c->motor[i] = (rmd_motor_config_t){
 			.index = (int16_t)i,
@@ -599,8 +578,7 @@ static void drain(struct rmd_bridge *b)
 		publish_state(b);
 		if (r < 0) {
 			if (read_count(&b->n_lcm_errors) == 0)
-				logf_(b,
-				      "<4>rmdd: LCM receive failed; further failures are counted\n");
+				logf_(b, 4, "LCM receive failed; further failures are counted");
 			count(&b->n_lcm_errors);
 		}
 		if (r <= 0)
@@ -632,8 +610,7 @@ static void *bridge_main(void *arg)
 		ts.tv_sec = wait / 1000000000;
 		ts.tv_nsec = wait % 1000000000;
 		if (ppoll(fds, nfds, &ts, NULL) < 0 && errno != EINTR) {
-			logf_(b, "<3>rmdd: LCM bridge: poll: %s; the bridge stops\n",
-			      strerror(errno));
+			logf_(b, 3, "LCM bridge: poll: %s; the bridge stops", strerror(errno));
 			break;
 		}
 		if (fds[0].revents)
@@ -718,7 +695,7 @@ static int check_opts(const struct rmd_bridge_opts *o, char *err, size_t errlen)
 			return snprintf(err, errlen, "bus %u: name or kind unterminated", i),
 			       -EINVAL;
 	for (unsigned i = 0; i < o->nmotors; i++) {
-		const struct rmd_bridge_motor *m = &o->motor[i];
+		const struct rmd_motor_info *m = &o->motor[i];
 
 		if (strnlen(m->name, RMD_BRIDGE_NAME_LEN) == RMD_BRIDGE_NAME_LEN ||
 		    strnlen(m->protocol, sizeof(m->protocol)) == sizeof(m->protocol))

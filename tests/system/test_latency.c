@@ -315,7 +315,7 @@ static void bridge_opts(struct daemon *d, struct rmd_bridge_opts *o)
 	o->nmotors = d->cfg.n_motors;
 	for (unsigned i = 0; i < d->cfg.n_motors; i++) {
 		const struct rmd_config_motor *c = &d->cfg.motors[i];
-		struct rmd_bridge_motor *m = &o->motor[i];
+		struct rmd_motor_info *m = &o->motor[i];
 
 		snprintf(m->name, sizeof(m->name), "%s", c->name);
 		m->bus = (uint8_t)c->bus;
@@ -341,7 +341,6 @@ static void bridge_opts(struct daemon *d, struct rmd_bridge_opts *o)
 	o->commands = &d->commands;
 	o->snapshots = &d->snapshots;
 	o->health = &d->health;
-	o->log = d->log;
 }
 
 static int setup(void **state)
@@ -383,6 +382,7 @@ static int setup(void **state)
 		.snapshots = &d->snapshots,
 		.health = &d->health,
 		.events = &d->events,
+		.snapshot_fd = -1,
 	};
 	d->loop = rmd_loop_new(&lo, err, sizeof(err));
 	if (!d->loop)

@@ -586,7 +586,10 @@ static void test_tables(void **state)
 	assert_true(rmd_cmd_find(RMD_PROTO_V3, 0xA1)->flags & RMD_CMD_MOVES);
 	assert_false(rmd_cmd_find(RMD_PROTO_V3, 0x80)->flags & RMD_CMD_MOVES);
 	assert_false(rmd_cmd_find(RMD_PROTO_V3, 0x9A)->flags & RMD_CMD_MOVES);
-	assert_null(rmd_cmd_find(RMD_PROTO_MIT, 0xA1));
+	/* MIT motors speak the V3 table (V3 §5): rmd_proto_table() says so once. */
+	assert_ptr_equal(rmd_cmd_find(RMD_PROTO_MIT, 0xA1), rmd_cmd_find(RMD_PROTO_V3, 0xA1));
+	assert_int_equal(rmd_proto_table(RMD_PROTO_MIT), RMD_PROTO_V3);
+	assert_int_equal(rmd_proto_table(RMD_PROTO_V2), RMD_PROTO_V2);
 }
 
 /* ---- Seeded random round trips ----------------------------------------- */
@@ -752,9 +755,9 @@ static void test_bad_id(void **state)
 		{ RMD_PROTO_V3, "261#9C00000000000000" },
 		{ RMD_PROTO_V3, "401#9C00000000000000" }, /* MIT identifiers */
 		{ RMD_PROTO_V3, "7FF#9C00000000000000" },
-		{ RMD_PROTO_V3, "300#8000000000000000" }, /* V3 §4: 0x300 is 0x79 only */
-		{ RMD_PROTO_V3, "141#7900010000000000" }, /* and 0x79 is 0x300 only */
-		{ RMD_PROTO_MIT, "141#9C00000000000000" },
+		{ RMD_PROTO_V3, "300#8000000000000000" },  /* V3 §4: 0x300 is 0x79 only */
+		{ RMD_PROTO_V3, "141#7900010000000000" },  /* and 0x79 is 0x300 only */
+		{ RMD_PROTO_MIT, "401#9C00000000000000" }, /* MIT frames are not the table's */
 	};
 	struct rmd_addr a;
 	struct rmd_msg m;
@@ -857,7 +860,8 @@ static void test_encode_errors(void **state)
 	m = (struct rmd_msg){ .cmd = 0x9A };
 	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 33, &m, &f), -EINVAL);
 	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_UNKNOWN, 1, &m, &f), -EINVAL);
-	assert_int_equal(rmd_encode(RMD_PROTO_MIT, RMD_DIR_REQUEST, 1, &m, &f), -EINVAL);
+	assert_int_equal(rmd_encode(RMD_PROTO_MIT, RMD_DIR_REQUEST, 1, &m, &f), 0); /* V3's */
+	assert_int_equal(f.can_id, RMD_CAN_REQ_BASE + 1);
 	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REPLY, 0, &m, &f), -EINVAL);
 	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REQUEST, 0, &m, &f), -EINVAL);
 	m.cmd = RMD_V2_CMD_MULTI_TORQUE;

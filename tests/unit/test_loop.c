@@ -184,6 +184,7 @@ static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
 		.snapshots = &R.snaps,
 		.health = &R.health,
 		.events = &R.events,
+		.snapshot_fd = -1,
 		.now_ns = real ? NULL : fake_now,
 		.sleep_ns = real ? NULL : fake_sleep,
 	};
@@ -988,6 +989,33 @@ static void test_thread(void **state)
 	rig_down();
 }
 
+/* The seqlock getter gives the health the triple buffer got, and the motor records. */
+static void test_health_getter(void **state)
+{
+	static struct rmd_health got;
+	const struct rmd_health *h;
+	const struct rmd_motor *m;
+	const void *p;
+
+	(void)state;
+	rig_up(6, NULL);
+	assert_false(rmd_loop_get_health(R.l, &got)); /* none before the first cycle */
+	bring_up();
+	run(250, false);
+	assert_true(rmd_latest_get(&R.health, &p));
+	h = p;
+	assert_true(rmd_loop_get_health(R.l, &got));
+	assert_memory_equal(&got, h, sizeof(got));
+	assert_int_equal(got.loop.cycles, 201);
+	m = rmd_loop_motor(R.l, 5);
+	assert_non_null(m);
+	assert_string_equal(m->name, R.cfg.motors[5].name);
+	assert_int_equal(m->bus, R.cfg.motors[5].bus);
+	assert_int_equal(m->id, R.cfg.motors[5].id);
+	assert_null(rmd_loop_motor(R.l, 6));
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1007,6 +1035,7 @@ int main(void)
 		cmocka_unit_test(test_bus_off),
 		cmocka_unit_test(test_health),
 		cmocka_unit_test(test_thread),
+		cmocka_unit_test(test_health_getter),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);

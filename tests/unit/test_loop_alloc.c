@@ -238,6 +238,7 @@ static void test_cycle_allocates_nothing(void **state)
 		.snapshots = &snaps,
 		.health = &health,
 		.events = &events,
+		.snapshot_fd = -1,
 		.now_ns = fake_now,
 		.sleep_ns = fake_sleep,
 	};

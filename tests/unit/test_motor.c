@@ -763,6 +763,76 @@ static void test_position_round_trip(void **state)
 	}
 }
 
+/* The limit rule the bridge and the encoder share (docs/lcm.md). */
+static void test_clamp_rule(void **state)
+{
+	const struct rmd_config_limits lim = { -1.0, 2.0, 3.0, 4.0 };
+	const struct rmd_config_limits none = { -INFINITY, INFINITY, INFINITY, INFINITY };
+	struct rmd_motor_clamp_note note = { 0 };
+	struct rmd_setpoint sp = sp_mode(RMD_MODE_MIT);
+
+	(void)state;
+	sp.pos_rad = 5.0;
+	sp.vel_rad_s = -7.0;
+	sp.torque_nm = 1.0;
+	sp.kp = 1000.0; /* gains are not clamped: the bridge rejects them */
+	assert_int_equal(rmd_motor_clamp(&lim, &sp, &note), 2);
+	assert_string_equal(note.field, "position");
+	assert_true(note.from == 5.0 && note.to == 2.0);
+	assert_true(sp.pos_rad == 2.0 && sp.vel_rad_s == -3.0 && sp.torque_nm == 1.0);
+	assert_true(sp.kp == 1000.0);
+	/* a mode clamps only what it uses */
+	sp = sp_mode(RMD_MODE_TORQUE);
+	sp.pos_rad = 9.0;
+	sp.torque_nm = -9.0;
+	assert_int_equal(rmd_motor_clamp(&lim, &sp, NULL), 1);
+	assert_true(sp.pos_rad == 9.0 && sp.torque_nm == -4.0);
+	/* max_vel: 0 is the limit, and stays 0 without one */
+	sp = sp_mode(RMD_MODE_POSITION);
+	assert_int_equal(rmd_motor_clamp(&lim, &sp, NULL), 0);
+	assert_true(sp.max_vel_rad_s == 3.0);
+	sp = sp_mode(RMD_MODE_POSITION);
+	assert_int_equal(rmd_motor_clamp(&none, &sp, NULL), 0);
+	assert_true(sp.max_vel_rad_s == 0.0);
+	sp.max_vel_rad_s = 9.0;
+	assert_int_equal(rmd_motor_clamp(&lim, &sp, &note), 1);
+	assert_string_equal(note.field, "max_velocity");
+	assert_true(sp.max_vel_rad_s == 3.0);
+}
+
+/* Which modes a motor takes, and the bridge's view of it. */
+static void test_modes_and_info(void **state)
+{
+	struct rmd_config_motor c3 = cfg_motor(3, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	struct rmd_config_motor cm = cfg_motor(4, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_config_motor c2 = cfg_motor(1, RMD_PROTO_V2, RMD_CTRL_TORQUE);
+	const unsigned sp_pos = RMD_MOTOR_MODE_BIT(RMD_MODE_SPEED) |
+				RMD_MOTOR_MODE_BIT(RMD_MODE_POSITION);
+	struct rmd_motor m3, mm, m2;
+	struct rmd_motor_info info;
+
+	(void)state;
+	cm.torque_constant_nm_a = 0; /* unknown: no torque mode */
+	c3.bus = 2;
+	c3.limits.torque_nm = 4.5;
+	m3 = motor_of(&c3);
+	mm = motor_of(&cm);
+	m2 = motor_of(&c2);
+	assert_int_equal(rmd_motor_modes(&m3, false), RMD_MOTOR_MODE_BIT(RMD_MODE_TORQUE) | sp_pos);
+	assert_int_equal(rmd_motor_modes(&mm, false), sp_pos | RMD_MOTOR_MODE_BIT(RMD_MODE_MIT));
+	assert_int_equal(rmd_motor_modes(&m2, true), RMD_MOTOR_MODE_BIT(RMD_MODE_TORQUE));
+	rmd_motor_info(&m3, false, &info);
+	assert_string_equal(info.name, "m3");
+	assert_string_equal(info.protocol, "v3");
+	assert_int_equal(info.bus, 2);
+	assert_int_equal(info.id, 3);
+	assert_true(info.torque_max_nm == 4.5);
+	assert_true(info.kp_min == 0 && info.kp_max == 0); /* no MIT: an empty gain range */
+	rmd_motor_info(&mm, false, &info);
+	assert_string_equal(info.protocol, "mit");
+	assert_true(info.kp_max == cm.mit.kp_max && info.kd_max == cm.mit.kd_max);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -780,6 +850,8 @@ int main(void)
 		cmocka_unit_test(test_decode_v2_unwrap),
 		cmocka_unit_test(test_decode_mit),
 		cmocka_unit_test(test_position_round_trip),
+		cmocka_unit_test(test_clamp_rule),
+		cmocka_unit_test(test_modes_and_info),
 	};
 
 	return cmocka_run_group_tests_name("motor", tests, NULL, NULL);

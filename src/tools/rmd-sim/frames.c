@@ -103,7 +103,7 @@ void sim_describe(char *buf, size_t size, enum rmd_proto proto, enum rmd_dir dir
 				return;
 			}
 		}
-		proto = RMD_PROTO_V3; /* MIT motors also speak V3 */
+		proto = rmd_proto_table(proto); /* MIT motors also speak V3 */
 	}
 	r = rmd_decode(proto, dir, f, &msg, NULL);
 	if (r == 0) {

@@ -491,8 +491,8 @@ static int run_reqs(struct dev *d, struct req *q, unsigned n)
 			q[i].ok = f->len == t[i].req.len &&
 				  !memcmp(f->data, t[i].req.data, RMD_FRAME_LEN);
 		if (q[i].ok)
-			q[i].ok = rmd_decode_as(d->proto == RMD_PROTO_MIT ? RMD_PROTO_V3 : d->proto,
-						RMD_DIR_REPLY, q[i].msg.cmd, f, &q[i].rep) == 0;
+			q[i].ok = rmd_decode_as(d->proto, RMD_DIR_REPLY, q[i].msg.cmd, f,
+						&q[i].rep) == 0;
 	}
 	return 0;
 }

@@ -473,7 +473,7 @@ static void decode_table(enum rmd_proto proto, const struct decode_opts *opts, s
 static void decode_frame(const struct decode_opts *opts, const struct rmd_candump_line *line,
 			 struct decoded *d)
 {
-	enum rmd_proto proto = opts->proto == RMD_PROTO_MIT ? RMD_PROTO_V3 : opts->proto;
+	enum rmd_proto proto = rmd_proto_table(opts->proto);
 
 	memset(d, 0, sizeof(*d));
 	d->line = line;

@@ -666,7 +666,7 @@ int rmdctl_encode_run(int argc, char **argv)
 			goto usage;
 		}
 	}
-	ctx.table = ctx.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
+	ctx.table = rmd_proto_table(ctx.proto);
 	if (optind >= argc) {
 		rmdctl_err(SUB, "missing COMMAND");
 		goto usage;

@@ -104,9 +104,9 @@ struct rmdd {
 	int snapshot_fd; /* eventfd: the loop pokes the bridge after each snapshot */
 	struct rmd_bus buses[RMD_MAX_BUSES];
 	/* hand-overs: bridge -> loop, loop -> bridge, loop -> monitor -> bridge */
-	struct rmd_latest commands, snapshots, health_loop, health_bridge;
+	struct rmd_latest commands, snapshots, health;
 	struct rmd_ring events;
-	void *buf_commands, *buf_snapshots, *buf_health_loop, *buf_health_bridge, *buf_events;
+	void *buf_commands, *buf_snapshots, *buf_health, *buf_events;
 	struct rmd_loop *loop;
 	struct rmdd_monitor mon;
 	struct rmd_bridge bridge;
@@ -367,16 +367,13 @@ static int handovers_init(struct rmdd *d)
 {
 	d->buf_commands = zalloc3(sizeof(struct rmd_command));
 	d->buf_snapshots = zalloc3(sizeof(struct rmd_snapshot));
-	d->buf_health_loop = zalloc3(sizeof(struct rmd_health));
-	d->buf_health_bridge = zalloc3(sizeof(struct rmd_health));
+	d->buf_health = zalloc3(sizeof(struct rmd_health));
 	d->buf_events = calloc(RMDD_EVENT_SLOTS, sizeof(struct rmd_event));
-	if (!d->buf_commands || !d->buf_snapshots || !d->buf_health_loop || !d->buf_health_bridge ||
-	    !d->buf_events)
+	if (!d->buf_commands || !d->buf_snapshots || !d->buf_health || !d->buf_events)
 		return -ENOMEM;
 	rmd_latest_init(&d->commands, d->buf_commands, sizeof(struct rmd_command));
 	rmd_latest_init(&d->snapshots, d->buf_snapshots, sizeof(struct rmd_snapshot));
-	rmd_latest_init(&d->health_loop, d->buf_health_loop, sizeof(struct rmd_health));
-	rmd_latest_init(&d->health_bridge, d->buf_health_bridge, sizeof(struct rmd_health));
+	rmd_latest_init(&d->health, d->buf_health, sizeof(struct rmd_health));
 	d->snapshot_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
 	if (d->snapshot_fd < 0)
 		return -errno;
@@ -385,11 +382,10 @@ static int handovers_init(struct rmdd *d)
 
 static void handovers_free(struct rmdd *d)
 {
-	if (d->snapshot_fd > 0)
+	if (d->snapshot_fd >= 0)
 		close(d->snapshot_fd);
 	free(d->buf_events);
-	free(d->buf_health_bridge);
-	free(d->buf_health_loop);
+	free(d->buf_health);
 	free(d->buf_snapshots);
 	free(d->buf_commands);
 }
@@ -642,7 +638,7 @@ static int run(const struct rmdd_opts *o)
 		.buses = d->buses,
 		.commands = &d->commands,
 		.snapshots = &d->snapshots,
-		.health = &d->health_loop,
+		.health = &d->health,
 		.events = &d->events,
 		.snapshot_fd = d->snapshot_fd,
 		.require_rt = o->require_rt,
@@ -652,8 +648,7 @@ static int run(const struct rmdd_opts *o)
 		rmdd_log(3, "%s", err);
 		goto err_free_handovers;
 	}
-	r = rmdd_monitor_init(&d->mon, &d->cfg, d->loop, &d->events, &d->health_loop,
-			      &d->health_bridge);
+	r = rmdd_monitor_init(&d->mon, &d->cfg, d->loop, &d->events);
 	if (r < 0) {
 		rmdd_log(3, "monitor: %s", strerror(-r));
 		goto err_free_loop;
@@ -681,7 +676,7 @@ static int run(const struct rmdd_opts *o)
 	}
 	/* before LCM: a thread it may create must not inherit a real-time policy */
 	main_thread_normal(d);
-	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, &d->commands, &d->snapshots, &d->health_bridge);
+	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, d->loop, &d->commands, &d->snapshots, &d->health);
 	bo.notify_fd = d->snapshot_fd;
 	r = rmd_bridge_init(&d->bridge, &bo, err, sizeof(err));
 	if (r < 0) {

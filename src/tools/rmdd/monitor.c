@@ -13,10 +13,6 @@
  *     ("can0: motor 3 (knee_l): lost (10 missed replies in a row)"); the
  *     loop sends events only on change, and overruns are summed up to one
  *     line a second here;
- *   - takes the loop's health (its only reader) and passes it on to the
- *     bridge through a second triple buffer, keeping a copy for the
- *     statistics and STATUS=; the bridge reads health ten times a second,
- *     so the extra hop (at most one monitor period) does not matter;
  *   - samples every motor's reply latency from the loop's snapshot (the
  *     snapshot carries the latest reply's latency only, so this is a
  *     sample: one value per motor per monitor period, when a new reply
@@ -362,21 +358,7 @@ void rmdd_monitor_drain(struct rmdd_monitor *m)
 	}
 }
 
-/* ---- health and latency ------------------------------------------------------ */
-
-static void forward_health(struct rmdd_monitor *m)
-{
-	const void *p;
-
-	if (!m->health_in || !rmd_latest_get(m->health_in, &p))
-		return;
-	if (m->health_out)
-		rmd_latest_put(m->health_out, p);
-	pthread_mutex_lock(&m->lock);
-	memcpy(&m->health, p, sizeof(m->health));
-	m->have_health = true;
-	pthread_mutex_unlock(&m->lock);
-}
+/* ---- latency ------------------------------------------------------------------ */
 
 static void lat_add(struct rmdd_lat *l, int64_t ns)
 {
@@ -415,18 +397,6 @@ static void sample_latency(struct rmdd_monitor *m)
 	pthread_mutex_unlock(&m->lock);
 }
 
-bool rmdd_monitor_health(struct rmdd_monitor *m, struct rmd_health *out)
-{
-	bool have;
-
-	pthread_mutex_lock(&m->lock);
-	have = m->have_health;
-	if (have)
-		memcpy(out, &m->health, sizeof(*out));
-	pthread_mutex_unlock(&m->lock);
-	return have;
-}
-
 void rmdd_monitor_latency(struct rmdd_monitor *m, struct rmdd_lat out[RMD_MAX_MOTORS])
 {
 	pthread_mutex_lock(&m->lock);
@@ -450,15 +420,13 @@ static void *monitor_main(void *arg)
 			break;
 		rmdd_monitor_drain(m);
 		overrun_summary(m, rmd_now_ns());
-		forward_health(m);
 		sample_latency(m);
 	}
 	return NULL;
 }
 
 int rmdd_monitor_init(struct rmdd_monitor *m, const struct rmd_config *cfg, struct rmd_loop *loop,
-		      struct rmd_ring *events, struct rmd_latest *health_in,
-		      struct rmd_latest *health_out)
+		      struct rmd_ring *events)
 {
 	int r;
 
@@ -466,8 +434,6 @@ int rmdd_monitor_init(struct rmdd_monitor *m, const struct rmd_config *cfg, stru
 	m->cfg = cfg;
 	m->loop = loop;
 	m->events = events;
-	m->health_in = health_in;
-	m->health_out = health_out;
 	m->stop_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
 	if (m->stop_fd < 0)
 		return -errno;
@@ -503,7 +469,6 @@ void rmdd_monitor_stop(struct rmdd_monitor *m)
 		m->running = false;
 	}
 	rmdd_monitor_drain(m);
-	forward_health(m);
 	overrun_summary(m, INT64_MAX);
 }
 

@@ -6,8 +6,8 @@
  *   rmdd_buses.c   open every configured bus
  *   rmdd_lcm.c     the LCM bridge's options from the configuration
  *   rmdd_log.c     stderr logging, and the monitor thread: drains the rt
- *                  loop's event ring and logs on change, forwards health to
- *                  the bridge, samples each motor's reply latency
+ *                  loop's event ring and logs on change, samples each
+ *                  motor's reply latency
  *   rmdd_stats.c   the statistics (SIGUSR1, exit) and the STATUS= line
  *   rmdd_notify.c  systemd: READY=1, STATUS=, WATCHDOG=1, STOPPING=1
  *
@@ -44,7 +44,7 @@ enum {
 
 /* Event ring between the rt loop and the monitor: 4096 records of 32 bytes. */
 #define RMDD_EVENT_SLOTS 4096
-/* The monitor looks at the ring, health and the snapshot this often. */
+/* The monitor looks at the ring and the snapshot this often. */
 #define RMDD_MONITOR_PERIOD_NS 5000000
 
 /* ---- logging (rmdd_log.c) ---------------------------------------------- */
@@ -71,8 +71,6 @@ struct rmdd_monitor {
 	const struct rmd_config *cfg;
 	struct rmd_loop *loop;
 	struct rmd_ring *events;
-	struct rmd_latest *health_in;  /* loop -> monitor */
-	struct rmd_latest *health_out; /* monitor -> bridge (NULL: none) */
 
 	pthread_t thread;
 	bool running;
@@ -87,17 +85,12 @@ struct rmdd_monitor {
 
 	/* Shared with the main thread, under lock. */
 	pthread_mutex_t lock;
-	bool have_health;
-	struct rmd_health health;
 	struct rmdd_lat lat[RMD_MAX_MOTORS];
 };
 
-/*
- * Set up (no thread yet).  health_out may be NULL.  Returns 0 or -errno.
- */
+/* Set up (no thread yet).  Returns 0 or -errno. */
 int rmdd_monitor_init(struct rmdd_monitor *m, const struct rmd_config *cfg, struct rmd_loop *loop,
-		      struct rmd_ring *events, struct rmd_latest *health_in,
-		      struct rmd_latest *health_out);
+		      struct rmd_ring *events);
 
 /* Drain the event ring now, in the caller's thread (before the thread starts, after it stops). */
 void rmdd_monitor_drain(struct rmdd_monitor *m);
@@ -110,8 +103,7 @@ void rmdd_monitor_stop(struct rmdd_monitor *m);
 
 void rmdd_monitor_fini(struct rmdd_monitor *m);
 
-/* Copies for the main thread: the newest health (false: none yet), the latency samples. */
-bool rmdd_monitor_health(struct rmdd_monitor *m, struct rmd_health *out);
+/* Copy of the latency samples, for the main thread. */
 void rmdd_monitor_latency(struct rmdd_monitor *m, struct rmdd_lat out[RMD_MAX_MOTORS]);
 
 /* Name of a lifecycle state ("ready", "lost", ...). */
@@ -134,8 +126,9 @@ void rmdd_buses_close(struct rmd_bus *buses, unsigned n);
 
 /* Fill bridge options from the configuration, the plan and the hand-overs. */
 void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
-		   const struct rmd_plan *plan, struct rmd_latest *commands,
-		   struct rmd_latest *snapshots, struct rmd_latest *health);
+		   const struct rmd_plan *plan, const struct rmd_loop *loop,
+		   struct rmd_latest *commands, struct rmd_latest *snapshots,
+		   struct rmd_latest *health);
 
 /* ---- statistics (rmdd_stats.c) --------------------------------------------- */
 

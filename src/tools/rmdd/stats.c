@@ -135,7 +135,7 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 	rmd_loop_get_stats(s->loop, &st);
 	rmd_loop_get_counters(s->loop, &c);
 	rmd_loop_get_snapshot(s->loop, &snap);
-	have_h = rmdd_monitor_health(s->mon, &h);
+	have_h = rmd_loop_get_health(s->loop, &h);
 	flockfile(stderr);
 	rmdd_log_always(
 		6, "statistics (%s) after %.1f s: %" PRIu64 " cycles at %u Hz (%.1f Hz measured)",
@@ -208,6 +208,6 @@ void rmdd_stats_status(const struct rmdd_stats_src *s, double hz, bool stalled, 
 			buf + n, len - n,
 			"; loop %.0f Hz, p99 %.0f us, %" PRIu64 " overruns; controller %s; %s", hz,
 			us(st.wake_p99_ns), st.overruns,
-			rmdd_monitor_health(s->mon, &h) ? wd_name(h.watchdog) : "idle",
+			rmd_loop_get_health(s->loop, &h) ? wd_name(h.watchdog) : "idle",
 			stalled ? "LOOP STALLED" : "loop ok");
 }

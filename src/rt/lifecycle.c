@@ -1,0 +1,296 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The rt loop's motor lifecycle: the one state-change function
+ * loop_enter() and what decides to call it (missed replies, answers, error
+ * flags, the host's commands and the host watchdog).  See rmd/loop.h
+ * "Lifecycle" and "Safe actions"; the shared state is loop_priv.h.
+ *
+ * Execution context: rt-safe: called from the cycle (loop_enter() also from bring-up
+ * and rmd_loop_stop_motors()); no allocation, no lock, no text.
+ */
+#include <errno.h>
+#include <string.h>
+
+#include "rmd/loop.h"
+#include "rmd/motor.h"
+#include "loop_priv.h"
+
+/* Forget the one-shots waiting and the damp stream.  rt-safe. */
+void loop_frames_drop(struct lmotor *lm)
+{
+	lm->n_oneshot = 0;
+	lm->damp_stream = false;
+}
+
+/* rt-safe. */
+static void oneshot_push(struct lmotor *lm, const struct rmd_frame *f)
+{
+	if (lm->n_oneshot < ONESHOTS)
+		lm->oneshot[lm->n_oneshot++] = *f;
+}
+
+/* ------------------------------------------------------------------ */
+/* Lifecycle and safe actions */
+
+/*
+ * Queue the safe action's frames for lm.  stream: a SAFE motor with MIT damp
+ * gets the damp frame in every control slot instead of once.
+ * rt-safe.
+ */
+static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64_t now)
+{
+	enum rmd_safe_action a = loop_safe_action(l);
+	struct rmd_frame f[2];
+	int n;
+
+	if (a == RMD_SAFE_DAMP && lm->m.proto == RMD_PROTO_MIT && stream) {
+		lm->damp_stream = true;
+	} else {
+		n = rmd_motor_encode_safe(&lm->m, a, f);
+		for (int k = 0; k < n; k++)
+			oneshot_push(lm, &f[k]);
+		if (n <= 0 && rmd_motor_encode_cmd(&lm->m, 0x80, &f[0]) == 0)
+			oneshot_push(lm, &f[0]);
+	}
+	l->cnt.safe_actions++;
+	loop_event(l, now, RMD_EV_SAFE_ACTION, loop_idx(l, lm), lm->m.bus, a, 0);
+}
+
+/* rt-safe. */
+static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
+{
+	struct rmd_frame f;
+
+	if (rmd_motor_encode_cmd(&lm->m, cmd, &f) == 0)
+		oneshot_push(lm, &f);
+}
+
+/*
+ * The one place a motor changes lifecycle state: the entry actions of lc,
+ * then RMD_EV_MOTOR_STATE.  Nothing happens when lm is in lc already.
+ *
+ *   ENABLED  V3 §2.26 / V2 §3.50: the brake opens before the first setpoint.
+ *   SAFE     the safe action, streamed (MIT damp in every control slot).
+ *   READY    from ENABLED or SAFE: output off (V3 §2.15) and brake locked
+ *            (V3 §2.27), the configured mode; from PROBE: nothing waits.
+ *   LOST,    the safe action once when it was ENABLED, else nothing waits;
+ *   FAULT    FAULT reports the error code; LOST re-probes after
+ *            RMD_LOOP_REPROBE_NS.
+ *
+ * The enable-edge rule (rmd/loop.h): a motor that enters LOST or FAULT,
+ * returns from them, or is made SAFE for any reason but the host
+ * watchdog, takes enable = 1 only after an enable = 0; a motor found at
+ * bring-up takes it at once.  (A watchdog trip is lifted by any newer
+ * enable.)  Leaving FAULT reports error code 0.
+ * rt-safe.
+ */
+void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
+{
+	enum rmd_lifecycle old = (enum rmd_lifecycle)lm->st.lifecycle;
+	bool was_on = old == RMD_LC_ENABLED || old == RMD_LC_SAFE;
+
+	if (old == lc)
+		return;
+	if (lc != RMD_LC_READY || was_on) {
+		/* LOST -> READY keeps them: the safe action still waiting goes out yet */
+		loop_frames_drop(lm);
+	}
+	switch (lc) {
+	case RMD_LC_ENABLED:
+		push_oneshot_cmd(lm, 0x77);
+		break;
+	case RMD_LC_SAFE:
+		queue_safe(l, lm, true, now);
+		lm->need_edge = l->wd != RMD_WD_TRIPPED;
+		break;
+	case RMD_LC_READY:
+		if (was_on) {
+			push_oneshot_cmd(lm, 0x80);
+			push_oneshot_cmd(lm, 0x78);
+			lm->st.mode = (uint8_t)lm->m.mode;
+		} else if (old == RMD_LC_PROBE) {
+			lm->need_edge = false;
+		} else {
+			lm->need_edge = true;
+		}
+		if (old == RMD_LC_FAULT)
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, 0, 0);
+		break;
+	case RMD_LC_LOST:
+	case RMD_LC_FAULT:
+		if (old == RMD_LC_ENABLED)
+			queue_safe(l, lm, false, now);
+		lm->need_edge = true;
+		if (lc == RMD_LC_LOST)
+			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
+		else
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
+				   lm->st.error_code, 0);
+		break;
+	case RMD_LC_PROBE:
+	case RMD_LC_COUNT:
+		break;
+	}
+	lm->st.lifecycle = (uint8_t)lc;
+	loop_event(l, now, RMD_EV_MOTOR_STATE, loop_idx(l, lm), lm->m.bus, old, lc);
+}
+
+/* An ENABLED motor gets the safe action and becomes SAFE.  rt-safe. */
+static void make_safe(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	if (lm->st.lifecycle == RMD_LC_ENABLED)
+		loop_enter(l, lm, RMD_LC_SAFE, now);
+}
+
+/* rt-safe. */
+void loop_motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	if (lm->st.lifecycle == RMD_LC_LOST)
+		return;
+	loop_enter(l, lm, RMD_LC_LOST, now);
+	if (l->cfg->safety.lost_motor_action == RMD_LOST_ALL)
+		for (unsigned j = 0; j < l->n_motors; j++)
+			if (&l->mot[j] != lm)
+				make_safe(l, &l->mot[j], now);
+}
+
+/* rt-safe. */
+void loop_miss(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	unsigned n = l->cfg->safety.missed_replies_lost ? l->cfg->safety.missed_replies_lost : 1;
+
+	lm->st.missed_replies++;
+	l->cnt.missed++;
+	lm->consecutive++;
+	if (lm->consecutive >= n && lm->st.lifecycle != RMD_LC_LOST)
+		loop_motor_lost(l, lm, now);
+}
+
+/* The motor answered something: it is there.  rt-safe. */
+void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	lm->consecutive = 0;
+	lm->replied = true;
+	lm->last_reply_cycle = l->cycle;
+	if (lm->st.lifecycle == RMD_LC_LOST || lm->st.lifecycle == RMD_LC_PROBE)
+		loop_enter(l, lm, RMD_LC_READY, now);
+}
+
+/* Error flags from a 0x9A answer or report.  prev: the code before it.  rt-safe. */
+void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now)
+{
+	uint16_t code = lm->st.error_code;
+
+	if (lm->st.lifecycle != RMD_LC_FAULT) {
+		if (code)
+			loop_enter(l, lm, RMD_LC_FAULT, now);
+	} else if (!code) {
+		loop_enter(l, lm, RMD_LC_READY, now);
+	} else if (code != prev) {
+		loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, code, 0);
+	}
+}
+
+/* ------------------------------------------------------------------ */
+/* Commands and the host watchdog */
+
+/* rt-safe. */
+static void enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
+			 int64_t now)
+{
+	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
+	case RMD_LC_READY:
+	case RMD_LC_SAFE:
+		if (lm->need_edge)
+			return;
+		lm->sp = *sp;
+		lm->st.mode = sp->mode;
+		loop_enter(l, lm, RMD_LC_ENABLED, now);
+		break;
+	case RMD_LC_ENABLED:
+		lm->sp = *sp;
+		lm->st.mode = sp->mode;
+		break;
+	case RMD_LC_PROBE:
+	case RMD_LC_FAULT:
+	case RMD_LC_LOST:
+	case RMD_LC_COUNT:
+		break;
+	}
+}
+
+/* rt-safe. */
+static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	lm->need_edge = false; /* the enable = 0 the edge rule waits for */
+	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
+	case RMD_LC_ENABLED:
+	case RMD_LC_SAFE:
+		loop_enter(l, lm, RMD_LC_READY, now);
+		break;
+	case RMD_LC_READY:
+	case RMD_LC_PROBE:
+	case RMD_LC_FAULT:
+	case RMD_LC_LOST:
+	case RMD_LC_COUNT:
+		break;
+	}
+}
+
+/* rt-safe. */
+static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t now)
+{
+	if (l->wd == s)
+		return;
+	l->wd = (uint8_t)s;
+	loop_event(l, now, RMD_EV_WATCHDOG, 0xFF, 0xFF, s, 0);
+}
+
+/* rt-safe. */
+void loop_take_command(struct rmd_loop *l, int64_t now)
+{
+	const struct rmd_command *c = &l->cmd;
+	const void *p;
+	bool any_enable = false;
+
+	if (!l->o.commands || !rmd_latest_get(l->o.commands, &p))
+		return;
+	memcpy(&l->cmd, p, sizeof(l->cmd));
+	l->cnt.commands++;
+	if (!l->have_cmd || c->rx_ns > l->last_cmd_rx_ns)
+		l->last_cmd_rx_ns = c->rx_ns;
+	l->have_cmd = true;
+	/* A command from before the trip does not lift it. */
+	if (l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns)
+		return;
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		if (!(c->present & (1u << i)))
+			continue;
+		if (c->m[i].enable) {
+			any_enable = true;
+			enable_motor(l, &l->mot[i], &c->m[i], now);
+		} else {
+			disable_motor(l, &l->mot[i], now);
+		}
+	}
+	if (any_enable)
+		set_watchdog(l, RMD_WD_OK, now);
+}
+
+/* rt-safe. */
+void loop_watchdog(struct rmd_loop *l, int64_t now)
+{
+	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * RMD_NS_PER_MS;
+	bool any = false;
+
+	if (l->wd != RMD_WD_OK || timeout <= 0 || now - l->last_cmd_rx_ns <= timeout)
+		return;
+	for (unsigned i = 0; i < l->n_motors; i++)
+		any |= l->mot[i].st.lifecycle == RMD_LC_ENABLED;
+	if (!any)
+		return;
+	l->trip_ns = now;
+	set_watchdog(l, RMD_WD_TRIPPED, now);
+	for (unsigned i = 0; i < l->n_motors; i++)
+		make_safe(l, &l->mot[i], now);
+}

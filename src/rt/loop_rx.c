@@ -1,0 +1,208 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The rt loop's receiving side: the requests in flight of each motor, the
+ * matching of a received frame to its motor and request, decoding into the
+ * motor's state, and the reply deadlines.  See rmd/loop.h "Matching and
+ * deadlines"; the shared state is loop_priv.h.
+ *
+ * Execution context: rt-safe: called from the cycle (and from rmd_loop_stop_motors()
+ * and bring-up, which wait for replies); no allocation, no lock, no text.
+ */
+#include <errno.h>
+#include <string.h>
+
+#include "rmd/loop.h"
+#include "rmd/motor.h"
+#include "loop_priv.h"
+
+/* ------------------------------------------------------------------ */
+/* Requests in flight */
+
+/* rt-safe. */
+static bool echo_is_reply(const struct rmd_motor *m, const struct rmd_frame *f)
+{
+	const struct rmd_cmd_spec *spec;
+
+	if (f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len)
+		return false;
+	spec = rmd_cmd_find(m->proto, f->data[0]);
+	return spec && (spec->flags & RMD_CMD_ECHO);
+}
+
+/* rt-safe. */
+void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now)
+{
+	struct outstanding *o = NULL, *oldest = NULL;
+
+	for (unsigned k = 0; k < OUTSTANDING; k++) {
+		struct outstanding *e = &lm->os[k];
+
+		if (!e->used) {
+			o = e;
+			break;
+		}
+		if (!oldest || e->seq < oldest->seq)
+			oldest = e;
+	}
+	if (!o) {
+		/* full: the oldest has waited longest, it counts as missed */
+		o = oldest;
+		o->used = false;
+		loop_miss(l, lm, now);
+	}
+	memset(o, 0, sizeof(*o));
+	o->used = true;
+	rmd_motor_reply_key(&lm->m, f, &o->reply_id, &o->cmd);
+	o->echo_is_reply = echo_is_reply(&lm->m, f);
+	o->seq = lm->seq++;
+	o->sent_ns = now;
+	o->deadline_ns = now + l->bus[lm->m.bus].reply_ns;
+	memcpy(o->data, f->data, sizeof(o->data));
+}
+
+/* The oldest request of lm that frame f (id, cmd) answers, or NULL.  rt-safe. */
+static struct outstanding *os_match(struct lmotor *lm, uint32_t id, uint16_t cmd)
+{
+	struct outstanding *best = NULL;
+
+	for (unsigned k = 0; k < OUTSTANDING; k++) {
+		struct outstanding *e = &lm->os[k];
+
+		if (e->used && e->reply_id == id && e->cmd == cmd && (!best || e->seq < best->seq))
+			best = e;
+	}
+	return best;
+}
+
+/* ------------------------------------------------------------------ */
+/* Receiving */
+
+/* rt-safe. */
+void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+
+	l->cnt.unexpected++;
+	if (lb->ev_unexpected_any && now - lb->ev_unexpected_ns < EVENT_INTERVAL_NS)
+		return;
+	lb->ev_unexpected_any = true;
+	lb->ev_unexpected_ns = now;
+	loop_event(l, now, RMD_EV_UNEXPECTED, 0xFF, b, f->can_id, f->len ? f->data[0] : -1);
+}
+
+/* The motor a received identifier belongs to, or NULL.  rt-safe. */
+struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
+{
+	const struct lbus *lb = &l->bus[b];
+	unsigned k = 0;
+
+	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+		k = lb->by_v3[id - RMD_CAN_V3_REPLY_BASE];
+	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
+		k = lb->by_v2[id - RMD_CAN_REQ_BASE];
+	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
+		k = lb->by_mit[id - RMD_CAN_MIT_REPLY_BASE];
+	return k ? &l->mot[k - 1] : NULL;
+}
+
+/* Decode f into lm's state; false when it cannot be decoded.  rt-safe. */
+static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
+			int64_t now)
+{
+	struct rmd_motor_reply r;
+	uint16_t prev = lm->st.error_code;
+
+	if (rmd_motor_decode(&lm->m, f, &r) < 0)
+		return false;
+	rmd_motor_apply(&r, &lm->st);
+	if (r.have & RMD_MOTOR_HAVE_ERROR)
+		loop_note_errors(l, lm, prev, now);
+	return true;
+}
+
+/* rt-safe. */
+static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
+{
+	const struct rmd_frame *f = &rx->f;
+	struct lmotor *lm = loop_motor_of(l, b, f->can_id);
+	int64_t now = rx->t_ns;
+	struct outstanding *o;
+	uint16_t cmd;
+
+	if (!lm || !f->len) {
+		loop_unexpected(l, b, f, now);
+		return;
+	}
+	cmd = f->can_id > RMD_CAN_MIT_REPLY_BASE ? RMD_MOTOR_CMD_MIT : f->data[0];
+	o = os_match(lm, f->can_id, cmd);
+	if (o) {
+		bool echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
+			    !memcmp(f->data, o->data, RMD_FRAME_LEN);
+
+		o->used = false;
+		l->cnt.replies++;
+		lm->st.reply_latency_ns = rx->t_ns - o->sent_ns;
+		loop_alive(l, lm, now);
+		if (echo) {
+			/* DESIGN.md: after a comm-loss trip the first command is only echoed */
+			l->cnt.echoes++;
+			return;
+		}
+		if (!take_values(l, lm, f, now))
+			l->cnt.bad_replies++;
+		return;
+	}
+	if (cmd == RMD_MOTOR_CMD_COMM_LOST) {
+		/* DESIGN.md: the motor's comm-loss protection tripped; its output is off */
+		l->cnt.unsolicited++;
+		if (lm->st.lifecycle != RMD_LC_LOST) {
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), b,
+				   lm->st.error_code, RMD_MOTOR_CMD_COMM_LOST);
+			loop_motor_lost(l, lm, now);
+		}
+		return;
+	}
+	if (cmd == 0x9A) {
+		/* V3 §2.33.4 index 3: error reports every 100 ms, unasked */
+		l->cnt.unsolicited++;
+		loop_alive(l, lm, now);
+		if (!take_values(l, lm, f, now))
+			l->cnt.bad_replies++;
+		return;
+	}
+	loop_unexpected(l, b, f, now);
+}
+
+/* Take every frame that has arrived on bus b by now.  Bounded.  rt-safe. */
+void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+
+	for (unsigned round = 0; round < RX_ROUNDS; round++) {
+		int n = rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now);
+
+		if (n <= 0)
+			return;
+		for (int k = 0; k < n; k++)
+			handle_frame(l, b, &lb->rx[k]);
+		if (n < RX_BATCH)
+			return;
+	}
+}
+
+/* rt-safe. */
+void loop_check_deadlines(struct rmd_loop *l, int64_t now)
+{
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		for (unsigned k = 0; k < OUTSTANDING; k++) {
+			struct outstanding *o = &lm->os[k];
+
+			if (o->used && o->deadline_ns <= now) {
+				o->used = false;
+				loop_miss(l, lm, now);
+			}
+		}
+	}
+}

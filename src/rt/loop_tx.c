@@ -1,0 +1,268 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The rt loop's sending side: one cycle's frames of a bus from its plan
+ * slots (setpoints, one-shots, status reads, the V2 0x280 frame), one send
+ * call, and the booking of what the bus took.  See rmd/loop.h "Frames";
+ * the shared state is loop_priv.h.
+ *
+ * Execution context: rt-safe: called from the cycle (loop_push_tx() and loop_commit()
+ * also from rmd_loop_stop_motors()); no allocation, no lock, no text.
+ */
+#include <errno.h>
+#include <string.h>
+
+#include "rmd/loop.h"
+#include "rmd/motor.h"
+#include "loop_priv.h"
+
+/* rt-safe. */
+static void oneshot_pop(struct lmotor *lm)
+{
+	if (!lm->n_oneshot)
+		return;
+	for (unsigned k = 1; k < lm->n_oneshot; k++)
+		lm->oneshot[k - 1] = lm->oneshot[k];
+	lm->n_oneshot--;
+}
+
+/* ------------------------------------------------------------------ */
+/* Sending */
+
+/* rt-safe. */
+void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind)
+{
+	if (lb->ntx >= TX_MAX)
+		return;
+	lb->tx[lb->ntx] = *f;
+	lb->meta[lb->ntx] = (struct txmeta){ .motor = (uint8_t)motor, .kind = (uint8_t)kind };
+	lb->ntx++;
+}
+
+/* rt-safe. */
+static void push_cmd(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, uint8_t cmd)
+{
+	struct rmd_frame f;
+
+	if (rmd_motor_encode_cmd(&lm->m, cmd, &f) == 0)
+		loop_push_tx(lb, &f, loop_idx(l, lm), REQ_STATUS);
+}
+
+/* A lost motor's 0x9A re-probe, when one is due.  rt-safe. */
+static void push_reprobe(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+{
+	if (now < lm->next_probe_ns)
+		return;
+	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
+	push_cmd(l, lb, lm, 0x9A);
+}
+
+/* The setpoint's frame, or the safe action's first frame instead of a refused one.  rt-safe. */
+static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+{
+	struct rmd_frame f, safe[2];
+	unsigned fl = 0;
+	int r = rmd_motor_encode(&lm->m, &lm->sp, &f, &fl);
+
+	if (r == 0) {
+		if (fl & RMD_MOTOR_CLAMPED)
+			l->cnt.clamped++;
+		loop_push_tx(lb, &f, loop_idx(l, lm), REQ_CONTROL);
+		return;
+	}
+	if (r == -EDOM)
+		l->cnt.nonfinite++;
+	else
+		l->cnt.unsupported++;
+	if (rmd_motor_encode_safe(&lm->m, loop_safe_action(l), safe) > 0)
+		loop_push_tx(lb, &safe[0], loop_idx(l, lm), REQ_CONTROL);
+	else
+		push_cmd(l, lb, lm, 0x80);
+}
+
+/* rt-safe. */
+static void add_control(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+{
+	struct rmd_frame f[2];
+
+	/* one-shots first: an ENABLED motor's brake release, the others' stops */
+	if (lm->n_oneshot) {
+		loop_push_tx(lb, &lm->oneshot[0], loop_idx(l, lm), REQ_ONESHOT);
+		return;
+	}
+	if (lm->st.lifecycle == RMD_LC_ENABLED) {
+		push_setpoint(l, lb, lm);
+		return;
+	}
+	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
+	case RMD_LC_SAFE:
+		if (lm->damp_stream && rmd_motor_encode_safe(&lm->m, RMD_SAFE_DAMP, f) == 1) {
+			loop_push_tx(lb, &f[0], loop_idx(l, lm), REQ_CONTROL);
+			break;
+		}
+		push_cmd(l, lb, lm, 0x9C);
+		break;
+	case RMD_LC_PROBE:
+	case RMD_LC_READY:
+	case RMD_LC_FAULT:
+		/* read only: V3 §2.13 / V2 §3.32 status 2 (MIT motors answer V3) */
+		push_cmd(l, lb, lm, 0x9C);
+		break;
+	case RMD_LC_LOST:
+		push_reprobe(l, lb, lm, now);
+		break;
+	case RMD_LC_ENABLED:
+	case RMD_LC_COUNT:
+		break;
+	}
+}
+
+/* rt-safe. */
+static void add_status(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+{
+	if (lm->st.lifecycle == RMD_LC_LOST)
+		push_reprobe(l, lb, lm, now);
+	else
+		push_cmd(l, lb, lm, 0x9A);
+}
+
+/* The V2 0x280 slot (rmd/loop.h "Frames").  rt-safe. */
+static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
+{
+	const struct rmd_plan_bus *pb = lb->pb;
+	const struct rmd_motor *ms[4] = { NULL };
+	double torque[4] = { 0 };
+	bool any = false, queued = false;
+	struct rmd_frame f;
+	unsigned fl = 0, bad = 0, room = (1u + (unsigned)__builtin_popcount(pb->batched)) / 2u;
+
+	/*
+	 * One-shots first (brake releases, stops), as many as fit in the
+	 * frame's budget (1 + n frames; a one-shot and its answer are 2).
+	 */
+	for (unsigned k = 0; k < pb->n_motors && room; k++) {
+		struct lmotor *lm = &l->mot[pb->motors[k]];
+
+		if ((pb->batched & (1u << k)) && lm->n_oneshot) {
+			loop_push_tx(lb, &lm->oneshot[0], loop_idx(l, lm), REQ_ONESHOT);
+			queued = true;
+			room--;
+		}
+	}
+	if (queued)
+		return;
+	for (unsigned k = 0; k < pb->n_motors; k++) {
+		struct lmotor *lm = &l->mot[pb->motors[k]];
+
+		if (!(pb->batched & (1u << k)) || lm->m.id < 1 || lm->m.id > 4)
+			continue;
+		ms[lm->m.id - 1] = &lm->m;
+		if (lm->st.lifecycle != RMD_LC_ENABLED)
+			continue;
+		any = true;
+		if (lm->sp.mode == RMD_MODE_TORQUE) {
+			torque[lm->m.id - 1] = lm->sp.torque_nm;
+		} else {
+			l->cnt.unsupported++; /* 0 A: the frame carries torques only */
+		}
+	}
+	if (any) {
+		if (rmd_motor_encode_v2_batch(ms, torque, &f, &fl, &bad) == 0) {
+			l->cnt.nonfinite += bad;
+			if (fl & RMD_MOTOR_CLAMPED)
+				l->cnt.clamped++;
+			loop_push_tx(lb, &f, 0, REQ_BATCH);
+		}
+		return;
+	}
+	/* Nobody to drive: one status read, the motors in turn. */
+	for (unsigned n = 0; n < pb->n_motors; n++) {
+		unsigned k = lb->batch_rr++ % pb->n_motors;
+		struct lmotor *lm = &l->mot[pb->motors[k]];
+
+		if (!(pb->batched & (1u << k)))
+			continue;
+		if (lm->st.lifecycle == RMD_LC_LOST) {
+			if (now < lm->next_probe_ns)
+				continue;
+			push_reprobe(l, lb, lm, now);
+		} else {
+			push_cmd(l, lb, lm, 0x9C);
+		}
+		return;
+	}
+}
+
+/* Book frame k of bus b, which the bus took.  rt-safe. */
+void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now)
+{
+	const struct txmeta *mt = &lb->meta[k];
+	const struct rmd_frame *f = &lb->tx[k];
+
+	if (mt->kind == REQ_BATCH) {
+		for (unsigned j = 0; j < lb->pb->n_motors; j++)
+			if (lb->pb->batched & (1u << j))
+				loop_os_add(l, &l->mot[lb->pb->motors[j]], f, now);
+		return;
+	}
+	if (mt->kind == REQ_ONESHOT)
+		oneshot_pop(&l->mot[mt->motor]);
+	loop_os_add(l, &l->mot[mt->motor], f, now);
+}
+
+/* Send the cycle's frames of bus b in one call.  False when it did not take them all.  rt-safe. */
+bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+	struct rmd_plan_slot slots[RMD_PLAN_MAX_SLOTS];
+	unsigned n = rmd_plan_cycle(l->plan, b, l->cycle, slots);
+	unsigned taken;
+	int r;
+
+	lb->ntx = 0;
+	for (unsigned s = 0; s < n; s++) {
+		switch (slots[s].kind) {
+		case RMD_SLOT_CONTROL:
+			add_control(l, lb, &l->mot[slots[s].motor], now);
+			break;
+		case RMD_SLOT_V2_TORQUES:
+			add_batch(l, lb, now);
+			break;
+		case RMD_SLOT_STATUS:
+			add_status(l, lb, &l->mot[slots[s].motor], now);
+			break;
+		}
+	}
+	if (!lb->ntx)
+		return true;
+	r = rmd_bus_send(lb->bus, lb->tx, lb->ntx, now);
+	taken = r > 0 ? (unsigned)r : 0;
+	for (unsigned k = 0; k < taken && k < lb->ntx; k++)
+		loop_commit(l, lb, k, now);
+	if (taken >= lb->ntx) {
+		lb->failing = false;
+		return true;
+	}
+	/*
+	 * Dropped: the next cycle sends fresh setpoints; one-shots stay
+	 * queued.  A request that never left gets no reply either: it counts
+	 * as missed, so a bus that takes nothing (bus-off) loses its motors.
+	 */
+	l->cnt.frames_not_sent += lb->ntx - taken;
+	for (unsigned k = taken; k < lb->ntx; k++) {
+		if (lb->meta[k].kind != REQ_BATCH) {
+			loop_miss(l, &l->mot[lb->meta[k].motor], now);
+			continue;
+		}
+		for (unsigned j = 0; j < lb->pb->n_motors; j++)
+			if (lb->pb->batched & (1u << j))
+				loop_miss(l, &l->mot[lb->pb->motors[j]], now);
+	}
+	if (!lb->failing || !lb->ev_send_any || now - lb->ev_send_ns >= EVENT_INTERVAL_NS) {
+		lb->ev_send_any = true;
+		lb->ev_send_ns = now;
+		loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, r < 0 ? r : -ENOBUFS,
+			   lb->ntx - taken);
+	}
+	lb->failing = true;
+	return false;
+}
