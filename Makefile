@@ -274,6 +274,6 @@ format-check:
 	$(Q)$(CLANG_FORMAT) --dry-run -Werror $(FORMAT_SRCS) && echo "format-check: ok"
 
 clean:
-	rm -rf build
+	rm -rf build python/build python/rmd.egg-info
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -343,6 +343,9 @@ class Client:
         send()/spin(): rmdd's watchdog wants a command every
         command_timeout_ms.
 
+        A motor this client has already enabled goes through enable = 0 too
+        (its output is off for a few cycles).
+
         strict (the default): a motor that does not become READY, then
         ENABLED, within `timeout` s each raises RmdError (after enable = 0 to
         the motors).  strict=False: returns a list of (name, lifecycle name)
