@@ -5,7 +5,8 @@
 #   make install         PREFIX=/usr/local DESTDIR=
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
-#   make lcm-python      Python LCM types into $(BUILD)/python (package `rmd`)
+#   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
+#   make python-venv     build/venv: a venv with `pip install ./python` (lcm from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
 #   SANITIZE=1           ASan + UBSan (objects go to build/san)
 #   WERROR=1             warnings are errors (CI sets it)
@@ -86,7 +87,8 @@ LIBS := $(PKG_LIBS) -lm
 
 # LCM types (lcm_types/<type>.lcm, package rmd, one type per file): lcm-gen
 # writes their C into $(BUILD)/gen, compiled into the library; the Python
-# package and the jar for lcm-spy are built on request.
+# package (python/: the types and rmd.Client) and the jar for lcm-spy are
+# built on request.
 LCM_GEN ?= lcm-gen
 JAVAC ?= javac
 JAR ?= jar
@@ -99,6 +101,11 @@ GEN_STAMP := $(BUILD)/gen/.stamp
 # lcm-gen's C leaves a few parameters unused; the rest of the flags hold.
 GEN_CFLAGS := -Wno-unused-parameter
 LCM_PYTHON := $(BUILD)/python/rmd/__init__.py
+PYTHON_SRCS := python/pyproject.toml python/setup.py python/gen_types.py $(wildcard python/rmd/*.py)
+# A venv with the package installed as users install it (README): the
+# Python system suites run it.  One for every BUILD (SANITIZE=1 too).
+VENV ?= build/venv
+VENV_STAMP := $(VENV)/.installed
 LCM_JAVA := $(BUILD)/rmd_types.jar
 
 .PHONY: all test install uninstall format format-check check-layers clean deps
@@ -106,7 +113,7 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
-	libyaml-dev can-utils python3 liblcm-dev liblcm-bin libglib2.0-dev \
+	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2
 
 deps:
@@ -124,7 +131,7 @@ $(LIB): $(LIB_OBJS)
 	@$(if $(Q),echo "  AR      $@")
 	$(Q)rm -f $@ && $(AR) rcs $@ $^
 
-.PHONY: lcm-python lcm-java
+.PHONY: lcm-python lcm-java python-venv
 
 $(GEN_STAMP): $(LCM_TYPES)
 	@mkdir -p $(BUILD)/gen/rmd
@@ -146,10 +153,21 @@ $(LIB_OBJS) $(TESTS:%=%.o) $(HARNESS_OBJS) $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(RMD
 
 lcm-python: $(LCM_PYTHON)
 
-$(LCM_PYTHON): $(LCM_TYPES)
+# The whole package, for PYTHONPATH=$(BUILD)/python in a checkout: the
+# generated types and python/rmd/*.py (python/gen_types.py, as pip does).
+$(LCM_PYTHON): $(LCM_TYPES) $(PYTHON_SRCS)
 	@$(if $(Q),echo "  LCMGEN  $(BUILD)/python/rmd")
 	$(Q)rm -rf $(BUILD)/python/rmd && mkdir -p $(BUILD)/python
-	$(Q)$(LCM_GEN) -p --ppath $(BUILD)/python $(LCM_TYPES)
+	$(Q)LCM_GEN=$(LCM_GEN) python3 python/gen_types.py $(BUILD)/python --with-sources
+
+python-venv: $(VENV_STAMP)
+
+$(VENV_STAMP): $(LCM_TYPES) $(PYTHON_SRCS)
+	@$(if $(Q),echo "  VENV    $(VENV) (pip install ./python)")
+	$(Q)test -x $(VENV)/bin/python3 || python3 -m venv $(VENV)
+	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
+		--force-reinstall ./python
+	$(Q)touch $@
 
 lcm-java: $(LCM_JAVA)
 
@@ -256,6 +274,6 @@ format-check:
 	$(Q)$(CLANG_FORMAT) --dry-run -Werror $(FORMAT_SRCS) && echo "format-check: ok"
 
 clean:
-	rm -rf build
+	rm -rf build python/build python/rmd.egg-info
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

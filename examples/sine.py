@@ -2,28 +2,28 @@
 # SPDX-License-Identifier: MIT
 """An rmdd controller in Python: every motor that can follows a sine.
 
-    pip install lcm                      # the LCM Python module
-    make lcm-python                      # the rmd types, in build/python
-    rmdd --config examples/sim-sine.yaml &
-    python3 examples/sine.py --mode position
-    python3 examples/sine.py --mode mit --kp 20 --kd 1
+    python3 -m venv ~/rmd-venv             # Debian 12 / Ubuntu 24.04: pip wants a venv
+    ~/rmd-venv/bin/pip install ./python    # the rmd package (types, client) and lcm
+    build/rmdd --config examples/sim-sine.yaml &
+    ~/rmd-venv/bin/python3 examples/sine.py --mode position
+    ~/rmd-venv/bin/python3 examples/sine.py --mode mit --kp 20 --kd 1
 
-It asks rmdd for its configuration (config_t on PREFIX + CONFIG, requested on
-PREFIX + CONFIG_REQUEST), drives every motor whose modes allow the chosen
+It talks to rmdd through rmd.Client (python/rmd/client.py): asks for its
+configuration (config_t), drives every motor whose modes allow the chosen
 mode, publishes command_t at --rate Hz with a sine around each motor's
 starting position, and once a second prints each motor's tracking error
 (target - measured position from state_t: RMS and largest magnitude).
 Ctrl-C (or --duration) sends enable = 0 to every motor it drove and exits 0.
 Without an answer from rmdd within 2 s it says so and exits 1.
 
-The rmd types are found through PYTHONPATH (PYTHONPATH=build/python), else in
-build/python beside this file's directory.  examples/README.md has the rest.
+The rmd package is PYTHONPATH's (`make lcm-python`: PYTHONPATH=build/python),
+else the installed one, else build/python beside this file's directory.
+examples/README.md has the rest.
 """
 
 import argparse
 import math
 import os
-import select
 import signal
 import sys
 import time
@@ -32,9 +32,10 @@ PROG = "sine.py"
 DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
 CONFIG_WAIT_S = 2.0  # no config_t within this: rmdd is not running
 STATE_WAIT_S = 1.0  # no state_t for this long: rmdd went away
-READY_WAIT_S = 0.5  # enable = 0 before enable = 1: wait this long for READY
+READY_WAIT_S = 0.5  # enable = 0 before enable = 1: wait this long for READY (then ENABLED)
 
-LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe"]
+VENV_HINT = ("python3 -m venv ~/rmd-venv && ~/rmd-venv/bin/pip install ./python, then "
+             "~/rmd-venv/bin/python3 examples/sine.py (examples/README.md)")
 
 
 def die(msg, status=1):
@@ -42,25 +43,30 @@ def die(msg, status=1):
     sys.exit(status)
 
 
-def import_modules():
-    """The LCM module and the generated rmd package, with a message saying how to get them."""
+def import_rmd():
+    """The rmd package with its client, with a message saying how to get it."""
     try:
         import lcm  # noqa: F401
     except ImportError:
-        die("the Python module `lcm` is missing: pip install lcm")
+        die(f"the Python module `lcm` is missing: {VENV_HINT}")
+    top = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
     try:
-        import rmd  # noqa: F401
+        import rmd
     except ImportError:
-        here = os.path.dirname(os.path.abspath(__file__))
-        sys.path.append(os.path.join(here, "..", "build", "python"))
+        sys.path.append(os.path.join(top, "build", "python"))
         try:
-            import rmd  # noqa: F401
+            import rmd
         except ImportError:
-            die("the rmd types are missing: run `make lcm-python` and set "
-                "PYTHONPATH=build/python")
-    import lcm
-    import rmd
-    return lcm, rmd
+            die(f"the rmd package is missing: {VENV_HINT}")
+    if not hasattr(rmd, "Client"):
+        # bare types from lcm-gen (no client): the client of this checkout
+        src = os.path.join(top, "python", "rmd")
+        if not os.path.exists(os.path.join(src, "client.py")):
+            die(f"this rmd package ({rmd.__path__[0]}) has no client: {VENV_HINT}")
+        rmd.__path__.append(src)
+        from rmd.client import Client, RmdError
+        rmd.Client, rmd.RmdError = Client, RmdError
+    return rmd
 
 
 def parse_args():
@@ -93,6 +99,10 @@ def parse_args():
     return a
 
 
+class Stopped(Exception):
+    """Ctrl-C or SIGTERM before the sine runs."""
+
+
 class Motor:
     """A motor we drive: its configuration, the sine's centre and the error statistics."""
 
@@ -113,11 +123,7 @@ class Motor:
             acc[2] += 1
 
 
-def lc_name(lc):
-    return LC_NAMES[lc] if 0 <= lc < len(LC_NAMES) else "unknown"
-
-
-def report(acc, m):
+def report(acc, m, lc_name):
     """'rms X rad  max Y rad  (N states)' of an accumulator."""
     sq, mx, n = acc
     if n == 0:
@@ -126,85 +132,48 @@ def report(acc, m):
 
 
 class Controller:
-    def __init__(self, args, lcm, rmd):
+    def __init__(self, args, rmd):
         self.a = args
         self.rmd = rmd
-        try:
-            self.lc = lcm.LCM(args.url)
-        except (IOError, OSError, RuntimeError) as e:
-            die(f"LCM {args.url}: {e} (multicast not routable? see docs/lcm.md)")
-        self.config = None
-        self.state = None
-        self.state_rx = 0.0
-        self.n_states = 0
+        from rmd.client import lifecycle_name
+        self.lc_name = lifecycle_name
         self.motors = []
-        self.seq = 0
         self.t0 = 0.0
         self.stop = False
-        pre = args.prefix
-        self.ch_command = pre + "COMMAND"
-        self.lc.subscribe(pre + "CONFIG", self.on_config)
-        self.lc.subscribe(pre + "STATE", self.on_state)
-
-    # ---- LCM -------------------------------------------------------------
-
-    def on_config(self, channel, data):
+        self.running = False  # the sine runs: a signal only sets stop
         try:
-            self.config = self.rmd.config_t.decode(data)
-        except ValueError:
-            pass  # another type on the channel: not ours
+            self.c = rmd.Client(args.url, args.prefix, on_state=self.on_state)
+        except rmd.RmdError as e:
+            die(str(e))
+        self.mode = (rmd.command_t.MODE_MIT if args.mode == "mit"
+                     else rmd.command_t.MODE_POSITION)
 
-    def on_state(self, channel, data):
-        try:
-            s = self.rmd.state_t.decode(data)
-        except ValueError:
-            return
-        self.state = s
-        self.state_rx = time.monotonic()
-        self.n_states += 1
+    def on_signal(self, signum, frame):
+        self.stop = True
+        if not self.running:
+            raise Stopped()
+
+    def on_state(self, s):
         if self.t0:
-            self.track(s, self.state_rx - self.t0)
-
-    def handle_until(self, deadline):
-        """Handle messages until `deadline` (time.monotonic()) or a stop."""
-        fd = self.lc.fileno()
-        while not self.stop:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                return
-            r, _, _ = select.select([fd], [], [], left)
-            if r:
-                self.lc.handle()
-
-    def request_config(self):
-        req = self.rmd.config_request_t()
-        req.utime = int(time.monotonic() * 1e6)
-        self.lc.publish(self.a.prefix + "CONFIG_REQUEST", req.encode())
+            self.track(s, self.c.state_rx - self.t0)
 
     # ---- commands --------------------------------------------------------
 
-    def publish(self, enable, t):
-        """One command_t for every driven motor: the sine at time t, or enable = 0."""
-        rmd = self.rmd
-        msg = rmd.command_t()
-        msg.utime = int(time.monotonic() * 1e6)
-        msg.seq = self.seq
-        self.seq += 1
-        msg.count = len(self.motors)
+    def setpoint(self, m, t):
+        """The sine at time t, for one motor: set() arguments."""
         w = 2 * math.pi * self.a.freq
-        mit = self.a.mode == "mit"
-        for k, m in enumerate(self.motors):
-            c = msg.motor[k]
-            c.index = m.index
-            c.enable = enable
-            c.mode = rmd.command_t.MODE_MIT if mit else rmd.command_t.MODE_POSITION
-            c.position = m.center + self.a.amplitude * math.sin(w * t)
-            if mit:
-                c.velocity = self.a.amplitude * w * math.cos(w * t)
-                c.kp = self.a.kp
-                c.kd = self.a.kd
-            # position mode: max_velocity 0 = the motor's configured velocity_max
-        self.lc.publish(self.ch_command, msg.encode())
+        sp = {"position": m.center + self.a.amplitude * math.sin(w * t)}
+        if self.a.mode == "mit":
+            sp.update(velocity=self.a.amplitude * w * math.cos(w * t), kp=self.a.kp,
+                      kd=self.a.kd)
+        # position mode: max_velocity 0 = the motor's configured velocity_max
+        return sp
+
+    def publish(self, t):
+        """One command_t with every driven motor on the sine at time t."""
+        for m in self.motors:
+            self.c.set(m.index, **self.setpoint(m, t))
+        self.c.send()
 
     def target(self, m, t):
         return m.center + self.a.amplitude * math.sin(2 * math.pi * self.a.freq * t)
@@ -218,7 +187,7 @@ class Controller:
             if ms.lifecycle != m.lifecycle:
                 # said once: a motor that leaves ENABLED (safe action, fault, loss)
                 if m.was_enabled:
-                    print(f"{PROG}: {m.name}: now {lc_name(ms.lifecycle)}", flush=True)
+                    print(f"{PROG}: {m.name}: now {self.lc_name(ms.lifecycle)}", flush=True)
                 m.lifecycle = ms.lifecycle
                 m.was_enabled |= ms.lifecycle == self.rmd.state_t.LC_ENABLED
             if ms.lifecycle == self.rmd.state_t.LC_ENABLED and math.isfinite(ms.position):
@@ -226,20 +195,9 @@ class Controller:
 
     # ---- the run ---------------------------------------------------------
 
-    def wait_config(self):
-        end = time.monotonic() + CONFIG_WAIT_S
-        while self.config is None and not self.stop:
-            now = time.monotonic()
-            if now >= end:
-                die(f"no rmd.config_t on {self.a.prefix}CONFIG within {CONFIG_WAIT_S:.0f} s: "
-                    f"is rmdd running, with --lcm-url {self.a.url} and prefix "
-                    f"{self.a.prefix}?")
-            self.request_config()
-            self.handle_until(min(end, now + 0.25))
-
     def choose_motors(self):
         rmd = self.rmd
-        c = self.config
+        c = self.c.config
         mit = self.a.mode == "mit"
         bit = (rmd.motor_config_t.MODE_BIT_MIT if mit
                else rmd.motor_config_t.MODE_BIT_POSITION)
@@ -264,69 +222,74 @@ class Controller:
 
     def set_centers(self):
         """Each sine is centred on the motor's position, moved inside its limits."""
-        end = time.monotonic() + STATE_WAIT_S
-        while self.state is None and time.monotonic() < end and not self.stop:
-            self.handle_until(min(end, time.monotonic() + 0.05))
-        if self.state is None:
-            die(f"no rmd.state_t on {self.a.prefix}STATE within {STATE_WAIT_S:.0f} s")
+        if self.c.state is None:
+            try:
+                self.c.wait_state(STATE_WAIT_S)
+            except self.rmd.RmdError as e:
+                die(str(e))
         amp = self.a.amplitude
         for m in self.motors:
-            p = self.state.motor[m.index].position if m.index < self.state.count else 0.0
-            p = p if math.isfinite(p) else 0.0
+            ms = self.c.motor_state(m.index)
+            p = ms.position if ms is not None and math.isfinite(ms.position) else 0.0
             lo, hi = m.cfg.position_min + amp, m.cfg.position_max - amp
             if lo > hi:
                 die(f"{m.name}: --amplitude {amp:g} does not fit its position limits "
                     f"{m.cfg.position_min:g}..{m.cfg.position_max:g} rad", 2)
             m.center = min(max(p, lo), hi)
 
-    def disable_first(self):
-        """enable = 0, then wait for READY: a motor back from a fault or loss needs it."""
-        self.publish(False, 0.0)
-        end = time.monotonic() + READY_WAIT_S
-        ready = self.rmd.state_t.LC_READY
-        while time.monotonic() < end and not self.stop:
-            self.handle_until(min(end, time.monotonic() + 0.01))
-            s = self.state
-            if all(m.index < s.count and s.motor[m.index].lifecycle == ready
-                   for m in self.motors):
-                return
-        for m in self.motors:
-            lc = self.state.motor[m.index].lifecycle
-            if lc != ready:
-                print(f"{PROG}: {m.name}: {lc_name(lc)}, not ready: it may not follow",
-                      flush=True)
+    def enable(self):
+        """rmd.Client.enable: enable = 0 until READY (a motor back from a fault or
+        loss needs it), then enable = 1 holding the sine's start."""
+        start = {m.index: dict(self.setpoint(m, 0.0), velocity=0.0) for m in self.motors}
+        bad = self.c.enable([m.index for m in self.motors], self.mode, setpoints=start,
+                            timeout=READY_WAIT_S, strict=False)
+        for name, lc in bad:
+            print(f"{PROG}: {name}: {lc}, not ready: it may not follow", flush=True)
 
     def print_window(self, t):
         for m in self.motors:
             print(f"[{t:6.1f} s] {m.name:<12} {self.a.mode:<8} tracking error "
-                  f"{report(m.window, m)}", flush=True)
+                  f"{report(m.window, m, self.lc_name)}", flush=True)
             m.window = [0.0, 0.0, 0]
 
     def run(self):
+        try:
+            try:
+                self.c.connect(CONFIG_WAIT_S)
+            except self.rmd.RmdError as e:
+                die(str(e))
+            self.choose_motors()
+            self.set_centers()
+            a = self.a
+            names = " ".join(m.name for m in self.motors)
+            print(f"{PROG}: {a.mode} mode on {len(self.motors)} motors: {names}; amplitude "
+                  f"{a.amplitude:g} rad, {a.freq:g} Hz, {a.rate:g} commands/s"
+                  + (f", kp {a.kp:g}, kd {a.kd:g}" if a.mode == "mit" else ""), flush=True)
+            self.enable()
+            self.running = True
+        except Stopped:
+            if not self.motors:
+                return 0
+            self.running = True
+        status = self.sine() if not self.stop else 0
+        self.shutdown()
+        return status
+
+    def sine(self):
+        """Stream the sine until a stop; 1 when rmdd stops publishing state."""
         a = self.a
-        self.wait_config()
-        if self.stop:
-            return 0
-        self.choose_motors()
-        self.set_centers()
-        names = " ".join(m.name for m in self.motors)
-        print(f"{PROG}: {a.mode} mode on {len(self.motors)} motors: {names}; amplitude "
-              f"{a.amplitude:g} rad, {a.freq:g} Hz, {a.rate:g} commands/s"
-              + (f", kp {a.kp:g}, kd {a.kd:g}" if a.mode == "mit" else ""), flush=True)
-        self.disable_first()
         period = 1.0 / a.rate
         self.t0 = time.monotonic()
         next_pub = self.t0
         next_print = self.t0 + 1.0
-        last_states, last_look = self.n_states, self.t0
-        status = 0
+        last_states, last_look = self.c.n_states, self.t0
         while not self.stop:
             now = time.monotonic()
             t = now - self.t0
             if a.duration and t >= a.duration:
                 break
             if now >= next_pub:
-                self.publish(True, t)
+                self.publish(t)
                 next_pub += period
                 if next_pub <= now:  # late: skip, never catch up in a burst
                     next_pub = now + period
@@ -334,37 +297,31 @@ class Controller:
                 self.print_window(t)
                 next_print += 1.0
             if now - last_look >= STATE_WAIT_S:
-                if self.n_states == last_states:
+                if self.c.n_states == last_states:
                     print(f"{PROG}: no state_t from rmdd for {STATE_WAIT_S:.0f} s: stopping",
                           file=sys.stderr, flush=True)
-                    status = 1
-                    break
-                last_states, last_look = self.n_states, now
-            self.handle_until(min(next_pub, next_print))
-        self.shutdown()
-        return status
+                    return 1
+                last_states, last_look = self.c.n_states, now
+            self.c.poll(max(0.0, min(next_pub, next_print) - time.monotonic()))
+        return 0
 
     def shutdown(self):
-        """enable = 0 for every driven motor (three times: UDP may drop one)."""
-        for _ in range(3):
-            self.publish(False, time.monotonic() - self.t0)
-            time.sleep(0.005)
+        """enable = 0 for every driven motor, until rmdd shows them off (3 at least)."""
+        self.t0 = 0.0  # the sine is over: READY now is no news
+        self.c.disable()
+        self.c.close()
         print(f"{PROG}: stopped: enable = 0 sent to {len(self.motors)} motors", flush=True)
         for m in self.motors:
             print(f"{PROG}: whole run: {m.name:<12} {self.a.mode:<8} tracking error "
-                  f"{report(m.total, m)}", flush=True)
+                  f"{report(m.total, m, self.lc_name)}", flush=True)
 
 
 def main():
     args = parse_args()
-    lcm, rmd = import_modules()
-    ctl = Controller(args, lcm, rmd)
-
-    def on_signal(signum, frame):
-        ctl.stop = True
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    rmd = import_rmd()
+    ctl = Controller(args, rmd)
+    signal.signal(signal.SIGINT, ctl.on_signal)
+    signal.signal(signal.SIGTERM, ctl.on_signal)
     return ctl.run()
 
 

@@ -1,0 +1,436 @@
+# SPDX-License-Identifier: MIT
+"""A controller client for rmdd: rmd.Client.
+
+    import rmd
+
+    with rmd.Client() as c:                     # waits for rmdd's config_t
+        m = c.index("motor1")                   # name -> index
+        c.enable([m], rmd.command_t.MODE_POSITION)
+        c.set(m, position=0.3)
+        c.spin(2.0)                             # stream the setpoints for 2 s
+        print(c.motor_state(m).position)
+    # leaving the block sends enable = 0 to every motor the client enabled
+
+What it does for you (docs/lcm.md is the contract):
+  - asks for config_t (config_request_t on PREFIX + "CONFIG_REQUEST", again
+    every 0.25 s) and says clearly when rmdd does not answer;
+  - numbers its commands: seq starts at 0 (rmdd takes 0 as a restart, so a
+    new client is never rejected for going back) and counts up; utime is
+    time.monotonic() in microseconds;
+  - sends every driven motor in each command_t: rmdd keeps only the newest
+    command per cycle, so a message per motor would lose some;
+  - enables the way rmdd requires: a motor back from LOST, FAULT or SAFE takes
+    enable = 1 only after it has seen enable = 0, and two messages within one
+    cycle lose the first, so enable() sends enable = 0 until state_t shows the
+    motors READY and at least two cycles (config_t.period_us) have passed,
+    and only then enable = 1;
+  - on leaving a `with` block (or close()), sends enable = 0 to every motor it
+    enabled.
+
+Threads: none.  The client is single-threaded: it reads LCM only inside its
+own calls (poll(), spin(), connect(), enable(), disable()), so `state`,
+`health` and `config` change only there.  Use a client from one thread, and
+call poll() (or spin()) often: rmdd's watchdog wants a command at least every
+command_timeout_ms (100 ms by default), and state_t arrives every cycle.
+fileno() lets a select() loop wait for messages.
+"""
+
+import math
+import os
+import select
+import time
+
+DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
+CONFIG_REQUEST_PERIOD_S = 0.25
+POLL_MAX = 1000  # messages one poll() handles at most: a flood cannot hold it
+
+LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe"]
+
+
+class RmdError(Exception):
+    """rmdd did not answer, or did not do what was asked."""
+
+
+def lifecycle_name(lc):
+    """'ready', 'enabled', ... for a state_t lifecycle (LC_*)."""
+    return LC_NAMES[lc] if 0 <= lc < len(LC_NAMES) else "unknown"
+
+
+def _now_us():
+    return int(time.monotonic() * 1e6)
+
+
+class Client:
+    """One controller of one rmdd (one LCM URL and channel prefix).
+
+    Client(url, prefix) opens LCM and subscribes; connect() (or entering a
+    `with` block) waits for config_t.  url None: $LCM_DEFAULT_URL, else
+    DEFAULT_URL ("udpm://239.255.76.67:7667?ttl=0": this host only).
+
+    Attributes, updated by the calls that read LCM:
+      config    the newest rmd.config_t (None before connect())
+      state     the newest rmd.state_t (None before the first)
+      health    the newest rmd.health_t (None before the first, ~10 Hz)
+      n_states  state_t messages received
+      state_rx  time.monotonic() of the newest state_t (0.0: none yet)
+      on_state  None, or a function called with each state_t as it arrives
+      seq       the seq of the next command_t (0 for the first)
+    """
+
+    def __init__(self, url=None, prefix="RMD_", on_state=None):
+        import lcm
+        from . import command_t, config_request_t, config_t, health_t, state_t
+
+        self._types = (command_t, config_request_t, config_t, health_t, state_t)
+        self.url = url or os.environ.get("LCM_DEFAULT_URL") or DEFAULT_URL
+        self.prefix = prefix
+        try:
+            self.lc = lcm.LCM(self.url)
+        except (IOError, OSError, RuntimeError) as e:
+            raise RmdError(f"LCM {self.url}: {e} (multicast not routable? see docs/lcm.md, "
+                           "\"A robot PC without a network\")") from None
+        self.config = None
+        self.state = None
+        self.health = None
+        self.n_states = 0
+        self.state_rx = 0.0
+        self.on_state = on_state
+        self.seq = 0
+        # index -> [enable, mode, position, velocity, torque, kp, kd, max_velocity]
+        self._cmd = {}
+        self._enabled = set()  # motors enable() enabled and disable() has not disabled
+        self._subs = [
+            self.lc.subscribe(prefix + "CONFIG", self._on_config),
+            self.lc.subscribe(prefix + "STATE", self._on_state),
+            self.lc.subscribe(prefix + "HEALTH", self._on_health),
+        ]
+
+    # ---- LCM ----------------------------------------------------------------
+
+    def _on_config(self, channel, data):
+        try:
+            self.config = self._types[2].decode(data)
+        except ValueError:
+            pass  # another type on the channel: not ours
+
+    def _on_state(self, channel, data):
+        try:
+            s = self._types[4].decode(data)
+        except ValueError:
+            return
+        self.state = s
+        self.state_rx = time.monotonic()
+        self.n_states += 1
+        if self.on_state:
+            self.on_state(s)
+
+    def _on_health(self, channel, data):
+        try:
+            self.health = self._types[3].decode(data)
+        except ValueError:
+            pass
+
+    def fileno(self):
+        """LCM's socket: readable when a message waits (for select())."""
+        return self.lc.fileno()
+
+    def poll(self, timeout=0.0):
+        """Handle the messages that arrive within `timeout` seconds (0: those waiting).
+
+        Waits up to `timeout` for the first message, then handles those already
+        waiting (at most POLL_MAX) and returns how many it handled.
+        """
+        n = 0
+        fd = self.lc.fileno()
+        end = time.monotonic() + max(0.0, timeout)
+        while n < POLL_MAX:
+            left = 0.0 if n else max(0.0, end - time.monotonic())
+            r, _, _ = select.select([fd], [], [], left)
+            if not r:
+                break
+            self.lc.handle()
+            n += 1
+        return n
+
+    def wait(self, seconds):
+        """Handle messages for `seconds` (a sleep that keeps state fresh)."""
+        end = time.monotonic() + seconds
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                return
+            self.poll(left)
+
+    def close(self):
+        """enable = 0 to every motor this client enabled, then close LCM."""
+        if self.lc is None:
+            return
+        try:
+            if self._enabled and self.config is not None:
+                self.disable(sorted(self._enabled))
+        finally:
+            for sub in self._subs:
+                self.lc.unsubscribe(sub)
+            self._subs = []
+            self.lc = None
+
+    def __enter__(self):
+        if self.config is None:
+            self.connect()
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close()
+        return False
+
+    # ---- configuration ---------------------------------------------------------
+
+    def connect(self, timeout=2.0):
+        """Ask for config_t until it comes; returns it.  RmdError after `timeout` s."""
+        end = time.monotonic() + timeout
+        self.config = None
+        while self.config is None:
+            now = time.monotonic()
+            if now >= end:
+                raise RmdError(
+                    f"no rmd.config_t on {self.prefix}CONFIG within {timeout:.0f} s: is rmdd "
+                    f"running, with --lcm-url {self.url} and prefix {self.prefix}?")
+            req = self._types[1]()
+            req.utime = _now_us()
+            self.lc.publish(self.prefix + "CONFIG_REQUEST", req.encode())
+            again = min(end, now + CONFIG_REQUEST_PERIOD_S)
+            while self.config is None and time.monotonic() < again:
+                self.poll(again - time.monotonic())
+        return self.config
+
+    def _need_config(self):
+        if self.config is None:
+            raise RmdError("no config_t yet: call connect() first (or use `with`)")
+        return self.config
+
+    @property
+    def period_s(self):
+        """rmdd's loop period, seconds (config_t.period_us)."""
+        return self._need_config().period_us * 1e-6
+
+    @property
+    def motors(self):
+        """rmd.motor_config_t of every configured motor, by index."""
+        c = self._need_config()
+        return list(c.motor[:c.motor_count])
+
+    def index(self, motor):
+        """The index of a motor given by name (or by index, checked)."""
+        c = self._need_config()
+        for mc in c.motor[:c.motor_count]:
+            if mc.name == motor or (isinstance(motor, int) and mc.index == motor):
+                return mc.index
+        names = " ".join(mc.name for mc in c.motor[:c.motor_count])
+        raise RmdError(f"no motor {motor!r} in rmdd's configuration (motors: {names})")
+
+    def name(self, motor):
+        """A motor's name."""
+        i = self.index(motor)
+        return self.config.motor[i].name
+
+    # ---- state ---------------------------------------------------------------
+
+    def motor_state(self, motor):
+        """The newest rmd.motor_state_t of a motor (name or index); None before any state_t."""
+        i = self.index(motor)
+        s = self.state
+        if s is None or i >= s.count:
+            return None
+        return s.motor[i]
+
+    def lifecycle(self, motor):
+        """The motor's lifecycle (state_t.LC_*) in the newest state_t; -1 before any."""
+        ms = self.motor_state(motor)
+        return ms.lifecycle if ms is not None else -1
+
+    def wait_state(self, timeout=1.0):
+        """Wait for a state_t newer than now; RmdError after `timeout` s."""
+        n = self.n_states
+        end = time.monotonic() + timeout
+        while self.n_states == n:
+            left = end - time.monotonic()
+            if left <= 0:
+                raise RmdError(f"no rmd.state_t on {self.prefix}STATE within {timeout:g} s")
+            self.poll(left)
+        return self.state
+
+    # ---- commands --------------------------------------------------------------
+
+    def set(self, motor, position=None, velocity=None, torque=None, kp=None, kd=None,
+            max_velocity=None):
+        """Change an enabled motor's setpoint; the next send() (or spin()) carries it.
+
+        Only the fields given change.  SI units at the output shaft: rad, rad/s,
+        N*m, N*m/rad, N*m*s/rad.  Which fields a mode uses: docs/lcm.md.
+        """
+        i = self.index(motor)
+        if i not in self._cmd:
+            raise RmdError(f"{self.config.motor[i].name}: not enabled by this client")
+        e = self._cmd[i]
+        for k, v in ((2, position), (3, velocity), (4, torque), (5, kp), (6, kd),
+                     (7, max_velocity)):
+            if v is not None:
+                e[k] = float(v)
+
+    def send(self):
+        """Publish one command_t with every motor this client drives; returns it.
+
+        seq counts from 0; utime is time.monotonic() in microseconds.
+        """
+        command_t = self._types[0]
+        msg = command_t()
+        msg.utime = _now_us()
+        msg.seq = self.seq
+        self.seq += 1
+        msg.count = len(self._cmd)
+        for k, i in enumerate(sorted(self._cmd)):
+            e = self._cmd[i]
+            c = msg.motor[k]
+            c.index = i
+            c.enable = bool(e[0])
+            c.mode = e[1]
+            c.position, c.velocity, c.torque, c.kp, c.kd, c.max_velocity = e[2:]
+        self.lc.publish(self.prefix + "COMMAND", msg.encode())
+        return msg
+
+    def spin(self, seconds, rate_hz=200.0, before_send=None):
+        """Stream the setpoints for `seconds`: send() at `rate_hz`, poll() in between.
+
+        before_send(t), if given, is called before each send with the seconds
+        since spin() began, and may call set().  Returns the number of sends.
+        """
+        period = 1.0 / rate_hz
+        t0 = time.monotonic()
+        next_pub = t0
+        n = 0
+        while True:
+            now = time.monotonic()
+            if now - t0 >= seconds:
+                return n
+            if now >= next_pub:
+                if before_send:
+                    before_send(now - t0)
+                self.send()
+                n += 1
+                next_pub += period
+                if next_pub <= now:  # late: skip, never catch up in a burst
+                    next_pub = now + period
+            self.poll(max(0.0, min(next_pub, t0 + seconds) - time.monotonic()))
+
+    def _all_in(self, motors, lc, since=None):
+        s = self.state
+        if s is None or (since is not None and self.state_rx < since):
+            return False
+        return all(i < s.count and s.motor[i].lifecycle == lc for i in motors)
+
+    def enable(self, motors, mode, setpoints=None, timeout=1.0, strict=True):
+        """Enable motors (names or indices) in a mode (command_t.MODE_*).
+
+        First enable = 0, sent every cycle until state_t shows every one READY
+        and at least two of rmdd's cycles have passed (a motor back from LOST,
+        FAULT or SAFE needs it; rmdd keeps only the newest command per cycle,
+        so an enable = 0 right before an enable = 1 could be lost).  Then
+        enable = 1, sent every cycle until state_t shows them ENABLED.
+
+        setpoints: {motor: {"position": ..., ...}} to start from; by default a
+        motor holds where it stands (position and MIT modes: its measured
+        position) or gets 0 (torque, speed).  Then stream with set() and
+        send()/spin(): rmdd's watchdog wants a command every
+        command_timeout_ms.
+
+        A motor this client has already enabled goes through enable = 0 too
+        (its output is off for a few cycles).
+
+        strict (the default): a motor that does not become READY, then
+        ENABLED, within `timeout` s each raises RmdError (after enable = 0 to
+        the motors).  strict=False: returns a list of (name, lifecycle name)
+        of those motors instead ([] when all are ENABLED), and enables them
+        all the same.
+        """
+        c = self._need_config()
+        idx = [self.index(m) for m in motors]
+        setpoints = {self.index(k): v for k, v in (setpoints or {}).items()}
+        bit = 1 << mode
+        for i in idx:
+            if not c.motor[i].modes & bit:
+                raise RmdError(f"{c.motor[i].name}: does not take mode {mode} "
+                               f"(config_t modes {c.motor[i].modes:#x})")
+        if self.state is None:
+            self.wait_state(timeout)
+        command_t, state_t = self._types[0], self._types[4]
+        period = min(max(self.period_s, 0.001), 0.02)
+        for i in idx:
+            ms = self.state.motor[i] if i < self.state.count else None
+            pos = ms.position if ms is not None and math.isfinite(ms.position) else 0.0
+            hold = pos if mode in (command_t.MODE_POSITION, command_t.MODE_MIT) else 0.0
+            kp = kd = 0.0
+            if mode == command_t.MODE_MIT:
+                kp, kd = c.motor[i].kp_min, c.motor[i].kd_min
+            self._cmd[i] = [False, mode, hold, 0.0, 0.0, kp, kd, 0.0]
+            self.set(i, **setpoints.get(i, {}))
+
+        def stream_until(done, since):
+            end = time.monotonic() + timeout
+            while True:
+                self.send()
+                if done(since):
+                    return True
+                if time.monotonic() >= end:
+                    return False
+                self.wait(period)
+
+        # enable = 0 until READY, in a state_t from after two cycles of it
+        ready = stream_until(lambda since: self._all_in(idx, state_t.LC_READY, since),
+                             time.monotonic() + 2 * self.period_s)
+        enabled = False
+        if ready or not strict:
+            for i in idx:
+                self._cmd[i][0] = True
+                self._enabled.add(i)
+        if ready:
+            enabled = stream_until(lambda since: self._all_in(idx, state_t.LC_ENABLED, since),
+                                   time.monotonic())
+        if enabled:
+            return []
+        want, stage = (state_t.LC_ENABLED, "enabled") if ready else (state_t.LC_READY, "ready")
+        bad = [(c.motor[i].name, lifecycle_name(self.lifecycle(i))) for i in idx
+               if self.lifecycle(i) != want]
+        if strict:
+            self.disable(idx)
+            raise RmdError(f"enable: not {stage} within {timeout:g} s: "
+                           + ", ".join(f"{n} is {lc}" for n, lc in bad))
+        return bad
+
+    def disable(self, motors=None, timeout=0.5):
+        """enable = 0 for motors (default: every motor this client drives).
+
+        Sent every cycle until state_t no longer shows them ENABLED (at least
+        three times: UDP may drop one); then the client stops sending them.
+        """
+        idx = sorted(self._cmd) if motors is None else [self.index(m) for m in motors]
+        for i in idx:
+            if i in self._cmd:
+                self._cmd[i][0] = False
+        state_t = self._types[4]
+        period = min(max(self.period_s, 0.001), 0.02) if self.config else 0.005
+        end = time.monotonic() + timeout
+        t0 = time.monotonic()
+        n = 0
+        while True:
+            self.send()
+            n += 1
+            s = self.state
+            off = s is not None and self.state_rx >= t0 + period and all(
+                i >= s.count or s.motor[i].lifecycle != state_t.LC_ENABLED for i in idx)
+            if (n >= 3 and off) or time.monotonic() >= end:
+                break
+            self.wait(period)
+        for i in idx:
+            self._cmd.pop(i, None)
+            self._enabled.discard(i)
+        return n

@@ -1,0 +1,112 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+"""rmd.Client against a running rmdd --sim: the Python half of test_python_client.
+
+    python_client.py track URL   enable motor1, make it track a position, leave
+                                 the `with` block (enable = 0)
+    python_client.py trip URL    enable motor1, go quiet until rmdd's watchdog
+                                 latches the safe action (LC_SAFE), then
+                                 enable it again: enable = 0 first, READY,
+                                 then ENABLED; track; leave the block
+    python_client.py absent URL  no rmdd: connect() raises RmdError, saying so
+
+It must run the installed package (pip install ./python), not a checkout:
+it prints where rmd comes from.  Each step prints one line; a failed check
+prints "FAIL: ..." and exits 1.
+"""
+
+import math
+import sys
+import time
+
+import rmd
+
+TRACK_S = 5.0  # the target must be reached within this
+TOL_RAD = 0.01
+
+
+def fail(msg):
+    print(f"FAIL: {msg}", flush=True)
+    sys.exit(1)
+
+
+def track(c, m, target):
+    """Stream position `target` until the measured position is within TOL_RAD."""
+    c.set(m, position=target)
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < TRACK_S:
+        c.spin(0.05)
+        ms = c.motor_state(m)
+        if ms.lifecycle != rmd.state_t.LC_ENABLED:
+            fail(f"motor1 left ENABLED while tracking: lifecycle {ms.lifecycle}")
+        if abs(ms.position - target) < TOL_RAD:
+            print(f"tracked: target {target:.4f} rad, at {ms.position:.4f} rad after "
+                  f"{time.monotonic() - t0:.2f} s", flush=True)
+            return
+    fail(f"motor1 at {c.motor_state(m).position:.4f} rad after {TRACK_S} s, "
+         f"target {target:.4f} rad")
+
+
+def connect_and_enable(c):
+    cfg = c.config
+    print(f"config: {cfg.motor_count} motors, period {cfg.period_us} us, prefix {cfg.prefix}",
+          flush=True)
+    m = c.index("motor1")
+    if c.name(m) != "motor1":
+        fail(f"index/name: {m} is {c.name(m)}")
+    try:
+        c.index("no_such_motor")
+        fail("index('no_such_motor') did not raise")
+    except rmd.RmdError as e:
+        print(f"unknown name: {e}", flush=True)
+    seq0 = c.seq
+    c.enable([m], rmd.command_t.MODE_POSITION)
+    if c.lifecycle(m) != rmd.state_t.LC_ENABLED:
+        fail(f"enable() returned with motor1 in lifecycle {c.lifecycle(m)}")
+    print(f"enabled: motor1 (index {m}) after {c.seq - seq0} commands", flush=True)
+    return m
+
+
+def main():
+    what, url = sys.argv[1], sys.argv[2]
+    print(f"rmd from {rmd.__file__}", flush=True)
+    if what == "absent":
+        c = rmd.Client(url)
+        t0 = time.monotonic()
+        try:
+            c.connect(timeout=1.0)
+            fail("connect() without rmdd did not raise")
+        except rmd.RmdError as e:
+            print(f"absent: after {time.monotonic() - t0:.1f} s: {e}", flush=True)
+        c.close()
+        return 0
+
+    with rmd.Client(url) as c:
+        if c.seq != 0:
+            fail(f"a new client's first seq is {c.seq}, not 0")
+        m = connect_and_enable(c)
+        start = c.motor_state(m).position
+        if not math.isfinite(start):
+            fail(f"motor1's position is {start}")
+        if what == "trip":
+            # quiet: rmdd's watchdog (command_timeout_ms) latches the safe action
+            end = time.monotonic() + 2.0
+            while c.lifecycle(m) != rmd.state_t.LC_SAFE and time.monotonic() < end:
+                c.poll(0.05)
+            if c.lifecycle(m) != rmd.state_t.LC_SAFE:
+                fail(f"no LC_SAFE 2 s after the commands stopped: lifecycle {c.lifecycle(m)}")
+            print("tripped: motor1 is safe", flush=True)
+            m = connect_and_enable(c)
+            start = c.motor_state(m).position
+        track(c, m, start + 0.5)
+        track(c, m, start - 0.2)
+        print(f"leaving: seq {c.seq}", flush=True)
+    ms = c.motor_state(m)
+    print(f"left: motor1 lifecycle {ms.lifecycle}", flush=True)
+    if ms.lifecycle != rmd.state_t.LC_READY:
+        fail(f"after the with block motor1 is in lifecycle {ms.lifecycle}, not READY")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

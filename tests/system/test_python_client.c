@@ -1,0 +1,468 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The Python client (python/rmd/client.py, installed with `pip install
+ * ./python`) against a real `rmdd --sim 3` over LCM on loopback: the Python
+ * half is tests/system/python_client.py, run by the venv's Python that
+ * `make python-venv` makes (build/venv: the package installed as users
+ * install it, not the checkout).  This suite starts rmdd, runs the script,
+ * listens to RMD_COMMAND, RMD_STATE and RMD_HEALTH itself and checks:
+ *   - track: the client enables motor1, the measured position reaches two
+ *     targets, leaving the `with` block sends enable = 0 and motor1 ends
+ *     READY; its seq starts at 0 and never goes back, no command is
+ *     rejected, and the watchdog has nothing to trip afterwards;
+ *   - trip: after the client goes quiet rmdd's watchdog latches the safe
+ *     action (LC_SAFE); enable() brings motor1 back (enable = 0 seen before
+ *     enable = 1), it tracks again and ends READY;
+ *   - absent: without rmdd, connect() raises RmdError naming the URL.
+ *
+ * The Python is $RMD_PYTHON, else BUILD/venv/bin/python3 or build/venv
+ * (also found beside this binary); without one that imports rmd.Client,
+ * or without multicast on loopback (routed here when root, as
+ * tests/harness/lcm_loopback.h does), every test skips loudly.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <limits.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sys/prctl.h>
+#include <sys/wait.h>
+
+#include <cmocka.h>
+#include <lcm/lcm.h>
+
+#include "harness/lcm_loopback.h"
+#include "rmd/rmd_command_t.h"
+#include "rmd/rmd_health_t.h"
+#include "rmd/rmd_state_t.h"
+
+#define SIM_MOTORS "3"
+#define SCRIPT_TIMEOUT_S 30
+#define COMMAND_TIMEOUT_MS 100 /* rmdd --sim's safety.command_timeout_ms */
+
+static char rmdd_bin[PATH_MAX], python[PATH_MAX], script[PATH_MAX], tmpdir[64];
+static bool no_multicast, have_python;
+static unsigned test_no;
+
+struct fixture {
+	char url[96];
+	char rmdd_log[128], py_log[128];
+	pid_t rmdd, py;
+	lcm_t *lcm;
+	lcm_subscription_t *sub;
+
+	/* what the client sent, as rmdd heard it */
+	unsigned n_cmds, seq_back;
+	int64_t first_seq, last_seq;
+	int last_enable0; /* motor 0's enable in the newest command: -1 none */
+	/* what rmdd said */
+	int lifecycle0; /* motor 0, newest state_t; -1 none */
+	int watchdog;	/* the newest health_t's */
+	int64_t safe_action_events, commands_rejected;
+	unsigned n_health;
+};
+
+static double mono_s(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* A whole (small) file, NUL-terminated; "" when unreadable.  Static buffer. */
+static const char *file_text(const char *path)
+{
+	static char text[64 * 1024];
+	FILE *fp = fopen(path, "r");
+	size_t n = 0;
+
+	if (fp) {
+		n = fread(text, 1, sizeof(text) - 1, fp);
+		fclose(fp);
+	}
+	text[n] = '\0';
+	return text;
+}
+
+/* ---- LCM: what the client sends and rmdd answers -------------------------------------------- */
+
+static void heard_command(struct fixture *f, const rmd_command_t *msg)
+{
+	if (f->n_cmds == 0)
+		f->first_seq = msg->seq;
+	else if (msg->seq < f->last_seq)
+		f->seq_back++;
+	f->last_seq = msg->seq;
+	f->n_cmds++;
+	f->last_enable0 = -1;
+	for (int i = 0; i < msg->count && i < RMD_COMMAND_T_MAX_MOTORS; i++)
+		if (msg->motor[i].index == 0)
+			f->last_enable0 = msg->motor[i].enable;
+}
+
+/* RMD_COMMAND, RMD_STATE and RMD_HEALTH: one raw subscription, decoded here. */
+static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct fixture *f = user;
+	union {
+		rmd_command_t cmd;
+		rmd_state_t state;
+		rmd_health_t health;
+	} m;
+
+	if (!strcmp(channel, "RMD_COMMAND") &&
+	    rmd_command_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m.cmd) >= 0) {
+		heard_command(f, &m.cmd);
+		rmd_command_t_decode_cleanup(&m.cmd);
+	} else if (!strcmp(channel, "RMD_STATE") &&
+		   rmd_state_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m.state) >= 0) {
+		f->lifecycle0 = m.state.count > 0 ? m.state.motor[0].lifecycle : -1;
+		rmd_state_t_decode_cleanup(&m.state);
+	} else if (!strcmp(channel, "RMD_HEALTH") &&
+		   rmd_health_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m.health) >= 0) {
+		f->watchdog = m.health.watchdog;
+		f->safe_action_events = m.health.safe_action_events;
+		f->commands_rejected = m.health.commands_rejected;
+		f->n_health++;
+		rmd_health_t_decode_cleanup(&m.health);
+	}
+}
+
+/* Handle LCM for `s` seconds, or until *done (when given) holds. */
+static void listen_for(struct fixture *f, double s, const bool *done)
+{
+	double end = mono_s() + s;
+
+	while (mono_s() < end && !(done && *done))
+		lcm_handle_timeout(f->lcm, 10);
+}
+
+/* ---- processes --------------------------------------------------------------------------- */
+
+/*
+ * argv[0] (a path) with stdout and stderr to `log`; it dies with this suite.
+ * PYTHONPATH and LCM_DEFAULT_URL are unset (group_setup did).
+ */
+static pid_t start(const char *const *argv, const char *log)
+{
+	pid_t pid = fork();
+
+	if (pid < 0)
+		fail_msg("fork: %s", strerror(errno));
+	if (pid > 0)
+		return pid;
+	prctl(PR_SET_PDEATHSIG, SIGKILL);
+	if (!freopen(log, "w", stdout) || dup2(fileno(stdout), 2) < 0)
+		_exit(126);
+	execv(argv[0], (char *const *)argv);
+	fprintf(stderr, "%s: %s\n", argv[0], strerror(errno));
+	_exit(127);
+}
+
+/* The exit status (128 + signal when killed) of *pid within `s` seconds, listening meanwhile; -1 if it runs on. */
+static int reap(struct fixture *f, pid_t *pid, double s)
+{
+	double end = mono_s() + s;
+	int ws;
+
+	while (*pid > 0) {
+		pid_t r = waitpid(*pid, &ws, WNOHANG);
+
+		if (r == *pid) {
+			*pid = 0;
+			return WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+		}
+		if (r < 0 || mono_s() >= end)
+			return -1;
+		if (f && f->lcm)
+			lcm_handle_timeout(f->lcm, 5);
+		else
+			usleep(5000);
+	}
+	return -1;
+}
+
+static void end_child(pid_t *pid, int sig)
+{
+	if (*pid <= 0)
+		return;
+	kill(*pid, sig);
+	if (reap(NULL, pid, 5) < 0 && *pid > 0) {
+		kill(*pid, SIGKILL);
+		reap(NULL, pid, 5);
+	}
+}
+
+/* ---- set-up ------------------------------------------------------------------------------- */
+
+/* The first of `cands` (NULL-terminated) that passes access(mode), into out. */
+static bool pick(char *out, const char *const *cands, int mode)
+{
+	for (; *cands; cands++)
+		if ((*cands)[0] && access(*cands, mode) == 0)
+			return snprintf(out, PATH_MAX, "%s", *cands) > 0;
+	return false;
+}
+
+static int group_setup(void **state)
+{
+	const char *build = getenv("BUILD"), *env_py = getenv("RMD_PYTHON"),
+		   *env_rmdd = getenv("RMDD");
+	char exe[PATH_MAX] = "", c[6][PATH_MAX + 64], cmd[3 * PATH_MAX];
+	ssize_t n;
+
+	(void)state;
+	if (!build || !*build)
+		build = "build";
+	snprintf(c[0], sizeof(c[0]), "%s", env_rmdd ? env_rmdd : "");
+	snprintf(c[1], sizeof(c[1]), "%s/rmdd", build);
+	if (!pick(rmdd_bin, (const char *const[]){ c[0], c[1], NULL }, X_OK)) {
+		fprintf(stderr, "test_python_client: no %s (set RMDD or BUILD)\n", c[1]);
+		return -1;
+	}
+	/* this binary is BUILD/tests/system/test_python_client */
+	n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+	exe[n > 0 ? n : 0] = '\0';
+	for (int i = 0; i < 3 && strrchr(exe, '/'); i++)
+		*strrchr(exe, '/') = '\0';
+
+	snprintf(c[0], sizeof(c[0]), "%s", env_py ? env_py : "");
+	snprintf(c[1], sizeof(c[1]), "%s/venv/bin/python3", build);
+	snprintf(c[2], sizeof(c[2]), "build/venv/bin/python3");
+	snprintf(c[3], sizeof(c[3]), "%s/venv/bin/python3", exe);
+	snprintf(c[4], sizeof(c[4]), "%s/../venv/bin/python3", exe); /* build/san */
+	have_python =
+		pick(python, (const char *const[]){ c[0], c[1], c[2], c[3], c[4], NULL }, X_OK);
+	snprintf(c[0], sizeof(c[0]), "tests/system/python_client.py");
+	snprintf(c[1], sizeof(c[1]), "%s/../tests/system/python_client.py", exe);
+	snprintf(c[2], sizeof(c[2]), "%s/../../tests/system/python_client.py", exe);
+	have_python = pick(script, (const char *const[]){ c[0], c[1], c[2], NULL }, R_OK) &&
+		      have_python;
+
+	/* the installed package, whatever the caller's environment says */
+	unsetenv("PYTHONPATH");
+	unsetenv("LCM_DEFAULT_URL");
+	unsetenv("NOTIFY_SOCKET");
+	if (have_python) {
+		snprintf(cmd, sizeof(cmd), "'%s' -c 'import lcm, rmd; rmd.Client' >/dev/null 2>&1",
+			 python);
+		have_python = system(cmd) == 0;
+	}
+	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_python_client.XXXXXX");
+	if (!mkdtemp(tmpdir))
+		return -1;
+	signal(SIGPIPE, SIG_IGN);
+	no_multicast = !lcm_loopback_ready("test_python_client");
+	if (!have_python)
+		fprintf(stderr,
+			"\n*** test_python_client: SKIPPING every test: no Python with the rmd "
+			"package (%s).\n"
+			"*** make python-venv (python3 -m venv build/venv; build/venv/bin/pip "
+			"install ./python), or set RMD_PYTHON\n\n",
+			python[0] ? python : "no BUILD/venv/bin/python3");
+	return 0;
+}
+
+static int group_teardown(void **state)
+{
+	char cmd[128];
+
+	(void)state;
+	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
+	return system(cmd) == 0 ? 0 : -1;
+}
+
+static int setup(void **state)
+{
+	struct fixture *f;
+	int port;
+
+	*state = NULL;
+	if (no_multicast || !have_python)
+		return 0;
+	f = calloc(1, sizeof(*f));
+	assert_non_null(f);
+	/* a port per process and test, away from test_lcm_system's 45000.. */
+	port = 30000 + (int)(getpid() % 700) * 20 + (int)(test_no++ % 20);
+	snprintf(f->url, sizeof(f->url), "udpm://239.255.76.67:%d?ttl=0", port);
+	snprintf(f->rmdd_log, sizeof(f->rmdd_log), "%s/rmdd.%u.log", tmpdir, test_no);
+	snprintf(f->py_log, sizeof(f->py_log), "%s/python.%u.log", tmpdir, test_no);
+	f->lifecycle0 = f->last_enable0 = -1;
+	f->lcm = lcm_create(f->url);
+	assert_non_null(f->lcm);
+	f->sub = lcm_subscribe(f->lcm, "RMD_(COMMAND|STATE|HEALTH)", on_message, f);
+	assert_non_null(f->sub);
+	*state = f;
+	return 0;
+}
+
+static int teardown(void **state)
+{
+	struct fixture *f = *state;
+
+	if (!f)
+		return 0;
+	end_child(&f->py, SIGKILL);
+	end_child(&f->rmdd, SIGTERM);
+	lcm_unsubscribe(f->lcm, f->sub);
+	lcm_destroy(f->lcm);
+	free(f);
+	return 0;
+}
+
+/* The fixture, or skip: setup said why, loudly, in group_setup. */
+static struct fixture *fixture_or_skip(void **state)
+{
+	struct fixture *f = *state;
+
+	if (!f) {
+		print_message("skipped: %s\n", no_multicast ? "no multicast on loopback" :
+							      "no Python with the rmd package");
+		skip();
+	}
+	return f;
+}
+
+/* rmdd --sim on this test's URL, until its state_t comes (motor 0 READY). */
+static void start_rmdd(struct fixture *f)
+{
+	const char *argv[] = { rmdd_bin, "--sim", SIM_MOTORS, "--lcm-url", f->url, NULL };
+	double end = mono_s() + 10;
+
+	f->rmdd = start(argv, f->rmdd_log);
+	while (f->lifecycle0 != RMD_STATE_T_LC_READY) {
+		int st = reap(f, &f->rmdd, 0.01);
+
+		if (st >= 0)
+			fail_msg("rmdd exited (%d) at start; its output:\n%s", st,
+				 file_text(f->rmdd_log));
+		if (mono_s() >= end)
+			fail_msg("rmdd: motor1 not READY on %s within 10 s; its output:\n%s",
+				 f->url, file_text(f->rmdd_log));
+	}
+}
+
+/* python_client.py WHAT URL to its end; returns its output (exit 0 checked). */
+static const char *run_script(struct fixture *f, const char *what)
+{
+	const char *argv[] = { python, script, what, f->url, NULL };
+	const char *out;
+	int st;
+
+	f->py = start(argv, f->py_log);
+	st = reap(f, &f->py, SCRIPT_TIMEOUT_S);
+	out = file_text(f->py_log);
+	if (st != 0)
+		fail_msg("python_client.py %s: %s %d; its output:\n%s\nrmdd's:\n%s", what,
+			 st < 0 ? "still running after" : "exit", st < 0 ? SCRIPT_TIMEOUT_S : st,
+			 out, file_text(f->rmdd_log));
+	print_message("python_client.py %s:\n%s", what, out);
+	/* the installed package, not the checkout's python/ or build/python */
+	if (!strstr(out, "site-packages/rmd/"))
+		fail_msg("python_client.py did not run the installed rmd package:\n%s", out);
+	return out;
+}
+
+static unsigned occurrences(const char *s, const char *what)
+{
+	unsigned n = 0;
+
+	for (; (s = strstr(s, what)); s += strlen(what))
+		n++;
+	return n;
+}
+
+/* After the script: the commands it sent, motor1 READY, and the watchdog quiet. */
+static void check_after(struct fixture *f, int64_t safe_actions)
+{
+	bool ready = false;
+	unsigned health_then;
+
+	assert_true(f->n_cmds > 10);
+	if (f->first_seq != 0 || f->seq_back)
+		fail_msg("seq: first %lld (want 0), went back %u times", (long long)f->first_seq,
+			 f->seq_back);
+	/* its last command: enable = 0 for motor1 */
+	assert_int_equal(f->last_enable0, 0);
+	ready = f->lifecycle0 == RMD_STATE_T_LC_READY;
+	listen_for(f, 1, &ready);
+	assert_int_equal(f->lifecycle0, RMD_STATE_T_LC_READY);
+	/* well past the command timeout: nothing enabled, so no (new) safe action */
+	listen_for(f, 3 * COMMAND_TIMEOUT_MS / 1000.0, NULL);
+	health_then = f->n_health;
+	listen_for(f, 0.5, NULL);
+	assert_true(f->n_health > health_then);
+	assert_int_equal(f->lifecycle0, RMD_STATE_T_LC_READY);
+	assert_int_equal(f->commands_rejected, 0);
+	assert_int_equal(f->safe_action_events, safe_actions);
+	assert_int_not_equal(f->watchdog, RMD_HEALTH_T_WD_TRIPPED);
+}
+
+/* ---- tests -------------------------------------------------------------------------------- */
+
+/*
+ * rmdd --sim, python_client.py `what`: motor1 enabled `enables` times and
+ * tracked both targets, READY at the end, `safe_actions` in health_t.
+ */
+static const char *enable_and_track(struct fixture *f, const char *what, unsigned enables,
+				    int64_t safe_actions)
+{
+	const char *out;
+
+	start_rmdd(f);
+	out = run_script(f, what);
+	assert_int_equal(occurrences(out, "enabled: motor1 (index 0)"), enables);
+	assert_int_equal(occurrences(out, "tracked: target"), 2);
+	assert_non_null(strstr(out, "left: motor1 lifecycle 1"));
+	check_after(f, safe_actions);
+	return out;
+}
+
+static void test_enable_track_and_disable_on_exit(void **state)
+{
+	enable_and_track(fixture_or_skip(state), "track", 1, 0);
+}
+
+static void test_enable_after_the_watchdog_tripped(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+
+	assert_non_null(strstr(enable_and_track(f, "trip", 2, 1), "tripped: motor1 is safe"));
+	/* rmdd saw enable = 0 before the second enable = 1 */
+	assert_non_null(strstr(file_text(f->rmdd_log), "motor 1 (motor1): safe -> ready"));
+}
+
+static void test_no_rmdd_is_a_clear_error(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	const char *out = run_script(f, "absent");
+	char want[160];
+
+	snprintf(want, sizeof(want), "is rmdd running, with --lcm-url %s and prefix RMD_?", f->url);
+	if (!strstr(out, "no rmd.config_t on RMD_CONFIG within 1 s: ") || !strstr(out, want))
+		fail_msg("want \"%s\" in:\n%s", want, out);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test_setup_teardown(test_enable_track_and_disable_on_exit, setup,
+						teardown),
+		cmocka_unit_test_setup_teardown(test_enable_after_the_watchdog_tripped, setup,
+						teardown),
+		cmocka_unit_test_setup_teardown(test_no_rmdd_is_a_clear_error, setup, teardown),
+	};
+
+	return cmocka_run_group_tests_name("python_client", tests, group_setup, group_teardown);
+}
