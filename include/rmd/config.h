@@ -32,7 +32,7 @@
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 
 #define RMD_CONFIG_NAME_LEN 32	  /* motor and bus names, NUL included */
 #define RMD_CONFIG_IFNAME_LEN 16  /* IFNAMSIZ */
@@ -131,17 +131,17 @@ struct rmd_config_lcm {
 	uint32_t health_period_ms; /* publish health this often */
 };
 
-/* A sim bus's simulator: wire, motor model, faults (rmd/sim_bus.h). */
+/* A sim bus's simulator: wire, motor model, faults (rmd/sim_wire.h). */
 struct rmd_config_sim {
 	uint64_t seed;	     /* faults' and motors' PRNG; 0: 1 */
-	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_BUS_TXQ */
-	bool host_fifo;	     /* RMD_SIM_BUS_HOST_FIFO: frames leave in send order */
+	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_WIRE_TXQ */
+	bool host_fifo;	     /* RMD_SIM_WIRE_HOST_FIFO: frames leave in send order */
 	/*
 	 * The model of every motor on this bus (id, proto, kt_nm_a, gear_ratio
 	 * and mit are the motor's own: see struct rmd_config_motor.sim).
 	 */
 	struct rmd_sim_motor_params motor;
-	struct rmd_sim_fault faults[RMD_SIM_BUS_MAX_FAULTS];
+	struct rmd_sim_fault faults[RMD_SIM_MAX_FAULTS];
 	unsigned n_faults;
 };
 

@@ -10,7 +10,7 @@
  * the output shaft, integrated at a fixed step (<= 100 us) whatever the
  * host's command rate; V3, V2 or MIT protocol as configured.
  *
- * struct rmd_sim_bus: a bus of motors with a wire-time model: every frame,
+ * struct rmd_sim_wire: a bus of motors with a wire-time model: every frame,
  * the host's and the motors', occupies the wire for its exact bit-stuffed
  * length in arbitration order; motors answer after a turnaround with
  * jitter; faults are injected here.

@@ -591,13 +591,14 @@ static const struct field fault_fields[] = { ENUM("kind", F, kind, fault_names, 
 static const struct field fault_elem = { .type = T_MAP, .sub = fault_fields };
 
 #define S struct rmd_config_sim
-static const struct field sim_fields[] = { UINT("seed", S, seed, 0, 18446744073709551615.0, 0),
-					   UINT("txqueuelen", S, txqueuelen, 1, RMD_SIM_BUS_TXQ, 0),
-					   BOOL("host_fifo", S, host_fifo),
-					   MAP("motor", S, motor, sim_motor_fields),
-					   SEQ("faults", S, faults, n_faults, &fault_elem,
-					       fault_init),
-					   END };
+static const struct field sim_fields[] = {
+	UINT("seed", S, seed, 0, 18446744073709551615.0, 0),
+	UINT("txqueuelen", S, txqueuelen, 1, RMD_SIM_WIRE_TXQ, 0),
+	BOOL("host_fifo", S, host_fifo),
+	MAP("motor", S, motor, sim_motor_fields),
+	SEQ("faults", S, faults, n_faults, &fault_elem, fault_init),
+	END
+};
 #undef S
 
 #define B struct rmd_config_bus
@@ -1712,7 +1713,7 @@ int rmd_config_open_sim_bus(const struct rmd_config *cfg, unsigned b, struct rmd
 		.motors = motors,
 		.bitrate = cb->bitrate,
 		.seed = cb->sim.seed,
-		.flags = cb->sim.host_fifo ? RMD_SIM_BUS_HOST_FIFO : 0,
+		.flags = cb->sim.host_fifo ? RMD_SIM_WIRE_HOST_FIFO : 0,
 		.txqueuelen = cb->sim.txqueuelen,
 		.faults = cb->sim.faults,
 		.n_faults = cb->sim.n_faults,

@@ -17,7 +17,7 @@
  *              and calls the real one (with SocketCAN this is the write);
  *   tick       the `now` of the cycle that sent it (the loop's wake-up);
  *   wire       when the frame starts on the simulated wire, from the sim
- *              bus's tap (rmd_sim_bus_set_tap) in sim time + the epoch.
+ *              bus's tap (rmd_sim_wire_set_tap) in sim time + the epoch.
  * The sim bus runs its wire in model time, driven by the loop's now at each
  * send and recv: a frame handed over in a cycle starts on the wire at that
  * cycle's now when the wire is idle (ours leads the cycle), later when
@@ -72,7 +72,7 @@
 #include "rmd/motor.h"
 #include "rmd/plan.h"
 #include "rmd/rmd_command_t.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -350,7 +350,7 @@ static int setup(void **state)
 	struct daemon *d;
 	struct rmd_bridge_opts bo;
 	struct rmd_loop_opts lo;
-	struct rmd_sim_bus *sim;
+	struct rmd_sim_wire *sim;
 	char err[512], report[2048];
 	int64_t t;
 
@@ -395,7 +395,7 @@ static int setup(void **state)
 	/* the wire's candump, then the hand-over shim (the sim bus is found by its ops) */
 	sim = rmd_bus_sim_get(&d->bus[0]);
 	assert_non_null(sim);
-	rmd_sim_bus_set_tap(sim, tap, NULL);
+	rmd_sim_wire_set_tap(sim, tap, NULL);
 	real_ops = d->bus[0].ops;
 	shim_ops = *real_ops;
 	shim_ops.send = shim_send;

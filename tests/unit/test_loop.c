@@ -32,7 +32,7 @@
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -144,7 +144,7 @@ static void open_buses(void)
 	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
 		if (rmd_config_open_sim_bus(&R.cfg, b, &R.buses[b], err, sizeof(err)))
 			fail_msg("sim bus %s: %s", R.cfg.buses[b].name, err);
-		rmd_sim_bus_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
+		rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
 	}
 }
 
@@ -265,7 +265,7 @@ static struct rmd_sim_motor *sim_motor(unsigned i)
 {
 	const struct rmd_config_motor *m = &R.cfg.motors[i];
 
-	return rmd_sim_bus_motor(rmd_bus_sim_get(&R.buses[m->bus]), m->id);
+	return rmd_sim_wire_motor(rmd_bus_sim_get(&R.buses[m->bus]), m->id);
 }
 
 static unsigned lifecycle(unsigned i)
@@ -301,12 +301,12 @@ static bool moves_frame(const struct rmd_frame *f)
 	return (c >= 0xA1 && c <= 0xA8) || c == 0x77 || c == 0x88;
 }
 
-/* n 0 clears the table (f then points at a dummy: rmd_sim_bus_set_faults() memcpy()s it) */
+/* n 0 clears the table (f then points at a dummy: rmd_sim_wire_set_faults() memcpy()s it) */
 static void set_faults(unsigned bus, const struct rmd_sim_fault *f, size_t n)
 {
 	static const struct rmd_sim_fault none;
 
-	assert_int_equal(rmd_sim_bus_set_faults(rmd_bus_sim_get(&R.buses[bus]), f ? f : &none, n),
+	assert_int_equal(rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.buses[bus]), f ? f : &none, n),
 			 0);
 }
 
@@ -389,7 +389,7 @@ static void test_bringup_unexpected(void **state)
 	p = R.cfg.motors[0].sim;
 	p.id = 7;
 	p.seed = 0;
-	assert_true(rmd_sim_bus_add_motor(rmd_bus_sim_get(&R.buses[0]), &p, 0) >= 0);
+	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.buses[0]), &p, 0) >= 0);
 	bring_up();
 	if (!strstr(R.report, "sim0: motor 7: unexpected (answers, but is not configured)"))
 		fail_msg("report:\n%s", R.report);

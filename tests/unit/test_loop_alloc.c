@@ -32,7 +32,7 @@
 #include "rmd/config.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -156,7 +156,7 @@ static void open_buses(void)
 			.motors = ms,
 			.bitrate = cfg.buses[b].bitrate,
 			.seed = cfg.buses[b].sim.seed,
-			.flags = RMD_SIM_BUS_HOST_FIFO,
+			.flags = RMD_SIM_WIRE_HOST_FIFO,
 			.txqueuelen = cfg.buses[b].sim.txqueuelen,
 		};
 
@@ -267,12 +267,12 @@ static void test_cycle_allocates_nothing(void **state)
 		if (k == 2000) {
 			drop.start_ns = rmd_bus_sim_time_ns(&buses[0], t_now);
 			drop.end_ns = drop.start_ns + 50 * MS;
-			rmd_sim_bus_set_faults(rmd_bus_sim_get(&buses[0]), &drop, 1);
+			rmd_sim_wire_set_faults(rmd_bus_sim_get(&buses[0]), &drop, 1);
 		}
 		if (k == 4000) {
 			hot.start_ns = rmd_bus_sim_time_ns(&buses[1], t_now);
 			hot.end_ns = hot.start_ns + 300 * MS;
-			rmd_sim_bus_set_faults(rmd_bus_sim_get(&buses[1]), &hot, 1);
+			rmd_sim_wire_set_faults(rmd_bus_sim_get(&buses[1]), &hot, 1);
 		}
 		if (k == 7000)
 			t_now += 5 * MS; /* an overrun */

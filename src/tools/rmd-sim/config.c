@@ -25,7 +25,7 @@
 #include "rmd/codec.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd-sim.h"
 
 #define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
@@ -736,9 +736,9 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 	}
 	if (f.end_ns && f.end_ns <= f.start_ns)
 		return fault_error(where, spec, "the end must come after the start", f.kind);
-	if (c->n_faults >= RMD_SIM_BUS_MAX_FAULTS) {
+	if (c->n_faults >= RMD_SIM_MAX_FAULTS) {
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": more than %d faults", where, spec,
-			RMD_SIM_BUS_MAX_FAULTS);
+			RMD_SIM_MAX_FAULTS);
 		return -EINVAL;
 	}
 	c->faults[c->n_faults] = f;

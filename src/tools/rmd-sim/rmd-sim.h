@@ -16,7 +16,7 @@
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 
 /* Exit statuses (documented in docs/rmd-sim.md and --help). */
 enum {
@@ -77,9 +77,9 @@ struct sim_config {
 	uint32_t motor_refs;
 	char motor_ref_where[RMD_MAX_MOTORS][SIM_WHERE_MAX];
 
-	struct rmd_sim_fault faults[RMD_SIM_BUS_MAX_FAULTS];
-	char fault_text[RMD_SIM_BUS_MAX_FAULTS][SIM_VALUE_MAX]; /* as written, for the summary */
-	char fault_where[RMD_SIM_BUS_MAX_FAULTS][SIM_WHERE_MAX];
+	struct rmd_sim_fault faults[RMD_SIM_MAX_FAULTS];
+	char fault_text[RMD_SIM_MAX_FAULTS][SIM_VALUE_MAX]; /* as written, for the summary */
+	char fault_where[RMD_SIM_MAX_FAULTS][SIM_WHERE_MAX];
 	unsigned n_faults;
 
 	/* Filled by sim_config_finish(): the parameters of motor id i + 1. */

@@ -21,7 +21,7 @@
  *   in order; it is never fatal.
  *
  * Faults are struct rmd_sim_fault entries, with the semantics of
- * rmd/sim_bus.h where they apply to a real wire: per-frame kinds act on
+ * rmd/sim_wire.h where they apply to a real wire: per-frame kinds act on
  * each frame a motor transmits (evaluated when it becomes ready), in table
  * order, a drop ending the list; DISAPPEAR and ERROR_FLAG act over their
  * window; FLOOD writes a foreign frame every period (CAN only); BUS_OFF is
@@ -68,7 +68,7 @@
 #include "rmd/codec.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd-sim.h"
 
 #define TXQ 1024			     /* frames waiting for their due time */
@@ -123,8 +123,8 @@ struct sim {
 	int64_t t0;
 	struct slot slots[RMD_MAX_MOTORS];
 	unsigned n;
-	bool fault_open[RMD_SIM_BUS_MAX_FAULTS];
-	int64_t flood_next[RMD_SIM_BUS_MAX_FAULTS];
+	bool fault_open[RMD_SIM_MAX_FAULTS];
+	int64_t flood_next[RMD_SIM_MAX_FAULTS];
 	uint64_t rng;
 
 	struct txe q[TXQ]; /* binary heap on (due_ns, seq) */
@@ -385,7 +385,7 @@ static bool apply_faults(struct sim *s, const struct slot *sl, struct rmd_frame 
 				f->data[k] = (uint8_t)(rmd_rng_next(&s->rng) >> 56);
 			break;
 		case RMD_SIM_FAULT_WRONG_ID:
-			/* 0x300 and the like carry no ID: not hit (as rmd/sim_bus.h). */
+			/* 0x300 and the like carry no ID: not hit (as rmd/sim_wire.h). */
 			if (!retarget(&f->can_id, (unsigned)ft->param))
 				continue;
 			break;
@@ -465,12 +465,12 @@ static void update_faults(struct sim *s, int64_t now)
 			sl->injected = bits;
 		}
 		if (!powered && sl->powered) {
-			/* Without power the drive lets go and the brake locks (as rmd/sim_bus.h). */
+			/* Without power the drive lets go and the brake locks (as rmd/sim_wire.h). */
 			rmd_sim_motor_power_cycle(&sl->m, now);
 			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u loses power", sl->id);
 		}
 		if (powered && !sl->powered) {
-			/* sim_bus.h DISAPPEAR param 1: it boots at the end of the window. */
+			/* sim_wire.h DISAPPEAR param 1: it boots at the end of the window. */
 			rmd_sim_motor_power_cycle(&sl->m, now);
 			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u powered again: boots", sl->id);
 		}
@@ -511,7 +511,7 @@ static int64_t next_fault_event(const struct sim *s, int64_t now)
 /* A frame arrived at t: every present motor sees it.  Returns the replies scheduled. */
 static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 {
-	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
+	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
 	int total = 0;
 
 	for (unsigned i = 0; i < s->n; i++) {
@@ -520,7 +520,7 @@ static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 
 		if (sl->absent)
 			continue;
-		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_BUS_MAX_REPLIES);
+		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int k = 0; k < n; k++)
 			emit(s, i, &out[k], t + rmd_sim_motor_turnaround_ns(&sl->m));
 		total += n;

@@ -14,12 +14,12 @@
 
 #include "rmd/rng.h"
 #include "rmd/can_timing.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 
-_Static_assert((RMD_SIM_BUS_TXQ & (RMD_SIM_BUS_TXQ - 1)) == 0, "TXQ: power of two");
-_Static_assert((RMD_SIM_BUS_MOTQ & (RMD_SIM_BUS_MOTQ - 1)) == 0, "MOTQ: power of two");
-_Static_assert((RMD_SIM_BUS_RXQ & (RMD_SIM_BUS_RXQ - 1)) == 0, "RXQ: power of two");
-_Static_assert((RMD_SIM_BUS_HIST & (RMD_SIM_BUS_HIST - 1)) == 0, "HIST: power of two");
+_Static_assert((RMD_SIM_WIRE_TXQ & (RMD_SIM_WIRE_TXQ - 1)) == 0, "TXQ: power of two");
+_Static_assert((RMD_SIM_WIRE_MOTQ & (RMD_SIM_WIRE_MOTQ - 1)) == 0, "MOTQ: power of two");
+_Static_assert((RMD_SIM_WIRE_RXQ & (RMD_SIM_WIRE_RXQ - 1)) == 0, "RXQ: power of two");
+_Static_assert((RMD_SIM_WIRE_HIST & (RMD_SIM_WIRE_HIST - 1)) == 0, "HIST: power of two");
 
 /* ---- fault table helpers ------------------------------------------------- */
 
@@ -78,7 +78,7 @@ static bool fault_hits(const struct rmd_sim_fault *f, const struct rmd_sim_motor
 	return f->motor_id == 0 || f->motor_id == m->p.id;
 }
 
-static bool is_bus_off(const struct rmd_sim_bus *bus)
+static bool is_bus_off(const struct rmd_sim_wire *bus)
 {
 	for (unsigned k = 0; k < bus->n_faults; k++)
 		if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_BUS_OFF)
@@ -86,7 +86,7 @@ static bool is_bus_off(const struct rmd_sim_bus *bus)
 	return false;
 }
 
-static bool is_absent(const struct rmd_sim_bus *bus, unsigned i)
+static bool is_absent(const struct rmd_sim_wire *bus, unsigned i)
 {
 	for (unsigned k = 0; k < bus->n_faults; k++)
 		if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_DISAPPEAR &&
@@ -128,12 +128,12 @@ static int validate_fault(const struct rmd_sim_fault *f)
 
 /* ---- queues --------------------------------------------------------------- */
 
-static void deliver_host(struct rmd_sim_bus *bus, const struct rmd_frame *f, int64_t t)
+static void deliver_host(struct rmd_sim_wire *bus, const struct rmd_frame *f, int64_t t)
 {
 	unsigned used = bus->rxq_head - bus->rxq_tail;
-	unsigned i = bus->rxq_head & (RMD_SIM_BUS_RXQ - 1);
+	unsigned i = bus->rxq_head & (RMD_SIM_WIRE_RXQ - 1);
 
-	if (used >= RMD_SIM_BUS_RXQ) {
+	if (used >= RMD_SIM_WIRE_RXQ) {
 		bus->stats.rxq_dropped++;
 		bus->stats.errors++;
 		return;
@@ -146,12 +146,12 @@ static void deliver_host(struct rmd_sim_bus *bus, const struct rmd_frame *f, int
 		bus->stats.rxq_hwm = used + 1;
 }
 
-static void push_motor_frame(struct rmd_sim_bus *bus, unsigned src, const struct rmd_frame *f,
+static void push_motor_frame(struct rmd_sim_wire *bus, unsigned src, const struct rmd_frame *f,
 			     int64_t ready_ns)
 {
 	struct rmd_sim_pending *p;
 
-	if (bus->motq_n >= RMD_SIM_BUS_MOTQ) {
+	if (bus->motq_n >= RMD_SIM_WIRE_MOTQ) {
 		bus->stats.motq_dropped++;
 		bus->stats.errors++;
 		return;
@@ -181,7 +181,7 @@ static bool rebase_id(uint32_t *can_id, uint8_t own, uint8_t other)
  * A frame motor i transmits, produced at t: the per-frame faults act on it,
  * then it waits for the wire from ready_ns on.
  */
-static void motor_emit(struct rmd_sim_bus *bus, unsigned i, struct rmd_frame f, int64_t t,
+static void motor_emit(struct rmd_sim_wire *bus, unsigned i, struct rmd_frame f, int64_t t,
 		       int64_t ready_ns)
 {
 	struct rmd_sim_motor *m = &bus->motors[i];
@@ -226,14 +226,14 @@ static void motor_emit(struct rmd_sim_bus *bus, unsigned i, struct rmd_frame f, 
 /* ---- the wire ------------------------------------------------------------- */
 
 /* Take the frame off the wire unfinished (bus-off, sender gone). */
-static void abort_wire(struct rmd_sim_bus *bus, int64_t t)
+static void abort_wire(struct rmd_sim_wire *bus, int64_t t)
 {
 	bus->wire_busy = false;
 	bus->wire_free_ns = t;
 }
 
 /* Discard the waiting frames of motor i (i < 0: of every motor). */
-static unsigned discard_motor_frames(struct rmd_sim_bus *bus, int i)
+static unsigned discard_motor_frames(struct rmd_sim_wire *bus, int i)
 {
 	unsigned n = 0;
 
@@ -249,7 +249,7 @@ static unsigned discard_motor_frames(struct rmd_sim_bus *bus, int i)
 }
 
 /* Make the motors' injected error bits those of the open ERROR_FLAG windows. */
-static void sync_error_flags(struct rmd_sim_bus *bus, int64_t t)
+static void sync_error_flags(struct rmd_sim_wire *bus, int64_t t)
 {
 	for (unsigned i = 0; i < bus->n_motors; i++) {
 		struct rmd_sim_motor *m = &bus->motors[i];
@@ -268,7 +268,7 @@ static void sync_error_flags(struct rmd_sim_bus *bus, int64_t t)
 	}
 }
 
-static void open_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
+static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 {
 	const struct rmd_sim_fault *f = &bus->faults[k];
 
@@ -313,7 +313,7 @@ static void open_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
 	bus->stats.faults[f->kind]++;
 }
 
-static void close_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
+static void close_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 {
 	const struct rmd_sim_fault *f = &bus->faults[k];
 
@@ -326,7 +326,7 @@ static void close_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
 }
 
 /* Open and close the windows as of time t. */
-static void apply_windows(struct rmd_sim_bus *bus, int64_t t)
+static void apply_windows(struct rmd_sim_wire *bus, int64_t t)
 {
 	bool errors_changed = false;
 
@@ -350,12 +350,12 @@ static void apply_windows(struct rmd_sim_bus *bus, int64_t t)
 }
 
 /* The frame on the wire reaches its end of frame: everyone takes it. */
-static void finish_frame(struct rmd_sim_bus *bus)
+static void finish_frame(struct rmd_sim_wire *bus)
 {
 	const struct rmd_sim_pending *w = &bus->wire;
 	int64_t t = bus->wire_eof_ns;
-	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
-	unsigned h = bus->hist_n++ & (RMD_SIM_BUS_HIST - 1);
+	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
+	unsigned h = bus->hist_n++ & (RMD_SIM_WIRE_HIST - 1);
 
 	bus->wire_busy = false;
 	bus->stats.bits += bus->wire_bits;
@@ -377,7 +377,7 @@ static void finish_frame(struct rmd_sim_bus *bus)
 
 		if ((int)i == w->src || is_absent(bus, i))
 			continue;
-		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_BUS_MAX_REPLIES);
+		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int j = 0; j < n; j++)
 			motor_emit(bus, i, out[j], t, t + rmd_sim_motor_turnaround_ns(m));
 	}
@@ -386,9 +386,9 @@ static void finish_frame(struct rmd_sim_bus *bus)
 }
 
 /* The motors' unsolicited frames due by t. */
-static void poll_motors(struct rmd_sim_bus *bus, int64_t t)
+static void poll_motors(struct rmd_sim_wire *bus, int64_t t)
 {
-	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
+	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
 	bool off = is_bus_off(bus);
 
 	for (unsigned i = 0; i < bus->n_motors; i++) {
@@ -398,7 +398,7 @@ static void poll_motors(struct rmd_sim_bus *bus, int64_t t)
 		/* Frames that did not fit stay due: a few rounds take them all. */
 		for (unsigned round = 0; round < 8 && rmd_sim_motor_next_event_ns(m) <= t;
 		     round++) {
-			int n = rmd_sim_motor_poll(m, t, out, RMD_SIM_BUS_MAX_REPLIES);
+			int n = rmd_sim_motor_poll(m, t, out, RMD_SIM_WIRE_MAX_REPLIES);
 
 			for (int j = 0; j < n; j++) {
 				if (absent) {
@@ -410,7 +410,7 @@ static void poll_motors(struct rmd_sim_bus *bus, int64_t t)
 					motor_emit(bus, i, out[j], t, t);
 				}
 			}
-			if (n < RMD_SIM_BUS_MAX_REPLIES)
+			if (n < RMD_SIM_WIRE_MAX_REPLIES)
 				break;
 		}
 	}
@@ -429,9 +429,9 @@ static bool wins(const struct rmd_sim_pending *a, const struct rmd_sim_pending *
 }
 
 /* The host frames allowed to compete: all, or only the oldest (FIFO). */
-static bool host_competes(const struct rmd_sim_bus *bus, unsigned j)
+static bool host_competes(const struct rmd_sim_wire *bus, unsigned j)
 {
-	if (!(bus->flags & RMD_SIM_BUS_HOST_FIFO))
+	if (!(bus->flags & RMD_SIM_WIRE_HOST_FIFO))
 		return true;
 	for (unsigned k = 0; k < bus->txq_n; k++)
 		if (bus->txq[k].seq < bus->txq[j].seq)
@@ -440,7 +440,7 @@ static bool host_competes(const struct rmd_sim_bus *bus, unsigned j)
 }
 
 /* Arbitration at t on an idle wire: the winner goes on the wire. */
-static void start_frame(struct rmd_sim_bus *bus, int64_t t)
+static void start_frame(struct rmd_sim_wire *bus, int64_t t)
 {
 	struct rmd_sim_pending flood;
 	const struct rmd_sim_pending *best = NULL;
@@ -507,7 +507,7 @@ static int64_t min64(int64_t a, int64_t b)
 }
 
 /* The next time after t at which something happens, capped at until. */
-static int64_t next_event(const struct rmd_sim_bus *bus, int64_t t, int64_t until)
+static int64_t next_event(const struct rmd_sim_wire *bus, int64_t t, int64_t until)
 {
 	int64_t n = until;
 
@@ -546,7 +546,7 @@ static int64_t next_event(const struct rmd_sim_bus *bus, int64_t t, int64_t unti
 	return n;
 }
 
-int rmd_sim_bus_advance(struct rmd_sim_bus *bus, int64_t until_ns)
+int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns)
 {
 	uint64_t delivered = bus->stats.rx_delivered;
 
@@ -574,45 +574,45 @@ int rmd_sim_bus_advance(struct rmd_sim_bus *bus, int64_t until_ns)
 
 /* ---- API ----------------------------------------------------------------- */
 
-int rmd_sim_bus_init(struct rmd_sim_bus *bus, uint32_t bitrate, uint64_t seed, unsigned flags)
+int rmd_sim_wire_init(struct rmd_sim_wire *bus, uint32_t bitrate, uint64_t seed, unsigned flags)
 {
-	if (bitrate == 0 || (flags & ~(unsigned)RMD_SIM_BUS_HOST_FIFO))
+	if (bitrate == 0 || (flags & ~(unsigned)RMD_SIM_WIRE_HOST_FIFO))
 		return -EINVAL;
 	memset(bus, 0, sizeof(*bus));
 	bus->bitrate = bitrate;
 	bus->flags = flags;
-	bus->txq_len = RMD_SIM_BUS_TXQ;
+	bus->txq_len = RMD_SIM_WIRE_TXQ;
 	bus->seed = seed;
 	bus->rng = rmd_rng_seed(seed);
 	return 0;
 }
 
-void rmd_sim_bus_fini(struct rmd_sim_bus *bus)
+void rmd_sim_wire_fini(struct rmd_sim_wire *bus)
 {
 	(void)bus;
 }
 
-int rmd_sim_bus_set_txqueuelen(struct rmd_sim_bus *bus, unsigned len)
+int rmd_sim_wire_set_txqueuelen(struct rmd_sim_wire *bus, unsigned len)
 {
-	if (len < 1 || len > RMD_SIM_BUS_TXQ)
+	if (len < 1 || len > RMD_SIM_WIRE_TXQ)
 		return -EINVAL;
 	bus->txq_len = len;
 	return 0;
 }
 
-int rmd_sim_bus_add_motor(struct rmd_sim_bus *bus, const struct rmd_sim_motor_params *p,
-			  int64_t now_ns)
+int rmd_sim_wire_add_motor(struct rmd_sim_wire *bus, const struct rmd_sim_motor_params *p,
+			   int64_t now_ns)
 {
 	struct rmd_sim_motor_params q = *p;
 	unsigned i = bus->n_motors;
 
 	if (p->id < 1 || p->id > RMD_MAX_MOTORS)
 		return -EINVAL;
-	if (rmd_sim_bus_motor(bus, p->id))
+	if (rmd_sim_wire_motor(bus, p->id))
 		return -EEXIST;
 	if (i >= RMD_MAX_MOTORS)
 		return -ENOSPC;
-	rmd_sim_bus_advance(bus, now_ns);
+	rmd_sim_wire_advance(bus, now_ns);
 	if (q.seed == 0)
 		q.seed = rmd_rng_seed(bus->seed ^ ((uint64_t)p->id << 56));
 	rmd_sim_motor_init(&bus->motors[i], &q, bus->now_ns);
@@ -622,13 +622,13 @@ int rmd_sim_bus_add_motor(struct rmd_sim_bus *bus, const struct rmd_sim_motor_pa
 	return (int)i;
 }
 
-void rmd_sim_bus_set_tap(struct rmd_sim_bus *bus, rmd_sim_bus_tap_fn *fn, void *ctx)
+void rmd_sim_wire_set_tap(struct rmd_sim_wire *bus, rmd_sim_wire_tap_fn *fn, void *ctx)
 {
 	bus->tap = fn;
 	bus->tap_ctx = ctx;
 }
 
-struct rmd_sim_motor *rmd_sim_bus_motor(struct rmd_sim_bus *bus, uint8_t id)
+struct rmd_sim_motor *rmd_sim_wire_motor(struct rmd_sim_wire *bus, uint8_t id)
 {
 	for (unsigned i = 0; i < bus->n_motors; i++)
 		if (bus->motors[i].p.id == id)
@@ -636,11 +636,11 @@ struct rmd_sim_motor *rmd_sim_bus_motor(struct rmd_sim_bus *bus, uint8_t id)
 	return NULL;
 }
 
-int rmd_sim_bus_set_faults(struct rmd_sim_bus *bus, const struct rmd_sim_fault *faults, size_t n)
+int rmd_sim_wire_set_faults(struct rmd_sim_wire *bus, const struct rmd_sim_fault *faults, size_t n)
 {
 	int r;
 
-	if (n > RMD_SIM_BUS_MAX_FAULTS)
+	if (n > RMD_SIM_MAX_FAULTS)
 		return -E2BIG;
 	for (size_t k = 0; k < n; k++) {
 		r = validate_fault(&faults[k]);
@@ -665,12 +665,12 @@ int rmd_sim_bus_set_faults(struct rmd_sim_bus *bus, const struct rmd_sim_fault *
 	return 0;
 }
 
-int rmd_sim_bus_send(struct rmd_sim_bus *bus, int64_t now_ns, const struct rmd_frame *frames,
-		     unsigned n)
+int rmd_sim_wire_send(struct rmd_sim_wire *bus, int64_t now_ns, const struct rmd_frame *frames,
+		      unsigned n)
 {
 	unsigned taken = 0;
 
-	rmd_sim_bus_advance(bus, now_ns);
+	rmd_sim_wire_advance(bus, now_ns);
 	if (is_bus_off(bus)) {
 		bus->stats.busoff_lost += n;
 		bus->stats.errors += n;
@@ -701,12 +701,12 @@ int rmd_sim_bus_send(struct rmd_sim_bus *bus, int64_t now_ns, const struct rmd_f
 	return (int)taken;
 }
 
-int rmd_sim_bus_recv(struct rmd_sim_bus *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns)
+int rmd_sim_wire_recv(struct rmd_sim_wire *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns)
 {
 	unsigned n = 0;
 
 	while (n < max && bus->rxq_tail != bus->rxq_head) {
-		unsigned i = bus->rxq_tail++ & (RMD_SIM_BUS_RXQ - 1);
+		unsigned i = bus->rxq_tail++ & (RMD_SIM_WIRE_RXQ - 1);
 
 		out[n] = bus->rxq[i];
 		if (t_ns)
@@ -716,7 +716,7 @@ int rmd_sim_bus_recv(struct rmd_sim_bus *bus, struct rmd_frame *out, unsigned ma
 	return (int)n;
 }
 
-enum rmd_bus_state rmd_sim_bus_state(const struct rmd_sim_bus *bus)
+enum rmd_bus_state rmd_sim_wire_state(const struct rmd_sim_wire *bus)
 {
 	return is_bus_off(bus) ? RMD_BUS_OFF : RMD_BUS_ACTIVE;
 }
@@ -729,15 +729,15 @@ static int64_t overlap(int64_t a0, int64_t a1, int64_t b0, int64_t b1)
 	return hi > lo ? hi - lo : 0;
 }
 
-int rmd_sim_bus_load(const struct rmd_sim_bus *bus, int64_t window_ns, double *pct)
+int rmd_sim_wire_load(const struct rmd_sim_wire *bus, int64_t window_ns, double *pct)
 {
 	int64_t to = bus->now_ns, from = to - window_ns, busy = 0;
-	unsigned kept = bus->hist_n < RMD_SIM_BUS_HIST ? bus->hist_n : RMD_SIM_BUS_HIST;
+	unsigned kept = bus->hist_n < RMD_SIM_WIRE_HIST ? bus->hist_n : RMD_SIM_WIRE_HIST;
 
 	if (window_ns <= 0)
 		return -EINVAL;
-	if (bus->hist_n > RMD_SIM_BUS_HIST &&
-	    bus->hist_start_ns[bus->hist_n & (RMD_SIM_BUS_HIST - 1)] > from)
+	if (bus->hist_n > RMD_SIM_WIRE_HIST &&
+	    bus->hist_start_ns[bus->hist_n & (RMD_SIM_WIRE_HIST - 1)] > from)
 		return -ERANGE;
 	for (unsigned j = 0; j < kept; j++)
 		busy += overlap(bus->hist_start_ns[j], bus->hist_free_ns[j], from, to);
@@ -747,7 +747,7 @@ int rmd_sim_bus_load(const struct rmd_sim_bus *bus, int64_t window_ns, double *p
 	return 0;
 }
 
-unsigned rmd_sim_bus_pending(const struct rmd_sim_bus *bus)
+unsigned rmd_sim_wire_pending(const struct rmd_sim_wire *bus)
 {
 	return bus->txq_n + bus->motq_n;
 }
