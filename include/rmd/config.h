@@ -31,6 +31,7 @@
 #include "rmd/codec.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
+#include "rmd/mode.h"
 #include "rmd/sim.h"
 #include "rmd/sim_wire.h"
 
@@ -68,14 +69,6 @@ enum rmd_bus_kind {
 	RMD_BUS_KIND_SOCKETCAN = 0, /* "socketcan": a CAN netdev */
 	RMD_BUS_KIND_RS485,	    /* "rs485": a serial line, V3 motors only */
 	RMD_BUS_KIND_SIM,	    /* "sim": in-process simulated motors */
-};
-
-/* What a motor is commanded with (and what its setpoint means). */
-enum rmd_ctrl_mode {
-	RMD_CTRL_TORQUE = 0, /* "torque": V2/V3 0xA1 (iq), V2 0x280 */
-	RMD_CTRL_SPEED,	     /* "speed": 0xA2 */
-	RMD_CTRL_POSITION,   /* "position": V3 0xA4 / V2 0xA4 */
-	RMD_CTRL_MIT,	     /* "mit": V3 §5, 0x400 + ID */
 };
 
 /* What rmdd does to a motor when its controller goes quiet or it is lost. */
@@ -169,7 +162,7 @@ struct rmd_config_motor {
 	unsigned bus;			/* index into rmd_config.buses[] */
 	uint8_t id;			/* 1..32, unique per bus */
 	enum rmd_proto proto;
-	enum rmd_ctrl_mode mode;
+	enum rmd_mode mode;
 	int direction;	   /* +1, or -1: the motor turns the other way */
 	double gear_ratio; /* motor turns per output turn, > 0 */
 	enum rmd_units units;
@@ -236,7 +229,7 @@ int rmd_config_motor_find(const struct rmd_config *cfg, const char *name);
 /* Names as the file spells them ("socketcan", "v3", "torque", "damp", ...).  rt-safe. */
 const char *rmd_bus_kind_name(enum rmd_bus_kind kind);
 const char *rmd_proto_key(enum rmd_proto proto);
-const char *rmd_ctrl_mode_name(enum rmd_ctrl_mode mode);
+const char *rmd_mode_name(enum rmd_mode mode);
 const char *rmd_safe_action_name(enum rmd_safe_action action);
 
 #endif /* RMD_CONFIG_H */

@@ -485,6 +485,8 @@ struct field {
 static const char *const bus_kind_names[] = { "socketcan", "rs485", "sim", NULL };
 static const char *const proto_names[] = { "v3", "v2", "mit", NULL };
 static const char *const mode_names[] = { "torque", "speed", "position", "mit", NULL };
+_Static_assert(sizeof(mode_names) / sizeof(mode_names[0]) == RMD_MODE_COUNT + 1,
+	       "mode_names[] follows enum rmd_mode");
 static const char *const units_names[] = { "output", "rotor", NULL };
 static const char *const safe_names[] = { "stop", "hold", "damp", "brake", NULL };
 static const char *const lost_names[] = { "motor", "all", NULL };
@@ -677,7 +679,7 @@ static void motor_init(void *elem)
 
 	memset(m, 0, sizeof(*m));
 	m->proto = RMD_PROTO_V3;
-	m->mode = RMD_CTRL_TORQUE;
+	m->mode = RMD_MODE_TORQUE;
 	m->direction = 1;
 	m->gear_ratio = 1.0;
 	m->units = RMD_UNITS_OUTPUT;
@@ -1445,12 +1447,12 @@ static void validate_motors(struct ctx *c, struct rmd_config *cfg, const struct 
 			}
 		}
 		/* protocol and mode */
-		if (m->proto == RMD_PROTO_MIT && m->mode != RMD_CTRL_MIT) {
+		if (m->proto == RMD_PROTO_MIT && m->mode != RMD_MODE_MIT) {
 			path_key(kp, path, "mode");
 			report(c, line_of(mn, "mode"), kp,
 			       "%s: a mit protocol motor runs in mode mit (V3 §5)",
-			       rmd_ctrl_mode_name(m->mode));
-		} else if (m->mode == RMD_CTRL_MIT && m->proto != RMD_PROTO_MIT) {
+			       rmd_mode_name(m->mode));
+		} else if (m->mode == RMD_MODE_MIT && m->proto != RMD_PROTO_MIT) {
 			path_key(kp, path, "mode");
 			report(c, line_of(mn, "mode"), kp,
 			       "mit needs protocol mit (this motor is %s)",
@@ -1694,9 +1696,9 @@ const char *rmd_proto_key(enum rmd_proto proto)
 	return (unsigned)proto < 3 ? proto_names[proto] : "?";
 }
 
-const char *rmd_ctrl_mode_name(enum rmd_ctrl_mode mode)
+const char *rmd_mode_name(enum rmd_mode mode)
 {
-	return (unsigned)mode < 4 ? mode_names[mode] : "?";
+	return (unsigned)mode < RMD_MODE_COUNT ? mode_names[mode] : "?";
 }
 
 const char *rmd_safe_action_name(enum rmd_safe_action action)

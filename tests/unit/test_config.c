@@ -119,7 +119,7 @@ static void test_example_sim12(void **state)
 	m = &cfg.motors[2];
 	assert_string_equal(m->name, "fl_knee");
 	assert_int_equal(m->proto, RMD_PROTO_MIT);
-	assert_int_equal(m->mode, RMD_CTRL_MIT);
+	assert_int_equal(m->mode, RMD_MODE_MIT);
 	assert_int_equal(m->direction, -1);
 	/* limits through a YAML alias */
 	assert_true(m->limits.torque_nm == 18.0);
@@ -201,7 +201,7 @@ static void test_defaults(void **state)
 	assert_int_equal(b->bitrate, 1000000);
 	assert_int_equal(b->line, 2);
 	assert_int_equal(m->proto, RMD_PROTO_V3);
-	assert_int_equal(m->mode, RMD_CTRL_TORQUE);
+	assert_int_equal(m->mode, RMD_MODE_TORQUE);
 	assert_int_equal(m->direction, 1);
 	assert_true(m->gear_ratio == 1.0);
 	assert_int_equal(m->units, RMD_UNITS_OUTPUT);
@@ -588,7 +588,7 @@ static void test_names(void **state)
 	assert_string_equal(rmd_bus_kind_name(RMD_BUS_KIND_RS485), "rs485");
 	assert_string_equal(rmd_proto_key(RMD_PROTO_MIT), "mit");
 	assert_string_equal(rmd_proto_key(RMD_PROTO_V2), "v2");
-	assert_string_equal(rmd_ctrl_mode_name(RMD_CTRL_POSITION), "position");
+	assert_string_equal(rmd_mode_name(RMD_MODE_POSITION), "position");
 	assert_string_equal(rmd_safe_action_name(RMD_SAFE_HOLD), "hold");
 }
 

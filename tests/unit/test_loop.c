@@ -452,7 +452,7 @@ static void test_bringup_missing(void **state)
 
 static void position_tweak(struct rmd_config *cfg)
 {
-	cfg->motors[0].mode = RMD_CTRL_POSITION;
+	cfg->motors[0].mode = RMD_MODE_POSITION;
 	cfg->motors[0].limits.velocity_rad_s = 5.0;
 	cfg->motors[0].limits.position_min_rad = -2.0;
 	cfg->motors[0].limits.position_max_rad = 2.0;
@@ -718,7 +718,7 @@ static void test_watchdog(void **state)
 static void mit_third(struct rmd_config *cfg)
 {
 	cfg->motors[2].proto = RMD_PROTO_MIT;
-	cfg->motors[2].mode = RMD_CTRL_MIT;
+	cfg->motors[2].mode = RMD_MODE_MIT;
 }
 
 static void test_nan_never_on_wire(void **state)
@@ -838,7 +838,7 @@ static void v2_batch(struct rmd_config *cfg)
 		m->bus = 0;
 		m->id = (uint8_t)(i + 1);
 		m->proto = RMD_PROTO_V2;
-		m->mode = RMD_CTRL_TORQUE;
+		m->mode = RMD_MODE_TORQUE;
 		m->status_poll_hz = 0; /* no room for polls beside a full 0x280 cycle */
 	}
 	cfg->n_buses = 1;

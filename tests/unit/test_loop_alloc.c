@@ -127,12 +127,12 @@ static void make_config(void)
 	assert_int_equal(rmd_config_sim_default(&cfg, 10), 0);
 	cfg.safety.safe_action = RMD_SAFE_DAMP;
 	cfg.safety.lost_motor_action = RMD_LOST_ALL;
-	cfg.motors[0].mode = RMD_CTRL_POSITION;
+	cfg.motors[0].mode = RMD_MODE_POSITION;
 	cfg.motors[0].limits.position_min_rad = -1.0;
 	cfg.motors[0].limits.position_max_rad = 1.0;
-	cfg.motors[1].mode = RMD_CTRL_SPEED;
+	cfg.motors[1].mode = RMD_MODE_SPEED;
 	cfg.motors[2].proto = RMD_PROTO_MIT;
-	cfg.motors[2].mode = RMD_CTRL_MIT;
+	cfg.motors[2].mode = RMD_MODE_MIT;
 	for (unsigned i = 6; i < 10; i++) {
 		cfg.motors[i].bus = 2;
 		cfg.motors[i].id = (uint8_t)(i - 5);

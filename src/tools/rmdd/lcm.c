@@ -9,13 +9,6 @@
 
 #include "rmdd.h"
 
-/* The bridge and the loop speak rmd_mode; the configuration rmd_ctrl_mode: one numbering. */
-_Static_assert((int)RMD_MODE_TORQUE == (int)RMD_CTRL_TORQUE &&
-		       (int)RMD_MODE_SPEED == (int)RMD_CTRL_SPEED &&
-		       (int)RMD_MODE_POSITION == (int)RMD_CTRL_POSITION &&
-		       (int)RMD_MODE_MIT == (int)RMD_CTRL_MIT,
-	       "enum rmd_mode and enum rmd_ctrl_mode disagree");
-
 /*
  * The modes a motor can be commanded in (rmd/motor.h): MIT only on an MIT
  * motor; torque only with a torque constant; a motor in a V2 0x280 frame
