@@ -68,6 +68,7 @@
 #include "rmd/bridge.h"
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "rmd/plan.h"
@@ -275,6 +276,7 @@ static int group_setup(void **state)
 
 struct daemon {
 	struct rmd_config cfg;
+	struct rmd_sim_setup sim;
 	struct rmd_plan plan;
 	struct rmd_bus bus[RMD_MAX_BUSES];
 	unsigned n_open;
@@ -300,7 +302,7 @@ static void open_buses(struct daemon *d)
 		char err[256];
 
 		assert_int_equal(d->cfg.buses[b].kind, RMD_BUS_KIND_SIM);
-		if (rmd_config_open_sim_bus(&d->cfg, b, &d->bus[b], err, sizeof(err)) < 0)
+		if (rmd_config_open_sim_bus(&d->cfg, &d->sim, b, &d->bus[b], err, sizeof(err)) < 0)
 			fail_msg("sim bus %s: %s", d->cfg.buses[b].name, err);
 		d->n_open++;
 	}
@@ -366,7 +368,7 @@ static int setup(void **state)
 	assert_non_null(d->log);
 
 	/* rmdd --sim 1: one V3 motor on a 1 Mbit/s sim bus, at 1 kHz */
-	assert_int_equal(rmd_config_sim_default(&d->cfg, 1), 0);
+	assert_int_equal(rmd_config_sim_default(&d->cfg, &d->sim, 1), 0);
 	if (rmd_plan_build(&d->cfg, &d->plan, err, sizeof(err)) < 0)
 		fail_msg("plan: %s", err);
 	open_buses(d);

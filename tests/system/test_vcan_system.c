@@ -80,6 +80,7 @@
 #include "rmd/candump.h"
 #include "rmd/codec.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/frame.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_health_t.h"
@@ -971,7 +972,7 @@ static void write_config(void)
 	}
 	assert_int_equal(fclose(out), 0);
 	free(text);
-	if (rmd_config_load(S.cfgpath, &S.cfg, err, sizeof(err)) < 0)
+	if (rmd_config_load(S.cfgpath, &S.cfg, NULL, err, sizeof(err)) < 0)
 		fail_msg("%s (from %s): %s", S.cfgpath, tpl, err);
 	S.nbus = S.cfg.n_buses;
 	if (S.nbus > NBUS_MAX)

@@ -29,6 +29,7 @@
 
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/sim.h"
@@ -72,6 +73,7 @@ static unsigned trace_n;
 
 struct rig {
 	struct rmd_config cfg;
+	struct rmd_sim_setup sim;
 	struct rmd_plan plan;
 	struct rmd_bus buses[RMD_MAX_BUSES];
 	int64_t epoch[RMD_MAX_BUSES]; /* caller time at sim time 0 */
@@ -127,13 +129,14 @@ static void sync_sim(struct rmd_config *cfg)
 {
 	for (unsigned i = 0; i < cfg->n_motors; i++) {
 		struct rmd_config_motor *m = &cfg->motors[i];
+		struct rmd_sim_motor_params *p = &R.sim.motors[i];
 
-		m->sim.id = m->id;
-		m->sim.proto = m->proto;
-		m->sim.mit = m->mit;
-		m->sim.gear_ratio = m->gear_ratio;
+		p->id = m->id;
+		p->proto = m->proto;
+		p->mit = m->mit;
+		p->gear_ratio = m->gear_ratio;
 		if (m->torque_constant_nm_a > 0)
-			m->sim.kt_nm_a = m->torque_constant_nm_a;
+			p->kt_nm_a = m->torque_constant_nm_a;
 	}
 }
 
@@ -142,7 +145,7 @@ static void open_buses(void)
 	char err[256];
 
 	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
-		if (rmd_config_open_sim_bus(&R.cfg, b, &R.buses[b], err, sizeof(err)))
+		if (rmd_config_open_sim_bus(&R.cfg, &R.sim, b, &R.buses[b], err, sizeof(err)))
 			fail_msg("sim bus %s: %s", R.cfg.buses[b].name, err);
 		rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
 	}
@@ -162,7 +165,7 @@ static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
 	trace_n = 0;
 	nev = 0;
 	t_now = 1000 * MS;
-	assert_int_equal(rmd_config_sim_default(&R.cfg, n), 0);
+	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.sim, n), 0);
 	R.cfg.safety.safe_action = RMD_SAFE_STOP;
 	R.cfg.safety.lost_motor_action = RMD_LOST_MOTOR;
 	if (tweak)
@@ -386,7 +389,7 @@ static void test_bringup_unexpected(void **state)
 	(void)state;
 	rig_up(3, NULL);
 	/* a motor on the wire that the configuration does not know */
-	p = R.cfg.motors[0].sim;
+	p = R.sim.motors[0];
 	p.id = 7;
 	p.seed = 0;
 	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.buses[0]), &p, 0) >= 0);

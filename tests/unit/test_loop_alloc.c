@@ -30,6 +30,7 @@
 
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/sim_wire.h"
@@ -111,6 +112,7 @@ static void fake_sleep(void *ctx, int64_t ns)
 /* ---- the rig ----------------------------------------------------------------------- */
 
 static struct rmd_config cfg;
+static struct rmd_sim_setup sim;
 static struct rmd_plan plan;
 static struct rmd_bus buses[RMD_MAX_BUSES];
 static struct rmd_latest cmds, snaps, health;
@@ -124,7 +126,7 @@ static char report[4096];
 /* sim0: V3 position, V3 speed, MIT; sim1: V3 torque x3; sim2: four V2 in one 0x280 frame */
 static void make_config(void)
 {
-	assert_int_equal(rmd_config_sim_default(&cfg, 10), 0);
+	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 10), 0);
 	cfg.safety.safe_action = RMD_SAFE_DAMP;
 	cfg.safety.lost_motor_action = RMD_LOST_ALL;
 	cfg.motors[0].mode = RMD_MODE_POSITION;
@@ -141,8 +143,8 @@ static void make_config(void)
 	}
 	cfg.n_buses = 3;
 	for (unsigned i = 0; i < cfg.n_motors; i++) {
-		cfg.motors[i].sim.id = cfg.motors[i].id;
-		cfg.motors[i].sim.proto = cfg.motors[i].proto;
+		sim.motors[i].id = cfg.motors[i].id;
+		sim.motors[i].proto = cfg.motors[i].proto;
 	}
 }
 
@@ -155,9 +157,9 @@ static void open_buses(void)
 		struct rmd_bus_sim_opts o = {
 			.motors = ms,
 			.bitrate = cfg.buses[b].bitrate,
-			.seed = cfg.buses[b].sim.seed,
+			.seed = sim.buses[b].seed,
 			.flags = RMD_SIM_WIRE_HOST_FIFO,
-			.txqueuelen = cfg.buses[b].sim.txqueuelen,
+			.txqueuelen = sim.buses[b].txqueuelen,
 		};
 
 		for (unsigned i = 0; i < cfg.n_motors; i++)
@@ -165,7 +167,7 @@ static void open_buses(void)
 				ms[o.n_motors++] = (struct rmd_bus_sim_motor){
 					.id = cfg.motors[i].id,
 					.proto = cfg.motors[i].proto,
-					.params = &cfg.motors[i].sim,
+					.params = &sim.motors[i],
 				};
 		if (rmd_bus_sim_open(&buses[b], cfg.buses[b].name, &o, err, sizeof(err)))
 			fail_msg("%s", err);

@@ -26,6 +26,7 @@
 
 #include "rmd/can_timing.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/plan.h"
 
 static struct rmd_config cfg; /* large: off the stack */
@@ -556,7 +557,7 @@ static void test_sim12_feasible(void **state)
 
 	(void)state;
 	snprintf(path, sizeof(path), "%s/examples/sim-12.yaml", srcdir);
-	assert_int_equal(rmd_config_load(path, &cfg, err, sizeof(err)), 0);
+	assert_int_equal(rmd_config_load(path, &cfg, NULL, err, sizeof(err)), 0);
 	expect_ok();
 	assert_int_equal(plan.n_buses, 4);
 	for (unsigned b = 0; b < 4; b++) {
@@ -567,7 +568,7 @@ static void test_sim12_feasible(void **state)
 		walk(b, plan.bus[b].hyperperiod, ctrl, polls);
 	}
 	for (unsigned n = 1; n <= RMD_MAX_MOTORS; n++) {
-		assert_int_equal(rmd_config_sim_default(&cfg, n), 0);
+		assert_int_equal(rmd_config_sim_default(&cfg, NULL, n), 0);
 		expect_ok();
 	}
 }
