@@ -29,8 +29,8 @@
  * and per event (no syscalls, no locks, no stdio).  Not thread-safe: one
  * owner.
  *
- * Faults (struct rmd_sim_fault) are a plain array, so a YAML config or a
- * command line can fill it.  Their randomness comes from one PRNG seeded by
+ * Faults (struct rmd_sim_fault, rmd/sim_faults.h) are a plain array, so a
+ * YAML config or a command line can fill it.  Their randomness comes from one PRNG seeded by
  * rmd_sim_wire_init(), and the motors' (turnaround jitter) from seeds
  * derived from it, so a run is reproducible from its seed.
  */
@@ -43,58 +43,18 @@
 
 #include "rmd/frame.h"
 #include "rmd/sim.h"
+#include "rmd/sim_faults.h"
 
 #define RMD_SIM_WIRE_TXQ 64	   /* host frames waiting for the wire (power of two) */
 #define RMD_SIM_WIRE_MOTQ 128	   /* motor frames waiting for the wire (power of two) */
 #define RMD_SIM_WIRE_RXQ 256	   /* frames waiting for the host (power of two) */
 #define RMD_SIM_WIRE_HIST 512	   /* recent frames kept for rmd_sim_wire_load() */
-#define RMD_SIM_MAX_FAULTS 32	   /* entries of the fault table */
 #define RMD_SIM_WIRE_MAX_REPLIES 4 /* frames one motor may answer one frame with */
 
 /* rmd_sim_wire_init() flags */
 enum {
 	/* Host frames leave in the order sent, as from a SocketCAN queue. */
 	RMD_SIM_WIRE_HOST_FIFO = 1u << 0,
-};
-
-/*
- * Kinds of injected faults.  "Per frame" kinds act on each frame a
- * matching motor transmits (replies and unsolicited frames) while the
- * fault's window is open, with the fault's probability; "window" kinds act
- * for the whole window and ignore the probability.
- */
-enum rmd_sim_fault_kind {
-	RMD_SIM_FAULT_DROP = 0,	  /* per frame: the frame is lost */
-	RMD_SIM_FAULT_DELAY,	  /* per frame: ready param ns later (>= 0) */
-	RMD_SIM_FAULT_BAD_DLC,	  /* per frame: the DLC becomes param (0..7) */
-	RMD_SIM_FAULT_GARBAGE,	  /* per frame: the data bytes become random bytes */
-	RMD_SIM_FAULT_WRONG_ID,	  /* per frame: sent on the identifier of motor param (1..32) */
-	RMD_SIM_FAULT_DISAPPEAR,  /* window: the motor hears and sends nothing
-				   * (param 0: cable cut, it runs on); param 1:
-				   * power lost, output off and brake locked at the
-				   * start, it boots again at the end */
-	RMD_SIM_FAULT_ERROR_FLAG, /* window: the motor reports error bits param
-				   * (RMD_SIM_ERR_*), via rmd_sim_motor_set_error() */
-	RMD_SIM_FAULT_BUS_OFF,	  /* window: bus-off, nothing is sent or received */
-	RMD_SIM_FAULT_FLOOD,	  /* window: a foreign node sends a frame on can_id
-				   * every param ns (it wins arbitration if can_id
-				   * is low) */
-	RMD_SIM_FAULT_COUNT
-};
-
-/*
- * One entry of the fault table.  The window is [start_ns, end_ns); an
- * end_ns of 0 leaves it open.  Entries apply in table order, and a drop
- * ends the list for that frame.
- */
-struct rmd_sim_fault {
-	enum rmd_sim_fault_kind kind;
-	uint8_t motor_id;   /* params id 1..32; 0: every motor (bus-wide kinds: must be 0) */
-	double probability; /* per-frame kinds: chance per frame, 0..1 */
-	int64_t start_ns;
-	int64_t end_ns;
-	int64_t param;	 /* see enum rmd_sim_fault_kind */
-	uint32_t can_id; /* FLOOD: the foreign frames' 11-bit identifier */
 };
 
 /* Statistics since rmd_sim_wire_init().  Counters only grow. */
@@ -176,10 +136,7 @@ struct rmd_sim_wire {
 	int64_t hist_free_ns[RMD_SIM_WIRE_HIST];
 	unsigned hist_n; /* free-running */
 
-	struct rmd_sim_fault faults[RMD_SIM_MAX_FAULTS];
-	bool fault_active[RMD_SIM_MAX_FAULTS]; /* window kinds: open now */
-	int64_t flood_next_ns[RMD_SIM_MAX_FAULTS];
-	unsigned n_faults;
+	struct rmd_sim_faults faults; /* on the wire's time axis */
 
 	struct rmd_sim_wire_stats stats;
 	rmd_sim_wire_tap_fn *tap;
@@ -266,11 +223,5 @@ int rmd_sim_wire_load(const struct rmd_sim_wire *bus, int64_t window_ns, double 
 
 /* Frames waiting for the wire (host and motors).  rt-safe. */
 unsigned rmd_sim_wire_pending(const struct rmd_sim_wire *bus);
-
-/* "drop", "delay", "bad_dlc", ...; NULL for an unknown kind.  rt-safe. */
-const char *rmd_sim_fault_kind_name(enum rmd_sim_fault_kind kind);
-
-/* The kind called `name`, or -EINVAL.  rt-safe. */
-int rmd_sim_fault_kind_from_name(const char *name);
 
 #endif /* RMD_SIM_WIRE_H */

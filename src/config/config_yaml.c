@@ -33,13 +33,6 @@ enum { MARK_BUS = 1, MARK_MOTOR = 2 };
 /* ------------------------------------------------------------------ */
 /* rmdd's schema */
 
-/* In the order of enum rmd_sim_fault_kind, as rmd_sim_fault_kind_name() spells them. */
-static const char *const fault_names[] = { "drop",     "delay",	    "bad_dlc",	  "garbage",
-					   "wrong_id", "disappear", "error_flag", "bus_off",
-					   "flood",    NULL };
-_Static_assert(sizeof(fault_names) / sizeof(fault_names[0]) == RMD_SIM_FAULT_COUNT + 1,
-	       "fault_names[] follows enum rmd_sim_fault_kind");
-
 static const char prio_why[] =
 	"the kernel's IRQ threads run at SCHED_FIFO 50 and deliver this loop's own replies; a "
 	"loop at 50 or above starves them (DESIGN.md), and 99 is the kernel's own level";
@@ -121,7 +114,8 @@ static void fault_init(void *elem)
 }
 
 #define F struct rmd_sim_fault
-static const struct field fault_fields[] = { ENUM("kind", F, kind, fault_names, F_REQUIRED),
+static const struct field fault_fields[] = { ENUM("kind", F, kind, rmd_sim_fault_kind_names,
+						  F_REQUIRED),
 					     UINT("motor", F, motor_id, 0, RMD_MAX_MOTORS, 0),
 					     DBL("probability", F, probability, 0, 1, 0),
 					     NS("start_s", F, start_ns, 0, 1e6, 1e9),
@@ -417,7 +411,7 @@ static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 	for (unsigned i = 0; i < sb->n_faults && faults && faults->kind == Y_SEQ; i++) {
 		const struct rmd_sim_fault *f = &sb->faults[i];
 		const struct ynode *fn = faults->kids[i];
-		const char *kind = fault_names[f->kind];
+		const char *kind = rmd_sim_fault_kind_names[f->kind];
 		bool bus_wide = f->kind == RMD_SIM_FAULT_BUS_OFF || f->kind == RMD_SIM_FAULT_FLOOD;
 		bool found = false;
 		int64_t lo = 0, hi = 0;

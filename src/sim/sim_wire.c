@@ -21,109 +21,16 @@ _Static_assert((RMD_SIM_WIRE_MOTQ & (RMD_SIM_WIRE_MOTQ - 1)) == 0, "MOTQ: power 
 _Static_assert((RMD_SIM_WIRE_RXQ & (RMD_SIM_WIRE_RXQ - 1)) == 0, "RXQ: power of two");
 _Static_assert((RMD_SIM_WIRE_HIST & (RMD_SIM_WIRE_HIST - 1)) == 0, "HIST: power of two");
 
-/* ---- fault table helpers ------------------------------------------------- */
-
-static const char *const kind_names[RMD_SIM_FAULT_COUNT] = {
-	[RMD_SIM_FAULT_DROP] = "drop",
-	[RMD_SIM_FAULT_DELAY] = "delay",
-	[RMD_SIM_FAULT_BAD_DLC] = "bad_dlc",
-	[RMD_SIM_FAULT_GARBAGE] = "garbage",
-	[RMD_SIM_FAULT_WRONG_ID] = "wrong_id",
-	[RMD_SIM_FAULT_DISAPPEAR] = "disappear",
-	[RMD_SIM_FAULT_ERROR_FLAG] = "error_flag",
-	[RMD_SIM_FAULT_BUS_OFF] = "bus_off",
-	[RMD_SIM_FAULT_FLOOD] = "flood",
-};
-
-const char *rmd_sim_fault_kind_name(enum rmd_sim_fault_kind kind)
-{
-	return (unsigned)kind < RMD_SIM_FAULT_COUNT ? kind_names[kind] : NULL;
-}
-
-int rmd_sim_fault_kind_from_name(const char *name)
-{
-	for (int k = 0; name && k < RMD_SIM_FAULT_COUNT; k++)
-		if (strcmp(name, kind_names[k]) == 0)
-			return k;
-	return -EINVAL;
-}
-
-/* Kinds that act over a window rather than on single frames. */
-static bool window_kind(enum rmd_sim_fault_kind kind)
-{
-	switch (kind) {
-	case RMD_SIM_FAULT_DISAPPEAR:
-	case RMD_SIM_FAULT_ERROR_FLAG:
-	case RMD_SIM_FAULT_BUS_OFF:
-	case RMD_SIM_FAULT_FLOOD:
-		return true;
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_DELAY:
-	case RMD_SIM_FAULT_BAD_DLC:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_WRONG_ID:
-	case RMD_SIM_FAULT_COUNT:
-		break;
-	}
-	return false;
-}
-
-static bool window_open(const struct rmd_sim_fault *f, int64_t t)
-{
-	return t >= f->start_ns && (f->end_ns == 0 || t < f->end_ns);
-}
-
-static bool fault_hits(const struct rmd_sim_fault *f, const struct rmd_sim_motor *m)
-{
-	return f->motor_id == 0 || f->motor_id == m->p.id;
-}
+/* ---- faults (rmd/sim_faults.h) -------------------------------------------- */
 
 static bool is_bus_off(const struct rmd_sim_wire *bus)
 {
-	for (unsigned k = 0; k < bus->n_faults; k++)
-		if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_BUS_OFF)
-			return true;
-	return false;
+	return rmd_sim_faults_bus_off(&bus->faults);
 }
 
 static bool is_absent(const struct rmd_sim_wire *bus, unsigned i)
 {
-	for (unsigned k = 0; k < bus->n_faults; k++)
-		if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_DISAPPEAR &&
-		    fault_hits(&bus->faults[k], &bus->motors[i]))
-			return true;
-	return false;
-}
-
-static int validate_fault(const struct rmd_sim_fault *f)
-{
-	if ((unsigned)f->kind >= RMD_SIM_FAULT_COUNT || f->motor_id > RMD_MAX_MOTORS)
-		return -EINVAL;
-	if (f->end_ns != 0 && f->end_ns <= f->start_ns)
-		return -EINVAL;
-	if (!window_kind(f->kind) && !(f->probability >= 0.0 && f->probability <= 1.0))
-		return -EINVAL;
-	switch (f->kind) {
-	case RMD_SIM_FAULT_DELAY:
-		return f->param >= 0 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_BAD_DLC:
-		return f->param >= 0 && f->param < RMD_FRAME_LEN ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_WRONG_ID:
-		return f->param >= 1 && f->param <= RMD_MAX_MOTORS ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_DISAPPEAR:
-		return f->param == 0 || f->param == 1 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_ERROR_FLAG:
-		return f->param >= 0 && f->param <= 0xFFFF ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_BUS_OFF:
-		return f->motor_id == 0 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_FLOOD:
-		return f->motor_id == 0 && f->param > 0 && f->can_id <= 0x7FF ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_COUNT:
-		break;
-	}
-	return 0;
+	return rmd_sim_faults_absent(&bus->faults, bus->motors[i].p.id);
 }
 
 /* ---- queues --------------------------------------------------------------- */
@@ -165,18 +72,6 @@ static void push_motor_frame(struct rmd_sim_wire *bus, unsigned src, const struc
 		bus->stats.motq_hwm = bus->motq_n;
 }
 
-/* Reply identifiers that carry the motor's ID as an offset. */
-static bool rebase_id(uint32_t *can_id, uint8_t own, uint8_t other)
-{
-	uint32_t base = *can_id - own;
-
-	if (base != RMD_CAN_REQ_BASE && base != RMD_CAN_V3_REPLY_BASE &&
-	    base != RMD_CAN_MIT_REPLY_BASE)
-		return false;
-	*can_id = base + other;
-	return true;
-}
-
 /*
  * A frame motor i transmits, produced at t: the per-frame faults act on it,
  * then it waits for the wire from ready_ns on.
@@ -184,43 +79,9 @@ static bool rebase_id(uint32_t *can_id, uint8_t own, uint8_t other)
 static void motor_emit(struct rmd_sim_wire *bus, unsigned i, struct rmd_frame f, int64_t t,
 		       int64_t ready_ns)
 {
-	struct rmd_sim_motor *m = &bus->motors[i];
-
-	for (unsigned k = 0; k < bus->n_faults; k++) {
-		const struct rmd_sim_fault *ft = &bus->faults[k];
-
-		if (window_kind(ft->kind) || !fault_hits(ft, m) || !window_open(ft, t))
-			continue;
-		if (!rmd_rng_roll(&bus->rng, ft->probability))
-			continue;
-		switch (ft->kind) {
-		case RMD_SIM_FAULT_DROP:
-			bus->stats.faults[ft->kind]++;
-			return;
-		case RMD_SIM_FAULT_DELAY:
-			ready_ns += ft->param;
-			break;
-		case RMD_SIM_FAULT_BAD_DLC:
-			f.len = (uint8_t)ft->param;
-			break;
-		case RMD_SIM_FAULT_GARBAGE:
-			for (unsigned j = 0; j < RMD_FRAME_LEN; j++)
-				f.data[j] = (uint8_t)rmd_rng_next(&bus->rng);
-			break;
-		case RMD_SIM_FAULT_WRONG_ID:
-			if (!rebase_id(&f.can_id, m->ram.can_id, (uint8_t)ft->param))
-				continue; /* 0x300 and the like carry no ID: not hit */
-			break;
-		case RMD_SIM_FAULT_DISAPPEAR:
-		case RMD_SIM_FAULT_ERROR_FLAG:
-		case RMD_SIM_FAULT_BUS_OFF:
-		case RMD_SIM_FAULT_FLOOD:
-		case RMD_SIM_FAULT_COUNT:
-			continue;
-		}
-		bus->stats.faults[ft->kind]++;
-	}
-	push_motor_frame(bus, i, &f, ready_ns);
+	if (rmd_sim_faults_frame(&bus->faults, &bus->rng, bus->motors[i].p.id, t, &f, &ready_ns,
+				 bus->stats.faults))
+		push_motor_frame(bus, i, &f, ready_ns);
 }
 
 /* ---- the wire ------------------------------------------------------------- */
@@ -253,13 +114,8 @@ static void sync_error_flags(struct rmd_sim_wire *bus, int64_t t)
 {
 	for (unsigned i = 0; i < bus->n_motors; i++) {
 		struct rmd_sim_motor *m = &bus->motors[i];
-		uint16_t bits = 0;
+		uint16_t bits = rmd_sim_faults_error_bits(&bus->faults, m->p.id);
 
-		for (unsigned k = 0; k < bus->n_faults; k++)
-			if (bus->fault_active[k] &&
-			    bus->faults[k].kind == RMD_SIM_FAULT_ERROR_FLAG &&
-			    fault_hits(&bus->faults[k], m))
-				bits |= (uint16_t)bus->faults[k].param;
 		if (bits != bus->injected[i]) {
 			rmd_sim_motor_step(m, t);
 			rmd_sim_motor_set_error(m, bits);
@@ -270,12 +126,12 @@ static void sync_error_flags(struct rmd_sim_wire *bus, int64_t t)
 
 static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 {
-	const struct rmd_sim_fault *f = &bus->faults[k];
+	const struct rmd_sim_fault *f = &bus->faults.f[k];
 
 	switch (f->kind) {
 	case RMD_SIM_FAULT_DISAPPEAR:
 		for (unsigned i = 0; i < bus->n_motors; i++) {
-			if (!fault_hits(f, &bus->motors[i]))
+			if (!rmd_sim_fault_hits(f, bus->motors[i].p.id))
 				continue;
 			/* Without power the drive lets go and the brake locks. */
 			if (f->param == 1)
@@ -299,8 +155,6 @@ static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 		break;
 	}
 	case RMD_SIM_FAULT_FLOOD:
-		bus->flood_next_ns[k] = f->start_ns;
-		return; /* FLOOD counts frames, not windows */
 	case RMD_SIM_FAULT_ERROR_FLAG:
 	case RMD_SIM_FAULT_DROP:
 	case RMD_SIM_FAULT_DELAY:
@@ -310,40 +164,32 @@ static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 	case RMD_SIM_FAULT_COUNT:
 		break;
 	}
-	bus->stats.faults[f->kind]++;
 }
 
-static void close_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
+static void close_window(struct rmd_sim_wire *bus, const struct rmd_sim_fault *f, int64_t t)
 {
-	const struct rmd_sim_fault *f = &bus->faults[k];
-
 	if (f->kind != RMD_SIM_FAULT_DISAPPEAR || f->param != 1)
 		return;
 	/* It lost power: it boots when it comes back. */
 	for (unsigned i = 0; i < bus->n_motors; i++)
-		if (fault_hits(f, &bus->motors[i]))
+		if (rmd_sim_fault_hits(f, bus->motors[i].p.id))
 			rmd_sim_motor_power_cycle(&bus->motors[i], t);
 }
 
-/* Open and close the windows as of time t. */
+/* Open and close the windows as of time t, and act on what changed. */
 static void apply_windows(struct rmd_sim_wire *bus, int64_t t)
 {
+	uint32_t changed = rmd_sim_faults_update(&bus->faults, t, bus->stats.faults);
 	bool errors_changed = false;
 
-	for (unsigned k = 0; k < bus->n_faults; k++) {
-		bool open;
-
-		if (!window_kind(bus->faults[k].kind))
+	for (unsigned k = 0; changed && k < bus->faults.n; k++) {
+		if (!(changed & (UINT32_C(1) << k)))
 			continue;
-		open = window_open(&bus->faults[k], t);
-		if (open == bus->fault_active[k])
-			continue;
-		bus->fault_active[k] = open;
-		if (open)
+		if (bus->faults.open[k])
 			open_window(bus, k, t);
 		else
-			close_window(bus, k, t);
-		errors_changed |= bus->faults[k].kind == RMD_SIM_FAULT_ERROR_FLAG;
+			close_window(bus, &bus->faults.f[k], t);
+		errors_changed |= bus->faults.f[k].kind == RMD_SIM_FAULT_ERROR_FLAG;
 	}
 	if (errors_changed)
 		sync_error_flags(bus, t);
@@ -465,15 +311,14 @@ static void start_frame(struct rmd_sim_wire *bus, int64_t t)
 			best_j = j;
 		}
 	}
-	for (unsigned k = 0; k < bus->n_faults; k++) {
+	for (unsigned k = 0; k < bus->faults.n; k++) {
 		struct rmd_sim_pending c = { 0 };
 
-		if (!bus->fault_active[k] || bus->faults[k].kind != RMD_SIM_FAULT_FLOOD ||
-		    bus->flood_next_ns[k] > t)
+		if (!rmd_sim_faults_flood_due(&bus->faults, k, t))
 			continue;
-		c.f.can_id = bus->faults[k].can_id;
+		c.f.can_id = bus->faults.f[k].can_id;
 		c.f.len = RMD_FRAME_LEN;
-		c.ready_ns = bus->flood_next_ns[k];
+		c.ready_ns = bus->faults.flood_next_ns[k];
 		c.src = RMD_SIM_SRC_FOREIGN;
 		if (!best || wins(&c, best)) {
 			flood = c;
@@ -489,10 +334,8 @@ static void start_frame(struct rmd_sim_wire *bus, int64_t t)
 	if (pool) {
 		pool[best_j] = pool[--*pool_n];
 	} else {
-		for (unsigned j = 0; j < RMD_FRAME_LEN; j++)
-			bus->wire.f.data[j] = (uint8_t)rmd_rng_next(&bus->rng);
-		bus->flood_next_ns[best_flood] += bus->faults[best_flood].param;
-		bus->stats.faults[RMD_SIM_FAULT_FLOOD]++;
+		rmd_sim_faults_flood_take(&bus->faults, best_flood, &bus->rng, &bus->wire.f,
+					  bus->stats.faults);
 	}
 	bus->wire_busy = true;
 	bus->wire_bits = rmd_can_frame_bits(&bus->wire.f);
@@ -522,21 +365,9 @@ static int64_t next_event(const struct rmd_sim_wire *bus, int64_t t, int64_t unt
 		for (unsigned j = 0; j < bus->motq_n; j++)
 			if (bus->motq[j].ready_ns > t)
 				n = min64(n, bus->motq[j].ready_ns);
-		for (unsigned k = 0; k < bus->n_faults; k++)
-			if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_FLOOD &&
-			    bus->flood_next_ns[k] > t)
-				n = min64(n, bus->flood_next_ns[k]);
 	}
-	for (unsigned k = 0; k < bus->n_faults; k++) {
-		const struct rmd_sim_fault *f = &bus->faults[k];
-
-		if (!window_kind(f->kind))
-			continue;
-		if (f->start_ns > t)
-			n = min64(n, f->start_ns);
-		if (f->end_ns > t)
-			n = min64(n, f->end_ns);
-	}
+	/* window edges, and a flood's next frame (a no-op step while the wire is busy) */
+	n = min64(n, rmd_sim_faults_next_ns(&bus->faults, t));
 	for (unsigned i = 0; i < bus->n_motors; i++) {
 		int64_t e = rmd_sim_motor_next_event_ns(&bus->motors[i]);
 
@@ -638,29 +469,17 @@ struct rmd_sim_motor *rmd_sim_wire_motor(struct rmd_sim_wire *bus, uint8_t id)
 
 int rmd_sim_wire_set_faults(struct rmd_sim_wire *bus, const struct rmd_sim_fault *faults, size_t n)
 {
+	struct rmd_sim_faults old = bus->faults;
 	int r;
 
-	if (n > RMD_SIM_MAX_FAULTS)
-		return -E2BIG;
-	for (size_t k = 0; k < n; k++) {
-		r = validate_fault(&faults[k]);
-		if (r < 0)
-			return r;
-	}
+	r = rmd_sim_faults_set(&bus->faults, faults, n);
+	if (r < 0)
+		return r;
 	/* Close the old table's open windows now. */
-	for (unsigned k = 0; k < bus->n_faults; k++) {
-		if (bus->fault_active[k]) {
-			bus->fault_active[k] = false;
-			close_window(bus, k, bus->now_ns);
-		}
-	}
-	bus->n_faults = 0;
+	for (unsigned k = 0; k < old.n; k++)
+		if (old.open[k])
+			close_window(bus, &old.f[k], bus->now_ns);
 	sync_error_flags(bus, bus->now_ns);
-
-	if (n)
-		memcpy(bus->faults, faults, n * sizeof(*faults));
-	memset(bus->fault_active, 0, sizeof(bus->fault_active));
-	bus->n_faults = (unsigned)n;
 	apply_windows(bus, bus->now_ns);
 	return 0;
 }

@@ -454,27 +454,6 @@ static const char *fault_syntax(enum rmd_sim_fault_kind kind)
 	return FAULT_SYNTAX;
 }
 
-/* The kind called `name` ("error" and '-' spellings too), or -EINVAL. */
-static int fault_kind(const char *name)
-{
-	char buf[32];
-	size_t n = strlen(name);
-
-	if (n >= sizeof(buf))
-		return -EINVAL;
-	for (size_t i = 0; i <= n; i++)
-		buf[i] = name[i] == '-' ? '_' : (char)tolower((unsigned char)name[i]);
-	if (!strcmp(buf, "error") || !strcmp(buf, "error_flag"))
-		return RMD_SIM_FAULT_ERROR_FLAG;
-	for (int k = 0; k < RMD_SIM_FAULT_COUNT; k++) {
-		const char *kn = rmd_sim_fault_kind_name((enum rmd_sim_fault_kind)k);
-
-		if (kn && !strcmp(kn, buf))
-			return k;
-	}
-	return -EINVAL;
-}
-
 /* A time in seconds, 0..MAX_TIME_S, to ns. */
 static int parse_seconds(const char *s, int64_t *ns)
 {
@@ -599,7 +578,7 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 			spec, FAULT_SYNTAX);
 		return -EINVAL;
 	}
-	kind = fault_kind(fld[0]);
+	kind = rmd_sim_fault_kind_from_name(fld[0]);
 	if (kind < 0) {
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": unknown fault \"%s\"; faults: %s", where,
 			spec, fld[0], FAULT_SYNTAX);
