@@ -258,12 +258,17 @@ static void walk_bus_sims(struct yctx *c, const struct rmd_config *cfg, struct r
 /* ------------------------------------------------------------------ */
 /* Checks across keys */
 
-static bool uint_in(uint32_t v, const uint32_t *set, size_t n)
+/* Bus key `key` of value v must be one of set[n]: "%u is not <what>". */
+static void rate_in(struct yctx *c, const struct ynode *bn, const char *path, const char *key,
+		    uint32_t v, const uint32_t *set, size_t n, const char *what)
 {
+	char kp[PATH_LEN];
+
 	for (size_t i = 0; i < n; i++)
 		if (set[i] == v)
-			return true;
-	return false;
+			return;
+	rmd_yaml_path_key(kp, path, key);
+	rmd_yaml_report(c, rmd_yaml_line_of(bn, key), kp, "%u is not %s", v, what);
 }
 
 /* A key that the bus's type does not use. */
@@ -347,14 +352,8 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 						"\"%s\" is not a network interface name",
 						b->interface);
 			}
-			if (!uint_in(b->bitrate, can_rates, 2)) {
-				rmd_yaml_path_key(kp, path, "bitrate");
-				rmd_yaml_report(
-					c, rmd_yaml_line_of(bn, "bitrate"), kp,
-					"%u is not a bitrate RMD motors speak (V3 §2.31: 500000 or "
-					"1000000)",
-					b->bitrate);
-			}
+			rate_in(c, bn, path, "bitrate", b->bitrate, can_rates, 2,
+				"a bitrate RMD motors speak (V3 §2.31: 500000 or 1000000)");
 			break;
 		case RMD_BUS_KIND_RS485:
 			bus_key_unused(c, bn, path, "interface", b, "socketcan");
@@ -368,14 +367,9 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 				rmd_yaml_report(c, rmd_yaml_line_of(bn, "device"), kp,
 						"\"%s\" is not a device path (e.g. /dev/ttyUSB0)",
 						b->device);
-			if (!uint_in(b->baud, bauds, 5)) {
-				rmd_yaml_path_key(kp, path, "baud");
-				rmd_yaml_report(
-					c, rmd_yaml_line_of(bn, "baud"), kp,
-					"%u is not a baud rate RMD motors speak (V3 §1.2.1: 115200, "
-					"500000, 1000000, 1500000, 2000000)",
-					b->baud);
-			}
+			rate_in(c, bn, path, "baud", b->baud, bauds, 5,
+				"a baud rate RMD motors speak (V3 §1.2.1: 115200, 500000, "
+				"1000000, 1500000, 2000000)");
 			break;
 		case RMD_BUS_KIND_SIM: {
 			const struct ynode *sn = rmd_yaml_get(bn, "sim", NULL);

@@ -124,12 +124,12 @@ static void sync_error_flags(struct rmd_sim_wire *bus, int64_t t)
 	}
 }
 
+/* What a window does as it opens (ERROR_FLAG: sync_error_flags(); FLOOD: start_frame()). */
 static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 {
 	const struct rmd_sim_fault *f = &bus->faults.f[k];
 
-	switch (f->kind) {
-	case RMD_SIM_FAULT_DISAPPEAR:
+	if (f->kind == RMD_SIM_FAULT_DISAPPEAR) {
 		for (unsigned i = 0; i < bus->n_motors; i++) {
 			if (!rmd_sim_fault_hits(f, bus->motors[i].p.id))
 				continue;
@@ -142,8 +142,7 @@ static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 				bus->stats.absent_lost++;
 			}
 		}
-		break;
-	case RMD_SIM_FAULT_BUS_OFF: {
+	} else if (f->kind == RMD_SIM_FAULT_BUS_OFF) {
 		/* The controllers drop what they hold, like a SocketCAN restart. */
 		unsigned lost = bus->txq_n + discard_motor_frames(bus, -1) + bus->wire_busy;
 
@@ -152,17 +151,6 @@ static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 			abort_wire(bus, t);
 		bus->stats.busoff_lost += lost;
 		bus->stats.errors += lost;
-		break;
-	}
-	case RMD_SIM_FAULT_FLOOD:
-	case RMD_SIM_FAULT_ERROR_FLAG:
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_DELAY:
-	case RMD_SIM_FAULT_BAD_DLC:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_WRONG_ID:
-	case RMD_SIM_FAULT_COUNT:
-		break;
 	}
 }
 
