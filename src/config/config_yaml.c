@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "rmd/config_yaml.h"
+#include "rmd/sim_params.h"
 #include "yaml_schema.h"
 
 /* struct yctx.bad[] masks (struct field.mark). */
@@ -73,37 +74,77 @@ static const struct field lcm_fields[] = {
 	END
 };
 
-/* The simulated motor's model: bus-wide (sim.motor) or per motor (motors[].sim). */
-#define P struct rmd_sim_motor_params
-static const struct field sim_motor_fields[] = {
-	DBL("inertia_kgm2", P, inertia_kgm2, 0, 1000, F_MIN_EXCL),
-	DBL("viscous_nm_s_rad", P, viscous_nm_s_rad, 0, 1e4, 0),
-	DBL("coulomb_nm", P, coulomb_nm, 0, 1e4, 0),
-	UINT("pole_pairs", P, pole_pairs, 1, 100, 0),
-	DBL("max_current_a", P, max_current_a, 0, 1000, F_MIN_EXCL),
-	DBL("load_nm", P, load_nm, -1e4, 1e4, 0),
-	DBL("max_speed_dps", P, max_speed_dps, 0, 1e6, F_MIN_EXCL),
-	DBL("fw_max_speed_dps", P, fw_max_speed_dps, 0, 1e6, F_MIN_EXCL),
-	DBL("phase_resistance_ohm", P, phase_resistance_ohm, 0, 100, 0),
-	DBL("thermal_resistance_c_w", P, thermal_resistance_c_w, 0, 1000, F_MIN_EXCL),
-	DBL("thermal_tau_s", P, thermal_tau_s, 0, 1e6, F_MIN_EXCL),
-	DBL("ambient_c", P, ambient_c, -60, 150, 0),
-	DBL("supply_v", P, supply_v, 0, 200, 0),
-	DBL("over_temp_c", P, over_temp_c, -60, 250, 0),
-	DBL("over_temp_clear_c", P, over_temp_clear_c, -60, 250, 0),
-	DBL("under_voltage_v", P, under_voltage_v, 0, 200, 0),
-	DBL("over_voltage_v", P, over_voltage_v, 0, 200, 0),
-	DBL("stall_time_s", P, stall_time_s, 0, 1e4, F_MIN_EXCL),
-	BOOL("has_brake", P, has_brake),
-	UINT("encoder_bits", P, encoder_bits, 8, 24, 0),
-	STR("model", P, model, 0),
-	UINT("version_date", P, version_date, 19700101, 29991231, 0),
-	DBLS("turnaround_us", P, turnaround_ns, 0, 1e6, 0, 1000.0),
-	DBLS("turnaround_jitter_us", P, turnaround_jitter_ns, 0, 1e6, 0, 1000.0),
-	UINT("seed", P, seed, 0, 18446744073709551615.0, 0),
-	END
-};
-#undef P
+/*
+ * The simulated motor's model: bus-wide (sim.motor) or per motor
+ * (motors[].sim).  Its keys are the rows of the simulator's parameter
+ * table (rmd/sim_params.h), the ones rmd-sim reads, but for those the motor
+ * entry sets itself (protocol, mit), plus the motor's PRNG seed.
+ */
+#define SIM_MOTOR_FIELDS 64
+static struct field sim_motor_fields[SIM_MOTOR_FIELDS];
+
+/* T_TEXT: a parameter row's own parser (model, version_date). */
+static int sim_param_text(const struct field *f, const char *text, void *dst, char *allowed,
+			  size_t size)
+{
+	const struct rmd_sim_param *row = f->ctx;
+	struct rmd_sim_motor_params scratch;
+	int r;
+
+	rmd_sim_motor_params_default(&scratch, 1, RMD_PROTO_V3);
+	r = rmd_sim_param_parse(&scratch, row, text, allowed, size);
+	if (r == 0)
+		memcpy(dst, (const char *)&scratch + row->off, rmd_sim_param_size(row));
+	return r;
+}
+
+/* sim_motor_fields[] from the table, once.  Non-rt, not thread-safe (the loader is neither). */
+static void sim_motor_fields_build(void)
+{
+	unsigned n = 0;
+
+	if (sim_motor_fields[0].key)
+		return;
+	for (size_t i = 0; i < rmd_sim_n_params && n + 2 < SIM_MOTOR_FIELDS; i++) {
+		const struct rmd_sim_param *row = &rmd_sim_params[i];
+		struct field *f = &sim_motor_fields[n];
+
+		if (row->flags & RMD_SIM_PARAM_MOTOR_KEY)
+			continue;
+		*f = (struct field){ .key = row->key,
+				     .off = row->off,
+				     .min = row->min,
+				     .max = row->max,
+				     .flags = row->min_excl ? F_MIN_EXCL : 0 };
+		switch (row->type) {
+		case RMD_SIM_PARAM_US:
+			f->scale = 1000.0; /* µs -> the ns field */
+					   /* fall through */
+		case RMD_SIM_PARAM_REAL:
+			f->type = T_DOUBLE;
+			break;
+		case RMD_SIM_PARAM_UINT:
+			f->type = T_UINT;
+			f->size = sizeof(unsigned);
+			break;
+		case RMD_SIM_PARAM_BOOL:
+			f->type = T_BOOL;
+			break;
+		case RMD_SIM_PARAM_PROTO:
+		case RMD_SIM_PARAM_MODEL:
+		case RMD_SIM_PARAM_VERSION:
+		case RMD_SIM_PARAM_MIT:
+			f->type = T_TEXT;
+			f->parse = sim_param_text;
+			f->ctx = row;
+			break;
+		}
+		n++;
+	}
+	sim_motor_fields[n++] = (struct field)UINT("seed", struct rmd_sim_motor_params, seed, 0,
+						   18446744073709551615.0, 0);
+	sim_motor_fields[n] = (struct field)END;
+}
 
 static void fault_init(void *elem)
 {
@@ -712,6 +753,7 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 
 	if (err && errlen)
 		err[0] = '\0';
+	sim_motor_fields_build();
 	rmd_config_defaults(cfg);
 	snprintf(cfg->source, sizeof(cfg->source), "%s", path);
 	if (!sim) {

@@ -643,6 +643,13 @@ void rmd_yaml_walk_value(struct yctx *c, const struct ynode *v, const struct fie
 		rmd_yaml_join_names(names, sizeof(names), f->names, NULL);
 		rmd_yaml_report(c, v->line, path, "\"%s\" is not one of %s", v->str, names);
 		return;
+	case T_TEXT: {
+		char allowed[256];
+
+		if (f->parse(f, v->str, dst, allowed, sizeof(allowed)) < 0)
+			rmd_yaml_report(c, v->line, path, "\"%s\": expected %s", v->str, allowed);
+		return;
+	}
 	case T_MAP:
 	case T_SEQ:
 	case T_LATER:

@@ -68,11 +68,12 @@ enum ftype {
 	T_DOUBLE, /* double, finite, stored times `scale` */
 	T_NS,	  /* int64_t, the value times `scale` rounded (seconds, us -> ns) */
 	T_BOOL,
-	T_STR,	/* char[size], NUL included */
-	T_ENUM, /* int-sized enum: index into names */
-	T_MAP,	/* the struct at off, members in sub */
-	T_SEQ,	/* array at off of up to `size` elements described by elem */
-	T_LATER /* allowed key, handled by validate_*() */
+	T_STR,	 /* char[size], NUL included */
+	T_ENUM,	 /* int-sized enum: index into names */
+	T_MAP,	 /* the struct at off, members in sub */
+	T_SEQ,	 /* array at off of up to `size` elements described by elem */
+	T_LATER, /* allowed key, handled by validate_*() */
+	T_TEXT	 /* a scalar's text converted by parse(), which says what is allowed */
 };
 
 /* Field flags */
@@ -98,7 +99,11 @@ struct field {
 	size_t elem_size;
 	size_t count_off; /* unsigned in the parent struct */
 	void (*init)(void *elem);
-	unsigned mark;	 /* T_SEQ: 1..YAML_MARKS: entry i with errors sets bit i of bad[mark - 1] */
+	unsigned mark; /* T_SEQ: 1..YAML_MARKS: entry i with errors sets bit i of bad[mark - 1] */
+	/* T_TEXT: 0, or -EINVAL with what is allowed in `allowed`; ctx is the caller's */
+	int (*parse)(const struct field *f, const char *text, void *dst, char *allowed,
+		     size_t size);
+	const void *ctx;
 	const char *why; /* appended to a range error */
 };
 

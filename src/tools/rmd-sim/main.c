@@ -113,7 +113,7 @@ enum {
 	OPT_KEY = 0x200, /* + index of sim_config_key() */
 };
 
-#define MAX_OPTS 64
+#define MAX_OPTS 128
 
 int main(int argc, char **argv)
 {
@@ -130,8 +130,9 @@ int main(int argc, char **argv)
 	opts[n++] = (struct option){ "quiet", no_argument, NULL, 'q' };
 	opts[n++] = (struct option){ "help", no_argument, NULL, 'h' };
 	for (unsigned i = 0; (key = sim_config_key(i, &flag)) && n < MAX_OPTS - 1; i++)
-		opts[n++] = (struct option){ key, flag ? no_argument : required_argument, NULL,
-					     OPT_KEY + (int)i };
+		if (*key)
+			opts[n++] = (struct option){ key, flag ? no_argument : required_argument,
+						     NULL, OPT_KEY + (int)i };
 	opts[n] = (struct option){ NULL, 0, NULL, 0 };
 
 	opterr = 0;

@@ -117,8 +117,10 @@ int sim_config_file(struct sim_config *c, const char *path);
 int sim_config_finish(struct sim_config *c);
 
 /*
- * Setting key i (0, 1, ... until NULL), for the long options of rmd-sim.c;
- * *is_flag when the option takes no value on the command line (local-echo).
+ * Setting key i (0, 1, ... until NULL; "" for none at this index), for the
+ * long options of rmd-sim.c: the globals, then each motor parameter's
+ * canonical name, its '-' spelling and its alias; *is_flag when the option
+ * takes no value on the command line (local-echo).
  */
 const char *sim_config_key(unsigned i, bool *is_flag);
 
