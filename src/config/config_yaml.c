@@ -155,15 +155,15 @@ static void fault_init(void *elem)
 }
 
 #define F struct rmd_sim_fault
-static const struct field fault_fields[] = { ENUM("kind", F, kind, rmd_sim_fault_kind_names,
-						  F_REQUIRED),
-					     UINT("motor", F, motor_id, 0, RMD_MAX_MOTORS, 0),
-					     DBL("probability", F, probability, 0, 1, 0),
-					     NS("start_s", F, start_ns, 0, 1e6, 1e9),
-					     NS("end_s", F, end_ns, 0, 1e6, 1e9),
-					     INT("param", F, param, -1e15, 1e15, 0),
-					     UINT("can_id", F, can_id, 0, 0x7FF, 0),
-					     END };
+static const struct field fault_fields[] = {
+	ENUM("kind", F, kind, rmd_sim_fault_kind_names, F_REQUIRED),
+	UINT("motor", F, motor_id, 0, RMD_MAX_MOTORS, 0),
+	DBL("probability", F, probability, 0, 1, 0), NS("start_s", F, start_ns, 0, 1e6, 1e9),
+	NS("end_s", F, end_ns, 0, 1e6, 1e9), INT("param", F, param, -1e15, 1e15, 0),
+	/* rmd-sim's units: delay:ID:US, flood:..:PERIOD_US */
+	NS("delay_us", F, param, 0, 1e7, 1000.0), NS("period_us", F, param, 0, 1e7, 1000.0),
+	UINT("can_id", F, can_id, 0, 0x7FF, 0), END
+};
 #undef F
 
 static const struct field fault_elem = { .type = T_MAP, .sub = fault_fields };
@@ -434,6 +434,19 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 	}
 }
 
+/* A fault entry's key that only kind `kind` takes. */
+static void only_for(struct yctx *c, const struct ynode *fn, const char *path, const char *key,
+		     enum rmd_sim_fault_kind have, enum rmd_sim_fault_kind kind)
+{
+	char kp[PATH_LEN];
+
+	if (have == kind || !rmd_yaml_get(fn, key, NULL))
+		return;
+	rmd_yaml_path_key(kp, path, key);
+	rmd_yaml_report(c, rmd_yaml_line_of(fn, key), kp, "only for kind %s",
+			rmd_sim_fault_kind_name(kind));
+}
+
 /* The fault entries of sim bus i, once its motors are known. */
 static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 			    const struct rmd_sim_setup *sim, unsigned bi, const struct ynode *bn)
@@ -497,16 +510,25 @@ static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 			break;
 		}
 		if (what && (f->param < lo || f->param > hi)) {
-			rmd_yaml_path_key(kp, path, "param");
-			rmd_yaml_report(c, rmd_yaml_line_of(fn, "param"), kp,
+			const char *pk = rmd_yaml_get(fn, "delay_us", NULL)  ? "delay_us" :
+					 rmd_yaml_get(fn, "period_us", NULL) ? "period_us" :
+									       "param";
+
+			rmd_yaml_path_key(kp, path, pk);
+			rmd_yaml_report(c, rmd_yaml_line_of(fn, pk), kp,
 					"%lld is out of range for %s (%lld..%lld: %s)",
 					(long long)f->param, kind, (long long)lo, (long long)hi,
 					what);
 		}
-		if (f->kind != RMD_SIM_FAULT_FLOOD && rmd_yaml_get(fn, "can_id", NULL)) {
-			rmd_yaml_path_key(kp, path, "can_id");
-			rmd_yaml_report(c, rmd_yaml_line_of(fn, "can_id"), kp,
-					"only for kind flood");
+		only_for(c, fn, path, "can_id", f->kind, RMD_SIM_FAULT_FLOOD);
+		only_for(c, fn, path, "delay_us", f->kind, RMD_SIM_FAULT_DELAY);
+		only_for(c, fn, path, "period_us", f->kind, RMD_SIM_FAULT_FLOOD);
+		if (rmd_yaml_get(fn, "param", NULL) &&
+		    (rmd_yaml_get(fn, "delay_us", NULL) || rmd_yaml_get(fn, "period_us", NULL))) {
+			rmd_yaml_path_key(kp, path, "param");
+			rmd_yaml_report(c, rmd_yaml_line_of(fn, "param"), kp,
+					"give the time in µs (delay_us, period_us) or in ns "
+					"(param), not both");
 		}
 	}
 }

@@ -412,6 +412,15 @@ static const struct bad_str bad_strs[] = {
 	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: bus_off, start_s: 5, end_s: 2}\n"
 	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
 	  { ":6: buses[0].sim.faults[0].end_s: must be after start_s" } },
+	{ "fault-delay-us-kind",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: drop, delay_us: 5}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.faults[0].delay_us: only for kind delay" } },
+	{ "fault-us-and-param",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n"
+	  "        - {kind: flood, period_us: 100, param: 100000}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.faults[0].param: give the time in µs" } },
 	{ "sim-model",
 	  "buses:\n  - name: s\n    type: sim\n    sim:\n      motor:\n        under_voltage_v: 50\n"
 	  "        over_voltage_v: 40\n"
@@ -583,6 +592,24 @@ static void test_sim_default(void **state)
 	assert_int_equal(cfg.n_buses, 1);
 }
 
+/* A fault's times in µs, as rmd-sim's delay:ID:US and flood:..:PERIOD_US, or in ns (param). */
+static void test_fault_units(void **state)
+{
+	(void)state;
+	assert_int_equal(load_str("fault-units",
+				  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n"
+				  "        - {kind: delay, delay_us: 150, probability: 0.5}\n"
+				  "        - {kind: flood, can_id: 0x7FF, period_us: 100}\n"
+				  "        - {kind: delay, param: 150000}\n"
+				  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, "
+				  "torque_constant_nm_a: 2}\n"),
+			 0);
+	assert_int_equal(sim.buses[0].n_faults, 3);
+	assert_int_equal(sim.buses[0].faults[0].param, 150000);
+	assert_int_equal(sim.buses[0].faults[1].param, 100000);
+	assert_int_equal(sim.buses[0].faults[2].param, 150000);
+}
+
 static void test_names(void **state)
 {
 	(void)state;
@@ -602,6 +629,7 @@ int main(void)
 		cmocka_unit_test(test_bad_strings),   cmocka_unit_test(test_too_many_motors),
 		cmocka_unit_test(test_good_values),   cmocka_unit_test(test_small_err_buffer),
 		cmocka_unit_test(test_sim_default),   cmocka_unit_test(test_names),
+		cmocka_unit_test(test_fault_units),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

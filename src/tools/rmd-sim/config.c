@@ -213,7 +213,7 @@ void sim_format_motors(uint32_t mask, char *buf, size_t size)
 #define FAULT_SYNTAX                                                                           \
 	"drop:ID:P, delay:ID:US:P, bad_dlc:ID:DLC:P, garbage:ID:P, wrong_id:ID:OTHER:P "       \
 	"(each with an optional @START_S-END_S window), disappear:ID:START_S:END_S[:reboot], " \
-	"error:ID:BITS:AT_S[:END_S], flood:CANID:PERIOD_US:START_S[:END_S]"
+	"error_flag:ID:BITS:AT_S[:END_S], flood:CANID:PERIOD_US:START_S[:END_S]"
 
 struct fault_syntax {
 	enum rmd_sim_fault_kind kind;
@@ -227,7 +227,7 @@ static const struct fault_syntax fault_syntaxes[] = {
 	{ RMD_SIM_FAULT_GARBAGE, "garbage:ID:P[@START_S-END_S]" },
 	{ RMD_SIM_FAULT_WRONG_ID, "wrong_id:ID:OTHER_ID:P[@START_S-END_S]" },
 	{ RMD_SIM_FAULT_DISAPPEAR, "disappear:ID:START_S:END_S[:reboot]" },
-	{ RMD_SIM_FAULT_ERROR_FLAG, "error:ID:BITS:AT_S[:END_S]" },
+	{ RMD_SIM_FAULT_ERROR_FLAG, "error_flag:ID:BITS:AT_S[:END_S]" },
 	{ RMD_SIM_FAULT_FLOOD, "flood:CANID:PERIOD_US:START_S[:END_S]" },
 };
 
