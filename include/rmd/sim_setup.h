@@ -16,12 +16,12 @@
 
 #include "rmd/frame.h"
 #include "rmd/sim.h"
-#include "rmd/sim_wire.h"
+#include "rmd/sim_faults.h"
 
 /* SocketCAN's default txqueuelen (DESIGN.md), a sim bus's host queue too. */
 #define RMD_SIM_DEFAULT_TXQUEUELEN 10
 
-/* One sim bus's simulator: wire, motor model, faults (rmd/sim_wire.h). */
+/* One sim bus's simulator: wire (rmd/sim_wire.h), motor model, faults (rmd/sim_faults.h). */
 struct rmd_sim_bus_setup {
 	uint64_t seed;	     /* faults' and motors' PRNG; 0: 1 */
 	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_WIRE_TXQ */

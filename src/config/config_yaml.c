@@ -18,6 +18,7 @@
 
 #include "rmd/config_yaml.h"
 #include "rmd/sim_params.h"
+#include "rmd/sim_wire.h"
 #include "yaml_schema.h"
 
 /* struct yctx.bad[] masks (struct field.mark). */
