@@ -66,12 +66,22 @@ struct rmd_sim_fault {
 	uint32_t can_id; /* FLOOD: the foreign frames' 11-bit identifier */
 };
 
-/* A fault table and the state of its windows. */
+/*
+ * A fault table and the state of its windows.  Read the fields; change
+ * them only through the functions below.
+ */
 struct rmd_sim_faults {
 	struct rmd_sim_fault f[RMD_SIM_MAX_FAULTS];
 	unsigned n;
 	bool open[RMD_SIM_MAX_FAULTS];		   /* window kinds: open now */
 	int64_t flood_next_ns[RMD_SIM_MAX_FAULTS]; /* FLOOD: its next frame is due */
+	/* What the open windows do, kept at each change (a wire asks per frame). */
+	bool bus_off;
+	uint32_t absent;		     /* bit id - 1: an open DISAPPEAR hits motor id */
+	uint32_t unpowered;		     /* ... one with param 1 (power lost) */
+	uint16_t error_bits[RMD_MAX_MOTORS]; /* open ERROR_FLAG bits of motor id at [id - 1] */
+	/* The windows' next edge after last_ns, so an update between edges is a no-op. */
+	int64_t last_ns, next_edge_ns;
 };
 
 /*
@@ -131,11 +141,26 @@ uint32_t rmd_sim_faults_update(struct rmd_sim_faults *fs, int64_t t, uint64_t *c
 bool rmd_sim_faults_frame(const struct rmd_sim_faults *fs, uint64_t *rng, uint8_t motor_id,
 			  int64_t t, struct rmd_frame *f, int64_t *ready_ns, uint64_t *counts);
 
-/* What the open windows do now.  rt-safe. */
-bool rmd_sim_faults_bus_off(const struct rmd_sim_faults *fs);
-bool rmd_sim_faults_absent(const struct rmd_sim_faults *fs, uint8_t motor_id);
-bool rmd_sim_faults_unpowered(const struct rmd_sim_faults *fs, uint8_t motor_id);
-uint16_t rmd_sim_faults_error_bits(const struct rmd_sim_faults *fs, uint8_t motor_id);
+/* What the open windows do now (motor_id 1..32).  rt-safe. */
+static inline bool rmd_sim_faults_bus_off(const struct rmd_sim_faults *fs)
+{
+	return fs->bus_off;
+}
+
+static inline bool rmd_sim_faults_absent(const struct rmd_sim_faults *fs, uint8_t motor_id)
+{
+	return motor_id >= 1 && motor_id <= RMD_MAX_MOTORS && (fs->absent >> (motor_id - 1)) & 1;
+}
+
+static inline bool rmd_sim_faults_unpowered(const struct rmd_sim_faults *fs, uint8_t motor_id)
+{
+	return motor_id >= 1 && motor_id <= RMD_MAX_MOTORS && (fs->unpowered >> (motor_id - 1)) & 1;
+}
+
+static inline uint16_t rmd_sim_faults_error_bits(const struct rmd_sim_faults *fs, uint8_t motor_id)
+{
+	return motor_id >= 1 && motor_id <= RMD_MAX_MOTORS ? fs->error_bits[motor_id - 1] : 0;
+}
 
 /* Whether entry k is an open FLOOD whose next frame is due by t.  rt-safe. */
 bool rmd_sim_faults_flood_due(const struct rmd_sim_faults *fs, unsigned k, int64_t t);

@@ -111,6 +111,51 @@ static bool window_open(const struct rmd_sim_fault *f, int64_t t)
 void rmd_sim_faults_init(struct rmd_sim_faults *fs)
 {
 	memset(fs, 0, sizeof(*fs));
+	fs->last_ns = INT64_MAX; /* the first update scans */
+}
+
+/* The first start or end of a window after t; INT64_MAX: none. */
+static int64_t next_edge(const struct rmd_sim_faults *fs, int64_t t)
+{
+	int64_t n = INT64_MAX;
+
+	for (unsigned k = 0; k < fs->n; k++) {
+		const struct rmd_sim_fault *f = &fs->f[k];
+
+		if (!rmd_sim_fault_is_window(f->kind))
+			continue;
+		if (f->start_ns > t && f->start_ns < n)
+			n = f->start_ns;
+		if (f->end_ns > t && f->end_ns < n)
+			n = f->end_ns;
+	}
+	return n;
+}
+
+/* The motors' and the bus's state from the open windows. */
+static void refresh(struct rmd_sim_faults *fs)
+{
+	fs->bus_off = false;
+	fs->absent = fs->unpowered = 0;
+	memset(fs->error_bits, 0, sizeof(fs->error_bits));
+	for (unsigned k = 0; k < fs->n; k++) {
+		const struct rmd_sim_fault *f = &fs->f[k];
+		uint32_t hit = f->motor_id ? UINT32_C(1) << (f->motor_id - 1) : UINT32_MAX;
+
+		if (!fs->open[k])
+			continue;
+		if (f->kind == RMD_SIM_FAULT_BUS_OFF) {
+			fs->bus_off = true;
+		} else if (f->kind == RMD_SIM_FAULT_DISAPPEAR) {
+			fs->absent |= hit;
+			if (f->param == 1)
+				fs->unpowered |= hit;
+		} else if (f->kind == RMD_SIM_FAULT_ERROR_FLAG) {
+			for (unsigned i = 0; i < RMD_MAX_MOTORS; i++)
+				if (hit & (UINT32_C(1) << i))
+					fs->error_bits[i] |= (uint16_t)f->param;
+		}
+	}
 }
 
 int rmd_sim_faults_set(struct rmd_sim_faults *fs, const struct rmd_sim_fault *faults, size_t n)
@@ -131,6 +176,11 @@ uint32_t rmd_sim_faults_update(struct rmd_sim_faults *fs, int64_t t, uint64_t *c
 {
 	uint32_t changed = 0;
 
+	/* Between two edges nothing changes (time runs back only after a set). */
+	if (t >= fs->last_ns && t < fs->next_edge_ns)
+		return 0;
+	fs->last_ns = t;
+	fs->next_edge_ns = next_edge(fs, t);
 	for (unsigned k = 0; k < fs->n; k++) {
 		const struct rmd_sim_fault *f = &fs->f[k];
 		bool open;
@@ -149,6 +199,8 @@ uint32_t rmd_sim_faults_update(struct rmd_sim_faults *fs, int64_t t, uint64_t *c
 		else
 			counts[f->kind]++;
 	}
+	if (changed)
+		refresh(fs);
 	return changed;
 }
 
@@ -212,58 +264,6 @@ bool rmd_sim_faults_frame(const struct rmd_sim_faults *fs, uint64_t *rng, uint8_
 	return true;
 }
 
-/* Whether an open window of `kind` acts on motor `id` (0: any window of that kind). */
-static const struct rmd_sim_fault *open_window(const struct rmd_sim_faults *fs,
-					       enum rmd_sim_fault_kind kind, uint8_t id,
-					       unsigned *from)
-{
-	for (unsigned k = *from; k < fs->n; k++) {
-		if (fs->open[k] && fs->f[k].kind == kind &&
-		    (!id || rmd_sim_fault_hits(&fs->f[k], id))) {
-			*from = k + 1;
-			return &fs->f[k];
-		}
-	}
-	*from = fs->n;
-	return NULL;
-}
-
-bool rmd_sim_faults_bus_off(const struct rmd_sim_faults *fs)
-{
-	unsigned k = 0;
-
-	return open_window(fs, RMD_SIM_FAULT_BUS_OFF, 0, &k) != NULL;
-}
-
-bool rmd_sim_faults_absent(const struct rmd_sim_faults *fs, uint8_t motor_id)
-{
-	unsigned k = 0;
-
-	return open_window(fs, RMD_SIM_FAULT_DISAPPEAR, motor_id, &k) != NULL;
-}
-
-bool rmd_sim_faults_unpowered(const struct rmd_sim_faults *fs, uint8_t motor_id)
-{
-	const struct rmd_sim_fault *f;
-	unsigned k = 0;
-
-	while ((f = open_window(fs, RMD_SIM_FAULT_DISAPPEAR, motor_id, &k)))
-		if (f->param == 1)
-			return true;
-	return false;
-}
-
-uint16_t rmd_sim_faults_error_bits(const struct rmd_sim_faults *fs, uint8_t motor_id)
-{
-	const struct rmd_sim_fault *f;
-	uint16_t bits = 0;
-	unsigned k = 0;
-
-	while ((f = open_window(fs, RMD_SIM_FAULT_ERROR_FLAG, motor_id, &k)))
-		bits |= (uint16_t)f->param;
-	return bits;
-}
-
 bool rmd_sim_faults_flood_due(const struct rmd_sim_faults *fs, unsigned k, int64_t t)
 {
 	return k < fs->n && fs->open[k] && fs->f[k].kind == RMD_SIM_FAULT_FLOOD &&
@@ -286,20 +286,11 @@ int64_t rmd_sim_faults_flood_take(struct rmd_sim_faults *fs, unsigned k, uint64_
 
 int64_t rmd_sim_faults_next_ns(const struct rmd_sim_faults *fs, int64_t t)
 {
-	int64_t n = INT64_MAX;
+	int64_t n = t == fs->last_ns ? fs->next_edge_ns : next_edge(fs, t);
 
-	for (unsigned k = 0; k < fs->n; k++) {
-		const struct rmd_sim_fault *f = &fs->f[k];
-
-		if (!rmd_sim_fault_is_window(f->kind))
-			continue;
-		if (f->start_ns > t && f->start_ns < n)
-			n = f->start_ns;
-		if (f->end_ns > t && f->end_ns < n)
-			n = f->end_ns;
-		if (fs->open[k] && f->kind == RMD_SIM_FAULT_FLOOD && fs->flood_next_ns[k] > t &&
-		    fs->flood_next_ns[k] < n)
+	for (unsigned k = 0; k < fs->n; k++)
+		if (fs->open[k] && fs->f[k].kind == RMD_SIM_FAULT_FLOOD &&
+		    fs->flood_next_ns[k] > t && fs->flood_next_ns[k] < n)
 			n = fs->flood_next_ns[k];
-	}
 	return n;
 }

@@ -118,7 +118,7 @@ void rmd_sim_update_errors(struct rmd_sim_motor *m)
 }
 
 /* Fault detection after a step of dt seconds (V3 §2.12 table 1, §8.2). */
-void rmd_sim_detect_faults(struct rmd_sim_motor *m, double dt)
+static void detect_faults(struct rmd_sim_motor *m, double dt)
 {
 	const struct rmd_sim_motor_params *p = &m->p;
 	uint16_t live = m->errors_live;
@@ -269,7 +269,7 @@ static void plan_step(struct rmd_sim_motor *m, double target, double vmax, doubl
  * planner and integrator by dt.  While the output is cut (fault, brake
  * locked) the mode is kept but its loops restart from the shaft's state.
  */
-double rmd_sim_control(struct rmd_sim_motor *m, double dt)
+static double control(struct rmd_sim_motor *m, double dt)
 {
 	const struct rmd_sim_motor_params *p = &m->p;
 	double iq = 0.0, v_ref, lo, hi;
@@ -390,10 +390,10 @@ static void step_once(struct rmd_sim_motor *m)
 {
 	m->t_ns += RMD_SIM_STEP_NS;
 	check_comm(m);
-	m->iq_a = rmd_sim_control(m, STEP_S);
+	m->iq_a = control(m, STEP_S);
 	mechanics(m, STEP_S);
 	thermal(m, STEP_S);
-	rmd_sim_detect_faults(m, STEP_S);
+	detect_faults(m, STEP_S);
 }
 
 /*
@@ -439,10 +439,21 @@ void rmd_sim_motor_step(struct rmd_sim_motor *m, int64_t now_ns)
 			m->temp_c =
 				p->ambient_c + (m->temp_c - p->ambient_c) *
 						       exp(-(double)n * STEP_S / p->thermal_tau_s);
-			rmd_sim_control(m, 0.0);
-			rmd_sim_detect_faults(m, 0.0);
+			control(m, 0.0);
+			detect_faults(m, 0.0);
 			continue;
 		}
 		step_once(m);
 	}
+}
+
+/* The exported faces of the two the step inlines (sim_motor_priv.h). */
+void rmd_sim_detect_faults(struct rmd_sim_motor *m, double dt)
+{
+	detect_faults(m, dt);
+}
+
+double rmd_sim_control(struct rmd_sim_motor *m, double dt)
+{
+	return control(m, dt);
 }

@@ -23,14 +23,15 @@ _Static_assert((RMD_SIM_WIRE_HIST & (RMD_SIM_WIRE_HIST - 1)) == 0, "HIST: power 
 
 /* ---- faults (rmd/sim_faults.h) -------------------------------------------- */
 
+/* The wire asks these per frame and per event: no table, no call. */
 static bool is_bus_off(const struct rmd_sim_wire *bus)
 {
-	return rmd_sim_faults_bus_off(&bus->faults);
+	return bus->faults.n && rmd_sim_faults_bus_off(&bus->faults);
 }
 
 static bool is_absent(const struct rmd_sim_wire *bus, unsigned i)
 {
-	return rmd_sim_faults_absent(&bus->faults, bus->motors[i].p.id);
+	return bus->faults.n && rmd_sim_faults_absent(&bus->faults, bus->motors[i].p.id);
 }
 
 /* ---- queues --------------------------------------------------------------- */
@@ -79,8 +80,8 @@ static void push_motor_frame(struct rmd_sim_wire *bus, unsigned src, const struc
 static void motor_emit(struct rmd_sim_wire *bus, unsigned i, struct rmd_frame f, int64_t t,
 		       int64_t ready_ns)
 {
-	if (rmd_sim_faults_frame(&bus->faults, &bus->rng, bus->motors[i].p.id, t, &f, &ready_ns,
-				 bus->stats.faults))
+	if (!bus->faults.n || rmd_sim_faults_frame(&bus->faults, &bus->rng, bus->motors[i].p.id, t,
+						   &f, &ready_ns, bus->stats.faults))
 		push_motor_frame(bus, i, &f, ready_ns);
 }
 
@@ -167,8 +168,12 @@ static void close_window(struct rmd_sim_wire *bus, const struct rmd_sim_fault *f
 /* Open and close the windows as of time t, and act on what changed. */
 static void apply_windows(struct rmd_sim_wire *bus, int64_t t)
 {
-	uint32_t changed = rmd_sim_faults_update(&bus->faults, t, bus->stats.faults);
+	uint32_t changed;
 	bool errors_changed = false;
+
+	if (!bus->faults.n)
+		return;
+	changed = rmd_sim_faults_update(&bus->faults, t, bus->stats.faults);
 
 	for (unsigned k = 0; changed && k < bus->faults.n; k++) {
 		if (!(changed & (UINT32_C(1) << k)))
@@ -355,7 +360,8 @@ static int64_t next_event(const struct rmd_sim_wire *bus, int64_t t, int64_t unt
 				n = min64(n, bus->motq[j].ready_ns);
 	}
 	/* window edges, and a flood's next frame (a no-op step while the wire is busy) */
-	n = min64(n, rmd_sim_faults_next_ns(&bus->faults, t));
+	if (bus->faults.n)
+		n = min64(n, rmd_sim_faults_next_ns(&bus->faults, t));
 	for (unsigned i = 0; i < bus->n_motors; i++) {
 		int64_t e = rmd_sim_motor_next_event_ns(&bus->motors[i]);
 
