@@ -207,6 +207,12 @@ $(BUILD)/tests/%: $(BUILD)/tests/%.o $(HARNESS_OBJS) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)
 
+# test_sim_params holds rmd-sim's own reader (its config.c) against the table rmdd.yaml reads.
+$(BUILD)/tests/unit/test_sim_params: $(BUILD)/tests/unit/test_sim_params.o \
+		$(BUILD)/src/tools/rmd-sim/config.o $(HARNESS_OBJS) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)
+
 # STYLE.md: the rt cycle is linked with malloc & co. wrapped, to count them.
 $(BUILD)/tests/unit/test_loop_alloc: override LDFLAGS += -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free
 

@@ -18,13 +18,6 @@
 
 #include "rmd/frame.h"
 
-enum rmd_bus_state {
-	RMD_BUS_ACTIVE = 0,
-	RMD_BUS_WARNING, /* error counters >= 96 */
-	RMD_BUS_PASSIVE, /* error counters >= 128 */
-	RMD_BUS_OFF,	 /* the controller left the bus */
-};
-
 struct rmd_bus_rx {
 	struct rmd_frame f;
 	int64_t t_ns; /* receive time, CLOCK_MONOTONIC (kernel stamp where there is one) */

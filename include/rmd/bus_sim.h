@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The in-process simulated transport (DESIGN.md layer 2): a struct
- * rmd_sim_bus (rmd/sim_bus.h) with its motors, behind struct rmd_bus_ops,
+ * rmd_sim_wire (rmd/sim_wire.h) with its motors, behind struct rmd_bus_ops,
  * so rmdd and rmdctl run with no hardware and never know it.
  *
  * Time.  The sim bus keeps its own clock, which starts at 0; the caller's
@@ -27,7 +27,7 @@
 #include "rmd/bus.h"
 #include "rmd/codec.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 
 #define RMD_BUS_SIM_BITRATE 1000000 /* default: 1 Mbit/s */
 #define RMD_BUS_SIM_SEED 1	    /* default PRNG seed: runs are reproducible */
@@ -44,8 +44,8 @@ struct rmd_bus_sim_opts {
 	unsigned n_motors;   /* 0..RMD_MAX_MOTORS */
 	uint32_t bitrate;    /* bit/s; 0: RMD_BUS_SIM_BITRATE */
 	uint64_t seed;	     /* faults' and jitter PRNG; 0: RMD_BUS_SIM_SEED */
-	unsigned flags;	     /* RMD_SIM_BUS_* (RMD_SIM_BUS_HOST_FIFO: like SocketCAN) */
-	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_BUS_TXQ; 0: the sim bus's default */
+	unsigned flags;	     /* RMD_SIM_WIRE_* (RMD_SIM_WIRE_HOST_FIFO: like SocketCAN) */
+	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_WIRE_TXQ; 0: the sim bus's default */
 	const struct rmd_sim_fault *faults; /* in sim time (see above); may be NULL */
 	unsigned n_faults;
 };
@@ -57,7 +57,7 @@ struct rmd_bus_sim_opts {
  *   -EINVAL  opts NULL, a motor id outside 1..32, a bad bitrate, queue
  *            length or fault entry
  *   -EEXIST  two motors with one id
- *   -E2BIG   more than RMD_MAX_MOTORS motors or RMD_SIM_BUS_MAX_FAULTS faults
+ *   -E2BIG   more than RMD_MAX_MOTORS motors or RMD_SIM_MAX_FAULTS faults
  *   -ENOMEM  out of memory
  * Non-rt: allocates.
  */
@@ -69,7 +69,7 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
  * (motors, statistics), or NULL when `bus` is not a sim bus.  Its times are
  * sim times: see rmd_bus_sim_time_ns().  Rt-safe.
  */
-struct rmd_sim_bus *rmd_bus_sim_get(struct rmd_bus *bus);
+struct rmd_sim_wire *rmd_bus_sim_get(struct rmd_bus *bus);
 
 /*
  * Sim time of the caller's now_ns: now_ns minus the epoch, or 0 before the

@@ -1,21 +1,16 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * rmdd's configuration (DESIGN.md layer 7): a YAML file -> a plain struct
- * rmd_config.
+ * rmdd's configuration model (DESIGN.md layer 7): plain structs, their
+ * defaults, and the names a config file spells.  The YAML file is read
+ * by rmd_config_load() (rmd/config_yaml.h); the simulator's settings of a
+ * sim bus are not here but in struct rmd_sim_setup (rmd/sim_setup.h),
+ * which the loader fills beside this one.
  *
- * The file is read with libyaml's event parser into a small tree that
- * remembers the line of every key and value, and walked against schema
- * tables (src/config.c): every key is checked for its type and range, every
- * unknown key is refused with the list of allowed ones, and every error
- * names the file, the line and the key path and says what is allowed:
+ * examples/rmdd.yaml documents every key.  Units are SI at the output
+ * shaft (rad, rad/s, N·m, A), times in the unit their key names (_ms,
+ * _us, _s).
  *
- *   sim-12.yaml:14: motors[3].id: 40 is out of range (1..32)
- *   x.yaml:7: buses[0].type: "canbus" is not one of socketcan, rs485, sim
- *
- * examples/rmdd.yaml documents every key.  Units are SI at the output shaft
- * (rad, rad/s, N·m, A), times in the unit their key names (_ms, _us, _s).
- *
- * The result holds no pointers: strings are copied into fixed arrays and
+ * The model holds no pointers: strings are copied into fixed arrays and
  * the lists are fixed arrays sized by RMD_MAX_BUSES and RMD_MAX_MOTORS, so
  * the rt loop reads it without allocating, and it may be copied with
  * memcpy.  The bus budget (can every bus carry its motors at the loop rate)
@@ -31,8 +26,7 @@
 #include "rmd/codec.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
-#include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/mode.h"
 
 #define RMD_CONFIG_NAME_LEN 32	  /* motor and bus names, NUL included */
 #define RMD_CONFIG_IFNAME_LEN 16  /* IFNAMSIZ */
@@ -61,21 +55,11 @@
 #define RMD_CONFIG_DEFAULT_CHANNEL_PREFIX "RMD_"
 #define RMD_CONFIG_DEFAULT_STALE_MS 100
 #define RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS 100
-/* SocketCAN's default txqueuelen (DESIGN.md), used by the sim bus too. */
-#define RMD_CONFIG_DEFAULT_SIM_TXQUEUELEN 10
 
 enum rmd_bus_kind {
 	RMD_BUS_KIND_SOCKETCAN = 0, /* "socketcan": a CAN netdev */
 	RMD_BUS_KIND_RS485,	    /* "rs485": a serial line, V3 motors only */
 	RMD_BUS_KIND_SIM,	    /* "sim": in-process simulated motors */
-};
-
-/* What a motor is commanded with (and what its setpoint means). */
-enum rmd_ctrl_mode {
-	RMD_CTRL_TORQUE = 0, /* "torque": V2/V3 0xA1 (iq), V2 0x280 */
-	RMD_CTRL_SPEED,	     /* "speed": 0xA2 */
-	RMD_CTRL_POSITION,   /* "position": V3 0xA4 / V2 0xA4 */
-	RMD_CTRL_MIT,	     /* "mit": V3 §5, 0x400 + ID */
 };
 
 /* What rmdd does to a motor when its controller goes quiet or it is lost. */
@@ -131,20 +115,6 @@ struct rmd_config_lcm {
 	uint32_t health_period_ms; /* publish health this often */
 };
 
-/* A sim bus's simulator: wire, motor model, faults (rmd/sim_bus.h). */
-struct rmd_config_sim {
-	uint64_t seed;	     /* faults' and motors' PRNG; 0: 1 */
-	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_BUS_TXQ */
-	bool host_fifo;	     /* RMD_SIM_BUS_HOST_FIFO: frames leave in send order */
-	/*
-	 * The model of every motor on this bus (id, proto, kt_nm_a, gear_ratio
-	 * and mit are the motor's own: see struct rmd_config_motor.sim).
-	 */
-	struct rmd_sim_motor_params motor;
-	struct rmd_sim_fault faults[RMD_SIM_BUS_MAX_FAULTS];
-	unsigned n_faults;
-};
-
 struct rmd_config_bus {
 	char name[RMD_CONFIG_NAME_LEN]; /* [a-z0-9_], unique; for messages and LCM */
 	enum rmd_bus_kind kind;
@@ -152,9 +122,8 @@ struct rmd_config_bus {
 	char device[RMD_CONFIG_PATH_LEN];      /* rs485: serial device */
 	uint32_t bitrate;		       /* socketcan, sim: bit/s */
 	uint32_t baud;			       /* rs485: bit/s (V3 §1.2.1) */
-	int64_t turnaround_ns;	   /* rs485: request end to reply start, budgeted per request */
-	struct rmd_config_sim sim; /* sim only */
-	unsigned line;		   /* of the entry in the file, for messages */
+	int64_t turnaround_ns; /* rs485: request end to reply start, budgeted per request */
+	unsigned line;	       /* of the entry in the file, for messages */
 };
 
 struct rmd_config_limits {
@@ -169,7 +138,7 @@ struct rmd_config_motor {
 	unsigned bus;			/* index into rmd_config.buses[] */
 	uint8_t id;			/* 1..32, unique per bus */
 	enum rmd_proto proto;
-	enum rmd_ctrl_mode mode;
+	enum rmd_mode mode;
 	int direction;	   /* +1, or -1: the motor turns the other way */
 	double gear_ratio; /* motor turns per output turn, > 0 */
 	enum rmd_units units;
@@ -179,12 +148,7 @@ struct rmd_config_motor {
 	struct rmd_mit_ranges mit; /* MIT packing ranges (V3 §5.1) */
 	unsigned rate_divisor;	   /* commanded every n-th cycle, 1.. */
 	double status_poll_hz;	   /* 0x9A polls per second; 0: none */
-	/*
-	 * The simulated motor on a sim bus: the bus's model with this motor's
-	 * overrides, id, proto, kt (when given), gear ratio and MIT ranges.
-	 */
-	struct rmd_sim_motor_params sim;
-	unsigned line; /* of the entry in the file, for messages */
+	unsigned line;		   /* of the entry in the file, for messages */
 };
 
 struct rmd_config {
@@ -202,41 +166,38 @@ struct rmd_config {
 /* Every default, no buses and no motors.  Non-rt. */
 void rmd_config_defaults(struct rmd_config *cfg);
 
-/*
- * Load and validate the YAML file at `path` into *cfg (defaults for what it
- * leaves out).  Returns 0, -errno when the file cannot be read, or -EINVAL
- * for a file with errors; err then holds one line per error (up to a few
- * dozen, joined with '\n', no trailing newline), each naming the file, the
- * line and the key.  *cfg is unspecified after a failure.  Non-rt:
- * allocates while parsing, frees before it returns.
- */
-int rmd_config_load(const char *path, struct rmd_config *cfg, char *err, size_t errlen);
+/* A bus's and a motor's defaults, as a config entry starts.  Non-rt. */
+void rmd_config_bus_defaults(struct rmd_config_bus *b);
+void rmd_config_motor_defaults(struct rmd_config_motor *m);
 
 /*
- * The configuration `rmdd --sim` runs: `nmotors` (1..RMD_MAX_MOTORS) V3
- * torque-mode motors with the simulator's default model, three per 1 Mbit/s
- * sim bus (the most that fit at 1 kHz, DESIGN.md), at 1 kHz.  Returns 0 or
- * -EINVAL.  Non-rt.
- */
-int rmd_config_sim_default(struct rmd_config *cfg, unsigned nmotors);
-
-/*
- * Open sim bus b of cfg as rmdd runs it: its simulator settings and faults,
- * and every motor configured on it with its own model (rmd/bus_sim.h).
+ * Open sim bus b of cfg as rmdd runs it: its simulator settings and faults
+ * (sim, filled with cfg by the loader), and every motor configured on it
+ * with its own model (rmd/bus_sim.h).
  * Returns 0 or -errno with a message in err.  Non-rt.
  */
 struct rmd_bus;
-int rmd_config_open_sim_bus(const struct rmd_config *cfg, unsigned b, struct rmd_bus *bus,
-			    char *err, size_t errlen);
+struct rmd_sim_setup;
+int rmd_config_open_sim_bus(const struct rmd_config *cfg, const struct rmd_sim_setup *sim,
+			    unsigned b, struct rmd_bus *bus, char *err, size_t errlen);
 
 /* The index of the bus or motor called `name`, or -ENOENT.  rt-safe. */
 int rmd_config_bus_find(const struct rmd_config *cfg, const char *name);
 int rmd_config_motor_find(const struct rmd_config *cfg, const char *name);
 
+/* Names as the file spells them, indexed by their enum, NULL-terminated. */
+extern const char *const rmd_bus_kind_names[];
+extern const char *const rmd_proto_keys[];
+extern const char *const rmd_mode_names[];
+extern const char *const rmd_units_names[];
+extern const char *const rmd_safe_action_names[];
+extern const char *const rmd_lost_action_names[];
+extern const char *const rmd_on_missing_names[];
+
 /* Names as the file spells them ("socketcan", "v3", "torque", "damp", ...).  rt-safe. */
 const char *rmd_bus_kind_name(enum rmd_bus_kind kind);
 const char *rmd_proto_key(enum rmd_proto proto);
-const char *rmd_ctrl_mode_name(enum rmd_ctrl_mode mode);
+const char *rmd_mode_name(enum rmd_mode mode);
 const char *rmd_safe_action_name(enum rmd_safe_action action);
 
 #endif /* RMD_CONFIG_H */

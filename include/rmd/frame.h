@@ -24,6 +24,17 @@
 #define RMD_CAN_MIT_REQ_BASE 0x400u
 #define RMD_CAN_MIT_REPLY_BASE 0x500u
 
+/*
+ * A CAN controller's error state (ISO 11898-1 fault confinement): what a
+ * transport reports in struct rmd_bus and the simulated wire models.
+ */
+enum rmd_bus_state {
+	RMD_BUS_ACTIVE = 0,
+	RMD_BUS_WARNING, /* error counters >= 96 */
+	RMD_BUS_PASSIVE, /* error counters >= 128 */
+	RMD_BUS_OFF,	 /* the controller left the bus */
+};
+
 struct rmd_frame {
 	uint32_t can_id; /* 11-bit standard identifier */
 	uint8_t len;	 /* data length code, 0..8 */

@@ -102,7 +102,7 @@ struct rmd_motor {
 	uint8_t bus;	  /* index into cfg->buses[] */
 	uint8_t id;
 	enum rmd_proto proto;
-	enum rmd_ctrl_mode mode;
+	enum rmd_mode mode;
 	double dir;		  /* +1 or -1 */
 	double native_per_output; /* 1, or gear_ratio when the protocol speaks the rotor */
 	double gear_ratio;	  /* rotor turns per output turn (encoder counts) */

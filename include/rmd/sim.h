@@ -10,12 +10,13 @@
  * the output shaft, integrated at a fixed step (<= 100 us) whatever the
  * host's command rate; V3, V2 or MIT protocol as configured.
  *
- * struct rmd_sim_bus: a bus of motors with a wire-time model: every frame,
- * the host's and the motors', occupies the wire for its exact bit-stuffed
- * length in arbitration order; motors answer after a turnaround with
- * jitter; faults are injected here.
+ * struct rmd_sim_wire (rmd/sim_wire.h): a wire of motors with a wire-time
+ * model: every frame, the host's and the motors', occupies the wire for its
+ * exact bit-stuffed length in arbitration order; motors answer after a
+ * turnaround with jitter; faults (rmd/sim_faults.h) are injected there.
  *
- * The motor model (src/sim_motor.c) in brief; the file's comments cite the
+ * The motor model (src/sim/sim_motor.c, the protocol, and
+ * src/sim/sim_physics.c) in brief; the files' comments cite the
  * manual section behind each behaviour:
  * - Units: position, speed and torque at the output shaft.  The encoder
  *   sits on the motor rotor (V3 §2.13.4: 16384 lines and gear ratio 6 make

@@ -17,19 +17,10 @@
 
 #include "rmd/bus.h"
 #include "rmd/frame.h"
+#include "rmd/mode.h"
 
-/*
- * Control modes; the values are those of rmd.command_t's mode field and of
- * enum rmd_ctrl_mode in rmd/config.h (the daemon checks they agree).
- * The safe actions are enum rmd_safe_action in rmd/config.h.
- */
-enum rmd_mode {
-	RMD_MODE_TORQUE = 0,   /* torque_nm (current = torque / Kt) */
-	RMD_MODE_SPEED = 1,    /* vel_rad_s */
-	RMD_MODE_POSITION = 2, /* pos_rad, limited to max_vel_rad_s */
-	RMD_MODE_MIT = 3,      /* pos, vel, kp, kd, torque feed-forward */
-	RMD_MODE_COUNT
-};
+/* Control modes: enum rmd_mode (rmd/mode.h).  The safe actions are enum
+ * rmd_safe_action in rmd/config.h. */
 
 /* Motor lifecycle (DESIGN.md); the values are those of rmd.state_t. */
 enum rmd_lifecycle {

@@ -109,7 +109,7 @@ static int open_sim(struct rmd_bus *bus, const char *spec, const struct rmd_bus_
 	so.bitrate = o->sim_bitrate;
 	so.seed = o->sim_seed;
 	/* Host frames leave in order, as from SocketCAN's single queue. */
-	so.flags = RMD_SIM_BUS_HOST_FIFO;
+	so.flags = RMD_SIM_WIRE_HOST_FIFO;
 	return rmd_bus_sim_open(bus, spec, &so, err, errlen);
 }
 

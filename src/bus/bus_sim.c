@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * The in-process simulated transport: struct rmd_sim_bus behind struct
+ * The in-process simulated transport: struct rmd_sim_wire behind struct
  * rmd_bus_ops.  See rmd/bus_sim.h.
  */
 #include <errno.h>
@@ -13,11 +13,11 @@
 #include "rmd/err.h"
 #include "rmd/bus_sim.h"
 
-/* Frames moved from the sim bus per rmd_sim_bus_recv() call (stack buffer). */
+/* Frames moved from the sim bus per rmd_sim_wire_recv() call (stack buffer). */
 #define RX_CHUNK 32
 
 struct bus_sim {
-	struct rmd_sim_bus sim;
+	struct rmd_sim_wire sim;
 	bool started;	  /* the epoch is set */
 	int64_t epoch_ns; /* caller's now_ns at sim time 0 */
 };
@@ -40,7 +40,7 @@ static int64_t to_sim(struct bus_sim *p, int64_t now_ns)
 /* Follow the sim bus's bus-off windows.  Rt-safe. */
 static void sync_state(struct rmd_bus *bus, struct bus_sim *p)
 {
-	enum rmd_bus_state st = rmd_sim_bus_state(&p->sim);
+	enum rmd_bus_state st = rmd_sim_wire_state(&p->sim);
 
 	if (st != bus->state) {
 		bus->state = st;
@@ -54,7 +54,7 @@ static int sim_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigne
 	struct bus_sim *p = priv(bus);
 	int r;
 
-	r = rmd_sim_bus_send(&p->sim, to_sim(p, now_ns), frames, n);
+	r = rmd_sim_wire_send(&p->sim, to_sim(p, now_ns), frames, n);
 	sync_state(bus, p);
 	if (r == -ENOBUFS) {
 		/* The TX queue is full: the caller keeps the frames, as with SocketCAN. */
@@ -76,11 +76,11 @@ static int sim_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, i
 	int64_t t[RX_CHUNK];
 	unsigned count = 0;
 
-	rmd_sim_bus_advance(&p->sim, to_sim(p, now_ns));
+	rmd_sim_wire_advance(&p->sim, to_sim(p, now_ns));
 	sync_state(bus, p);
 	while (count < max) {
 		unsigned want = max - count < RX_CHUNK ? max - count : RX_CHUNK;
-		int r = rmd_sim_bus_recv(&p->sim, f, want, t);
+		int r = rmd_sim_wire_recv(&p->sim, f, want, t);
 
 		for (int i = 0; i < r; i++) {
 			out[count].f = f[i];
@@ -105,7 +105,7 @@ static void sim_close(struct rmd_bus *bus)
 	struct bus_sim *p = priv(bus);
 
 	if (p) {
-		rmd_sim_bus_fini(&p->sim);
+		rmd_sim_wire_fini(&p->sim);
 		free(p);
 	}
 	memset(bus, 0, sizeof(*bus));
@@ -141,7 +141,7 @@ static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_
 			rmd_sim_motor_params_default(&params, m->id, m->proto);
 		params.id = m->id;
 		params.proto = m->proto;
-		r = rmd_sim_bus_add_motor(&p->sim, &params, 0);
+		r = rmd_sim_wire_add_motor(&p->sim, &params, 0);
 		if (r == -EEXIST)
 			return rmd_errf(err, errlen, r, "%s: motor id %u given twice", name, m->id);
 		if (r < 0)
@@ -170,9 +170,9 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	if (opts->n_motors && !opts->motors)
 		return rmd_errf(err, errlen, -EINVAL, "%s: %u motors but no motor list", name,
 				opts->n_motors);
-	if (opts->n_faults > RMD_SIM_BUS_MAX_FAULTS)
+	if (opts->n_faults > RMD_SIM_MAX_FAULTS)
 		return rmd_errf(err, errlen, -E2BIG, "%s: %u faults, at most %d", name,
-				opts->n_faults, RMD_SIM_BUS_MAX_FAULTS);
+				opts->n_faults, RMD_SIM_MAX_FAULTS);
 	if (opts->n_faults && !opts->faults)
 		return rmd_errf(err, errlen, -EINVAL, "%s: %u faults but no fault list", name,
 				opts->n_faults);
@@ -180,18 +180,18 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	p = calloc(1, sizeof(*p));
 	if (!p)
 		return rmd_errf(err, errlen, -ENOMEM, "%s: out of memory", name);
-	r = rmd_sim_bus_init(&p->sim, opts->bitrate ? opts->bitrate : RMD_BUS_SIM_BITRATE,
-			     opts->seed ? opts->seed : RMD_BUS_SIM_SEED, opts->flags);
+	r = rmd_sim_wire_init(&p->sim, opts->bitrate ? opts->bitrate : RMD_BUS_SIM_BITRATE,
+			      opts->seed ? opts->seed : RMD_BUS_SIM_SEED, opts->flags);
 	if (r < 0) {
 		r = rmd_errf(err, errlen, r, "%s: bad bitrate %u or flags 0x%x", name,
 			     opts->bitrate, opts->flags);
 		goto err_free;
 	}
 	if (opts->txqueuelen) {
-		r = rmd_sim_bus_set_txqueuelen(&p->sim, opts->txqueuelen);
+		r = rmd_sim_wire_set_txqueuelen(&p->sim, opts->txqueuelen);
 		if (r < 0) {
 			r = rmd_errf(err, errlen, r, "%s: TX queue length %u out of range 1..%d",
-				     name, opts->txqueuelen, RMD_SIM_BUS_TXQ);
+				     name, opts->txqueuelen, RMD_SIM_WIRE_TXQ);
 			goto err_fini;
 		}
 	}
@@ -199,7 +199,7 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	if (r < 0)
 		goto err_fini;
 	if (opts->n_faults) {
-		r = rmd_sim_bus_set_faults(&p->sim, opts->faults, opts->n_faults);
+		r = rmd_sim_wire_set_faults(&p->sim, opts->faults, opts->n_faults);
 		if (r < 0) {
 			r = rmd_errf(err, errlen, r, "%s: bad fault table: %s", name, strerror(-r));
 			goto err_fini;
@@ -213,13 +213,13 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	return 0;
 
 err_fini:
-	rmd_sim_bus_fini(&p->sim);
+	rmd_sim_wire_fini(&p->sim);
 err_free:
 	free(p);
 	return r;
 }
 
-struct rmd_sim_bus *rmd_bus_sim_get(struct rmd_bus *bus)
+struct rmd_sim_wire *rmd_bus_sim_get(struct rmd_bus *bus)
 {
 	if (!bus || bus->ops != &sim_ops)
 		return NULL;

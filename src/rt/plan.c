@@ -133,7 +133,7 @@ static void plan_batch(const struct rmd_config *cfg, struct rmd_plan_bus *pb, un
 			divisor = m->rate_divisor;
 		if (m->rate_divisor != divisor)
 			same_div = false;
-		if (m->mode != RMD_CTRL_TORQUE)
+		if (m->mode != RMD_MODE_TORQUE)
 			torque = false;
 	}
 	pb->batched = 0;
@@ -697,7 +697,7 @@ static void print_bus(const struct rmd_plan *plan, const struct rmd_config *cfg,
 
 		snprintf(rate, sizeof(rate), "%g Hz", (double)plan->rate_hz / m->rate_divisor);
 		fprintf(out, "  %-20s %3u  %-8s %-8s %9s  ", m->name, m->id,
-			rmd_proto_key(m->proto), rmd_ctrl_mode_name(m->mode), rate);
+			rmd_proto_key(m->proto), rmd_mode_name(m->mode), rate);
 		if (!(m->status_poll_hz > 0))
 			fprintf(out, "none");
 		else if (!pb->feasible || !pm->polls)

@@ -17,7 +17,7 @@
  *              and calls the real one (with SocketCAN this is the write);
  *   tick       the `now` of the cycle that sent it (the loop's wake-up);
  *   wire       when the frame starts on the simulated wire, from the sim
- *              bus's tap (rmd_sim_bus_set_tap) in sim time + the epoch.
+ *              bus's tap (rmd_sim_wire_set_tap) in sim time + the epoch.
  * The sim bus runs its wire in model time, driven by the loop's now at each
  * send and recv: a frame handed over in a cycle starts on the wire at that
  * cycle's now when the wire is idle (ours leads the cycle), later when
@@ -68,11 +68,12 @@
 #include "rmd/bridge.h"
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "rmd/plan.h"
 #include "rmd/rmd_command_t.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -275,6 +276,7 @@ static int group_setup(void **state)
 
 struct daemon {
 	struct rmd_config cfg;
+	struct rmd_sim_setup sim;
 	struct rmd_plan plan;
 	struct rmd_bus bus[RMD_MAX_BUSES];
 	unsigned n_open;
@@ -300,7 +302,7 @@ static void open_buses(struct daemon *d)
 		char err[256];
 
 		assert_int_equal(d->cfg.buses[b].kind, RMD_BUS_KIND_SIM);
-		if (rmd_config_open_sim_bus(&d->cfg, b, &d->bus[b], err, sizeof(err)) < 0)
+		if (rmd_config_open_sim_bus(&d->cfg, &d->sim, b, &d->bus[b], err, sizeof(err)) < 0)
 			fail_msg("sim bus %s: %s", d->cfg.buses[b].name, err);
 		d->n_open++;
 	}
@@ -349,7 +351,7 @@ static int setup(void **state)
 	struct daemon *d;
 	struct rmd_bridge_opts bo;
 	struct rmd_loop_opts lo;
-	struct rmd_sim_bus *sim;
+	struct rmd_sim_wire *sim;
 	char err[512], report[2048];
 	int64_t t;
 
@@ -365,7 +367,7 @@ static int setup(void **state)
 	assert_non_null(d->log);
 
 	/* rmdd --sim 1: one V3 motor on a 1 Mbit/s sim bus, at 1 kHz */
-	assert_int_equal(rmd_config_sim_default(&d->cfg, 1), 0);
+	assert_int_equal(rmd_config_sim_default(&d->cfg, &d->sim, 1), 0);
 	if (rmd_plan_build(&d->cfg, &d->plan, err, sizeof(err)) < 0)
 		fail_msg("plan: %s", err);
 	open_buses(d);
@@ -395,7 +397,7 @@ static int setup(void **state)
 	/* the wire's candump, then the hand-over shim (the sim bus is found by its ops) */
 	sim = rmd_bus_sim_get(&d->bus[0]);
 	assert_non_null(sim);
-	rmd_sim_bus_set_tap(sim, tap, NULL);
+	rmd_sim_wire_set_tap(sim, tap, NULL);
 	real_ops = d->bus[0].ops;
 	shim_ops = *real_ops;
 	shim_ops.send = shim_send;

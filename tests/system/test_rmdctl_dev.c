@@ -29,7 +29,7 @@
 #include "rmd/bus_open.h"
 #include "rmd/bus_sim.h"
 #include "rmd/codec.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd/txn.h"
 
 #define MS 1000000LL
@@ -254,7 +254,7 @@ static void test_parse_ids(void **state)
 static void test_open_spec(void **state)
 {
 	struct rmd_bus_open_opts v2 = { .proto = RMD_PROTO_V2 };
-	struct rmd_sim_bus *sim;
+	struct rmd_sim_wire *sim;
 	struct rmd_bus bus;
 	char err[256];
 
@@ -270,16 +270,16 @@ static void test_open_spec(void **state)
 	assert_non_null(sim);
 	assert_int_equal(sim->n_motors, RMD_BUS_OPEN_SIM_MOTORS);
 	for (uint8_t id = 1; id <= RMD_BUS_OPEN_SIM_MOTORS; id++)
-		assert_non_null(rmd_sim_bus_motor(sim, id));
+		assert_non_null(rmd_sim_wire_motor(sim, id));
 	rmd_bus_close(&bus);
 
 	assert_int_equal(rmd_bus_open_spec(&bus, "sim:1-3,7", &v2, err, sizeof(err)), 0);
 	assert_string_equal(bus.name, "sim:1-3,7");
 	sim = rmd_bus_sim_get(&bus);
 	assert_int_equal(sim->n_motors, 4);
-	assert_non_null(rmd_sim_bus_motor(sim, 7));
-	assert_null(rmd_sim_bus_motor(sim, 4));
-	assert_int_equal(rmd_sim_bus_motor(sim, 7)->p.proto, RMD_PROTO_V2);
+	assert_non_null(rmd_sim_wire_motor(sim, 7));
+	assert_null(rmd_sim_wire_motor(sim, 4));
+	assert_int_equal(rmd_sim_wire_motor(sim, 7)->p.proto, RMD_PROTO_V2);
 	rmd_bus_close(&bus);
 
 	assert_int_equal(rmd_bus_open_spec(&bus, "sim:", NULL, err, sizeof(err)), -EINVAL);

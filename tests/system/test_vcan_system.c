@@ -80,6 +80,7 @@
 #include "rmd/candump.h"
 #include "rmd/codec.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/frame.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_health_t.h"
@@ -251,16 +252,17 @@ static const char *iface(unsigned b)
 }
 
 /* The request byte of a mode's setpoint: V3 §2.17 0xA1, §2.18 0xA2, §2.20 0xA4. */
-static uint8_t control_cmd(enum rmd_ctrl_mode mode)
+static uint8_t control_cmd(enum rmd_mode mode)
 {
 	switch (mode) {
-	case RMD_CTRL_TORQUE:
+	case RMD_MODE_TORQUE:
 		return 0xA1;
-	case RMD_CTRL_SPEED:
+	case RMD_MODE_SPEED:
 		return 0xA2;
-	case RMD_CTRL_POSITION:
+	case RMD_MODE_POSITION:
 		return 0xA4;
-	case RMD_CTRL_MIT:
+	case RMD_MODE_MIT:
+	case RMD_MODE_COUNT:
 		break;
 	}
 	return 0;
@@ -970,7 +972,7 @@ static void write_config(void)
 	}
 	assert_int_equal(fclose(out), 0);
 	free(text);
-	if (rmd_config_load(S.cfgpath, &S.cfg, err, sizeof(err)) < 0)
+	if (rmd_config_load(S.cfgpath, &S.cfg, NULL, err, sizeof(err)) < 0)
 		fail_msg("%s (from %s): %s", S.cfgpath, tpl, err);
 	S.nbus = S.cfg.n_buses;
 	if (S.nbus > NBUS_MAX)
@@ -980,7 +982,7 @@ static void write_config(void)
 			fail_msg("%s: bus %s is not socketcan", tpl, S.cfg.buses[b].name);
 	for (unsigned i = 0; i < S.cfg.n_motors; i++)
 		if (S.cfg.motors[i].proto != RMD_PROTO_V3 ||
-		    S.cfg.motors[i].mode != RMD_CTRL_POSITION)
+		    S.cfg.motors[i].mode != RMD_MODE_POSITION)
 			fail_msg("%s: motor %s: the test drives V3 motors in position mode", tpl,
 				 S.cfg.motors[i].name);
 }

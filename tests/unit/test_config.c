@@ -21,11 +21,13 @@
 #include <cmocka.h>
 
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 
 #define ERR_LEN 8192
 
 static char srcdir[1024] = ".";
 static struct rmd_config cfg; /* large: off the stack */
+static struct rmd_sim_setup sim;
 static char err[ERR_LEN];
 
 static void path_of(char *out, size_t len, const char *rel)
@@ -38,7 +40,7 @@ static int load_rel(const char *rel)
 	char path[2048];
 
 	path_of(path, sizeof(path), rel);
-	return rmd_config_load(path, &cfg, err, sizeof(err));
+	return rmd_config_load(path, &cfg, &sim, err, sizeof(err));
 }
 
 /* Write yaml to a temporary file named after `tag`, load it. */
@@ -55,7 +57,7 @@ static int load_str(const char *tag, const char *yaml)
 	assert_non_null(f);
 	fputs(yaml, f);
 	fclose(f);
-	r = rmd_config_load(path, &cfg, err, sizeof(err));
+	r = rmd_config_load(path, &cfg, &sim, err, sizeof(err));
 	unlink(path);
 	return r;
 }
@@ -106,20 +108,20 @@ static void test_example_sim12(void **state)
 	for (unsigned b = 0; b < 4; b++) {
 		assert_int_equal(cfg.buses[b].kind, RMD_BUS_KIND_SIM);
 		assert_int_equal(cfg.buses[b].bitrate, 1000000);
-		assert_int_equal(cfg.buses[b].sim.seed, b + 1);
+		assert_int_equal(sim.buses[b].seed, b + 1);
 	}
 	for (unsigned i = 0; i < 12; i++) {
 		m = &cfg.motors[i];
 		assert_int_equal(m->bus, i / 3);
 		assert_int_equal(m->id, i % 3 + 1);
 		/* the simulated motor takes the motor's own id and protocol */
-		assert_int_equal(m->sim.id, m->id);
-		assert_int_equal(m->sim.proto, m->proto);
+		assert_int_equal(sim.motors[i].id, m->id);
+		assert_int_equal(sim.motors[i].proto, m->proto);
 	}
 	m = &cfg.motors[2];
 	assert_string_equal(m->name, "fl_knee");
 	assert_int_equal(m->proto, RMD_PROTO_MIT);
-	assert_int_equal(m->mode, RMD_CTRL_MIT);
+	assert_int_equal(m->mode, RMD_MODE_MIT);
 	assert_int_equal(m->direction, -1);
 	/* limits through a YAML alias */
 	assert_true(m->limits.torque_nm == 18.0);
@@ -128,8 +130,8 @@ static void test_example_sim12(void **state)
 	m = &cfg.motors[7];
 	assert_int_equal(m->proto, RMD_PROTO_V3);
 	assert_true(m->torque_constant_nm_a == 2.0);
-	assert_true(m->sim.kt_nm_a == 2.0);
-	assert_true(m->sim.gear_ratio == 6.0);
+	assert_true(sim.motors[7].kt_nm_a == 2.0);
+	assert_true(sim.motors[7].gear_ratio == 6.0);
 	assert_int_equal(cfg.safety.safe_action, RMD_SAFE_DAMP);
 	assert_int_equal(rmd_config_motor_find(&cfg, "rr_knee"), 11);
 	assert_int_equal(rmd_config_bus_find(&cfg, "rl"), 2);
@@ -138,7 +140,7 @@ static void test_example_sim12(void **state)
 
 static void test_example_rmdd(void **state)
 {
-	const struct rmd_config_bus *b;
+	const struct rmd_sim_bus_setup *b;
 	const struct rmd_config_motor *m;
 	int i;
 
@@ -152,19 +154,18 @@ static void test_example_rmdd(void **state)
 	i = rmd_config_bus_find(&cfg, "grip");
 	assert_string_equal(cfg.buses[i].interface, "can2");
 	i = rmd_config_bus_find(&cfg, "sim0");
-	b = &cfg.buses[i];
-	assert_int_equal(b->sim.n_faults, 2);
-	assert_int_equal(b->sim.faults[0].kind, RMD_SIM_FAULT_DROP);
-	assert_true(b->sim.faults[0].probability == 0.001);
-	assert_int_equal(b->sim.faults[1].kind, RMD_SIM_FAULT_DISAPPEAR);
-	assert_int_equal(b->sim.faults[1].start_ns, 30000000000LL);
-	assert_int_equal(b->sim.faults[1].end_ns, 31000000000LL);
-	assert_int_equal(b->sim.faults[1].param, 1);
-	assert_true(b->sim.motor.turnaround_ns == 500000.0);
+	b = &sim.buses[i];
+	assert_int_equal(b->n_faults, 2);
+	assert_int_equal(b->faults[0].kind, RMD_SIM_FAULT_DROP);
+	assert_true(b->faults[0].probability == 0.001);
+	assert_int_equal(b->faults[1].kind, RMD_SIM_FAULT_DISAPPEAR);
+	assert_int_equal(b->faults[1].start_ns, 30000000000LL);
+	assert_int_equal(b->faults[1].end_ns, 31000000000LL);
+	assert_int_equal(b->faults[1].param, 1);
+	assert_true(b->motor.turnaround_ns == 500000.0);
 	i = rmd_config_motor_find(&cfg, "spare");
-	m = &cfg.motors[i];
-	assert_true(m->sim.load_nm == 0.5);	   /* the motor's override */
-	assert_true(m->sim.inertia_kgm2 == 0.005); /* the bus's model */
+	assert_true(sim.motors[i].load_nm == 0.5);	  /* the motor's override */
+	assert_true(sim.motors[i].inertia_kgm2 == 0.005); /* the bus's model */
 	i = rmd_config_motor_find(&cfg, "wrist_pitch");
 	m = &cfg.motors[i];
 	assert_true(m->mit.t_min == -18.0 && m->mit.t_max == 18.0);
@@ -201,7 +202,7 @@ static void test_defaults(void **state)
 	assert_int_equal(b->bitrate, 1000000);
 	assert_int_equal(b->line, 2);
 	assert_int_equal(m->proto, RMD_PROTO_V3);
-	assert_int_equal(m->mode, RMD_CTRL_TORQUE);
+	assert_int_equal(m->mode, RMD_MODE_TORQUE);
 	assert_int_equal(m->direction, 1);
 	assert_true(m->gear_ratio == 1.0);
 	assert_int_equal(m->units, RMD_UNITS_OUTPUT);
@@ -292,7 +293,7 @@ static void test_bad_files(void **state)
 static void test_nonexistent(void **state)
 {
 	(void)state;
-	assert_int_equal(rmd_config_load("/nonexistent/rmdd.yaml", &cfg, err, sizeof(err)),
+	assert_int_equal(rmd_config_load("/nonexistent/rmdd.yaml", &cfg, &sim, err, sizeof(err)),
 			 -ENOENT);
 	expect_in(err, "/nonexistent/rmdd.yaml: cannot open: No such file or directory");
 }
@@ -411,6 +412,15 @@ static const struct bad_str bad_strs[] = {
 	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: bus_off, start_s: 5, end_s: 2}\n"
 	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
 	  { ":6: buses[0].sim.faults[0].end_s: must be after start_s" } },
+	{ "fault-delay-us-kind",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: drop, delay_us: 5}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.faults[0].delay_us: only for kind delay" } },
+	{ "fault-us-and-param",
+	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n"
+	  "        - {kind: flood, period_us: 100, param: 100000}\n"
+	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.faults[0].param: give the time in µs" } },
 	{ "sim-model",
 	  "buses:\n  - name: s\n    type: sim\n    sim:\n      motor:\n        under_voltage_v: 50\n"
 	  "        over_voltage_v: 40\n"
@@ -515,16 +525,16 @@ static void test_good_values(void **state)
 	assert_string_equal(cfg.lcm.channel_prefix, "ARM_");
 	assert_int_equal(cfg.lcm.state_every_n, 2);
 	assert_int_equal(cfg.buses[0].bitrate, 500000);
-	assert_int_equal(cfg.buses[0].sim.seed, 16);
-	assert_int_equal(cfg.buses[0].sim.txqueuelen, 64);
-	assert_false(cfg.buses[0].sim.host_fifo);
-	assert_int_equal(cfg.buses[0].sim.n_faults, 2);
-	assert_int_equal(cfg.buses[0].sim.faults[0].kind, RMD_SIM_FAULT_FLOOD);
-	assert_int_equal(cfg.buses[0].sim.faults[0].can_id, 0x7FF);
-	assert_int_equal(cfg.buses[0].sim.faults[0].param, 100000);
-	assert_int_equal(cfg.buses[0].sim.faults[1].motor_id, 2);
-	assert_int_equal(cfg.buses[0].sim.faults[1].param, 0x1000);
-	assert_true(cfg.buses[0].sim.faults[1].probability == 1.0);
+	assert_int_equal(sim.buses[0].seed, 16);
+	assert_int_equal(sim.buses[0].txqueuelen, 64);
+	assert_false(sim.buses[0].host_fifo);
+	assert_int_equal(sim.buses[0].n_faults, 2);
+	assert_int_equal(sim.buses[0].faults[0].kind, RMD_SIM_FAULT_FLOOD);
+	assert_int_equal(sim.buses[0].faults[0].can_id, 0x7FF);
+	assert_int_equal(sim.buses[0].faults[0].param, 100000);
+	assert_int_equal(sim.buses[0].faults[1].motor_id, 2);
+	assert_int_equal(sim.buses[0].faults[1].param, 0x1000);
+	assert_true(sim.buses[0].faults[1].probability == 1.0);
 	assert_int_equal(cfg.buses[1].kind, RMD_BUS_KIND_RS485);
 	assert_string_equal(cfg.buses[1].device, "/dev/ttyUSB1");
 	assert_int_equal(cfg.buses[1].baud, 115200);
@@ -532,15 +542,15 @@ static void test_good_values(void **state)
 	assert_int_equal(cfg.motors[0].direction, -1);
 	assert_true(cfg.motors[0].zero_offset_rad == -0.25);
 	assert_true(cfg.motors[0].status_poll_hz == 0.0);
-	assert_false(cfg.motors[0].sim.has_brake);
-	assert_string_equal(cfg.motors[0].sim.model, "X6");
-	assert_int_equal(cfg.motors[0].sim.proto, RMD_PROTO_MIT);
+	assert_false(sim.motors[0].has_brake);
+	assert_string_equal(sim.motors[0].model, "X6");
+	assert_int_equal(sim.motors[0].proto, RMD_PROTO_MIT);
 	assert_true(cfg.motors[0].torque_constant_nm_a == 0.0); /* optional for MIT */
-	assert_true(cfg.motors[0].sim.kt_nm_a == 2.0);		/* the model's */
+	assert_true(sim.motors[0].kt_nm_a == 2.0);		/* the model's */
 	assert_int_equal(cfg.motors[1].proto, RMD_PROTO_V2);
 	assert_int_equal(cfg.motors[1].units, RMD_UNITS_ROTOR);
-	assert_true(cfg.motors[1].sim.gear_ratio == 9.0);
-	assert_true(cfg.motors[1].sim.kt_nm_a == 1.5);
+	assert_true(sim.motors[1].gear_ratio == 9.0);
+	assert_true(sim.motors[1].kt_nm_a == 1.5);
 	assert_int_equal(cfg.motors[2].bus, 1);
 	assert_true(cfg.motors[2].limits.position_max_rad == 1.0);
 }
@@ -554,32 +564,50 @@ static void test_small_err_buffer(void **state)
 	(void)state;
 	memset(small, 'x', sizeof(small));
 	path_of(path, sizeof(path), "tests/data/config/mit-mode.yaml");
-	assert_int_equal(rmd_config_load(path, &cfg, small, sizeof(small)), -EINVAL);
+	assert_int_equal(rmd_config_load(path, &cfg, &sim, small, sizeof(small)), -EINVAL);
 	assert_true(strlen(small) < sizeof(small));
-	assert_int_equal(rmd_config_load(path, &cfg, NULL, 0), -EINVAL);
+	assert_int_equal(rmd_config_load(path, &cfg, NULL, NULL, 0), -EINVAL);
 }
 
 static void test_sim_default(void **state)
 {
 	(void)state;
-	assert_int_equal(rmd_config_sim_default(&cfg, 0), -EINVAL);
-	assert_int_equal(rmd_config_sim_default(&cfg, RMD_MAX_MOTORS + 1), -EINVAL);
-	assert_int_equal(rmd_config_sim_default(&cfg, 12), 0);
+	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 0), -EINVAL);
+	assert_int_equal(rmd_config_sim_default(&cfg, &sim, RMD_MAX_MOTORS + 1), -EINVAL);
+	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 12), 0);
 	assert_int_equal(cfg.n_buses, 4);
 	assert_int_equal(cfg.n_motors, 12);
 	for (unsigned i = 0; i < 12; i++) {
 		assert_int_equal(cfg.motors[i].bus, i / 3);
 		assert_int_equal(cfg.motors[i].id, i % 3 + 1);
-		assert_int_equal(cfg.motors[i].sim.id, i % 3 + 1);
+		assert_int_equal(sim.motors[i].id, i % 3 + 1);
 		assert_true(cfg.motors[i].torque_constant_nm_a > 0);
 	}
 	for (unsigned b = 0; b < 4; b++)
 		assert_int_equal(cfg.buses[b].kind, RMD_BUS_KIND_SIM);
 	assert_string_equal(cfg.buses[3].name, "sim3");
-	assert_int_equal(rmd_config_sim_default(&cfg, 32), 0);
+	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 32), 0);
 	assert_int_equal(cfg.n_buses, 11);
-	assert_int_equal(rmd_config_sim_default(&cfg, 1), 0);
+	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 1), 0);
 	assert_int_equal(cfg.n_buses, 1);
+}
+
+/* A fault's times in µs, as rmd-sim's delay:ID:US and flood:..:PERIOD_US, or in ns (param). */
+static void test_fault_units(void **state)
+{
+	(void)state;
+	assert_int_equal(load_str("fault-units",
+				  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n"
+				  "        - {kind: delay, delay_us: 150, probability: 0.5}\n"
+				  "        - {kind: flood, can_id: 0x7FF, period_us: 100}\n"
+				  "        - {kind: delay, param: 150000}\n"
+				  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, "
+				  "torque_constant_nm_a: 2}\n"),
+			 0);
+	assert_int_equal(sim.buses[0].n_faults, 3);
+	assert_int_equal(sim.buses[0].faults[0].param, 150000);
+	assert_int_equal(sim.buses[0].faults[1].param, 100000);
+	assert_int_equal(sim.buses[0].faults[2].param, 150000);
 }
 
 static void test_names(void **state)
@@ -588,7 +616,7 @@ static void test_names(void **state)
 	assert_string_equal(rmd_bus_kind_name(RMD_BUS_KIND_RS485), "rs485");
 	assert_string_equal(rmd_proto_key(RMD_PROTO_MIT), "mit");
 	assert_string_equal(rmd_proto_key(RMD_PROTO_V2), "v2");
-	assert_string_equal(rmd_ctrl_mode_name(RMD_CTRL_POSITION), "position");
+	assert_string_equal(rmd_mode_name(RMD_MODE_POSITION), "position");
 	assert_string_equal(rmd_safe_action_name(RMD_SAFE_HOLD), "hold");
 }
 
@@ -601,6 +629,7 @@ int main(void)
 		cmocka_unit_test(test_bad_strings),   cmocka_unit_test(test_too_many_motors),
 		cmocka_unit_test(test_good_values),   cmocka_unit_test(test_small_err_buffer),
 		cmocka_unit_test(test_sim_default),   cmocka_unit_test(test_names),
+		cmocka_unit_test(test_fault_units),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

@@ -29,10 +29,11 @@
 
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -72,6 +73,7 @@ static unsigned trace_n;
 
 struct rig {
 	struct rmd_config cfg;
+	struct rmd_sim_setup sim;
 	struct rmd_plan plan;
 	struct rmd_bus buses[RMD_MAX_BUSES];
 	int64_t epoch[RMD_MAX_BUSES]; /* caller time at sim time 0 */
@@ -127,13 +129,14 @@ static void sync_sim(struct rmd_config *cfg)
 {
 	for (unsigned i = 0; i < cfg->n_motors; i++) {
 		struct rmd_config_motor *m = &cfg->motors[i];
+		struct rmd_sim_motor_params *p = &R.sim.motors[i];
 
-		m->sim.id = m->id;
-		m->sim.proto = m->proto;
-		m->sim.mit = m->mit;
-		m->sim.gear_ratio = m->gear_ratio;
+		p->id = m->id;
+		p->proto = m->proto;
+		p->mit = m->mit;
+		p->gear_ratio = m->gear_ratio;
 		if (m->torque_constant_nm_a > 0)
-			m->sim.kt_nm_a = m->torque_constant_nm_a;
+			p->kt_nm_a = m->torque_constant_nm_a;
 	}
 }
 
@@ -142,9 +145,9 @@ static void open_buses(void)
 	char err[256];
 
 	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
-		if (rmd_config_open_sim_bus(&R.cfg, b, &R.buses[b], err, sizeof(err)))
+		if (rmd_config_open_sim_bus(&R.cfg, &R.sim, b, &R.buses[b], err, sizeof(err)))
 			fail_msg("sim bus %s: %s", R.cfg.buses[b].name, err);
-		rmd_sim_bus_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
+		rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
 	}
 }
 
@@ -162,7 +165,7 @@ static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
 	trace_n = 0;
 	nev = 0;
 	t_now = 1000 * MS;
-	assert_int_equal(rmd_config_sim_default(&R.cfg, n), 0);
+	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.sim, n), 0);
 	R.cfg.safety.safe_action = RMD_SAFE_STOP;
 	R.cfg.safety.lost_motor_action = RMD_LOST_MOTOR;
 	if (tweak)
@@ -266,7 +269,7 @@ static struct rmd_sim_motor *sim_motor(unsigned i)
 {
 	const struct rmd_config_motor *m = &R.cfg.motors[i];
 
-	return rmd_sim_bus_motor(rmd_bus_sim_get(&R.buses[m->bus]), m->id);
+	return rmd_sim_wire_motor(rmd_bus_sim_get(&R.buses[m->bus]), m->id);
 }
 
 static unsigned lifecycle(unsigned i)
@@ -302,12 +305,12 @@ static bool moves_frame(const struct rmd_frame *f)
 	return (c >= 0xA1 && c <= 0xA8) || c == 0x77 || c == 0x88;
 }
 
-/* n 0 clears the table (f then points at a dummy: rmd_sim_bus_set_faults() memcpy()s it) */
+/* n 0 clears the table (f then points at a dummy: rmd_sim_wire_set_faults() memcpy()s it) */
 static void set_faults(unsigned bus, const struct rmd_sim_fault *f, size_t n)
 {
 	static const struct rmd_sim_fault none;
 
-	assert_int_equal(rmd_sim_bus_set_faults(rmd_bus_sim_get(&R.buses[bus]), f ? f : &none, n),
+	assert_int_equal(rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.buses[bus]), f ? f : &none, n),
 			 0);
 }
 
@@ -387,10 +390,10 @@ static void test_bringup_unexpected(void **state)
 	(void)state;
 	rig_up(3, NULL);
 	/* a motor on the wire that the configuration does not know */
-	p = R.cfg.motors[0].sim;
+	p = R.sim.motors[0];
 	p.id = 7;
 	p.seed = 0;
-	assert_true(rmd_sim_bus_add_motor(rmd_bus_sim_get(&R.buses[0]), &p, 0) >= 0);
+	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.buses[0]), &p, 0) >= 0);
 	bring_up();
 	if (!strstr(R.report, "sim0: motor 7: unexpected (answers, but is not configured)"))
 		fail_msg("report:\n%s", R.report);
@@ -453,7 +456,7 @@ static void test_bringup_missing(void **state)
 
 static void position_tweak(struct rmd_config *cfg)
 {
-	cfg->motors[0].mode = RMD_CTRL_POSITION;
+	cfg->motors[0].mode = RMD_MODE_POSITION;
 	cfg->motors[0].limits.velocity_rad_s = 5.0;
 	cfg->motors[0].limits.position_min_rad = -2.0;
 	cfg->motors[0].limits.position_max_rad = 2.0;
@@ -719,7 +722,7 @@ static void test_watchdog(void **state)
 static void mit_third(struct rmd_config *cfg)
 {
 	cfg->motors[2].proto = RMD_PROTO_MIT;
-	cfg->motors[2].mode = RMD_CTRL_MIT;
+	cfg->motors[2].mode = RMD_MODE_MIT;
 }
 
 static void test_nan_never_on_wire(void **state)
@@ -839,7 +842,7 @@ static void v2_batch(struct rmd_config *cfg)
 		m->bus = 0;
 		m->id = (uint8_t)(i + 1);
 		m->proto = RMD_PROTO_V2;
-		m->mode = RMD_CTRL_TORQUE;
+		m->mode = RMD_MODE_TORQUE;
 		m->status_poll_hz = 0; /* no room for polls beside a full 0x280 cycle */
 	}
 	cfg->n_buses = 1;

@@ -30,9 +30,10 @@
 
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -111,6 +112,7 @@ static void fake_sleep(void *ctx, int64_t ns)
 /* ---- the rig ----------------------------------------------------------------------- */
 
 static struct rmd_config cfg;
+static struct rmd_sim_setup sim;
 static struct rmd_plan plan;
 static struct rmd_bus buses[RMD_MAX_BUSES];
 static struct rmd_latest cmds, snaps, health;
@@ -124,15 +126,15 @@ static char report[4096];
 /* sim0: V3 position, V3 speed, MIT; sim1: V3 torque x3; sim2: four V2 in one 0x280 frame */
 static void make_config(void)
 {
-	assert_int_equal(rmd_config_sim_default(&cfg, 10), 0);
+	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 10), 0);
 	cfg.safety.safe_action = RMD_SAFE_DAMP;
 	cfg.safety.lost_motor_action = RMD_LOST_ALL;
-	cfg.motors[0].mode = RMD_CTRL_POSITION;
+	cfg.motors[0].mode = RMD_MODE_POSITION;
 	cfg.motors[0].limits.position_min_rad = -1.0;
 	cfg.motors[0].limits.position_max_rad = 1.0;
-	cfg.motors[1].mode = RMD_CTRL_SPEED;
+	cfg.motors[1].mode = RMD_MODE_SPEED;
 	cfg.motors[2].proto = RMD_PROTO_MIT;
-	cfg.motors[2].mode = RMD_CTRL_MIT;
+	cfg.motors[2].mode = RMD_MODE_MIT;
 	for (unsigned i = 6; i < 10; i++) {
 		cfg.motors[i].bus = 2;
 		cfg.motors[i].id = (uint8_t)(i - 5);
@@ -141,8 +143,8 @@ static void make_config(void)
 	}
 	cfg.n_buses = 3;
 	for (unsigned i = 0; i < cfg.n_motors; i++) {
-		cfg.motors[i].sim.id = cfg.motors[i].id;
-		cfg.motors[i].sim.proto = cfg.motors[i].proto;
+		sim.motors[i].id = cfg.motors[i].id;
+		sim.motors[i].proto = cfg.motors[i].proto;
 	}
 }
 
@@ -155,9 +157,9 @@ static void open_buses(void)
 		struct rmd_bus_sim_opts o = {
 			.motors = ms,
 			.bitrate = cfg.buses[b].bitrate,
-			.seed = cfg.buses[b].sim.seed,
-			.flags = RMD_SIM_BUS_HOST_FIFO,
-			.txqueuelen = cfg.buses[b].sim.txqueuelen,
+			.seed = sim.buses[b].seed,
+			.flags = RMD_SIM_WIRE_HOST_FIFO,
+			.txqueuelen = sim.buses[b].txqueuelen,
 		};
 
 		for (unsigned i = 0; i < cfg.n_motors; i++)
@@ -165,7 +167,7 @@ static void open_buses(void)
 				ms[o.n_motors++] = (struct rmd_bus_sim_motor){
 					.id = cfg.motors[i].id,
 					.proto = cfg.motors[i].proto,
-					.params = &cfg.motors[i].sim,
+					.params = &sim.motors[i],
 				};
 		if (rmd_bus_sim_open(&buses[b], cfg.buses[b].name, &o, err, sizeof(err)))
 			fail_msg("%s", err);
@@ -268,12 +270,12 @@ static void test_cycle_allocates_nothing(void **state)
 		if (k == 2000) {
 			drop.start_ns = rmd_bus_sim_time_ns(&buses[0], t_now);
 			drop.end_ns = drop.start_ns + 50 * MS;
-			rmd_sim_bus_set_faults(rmd_bus_sim_get(&buses[0]), &drop, 1);
+			rmd_sim_wire_set_faults(rmd_bus_sim_get(&buses[0]), &drop, 1);
 		}
 		if (k == 4000) {
 			hot.start_ns = rmd_bus_sim_time_ns(&buses[1], t_now);
 			hot.end_ns = hot.start_ns + 300 * MS;
-			rmd_sim_bus_set_faults(rmd_bus_sim_get(&buses[1]), &hot, 1);
+			rmd_sim_wire_set_faults(rmd_bus_sim_get(&buses[1]), &hot, 1);
 		}
 		if (k == 7000)
 			t_now += 5 * MS; /* an overrun */

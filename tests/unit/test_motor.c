@@ -65,7 +65,7 @@ static void assert_frame(const char *name, const struct rmd_frame *got, const ch
 }
 
 /* A config entry with the defaults the loader gives, then the test's values. */
-static struct rmd_config_motor cfg_motor(uint8_t id, enum rmd_proto proto, enum rmd_ctrl_mode mode)
+static struct rmd_config_motor cfg_motor(uint8_t id, enum rmd_proto proto, enum rmd_mode mode)
 {
 	struct rmd_config_motor c;
 
@@ -104,23 +104,23 @@ static struct rmd_setpoint sp_mode(enum rmd_mode mode)
 
 static void test_init_refuses(void **state)
 {
-	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_TORQUE);
 	struct rmd_motor m;
 
 	(void)state;
 	c.direction = 0;
 	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
-	c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_TORQUE);
 	c.torque_constant_nm_a = 0;
 	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
-	c = cfg_motor(1, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	c = cfg_motor(1, RMD_PROTO_MIT, RMD_MODE_MIT);
 	c.torque_constant_nm_a = 0; /* fine for MIT: its frames carry torque */
 	assert_int_equal(rmd_motor_init(&m, &c), 0);
 	c.mit.kd_min = c.mit.kd_max;
 	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
-	c = cfg_motor(33, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	c = cfg_motor(33, RMD_PROTO_V3, RMD_MODE_TORQUE);
 	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
-	c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_TORQUE);
 	c.gear_ratio = 0;
 	assert_int_equal(rmd_motor_init(&m, &c), -EINVAL);
 }
@@ -282,7 +282,7 @@ static void test_encode_vectors(void **state)
 	for (size_t i = 0; i < sizeof(enc_vecs) / sizeof(enc_vecs[0]); i++) {
 		const struct enc_vec *v = &enc_vecs[i];
 		uint8_t id = strstr(v->hex, "142#") ? 2 : 1;
-		struct rmd_config_motor c = cfg_motor(id, v->proto, RMD_CTRL_TORQUE);
+		struct rmd_config_motor c = cfg_motor(id, v->proto, RMD_MODE_TORQUE);
 		struct rmd_motor m;
 		struct rmd_frame f;
 		unsigned fl = 99;
@@ -305,7 +305,7 @@ static void test_encode_vectors(void **state)
 
 static void test_clamp(void **state)
 {
-	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_POSITION);
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_POSITION);
 	struct rmd_setpoint sp = sp_mode(RMD_MODE_POSITION);
 	struct rmd_motor m;
 	struct rmd_frame f;
@@ -347,7 +347,7 @@ static void test_clamp(void **state)
 	assert_frame("speed clamped", &f, "141#A2000000B03CFFFF");
 
 	/* beyond the wire's own range: int16 iq saturates at 327.67 A */
-	c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_TORQUE);
 	c.torque_constant_nm_a = 0.001;
 	m = motor_of(&c);
 	sp = sp_mode(RMD_MODE_TORQUE);
@@ -359,7 +359,7 @@ static void test_clamp(void **state)
 
 static void test_clamp_mit(void **state)
 {
-	struct rmd_config_motor c = cfg_motor(3, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_config_motor c = cfg_motor(3, RMD_PROTO_MIT, RMD_MODE_MIT);
 	struct rmd_setpoint sp = sp_mode(RMD_MODE_MIT);
 	struct rmd_mit_cmd got;
 	struct rmd_motor m;
@@ -392,8 +392,8 @@ static void test_clamp_mit(void **state)
 static void test_nonfinite_refused(void **state)
 {
 	static const double bad[] = { NAN, INFINITY, -INFINITY };
-	struct rmd_config_motor cv3 = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
-	struct rmd_config_motor cmit = cfg_motor(1, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_config_motor cv3 = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_TORQUE);
+	struct rmd_config_motor cmit = cfg_motor(1, RMD_PROTO_MIT, RMD_MODE_MIT);
 	struct rmd_motor v3 = motor_of(&cv3), mit = motor_of(&cmit);
 
 	(void)state;
@@ -442,7 +442,7 @@ static void test_nonfinite_refused(void **state)
 
 static void test_unsupported(void **state)
 {
-	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_TORQUE);
 	struct rmd_motor m = motor_of(&c);
 	struct rmd_setpoint sp = sp_mode(RMD_MODE_MIT);
 	struct rmd_frame f;
@@ -452,7 +452,7 @@ static void test_unsupported(void **state)
 	sp.mode = 17;
 	assert_int_equal(rmd_motor_encode(&m, &sp, &f, NULL), -EOPNOTSUPP);
 	/* an MIT motor takes V3 frames too: torque needs Kt, speed does not */
-	c = cfg_motor(4, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	c = cfg_motor(4, RMD_PROTO_MIT, RMD_MODE_MIT);
 	c.torque_constant_nm_a = 0;
 	m = motor_of(&c);
 	sp = sp_mode(RMD_MODE_TORQUE);
@@ -473,7 +473,7 @@ static void test_v2_batch(void **state)
 
 	(void)state;
 	for (unsigned k = 0; k < 4; k++) {
-		c[k] = cfg_motor((uint8_t)(k + 1), RMD_PROTO_V2, RMD_CTRL_TORQUE);
+		c[k] = cfg_motor((uint8_t)(k + 1), RMD_PROTO_V2, RMD_MODE_TORQUE);
 		c[k].torque_constant_nm_a = 0.5;
 		c[k].limits.torque_nm = 5.0;
 	}
@@ -498,8 +498,8 @@ static void test_v2_batch(void **state)
 
 static void test_safe_frames(void **state)
 {
-	struct rmd_config_motor cv3 = cfg_motor(2, RMD_PROTO_V3, RMD_CTRL_POSITION);
-	struct rmd_config_motor cmit = cfg_motor(2, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_config_motor cv3 = cfg_motor(2, RMD_PROTO_V3, RMD_MODE_POSITION);
+	struct rmd_config_motor cmit = cfg_motor(2, RMD_PROTO_MIT, RMD_MODE_MIT);
 	struct rmd_motor v3 = motor_of(&cv3), mit = motor_of(&cmit);
 	struct rmd_frame f[2];
 	struct rmd_mit_cmd got;
@@ -529,9 +529,9 @@ static void test_safe_frames(void **state)
 
 static void test_commands_and_keys(void **state)
 {
-	struct rmd_config_motor cv2 = cfg_motor(5, RMD_PROTO_V2, RMD_CTRL_TORQUE);
-	struct rmd_config_motor cv3 = cfg_motor(5, RMD_PROTO_V3, RMD_CTRL_TORQUE);
-	struct rmd_config_motor cmit = cfg_motor(5, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_config_motor cv2 = cfg_motor(5, RMD_PROTO_V2, RMD_MODE_TORQUE);
+	struct rmd_config_motor cv3 = cfg_motor(5, RMD_PROTO_V3, RMD_MODE_TORQUE);
+	struct rmd_config_motor cmit = cfg_motor(5, RMD_PROTO_MIT, RMD_MODE_MIT);
 	struct rmd_motor v2 = motor_of(&cv2), v3 = motor_of(&cv3), mit = motor_of(&cmit);
 	struct rmd_setpoint sp = sp_mode(RMD_MODE_MIT);
 	struct rmd_frame f;
@@ -566,7 +566,7 @@ static void test_commands_and_keys(void **state)
 
 static void test_decode_v3(void **state)
 {
-	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_POSITION);
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_POSITION);
 	struct rmd_motor_reply r;
 	struct rmd_motor_state st = { 0 };
 	struct rmd_motor m;
@@ -629,7 +629,7 @@ static void test_decode_v3(void **state)
 
 static void test_decode_v3_rotor(void **state)
 {
-	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_SPEED);
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_SPEED);
 	struct rmd_motor_reply r;
 	struct rmd_motor m;
 	struct rmd_frame f;
@@ -646,7 +646,7 @@ static void test_decode_v3_rotor(void **state)
 
 static void test_decode_v2_unwrap(void **state)
 {
-	struct rmd_config_motor c = cfg_motor(2, RMD_PROTO_V2, RMD_CTRL_TORQUE);
+	struct rmd_config_motor c = cfg_motor(2, RMD_PROTO_V2, RMD_MODE_TORQUE);
 	const struct rmd_cmd_spec *a1 = rmd_cmd_find(RMD_PROTO_V2, 0xA1);
 	struct rmd_motor_reply r;
 	struct rmd_motor m;
@@ -695,7 +695,7 @@ static void test_decode_v2_unwrap(void **state)
 
 static void test_decode_mit(void **state)
 {
-	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_MIT, RMD_CTRL_MIT);
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_MIT, RMD_MODE_MIT);
 	struct rmd_mit_reply rep = {
 		.motor_id = 1, .pos_rad = 10.0, .vel_rad_s = 1.0, .torque_nm = 5.0
 	};
@@ -724,7 +724,7 @@ static void test_decode_mit(void **state)
 	f.data[0] = 2;
 	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EBADMSG);
 	/* a V3 motor takes no MIT replies */
-	c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_TORQUE);
+	c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_TORQUE);
 	m = motor_of(&c);
 	f.data[0] = 1;
 	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EINVAL);
@@ -737,7 +737,7 @@ static void test_position_round_trip(void **state)
 
 	(void)state;
 	for (int i = 0; i < 2000; i++) {
-		struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_CTRL_POSITION);
+		struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_POSITION);
 		struct rmd_setpoint sp = sp_mode(RMD_MODE_POSITION);
 		struct rmd_motor_reply r;
 		struct rmd_motor m;
@@ -803,9 +803,9 @@ static void test_clamp_rule(void **state)
 /* Which modes a motor takes, and the bridge's view of it. */
 static void test_modes_and_info(void **state)
 {
-	struct rmd_config_motor c3 = cfg_motor(3, RMD_PROTO_V3, RMD_CTRL_TORQUE);
-	struct rmd_config_motor cm = cfg_motor(4, RMD_PROTO_MIT, RMD_CTRL_MIT);
-	struct rmd_config_motor c2 = cfg_motor(1, RMD_PROTO_V2, RMD_CTRL_TORQUE);
+	struct rmd_config_motor c3 = cfg_motor(3, RMD_PROTO_V3, RMD_MODE_TORQUE);
+	struct rmd_config_motor cm = cfg_motor(4, RMD_PROTO_MIT, RMD_MODE_MIT);
+	struct rmd_config_motor c2 = cfg_motor(1, RMD_PROTO_V2, RMD_MODE_TORQUE);
 	const unsigned sp_pos = RMD_MOTOR_MODE_BIT(RMD_MODE_SPEED) |
 				RMD_MOTOR_MODE_BIT(RMD_MODE_POSITION);
 	struct rmd_motor m3, mm, m2;

@@ -26,6 +26,7 @@
 
 #include "rmd/can_timing.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/plan.h"
 
 static struct rmd_config cfg; /* large: off the stack */
@@ -56,7 +57,7 @@ static unsigned add_bus(const char *name, enum rmd_bus_kind kind)
 	return cfg.n_buses++;
 }
 
-static unsigned add_motor(unsigned bus, unsigned id, enum rmd_proto proto, enum rmd_ctrl_mode mode,
+static unsigned add_motor(unsigned bus, unsigned id, enum rmd_proto proto, enum rmd_mode mode,
 			  unsigned divisor, double poll_hz)
 {
 	struct rmd_config_motor *m = &cfg.motors[cfg.n_motors];
@@ -171,7 +172,7 @@ static void test_five_v3_refused(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 1; i <= 5; i++)
-		add_motor(0, i, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 10);
+		add_motor(0, i, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
 	assert_int_equal(build(), -ENOSPC);
 	assert_string_equal(err, "can0: 5 motors at 1000 Hz need 1350 µs per cycle worst case, "
 				 "the cycle is 1000 µs: use ≤ 3 motors, or a rate ≤ 740 Hz");
@@ -195,7 +196,7 @@ static void test_three_v3_accepted(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 1; i <= 3; i++)
-		add_motor(0, i, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 10);
+		add_motor(0, i, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
 	expect_ok();
 	assert_string_equal(err, "");
 	assert_int_equal(rmd_can_frame_bits_worst(8), 135);
@@ -230,7 +231,7 @@ static void test_three_mit_accepted(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 1; i <= 3; i++)
-		add_motor(0, i, RMD_PROTO_MIT, RMD_CTRL_MIT, 1, 10);
+		add_motor(0, i, RMD_PROTO_MIT, RMD_MODE_MIT, 1, 10);
 	expect_ok();
 	assert_int_equal(plan.bus[0].worst_ns, 6 * FRAME_NS);
 	assert_int_equal(rmd_plan_cycle(&plan, 0, 1, s), 3);
@@ -240,7 +241,7 @@ static void test_three_mit_accepted(void **state)
 	/* the polls speak V3 0x9A on 0x140 + ID (checked in walk) */
 	assert_int_equal(polls[0] + polls[1] + polls[2], plan.bus[0].n_polls);
 	/* a fourth motor does not fit */
-	add_motor(0, 4, RMD_PROTO_MIT, RMD_CTRL_MIT, 1, 10);
+	add_motor(0, 4, RMD_PROTO_MIT, RMD_MODE_MIT, 1, 10);
 	assert_int_equal(build(), -ENOSPC);
 	expect_in(err, "can0: 4 motors at 1000 Hz need 1080 µs per cycle worst case, the cycle "
 		       "is 1000 µs: use ≤ 3 motors, or a rate ≤ 925 Hz");
@@ -257,7 +258,7 @@ static void test_four_v2_batched(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 1; i <= 4; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 10);
+		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10);
 	expect_ok();
 	assert_int_equal(pb->batch, RMD_BATCH_ON);
 	assert_int_equal(pb->batched, 0xF);
@@ -290,7 +291,7 @@ static void test_v2_ids_2_to_5(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 2; i <= 5; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 0);
+		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
 	expect_ok();
 	assert_int_equal(pb->batched, 0x7);
 	assert_int_equal(pb->control_ns, 6 * FRAME_NS);
@@ -308,7 +309,7 @@ static void test_v2_unbatched_refused(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 5; i <= 8; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 10);
+		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10);
 	assert_int_equal(build(), -ENOSPC);
 	assert_int_equal(plan.bus[0].batch, RMD_BATCH_NONE);
 	assert_string_equal(err, "can0: 4 motors at 1000 Hz need 1080 µs per cycle worst case, "
@@ -322,9 +323,9 @@ static void test_v2_batch_conditions(void **state)
 	/* a V3 motor on the bus takes 0x280 as a broadcast command */
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 0);
-	add_motor(0, 2, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 0);
-	add_motor(0, 5, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 0);
+	add_motor(0, 1, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
+	add_motor(0, 2, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
+	add_motor(0, 5, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 0);
 	expect_ok();
 	assert_int_equal(plan.bus[0].batch, RMD_BATCH_V3_ON_BUS);
 	assert_int_equal(plan.bus[0].batched, 0);
@@ -332,22 +333,22 @@ static void test_v2_batch_conditions(void **state)
 	/* a V2 motor with ID 1..4 in speed mode would take the torque */
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 0);
-	add_motor(0, 2, RMD_PROTO_V2, RMD_CTRL_SPEED, 1, 0);
-	add_motor(0, 3, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 0);
+	add_motor(0, 1, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
+	add_motor(0, 2, RMD_PROTO_V2, RMD_MODE_SPEED, 1, 0);
+	add_motor(0, 3, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
 	expect_ok();
 	assert_int_equal(plan.bus[0].batch, RMD_BATCH_MODES);
 	assert_int_equal(plan.bus[0].batched, 0);
 	/* different divisors */
-	cfg.motors[1].mode = RMD_CTRL_TORQUE;
+	cfg.motors[1].mode = RMD_MODE_TORQUE;
 	cfg.motors[1].rate_divisor = 2;
 	expect_ok();
 	assert_int_equal(plan.bus[0].batch, RMD_BATCH_DIVISORS);
 	/* one candidate: nothing to batch */
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 0);
-	add_motor(0, 6, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 0);
+	add_motor(0, 1, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
+	add_motor(0, 6, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
 	expect_ok();
 	assert_int_equal(plan.bus[0].batch, RMD_BATCH_NONE);
 }
@@ -362,7 +363,7 @@ static void test_divisors_spread(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 1; i <= 6; i++)
-		add_motor(0, i, RMD_PROTO_V3, RMD_CTRL_TORQUE, 2, 0);
+		add_motor(0, i, RMD_PROTO_V3, RMD_MODE_TORQUE, 2, 0);
 	expect_ok();
 	assert_int_equal(pb->hc, 2);
 	assert_int_equal(pb->control_ns, 6 * FRAME_NS);
@@ -375,13 +376,13 @@ static void test_divisors_spread(void **state)
 	/* mixed: 1 motor every cycle, 2 every 2nd, 4 every 4th: 1+1+1 per cycle */
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V3, RMD_CTRL_TORQUE, 4, 0);
-	add_motor(0, 2, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 0);
-	add_motor(0, 3, RMD_PROTO_V3, RMD_CTRL_TORQUE, 2, 0);
-	add_motor(0, 4, RMD_PROTO_V3, RMD_CTRL_TORQUE, 4, 0);
-	add_motor(0, 5, RMD_PROTO_V3, RMD_CTRL_TORQUE, 2, 0);
-	add_motor(0, 6, RMD_PROTO_V3, RMD_CTRL_TORQUE, 4, 0);
-	add_motor(0, 7, RMD_PROTO_V3, RMD_CTRL_TORQUE, 4, 0);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 4, 0);
+	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 0);
+	add_motor(0, 3, RMD_PROTO_V3, RMD_MODE_TORQUE, 2, 0);
+	add_motor(0, 4, RMD_PROTO_V3, RMD_MODE_TORQUE, 4, 0);
+	add_motor(0, 5, RMD_PROTO_V3, RMD_MODE_TORQUE, 2, 0);
+	add_motor(0, 6, RMD_PROTO_V3, RMD_MODE_TORQUE, 4, 0);
+	add_motor(0, 7, RMD_PROTO_V3, RMD_MODE_TORQUE, 4, 0);
 	expect_ok();
 	assert_int_equal(pb->hc, 4);
 	for (unsigned c = 0; c < 4; c++)
@@ -394,8 +395,8 @@ static void test_divisors_spread(void **state)
 	/* divisors whose pattern is too long */
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V3, RMD_CTRL_TORQUE, 7, 0);
-	add_motor(0, 2, RMD_PROTO_V3, RMD_CTRL_TORQUE, 11, 0);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 7, 0);
+	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 11, 0);
 	assert_int_equal(build(), -EINVAL);
 	expect_in(err, "can0: rate divisors 7, 11 repeat every 77 cycles, more than 64");
 }
@@ -411,9 +412,9 @@ static void test_polls_spread(void **state)
 	(void)state;
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 10);
-	add_motor(0, 2, RMD_PROTO_MIT, RMD_CTRL_MIT, 1, 20);
-	add_motor(0, 3, RMD_PROTO_V3, RMD_CTRL_SPEED, 2, 5);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
+	add_motor(0, 2, RMD_PROTO_MIT, RMD_MODE_MIT, 1, 20);
+	add_motor(0, 3, RMD_PROTO_V3, RMD_MODE_SPEED, 2, 5);
 	expect_ok();
 	/* 2 motors every cycle + 1 every other: room for an extra poll */
 	assert_int_equal(pb->control_ns, 6 * FRAME_NS);
@@ -456,8 +457,8 @@ static void test_polls_spread(void **state)
 	/* the sum of the polls cannot exceed one per cycle */
 	cfg_reset(100);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 60);
-	add_motor(0, 2, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 60);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 60);
+	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 60);
 	assert_int_equal(build(), -ENOSPC);
 	expect_in(err, "can0: status polls at 120 Hz in all do not fit in one poll every 1 cycle "
 		       "(100 a second at 100 Hz): lower status_poll_hz");
@@ -470,7 +471,7 @@ static void test_poll_no_room(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 1; i <= 5; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 10);
+		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10);
 	/* 0x280 + 4 replies + motor 5's 2 frames = 7 frames: full */
 	assert_int_equal(build(), -ENOSPC);
 	assert_int_equal(plan.bus[0].control_ns, 7 * FRAME_NS);
@@ -491,13 +492,13 @@ static void test_rs485_budget(void **state)
 	(void)state;
 	cfg_reset(1000);
 	add_bus("rs0", RMD_BUS_KIND_RS485);
-	add_motor(0, 1, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 10);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
 	/* 13 bytes of 10 bits each way at 1 Mbaud, and 800 us turnaround */
 	assert_int_equal(build(), -ENOSPC);
 	assert_string_equal(err, "rs0: 1 motor at 1000 Hz needs 1060 µs per cycle worst case, "
 				 "the cycle is 1000 µs: use a rate ≤ 943 Hz");
 	cfg.loop.rate_hz = 250;
-	add_motor(0, 2, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 10);
+	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
 	expect_ok();
 	assert_int_equal(pb->control_ns, 2 * 1060000);
 	assert_int_equal(pb->worst_ns, 3 * 1060000); /* an extra poll fits */
@@ -517,10 +518,10 @@ static void test_bitrate_500k(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	cfg.buses[0].bitrate = 500000;
-	add_motor(0, 1, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 0);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 0);
 	expect_ok();
 	assert_int_equal(plan.bus[0].control_ns, 2 * 2 * FRAME_NS);
-	add_motor(0, 2, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 0);
+	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 0);
 	assert_int_equal(build(), -ENOSPC);
 	assert_string_equal(err, "can0: 2 motors at 1000 Hz need 1080 µs per cycle worst case, "
 				 "the cycle is 1000 µs: use ≤ 1 motor, or a rate ≤ 925 Hz");
@@ -536,7 +537,7 @@ static void test_32_on_one_bus(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 1; i <= 32; i++)
-		add_motor(0, i, RMD_PROTO_V3, RMD_CTRL_TORQUE, 1, 1);
+		add_motor(0, i, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 1);
 	assert_int_equal(build(), -ENOSPC);
 	assert_string_equal(err, "can0: 32 motors at 1000 Hz need 8640 µs per cycle worst case, "
 				 "the cycle is 1000 µs: use ≤ 3 motors, or a rate ≤ 115 Hz");
@@ -556,7 +557,7 @@ static void test_sim12_feasible(void **state)
 
 	(void)state;
 	snprintf(path, sizeof(path), "%s/examples/sim-12.yaml", srcdir);
-	assert_int_equal(rmd_config_load(path, &cfg, err, sizeof(err)), 0);
+	assert_int_equal(rmd_config_load(path, &cfg, NULL, err, sizeof(err)), 0);
 	expect_ok();
 	assert_int_equal(plan.n_buses, 4);
 	for (unsigned b = 0; b < 4; b++) {
@@ -567,7 +568,7 @@ static void test_sim12_feasible(void **state)
 		walk(b, plan.bus[b].hyperperiod, ctrl, polls);
 	}
 	for (unsigned n = 1; n <= RMD_MAX_MOTORS; n++) {
-		assert_int_equal(rmd_config_sim_default(&cfg, n), 0);
+		assert_int_equal(rmd_config_sim_default(&cfg, NULL, n), 0);
 		expect_ok();
 	}
 }
@@ -582,7 +583,7 @@ static void test_print(void **state)
 	cfg_reset(1000);
 	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 	for (unsigned i = 1; i <= 4; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_CTRL_TORQUE, 1, 10);
+		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10);
 	expect_ok();
 	f = open_memstream(&buf, &len);
 	assert_non_null(f);

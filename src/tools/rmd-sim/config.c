@@ -25,7 +25,8 @@
 #include "rmd/codec.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_params.h"
+#include "rmd/sim_wire.h"
 #include "rmd-sim.h"
 
 #define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
@@ -39,83 +40,13 @@ static const uint32_t bauds[] = { 115200, 500000, 1000000, 1500000, 2000000 };
 #define MAX_DELAY_US 1e7
 
 /* -------------------------------------------------------------------------- */
-/* The motor parameter table                                                  */
+/* Settings                                                                   */
 
-enum ptype {
-	T_REAL,	   /* double, [min, max] (min excluded when min_open) */
-	T_US,	   /* double ns field, given in microseconds */
-	T_UINT,	   /* unsigned, [min, max] */
-	T_BOOL,	   /* bool: yes/no, true/false, on/off, 1/0 */
-	T_PROTO,   /* enum rmd_proto: v3, v2, mit */
-	T_MODEL,   /* char[8]: 1..7 printable ASCII characters */
-	T_VERSION, /* uint32_t yyyymmdd */
-	T_MIT,	   /* struct rmd_mit_ranges from "P,V,T,KP,KD" */
-};
-
-struct param {
-	const char *key;
-	enum ptype type;
-	size_t off;
-	double min, max;
-	bool min_open;
-	const char *unit;
-	const char *help;
-};
-
-#define PARAM(k, t, field, lo, hi, open, unit, help)                                         \
-	{                                                                                    \
-		k, t, offsetof(struct rmd_sim_motor_params, field), lo, hi, open, unit, help \
-	}
-
-static const struct param params[] = {
-	PARAM("protocol", T_PROTO, proto, 0, 0, false, "",
-	      "v3, v2 or mit (MIT motors also speak V3)"),
-	PARAM("model", T_MODEL, model, 0, 0, false, "", "0xB5 model string, 1..7 ASCII characters"),
-	PARAM("version", T_VERSION, version_date, 0, 0, false, "", "0xB2 firmware date, yyyymmdd"),
-	PARAM("inertia", T_REAL, inertia_kgm2, 0, 1000, true, "kg·m²",
-	      "inertia at the output shaft, rotor reflected"),
-	PARAM("viscous", T_REAL, viscous_nm_s_rad, 0, 1000, false, "N·m·s/rad", "viscous friction"),
-	PARAM("coulomb", T_REAL, coulomb_nm, 0, 1000, false, "N·m", "Coulomb friction"),
-	PARAM("kt", T_REAL, kt_nm_a, 0, 1000, true, "N·m/A", "output torque per amp of iq"),
-	PARAM("gear", T_REAL, gear_ratio, 1, 1000, false, "",
-	      "gear ratio, motor turns per output turn"),
-	PARAM("pole-pairs", T_UINT, pole_pairs, 1, 64, false, "", "rotor pole pairs"),
-	PARAM("max-current", T_REAL, max_current_a, 0, 1000, true, "A", "drive current limit"),
-	PARAM("load", T_REAL, load_nm, -1000, 1000, false, "N·m",
-	      "constant external torque on the shaft"),
-	PARAM("max-speed", T_REAL, max_speed_dps, 0, 100000, true, "dps",
-	      "over-speed fault above this"),
-	PARAM("fw-max-speed", T_REAL, fw_max_speed_dps, 0, 100000, true, "dps",
-	      "the firmware's Max Speed (0xA3, V2 0xA5/0xA7)"),
-	PARAM("resistance", T_REAL, phase_resistance_ohm, 0, 100, false, "Ω", "phase resistance"),
-	PARAM("thermal-resistance", T_REAL, thermal_resistance_c_w, 0, 1000, true, "°C/W",
-	      "winding to ambient"),
-	PARAM("thermal-tau", T_REAL, thermal_tau_s, 0, 1e6, true, "s", "thermal time constant"),
-	PARAM("ambient", T_REAL, ambient_c, -60, 150, false, "°C", "ambient temperature"),
-	PARAM("supply", T_REAL, supply_v, 0, 1000, false, "V", "supply voltage"),
-	PARAM("over-temp", T_REAL, over_temp_c, -60, 300, false, "°C",
-	      "over-temperature fault above this"),
-	PARAM("over-temp-clear", T_REAL, over_temp_clear_c, -60, 300, false, "°C",
-	      "... until the winding cools below this"),
-	PARAM("under-voltage", T_REAL, under_voltage_v, 0, 1000, false, "V",
-	      "low-voltage fault below this"),
-	PARAM("over-voltage", T_REAL, over_voltage_v, 0, 1000, false, "V",
-	      "over-voltage fault above this"),
-	PARAM("stall-time", T_REAL, stall_time_s, 0, 3600, true, "s",
-	      "near-limit current at standstill this long: stall fault"),
-	PARAM("brake", T_BOOL, has_brake, 0, 0, false, "",
-	      "the motor has a holding brake (yes/no)"),
-	PARAM("encoder-bits", T_UINT, encoder_bits, 8, 24, false, "",
-	      "motor-side single-turn encoder resolution"),
-	PARAM("mit-ranges", T_MIT, mit, 0, 0, false, "",
-	      "MIT ranges P,V,T,KP,KD: p ±P rad, v ±V rad/s, t ±T N·m, kp 0..KP, kd 0..KD"),
-	PARAM("turnaround-us", T_US, turnaround_ns, 0, 1e6, false, "µs",
-	      "request end to reply start, mean"),
-	PARAM("jitter-us", T_US, turnaround_jitter_ns, 0, 1e6, false, "µs",
-	      "turnaround jitter, uniform ±"),
-};
-
-/* Settings that apply to the whole program, not to one motor. */
+/*
+ * The motor parameters are the rows of rmd/sim_params.h, which rmdd.yaml's
+ * sim sections read too.  Settings that apply to the whole program, not to
+ * one motor:
+ */
 static const struct {
 	const char *key;
 	const char *arg;
@@ -132,20 +63,38 @@ static const struct {
 	{ "verbosity", "LEVEL", "quiet, normal or frames (as -q, default, -v)" },
 };
 
-static const struct param *find_param(const char *key)
-{
-	for (size_t i = 0; i < ARRAY_SIZE(params); i++)
-		if (!strcmp(params[i].key, key))
-			return &params[i];
-	return NULL;
-}
-
 static bool is_global(const char *key)
 {
 	for (size_t i = 0; i < ARRAY_SIZE(globals); i++)
 		if (!strcmp(globals[i].key, key))
 			return true;
 	return false;
+}
+
+/*
+ * The long options of the motor parameters: each row's canonical name as
+ * rmdd.yaml spells it, the same with '-' for '_', and its alias.
+ */
+#define PARAM_NAMES 3
+static char param_dashed[64][SIM_KEY_MAX];
+
+static const char *param_name(unsigned row, unsigned which)
+{
+	const struct rmd_sim_param *p = &rmd_sim_params[row];
+	char *d = param_dashed[row];
+
+	switch (which) {
+	case 0:
+		return p->key;
+	case 1:
+		if (!strchr(p->key, '_') || row >= ARRAY_SIZE(param_dashed))
+			return NULL;
+		for (size_t k = 0; k < SIM_KEY_MAX - 1 && p->key[k]; k++)
+			d[k] = p->key[k] == '_' ? '-' : p->key[k];
+		return d;
+	default:
+		return p->alias;
+	}
 }
 
 const char *sim_config_key(unsigned i, bool *is_flag)
@@ -156,7 +105,10 @@ const char *sim_config_key(unsigned i, bool *is_flag)
 	}
 	i -= (unsigned)ARRAY_SIZE(globals);
 	*is_flag = false;
-	return i < ARRAY_SIZE(params) ? params[i].key : NULL;
+	if (i >= rmd_sim_n_params * PARAM_NAMES)
+		return NULL;
+	/* "": this row has no such name (main() skips it) */
+	return param_name(i / PARAM_NAMES, i % PARAM_NAMES) ?: "";
 }
 
 const char *sim_proto_name(enum rmd_proto proto)
@@ -179,88 +131,23 @@ void sim_config_help(void)
 		printf("  --%s%s%s\n      %s\n", globals[i].key, *globals[i].arg ? " " : "",
 		       globals[i].arg, globals[i].help);
 	printf("\nMotor parameters (for every motor; per motor in a [motor N] section or with\n"
-	       "--set N:KEY=VALUE):\n");
-	for (size_t i = 0; i < ARRAY_SIZE(params); i++) {
-		const struct param *p = &params[i];
+	       "--set N:KEY=VALUE).  The names are those of rmdd.yaml's sim sections, with the\n"
+	       "unit in the name; '-' and '_' alike.  rmd-sim's older names stay as aliases\n"
+	       "with the same meaning:\n");
+	for (size_t i = 0; i < rmd_sim_n_params; i++) {
+		const struct rmd_sim_param *p = &rmd_sim_params[i];
 
-		printf("  --%s VALUE\n      %s", p->key, p->help);
-		if (p->type == T_REAL || p->type == T_US || p->type == T_UINT)
-			printf(", %s%g..%g%s%s", p->min_open ? ">" : "", p->min, p->max,
-			       *p->unit ? " " : "", p->unit);
+		printf("  --%s VALUE", p->key);
+		if (p->alias)
+			printf("  (alias: --%s)", p->alias);
+		printf("\n      %s", p->help);
+		if (p->type == RMD_SIM_PARAM_REAL || p->type == RMD_SIM_PARAM_US ||
+		    p->type == RMD_SIM_PARAM_UINT)
+			printf(", %s%g..%g", p->min_excl ? ">" : "", p->min, p->max);
+		if (*p->unit)
+			printf(" %s", p->unit);
 		printf("\n");
 	}
-}
-
-/* -------------------------------------------------------------------------- */
-/* Value parsers: whole string, C locale                                      */
-
-static int parse_real(const char *s, double *v)
-{
-	char *end;
-
-	errno = 0;
-	*v = strtod(s, &end);
-	if (end == s || *end != '\0' || errno == ERANGE || !isfinite(*v) ||
-	    isspace((unsigned char)*s))
-		return -EINVAL;
-	return 0;
-}
-
-static int parse_u64(const char *s, uint64_t *v)
-{
-	char *end;
-
-	if (!*s || *s == '-' || *s == '+' || isspace((unsigned char)*s))
-		return -EINVAL;
-	errno = 0;
-	/* Decimal, or hex with 0x; never octal ("010" is ten). */
-	*v = strtoull(s, &end, (s[0] == '0' && (s[1] == 'x' || s[1] == 'X')) ? 16 : 10);
-	if (*end != '\0' || errno == ERANGE)
-		return -EINVAL;
-	return 0;
-}
-
-static int parse_bool(const char *s, bool *b)
-{
-	static const char *const yes[] = { "yes", "true", "on", "1" };
-	static const char *const no[] = { "no", "false", "off", "0" };
-
-	for (size_t i = 0; i < ARRAY_SIZE(yes); i++) {
-		if (!strcasecmp(s, yes[i])) {
-			*b = true;
-			return 0;
-		}
-		if (!strcasecmp(s, no[i])) {
-			*b = false;
-			return 0;
-		}
-	}
-	return -EINVAL;
-}
-
-static int parse_proto(const char *s, enum rmd_proto *proto)
-{
-	if (!strcasecmp(s, "v3"))
-		*proto = RMD_PROTO_V3;
-	else if (!strcasecmp(s, "v2"))
-		*proto = RMD_PROTO_V2;
-	else if (!strcasecmp(s, "mit"))
-		*proto = RMD_PROTO_MIT;
-	else
-		return -EINVAL;
-	return 0;
-}
-
-/* "P,V,T,KP,KD", each > 0 and at most 1e6. */
-static int parse_mit(const char *s, struct rmd_mit_ranges *r)
-{
-	struct rmd_mit_ranges t;
-
-	if (rmd_mit_ranges_parse(s, &t) < 0 || t.p_max > 1e6 || t.v_max > 1e6 || t.t_max > 1e6 ||
-	    t.kp_max > 1e6 || t.kd_max > 1e6)
-		return -EINVAL;
-	*r = t;
-	return 0;
 }
 
 /* "1-4,7": ids 1..32, ascending ranges. */
@@ -321,114 +208,12 @@ void sim_format_motors(uint32_t mask, char *buf, size_t size)
 }
 
 /* -------------------------------------------------------------------------- */
-/* Motor parameters                                                           */
-
-/* Apply one parameter to p; on a bad value, store what is allowed in `allowed`. */
-static int apply_param(struct rmd_sim_motor_params *p, const struct param *spec, const char *value,
-		       char *allowed, size_t size)
-{
-	char *field = (char *)p + spec->off;
-	double v;
-	uint64_t u;
-
-	switch (spec->type) {
-	case T_REAL:
-	case T_US:
-		if (parse_real(value, &v) < 0 || v > spec->max || v < spec->min ||
-		    (spec->min_open && v == spec->min)) {
-			snprintf(allowed, size, "a number %s %g and <= %g%s%s",
-				 spec->min_open ? ">" : ">=", spec->min, spec->max,
-				 *spec->unit ? ", in " : "", spec->unit);
-			return -EINVAL;
-		}
-		if (spec->type == T_US)
-			v *= 1000.0;
-		memcpy(field, &v, sizeof(v));
-		return 0;
-	case T_UINT: {
-		unsigned x;
-
-		if (parse_u64(value, &u) < 0 || u < spec->min || u > spec->max) {
-			snprintf(allowed, size, "an integer %g..%g", spec->min, spec->max);
-			return -EINVAL;
-		}
-		x = (unsigned)u;
-		memcpy(field, &x, sizeof(x));
-		return 0;
-	}
-	case T_BOOL: {
-		bool b;
-
-		if (parse_bool(value, &b) < 0) {
-			snprintf(allowed, size, "yes or no (true/false, on/off, 1/0)");
-			return -EINVAL;
-		}
-		memcpy(field, &b, sizeof(b));
-		return 0;
-	}
-	case T_PROTO: {
-		enum rmd_proto proto;
-
-		if (parse_proto(value, &proto) < 0) {
-			snprintf(allowed, size, "v3, v2 or mit");
-			return -EINVAL;
-		}
-		memcpy(field, &proto, sizeof(proto));
-		return 0;
-	}
-	case T_MODEL: {
-		size_t n = strlen(value);
-
-		for (size_t i = 0; i < n; i++) {
-			if (value[i] < 0x21 || value[i] > 0x7E)
-				n = 0;
-		}
-		if (n < 1 || n > 7) {
-			snprintf(allowed, size,
-				 "1..7 printable ASCII characters without spaces "
-				 "(V3 §2.32)");
-			return -EINVAL;
-		}
-		memset(field, 0, sizeof(p->model));
-		memcpy(field, value, n);
-		return 0;
-	}
-	case T_VERSION: {
-		uint32_t d;
-
-		if (parse_u64(value, &u) < 0 || u > UINT32_MAX ||
-		    !rmd_version_date_valid((uint32_t)u)) {
-			snprintf(allowed, size, "a date yyyymmdd, e.g. 20220206 (V3 §2.29)");
-			return -EINVAL;
-		}
-		d = (uint32_t)u;
-		memcpy(field, &d, sizeof(d));
-		return 0;
-	}
-	case T_MIT: {
-		struct rmd_mit_ranges r;
-
-		if (parse_mit(value, &r) < 0) {
-			snprintf(allowed, size,
-				 "P,V,T,KP,KD: five numbers > 0, e.g. "
-				 "12.5,45,24,500,5 (V3 §5.1)");
-			return -EINVAL;
-		}
-		memcpy(field, &r, sizeof(r));
-		return 0;
-	}
-	}
-	snprintf(allowed, size, "?");
-	return -EINVAL;
-}
-
-/* -------------------------------------------------------------------------- */
 /* Faults                                                                     */
 
 #define FAULT_SYNTAX                                                                           \
 	"drop:ID:P, delay:ID:US:P, bad_dlc:ID:DLC:P, garbage:ID:P, wrong_id:ID:OTHER:P "       \
 	"(each with an optional @START_S-END_S window), disappear:ID:START_S:END_S[:reboot], " \
-	"error:ID:BITS:AT_S[:END_S], flood:CANID:PERIOD_US:START_S[:END_S]"
+	"error_flag:ID:BITS:AT_S[:END_S], flood:CANID:PERIOD_US:START_S[:END_S]"
 
 struct fault_syntax {
 	enum rmd_sim_fault_kind kind;
@@ -442,7 +227,7 @@ static const struct fault_syntax fault_syntaxes[] = {
 	{ RMD_SIM_FAULT_GARBAGE, "garbage:ID:P[@START_S-END_S]" },
 	{ RMD_SIM_FAULT_WRONG_ID, "wrong_id:ID:OTHER_ID:P[@START_S-END_S]" },
 	{ RMD_SIM_FAULT_DISAPPEAR, "disappear:ID:START_S:END_S[:reboot]" },
-	{ RMD_SIM_FAULT_ERROR_FLAG, "error:ID:BITS:AT_S[:END_S]" },
+	{ RMD_SIM_FAULT_ERROR_FLAG, "error_flag:ID:BITS:AT_S[:END_S]" },
 	{ RMD_SIM_FAULT_FLOOD, "flood:CANID:PERIOD_US:START_S[:END_S]" },
 };
 
@@ -454,33 +239,12 @@ static const char *fault_syntax(enum rmd_sim_fault_kind kind)
 	return FAULT_SYNTAX;
 }
 
-/* The kind called `name` ("error" and '-' spellings too), or -EINVAL. */
-static int fault_kind(const char *name)
-{
-	char buf[32];
-	size_t n = strlen(name);
-
-	if (n >= sizeof(buf))
-		return -EINVAL;
-	for (size_t i = 0; i <= n; i++)
-		buf[i] = name[i] == '-' ? '_' : (char)tolower((unsigned char)name[i]);
-	if (!strcmp(buf, "error") || !strcmp(buf, "error_flag"))
-		return RMD_SIM_FAULT_ERROR_FLAG;
-	for (int k = 0; k < RMD_SIM_FAULT_COUNT; k++) {
-		const char *kn = rmd_sim_fault_kind_name((enum rmd_sim_fault_kind)k);
-
-		if (kn && !strcmp(kn, buf))
-			return k;
-	}
-	return -EINVAL;
-}
-
 /* A time in seconds, 0..MAX_TIME_S, to ns. */
 static int parse_seconds(const char *s, int64_t *ns)
 {
 	double v;
 
-	if (parse_real(s, &v) < 0 || v < 0 || v > MAX_TIME_S)
+	if (rmd_sim_parse_real(s, &v) < 0 || v < 0 || v > MAX_TIME_S)
 		return -EINVAL;
 	*ns = (int64_t)llround(v * 1e9);
 	return 0;
@@ -488,7 +252,7 @@ static int parse_seconds(const char *s, int64_t *ns)
 
 static int parse_probability(const char *s, double *p)
 {
-	if (parse_real(s, p) < 0 || *p < 0 || *p > 1)
+	if (rmd_sim_parse_real(s, p) < 0 || *p < 0 || *p > 1)
 		return -EINVAL;
 	return 0;
 }
@@ -502,7 +266,7 @@ static int parse_fault_motor(const char *s, uint8_t *id)
 		*id = 0;
 		return 0;
 	}
-	if (parse_u64(s, &v) < 0 || v > RMD_MAX_MOTORS)
+	if (rmd_sim_parse_u64(s, &v) < 0 || v > RMD_MAX_MOTORS)
 		return -EINVAL;
 	*id = (uint8_t)v;
 	return 0;
@@ -516,7 +280,7 @@ static int parse_error_bits(const char *s, int64_t *bits)
 	char *save = NULL, *tok;
 	uint32_t acc = 0;
 
-	if (parse_u64(s, &v) == 0) {
+	if (rmd_sim_parse_u64(s, &v) == 0) {
 		if (v < 1 || v > 0xFFFF)
 			return -EINVAL;
 		*bits = (int64_t)v;
@@ -599,7 +363,7 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 			spec, FAULT_SYNTAX);
 		return -EINVAL;
 	}
-	kind = fault_kind(fld[0]);
+	kind = rmd_sim_fault_kind_from_name(fld[0]);
 	if (kind < 0) {
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": unknown fault \"%s\"; faults: %s", where,
 			spec, fld[0], FAULT_SYNTAX);
@@ -628,7 +392,7 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 			return fault_error(where, spec, "expected 4 fields", f.kind);
 		if (parse_probability(fld[3], &f.probability) < 0)
 			return fault_error(where, spec, "P must be a probability 0..1", f.kind);
-		if (parse_real(fld[2], &v) < 0)
+		if (rmd_sim_parse_real(fld[2], &v) < 0)
 			v = -1;
 		if (f.kind == RMD_SIM_FAULT_DELAY) {
 			if (v < 0 || v > MAX_DELAY_US)
@@ -688,11 +452,11 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 
 		if (n != 4 && n != 5)
 			return fault_error(where, spec, "expected 4 or 5 fields", f.kind);
-		if (parse_u64(fld[1], &id) < 0 || id > 0x7FF)
+		if (rmd_sim_parse_u64(fld[1], &id) < 0 || id > 0x7FF)
 			return fault_error(where, spec,
 					   "CANID must be an 11-bit identifier 0..0x7ff", f.kind);
 		f.can_id = (uint32_t)id;
-		if (parse_real(fld[2], &us) < 0 || us < 100 || us > MAX_DELAY_US)
+		if (rmd_sim_parse_real(fld[2], &us) < 0 || us < 100 || us > MAX_DELAY_US)
 			return fault_error(where, spec, "PERIOD_US must be 100..10000000 µs",
 					   f.kind);
 		f.param = (int64_t)llround(us * 1000.0);
@@ -736,9 +500,9 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 	}
 	if (f.end_ns && f.end_ns <= f.start_ns)
 		return fault_error(where, spec, "the end must come after the start", f.kind);
-	if (c->n_faults >= RMD_SIM_BUS_MAX_FAULTS) {
+	if (c->n_faults >= RMD_SIM_MAX_FAULTS) {
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": more than %d faults", where, spec,
-			RMD_SIM_BUS_MAX_FAULTS);
+			RMD_SIM_MAX_FAULTS);
 		return -EINVAL;
 	}
 	c->faults[c->n_faults] = f;
@@ -803,7 +567,7 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 	if (!strcmp(key, "baud")) {
 		uint64_t b;
 
-		if (parse_u64(value, &b) == 0) {
+		if (rmd_sim_parse_u64(value, &b) == 0) {
 			for (size_t i = 0; i < ARRAY_SIZE(bauds); i++) {
 				if (bauds[i] == b) {
 					c->baud = (uint32_t)b;
@@ -816,7 +580,7 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 		return -EINVAL;
 	}
 	if (!strcmp(key, "local-echo")) {
-		if (parse_bool(value, &c->local_echo) < 0) {
+		if (rmd_sim_parse_bool(value, &c->local_echo) < 0) {
 			sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected yes or no", where,
 				value);
 			return -EINVAL;
@@ -837,7 +601,7 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 	if (!strcmp(key, "fault"))
 		return parse_fault(c, value, where);
 	if (!strcmp(key, "seed")) {
-		if (parse_u64(value, &c->seed) < 0) {
+		if (rmd_sim_parse_u64(value, &c->seed) < 0) {
 			sim_log(SIM_LOG_ERR,
 				"rmd-sim: %s \"%s\": expected an unsigned 64-bit integer (decimal, or "
 				"hex with 0x)",
@@ -869,7 +633,7 @@ int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const c
 		   const char *where)
 {
 	char k[SIM_KEY_MAX], allowed[256];
-	const struct param *spec;
+	const struct rmd_sim_param *spec;
 	struct rmd_sim_motor_params scratch;
 	struct sim_setting *s;
 
@@ -890,7 +654,7 @@ int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const c
 		}
 		return set_global(c, k, value, where);
 	}
-	spec = find_param(k);
+	spec = rmd_sim_param_find(k);
 	if (!spec) {
 		sim_log(SIM_LOG_ERR,
 			"rmd-sim: %s: \"%s\" is not a setting (rmd-sim --help lists "
@@ -899,7 +663,7 @@ int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const c
 		return -EINVAL;
 	}
 	rmd_sim_motor_params_default(&scratch, motor ? motor : 1, RMD_PROTO_V3);
-	if (apply_param(&scratch, spec, value, allowed, sizeof(allowed)) < 0) {
+	if (rmd_sim_param_parse(&scratch, spec, value, allowed, sizeof(allowed)) < 0) {
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected %s", where, value, allowed);
 		return -EINVAL;
 	}
@@ -940,7 +704,7 @@ int sim_config_set_arg(struct sim_config *c, const char *arg, const char *where)
 			goto bad;
 		memcpy(num, arg, n);
 		num[n] = '\0';
-		if (parse_u64(num, &id) < 0 || id < 1 || id > RMD_MAX_MOTORS)
+		if (rmd_sim_parse_u64(num, &id) < 0 || id < 1 || id > RMD_MAX_MOTORS)
 			goto bad;
 		k = colon + 1;
 	}
@@ -989,7 +753,7 @@ static int parse_section(char *line)
 	if (strncasecmp(s, "motor", 5) || !isspace((unsigned char)s[5]))
 		return -EINVAL;
 	s = trim(s + 5);
-	if (parse_u64(s, &id) < 0 || id < 1 || id > RMD_MAX_MOTORS)
+	if (rmd_sim_parse_u64(s, &id) < 0 || id < 1 || id > RMD_MAX_MOTORS)
 		return -EINVAL;
 	return (int)id;
 }
@@ -1106,8 +870,8 @@ static int build_motor(struct sim_config *c, uint8_t id)
 
 			if (pass == 0 ? s->motor != 0 : s->motor != id)
 				continue;
-			if (apply_param(p, find_param(s->key), s->value, allowed, sizeof(allowed)) <
-			    0)
+			if (rmd_sim_param_parse(p, rmd_sim_param_find(s->key), s->value, allowed,
+						sizeof(allowed)) < 0)
 				return -EINVAL; /* checked when recorded */
 		}
 	}

@@ -99,9 +99,11 @@ static void usage(void)
 	       "    each of these takes an optional window @START_S-END_S\n"
 	       "  disappear:ID:START_S:END_S[:reboot]  deaf and mute (END_S empty: for good);\n"
 	       "                            reboot: it lost power and boots at END_S\n"
-	       "  error:ID:BITS:AT_S[:END_S]  error flags (0x0004, or low_voltage+over_temp...)\n"
+	       "  error_flag:ID:BITS:AT_S[:END_S]  error flags (0x0004, or low_voltage+over_temp...)\n"
 	       "  flood:CANID:PERIOD_US:START_S[:END_S]  a foreign node's frames (CAN only)\n"
-	       "Times count from rmd-sim's start.\n"
+	       "Times count from rmd-sim's start.  The kinds are those of rmdd.yaml's sim faults\n"
+	       "(US, PERIOD_US there: delay_us, period_us); older spellings stay aliases: error,\n"
+	       "bad-dlc, wrong-id, any case.\n"
 	       "\n"
 	       "Exit status: 0 stopped by a signal, 1 the wire failed, 2 bad arguments.\n"
 	       "See docs/rmd-sim.md.\n");
@@ -113,7 +115,7 @@ enum {
 	OPT_KEY = 0x200, /* + index of sim_config_key() */
 };
 
-#define MAX_OPTS 64
+#define MAX_OPTS 128
 
 int main(int argc, char **argv)
 {
@@ -130,8 +132,9 @@ int main(int argc, char **argv)
 	opts[n++] = (struct option){ "quiet", no_argument, NULL, 'q' };
 	opts[n++] = (struct option){ "help", no_argument, NULL, 'h' };
 	for (unsigned i = 0; (key = sim_config_key(i, &flag)) && n < MAX_OPTS - 1; i++)
-		opts[n++] = (struct option){ key, flag ? no_argument : required_argument, NULL,
-					     OPT_KEY + (int)i };
+		if (*key)
+			opts[n++] = (struct option){ key, flag ? no_argument : required_argument,
+						     NULL, OPT_KEY + (int)i };
 	opts[n] = (struct option){ NULL, 0, NULL, 0 };
 
 	opterr = 0;

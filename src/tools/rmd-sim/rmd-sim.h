@@ -16,7 +16,7 @@
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 
 /* Exit statuses (documented in docs/rmd-sim.md and --help). */
 enum {
@@ -77,9 +77,9 @@ struct sim_config {
 	uint32_t motor_refs;
 	char motor_ref_where[RMD_MAX_MOTORS][SIM_WHERE_MAX];
 
-	struct rmd_sim_fault faults[RMD_SIM_BUS_MAX_FAULTS];
-	char fault_text[RMD_SIM_BUS_MAX_FAULTS][SIM_VALUE_MAX]; /* as written, for the summary */
-	char fault_where[RMD_SIM_BUS_MAX_FAULTS][SIM_WHERE_MAX];
+	struct rmd_sim_fault faults[RMD_SIM_MAX_FAULTS];
+	char fault_text[RMD_SIM_MAX_FAULTS][SIM_VALUE_MAX]; /* as written, for the summary */
+	char fault_where[RMD_SIM_MAX_FAULTS][SIM_WHERE_MAX];
 	unsigned n_faults;
 
 	/* Filled by sim_config_finish(): the parameters of motor id i + 1. */
@@ -117,8 +117,10 @@ int sim_config_file(struct sim_config *c, const char *path);
 int sim_config_finish(struct sim_config *c);
 
 /*
- * Setting key i (0, 1, ... until NULL), for the long options of rmd-sim.c;
- * *is_flag when the option takes no value on the command line (local-echo).
+ * Setting key i (0, 1, ... until NULL; "" for none at this index), for the
+ * long options of rmd-sim.c: the globals, then each motor parameter's
+ * canonical name, its '-' spelling and its alias; *is_flag when the option
+ * takes no value on the command line (local-echo).
  */
 const char *sim_config_key(unsigned i, bool *is_flag);
 

@@ -21,7 +21,7 @@
  *   in order; it is never fatal.
  *
  * Faults are struct rmd_sim_fault entries, with the semantics of
- * rmd/sim_bus.h where they apply to a real wire: per-frame kinds act on
+ * rmd/sim_wire.h where they apply to a real wire: per-frame kinds act on
  * each frame a motor transmits (evaluated when it becomes ready), in table
  * order, a drop ending the list; DISAPPEAR and ERROR_FLAG act over their
  * window; FLOOD writes a foreign frame every period (CAN only); BUS_OFF is
@@ -68,7 +68,8 @@
 #include "rmd/codec.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_faults.h"
+#include "rmd/sim_wire.h"
 #include "rmd-sim.h"
 
 #define TXQ 1024			     /* frames waiting for their due time */
@@ -123,8 +124,7 @@ struct sim {
 	int64_t t0;
 	struct slot slots[RMD_MAX_MOTORS];
 	unsigned n;
-	bool fault_open[RMD_SIM_BUS_MAX_FAULTS];
-	int64_t flood_next[RMD_SIM_BUS_MAX_FAULTS];
+	struct rmd_sim_faults faults; /* times since t0 */
 	uint64_t rng;
 
 	struct txe q[TXQ]; /* binary heap on (due_ns, seq) */
@@ -307,104 +307,13 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 			e->f.len, data, who, desc);
 }
 
-/* ---- faults ---------------------------------------------------------------------------- */
+/* ---- faults (rmd/sim_faults.h: the wire's engine, on the axis of time since t0) ------------ */
 
-static bool per_frame_kind(enum rmd_sim_fault_kind k)
+/* A motor's frame, produced at t and ready at `ready`: faults, then the queue. */
+static void emit(struct sim *s, unsigned idx, struct rmd_frame *f, int64_t t, int64_t ready)
 {
-	switch (k) {
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_DELAY:
-	case RMD_SIM_FAULT_BAD_DLC:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_WRONG_ID:
-		return true;
-	case RMD_SIM_FAULT_DISAPPEAR:
-	case RMD_SIM_FAULT_ERROR_FLAG:
-	case RMD_SIM_FAULT_BUS_OFF:
-	case RMD_SIM_FAULT_FLOOD:
-	case RMD_SIM_FAULT_COUNT:
-		break;
-	}
-	return false;
-}
-
-/* [start, end) relative to the start of the program; end 0: open. */
-static bool in_window(const struct sim *s, const struct rmd_sim_fault *f, int64_t t_ns)
-{
-	int64_t rel = t_ns - s->t0;
-
-	return rel >= f->start_ns && (!f->end_ns || rel < f->end_ns);
-}
-
-static bool fault_hits(const struct rmd_sim_fault *f, const struct slot *sl)
-{
-	return !f->motor_id || f->motor_id == sl->id;
-}
-
-/* The same kind of identifier for motor `other` (WRONG_ID); false when it carries no ID. */
-static bool retarget(uint32_t *can_id, unsigned other)
-{
-	static const uint32_t bases[] = { RMD_CAN_V3_REPLY_BASE, RMD_CAN_REQ_BASE,
-					  RMD_CAN_MIT_REPLY_BASE };
-
-	for (size_t i = 0; i < sizeof(bases) / sizeof(bases[0]); i++) {
-		if (*can_id > bases[i] && *can_id <= bases[i] + RMD_MAX_MOTORS) {
-			*can_id = bases[i] + other;
-			return true;
-		}
-	}
-	return false;
-}
-
-/*
- * Per-frame faults on a frame motor slot `sl` transmits, ready at *ready:
- * false when it is dropped.
- */
-static bool apply_faults(struct sim *s, const struct slot *sl, struct rmd_frame *f, int64_t *ready)
-{
-	const struct sim_config *c = s->cfg;
-
-	for (unsigned i = 0; i < c->n_faults; i++) {
-		const struct rmd_sim_fault *ft = &c->faults[i];
-
-		if (!per_frame_kind(ft->kind) || !fault_hits(ft, sl) || !in_window(s, ft, *ready) ||
-		    !rmd_rng_roll(&s->rng, ft->probability))
-			continue;
-		switch (ft->kind) {
-		case RMD_SIM_FAULT_DROP:
-			s->st.faults[ft->kind]++;
-			return false;
-		case RMD_SIM_FAULT_DELAY:
-			*ready += ft->param;
-			break;
-		case RMD_SIM_FAULT_BAD_DLC:
-			f->len = (uint8_t)ft->param;
-			break;
-		case RMD_SIM_FAULT_GARBAGE:
-			for (unsigned k = 0; k < RMD_FRAME_LEN; k++)
-				f->data[k] = (uint8_t)(rmd_rng_next(&s->rng) >> 56);
-			break;
-		case RMD_SIM_FAULT_WRONG_ID:
-			/* 0x300 and the like carry no ID: not hit (as rmd/sim_bus.h). */
-			if (!retarget(&f->can_id, (unsigned)ft->param))
-				continue;
-			break;
-		case RMD_SIM_FAULT_DISAPPEAR:
-		case RMD_SIM_FAULT_ERROR_FLAG:
-		case RMD_SIM_FAULT_BUS_OFF:
-		case RMD_SIM_FAULT_FLOOD:
-		case RMD_SIM_FAULT_COUNT:
-			continue;
-		}
-		s->st.faults[ft->kind]++;
-	}
-	return true;
-}
-
-/* A motor's frame, ready at `ready`: faults, then the queue. */
-static void emit(struct sim *s, unsigned idx, struct rmd_frame *f, int64_t ready)
-{
-	if (!apply_faults(s, &s->slots[idx], f, &ready))
+	if (!rmd_sim_faults_frame(&s->faults, &s->rng, s->slots[idx].id, t - s->t0, f, &ready,
+				  s->st.faults))
 		return;
 	q_push(s, (int)idx, f, ready);
 }
@@ -413,68 +322,45 @@ static void emit(struct sim *s, unsigned idx, struct rmd_frame *f, int64_t ready
 static void update_faults(struct sim *s, int64_t now)
 {
 	const struct sim_config *c = s->cfg;
+	uint32_t changed = rmd_sim_faults_update(&s->faults, now - s->t0, s->st.faults);
 
-	for (unsigned i = 0; i < c->n_faults; i++) {
-		const struct rmd_sim_fault *f = &c->faults[i];
-		bool open;
+	for (unsigned i = 0; i < s->faults.n; i++) {
+		struct rmd_frame fr;
 
-		if (per_frame_kind(f->kind))
-			continue;
-		open = in_window(s, f, now);
-		if (open != s->fault_open[i]) {
-			s->fault_open[i] = open;
-			if (open && f->kind != RMD_SIM_FAULT_FLOOD)
-				s->st.faults[f->kind]++;
-			if (open && f->kind == RMD_SIM_FAULT_FLOOD)
-				s->flood_next[i] = s->t0 + f->start_ns;
+		if (changed & (UINT32_C(1) << i))
 			sim_log(SIM_LOG_NOTICE, "rmd-sim: fault \"%s\" %s at %.3f s",
-				c->fault_text[i], open ? "begins" : "ends",
+				c->fault_text[i], s->faults.open[i] ? "begins" : "ends",
 				(double)(now - s->t0) / 1e9);
-		}
-		while (f->kind == RMD_SIM_FAULT_FLOOD && open && s->flood_next[i] <= now) {
-			struct rmd_frame fr = { .can_id = f->can_id, .len = RMD_FRAME_LEN };
+		while (rmd_sim_faults_flood_due(&s->faults, i, now - s->t0)) {
+			int64_t due = rmd_sim_faults_flood_take(&s->faults, i, &s->rng, &fr,
+								s->st.faults);
 
-			q_push(s, RMD_SIM_SRC_FOREIGN, &fr, s->flood_next[i]);
-			s->st.faults[RMD_SIM_FAULT_FLOOD]++;
-			s->flood_next[i] += f->param;
+			q_push(s, RMD_SIM_SRC_FOREIGN, &fr, s->t0 + due);
 		}
 	}
 
 	/* Each motor's state from the windows open now. */
 	for (unsigned k = 0; k < s->n; k++) {
 		struct slot *sl = &s->slots[k];
-		bool absent = false, powered = true;
-		uint16_t bits = 0;
+		bool powered = !rmd_sim_faults_unpowered(&s->faults, sl->id);
+		uint16_t bits = rmd_sim_faults_error_bits(&s->faults, sl->id);
 
-		for (unsigned i = 0; i < c->n_faults; i++) {
-			const struct rmd_sim_fault *f = &c->faults[i];
-
-			if (!s->fault_open[i] || !fault_hits(f, sl))
-				continue;
-			if (f->kind == RMD_SIM_FAULT_DISAPPEAR) {
-				absent = true;
-				if (f->param == 1)
-					powered = false;
-			} else if (f->kind == RMD_SIM_FAULT_ERROR_FLAG) {
-				bits |= (uint16_t)f->param;
-			}
-		}
 		if (bits != sl->injected) {
 			rmd_sim_motor_step(&sl->m, now);
 			rmd_sim_motor_set_error(&sl->m, bits);
 			sl->injected = bits;
 		}
 		if (!powered && sl->powered) {
-			/* Without power the drive lets go and the brake locks (as rmd/sim_bus.h). */
+			/* Without power the drive lets go and the brake locks (as rmd/sim_wire.h). */
 			rmd_sim_motor_power_cycle(&sl->m, now);
 			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u loses power", sl->id);
 		}
 		if (powered && !sl->powered) {
-			/* sim_bus.h DISAPPEAR param 1: it boots at the end of the window. */
+			/* sim_faults.h DISAPPEAR param 1: it boots at the end of the window. */
 			rmd_sim_motor_power_cycle(&sl->m, now);
 			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u powered again: boots", sl->id);
 		}
-		sl->absent = absent;
+		sl->absent = rmd_sim_faults_absent(&s->faults, sl->id);
 		sl->powered = powered;
 	}
 }
@@ -482,28 +368,9 @@ static void update_faults(struct sim *s, int64_t now)
 /* When a fault window opens or closes next, or a flood frame falls due (INT64_MAX: never). */
 static int64_t next_fault_event(const struct sim *s, int64_t now)
 {
-	const struct sim_config *c = s->cfg;
-	int64_t t = INT64_MAX;
+	int64_t t = rmd_sim_faults_next_ns(&s->faults, now - s->t0);
 
-	for (unsigned i = 0; i < c->n_faults; i++) {
-		const struct rmd_sim_fault *f = &c->faults[i];
-		int64_t start = s->t0 + f->start_ns,
-			end = f->end_ns ? s->t0 + f->end_ns : INT64_MAX;
-		int64_t e;
-
-		if (per_frame_kind(f->kind))
-			continue;
-		if (!s->fault_open[i]) {
-			e = now < start ? start : INT64_MAX;
-		} else {
-			e = end;
-			if (f->kind == RMD_SIM_FAULT_FLOOD && s->flood_next[i] < e)
-				e = s->flood_next[i];
-		}
-		if (e < t)
-			t = e;
-	}
-	return t;
+	return t == INT64_MAX ? INT64_MAX : s->t0 + t;
 }
 
 /* ---- the motors ------------------------------------------------------------------------ */
@@ -511,7 +378,7 @@ static int64_t next_fault_event(const struct sim *s, int64_t now)
 /* A frame arrived at t: every present motor sees it.  Returns the replies scheduled. */
 static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 {
-	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
+	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
 	int total = 0;
 
 	for (unsigned i = 0; i < s->n; i++) {
@@ -520,9 +387,9 @@ static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 
 		if (sl->absent)
 			continue;
-		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_BUS_MAX_REPLIES);
+		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int k = 0; k < n; k++)
-			emit(s, i, &out[k], t + rmd_sim_motor_turnaround_ns(&sl->m));
+			emit(s, i, &out[k], t, t + rmd_sim_motor_turnaround_ns(&sl->m));
 		total += n;
 	}
 	return total;
@@ -545,7 +412,7 @@ static void run_motors(struct sim *s, int64_t now)
 				if (sl->absent)
 					s->st.absent_lost++;
 				else
-					emit(s, i, &out[k], now);
+					emit(s, i, &out[k], now, now);
 			}
 		}
 		if (tick)
@@ -1250,6 +1117,10 @@ int sim_run(const struct sim_config *c)
 	s->rng = c->seed * UINT64_C(0x9E3779B97F4A7C15) + UINT64_C(0x2545F4914F6CDD1D);
 	if (!s->rng)
 		s->rng = 1;
+	if (rmd_sim_faults_set(&s->faults, c->faults, c->n_faults) < 0) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: the fault table does not hold together");
+		return SIM_EXIT_USAGE;
+	}
 
 	/* Replies are due within a turnaround: keep the kernel's timer slack at 1 µs. */
 	(void)prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0);

@@ -48,8 +48,8 @@ static int open_rs485(struct rmd_bus *bus, const struct rmd_config *cfg, unsigne
 	return rmd_rs485_open(bus, cb->device, &o, err, errlen);
 }
 
-int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_plan *plan,
-		    struct rmd_bus buses[RMD_MAX_BUSES])
+int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *sim,
+		    const struct rmd_plan *plan, struct rmd_bus buses[RMD_MAX_BUSES])
 {
 	char err[512];
 	unsigned b;
@@ -68,7 +68,7 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_plan *plan,
 			r = open_rs485(&buses[b], cfg, b, err, sizeof(err));
 			break;
 		case RMD_BUS_KIND_SIM:
-			r = rmd_config_open_sim_bus(cfg, b, &buses[b], err, sizeof(err));
+			r = rmd_config_open_sim_bus(cfg, sim, b, &buses[b], err, sizeof(err));
 			break;
 		}
 		if (r < 0) {

@@ -10,13 +10,6 @@
 
 #include "rmdd.h"
 
-/* The bridge and the loop speak rmd_mode; the configuration rmd_ctrl_mode: one numbering. */
-_Static_assert((int)RMD_MODE_TORQUE == (int)RMD_CTRL_TORQUE &&
-		       (int)RMD_MODE_SPEED == (int)RMD_CTRL_SPEED &&
-		       (int)RMD_MODE_POSITION == (int)RMD_CTRL_POSITION &&
-		       (int)RMD_MODE_MIT == (int)RMD_CTRL_MIT,
-	       "enum rmd_mode and enum rmd_ctrl_mode disagree");
-
 /* The bridge's messages, as rmdd's own; whatever -q says, as before. */
 static void bridge_log(void *ctx, int level, const char *msg)
 {

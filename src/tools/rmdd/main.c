@@ -57,6 +57,7 @@
 
 #include "rmd/time.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/plan.h"
 #include "rmdd.h"
 
@@ -99,6 +100,7 @@ struct rmdd_opts {
 /* Everything the daemon builds, in the order it builds it. */
 struct rmdd {
 	struct rmd_config cfg;
+	struct rmd_sim_setup sim; /* the sim buses' simulator */
 	struct rmd_plan plan;
 	int sfd;	 /* signalfd: SIGTERM, SIGINT, SIGUSR1, SIGHUP */
 	int snapshot_fd; /* eventfd: the loop pokes the bridge after each snapshot */
@@ -269,7 +271,7 @@ static int check_config(const char *path)
 	char err[RMDD_ERR_LEN];
 	int r;
 
-	r = rmd_config_load(path, &cfg, err, sizeof(err));
+	r = rmd_config_load(path, &cfg, NULL, err, sizeof(err));
 	if (r) {
 		fprintf(stderr, "%s\n", err);
 		return RMDD_EXIT_FAIL;
@@ -307,7 +309,7 @@ static int load(struct rmdd *d, const struct rmdd_opts *o)
 	int r;
 
 	if (o->mode == MODE_SIM) {
-		r = rmd_config_sim_default(&d->cfg, o->sim_motors);
+		r = rmd_config_sim_default(&d->cfg, &d->sim, o->sim_motors);
 		if (r) {
 			rmdd_log(3, "--sim %u: cannot build the simulated configuration",
 				 o->sim_motors);
@@ -321,7 +323,7 @@ static int load(struct rmdd *d, const struct rmdd_opts *o)
 				 o->config);
 			return RMDD_EXIT_USAGE;
 		}
-		r = rmd_config_load(o->config, &d->cfg, err, sizeof(err));
+		r = rmd_config_load(o->config, &d->cfg, &d->sim, err, sizeof(err));
 		if (r) {
 			log_lines(3, err);
 			return RMDD_EXIT_FAIL;
@@ -624,7 +626,7 @@ static int run(const struct rmdd_opts *o)
 		goto err_free;
 	}
 	rmdd_notify_init(&d->notify);
-	if (rmdd_buses_open(&d->cfg, &d->plan, d->buses) < 0)
+	if (rmdd_buses_open(&d->cfg, &d->sim, &d->plan, d->buses) < 0)
 		goto err_close_signals;
 	r = handovers_init(d);
 	if (r < 0) {

@@ -113,11 +113,12 @@ const char *rmdd_lifecycle_name(unsigned lc);
 
 /*
  * Open every bus of cfg into buses[] (cfg->n_buses of them, in config
- * order), with the plan's burst for SocketCAN.  On failure logs which bus
+ * order; sim buses with their simulator settings in sim), with the plan's burst for SocketCAN.  On failure logs which bus
  * and how to fix it, closes what it opened and returns -errno.
  */
-int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_plan *plan,
-		    struct rmd_bus buses[RMD_MAX_BUSES]);
+struct rmd_sim_setup;
+int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *sim,
+		    const struct rmd_plan *plan, struct rmd_bus buses[RMD_MAX_BUSES]);
 
 /* Close n buses (rmd_bus_close() on each). */
 void rmdd_buses_close(struct rmd_bus *buses, unsigned n);

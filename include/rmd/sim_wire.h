@@ -1,13 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The simulated CAN bus (DESIGN.md layer 3): up to RMD_MAX_MOTORS simulated
+ * The simulated CAN wire (DESIGN.md layer 3): up to RMD_MAX_MOTORS simulated
  * motors (rmd/sim.h) on one wire with a timing model and fault injection.
+ * The bus layer's transport over it is rmd/bus_sim.h.
  *
- * Time is injected: the bus never reads a clock.  rmd_sim_bus_advance()
+ * Time is injected: the bus never reads a clock.  rmd_sim_wire_advance()
  * runs the wire from where it stopped to a given time:
  * - Whenever the wire is idle, every frame that is ready by then, the
  *   host's, the motors' and foreign ones, takes part in arbitration, and
- *   the lowest identifier wins (with RMD_SIM_BUS_HOST_FIFO only the oldest
+ *   the lowest identifier wins (with RMD_SIM_WIRE_HOST_FIFO only the oldest
  *   host frame competes, as with SocketCAN's single transmit queue).
  * - The winner holds the wire for rmd_can_frame_bits() bit times (its
  *   exact stuffed length, interframe space included).  Its end of frame,
@@ -23,89 +24,48 @@
  * overflows, a fault drops it, or the bus goes off, and each is counted.
  *
  * No allocation: fixed arrays sized by RMD_MAX_MOTORS and power-of-two
- * queues; the caller allocates struct rmd_sim_bus (about 48 KiB) before
+ * queues; the caller allocates struct rmd_sim_wire (about 48 KiB) before
  * the rt thread starts.  Every function is rt-safe: bounded work per frame
  * and per event (no syscalls, no locks, no stdio).  Not thread-safe: one
  * owner.
  *
- * Faults (struct rmd_sim_fault) are a plain array, so a YAML config or a
- * command line can fill it.  Their randomness comes from one PRNG seeded by
- * rmd_sim_bus_init(), and the motors' (turnaround jitter) from seeds
+ * Faults (struct rmd_sim_fault, rmd/sim_faults.h) are a plain array, so a
+ * YAML config or a command line can fill it.  Their randomness comes from one PRNG seeded by
+ * rmd_sim_wire_init(), and the motors' (turnaround jitter) from seeds
  * derived from it, so a run is reproducible from its seed.
  */
-#ifndef RMD_SIM_BUS_H
-#define RMD_SIM_BUS_H
+#ifndef RMD_SIM_WIRE_H
+#define RMD_SIM_WIRE_H
 
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
-#include "rmd/bus.h"
 #include "rmd/frame.h"
 #include "rmd/sim.h"
+#include "rmd/sim_faults.h"
 
-#define RMD_SIM_BUS_TXQ 64	  /* host frames waiting for the wire (power of two) */
-#define RMD_SIM_BUS_MOTQ 128	  /* motor frames waiting for the wire (power of two) */
-#define RMD_SIM_BUS_RXQ 256	  /* frames waiting for the host (power of two) */
-#define RMD_SIM_BUS_HIST 512	  /* recent frames kept for rmd_sim_bus_load() */
-#define RMD_SIM_BUS_MAX_FAULTS 32 /* entries of the fault table */
-#define RMD_SIM_BUS_MAX_REPLIES 4 /* frames one motor may answer one frame with */
+#define RMD_SIM_WIRE_TXQ 64	   /* host frames waiting for the wire (power of two) */
+#define RMD_SIM_WIRE_MOTQ 128	   /* motor frames waiting for the wire (power of two) */
+#define RMD_SIM_WIRE_RXQ 256	   /* frames waiting for the host (power of two) */
+#define RMD_SIM_WIRE_HIST 512	   /* recent frames kept for rmd_sim_wire_load() */
+#define RMD_SIM_WIRE_MAX_REPLIES 4 /* frames one motor may answer one frame with */
 
-/* rmd_sim_bus_init() flags */
+/* rmd_sim_wire_init() flags */
 enum {
 	/* Host frames leave in the order sent, as from a SocketCAN queue. */
-	RMD_SIM_BUS_HOST_FIFO = 1u << 0,
+	RMD_SIM_WIRE_HOST_FIFO = 1u << 0,
 };
 
-/*
- * Kinds of injected faults.  "Per frame" kinds act on each frame a
- * matching motor transmits (replies and unsolicited frames) while the
- * fault's window is open, with the fault's probability; "window" kinds act
- * for the whole window and ignore the probability.
- */
-enum rmd_sim_fault_kind {
-	RMD_SIM_FAULT_DROP = 0,	  /* per frame: the frame is lost */
-	RMD_SIM_FAULT_DELAY,	  /* per frame: ready param ns later (>= 0) */
-	RMD_SIM_FAULT_BAD_DLC,	  /* per frame: the DLC becomes param (0..7) */
-	RMD_SIM_FAULT_GARBAGE,	  /* per frame: the data bytes become random bytes */
-	RMD_SIM_FAULT_WRONG_ID,	  /* per frame: sent on the identifier of motor param (1..32) */
-	RMD_SIM_FAULT_DISAPPEAR,  /* window: the motor hears and sends nothing
-				   * (param 0: cable cut, it runs on); param 1:
-				   * power lost, output off and brake locked at the
-				   * start, it boots again at the end */
-	RMD_SIM_FAULT_ERROR_FLAG, /* window: the motor reports error bits param
-				   * (RMD_SIM_ERR_*), via rmd_sim_motor_set_error() */
-	RMD_SIM_FAULT_BUS_OFF,	  /* window: bus-off, nothing is sent or received */
-	RMD_SIM_FAULT_FLOOD,	  /* window: a foreign node sends a frame on can_id
-				   * every param ns (it wins arbitration if can_id
-				   * is low) */
-	RMD_SIM_FAULT_COUNT
-};
-
-/*
- * One entry of the fault table.  The window is [start_ns, end_ns); an
- * end_ns of 0 leaves it open.  Entries apply in table order, and a drop
- * ends the list for that frame.
- */
-struct rmd_sim_fault {
-	enum rmd_sim_fault_kind kind;
-	uint8_t motor_id;   /* params id 1..32; 0: every motor (bus-wide kinds: must be 0) */
-	double probability; /* per-frame kinds: chance per frame, 0..1 */
-	int64_t start_ns;
-	int64_t end_ns;
-	int64_t param;	 /* see enum rmd_sim_fault_kind */
-	uint32_t can_id; /* FLOOD: the foreign frames' 11-bit identifier */
-};
-
-/* Statistics since rmd_sim_bus_init().  Counters only grow. */
-struct rmd_sim_bus_stats {
+/* Statistics since rmd_sim_wire_init().  Counters only grow. */
+struct rmd_sim_wire_stats {
 	uint64_t bits;		 /* transmitted, stuff bits and IFS included */
 	int64_t busy_ns;	 /* wire time of those bits */
 	uint64_t frames_host;	 /* transmitted by the host */
 	uint64_t frames_motor;	 /* transmitted by motors */
 	uint64_t frames_foreign; /* transmitted by a flood */
 	uint64_t rx_delivered;	 /* put into the host's receive queue */
-	uint64_t tx_refused;	 /* rmd_sim_bus_send(): TX queue full (-ENOBUFS) */
+	uint64_t tx_refused;	 /* rmd_sim_wire_send(): TX queue full (-ENOBUFS) */
 	uint64_t motq_dropped;	 /* motor frames lost: motor queue full */
 	uint64_t rxq_dropped;	 /* frames lost: host receive queue full */
 	uint64_t busoff_lost;	 /* frames discarded or refused by bus-off */
@@ -135,15 +95,15 @@ struct rmd_sim_pending {
 /*
  * Called for every frame that completes on the wire, at its end of frame,
  * with its start time: a candump of the simulated wire for tools and tests.
- * Runs inside rmd_sim_bus_advance(): it must be as rt-safe as the caller.
+ * Runs inside rmd_sim_wire_advance(): it must be as rt-safe as the caller.
  */
-typedef void rmd_sim_bus_tap_fn(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns,
-				int64_t eof_ns);
+typedef void rmd_sim_wire_tap_fn(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns,
+				 int64_t eof_ns);
 
-struct rmd_sim_bus {
+struct rmd_sim_wire {
 	uint32_t bitrate;
 	unsigned flags;
-	unsigned txq_len; /* host TX queue capacity, <= RMD_SIM_BUS_TXQ */
+	unsigned txq_len; /* host TX queue capacity, <= RMD_SIM_WIRE_TXQ */
 	uint64_t seed;
 	uint64_t rng;
 	int64_t now_ns; /* the wire has run up to here */
@@ -154,9 +114,9 @@ struct rmd_sim_bus {
 	uint16_t injected[RMD_MAX_MOTORS]; /* error bits applied by faults */
 
 	/* Frames waiting for the wire: unordered pools, arbitration picks. */
-	struct rmd_sim_pending txq[RMD_SIM_BUS_TXQ];
+	struct rmd_sim_pending txq[RMD_SIM_WIRE_TXQ];
 	unsigned txq_n;
-	struct rmd_sim_pending motq[RMD_SIM_BUS_MOTQ];
+	struct rmd_sim_pending motq[RMD_SIM_WIRE_MOTQ];
 	unsigned motq_n;
 
 	/* The frame on the wire. */
@@ -167,41 +127,38 @@ struct rmd_sim_bus {
 	int64_t wire_free_ns; /* end of the interframe space */
 
 	/* Host receive queue: a ring. */
-	struct rmd_frame rxq[RMD_SIM_BUS_RXQ];
-	int64_t rxq_t_ns[RMD_SIM_BUS_RXQ];
+	struct rmd_frame rxq[RMD_SIM_WIRE_RXQ];
+	int64_t rxq_t_ns[RMD_SIM_WIRE_RXQ];
 	unsigned rxq_head, rxq_tail; /* free-running; index & (RXQ - 1) */
 
 	/* Recent frames' wire intervals: a ring. */
-	int64_t hist_start_ns[RMD_SIM_BUS_HIST];
-	int64_t hist_free_ns[RMD_SIM_BUS_HIST];
+	int64_t hist_start_ns[RMD_SIM_WIRE_HIST];
+	int64_t hist_free_ns[RMD_SIM_WIRE_HIST];
 	unsigned hist_n; /* free-running */
 
-	struct rmd_sim_fault faults[RMD_SIM_BUS_MAX_FAULTS];
-	bool fault_active[RMD_SIM_BUS_MAX_FAULTS]; /* window kinds: open now */
-	int64_t flood_next_ns[RMD_SIM_BUS_MAX_FAULTS];
-	unsigned n_faults;
+	struct rmd_sim_faults faults; /* on the wire's time axis */
 
-	struct rmd_sim_bus_stats stats;
-	rmd_sim_bus_tap_fn *tap;
+	struct rmd_sim_wire_stats stats;
+	rmd_sim_wire_tap_fn *tap;
 	void *tap_ctx;
 };
 
 /*
  * Set up an empty bus at time 0: bitrate in bit/s (> 0), seed for the
- * faults' PRNG and the motors' jitter, flags RMD_SIM_BUS_*.  Returns 0 or
+ * faults' PRNG and the motors' jitter, flags RMD_SIM_WIRE_*.  Returns 0 or
  * -EINVAL.  rt-safe.
  */
-int rmd_sim_bus_init(struct rmd_sim_bus *bus, uint32_t bitrate, uint64_t seed, unsigned flags);
+int rmd_sim_wire_init(struct rmd_sim_wire *bus, uint32_t bitrate, uint64_t seed, unsigned flags);
 
 /* Nothing to release; for the _init/_fini pairing.  rt-safe. */
-void rmd_sim_bus_fini(struct rmd_sim_bus *bus);
+void rmd_sim_wire_fini(struct rmd_sim_wire *bus);
 
 /*
- * Capacity of the host TX queue, 1..RMD_SIM_BUS_TXQ (SocketCAN's default
+ * Capacity of the host TX queue, 1..RMD_SIM_WIRE_TXQ (SocketCAN's default
  * txqueuelen is 10).  Frames already queued stay.  Returns 0 or -EINVAL.
  * rt-safe.
  */
-int rmd_sim_bus_set_txqueuelen(struct rmd_sim_bus *bus, unsigned len);
+int rmd_sim_wire_set_txqueuelen(struct rmd_sim_wire *bus, unsigned len);
 
 /*
  * Run the bus to now_ns, then power on a motor there.  A params seed of 0
@@ -209,23 +166,23 @@ int rmd_sim_bus_set_txqueuelen(struct rmd_sim_bus *bus, unsigned len);
  * motor's index, -EINVAL (id not 1..32), -EEXIST (id taken) or -ENOSPC.
  * rt-safe.
  */
-int rmd_sim_bus_add_motor(struct rmd_sim_bus *bus, const struct rmd_sim_motor_params *p,
-			  int64_t now_ns);
+int rmd_sim_wire_add_motor(struct rmd_sim_wire *bus, const struct rmd_sim_motor_params *p,
+			   int64_t now_ns);
 
 /* Call fn for every frame on the wire (NULL: stop).  rt-safe. */
-void rmd_sim_bus_set_tap(struct rmd_sim_bus *bus, rmd_sim_bus_tap_fn *fn, void *ctx);
+void rmd_sim_wire_set_tap(struct rmd_sim_wire *bus, rmd_sim_wire_tap_fn *fn, void *ctx);
 
 /* The motor with params id `id`, or NULL.  rt-safe. */
-struct rmd_sim_motor *rmd_sim_bus_motor(struct rmd_sim_bus *bus, uint8_t id);
+struct rmd_sim_motor *rmd_sim_wire_motor(struct rmd_sim_wire *bus, uint8_t id);
 
 /*
- * Replace the fault table by n entries (n <= RMD_SIM_BUS_MAX_FAULTS).  The
+ * Replace the fault table by n entries (n <= RMD_SIM_MAX_FAULTS).  The
  * old table's open windows close at the bus's current time (a motor
  * powered off by DISAPPEAR boots, injected error bits clear).  Returns 0,
  * -E2BIG, or -EINVAL for an entry that makes no sense (the table is then
  * unchanged).  rt-safe.
  */
-int rmd_sim_bus_set_faults(struct rmd_sim_bus *bus, const struct rmd_sim_fault *faults, size_t n);
+int rmd_sim_wire_set_faults(struct rmd_sim_wire *bus, const struct rmd_sim_fault *faults, size_t n);
 
 /*
  * Run the bus to now_ns, then queue frames for the wire, ready at now_ns.
@@ -234,8 +191,8 @@ int rmd_sim_bus_set_faults(struct rmd_sim_bus *bus, const struct rmd_sim_fault *
  * -EINVAL when the first is not a 2.0A frame (identifier > 0x7FF, len > 8),
  * -ENETDOWN while the bus is off.  rt-safe.
  */
-int rmd_sim_bus_send(struct rmd_sim_bus *bus, int64_t now_ns, const struct rmd_frame *frames,
-		     unsigned n);
+int rmd_sim_wire_send(struct rmd_sim_wire *bus, int64_t now_ns, const struct rmd_frame *frames,
+		      unsigned n);
 
 /*
  * Run the wire from its current time up to until_ns: frames that start
@@ -244,33 +201,27 @@ int rmd_sim_bus_send(struct rmd_sim_bus *bus, int64_t now_ns, const struct rmd_f
  * physics is advanced to until_ns.  Earlier times are a no-op.  Returns
  * the count of frames put into the host's receive queue.  rt-safe.
  */
-int rmd_sim_bus_advance(struct rmd_sim_bus *bus, int64_t until_ns);
+int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns);
 
 /*
  * Pop up to max received frames, oldest first, with their end-of-frame
  * times in t_ns[] (may be NULL).  Takes no time: call advance first.
  * Returns the count.  rt-safe.
  */
-int rmd_sim_bus_recv(struct rmd_sim_bus *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns);
+int rmd_sim_wire_recv(struct rmd_sim_wire *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns);
 
 /* RMD_BUS_OFF while a BUS_OFF fault window is open, else RMD_BUS_ACTIVE.  rt-safe. */
-enum rmd_bus_state rmd_sim_bus_state(const struct rmd_sim_bus *bus);
+enum rmd_bus_state rmd_sim_wire_state(const struct rmd_sim_wire *bus);
 
 /*
  * Wire load over the last window_ns before the bus's current time, in
  * percent (busy time / window).  Returns 0, -EINVAL for a window <= 0, or
- * -ERANGE when the window reaches past the RMD_SIM_BUS_HIST frames kept.
+ * -ERANGE when the window reaches past the RMD_SIM_WIRE_HIST frames kept.
  * rt-safe.
  */
-int rmd_sim_bus_load(const struct rmd_sim_bus *bus, int64_t window_ns, double *pct);
+int rmd_sim_wire_load(const struct rmd_sim_wire *bus, int64_t window_ns, double *pct);
 
 /* Frames waiting for the wire (host and motors).  rt-safe. */
-unsigned rmd_sim_bus_pending(const struct rmd_sim_bus *bus);
+unsigned rmd_sim_wire_pending(const struct rmd_sim_wire *bus);
 
-/* "drop", "delay", "bad_dlc", ...; NULL for an unknown kind.  rt-safe. */
-const char *rmd_sim_fault_kind_name(enum rmd_sim_fault_kind kind);
-
-/* The kind called `name`, or -EINVAL.  rt-safe. */
-int rmd_sim_fault_kind_from_name(const char *name);
-
-#endif /* RMD_SIM_BUS_H */
+#endif /* RMD_SIM_WIRE_H */

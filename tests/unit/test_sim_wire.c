@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * sim_bus tests: wire time of a cycle against can_timing, arbitration
+ * sim_wire tests: wire time of a cycle against can_timing, arbitration
  * order, an overloaded cycle running late, every fault kind at its rate or
  * in its window, queues and statistics.  Every run is seeded; the seed is
  * printed on failure (RMD_TEST_SEED overrides it).
@@ -24,14 +24,14 @@
 
 #include "rmd/can_timing.h"
 #include "rmd/codec.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 
 #define SEED_DEFAULT 0x51b05eedu
 #define US INT64_C(1000)
 #define MS INT64_C(1000000)
 #define BITRATE 1000000u
 
-static struct rmd_sim_bus bus; /* ~48 KiB: not on the stack */
+static struct rmd_sim_wire bus; /* ~48 KiB: not on the stack */
 static uint64_t seed;
 
 /* ---- trace of the wire --------------------------------------------------- */
@@ -109,7 +109,7 @@ static void drain(void)
 	int64_t t[64];
 	int n;
 
-	while ((n = rmd_sim_bus_recv(&bus, f, 64, t)) > 0)
+	while ((n = rmd_sim_wire_recv(&bus, f, 64, t)) > 0)
 		for (int i = 0; i < n && rx_n < LOG_MAX; i++)
 			rx_log[rx_n++] = (struct rx_entry){ f[i], t[i] };
 }
@@ -133,8 +133,8 @@ static int setup(void **state)
 
 	(void)state;
 	seed = s ? strtoull(s, NULL, 0) : SEED_DEFAULT;
-	assert_int_equal(rmd_sim_bus_init(&bus, BITRATE, seed, 0), 0);
-	rmd_sim_bus_set_tap(&bus, tap, NULL);
+	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, seed, 0), 0);
+	rmd_sim_wire_set_tap(&bus, tap, NULL);
 	trace_n = 0;
 	rx_n = 0;
 	return 0;
@@ -143,7 +143,7 @@ static int setup(void **state)
 static int teardown(void **state)
 {
 	(void)state;
-	rmd_sim_bus_fini(&bus);
+	rmd_sim_wire_fini(&bus);
 	return 0;
 }
 
@@ -154,7 +154,7 @@ static void add_motors(unsigned n)
 		struct rmd_sim_motor_params p;
 
 		rmd_sim_motor_params_default(&p, (uint8_t)id, RMD_PROTO_V3);
-		assert_int_equal(rmd_sim_bus_add_motor(&bus, &p, 0), (int)id - 1);
+		assert_int_equal(rmd_sim_wire_add_motor(&bus, &p, 0), (int)id - 1);
 	}
 }
 
@@ -183,11 +183,11 @@ static unsigned run_cycles(unsigned n_ids, uint8_t cmd, int64_t t0, int64_t peri
 
 		for (unsigned i = 0; i < n_ids; i++)
 			f[i] = request((uint8_t)(i + 1), cmd);
-		r = rmd_sim_bus_send(&bus, t0 + (int64_t)k * period, f, n_ids);
+		r = rmd_sim_wire_send(&bus, t0 + (int64_t)k * period, f, n_ids);
 		refused += r < 0 ? n_ids : n_ids - (unsigned)r;
 		drain();
 	}
-	rmd_sim_bus_advance(&bus, t0 + (int64_t)cycles * period + tail);
+	rmd_sim_wire_advance(&bus, t0 + (int64_t)cycles * period + tail);
 	drain();
 	return refused;
 }
@@ -223,9 +223,9 @@ static void test_acceptance_8_pairs(void **state)
 	add_motors(8);
 	for (unsigned i = 0; i < 8; i++)
 		req[i] = request((uint8_t)(i + 1), 0x9C);
-	assert_int_equal(rmd_sim_bus_send(&bus, t0, req, 8), 8);
-	rmd_sim_bus_advance(&bus, t0 + 10 * MS);
-	n = rmd_sim_bus_recv(&bus, rep, 16, t);
+	assert_int_equal(rmd_sim_wire_send(&bus, t0, req, 8), 8);
+	rmd_sim_wire_advance(&bus, t0 + 10 * MS);
+	n = rmd_sim_wire_recv(&bus, rep, 16, t);
 	assert_int_equal(n, 8);
 
 	for (unsigned i = 0; i < 8; i++)
@@ -262,9 +262,9 @@ static void test_acceptance_8_pairs(void **state)
 
 	/* One pair alone: the turnaround shows, 0.5 +- 0.1 ms. */
 	trace_n = 0;
-	assert_int_equal(rmd_sim_bus_send(&bus, 20 * MS, req, 1), 1);
-	rmd_sim_bus_advance(&bus, 30 * MS);
-	assert_int_equal(rmd_sim_bus_recv(&bus, rep, 16, t), 1);
+	assert_int_equal(rmd_sim_wire_send(&bus, 20 * MS, req, 1), 1);
+	rmd_sim_wire_advance(&bus, 30 * MS);
+	assert_int_equal(rmd_sim_wire_recv(&bus, rep, 16, t), 1);
 	assert_int_equal(trace_n, 2);
 	assert_in_range(trace[1].start_ns - trace[0].eof_ns, 400 * US, 600 * US);
 	print_message("1 pair: wire %.3f ms, turnaround %.3f ms, reply end %.3f ms after the "
@@ -288,8 +288,8 @@ static void test_arbitration_lowest_id_first(void **state)
 	add_motors(8);
 	for (unsigned i = 0; i < 8; i++)
 		f[i] = request(order[i], 0x9C);
-	assert_int_equal(rmd_sim_bus_send(&bus, 1 * MS, f, 8), 8);
-	rmd_sim_bus_advance(&bus, 20 * MS);
+	assert_int_equal(rmd_sim_wire_send(&bus, 1 * MS, f, 8), 8);
+	rmd_sim_wire_advance(&bus, 20 * MS);
 	assert_int_equal(trace_n, 16);
 	for (unsigned i = 0; i < 8; i++) {
 		assert_int_equal(trace[i].p.f.can_id, RMD_CAN_REQ_BASE + i + 1);
@@ -300,7 +300,7 @@ static void test_arbitration_lowest_id_first(void **state)
 
 /*
  * Replies (0x24x) become ready while the host still has low-priority
- * frames (0x7F0) queued: they overtake them.  With RMD_SIM_BUS_HOST_FIFO
+ * frames (0x7F0) queued: they overtake them.  With RMD_SIM_WIRE_HOST_FIFO
  * the host's own frames leave in the order sent.
  */
 static void test_arbitration_replies_overtake(void **state)
@@ -314,8 +314,8 @@ static void test_arbitration_replies_overtake(void **state)
 		f[i] = request((uint8_t)(i + 1), 0x9C);
 	for (unsigned i = 4; i < 12; i++)
 		f[i] = (struct rmd_frame){ .can_id = 0x7F0, .len = 8, .data = { (uint8_t)i } };
-	assert_int_equal(rmd_sim_bus_send(&bus, 1 * MS, f, 12), 12);
-	rmd_sim_bus_advance(&bus, 20 * MS);
+	assert_int_equal(rmd_sim_wire_send(&bus, 1 * MS, f, 12), 12);
+	rmd_sim_wire_advance(&bus, 20 * MS);
 	assert_int_equal(trace_n, 16);
 	for (unsigned i = 0; i < trace_n; i++)
 		if ((trace[i].p.f.can_id & 0x700) == 0x200)
@@ -327,14 +327,14 @@ static void test_arbitration_replies_overtake(void **state)
 	check_trace(true, false);
 
 	/* FIFO host queue: requests sent in reverse order keep that order. */
-	assert_int_equal(rmd_sim_bus_init(&bus, BITRATE, seed, RMD_SIM_BUS_HOST_FIFO), 0);
-	rmd_sim_bus_set_tap(&bus, tap, NULL);
+	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, seed, RMD_SIM_WIRE_HOST_FIFO), 0);
+	rmd_sim_wire_set_tap(&bus, tap, NULL);
 	trace_n = 0;
 	add_motors(4);
 	for (unsigned i = 0; i < 4; i++)
 		f[i] = request((uint8_t)(4 - i), 0x9C);
-	assert_int_equal(rmd_sim_bus_send(&bus, 1 * MS, f, 4), 4);
-	rmd_sim_bus_advance(&bus, 20 * MS);
+	assert_int_equal(rmd_sim_wire_send(&bus, 1 * MS, f, 4), 4);
+	rmd_sim_wire_advance(&bus, 20 * MS);
 	for (unsigned i = 0; i < 4; i++)
 		assert_int_equal(trace[i].p.f.can_id, RMD_CAN_REQ_BASE + 4 - i);
 	check_trace(true, true);
@@ -407,12 +407,12 @@ static void test_overload_runs_late(void **state)
 	setup(state);
 	add_motors(5);
 	assert_int_equal(run_cycles(5, 0x9C, t0, MS, 20, 0), 0);
-	assert_int_equal(rmd_sim_bus_load(&bus, 10 * MS, &load), 0);
-	rmd_sim_bus_advance(&bus, 100 * MS);
+	assert_int_equal(rmd_sim_wire_load(&bus, 10 * MS, &load), 0);
+	rmd_sim_wire_advance(&bus, 100 * MS);
 	drain();
 	assert_int_equal(rx_n, 5 * 20);
 	assert_int_equal(bus.stats.errors, 0);
-	assert_int_equal(rmd_sim_bus_pending(&bus), 0);
+	assert_int_equal(rmd_sim_wire_pending(&bus), 0);
 	latencies(5, t0, 20);
 	m1 = worst_latency(1, 1, 0, 20);
 	m5 = worst_latency(5, 5, 0, 20);
@@ -432,7 +432,7 @@ static void test_overload_runs_late(void **state)
 
 static void set_faults(const struct rmd_sim_fault *f, size_t n)
 {
-	assert_int_equal(rmd_sim_bus_set_faults(&bus, f, n), 0);
+	assert_int_equal(rmd_sim_wire_set_faults(&bus, f, n), 0);
 }
 
 /* drop p = 0.2 on motor 1 over 5000 requests; motor 2 is not hit. */
@@ -576,9 +576,9 @@ static void test_fault_disappear_window(void **state)
 	assert_int_equal(count_rx(RMD_CAN_V3_REPLY_BASE + 3, 0, INT64_MAX), 300);
 	assert_int_equal(bus.stats.faults[RMD_SIM_FAULT_DISAPPEAR], 2);
 	assert_int_equal(bus.stats.absent_lost, 2); /* the replies of 200 and 300 ms */
-	assert_int_equal(rmd_sim_bus_motor(&bus, 1)->boot_ns, 400400 * US);
-	assert_int_equal(rmd_sim_bus_motor(&bus, 2)->boot_ns, 0);
-	assert_int_equal(rmd_sim_bus_motor(&bus, 3)->boot_ns, 0);
+	assert_int_equal(rmd_sim_wire_motor(&bus, 1)->boot_ns, 400400 * US);
+	assert_int_equal(rmd_sim_wire_motor(&bus, 2)->boot_ns, 0);
+	assert_int_equal(rmd_sim_wire_motor(&bus, 3)->boot_ns, 0);
 	check_trace(true, false);
 }
 
@@ -620,7 +620,7 @@ static void test_fault_error_flag_window(void **state)
 	}
 	assert_int_equal(flagged, 30);
 	assert_int_equal(bus.stats.faults[RMD_SIM_FAULT_ERROR_FLAG], 1);
-	assert_int_equal(rmd_sim_bus_motor(&bus, 1)->errors_injected, 0);
+	assert_int_equal(rmd_sim_wire_motor(&bus, 1)->errors_injected, 0);
 	check_trace(true, false);
 }
 
@@ -634,7 +634,7 @@ static void test_fault_bus_off_window(void **state)
 	(void)state;
 	add_motors(2);
 	set_faults(&f, 1);
-	assert_int_equal(rmd_sim_bus_state(&bus), RMD_BUS_ACTIVE);
+	assert_int_equal(rmd_sim_wire_state(&bus), RMD_BUS_ACTIVE);
 	/*
 	 * Requests at 0.5, 1.5, ..., 29.5 ms: the ten inside are refused, and
 	 * the replies to those of 9.5 ms, ready after 10 ms, are lost.
@@ -648,22 +648,22 @@ static void test_fault_bus_off_window(void **state)
 	assert_int_equal(bus.stats.faults[RMD_SIM_FAULT_BUS_OFF], 1);
 	assert_int_equal(bus.stats.busoff_lost, 2 * 10 + 2);
 	assert_int_equal(bus.stats.errors, bus.stats.busoff_lost);
-	assert_int_equal(rmd_sim_bus_state(&bus), RMD_BUS_ACTIVE);
+	assert_int_equal(rmd_sim_wire_state(&bus), RMD_BUS_ACTIVE);
 	check_trace(false, false);
 
 	/* The state a host sees inside the window, and the refusal. */
 	setup(state);
 	add_motors(1);
 	set_faults(&f, 1);
-	rmd_sim_bus_advance(&bus, 15 * MS);
-	assert_int_equal(rmd_sim_bus_state(&bus), RMD_BUS_OFF);
+	rmd_sim_wire_advance(&bus, 15 * MS);
+	assert_int_equal(rmd_sim_wire_state(&bus), RMD_BUS_OFF);
 	{
 		struct rmd_frame r = request(1, 0x9C);
 
-		assert_int_equal(rmd_sim_bus_send(&bus, 15 * MS, &r, 1), -ENETDOWN);
-		assert_int_equal(rmd_sim_bus_send(&bus, 20 * MS, &r, 1), 1);
+		assert_int_equal(rmd_sim_wire_send(&bus, 15 * MS, &r, 1), -ENETDOWN);
+		assert_int_equal(rmd_sim_wire_send(&bus, 20 * MS, &r, 1), 1);
 	}
-	assert_int_equal(rmd_sim_bus_state(&bus), RMD_BUS_ACTIVE);
+	assert_int_equal(rmd_sim_wire_state(&bus), RMD_BUS_ACTIVE);
 }
 
 /*
@@ -684,9 +684,9 @@ static void test_fault_flood_low_id_steals_wire(void **state)
 	add_motors(1);
 	set_faults(&f, 1);
 	assert_int_equal(run_cycles(1, 0x9C, 0, MS, 25, 0), 0);
-	rmd_sim_bus_advance(&bus, 25 * MS);
-	assert_int_equal(rmd_sim_bus_load(&bus, 10 * MS, &load), 0);
-	rmd_sim_bus_advance(&bus, 60 * MS);
+	rmd_sim_wire_advance(&bus, 25 * MS);
+	assert_int_equal(rmd_sim_wire_load(&bus, 10 * MS, &load), 0);
+	rmd_sim_wire_advance(&bus, 60 * MS);
 	drain();
 	/* One frame already on the wire at 10 ms may finish. */
 	assert_int_equal(count_rx(RMD_CAN_V3_REPLY_BASE + 1, 10 * MS + 200 * US, 30 * MS), 0);
@@ -754,21 +754,21 @@ static void test_txqueuelen_enobufs(void **state)
 
 	(void)state;
 	add_motors(1);
-	assert_int_equal(rmd_sim_bus_set_txqueuelen(&bus, 10), 0);
-	assert_int_equal(rmd_sim_bus_set_txqueuelen(&bus, 0), -EINVAL);
-	assert_int_equal(rmd_sim_bus_set_txqueuelen(&bus, RMD_SIM_BUS_TXQ + 1), -EINVAL);
+	assert_int_equal(rmd_sim_wire_set_txqueuelen(&bus, 10), 0);
+	assert_int_equal(rmd_sim_wire_set_txqueuelen(&bus, 0), -EINVAL);
+	assert_int_equal(rmd_sim_wire_set_txqueuelen(&bus, RMD_SIM_WIRE_TXQ + 1), -EINVAL);
 	for (unsigned i = 0; i < 32; i++)
 		f[i] = (struct rmd_frame){ .can_id = 0x600 + i, .len = 8 };
-	assert_int_equal(rmd_sim_bus_send(&bus, MS, f, 32), 10);
-	assert_int_equal(rmd_sim_bus_send(&bus, MS, f + 10, 22), -ENOBUFS);
+	assert_int_equal(rmd_sim_wire_send(&bus, MS, f, 32), 10);
+	assert_int_equal(rmd_sim_wire_send(&bus, MS, f + 10, 22), -ENOBUFS);
 	assert_int_equal(bus.stats.tx_refused, 22 + 22);
 	assert_int_equal(bus.stats.txq_hwm, 10);
 	/*
 	 * 200 us later one frame is done and the second on the wire: both
 	 * left the queue (as a frame in the controller leaves the qdisc).
 	 */
-	assert_int_equal(rmd_sim_bus_send(&bus, MS + 200 * US, f + 10, 22), 2);
-	rmd_sim_bus_advance(&bus, 10 * MS);
+	assert_int_equal(rmd_sim_wire_send(&bus, MS + 200 * US, f + 10, 22), 2);
+	rmd_sim_wire_advance(&bus, 10 * MS);
 	assert_int_equal(bus.stats.frames_host, 12);
 }
 
@@ -782,12 +782,12 @@ static void test_send_rejects_bad_frames(void **state)
 	};
 
 	(void)state;
-	assert_int_equal(rmd_sim_bus_send(&bus, 0, f, 0), 0);
-	assert_int_equal(rmd_sim_bus_send(&bus, 0, f, 3), 1);
-	assert_int_equal(rmd_sim_bus_send(&bus, 0, f + 1, 2), -EINVAL);
-	assert_int_equal(rmd_sim_bus_send(&bus, 0, f + 2, 1), -EINVAL);
+	assert_int_equal(rmd_sim_wire_send(&bus, 0, f, 0), 0);
+	assert_int_equal(rmd_sim_wire_send(&bus, 0, f, 3), 1);
+	assert_int_equal(rmd_sim_wire_send(&bus, 0, f + 1, 2), -EINVAL);
+	assert_int_equal(rmd_sim_wire_send(&bus, 0, f + 2, 1), -EINVAL);
 	assert_int_equal(bus.stats.errors, 0);
-	assert_int_equal(rmd_sim_bus_pending(&bus), 1);
+	assert_int_equal(rmd_sim_wire_pending(&bus), 1);
 }
 
 /*
@@ -806,8 +806,8 @@ static void test_unsolicited_frames(void **state)
 	add_motors(1);
 	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, 100);
 	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &msg, &f), 0);
-	assert_int_equal(rmd_sim_bus_send(&bus, 10 * MS, &f, 1), 1);
-	rmd_sim_bus_advance(&bus, 2500 * MS);
+	assert_int_equal(rmd_sim_wire_send(&bus, 10 * MS, &f, 1), 1);
+	rmd_sim_wire_advance(&bus, 2500 * MS);
 	drain();
 	last_rx = trace[0].eof_ns;
 	assert_int_equal(rx_n, 1 + 3);
@@ -835,13 +835,13 @@ static void test_rx_overflow_counted(void **state)
 
 	(void)state;
 	set_faults(&f, 1);
-	rmd_sim_bus_advance(&bus, 100 * MS);
+	rmd_sim_wire_advance(&bus, 100 * MS);
 	assert_int_equal(bus.stats.frames_foreign, 500);
-	assert_int_equal(bus.stats.rxq_hwm, RMD_SIM_BUS_RXQ);
-	assert_int_equal(bus.stats.rxq_dropped, 500 - RMD_SIM_BUS_RXQ);
-	assert_int_equal(bus.stats.errors, 500 - RMD_SIM_BUS_RXQ);
+	assert_int_equal(bus.stats.rxq_hwm, RMD_SIM_WIRE_RXQ);
+	assert_int_equal(bus.stats.rxq_dropped, 500 - RMD_SIM_WIRE_RXQ);
+	assert_int_equal(bus.stats.errors, 500 - RMD_SIM_WIRE_RXQ);
 	drain();
-	assert_int_equal(rx_n, RMD_SIM_BUS_RXQ);
+	assert_int_equal(rx_n, RMD_SIM_WIRE_RXQ);
 }
 
 static void test_load_window(void **state)
@@ -850,18 +850,18 @@ static void test_load_window(void **state)
 
 	(void)state;
 	add_motors(1);
-	rmd_sim_bus_advance(&bus, 10 * MS);
-	assert_int_equal(rmd_sim_bus_load(&bus, 5 * MS, &pct), 0);
+	rmd_sim_wire_advance(&bus, 10 * MS);
+	assert_int_equal(rmd_sim_wire_load(&bus, 5 * MS, &pct), 0);
 	assert_true(pct == 0.0);
-	assert_int_equal(rmd_sim_bus_load(&bus, 0, &pct), -EINVAL);
+	assert_int_equal(rmd_sim_wire_load(&bus, 0, &pct), -EINVAL);
 	/* One pair per ms: 2 x 111..135 us busy per 1000 us. */
 	assert_int_equal(run_cycles(1, 0x9C, 10 * MS, MS, 100, 0), 0);
-	assert_int_equal(rmd_sim_bus_load(&bus, 50 * MS, &pct), 0);
+	assert_int_equal(rmd_sim_wire_load(&bus, 50 * MS, &pct), 0);
 	print_message("one pair per ms: load %.2f %%\n", pct);
 	assert_true(pct >= 22.2 && pct <= 27.0);
 	/* Past the frames kept: refused rather than wrong. */
-	assert_int_equal(run_cycles(1, 0x9C, 110 * MS, MS, RMD_SIM_BUS_HIST, 0), 0);
-	assert_int_equal(rmd_sim_bus_load(&bus, 2 * RMD_SIM_BUS_HIST * MS, &pct), -ERANGE);
+	assert_int_equal(run_cycles(1, 0x9C, 110 * MS, MS, RMD_SIM_WIRE_HIST, 0), 0);
+	assert_int_equal(rmd_sim_wire_load(&bus, 2 * RMD_SIM_WIRE_HIST * MS, &pct), -ERANGE);
 }
 
 /* Same seed, same wire, to the nanosecond; another seed, other jitter. */
@@ -886,8 +886,8 @@ static void test_deterministic(void **state)
 		assert_memory_equal(&trace[i].p.f, &first[i].p.f, sizeof(struct rmd_frame));
 	}
 
-	assert_int_equal(rmd_sim_bus_init(&bus, BITRATE, seed + 1, 0), 0);
-	rmd_sim_bus_set_tap(&bus, tap, NULL);
+	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, seed + 1, 0), 0);
+	rmd_sim_wire_set_tap(&bus, tap, NULL);
 	trace_n = 0;
 	add_motors(4);
 	run_cycles(4, 0x9C, 0, MS, 5, 5 * MS);
@@ -913,30 +913,30 @@ static void test_config_validation(void **state)
 		{ .kind = RMD_SIM_FAULT_FLOOD, .param = 100, .can_id = 0x800 },
 		{ .kind = RMD_SIM_FAULT_BUS_OFF, .start_ns = 5, .end_ns = 5 },
 	};
-	struct rmd_sim_fault many[RMD_SIM_BUS_MAX_FAULTS + 1] = { 0 };
+	struct rmd_sim_fault many[RMD_SIM_MAX_FAULTS + 1] = { 0 };
 	struct rmd_sim_motor_params p;
 
 	(void)state;
 	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++)
-		if (rmd_sim_bus_set_faults(&bus, &bad[i], 1) != -EINVAL)
+		if (rmd_sim_wire_set_faults(&bus, &bad[i], 1) != -EINVAL)
 			fail_msg("bad fault %zu accepted", i);
-	assert_int_equal(rmd_sim_bus_set_faults(&bus, many, RMD_SIM_BUS_MAX_FAULTS + 1), -E2BIG);
-	assert_int_equal(rmd_sim_bus_set_faults(&bus, many, RMD_SIM_BUS_MAX_FAULTS), 0);
+	assert_int_equal(rmd_sim_wire_set_faults(&bus, many, RMD_SIM_MAX_FAULTS + 1), -E2BIG);
+	assert_int_equal(rmd_sim_wire_set_faults(&bus, many, RMD_SIM_MAX_FAULTS), 0);
 	for (int k = 0; k < RMD_SIM_FAULT_COUNT; k++)
 		assert_int_equal(rmd_sim_fault_kind_from_name(rmd_sim_fault_kind_name(k)), k);
 	assert_int_equal(rmd_sim_fault_kind_from_name("nope"), -EINVAL);
 	assert_null(rmd_sim_fault_kind_name(RMD_SIM_FAULT_COUNT));
 
-	assert_int_equal(rmd_sim_bus_init(&bus, 0, 1, 0), -EINVAL);
-	assert_int_equal(rmd_sim_bus_init(&bus, BITRATE, 1, 0x80), -EINVAL);
-	assert_int_equal(rmd_sim_bus_init(&bus, BITRATE, 1, 0), 0);
+	assert_int_equal(rmd_sim_wire_init(&bus, 0, 1, 0), -EINVAL);
+	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, 1, 0x80), -EINVAL);
+	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, 1, 0), 0);
 	rmd_sim_motor_params_default(&p, 0, RMD_PROTO_V3);
-	assert_int_equal(rmd_sim_bus_add_motor(&bus, &p, 0), -EINVAL);
+	assert_int_equal(rmd_sim_wire_add_motor(&bus, &p, 0), -EINVAL);
 	rmd_sim_motor_params_default(&p, 7, RMD_PROTO_V3);
-	assert_int_equal(rmd_sim_bus_add_motor(&bus, &p, 0), 0);
-	assert_int_equal(rmd_sim_bus_add_motor(&bus, &p, 0), -EEXIST);
-	assert_null(rmd_sim_bus_motor(&bus, 8));
-	assert_non_null(rmd_sim_bus_motor(&bus, 7));
+	assert_int_equal(rmd_sim_wire_add_motor(&bus, &p, 0), 0);
+	assert_int_equal(rmd_sim_wire_add_motor(&bus, &p, 0), -EEXIST);
+	assert_null(rmd_sim_wire_motor(&bus, 8));
+	assert_non_null(rmd_sim_wire_motor(&bus, 7));
 }
 
 int main(void)
@@ -965,5 +965,5 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_config_validation, setup, teardown),
 	};
 
-	return cmocka_run_group_tests_name("sim_bus", tests, NULL, NULL);
+	return cmocka_run_group_tests_name("sim_wire", tests, NULL, NULL);
 }

@@ -14,126 +14,34 @@
 
 #include "rmd/rng.h"
 #include "rmd/can_timing.h"
-#include "rmd/sim_bus.h"
+#include "rmd/sim_wire.h"
 
-_Static_assert((RMD_SIM_BUS_TXQ & (RMD_SIM_BUS_TXQ - 1)) == 0, "TXQ: power of two");
-_Static_assert((RMD_SIM_BUS_MOTQ & (RMD_SIM_BUS_MOTQ - 1)) == 0, "MOTQ: power of two");
-_Static_assert((RMD_SIM_BUS_RXQ & (RMD_SIM_BUS_RXQ - 1)) == 0, "RXQ: power of two");
-_Static_assert((RMD_SIM_BUS_HIST & (RMD_SIM_BUS_HIST - 1)) == 0, "HIST: power of two");
+_Static_assert((RMD_SIM_WIRE_TXQ & (RMD_SIM_WIRE_TXQ - 1)) == 0, "TXQ: power of two");
+_Static_assert((RMD_SIM_WIRE_MOTQ & (RMD_SIM_WIRE_MOTQ - 1)) == 0, "MOTQ: power of two");
+_Static_assert((RMD_SIM_WIRE_RXQ & (RMD_SIM_WIRE_RXQ - 1)) == 0, "RXQ: power of two");
+_Static_assert((RMD_SIM_WIRE_HIST & (RMD_SIM_WIRE_HIST - 1)) == 0, "HIST: power of two");
 
-/* ---- fault table helpers ------------------------------------------------- */
+/* ---- faults (rmd/sim_faults.h) -------------------------------------------- */
 
-static const char *const kind_names[RMD_SIM_FAULT_COUNT] = {
-	[RMD_SIM_FAULT_DROP] = "drop",
-	[RMD_SIM_FAULT_DELAY] = "delay",
-	[RMD_SIM_FAULT_BAD_DLC] = "bad_dlc",
-	[RMD_SIM_FAULT_GARBAGE] = "garbage",
-	[RMD_SIM_FAULT_WRONG_ID] = "wrong_id",
-	[RMD_SIM_FAULT_DISAPPEAR] = "disappear",
-	[RMD_SIM_FAULT_ERROR_FLAG] = "error_flag",
-	[RMD_SIM_FAULT_BUS_OFF] = "bus_off",
-	[RMD_SIM_FAULT_FLOOD] = "flood",
-};
-
-const char *rmd_sim_fault_kind_name(enum rmd_sim_fault_kind kind)
+/* The wire asks these per frame and per event: no table, no call. */
+static bool is_bus_off(const struct rmd_sim_wire *bus)
 {
-	return (unsigned)kind < RMD_SIM_FAULT_COUNT ? kind_names[kind] : NULL;
+	return bus->faults.n && rmd_sim_faults_bus_off(&bus->faults);
 }
 
-int rmd_sim_fault_kind_from_name(const char *name)
+static bool is_absent(const struct rmd_sim_wire *bus, unsigned i)
 {
-	for (int k = 0; name && k < RMD_SIM_FAULT_COUNT; k++)
-		if (strcmp(name, kind_names[k]) == 0)
-			return k;
-	return -EINVAL;
-}
-
-/* Kinds that act over a window rather than on single frames. */
-static bool window_kind(enum rmd_sim_fault_kind kind)
-{
-	switch (kind) {
-	case RMD_SIM_FAULT_DISAPPEAR:
-	case RMD_SIM_FAULT_ERROR_FLAG:
-	case RMD_SIM_FAULT_BUS_OFF:
-	case RMD_SIM_FAULT_FLOOD:
-		return true;
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_DELAY:
-	case RMD_SIM_FAULT_BAD_DLC:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_WRONG_ID:
-	case RMD_SIM_FAULT_COUNT:
-		break;
-	}
-	return false;
-}
-
-static bool window_open(const struct rmd_sim_fault *f, int64_t t)
-{
-	return t >= f->start_ns && (f->end_ns == 0 || t < f->end_ns);
-}
-
-static bool fault_hits(const struct rmd_sim_fault *f, const struct rmd_sim_motor *m)
-{
-	return f->motor_id == 0 || f->motor_id == m->p.id;
-}
-
-static bool is_bus_off(const struct rmd_sim_bus *bus)
-{
-	for (unsigned k = 0; k < bus->n_faults; k++)
-		if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_BUS_OFF)
-			return true;
-	return false;
-}
-
-static bool is_absent(const struct rmd_sim_bus *bus, unsigned i)
-{
-	for (unsigned k = 0; k < bus->n_faults; k++)
-		if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_DISAPPEAR &&
-		    fault_hits(&bus->faults[k], &bus->motors[i]))
-			return true;
-	return false;
-}
-
-static int validate_fault(const struct rmd_sim_fault *f)
-{
-	if ((unsigned)f->kind >= RMD_SIM_FAULT_COUNT || f->motor_id > RMD_MAX_MOTORS)
-		return -EINVAL;
-	if (f->end_ns != 0 && f->end_ns <= f->start_ns)
-		return -EINVAL;
-	if (!window_kind(f->kind) && !(f->probability >= 0.0 && f->probability <= 1.0))
-		return -EINVAL;
-	switch (f->kind) {
-	case RMD_SIM_FAULT_DELAY:
-		return f->param >= 0 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_BAD_DLC:
-		return f->param >= 0 && f->param < RMD_FRAME_LEN ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_WRONG_ID:
-		return f->param >= 1 && f->param <= RMD_MAX_MOTORS ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_DISAPPEAR:
-		return f->param == 0 || f->param == 1 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_ERROR_FLAG:
-		return f->param >= 0 && f->param <= 0xFFFF ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_BUS_OFF:
-		return f->motor_id == 0 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_FLOOD:
-		return f->motor_id == 0 && f->param > 0 && f->can_id <= 0x7FF ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_COUNT:
-		break;
-	}
-	return 0;
+	return bus->faults.n && rmd_sim_faults_absent(&bus->faults, bus->motors[i].p.id);
 }
 
 /* ---- queues --------------------------------------------------------------- */
 
-static void deliver_host(struct rmd_sim_bus *bus, const struct rmd_frame *f, int64_t t)
+static void deliver_host(struct rmd_sim_wire *bus, const struct rmd_frame *f, int64_t t)
 {
 	unsigned used = bus->rxq_head - bus->rxq_tail;
-	unsigned i = bus->rxq_head & (RMD_SIM_BUS_RXQ - 1);
+	unsigned i = bus->rxq_head & (RMD_SIM_WIRE_RXQ - 1);
 
-	if (used >= RMD_SIM_BUS_RXQ) {
+	if (used >= RMD_SIM_WIRE_RXQ) {
 		bus->stats.rxq_dropped++;
 		bus->stats.errors++;
 		return;
@@ -146,12 +54,12 @@ static void deliver_host(struct rmd_sim_bus *bus, const struct rmd_frame *f, int
 		bus->stats.rxq_hwm = used + 1;
 }
 
-static void push_motor_frame(struct rmd_sim_bus *bus, unsigned src, const struct rmd_frame *f,
+static void push_motor_frame(struct rmd_sim_wire *bus, unsigned src, const struct rmd_frame *f,
 			     int64_t ready_ns)
 {
 	struct rmd_sim_pending *p;
 
-	if (bus->motq_n >= RMD_SIM_BUS_MOTQ) {
+	if (bus->motq_n >= RMD_SIM_WIRE_MOTQ) {
 		bus->stats.motq_dropped++;
 		bus->stats.errors++;
 		return;
@@ -165,75 +73,29 @@ static void push_motor_frame(struct rmd_sim_bus *bus, unsigned src, const struct
 		bus->stats.motq_hwm = bus->motq_n;
 }
 
-/* Reply identifiers that carry the motor's ID as an offset. */
-static bool rebase_id(uint32_t *can_id, uint8_t own, uint8_t other)
-{
-	uint32_t base = *can_id - own;
-
-	if (base != RMD_CAN_REQ_BASE && base != RMD_CAN_V3_REPLY_BASE &&
-	    base != RMD_CAN_MIT_REPLY_BASE)
-		return false;
-	*can_id = base + other;
-	return true;
-}
-
 /*
  * A frame motor i transmits, produced at t: the per-frame faults act on it,
  * then it waits for the wire from ready_ns on.
  */
-static void motor_emit(struct rmd_sim_bus *bus, unsigned i, struct rmd_frame f, int64_t t,
+static void motor_emit(struct rmd_sim_wire *bus, unsigned i, struct rmd_frame f, int64_t t,
 		       int64_t ready_ns)
 {
-	struct rmd_sim_motor *m = &bus->motors[i];
-
-	for (unsigned k = 0; k < bus->n_faults; k++) {
-		const struct rmd_sim_fault *ft = &bus->faults[k];
-
-		if (window_kind(ft->kind) || !fault_hits(ft, m) || !window_open(ft, t))
-			continue;
-		if (!rmd_rng_roll(&bus->rng, ft->probability))
-			continue;
-		switch (ft->kind) {
-		case RMD_SIM_FAULT_DROP:
-			bus->stats.faults[ft->kind]++;
-			return;
-		case RMD_SIM_FAULT_DELAY:
-			ready_ns += ft->param;
-			break;
-		case RMD_SIM_FAULT_BAD_DLC:
-			f.len = (uint8_t)ft->param;
-			break;
-		case RMD_SIM_FAULT_GARBAGE:
-			for (unsigned j = 0; j < RMD_FRAME_LEN; j++)
-				f.data[j] = (uint8_t)rmd_rng_next(&bus->rng);
-			break;
-		case RMD_SIM_FAULT_WRONG_ID:
-			if (!rebase_id(&f.can_id, m->ram.can_id, (uint8_t)ft->param))
-				continue; /* 0x300 and the like carry no ID: not hit */
-			break;
-		case RMD_SIM_FAULT_DISAPPEAR:
-		case RMD_SIM_FAULT_ERROR_FLAG:
-		case RMD_SIM_FAULT_BUS_OFF:
-		case RMD_SIM_FAULT_FLOOD:
-		case RMD_SIM_FAULT_COUNT:
-			continue;
-		}
-		bus->stats.faults[ft->kind]++;
-	}
-	push_motor_frame(bus, i, &f, ready_ns);
+	if (!bus->faults.n || rmd_sim_faults_frame(&bus->faults, &bus->rng, bus->motors[i].p.id, t,
+						   &f, &ready_ns, bus->stats.faults))
+		push_motor_frame(bus, i, &f, ready_ns);
 }
 
 /* ---- the wire ------------------------------------------------------------- */
 
 /* Take the frame off the wire unfinished (bus-off, sender gone). */
-static void abort_wire(struct rmd_sim_bus *bus, int64_t t)
+static void abort_wire(struct rmd_sim_wire *bus, int64_t t)
 {
 	bus->wire_busy = false;
 	bus->wire_free_ns = t;
 }
 
 /* Discard the waiting frames of motor i (i < 0: of every motor). */
-static unsigned discard_motor_frames(struct rmd_sim_bus *bus, int i)
+static unsigned discard_motor_frames(struct rmd_sim_wire *bus, int i)
 {
 	unsigned n = 0;
 
@@ -249,17 +111,12 @@ static unsigned discard_motor_frames(struct rmd_sim_bus *bus, int i)
 }
 
 /* Make the motors' injected error bits those of the open ERROR_FLAG windows. */
-static void sync_error_flags(struct rmd_sim_bus *bus, int64_t t)
+static void sync_error_flags(struct rmd_sim_wire *bus, int64_t t)
 {
 	for (unsigned i = 0; i < bus->n_motors; i++) {
 		struct rmd_sim_motor *m = &bus->motors[i];
-		uint16_t bits = 0;
+		uint16_t bits = rmd_sim_faults_error_bits(&bus->faults, m->p.id);
 
-		for (unsigned k = 0; k < bus->n_faults; k++)
-			if (bus->fault_active[k] &&
-			    bus->faults[k].kind == RMD_SIM_FAULT_ERROR_FLAG &&
-			    fault_hits(&bus->faults[k], m))
-				bits |= (uint16_t)bus->faults[k].param;
 		if (bits != bus->injected[i]) {
 			rmd_sim_motor_step(m, t);
 			rmd_sim_motor_set_error(m, bits);
@@ -268,14 +125,14 @@ static void sync_error_flags(struct rmd_sim_bus *bus, int64_t t)
 	}
 }
 
-static void open_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
+/* What a window does as it opens (ERROR_FLAG: sync_error_flags(); FLOOD: start_frame()). */
+static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 {
-	const struct rmd_sim_fault *f = &bus->faults[k];
+	const struct rmd_sim_fault *f = &bus->faults.f[k];
 
-	switch (f->kind) {
-	case RMD_SIM_FAULT_DISAPPEAR:
+	if (f->kind == RMD_SIM_FAULT_DISAPPEAR) {
 		for (unsigned i = 0; i < bus->n_motors; i++) {
-			if (!fault_hits(f, &bus->motors[i]))
+			if (!rmd_sim_fault_hits(f, bus->motors[i].p.id))
 				continue;
 			/* Without power the drive lets go and the brake locks. */
 			if (f->param == 1)
@@ -286,8 +143,7 @@ static void open_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
 				bus->stats.absent_lost++;
 			}
 		}
-		break;
-	case RMD_SIM_FAULT_BUS_OFF: {
+	} else if (f->kind == RMD_SIM_FAULT_BUS_OFF) {
 		/* The controllers drop what they hold, like a SocketCAN restart. */
 		unsigned lost = bus->txq_n + discard_motor_frames(bus, -1) + bus->wire_busy;
 
@@ -296,66 +152,49 @@ static void open_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
 			abort_wire(bus, t);
 		bus->stats.busoff_lost += lost;
 		bus->stats.errors += lost;
-		break;
 	}
-	case RMD_SIM_FAULT_FLOOD:
-		bus->flood_next_ns[k] = f->start_ns;
-		return; /* FLOOD counts frames, not windows */
-	case RMD_SIM_FAULT_ERROR_FLAG:
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_DELAY:
-	case RMD_SIM_FAULT_BAD_DLC:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_WRONG_ID:
-	case RMD_SIM_FAULT_COUNT:
-		break;
-	}
-	bus->stats.faults[f->kind]++;
 }
 
-static void close_window(struct rmd_sim_bus *bus, unsigned k, int64_t t)
+static void close_window(struct rmd_sim_wire *bus, const struct rmd_sim_fault *f, int64_t t)
 {
-	const struct rmd_sim_fault *f = &bus->faults[k];
-
 	if (f->kind != RMD_SIM_FAULT_DISAPPEAR || f->param != 1)
 		return;
 	/* It lost power: it boots when it comes back. */
 	for (unsigned i = 0; i < bus->n_motors; i++)
-		if (fault_hits(f, &bus->motors[i]))
+		if (rmd_sim_fault_hits(f, bus->motors[i].p.id))
 			rmd_sim_motor_power_cycle(&bus->motors[i], t);
 }
 
-/* Open and close the windows as of time t. */
-static void apply_windows(struct rmd_sim_bus *bus, int64_t t)
+/* Open and close the windows as of time t, and act on what changed. */
+static void apply_windows(struct rmd_sim_wire *bus, int64_t t)
 {
+	uint32_t changed;
 	bool errors_changed = false;
 
-	for (unsigned k = 0; k < bus->n_faults; k++) {
-		bool open;
+	if (!bus->faults.n)
+		return;
+	changed = rmd_sim_faults_update(&bus->faults, t, bus->stats.faults);
 
-		if (!window_kind(bus->faults[k].kind))
+	for (unsigned k = 0; changed && k < bus->faults.n; k++) {
+		if (!(changed & (UINT32_C(1) << k)))
 			continue;
-		open = window_open(&bus->faults[k], t);
-		if (open == bus->fault_active[k])
-			continue;
-		bus->fault_active[k] = open;
-		if (open)
+		if (bus->faults.open[k])
 			open_window(bus, k, t);
 		else
-			close_window(bus, k, t);
-		errors_changed |= bus->faults[k].kind == RMD_SIM_FAULT_ERROR_FLAG;
+			close_window(bus, &bus->faults.f[k], t);
+		errors_changed |= bus->faults.f[k].kind == RMD_SIM_FAULT_ERROR_FLAG;
 	}
 	if (errors_changed)
 		sync_error_flags(bus, t);
 }
 
 /* The frame on the wire reaches its end of frame: everyone takes it. */
-static void finish_frame(struct rmd_sim_bus *bus)
+static void finish_frame(struct rmd_sim_wire *bus)
 {
 	const struct rmd_sim_pending *w = &bus->wire;
 	int64_t t = bus->wire_eof_ns;
-	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
-	unsigned h = bus->hist_n++ & (RMD_SIM_BUS_HIST - 1);
+	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
+	unsigned h = bus->hist_n++ & (RMD_SIM_WIRE_HIST - 1);
 
 	bus->wire_busy = false;
 	bus->stats.bits += bus->wire_bits;
@@ -377,7 +216,7 @@ static void finish_frame(struct rmd_sim_bus *bus)
 
 		if ((int)i == w->src || is_absent(bus, i))
 			continue;
-		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_BUS_MAX_REPLIES);
+		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int j = 0; j < n; j++)
 			motor_emit(bus, i, out[j], t, t + rmd_sim_motor_turnaround_ns(m));
 	}
@@ -386,9 +225,9 @@ static void finish_frame(struct rmd_sim_bus *bus)
 }
 
 /* The motors' unsolicited frames due by t. */
-static void poll_motors(struct rmd_sim_bus *bus, int64_t t)
+static void poll_motors(struct rmd_sim_wire *bus, int64_t t)
 {
-	struct rmd_frame out[RMD_SIM_BUS_MAX_REPLIES];
+	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
 	bool off = is_bus_off(bus);
 
 	for (unsigned i = 0; i < bus->n_motors; i++) {
@@ -398,7 +237,7 @@ static void poll_motors(struct rmd_sim_bus *bus, int64_t t)
 		/* Frames that did not fit stay due: a few rounds take them all. */
 		for (unsigned round = 0; round < 8 && rmd_sim_motor_next_event_ns(m) <= t;
 		     round++) {
-			int n = rmd_sim_motor_poll(m, t, out, RMD_SIM_BUS_MAX_REPLIES);
+			int n = rmd_sim_motor_poll(m, t, out, RMD_SIM_WIRE_MAX_REPLIES);
 
 			for (int j = 0; j < n; j++) {
 				if (absent) {
@@ -410,7 +249,7 @@ static void poll_motors(struct rmd_sim_bus *bus, int64_t t)
 					motor_emit(bus, i, out[j], t, t);
 				}
 			}
-			if (n < RMD_SIM_BUS_MAX_REPLIES)
+			if (n < RMD_SIM_WIRE_MAX_REPLIES)
 				break;
 		}
 	}
@@ -429,9 +268,9 @@ static bool wins(const struct rmd_sim_pending *a, const struct rmd_sim_pending *
 }
 
 /* The host frames allowed to compete: all, or only the oldest (FIFO). */
-static bool host_competes(const struct rmd_sim_bus *bus, unsigned j)
+static bool host_competes(const struct rmd_sim_wire *bus, unsigned j)
 {
-	if (!(bus->flags & RMD_SIM_BUS_HOST_FIFO))
+	if (!(bus->flags & RMD_SIM_WIRE_HOST_FIFO))
 		return true;
 	for (unsigned k = 0; k < bus->txq_n; k++)
 		if (bus->txq[k].seq < bus->txq[j].seq)
@@ -440,7 +279,7 @@ static bool host_competes(const struct rmd_sim_bus *bus, unsigned j)
 }
 
 /* Arbitration at t on an idle wire: the winner goes on the wire. */
-static void start_frame(struct rmd_sim_bus *bus, int64_t t)
+static void start_frame(struct rmd_sim_wire *bus, int64_t t)
 {
 	struct rmd_sim_pending flood;
 	const struct rmd_sim_pending *best = NULL;
@@ -465,15 +304,14 @@ static void start_frame(struct rmd_sim_bus *bus, int64_t t)
 			best_j = j;
 		}
 	}
-	for (unsigned k = 0; k < bus->n_faults; k++) {
+	for (unsigned k = 0; k < bus->faults.n; k++) {
 		struct rmd_sim_pending c = { 0 };
 
-		if (!bus->fault_active[k] || bus->faults[k].kind != RMD_SIM_FAULT_FLOOD ||
-		    bus->flood_next_ns[k] > t)
+		if (!rmd_sim_faults_flood_due(&bus->faults, k, t))
 			continue;
-		c.f.can_id = bus->faults[k].can_id;
+		c.f.can_id = bus->faults.f[k].can_id;
 		c.f.len = RMD_FRAME_LEN;
-		c.ready_ns = bus->flood_next_ns[k];
+		c.ready_ns = bus->faults.flood_next_ns[k];
 		c.src = RMD_SIM_SRC_FOREIGN;
 		if (!best || wins(&c, best)) {
 			flood = c;
@@ -489,10 +327,8 @@ static void start_frame(struct rmd_sim_bus *bus, int64_t t)
 	if (pool) {
 		pool[best_j] = pool[--*pool_n];
 	} else {
-		for (unsigned j = 0; j < RMD_FRAME_LEN; j++)
-			bus->wire.f.data[j] = (uint8_t)rmd_rng_next(&bus->rng);
-		bus->flood_next_ns[best_flood] += bus->faults[best_flood].param;
-		bus->stats.faults[RMD_SIM_FAULT_FLOOD]++;
+		rmd_sim_faults_flood_take(&bus->faults, best_flood, &bus->rng, &bus->wire.f,
+					  bus->stats.faults);
 	}
 	bus->wire_busy = true;
 	bus->wire_bits = rmd_can_frame_bits(&bus->wire.f);
@@ -507,7 +343,7 @@ static int64_t min64(int64_t a, int64_t b)
 }
 
 /* The next time after t at which something happens, capped at until. */
-static int64_t next_event(const struct rmd_sim_bus *bus, int64_t t, int64_t until)
+static int64_t next_event(const struct rmd_sim_wire *bus, int64_t t, int64_t until)
 {
 	int64_t n = until;
 
@@ -522,21 +358,10 @@ static int64_t next_event(const struct rmd_sim_bus *bus, int64_t t, int64_t unti
 		for (unsigned j = 0; j < bus->motq_n; j++)
 			if (bus->motq[j].ready_ns > t)
 				n = min64(n, bus->motq[j].ready_ns);
-		for (unsigned k = 0; k < bus->n_faults; k++)
-			if (bus->fault_active[k] && bus->faults[k].kind == RMD_SIM_FAULT_FLOOD &&
-			    bus->flood_next_ns[k] > t)
-				n = min64(n, bus->flood_next_ns[k]);
 	}
-	for (unsigned k = 0; k < bus->n_faults; k++) {
-		const struct rmd_sim_fault *f = &bus->faults[k];
-
-		if (!window_kind(f->kind))
-			continue;
-		if (f->start_ns > t)
-			n = min64(n, f->start_ns);
-		if (f->end_ns > t)
-			n = min64(n, f->end_ns);
-	}
+	/* window edges, and a flood's next frame (a no-op step while the wire is busy) */
+	if (bus->faults.n)
+		n = min64(n, rmd_sim_faults_next_ns(&bus->faults, t));
 	for (unsigned i = 0; i < bus->n_motors; i++) {
 		int64_t e = rmd_sim_motor_next_event_ns(&bus->motors[i]);
 
@@ -546,7 +371,7 @@ static int64_t next_event(const struct rmd_sim_bus *bus, int64_t t, int64_t unti
 	return n;
 }
 
-int rmd_sim_bus_advance(struct rmd_sim_bus *bus, int64_t until_ns)
+int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns)
 {
 	uint64_t delivered = bus->stats.rx_delivered;
 
@@ -574,45 +399,45 @@ int rmd_sim_bus_advance(struct rmd_sim_bus *bus, int64_t until_ns)
 
 /* ---- API ----------------------------------------------------------------- */
 
-int rmd_sim_bus_init(struct rmd_sim_bus *bus, uint32_t bitrate, uint64_t seed, unsigned flags)
+int rmd_sim_wire_init(struct rmd_sim_wire *bus, uint32_t bitrate, uint64_t seed, unsigned flags)
 {
-	if (bitrate == 0 || (flags & ~(unsigned)RMD_SIM_BUS_HOST_FIFO))
+	if (bitrate == 0 || (flags & ~(unsigned)RMD_SIM_WIRE_HOST_FIFO))
 		return -EINVAL;
 	memset(bus, 0, sizeof(*bus));
 	bus->bitrate = bitrate;
 	bus->flags = flags;
-	bus->txq_len = RMD_SIM_BUS_TXQ;
+	bus->txq_len = RMD_SIM_WIRE_TXQ;
 	bus->seed = seed;
 	bus->rng = rmd_rng_seed(seed);
 	return 0;
 }
 
-void rmd_sim_bus_fini(struct rmd_sim_bus *bus)
+void rmd_sim_wire_fini(struct rmd_sim_wire *bus)
 {
 	(void)bus;
 }
 
-int rmd_sim_bus_set_txqueuelen(struct rmd_sim_bus *bus, unsigned len)
+int rmd_sim_wire_set_txqueuelen(struct rmd_sim_wire *bus, unsigned len)
 {
-	if (len < 1 || len > RMD_SIM_BUS_TXQ)
+	if (len < 1 || len > RMD_SIM_WIRE_TXQ)
 		return -EINVAL;
 	bus->txq_len = len;
 	return 0;
 }
 
-int rmd_sim_bus_add_motor(struct rmd_sim_bus *bus, const struct rmd_sim_motor_params *p,
-			  int64_t now_ns)
+int rmd_sim_wire_add_motor(struct rmd_sim_wire *bus, const struct rmd_sim_motor_params *p,
+			   int64_t now_ns)
 {
 	struct rmd_sim_motor_params q = *p;
 	unsigned i = bus->n_motors;
 
 	if (p->id < 1 || p->id > RMD_MAX_MOTORS)
 		return -EINVAL;
-	if (rmd_sim_bus_motor(bus, p->id))
+	if (rmd_sim_wire_motor(bus, p->id))
 		return -EEXIST;
 	if (i >= RMD_MAX_MOTORS)
 		return -ENOSPC;
-	rmd_sim_bus_advance(bus, now_ns);
+	rmd_sim_wire_advance(bus, now_ns);
 	if (q.seed == 0)
 		q.seed = rmd_rng_seed(bus->seed ^ ((uint64_t)p->id << 56));
 	rmd_sim_motor_init(&bus->motors[i], &q, bus->now_ns);
@@ -622,13 +447,13 @@ int rmd_sim_bus_add_motor(struct rmd_sim_bus *bus, const struct rmd_sim_motor_pa
 	return (int)i;
 }
 
-void rmd_sim_bus_set_tap(struct rmd_sim_bus *bus, rmd_sim_bus_tap_fn *fn, void *ctx)
+void rmd_sim_wire_set_tap(struct rmd_sim_wire *bus, rmd_sim_wire_tap_fn *fn, void *ctx)
 {
 	bus->tap = fn;
 	bus->tap_ctx = ctx;
 }
 
-struct rmd_sim_motor *rmd_sim_bus_motor(struct rmd_sim_bus *bus, uint8_t id)
+struct rmd_sim_motor *rmd_sim_wire_motor(struct rmd_sim_wire *bus, uint8_t id)
 {
 	for (unsigned i = 0; i < bus->n_motors; i++)
 		if (bus->motors[i].p.id == id)
@@ -636,41 +461,29 @@ struct rmd_sim_motor *rmd_sim_bus_motor(struct rmd_sim_bus *bus, uint8_t id)
 	return NULL;
 }
 
-int rmd_sim_bus_set_faults(struct rmd_sim_bus *bus, const struct rmd_sim_fault *faults, size_t n)
+int rmd_sim_wire_set_faults(struct rmd_sim_wire *bus, const struct rmd_sim_fault *faults, size_t n)
 {
+	struct rmd_sim_faults old = bus->faults;
 	int r;
 
-	if (n > RMD_SIM_BUS_MAX_FAULTS)
-		return -E2BIG;
-	for (size_t k = 0; k < n; k++) {
-		r = validate_fault(&faults[k]);
-		if (r < 0)
-			return r;
-	}
+	r = rmd_sim_faults_set(&bus->faults, faults, n);
+	if (r < 0)
+		return r;
 	/* Close the old table's open windows now. */
-	for (unsigned k = 0; k < bus->n_faults; k++) {
-		if (bus->fault_active[k]) {
-			bus->fault_active[k] = false;
-			close_window(bus, k, bus->now_ns);
-		}
-	}
-	bus->n_faults = 0;
+	for (unsigned k = 0; k < old.n; k++)
+		if (old.open[k])
+			close_window(bus, &old.f[k], bus->now_ns);
 	sync_error_flags(bus, bus->now_ns);
-
-	if (n)
-		memcpy(bus->faults, faults, n * sizeof(*faults));
-	memset(bus->fault_active, 0, sizeof(bus->fault_active));
-	bus->n_faults = (unsigned)n;
 	apply_windows(bus, bus->now_ns);
 	return 0;
 }
 
-int rmd_sim_bus_send(struct rmd_sim_bus *bus, int64_t now_ns, const struct rmd_frame *frames,
-		     unsigned n)
+int rmd_sim_wire_send(struct rmd_sim_wire *bus, int64_t now_ns, const struct rmd_frame *frames,
+		      unsigned n)
 {
 	unsigned taken = 0;
 
-	rmd_sim_bus_advance(bus, now_ns);
+	rmd_sim_wire_advance(bus, now_ns);
 	if (is_bus_off(bus)) {
 		bus->stats.busoff_lost += n;
 		bus->stats.errors += n;
@@ -701,12 +514,12 @@ int rmd_sim_bus_send(struct rmd_sim_bus *bus, int64_t now_ns, const struct rmd_f
 	return (int)taken;
 }
 
-int rmd_sim_bus_recv(struct rmd_sim_bus *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns)
+int rmd_sim_wire_recv(struct rmd_sim_wire *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns)
 {
 	unsigned n = 0;
 
 	while (n < max && bus->rxq_tail != bus->rxq_head) {
-		unsigned i = bus->rxq_tail++ & (RMD_SIM_BUS_RXQ - 1);
+		unsigned i = bus->rxq_tail++ & (RMD_SIM_WIRE_RXQ - 1);
 
 		out[n] = bus->rxq[i];
 		if (t_ns)
@@ -716,7 +529,7 @@ int rmd_sim_bus_recv(struct rmd_sim_bus *bus, struct rmd_frame *out, unsigned ma
 	return (int)n;
 }
 
-enum rmd_bus_state rmd_sim_bus_state(const struct rmd_sim_bus *bus)
+enum rmd_bus_state rmd_sim_wire_state(const struct rmd_sim_wire *bus)
 {
 	return is_bus_off(bus) ? RMD_BUS_OFF : RMD_BUS_ACTIVE;
 }
@@ -729,15 +542,15 @@ static int64_t overlap(int64_t a0, int64_t a1, int64_t b0, int64_t b1)
 	return hi > lo ? hi - lo : 0;
 }
 
-int rmd_sim_bus_load(const struct rmd_sim_bus *bus, int64_t window_ns, double *pct)
+int rmd_sim_wire_load(const struct rmd_sim_wire *bus, int64_t window_ns, double *pct)
 {
 	int64_t to = bus->now_ns, from = to - window_ns, busy = 0;
-	unsigned kept = bus->hist_n < RMD_SIM_BUS_HIST ? bus->hist_n : RMD_SIM_BUS_HIST;
+	unsigned kept = bus->hist_n < RMD_SIM_WIRE_HIST ? bus->hist_n : RMD_SIM_WIRE_HIST;
 
 	if (window_ns <= 0)
 		return -EINVAL;
-	if (bus->hist_n > RMD_SIM_BUS_HIST &&
-	    bus->hist_start_ns[bus->hist_n & (RMD_SIM_BUS_HIST - 1)] > from)
+	if (bus->hist_n > RMD_SIM_WIRE_HIST &&
+	    bus->hist_start_ns[bus->hist_n & (RMD_SIM_WIRE_HIST - 1)] > from)
 		return -ERANGE;
 	for (unsigned j = 0; j < kept; j++)
 		busy += overlap(bus->hist_start_ns[j], bus->hist_free_ns[j], from, to);
@@ -747,7 +560,7 @@ int rmd_sim_bus_load(const struct rmd_sim_bus *bus, int64_t window_ns, double *p
 	return 0;
 }
 
-unsigned rmd_sim_bus_pending(const struct rmd_sim_bus *bus)
+unsigned rmd_sim_wire_pending(const struct rmd_sim_wire *bus)
 {
 	return bus->txq_n + bus->motq_n;
 }

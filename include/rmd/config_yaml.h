@@ -1,0 +1,48 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * rmdd's configuration from a YAML file (DESIGN.md layer 7): the file ->
+ * struct rmd_config (rmd/config.h) and, for its sim buses, struct
+ * rmd_sim_setup (rmd/sim_setup.h).
+ *
+ * The file is read into a small tree that remembers the line of every key
+ * and value, and walked against schema tables (src/config/config_yaml.c):
+ * every key is checked for its type and range, every unknown key is
+ * refused with the list of allowed ones, and every error names the file,
+ * the line and the key path and says what is allowed:
+ *
+ *   sim-12.yaml:14: motors[3].id: 40 is out of range (1..32)
+ *   x.yaml:7: buses[0].type: "canbus" is not one of socketcan, rs485, sim
+ *
+ * The simulated motor's keys (`sim.motor:`, `motors[].sim:`) are the rows
+ * of the simulator's parameter table, as rmd-sim reads them.
+ */
+#ifndef RMD_CONFIG_YAML_H
+#define RMD_CONFIG_YAML_H
+
+#include <stddef.h>
+
+#include "rmd/config.h"
+#include "rmd/sim_setup.h"
+
+/*
+ * Load and validate the YAML file at `path` into *cfg, and the sim
+ * buses' simulator settings into *sim (may be NULL: checked, then
+ * dropped), defaults for what it leaves out.  Returns 0, -errno when the
+ * file cannot be read, or -EINVAL for a file with errors; err then holds
+ * one line per error (up to a few dozen, joined with '\n', no trailing
+ * newline), each naming the file, the line and the key.  *cfg and *sim are
+ * unspecified after a failure.  Non-rt: allocates while parsing, frees
+ * before it returns.
+ */
+int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_setup *sim, char *err,
+		    size_t errlen);
+
+/*
+ * The configuration `rmdd --sim` runs: `nmotors` (1..RMD_MAX_MOTORS) V3
+ * torque-mode motors with the simulator's default model, three per 1 Mbit/s
+ * sim bus (the most that fit at 1 kHz, DESIGN.md), at 1 kHz, and their
+ * simulator settings in *sim (may be NULL).  Returns 0 or -EINVAL.  Non-rt.
+ */
+int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, unsigned nmotors);
+
+#endif /* RMD_CONFIG_YAML_H */

@@ -1,0 +1,55 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The simulator's settings for a configuration (DESIGN.md layer 3): per
+ * sim bus its wire (seed, host queue), its motor model and its fault
+ * table; per motor its own model.  rmdd's YAML loader fills it from the
+ * `sim:` sections (rmd/config_yaml.h) beside struct rmd_config, which
+ * knows nothing of the simulator; the bus layer opens a sim bus from both.
+ *
+ * Plain fixed-size structs, no pointers: the caller allocates (about 35 KiB).
+ */
+#ifndef RMD_SIM_SETUP_H
+#define RMD_SIM_SETUP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "rmd/frame.h"
+#include "rmd/sim.h"
+#include "rmd/sim_faults.h"
+
+/* SocketCAN's default txqueuelen (DESIGN.md), a sim bus's host queue too. */
+#define RMD_SIM_DEFAULT_TXQUEUELEN 10
+
+/* One sim bus's simulator: wire (rmd/sim_wire.h), motor model, faults (rmd/sim_faults.h). */
+struct rmd_sim_bus_setup {
+	uint64_t seed;	     /* faults' and motors' PRNG; 0: 1 */
+	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_WIRE_TXQ */
+	bool host_fifo;	     /* RMD_SIM_WIRE_HOST_FIFO: frames leave in send order */
+	/*
+	 * The model of every motor on this bus (id, proto, kt_nm_a, gear_ratio
+	 * and mit are the motor's own: see struct rmd_sim_setup.motors).
+	 */
+	struct rmd_sim_motor_params motor;
+	struct rmd_sim_fault faults[RMD_SIM_MAX_FAULTS];
+	unsigned n_faults;
+};
+
+struct rmd_sim_setup {
+	struct rmd_sim_bus_setup buses[RMD_MAX_BUSES]; /* as rmd_config.buses[] */
+	/*
+	 * The simulated motor of rmd_config.motors[i] on a sim bus: its bus's
+	 * model with the motor's overrides, id, proto, kt (when given), gear
+	 * ratio and MIT ranges.
+	 */
+	struct rmd_sim_motor_params motors[RMD_MAX_MOTORS];
+};
+
+/*
+ * A sim bus's defaults: `seed`, SocketCAN's queue length, FIFO host queue,
+ * the default motor model (rmd_sim_motor_params_default(), id 1, V3), no
+ * faults.  rt-safe.
+ */
+void rmd_sim_bus_setup_default(struct rmd_sim_bus_setup *b, uint64_t seed);
+
+#endif /* RMD_SIM_SETUP_H */

@@ -1,0 +1,895 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdd's configuration file (rmd/config_yaml.h): YAML -> struct rmd_config
+ * and struct rmd_sim_setup.  Non-rt.
+ *
+ * The generic work, the document tree and walking it against schema tables,
+ * is yaml_schema.c; this file holds rmdd's tables and the checks across
+ * keys (validate_*): a motor's bus exists, IDs are unique per bus, names
+ * are unique, protocol and mode agree, ranges are ordered, keys belong to
+ * the bus type; sim buses get their motors' model parameters.  Every error
+ * goes through rmd_yaml_report(): "FILE:LINE: key.path: message".
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rmd/config_yaml.h"
+#include "rmd/sim_params.h"
+#include "rmd/sim_wire.h"
+#include "yaml_schema.h"
+
+/* struct yctx.bad[] masks (struct field.mark). */
+enum { MARK_BUS = 1, MARK_MOTOR = 2 };
+
+#define SEQM(k, st, m, cnt, el, ini, mk)                                                           \
+	{                                                                                          \
+		.key = k, .type = T_SEQ, .off = offsetof(st, m),                                   \
+		.size = sizeof(((st *)0)->m) / sizeof(((st *)0)->m[0]), .elem = el,                \
+		.elem_size = sizeof(((st *)0)->m[0]), .count_off = offsetof(st, cnt), .init = ini, \
+		.mark = mk                                                                         \
+	}
+
+/* ------------------------------------------------------------------ */
+/* rmdd's schema */
+
+static const char prio_why[] =
+	"the kernel's IRQ threads run at SCHED_FIFO 50 and deliver this loop's own replies; a "
+	"loop at 50 or above starves them (DESIGN.md), and 99 is the kernel's own level";
+
+static const struct field loop_fields[] = {
+	UINT("rate_hz", struct rmd_config_loop, rate_hz, 1, RMD_CONFIG_RATE_MAX_HZ, 0),
+	UINTW("rt_priority", struct rmd_config_loop, rt_priority, 1, RMD_CONFIG_PRIO_MAX, prio_why),
+	{ .key = "cpu_affinity",
+	  .type = T_SEQ,
+	  .off = offsetof(struct rmd_config_loop, cpus),
+	  .size = RMD_CONFIG_MAX_CPUS,
+	  .elem = &(const struct field){ .type = T_UINT, .size = sizeof(uint16_t), .max = 1023 },
+	  .elem_size = sizeof(uint16_t),
+	  .count_off = offsetof(struct rmd_config_loop, n_cpus) },
+	END
+};
+
+static const struct field safety_fields[] = {
+	UINT("comm_loss_ms", struct rmd_config_safety, comm_loss_ms, 0, 600000, 0),
+	UINT("missed_replies_lost", struct rmd_config_safety, missed_replies_lost, 1, 10000, 0),
+	UINT("command_timeout_ms", struct rmd_config_safety, command_timeout_ms, 1, 600000, 0),
+	ENUM("safe_action", struct rmd_config_safety, safe_action, rmd_safe_action_names, 0),
+	ENUM("lost_motor_action", struct rmd_config_safety, lost_motor_action,
+	     rmd_lost_action_names, 0),
+	END
+};
+
+static const struct field probe_fields[] = {
+	ENUM("on_missing", struct rmd_config_probe, on_missing, rmd_on_missing_names, 0), END
+};
+
+static const struct field lcm_fields[] = {
+	STR("url", struct rmd_config_lcm, url, 0),
+	STR("channel_prefix", struct rmd_config_lcm, channel_prefix, 0),
+	UINT("state_every_n", struct rmd_config_lcm, state_every_n, 1, 10000, 0),
+	UINT("stale_ms", struct rmd_config_lcm, stale_ms, 0, 600000, 0),
+	UINT("health_period_ms", struct rmd_config_lcm, health_period_ms, 10, 600000, 0),
+	END
+};
+
+/*
+ * The simulated motor's model: bus-wide (sim.motor) or per motor
+ * (motors[].sim).  Its keys are the rows of the simulator's parameter
+ * table (rmd/sim_params.h), the ones rmd-sim reads, but for those the motor
+ * entry sets itself (protocol, mit), plus the motor's PRNG seed.
+ */
+#define SIM_MOTOR_FIELDS 64
+static struct field sim_motor_fields[SIM_MOTOR_FIELDS];
+
+/* T_TEXT: a parameter row's own parser (model, version_date). */
+static int sim_param_text(const struct field *f, const char *text, void *dst, char *allowed,
+			  size_t size)
+{
+	const struct rmd_sim_param *row = f->ctx;
+	struct rmd_sim_motor_params scratch;
+	int r;
+
+	rmd_sim_motor_params_default(&scratch, 1, RMD_PROTO_V3);
+	r = rmd_sim_param_parse(&scratch, row, text, allowed, size);
+	if (r == 0)
+		memcpy(dst, (const char *)&scratch + row->off, rmd_sim_param_size(row));
+	return r;
+}
+
+/* sim_motor_fields[] from the table, once.  Non-rt, not thread-safe (the loader is neither). */
+static void sim_motor_fields_build(void)
+{
+	unsigned n = 0;
+
+	if (sim_motor_fields[0].key)
+		return;
+	for (size_t i = 0; i < rmd_sim_n_params && n + 2 < SIM_MOTOR_FIELDS; i++) {
+		const struct rmd_sim_param *row = &rmd_sim_params[i];
+		struct field *f = &sim_motor_fields[n];
+
+		if (row->flags & RMD_SIM_PARAM_MOTOR_KEY)
+			continue;
+		*f = (struct field){ .key = row->key,
+				     .off = row->off,
+				     .min = row->min,
+				     .max = row->max,
+				     .flags = row->min_excl ? F_MIN_EXCL : 0 };
+		switch (row->type) {
+		case RMD_SIM_PARAM_US:
+			f->scale = 1000.0; /* µs -> the ns field */
+					   /* fall through */
+		case RMD_SIM_PARAM_REAL:
+			f->type = T_DOUBLE;
+			break;
+		case RMD_SIM_PARAM_UINT:
+			f->type = T_UINT;
+			f->size = sizeof(unsigned);
+			break;
+		case RMD_SIM_PARAM_BOOL:
+			f->type = T_BOOL;
+			break;
+		case RMD_SIM_PARAM_PROTO:
+		case RMD_SIM_PARAM_MODEL:
+		case RMD_SIM_PARAM_VERSION:
+		case RMD_SIM_PARAM_MIT:
+			f->type = T_TEXT;
+			f->parse = sim_param_text;
+			f->ctx = row;
+			break;
+		}
+		n++;
+	}
+	sim_motor_fields[n++] = (struct field)UINT("seed", struct rmd_sim_motor_params, seed, 0,
+						   18446744073709551615.0, 0);
+	sim_motor_fields[n] = (struct field)END;
+}
+
+static void fault_init(void *elem)
+{
+	struct rmd_sim_fault *f = elem;
+
+	memset(f, 0, sizeof(*f));
+	f->probability = 1.0;
+}
+
+#define F struct rmd_sim_fault
+static const struct field fault_fields[] = {
+	ENUM("kind", F, kind, rmd_sim_fault_kind_names, F_REQUIRED),
+	UINT("motor", F, motor_id, 0, RMD_MAX_MOTORS, 0),
+	DBL("probability", F, probability, 0, 1, 0), NS("start_s", F, start_ns, 0, 1e6, 1e9),
+	NS("end_s", F, end_ns, 0, 1e6, 1e9), INT("param", F, param, -1e15, 1e15, 0),
+	/* rmd-sim's units: delay:ID:US, flood:..:PERIOD_US */
+	NS("delay_us", F, param, 0, 1e7, 1000.0), NS("period_us", F, param, 0, 1e7, 1000.0),
+	UINT("can_id", F, can_id, 0, 0x7FF, 0), END
+};
+#undef F
+
+static const struct field fault_elem = { .type = T_MAP, .sub = fault_fields };
+
+#define S struct rmd_sim_bus_setup
+static const struct field sim_fields[] = {
+	UINT("seed", S, seed, 0, 18446744073709551615.0, 0),
+	UINT("txqueuelen", S, txqueuelen, 1, RMD_SIM_WIRE_TXQ, 0),
+	BOOL("host_fifo", S, host_fifo),
+	MAP("motor", S, motor, sim_motor_fields),
+	SEQ("faults", S, faults, n_faults, &fault_elem, fault_init),
+	END
+};
+#undef S
+
+#define B struct rmd_config_bus
+static const struct field bus_fields[] = { STR("name", B, name, F_REQUIRED | F_IDENT),
+					   ENUM("type", B, kind, rmd_bus_kind_names, F_REQUIRED),
+					   STR("interface", B, interface, 0),
+					   STR("device", B, device, 0),
+					   UINT("baud", B, baud, 1, 100000000, 0),
+					   UINT("bitrate", B, bitrate, 1, 100000000, 0),
+					   NS("turnaround_us", B, turnaround_ns, 0, 1e6, 1000.0),
+					   LATER("sim"),
+					   END };
+#undef B
+
+#define L struct rmd_config_limits
+static const struct field limits_fields[] = {
+	DBL("position_min_rad", L, position_min_rad, -1e6, 1e6, 0),
+	DBL("position_max_rad", L, position_max_rad, -1e6, 1e6, 0),
+	DBL("velocity_rad_s", L, velocity_rad_s, 0, 1e4, F_MIN_EXCL),
+	DBL("torque_nm", L, torque_nm, 0, 1e5, F_MIN_EXCL), END
+};
+#undef L
+
+#define R struct rmd_mit_ranges
+static const struct field mit_fields[] = { DBL("p_min", R, p_min, -1e6, 1e6, 0),
+					   DBL("p_max", R, p_max, -1e6, 1e6, 0),
+					   DBL("v_min", R, v_min, -1e6, 1e6, 0),
+					   DBL("v_max", R, v_max, -1e6, 1e6, 0),
+					   DBL("t_min", R, t_min, -1e6, 1e6, 0),
+					   DBL("t_max", R, t_max, -1e6, 1e6, 0),
+					   DBL("kp_min", R, kp_min, 0, 1e6, 0),
+					   DBL("kp_max", R, kp_max, 0, 1e6, 0),
+					   DBL("kd_min", R, kd_min, 0, 1e6, 0),
+					   DBL("kd_max", R, kd_max, 0, 1e6, 0),
+					   END };
+#undef R
+
+#define M struct rmd_config_motor
+static const struct field motor_fields[] = {
+	STR("name", M, name, F_REQUIRED | F_IDENT),
+	LATER("bus"),
+	UINT("id", M, id, 1, RMD_MAX_MOTORS, F_REQUIRED),
+	ENUM("protocol", M, proto, rmd_proto_keys, 0),
+	ENUM("mode", M, mode, rmd_mode_names, F_REQUIRED),
+	INT("direction", M, direction, -1, 1, F_SIGN),
+	DBL("gear_ratio", M, gear_ratio, 0, 1e4, F_MIN_EXCL),
+	ENUM("units", M, units, rmd_units_names, 0),
+	DBL("zero_offset_rad", M, zero_offset_rad, -1e6, 1e6, 0),
+	DBL("torque_constant_nm_a", M, torque_constant_nm_a, 0, 1e4, F_MIN_EXCL),
+	MAP("limits", M, limits, limits_fields),
+	MAP("mit", M, mit, mit_fields),
+	UINT("rate_divisor", M, rate_divisor, 1, RMD_CONFIG_DIVISOR_MAX, 0),
+	DBL("status_poll_hz", M, status_poll_hz, 0, RMD_CONFIG_RATE_MAX_HZ, 0),
+	LATER("sim"),
+	END
+};
+#undef M
+
+/* SEQ init hooks: an entry starts from the model's defaults. */
+static void bus_init(void *elem)
+{
+	rmd_config_bus_defaults(elem);
+}
+
+static void motor_init(void *elem)
+{
+	rmd_config_motor_defaults(elem);
+}
+
+static const struct field bus_elem = { .type = T_MAP, .sub = bus_fields };
+static const struct field motor_elem = { .type = T_MAP, .sub = motor_fields };
+
+#define C struct rmd_config
+static const struct field top_fields[] = {
+	MAP("loop", C, loop, loop_fields),
+	MAP("safety", C, safety, safety_fields),
+	MAP("probe", C, probe, probe_fields),
+	MAP("lcm", C, lcm, lcm_fields),
+	SEQM("buses", C, buses, n_buses, &bus_elem, bus_init, MARK_BUS),
+	SEQM("motors", C, motors, n_motors, &motor_elem, motor_init, MARK_MOTOR),
+	END
+};
+#undef C
+
+/* ------------------------------------------------------------------ */
+/* The simulator's settings */
+
+/* Every bus and motor of the simulator's settings at its defaults. */
+static void sim_setup_default(struct rmd_sim_setup *sim)
+{
+	for (unsigned b = 0; b < RMD_MAX_BUSES; b++)
+		rmd_sim_bus_setup_default(&sim->buses[b], 1);
+	for (unsigned i = 0; i < RMD_MAX_MOTORS; i++)
+		sim->motors[i] = sim->buses[0].motor;
+}
+
+/*
+ * Each bus's `sim:` section into the simulator's settings (beside struct
+ * rmd_config, so not in bus_fields' offsets); errors there mark the bus.
+ */
+static void walk_bus_sims(struct yctx *c, const struct rmd_config *cfg, struct rmd_sim_setup *sim,
+			  const struct ynode *seq)
+{
+	static const struct field f = { .type = T_MAP, .sub = sim_fields };
+	char path[PATH_LEN];
+
+	for (unsigned i = 0; seq && seq->kind == Y_SEQ && i < cfg->n_buses; i++) {
+		const struct ynode *sn = rmd_yaml_get(seq->kids[i], "sim", NULL);
+		unsigned before = c->nerr;
+
+		if (!sn)
+			continue;
+		snprintf(path, sizeof(path), "buses[%u].sim", i);
+		rmd_yaml_walk_value(c, sn, &f, &sim->buses[i], path);
+		if (c->nerr != before)
+			c->bad[MARK_BUS - 1] |= 1u << i;
+	}
+}
+
+/* ------------------------------------------------------------------ */
+/* Checks across keys */
+
+/* Bus key `key` of value v must be one of set[n]: "%u is not <what>". */
+static void rate_in(struct yctx *c, const struct ynode *bn, const char *path, const char *key,
+		    uint32_t v, const uint32_t *set, size_t n, const char *what)
+{
+	char kp[PATH_LEN];
+
+	for (size_t i = 0; i < n; i++)
+		if (set[i] == v)
+			return;
+	rmd_yaml_path_key(kp, path, key);
+	rmd_yaml_report(c, rmd_yaml_line_of(bn, key), kp, "%u is not %s", v, what);
+}
+
+/* A key that the bus's type does not use. */
+static void bus_key_unused(struct yctx *c, const struct ynode *bn, const char *path,
+			   const char *key, const struct rmd_config_bus *b, const char *which)
+{
+	unsigned kl;
+	char kp[PATH_LEN];
+
+	if (!rmd_yaml_get(bn, key, &kl))
+		return;
+	rmd_yaml_path_key(kp, path, key);
+	rmd_yaml_report(c, kl, kp, "only for type %s (this bus is %s)", which,
+			rmd_bus_kind_name(b->kind));
+}
+
+static void validate_sim_model(struct yctx *c, const struct rmd_sim_motor_params *p,
+			       const struct ynode *n, const char *path)
+{
+	char kp[PATH_LEN];
+
+	if (p->over_temp_clear_c > p->over_temp_c) {
+		rmd_yaml_path_key(kp, path, "over_temp_clear_c");
+		rmd_yaml_report(c, rmd_yaml_line_of(n, "over_temp_clear_c"), kp,
+				"%g is above over_temp_c (%g): the fault would never clear",
+				p->over_temp_clear_c, p->over_temp_c);
+	}
+	if (p->under_voltage_v >= p->over_voltage_v) {
+		rmd_yaml_path_key(kp, path, "under_voltage_v");
+		rmd_yaml_report(c, rmd_yaml_line_of(n, "under_voltage_v"), kp,
+				"%g must be below over_voltage_v (%g)", p->under_voltage_v,
+				p->over_voltage_v);
+	}
+}
+
+static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_sim_setup *sim,
+			   const struct ynode *seq)
+{
+	static const uint32_t can_rates[] = { 500000, 1000000 };
+	static const uint32_t bauds[] = { 115200, 500000, 1000000, 1500000, 2000000 };
+	char path[PATH_LEN], kp[PATH_LEN];
+
+	for (unsigned i = 0; i < cfg->n_buses; i++) {
+		struct rmd_config_bus *b = &cfg->buses[i];
+		const struct ynode *bn = seq->kids[i];
+
+		b->line = bn->line;
+		rmd_yaml_path_idx(path, "buses", i);
+		if (bn->kind != Y_MAP)
+			continue;
+		for (unsigned j = 0; j < i; j++) {
+			if (b->name[0] && !strcmp(cfg->buses[j].name, b->name)) {
+				rmd_yaml_path_key(kp, path, "name");
+				rmd_yaml_report(c, rmd_yaml_line_of(bn, "name"), kp,
+						"\"%s\" is already the name of buses[%u] (line %u)",
+						b->name, j, cfg->buses[j].line);
+				break;
+			}
+		}
+		if (c->bad[MARK_BUS - 1] & (1u << i))
+			continue;
+		switch (b->kind) {
+		case RMD_BUS_KIND_SOCKETCAN:
+			bus_key_unused(c, bn, path, "device", b, "rs485");
+			bus_key_unused(c, bn, path, "baud", b, "rs485");
+			bus_key_unused(c, bn, path, "turnaround_us", b, "rs485");
+			bus_key_unused(c, bn, path, "sim", b, "sim");
+			rmd_yaml_path_key(kp, path, "interface");
+			if (!rmd_yaml_get(bn, "interface", NULL)) {
+				if (strlen(b->name) >= sizeof(b->interface))
+					rmd_yaml_report(
+						c, bn->line, kp,
+						"required: the name \"%s\" is too long for an "
+						"interface name (at most %zu characters)",
+						b->name, sizeof(b->interface) - 1);
+				else
+					memcpy(b->interface, b->name, strlen(b->name) + 1);
+			} else if (!b->interface[0] || strpbrk(b->interface, "/: \t") ||
+				   !strcmp(b->interface, ".") || !strcmp(b->interface, "..")) {
+				rmd_yaml_report(c, rmd_yaml_line_of(bn, "interface"), kp,
+						"\"%s\" is not a network interface name",
+						b->interface);
+			}
+			rate_in(c, bn, path, "bitrate", b->bitrate, can_rates, 2,
+				"a bitrate RMD motors speak (V3 §2.31: 500000 or 1000000)");
+			break;
+		case RMD_BUS_KIND_RS485:
+			bus_key_unused(c, bn, path, "interface", b, "socketcan");
+			bus_key_unused(c, bn, path, "bitrate", b, "socketcan or sim");
+			bus_key_unused(c, bn, path, "sim", b, "sim");
+			rmd_yaml_path_key(kp, path, "device");
+			if (!rmd_yaml_get(bn, "device", NULL))
+				rmd_yaml_report(c, bn->line, kp,
+						"required for type rs485 (e.g. /dev/ttyUSB0)");
+			else if (b->device[0] != '/')
+				rmd_yaml_report(c, rmd_yaml_line_of(bn, "device"), kp,
+						"\"%s\" is not a device path (e.g. /dev/ttyUSB0)",
+						b->device);
+			rate_in(c, bn, path, "baud", b->baud, bauds, 5,
+				"a baud rate RMD motors speak (V3 §1.2.1: 115200, 500000, "
+				"1000000, 1500000, 2000000)");
+			break;
+		case RMD_BUS_KIND_SIM: {
+			const struct ynode *sn = rmd_yaml_get(bn, "sim", NULL);
+
+			bus_key_unused(c, bn, path, "interface", b, "socketcan");
+			bus_key_unused(c, bn, path, "device", b, "rs485");
+			bus_key_unused(c, bn, path, "baud", b, "rs485");
+			bus_key_unused(c, bn, path, "turnaround_us", b, "rs485");
+			if (b->bitrate < 10000 || b->bitrate > 1000000) {
+				rmd_yaml_path_key(kp, path, "bitrate");
+				rmd_yaml_report(c, rmd_yaml_line_of(bn, "bitrate"), kp,
+						"%u is out of range (10000..1000000 for a sim bus)",
+						b->bitrate);
+			}
+			rmd_yaml_path_key(kp, path, "sim.motor");
+			validate_sim_model(c, &sim->buses[i].motor, rmd_yaml_get(sn, "motor", NULL),
+					   kp);
+			break;
+		}
+		}
+	}
+}
+
+/* A fault entry's key that only kind `kind` takes. */
+static void only_for(struct yctx *c, const struct ynode *fn, const char *path, const char *key,
+		     enum rmd_sim_fault_kind have, enum rmd_sim_fault_kind kind)
+{
+	char kp[PATH_LEN];
+
+	if (have == kind || !rmd_yaml_get(fn, key, NULL))
+		return;
+	rmd_yaml_path_key(kp, path, key);
+	rmd_yaml_report(c, rmd_yaml_line_of(fn, key), kp, "only for kind %s",
+			rmd_sim_fault_kind_name(kind));
+}
+
+/* The fault entries of sim bus i, once its motors are known. */
+static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
+			    const struct rmd_sim_setup *sim, unsigned bi, const struct ynode *bn)
+{
+	const struct rmd_config_bus *b = &cfg->buses[bi];
+	const struct rmd_sim_bus_setup *sb = &sim->buses[bi];
+	const struct ynode *faults = rmd_yaml_get(rmd_yaml_get(bn, "sim", NULL), "faults", NULL);
+	char path[PATH_LEN], kp[PATH_LEN];
+
+	for (unsigned i = 0; i < sb->n_faults && faults && faults->kind == Y_SEQ; i++) {
+		const struct rmd_sim_fault *f = &sb->faults[i];
+		const struct ynode *fn = faults->kids[i];
+		const char *kind = rmd_sim_fault_kind_names[f->kind];
+		bool bus_wide = f->kind == RMD_SIM_FAULT_BUS_OFF || f->kind == RMD_SIM_FAULT_FLOOD;
+		bool found = false;
+		int64_t lo = 0, hi = 0;
+		const char *what = NULL;
+
+		snprintf(path, sizeof(path), "buses[%u].sim.faults[%u]", bi, i);
+		if (bus_wide && f->motor_id) {
+			rmd_yaml_path_key(kp, path, "motor");
+			rmd_yaml_report(c, rmd_yaml_line_of(fn, "motor"), kp,
+					"%s acts on the whole bus: leave motor out (or 0)", kind);
+		}
+		for (unsigned m = 0; m < cfg->n_motors && f->motor_id; m++)
+			if (cfg->motors[m].bus == bi && cfg->motors[m].id == f->motor_id)
+				found = true;
+		if (f->motor_id && !found && !bus_wide) {
+			rmd_yaml_path_key(kp, path, "motor");
+			rmd_yaml_report(c, rmd_yaml_line_of(fn, "motor"), kp,
+					"no motor with id %u on bus %s", f->motor_id, b->name);
+		}
+		if (f->end_ns && f->end_ns <= f->start_ns) {
+			rmd_yaml_path_key(kp, path, "end_s");
+			rmd_yaml_report(c, rmd_yaml_line_of(fn, "end_s"), kp,
+					"must be after start_s, or 0 to leave the window open");
+		}
+		switch (f->kind) {
+		case RMD_SIM_FAULT_DROP:
+		case RMD_SIM_FAULT_GARBAGE:
+		case RMD_SIM_FAULT_BUS_OFF:
+		case RMD_SIM_FAULT_COUNT:
+			break;
+		case RMD_SIM_FAULT_DELAY:
+			lo = 0, hi = INT64_C(10000000000), what = "the delay in ns";
+			break;
+		case RMD_SIM_FAULT_BAD_DLC:
+			lo = 0, hi = 7, what = "the DLC";
+			break;
+		case RMD_SIM_FAULT_WRONG_ID:
+			lo = 1, hi = RMD_MAX_MOTORS, what = "the motor id whose identifier is used";
+			break;
+		case RMD_SIM_FAULT_DISAPPEAR:
+			lo = 0, hi = 1, what = "1 when the motor loses power";
+			break;
+		case RMD_SIM_FAULT_ERROR_FLAG:
+			lo = 1, hi = 0xFFFF, what = "the error bits (V3 §2.12)";
+			break;
+		case RMD_SIM_FAULT_FLOOD:
+			lo = 1, hi = INT64_C(10000000000), what = "the interval in ns";
+			break;
+		}
+		if (what && (f->param < lo || f->param > hi)) {
+			const char *pk = rmd_yaml_get(fn, "delay_us", NULL)  ? "delay_us" :
+					 rmd_yaml_get(fn, "period_us", NULL) ? "period_us" :
+									       "param";
+
+			rmd_yaml_path_key(kp, path, pk);
+			rmd_yaml_report(c, rmd_yaml_line_of(fn, pk), kp,
+					"%lld is out of range for %s (%lld..%lld: %s)",
+					(long long)f->param, kind, (long long)lo, (long long)hi,
+					what);
+		}
+		only_for(c, fn, path, "can_id", f->kind, RMD_SIM_FAULT_FLOOD);
+		only_for(c, fn, path, "delay_us", f->kind, RMD_SIM_FAULT_DELAY);
+		only_for(c, fn, path, "period_us", f->kind, RMD_SIM_FAULT_FLOOD);
+		if (rmd_yaml_get(fn, "param", NULL) &&
+		    (rmd_yaml_get(fn, "delay_us", NULL) || rmd_yaml_get(fn, "period_us", NULL))) {
+			rmd_yaml_path_key(kp, path, "param");
+			rmd_yaml_report(c, rmd_yaml_line_of(fn, "param"), kp,
+					"give the time in µs (delay_us, period_us) or in ns "
+					"(param), not both");
+		}
+	}
+}
+
+static void validate_motor_sim(struct yctx *c, struct rmd_config *cfg, struct rmd_sim_setup *sim,
+			       unsigned i, const struct ynode *mn, const char *path)
+{
+	struct rmd_config_motor *m = &cfg->motors[i];
+	const struct rmd_config_bus *b = &cfg->buses[m->bus];
+	struct rmd_sim_motor_params *p = &sim->motors[i];
+	const struct ynode *sn = rmd_yaml_get(mn, "sim", NULL);
+	char kp[PATH_LEN];
+
+	rmd_yaml_path_key(kp, path, "sim");
+	if (sn && b->kind != RMD_BUS_KIND_SIM) {
+		rmd_yaml_report(c, rmd_yaml_line_of(mn, "sim"), kp,
+				"only for motors on a sim bus (%s is %s)", b->name,
+				rmd_bus_kind_name(b->kind));
+		return;
+	}
+	*p = sim->buses[m->bus].motor;
+	if (sn) {
+		struct field f = { .type = T_MAP, .sub = sim_motor_fields };
+
+		rmd_yaml_walk_value(c, sn, &f, p, kp);
+		validate_sim_model(c, p, sn, kp);
+	}
+	p->id = m->id;
+	p->proto = m->proto;
+	p->mit = m->mit;
+	if (rmd_yaml_get(mn, "gear_ratio", NULL))
+		p->gear_ratio = m->gear_ratio;
+	if (m->torque_constant_nm_a > 0)
+		p->kt_nm_a = m->torque_constant_nm_a;
+}
+
+static void validate_mit(struct yctx *c, const struct rmd_mit_ranges *r, const struct ynode *n,
+			 const char *path)
+{
+	static const struct {
+		const char *lo, *hi;
+		size_t lo_off, hi_off;
+	} pairs[] = {
+#define PAIR(a, b) \
+	{ #a, #b, offsetof(struct rmd_mit_ranges, a), offsetof(struct rmd_mit_ranges, b) }
+		PAIR(p_min, p_max),   PAIR(v_min, v_max),   PAIR(t_min, t_max),
+		PAIR(kp_min, kp_max), PAIR(kd_min, kd_max),
+#undef PAIR
+	};
+	char kp[PATH_LEN];
+
+	for (size_t i = 0; i < sizeof(pairs) / sizeof(pairs[0]); i++) {
+		double lo, hi;
+
+		memcpy(&lo, (const char *)r + pairs[i].lo_off, sizeof(lo));
+		memcpy(&hi, (const char *)r + pairs[i].hi_off, sizeof(hi));
+		if (!(lo < hi)) {
+			rmd_yaml_path_key(kp, path, pairs[i].lo);
+			rmd_yaml_report(c, rmd_yaml_line_of(n, pairs[i].lo), kp,
+					"%g must be below %s (%g)", lo, pairs[i].hi, hi);
+		}
+	}
+}
+
+static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_sim_setup *sim,
+			    const struct ynode *seq)
+{
+	char path[PATH_LEN], kp[PATH_LEN], names[RMD_MAX_BUSES * (RMD_CONFIG_NAME_LEN + 2)];
+	const unsigned rate = cfg->loop.rate_hz;
+
+	names[0] = '\0';
+	for (unsigned i = 0, k = 0; i < cfg->n_buses; i++)
+		if (cfg->buses[i].name[0])
+			k += (unsigned)snprintf(names + k, sizeof(names) - k, "%s%s", k ? ", " : "",
+						cfg->buses[i].name);
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		struct rmd_config_motor *m = &cfg->motors[i];
+		const struct ynode *mn = seq->kids[i], *bv;
+		unsigned bl = 0;
+		int bi = -1;
+
+		m->line = mn->line;
+		rmd_yaml_path_idx(path, "motors", i);
+		if (mn->kind != Y_MAP)
+			continue;
+		for (unsigned j = 0; j < i; j++) {
+			if (m->name[0] && !strcmp(cfg->motors[j].name, m->name)) {
+				rmd_yaml_path_key(kp, path, "name");
+				rmd_yaml_report(
+					c, rmd_yaml_line_of(mn, "name"), kp,
+					"\"%s\" is already the name of motors[%u] (line %u)",
+					m->name, j, cfg->motors[j].line);
+				break;
+			}
+		}
+		/* bus */
+		rmd_yaml_path_key(kp, path, "bus");
+		bv = rmd_yaml_get(mn, "bus", &bl);
+		if (!bv) {
+			rmd_yaml_report(c, mn->line, kp, "required key missing (buses: %s)", names);
+		} else if (bv->kind != Y_SCALAR || rmd_yaml_is_null(bv)) {
+			rmd_yaml_report(c, bv->line, kp, "expected the name of a bus (%s)", names);
+		} else {
+			bi = rmd_config_bus_find(cfg, bv->str);
+			if (bi < 0)
+				rmd_yaml_report(c, bv->line, kp, "\"%s\" is not a bus; buses: %s",
+						bv->str, cfg->n_buses ? names : "none");
+		}
+		if (bi < 0) {
+			m->bus = RMD_MAX_BUSES; /* unresolved */
+			continue;
+		}
+		m->bus = (unsigned)bi;
+		if ((c->bad[MARK_MOTOR - 1] & (1u << i)) || (c->bad[MARK_BUS - 1] & (1u << bi)))
+			continue;
+		/* id unique per bus */
+		for (unsigned j = 0; j < i; j++) {
+			const struct rmd_config_motor *o = &cfg->motors[j];
+
+			if (o->bus == m->bus && o->id == m->id && m->id) {
+				rmd_yaml_path_key(kp, path, "id");
+				rmd_yaml_report(
+					c, rmd_yaml_line_of(mn, "id"), kp,
+					"%u is already the id of motors[%u] (%s, line %u) on bus %s",
+					m->id, j, o->name, rmd_yaml_line_of(seq->kids[j], "id"),
+					cfg->buses[bi].name);
+				break;
+			}
+		}
+		/* protocol and mode */
+		if (m->proto == RMD_PROTO_MIT && m->mode != RMD_MODE_MIT) {
+			rmd_yaml_path_key(kp, path, "mode");
+			rmd_yaml_report(c, rmd_yaml_line_of(mn, "mode"), kp,
+					"%s: a mit protocol motor runs in mode mit (V3 §5)",
+					rmd_mode_name(m->mode));
+		} else if (m->mode == RMD_MODE_MIT && m->proto != RMD_PROTO_MIT) {
+			rmd_yaml_path_key(kp, path, "mode");
+			rmd_yaml_report(c, rmd_yaml_line_of(mn, "mode"), kp,
+					"mit needs protocol mit (this motor is %s)",
+					rmd_proto_key(m->proto));
+		}
+		if (cfg->buses[bi].kind == RMD_BUS_KIND_RS485 && m->proto != RMD_PROTO_V3) {
+			rmd_yaml_path_key(kp, path, "protocol");
+			rmd_yaml_report(
+				c, rmd_yaml_line_of(mn, "protocol"), kp,
+				"%s has no RS485 form (V3 §1.2: RS485 carries v3 frames); bus %s is "
+				"rs485",
+				rmd_proto_key(m->proto), cfg->buses[bi].name);
+		}
+		if (m->proto != RMD_PROTO_MIT && !(m->torque_constant_nm_a > 0)) {
+			rmd_yaml_path_key(kp, path, "torque_constant_nm_a");
+			rmd_yaml_report(
+				c, mn->line, kp,
+				"required for protocol %s: its frames carry current (0.01 A), "
+				"which rmdd converts to N·m",
+				rmd_proto_key(m->proto));
+		}
+		/* limits */
+		if (!(m->limits.position_min_rad < m->limits.position_max_rad)) {
+			const struct ynode *ln = rmd_yaml_get(mn, "limits", NULL);
+
+			rmd_yaml_path_key(kp, path, "limits.position_min_rad");
+			rmd_yaml_report(c, rmd_yaml_line_of(ln, "position_min_rad"), kp,
+					"%g must be below position_max_rad (%g)",
+					m->limits.position_min_rad, m->limits.position_max_rad);
+		}
+		rmd_yaml_path_key(kp, path, "mit");
+		validate_mit(c, &m->mit, rmd_yaml_get(mn, "mit", NULL), kp);
+		/* rates */
+		if (m->status_poll_hz > (double)rate / m->rate_divisor) {
+			rmd_yaml_path_key(kp, path, "status_poll_hz");
+			rmd_yaml_report(
+				c, rmd_yaml_line_of(mn, "status_poll_hz"), kp,
+				"%g is more than the motor's command rate (%g Hz: rate_hz %u / "
+				"rate_divisor %u)",
+				m->status_poll_hz, (double)rate / m->rate_divisor, rate,
+				m->rate_divisor);
+		}
+		validate_motor_sim(c, cfg, sim, i, mn, path);
+	}
+}
+
+static void validate_lcm(struct yctx *c, const struct rmd_config *cfg, const struct ynode *root)
+{
+	const struct ynode *ln = rmd_yaml_get(root, "lcm", NULL);
+	const char *p = cfg->lcm.channel_prefix;
+	const char *scheme = strstr(cfg->lcm.url, "://");
+
+	if (!scheme || scheme == cfg->lcm.url)
+		rmd_yaml_report(
+			c, rmd_yaml_line_of(ln, "url"), "lcm.url",
+			"\"%s\" is not an LCM provider URL (e.g. udpm://239.255.76.67:7667?ttl=0, "
+			"memq://)",
+			cfg->lcm.url);
+	if (strspn(p, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_.-/") !=
+	    strlen(p))
+		rmd_yaml_report(c, rmd_yaml_line_of(ln, "channel_prefix"), "lcm.channel_prefix",
+				"\"%s\": use letters, digits and _ . - / only", p);
+}
+
+/* Timeouts against the loop and the motors' command periods. */
+static void validate_timing(struct yctx *c, const struct rmd_config *cfg, const struct ynode *root)
+{
+	const struct ynode *sn = rmd_yaml_get(root, "safety", NULL);
+	const struct rmd_config_safety *s = &cfg->safety;
+	const unsigned rate = cfg->loop.rate_hz;
+	double cycle_ms = 1000.0 / rate;
+
+	if ((double)s->command_timeout_ms < 2.0 * cycle_ms)
+		rmd_yaml_report(c, rmd_yaml_line_of(sn, "command_timeout_ms"),
+				"safety.command_timeout_ms",
+				"%u ms is shorter than two cycles (%g ms at %u Hz)",
+				s->command_timeout_ms, 2.0 * cycle_ms, rate);
+	if (s->comm_loss_ms == 0)
+		return;
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		const struct rmd_config_motor *m = &cfg->motors[i];
+		double need_ms = 5.0 * cycle_ms * m->rate_divisor;
+
+		if ((double)s->comm_loss_ms < need_ms) {
+			rmd_yaml_report(
+				c, rmd_yaml_line_of(sn, "comm_loss_ms"), "safety.comm_loss_ms",
+				"%u ms is shorter than 5 command periods of motor %s (%g ms): its "
+				"own protection would trip in normal operation; use >= %.0f, or 0 "
+				"(off)",
+				s->comm_loss_ms, m->name, need_ms, ceil(need_ms));
+			return;
+		}
+	}
+}
+
+/* ------------------------------------------------------------------ */
+/* API */
+
+int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_setup *sim, char *err,
+		    size_t errlen)
+{
+	struct yctx c = { .file = path, .err = err, .errlen = errlen };
+	struct rmd_sim_setup *scratch = NULL;
+	struct ytree t = { 0 };
+	const struct ynode *root;
+	FILE *f;
+	int ret;
+
+	if (err && errlen)
+		err[0] = '\0';
+	sim_motor_fields_build();
+	rmd_config_defaults(cfg);
+	snprintf(cfg->source, sizeof(cfg->source), "%s", path);
+	if (!sim) {
+		scratch = malloc(sizeof(*scratch));
+		if (!scratch) {
+			rmd_yaml_report(&c, 0, "", "out of memory");
+			return -ENOMEM;
+		}
+		sim = scratch;
+	}
+	sim_setup_default(sim);
+	f = fopen(path, "r");
+	if (!f) {
+		ret = -errno;
+		rmd_yaml_report(&c, 0, "", "cannot open: %s", strerror(-ret));
+		free(scratch);
+		return ret;
+	}
+	ret = rmd_yaml_tree_load(&c, f, &t);
+	fclose(f);
+	if (ret == -ENOMEM)
+		rmd_yaml_report(&c, 0, "", "out of memory");
+	if (ret)
+		goto out;
+	root = t.root;
+	if (!root || rmd_yaml_is_null(root)) {
+		rmd_yaml_report(&c, 1, "buses, motors",
+				"required keys missing (the file is empty)");
+		ret = -EINVAL;
+		goto out;
+	}
+	if (root->kind != Y_MAP) {
+		char names[256];
+
+		rmd_yaml_join_names(names, sizeof(names), NULL, top_fields);
+		rmd_yaml_report(&c, root->line, "(top level)", "expected a mapping of %s, got %s",
+				names, rmd_yaml_kind_desc(root));
+		ret = -EINVAL;
+		goto out;
+	}
+	rmd_yaml_walk_map(&c, root, top_fields, cfg, "");
+	walk_bus_sims(&c, cfg, sim, rmd_yaml_get(root, "buses", NULL));
+	if (!rmd_yaml_get(root, "buses", NULL))
+		rmd_yaml_report(&c, root->line, "buses", "required key missing");
+	if (!rmd_yaml_get(root, "motors", NULL))
+		rmd_yaml_report(&c, root->line, "motors", "required key missing");
+	if (cfg->n_buses == 0 && rmd_yaml_get(root, "buses", NULL))
+		rmd_yaml_report(&c, rmd_yaml_line_of(root, "buses"), "buses",
+				"at least one bus is required");
+	if (cfg->n_motors == 0 && rmd_yaml_get(root, "motors", NULL))
+		rmd_yaml_report(&c, rmd_yaml_line_of(root, "motors"), "motors",
+				"at least one motor is required");
+	{
+		const struct ynode *bs = rmd_yaml_get(root, "buses", NULL);
+		const struct ynode *ms = rmd_yaml_get(root, "motors", NULL);
+
+		if (bs && bs->kind == Y_SEQ)
+			validate_buses(&c, cfg, sim, bs);
+		if (ms && ms->kind == Y_SEQ)
+			validate_motors(&c, cfg, sim, ms);
+		for (unsigned i = 0; bs && bs->kind == Y_SEQ && i < cfg->n_buses; i++)
+			if (cfg->buses[i].kind == RMD_BUS_KIND_SIM &&
+			    !(c.bad[MARK_BUS - 1] & (1u << i)))
+				validate_faults(&c, cfg, sim, i, bs->kids[i]);
+	}
+	validate_lcm(&c, cfg, root);
+	validate_timing(&c, cfg, root);
+	ret = c.nerr ? -EINVAL : 0;
+out:
+	rmd_yaml_tree_free(&t);
+	free(scratch);
+	return ret;
+}
+
+int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, unsigned nmotors)
+{
+	const unsigned per_bus = 3; /* DESIGN.md: 3 motors per 1 Mbit/s bus at 1 kHz */
+	struct rmd_sim_bus_setup model;
+
+	if (nmotors < 1 || nmotors > RMD_MAX_MOTORS)
+		return -EINVAL;
+	rmd_config_defaults(cfg);
+	if (sim)
+		sim_setup_default(sim);
+	rmd_sim_bus_setup_default(&model, 1);
+	snprintf(cfg->source, sizeof(cfg->source), "(built-in sim)");
+	cfg->n_buses = (nmotors + per_bus - 1) / per_bus;
+	for (unsigned b = 0; b < cfg->n_buses; b++) {
+		struct rmd_config_bus *bus = &cfg->buses[b];
+
+		rmd_config_bus_defaults(bus);
+		snprintf(bus->name, sizeof(bus->name), "sim%u", b);
+		bus->kind = RMD_BUS_KIND_SIM;
+		if (sim)
+			sim->buses[b].seed = b + 1;
+	}
+	cfg->n_motors = nmotors;
+	for (unsigned i = 0; i < nmotors; i++) {
+		struct rmd_config_motor *m = &cfg->motors[i];
+
+		rmd_config_motor_defaults(m);
+		snprintf(m->name, sizeof(m->name), "motor%u", i + 1);
+		m->bus = i / per_bus;
+		m->id = (uint8_t)(i % per_bus + 1);
+		m->gear_ratio = model.motor.gear_ratio;
+		m->torque_constant_nm_a = model.motor.kt_nm_a;
+		m->limits.velocity_rad_s = 20.0;
+		m->limits.torque_nm = 10.0;
+		if (!sim)
+			continue;
+		sim->motors[i] = sim->buses[m->bus].motor;
+		sim->motors[i].id = m->id;
+		sim->motors[i].proto = m->proto;
+	}
+	return 0;
+}

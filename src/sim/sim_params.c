@@ -1,0 +1,304 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The simulated motor's parameters as text (rmd/sim_params.h): the one
+ * table rmdd.yaml's sim sections and rmd-sim read, and its parser.  Non-rt.
+ */
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "rmd/codec.h"
+#include "rmd/mit.h"
+#include "rmd/sim_params.h"
+
+#define ROW(k, a, t, field, lo, hi, excl, u, h, fl)                                        \
+	{                                                                                  \
+		.key = k, .alias = a, .type = RMD_SIM_PARAM_##t,                           \
+		.off = offsetof(struct rmd_sim_motor_params, field), .min = lo, .max = hi, \
+		.min_excl = excl, .unit = u, .help = h, .flags = fl                        \
+	}
+
+/*
+ * Ranges are the union of what rmdd.yaml and rmd-sim allowed before they
+ * shared this table, so no file or command line that worked is refused.
+ */
+const struct rmd_sim_param rmd_sim_params[] = {
+	ROW("protocol", NULL, PROTO, proto, 0, 0, false, "",
+	    "v3, v2 or mit (MIT motors also speak V3); rmdd.yaml: the motor's protocol",
+	    RMD_SIM_PARAM_MOTOR_KEY),
+	ROW("model", NULL, MODEL, model, 0, 0, false, "",
+	    "0xB5 model string, 1..7 ASCII characters", 0),
+	ROW("version_date", "version", VERSION, version_date, 0, 0, false, "yyyymmdd",
+	    "0xB2 firmware date", 0),
+	ROW("inertia_kgm2", "inertia", REAL, inertia_kgm2, 0, 1000, true, "kg·m²",
+	    "inertia at the output shaft, rotor reflected", 0),
+	ROW("viscous_nm_s_rad", "viscous", REAL, viscous_nm_s_rad, 0, 1e4, false, "N·m·s/rad",
+	    "viscous friction", 0),
+	ROW("coulomb_nm", "coulomb", REAL, coulomb_nm, 0, 1e4, false, "N·m", "Coulomb friction", 0),
+	ROW("kt_nm_a", "kt", REAL, kt_nm_a, 0, 1e4, true, "N·m/A",
+	    "output torque per amp of iq (rmdd.yaml: torque_constant_nm_a wins)", 0),
+	ROW("gear_ratio", "gear", REAL, gear_ratio, 0, 1e4, true, "",
+	    "motor turns per output turn (rmdd.yaml: the motor's gear_ratio wins)", 0),
+	ROW("pole_pairs", "pole-pairs", UINT, pole_pairs, 1, 100, false, "", "rotor pole pairs", 0),
+	ROW("max_current_a", "max-current", REAL, max_current_a, 0, 1000, true, "A",
+	    "drive current limit", 0),
+	ROW("load_nm", "load", REAL, load_nm, -1e4, 1e4, false, "N·m",
+	    "constant external torque on the shaft", 0),
+	ROW("max_speed_dps", "max-speed", REAL, max_speed_dps, 0, 1e6, true, "dps",
+	    "over-speed fault above this", 0),
+	ROW("fw_max_speed_dps", "fw-max-speed", REAL, fw_max_speed_dps, 0, 1e6, true, "dps",
+	    "the firmware's Max Speed (0xA3, V2 0xA5/0xA7)", 0),
+	ROW("phase_resistance_ohm", "resistance", REAL, phase_resistance_ohm, 0, 100, false, "Ω",
+	    "phase resistance", 0),
+	ROW("thermal_resistance_c_w", "thermal-resistance", REAL, thermal_resistance_c_w, 0, 1000,
+	    true, "°C/W", "winding to ambient", 0),
+	ROW("thermal_tau_s", "thermal-tau", REAL, thermal_tau_s, 0, 1e6, true, "s",
+	    "thermal time constant", 0),
+	ROW("ambient_c", "ambient", REAL, ambient_c, -60, 150, false, "°C", "ambient temperature",
+	    0),
+	ROW("supply_v", "supply", REAL, supply_v, 0, 1000, false, "V", "supply voltage", 0),
+	ROW("over_temp_c", "over-temp", REAL, over_temp_c, -60, 300, false, "°C",
+	    "over-temperature fault above this", 0),
+	ROW("over_temp_clear_c", "over-temp-clear", REAL, over_temp_clear_c, -60, 300, false, "°C",
+	    "... until the winding cools below this", 0),
+	ROW("under_voltage_v", "under-voltage", REAL, under_voltage_v, 0, 1000, false, "V",
+	    "low-voltage fault below this", 0),
+	ROW("over_voltage_v", "over-voltage", REAL, over_voltage_v, 0, 1000, false, "V",
+	    "over-voltage fault above this", 0),
+	ROW("stall_time_s", "stall-time", REAL, stall_time_s, 0, 1e4, true, "s",
+	    "near-limit current at standstill this long: stall fault", 0),
+	ROW("has_brake", "brake", BOOL, has_brake, 0, 0, false, "",
+	    "the motor has a holding brake (yes/no)", 0),
+	ROW("encoder_bits", "encoder-bits", UINT, encoder_bits, 8, 24, false, "",
+	    "motor-side single-turn encoder resolution", 0),
+	ROW("mit_ranges", "mit-ranges", MIT, mit, 0, 0, false, "",
+	    "MIT ranges P,V,T,KP,KD: p ±P rad, v ±V rad/s, t ±T N·m, kp 0..KP, kd 0..KD; "
+	    "rmdd.yaml: the motor's mit",
+	    RMD_SIM_PARAM_MOTOR_KEY),
+	ROW("turnaround_us", NULL, US, turnaround_ns, 0, 1e6, false, "µs",
+	    "request end to reply start, mean", 0),
+	ROW("turnaround_jitter_us", "jitter-us", US, turnaround_jitter_ns, 0, 1e6, false, "µs",
+	    "turnaround jitter, uniform ±", 0),
+};
+#undef ROW
+
+const size_t rmd_sim_n_params = sizeof(rmd_sim_params) / sizeof(rmd_sim_params[0]);
+
+/* a and b alike, any case, '-' and '_' the same. */
+static bool same_key(const char *a, const char *b)
+{
+	for (; *a && *b; a++, b++) {
+		char x = *a == '-' ? '_' : (char)tolower((unsigned char)*a);
+		char y = *b == '-' ? '_' : (char)tolower((unsigned char)*b);
+
+		if (x != y)
+			return false;
+	}
+	return *a == *b;
+}
+
+const struct rmd_sim_param *rmd_sim_param_find(const char *key)
+{
+	for (size_t i = 0; i < rmd_sim_n_params; i++) {
+		const struct rmd_sim_param *p = &rmd_sim_params[i];
+
+		if (same_key(key, p->key) || (p->alias && same_key(key, p->alias)))
+			return p;
+	}
+	return NULL;
+}
+
+size_t rmd_sim_param_size(const struct rmd_sim_param *spec)
+{
+	const struct rmd_sim_motor_params *p = NULL;
+
+	switch (spec->type) {
+	case RMD_SIM_PARAM_REAL:
+	case RMD_SIM_PARAM_US:
+		return sizeof(double);
+	case RMD_SIM_PARAM_UINT:
+		return sizeof(unsigned);
+	case RMD_SIM_PARAM_BOOL:
+		return sizeof(bool);
+	case RMD_SIM_PARAM_PROTO:
+		return sizeof(p->proto);
+	case RMD_SIM_PARAM_MODEL:
+		return sizeof(p->model);
+	case RMD_SIM_PARAM_VERSION:
+		return sizeof(p->version_date);
+	case RMD_SIM_PARAM_MIT:
+		return sizeof(p->mit);
+	}
+	return 0;
+}
+
+int rmd_sim_parse_real(const char *s, double *v)
+{
+	char *end;
+
+	errno = 0;
+	*v = strtod(s, &end);
+	if (end == s || *end != '\0' || errno == ERANGE || !isfinite(*v) ||
+	    isspace((unsigned char)*s))
+		return -EINVAL;
+	return 0;
+}
+
+int rmd_sim_parse_u64(const char *s, uint64_t *v)
+{
+	char *end;
+
+	if (!*s || *s == '-' || *s == '+' || isspace((unsigned char)*s))
+		return -EINVAL;
+	errno = 0;
+	/* Decimal, or hex with 0x; never octal ("010" is ten). */
+	*v = strtoull(s, &end, (s[0] == '0' && (s[1] == 'x' || s[1] == 'X')) ? 16 : 10);
+	if (*end != '\0' || errno == ERANGE)
+		return -EINVAL;
+	return 0;
+}
+
+int rmd_sim_parse_bool(const char *s, bool *b)
+{
+	static const char *const yes[] = { "yes", "true", "on", "1" };
+	static const char *const no[] = { "no", "false", "off", "0" };
+
+	for (size_t i = 0; i < sizeof(yes) / sizeof(yes[0]); i++) {
+		if (!strcasecmp(s, yes[i])) {
+			*b = true;
+			return 0;
+		}
+		if (!strcasecmp(s, no[i])) {
+			*b = false;
+			return 0;
+		}
+	}
+	return -EINVAL;
+}
+
+static int parse_proto(const char *s, enum rmd_proto *proto)
+{
+	if (!strcasecmp(s, "v3"))
+		*proto = RMD_PROTO_V3;
+	else if (!strcasecmp(s, "v2"))
+		*proto = RMD_PROTO_V2;
+	else if (!strcasecmp(s, "mit"))
+		*proto = RMD_PROTO_MIT;
+	else
+		return -EINVAL;
+	return 0;
+}
+
+/* "P,V,T,KP,KD", each > 0 and at most 1e6. */
+static int parse_mit(const char *s, struct rmd_mit_ranges *r)
+{
+	struct rmd_mit_ranges t;
+
+	if (rmd_mit_ranges_parse(s, &t) < 0 || t.p_max > 1e6 || t.v_max > 1e6 || t.t_max > 1e6 ||
+	    t.kp_max > 1e6 || t.kd_max > 1e6)
+		return -EINVAL;
+	*r = t;
+	return 0;
+}
+
+int rmd_sim_param_parse(struct rmd_sim_motor_params *p, const struct rmd_sim_param *spec,
+			const char *value, char *allowed, size_t size)
+{
+	char *field = (char *)p + spec->off;
+	double v;
+	uint64_t u;
+
+	switch (spec->type) {
+	case RMD_SIM_PARAM_REAL:
+	case RMD_SIM_PARAM_US:
+		if (rmd_sim_parse_real(value, &v) < 0 || v > spec->max || v < spec->min ||
+		    (spec->min_excl && v == spec->min)) {
+			snprintf(allowed, size, "a number %s %g and <= %g%s%s",
+				 spec->min_excl ? ">" : ">=", spec->min, spec->max,
+				 *spec->unit ? ", in " : "", spec->unit);
+			return -EINVAL;
+		}
+		if (spec->type == RMD_SIM_PARAM_US)
+			v *= 1000.0;
+		memcpy(field, &v, sizeof(v));
+		return 0;
+	case RMD_SIM_PARAM_UINT: {
+		unsigned x;
+
+		if (rmd_sim_parse_u64(value, &u) < 0 || u < spec->min || u > spec->max) {
+			snprintf(allowed, size, "an integer %g..%g", spec->min, spec->max);
+			return -EINVAL;
+		}
+		x = (unsigned)u;
+		memcpy(field, &x, sizeof(x));
+		return 0;
+	}
+	case RMD_SIM_PARAM_BOOL: {
+		bool b;
+
+		if (rmd_sim_parse_bool(value, &b) < 0) {
+			snprintf(allowed, size, "yes or no (true/false, on/off, 1/0)");
+			return -EINVAL;
+		}
+		memcpy(field, &b, sizeof(b));
+		return 0;
+	}
+	case RMD_SIM_PARAM_PROTO: {
+		enum rmd_proto proto;
+
+		if (parse_proto(value, &proto) < 0) {
+			snprintf(allowed, size, "v3, v2 or mit");
+			return -EINVAL;
+		}
+		memcpy(field, &proto, sizeof(proto));
+		return 0;
+	}
+	case RMD_SIM_PARAM_MODEL: {
+		size_t n = strlen(value);
+
+		for (size_t i = 0; i < n; i++) {
+			if (value[i] < 0x21 || value[i] > 0x7E)
+				n = 0;
+		}
+		if (n < 1 || n > 7) {
+			snprintf(allowed, size,
+				 "1..7 printable ASCII characters without spaces "
+				 "(V3 §2.32)");
+			return -EINVAL;
+		}
+		memset(field, 0, sizeof(p->model));
+		memcpy(field, value, n);
+		return 0;
+	}
+	case RMD_SIM_PARAM_VERSION: {
+		uint32_t d;
+
+		if (rmd_sim_parse_u64(value, &u) < 0 || u > UINT32_MAX ||
+		    !rmd_version_date_valid((uint32_t)u)) {
+			snprintf(allowed, size, "a date yyyymmdd, e.g. 20220206 (V3 §2.29)");
+			return -EINVAL;
+		}
+		d = (uint32_t)u;
+		memcpy(field, &d, sizeof(d));
+		return 0;
+	}
+	case RMD_SIM_PARAM_MIT: {
+		struct rmd_mit_ranges r;
+
+		if (parse_mit(value, &r) < 0) {
+			snprintf(allowed, size,
+				 "P,V,T,KP,KD: five numbers > 0, e.g. "
+				 "12.5,45,24,500,5 (V3 §5.1)");
+			return -EINVAL;
+		}
+		memcpy(field, &r, sizeof(r));
+		return 0;
+	}
+	}
+	snprintf(allowed, size, "?");
+	return -EINVAL;
+}
