@@ -73,7 +73,10 @@ struct rmd_socketcan_opts {
 int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 		       const struct rmd_socketcan_opts *opts, char *err, size_t errlen);
 
-/* The receive buffer the kernel granted, in bytes (it may cap the request). Non-rt. */
+/*
+ * The receive buffer the kernel granted, in bytes (it may cap the request),
+ * or -EINVAL when bus is not a SocketCAN bus.  Non-rt.
+ */
 int rmd_socketcan_rcvbuf(const struct rmd_bus *bus);
 
 struct can_frame;

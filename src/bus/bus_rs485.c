@@ -264,6 +264,13 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 
 	bus->ops = &rs485_ops;
 	snprintf(bus->name, sizeof(bus->name), "%s", device);
+	/* Half duplex: each request waits for the previous answer or its timeout. */
+	bus->caps = (struct rmd_bus_caps){
+		.half_duplex = true,
+		.reply_timeout_ns = p->reply_timeout_ns,
+		.request_spacing_ns = p->reply_timeout_ns,
+		.queue_len = RMD_RS485_QUEUE,
+	};
 	bus->state = RMD_BUS_ACTIVE;
 	memset(&bus->stats, 0, sizeof(bus->stats));
 	bus->priv = p;
@@ -501,6 +508,20 @@ static int rs485_fd(const struct rmd_bus *bus)
 	return priv(bus)->fd;
 }
 
+/*
+ * The deadline of the request in flight, the time of a write that the tty
+ * refused (retry; 0 after a write error), or INT64_MAX when nothing is
+ * queued.  Rt-safe.
+ */
+static int64_t rs485_next_due_ns(const struct rmd_bus *bus)
+{
+	const struct rs485 *p = priv(bus);
+
+	if (p->state == HEAD_IDLE)
+		return queued(p) ? 0 : INT64_MAX; /* 0: a failed write to retry */
+	return p->due_ns;
+}
+
 /* Non-rt: frees. */
 static void rs485_close(struct rmd_bus *bus)
 {
@@ -520,29 +541,18 @@ static const struct rmd_bus_ops rs485_ops = {
 	.send = rs485_send,
 	.recv = rs485_recv,
 	.fd = rs485_fd,
+	.next_due_ns = rs485_next_due_ns,
 	.close = rs485_close,
 };
 
-int64_t rmd_rs485_reply_timeout_ns(const struct rmd_bus *bus)
+int rmd_rs485_stats(const struct rmd_bus *bus, struct rmd_rs485_stats *out)
 {
-	return priv(bus)->reply_timeout_ns;
-}
+	const struct rs485 *p;
 
-int64_t rmd_rs485_deadline_ns(const struct rmd_bus *bus)
-{
-	const struct rs485 *p = priv(bus);
-
-	if (p->state == HEAD_IDLE)
-		return queued(p) ? 0 : INT64_MAX; /* 0: a failed write to retry */
-	return p->due_ns;
-}
-
-unsigned rmd_rs485_pending(const struct rmd_bus *bus)
-{
-	return queued(priv(bus));
-}
-
-void rmd_rs485_stats(const struct rmd_bus *bus, struct rmd_rs485_stats *out)
-{
-	*out = priv(bus)->xs;
+	if (!bus || bus->ops != &rs485_ops)
+		return -EINVAL;
+	p = priv(bus);
+	*out = p->xs;
+	out->pending = queued(p);
+	return 0;
 }

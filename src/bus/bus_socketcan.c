@@ -465,6 +465,7 @@ static const struct rmd_bus_ops socketcan_ops = {
 	.send = socketcan_send,
 	.recv = socketcan_recv,
 	.fd = socketcan_fd,
+	.next_due_ns = rmd_bus_never_due_ns,
 	.close = socketcan_close,
 };
 
@@ -497,8 +498,11 @@ void rmd_socketcan_error_frame(struct rmd_bus *bus, const struct can_frame *cf)
 
 int rmd_socketcan_rcvbuf(const struct rmd_bus *bus)
 {
-	const struct socketcan *p = bus->priv;
+	const struct socketcan *p;
 
+	if (!bus || bus->ops != &socketcan_ops)
+		return -EINVAL;
+	p = bus->priv;
 	return p ? p->rcvbuf : 0;
 }
 
@@ -564,6 +568,8 @@ int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 
 	bus->ops = &socketcan_ops;
 	snprintf(bus->name, sizeof(bus->name), "%s", ifname);
+	/* Full duplex: requests and replies overlap; the caller picks its timeout. */
+	bus->caps = (struct rmd_bus_caps){ .request_spacing_ns = RMD_BUS_CAN_SPACING_NS };
 	bus->state = carrier ? RMD_BUS_ACTIVE : RMD_BUS_OFF;
 	bus->priv = p;
 	return 0;

@@ -66,6 +66,7 @@
 #include "harness/lcm_loopback.h"
 #include "rmd/time.h"
 #include "rmd/bridge.h"
+#include "rmd/bringup.h"
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
 #include "rmd/loop.h"
@@ -351,7 +352,8 @@ static int setup(void **state)
 	struct rmd_bridge_opts bo;
 	struct rmd_loop_opts lo;
 	struct rmd_sim_bus *sim;
-	char err[512], report[2048];
+	char err[512];
+	struct rmd_bringup report;
 	int64_t t;
 
 	*state = NULL;
@@ -387,8 +389,8 @@ static int setup(void **state)
 	d->loop = rmd_loop_new(&lo, err, sizeof(err));
 	if (!d->loop)
 		fail_msg("rmd_loop_new: %s", err);
-	if (rmd_loop_bringup(d->loop, report, sizeof(report)) < 0)
-		fail_msg("bring-up: %s", report);
+	if (rmd_loop_bringup(d->loop, &report) < 0)
+		fail_msg("bring-up failed");
 	assert_int_equal(rmd_motor_init(&d->motor, &d->cfg.motors[0]), 0);
 	probe = (struct probe){ .can_id = 0x140u + d->cfg.motors[0].id };
 
