@@ -48,9 +48,13 @@
 #include <stdint.h>
 
 #include "rmd/bus.h"
+#include "rmd/rs485.h"
 
 /* Requests one bus queues; send() takes what fits and counts the rest in stats.tx_busy. */
 #define RMD_RS485_QUEUE 64
+
+/* One frame on the wire, 8N1 (10 bits a byte: start, 8 data, stop). */
+#define RMD_RS485_FRAME_BITS (RMD_RS485_FRAME_LEN * 10u)
 
 /* Fixed part of the default reply timeout (a motor answers within 0.5-0.8 ms, DESIGN.md). */
 #define RMD_RS485_TURNAROUND_NS 2000000

@@ -220,15 +220,6 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, char *err, size_t 
  */
 int rmd_config_sim_default(struct rmd_config *cfg, unsigned nmotors);
 
-/*
- * Open sim bus b of cfg as rmdd runs it: its simulator settings and faults,
- * and every motor configured on it with its own model (rmd/bus_sim.h).
- * Returns 0 or -errno with a message in err.  Non-rt.
- */
-struct rmd_bus;
-int rmd_config_open_sim_bus(const struct rmd_config *cfg, unsigned b, struct rmd_bus *bus,
-			    char *err, size_t errlen);
-
 /* The index of the bus or motor called `name`, or -ENOENT.  rt-safe. */
 int rmd_config_bus_find(const struct rmd_config *cfg, const char *name);
 int rmd_config_motor_find(const struct rmd_config *cfg, const char *name);

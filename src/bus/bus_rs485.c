@@ -24,9 +24,8 @@
 
 _Static_assert((RMD_RS485_QUEUE & (RMD_RS485_QUEUE - 1)) == 0, "queue is a power-of-two ring");
 
-#define WIRE_DATA 3	 /* V3 §1.2.2: header, id, length, then D0..D7 */
-#define BITS_PER_BYTE 10 /* 8N1: start, 8 data, stop */
-#define RX_BUF 256	 /* bytes read and not yet parsed */
+#define WIRE_DATA 3 /* V3 §1.2.2: header, id, length, then D0..D7 */
+#define RX_BUF 256  /* bytes read and not yet parsed */
 #define READS_PER_CALL 16
 /* Linux devices.txt: UNIX98 pseudo-terminal slaves. */
 #define PTY_SLAVE_MAJOR_FIRST 136
@@ -85,7 +84,7 @@ static struct rs485 *priv(const struct rmd_bus *bus)
 
 int64_t rmd_rs485_frame_ns(uint32_t baud)
 {
-	const int64_t bits = (int64_t)RMD_RS485_FRAME_LEN * BITS_PER_BYTE;
+	const int64_t bits = RMD_RS485_FRAME_BITS;
 
 	if (baud == 0)
 		return 0;

@@ -30,7 +30,6 @@
 #include <yaml.h>
 
 #include "rmd/err.h"
-#include "rmd/bus_sim.h"
 #include "rmd/config.h"
 
 #define MAX_ERRORS 32  /* error lines kept in err */
@@ -1701,33 +1700,4 @@ const char *rmd_ctrl_mode_name(enum rmd_ctrl_mode mode)
 const char *rmd_safe_action_name(enum rmd_safe_action action)
 {
 	return (unsigned)action < 4 ? safe_names[action] : "?";
-}
-
-int rmd_config_open_sim_bus(const struct rmd_config *cfg, unsigned b, struct rmd_bus *bus,
-			    char *err, size_t errlen)
-{
-	const struct rmd_config_bus *cb = &cfg->buses[b];
-	struct rmd_bus_sim_motor motors[RMD_MAX_MOTORS];
-	struct rmd_bus_sim_opts o = {
-		.motors = motors,
-		.bitrate = cb->bitrate,
-		.seed = cb->sim.seed,
-		.flags = cb->sim.host_fifo ? RMD_SIM_BUS_HOST_FIFO : 0,
-		.txqueuelen = cb->sim.txqueuelen,
-		.faults = cb->sim.faults,
-		.n_faults = cb->sim.n_faults,
-	};
-
-	if (b >= cfg->n_buses || cb->kind != RMD_BUS_KIND_SIM)
-		return rmd_errf(err, errlen, -EINVAL, "bus %u is not a sim bus", b);
-	for (unsigned i = 0; i < cfg->n_motors; i++) {
-		const struct rmd_config_motor *m = &cfg->motors[i];
-
-		if (m->bus != b || o.n_motors >= RMD_MAX_MOTORS)
-			continue;
-		motors[o.n_motors++] = (struct rmd_bus_sim_motor){ .id = m->id,
-								   .proto = m->proto,
-								   .params = &m->sim };
-	}
-	return rmd_bus_sim_open(bus, cb->name, &o, err, errlen);
 }

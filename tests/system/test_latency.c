@@ -67,6 +67,7 @@
 #include "rmd/time.h"
 #include "rmd/bridge.h"
 #include "rmd/bringup.h"
+#include "rmd/bus_open.h"
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
 #include "rmd/loop.h"
@@ -298,10 +299,13 @@ struct daemon {
 static void open_buses(struct daemon *d)
 {
 	for (unsigned b = 0; b < d->cfg.n_buses; b++) {
+		struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
+		struct rmd_bus_open_ctx ctx;
 		char err[256];
 
 		assert_int_equal(d->cfg.buses[b].kind, RMD_BUS_KIND_SIM);
-		if (rmd_config_open_sim_bus(&d->cfg, b, &d->bus[b], err, sizeof(err)) < 0)
+		rmd_bus_open_ctx_of(&d->cfg, b, motors, &ctx);
+		if (rmd_bus_open(&d->bus[b], &d->cfg.buses[b], &ctx, err, sizeof(err)) < 0)
 			fail_msg("sim bus %s: %s", d->cfg.buses[b].name, err);
 		d->n_open++;
 	}

@@ -30,6 +30,7 @@
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
 #include "rmd/bringup.h"
+#include "rmd/bus_open.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/sim.h"
@@ -143,7 +144,11 @@ static void open_buses(void)
 	char err[256];
 
 	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
-		if (rmd_config_open_sim_bus(&R.cfg, b, &R.buses[b], err, sizeof(err)))
+		struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
+		struct rmd_bus_open_ctx ctx;
+
+		rmd_bus_open_ctx_of(&R.cfg, b, motors, &ctx);
+		if (rmd_bus_open(&R.buses[b], &R.cfg.buses[b], &ctx, err, sizeof(err)))
 			fail_msg("sim bus %s: %s", R.cfg.buses[b].name, err);
 		rmd_sim_bus_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
 	}
