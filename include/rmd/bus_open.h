@@ -45,6 +45,7 @@ struct rmd_bus_open_opts {
 	unsigned broadcast_replies; /* RS485: see struct rmd_rs485_opts */
 	uint32_t sim_bitrate;	    /* sim; 0: 1 Mbit/s */
 	uint64_t sim_seed;	    /* sim; 0: the default seed */
+	bool device; /* the motors' side of the wire (rmd-sim): see struct rmd_bus_open_ctx */
 };
 
 /* A motor on the bus being opened. */
@@ -69,6 +70,12 @@ struct rmd_bus_open_ctx {
 	unsigned broadcast_replies; /* RS485 (struct rmd_rs485_opts); 0: n_motors */
 	/* sim buses: wire settings and faults (sim time); NULL: the defaults */
 	const struct rmd_config_sim *sim;
+	/*
+	 * The motors' side of the wire, for a simulator of them (rmd-sim):
+	 * SocketCAN admits the requests to every id instead of the motors'
+	 * replies and opens an interface that is down.  Not for sim buses.
+	 */
+	bool device;
 };
 
 /*

@@ -53,6 +53,13 @@ struct rmd_socketcan_opts {
 	 */
 	unsigned burst;
 	int rcvbuf_bytes; /* SO_RCVBUF request; 0: RMD_SOCKETCAN_RCVBUF_DEFAULT */
+	/*
+	 * The motors' side of the wire (rmd-sim): admit the requests to every
+	 * id (0x140 + ID, 0x280, 0x300, MIT 0x400 + ID; motors is not read)
+	 * instead of replies, and open an interface that is down (bus->state
+	 * RMD_BUS_OFF: frames are refused with -ENETDOWN until it is up).
+	 */
+	bool device;
 };
 
 /*

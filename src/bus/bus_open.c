@@ -137,6 +137,7 @@ static int open_socketcan(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.n_motors = ctx->n_motors,
 		.set_id_replies = ctx->set_id_replies,
 		.burst = ctx->burst,
+		.device = ctx->device,
 	};
 
 	for (unsigned i = 0; i < ctx->n_motors; i++)
@@ -270,6 +271,7 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 		.burst = o->burst,
 		.reply_timeout_ns = o->reply_timeout_ns,
 		.broadcast_replies = o->broadcast_replies,
+		.device = o->device,
 	};
 	struct rmd_config_bus cb;
 	uint8_t ids[RMD_MAX_MOTORS];

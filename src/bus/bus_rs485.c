@@ -31,17 +31,6 @@ _Static_assert((RMD_RS485_QUEUE & (RMD_RS485_QUEUE - 1)) == 0, "queue is a power
 #define PTY_SLAVE_MAJOR_FIRST 136
 #define PTY_SLAVE_MAJOR_LAST 143
 
-/* V3 §1.2.1. */
-static const struct {
-	uint32_t baud;
-	speed_t speed;
-} bauds[] = {
-	{ 115200, B115200 },   { 500000, B500000 },   { 1000000, B1000000 },
-	{ 1500000, B1500000 }, { 2000000, B2000000 },
-};
-
-#define BAUD_LIST "115200, 500000, 1000000, 1500000 or 2000000"
-
 struct request {
 	uint8_t wire[RMD_RS485_FRAME_LEN];
 	uint8_t id; /* RS485 id: 1..32 or 0xCD */
@@ -89,17 +78,6 @@ int64_t rmd_rs485_frame_ns(uint32_t baud)
 	if (baud == 0)
 		return 0;
 	return (bits * RMD_NS_PER_S + baud - 1) / baud;
-}
-
-static int baud_speed(uint32_t baud, speed_t *speed)
-{
-	for (size_t i = 0; i < sizeof(bauds) / sizeof(bauds[0]); i++) {
-		if (bauds[i].baud == baud) {
-			*speed = bauds[i].speed;
-			return 0;
-		}
-	}
-	return -EINVAL;
 }
 
 static bool is_pty(int fd, const char *device)
@@ -186,10 +164,11 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 		snprintf(err, errlen, "%s: no RS485 options given", device);
 		return -EINVAL;
 	}
-	if (baud_speed(opts->baud, &speed) < 0) {
-		snprintf(err, errlen,
-			 "%s: baud %u is not an RMD RS485 rate (V3 §1.2.1): use " BAUD_LIST, device,
-			 opts->baud);
+	if (rmd_rs485_baud_speed(opts->baud, &speed) < 0) {
+		snprintf(
+			err, errlen,
+			"%s: baud %u is not an RMD RS485 rate (V3 §1.2.1): use " RMD_RS485_BAUD_LIST,
+			device, opts->baud);
 		return -EINVAL;
 	}
 	if (opts->reply_timeout_ns < 0 || opts->broadcast_timeout_ns < 0) {
@@ -284,16 +263,12 @@ err_free_priv:
 	return r;
 }
 
-/* The RS485 id a CAN identifier maps to (see bus_rs485.h), or -EINVAL. */
+/* The RS485 id a request maps to (see rmd/rs485.h), or -EINVAL. */
 static int tx_id(const struct rmd_frame *f)
 {
 	if (f->len != RMD_FRAME_LEN)
 		return -EINVAL;
-	if (f->can_id > RMD_CAN_REQ_BASE && f->can_id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
-		return (int)(f->can_id - RMD_CAN_REQ_BASE);
-	if (f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_SET_ID)
-		return RMD_RS485_BROADCAST;
-	return -EINVAL;
+	return rmd_rs485_id_of_can(f->can_id, true);
 }
 
 static unsigned queued(const struct rs485 *p)
@@ -458,8 +433,7 @@ static void parse(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned *n, unsi
 		if (!rx_frame(p, id, data))
 			continue;
 
-		out[*n].f.can_id = id == RMD_RS485_BROADCAST ? RMD_CAN_SET_ID :
-							       RMD_CAN_V3_REPLY_BASE + id;
+		out[*n].f.can_id = rmd_rs485_can_id(id, false, data[0]);
 		out[*n].f.len = RMD_FRAME_LEN;
 		memcpy(out[*n].f.data, data, RMD_FRAME_LEN);
 		out[*n].t_ns = now_ns;
