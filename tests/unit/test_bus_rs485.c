@@ -27,7 +27,10 @@
 
 #include <cmocka.h>
 
+#include "rmd/bus_open.h"
 #include "rmd/bus_rs485.h"
+#include "rmd/bus_sim.h"
+#include "rmd/bus_socketcan.h"
 #include "rmd/rs485.h"
 
 #define MS 1000000LL
@@ -845,6 +848,62 @@ static void test_send_refusals(void **state)
 	close_bus(&bus, &pt);
 }
 
+/* caps, next_due_ns, and the other transports' accessors refusing an RS485 bus. */
+static void test_caps_and_accessors(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 1000000 };
+	struct rmd_frame f = frame(0x141, status1_req);
+	const struct rmd_bus_caps *caps;
+	struct rmd_bus bus;
+	struct pty pt;
+	int64_t t0;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	caps = rmd_bus_caps(&bus);
+	assert_true(caps->half_duplex);
+	assert_int_equal(caps->reply_timeout_ns, RMD_RS485_TURNAROUND_NS + 2 * 130000);
+	assert_int_equal(caps->request_spacing_ns, caps->reply_timeout_ns);
+	assert_int_equal(caps->queue_len, RMD_RS485_QUEUE);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
+	t0 = now_ns();
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), t0 + caps->reply_timeout_ns);
+	assert_null(rmd_bus_sim_get(&bus));
+	assert_int_equal(rmd_bus_sim_time_ns(&bus, t0), 0);
+	assert_int_equal(rmd_socketcan_rcvbuf(&bus), -EINVAL);
+	close_bus(&bus, &pt);
+}
+
+/* A config entry and the spec naming the same line open the same bus. */
+static void test_open_config_equals_spec(void **state)
+{
+	struct rmd_bus_open_opts o = { .proto = RMD_PROTO_V3, .baud = 500000 };
+	struct rmd_config_bus cb = { .kind = RMD_BUS_KIND_RS485, .baud = 500000 };
+	struct rmd_bus_open_motor m = { .id = 1, .proto = RMD_PROTO_V2 };
+	struct rmd_bus_open_ctx v2 = { .motors = &m, .n_motors = 1 };
+	struct rmd_bus a, b;
+	struct pty pt;
+	char err[256];
+
+	(void)state;
+	pty_open(&pt);
+	snprintf(cb.name, sizeof(cb.name), "rs0");
+	snprintf(cb.device, sizeof(cb.device), "%s", pt.path);
+	assert_int_equal(rmd_bus_open(&a, &cb, NULL, err, sizeof(err)), 0);
+	b = a;
+	rmd_bus_close(&a);
+	assert_int_equal(rmd_bus_open_spec(&a, pt.path, &o, err, sizeof(err)), 0);
+	assert_ptr_equal(a.ops, b.ops);
+	assert_string_equal(a.name, b.name);
+	assert_memory_equal(&a.caps, &b.caps, sizeof(a.caps));
+	rmd_bus_close(&a);
+	/* V3 §1.2: no V2 motor on an RS485 line, whichever way it is named */
+	assert_int_equal(rmd_bus_open(&a, &cb, &v2, err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "V2 motors are CAN only"));
+	close(pt.master);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -862,6 +921,8 @@ int main(void)
 		cmocka_unit_test_teardown(test_local_echo, teardown),
 		cmocka_unit_test_teardown(test_partial_and_late_frames, teardown),
 		cmocka_unit_test_teardown(test_send_refusals, teardown),
+		cmocka_unit_test_teardown(test_caps_and_accessors, teardown),
+		cmocka_unit_test_teardown(test_open_config_equals_spec, teardown),
 	};
 
 	return cmocka_run_group_tests_name("bus_rs485", tests, NULL, NULL);
