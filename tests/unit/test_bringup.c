@@ -174,7 +174,8 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 		if (rmd_bus_open(&R.sim[b], &R.cfg.buses[b], &ctx, err, sizeof(err)))
 			fail_msg("%s: %s", R.cfg.buses[b].name, err);
 		R.tb[b] = (struct tamper_bus){ .inner = &R.sim[b], .how = how };
-		R.bus[b] = (struct rmd_bus){ .ops = &tamper_ops, .caps = R.sim[b].caps,
+		R.bus[b] = (struct rmd_bus){ .ops = &tamper_ops,
+					     .caps = R.sim[b].caps,
 					     .priv = &R.tb[b] };
 		snprintf(R.bus[b].name, sizeof(R.bus[b].name), "%s", R.sim[b].name);
 	}
@@ -224,7 +225,9 @@ static void test_missing_fault_unexpected(void **state)
 {
 	const struct rmd_sim_fault faults[] = {
 		{ .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 2 },
-		{ .kind = RMD_SIM_FAULT_ERROR_FLAG, .motor_id = 3, .param = RMD_SIM_ERR_LOW_VOLTAGE },
+		{ .kind = RMD_SIM_FAULT_ERROR_FLAG,
+		  .motor_id = 3,
+		  .param = RMD_SIM_ERR_LOW_VOLTAGE },
 	};
 	struct rmd_sim_motor_params p;
 
@@ -257,8 +260,8 @@ static void test_b3_outcomes(void **state)
 		uint32_t comm_loss_ms;
 		enum rmd_bringup_b3 want;
 	} cases[] = {
-		{ TAMPER_NONE, 100, RMD_B3_SET },	   { TAMPER_DROP, 100, RMD_B3_NO_ANSWER },
-		{ TAMPER_ZEROS, 100, RMD_B3_ZEROS },	   { TAMPER_DIFFER, 100, RMD_B3_DIFFERS },
+		{ TAMPER_NONE, 100, RMD_B3_SET },    { TAMPER_DROP, 100, RMD_B3_NO_ANSWER },
+		{ TAMPER_ZEROS, 100, RMD_B3_ZEROS }, { TAMPER_DIFFER, 100, RMD_B3_DIFFERS },
 		{ TAMPER_ZEROS, 0, RMD_B3_SET }, /* writing 0 is answered by zeros */
 	};
 

@@ -2,8 +2,10 @@
 /*
  * rmd-sim's event loop: simulated motors behind a real wire.
  *
- * One thread, one epoll set: the wire (a SocketCAN raw socket or a serial
- * line), a timerfd on CLOCK_MONOTONIC and a signalfd for SIGINT/SIGTERM.
+ * One thread, one epoll set: the wire (a SocketCAN interface, opened,
+ * read and written through the bus layer's SocketCAN transport in its
+ * device role, or a serial line), a timerfd on CLOCK_MONOTONIC and a
+ * signalfd for SIGINT/SIGTERM.
  * Motor time is CLOCK_MONOTONIC in ns.
  *
  * - A frame that arrives goes to every present motor at its arrival time
@@ -27,8 +29,9 @@
  * window; FLOOD writes a foreign frame every period (CAN only); BUS_OFF is
  * refused by the config (the kernel owns a real bus's state).
  *
- * RS485 (V3 §1.2.2, §6, §7) maps to the CAN identifiers the motors speak,
- * as the RS485 bus backend does on the host's side (rmd/bus_rs485.h):
+ * RS485 (V3 §1.2.2, §6, §7) maps to the CAN identifiers the motors speak
+ * with the map the host's RS485 transport uses (rmd/rs485.h), from the
+ * motors' side:
  *   rx  id 1..32               -> 0x140 + id
  *   rx  id 0xCD, D0 = 0x79     -> 0x300 (V3 §7: RS485-ID setting)
  *   rx  id 0xCD, other D0      -> 0x280 (V3 §6: every motor)
