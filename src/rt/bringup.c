@@ -227,25 +227,33 @@ static enum rmd_bringup_b3 b3_outcome(const struct rmd_frame *req, const struct 
 
 /*
  * V3 §2.30: write the comm-loss protection time (ROM) to every motor of bus
- * b that answered the probe, and check each answer, as the last step of
- * bring-up: a motor starts counting at the write, and the loop's first
- * cycle follows at once.  Non-rt.
+ * b that answered the probe, all in one batch, and check each answer, as
+ * the last step of bring-up: a motor starts counting at the write, and the
+ * loop's first cycle follows at once.  Non-rt.
  */
 static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *out)
 {
+	struct probe_ctx pc = { .l = l, .bus = b };
+	struct rmd_txn_opts o = txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(&l->bus[b]));
+	struct rmd_msg msg = { .cmd = 0xB3 };
+	struct rmd_txn t[RMD_MAX_MOTORS];
+	unsigned idx[RMD_MAX_MOTORS], n = 0;
+
+	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, out->comm_loss_ms);
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
-		struct rmd_msg msg = { .cmd = 0xB3 };
-		struct rmd_txn t;
 
 		if (lm->bus != b || lm->m.proto == RMD_PROTO_V2 || lm->st.lifecycle == RMD_LC_LOST)
 			continue;
-		rmd_msg_set(&msg, RMD_FLD_TIMEOUT, out->comm_loss_ms);
-		if (probe_xfer(l, lm, &msg, &t) < 0)
-			out->motor[i].b3 = RMD_B3_NO_ANSWER;
-		else
-			out->motor[i].b3 = b3_outcome(&t.req, &t.rep.f);
+		out->motor[i].b3 = RMD_B3_NO_ANSWER;
+		if (rmd_txn_prepare(&t[n], lm->m.proto, lm->m.id, &msg) == 0)
+			idx[n++] = i;
 	}
+	if (!n || rmd_txn_run(l->bus[b].bus, t, n, &o) < 0)
+		return;
+	for (unsigned k = 0; k < n; k++)
+		if (t[k].done)
+			out->motor[idx[k]].b3 = b3_outcome(&t[k].req, &t[k].rep.f);
 }
 
 /* Every bus: what came before the first request answers none of them.  Non-rt. */
