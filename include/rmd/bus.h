@@ -2,7 +2,12 @@
 /*
  * Transports behind one ops table (DESIGN.md layer 2), like libmodbus
  * backends: SocketCAN, RS485 serial, and the in-process simulated bus.
- * The rest of the program never knows which one it holds.
+ * The rest of the program never asks which one it holds: what it needs to
+ * know (half duplex, the transport's reply timeout, how far apart queued
+ * requests go out, when the transport's own queue must be serviced) is in
+ * bus->caps, filled at open, and in the next_due_ns op.  The one downcast,
+ * each transport's typed accessor (rmd_rs485_stats(), ...), checks the ops
+ * table first, like the kernel's safe_candev_priv().
  *
  * Every op is non-blocking.  send() queues what the transport can take
  * now and returns how many frames it took; the caller keeps the rest for
@@ -14,9 +19,16 @@
 #ifndef RMD_BUS_H
 #define RMD_BUS_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "rmd/frame.h"
+
+/*
+ * Wire time a request and its reply add to the requests queued behind them
+ * on CAN: 2 frames of at most 135 bits (DESIGN.md) at 500 kbit/s, rounded up.
+ */
+#define RMD_BUS_CAN_SPACING_NS 300000
 
 struct rmd_bus_rx {
 	struct rmd_frame f;
@@ -32,10 +44,29 @@ struct rmd_bus_stats {
 	uint64_t state_changes;
 };
 
+/* What a caller needs to know of a transport, filled by its open. */
+struct rmd_bus_caps {
+	/*
+	 * One request on the wire at a time: the transport queues requests
+	 * and writes the next only after the previous one's answer or its
+	 * reply timeout (RS485).  false: requests and replies overlap (CAN).
+	 */
+	bool half_duplex;
+	/* The transport's own reply timeout; 0: it has none, the caller picks one. */
+	int64_t reply_timeout_ns;
+	/*
+	 * Time one queued request holds up the next: a caller waiting for the
+	 * k-th request of a batch allows k times this on top of its timeout.
+	 */
+	int64_t request_spacing_ns;
+	/* Requests the transport queues itself (see next_due_ns); 0: none. */
+	unsigned queue_len;
+};
+
 struct rmd_bus;
 
 struct rmd_bus_ops {
-	const char *kind; /* "socketcan", "rs485", "sim" */
+	const char *kind; /* "socketcan", "rs485", "sim": for messages only */
 	/* Queue up to n frames; returns how many were taken (0..n) or -errno. */
 	int (*send)(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n,
 		    int64_t now_ns);
@@ -43,12 +74,28 @@ struct rmd_bus_ops {
 	int (*recv)(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now_ns);
 	/* Descriptor that becomes readable when frames arrive, or -1. */
 	int (*fd)(const struct rmd_bus *bus);
+	/*
+	 * When send() or recv() must run again for the transport's own queue
+	 * to advance without a frame arriving (RS485: the deadline of the
+	 * request in flight, 0 for a write to retry); INT64_MAX when it has
+	 * nothing queued, and always for CAN and sim.  Rt-safe.
+	 */
+	int64_t (*next_due_ns)(const struct rmd_bus *bus);
+	/*
+	 * Optional: the state and counters, for a bus that wraps another (a
+	 * decorator forwards to the bus it wraps).  NULL: the bus's own
+	 * state and stats fields, which the backend keeps.
+	 */
+	enum rmd_bus_state (*state)(const struct rmd_bus *bus);
+	const struct rmd_bus_stats *(*stats)(const struct rmd_bus *bus);
 	void (*close)(struct rmd_bus *bus);
 };
 
 struct rmd_bus {
 	const struct rmd_bus_ops *ops;
-	char name[32]; /* "can0", "/dev/ttyUSB0", "sim0": for messages */
+	char name[32];		  /* "can0", "/dev/ttyUSB0", "sim0": for messages */
+	struct rmd_bus_caps caps; /* filled by open; read with rmd_bus_caps() */
+	/* Written by the backend; read with rmd_bus_state() and rmd_bus_stats(). */
 	enum rmd_bus_state state;
 	struct rmd_bus_stats stats;
 	void *priv; /* the backend's own state */
@@ -71,6 +118,30 @@ static inline int rmd_bus_fd(const struct rmd_bus *bus)
 	return bus->ops->fd(bus);
 }
 
+/* See rmd_bus_ops.next_due_ns.  Rt-safe. */
+static inline int64_t rmd_bus_next_due_ns(const struct rmd_bus *bus)
+{
+	return bus->ops->next_due_ns(bus);
+}
+
+/* What the transport is (see struct rmd_bus_caps).  Rt-safe. */
+static inline const struct rmd_bus_caps *rmd_bus_caps(const struct rmd_bus *bus)
+{
+	return &bus->caps;
+}
+
+/* The bus's state (error-active ... bus-off).  Rt-safe. */
+static inline enum rmd_bus_state rmd_bus_state(const struct rmd_bus *bus)
+{
+	return bus->ops->state ? bus->ops->state(bus) : bus->state;
+}
+
+/* The bus's counters.  Rt-safe. */
+static inline const struct rmd_bus_stats *rmd_bus_stats(const struct rmd_bus *bus)
+{
+	return bus->ops->stats ? bus->ops->stats(bus) : &bus->stats;
+}
+
 /* Close the transport; NULL and an unopened bus are no-ops. */
 static inline void rmd_bus_close(struct rmd_bus *bus)
 {
@@ -79,5 +150,8 @@ static inline void rmd_bus_close(struct rmd_bus *bus)
 }
 
 const char *rmd_bus_state_name(enum rmd_bus_state state);
+
+/* next_due_ns of a transport without a queue of its own (CAN, sim): INT64_MAX.  Rt-safe. */
+int64_t rmd_bus_never_due_ns(const struct rmd_bus *bus);
 
 #endif /* RMD_BUS_H */

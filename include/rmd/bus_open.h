@@ -1,7 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Open a bus from a one-word spec, as a command line or a config file
- * names it; the spec picks the transport:
+ * The one bus factory: rmd_bus_open() opens any transport from a config
+ * entry (struct rmd_config_bus) and the bus's motors.  A one-word spec, as
+ * a command line names it, parses into the same entry (rmd_bus_spec_parse())
+ * and takes the same path (rmd_bus_open_spec()); the spec picks the
+ * transport:
  *
  *   "sim"            in-process simulated bus (rmd/bus_sim.h), motors 1..4
  *   "sim:1-3,7"      ... with motors 1, 2, 3 and 7
@@ -20,6 +23,8 @@
 
 #include "rmd/bus.h"
 #include "rmd/codec.h"
+#include "rmd/config.h"
+#include "rmd/sim_setup.h"
 
 /* Motors of a plain "sim" spec: ids 1..RMD_BUS_OPEN_SIM_MOTORS. */
 #define RMD_BUS_OPEN_SIM_MOTORS 4
@@ -41,11 +46,93 @@ struct rmd_bus_open_opts {
 	unsigned broadcast_replies; /* RS485: see struct rmd_rs485_opts */
 	uint32_t sim_bitrate;	    /* sim; 0: 1 Mbit/s */
 	uint64_t sim_seed;	    /* sim; 0: the default seed */
+	bool device; /* the motors' side of the wire (rmd-sim): see struct rmd_bus_open_ctx */
+};
+
+/* A motor on the bus being opened. */
+struct rmd_bus_open_motor {
+	uint8_t id;	      /* 1..32 */
+	enum rmd_proto proto; /* V3, V2 or MIT */
+	/* sim buses: the simulated motor; NULL: rmd_sim_motor_params_default() */
+	const struct rmd_sim_motor_params *sim;
+};
+
+/* What rmd_bus_open() needs beside the config entry. */
+struct rmd_bus_open_ctx {
+	/*
+	 * The bus's motors: SocketCAN admits their replies (its kernel
+	 * filter), the sim bus powers them on, RS485 refuses V2 among them.
+	 */
+	const struct rmd_bus_open_motor *motors;
+	unsigned n_motors;
+	unsigned burst;	     /* SocketCAN: frames per cycle the txqueuelen must hold; 0: no check */
+	bool set_id_replies; /* SocketCAN: also admit 0x300 (V3 §4: 0x79 replies) */
+	int64_t reply_timeout_ns;   /* RS485; 0: its default */
+	unsigned broadcast_replies; /* RS485 (struct rmd_rs485_opts); 0: n_motors */
+	/* sim buses: wire settings and faults (sim time); NULL: the defaults */
+	const struct rmd_sim_bus_setup *sim;
+	/*
+	 * The motors' side of the wire, for a simulator of them (rmd-sim):
+	 * SocketCAN admits the requests to every id instead of the motors'
+	 * replies and opens an interface that is down.  Not for sim buses.
+	 */
+	bool device;
 };
 
 /*
+ * Open the bus cb describes (its kind, name, interface or device, bitrate
+ * or baud) as `bus` (caller allocates; rmd_bus_close() releases it).  cb->sim
+ * is not read: a sim bus takes its wire settings from ctx->sim.  Returns 0
+ * (err may hold a notice to log, e.g. an RS485 port without kernel RS485
+ * mode) or the transport's -errno with a one-line message in err.  Non-rt:
+ * allocates.
+ */
+int rmd_bus_open(struct rmd_bus *bus, const struct rmd_config_bus *cb,
+		 const struct rmd_bus_open_ctx *ctx, char *err, size_t errlen);
+
+/*
+ * Fill *ctx for bus b of cfg: the motors configured on it (id, proto and,
+ * from sim, their simulated model, stored in motors[]) and, for a sim bus,
+ * its wire settings and faults from sim (NULL: the simulator's defaults).
+ * burst, set_id_replies and the RS485 settings are left 0 for the caller.
+ * Pure.
+ */
+void rmd_bus_open_ctx_of(const struct rmd_config *cfg, const struct rmd_sim_setup *sim, unsigned b,
+			 struct rmd_bus_open_motor motors[RMD_MAX_MOTORS],
+			 struct rmd_bus_open_ctx *ctx);
+
+/*
+ * Parse `spec` (see the top of this file) into *cb: kind, name, interface
+ * or device, and opts' baud and sim bitrate (opts NULL: the defaults).  A
+ * sim spec's motor ids go to ids[] (ascending; "sim": 1..4).  Returns the
+ * number of ids (0 for a CAN interface or a serial device), or -EINVAL
+ * with a message in err.  Pure.
+ */
+int rmd_bus_spec_parse(const char *spec, const struct rmd_bus_open_opts *opts,
+		       struct rmd_config_bus *cb, uint8_t ids[RMD_MAX_MOTORS], char *err,
+		       size_t errlen);
+
+/*
+ * How the planner must count a bus cb describes: its rate, the worst-case
+ * bits of one 8-byte frame, and the turnaround each request costs (RS485:
+ * half duplex; 0 on CAN, where replies overlap other frames).  Returns 0,
+ * or -EINVAL for an unknown kind.  Pure.
+ */
+struct rmd_bus_timing {
+	uint32_t bitrate;      /* bit/s on the wire (RS485: its baud) */
+	unsigned frame_bits;   /* one 8-byte frame, worst case, gaps included */
+	int64_t turnaround_ns; /* request end to reply start, per request; 0: none */
+	bool half_duplex;      /* one request at a time (turnaround_ns counts) */
+	const char *port;      /* for messages: the interface or device; NULL: none (sim) */
+	const char *rate_unit; /* for messages: "bit/s" or "baud" */
+};
+int rmd_bus_config_timing(const struct rmd_config_bus *cb, struct rmd_bus_timing *out);
+
+/*
  * Open the bus `spec` names as `bus` (caller allocates; rmd_bus_close()
- * releases it).  opts NULL: V3 motors, every id, the defaults above.
+ * releases it): rmd_bus_spec_parse(), then rmd_bus_open() with the
+ * motors of the spec (sim), of opts (ids), or every id 1..32 with
+ * opts.proto.  opts NULL: V3 motors, every id, the defaults above.
  * Returns 0 (err may hold a notice to log, e.g. an RS485 port without
  * kernel RS485 mode) or the transport's -errno with a one-line message in
  * err; a spec that cannot be parsed gives -EINVAL.  Non-rt: allocates.

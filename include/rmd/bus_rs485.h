@@ -32,7 +32,9 @@
  * at their now_ns; timeouts are judged only in recv(), after it has read
  * what arrived, so a caller that sends and never receives stalls the
  * queue rather than losing answers.  Between calls a caller waits on fd()
- * for replies and until rmd_rs485_deadline_ns() for timeouts.
+ * for replies and until rmd_bus_next_due_ns() for timeouts.  bus->caps:
+ * half_duplex, reply_timeout_ns and request_spacing_ns both the reply
+ * timeout.
  *
  * Receive time.  Every received frame's t_ns is the now_ns of the recv()
  * call that read it (a tty has no receive stamp), so it is late by up to
@@ -46,9 +48,13 @@
 #include <stdint.h>
 
 #include "rmd/bus.h"
+#include "rmd/rs485.h"
 
 /* Requests one bus queues; send() takes what fits and counts the rest in stats.tx_busy. */
 #define RMD_RS485_QUEUE 64
+
+/* One frame on the wire, 8N1 (10 bits a byte: start, 8 data, stop). */
+#define RMD_RS485_FRAME_BITS (RMD_RS485_FRAME_LEN * 10u)
 
 /* Fixed part of the default reply timeout (a motor answers within 0.5-0.8 ms, DESIGN.md). */
 #define RMD_RS485_TURNAROUND_NS 2000000
@@ -90,6 +96,7 @@ struct rmd_rs485_stats {
 	uint64_t broadcasts_short; /* broadcasts that ended with fewer than broadcast_replies */
 	uint64_t dropped_bytes; /* skipped while resynchronising (counted in rx_errors per run) */
 	uint64_t echoes;	/* own requests heard back, with opts.local_echo */
+	uint64_t pending;	/* requests queued or in flight now (a gauge) */
 };
 
 /*
@@ -118,21 +125,10 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 /* Wire time of one 13-byte frame at `baud`, 8N1 (10 bits a byte), rounded up. Pure. */
 int64_t rmd_rs485_frame_ns(uint32_t baud);
 
-/* The reply timeout the bus uses (opts.reply_timeout_ns or its default). Rt-safe. */
-int64_t rmd_rs485_reply_timeout_ns(const struct rmd_bus *bus);
-
 /*
- * When send() or recv() must next be called for the queue to advance
- * without a reply arriving: the deadline of the request in flight, the
- * time of a write that the tty refused (retry; 0 after a write error), or
- * INT64_MAX when nothing is queued.  Rt-safe.
+ * Copy this transport's own counters.  Returns 0, or -EINVAL when bus is
+ * not an RS485 bus.  Rt-safe.
  */
-int64_t rmd_rs485_deadline_ns(const struct rmd_bus *bus);
-
-/* Requests queued or in flight. Rt-safe. */
-unsigned rmd_rs485_pending(const struct rmd_bus *bus);
-
-/* Copy this transport's own counters. Rt-safe. */
-void rmd_rs485_stats(const struct rmd_bus *bus, struct rmd_rs485_stats *out);
+int rmd_rs485_stats(const struct rmd_bus *bus, struct rmd_rs485_stats *out);
 
 #endif /* RMD_BUS_RS485_H */

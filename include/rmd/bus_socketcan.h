@@ -53,6 +53,13 @@ struct rmd_socketcan_opts {
 	 */
 	unsigned burst;
 	int rcvbuf_bytes; /* SO_RCVBUF request; 0: RMD_SOCKETCAN_RCVBUF_DEFAULT */
+	/*
+	 * The motors' side of the wire (rmd-sim): admit the requests to every
+	 * id (0x140 + ID, 0x280, 0x300, MIT 0x400 + ID; motors is not read)
+	 * instead of replies, and open an interface that is down (bus->state
+	 * RMD_BUS_OFF: frames are refused with -ENETDOWN until it is up).
+	 */
+	bool device;
 };
 
 /*
@@ -73,7 +80,10 @@ struct rmd_socketcan_opts {
 int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 		       const struct rmd_socketcan_opts *opts, char *err, size_t errlen);
 
-/* The receive buffer the kernel granted, in bytes (it may cap the request). Non-rt. */
+/*
+ * The receive buffer the kernel granted, in bytes (it may cap the request),
+ * or -EINVAL when bus is not a SocketCAN bus.  Non-rt.
+ */
 int rmd_socketcan_rcvbuf(const struct rmd_bus *bus);
 
 struct can_frame;

@@ -170,17 +170,6 @@ void rmd_config_defaults(struct rmd_config *cfg);
 void rmd_config_bus_defaults(struct rmd_config_bus *b);
 void rmd_config_motor_defaults(struct rmd_config_motor *m);
 
-/*
- * Open sim bus b of cfg as rmdd runs it: its simulator settings and faults
- * (sim, filled with cfg by the loader), and every motor configured on it
- * with its own model (rmd/bus_sim.h).
- * Returns 0 or -errno with a message in err.  Non-rt.
- */
-struct rmd_bus;
-struct rmd_sim_setup;
-int rmd_config_open_sim_bus(const struct rmd_config *cfg, const struct rmd_sim_setup *sim,
-			    unsigned b, struct rmd_bus *bus, char *err, size_t errlen);
-
 /* The index of the bus or motor called `name`, or -ENOENT.  rt-safe. */
 int rmd_config_bus_find(const struct rmd_config *cfg, const char *name);
 int rmd_config_motor_find(const struct rmd_config *cfg, const char *name);

@@ -161,30 +161,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 /* free(NULL)-style: a NULL loop is a no-op.  Non-rt. */
 void rmd_loop_free(struct rmd_loop *l);
 
-/*
- * Bring-up, before the thread starts (non-rt, may block for a bounded
- * time): probe every motor (0xB5 model, 0xB2 version, 0x9A status), write
- * the configured 0xB3 comm-loss time once and check its echo.  V2 has no
- * 0xB5, 0xB2 or 0xB3: V2 motors are probed with 0x9A, and 0x92 anchors
- * their unwrapped encoder position.  Each request is tried
- * RMD_LOOP_PROBE_TRIES times, RMD_LOOP_PROBE_TIMEOUT_NS each.  Fills
- * `report` (no trailing newline) with one line per motor, e.g.
- *
- *   sim0: motor 2 (knee_l): X8S2V10, firmware 20220206, 48.5 V, 25 °C, 0xB3 set to 100 ms
- *   can1: motor 5 (hip_r): missing (no answer to 0xB5 in 3 tries of 5 ms)
- *
- * and one per unexpected motor: every id not configured on a bus is asked
- * for its status (0x9A) once, and one that answers is reported (and an
- * RMD_EV_PROBE event with motor 0xFF, a = -EEXIST, b = its id), e.g.
- *
- *   can0: motor 7: unexpected (answers, but is not configured)
- *
- * Found motors are READY (FAULT with error flags),
- * missing ones LOST (re-probed by the cycle).  Returns 0, -ENODEV when a
- * motor is missing and probe.on_missing is refuse, or -EBUSY while the
- * thread runs.
- */
-int rmd_loop_bringup(struct rmd_loop *l, char *report, size_t len);
+/* Bring-up, before the thread starts: rmd_loop_bringup() in rmd/bringup.h. */
 
 /*
  * One cycle for the tick at now_ns (steps 1..5 above).  rt-safe.  The

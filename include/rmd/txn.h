@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Request/reply transactions over any bus (struct rmd_bus_ops), for callers
- * outside the rt loop: rmdctl, and bring-up probes (0xB5, 0xB2, 0x9A) before
- * the rt loop starts.
+ * outside the rt loop: rmdctl, and bring-up (src/rt/bringup.c: the probes
+ * 0xB5, 0xB2, 0x9A, the id scan and the 0xB3 write) before the rt loop
+ * starts.  This is the one request/reply engine; the rt loop matches its
+ * own replies in its cycle.
  *
  * A batch of requests goes out at once (pipelined: the bus takes what it
  * can, the rest follows as it drains), then each request waits for its own
@@ -13,9 +15,12 @@
  * costs at most tries * (timeout + its place in the batch * spacing); the
  * call never hangs.
  *
- * Time is CLOCK_MONOTONIC.  The caller sleeps: in poll(2) on the bus's fd,
- * or, for a bus without one (the sim bus, whose time advances with each
- * call's now_ns), in short clock_nanosleep() steps.  Non-rt throughout.
+ * Time is CLOCK_MONOTONIC (or the caller's clock, opts.now_ns).  The
+ * caller sleeps: in poll(2) on the bus's fd, or, for a bus without one
+ * (the sim bus, whose time advances with each call's now_ns), in short
+ * clock_nanosleep() steps (or opts.sleep_ns).  The transport is never
+ * named: its rmd_bus_caps give the spacing, rmd_bus_next_due_ns() when its
+ * own queue must be serviced.  Non-rt throughout.
  */
 #ifndef RMD_TXN_H
 #define RMD_TXN_H
@@ -30,11 +35,8 @@
 /* Per-try wait for an answer: a motor answers in 0.5-0.8 ms, USB adds ~1 ms (DESIGN.md). */
 #define RMD_TXN_TIMEOUT_NS 5000000
 #define RMD_TXN_TRIES 3
-/*
- * Wire time a request and its reply add to the requests queued behind them
- * on CAN: 2 frames of at most 135 bits (DESIGN.md) at 500 kbit/s, rounded up.
- */
-#define RMD_TXN_CAN_SPACING_NS 300000
+/* The spacing of a CAN bus (struct rmd_bus_caps.request_spacing_ns). */
+#define RMD_TXN_CAN_SPACING_NS RMD_BUS_CAN_SPACING_NS
 /* Longest sleep between two looks at a bus without fd (the sim bus). */
 #define RMD_TXN_STEP_NS 100000
 
@@ -70,13 +72,25 @@ struct rmd_txn_opts {
 	unsigned tries;	    /* sends per request; 0: RMD_TXN_TRIES */
 	/*
 	 * Added to the deadline of the k-th request of a batch k times: the
-	 * time one request holds up the next.  0: from the bus kind (RS485:
-	 * its reply timeout, half duplex; CAN: RMD_TXN_CAN_SPACING_NS; sim:
-	 * the same).
+	 * time one request holds up the next.  0: the bus's
+	 * rmd_bus_caps()->request_spacing_ns (RS485: its reply timeout, half
+	 * duplex; CAN and sim: RMD_TXN_CAN_SPACING_NS).
 	 */
 	int64_t spacing_ns;
 	/* When not NULL and set (by a signal handler), rmd_txn_run() returns -EINTR. */
 	volatile sig_atomic_t *stop;
+	/* The clock (ctx: clock_ctx); NULL: CLOCK_MONOTONIC. */
+	int64_t (*now_ns)(void *ctx);
+	/* Sleep ns on that clock instead of polling the bus; NULL: poll(2)/clock_nanosleep(). */
+	void (*sleep_ns)(void *ctx, int64_t ns);
+	void *clock_ctx;
+	/*
+	 * Called with every received frame that answers none of the requests
+	 * (other motors, late and unsolicited frames, what was received
+	 * before the requests left); may be NULL.
+	 */
+	void (*unmatched)(void *ctx, const struct rmd_bus_rx *rx);
+	void *unmatched_ctx;
 };
 
 /*

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-/* What all transports share: names for messages. */
+/* What all transports share: names for messages, the trivial ops. */
 #include "rmd/bus.h"
 
 const char *rmd_bus_state_name(enum rmd_bus_state state)
@@ -15,4 +15,10 @@ const char *rmd_bus_state_name(enum rmd_bus_state state)
 		return "bus-off";
 	}
 	return "unknown";
+}
+
+int64_t rmd_bus_never_due_ns(const struct rmd_bus *bus)
+{
+	(void)bus;
+	return INT64_MAX;
 }

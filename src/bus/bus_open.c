@@ -10,6 +10,7 @@
 
 #include "rmd/err.h"
 #include "rmd/bus_open.h"
+#include "rmd/can_timing.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/bus_sim.h"
 #include "rmd/bus_socketcan.h"
@@ -80,80 +81,181 @@ bool rmd_bus_open_is_sim(const char *spec)
 	return spec && !strncmp(spec, SIM_PREFIX, n) && (spec[n] == '\0' || spec[n] == ':');
 }
 
-static int open_sim(struct rmd_bus *bus, const char *spec, const struct rmd_bus_open_opts *o,
-		    char *err, size_t errlen)
+/* A sim bus: its motors, powered on, with ctx->sim's wire and faults.  Non-rt. */
+static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
+		    const struct rmd_bus_open_ctx *ctx, char *err, size_t errlen)
 {
+	static const struct rmd_sim_bus_setup none;
+	const struct rmd_sim_bus_setup *sim = ctx->sim ? ctx->sim : &none;
 	struct rmd_bus_sim_motor motors[RMD_MAX_MOTORS];
-	struct rmd_bus_sim_opts so = { 0 };
-	uint8_t ids[RMD_MAX_MOTORS];
-	const char *list = spec + strlen(SIM_PREFIX);
-	int n;
+	struct rmd_bus_sim_opts so = {
+		.motors = motors,
+		.n_motors = ctx->n_motors,
+		.bitrate = cb->bitrate,
+		.seed = sim->seed,
+		.flags = sim->host_fifo ? RMD_SIM_WIRE_HOST_FIFO : 0,
+		.txqueuelen = sim->txqueuelen,
+		.faults = sim->n_faults ? sim->faults : NULL,
+		.n_faults = sim->n_faults,
+	};
 
-	if (*list == '\0') {
-		n = RMD_BUS_OPEN_SIM_MOTORS;
-		for (int i = 0; i < n; i++)
-			ids[i] = (uint8_t)(i + 1);
-	} else {
-		n = rmd_bus_open_parse_ids(list + 1, ids);
-		if (n < 0)
-			return rmd_errf(
-				err, errlen, -EINVAL,
-				"\"%s\": bad motor list after \"sim:\" (ids 1..%d, each once, "
-				"e.g. sim:1-3,7)",
-				spec, RMD_MAX_MOTORS);
-	}
-	for (int i = 0; i < n; i++)
-		motors[i] = (struct rmd_bus_sim_motor){ .id = ids[i], .proto = o->proto };
-	so.motors = motors;
-	so.n_motors = (unsigned)n;
-	so.bitrate = o->sim_bitrate;
-	so.seed = o->sim_seed;
-	/* Host frames leave in order, as from SocketCAN's single queue. */
-	so.flags = RMD_SIM_WIRE_HOST_FIFO;
-	return rmd_bus_sim_open(bus, spec, &so, err, errlen);
+	for (unsigned i = 0; i < ctx->n_motors; i++)
+		motors[i] = (struct rmd_bus_sim_motor){ .id = ctx->motors[i].id,
+							.proto = ctx->motors[i].proto,
+							.params = ctx->motors[i].sim };
+	return rmd_bus_sim_open(bus, cb->name, &so, err, errlen);
 }
 
-static int open_rs485(struct rmd_bus *bus, const char *spec, const struct rmd_bus_open_opts *o,
-		      char *err, size_t errlen)
+/* An RS485 line of V3 motors.  Non-rt. */
+static int open_rs485(struct rmd_bus *bus, const struct rmd_config_bus *cb,
+		      const struct rmd_bus_open_ctx *ctx, char *err, size_t errlen)
 {
 	struct rmd_rs485_opts ro = {
-		.baud = o->baud ? o->baud : RMD_BUS_OPEN_BAUD,
-		.reply_timeout_ns = o->reply_timeout_ns,
-		.broadcast_replies = o->broadcast_replies,
+		.baud = cb->baud ? cb->baud : RMD_BUS_OPEN_BAUD,
+		.reply_timeout_ns = ctx->reply_timeout_ns,
+		.broadcast_replies = ctx->broadcast_replies ? ctx->broadcast_replies :
+							      ctx->n_motors,
 	};
 
 	/* V3 §1.2: RS485 frames carry the V3 command set; V2 is CAN only. */
-	if (o->proto == RMD_PROTO_V2)
-		return rmd_errf(err, errlen, -EINVAL,
+	for (unsigned i = 0; i < ctx->n_motors; i++)
+		if (ctx->motors[i].proto == RMD_PROTO_V2)
+			return rmd_errf(
+				err, errlen, -EINVAL,
 				"%s: protocol V2 has no RS485 interface (V2 motors are CAN only)",
-				spec);
-	return rmd_rs485_open(bus, spec, &ro, err, errlen);
+				cb->device);
+	return rmd_rs485_open(bus, cb->device, &ro, err, errlen);
 }
 
-static int open_socketcan(struct rmd_bus *bus, const char *spec, const struct rmd_bus_open_opts *o,
-			  char *err, size_t errlen)
+/* A SocketCAN interface that admits the replies of the bus's motors.  Non-rt. */
+static int open_socketcan(struct rmd_bus *bus, const struct rmd_config_bus *cb,
+			  const struct rmd_bus_open_ctx *ctx, char *err, size_t errlen)
 {
 	struct rmd_socketcan_motor motors[RMD_MAX_MOTORS];
-	struct rmd_socketcan_opts so = { 0 };
-	unsigned n = 0;
+	struct rmd_socketcan_opts so = {
+		.motors = motors,
+		.n_motors = ctx->n_motors,
+		.set_id_replies = ctx->set_id_replies,
+		.burst = ctx->burst,
+		.device = ctx->device,
+	};
 
-	if (o->n_ids > RMD_MAX_MOTORS || (o->n_ids && !o->ids))
-		return rmd_errf(err, errlen, -EINVAL, "%s: bad motor list (%u ids)", spec,
-				o->n_ids);
-	if (o->n_ids) {
-		for (unsigned i = 0; i < o->n_ids; i++)
-			motors[n++] =
-				(struct rmd_socketcan_motor){ .id = o->ids[i], .proto = o->proto };
-	} else {
-		for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++)
-			motors[n++] = (struct rmd_socketcan_motor){ .id = (uint8_t)id,
-								    .proto = o->proto };
+	for (unsigned i = 0; i < ctx->n_motors; i++)
+		motors[i] = (struct rmd_socketcan_motor){ .id = ctx->motors[i].id,
+							  .proto = ctx->motors[i].proto };
+	return rmd_socketcan_open(bus, cb->interface[0] ? cb->interface : cb->name, &so, err,
+				  errlen);
+}
+
+int rmd_bus_open(struct rmd_bus *bus, const struct rmd_config_bus *cb,
+		 const struct rmd_bus_open_ctx *ctx, char *err, size_t errlen)
+{
+	static const struct rmd_bus_open_ctx empty;
+
+	memset(bus, 0, sizeof(*bus));
+	if (err && errlen)
+		err[0] = '\0';
+	if (!ctx)
+		ctx = &empty;
+	if (ctx->n_motors > RMD_MAX_MOTORS || (ctx->n_motors && !ctx->motors))
+		return rmd_errf(err, errlen, -EINVAL, "%s: bad motor list (%u motors)", cb->name,
+				ctx->n_motors);
+	switch (cb->kind) {
+	case RMD_BUS_KIND_SOCKETCAN:
+		return open_socketcan(bus, cb, ctx, err, errlen);
+	case RMD_BUS_KIND_RS485:
+		return open_rs485(bus, cb, ctx, err, errlen);
+	case RMD_BUS_KIND_SIM:
+		return open_sim(bus, cb, ctx, err, errlen);
 	}
-	so.motors = motors;
-	so.n_motors = n;
-	so.set_id_replies = o->set_id_replies;
-	so.burst = o->burst;
-	return rmd_socketcan_open(bus, spec, &so, err, errlen);
+	return rmd_errf(err, errlen, -EINVAL, "%s: unknown bus kind %d", cb->name, (int)cb->kind);
+}
+
+void rmd_bus_open_ctx_of(const struct rmd_config *cfg, const struct rmd_sim_setup *sim, unsigned b,
+			 struct rmd_bus_open_motor motors[RMD_MAX_MOTORS],
+			 struct rmd_bus_open_ctx *ctx)
+{
+	*ctx = (struct rmd_bus_open_ctx){ .motors = motors };
+	if (b >= cfg->n_buses)
+		return;
+	for (unsigned i = 0; i < cfg->n_motors && ctx->n_motors < RMD_MAX_MOTORS; i++) {
+		const struct rmd_config_motor *m = &cfg->motors[i];
+
+		if (m->bus == b)
+			motors[ctx->n_motors++] = (struct rmd_bus_open_motor){
+				.id = m->id, .proto = m->proto, .sim = sim ? &sim->motors[i] : NULL
+			};
+	}
+	if (sim && cfg->buses[b].kind == RMD_BUS_KIND_SIM)
+		ctx->sim = &sim->buses[b];
+}
+
+int rmd_bus_config_timing(const struct rmd_config_bus *cb, struct rmd_bus_timing *out)
+{
+	switch (cb->kind) {
+	case RMD_BUS_KIND_SOCKETCAN:
+	case RMD_BUS_KIND_SIM:
+		*out = (struct rmd_bus_timing){
+			.bitrate = cb->bitrate,
+			.frame_bits = rmd_can_frame_bits_worst(RMD_FRAME_LEN),
+			/* pipelined: replies overlap other frames */
+			.port = cb->kind == RMD_BUS_KIND_SOCKETCAN ? cb->interface : NULL,
+			.rate_unit = "bit/s",
+		};
+		return 0;
+	case RMD_BUS_KIND_RS485:
+		*out = (struct rmd_bus_timing){
+			.bitrate = cb->baud,
+			.frame_bits = RMD_RS485_FRAME_BITS,
+			.turnaround_ns = cb->turnaround_ns,
+			.half_duplex = true,
+			.port = cb->device,
+			.rate_unit = "baud",
+		};
+		return 0;
+	}
+	return -EINVAL;
+}
+
+int rmd_bus_spec_parse(const char *spec, const struct rmd_bus_open_opts *opts,
+		       struct rmd_config_bus *cb, uint8_t ids[RMD_MAX_MOTORS], char *err,
+		       size_t errlen)
+{
+	const char *list;
+	int n;
+
+	memset(cb, 0, sizeof(*cb));
+	if (!spec || !*spec)
+		return rmd_errf(
+			err, errlen, -EINVAL,
+			"empty bus name (a CAN interface, a serial device path or \"sim\")");
+	snprintf(cb->name, sizeof(cb->name), "%s", spec);
+	if (spec[0] == '/') {
+		cb->kind = RMD_BUS_KIND_RS485;
+		snprintf(cb->device, sizeof(cb->device), "%s", spec);
+		cb->baud = opts ? opts->baud : 0;
+		return 0;
+	}
+	if (!rmd_bus_open_is_sim(spec)) {
+		cb->kind = RMD_BUS_KIND_SOCKETCAN;
+		snprintf(cb->interface, sizeof(cb->interface), "%s", spec);
+		return 0;
+	}
+	cb->kind = RMD_BUS_KIND_SIM;
+	cb->bitrate = opts ? opts->sim_bitrate : 0;
+	list = spec + strlen(SIM_PREFIX);
+	if (*list == '\0') {
+		for (n = 0; n < RMD_BUS_OPEN_SIM_MOTORS; n++)
+			ids[n] = (uint8_t)(n + 1);
+		return n;
+	}
+	n = rmd_bus_open_parse_ids(list + 1, ids);
+	if (n < 0)
+		return rmd_errf(err, errlen, -EINVAL,
+				"\"%s\": bad motor list after \"sim:\" (ids 1..%d, each once, "
+				"e.g. sim:1-3,7)",
+				spec, RMD_MAX_MOTORS);
+	return n;
 }
 
 int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bus_open_opts *opts,
@@ -161,20 +263,52 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 {
 	static const struct rmd_bus_open_opts defaults = { .proto = RMD_PROTO_V3 };
 	const struct rmd_bus_open_opts *o = opts ? opts : &defaults;
+	struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
+	struct rmd_sim_bus_setup *sim = NULL;
+	struct rmd_bus_open_ctx ctx = {
+		.motors = motors,
+		.set_id_replies = o->set_id_replies,
+		.burst = o->burst,
+		.reply_timeout_ns = o->reply_timeout_ns,
+		.broadcast_replies = o->broadcast_replies,
+		.device = o->device,
+	};
+	struct rmd_config_bus cb;
+	uint8_t ids[RMD_MAX_MOTORS];
+	int n, r;
 
 	memset(bus, 0, sizeof(*bus));
 	if (err && errlen)
 		err[0] = '\0';
-	if (!spec || !*spec)
-		return rmd_errf(
-			err, errlen, -EINVAL,
-			"empty bus name (a CAN interface, a serial device path or \"sim\")");
+	n = rmd_bus_spec_parse(spec, o, &cb, ids, err, errlen);
+	if (n < 0)
+		return n;
 	if (o->proto != RMD_PROTO_V3 && o->proto != RMD_PROTO_V2 && o->proto != RMD_PROTO_MIT)
 		return rmd_errf(err, errlen, -EINVAL, "%s: unknown protocol %d", spec,
 				(int)o->proto);
-	if (rmd_bus_open_is_sim(spec))
-		return open_sim(bus, spec, o, err, errlen);
-	if (spec[0] == '/')
-		return open_rs485(bus, spec, o, err, errlen);
-	return open_socketcan(bus, spec, o, err, errlen);
+	if (cb.kind == RMD_BUS_KIND_SIM) {
+		/* Host frames leave in order, as from SocketCAN's single queue. */
+		sim = calloc(1, sizeof(*sim));
+		if (!sim)
+			return rmd_errf(err, errlen, -ENOMEM, "%s: out of memory", spec);
+		sim->seed = o->sim_seed;
+		sim->host_fifo = true;
+		ctx.sim = sim;
+	} else if (o->n_ids > RMD_MAX_MOTORS || (o->n_ids && !o->ids)) {
+		return rmd_errf(err, errlen, -EINVAL, "%s: bad motor list (%u ids)", spec,
+				o->n_ids);
+	} else if (o->n_ids) {
+		memcpy(ids, o->ids, o->n_ids);
+		n = (int)o->n_ids;
+	} else {
+		/* No list: every id may answer. */
+		for (n = 0; n < RMD_MAX_MOTORS; n++)
+			ids[n] = (uint8_t)(n + 1);
+	}
+	for (int i = 0; i < n; i++)
+		motors[i] = (struct rmd_bus_open_motor){ .id = ids[i], .proto = o->proto };
+	ctx.n_motors = (unsigned)n;
+	r = rmd_bus_open(bus, &cb, &ctx, err, errlen);
+	free(sim);
+	return r;
 }

@@ -24,24 +24,12 @@
 
 _Static_assert((RMD_RS485_QUEUE & (RMD_RS485_QUEUE - 1)) == 0, "queue is a power-of-two ring");
 
-#define WIRE_DATA 3	 /* V3 §1.2.2: header, id, length, then D0..D7 */
-#define BITS_PER_BYTE 10 /* 8N1: start, 8 data, stop */
-#define RX_BUF 256	 /* bytes read and not yet parsed */
+#define WIRE_DATA 3 /* V3 §1.2.2: header, id, length, then D0..D7 */
+#define RX_BUF 256  /* bytes read and not yet parsed */
 #define READS_PER_CALL 16
 /* Linux devices.txt: UNIX98 pseudo-terminal slaves. */
 #define PTY_SLAVE_MAJOR_FIRST 136
 #define PTY_SLAVE_MAJOR_LAST 143
-
-/* V3 §1.2.1. */
-static const struct {
-	uint32_t baud;
-	speed_t speed;
-} bauds[] = {
-	{ 115200, B115200 },   { 500000, B500000 },   { 1000000, B1000000 },
-	{ 1500000, B1500000 }, { 2000000, B2000000 },
-};
-
-#define BAUD_LIST "115200, 500000, 1000000, 1500000 or 2000000"
 
 struct request {
 	uint8_t wire[RMD_RS485_FRAME_LEN];
@@ -85,22 +73,11 @@ static struct rs485 *priv(const struct rmd_bus *bus)
 
 int64_t rmd_rs485_frame_ns(uint32_t baud)
 {
-	const int64_t bits = (int64_t)RMD_RS485_FRAME_LEN * BITS_PER_BYTE;
+	const int64_t bits = RMD_RS485_FRAME_BITS;
 
 	if (baud == 0)
 		return 0;
 	return (bits * RMD_NS_PER_S + baud - 1) / baud;
-}
-
-static int baud_speed(uint32_t baud, speed_t *speed)
-{
-	for (size_t i = 0; i < sizeof(bauds) / sizeof(bauds[0]); i++) {
-		if (bauds[i].baud == baud) {
-			*speed = bauds[i].speed;
-			return 0;
-		}
-	}
-	return -EINVAL;
 }
 
 static bool is_pty(int fd, const char *device)
@@ -187,10 +164,11 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 		snprintf(err, errlen, "%s: no RS485 options given", device);
 		return -EINVAL;
 	}
-	if (baud_speed(opts->baud, &speed) < 0) {
-		snprintf(err, errlen,
-			 "%s: baud %u is not an RMD RS485 rate (V3 §1.2.1): use " BAUD_LIST, device,
-			 opts->baud);
+	if (rmd_rs485_baud_speed(opts->baud, &speed) < 0) {
+		snprintf(
+			err, errlen,
+			"%s: baud %u is not an RMD RS485 rate (V3 §1.2.1): use " RMD_RS485_BAUD_LIST,
+			device, opts->baud);
 		return -EINVAL;
 	}
 	if (opts->reply_timeout_ns < 0 || opts->broadcast_timeout_ns < 0) {
@@ -264,6 +242,13 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 
 	bus->ops = &rs485_ops;
 	snprintf(bus->name, sizeof(bus->name), "%s", device);
+	/* Half duplex: each request waits for the previous answer or its timeout. */
+	bus->caps = (struct rmd_bus_caps){
+		.half_duplex = true,
+		.reply_timeout_ns = p->reply_timeout_ns,
+		.request_spacing_ns = p->reply_timeout_ns,
+		.queue_len = RMD_RS485_QUEUE,
+	};
 	bus->state = RMD_BUS_ACTIVE;
 	memset(&bus->stats, 0, sizeof(bus->stats));
 	bus->priv = p;
@@ -278,16 +263,12 @@ err_free_priv:
 	return r;
 }
 
-/* The RS485 id a CAN identifier maps to (see bus_rs485.h), or -EINVAL. */
+/* The RS485 id a request maps to (see rmd/rs485.h), or -EINVAL. */
 static int tx_id(const struct rmd_frame *f)
 {
 	if (f->len != RMD_FRAME_LEN)
 		return -EINVAL;
-	if (f->can_id > RMD_CAN_REQ_BASE && f->can_id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
-		return (int)(f->can_id - RMD_CAN_REQ_BASE);
-	if (f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_SET_ID)
-		return RMD_RS485_BROADCAST;
-	return -EINVAL;
+	return rmd_rs485_id_of_can(f->can_id, true);
 }
 
 static unsigned queued(const struct rs485 *p)
@@ -452,8 +433,7 @@ static void parse(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned *n, unsi
 		if (!rx_frame(p, id, data))
 			continue;
 
-		out[*n].f.can_id = id == RMD_RS485_BROADCAST ? RMD_CAN_SET_ID :
-							       RMD_CAN_V3_REPLY_BASE + id;
+		out[*n].f.can_id = rmd_rs485_can_id(id, false, data[0]);
 		out[*n].f.len = RMD_FRAME_LEN;
 		memcpy(out[*n].f.data, data, RMD_FRAME_LEN);
 		out[*n].t_ns = now_ns;
@@ -501,6 +481,20 @@ static int rs485_fd(const struct rmd_bus *bus)
 	return priv(bus)->fd;
 }
 
+/*
+ * The deadline of the request in flight, the time of a write that the tty
+ * refused (retry; 0 after a write error), or INT64_MAX when nothing is
+ * queued.  Rt-safe.
+ */
+static int64_t rs485_next_due_ns(const struct rmd_bus *bus)
+{
+	const struct rs485 *p = priv(bus);
+
+	if (p->state == HEAD_IDLE)
+		return queued(p) ? 0 : INT64_MAX; /* 0: a failed write to retry */
+	return p->due_ns;
+}
+
 /* Non-rt: frees. */
 static void rs485_close(struct rmd_bus *bus)
 {
@@ -520,29 +514,18 @@ static const struct rmd_bus_ops rs485_ops = {
 	.send = rs485_send,
 	.recv = rs485_recv,
 	.fd = rs485_fd,
+	.next_due_ns = rs485_next_due_ns,
 	.close = rs485_close,
 };
 
-int64_t rmd_rs485_reply_timeout_ns(const struct rmd_bus *bus)
+int rmd_rs485_stats(const struct rmd_bus *bus, struct rmd_rs485_stats *out)
 {
-	return priv(bus)->reply_timeout_ns;
-}
+	const struct rs485 *p;
 
-int64_t rmd_rs485_deadline_ns(const struct rmd_bus *bus)
-{
-	const struct rs485 *p = priv(bus);
-
-	if (p->state == HEAD_IDLE)
-		return queued(p) ? 0 : INT64_MAX; /* 0: a failed write to retry */
-	return p->due_ns;
-}
-
-unsigned rmd_rs485_pending(const struct rmd_bus *bus)
-{
-	return queued(priv(bus));
-}
-
-void rmd_rs485_stats(const struct rmd_bus *bus, struct rmd_rs485_stats *out)
-{
-	*out = priv(bus)->xs;
+	if (!bus || bus->ops != &rs485_ops)
+		return -EINVAL;
+	p = priv(bus);
+	*out = p->xs;
+	out->pending = queued(p);
+	return 0;
 }

@@ -116,6 +116,7 @@ static const struct rmd_bus_ops sim_ops = {
 	.send = sim_send,
 	.recv = sim_recv,
 	.fd = sim_fd,
+	.next_due_ns = rmd_bus_never_due_ns,
 	.close = sim_close,
 };
 
@@ -208,6 +209,8 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 
 	bus->ops = &sim_ops;
 	snprintf(bus->name, sizeof(bus->name), "%s", name);
+	/* A CAN bus in a box: the same caps as SocketCAN. */
+	bus->caps = (struct rmd_bus_caps){ .request_spacing_ns = RMD_BUS_CAN_SPACING_NS };
 	bus->state = RMD_BUS_ACTIVE;
 	bus->priv = p;
 	return 0;

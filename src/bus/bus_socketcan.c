@@ -127,6 +127,20 @@ static int build_filters(const char *ifname, const struct rmd_socketcan_opts *op
 		f[0].can_mask = CAN_EFF_FLAG | CAN_RTR_FLAG;
 		return 1;
 	}
+	if (opts->device) {
+		/* V2 §1, V3 §1.1.2: requests 0x140 + ID, 0x280, 0x300, MIT 0x400 + ID (ID 1..32). */
+		static const struct can_filter requests[] = {
+			{ RMD_CAN_REQ_BASE, SFF_EXACT_MASK & ~0x1Fu }, /* 0x140..0x15F */
+			{ RMD_CAN_REQ_BASE + 32, SFF_EXACT_MASK },
+			{ RMD_CAN_MULTI, SFF_EXACT_MASK },
+			{ RMD_CAN_SET_ID, SFF_EXACT_MASK },
+			{ RMD_CAN_MIT_REQ_BASE, SFF_EXACT_MASK & ~0x1Fu }, /* 0x400..0x41F */
+			{ RMD_CAN_MIT_REQ_BASE + 32, SFF_EXACT_MASK },
+		};
+
+		memcpy(f, requests, sizeof(requests));
+		return (int)(sizeof(requests) / sizeof(requests[0]));
+	}
 	if (opts->n_motors && !opts->motors)
 		return rmd_errf(err, errlen, -EINVAL, "%s: %u motors but no motor list", ifname,
 				opts->n_motors);
@@ -202,6 +216,10 @@ static int check_interface(int fd, const char *ifname, const struct rmd_socketca
 	if (ioctl(fd, SIOCGIFFLAGS, &ifr) < 0)
 		return rmd_errf(err, errlen, -errno, "%s: SIOCGIFFLAGS: %s", ifname,
 				strerror(errno));
+	if (!(ifr.ifr_flags & IFF_UP) && opts && opts->device) {
+		*carrier = false; /* the simulator waits for it to come up */
+		return 0;
+	}
 	if (!(ifr.ifr_flags & IFF_UP)) {
 		if (is_virtual_can(ifname))
 			return rmd_errf(err, errlen, -ENETDOWN,
@@ -465,6 +483,7 @@ static const struct rmd_bus_ops socketcan_ops = {
 	.send = socketcan_send,
 	.recv = socketcan_recv,
 	.fd = socketcan_fd,
+	.next_due_ns = rmd_bus_never_due_ns,
 	.close = socketcan_close,
 };
 
@@ -497,8 +516,11 @@ void rmd_socketcan_error_frame(struct rmd_bus *bus, const struct can_frame *cf)
 
 int rmd_socketcan_rcvbuf(const struct rmd_bus *bus)
 {
-	const struct socketcan *p = bus->priv;
+	const struct socketcan *p;
 
+	if (!bus || bus->ops != &socketcan_ops)
+		return -EINVAL;
+	p = bus->priv;
 	return p ? p->rcvbuf : 0;
 }
 
@@ -564,6 +586,8 @@ int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 
 	bus->ops = &socketcan_ops;
 	snprintf(bus->name, sizeof(bus->name), "%s", ifname);
+	/* Full duplex: requests and replies overlap; the caller picks its timeout. */
+	bus->caps = (struct rmd_bus_caps){ .request_spacing_ns = RMD_BUS_CAN_SPACING_NS };
 	bus->state = carrier ? RMD_BUS_ACTIVE : RMD_BUS_OFF;
 	bus->priv = p;
 	return 0;

@@ -11,12 +11,11 @@
 #include <time.h>
 
 #include "rmd/time.h"
-#include "rmd/bus_rs485.h"
 #include "rmd/txn.h"
 
 /* Frames one send() or recv() call moves here. */
 #define TXN_BATCH 64
-/* Longest sleep in poll(2) between two recv() calls: the RS485 queue advances only in them. */
+/* Longest sleep in poll(2) between two recv() calls: a transport's queue advances only in them. */
 #define TXN_POLL_SLICE_NS 1000000
 
 int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
@@ -61,10 +60,12 @@ static int64_t spacing_of(const struct rmd_bus *bus, const struct rmd_txn_opts *
 {
 	if (opts && opts->spacing_ns > 0)
 		return opts->spacing_ns;
-	/* Half duplex: each request waits for the previous answer or its timeout. */
-	if (!strcmp(bus->ops->kind, "rs485"))
-		return rmd_rs485_reply_timeout_ns(bus);
-	return RMD_TXN_CAN_SPACING_NS;
+	return rmd_bus_caps(bus)->request_spacing_ns;
+}
+
+static int64_t now_of(const struct rmd_txn_opts *opts)
+{
+	return opts && opts->now_ns ? opts->now_ns(opts->clock_ctx) : rmd_now_ns();
 }
 
 static bool stopped(const struct rmd_txn_opts *opts)
@@ -72,8 +73,32 @@ static bool stopped(const struct rmd_txn_opts *opts)
 	return opts && opts->stop && *opts->stop;
 }
 
+/*
+ * Does rx answer one of t[0..n)?  The first waiting request it matches
+ * takes it; the echo of a request whose answer is no echo is noted (the
+ * comm-loss rule of struct rmd_txn.check_echo).  False: it answers none.
+ */
+static bool take(struct rmd_txn *t, unsigned n, const struct rmd_bus_rx *rx)
+{
+	for (unsigned i = 0; i < n; i++) {
+		/* Any try's answer will do: matched, it answers this request. */
+		if (t[i].done || !t[i].tries || t[i].no_reply || !rmd_txn_matches(&t[i], &rx->f))
+			continue;
+		if (t[i].check_echo && !t[i].echo_seen && rx->f.len == t[i].req.len &&
+		    !memcmp(rx->f.data, t[i].req.data, t[i].req.len)) {
+			t[i].echo_seen = true; /* only echoed: the next try answers */
+			return true;
+		}
+		t[i].done = true;
+		t[i].rep = *rx;
+		return true;
+	}
+	return false;
+}
+
 /* Take every frame received so far; each answers the first waiting request it matches. */
-static int collect(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t now_ns)
+static int collect(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t now_ns,
+		   const struct rmd_txn_opts *opts)
 {
 	struct rmd_bus_rx rx[TXN_BATCH];
 	int r;
@@ -82,24 +107,9 @@ static int collect(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t n
 		r = rmd_bus_recv(bus, rx, TXN_BATCH, now_ns);
 		if (r < 0)
 			return r;
-		for (int k = 0; k < r; k++) {
-			for (unsigned i = 0; i < n; i++) {
-				/* Any try's answer will do: matched, it answers this request. */
-				if (t[i].done || !t[i].tries || t[i].no_reply ||
-				    !rmd_txn_matches(&t[i], &rx[k].f))
-					continue;
-				if (t[i].check_echo && !t[i].echo_seen &&
-				    rx[k].f.len == t[i].req.len &&
-				    !memcmp(rx[k].f.data, t[i].req.data, t[i].req.len)) {
-					t[i].echo_seen =
-						true; /* only echoed: the next try answers */
-					break;
-				}
-				t[i].done = true;
-				t[i].rep = rx[k];
-				break;
-			}
-		}
+		for (int k = 0; k < r; k++)
+			if (!take(t, n, &rx[k]) && opts && opts->unmatched)
+				opts->unmatched(opts->unmatched_ctx, &rx[k]);
 	} while (r == TXN_BATCH);
 	return 0;
 }
@@ -137,13 +147,19 @@ static int send_some(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t
 }
 
 /* Sleep until frames arrive or until_ns, whichever is first (EINTR ends it early). */
-static void wait_until(struct rmd_bus *bus, int64_t now_ns, int64_t until_ns)
+static void wait_until(struct rmd_bus *bus, int64_t now_ns, int64_t until_ns,
+		       const struct rmd_txn_opts *opts)
 {
 	int64_t d = until_ns - now_ns;
 	int fd = rmd_bus_fd(bus);
 
 	if (d <= 0)
 		return;
+	if (opts && opts->sleep_ns) {
+		opts->sleep_ns(opts->clock_ctx,
+			       fd < 0 && d > RMD_TXN_STEP_NS ? RMD_TXN_STEP_NS : d);
+		return;
+	}
 	if (fd < 0) {
 		struct timespec ts;
 
@@ -169,16 +185,15 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 		      int64_t spacing_ns, const struct rmd_txn_opts *opts)
 {
 	/* A bus that takes no frame at all (bus-off, a stuck queue) ends the round too. */
-	int64_t end_ns = rmd_now_ns() + timeout_ns + (int64_t)n * spacing_ns;
-	/* RS485: how long the round may wait for the transport's queue to empty (below). */
-	int64_t drain_end_ns = end_ns + (int64_t)RMD_RS485_QUEUE * spacing_ns;
-	bool rs485 = !strcmp(bus->ops->kind, "rs485");
+	int64_t end_ns = now_of(opts) + timeout_ns + (int64_t)n * spacing_ns;
+	/* How long the round may wait for the transport's own queue to empty (below). */
+	int64_t drain_end_ns = end_ns + (int64_t)rmd_bus_caps(bus)->queue_len * spacing_ns;
 	unsigned k = 0;
 
 	for (unsigned i = 0; i < n; i++)
 		t[i].sent = false;
 	for (;;) {
-		int64_t now = rmd_now_ns(), next = INT64_MAX;
+		int64_t now = now_of(opts), next = INT64_MAX, due;
 		bool waiting = false, unsent = false;
 		int r;
 
@@ -189,7 +204,7 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 			if (r < 0)
 				return r;
 		}
-		r = collect(bus, t, n, now);
+		r = collect(bus, t, n, now, opts);
 		if (r < 0)
 			return r;
 		for (unsigned i = 0; i < n; i++) {
@@ -206,18 +221,18 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 			}
 		}
 		/*
-		 * Half-duplex RS485 writes each queued request only after the
-		 * previous one's answer or timeout, judged when recv() runs,
-		 * so it falls behind the deadlines above.  A request given up
-		 * on here still goes out later, ahead of the next round's and
-		 * the next batch's, which then time out in turn (32 silent ids
-		 * of a scan starve its 0xB5/0xB2 reads).  So the round lasts
-		 * until the queue is empty, waking at the transport's own
-		 * deadline; late answers still count (collect()).
+		 * A transport with a queue of its own (half-duplex RS485
+		 * writes each queued request only after the previous one's
+		 * answer or timeout, judged when recv() runs) falls behind the
+		 * deadlines above.  A request given up on here still goes out
+		 * later, ahead of the next round's and the next batch's, which
+		 * then time out in turn (32 silent ids of a scan starve its
+		 * 0xB5/0xB2 reads).  So the round lasts until that queue is
+		 * empty, waking when the transport is due; late answers still
+		 * count (collect()).
 		 */
-		if (rs485 && rmd_rs485_pending(bus) && now < drain_end_ns) {
-			int64_t due = rmd_rs485_deadline_ns(bus);
-
+		due = rmd_bus_next_due_ns(bus);
+		if (due != INT64_MAX && now < drain_end_ns) {
 			if (due <= now) /* a write the tty refused: retry soon */
 				due = now + RMD_TXN_STEP_NS;
 			waiting = true;
@@ -231,7 +246,7 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 			next = now + RMD_TXN_STEP_NS;
 		if (unsent && next > end_ns)
 			next = end_ns;
-		wait_until(bus, now, next);
+		wait_until(bus, now, next, opts);
 	}
 }
 
@@ -249,7 +264,7 @@ int rmd_txn_run(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, const struct
 		t[i].sent = false;
 	}
 	/* Nothing received before the requests left can answer them. */
-	r = collect(bus, t, 0, rmd_now_ns());
+	r = collect(bus, t, 0, now_of(opts), opts);
 	if (r < 0)
 		return r;
 	for (unsigned round = 0; round < tries; round++) {

@@ -9,9 +9,7 @@
 #include <string.h>
 
 #include "rmd/err.h"
-#include "rmd/bus_sim.h"
 #include "rmd/config.h"
-#include "rmd/sim_setup.h"
 
 const char *const rmd_bus_kind_names[] = { "socketcan", "rs485", "sim", NULL };
 const char *const rmd_proto_keys[] = { "v3", "v2", "mit", NULL };
@@ -102,33 +100,4 @@ const char *rmd_mode_name(enum rmd_mode mode)
 const char *rmd_safe_action_name(enum rmd_safe_action action)
 {
 	return (unsigned)action < 4 ? rmd_safe_action_names[action] : "?";
-}
-
-int rmd_config_open_sim_bus(const struct rmd_config *cfg, const struct rmd_sim_setup *sim,
-			    unsigned b, struct rmd_bus *bus, char *err, size_t errlen)
-{
-	const struct rmd_config_bus *cb = &cfg->buses[b];
-	struct rmd_bus_sim_motor motors[RMD_MAX_MOTORS];
-	struct rmd_bus_sim_opts o = {
-		.motors = motors,
-		.bitrate = cb->bitrate,
-		.seed = sim->buses[b].seed,
-		.flags = sim->buses[b].host_fifo ? RMD_SIM_WIRE_HOST_FIFO : 0,
-		.txqueuelen = sim->buses[b].txqueuelen,
-		.faults = sim->buses[b].faults,
-		.n_faults = sim->buses[b].n_faults,
-	};
-
-	if (b >= cfg->n_buses || cb->kind != RMD_BUS_KIND_SIM)
-		return rmd_errf(err, errlen, -EINVAL, "bus %u is not a sim bus", b);
-	for (unsigned i = 0; i < cfg->n_motors; i++) {
-		const struct rmd_config_motor *m = &cfg->motors[i];
-
-		if (m->bus != b || o.n_motors >= RMD_MAX_MOTORS)
-			continue;
-		motors[o.n_motors++] = (struct rmd_bus_sim_motor){ .id = m->id,
-								   .proto = m->proto,
-								   .params = &sim->motors[i] };
-	}
-	return rmd_bus_sim_open(bus, cb->name, &o, err, errlen);
 }

@@ -77,3 +77,51 @@ int rmd_rs485_parse(const uint8_t *buf, size_t len, uint8_t *id, uint8_t data[RM
 	memcpy(data, &buf[OFF_DATA], RMD_FRAME_LEN);
 	return (int)RMD_RS485_FRAME_LEN;
 }
+
+const struct rmd_rs485_baud RMD_RS485_BAUDS[RMD_RS485_N_BAUDS] = {
+	{ 115200, B115200 },   { 500000, B500000 },   { 1000000, B1000000 },
+	{ 1500000, B1500000 }, { 2000000, B2000000 },
+};
+
+int rmd_rs485_baud_speed(uint32_t baud, speed_t *speed)
+{
+	for (size_t i = 0; i < RMD_RS485_N_BAUDS; i++) {
+		if (RMD_RS485_BAUDS[i].baud == baud) {
+			*speed = RMD_RS485_BAUDS[i].speed;
+			return 0;
+		}
+	}
+	return -EINVAL;
+}
+
+/* ID when can_id is base + ID (ID 1..32), else 0. */
+static unsigned id_above(uint32_t can_id, uint32_t base)
+{
+	return can_id > base && can_id <= base + RMD_MAX_MOTORS ? can_id - base : 0;
+}
+
+int rmd_rs485_id_of_can(uint32_t can_id, bool request)
+{
+	unsigned id = id_above(can_id, RMD_CAN_REQ_BASE);
+
+	if (!request && !id)
+		id = id_above(can_id, RMD_CAN_V3_REPLY_BASE);
+	if (id)
+		return (int)id;
+	if (can_id == RMD_CAN_SET_ID || (request && can_id == RMD_CAN_MULTI))
+		return RMD_RS485_BROADCAST;
+	return -EINVAL;
+}
+
+uint32_t rmd_rs485_can_id(uint8_t id, bool request, uint8_t d0)
+{
+	if (id == RMD_RS485_BROADCAST) {
+		/* V3 §7: 0x79 sets the RS485 id; every other broadcast is §6's 0x280. */
+		if (!request || d0 == RMD_RS485_CMD_SET_ID)
+			return RMD_CAN_SET_ID;
+		return RMD_CAN_MULTI;
+	}
+	if (id < 1 || id > RMD_MAX_MOTORS)
+		return 0;
+	return (request ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + id;
+}

@@ -3,47 +3,48 @@
  * Bring-up, before the rt thread starts: probe every configured motor
  * (model 0xB5, version 0xB2, status 0x9A), scan each bus for ids that
  * answer but are not configured, and write each motor's comm-loss
- * protection (0xB3).  Non-rt: blocks on the buses, formats text.
+ * protection (0xB3).  Every request goes through rmd_txn_run(), the one
+ * request/reply engine; the result is data (rmd/bringup.h).
+ *
+ * Non-rt: blocks on the buses for a bounded time.
  */
-#define _GNU_SOURCE
 #include <errno.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
-#include "rmd/bus_rs485.h"
+#include "rmd/bringup.h"
 #include "rmd/time.h"
+#include "rmd/txn.h"
 #include "loop_priv.h"
 
-struct report {
-	char *buf;
-	size_t len, used;
+/* What the txn hooks need: the loop's clock, and the bus for stray frames. */
+struct probe_ctx {
+	struct rmd_loop *l;
+	unsigned bus;
 };
 
-/* Non-rt. */
-__attribute__((format(printf, 2, 3))) static void rep_add(struct report *r, const char *fmt, ...)
+/* The loop's clock, for rmd_txn_opts.now_ns.  Non-rt. */
+static int64_t ctx_now(void *ctx)
 {
-	va_list ap;
-	int n;
-
-	if (!r->buf || !r->len || r->used + 1 >= r->len)
-		return;
-	va_start(ap, fmt);
-	n = vsnprintf(r->buf + r->used, r->len - r->used, fmt, ap);
-	va_end(ap);
-	if (n > 0)
-		r->used += (size_t)n;
-	if (r->used >= r->len)
-		r->used = r->len - 1;
+	return loop_now(((struct probe_ctx *)ctx)->l);
 }
 
-/* Bring-up: a frame nobody asked for; remember ids that are not configured.  Non-rt (bring-up). */
-static void probe_stray(struct rmd_loop *l, unsigned b, const struct rmd_frame *f)
+/* The loop's sleep, for rmd_txn_opts.sleep_ns (set only with an injected clock).  Non-rt. */
+static void ctx_sleep(void *ctx, int64_t ns)
 {
-	uint32_t id = f->can_id;
+	struct probe_ctx *pc = ctx;
+
+	loop_wait_bus(pc->l, pc->l->bus[pc->bus].bus, ns);
+}
+
+/* A frame that answers no request: remember ids that are not configured.  Non-rt. */
+static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
+{
+	struct probe_ctx *pc = ctx;
+	uint32_t id = rx->f.can_id;
 	unsigned mid = 0;
 
-	if (loop_motor_of(l, b, id))
+	if (loop_motor_of(pc->l, pc->bus, id))
 		return;
 	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
 		mid = id - RMD_CAN_V3_REPLY_BASE;
@@ -52,318 +53,244 @@ static void probe_stray(struct rmd_loop *l, unsigned b, const struct rmd_frame *
 	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
 		mid = id - RMD_CAN_MIT_REPLY_BASE;
 	if (mid)
-		l->bus[b].unexpected_ids |= 1u << (mid - 1);
+		pc->l->bus[pc->bus].unexpected_ids |= 1u << (mid - 1);
 }
 
-/* True when the reply to `cmd` repeats the request (RMD_CMD_ECHO).  Non-rt. */
-static bool cmd_echoes(const struct lmotor *lm, uint8_t cmd)
+/* Options of one bring-up transaction on bus b: the loop's clock, strays noted.  Non-rt. */
+static struct rmd_txn_opts txn_opts(struct probe_ctx *pc, unsigned tries, int64_t timeout_ns)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(lm->m.proto, cmd);
+	const struct rmd_loop *l = pc->l;
 
-	return spec && (spec->flags & RMD_CMD_ECHO);
+	return (struct rmd_txn_opts){
+		.timeout_ns = timeout_ns,
+		.tries = tries,
+		.now_ns = ctx_now,
+		.sleep_ns = l->o.sleep_ns ? ctx_sleep : NULL,
+		.clock_ctx = pc,
+		.unmatched = probe_stray,
+		.unmatched_ctx = pc,
+	};
 }
 
 /*
- * One request to lm and its answer, with retries.  Returns 0 with the
- * answer in *rep, or -ETIMEDOUT.
- * Non-rt: blocks for a bounded time.
+ * The wait of one probe on bus lb: RMD_LOOP_PROBE_TIMEOUT_NS, or the
+ * transport's own reply timeout plus 1 ms where it has one.  Non-rt.
  */
-static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *req,
-		      unsigned tries, int64_t timeout_ns, struct rmd_frame *rep)
+static int64_t probe_timeout_ns(const struct lbus *lb)
 {
-	struct lbus *lb = &l->bus[lm->m.bus];
-	bool check_echo, echo_seen = false;
-	uint32_t rid;
-	uint16_t cmd;
+	int64_t t = rmd_bus_caps(lb->bus)->reply_timeout_ns;
 
-	rmd_motor_reply_key(&lm->m, req, &rid, &cmd);
-	check_echo = cmd != RMD_MOTOR_CMD_MIT && !cmd_echoes(lm, (uint8_t)cmd);
-	for (unsigned t = 0; t < tries; t++) {
-		int64_t now = loop_now(l), deadline = now + timeout_ns;
-		bool resend = false;
-
-		rmd_bus_send(lb->bus, req, 1, now);
-		while (!resend) {
-			int n;
-
-			now = loop_now(l);
-			n = rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now);
-			for (int k = 0; k < n; k++) {
-				const struct rmd_frame *f = &lb->rx[k].f;
-
-				if (f->can_id != rid || !f->len ||
-				    (cmd != RMD_MOTOR_CMD_MIT && f->data[0] != cmd)) {
-					probe_stray(l, lm->m.bus, f);
-					continue;
-				}
-				/*
-				 * A copy of a request whose answer is no copy: a motor
-				 * whose comm-loss protection tripped echoes the first
-				 * command and does not execute it.  Ask again; a second
-				 * copy is the answer (V3 0x70 in mode 0 is all zeros).
-				 */
-				if (check_echo && !echo_seen && f->len == req->len &&
-				    !memcmp(f->data, req->data, req->len)) {
-					echo_seen = true;
-					resend = true;
-					break;
-				}
-				*rep = *f;
-				return 0;
-			}
-			if (resend || now >= deadline)
-				break;
-			if (n < RX_BATCH)
-				loop_wait_bus(l, lb->bus,
-					      deadline - now < PROBE_STEP_NS ? deadline - now :
-									       PROBE_STEP_NS);
-		}
-	}
-	return -ETIMEDOUT;
+	return t ? t + RMD_NS_PER_MS : RMD_LOOP_PROBE_TIMEOUT_NS;
 }
 
-/* Non-rt. */
-static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, unsigned tries,
-		     int64_t timeout_ns, struct rmd_motor_reply *r)
+/*
+ * One request msg to motor lm and its answer (t->req, t->rep), tried
+ * RMD_LOOP_PROBE_TRIES times.  Returns 0, -ETIMEDOUT, or another -errno.
+ * Non-rt.
+ */
+static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_msg *msg,
+		      struct rmd_txn *t)
 {
-	struct rmd_frame req, rep;
-	int ret = rmd_motor_encode_cmd(&lm->m, cmd, &req);
+	struct probe_ctx pc = { .l = l, .bus = lm->m.bus };
+	struct rmd_txn_opts o =
+		txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(&l->bus[lm->m.bus]));
+	int r;
 
-	if (ret < 0)
-		return ret;
-	ret = probe_xfer(l, lm, &req, tries, timeout_ns, &rep);
-	if (ret < 0)
-		return ret;
-	return rmd_motor_decode(&lm->m, &rep, r) < 0 ? -EBADMSG : 0;
+	r = rmd_txn_prepare(t, lm->m.proto, lm->m.id, msg);
+	if (r < 0)
+		return r;
+	r = rmd_txn_run(l->bus[lm->m.bus].bus, t, 1, &o);
+	if (r < 0)
+		return r;
+	return t->done ? 0 : -ETIMEDOUT;
 }
 
-/* Probe motor i and write its report line.  Returns 0, or -ENODEV when it is missing.  Non-rt. */
-static int probe_motor(struct rmd_loop *l, unsigned i, struct report *rp)
+/* Ask lm for `cmd` (no arguments) and decode the answer.  Non-rt. */
+static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, struct rmd_motor_reply *r)
 {
-	const struct rmd_config_motor *c = &l->cfg->motors[i];
+	struct rmd_msg msg = { .cmd = cmd };
+	struct rmd_txn t;
+	int ret;
+
+	ret = probe_xfer(l, lm, &msg, &t);
+	if (ret < 0)
+		return ret;
+	return rmd_motor_decode(&lm->m, &t.rep.f, r) < 0 ? -EBADMSG : 0;
+}
+
+/* Probe motor i into *out.  Returns 0, or -ENODEV when it is missing.  Non-rt. */
+static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor *out)
+{
 	struct lmotor *lm = &l->mot[i];
-	struct lbus *lb = &l->bus[lm->m.bus];
-	const char *bus = lb->cb->name;
 	bool v2 = lm->m.proto == RMD_PROTO_V2;
-	const unsigned tries = RMD_LOOP_PROBE_TRIES;
-	int64_t timeout = RMD_LOOP_PROBE_TIMEOUT_NS;
 	struct rmd_motor_reply r;
-	uint8_t first = v2 ? 0x9A : 0xB5;
 	int64_t now;
 	int ret;
 
-	if (lb->cb->kind == RMD_BUS_KIND_RS485)
-		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + RMD_NS_PER_MS;
-	rep_add(rp, "%s: motor %u (%s): ", bus, c->id, c->name);
+	memset(out, 0, sizeof(*out));
 	/* V3 §2.32 model; V2 has no model or version query: its status answers */
-	ret = probe_cmd(l, lm, first, tries, timeout, &r);
+	out->probe_cmd = v2 ? 0x9A : 0xB5;
+	out->tries = RMD_LOOP_PROBE_TRIES;
+	out->timeout_ns = probe_timeout_ns(&l->bus[lm->m.bus]);
+	ret = probe_cmd(l, lm, out->probe_cmd, &r);
 	now = loop_now(l);
 	if (ret < 0) {
-		rep_add(rp, "missing (no answer to 0x%02X in %u tries of %lld ms)\n", first, tries,
-			(long long)(timeout / RMD_NS_PER_MS));
-		loop_event(l, now, RMD_EV_PROBE, i, lm->m.bus, -ENODEV, 0);
+		out->state = RMD_BRINGUP_MISSING;
 		loop_enter(l, lm, RMD_LC_LOST, now);
 		lm->next_probe_ns = now; /* the first cycle probes again */
 		return -ENODEV;
 	}
 	if (!v2) {
 		snprintf(lm->model, sizeof(lm->model), "%s", r.model);
+		memcpy(out->model, lm->model, sizeof(out->model));
 		/* V3 §2.29 firmware date */
-		if (probe_cmd(l, lm, 0xB2, tries, timeout, &r) == 0)
+		if (probe_cmd(l, lm, 0xB2, &r) == 0)
 			lm->version = r.version_date;
-		rep_add(rp, "%s", lm->model[0] ? lm->model : "(no model)");
-		if (!lm->version)
-			rep_add(rp, ", no answer to 0xB2");
-		else if (rmd_version_date_valid(lm->version))
-			rep_add(rp, ", firmware %u", (unsigned)lm->version);
-		else
-			rep_add(rp, ", firmware date %u implausible", (unsigned)lm->version);
+		out->version = lm->version;
 		/* V3 §2.12 status 1 */
-		ret = probe_cmd(l, lm, 0x9A, tries, timeout, &r);
-	} else {
-		rep_add(rp, "V2 (no model or version query)");
+		ret = probe_cmd(l, lm, 0x9A, &r);
 	}
 	if (ret == 0) {
 		rmd_motor_apply(&r, &lm->st);
-		rep_add(rp, ", %.1f V, %.0f °C", r.voltage_v, r.temp_c);
-		if (r.error_code) {
-			const char *names[4];
-			size_t n = rmd_error_names(v2 ? RMD_PROTO_V2 : RMD_PROTO_V3, r.error_code,
-						   names, 4);
-
-			rep_add(rp, ", errors 0x%04X (", r.error_code);
-			for (size_t k = 0; k < n && k < 4; k++)
-				rep_add(rp, "%s%s", k ? ", " : "", names[k]);
-			rep_add(rp, "%s)", n > 4 ? ", ..." : "");
-		}
-	} else {
-		rep_add(rp, ", no answer to 0x9A");
+		out->status = true;
+		out->voltage_v = r.voltage_v;
+		out->temp_c = r.temp_c;
+		out->error_code = r.error_code;
 	}
 	if (v2) {
 		/* V2 §3.29: the multi-turn angle anchors the unwrapped encoder */
-		if (probe_cmd(l, lm, 0x92, tries, timeout, &r) == 0 &&
-		    (r.have & RMD_MOTOR_HAVE_POS))
+		if (probe_cmd(l, lm, 0x92, &r) == 0 && (r.have & RMD_MOTOR_HAVE_POS)) {
 			rmd_motor_set_v2_reference(&lm->m,
 						   rmd_motor_to_native_pos(&lm->m, r.pos_rad));
-		else
-			rep_add(rp, ", no 0x92 angle: positions start at 0");
-		rep_add(rp, ", no 0xB3 in V2 (no comm-loss protection)");
+			out->v2_angle = true;
+		}
 	}
-	rep_add(rp, "\n");
 	now = loop_now(l);
-	loop_event(l, now, RMD_EV_PROBE, i, lm->m.bus, 0, lm->version);
 	lm->consecutive = 0;
 	loop_enter(l, lm, RMD_LC_READY, now);
 	if (lm->st.error_code)
 		loop_note_errors(l, lm, 0, now);
+	out->state = lm->st.error_code ? RMD_BRINGUP_FAULT : RMD_BRINGUP_FOUND;
 	return 0;
 }
 
 /*
  * Ask every id that is not configured on bus b for its status (0x9A, read
  * only; V3 §2.12 on 0x140 + ID, which V2 motors take as well), all at
- * once, and note who answers.  Bounded: one try, the wire time of the
- * requests (RS485: one reply timeout each) plus RMD_LOOP_PROBE_TIMEOUT_NS.
+ * once, and note who answers, on whatever identifier.  Bounded: one try,
+ * RMD_LOOP_PROBE_TIMEOUT_NS plus the requests' spacing on the bus.
  * Non-rt.
  */
-static void scan_bus(struct rmd_loop *l, unsigned b)
+static int scan_bus(struct rmd_loop *l, unsigned b)
 {
 	struct lbus *lb = &l->bus[b];
-	struct rmd_frame req[RMD_MAX_MOTORS];
-	unsigned n = 0, off = 0;
-	int64_t now = loop_now(l), end;
+	struct probe_ctx pc = { .l = l, .bus = b };
+	struct rmd_txn_opts o = txn_opts(&pc, 1, RMD_LOOP_PROBE_TIMEOUT_NS);
+	struct rmd_txn t[RMD_MAX_MOTORS];
+	struct rmd_msg msg = { .cmd = 0x9A };
+	unsigned n = 0;
+	int r;
 
 	for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++) {
-		struct rmd_msg msg;
-
 		if (lb->by_v3[id] || lb->by_v2[id] || lb->by_mit[id])
 			continue;
-		memset(&msg, 0, sizeof(msg));
-		msg.cmd = 0x9A;
-		if (rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, (uint8_t)id, &msg, &req[n]) == 0)
+		if (rmd_txn_prepare(&t[n], RMD_PROTO_V3, (uint8_t)id, &msg) == 0)
 			n++;
 	}
-	if (lb->cb->kind == RMD_BUS_KIND_RS485)
-		end = now + (int64_t)(n + 1) * rmd_rs485_reply_timeout_ns(lb->bus);
-	else
-		end = now + rmd_plan_cost_ns(lb->pb, 2 * n, n);
-	end += RMD_LOOP_PROBE_TIMEOUT_NS;
-	while (now < end) {
-		int r;
-
-		if (off < n) {
-			r = rmd_bus_send(lb->bus, req + off, n - off, now);
-			if (r > 0)
-				off += (unsigned)r;
-		}
-		r = rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now);
-		for (int k = 0; k < r; k++)
-			probe_stray(l, b, &lb->rx[k].f);
-		if (r < RX_BATCH)
-			loop_wait_bus(l, lb->bus,
-				      end - now < PROBE_STEP_NS ? end - now : PROBE_STEP_NS);
-		now = loop_now(l);
-	}
+	r = rmd_txn_run(lb->bus, t, n, &o);
+	if (r < 0)
+		return r;
+	for (unsigned k = 0; k < n; k++)
+		if (t[k].done)
+			lb->unexpected_ids |= 1u << (t[k].req.can_id - RMD_CAN_REQ_BASE - 1);
+	return 0;
 }
 
-/* Non-rt. */
+/*
+ * What an answer to 0xB3 `req` says: the request repeated (set), the
+ * command byte and zeros (V3 §2.30 example 2), or something else.  Pure.
+ */
+static enum rmd_bringup_b3 b3_outcome(const struct rmd_frame *req, const struct rmd_frame *rep)
+{
+	static const uint8_t zeros[RMD_FRAME_LEN - 1];
+
+	if (rep->len == req->len && !memcmp(rep->data, req->data, RMD_FRAME_LEN))
+		return RMD_B3_SET;
+	if (rep->len == RMD_FRAME_LEN && rep->data[0] == req->data[0] &&
+	    !memcmp(rep->data + 1, zeros, sizeof(zeros)))
+		return RMD_B3_ZEROS;
+	return RMD_B3_DIFFERS;
+}
+
 /*
  * V3 §2.30: write the comm-loss protection time (ROM) to every motor of bus
- * b that answered the probe, and check each echo, as the last step of
- * bring-up: a motor starts counting at the write, and the loop's first
- * cycle follows at once.  One report line per bus.  Non-rt.
+ * b that answered the probe, all in one batch, and check each answer, as
+ * the last step of bring-up: a motor starts counting at the write, and the
+ * loop's first cycle follows at once.  Non-rt.
  */
-static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct report *rp)
+static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *out)
 {
-	struct lbus *lb = &l->bus[b];
-	uint32_t ms = l->cfg->safety.comm_loss_ms;
-	int64_t timeout = RMD_LOOP_PROBE_TIMEOUT_NS;
-	unsigned set = 0;
-	bool any = false;
+	struct probe_ctx pc = { .l = l, .bus = b };
+	struct rmd_txn_opts o = txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(&l->bus[b]));
+	struct rmd_msg msg = { .cmd = 0xB3 };
+	struct rmd_txn t[RMD_MAX_MOTORS];
+	unsigned idx[RMD_MAX_MOTORS], n = 0;
 
-	if (lb->cb->kind == RMD_BUS_KIND_RS485)
-		timeout = rmd_rs485_reply_timeout_ns(lb->bus) + RMD_NS_PER_MS;
+	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, out->comm_loss_ms);
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
-		const struct rmd_config_motor *c = &l->cfg->motors[i];
-		struct rmd_frame req, echo;
 
 		if (lm->m.bus != b || lm->m.proto == RMD_PROTO_V2 ||
 		    lm->st.lifecycle == RMD_LC_LOST)
 			continue;
-		if (!any)
-			rep_add(rp, "%s: comm-loss protection (0xB3) %s", lb->cb->name,
-				ms ? "" : "off (disabled by safety.comm_loss_ms: 0)");
-		if (ms && !any)
-			rep_add(rp, "%u ms:", (unsigned)ms);
-		any = true;
-		if (rmd_motor_encode_comm_timeout(&lm->m, ms, &req) < 0 ||
-		    probe_xfer(l, lm, &req, RMD_LOOP_PROBE_TRIES, timeout, &echo) < 0) {
-			rep_add(rp, " motor %u (%s) did not answer 0xB3;", c->id, c->name);
-		} else if (echo.len != req.len || memcmp(echo.data, req.data, RMD_FRAME_LEN)) {
-			rep_add(rp, " motor %u (%s) NOT confirmed (the echo differs);", c->id,
-				c->name);
-		} else {
-			rep_add(rp, " %u", c->id);
-			set++;
-		}
+		out->motor[i].b3 = RMD_B3_NO_ANSWER;
+		if (rmd_txn_prepare(&t[n], lm->m.proto, lm->m.id, &msg) == 0)
+			idx[n++] = i;
 	}
-	if (any)
-		rep_add(rp, " (%u set, echo verified)\n", set);
+	if (!n || rmd_txn_run(l->bus[b].bus, t, n, &o) < 0)
+		return;
+	for (unsigned k = 0; k < n; k++)
+		if (t[k].done)
+			out->motor[idx[k]].b3 = b3_outcome(&t[k].req, &t[k].rep.f);
 }
 
-int rmd_loop_bringup(struct rmd_loop *l, char *report, size_t len)
+/* Every bus: what came before the first request answers none of them.  Non-rt. */
+static void flush_buses(struct rmd_loop *l)
 {
-	struct report rp = { .buf = report, .len = len };
-	unsigned missing = 0;
-
-	if (report && len)
-		report[0] = '\0';
-	if (l->running)
-		return -EBUSY;
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		struct lbus *lb = &l->bus[b];
 		int64_t now = loop_now(l);
 
 		lb->unexpected_ids = 0;
-		/* what came before the first request answers none of them */
 		while (rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now) == RX_BATCH)
 			;
 	}
-	for (unsigned i = 0; i < l->n_motors; i++)
-		if (probe_motor(l, i, &rp) < 0)
-			missing++;
-	for (unsigned b = 0; b < l->n_buses; b++) {
-		struct lbus *lb = &l->bus[b];
-		int64_t now = loop_now(l);
-		int n;
+}
 
-		/* late answers tell of ids too */
-		while ((n = rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now)) > 0) {
-			for (int k = 0; k < n; k++)
-				probe_stray(l, b, &lb->rx[k].f);
-			if (n < RX_BATCH)
-				break;
-		}
+int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out)
+{
+	memset(out, 0, sizeof(*out));
+	if (l->running)
+		return -EBUSY;
+	out->n_motors = l->n_motors;
+	out->n_buses = l->n_buses;
+	out->comm_loss_ms = l->cfg->safety.comm_loss_ms;
+	flush_buses(l);
+	for (unsigned i = 0; i < l->n_motors; i++)
+		if (probe_motor(l, i, &out->motor[i]) < 0)
+			out->missing++;
+	for (unsigned b = 0; b < l->n_buses; b++) {
+		/* late answers tell of ids too: the scan's txn hands them to probe_stray() */
 		scan_bus(l, b);
-		now = loop_now(l);
-		for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++) {
-			if (!(lb->unexpected_ids & (1u << (id - 1))))
-				continue;
-			rep_add(&rp, "%s: motor %u: unexpected (answers, but is not configured)\n",
-				lb->cb->name, id);
-			loop_event(l, now, RMD_EV_PROBE, 0xFF, b, -EEXIST, id);
-		}
+		out->unexpected_ids[b] = l->bus[b].unexpected_ids;
 	}
 	/* last, so that no motor goes quiet between its 0xB3 and the first cycle */
 	for (unsigned b = 0; b < l->n_buses; b++)
-		arm_comm_loss(l, b, &rp);
-	if (rp.used && report[rp.used - 1] == '\n')
-		report[--rp.used] = '\0';
+		arm_comm_loss(l, b, out);
 	/* what bring-up found is the state before the first cycle */
 	loop_fill_snapshot(l, loop_now(l));
 	loop_pub_write(l);
-	if (missing && l->cfg->probe.on_missing == RMD_MISSING_REFUSE)
+	if (out->missing && l->cfg->probe.on_missing == RMD_MISSING_REFUSE)
 		return -ENODEV;
 	return 0;
 }

@@ -23,6 +23,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "rmd/bus_open.h"
 #include "rmd/can_timing.h"
 #include "rmd/plan.h"
 
@@ -499,21 +500,15 @@ int rmd_plan_build(const struct rmd_config *cfg, struct rmd_plan *plan, char *er
 		const struct rmd_config_bus *cb = &cfg->buses[b];
 		struct rmd_plan_bus *pb = &plan->bus[b];
 
+		struct rmd_bus_timing t = { 0 };
+
 		pb->kind = cb->kind;
 		pb->hc = 1;
-		switch (cb->kind) {
-		case RMD_BUS_KIND_SOCKETCAN:
-		case RMD_BUS_KIND_SIM:
-			pb->bitrate = cb->bitrate;
-			pb->frame_bits = rmd_can_frame_bits_worst(RMD_FRAME_LEN);
-			pb->turnaround_ns = 0; /* pipelined: replies overlap other frames */
-			break;
-		case RMD_BUS_KIND_RS485:
-			pb->bitrate = cb->baud;
-			pb->frame_bits = RMD_PLAN_RS485_FRAME_BITS;
-			pb->turnaround_ns = cb->turnaround_ns;
-			break;
-		}
+		/* the transport's rule: CAN pipelines, RS485 pays a turnaround per request */
+		rmd_bus_config_timing(cb, &t);
+		pb->bitrate = t.bitrate;
+		pb->frame_bits = t.frame_bits;
+		pb->turnaround_ns = t.turnaround_ns;
 		if (pb->bitrate == 0) {
 			add_err(&e, "%s: bitrate 0", cb->name);
 			return -EINVAL;
@@ -667,21 +662,16 @@ static void print_bus(const struct rmd_plan *plan, const struct rmd_config *cfg,
 	const struct rmd_plan_bus *pb = &plan->bus[b];
 	const struct rmd_config_bus *cb = &cfg->buses[b];
 	const char *note = batch_note(pb->batch);
+	struct rmd_bus_timing t = { 0 };
 	char w_us[32], c_us[32], a_us[32];
 
 	fprintf(out, "bus %s (%s", cb->name, rmd_bus_kind_name(cb->kind));
-	switch (cb->kind) {
-	case RMD_BUS_KIND_SOCKETCAN:
-		fprintf(out, " %s, %u bit/s", cb->interface, cb->bitrate);
-		break;
-	case RMD_BUS_KIND_RS485:
-		fprintf(out, " %s, %u baud, turnaround %s µs", cb->device, cb->baud,
-			fmt_us(w_us, sizeof(w_us), cb->turnaround_ns));
-		break;
-	case RMD_BUS_KIND_SIM:
-		fprintf(out, ", %u bit/s", cb->bitrate);
-		break;
-	}
+	rmd_bus_config_timing(cb, &t);
+	if (t.port)
+		fprintf(out, " %s", t.port);
+	fprintf(out, ", %u %s", t.bitrate, t.rate_unit ? t.rate_unit : "bit/s");
+	if (t.half_duplex)
+		fprintf(out, ", turnaround %s µs", fmt_us(w_us, sizeof(w_us), t.turnaround_ns));
 	fprintf(out, "): %u motor%s\n", pb->n_motors, pb->n_motors == 1 ? "" : "s");
 	if (pb->n_motors == 0) {
 		fprintf(out, "  verdict: ok (nothing to send)\n\n");

@@ -14,7 +14,6 @@
 #include <string.h>
 #include <sys/mman.h>
 
-#include "rmd/bus_rs485.h"
 #include "rmd/time.h"
 #include "loop_priv.h"
 
@@ -35,7 +34,7 @@ static bool stopping(const struct rmd_loop *l)
 
 /*
  * Between ticks: wait on the buses that have a descriptor and read what
- * comes (and let the RS485 queues advance at their deadlines), until just
+ * comes (and let a transport's own queue advance when it is due), until just
  * before the next tick.
  * rt-safe.
  */
@@ -62,17 +61,15 @@ static void collect_until_tick(struct rmd_loop *l)
 		if (now >= until)
 			return;
 		for (unsigned k = 0; k < n; k++) {
-			unsigned b = which[k];
+			int64_t d = rmd_bus_next_due_ns(l->bus[which[k]].bus);
 
-			if (l->bus[b].cb->kind == RMD_BUS_KIND_RS485) {
-				int64_t d = rmd_rs485_deadline_ns(l->bus[b].bus);
-
-				/* at least a short step: a past deadline must not spin */
-				if (d < now + COLLECT_MIN_STEP_NS)
-					d = now + COLLECT_MIN_STEP_NS;
-				if (d < until)
-					until = d;
-			}
+			if (d == INT64_MAX)
+				continue;
+			/* at least a short step: a past deadline must not spin */
+			if (d < now + COLLECT_MIN_STEP_NS)
+				d = now + COLLECT_MIN_STEP_NS;
+			if (d < until)
+				until = d;
 		}
 		ts = loop_ts(until - now);
 		r = ppoll(pfd, n, &ts, NULL);

@@ -66,6 +66,8 @@
 #include "harness/lcm_loopback.h"
 #include "rmd/time.h"
 #include "rmd/bridge.h"
+#include "rmd/bringup.h"
+#include "rmd/bus_open.h"
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
@@ -299,10 +301,13 @@ struct daemon {
 static void open_buses(struct daemon *d)
 {
 	for (unsigned b = 0; b < d->cfg.n_buses; b++) {
+		struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
+		struct rmd_bus_open_ctx ctx;
 		char err[256];
 
 		assert_int_equal(d->cfg.buses[b].kind, RMD_BUS_KIND_SIM);
-		if (rmd_config_open_sim_bus(&d->cfg, &d->sim, b, &d->bus[b], err, sizeof(err)) < 0)
+		rmd_bus_open_ctx_of(&d->cfg, &d->sim, b, motors, &ctx);
+		if (rmd_bus_open(&d->bus[b], &d->cfg.buses[b], &ctx, err, sizeof(err)) < 0)
 			fail_msg("sim bus %s: %s", d->cfg.buses[b].name, err);
 		d->n_open++;
 	}
@@ -352,7 +357,8 @@ static int setup(void **state)
 	struct rmd_bridge_opts bo;
 	struct rmd_loop_opts lo;
 	struct rmd_sim_wire *sim;
-	char err[512], report[2048];
+	char err[512];
+	struct rmd_bringup report;
 	int64_t t;
 
 	*state = NULL;
@@ -389,8 +395,8 @@ static int setup(void **state)
 	d->loop = rmd_loop_new(&lo, err, sizeof(err));
 	if (!d->loop)
 		fail_msg("rmd_loop_new: %s", err);
-	if (rmd_loop_bringup(d->loop, report, sizeof(report)) < 0)
-		fail_msg("bring-up: %s", report);
+	if (rmd_loop_bringup(d->loop, &report) < 0)
+		fail_msg("bring-up failed");
 	assert_int_equal(rmd_motor_init(&d->motor, &d->cfg.motors[0]), 0);
 	probe = (struct probe){ .can_id = 0x140u + d->cfg.motors[0].id };
 

@@ -27,7 +27,10 @@
 
 #include <cmocka.h>
 
+#include "rmd/bus_open.h"
 #include "rmd/bus_rs485.h"
+#include "rmd/bus_sim.h"
+#include "rmd/bus_socketcan.h"
 #include "rmd/rs485.h"
 
 #define MS 1000000LL
@@ -41,6 +44,15 @@
 #define ANSWER_NS (2000 * MS)
 #define SHORT_NS (150 * MS)
 #define MAX_SEEN 64
+
+/* Requests queued or in flight: the gauge of rmd_rs485_stats(). */
+static unsigned pending_of(const struct rmd_bus *bus)
+{
+	struct rmd_rs485_stats xs;
+
+	assert_int_equal(rmd_rs485_stats(bus, &xs), 0);
+	return (unsigned)xs.pending;
+}
 
 /* V3 §2.12.4: 0x9A reply, 50 °C, brake released, 48.5 V, low-voltage error. */
 static const uint8_t status1_reply[RMD_FRAME_LEN] = {
@@ -297,10 +309,10 @@ static unsigned drive_to(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned m
 		struct timespec ts;
 		int r;
 
-		if ((n >= want && rmd_rs485_pending(bus) <= pending) || t >= limit_ns)
+		if ((n >= want && pending_of(bus) <= pending) || t >= limit_ns)
 			return n;
-		if (rmd_rs485_deadline_ns(bus) < until)
-			until = rmd_rs485_deadline_ns(bus);
+		if (rmd_bus_next_due_ns(bus) < until)
+			until = rmd_bus_next_due_ns(bus);
 		ts = ts_of(until > t ? until - t : 0);
 		ppoll(&pfd, 1, &ts, NULL);
 		r = rmd_bus_recv(bus, out + n, max - n, now_ns());
@@ -431,8 +443,8 @@ static void test_open_pty(void **state)
 	assert_true(cfgetospeed(&tios) == B2000000);
 	assert_true(cfgetispeed(&tios) == B2000000);
 	/* V3 §1.2.1 default: 2 ms turnaround + request and reply wire time. */
-	assert_int_equal(rmd_rs485_reply_timeout_ns(&bus), 2000000 + 2 * 65000);
-	assert_int_equal(rmd_rs485_deadline_ns(&bus), INT64_MAX);
+	assert_int_equal(rmd_bus_caps(&bus)->reply_timeout_ns, 2000000 + 2 * 65000);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
 	close_bus(&bus, &pt);
 	assert_null(bus.ops);
 	rmd_bus_close(&bus); /* twice: a no-op */
@@ -454,8 +466,8 @@ static void test_round_trip(void **state)
 	fake_start(fk);
 	t0 = now_ns();
 	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
-	assert_int_equal(rmd_rs485_pending(&bus), 1);
-	assert_int_equal(rmd_rs485_deadline_ns(&bus), t0 + ANSWER_NS);
+	assert_int_equal(pending_of(&bus), 1);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), t0 + ANSWER_NS);
 	assert_int_equal(drive(&bus, rx, 4, 1, t0 + LIMIT_NS), 1);
 	t1 = now_ns();
 	fake_stop(fk);
@@ -490,7 +502,7 @@ static void test_one_request_at_a_time(void **state)
 	fk->master = pt.master;
 	fake_start(fk);
 	assert_int_equal(rmd_bus_send(&bus, f, 6, now_ns()), 6);
-	assert_int_equal(rmd_rs485_pending(&bus), 6);
+	assert_int_equal(pending_of(&bus), 6);
 	assert_int_equal(drive(&bus, rx, 8, 6, now_ns() + LIMIT_NS), 6);
 	fake_stop(fk);
 
@@ -625,7 +637,7 @@ static void test_broadcast(void **state)
 	fake_start(fk);
 	t0 = now_ns();
 	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
-	assert_int_equal(rmd_rs485_deadline_ns(&bus), t0 + 5000 * MS);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), t0 + 5000 * MS);
 	assert_int_equal(drive(&bus, rx, 8, 4, t0 + LIMIT_NS), 4);
 	fake_stop(fk);
 
@@ -765,13 +777,13 @@ static void test_partial_and_late_frames(void **state)
 
 	/* Motor 1 answers too late: only its timeout sends the request for motor 2. */
 	assert_int_equal(drive_to(&bus, rx, 4, 0, 1, t0 + 10 * MS), 0);
-	assert_int_equal(rmd_rs485_pending(&bus), 2);
+	assert_int_equal(pending_of(&bus), 2);
 	master_quiet(pt.master, 0);
 	assert_int_equal(drive_to(&bus, rx, 4, 0, 1, t0 + LIMIT_NS), 0);
 	assert_true(now_ns() >= t0 + timeout);
 	rmd_rs485_stats(&bus, &xs);
 	assert_int_equal(xs.reply_timeouts, 1);
-	assert_int_equal(rmd_rs485_pending(&bus), 1);
+	assert_int_equal(pending_of(&bus), 1);
 	master_read(pt.master, wire, RMD_RS485_FRAME_LEN);
 	rmd_rs485_build(2, angle_req, want, sizeof(want));
 	assert_memory_equal(wire, want, RMD_RS485_FRAME_LEN);
@@ -788,12 +800,12 @@ static void test_partial_and_late_frames(void **state)
 	assert_int_equal(drive_to(&bus, rx, 4, 2, 1, now_ns() + LIMIT_NS), 2);
 	assert_rx(&rx[0], 0x241, status1_reply);
 	assert_rx(&rx[1], 0x242, status1_reply);
-	assert_int_equal(rmd_rs485_pending(&bus), 1);
+	assert_int_equal(pending_of(&bus), 1);
 
 	master_write_frame(pt.master, 2, angle_req);
 	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
 	assert_rx(&rx[0], 0x242, angle_req);
-	assert_int_equal(rmd_rs485_pending(&bus), 0);
+	assert_int_equal(pending_of(&bus), 0);
 	assert_int_equal(bus.stats.rx_errors, 0);
 	rmd_rs485_stats(&bus, &xs);
 	assert_int_equal(xs.reply_timeouts, 1);
@@ -821,7 +833,7 @@ static void test_send_refusals(void **state)
 	f[1] = frame(0x142, status1_req);
 	f[1].len = 7;
 	assert_int_equal(rmd_bus_send(&bus, f, 2, now_ns()), -EINVAL);
-	assert_int_equal(rmd_rs485_pending(&bus), 0);
+	assert_int_equal(pending_of(&bus), 0);
 	assert_int_equal(bus.stats.tx_frames, 0);
 
 	/* A full queue takes what fits; the rest is the caller's, counted. */
@@ -829,11 +841,67 @@ static void test_send_refusals(void **state)
 		f[i] = frame(0x141 + i % 32, status1_req);
 	assert_int_equal(rmd_bus_send(&bus, f, RMD_RS485_QUEUE + 6, now_ns()), RMD_RS485_QUEUE);
 	assert_int_equal(bus.stats.tx_busy, 6);
-	assert_int_equal(rmd_rs485_pending(&bus), RMD_RS485_QUEUE);
+	assert_int_equal(pending_of(&bus), RMD_RS485_QUEUE);
 	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), 0);
 	assert_int_equal(bus.stats.tx_busy, 7);
 	assert_int_equal(bus.stats.tx_frames, 1);
 	close_bus(&bus, &pt);
+}
+
+/* caps, next_due_ns, and the other transports' accessors refusing an RS485 bus. */
+static void test_caps_and_accessors(void **state)
+{
+	struct rmd_rs485_opts opts = { .baud = 1000000 };
+	struct rmd_frame f = frame(0x141, status1_req);
+	const struct rmd_bus_caps *caps;
+	struct rmd_bus bus;
+	struct pty pt;
+	int64_t t0;
+
+	(void)state;
+	open_bus(&bus, &pt, &opts);
+	caps = rmd_bus_caps(&bus);
+	assert_true(caps->half_duplex);
+	assert_int_equal(caps->reply_timeout_ns, RMD_RS485_TURNAROUND_NS + 2 * 130000);
+	assert_int_equal(caps->request_spacing_ns, caps->reply_timeout_ns);
+	assert_int_equal(caps->queue_len, RMD_RS485_QUEUE);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
+	t0 = now_ns();
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), t0 + caps->reply_timeout_ns);
+	assert_null(rmd_bus_sim_get(&bus));
+	assert_int_equal(rmd_bus_sim_time_ns(&bus, t0), 0);
+	assert_int_equal(rmd_socketcan_rcvbuf(&bus), -EINVAL);
+	close_bus(&bus, &pt);
+}
+
+/* A config entry and the spec naming the same line open the same bus. */
+static void test_open_config_equals_spec(void **state)
+{
+	struct rmd_bus_open_opts o = { .proto = RMD_PROTO_V3, .baud = 500000 };
+	struct rmd_config_bus cb = { .kind = RMD_BUS_KIND_RS485, .baud = 500000 };
+	struct rmd_bus_open_motor m = { .id = 1, .proto = RMD_PROTO_V2 };
+	struct rmd_bus_open_ctx v2 = { .motors = &m, .n_motors = 1 };
+	struct rmd_bus a, b;
+	struct pty pt;
+	char err[256];
+
+	(void)state;
+	pty_open(&pt);
+	snprintf(cb.name, sizeof(cb.name), "rs0");
+	snprintf(cb.device, sizeof(cb.device), "%s", pt.path);
+	assert_int_equal(rmd_bus_open(&a, &cb, NULL, err, sizeof(err)), 0);
+	b = a;
+	rmd_bus_close(&a);
+	assert_int_equal(rmd_bus_open_spec(&a, pt.path, &o, err, sizeof(err)), 0);
+	assert_ptr_equal(a.ops, b.ops);
+	assert_string_equal(a.name, b.name);
+	assert_memory_equal(&a.caps, &b.caps, sizeof(a.caps));
+	rmd_bus_close(&a);
+	/* V3 §1.2: no V2 motor on an RS485 line, whichever way it is named */
+	assert_int_equal(rmd_bus_open(&a, &cb, &v2, err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "V2 motors are CAN only"));
+	close(pt.master);
 }
 
 int main(void)
@@ -853,6 +921,8 @@ int main(void)
 		cmocka_unit_test_teardown(test_local_echo, teardown),
 		cmocka_unit_test_teardown(test_partial_and_late_frames, teardown),
 		cmocka_unit_test_teardown(test_send_refusals, teardown),
+		cmocka_unit_test_teardown(test_caps_and_accessors, teardown),
+		cmocka_unit_test_teardown(test_open_config_equals_spec, teardown),
 	};
 
 	return cmocka_run_group_tests_name("bus_rs485", tests, NULL, NULL);

@@ -40,6 +40,9 @@
 #include <cmocka.h>
 
 #include "rmd/time.h"
+#include "rmd/bus_open.h"
+#include "rmd/bus_rs485.h"
+#include "rmd/bus_sim.h"
 #include "rmd/bus_socketcan.h"
 
 #define NS_PER_MS 1000000LL
@@ -847,6 +850,59 @@ static void test_fd_and_close(void **state)
 	rmd_bus_close(&bus);			  /* closed: no-op */
 }
 
+/* caps and next_due_ns of a CAN bus; the other transports' accessors refuse it. */
+static void test_caps_and_accessors(void **state)
+{
+	struct rmd_rs485_stats xs;
+	struct rmd_bus bus;
+
+	(void)state;
+	open_ok(&bus, "vcan0", NULL);
+	assert_false(rmd_bus_caps(&bus)->half_duplex);
+	assert_int_equal(rmd_bus_caps(&bus)->reply_timeout_ns, 0);
+	assert_int_equal(rmd_bus_caps(&bus)->request_spacing_ns, RMD_BUS_CAN_SPACING_NS);
+	assert_int_equal(rmd_bus_caps(&bus)->queue_len, 0);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
+	assert_int_equal(rmd_rs485_stats(&bus, &xs), -EINVAL);
+	assert_null(rmd_bus_sim_get(&bus));
+	rmd_bus_close(&bus);
+}
+
+/*
+ * The device role (rmd-sim's side, opened through the factory): requests to
+ * every id come in, replies do not.
+ */
+static void test_device_role(void **state)
+{
+	const struct rmd_bus_open_opts o = { .proto = RMD_PROTO_V3, .device = true };
+	const struct rmd_frame want[] = { frame(0x141, 8, 1), frame(0x160, 8, 2),
+					  frame(0x280, 8, 3), frame(0x300, 8, 4),
+					  frame(0x41F, 8, 5) };
+	struct rmd_bus_rx rx[16];
+	struct rmd_bus bus;
+	char err[256];
+	int peer, n;
+
+	(void)state;
+	assert_int_equal(rmd_bus_open_spec(&bus, "vcan0", &o, err, sizeof(err)), 0);
+	peer = peer_open("vcan0");
+	peer_send(peer, &want[0]);
+	peer_send_raw(peer, 0x241, 8, NULL); /* a reply */
+	peer_send(peer, &want[1]);
+	peer_send_raw(peer, 0x161, 8, NULL); /* no id 33 */
+	peer_send(peer, &want[2]);
+	peer_send_raw(peer, 0x501, 8, NULL); /* an MIT reply */
+	peer_send(peer, &want[3]);
+	peer_send(peer, &want[4]);
+	n = recv_until(&bus, rx, 5, 2000);
+	assert_int_equal(n, 5);
+	for (int i = 0; i < n; i++)
+		assert_frame_equal(&rx[i].f, &want[i], i);
+	assert_int_equal(bus_recv(&bus, rx, 16), 0);
+	close(peer);
+	rmd_bus_close(&bus);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -866,6 +922,8 @@ int main(void)
 		cmocka_unit_test(test_recv_batches),
 		cmocka_unit_test(test_rx_overflow_counted),
 		cmocka_unit_test(test_fd_and_close),
+		cmocka_unit_test(test_caps_and_accessors),
+		cmocka_unit_test(test_device_role),
 	};
 	const struct CMUnitTest host_tests[] = {
 		cmocka_unit_test(test_error_frame_states),

@@ -30,6 +30,8 @@
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
+#include "rmd/bringup.h"
+#include "rmd/bus_open.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/sim.h"
@@ -84,8 +86,8 @@ struct rig {
 	struct rmd_ring events;
 	struct rmd_event ev_buf[1024];
 	struct rmd_loop *l;
-	struct rmd_command cmd; /* the command the test builds */
-	char report[4096];
+	struct rmd_command cmd;	   /* the command the test builds */
+	struct rmd_bringup report; /* of the last bring-up */
 };
 
 static struct rig R;
@@ -145,7 +147,11 @@ static void open_buses(void)
 	char err[256];
 
 	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
-		if (rmd_config_open_sim_bus(&R.cfg, &R.sim, b, &R.buses[b], err, sizeof(err)))
+		struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
+		struct rmd_bus_open_ctx ctx;
+
+		rmd_bus_open_ctx_of(&R.cfg, &R.sim, b, motors, &ctx);
+		if (rmd_bus_open(&R.buses[b], &R.cfg.buses[b], &ctx, err, sizeof(err)))
 			fail_msg("sim bus %s: %s", R.cfg.buses[b].name, err);
 		rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
 	}
@@ -212,10 +218,10 @@ static void rig_down(void)
 /* Bring-up, then the clock on a whole millisecond; the epochs for the tap. */
 static void bring_up(void)
 {
-	int r = rmd_loop_bringup(R.l, R.report, sizeof(R.report));
+	int r = rmd_loop_bringup(R.l, &R.report);
 
 	if (r)
-		fail_msg("bring-up: %d\n%s", r, R.report);
+		fail_msg("bring-up: %d", r);
 	t_now = (t_now / MS + 1) * MS;
 	for (unsigned b = 0; b < R.cfg.n_buses; b++)
 		R.epoch[b] = t_now - rmd_bus_sim_time_ns(&R.buses[b], t_now);
@@ -326,22 +332,31 @@ static void test_bringup_ready_not_moved(void **state)
 	struct rmd_loop_counters c;
 	struct rmd_snapshot s;
 	uint64_t tx0, want = 0;
-	const char *p;
 	unsigned n = 0;
 
 	(void)state;
 	rig_up(3, NULL);
 	bring_up();
-	for (p = R.report; (p = strstr(p, "X8S2V10, firmware 20220206, 48.0 V, 25 °C\n")); p++)
+	/* each found: X8S2V10, firmware 20220206, 48.0 V, 25 °C, no errors */
+	assert_int_equal(R.report.n_motors, 3);
+	assert_int_equal(R.report.missing, 0);
+	for (unsigned i = 0; i < 3; i++) {
+		const struct rmd_bringup_motor *bm = &R.report.motor[i];
+
+		assert_int_equal(bm->state, RMD_BRINGUP_FOUND);
+		assert_string_equal(bm->model, "X8S2V10");
+		assert_int_equal(bm->version, 20220206);
+		assert_true(bm->status);
+		assert_float_equal(bm->voltage_v, 48.0, 0.05);
+		assert_float_equal(bm->temp_c, 25.0, 0.5);
+		assert_int_equal(bm->error_code, 0);
+		/* 0xB3 is written last, to every motor, after all probes */
+		assert_int_equal(bm->b3, RMD_B3_SET);
 		n++;
-	if (n != 3)
-		fail_msg("report:\n%s", R.report);
-	/* 0xB3 is written last, to every motor, after all probes */
-	if (!strstr(R.report, "sim0: comm-loss protection (0xB3) 100 ms: 1 2 3 (3 set, echo "
-			      "verified)"))
-		fail_msg("report:\n%s", R.report);
-	assert_non_null(strstr(R.report, "sim0: motor 2 (motor2): "));
-	assert_int_equal(count_ev(RMD_EV_PROBE, -1), 3);
+	}
+	assert_int_equal(n, 3);
+	assert_int_equal(R.report.comm_loss_ms, 100);
+	assert_int_equal(R.report.unexpected_ids[0], 0);
 	for (unsigned i = 0; i < 3; i++) {
 		assert_int_equal(lifecycle(i), RMD_LC_READY);
 		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100);
@@ -395,12 +410,8 @@ static void test_bringup_unexpected(void **state)
 	p.seed = 0;
 	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.buses[0]), &p, 0) >= 0);
 	bring_up();
-	if (!strstr(R.report, "sim0: motor 7: unexpected (answers, but is not configured)"))
-		fail_msg("report:\n%s", R.report);
-	assert_int_equal(count_ev(RMD_EV_PROBE, 0xFF), 1);
-	for (unsigned k = 0; k < nev; k++)
-		if (evs[k].kind == RMD_EV_PROBE && evs[k].motor == 0xFF)
-			assert_true(evs[k].a == -EEXIST && evs[k].b == 7);
+	/* sim0: motor 7 answers, but is not configured */
+	assert_int_equal(R.report.unexpected_ids[0], 1u << (7 - 1));
 	/* and it is never spoken to again */
 	trace_n = 0;
 	run(500, false);
@@ -424,19 +435,22 @@ static void test_bringup_missing(void **state)
 	/* refuse: -ENODEV, and the report says which and how it was asked */
 	rig_up(3, NULL);
 	set_faults(0, &gone, 1);
-	assert_int_equal(rmd_loop_bringup(R.l, R.report, sizeof(R.report)), -ENODEV);
-	assert_non_null(strstr(R.report, "sim0: motor 2 (motor2): missing (no answer to 0xB5 in 3 "
-					 "tries of 5 ms)"));
-	assert_non_null(strstr(R.report, "sim0: motor 3 (motor3): X8S2V10"));
-	for (unsigned k = 0; k < nev; k++)
-		if (evs[k].kind == RMD_EV_PROBE)
-			assert_int_equal(evs[k].a, evs[k].motor == 1 ? -ENODEV : 0);
+	assert_int_equal(rmd_loop_bringup(R.l, &R.report), -ENODEV);
+	assert_int_equal(R.report.missing, 1);
+	assert_int_equal(R.report.motor[1].state, RMD_BRINGUP_MISSING);
+	assert_int_equal(R.report.motor[1].probe_cmd, 0xB5);
+	assert_int_equal(R.report.motor[1].tries, 3);
+	assert_int_equal(R.report.motor[1].timeout_ns, 5 * MS);
+	assert_int_equal(R.report.motor[1].b3, RMD_B3_NOT_APPLICABLE);
+	assert_int_equal(R.report.motor[0].state, RMD_BRINGUP_FOUND);
+	assert_int_equal(R.report.motor[2].state, RMD_BRINGUP_FOUND);
+	assert_string_equal(R.report.motor[2].model, "X8S2V10");
 	rig_down();
 
 	/* start: the others run, the missing one is LOST and re-probed at 2 Hz */
 	rig_up(3, missing_start);
 	set_faults(0, &gone, 1);
-	assert_int_equal(rmd_loop_bringup(R.l, R.report, sizeof(R.report)), 0);
+	assert_int_equal(rmd_loop_bringup(R.l, &R.report), 0);
 	t_now = (t_now / MS + 1) * MS;
 	assert_int_equal(lifecycle(1), RMD_LC_LOST);
 	assert_int_equal(lifecycle(0), RMD_LC_READY);
@@ -857,8 +871,15 @@ static void test_v2_batch(void **state)
 	rig_up(4, v2_batch);
 	assert_int_equal(R.plan.bus[0].batch, RMD_BATCH_ON);
 	bring_up();
-	assert_non_null(strstr(R.report, "sim0: motor 3 (motor3): V2 (no model or version query), "
-					 "48.0 V, 25 °C, no 0xB3 in V2"));
+	/* motor 3: V2 (no model or version query), 48.0 V, 25 °C, no 0xB3 in V2 */
+	assert_int_equal(R.report.motor[2].state, RMD_BRINGUP_FOUND);
+	assert_string_equal(R.report.motor[2].model, "");
+	assert_int_equal(R.report.motor[2].version, 0);
+	assert_true(R.report.motor[2].status);
+	assert_float_equal(R.report.motor[2].voltage_v, 48.0, 0.05);
+	assert_float_equal(R.report.motor[2].temp_c, 25.0, 0.5);
+	assert_true(R.report.motor[2].v2_angle);
+	assert_int_equal(R.report.motor[2].b3, RMD_B3_NOT_APPLICABLE);
 	trace_n = 0;
 	run(100, false);
 	for (unsigned k = 0; k < trace_n; k++)
@@ -956,9 +977,9 @@ static void test_thread(void **state)
 	rig_down();
 
 	rig_up_clock(3, NULL, true);
-	r = rmd_loop_bringup(R.l, R.report, sizeof(R.report));
+	r = rmd_loop_bringup(R.l, &R.report);
 	if (r)
-		fail_msg("bring-up: %d\n%s", r, R.report);
+		fail_msg("bring-up: %d", r);
 	r = rmd_loop_start(R.l);
 	if (r)
 		fail_msg("rmd_loop_start: %s", strerror(-r));

@@ -28,6 +28,7 @@
 
 #include <cmocka.h>
 
+#include "rmd/bringup.h"
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
@@ -121,7 +122,7 @@ static struct rmd_snapshot snap_buf[3], snap;
 static struct rmd_health health_buf[3];
 static struct rmd_ring events;
 static struct rmd_event ev_buf[256];
-static char report[4096];
+static struct rmd_bringup report;
 
 /* sim0: V3 position, V3 speed, MIT; sim1: V3 torque x3; sim2: four V2 in one 0x280 frame */
 static void make_config(void)
@@ -247,9 +248,9 @@ static void test_cycle_allocates_nothing(void **state)
 	l = rmd_loop_new(&o, err, sizeof(err));
 	if (!l)
 		fail_msg("%s", err);
-	r = rmd_loop_bringup(l, report, sizeof(report));
+	r = rmd_loop_bringup(l, &report);
 	if (r)
-		fail_msg("bring-up %d:\n%s", r, report);
+		fail_msg("bring-up %d", r);
 	t_now = (t_now / MS + 1) * MS;
 
 	/* the wrap is in place: the counters see a call */

@@ -2,8 +2,10 @@
 /*
  * rmd-sim's event loop: simulated motors behind a real wire.
  *
- * One thread, one epoll set: the wire (a SocketCAN raw socket or a serial
- * line), a timerfd on CLOCK_MONOTONIC and a signalfd for SIGINT/SIGTERM.
+ * One thread, one epoll set: the wire (a SocketCAN interface, opened,
+ * read and written through the bus layer's SocketCAN transport in its
+ * device role, or a serial line), a timerfd on CLOCK_MONOTONIC and a
+ * signalfd for SIGINT/SIGTERM.
  * Motor time is CLOCK_MONOTONIC in ns.
  *
  * - A frame that arrives goes to every present motor at its arrival time
@@ -27,8 +29,9 @@
  * window; FLOOD writes a foreign frame every period (CAN only); BUS_OFF is
  * refused by the config (the kernel owns a real bus's state).
  *
- * RS485 (V3 §1.2.2, §6, §7) maps to the CAN identifiers the motors speak,
- * as the RS485 bus backend does on the host's side (rmd/bus_rs485.h):
+ * RS485 (V3 §1.2.2, §6, §7) maps to the CAN identifiers the motors speak
+ * with the map the host's RS485 transport uses (rmd/rs485.h), from the
+ * motors' side:
  *   rx  id 1..32               -> 0x140 + id
  *   rx  id 0xCD, D0 = 0x79     -> 0x300 (V3 §7: RS485-ID setting)
  *   rx  id 0xCD, other D0      -> 0x280 (V3 §6: every motor)
@@ -64,6 +67,8 @@
 #include <linux/serial.h>
 
 #include "rmd/time.h"
+#include "rmd/bus.h"
+#include "rmd/bus_open.h"
 #include "rmd/rng.h"
 #include "rmd/codec.h"
 #include "rmd/rs485.h"
@@ -81,7 +86,6 @@
 #define ECHO_RING 64			     /* serial frames whose echo may come */
 #define ECHO_EXPIRY_NS (500 * RMD_NS_PER_MS) /* an echo later than this is not one */
 #define MAX_READS 256			     /* frames read per wake-up, then timers */
-#define RS485_BROADCAST_CMD_SET_ID 0x79u     /* V3 §7 */
 
 struct slot {
 	struct rmd_sim_motor m;
@@ -120,7 +124,8 @@ struct echo {
 
 struct sim {
 	const struct sim_config *cfg;
-	const char *name; /* the wire, for messages */
+	struct rmd_bus bus; /* the wire, when the bus layer opened it (ops set) */
+	const char *name;   /* the wire, for messages */
 	int64_t t0;
 	struct slot slots[RMD_MAX_MOTORS];
 	unsigned n;
@@ -464,67 +469,19 @@ static void check_interface(struct sim *s)
 	set_down(s, !(ifr.ifr_flags & IFF_UP), "flags");
 }
 
+/* The interface, through the bus layer's SocketCAN transport on the motors' side.  Non-rt. */
 static int can_open(struct sim *s)
 {
-	/* V2 §1, V3 §1.1.2: requests 0x140 + ID, 0x280, 0x300, MIT 0x400 + ID (ID 1..32). */
-	const canid_t std = CAN_EFF_FLAG | CAN_RTR_FLAG;
-	const struct can_filter filters[] = {
-		{ RMD_CAN_REQ_BASE, (CAN_SFF_MASK & ~0x1Fu) | std }, /* 0x140..0x15F */
-		{ RMD_CAN_REQ_BASE + 32, CAN_SFF_MASK | std },
-		{ RMD_CAN_MULTI, CAN_SFF_MASK | std },
-		{ RMD_CAN_SET_ID, CAN_SFF_MASK | std },
-		{ RMD_CAN_MIT_REQ_BASE, (CAN_SFF_MASK & ~0x1Fu) | std }, /* 0x400..0x41F */
-		{ RMD_CAN_MIT_REQ_BASE + 32, CAN_SFF_MASK | std },
-	};
-	struct sockaddr_can addr;
-	int fd, rcvbuf = 1 << 20;
-	unsigned ifindex;
+	struct rmd_bus_open_opts o = { .proto = RMD_PROTO_V3, .device = true };
+	char err[512];
+	int r;
 
-	fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-	if (fd < 0) {
-		int e = errno;
-
-		if (e == EAFNOSUPPORT)
-			sim_log(SIM_LOG_ERR,
-				"rmd-sim: %s: this kernel has no SocketCAN (AF_CAN): load the can "
-				"and can_raw modules, or run inside tests/vm/vm-run",
-				s->name);
-		else
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: CAN socket: %s", s->name, strerror(e));
-		return -e;
+	r = rmd_bus_open_spec(&s->bus, s->name, &o, err, sizeof(err));
+	if (r < 0) {
+		sim_log(SIM_LOG_ERR, "rmd-sim: %s", err[0] ? err : strerror(-r));
+		return r;
 	}
-	ifindex = if_nametoindex(s->name);
-	if (!ifindex) {
-		sim_log(SIM_LOG_ERR,
-			"rmd-sim: %s: no such interface (for a virtual one: ip link add dev %s type "
-			"vcan && ip link set up %s)",
-			s->name, s->name, s->name);
-		close(fd);
-		return -ENODEV;
-	}
-	if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters, sizeof(filters)) < 0) {
-		int e = errno;
-
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: CAN_RAW_FILTER: %s", s->name, strerror(e));
-		close(fd);
-		return -e;
-	}
-	/* A burst of requests must not overflow the socket: ask for 1 MiB (capped by rmem_max). */
-	(void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
-	memset(&addr, 0, sizeof(addr));
-	addr.can_family = AF_CAN;
-	addr.can_ifindex = (int)ifindex;
-	if (bind(fd, (struct sockaddr *)&addr, sizeof(addr)) < 0) {
-		int e = errno;
-
-		if (e == ENODEV)
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: not a CAN interface", s->name);
-		else
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: bind: %s", s->name, strerror(e));
-		close(fd);
-		return -e;
-	}
-	s->fd = fd;
+	s->fd = rmd_bus_fd(&s->bus);
 	check_interface(s);
 	return 0;
 }
@@ -532,54 +489,47 @@ static int can_open(struct sim *s)
 /* Write one frame: 0, -EAGAIN to retry later, or -errno when it is lost. */
 static int can_write(struct sim *s, const struct rmd_frame *f)
 {
-	struct can_frame cf;
-	ssize_t w;
-	int e;
+	struct rmd_frame cf = *f;
+	int r;
 
-	memset(&cf, 0, sizeof(cf));
-	cf.can_id = f->can_id & CAN_SFF_MASK;
-	cf.can_dlc = f->len <= CAN_MAX_DLEN ? f->len : CAN_MAX_DLEN;
-	memcpy(cf.data, f->data, cf.can_dlc);
-	w = write(s->fd, &cf, sizeof(cf));
-	e = w < 0 ? errno : 0;
-	if (e == ENETDOWN) {
+	/* Classical CAN: a DLC of 9..15 still carries 8 bytes. */
+	cf.can_id &= CAN_SFF_MASK;
+	if (cf.len > RMD_FRAME_LEN)
+		cf.len = RMD_FRAME_LEN;
+	r = rmd_bus_send(&s->bus, &cf, 1, rmd_now_ns());
+	if (r == -ENETDOWN) {
 		/* A socket keeps the ENETDOWN of a link that went down: once up, it is stale. */
 		check_interface(s);
-		if (!s->if_down) {
-			w = write(s->fd, &cf, sizeof(cf));
-			e = w < 0 ? errno : 0;
-		}
+		if (!s->if_down)
+			r = rmd_bus_send(&s->bus, &cf, 1, rmd_now_ns());
 	}
-	if (w == (ssize_t)sizeof(cf)) {
+	if (r == 1) {
 		set_down(s, false, "");
 		return 0;
 	}
-	if (w >= 0)
-		return -EIO;
-	if (e == ENOBUFS || e == EAGAIN)
+	if (r == 0) /* ENOBUFS or EAGAIN: no room */
 		return -EAGAIN;
-	if (e == ENETDOWN)
+	if (r == -ENETDOWN)
 		set_down(s, true, "write: ENETDOWN");
-	return -e;
+	return r < 0 ? r : -EIO;
 }
 
 static void can_read(struct sim *s)
 {
-	for (unsigned i = 0; i < MAX_READS && !s->stop; i++) {
-		struct can_frame cf;
-		struct rmd_frame f;
-		ssize_t r = read(s->fd, &cf, sizeof(cf));
-		int answers;
-		int64_t t;
+	struct rmd_bus_rx rx[64];
 
-		if (r < 0) {
-			if (errno == EAGAIN || errno == EINTR)
+	for (unsigned i = 0; i < MAX_READS && !s->stop;) {
+		int n = rmd_bus_recv(&s->bus, rx, 64, rmd_now_ns());
+
+		if (n < 0) {
+			if (n == -EAGAIN || n == -EINTR)
 				return;
-			if (errno == ENETDOWN) {
+			if (n == -ENETDOWN) {
 				set_down(s, true, "read: ENETDOWN");
+				i++;
 				continue;
 			}
-			if (errno == ENODEV) {
+			if (n == -ENODEV) {
 				sim_log(SIM_LOG_ERR, "rmd-sim: %s: the interface was removed",
 					s->name);
 				stop(s, SIM_EXIT_RUN, "the interface was removed");
@@ -587,53 +537,26 @@ static void can_read(struct sim *s)
 			}
 			if (!s->st.rx_errors++)
 				sim_log(SIM_LOG_WARNING, "rmd-sim: %s: read: %s", s->name,
-					strerror(errno));
+					strerror(-n));
 			return;
 		}
-		if (r != (ssize_t)sizeof(cf)) {
-			s->st.rx_errors++;
-			continue;
+		for (int k = 0; k < n; k++) {
+			int answers;
+
+			set_down(s, false, "");
+			s->st.rx_frames++;
+			answers = deliver(s, &rx[k].f, rx[k].t_ns);
+			if (answers)
+				s->st.rx_taken++;
+			log_rx(s, &rx[k].f, answers, 0);
 		}
-		t = rmd_now_ns();
-		set_down(s, false, "");
-		if (cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))
-			continue;
-		memset(&f, 0, sizeof(f));
-		f.can_id = cf.can_id & CAN_SFF_MASK;
-		f.len = cf.can_dlc <= RMD_FRAME_LEN ? cf.can_dlc : RMD_FRAME_LEN;
-		memcpy(f.data, cf.data, f.len);
-		s->st.rx_frames++;
-		answers = deliver(s, &f, t);
-		if (answers)
-			s->st.rx_taken++;
-		log_rx(s, &f, answers, 0);
+		if (n < 64)
+			return;
+		i += (unsigned)n;
 	}
 }
 
 /* ---- the serial wire ------------------------------------------------------------------- */
-
-static int baud_speed(uint32_t baud, speed_t *speed)
-{
-	switch (baud) {
-	case 115200:
-		*speed = B115200;
-		return 0;
-	case 500000:
-		*speed = B500000;
-		return 0;
-	case 1000000:
-		*speed = B1000000;
-		return 0;
-	case 1500000:
-		*speed = B1500000;
-		return 0;
-	case 2000000:
-		*speed = B2000000;
-		return 0;
-	default:
-		return -EINVAL;
-	}
-}
 
 static int serial_open(struct sim *s)
 {
@@ -664,7 +587,7 @@ static int serial_open(struct sim *s)
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s: TIOCEXCL: %s", s->name, strerror(e));
 		goto err_close;
 	}
-	if (baud_speed(s->cfg->baud, &speed) < 0) {
+	if (rmd_rs485_baud_speed(s->cfg->baud, &speed) < 0) {
 		e = EINVAL;
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s: baud %u unsupported", s->name, s->cfg->baud);
 		goto err_close;
@@ -703,24 +626,6 @@ err_close:
 	return -e;
 }
 
-/* Where the reply of a motor goes on RS485 (mapping at the top of this file). */
-static int rs485_id_of(const struct rmd_frame *f, uint8_t *id)
-{
-	static const uint32_t bases[] = { RMD_CAN_V3_REPLY_BASE, RMD_CAN_REQ_BASE };
-
-	for (size_t i = 0; i < sizeof(bases) / sizeof(bases[0]); i++) {
-		if (f->can_id > bases[i] && f->can_id <= bases[i] + RMD_MAX_MOTORS) {
-			*id = (uint8_t)(f->can_id - bases[i]);
-			return 0;
-		}
-	}
-	if (f->can_id == RMD_CAN_SET_ID) {
-		*id = RMD_RS485_BROADCAST;
-		return 0;
-	}
-	return -EINVAL;
-}
-
 /* Serial bytes out: as much as the tty takes; the rest waits for EPOLLOUT. */
 static void serial_flush(struct sim *s)
 {
@@ -751,15 +656,18 @@ static int serial_write(struct sim *s, const struct rmd_frame *f, uint8_t *id_ou
 	size_t n;
 	uint8_t id;
 	uint16_t crc;
+	int r;
 
-	if (rs485_id_of(f, &id) < 0) {
+	r = rmd_rs485_id_of_can(f->can_id, false);
+	if (r < 0) {
 		s->st.unmappable++;
 		return -EINVAL;
 	}
+	id = (uint8_t)r;
 	*id_out = id;
 	*wire = *f;
 	/* V3 §7.4 example 2: the RS485 read answers the ID itself, not 0x240 + ID. */
-	if (f->can_id == RMD_CAN_SET_ID && data[0] == RS485_BROADCAST_CMD_SET_ID && data[2] == 1) {
+	if (f->can_id == RMD_CAN_SET_ID && data[0] == RMD_RS485_CMD_SET_ID && data[2] == 1) {
 		unsigned v = (unsigned)data[6] | (unsigned)data[7] << 8;
 
 		if (v > RMD_CAN_V3_REPLY_BASE && v <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
@@ -842,11 +750,7 @@ static void serial_parse(struct sim *s, int64_t t)
 		memset(&f, 0, sizeof(f));
 		f.len = RMD_FRAME_LEN;
 		memcpy(f.data, data, sizeof(data));
-		if (id == RMD_RS485_BROADCAST)
-			f.can_id = data[0] == RS485_BROADCAST_CMD_SET_ID ? RMD_CAN_SET_ID :
-									   RMD_CAN_MULTI;
-		else
-			f.can_id = RMD_CAN_REQ_BASE + id;
+		f.can_id = rmd_rs485_can_id(id, true, data[0]);
 		s->st.rx_frames++;
 		answers = deliver(s, &f, t);
 		if (answers)
@@ -1077,8 +981,8 @@ static void log_summary(const struct sim *s, int64_t now)
 		", without RS485 form %" PRIu64 "%s",
 		s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
 		s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors, s->st.txq_overflow,
-		s->st.rx_errors, s->st.noise_bytes, s->st.echoes, s->st.absent_lost,
-		s->st.unmappable, faults);
+		s->st.rx_errors + (s->bus.ops ? rmd_bus_stats(&s->bus)->rx_errors : 0),
+		s->st.noise_bytes, s->st.echoes, s->st.absent_lost, s->st.unmappable, faults);
 }
 
 static void handle_signal(struct sim *s)
@@ -1220,7 +1124,9 @@ int sim_run(const struct sim_config *c)
 	r = s->status;
 
 err_close_wire:
-	if (s->fd >= 0)
+	if (s->bus.ops)
+		rmd_bus_close(&s->bus);
+	else if (s->fd >= 0)
 		close(s->fd);
 err_close_fds:
 	if (s->epfd >= 0)

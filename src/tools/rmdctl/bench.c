@@ -30,7 +30,6 @@
 #include "rmd/time.h"
 #include "rmd/bus.h"
 #include "rmd/bus_open.h"
-#include "rmd/bus_rs485.h"
 #include "rmd/codec.h"
 #include "rmd/txn.h"
 #include "rmdctl.h"
@@ -327,8 +326,6 @@ static int trace_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsig
 
 	for (int i = 0; i < r; i++)
 		trace_frame(d, "TX", &frames[i], now_ns);
-	bus->state = d->bus.state;
-	bus->stats = d->bus.stats;
 	return r;
 }
 
@@ -339,8 +336,6 @@ static int trace_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max,
 
 	for (int i = 0; i < r; i++)
 		trace_frame(d, "RX", &out[i].f, out[i].t_ns);
-	bus->state = d->bus.state;
-	bus->stats = d->bus.stats;
 	return r;
 }
 
@@ -349,6 +344,27 @@ static int trace_fd(const struct rmd_bus *bus)
 	const struct dev *d = bus->priv;
 
 	return rmd_bus_fd(&d->bus);
+}
+
+static int64_t trace_next_due_ns(const struct rmd_bus *bus)
+{
+	const struct dev *d = bus->priv;
+
+	return rmd_bus_next_due_ns(&d->bus);
+}
+
+static enum rmd_bus_state trace_state(const struct rmd_bus *bus)
+{
+	const struct dev *d = bus->priv;
+
+	return rmd_bus_state(&d->bus);
+}
+
+static const struct rmd_bus_stats *trace_stats(const struct rmd_bus *bus)
+{
+	const struct dev *d = bus->priv;
+
+	return rmd_bus_stats(&d->bus);
 }
 
 static void trace_close(struct rmd_bus *bus)
@@ -361,6 +377,9 @@ static const struct rmd_bus_ops trace_ops = {
 	.send = trace_send,
 	.recv = trace_recv,
 	.fd = trace_fd,
+	.next_due_ns = trace_next_due_ns,
+	.state = trace_state,
+	.stats = trace_stats,
 	.close = trace_close,
 };
 
@@ -389,10 +408,7 @@ static int open_bus(struct dev *d)
 	d->txn.tries = d->tries;
 	d->txn.stop = &interrupted;
 	/* Half duplex RS485 queues requests behind each other's answers. */
-	if (!strcmp(d->bus.ops->kind, "rs485"))
-		d->txn.spacing_ns = rmd_rs485_reply_timeout_ns(&d->bus);
-	else
-		d->txn.spacing_ns = RMD_TXN_CAN_SPACING_NS;
+	d->txn.spacing_ns = rmd_bus_caps(&d->bus)->request_spacing_ns;
 	if (d->trace) {
 		d->tbus = d->bus;
 		d->tbus.ops = &trace_ops;
@@ -427,7 +443,7 @@ static void report_missing(struct dev *d, const struct req *q, const char *more)
 	if (q->t.tries == 0) {
 		rmdctl_err(d->sub,
 			   "%s: could not send 0x%02X to motor %u: the bus took no frame (%s)",
-			   d->name, q->msg.cmd, q->id, rmd_bus_state_name(d->bus.state));
+			   d->name, q->msg.cmd, q->id, rmd_bus_state_name(rmd_bus_state(d->b)));
 		return;
 	}
 	rmdctl_err(d->sub, "%s: motor %u did not answer 0x%02X within %s ms (%u %s)%s", d->name,

@@ -1,56 +1,23 @@
 // SPDX-License-Identifier: MIT
 /*
- * Open every bus of rmdd's configuration with its transport: SocketCAN with
- * a kernel filter for the bus's motors and the plan's burst (the most
- * requests of one cycle, which the interface's txqueuelen must hold), an
- * RS485 line at the configured baud, or an in-process simulated bus with
- * the configuration's simulated motors, wire model and faults.  Each
- * transport's message already names the command that fixes it; this file
- * adds where in the configuration the bus comes from.  Non-rt.
+ * Open every bus of rmdd's configuration with the bus layer's factory
+ * (rmd_bus_open()): the bus's motors (and, for a sim bus, the simulator's
+ * settings), and the plan's burst (the most
+ * requests of one cycle, which a CAN interface's txqueuelen must hold).
+ * Each transport's message already names the command that fixes it; this
+ * file adds where in the configuration the bus comes from.  Non-rt.
  */
 #include <errno.h>
 #include <string.h>
 
-#include "rmd/bus_rs485.h"
-#include "rmd/bus_sim.h"
-#include "rmd/bus_socketcan.h"
+#include "rmd/bus_open.h"
 #include "rmdd.h"
-
-static int open_socketcan(struct rmd_bus *bus, const struct rmd_config *cfg, unsigned b,
-			  const struct rmd_plan *plan, char *err, size_t errlen)
-{
-	const struct rmd_config_bus *cb = &cfg->buses[b];
-	struct rmd_socketcan_motor motors[RMD_MAX_MOTORS];
-	struct rmd_socketcan_opts o = { .motors = motors };
-
-	for (unsigned i = 0; i < cfg->n_motors; i++) {
-		if (cfg->motors[i].bus != b || o.n_motors >= RMD_MAX_MOTORS)
-			continue;
-		motors[o.n_motors].id = cfg->motors[i].id;
-		motors[o.n_motors].proto = cfg->motors[i].proto;
-		o.n_motors++;
-	}
-	o.burst = plan->bus[b].max_requests;
-	return rmd_socketcan_open(bus, cb->interface[0] ? cb->interface : cb->name, &o, err,
-				  errlen);
-}
-
-static int open_rs485(struct rmd_bus *bus, const struct rmd_config *cfg, unsigned b, char *err,
-		      size_t errlen)
-{
-	const struct rmd_config_bus *cb = &cfg->buses[b];
-	struct rmd_rs485_opts o = { .baud = cb->baud };
-
-	/* the transport's default reply timeout: the motor's answer plus an adapter's delay */
-	for (unsigned i = 0; i < cfg->n_motors; i++)
-		if (cfg->motors[i].bus == b)
-			o.broadcast_replies++;
-	return rmd_rs485_open(bus, cb->device, &o, err, errlen);
-}
 
 int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *sim,
 		    const struct rmd_plan *plan, struct rmd_bus buses[RMD_MAX_BUSES])
 {
+	struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
+	struct rmd_bus_open_ctx ctx;
 	char err[512];
 	unsigned b;
 	int r = 0;
@@ -58,19 +25,9 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *si
 	for (b = 0; b < cfg->n_buses; b++) {
 		const struct rmd_config_bus *cb = &cfg->buses[b];
 
-		memset(&buses[b], 0, sizeof(buses[b]));
-		err[0] = '\0';
-		switch (cb->kind) {
-		case RMD_BUS_KIND_SOCKETCAN:
-			r = open_socketcan(&buses[b], cfg, b, plan, err, sizeof(err));
-			break;
-		case RMD_BUS_KIND_RS485:
-			r = open_rs485(&buses[b], cfg, b, err, sizeof(err));
-			break;
-		case RMD_BUS_KIND_SIM:
-			r = rmd_config_open_sim_bus(cfg, sim, b, &buses[b], err, sizeof(err));
-			break;
-		}
+		rmd_bus_open_ctx_of(cfg, sim, b, motors, &ctx);
+		ctx.burst = plan->bus[b].max_requests;
+		r = rmd_bus_open(&buses[b], cb, &ctx, err, sizeof(err));
 		if (r < 0) {
 			if (cb->line)
 				rmdd_log(3, "%s:%u: bus %s (%s): %s", cfg->source, cb->line,

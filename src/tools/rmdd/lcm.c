@@ -35,7 +35,7 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 
 		snprintf(bb->name, sizeof(bb->name), "%s", cb->name);
 		snprintf(bb->kind, sizeof(bb->kind), "%s", rmd_bus_kind_name(cb->kind));
-		bb->bitrate = cb->kind == RMD_BUS_KIND_RS485 ? cb->baud : cb->bitrate;
+		bb->bitrate = plan->bus[b].bitrate; /* RS485: its baud */
 	}
 	o->period_ns = plan->period_ns;
 	o->state_every = cfg->lcm.state_every_n;

@@ -45,6 +45,7 @@
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
+#include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -55,6 +56,8 @@
 #include <sys/eventfd.h>
 #include <sys/signalfd.h>
 
+#include "rmd/bringup.h"
+#include "rmd/codec.h"
 #include "rmd/time.h"
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
@@ -392,34 +395,170 @@ static void handovers_free(struct rmdd *d)
 	free(d->buf_commands);
 }
 
+/* One line of the bring-up report, built in pieces. */
+struct line {
+	char s[4096];
+	size_t n;
+};
+
+__attribute__((format(printf, 2, 3))) static void line_add(struct line *ln, const char *fmt, ...)
+{
+	va_list ap;
+	int k;
+
+	if (ln->n + 1 >= sizeof(ln->s))
+		return;
+	va_start(ap, fmt);
+	k = vsnprintf(ln->s + ln->n, sizeof(ln->s) - ln->n, fmt, ap);
+	va_end(ap);
+	if (k > 0)
+		ln->n += (size_t)k;
+	if (ln->n >= sizeof(ln->s))
+		ln->n = sizeof(ln->s) - 1;
+}
+
+/* "bus: motor 2 (knee): X8S2V10, firmware 20220206, 48.5 V, 25 °C".  Returns its log level. */
+static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd_bringup_motor *bm,
+		      struct line *ln)
+{
+	const struct rmd_config_motor *c = &cfg->motors[i];
+	bool v2 = c->proto == RMD_PROTO_V2;
+	int level = 6;
+
+	line_add(ln, "%s: motor %u (%s): ", cfg->buses[c->bus].name, c->id, c->name);
+	if (bm->state == RMD_BRINGUP_MISSING) {
+		line_add(ln, "missing (no answer to 0x%02X in %u tries of %lld ms)", bm->probe_cmd,
+			 bm->tries, (long long)(bm->timeout_ns / RMD_NS_PER_MS));
+		return 4;
+	}
+	if (v2) {
+		line_add(ln, "V2 (no model or version query)");
+	} else {
+		line_add(ln, "%s", bm->model[0] ? bm->model : "(no model)");
+		if (!bm->version) {
+			line_add(ln, ", no answer to 0xB2");
+			level = 4;
+		} else if (rmd_version_date_valid(bm->version)) {
+			line_add(ln, ", firmware %u", (unsigned)bm->version);
+		} else {
+			line_add(ln, ", firmware date %u implausible", (unsigned)bm->version);
+		}
+	}
+	if (bm->status) {
+		line_add(ln, ", %.1f V, %.0f °C", bm->voltage_v, bm->temp_c);
+		if (bm->error_code) {
+			const char *names[4];
+			size_t n = rmd_error_names(v2 ? RMD_PROTO_V2 : RMD_PROTO_V3, bm->error_code,
+						   names, 4);
+
+			line_add(ln, ", errors 0x%04X (", bm->error_code);
+			for (size_t k = 0; k < n && k < 4; k++)
+				line_add(ln, "%s%s", k ? ", " : "", names[k]);
+			line_add(ln, "%s)", n > 4 ? ", ..." : "");
+		}
+	} else {
+		line_add(ln, ", no answer to 0x9A");
+		level = 4;
+	}
+	if (v2) {
+		if (!bm->v2_angle)
+			line_add(ln, ", no 0x92 angle: positions start at 0");
+		line_add(ln, ", no 0xB3 in V2 (no comm-loss protection)");
+	}
+	return level;
+}
+
+/*
+ * "bus: comm-loss protection (0xB3) 100 ms: 1 2 3 (3 set, echo verified)",
+ * or level 0 when no motor of bus b had 0xB3 written.  Returns its log level.
+ */
+static int b3_line(const struct rmd_config *cfg, unsigned b, const struct rmd_bringup *bu,
+		   struct line *ln)
+{
+	unsigned set = 0;
+	int level = 0;
+
+	for (unsigned i = 0; i < bu->n_motors; i++) {
+		const struct rmd_config_motor *c = &cfg->motors[i];
+		enum rmd_bringup_b3 b3 = bu->motor[i].b3;
+
+		if (c->bus != b || b3 == RMD_B3_NOT_APPLICABLE)
+			continue;
+		if (!level) {
+			level = 6;
+			line_add(ln, "%s: comm-loss protection (0xB3) %s", cfg->buses[b].name,
+				 bu->comm_loss_ms ? "" :
+						    "off (disabled by safety.comm_loss_ms: 0)");
+			if (bu->comm_loss_ms)
+				line_add(ln, "%u ms:", (unsigned)bu->comm_loss_ms);
+		}
+		switch (b3) {
+		case RMD_B3_SET:
+			line_add(ln, " %u", c->id);
+			set++;
+			break;
+		case RMD_B3_ZEROS:
+			line_add(ln, " motor %u (%s) answered zeros, not verified (V3 §2.30);",
+				 c->id, c->name);
+			if (level > 5)
+				level = 5;
+			break;
+		case RMD_B3_NO_ANSWER:
+			line_add(ln, " motor %u (%s) did not answer 0xB3;", c->id, c->name);
+			level = 4;
+			break;
+		case RMD_B3_DIFFERS:
+			line_add(ln, " motor %u (%s) NOT confirmed (the echo differs);", c->id,
+				 c->name);
+			level = 4;
+			break;
+		case RMD_B3_NOT_APPLICABLE:
+			break;
+		}
+	}
+	if (level)
+		line_add(ln, " (%u set, echo verified)", set);
+	return level;
+}
+
 /* Bring-up with its report.  Returns an exit status. */
 static int bringup(struct rmdd *d)
 {
-	static char report[RMDD_ERR_LEN];
-	unsigned missing = 0;
-	int r;
+	static struct rmd_bringup bu;
+	const struct rmd_config *cfg = &d->cfg;
+	struct line ln;
+	int r, level;
 
-	r = rmd_loop_bringup(d->loop, report, sizeof(report));
-	rmdd_log(6, "bring-up of %u motor(s) on %u bus(es):", d->cfg.n_motors, d->cfg.n_buses);
-	for (const char *p = report; *p;) {
-		const char *nl = strchr(p, '\n');
-		int n = nl ? (int)(nl - p) : (int)strlen(p);
-		bool bad = memmem(p, (size_t)n, "missing", 7) ||
-			   memmem(p, (size_t)n, "unexpected", 10) ||
-			   memmem(p, (size_t)n, "NOT", 3) || memmem(p, (size_t)n, "no answer", 9);
-
-		missing += memmem(p, (size_t)n, ": missing", 9) != NULL;
-		rmdd_log(bad ? 4 : 6, "  %.*s", n, p);
-		p += n + (nl ? 1 : 0);
+	r = rmd_loop_bringup(d->loop, &bu);
+	rmdd_log(6, "bring-up of %u motor(s) on %u bus(es):", cfg->n_motors, cfg->n_buses);
+	if (r != -EBUSY) {
+		for (unsigned i = 0; i < bu.n_motors; i++) {
+			ln.n = 0;
+			level = motor_line(cfg, i, &bu.motor[i], &ln);
+			rmdd_log(level, "  %s", ln.s);
+		}
+		for (unsigned b = 0; b < bu.n_buses; b++)
+			for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++)
+				if (bu.unexpected_ids[b] & (1u << (id - 1)))
+					rmdd_log(4,
+						 "  %s: motor %u: unexpected (answers, but is not "
+						 "configured)",
+						 cfg->buses[b].name, id);
+		for (unsigned b = 0; b < bu.n_buses; b++) {
+			ln.n = 0;
+			level = b3_line(cfg, b, &bu, &ln);
+			if (level)
+				rmdd_log(level, "  %s", ln.s);
+		}
 	}
-	/* what bring-up reported through the ring (probe results) goes out now */
+	/* what bring-up reported through the ring goes out now */
 	rmdd_monitor_drain(&d->mon);
 	if (r == -ENODEV) {
 		rmdd_log(
 			3,
 			"%u motor(s) missing and probe.on_missing is refuse in %s (set it to start "
 			"to run without them)",
-			missing, d->cfg.source);
+			bu.missing, cfg->source);
 		return RMDD_EXIT_FAIL;
 	}
 	if (r < 0) {

@@ -87,8 +87,7 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 		rmdd_log_always(
 			6,
 			"  bus %s (%s, %u bit/s, %u motors): %s; plan %.0f%% worst, %.0f%% avg%s",
-			cb->name, rmd_bus_kind_name(cb->kind),
-			cb->kind == RMD_BUS_KIND_RS485 ? cb->baud : cb->bitrate, pb->n_motors, load,
+			cb->name, rmd_bus_kind_name(cb->kind), pb->bitrate, pb->n_motors, load,
 			100.0 * (double)pb->worst_ns / period, 100.0 * pb->avg_ns / period,
 			counters);
 	}

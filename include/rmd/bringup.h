@@ -1,0 +1,79 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Bring-up, before the rt thread starts (non-rt, blocks for a bounded
+ * time), on the one request/reply engine (rmd/txn.h): probe every motor
+ * (0xB5 model, 0xB2 version, 0x9A status), ask every id that is not
+ * configured on a bus for its status (0x9A) once, and write the configured
+ * 0xB3 comm-loss time to every motor that answered, last, checking its
+ * answer.  V2 has no 0xB5, 0xB2 or 0xB3: V2 motors are probed with 0x9A,
+ * and 0x92 anchors their unwrapped encoder position.  Each probe is tried
+ * RMD_LOOP_PROBE_TRIES times, RMD_LOOP_PROBE_TIMEOUT_NS each (a transport
+ * with a reply timeout of its own: that plus 1 ms).
+ *
+ * The result is data, struct rmd_bringup: the caller words it and picks
+ * its log levels.  Found motors are READY (FAULT with error flags),
+ * missing ones LOST (re-probed by the cycle).
+ */
+#ifndef RMD_BRINGUP_H
+#define RMD_BRINGUP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "rmd/loop.h"
+
+/* What the probe found. */
+enum rmd_bringup_state {
+	RMD_BRINGUP_FOUND = 0, /* answered, no error flags */
+	RMD_BRINGUP_MISSING,   /* no answer to the first probe */
+	RMD_BRINGUP_FAULT,     /* answered, with error flags (error_code) */
+};
+
+/* What came of the 0xB3 write (V3 §2.30). */
+enum rmd_bringup_b3 {
+	RMD_B3_NOT_APPLICABLE = 0, /* not written: a V2 motor (no 0xB3) or a missing one */
+	RMD_B3_SET,		   /* written, and the answer repeats the request */
+	/*
+	 * Answered with the command byte and zeros: V3 §2.30 example 2 shows
+	 * that answer to a write of 1000 ms, real firmware answers either way,
+	 * so the time is not verified.
+	 */
+	RMD_B3_ZEROS,
+	RMD_B3_NO_ANSWER, /* no answer in RMD_LOOP_PROBE_TRIES tries */
+	RMD_B3_DIFFERS,	  /* answered with other values than written */
+};
+
+struct rmd_bringup_motor {
+	enum rmd_bringup_state state;
+	/* MISSING: the request that went unanswered, its tries and their wait */
+	uint8_t probe_cmd;
+	unsigned tries;
+	int64_t timeout_ns;
+	char model[8];	  /* 0xB5 (V3, MIT); "" when it answered none */
+	uint32_t version; /* 0xB2 firmware date yyyymmdd; 0: no answer (or V2) */
+	bool status;	  /* 0x9A answered: voltage, temperature and errors below */
+	double voltage_v;
+	double temp_c;
+	uint16_t error_code;
+	bool v2_angle; /* V2: 0x92 answered, positions continue from the motor's angle */
+	enum rmd_bringup_b3 b3;
+};
+
+struct rmd_bringup {
+	unsigned n_motors, n_buses; /* of the configuration */
+	uint32_t comm_loss_ms;	    /* what 0xB3 wrote (safety.comm_loss_ms; 0: off) */
+	unsigned missing;	    /* motors MISSING */
+	struct rmd_bringup_motor motor[RMD_MAX_MOTORS]; /* config order */
+	/* per bus: ids that answered but are not configured, bit id - 1 */
+	uint32_t unexpected_ids[RMD_MAX_BUSES];
+};
+
+/*
+ * Bring the motors of l up (see the top of this file) and describe what
+ * was found in *out.  Returns 0, -ENODEV when a motor is missing and
+ * probe.on_missing is refuse (out is filled all the same), or -EBUSY while
+ * the thread runs.  Non-rt.
+ */
+int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out);
+
+#endif /* RMD_BRINGUP_H */

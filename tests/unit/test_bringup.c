@@ -1,0 +1,418 @@
+// SPDX-License-Identifier: MIT
+/*
+ * Bring-up as data (rmd/bringup.h) and the bus contract it stands on
+ * (rmd/bus.h, rmd/bus_open.h), on simulated buses with an injected clock:
+ *
+ * - what rmd_loop_bringup() returns: found, missing and faulty motors, and
+ *   every 0xB3 outcome, made by a bus decorator that drops or rewrites the
+ *   motors' answers to 0xB3 on the way in;
+ * - a decorator forwards state and stats instead of copying them;
+ * - the sim bus's caps and next_due_ns, and the typed accessors of the
+ *   other transports refusing it;
+ * - rmd_bus_open() from a config entry and rmd_bus_open_spec() from the
+ *   spec string give the same bus.
+ */
+#include <errno.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "rmd/bringup.h"
+#include "rmd/bus_open.h"
+#include "rmd/bus_rs485.h"
+#include "rmd/bus_sim.h"
+#include "rmd/bus_socketcan.h"
+#include "rmd/config.h"
+#include "rmd/config_yaml.h"
+#include "rmd/loop.h"
+#include "rmd/plan.h"
+#include "rmd/sim.h"
+#include "rmd/sim_wire.h"
+
+#define MS INT64_C(1000000)
+
+static int64_t t_now;
+
+static int64_t clock_now(void *ctx)
+{
+	(void)ctx;
+	return t_now;
+}
+
+static void clock_sleep(void *ctx, int64_t ns)
+{
+	(void)ctx;
+	t_now += ns;
+}
+
+/* ---- a decorator that tampers with the answers to 0xB3 ------------------------------ */
+
+enum tamper {
+	TAMPER_NONE = 0,
+	TAMPER_DROP,   /* the answer never arrives */
+	TAMPER_ZEROS,  /* the command byte and zeros (V3 §2.30 example 2) */
+	TAMPER_DIFFER, /* another time than written */
+};
+
+struct tamper_bus {
+	struct rmd_bus *inner;
+	enum tamper how;
+};
+
+static int tb_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n, int64_t now_ns)
+{
+	struct tamper_bus *tb = bus->priv;
+
+	return rmd_bus_send(tb->inner, frames, n, now_ns);
+}
+
+static int tb_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now_ns)
+{
+	struct tamper_bus *tb = bus->priv;
+	int n = rmd_bus_recv(tb->inner, out, max, now_ns), k = 0;
+
+	for (int i = 0; i < n; i++) {
+		struct rmd_frame *f = &out[i].f;
+
+		if (f->len == RMD_FRAME_LEN && f->data[0] == 0xB3) {
+			if (tb->how == TAMPER_DROP)
+				continue;
+			if (tb->how == TAMPER_ZEROS)
+				memset(f->data + 1, 0, RMD_FRAME_LEN - 1);
+			if (tb->how == TAMPER_DIFFER)
+				f->data[4] ^= 0x01; /* the time's low byte */
+		}
+		out[k++] = out[i];
+	}
+	return n < 0 ? n : k;
+}
+
+static int tb_fd(const struct rmd_bus *bus)
+{
+	const struct tamper_bus *tb = bus->priv;
+
+	return rmd_bus_fd(tb->inner);
+}
+
+static int64_t tb_next_due_ns(const struct rmd_bus *bus)
+{
+	const struct tamper_bus *tb = bus->priv;
+
+	return rmd_bus_next_due_ns(tb->inner);
+}
+
+static enum rmd_bus_state tb_state(const struct rmd_bus *bus)
+{
+	const struct tamper_bus *tb = bus->priv;
+
+	return rmd_bus_state(tb->inner);
+}
+
+static const struct rmd_bus_stats *tb_stats(const struct rmd_bus *bus)
+{
+	const struct tamper_bus *tb = bus->priv;
+
+	return rmd_bus_stats(tb->inner);
+}
+
+static void tb_close(struct rmd_bus *bus)
+{
+	memset(bus, 0, sizeof(*bus));
+}
+
+static const struct rmd_bus_ops tamper_ops = {
+	.kind = "tamper",
+	.send = tb_send,
+	.recv = tb_recv,
+	.fd = tb_fd,
+	.next_due_ns = tb_next_due_ns,
+	.state = tb_state,
+	.stats = tb_stats,
+	.close = tb_close,
+};
+
+/* ---- the rig: n sim motors (three to a bus) behind the decorator, one loop ---------- */
+
+struct rig {
+	struct rmd_config cfg;
+	struct rmd_sim_setup simset;
+	struct rmd_plan plan;
+	struct rmd_bus sim[RMD_MAX_BUSES]; /* as rmd_bus_open() opened them */
+	struct tamper_bus tb[RMD_MAX_BUSES];
+	struct rmd_bus bus[RMD_MAX_BUSES]; /* what the loop drives */
+	struct rmd_loop *l;
+	struct rmd_bringup bu;
+};
+
+static struct rig R;
+
+static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faults,
+		   unsigned n_faults)
+{
+	struct rmd_loop_opts o = { .cfg = &R.cfg,
+				   .plan = &R.plan,
+				   .buses = R.bus,
+				   .now_ns = clock_now,
+				   .sleep_ns = clock_sleep };
+	char err[1024];
+
+	memset(&R, 0, sizeof(R));
+	t_now = 1000 * MS;
+	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.simset, n), 0);
+	memcpy(R.simset.buses[0].faults, faults, n_faults * sizeof(*faults));
+	R.simset.buses[0].n_faults = n_faults;
+	if (rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err)))
+		fail_msg("plan: %s", err);
+	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
+		struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
+		struct rmd_bus_open_ctx ctx;
+
+		rmd_bus_open_ctx_of(&R.cfg, &R.simset, b, motors, &ctx);
+		if (rmd_bus_open(&R.sim[b], &R.cfg.buses[b], &ctx, err, sizeof(err)))
+			fail_msg("%s: %s", R.cfg.buses[b].name, err);
+		R.tb[b] = (struct tamper_bus){ .inner = &R.sim[b], .how = how };
+		R.bus[b] = (struct rmd_bus){ .ops = &tamper_ops,
+					     .caps = R.sim[b].caps,
+					     .priv = &R.tb[b] };
+		snprintf(R.bus[b].name, sizeof(R.bus[b].name), "%s", R.sim[b].name);
+	}
+	R.l = rmd_loop_new(&o, err, sizeof(err));
+	if (!R.l)
+		fail_msg("rmd_loop_new: %s", err);
+}
+
+static void rig_down(void)
+{
+	rmd_loop_free(R.l);
+	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
+		rmd_bus_close(&R.bus[b]);
+		rmd_bus_close(&R.sim[b]);
+	}
+}
+
+/* ---- bring-up's values --------------------------------------------------------------- */
+
+static void test_found(void **state)
+{
+	(void)state;
+	rig_up(4, TAMPER_NONE, NULL, 0);
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	assert_int_equal(R.bu.n_motors, 4);
+	assert_int_equal(R.bu.n_buses, 2);
+	assert_int_equal(R.bu.missing, 0);
+	assert_int_equal(R.bu.comm_loss_ms, R.cfg.safety.comm_loss_ms);
+	for (unsigned i = 0; i < 4; i++) {
+		const struct rmd_bringup_motor *m = &R.bu.motor[i];
+
+		assert_int_equal(m->state, RMD_BRINGUP_FOUND);
+		assert_string_equal(m->model, "X8S2V10");
+		assert_int_equal(m->version, 20220206);
+		assert_true(m->status);
+		assert_float_equal(m->voltage_v, 48.0, 0.05);
+		assert_int_equal(m->error_code, 0);
+		assert_int_equal(m->b3, RMD_B3_SET);
+	}
+	assert_int_equal(R.bu.unexpected_ids[0], 0);
+	assert_int_equal(R.bu.unexpected_ids[1], 0);
+	rig_down();
+}
+
+/* Motor 2 gone, motor 3 reporting low voltage, motor 9 answering unconfigured. */
+static void test_missing_fault_unexpected(void **state)
+{
+	const struct rmd_sim_fault faults[] = {
+		{ .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 2 },
+		{ .kind = RMD_SIM_FAULT_ERROR_FLAG,
+		  .motor_id = 3,
+		  .param = RMD_SIM_ERR_LOW_VOLTAGE },
+	};
+	struct rmd_sim_motor_params p;
+
+	(void)state;
+	rig_up(3, TAMPER_NONE, faults, 2);
+	rmd_sim_motor_params_default(&p, 9, RMD_PROTO_V3);
+	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.sim[0]), &p, 0) >= 0);
+	/* on_missing: refuse still refuses, and says what it found all the same */
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), -ENODEV);
+	assert_int_equal(R.bu.missing, 1);
+	assert_int_equal(R.bu.motor[0].state, RMD_BRINGUP_FOUND);
+	assert_int_equal(R.bu.motor[1].state, RMD_BRINGUP_MISSING);
+	assert_int_equal(R.bu.motor[1].probe_cmd, 0xB5);
+	assert_int_equal(R.bu.motor[1].tries, RMD_LOOP_PROBE_TRIES);
+	assert_int_equal(R.bu.motor[1].timeout_ns, RMD_LOOP_PROBE_TIMEOUT_NS);
+	assert_int_equal(R.bu.motor[1].b3, RMD_B3_NOT_APPLICABLE);
+	assert_int_equal(R.bu.motor[2].state, RMD_BRINGUP_FAULT);
+	assert_int_equal(R.bu.motor[2].error_code & RMD_SIM_ERR_LOW_VOLTAGE,
+			 RMD_SIM_ERR_LOW_VOLTAGE);
+	assert_int_equal(R.bu.motor[2].b3, RMD_B3_SET);
+	assert_int_equal(R.bu.unexpected_ids[0], 1u << (9 - 1));
+	rig_down();
+}
+
+/* Every 0xB3 outcome: the motors are found all the same. */
+static void test_b3_outcomes(void **state)
+{
+	static const struct {
+		enum tamper how;
+		uint32_t comm_loss_ms;
+		enum rmd_bringup_b3 want;
+	} cases[] = {
+		{ TAMPER_NONE, 100, RMD_B3_SET },    { TAMPER_DROP, 100, RMD_B3_NO_ANSWER },
+		{ TAMPER_ZEROS, 100, RMD_B3_ZEROS }, { TAMPER_DIFFER, 100, RMD_B3_DIFFERS },
+		{ TAMPER_ZEROS, 0, RMD_B3_SET }, /* writing 0 is answered by zeros */
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		rig_up(2, cases[k].how, NULL, 0);
+		R.cfg.safety.comm_loss_ms = cases[k].comm_loss_ms;
+		assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+		assert_int_equal(R.bu.comm_loss_ms, cases[k].comm_loss_ms);
+		for (unsigned i = 0; i < 2; i++) {
+			if (R.bu.motor[i].b3 != cases[k].want)
+				fail_msg("case %zu motor %u: 0xB3 outcome %d, want %d", k, i,
+					 (int)R.bu.motor[i].b3, (int)cases[k].want);
+			assert_int_equal(R.bu.motor[i].state, RMD_BRINGUP_FOUND);
+		}
+		rig_down();
+	}
+}
+
+/* ---- the contract -------------------------------------------------------------------- */
+
+/* A decorator forwards state, stats and next_due_ns: nothing is copied back. */
+static void test_decorator_forwards(void **state)
+{
+	struct rmd_frame f = { .can_id = 0x141, .len = 8, .data = { 0x9A } };
+
+	(void)state;
+	rig_up(1, TAMPER_NONE, NULL, 0);
+	assert_int_equal(rmd_bus_send(&R.bus[0], &f, 1, t_now), 1);
+	assert_ptr_equal(rmd_bus_stats(&R.bus[0]), &R.sim[0].stats);
+	assert_int_equal(rmd_bus_stats(&R.bus[0])->tx_frames, 1);
+	assert_int_equal(rmd_bus_state(&R.bus[0]), RMD_BUS_ACTIVE);
+	assert_int_equal(rmd_bus_next_due_ns(&R.bus[0]), INT64_MAX);
+	rig_down();
+}
+
+/* The sim bus: a CAN bus in a box; the other transports' accessors refuse it. */
+static void test_sim_caps_and_accessors(void **state)
+{
+	struct rmd_frame f = { .can_id = 0x141, .len = 8, .data = { 0x9A } };
+	struct rmd_rs485_stats xs;
+	struct rmd_bus bus;
+	char err[256];
+
+	(void)state;
+	assert_int_equal(rmd_bus_open_spec(&bus, "sim:1", NULL, err, sizeof(err)), 0);
+	assert_false(rmd_bus_caps(&bus)->half_duplex);
+	assert_int_equal(rmd_bus_caps(&bus)->reply_timeout_ns, 0);
+	assert_int_equal(rmd_bus_caps(&bus)->request_spacing_ns, RMD_BUS_CAN_SPACING_NS);
+	assert_int_equal(rmd_bus_caps(&bus)->queue_len, 0);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, 1000 * MS), 1);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
+	assert_non_null(rmd_bus_sim_get(&bus));
+	assert_int_equal(rmd_rs485_stats(&bus, &xs), -EINVAL);
+	assert_int_equal(rmd_socketcan_rcvbuf(&bus), -EINVAL);
+	rmd_bus_close(&bus);
+}
+
+/* A config entry and the spec that names the same bus open the same bus. */
+static void test_open_config_equals_spec(void **state)
+{
+	static const uint8_t ids[] = { 1, 2, 3, 7 };
+	struct rmd_bus_open_opts o = { .proto = RMD_PROTO_V2, .sim_bitrate = 500000 };
+	struct rmd_bus_open_motor motors[4];
+	struct rmd_sim_bus_setup sim = { .host_fifo = true };
+	struct rmd_bus_open_ctx ctx = { .motors = motors, .n_motors = 4, .sim = &sim };
+	struct rmd_config_bus cb = { .kind = RMD_BUS_KIND_SIM, .bitrate = 500000 };
+	struct rmd_config_bus parsed;
+	struct rmd_bus a, b;
+	uint8_t got[RMD_MAX_MOTORS];
+	struct rmd_sim_wire *sa, *sb;
+	char err[256];
+
+	(void)state;
+	snprintf(cb.name, sizeof(cb.name), "sim:1-3,7");
+	for (unsigned i = 0; i < 4; i++)
+		motors[i] = (struct rmd_bus_open_motor){ .id = ids[i], .proto = RMD_PROTO_V2 };
+	/* the spec parses into that entry */
+	assert_int_equal(rmd_bus_spec_parse("sim:1-3,7", &o, &parsed, got, err, sizeof(err)), 4);
+	assert_int_equal(parsed.kind, RMD_BUS_KIND_SIM);
+	assert_string_equal(parsed.name, cb.name);
+	assert_int_equal(parsed.bitrate, cb.bitrate);
+	assert_memory_equal(got, ids, sizeof(ids));
+
+	assert_int_equal(rmd_bus_open(&a, &cb, &ctx, err, sizeof(err)), 0);
+	assert_int_equal(rmd_bus_open_spec(&b, "sim:1-3,7", &o, err, sizeof(err)), 0);
+	assert_ptr_equal(a.ops, b.ops);
+	assert_string_equal(a.name, b.name);
+	assert_memory_equal(&a.caps, &b.caps, sizeof(a.caps));
+	sa = rmd_bus_sim_get(&a);
+	sb = rmd_bus_sim_get(&b);
+	assert_int_equal(sa->bitrate, sb->bitrate);
+	assert_int_equal(sa->flags, sb->flags);
+	assert_int_equal(sa->seed, sb->seed);
+	assert_int_equal(sa->n_motors, sb->n_motors);
+	for (unsigned i = 0; i < sa->n_motors; i++) {
+		assert_int_equal(sa->motors[i].p.id, sb->motors[i].p.id);
+		assert_int_equal(sa->motors[i].p.proto, RMD_PROTO_V2);
+		assert_int_equal(sb->motors[i].p.proto, RMD_PROTO_V2);
+	}
+	rmd_bus_close(&a);
+	rmd_bus_close(&b);
+
+	/* the spec's errors come from the one parser */
+	assert_int_equal(rmd_bus_spec_parse("sim:0-3", NULL, &parsed, got, err, sizeof(err)),
+			 -EINVAL);
+	assert_non_null(strstr(err, "bad motor list"));
+	assert_int_equal(rmd_bus_spec_parse("can0", NULL, &parsed, got, err, sizeof(err)), 0);
+	assert_int_equal(parsed.kind, RMD_BUS_KIND_SOCKETCAN);
+	assert_string_equal(parsed.interface, "can0");
+	assert_int_equal(rmd_bus_spec_parse("/dev/ttyX", NULL, &parsed, got, err, sizeof(err)), 0);
+	assert_int_equal(parsed.kind, RMD_BUS_KIND_RS485);
+	assert_string_equal(parsed.device, "/dev/ttyX");
+}
+
+/* The planner's wire rule per transport comes from the bus layer. */
+static void test_config_timing(void **state)
+{
+	struct rmd_config_bus can = { .kind = RMD_BUS_KIND_SOCKETCAN, .bitrate = 1000000 };
+	struct rmd_config_bus rs = { .kind = RMD_BUS_KIND_RS485,
+				     .baud = 115200,
+				     .turnaround_ns = 1500000 };
+	struct rmd_bus_timing t;
+
+	(void)state;
+	assert_int_equal(rmd_bus_config_timing(&can, &t), 0);
+	assert_int_equal(t.bitrate, 1000000);
+	assert_int_equal(t.frame_bits, 135); /* DESIGN.md: worst-case stuffed 8-byte frame */
+	assert_int_equal(t.turnaround_ns, 0);
+	assert_false(t.half_duplex);
+	assert_int_equal(rmd_bus_config_timing(&rs, &t), 0);
+	assert_int_equal(t.bitrate, 115200);
+	assert_int_equal(t.frame_bits, 130); /* 13 bytes, 8N1 */
+	assert_int_equal(t.turnaround_ns, 1500000);
+	assert_true(t.half_duplex);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_found),
+		cmocka_unit_test(test_missing_fault_unexpected),
+		cmocka_unit_test(test_b3_outcomes),
+		cmocka_unit_test(test_decorator_forwards),
+		cmocka_unit_test(test_sim_caps_and_accessors),
+		cmocka_unit_test(test_open_config_equals_spec),
+		cmocka_unit_test(test_config_timing),
+	};
+
+	return cmocka_run_group_tests_name("bringup", tests, NULL, NULL);
+}
