@@ -63,9 +63,6 @@
 /* Requests of one bus in one cycle: a 0x280 frame, every motor, a poll. */
 #define RMD_PLAN_MAX_SLOTS (RMD_MAX_MOTORS + 2)
 
-/* RS485 (V3 §1.2.2): 13 bytes a frame, 10 bits a byte (8N1). */
-#define RMD_PLAN_RS485_FRAME_BITS (13u * 10u)
-
 enum rmd_slot_kind {
 	RMD_SLOT_CONTROL = 0, /* a motor's setpoint: V2/V3 0x140 + ID, MIT 0x400 + ID */
 	RMD_SLOT_V2_TORQUES,  /* V2 §4.1 0x280: the torques of the batched motors */

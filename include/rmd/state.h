@@ -130,7 +130,6 @@ enum rmd_event_kind {
 	RMD_EV_OVERRUN,		/* a = cycles skipped */
 	RMD_EV_WATCHDOG,	/* a = enum rmd_watchdog_state */
 	RMD_EV_SAFE_ACTION,	/* a = enum rmd_safe_action (rmd/config.h) */
-	RMD_EV_PROBE,		/* a = 0 ok, -errno; b = model/version detail */
 	RMD_EV_SEND_FAILED,	/* a = -errno, b = frames not sent */
 	RMD_EV_UNEXPECTED,	/* a = CAN id, b = first data byte */
 	RMD_EV_RT, /* real-time scheduling not granted, once: a = -errno, b = RMD_LOOP_RT_* */

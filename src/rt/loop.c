@@ -192,7 +192,8 @@ static void fill_health(struct rmd_loop *l, int64_t now)
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		struct lbus *lb = &l->bus[b];
 		struct rmd_bus_health *bh = &h->bus[b];
-		uint64_t frames = lb->bus->stats.tx_frames + lb->bus->stats.rx_frames;
+		const struct rmd_bus_stats *bs = rmd_bus_stats(lb->bus);
+		uint64_t frames = bs->tx_frames + bs->rx_frames;
 		int64_t window = now - lb->load_t0;
 
 		if (window > 0 && frames >= lb->frames_t0) {
@@ -205,9 +206,9 @@ static void fill_health(struct rmd_loop *l, int64_t now)
 		lb->load_t0 = now;
 		memcpy(bh->name, lb->cb->name, sizeof(bh->name));
 		bh->name[sizeof(bh->name) - 1] = '\0';
-		bh->state = (uint8_t)lb->bus->state;
+		bh->state = (uint8_t)rmd_bus_state(lb->bus);
 		bh->load = lb->load;
-		bh->stats = lb->bus->stats;
+		bh->stats = *bs;
 	}
 	h->watchdog = l->wd;
 	h->safe_action_events = l->cnt.safe_actions;
@@ -264,9 +265,10 @@ static void bus_states(struct rmd_loop *l, int64_t now)
 {
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		struct lbus *lb = &l->bus[b];
+		enum rmd_bus_state st = rmd_bus_state(lb->bus);
 
-		if (lb->bus->state != lb->state_seen) {
-			lb->state_seen = (uint8_t)lb->bus->state;
+		if (st != lb->state_seen) {
+			lb->state_seen = (uint8_t)st;
 			loop_event(l, now, RMD_EV_BUS_STATE, 0xFF, b, lb->state_seen, 0);
 		}
 	}
@@ -547,7 +549,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 		lb->pb = &plan->bus[b];
 		lb->cb = &cfg->buses[b];
 		lb->reply_ns = max64(2 * l->period_ns, lb->pb->worst_ns + RMD_LOOP_REPLY_MARGIN_NS);
-		lb->state_seen = (uint8_t)lb->bus->state;
+		lb->state_seen = (uint8_t)rmd_bus_state(lb->bus);
 	}
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		const struct rmd_config_motor *c = &cfg->motors[i];

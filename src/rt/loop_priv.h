@@ -37,8 +37,6 @@
 #define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
 #define STOP_TRIES 50			/* rmd_loop_stop_motors(): sends per bus ... */
 #define STOP_STEP_NS 200000		/* ... this far apart */
-#define PROBE_STEP_NS 100000		/* bring-up: longest wait between two looks */
-#define REPORT_LINE 256
 
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {

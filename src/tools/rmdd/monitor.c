@@ -298,13 +298,6 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		rmdd_log(7, "%s: safe action %s sent", ctx,
 			 rmd_safe_action_name((enum rmd_safe_action)e->a));
 		break;
-	case RMD_EV_PROBE:
-		motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
-		if (e->a)
-			rmdd_log(7, "%s: probe: %s", ctx, strerror((int)-e->a));
-		else
-			rmdd_log(7, "%s: probe: answered", ctx);
-		break;
 	case RMD_EV_SEND_FAILED:
 		rmdd_log(4, "%s: send failed (%s): %" PRId64 " frame(s) not sent",
 			 bus_name(cfg, e->bus), e->a ? strerror((int)-e->a) : "queue full", e->b);
