@@ -23,27 +23,10 @@
 
 #include "rmd/codec.h"
 
+#include "harness/hex.h"
+#include "harness/rng.h"
+
 #define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
-
-/* "241#9A320001E5010400" -> frame.  Test helper; aborts the test on bad hex. */
-static struct rmd_frame frame_from(const char *s)
-{
-	struct rmd_frame f = { 0 };
-	char *end;
-
-	f.can_id = (uint32_t)strtoul(s, &end, 16);
-	assert_true(*end == '#');
-	s = end + 1;
-	while (s[0] && s[1] && f.len < RMD_FRAME_LEN) {
-		char byte[3] = { s[0], s[1], 0 };
-
-		f.data[f.len++] = (uint8_t)strtoul(byte, &end, 16);
-		assert_true(*end == '\0');
-		s += 2;
-	}
-	assert_true(*s == '\0');
-	return f;
-}
 
 /* ---- Manual vectors ---------------------------------------------------- */
 
@@ -595,12 +578,7 @@ static uint64_t seed_used;
 
 static uint64_t rng_next(uint64_t *s)
 {
-	/* splitmix64 */
-	uint64_t z = (*s += UINT64_C(0x9E3779B97F4A7C15));
-
-	z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-	z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
-	return z ^ (z >> 31);
+	return splitmix64(s);
 }
 
 /* A random raw value that fits `fs`, edges (min, max, 0, -1) one time in four. */

@@ -23,43 +23,15 @@
 #include "rmd/mit.h"
 #include "rmd/motor.h"
 
+#include "harness/hex.h"
+
 #define DEG (M_PI / 180.0)
-
-/* "141#A100000000000000" -> frame; fails the test on bad hex. */
-static struct rmd_frame frame_from(const char *s)
-{
-	struct rmd_frame f = { 0 };
-	const char *p;
-	char *end;
-
-	f.can_id = (uint32_t)strtoul(s, &end, 16);
-	if (*end != '#')
-		fail_msg("bad frame text \"%s\"", s);
-	p = end + 1;
-	while (p[0] && p[1] && f.len < RMD_FRAME_LEN) {
-		char byte[3] = { p[0], p[1], 0 };
-
-		f.data[f.len++] = (uint8_t)strtoul(byte, &end, 16);
-		if (*end)
-			fail_msg("bad frame text \"%s\"", s);
-		p += 2;
-	}
-	return f;
-}
-
-static void frame_text(const struct rmd_frame *f, char *buf, size_t len)
-{
-	int n = snprintf(buf, len, "%03X#", (unsigned)f->can_id);
-
-	for (unsigned k = 0; k < f->len && n > 0 && (size_t)n < len; k++)
-		n += snprintf(buf + n, len - (size_t)n, "%02X", f->data[k]);
-}
 
 static void assert_frame(const char *name, const struct rmd_frame *got, const char *want)
 {
-	char g[40];
+	char g[HEX_FRAME_LEN];
 
-	frame_text(got, g, sizeof(g));
+	frame_hex(got, g);
 	if (strcmp(g, want))
 		fail_msg("%s: got %s, want %s", name, g, want);
 }
