@@ -22,68 +22,16 @@
 
 #include <cmocka.h>
 
+#include "harness/json.h"
+#include "harness/proc.h"
+
 static char rmdctl[4096];
 static char sample[4096];
-
-struct run {
-	int status; /* exit status, or 128 + signal */
-	char *out;
-	char *err;
-};
-
-static char *slurp(FILE *f)
-{
-	long n;
-	char *buf;
-
-	fflush(f);
-	fseek(f, 0, SEEK_END);
-	n = ftell(f);
-	assert_true(n >= 0);
-	rewind(f);
-	buf = malloc((size_t)n + 1);
-	assert_non_null(buf);
-	assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-	buf[n] = '\0';
-	return buf;
-}
 
 /* Run rmdctl with args (NULL-terminated) and `len` bytes of stdin. */
 static void run_argv_n(struct run *r, const char *input, size_t len, const char *const *args)
 {
-	const char *argv[32];
-	FILE *in = tmpfile(), *out = tmpfile(), *err = tmpfile();
-	size_t n = 0;
-	pid_t pid;
-	int ws;
-
-	assert_non_null(in);
-	assert_non_null(out);
-	assert_non_null(err);
-	argv[n++] = rmdctl;
-	for (; args[n - 1] && n < 31; n++)
-		argv[n] = args[n - 1];
-	argv[n] = NULL;
-	if (len)
-		assert_int_equal(fwrite(input, 1, len, in), len);
-	fflush(in);
-	rewind(in);
-	pid = fork();
-	assert_true(pid >= 0);
-	if (pid == 0) {
-		dup2(fileno(in), 0);
-		dup2(fileno(out), 1);
-		dup2(fileno(err), 2);
-		execv(rmdctl, (char *const *)argv);
-		_exit(127);
-	}
-	assert_int_equal(waitpid(pid, &ws, 0), pid);
-	r->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
-	r->out = slurp(out);
-	r->err = slurp(err);
-	fclose(in);
-	fclose(out);
-	fclose(err);
+	run_prog(r, rmdctl, args, &(struct run_opts){ .input = input, .input_len = len });
 }
 
 /* Run rmdctl with args (NULL-terminated) and stdin text (NULL: empty). */
@@ -94,80 +42,15 @@ static void run_argv(struct run *r, const char *input, const char *const *args)
 
 #define RUN(r, input, ...) run_argv((r), (input), (const char *const[]){ __VA_ARGS__, NULL })
 
-static void run_free(struct run *r)
-{
-	free(r->out);
-	free(r->err);
-}
-
-static void assert_has(const char *hay, const char *needle, const char *what)
-{
-	if (!strstr(hay, needle))
-		fail_msg("%s: \"%s\" missing from:\n%s", what, needle, hay);
-}
-
-static void assert_lacks(const char *hay, const char *needle, const char *what)
-{
-	if (strstr(hay, needle))
-		fail_msg("%s: \"%s\" unexpected in:\n%s", what, needle, hay);
-}
-
-static size_t count_lines(const char *s)
-{
-	size_t n = 0;
-
-	for (; *s; s++)
-		n += *s == '\n';
-	return n;
-}
-
-/* The output line holding `needle`, copied into buf; fails when there is none. */
-static const char *line_with(const char *out, const char *needle, char *buf, size_t size)
-{
-	const char *hit = strstr(out, needle), *start, *end;
-
-	if (!hit)
-		fail_msg("no line holds \"%s\" in:\n%s", needle, out);
-	for (start = hit; start > out && start[-1] != '\n'; start--)
-		;
-	end = strchr(hit, '\n');
-	if (!end)
-		end = hit + strlen(hit);
-	assert_true((size_t)(end - start) < size);
-	memcpy(buf, start, (size_t)(end - start));
-	buf[end - start] = '\0';
-	return buf;
-}
-
-/* The number after "key": in a JSON line. */
-static double json_num(const char *line, const char *key)
-{
-	char pat[64];
-	const char *p;
-
-	snprintf(pat, sizeof(pat), "\"%s\":", key);
-	p = strstr(line, pat);
-	if (!p)
-		fail_msg("key %s missing from %s", key, line);
-	return strtod(p + strlen(pat), NULL);
-}
-
 static int setup(void **state)
 {
-	const char *env = getenv("RMDCTL"), *build = getenv("BUILD");
 	const char *data = getenv("RMDCTL_TESTDATA");
 
 	(void)state;
-	if (env && *env)
-		snprintf(rmdctl, sizeof(rmdctl), "%s", env);
-	else
-		snprintf(rmdctl, sizeof(rmdctl), "%s/rmdctl", build && *build ? build : "build");
 	snprintf(sample, sizeof(sample), "%s/candump-sample.log",
 		 data && *data ? data : "tests/data");
-	if (access(rmdctl, X_OK) != 0) {
-		print_error("rmdctl binary \"%s\" not found (set RMDCTL or BUILD)\n", rmdctl);
+	if (find_prog(rmdctl, sizeof(rmdctl), "RMDCTL", "rmdctl") < 0)
 		return -1;
-	}
 	if (access(sample, R_OK) != 0) {
 		print_error("test data \"%s\" not found (run from the repository root)\n", sample);
 		return -1;

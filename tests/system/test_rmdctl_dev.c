@@ -32,6 +32,9 @@
 #include "rmd/sim_bus.h"
 #include "rmd/txn.h"
 
+#include "harness/json.h"
+#include "harness/proc.h"
+
 #define MS 1000000LL
 #define US 1000LL
 /* Caller clock of the unit tests: any origin will do, the first call is the sim's epoch. */
@@ -380,121 +383,20 @@ static void test_txn_matching(void **state)
 
 /* ---- rmdctl as a process ---------------------------------------------------------------- */
 
-struct run {
-	int status; /* exit status, or 128 + signal */
-	char *out;
-	char *err;
-	int64_t took_ns;
-};
-
-static char *slurp(FILE *f)
-{
-	long n;
-	char *buf;
-
-	fflush(f);
-	fseek(f, 0, SEEK_END);
-	n = ftell(f);
-	assert_true(n >= 0);
-	rewind(f);
-	buf = malloc((size_t)n + 1);
-	assert_non_null(buf);
-	assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-	buf[n] = '\0';
-	return buf;
-}
-
-/* Run rmdctl with args (NULL-terminated), stdin a file (never a terminal). */
+/*
+ * Run rmdctl with args (NULL-terminated), stdin a file (never a terminal)
+ * holding a "y" that must not count as confirmation.
+ */
 static void run_argv(struct run *r, const char *const *args)
 {
-	const char *argv[40];
-	FILE *in = tmpfile(), *out = tmpfile(), *err = tmpfile();
-	size_t n = 0;
-	int64_t start;
-	pid_t pid;
-	int ws;
-
-	assert_non_null(in);
-	assert_non_null(out);
-	assert_non_null(err);
-	argv[n++] = rmdctl;
-	for (; args[n - 1] && n < 39; n++)
-		argv[n] = args[n - 1];
-	argv[n] = NULL;
-	/* A "y" on stdin must not count as confirmation: it is not a terminal. */
-	fputs("y\n", in);
-	fflush(in);
-	rewind(in);
-	start = mono_ns();
-	pid = fork();
-	assert_true(pid >= 0);
-	if (pid == 0) {
-		dup2(fileno(in), 0);
-		dup2(fileno(out), 1);
-		dup2(fileno(err), 2);
-		unsetenv("RMDCTL_BUS");
-		alarm(CHILD_LIMIT_S);
-		execv(rmdctl, (char *const *)argv);
-		_exit(127);
-	}
-	assert_int_equal(waitpid(pid, &ws, 0), pid);
-	r->took_ns = mono_ns() - start;
-	r->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
-	r->out = slurp(out);
-	r->err = slurp(err);
-	fclose(in);
-	fclose(out);
-	fclose(err);
+	run_prog(r, rmdctl, args,
+		 &(struct run_opts){ .input = "y\n",
+				     .input_len = 2,
+				     .unset_env = "RMDCTL_BUS",
+				     .limit_ms = CHILD_LIMIT_S * 1000 });
 }
 
 #define RUN(r, ...) run_argv((r), (const char *const[]){ __VA_ARGS__, NULL })
-
-static void run_free(struct run *r)
-{
-	free(r->out);
-	free(r->err);
-}
-
-static void assert_has(const char *hay, const char *needle, const char *what)
-{
-	if (!strstr(hay, needle))
-		fail_msg("%s: \"%s\" missing from:\n%s", what, needle, hay);
-}
-
-static void assert_lacks(const char *hay, const char *needle, const char *what)
-{
-	if (strstr(hay, needle))
-		fail_msg("%s: \"%s\" unexpected in:\n%s", what, needle, hay);
-}
-
-static void assert_status(const struct run *r, int status, const char *what)
-{
-	if (r->status != status)
-		fail_msg("%s: exit %d, expected %d\nstdout:\n%s\nstderr:\n%s", what, r->status,
-			 status, r->out, r->err);
-}
-
-/* The number after "key": in a JSON line; fails when absent. */
-static double json_num(const char *line, const char *key)
-{
-	char pat[64];
-	const char *p;
-
-	snprintf(pat, sizeof(pat), "\"%s\":", key);
-	p = strstr(line, pat);
-	if (!p)
-		fail_msg("no %s in %s", pat, line);
-	return strtod(p + strlen(pat), NULL);
-}
-
-static size_t count_lines(const char *s)
-{
-	size_t n = 0;
-
-	for (; *s; s++)
-		n += *s == '\n';
-	return n;
-}
 
 static void test_scan(void **state)
 {
@@ -800,18 +702,8 @@ static void test_bus_errors(void **state)
 /* Process tests need the built binary. */
 static int need_rmdctl(void **state)
 {
-	const char *env = getenv("RMDCTL"), *build = getenv("BUILD");
-
 	(void)state;
-	if (env && *env)
-		snprintf(rmdctl, sizeof(rmdctl), "%s", env);
-	else
-		snprintf(rmdctl, sizeof(rmdctl), "%s/rmdctl", build && *build ? build : "build");
-	if (access(rmdctl, X_OK) != 0) {
-		print_error("rmdctl binary \"%s\" not found (set RMDCTL or BUILD)\n", rmdctl);
-		return -1;
-	}
-	return 0;
+	return find_prog(rmdctl, sizeof(rmdctl), "RMDCTL", "rmdctl");
 }
 
 #define PROC_TEST(f) cmocka_unit_test_setup(f, need_rmdctl)

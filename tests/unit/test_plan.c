@@ -28,6 +28,8 @@
 #include "rmd/config.h"
 #include "rmd/plan.h"
 
+#include "harness/proc.h"
+
 static struct rmd_config cfg; /* large: off the stack */
 static struct rmd_plan plan;
 static char err[8192];
@@ -658,46 +660,11 @@ static void test_print(void **state)
 /* ------------------------------------------------------------------ */
 /* rmdd --check-config as a process */
 
-struct run {
-	int status;
-	char out[65536];
-	char err[16384];
-};
-
-static void slurp(int fd, char *buf, size_t len)
-{
-	ssize_t n;
-	size_t k = 0;
-
-	lseek(fd, 0, SEEK_SET);
-	while (k + 1 < len && (n = read(fd, buf + k, len - 1 - k)) > 0)
-		k += (size_t)n;
-	buf[k] = '\0';
-	close(fd);
-}
-
+/* rmdd with one or two arguments (a2 may be NULL); r's last output is freed first. */
 static void run_rmdd(struct run *r, const char *a1, const char *a2)
 {
-	char ob[] = "/tmp/rmdd-out-XXXXXX", eb[] = "/tmp/rmdd-err-XXXXXX";
-	int out = mkstemp(ob), errfd = mkstemp(eb), ws;
-	pid_t pid;
-
-	assert_true(out >= 0 && errfd >= 0);
-	unlink(ob);
-	unlink(eb);
-	pid = fork();
-	assert_true(pid >= 0);
-	if (pid == 0) {
-		dup2(out, 1);
-		dup2(errfd, 2);
-		alarm(30); /* survives exec: a run that hangs fails instead of hanging the suite */
-		execl(rmdd, rmdd, a1, a2, (char *)NULL);
-		_exit(127);
-	}
-	assert_int_equal(waitpid(pid, &ws, 0), pid);
-	r->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
-	slurp(out, r->out, sizeof(r->out));
-	slurp(errfd, r->err, sizeof(r->err));
+	run_free(r);
+	run_prog(r, rmdd, (const char *const[]){ a1, a2, NULL }, NULL);
 }
 
 static void test_rmdd_check_examples(void **state)
@@ -771,20 +738,12 @@ static void test_rmdd_options(void **state)
 
 static int find_rmdd(void **state)
 {
-	const char *env = getenv("RMDD"), *build = getenv("BUILD"), *dir = getenv("RMD_SRCDIR");
+	const char *dir = getenv("RMD_SRCDIR");
 
 	(void)state;
 	if (dir && *dir)
 		snprintf(srcdir, sizeof(srcdir), "%s", dir);
-	if (env && *env)
-		snprintf(rmdd, sizeof(rmdd), "%s", env);
-	else
-		snprintf(rmdd, sizeof(rmdd), "%s/rmdd", build && *build ? build : "build");
-	if (access(rmdd, X_OK) != 0) {
-		print_error("rmdd binary \"%s\" not found (set RMDD or BUILD)\n", rmdd);
-		return -1;
-	}
-	return 0;
+	return find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd");
 }
 
 int main(void)
