@@ -115,13 +115,14 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 		      void *user)
 {
 	struct lcm_rx *rx = user;
+	rmd_config_t *old = rx->config;
 
 	(void)rbuf;
 	(void)channel;
-	if (rx->config)
-		rmd_config_t_destroy(rx->config);
 	rx->config = rmd_config_t_copy(msg);
 	rx->n_config++;
+	if (old)
+		rmd_config_t_destroy(old);
 }
 
 void lcm_rx_listen(struct lcm_rx *rx, lcm_t *lcm, const char *prefix)
