@@ -221,6 +221,32 @@ void assert_status(const struct run *r, int status, const char *what)
 			 status, r->out, r->err);
 }
 
+/* stream holds want ("": is empty). */
+static void check_stream(const char *stream, const char *want, const char *what)
+{
+	if (want && !*want && *stream)
+		fail_msg("%s: expected no output, got:\n%s", what, stream);
+	if (want)
+		assert_has(stream, want, what);
+}
+
+void run_cases(const char *path, const struct run_case *c, size_t n, const struct run_opts *o)
+{
+	for (size_t k = 0; k < n; k++) {
+		char what[256];
+		struct run r;
+		int w = snprintf(what, sizeof(what), "case %zu:", k);
+
+		for (const char *const *a = c[k].args; *a && w > 0 && (size_t)w < sizeof(what); a++)
+			w += snprintf(what + w, sizeof(what) - (size_t)w, " %s", *a);
+		run_prog(&r, path, c[k].args, o);
+		assert_status(&r, c[k].status, what);
+		check_stream(r.out, c[k].out_has, what);
+		check_stream(r.err, c[k].err_has, what);
+		run_free(&r);
+	}
+}
+
 size_t count_lines(const char *s)
 {
 	size_t n = 0;

@@ -62,6 +62,17 @@ size_t count_lines(const char *s);
 /* The line of out holding needle, copied into buf; fails when there is none. */
 const char *line_with(const char *out, const char *needle, char *buf, size_t size);
 
+/* One run and what it must show: a row of a table of command lines. */
+struct run_case {
+	const char *args[8]; /* argv[1..], NULL-terminated */
+	int status;
+	const char *out_has; /* NULL: not checked; "": stdout must be empty */
+	const char *err_has; /* likewise for stderr */
+};
+
+/* Run path once per case and check each; o as for run_prog(). */
+void run_cases(const char *path, const struct run_case *c, size_t n, const struct run_opts *o);
+
 /* ---- children beside the test --------------------------------------------------- */
 
 #define KID_MAX 8

@@ -471,78 +471,37 @@ static void test_encode_decode_round_trip(void **state)
 
 /* ---- help and dispatch ---------------------------------------------------------------- */
 
+static const struct run_case help_cases[] = {
+	{ { "--help" }, 0, "usage: rmdctl", NULL },
+	{ { "--help" }, 0, "decode", NULL },
+	{ { "--help" }, 0, "encode", NULL },
+	{ { "--help" }, 0, "exit status", NULL },
+	{ { "help" }, 0, "usage: rmdctl", NULL },
+	{ { "help", "encode" }, 0, "usage: rmdctl encode", NULL },
+	{ { "decode", "--help" }, 0, "usage: rmdctl decode", NULL },
+	{ { "encode", "--help" }, 0, "multi-torque", NULL },
+};
+
 static void test_help(void **state)
 {
-	struct run r;
-
 	(void)state;
-	RUN(&r, NULL, "--help");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "usage: rmdctl", "--help");
-	assert_has(r.out, "decode", "--help");
-	assert_has(r.out, "encode", "--help");
-	assert_has(r.out, "exit status", "--help");
-	run_free(&r);
-
-	RUN(&r, NULL, "help");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "usage: rmdctl", "help");
-	run_free(&r);
-
-	RUN(&r, NULL, "help", "encode");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "usage: rmdctl encode", "help encode");
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--help");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "usage: rmdctl decode", "decode --help");
-	run_free(&r);
-
-	RUN(&r, NULL, "encode", "--help");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "multi-torque", "encode --help");
-	run_free(&r);
+	run_cases(rmdctl, help_cases, sizeof(help_cases) / sizeof(help_cases[0]), NULL);
 }
+
+static const struct run_case usage_cases[] = {
+	{ { "frobnicate" }, 2, "", "usage: rmdctl" }, /* an unknown subcommand */
+	{ { "decode", "--bogus" }, 2, NULL, "usage: rmdctl decode" },
+	{ { "decode", "--protocol", "v9" }, 2, NULL, NULL },
+	{ { "decode", "--direction", "sideways" }, 2, NULL, NULL },
+	{ { "decode", "--protocol" }, 2, NULL, NULL },
+	{ { "decode", "/nonexistent/candump.log" }, 1, NULL, "/nonexistent/candump.log" },
+	{ { NULL }, 2, NULL, "usage: rmdctl" }, /* argc == 1 */
+};
 
 static void test_usage_errors(void **state)
 {
-	struct run r;
-
 	(void)state;
-	RUN(&r, NULL, "frobnicate");
-	assert_int_equal(r.status, 2);
-	assert_has(r.err, "usage: rmdctl", "unknown subcommand");
-	assert_string_equal(r.out, "");
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--bogus");
-	assert_int_equal(r.status, 2);
-	assert_has(r.err, "usage: rmdctl decode", "unknown option");
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--protocol", "v9");
-	assert_int_equal(r.status, 2);
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--direction", "sideways");
-	assert_int_equal(r.status, 2);
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--protocol");
-	assert_int_equal(r.status, 2);
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "/nonexistent/candump.log");
-	assert_int_equal(r.status, 1);
-	assert_has(r.err, "/nonexistent/candump.log", "missing file");
-	run_free(&r);
-
-	/* argc == 1 */
-	run_argv(&r, NULL, (const char *const[]){ NULL });
-	assert_int_equal(r.status, 2);
-	assert_has(r.err, "usage: rmdctl", "no arguments");
-	run_free(&r);
+	run_cases(rmdctl, usage_cases, sizeof(usage_cases) / sizeof(usage_cases[0]), NULL);
 }
 
 int main(void)

@@ -716,24 +716,19 @@ static void test_rmdd_check_refuses(void **state)
 	expect_in(r.err, "/nonexistent.yaml: cannot open: No such file or directory");
 }
 
+static const struct run_case option_cases[] = {
+	{ { "--help" }, 0, "--check-config FILE", NULL },
+	{ { "--version" }, 0, "rmdd ", NULL },
+	{ { "--bogus" }, 2, NULL, NULL },
+	{ { "--check-config" }, 2, NULL, NULL }, /* FILE missing */
+	/* more motors than a daemon drives */
+	{ { "--sim=99" }, 2, NULL, "rmdd: --sim 99: the motor count is 1..32" },
+};
+
 static void test_rmdd_options(void **state)
 {
-	static struct run r;
-
 	(void)state;
-	run_rmdd(&r, "--help", NULL);
-	assert_int_equal(r.status, 0);
-	expect_in(r.out, "--check-config FILE");
-	run_rmdd(&r, "--version", NULL);
-	assert_int_equal(r.status, 0);
-	expect_in(r.out, "rmdd ");
-	run_rmdd(&r, "--bogus", NULL);
-	assert_int_equal(r.status, 2);
-	run_rmdd(&r, "--check-config", NULL); /* FILE missing */
-	assert_int_equal(r.status, 2);
-	run_rmdd(&r, "--sim=99", NULL); /* more motors than a daemon drives */
-	assert_int_equal(r.status, 2);
-	expect_in(r.err, "rmdd: --sim 99: the motor count is 1..32");
+	run_cases(rmdd, option_cases, sizeof(option_cases) / sizeof(option_cases[0]), NULL);
 }
 
 static int find_rmdd(void **state)
