@@ -73,6 +73,13 @@ bool lcm_loopback_ready(const char *suite)
 	return false;
 }
 
+void *fixture_or_skip(void **state)
+{
+	if (!*state)
+		skip();
+	return *state;
+}
+
 /* ---- the listener ---------------------------------------------------------- */
 
 static int64_t mono_ns(void)

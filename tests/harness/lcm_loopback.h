@@ -24,6 +24,9 @@
  */
 bool lcm_loopback_ready(const char *suite);
 
+/* *state, the suite's fixture; skips the test when set-up left none (no multicast). */
+void *fixture_or_skip(void **state);
+
 #define LCM_RX_STATES 4096 /* state_t cycles kept, and the subscription's queue */
 #define LCM_RX_HEALTH 64   /* health_t arrival times kept */
 

@@ -435,9 +435,7 @@ static int teardown(void **state)
 
 static struct fixture *fixture(void **state)
 {
-	if (!*state)
-		skip();
-	return *state;
+	return fixture_or_skip(state);
 }
 
 static void request_config(struct fixture *f)

@@ -207,9 +207,7 @@ static int teardown(void **state)
 
 static struct fixture *fixture(void **state)
 {
-	if (!*state)
-		skip();
-	return *state;
+	return fixture_or_skip(state);
 }
 
 static void start(struct fixture *f)
