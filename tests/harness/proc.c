@@ -59,6 +59,14 @@ int find_prog(char *out, size_t size, const char *env, const char *name)
 	return -1;
 }
 
+int rm_tree(const char *dir)
+{
+	char cmd[1200];
+
+	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", dir);
+	return system(cmd) == 0 ? 0 : -1;
+}
+
 /* In the child: die with the test, stdin from in_fd, no inherited descriptors. */
 static void child_prepare(int in_fd, int out_fd, int err_fd)
 {
@@ -221,13 +229,16 @@ void assert_status(const struct run *r, int status, const char *what)
 			 status, r->out, r->err);
 }
 
-/* stream holds want ("": is empty). */
-static void check_stream(const char *stream, const char *want, const char *what)
+/* stream holds every string of has[] ({ "" }: is empty), and not lacks. */
+static void check_stream(const char *stream, const char *const has[4], const char *lacks,
+			 const char *what)
 {
-	if (want && !*want && *stream)
+	if (has[0] && !*has[0] && *stream)
 		fail_msg("%s: expected no output, got:\n%s", what, stream);
-	if (want)
-		assert_has(stream, want, what);
+	for (unsigned i = 0; i < 4 && has[i]; i++)
+		assert_has(stream, has[i], what);
+	if (lacks)
+		assert_lacks(stream, lacks, what);
 }
 
 void run_cases(const char *path, const struct run_case *c, size_t n, const struct run_opts *o)
@@ -241,8 +252,8 @@ void run_cases(const char *path, const struct run_case *c, size_t n, const struc
 			w += snprintf(what + w, sizeof(what) - (size_t)w, " %s", *a);
 		run_prog(&r, path, c[k].args, o);
 		assert_status(&r, c[k].status, what);
-		check_stream(r.out, c[k].out_has, what);
-		check_stream(r.err, c[k].err_has, what);
+		check_stream(r.out, c[k].out_has, c[k].out_lacks, what);
+		check_stream(r.err, c[k].err_has, c[k].err_lacks, what);
 		run_free(&r);
 	}
 }

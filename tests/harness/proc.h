@@ -24,6 +24,9 @@
  */
 int find_prog(char *out, size_t size, const char *env, const char *name);
 
+/* rm -rf dir (a suite's temporary folder): 0, or -1 when that failed. */
+int rm_tree(const char *dir);
+
 /* ---- one run to its end ------------------------------------------------------ */
 
 struct run {
@@ -64,10 +67,12 @@ const char *line_with(const char *out, const char *needle, char *buf, size_t siz
 
 /* One run and what it must show: a row of a table of command lines. */
 struct run_case {
-	const char *args[8]; /* argv[1..], NULL-terminated */
+	const char *args[12]; /* argv[1..], NULL-terminated */
 	int status;
-	const char *out_has; /* NULL: not checked; "": stdout must be empty */
-	const char *err_has; /* likewise for stderr */
+	const char *out_has[4]; /* each in stdout; { "" }: stdout must be empty */
+	const char *err_has[4]; /* likewise for stderr */
+	const char *out_lacks;	/* NULL, or never in stdout */
+	const char *err_lacks;
 };
 
 /* Run path once per case and check each; o as for run_prog(). */

@@ -55,6 +55,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/lcm_loopback.h"
+#include "harness/proc.h"
 #include "rmd/time.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
@@ -356,11 +357,8 @@ static int group_setup(void **state)
 
 static int group_teardown(void **state)
 {
-	char cmd[300];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return rm_tree(tmpdir);
 }
 
 /* ---- the listener ------------------------------------------------------------------ */

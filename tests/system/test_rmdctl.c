@@ -472,14 +472,11 @@ static void test_encode_decode_round_trip(void **state)
 /* ---- help and dispatch ---------------------------------------------------------------- */
 
 static const struct run_case help_cases[] = {
-	{ { "--help" }, 0, "usage: rmdctl", NULL },
-	{ { "--help" }, 0, "decode", NULL },
-	{ { "--help" }, 0, "encode", NULL },
-	{ { "--help" }, 0, "exit status", NULL },
-	{ { "help" }, 0, "usage: rmdctl", NULL },
-	{ { "help", "encode" }, 0, "usage: rmdctl encode", NULL },
-	{ { "decode", "--help" }, 0, "usage: rmdctl decode", NULL },
-	{ { "encode", "--help" }, 0, "multi-torque", NULL },
+	{ .args = { "--help" }, .out_has = { "usage: rmdctl", "decode", "encode", "exit status" } },
+	{ .args = { "help" }, .out_has = { "usage: rmdctl" } },
+	{ .args = { "help", "encode" }, .out_has = { "usage: rmdctl encode" } },
+	{ .args = { "decode", "--help" }, .out_has = { "usage: rmdctl decode" } },
+	{ .args = { "encode", "--help" }, .out_has = { "multi-torque" } },
 };
 
 static void test_help(void **state)
@@ -489,13 +486,16 @@ static void test_help(void **state)
 }
 
 static const struct run_case usage_cases[] = {
-	{ { "frobnicate" }, 2, "", "usage: rmdctl" }, /* an unknown subcommand */
-	{ { "decode", "--bogus" }, 2, NULL, "usage: rmdctl decode" },
-	{ { "decode", "--protocol", "v9" }, 2, NULL, NULL },
-	{ { "decode", "--direction", "sideways" }, 2, NULL, NULL },
-	{ { "decode", "--protocol" }, 2, NULL, NULL },
-	{ { "decode", "/nonexistent/candump.log" }, 1, NULL, "/nonexistent/candump.log" },
-	{ { NULL }, 2, NULL, "usage: rmdctl" }, /* argc == 1 */
+	/* an unknown subcommand */
+	{ .args = { "frobnicate" }, .status = 2, .out_has = { "" }, .err_has = { "usage: rmdctl" } },
+	{ .args = { "decode", "--bogus" }, .status = 2, .err_has = { "usage: rmdctl decode" } },
+	{ .args = { "decode", "--protocol", "v9" }, .status = 2 },
+	{ .args = { "decode", "--direction", "sideways" }, .status = 2 },
+	{ .args = { "decode", "--protocol" }, .status = 2 },
+	{ .args = { "decode", "/nonexistent/candump.log" },
+	  .status = 1,
+	  .err_has = { "/nonexistent/candump.log" } },
+	{ .args = { NULL }, .status = 2, .err_has = { "usage: rmdctl" } }, /* argc == 1 */
 };
 
 static void test_usage_errors(void **state)

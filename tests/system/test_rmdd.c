@@ -55,6 +55,8 @@
 
 #include <cmocka.h>
 
+#include "harness/proc.h"
+
 #define OUT_MAX (256 * 1024)
 #define EXIT_NO_CAPS 77 /* the child could not drop its capabilities */
 
@@ -746,17 +748,9 @@ static void test_require_rt_refuses(void **state)
 
 static int setup(void **state)
 {
-	const char *env = getenv("RMDD"), *build = getenv("BUILD");
-
 	(void)state;
-	if (env && *env)
-		snprintf(rmdd, sizeof(rmdd), "%s", env);
-	else
-		snprintf(rmdd, sizeof(rmdd), "%s/rmdd", build && *build ? build : "build");
-	if (access(rmdd, X_OK) < 0) {
-		fprintf(stderr, "test_rmdd: %s: %s (set RMDD or BUILD)\n", rmdd, strerror(errno));
+	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0)
 		return -1;
-	}
 	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_rmdd.XXXXXX");
 	if (!mkdtemp(tmpdir))
 		return -1;
@@ -779,11 +773,8 @@ static int reap(void **state)
 
 static int teardown(void **state)
 {
-	char cmd[300];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return rm_tree(tmpdir);
 }
 
 int main(void)

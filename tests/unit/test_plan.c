@@ -678,7 +678,10 @@ struct check_case {
 static void check_config(const struct check_case *c)
 {
 	char path[2048];
-	struct run_case rc = { { "--check-config", path }, c->status, c->out_has, c->err_has };
+	struct run_case rc = { .args = { "--check-config", path },
+			       .status = c->status,
+			       .out_has = { c->out_has },
+			       .err_has = { c->err_has } };
 
 	snprintf(path, sizeof(path), "%s%s%s", c->file[0] == '/' ? "" : srcdir,
 		 c->file[0] == '/' ? "" : "/", c->file);
@@ -727,12 +730,14 @@ static void test_rmdd_check_refuses(void **state)
 }
 
 static const struct run_case option_cases[] = {
-	{ { "--help" }, 0, "--check-config FILE", NULL },
-	{ { "--version" }, 0, "rmdd ", NULL },
-	{ { "--bogus" }, 2, NULL, NULL },
-	{ { "--check-config" }, 2, NULL, NULL }, /* FILE missing */
+	{ .args = { "--help" }, .out_has = { "--check-config FILE" } },
+	{ .args = { "--version" }, .out_has = { "rmdd " } },
+	{ .args = { "--bogus" }, .status = 2 },
+	{ .args = { "--check-config" }, .status = 2 }, /* FILE missing */
 	/* more motors than a daemon drives */
-	{ { "--sim=99" }, 2, NULL, "rmdd: --sim 99: the motor count is 1..32" },
+	{ .args = { "--sim=99" },
+	  .status = 2,
+	  .err_has = { "rmdd: --sim 99: the motor count is 1..32" } },
 };
 
 static void test_rmdd_options(void **state)
