@@ -406,6 +406,9 @@ static void run_cases_dev(const struct run_case *c, size_t n)
 	run_cases(rmdctl, c, n, &dev_opts);
 }
 
+/* One run and its checks: CHECK_RUN(.args = { ... }, .status = 1, .err_has = { ... }). */
+#define CHECK_RUN(...) run_cases_dev(&(struct run_case){ __VA_ARGS__ }, 1)
+
 static void test_scan(void **state)
 {
 	struct run r;
@@ -430,18 +433,11 @@ static void test_scan(void **state)
 		fail_msg("scan took %lld ms", (long long)r.took_ns / MS);
 	run_free(&r);
 
-	RUN(&r, "scan", "--bus", "sim:1-3");
-	assert_status(&r, 0, "scan text");
-	assert_has(r.out, "X8S2V10", "scan text");
-	assert_has(r.out, "20220206", "scan text");
-	assert_has(r.out, "3 motors answered", "scan text");
-	run_free(&r);
-
+	CHECK_RUN(.args = { "scan", "--bus", "sim:1-3" },
+		  .out_has = { "X8S2V10", "20220206", "3 motors answered" });
 	/* Nothing there: exit 1 with the bus named. */
-	RUN(&r, "scan", "10-12", "--bus", "sim:1-3");
-	assert_status(&r, 1, "scan of empty ids");
-	assert_has(r.err, "sim:1-3: no motor answered", "scan of empty ids");
-	run_free(&r);
+	CHECK_RUN(.args = { "scan", "10-12", "--bus", "sim:1-3" }, .status = 1,
+		  .err_has = { "sim:1-3: no motor answered" });
 }
 
 static void test_status(void **state)
@@ -461,11 +457,8 @@ static void test_status(void **state)
 	assert_has(r.out, "\"current_a\":", "status 2");
 	run_free(&r);
 
-	RUN(&r, "status", "1", "--bus", "sim:1-3");
-	assert_status(&r, 0, "status text");
-	assert_has(r.out, "voltage", "status text");
-	assert_has(r.out, "errors           none", "status text");
-	run_free(&r);
+	CHECK_RUN(.args = { "status", "1", "--bus", "sim:1-3" },
+		  .out_has = { "voltage", "errors           none" });
 }
 
 /* A missing motor: an error naming bus, motor, command and timeout, in bounded time. */
@@ -483,10 +476,8 @@ static void test_status_missing(void **state)
 		fail_msg("status 9 took %lld ms", (long long)r.took_ns / MS);
 	run_free(&r);
 
-	RUN(&r, "status", "9", "--bus", "sim:1-3", "--timeout", "2", "--tries", "1");
-	assert_status(&r, 1, "status 9 --tries 1");
-	assert_has(r.err, "motor 9 did not answer 0x9A within 2 ms (1 try)", "--tries 1");
-	run_free(&r);
+	CHECK_RUN(.args = { "status", "9", "--bus", "sim:1-3", "--timeout", "2", "--tries", "1" },
+		  .status = 1, .err_has = { "motor 9 did not answer 0x9A within 2 ms (1 try)" });
 }
 
 static void test_move(void **state)
@@ -567,11 +558,8 @@ static void test_set_timeout(void **state)
 	assert_has(r.err, "RX 242#B3000000F4010000", "set-timeout trace");
 	run_free(&r);
 
-	run_cases_dev(&(struct run_case){ .args = { "set-timeout", "7", "500", "--yes", "--bus",
-						    "sim:1-3" },
-					  .status = 1,
-					  .err_has = { "motor 7 did not answer 0xB3" } },
-		      1);
+	CHECK_RUN(.args = { "set-timeout", "7", "500", "--yes", "--bus", "sim:1-3" }, .status = 1,
+		  .err_has = { "motor 7 did not answer 0xB3" });
 }
 
 static const struct run_case other_commands[] = {
