@@ -73,6 +73,13 @@ bool lcm_loopback_ready(const char *suite)
 	return false;
 }
 
+void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no)
+{
+	int port = base_port + (int)((unsigned)getpid() % pids) * 40 + (int)(test_no % 40);
+
+	snprintf(url, len, "udpm://239.255.76.67:%d?ttl=0", port);
+}
+
 void *fixture_or_skip(void **state)
 {
 	if (!*state)

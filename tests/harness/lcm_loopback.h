@@ -9,6 +9,7 @@
 #define RMD_TESTS_LCM_LOOPBACK_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include <lcm/lcm.h>
@@ -23,6 +24,13 @@
  * one loud line naming `suite` and the commands that fix it.
  */
 bool lcm_loopback_ready(const char *suite);
+
+/*
+ * url = a udpm URL (TTL 0) on a port of this process and test: base_port +
+ * (pid % pids) * 40 + test_no % 40, so that suites running in parallel do
+ * not hear each other.
+ */
+void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no);
 
 /* *state, the suite's fixture; skips the test when set-up left none (no multicast). */
 void *fixture_or_skip(void **state);

@@ -395,7 +395,6 @@ static void pump(struct fixture *f, int ms)
 static int setup(void **state)
 {
 	struct fixture *f;
-	int port;
 
 	*state = NULL;
 	if (no_multicast)
@@ -403,8 +402,7 @@ static int setup(void **state)
 	f = calloc(1, sizeof(*f));
 	assert_non_null(f);
 	/* A port per process and test: parallel suites (test_bridge too) do not hear each other. */
-	port = 45000 + (int)(getpid() % 500) * 40 + (int)(test_no++ % 40);
-	snprintf(f->url, sizeof(f->url), "udpm://239.255.76.67:%d?ttl=0", port);
+	lcm_test_url(f->url, sizeof(f->url), 45000, 500, test_no++);
 	snprintf(f->log, sizeof(f->log), "%s/rmdd.%u.log", tmpdir, test_no);
 	snprintf(f->child_log, sizeof(f->child_log), "%s/child.%u.log", tmpdir, test_no);
 	f->pub = lcm_create(f->url);

@@ -243,6 +243,23 @@ static void write_file(const char *path, const char *text)
 	assert_int_equal(fclose(f), 0);
 }
 
+/* tmpdir/name holding text; its path into path (512 bytes). */
+static void config_file(char *path, const char *name, const char *text)
+{
+	snprintf(path, 512, "%s/%s", tmpdir, name);
+	write_file(path, text);
+}
+
+/* config_file(), and rmdd's arguments to run on it on an in-process LCM (until the next call). */
+static const char *const *config_args(const char *name, const char *text)
+{
+	static char path[512];
+	static const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+
+	config_file(path, name, text);
+	return args;
+}
+
 static const char *const SIM3[] = { "--sim", "3", "--lcm-url", "memq://", NULL };
 
 /* ---- command line and configuration errors ----------------------------------- */
@@ -293,8 +310,7 @@ static void test_bad_config(void **state)
 	const char *args[] = { "--config", path, NULL };
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/bad.yaml", tmpdir);
-	write_file(path, "loop:\n  rate_hz: 1000\n  bogus_key: 3\n");
+	config_file(path, "bad.yaml", "loop:\n  rate_hz: 1000\n  bogus_key: 3\n");
 	assert_int_equal(run(&p, args), 1);
 	expect_in(&p, "<3>rmdd: ");
 	expect_in(&p, "bad.yaml:3:");
@@ -308,20 +324,20 @@ static void test_bad_config(void **state)
 static void test_infeasible_plan(void **state)
 {
 	static struct proc p;
-	char path[512];
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	const char *const *args;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/five.yaml", tmpdir);
-	write_file(path, "loop: {rate_hz: 1000}\n"
-			 "buses:\n"
-			 "  - {name: s0, type: sim}\n"
-			 "motors:\n"
-			 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: d, bus: s0, id: 4, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: e, bus: s0, id: 5, mode: torque, torque_constant_nm_a: 2}\n");
+	args = config_args(
+		"five.yaml",
+		"loop: {rate_hz: 1000}\n"
+		"buses:\n"
+		"  - {name: s0, type: sim}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: d, bus: s0, id: 4, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: e, bus: s0, id: 5, mode: torque, torque_constant_nm_a: 2}\n");
 	assert_int_equal(run(&p, args), 1);
 	expect_in(&p, "s0: 5 motors at 1000 Hz need");
 	expect_in(&p, "the cycle is 1000 µs");
@@ -333,18 +349,17 @@ static void test_infeasible_plan(void **state)
 static void test_bus_error_names_the_bus(void **state)
 {
 	static struct proc p;
-	char path[512];
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	const char *const *args;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/nocan.yaml", tmpdir);
-	write_file(path,
-		   "buses:\n"
-		   "  - {name: s0, type: sim}\n"
-		   "  - {name: rmdtest9, type: socketcan}\n"
-		   "motors:\n"
-		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		   "  - {name: b, bus: rmdtest9, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
+	args = config_args(
+		"nocan.yaml",
+		"buses:\n"
+		"  - {name: s0, type: sim}\n"
+		"  - {name: rmdtest9, type: socketcan}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: rmdtest9, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
 	assert_int_equal(run(&p, args), 1);
 	/* file:line of the bus entry, its name and kind, the transport's fix */
 	expect_in(&p, "nocan.yaml:3: bus rmdtest9 (socketcan): ");
@@ -354,22 +369,21 @@ static void test_bus_error_names_the_bus(void **state)
 static void test_missing_motor_refused(void **state)
 {
 	static struct proc p;
-	char path[512];
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	const char *const *args;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/missing.yaml", tmpdir);
-	write_file(path,
-		   "probe: {on_missing: refuse}\n"
-		   "buses:\n"
-		   "  - name: s0\n"
-		   "    type: sim\n"
-		   "    sim:\n"
-		   "      faults:\n"
-		   "        - {kind: disappear, motor: 2, start_s: 0, param: 0}\n"
-		   "motors:\n"
-		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		   "  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n");
+	args = config_args(
+		"missing.yaml",
+		"probe: {on_missing: refuse}\n"
+		"buses:\n"
+		"  - name: s0\n"
+		"    type: sim\n"
+		"    sim:\n"
+		"      faults:\n"
+		"        - {kind: disappear, motor: 2, start_s: 0, param: 0}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n");
 	assert_int_equal(run(&p, args), 1);
 	expect_in(&p, "<4>rmdd:   s0: motor 2 (knee): missing");
 	expect_in(&p, "1 motor(s) missing and probe.on_missing is refuse");
@@ -494,23 +508,22 @@ static void test_sigusr1_and_sighup_keep_running(void **state)
 static void test_lost_motor_logged_with_context(void **state)
 {
 	static struct proc p;
-	char path[512];
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	const char *const *args;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/lose.yaml", tmpdir);
-	write_file(path,
-		   "safety: {missed_replies_lost: 10}\n"
-		   "buses:\n"
-		   "  - name: s0\n"
-		   "    type: sim\n"
-		   "    sim:\n"
-		   "      faults:\n"
-		   "        - {kind: disappear, motor: 3, start_s: 0.3, end_s: 0.6, param: 0}\n"
-		   "motors:\n"
-		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		   "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-		   "  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n");
+	args = config_args(
+		"lose.yaml",
+		"safety: {missed_replies_lost: 10}\n"
+		"buses:\n"
+		"  - name: s0\n"
+		"    type: sim\n"
+		"    sim:\n"
+		"      faults:\n"
+		"        - {kind: disappear, motor: 3, start_s: 0.3, end_s: 0.6, param: 0}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n");
 	spawn(&p, NULL, args);
 	wait_for(&p, "<5>rmdd: running:", 5000);
 	wait_for(&p, "<4>rmdd: s0: motor 3 (knee_l): lost (10 missed replies in a row", 5000);

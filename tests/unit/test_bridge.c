@@ -142,7 +142,6 @@ static void fill_opts(struct rmd_bridge_opts *o, const char *url)
 static int setup(void **state)
 {
 	struct fixture *f;
-	int port;
 
 	*state = NULL;
 	if (no_multicast)
@@ -150,8 +149,7 @@ static int setup(void **state)
 	f = calloc(1, sizeof(*f));
 	assert_non_null(f);
 	/* A port of our own per process and test: parallel suites do not hear each other. */
-	port = 20000 + (int)(getpid() % 1000) * 40 + (int)test_no++ % 40;
-	snprintf(f->url, sizeof(f->url), "udpm://239.255.76.67:%d?ttl=0", port);
+	lcm_test_url(f->url, sizeof(f->url), 20000, 1000, test_no++);
 	fill_opts(&f->opts, f->url);
 	rmd_latest_init(&f->commands, f->cmd_buf, sizeof(f->cmd_buf[0]));
 	rmd_latest_init(&f->snapshots, f->snap_buf, sizeof(f->snap_buf[0]));
