@@ -80,6 +80,18 @@ void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned 
 	snprintf(url, len, "udpm://239.255.76.67:%d?ttl=0", port);
 }
 
+void *lcm_fixture_new(void **state, size_t size, bool multicast)
+{
+	void *f = NULL;
+
+	*state = NULL; /* the set-up stores f once it is complete */
+	if (multicast) {
+		f = calloc(1, size);
+		assert_non_null(f);
+	}
+	return f;
+}
+
 void *fixture_or_skip(void **state)
 {
 	if (!*state)

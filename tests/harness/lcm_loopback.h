@@ -32,6 +32,13 @@ bool lcm_loopback_ready(const char *suite);
  */
 void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no);
 
+/*
+ * A zeroed fixture of size bytes for a set-up to fill and store in *state
+ * (NULL until then); NULL when multicast does not work (the tests then skip:
+ * fixture_or_skip()).
+ */
+void *lcm_fixture_new(void **state, size_t size, bool multicast);
+
 /* *state, the suite's fixture; skips the test when set-up left none (no multicast). */
 void *fixture_or_skip(void **state);
 

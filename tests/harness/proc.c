@@ -59,6 +59,19 @@ int find_prog(char *out, size_t size, const char *env, const char *name)
 	return -1;
 }
 
+void temp_file(char *path, const char *text)
+{
+	int fd = mkstemp(path);
+	FILE *f;
+
+	if (fd < 0)
+		fail_msg("%s: %s", path, strerror(errno));
+	f = fdopen(fd, "w");
+	assert_non_null(f);
+	fputs(text, f);
+	assert_int_equal(fclose(f), 0);
+}
+
 int rm_tree(const char *dir)
 {
 	char cmd[1200];

@@ -24,6 +24,9 @@
  */
 int find_prog(char *out, size_t size, const char *env, const char *name);
 
+/* A new file from the mkstemp() template path (its name replaces the XXXXXX), holding text. */
+void temp_file(char *path, const char *text);
+
 /* rm -rf dir (a suite's temporary folder): 0, or -1 when that failed. */
 int rm_tree(const char *dir);
 

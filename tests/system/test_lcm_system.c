@@ -394,13 +394,10 @@ static void pump(struct fixture *f, int ms)
 
 static int setup(void **state)
 {
-	struct fixture *f;
+	struct fixture *f = lcm_fixture_new(state, sizeof(*f), !no_multicast);
 
-	*state = NULL;
-	if (no_multicast)
+	if (!f)
 		return 0;
-	f = calloc(1, sizeof(*f));
-	assert_non_null(f);
 	/* A port per process and test: parallel suites (test_bridge too) do not hear each other. */
 	lcm_test_url(f->url, sizeof(f->url), 45000, 500, test_no++);
 	snprintf(f->log, sizeof(f->log), "%s/rmdd.%u.log", tmpdir, test_no);

@@ -46,6 +46,8 @@
 #include "rmd/mit.h"
 #include "rmd/rs485.h"
 
+#include "harness/proc.h"
+
 #define READY_MS 15000 /* rmd-sim's start, under ASan inside the VM */
 #define REPLY_MS 5000  /* a reply that must come */
 #define SILENCE_MS 300 /* a reply that must not come */
@@ -623,20 +625,14 @@ static void test_config_file(void **state)
 	uint8_t req[RMD_FRAME_LEN], rep[RMD_FRAME_LEN];
 	struct rmd_msg msg;
 	char model[8];
-	int fd = mkstemp(path);
-	FILE *f;
 
-	assert_true(fd >= 0);
-	f = fdopen(fd, "w");
-	assert_non_null(f);
-	fprintf(f, "# rmd-sim test\n"
-		   "motors = 1-2\n"
-		   "model = GLOBAL\n"
-		   "\n"
-		   "[motor 2]\n"
-		   "model = CFG2   # a comment after the value\n"
-		   "supply = 36\n");
-	fclose(f);
+	temp_file(path, "# rmd-sim test\n"
+			"motors = 1-2\n"
+			"model = GLOBAL\n"
+			"\n"
+			"[motor 2]\n"
+			"model = CFG2   # a comment after the value\n"
+			"supply = 36\n");
 	start_serial(c, args);
 	unlink(path);
 
@@ -798,19 +794,14 @@ static void test_bad_config(void **state)
 	const char *args[] = { "--serial", "/dev/null", "--config", path, NULL };
 	struct child *c = *state;
 	char where[64];
-	int fd = mkstemp(path), st;
-	FILE *f;
+	int st;
 
-	assert_true(fd >= 0);
-	f = fdopen(fd, "w");
-	assert_non_null(f);
-	fprintf(f, "motors = 1-2\n"
-		   "inertia = heavy\n"
-		   "[motor 9]\n"
-		   "[motor 2]\n"
-		   "can = vcan0\n"
-		   "no equals sign\n");
-	fclose(f);
+	temp_file(path, "motors = 1-2\n"
+			"inertia = heavy\n"
+			"[motor 9]\n"
+			"[motor 2]\n"
+			"can = vcan0\n"
+			"no equals sign\n");
 	spawn(c, args);
 	st = wait_exit(c, EXIT_MS);
 	unlink(path);

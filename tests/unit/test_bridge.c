@@ -141,13 +141,10 @@ static void fill_opts(struct rmd_bridge_opts *o, const char *url)
 
 static int setup(void **state)
 {
-	struct fixture *f;
+	struct fixture *f = lcm_fixture_new(state, sizeof(*f), !no_multicast);
 
-	*state = NULL;
-	if (no_multicast)
+	if (!f)
 		return 0;
-	f = calloc(1, sizeof(*f));
-	assert_non_null(f);
 	/* A port of our own per process and test: parallel suites do not hear each other. */
 	lcm_test_url(f->url, sizeof(f->url), 20000, 1000, test_no++);
 	fill_opts(&f->opts, f->url);
