@@ -95,6 +95,41 @@ static void child_prepare(int in_fd, int out_fd, int err_fd)
 	signal(SIGPIPE, SIG_DFL);
 }
 
+/* argv for exec: path, then args, then NULL. */
+static void make_argv(const char **argv, const char *path, const char *const *args)
+{
+	size_t n = 0;
+
+	argv[n++] = path;
+	for (; args && *args && n < ARGS_MAX - 1; args++)
+		argv[n++] = *args;
+	argv[n] = NULL;
+}
+
+pid_t spawn_piped(const char *path, const char *const *args, int *fd,
+		  void (*in_child)(const void *ctx), const void *ctx)
+{
+	const char *argv[ARGS_MAX];
+	int pfd[2];
+	pid_t pid;
+
+	make_argv(argv, path, args);
+	assert_int_equal(pipe2(pfd, O_CLOEXEC), 0);
+	pid = fork();
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		child_prepare(-1, pfd[1], pfd[1]);
+		if (in_child)
+			in_child(ctx);
+		execv(path, (char *const *)argv);
+		fprintf(stderr, "exec %s: %s\n", path, strerror(errno));
+		_exit(127);
+	}
+	close(pfd[1]);
+	*fd = pfd[0];
+	return pid;
+}
+
 /* ---- one run to its end ------------------------------------------------------ */
 
 struct sink {
@@ -150,14 +185,10 @@ void run_prog(struct run *r, const char *path, const char *const *args, const st
 	int po[2], pe[2], in, ws = 0, limit_ms = o && o->limit_ms ? o->limit_ms : RUN_LIMIT_MS;
 	service_fn *service = o ? o->service : NULL;
 	int64_t t0 = mono_ns(), end = t0 + limit_ms * NS_PER_MS;
-	size_t n = 0;
 	pid_t pid;
 
 	memset(r, 0, sizeof(*r));
-	argv[n++] = path;
-	for (; args && *args && n < ARGS_MAX - 1; args++)
-		argv[n++] = *args;
-	argv[n] = NULL;
+	make_argv(argv, path, args);
 	in = input_fd(o);
 	assert_int_equal(pipe2(po, O_CLOEXEC), 0);
 	assert_int_equal(pipe2(pe, O_CLOEXEC), 0);

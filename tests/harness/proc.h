@@ -30,6 +30,15 @@ void temp_file(char *path, const char *text);
 /* rm -rf dir (a suite's temporary folder): 0, or -1 when that failed. */
 int rm_tree(const char *dir);
 
+/*
+ * Start path with args (argv[1..], NULL-terminated) as a child that dies
+ * with the test: stdin /dev/null, stdout and stderr into one pipe whose
+ * read end goes to *fd (blocking).  in_child(ctx), when given, runs in the
+ * child just before exec (environment, limits).  The child's pid.
+ */
+pid_t spawn_piped(const char *path, const char *const *args, int *fd,
+		  void (*in_child)(const void *ctx), const void *ctx);
+
 /* ---- one run to its end ------------------------------------------------------ */
 
 struct run {

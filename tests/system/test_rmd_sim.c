@@ -128,28 +128,7 @@ static bool wait_log(struct child *c, const char *needle, int timeout_ms)
 
 static void spawn(struct child *c, const char *const *args)
 {
-	const char *argv[64];
-	int fds[2], n = 0;
-
-	argv[n++] = rmdsim;
-	for (; *args && n < 63; args++)
-		argv[n++] = *args;
-	argv[n] = NULL;
-	assert_int_equal(pipe2(fds, O_CLOEXEC), 0);
-	c->pid = fork();
-	assert_true(c->pid >= 0);
-	if (c->pid == 0) {
-		int null = open("/dev/null", O_RDONLY);
-
-		if (null >= 0)
-			dup2(null, STDIN_FILENO);
-		dup2(fds[1], STDOUT_FILENO);
-		dup2(fds[1], STDERR_FILENO);
-		execv(rmdsim, (char *const *)argv);
-		_exit(127);
-	}
-	close(fds[1]);
-	c->err = fds[0];
+	c->pid = spawn_piped(rmdsim, args, &c->err, NULL, NULL);
 	fcntl(c->err, F_SETFL, O_NONBLOCK);
 	c->logn = 0;
 	c->log[0] = '\0';

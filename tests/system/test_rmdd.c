@@ -104,52 +104,42 @@ static void drop_rt(void)
 	prctl(PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL, 0, 0, 0);
 }
 
+/* In the child: the environment and scheduling a test asked for (so: its spawn_opts). */
+static void child_env(const void *ctx)
+{
+	const struct spawn_opts *so = ctx;
+	char pid[32];
+
+	unsetenv("NOTIFY_SOCKET");
+	unsetenv("WATCHDOG_USEC");
+	unsetenv("WATCHDOG_PID");
+	unsetenv("RMDD_TEST_STALL_AFTER_MS");
+	if (!so)
+		return;
+	if (so->notify_socket)
+		setenv("NOTIFY_SOCKET", so->notify_socket, 1);
+	if (so->watchdog_usec) {
+		setenv("WATCHDOG_USEC", so->watchdog_usec, 1);
+		snprintf(pid, sizeof(pid), "%d", (int)getpid());
+		setenv("WATCHDOG_PID", so->watchdog_pid ? so->watchdog_pid : pid, 1);
+	}
+	if (so->stall_ms)
+		setenv("RMDD_TEST_STALL_AFTER_MS", so->stall_ms, 1);
+	if (so->no_rt)
+		drop_rt();
+	if (so->fifo_prio) {
+		struct sched_param sp = { .sched_priority = so->fifo_prio };
+
+		if (sched_setscheduler(0, SCHED_FIFO, &sp) < 0)
+			_exit(EXIT_NO_CAPS);
+	}
+}
+
 /* Start rmdd with args (NULL-terminated), output to p->fd. */
 static void spawn(struct proc *p, const struct spawn_opts *so, const char *const *args)
 {
-	const char *argv[32];
-	size_t n = 0;
-	int pfd[2];
-
 	memset(p, 0, sizeof(*p));
-	argv[n++] = rmdd;
-	for (; *args && n < 31; args++)
-		argv[n++] = *args;
-	argv[n] = NULL;
-	assert_int_equal(pipe2(pfd, O_CLOEXEC), 0);
-	p->pid = fork();
-	assert_true(p->pid >= 0);
-	if (p->pid == 0) {
-		char pid[32];
-
-		dup2(pfd[1], 1);
-		dup2(pfd[1], 2);
-		unsetenv("NOTIFY_SOCKET");
-		unsetenv("WATCHDOG_USEC");
-		unsetenv("WATCHDOG_PID");
-		unsetenv("RMDD_TEST_STALL_AFTER_MS");
-		if (so && so->notify_socket)
-			setenv("NOTIFY_SOCKET", so->notify_socket, 1);
-		if (so && so->watchdog_usec) {
-			setenv("WATCHDOG_USEC", so->watchdog_usec, 1);
-			snprintf(pid, sizeof(pid), "%d", (int)getpid());
-			setenv("WATCHDOG_PID", so->watchdog_pid ? so->watchdog_pid : pid, 1);
-		}
-		if (so && so->stall_ms)
-			setenv("RMDD_TEST_STALL_AFTER_MS", so->stall_ms, 1);
-		if (so && so->no_rt)
-			drop_rt();
-		if (so && so->fifo_prio) {
-			struct sched_param sp = { .sched_priority = so->fifo_prio };
-
-			if (sched_setscheduler(0, SCHED_FIFO, &sp) < 0)
-				_exit(EXIT_NO_CAPS);
-		}
-		execv(rmdd, (char *const *)argv);
-		_exit(127);
-	}
-	close(pfd[1]);
-	p->fd = pfd[0];
+	p->pid = spawn_piped(rmdd, args, &p->fd, child_env, so);
 	live_pid = p->pid;
 }
 
