@@ -212,6 +212,18 @@ const char *rmd_field_key(enum rmd_field fld);
  */
 size_t rmd_error_names(enum rmd_proto proto, uint16_t code, const char **names, size_t max);
 
+/*
+ * Protocol names.  Keys "v3", "v2", "mit" (config files and command
+ * lines; rmd_proto_keys[] is NULL-terminated, in enum order); names "V3",
+ * "V2", "MIT" (the manuals' spelling, for messages); "?" out of range.
+ * rmd_proto_parse() takes a key in any letter case ("v3", "V3", "Mit") and
+ * returns 0, or -EINVAL for anything else (*proto untouched).
+ */
+extern const char *const rmd_proto_keys[];
+const char *rmd_proto_key(enum rmd_proto proto);
+const char *rmd_proto_name(enum rmd_proto proto);
+int rmd_proto_parse(const char *s, enum rmd_proto *proto);
+
 /* Name of a 0x70 run mode value ("current_loop", ...), or NULL. */
 const char *rmd_run_mode_name(enum rmd_proto proto, uint8_t mode);
 

@@ -14,12 +14,28 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <termios.h>
 
 #include "rmd/frame.h"
 
 #define RMD_RS485_HEADER 0x3Eu
 #define RMD_RS485_BROADCAST 0xCDu
 #define RMD_RS485_FRAME_LEN 13u
+
+/* V3 §1.2.1: the bit rates an RMD RS485 port speaks, with their termios speeds. */
+struct rmd_rs485_baud {
+	uint32_t baud;
+	speed_t speed;
+};
+
+#define RMD_RS485_N_BAUDS 5
+extern const struct rmd_rs485_baud RMD_RS485_BAUDS[RMD_RS485_N_BAUDS];
+
+/*
+ * The termios speed of `baud` into *speed (when not NULL).  Returns 0, or
+ * -EINVAL for a rate V3 §1.2.1 does not list.
+ */
+int rmd_rs485_baud_speed(uint32_t baud, speed_t *speed);
 
 /*
  * Modbus CRC-16: polynomial 0x8005 reflected (0xA001), init 0xFFFF, no final

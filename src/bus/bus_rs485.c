@@ -32,15 +32,6 @@ _Static_assert((RMD_RS485_QUEUE & (RMD_RS485_QUEUE - 1)) == 0, "queue is a power
 #define PTY_SLAVE_MAJOR_FIRST 136
 #define PTY_SLAVE_MAJOR_LAST 143
 
-/* V3 §1.2.1. */
-static const struct {
-	uint32_t baud;
-	speed_t speed;
-} bauds[] = {
-	{ 115200, B115200 },   { 500000, B500000 },   { 1000000, B1000000 },
-	{ 1500000, B1500000 }, { 2000000, B2000000 },
-};
-
 #define BAUD_LIST "115200, 500000, 1000000, 1500000 or 2000000"
 
 struct request {
@@ -90,17 +81,6 @@ int64_t rmd_rs485_frame_ns(uint32_t baud)
 	if (baud == 0)
 		return 0;
 	return (bits * RMD_NS_PER_S + baud - 1) / baud;
-}
-
-static int baud_speed(uint32_t baud, speed_t *speed)
-{
-	for (size_t i = 0; i < sizeof(bauds) / sizeof(bauds[0]); i++) {
-		if (bauds[i].baud == baud) {
-			*speed = bauds[i].speed;
-			return 0;
-		}
-	}
-	return -EINVAL;
 }
 
 static bool is_pty(int fd, const char *device)
@@ -187,7 +167,7 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 		snprintf(err, errlen, "%s: no RS485 options given", device);
 		return -EINVAL;
 	}
-	if (baud_speed(opts->baud, &speed) < 0) {
+	if (rmd_rs485_baud_speed(opts->baud, &speed) < 0) {
 		snprintf(err, errlen,
 			 "%s: baud %u is not an RMD RS485 rate (V3 §1.2.1): use " BAUD_LIST, device,
 			 opts->baud);

@@ -32,6 +32,7 @@
 #include "rmd/err.h"
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
+#include "rmd/rs485.h"
 
 #define MAX_ERRORS 32  /* error lines kept in err */
 #define MAX_DEPTH 32   /* YAML nesting refused beyond this */
@@ -483,7 +484,6 @@ struct field {
 	}
 
 static const char *const bus_kind_names[] = { "socketcan", "rs485", "sim", NULL };
-static const char *const proto_names[] = { "v3", "v2", "mit", NULL };
 static const char *const mode_names[] = { "torque", "speed", "position", "mit", NULL };
 static const char *const units_names[] = { "output", "rotor", NULL };
 static const char *const safe_names[] = { "stop", "hold", "damp", "brake", NULL };
@@ -495,8 +495,6 @@ static const char *const fault_names[] = { "drop",     "delay",	    "bad_dlc",	 
 					   "flood",    NULL };
 _Static_assert(sizeof(fault_names) / sizeof(fault_names[0]) == RMD_SIM_FAULT_COUNT + 1,
 	       "fault_names[] follows enum rmd_sim_fault_kind");
-_Static_assert(RMD_PROTO_V3 == 0 && RMD_PROTO_V2 == 1 && RMD_PROTO_MIT == 2,
-	       "proto_names[] follows enum rmd_proto");
 
 static const char prio_why[] =
 	"the kernel's IRQ threads run at SCHED_FIFO 50 and deliver this loop's own replies; a "
@@ -640,7 +638,7 @@ static const struct field motor_fields[] = {
 	STR("name", M, name, F_REQUIRED | F_IDENT),
 	LATER("bus"),
 	UINT("id", M, id, 1, RMD_MAX_MOTORS, F_REQUIRED),
-	ENUM("protocol", M, proto, proto_names, 0),
+	ENUM("protocol", M, proto, rmd_proto_keys, 0),
 	ENUM("mode", M, mode, mode_names, F_REQUIRED),
 	INT("direction", M, direction, -1, 1, F_SIGN),
 	DBL("gear_ratio", M, gear_ratio, 0, 1e4, F_MIN_EXCL),
@@ -1158,7 +1156,6 @@ static void validate_sim_model(struct ctx *c, const struct rmd_sim_motor_params 
 static void validate_buses(struct ctx *c, struct rmd_config *cfg, const struct ynode *seq)
 {
 	static const uint32_t can_rates[] = { 500000, 1000000 };
-	static const uint32_t bauds[] = { 115200, 500000, 1000000, 1500000, 2000000 };
 	char path[PATH_LEN], kp[PATH_LEN];
 
 	for (unsigned i = 0; i < cfg->n_buses; i++) {
@@ -1220,7 +1217,7 @@ static void validate_buses(struct ctx *c, struct rmd_config *cfg, const struct y
 				report(c, line_of(bn, "device"), kp,
 				       "\"%s\" is not a device path (e.g. /dev/ttyUSB0)",
 				       b->device);
-			if (!uint_in(b->baud, bauds, 5)) {
+			if (rmd_rs485_baud_speed(b->baud, NULL) < 0) {
 				path_key(kp, path, "baud");
 				report(c, line_of(bn, "baud"), kp,
 				       "%u is not a baud rate RMD motors speak (V3 §1.2.1: 115200, "
@@ -1686,11 +1683,6 @@ int rmd_config_motor_find(const struct rmd_config *cfg, const char *name)
 const char *rmd_bus_kind_name(enum rmd_bus_kind kind)
 {
 	return (unsigned)kind < 3 ? bus_kind_names[kind] : "?";
-}
-
-const char *rmd_proto_key(enum rmd_proto proto)
-{
-	return (unsigned)proto < 3 ? proto_names[proto] : "?";
 }
 
 const char *rmd_ctrl_mode_name(enum rmd_ctrl_mode mode)

@@ -24,14 +24,13 @@
 
 #include "rmd/codec.h"
 #include "rmd/mit.h"
+#include "rmd/rs485.h"
 #include "rmd/sim.h"
 #include "rmd/sim_bus.h"
 #include "rmd-sim.h"
 
 #define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
 
-/* V3 §1.2.1: the RS485 rates. */
-static const uint32_t bauds[] = { 115200, 500000, 1000000, 1500000, 2000000 };
 #define BAUD_LIST "115200, 500000, 1000000, 1500000 or 2000000 (V3 §1.2.1)"
 
 /* Fault times and delays: seconds and microseconds, bounded to keep int64 ns far from overflow. */
@@ -159,19 +158,6 @@ const char *sim_config_key(unsigned i, bool *is_flag)
 	return i < ARRAY_SIZE(params) ? params[i].key : NULL;
 }
 
-const char *sim_proto_name(enum rmd_proto proto)
-{
-	switch (proto) {
-	case RMD_PROTO_V3:
-		return "V3";
-	case RMD_PROTO_V2:
-		return "V2";
-	case RMD_PROTO_MIT:
-		return "MIT";
-	}
-	return "?";
-}
-
 void sim_config_help(void)
 {
 	printf("Wire and program:\n");
@@ -236,19 +222,6 @@ static int parse_bool(const char *s, bool *b)
 		}
 	}
 	return -EINVAL;
-}
-
-static int parse_proto(const char *s, enum rmd_proto *proto)
-{
-	if (!strcasecmp(s, "v3"))
-		*proto = RMD_PROTO_V3;
-	else if (!strcasecmp(s, "v2"))
-		*proto = RMD_PROTO_V2;
-	else if (!strcasecmp(s, "mit"))
-		*proto = RMD_PROTO_MIT;
-	else
-		return -EINVAL;
-	return 0;
 }
 
 /* "P,V,T,KP,KD", each > 0 and at most 1e6. */
@@ -369,7 +342,7 @@ static int apply_param(struct rmd_sim_motor_params *p, const struct param *spec,
 	case T_PROTO: {
 		enum rmd_proto proto;
 
-		if (parse_proto(value, &proto) < 0) {
+		if (rmd_proto_parse(value, &proto) < 0) {
 			snprintf(allowed, size, "v3, v2 or mit");
 			return -EINVAL;
 		}
@@ -803,14 +776,11 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 	if (!strcmp(key, "baud")) {
 		uint64_t b;
 
-		if (parse_u64(value, &b) == 0) {
-			for (size_t i = 0; i < ARRAY_SIZE(bauds); i++) {
-				if (bauds[i] == b) {
-					c->baud = (uint32_t)b;
-					snprintf(c->baud_where, sizeof(c->baud_where), "%s", where);
-					return 0;
-				}
-			}
+		if (parse_u64(value, &b) == 0 && b <= UINT32_MAX &&
+		    rmd_rs485_baud_speed((uint32_t)b, NULL) == 0) {
+			c->baud = (uint32_t)b;
+			snprintf(c->baud_where, sizeof(c->baud_where), "%s", where);
+			return 0;
 		}
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected " BAUD_LIST, where, value);
 		return -EINVAL;

@@ -125,8 +125,6 @@ const char *sim_config_key(unsigned i, bool *is_flag);
 /* Option help: one line per setting key, for --help. */
 void sim_config_help(void);
 
-const char *sim_proto_name(enum rmd_proto proto);
-
 /* A set of motor ids (bit id - 1) as "1-3,5", for messages. */
 void sim_format_motors(uint32_t mask, char *buf, size_t size);
 

@@ -745,29 +745,6 @@ static void can_read(struct sim *s)
 
 /* ---- the serial wire ------------------------------------------------------------------- */
 
-static int baud_speed(uint32_t baud, speed_t *speed)
-{
-	switch (baud) {
-	case 115200:
-		*speed = B115200;
-		return 0;
-	case 500000:
-		*speed = B500000;
-		return 0;
-	case 1000000:
-		*speed = B1000000;
-		return 0;
-	case 1500000:
-		*speed = B1500000;
-		return 0;
-	case 2000000:
-		*speed = B2000000;
-		return 0;
-	default:
-		return -EINVAL;
-	}
-}
-
 static int serial_open(struct sim *s)
 {
 	struct termios tio;
@@ -797,7 +774,7 @@ static int serial_open(struct sim *s)
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s: TIOCEXCL: %s", s->name, strerror(e));
 		goto err_close;
 	}
-	if (baud_speed(s->cfg->baud, &speed) < 0) {
+	if (rmd_rs485_baud_speed(s->cfg->baud, &speed) < 0) {
 		e = EINVAL;
 		sim_log(SIM_LOG_ERR, "rmd-sim: %s: baud %u unsupported", s->name, s->cfg->baud);
 		goto err_close;
@@ -1166,7 +1143,7 @@ static void log_startup(const struct sim *s)
 		snprintf(desc[i], sizeof(desc[i]),
 			 "%s %s (fw %u), inertia %g kg·m², kt %g N·m/A, gear %g, load %g N·m, "
 			 "supply %g V, %sbrake, turnaround %g±%g µs",
-			 sim_proto_name(p->proto), p->model, p->version_date, p->inertia_kgm2,
+			 rmd_proto_name(p->proto), p->model, p->version_date, p->inertia_kgm2,
 			 p->kt_nm_a, p->gear_ratio, p->load_nm, p->supply_v,
 			 p->has_brake ? "" : "no ", p->turnaround_ns / 1e3,
 			 p->turnaround_jitter_ns / 1e3);

@@ -663,7 +663,7 @@ static void json_begin(const struct dev *d, uint8_t id)
 {
 	fputs("{\"bus\":", stdout);
 	json_str(stdout, d->name);
-	printf(",\"motor_id\":%u,\"protocol\":\"%s\"", id, rmdctl_proto_name(d->proto));
+	printf(",\"motor_id\":%u,\"protocol\":\"%s\"", id, rmd_proto_name(d->proto));
 }
 
 /* "  label:   value unit" */
@@ -695,7 +695,7 @@ static void print_rec(const struct dev *d, uint8_t id, const struct rec *r,
 		fputs("}\n", stdout);
 		return;
 	}
-	printf("%s motor %u (%s)\n", d->name, id, rmdctl_proto_name(d->proto));
+	printf("%s motor %u (%s)\n", d->name, id, rmd_proto_name(d->proto));
 	for (size_t i = 0; i < n; i++)
 		text_field(d, r, order[i]);
 }
@@ -780,12 +780,12 @@ static int run_scan(struct dev *d, int argc, char **argv)
 		for (unsigned j = 0; j < 6; j++)
 			field_text(d, &rec, cols[j], c[j], sizeof(c[j]));
 		printf("%3u  %-8s %-9s %-5s %6s %9s  %-8s %s\n", ids[i], c[0], c[1],
-		       rmdctl_proto_name(d->proto), c[2], c[3], c[4], c[5]);
+		       rmd_proto_name(d->proto), c[2], c[3], c[4], c[5]);
 	}
 	if (m == 0)
 		rmdctl_err(d->sub,
 			   "%s: no motor answered 0x9A (%u ids probed, %s, %s ms x %u tries)",
-			   d->name, n, rmdctl_proto_name(d->proto),
+			   d->name, n, rmd_proto_name(d->proto),
 			   ms_str(ms, sizeof(ms), d->timeout_ms), d->tries);
 	else if (!d->json)
 		printf("%s: %d motor%s answered (%u ids probed in %.0f ms)\n", d->name, m,
@@ -930,9 +930,9 @@ static void monitor_table(struct dev *d, const uint8_t *ids, unsigned n, const s
 	}
 	if (clear)
 		fputs("\033[H\033[2J", stdout);
-	printf("%s (%s)  %u motor%s  every %s ms  t=%.1f s%s\n", d->name,
-	       rmdctl_proto_name(d->proto), n, n == 1 ? "" : "s",
-	       ms_str(ms, sizeof(ms), d->interval_ms), t_s, d->once ? "" : "  (Ctrl-C quits)");
+	printf("%s (%s)  %u motor%s  every %s ms  t=%.1f s%s\n", d->name, rmd_proto_name(d->proto),
+	       n, n == 1 ? "" : "s", ms_str(ms, sizeof(ms), d->interval_ms), t_s,
+	       d->once ? "" : "  (Ctrl-C quits)");
 	printf("%3s %7s %10s %11s %10s %10s  %-8s %s\n", "ID", "TEMP_C", "VOLTAGE_V", "ANGLE_DEG",
 	       "SPEED_DPS", "CURRENT_A", "BRAKE", "ERRORS");
 	for (unsigned i = 0; i < n; i++) {
@@ -1302,7 +1302,7 @@ static int run_accel(struct dev *d, int argc, char **argv)
 	if (d->json)
 		printf("{\"bus\":\"%s\",\"motor_id\":%u,\"protocol\":\"%s\",\"index\":%" PRIu64
 		       ",\"accel_dps2\":%" PRIu64 "}\n",
-		       d->name, id, rmdctl_proto_name(d->proto), index, dps2);
+		       d->name, id, rmd_proto_name(d->proto), index, dps2);
 	else
 		printf("%s: motor %u: %s %" PRIu64 " dps/s written (%s), echo verified\n", d->name,
 		       id, v2 ? "acceleration" : accel_names[index], dps2,
@@ -1991,7 +1991,7 @@ static int set_option(struct dev *d, size_t k, const char *v)
 			goto bad;
 		d->baud = (uint32_t)u;
 	} else if (!strcmp(name, "protocol")) {
-		if (rmdctl_parse_proto(v, &d->proto) < 0 || d->proto == RMD_PROTO_MIT) {
+		if (rmd_proto_parse(v, &d->proto) < 0 || d->proto == RMD_PROTO_MIT) {
 			rmdctl_err(d->sub, "bad --protocol \"%s\" (v3 or v2; MIT motors answer v3)",
 				   v);
 			return -EINVAL;

@@ -441,7 +441,7 @@ static void decode_table(enum rmd_proto proto, const struct decode_opts *opts, s
 	if (opts->dir != RMD_DIR_UNKNOWN && d->addr.dir != RMD_DIR_UNKNOWN &&
 	    opts->dir != d->addr.dir) {
 		snprintf(d->note, sizeof(d->note), "identifier %03" PRIX32 " carries %s %ss",
-			 f->can_id, rmdctl_proto_name(proto), dir_name(d->addr.dir));
+			 f->can_id, rmd_proto_name(proto), dir_name(d->addr.dir));
 		return;
 	}
 	if (!dlc_ok(d))
@@ -449,12 +449,12 @@ static void decode_table(enum rmd_proto proto, const struct decode_opts *opts, s
 	r = rmd_decode(proto, opts->dir, f, &d->msg, &dir);
 	if (r == -ENOENT) {
 		snprintf(d->note, sizeof(d->note), "command 0x%02X is not in the %s table",
-			 (unsigned)f->data[0], rmdctl_proto_name(proto));
+			 (unsigned)f->data[0], rmd_proto_name(proto));
 		return;
 	}
 	if (r < 0) {
 		snprintf(d->note, sizeof(d->note), "the %s codec refused it: %s",
-			 rmdctl_proto_name(proto), strerror(-r));
+			 rmd_proto_name(proto), strerror(-r));
 		return;
 	}
 	d->spec = rmd_cmd_find(proto, d->msg.cmd);
@@ -492,7 +492,7 @@ static void decode_frame(const struct decode_opts *opts, const struct rmd_candum
 		if (line->frame.len > 0)
 			d->cmd = line->frame.data[0];
 		snprintf(d->note, sizeof(d->note), "not an identifier of protocol %s",
-			 rmdctl_proto_name(opts->proto));
+			 rmd_proto_name(opts->proto));
 		return;
 	}
 	d->addr_ok = true;
@@ -623,7 +623,7 @@ int rmdctl_decode_run(int argc, char **argv)
 	while ((c = getopt_long(argc, argv, ":p:jm:d:h", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'p':
-			if (rmdctl_parse_proto(optarg, &opts.proto) < 0) {
+			if (rmd_proto_parse(optarg, &opts.proto) < 0) {
 				rmdctl_err(SUB, "unknown protocol \"%s\" (v3, v2 or mit)", optarg);
 				goto usage;
 			}

@@ -274,8 +274,7 @@ static int set_field(const struct enc_ctx *ctx, const char *what, const struct r
 
 	if (!fs) {
 		rmdctl_err(SUB, "%s: the %s table row 0x%02X (%s) has no request field %s", what,
-			   rmdctl_proto_name(ctx->table), spec->cmd, spec->name,
-			   rmd_field_key(fld));
+			   rmd_proto_name(ctx->table), spec->cmd, spec->name, rmd_field_key(fld));
 		return RMDCTL_EXIT_DATA;
 	}
 	bits = 8u * fs->size;
@@ -326,7 +325,7 @@ static const struct rmd_cmd_spec *find_row(const struct enc_ctx *ctx, const char
 
 	if (!spec)
 		rmdctl_err(SUB, "%s: command 0x%02X is not in the %s codec table", what, cmd,
-			   rmdctl_proto_name(ctx->table));
+			   rmd_proto_name(ctx->table));
 	return spec;
 }
 
@@ -338,7 +337,7 @@ static int finish(const struct enc_ctx *ctx, const char *what, const struct rmd_
 
 	if (r < 0) {
 		rmdctl_err(SUB, "%s: the %s codec refused 0x%02X (%s): %s", what,
-			   rmdctl_proto_name(ctx->table), spec->cmd, spec->name, strerror(-r));
+			   rmd_proto_name(ctx->table), spec->cmd, spec->name, strerror(-r));
 		return RMDCTL_EXIT_DATA;
 	}
 	return 0;
@@ -375,7 +374,7 @@ static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 	}
 	if (!in_proto) {
 		rmdctl_err(SUB, "%s: not a command of protocol %s%s", ec->name,
-			   rmdctl_proto_name(ctx->proto),
+			   rmd_proto_name(ctx->proto),
 			   ctx->table == RMD_PROTO_V3 ? " (V2 only: --protocol v2)" :
 							" (V3 only: --protocol v3)");
 		cmd_usage(ec);
@@ -383,7 +382,7 @@ static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 	}
 	if (!v) {
 		rmdctl_err(SUB, "%s: wrong number of arguments for protocol %s", ec->name,
-			   rmdctl_proto_name(ctx->proto));
+			   rmd_proto_name(ctx->proto));
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
@@ -418,7 +417,7 @@ static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 	int r;
 
 	if (argc != (ctx->table == RMD_PROTO_V2 ? 1 : 0)) {
-		rmdctl_err(SUB, "%s: protocol %s takes %s", ec->name, rmdctl_proto_name(ctx->proto),
+		rmdctl_err(SUB, "%s: protocol %s takes %s", ec->name, rmd_proto_name(ctx->proto),
 			   ctx->table == RMD_PROTO_V2 ? "one LOOP" : "no argument");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
@@ -518,7 +517,7 @@ static const struct rmd_cmd_spec *raw_row(const struct enc_ctx *ctx, const char 
 	cmd = strtoul(s, &end, 16);
 	if (end == s || *end || errno || cmd > 0xFF || *s == '-' || *s == '+') {
 		rmdctl_err(SUB, "raw: \"%s\" is neither a command byte nor a %s row name", s,
-			   rmdctl_proto_name(ctx->table));
+			   rmd_proto_name(ctx->table));
 		return NULL;
 	}
 	return find_row(ctx, "raw", (uint8_t)cmd);
@@ -631,7 +630,7 @@ int rmdctl_encode_run(int argc, char **argv)
 	while ((c = getopt_long(argc, argv, "+:p:i:m:h", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'p':
-			if (rmdctl_parse_proto(optarg, &ctx.proto) < 0) {
+			if (rmd_proto_parse(optarg, &ctx.proto) < 0) {
 				rmdctl_err(SUB, "unknown protocol \"%s\" (v3, v2 or mit)", optarg);
 				goto usage;
 			}

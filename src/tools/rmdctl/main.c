@@ -57,32 +57,6 @@ void rmdctl_err(const char *sub, const char *fmt, ...)
 	fputc('\n', stderr);
 }
 
-int rmdctl_parse_proto(const char *s, enum rmd_proto *proto)
-{
-	if (!strcmp(s, "v3") || !strcmp(s, "V3"))
-		*proto = RMD_PROTO_V3;
-	else if (!strcmp(s, "v2") || !strcmp(s, "V2"))
-		*proto = RMD_PROTO_V2;
-	else if (!strcmp(s, "mit") || !strcmp(s, "MIT"))
-		*proto = RMD_PROTO_MIT;
-	else
-		return -EINVAL;
-	return 0;
-}
-
-const char *rmdctl_proto_name(enum rmd_proto proto)
-{
-	switch (proto) {
-	case RMD_PROTO_V3:
-		return "V3";
-	case RMD_PROTO_V2:
-		return "V2";
-	case RMD_PROTO_MIT:
-		return "MIT";
-	}
-	return "?";
-}
-
 int rmdctl_parse_double(const char *s, double *v)
 {
 	char *end;

@@ -53,11 +53,6 @@ void rmdctl_move_usage(FILE *f);
 /* "rmdctl SUB: message\n" on stderr. */
 void rmdctl_err(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
-/* "v3" / "v2" / "mit" -> *proto.  Returns 0 or -EINVAL. */
-int rmdctl_parse_proto(const char *s, enum rmd_proto *proto);
-/* "V3" / "V2" / "MIT", for messages. */
-const char *rmdctl_proto_name(enum rmd_proto proto);
-
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
 
