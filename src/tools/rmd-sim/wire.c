@@ -166,10 +166,10 @@ static bool q_push(struct sim *s, int src, const struct rmd_frame *f, int64_t du
 
 	if (s->qn >= TXQ) {
 		if (!s->st.txq_overflow++)
-			sim_log(SIM_LOG_WARNING,
-				"rmd-sim: %s: more than %d frames waiting to be sent; dropping "
-				"(counted in the exit summary)",
-				s->name, TXQ);
+			tool_log(TOOL_LOG_WARNING,
+				 "rmd-sim: %s: more than %d frames waiting to be sent; dropping "
+				 "(counted in the exit summary)",
+				 s->name, TXQ);
 		return false;
 	}
 	i = s->qn++;
@@ -260,18 +260,19 @@ static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_
 	const struct rmd_mit_ranges *mit;
 	enum rmd_proto proto;
 
-	if (!sim_log_enabled(SIM_LOG_DEBUG))
+	if (!tool_log_enabled(TOOL_LOG_DEBUG))
 		return;
 	proto = request_proto(s, f->can_id, &mit);
 	sim_describe(desc, sizeof(desc), proto, RMD_DIR_REQUEST, mit, f);
 	hex(data, sizeof(data), f->data, f->len);
 	if (s->serial)
-		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: rx id 0x%02X [%u] %s  (0x%03X) %s; %d repl%s",
-			s->name, rs485_id, f->len, data, f->can_id, desc, answers,
-			answers == 1 ? "y" : "ies");
+		tool_log(TOOL_LOG_DEBUG,
+			 "rmd-sim: %s: rx id 0x%02X [%u] %s  (0x%03X) %s; %d repl%s", s->name,
+			 rs485_id, f->len, data, f->can_id, desc, answers,
+			 answers == 1 ? "y" : "ies");
 	else
-		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: rx %03X [%u] %s  %s; %d repl%s", s->name,
-			f->can_id, f->len, data, desc, answers, answers == 1 ? "y" : "ies");
+		tool_log(TOOL_LOG_DEBUG, "rmd-sim: %s: rx %03X [%u] %s  %s; %d repl%s", s->name,
+			 f->can_id, f->len, data, desc, answers, answers == 1 ? "y" : "ies");
 }
 
 /* e: the frame as scheduled; wire: its data as written (RS485: after the id mapping). */
@@ -281,7 +282,7 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 	const struct rmd_mit_ranges *mit = NULL;
 	enum rmd_proto proto = RMD_PROTO_V3;
 
-	if (!sim_log_enabled(SIM_LOG_DEBUG))
+	if (!tool_log_enabled(TOOL_LOG_DEBUG))
 		return;
 	if (e->src >= 0) {
 		const struct slot *sl = &s->slots[e->src];
@@ -300,11 +301,11 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 	}
 	hex(data, sizeof(data), wire->data, wire->len);
 	if (s->serial)
-		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: tx id 0x%02X [%u] %s  (0x%03X) %s: %s",
-			s->name, (unsigned)rs485_id, wire->len, data, e->f.can_id, who, desc);
+		tool_log(TOOL_LOG_DEBUG, "rmd-sim: %s: tx id 0x%02X [%u] %s  (0x%03X) %s: %s",
+			 s->name, (unsigned)rs485_id, wire->len, data, e->f.can_id, who, desc);
 	else
-		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: tx %03X [%u] %s  %s: %s", s->name, e->f.can_id,
-			e->f.len, data, who, desc);
+		tool_log(TOOL_LOG_DEBUG, "rmd-sim: %s: tx %03X [%u] %s  %s: %s", s->name,
+			 e->f.can_id, e->f.len, data, who, desc);
 }
 
 /* ---- faults ---------------------------------------------------------------------------- */
@@ -427,9 +428,9 @@ static void update_faults(struct sim *s, int64_t now)
 				s->st.faults[f->kind]++;
 			if (open && f->kind == RMD_SIM_FAULT_FLOOD)
 				s->flood_next[i] = s->t0 + f->start_ns;
-			sim_log(SIM_LOG_NOTICE, "rmd-sim: fault \"%s\" %s at %.3f s",
-				c->fault_text[i], open ? "begins" : "ends",
-				(double)(now - s->t0) / 1e9);
+			tool_log(TOOL_LOG_NOTICE, "rmd-sim: fault \"%s\" %s at %.3f s",
+				 c->fault_text[i], open ? "begins" : "ends",
+				 (double)(now - s->t0) / 1e9);
 		}
 		while (f->kind == RMD_SIM_FAULT_FLOOD && open && s->flood_next[i] <= now) {
 			struct rmd_frame fr = { .can_id = f->can_id, .len = RMD_FRAME_LEN };
@@ -467,12 +468,12 @@ static void update_faults(struct sim *s, int64_t now)
 		if (!powered && sl->powered) {
 			/* Without power the drive lets go and the brake locks (as rmd/sim_bus.h). */
 			rmd_sim_motor_power_cycle(&sl->m, now);
-			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u loses power", sl->id);
+			tool_log(TOOL_LOG_INFO, "rmd-sim: motor %u loses power", sl->id);
 		}
 		if (powered && !sl->powered) {
 			/* sim_bus.h DISAPPEAR param 1: it boots at the end of the window. */
 			rmd_sim_motor_power_cycle(&sl->m, now);
-			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u powered again: boots", sl->id);
+			tool_log(TOOL_LOG_INFO, "rmd-sim: motor %u powered again: boots", sl->id);
 		}
 		sl->absent = absent;
 		sl->powered = powered;
@@ -563,12 +564,12 @@ static void set_down(struct sim *s, bool down, const char *how)
 		return;
 	s->if_down = down;
 	if (down)
-		sim_log(SIM_LOG_WARNING,
-			"rmd-sim: %s: interface is down (%s); frames are lost "
-			"until it is up",
-			s->name, how);
+		tool_log(TOOL_LOG_WARNING,
+			 "rmd-sim: %s: interface is down (%s); frames are lost "
+			 "until it is up",
+			 s->name, how);
 	else
-		sim_log(SIM_LOG_NOTICE, "rmd-sim: %s: interface is up again", s->name);
+		tool_log(TOOL_LOG_NOTICE, "rmd-sim: %s: interface is up again", s->name);
 }
 
 static void stop(struct sim *s, int status, const char *why)
@@ -589,7 +590,7 @@ static void check_interface(struct sim *s)
 	snprintf(ifr.ifr_name, sizeof(ifr.ifr_name), "%s", s->name);
 	if (ioctl(s->fd, SIOCGIFFLAGS, &ifr) < 0) {
 		if (errno == ENODEV) {
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
 			stop(s, SIM_EXIT_RUN, "the interface was removed");
 		}
 		return;
@@ -618,17 +619,18 @@ static int can_open(struct sim *s)
 		int e = errno;
 
 		if (e == EAFNOSUPPORT)
-			sim_log(SIM_LOG_ERR,
-				"rmd-sim: %s: this kernel has no SocketCAN (AF_CAN): load the can "
-				"and can_raw modules, or run inside tests/vm/vm-run",
-				s->name);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s: this kernel has no SocketCAN (AF_CAN): load the can "
+				 "and can_raw modules, or run inside tests/vm/vm-run",
+				 s->name);
 		else
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: CAN socket: %s", s->name, strerror(e));
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: CAN socket: %s", s->name, strerror(e));
 		return -e;
 	}
 	ifindex = if_nametoindex(s->name);
 	if (!ifindex) {
-		sim_log(SIM_LOG_ERR,
+		tool_log(
+			TOOL_LOG_ERR,
 			"rmd-sim: %s: no such interface (for a virtual one: ip link add dev %s type "
 			"vcan && ip link set up %s)",
 			s->name, s->name, s->name);
@@ -638,7 +640,7 @@ static int can_open(struct sim *s)
 	if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters, sizeof(filters)) < 0) {
 		int e = errno;
 
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: CAN_RAW_FILTER: %s", s->name, strerror(e));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: CAN_RAW_FILTER: %s", s->name, strerror(e));
 		close(fd);
 		return -e;
 	}
@@ -651,9 +653,9 @@ static int can_open(struct sim *s)
 		int e = errno;
 
 		if (e == ENODEV)
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: not a CAN interface", s->name);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: not a CAN interface", s->name);
 		else
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: bind: %s", s->name, strerror(e));
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: bind: %s", s->name, strerror(e));
 		close(fd);
 		return -e;
 	}
@@ -713,14 +715,14 @@ static void can_read(struct sim *s)
 				continue;
 			}
 			if (errno == ENODEV) {
-				sim_log(SIM_LOG_ERR, "rmd-sim: %s: the interface was removed",
-					s->name);
+				tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed",
+					 s->name);
 				stop(s, SIM_EXIT_RUN, "the interface was removed");
 				return;
 			}
 			if (!s->st.rx_errors++)
-				sim_log(SIM_LOG_WARNING, "rmd-sim: %s: read: %s", s->name,
-					strerror(errno));
+				tool_log(TOOL_LOG_WARNING, "rmd-sim: %s: read: %s", s->name,
+					 strerror(errno));
 			return;
 		}
 		if (r != (ssize_t)sizeof(cf)) {
@@ -756,27 +758,27 @@ static int serial_open(struct sim *s)
 	if (fd < 0) {
 		e = errno;
 		if (e == ENOENT)
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: no such device", s->name);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: no such device", s->name);
 		else if (e == EACCES)
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: permission denied (join group dialout)",
-				s->name);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s: permission denied (join group dialout)", s->name);
 		else
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: %s", s->name, strerror(e));
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: %s", s->name, strerror(e));
 		return -e;
 	}
 	if (tcgetattr(fd, &tio) < 0) {
 		e = errno;
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: not a serial port (%s)", s->name, strerror(e));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: not a serial port (%s)", s->name, strerror(e));
 		goto err_close;
 	}
 	if (ioctl(fd, TIOCEXCL) < 0) {
 		e = errno;
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: TIOCEXCL: %s", s->name, strerror(e));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: TIOCEXCL: %s", s->name, strerror(e));
 		goto err_close;
 	}
 	if (rmd_rs485_baud_speed(s->cfg->baud, &speed) < 0) {
 		e = EINVAL;
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: baud %u unsupported", s->name, s->cfg->baud);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: baud %u unsupported", s->name, s->cfg->baud);
 		goto err_close;
 	}
 	/* V3 §1.2: 8 data bits, no parity, one stop bit, no flow control. */
@@ -788,8 +790,8 @@ static int serial_open(struct sim *s)
 	if (cfsetispeed(&tio, speed) < 0 || cfsetospeed(&tio, speed) < 0 ||
 	    tcsetattr(fd, TCSANOW, &tio) < 0) {
 		e = errno;
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: the driver refuses %u baud 8N1 raw: %s", s->name,
-			s->cfg->baud, strerror(e));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the driver refuses %u baud 8N1 raw: %s",
+			 s->name, s->cfg->baud, strerror(e));
 		goto err_close;
 	}
 	tcflush(fd, TCIOFLUSH);
@@ -799,12 +801,12 @@ static int serial_open(struct sim *s)
 		rs.flags |= SER_RS485_ENABLED | SER_RS485_RTS_ON_SEND;
 		rs.flags &= ~(__u32)SER_RS485_RTS_AFTER_SEND;
 		if (ioctl(fd, TIOCSRS485, &rs) == 0)
-			sim_log(SIM_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
+			tool_log(TOOL_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
 	} else {
-		sim_log(SIM_LOG_INFO,
-			"rmd-sim: %s: no kernel RS485 mode (a pseudo-terminal, or an adapter that "
-			"switches direction by itself)",
-			s->name);
+		tool_log(TOOL_LOG_INFO,
+			 "rmd-sim: %s: no kernel RS485 mode (a pseudo-terminal, or an adapter that "
+			 "switches direction by itself)",
+			 s->name);
 	}
 	s->fd = fd;
 	return 0;
@@ -843,8 +845,8 @@ static void serial_flush(struct sim *s)
 			if (errno == EAGAIN)
 				break;
 			if (!s->st.tx_errors++)
-				sim_log(SIM_LOG_WARNING, "rmd-sim: %s: write: %s", s->name,
-					strerror(errno));
+				tool_log(TOOL_LOG_WARNING, "rmd-sim: %s: write: %s", s->name,
+					 strerror(errno));
 			s->txn = 0;
 			break;
 		}
@@ -969,10 +971,10 @@ static void serial_parse(struct sim *s, int64_t t)
 	}
 	if (skipped) {
 		s->st.noise_bytes += skipped;
-		sim_log(s->noise_warned ? SIM_LOG_DEBUG : SIM_LOG_WARNING,
-			"rmd-sim: %s: skipped %zu byte%s of line noise to resynchronise%s", s->name,
-			skipped, skipped == 1 ? "" : "s",
-			s->noise_warned ? "" : " (further noise is counted in the exit summary)");
+		tool_log(s->noise_warned ? TOOL_LOG_DEBUG : TOOL_LOG_WARNING,
+			 "rmd-sim: %s: skipped %zu byte%s of line noise to resynchronise%s",
+			 s->name, skipped, skipped == 1 ? "" : "s",
+			 s->noise_warned ? "" : " (further noise is counted in the exit summary)");
 		s->noise_warned = true;
 	}
 }
@@ -992,8 +994,8 @@ static void serial_read(struct sim *s, bool hup)
 		if (!hup && (r == 0 || errno == EAGAIN))
 			return;
 		/* EIO or end of file with a hang-up: the other side closed the line. */
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
-			r < 0 ? strerror(errno) : "end of file");
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
+			 r < 0 ? strerror(errno) : "end of file");
 		stop(s, SIM_EXIT_RUN, "hang-up");
 		return;
 	}
@@ -1026,19 +1028,19 @@ static void write_due(struct sim *s, int64_t now)
 		}
 		q_pop(s);
 		if (r == -EINVAL && s->serial) {
-			if (sim_log_enabled(SIM_LOG_DEBUG))
-				sim_log(SIM_LOG_DEBUG,
-					"rmd-sim: %s: 0x%03X has no RS485 form; not sent", s->name,
-					e.f.can_id);
+			if (tool_log_enabled(TOOL_LOG_DEBUG))
+				tool_log(TOOL_LOG_DEBUG,
+					 "rmd-sim: %s: 0x%03X has no RS485 form; not sent", s->name,
+					 e.f.can_id);
 			continue;
 		}
 		if (r < 0) {
 			s->st.tx_errors++;
 			if (s->st.tx_errors >= s->tx_errors_logged * 2 + 1) {
-				sim_log(SIM_LOG_WARNING,
-					"rmd-sim: %s: write: %s (%" PRIu64 " frames "
-					"lost so far)",
-					s->name, strerror(-r), s->st.tx_errors);
+				tool_log(TOOL_LOG_WARNING,
+					 "rmd-sim: %s: write: %s (%" PRIu64 " frames "
+					 "lost so far)",
+					 s->name, strerror(-r), s->st.tx_errors);
 				s->tx_errors_logged = s->st.tx_errors;
 			}
 			continue;
@@ -1129,13 +1131,13 @@ static void log_startup(const struct sim *s)
 	const struct sim_config *c = s->cfg;
 	uint32_t done = 0;
 
-	if (!sim_log_enabled(SIM_LOG_INFO))
+	if (!tool_log_enabled(TOOL_LOG_INFO))
 		return;
-	sim_log(SIM_LOG_INFO, "rmd-sim: %s: %s, %u motor%s, seed %" PRIu64, s->name,
-		s->serial ? "RS485 line" : "SocketCAN", s->n, s->n == 1 ? "" : "s", c->seed);
+	tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %s, %u motor%s, seed %" PRIu64, s->name,
+		 s->serial ? "RS485 line" : "SocketCAN", s->n, s->n == 1 ? "" : "s", c->seed);
 	if (s->serial)
-		sim_log(SIM_LOG_INFO, "rmd-sim: %s: %u baud 8N1%s", s->name, c->baud,
-			c->local_echo ? ", local echo dropped" : "");
+		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %u baud 8N1%s", s->name, c->baud,
+			 c->local_echo ? ", local echo dropped" : "");
 	/* One line per set of motors that are alike. */
 	for (unsigned i = 0; i < s->n; i++) {
 		const struct rmd_sim_motor_params *p = &s->slots[i].m.p;
@@ -1161,17 +1163,17 @@ static void log_startup(const struct sim *s)
 			}
 		}
 		sim_format_motors(same, list, sizeof(list));
-		sim_log(SIM_LOG_INFO, "rmd-sim: motor%s %s: %s", (same & (same - 1)) ? "s" : "",
-			list, desc[i]);
+		tool_log(TOOL_LOG_INFO, "rmd-sim: motor%s %s: %s", (same & (same - 1)) ? "s" : "",
+			 list, desc[i]);
 	}
 	for (unsigned i = 0; i < s->n; i++)
 		if (s->serial && s->slots[i].m.p.proto == RMD_PROTO_MIT)
-			sim_log(SIM_LOG_INFO,
-				"rmd-sim: motor %u: MIT frames have no RS485 form; it "
-				"answers V3 commands",
-				s->slots[i].id);
+			tool_log(TOOL_LOG_INFO,
+				 "rmd-sim: motor %u: MIT frames have no RS485 form; it "
+				 "answers V3 commands",
+				 s->slots[i].id);
 	for (unsigned i = 0; i < c->n_faults; i++)
-		sim_log(SIM_LOG_INFO, "rmd-sim: fault %u: %s", i + 1, c->fault_text[i]);
+		tool_log(TOOL_LOG_INFO, "rmd-sim: fault %u: %s", i + 1, c->fault_text[i]);
 }
 
 static void log_summary(const struct sim *s, int64_t now)
@@ -1179,16 +1181,16 @@ static void log_summary(const struct sim *s, int64_t now)
 	char faults[512];
 
 	summary_faults(s, faults, sizeof(faults));
-	sim_log(s->status == SIM_EXIT_OK ? SIM_LOG_INFO : SIM_LOG_ERR,
-		"rmd-sim: %s: stopped (%s) after %.3f s: frames in %" PRIu64 " (answered %" PRIu64
-		"), out %" PRIu64 "; tx retries %" PRIu64 ", tx errors %" PRIu64
-		", queue overflows %" PRIu64 ", rx errors %" PRIu64 ", line noise %" PRIu64
-		" bytes, echoes %" PRIu64 ", lost while absent %" PRIu64
-		", without RS485 form %" PRIu64 "%s",
-		s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
-		s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors, s->st.txq_overflow,
-		s->st.rx_errors, s->st.noise_bytes, s->st.echoes, s->st.absent_lost,
-		s->st.unmappable, faults);
+	tool_log(s->status == SIM_EXIT_OK ? TOOL_LOG_INFO : TOOL_LOG_ERR,
+		 "rmd-sim: %s: stopped (%s) after %.3f s: frames in %" PRIu64 " (answered %" PRIu64
+		 "), out %" PRIu64 "; tx retries %" PRIu64 ", tx errors %" PRIu64
+		 ", queue overflows %" PRIu64 ", rx errors %" PRIu64 ", line noise %" PRIu64
+		 " bytes, echoes %" PRIu64 ", lost while absent %" PRIu64
+		 ", without RS485 form %" PRIu64 "%s",
+		 s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
+		 s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors,
+		 s->st.txq_overflow, s->st.rx_errors, s->st.noise_bytes, s->st.echoes,
+		 s->st.absent_lost, s->st.unmappable, faults);
 }
 
 static void handle_signal(struct sim *s)
@@ -1235,14 +1237,14 @@ int sim_run(const struct sim_config *c)
 	sigaddset(&mask, SIGINT);
 	sigaddset(&mask, SIGTERM);
 	if (sigprocmask(SIG_BLOCK, &mask, NULL) < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: sigprocmask: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: sigprocmask: %s", strerror(errno));
 		return SIM_EXIT_RUN;
 	}
 	s->sfd = signalfd(-1, &mask, SFD_NONBLOCK | SFD_CLOEXEC);
 	s->tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
 	s->epfd = epoll_create1(EPOLL_CLOEXEC);
 	if (s->sfd < 0 || s->tfd < 0 || s->epfd < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: signalfd/timerfd/epoll: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: signalfd/timerfd/epoll: %s", strerror(errno));
 		r = SIM_EXIT_RUN;
 		goto err_close_fds;
 	}
@@ -1253,7 +1255,7 @@ int sim_run(const struct sim_config *c)
 	s->ep_events = EPOLLIN;
 	if (add_fd(s, s->fd, EPOLLIN, TAG_WIRE) < 0 || add_fd(s, s->tfd, EPOLLIN, TAG_TIMER) < 0 ||
 	    add_fd(s, s->sfd, EPOLLIN, TAG_SIGNAL) < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: epoll_ctl: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: epoll_ctl: %s", strerror(errno));
 		r = SIM_EXIT_RUN;
 		goto err_close_wire;
 	}
@@ -1272,7 +1274,7 @@ int sim_run(const struct sim_config *c)
 	s->next_tick_ns = s->t0 + TICK_NS;
 	s->next_house_ns = s->t0 + HOUSEKEEPING_NS;
 	log_startup(s);
-	sim_log(SIM_LOG_INFO, "rmd-sim: %s: ready", s->name);
+	tool_log(TOOL_LOG_INFO, "rmd-sim: %s: ready", s->name);
 
 	while (!s->stop) {
 		struct epoll_event ev[4];
@@ -1289,7 +1291,7 @@ int sim_run(const struct sim_config *c)
 		if (n < 0) {
 			if (errno == EINTR)
 				continue;
-			sim_log(SIM_LOG_ERR, "rmd-sim: epoll_wait: %s", strerror(errno));
+			tool_log(TOOL_LOG_ERR, "rmd-sim: epoll_wait: %s", strerror(errno));
 			stop(s, SIM_EXIT_RUN, "epoll_wait failed");
 			break;
 		}

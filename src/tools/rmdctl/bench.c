@@ -229,12 +229,12 @@ static int parse_uint(const char *s, uint64_t lo, uint64_t hi, uint64_t *v)
 	return 0;
 }
 
-static int parse_id(struct dev *d, const char *s, const char *what, uint8_t *id)
+static int parse_id(const char *s, const char *what, uint8_t *id)
 {
 	uint64_t v;
 
 	if (parse_uint(s, 1, RMD_MAX_MOTORS, &v) < 0) {
-		rmdctl_err(d->sub, "bad %s \"%s\" (a motor id 1..%d)", what, s, RMD_MAX_MOTORS);
+		tool_log(TOOL_LOG_ERR, "bad %s \"%s\" (a motor id 1..%d)", what, s, RMD_MAX_MOTORS);
 		return -EINVAL;
 	}
 	*id = (uint8_t)v;
@@ -265,9 +265,8 @@ __attribute__((format(printf, 2, 3))) static int can_confirm(struct dev *d, cons
 	va_start(ap, fmt);
 	vsnprintf(what, sizeof(what), fmt, ap);
 	va_end(ap);
-	rmdctl_err(d->sub,
-		   "refusing to %s without confirmation: stdin is not a terminal (add --yes)",
-		   what);
+	tool_log(TOOL_LOG_ERR,
+		 "refusing to %s without confirmation: stdin is not a terminal (add --yes)", what);
 	return RMDCTL_EXIT_USAGE;
 }
 
@@ -287,10 +286,10 @@ __attribute__((format(printf, 2, 3))) static int confirm(struct dev *d, const ch
 	if (d->yes)
 		return 0;
 	if (!isatty(STDIN_FILENO)) {
-		rmdctl_err(d->sub,
-			   "refusing to %s without confirmation: stdin is not a terminal "
-			   "(add --yes)",
-			   q);
+		tool_log(TOOL_LOG_ERR,
+			 "refusing to %s without confirmation: stdin is not a terminal "
+			 "(add --yes)",
+			 q);
 		return RMDCTL_EXIT_USAGE;
 	}
 	fprintf(stderr, "%s? [y/N] ", q);
@@ -302,7 +301,7 @@ __attribute__((format(printf, 2, 3))) static int confirm(struct dev *d, const ch
 	if (!strcmp(line, "y") || !strcmp(line, "Y") || !strcmp(line, "yes")) {
 		return 0;
 	}
-	rmdctl_err(d->sub, "not confirmed: nothing changed");
+	tool_log(TOOL_LOG_ERR, "not confirmed: nothing changed");
 	return RMDCTL_EXIT_DATA;
 }
 
@@ -378,11 +377,11 @@ static int open_bus(struct dev *d)
 
 	r = rmd_bus_open_spec(&d->bus, d->bus_spec, &o, err, sizeof(err));
 	if (r < 0) {
-		rmdctl_err(d->sub, "%s", err[0] ? err : strerror(-r));
+		tool_log(TOOL_LOG_ERR, "%s", err[0] ? err : strerror(-r));
 		return RMDCTL_EXIT_DATA;
 	}
 	if (err[0])
-		rmdctl_err(d->sub, "note: %s", err);
+		tool_log(TOOL_LOG_ERR, "note: %s", err);
 	snprintf(d->name, sizeof(d->name), "%s", d->bus.name);
 	d->b = &d->bus;
 	d->txn.timeout_ns = (int64_t)llround(d->timeout_ms * 1e6);
@@ -425,14 +424,14 @@ static void report_missing(struct dev *d, const struct req *q, const char *more)
 	char ms[32];
 
 	if (q->t.tries == 0) {
-		rmdctl_err(d->sub,
-			   "%s: could not send 0x%02X to motor %u: the bus took no frame (%s)",
-			   d->name, q->msg.cmd, q->id, rmd_bus_state_name(d->bus.state));
+		tool_log(TOOL_LOG_ERR,
+			 "%s: could not send 0x%02X to motor %u: the bus took no frame (%s)",
+			 d->name, q->msg.cmd, q->id, rmd_bus_state_name(d->bus.state));
 		return;
 	}
-	rmdctl_err(d->sub, "%s: motor %u did not answer 0x%02X within %s ms (%u %s)%s", d->name,
-		   q->id, q->msg.cmd, ms_str(ms, sizeof(ms), d->timeout_ms), q->t.tries,
-		   q->t.tries == 1 ? "try" : "tries", more);
+	tool_log(TOOL_LOG_ERR, "%s: motor %u did not answer 0x%02X within %s ms (%u %s)%s", d->name,
+		 q->id, q->msg.cmd, ms_str(ms, sizeof(ms), d->timeout_ms), q->t.tries,
+		 q->t.tries == 1 ? "try" : "tries", more);
 }
 
 static void report_bad(struct dev *d, const struct req *q)
@@ -442,11 +441,11 @@ static void report_bad(struct dev *d, const struct req *q)
 
 	for (unsigned i = 0; i < f->len && i < RMD_FRAME_LEN; i++)
 		snprintf(hex + 2 * i, sizeof(hex) - 2 * i, "%02X", f->data[i]);
-	rmdctl_err(d->sub, "%s: motor %u answered 0x%02X with %03" PRIX32 "#%s, which %s", d->name,
-		   q->id, q->msg.cmd, f->can_id, hex,
-		   spec_of(d, q->msg.cmd) && spec_of(d, q->msg.cmd)->flags & RMD_CMD_ECHO ?
-			   "is not the echo of the request" :
-			   "does not decode");
+	tool_log(TOOL_LOG_ERR, "%s: motor %u answered 0x%02X with %03" PRIX32 "#%s, which %s",
+		 d->name, q->id, q->msg.cmd, f->can_id, hex,
+		 spec_of(d, q->msg.cmd) && spec_of(d, q->msg.cmd)->flags & RMD_CMD_ECHO ?
+			 "is not the echo of the request" :
+			 "does not decode");
 }
 
 /*
@@ -464,18 +463,18 @@ static int run_reqs(struct dev *d, struct req *q, unsigned n)
 	for (unsigned i = 0; i < n; i++) {
 		r = rmd_txn_prepare(&t[i], d->proto, q[i].id, &q[i].msg);
 		if (r < 0) {
-			rmdctl_err(d->sub, "motor %u: cannot encode 0x%02X: %s", q[i].id,
-				   q[i].msg.cmd, strerror(-r));
+			tool_log(TOOL_LOG_ERR, "motor %u: cannot encode 0x%02X: %s", q[i].id,
+				 q[i].msg.cmd, strerror(-r));
 			return RMDCTL_EXIT_DATA;
 		}
 	}
 	r = rmd_txn_run(d->b, t, n, &d->txn);
 	if (r == -EINTR) {
-		rmdctl_err(d->sub, "interrupted");
+		tool_log(TOOL_LOG_ERR, "interrupted");
 		return RMDCTL_EXIT_DATA;
 	}
 	if (r < 0) {
-		rmdctl_err(d->sub, "%s: %s", d->name, strerror(-r));
+		tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
 		return RMDCTL_EXIT_DATA;
 	}
 	for (unsigned i = 0; i < n; i++) {
@@ -702,13 +701,13 @@ static void print_rec(const struct dev *d, uint8_t id, const struct rec *r,
 
 /* ---- scan ----------------------------------------------------------------------------- */
 
-static int ids_arg(struct dev *d, const char *s, uint8_t *ids)
+static int ids_arg(const char *s, uint8_t *ids)
 {
 	int n = rmd_bus_open_parse_ids(s, ids);
 
 	if (n < 0)
-		rmdctl_err(d->sub, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", s,
-			   RMD_MAX_MOTORS);
+		tool_log(TOOL_LOG_ERR, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", s,
+			 RMD_MAX_MOTORS);
 	return n;
 }
 
@@ -732,7 +731,7 @@ static int run_scan(struct dev *d, int argc, char **argv)
 	char ms[32];
 
 	if (argc > 0) {
-		m = ids_arg(d, argv[0], ids);
+		m = ids_arg(argv[0], ids);
 		if (m < 0)
 			return RMDCTL_EXIT_USAGE;
 		n = (unsigned)m;
@@ -783,10 +782,10 @@ static int run_scan(struct dev *d, int argc, char **argv)
 		       rmd_proto_name(d->proto), c[2], c[3], c[4], c[5]);
 	}
 	if (m == 0)
-		rmdctl_err(d->sub,
-			   "%s: no motor answered 0x9A (%u ids probed, %s, %s ms x %u tries)",
-			   d->name, n, rmd_proto_name(d->proto),
-			   ms_str(ms, sizeof(ms), d->timeout_ms), d->tries);
+		tool_log(TOOL_LOG_ERR,
+			 "%s: no motor answered 0x9A (%u ids probed, %s, %s ms x %u tries)",
+			 d->name, n, rmd_proto_name(d->proto),
+			 ms_str(ms, sizeof(ms), d->timeout_ms), d->tries);
 	else if (!d->json)
 		printf("%s: %d motor%s answered (%u ids probed in %.0f ms)\n", d->name, m,
 		       m == 1 ? "" : "s", n, (double)(rmd_now_ns() - t0) / 1e6);
@@ -813,7 +812,7 @@ static int run_info(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	if (d->proto != RMD_PROTO_V2) {
 		req_init(&q[n++], id, 0xB5); /* V3 §2.32 */
@@ -883,7 +882,7 @@ static int run_status(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	status_reqs(q, id);
 	r = open_bus(d);
@@ -963,7 +962,7 @@ static int run_monitor(struct dev *d, int argc, char **argv)
 	int m, r, status = RMDCTL_EXIT_OK;
 
 	if (argc > 0) {
-		m = ids_arg(d, argv[0], ids);
+		m = ids_arg(argv[0], ids);
 		if (m < 0)
 			return RMDCTL_EXIT_USAGE;
 		n = (unsigned)m;
@@ -978,8 +977,8 @@ static int run_monitor(struct dev *d, int argc, char **argv)
 		m = probe(d, ids, n, found, q);
 		if (m <= 0) {
 			if (m == 0)
-				rmdctl_err(d->sub, "%s: no motor answered 0x9A (ids 1..%d)",
-					   d->name, RMD_MAX_MOTORS);
+				tool_log(TOOL_LOG_ERR, "%s: no motor answered 0x9A (ids 1..%d)",
+					 d->name, RMD_MAX_MOTORS);
 			close_bus(d);
 			return m < 0 ? -m : RMDCTL_EXIT_DATA;
 		}
@@ -1033,10 +1032,10 @@ static int others_renumbered(struct dev *d, const uint8_t *before, unsigned n, u
 		return RMDCTL_EXIT_OK;
 	for (unsigned i = 0; i < k; i++)
 		if (!st[i].ok)
-			rmdctl_err(d->sub,
-				   "%s: motor %u no longer answers: it took id %u too (its CAN-ID "
-				   "filter is off)",
-				   d->name, others[i], new_id);
+			tool_log(TOOL_LOG_ERR,
+				 "%s: motor %u no longer answers: it took id %u too (its CAN-ID "
+				 "filter is off)",
+				 d->name, others[i], new_id);
 	return RMDCTL_EXIT_DATA;
 }
 
@@ -1049,11 +1048,10 @@ static int run_set_id(struct dev *d, int argc, char **argv)
 	int m, r;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "OLD id", &old_id) < 0 ||
-	    parse_id(d, argv[1], "NEW id", &new_id) < 0)
+	if (parse_id(argv[0], "OLD id", &old_id) < 0 || parse_id(argv[1], "NEW id", &new_id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	if (old_id == new_id) {
-		rmdctl_err(d->sub, "OLD and NEW are both %u", old_id);
+		tool_log(TOOL_LOG_ERR, "OLD and NEW are both %u", old_id);
 		return RMDCTL_EXIT_USAGE;
 	}
 	r = can_confirm(d, "write CAN id %u to motor %u on %s", new_id, old_id, d->bus_spec);
@@ -1074,24 +1072,25 @@ static int run_set_id(struct dev *d, int argc, char **argv)
 	}
 	r = RMDCTL_EXIT_DATA;
 	if (!old_seen) {
-		rmdctl_err(d->sub, "%s: motor %u does not answer 0x9A: nothing to renumber",
-			   d->name, old_id);
+		tool_log(TOOL_LOG_ERR, "%s: motor %u does not answer 0x9A: nothing to renumber",
+			 d->name, old_id);
 		goto out;
 	}
 	if (new_seen) {
-		rmdctl_err(d->sub, "%s: id %u is taken: a motor answers on it", d->name, new_id);
+		tool_log(TOOL_LOG_ERR, "%s: id %u is taken: a motor answers on it", d->name,
+			 new_id);
 		goto out;
 	}
 	if (v3) {
-		rmdctl_err(d->sub,
-			   "warning: V3 §4 sends 0x79 on 0x300: every motor on %s whose CAN-ID "
-			   "filter is off (0x20 index 2) takes id %u, not only motor %u",
-			   d->name, new_id, old_id);
+		tool_log(TOOL_LOG_ERR,
+			 "warning: V3 §4 sends 0x79 on 0x300: every motor on %s whose CAN-ID "
+			 "filter is off (0x20 index 2) takes id %u, not only motor %u",
+			 d->name, new_id, old_id);
 		if (m > 1 && !d->force) {
-			rmdctl_err(d->sub,
-				   "%s: %d motors answer; connect motor %u alone, or turn the "
-				   "others' CAN-ID filter on and add --force",
-				   d->name, m, old_id);
+			tool_log(TOOL_LOG_ERR,
+				 "%s: %d motors answer; connect motor %u alone, or turn the "
+				 "others' CAN-ID filter on and add --force",
+				 d->name, m, old_id);
 			goto out;
 		}
 	}
@@ -1112,10 +1111,10 @@ static int run_set_id(struct dev *d, int argc, char **argv)
 		goto out;
 	}
 	if (memcmp(q.t.rep.f.data, q.t.req.data, RMD_FRAME_LEN)) {
-		rmdctl_err(d->sub,
-			   "%s: the answer to 0x79 is not the echo of the request: the id "
-			   "may not have changed",
-			   d->name);
+		tool_log(TOOL_LOG_ERR,
+			 "%s: the answer to 0x79 is not the echo of the request: the id "
+			 "may not have changed",
+			 d->name);
 		r = RMDCTL_EXIT_DATA;
 		goto out;
 	}
@@ -1135,9 +1134,9 @@ static int run_set_id(struct dev *d, int argc, char **argv)
 			goto out;
 		}
 	} while (rmd_now_ns() < until && !interrupted);
-	rmdctl_err(d->sub, "%s: motor %u echoed the new id %u, but id %u %s and id %u %s", d->name,
-		   old_id, new_id, new_id, "does not answer as expected", old_id,
-		   "may still answer");
+	tool_log(TOOL_LOG_ERR, "%s: motor %u echoed the new id %u, but id %u %s and id %u %s",
+		 d->name, old_id, new_id, new_id, "does not answer as expected", old_id,
+		 "may still answer");
 	r = RMDCTL_EXIT_DATA;
 out:
 	close_bus(d);
@@ -1151,7 +1150,7 @@ static int run_set_zero(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	r = can_confirm(d, "write the zero of motor %u on %s", id, d->bus_spec);
 	if (r)
@@ -1183,15 +1182,16 @@ static int run_set_timeout(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	if (parse_uint(argv[1], 0, UINT32_MAX, &ms) < 0) {
-		rmdctl_err(d->sub, "bad MS \"%s\" (0..%" PRIu32 "; 0 turns the protection off)",
-			   argv[1], UINT32_MAX);
+		tool_log(TOOL_LOG_ERR, "bad MS \"%s\" (0..%" PRIu32 "; 0 turns the protection off)",
+			 argv[1], UINT32_MAX);
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (d->proto == RMD_PROTO_V2) {
-		rmdctl_err(d->sub, "protocol V2 has no comm-loss protection (0xB3 is V3 §2.30)");
+		tool_log(TOOL_LOG_ERR,
+			 "protocol V2 has no comm-loss protection (0xB3 is V3 §2.30)");
 		return RMDCTL_EXIT_USAGE;
 	}
 	r = can_confirm(d, "write the comm timeout of motor %u on %s", id, d->bus_spec);
@@ -1238,7 +1238,7 @@ static int run_accel(struct dev *d, int argc, char **argv)
 	uint8_t id;
 	int r;
 
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	if (argc == 1) {
 		/* V3 §2.4: the position-planning acceleration; V2 §3.19: the one there is. */
@@ -1255,26 +1255,27 @@ static int run_accel(struct dev *d, int argc, char **argv)
 		return RMDCTL_EXIT_OK;
 	}
 	if (v2 != (argc == 2)) {
-		rmdctl_err(d->sub, v2 ? "V2 writes one acceleration: accel ID DPS2" :
-					"V3 writes by index: accel ID INDEX DPS2");
+		tool_log(TOOL_LOG_ERR, v2 ? "V2 writes one acceleration: accel ID DPS2" :
+					    "V3 writes by index: accel ID INDEX DPS2");
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (!v2) {
 		for (index = 0; index < 4 && strcmp(argv[1], accel_names[index]); index++)
 			;
 		if (index == 4 && parse_uint(argv[1], 0, 3, &index) < 0) {
-			rmdctl_err(d->sub,
-				   "bad INDEX \"%s\" (0 position-accel, 1 position-decel, 2 "
-				   "speed-accel, 3 speed-decel)",
-				   argv[1]);
+			tool_log(TOOL_LOG_ERR,
+				 "bad INDEX \"%s\" (0 position-accel, 1 position-decel, 2 "
+				 "speed-accel, 3 speed-decel)",
+				 argv[1]);
 			return RMDCTL_EXIT_USAGE;
 		}
 	}
 	sval = argv[argc - 1];
 	if (parse_uint(sval, 0, INT32_MAX, &dps2) < 0 ||
 	    (!d->force && (dps2 < ACCEL_MIN_DPS2 || dps2 > ACCEL_MAX_DPS2))) {
-		rmdctl_err(d->sub, "bad DPS2 \"%s\" (%d..%d dps/s, V3 §2.5.1; --force for others)",
-			   sval, ACCEL_MIN_DPS2, ACCEL_MAX_DPS2);
+		tool_log(TOOL_LOG_ERR,
+			 "bad DPS2 \"%s\" (%d..%d dps/s, V3 §2.5.1; --force for others)", sval,
+			 ACCEL_MIN_DPS2, ACCEL_MAX_DPS2);
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (!v2) {
@@ -1351,26 +1352,26 @@ static int run_pid(struct dev *d, int argc, char **argv)
 	uint8_t id;
 	int r;
 
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	if (argc == 1) {
 		if (d->rom) {
-			rmdctl_err(d->sub, "--rom applies to writing gains");
+			tool_log(TOOL_LOG_ERR, "--rom applies to writing gains");
 			return RMDCTL_EXIT_USAGE;
 		}
 		return pid_read(d, id);
 	}
 	if (argc != 7) {
-		rmdctl_err(d->sub,
-			   "give all six gains: CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI");
+		tool_log(TOOL_LOG_ERR,
+			 "give all six gains: CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI");
 		return RMDCTL_EXIT_USAGE;
 	}
 	for (unsigned i = 0; i < 6; i++) {
 		/* V3 §2.2: uint8 gains; V2 §3.7: Q24 reals. */
 		if (rmdctl_parse_double(argv[1 + i], &g[i]) < 0 || g[i] < 0 ||
 		    (!v2 && (g[i] > 255 || g[i] != floor(g[i]))) || (v2 && g[i] >= 128)) {
-			rmdctl_err(d->sub, "bad gain \"%s\" (%s)", argv[1 + i],
-				   v2 ? "a real 0..127 (Q24)" : "an integer 0..255");
+			tool_log(TOOL_LOG_ERR, "bad gain \"%s\" (%s)", argv[1 + i],
+				 v2 ? "a real 0..127 (Q24)" : "an integer 0..255");
 			return RMDCTL_EXIT_USAGE;
 		}
 	}
@@ -1386,7 +1387,7 @@ static int run_pid(struct dev *d, int argc, char **argv)
 
 			req_init(&q[n], id, cmd);
 			if (set_native(&q[n].msg, spec_of(d, cmd), pid_fields[i], g[i]) < 0) {
-				rmdctl_err(d->sub, "gain %g does not fit 0x%02X", g[i], cmd);
+				tool_log(TOOL_LOG_ERR, "gain %g does not fit 0x%02X", g[i], cmd);
 				return RMDCTL_EXIT_USAGE;
 			}
 			n++;
@@ -1456,14 +1457,14 @@ static int run_brake(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	if (!strcmp(argv[1], "on") || !strcmp(argv[1], "lock")) {
 		lock = true;
 	} else if (!strcmp(argv[1], "off") || !strcmp(argv[1], "release")) {
 		lock = false;
 	} else {
-		rmdctl_err(d->sub, "bad state \"%s\" (on = locked, off = released)", argv[1]);
+		tool_log(TOOL_LOG_ERR, "bad state \"%s\" (on = locked, off = released)", argv[1]);
 		return RMDCTL_EXIT_USAGE;
 	}
 	/* V3 §2.27 / V2 §3.51: locking moves nothing. */
@@ -1493,7 +1494,7 @@ static int run_stop(struct dev *d, int argc, char **argv)
 	uint8_t id;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	/* V3 §2.16 / V2 §3.35: decelerate and hold. */
 	return simple(d, id, 0x81, "stopped, holding position");
@@ -1504,7 +1505,7 @@ static int run_off(struct dev *d, int argc, char **argv)
 	uint8_t id;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	/* V3 §2.15 / V2 §3.34: output off, state cleared. */
 	return simple(d, id, 0x80, "output off");
@@ -1519,7 +1520,7 @@ static int run_reset(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	r = open_bus(d);
 	if (r)
@@ -1549,8 +1550,8 @@ static int run_reset(struct dev *d, int argc, char **argv)
 		}
 		sleep_until(now + RESET_POLL_NS);
 	} while (rmd_now_ns() < until && !interrupted);
-	rmdctl_err(d->sub, "%s: motor %u: sent 0x76, but it did not answer again within %.0f s",
-		   d->name, id, RESET_WAIT_NS / 1e9);
+	tool_log(TOOL_LOG_ERR, "%s: motor %u: sent 0x76, but it did not answer again within %.0f s",
+		 d->name, id, RESET_WAIT_NS / 1e9);
 out:
 	close_bus(d);
 	return r;
@@ -1585,9 +1586,10 @@ static void stop_motor(struct dev *d, uint8_t id)
 
 	o.stop = NULL;
 	if (rmd_txn_prepare(&t, d->proto, id, &m) == 0 && rmd_txn_run(d->b, &t, 1, &o) == 1)
-		rmdctl_err(d->sub, "%s: motor %u stopped (0x81), holding position", d->name, id);
+		tool_log(TOOL_LOG_ERR, "%s: motor %u stopped (0x81), holding position", d->name,
+			 id);
 	else
-		rmdctl_err(d->sub, "%s: motor %u: stop (0x81) not acknowledged", d->name, id);
+		tool_log(TOOL_LOG_ERR, "%s: motor %u: stop (0x81) not acknowledged", d->name, id);
 }
 
 /* Poll 0x92 until the motor is within MOVE_TOL_DEG of target, stops short, or time runs out. */
@@ -1646,21 +1648,20 @@ static int run_move(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (parse_id(d, argv[0], "ID", &id) < 0)
+	if (parse_id(argv[0], "ID", &id) < 0)
 		return RMDCTL_EXIT_USAGE;
 	if (rmdctl_parse_double(argv[1], &target) < 0 || fabs(target) > 1e6) {
-		rmdctl_err(d->sub, "bad DEG \"%s\" (an angle in degrees)", argv[1]);
+		tool_log(TOOL_LOG_ERR, "bad DEG \"%s\" (an angle in degrees)", argv[1]);
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (!(d->speed_dps >= 1) || d->speed_dps > UINT16_MAX) {
-		rmdctl_err(d->sub, "bad --speed %g (1..%u dps)", d->speed_dps, UINT16_MAX);
+		tool_log(TOOL_LOG_ERR, "bad --speed %g (1..%u dps)", d->speed_dps, UINT16_MAX);
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (d->speed_dps > MOVE_SPEED_CAP_DPS && !d->force) {
-		rmdctl_err(
-			d->sub,
-			"refusing --speed %g dps: bench moves are capped at %g dps (add --force)",
-			d->speed_dps, MOVE_SPEED_CAP_DPS);
+		tool_log(TOOL_LOG_ERR,
+			 "refusing --speed %g dps: bench moves are capped at %g dps (add --force)",
+			 d->speed_dps, MOVE_SPEED_CAP_DPS);
 		return RMDCTL_EXIT_USAGE;
 	}
 	r = can_confirm(d, "move motor %u on %s", id, d->bus_spec);
@@ -1687,16 +1688,17 @@ static int run_move(struct dev *d, int argc, char **argv)
 	if (has(&rec, RMD_FLD_ERROR) && rec.raw[RMD_FLD_ERROR] && !d->force) {
 		char e[128];
 
-		rmdctl_err(d->sub, "%s: motor %u reports errors %s: not moving it (add --force)",
-			   d->name, id, errors_text(d, rec.raw[RMD_FLD_ERROR], e, sizeof(e)));
+		tool_log(TOOL_LOG_ERR,
+			 "%s: motor %u reports errors %s: not moving it (add --force)", d->name, id,
+			 errors_text(d, rec.raw[RMD_FLD_ERROR], e, sizeof(e)));
 		r = RMDCTL_EXIT_DATA;
 		goto out;
 	}
 	if (fabs(target - from) > MOVE_TRAVEL_CAP_DEG && !d->force) {
-		rmdctl_err(d->sub,
-			   "refusing to move motor %u by %.2f deg (from %.2f to %.2f): bench "
-			   "moves are capped at %g deg (add --force)",
-			   id, target - from, from, target, MOVE_TRAVEL_CAP_DEG);
+		tool_log(TOOL_LOG_ERR,
+			 "refusing to move motor %u by %.2f deg (from %.2f to %.2f): bench "
+			 "moves are capped at %g deg (add --force)",
+			 id, target - from, from, target, MOVE_TRAVEL_CAP_DEG);
 		r = RMDCTL_EXIT_USAGE;
 		goto out;
 	}
@@ -1715,7 +1717,8 @@ static int run_move(struct dev *d, int argc, char **argv)
 	req_init(&q[0], id, 0xA4);
 	if (set_native(&q[0].msg, spec, RMD_FLD_MAX_SPEED, d->speed_dps) < 0 ||
 	    set_native(&q[0].msg, spec, RMD_FLD_ANGLE, target) < 0) {
-		rmdctl_err(d->sub, "cannot encode 0xA4 to %g deg at %g dps", target, d->speed_dps);
+		tool_log(TOOL_LOG_ERR, "cannot encode 0xA4 to %g deg at %g dps", target,
+			 d->speed_dps);
 		r = RMDCTL_EXIT_USAGE;
 		goto out;
 	}
@@ -1738,8 +1741,8 @@ static int run_move(struct dev *d, int argc, char **argv)
 	if (r) {
 		/* Make sure nothing keeps moving after we stop watching. */
 		stop_motor(d, id);
-		rmdctl_err(d->sub, "%s: motor %u: %s at %.2f deg (target %.2f deg)", d->name, id,
-			   why, final, target);
+		tool_log(TOOL_LOG_ERR, "%s: motor %u: %s at %.2f deg (target %.2f deg)", d->name,
+			 id, why, final, target);
 		goto out;
 	}
 	if (d->json) {
@@ -1992,8 +1995,8 @@ static int set_option(struct dev *d, size_t k, const char *v)
 		d->baud = (uint32_t)u;
 	} else if (!strcmp(name, "protocol")) {
 		if (rmd_proto_parse(v, &d->proto) < 0 || d->proto == RMD_PROTO_MIT) {
-			rmdctl_err(d->sub, "bad --protocol \"%s\" (v3 or v2; MIT motors answer v3)",
-				   v);
+			tool_log(TOOL_LOG_ERR,
+				 "bad --protocol \"%s\" (v3 or v2; MIT motors answer v3)", v);
 			return -EINVAL;
 		}
 	} else if (!strcmp(name, "timeout")) {
@@ -2032,7 +2035,7 @@ static int set_option(struct dev *d, size_t k, const char *v)
 	}
 	return 0;
 bad:
-	rmdctl_err(d->sub, "bad --%s \"%s\"", name, v);
+	tool_log(TOOL_LOG_ERR, "bad --%s \"%s\"", name, v);
 	return -EINVAL;
 }
 
@@ -2070,22 +2073,22 @@ static int parse_args(struct dev *d, int argc, char **argv, char **pos)
 					break;
 		}
 		if (k == NOPTS) {
-			rmdctl_err(d->sub, "unknown option \"%s\"", a);
+			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", a);
 			return -1;
 		}
 		if (optdefs[k].flag && !(d->cmd->opts & optdefs[k].flag)) {
-			rmdctl_err(d->sub, "option --%s does not apply to %s", optdefs[k].name,
-				   d->cmd->name);
+			tool_log(TOOL_LOG_ERR, "option --%s does not apply to %s", optdefs[k].name,
+				 d->cmd->name);
 			return -1;
 		}
 		if (optdefs[k].arg && !v) {
 			if (i + 1 >= argc) {
-				rmdctl_err(d->sub, "option \"%s\" needs a value", a);
+				tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", a);
 				return -1;
 			}
 			v = argv[++i];
 		} else if (!optdefs[k].arg && v) {
-			rmdctl_err(d->sub, "option --%s takes no value", optdefs[k].name);
+			tool_log(TOOL_LOG_ERR, "option --%s takes no value", optdefs[k].name);
 			return -1;
 		}
 		r = set_option(d, k, v);
@@ -2107,7 +2110,7 @@ int rmdctl_dev_run(int argc, char **argv)
 	memset(&d, 0, sizeof(d));
 	d.cmd = find_dev(argv[0]);
 	if (!d.cmd) {
-		rmdctl_err(argv[0], "not a device command");
+		tool_log(TOOL_LOG_ERR, "not a device command");
 		return RMDCTL_EXIT_USAGE;
 	}
 	d.sub = d.cmd->name;
@@ -2121,7 +2124,7 @@ int rmdctl_dev_run(int argc, char **argv)
 
 	pos = calloc((size_t)argc + 1, sizeof(*pos));
 	if (!pos) {
-		rmdctl_err(d.sub, "out of memory");
+		tool_log(TOOL_LOG_ERR, "out of memory");
 		return RMDCTL_EXIT_DATA;
 	}
 	npos = parse_args(&d, argc, argv, pos);
@@ -2130,8 +2133,8 @@ int rmdctl_dev_run(int argc, char **argv)
 		return RMDCTL_EXIT_OK;
 	}
 	if (npos >= 0 && ((unsigned)npos < d.cmd->min_args || (unsigned)npos > d.cmd->max_args)) {
-		rmdctl_err(d.sub, "%s arguments: %s",
-			   (unsigned)npos < d.cmd->min_args ? "missing" : "too many", d.cmd->args);
+		tool_log(TOOL_LOG_ERR, "%s arguments: %s",
+			 (unsigned)npos < d.cmd->min_args ? "missing" : "too many", d.cmd->args);
 		npos = -1;
 	}
 	if (npos < 0) {
@@ -2151,7 +2154,7 @@ int rmdctl_dev_run(int argc, char **argv)
 	r = d.cmd->run(&d, npos, pos);
 	free(pos);
 	if (fflush(stdout) != 0 || ferror(stdout)) {
-		rmdctl_err(d.sub, "write error: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "write error: %s", strerror(errno));
 		r = RMDCTL_EXIT_DATA;
 	}
 	return r;

@@ -20,7 +20,6 @@
 #include "rmd/mit.h"
 #include "rmdctl.h"
 
-#define SUB "decode"
 /* Longest input line, newline excluded; candump's own lines stay under 120. */
 #define LINE_MAX_CHARS 511
 /* Digits of MIT values (quantised to 12..16 bits) and of table-scaled fields. */
@@ -552,10 +551,10 @@ static void bad_line(unsigned long lineno, const char *buf, const struct rmd_can
 	}
 	tok[o] = '\0';
 	if (l->err_len)
-		rmdctl_err(SUB, "line %lu: %s \"%s%s\"", lineno, rmd_candump_strerror(l->err), tok,
-			   l->err_len > n ? "..." : "");
+		tool_log(TOOL_LOG_ERR, "line %lu: %s \"%s%s\"", lineno,
+			 rmd_candump_strerror(l->err), tok, l->err_len > n ? "..." : "");
 	else
-		rmdctl_err(SUB, "line %lu: %s", lineno, rmd_candump_strerror(l->err));
+		tool_log(TOOL_LOG_ERR, "line %lu: %s", lineno, rmd_candump_strerror(l->err));
 }
 
 static int decode_stream(FILE *in, const struct decode_opts *opts)
@@ -572,13 +571,13 @@ static int decode_stream(FILE *in, const struct decode_opts *opts)
 
 		lineno++;
 		if (st == LINE_TOO_LONG) {
-			rmdctl_err(SUB, "line %lu: longer than %d characters", lineno,
-				   LINE_MAX_CHARS);
+			tool_log(TOOL_LOG_ERR, "line %lu: longer than %d characters", lineno,
+				 LINE_MAX_CHARS);
 			status = RMDCTL_EXIT_DATA;
 			continue;
 		}
 		if (st == LINE_NUL) {
-			rmdctl_err(SUB, "line %lu: contains a NUL byte", lineno);
+			tool_log(TOOL_LOG_ERR, "line %lu: contains a NUL byte", lineno);
 			status = RMDCTL_EXIT_DATA;
 			continue;
 		}
@@ -593,7 +592,7 @@ static int decode_stream(FILE *in, const struct decode_opts *opts)
 		print_decoded(stdout, opts->json, &d);
 	}
 	if (ferror(in)) {
-		rmdctl_err(SUB, "read error after line %lu", lineno);
+		tool_log(TOOL_LOG_ERR, "read error after line %lu", lineno);
 		status = RMDCTL_EXIT_DATA;
 	}
 	return status;
@@ -624,7 +623,8 @@ int rmdctl_decode_run(int argc, char **argv)
 		switch (c) {
 		case 'p':
 			if (rmd_proto_parse(optarg, &opts.proto) < 0) {
-				rmdctl_err(SUB, "unknown protocol \"%s\" (v3, v2 or mit)", optarg);
+				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (v3, v2 or mit)",
+					 optarg);
 				goto usage;
 			}
 			break;
@@ -633,8 +633,8 @@ int rmdctl_decode_run(int argc, char **argv)
 			break;
 		case 'm':
 			if (rmd_mit_ranges_parse(optarg, &opts.ranges) < 0) {
-				rmdctl_err(
-					SUB,
+				tool_log(
+					TOOL_LOG_ERR,
 					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
 					optarg);
 				goto usage;
@@ -646,8 +646,8 @@ int rmdctl_decode_run(int argc, char **argv)
 			} else if (!strcmp(optarg, "reply")) {
 				opts.dir = RMD_DIR_REPLY;
 			} else {
-				rmdctl_err(SUB, "bad --direction \"%s\" (request or reply)",
-					   optarg);
+				tool_log(TOOL_LOG_ERR, "bad --direction \"%s\" (request or reply)",
+					 optarg);
 				goto usage;
 			}
 			break;
@@ -655,22 +655,22 @@ int rmdctl_decode_run(int argc, char **argv)
 			rmdctl_decode_usage(stdout);
 			return RMDCTL_EXIT_OK;
 		case ':':
-			rmdctl_err(SUB, "option \"%s\" needs a value", argv[optind - 1]);
+			tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
 			goto usage;
 		default:
-			rmdctl_err(SUB, "unknown option \"%s\"", argv[optind - 1]);
+			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
 			goto usage;
 		}
 	}
 	if (argc - optind > 1) {
-		rmdctl_err(SUB, "one FILE at most");
+		tool_log(TOOL_LOG_ERR, "one FILE at most");
 		goto usage;
 	}
 	if (optind < argc && strcmp(argv[optind], "-")) {
 		path = argv[optind];
 		in = fopen(path, "r");
 		if (!in) {
-			rmdctl_err(SUB, "%s: %s", path, strerror(errno));
+			tool_log(TOOL_LOG_ERR, "%s: %s", path, strerror(errno));
 			return RMDCTL_EXIT_DATA;
 		}
 	}
@@ -680,7 +680,7 @@ int rmdctl_decode_run(int argc, char **argv)
 	if (path)
 		fclose(in);
 	if (fflush(stdout) != 0 || ferror(stdout)) {
-		rmdctl_err(SUB, "write error: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "write error: %s", strerror(errno));
 		status = RMDCTL_EXIT_DATA;
 	}
 	return status;

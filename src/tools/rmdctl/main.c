@@ -11,7 +11,6 @@
  */
 #include <errno.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,17 +44,6 @@ static const struct rmdctl_cmd cmds[] = {
 	  rmdctl_move_usage },
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
-
-void rmdctl_err(const char *sub, const char *fmt, ...)
-{
-	va_list ap;
-
-	fprintf(stderr, "rmdctl %s: ", sub);
-	va_start(ap, fmt);
-	vfprintf(stderr, fmt, ap);
-	va_end(ap);
-	fputc('\n', stderr);
-}
 
 int rmdctl_parse_double(const char *s, double *v)
 {
@@ -130,6 +118,8 @@ static void usage(FILE *f)
 		   "refused confirmations or safety limits.\n");
 }
 
+static char log_name[32];
+
 static const struct rmdctl_cmd *find_cmd(const char *name)
 {
 	for (size_t i = 0; i < NCMDS; i++)
@@ -171,5 +161,8 @@ int main(int argc, char **argv)
 		usage(stderr);
 		return RMDCTL_EXIT_USAGE;
 	}
+	/* Messages read "rmdctl scan: ...". */
+	snprintf(log_name, sizeof(log_name), "rmdctl %s", cmd->name);
+	tool_log_init(log_name, TOOL_LOG_DEBUG, TOOL_LOG_NO_LEVEL);
 	return cmd->run(argc - 1, argv + 1);
 }

@@ -12,6 +12,7 @@
 
 #include "rmd/codec.h"
 #include "rmd/mit.h"
+#include "tools/common/log.h"
 
 /* Exit statuses of every subcommand (printed by `rmdctl --help`). */
 enum {
@@ -49,9 +50,6 @@ void rmdctl_stop_usage(FILE *f);
 void rmdctl_off_usage(FILE *f);
 void rmdctl_reset_usage(FILE *f);
 void rmdctl_move_usage(FILE *f);
-
-/* "rmdctl SUB: message\n" on stderr. */
-void rmdctl_err(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
