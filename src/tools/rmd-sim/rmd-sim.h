@@ -116,15 +116,6 @@ void sim_config_help(void);
 /* A set of motor ids (bit id - 1) as "1-3,5", for messages. */
 void sim_format_motors(uint32_t mask, char *buf, size_t size);
 
-/* ---- rmd-sim_frames.c --------------------------------------------------------------------- */
-
-/*
- * The frame as "command_name key=value ..." (codec names, native units) in
- * buf; MIT frames decoded with `mit` (may be NULL for other protocols).
- */
-void sim_describe(char *buf, size_t size, enum rmd_proto proto, enum rmd_dir dir,
-		  const struct rmd_mit_ranges *mit, const struct rmd_frame *f);
-
 /* ---- rmd-sim_loop.c ----------------------------------------------------------------------- */
 
 /* Open the wire, run until SIGINT/SIGTERM, report.  Returns an exit status. */

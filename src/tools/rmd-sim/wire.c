@@ -66,6 +66,7 @@
 #include "rmd/time.h"
 #include "rmd/rng.h"
 #include "rmd/codec.h"
+#include "rmd/describe.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
 #include "rmd/sim_bus.h"
@@ -254,6 +255,15 @@ static void hex(char *buf, size_t size, const uint8_t *b, size_t n)
 		k += (size_t)snprintf(buf + k, size - k, "%s%02X", i ? " " : "", b[i]);
 }
 
+/* A frame for -v (rmd/describe.h), and the simulator's own 0xF1 comm-loss notice. */
+static void describe(char *buf, size_t size, enum rmd_proto proto, enum rmd_dir dir,
+		     const struct rmd_mit_ranges *mit, const struct rmd_frame *f)
+{
+	if (rmd_describe_frame(buf, size, proto, dir, mit, f) < 0 && dir == RMD_DIR_REPLY &&
+	    f->len >= 1 && f->data[0] == RMD_SIM_CMD_COMM_LOST)
+		snprintf(buf, size, "comm_lost (0xF1, unsolicited)");
+}
+
 static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_t rs485_id)
 {
 	char desc[512], data[32];
@@ -263,7 +273,7 @@ static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_
 	if (!tool_log_enabled(TOOL_LOG_DEBUG))
 		return;
 	proto = request_proto(s, f->can_id, &mit);
-	sim_describe(desc, sizeof(desc), proto, RMD_DIR_REQUEST, mit, f);
+	describe(desc, sizeof(desc), proto, RMD_DIR_REQUEST, mit, f);
 	hex(data, sizeof(data), f->data, f->len);
 	if (s->serial)
 		tool_log(TOOL_LOG_DEBUG,
@@ -294,7 +304,7 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 		      e->f.can_id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS))
 			proto = RMD_PROTO_V3;
 		snprintf(who, sizeof(who), "motor %u", sl->id);
-		sim_describe(desc, sizeof(desc), proto, RMD_DIR_REPLY, mit, wire);
+		describe(desc, sizeof(desc), proto, RMD_DIR_REPLY, mit, wire);
 	} else {
 		snprintf(who, sizeof(who), "flood");
 		snprintf(desc, sizeof(desc), "(foreign frame)");

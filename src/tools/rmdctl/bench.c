@@ -32,6 +32,7 @@
 #include "rmd/bus_open.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/codec.h"
+#include "rmd/describe.h"
 #include "rmd/txn.h"
 #include "rmdctl.h"
 
@@ -142,7 +143,7 @@ static const struct rmd_cmd_spec *spec_of(const struct dev *d, uint8_t cmd)
 /* "5", "0.5": a number of ms for messages. */
 static const char *ms_str(char *buf, size_t size, double ms)
 {
-	rmdctl_fmt_real(buf, size, ms, 6);
+	rmd_fmt_real(buf, size, ms, 6);
 	return buf;
 }
 
@@ -612,7 +613,7 @@ static const char *field_text(const struct dev *d, const struct rec *r, enum rmd
 	if (r->scale[f] == 1.0)
 		snprintf(buf, size, "%" PRId64, r->raw[f]);
 	else
-		rmdctl_fmt_real(buf, size, val(r, f), FIELD_DIGITS);
+		rmd_fmt_real(buf, size, val(r, f), FIELD_DIGITS);
 	return buf;
 }
 
@@ -671,7 +672,7 @@ static void text_field(const struct dev *d, const struct rec *r, enum rmd_field 
 	char label[40], buf[128];
 	const char *unit;
 
-	rmdctl_field_label(f, label, sizeof(label), &unit);
+	rmd_field_label(f, label, sizeof(label), &unit);
 	if (f == RMD_FLD_ERROR)
 		snprintf(label, sizeof(label), "errors");
 	else if (f == RMD_FLD_BRAKE)

@@ -18,6 +18,7 @@
 #include <string.h>
 
 #include "rmd/codec.h"
+#include "rmd/describe.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmdctl.h"
@@ -292,10 +293,10 @@ static int set_field(const struct enc_ctx *ctx, const char *what, const struct r
 		rmd_msg_set(msg, fld, (int64_t)llround(q));
 		return 0;
 	}
-	rmdctl_field_label(fld, label, sizeof(label), &unit);
-	rmdctl_fmt_real(vs, sizeof(vs), v, 15);
-	rmdctl_fmt_real(los, sizeof(los), (double)lo * fs->scale, 15);
-	rmdctl_fmt_real(his, sizeof(his), (double)hi * fs->scale, 15);
+	rmd_field_label(fld, label, sizeof(label), &unit);
+	rmd_fmt_real(vs, sizeof(vs), v, 15);
+	rmd_fmt_real(los, sizeof(los), (double)lo * fs->scale, 15);
+	rmd_fmt_real(his, sizeof(his), (double)hi * fs->scale, 15);
 	if (lim)
 		tool_log(TOOL_LOG_ERR, "%s: %s = %s%s%s is out of range %s..%s%s%s (%s)", what,
 			 rmd_field_key(fld), vs, *unit ? " " : "", unit, los, his, *unit ? " " : "",
@@ -477,9 +478,9 @@ static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 		if (v[i] >= lo[i] && v[i] <= hi[i])
 			continue;
 		/* rmd_mit_encode_cmd() would clamp: say so instead. */
-		rmdctl_fmt_real(vs, sizeof(vs), v[i], 10);
-		rmdctl_fmt_real(los, sizeof(los), lo[i], 10);
-		rmdctl_fmt_real(his, sizeof(his), hi[i], 10);
+		rmd_fmt_real(vs, sizeof(vs), v[i], 10);
+		rmd_fmt_real(los, sizeof(los), lo[i], 10);
+		rmd_fmt_real(his, sizeof(his), hi[i], 10);
 		tool_log(TOOL_LOG_ERR, "mit: %s %s%s is out of range %s..%s%s (--mit-ranges)",
 			 names[i], vs, units[i], los, his, units[i]);
 		return RMDCTL_EXIT_USAGE;

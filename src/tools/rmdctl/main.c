@@ -56,50 +56,6 @@ int rmdctl_parse_double(const char *s, double *v)
 	return 0;
 }
 
-/* Key suffixes that carry a unit (see enum rmd_field). */
-static const struct {
-	const char *suffix;
-	const char *unit;
-} unit_suffixes[] = {
-	{ "_c", "°C" },	   { "_a", "A" }, { "_dps", "dps" }, { "_dps2", "dps/s" },
-	{ "_deg", "deg" }, { "_v", "V" }, { "_w", "W" },     { "_ms", "ms" },
-};
-
-void rmdctl_field_label(enum rmd_field fld, char *label, size_t size, const char **unit)
-{
-	const char *key = rmd_field_key(fld);
-	size_t n = strlen(key);
-
-	*unit = "";
-	for (size_t i = 0; i < sizeof(unit_suffixes) / sizeof(unit_suffixes[0]); i++) {
-		size_t sl = strlen(unit_suffixes[i].suffix);
-
-		if (n > sl && !strcmp(key + n - sl, unit_suffixes[i].suffix)) {
-			*unit = unit_suffixes[i].unit;
-			n -= sl;
-			break;
-		}
-	}
-	if (size == 0)
-		return;
-	if (n >= size)
-		n = size - 1;
-	for (size_t i = 0; i < n; i++)
-		label[i] = key[i] == '_' ? ' ' : key[i];
-	label[n] = '\0';
-}
-
-void rmdctl_fmt_real(char *buf, size_t size, double v, int digits)
-{
-	if (!isfinite(v)) {
-		snprintf(buf, size, "null");
-		return;
-	}
-	if (v == 0)
-		v = 0; /* no "-0" */
-	snprintf(buf, size, "%.*g", digits, v);
-}
-
 static void usage(FILE *f)
 {
 	fprintf(f, "usage: rmdctl COMMAND [ARGS...]\n"

@@ -54,13 +54,4 @@ void rmdctl_move_usage(FILE *f);
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
 
-/*
- * Human label and unit of a field, derived from its JSON key: "voltage_v" ->
- * "voltage", "V"; "encoder" -> "encoder", "".  label gets at most size - 1 chars.
- */
-void rmdctl_field_label(enum rmd_field fld, char *label, size_t size, const char **unit);
-
-/* A number as JSON and humans want it: no exponent noise ("48.5"), NaN/Inf as "null". */
-void rmdctl_fmt_real(char *buf, size_t size, double v, int digits);
-
 #endif /* RMDCTL_H */
