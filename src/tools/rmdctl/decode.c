@@ -432,30 +432,23 @@ int rmdctl_decode_run(int argc, char **argv)
 	};
 	const char *path = NULL;
 	FILE *in = stdin;
-	int c, status;
+	int c, r, status;
 
 	optind = 0; /* glibc: full re-initialisation */
 	opterr = 0;
 	while ((c = getopt_long(argc, argv, ":p:jm:d:h", longopts, NULL)) != -1) {
+		r = rmdctl_codec_opt(c, argv, &opts.proto, &opts.ranges);
+		if (r == RMDCTL_OPT_HELP) {
+			rmdctl_decode_usage(stdout);
+			return RMDCTL_EXIT_OK;
+		}
+		if (r == RMDCTL_OPT_BAD)
+			goto usage;
+		if (r == RMDCTL_OPT_APPLIED)
+			continue;
 		switch (c) {
-		case 'p':
-			if (rmd_proto_parse(optarg, &opts.proto) < 0) {
-				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (v3, v2 or mit)",
-					 optarg);
-				goto usage;
-			}
-			break;
 		case 'j':
 			opts.json = true;
-			break;
-		case 'm':
-			if (rmd_mit_ranges_parse(optarg, &opts.ranges) < 0) {
-				tool_log(
-					TOOL_LOG_ERR,
-					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
-					optarg);
-				goto usage;
-			}
 			break;
 		case 'd':
 			if (!strcmp(optarg, "request")) {
@@ -468,15 +461,6 @@ int rmdctl_decode_run(int argc, char **argv)
 				goto usage;
 			}
 			break;
-		case 'h':
-			rmdctl_decode_usage(stdout);
-			return RMDCTL_EXIT_OK;
-		case ':':
-			tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
-			goto usage;
-		default:
-			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
-			goto usage;
 		}
 	}
 	if (argc - optind > 1) {

@@ -630,14 +630,16 @@ int rmdctl_encode_run(int argc, char **argv)
 	opterr = 0;
 	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
 	while ((c = getopt_long(argc, argv, "+:p:i:m:h", longopts, NULL)) != -1) {
+		r = rmdctl_codec_opt(c, argv, &ctx.proto, &ctx.r);
+		if (r == RMDCTL_OPT_HELP) {
+			rmdctl_encode_usage(stdout);
+			return RMDCTL_EXIT_OK;
+		}
+		if (r == RMDCTL_OPT_BAD)
+			goto usage;
+		if (r == RMDCTL_OPT_APPLIED)
+			continue;
 		switch (c) {
-		case 'p':
-			if (rmd_proto_parse(optarg, &ctx.proto) < 0) {
-				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (v3, v2 or mit)",
-					 optarg);
-				goto usage;
-			}
-			break;
 		case 'i':
 			errno = 0;
 			id = strtol(optarg, &end, 10);
@@ -648,24 +650,6 @@ int rmdctl_encode_run(int argc, char **argv)
 			}
 			ctx.motor_id = (int)id;
 			break;
-		case 'm':
-			if (rmd_mit_ranges_parse(optarg, &ctx.r) < 0) {
-				tool_log(
-					TOOL_LOG_ERR,
-					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
-					optarg);
-				goto usage;
-			}
-			break;
-		case 'h':
-			rmdctl_encode_usage(stdout);
-			return RMDCTL_EXIT_OK;
-		case ':':
-			tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
-			goto usage;
-		default:
-			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
-			goto usage;
 		}
 	}
 	ctx.table = ctx.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
