@@ -60,22 +60,6 @@ const char *rmdctl_ms_str(char *buf, size_t size, double ms)
 	return buf;
 }
 
-/* Set field f of a request to `value` in native units (the row's scale); -ERANGE if it cannot. */
-int rmdctl_set_native(struct rmd_msg *m, const struct rmd_cmd_spec *spec, enum rmd_field f,
-		      double value)
-{
-	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, f);
-	double raw;
-
-	if (!fs || !(fs->scale > 0))
-		return -EINVAL;
-	raw = round(value / fs->scale);
-	if (!isfinite(raw) || fabs(raw) > 9e15)
-		return -ERANGE;
-	rmd_msg_set(m, f, (int64_t)raw);
-	return 0;
-}
-
 /* A whole-string unsigned integer in [lo, hi].  Returns 0 or -EINVAL. */
 int rmdctl_parse_uint(const char *s, uint64_t lo, uint64_t hi, uint64_t *v)
 {

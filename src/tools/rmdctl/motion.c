@@ -312,8 +312,9 @@ int rmdctl_run_move(struct dev *d, int argc, char **argv)
 	}
 	/* V3 §2.20 / V2 §3.40: absolute position, speed limited. */
 	rmdctl_req_init(&q[0], id, 0xA4);
-	if (rmdctl_set_native(&q[0].msg, spec, RMD_FLD_MAX_SPEED, d->speed_dps) < 0 ||
-	    rmdctl_set_native(&q[0].msg, spec, RMD_FLD_ANGLE, target) < 0) {
+	if (rmd_msg_set_native(&q[0].msg, spec, RMD_DIR_REQUEST, RMD_FLD_MAX_SPEED, d->speed_dps) <
+		    0 ||
+	    rmd_msg_set_native(&q[0].msg, spec, RMD_DIR_REQUEST, RMD_FLD_ANGLE, target) < 0) {
 		tool_log(TOOL_LOG_ERR, "cannot encode 0xA4 to %g deg at %g dps", target,
 			 d->speed_dps);
 		r = RMDCTL_EXIT_USAGE;

@@ -136,9 +136,6 @@ void rmdctl_dev_usage(FILE *f, const struct rmdctl_cmd *c);
 const struct rmd_cmd_spec *rmdctl_spec(const struct dev *d, uint8_t cmd);
 /* "5", "0.5": a number of ms for messages. */
 const char *rmdctl_ms_str(char *buf, size_t size, double ms);
-/* Set field f of a request to `value` in native units; -ERANGE if it cannot. */
-int rmdctl_set_native(struct rmd_msg *m, const struct rmd_cmd_spec *spec, enum rmd_field f,
-		      double value);
 /* A whole-string unsigned integer in [lo, hi].  Returns 0 or -EINVAL. */
 int rmdctl_parse_uint(const char *s, uint64_t lo, uint64_t hi, uint64_t *v);
 /* A motor id 1..32 (reported when bad).  Returns 0 or -EINVAL. */

@@ -402,8 +402,8 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 			uint8_t cmd = (uint8_t)(rmdctl_v2_pid_read[i] + (d->rom ? 12 : 6));
 
 			rmdctl_req_init(&q[n], id, cmd);
-			if (rmdctl_set_native(&q[n].msg, rmdctl_spec(d, cmd), pid_fields[i], g[i]) <
-			    0) {
+			if (rmd_msg_set_native(&q[n].msg, rmdctl_spec(d, cmd), RMD_DIR_REQUEST,
+					       pid_fields[i], g[i]) < 0) {
 				tool_log(TOOL_LOG_ERR, "gain %g does not fit 0x%02X", g[i], cmd);
 				return RMDCTL_EXIT_USAGE;
 			}
