@@ -106,25 +106,6 @@ unsigned rmdctl_all_ids(uint8_t *ids)
 /* ---- confirmation --------------------------------------------------------------------- */
 
 /*
- * Before anything is sent: without --yes a terminal must be there to ask.
- * Returns 0 or RMDCTL_EXIT_USAGE (message printed).
- */
-__attribute__((format(printf, 2, 3))) int rmdctl_can_confirm(struct dev *d, const char *fmt, ...)
-{
-	char what[256];
-	va_list ap;
-
-	if (d->yes || isatty(STDIN_FILENO))
-		return 0;
-	va_start(ap, fmt);
-	vsnprintf(what, sizeof(what), fmt, ap);
-	va_end(ap);
-	tool_log(TOOL_LOG_ERR,
-		 "refusing to %s without confirmation: stdin is not a terminal (add --yes)", what);
-	return RMDCTL_EXIT_USAGE;
-}
-
-/*
  * Ask "QUESTION? [y/N]" on the terminal, unless --yes.  Returns 0 (go
  * ahead), RMDCTL_EXIT_USAGE (no terminal) or RMDCTL_EXIT_DATA (declined).
  */
@@ -259,6 +240,24 @@ int rmdctl_open_bus(struct dev *d)
 	return 0;
 }
 
+int rmdctl_open_bus_for(struct dev *d, bool confirm, const char *fmt, ...)
+{
+	char what[256];
+	va_list ap;
+
+	/* Before anything is sent: without --yes a terminal must be there to ask. */
+	if (confirm && !d->yes && !isatty(STDIN_FILENO)) {
+		va_start(ap, fmt);
+		vsnprintf(what, sizeof(what), fmt, ap);
+		va_end(ap);
+		tool_log(TOOL_LOG_ERR,
+			 "refusing to %s without confirmation: stdin is not a terminal (add --yes)",
+			 what);
+		return RMDCTL_EXIT_USAGE;
+	}
+	return rmdctl_open_bus(d);
+}
+
 void rmdctl_close_bus(struct dev *d)
 {
 	if (d->b == &d->tbus)
@@ -352,6 +351,17 @@ int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n)
 						RMD_DIR_REPLY, q[i].msg.cmd, f, &q[i].rep) == 0;
 	}
 	return 0;
+}
+
+int rmdctl_exchange(struct dev *d, struct req *q, unsigned n)
+{
+	int r = rmdctl_open_bus(d);
+
+	if (r)
+		return r;
+	r = rmdctl_run_reqs(d, q, n);
+	rmdctl_close_bus(d);
+	return r;
 }
 
 /* One request; reports failure.  Returns 0 or RMDCTL_EXIT_DATA. */
@@ -652,6 +662,12 @@ int rmdctl_dev_run(const struct rmdctl_cmd *cmd, int argc, char **argv)
 	if (npos < 0) {
 		free(pos);
 		rmdctl_dev_usage(stderr, d.cmd);
+		return RMDCTL_EXIT_USAGE;
+	}
+	/* "ID ...": every such command's motor, checked once here. */
+	if (!strncmp(cmd->args, "ID", 2) && (cmd->args[2] == ' ' || !cmd->args[2]) &&
+	    rmdctl_parse_id(pos[0], "ID", &d.id) < 0) {
+		free(pos);
 		return RMDCTL_EXIT_USAGE;
 	}
 

@@ -48,12 +48,10 @@ int rmdctl_run_brake(struct dev *d, int argc, char **argv)
 {
 	bool lock;
 	struct req q;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
 	(void)argc;
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
 	if (!strcmp(argv[1], "on") || !strcmp(argv[1], "lock")) {
 		lock = true;
 	} else if (!strcmp(argv[1], "off") || !strcmp(argv[1], "release")) {
@@ -66,10 +64,7 @@ int rmdctl_run_brake(struct dev *d, int argc, char **argv)
 	if (lock)
 		return simple(d, id, 0x78, "brake locked");
 	/* V3 §2.26: a released brake lets the load move the shaft. */
-	r = rmdctl_can_confirm(d, "release the brake of motor %u on %s", id, d->bus_spec);
-	if (r)
-		return r;
-	r = rmdctl_open_bus(d);
+	r = rmdctl_open_bus_for(d, true, "release the brake of motor %u on %s", id, d->bus_spec);
 	if (r)
 		return r;
 	r = rmdctl_confirm(d, "release the brake of motor %u on %s (the load may move the shaft)",
@@ -84,28 +79,20 @@ int rmdctl_run_brake(struct dev *d, int argc, char **argv)
 	return r;
 }
 
-/* `rmdctl CMD ID`: one echoing command. */
-static int simple_id(struct dev *d, const char *arg, uint8_t cmd, const char *done)
-{
-	uint8_t id;
-
-	if (rmdctl_parse_id(arg, "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
-	return simple(d, id, cmd, done);
-}
-
 int rmdctl_run_stop(struct dev *d, int argc, char **argv)
 {
 	(void)argc;
+	(void)argv;
 	/* V3 §2.16 / V2 §3.35: decelerate and hold. */
-	return simple_id(d, argv[0], 0x81, "stopped, holding position");
+	return simple(d, d->id, 0x81, "stopped, holding position");
 }
 
 int rmdctl_run_off(struct dev *d, int argc, char **argv)
 {
 	(void)argc;
+	(void)argv;
 	/* V3 §2.15 / V2 §3.34: output off, state cleared. */
-	return simple_id(d, argv[0], 0x80, "output off");
+	return simple(d, d->id, 0x80, "output off");
 }
 
 int rmdctl_run_reset(struct dev *d, int argc, char **argv)
@@ -113,12 +100,11 @@ int rmdctl_run_reset(struct dev *d, int argc, char **argv)
 	bool v2 = d->proto == RMD_PROTO_V2;
 	int64_t t_reset, until;
 	struct req q;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
 	(void)argc;
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
+	(void)argv;
 	r = rmdctl_open_bus(d);
 	if (r)
 		return r;
@@ -241,12 +227,10 @@ int rmdctl_run_move(struct dev *d, int argc, char **argv)
 	const char *why = "";
 	bool release;
 	int64_t t0;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
 	(void)argc;
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
 	if (rmdctl_parse_double(argv[1], &target) < 0 || fabs(target) > 1e6) {
 		tool_log(TOOL_LOG_ERR, "bad DEG \"%s\" (an angle in degrees)", argv[1]);
 		return RMDCTL_EXIT_USAGE;
@@ -261,10 +245,7 @@ int rmdctl_run_move(struct dev *d, int argc, char **argv)
 			 d->speed_dps, MOVE_SPEED_CAP_DPS);
 		return RMDCTL_EXIT_USAGE;
 	}
-	r = rmdctl_can_confirm(d, "move motor %u on %s", id, d->bus_spec);
-	if (r)
-		return r;
-	r = rmdctl_open_bus(d);
+	r = rmdctl_open_bus_for(d, true, "move motor %u on %s", id, d->bus_spec);
 	if (r)
 		return r;
 	/* Where it is, and whether its brake would hold it (V3 §2.12: data[3]). */

@@ -17,12 +17,16 @@
 
 /* ---- scan ----------------------------------------------------------------------------- */
 
-static int ids_arg(const char *s, uint8_t *ids)
+/* The optional IDS argument, or ids 1..32.  Returns the count or -1 (reported). */
+static int ids_arg(int argc, char **argv, uint8_t *ids)
 {
-	int n = rmd_bus_open_parse_ids(s, ids);
+	int n;
 
+	if (argc == 0)
+		return (int)rmdctl_all_ids(ids);
+	n = rmd_bus_open_parse_ids(argv[0], ids);
 	if (n < 0)
-		tool_log(TOOL_LOG_ERR, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", s,
+		tool_log(TOOL_LOG_ERR, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", argv[0],
 			 RMD_MAX_MOTORS);
 	return n;
 }
@@ -39,14 +43,10 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 	int m, r;
 	char ms[32];
 
-	if (argc > 0) {
-		m = ids_arg(argv[0], ids);
-		if (m < 0)
-			return RMDCTL_EXIT_USAGE;
-		n = (unsigned)m;
-	} else {
-		n = rmdctl_all_ids(ids);
-	}
+	m = ids_arg(argc, argv, ids);
+	if (m < 0)
+		return RMDCTL_EXIT_USAGE;
+	n = (unsigned)m;
 	r = rmdctl_open_bus(d);
 	if (r)
 		return r;
@@ -117,12 +117,11 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 	struct req q[12];
 	struct rec rec = { 0 };
 	unsigned n = 0, bad;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
 	(void)argc;
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
+	(void)argv;
 	if (d->proto != RMD_PROTO_V2) {
 		rmdctl_req_init(&q[n++], id, 0xB5); /* V3 §2.32 */
 		rmdctl_req_init(&q[n++], id, 0xB2); /* V3 §2.29 */
@@ -134,11 +133,7 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 	}
 	rmdctl_req_init(&q[n++], id, 0x42); /* V3 §2.4 / V2 §3.19 */
 	rmdctl_req_init(&q[n++], id, 0x70); /* V3 §2.23 / V2 §3.45 */
-	r = rmdctl_open_bus(d);
-	if (r)
-		return r;
-	r = rmdctl_run_reqs(d, q, n);
-	rmdctl_close_bus(d);
+	r = rmdctl_exchange(d, q, n);
 	if (r)
 		return r;
 	bad = rmdctl_report_failed(d, q, n);
@@ -187,18 +182,13 @@ int rmdctl_run_status(struct dev *d, int argc, char **argv)
 	struct req q[3];
 	struct rec rec;
 	unsigned bad;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
 	(void)argc;
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
+	(void)argv;
 	status_reqs(q, id);
-	r = rmdctl_open_bus(d);
-	if (r)
-		return r;
-	r = rmdctl_run_reqs(d, q, 3);
-	rmdctl_close_bus(d);
+	r = rmdctl_exchange(d, q, 3);
 	if (r)
 		return r;
 	bad = rmdctl_report_failed(d, q, 3);
@@ -271,14 +261,10 @@ int rmdctl_run_monitor(struct dev *d, int argc, char **argv)
 	unsigned n;
 	int m, r, status = RMDCTL_EXIT_OK;
 
-	if (argc > 0) {
-		m = ids_arg(argv[0], ids);
-		if (m < 0)
-			return RMDCTL_EXIT_USAGE;
-		n = (unsigned)m;
-	} else {
-		n = rmdctl_all_ids(ids);
-	}
+	m = ids_arg(argc, argv, ids);
+	if (m < 0)
+		return RMDCTL_EXIT_USAGE;
+	n = (unsigned)m;
 	r = rmdctl_open_bus(d);
 	if (r)
 		return r;

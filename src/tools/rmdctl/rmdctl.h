@@ -90,6 +90,7 @@ int rmdctl_parse_double(const char *s, double *v);
 /* Everything one run of a device command holds. */
 struct dev {
 	const struct rmdctl_cmd *cmd;
+	uint8_t id; /* commands whose first argument is ID: that motor */
 	/* options */
 	const char *bus_spec;
 	uint32_t baud;
@@ -144,18 +145,24 @@ void rmdctl_sleep_until(int64_t t_ns);
 /* ids[] = 1..32; returns 32. */
 unsigned rmdctl_all_ids(uint8_t *ids);
 
-/* Without --yes a terminal must be there to ask.  0 or RMDCTL_EXIT_USAGE (reported). */
-int rmdctl_can_confirm(struct dev *d, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* "QUESTION? [y/N]" unless --yes: 0, RMDCTL_EXIT_USAGE (no terminal) or RMDCTL_EXIT_DATA. */
 int rmdctl_confirm(struct dev *d, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 /* Open --bus (with --trace, behind the tracing bus).  0 or RMDCTL_EXIT_DATA (reported). */
 int rmdctl_open_bus(struct dev *d);
+/*
+ * The same for a command that will ask (confirm: ROM writes, moves): without
+ * --yes and a terminal it refuses to "fmt..." first.  0 or an exit status.
+ */
+int rmdctl_open_bus_for(struct dev *d, bool confirm, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
 void rmdctl_close_bus(struct dev *d);
 
 void rmdctl_req_init(struct req *q, uint8_t id, uint8_t cmd);
 /* q[0..n) as one pipelined batch: 0 (each q[i].ok says), RMDCTL_EXIT_DATA on a bus error. */
 int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n);
+/* Open the bus, rmdctl_run_reqs(), close it: 0 or an exit status. */
+int rmdctl_exchange(struct dev *d, struct req *q, unsigned n);
 /* One request; failure reported.  0 or RMDCTL_EXIT_DATA. */
 int rmdctl_ask(struct dev *d, struct req *q);
 /* "motor 3 did not answer 0x9A within 5 ms (3 tries)" + more. */

@@ -66,10 +66,8 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 		tool_log(TOOL_LOG_ERR, "OLD and NEW are both %u", old_id);
 		return RMDCTL_EXIT_USAGE;
 	}
-	r = rmdctl_can_confirm(d, "write CAN id %u to motor %u on %s", new_id, old_id, d->bus_spec);
-	if (r)
-		return r;
-	r = rmdctl_open_bus(d);
+	r = rmdctl_open_bus_for(d, true, "write CAN id %u to motor %u on %s", new_id, old_id,
+				d->bus_spec);
 	if (r)
 		return r;
 	/* Who is on the bus: V3 §4 sends 0x79 on 0x300, and every motor hears it. */
@@ -158,16 +156,12 @@ out:
 int rmdctl_run_set_zero(struct dev *d, int argc, char **argv)
 {
 	struct req q;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
 	(void)argc;
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
-	r = rmdctl_can_confirm(d, "write the zero of motor %u on %s", id, d->bus_spec);
-	if (r)
-		return r;
-	r = rmdctl_open_bus(d);
+	(void)argv;
+	r = rmdctl_open_bus_for(d, true, "write the zero of motor %u on %s", id, d->bus_spec);
 	if (r)
 		return r;
 	r = rmdctl_confirm(d, "make the current position of motor %u on %s its zero (ROM)", id,
@@ -191,12 +185,10 @@ int rmdctl_run_set_timeout(struct dev *d, int argc, char **argv)
 {
 	struct req q;
 	uint64_t ms;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
 	(void)argc;
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
 	if (rmdctl_parse_uint(argv[1], 0, UINT32_MAX, &ms) < 0) {
 		tool_log(TOOL_LOG_ERR, "bad MS \"%s\" (0..%" PRIu32 "; 0 turns the protection off)",
 			 argv[1], UINT32_MAX);
@@ -207,10 +199,8 @@ int rmdctl_run_set_timeout(struct dev *d, int argc, char **argv)
 			 "protocol V2 has no comm-loss protection (0xB3 is V3 §2.30)");
 		return RMDCTL_EXIT_USAGE;
 	}
-	r = rmdctl_can_confirm(d, "write the comm timeout of motor %u on %s", id, d->bus_spec);
-	if (r)
-		return r;
-	r = rmdctl_open_bus(d);
+	r = rmdctl_open_bus_for(d, true, "write the comm timeout of motor %u on %s", id,
+				d->bus_spec);
 	if (r)
 		return r;
 	r = rmdctl_confirm(d,
@@ -249,11 +239,9 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 	uint64_t index = 0, dps2;
 	const char *sval;
 	struct req q;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
 	if (argc == 1) {
 		/* V3 §2.4: the position-planning acceleration; V2 §3.19: the one there is. */
 		rmdctl_req_init(&q, id, 0x42);
@@ -292,13 +280,7 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 			 ACCEL_MIN_DPS2, ACCEL_MAX_DPS2);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (!v2) {
-		r = rmdctl_can_confirm(d, "write an acceleration of motor %u on %s", id,
-				       d->bus_spec);
-		if (r)
-			return r;
-	}
-	r = rmdctl_open_bus(d);
+	r = rmdctl_open_bus_for(d, !v2, "write an acceleration of motor %u on %s", id, d->bus_spec);
 	if (r)
 		return r;
 	if (!v2) {
@@ -343,11 +325,7 @@ static int pid_read(struct dev *d, uint8_t id)
 			rmdctl_req_init(&q[n++], id, rmdctl_v2_pid_read[i]);
 	else
 		rmdctl_req_init(&q[n++], id, 0x30);
-	r = rmdctl_open_bus(d);
-	if (r)
-		return r;
-	r = rmdctl_run_reqs(d, q, n);
-	rmdctl_close_bus(d);
+	r = rmdctl_exchange(d, q, n);
 	if (r)
 		return r;
 	if (rmdctl_report_failed(d, q, n))
@@ -364,11 +342,9 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 	double g[6];
 	struct req q[6];
 	unsigned n = 0;
-	uint8_t id;
+	uint8_t id = d->id;
 	int r;
 
-	if (rmdctl_parse_id(argv[0], "ID", &id) < 0)
-		return RMDCTL_EXIT_USAGE;
 	if (argc == 1) {
 		if (d->rom) {
 			tool_log(TOOL_LOG_ERR, "--rom applies to writing gains");
@@ -390,12 +366,6 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 			return RMDCTL_EXIT_USAGE;
 		}
 	}
-	if (d->rom) {
-		r = rmdctl_can_confirm(d, "write the PID gains of motor %u on %s to ROM", id,
-				       d->bus_spec);
-		if (r)
-			return r;
-	}
 	if (v2) {
 		for (unsigned i = 0; i < 6; i++) {
 			/* V2 §3.7 .. §3.18: RAM 0x36.., ROM 0x3C.., six after each read. */
@@ -416,7 +386,8 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 			rmd_msg_set(&q[n].msg, pid_fields[i], (int64_t)g[i]);
 		n++;
 	}
-	r = rmdctl_open_bus(d);
+	r = rmdctl_open_bus_for(d, d->rom, "write the PID gains of motor %u on %s to ROM", id,
+				d->bus_spec);
 	if (r)
 		return r;
 	if (d->rom) {
