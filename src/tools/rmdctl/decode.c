@@ -415,6 +415,24 @@ static int decode_stream(FILE *in, const struct decode_opts *opts)
 	return status;
 }
 
+/* decode's own options: --json, --direction. */
+static int decode_opt(int c, void *ctx)
+{
+	struct decode_opts *opts = ctx;
+
+	if (c == 'j') {
+		opts->json = true;
+		return 0;
+	}
+	/* 'd' */
+	if (strcmp(optarg, "request") && strcmp(optarg, "reply")) {
+		tool_log(TOOL_LOG_ERR, "bad --direction \"%s\" (request or reply)", optarg);
+		return -1;
+	}
+	opts->dir = !strcmp(optarg, "request") ? RMD_DIR_REQUEST : RMD_DIR_REPLY;
+	return 0;
+}
+
 int rmdctl_decode_run(int argc, char **argv)
 {
 	static const struct option longopts[] = {
@@ -432,37 +450,12 @@ int rmdctl_decode_run(int argc, char **argv)
 	};
 	const char *path = NULL;
 	FILE *in = stdin;
-	int c, r, status;
+	int r, status;
 
-	optind = 0; /* glibc: full re-initialisation */
-	opterr = 0;
-	while ((c = getopt_long(argc, argv, ":p:jm:d:h", longopts, NULL)) != -1) {
-		r = rmdctl_codec_opt(c, argv, &opts.proto, &opts.ranges);
-		if (r == RMDCTL_OPT_HELP) {
-			rmdctl_decode_usage(stdout);
-			return RMDCTL_EXIT_OK;
-		}
-		if (r == RMDCTL_OPT_BAD)
-			goto usage;
-		if (r == RMDCTL_OPT_APPLIED)
-			continue;
-		switch (c) {
-		case 'j':
-			opts.json = true;
-			break;
-		case 'd':
-			if (!strcmp(optarg, "request")) {
-				opts.dir = RMD_DIR_REQUEST;
-			} else if (!strcmp(optarg, "reply")) {
-				opts.dir = RMD_DIR_REPLY;
-			} else {
-				tool_log(TOOL_LOG_ERR, "bad --direction \"%s\" (request or reply)",
-					 optarg);
-				goto usage;
-			}
-			break;
-		}
-	}
+	r = rmdctl_codec_getopt(argc, argv, ":p:jm:d:h", longopts, &opts.proto, &opts.ranges,
+				rmdctl_decode_usage, decode_opt, &opts);
+	if (r >= 0)
+		return r;
 	if (argc - optind > 1) {
 		tool_log(TOOL_LOG_ERR, "one FILE at most");
 		goto usage;

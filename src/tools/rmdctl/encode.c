@@ -606,6 +606,24 @@ static void print_frame(const struct rmd_frame *f)
 	putchar('\n');
 }
 
+/* encode's own option: --id. */
+static int encode_opt(int c, void *p)
+{
+	struct enc_ctx *ctx = p;
+	char *end;
+	long id;
+
+	(void)c; /* 'i' */
+	errno = 0;
+	id = strtol(optarg, &end, 10);
+	if (end == optarg || *end || errno || id < 1 || id > RMD_MAX_MOTORS) {
+		tool_log(TOOL_LOG_ERR, "bad --id \"%s\" (motor 1..%d)", optarg, RMD_MAX_MOTORS);
+		return -1;
+	}
+	ctx->motor_id = (int)id;
+	return 0;
+}
+
 int rmdctl_encode_run(int argc, char **argv)
 {
 	static const struct option longopts[] = {
@@ -622,36 +640,13 @@ int rmdctl_encode_run(int argc, char **argv)
 	};
 	const struct enc_cmd *ec = NULL;
 	struct rmd_frame frame;
-	char *end;
-	long id;
-	int c, r;
+	int r;
 
-	optind = 0; /* glibc: full re-initialisation */
-	opterr = 0;
 	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
-	while ((c = getopt_long(argc, argv, "+:p:i:m:h", longopts, NULL)) != -1) {
-		r = rmdctl_codec_opt(c, argv, &ctx.proto, &ctx.r);
-		if (r == RMDCTL_OPT_HELP) {
-			rmdctl_encode_usage(stdout);
-			return RMDCTL_EXIT_OK;
-		}
-		if (r == RMDCTL_OPT_BAD)
-			goto usage;
-		if (r == RMDCTL_OPT_APPLIED)
-			continue;
-		switch (c) {
-		case 'i':
-			errno = 0;
-			id = strtol(optarg, &end, 10);
-			if (end == optarg || *end || errno || id < 1 || id > RMD_MAX_MOTORS) {
-				tool_log(TOOL_LOG_ERR, "bad --id \"%s\" (motor 1..%d)", optarg,
-					 RMD_MAX_MOTORS);
-				goto usage;
-			}
-			ctx.motor_id = (int)id;
-			break;
-		}
-	}
+	r = rmdctl_codec_getopt(argc, argv, "+:p:i:m:h", longopts, &ctx.proto, &ctx.r,
+				rmdctl_encode_usage, encode_opt, &ctx);
+	if (r >= 0)
+		return r;
 	ctx.table = ctx.proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
 	if (optind >= argc) {
 		tool_log(TOOL_LOG_ERR, "missing COMMAND");

@@ -119,34 +119,51 @@ static const struct rmdctl_cmd cmds[] = {
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
-int rmdctl_codec_opt(int c, char **argv, enum rmd_proto *proto, struct rmd_mit_ranges *ranges)
+int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const struct option *longopts,
+			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx)
 {
-	switch (c) {
-	case 'p':
-		if (rmd_proto_parse(optarg, proto) < 0) {
-			tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (v3, v2 or mit)", optarg);
-			return RMDCTL_OPT_BAD;
+	int c;
+
+	optind = 0; /* glibc: full re-initialisation */
+	opterr = 0;
+	while ((c = getopt_long(argc, argv, optstring, longopts, NULL)) != -1) {
+		switch (c) {
+		case 'p':
+			if (rmd_proto_parse(optarg, proto) < 0) {
+				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (v3, v2 or mit)",
+					 optarg);
+				goto usage;
+			}
+			break;
+		case 'm':
+			if (rmd_mit_ranges_parse(optarg, ranges) < 0) {
+				tool_log(
+					TOOL_LOG_ERR,
+					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
+					optarg);
+				goto usage;
+			}
+			break;
+		case 'h':
+			usage(stdout);
+			return RMDCTL_EXIT_OK;
+		case ':':
+			tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
+			goto usage;
+		case '?':
+			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
+			goto usage;
+		default:
+			if (own(c, ctx) < 0)
+				goto usage;
+			break;
 		}
-		return RMDCTL_OPT_APPLIED;
-	case 'm':
-		if (rmd_mit_ranges_parse(optarg, ranges) < 0) {
-			tool_log(TOOL_LOG_ERR,
-				 "bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
-				 optarg);
-			return RMDCTL_OPT_BAD;
-		}
-		return RMDCTL_OPT_APPLIED;
-	case 'h':
-		return RMDCTL_OPT_HELP;
-	case ':':
-		tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
-		return RMDCTL_OPT_BAD;
-	case '?':
-		tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
-		return RMDCTL_OPT_BAD;
-	default:
-		return RMDCTL_OPT_OTHER;
 	}
+	return -1;
+usage:
+	usage(stderr);
+	return RMDCTL_EXIT_USAGE;
 }
 
 int rmdctl_parse_double(const char *s, double *v)

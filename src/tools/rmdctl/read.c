@@ -17,18 +17,22 @@
 
 /* ---- scan ----------------------------------------------------------------------------- */
 
-/* The optional IDS argument, or ids 1..32.  Returns the count or -1 (reported). */
-static int ids_arg(int argc, char **argv, uint8_t *ids)
+/*
+ * The optional IDS argument (or ids 1..32), then the bus opened.  Returns
+ * the id count, or minus the exit status (reported).
+ */
+static int ids_open(struct dev *d, int argc, char **argv, uint8_t *ids)
 {
-	int n;
+	int n = argc ? rmd_bus_open_parse_ids(argv[0], ids) : (int)rmdctl_all_ids(ids);
+	int r;
 
-	if (argc == 0)
-		return (int)rmdctl_all_ids(ids);
-	n = rmd_bus_open_parse_ids(argv[0], ids);
-	if (n < 0)
+	if (n < 0) {
 		tool_log(TOOL_LOG_ERR, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", argv[0],
 			 RMD_MAX_MOTORS);
-	return n;
+		return -RMDCTL_EXIT_USAGE;
+	}
+	r = rmdctl_open_bus(d);
+	return r ? -r : n;
 }
 
 int rmdctl_run_scan(struct dev *d, int argc, char **argv)
@@ -43,13 +47,10 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 	int m, r;
 	char ms[32];
 
-	m = ids_arg(argc, argv, ids);
+	m = ids_open(d, argc, argv, ids);
 	if (m < 0)
-		return RMDCTL_EXIT_USAGE;
+		return -m;
 	n = (unsigned)m;
-	r = rmdctl_open_bus(d);
-	if (r)
-		return r;
 	/* 0x9A first: every protocol has it.  Then model and version of those that answered. */
 	m = rmdctl_probe(d, ids, n, found, st);
 	if (m < 0) {
@@ -261,13 +262,10 @@ int rmdctl_run_monitor(struct dev *d, int argc, char **argv)
 	unsigned n;
 	int m, r, status = RMDCTL_EXIT_OK;
 
-	m = ids_arg(argc, argv, ids);
+	m = ids_open(d, argc, argv, ids);
 	if (m < 0)
-		return RMDCTL_EXIT_USAGE;
+		return -m;
 	n = (unsigned)m;
-	r = rmdctl_open_bus(d);
-	if (r)
-		return r;
 	if (argc == 0) {
 		/* No list: the motors that answer a probe. */
 		m = rmdctl_probe(d, ids, n, found, q);

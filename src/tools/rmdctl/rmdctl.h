@@ -11,6 +11,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <getopt.h>
 
 #include "rmd/bus.h"
 #include "rmd/codec.h"
@@ -62,19 +63,17 @@ void rmdctl_decode_usage(FILE *f);
 int rmdctl_encode_run(int argc, char **argv);
 void rmdctl_encode_usage(FILE *f);
 
-/* rmdctl_codec_opt() results */
-enum {
-	RMDCTL_OPT_APPLIED = 0, /* an option of decode and encode both, applied */
-	RMDCTL_OPT_OTHER,	/* the caller's own option */
-	RMDCTL_OPT_BAD,		/* a usage error (reported) */
-	RMDCTL_OPT_HELP,	/* -h / --help */
-};
-
 /*
- * One getopt_long() result c of decode or encode: the options they share
- * (-p/--protocol, -m/--mit-ranges, -h/--help, getopt's ':' and '?').
+ * The command line of decode and encode, up to their operands: the options
+ * both have (-p/--protocol into *proto, -m/--mit-ranges into *ranges,
+ * -h/--help) here, each other option character through own(c, ctx), which
+ * returns 0 or -1 (reported).  Returns -1 to go on (optind at the first
+ * operand), or the exit status: RMDCTL_EXIT_OK after --help, or
+ * RMDCTL_EXIT_USAGE after a bad option (reported, usage on stderr).
  */
-int rmdctl_codec_opt(int c, char **argv, enum rmd_proto *proto, struct rmd_mit_ranges *ranges);
+int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const struct option *longopts,
+			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx);
 
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
