@@ -436,11 +436,9 @@ static int decode_opt(int c, void *ctx)
 int rmdctl_decode_run(int argc, char **argv)
 {
 	static const struct option longopts[] = {
-		{ "protocol", required_argument, NULL, 'p' },
+		RMDCTL_CODEC_LONGOPTS,
 		{ "json", no_argument, NULL, 'j' },
-		{ "mit-ranges", required_argument, NULL, 'm' },
 		{ "direction", required_argument, NULL, 'd' },
-		{ "help", no_argument, NULL, 'h' },
 		{ NULL, 0, NULL, 0 },
 	};
 	struct decode_opts opts = {

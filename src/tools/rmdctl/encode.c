@@ -627,10 +627,8 @@ static int encode_opt(int c, void *p)
 int rmdctl_encode_run(int argc, char **argv)
 {
 	static const struct option longopts[] = {
-		{ "protocol", required_argument, NULL, 'p' },
+		RMDCTL_CODEC_LONGOPTS,
 		{ "id", required_argument, NULL, 'i' },
-		{ "mit-ranges", required_argument, NULL, 'm' },
-		{ "help", no_argument, NULL, 'h' },
 		{ NULL, 0, NULL, 0 },
 	};
 	struct enc_ctx ctx = {

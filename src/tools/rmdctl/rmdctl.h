@@ -71,6 +71,14 @@ void rmdctl_encode_usage(FILE *f);
  * operand), or the exit status: RMDCTL_EXIT_OK after --help, or
  * RMDCTL_EXIT_USAGE after a bad option (reported, usage on stderr).
  */
+/* The long options rmdctl_codec_getopt() handles: first in decode's and encode's tables. */
+/* clang-format off */
+#define RMDCTL_CODEC_LONGOPTS \
+	{ "protocol", required_argument, NULL, 'p' }, \
+	{ "mit-ranges", required_argument, NULL, 'm' }, \
+	{ "help", no_argument, NULL, 'h' }
+/* clang-format on */
+
 int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const struct option *longopts,
 			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
 			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx);
