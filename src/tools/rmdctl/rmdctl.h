@@ -63,14 +63,6 @@ void rmdctl_decode_usage(FILE *f);
 int rmdctl_encode_run(int argc, char **argv);
 void rmdctl_encode_usage(FILE *f);
 
-/*
- * The command line of decode and encode, up to their operands: the options
- * both have (-p/--protocol into *proto, -m/--mit-ranges into *ranges,
- * -h/--help) here, each other option character through own(c, ctx), which
- * returns 0 or -1 (reported).  Returns -1 to go on (optind at the first
- * operand), or the exit status: RMDCTL_EXIT_OK after --help, or
- * RMDCTL_EXIT_USAGE after a bad option (reported, usage on stderr).
- */
 /* The long options rmdctl_codec_getopt() handles: first in decode's and encode's tables. */
 /* clang-format off */
 #define RMDCTL_CODEC_LONGOPTS \
@@ -79,6 +71,14 @@ void rmdctl_encode_usage(FILE *f);
 	{ "help", no_argument, NULL, 'h' }
 /* clang-format on */
 
+/*
+ * The command line of decode and encode, up to their operands: the options
+ * both have (-p/--protocol into *proto, -m/--mit-ranges into *ranges,
+ * -h/--help) here, each other option character through own(c, ctx), which
+ * returns 0 or -1 (reported).  Returns -1 to go on (optind at the first
+ * operand), or the exit status: RMDCTL_EXIT_OK after --help, or
+ * RMDCTL_EXIT_USAGE after a bad option (reported, usage on stderr).
+ */
 int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const struct option *longopts,
 			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
 			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx);
