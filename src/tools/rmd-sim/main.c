@@ -6,11 +6,12 @@
  *   rmd-sim [options] --can IFACE
  *   rmd-sim [options] --serial DEVICE [--baud B]
  *
- * The motors are struct rmd_sim_motor (src/sim_motor.c); this program
+ * The motors are struct rmd_sim_motor (src/sim/sim_motor.c); this program
  * feeds them the frames that arrive on a SocketCAN interface or an RS485
  * line and writes their replies after their turnaround.  The command line
- * (here), the config file (rmd-sim_config.c) and the event loop
- * (rmd-sim_loop.c) are described in docs/rmd-sim.md.
+ * (here), the config file (config.c) and the event loop (wire.c) are
+ * described in docs/rmd-sim.md; -v describes frames with rmd/describe.h and
+ * every line goes through the programs' one logger (tools/common/log.h).
  *
  * Exit statuses: 0 stopped by SIGINT/SIGTERM, 1 the wire failed, 2 a bad
  * argument or configuration value.  Non-rt.
