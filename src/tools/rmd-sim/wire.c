@@ -534,7 +534,10 @@ static int serial_open(struct sim *s)
 	}
 	/* A notice says the port has no kernel RS485 mode (a pty, a USB adapter). */
 	if (err[0])
-		tool_log(TOOL_LOG_INFO, "rmd-sim: %s", err);
+		tool_log(TOOL_LOG_INFO,
+			 "rmd-sim: %s: no kernel RS485 mode (a pseudo-terminal, or an adapter that "
+			 "switches direction by itself)",
+			 s->name);
 	else
 		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
 	s->fd = rmd_bus_fd(&s->bus);
@@ -634,8 +637,6 @@ static void wire_read(struct sim *s, bool hup)
 			i++;
 			continue;
 		}
-		if (s->serial)
-			note_noise(s);
 		for (int k = 0; k < n; k++) {
 			int id = s->serial ? rmd_rs485_id_of_can(rx[k].f.can_id, true) : 0;
 			int answers;
@@ -647,6 +648,8 @@ static void wire_read(struct sim *s, bool hup)
 				s->st.rx_taken++;
 			log_rx(s, &rx[k].f, answers, (uint8_t)id);
 		}
+		if (s->serial)
+			note_noise(s);
 		if (n < RX_BATCH)
 			return;
 		i += (unsigned)n;
@@ -844,6 +847,8 @@ static void log_startup(const struct sim *s)
 static void log_summary(const struct sim *s, int64_t now)
 {
 	const struct rmd_bus_stats *bs = rmd_bus_stats(&s->bus);
+	/* Serial: the transport's rx_errors are the runs of line noise, counted in bytes. */
+	uint64_t rx_errors = s->st.rx_errors + (s->serial ? 0 : bs->rx_errors);
 	char faults[512];
 
 	summary_faults(s, faults, sizeof(faults));
@@ -855,8 +860,8 @@ static void log_summary(const struct sim *s, int64_t now)
 		 ", without RS485 form %" PRIu64 "%s",
 		 s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
 		 s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors,
-		 s->st.txq_overflow, s->st.rx_errors + bs->rx_errors, bs->rx_noise_bytes,
-		 bs->echoes, s->st.absent_lost, s->st.unmappable, faults);
+		 s->st.txq_overflow, rx_errors, bs->rx_noise_bytes, bs->echoes, s->st.absent_lost,
+		 s->st.unmappable, faults);
 }
 
 static void handle_signal(struct sim *s)
