@@ -5,9 +5,10 @@
  * The rest of the program never asks which one it holds: what it needs to
  * know (half duplex, the transport's reply timeout, how far apart queued
  * requests go out, when the transport's own queue must be serviced) is in
- * bus->caps, filled at open, and in the next_due_ns op.  The one downcast,
- * each transport's typed accessor (rmd_rs485_stats(), ...), checks the ops
- * table first, like the kernel's safe_candev_priv().
+ * bus->caps, filled at open, and in the next_due_ns op; what it may count
+ * is in struct rmd_bus_stats, whose fields a transport without them leaves
+ * 0.  The one downcast, each transport's typed accessor (rmd_rs485_stats(),
+ * ...), checks the ops table first, like the kernel's safe_candev_priv().
  *
  * Every op is non-blocking.  send() queues what the transport can take
  * now and returns how many frames it took; the caller keeps the rest for
@@ -42,6 +43,9 @@ struct rmd_bus_stats {
 	uint64_t rx_errors;  /* bad CRC, bad framing, short reads */
 	uint64_t bus_errors; /* error frames / state events */
 	uint64_t state_changes;
+	/* Byte-stream transports (RS485); 0 on the others: */
+	uint64_t rx_noise_bytes; /* skipped to find the next frame (a run is one rx_error) */
+	uint64_t echoes;	 /* own frames heard back and dropped (local echo) */
 };
 
 /* What a caller needs to know of a transport, filled by its open. */

@@ -44,6 +44,7 @@ struct rmd_bus_open_opts {
 	uint32_t baud;	     /* RS485; 0: RMD_BUS_OPEN_BAUD */
 	int64_t reply_timeout_ns;   /* RS485; 0: its default */
 	unsigned broadcast_replies; /* RS485: see struct rmd_rs485_opts */
+	bool local_echo;	    /* RS485: the adapter hears itself (struct rmd_rs485_opts) */
 	uint32_t sim_bitrate;	    /* sim; 0: 1 Mbit/s */
 	uint64_t sim_seed;	    /* sim; 0: the default seed */
 	bool device; /* the motors' side of the wire (rmd-sim): see struct rmd_bus_open_ctx */
@@ -69,12 +70,15 @@ struct rmd_bus_open_ctx {
 	bool set_id_replies; /* SocketCAN: also admit 0x300 (V3 §4: 0x79 replies) */
 	int64_t reply_timeout_ns;   /* RS485; 0: its default */
 	unsigned broadcast_replies; /* RS485 (struct rmd_rs485_opts); 0: n_motors */
+	bool local_echo;	    /* RS485: the adapter hears itself (struct rmd_rs485_opts) */
 	/* sim buses: wire settings and faults (sim time); NULL: the defaults */
 	const struct rmd_sim_bus_setup *sim;
 	/*
 	 * The motors' side of the wire, for a simulator of them (rmd-sim):
 	 * SocketCAN admits the requests to every id instead of the motors'
-	 * replies and opens an interface that is down.  Not for sim buses.
+	 * replies and opens an interface that is down; RS485 reads requests
+	 * and writes replies, with no queue (rmd/bus_rs485.h).  Not for sim
+	 * buses.
 	 */
 	bool device;
 };

@@ -39,6 +39,24 @@
  * Receive time.  Every received frame's t_ns is the now_ns of the recv()
  * call that read it (a tty has no receive stamp), so it is late by up to
  * the caller's polling interval.
+ *
+ * Device role (opts.device: the motors' side, for a simulator of them,
+ * rmd-sim).  The same port set-up, framing, resynchronisation and noise
+ * counting, with the identifiers seen from the other end:
+ *   recv  RS485 id ID (1..32)    ->  0x140 + ID
+ *   recv  RS485 id 0xCD          ->  0x300 when D0 is 0x79 (V3 §7), else 0x280
+ *   send  0x240 + ID or 0x140 + ID  ->  RS485 id ID
+ *   send  0x300                  ->  RS485 id 0xCD (V3 §7.3)
+ * Replies have no queue to wait in: send() appends them to an output
+ * buffer (RMD_RS485_DEVICE_TXBUF bytes) and writes what the tty takes;
+ * while bytes wait, next_due_ns() is the time of the write the tty refused
+ * and the caller calls send() again (with no frames: n 0) when fd() turns
+ * writable.  A frame whose len is below 8 goes out as it is, its length
+ * byte saying len and the CRC after its len bytes: the simulator's BAD_DLC
+ * fault.
+ * With opts.local_echo, a frame equal to one sent in the last
+ * RMD_RS485_ECHO_EXPIRY_NS is its echo: dropped once, in order, and counted
+ * in stats.echoes.  bus->caps: all 0 (no queue, no timeout).
  */
 #ifndef RMD_BUS_RS485_H
 #define RMD_BUS_RS485_H
@@ -58,6 +76,12 @@
 
 /* Fixed part of the default reply timeout (a motor answers within 0.5-0.8 ms, DESIGN.md). */
 #define RMD_RS485_TURNAROUND_NS 2000000
+
+/* Device role: bytes of replies not yet written. */
+#define RMD_RS485_DEVICE_TXBUF 16384
+/* Device role, local echo: frames sent whose echo may still come, and for how long. */
+#define RMD_RS485_ECHO_RING 64
+#define RMD_RS485_ECHO_EXPIRY_NS 500000000
 
 struct rmd_rs485_opts {
 	/* V3 §1.2.1: 115200, 500000, 1000000, 1500000 or 2000000 bit/s. */
@@ -83,20 +107,25 @@ struct rmd_rs485_opts {
 	/*
 	 * The adapter hears its own transmission (a two-wire transceiver whose
 	 * receiver stays enabled): the first frame equal to the request in
-	 * flight is that echo, dropped and counted in rmd_rs485_stats.echoes.
-	 * Leave it off otherwise: several replies (0x80, 0xB3, 0x79 write)
-	 * are byte for byte the request.
+	 * flight is that echo, dropped and counted in stats.echoes (device
+	 * role: see the top of this file).  Leave it off otherwise: several
+	 * replies (0x80, 0xB3, 0x79 write) are byte for byte the request.
 	 */
 	bool local_echo;
+	/*
+	 * The motors' side of the line (see the top of this file): of the
+	 * fields above only baud and local_echo are read.
+	 */
+	bool device;
 };
 
 /* Counters of this transport beyond struct rmd_bus_stats. */
 struct rmd_rs485_stats {
 	uint64_t reply_timeouts;   /* requests whose answer did not come in time */
 	uint64_t broadcasts_short; /* broadcasts that ended with fewer than broadcast_replies */
-	uint64_t dropped_bytes; /* skipped while resynchronising (counted in rx_errors per run) */
-	uint64_t echoes;	/* own requests heard back, with opts.local_echo */
-	uint64_t pending;	/* requests queued or in flight now (a gauge) */
+	uint64_t dropped_bytes;	   /* stats.rx_noise_bytes: skipped while resynchronising */
+	uint64_t echoes;	   /* stats.echoes: own frames heard back, with opts.local_echo */
+	uint64_t pending;	   /* requests queued or in flight now (a gauge) */
 };
 
 /*

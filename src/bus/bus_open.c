@@ -115,6 +115,8 @@ static int open_rs485(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.reply_timeout_ns = ctx->reply_timeout_ns,
 		.broadcast_replies = ctx->broadcast_replies ? ctx->broadcast_replies :
 							      ctx->n_motors,
+		.local_echo = ctx->local_echo,
+		.device = ctx->device,
 	};
 
 	/* V3 §1.2: RS485 frames carry the V3 command set; V2 is CAN only. */
@@ -271,6 +273,7 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 		.burst = o->burst,
 		.reply_timeout_ns = o->reply_timeout_ns,
 		.broadcast_replies = o->broadcast_replies,
+		.local_echo = o->local_echo,
 		.device = o->device,
 	};
 	struct rmd_config_bus cb;

@@ -2,7 +2,9 @@
 /*
  * The RS485 transport: libmodbus opens and configures the serial port, and
  * V3 §1.2.2 frames go over its descriptor with non-blocking read(2) and
- * write(2), one request on the wire at a time.
+ * write(2): on the host's side one request on the wire at a time, on the
+ * motors' side (device role, rmd-sim) replies as they come.  Opening,
+ * framing, resynchronisation and the noise count are the same code for both.
  */
 #include <errno.h>
 #include <stdbool.h>
@@ -36,6 +38,21 @@ struct request {
 	uint8_t id; /* RS485 id: 1..32 or 0xCD */
 };
 
+/* Device role: a frame we sent, whose echo may come until t_ns + RMD_RS485_ECHO_EXPIRY_NS. */
+struct echo {
+	uint8_t wire[RMD_RS485_FRAME_LEN];
+	int64_t t_ns;
+};
+
+/* Device role: replies out, with no queue of requests. */
+struct device {
+	uint8_t tx[RMD_RS485_DEVICE_TXBUF]; /* bytes not written yet */
+	size_t txn;
+	int64_t retry_ns; /* txn > 0: the time of the write the tty refused */
+	struct echo echo[RMD_RS485_ECHO_RING];
+	unsigned echo_head, echo_n;
+};
+
 enum head_state {
 	HEAD_IDLE = 0, /* queue head not started */
 	HEAD_WRITING,  /* part of it written, the tty took no more */
@@ -49,6 +66,7 @@ struct rs485 {
 	int64_t broadcast_timeout_ns;
 	unsigned broadcast_replies;
 	bool local_echo;
+	struct device *dev; /* the device role's state; NULL: the host's side */
 
 	/* Requests in order; q[head] is the one on the wire. Free-running indexes. */
 	struct request q[RMD_RS485_QUEUE];
@@ -61,10 +79,11 @@ struct rs485 {
 	bool out_of_sync; /* dropping bytes since the last good frame */
 	size_t rx_len;
 	uint8_t rx[RX_BUF];
-	struct rmd_rs485_stats xs;
+	struct rmd_rs485_stats xs; /* but dropped_bytes, echoes: in bus->stats */
 };
 
-static const struct rmd_bus_ops rs485_ops;
+static const struct rmd_bus_ops rs485_ops, rs485_device_ops;
+static bool own_echo(struct rmd_bus *bus, const uint8_t *wire, int64_t now_ns);
 
 static struct rs485 *priv(const struct rmd_bus *bus)
 {
@@ -192,6 +211,14 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 	if (!p->broadcast_timeout_ns)
 		p->broadcast_timeout_ns = p->reply_timeout_ns + (int64_t)expect * frame_ns;
 	p->local_echo = opts->local_echo;
+	if (opts->device) {
+		p->dev = calloc(1, sizeof(*p->dev));
+		if (!p->dev) {
+			r = -ENOMEM;
+			snprintf(err, errlen, "%s: out of memory", device);
+			goto err_free_priv;
+		}
+	}
 
 	p->ctx = modbus_new_rtu(device, (int)opts->baud, 'N', 8, 1);
 	if (!p->ctx) {
@@ -240,15 +267,16 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 	/* Whatever arrived before we were listening is no answer of ours. */
 	tcflush(p->fd, TCIOFLUSH);
 
-	bus->ops = &rs485_ops;
+	bus->ops = p->dev ? &rs485_device_ops : &rs485_ops;
 	snprintf(bus->name, sizeof(bus->name), "%s", device);
 	/* Half duplex: each request waits for the previous answer or its timeout. */
-	bus->caps = (struct rmd_bus_caps){
-		.half_duplex = true,
-		.reply_timeout_ns = p->reply_timeout_ns,
-		.request_spacing_ns = p->reply_timeout_ns,
-		.queue_len = RMD_RS485_QUEUE,
-	};
+	if (!p->dev)
+		bus->caps = (struct rmd_bus_caps){
+			.half_duplex = true,
+			.reply_timeout_ns = p->reply_timeout_ns,
+			.request_spacing_ns = p->reply_timeout_ns,
+			.queue_len = RMD_RS485_QUEUE,
+		};
 	bus->state = RMD_BUS_ACTIVE;
 	memset(&bus->stats, 0, sizeof(bus->stats));
 	bus->priv = p;
@@ -259,6 +287,7 @@ err_close_ctx:
 err_free_ctx:
 	modbus_free(p->ctx);
 err_free_priv:
+	free(p->dev);
 	free(p);
 	return r;
 }
@@ -365,8 +394,9 @@ static int rs485_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsig
  * A good frame from the line: does it answer the request in flight?  Returns
  * false for the echo of our own request, which is not passed on.
  */
-static bool rx_frame(struct rs485 *p, uint8_t id, const uint8_t data[RMD_FRAME_LEN])
+static bool rx_frame(struct rmd_bus *bus, uint8_t id, const uint8_t data[RMD_FRAME_LEN])
 {
+	struct rs485 *p = priv(bus);
 	const struct request *rq = &p->q[p->head % RMD_RS485_QUEUE];
 	const uint8_t *rq_data = rq->wire + WIRE_DATA;
 
@@ -375,7 +405,7 @@ static bool rx_frame(struct rs485 *p, uint8_t id, const uint8_t data[RMD_FRAME_L
 	if (p->local_echo && !p->echo_seen && id == rq->id &&
 	    memcmp(data, rq_data, RMD_FRAME_LEN) == 0) {
 		p->echo_seen = true;
-		p->xs.echoes++;
+		bus->stats.echoes++;
 		return false;
 	}
 	if (data[0] != rq_data[0])
@@ -397,7 +427,7 @@ static void drop(struct rmd_bus *bus, size_t k)
 	if (!p->out_of_sync)
 		bus->stats.rx_errors++;
 	p->out_of_sync = true;
-	p->xs.dropped_bytes += k;
+	bus->stats.rx_noise_bytes += k;
 	p->rx_len -= k;
 	memmove(p->rx, p->rx + k, p->rx_len);
 }
@@ -411,6 +441,7 @@ static void parse(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned *n, unsi
 {
 	struct rs485 *p = priv(bus);
 	uint8_t id, data[RMD_FRAME_LEN];
+	bool keep;
 	int r;
 
 	while (*n < max && p->rx_len > 0) {
@@ -427,13 +458,15 @@ static void parse(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned *n, unsi
 			drop(bus, 1);
 			continue;
 		}
+		keep = p->dev ? !own_echo(bus, p->rx, now_ns) : rx_frame(bus, id, data);
 		p->rx_len -= (size_t)r;
 		memmove(p->rx, p->rx + r, p->rx_len);
 		p->out_of_sync = false;
-		if (!rx_frame(p, id, data))
+		if (!keep)
 			continue;
 
-		out[*n].f.can_id = rmd_rs485_can_id(id, false, data[0]);
+		/* The host hears replies, the motors' side requests. */
+		out[*n].f.can_id = rmd_rs485_can_id(id, p->dev != NULL, data[0]);
 		out[*n].f.len = RMD_FRAME_LEN;
 		memcpy(out[*n].f.data, data, RMD_FRAME_LEN);
 		out[*n].t_ns = now_ns;
@@ -442,8 +475,12 @@ static void parse(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned *n, unsi
 	}
 }
 
-/* Rt-safe. */
-static int rs485_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now_ns)
+/*
+ * Read what has arrived and parse frames out of it into out[0..max): sets
+ * *count and returns 0, or -errno of read(2).  Both roles.  Rt-safe.
+ */
+static int read_frames(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned *count, unsigned max,
+		       int64_t now_ns)
 {
 	struct rs485 *p = priv(bus);
 	unsigned n = 0;
@@ -467,6 +504,15 @@ static int rs485_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max,
 		p->rx_len += (size_t)got;
 	}
 	parse(bus, out, &n, max, now_ns);
+	*count = n;
+	return r;
+}
+
+/* Rt-safe. */
+static int rs485_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now_ns)
+{
+	unsigned n;
+	int r = read_frames(bus, out, &n, max, now_ns);
 
 	/* With out full, an answer may still wait in the buffer: judge no timeout. */
 	if (r == 0)
@@ -495,6 +541,164 @@ static int64_t rs485_next_due_ns(const struct rmd_bus *bus)
 	return p->due_ns;
 }
 
+/* ---- device role: the motors' side ----------------------------------------------------- */
+
+/*
+ * With opts.local_echo: is the frame at wire our own, heard back?  Entries
+ * older than RMD_RS485_ECHO_EXPIRY_NS are no echo any more.  Rt-safe.
+ */
+static bool own_echo(struct rmd_bus *bus, const uint8_t *wire, int64_t now_ns)
+{
+	struct rs485 *p = priv(bus);
+	struct device *d = p->dev;
+
+	if (!p->local_echo)
+		return false;
+	while (d->echo_n && now_ns - d->echo[d->echo_head].t_ns > RMD_RS485_ECHO_EXPIRY_NS) {
+		d->echo_head = (d->echo_head + 1) % RMD_RS485_ECHO_RING;
+		d->echo_n--;
+	}
+	if (!d->echo_n || memcmp(d->echo[d->echo_head].wire, wire, RMD_RS485_FRAME_LEN))
+		return false;
+	d->echo_head = (d->echo_head + 1) % RMD_RS485_ECHO_RING;
+	d->echo_n--;
+	bus->stats.echoes++;
+	return true;
+}
+
+/* A frame we sent, whose echo may come: the oldest gives way when the ring is full. */
+static void remember_echo(struct device *d, const uint8_t *wire, int64_t now_ns)
+{
+	struct echo *e;
+
+	if (d->echo_n == RMD_RS485_ECHO_RING) {
+		d->echo_head = (d->echo_head + 1) % RMD_RS485_ECHO_RING;
+		d->echo_n--;
+	}
+	e = &d->echo[(d->echo_head + d->echo_n) % RMD_RS485_ECHO_RING];
+	memcpy(e->wire, wire, RMD_RS485_FRAME_LEN);
+	e->t_ns = now_ns;
+	d->echo_n++;
+}
+
+/* The RS485 id a reply maps to (see the top of rmd/bus_rs485.h), or -EINVAL. */
+static int reply_id(const struct rmd_frame *f)
+{
+	if (f->len > RMD_FRAME_LEN)
+		return -EINVAL;
+	return rmd_rs485_id_of_can(f->can_id, false);
+}
+
+/* Bytes on the wire of a frame of len data bytes: header, id, length, data, CRC. */
+static size_t wire_len(unsigned len)
+{
+	return RMD_RS485_FRAME_LEN - RMD_FRAME_LEN + len;
+}
+
+/*
+ * f's RS485 form into b (wire_len(f->len) bytes).  A frame shorter than 8
+ * bytes (the simulator's BAD_DLC fault) goes out as the 8-byte frame cut
+ * after its data, its length byte saying len and the CRC over what is left.
+ */
+static void build_reply(uint8_t *b, uint8_t id, const struct rmd_frame *f)
+{
+	uint8_t data[RMD_FRAME_LEN] = { 0 };
+	uint16_t crc;
+
+	memcpy(data, f->data, f->len);
+	rmd_rs485_build(id, data, b, RMD_RS485_FRAME_LEN);
+	if (f->len == RMD_FRAME_LEN)
+		return;
+	b[WIRE_DATA - 1] = f->len;
+	crc = rmd_crc16_modbus(b, WIRE_DATA + f->len);
+	b[WIRE_DATA + f->len] = (uint8_t)crc;
+	b[WIRE_DATA + f->len + 1] = (uint8_t)(crc >> 8);
+}
+
+/*
+ * Write what the tty takes of the output buffer.  Returns 0, or -errno of
+ * write(2), which loses what was waiting.  Rt-safe.
+ */
+static int device_flush(struct rmd_bus *bus, int64_t now_ns)
+{
+	struct device *d = priv(bus)->dev;
+	size_t off = 0;
+	int r = 0;
+
+	while (off < d->txn) {
+		ssize_t w = write(priv(bus)->fd, d->tx + off, d->txn - off);
+
+		if (w < 0) {
+			if (errno == EINTR)
+				continue;
+			if (errno != EAGAIN)
+				r = -errno;
+			break;
+		}
+		off += (size_t)w;
+	}
+	if (r < 0)
+		off = d->txn;
+	d->txn -= off;
+	memmove(d->tx, d->tx + off, d->txn);
+	d->retry_ns = now_ns;
+	return r;
+}
+
+/*
+ * Replies out: appended to the output buffer as far as it has room, then
+ * written as far as the tty takes.  Returns the frames taken, -EINVAL
+ * (nothing taken) when one has no RS485 form, or -errno of a write that
+ * failed, losing what waited unwritten, these frames among them.  Rt-safe.
+ */
+static int device_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n,
+		       int64_t now_ns)
+{
+	struct rs485 *p = priv(bus);
+	struct device *d = p->dev;
+	unsigned taken = 0;
+	int r;
+
+	for (unsigned i = 0; i < n; i++)
+		if (reply_id(&frames[i]) < 0)
+			return -EINVAL;
+
+	for (; taken < n; taken++) {
+		const struct rmd_frame *f = &frames[taken];
+		uint8_t *b = d->tx + d->txn;
+		size_t k = wire_len(f->len);
+
+		if (k > sizeof(d->tx) - d->txn)
+			break;
+		build_reply(b, (uint8_t)reply_id(f), f);
+		if (p->local_echo && k == RMD_RS485_FRAME_LEN)
+			remember_echo(d, b, now_ns);
+		d->txn += k;
+		bus->stats.tx_frames++;
+	}
+	bus->stats.tx_busy += n - taken;
+
+	r = device_flush(bus, now_ns);
+	return r < 0 ? r : (int)taken;
+}
+
+/* Requests in; no queue to time out.  Rt-safe. */
+static int device_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now_ns)
+{
+	unsigned n;
+	int r = read_frames(bus, out, &n, max, now_ns);
+
+	return r < 0 && n == 0 ? r : (int)n;
+}
+
+/* While replies wait unwritten: the write the tty refused, to retry; else INT64_MAX. */
+static int64_t device_next_due_ns(const struct rmd_bus *bus)
+{
+	const struct device *d = priv(bus)->dev;
+
+	return d->txn ? d->retry_ns : INT64_MAX;
+}
+
 /* Non-rt: frees. */
 static void rs485_close(struct rmd_bus *bus)
 {
@@ -504,6 +708,7 @@ static void rs485_close(struct rmd_bus *bus)
 		/* Restores the port's settings; pending output still drains. */
 		modbus_close(p->ctx);
 		modbus_free(p->ctx);
+		free(p->dev);
 		free(p);
 	}
 	memset(bus, 0, sizeof(*bus));
@@ -518,14 +723,25 @@ static const struct rmd_bus_ops rs485_ops = {
 	.close = rs485_close,
 };
 
+static const struct rmd_bus_ops rs485_device_ops = {
+	.kind = "rs485",
+	.send = device_send,
+	.recv = device_recv,
+	.fd = rs485_fd,
+	.next_due_ns = device_next_due_ns,
+	.close = rs485_close,
+};
+
 int rmd_rs485_stats(const struct rmd_bus *bus, struct rmd_rs485_stats *out)
 {
 	const struct rs485 *p;
 
-	if (!bus || bus->ops != &rs485_ops)
+	if (!bus || (bus->ops != &rs485_ops && bus->ops != &rs485_device_ops))
 		return -EINVAL;
 	p = priv(bus);
 	*out = p->xs;
+	out->dropped_bytes = bus->stats.rx_noise_bytes;
+	out->echoes = bus->stats.echoes;
 	out->pending = queued(p);
 	return 0;
 }

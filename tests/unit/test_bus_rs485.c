@@ -897,6 +897,190 @@ static void test_open_config_equals_spec(void **state)
 	close(pt.master);
 }
 
+/* ---- device role: the motors' side (rmd-sim) ------------------------------------------------ */
+
+static void open_device(struct rmd_bus *bus, struct pty *pt, bool local_echo)
+{
+	struct rmd_bus_open_opts o = {
+		.proto = RMD_PROTO_V3, .baud = 1000000, .local_echo = local_echo, .device = true
+	};
+	char err[256];
+	int r;
+
+	pty_open(pt);
+	r = rmd_bus_open_spec(bus, pt->path, &o, err, sizeof(err));
+	if (r < 0)
+		fail_msg("rmd_bus_open_spec(%s, device): %d: %s", pt->path, r, err);
+	assert_string_equal(bus->ops->kind, "rs485");
+}
+
+/* Receive until want frames came (at now_ns + skew_ns), within LIMIT_NS. */
+static unsigned device_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max,
+			    unsigned want, int64_t skew_ns)
+{
+	int64_t limit = now_ns() + LIMIT_NS;
+	unsigned n = 0;
+
+	while (n < want && now_ns() < limit) {
+		struct pollfd pfd = { .fd = rmd_bus_fd(bus), .events = POLLIN };
+		struct timespec ts = ts_of(10 * MS);
+		int r;
+
+		ppoll(&pfd, 1, &ts, NULL);
+		r = rmd_bus_recv(bus, out + n, max - n, now_ns() + skew_ns);
+		assert_true(r >= 0);
+		n += (unsigned)r;
+	}
+	return n;
+}
+
+/* Requests in as the motors see them, replies out as the host sees them; no queue. */
+static void test_device_role(void **state)
+{
+	static const uint8_t set_id_read[RMD_FRAME_LEN] = { 0x79, 0, 1 };
+	static const uint8_t noise[] = { 0x3E, 0x00, 0x55, 0x3E, 0x01, 0x07 };
+	struct rmd_frame f = frame(0x241, status1_reply);
+	uint8_t wire[RMD_RS485_FRAME_LEN], id, data[RMD_FRAME_LEN];
+	struct rmd_bus_rx rx[4];
+	const struct rmd_bus_caps *caps;
+	struct rmd_bus bus;
+	struct pty pt;
+	uint16_t crc;
+
+	(void)state;
+	open_device(&bus, &pt, false);
+	caps = rmd_bus_caps(&bus);
+	assert_false(caps->half_duplex);
+	assert_int_equal(caps->queue_len, 0);
+	assert_int_equal(caps->reply_timeout_ns, 0);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
+
+	/* Line noise, then three requests: V3 §1.2.2 id 1, §7 0x79 and §6 to 0xCD. */
+	assert_int_equal(write(pt.master, noise, sizeof(noise)), sizeof(noise));
+	master_write_frame(pt.master, 1, status1_req);
+	master_write_frame(pt.master, RMD_RS485_BROADCAST, set_id_read);
+	master_write_frame(pt.master, RMD_RS485_BROADCAST, off_req);
+	assert_int_equal(device_recv(&bus, rx, 4, 3, 0), 3);
+	assert_rx(&rx[0], 0x141, status1_req);
+	assert_rx(&rx[1], 0x300, set_id_read);
+	assert_rx(&rx[2], 0x280, off_req);
+	assert_int_equal(rmd_bus_stats(&bus)->rx_noise_bytes, sizeof(noise));
+	assert_int_equal(rmd_bus_stats(&bus)->rx_errors, 1);
+	assert_int_equal(rmd_bus_stats(&bus)->rx_frames, 3);
+
+	/* Replies: 0x241 -> id 1, 0x300 -> 0xCD (V3 §7.3). */
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	master_read(pt.master, wire, sizeof(wire));
+	assert_int_equal(rmd_rs485_parse(wire, sizeof(wire), &id, data), RMD_RS485_FRAME_LEN);
+	assert_int_equal(id, 1);
+	assert_memory_equal(data, status1_reply, RMD_FRAME_LEN);
+	f = frame(0x300, set_id_read);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	master_read(pt.master, wire, sizeof(wire));
+	assert_int_equal(rmd_rs485_parse(wire, sizeof(wire), &id, data), RMD_RS485_FRAME_LEN);
+	assert_int_equal(id, RMD_RS485_BROADCAST);
+
+	/* No RS485 form (MIT 0x400 + ID), or more than 8 bytes: refused, nothing written. */
+	f = frame(0x401, status1_reply);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), -EINVAL);
+	f = frame(0x241, status1_reply);
+	f.len = 9;
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), -EINVAL);
+
+	/* BAD_DLC: 3 data bytes go out with length byte 3 and the CRC after them. */
+	f.len = 3;
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	master_read(pt.master, wire, 8);
+	assert_int_equal(wire[0], RMD_RS485_HEADER);
+	assert_int_equal(wire[1], 1);
+	assert_int_equal(wire[2], 3);
+	assert_memory_equal(wire + 3, status1_reply, 3);
+	crc = rmd_crc16_modbus(wire, 6);
+	assert_int_equal(wire[6], crc & 0xFF);
+	assert_int_equal(wire[7], crc >> 8);
+	master_quiet(pt.master, 20 * MS);
+	assert_int_equal(rmd_bus_stats(&bus)->tx_frames, 3);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
+	close_bus(&bus, &pt);
+}
+
+/* --local-echo: a frame we sent, heard back, is dropped once, in order, within 500 ms. */
+static void test_device_local_echo(void **state)
+{
+	struct rmd_frame f = frame(0x241, off_req);
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	struct pty pt;
+	uint8_t wire[RMD_RS485_FRAME_LEN];
+	int64_t t;
+
+	(void)state;
+	open_device(&bus, &pt, true);
+	/* 0x80's reply is byte for byte a request to id 1 (V3 §2.28). */
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	master_read(pt.master, wire, sizeof(wire));
+	assert_int_equal(write(pt.master, wire, sizeof(wire)), sizeof(wire));
+	assert_int_equal(write(pt.master, wire, sizeof(wire)), sizeof(wire));
+	/* The first copy is the echo; the second is a request. */
+	assert_int_equal(device_recv(&bus, rx, 4, 1, 0), 1);
+	assert_rx(&rx[0], 0x141, off_req);
+	assert_int_equal(rmd_bus_stats(&bus)->echoes, 1);
+
+	/* Heard back later than RMD_RS485_ECHO_EXPIRY_NS: no echo any more. */
+	t = now_ns();
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, t), 1);
+	master_read(pt.master, wire, sizeof(wire));
+	assert_int_equal(write(pt.master, wire, sizeof(wire)), sizeof(wire));
+	assert_int_equal(device_recv(&bus, rx, 4, 1, RMD_RS485_ECHO_EXPIRY_NS + MS), 1);
+	assert_rx(&rx[0], 0x141, off_req);
+	assert_int_equal(rmd_bus_stats(&bus)->echoes, 1);
+	close_bus(&bus, &pt);
+}
+
+/* Replies the tty refuses wait in the transport: next_due_ns says so, send(n 0) drains them. */
+static void test_device_backlog(void **state)
+{
+	struct rmd_frame f = frame(0x241, status1_reply);
+	struct rmd_bus bus;
+	struct pty pt;
+	uint64_t sent = 0, got = 0;
+	int64_t limit;
+	int r;
+
+	(void)state;
+	open_device(&bus, &pt, false);
+	/* Nobody reads the master: the tty and then the transport's buffer fill. */
+	while ((r = rmd_bus_send(&bus, &f, 1, now_ns())) == 1) {
+		sent++;
+		assert_true(sent < 1000000);
+	}
+	assert_int_equal(r, 0);
+	assert_true(sent * RMD_RS485_FRAME_LEN > RMD_RS485_DEVICE_TXBUF);
+	assert_int_equal(rmd_bus_stats(&bus)->tx_busy, 1);
+	assert_int_equal(rmd_bus_stats(&bus)->tx_frames, sent);
+	assert_true(rmd_bus_next_due_ns(&bus) != INT64_MAX);
+
+	/* Read everything, writing on whenever the tty is writable again. */
+	limit = now_ns() + LIMIT_NS;
+	while (got < sent * RMD_RS485_FRAME_LEN && now_ns() < limit) {
+		uint8_t buf[4096];
+		struct pollfd pfd = { .fd = pt.master, .events = POLLIN };
+		struct timespec ts = ts_of(10 * MS);
+		ssize_t n;
+
+		if (ppoll(&pfd, 1, &ts, NULL) == 1) {
+			n = read(pt.master, buf, sizeof(buf));
+			if (n > 0)
+				got += (uint64_t)n;
+		}
+		if (rmd_bus_next_due_ns(&bus) != INT64_MAX)
+			assert_int_equal(rmd_bus_send(&bus, NULL, 0, now_ns()), 0);
+	}
+	assert_int_equal(got, sent * RMD_RS485_FRAME_LEN);
+	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
+	close_bus(&bus, &pt);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -916,6 +1100,9 @@ int main(void)
 		cmocka_unit_test_teardown(test_send_refusals, teardown),
 		cmocka_unit_test_teardown(test_caps_and_accessors, teardown),
 		cmocka_unit_test_teardown(test_open_config_equals_spec, teardown),
+		cmocka_unit_test_teardown(test_device_role, teardown),
+		cmocka_unit_test_teardown(test_device_local_echo, teardown),
+		cmocka_unit_test_teardown(test_device_backlog, teardown),
 	};
 
 	return cmocka_run_group_tests_name("bus_rs485", tests, NULL, NULL);

@@ -2,9 +2,9 @@
 /*
  * rmd-sim's event loop: simulated motors behind a real wire.
  *
- * One thread, one epoll set: the wire (a SocketCAN interface, opened,
- * read and written through the bus layer's SocketCAN transport in its
- * device role, or a serial line), a timerfd on CLOCK_MONOTONIC and a
+ * One thread, one epoll set: the wire (a SocketCAN interface or a serial
+ * line, opened, read and written through the bus layer's transport in its
+ * device role: the motors' side), a timerfd on CLOCK_MONOTONIC and a
  * signalfd for SIGINT/SIGTERM.
  * Motor time is CLOCK_MONOTONIC in ns.
  *
@@ -31,7 +31,7 @@
  *
  * RS485 (V3 §1.2.2, §6, §7) maps to the CAN identifiers the motors speak
  * with the map the host's RS485 transport uses (rmd/rs485.h), from the
- * motors' side:
+ * motors' side (the transport's device role does it, rmd/bus_rs485.h):
  *   rx  id 1..32               -> 0x140 + id
  *   rx  id 0xCD, D0 = 0x79     -> 0x300 (V3 §7: RS485-ID setting)
  *   rx  id 0xCD, other D0      -> 0x280 (V3 §6: every motor)
@@ -44,13 +44,12 @@
 #define _GNU_SOURCE
 
 #include <errno.h>
-#include <fcntl.h>
 #include <inttypes.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <termios.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -64,7 +63,6 @@
 
 #include <linux/can.h>
 #include <linux/can/raw.h>
-#include <linux/serial.h>
 
 #include "rmd/time.h"
 #include "rmd/bus.h"
@@ -78,15 +76,12 @@
 #include "rmd/sim_wire.h"
 #include "rmd-sim.h"
 
-#define TXQ 1024			     /* frames waiting for their due time */
-#define TICK_NS (10 * RMD_NS_PER_MS)	     /* physics step of idle motors */
-#define HOUSEKEEPING_NS RMD_NS_PER_S	     /* CAN interface state check */
-#define RETRY_NS (200 * RMD_NS_PER_US)	     /* after ENOBUFS / EAGAIN */
-#define RX_BUF 4096			     /* serial bytes not parsed yet */
-#define TX_BUF 16384			     /* serial bytes not written yet */
-#define ECHO_RING 64			     /* serial frames whose echo may come */
-#define ECHO_EXPIRY_NS (500 * RMD_NS_PER_MS) /* an echo later than this is not one */
-#define MAX_READS 256			     /* frames read per wake-up, then timers */
+#define TXQ 1024		       /* frames waiting for their due time */
+#define TICK_NS (10 * RMD_NS_PER_MS)   /* physics step of idle motors */
+#define HOUSEKEEPING_NS RMD_NS_PER_S   /* CAN interface state check */
+#define RETRY_NS (200 * RMD_NS_PER_US) /* after ENOBUFS / EAGAIN */
+#define MAX_READS 256		       /* frames read per wake-up, then timers */
+#define RX_BATCH 64		       /* frames per rmd_bus_recv() */
 
 struct slot {
 	struct rmd_sim_motor m;
@@ -111,21 +106,14 @@ struct stats {
 	uint64_t tx_errors; /* writes that failed otherwise (frame lost) */
 	uint64_t txq_overflow;
 	uint64_t rx_errors;   /* read errors */
-	uint64_t noise_bytes; /* serial bytes skipped to resynchronise */
-	uint64_t echoes;      /* serial: own frames heard back */
 	uint64_t absent_lost; /* frames of a disappeared motor */
 	uint64_t unmappable;  /* frames with no RS485 form */
 	uint64_t faults[RMD_SIM_FAULT_COUNT];
 };
 
-struct echo {
-	uint8_t bytes[RMD_RS485_FRAME_LEN];
-	int64_t t_ns;
-};
-
 struct sim {
 	const struct sim_config *cfg;
-	struct rmd_bus bus; /* the wire, when the bus layer opened it (ops set) */
+	struct rmd_bus bus; /* the wire (ops set once open) */
 	const char *name;   /* the wire, for messages */
 	int64_t t0;
 	struct slot slots[RMD_MAX_MOTORS];
@@ -143,13 +131,8 @@ struct sim {
 	bool if_down;
 	uint32_t ep_events; /* what the wire fd is registered for */
 
-	uint8_t rx[RX_BUF];
-	size_t rxn;
+	uint64_t noise_seen; /* serial: the bus's rx_noise_bytes already reported */
 	bool noise_warned;
-	uint8_t tx[TX_BUF];
-	size_t txn;
-	struct echo echo[ECHO_RING];
-	unsigned echo_head, echo_n;
 
 	int64_t next_tick_ns, next_house_ns;
 	uint64_t tx_errors_logged;
@@ -525,148 +508,51 @@ static int can_write(struct sim *s, const struct rmd_frame *f)
 	return r < 0 ? r : -EIO;
 }
 
-static void can_read(struct sim *s)
-{
-	struct rmd_bus_rx rx[64];
-
-	for (unsigned i = 0; i < MAX_READS && !s->stop;) {
-		int n = rmd_bus_recv(&s->bus, rx, 64, rmd_now_ns());
-
-		if (n < 0) {
-			if (n == -EAGAIN || n == -EINTR)
-				return;
-			if (n == -ENETDOWN) {
-				set_down(s, true, "read: ENETDOWN");
-				i++;
-				continue;
-			}
-			if (n == -ENODEV) {
-				tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed",
-					 s->name);
-				stop(s, SIM_EXIT_RUN, "the interface was removed");
-				return;
-			}
-			if (!s->st.rx_errors++)
-				tool_log(TOOL_LOG_WARNING, "rmd-sim: %s: read: %s", s->name,
-					 strerror(-n));
-			return;
-		}
-		for (int k = 0; k < n; k++) {
-			int answers;
-
-			set_down(s, false, "");
-			s->st.rx_frames++;
-			answers = deliver(s, &rx[k].f, rx[k].t_ns);
-			if (answers)
-				s->st.rx_taken++;
-			log_rx(s, &rx[k].f, answers, 0);
-		}
-		if (n < 64)
-			return;
-		i += (unsigned)n;
-	}
-}
-
 /* ---- the serial wire ------------------------------------------------------------------- */
 
+/* The line, through the bus layer's RS485 transport on the motors' side.  Non-rt. */
 static int serial_open(struct sim *s)
 {
-	struct termios tio;
-	struct serial_rs485 rs;
-	speed_t speed;
-	int fd, e;
+	struct rmd_bus_open_opts o = {
+		.proto = RMD_PROTO_V3,
+		.baud = s->cfg->baud,
+		.local_echo = s->cfg->local_echo,
+		.device = true,
+	};
+	char spec[PATH_MAX + sizeof(s->cfg->device)], err[512];
+	int r;
 
-	fd = open(s->name, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-	if (fd < 0) {
-		e = errno;
-		if (e == ENOENT)
-			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: no such device", s->name);
-		else if (e == EACCES)
-			tool_log(TOOL_LOG_ERR,
-				 "rmd-sim: %s: permission denied (join group dialout)", s->name);
-		else
-			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: %s", s->name, strerror(e));
-		return -e;
+	/* A bus spec names a serial line by an absolute path. */
+	if (s->name[0] == '/' || !getcwd(spec, PATH_MAX))
+		snprintf(spec, sizeof(spec), "%s", s->name);
+	else
+		snprintf(spec + strlen(spec), sizeof(spec) - strlen(spec), "/%s", s->name);
+	r = rmd_bus_open_spec(&s->bus, spec, &o, err, sizeof(err));
+	if (r < 0) {
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s", err[0] ? err : strerror(-r));
+		return r;
 	}
-	if (tcgetattr(fd, &tio) < 0) {
-		e = errno;
-		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: not a serial port (%s)", s->name, strerror(e));
-		goto err_close;
-	}
-	if (ioctl(fd, TIOCEXCL) < 0) {
-		e = errno;
-		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: TIOCEXCL: %s", s->name, strerror(e));
-		goto err_close;
-	}
-	if (rmd_rs485_baud_speed(s->cfg->baud, &speed) < 0) {
-		e = EINVAL;
-		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: baud %u unsupported", s->name, s->cfg->baud);
-		goto err_close;
-	}
-	/* V3 §1.2: 8 data bits, no parity, one stop bit, no flow control. */
-	cfmakeraw(&tio);
-	tio.c_cflag &= ~(tcflag_t)(CSTOPB | PARENB | CRTSCTS | CSIZE);
-	tio.c_cflag |= CS8 | CLOCAL | CREAD;
-	tio.c_cc[VMIN] = 0;
-	tio.c_cc[VTIME] = 0;
-	if (cfsetispeed(&tio, speed) < 0 || cfsetospeed(&tio, speed) < 0 ||
-	    tcsetattr(fd, TCSANOW, &tio) < 0) {
-		e = errno;
-		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the driver refuses %u baud 8N1 raw: %s",
-			 s->name, s->cfg->baud, strerror(e));
-		goto err_close;
-	}
-	tcflush(fd, TCIOFLUSH);
-	/* The kernel's RS485 mode drives the transceiver's direction around our writes. */
-	memset(&rs, 0, sizeof(rs));
-	if (ioctl(fd, TIOCGRS485, &rs) == 0) {
-		rs.flags |= SER_RS485_ENABLED | SER_RS485_RTS_ON_SEND;
-		rs.flags &= ~(__u32)SER_RS485_RTS_AFTER_SEND;
-		if (ioctl(fd, TIOCSRS485, &rs) == 0)
-			tool_log(TOOL_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
-	} else {
+	/* A notice says the port has no kernel RS485 mode (a pty, a USB adapter). */
+	if (err[0])
 		tool_log(TOOL_LOG_INFO,
 			 "rmd-sim: %s: no kernel RS485 mode (a pseudo-terminal, or an adapter that "
 			 "switches direction by itself)",
 			 s->name);
-	}
-	s->fd = fd;
+	else
+		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
+	s->fd = rmd_bus_fd(&s->bus);
 	return 0;
-err_close:
-	close(fd);
-	return -e;
 }
 
-/* Serial bytes out: as much as the tty takes; the rest waits for EPOLLOUT. */
-static void serial_flush(struct sim *s)
-{
-	while (s->txn) {
-		ssize_t w = write(s->fd, s->tx, s->txn);
-
-		if (w < 0) {
-			if (errno == EINTR)
-				continue;
-			if (errno == EAGAIN)
-				break;
-			if (!s->st.tx_errors++)
-				tool_log(TOOL_LOG_WARNING, "rmd-sim: %s: write: %s", s->name,
-					 strerror(errno));
-			s->txn = 0;
-			break;
-		}
-		memmove(s->tx, s->tx + w, s->txn - (size_t)w);
-		s->txn -= (size_t)w;
-	}
-}
-
-/* Build the RS485 form of f into the output buffer: 0, -EAGAIN (full) or -EINVAL. */
+/*
+ * Send f's RS485 form: 0, -EAGAIN (no room, retry later), -EINVAL (no
+ * RS485 form) or -errno (lost).  *id_out and *wire: the RS485 id and the
+ * frame as sent, for the log.
+ */
 static int serial_write(struct sim *s, const struct rmd_frame *f, uint8_t *id_out,
 			struct rmd_frame *wire)
 {
-	uint8_t b[RMD_RS485_FRAME_LEN], *data = wire->data;
-	size_t n;
-	uint8_t id;
-	uint16_t crc;
+	uint8_t *data = wire->data;
 	int r;
 
 	r = rmd_rs485_id_of_can(f->can_id, false);
@@ -674,8 +560,7 @@ static int serial_write(struct sim *s, const struct rmd_frame *f, uint8_t *id_ou
 		s->st.unmappable++;
 		return -EINVAL;
 	}
-	id = (uint8_t)r;
-	*id_out = id;
+	*id_out = (uint8_t)r;
 	*wire = *f;
 	/* V3 §7.4 example 2: the RS485 read answers the ID itself, not 0x240 + ID. */
 	if (f->can_id == RMD_CAN_SET_ID && data[0] == RMD_RS485_CMD_SET_ID && data[2] == 1) {
@@ -687,124 +572,113 @@ static int serial_write(struct sim *s, const struct rmd_frame *f, uint8_t *id_ou
 			data[7] = 0;
 		}
 	}
-	if (f->len == RMD_FRAME_LEN) {
-		if (rmd_rs485_build(id, data, b, sizeof(b)) < 0)
-			return -EINVAL;
-		n = RMD_RS485_FRAME_LEN;
-	} else {
-		/* BAD_DLC fault: the length byte says len and that many bytes follow. */
-		b[0] = RMD_RS485_HEADER;
-		b[1] = id;
-		b[2] = f->len;
-		memcpy(b + 3, data, f->len);
-		crc = rmd_crc16_modbus(b, 3u + f->len);
-		b[3 + f->len] = (uint8_t)(crc & 0xFF);
-		b[4 + f->len] = (uint8_t)(crc >> 8);
-		n = 5u + f->len;
-	}
-	if (s->txn + n > sizeof(s->tx))
+	/* A BAD_DLC frame goes out short: its length byte says len (rmd/bus_rs485.h). */
+	r = rmd_bus_send(&s->bus, wire, 1, rmd_now_ns());
+	if (r == 0)
 		return -EAGAIN;
-	memcpy(s->tx + s->txn, b, n);
-	s->txn += n;
-	if (s->cfg->local_echo && n == RMD_RS485_FRAME_LEN) {
-		struct echo *e = &s->echo[(s->echo_head + s->echo_n) % ECHO_RING];
-
-		if (s->echo_n == ECHO_RING) {
-			s->echo_head = (s->echo_head + 1) % ECHO_RING;
-			s->echo_n--;
-			e = &s->echo[(s->echo_head + s->echo_n) % ECHO_RING];
-		}
-		memcpy(e->bytes, b, n);
-		e->t_ns = rmd_now_ns();
-		s->echo_n++;
-	}
-	return 0;
+	return r < 0 ? r : 0;
 }
 
-/* With --local-echo: is this frame our own, heard back?  Drops expired entries. */
-static bool own_echo(struct sim *s, const uint8_t *b, int64_t t)
+/* Line noise the transport skipped since the last look: warned once, then at debug level. */
+static void note_noise(struct sim *s)
 {
-	while (s->echo_n && t - s->echo[s->echo_head].t_ns > ECHO_EXPIRY_NS) {
-		s->echo_head = (s->echo_head + 1) % ECHO_RING;
-		s->echo_n--;
-	}
-	if (!s->echo_n || memcmp(s->echo[s->echo_head].bytes, b, RMD_RS485_FRAME_LEN))
-		return false;
-	s->echo_head = (s->echo_head + 1) % ECHO_RING;
-	s->echo_n--;
-	s->st.echoes++;
-	return true;
-}
+	uint64_t noise = rmd_bus_stats(&s->bus)->rx_noise_bytes;
+	uint64_t skipped = noise - s->noise_seen;
 
-/* Frames in the receive buffer; line noise is skipped a byte at a time (rmd/rs485.h). */
-static void serial_parse(struct sim *s, int64_t t)
-{
-	size_t off = 0, skipped = 0;
-
-	while (off < s->rxn) {
-		uint8_t id, data[RMD_FRAME_LEN];
-		struct rmd_frame f;
-		int r = rmd_rs485_parse(s->rx + off, s->rxn - off, &id, data), answers;
-
-		if (r == -EAGAIN)
-			break;
-		if (r < 0) {
-			off++;
-			skipped++;
-			continue;
-		}
-		if (s->cfg->local_echo && own_echo(s, s->rx + off, t)) {
-			off += (size_t)r;
-			continue;
-		}
-		off += (size_t)r;
-		memset(&f, 0, sizeof(f));
-		f.len = RMD_FRAME_LEN;
-		memcpy(f.data, data, sizeof(data));
-		f.can_id = rmd_rs485_can_id(id, true, data[0]);
-		s->st.rx_frames++;
-		answers = deliver(s, &f, t);
-		if (answers)
-			s->st.rx_taken++;
-		log_rx(s, &f, answers, id);
-	}
-	if (off) {
-		memmove(s->rx, s->rx + off, s->rxn - off);
-		s->rxn -= off;
-	}
-	if (skipped) {
-		s->st.noise_bytes += skipped;
-		tool_log(s->noise_warned ? TOOL_LOG_DEBUG : TOOL_LOG_WARNING,
-			 "rmd-sim: %s: skipped %zu byte%s of line noise to resynchronise%s",
-			 s->name, skipped, skipped == 1 ? "" : "s",
-			 s->noise_warned ? "" : " (further noise is counted in the exit summary)");
-		s->noise_warned = true;
-	}
-}
-
-static void serial_read(struct sim *s, bool hup)
-{
-	for (;;) {
-		ssize_t r = read(s->fd, s->rx + s->rxn, sizeof(s->rx) - s->rxn);
-
-		if (r > 0) {
-			s->rxn += (size_t)r;
-			serial_parse(s, rmd_now_ns());
-			continue;
-		}
-		if (r < 0 && errno == EINTR)
-			continue;
-		if (!hup && (r == 0 || errno == EAGAIN))
-			return;
-		/* EIO or end of file with a hang-up: the other side closed the line. */
-		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
-			 r < 0 ? strerror(errno) : "end of file");
-		stop(s, SIM_EXIT_RUN, "hang-up");
+	if (!skipped)
 		return;
+	s->noise_seen = noise;
+	tool_log(s->noise_warned ? TOOL_LOG_DEBUG : TOOL_LOG_WARNING,
+		 "rmd-sim: %s: skipped %" PRIu64 " byte%s of line noise to resynchronise%s",
+		 s->name, skipped, skipped == 1 ? "" : "s",
+		 s->noise_warned ? "" : " (further noise is counted in the exit summary)");
+	s->noise_warned = true;
+}
+
+/* ---- reading the wire ------------------------------------------------------------------ */
+
+/* A read error.  Returns true when reading may go on. */
+static bool read_error(struct sim *s, int n)
+{
+	if (s->serial) {
+		/* EIO, or end of file with a hang-up: the other side closed the line. */
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
+			 n < 0 ? strerror(-n) : "end of file");
+		stop(s, SIM_EXIT_RUN, "hang-up");
+		return false;
+	}
+	if (n == -EAGAIN || n == -EINTR)
+		return false;
+	if (n == -ENETDOWN) {
+		set_down(s, true, "read: ENETDOWN");
+		return true;
+	}
+	if (n == -ENODEV) {
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
+		stop(s, SIM_EXIT_RUN, "the interface was removed");
+		return false;
+	}
+	if (!s->st.rx_errors++)
+		tool_log(TOOL_LOG_WARNING, "rmd-sim: %s: read: %s", s->name, strerror(-n));
+	return false;
+}
+
+/* Requests that arrived go to the motors; hup: the line was hung up (serial). */
+static void wire_read(struct sim *s, bool hup)
+{
+	struct rmd_bus_rx rx[RX_BATCH];
+
+	for (unsigned i = 0; i < MAX_READS && !s->stop;) {
+		int n = rmd_bus_recv(&s->bus, rx, RX_BATCH, rmd_now_ns());
+
+		if (n < 0 || (n == 0 && hup)) {
+			if (!read_error(s, n))
+				return;
+			i++;
+			continue;
+		}
+		for (int k = 0; k < n; k++) {
+			int id = s->serial ? rmd_rs485_id_of_can(rx[k].f.can_id, true) : 0;
+			int answers;
+
+			set_down(s, false, "");
+			s->st.rx_frames++;
+			answers = deliver(s, &rx[k].f, rx[k].t_ns);
+			if (answers)
+				s->st.rx_taken++;
+			log_rx(s, &rx[k].f, answers, (uint8_t)id);
+		}
+		if (s->serial)
+			note_noise(s);
+		if (n < RX_BATCH)
+			return;
+		i += (unsigned)n;
 	}
 }
 
 /* ---- writing due frames ---------------------------------------------------------------- */
+
+/* A write that failed with r (-errno): frames lost, logged at 1, 3, 7, ... */
+static void tx_lost(struct sim *s, int r)
+{
+	s->st.tx_errors++;
+	if (s->st.tx_errors >= s->tx_errors_logged * 2 + 1) {
+		tool_log(TOOL_LOG_WARNING,
+			 "rmd-sim: %s: write: %s (%" PRIu64 " frames "
+			 "lost so far)",
+			 s->name, strerror(-r), s->st.tx_errors);
+		s->tx_errors_logged = s->st.tx_errors;
+	}
+}
+
+/* Serial bytes that wait: the tty is writable again. */
+static void serial_flush(struct sim *s)
+{
+	int r = rmd_bus_send(&s->bus, NULL, 0, rmd_now_ns());
+
+	if (r < 0)
+		tx_lost(s, r);
+}
 
 static void write_due(struct sim *s, int64_t now)
 {
@@ -838,21 +712,12 @@ static void write_due(struct sim *s, int64_t now)
 			continue;
 		}
 		if (r < 0) {
-			s->st.tx_errors++;
-			if (s->st.tx_errors >= s->tx_errors_logged * 2 + 1) {
-				tool_log(TOOL_LOG_WARNING,
-					 "rmd-sim: %s: write: %s (%" PRIu64 " frames "
-					 "lost so far)",
-					 s->name, strerror(-r), s->st.tx_errors);
-				s->tx_errors_logged = s->st.tx_errors;
-			}
+			tx_lost(s, r);
 			continue;
 		}
 		s->st.tx_frames++;
 		log_tx(s, &e, &wire, id);
 	}
-	if (s->serial)
-		serial_flush(s);
 }
 
 /* ---- the loop -------------------------------------------------------------------------- */
@@ -981,6 +846,9 @@ static void log_startup(const struct sim *s)
 
 static void log_summary(const struct sim *s, int64_t now)
 {
+	const struct rmd_bus_stats *bs = rmd_bus_stats(&s->bus);
+	/* Serial: the transport's rx_errors are the runs of line noise, counted in bytes. */
+	uint64_t rx_errors = s->st.rx_errors + (s->serial ? 0 : bs->rx_errors);
 	char faults[512];
 
 	summary_faults(s, faults, sizeof(faults));
@@ -992,9 +860,8 @@ static void log_summary(const struct sim *s, int64_t now)
 		 ", without RS485 form %" PRIu64 "%s",
 		 s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
 		 s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors,
-		 s->st.txq_overflow,
-		 s->st.rx_errors + (s->bus.ops ? rmd_bus_stats(&s->bus)->rx_errors : 0),
-		 s->st.noise_bytes, s->st.echoes, s->st.absent_lost, s->st.unmappable, faults);
+		 s->st.txq_overflow, rx_errors, bs->rx_noise_bytes, bs->echoes, s->st.absent_lost,
+		 s->st.unmappable, faults);
 }
 
 static void handle_signal(struct sim *s)
@@ -1092,8 +959,9 @@ int sim_run(const struct sim_config *c)
 		process(s, now);
 		if (s->stop)
 			break;
+		/* Replies the tty refused wait in the transport until it is writable. */
 		if (s->serial)
-			watch_out(s, s->txn > 0);
+			watch_out(s, rmd_bus_next_due_ns(&s->bus) != INT64_MAX);
 		arm(s, next_deadline(s, now));
 		n = epoll_wait(s->epfd, ev, 4, -1);
 		if (n < 0) {
@@ -1122,9 +990,9 @@ int sim_run(const struct sim_config *c)
 					if (e & EPOLLOUT)
 						serial_flush(s);
 					if (e & (EPOLLIN | EPOLLHUP | EPOLLERR))
-						serial_read(s, (e & EPOLLHUP) != 0);
+						wire_read(s, (e & EPOLLHUP) != 0);
 				} else if (e & (EPOLLIN | EPOLLERR)) {
-					can_read(s);
+					wire_read(s, false);
 				}
 				break;
 			default:
@@ -1136,10 +1004,7 @@ int sim_run(const struct sim_config *c)
 	r = s->status;
 
 err_close_wire:
-	if (s->bus.ops)
-		rmd_bus_close(&s->bus);
-	else if (s->fd >= 0)
-		close(s->fd);
+	rmd_bus_close(&s->bus);
 err_close_fds:
 	if (s->epfd >= 0)
 		close(s->epfd);
