@@ -151,14 +151,21 @@ static void fill_opts(struct rmd_bridge_opts *o, const char *url)
 	}
 }
 
+/* state_t's motor[] is variable-length: the copy keeps its own entries (the rest zero). */
+static rmd_motor_state_t state_motors[RMD_STATE_T_MAX_MOTORS + 1];
+
 static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
 		     void *user)
 {
 	struct fixture *f = user;
+	int n = msg->count > 0 && msg->count <= RMD_STATE_T_MAX_MOTORS ? msg->count : 0;
 
 	(void)rbuf;
 	(void)channel;
 	f->state = *msg;
+	memset(state_motors, 0, sizeof(state_motors));
+	memcpy(state_motors, msg->motor, (size_t)n * sizeof(*state_motors));
+	f->state.motor = state_motors;
 	if (f->n_states < MAX_STATES)
 		f->state_cycle[f->n_states] = msg->cycle;
 	f->n_states++;
@@ -321,12 +328,28 @@ static void send_cmd(struct fixture *f, const rmd_command_t *msg)
 	assert_int_equal(rmd_command_t_publish(f->ctl, f->ch_command, msg), 0);
 }
 
-/* A valid command: motor 1 in position mode, motor 2 (MIT-capable) in MIT. */
-static rmd_command_t base_cmd(int64_t seq)
+/*
+ * command_t's motor[] is variable-length: the commands the tests build use
+ * this array, room for counts beyond MAX_MOTORS (one command at a time).
+ */
+static rmd_motor_command_t cmd_motors[64];
+
+/* A zeroed command over cmd_motors. */
+static rmd_command_t empty_cmd(void)
 {
 	rmd_command_t m;
 
 	memset(&m, 0, sizeof(m));
+	memset(cmd_motors, 0, sizeof(cmd_motors));
+	m.motor = cmd_motors;
+	return m;
+}
+
+/* A valid command: motor 1 in position mode, motor 2 (MIT-capable) in MIT. */
+static rmd_command_t base_cmd(int64_t seq)
+{
+	rmd_command_t m = empty_cmd();
+
 	m.utime = 1000000 + seq;
 	m.seq = seq;
 	m.count = 2;
@@ -471,7 +494,7 @@ static void test_clamp(void **state)
 
 	f->opts.motor[7].vel_max_rad_s = INFINITY; /* no limit: max_velocity 0 stays 0 */
 	start(f);
-	memset(&m, 0, sizeof(m));
+	m = empty_cmd();
 	m.seq = 1;
 	m.count = 5;
 	m.motor[0] = (rmd_motor_command_t){
@@ -621,6 +644,12 @@ static void seq_back(rmd_command_t *m)
 	m->seq = 999;
 }
 
+/* base_cmd(1000) made controller 0 the owner: another is an intruder */
+static void intruder(rmd_command_t *m)
+{
+	m->controller = 0x1234;
+}
+
 static const struct hostile hostiles[] = {
 	{ "wrong fingerprint", RMD_REJ_DECODE, RAW_STATE, NULL, "not an rmd.command_t" },
 	{ "truncated", RMD_REJ_DECODE, RAW_TRUNCATED, NULL, NULL },
@@ -644,6 +673,8 @@ static const struct hostile hostiles[] = {
 	{ "max_velocity < 0", RMD_REJ_LIMIT, RAW_NONE, max_velocity_negative, NULL },
 	{ "seq back", RMD_REJ_STALE, RAW_NONE, seq_back,
 	  "seq 999 went back (newest accepted 1000" },
+	{ "intruder", RMD_REJ_OWNER, RAW_NONE, intruder,
+	  "controller 0000000000001234: the motors are owned by controller 0000000000000000" },
 };
 
 static void send_hostile(struct fixture *f, const struct hostile *h)
