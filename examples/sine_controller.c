@@ -138,7 +138,7 @@ struct ctl {
 	int64_t id; /* command_t.controller: random, chosen at start */
 	rmd_command_t msg;
 	rmd_motor_command_t msg_motor[MAX_MOTORS]; /* msg.motor */
-	uint8_t buf[4096]; /* an encoded command_t is at most 1.7 kB */
+	uint8_t buf[4096];			   /* an encoded command_t is at most 1.7 kB */
 };
 
 static volatile sig_atomic_t stop_signal;
