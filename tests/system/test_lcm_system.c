@@ -1699,6 +1699,44 @@ static void test_second_controller_rejected(void **state)
 	disable_all(f);
 }
 
+/*
+ * Issue 13: SIGTERM sends the configured safety.shutdown_action (here damp
+ * for 300 ms, then brake) and says so on exit; the frames themselves are
+ * checked on the simulated wire by tests/unit/test_loop.c.
+ */
+static void test_sigterm_sends_the_configured_action(void **state)
+{
+	struct fixture *f = fixture(state);
+	static const char from[] = "lost_motor_action: all}";
+	const char *at = strstr(config_yaml, from);
+	char path[400];
+	int64_t t0, took;
+	FILE *fp;
+
+	assert_non_null(at);
+	snprintf(path, sizeof(path), "%s/shutdown.yaml", tmpdir);
+	fp = fopen(path, "w");
+	assert_non_null(fp);
+	fprintf(fp, "%.*s", (int)(at - config_yaml), config_yaml);
+	fputs("lost_motor_action: all, shutdown_action: damp, shutdown_damp_ms: 300}", fp);
+	fputs(at + strlen(from), fp);
+	assert_int_equal(fclose(fp), 0);
+
+	start_rmdd_with(f, path);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = 0x5157;
+	enable_in_place(f);
+	t0 = now_ns();
+	assert_int_equal(stop_child(&f->rmdd, SIGTERM, 5000), 0);
+	took = now_ns() - t0;
+	if (!strstr(slurp(f->log), "<5>rmdd: the driven motors were damped, then every motor was "
+				   "sent stop (0x80) and brake (0x78); their comm-loss protection "
+				   "(0xB3) stays set"))
+		fail_msg("no exit line for damp; rmdd's output:\n%s", slurp(f->log));
+	/* it damped for the configured time before it exited */
+	assert_true(took >= 300 * NS_PER_MS);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1717,6 +1755,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_c_example_after_a_loss, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_python_example_after_a_loss, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_second_controller_rejected, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_sigterm_sends_the_configured_action, setup,
+						teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood* */
