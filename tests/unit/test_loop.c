@@ -523,6 +523,18 @@ static void test_enable_position_moves(void **state)
 	rig_down();
 }
 
+/* Three motors on one bus, enabled in speed mode at 1 rad/s for 200 cycles. */
+static void three_at_speed(void)
+{
+	rig_up(3, NULL);
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 3; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(200, true);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+}
+
 static void test_lost_and_recovery(void **state)
 {
 	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
@@ -532,13 +544,7 @@ static void test_lost_and_recovery(void **state)
 	struct rmd_snapshot s;
 
 	(void)state;
-	rig_up(3, NULL);
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 3; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(200, true);
-	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	three_at_speed();
 	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_SPEED);
 
 	drop.start_ns = sim_time(0);
@@ -790,30 +796,49 @@ static void brake_safe(struct rmd_config *cfg)
 	cfg->safety.safe_action = RMD_SAFE_BRAKE;
 }
 
+/*
+ * Six motors on two buses, 0..driven-1 driven at 2 rad/s, the others READY;
+ * then rmd_loop_stop_motors().  Every motor READY after it, its 0xB3 in
+ * place.  Returns trace_n before it.
+ */
+static unsigned drive_then_stop(tweak_fn *tweak, unsigned driven)
+{
+	unsigned from;
+
+	rig_up(6, tweak); /* two buses */
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < driven; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
+	run(300, true);
+	assert_float_equal(sim_motor(driven - 1)->vel_rad_s, 2.0, 0.2);
+	from = trace_n;
+	rmd_loop_stop_motors(R.l, t_now);
+	run(5, false); /* the wire delivers them */
+	for (unsigned i = 0; i < 6; i++) {
+		assert_int_equal(lifecycle(i), RMD_LC_READY);
+		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100); /* 0xB3 stays */
+	}
+	return from;
+}
+
+/* Motor i got 0x80 and 0x78 once each since trace[from]: output off, brake locked. */
+static void assert_braked(unsigned i, unsigned from)
+{
+	assert_int_equal(sent_to(i, 0x80, from), 1);
+	assert_int_equal(sent_to(i, 0x78, from), 1);
+	assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
+	assert_true(sim_motor(i)->brake_locked);
+}
+
 static void test_stop_motors(void **state)
 {
 	unsigned from;
 
 	(void)state;
-	rig_up(6, brake_safe); /* two buses */
-	bring_up();
-	cmd_clear();
+	from = drive_then_stop(brake_safe, 6);
 	for (unsigned i = 0; i < 6; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
-	run(300, true);
-	assert_float_equal(sim_motor(4)->vel_rad_s, 2.0, 0.2);
-	from = trace_n;
-	rmd_loop_stop_motors(R.l, t_now);
-	run(5, false); /* the wire delivers them */
-	for (unsigned i = 0; i < 6; i++) {
-		assert_int_equal(sent_to(i, 0x80, from), 1);
-		assert_int_equal(sent_to(i, 0x78, from), 1);
-		assert_int_equal(lifecycle(i), RMD_LC_READY);
-		assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
-		assert_true(sim_motor(i)->brake_locked);
-		/* 0xB3 stays in place */
-		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100);
-	}
+		assert_braked(i, from);
 	rig_down();
 }
 
@@ -1056,13 +1081,7 @@ static void test_enable_edge_latched(void **state)
 	struct rmd_health h;
 
 	(void)state;
-	rig_up(3, NULL);
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 3; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(200, true);
-	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	three_at_speed();
 	/* measurement times: the reply each value came from, at most a cycle old */
 	s = snap();
 	for (unsigned i = 0; i < 3; i++) {
@@ -1130,28 +1149,6 @@ static void shutdown_damp(struct rmd_config *cfg)
 	cfg->safety.shutdown_damp_ms = 50;
 }
 
-/* Motors 0..3 driven at 2 rad/s, 4 and 5 READY; then rmd_loop_stop_motors().  Returns trace_n before it. */
-static unsigned drive_then_stop(tweak_fn *tweak)
-{
-	unsigned from;
-
-	rig_up(6, tweak); /* two buses */
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 4; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
-	run(300, true);
-	assert_float_equal(sim_motor(3)->vel_rad_s, 2.0, 0.2);
-	from = trace_n;
-	rmd_loop_stop_motors(R.l, t_now);
-	run(5, false); /* the wire delivers them */
-	for (unsigned i = 0; i < 6; i++) {
-		assert_int_equal(lifecycle(i), RMD_LC_READY);
-		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100); /* 0xB3 stays */
-	}
-	return from;
-}
-
 /* Issue 13: each safety.shutdown_action, on the wire. */
 static void test_shutdown_actions(void **state)
 {
@@ -1159,7 +1156,7 @@ static void test_shutdown_actions(void **state)
 
 	(void)state;
 	/* stop: 0x80 to every motor, nothing else; the shafts turn freely */
-	from = drive_then_stop(shutdown_stop);
+	from = drive_then_stop(shutdown_stop, 4);
 	for (unsigned i = 0; i < 6; i++) {
 		assert_int_equal(sent_to(i, 0x80, from), 1);
 		assert_int_equal(sent_to(i, 0x78, from) + sent_to(i, 0x81, from), 0);
@@ -1170,7 +1167,7 @@ static void test_shutdown_actions(void **state)
 	rig_down();
 
 	/* hold: 0x81 to the driven motors (they hold), 0x80 to the others */
-	from = drive_then_stop(shutdown_hold);
+	from = drive_then_stop(shutdown_hold, 4);
 	for (unsigned i = 0; i < 6; i++) {
 		assert_int_equal(sent_to(i, 0x81, from), i < 4);
 		assert_int_equal(sent_to(i, 0x80, from), i >= 4);
@@ -1180,17 +1177,13 @@ static void test_shutdown_actions(void **state)
 	rig_down();
 
 	/* brake: 0x80 and 0x78 to every motor */
-	from = drive_then_stop(shutdown_brake);
-	for (unsigned i = 0; i < 6; i++) {
-		assert_int_equal(sent_to(i, 0x80, from), 1);
-		assert_int_equal(sent_to(i, 0x78, from), 1);
-		assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
-		assert_true(sim_motor(i)->brake_locked);
-	}
+	from = drive_then_stop(shutdown_brake, 4);
+	for (unsigned i = 0; i < 6; i++)
+		assert_braked(i, from);
 	rig_down();
 
 	/* damp: zero speed to the driven motors every period for 50 ms, then brake all */
-	from = drive_then_stop(shutdown_damp);
+	from = drive_then_stop(shutdown_damp, 4);
 	for (unsigned i = 0; i < 6; i++) {
 		unsigned n = sent_to(i, 0xA2, from);
 
@@ -1198,9 +1191,7 @@ static void test_shutdown_actions(void **state)
 			fail_msg("motor %u: %u zero-speed frames in 50 ms at 1 kHz", i, n);
 		if (i >= 4)
 			assert_int_equal(n, 0);
-		assert_int_equal(sent_to(i, 0x80, from), 1);
-		assert_int_equal(sent_to(i, 0x78, from), 1);
-		assert_true(sim_motor(i)->brake_locked);
+		assert_braked(i, from);
 		/* it had stopped before the brake closed */
 		assert_float_equal(sim_motor(i)->vel_rad_s, 0.0, 0.2);
 	}
