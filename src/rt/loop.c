@@ -484,8 +484,9 @@ static void queue_stop(struct rmd_loop *l, int driven, uint8_t cmd, bool brake)
 
 			if (on && driven >= 0)
 				n = rmd_motor_encode_safe(&lm->m, (enum rmd_safe_action)driven, f);
-			else if (cmd && rmd_motor_encode_cmd(&lm->m, cmd, &f[0]) == 0)
-				n = 1;
+			/* not driven, or the action has no frame for this motor (MIT hold): cmd */
+			if (n <= 0)
+				n = cmd && rmd_motor_encode_cmd(&lm->m, cmd, &f[0]) == 0 ? 1 : 0;
 			for (int j = 0; j < n; j++)
 				loop_push_tx(lb, &f[j], loop_idx(l, lm), REQ_STATUS);
 			/* V3 §2.27 / V2 §3.51 brake locked */
