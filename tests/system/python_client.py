@@ -78,6 +78,14 @@ def spin_until(c, done, seconds):
     return done()
 
 
+def ownership(h):
+    """health_t's ownership fields, for a message."""
+    if h is None:
+        return "no health_t"
+    return (f"owned {h.owned} owner {h.owner:#x} intruder {h.intruder:#x} "
+            f"takeovers {h.takeovers}")
+
+
 def takeover(url):
     """Two clients: the first to enable owns motor1; the second takes it over."""
     with rmd.Client(url) as a, rmd.Client(url) as b:
@@ -87,7 +95,7 @@ def takeover(url):
         b.send()  # no setpoints, still another controller's command: rejected
         if not spin_until(a, lambda: a.health is not None and a.health.intruder == b.controller
                           and a.health.owned and a.health.owner == a.controller, 2.0):
-            fail(f"health_t does not name b as the intruder: {vars(a.health)}")
+            fail(f"health_t does not name b as the intruder: {ownership(a.health)}")
         if not (a.state.owned and a.state.owner == a.controller):
             fail("state_t does not name a as the owner")
         print("intruder: b rejected while a owns motor1", flush=True)
@@ -95,7 +103,7 @@ def takeover(url):
         b.enable([m], rmd.command_t.MODE_POSITION)
         if not spin_until(b, lambda: b.health.owner == b.controller
                           and b.health.takeovers == 1, 2.0):
-            fail(f"health_t after the takeover: {vars(b.health)}")
+            fail(f"health_t after the takeover: {ownership(b.health)}")
         a.send()  # the old owner is the intruder now
         if not spin_until(b, lambda: b.health.intruder == a.controller, 2.0):
             fail("health_t does not name a as the intruder after the takeover")
