@@ -1737,6 +1737,67 @@ static void test_sigterm_sends_the_configured_action(void **state)
 	assert_true(took >= 300 * NS_PER_MS);
 }
 
+static bool done_motor0_lost(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return motor_in(f, 0, RMD_STATE_T_LC_LOST);
+}
+
+static bool done_motor0_ready(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return motor_in(f, 0, RMD_STATE_T_LC_READY);
+}
+
+static bool done_motor0_enabled(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return motor_in(f, 0, RMD_STATE_T_LC_ENABLED);
+}
+
+/*
+ * Issue 13: an enable = 1 the loop does not act on is reported in health_t
+ * with its reason: while pos_1 is LOST (IGN_NOT_READY), and once it is back
+ * but waits for enable = 0 (IGN_EDGE); enable = 0 then enable = 1 at once
+ * drives it again.
+ */
+static void test_ignored_enable_reported(void **state)
+{
+	struct fixture *f = fixture(state);
+	const rmd_health_t *h;
+	char path[400];
+
+	write_loss_config(path, sizeof(path));
+	start_rmdd_with(f, path);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = 0x1e1e;
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = isfinite(f->state.motor[i].position) ? f->state.motor[i].position :
+								      0;
+	/* the loss: pos_1 LOST, then back, while the controller streams enable = 1 */
+	if (!stream(f, true, 5000, done_motor0_lost, 0) ||
+	    !stream(f, true, 5000, done_motor0_ready, 0))
+		fail_msg("pos_1 not lost and back within 10 s; rmdd's output:\n%s", slurp(f->log));
+	h = stream_health(f, true);
+	h = stream_health(f, true);
+	assert_true(h->ignored_by_kind[RMD_HEALTH_T_IGN_NOT_READY] > 0);
+	assert_true(h->ignored_by_kind[RMD_HEALTH_T_IGN_EDGE] > 0);
+	assert_true(motor_in(f, 0, RMD_STATE_T_LC_READY));
+	print_message("ignored: not ready %lld, edge %lld\n",
+		      (long long)h->ignored_by_kind[RMD_HEALTH_T_IGN_NOT_READY],
+		      (long long)h->ignored_by_kind[RMD_HEALTH_T_IGN_EDGE]);
+	/* enable = 0 and at once enable = 1: it runs again */
+	{
+		rmd_command_t m = cmd_all(f, false);
+
+		send_cmd(f, &m);
+	}
+	if (!stream(f, true, 1000, done_motor0_enabled, 0))
+		fail_msg("pos_1 not enabled after enable = 0, 1; rmdd's output:\n%s",
+			 slurp(f->log));
+	disable_all(f);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1757,6 +1818,7 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_second_controller_rejected, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_sigterm_sends_the_configured_action, setup,
 						teardown),
+		cmocka_unit_test_setup_teardown(test_ignored_enable_reported, setup, teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood* */
