@@ -213,8 +213,9 @@ $(BUILD)/tests/unit/test_sim_params: $(BUILD)/tests/unit/test_sim_params.o \
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)
 
-# STYLE.md: the rt cycle is linked with malloc & co. wrapped, to count them.
-$(BUILD)/tests/unit/test_loop_alloc: override LDFLAGS += -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free
+# STYLE.md: suites are linked with malloc & co. wrapped, so that
+# tests/harness/alloc_count.c can count them (the rt cycle allocates nothing).
+$(BUILD)/tests/%: override LDFLAGS += -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free
 
 # Suites that need real SocketCAN (vcan0..vcan2): run on this host when its
 # kernel has vcan, else in a QEMU guest (tests/vm/README.md), else skipped

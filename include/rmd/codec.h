@@ -210,6 +210,31 @@ const struct rmd_layout *rmd_cmd_layout(const struct rmd_cmd_spec *spec, enum rm
 const struct rmd_field_spec *rmd_layout_field(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 					      enum rmd_field fld);
 
+/*
+ * Native units (the row's LSB: 0.01 A, 1 dps, 0.01 deg, 0.1 V, ...; a row
+ * without a scale counts 1).  One rule for every caller, host and
+ * simulator: native / LSB rounded to the nearest integer (halves away from
+ * zero), then saturated to the field's integer range (rmd_field_range():
+ * signed or unsigned, 8 * size bits).  rmd_field_from_native() stores the
+ * result in *raw and returns 0, or -ERANGE when the rounded value lay
+ * outside the range (*raw saturated) or native was NaN (*raw 0).
+ */
+void rmd_field_range(const struct rmd_field_spec *fs, int64_t *lo, int64_t *hi);
+double rmd_field_to_native(const struct rmd_field_spec *fs, int64_t raw);
+int rmd_field_from_native(const struct rmd_field_spec *fs, double native, int64_t *raw);
+
+/*
+ * Field `fld` of the `dir` layout of `spec` set to `native` and marked
+ * present: 0, -ERANGE (saturated, as above) or -ENOENT when the layout has
+ * no such field (msg untouched).
+ */
+int rmd_msg_set_native(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_dir dir,
+		       enum rmd_field fld, double native);
+
+/* Field `fld` of `msg` in native units; `def` when the layout lacks it or msg does not have it. */
+double rmd_msg_get_native(const struct rmd_msg *msg, const struct rmd_cmd_spec *spec,
+			  enum rmd_dir dir, enum rmd_field fld, double def);
+
 /* JSON key of a field (see enum rmd_field). */
 const char *rmd_field_key(enum rmd_field fld);
 
@@ -219,6 +244,18 @@ const char *rmd_field_key(enum rmd_field fld);
  * names[] and returns how many flags are set (may exceed max).
  */
 size_t rmd_error_names(enum rmd_proto proto, uint16_t code, const char **names, size_t max);
+
+/*
+ * Protocol names.  Keys "v3", "v2", "mit" (config files and command
+ * lines; rmd_proto_keys[] is NULL-terminated, in enum order); names "V3",
+ * "V2", "MIT" (the manuals' spelling, for messages); "?" out of range.
+ * rmd_proto_parse() takes a key in any letter case ("v3", "V3", "Mit") and
+ * returns 0, or -EINVAL for anything else (*proto untouched).
+ */
+extern const char *const rmd_proto_keys[];
+const char *rmd_proto_key(enum rmd_proto proto);
+const char *rmd_proto_name(enum rmd_proto proto);
+int rmd_proto_parse(const char *s, enum rmd_proto *proto);
 
 /* Name of a 0x70 run mode value ("current_loop", ...), or NULL. */
 const char *rmd_run_mode_name(enum rmd_proto proto, uint8_t mode);

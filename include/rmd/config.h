@@ -193,7 +193,6 @@ int rmd_config_motor_find(const struct rmd_config *cfg, const char *name);
 
 /* Names as the file spells them, indexed by their enum, NULL-terminated. */
 extern const char *const rmd_bus_kind_names[];
-extern const char *const rmd_proto_keys[];
 extern const char *const rmd_mode_names[];
 extern const char *const rmd_units_names[];
 extern const char *const rmd_safe_action_names[];
@@ -201,9 +200,11 @@ extern const char *const rmd_lost_action_names[];
 extern const char *const rmd_shutdown_action_names[];
 extern const char *const rmd_on_missing_names[];
 
-/* Names as the file spells them ("socketcan", "v3", "torque", "damp", ...).  rt-safe. */
+/*
+ * Names as the file spells them ("socketcan", "torque", "damp", ...;
+ * protocols: rmd_proto_key() in rmd/codec.h).  rt-safe.
+ */
 const char *rmd_bus_kind_name(enum rmd_bus_kind kind);
-const char *rmd_proto_key(enum rmd_proto proto);
 const char *rmd_mode_name(enum rmd_mode mode);
 const char *rmd_safe_action_name(enum rmd_safe_action action);
 

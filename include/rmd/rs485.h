@@ -24,6 +24,23 @@
 #define RMD_RS485_FRAME_LEN 13u
 #define RMD_RS485_CMD_SET_ID 0x79u /* V3 §7: the broadcast that sets an RS485 id */
 
+/* V3 §1.2.1: the bit rates an RMD RS485 port speaks, with their termios speeds. */
+struct rmd_rs485_baud {
+	uint32_t baud;
+	speed_t speed;
+};
+
+#define RMD_RS485_N_BAUDS 5
+extern const struct rmd_rs485_baud RMD_RS485_BAUDS[RMD_RS485_N_BAUDS];
+/* The list, for messages. */
+#define RMD_RS485_BAUD_LIST "115200, 500000, 1000000, 1500000 or 2000000"
+
+/*
+ * The termios speed of `baud` into *speed (when not NULL).  Returns 0, or
+ * -EINVAL for a rate V3 §1.2.1 does not list.
+ */
+int rmd_rs485_baud_speed(uint32_t baud, speed_t *speed);
+
 /*
  * Modbus CRC-16: polynomial 0x8005 reflected (0xA001), init 0xFFFF, no final
  * xor; "123456789" gives 0x4B37.  Frames carry it low byte first.
@@ -49,19 +66,6 @@ int rmd_rs485_build(uint8_t id, const uint8_t data[RMD_FRAME_LEN], uint8_t *out,
  * on success.
  */
 int rmd_rs485_parse(const uint8_t *buf, size_t len, uint8_t *id, uint8_t data[RMD_FRAME_LEN]);
-
-/* V3 §1.2.1: the baud rates of the motors' RS485 port, with their termios speeds. */
-struct rmd_rs485_baud {
-	uint32_t baud;
-	speed_t speed;
-};
-#define RMD_RS485_N_BAUDS 5
-extern const struct rmd_rs485_baud RMD_RS485_BAUDS[RMD_RS485_N_BAUDS];
-/* The list, for messages. */
-#define RMD_RS485_BAUD_LIST "115200, 500000, 1000000, 1500000 or 2000000"
-
-/* The termios speed of `baud` in *speed: 0, or -EINVAL for a rate §1.2.1 does not list. */
-int rmd_rs485_baud_speed(uint32_t baud, speed_t *speed);
 
 /*
  * Identifiers.  An RS485 frame carries a motor id (1..32) or 0xCD; the

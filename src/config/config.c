@@ -10,17 +10,15 @@
 
 #include "rmd/err.h"
 #include "rmd/config.h"
+#include "rmd/rs485.h"
 
 const char *const rmd_bus_kind_names[] = { "socketcan", "rs485", "sim", NULL };
-const char *const rmd_proto_keys[] = { "v3", "v2", "mit", NULL };
 const char *const rmd_mode_names[] = { "torque", "speed", "position", "mit", NULL };
 const char *const rmd_units_names[] = { "output", "rotor", NULL };
 const char *const rmd_safe_action_names[] = { "stop", "hold", "damp", "brake", NULL };
 const char *const rmd_lost_action_names[] = { "motor", "all", NULL };
 const char *const rmd_shutdown_action_names[] = { "default", "stop", "hold", "damp", "brake", NULL };
 const char *const rmd_on_missing_names[] = { "refuse", "start", NULL };
-_Static_assert(RMD_PROTO_V3 == 0 && RMD_PROTO_V2 == 1 && RMD_PROTO_MIT == 2,
-	       "rmd_proto_keys[] follows enum rmd_proto");
 _Static_assert(RMD_MODE_COUNT == 4, "rmd_mode_names[] follows enum rmd_mode");
 
 void rmd_config_defaults(struct rmd_config *cfg)
@@ -87,11 +85,6 @@ int rmd_config_motor_find(const struct rmd_config *cfg, const char *name)
 const char *rmd_bus_kind_name(enum rmd_bus_kind kind)
 {
 	return (unsigned)kind < 3 ? rmd_bus_kind_names[kind] : "?";
-}
-
-const char *rmd_proto_key(enum rmd_proto proto)
-{
-	return (unsigned)proto < 3 ? rmd_proto_keys[proto] : "?";
 }
 
 const char *rmd_mode_name(enum rmd_mode mode)

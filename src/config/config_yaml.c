@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "rmd/config_yaml.h"
+#include "rmd/rs485.h"
 #include "rmd/sim_params.h"
 #include "rmd/sim_wire.h"
 #include "yaml_schema.h"
@@ -353,7 +354,6 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 			   const struct ynode *seq)
 {
 	static const uint32_t can_rates[] = { 500000, 1000000 };
-	static const uint32_t bauds[] = { 115200, 500000, 1000000, 1500000, 2000000 };
 	char path[PATH_LEN], kp[PATH_LEN];
 
 	for (unsigned i = 0; i < cfg->n_buses; i++) {
@@ -412,9 +412,14 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 				rmd_yaml_report(c, rmd_yaml_line_of(bn, "device"), kp,
 						"\"%s\" is not a device path (e.g. /dev/ttyUSB0)",
 						b->device);
-			rate_in(c, bn, path, "baud", b->baud, bauds, 5,
-				"a baud rate RMD motors speak (V3 §1.2.1: 115200, 500000, "
-				"1000000, 1500000, 2000000)");
+			if (rmd_rs485_baud_speed(b->baud, NULL) < 0) {
+				rmd_yaml_path_key(kp, path, "baud");
+				rmd_yaml_report(
+					c, rmd_yaml_line_of(bn, "baud"), kp,
+					"%u is not a baud rate RMD motors speak (V3 §1.2.1: "
+					"115200, 500000, 1000000, 1500000, 2000000)",
+					b->baud);
+			}
 			break;
 		case RMD_BUS_KIND_SIM: {
 			const struct ynode *sn = rmd_yaml_get(bn, "sim", NULL);

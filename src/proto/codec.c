@@ -5,6 +5,7 @@
  * Everything here is pure and rt-safe.
  */
 #include <errno.h>
+#include <math.h>
 #include <string.h>
 
 #include "rmd/codec.h"
@@ -187,13 +188,82 @@ bool rmd_msg_has(const struct rmd_msg *msg, enum rmd_field fld)
 	return (unsigned)fld < RMD_FLD_COUNT && (msg->present >> fld) & 1;
 }
 
+void rmd_field_range(const struct rmd_field_spec *fs, int64_t *lo, int64_t *hi)
+{
+	unsigned bits = 8u * fs->size; /* 8..56 */
+
+	if (fs->is_signed) {
+		*lo = -(INT64_C(1) << (bits - 1));
+		*hi = (INT64_C(1) << (bits - 1)) - 1;
+	} else {
+		*lo = 0;
+		*hi = (INT64_C(1) << bits) - 1;
+	}
+}
+
 static bool fits(const struct rmd_field_spec *fs, int64_t raw)
 {
-	unsigned bits = 8u * fs->size;
+	int64_t lo, hi;
 
-	if (fs->is_signed)
-		return raw >= -(INT64_C(1) << (bits - 1)) && raw < (INT64_C(1) << (bits - 1));
-	return raw >= 0 && raw < (INT64_C(1) << bits);
+	rmd_field_range(fs, &lo, &hi);
+	return raw >= lo && raw <= hi;
+}
+
+static double lsb(const struct rmd_field_spec *fs)
+{
+	return fs->scale > 0.0 ? fs->scale : 1.0;
+}
+
+double rmd_field_to_native(const struct rmd_field_spec *fs, int64_t raw)
+{
+	return (double)raw * lsb(fs);
+}
+
+int rmd_field_from_native(const struct rmd_field_spec *fs, double native, int64_t *raw)
+{
+	double x = round(native / lsb(fs));
+	int64_t lo, hi;
+
+	rmd_field_range(fs, &lo, &hi);
+	if (isnan(x)) {
+		*raw = 0;
+		return -ERANGE;
+	}
+	if (x <= (double)lo) {
+		*raw = lo;
+		return x < (double)lo ? -ERANGE : 0;
+	}
+	/* (double)hi may round up to 2^bits: compare, never convert, above it. */
+	if (x >= (double)hi) {
+		*raw = hi;
+		return x > (double)hi ? -ERANGE : 0;
+	}
+	*raw = (int64_t)x;
+	return 0;
+}
+
+int rmd_msg_set_native(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_dir dir,
+		       enum rmd_field fld, double native)
+{
+	const struct rmd_field_spec *fs = rmd_layout_field(spec, dir, fld);
+	int64_t raw;
+	int r;
+
+	if (!fs)
+		return -ENOENT;
+	r = rmd_field_from_native(fs, native, &raw);
+	rmd_msg_set(msg, fld, raw);
+	return r;
+}
+
+double rmd_msg_get_native(const struct rmd_msg *msg, const struct rmd_cmd_spec *spec,
+			  enum rmd_dir dir, enum rmd_field fld, double def)
+{
+	const struct rmd_field_spec *fs = rmd_layout_field(spec, dir, fld);
+
+	if (!fs || !rmd_msg_has(msg, fld))
+		return def;
+	return rmd_field_to_native(fs, msg->v[fld]);
 }
 
 static void put_le(uint8_t *p, unsigned size, int64_t raw)

@@ -1,14 +1,48 @@
 // SPDX-License-Identifier: MIT
 /*
- * Names and checks for codec values: error flags, run modes, the 0xB5 model
- * string and the 0xB2 version date.  Pure and rt-safe; every string
- * returned is static.
+ * Names and checks for codec values: protocols, error flags, run modes, the
+ * 0xB5 model string and the 0xB2 version date.  Pure and rt-safe; every
+ * string returned is static.
  */
+#include <errno.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
 #include "rmd/codec.h"
+
+/* In the order of enum rmd_proto. */
+const char *const rmd_proto_keys[] = { "v3", "v2", "mit", NULL };
+static const char *const proto_names[] = { "V3", "V2", "MIT" };
+_Static_assert(RMD_PROTO_V3 == 0 && RMD_PROTO_V2 == 1 && RMD_PROTO_MIT == 2,
+	       "rmd_proto_keys[] follows enum rmd_proto");
+
+const char *rmd_proto_key(enum rmd_proto proto)
+{
+	return (unsigned)proto < 3 ? rmd_proto_keys[proto] : "?";
+}
+
+const char *rmd_proto_name(enum rmd_proto proto)
+{
+	return (unsigned)proto < 3 ? proto_names[proto] : "?";
+}
+
+int rmd_proto_parse(const char *s, enum rmd_proto *proto)
+{
+	for (unsigned i = 0; i < 3; i++) {
+		const char *k = rmd_proto_keys[i];
+		size_t j;
+
+		/* ASCII case-insensitive, whatever the locale. */
+		for (j = 0; k[j] && (s[j] == k[j] || s[j] == k[j] - 'a' + 'A'); j++)
+			;
+		if (!k[j] && !s[j]) {
+			*proto = (enum rmd_proto)i;
+			return 0;
+		}
+	}
+	return -EINVAL;
+}
 
 struct flag_name {
 	uint16_t code;

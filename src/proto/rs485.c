@@ -19,6 +19,23 @@
 #define OFF_DATA 3
 #define OFF_CRC (OFF_DATA + RMD_FRAME_LEN)
 
+const struct rmd_rs485_baud RMD_RS485_BAUDS[RMD_RS485_N_BAUDS] = {
+	{ 115200, B115200 },   { 500000, B500000 },   { 1000000, B1000000 },
+	{ 1500000, B1500000 }, { 2000000, B2000000 },
+};
+
+int rmd_rs485_baud_speed(uint32_t baud, speed_t *speed)
+{
+	for (size_t i = 0; i < RMD_RS485_N_BAUDS; i++) {
+		if (RMD_RS485_BAUDS[i].baud == baud) {
+			if (speed)
+				*speed = RMD_RS485_BAUDS[i].speed;
+			return 0;
+		}
+	}
+	return -EINVAL;
+}
+
 uint16_t rmd_crc16_modbus(const uint8_t *buf, size_t len)
 {
 	uint16_t crc = 0xFFFF;
@@ -76,22 +93,6 @@ int rmd_rs485_parse(const uint8_t *buf, size_t len, uint8_t *id, uint8_t data[RM
 	*id = buf[OFF_ID];
 	memcpy(data, &buf[OFF_DATA], RMD_FRAME_LEN);
 	return (int)RMD_RS485_FRAME_LEN;
-}
-
-const struct rmd_rs485_baud RMD_RS485_BAUDS[RMD_RS485_N_BAUDS] = {
-	{ 115200, B115200 },   { 500000, B500000 },   { 1000000, B1000000 },
-	{ 1500000, B1500000 }, { 2000000, B2000000 },
-};
-
-int rmd_rs485_baud_speed(uint32_t baud, speed_t *speed)
-{
-	for (size_t i = 0; i < RMD_RS485_N_BAUDS; i++) {
-		if (RMD_RS485_BAUDS[i].baud == baud) {
-			*speed = RMD_RS485_BAUDS[i].speed;
-			return 0;
-		}
-	}
-	return -EINVAL;
 }
 
 /* ID when can_id is base + ID (ID 1..32), else 0. */

@@ -32,57 +32,22 @@ static double clampf(double x, double lo, double hi, unsigned *fl)
 	return x;
 }
 
-/* Integer range of a field of the table.  rt-safe. */
-static void field_range(const struct rmd_field_spec *fs, int64_t *lo, int64_t *hi)
-{
-	unsigned bits = 8u * fs->size;
-
-	if (fs->is_signed) {
-		*lo = -(INT64_C(1) << (bits - 1));
-		*hi = (INT64_C(1) << (bits - 1)) - 1;
-	} else {
-		*lo = 0;
-		*hi = (int64_t)((UINT64_C(1) << bits) - 1);
-	}
-}
-
 /*
- * Request field `fld` of `spec` = `native` in the field's unit, rounded to
- * its LSB and clamped to its integer range.  The value is finite here.
- * rt-safe.
+ * Request field `fld` of `spec` = `native` in the field's unit, by the
+ * codec's one rule (rmd_field_from_native()): saturated values flag
+ * RMD_MOTOR_CLAMPED.  rt-safe.
  */
 static void put(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_field fld,
 		double native, unsigned *fl)
 {
-	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, fld);
-	int64_t lo, hi;
-	double raw;
-
-	if (!fs)
-		return;
-	field_range(fs, &lo, &hi);
-	raw = native / (fs->scale > 0.0 ? fs->scale : 1.0);
-	if (raw <= (double)lo) {
-		if (raw < (double)lo)
-			*fl |= RMD_MOTOR_CLAMPED;
-		rmd_msg_set(msg, fld, lo);
-	} else if (raw >= (double)hi) {
-		if (raw > (double)hi)
-			*fl |= RMD_MOTOR_CLAMPED;
-		rmd_msg_set(msg, fld, hi);
-	} else {
-		int64_t v = llround(raw);
-
-		rmd_msg_set(msg, fld, v < lo ? lo : v > hi ? hi : v);
-	}
+	if (rmd_msg_set_native(msg, spec, RMD_DIR_REQUEST, fld, native) == -ERANGE)
+		*fl |= RMD_MOTOR_CLAMPED;
 }
 
 /* Reply field `fld` in its native unit.  rt-safe. */
 static double get(const struct rmd_cmd_spec *spec, const struct rmd_msg *msg, enum rmd_field fld)
 {
-	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REPLY, fld);
-
-	return (double)msg->v[fld] * (fs && fs->scale > 0.0 ? fs->scale : 1.0);
+	return rmd_msg_get_native(msg, spec, RMD_DIR_REPLY, fld, 0.0);
 }
 
 /* rt-safe. */

@@ -240,22 +240,6 @@ void rmd_sim_motor_set_error(struct rmd_sim_motor *m, uint16_t bits)
 /* -------------------------------------------------------------------------- */
 /* Reply building                                                             */
 
-/* Raw value range of a field, as integers. */
-static void field_range(const struct rmd_field_spec *fs, int64_t *lo, int64_t *hi)
-{
-	unsigned bits = 8u * fs->size;
-
-	if (bits > 63)
-		bits = 63;
-	if (fs->is_signed) {
-		*lo = -(INT64_C(1) << (bits - 1));
-		*hi = (INT64_C(1) << (bits - 1)) - 1;
-	} else {
-		*lo = 0;
-		*hi = (bits == 63) ? INT64_MAX : (INT64_C(1) << bits) - 1;
-	}
-}
-
 /* Reply field `fld` of `spec` (if its layout has it) = raw, saturated to the field. */
 static void put_int(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_field fld,
 		    int64_t raw)
@@ -265,45 +249,26 @@ static void put_int(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum r
 
 	if (!fs)
 		return;
-	field_range(fs, &lo, &hi);
+	rmd_field_range(fs, &lo, &hi);
 	rmd_msg_set(msg, fld, raw < lo ? lo : raw > hi ? hi : raw);
 }
 
 /*
  * Reply field `fld` = `native` in the field's unit (the key's unit: A, dps,
- * deg, V, ...), divided by the row's LSB, rounded and saturated: e.g. the
- * int16 angle of V3 §2.13.3 stops at +-32767 deg.
+ * deg, V, ...) by the codec's rule, rounded and saturated: e.g. the int16
+ * angle of V3 §2.13.3 stops at +-32767 deg.
  */
 static void put(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_field fld,
 		double native)
 {
-	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REPLY, fld);
-	double raw;
-	int64_t lo, hi;
-
-	if (!fs)
-		return;
-	raw = fs->scale > 0.0 ? native / fs->scale : native;
-	field_range(fs, &lo, &hi);
-	if (isnan(raw))
-		raw = 0.0;
-	if (raw <= (double)lo)
-		rmd_msg_set(msg, fld, lo);
-	else if (raw >= (double)hi)
-		rmd_msg_set(msg, fld, hi);
-	else
-		put_int(msg, spec, fld, (int64_t)llround(raw));
+	rmd_msg_set_native(msg, spec, RMD_DIR_REPLY, fld, native);
 }
 
 /* Request field `fld` in its native unit, or `def` when the row lacks it. */
 static double get(const struct rmd_cmd_spec *spec, const struct rmd_msg *msg, enum rmd_field fld,
 		  double def)
 {
-	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, fld);
-
-	if (!fs || !rmd_msg_has(msg, fld))
-		return def;
-	return (double)msg->v[fld] * (fs->scale > 0.0 ? fs->scale : 1.0);
+	return rmd_msg_get_native(msg, spec, RMD_DIR_REQUEST, fld, def);
 }
 
 /* "The reply is the same as the request": the request's bytes on the reply id. */

@@ -1,75 +1,75 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Test helper shared by the LCM suites: make sure LCM's UDP multicast works
+ * Test helpers shared by the LCM suites: make sure LCM's UDP multicast works
  * on loopback (README "A robot PC without a network"), routing it when the
- * suite runs as root, or say loudly why every test will skip.
+ * suite runs as root, or say loudly why every test will skip; and the test
+ * controller's listener, which keeps what rmdd's bridge publishes.
  */
 #ifndef RMD_TESTS_LCM_LOOPBACK_H
 #define RMD_TESTS_LCM_LOOPBACK_H
 
 #include <stdbool.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <unistd.h>
+#include <stddef.h>
+#include <stdint.h>
 
 #include <lcm/lcm.h>
 
-static int lcm_loopback_got;
-
-static void lcm_loopback_on_probe(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
-{
-	(void)rbuf;
-	(void)channel;
-	(void)user;
-	lcm_loopback_got = 1;
-}
-
-/* One message to ourselves over udpm on a per-process port: does it come back? */
-static bool lcm_loopback_works(void)
-{
-	char url[80];
-	lcm_t *l;
-
-	snprintf(url, sizeof(url), "udpm://239.255.76.67:%d?ttl=0", 7600 + getpid() % 97);
-	l = lcm_create(url);
-	if (!l)
-		return false;
-	lcm_loopback_got = 0;
-	if (lcm_subscribe(l, "PROBE", lcm_loopback_on_probe, NULL)) {
-		for (int i = 0; i < 5 && !lcm_loopback_got; i++) {
-			lcm_publish(l, "PROBE", "x", 1);
-			lcm_handle_timeout(l, 100);
-		}
-	}
-	lcm_destroy(l);
-	return lcm_loopback_got;
-}
+#include "rmd/rmd_config_t.h"
+#include "rmd/rmd_health_t.h"
+#include "rmd/rmd_state_t.h"
 
 /*
  * True when multicast on loopback works, routing it first as root ("up"
  * too: a fresh network namespace starts with lo down).  Otherwise prints
  * one loud line naming `suite` and the commands that fix it.
  */
-static bool lcm_loopback_ready(const char *suite)
-{
-	if (lcm_loopback_works())
-		return true;
-	if (geteuid() == 0) {
-		fprintf(stderr,
-			"%s: routing multicast on loopback: "
-			"ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n",
-			suite);
-		if (system("ip link set lo up multicast on && "
-			   "(ip route add 224.0.0.0/4 dev lo 2>/dev/null || true)") != 0)
-			fprintf(stderr, "%s: ip failed\n", suite);
-		if (lcm_loopback_works())
-			return true;
-	}
-	fprintf(stderr,
-		"\n*** %s: SKIPPING every test: LCM multicast on loopback is not routable%s.\n"
-		"*** As root: ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n\n",
-		suite, geteuid() ? " and this is not root" : " even after routing it");
-	return false;
-}
+bool lcm_loopback_ready(const char *suite);
+
+/*
+ * url = a udpm URL (TTL 0) on a port of this process and test: base_port +
+ * (pid % pids) * 40 + test_no % 40, so that suites running in parallel do
+ * not hear each other.
+ */
+void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no);
+
+/*
+ * A zeroed fixture of size bytes for a set-up to fill and store in *state
+ * (NULL until then); NULL when multicast does not work (the tests then skip:
+ * fixture_or_skip()).
+ */
+void *lcm_fixture_new(void **state, size_t size, bool multicast);
+
+/* *state, the suite's fixture; skips the test when set-up left none (no multicast). */
+void *fixture_or_skip(void **state);
+
+#define LCM_RX_STATES 4096 /* state_t cycles kept, and the subscription's queue */
+#define LCM_RX_HEALTH 64   /* health_t arrival times kept */
+
+/* What the controller received on <prefix>STATE, HEALTH and CONFIG. */
+struct lcm_rx {
+	lcm_t *lcm; /* NULL: not listening */
+	rmd_state_t_subscription_t *state_sub;
+	rmd_health_t_subscription_t *health_sub;
+	rmd_config_t_subscription_t *config_sub;
+
+	rmd_state_t state; /* the last one; its motor[] is state_motor[] */
+	rmd_motor_state_t state_motor[RMD_STATE_T_MAX_MOTORS];
+	unsigned n_states;
+	int64_t state_cycle[LCM_RX_STATES]; /* the first ones' cycle numbers */
+	rmd_health_t *health;		    /* the last one (a copy), or NULL */
+	unsigned n_health;
+	int64_t health_rx_ns[LCM_RX_HEALTH]; /* CLOCK_MONOTONIC at arrival */
+	rmd_config_t *config;		     /* the last one (a copy), or NULL */
+	unsigned n_config;
+};
+
+/* Subscribe rx to prefix's channels on lcm (rx zeroed by the caller). */
+void lcm_rx_listen(struct lcm_rx *rx, lcm_t *lcm, const char *prefix);
+
+/* Unsubscribe (the messages kept stay). */
+void lcm_rx_stop(struct lcm_rx *rx);
+
+/* Unsubscribe and free the messages kept. */
+void lcm_rx_free(struct lcm_rx *rx);
 
 #endif /* RMD_TESTS_LCM_LOOPBACK_H */

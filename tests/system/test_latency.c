@@ -64,6 +64,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/lcm_loopback.h"
+#include "harness/rig.h"
 #include "rmd/time.h"
 #include "rmd/bridge.h"
 #include "rmd/bringup.h"
@@ -297,20 +298,11 @@ struct daemon {
 	FILE *log;
 };
 
-/* Open every bus of cfg as rmdd does (src/tools/rmdd_buses.c), all sim buses here. */
+/* Open every bus of cfg as rmdd does (src/tools/rmdd/buses.c), all sim buses here. */
 static void open_buses(struct daemon *d)
 {
-	for (unsigned b = 0; b < d->cfg.n_buses; b++) {
-		struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
-		struct rmd_bus_open_ctx ctx;
-		char err[256];
-
-		assert_int_equal(d->cfg.buses[b].kind, RMD_BUS_KIND_SIM);
-		rmd_bus_open_ctx_of(&d->cfg, &d->sim, b, motors, &ctx);
-		if (rmd_bus_open(&d->bus[b], &d->cfg.buses[b], &ctx, err, sizeof(err)) < 0)
-			fail_msg("sim bus %s: %s", d->cfg.buses[b].name, err);
-		d->n_open++;
-	}
+	rig_open_buses(&d->cfg, &d->sim, d->bus);
+	d->n_open = d->cfg.n_buses;
 }
 
 /* The bridge's options from the configuration, as rmdd fills them (src/tools/rmdd_lcm.c). */

@@ -55,6 +55,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/lcm_loopback.h"
+#include "harness/proc.h"
 #include "rmd/time.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
@@ -116,16 +117,7 @@ struct fixture {
 
 	lcm_t *pub; /* publishes only: no reader thread copies the flood */
 	lcm_t *sub; /* listens to STATE, HEALTH, CONFIG */
-	rmd_state_t_subscription_t *state_sub;
-	rmd_health_t_subscription_t *health_sub;
-	rmd_config_t_subscription_t *config_sub;
-
-	rmd_state_t state; /* motor[] is state_motor[] */
-	rmd_motor_state_t state_motor[RMD_STATE_T_MAX_MOTORS];
-	uint64_t n_states;
-	rmd_health_t *health;
-	uint64_t n_health;
-	rmd_config_t *config;
+	struct lcm_rx rx;
 
 	int64_t seq;
 	int64_t controller;	/* command_t.controller of the commands cmd_new() makes */
@@ -366,74 +358,24 @@ static int group_setup(void **state)
 
 static int group_teardown(void **state)
 {
-	char cmd[300];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return rm_tree(tmpdir);
 }
 
 /* ---- the listener ------------------------------------------------------------------ */
-
-static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
-		     void *user)
-{
-	struct fixture *f = user;
-
-	(void)rbuf;
-	(void)channel;
-	f->state = *msg; /* motor[] is variable-length: copied into the fixture */
-	memset(f->state_motor, 0, sizeof(f->state_motor));
-	if (msg->count > 0 && msg->count <= RMD_STATE_T_MAX_MOTORS)
-		memcpy(f->state_motor, msg->motor, (size_t)msg->count * sizeof(*msg->motor));
-	f->state.motor = f->state_motor;
-	f->n_states++;
-}
-
-static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_health_t *msg,
-		      void *user)
-{
-	struct fixture *f = user;
-
-	(void)rbuf;
-	(void)channel;
-	if (f->health)
-		rmd_health_t_destroy(f->health);
-	f->health = rmd_health_t_copy(msg);
-	f->n_health++;
-}
-
-static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
-		      void *user)
-{
-	struct fixture *f = user;
-
-	(void)rbuf;
-	(void)channel;
-	if (f->config)
-		rmd_config_t_destroy(f->config);
-	f->config = rmd_config_t_copy(msg);
-}
 
 static void listen_on(struct fixture *f)
 {
 	f->sub = lcm_create(f->url);
 	assert_non_null(f->sub);
-	f->state_sub = rmd_state_t_subscribe(f->sub, "RMD_STATE", on_state, f);
-	f->health_sub = rmd_health_t_subscribe(f->sub, "RMD_HEALTH", on_health, f);
-	f->config_sub = rmd_config_t_subscribe(f->sub, "RMD_CONFIG", on_config, f);
-	assert_non_null(f->state_sub);
-	assert_non_null(f->health_sub);
-	assert_non_null(f->config_sub);
+	lcm_rx_listen(&f->rx, f->sub, "RMD_");
 }
 
 static void listen_off(struct fixture *f)
 {
 	if (!f->sub)
 		return;
-	rmd_state_t_unsubscribe(f->sub, f->state_sub);
-	rmd_health_t_unsubscribe(f->sub, f->health_sub);
-	rmd_config_t_unsubscribe(f->sub, f->config_sub);
+	lcm_rx_stop(&f->rx);
 	lcm_destroy(f->sub);
 	f->sub = NULL;
 }
@@ -453,17 +395,12 @@ static void pump(struct fixture *f, int ms)
 
 static int setup(void **state)
 {
-	struct fixture *f;
-	int port;
+	struct fixture *f = lcm_fixture_new(state, sizeof(*f), !no_multicast);
 
-	*state = NULL;
-	if (no_multicast)
+	if (!f)
 		return 0;
-	f = calloc(1, sizeof(*f));
-	assert_non_null(f);
 	/* A port per process and test: parallel suites (test_bridge too) do not hear each other. */
-	port = 45000 + (int)(getpid() % 500) * 40 + (int)(test_no++ % 40);
-	snprintf(f->url, sizeof(f->url), "udpm://239.255.76.67:%d?ttl=0", port);
+	lcm_test_url(f->url, sizeof(f->url), 45000, 500, test_no++);
 	snprintf(f->log, sizeof(f->log), "%s/rmdd.%u.log", tmpdir, test_no);
 	snprintf(f->child_log, sizeof(f->child_log), "%s/child.%u.log", tmpdir, test_no);
 	f->pub = lcm_create(f->url);
@@ -485,19 +422,14 @@ static int teardown(void **state)
 			slurp(f->log));
 	listen_off(f);
 	lcm_destroy(f->pub);
-	if (f->health)
-		rmd_health_t_destroy(f->health);
-	if (f->config)
-		rmd_config_t_destroy(f->config);
+	lcm_rx_free(&f->rx);
 	free(f);
 	return 0;
 }
 
 static struct fixture *fixture(void **state)
 {
-	if (!*state)
-		skip();
-	return *state;
+	return fixture_or_skip(state);
 }
 
 static void request_config(struct fixture *f)
@@ -515,7 +447,7 @@ static void start_rmdd_with(struct fixture *f, const char *path)
 
 	f->rmdd = spawn(argv, f->log, false);
 	listen_on(f);
-	while (!f->config || !f->n_states) {
+	while (!f->rx.config || !f->rx.n_states) {
 		int st;
 
 		if (now_ns() >= end)
@@ -542,11 +474,11 @@ static void start_rmdd(struct fixture *f)
 /* The newest health_t that rmdd sent after `after_ns` (our clock = rmdd's CLOCK_MONOTONIC). */
 static const rmd_health_t *health_after(struct fixture *f, int64_t after_ns, int timeout_ms)
 {
-	WAIT_UNTIL(f, f->health && f->health->utime * 1000 > after_ns, timeout_ms);
-	if (!f->health || f->health->utime * 1000 <= after_ns)
+	WAIT_UNTIL(f, f->rx.health && f->rx.health->utime * 1000 > after_ns, timeout_ms);
+	if (!f->rx.health || f->rx.health->utime * 1000 <= after_ns)
 		fail_msg("no health_t from rmdd within %d ms; its output:\n%s", timeout_ms,
 			 slurp(f->log));
-	return f->health;
+	return f->rx.health;
 }
 
 /* ---- commands ---------------------------------------------------------------------- */
@@ -608,10 +540,10 @@ static void send_raw(struct fixture *f, const void *data, int len)
 
 static bool all_in(const struct fixture *f, int lc)
 {
-	if (f->state.count != NMOTORS)
+	if (f->rx.state.count != NMOTORS)
 		return false;
 	for (int i = 0; i < NMOTORS; i++)
-		if (f->state.motor[i].lifecycle != lc)
+		if (f->rx.state.motor[i].lifecycle != lc)
 			return false;
 	return true;
 }
@@ -621,7 +553,7 @@ static bool all_at_target(const struct fixture *f, double tol)
 	if (!all_in(f, RMD_STATE_T_LC_ENABLED))
 		return false;
 	for (int i = 0; i < NMOTORS; i++)
-		if (!(fabs(f->state.motor[i].position - f->target[i]) < tol))
+		if (!(fabs(f->rx.state.motor[i].position - f->target[i]) < tol))
 			return false;
 	return true;
 }
@@ -665,7 +597,7 @@ static bool done_target(const struct fixture *f, int tol_mrad)
 static bool done_fresh_health(const struct fixture *f, int arg)
 {
 	(void)arg;
-	return f->health && f->health->utime * 1000 > f->fresh_after_ns;
+	return f->rx.health && f->rx.health->utime * 1000 > f->fresh_after_ns;
 }
 
 /*
@@ -677,7 +609,7 @@ static const rmd_health_t *stream_health(struct fixture *f, bool enable)
 	f->fresh_after_ns = now_ns();
 	if (!stream(f, enable, 1000, done_fresh_health, 0))
 		fail_msg("no health_t from rmdd within 1 s; its output:\n%s", slurp(f->log));
-	return f->health;
+	return f->rx.health;
 }
 
 static bool done_never(const struct fixture *f, int arg)
@@ -691,7 +623,7 @@ static bool done_never(const struct fixture *f, int arg)
 static void enable_in_place(struct fixture *f)
 {
 	for (int i = 0; i < NMOTORS; i++) {
-		double p = f->state.motor[i].position;
+		double p = f->rx.state.motor[i].position;
 
 		f->target[i] = isfinite(p) ? p : 0;
 	}
@@ -717,7 +649,7 @@ static void test_setpoints_move_the_motors(void **state)
 	int64_t t0;
 
 	start_rmdd(f);
-	c = f->config;
+	c = f->rx.config;
 	/* config_t: what tools label the motors with */
 	assert_string_equal(c->prefix, "RMD_");
 	assert_int_equal(c->period_us, 1000000 / RATE_HZ);
@@ -737,7 +669,7 @@ static void test_setpoints_move_the_motors(void **state)
 	/* state_t before any command: every motor probed and ready, nothing moves */
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 	assert_true(all_in(f, RMD_STATE_T_LC_READY));
-	s0 = f->state;
+	s0 = f->rx.state;
 
 	for (int i = 0; i < NMOTORS; i++)
 		f->target[i] = i < NPOS ? 0.8 : -0.6;
@@ -745,7 +677,7 @@ static void test_setpoints_move_the_motors(void **state)
 	if (!stream(f, true, 5000, done_target, 20)) {
 		for (int i = 0; i < NMOTORS; i++)
 			print_message("motor %d: lifecycle %d, position %.4f rad, target %.4f\n", i,
-				      f->state.motor[i].lifecycle, f->state.motor[i].position,
+				      f->rx.state.motor[i].lifecycle, f->rx.state.motor[i].position,
 				      f->target[i]);
 		fail_msg("the motors did not reach their targets within 5 s; rmdd's output:\n%s",
 			 slurp(f->log));
@@ -753,10 +685,10 @@ static void test_setpoints_move_the_motors(void **state)
 	print_message("setpoints: every motor within 20 mrad of its target after %.0f ms\n",
 		      (now_ns() - t0) / 1e6);
 	/* state_t: the modes commanded, fresh replies, the supply, cycles advancing */
-	assert_true(f->state.cycle > s0.cycle);
-	assert_true(f->state.utime > s0.utime);
+	assert_true(f->rx.state.cycle > s0.cycle);
+	assert_true(f->rx.state.utime > s0.utime);
 	for (int i = 0; i < NMOTORS; i++) {
-		const rmd_motor_state_t *m = &f->state.motor[i];
+		const rmd_motor_state_t *m = &f->rx.state.motor[i];
 
 		assert_int_equal(m->index, i);
 		assert_int_equal(m->mode,
@@ -909,10 +841,10 @@ static void test_hostile_messages_rejected_and_counted(void **state)
 	for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
 		rejected += want[k];
 	WAIT_UNTIL(f,
-		   f->health && f->health->commands_rejected == rejected &&
-			   f->health->commands_accepted == accepted,
+		   f->rx.health && f->rx.health->commands_rejected == rejected &&
+			   f->rx.health->commands_accepted == accepted,
 		   3000);
-	h = f->health;
+	h = f->rx.health;
 	assert_non_null(h);
 	for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
 		if (h->rejected_by_kind[k] != want[k])
@@ -1040,12 +972,12 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 	/* the controller goes on; health_t after the flood, once the counts settle */
 	stream(f, true, 300, done_never, 0);
 	WAIT_UNTIL(f,
-		   f->health && f->health->utime * 1000 > t1 + 200 * NS_PER_MS &&
-			   f->health->commands_rejected - h0->commands_rejected == bad,
+		   f->rx.health && f->rx.health->utime * 1000 > t1 + 200 * NS_PER_MS &&
+			   f->rx.health->commands_rejected - h0->commands_rejected == bad,
 		   flood_kept_pace(t1 - t0) ? 3000 : 1000);
 	stream(f, true, 1, done_never, 0);
-	assert_non_null(f->health);
-	h1 = rmd_health_t_copy(f->health);
+	assert_non_null(f->rx.health);
+	h1 = rmd_health_t_copy(f->rx.health);
 
 	ticks = (h1->utime - h0->utime) * 1000 / (NS_PER_S / RATE_HZ);
 	cycles = h1->cycles - h0->cycles;
@@ -1141,10 +1073,10 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 	if (!all_in(f, RMD_STATE_T_LC_SAFE))
 		fail_msg("no safe action 2 s after the last command; rmdd's output:\n%s",
 			 slurp(f->log));
-	t_safe = f->state.utime * 1000;
+	t_safe = f->rx.state.utime * 1000;
 	/* ... then health_t (10 Hz) */
-	WAIT_UNTIL(f, f->health->watchdog == RMD_HEALTH_T_WD_TRIPPED, 1000);
-	h = f->health;
+	WAIT_UNTIL(f, f->rx.health->watchdog == RMD_HEALTH_T_WD_TRIPPED, 1000);
+	h = f->rx.health;
 	if (h->watchdog != RMD_HEALTH_T_WD_TRIPPED)
 		fail_msg("health_t does not report the trip; rmdd's output:\n%s", slurp(f->log));
 	t_trip = h->utime * 1000;
@@ -1162,11 +1094,11 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 
 	/* latched: it stays tripped while nobody speaks */
 	WAIT_UNTIL(f, false, 300);
-	assert_int_equal(f->health->watchdog, RMD_HEALTH_T_WD_TRIPPED);
+	assert_int_equal(f->rx.health->watchdog, RMD_HEALTH_T_WD_TRIPPED);
 	assert_true(all_in(f, RMD_STATE_T_LC_SAFE));
 
 	/* a new command with enable clears it */
-	safe0 = f->health->safe_action_events;
+	safe0 = f->rx.health->safe_action_events;
 	if (!stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED))
 		fail_msg("enable after the trip did not re-enable the motors; rmdd's output:\n%s",
 			 slurp(f->log));
@@ -1286,10 +1218,10 @@ static void test_ctrl_c_stops_cleanly(void **state)
 	start_rmdd(f);
 	f->child = spawn(argv, f->child_log, false);
 	WAIT_UNTIL(f,
-		   f->state.motor[NPOS].lifecycle == RMD_STATE_T_LC_ENABLED &&
-			   f->state.motor[NMOTORS - 1].lifecycle == RMD_STATE_T_LC_ENABLED,
+		   f->rx.state.motor[NPOS].lifecycle == RMD_STATE_T_LC_ENABLED &&
+			   f->rx.state.motor[NMOTORS - 1].lifecycle == RMD_STATE_T_LC_ENABLED,
 		   5000);
-	if (f->state.motor[NPOS].lifecycle != RMD_STATE_T_LC_ENABLED)
+	if (f->rx.state.motor[NPOS].lifecycle != RMD_STATE_T_LC_ENABLED)
 		fail_msg("the controller did not enable the MIT motors; its output:\n%s",
 			 slurp(f->child_log));
 	WAIT_UNTIL(f, false, 500);
@@ -1526,7 +1458,13 @@ static void on_any_command(const lcm_recv_buf_t *rbuf, const char *channel, void
 
 static bool motor_in(const struct fixture *f, int i, int lc)
 {
-	return f->state.count > i && f->state.motor[i].lifecycle == lc;
+	return f->rx.state.count > i && f->rx.state.motor[i].lifecycle == lc;
+}
+
+/* pos_1 missed a loss's worth of replies and is READY again. */
+static bool back_from_loss(const struct fixture *f)
+{
+	return motor_in(f, 0, RMD_STATE_T_LC_READY) && f->rx.state.motor[0].missed_replies >= 10;
 }
 
 /*
@@ -1545,11 +1483,10 @@ static void example_after_a_loss(struct fixture *f, const char *const *argv, boo
 
 	write_loss_config(path, sizeof(path));
 	start_rmdd_with(f, path);
-	WAIT_UNTIL(f, motor_in(f, 0, RMD_STATE_T_LC_LOST), 5000);
-	if (!motor_in(f, 0, RMD_STATE_T_LC_LOST))
-		fail_msg("pos_1 not lost; rmdd's output:\n%s", slurp(f->log));
-	WAIT_UNTIL(f, motor_in(f, 0, RMD_STATE_T_LC_READY), 3000);
-	assert_true(motor_in(f, 0, RMD_STATE_T_LC_READY));
+	/* lost (its missed replies say so, whether or not a state_t showed LC_LOST), then back */
+	WAIT_UNTIL(f, back_from_loss(f), 8000);
+	if (!back_from_loss(f) || !strstr(slurp(f->log), "(pos_1): lost"))
+		fail_msg("pos_1 not lost and back; rmdd's output:\n%s", slurp(f->log));
 
 	first_command_ns = 0;
 	sub = lcm_subscribe(f->sub, "RMD_COMMAND", on_any_command, NULL);
@@ -1607,7 +1544,7 @@ static void test_python_example_after_a_loss(void **state)
 static bool all_near(const struct fixture *f, const double *target, double off, double tol)
 {
 	for (int i = 0; i < NMOTORS; i++)
-		if (!(fabs(f->state.motor[i].position - (target[i] + off)) < tol))
+		if (!(fabs(f->rx.state.motor[i].position - (target[i] + off)) < tol))
 			return false;
 	return true;
 }
@@ -1665,8 +1602,8 @@ static void test_second_controller_rejected(void **state)
 	assert_int_equal(h->owner, 0x0a0a);
 	assert_int_equal(h->intruder, 0x0b0b);
 	assert_true(h->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER] > 100);
-	assert_true(f->state.owned);
-	assert_int_equal(f->state.owner, 0x0a0a);
+	assert_true(f->rx.state.owned);
+	assert_int_equal(f->rx.state.owner, 0x0a0a);
 
 	/* B takes over, as a supervisor does (takeover = true): it drives them now */
 	f->controller = 0x0b0b;
@@ -1772,8 +1709,8 @@ static void test_ignored_enable_reported(void **state)
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 	f->controller = 0x1e1e;
 	for (int i = 0; i < NMOTORS; i++)
-		f->target[i] = isfinite(f->state.motor[i].position) ? f->state.motor[i].position :
-								      0;
+		f->target[i] =
+			isfinite(f->rx.state.motor[i].position) ? f->rx.state.motor[i].position : 0;
 	/* the loss: pos_1 LOST, then back, while the controller streams enable = 1 */
 	if (!stream(f, true, 5000, done_motor0_lost, 0) ||
 	    !stream(f, true, 5000, done_motor0_ready, 0))

@@ -322,7 +322,7 @@ static int teardown(void **state)
 }
 
 /* The fixture, or skip: setup said why, loudly, in group_setup. */
-static struct fixture *fixture_or_skip(void **state)
+static struct fixture *client_or_skip(void **state)
 {
 	struct fixture *f = *state;
 
@@ -431,12 +431,12 @@ static const char *enable_and_track(struct fixture *f, const char *what, unsigne
 
 static void test_enable_track_and_disable_on_exit(void **state)
 {
-	enable_and_track(fixture_or_skip(state), "track", 1, 0);
+	enable_and_track(client_or_skip(state), "track", 1, 0);
 }
 
 static void test_enable_after_the_watchdog_tripped(void **state)
 {
-	struct fixture *f = fixture_or_skip(state);
+	struct fixture *f = client_or_skip(state);
 
 	assert_non_null(strstr(enable_and_track(f, "trip", 2, 1), "tripped: motor1 is safe"));
 	/* rmdd saw enable = 0 before the second enable = 1 */
@@ -445,7 +445,7 @@ static void test_enable_after_the_watchdog_tripped(void **state)
 
 static void test_no_rmdd_is_a_clear_error(void **state)
 {
-	struct fixture *f = fixture_or_skip(state);
+	struct fixture *f = client_or_skip(state);
 	const char *out = run_script(f, "absent");
 	char want[160];
 

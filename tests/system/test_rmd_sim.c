@@ -46,6 +46,8 @@
 #include "rmd/mit.h"
 #include "rmd/rs485.h"
 
+#include "harness/proc.h"
+
 #define READY_MS 15000 /* rmd-sim's start, under ASan inside the VM */
 #define REPLY_MS 5000  /* a reply that must come */
 #define SILENCE_MS 300 /* a reply that must not come */
@@ -126,28 +128,7 @@ static bool wait_log(struct child *c, const char *needle, int timeout_ms)
 
 static void spawn(struct child *c, const char *const *args)
 {
-	const char *argv[64];
-	int fds[2], n = 0;
-
-	argv[n++] = rmdsim;
-	for (; *args && n < 63; args++)
-		argv[n++] = *args;
-	argv[n] = NULL;
-	assert_int_equal(pipe2(fds, O_CLOEXEC), 0);
-	c->pid = fork();
-	assert_true(c->pid >= 0);
-	if (c->pid == 0) {
-		int null = open("/dev/null", O_RDONLY);
-
-		if (null >= 0)
-			dup2(null, STDIN_FILENO);
-		dup2(fds[1], STDOUT_FILENO);
-		dup2(fds[1], STDERR_FILENO);
-		execv(rmdsim, (char *const *)argv);
-		_exit(127);
-	}
-	close(fds[1]);
-	c->err = fds[0];
+	c->pid = spawn_piped(rmdsim, args, &c->err, NULL, NULL);
 	fcntl(c->err, F_SETFL, O_NONBLOCK);
 	c->logn = 0;
 	c->log[0] = '\0';
@@ -623,20 +604,14 @@ static void test_config_file(void **state)
 	uint8_t req[RMD_FRAME_LEN], rep[RMD_FRAME_LEN];
 	struct rmd_msg msg;
 	char model[8];
-	int fd = mkstemp(path);
-	FILE *f;
 
-	assert_true(fd >= 0);
-	f = fdopen(fd, "w");
-	assert_non_null(f);
-	fprintf(f, "# rmd-sim test\n"
-		   "motors = 1-2\n"
-		   "model = GLOBAL\n"
-		   "\n"
-		   "[motor 2]\n"
-		   "model = CFG2   # a comment after the value\n"
-		   "supply = 36\n");
-	fclose(f);
+	temp_file(path, "# rmd-sim test\n"
+			"motors = 1-2\n"
+			"model = GLOBAL\n"
+			"\n"
+			"[motor 2]\n"
+			"model = CFG2   # a comment after the value\n"
+			"supply = 36\n");
 	start_serial(c, args);
 	unlink(path);
 
@@ -798,19 +773,14 @@ static void test_bad_config(void **state)
 	const char *args[] = { "--serial", "/dev/null", "--config", path, NULL };
 	struct child *c = *state;
 	char where[64];
-	int fd = mkstemp(path), st;
-	FILE *f;
+	int st;
 
-	assert_true(fd >= 0);
-	f = fdopen(fd, "w");
-	assert_non_null(f);
-	fprintf(f, "motors = 1-2\n"
-		   "inertia = heavy\n"
-		   "[motor 9]\n"
-		   "[motor 2]\n"
-		   "can = vcan0\n"
-		   "no equals sign\n");
-	fclose(f);
+	temp_file(path, "motors = 1-2\n"
+			"inertia = heavy\n"
+			"[motor 9]\n"
+			"[motor 2]\n"
+			"can = vcan0\n"
+			"no equals sign\n");
 	spawn(c, args);
 	st = wait_exit(c, EXIT_MS);
 	unlink(path);

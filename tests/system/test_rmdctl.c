@@ -22,68 +22,16 @@
 
 #include <cmocka.h>
 
+#include "harness/json.h"
+#include "harness/proc.h"
+
 static char rmdctl[4096];
 static char sample[4096];
-
-struct run {
-	int status; /* exit status, or 128 + signal */
-	char *out;
-	char *err;
-};
-
-static char *slurp(FILE *f)
-{
-	long n;
-	char *buf;
-
-	fflush(f);
-	fseek(f, 0, SEEK_END);
-	n = ftell(f);
-	assert_true(n >= 0);
-	rewind(f);
-	buf = malloc((size_t)n + 1);
-	assert_non_null(buf);
-	assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-	buf[n] = '\0';
-	return buf;
-}
 
 /* Run rmdctl with args (NULL-terminated) and `len` bytes of stdin. */
 static void run_argv_n(struct run *r, const char *input, size_t len, const char *const *args)
 {
-	const char *argv[32];
-	FILE *in = tmpfile(), *out = tmpfile(), *err = tmpfile();
-	size_t n = 0;
-	pid_t pid;
-	int ws;
-
-	assert_non_null(in);
-	assert_non_null(out);
-	assert_non_null(err);
-	argv[n++] = rmdctl;
-	for (; args[n - 1] && n < 31; n++)
-		argv[n] = args[n - 1];
-	argv[n] = NULL;
-	if (len)
-		assert_int_equal(fwrite(input, 1, len, in), len);
-	fflush(in);
-	rewind(in);
-	pid = fork();
-	assert_true(pid >= 0);
-	if (pid == 0) {
-		dup2(fileno(in), 0);
-		dup2(fileno(out), 1);
-		dup2(fileno(err), 2);
-		execv(rmdctl, (char *const *)argv);
-		_exit(127);
-	}
-	assert_int_equal(waitpid(pid, &ws, 0), pid);
-	r->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
-	r->out = slurp(out);
-	r->err = slurp(err);
-	fclose(in);
-	fclose(out);
-	fclose(err);
+	run_prog(r, rmdctl, args, &(struct run_opts){ .input = input, .input_len = len });
 }
 
 /* Run rmdctl with args (NULL-terminated) and stdin text (NULL: empty). */
@@ -94,80 +42,15 @@ static void run_argv(struct run *r, const char *input, const char *const *args)
 
 #define RUN(r, input, ...) run_argv((r), (input), (const char *const[]){ __VA_ARGS__, NULL })
 
-static void run_free(struct run *r)
-{
-	free(r->out);
-	free(r->err);
-}
-
-static void assert_has(const char *hay, const char *needle, const char *what)
-{
-	if (!strstr(hay, needle))
-		fail_msg("%s: \"%s\" missing from:\n%s", what, needle, hay);
-}
-
-static void assert_lacks(const char *hay, const char *needle, const char *what)
-{
-	if (strstr(hay, needle))
-		fail_msg("%s: \"%s\" unexpected in:\n%s", what, needle, hay);
-}
-
-static size_t count_lines(const char *s)
-{
-	size_t n = 0;
-
-	for (; *s; s++)
-		n += *s == '\n';
-	return n;
-}
-
-/* The output line holding `needle`, copied into buf; fails when there is none. */
-static const char *line_with(const char *out, const char *needle, char *buf, size_t size)
-{
-	const char *hit = strstr(out, needle), *start, *end;
-
-	if (!hit)
-		fail_msg("no line holds \"%s\" in:\n%s", needle, out);
-	for (start = hit; start > out && start[-1] != '\n'; start--)
-		;
-	end = strchr(hit, '\n');
-	if (!end)
-		end = hit + strlen(hit);
-	assert_true((size_t)(end - start) < size);
-	memcpy(buf, start, (size_t)(end - start));
-	buf[end - start] = '\0';
-	return buf;
-}
-
-/* The number after "key": in a JSON line. */
-static double json_num(const char *line, const char *key)
-{
-	char pat[64];
-	const char *p;
-
-	snprintf(pat, sizeof(pat), "\"%s\":", key);
-	p = strstr(line, pat);
-	if (!p)
-		fail_msg("key %s missing from %s", key, line);
-	return strtod(p + strlen(pat), NULL);
-}
-
 static int setup(void **state)
 {
-	const char *env = getenv("RMDCTL"), *build = getenv("BUILD");
 	const char *data = getenv("RMDCTL_TESTDATA");
 
 	(void)state;
-	if (env && *env)
-		snprintf(rmdctl, sizeof(rmdctl), "%s", env);
-	else
-		snprintf(rmdctl, sizeof(rmdctl), "%s/rmdctl", build && *build ? build : "build");
 	snprintf(sample, sizeof(sample), "%s/candump-sample.log",
 		 data && *data ? data : "tests/data");
-	if (access(rmdctl, X_OK) != 0) {
-		print_error("rmdctl binary \"%s\" not found (set RMDCTL or BUILD)\n", rmdctl);
+	if (find_prog(rmdctl, sizeof(rmdctl), "RMDCTL", "rmdctl") < 0)
 		return -1;
-	}
 	if (access(sample, R_OK) != 0) {
 		print_error("test data \"%s\" not found (run from the repository root)\n", sample);
 		return -1;
@@ -588,78 +471,37 @@ static void test_encode_decode_round_trip(void **state)
 
 /* ---- help and dispatch ---------------------------------------------------------------- */
 
+static const struct run_case help_cases[] = {
+	{ .args = { "--help" }, .out_has = { "usage: rmdctl", "decode", "encode", "exit status" } },
+	{ .args = { "help" }, .out_has = { "usage: rmdctl" } },
+	{ .args = { "help", "encode" }, .out_has = { "usage: rmdctl encode" } },
+	{ .args = { "decode", "--help" }, .out_has = { "usage: rmdctl decode" } },
+	{ .args = { "encode", "--help" }, .out_has = { "multi-torque" } },
+};
+
 static void test_help(void **state)
 {
-	struct run r;
-
 	(void)state;
-	RUN(&r, NULL, "--help");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "usage: rmdctl", "--help");
-	assert_has(r.out, "decode", "--help");
-	assert_has(r.out, "encode", "--help");
-	assert_has(r.out, "exit status", "--help");
-	run_free(&r);
-
-	RUN(&r, NULL, "help");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "usage: rmdctl", "help");
-	run_free(&r);
-
-	RUN(&r, NULL, "help", "encode");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "usage: rmdctl encode", "help encode");
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--help");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "usage: rmdctl decode", "decode --help");
-	run_free(&r);
-
-	RUN(&r, NULL, "encode", "--help");
-	assert_int_equal(r.status, 0);
-	assert_has(r.out, "multi-torque", "encode --help");
-	run_free(&r);
+	run_cases(rmdctl, help_cases, sizeof(help_cases) / sizeof(help_cases[0]), NULL);
 }
+
+static const struct run_case usage_cases[] = {
+	/* an unknown subcommand */
+	{ .args = { "frobnicate" }, .status = 2, .out_has = { "" }, .err_has = { "usage: rmdctl" } },
+	{ .args = { "decode", "--bogus" }, .status = 2, .err_has = { "usage: rmdctl decode" } },
+	{ .args = { "decode", "--protocol", "v9" }, .status = 2 },
+	{ .args = { "decode", "--direction", "sideways" }, .status = 2 },
+	{ .args = { "decode", "--protocol" }, .status = 2 },
+	{ .args = { "decode", "/nonexistent/candump.log" },
+	  .status = 1,
+	  .err_has = { "/nonexistent/candump.log" } },
+	{ .args = { NULL }, .status = 2, .err_has = { "usage: rmdctl" } }, /* argc == 1 */
+};
 
 static void test_usage_errors(void **state)
 {
-	struct run r;
-
 	(void)state;
-	RUN(&r, NULL, "frobnicate");
-	assert_int_equal(r.status, 2);
-	assert_has(r.err, "usage: rmdctl", "unknown subcommand");
-	assert_string_equal(r.out, "");
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--bogus");
-	assert_int_equal(r.status, 2);
-	assert_has(r.err, "usage: rmdctl decode", "unknown option");
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--protocol", "v9");
-	assert_int_equal(r.status, 2);
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--direction", "sideways");
-	assert_int_equal(r.status, 2);
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "--protocol");
-	assert_int_equal(r.status, 2);
-	run_free(&r);
-
-	RUN(&r, NULL, "decode", "/nonexistent/candump.log");
-	assert_int_equal(r.status, 1);
-	assert_has(r.err, "/nonexistent/candump.log", "missing file");
-	run_free(&r);
-
-	/* argc == 1 */
-	run_argv(&r, NULL, (const char *const[]){ NULL });
-	assert_int_equal(r.status, 2);
-	assert_has(r.err, "usage: rmdctl", "no arguments");
-	run_free(&r);
+	run_cases(rmdctl, usage_cases, sizeof(usage_cases) / sizeof(usage_cases[0]), NULL);
 }
 
 int main(void)

@@ -32,6 +32,9 @@
 #include "rmd/sim_wire.h"
 #include "rmd/txn.h"
 
+#include "harness/json.h"
+#include "harness/proc.h"
+
 #define MS 1000000LL
 #define US 1000LL
 /* Caller clock of the unit tests: any origin will do, the first call is the sim's epoch. */
@@ -380,121 +383,31 @@ static void test_txn_matching(void **state)
 
 /* ---- rmdctl as a process ---------------------------------------------------------------- */
 
-struct run {
-	int status; /* exit status, or 128 + signal */
-	char *out;
-	char *err;
-	int64_t took_ns;
-};
+/*
+ * rmdctl runs with stdin a file (never a terminal) holding a "y" that must
+ * not count as confirmation, and no RMDCTL_BUS from the caller.
+ */
+static const struct run_opts dev_opts = { .input = "y\n",
+					  .input_len = 2,
+					  .unset_env = "RMDCTL_BUS",
+					  .limit_ms = CHILD_LIMIT_S * 1000 };
 
-static char *slurp(FILE *f)
-{
-	long n;
-	char *buf;
-
-	fflush(f);
-	fseek(f, 0, SEEK_END);
-	n = ftell(f);
-	assert_true(n >= 0);
-	rewind(f);
-	buf = malloc((size_t)n + 1);
-	assert_non_null(buf);
-	assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-	buf[n] = '\0';
-	return buf;
-}
-
-/* Run rmdctl with args (NULL-terminated), stdin a file (never a terminal). */
+/* Run rmdctl with args (NULL-terminated). */
 static void run_argv(struct run *r, const char *const *args)
 {
-	const char *argv[40];
-	FILE *in = tmpfile(), *out = tmpfile(), *err = tmpfile();
-	size_t n = 0;
-	int64_t start;
-	pid_t pid;
-	int ws;
-
-	assert_non_null(in);
-	assert_non_null(out);
-	assert_non_null(err);
-	argv[n++] = rmdctl;
-	for (; args[n - 1] && n < 39; n++)
-		argv[n] = args[n - 1];
-	argv[n] = NULL;
-	/* A "y" on stdin must not count as confirmation: it is not a terminal. */
-	fputs("y\n", in);
-	fflush(in);
-	rewind(in);
-	start = mono_ns();
-	pid = fork();
-	assert_true(pid >= 0);
-	if (pid == 0) {
-		dup2(fileno(in), 0);
-		dup2(fileno(out), 1);
-		dup2(fileno(err), 2);
-		unsetenv("RMDCTL_BUS");
-		alarm(CHILD_LIMIT_S);
-		execv(rmdctl, (char *const *)argv);
-		_exit(127);
-	}
-	assert_int_equal(waitpid(pid, &ws, 0), pid);
-	r->took_ns = mono_ns() - start;
-	r->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
-	r->out = slurp(out);
-	r->err = slurp(err);
-	fclose(in);
-	fclose(out);
-	fclose(err);
+	run_prog(r, rmdctl, args, &dev_opts);
 }
 
 #define RUN(r, ...) run_argv((r), (const char *const[]){ __VA_ARGS__, NULL })
 
-static void run_free(struct run *r)
+/* A table of rmdctl runs, each run as run_argv() runs one. */
+static void run_cases_dev(const struct run_case *c, size_t n)
 {
-	free(r->out);
-	free(r->err);
+	run_cases(rmdctl, c, n, &dev_opts);
 }
 
-static void assert_has(const char *hay, const char *needle, const char *what)
-{
-	if (!strstr(hay, needle))
-		fail_msg("%s: \"%s\" missing from:\n%s", what, needle, hay);
-}
-
-static void assert_lacks(const char *hay, const char *needle, const char *what)
-{
-	if (strstr(hay, needle))
-		fail_msg("%s: \"%s\" unexpected in:\n%s", what, needle, hay);
-}
-
-static void assert_status(const struct run *r, int status, const char *what)
-{
-	if (r->status != status)
-		fail_msg("%s: exit %d, expected %d\nstdout:\n%s\nstderr:\n%s", what, r->status,
-			 status, r->out, r->err);
-}
-
-/* The number after "key": in a JSON line; fails when absent. */
-static double json_num(const char *line, const char *key)
-{
-	char pat[64];
-	const char *p;
-
-	snprintf(pat, sizeof(pat), "\"%s\":", key);
-	p = strstr(line, pat);
-	if (!p)
-		fail_msg("no %s in %s", pat, line);
-	return strtod(p + strlen(pat), NULL);
-}
-
-static size_t count_lines(const char *s)
-{
-	size_t n = 0;
-
-	for (; *s; s++)
-		n += *s == '\n';
-	return n;
-}
+/* One run and its checks: CHECK_RUN(.args = { ... }, .status = 1, .err_has = { ... }). */
+#define CHECK_RUN(...) run_cases_dev(&(struct run_case){ __VA_ARGS__ }, 1)
 
 static void test_scan(void **state)
 {
@@ -520,18 +433,11 @@ static void test_scan(void **state)
 		fail_msg("scan took %lld ms", (long long)r.took_ns / MS);
 	run_free(&r);
 
-	RUN(&r, "scan", "--bus", "sim:1-3");
-	assert_status(&r, 0, "scan text");
-	assert_has(r.out, "X8S2V10", "scan text");
-	assert_has(r.out, "20220206", "scan text");
-	assert_has(r.out, "3 motors answered", "scan text");
-	run_free(&r);
-
+	CHECK_RUN(.args = { "scan", "--bus", "sim:1-3" },
+		  .out_has = { "X8S2V10", "20220206", "3 motors answered" });
 	/* Nothing there: exit 1 with the bus named. */
-	RUN(&r, "scan", "10-12", "--bus", "sim:1-3");
-	assert_status(&r, 1, "scan of empty ids");
-	assert_has(r.err, "sim:1-3: no motor answered", "scan of empty ids");
-	run_free(&r);
+	CHECK_RUN(.args = { "scan", "10-12", "--bus", "sim:1-3" }, .status = 1,
+		  .err_has = { "sim:1-3: no motor answered" });
 }
 
 static void test_status(void **state)
@@ -551,11 +457,8 @@ static void test_status(void **state)
 	assert_has(r.out, "\"current_a\":", "status 2");
 	run_free(&r);
 
-	RUN(&r, "status", "1", "--bus", "sim:1-3");
-	assert_status(&r, 0, "status text");
-	assert_has(r.out, "voltage", "status text");
-	assert_has(r.out, "errors           none", "status text");
-	run_free(&r);
+	CHECK_RUN(.args = { "status", "1", "--bus", "sim:1-3" },
+		  .out_has = { "voltage", "errors           none" });
 }
 
 /* A missing motor: an error naming bus, motor, command and timeout, in bounded time. */
@@ -573,10 +476,8 @@ static void test_status_missing(void **state)
 		fail_msg("status 9 took %lld ms", (long long)r.took_ns / MS);
 	run_free(&r);
 
-	RUN(&r, "status", "9", "--bus", "sim:1-3", "--timeout", "2", "--tries", "1");
-	assert_status(&r, 1, "status 9 --tries 1");
-	assert_has(r.err, "motor 9 did not answer 0x9A within 2 ms (1 try)", "--tries 1");
-	run_free(&r);
+	CHECK_RUN(.args = { "status", "9", "--bus", "sim:1-3", "--timeout", "2", "--tries", "1" },
+		  .status = 1, .err_has = { "motor 9 did not answer 0x9A within 2 ms (1 try)" });
 }
 
 static void test_move(void **state)
@@ -601,49 +502,46 @@ static void test_move(void **state)
 	run_free(&r);
 }
 
-/* No --yes and no terminal: refuse before anything reaches the bus. */
+/*
+ * No --yes and no terminal: refuse before anything reaches the bus (--trace
+ * prints every frame sent: none was).  The same holds for ROM writes.
+ */
+static const struct run_case unconfirmed[] = {
+	{ .args = { "move", "2", "10", "--bus", "sim:1-3", "--trace" },
+	  .status = 2,
+	  .out_has = { "" },
+	  .err_has = { "refusing to move motor 2", "--yes" },
+	  .err_lacks = " TX " },
+	{ .args = { "set-timeout", "2", "500", "--bus", "sim:1-3", "--trace" },
+	  .status = 2,
+	  .err_lacks = " TX " },
+	{ .args = { "brake", "2", "off", "--bus", "sim:1-3", "--trace" },
+	  .status = 2,
+	  .err_lacks = " TX " },
+};
+
 static void test_move_unconfirmed(void **state)
 {
-	struct run r;
-
 	(void)state;
-	RUN(&r, "move", "2", "10", "--bus", "sim:1-3", "--trace");
-	assert_status(&r, 2, "move without --yes");
-	assert_has(r.err, "refusing to move motor 2", "move without --yes");
-	assert_has(r.err, "--yes", "move without --yes");
-	/* --trace prints every frame sent: none was. */
-	assert_lacks(r.err, " TX ", "move without --yes");
-	assert_string_equal(r.out, "");
-	run_free(&r);
-
-	/* The same holds for ROM writes. */
-	RUN(&r, "set-timeout", "2", "500", "--bus", "sim:1-3", "--trace");
-	assert_status(&r, 2, "set-timeout without --yes");
-	assert_lacks(r.err, " TX ", "set-timeout without --yes");
-	run_free(&r);
-	RUN(&r, "brake", "2", "off", "--bus", "sim:1-3", "--trace");
-	assert_status(&r, 2, "brake off without --yes");
-	assert_lacks(r.err, " TX ", "brake off without --yes");
-	run_free(&r);
+	run_cases_dev(unconfirmed, sizeof(unconfirmed) / sizeof(unconfirmed[0]));
 }
+
+static const struct run_case move_limits[] = {
+	{ .args = { "move", "2", "10", "--speed", "500", "--yes", "--bus", "sim:1-3" },
+	  .status = 2,
+	  .err_has = { "--force" } },
+	/* too far: it read its angle, never sent the move */
+	{ .args = { "move", "2", "720", "--yes", "--bus", "sim:1-3", "--trace" },
+	  .status = 2,
+	  .err_lacks = "#A4" },
+	{ .args = { "move", "2", "30", "--no-wait", "--yes", "--bus", "sim:1-3" },
+	  .out_has = { "not waiting" } },
+};
 
 static void test_move_limits(void **state)
 {
-	struct run r;
-
 	(void)state;
-	RUN(&r, "move", "2", "10", "--speed", "500", "--yes", "--bus", "sim:1-3");
-	assert_status(&r, 2, "move too fast");
-	assert_has(r.err, "--force", "move too fast");
-	run_free(&r);
-	RUN(&r, "move", "2", "720", "--yes", "--bus", "sim:1-3", "--trace");
-	assert_status(&r, 2, "move too far");
-	assert_lacks(r.err, "#A4", "move too far"); /* read its angle, never sent the move */
-	run_free(&r);
-	RUN(&r, "move", "2", "30", "--no-wait", "--yes", "--bus", "sim:1-3");
-	assert_status(&r, 0, "move --no-wait");
-	assert_has(r.out, "not waiting", "move --no-wait");
-	run_free(&r);
+	run_cases_dev(move_limits, sizeof(move_limits) / sizeof(move_limits[0]));
 }
 
 static void test_set_timeout(void **state)
@@ -660,66 +558,45 @@ static void test_set_timeout(void **state)
 	assert_has(r.err, "RX 242#B3000000F4010000", "set-timeout trace");
 	run_free(&r);
 
-	RUN(&r, "set-timeout", "7", "500", "--yes", "--bus", "sim:1-3");
-	assert_status(&r, 1, "set-timeout of a missing motor");
-	assert_has(r.err, "motor 7 did not answer 0xB3", "set-timeout missing");
-	run_free(&r);
+	CHECK_RUN(.args = { "set-timeout", "7", "500", "--yes", "--bus", "sim:1-3" }, .status = 1,
+		  .err_has = { "motor 7 did not answer 0xB3" });
 }
+
+static const struct run_case other_commands[] = {
+	{ .args = { "info", "1", "--bus", "sim:1-3", "--json" },
+	  .out_has = { "\"model\":\"X8S2V10\"",
+		       "\"accel_dps2\":", "\"position_kp\":", "\"timeout_ms\":null" } },
+	{ .args = { "monitor", "1,5", "--once", "--bus", "sim:1-3" },
+	  .status = 1,
+	  .out_has = { "no answer" },
+	  .out_lacks = "\033[" }, /* no screen control codes */
+	{ .args = { "pid", "3", "10", "20", "30", "40", "50", "60", "--bus", "sim:1-3", "--json" },
+	  .out_has = { "\"current_kp\":10," } },
+	{ .args = { "accel", "3", "speed-accel", "20000", "--yes", "--bus", "sim:1-3" } },
+	{ .args = { "set-id", "2", "9", "--yes", "--bus", "sim:2" },
+	  .out_has = { "motor 2 is now motor 9" } },
+	/* V3 0x79 reaches every motor: with others on the bus it refuses. */
+	{ .args = { "set-id", "2", "9", "--yes", "--bus", "sim:1-3" },
+	  .status = 1,
+	  .err_has = { "3 motors answer" } },
+	{ .args = { "reset", "1", "--bus", "sim:1-3" } },
+	/* V2 has no 0xB5 */
+	{ .args = { "scan", "--protocol", "v2", "--bus", "sim:1-2", "--json" },
+	  .out_has = { "\"protocol\":\"V2\"", "\"model\":null" } },
+};
 
 static void test_other_commands(void **state)
 {
 	struct run r;
 
 	(void)state;
-	RUN(&r, "info", "1", "--bus", "sim:1-3", "--json");
-	assert_status(&r, 0, "info");
-	assert_has(r.out, "\"model\":\"X8S2V10\"", "info");
-	assert_has(r.out, "\"accel_dps2\":", "info");
-	assert_has(r.out, "\"position_kp\":", "info");
-	assert_has(r.out, "\"timeout_ms\":null", "info");
-	run_free(&r);
-
 	RUN(&r, "monitor", "--once", "--json", "--bus", "sim");
 	assert_status(&r, 0, "monitor --once");
 	assert_int_equal(count_lines(r.out), 4); /* plain "sim": motors 1..4 */
 	assert_has(r.out, "\"motor_id\":4,", "monitor --once");
 	run_free(&r);
 
-	RUN(&r, "monitor", "1,5", "--once", "--bus", "sim:1-3");
-	assert_status(&r, 1, "monitor with a missing motor");
-	assert_has(r.out, "no answer", "monitor with a missing motor");
-	assert_lacks(r.out, "\033[", "monitor --once"); /* no screen control codes */
-	run_free(&r);
-
-	RUN(&r, "pid", "3", "10", "20", "30", "40", "50", "60", "--bus", "sim:1-3", "--json");
-	assert_status(&r, 0, "pid write RAM");
-	assert_has(r.out, "\"current_kp\":10,", "pid write");
-	run_free(&r);
-
-	RUN(&r, "accel", "3", "speed-accel", "20000", "--yes", "--bus", "sim:1-3");
-	assert_status(&r, 0, "accel write");
-	run_free(&r);
-
-	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:2");
-	assert_status(&r, 0, "set-id alone on the bus");
-	assert_has(r.out, "motor 2 is now motor 9", "set-id");
-	run_free(&r);
-
-	/* V3 0x79 reaches every motor: with others on the bus it refuses. */
-	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:1-3");
-	assert_status(&r, 1, "set-id with other motors");
-	assert_has(r.err, "3 motors answer", "set-id with other motors");
-	run_free(&r);
-
-	RUN(&r, "reset", "1", "--bus", "sim:1-3");
-	assert_status(&r, 0, "reset");
-	run_free(&r);
-
-	RUN(&r, "scan", "--protocol", "v2", "--bus", "sim:1-2", "--json");
-	assert_status(&r, 0, "scan v2");
-	assert_has(r.out, "\"protocol\":\"V2\"", "scan v2");
-	assert_has(r.out, "\"model\":null", "scan v2"); /* V2 has no 0xB5 */
-	run_free(&r);
+	run_cases_dev(other_commands, sizeof(other_commands) / sizeof(other_commands[0]));
 }
 
 static void test_usage_errors(void **state)
@@ -759,59 +636,38 @@ static void test_usage_errors(void **state)
 	}
 }
 
+static const struct run_case help[] = {
+	{ .args = { "--help" }, .out_has = { "scan", "move" } },
+	{ .args = { "move", "--help" },
+	  .out_has = { "usage: rmdctl move", "--yes", "nothing persists" } },
+	{ .args = { "help", "scan" }, .out_has = { "usage: rmdctl scan" } },
+};
+
 static void test_help(void **state)
 {
-	struct run r;
-
 	(void)state;
-	RUN(&r, "--help");
-	assert_status(&r, 0, "--help");
-	assert_has(r.out, "scan", "--help");
-	assert_has(r.out, "move", "--help");
-	run_free(&r);
-	RUN(&r, "move", "--help");
-	assert_status(&r, 0, "move --help");
-	assert_has(r.out, "usage: rmdctl move", "move --help");
-	assert_has(r.out, "--yes", "move --help");
-	assert_has(r.out, "nothing persists", "move --help");
-	run_free(&r);
-	RUN(&r, "help", "scan");
-	assert_status(&r, 0, "help scan");
-	assert_has(r.out, "usage: rmdctl scan", "help scan");
-	run_free(&r);
+	run_cases_dev(help, sizeof(help) / sizeof(help[0]));
 }
 
 /* A bus that cannot be opened: exit 1 with the transport's message. */
+static const struct run_case bus_errors[] = {
+	{ .args = { "status", "1", "--bus", "/dev/ttyRMDnone" },
+	  .status = 1,
+	  .err_has = { "/dev/ttyRMDnone" } },
+	{ .args = { "status", "1", "--bus", "rmdnone0" }, .status = 1, .err_has = { "rmdnone0" } },
+};
+
 static void test_bus_errors(void **state)
 {
-	struct run r;
-
 	(void)state;
-	RUN(&r, "status", "1", "--bus", "/dev/ttyRMDnone");
-	assert_status(&r, 1, "no serial port");
-	assert_has(r.err, "/dev/ttyRMDnone", "no serial port");
-	run_free(&r);
-	RUN(&r, "status", "1", "--bus", "rmdnone0");
-	assert_status(&r, 1, "no CAN interface");
-	assert_has(r.err, "rmdnone0", "no CAN interface");
-	run_free(&r);
+	run_cases_dev(bus_errors, sizeof(bus_errors) / sizeof(bus_errors[0]));
 }
 
 /* Process tests need the built binary. */
 static int need_rmdctl(void **state)
 {
-	const char *env = getenv("RMDCTL"), *build = getenv("BUILD");
-
 	(void)state;
-	if (env && *env)
-		snprintf(rmdctl, sizeof(rmdctl), "%s", env);
-	else
-		snprintf(rmdctl, sizeof(rmdctl), "%s/rmdctl", build && *build ? build : "build");
-	if (access(rmdctl, X_OK) != 0) {
-		print_error("rmdctl binary \"%s\" not found (set RMDCTL or BUILD)\n", rmdctl);
-		return -1;
-	}
-	return 0;
+	return find_prog(rmdctl, sizeof(rmdctl), "RMDCTL", "rmdctl");
 }
 
 #define PROC_TEST(f) cmocka_unit_test_setup(f, need_rmdctl)

@@ -60,6 +60,8 @@
 #include "rmd/rs485.h"
 #include "rmd/txn.h"
 
+#include "harness/json.h"
+
 #define MS 1000000LL
 #define BAUD 1000000
 #define BAUD_ARG "1000000"
@@ -415,19 +417,6 @@ static void assert_sim_log(const struct rig *g, const char *needle, const char *
 {
 	if (!strstr(g->sim_log, needle))
 		fail_msg("%s: \"%s\" missing from rmd-sim's log:\n%s", what, needle, g->sim_log);
-}
-
-/* The number after "key": in a JSON line; fails when absent. */
-static double json_num(const char *line, const char *key)
-{
-	char pat[64];
-	const char *p;
-
-	snprintf(pat, sizeof(pat), "\"%s\":", key);
-	p = strstr(line, pat);
-	if (!p)
-		fail_msg("no %s in %s", pat, line);
-	return strtod(p + strlen(pat), NULL);
 }
 
 static double ms_of(int64_t ns)

@@ -55,6 +55,8 @@
 
 #include <cmocka.h>
 
+#include "harness/proc.h"
+
 #define OUT_MAX (256 * 1024)
 #define EXIT_NO_CAPS 77 /* the child could not drop its capabilities */
 
@@ -102,52 +104,42 @@ static void drop_rt(void)
 	prctl(PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL, 0, 0, 0);
 }
 
+/* In the child: the environment and scheduling a test asked for (so: its spawn_opts). */
+static void child_env(const void *ctx)
+{
+	const struct spawn_opts *so = ctx;
+	char pid[32];
+
+	unsetenv("NOTIFY_SOCKET");
+	unsetenv("WATCHDOG_USEC");
+	unsetenv("WATCHDOG_PID");
+	unsetenv("RMDD_TEST_STALL_AFTER_MS");
+	if (!so)
+		return;
+	if (so->notify_socket)
+		setenv("NOTIFY_SOCKET", so->notify_socket, 1);
+	if (so->watchdog_usec) {
+		setenv("WATCHDOG_USEC", so->watchdog_usec, 1);
+		snprintf(pid, sizeof(pid), "%d", (int)getpid());
+		setenv("WATCHDOG_PID", so->watchdog_pid ? so->watchdog_pid : pid, 1);
+	}
+	if (so->stall_ms)
+		setenv("RMDD_TEST_STALL_AFTER_MS", so->stall_ms, 1);
+	if (so->no_rt)
+		drop_rt();
+	if (so->fifo_prio) {
+		struct sched_param sp = { .sched_priority = so->fifo_prio };
+
+		if (sched_setscheduler(0, SCHED_FIFO, &sp) < 0)
+			_exit(EXIT_NO_CAPS);
+	}
+}
+
 /* Start rmdd with args (NULL-terminated), output to p->fd. */
 static void spawn(struct proc *p, const struct spawn_opts *so, const char *const *args)
 {
-	const char *argv[32];
-	size_t n = 0;
-	int pfd[2];
-
 	memset(p, 0, sizeof(*p));
-	argv[n++] = rmdd;
-	for (; *args && n < 31; args++)
-		argv[n++] = *args;
-	argv[n] = NULL;
-	assert_int_equal(pipe2(pfd, O_CLOEXEC), 0);
-	p->pid = fork();
-	assert_true(p->pid >= 0);
-	if (p->pid == 0) {
-		char pid[32];
-
-		dup2(pfd[1], 1);
-		dup2(pfd[1], 2);
-		unsetenv("NOTIFY_SOCKET");
-		unsetenv("WATCHDOG_USEC");
-		unsetenv("WATCHDOG_PID");
-		unsetenv("RMDD_TEST_STALL_AFTER_MS");
-		if (so && so->notify_socket)
-			setenv("NOTIFY_SOCKET", so->notify_socket, 1);
-		if (so && so->watchdog_usec) {
-			setenv("WATCHDOG_USEC", so->watchdog_usec, 1);
-			snprintf(pid, sizeof(pid), "%d", (int)getpid());
-			setenv("WATCHDOG_PID", so->watchdog_pid ? so->watchdog_pid : pid, 1);
-		}
-		if (so && so->stall_ms)
-			setenv("RMDD_TEST_STALL_AFTER_MS", so->stall_ms, 1);
-		if (so && so->no_rt)
-			drop_rt();
-		if (so && so->fifo_prio) {
-			struct sched_param sp = { .sched_priority = so->fifo_prio };
-
-			if (sched_setscheduler(0, SCHED_FIFO, &sp) < 0)
-				_exit(EXIT_NO_CAPS);
-		}
-		execv(rmdd, (char *const *)argv);
-		_exit(127);
-	}
-	close(pfd[1]);
-	p->fd = pfd[0];
+	p->pid = spawn_piped(rmdd, args, &p->fd, child_env, so);
 	live_pid = p->pid;
 }
 
@@ -241,6 +233,23 @@ static void write_file(const char *path, const char *text)
 	assert_int_equal(fclose(f), 0);
 }
 
+/* tmpdir/name holding text; its path into path (512 bytes). */
+static void config_file(char *path, const char *name, const char *text)
+{
+	snprintf(path, 512, "%s/%s", tmpdir, name);
+	write_file(path, text);
+}
+
+/* config_file(), and rmdd's arguments to run on it on an in-process LCM (until the next call). */
+static const char *const *config_args(const char *name, const char *text)
+{
+	static char path[512];
+	static const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+
+	config_file(path, name, text);
+	return args;
+}
+
 static const char *const SIM3[] = { "--sim", "3", "--lcm-url", "memq://", NULL };
 
 /* ---- command line and configuration errors ----------------------------------- */
@@ -291,8 +300,7 @@ static void test_bad_config(void **state)
 	const char *args[] = { "--config", path, NULL };
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/bad.yaml", tmpdir);
-	write_file(path, "loop:\n  rate_hz: 1000\n  bogus_key: 3\n");
+	config_file(path, "bad.yaml", "loop:\n  rate_hz: 1000\n  bogus_key: 3\n");
 	assert_int_equal(run(&p, args), 1);
 	expect_in(&p, "<3>rmdd: ");
 	expect_in(&p, "bad.yaml:3:");
@@ -306,20 +314,20 @@ static void test_bad_config(void **state)
 static void test_infeasible_plan(void **state)
 {
 	static struct proc p;
-	char path[512];
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	const char *const *args;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/five.yaml", tmpdir);
-	write_file(path, "loop: {rate_hz: 1000}\n"
-			 "buses:\n"
-			 "  - {name: s0, type: sim}\n"
-			 "motors:\n"
-			 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: d, bus: s0, id: 4, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: e, bus: s0, id: 5, mode: torque, torque_constant_nm_a: 2}\n");
+	args = config_args(
+		"five.yaml",
+		"loop: {rate_hz: 1000}\n"
+		"buses:\n"
+		"  - {name: s0, type: sim}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: d, bus: s0, id: 4, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: e, bus: s0, id: 5, mode: torque, torque_constant_nm_a: 2}\n");
 	assert_int_equal(run(&p, args), 1);
 	expect_in(&p, "s0: 5 motors at 1000 Hz need");
 	expect_in(&p, "the cycle is 1000 µs");
@@ -331,18 +339,17 @@ static void test_infeasible_plan(void **state)
 static void test_bus_error_names_the_bus(void **state)
 {
 	static struct proc p;
-	char path[512];
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	const char *const *args;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/nocan.yaml", tmpdir);
-	write_file(path,
-		   "buses:\n"
-		   "  - {name: s0, type: sim}\n"
-		   "  - {name: rmdtest9, type: socketcan}\n"
-		   "motors:\n"
-		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		   "  - {name: b, bus: rmdtest9, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
+	args = config_args(
+		"nocan.yaml",
+		"buses:\n"
+		"  - {name: s0, type: sim}\n"
+		"  - {name: rmdtest9, type: socketcan}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: rmdtest9, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
 	assert_int_equal(run(&p, args), 1);
 	/* file:line of the bus entry, its name and kind, the transport's fix */
 	expect_in(&p, "nocan.yaml:3: bus rmdtest9 (socketcan): ");
@@ -352,22 +359,21 @@ static void test_bus_error_names_the_bus(void **state)
 static void test_missing_motor_refused(void **state)
 {
 	static struct proc p;
-	char path[512];
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	const char *const *args;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/missing.yaml", tmpdir);
-	write_file(path,
-		   "probe: {on_missing: refuse}\n"
-		   "buses:\n"
-		   "  - name: s0\n"
-		   "    type: sim\n"
-		   "    sim:\n"
-		   "      faults:\n"
-		   "        - {kind: disappear, motor: 2, start_s: 0, param: 0}\n"
-		   "motors:\n"
-		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		   "  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n");
+	args = config_args(
+		"missing.yaml",
+		"probe: {on_missing: refuse}\n"
+		"buses:\n"
+		"  - name: s0\n"
+		"    type: sim\n"
+		"    sim:\n"
+		"      faults:\n"
+		"        - {kind: disappear, motor: 2, start_s: 0, param: 0}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n");
 	assert_int_equal(run(&p, args), 1);
 	expect_in(&p, "<4>rmdd:   s0: motor 2 (knee): missing");
 	expect_in(&p, "1 motor(s) missing and probe.on_missing is refuse");
@@ -492,23 +498,22 @@ static void test_sigusr1_and_sighup_keep_running(void **state)
 static void test_lost_motor_logged_with_context(void **state)
 {
 	static struct proc p;
-	char path[512];
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	const char *const *args;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/lose.yaml", tmpdir);
-	write_file(path,
-		   "safety: {missed_replies_lost: 10}\n"
-		   "buses:\n"
-		   "  - name: s0\n"
-		   "    type: sim\n"
-		   "    sim:\n"
-		   "      faults:\n"
-		   "        - {kind: disappear, motor: 3, start_s: 0.3, end_s: 0.6, param: 0}\n"
-		   "motors:\n"
-		   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		   "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-		   "  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n");
+	args = config_args(
+		"lose.yaml",
+		"safety: {missed_replies_lost: 10}\n"
+		"buses:\n"
+		"  - name: s0\n"
+		"    type: sim\n"
+		"    sim:\n"
+		"      faults:\n"
+		"        - {kind: disappear, motor: 3, start_s: 0.3, end_s: 0.6, param: 0}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n");
 	spawn(&p, NULL, args);
 	wait_for(&p, "<5>rmdd: running:", 5000);
 	wait_for(&p, "<4>rmdd: s0: motor 3 (knee_l): lost (10 missed replies in a row", 5000);
@@ -746,17 +751,9 @@ static void test_require_rt_refuses(void **state)
 
 static int setup(void **state)
 {
-	const char *env = getenv("RMDD"), *build = getenv("BUILD");
-
 	(void)state;
-	if (env && *env)
-		snprintf(rmdd, sizeof(rmdd), "%s", env);
-	else
-		snprintf(rmdd, sizeof(rmdd), "%s/rmdd", build && *build ? build : "build");
-	if (access(rmdd, X_OK) < 0) {
-		fprintf(stderr, "test_rmdd: %s: %s (set RMDD or BUILD)\n", rmdd, strerror(errno));
+	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0)
 		return -1;
-	}
 	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_rmdd.XXXXXX");
 	if (!mkdtemp(tmpdir))
 		return -1;
@@ -779,11 +776,8 @@ static int reap(void **state)
 
 static int teardown(void **state)
 {
-	char cmd[300];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return rm_tree(tmpdir);
 }
 
 int main(void)

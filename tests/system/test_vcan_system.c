@@ -86,6 +86,9 @@
 #include "rmd/rmd_health_t.h"
 #include "rmd/rmd_state_t.h"
 
+#include "harness/json.h"
+#include "harness/proc.h"
+
 #define NS_PER_MS INT64_C(1000000)
 #define NS_PER_S INT64_C(1000000000)
 
@@ -128,29 +131,16 @@
 #define SETTLE_MS 300	      /* steady state before a measurement window */
 #define WINDOW_MS 1000	      /* the rate window */
 #define RATE_WINDOWS 3
-#define CTL_PERIOD_MS 10 /* the controller publishes at 100 Hz */
-#define KEEPALIVE_MS 50	 /* see keepalive() */
-#define MARKER_ID 0x7E0u /* not a motor's, not rmdd's: nobody answers it */
-#define OUT_MAX (512 * 1024)
+#define CTL_PERIOD_MS 10	    /* the controller publishes at 100 Hz */
+#define KEEPALIVE_MS 50		    /* see keepalive() */
+#define MARKER_ID 0x7E0u	    /* not a motor's, not rmdd's: nobody answers it */
 #define URL_PLACEHOLDER "@LCM_URL@" /* in tests/data/vcan/system.yaml */
-#define MAX_KIDS 8
 #define NBUS_MAX 3
 
 #define SETPOINT_RAD 0.2
 #define MAX_VEL_RAD_S 1.0
 
 /* ---- state ---------------------------------------------------------------- */
-
-/* A child process whose stdout and stderr (or stderr only) the test reads. */
-struct kid {
-	char name[32];
-	pid_t pid; /* 0: free slot */
-	int fd;	   /* -1 at EOF */
-	bool reaped;
-	int status; /* exit status, or 128 + signal */
-	size_t len;
-	char *out; /* OUT_MAX; the oldest half is dropped when full */
-};
 
 /* One frame of candump's log. */
 struct cframe {
@@ -180,7 +170,6 @@ static struct {
 	struct rmd_config cfg;
 	unsigned nbus;
 
-	struct kid kids[MAX_KIDS];
 	struct kid *sims[NBUS_MAX], *candump, *rmdd_kid;
 
 	/* candump's log */
@@ -286,147 +275,11 @@ static uint8_t safe_cmd(enum rmd_safe_action a)
 	return 0;
 }
 
-/* The last lines of a child's output, for failure messages. */
-static const char *tail_of(const struct kid *k)
-{
-	size_t n = 3000;
-
-	if (!k || !k->out)
-		return "(no output)";
-	return k->len > n ? k->out + k->len - n : k->out;
-}
-
 /* ---- children ----------------------------------------------------------------- */
-
-/* In the child: die with the test, stdin from /dev/null, no inherited descriptors. */
-static void child_prepare(int out_fd, int err_fd)
-{
-	int null = open("/dev/null", O_RDONLY);
-
-	prctl(PR_SET_PDEATHSIG, SIGKILL);
-	if (null >= 0)
-		dup2(null, 0);
-	dup2(out_fd, 1);
-	dup2(err_fd, 2);
-	for (int fd = 3; fd < 1024; fd++)
-		close(fd);
-	signal(SIGPIPE, SIG_DFL);
-}
-
-/*
- * Start argv[0] (a path, or a name looked up in PATH) as a child.  Its
- * stdout goes to out_path when given, else with stderr into the kid's
- * buffer.  fifo > 0: at SCHED_FIFO priority fifo (as root), else as is.
- */
-static struct kid *spawn_prio(const char *name, const char *const *argv, const char *out_path,
-			      int fifo)
-{
-	struct kid *k;
-	int pfd[2], ofd = -1;
-	unsigned slot = 0;
-
-	while (slot < MAX_KIDS - 1 && S.kids[slot].pid)
-		slot++;
-	if (S.kids[slot].pid)
-		fail_msg("no free child slot for %s", name);
-	k = &S.kids[slot];
-	memset(k, 0, sizeof(*k));
-	snprintf(k->name, sizeof(k->name), "%s", name);
-	k->out = calloc(1, OUT_MAX);
-	assert_non_null(k->out);
-	assert_int_equal(pipe2(pfd, O_CLOEXEC), 0);
-	if (out_path) {
-		ofd = open(out_path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-		if (ofd < 0)
-			fail_msg("%s: %s", out_path, strerror(errno));
-	}
-	k->pid = fork();
-	assert_true(k->pid >= 0);
-	if (k->pid == 0) {
-		child_prepare(ofd >= 0 ? ofd : pfd[1], pfd[1]);
-		if (fifo > 0) {
-			struct sched_param sp = { .sched_priority = fifo };
-
-			if (sched_setscheduler(0, SCHED_FIFO, &sp) < 0)
-				fprintf(stderr,
-					"test: SCHED_FIFO %d: %s; running at normal priority\n",
-					fifo, strerror(errno));
-		}
-		execvp(argv[0], (char *const *)argv);
-		fprintf(stderr, "exec %s: %s\n", argv[0], strerror(errno));
-		_exit(127);
-	}
-	close(pfd[1]);
-	if (ofd >= 0)
-		close(ofd);
-	k->fd = pfd[0];
-	fcntl(k->fd, F_SETFL, O_NONBLOCK);
-	return k;
-}
-
-static struct kid *spawn(const char *name, const char *const *argv, const char *out_path)
-{
-	return spawn_prio(name, argv, out_path, 0);
-}
-
-static void kid_read(struct kid *k)
-{
-	for (;;) {
-		ssize_t r;
-
-		if (k->len >= OUT_MAX - 4096) {
-			size_t drop = k->len / 2;
-
-			memmove(k->out, k->out + drop, k->len - drop);
-			k->len -= drop;
-		}
-		r = read(k->fd, k->out + k->len, OUT_MAX - 1 - k->len);
-		if (r > 0) {
-			k->len += (size_t)r;
-			k->out[k->len] = '\0';
-			continue;
-		}
-		if (r == 0 || (errno != EAGAIN && errno != EINTR)) {
-			close(k->fd);
-			k->fd = -1;
-		}
-		return;
-	}
-}
-
-/* Reap k if it exited.  True when it has. */
-static bool kid_poll_exit(struct kid *k)
-{
-	int ws;
-
-	if (k->reaped)
-		return true;
-	if (waitpid(k->pid, &ws, WNOHANG) != k->pid)
-		return false;
-	k->reaped = true;
-	k->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
-	return true;
-}
-
-static void kid_free(struct kid *k)
-{
-	if (!k || !k->pid)
-		return;
-	if (!k->reaped) {
-		kill(k->pid, SIGKILL);
-		waitpid(k->pid, NULL, 0);
-	}
-	if (k->fd >= 0)
-		close(k->fd);
-	free(k->out);
-	memset(k, 0, sizeof(*k));
-	k->fd = -1;
-}
 
 static void kids_kill_all(void)
 {
-	for (unsigned i = 0; i < MAX_KIDS; i++)
-		kid_free(&S.kids[i]);
+	kid_kill_all();
 	for (unsigned b = 0; b < NBUS_MAX; b++)
 		S.sims[b] = NULL;
 	S.candump = S.rmdd_kid = NULL;
@@ -633,8 +486,8 @@ static void keepalive(int64_t now)
  */
 static void service(int max_ms)
 {
-	struct pollfd p[MAX_KIDS + 1];
-	struct kid *who[MAX_KIDS + 1];
+	struct pollfd p[KID_MAX + 1];
+	struct kid *who[KID_MAX + 1];
 	int64_t now = mono_ns();
 	int n = 0, t = max_ms;
 
@@ -654,11 +507,7 @@ static void service(int max_ms)
 		p[n] = (struct pollfd){ .fd = lcm_get_fileno(S.lcm), .events = POLLIN };
 		who[n++] = NULL;
 	}
-	for (unsigned i = 0; i < MAX_KIDS; i++)
-		if (S.kids[i].pid && S.kids[i].fd >= 0) {
-			p[n] = (struct pollfd){ .fd = S.kids[i].fd, .events = POLLIN };
-			who[n++] = &S.kids[i];
-		}
+	n += (int)kid_pollfds(p + n, who + n, KID_MAX);
 	if (poll(p, (nfds_t)n, t) > 0) {
 		for (int i = 0; i < n; i++) {
 			if (!p[i].revents)
@@ -722,7 +571,7 @@ static void sync_log(void)
 		if (now > end)
 			fail_msg(
 				"candump's log %s did not show marker %u within %d ms; candump:\n%s",
-				S.logpath, (unsigned)want, SYNC_MS, tail_of(S.candump));
+				S.logpath, (unsigned)want, SYNC_MS, kid_tail(S.candump));
 		if (now >= resend) {
 			for (unsigned b = 0; b < S.nbus; b++)
 				if (S.marker_seen[b] < want)
@@ -733,169 +582,14 @@ static void sync_log(void)
 	}
 }
 
-/* Wait until a child's output holds needle. */
-static void wait_output(struct kid *k, const char *needle, int ms)
-{
-	int64_t end = mono_ns() + ms * NS_PER_MS;
-
-	while (!strstr(k->out, needle)) {
-		if (mono_ns() > end || (k->fd < 0 && !strstr(k->out, needle)))
-			fail_msg("%s: no \"%s\" within %d ms%s; its output:\n%s", k->name, needle,
-				 ms, k->fd < 0 ? " (it exited)" : "", tail_of(k));
-		service(20);
-	}
-}
-
-/* Wait for k to exit; its status (128 + signal when killed). */
-static int wait_exit(struct kid *k, int ms)
-{
-	int64_t end = mono_ns() + ms * NS_PER_MS;
-
-	while (!kid_poll_exit(k) || k->fd >= 0) {
-		if (mono_ns() > end)
-			fail_msg("%s (pid %d) did not exit within %d ms; its output:\n%s", k->name,
-				 (int)k->pid, ms, tail_of(k));
-		service(10);
-	}
-	return k->status;
-}
-
 /* ---- one tool run ------------------------------------------------------------------ */
-
-struct run {
-	int rc;
-	double ms;
-	char out[16384];
-	char err[4096];
-};
-
-/* Read from fd into buf (what does not fit is read and dropped).  False at EOF. */
-static bool pipe_take(int fd, char *buf, size_t size, size_t *len)
-{
-	char sink[4096];
-	bool room = *len + 1 < size;
-	ssize_t k = room ? read(fd, buf + *len, size - 1 - *len) : read(fd, sink, sizeof(sink));
-
-	if (k <= 0)
-		return false;
-	if (room)
-		*len += (size_t)k;
-	return true;
-}
 
 /* Run argv[0] (a path) to its end, at most TOOL_MS; its output and status in *r. */
 static void run_tool(struct run *r, const char *const *argv)
 {
-	int po[2], pe[2];
-	size_t no = 0, ne = 0;
-	bool eo = false, ee = false;
-	int64_t t0 = mono_ns(), end = t0 + TOOL_MS * NS_PER_MS;
-	pid_t pid;
-	int ws;
-
-	memset(r, 0, sizeof(*r));
-	assert_int_equal(pipe2(po, O_CLOEXEC), 0);
-	assert_int_equal(pipe2(pe, O_CLOEXEC), 0);
-	pid = fork();
-	assert_true(pid >= 0);
-	if (pid == 0) {
-		child_prepare(po[1], pe[1]);
-		execv(argv[0], (char *const *)argv);
-		fprintf(stderr, "exec %s: %s\n", argv[0], strerror(errno));
-		_exit(127);
-	}
-	close(po[1]);
-	close(pe[1]);
-	while (!eo || !ee) {
-		struct pollfd p[2] = { { .fd = eo ? -1 : po[0], .events = POLLIN },
-				       { .fd = ee ? -1 : pe[0], .events = POLLIN } };
-
-		if (mono_ns() > end) {
-			kill(pid, SIGKILL);
-			waitpid(pid, NULL, 0);
-			close(po[0]);
-			close(pe[0]);
-			fail_msg("%s %s hung: no exit within %d ms; output so far:\n%.*s%.*s",
-				 argv[0], argv[1], TOOL_MS, (int)no, r->out, (int)ne, r->err);
-		}
-		if (poll(p, 2, 5) > 0) {
-			if (p[0].revents)
-				eo = !pipe_take(po[0], r->out, sizeof(r->out), &no);
-			if (p[1].revents)
-				ee = !pipe_take(pe[0], r->err, sizeof(r->err), &ne);
-		}
-		service(0);
-	}
-	close(po[0]);
-	close(pe[0]);
-	while (waitpid(pid, &ws, WNOHANG) != pid) {
-		if (mono_ns() > end) {
-			kill(pid, SIGKILL);
-			waitpid(pid, &ws, 0);
-			break;
-		}
-		service(5);
-	}
-	r->ms = ms_of(mono_ns() - t0);
-	r->rc = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
-}
-
-/* ---- JSON lines of rmdctl ------------------------------------------------------------ */
-
-static const char *json_at(const char *line, const char *key)
-{
-	char pat[64];
-	const char *p;
-
-	snprintf(pat, sizeof(pat), "\"%s\":", key);
-	p = strstr(line, pat);
-	return p ? p + strlen(pat) : NULL;
-}
-
-static double json_num(const char *line, const char *key)
-{
-	const char *p = json_at(line, key);
-
-	if (!p)
-		fail_msg("key \"%s\" missing from %s", key, line);
-	return strtod(p, NULL);
-}
-
-static bool json_bool(const char *line, const char *key)
-{
-	const char *p = json_at(line, key);
-
-	if (!p)
-		fail_msg("key \"%s\" missing from %s", key, line);
-	return !strncmp(p, "true", 4);
-}
-
-static void json_str(const char *line, const char *key, char *out, size_t len)
-{
-	const char *p = json_at(line, key);
-	size_t n = 0;
-
-	if (!p || *p != '"')
-		fail_msg("string \"%s\" missing from %s", key, line);
-	for (p++; *p && *p != '"' && n + 1 < len; p++)
-		out[n++] = *p;
-	out[n] = '\0';
-}
-
-/* The n-th (0-based) line of text starting with '{', copied into line; false when none. */
-static bool json_line(const char *text, unsigned n, char *line, size_t len)
-{
-	for (const char *p = text; p && *p;) {
-		const char *nl = strchr(p, '\n');
-		size_t l = nl ? (size_t)(nl - p) : strlen(p);
-
-		if (*p == '{' && n-- == 0) {
-			snprintf(line, len, "%.*s", (int)l, p);
-			return true;
-		}
-		p = nl ? nl + 1 : NULL;
-	}
-	return false;
+	run_free(r);
+	run_prog(r, argv[0], argv + 1,
+		 &(struct run_opts){ .limit_ms = TOOL_MS, .service = service });
 }
 
 /* ---- environment -------------------------------------------------------------------- */
@@ -1014,10 +708,10 @@ static void sims_start(void)
 		argv[a++] = "--seed";
 		argv[a++] = seed;
 		argv[a] = NULL;
-		S.sims[b] = spawn_prio(name, argv, NULL, SIM_FIFO_PRIO);
+		S.sims[b] = kid_spawn(name, argv, NULL, SIM_FIFO_PRIO);
 	}
 	for (unsigned b = 0; b < S.nbus; b++)
-		wait_output(S.sims[b], ": ready", READY_MS);
+		kid_wait_output(S.sims[b], ": ready", READY_MS, service);
 }
 
 static void candump_start(void)
@@ -1033,7 +727,7 @@ static void candump_start(void)
 	for (unsigned b = 0; b < S.nbus; b++)
 		argv[a++] = iface(b);
 	argv[a] = NULL;
-	S.candump = spawn("candump", argv, S.logpath);
+	S.candump = kid_spawn("candump", argv, S.logpath, 0);
 	S.log_fd = open(S.logpath, O_RDONLY | O_CLOEXEC);
 	if (S.log_fd < 0)
 		fail_msg("%s: %s", S.logpath, strerror(errno));
@@ -1110,8 +804,8 @@ static void rmdd_start(void)
 
 	if (S.rmdd_kid)
 		kid_free(S.rmdd_kid);
-	S.rmdd_kid = spawn("rmdd", argv, NULL);
-	wait_output(S.rmdd_kid, "rmdd: running:", READY_MS);
+	S.rmdd_kid = kid_spawn("rmdd", argv, NULL, 0);
+	kid_wait_output(S.rmdd_kid, "rmdd: running:", READY_MS, service);
 	print_bringup(S.rmdd_kid);
 	/* DESIGN.md: after a comm-loss trip the first command is only echoed */
 	if (strstr(S.rmdd_kid->out, "(no model)"))
@@ -1231,7 +925,7 @@ static double enable_all(void)
 		if (mono_ns() > end)
 			fail_msg("not every motor ENABLED %d ms after enable (lifecycles %s; "
 				 "%" PRIu64 " state_t, %" PRIu64 " health_t received); rmdd:\n%s",
-				 ENABLE_MS, lc_list(), S.n_state, S.n_health, tail_of(S.rmdd_kid));
+				 ENABLE_MS, lc_list(), S.n_state, S.n_health, kid_tail(S.rmdd_kid));
 		S.edge_toggles++;
 		controller(true, false);
 		wait_all_lc(RMD_STATE_T_LC_READY, 2000);
@@ -1398,13 +1092,13 @@ static void test_rmdctl_scan_move(void **state)
 		skip();
 	need_exec(S.rmdsim);
 	need_exec(S.rmdctl);
-	sim = spawn("rmd-sim vcan0", sim_argv, NULL);
-	wait_output(sim, ": ready", READY_MS);
+	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, 0);
+	kid_wait_output(sim, ": ready", READY_MS, service);
 
 	/* scan: exactly the simulated motors, with their models and dates */
 	run_tool(&r, scan);
-	if (r.rc != 0)
-		fail_msg("rmdctl scan --bus vcan0: exit %d\n%s%s", r.rc, r.out, r.err);
+	if (r.status != 0)
+		fail_msg("rmdctl scan --bus vcan0: exit %d\n%s%s", r.status, r.out, r.err);
 	for (unsigned k = 0; k < 3; k++) {
 		const struct expect_motor *e = &scan_motors[k];
 
@@ -1420,25 +1114,25 @@ static void test_rmdctl_scan_move(void **state)
 		fail_msg("rmdctl scan lists a motor nobody simulates: %s", line);
 	print_message("scan vcan0: exactly motors 1 X8S2V10 20220206, 2 X6S2V3 20230315, 3 X4V2 "
 		      "20210601 (%.0f ms)\n",
-		      r.ms);
+		      ms_of(r.took_ns));
 
 	/* a bus without motors: exit 1, said so, no hang */
 	run_tool(&r, scan1);
-	if (r.rc != 1)
-		fail_msg("rmdctl scan --bus vcan1 (no motors): exit %d, expected 1\n%s%s", r.rc,
+	if (r.status != 1)
+		fail_msg("rmdctl scan --bus vcan1 (no motors): exit %d, expected 1\n%s%s", r.status,
 			 r.out, r.err);
-	print_message("scan vcan1 (no motors): exit 1 in %.0f ms: %s", r.ms, r.err);
+	print_message("scan vcan1 (no motors): exit 1 in %.0f ms: %s", ms_of(r.took_ns), r.err);
 
 	/* a silent motor: "did not answer", exit 1, within the stated timeout */
 	run_tool(&r, st1);
-	if (r.rc != 0)
-		fail_msg("rmdctl status 1: exit %d\n%s%s", r.rc, r.out, r.err);
-	base_ms = r.ms;
+	if (r.status != 0)
+		fail_msg("rmdctl status 1: exit %d\n%s%s", r.status, r.out, r.err);
+	base_ms = ms_of(r.took_ns);
 	run_tool(&r, st9);
-	if (r.rc != 1 || !strstr(r.err, "motor 9 did not answer"))
+	if (r.status != 1 || !strstr(r.err, "motor 9 did not answer"))
 		fail_msg("rmdctl status 9 (nobody simulates it): exit %d, expected 1 with "
 			 "\"motor 9 did not answer\"; stderr:\n%s",
-			 r.rc, r.err);
+			 r.status, r.err);
 	/* the time it states, e.g. "within 5 ms (3 tries), nor 0x92, 0x9C": three requests */
 	{
 		const char *w = strstr(r.err, "within ");
@@ -1448,26 +1142,27 @@ static void test_rmdctl_scan_move(void **state)
 	}
 	print_message("status 9 (silent): exit 1 after %.0f ms, %.0f ms more than an answered "
 		      "status (stated: 3 requests x %.0f tries x %.0f ms = %.0f ms): %s",
-		      r.ms, r.ms - base_ms, tries, try_ms, 3 * tries * try_ms, r.err);
-	if (r.ms > 3 * tries * try_ms + EXEC_SLACK_MS)
-		fail_msg("rmdctl status 9 took %.0f ms: more than %.0f ms + %d ms to start", r.ms,
-			 3 * tries * try_ms, EXEC_SLACK_MS);
+		      ms_of(r.took_ns), ms_of(r.took_ns) - base_ms, tries, try_ms,
+		      3 * tries * try_ms, r.err);
+	if (ms_of(r.took_ns) > 3 * tries * try_ms + EXEC_SLACK_MS)
+		fail_msg("rmdctl status 9 took %.0f ms: more than %.0f ms + %d ms to start",
+			 ms_of(r.took_ns), 3 * tries * try_ms, EXEC_SLACK_MS);
 
 	/* move motor 2 to 10 degrees; status shows it there, and the others stayed */
 	run_tool(&r, move);
-	if (r.rc != 0)
-		fail_msg("rmdctl move 2 10: exit %d\n%s%s", r.rc, r.out, r.err);
+	if (r.status != 0)
+		fail_msg("rmdctl move 2 10: exit %d\n%s%s", r.status, r.out, r.err);
 	print_message("move: %s", r.out);
 	run_tool(&r, st2);
-	if (r.rc != 0 || !json_line(r.out, 0, line, sizeof(line)))
-		fail_msg("rmdctl status 2: exit %d\n%s%s", r.rc, r.out, r.err);
+	if (r.status != 0 || !json_line(r.out, 0, line, sizeof(line)))
+		fail_msg("rmdctl status 2: exit %d\n%s%s", r.status, r.out, r.err);
 	angle = json_num(line, "angle_deg");
 	print_message("status 2 after the move: angle %.2f deg (%s)\n", angle, line);
 	if (fabs(angle - 10.0) > 0.5)
 		fail_msg("motor 2 at %.2f deg after rmdctl move 2 10", angle);
 	run_tool(&r, st1);
-	if (r.rc != 0 || !json_line(r.out, 0, line, sizeof(line)))
-		fail_msg("rmdctl status 1: exit %d\n%s%s", r.rc, r.out, r.err);
+	if (r.status != 0 || !json_line(r.out, 0, line, sizeof(line)))
+		fail_msg("rmdctl status 1: exit %d\n%s%s", r.status, r.out, r.err);
 	if (fabs(json_num(line, "angle_deg")) > 0.5)
 		fail_msg("motor 1 moved though only motor 2 was told to: %s", line);
 	kid_free(sim);
@@ -1632,14 +1327,14 @@ static void test_system_rate(void **state)
 
 	/* SIGUSR1: the statistics, and rmdd keeps running */
 	kill(S.rmdd_kid->pid, SIGUSR1);
-	wait_output(S.rmdd_kid, "statistics (SIGUSR1)", EXIT_MS);
+	kid_wait_output(S.rmdd_kid, "statistics (SIGUSR1)", EXIT_MS, service);
 	{
 		uint64_t n = S.n_state;
 
 		run_for(200);
 		if (!rmdd_running() || S.n_state == n)
 			fail_msg("rmdd stopped after SIGUSR1; its output:\n%s",
-				 tail_of(S.rmdd_kid));
+				 kid_tail(S.rmdd_kid));
 	}
 	print_message("SIGUSR1: statistics printed, rmdd keeps running\n");
 }
@@ -1700,7 +1395,7 @@ static void test_system_watchdog(void **state)
 			fail_msg("controller quiet for 3 s: health_t watchdog %d (expected TRIPPED "
 				 "%d), lifecycles %s; rmdd:\n%s",
 				 S.h.watchdog, RMD_HEALTH_T_WD_TRIPPED, lc_list(),
-				 tail_of(S.rmdd_kid));
+				 kid_tail(S.rmdd_kid));
 		service(10);
 	}
 	sync_log();
@@ -1828,16 +1523,16 @@ static void test_system_sigterm(void **state)
 	t_term = real_ns();
 	t0 = mono_ns();
 	kill(S.rmdd_kid->pid, SIGTERM); /* the controller keeps publishing meanwhile */
-	st = wait_exit(S.rmdd_kid, EXIT_MS);
+	st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
 	exit_ms = ms_of(mono_ns() - t0);
 	controller(false, false);
 	if (st != 0)
 		fail_msg("rmdd: exit status %d after SIGTERM; its output:\n%s", st,
-			 tail_of(S.rmdd_kid));
+			 kid_tail(S.rmdd_kid));
 	if (!strstr(S.rmdd_kid->out, "statistics (exit)") ||
 	    !strstr(S.rmdd_kid->out, "every motor was sent stop (0x80)"))
 		fail_msg("rmdd: no statistics or stop report after SIGTERM; its output:\n%s",
-			 tail_of(S.rmdd_kid));
+			 kid_tail(S.rmdd_kid));
 	sync_log();
 	print_message("SIGTERM: rmdd exit 0 after %.0f ms, statistics printed:\n", exit_ms);
 	p = strstr(S.rmdd_kid->out, "statistics (exit)");
@@ -1919,7 +1614,7 @@ static void test_system_kill9(void **state)
 	run_for(SETTLE_MS);
 	t_kill = real_ns();
 	kill(S.rmdd_kid->pid, SIGKILL);
-	st = wait_exit(S.rmdd_kid, EXIT_MS);
+	st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
 	controller(false, false);
 	assert_int_equal(st, 128 + SIGKILL);
 
@@ -2016,9 +1711,9 @@ static void test_system_kill9(void **state)
 		service(0);
 		run_tool(&r, argv);
 		S.ka_bus = -1;
-		if (r.rc != 0 || !json_line(r.out, 0, line, sizeof(line)))
+		if (r.status != 0 || !json_line(r.out, 0, line, sizeof(line)))
 			fail_msg("rmdctl status %u --bus %s: exit %d\n%s%s", m->id, iface(m->bus),
-				 r.rc, r.out, r.err);
+				 r.status, r.out, r.err);
 		print_message("  rmdctl status %u --bus %s: brake_released %s, %.0f V, current "
 			      "%.2f A, speed %.0f dps, angle %.2f deg\n",
 			      m->id, iface(m->bus),
@@ -2053,8 +1748,8 @@ static void test_system_kill9(void **state)
 					 loss + 3000);
 		}
 		run_tool(&r, argv);
-		if (r.rc != 0 || !json_line(r.out, 0, line, sizeof(line)))
-			fail_msg("rmdctl status 1 --bus %s: exit %d\n%s%s", iface(m->bus), r.rc,
+		if (r.status != 0 || !json_line(r.out, 0, line, sizeof(line)))
+			fail_msg("rmdctl status 1 --bus %s: exit %d\n%s%s", iface(m->bus), r.status,
 				 r.out, r.err);
 		print_message("rmdctl status 1 --bus %s on the tripped motor: %s\n", iface(m->bus),
 			      line);

@@ -47,8 +47,6 @@
 #define NBUSES 4
 #define PREFIX "TEST_"
 
-#define MAX_STATES 4096
-
 struct fixture {
 	struct rmd_bridge b;
 	struct rmd_bridge_opts opts;
@@ -68,17 +66,7 @@ struct fixture {
 	lcm_t *ctl;
 	bool listening;
 	char ch_command[64];
-	rmd_state_t_subscription_t *state_sub;
-	rmd_state_t state;
-	unsigned n_states;
-	int64_t state_cycle[MAX_STATES];
-	rmd_health_t_subscription_t *health_sub;
-	rmd_health_t *health_msg;
-	unsigned n_health;
-	int64_t health_rx_ns[64];
-	rmd_config_t_subscription_t *config_sub;
-	rmd_config_t *config;
-	unsigned n_config;
+	struct lcm_rx rx;
 };
 
 static bool no_multicast;
@@ -151,54 +139,6 @@ static void fill_opts(struct rmd_bridge_opts *o, const char *url)
 	}
 }
 
-/* state_t's motor[] is variable-length: the copy keeps its own entries (the rest zero). */
-static rmd_motor_state_t state_motors[RMD_STATE_T_MAX_MOTORS + 1];
-
-static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
-		     void *user)
-{
-	struct fixture *f = user;
-	int n = msg->count > 0 && msg->count <= RMD_STATE_T_MAX_MOTORS ? msg->count : 0;
-
-	(void)rbuf;
-	(void)channel;
-	f->state = *msg;
-	memset(state_motors, 0, sizeof(state_motors));
-	memcpy(state_motors, msg->motor, (size_t)n * sizeof(*state_motors));
-	f->state.motor = state_motors;
-	if (f->n_states < MAX_STATES)
-		f->state_cycle[f->n_states] = msg->cycle;
-	f->n_states++;
-}
-
-static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_health_t *msg,
-		      void *user)
-{
-	struct fixture *f = user;
-
-	(void)rbuf;
-	(void)channel;
-	if (f->health_msg)
-		rmd_health_t_destroy(f->health_msg);
-	f->health_msg = rmd_health_t_copy(msg);
-	if (f->n_health < 64)
-		f->health_rx_ns[f->n_health] = now_ns();
-	f->n_health++;
-}
-
-static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
-		      void *user)
-{
-	struct fixture *f = user;
-
-	(void)rbuf;
-	(void)channel;
-	if (f->config)
-		rmd_config_t_destroy(f->config);
-	f->config = rmd_config_t_copy(msg);
-	f->n_config++;
-}
-
 /* The bridge's log sink: its messages as rmdd prints them, into the fixture's file. */
 static void log_to_file(void *ctx, int level, const char *msg)
 {
@@ -208,17 +148,12 @@ static void log_to_file(void *ctx, int level, const char *msg)
 
 static int setup(void **state)
 {
-	struct fixture *f;
-	int port;
+	struct fixture *f = lcm_fixture_new(state, sizeof(*f), !no_multicast);
 
-	*state = NULL;
-	if (no_multicast)
+	if (!f)
 		return 0;
-	f = calloc(1, sizeof(*f));
-	assert_non_null(f);
 	/* A port of our own per process and test: parallel suites do not hear each other. */
-	port = 20000 + (int)(getpid() % 1000) * 40 + (int)test_no++ % 40;
-	snprintf(f->url, sizeof(f->url), "udpm://239.255.76.67:%d?ttl=0", port);
+	lcm_test_url(f->url, sizeof(f->url), 20000, 1000, test_no++);
 	fill_opts(&f->opts, f->url);
 	rmd_latest_init(&f->commands, f->cmd_buf, sizeof(f->cmd_buf[0]));
 	rmd_latest_init(&f->snapshots, f->snap_buf, sizeof(f->snap_buf[0]));
@@ -241,13 +176,7 @@ static int setup(void **state)
 /* The controller subscribes to what the bridge publishes. */
 static void listen(struct fixture *f)
 {
-	f->state_sub = rmd_state_t_subscribe(f->ctl, PREFIX "STATE", on_state, f);
-	assert_non_null(f->state_sub);
-	rmd_state_t_subscription_set_queue_capacity(f->state_sub, MAX_STATES);
-	f->health_sub = rmd_health_t_subscribe(f->ctl, PREFIX "HEALTH", on_health, f);
-	assert_non_null(f->health_sub);
-	f->config_sub = rmd_config_t_subscribe(f->ctl, PREFIX "CONFIG", on_config, f);
-	assert_non_null(f->config_sub);
+	lcm_rx_listen(&f->rx, f->ctl, PREFIX);
 	f->listening = true;
 }
 
@@ -272,16 +201,8 @@ static int teardown(void **state)
 		rmd_bridge_fini(&f->b);
 	if (f->opts.notify_fd >= 0)
 		close(f->opts.notify_fd);
-	if (f->listening) {
-		rmd_state_t_unsubscribe(f->ctl, f->state_sub);
-		rmd_health_t_unsubscribe(f->ctl, f->health_sub);
-		rmd_config_t_unsubscribe(f->ctl, f->config_sub);
-	}
+	lcm_rx_free(&f->rx);
 	lcm_destroy(f->ctl);
-	if (f->health_msg)
-		rmd_health_t_destroy(f->health_msg);
-	if (f->config)
-		rmd_config_t_destroy(f->config);
 	fclose(f->log);
 	free(f);
 	return 0;
@@ -289,9 +210,7 @@ static int teardown(void **state)
 
 static struct fixture *fixture(void **state)
 {
-	if (!*state)
-		skip();
-	return *state;
+	return fixture_or_skip(state);
 }
 
 static void start(struct fixture *f)
@@ -992,15 +911,15 @@ static void put_snapshot(struct fixture *f, uint64_t cycle)
 static void test_state_published(void **state)
 {
 	struct fixture *f = fixture(state);
-	const rmd_state_t *s = &f->state;
+	const rmd_state_t *s = &f->rx.state;
 
 	f->opts.notify_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
 	assert_true(f->opts.notify_fd >= 0);
 	listen(f);
 	start(f);
 	put_snapshot(f, 41);
-	WAIT_UNTIL(f, f->n_states >= 1, 2000);
-	assert_int_equal(f->n_states, 1);
+	WAIT_UNTIL(f, f->rx.n_states >= 1, 2000);
+	assert_int_equal(f->rx.n_states, 1);
 	assert_int_equal(s->cycle, 41);
 	assert_int_equal(s->utime, 123456789000 / 1000 + 41000);
 	assert_int_equal(s->count, NMOTORS);
@@ -1026,9 +945,9 @@ static void test_state_published(void **state)
 
 	/* The same snapshot is not published twice. */
 	put_snapshot(f, 42);
-	WAIT_UNTIL(f, f->n_states >= 2, 2000);
+	WAIT_UNTIL(f, f->rx.n_states >= 2, 2000);
 	WAIT_UNTIL(f, false, 20);
-	assert_int_equal(f->n_states, 2);
+	assert_int_equal(f->rx.n_states, 2);
 	assert_int_equal(s->cycle, 42);
 }
 
@@ -1043,13 +962,13 @@ static void test_state_every_nth(void **state)
 	start(f);
 	for (uint64_t cycle = 100; cycle < 110; cycle++)
 		put_snapshot(f, cycle);
-	WAIT_UNTIL(f, f->n_states >= 4, 2000);
+	WAIT_UNTIL(f, f->rx.n_states >= 4, 2000);
 	WAIT_UNTIL(f, false, 20); /* and no more */
-	assert_int_equal(f->n_states, 4);
-	assert_int_equal(f->state_cycle[0], 100);
-	assert_int_equal(f->state_cycle[1], 103);
-	assert_int_equal(f->state_cycle[2], 106);
-	assert_int_equal(f->state_cycle[3], 109);
+	assert_int_equal(f->rx.n_states, 4);
+	assert_int_equal(f->rx.state_cycle[0], 100);
+	assert_int_equal(f->rx.state_cycle[1], 103);
+	assert_int_equal(f->rx.state_cycle[2], 106);
+	assert_int_equal(f->rx.state_cycle[3], 109);
 	WAIT_UNTIL(f, stats(f).states_published == 4, 2000);
 	assert_int_equal(stats(f).states_published, 4);
 }
@@ -1093,13 +1012,13 @@ static void test_health_10hz(void **state)
 	m.count = 40;
 	send_cmd(f, &m);
 	WAIT_UNTIL(f, stats(f).rejected == 1, 2000);
-	WAIT_UNTIL(f, f->n_health >= 6, 2000);
-	assert_true(f->n_health >= 6);
-	mean_ms = (f->health_rx_ns[5] - f->health_rx_ns[1]) / 4 / 1e6;
+	WAIT_UNTIL(f, f->rx.n_health >= 6, 2000);
+	assert_true(f->rx.n_health >= 6);
+	mean_ms = (f->rx.health_rx_ns[5] - f->rx.health_rx_ns[1]) / 4 / 1e6;
 	print_message("health_t every %.1f ms\n", mean_ms);
 	assert_true(mean_ms > 70 && mean_ms < 160);
 
-	o = f->health_msg;
+	o = f->rx.health;
 	assert_true(o->utime > 0);
 	assert_int_equal(o->cycles, 5000);
 	assert_int_equal(o->overruns, 3);
@@ -1141,9 +1060,9 @@ static void test_config_on_request(void **state)
 	listen(f);
 	start(f);
 	/* Once at start... */
-	WAIT_UNTIL(f, f->n_config >= 1, 2000);
-	assert_int_equal(f->n_config, 1);
-	c = f->config;
+	WAIT_UNTIL(f, f->rx.n_config >= 1, 2000);
+	assert_int_equal(f->rx.n_config, 1);
+	c = f->rx.config;
 	assert_string_equal(c->prefix, PREFIX);
 	assert_int_equal(c->period_us, 2000);
 	assert_int_equal(c->state_every, 1);
@@ -1174,11 +1093,11 @@ static void test_config_on_request(void **state)
 
 	/* ...and on request: a config_request_t, or an empty message. */
 	assert_int_equal(rmd_config_request_t_publish(f->ctl, PREFIX "CONFIG_REQUEST", &req), 0);
-	WAIT_UNTIL(f, f->n_config >= 2, 2000);
-	assert_int_equal(f->n_config, 2);
+	WAIT_UNTIL(f, f->rx.n_config >= 2, 2000);
+	assert_int_equal(f->rx.n_config, 2);
 	assert_int_equal(lcm_publish(f->ctl, PREFIX "CONFIG_REQUEST", "", 0), 0);
-	WAIT_UNTIL(f, f->n_config >= 3, 2000);
-	assert_int_equal(f->n_config, 3);
+	WAIT_UNTIL(f, f->rx.n_config >= 3, 2000);
+	assert_int_equal(f->rx.n_config, 3);
 	/* The bridge counts after lcm_publish() returns: maybe after we received it. */
 	WAIT_UNTIL(f, stats(f).configs_published == 3, 2000);
 	assert_int_equal(stats(f).configs_published, 3);
@@ -1247,8 +1166,8 @@ static void test_one_controller_at_a_time(void **state)
 
 	/* health_t and state_t say who owns them and who intruded */
 	put_snapshot(f, 7);
-	WAIT_UNTIL(f, f->health_msg && f->health_msg->intruder == 0xB && f->n_states, 2000);
-	o = f->health_msg;
+	WAIT_UNTIL(f, f->rx.health && f->rx.health->intruder == 0xB && f->rx.n_states, 2000);
+	o = f->rx.health;
 	assert_true(o->owned);
 	assert_int_equal(o->owner, 0xA);
 	assert_int_equal(o->intruder, 0xB);
@@ -1256,11 +1175,11 @@ static void test_one_controller_at_a_time(void **state)
 	assert_int_equal(o->ignored_by_kind[RMD_HEALTH_T_IGN_EDGE], 3);
 	assert_int_equal(o->ignored_by_kind[RMD_HEALTH_T_IGN_NOT_READY], 0);
 	assert_int_equal(o->ignored_by_kind[RMD_HEALTH_T_IGN_TRIPPED], 1);
-	assert_true(f->state.owned);
-	assert_int_equal(f->state.owner, 0xA);
+	assert_true(f->rx.state.owned);
+	assert_int_equal(f->rx.state.owner, 0xA);
 	/* each motor's measurement time, as the loop gave it */
 	for (int i = 0; i < NMOTORS; i++)
-		assert_int_equal(f->state.motor[i].rx_time_ns,
+		assert_int_equal(f->rx.state.motor[i].rx_time_ns,
 				 123456789000 + 7 * 1000000 - 100000 * (i + 1));
 
 	/* the owner goes on */

@@ -279,6 +279,15 @@ static void open_bus(struct rmd_bus *bus, struct pty *pt, const struct rmd_rs485
 	assert_string_equal(bus->ops->kind, "rs485");
 }
 
+/* open_bus() with the fake motors fk answering on the other end. */
+static void open_bus_fake(struct rmd_bus *bus, struct pty *pt, const struct rmd_rs485_opts *opts,
+			  struct fake *fk)
+{
+	open_bus(bus, pt, opts);
+	fk->master = pt->master;
+	fake_start(fk);
+}
+
 static void close_bus(struct rmd_bus *bus, struct pty *pt)
 {
 	rmd_bus_close(bus);
@@ -326,6 +335,20 @@ static unsigned drive(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max,
 		      int64_t limit_ns)
 {
 	return drive_to(bus, out, max, want, 0, limit_ns);
+}
+
+/*
+ * The whole exchange: open the bus with fk behind it, send n frames, drive
+ * until `want` replies came, stop fk.  The bus stays open for the checks.
+ */
+static void exchange(struct rmd_bus *bus, struct pty *pt, const struct rmd_rs485_opts *opts,
+		     struct fake *fk, const struct rmd_frame *f, unsigned n, struct rmd_bus_rx *rx,
+		     unsigned max, unsigned want)
+{
+	open_bus_fake(bus, pt, opts, fk);
+	assert_int_equal(rmd_bus_send(bus, f, n, now_ns()), n);
+	assert_int_equal(drive(bus, rx, max, want, now_ns() + LIMIT_NS), want);
+	fake_stop(fk);
 }
 
 /* Until fd is readable, within LIMIT_NS. */
@@ -461,9 +484,7 @@ static void test_round_trip(void **state)
 	int64_t t0, t1;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
+	open_bus_fake(&bus, &pt, &opts, fk);
 	t0 = now_ns();
 	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
 	assert_int_equal(pending_of(&bus), 1);
@@ -498,9 +519,7 @@ static void test_one_request_at_a_time(void **state)
 	(void)state;
 	for (unsigned i = 0; i < 6; i++)
 		f[i] = frame(0x141 + i % 3, status1_req);
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
+	open_bus_fake(&bus, &pt, &opts, fk);
 	assert_int_equal(rmd_bus_send(&bus, f, 6, now_ns()), 6);
 	assert_int_equal(pending_of(&bus), 6);
 	assert_int_equal(drive(&bus, rx, 8, 6, now_ns() + LIMIT_NS), 6);
@@ -536,9 +555,7 @@ static void test_silent_motor_times_out(void **state)
 	int64_t t0;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
+	open_bus_fake(&bus, &pt, &opts, fk);
 	t0 = now_ns();
 	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
 	/* Motor 5 never answers: nothing but the timeout ends its request. */
@@ -570,12 +587,7 @@ static void test_bad_crc_dropped(void **state)
 	struct pty pt;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
-	assert_int_equal(rmd_bus_send(&bus, f, 2, now_ns()), 2);
-	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
-	fake_stop(fk);
+	exchange(&bus, &pt, &opts, fk, f, 2, rx, 4, 1);
 
 	assert_rx(&rx[0], 0x241, status1_reply);
 	assert_int_equal(bus.stats.rx_errors, 1);
@@ -601,12 +613,7 @@ static void test_garbage_skipped(void **state)
 	struct pty pt;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
-	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
-	fake_stop(fk);
+	exchange(&bus, &pt, &opts, fk, &f, 1, rx, 4, 1);
 
 	assert_rx(&rx[0], 0x242, status1_reply);
 	assert_int_equal(bus.stats.rx_errors, 1);
@@ -632,9 +639,7 @@ static void test_broadcast(void **state)
 	int64_t t0;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
+	open_bus_fake(&bus, &pt, &opts, fk);
 	t0 = now_ns();
 	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
 	assert_int_equal(rmd_bus_next_due_ns(&bus), t0 + 5000 * MS);
@@ -671,9 +676,7 @@ static void test_broadcast_unknown_count(void **state)
 	int64_t t0, t1;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
+	open_bus_fake(&bus, &pt, &opts, fk);
 	t0 = now_ns();
 	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
 	assert_int_equal(drive(&bus, rx, 4, 2, t0 + LIMIT_NS), 2);
@@ -704,12 +707,7 @@ static void test_set_id_mapping(void **state)
 	struct pty pt;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
-	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
-	fake_stop(fk);
+	exchange(&bus, &pt, &opts, fk, &f, 1, rx, 4, 1);
 
 	assert_int_equal(fk->seen_id[0], RMD_RS485_BROADCAST);
 	assert_rx(&rx[0], 0x300, read_id);
@@ -734,12 +732,7 @@ static void test_local_echo(void **state)
 	struct pty pt;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
-	fk->master = pt.master;
-	fake_start(fk);
-	assert_int_equal(rmd_bus_send(&bus, f, 2, now_ns()), 2);
-	assert_int_equal(drive(&bus, rx, 4, 2, now_ns() + LIMIT_NS), 2);
-	fake_stop(fk);
+	exchange(&bus, &pt, &opts, fk, f, 2, rx, 4, 2);
 
 	assert_rx(&rx[0], 0x241, off_req);
 	assert_rx(&rx[1], 0x241, status1_reply);

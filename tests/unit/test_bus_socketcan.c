@@ -45,63 +45,19 @@
 #include "rmd/bus_sim.h"
 #include "rmd/bus_socketcan.h"
 
+#include "harness/alloc_count.h"
+
 #define NS_PER_MS 1000000LL
 
 static bool have_socketcan;
-
-/*
- * Allocation counter: the test binary interposes malloc and friends
- * (forwarding to glibc) and counts calls while `counting` is set, around
- * send() and recv().  Not under ASan, which owns malloc itself.
- */
-#ifndef __SANITIZE_ADDRESS__
-extern void *__libc_malloc(size_t size);
-extern void *__libc_calloc(size_t n, size_t size);
-extern void *__libc_realloc(void *ptr, size_t size);
-extern void __libc_free(void *ptr);
-
-static volatile bool counting;
-static volatile unsigned long allocs;
-
-void *malloc(size_t size)
-{
-	if (counting)
-		allocs++;
-	return __libc_malloc(size);
-}
-
-void *calloc(size_t n, size_t size)
-{
-	if (counting)
-		allocs++;
-	return __libc_calloc(n, size);
-}
-
-void *realloc(void *ptr, size_t size)
-{
-	if (counting)
-		allocs++;
-	return __libc_realloc(ptr, size);
-}
-
-void free(void *ptr)
-{
-	if (counting && ptr)
-		allocs++;
-	__libc_free(ptr);
-}
-#else
-static bool counting;
-static unsigned long allocs;
-#endif
 
 static int bus_send(struct rmd_bus *bus, const struct rmd_frame *f, unsigned n)
 {
 	int r;
 
-	counting = true;
+	alloc_count_start();
 	r = rmd_bus_send(bus, f, n, 0);
-	counting = false;
+	alloc_count_stop();
 	return r;
 }
 
@@ -109,9 +65,9 @@ static int bus_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max)
 {
 	int r;
 
-	counting = true;
+	alloc_count_start();
 	r = rmd_bus_recv(bus, out, max, 0);
-	counting = false;
+	alloc_count_stop();
 	return r;
 }
 
@@ -474,7 +430,7 @@ static void test_filter(void **state)
 	assert_int_equal(bus.stats.rx_frames, 4);
 	assert_int_equal(bus.stats.rx_errors, 0);
 	assert_int_equal(bus.stats.tx_frames, 1);
-	assert_int_equal(allocs, 0);
+	assert_int_equal(alloc_count(), 0);
 
 	close(peer);
 	rmd_bus_close(&bus);
@@ -598,7 +554,7 @@ static void test_burst_over_txqueuelen(void **state)
 	assert_int_equal(n, N);
 	for (int i = 0; i < N; i++)
 		assert_frame_equal(&rx[i], &tx[i], i);
-	assert_int_equal(allocs, 0);
+	assert_int_equal(alloc_count(), 0);
 	close(peer);
 	rmd_bus_close(&bus);
 }
@@ -648,7 +604,7 @@ static void test_error_frames_on_vcan(void **state)
 	}
 	assert_int_equal(bus.stats.state_changes, 4);
 	assert_int_equal(bus.stats.rx_frames, 5); /* the sentinels only */
-	assert_int_equal(allocs, 0);
+	assert_int_equal(alloc_count(), 0);
 	close(peer);
 	rmd_bus_close(&bus);
 }
@@ -789,7 +745,7 @@ static void test_recv_batches(void **state)
 		assert_int_equal(rx[i].f.data[0], (uint8_t)i);
 	assert_int_equal(bus_recv(&bus, rx, BIG), 0);
 	assert_int_equal(bus.stats.rx_frames, BIG + SMALL);
-	assert_int_equal(allocs, 0);
+	assert_int_equal(alloc_count(), 0);
 	close(peer);
 	rmd_bus_close(&bus);
 }

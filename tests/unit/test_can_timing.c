@@ -18,6 +18,8 @@
 
 #include "rmd/can_timing.h"
 
+#include "harness/rng.h"
+
 #define SEED_DEFAULT 0x5eed0001u
 #define RANDOM_FRAMES 20000
 
@@ -116,11 +118,7 @@ static uint64_t rng_state;
 
 static uint64_t rng_next(void)
 {
-	uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-
-	z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-	z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-	return z ^ (z >> 31);
+	return splitmix64(&rng_state);
 }
 
 static uint32_t test_seed(void)

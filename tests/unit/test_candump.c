@@ -17,6 +17,8 @@
 
 #include "rmd/candump.h"
 
+#include "harness/hex.h"
+
 struct good_vector {
 	const char *name;
 	const char *line;
@@ -62,13 +64,6 @@ static const struct good_vector good[] = {
 	{ "iface and bare", "can0 241#9A320001E5010400", 0x241, "9A320001E5010400", "can0", NULL },
 };
 
-static void hex_of(const struct rmd_frame *f, char *buf)
-{
-	for (unsigned i = 0; i < f->len; i++)
-		sprintf(buf + 2 * i, "%02X", f->data[i]);
-	buf[2 * f->len] = '\0';
-}
-
 static void test_good_lines(void **state)
 {
 	(void)state;
@@ -80,7 +75,7 @@ static void test_good_lines(void **state)
 
 		if (r != 0)
 			fail_msg("%s: returned %d (%s)", v->name, r, rmd_candump_strerror(l.err));
-		hex_of(&l.frame, hex);
+		hex_of(l.frame.data, l.frame.len, hex);
 		if (l.has_time)
 			snprintf(time, sizeof(time), "%llu.%0*u", (unsigned long long)l.time_sec,
 				 (int)l.time_digits, (unsigned)l.time_frac);

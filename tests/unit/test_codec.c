@@ -23,27 +23,10 @@
 
 #include "rmd/codec.h"
 
+#include "harness/hex.h"
+#include "harness/rng.h"
+
 #define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
-
-/* "241#9A320001E5010400" -> frame.  Test helper; aborts the test on bad hex. */
-static struct rmd_frame frame_from(const char *s)
-{
-	struct rmd_frame f = { 0 };
-	char *end;
-
-	f.can_id = (uint32_t)strtoul(s, &end, 16);
-	assert_true(*end == '#');
-	s = end + 1;
-	while (s[0] && s[1] && f.len < RMD_FRAME_LEN) {
-		char byte[3] = { s[0], s[1], 0 };
-
-		f.data[f.len++] = (uint8_t)strtoul(byte, &end, 16);
-		assert_true(*end == '\0');
-		s += 2;
-	}
-	assert_true(*s == '\0');
-	return f;
-}
 
 /* ---- Manual vectors ---------------------------------------------------- */
 
@@ -598,12 +581,7 @@ static uint64_t seed_used;
 
 static uint64_t rng_next(uint64_t *s)
 {
-	/* splitmix64 */
-	uint64_t z = (*s += UINT64_C(0x9E3779B97F4A7C15));
-
-	z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-	z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
-	return z ^ (z >> 31);
+	return splitmix64(s);
 }
 
 /* A random raw value that fits `fs`, edges (min, max, 0, -1) one time in four. */
@@ -1024,66 +1002,89 @@ static void test_v2_unsafe_reply(void **state)
 
 /* ---- Names ------------------------------------------------------------- */
 
+/* Error flags and the names they give: one row per manual example. */
+static const struct err_case {
+	enum rmd_proto proto;
+	uint16_t flags;
+	int count;
+	const char *names[2];
+} err_cases[] = {
+	/* V3 §2.12.4: 0x0004 is low voltage. */
+	{ RMD_PROTO_V3, 0x0004, 1, { "low_voltage" } },
+	{ RMD_PROTO_V3, 0, 0, { NULL } },
+	{ RMD_PROTO_V3, 0x3000, 2, { "over_temperature", "encoder_calibration_error" } },
+	{ RMD_PROTO_V3, 0x0012, 2, { "stall", "phase_overcurrent" } },
+	/* A bit §2.12 does not name keeps a name. */
+	{ RMD_PROTO_V3, 0x0001, 1, { "unknown_0x0001" } },
+	/* V2 §3.31 table 1, with "0x0000" read as bit 0. */
+	{ RMD_PROTO_V2, 0x0001, 1, { "hardware_overcurrent" } },
+	{ RMD_PROTO_V2, 0x0030, 2, { "overcurrent", "brake_open_failed" } },
+	/* V2 §3.31 table 2: whole codes. */
+	{ RMD_PROTO_V2, 0x00F0, 1, { "pid_rom_write_unsafe" } },
+	{ RMD_PROTO_V2, 0x00F3, 1, { "brake_not_open" } },
+	{ RMD_PROTO_MIT, 0x0004, 0, { NULL } },
+};
+
 static void test_error_names(void **state)
 {
+	static const enum rmd_proto bit_protos[] = { RMD_PROTO_V3, RMD_PROTO_V2 };
 	const char *names[16];
 
 	(void)state;
-	/* V3 §2.12.4: 0x0004 is low voltage. */
-	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0x0004, names, 16), 1);
-	assert_string_equal(names[0], "low_voltage");
-	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0, names, 16), 0);
-	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0x3000, names, 16), 2);
-	assert_string_equal(names[0], "over_temperature");
-	assert_string_equal(names[1], "encoder_calibration_error");
-	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0x0012, names, 16), 2);
-	assert_string_equal(names[0], "stall");
-	assert_string_equal(names[1], "phase_overcurrent");
-	/* A bit §2.12 does not name keeps a name. */
-	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0x0001, names, 16), 1);
-	assert_string_equal(names[0], "unknown_0x0001");
+	for (size_t k = 0; k < ARRAY_SIZE(err_cases); k++) {
+		const struct err_case *c = &err_cases[k];
+		int n = rmd_error_names(c->proto, c->flags, names, 16);
+
+		if (n != c->count)
+			fail_msg("proto %d flags %#x: %d names, want %d", c->proto, c->flags, n,
+				 c->count);
+		for (int i = 0; i < n && i < 2; i++)
+			assert_string_equal(names[i], c->names[i]);
+	}
 	/* More flags than room: the count, and only `max` names stored. */
 	names[1] = NULL;
 	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0xFFFF, names, 1), 16);
 	assert_null(names[1]);
 	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0xFFFF, NULL, 0), 16);
-	assert_int_equal(rmd_error_names(RMD_PROTO_V3, 0xFFFF, names, 16), 16);
-	for (int i = 0; i < 16; i++)
-		if (!snake_case(names[i]))
-			fail_msg("V3 error name \"%s\" is not snake_case", names[i]);
-
-	/* V2 §3.31 table 1, with "0x0000" read as bit 0. */
-	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x0001, names, 16), 1);
-	assert_string_equal(names[0], "hardware_overcurrent");
-	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x0030, names, 16), 2);
-	assert_string_equal(names[0], "overcurrent");
-	assert_string_equal(names[1], "brake_open_failed");
-	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0xFFFF, names, 16), 16);
-	for (int i = 0; i < 16; i++)
-		if (!snake_case(names[i]))
-			fail_msg("V2 error name \"%s\" is not snake_case", names[i]);
-	/* V2 §3.31 table 2: whole codes. */
-	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x00F0, names, 16), 1);
-	assert_string_equal(names[0], "pid_rom_write_unsafe");
-	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x00F3, names, 16), 1);
-	assert_string_equal(names[0], "brake_not_open");
 	assert_int_equal(rmd_error_names(RMD_PROTO_V2, 0x00F4, names, 0), 1);
-	assert_int_equal(rmd_error_names(RMD_PROTO_MIT, 0x0004, names, 16), 0);
+	/* every bit named, in snake_case */
+	for (size_t k = 0; k < ARRAY_SIZE(bit_protos); k++) {
+		assert_int_equal(rmd_error_names(bit_protos[k], 0xFFFF, names, 16), 16);
+		for (int i = 0; i < 16; i++)
+			if (!snake_case(names[i]))
+				fail_msg("proto %d: error name \"%s\" is not snake_case",
+					 bit_protos[k], names[i]);
+	}
 }
 
 static void test_run_mode_names(void **state)
 {
+	static const struct {
+		enum rmd_proto proto;
+		uint8_t mode;
+		const char *name; /* NULL: none */
+	} modes[] = {
+		{ RMD_PROTO_V3, 1, "current_loop" },
+		{ RMD_PROTO_V3, 2, "speed_loop" },
+		{ RMD_PROTO_V3, 3, "position_loop" },
+		{ RMD_PROTO_V3, 0, NULL },
+		{ RMD_PROTO_V2, 0, "current_loop" },
+		{ RMD_PROTO_V2, 1, "speed_loop" },
+		{ RMD_PROTO_V2, 2, "position_loop" },
+		{ RMD_PROTO_V2, 0xFF, "init" },
+		{ RMD_PROTO_V2, 3, NULL },
+		{ RMD_PROTO_MIT, 1, NULL },
+	};
+
 	(void)state;
-	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V3, 1), "current_loop");
-	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V3, 2), "speed_loop");
-	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V3, 3), "position_loop");
-	assert_null(rmd_run_mode_name(RMD_PROTO_V3, 0));
-	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V2, 0), "current_loop");
-	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V2, 1), "speed_loop");
-	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V2, 2), "position_loop");
-	assert_string_equal(rmd_run_mode_name(RMD_PROTO_V2, 0xFF), "init");
-	assert_null(rmd_run_mode_name(RMD_PROTO_V2, 3));
-	assert_null(rmd_run_mode_name(RMD_PROTO_MIT, 1));
+	for (size_t k = 0; k < ARRAY_SIZE(modes); k++) {
+		const char *got = rmd_run_mode_name(modes[k].proto, modes[k].mode);
+
+		if (modes[k].name ? !got || strcmp(got, modes[k].name) : got != NULL)
+			fail_msg("proto %d mode %#x: \"%s\", want \"%s\"", modes[k].proto,
+				 modes[k].mode, got ? got : "(null)",
+				 modes[k].name ? modes[k].name : "(null)");
+	}
 }
 
 static void test_model(void **state)
@@ -1107,19 +1108,23 @@ static void test_model(void **state)
 
 static void test_version_date(void **state)
 {
+	static const struct {
+		uint32_t date;
+		bool valid;
+	} dates[] = {
+		{ 20220206, true }, /* V3 §2.29.4 */
+		{ 20211126, true }, /* V3 §2.29.3 */
+		{ 20240229, true },    { 20001231, true },  { 20230229, false },
+		{ 20220230, false },   { 20221301, false }, { 20220100, false },
+		{ 20220001, false },   { 19991231, false }, { 0, false },
+		{ UINT32_MAX, false },
+	};
+
 	(void)state;
-	assert_true(rmd_version_date_valid(20220206)); /* V3 §2.29.4 */
-	assert_true(rmd_version_date_valid(20211126)); /* V3 §2.29.3 */
-	assert_true(rmd_version_date_valid(20240229));
-	assert_true(rmd_version_date_valid(20001231));
-	assert_false(rmd_version_date_valid(20230229));
-	assert_false(rmd_version_date_valid(20220230));
-	assert_false(rmd_version_date_valid(20221301));
-	assert_false(rmd_version_date_valid(20220100));
-	assert_false(rmd_version_date_valid(20220001));
-	assert_false(rmd_version_date_valid(19991231));
-	assert_false(rmd_version_date_valid(0));
-	assert_false(rmd_version_date_valid(UINT32_MAX));
+	for (size_t k = 0; k < ARRAY_SIZE(dates); k++)
+		if (rmd_version_date_valid(dates[k].date) != dates[k].valid)
+			fail_msg("%u: valid %d, want %d", (unsigned)dates[k].date, !dates[k].valid,
+				 dates[k].valid);
 }
 
 int main(void)

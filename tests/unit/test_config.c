@@ -23,6 +23,8 @@
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
 
+#include "harness/proc.h"
+
 #define ERR_LEN 8192
 
 static char srcdir[1024] = ".";
@@ -47,16 +49,10 @@ static int load_rel(const char *rel)
 static int load_str(const char *tag, const char *yaml)
 {
 	char path[256];
-	FILE *f;
-	int fd, r;
+	int r;
 
 	snprintf(path, sizeof(path), "/tmp/rmd-test-%s-XXXXXX", tag);
-	fd = mkstemp(path);
-	assert_true(fd >= 0);
-	f = fdopen(fd, "w");
-	assert_non_null(f);
-	fputs(yaml, f);
-	fclose(f);
+	temp_file(path, yaml);
 	r = rmd_config_load(path, &cfg, &sim, err, sizeof(err));
 	unlink(path);
 	return r;

@@ -39,26 +39,13 @@
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
+#include "harness/clock.h"
+#include "harness/rig.h"
+
 #define MS INT64_C(1000000)
 #define US INT64_C(1000)
 #define TRACE_MAX 65536
 #define EVENTS_MAX 8192
-
-/* ---- the injected clock ---------------------------------------------------- */
-
-static int64_t t_now;
-
-static int64_t fake_now(void *ctx)
-{
-	(void)ctx;
-	return t_now;
-}
-
-static void fake_sleep(void *ctx, int64_t ns)
-{
-	(void)ctx;
-	t_now += ns;
-}
 
 /* ---- frames the host put on the wire --------------------------------------- */
 
@@ -144,17 +131,9 @@ static void sync_sim(struct rmd_config *cfg)
 
 static void open_buses(void)
 {
-	char err[256];
-
-	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
-		struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
-		struct rmd_bus_open_ctx ctx;
-
-		rmd_bus_open_ctx_of(&R.cfg, &R.sim, b, motors, &ctx);
-		if (rmd_bus_open(&R.buses[b], &R.cfg.buses[b], &ctx, err, sizeof(err)))
-			fail_msg("sim bus %s: %s", R.cfg.buses[b].name, err);
+	rig_open_buses(&R.cfg, &R.sim, R.buses);
+	for (unsigned b = 0; b < R.cfg.n_buses; b++)
 		rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
-	}
 }
 
 /*

@@ -3,8 +3,8 @@
  * The rt cycle allocates nothing (STYLE.md "Tests", issue 5 acceptance).
  *
  * Linked with -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free
- * (the Makefile's rule for this binary): every call from rmdd's code goes
- * through the counters below.  After set-up (config, plan, sim buses, loop,
+ * (the Makefile's rule for the suites): every call from rmdd's code goes
+ * through the counter of harness/alloc_count.c.  After set-up (config, plan, sim buses, loop,
  * bring-up) counting starts, and 12 000 cycles run with commands flowing
  * and everything the cycle can do happening at least once: setpoints in
  * every mode, MIT frames, NaN setpoints, clamping, status polls, a motor
@@ -38,77 +38,12 @@
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define UNDER_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define UNDER_ASAN 1
-#endif
-#endif
-#ifndef UNDER_ASAN
-#define UNDER_ASAN 0
-#endif
+#include "harness/alloc_count.h"
+#include "harness/clock.h"
+#include "harness/rig.h"
 
 #define MS INT64_C(1000000)
 #define CYCLES 12000
-
-/* ---- the wrapped allocator ------------------------------------------------------ */
-
-static volatile bool counting;
-static volatile unsigned long n_calls;
-
-void *__real_malloc(size_t size);
-void *__real_calloc(size_t n, size_t size);
-void *__real_realloc(void *p, size_t size);
-void __real_free(void *p);
-void *__wrap_malloc(size_t size);
-void *__wrap_calloc(size_t n, size_t size);
-void *__wrap_realloc(void *p, size_t size);
-void __wrap_free(void *p);
-
-void *__wrap_malloc(size_t size)
-{
-	if (counting)
-		n_calls++;
-	return __real_malloc(size);
-}
-
-void *__wrap_calloc(size_t n, size_t size)
-{
-	if (counting)
-		n_calls++;
-	return __real_calloc(n, size);
-}
-
-void *__wrap_realloc(void *p, size_t size)
-{
-	if (counting)
-		n_calls++;
-	return __real_realloc(p, size);
-}
-
-void __wrap_free(void *p)
-{
-	if (counting)
-		n_calls++;
-	__real_free(p);
-}
-
-/* ---- the injected clock ----------------------------------------------------------- */
-
-static int64_t t_now;
-
-static int64_t fake_now(void *ctx)
-{
-	(void)ctx;
-	return t_now;
-}
-
-static void fake_sleep(void *ctx, int64_t ns)
-{
-	(void)ctx;
-	t_now += ns;
-}
 
 /* ---- the rig ----------------------------------------------------------------------- */
 
@@ -147,32 +82,8 @@ static void make_config(void)
 		sim.motors[i].id = cfg.motors[i].id;
 		sim.motors[i].proto = cfg.motors[i].proto;
 	}
-}
-
-static void open_buses(void)
-{
-	char err[256];
-
-	for (unsigned b = 0; b < cfg.n_buses; b++) {
-		struct rmd_bus_sim_motor ms[RMD_MAX_MOTORS];
-		struct rmd_bus_sim_opts o = {
-			.motors = ms,
-			.bitrate = cfg.buses[b].bitrate,
-			.seed = sim.buses[b].seed,
-			.flags = RMD_SIM_WIRE_HOST_FIFO,
-			.txqueuelen = sim.buses[b].txqueuelen,
-		};
-
-		for (unsigned i = 0; i < cfg.n_motors; i++)
-			if (cfg.motors[i].bus == b)
-				ms[o.n_motors++] = (struct rmd_bus_sim_motor){
-					.id = cfg.motors[i].id,
-					.proto = cfg.motors[i].proto,
-					.params = &sim.motors[i],
-				};
-		if (rmd_bus_sim_open(&buses[b], cfg.buses[b].name, &o, err, sizeof(err)))
-			fail_msg("%s", err);
-	}
+	for (unsigned b = 0; b < cfg.n_buses; b++)
+		sim.buses[b].host_fifo = true;
 }
 
 /* This cycle's command: every mode, now and then NaN, a pause for the watchdog. */
@@ -220,7 +131,7 @@ static void test_cycle_allocates_nothing(void **state)
 	int r;
 
 	(void)state;
-	if (UNDER_ASAN)
+	if (!alloc_count_available())
 		skip();
 	t_now = 1000 * MS;
 	make_config();
@@ -228,7 +139,7 @@ static void test_cycle_allocates_nothing(void **state)
 	if (r)
 		fail_msg("%s", err);
 	assert_int_equal(plan.bus[2].batch, RMD_BATCH_ON);
-	open_buses();
+	rig_open_buses(&cfg, &sim, buses);
 	rmd_latest_init(&cmds, cmd_buf, sizeof(struct rmd_command));
 	rmd_latest_init(&snaps, snap_buf, sizeof(struct rmd_snapshot));
 	rmd_latest_init(&health, health_buf, sizeof(struct rmd_health));
@@ -254,17 +165,17 @@ static void test_cycle_allocates_nothing(void **state)
 	t_now = (t_now / MS + 1) * MS;
 
 	/* the wrap is in place: the counters see a call */
-	counting = true;
+	alloc_count_reset();
+	alloc_count_start();
 	{
 		void *volatile p = malloc(16);
 
 		free(p);
 	}
-	counting = false;
-	assert_int_equal(n_calls, 2);
-	n_calls = 0;
+	assert_int_equal(alloc_count_stop(), 2);
+	alloc_count_reset();
 
-	counting = true;
+	alloc_count_start();
 	for (unsigned k = 0; k < CYCLES; k++) {
 		const void *p;
 
@@ -296,8 +207,7 @@ static void test_cycle_allocates_nothing(void **state)
 	rmd_loop_get_stats(l, &st);
 	rmd_loop_get_counters(l, &c);
 	rmd_loop_stop_motors(l, t_now);
-	counting = false;
-	n = n_calls;
+	n = alloc_count_stop();
 
 	if (n)
 		fail_msg("%lu allocator calls in %d cycles", n, CYCLES);
@@ -326,7 +236,7 @@ int main(void)
 		cmocka_unit_test(test_cycle_allocates_nothing),
 	};
 
-	if (UNDER_ASAN)
+	if (!alloc_count_available())
 		fprintf(stderr, "test_loop_alloc: AddressSanitizer intercepts malloc; "
 				"skipped (run the build without SANITIZE=1)\n");
 	return cmocka_run_group_tests_name("loop_alloc", tests, NULL, NULL);

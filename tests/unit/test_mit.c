@@ -22,6 +22,9 @@
 
 #include "rmd/mit.h"
 
+#include "harness/hex.h"
+#include "harness/rng.h"
+
 static uint64_t seed;
 
 /* Default ranges but torque ±18 N·m, as some firmware has (DESIGN.md). */
@@ -52,34 +55,6 @@ static const struct rmd_mit_ranges ranges_identity = {
 	.kd_max = 4095.0,
 };
 
-/* "401#E66682E052333B55" -> frame.  Test helper; aborts the test on bad hex. */
-static struct rmd_frame frame_from(const char *s)
-{
-	struct rmd_frame f = { 0 };
-	char *end;
-
-	f.can_id = (uint32_t)strtoul(s, &end, 16);
-	assert_true(*end == '#');
-	s = end + 1;
-	while (s[0] && s[1] && f.len < RMD_FRAME_LEN) {
-		char byte[3] = { s[0], s[1], 0 };
-
-		f.data[f.len++] = (uint8_t)strtoul(byte, NULL, 16);
-		s += 2;
-	}
-	return f;
-}
-
-/* frame -> "401#E66682E052333B55" in buf (at least 32 bytes). */
-static const char *frame_hex(const struct rmd_frame *f, char *buf)
-{
-	int n = sprintf(buf, "%03X#", (unsigned)f->can_id);
-
-	for (unsigned i = 0; i < f->len && i < RMD_FRAME_LEN; i++)
-		n += sprintf(buf + n, "%02X", f->data[i]);
-	return buf;
-}
-
 /* Field by field: the structs have padding. */
 static bool frames_equal(const struct rmd_frame *a, const struct rmd_frame *b)
 {
@@ -102,11 +77,7 @@ static uint64_t rng_state;
 
 static uint64_t rng_next(void)
 {
-	uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-
-	z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-	z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-	return z ^ (z >> 31);
+	return splitmix64(&rng_state);
 }
 
 /* Uniform in [lo, hi]. */

@@ -23,43 +23,15 @@
 #include "rmd/mit.h"
 #include "rmd/motor.h"
 
+#include "harness/hex.h"
+
 #define DEG (M_PI / 180.0)
-
-/* "141#A100000000000000" -> frame; fails the test on bad hex. */
-static struct rmd_frame frame_from(const char *s)
-{
-	struct rmd_frame f = { 0 };
-	const char *p;
-	char *end;
-
-	f.can_id = (uint32_t)strtoul(s, &end, 16);
-	if (*end != '#')
-		fail_msg("bad frame text \"%s\"", s);
-	p = end + 1;
-	while (p[0] && p[1] && f.len < RMD_FRAME_LEN) {
-		char byte[3] = { p[0], p[1], 0 };
-
-		f.data[f.len++] = (uint8_t)strtoul(byte, &end, 16);
-		if (*end)
-			fail_msg("bad frame text \"%s\"", s);
-		p += 2;
-	}
-	return f;
-}
-
-static void frame_text(const struct rmd_frame *f, char *buf, size_t len)
-{
-	int n = snprintf(buf, len, "%03X#", (unsigned)f->can_id);
-
-	for (unsigned k = 0; k < f->len && n > 0 && (size_t)n < len; k++)
-		n += snprintf(buf + n, len - (size_t)n, "%02X", f->data[k]);
-}
 
 static void assert_frame(const char *name, const struct rmd_frame *got, const char *want)
 {
-	char g[40];
+	char g[HEX_FRAME_LEN];
 
-	frame_text(got, g, sizeof(g));
+	frame_hex(got, g);
 	if (strcmp(g, want))
 		fail_msg("%s: got %s, want %s", name, g, want);
 }
@@ -95,6 +67,15 @@ static struct rmd_motor motor_of(const struct rmd_config_motor *c)
 	return m;
 }
 
+/* c mounted the other way round, zero at zero_rad, kt_nm_a N·m per A: its motor. */
+static struct rmd_motor motor_reversed(struct rmd_config_motor *c, double zero_rad, double kt_nm_a)
+{
+	c->direction = -1;
+	c->zero_offset_rad = zero_rad;
+	c->torque_constant_nm_a = kt_nm_a;
+	return motor_of(c);
+}
+
 static struct rmd_setpoint sp_mode(enum rmd_mode mode)
 {
 	struct rmd_setpoint sp = { .enable = true, .mode = (uint8_t)mode };
@@ -127,12 +108,14 @@ static void test_init_refuses(void **state)
 
 struct enc_vec {
 	const char *name;
-	enum rmd_proto proto;
-	int dir;
-	double gear;
-	enum rmd_units units;
-	double zero;
-	double kt;
+	struct {
+		enum rmd_proto proto;
+		int dir;
+		double gear;
+		enum rmd_units units;
+		double zero;
+		double kt;
+	} m; /* how the motor is mounted */
 	struct rmd_setpoint sp;
 	const char *hex;
 };
@@ -140,72 +123,37 @@ struct enc_vec {
 static const struct enc_vec enc_vecs[] = {
 	/* V3 §2.17.4: iq -1 A = 0xFF9C */
 	{ "V3 §2.17.4 torque",
-	  RMD_PROTO_V3,
-	  1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.0,
-	  2.0,
+	  { RMD_PROTO_V3, 1, 1.0, RMD_UNITS_OUTPUT, 0.0, 2.0 },
 	  { .enable = true, .mode = RMD_MODE_TORQUE, .torque_nm = -2.0 },
 	  "141#A10000009CFF0000" },
 	/* direction -1 turns the sign: +2 N·m is -1 A on the wire */
 	{ "V3 torque, direction -1",
-	  RMD_PROTO_V3,
-	  -1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.0,
-	  2.0,
+	  { RMD_PROTO_V3, -1, 1.0, RMD_UNITS_OUTPUT, 0.0, 2.0 },
 	  { .enable = true, .mode = RMD_MODE_TORQUE, .torque_nm = 2.0 },
 	  "141#A10000009CFF0000" },
 	/* Kt: 1 N·m at 0.5 N·m/A is 2 A = 200 */
 	{ "V3 torque, Kt 0.5",
-	  RMD_PROTO_V3,
-	  1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.0,
-	  0.5,
+	  { RMD_PROTO_V3, 1, 1.0, RMD_UNITS_OUTPUT, 0.0, 0.5 },
 	  { .enable = true, .mode = RMD_MODE_TORQUE, .torque_nm = 1.0 },
 	  "141#A1000000C8000000" },
 	/* V3 §2.18.4 example 1: 100 dps = 10000 */
 	{ "V3 §2.18.4 speed",
-	  RMD_PROTO_V3,
-	  1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.0,
-	  2.0,
+	  { RMD_PROTO_V3, 1, 1.0, RMD_UNITS_OUTPUT, 0.0, 2.0 },
 	  { .enable = true, .mode = RMD_MODE_SPEED, .vel_rad_s = 100.0 * DEG },
 	  "141#A200000010270000" },
 	/* V3 §2.18.4 example 2: -100 dps, here from +100 dps and direction -1 */
 	{ "V3 speed, direction -1",
-	  RMD_PROTO_V3,
-	  -1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.0,
-	  2.0,
+	  { RMD_PROTO_V3, -1, 1.0, RMD_UNITS_OUTPUT, 0.0, 2.0 },
 	  { .enable = true, .mode = RMD_MODE_SPEED, .vel_rad_s = 100.0 * DEG },
 	  "141#A2000000F0D8FFFF" },
 	/* rotor units: 100/6 dps at the output is 100 dps at the rotor */
 	{ "V3 speed, rotor units",
-	  RMD_PROTO_V3,
-	  1,
-	  6.0,
-	  RMD_UNITS_ROTOR,
-	  0.0,
-	  2.0,
+	  { RMD_PROTO_V3, 1, 6.0, RMD_UNITS_ROTOR, 0.0, 2.0 },
 	  { .enable = true, .mode = RMD_MODE_SPEED, .vel_rad_s = 100.0 / 6.0 * DEG },
 	  "141#A200000010270000" },
 	/* V3 §2.20.4 example 1: 360 deg at up to 500 dps */
 	{ "V3 §2.20.4 position",
-	  RMD_PROTO_V3,
-	  1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.0,
-	  2.0,
+	  { RMD_PROTO_V3, 1, 1.0, RMD_UNITS_OUTPUT, 0.0, 2.0 },
 	  { .enable = true,
 	    .mode = RMD_MODE_POSITION,
 	    .pos_rad = 2.0 * M_PI,
@@ -213,12 +161,7 @@ static const struct enc_vec enc_vecs[] = {
 	  "141#A400F401A08C0000" },
 	/* zero offset and direction: native = -pos + 0.5 rad; -2 pi + 0.5 -> 2 pi */
 	{ "V3 position, zero offset, direction -1",
-	  RMD_PROTO_V3,
-	  -1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  2.0 * M_PI - 1.0,
-	  2.0,
+	  { RMD_PROTO_V3, -1, 1.0, RMD_UNITS_OUTPUT, 2.0 * M_PI - 1.0, 2.0 },
 	  { .enable = true,
 	    .mode = RMD_MODE_POSITION,
 	    .pos_rad = -1.0,
@@ -226,32 +169,17 @@ static const struct enc_vec enc_vecs[] = {
 	  "141#A400F401A08C0000" },
 	/* V2 §3.37: iq -2000..2000 is -32..32 A; 0.8 A = 50 */
 	{ "V2 torque",
-	  RMD_PROTO_V2,
-	  1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.0,
-	  0.5,
+	  { RMD_PROTO_V2, 1, 1.0, RMD_UNITS_OUTPUT, 0.0, 0.5 },
 	  { .enable = true, .mode = RMD_MODE_TORQUE, .torque_nm = 0.4 },
 	  "141#A100000032000000" },
 	/* V2 §3.38: 0.01 dps like V3 */
 	{ "V2 speed",
-	  RMD_PROTO_V2,
-	  1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.0,
-	  0.5,
+	  { RMD_PROTO_V2, 1, 1.0, RMD_UNITS_OUTPUT, 0.0, 0.5 },
 	  { .enable = true, .mode = RMD_MODE_SPEED, .vel_rad_s = 100.0 * DEG },
 	  "141#A200000010270000" },
 	/* V2 §3.40 with rotor units: 60 deg at the output is 360 at the rotor */
 	{ "V2 position, rotor units",
-	  RMD_PROTO_V2,
-	  1,
-	  6.0,
-	  RMD_UNITS_ROTOR,
-	  0.0,
-	  0.5,
+	  { RMD_PROTO_V2, 1, 6.0, RMD_UNITS_ROTOR, 0.0, 0.5 },
 	  { .enable = true,
 	    .mode = RMD_MODE_POSITION,
 	    .pos_rad = 60.0 * DEG,
@@ -260,12 +188,7 @@ static const struct enc_vec enc_vecs[] = {
 	/* V3 §5.4 example 1 (p 10, v 1.02, kp 10, kd 1, t 10) through direction -1
 	 * and a zero offset of 0.5 rad: native p = -(-9.5) + 0.5 = 10 */
 	{ "MIT §5.4, direction -1, zero offset",
-	  RMD_PROTO_MIT,
-	  -1,
-	  1.0,
-	  RMD_UNITS_OUTPUT,
-	  0.5,
-	  0.0,
+	  { RMD_PROTO_MIT, -1, 1.0, RMD_UNITS_OUTPUT, 0.5, 0.0 },
 	  { .enable = true,
 	    .mode = RMD_MODE_MIT,
 	    .pos_rad = -9.5,
@@ -282,17 +205,17 @@ static void test_encode_vectors(void **state)
 	for (size_t i = 0; i < sizeof(enc_vecs) / sizeof(enc_vecs[0]); i++) {
 		const struct enc_vec *v = &enc_vecs[i];
 		uint8_t id = strstr(v->hex, "142#") ? 2 : 1;
-		struct rmd_config_motor c = cfg_motor(id, v->proto, RMD_MODE_TORQUE);
+		struct rmd_config_motor c = cfg_motor(id, v->m.proto, RMD_MODE_TORQUE);
 		struct rmd_motor m;
 		struct rmd_frame f;
 		unsigned fl = 99;
 		int r;
 
-		c.direction = v->dir;
-		c.gear_ratio = v->gear;
-		c.units = v->units;
-		c.zero_offset_rad = v->zero;
-		c.torque_constant_nm_a = v->kt;
+		c.direction = v->m.dir;
+		c.gear_ratio = v->m.gear;
+		c.units = v->m.units;
+		c.zero_offset_rad = v->m.zero;
+		c.torque_constant_nm_a = v->m.kt;
 		m = motor_of(&c);
 		r = rmd_motor_encode(&m, &v->sp, &f, &fl);
 		if (r)
@@ -573,10 +496,7 @@ static void test_decode_v3(void **state)
 	struct rmd_frame f;
 
 	(void)state;
-	c.direction = -1;
-	c.zero_offset_rad = 0.1;
-	c.torque_constant_nm_a = 2.0;
-	m = motor_of(&c);
+	m = motor_reversed(&c, 0.1, 2.0);
 	/* V3 §2.20.4 reply: 50 degC, 1 A, 500 dps, 45 deg */
 	f = frame_from("241#A4326400F4012D00");
 	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
@@ -704,10 +624,7 @@ static void test_decode_mit(void **state)
 	struct rmd_frame f;
 
 	(void)state;
-	c.direction = -1;
-	c.zero_offset_rad = 0.5;
-	c.torque_constant_nm_a = 2.5;
-	m = motor_of(&c);
+	m = motor_reversed(&c, 0.5, 2.5);
 	assert_int_equal(rmd_mit_encode_reply(&c.mit, &rep, &f), 0);
 	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
 	assert_int_equal(r.cmd, RMD_MOTOR_CMD_MIT);

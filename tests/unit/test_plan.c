@@ -29,6 +29,8 @@
 #include "rmd/config_yaml.h"
 #include "rmd/plan.h"
 
+#include "harness/proc.h"
+
 static struct rmd_config cfg; /* large: off the stack */
 static struct rmd_plan plan;
 static char err[8192];
@@ -55,6 +57,13 @@ static unsigned add_bus(const char *name, enum rmd_bus_kind kind)
 	b->baud = 1000000;
 	b->turnaround_ns = RMD_CONFIG_DEFAULT_RS485_TURNAROUND_NS;
 	return cfg.n_buses++;
+}
+
+/* An empty plan at rate_hz on one CAN bus, can0 at 1 Mbit/s. */
+static void can0(unsigned rate_hz)
+{
+	cfg_reset(rate_hz);
+	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
 }
 
 static unsigned add_motor(unsigned bus, unsigned id, enum rmd_proto proto, enum rmd_mode mode,
@@ -91,6 +100,15 @@ static void expect_ok(void)
 	assert_true(plan.feasible);
 }
 
+/* The plan is refused with rc, and err holds msg. */
+static void expect_refused(int rc, const char *msg)
+{
+	int r = build();
+
+	if (r != rc || !strstr(err, msg))
+		fail_msg("plan: %d \"%s\", want %d \"%s\"", r, err, rc, msg);
+}
+
 static void expect_in(const char *haystack, const char *needle)
 {
 	if (!strstr(haystack, needle))
@@ -99,6 +117,106 @@ static void expect_in(const char *haystack, const char *needle)
 
 /* 135 bits at 1 Mbit/s */
 #define FRAME_NS 135000
+
+/*
+ * The plans most tests start from: one bus of like motors with IDs
+ * first..last, and what the planner must say of it.
+ */
+struct variant {
+	const char *bus;
+	enum rmd_bus_kind kind;
+	unsigned bitrate; /* 0: 1 Mbit/s */
+	unsigned rate_hz;
+	unsigned first, last;
+	enum rmd_proto proto;
+	enum rmd_mode mode;
+	unsigned divisor;
+	double poll_hz;
+	int rc;		 /* rmd_plan_build() */
+	const char *err; /* its whole message ("" when it fits) */
+	long control_ns; /* plan.bus[0].control_ns, 0: not checked */
+	long worst_ns;	 /* plan.bus[0].worst_ns, 0: not checked */
+};
+
+enum {
+	FIVE_V3,
+	THREE_V3,
+	THREE_MIT,
+	FOUR_V2,
+	V2_IDS_2_TO_5,
+	V2_UNBATCHED,
+	SIX_V3_DIV2,
+	FIVE_V2_POLLED,
+	RS485_ONE,
+	ONE_V3_500K,
+	V3_32,
+};
+
+#define CAN0 "can0", RMD_BUS_KIND_SOCKETCAN, 0, 1000
+#define NO_ROOM_3 "the cycle is 1000 µs: use ≤ 3 motors, or a rate ≤ "
+
+static const struct variant variants[] = {
+	[FIVE_V3] = { CAN0, 1, 5, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10, -ENOSPC,
+		      "can0: 5 motors at 1000 Hz need 1350 µs per cycle worst case, " NO_ROOM_3
+		      "740 Hz",
+		      10 * FRAME_NS, 0 },
+	[THREE_V3] = { CAN0, 1, 3, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10, 0, "", 6 * FRAME_NS,
+		       6 * FRAME_NS /* polls take a setpoint's place */ },
+	[THREE_MIT] = { CAN0, 1, 3, RMD_PROTO_MIT, RMD_MODE_MIT, 1, 10, 0, "", 6 * FRAME_NS,
+			6 * FRAME_NS },
+	/* one 0x280 frame + 4 replies; a poll fits beside it */
+	[FOUR_V2] = { CAN0, 1, 4, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10, 0, "", 5 * FRAME_NS,
+		      7 * FRAME_NS },
+	[V2_IDS_2_TO_5] = { CAN0, 2, 5, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0, 0, "", 6 * FRAME_NS,
+			    0 },
+	[V2_UNBATCHED] = { CAN0, 5, 8, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10, -ENOSPC,
+			   "can0: 4 motors at 1000 Hz need 1080 µs per cycle worst case, " NO_ROOM_3
+			   "925 Hz",
+			   0, 0 },
+	[SIX_V3_DIV2] = { CAN0, 1, 6, RMD_PROTO_V3, RMD_MODE_TORQUE, 2, 0, 0, "", 6 * FRAME_NS, 0 },
+	/* 0x280 + 4 replies + motor 5's 2 frames = 7 frames: full */
+	[FIVE_V2_POLLED] = { CAN0, 1, 5, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10, -ENOSPC,
+			     "can0: no room for the status polls of motor m1, which is in the "
+			     "0x280 frame: the least busy cycle with a poll needs 1215 µs of "
+			     "1000 µs; set its status_poll_hz to 0",
+			     7 * FRAME_NS, 0 },
+	/* 13 bytes of 10 bits each way at 1 Mbaud, and 800 us turnaround */
+	[RS485_ONE] = { "rs0", RMD_BUS_KIND_RS485, 0, 1000, 1, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1,
+			10, -ENOSPC,
+			"rs0: 1 motor at 1000 Hz needs 1060 µs per cycle worst case, the cycle is "
+			"1000 µs: use a rate ≤ 943 Hz",
+			0, 0 },
+	[ONE_V3_500K] = { "can0", RMD_BUS_KIND_SOCKETCAN, 500000, 1000, 1, 1, RMD_PROTO_V3,
+			  RMD_MODE_TORQUE, 1, 0, 0, "", 2 * 2 * FRAME_NS, 0 },
+	/* DESIGN.md: 32 motors on one bus top out near 116 Hz */
+	[V3_32] = { CAN0, 1, 32, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 1, -ENOSPC,
+		    "can0: 32 motors at 1000 Hz need 8640 µs per cycle worst case, " NO_ROOM_3
+		    "115 Hz",
+		    0, 0 },
+};
+
+/* Build variants[k] and check what the planner says of it. */
+static void variant(unsigned k)
+{
+	const struct variant *v = &variants[k];
+	int r;
+
+	cfg_reset(v->rate_hz);
+	add_bus(v->bus, v->kind);
+	if (v->bitrate)
+		cfg.buses[0].bitrate = v->bitrate;
+	for (unsigned id = v->first; id <= v->last; id++)
+		add_motor(0, id, v->proto, v->mode, v->divisor, v->poll_hz);
+	r = build();
+	if (r != v->rc || strcmp(err, v->err) != 0)
+		fail_msg("variant %u: %d \"%s\", want %d \"%s\"", k, r, err, v->rc, v->err);
+	assert_int_equal(plan.feasible, r == 0);
+	assert_int_equal(plan.bus[0].feasible, r == 0);
+	if (v->control_ns)
+		assert_int_equal(plan.bus[0].control_ns, v->control_ns);
+	if (v->worst_ns)
+		assert_int_equal(plan.bus[0].worst_ns, v->worst_ns);
+}
 
 /*
  * Walk `cycles` cycles of bus b through rmd_plan_cycle() and check it
@@ -169,16 +287,7 @@ static void walk(unsigned b, uint64_t cycles, unsigned ctrl[RMD_MAX_MOTORS],
 static void test_five_v3_refused(void **state)
 {
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 1; i <= 5; i++)
-		add_motor(0, i, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
-	assert_int_equal(build(), -ENOSPC);
-	assert_string_equal(err, "can0: 5 motors at 1000 Hz need 1350 µs per cycle worst case, "
-				 "the cycle is 1000 µs: use ≤ 3 motors, or a rate ≤ 740 Hz");
-	assert_false(plan.feasible);
-	assert_false(plan.bus[0].feasible);
-	assert_int_equal(plan.bus[0].control_ns, 10 * FRAME_NS);
+	variant(FIVE_V3);
 	/* at the suggested rate it fits */
 	cfg.loop.rate_hz = 740;
 	expect_ok();
@@ -193,15 +302,8 @@ static void test_three_v3_accepted(void **state)
 	const struct rmd_plan_bus *pb = &plan.bus[0];
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 1; i <= 3; i++)
-		add_motor(0, i, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
-	expect_ok();
-	assert_string_equal(err, "");
+	variant(THREE_V3);
 	assert_int_equal(rmd_can_frame_bits_worst(8), 135);
-	assert_int_equal(pb->control_ns, 6 * FRAME_NS);
-	assert_int_equal(pb->worst_ns, 6 * FRAME_NS); /* polls take a setpoint's place */
 	assert_int_equal(pb->max_frames, 6);
 	assert_int_equal(pb->max_requests, 3);
 	assert_int_equal(rmd_plan_cycle(&plan, 0, 1, s), 3);
@@ -228,12 +330,7 @@ static void test_three_mit_accepted(void **state)
 	unsigned ctrl[RMD_MAX_MOTORS], polls[RMD_MAX_MOTORS];
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 1; i <= 3; i++)
-		add_motor(0, i, RMD_PROTO_MIT, RMD_MODE_MIT, 1, 10);
-	expect_ok();
-	assert_int_equal(plan.bus[0].worst_ns, 6 * FRAME_NS);
+	variant(THREE_MIT);
 	assert_int_equal(rmd_plan_cycle(&plan, 0, 1, s), 3);
 	for (unsigned i = 0; i < 3; i++)
 		assert_int_equal(s[i].can_id, 0x401 + i);
@@ -242,8 +339,8 @@ static void test_three_mit_accepted(void **state)
 	assert_int_equal(polls[0] + polls[1] + polls[2], plan.bus[0].n_polls);
 	/* a fourth motor does not fit */
 	add_motor(0, 4, RMD_PROTO_MIT, RMD_MODE_MIT, 1, 10);
-	assert_int_equal(build(), -ENOSPC);
-	expect_in(err, "can0: 4 motors at 1000 Hz need 1080 µs per cycle worst case, the cycle "
+	expect_refused(-ENOSPC,
+		       "can0: 4 motors at 1000 Hz need 1080 µs per cycle worst case, the cycle "
 		       "is 1000 µs: use ≤ 3 motors, or a rate ≤ 925 Hz");
 }
 
@@ -255,15 +352,9 @@ static void test_four_v2_batched(void **state)
 	unsigned n;
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 1; i <= 4; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10);
-	expect_ok();
+	variant(FOUR_V2);
 	assert_int_equal(pb->batch, RMD_BATCH_ON);
 	assert_int_equal(pb->batched, 0xF);
-	assert_int_equal(pb->control_ns, 5 * FRAME_NS); /* one 0x280 frame + 4 replies */
-	assert_int_equal(pb->worst_ns, 7 * FRAME_NS);	/* a poll fits beside it */
 	n = rmd_plan_cycle(&plan, 0, 1, s);
 	assert_int_equal(n, 1);
 	assert_int_equal(s[0].kind, RMD_SLOT_V2_TORQUES);
@@ -288,13 +379,8 @@ static void test_v2_ids_2_to_5(void **state)
 	const struct rmd_plan_bus *pb = &plan.bus[0];
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 2; i <= 5; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
-	expect_ok();
+	variant(V2_IDS_2_TO_5);
 	assert_int_equal(pb->batched, 0x7);
-	assert_int_equal(pb->control_ns, 6 * FRAME_NS);
 	assert_int_equal(rmd_plan_cycle(&plan, 0, 0, s), 2);
 	assert_int_equal(s[0].kind, RMD_SLOT_V2_TORQUES);
 	assert_int_equal(s[0].replies, 3);
@@ -306,51 +392,66 @@ static void test_v2_ids_2_to_5(void **state)
 static void test_v2_unbatched_refused(void **state)
 {
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 5; i <= 8; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10);
-	assert_int_equal(build(), -ENOSPC);
+	variant(V2_UNBATCHED);
 	assert_int_equal(plan.bus[0].batch, RMD_BATCH_NONE);
-	assert_string_equal(err, "can0: 4 motors at 1000 Hz need 1080 µs per cycle worst case, "
-				 "the cycle is 1000 µs: use ≤ 3 motors, or a rate ≤ 925 Hz");
 }
 
 /* No 0x280 frame when a motor would misread it. */
+static const struct batch_case {
+	const char *why;
+	unsigned n;
+	struct {
+		unsigned id;
+		enum rmd_proto proto;
+		enum rmd_mode mode;
+		unsigned divisor;
+	} m[3];
+	enum rmd_plan_batch batch;
+	long control_ns; /* 0: not checked */
+} batch_cases[] = {
+#define V2(id, mode, div)                              \
+	{                                              \
+		id, RMD_PROTO_V2, RMD_MODE_##mode, div \
+	}
+	{ "a V3 motor on the bus takes 0x280 as a broadcast command",
+	  3,
+	  { V2(1, TORQUE, 1), V2(2, TORQUE, 1), { 5, RMD_PROTO_V3, RMD_MODE_TORQUE, 1 } },
+	  RMD_BATCH_V3_ON_BUS,
+	  6 * FRAME_NS },
+	{ "a V2 motor with ID 1..4 in speed mode would take the torque",
+	  3,
+	  { V2(1, TORQUE, 1), V2(2, SPEED, 1), V2(3, TORQUE, 1) },
+	  RMD_BATCH_MODES,
+	  0 },
+	{ "different divisors",
+	  3,
+	  { V2(1, TORQUE, 1), V2(2, TORQUE, 2), V2(3, TORQUE, 1) },
+	  RMD_BATCH_DIVISORS,
+	  0 },
+	{ "one candidate: nothing to batch",
+	  2,
+	  { V2(1, TORQUE, 1), V2(6, TORQUE, 1) },
+	  RMD_BATCH_NONE,
+	  0 },
+#undef V2
+};
+
 static void test_v2_batch_conditions(void **state)
 {
 	(void)state;
-	/* a V3 motor on the bus takes 0x280 as a broadcast command */
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
-	add_motor(0, 2, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
-	add_motor(0, 5, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 0);
-	expect_ok();
-	assert_int_equal(plan.bus[0].batch, RMD_BATCH_V3_ON_BUS);
-	assert_int_equal(plan.bus[0].batched, 0);
-	assert_int_equal(plan.bus[0].control_ns, 6 * FRAME_NS);
-	/* a V2 motor with ID 1..4 in speed mode would take the torque */
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
-	add_motor(0, 2, RMD_PROTO_V2, RMD_MODE_SPEED, 1, 0);
-	add_motor(0, 3, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
-	expect_ok();
-	assert_int_equal(plan.bus[0].batch, RMD_BATCH_MODES);
-	assert_int_equal(plan.bus[0].batched, 0);
-	/* different divisors */
-	cfg.motors[1].mode = RMD_MODE_TORQUE;
-	cfg.motors[1].rate_divisor = 2;
-	expect_ok();
-	assert_int_equal(plan.bus[0].batch, RMD_BATCH_DIVISORS);
-	/* one candidate: nothing to batch */
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	add_motor(0, 1, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
-	add_motor(0, 6, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 0);
-	expect_ok();
-	assert_int_equal(plan.bus[0].batch, RMD_BATCH_NONE);
+	for (size_t k = 0; k < sizeof(batch_cases) / sizeof(batch_cases[0]); k++) {
+		const struct batch_case *c = &batch_cases[k];
+
+		can0(1000);
+		for (unsigned i = 0; i < c->n; i++)
+			add_motor(0, c->m[i].id, c->m[i].proto, c->m[i].mode, c->m[i].divisor, 0);
+		expect_ok();
+		if (plan.bus[0].batch != c->batch || plan.bus[0].batched != 0)
+			fail_msg("%s: batch %d (mask %#x), want %d", c->why, plan.bus[0].batch,
+				 plan.bus[0].batched, c->batch);
+		if (c->control_ns)
+			assert_int_equal(plan.bus[0].control_ns, c->control_ns);
+	}
 }
 
 /* Motors with divisor 2 take turns: 6 V3 motors fit where 5 at divisor 1 do not. */
@@ -360,13 +461,8 @@ static void test_divisors_spread(void **state)
 	const struct rmd_plan_bus *pb = &plan.bus[0];
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 1; i <= 6; i++)
-		add_motor(0, i, RMD_PROTO_V3, RMD_MODE_TORQUE, 2, 0);
-	expect_ok();
+	variant(SIX_V3_DIV2);
 	assert_int_equal(pb->hc, 2);
-	assert_int_equal(pb->control_ns, 6 * FRAME_NS);
 	assert_int_equal(pb->frames[0], 6);
 	assert_int_equal(pb->frames[1], 6);
 	walk(0, 100, ctrl, polls);
@@ -374,8 +470,7 @@ static void test_divisors_spread(void **state)
 		assert_int_equal(ctrl[i], 50);
 
 	/* mixed: 1 motor every cycle, 2 every 2nd, 4 every 4th: 1+1+1 per cycle */
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
+	can0(1000);
 	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 4, 0);
 	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 0);
 	add_motor(0, 3, RMD_PROTO_V3, RMD_MODE_TORQUE, 2, 0);
@@ -393,12 +488,10 @@ static void test_divisors_spread(void **state)
 		assert_int_equal(ctrl[i], 400 / cfg.motors[i].rate_divisor);
 
 	/* divisors whose pattern is too long */
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
+	can0(1000);
 	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 7, 0);
 	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 11, 0);
-	assert_int_equal(build(), -EINVAL);
-	expect_in(err, "can0: rate divisors 7, 11 repeat every 77 cycles, more than 64");
+	expect_refused(-EINVAL, "can0: rate divisors 7, 11 repeat every 77 cycles, more than 64");
 }
 
 /* At most one poll per cycle, evenly spread, at no less than the asked rate. */
@@ -410,8 +503,7 @@ static void test_polls_spread(void **state)
 	uint64_t last[RMD_MAX_MOTORS], gap[RMD_MAX_MOTORS];
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
+	can0(1000);
 	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
 	add_motor(0, 2, RMD_PROTO_MIT, RMD_MODE_MIT, 1, 20);
 	add_motor(0, 3, RMD_PROTO_V3, RMD_MODE_SPEED, 2, 5);
@@ -455,12 +547,11 @@ static void test_polls_spread(void **state)
 	assert_true(gap[2] > 0 && gap[2] <= 200);
 
 	/* the sum of the polls cannot exceed one per cycle */
-	cfg_reset(100);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
+	can0(100);
 	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 60);
 	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 60);
-	assert_int_equal(build(), -ENOSPC);
-	expect_in(err, "can0: status polls at 120 Hz in all do not fit in one poll every 1 cycle "
+	expect_refused(-ENOSPC,
+		       "can0: status polls at 120 Hz in all do not fit in one poll every 1 cycle "
 		       "(100 a second at 100 Hz): lower status_poll_hz");
 }
 
@@ -468,16 +559,7 @@ static void test_polls_spread(void **state)
 static void test_poll_no_room(void **state)
 {
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 1; i <= 5; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10);
-	/* 0x280 + 4 replies + motor 5's 2 frames = 7 frames: full */
-	assert_int_equal(build(), -ENOSPC);
-	assert_int_equal(plan.bus[0].control_ns, 7 * FRAME_NS);
-	expect_in(err, "can0: no room for the status polls of motor m1, which is in the 0x280 "
-		       "frame: the least busy cycle with a poll needs 1215 µs of 1000 µs; set "
-		       "its status_poll_hz to 0");
+	variant(FIVE_V2_POLLED);
 	/* without polls for the batched motors, motor 5's take its setpoint's place */
 	for (unsigned i = 0; i < 4; i++)
 		cfg.motors[i].status_poll_hz = 0;
@@ -490,13 +572,7 @@ static void test_rs485_budget(void **state)
 	const struct rmd_plan_bus *pb = &plan.bus[0];
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("rs0", RMD_BUS_KIND_RS485);
-	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
-	/* 13 bytes of 10 bits each way at 1 Mbaud, and 800 us turnaround */
-	assert_int_equal(build(), -ENOSPC);
-	assert_string_equal(err, "rs0: 1 motor at 1000 Hz needs 1060 µs per cycle worst case, "
-				 "the cycle is 1000 µs: use a rate ≤ 943 Hz");
+	variant(RS485_ONE);
 	cfg.loop.rate_hz = 250;
 	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 10);
 	expect_ok();
@@ -515,16 +591,10 @@ static void test_rs485_budget(void **state)
 static void test_bitrate_500k(void **state)
 {
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	cfg.buses[0].bitrate = 500000;
-	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 0);
-	expect_ok();
-	assert_int_equal(plan.bus[0].control_ns, 2 * 2 * FRAME_NS);
+	variant(ONE_V3_500K);
 	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 0);
-	assert_int_equal(build(), -ENOSPC);
-	assert_string_equal(err, "can0: 2 motors at 1000 Hz need 1080 µs per cycle worst case, "
-				 "the cycle is 1000 µs: use ≤ 1 motor, or a rate ≤ 925 Hz");
+	expect_refused(-ENOSPC, "can0: 2 motors at 1000 Hz need 1080 µs per cycle worst case, "
+				"the cycle is 1000 µs: use ≤ 1 motor, or a rate ≤ 925 Hz");
 }
 
 /* DESIGN.md: 32 motors on one bus top out near 116 Hz. */
@@ -534,13 +604,7 @@ static void test_32_on_one_bus(void **state)
 	unsigned ctrl[RMD_MAX_MOTORS], polls[RMD_MAX_MOTORS];
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 1; i <= 32; i++)
-		add_motor(0, i, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 1);
-	assert_int_equal(build(), -ENOSPC);
-	assert_string_equal(err, "can0: 32 motors at 1000 Hz need 8640 µs per cycle worst case, "
-				 "the cycle is 1000 µs: use ≤ 3 motors, or a rate ≤ 115 Hz");
+	variant(V3_32);
 	cfg.loop.rate_hz = 115;
 	expect_ok();
 	/* no room for an extra poll: it takes a setpoint's place */
@@ -580,11 +644,7 @@ static void test_print(void **state)
 	FILE *f;
 
 	(void)state;
-	cfg_reset(1000);
-	add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
-	for (unsigned i = 1; i <= 4; i++)
-		add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, 10);
-	expect_ok();
+	variant(FOUR_V2);
 	f = open_memstream(&buf, &len);
 	assert_non_null(f);
 	rmd_plan_print(&plan, &cfg, f);
@@ -601,65 +661,46 @@ static void test_print(void **state)
 /* ------------------------------------------------------------------ */
 /* rmdd --check-config as a process */
 
-struct run {
-	int status;
-	char out[65536];
-	char err[16384];
-};
-
-static void slurp(int fd, char *buf, size_t len)
-{
-	ssize_t n;
-	size_t k = 0;
-
-	lseek(fd, 0, SEEK_SET);
-	while (k + 1 < len && (n = read(fd, buf + k, len - 1 - k)) > 0)
-		k += (size_t)n;
-	buf[k] = '\0';
-	close(fd);
-}
-
+/* rmdd with one or two arguments (a2 may be NULL); r's last output is freed first. */
 static void run_rmdd(struct run *r, const char *a1, const char *a2)
 {
-	char ob[] = "/tmp/rmdd-out-XXXXXX", eb[] = "/tmp/rmdd-err-XXXXXX";
-	int out = mkstemp(ob), errfd = mkstemp(eb), ws;
-	pid_t pid;
-
-	assert_true(out >= 0 && errfd >= 0);
-	unlink(ob);
-	unlink(eb);
-	pid = fork();
-	assert_true(pid >= 0);
-	if (pid == 0) {
-		dup2(out, 1);
-		dup2(errfd, 2);
-		alarm(30); /* survives exec: a run that hangs fails instead of hanging the suite */
-		execl(rmdd, rmdd, a1, a2, (char *)NULL);
-		_exit(127);
-	}
-	assert_int_equal(waitpid(pid, &ws, 0), pid);
-	r->status = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
-	slurp(out, r->out, sizeof(r->out));
-	slurp(errfd, r->err, sizeof(r->err));
+	run_free(r);
+	run_prog(r, rmdd, (const char *const[]){ a1, a2, NULL }, NULL);
 }
+
+/* rmdd --check-config on a file (under srcdir unless absolute), and what it must say. */
+struct check_case {
+	const char *file;
+	int status;
+	const char *out_has; /* as in struct run_case */
+	const char *err_has;
+};
+
+static void check_config(const struct check_case *c)
+{
+	char path[2048];
+	struct run_case rc = { .args = { "--check-config", path },
+			       .status = c->status,
+			       .out_has = { c->out_has },
+			       .err_has = { c->err_has } };
+
+	snprintf(path, sizeof(path), "%s%s%s", c->file[0] == '/' ? "" : srcdir,
+		 c->file[0] == '/' ? "" : "/", c->file);
+	run_cases(rmdd, &rc, 1, NULL);
+}
+
+static const char *const examples[] = { "examples/rmdd.yaml", "examples/sim-12.yaml",
+					"examples/v2-batch.yaml", "examples/rs485.yaml",
+					"examples/sim-faults.yaml" };
 
 static void test_rmdd_check_examples(void **state)
 {
-	static const char *const ok[] = { "examples/rmdd.yaml", "examples/sim-12.yaml",
-					  "examples/v2-batch.yaml", "examples/rs485.yaml",
-					  "examples/sim-faults.yaml" };
 	static struct run r;
 	char path[2048];
 
 	(void)state;
-	for (size_t i = 0; i < sizeof(ok) / sizeof(ok[0]); i++) {
-		snprintf(path, sizeof(path), "%s/%s", srcdir, ok[i]);
-		run_rmdd(&r, "--check-config", path);
-		if (r.status != 0)
-			fail_msg("%s: exit %d\n%s%s", ok[i], r.status, r.out, r.err);
-		expect_in(r.out, "verdict: every bus fits");
-		assert_string_equal(r.err, "");
-	}
+	for (size_t i = 0; i < sizeof(examples) / sizeof(examples[0]); i++)
+		check_config(&(struct check_case){ examples[i], 0, "verdict: every bus fits", "" });
 	snprintf(path, sizeof(path), "%s/examples/sim-12.yaml", srcdir);
 	run_rmdd(&r, "-C", path);
 	assert_int_equal(r.status, 0);
@@ -668,66 +709,48 @@ static void test_rmdd_check_examples(void **state)
 	expect_in(r.out, "worst case: 810 µs per cycle of 1000 µs, load 81.0%");
 }
 
+static const struct check_case refused[] = {
+	{ "tests/data/config/five-per-bus.yaml", 1, "verdict: DOES NOT FIT",
+	  "can0: 5 motors at 1000 Hz need 1350 µs per cycle worst case, the cycle is 1000 µs: "
+	  "use ≤ 3 motors, or a rate ≤ 740 Hz" },
+	{ "tests/data/config/id-range.yaml", 1, "",
+	  "id-range.yaml:7: motors[3].id: 40 is out of range (1..32)" },
+	{ "/nonexistent.yaml", 1, NULL,
+	  "/nonexistent.yaml: cannot open: No such file or directory" },
+};
+
 static void test_rmdd_check_refuses(void **state)
 {
-	static struct run r;
-	char path[2048];
-
 	(void)state;
-	snprintf(path, sizeof(path), "%s/tests/data/config/five-per-bus.yaml", srcdir);
-	run_rmdd(&r, "--check-config", path);
-	assert_int_equal(r.status, 1);
-	expect_in(r.err, "can0: 5 motors at 1000 Hz need 1350 µs per cycle worst case, the cycle "
-			 "is 1000 µs: use ≤ 3 motors, or a rate ≤ 740 Hz");
-	expect_in(r.out, "verdict: DOES NOT FIT");
-
-	snprintf(path, sizeof(path), "%s/tests/data/config/id-range.yaml", srcdir);
-	run_rmdd(&r, "--check-config", path);
-	assert_int_equal(r.status, 1);
-	expect_in(r.err, "id-range.yaml:7: motors[3].id: 40 is out of range (1..32)");
-	assert_string_equal(r.out, "");
-
-	run_rmdd(&r, "--check-config", "/nonexistent.yaml");
-	assert_int_equal(r.status, 1);
-	expect_in(r.err, "/nonexistent.yaml: cannot open: No such file or directory");
+	for (size_t i = 0; i < sizeof(refused) / sizeof(refused[0]); i++)
+		check_config(&refused[i]);
 }
+
+static const struct run_case option_cases[] = {
+	{ .args = { "--help" }, .out_has = { "--check-config FILE" } },
+	{ .args = { "--version" }, .out_has = { "rmdd " } },
+	{ .args = { "--bogus" }, .status = 2 },
+	{ .args = { "--check-config" }, .status = 2 }, /* FILE missing */
+	/* more motors than a daemon drives */
+	{ .args = { "--sim=99" },
+	  .status = 2,
+	  .err_has = { "rmdd: --sim 99: the motor count is 1..32" } },
+};
 
 static void test_rmdd_options(void **state)
 {
-	static struct run r;
-
 	(void)state;
-	run_rmdd(&r, "--help", NULL);
-	assert_int_equal(r.status, 0);
-	expect_in(r.out, "--check-config FILE");
-	run_rmdd(&r, "--version", NULL);
-	assert_int_equal(r.status, 0);
-	expect_in(r.out, "rmdd ");
-	run_rmdd(&r, "--bogus", NULL);
-	assert_int_equal(r.status, 2);
-	run_rmdd(&r, "--check-config", NULL); /* FILE missing */
-	assert_int_equal(r.status, 2);
-	run_rmdd(&r, "--sim=99", NULL); /* more motors than a daemon drives */
-	assert_int_equal(r.status, 2);
-	expect_in(r.err, "rmdd: --sim 99: the motor count is 1..32");
+	run_cases(rmdd, option_cases, sizeof(option_cases) / sizeof(option_cases[0]), NULL);
 }
 
 static int find_rmdd(void **state)
 {
-	const char *env = getenv("RMDD"), *build = getenv("BUILD"), *dir = getenv("RMD_SRCDIR");
+	const char *dir = getenv("RMD_SRCDIR");
 
 	(void)state;
 	if (dir && *dir)
 		snprintf(srcdir, sizeof(srcdir), "%s", dir);
-	if (env && *env)
-		snprintf(rmdd, sizeof(rmdd), "%s", env);
-	else
-		snprintf(rmdd, sizeof(rmdd), "%s/rmdd", build && *build ? build : "build");
-	if (access(rmdd, X_OK) != 0) {
-		print_error("rmdd binary \"%s\" not found (set RMDD or BUILD)\n", rmdd);
-		return -1;
-	}
-	return 0;
+	return find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd");
 }
 
 int main(void)

@@ -18,45 +18,17 @@
 
 #include "rmd/rs485.h"
 
+#include "harness/hex.h"
+#include "harness/rng.h"
+
 static uint64_t seed;
-
-/* "3E0108..." -> bytes; returns the count.  Aborts the test on bad hex. */
-static size_t bytes_from(const char *s, uint8_t *out, size_t cap)
-{
-	size_t n = 0;
-
-	while (s[0] && s[1]) {
-		char byte[3] = { s[0], s[1], 0 };
-		char *end;
-
-		assert_true(n < cap);
-		out[n++] = (uint8_t)strtoul(byte, &end, 16);
-		assert_true(*end == '\0');
-		s += 2;
-	}
-	assert_true(*s == '\0');
-	return n;
-}
-
-/* bytes -> "3E0108..." in buf (at least 2 * n + 1 bytes). */
-static const char *hex_of(const uint8_t *b, size_t n, char *buf)
-{
-	for (size_t i = 0; i < n; i++)
-		sprintf(buf + 2 * i, "%02X", b[i]);
-	buf[2 * n] = '\0';
-	return buf;
-}
 
 /* splitmix64: the same sequence from the same seed on every libc. */
 static uint64_t rng_state;
 
 static uint64_t rng_next(void)
 {
-	uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-
-	z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-	z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-	return z ^ (z >> 31);
+	return splitmix64(&rng_state);
 }
 
 /* ---- CRC --------------------------------------------------------------- */

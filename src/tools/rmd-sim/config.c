@@ -24,6 +24,7 @@
 
 #include "rmd/codec.h"
 #include "rmd/mit.h"
+#include "rmd/rs485.h"
 #include "rmd/sim.h"
 #include "rmd/sim_params.h"
 #include "rmd/sim_wire.h"
@@ -31,8 +32,6 @@
 
 #define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
 
-/* V3 §1.2.1: the RS485 rates. */
-static const uint32_t bauds[] = { 115200, 500000, 1000000, 1500000, 2000000 };
 #define BAUD_LIST "115200, 500000, 1000000, 1500000 or 2000000 (V3 §1.2.1)"
 
 /* Fault times and delays: seconds and microseconds, bounded to keep int64 ns far from overflow. */
@@ -109,19 +108,6 @@ const char *sim_config_key(unsigned i, bool *is_flag)
 		return NULL;
 	/* "": this row has no such name (main() skips it) */
 	return param_name(i / PARAM_NAMES, i % PARAM_NAMES) ?: "";
-}
-
-const char *sim_proto_name(enum rmd_proto proto)
-{
-	switch (proto) {
-	case RMD_PROTO_V3:
-		return "V3";
-	case RMD_PROTO_V2:
-		return "V2";
-	case RMD_PROTO_MIT:
-		return "MIT";
-	}
-	return "?";
 }
 
 void sim_config_help(void)
@@ -329,8 +315,8 @@ static void error_bit_names(char *buf, size_t size)
 static int fault_error(const char *where, const char *spec, const char *what,
 		       enum rmd_sim_fault_kind kind)
 {
-	sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": %s; syntax %s", where, spec, what,
-		fault_syntax(kind));
+	tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": %s; syntax %s", where, spec, what,
+		 fault_syntax(kind));
 	return -EINVAL;
 }
 
@@ -343,8 +329,8 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 	bool per_frame;
 
 	if (strlen(spec) >= sizeof(buf)) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: fault longer than %zu characters", where,
-			sizeof(buf) - 1);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: fault longer than %zu characters", where,
+			 sizeof(buf) - 1);
 		return -EINVAL;
 	}
 	strcpy(buf, spec);
@@ -359,14 +345,14 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 		*p++ = '\0';
 	}
 	if (p) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": too many ':' fields; faults: %s", where,
-			spec, FAULT_SYNTAX);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": too many ':' fields; faults: %s", where,
+			 spec, FAULT_SYNTAX);
 		return -EINVAL;
 	}
 	kind = rmd_sim_fault_kind_from_name(fld[0]);
 	if (kind < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": unknown fault \"%s\"; faults: %s", where,
-			spec, fld[0], FAULT_SYNTAX);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": unknown fault \"%s\"; faults: %s",
+			 where, spec, fld[0], FAULT_SYNTAX);
 		return -EINVAL;
 	}
 	memset(&f, 0, sizeof(f));
@@ -468,7 +454,8 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 		break;
 	}
 	case RMD_SIM_FAULT_BUS_OFF:
-		sim_log(SIM_LOG_ERR,
+		tool_log(
+			TOOL_LOG_ERR,
 			"rmd-sim: %s \"%s\": bus_off cannot be injected on a real wire (the "
 			"kernel's CAN controller owns the bus state); use the in-process sim bus, or "
 			"`ip link set IFACE down`",
@@ -501,8 +488,8 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 	if (f.end_ns && f.end_ns <= f.start_ns)
 		return fault_error(where, spec, "the end must come after the start", f.kind);
 	if (c->n_faults >= RMD_SIM_MAX_FAULTS) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": more than %d faults", where, spec,
-			RMD_SIM_MAX_FAULTS);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": more than %d faults", where, spec,
+			 RMD_SIM_MAX_FAULTS);
 		return -EINVAL;
 	}
 	c->faults[c->n_faults] = f;
@@ -542,10 +529,10 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 	if (!strcmp(key, "can")) {
 		if (!*value || strlen(value) >= IFNAMSIZ || strchr(value, '/') ||
 		    strpbrk(value, " \t:")) {
-			sim_log(SIM_LOG_ERR,
-				"rmd-sim: %s \"%s\": expected a network interface name of 1..%d "
-				"characters without '/', ':' or blanks (e.g. can0, vcan0)",
-				where, value, IFNAMSIZ - 1);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s \"%s\": expected a network interface name of 1..%d "
+				 "characters without '/', ':' or blanks (e.g. can0, vcan0)",
+				 where, value, IFNAMSIZ - 1);
 			return -EINVAL;
 		}
 		c->wire = SIM_WIRE_CAN;
@@ -554,10 +541,10 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 	}
 	if (!strcmp(key, "serial")) {
 		if (!*value || strlen(value) >= sizeof(c->device)) {
-			sim_log(SIM_LOG_ERR,
-				"rmd-sim: %s \"%s\": expected a serial device path of 1..%zu "
-				"characters (e.g. /dev/ttyUSB0)",
-				where, value, sizeof(c->device) - 1);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s \"%s\": expected a serial device path of 1..%zu "
+				 "characters (e.g. /dev/ttyUSB0)",
+				 where, value, sizeof(c->device) - 1);
 			return -EINVAL;
 		}
 		c->wire = SIM_WIRE_SERIAL;
@@ -567,22 +554,19 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 	if (!strcmp(key, "baud")) {
 		uint64_t b;
 
-		if (rmd_sim_parse_u64(value, &b) == 0) {
-			for (size_t i = 0; i < ARRAY_SIZE(bauds); i++) {
-				if (bauds[i] == b) {
-					c->baud = (uint32_t)b;
-					snprintf(c->baud_where, sizeof(c->baud_where), "%s", where);
-					return 0;
-				}
-			}
+		if (rmd_sim_parse_u64(value, &b) == 0 && b <= UINT32_MAX &&
+		    rmd_rs485_baud_speed((uint32_t)b, NULL) == 0) {
+			c->baud = (uint32_t)b;
+			snprintf(c->baud_where, sizeof(c->baud_where), "%s", where);
+			return 0;
 		}
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected " BAUD_LIST, where, value);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": expected " BAUD_LIST, where, value);
 		return -EINVAL;
 	}
 	if (!strcmp(key, "local-echo")) {
 		if (rmd_sim_parse_bool(value, &c->local_echo) < 0) {
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected yes or no", where,
-				value);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": expected yes or no", where,
+				 value);
 			return -EINVAL;
 		}
 		snprintf(c->echo_where, sizeof(c->echo_where), "%s", where);
@@ -590,7 +574,8 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 	}
 	if (!strcmp(key, "motors")) {
 		if (parse_motors(value, &c->motors) < 0) {
-			sim_log(SIM_LOG_ERR,
+			tool_log(
+				TOOL_LOG_ERR,
 				"rmd-sim: %s \"%s\": expected motor ids 1..32 as a list of ids and "
 				"ascending ranges, e.g. 1-4,7",
 				where, value);
@@ -602,7 +587,8 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 		return parse_fault(c, value, where);
 	if (!strcmp(key, "seed")) {
 		if (rmd_sim_parse_u64(value, &c->seed) < 0) {
-			sim_log(SIM_LOG_ERR,
+			tool_log(
+				TOOL_LOG_ERR,
 				"rmd-sim: %s \"%s\": expected an unsigned 64-bit integer (decimal, or "
 				"hex with 0x)",
 				where, value);
@@ -618,14 +604,15 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 		} else if (!strcasecmp(value, "frames")) {
 			c->verbosity = SIM_FRAMES;
 		} else {
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected quiet, normal or frames",
-				where, value);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s \"%s\": expected quiet, normal or frames", where,
+				 value);
 			return -EINVAL;
 		}
-		sim_set_verbosity(c->verbosity);
+		tool_log_set_level((int)c->verbosity);
 		return 0;
 	}
-	sim_log(SIM_LOG_ERR, "rmd-sim: %s: unknown setting", where);
+	tool_log(TOOL_LOG_ERR, "rmd-sim: %s: unknown setting", where);
 	return -EINVAL;
 }
 
@@ -638,15 +625,16 @@ int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const c
 	struct sim_setting *s;
 
 	if (!normalize_key(key, k)) {
-		sim_log(SIM_LOG_ERR,
-			"rmd-sim: %s: \"%s\" is not a setting (rmd-sim --help lists "
-			"them)",
-			where, key);
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: %s: \"%s\" is not a setting (rmd-sim --help lists "
+			 "them)",
+			 where, key);
 		return -EINVAL;
 	}
 	if (is_global(k)) {
 		if (motor) {
-			sim_log(SIM_LOG_ERR,
+			tool_log(
+				TOOL_LOG_ERR,
 				"rmd-sim: %s: \"%s\" applies to the whole program, not to motor %u "
 				"(put it before any [motor N] section, without N:)",
 				where, k, motor);
@@ -656,24 +644,25 @@ int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const c
 	}
 	spec = rmd_sim_param_find(k);
 	if (!spec) {
-		sim_log(SIM_LOG_ERR,
-			"rmd-sim: %s: \"%s\" is not a setting (rmd-sim --help lists "
-			"them)",
-			where, key);
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: %s: \"%s\" is not a setting (rmd-sim --help lists "
+			 "them)",
+			 where, key);
 		return -EINVAL;
 	}
 	rmd_sim_motor_params_default(&scratch, motor ? motor : 1, RMD_PROTO_V3);
 	if (rmd_sim_param_parse(&scratch, spec, value, allowed, sizeof(allowed)) < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s \"%s\": expected %s", where, value, allowed);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": expected %s", where, value, allowed);
 		return -EINVAL;
 	}
 	if (strlen(value) >= SIM_VALUE_MAX) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: value longer than %d characters", where,
-			SIM_VALUE_MAX - 1);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: value longer than %d characters", where,
+			 SIM_VALUE_MAX - 1);
 		return -EINVAL;
 	}
 	if (c->n_settings >= SIM_MAX_SETTINGS) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: more than %d settings", where, SIM_MAX_SETTINGS);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: more than %d settings", where,
+			 SIM_MAX_SETTINGS);
 		return -EINVAL;
 	}
 	s = &c->settings[c->n_settings++];
@@ -716,10 +705,10 @@ int sim_config_set_arg(struct sim_config *c, const char *arg, const char *where)
 	snprintf(w, sizeof(w), "%s %.*s", where, (int)(eq - arg), arg);
 	return sim_config_set(c, (uint8_t)id, key, eq + 1, w);
 bad:
-	sim_log(SIM_LOG_ERR,
-		"rmd-sim: %s \"%s\": expected [ID:]KEY=VALUE, ID a motor id 1..32, KEY a motor "
-		"parameter (rmd-sim --help lists them)",
-		where, arg);
+	tool_log(TOOL_LOG_ERR,
+		 "rmd-sim: %s \"%s\": expected [ID:]KEY=VALUE, ID a motor id 1..32, KEY a motor "
+		 "parameter (rmd-sim --help lists them)",
+		 where, arg);
 	return -EINVAL;
 }
 
@@ -768,7 +757,7 @@ int sim_config_file(struct sim_config *c, const char *path)
 	if (!f) {
 		int e = errno;
 
-		sim_log(SIM_LOG_ERR, "rmd-sim: --config %s: %s", path, strerror(e));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: --config %s: %s", path, strerror(e));
 		return -e;
 	}
 	while (fgets(line, sizeof(line), f)) {
@@ -777,8 +766,8 @@ int sim_config_file(struct sim_config *c, const char *path)
 
 		lineno++;
 		if (n == sizeof(line) - 1 && line[n - 1] != '\n' && !feof(f)) {
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s:%u: line longer than %zu characters",
-				path, lineno, sizeof(line) - 2);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s:%u: line longer than %zu characters",
+				 path, lineno, sizeof(line) - 2);
 			r = -EINVAL;
 			break;
 		}
@@ -797,7 +786,8 @@ int sim_config_file(struct sim_config *c, const char *path)
 			int m = parse_section(s);
 
 			if (m < 0) {
-				sim_log(SIM_LOG_ERR,
+				tool_log(
+					TOOL_LOG_ERR,
 					"rmd-sim: %s:%u: expected a section [global] or [motor N], "
 					"N 1..32",
 					path, lineno);
@@ -815,10 +805,10 @@ int sim_config_file(struct sim_config *c, const char *path)
 		}
 		eq = strchr(s, '=');
 		if (!eq) {
-			sim_log(SIM_LOG_ERR,
-				"rmd-sim: %s:%u: expected KEY = VALUE, a [section] or "
-				"a # comment",
-				path, lineno);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s:%u: expected KEY = VALUE, a [section] or "
+				 "a # comment",
+				 path, lineno);
 			r = -EINVAL;
 			continue;
 		}
@@ -828,8 +818,8 @@ int sim_config_file(struct sim_config *c, const char *path)
 		value = trim(value);
 		snprintf(where, sizeof(where), "%s:%u: %s", path, lineno, key);
 		if (!strcasecmp(key, "config")) {
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: config files do not include others",
-				where);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: config files do not include others",
+				 where);
 			r = -EINVAL;
 			continue;
 		}
@@ -837,7 +827,7 @@ int sim_config_file(struct sim_config *c, const char *path)
 			r = -EINVAL;
 	}
 	if (ferror(f)) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: --config %s: read error", path);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: --config %s: read error", path);
 		r = -EIO;
 	}
 	fclose(f);
@@ -878,22 +868,24 @@ static int build_motor(struct sim_config *c, uint8_t id)
 	p->id = id;
 	p->seed = mix(c->seed ^ ((uint64_t)id << 56));
 	if (!(p->over_temp_clear_c < p->over_temp_c)) {
-		sim_log(SIM_LOG_ERR,
+		tool_log(
+			TOOL_LOG_ERR,
 			"rmd-sim: motor %u: over-temp-clear (%g °C) must be below over-temp (%g °C)",
 			id, p->over_temp_clear_c, p->over_temp_c);
 		return -EINVAL;
 	}
 	if (!(p->under_voltage_v < p->over_voltage_v)) {
-		sim_log(SIM_LOG_ERR,
+		tool_log(
+			TOOL_LOG_ERR,
 			"rmd-sim: motor %u: under-voltage (%g V) must be below over-voltage (%g V)",
 			id, p->under_voltage_v, p->over_voltage_v);
 		return -EINVAL;
 	}
 	if (c->wire == SIM_WIRE_SERIAL && p->proto == RMD_PROTO_V2) {
-		sim_log(SIM_LOG_ERR,
-			"rmd-sim: motor %u: protocol v2 on --serial: V2.0 motors have no RS485 "
-			"interface (the V2 manual is CAN only); use --can, or protocol v3",
-			id);
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: motor %u: protocol v2 on --serial: V2.0 motors have no RS485 "
+			 "interface (the V2 manual is CAN only); use --can, or protocol v3",
+			 id);
 		return -EINVAL;
 	}
 	return 0;
@@ -906,27 +898,28 @@ int sim_config_finish(struct sim_config *c)
 
 	sim_format_motors(c->motors, list, sizeof(list));
 	if (c->wire == SIM_WIRE_NONE) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: no wire: give --can IFACE or --serial DEVICE "
-				     "(rmd-sim --help)");
+		tool_log(TOOL_LOG_ERR, "rmd-sim: no wire: give --can IFACE or --serial DEVICE "
+				       "(rmd-sim --help)");
 		return -EINVAL;
 	}
 	if (c->wire == SIM_WIRE_CAN && c->baud_where[0]) {
-		sim_log(SIM_LOG_ERR,
-			"rmd-sim: %s: a baud rate applies to --serial only; CAN's "
-			"bitrate belongs to the interface (ip link set ... bitrate)",
-			c->baud_where);
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: %s: a baud rate applies to --serial only; CAN's "
+			 "bitrate belongs to the interface (ip link set ... bitrate)",
+			 c->baud_where);
 		return -EINVAL;
 	}
 	if (c->wire == SIM_WIRE_CAN && c->echo_where[0] && c->local_echo) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: local echo applies to --serial only",
-			c->echo_where);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: local echo applies to --serial only",
+			 c->echo_where);
 		return -EINVAL;
 	}
 	for (unsigned i = 0; i < RMD_MAX_MOTORS; i++) {
 		uint32_t bit = UINT32_C(1) << i;
 
 		if ((c->motor_refs & bit) && !(c->motors & bit)) {
-			sim_log(SIM_LOG_ERR,
+			tool_log(
+				TOOL_LOG_ERR,
 				"rmd-sim: %s: configures motor %u, which is not simulated (motors: "
 				"%s); add it to --motors / motors =",
 				c->motor_ref_where[i], i + 1, list);
@@ -938,16 +931,16 @@ int sim_config_finish(struct sim_config *c)
 
 		if (f->kind != RMD_SIM_FAULT_FLOOD && f->motor_id &&
 		    !(c->motors & (UINT32_C(1) << (f->motor_id - 1)))) {
-			sim_log(SIM_LOG_ERR,
-				"rmd-sim: %s \"%s\": motor %u is not simulated (motors: %s)",
-				c->fault_where[i], c->fault_text[i], f->motor_id, list);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s \"%s\": motor %u is not simulated (motors: %s)",
+				 c->fault_where[i], c->fault_text[i], f->motor_id, list);
 			r = -EINVAL;
 		}
 		if (f->kind == RMD_SIM_FAULT_FLOOD && c->wire != SIM_WIRE_CAN) {
-			sim_log(SIM_LOG_ERR,
-				"rmd-sim: %s \"%s\": flood needs --can (an RS485 line has no "
-				"arbitration to win)",
-				c->fault_where[i], c->fault_text[i]);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s \"%s\": flood needs --can (an RS485 line has no "
+				 "arbitration to win)",
+				 c->fault_where[i], c->fault_text[i]);
 			r = -EINVAL;
 		}
 	}

@@ -6,72 +6,23 @@
  *   rmd-sim [options] --can IFACE
  *   rmd-sim [options] --serial DEVICE [--baud B]
  *
- * The motors are struct rmd_sim_motor (src/sim_motor.c); this program
+ * The motors are struct rmd_sim_motor (src/sim/sim_motor.c); this program
  * feeds them the frames that arrive on a SocketCAN interface or an RS485
  * line and writes their replies after their turnaround.  The command line
- * (here), the config file (rmd-sim_config.c) and the event loop
- * (rmd-sim_loop.c) are described in docs/rmd-sim.md.
+ * (here), the config file (config.c) and the event loop (wire.c) are
+ * described in docs/rmd-sim.md; -v describes frames with rmd/describe.h and
+ * every line goes through the programs' one logger (tools/common/log.h).
  *
  * Exit statuses: 0 stopped by SIGINT/SIGTERM, 1 the wire failed, 2 a bad
  * argument or configuration value.  Non-rt.
  */
 #include <errno.h>
 #include <getopt.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "rmd-sim.h"
-
-static enum sim_verbosity verbosity = SIM_NORMAL;
-
-void sim_set_verbosity(enum sim_verbosity v)
-{
-	verbosity = v;
-}
-
-bool sim_log_enabled(int level)
-{
-	switch (verbosity) {
-	case SIM_QUIET:
-		return level <= SIM_LOG_WARNING;
-	case SIM_NORMAL:
-		return level <= SIM_LOG_INFO;
-	case SIM_FRAMES:
-		return true;
-	}
-	return true;
-}
-
-void sim_log(int level, const char *fmt, ...)
-{
-	char buf[2048];
-	va_list ap;
-	int n, m;
-
-	if (!sim_log_enabled(level))
-		return;
-	n = snprintf(buf, sizeof(buf), "<%d>", level);
-	va_start(ap, fmt);
-	m = vsnprintf(buf + n, sizeof(buf) - (size_t)n - 1, fmt, ap);
-	va_end(ap);
-	if (m < 0)
-		return;
-	n += m;
-	if ((size_t)n > sizeof(buf) - 2)
-		n = (int)sizeof(buf) - 2;
-	buf[n++] = '\n';
-	/* One write per line: lines of concurrent writers do not interleave. */
-	while (n > 0) {
-		ssize_t w = write(STDERR_FILENO, buf, (size_t)n);
-
-		if (w < 0 && errno == EINTR)
-			continue;
-		break;
-	}
-}
 
 static void usage(void)
 {
@@ -125,6 +76,7 @@ int main(int argc, char **argv)
 	bool flag;
 	const char *key;
 
+	tool_log_init(NULL, SIM_NORMAL, 0);
 	sim_config_init(&cfg);
 	opts[n++] = (struct option){ "config", required_argument, NULL, OPT_CONFIG };
 	opts[n++] = (struct option){ "set", required_argument, NULL, OPT_SET };
@@ -147,11 +99,11 @@ int main(int argc, char **argv)
 		switch (c) {
 		case 'v':
 			cfg.verbosity = SIM_FRAMES;
-			sim_set_verbosity(cfg.verbosity);
+			tool_log_set_level((int)cfg.verbosity);
 			break;
 		case 'q':
 			cfg.verbosity = SIM_QUIET;
-			sim_set_verbosity(cfg.verbosity);
+			tool_log_set_level((int)cfg.verbosity);
 			break;
 		case 'h':
 			usage();
@@ -165,20 +117,20 @@ int main(int argc, char **argv)
 				return SIM_EXIT_USAGE;
 			break;
 		case ':':
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s needs a value (rmd-sim --help)",
-				argv[optind - 1]);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s needs a value (rmd-sim --help)",
+				 argv[optind - 1]);
 			return SIM_EXIT_USAGE;
 		case '?':
 			if (optopt)
-				sim_log(SIM_LOG_ERR,
-					"rmd-sim: unknown option \"-%c\" (rmd-sim --help "
-					"lists the options)",
-					optopt);
+				tool_log(TOOL_LOG_ERR,
+					 "rmd-sim: unknown option \"-%c\" (rmd-sim --help "
+					 "lists the options)",
+					 optopt);
 			else
-				sim_log(SIM_LOG_ERR,
-					"rmd-sim: unknown option \"%s\" (rmd-sim --help "
-					"lists the options)",
-					argv[optind - 1]);
+				tool_log(TOOL_LOG_ERR,
+					 "rmd-sim: unknown option \"%s\" (rmd-sim --help "
+					 "lists the options)",
+					 argv[optind - 1]);
 			return SIM_EXIT_USAGE;
 		default:
 			if (c < OPT_KEY || !(key = sim_config_key((unsigned)(c - OPT_KEY), &flag)))
@@ -190,10 +142,10 @@ int main(int argc, char **argv)
 		}
 	}
 	if (optind < argc) {
-		sim_log(SIM_LOG_ERR,
-			"rmd-sim: unexpected argument \"%s\" (options take the form "
-			"--name VALUE; rmd-sim --help)",
-			argv[optind]);
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: unexpected argument \"%s\" (options take the form "
+			 "--name VALUE; rmd-sim --help)",
+			 argv[optind]);
 		return SIM_EXIT_USAGE;
 	}
 	if (sim_config_finish(&cfg) < 0)

@@ -17,6 +17,7 @@
 #include "rmd/mit.h"
 #include "rmd/sim.h"
 #include "rmd/sim_wire.h"
+#include "tools/common/log.h"
 
 /* Exit statuses (documented in docs/rmd-sim.md and --help). */
 enum {
@@ -25,20 +26,14 @@ enum {
 	SIM_EXIT_USAGE = 2, /* bad argument or configuration value */
 };
 
-/* Log levels: the journal's <N> prefixes (sd-daemon(3)). */
-enum {
-	SIM_LOG_ERR = 3,
-	SIM_LOG_WARNING = 4,
-	SIM_LOG_NOTICE = 5,
-	SIM_LOG_INFO = 6,
-	SIM_LOG_DEBUG = 7,
-};
-
-/* -q: errors and warnings; default: + startup and exit summaries; -v: + every frame. */
+/*
+ * -q: errors and warnings; default: + startup and exit summaries; -v: + every
+ * frame.  Each is the most verbose log level it shows (tool_log_set_level()).
+ */
 enum sim_verbosity {
-	SIM_QUIET = 0,
-	SIM_NORMAL,
-	SIM_FRAMES,
+	SIM_QUIET = TOOL_LOG_WARNING,
+	SIM_NORMAL = TOOL_LOG_INFO,
+	SIM_FRAMES = TOOL_LOG_DEBUG,
 };
 
 enum sim_wire {
@@ -86,13 +81,6 @@ struct sim_config {
 	struct rmd_sim_motor_params params[RMD_MAX_MOTORS];
 };
 
-/* ---- rmd-sim.c ---------------------------------------------------------------------------- */
-
-/* "<level>message\n" on stderr in one write, if the verbosity shows that level. */
-void sim_log(int level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-void sim_set_verbosity(enum sim_verbosity v);
-bool sim_log_enabled(int level);
-
 /* ---- rmd-sim_config.c --------------------------------------------------------------------- */
 
 /* Defaults: no wire, motor 1, V3, seed 1, 115200 baud. */
@@ -127,19 +115,8 @@ const char *sim_config_key(unsigned i, bool *is_flag);
 /* Option help: one line per setting key, for --help. */
 void sim_config_help(void);
 
-const char *sim_proto_name(enum rmd_proto proto);
-
 /* A set of motor ids (bit id - 1) as "1-3,5", for messages. */
 void sim_format_motors(uint32_t mask, char *buf, size_t size);
-
-/* ---- rmd-sim_frames.c --------------------------------------------------------------------- */
-
-/*
- * The frame as "command_name key=value ..." (codec names, native units) in
- * buf; MIT frames decoded with `mit` (may be NULL for other protocols).
- */
-void sim_describe(char *buf, size_t size, enum rmd_proto proto, enum rmd_dir dir,
-		  const struct rmd_mit_ranges *mit, const struct rmd_frame *f);
 
 /* ---- rmd-sim_loop.c ----------------------------------------------------------------------- */
 

@@ -71,6 +71,7 @@
 #include "rmd/bus_open.h"
 #include "rmd/rng.h"
 #include "rmd/codec.h"
+#include "rmd/describe.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
 #include "rmd/sim_faults.h"
@@ -171,10 +172,10 @@ static bool q_push(struct sim *s, int src, const struct rmd_frame *f, int64_t du
 
 	if (s->qn >= TXQ) {
 		if (!s->st.txq_overflow++)
-			sim_log(SIM_LOG_WARNING,
-				"rmd-sim: %s: more than %d frames waiting to be sent; dropping "
-				"(counted in the exit summary)",
-				s->name, TXQ);
+			tool_log(TOOL_LOG_WARNING,
+				 "rmd-sim: %s: more than %d frames waiting to be sent; dropping "
+				 "(counted in the exit summary)",
+				 s->name, TXQ);
 		return false;
 	}
 	i = s->qn++;
@@ -259,24 +260,34 @@ static void hex(char *buf, size_t size, const uint8_t *b, size_t n)
 		k += (size_t)snprintf(buf + k, size - k, "%s%02X", i ? " " : "", b[i]);
 }
 
+/* A frame for -v (rmd/describe.h), and the simulator's own 0xF1 comm-loss notice. */
+static void describe(char *buf, size_t size, enum rmd_proto proto, enum rmd_dir dir,
+		     const struct rmd_mit_ranges *mit, const struct rmd_frame *f)
+{
+	if (rmd_describe_frame(buf, size, proto, dir, mit, f) < 0 && dir == RMD_DIR_REPLY &&
+	    f->len >= 1 && f->data[0] == RMD_SIM_CMD_COMM_LOST)
+		snprintf(buf, size, "comm_lost (0xF1, unsolicited)");
+}
+
 static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_t rs485_id)
 {
 	char desc[512], data[32];
 	const struct rmd_mit_ranges *mit;
 	enum rmd_proto proto;
 
-	if (!sim_log_enabled(SIM_LOG_DEBUG))
+	if (!tool_log_enabled(TOOL_LOG_DEBUG))
 		return;
 	proto = request_proto(s, f->can_id, &mit);
-	sim_describe(desc, sizeof(desc), proto, RMD_DIR_REQUEST, mit, f);
+	describe(desc, sizeof(desc), proto, RMD_DIR_REQUEST, mit, f);
 	hex(data, sizeof(data), f->data, f->len);
 	if (s->serial)
-		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: rx id 0x%02X [%u] %s  (0x%03X) %s; %d repl%s",
-			s->name, rs485_id, f->len, data, f->can_id, desc, answers,
-			answers == 1 ? "y" : "ies");
+		tool_log(TOOL_LOG_DEBUG,
+			 "rmd-sim: %s: rx id 0x%02X [%u] %s  (0x%03X) %s; %d repl%s", s->name,
+			 rs485_id, f->len, data, f->can_id, desc, answers,
+			 answers == 1 ? "y" : "ies");
 	else
-		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: rx %03X [%u] %s  %s; %d repl%s", s->name,
-			f->can_id, f->len, data, desc, answers, answers == 1 ? "y" : "ies");
+		tool_log(TOOL_LOG_DEBUG, "rmd-sim: %s: rx %03X [%u] %s  %s; %d repl%s", s->name,
+			 f->can_id, f->len, data, desc, answers, answers == 1 ? "y" : "ies");
 }
 
 /* e: the frame as scheduled; wire: its data as written (RS485: after the id mapping). */
@@ -286,7 +297,7 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 	const struct rmd_mit_ranges *mit = NULL;
 	enum rmd_proto proto = RMD_PROTO_V3;
 
-	if (!sim_log_enabled(SIM_LOG_DEBUG))
+	if (!tool_log_enabled(TOOL_LOG_DEBUG))
 		return;
 	if (e->src >= 0) {
 		const struct slot *sl = &s->slots[e->src];
@@ -298,18 +309,18 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 		      e->f.can_id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS))
 			proto = RMD_PROTO_V3;
 		snprintf(who, sizeof(who), "motor %u", sl->id);
-		sim_describe(desc, sizeof(desc), proto, RMD_DIR_REPLY, mit, wire);
+		describe(desc, sizeof(desc), proto, RMD_DIR_REPLY, mit, wire);
 	} else {
 		snprintf(who, sizeof(who), "flood");
 		snprintf(desc, sizeof(desc), "(foreign frame)");
 	}
 	hex(data, sizeof(data), wire->data, wire->len);
 	if (s->serial)
-		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: tx id 0x%02X [%u] %s  (0x%03X) %s: %s",
-			s->name, (unsigned)rs485_id, wire->len, data, e->f.can_id, who, desc);
+		tool_log(TOOL_LOG_DEBUG, "rmd-sim: %s: tx id 0x%02X [%u] %s  (0x%03X) %s: %s",
+			 s->name, (unsigned)rs485_id, wire->len, data, e->f.can_id, who, desc);
 	else
-		sim_log(SIM_LOG_DEBUG, "rmd-sim: %s: tx %03X [%u] %s  %s: %s", s->name, e->f.can_id,
-			e->f.len, data, who, desc);
+		tool_log(TOOL_LOG_DEBUG, "rmd-sim: %s: tx %03X [%u] %s  %s: %s", s->name,
+			 e->f.can_id, e->f.len, data, who, desc);
 }
 
 /* ---- faults (rmd/sim_faults.h: the wire's engine, on the axis of time since t0) ------------ */
@@ -333,9 +344,9 @@ static void update_faults(struct sim *s, int64_t now)
 		struct rmd_frame fr;
 
 		if (changed & (UINT32_C(1) << i))
-			sim_log(SIM_LOG_NOTICE, "rmd-sim: fault \"%s\" %s at %.3f s",
-				c->fault_text[i], s->faults.open[i] ? "begins" : "ends",
-				(double)(now - s->t0) / 1e9);
+			tool_log(TOOL_LOG_NOTICE, "rmd-sim: fault \"%s\" %s at %.3f s",
+				 c->fault_text[i], s->faults.open[i] ? "begins" : "ends",
+				 (double)(now - s->t0) / 1e9);
 		while (rmd_sim_faults_flood_due(&s->faults, i, now - s->t0)) {
 			int64_t due = rmd_sim_faults_flood_take(&s->faults, i, &s->rng, &fr,
 								s->st.faults);
@@ -358,12 +369,12 @@ static void update_faults(struct sim *s, int64_t now)
 		if (!powered && sl->powered) {
 			/* Without power the drive lets go and the brake locks (as rmd/sim_wire.h). */
 			rmd_sim_motor_power_cycle(&sl->m, now);
-			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u loses power", sl->id);
+			tool_log(TOOL_LOG_INFO, "rmd-sim: motor %u loses power", sl->id);
 		}
 		if (powered && !sl->powered) {
 			/* sim_faults.h DISAPPEAR param 1: it boots at the end of the window. */
 			rmd_sim_motor_power_cycle(&sl->m, now);
-			sim_log(SIM_LOG_INFO, "rmd-sim: motor %u powered again: boots", sl->id);
+			tool_log(TOOL_LOG_INFO, "rmd-sim: motor %u powered again: boots", sl->id);
 		}
 		sl->absent = rmd_sim_faults_absent(&s->faults, sl->id);
 		sl->powered = powered;
@@ -435,12 +446,12 @@ static void set_down(struct sim *s, bool down, const char *how)
 		return;
 	s->if_down = down;
 	if (down)
-		sim_log(SIM_LOG_WARNING,
-			"rmd-sim: %s: interface is down (%s); frames are lost "
-			"until it is up",
-			s->name, how);
+		tool_log(TOOL_LOG_WARNING,
+			 "rmd-sim: %s: interface is down (%s); frames are lost "
+			 "until it is up",
+			 s->name, how);
 	else
-		sim_log(SIM_LOG_NOTICE, "rmd-sim: %s: interface is up again", s->name);
+		tool_log(TOOL_LOG_NOTICE, "rmd-sim: %s: interface is up again", s->name);
 }
 
 static void stop(struct sim *s, int status, const char *why)
@@ -461,7 +472,7 @@ static void check_interface(struct sim *s)
 	snprintf(ifr.ifr_name, sizeof(ifr.ifr_name), "%s", s->name);
 	if (ioctl(s->fd, SIOCGIFFLAGS, &ifr) < 0) {
 		if (errno == ENODEV) {
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
 			stop(s, SIM_EXIT_RUN, "the interface was removed");
 		}
 		return;
@@ -478,7 +489,7 @@ static int can_open(struct sim *s)
 
 	r = rmd_bus_open_spec(&s->bus, s->name, &o, err, sizeof(err));
 	if (r < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s", err[0] ? err : strerror(-r));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s", err[0] ? err : strerror(-r));
 		return r;
 	}
 	s->fd = rmd_bus_fd(&s->bus);
@@ -530,14 +541,14 @@ static void can_read(struct sim *s)
 				continue;
 			}
 			if (n == -ENODEV) {
-				sim_log(SIM_LOG_ERR, "rmd-sim: %s: the interface was removed",
-					s->name);
+				tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed",
+					 s->name);
 				stop(s, SIM_EXIT_RUN, "the interface was removed");
 				return;
 			}
 			if (!s->st.rx_errors++)
-				sim_log(SIM_LOG_WARNING, "rmd-sim: %s: read: %s", s->name,
-					strerror(-n));
+				tool_log(TOOL_LOG_WARNING, "rmd-sim: %s: read: %s", s->name,
+					 strerror(-n));
 			return;
 		}
 		for (int k = 0; k < n; k++) {
@@ -569,27 +580,27 @@ static int serial_open(struct sim *s)
 	if (fd < 0) {
 		e = errno;
 		if (e == ENOENT)
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: no such device", s->name);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: no such device", s->name);
 		else if (e == EACCES)
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: permission denied (join group dialout)",
-				s->name);
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s: permission denied (join group dialout)", s->name);
 		else
-			sim_log(SIM_LOG_ERR, "rmd-sim: %s: %s", s->name, strerror(e));
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: %s", s->name, strerror(e));
 		return -e;
 	}
 	if (tcgetattr(fd, &tio) < 0) {
 		e = errno;
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: not a serial port (%s)", s->name, strerror(e));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: not a serial port (%s)", s->name, strerror(e));
 		goto err_close;
 	}
 	if (ioctl(fd, TIOCEXCL) < 0) {
 		e = errno;
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: TIOCEXCL: %s", s->name, strerror(e));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: TIOCEXCL: %s", s->name, strerror(e));
 		goto err_close;
 	}
 	if (rmd_rs485_baud_speed(s->cfg->baud, &speed) < 0) {
 		e = EINVAL;
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: baud %u unsupported", s->name, s->cfg->baud);
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: baud %u unsupported", s->name, s->cfg->baud);
 		goto err_close;
 	}
 	/* V3 §1.2: 8 data bits, no parity, one stop bit, no flow control. */
@@ -601,8 +612,8 @@ static int serial_open(struct sim *s)
 	if (cfsetispeed(&tio, speed) < 0 || cfsetospeed(&tio, speed) < 0 ||
 	    tcsetattr(fd, TCSANOW, &tio) < 0) {
 		e = errno;
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: the driver refuses %u baud 8N1 raw: %s", s->name,
-			s->cfg->baud, strerror(e));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the driver refuses %u baud 8N1 raw: %s",
+			 s->name, s->cfg->baud, strerror(e));
 		goto err_close;
 	}
 	tcflush(fd, TCIOFLUSH);
@@ -612,12 +623,12 @@ static int serial_open(struct sim *s)
 		rs.flags |= SER_RS485_ENABLED | SER_RS485_RTS_ON_SEND;
 		rs.flags &= ~(__u32)SER_RS485_RTS_AFTER_SEND;
 		if (ioctl(fd, TIOCSRS485, &rs) == 0)
-			sim_log(SIM_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
+			tool_log(TOOL_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
 	} else {
-		sim_log(SIM_LOG_INFO,
-			"rmd-sim: %s: no kernel RS485 mode (a pseudo-terminal, or an adapter that "
-			"switches direction by itself)",
-			s->name);
+		tool_log(TOOL_LOG_INFO,
+			 "rmd-sim: %s: no kernel RS485 mode (a pseudo-terminal, or an adapter that "
+			 "switches direction by itself)",
+			 s->name);
 	}
 	s->fd = fd;
 	return 0;
@@ -638,8 +649,8 @@ static void serial_flush(struct sim *s)
 			if (errno == EAGAIN)
 				break;
 			if (!s->st.tx_errors++)
-				sim_log(SIM_LOG_WARNING, "rmd-sim: %s: write: %s", s->name,
-					strerror(errno));
+				tool_log(TOOL_LOG_WARNING, "rmd-sim: %s: write: %s", s->name,
+					 strerror(errno));
 			s->txn = 0;
 			break;
 		}
@@ -763,10 +774,10 @@ static void serial_parse(struct sim *s, int64_t t)
 	}
 	if (skipped) {
 		s->st.noise_bytes += skipped;
-		sim_log(s->noise_warned ? SIM_LOG_DEBUG : SIM_LOG_WARNING,
-			"rmd-sim: %s: skipped %zu byte%s of line noise to resynchronise%s", s->name,
-			skipped, skipped == 1 ? "" : "s",
-			s->noise_warned ? "" : " (further noise is counted in the exit summary)");
+		tool_log(s->noise_warned ? TOOL_LOG_DEBUG : TOOL_LOG_WARNING,
+			 "rmd-sim: %s: skipped %zu byte%s of line noise to resynchronise%s",
+			 s->name, skipped, skipped == 1 ? "" : "s",
+			 s->noise_warned ? "" : " (further noise is counted in the exit summary)");
 		s->noise_warned = true;
 	}
 }
@@ -786,8 +797,8 @@ static void serial_read(struct sim *s, bool hup)
 		if (!hup && (r == 0 || errno == EAGAIN))
 			return;
 		/* EIO or end of file with a hang-up: the other side closed the line. */
-		sim_log(SIM_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
-			r < 0 ? strerror(errno) : "end of file");
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
+			 r < 0 ? strerror(errno) : "end of file");
 		stop(s, SIM_EXIT_RUN, "hang-up");
 		return;
 	}
@@ -820,19 +831,19 @@ static void write_due(struct sim *s, int64_t now)
 		}
 		q_pop(s);
 		if (r == -EINVAL && s->serial) {
-			if (sim_log_enabled(SIM_LOG_DEBUG))
-				sim_log(SIM_LOG_DEBUG,
-					"rmd-sim: %s: 0x%03X has no RS485 form; not sent", s->name,
-					e.f.can_id);
+			if (tool_log_enabled(TOOL_LOG_DEBUG))
+				tool_log(TOOL_LOG_DEBUG,
+					 "rmd-sim: %s: 0x%03X has no RS485 form; not sent", s->name,
+					 e.f.can_id);
 			continue;
 		}
 		if (r < 0) {
 			s->st.tx_errors++;
 			if (s->st.tx_errors >= s->tx_errors_logged * 2 + 1) {
-				sim_log(SIM_LOG_WARNING,
-					"rmd-sim: %s: write: %s (%" PRIu64 " frames "
-					"lost so far)",
-					s->name, strerror(-r), s->st.tx_errors);
+				tool_log(TOOL_LOG_WARNING,
+					 "rmd-sim: %s: write: %s (%" PRIu64 " frames "
+					 "lost so far)",
+					 s->name, strerror(-r), s->st.tx_errors);
 				s->tx_errors_logged = s->st.tx_errors;
 			}
 			continue;
@@ -923,13 +934,13 @@ static void log_startup(const struct sim *s)
 	const struct sim_config *c = s->cfg;
 	uint32_t done = 0;
 
-	if (!sim_log_enabled(SIM_LOG_INFO))
+	if (!tool_log_enabled(TOOL_LOG_INFO))
 		return;
-	sim_log(SIM_LOG_INFO, "rmd-sim: %s: %s, %u motor%s, seed %" PRIu64, s->name,
-		s->serial ? "RS485 line" : "SocketCAN", s->n, s->n == 1 ? "" : "s", c->seed);
+	tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %s, %u motor%s, seed %" PRIu64, s->name,
+		 s->serial ? "RS485 line" : "SocketCAN", s->n, s->n == 1 ? "" : "s", c->seed);
 	if (s->serial)
-		sim_log(SIM_LOG_INFO, "rmd-sim: %s: %u baud 8N1%s", s->name, c->baud,
-			c->local_echo ? ", local echo dropped" : "");
+		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %u baud 8N1%s", s->name, c->baud,
+			 c->local_echo ? ", local echo dropped" : "");
 	/* One line per set of motors that are alike. */
 	for (unsigned i = 0; i < s->n; i++) {
 		const struct rmd_sim_motor_params *p = &s->slots[i].m.p;
@@ -937,7 +948,7 @@ static void log_startup(const struct sim *s)
 		snprintf(desc[i], sizeof(desc[i]),
 			 "%s %s (fw %u), inertia %g kg·m², kt %g N·m/A, gear %g, load %g N·m, "
 			 "supply %g V, %sbrake, turnaround %g±%g µs",
-			 sim_proto_name(p->proto), p->model, p->version_date, p->inertia_kgm2,
+			 rmd_proto_name(p->proto), p->model, p->version_date, p->inertia_kgm2,
 			 p->kt_nm_a, p->gear_ratio, p->load_nm, p->supply_v,
 			 p->has_brake ? "" : "no ", p->turnaround_ns / 1e3,
 			 p->turnaround_jitter_ns / 1e3);
@@ -955,17 +966,17 @@ static void log_startup(const struct sim *s)
 			}
 		}
 		sim_format_motors(same, list, sizeof(list));
-		sim_log(SIM_LOG_INFO, "rmd-sim: motor%s %s: %s", (same & (same - 1)) ? "s" : "",
-			list, desc[i]);
+		tool_log(TOOL_LOG_INFO, "rmd-sim: motor%s %s: %s", (same & (same - 1)) ? "s" : "",
+			 list, desc[i]);
 	}
 	for (unsigned i = 0; i < s->n; i++)
 		if (s->serial && s->slots[i].m.p.proto == RMD_PROTO_MIT)
-			sim_log(SIM_LOG_INFO,
-				"rmd-sim: motor %u: MIT frames have no RS485 form; it "
-				"answers V3 commands",
-				s->slots[i].id);
+			tool_log(TOOL_LOG_INFO,
+				 "rmd-sim: motor %u: MIT frames have no RS485 form; it "
+				 "answers V3 commands",
+				 s->slots[i].id);
 	for (unsigned i = 0; i < c->n_faults; i++)
-		sim_log(SIM_LOG_INFO, "rmd-sim: fault %u: %s", i + 1, c->fault_text[i]);
+		tool_log(TOOL_LOG_INFO, "rmd-sim: fault %u: %s", i + 1, c->fault_text[i]);
 }
 
 static void log_summary(const struct sim *s, int64_t now)
@@ -973,16 +984,17 @@ static void log_summary(const struct sim *s, int64_t now)
 	char faults[512];
 
 	summary_faults(s, faults, sizeof(faults));
-	sim_log(s->status == SIM_EXIT_OK ? SIM_LOG_INFO : SIM_LOG_ERR,
-		"rmd-sim: %s: stopped (%s) after %.3f s: frames in %" PRIu64 " (answered %" PRIu64
-		"), out %" PRIu64 "; tx retries %" PRIu64 ", tx errors %" PRIu64
-		", queue overflows %" PRIu64 ", rx errors %" PRIu64 ", line noise %" PRIu64
-		" bytes, echoes %" PRIu64 ", lost while absent %" PRIu64
-		", without RS485 form %" PRIu64 "%s",
-		s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
-		s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors, s->st.txq_overflow,
-		s->st.rx_errors + (s->bus.ops ? rmd_bus_stats(&s->bus)->rx_errors : 0),
-		s->st.noise_bytes, s->st.echoes, s->st.absent_lost, s->st.unmappable, faults);
+	tool_log(s->status == SIM_EXIT_OK ? TOOL_LOG_INFO : TOOL_LOG_ERR,
+		 "rmd-sim: %s: stopped (%s) after %.3f s: frames in %" PRIu64 " (answered %" PRIu64
+		 "), out %" PRIu64 "; tx retries %" PRIu64 ", tx errors %" PRIu64
+		 ", queue overflows %" PRIu64 ", rx errors %" PRIu64 ", line noise %" PRIu64
+		 " bytes, echoes %" PRIu64 ", lost while absent %" PRIu64
+		 ", without RS485 form %" PRIu64 "%s",
+		 s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
+		 s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors,
+		 s->st.txq_overflow,
+		 s->st.rx_errors + (s->bus.ops ? rmd_bus_stats(&s->bus)->rx_errors : 0),
+		 s->st.noise_bytes, s->st.echoes, s->st.absent_lost, s->st.unmappable, faults);
 }
 
 static void handle_signal(struct sim *s)
@@ -1022,7 +1034,7 @@ int sim_run(const struct sim_config *c)
 	if (!s->rng)
 		s->rng = 1;
 	if (rmd_sim_faults_set(&s->faults, c->faults, c->n_faults) < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: the fault table does not hold together");
+		tool_log(TOOL_LOG_ERR, "rmd-sim: the fault table does not hold together");
 		return SIM_EXIT_USAGE;
 	}
 
@@ -1033,14 +1045,14 @@ int sim_run(const struct sim_config *c)
 	sigaddset(&mask, SIGINT);
 	sigaddset(&mask, SIGTERM);
 	if (sigprocmask(SIG_BLOCK, &mask, NULL) < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: sigprocmask: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: sigprocmask: %s", strerror(errno));
 		return SIM_EXIT_RUN;
 	}
 	s->sfd = signalfd(-1, &mask, SFD_NONBLOCK | SFD_CLOEXEC);
 	s->tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
 	s->epfd = epoll_create1(EPOLL_CLOEXEC);
 	if (s->sfd < 0 || s->tfd < 0 || s->epfd < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: signalfd/timerfd/epoll: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: signalfd/timerfd/epoll: %s", strerror(errno));
 		r = SIM_EXIT_RUN;
 		goto err_close_fds;
 	}
@@ -1051,7 +1063,7 @@ int sim_run(const struct sim_config *c)
 	s->ep_events = EPOLLIN;
 	if (add_fd(s, s->fd, EPOLLIN, TAG_WIRE) < 0 || add_fd(s, s->tfd, EPOLLIN, TAG_TIMER) < 0 ||
 	    add_fd(s, s->sfd, EPOLLIN, TAG_SIGNAL) < 0) {
-		sim_log(SIM_LOG_ERR, "rmd-sim: epoll_ctl: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "rmd-sim: epoll_ctl: %s", strerror(errno));
 		r = SIM_EXIT_RUN;
 		goto err_close_wire;
 	}
@@ -1070,7 +1082,7 @@ int sim_run(const struct sim_config *c)
 	s->next_tick_ns = s->t0 + TICK_NS;
 	s->next_house_ns = s->t0 + HOUSEKEEPING_NS;
 	log_startup(s);
-	sim_log(SIM_LOG_INFO, "rmd-sim: %s: ready", s->name);
+	tool_log(TOOL_LOG_INFO, "rmd-sim: %s: ready", s->name);
 
 	while (!s->stop) {
 		struct epoll_event ev[4];
@@ -1087,7 +1099,7 @@ int sim_run(const struct sim_config *c)
 		if (n < 0) {
 			if (errno == EINTR)
 				continue;
-			sim_log(SIM_LOG_ERR, "rmd-sim: epoll_wait: %s", strerror(errno));
+			tool_log(TOOL_LOG_ERR, "rmd-sim: epoll_wait: %s", strerror(errno));
 			stop(s, SIM_EXIT_RUN, "epoll_wait failed");
 			break;
 		}

@@ -17,16 +17,16 @@
 
 #include "rmd/candump.h"
 #include "rmd/codec.h"
+#include "rmd/describe.h"
 #include "rmd/mit.h"
 #include "rmdctl.h"
 
-#define SUB "decode"
 /* Longest input line, newline excluded; candump's own lines stay under 120. */
 #define LINE_MAX_CHARS 511
 /* Digits of MIT values (quantised to 12..16 bits) and of table-scaled fields. */
 #define MIT_DIGITS 10
-#define FIELD_DIGITS 15
-#define MAX_ERROR_NAMES 16
+/* One output line: the input line's bytes, escaped, and the quantities. */
+#define OUT_LINE_MAX 8192
 
 struct decode_opts {
 	enum rmd_proto proto;
@@ -50,13 +50,6 @@ struct decoded {
 	bool mit_req, mit_rep;
 	struct rmd_mit_cmd mc;
 	struct rmd_mit_reply mr;
-};
-
-/* Output in progress: JSON object or one text line. */
-struct out {
-	FILE *f;
-	bool json;
-	unsigned n; /* quantities written so far */
 };
 
 void rmdctl_decode_usage(FILE *f)
@@ -95,175 +88,6 @@ void rmdctl_decode_usage(FILE *f)
 		"print as \"unknown\" with their bytes.\n");
 }
 
-/* ---- output primitives ---------------------------------------------------------------- */
-
-/* A JSON string: quotes, backslashes, control and non-ASCII bytes escaped. */
-static void json_str(FILE *f, const char *s, size_t len)
-{
-	fputc('"', f);
-	for (size_t i = 0; i < len; i++) {
-		unsigned char c = (unsigned char)s[i];
-
-		if (c == '"' || c == '\\')
-			fprintf(f, "\\%c", c);
-		else if (c < 0x20 || c >= 0x7f)
-			fprintf(f, "\\u%04x", c);
-		else
-			fputc(c, f);
-	}
-	fputc('"', f);
-}
-
-/* Text for humans: non-printable bytes as \xNN. */
-static void text_str(FILE *f, const char *s, size_t len)
-{
-	for (size_t i = 0; i < len; i++) {
-		unsigned char c = (unsigned char)s[i];
-
-		if (c < 0x20 || c >= 0x7f || c == '\\' || c == '"')
-			fprintf(f, "\\x%02X", c);
-		else
-			fputc(c, f);
-	}
-}
-
-/* Start of a quantity: separator, then JSON key or human label. */
-static void q_begin(struct out *o, const char *key, const char *label)
-{
-	if (o->json) {
-		fputc(',', o->f);
-		json_str(o->f, key, strlen(key));
-		fputc(':', o->f);
-	} else {
-		fputs(o->n ? ", " : ": ", o->f);
-		if (label && *label)
-			fprintf(o->f, "%s ", label);
-	}
-	o->n++;
-}
-
-static void q_unit(struct out *o, const char *unit)
-{
-	if (!o->json && unit && *unit)
-		fprintf(o->f, " %s", unit);
-}
-
-static void q_real(struct out *o, const char *key, const char *label, double v, int digits,
-		   const char *unit)
-{
-	char buf[48];
-
-	rmdctl_fmt_real(buf, sizeof(buf), v, digits);
-	q_begin(o, key, label);
-	fputs(buf, o->f);
-	q_unit(o, unit);
-}
-
-static void q_int(struct out *o, const char *key, const char *label, int64_t v, const char *unit)
-{
-	q_begin(o, key, label);
-	fprintf(o->f, "%" PRId64, v);
-	q_unit(o, unit);
-}
-
-/* ---- one field of a table row --------------------------------------------------------- */
-
-static void field_errors(struct out *o, enum rmd_proto proto, int64_t raw)
-{
-	const char *names[MAX_ERROR_NAMES];
-	uint16_t code = (uint16_t)raw;
-	size_t n = rmd_error_names(proto, code, names, MAX_ERROR_NAMES);
-	size_t shown = n < MAX_ERROR_NAMES ? n : MAX_ERROR_NAMES;
-
-	if (o->json) {
-		q_int(o, rmd_field_key(RMD_FLD_ERROR), NULL, raw, NULL);
-		fputs(",\"errors\":[", o->f);
-		for (size_t i = 0; i < shown; i++) {
-			if (i)
-				fputc(',', o->f);
-			json_str(o->f, names[i], strlen(names[i]));
-		}
-		fputc(']', o->f);
-		return;
-	}
-	q_begin(o, NULL, "errors");
-	fprintf(o->f, "0x%04X", (unsigned)code);
-	if (shown) {
-		fputs(" (", o->f);
-		for (size_t i = 0; i < shown; i++)
-			fprintf(o->f, "%s%s", i ? ", " : "", names[i]);
-		fputs(n > shown ? ", ...)" : ")", o->f);
-	}
-}
-
-static void field_mode(struct out *o, enum rmd_proto proto, int64_t raw)
-{
-	const char *name = rmd_run_mode_name(proto, (uint8_t)raw);
-
-	if (o->json) {
-		q_int(o, rmd_field_key(RMD_FLD_MODE), NULL, raw, NULL);
-		fputs(",\"mode_name\":", o->f);
-		if (name)
-			json_str(o->f, name, strlen(name));
-		else
-			fputs("null", o->f);
-		return;
-	}
-	q_int(o, NULL, "mode", raw, NULL);
-	if (name)
-		fprintf(o->f, " (%s)", name);
-}
-
-static void field_model(struct out *o, int64_t raw)
-{
-	char buf[8];
-
-	rmd_model_string(raw, buf);
-	buf[sizeof(buf) - 1] = '\0';
-	q_begin(o, rmd_field_key(RMD_FLD_MODEL), "model");
-	if (o->json) {
-		json_str(o->f, buf, strlen(buf));
-	} else {
-		fputc('"', o->f);
-		text_str(o->f, buf, strlen(buf));
-		fputc('"', o->f);
-	}
-}
-
-static void field(struct out *o, enum rmd_proto proto, const struct rmd_field_spec *fs, int64_t raw)
-{
-	enum rmd_field fld = (enum rmd_field)fs->field;
-	const char *unit;
-	char label[40];
-
-	/* Fields with a name, a list or a truth value rather than a number. */
-	if (fld == RMD_FLD_ERROR) {
-		field_errors(o, proto, raw);
-		return;
-	}
-	if (fld == RMD_FLD_MODE) {
-		field_mode(o, proto, raw);
-		return;
-	}
-	if (fld == RMD_FLD_MODEL) {
-		field_model(o, raw);
-		return;
-	}
-	if (fld == RMD_FLD_BRAKE) {
-		q_begin(o, rmd_field_key(fld), NULL);
-		if (o->json)
-			fputs(raw ? "true" : "false", o->f);
-		else
-			fputs(raw ? "brake released" : "brake locked", o->f);
-		return;
-	}
-	rmdctl_field_label(fld, label, sizeof(label), &unit);
-	if (fs->scale == 1.0)
-		q_int(o, rmd_field_key(fld), label, raw, unit);
-	else
-		q_real(o, rmd_field_key(fld), label, (double)raw * fs->scale, FIELD_DIGITS, unit);
-}
-
 /* ---- one frame ------------------------------------------------------------------------ */
 
 static const char *dir_name(enum rmd_dir dir)
@@ -279,113 +103,105 @@ static const char *dir_name(enum rmd_dir dir)
 	return "unknown";
 }
 
-static void print_time(FILE *f, const struct rmd_candump_line *l)
+static void print_time(struct rmd_text *t, const struct rmd_candump_line *l)
 {
-	fprintf(f, "%" PRIu64 ".%0*" PRIu32, l->time_sec, (int)l->time_digits, l->time_frac);
+	rmd_text_add(t, "%" PRIu64 ".%0*" PRIu32, l->time_sec, (int)l->time_digits, l->time_frac);
 }
 
-static void print_header(struct out *o, const struct decoded *d)
+static void print_header(struct rmd_text *t, bool json, const struct decoded *d)
 {
 	const struct rmd_candump_line *l = d->line;
 	const struct rmd_frame *f = &l->frame;
-	FILE *out = o->f;
 
-	if (o->json) {
-		fprintf(out, "{\"can_id\":%" PRIu32 ",\"motor_id\":", f->can_id);
+	if (json) {
+		rmd_text_add(t, "{\"can_id\":%" PRIu32 ",\"motor_id\":", f->can_id);
 		if (d->addr_ok)
-			fprintf(out, "%u", (unsigned)d->addr.motor_id);
+			rmd_text_add(t, "%u", (unsigned)d->addr.motor_id);
 		else
-			fputs("null", out);
-		fprintf(out, ",\"direction\":\"%s\",\"cmd\":", dir_name(d->dir));
+			rmd_text_add(t, "null");
+		rmd_text_add(t, ",\"direction\":\"%s\",\"cmd\":", dir_name(d->dir));
 		if (d->cmd >= 0)
-			fprintf(out, "%d", d->cmd);
+			rmd_text_add(t, "%d", d->cmd);
 		else
-			fputs("null", out);
-		fputs(",\"name\":", out);
-		json_str(out, d->name, strlen(d->name));
-		fputs(",\"raw\":\"", out);
+			rmd_text_add(t, "null");
+		rmd_text_add(t, ",\"name\":");
+		rmd_text_json_str(t, d->name, strlen(d->name));
+		rmd_text_add(t, ",\"raw\":\"");
 		for (unsigned i = 0; i < f->len; i++)
-			fprintf(out, "%02X", f->data[i]);
-		fputc('"', out);
+			rmd_text_add(t, "%02X", f->data[i]);
+		rmd_text_add(t, "\"");
 		if (d->addr_ok && d->addr.broadcast)
-			fputs(",\"broadcast\":true", out);
+			rmd_text_add(t, ",\"broadcast\":true");
 		if (d->note[0]) {
-			fputs(",\"note\":", out);
-			json_str(out, d->note, strlen(d->note));
+			rmd_text_add(t, ",\"note\":");
+			rmd_text_json_str(t, d->note, strlen(d->note));
 		}
 		return;
 	}
 	if (l->has_time) {
-		fputc('(', out);
-		print_time(out, l);
-		fputs(") ", out);
+		rmd_text_add(t, "(");
+		print_time(t, l);
+		rmd_text_add(t, ") ");
 	}
 	if (l->iface[0]) {
-		text_str(out, l->iface, strlen(l->iface));
-		fputc(' ', out);
+		rmd_text_str(t, l->iface, strlen(l->iface));
+		rmd_text_add(t, " ");
 	}
-	fprintf(out, "%03" PRIX32, f->can_id);
+	rmd_text_add(t, "%03" PRIX32, f->can_id);
 	if (d->addr_ok && d->addr.broadcast)
-		fputs(" broadcast", out);
+		rmd_text_add(t, " broadcast");
 	else if (d->addr_ok)
-		fprintf(out, " motor %u", (unsigned)d->addr.motor_id);
+		rmd_text_add(t, " motor %u", (unsigned)d->addr.motor_id);
 	if (d->dir != RMD_DIR_UNKNOWN)
-		fprintf(out, " %s", dir_name(d->dir));
-	fprintf(out, " %s", d->name);
+		rmd_text_add(t, " %s", dir_name(d->dir));
+	rmd_text_add(t, " %s", d->name);
 	if (d->note[0])
-		fprintf(out, " (%s)", d->note);
+		rmd_text_add(t, " (%s)", d->note);
 }
 
-static void print_trailer(struct out *o, const struct decoded *d)
+static void print_trailer(struct rmd_text *t, bool json, const struct decoded *d)
 {
 	const struct rmd_candump_line *l = d->line;
 	const struct rmd_frame *f = &l->frame;
 
-	if (!o->json) {
+	if (!json) {
 		if (!d->spec && !d->mit_req && !d->mit_rep) {
-			fputc(':', o->f);
+			rmd_text_add(t, ":");
 			for (unsigned i = 0; i < f->len; i++)
-				fprintf(o->f, " %02X", f->data[i]);
+				rmd_text_add(t, " %02X", f->data[i]);
 		}
-		fputc('\n', o->f);
 		return;
 	}
 	if (l->iface[0]) {
-		fputs(",\"interface\":", o->f);
-		json_str(o->f, l->iface, strlen(l->iface));
+		rmd_text_add(t, ",\"interface\":");
+		rmd_text_json_str(t, l->iface, strlen(l->iface));
 	}
 	if (l->has_time) {
-		fputs(",\"timestamp\":", o->f);
-		print_time(o->f, l);
+		rmd_text_add(t, ",\"timestamp\":");
+		print_time(t, l);
 	}
-	fputs("}\n", o->f);
+	rmd_text_add(t, "}");
 }
 
+/* One line: header, the quantities (rmd/describe.h), trailer. */
 static void print_decoded(FILE *f, bool json, const struct decoded *d)
 {
-	struct out o = { f, json, 0 };
+	enum rmd_describe_style style = json ? RMD_DESCRIBE_JSON : RMD_DESCRIBE_TEXT;
 	/* MIT values are 12..16-bit codes: 6 digits are all a human needs. */
 	int mit_digits = json ? MIT_DIGITS : 6;
+	char line[OUT_LINE_MAX];
+	struct rmd_text t;
 
-	print_header(&o, d);
-	if (d->spec) {
-		const struct rmd_layout *lay = rmd_cmd_layout(d->spec, d->dir);
-
-		for (unsigned i = 0; i < lay->n; i++)
-			if (rmd_msg_has(&d->msg, (enum rmd_field)lay->f[i].field))
-				field(&o, d->proto, &lay->f[i], d->msg.v[lay->f[i].field]);
-	} else if (d->mit_req) {
-		q_real(&o, "position_rad", "position", d->mc.p_des_rad, mit_digits, "rad");
-		q_real(&o, "velocity_rad_s", "velocity", d->mc.v_des_rad_s, mit_digits, "rad/s");
-		q_real(&o, "kp", "kp", d->mc.kp, mit_digits, "N·m/rad");
-		q_real(&o, "kd", "kd", d->mc.kd, mit_digits, "N·m·s/rad");
-		q_real(&o, "torque_nm", "torque", d->mc.t_ff_nm, mit_digits, "N·m");
-	} else if (d->mit_rep) {
-		q_real(&o, "position_rad", "position", d->mr.pos_rad, mit_digits, "rad");
-		q_real(&o, "velocity_rad_s", "velocity", d->mr.vel_rad_s, mit_digits, "rad/s");
-		q_real(&o, "torque_nm", "torque", d->mr.torque_nm, mit_digits, "N·m");
-	}
-	print_trailer(&o, d);
+	rmd_text_init(&t, line, sizeof(line));
+	print_header(&t, json, d);
+	if (d->spec)
+		rmd_describe_fields(&t, style, d->proto, rmd_cmd_layout(d->spec, d->dir), &d->msg);
+	else if (d->mit_req)
+		rmd_describe_mit_cmd(&t, style, &d->mc, mit_digits);
+	else if (d->mit_rep)
+		rmd_describe_mit_reply(&t, style, &d->mr, mit_digits);
+	print_trailer(&t, json, d);
+	fprintf(f, "%s\n", line);
 }
 
 static bool dlc_ok(struct decoded *d)
@@ -441,7 +257,7 @@ static void decode_table(enum rmd_proto proto, const struct decode_opts *opts, s
 	if (opts->dir != RMD_DIR_UNKNOWN && d->addr.dir != RMD_DIR_UNKNOWN &&
 	    opts->dir != d->addr.dir) {
 		snprintf(d->note, sizeof(d->note), "identifier %03" PRIX32 " carries %s %ss",
-			 f->can_id, rmdctl_proto_name(proto), dir_name(d->addr.dir));
+			 f->can_id, rmd_proto_name(proto), dir_name(d->addr.dir));
 		return;
 	}
 	if (!dlc_ok(d))
@@ -449,12 +265,12 @@ static void decode_table(enum rmd_proto proto, const struct decode_opts *opts, s
 	r = rmd_decode(proto, opts->dir, f, &d->msg, &dir);
 	if (r == -ENOENT) {
 		snprintf(d->note, sizeof(d->note), "command 0x%02X is not in the %s table",
-			 (unsigned)f->data[0], rmdctl_proto_name(proto));
+			 (unsigned)f->data[0], rmd_proto_name(proto));
 		return;
 	}
 	if (r < 0) {
 		snprintf(d->note, sizeof(d->note), "the %s codec refused it: %s",
-			 rmdctl_proto_name(proto), strerror(-r));
+			 rmd_proto_name(proto), strerror(-r));
 		return;
 	}
 	d->spec = rmd_cmd_find(proto, d->msg.cmd);
@@ -492,7 +308,7 @@ static void decode_frame(const struct decode_opts *opts, const struct rmd_candum
 		if (line->frame.len > 0)
 			d->cmd = line->frame.data[0];
 		snprintf(d->note, sizeof(d->note), "not an identifier of protocol %s",
-			 rmdctl_proto_name(opts->proto));
+			 rmd_proto_name(opts->proto));
 		return;
 	}
 	d->addr_ok = true;
@@ -552,10 +368,10 @@ static void bad_line(unsigned long lineno, const char *buf, const struct rmd_can
 	}
 	tok[o] = '\0';
 	if (l->err_len)
-		rmdctl_err(SUB, "line %lu: %s \"%s%s\"", lineno, rmd_candump_strerror(l->err), tok,
-			   l->err_len > n ? "..." : "");
+		tool_log(TOOL_LOG_ERR, "line %lu: %s \"%s%s\"", lineno,
+			 rmd_candump_strerror(l->err), tok, l->err_len > n ? "..." : "");
 	else
-		rmdctl_err(SUB, "line %lu: %s", lineno, rmd_candump_strerror(l->err));
+		tool_log(TOOL_LOG_ERR, "line %lu: %s", lineno, rmd_candump_strerror(l->err));
 }
 
 static int decode_stream(FILE *in, const struct decode_opts *opts)
@@ -572,13 +388,13 @@ static int decode_stream(FILE *in, const struct decode_opts *opts)
 
 		lineno++;
 		if (st == LINE_TOO_LONG) {
-			rmdctl_err(SUB, "line %lu: longer than %d characters", lineno,
-				   LINE_MAX_CHARS);
+			tool_log(TOOL_LOG_ERR, "line %lu: longer than %d characters", lineno,
+				 LINE_MAX_CHARS);
 			status = RMDCTL_EXIT_DATA;
 			continue;
 		}
 		if (st == LINE_NUL) {
-			rmdctl_err(SUB, "line %lu: contains a NUL byte", lineno);
+			tool_log(TOOL_LOG_ERR, "line %lu: contains a NUL byte", lineno);
 			status = RMDCTL_EXIT_DATA;
 			continue;
 		}
@@ -593,20 +409,36 @@ static int decode_stream(FILE *in, const struct decode_opts *opts)
 		print_decoded(stdout, opts->json, &d);
 	}
 	if (ferror(in)) {
-		rmdctl_err(SUB, "read error after line %lu", lineno);
+		tool_log(TOOL_LOG_ERR, "read error after line %lu", lineno);
 		status = RMDCTL_EXIT_DATA;
 	}
 	return status;
 }
 
+/* decode's own options: --json, --direction. */
+static int decode_opt(int c, void *ctx)
+{
+	struct decode_opts *opts = ctx;
+
+	if (c == 'j') {
+		opts->json = true;
+		return 0;
+	}
+	/* 'd' */
+	if (strcmp(optarg, "request") && strcmp(optarg, "reply")) {
+		tool_log(TOOL_LOG_ERR, "bad --direction \"%s\" (request or reply)", optarg);
+		return -1;
+	}
+	opts->dir = !strcmp(optarg, "request") ? RMD_DIR_REQUEST : RMD_DIR_REPLY;
+	return 0;
+}
+
 int rmdctl_decode_run(int argc, char **argv)
 {
 	static const struct option longopts[] = {
-		{ "protocol", required_argument, NULL, 'p' },
+		RMDCTL_CODEC_LONGOPTS,
 		{ "json", no_argument, NULL, 'j' },
-		{ "mit-ranges", required_argument, NULL, 'm' },
 		{ "direction", required_argument, NULL, 'd' },
-		{ "help", no_argument, NULL, 'h' },
 		{ NULL, 0, NULL, 0 },
 	};
 	struct decode_opts opts = {
@@ -616,61 +448,21 @@ int rmdctl_decode_run(int argc, char **argv)
 	};
 	const char *path = NULL;
 	FILE *in = stdin;
-	int c, status;
+	int r, status;
 
-	optind = 0; /* glibc: full re-initialisation */
-	opterr = 0;
-	while ((c = getopt_long(argc, argv, ":p:jm:d:h", longopts, NULL)) != -1) {
-		switch (c) {
-		case 'p':
-			if (rmdctl_parse_proto(optarg, &opts.proto) < 0) {
-				rmdctl_err(SUB, "unknown protocol \"%s\" (v3, v2 or mit)", optarg);
-				goto usage;
-			}
-			break;
-		case 'j':
-			opts.json = true;
-			break;
-		case 'm':
-			if (rmd_mit_ranges_parse(optarg, &opts.ranges) < 0) {
-				rmdctl_err(
-					SUB,
-					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
-					optarg);
-				goto usage;
-			}
-			break;
-		case 'd':
-			if (!strcmp(optarg, "request")) {
-				opts.dir = RMD_DIR_REQUEST;
-			} else if (!strcmp(optarg, "reply")) {
-				opts.dir = RMD_DIR_REPLY;
-			} else {
-				rmdctl_err(SUB, "bad --direction \"%s\" (request or reply)",
-					   optarg);
-				goto usage;
-			}
-			break;
-		case 'h':
-			rmdctl_decode_usage(stdout);
-			return RMDCTL_EXIT_OK;
-		case ':':
-			rmdctl_err(SUB, "option \"%s\" needs a value", argv[optind - 1]);
-			goto usage;
-		default:
-			rmdctl_err(SUB, "unknown option \"%s\"", argv[optind - 1]);
-			goto usage;
-		}
-	}
+	r = rmdctl_codec_getopt(argc, argv, ":p:jm:d:h", longopts, &opts.proto, &opts.ranges,
+				rmdctl_decode_usage, decode_opt, &opts);
+	if (r >= 0)
+		return r;
 	if (argc - optind > 1) {
-		rmdctl_err(SUB, "one FILE at most");
+		tool_log(TOOL_LOG_ERR, "one FILE at most");
 		goto usage;
 	}
 	if (optind < argc && strcmp(argv[optind], "-")) {
 		path = argv[optind];
 		in = fopen(path, "r");
 		if (!in) {
-			rmdctl_err(SUB, "%s: %s", path, strerror(errno));
+			tool_log(TOOL_LOG_ERR, "%s: %s", path, strerror(errno));
 			return RMDCTL_EXIT_DATA;
 		}
 	}
@@ -680,7 +472,7 @@ int rmdctl_decode_run(int argc, char **argv)
 	if (path)
 		fclose(in);
 	if (fflush(stdout) != 0 || ferror(stdout)) {
-		rmdctl_err(SUB, "write error: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "write error: %s", strerror(errno));
 		status = RMDCTL_EXIT_DATA;
 	}
 	return status;

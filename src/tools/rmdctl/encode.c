@@ -18,11 +18,11 @@
 #include <string.h>
 
 #include "rmd/codec.h"
+#include "rmd/describe.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmdctl.h"
 
-#define SUB "encode"
 #define MAX_ARGS 4
 
 enum {
@@ -273,9 +273,9 @@ static int set_field(const struct enc_ctx *ctx, const char *what, const struct r
 	double q;
 
 	if (!fs) {
-		rmdctl_err(SUB, "%s: the %s table row 0x%02X (%s) has no request field %s", what,
-			   rmdctl_proto_name(ctx->table), spec->cmd, spec->name,
-			   rmd_field_key(fld));
+		tool_log(TOOL_LOG_ERR, "%s: the %s table row 0x%02X (%s) has no request field %s",
+			 what, rmd_proto_name(ctx->table), spec->cmd, spec->name,
+			 rmd_field_key(fld));
 		return RMDCTL_EXIT_DATA;
 	}
 	bits = 8u * fs->size;
@@ -293,21 +293,20 @@ static int set_field(const struct enc_ctx *ctx, const char *what, const struct r
 		rmd_msg_set(msg, fld, (int64_t)llround(q));
 		return 0;
 	}
-	rmdctl_field_label(fld, label, sizeof(label), &unit);
-	rmdctl_fmt_real(vs, sizeof(vs), v, 15);
-	rmdctl_fmt_real(los, sizeof(los), (double)lo * fs->scale, 15);
-	rmdctl_fmt_real(his, sizeof(his), (double)hi * fs->scale, 15);
+	rmd_field_label(fld, label, sizeof(label), &unit);
+	rmd_fmt_real(vs, sizeof(vs), v, 15);
+	rmd_fmt_real(los, sizeof(los), (double)lo * fs->scale, 15);
+	rmd_fmt_real(his, sizeof(his), (double)hi * fs->scale, 15);
 	if (lim)
-		rmdctl_err(SUB, "%s: %s = %s%s%s is out of range %s..%s%s%s (%s)", what,
-			   rmd_field_key(fld), vs, *unit ? " " : "", unit, los, his,
-			   *unit ? " " : "", unit, lim->cite);
+		tool_log(TOOL_LOG_ERR, "%s: %s = %s%s%s is out of range %s..%s%s%s (%s)", what,
+			 rmd_field_key(fld), vs, *unit ? " " : "", unit, los, his, *unit ? " " : "",
+			 unit, lim->cite);
 	else
-		rmdctl_err(
-			SUB,
-			"%s: %s = %s%s%s is out of range %s..%s%s%s (a %s %u-bit field of 0x%02X)",
-			what, rmd_field_key(fld), vs, *unit ? " " : "", unit, los, his,
-			*unit ? " " : "", unit, fs->is_signed ? "signed" : "unsigned", bits,
-			spec->cmd);
+		tool_log(TOOL_LOG_ERR,
+			 "%s: %s = %s%s%s is out of range %s..%s%s%s (a %s %u-bit field of 0x%02X)",
+			 what, rmd_field_key(fld), vs, *unit ? " " : "", unit, los, his,
+			 *unit ? " " : "", unit, fs->is_signed ? "signed" : "unsigned", bits,
+			 spec->cmd);
 	return RMDCTL_EXIT_USAGE;
 }
 
@@ -315,7 +314,7 @@ static int need_id(const struct enc_ctx *ctx, const struct enc_cmd *ec)
 {
 	if (ctx->motor_id > 0)
 		return 0;
-	rmdctl_err(SUB, "%s needs --id N (motor 1..%d)", ec->name, RMD_MAX_MOTORS);
+	tool_log(TOOL_LOG_ERR, "%s needs --id N (motor 1..%d)", ec->name, RMD_MAX_MOTORS);
 	cmd_usage(ec);
 	return RMDCTL_EXIT_USAGE;
 }
@@ -325,8 +324,8 @@ static const struct rmd_cmd_spec *find_row(const struct enc_ctx *ctx, const char
 	const struct rmd_cmd_spec *spec = rmd_cmd_find(ctx->table, cmd);
 
 	if (!spec)
-		rmdctl_err(SUB, "%s: command 0x%02X is not in the %s codec table", what, cmd,
-			   rmdctl_proto_name(ctx->table));
+		tool_log(TOOL_LOG_ERR, "%s: command 0x%02X is not in the %s codec table", what, cmd,
+			 rmd_proto_name(ctx->table));
 	return spec;
 }
 
@@ -337,8 +336,8 @@ static int finish(const struct enc_ctx *ctx, const char *what, const struct rmd_
 			   out);
 
 	if (r < 0) {
-		rmdctl_err(SUB, "%s: the %s codec refused 0x%02X (%s): %s", what,
-			   rmdctl_proto_name(ctx->table), spec->cmd, spec->name, strerror(-r));
+		tool_log(TOOL_LOG_ERR, "%s: the %s codec refused 0x%02X (%s): %s", what,
+			 rmd_proto_name(ctx->table), spec->cmd, spec->name, strerror(-r));
 		return RMDCTL_EXIT_DATA;
 	}
 	return 0;
@@ -348,7 +347,7 @@ static int parse_value(const struct enc_cmd *ec, const char *s, double *v)
 {
 	if (rmdctl_parse_double(s, v) == 0)
 		return 0;
-	rmdctl_err(SUB, "%s: \"%s\" is not a number", ec->name, s);
+	tool_log(TOOL_LOG_ERR, "%s: \"%s\" is not a number", ec->name, s);
 	cmd_usage(ec);
 	return RMDCTL_EXIT_USAGE;
 }
@@ -374,16 +373,16 @@ static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 		}
 	}
 	if (!in_proto) {
-		rmdctl_err(SUB, "%s: not a command of protocol %s%s", ec->name,
-			   rmdctl_proto_name(ctx->proto),
-			   ctx->table == RMD_PROTO_V3 ? " (V2 only: --protocol v2)" :
-							" (V3 only: --protocol v3)");
+		tool_log(TOOL_LOG_ERR, "%s: not a command of protocol %s%s", ec->name,
+			 rmd_proto_name(ctx->proto),
+			 ctx->table == RMD_PROTO_V3 ? " (V2 only: --protocol v2)" :
+						      " (V3 only: --protocol v3)");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (!v) {
-		rmdctl_err(SUB, "%s: wrong number of arguments for protocol %s", ec->name,
-			   rmdctl_proto_name(ctx->proto));
+		tool_log(TOOL_LOG_ERR, "%s: wrong number of arguments for protocol %s", ec->name,
+			 rmd_proto_name(ctx->proto));
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
@@ -418,8 +417,9 @@ static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 	int r;
 
 	if (argc != (ctx->table == RMD_PROTO_V2 ? 1 : 0)) {
-		rmdctl_err(SUB, "%s: protocol %s takes %s", ec->name, rmdctl_proto_name(ctx->proto),
-			   ctx->table == RMD_PROTO_V2 ? "one LOOP" : "no argument");
+		tool_log(TOOL_LOG_ERR, "%s: protocol %s takes %s", ec->name,
+			 rmd_proto_name(ctx->proto),
+			 ctx->table == RMD_PROTO_V2 ? "one LOOP" : "no argument");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
@@ -430,7 +430,7 @@ static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 			if (!strcmp(argv[0], loops[i]))
 				break;
 		if (i == sizeof(loops) / sizeof(loops[0])) {
-			rmdctl_err(SUB, "%s: unknown LOOP \"%s\"", ec->name, argv[0]);
+			tool_log(TOOL_LOG_ERR, "%s: unknown LOOP \"%s\"", ec->name, argv[0]);
 			cmd_usage(ec);
 			return RMDCTL_EXIT_USAGE;
 		}
@@ -458,12 +458,12 @@ static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 	int ret;
 
 	if (ctx->proto == RMD_PROTO_V2) {
-		rmdctl_err(SUB, "mit: MIT mode is V3 firmware's (use --protocol v3 or mit)");
+		tool_log(TOOL_LOG_ERR, "mit: MIT mode is V3 firmware's (use --protocol v3 or mit)");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (argc != 5) {
-		rmdctl_err(SUB, "mit: needs 5 values");
+		tool_log(TOOL_LOG_ERR, "mit: needs 5 values");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
@@ -478,11 +478,11 @@ static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 		if (v[i] >= lo[i] && v[i] <= hi[i])
 			continue;
 		/* rmd_mit_encode_cmd() would clamp: say so instead. */
-		rmdctl_fmt_real(vs, sizeof(vs), v[i], 10);
-		rmdctl_fmt_real(los, sizeof(los), lo[i], 10);
-		rmdctl_fmt_real(his, sizeof(his), hi[i], 10);
-		rmdctl_err(SUB, "mit: %s %s%s is out of range %s..%s%s (--mit-ranges)", names[i],
-			   vs, units[i], los, his, units[i]);
+		rmd_fmt_real(vs, sizeof(vs), v[i], 10);
+		rmd_fmt_real(los, sizeof(los), lo[i], 10);
+		rmd_fmt_real(his, sizeof(his), hi[i], 10);
+		tool_log(TOOL_LOG_ERR, "mit: %s %s%s is out of range %s..%s%s (--mit-ranges)",
+			 names[i], vs, units[i], los, his, units[i]);
 		return RMDCTL_EXIT_USAGE;
 	}
 	mc = (struct rmd_mit_cmd){
@@ -490,7 +490,7 @@ static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 	};
 	ret = rmd_mit_encode_cmd(r, (uint8_t)ctx->motor_id, &mc, out);
 	if (ret < 0) {
-		rmdctl_err(SUB, "mit: the MIT codec refused it: %s", strerror(-ret));
+		tool_log(TOOL_LOG_ERR, "mit: the MIT codec refused it: %s", strerror(-ret));
 		return RMDCTL_EXIT_DATA;
 	}
 	return 0;
@@ -517,8 +517,8 @@ static const struct rmd_cmd_spec *raw_row(const struct enc_ctx *ctx, const char 
 	errno = 0;
 	cmd = strtoul(s, &end, 16);
 	if (end == s || *end || errno || cmd > 0xFF || *s == '-' || *s == '+') {
-		rmdctl_err(SUB, "raw: \"%s\" is neither a command byte nor a %s row name", s,
-			   rmdctl_proto_name(ctx->table));
+		tool_log(TOOL_LOG_ERR, "raw: \"%s\" is neither a command byte nor a %s row name", s,
+			 rmd_proto_name(ctx->table));
 		return NULL;
 	}
 	return find_row(ctx, "raw", (uint8_t)cmd);
@@ -534,7 +534,7 @@ static int enc_raw(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 	int r;
 
 	if (argc < 1) {
-		rmdctl_err(SUB, "raw: needs CMD");
+		tool_log(TOOL_LOG_ERR, "raw: needs CMD");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
@@ -558,8 +558,9 @@ static int enc_raw(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 				fs = &spec->req.f[j];
 		}
 		if (!fs) {
-			rmdctl_err(SUB, "raw: \"%s\" is not FIELD=VALUE with a request field of %s",
-				   argv[i], spec->name);
+			tool_log(TOOL_LOG_ERR,
+				 "raw: \"%s\" is not FIELD=VALUE with a request field of %s",
+				 argv[i], spec->name);
 			fprintf(stderr, "request fields of %s:", spec->name);
 			for (unsigned j = 0; j < spec->req.n; j++)
 				fprintf(stderr, " %s",
@@ -568,15 +569,15 @@ static int enc_raw(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 			return RMDCTL_EXIT_USAGE;
 		}
 		if (given & (UINT64_C(1) << fs->field)) {
-			rmdctl_err(SUB, "raw: %s given twice",
-				   rmd_field_key((enum rmd_field)fs->field));
+			tool_log(TOOL_LOG_ERR, "raw: %s given twice",
+				 rmd_field_key((enum rmd_field)fs->field));
 			return RMDCTL_EXIT_USAGE;
 		}
 		given |= UINT64_C(1) << fs->field;
 		if (fs->field == RMD_FLD_MODEL) {
 			/* V3 §2.32: up to 7 ASCII characters. */
 			if (strlen(eq + 1) > 7) {
-				rmdctl_err(SUB, "raw: model is at most 7 characters");
+				tool_log(TOOL_LOG_ERR, "raw: model is at most 7 characters");
 				return RMDCTL_EXIT_USAGE;
 			}
 			rmd_msg_set(&msg, RMD_FLD_MODEL, rmd_model_raw(eq + 1));
@@ -605,13 +606,29 @@ static void print_frame(const struct rmd_frame *f)
 	putchar('\n');
 }
 
+/* encode's own option: --id. */
+static int encode_opt(int c, void *p)
+{
+	struct enc_ctx *ctx = p;
+	char *end;
+	long id;
+
+	(void)c; /* 'i' */
+	errno = 0;
+	id = strtol(optarg, &end, 10);
+	if (end == optarg || *end || errno || id < 1 || id > RMD_MAX_MOTORS) {
+		tool_log(TOOL_LOG_ERR, "bad --id \"%s\" (motor 1..%d)", optarg, RMD_MAX_MOTORS);
+		return -1;
+	}
+	ctx->motor_id = (int)id;
+	return 0;
+}
+
 int rmdctl_encode_run(int argc, char **argv)
 {
 	static const struct option longopts[] = {
-		{ "protocol", required_argument, NULL, 'p' },
+		RMDCTL_CODEC_LONGOPTS,
 		{ "id", required_argument, NULL, 'i' },
-		{ "mit-ranges", required_argument, NULL, 'm' },
-		{ "help", no_argument, NULL, 'h' },
 		{ NULL, 0, NULL, 0 },
 	};
 	struct enc_ctx ctx = {
@@ -621,61 +638,23 @@ int rmdctl_encode_run(int argc, char **argv)
 	};
 	const struct enc_cmd *ec = NULL;
 	struct rmd_frame frame;
-	char *end;
-	long id;
-	int c, r;
+	int r;
 
-	optind = 0; /* glibc: full re-initialisation */
-	opterr = 0;
 	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
-	while ((c = getopt_long(argc, argv, "+:p:i:m:h", longopts, NULL)) != -1) {
-		switch (c) {
-		case 'p':
-			if (rmdctl_parse_proto(optarg, &ctx.proto) < 0) {
-				rmdctl_err(SUB, "unknown protocol \"%s\" (v3, v2 or mit)", optarg);
-				goto usage;
-			}
-			break;
-		case 'i':
-			errno = 0;
-			id = strtol(optarg, &end, 10);
-			if (end == optarg || *end || errno || id < 1 || id > RMD_MAX_MOTORS) {
-				rmdctl_err(SUB, "bad --id \"%s\" (motor 1..%d)", optarg,
-					   RMD_MAX_MOTORS);
-				goto usage;
-			}
-			ctx.motor_id = (int)id;
-			break;
-		case 'm':
-			if (rmd_mit_ranges_parse(optarg, &ctx.r) < 0) {
-				rmdctl_err(
-					SUB,
-					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
-					optarg);
-				goto usage;
-			}
-			break;
-		case 'h':
-			rmdctl_encode_usage(stdout);
-			return RMDCTL_EXIT_OK;
-		case ':':
-			rmdctl_err(SUB, "option \"%s\" needs a value", argv[optind - 1]);
-			goto usage;
-		default:
-			rmdctl_err(SUB, "unknown option \"%s\"", argv[optind - 1]);
-			goto usage;
-		}
-	}
+	r = rmdctl_codec_getopt(argc, argv, "+:p:i:m:h", longopts, &ctx.proto, &ctx.r,
+				rmdctl_encode_usage, encode_opt, &ctx);
+	if (r >= 0)
+		return r;
 	ctx.table = rmd_proto_table(ctx.proto);
 	if (optind >= argc) {
-		rmdctl_err(SUB, "missing COMMAND");
+		tool_log(TOOL_LOG_ERR, "missing COMMAND");
 		goto usage;
 	}
 	for (size_t i = 0; i < NENC; i++)
 		if (!strcmp(enc_cmds[i].name, argv[optind]))
 			ec = &enc_cmds[i];
 	if (!ec) {
-		rmdctl_err(SUB, "unknown command \"%s\"", argv[optind]);
+		tool_log(TOOL_LOG_ERR, "unknown command \"%s\"", argv[optind]);
 		goto usage;
 	}
 	optind++;
@@ -687,7 +666,7 @@ int rmdctl_encode_run(int argc, char **argv)
 		return r;
 	print_frame(&frame);
 	if (fflush(stdout) != 0) {
-		rmdctl_err(SUB, "write error: %s", strerror(errno));
+		tool_log(TOOL_LOG_ERR, "write error: %s", strerror(errno));
 		return RMDCTL_EXIT_DATA;
 	}
 	return RMDCTL_EXIT_OK;

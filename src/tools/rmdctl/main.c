@@ -1,86 +1,169 @@
 // SPDX-License-Identifier: MIT
 /*
- * rmdctl: command-line tool for RMD motors (layer 7 of DESIGN.md).
+ * rmdctl: command-line tool for RMD motors (the tools layer of docs/design.md).
  *
- *   rmdctl decode ...   candump text -> decoded quantities (rmdctl_decode.c)
- *   rmdctl encode ...   one command -> a frame in cansend syntax (rmdctl_encode.c)
+ *   decode.c    candump text -> decoded quantities
+ *   encode.c    one command -> a frame in cansend syntax
+ *   read.c      scan, info, status, monitor
+ *   settings.c  set-id, set-zero, set-timeout, accel, pid
+ *   motion.c    brake, stop, off, reset, move
+ *   bench.c     what the device commands share: command line, bus, --trace,
+ *               confirmation, transactions; output.c prints their results
  *
- * Subcommands are rows of `cmds` below: adding one is a new row and a
- * rmdctl_<name>.c file.  Exit statuses: 0 ok, 1 data or device errors, 2 usage.
- * Everything here is non-rt.
+ * Commands are the rows of `cmds` below: name, one-line summary, arguments,
+ * options, help and run.  decode and encode parse their own command line.
+ * Exit statuses: 0 ok, 1 data or device errors, 2 usage.  Non-rt.
  */
 #include <errno.h>
+#include <getopt.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "rmdctl.h"
 
+/* A device command: name, summary, args, min and max arg count, options, help, run. */
+#define DEV(n, s, a, lo, hi, o, h, r)                                                          \
+	{                                                                                      \
+		.name = n, .summary = s, .args = a, .min_args = lo, .max_args = hi, .opts = o, \
+		.help = h, .run = r                                                            \
+	}
+
 static const struct rmdctl_cmd cmds[] = {
-	{ "decode", "print candump output as decoded quantities (text or JSON)", rmdctl_decode_run,
-	  rmdctl_decode_usage },
-	{ "encode", "print one command as a frame in cansend syntax", rmdctl_encode_run,
-	  rmdctl_encode_usage },
-	{ "scan", "list the motors that answer on a bus", rmdctl_dev_run, rmdctl_scan_usage },
-	{ "info", "model, firmware, runtime, acceleration, gains, mode of a motor", rmdctl_dev_run,
-	  rmdctl_info_usage },
-	{ "status", "temperature, voltage, errors, angle, speed, current of a motor",
-	  rmdctl_dev_run, rmdctl_status_usage },
-	{ "monitor", "live status table of the motors on a bus", rmdctl_dev_run,
-	  rmdctl_monitor_usage },
-	{ "set-id", "renumber a motor (ROM)", rmdctl_dev_run, rmdctl_set_id_usage },
-	{ "set-zero", "make the current position the zero (ROM)", rmdctl_dev_run,
-	  rmdctl_set_zero_usage },
-	{ "set-timeout", "set the comm-loss protection time (ROM)", rmdctl_dev_run,
-	  rmdctl_set_timeout_usage },
-	{ "accel", "read or write acceleration", rmdctl_dev_run, rmdctl_accel_usage },
-	{ "pid", "read or write PI gains", rmdctl_dev_run, rmdctl_pid_usage },
-	{ "brake", "lock or release the brake", rmdctl_dev_run, rmdctl_brake_usage },
-	{ "stop", "stop and hold position", rmdctl_dev_run, rmdctl_stop_usage },
-	{ "off", "turn the output off", rmdctl_dev_run, rmdctl_off_usage },
-	{ "reset", "reset a motor and wait for it", rmdctl_dev_run, rmdctl_reset_usage },
-	{ "move", "small, slow absolute move, waiting for arrival", rmdctl_dev_run,
-	  rmdctl_move_usage },
+	{ .name = "decode",
+	  .summary = "print candump output as decoded quantities (text or JSON)",
+	  .main = rmdctl_decode_run,
+	  .usage = rmdctl_decode_usage },
+	{ .name = "encode",
+	  .summary = "print one command as a frame in cansend syntax",
+	  .main = rmdctl_encode_run,
+	  .usage = rmdctl_encode_usage },
+	DEV("scan", "list the motors that answer on a bus", "[IDS]", 0, 1, O_JSON,
+	    "Probes ids 1..32 (or IDS, e.g. 1-8) with 0x9A status, pipelined, then asks\n"
+	    "the motors that answered for their model (0xB5) and firmware date (0xB2;\n"
+	    "V3 only).  Lists id, model, firmware date, protocol, temperature, voltage,\n"
+	    "brake and errors.  Exit 1 when no motor answers.\n",
+	    rmdctl_run_scan),
+	DEV("info", "model, firmware, runtime, acceleration, gains, mode of a motor", "ID", 1, 1,
+	    O_JSON,
+	    "Model (0xB5), firmware date (0xB2), runtime (0xB1), acceleration (0x42), PI\n"
+	    "gains (0x30; V2 0x30..0x35) and run mode (0x70).  The comm-loss timeout\n"
+	    "(0xB3) cannot be read back: the protocol only writes it.\n",
+	    rmdctl_run_info),
+	DEV("status", "temperature, voltage, errors, angle, speed, current of a motor", "ID", 1, 1,
+	    O_JSON,
+	    "Temperature, voltage, error flags by name and brake (0x9A), multi-turn\n"
+	    "angle (0x92), speed and current (0x9C).\n",
+	    rmdctl_run_status),
+	DEV("monitor", "live status table of the motors on a bus", "[IDS]", 0, 1,
+	    O_JSON | O_ONCE | O_INTERVAL,
+	    "A live table of the status of every motor (IDS, or those that answer a\n"
+	    "probe of 1..32), refreshed every 200 ms until Ctrl-C; on a terminal the\n"
+	    "screen is cleared each time.  --once prints one table and exits (1 if a\n"
+	    "motor did not answer).\n",
+	    rmdctl_run_monitor),
+	DEV("set-id", "renumber a motor (ROM)", "OLD NEW", 2, 2, O_YES | O_FORCE,
+	    "Renumbers motor OLD to NEW (0x79, ROM) and checks that NEW answers.  V3\n"
+	    "sends 0x79 on 0x300, which every motor on the bus with its CAN-ID filter\n"
+	    "off (0x20 index 2) obeys: with other motors answering, set-id refuses\n"
+	    "unless --force.  Asks for confirmation.\n",
+	    rmdctl_run_set_id),
+	DEV("set-zero", "make the current position the zero (ROM)", "ID", 1, 1, O_YES,
+	    "Makes the current position the zero (0x64, ROM).  It applies after a reset\n"
+	    "(`rmdctl reset ID`, 0x76) or a power cycle.  Asks for confirmation.\n",
+	    rmdctl_run_set_zero),
+	DEV("set-timeout", "set the comm-loss protection time (ROM)", "ID MS", 2, 2, O_YES,
+	    "Sets the comm-loss protection time (0xB3, ROM; 0 turns it off) and checks\n"
+	    "the echo.  V3 only.  Asks for confirmation.\n",
+	    rmdctl_run_set_timeout),
+	DEV("accel", "read or write acceleration", "ID [INDEX DPS2]", 1, 3,
+	    O_JSON | O_YES | O_FORCE,
+	    "Reads the acceleration (0x42), or writes one (0x43): V3 by INDEX, 0\n"
+	    "position-accel, 1 position-decel, 2 speed-accel, 3 speed-decel (RAM and\n"
+	    "ROM: asks for confirmation), DPS2 100..60000 dps/s; V2 `accel ID DPS2`\n"
+	    "(RAM).\n",
+	    rmdctl_run_accel),
+	DEV("pid", "read or write PI gains", "ID [CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI]", 1,
+	    7, O_JSON | O_YES | O_ROM,
+	    "Reads the PI gains of the current, speed and position loops (0x30), or\n"
+	    "writes all six: V3 integers 0..255 (units of 1/256 of a model-dependent\n"
+	    "maximum) with 0x31 (RAM) or, with --rom, 0x32 (ROM: asks for\n"
+	    "confirmation); V2 Q24 reals with 0x36..0x3B / 0x3C..0x41.\n",
+	    rmdctl_run_pid),
+	DEV("brake", "lock or release the brake", "ID on|off", 2, 2, O_YES,
+	    "on (or lock): brake locked (0x78).  off (or release): brake released\n"
+	    "(0x77); the load may move the shaft, so it asks for confirmation.\n",
+	    rmdctl_run_brake),
+	DEV("stop", "stop and hold position", "ID", 1, 1, 0,
+	    "Stops the motor and holds its position (0x81).\n", rmdctl_run_stop),
+	DEV("off", "turn the output off", "ID", 1, 1, 0,
+	    "Turns the output off and clears the running mode (0x80); the shaft is then\n"
+	    "free (a brake, if any, holds it only when locked).\n",
+	    rmdctl_run_off),
+	DEV("reset", "reset a motor and wait for it", "ID", 1, 1, 0,
+	    "Resets the motor (0x76) and waits until it answers again.  Multi-turn\n"
+	    "position is RAM: it restarts within +-180 deg.  ROM writes (set-zero)\n"
+	    "take effect.\n",
+	    rmdctl_run_reset),
+	DEV("move", "small, slow absolute move, waiting for arrival", "ID DEG", 2, 2,
+	    O_JSON | O_YES | O_SPEED | O_FORCE | O_NOWAIT,
+	    "Moves to the absolute multi-turn angle DEG at --speed (default 30 dps) with\n"
+	    "0xA4, releasing the brake first if it is locked, then polls the angle\n"
+	    "(0x92) every 20 ms until the motor is within 0.2 deg of DEG and reports\n"
+	    "the final angle (--no-wait: return at once).  Refuses speeds above 90 dps,\n"
+	    "moves longer than 360 deg and motors reporting errors unless --force.\n"
+	    "Ctrl-C, a stall or a timeout stops the motor (0x81).  Asks for\n"
+	    "confirmation.\n",
+	    rmdctl_run_move),
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
-void rmdctl_err(const char *sub, const char *fmt, ...)
+int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const struct option *longopts,
+			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx)
 {
-	va_list ap;
+	int c;
 
-	fprintf(stderr, "rmdctl %s: ", sub);
-	va_start(ap, fmt);
-	vfprintf(stderr, fmt, ap);
-	va_end(ap);
-	fputc('\n', stderr);
-}
-
-int rmdctl_parse_proto(const char *s, enum rmd_proto *proto)
-{
-	if (!strcmp(s, "v3") || !strcmp(s, "V3"))
-		*proto = RMD_PROTO_V3;
-	else if (!strcmp(s, "v2") || !strcmp(s, "V2"))
-		*proto = RMD_PROTO_V2;
-	else if (!strcmp(s, "mit") || !strcmp(s, "MIT"))
-		*proto = RMD_PROTO_MIT;
-	else
-		return -EINVAL;
-	return 0;
-}
-
-const char *rmdctl_proto_name(enum rmd_proto proto)
-{
-	switch (proto) {
-	case RMD_PROTO_V3:
-		return "V3";
-	case RMD_PROTO_V2:
-		return "V2";
-	case RMD_PROTO_MIT:
-		return "MIT";
+	optind = 0; /* glibc: full re-initialisation */
+	opterr = 0;
+	while ((c = getopt_long(argc, argv, optstring, longopts, NULL)) != -1) {
+		switch (c) {
+		case 'p':
+			if (rmd_proto_parse(optarg, proto) < 0) {
+				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (v3, v2 or mit)",
+					 optarg);
+				goto usage;
+			}
+			break;
+		case 'm':
+			if (rmd_mit_ranges_parse(optarg, ranges) < 0) {
+				tool_log(
+					TOOL_LOG_ERR,
+					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
+					optarg);
+				goto usage;
+			}
+			break;
+		case 'h':
+			usage(stdout);
+			return RMDCTL_EXIT_OK;
+		case ':':
+			tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
+			goto usage;
+		case '?':
+			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
+			goto usage;
+		default:
+			if (own(c, ctx) < 0)
+				goto usage;
+			break;
+		}
 	}
-	return "?";
+	return -1;
+usage:
+	usage(stderr);
+	return RMDCTL_EXIT_USAGE;
 }
 
 int rmdctl_parse_double(const char *s, double *v)
@@ -92,50 +175,6 @@ int rmdctl_parse_double(const char *s, double *v)
 	if (end == s || *end != '\0' || errno == ERANGE || !isfinite(*v))
 		return -EINVAL;
 	return 0;
-}
-
-/* Key suffixes that carry a unit (see enum rmd_field). */
-static const struct {
-	const char *suffix;
-	const char *unit;
-} unit_suffixes[] = {
-	{ "_c", "°C" },	   { "_a", "A" }, { "_dps", "dps" }, { "_dps2", "dps/s" },
-	{ "_deg", "deg" }, { "_v", "V" }, { "_w", "W" },     { "_ms", "ms" },
-};
-
-void rmdctl_field_label(enum rmd_field fld, char *label, size_t size, const char **unit)
-{
-	const char *key = rmd_field_key(fld);
-	size_t n = strlen(key);
-
-	*unit = "";
-	for (size_t i = 0; i < sizeof(unit_suffixes) / sizeof(unit_suffixes[0]); i++) {
-		size_t sl = strlen(unit_suffixes[i].suffix);
-
-		if (n > sl && !strcmp(key + n - sl, unit_suffixes[i].suffix)) {
-			*unit = unit_suffixes[i].unit;
-			n -= sl;
-			break;
-		}
-	}
-	if (size == 0)
-		return;
-	if (n >= size)
-		n = size - 1;
-	for (size_t i = 0; i < n; i++)
-		label[i] = key[i] == '_' ? ' ' : key[i];
-	label[n] = '\0';
-}
-
-void rmdctl_fmt_real(char *buf, size_t size, double v, int digits)
-{
-	if (!isfinite(v)) {
-		snprintf(buf, size, "null");
-		return;
-	}
-	if (v == 0)
-		v = 0; /* no "-0" */
-	snprintf(buf, size, "%.*g", digits, v);
 }
 
 static void usage(FILE *f)
@@ -155,6 +194,8 @@ static void usage(FILE *f)
 		   "the codec refuses, a motor or bus that failed); 2 usage errors, and\n"
 		   "refused confirmations or safety limits.\n");
 }
+
+static char log_name[32];
 
 static const struct rmdctl_cmd *find_cmd(const char *name)
 {
@@ -188,7 +229,10 @@ int main(int argc, char **argv)
 			usage(stderr);
 			return RMDCTL_EXIT_USAGE;
 		}
-		cmd->usage(stdout);
+		if (cmd->usage)
+			cmd->usage(stdout);
+		else
+			rmdctl_dev_usage(stdout, cmd);
 		return RMDCTL_EXIT_OK;
 	}
 	cmd = find_cmd(argv[1]);
@@ -197,5 +241,10 @@ int main(int argc, char **argv)
 		usage(stderr);
 		return RMDCTL_EXIT_USAGE;
 	}
-	return cmd->run(argc - 1, argv + 1);
+	/* Messages read "rmdctl scan: ...". */
+	snprintf(log_name, sizeof(log_name), "rmdctl %s", cmd->name);
+	tool_log_init(log_name, TOOL_LOG_DEBUG, TOOL_LOG_NO_LEVEL);
+	if (cmd->main)
+		return cmd->main(argc - 1, argv + 1);
+	return rmdctl_dev_run(cmd, argc - 1, argv + 1);
 }

@@ -1,30 +1,60 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * rmdctl internals: the subcommand table's entries and the helpers the
- * subcommands share.  Everything here is non-rt (a command-line tool).
+ * rmdctl internals: the command table's rows and what the commands share.
+ * Everything here is non-rt (a command-line tool).
  */
 #ifndef RMDCTL_H
 #define RMDCTL_H
 
+#include <signal.h>
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <stdio.h>
+#include <getopt.h>
 
+#include "rmd/bus.h"
 #include "rmd/codec.h"
 #include "rmd/mit.h"
+#include "rmd/txn.h"
+#include "tools/common/log.h"
 
-/* Exit statuses of every subcommand (printed by `rmdctl --help`). */
+/* Exit statuses of every command (printed by `rmdctl --help`). */
 enum {
 	RMDCTL_EXIT_OK = 0,    /* everything worked */
 	RMDCTL_EXIT_DATA = 1,  /* bad input data, I/O error, or a codec refusal */
 	RMDCTL_EXIT_USAGE = 2, /* bad command line */
 };
 
-/* One subcommand: `rmdctl NAME ARGS...` calls run(argc, argv) with argv[0] == NAME. */
+/* Options of a device command beyond the bus options (struct rmdctl_cmd.opts). */
+enum {
+	O_JSON = 1u << 0,
+	O_YES = 1u << 1,
+	O_ROM = 1u << 2,
+	O_SPEED = 1u << 3,
+	O_FORCE = 1u << 4,
+	O_NOWAIT = 1u << 5,
+	O_ONCE = 1u << 6,
+	O_INTERVAL = 1u << 7,
+};
+
+struct dev;
+
+/*
+ * One command: `rmdctl NAME ARGS...`.  Device commands have args, arity,
+ * opts, help and run (called with the options parsed and min_args..max_args
+ * positional arguments); decode and encode have main (argv[0] == NAME) and
+ * usage instead, as they parse their own command line.
+ */
 struct rmdctl_cmd {
 	const char *name;
-	const char *summary;
-	int (*run)(int argc, char **argv);
+	const char *summary; /* one line for `rmdctl help` */
+	const char *args;    /* positional arguments, for usage */
+	unsigned min_args, max_args;
+	unsigned opts; /* O_* */
+	const char *help;
+	int (*run)(struct dev *d, int argc, char **argv);
+	int (*main)(int argc, char **argv);
 	void (*usage)(FILE *f);
 };
 
@@ -33,41 +63,163 @@ void rmdctl_decode_usage(FILE *f);
 int rmdctl_encode_run(int argc, char **argv);
 void rmdctl_encode_usage(FILE *f);
 
-/* Device commands (rmdctl_dev.c): one run for all, argv[0] picks the command. */
-int rmdctl_dev_run(int argc, char **argv);
-void rmdctl_scan_usage(FILE *f);
-void rmdctl_info_usage(FILE *f);
-void rmdctl_status_usage(FILE *f);
-void rmdctl_monitor_usage(FILE *f);
-void rmdctl_set_id_usage(FILE *f);
-void rmdctl_set_zero_usage(FILE *f);
-void rmdctl_set_timeout_usage(FILE *f);
-void rmdctl_accel_usage(FILE *f);
-void rmdctl_pid_usage(FILE *f);
-void rmdctl_brake_usage(FILE *f);
-void rmdctl_stop_usage(FILE *f);
-void rmdctl_off_usage(FILE *f);
-void rmdctl_reset_usage(FILE *f);
-void rmdctl_move_usage(FILE *f);
+/* The long options rmdctl_codec_getopt() handles: first in decode's and encode's tables. */
+/* clang-format off */
+#define RMDCTL_CODEC_LONGOPTS \
+	{ "protocol", required_argument, NULL, 'p' }, \
+	{ "mit-ranges", required_argument, NULL, 'm' }, \
+	{ "help", no_argument, NULL, 'h' }
+/* clang-format on */
 
-/* "rmdctl SUB: message\n" on stderr. */
-void rmdctl_err(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-
-/* "v3" / "v2" / "mit" -> *proto.  Returns 0 or -EINVAL. */
-int rmdctl_parse_proto(const char *s, enum rmd_proto *proto);
-/* "V3" / "V2" / "MIT", for messages. */
-const char *rmdctl_proto_name(enum rmd_proto proto);
+/*
+ * The command line of decode and encode, up to their operands: the options
+ * both have (-p/--protocol into *proto, -m/--mit-ranges into *ranges,
+ * -h/--help) here, each other option character through own(c, ctx), which
+ * returns 0 or -1 (reported).  Returns -1 to go on (optind at the first
+ * operand), or the exit status: RMDCTL_EXIT_OK after --help, or
+ * RMDCTL_EXIT_USAGE after a bad option (reported, usage on stderr).
+ */
+int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const struct option *longopts,
+			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx);
 
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
 
-/*
- * Human label and unit of a field, derived from its JSON key: "voltage_v" ->
- * "voltage", "V"; "encoder" -> "encoder", "".  label gets at most size - 1 chars.
- */
-void rmdctl_field_label(enum rmd_field fld, char *label, size_t size, const char **unit);
+/* ---- device commands (bench.c) ---------------------------------------------------------- */
 
-/* A number as JSON and humans want it: no exponent noise ("48.5"), NaN/Inf as "null". */
-void rmdctl_fmt_real(char *buf, size_t size, double v, int digits);
+/* Requests in one batch: three reads for each of 32 motors. */
+#define MAX_REQS (3 * RMD_MAX_MOTORS)
+/* Defaults of --interval (monitor) and --speed (move). */
+#define MONITOR_INTERVAL_MS 200.0
+#define MOVE_SPEED_DPS 30.0
+
+/* Everything one run of a device command holds. */
+struct dev {
+	const struct rmdctl_cmd *cmd;
+	uint8_t id; /* commands whose first argument is ID: that motor */
+	/* options */
+	const char *bus_spec;
+	uint32_t baud;
+	enum rmd_proto proto;
+	double timeout_ms;
+	unsigned tries;
+	bool json, yes, rom, force, no_wait, once, trace;
+	double speed_dps;
+	double interval_ms;
+	/* the bus */
+	struct rmd_bus bus;  /* the transport */
+	struct rmd_bus tbus; /* --trace: prints every frame, then calls bus */
+	struct rmd_bus *b;   /* what the commands use: &bus or &tbus */
+	char name[sizeof(((struct rmd_bus *)0)->name)]; /* the bus's, kept after close */
+	struct rmd_txn_opts txn;
+	int64_t t0_ns; /* start, for --trace and monitor times */
+};
+
+/* One request to one motor and what came of it. */
+struct req {
+	uint8_t id;
+	struct rmd_msg msg; /* request */
+	struct rmd_txn t;
+	bool answered;	    /* a frame matched */
+	bool ok;	    /* ... and decoded (echo rows: equal to the request) */
+	struct rmd_msg rep; /* decoded answer */
+};
+
+/* Fields gathered from several answers of one motor, in native units. */
+struct rec {
+	uint64_t present;
+	int64_t raw[RMD_FLD_COUNT];
+	double scale[RMD_FLD_COUNT];
+};
+
+/* Set by SIGINT/SIGTERM: waits end early, move stops the motor, monitor exits. */
+extern volatile sig_atomic_t rmdctl_interrupted;
+
+/* Parse the command line of `cmd` (argv[0] is its name), run it, report write errors. */
+int rmdctl_dev_run(const struct rmdctl_cmd *cmd, int argc, char **argv);
+/* `rmdctl CMD --help` of a device command. */
+void rmdctl_dev_usage(FILE *f, const struct rmdctl_cmd *c);
+
+const struct rmd_cmd_spec *rmdctl_spec(const struct dev *d, uint8_t cmd);
+/* "5", "0.5": a number of ms for messages. */
+const char *rmdctl_ms_str(char *buf, size_t size, double ms);
+/* A whole-string unsigned integer in [lo, hi].  Returns 0 or -EINVAL. */
+int rmdctl_parse_uint(const char *s, uint64_t lo, uint64_t hi, uint64_t *v);
+/* A motor id 1..32 (reported when bad).  Returns 0 or -EINVAL. */
+int rmdctl_parse_id(const char *s, const char *what, uint8_t *id);
+void rmdctl_sleep_until(int64_t t_ns);
+/* ids[] = 1..32; returns 32. */
+unsigned rmdctl_all_ids(uint8_t *ids);
+
+/* "QUESTION? [y/N]" unless --yes: 0, RMDCTL_EXIT_USAGE (no terminal) or RMDCTL_EXIT_DATA. */
+int rmdctl_confirm(struct dev *d, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* Open --bus (with --trace, behind the tracing bus).  0 or RMDCTL_EXIT_DATA (reported). */
+int rmdctl_open_bus(struct dev *d);
+/*
+ * The same for a command that will ask (confirm: ROM writes, moves): without
+ * --yes and a terminal it refuses to "fmt..." first.  0 or an exit status.
+ */
+int rmdctl_open_bus_for(struct dev *d, bool confirm, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+void rmdctl_close_bus(struct dev *d);
+
+void rmdctl_req_init(struct req *q, uint8_t id, uint8_t cmd);
+/* q[0..n) as one pipelined batch: 0 (each q[i].ok says), RMDCTL_EXIT_DATA on a bus error. */
+int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n);
+/* Open the bus, rmdctl_run_reqs(), close it: 0 or an exit status. */
+int rmdctl_exchange(struct dev *d, struct req *q, unsigned n);
+/* One request; failure reported.  0 or RMDCTL_EXIT_DATA. */
+int rmdctl_ask(struct dev *d, struct req *q);
+/* "motor 3 did not answer 0x9A within 5 ms (3 tries)" + more. */
+void rmdctl_report_missing(struct dev *d, const struct req *q, const char *more);
+/* Every failed request of a batch reported; returns how many failed. */
+unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n);
+/* Probe ids[0..n) with 0x9A; found[] gets those that answered.  The count or -exit. */
+int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st);
+
+/* ---- output (output.c) ------------------------------------------------------------------ */
+
+bool rmdctl_rec_has(const struct rec *r, enum rmd_field f);
+/* Field f in native units. */
+double rmdctl_rec_val(const struct rec *r, enum rmd_field f);
+/* Fold the fields of an answer into r; keep what r has unless overwrite. */
+void rmdctl_rec_add(struct rec *r, const struct rmd_cmd_spec *spec, const struct rmd_msg *m,
+		    bool overwrite);
+void rmdctl_rec_add_req(struct rec *r, const struct dev *d, const struct req *q, bool overwrite);
+
+/* "0x0004 low_voltage" or "none". */
+const char *rmdctl_errors_text(const struct dev *d, int64_t raw, char *buf, size_t size);
+/* A field's value as text (no unit) for tables and "key: value" lines; "-" when missing. */
+const char *rmdctl_field_text(const struct dev *d, const struct rec *r, enum rmd_field f, char *buf,
+			      size_t size);
+/* ,"key":value for one field; null when it is missing. */
+void rmdctl_json_field(const struct dev *d, const struct rec *r, enum rmd_field f);
+/* {"bus":...,"motor_id":N,"protocol":"V3" */
+void rmdctl_json_begin(const struct dev *d, uint8_t id);
+/* One motor: a JSON line, or a header and one line per field. */
+void rmdctl_print_rec(const struct dev *d, uint8_t id, const struct rec *r,
+		      const enum rmd_field *order, size_t n);
+
+/* ---- the commands (read.c, settings.c, motion.c) ---------------------------------------- */
+
+/* V2 §3.15..§3.20: the six PI gain reads, current/speed/position kp, ki order. */
+extern const uint8_t rmdctl_v2_pid_read[6];
+
+int rmdctl_run_scan(struct dev *d, int argc, char **argv);
+int rmdctl_run_info(struct dev *d, int argc, char **argv);
+int rmdctl_run_status(struct dev *d, int argc, char **argv);
+int rmdctl_run_monitor(struct dev *d, int argc, char **argv);
+int rmdctl_run_set_id(struct dev *d, int argc, char **argv);
+int rmdctl_run_set_zero(struct dev *d, int argc, char **argv);
+int rmdctl_run_set_timeout(struct dev *d, int argc, char **argv);
+int rmdctl_run_accel(struct dev *d, int argc, char **argv);
+int rmdctl_run_pid(struct dev *d, int argc, char **argv);
+int rmdctl_run_brake(struct dev *d, int argc, char **argv);
+int rmdctl_run_stop(struct dev *d, int argc, char **argv);
+int rmdctl_run_off(struct dev *d, int argc, char **argv);
+int rmdctl_run_reset(struct dev *d, int argc, char **argv);
+int rmdctl_run_move(struct dev *d, int argc, char **argv);
 
 #endif /* RMDCTL_H */

@@ -30,17 +30,17 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *si
 		r = rmd_bus_open(&buses[b], cb, &ctx, err, sizeof(err));
 		if (r < 0) {
 			if (cb->line)
-				rmdd_log(3, "%s:%u: bus %s (%s): %s", cfg->source, cb->line,
+				tool_log(3, "%s:%u: bus %s (%s): %s", cfg->source, cb->line,
 					 cb->name, rmd_bus_kind_name(cb->kind),
 					 err[0] ? err : strerror(-r));
 			else
-				rmdd_log(3, "bus %s (%s): %s", cb->name,
+				tool_log(3, "bus %s (%s): %s", cb->name,
 					 rmd_bus_kind_name(cb->kind), err[0] ? err : strerror(-r));
 			goto err_close_opened;
 		}
 		if (err[0]) /* a notice, e.g. an RS485 port without kernel RS485 mode */
-			rmdd_log(5, "bus %s: %s", cb->name, err);
-		rmdd_log(7, "bus %s: open (%s)", cb->name, buses[b].ops->kind);
+			tool_log(5, "bus %s: %s", cb->name, err);
+		tool_log(7, "bus %s: open (%s)", cb->name, buses[b].ops->kind);
 	}
 	return 0;
 

@@ -14,7 +14,7 @@
 static void bridge_log(void *ctx, int level, const char *msg)
 {
 	(void)ctx;
-	rmdd_log_always(level, "%s", msg);
+	tool_log_always(level, "%s", msg);
 }
 
 void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,

@@ -225,10 +225,10 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 			o->require_rt = true;
 			break;
 		case 'v':
-			rmdd_log_level = 7;
+			tool_log_set_level(TOOL_LOG_DEBUG);
 			break;
 		case 'q':
-			rmdd_log_level = 4;
+			tool_log_set_level(TOOL_LOG_WARNING);
 			break;
 		case 'h':
 			o->mode = MODE_HELP;
@@ -298,7 +298,7 @@ static void log_lines(int level, const char *text)
 		const char *nl = strchr(p, '\n');
 		int n = nl ? (int)(nl - p) : (int)strlen(p);
 
-		rmdd_log(level, "%.*s", n, p);
+		tool_log(level, "%.*s", n, p);
 		p += n + (nl ? 1 : 0);
 	}
 }
@@ -314,13 +314,13 @@ static int load(struct rmdd *d, const struct rmdd_opts *o)
 	if (o->mode == MODE_SIM) {
 		r = rmd_config_sim_default(&d->cfg, &d->sim, o->sim_motors);
 		if (r) {
-			rmdd_log(3, "--sim %u: cannot build the simulated configuration",
+			tool_log(3, "--sim %u: cannot build the simulated configuration",
 				 o->sim_motors);
 			return RMDD_EXIT_FAIL;
 		}
 	} else {
 		if (!o->config_given && access(o->config, F_OK) < 0 && errno == ENOENT) {
-			rmdd_log(3,
+			tool_log(3,
 				 "no configuration: %s does not exist; pass --config FILE (see "
 				 "examples/rmdd.yaml), or --sim to run on simulated motors",
 				 o->config);
@@ -337,7 +337,7 @@ static int load(struct rmdd *d, const struct rmdd_opts *o)
 	r = rmd_plan_build(&d->cfg, &d->plan, err, sizeof(err));
 	if (r) {
 		log_lines(3, err);
-		rmdd_log(3, "%s: the plan does not fit; `rmdd --check-config %s` prints it",
+		tool_log(3, "%s: the plan does not fit; `rmdd --check-config %s` prints it",
 			 d->cfg.source, d->cfg.source);
 		return RMDD_EXIT_FAIL;
 	}
@@ -530,17 +530,17 @@ static int bringup(struct rmdd *d)
 	int r, level;
 
 	r = rmd_loop_bringup(d->loop, &bu);
-	rmdd_log(6, "bring-up of %u motor(s) on %u bus(es):", cfg->n_motors, cfg->n_buses);
+	tool_log(6, "bring-up of %u motor(s) on %u bus(es):", cfg->n_motors, cfg->n_buses);
 	if (r != -EBUSY) {
 		for (unsigned i = 0; i < bu.n_motors; i++) {
 			ln.n = 0;
 			level = motor_line(cfg, i, &bu.motor[i], &ln);
-			rmdd_log(level, "  %s", ln.s);
+			tool_log(level, "  %s", ln.s);
 		}
 		for (unsigned b = 0; b < bu.n_buses; b++)
 			for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++)
 				if (bu.unexpected_ids[b] & (1u << (id - 1)))
-					rmdd_log(4,
+					tool_log(4,
 						 "  %s: motor %u: unexpected (answers, but is not "
 						 "configured)",
 						 cfg->buses[b].name, id);
@@ -548,13 +548,13 @@ static int bringup(struct rmdd *d)
 			ln.n = 0;
 			level = b3_line(cfg, b, &bu, &ln);
 			if (level)
-				rmdd_log(level, "  %s", ln.s);
+				tool_log(level, "  %s", ln.s);
 		}
 	}
 	/* what bring-up reported through the ring goes out now */
 	rmdd_monitor_drain(&d->mon);
 	if (r == -ENODEV) {
-		rmdd_log(
+		tool_log(
 			3,
 			"%u motor(s) missing and probe.on_missing is refuse in %s (set it to start "
 			"to run without them)",
@@ -562,7 +562,7 @@ static int bringup(struct rmdd *d)
 		return RMDD_EXIT_FAIL;
 	}
 	if (r < 0) {
-		rmdd_log(3, "bring-up failed: %s", strerror(-r));
+		tool_log(3, "bring-up failed: %s", strerror(-r));
 		return RMDD_EXIT_FAIL;
 	}
 	return RMDD_EXIT_OK;
@@ -580,12 +580,12 @@ static void main_thread_normal(const struct rmdd *d)
 	if (pol != SCHED_FIFO && pol != SCHED_RR)
 		return;
 	if (sched_setscheduler(0, SCHED_OTHER, &sp) == 0)
-		rmdd_log(7,
+		tool_log(7,
 			 "main thread: SCHED_OTHER (started real-time; the rt loop takes "
 			 "loop.rt_priority %u)",
 			 d->cfg.loop.rt_priority);
 	else
-		rmdd_log(4, "main thread: cannot leave SCHED_%s: %s",
+		tool_log(4, "main thread: cannot leave SCHED_%s: %s",
 			 pol == SCHED_FIFO ? "FIFO" : "RR", strerror(errno));
 }
 
@@ -602,7 +602,7 @@ static void wait_first_cycle(struct rmdd *d)
 
 	while (rmd_loop_heartbeat(d->loop) == 0) {
 		if (rmd_now_ns() >= end) {
-			rmdd_log(3, "rt loop: no cycle completed %.1f s after its start",
+			tool_log(3, "rt loop: no cycle completed %.1f s after its start",
 				 (double)FIRST_CYCLE_WAIT_NS / 1e9);
 			return;
 		}
@@ -629,11 +629,11 @@ static void look(struct liveness *lv, struct rmdd *d, int64_t now)
 		lv->hb = hb;
 		lv->advanced = now;
 		if (lv->stalled)
-			rmdd_log(5, "rt loop: cycles complete again");
+			tool_log(5, "rt loop: cycles complete again");
 		lv->stalled = false;
 	} else if (!lv->stalled && now - lv->advanced >= lv->stall_ns) {
 		lv->stalled = true;
-		rmdd_log(3, "rt loop: no cycle completed in the last %.1f s%s",
+		tool_log(3, "rt loop: no cycle completed in the last %.1f s%s",
 			 (double)(now - lv->advanced) / 1e9,
 			 d->notify.watchdog_ns ? "; the systemd watchdog is no longer fed" : "");
 	}
@@ -646,7 +646,7 @@ static void handle_signal(struct rmdd *d, int sig)
 		rmdd_stats_print(&d->stats, "SIGUSR1");
 		break;
 	case SIGHUP:
-		rmdd_log(5, "SIGHUP ignored: a new configuration takes a restart "
+		tool_log(5, "SIGHUP ignored: a new configuration takes a restart "
 			    "(systemctl restart rmdd)");
 		break;
 	default:
@@ -700,7 +700,7 @@ static int serve(struct rmdd *d, const struct rmdd_opts *o)
 		}
 		now = rmd_now_ns();
 		if (stall_at && now >= stall_at) {
-			rmdd_log(4, "test hook RMDD_TEST_STALL_AFTER_MS: the rt loop stops now and "
+			tool_log(4, "test hook RMDD_TEST_STALL_AFTER_MS: the rt loop stops now and "
 				    "nobody is told");
 			rmd_loop_request_stop(d->loop);
 			stall_at = 0;
@@ -729,7 +729,7 @@ static int serve(struct rmdd *d, const struct rmdd_opts *o)
 			rmdd_stats_status(&d->stats, secs > 0 ? (double)(hb - hb_status) / secs : 0,
 					  lv.stalled, status, sizeof(status));
 			rmdd_notify_status(&d->notify, status);
-			rmdd_log(7, "status: %s", status);
+			tool_log(7, "status: %s", status);
 			hb_status = hb;
 			t_status = now;
 			next_status += STATUS_PERIOD_NS;
@@ -771,7 +771,7 @@ static int run(const struct rmdd_opts *o)
 	int r, ret = RMDD_EXIT_FAIL;
 
 	if (!d) {
-		rmdd_log(3, "out of memory");
+		tool_log(3, "out of memory");
 		return RMDD_EXIT_FAIL;
 	}
 	d->sfd = -1;
@@ -782,7 +782,7 @@ static int run(const struct rmdd_opts *o)
 	ret = RMDD_EXIT_FAIL;
 	r = signals_open(d);
 	if (r < 0) {
-		rmdd_log(3, "signalfd: %s", strerror(-r));
+		tool_log(3, "signalfd: %s", strerror(-r));
 		goto err_free;
 	}
 	rmdd_notify_init(&d->notify);
@@ -790,7 +790,7 @@ static int run(const struct rmdd_opts *o)
 		goto err_close_signals;
 	r = handovers_init(d);
 	if (r < 0) {
-		rmdd_log(3, "hand-over buffers: %s", strerror(-r));
+		tool_log(3, "hand-over buffers: %s", strerror(-r));
 		goto err_free_handovers;
 	}
 
@@ -807,12 +807,12 @@ static int run(const struct rmdd_opts *o)
 	};
 	d->loop = rmd_loop_new(&lo, err, sizeof(err));
 	if (!d->loop) {
-		rmdd_log(3, "%s", err);
+		tool_log(3, "%s", err);
 		goto err_free_handovers;
 	}
 	r = rmdd_monitor_init(&d->mon, &d->cfg, d->loop, &d->events);
 	if (r < 0) {
-		rmdd_log(3, "monitor: %s", strerror(-r));
+		tool_log(3, "monitor: %s", strerror(-r));
 		goto err_free_loop;
 	}
 	d->stats = (struct rmdd_stats_src){
@@ -830,7 +830,7 @@ static int run(const struct rmdd_opts *o)
 	 */
 	r = rmd_loop_lock_memory(d->loop);
 	if (r < 0) {
-		rmdd_log(3,
+		tool_log(3,
 			 "--require-rt: mlockall refused (%s): run as root, or with "
 			 "LimitMEMLOCK=infinity (systemd/rmdd.service)",
 			 strerror(-r));
@@ -842,12 +842,12 @@ static int run(const struct rmdd_opts *o)
 	bo.notify_fd = d->snapshot_fd;
 	r = rmd_bridge_init(&d->bridge, &bo, err, sizeof(err));
 	if (r < 0) {
-		rmdd_log(3, "LCM: %s; --lcm-url memq:// runs without LCM traffic", err);
+		tool_log(3, "LCM: %s; --lcm-url memq:// runs without LCM traffic", err);
 		goto err_fini_monitor;
 	}
 	r = rmd_bridge_start(&d->bridge);
 	if (r < 0) {
-		rmdd_log(3, "LCM bridge thread: %s", strerror(-r));
+		tool_log(3, "LCM bridge thread: %s", strerror(-r));
 		goto err_fini_bridge;
 	}
 	if (bringup(d) != RMDD_EXIT_OK)
@@ -856,7 +856,7 @@ static int run(const struct rmdd_opts *o)
 	d->stats.start_ns = rmd_now_ns();
 	r = rmd_loop_start(d->loop);
 	if (r == -EPERM && o->require_rt) {
-		rmdd_log(3,
+		tool_log(3,
 			 "--require-rt: SCHED_FIFO priority %u or mlockall refused (%s): run as "
 			 "root, or with LimitRTPRIO=49 and LimitMEMLOCK=infinity "
 			 "(systemd/rmdd.service)",
@@ -864,17 +864,17 @@ static int run(const struct rmdd_opts *o)
 		goto err_stop_bridge;
 	}
 	if (r < 0) {
-		rmdd_log(3, "rt loop thread: %s", strerror(-r));
+		tool_log(3, "rt loop thread: %s", strerror(-r));
 		goto err_stop_bridge;
 	}
 	r = rmdd_monitor_start(&d->mon);
 	if (r < 0) {
-		rmdd_log(3, "monitor thread: %s", strerror(-r));
+		tool_log(3, "monitor thread: %s", strerror(-r));
 		goto err_stop_loop;
 	}
 
 	wait_first_cycle(d);
-	rmdd_log(5,
+	tool_log(5,
 		 "running: %u motor(s) on %u bus(es) at %u Hz from %s; LCM %s, channels %s*; "
 		 "SIGUSR1 prints statistics",
 		 d->cfg.n_motors, d->cfg.n_buses, d->cfg.loop.rate_hz, d->cfg.source,
@@ -884,9 +884,9 @@ static int run(const struct rmdd_opts *o)
 
 	r = serve(d, o);
 	if (r < 0)
-		rmdd_log(3, "signalfd: %s; stopping", strerror(-r));
+		tool_log(3, "signalfd: %s; stopping", strerror(-r));
 	else
-		rmdd_log(5, "%s: stopping every motor", strsignal(r));
+		tool_log(5, "%s: stopping every motor", strsignal(r));
 	rmdd_notify_stopping(&d->notify, "stopping every motor");
 	ret = r < 0 ? RMDD_EXIT_FAIL : RMDD_EXIT_OK;
 
@@ -894,10 +894,10 @@ err_stop_loop:
 	rmd_loop_request_stop(d->loop);
 	r = rmd_loop_join(d->loop);
 	if (r < 0)
-		rmdd_log(3, "rt loop thread: join: %s", strerror(-r));
+		tool_log(3, "rt loop thread: join: %s", strerror(-r));
 	if (ret == RMDD_EXIT_OK) {
 		rmdd_stats_print(&d->stats, "exit");
-		rmdd_log(5, "%s; their comm-loss protection (0xB3) stays set",
+		tool_log(5, "%s; their comm-loss protection (0xB3) stays set",
 			 shutdown_said(&d->cfg.safety));
 	}
 err_stop_bridge:
@@ -924,6 +924,7 @@ int main(int argc, char **argv)
 {
 	struct rmdd_opts o;
 
+	tool_log_init("rmdd", TOOL_LOG_INFO, 0);
 	if (parse_args(argc, argv, &o))
 		return RMDD_EXIT_USAGE;
 	switch (o.mode) {

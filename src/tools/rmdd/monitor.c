@@ -1,11 +1,7 @@
 // SPDX-License-Identifier: MIT
 /*
- * rmdd's logging and its monitor thread.
- *
- * Logging: one line per call on stderr, "<N>rmdd: ..." with the syslog
- * level N (STYLE.md), so the journal keeps the levels.  stderr is
- * unbuffered and glibc writes one formatted call in one write(2), so lines
- * of different threads never mix.
+ * rmdd's monitor thread (it logs through tools/common/log.h: one line per
+ * call on stderr, "<N>rmdd: ..." with the syslog level N, STYLE.md).
  *
  * The monitor is a normal-priority thread that wakes every
  * RMDD_MONITOR_PERIOD_NS and
@@ -38,36 +34,6 @@
 #include "rmd/thread.h"
 #include "rmd/codec.h"
 #include "rmdd.h"
-
-int rmdd_log_level = 6;
-
-__attribute__((format(printf, 2, 0))) static void vlog(int level, const char *fmt, va_list ap)
-{
-	char line[1024];
-
-	vsnprintf(line, sizeof(line), fmt, ap);
-	fprintf(stderr, "<%d>rmdd: %s\n", level, line);
-}
-
-void rmdd_log(int level, const char *fmt, ...)
-{
-	va_list ap;
-
-	if (level > rmdd_log_level)
-		return;
-	va_start(ap, fmt);
-	vlog(level, fmt, ap);
-	va_end(ap);
-}
-
-void rmdd_log_always(int level, const char *fmt, ...)
-{
-	va_list ap;
-
-	va_start(ap, fmt);
-	vlog(level, fmt, ap);
-	va_end(ap);
-}
 
 const char *rmdd_lifecycle_name(unsigned lc)
 {
@@ -110,10 +76,10 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 	switch ((enum rmd_lifecycle)to) {
 	case RMD_LC_LOST:
 		if (from == RMD_LC_PROBE)
-			rmdd_log(4, "%s: missing at bring-up; probed again every %d ms", ctx,
+			tool_log(4, "%s: missing at bring-up; probed again every %d ms", ctx,
 				 (int)(RMD_LOOP_REPROBE_NS / 1000000));
 		else
-			rmdd_log(
+			tool_log(
 				4,
 				"%s: lost (%u missed replies in a row, or a 0xF1 above)%s%s; probed "
 				"again every %d ms",
@@ -123,30 +89,30 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 				(int)(RMD_LOOP_REPROBE_NS / 1000000));
 		break;
 	case RMD_LC_FAULT:
-		rmdd_log(4, "%s: fault (error flags set)%s%s", ctx,
+		tool_log(4, "%s: fault (error flags set)%s%s", ctx,
 			 from == RMD_LC_ENABLED ? "; safe action " : "",
 			 from == RMD_LC_ENABLED ? action : "");
 		break;
 	case RMD_LC_SAFE:
-		rmdd_log(4, "%s: safe action %s, held until the controller enables it again", ctx,
+		tool_log(4, "%s: safe action %s, held until the controller enables it again", ctx,
 			 action);
 		break;
 	case RMD_LC_READY:
 		if (from == RMD_LC_LOST || from == RMD_LC_FAULT)
-			rmdd_log(5,
+			tool_log(5,
 				 "%s: back (%s -> ready); send enable 0, then 1, to run it again",
 				 ctx, rmdd_lifecycle_name(from));
 		else if (from == RMD_LC_PROBE)
-			rmdd_log(7, "%s: ready", ctx);
+			tool_log(7, "%s: ready", ctx);
 		else
-			rmdd_log(6, "%s: %s -> ready", ctx, rmdd_lifecycle_name(from));
+			tool_log(6, "%s: %s -> ready", ctx, rmdd_lifecycle_name(from));
 		break;
 	case RMD_LC_ENABLED:
-		rmdd_log(6, "%s: enabled", ctx);
+		tool_log(6, "%s: enabled", ctx);
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_COUNT:
-		rmdd_log(7, "%s: %s -> %s", ctx, rmdd_lifecycle_name(from),
+		tool_log(7, "%s: %s -> %s", ctx, rmdd_lifecycle_name(from),
 			 rmdd_lifecycle_name(to));
 		break;
 	}
@@ -163,14 +129,14 @@ static void log_motor_error(const struct rmd_config *cfg, const struct rmd_event
 	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
 	if (e->b == RMD_MOTOR_CMD_COMM_LOST) {
 		/* DESIGN.md: the motor heard nothing for its 0xB3 time */
-		rmdd_log(4,
+		tool_log(4,
 			 "%s: its comm-loss protection tripped (0xF1): output off, brake locked; "
 			 "treated as lost",
 			 ctx);
 		return;
 	}
 	if (!code) {
-		rmdd_log(5, "%s: error flags cleared", ctx);
+		tool_log(5, "%s: error flags cleared", ctx);
 		return;
 	}
 	if (e->motor < cfg->n_motors && cfg->motors[e->motor].proto == RMD_PROTO_V2)
@@ -180,7 +146,7 @@ static void log_motor_error(const struct rmd_config *cfg, const struct rmd_event
 	for (size_t k = 0; k < n && k < 8 && used < sizeof(list); k++)
 		used += (size_t)snprintf(list + used, sizeof(list) - used, "%s%s", k ? ", " : "",
 					 names[k]);
-	rmdd_log(4, "%s: error flags 0x%04X (%s)", ctx, code, n ? list : "unknown bits");
+	tool_log(4, "%s: error flags 0x%04X (%s)", ctx, code, n ? list : "unknown bits");
 }
 
 static void log_bus_state(const struct rmd_config *cfg, const struct rmd_event *e)
@@ -190,17 +156,17 @@ static void log_bus_state(const struct rmd_config *cfg, const struct rmd_event *
 
 	switch (s) {
 	case RMD_BUS_OFF:
-		rmdd_log(3,
+		tool_log(3,
 			 "%s: bus-off: the controller left the bus (a CAN interface needs "
 			 "restart-ms, see systemd/80-can.network)",
 			 name);
 		break;
 	case RMD_BUS_PASSIVE:
 	case RMD_BUS_WARNING:
-		rmdd_log(4, "%s: error %s", name, rmd_bus_state_name(s));
+		tool_log(4, "%s: error %s", name, rmd_bus_state_name(s));
 		break;
 	case RMD_BUS_ACTIVE:
-		rmdd_log(5, "%s: error active again", name);
+		tool_log(5, "%s: error active again", name);
 		break;
 	}
 }
@@ -209,17 +175,17 @@ static void log_watchdog(const struct rmd_config *cfg, const struct rmd_event *e
 {
 	switch ((enum rmd_watchdog_state)e->a) {
 	case RMD_WD_TRIPPED:
-		rmdd_log(4,
+		tool_log(4,
 			 "controller: no command for %u ms: safe action %s on every enabled motor, "
 			 "held until a command enables them again",
 			 (unsigned)cfg->safety.command_timeout_ms,
 			 rmd_safe_action_name(cfg->safety.safe_action));
 		break;
 	case RMD_WD_OK:
-		rmdd_log(5, "controller: commands arrive, motors enabled");
+		tool_log(5, "controller: commands arrive, motors enabled");
 		break;
 	case RMD_WD_IDLE:
-		rmdd_log(6, "controller: idle");
+		tool_log(6, "controller: idle");
 		break;
 	}
 }
@@ -249,7 +215,7 @@ static void log_rt(const struct rt_note *rt)
 	if (rt->err[RMD_LOOP_RT_AFFINITY] && used < sizeof(what))
 		snprintf(what + used, sizeof(what) - used, "%sCPU affinity refused (%s)",
 			 used ? "; " : "", strerror(-rt->err[RMD_LOOP_RT_AFFINITY]));
-	rmdd_log(4,
+	tool_log(4,
 		 "no real-time guarantees: %s. Run as root, or with LimitRTPRIO=49 and "
 		 "LimitMEMLOCK=infinity (systemd/rmdd.service); --require-rt refuses to run "
 		 "without them",
@@ -280,7 +246,7 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 	case RMD_EV_OVERRUN:
 		/* the first of each second now, the rest summed up by overrun_summary() */
 		if (!m->overruns_pending && !m->overruns_logged) {
-			rmdd_log(4,
+			tool_log(4,
 				 "rt loop: overrun: woke %" PRId64 " period(s) late, skipped them",
 				 e->a);
 			m->overruns_logged = 1;
@@ -295,25 +261,25 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		break;
 	case RMD_EV_SAFE_ACTION:
 		motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
-		rmdd_log(7, "%s: safe action %s sent", ctx,
+		tool_log(7, "%s: safe action %s sent", ctx,
 			 rmd_safe_action_name((enum rmd_safe_action)e->a));
 		break;
 	case RMD_EV_SEND_FAILED:
-		rmdd_log(4, "%s: send failed (%s): %" PRId64 " frame(s) not sent",
+		tool_log(4, "%s: send failed (%s): %" PRId64 " frame(s) not sent",
 			 bus_name(cfg, e->bus), e->a ? strerror((int)-e->a) : "queue full", e->b);
 		break;
 	case RMD_EV_UNEXPECTED:
 		if (e->b >= 0)
-			rmdd_log(5,
+			tool_log(5,
 				 "%s: unexpected frame 0x%03" PRIX64 " command 0x%02" PRIX64
 				 " (neither a reply nor a report; at most one such line a second)",
 				 bus_name(cfg, e->bus), (uint64_t)e->a, (uint64_t)e->b);
 		else
-			rmdd_log(5, "%s: unexpected empty frame 0x%03" PRIX64,
+			tool_log(5, "%s: unexpected empty frame 0x%03" PRIX64,
 				 bus_name(cfg, e->bus), (uint64_t)e->a);
 		break;
 	default:
-		rmdd_log(7, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
+		tool_log(7, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
 	}
 }
@@ -324,7 +290,7 @@ static void overrun_summary(struct rmdd_monitor *m, int64_t now)
 	if (!m->overruns_logged || now - m->overrun_window_ns < RMD_NS_PER_S)
 		return;
 	if (m->overruns_pending)
-		rmdd_log(4,
+		tool_log(4,
 			 "rt loop: %" PRIu64 " more overrun(s) in the last second, %" PRIu64
 			 " period(s) skipped",
 			 m->overruns_pending, m->skipped_pending);
@@ -345,7 +311,7 @@ void rmdd_monitor_drain(struct rmdd_monitor *m)
 	log_rt(&rt);
 	dropped = rmd_ring_dropped(m->events);
 	if (dropped != m->ring_dropped) {
-		rmdd_log(4, "%" PRIu64 " rt loop event(s) lost: the ring was full",
+		tool_log(4, "%" PRIu64 " rt loop event(s) lost: the ring was full",
 			 dropped - m->ring_dropped);
 		m->ring_dropped = dropped;
 	}

@@ -43,7 +43,7 @@ static void send_state(const struct rmdd_notify *n, const char *head, const char
 		snprintf(msg, sizeof(msg), "%s", head);
 	r = sd_notify(0, msg);
 	if (r < 0)
-		rmdd_log(7, "sd_notify: %s", strerror(-r));
+		tool_log(7, "sd_notify: %s", strerror(-r));
 }
 
 void rmdd_notify_ready(const struct rmdd_notify *n, const char *status)

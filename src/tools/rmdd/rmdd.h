@@ -32,6 +32,7 @@
 #include "rmd/plan.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
+#include "tools/common/log.h"
 
 /* Exit statuses (rmdd --help prints them). */
 enum {
@@ -46,17 +47,6 @@ enum {
 #define RMDD_EVENT_SLOTS 4096
 /* The monitor looks at the ring and the snapshot this often. */
 #define RMDD_MONITOR_PERIOD_NS 5000000
-
-/* ---- logging (rmdd_log.c) ---------------------------------------------- */
-
-/* Most verbose level printed: 4 with -q, 6 by default, 7 with -v. */
-extern int rmdd_log_level;
-
-/* "<level>rmdd: message\n" on stderr, when level <= rmdd_log_level. */
-void rmdd_log(int level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-
-/* The same whatever rmdd_log_level says: the statistics were asked for. */
-void rmdd_log_always(int level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 /* ---- the monitor thread (rmdd_log.c) ------------------------------------ */
 

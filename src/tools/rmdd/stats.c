@@ -84,7 +84,7 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 				 st->bus_errors,
 				 rmd_bus_state_name((enum rmd_bus_state)h->bus[b].state));
 		}
-		rmdd_log_always(
+		tool_log_always(
 			6,
 			"  bus %s (%s, %u bit/s, %u motors): %s; plan %.0f%% worst, %.0f%% avg%s",
 			cb->name, rmd_bus_kind_name(cb->kind), pb->bitrate, pb->n_motors, load,
@@ -115,7 +115,7 @@ static void print_motors(const struct rmdd_stats_src *s, const struct rmd_snapsh
 		if (ms->reply_age_cycles != UINT32_MAX)
 			snprintf(age, sizeof(age), "last reply %u cycles ago",
 				 (unsigned)ms->reply_age_cycles);
-		rmdd_log_always(6, "  motor %s (%s id %u, %s): %s; %s; missed %" PRIu64 "; %s",
+		tool_log_always(6, "  motor %s (%s id %u, %s): %s; %s; missed %" PRIu64 "; %s",
 				c->name, c->bus < cfg->n_buses ? cfg->buses[c->bus].name : "?",
 				c->id, rmd_proto_key(c->proto), rmdd_lifecycle_name(ms->lifecycle),
 				latency, ms->missed_replies, age);
@@ -136,24 +136,24 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 	rmd_loop_get_snapshot(s->loop, &snap);
 	have_h = rmd_loop_get_health(s->loop, &h);
 	flockfile(stderr);
-	rmdd_log_always(
+	tool_log_always(
 		6, "statistics (%s) after %.1f s: %" PRIu64 " cycles at %u Hz (%.1f Hz measured)",
 		why, secs, st.cycles, s->plan->rate_hz, secs > 0 ? (double)st.cycles / secs : 0.0);
-	rmdd_log_always(
+	tool_log_always(
 		6,
 		"  loop: wake-up latency min %.0f us, avg %.0f us, p99 %.0f us, max %.0f us; "
 		"longest cycle %.0f us",
 		us(st.wake_min_ns), us(st.wake_avg_ns), us(st.wake_p99_ns), us(st.wake_max_ns),
 		us(st.cycle_max_ns));
-	rmdd_log_always(6,
+	tool_log_always(6,
 			"  loop: overruns %" PRIu64 ", plan misses %" PRIu64
 			", frames not sent %" PRIu64,
 			st.overruns, st.plan_misses, c.frames_not_sent);
-	rmdd_log_always(6,
+	tool_log_always(6,
 			"  replies: matched %" PRIu64 ", missed %" PRIu64 ", echoed %" PRIu64
 			", unsolicited %" PRIu64 ", unexpected %" PRIu64 ", undecodable %" PRIu64,
 			c.replies, c.missed, c.echoes, c.unsolicited, c.unexpected, c.bad_replies);
-	rmdd_log_always(6,
+	tool_log_always(6,
 			"  setpoints: commands %" PRIu64 ", clamped %" PRIu64
 			", non-finite %" PRIu64 ", unsupported %" PRIu64 ", safe actions %" PRIu64
 			"; controller %s",
@@ -165,7 +165,7 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 		struct rmd_bridge_stats bs;
 
 		rmd_bridge_get_stats(s->bridge, &bs);
-		rmdd_log_always(6,
+		tool_log_always(6,
 				"  lcm: commands accepted %" PRIu64 ", rejected %" PRIu64
 				", clamped %" PRIu64 "; published state %" PRIu64
 				", health %" PRIu64 ", config %" PRIu64 "; publish errors %" PRIu64
@@ -175,7 +175,7 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 				bs.lcm_errors);
 	}
 	if (rmd_ring_dropped(s->events))
-		rmdd_log_always(6, "  events lost (ring full): %" PRIu64,
+		tool_log_always(6, "  events lost (ring full): %" PRIu64,
 				rmd_ring_dropped(s->events));
 	funlockfile(stderr);
 }
