@@ -19,9 +19,13 @@
  *   3. centres each sine on the motor's position (state_t), inside its
  *      position limits;
  *   4. sends enable = 0 and waits for READY (a motor back from a fault or
- *      a loss takes enable = 1 only after an enable = 0: docs/lcm.md);
+ *      a loss takes enable = 1 only after an enable = 0: docs/lcm.md; rmdd
+ *      keeps that enable = 0 until its loop has acted on it, so enable = 1
+ *      may follow at once);
  *   5. publishes command_t at --rate Hz, every driven motor in each
- *      message (rmdd keeps only the newest), and from every state_t adds
+ *      message (rmdd keeps only the newest), with a random controller id
+ *      chosen at start (command_t.controller: while its motors are enabled,
+ *      rmdd takes commands from no other controller), and from every state_t adds
  *      up target - position per motor: RMS and largest magnitude, printed
  *      once a second;
  *   6. on Ctrl-C, SIGTERM or the end of --duration: enable = 0 to every
@@ -43,6 +47,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+
+#include <sys/random.h>
+#include <unistd.h>
 
 #include <lcm/lcm.h>
 
@@ -128,8 +135,10 @@ struct ctl {
 	int n;
 	int64_t t0_ns; /* the sine's time 0; 0: not running yet */
 	int64_t seq;
+	int64_t id; /* command_t.controller: random, chosen at start */
 	rmd_command_t msg;
-	uint8_t buf[4096]; /* an encoded command_t is 1.7 kB */
+	rmd_motor_command_t msg_motor[MAX_MOTORS]; /* msg.motor */
+	uint8_t buf[4096];			   /* an encoded command_t is at most 1.7 kB */
 };
 
 static volatile sig_atomic_t stop_signal;
@@ -409,7 +418,10 @@ static int publish(struct ctl *c, bool enable, double t)
 	memset(msg, 0, sizeof(*msg));
 	msg->utime = now_ns() / 1000;
 	msg->seq = c->seq++;
+	msg->controller = c->id;
 	msg->count = (int16_t)c->n;
+	msg->motor = c->msg_motor;
+	memset(c->msg_motor, 0, sizeof(c->msg_motor));
 	for (int k = 0; k < c->n; k++) {
 		rmd_motor_command_t *mc = &msg->motor[k];
 
@@ -658,6 +670,9 @@ static int run(struct ctl *c)
 	rmd_state_t_subscription_t *sub_state;
 	int ret;
 
+	/* docs/lcm.md "One controller at a time": who we are to rmdd */
+	if (getrandom(&c->id, sizeof(c->id), 0) != (ssize_t)sizeof(c->id))
+		c->id = now_ns() ^ ((int64_t)getpid() << 32);
 	c->lcm = lcm_create(c->o.url);
 	if (!c->lcm) {
 		fprintf(stderr,

@@ -81,6 +81,7 @@ struct rmd_bridge_opts {
 	int64_t period_ns;	  /* rt loop period, for config_t */
 	unsigned state_every;	  /* publish state_t every n-th cycle; 0 or 1: every snapshot */
 	int stale_ms;		  /* reject utime this much older than the newest; 0: no check */
+	int command_timeout_ms;	  /* an owner silent this long loses the motors; 0: never */
 	int64_t health_period_ns; /* health_t period */
 	int64_t poll_ns;	  /* longest sleep when nothing wakes the bridge */
 
@@ -122,6 +123,10 @@ struct rmd_bridge_stats {
 	uint64_t configs_published;
 	uint64_t publish_errors;
 	uint64_t lcm_errors; /* lcm_handle failures */
+	uint64_t takeovers;  /* command_t.takeover honoured */
+	bool owned;	     /* a controller owns the motors: */
+	int64_t owner;	     /* its command_t.controller */
+	int64_t intruder;    /* newest controller rejected for not owning them; 0: none */
 };
 
 struct rmd_bridge_buf; /* decode and encode buffers, bridge thread only */
@@ -154,6 +159,14 @@ struct rmd_bridge {
 	uint64_t last_state_cycle;
 	int64_t next_health_ns;
 	bool config_wanted;
+	/* one controller at a time (docs/lcm.md) */
+	bool owned;
+	int64_t owner;			   /* command_t.controller of the owner */
+	uint32_t owner_on;		   /* motors the owner enabled and has not disabled */
+	int64_t owner_rx_ns;		   /* its newest accepted command */
+	bool have_controller;		   /* last_controller is set: */
+	int64_t last_controller;	   /* whose sequence last_seq and newest_utime are */
+	uint32_t disables[RMD_MAX_MOTORS]; /* enable = 0 entries accepted, per motor */
 
 	/* Written by the bridge thread, read by anyone (rmd_bridge_get_stats). */
 	atomic_uint_fast64_t n_accepted;
@@ -164,6 +177,10 @@ struct rmd_bridge {
 	atomic_uint_fast64_t n_configs;
 	atomic_uint_fast64_t n_publish_errors;
 	atomic_uint_fast64_t n_lcm_errors;
+	atomic_uint_fast64_t n_takeovers;
+	atomic_bool pub_owned;
+	_Atomic int64_t pub_owner;
+	_Atomic int64_t pub_intruder;
 };
 
 /*

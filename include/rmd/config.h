@@ -50,6 +50,8 @@
 #define RMD_CONFIG_DEFAULT_COMM_LOSS_MS 100
 #define RMD_CONFIG_DEFAULT_MISSED_LOST 10
 #define RMD_CONFIG_DEFAULT_COMMAND_TIMEOUT_MS 100
+/* safety.shutdown_action damp: damp this long before the brake. */
+#define RMD_CONFIG_DEFAULT_SHUTDOWN_DAMP_MS 500
 #define RMD_CONFIG_DEFAULT_STATUS_POLL_HZ 10.0
 #define RMD_CONFIG_DEFAULT_LCM_URL "udpm://239.255.76.67:7667?ttl=0"
 #define RMD_CONFIG_DEFAULT_CHANNEL_PREFIX "RMD_"
@@ -68,6 +70,19 @@ enum rmd_safe_action {
 	RMD_SAFE_HOLD,	   /* "hold": 0x81, decelerate and hold the position */
 	RMD_SAFE_DAMP,	   /* "damp": zero speed with a torque limit (MIT: kp 0, kd > 0) */
 	RMD_SAFE_BRAKE,	   /* "brake": output off and brake locked (0x80 + 0x78) */
+};
+
+/*
+ * What rmdd sends when it exits (SIGTERM, SIGINT, the end of a run); the
+ * motors' 0xB3 protection stays set.  docs/lcm.md "Shutdown" says what each
+ * does to a standing robot.
+ */
+enum rmd_shutdown_action {
+	RMD_SHUTDOWN_DEFAULT = 0, /* "default": brake when safe_action is brake, else stop */
+	RMD_SHUTDOWN_STOP,	  /* "stop": 0x80 to every motor: output off */
+	RMD_SHUTDOWN_HOLD,	  /* "hold": 0x81 to driven motors (0x80 to the others) */
+	RMD_SHUTDOWN_DAMP,	  /* "damp": damp driven motors shutdown_damp_ms, then brake */
+	RMD_SHUTDOWN_BRAKE,	  /* "brake": 0x80 + 0x78 to every motor */
 };
 
 /* Whom a lost motor's safe action applies to. */
@@ -101,6 +116,8 @@ struct rmd_config_safety {
 	uint32_t command_timeout_ms;  /* controller silent this long: safe_action */
 	enum rmd_safe_action safe_action;
 	enum rmd_lost_action lost_motor_action;
+	enum rmd_shutdown_action shutdown_action; /* what rmdd sends when it exits */
+	uint32_t shutdown_damp_ms;		  /* "damp": how long, then brake */
 };
 
 struct rmd_config_probe {
@@ -180,6 +197,7 @@ extern const char *const rmd_mode_names[];
 extern const char *const rmd_units_names[];
 extern const char *const rmd_safe_action_names[];
 extern const char *const rmd_lost_action_names[];
+extern const char *const rmd_shutdown_action_names[];
 extern const char *const rmd_on_missing_names[];
 
 /*

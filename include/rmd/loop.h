@@ -51,7 +51,13 @@
  * RMD_LOOP_REPROBE_NS and returns to READY.  A motor that returns from
  * LOST or FAULT, or was made SAFE by another motor's loss, needs an
  * explicit enable = 0 before enable = 1 takes it again, so a controller
- * streaming enable = 1 does not restart it unawares.  Host watchdog: no
+ * streaming enable = 1 does not restart it unawares.  The loop keeps only
+ * the newest command, so it sees the enable = 0 entries through
+ * rmd_command.disables[] (counted by the bridge): a count that changed
+ * since the last command is an enable = 0, acted on before the command's
+ * own entry, however quickly the enable = 1 followed it.  An enable = 1
+ * the loop does not act on is counted by reason (rmd_loop_counters
+ * ignored[], rmd_health ignored[]).  Host watchdog: no
  * command for safety.command_timeout_ms while a motor is ENABLED -> the
  * safe action for every enabled motor (SAFE), RMD_WD_TRIPPED, latched
  * until a command with an enable newer than the trip.
@@ -153,6 +159,7 @@ struct rmd_loop_counters {
 	uint64_t frames_not_sent; /* frames a bus did not take */
 	uint64_t commands;	  /* commands taken from the bridge */
 	uint64_t safe_actions;	  /* safe actions applied, per motor */
+	uint64_t ignored[RMD_IGN_KINDS]; /* enable = 1 entries not acted on, by enum rmd_ignore */
 };
 
 /* Allocate and prefault everything the loop will touch.  NULL + err on failure.  Non-rt. */
@@ -170,17 +177,22 @@ void rmd_loop_free(struct rmd_loop *l);
 void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
 
 /*
- * Stop every motor: 0x80 (output off) to every motor, one frame each, and
- * 0x78 (brake locked) after it when the safe action is brake; then every
- * motor is READY.  The V3 0x280 broadcast would do it in one frame, but it
- * reaches only motors whose CAN-ID filter is off (V3 §3, 0x20 index 2), and
- * the configuration cannot promise that, so it is not used.  The motors'
- * 0xB3 protection stays in place.  Frames the bus refuses are sent again
- * for at most ~10 ms (opts.sleep_ns or clock_nanosleep between tries), and
- * then their echoes are awaited for at most one reply deadline, so they
- * are on the wire when it returns.  Bounded, blocking (it sleeps between
- * tries; no allocation): not for the cycle, but fine at the end of the rt
- * thread or in a test.
+ * Stop every motor with safety.shutdown_action (rmd/config.h): stop, 0x80
+ * (output off) to every motor; brake, 0x80 and 0x78 (brake locked) to
+ * every motor; hold, 0x81 (stop and hold the position) to the motors that
+ * are ENABLED or SAFE and 0x80 to the others; damp, the damp safe action
+ * to the ENABLED and SAFE motors once a period for shutdown_damp_ms, then
+ * brake; default, brake when safe_action is brake, else stop.  One frame
+ * of each kind per motor; then every motor is READY (its READY entry
+ * frames are not sent).  The V3 0x280 broadcast would do it in one frame,
+ * but it reaches only motors whose CAN-ID filter is off (V3 §3, 0x20
+ * index 2), and the configuration cannot promise that, so it is not used.
+ * The motors' 0xB3 protection stays in place.  Frames the bus refuses are
+ * sent again for at most ~10 ms (opts.sleep_ns or clock_nanosleep between
+ * tries), and then their echoes are awaited for at most one reply
+ * deadline, so they are on the wire when it returns.  Bounded, blocking
+ * (it sleeps between tries; no allocation): not for the cycle, but fine at
+ * the end of the rt thread or in a test.
  */
 void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now_ns);
 

@@ -52,6 +52,13 @@ struct rmd_command {
 	int64_t seq;	  /* the controller's sequence number */
 	uint32_t present; /* bit i: m[i] carries a setpoint for motor i */
 	struct rmd_setpoint m[RMD_MAX_MOTORS];
+	/*
+	 * enable = 0 entries the bridge accepted for motor i, total: the rt
+	 * loop keeps only the newest command, so an enable = 0 followed at
+	 * once by enable = 1 reaches it as a change of this count (an edge
+	 * latched until the loop consumes it).
+	 */
+	uint32_t disables[RMD_MAX_MOTORS];
 };
 
 struct rmd_motor_state {
@@ -67,6 +74,7 @@ struct rmd_motor_state {
 	uint32_t reply_age_cycles; /* cycles since the last reply (0: this cycle) */
 	int64_t reply_latency_ns;  /* request sent -> reply received, last reply */
 	uint64_t missed_replies;   /* replies that never came, total */
+	int64_t rx_ns; /* receive time of the reply pos/vel/torque came from; 0: none yet */
 };
 
 /* State of every motor after one cycle. */
@@ -95,6 +103,14 @@ struct rmd_bus_health {
 	struct rmd_bus_stats stats;
 };
 
+/* Why the rt loop did not act on a command's enable = 1 for a motor (counted in rmd_health). */
+enum rmd_ignore {
+	RMD_IGN_EDGE = 0,  /* the motor waits for an enable = 0 first */
+	RMD_IGN_NOT_READY, /* the motor is in PROBE, FAULT or LOST */
+	RMD_IGN_TRIPPED,   /* the command is older than the watchdog trip */
+	RMD_IGN_KINDS
+};
+
 enum rmd_watchdog_state {
 	RMD_WD_IDLE = 0, /* no controller has enabled anything yet */
 	RMD_WD_OK,	 /* commands arrive in time */
@@ -106,8 +122,9 @@ struct rmd_health {
 	struct rmd_loop_stats loop;
 	uint32_t nbuses;
 	struct rmd_bus_health bus[RMD_MAX_BUSES];
-	uint8_t watchdog;	     /* enum rmd_watchdog_state */
-	uint64_t safe_action_events; /* times a safe action was applied */
+	uint8_t watchdog;		 /* enum rmd_watchdog_state */
+	uint64_t safe_action_events;	 /* times a safe action was applied */
+	uint64_t ignored[RMD_IGN_KINDS]; /* command entries not acted on, by enum rmd_ignore */
 };
 
 /* Why the bridge refused a command message (counted in rmd_health). */
@@ -119,6 +136,7 @@ enum rmd_reject {
 	RMD_REJ_MODE,	    /* unknown mode, or one the motor cannot do */
 	RMD_REJ_LIMIT,	    /* gains or limits out of range (setpoints are clamped, not refused) */
 	RMD_REJ_STALE,	    /* timestamp too old, or sequence went back */
+	RMD_REJ_OWNER,	    /* another controller owns the motors */
 	RMD_REJ_KINDS
 };
 

@@ -19,11 +19,14 @@ What it does for you (docs/lcm.md is the contract):
     time.monotonic() in microseconds;
   - sends every driven motor in each command_t: rmdd keeps only the newest
     command per cycle, so a message per motor would lose some;
+  - identifies itself: command_t.controller is a random 64-bit id chosen
+    when the client is made (`controller`); while it has motors enabled,
+    rmdd takes commands from no other controller (docs/lcm.md "One
+    controller at a time"); `takeover = True` takes them over from another;
   - enables the way rmdd requires: a motor back from LOST, FAULT or SAFE takes
-    enable = 1 only after it has seen enable = 0, and two messages within one
-    cycle lose the first, so enable() sends enable = 0 until state_t shows the
-    motors READY and at least two cycles (config_t.period_us) have passed,
-    and only then enable = 1;
+    enable = 1 only after it has seen enable = 0 (rmdd keeps that enable = 0
+    until its loop has acted on it), so enable() sends enable = 0 until
+    state_t shows the motors READY, and then enable = 1;
   - on leaving a `with` block (or close()), sends enable = 0 to every motor it
     enabled.
 
@@ -75,13 +78,21 @@ class Client:
       state_rx  time.monotonic() of the newest state_t (0.0: none yet)
       on_state  None, or a function called with each state_t as it arrives
       seq       the seq of the next command_t (0 for the first)
+      controller  command_t.controller: this client's id (random unless given)
+      takeover  command_t.takeover of the commands sent (False; a supervisor
+                sets it to take the motors over from their owner, docs/lcm.md)
     """
 
-    def __init__(self, url=None, prefix="RMD_", on_state=None):
+    def __init__(self, url=None, prefix="RMD_", on_state=None, controller=None):
         import lcm
-        from . import command_t, config_request_t, config_t, health_t, state_t
+        from . import (command_t, config_request_t, config_t, health_t, motor_command_t,
+                       state_t)
 
-        self._types = (command_t, config_request_t, config_t, health_t, state_t)
+        self._types = (command_t, config_request_t, config_t, health_t, state_t,
+                       motor_command_t)
+        self.controller = (int.from_bytes(os.urandom(8), "big", signed=True)
+                           if controller is None else int(controller))
+        self.takeover = False
         self.url = url or os.environ.get("LCM_DEFAULT_URL") or DEFAULT_URL
         self.prefix = prefix
         try:
@@ -287,10 +298,14 @@ class Client:
         msg.utime = _now_us()
         msg.seq = self.seq
         self.seq += 1
+        msg.controller = self.controller
+        msg.takeover = bool(self.takeover)
         msg.count = len(self._cmd)
-        for k, i in enumerate(sorted(self._cmd)):
+        msg.motor = []
+        for i in sorted(self._cmd):
             e = self._cmd[i]
-            c = msg.motor[k]
+            c = self._types[5]()
+            msg.motor.append(c)
             c.index = i
             c.enable = bool(e[0])
             c.mode = e[1]
@@ -333,9 +348,9 @@ class Client:
 
         First enable = 0, sent every cycle until state_t shows every one READY
         and at least two of rmdd's cycles have passed (a motor back from LOST,
-        FAULT or SAFE needs it; rmdd keeps only the newest command per cycle,
-        so an enable = 0 right before an enable = 1 could be lost).  Then
-        enable = 1, sent every cycle until state_t shows them ENABLED.
+        FAULT or SAFE needs it; rmdd would keep it even if enable = 1 followed
+        at once, the wait is for state_t to show READY).  Then enable = 1,
+        sent every cycle until state_t shows them ENABLED.
 
         setpoints: {motor: {"position": ..., ...}} to start from; by default a
         motor holds where it stands (position and MIT modes: its measured

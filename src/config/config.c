@@ -17,6 +17,7 @@ const char *const rmd_mode_names[] = { "torque", "speed", "position", "mit", NUL
 const char *const rmd_units_names[] = { "output", "rotor", NULL };
 const char *const rmd_safe_action_names[] = { "stop", "hold", "damp", "brake", NULL };
 const char *const rmd_lost_action_names[] = { "motor", "all", NULL };
+const char *const rmd_shutdown_action_names[] = { "default", "stop", "hold", "damp", "brake", NULL };
 const char *const rmd_on_missing_names[] = { "refuse", "start", NULL };
 _Static_assert(RMD_MODE_COUNT == 4, "rmd_mode_names[] follows enum rmd_mode");
 
@@ -30,6 +31,7 @@ void rmd_config_defaults(struct rmd_config *cfg)
 	cfg->safety.command_timeout_ms = RMD_CONFIG_DEFAULT_COMMAND_TIMEOUT_MS;
 	cfg->safety.safe_action = RMD_SAFE_DAMP;
 	cfg->safety.lost_motor_action = RMD_LOST_ALL;
+	cfg->safety.shutdown_damp_ms = RMD_CONFIG_DEFAULT_SHUTDOWN_DAMP_MS;
 	cfg->probe.on_missing = RMD_MISSING_REFUSE;
 	snprintf(cfg->lcm.url, sizeof(cfg->lcm.url), "%s", RMD_CONFIG_DEFAULT_LCM_URL);
 	snprintf(cfg->lcm.channel_prefix, sizeof(cfg->lcm.channel_prefix), "%s",

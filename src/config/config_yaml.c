@@ -60,6 +60,9 @@ static const struct field safety_fields[] = {
 	ENUM("safe_action", struct rmd_config_safety, safe_action, rmd_safe_action_names, 0),
 	ENUM("lost_motor_action", struct rmd_config_safety, lost_motor_action,
 	     rmd_lost_action_names, 0),
+	ENUM("shutdown_action", struct rmd_config_safety, shutdown_action,
+	     rmd_shutdown_action_names, 0),
+	UINT("shutdown_damp_ms", struct rmd_config_safety, shutdown_damp_ms, 0, 10000, 0),
 	END
 };
 

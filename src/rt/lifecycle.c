@@ -194,15 +194,15 @@ void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int6
 /* ------------------------------------------------------------------ */
 /* Commands and the host watchdog */
 
-/* rt-safe. */
-static void enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
-			 int64_t now)
+/* Returns -1 when acted on, else the enum rmd_ignore reason it was not.  rt-safe. */
+static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
+			int64_t now)
 {
 	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
 	case RMD_LC_READY:
 	case RMD_LC_SAFE:
 		if (lm->need_edge)
-			return;
+			return RMD_IGN_EDGE;
 		lm->sp = *sp;
 		lm->st.mode = sp->mode;
 		loop_enter(l, lm, RMD_LC_ENABLED, now);
@@ -215,8 +215,9 @@ static void enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd
 	case RMD_LC_FAULT:
 	case RMD_LC_LOST:
 	case RMD_LC_COUNT:
-		break;
+		return RMD_IGN_NOT_READY;
 	}
+	return -1;
 }
 
 /* rt-safe. */
@@ -246,7 +247,12 @@ static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t 
 	loop_event(l, now, RMD_EV_WATCHDOG, 0xFF, 0xFF, s, 0);
 }
 
-/* rt-safe. */
+/*
+ * The newest command.  An enable = 0 the loop did not see (the bridge
+ * handed a newer command over before this cycle) shows as a change of
+ * disables[]: it is acted on first, so enable = 0 then enable = 1 works
+ * however fast they come.  rt-safe.
+ */
 void loop_take_command(struct rmd_loop *l, int64_t now)
 {
 	const struct rmd_command *c = &l->cmd;
@@ -261,16 +267,30 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 		l->last_cmd_rx_ns = c->rx_ns;
 	l->have_cmd = true;
 	/* A command from before the trip does not lift it. */
-	if (l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns)
+	if (l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns) {
+		for (unsigned i = 0; i < l->n_motors; i++)
+			if (c->present & (1u << i) && c->m[i].enable)
+				l->cnt.ignored[RMD_IGN_TRIPPED]++;
 		return;
+	}
 	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		if (c->disables[i] != lm->disables_seen) {
+			lm->disables_seen = c->disables[i];
+			disable_motor(l, lm, now);
+		}
 		if (!(c->present & (1u << i)))
 			continue;
 		if (c->m[i].enable) {
+			int why;
+
 			any_enable = true;
-			enable_motor(l, &l->mot[i], &c->m[i], now);
+			why = enable_motor(l, lm, &c->m[i], now);
+			if (why >= 0)
+				l->cnt.ignored[why]++;
 		} else {
-			disable_motor(l, &l->mot[i], now);
+			disable_motor(l, lm, now);
 		}
 	}
 	if (any_enable)

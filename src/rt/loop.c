@@ -212,6 +212,7 @@ static void fill_health(struct rmd_loop *l, int64_t now)
 	}
 	h->watchdog = l->wd;
 	h->safe_action_events = l->cnt.safe_actions;
+	memcpy(h->ignored, l->cnt.ignored, sizeof(h->ignored));
 	l->health_fresh = true;
 }
 
@@ -415,27 +416,21 @@ static int64_t max_reply_ns(const struct rmd_loop *l)
 	return m;
 }
 
-/* Bounded, blocking: sleeps between sends (rmd/loop.h). */
-void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
+/* The configured shutdown action; "default" is what rmdd did before it could be set.  rt-safe. */
+static enum rmd_shutdown_action shutdown_action(const struct rmd_loop *l)
+{
+	enum rmd_shutdown_action a = l->cfg->safety.shutdown_action;
+
+	if (a == RMD_SHUTDOWN_DEFAULT)
+		a = loop_safe_action(l) == RMD_SAFE_BRAKE ? RMD_SHUTDOWN_BRAKE : RMD_SHUTDOWN_STOP;
+	return a;
+}
+
+/* Every bus's tx list sent, retried for ~10 ms while a bus refuses.  Bounded, blocking. */
+static int64_t send_queued(struct rmd_loop *l, int64_t now)
 {
 	unsigned off[RMD_MAX_BUSES] = { 0 };
-	bool brake = loop_safe_action(l) == RMD_SAFE_BRAKE;
 
-	for (unsigned b = 0; b < l->n_buses; b++) {
-		struct lbus *lb = &l->bus[b];
-
-		lb->ntx = 0;
-		for (unsigned k = 0; k < lb->pb->n_motors; k++) {
-			struct lmotor *lm = &l->mot[lb->pb->motors[k]];
-			struct rmd_frame f;
-
-			/* V3 §2.15 / V2 §3.34 output off; V3 §2.27 / V2 §3.51 brake locked */
-			if (rmd_motor_encode_cmd(&lm->m, 0x80, &f) == 0)
-				loop_push_tx(lb, &f, loop_idx(l, lm), REQ_STATUS);
-			if (brake && rmd_motor_encode_cmd(&lm->m, 0x78, &f) == 0)
-				loop_push_tx(lb, &f, loop_idx(l, lm), REQ_STATUS);
-		}
-	}
 	for (unsigned t = 0; t < STOP_TRIES; t++) {
 		bool left = false;
 
@@ -460,10 +455,69 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 		for (unsigned b = 0; b < l->n_buses; b++)
 			loop_drain(l, b, now);
 	}
-	for (unsigned b = 0; b < l->n_buses; b++)
+	for (unsigned b = 0; b < l->n_buses; b++) {
 		if (off[b] < l->bus[b].ntx)
 			loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, -ENOBUFS,
 				   l->bus[b].ntx - off[b]);
+		l->bus[b].ntx = 0;
+	}
+	return now;
+}
+
+/*
+ * Queue on every bus, per motor: the safe action `driven` for a motor that
+ * is ENABLED or SAFE (none: -1), else `cmd` (0: nothing); `brake` adds
+ * 0x78.  rt-safe.
+ */
+static void queue_stop(struct rmd_loop *l, int driven, uint8_t cmd, bool brake)
+{
+	for (unsigned b = 0; b < l->n_buses; b++) {
+		struct lbus *lb = &l->bus[b];
+
+		lb->ntx = 0;
+		for (unsigned k = 0; k < lb->pb->n_motors; k++) {
+			struct lmotor *lm = &l->mot[lb->pb->motors[k]];
+			bool on = lm->st.lifecycle == RMD_LC_ENABLED ||
+				  lm->st.lifecycle == RMD_LC_SAFE;
+			struct rmd_frame f[2];
+			int n = 0;
+
+			if (on && driven >= 0)
+				n = rmd_motor_encode_safe(&lm->m, (enum rmd_safe_action)driven, f);
+			/* not driven, or the action has no frame for this motor (MIT hold): cmd */
+			if (n <= 0)
+				n = cmd && rmd_motor_encode_cmd(&lm->m, cmd, &f[0]) == 0 ? 1 : 0;
+			for (int j = 0; j < n; j++)
+				loop_push_tx(lb, &f[j], loop_idx(l, lm), REQ_STATUS);
+			/* V3 §2.27 / V2 §3.51 brake locked */
+			if (brake && rmd_motor_encode_cmd(&lm->m, 0x78, &f[0]) == 0)
+				loop_push_tx(lb, &f[0], loop_idx(l, lm), REQ_STATUS);
+		}
+	}
+}
+
+/* Bounded, blocking: sleeps between sends (rmd/loop.h). */
+void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
+{
+	enum rmd_shutdown_action a = shutdown_action(l);
+
+	if (a == RMD_SHUTDOWN_DAMP) {
+		/* damp the driven motors, one frame each per period, then brake them all */
+		int64_t end = now + (int64_t)l->cfg->safety.shutdown_damp_ms * RMD_NS_PER_MS;
+
+		while (now < end) {
+			queue_stop(l, RMD_SAFE_DAMP, 0, false);
+			now = send_queued(l, now);
+			sleep_plain(l, l->period_ns);
+			now = loop_now(l);
+			for (unsigned b = 0; b < l->n_buses; b++)
+				loop_drain(l, b, now);
+		}
+		a = RMD_SHUTDOWN_BRAKE;
+	}
+	/* V3 §2.15 / V2 §3.34 output off; V3 §2.17 stop and hold */
+	queue_stop(l, a == RMD_SHUTDOWN_HOLD ? RMD_SAFE_HOLD : -1, 0x80, a == RMD_SHUTDOWN_BRAKE);
+	now = send_queued(l, now);
 	/* Wait for the echoes (a reply deadline at most): the frames are out. */
 	for (int64_t waited = 0; waited < max_reply_ns(l) && outstanding_any(l);
 	     waited += STOP_STEP_NS) {
@@ -477,7 +531,8 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 
 		if (lm->st.lifecycle == RMD_LC_ENABLED || lm->st.lifecycle == RMD_LC_SAFE)
 			loop_enter(l, lm, RMD_LC_READY, now);
-		/* the stop frames went out above: nothing waits any more */
+		/* the stop frames went out above: nothing waits any more (READY's
+		 * entry frames included: hold must not be undone) */
 		loop_frames_drop(lm);
 	}
 }

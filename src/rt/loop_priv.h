@@ -66,6 +66,7 @@ struct lmotor {
 	unsigned consecutive;	/* missed replies in a row */
 	struct rmd_setpoint sp; /* in force while ENABLED */
 	bool need_edge;		/* enable = 1 counts only after an enable = 0 */
+	uint32_t disables_seen; /* rmd_command.disables[] of this motor, acted on */
 	struct rmd_frame oneshot[ONESHOTS];
 	unsigned n_oneshot;
 	bool damp_stream; /* SAFE with MIT damp: the damp frame in every control slot */

@@ -54,8 +54,14 @@ _Static_assert(RMD_HEALTH_T_REJ_DECODE == RMD_REJ_DECODE &&
 		       RMD_HEALTH_T_REJ_MODE == RMD_REJ_MODE &&
 		       RMD_HEALTH_T_REJ_LIMIT == RMD_REJ_LIMIT &&
 		       RMD_HEALTH_T_REJ_STALE == RMD_REJ_STALE &&
+		       RMD_HEALTH_T_REJ_OWNER == RMD_REJ_OWNER &&
 		       RMD_HEALTH_T_REJ_KINDS == RMD_REJ_KINDS,
 	       "reject kinds");
+_Static_assert(RMD_HEALTH_T_IGN_EDGE == RMD_IGN_EDGE &&
+		       RMD_HEALTH_T_IGN_NOT_READY == RMD_IGN_NOT_READY &&
+		       RMD_HEALTH_T_IGN_TRIPPED == RMD_IGN_TRIPPED &&
+		       RMD_HEALTH_T_IGN_KINDS == RMD_IGN_KINDS,
+	       "ignore kinds");
 _Static_assert(RMD_BUS_HEALTH_T_BUS_ACTIVE == RMD_BUS_ACTIVE &&
 		       RMD_BUS_HEALTH_T_BUS_WARNING == RMD_BUS_WARNING &&
 		       RMD_BUS_HEALTH_T_BUS_PASSIVE == RMD_BUS_PASSIVE &&
@@ -71,13 +77,15 @@ _Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_M
 /* Queued command messages LCM keeps for us before it drops (its default is 30). */
 #define COMMAND_QUEUE 4096
 
-/* Room for one encoded state_t or health_t (about 2.5 KiB and 1.6 KiB). */
+/* Room for one encoded state_t or health_t (at most about 2.7 KiB and 1.7 KiB). */
 #define ENC_MAX 8192
 
 struct rmd_bridge_buf {
 	rmd_command_t msg;
+	rmd_motor_command_t msg_motor[RMD_MAX_MOTORS]; /* msg.motor: decoded in place */
 	struct rmd_command cmd;
 	rmd_state_t state;
+	rmd_motor_state_t state_motor[RMD_MAX_MOTORS]; /* state.motor */
 	rmd_health_t health;
 	char bus_name[RMD_MAX_BUSES][RMD_BRIDGE_NAME_LEN];
 	rmd_config_t config;
@@ -89,7 +97,7 @@ struct rmd_bridge_buf {
 static const char *const reject_names[RMD_REJ_KINDS] = {
 	[RMD_REJ_DECODE] = "decode",	   [RMD_REJ_COUNT] = "count", [RMD_REJ_INDEX] = "index",
 	[RMD_REJ_NONFINITE] = "nonfinite", [RMD_REJ_MODE] = "mode",   [RMD_REJ_LIMIT] = "limit",
-	[RMD_REJ_STALE] = "stale",
+	[RMD_REJ_STALE] = "stale",	   [RMD_REJ_OWNER] = "owner",
 };
 
 static const char *const mode_names[RMD_MODE_COUNT] = {
@@ -137,6 +145,7 @@ void rmd_bridge_opts_init(struct rmd_bridge_opts *opts)
 	opts->period_ns = 1000000;
 	opts->state_every = 1;
 	opts->stale_ms = RMD_CONFIG_DEFAULT_STALE_MS;
+	opts->command_timeout_ms = RMD_CONFIG_DEFAULT_COMMAND_TIMEOUT_MS;
 	opts->health_period_ns = (int64_t)RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS * RMD_NS_PER_MS;
 	opts->poll_ns = RMD_BRIDGE_DEFAULT_POLL_NS;
 	opts->notify_fd = -1;
@@ -316,45 +325,152 @@ static void fill_command(struct rmd_bridge *b, const rmd_command_t *msg, struct 
 	}
 }
 
+/*
+ * Decode a command_t in place (msg->motor is the bridge's own array: no
+ * allocation, and a count beyond MAX_MOTORS is refused before any entry is
+ * read).  Returns -1, or the kind it was rejected for.
+ */
+static int decode_command(struct rmd_bridge *b, const lcm_recv_buf_t *rbuf, rmd_command_t *msg)
+{
+	const void *d = rbuf->data;
+	int max = (int)rbuf->data_size, pos = 0, r = 0;
+	int64_t hash = 0, want = __rmd_command_t_get_hash();
+
+	memset(msg, 0, sizeof(*msg));
+	msg->motor = b->buf->msg_motor;
+	if (rbuf->data_size < 8)
+		return reject(b, RMD_REJ_DECODE, "%u bytes: too short for any LCM type",
+			      (unsigned)rbuf->data_size);
+	pos += __int64_t_decode_array(d, pos, max - pos, &hash, 1);
+	if (hash != want)
+		return reject(b, RMD_REJ_DECODE,
+			      "not an rmd.command_t (fingerprint %016" PRIx64
+			      ", expected %016" PRIx64 ")",
+			      (uint64_t)hash, (uint64_t)want);
+#define FIELD(fn, p)                             \
+	if (r >= 0) {                            \
+		r = fn(d, pos, max - pos, p, 1); \
+		pos += r > 0 ? r : 0;            \
+	}
+	FIELD(__int64_t_decode_array, &msg->utime);
+	FIELD(__int64_t_decode_array, &msg->seq);
+	FIELD(__int64_t_decode_array, &msg->controller);
+	FIELD(__boolean_decode_array, &msg->takeover);
+	FIELD(__int16_t_decode_array, &msg->count);
+#undef FIELD
+	if (r >= 0 && (msg->count < 0 || msg->count > RMD_MAX_MOTORS))
+		return check_entries(b, msg); /* the count rule, before any entry is read */
+	if (r >= 0)
+		r = __rmd_motor_command_t_decode_array(d, pos, max - pos, msg->motor, msg->count);
+	if (r < 0) {
+		if (msg->count < 0 || msg->count > RMD_MAX_MOTORS)
+			msg->count = 0;
+		return reject(b, RMD_REJ_DECODE, "truncated: %u bytes, an rmd.command_t has %d",
+			      (unsigned)rbuf->data_size, rmd_command_t_encoded_size(msg));
+	}
+	pos += r;
+	if (pos != max)
+		return reject(b, RMD_REJ_DECODE, "%u bytes after the end of an rmd.command_t",
+			      (unsigned)(max - pos));
+	return -1;
+}
+
+/* The owner went quiet for the command timeout: ownership ends.  Bridge thread. */
+static void owner_expire(struct rmd_bridge *b, int64_t now)
+{
+	int64_t timeout = (int64_t)b->opts.command_timeout_ms * RMD_NS_PER_MS;
+
+	if (!b->owned || timeout <= 0 || now - b->owner_rx_ns <= timeout)
+		return;
+	/* not logged: the watchdog trip (rmdd's log) says the controller went quiet */
+	b->owned = false;
+	atomic_store_explicit(&b->pub_owned, false, memory_order_relaxed);
+}
+
+/*
+ * One controller at a time (docs/lcm.md): a command from another
+ * controller than the owner is rejected, unless it takes the motors over.
+ * Returns -1 or RMD_REJ_OWNER.  Bridge thread.
+ */
+static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t now)
+{
+	owner_expire(b, now);
+	if (!b->owned || msg->controller == b->owner)
+		return -1;
+	if (msg->takeover) {
+		logf_(b, 4,
+		      "%s: controller %016" PRIx64
+		      " takes the motors over from controller %016" PRIx64,
+		      b->ch_command, (uint64_t)msg->controller, (uint64_t)b->owner);
+		count(&b->n_takeovers);
+		b->owner = msg->controller;
+		b->owner_on = 0;
+		b->owner_rx_ns = now;
+		atomic_store_explicit(&b->pub_owner, b->owner, memory_order_relaxed);
+		return -1;
+	}
+	atomic_store_explicit(&b->pub_intruder, msg->controller, memory_order_relaxed);
+	return reject(b, RMD_REJ_OWNER,
+		      "controller %016" PRIx64 ": the motors are owned by controller %016" PRIx64
+		      " (a supervisor takes them over with takeover = true: docs/lcm.md)",
+		      (uint64_t)msg->controller, (uint64_t)b->owner);
+}
+
+/*
+ * An accepted command: who owns the motors now (said in state_t and
+ * health_t, not logged: a controller's start and end are routine), and
+ * the enable = 0 counts.  Bridge thread.
+ */
+static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg, int64_t now)
+{
+	uint32_t on = 0, off = 0;
+
+	for (int k = 0; k < msg->count; k++) {
+		const rmd_motor_command_t *e = &msg->motor[k];
+
+		if (e->enable) {
+			on |= 1u << e->index;
+		} else {
+			off |= 1u << e->index;
+			b->disables[e->index]++;
+		}
+	}
+	if (!b->owned && on) {
+		b->owned = true;
+		b->owner = msg->controller;
+		b->owner_on = 0;
+		atomic_store_explicit(&b->pub_owner, b->owner, memory_order_relaxed);
+		atomic_store_explicit(&b->pub_owned, true, memory_order_relaxed);
+	}
+	if (!b->owned || msg->controller != b->owner)
+		return;
+	b->owner_rx_ns = now;
+	b->owner_on = (b->owner_on | on) & ~off;
+	if (!b->owner_on) {
+		b->owned = false;
+		atomic_store_explicit(&b->pub_owned, false, memory_order_relaxed);
+	}
+}
+
 static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
 	struct rmd_bridge *b = user;
 	struct rmd_bridge_buf *buf = b->buf;
 	rmd_command_t *msg = &buf->msg;
 	struct clamp_note note = { 0 };
-	int r;
+	int64_t now = rmd_now_ns();
 
 	(void)channel;
-	r = rmd_command_t_decode(rbuf->data, 0, rbuf->data_size, msg);
-	if (r < 0) {
-		int64_t want = __rmd_command_t_get_hash();
-		uint64_t got = 0;
-
-		memset(msg, 0, sizeof(*msg));
-		if (rbuf->data_size < 8) {
-			reject(b, RMD_REJ_DECODE, "%u bytes: too short for any LCM type",
-			       (unsigned)rbuf->data_size);
-			return;
-		}
-		for (int i = 0; i < 8; i++)
-			got = got << 8 | ((const uint8_t *)rbuf->data)[i];
-		if (got != (uint64_t)want)
-			reject(b, RMD_REJ_DECODE,
-			       "not an rmd.command_t (fingerprint %016" PRIx64
-			       ", expected %016" PRIx64 ")",
-			       got, (uint64_t)want);
-		else
-			reject(b, RMD_REJ_DECODE, "truncated: %u bytes, an rmd.command_t has %d",
-			       (unsigned)rbuf->data_size, rmd_command_t_encoded_size(msg));
+	if (decode_command(b, rbuf, msg) >= 0 || check_entries(b, msg) >= 0 ||
+	    check_owner(b, msg, now) >= 0)
 		return;
-	}
-	if ((uint32_t)r != rbuf->data_size) {
-		reject(b, RMD_REJ_DECODE, "%u bytes after the end of an rmd.command_t",
-		       (unsigned)(rbuf->data_size - (uint32_t)r));
+	/* a different controller starts its own sequence */
+	if (!b->have_controller || msg->controller != b->last_controller)
+		b->have_seq = b->have_utime = false;
+	if (check_order(b, msg) >= 0)
 		return;
-	}
-	if (check_entries(b, msg) >= 0 || check_order(b, msg) >= 0)
-		return;
+	b->have_controller = true;
+	b->last_controller = msg->controller;
 
 	if (msg->seq == 0)
 		b->have_seq = b->have_utime = false;
@@ -366,8 +482,10 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		b->have_utime = true;
 	}
 
+	note_accepted(b, msg, now);
 	fill_command(b, msg, &buf->cmd, &note);
-	buf->cmd.rx_ns = rmd_now_ns();
+	memcpy(buf->cmd.disables, b->disables, sizeof(buf->cmd.disables));
+	buf->cmd.rx_ns = now;
 	rmd_latest_put(b->opts.commands, &buf->cmd);
 	count(&b->n_accepted);
 	if (note.any) {
@@ -429,15 +547,14 @@ static void publish_state(struct rmd_bridge *b)
 
 	st->utime = s->t_ns / 1000;
 	st->cycle = sat64(s->cycle);
+	st->owned = b->owned;
+	st->owner = b->owned ? b->owner : 0;
 	st->count = (int16_t)(s->n < RMD_MAX_MOTORS ? s->n : RMD_MAX_MOTORS);
-	for (int i = 0; i < RMD_MAX_MOTORS; i++) {
+	st->motor = b->buf->state_motor;
+	for (int i = 0; i < st->count; i++) {
 		const struct rmd_motor_state *m = &s->m[i];
 		rmd_motor_state_t *o = &st->motor[i];
 
-		if (i >= st->count) {
-			memset(o, 0, sizeof(*o));
-			continue;
-		}
 		o->index = (int16_t)i;
 		o->lifecycle = (int8_t)m->lifecycle;
 		o->mode = (int8_t)m->mode;
@@ -451,6 +568,7 @@ static void publish_state(struct rmd_bridge *b)
 		o->reply_age_cycles = sat32(m->reply_age_cycles);
 		o->reply_latency_us = sat32(m->reply_latency_ns / 1000);
 		o->missed_replies = sat64(m->missed_replies);
+		o->rx_time_ns = m->rx_ns;
 	}
 	n = rmd_state_t_encode(b->buf->enc, 0, ENC_MAX, st);
 	if (publish_encoded(b, b->ch_state, n))
@@ -511,6 +629,13 @@ static void publish_health(struct rmd_bridge *b, int64_t now)
 		o->commands_rejected += o->rejected_by_kind[k];
 	}
 	o->commands_clamped = sat64(read_count(&b->n_clamped));
+	for (int k = 0; k < RMD_IGN_KINDS; k++)
+		o->ignored_by_kind[k] = sat64(h->ignored[k]);
+	owner_expire(b, now);
+	o->owned = b->owned;
+	o->owner = b->owned ? b->owner : 0;
+	o->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);
+	o->takeovers = sat64(read_count(&b->n_takeovers));
 
 	n = rmd_health_t_encode(b->buf->enc, 0, ENC_MAX, o);
 	if (publish_encoded(b, b->ch_health, n))
@@ -687,8 +812,11 @@ static int check_opts(const struct rmd_bridge_opts *o, char *err, size_t errlen)
 	    !latest_ok(o->health, sizeof(struct rmd_health), true))
 		return snprintf(err, errlen, "hand-over buffers missing or of the wrong size"),
 		       -EINVAL;
-	if (o->stale_ms < 0 || o->health_period_ns <= 0 || o->poll_ns <= 0)
-		return snprintf(err, errlen, "stale_ms < 0, or a period <= 0"), -EINVAL;
+	if (o->stale_ms < 0 || o->command_timeout_ms < 0 || o->health_period_ns <= 0 ||
+	    o->poll_ns <= 0)
+		return snprintf(err, errlen,
+				"stale_ms or command_timeout_ms < 0, or a period <= 0"),
+		       -EINVAL;
 	for (unsigned i = 0; i < o->nbuses; i++)
 		if (strnlen(o->bus[i].name, RMD_BRIDGE_NAME_LEN) == RMD_BRIDGE_NAME_LEN ||
 		    strnlen(o->bus[i].kind, sizeof(o->bus[i].kind)) == sizeof(o->bus[i].kind))
@@ -856,4 +984,8 @@ void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
 	st->configs_published = read_count(&b->n_configs);
 	st->publish_errors = read_count(&b->n_publish_errors);
 	st->lcm_errors = read_count(&b->n_lcm_errors);
+	st->takeovers = read_count(&b->n_takeovers);
+	st->owned = atomic_load_explicit(&b->pub_owned, memory_order_relaxed);
+	st->owner = atomic_load_explicit(&b->pub_owner, memory_order_relaxed);
+	st->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);
 }

@@ -7,6 +7,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -116,7 +117,11 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 
 	(void)rbuf;
 	(void)channel;
-	rx->state = *msg; /* fixed-size: a plain copy */
+	rx->state = *msg; /* motor[] is variable-length: copied into rx */
+	memset(rx->state_motor, 0, sizeof(rx->state_motor));
+	if (msg->count > 0 && msg->count <= RMD_STATE_T_MAX_MOTORS)
+		memcpy(rx->state_motor, msg->motor, (size_t)msg->count * sizeof(*msg->motor));
+	rx->state.motor = rx->state_motor;
 	if (rx->n_states < LCM_RX_STATES)
 		rx->state_cycle[rx->n_states] = msg->cycle;
 	rx->n_states++;

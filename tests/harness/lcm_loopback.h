@@ -52,7 +52,8 @@ struct lcm_rx {
 	rmd_health_t_subscription_t *health_sub;
 	rmd_config_t_subscription_t *config_sub;
 
-	rmd_state_t state; /* the last one */
+	rmd_state_t state; /* the last one; its motor[] is state_motor[] */
+	rmd_motor_state_t state_motor[RMD_STATE_T_MAX_MOTORS];
 	unsigned n_states;
 	int64_t state_cycle[LCM_RX_STATES]; /* the first ones' cycle numbers */
 	rmd_health_t *health;		    /* the last one (a copy), or NULL */

@@ -9,6 +9,9 @@
                                  enable it again: enable = 0 first, READY,
                                  then ENABLED; track; leave the block
     python_client.py absent URL  no rmdd: connect() raises RmdError, saying so
+    python_client.py takeover URL  client a enables motor1; client b is
+                                 rejected (health_t intruder), then takes it
+                                 over (takeover = True) and drives it
 
 It must run the installed package (pip install ./python), not a checkout:
 it prints where rmd comes from.  Each step prints one line; a failed check
@@ -67,9 +70,54 @@ def connect_and_enable(c):
     return m
 
 
+def spin_until(c, done, seconds):
+    """c streams its setpoints until done() or `seconds` pass; returns done()."""
+    end = time.monotonic() + seconds
+    while not done() and time.monotonic() < end:
+        c.spin(0.02)
+    return done()
+
+
+def ownership(h):
+    """health_t's ownership fields, for a message."""
+    if h is None:
+        return "no health_t"
+    return (f"owned {h.owned} owner {h.owner:#x} intruder {h.intruder:#x} "
+            f"takeovers {h.takeovers}")
+
+
+def takeover(url):
+    """Two clients: the first to enable owns motor1; the second takes it over."""
+    with rmd.Client(url) as a, rmd.Client(url) as b:
+        if a.controller == b.controller:
+            fail(f"two clients with the same controller id {a.controller:#x}")
+        m = connect_and_enable(a)
+        b.send()  # no setpoints, still another controller's command: rejected
+        if not spin_until(a, lambda: a.health is not None and a.health.intruder == b.controller
+                          and a.health.owned and a.health.owner == a.controller, 2.0):
+            fail(f"health_t does not name b as the intruder: {ownership(a.health)}")
+        if not (a.state.owned and a.state.owner == a.controller):
+            fail("state_t does not name a as the owner")
+        print("intruder: b rejected while a owns motor1", flush=True)
+        b.takeover = True
+        b.enable([m], rmd.command_t.MODE_POSITION)
+        if not spin_until(b, lambda: b.health.owner == b.controller
+                          and b.health.takeovers == 1, 2.0):
+            fail(f"health_t after the takeover: {ownership(b.health)}")
+        a.send()  # the old owner is the intruder now
+        if not spin_until(b, lambda: b.health.intruder == a.controller, 2.0):
+            fail("health_t does not name a as the intruder after the takeover")
+        if b.lifecycle(m) != rmd.state_t.LC_ENABLED:
+            fail(f"motor1 in lifecycle {b.lifecycle(m)} under b")
+        print("takeover: b drives motor1, a is rejected", flush=True)
+    return 0
+
+
 def main():
     what, url = sys.argv[1], sys.argv[2]
     print(f"rmd from {rmd.__file__}", flush=True)
+    if what == "takeover":
+        return takeover(url)
     if what == "absent":
         c = rmd.Client(url)
         t0 = time.monotonic()

@@ -456,9 +456,12 @@ static int16_t code_of(unsigned k)
 /* A one-motor torque command with the given torque, stamped now. */
 static rmd_command_t torque_cmd(int64_t seq, double torque_nm)
 {
+	static rmd_motor_command_t motor; /* m.motor: variable-length, one entry */
 	rmd_command_t m;
 
 	memset(&m, 0, sizeof(m));
+	memset(&motor, 0, sizeof(motor));
+	m.motor = &motor;
 	m.utime = now_ns() / 1000;
 	m.seq = seq;
 	m.count = 1;

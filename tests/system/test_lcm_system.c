@@ -120,6 +120,7 @@ struct fixture {
 	struct lcm_rx rx;
 
 	int64_t seq;
+	int64_t controller;	/* command_t.controller of the commands cmd_new() makes */
 	int64_t last_pub_ns;	/* when stream() last published */
 	int64_t fresh_after_ns; /* done_fresh_health(): a health_t newer than this */
 	double target[NMOTORS];
@@ -438,10 +439,10 @@ static void request_config(struct fixture *f)
 	assert_int_equal(rmd_config_request_t_publish(f->pub, "RMD_CONFIG_REQUEST", &req), 0);
 }
 
-/* Start rmdd on this test's URL and wait for its config_t (asked for every 200 ms). */
-static void start_rmdd(struct fixture *f)
+/* Start rmdd with config `path` on this test's URL and wait for its config_t (asked for every 200 ms). */
+static void start_rmdd_with(struct fixture *f, const char *path)
 {
-	const char *argv[] = { rmdd_bin, "--config", cfg_path, "--lcm-url", f->url, NULL };
+	const char *argv[] = { rmdd_bin, "--config", path, "--lcm-url", f->url, NULL };
 	int64_t end = now_ns() + 10 * NS_PER_S, next = 0;
 
 	f->rmdd = spawn(argv, f->log, false);
@@ -465,6 +466,11 @@ static void start_rmdd(struct fixture *f)
 	}
 }
 
+static void start_rmdd(struct fixture *f)
+{
+	start_rmdd_with(f, cfg_path);
+}
+
 /* The newest health_t that rmdd sent after `after_ns` (our clock = rmdd's CLOCK_MONOTONIC). */
 static const rmd_health_t *health_after(struct fixture *f, int64_t after_ns, int timeout_ms)
 {
@@ -477,11 +483,20 @@ static const rmd_health_t *health_after(struct fixture *f, int64_t after_ns, int
 
 /* ---- commands ---------------------------------------------------------------------- */
 
+/*
+ * command_t's motor[] is variable-length: the commands the tests build use
+ * this array, room for counts beyond MAX_MOTORS (one command at a time).
+ */
+static rmd_motor_command_t cmd_motors[64];
+
 static rmd_command_t cmd_new(struct fixture *f)
 {
 	rmd_command_t m;
 
 	memset(&m, 0, sizeof(m));
+	memset(cmd_motors, 0, sizeof(cmd_motors));
+	m.motor = cmd_motors;
+	m.controller = f->controller;
 	m.utime = now_ns() / 1000;
 	m.seq = ++f->seq;
 	return m;
@@ -842,9 +857,9 @@ static void test_hostile_messages_rejected_and_counted(void **state)
 	assert_true(all_in(f, RMD_STATE_T_LC_READY));
 	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_IDLE);
 	assert_int_equal(h->safe_action_events, 0);
-	/* each kind logged once, with its reason */
+	/* each kind logged once, with its reason (REJ_OWNER: test_second_controller_rejected) */
 	log = slurp(f->log);
-	if (count_of(log, "<4>rmdd: rejected RMD_COMMAND: ") != RMD_HEALTH_T_REJ_KINDS)
+	if (count_of(log, "<4>rmdd: rejected RMD_COMMAND: ") != RMD_HEALTH_T_REJ_KINDS - 1)
 		fail_msg("want one log line per reject kind; rmdd's output:\n%s", log);
 	assert_non_null(strstr(log, "further rejections of this kind are counted in health_t"));
 	print_message("hostile: %lld rejected (by kind %lld %lld %lld %lld %lld %lld %lld), "
@@ -1258,6 +1273,7 @@ static void test_examples_refuse_without_rmdd(void **state)
 struct log_summary {
 	unsigned states, health, commands, configs, other;
 	rmd_state_t last_enabled; /* the newest state with every motor enabled */
+	rmd_motor_state_t last_enabled_motor[RMD_STATE_T_MAX_MOTORS]; /* its motor[] */
 	bool have_enabled;
 	bool cycles_increase;
 };
@@ -1287,6 +1303,9 @@ static void read_log(const char *path, struct log_summary *ls)
 				all = s.motor[i].lifecycle == RMD_STATE_T_LC_ENABLED;
 			if (all) {
 				ls->last_enabled = s;
+				memcpy(ls->last_enabled_motor, s.motor,
+				       (size_t)s.count * sizeof(*s.motor));
+				ls->last_enabled.motor = ls->last_enabled_motor;
 				ls->have_enabled = true;
 			}
 			rmd_state_t_decode_cleanup(&s);
@@ -1405,6 +1424,317 @@ static void test_logger_records_state(void **state)
 	}
 }
 
+/* ---- tests: issue 13 ---------------------------------------------------------------------- */
+
+/* The daemon's configuration with motor 1 of sim0 (pos_1) silent from 1 s to 1.5 s. */
+static void write_loss_config(char *path, size_t len)
+{
+	static const char from[] = "sim: {seed: 1}";
+	const char *at = strstr(config_yaml, from);
+	FILE *fp;
+
+	assert_non_null(at);
+	snprintf(path, len, "%s/loss.yaml", tmpdir);
+	fp = fopen(path, "w");
+	assert_non_null(fp);
+	fprintf(fp, "%.*s", (int)(at - config_yaml), config_yaml);
+	fputs("sim: {seed: 1, faults: [{kind: drop, motor: 1, probability: 1, start_s: 1.0, "
+	      "end_s: 1.5}]}",
+	      fp);
+	fputs(at + strlen(from), fp);
+	assert_int_equal(fclose(fp), 0);
+}
+
+static int64_t first_command_ns;
+
+static void on_any_command(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	(void)rbuf;
+	(void)channel;
+	(void)user;
+	if (!first_command_ns)
+		first_command_ns = now_ns();
+}
+
+static bool motor_in(const struct fixture *f, int i, int lc)
+{
+	return f->rx.state.count > i && f->rx.state.motor[i].lifecycle == lc;
+}
+
+/* pos_1 missed a loss's worth of replies and is READY again. */
+static bool back_from_loss(const struct fixture *f)
+{
+	return motor_in(f, 0, RMD_STATE_T_LC_READY) && f->rx.state.motor[0].missed_replies >= 10;
+}
+
+/*
+ * Issue 13: after a motor is lost and returns, an example controller run as
+ * docs/lcm.md says (enable = 0, READY, enable = 1) drives it again within
+ * one second of its first command, though its enable = 0 and enable = 1
+ * come within a few milliseconds.
+ */
+static void example_after_a_loss(struct fixture *f, const char *const *argv, bool python)
+{
+	char path[400];
+	lcm_subscription_t *sub;
+	int64_t enabled_ns = 0, end;
+	const char *out;
+	int st;
+
+	write_loss_config(path, sizeof(path));
+	start_rmdd_with(f, path);
+	/* lost (its missed replies say so, whether or not a state_t showed LC_LOST), then back */
+	WAIT_UNTIL(f, back_from_loss(f), 8000);
+	if (!back_from_loss(f) || !strstr(slurp(f->log), "(pos_1): lost"))
+		fail_msg("pos_1 not lost and back; rmdd's output:\n%s", slurp(f->log));
+
+	first_command_ns = 0;
+	sub = lcm_subscribe(f->sub, "RMD_COMMAND", on_any_command, NULL);
+	assert_non_null(sub);
+	f->child = spawn(argv, f->child_log, python);
+	end = now_ns() + 10 * NS_PER_S;
+	while (!enabled_ns && now_ns() < end && wait_exit(f->child, 0) < 0) {
+		pump(f, 1);
+		if (motor_in(f, 0, RMD_STATE_T_LC_ENABLED))
+			enabled_ns = now_ns();
+	}
+	if (!enabled_ns || !first_command_ns)
+		fail_msg("%s did not enable pos_1 after its loss; its output:\n%s\nrmdd's:\n%s",
+			 argv[0], slurp(f->child_log), slurp(f->log));
+	print_message("%s: pos_1 enabled %.0f ms after the first command\n", argv[0],
+		      (enabled_ns - first_command_ns) / 1e6);
+	if (enabled_ns - first_command_ns > NS_PER_S)
+		fail_msg("%s: pos_1 enabled %.0f ms after the first command", argv[0],
+			 (enabled_ns - first_command_ns) / 1e6);
+	st = wait_exit(f->child, 20000);
+	f->child = 0;
+	out = slurp(f->child_log);
+	if (st != 0)
+		fail_msg("%s exited %d; its output:\n%s", argv[0], st, out);
+	assert_null(strstr(out, "not ready"));
+	assert_non_null(strstr(out, "pos_1"));
+	lcm_unsubscribe(f->sub, sub);
+	/* nothing was ignored for it once it ran: the edge reached the loop */
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 1000);
+	assert_true(all_in(f, RMD_STATE_T_LC_READY));
+}
+
+static void test_c_example_after_a_loss(void **state)
+{
+	struct fixture *f = fixture(state);
+	const char *argv[] = { sine_bin, "--url", f->url, "--duration", "2", NULL };
+
+	if (access(sine_bin, X_OK) < 0)
+		fail_msg("%s: %s (make build/sine_controller, or set SINE_CONTROLLER)", sine_bin,
+			 strerror(errno));
+	example_after_a_loss(f, argv, false);
+}
+
+static void test_python_example_after_a_loss(void **state)
+{
+	struct fixture *f = fixture(state);
+	const char *argv[] = { "python3", sine_py, "--url", f->url, "--duration", "2", NULL };
+
+	if (python_missing("the Python example after a loss"))
+		skip();
+	example_after_a_loss(f, argv, true);
+}
+
+/* Every motor's position within tol of target + off. */
+static bool all_near(const struct fixture *f, const double *target, double off, double tol)
+{
+	for (int i = 0; i < NMOTORS; i++)
+		if (!(fabs(f->rx.state.motor[i].position - (target[i] + off)) < tol))
+			return false;
+	return true;
+}
+
+/*
+ * Issue 13: two controllers publishing at once.  The first to enable owns
+ * the motors; the second is rejected and reported (health_t owner and
+ * intruder) and moves nothing; a supervisor's takeover is logged and works.
+ */
+static void test_second_controller_rejected(void **state)
+{
+	struct fixture *f = fixture(state);
+	double home[NMOTORS];
+	int64_t end;
+	bool near_b = false;
+	const rmd_health_t *h;
+	const char *log;
+
+	start_rmdd(f);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = 0x0a0a;
+	enable_in_place(f);
+	memcpy(home, f->target, sizeof(home));
+
+	/* A drives every motor 0.3 rad up, B (started later) 0.3 rad down, at once */
+	end = now_ns() + 1500 * NS_PER_MS;
+	while (now_ns() < end) {
+		rmd_command_t m;
+
+		for (int i = 0; i < NMOTORS; i++)
+			f->target[i] = home[i] + 0.3;
+		f->controller = 0x0a0a;
+		m = cmd_all(f, true);
+		send_cmd(f, &m);
+		for (int i = 0; i < NMOTORS; i++)
+			f->target[i] = home[i] - 0.3;
+		f->controller = 0x0b0b;
+		m = cmd_all(f, true);
+		send_cmd(f, &m);
+		f->last_pub_ns = now_ns();
+		for (int k = 0; k < CTL_PERIOD_MS; k++) {
+			pump(f, 1);
+			near_b |= all_near(f, home, -0.3, 0.1);
+		}
+	}
+	assert_false(near_b);
+	if (!all_near(f, home, 0.3, 0.02) || !all_in(f, RMD_STATE_T_LC_ENABLED))
+		fail_msg("the motors did not follow the owner alone; rmdd's output:\n%s",
+			 slurp(f->log));
+	f->controller = 0x0a0a;
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = home[i] + 0.3;
+	h = stream_health(f, true);
+	assert_true(h->owned);
+	assert_int_equal(h->owner, 0x0a0a);
+	assert_int_equal(h->intruder, 0x0b0b);
+	assert_true(h->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER] > 100);
+	assert_true(f->rx.state.owned);
+	assert_int_equal(f->rx.state.owner, 0x0a0a);
+
+	/* B takes over, as a supervisor does (takeover = true): it drives them now */
+	f->controller = 0x0b0b;
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = home[i] - 0.3;
+	{
+		rmd_command_t m = cmd_all(f, true);
+
+		m.takeover = true;
+		send_cmd(f, &m);
+	}
+	if (!stream(f, true, 3000, done_target, 20))
+		fail_msg("the motors did not follow the supervisor; rmdd's output:\n%s",
+			 slurp(f->log));
+	h = stream_health(f, true);
+	assert_int_equal(h->owner, 0x0b0b);
+	assert_int_equal(h->takeovers, 1);
+	log = slurp(f->log);
+	assert_non_null(strstr(log, "<4>rmdd: RMD_COMMAND: controller 0000000000000b0b takes the "
+				    "motors over from controller 0000000000000a0a"));
+	assert_non_null(strstr(log, "<4>rmdd: rejected RMD_COMMAND: controller 0000000000000b0b: "
+				    "the motors are owned by controller 0000000000000a0a"));
+
+	/* B disables them: released, a new controller may enable */
+	disable_all(f);
+	h = stream_health(f, false);
+	assert_false(h->owned);
+	f->controller = 0x0c0c;
+	enable_in_place(f);
+	disable_all(f);
+}
+
+/*
+ * Issue 13: SIGTERM sends the configured safety.shutdown_action (here damp
+ * for 300 ms, then brake) and says so on exit; the frames themselves are
+ * checked on the simulated wire by tests/unit/test_loop.c.
+ */
+static void test_sigterm_sends_the_configured_action(void **state)
+{
+	struct fixture *f = fixture(state);
+	static const char from[] = "lost_motor_action: all}";
+	const char *at = strstr(config_yaml, from);
+	char path[400];
+	int64_t t0, took;
+	FILE *fp;
+
+	assert_non_null(at);
+	snprintf(path, sizeof(path), "%s/shutdown.yaml", tmpdir);
+	fp = fopen(path, "w");
+	assert_non_null(fp);
+	fprintf(fp, "%.*s", (int)(at - config_yaml), config_yaml);
+	fputs("lost_motor_action: all, shutdown_action: damp, shutdown_damp_ms: 300}", fp);
+	fputs(at + strlen(from), fp);
+	assert_int_equal(fclose(fp), 0);
+
+	start_rmdd_with(f, path);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = 0x5157;
+	enable_in_place(f);
+	t0 = now_ns();
+	assert_int_equal(stop_child(&f->rmdd, SIGTERM, 5000), 0);
+	took = now_ns() - t0;
+	if (!strstr(slurp(f->log), "<5>rmdd: the driven motors were damped, then every motor was "
+				   "sent stop (0x80) and brake (0x78); their comm-loss protection "
+				   "(0xB3) stays set"))
+		fail_msg("no exit line for damp; rmdd's output:\n%s", slurp(f->log));
+	/* it damped for the configured time before it exited */
+	assert_true(took >= 300 * NS_PER_MS);
+}
+
+static bool done_motor0_lost(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return motor_in(f, 0, RMD_STATE_T_LC_LOST);
+}
+
+static bool done_motor0_ready(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return motor_in(f, 0, RMD_STATE_T_LC_READY);
+}
+
+static bool done_motor0_enabled(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return motor_in(f, 0, RMD_STATE_T_LC_ENABLED);
+}
+
+/*
+ * Issue 13: an enable = 1 the loop does not act on is reported in health_t
+ * with its reason: while pos_1 is LOST (IGN_NOT_READY), and once it is back
+ * but waits for enable = 0 (IGN_EDGE); enable = 0 then enable = 1 at once
+ * drives it again.
+ */
+static void test_ignored_enable_reported(void **state)
+{
+	struct fixture *f = fixture(state);
+	const rmd_health_t *h;
+	char path[400];
+
+	write_loss_config(path, sizeof(path));
+	start_rmdd_with(f, path);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = 0x1e1e;
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] =
+			isfinite(f->rx.state.motor[i].position) ? f->rx.state.motor[i].position : 0;
+	/* the loss: pos_1 LOST, then back, while the controller streams enable = 1 */
+	if (!stream(f, true, 5000, done_motor0_lost, 0) ||
+	    !stream(f, true, 5000, done_motor0_ready, 0))
+		fail_msg("pos_1 not lost and back within 10 s; rmdd's output:\n%s", slurp(f->log));
+	h = stream_health(f, true);
+	h = stream_health(f, true);
+	assert_true(h->ignored_by_kind[RMD_HEALTH_T_IGN_NOT_READY] > 0);
+	assert_true(h->ignored_by_kind[RMD_HEALTH_T_IGN_EDGE] > 0);
+	assert_true(motor_in(f, 0, RMD_STATE_T_LC_READY));
+	print_message("ignored: not ready %lld, edge %lld\n",
+		      (long long)h->ignored_by_kind[RMD_HEALTH_T_IGN_NOT_READY],
+		      (long long)h->ignored_by_kind[RMD_HEALTH_T_IGN_EDGE]);
+	/* enable = 0 and at once enable = 1: it runs again */
+	{
+		rmd_command_t m = cmd_all(f, false);
+
+		send_cmd(f, &m);
+	}
+	if (!stream(f, true, 1000, done_motor0_enabled, 0))
+		fail_msg("pos_1 not enabled after enable = 0, 1; rmdd's output:\n%s",
+			 slurp(f->log));
+	disable_all(f);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1420,6 +1750,12 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_ctrl_c_stops_cleanly, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_examples_refuse_without_rmdd, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_logger_records_state, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_c_example_after_a_loss, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_python_example_after_a_loss, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_second_controller_rejected, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_sigterm_sends_the_configured_action, setup,
+						teardown),
+		cmocka_unit_test_setup_teardown(test_ignored_enable_reported, setup, teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood* */

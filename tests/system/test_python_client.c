@@ -454,6 +454,23 @@ static void test_no_rmdd_is_a_clear_error(void **state)
 		fail_msg("want \"%s\" in:\n%s", want, out);
 }
 
+/*
+ * Issue 13: rmd.Client identifies itself (command_t.controller, random per
+ * client); a second client is rejected while the first owns the motor and
+ * takes it over with takeover = True.
+ */
+static void test_second_client_rejected_then_takes_over(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	const char *out;
+
+	start_rmdd(f);
+	out = run_script(f, "takeover");
+	assert_non_null(strstr(out, "intruder: b rejected while a owns motor1"));
+	assert_non_null(strstr(out, "takeover: b drives motor1, a is rejected"));
+	assert_non_null(strstr(file_text(f->rmdd_log), "takes the motors over from controller"));
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -462,6 +479,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_enable_after_the_watchdog_tripped, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_no_rmdd_is_a_clear_error, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_second_client_rejected_then_takes_over, setup,
+						teardown),
 	};
 
 	return cmocka_run_group_tests_name("python_client", tests, group_setup, group_teardown);

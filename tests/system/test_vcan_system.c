@@ -437,9 +437,12 @@ static void on_health(const lcm_recv_buf_t *rb, const char *ch, const rmd_health
 
 static void publish(void)
 {
+	static rmd_motor_command_t motors[RMD_MAX_MOTORS]; /* c.motor: variable-length */
 	rmd_command_t c;
 
 	memset(&c, 0, sizeof(c));
+	memset(motors, 0, sizeof(motors));
+	c.motor = motors;
 	c.utime = mono_ns() / 1000;
 	c.seq = ++S.seq;
 	c.count = (int16_t)S.cfg.n_motors;

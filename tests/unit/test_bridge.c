@@ -247,12 +247,28 @@ static void send_cmd(struct fixture *f, const rmd_command_t *msg)
 	assert_int_equal(rmd_command_t_publish(f->ctl, f->ch_command, msg), 0);
 }
 
-/* A valid command: motor 1 in position mode, motor 2 (MIT-capable) in MIT. */
-static rmd_command_t base_cmd(int64_t seq)
+/*
+ * command_t's motor[] is variable-length: the commands the tests build use
+ * this array, room for counts beyond MAX_MOTORS (one command at a time).
+ */
+static rmd_motor_command_t cmd_motors[64];
+
+/* A zeroed command over cmd_motors. */
+static rmd_command_t empty_cmd(void)
 {
 	rmd_command_t m;
 
 	memset(&m, 0, sizeof(m));
+	memset(cmd_motors, 0, sizeof(cmd_motors));
+	m.motor = cmd_motors;
+	return m;
+}
+
+/* A valid command: motor 1 in position mode, motor 2 (MIT-capable) in MIT. */
+static rmd_command_t base_cmd(int64_t seq)
+{
+	rmd_command_t m = empty_cmd();
+
 	m.utime = 1000000 + seq;
 	m.seq = seq;
 	m.count = 2;
@@ -397,7 +413,7 @@ static void test_clamp(void **state)
 
 	f->opts.motor[7].vel_max_rad_s = INFINITY; /* no limit: max_velocity 0 stays 0 */
 	start(f);
-	memset(&m, 0, sizeof(m));
+	m = empty_cmd();
 	m.seq = 1;
 	m.count = 5;
 	m.motor[0] = (rmd_motor_command_t){
@@ -547,6 +563,12 @@ static void seq_back(rmd_command_t *m)
 	m->seq = 999;
 }
 
+/* base_cmd(1000) made controller 0 the owner: another is an intruder */
+static void intruder(rmd_command_t *m)
+{
+	m->controller = 0x1234;
+}
+
 static const struct hostile hostiles[] = {
 	{ "wrong fingerprint", RMD_REJ_DECODE, RAW_STATE, NULL, "not an rmd.command_t" },
 	{ "truncated", RMD_REJ_DECODE, RAW_TRUNCATED, NULL, NULL },
@@ -570,6 +592,8 @@ static const struct hostile hostiles[] = {
 	{ "max_velocity < 0", RMD_REJ_LIMIT, RAW_NONE, max_velocity_negative, NULL },
 	{ "seq back", RMD_REJ_STALE, RAW_NONE, seq_back,
 	  "seq 999 went back (newest accepted 1000" },
+	{ "intruder", RMD_REJ_OWNER, RAW_NONE, intruder,
+	  "controller 0000000000001234: the motors are owned by controller 0000000000000000" },
 };
 
 static void send_hostile(struct fixture *f, const struct hostile *h)
@@ -875,6 +899,7 @@ static void put_snapshot(struct fixture *f, uint64_t cycle)
 		m->reply_age_cycles = i;
 		m->reply_latency_ns = 600000 + 1000 * i;
 		m->missed_replies = 10 * i;
+		m->rx_ns = s->t_ns - 100000 * (int64_t)(i + 1);
 	}
 	rmd_latest_publish(&f->snapshots);
 	assert_int_equal(write(f->opts.notify_fd, &one, sizeof(one)), sizeof(one));
@@ -1079,6 +1104,143 @@ static void test_config_on_request(void **state)
 	assert_int_equal(stats(f).rejected, 0);
 }
 
+/* A controller's command: base_cmd() from controller id, enable as given. */
+static rmd_command_t ctl_cmd(int64_t id, int64_t seq, bool enable)
+{
+	rmd_command_t m = base_cmd(seq);
+
+	m.controller = id;
+	m.motor[0].enable = enable;
+	m.motor[1].enable = enable;
+	return m;
+}
+
+/*
+ * Issue 13: one controller at a time.  The first to enable owns the motors;
+ * another is rejected (REJ_OWNER, its id in health_t) until the owner
+ * disables what it enabled, goes quiet for the command timeout, or a
+ * supervisor takes over.  enable = 0 entries are counted per motor in the
+ * hand-over, so the rt loop sees them however fast enable = 1 follows.
+ */
+static void test_one_controller_at_a_time(void **state)
+{
+	struct fixture *f = fixture(state);
+	struct rmd_bridge_stats st;
+	struct rmd_command c;
+	rmd_command_t m;
+	struct rmd_health h;
+	const rmd_health_t *o;
+	char line[512];
+	unsigned takeover_lines = 0, owner_lines = 0;
+
+	f->opts.command_timeout_ms = 200;
+	f->opts.notify_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	assert_true(f->opts.notify_fd >= 0);
+	memset(&h, 0, sizeof(h));
+	h.ignored[RMD_IGN_EDGE] = 3;
+	h.ignored[RMD_IGN_TRIPPED] = 1;
+	rmd_latest_put(&f->health, &h);
+	listen(f);
+	start(f);
+
+	/* A enables: it owns them */
+	m = ctl_cmd(0xA, 1, true);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &c), 2000);
+	st = stats(f);
+	assert_true(st.owned);
+	assert_int_equal(st.owner, 0xA);
+
+	/* B, with setpoints or without, is rejected; nothing reaches the loop */
+	m = ctl_cmd(0xB, 1, true);
+	send_cmd(f, &m);
+	m = ctl_cmd(0xB, 2, false);
+	m.count = 0;
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, stats(f).rejected_by_kind[RMD_REJ_OWNER] == 2, 2000);
+	st = stats(f);
+	assert_int_equal(st.rejected_by_kind[RMD_REJ_OWNER], 2);
+	assert_int_equal(st.intruder, 0xB);
+	assert_int_equal(st.owner, 0xA);
+	assert_false(take_command(f, &c));
+
+	/* health_t and state_t say who owns them and who intruded */
+	put_snapshot(f, 7);
+	WAIT_UNTIL(f, f->rx.health && f->rx.health->intruder == 0xB && f->rx.n_states, 2000);
+	o = f->rx.health;
+	assert_true(o->owned);
+	assert_int_equal(o->owner, 0xA);
+	assert_int_equal(o->intruder, 0xB);
+	assert_int_equal(o->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER], 2);
+	assert_int_equal(o->ignored_by_kind[RMD_HEALTH_T_IGN_EDGE], 3);
+	assert_int_equal(o->ignored_by_kind[RMD_HEALTH_T_IGN_NOT_READY], 0);
+	assert_int_equal(o->ignored_by_kind[RMD_HEALTH_T_IGN_TRIPPED], 1);
+	assert_true(f->rx.state.owned);
+	assert_int_equal(f->rx.state.owner, 0xA);
+	/* each motor's measurement time, as the loop gave it */
+	for (int i = 0; i < NMOTORS; i++)
+		assert_int_equal(f->rx.state.motor[i].rx_time_ns,
+				 123456789000 + 7 * 1000000 - 100000 * (i + 1));
+
+	/* the owner goes on */
+	m = ctl_cmd(0xA, 2, true);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &c), 2000);
+	assert_int_equal(c.seq, 2);
+
+	/* B takes over (a supervisor): logged; now A is the intruder */
+	m = ctl_cmd(0xB, 1, true);
+	m.takeover = true;
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &c), 2000);
+	st = stats(f);
+	assert_int_equal(st.owner, 0xB);
+	assert_int_equal(st.takeovers, 1);
+	m = ctl_cmd(0xA, 3, true);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, stats(f).rejected_by_kind[RMD_REJ_OWNER] == 3, 2000);
+	assert_int_equal(stats(f).intruder, 0xA);
+
+	/* B disables what it enabled: released; the enable = 0 are counted per motor */
+	m = ctl_cmd(0xB, 2, false);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &c), 2000);
+	assert_false(stats(f).owned);
+	assert_int_equal(c.disables[1], 1);
+	assert_int_equal(c.disables[2], 1);
+	assert_int_equal(c.disables[0], 0);
+
+	/* A enables again: it owns them; then it goes quiet past the command timeout */
+	m = ctl_cmd(0xA, 4, true);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &c), 2000);
+	assert_int_equal(stats(f).owner, 0xA);
+	WAIT_UNTIL(f, false, 300);
+	m = ctl_cmd(0xB, 3, true);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &c), 2000);
+	assert_int_equal(stats(f).owner, 0xB);
+	/* the counts go on: the loop compares them with the last it saw */
+	assert_int_equal(c.disables[1], 1);
+
+	rmd_bridge_stop(&f->b);
+	rewind(f->log);
+	while (fgets(line, sizeof(line), f->log)) {
+		if (strstr(line,
+			   "<4>rmdd: TEST_COMMAND: controller 000000000000000b takes the motors "
+			   "over from controller 000000000000000a"))
+			takeover_lines++;
+		else if (strstr(line,
+				"<4>rmdd: rejected TEST_COMMAND: controller 000000000000000b: "
+				"the motors are owned by controller 000000000000000a"))
+			owner_lines++;
+		else
+			fail_msg("unexpected log line: %s", line);
+	}
+	assert_int_equal(takeover_lines, 1);
+	assert_int_equal(owner_lines, 1);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1093,6 +1255,7 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_state_every_nth, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_health_10hz, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_config_on_request, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_one_controller_at_a_time, setup, teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood */

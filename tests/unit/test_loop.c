@@ -502,6 +502,18 @@ static void test_enable_position_moves(void **state)
 	rig_down();
 }
 
+/* Three motors on one bus, enabled in speed mode at 1 rad/s for 200 cycles. */
+static void three_at_speed(void)
+{
+	rig_up(3, NULL);
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 3; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(200, true);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+}
+
 static void test_lost_and_recovery(void **state)
 {
 	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
@@ -511,13 +523,7 @@ static void test_lost_and_recovery(void **state)
 	struct rmd_snapshot s;
 
 	(void)state;
-	rig_up(3, NULL);
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 3; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(200, true);
-	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	three_at_speed();
 	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_SPEED);
 
 	drop.start_ns = sim_time(0);
@@ -769,30 +775,49 @@ static void brake_safe(struct rmd_config *cfg)
 	cfg->safety.safe_action = RMD_SAFE_BRAKE;
 }
 
+/*
+ * Six motors on two buses, 0..driven-1 driven at 2 rad/s, the others READY;
+ * then rmd_loop_stop_motors().  Every motor READY after it, its 0xB3 in
+ * place.  Returns trace_n before it.
+ */
+static unsigned drive_then_stop(tweak_fn *tweak, unsigned driven)
+{
+	unsigned from;
+
+	rig_up(6, tweak); /* two buses */
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < driven; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
+	run(300, true);
+	assert_float_equal(sim_motor(driven - 1)->vel_rad_s, 2.0, 0.2);
+	from = trace_n;
+	rmd_loop_stop_motors(R.l, t_now);
+	run(5, false); /* the wire delivers them */
+	for (unsigned i = 0; i < 6; i++) {
+		assert_int_equal(lifecycle(i), RMD_LC_READY);
+		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100); /* 0xB3 stays */
+	}
+	return from;
+}
+
+/* Motor i got 0x80 and 0x78 once each since trace[from]: output off, brake locked. */
+static void assert_braked(unsigned i, unsigned from)
+{
+	assert_int_equal(sent_to(i, 0x80, from), 1);
+	assert_int_equal(sent_to(i, 0x78, from), 1);
+	assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
+	assert_true(sim_motor(i)->brake_locked);
+}
+
 static void test_stop_motors(void **state)
 {
 	unsigned from;
 
 	(void)state;
-	rig_up(6, brake_safe); /* two buses */
-	bring_up();
-	cmd_clear();
+	from = drive_then_stop(brake_safe, 6);
 	for (unsigned i = 0; i < 6; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
-	run(300, true);
-	assert_float_equal(sim_motor(4)->vel_rad_s, 2.0, 0.2);
-	from = trace_n;
-	rmd_loop_stop_motors(R.l, t_now);
-	run(5, false); /* the wire delivers them */
-	for (unsigned i = 0; i < 6; i++) {
-		assert_int_equal(sent_to(i, 0x80, from), 1);
-		assert_int_equal(sent_to(i, 0x78, from), 1);
-		assert_int_equal(lifecycle(i), RMD_LC_READY);
-		assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
-		assert_true(sim_motor(i)->brake_locked);
-		/* 0xB3 stays in place */
-		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100);
-	}
+		assert_braked(i, from);
 	rig_down();
 }
 
@@ -1019,6 +1044,139 @@ static void test_health_getter(void **state)
 	rig_down();
 }
 
+/*
+ * Issue 13: an enable = 0 the loop never saw as a command of its own (the
+ * bridge handed enable = 1 over before the next cycle) still counts: its
+ * trace is rmd_command.disables[].  What the loop does not act on is
+ * counted by reason.
+ */
+static void test_enable_edge_latched(void **state)
+{
+	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
+				      .motor_id = 2,
+				      .probability = 1.0 };
+	struct rmd_loop_counters c0, c1;
+	struct rmd_snapshot s;
+	struct rmd_health h;
+
+	(void)state;
+	three_at_speed();
+	/* measurement times: the reply each value came from, at most a cycle old */
+	s = snap();
+	for (unsigned i = 0; i < 3; i++) {
+		assert_true(s.m[i].rx_ns > s.t_ns - 2 * period());
+		assert_true(s.m[i].rx_ns <= t_now);
+	}
+
+	drop.start_ns = sim_time(0);
+	set_faults(0, &drop, 1);
+	for (unsigned k = 0; k < 30 && lifecycle(1) != RMD_LC_LOST; k++)
+		run(1, true);
+	assert_int_equal(lifecycle(1), RMD_LC_LOST);
+	rmd_loop_get_counters(R.l, &c0);
+	run(10, true);
+	rmd_loop_get_counters(R.l, &c1);
+	assert_int_equal(c1.ignored[RMD_IGN_NOT_READY] - c0.ignored[RMD_IGN_NOT_READY], 10);
+	/* its values stay those of its last reply, and say so */
+	s = snap();
+	assert_true(s.m[1].rx_ns < s.t_ns - 10 * period());
+
+	/* back: READY; enable = 1 alone is ignored, and counted */
+	set_faults(0, NULL, 0);
+	run(1200, true);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	rmd_loop_get_counters(R.l, &c0);
+	run(5, true);
+	rmd_loop_get_counters(R.l, &c1);
+	assert_int_equal(c1.ignored[RMD_IGN_EDGE] - c0.ignored[RMD_IGN_EDGE], 5);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+
+	/* enable = 0 then enable = 1 within one cycle: the loop sees only the second */
+	R.cmd.disables[1]++;
+	run(20, true);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_SPEED);
+	/* the others never left ENABLED: an enable = 0 they did not get is not theirs */
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+	/* health carries the counts (the bridge puts them in health_t) */
+	run(200, true);
+	assert_true(rmd_loop_get_health(R.l, &h));
+	assert_true(h.ignored[RMD_IGN_EDGE] >= 5);
+	assert_true(h.ignored[RMD_IGN_NOT_READY] >= 10);
+	rig_down();
+}
+
+static void shutdown_stop(struct rmd_config *cfg)
+{
+	cfg->safety.shutdown_action = RMD_SHUTDOWN_STOP;
+}
+
+static void shutdown_hold(struct rmd_config *cfg)
+{
+	cfg->safety.shutdown_action = RMD_SHUTDOWN_HOLD;
+}
+
+static void shutdown_brake(struct rmd_config *cfg)
+{
+	cfg->safety.shutdown_action = RMD_SHUTDOWN_BRAKE;
+}
+
+static void shutdown_damp(struct rmd_config *cfg)
+{
+	cfg->safety.shutdown_action = RMD_SHUTDOWN_DAMP;
+	cfg->safety.shutdown_damp_ms = 50;
+}
+
+/* Issue 13: each safety.shutdown_action, on the wire. */
+static void test_shutdown_actions(void **state)
+{
+	unsigned from;
+
+	(void)state;
+	/* stop: 0x80 to every motor, nothing else; the shafts turn freely */
+	from = drive_then_stop(shutdown_stop, 4);
+	for (unsigned i = 0; i < 6; i++) {
+		assert_int_equal(sent_to(i, 0x80, from), 1);
+		assert_int_equal(sent_to(i, 0x78, from) + sent_to(i, 0x81, from), 0);
+		assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
+		/* the driven ones' brakes stay open (0x77 at enable); the others never opened */
+		assert_int_equal(sim_motor(i)->brake_locked, i >= 4);
+	}
+	rig_down();
+
+	/* hold: 0x81 to the driven motors (they hold), 0x80 to the others */
+	from = drive_then_stop(shutdown_hold, 4);
+	for (unsigned i = 0; i < 6; i++) {
+		assert_int_equal(sent_to(i, 0x81, from), i < 4);
+		assert_int_equal(sent_to(i, 0x80, from), i >= 4);
+		assert_int_equal(sent_to(i, 0x78, from), 0);
+		assert_int_equal(sim_motor(i)->ctrl, i < 4 ? RMD_SIM_HOLD : RMD_SIM_OFF);
+	}
+	rig_down();
+
+	/* brake: 0x80 and 0x78 to every motor */
+	from = drive_then_stop(shutdown_brake, 4);
+	for (unsigned i = 0; i < 6; i++)
+		assert_braked(i, from);
+	rig_down();
+
+	/* damp: zero speed to the driven motors every period for 50 ms, then brake all */
+	from = drive_then_stop(shutdown_damp, 4);
+	for (unsigned i = 0; i < 6; i++) {
+		unsigned n = sent_to(i, 0xA2, from);
+
+		if (i < 4 && (n < 45 || n > 55))
+			fail_msg("motor %u: %u zero-speed frames in 50 ms at 1 kHz", i, n);
+		if (i >= 4)
+			assert_int_equal(n, 0);
+		assert_braked(i, from);
+		/* it had stopped before the brake closed */
+		assert_float_equal(sim_motor(i)->vel_rad_s, 0.0, 0.2);
+	}
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1039,6 +1197,8 @@ int main(void)
 		cmocka_unit_test(test_health),
 		cmocka_unit_test(test_thread),
 		cmocka_unit_test(test_health_getter),
+		cmocka_unit_test(test_enable_edge_latched),
+		cmocka_unit_test(test_shutdown_actions),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);

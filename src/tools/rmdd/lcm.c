@@ -40,6 +40,7 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	o->period_ns = plan->period_ns;
 	o->state_every = cfg->lcm.state_every_n;
 	o->stale_ms = (int)cfg->lcm.stale_ms;
+	o->command_timeout_ms = (int)cfg->safety.command_timeout_ms;
 	if (cfg->lcm.health_period_ms)
 		o->health_period_ns = (int64_t)cfg->lcm.health_period_ms * 1000000;
 	o->commands = commands;

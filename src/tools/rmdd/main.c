@@ -739,6 +739,27 @@ static int serve(struct rmdd *d, const struct rmdd_opts *o)
 	}
 }
 
+/* What rmd_loop_stop_motors() sent, for the exit line (safety.shutdown_action).  Non-rt. */
+static const char *shutdown_said(const struct rmd_config_safety *s)
+{
+	switch (s->shutdown_action) {
+	case RMD_SHUTDOWN_STOP:
+		return "every motor was sent stop (0x80)";
+	case RMD_SHUTDOWN_HOLD:
+		return "the driven motors were sent hold (0x81), the others stop (0x80)";
+	case RMD_SHUTDOWN_DAMP:
+		return "the driven motors were damped, then every motor was sent stop (0x80) and "
+		       "brake (0x78)";
+	case RMD_SHUTDOWN_BRAKE:
+		return "every motor was sent stop (0x80) and brake (0x78)";
+	case RMD_SHUTDOWN_DEFAULT:
+		break;
+	}
+	return s->safe_action == RMD_SAFE_BRAKE ?
+		       "every motor was sent stop (0x80) and brake (0x78)" :
+		       "every motor was sent stop (0x80)";
+}
+
 /* ---- the daemon ---------------------------------------------------------------- */
 
 static int run(const struct rmdd_opts *o)
@@ -876,10 +897,8 @@ err_stop_loop:
 		tool_log(3, "rt loop thread: join: %s", strerror(-r));
 	if (ret == RMDD_EXIT_OK) {
 		rmdd_stats_print(&d->stats, "exit");
-		tool_log(5,
-			 "every motor was sent stop (0x80)%s; their comm-loss protection (0xB3) "
-			 "stays set",
-			 d->cfg.safety.safe_action == RMD_SAFE_BRAKE ? " and brake (0x78)" : "");
+		tool_log(5, "%s; their comm-loss protection (0xB3) stays set",
+			 shutdown_said(&d->cfg.safety));
 	}
 err_stop_bridge:
 	rmd_bridge_stop(&d->bridge);
