@@ -164,6 +164,10 @@ struct rmd_bridge {
 	atomic_uint_fast64_t n_configs;
 	atomic_uint_fast64_t n_publish_errors;
 	atomic_uint_fast64_t n_lcm_errors;
+
+	/* Owned by the bridge thread: a stamp refused as a clock jump (check_order). */
+	int64_t utime_jump;
+	bool have_utime_jump;
 };
 
 /*
