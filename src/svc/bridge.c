@@ -71,6 +71,9 @@ _Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_M
 /* Queued command messages LCM keeps for us before it drops (its default is 30). */
 #define COMMAND_QUEUE 4096
 
+/* config_t answers a flood of CONFIG_REQUESTs at most this often (each allocates). */
+#define CONFIG_INTERVAL_NS (100 * RMD_NS_PER_MS)
+
 /* Room for one encoded state_t or health_t (about 2.5 KiB and 1.6 KiB). */
 #define ENC_MAX 8192
 
@@ -652,6 +655,7 @@ static void *bridge_main(void *arg)
 
 	pthread_setname_np(pthread_self(), "rmd-bridge");
 	publish_config(b);
+	b->config_sent_ns = now;
 	b->next_health_ns = now + b->opts.health_period_ns;
 	for (;;) {
 		int64_t wait = b->opts.poll_ns;
@@ -685,8 +689,10 @@ static void *bridge_main(void *arg)
 			if (b->next_health_ns <= now) /* late: skip, never catch up in a burst */
 				b->next_health_ns = now + b->opts.health_period_ns;
 		}
-		if (b->config_wanted) {
+		/* at most one config_t a CONFIG_INTERVAL_NS; a request in between waits for it */
+		if (b->config_wanted && now - b->config_sent_ns >= CONFIG_INTERVAL_NS) {
 			b->config_wanted = false;
+			b->config_sent_ns = now;
 			publish_config(b);
 		}
 	}

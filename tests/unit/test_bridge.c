@@ -1225,6 +1225,46 @@ static void test_utime_full_width(void **state)
 	run_stamps(f, "far future", far_future, sizeof(far_future) / sizeof(far_future[0]));
 }
 
+/*
+ * A flood of CONFIG_REQUESTs (10 kHz of empty datagrams for 1 s) gets a
+ * bounded number of config_t: at most one every 100 ms; the last request of
+ * the flood is still answered.  Before the fix rmdd answered each one.
+ */
+static void test_config_request_flood(void **state)
+{
+	struct fixture *f = fixture(state);
+	int64_t t0, t_end, elapsed_ns, next;
+	uint64_t n, bound;
+
+	start(f);
+	WAIT_UNTIL(f, stats(f).configs_published >= 1, 2000);
+	assert_int_equal(stats(f).configs_published, 1);
+	t0 = now_ns();
+	next = t0;
+	for (unsigned i = 0; i < 10000; i++) {
+		assert_int_equal(lcm_publish(f->ctl, PREFIX "CONFIG_REQUEST", "", 0), 0);
+		next += 100000; /* 10 kHz */
+		while (now_ns() < next) {
+		}
+	}
+	t_end = now_ns();
+	elapsed_ns = t_end - t0;
+	/* the pending request's answer comes at most 100 ms after the last one */
+	WAIT_UNTIL(f, false, 300);
+	n = stats(f).configs_published;
+	bound = 1 + (uint64_t)(elapsed_ns / 100000000) + 2;
+	printf("config request flood: %llu config_t in %.2f s (bound %llu)\n",
+	       (unsigned long long)n, (double)elapsed_ns / 1e9, (unsigned long long)bound);
+	if (n > bound || n < 2)
+		fail_msg("%llu config_t for 10000 requests in %.2f s: expected 2..%llu",
+			 (unsigned long long)n, (double)elapsed_ns / 1e9,
+			 (unsigned long long)bound);
+	/* one more request, after the interval: answered */
+	assert_int_equal(lcm_publish(f->ctl, PREFIX "CONFIG_REQUEST", "", 0), 0);
+	WAIT_UNTIL(f, stats(f).configs_published == n + 1, 2000);
+	assert_int_equal(stats(f).configs_published, n + 1);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1240,6 +1280,7 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_health_10hz, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_config_on_request, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_utime_full_width, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_config_request_flood, setup, teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood */
