@@ -8,7 +8,7 @@
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
 #   make python-venv     build/venv: a venv with `pip install ./python` (lcm from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
-#   SANITIZE=1           ASan + UBSan (objects go to build/san)
+#   SANITIZE=1           ASan + UBSan + float-cast-overflow (objects go to build/san)
 #   WERROR=1             warnings are errors (CI sets it)
 #   V=1                  echo every command
 
@@ -26,7 +26,9 @@ CFLAGS ?= -O2 -g
 
 ifeq ($(SANITIZE),1)
 BUILD ?= build/san
-SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+# gcc's `undefined` leaves out float-cast-overflow (a double out of an integer's range)
+SAN_FLAGS := -fsanitize=address,undefined,float-cast-overflow -fno-omit-frame-pointer \
+	     -fno-sanitize-recover=all
 else
 BUILD ?= build
 SAN_FLAGS :=
