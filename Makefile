@@ -193,6 +193,20 @@ $(RMDD): $(RMDD_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# rmdd with its test hooks (RMDD_TEST_STALL_AFTER_MS), for the suites that
+# need them; the installed rmdd has none.  Only main.c differs.
+RMDD_TEST := $(BUILD)/rmdd-test
+RMDD_TEST_MAIN := $(BUILD)/test-hooks/src/tools/rmdd/main.o
+all: $(RMDD_TEST)
+$(RMDD_TEST_MAIN): src/tools/rmdd/main.c | $(GEN_HDRS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $< (test hooks)")
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -DRMDD_TEST_HOOKS -c -o $@ $<
+
+$(RMDD_TEST): $(RMDD_TEST_MAIN) $(filter-out %/rmdd/main.o,$(RMDD_SRCS:%.c=$(BUILD)/%.o)) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 # The C example controller (examples/README.md): liblcm and the generated
 # rmd types only, which it takes from the library.
 SINE_CONTROLLER := $(BUILD)/sine_controller

@@ -150,7 +150,7 @@ static void test_example_rmdd(void **state)
 	(void)state;
 	assert_int_equal(load_rel("examples/rmdd.yaml"), 0);
 	assert_int_equal(cfg.loop.n_cpus, 1);
-	assert_int_equal(cfg.loop.cpus[0], 2);
+	assert_int_equal(cfg.loop.cpus[0], 1);
 	i = rmd_config_bus_find(&cfg, "can1");
 	assert_true(i >= 0);
 	assert_string_equal(cfg.buses[i].interface, "can1"); /* defaults to the name */
