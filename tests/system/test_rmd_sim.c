@@ -1003,6 +1003,20 @@ static unsigned count_str(const char *hay, const char *needle)
 	return n;
 }
 
+/* Run rmd-sim with args to its exit; remove `path` (if any).  Returns the status; c->log holds its log. */
+static int run_to_exit(struct child *c, const char *const *args, const char *path)
+{
+	int st;
+
+	spawn(c, args);
+	st = wait_exit(c, EXIT_MS);
+	if (path)
+		unlink(path);
+	close(c->err);
+	c->err = -1;
+	return st;
+}
+
 /*
  * rmd-sim reads its config file by rmdd's rules (issue 10, defect 5):
  * before, /dev/zero hung, a NUL byte silently cut its line, and a 10 MB bad
@@ -1018,56 +1032,39 @@ static void test_hostile_config(void **state)
 
 	/* a device and a FIFO: refused by name, at once */
 	args[3] = "/dev/zero";
-	spawn(c, args);
-	st = wait_exit(c, EXIT_MS);
+	st = run_to_exit(c, args, NULL);
 	if (st != 2 || !strstr(c->log, "/dev/zero: is a character device, not a regular file"))
 		fail_msg("--config /dev/zero: status %d, log \"%s\"", st, c->log);
-	close(c->err);
-	c->err = -1;
 	assert_non_null(mkdtemp(fifo));
 	strcat(fifo, "/f");
 	assert_int_equal(mkfifo(fifo, 0600), 0);
 	args[3] = fifo;
-	spawn(c, args);
-	st = wait_exit(c, EXIT_MS);
-	unlink(fifo);
+	st = run_to_exit(c, args, fifo);
 	fifo[strlen(fifo) - 2] = '\0';
 	rmdir(fifo);
 	if (st != 2 || !strstr(c->log, "is a FIFO, not a regular file"))
 		fail_msg("--config FIFO: status %d, log \"%s\"", st, c->log);
-	close(c->err);
-	c->err = -1;
 
 	/* a NUL byte: refused with its line, not cut */
 	write_conf(path, "motors = 1\n", 2, "inertia = 0.001\0junk\n", 21);
 	args[3] = path;
-	spawn(c, args);
-	st = wait_exit(c, EXIT_MS);
-	unlink(path);
+	st = run_to_exit(c, args, path);
 	snprintf(expect, sizeof(expect), "%s:3: a NUL byte", path);
 	if (st != 2 || !strstr(c->log, expect))
 		fail_msg("NUL byte: status %d, log \"%s\"", st, c->log);
-	close(c->err);
-	c->err = -1;
 
 	/* 10 MB: refused by its size, one line */
 	strcpy(path, "/tmp/rmd-sim-test-XXXXXX");
 	write_conf(path, "no equals sign\n", 700000, "", 0);
-	spawn(c, args);
-	st = wait_exit(c, EXIT_MS);
-	unlink(path);
+	st = run_to_exit(c, args, path);
 	if (st != 2 || !strstr(c->log, "larger than the limit of 1 MiB") ||
 	    count_str(c->log, "<3>") != 1)
 		fail_msg("10 MB: status %d, log \"%.2000s\"", st, c->log);
-	close(c->err);
-	c->err = -1;
 
 	/* 60 000 bad lines under the size bound: the error cap */
 	strcpy(path, "/tmp/rmd-sim-test-XXXXXX");
 	write_conf(path, "no equals sign\n", 60000, "", 0);
-	spawn(c, args);
-	st = wait_exit(c, EXIT_MS);
-	unlink(path);
+	st = run_to_exit(c, args, path);
 	if (st != 2 || !strstr(c->log, "more errors not shown") || count_str(c->log, "<3>") > 34 ||
 	    c->logn >= sizeof(c->log) / 2)
 		fail_msg("60000 bad lines: status %d, %u error lines, log \"%.2000s\"", st,

@@ -812,20 +812,19 @@ static void test_cpu_affinity_missing(void **state)
 {
 	static struct proc p;
 	char path[512];
-	const char *check[] = { "--check-config", path, NULL };
-	const char *args[] = { "--config", path, "--lcm-url", "memq://", NULL };
+	/* argv[0]: --check-config, then --config */
+	const char *argv[] = { "--check-config", path, "--lcm-url", "memq://", NULL };
 
 	(void)state;
 	snprintf(path, sizeof(path), "%s/cpu.yaml", tmpdir);
-	write_file(path, "loop: {cpu_affinity: [0, 1023]}\n"
-			 "buses:\n"
-			 "  - {name: s0, type: sim}\n"
-			 "motors:\n"
-			 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
-	assert_int_equal(run(&p, check), 1);
+	write_file(path, "loop:\n  cpu_affinity: [0, 1023]\nbuses: [{name: s0, type: sim}]\n"
+			 "motors: [{name: a, bus: s0, id: 1, mode: torque, "
+			 "torque_constant_nm_a: 2}]\n");
+	assert_int_equal(run(&p, argv), 1);
 	expect_in(&p, "cpu.yaml: loop.cpu_affinity: CPU 1023 does not exist on this machine, or "
 		      "rmdd may not use it (it may use CPUs 0");
-	assert_int_equal(run(&p, args), 1);
+	argv[0] = "--config";
+	assert_int_equal(run(&p, argv), 1);
 	expect_in(&p, "<3>rmdd: ");
 	expect_in(&p, "loop.cpu_affinity: CPU 1023 does not exist on this machine");
 	assert_null(strstr(p.out, "run as root"));
@@ -835,20 +834,22 @@ static void test_cpu_affinity_missing(void **state)
 /* --check-config of a FIFO or a directory: refused by name at once (a FIFO blocked). */
 static void test_check_config_special_files(void **state)
 {
+	static const char *const expect[] = { "fifo.yaml: is a FIFO, not a regular file",
+					      ": is a directory, not a regular file" };
 	static struct proc p;
-	char path[512];
-	const char *check[] = { "--check-config", path, NULL };
+	char fifo[512];
+	const char *check[] = { "--check-config", NULL, NULL };
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/fifo.yaml", tmpdir);
-	unlink(path);
-	assert_int_equal(mkfifo(path, 0600), 0);
-	assert_int_equal(run(&p, check), 1);
-	unlink(path);
-	expect_in(&p, "fifo.yaml: is a FIFO, not a regular file");
-	snprintf(path, sizeof(path), "%s", tmpdir);
-	assert_int_equal(run(&p, check), 1);
-	expect_in(&p, ": is a directory, not a regular file");
+	snprintf(fifo, sizeof(fifo), "%s/fifo.yaml", tmpdir);
+	unlink(fifo);
+	assert_int_equal(mkfifo(fifo, 0600), 0);
+	for (int i = 0; i < 2; i++) {
+		check[1] = i ? tmpdir : fifo;
+		assert_int_equal(run(&p, check), 1);
+		expect_in(&p, expect[i]);
+	}
+	unlink(fifo);
 }
 
 /* ---- set-up ----------------------------------------------------------------------- */
