@@ -824,7 +824,7 @@ void rmd_yaml_walk_map(struct yctx *c, const struct ynode *m, const struct field
 		       void *base, const char *path)
 {
 	char kp[PATH_LEN], names[512];
-	const struct ynode **dup = find_duplicates(c, m);
+	const struct ynode **dup = rmd_yaml_capped(c) ? NULL : find_duplicates(c, m);
 
 	for (unsigned i = 0; i + 1 < m->n && !rmd_yaml_capped(c); i += 2) {
 		const struct ynode *k = m->kids[i], *v = m->kids[i + 1];

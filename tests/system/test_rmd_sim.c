@@ -1018,6 +1018,23 @@ static int run_to_exit(struct child *c, const char *const *args, const char *pat
 }
 
 /*
+ * A FIFO in out[len]: in /tmp, or where the file system takes one (the VM
+ * guest's /tmp is the host's over 9p, which does not).
+ */
+static bool make_fifo(char *out, size_t len)
+{
+	static const char *const dirs[] = { "/tmp", "/dev/shm", "/run" };
+
+	for (size_t i = 0; i < sizeof(dirs) / sizeof(dirs[0]); i++) {
+		snprintf(out, len, "%s/rmd-sim-fifo-%d", dirs[i], (int)getpid());
+		unlink(out);
+		if (mkfifo(out, 0600) == 0)
+			return true;
+	}
+	return false;
+}
+
+/*
  * rmd-sim reads its config file by rmdd's rules (issue 10, defect 5):
  * before, /dev/zero hung, a NUL byte silently cut its line, and a 10 MB bad
  * file printed a million error lines.
@@ -1026,7 +1043,7 @@ static void test_hostile_config(void **state)
 {
 	const char *args[] = { "--serial", "/dev/null", "--config", NULL, NULL };
 	struct child *c = *state;
-	char path[] = "/tmp/rmd-sim-test-XXXXXX", fifo[64] = "/tmp/rmd-sim-fifo-XXXXXX";
+	char path[] = "/tmp/rmd-sim-test-XXXXXX", fifo[64];
 	char expect[128];
 	int st;
 
@@ -1035,15 +1052,14 @@ static void test_hostile_config(void **state)
 	st = run_to_exit(c, args, NULL);
 	if (st != 2 || !strstr(c->log, "/dev/zero: is a character device, not a regular file"))
 		fail_msg("--config /dev/zero: status %d, log \"%s\"", st, c->log);
-	assert_non_null(mkdtemp(fifo));
-	strcat(fifo, "/f");
-	assert_int_equal(mkfifo(fifo, 0600), 0);
-	args[3] = fifo;
-	st = run_to_exit(c, args, fifo);
-	fifo[strlen(fifo) - 2] = '\0';
-	rmdir(fifo);
-	if (st != 2 || !strstr(c->log, "is a FIFO, not a regular file"))
-		fail_msg("--config FIFO: status %d, log \"%s\"", st, c->log);
+	if (make_fifo(fifo, sizeof(fifo))) {
+		args[3] = fifo;
+		st = run_to_exit(c, args, fifo);
+		if (st != 2 || !strstr(c->log, "is a FIFO, not a regular file"))
+			fail_msg("--config FIFO: status %d, log \"%s\"", st, c->log);
+	} else {
+		print_message("no file system here takes a FIFO: the FIFO case is skipped\n");
+	}
 
 	/* a NUL byte: refused with its line, not cut */
 	write_conf(path, "motors = 1\n", 2, "inertia = 0.001\0junk\n", 21);
