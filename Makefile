@@ -8,7 +8,7 @@
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
 #   make python-venv     build/venv: a venv with `pip install ./python` (lcm from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
-#   SANITIZE=1           ASan + UBSan (objects go to build/san)
+#   SANITIZE=1           ASan + UBSan + float-cast-overflow (objects go to build/san)
 #   WERROR=1             warnings are errors (CI sets it)
 #   V=1                  echo every command
 
@@ -26,7 +26,9 @@ CFLAGS ?= -O2 -g
 
 ifeq ($(SANITIZE),1)
 BUILD ?= build/san
-SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+# gcc's `undefined` leaves out float-cast-overflow (a double out of an integer's range)
+SAN_FLAGS := -fsanitize=address,undefined,float-cast-overflow -fno-omit-frame-pointer \
+	     -fno-sanitize-recover=all
 else
 BUILD ?= build
 SAN_FLAGS :=
@@ -188,6 +190,20 @@ $(RMDSIM): $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
 $(RMDD): $(RMDD_SRCS:%.c=$(BUILD)/%.o) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
+# rmdd with its test hooks (RMDD_TEST_STALL_AFTER_MS), for the suites that
+# need them; the installed rmdd has none.  Only main.c differs.
+RMDD_TEST := $(BUILD)/rmdd-test
+RMDD_TEST_MAIN := $(BUILD)/test-hooks/src/tools/rmdd/main.o
+all: $(RMDD_TEST)
+$(RMDD_TEST_MAIN): src/tools/rmdd/main.c | $(GEN_HDRS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $< (test hooks)")
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -DRMDD_TEST_HOOKS -c -o $@ $<
+
+$(RMDD_TEST): $(RMDD_TEST_MAIN) $(filter-out %/rmdd/main.o,$(RMDD_SRCS:%.c=$(BUILD)/%.o)) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 

@@ -181,6 +181,12 @@ struct rmd_bridge {
 	atomic_bool pub_owned;
 	_Atomic int64_t pub_owner;
 	_Atomic int64_t pub_intruder;
+
+	/* Owned by the bridge thread: a stamp refused as a clock jump (check_order). */
+	int64_t utime_jump;
+	bool have_utime_jump;
+	/* Owned by the bridge thread: when the last config_t went out. */
+	int64_t config_sent_ns;
 };
 
 /*

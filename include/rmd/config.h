@@ -41,6 +41,16 @@
 #define RMD_CONFIG_PRIO_MAX 49
 #define RMD_CONFIG_DIVISOR_MAX 1000 /* motors[].rate_divisor: 1..this */
 
+/*
+ * Lower bounds of physical quantities: below them a value means nothing
+ * and its arithmetic (divisions, the MIT codes, the poll plan) overflows.
+ */
+#define RMD_CONFIG_MIN_GEAR_RATIO 0.01	    /* motors[].gear_ratio */
+#define RMD_CONFIG_MIN_KT_NM_A 0.001	    /* motors[].torque_constant_nm_a */
+#define RMD_CONFIG_MIN_LIMIT 0.001	    /* limits.velocity_rad_s, limits.torque_nm */
+#define RMD_CONFIG_MIT_MIN_WIDTH 0.001	    /* mit: max - min of each range */
+#define RMD_CONFIG_MIN_STATUS_POLL_HZ 0.001 /* status_poll_hz: 0 (off) or at least this */
+
 #define RMD_CONFIG_DEFAULT_RATE_HZ 1000
 #define RMD_CONFIG_DEFAULT_PRIORITY 40
 #define RMD_CONFIG_DEFAULT_BITRATE 1000000
@@ -207,5 +217,23 @@ extern const char *const rmd_on_missing_names[];
 const char *rmd_bus_kind_name(enum rmd_bus_kind kind);
 const char *rmd_mode_name(enum rmd_mode mode);
 const char *rmd_safe_action_name(enum rmd_safe_action action);
+
+/*
+ * Configuration files (rmdd's YAML, rmd-sim's --config) are a few kB: a
+ * file larger than this is refused before it is read.
+ */
+#define RMD_CONFIG_FILE_MAX (1024 * 1024)
+#define RMD_CONFIG_FILE_MAX_TEXT "1 MiB"
+
+/*
+ * Read the configuration file `path` whole into a malloc'ed, NUL-terminated
+ * *buf of *len bytes.  Refused, with why[] saying so: anything but a regular
+ * file (opened non-blocking, so a FIFO cannot block), a file larger than
+ * RMD_CONFIG_FILE_MAX, and a NUL byte in the text (*line is then its line;
+ * else 0).  Returns 0, or -errno (-EISDIR, -EINVAL for a special file,
+ * -EFBIG, -EILSEQ for a NUL, or open's and read's).  Non-rt.
+ */
+int rmd_config_file_read(const char *path, char **buf, size_t *len, unsigned *line, char *why,
+			 size_t whylen);
 
 #endif /* RMD_CONFIG_H */

@@ -4,9 +4,14 @@
  * file spells, look-ups by name.  The YAML loader is config_yaml.c.
  */
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+#include <sys/stat.h>
 
 #include "rmd/err.h"
 #include "rmd/config.h"
@@ -95,4 +100,107 @@ const char *rmd_mode_name(enum rmd_mode mode)
 const char *rmd_safe_action_name(enum rmd_safe_action action)
 {
 	return (unsigned)action < 4 ? rmd_safe_action_names[action] : "?";
+}
+
+/* What a file of mode `mode` is, for "is a FIFO, not a regular file". */
+static const char *file_kind(mode_t mode)
+{
+	switch (mode & S_IFMT) {
+	case S_IFDIR:
+		return "a directory";
+	case S_IFIFO:
+		return "a FIFO";
+	case S_IFCHR:
+		return "a character device";
+	case S_IFBLK:
+		return "a block device";
+	case S_IFSOCK:
+		return "a socket";
+	default:
+		return "a special file";
+	}
+}
+
+int rmd_config_file_read(const char *path, char **buf, size_t *len, unsigned *line, char *why,
+			 size_t whylen)
+{
+	struct stat st;
+	size_t got = 0;
+	char *b, *nul;
+	int fd, r;
+
+	*buf = NULL;
+	*len = 0;
+	*line = 0;
+	fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+	if (fd < 0) {
+		r = -errno;
+		snprintf(why, whylen, "cannot open: %s", strerror(-r));
+		return r;
+	}
+	if (fstat(fd, &st) < 0) {
+		r = -errno;
+		snprintf(why, whylen, "cannot stat: %s", strerror(-r));
+		goto err_close;
+	}
+	if (!S_ISREG(st.st_mode)) {
+		r = S_ISDIR(st.st_mode) ? -EISDIR : -EINVAL;
+		snprintf(why, whylen, "is %s, not a regular file", file_kind(st.st_mode));
+		goto err_close;
+	}
+	if (st.st_size > RMD_CONFIG_FILE_MAX) {
+		r = -EFBIG;
+		snprintf(why, whylen,
+			 "%lld bytes: larger than the limit of %s (%d bytes); configuration files "
+			 "are a few kB",
+			 (long long)st.st_size, RMD_CONFIG_FILE_MAX_TEXT, RMD_CONFIG_FILE_MAX);
+		goto err_close;
+	}
+	/* one byte more than the limit tells a file that grew since fstat() */
+	b = malloc(RMD_CONFIG_FILE_MAX + 2);
+	if (!b) {
+		r = -ENOMEM;
+		snprintf(why, whylen, "out of memory");
+		goto err_close;
+	}
+	while (got <= RMD_CONFIG_FILE_MAX) {
+		ssize_t n = read(fd, b + got, RMD_CONFIG_FILE_MAX + 1 - got);
+
+		if (n < 0 && errno == EINTR)
+			continue;
+		if (n < 0) {
+			r = -errno;
+			snprintf(why, whylen, "read error: %s", strerror(-r));
+			goto err_free;
+		}
+		if (n == 0)
+			break;
+		got += (size_t)n;
+	}
+	if (got > RMD_CONFIG_FILE_MAX) {
+		r = -EFBIG;
+		snprintf(why, whylen, "larger than the limit of %s (%d bytes)",
+			 RMD_CONFIG_FILE_MAX_TEXT, RMD_CONFIG_FILE_MAX);
+		goto err_free;
+	}
+	b[got] = '\0';
+	nul = memchr(b, '\0', got);
+	if (nul) {
+		*line = 1;
+		for (const char *p = b; p < nul; p++)
+			*line += *p == '\n';
+		r = -EILSEQ;
+		snprintf(why, whylen, "a NUL byte: a configuration file is text");
+		goto err_free;
+	}
+	close(fd);
+	*buf = b;
+	*len = got;
+	return 0;
+
+err_free:
+	free(b);
+err_close:
+	close(fd);
+	return r;
 }

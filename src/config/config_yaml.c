@@ -200,8 +200,8 @@ static const struct field bus_fields[] = { STR("name", B, name, F_REQUIRED | F_I
 static const struct field limits_fields[] = {
 	DBL("position_min_rad", L, position_min_rad, -1e6, 1e6, 0),
 	DBL("position_max_rad", L, position_max_rad, -1e6, 1e6, 0),
-	DBL("velocity_rad_s", L, velocity_rad_s, 0, 1e4, F_MIN_EXCL),
-	DBL("torque_nm", L, torque_nm, 0, 1e5, F_MIN_EXCL), END
+	DBL("velocity_rad_s", L, velocity_rad_s, RMD_CONFIG_MIN_LIMIT, 1e4, 0),
+	DBL("torque_nm", L, torque_nm, RMD_CONFIG_MIN_LIMIT, 1e5, 0), END
 };
 #undef L
 
@@ -227,10 +227,10 @@ static const struct field motor_fields[] = {
 	ENUM("protocol", M, proto, rmd_proto_keys, 0),
 	ENUM("mode", M, mode, rmd_mode_names, F_REQUIRED),
 	INT("direction", M, direction, -1, 1, F_SIGN),
-	DBL("gear_ratio", M, gear_ratio, 0, 1e4, F_MIN_EXCL),
+	DBL("gear_ratio", M, gear_ratio, RMD_CONFIG_MIN_GEAR_RATIO, 1e4, 0),
 	ENUM("units", M, units, rmd_units_names, 0),
 	DBL("zero_offset_rad", M, zero_offset_rad, -1e6, 1e6, 0),
-	DBL("torque_constant_nm_a", M, torque_constant_nm_a, 0, 1e4, F_MIN_EXCL),
+	DBL("torque_constant_nm_a", M, torque_constant_nm_a, RMD_CONFIG_MIN_KT_NM_A, 1e4, 0),
 	MAP("limits", M, limits, limits_fields),
 	MAP("mit", M, mit, mit_fields),
 	UINT("rate_divisor", M, rate_divisor, 1, RMD_CONFIG_DIVISOR_MAX, 0),
@@ -598,6 +598,16 @@ static void validate_mit(struct yctx *c, const struct rmd_mit_ranges *r, const s
 			rmd_yaml_path_key(kp, path, pairs[i].lo);
 			rmd_yaml_report(c, rmd_yaml_line_of(n, pairs[i].lo), kp,
 					"%g must be below %s (%g)", lo, pairs[i].hi, hi);
+		} else if (hi - lo < RMD_CONFIG_MIT_MIN_WIDTH) {
+			unsigned bits = i == 0 ? 16 : 12;
+
+			rmd_yaml_path_key(kp, path, pairs[i].lo);
+			rmd_yaml_report(c, rmd_yaml_line_of(n, pairs[i].lo), kp,
+					"%g..%g is narrower than %g: the MIT frame codes it in %u "
+					"bits (V3 §5), and steps of %g are finer than the value "
+					"itself can be told apart",
+					lo, hi, RMD_CONFIG_MIT_MIN_WIDTH, bits,
+					(hi - lo) / ((1u << bits) - 1));
 		}
 	}
 }
@@ -707,7 +717,14 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 		rmd_yaml_path_key(kp, path, "mit");
 		validate_mit(c, &m->mit, rmd_yaml_get(mn, "mit", NULL), kp);
 		/* rates */
-		if (m->status_poll_hz > (double)rate / m->rate_divisor) {
+		if (m->status_poll_hz > 0 && m->status_poll_hz < RMD_CONFIG_MIN_STATUS_POLL_HZ) {
+			rmd_yaml_path_key(kp, path, "status_poll_hz");
+			rmd_yaml_report(c, rmd_yaml_line_of(mn, "status_poll_hz"), kp,
+					"%g Hz is below %g Hz (one poll every %g s): use 0 to turn "
+					"status polls off",
+					m->status_poll_hz, RMD_CONFIG_MIN_STATUS_POLL_HZ,
+					1.0 / RMD_CONFIG_MIN_STATUS_POLL_HZ);
+		} else if (m->status_poll_hz > (double)rate / m->rate_divisor) {
 			rmd_yaml_path_key(kp, path, "status_poll_hz");
 			rmd_yaml_report(
 				c, rmd_yaml_line_of(mn, "status_poll_hz"), kp,
@@ -779,7 +796,9 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 	struct rmd_sim_setup *scratch = NULL;
 	struct ytree t = { 0 };
 	const struct ynode *root;
-	FILE *f;
+	char *text, why[160];
+	unsigned line;
+	size_t len;
 	int ret;
 
 	if (err && errlen)
@@ -796,15 +815,14 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 		sim = scratch;
 	}
 	sim_setup_default(sim);
-	f = fopen(path, "r");
-	if (!f) {
-		ret = -errno;
-		rmd_yaml_report(&c, 0, "", "cannot open: %s", strerror(-ret));
+	ret = rmd_config_file_read(path, &text, &len, &line, why, sizeof(why));
+	if (ret < 0) {
+		rmd_yaml_report(&c, line, "", "%s", why);
 		free(scratch);
 		return ret;
 	}
-	ret = rmd_yaml_tree_load(&c, f, &t);
-	fclose(f);
+	ret = rmd_yaml_tree_load(&c, text, len, &t);
+	free(text);
 	if (ret == -ENOMEM)
 		rmd_yaml_report(&c, 0, "", "out of memory");
 	if (ret)

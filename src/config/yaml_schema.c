@@ -16,6 +16,7 @@
  * defaults, so checks after the load could not name a line.
  */
 #include <errno.h>
+#include <inttypes.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -165,11 +166,40 @@ static void stack_path(struct ynode *const *stack, unsigned depth, char *path, s
 	}
 }
 
+bool rmd_yaml_capped(const struct yctx *c)
+{
+	return c->nerr > MAX_ERRORS;
+}
+
+/* A limit of the tree reached at `line`: report it with the parser's place. */
+static int tree_refuse(struct yctx *c, struct ynode *const *stack, unsigned depth, unsigned line,
+		       const char *what)
+{
+	char path[PATH_LEN];
+
+	stack_path(stack, depth, path, sizeof(path));
+	rmd_yaml_report(c, line, path, "%s", what);
+	return -EINVAL;
+}
+
+/* anchor_add() failed with r: -E2BIG is the anchor limit, reported; -ENOMEM is returned. */
+static int anchor_refuse(struct yctx *c, struct ynode *const *stack, unsigned depth, unsigned line,
+			 int r)
+{
+	char what[128];
+
+	if (r != -E2BIG)
+		return r;
+	snprintf(what, sizeof(what), "more than %d anchors (&name): rmdd keeps at most %d",
+		 MAX_ANCHORS, MAX_ANCHORS);
+	return tree_refuse(c, stack, depth, line, what);
+}
+
 /*
- * Parse the whole file into t.  Returns 0, or -EINVAL after reporting a
- * syntax error, or -ENOMEM.
+ * Parse the file's text buf[len] into t.  Returns 0, or -EINVAL after
+ * reporting a syntax error, a NUL in a scalar or a limit, or -ENOMEM.
  */
-int rmd_yaml_tree_load(struct yctx *c, FILE *f, struct ytree *t)
+int rmd_yaml_tree_load(struct yctx *c, const char *buf, size_t len, struct ytree *t)
 {
 	struct ynode *stack[MAX_DEPTH];
 	unsigned depth = 0, docs = 0;
@@ -180,10 +210,11 @@ int rmd_yaml_tree_load(struct yctx *c, FILE *f, struct ytree *t)
 
 	if (!yaml_parser_initialize(&p))
 		return -ENOMEM;
-	yaml_parser_set_input_file(&p, f);
+	yaml_parser_set_input_string(&p, (const unsigned char *)buf, len);
 	while (!done) {
 		struct ynode *node = NULL;
 		unsigned line;
+		int r;
 
 		if (!yaml_parser_parse(&p, &ev)) {
 			char path[PATH_LEN];
@@ -201,6 +232,27 @@ int rmd_yaml_tree_load(struct yctx *c, FILE *f, struct ytree *t)
 			break;
 		}
 		line = (unsigned)ev.start_mark.line + 1;
+		if ((ev.type == YAML_ALIAS_EVENT || ev.type == YAML_SCALAR_EVENT ||
+		     ev.type == YAML_SEQUENCE_START_EVENT || ev.type == YAML_MAPPING_START_EVENT) &&
+		    ++t->n_nodes > MAX_NODES) {
+			char what[160];
+
+			snprintf(what, sizeof(what),
+				 "more than %u keys, values and entries: a configuration file has "
+				 "a few thousand",
+				 MAX_NODES);
+			ret = tree_refuse(c, stack, depth, line, what);
+			yaml_event_delete(&ev);
+			break;
+		}
+		if (ev.type == YAML_SCALAR_EVENT &&
+		    memchr(ev.data.scalar.value, '\0', ev.data.scalar.length)) {
+			ret = tree_refuse(c, stack, depth, line,
+					  "the value contains a NUL character (\\0): text values "
+					  "cannot hold one");
+			yaml_event_delete(&ev);
+			break;
+		}
 		switch (ev.type) {
 		case YAML_NO_EVENT:
 		case YAML_STREAM_START_EVENT:
@@ -238,8 +290,10 @@ int rmd_yaml_tree_load(struct yctx *c, FILE *f, struct ytree *t)
 			node->str = strdup((const char *)ev.data.scalar.value);
 			node->plain = ev.data.scalar.style == YAML_PLAIN_SCALAR_STYLE &&
 				      !ev.data.scalar.tag;
-			if (!node->str || anchor_add(t, ev.data.scalar.anchor, node))
+			if (!node->str)
 				node = NULL;
+			else if ((r = anchor_add(t, ev.data.scalar.anchor, node)) < 0)
+				node = NULL, ret = anchor_refuse(c, stack, depth, line, r);
 			break;
 		case YAML_SEQUENCE_START_EVENT:
 		case YAML_MAPPING_START_EVENT:
@@ -248,12 +302,13 @@ int rmd_yaml_tree_load(struct yctx *c, FILE *f, struct ytree *t)
 			if (!node)
 				break;
 			node->open = true;
-			if (anchor_add(t,
+			r = anchor_add(t,
 				       ev.type == YAML_SEQUENCE_START_EVENT ?
 					       ev.data.sequence_start.anchor :
 					       ev.data.mapping_start.anchor,
-				       node))
-				node = NULL;
+				       node);
+			if (r < 0)
+				node = NULL, ret = anchor_refuse(c, stack, depth, line, r);
 			break;
 		case YAML_SEQUENCE_END_EVENT:
 		case YAML_MAPPING_END_EVENT:
@@ -261,6 +316,8 @@ int rmd_yaml_tree_load(struct yctx *c, FILE *f, struct ytree *t)
 				stack[--depth]->open = false;
 			break;
 		}
+		if (ret)
+			done = true;
 		if (ret == 0 && !done && !node &&
 		    (ev.type == YAML_SCALAR_EVENT || ev.type == YAML_SEQUENCE_START_EVENT ||
 		     ev.type == YAML_MAPPING_START_EVENT)) {
@@ -430,7 +487,11 @@ static void range_str(char *out, size_t len, const struct field *f)
 		snprintf(out, len, "+1 or -1");
 	else if (f->flags & F_MIN_EXCL)
 		snprintf(out, len, "> %g and <= %g", f->min, f->max);
-	else if (f->type == T_UINT || f->type == T_INT)
+	else if (f->type == T_UINT)
+		/* a double max of 2^64 - 1 is 2^64: print the u64 it stands for */
+		snprintf(out, len, "%" PRIu64 "..%" PRIu64, (uint64_t)f->min,
+			 f->max >= 0x1p64 ? UINT64_MAX : (uint64_t)f->max);
+	else if (f->type == T_INT)
 		snprintf(out, len, "%.0f..%.0f", f->min, f->max);
 	else
 		snprintf(out, len, "%g..%g", f->min, f->max);
@@ -496,7 +557,7 @@ void rmd_yaml_walk_value(struct yctx *c, const struct ynode *v, const struct fie
 					rmd_yaml_kind_desc(v));
 			return;
 		}
-		for (unsigned i = 0; !rmd_yaml_is_null(v) && i < v->n; i++) {
+		for (unsigned i = 0; !rmd_yaml_is_null(v) && i < v->n && !rmd_yaml_capped(c); i++) {
 			char *el = (char *)dst + n * f->elem_size;
 
 			if (n == f->size) {
@@ -702,12 +763,70 @@ static const char *nearest_key(const char *key, const struct field *fields)
 	return best;
 }
 
+/* A key of a map and its place, for finding duplicates. */
+struct key_at {
+	const struct ynode *key;
+	unsigned idx;
+};
+
+static int cmp_key(const void *a, const void *b)
+{
+	const struct key_at *x = a, *y = b;
+	int r = strcmp(x->key->str, y->key->str);
+
+	return r ? r : (x->idx > y->idx) - (x->idx < y->idx);
+}
+
+/*
+ * first[i]: the first key of map m equal to its i-th key, or NULL when that
+ * key is the first (or not a scalar).  Sorting keeps it O(n log n) for a
+ * map of 100 000 keys.  Returns NULL (no duplicates, or out of memory,
+ * then reported) or an array to free.
+ */
+static const struct ynode **find_duplicates(struct yctx *c, const struct ynode *m)
+{
+	unsigned nk = m->n / 2, ns = 0;
+	const struct ynode **first;
+	struct key_at *sorted;
+	bool any = false;
+
+	if (nk < 2)
+		return NULL;
+	sorted = malloc(nk * sizeof(*sorted));
+	first = calloc(nk, sizeof(*first));
+	if (!sorted || !first) {
+		rmd_yaml_report(c, m->line, "", "out of memory");
+		free(sorted);
+		free(first);
+		return NULL;
+	}
+	for (unsigned i = 0; i < nk; i++)
+		if (m->kids[2 * i]->kind == Y_SCALAR)
+			sorted[ns++] = (struct key_at){ m->kids[2 * i], i };
+	qsort(sorted, ns, sizeof(*sorted), cmp_key);
+	for (unsigned i = 1, g = 0; i < ns; i++) {
+		if (strcmp(sorted[i].key->str, sorted[g].key->str)) {
+			g = i; /* a new group; its first in document order */
+			continue;
+		}
+		first[sorted[i].idx] = sorted[g].key;
+		any = true;
+	}
+	free(sorted);
+	if (!any) {
+		free(first);
+		return NULL;
+	}
+	return first;
+}
+
 void rmd_yaml_walk_map(struct yctx *c, const struct ynode *m, const struct field *fields,
 		       void *base, const char *path)
 {
 	char kp[PATH_LEN], names[512];
+	const struct ynode **dup = rmd_yaml_capped(c) ? NULL : find_duplicates(c, m);
 
-	for (unsigned i = 0; i + 1 < m->n; i += 2) {
+	for (unsigned i = 0; i + 1 < m->n && !rmd_yaml_capped(c); i += 2) {
 		const struct ynode *k = m->kids[i], *v = m->kids[i + 1];
 		const struct field *f = NULL;
 
@@ -717,16 +836,11 @@ void rmd_yaml_walk_map(struct yctx *c, const struct ynode *m, const struct field
 			continue;
 		}
 		rmd_yaml_path_key(kp, path, k->str);
-		for (unsigned j = 0; j < i; j += 2) {
-			if (m->kids[j]->kind == Y_SCALAR && !strcmp(m->kids[j]->str, k->str)) {
-				rmd_yaml_report(c, k->line, kp, "duplicate key (first at line %u)",
-						m->kids[j]->line);
-				k = NULL;
-				break;
-			}
-		}
-		if (!k)
+		if (dup && dup[i / 2]) {
+			rmd_yaml_report(c, k->line, kp, "duplicate key (first at line %u)",
+					dup[i / 2]->line);
 			continue;
+		}
 		for (unsigned j = 0; fields[j].key; j++)
 			if (!strcmp(fields[j].key, k->str))
 				f = &fields[j];
@@ -744,7 +858,8 @@ void rmd_yaml_walk_map(struct yctx *c, const struct ynode *m, const struct field
 		}
 		rmd_yaml_walk_value(c, v, f, (char *)base + f->off, kp);
 	}
-	for (unsigned j = 0; fields[j].key; j++) {
+	free(dup);
+	for (unsigned j = 0; fields[j].key && !rmd_yaml_capped(c); j++) {
 		if ((fields[j].flags & F_REQUIRED) && !rmd_yaml_get(m, fields[j].key, NULL)) {
 			rmd_yaml_path_key(kp, path, fields[j].key);
 			rmd_yaml_report(c, m->line, kp, "required key missing");

@@ -16,9 +16,10 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#define PATH_LEN 192   /* "buses[12].sim.faults[31].probability" */
-#define MAX_ANCHORS 64 /* anchors remembered for aliases */
-#define YAML_MARKS 2   /* masks of entries with errors (struct yctx.bad) */
+#define PATH_LEN 192	     /* "buses[12].sim.faults[31].probability" */
+#define MAX_ANCHORS 64	     /* anchors remembered for aliases */
+#define MAX_NODES (1u << 18) /* keys, values, entries and aliases of one file */
+#define YAML_MARKS 2	     /* masks of entries with errors (struct yctx.bad) */
 
 /* ---- the document tree ---- */
 
@@ -44,6 +45,7 @@ struct ytree {
 		struct ynode *node;
 	} anchors[MAX_ANCHORS];
 	unsigned n_anchors;
+	unsigned n_nodes; /* nodes and aliases, up to MAX_NODES */
 };
 
 /* Error collector. */
@@ -179,10 +181,14 @@ __attribute__((format(printf, 4, 5))) void rmd_yaml_report(struct yctx *c, unsig
 							   const char *path, const char *fmt, ...);
 
 /*
- * Parse the whole file into t.  Returns 0, or -EINVAL after reporting a
- * syntax error, or -ENOMEM.
+ * Parse the file's text buf[len] into t.  Returns 0, or -EINVAL after
+ * reporting a syntax error, a NUL in a scalar or a limit (MAX_NODES,
+ * MAX_ANCHORS), or -ENOMEM.
  */
-int rmd_yaml_tree_load(struct yctx *c, FILE *f, struct ytree *t);
+int rmd_yaml_tree_load(struct yctx *c, const char *buf, size_t len, struct ytree *t);
+
+/* True once the error collector is full: walkers stop there. */
+bool rmd_yaml_capped(const struct yctx *c);
 void rmd_yaml_tree_free(struct ytree *t);
 
 /* The value of `key` in map m (NULL if absent, or m is not a map), and the key's line. */

@@ -257,6 +257,9 @@ static int plan_control(const struct rmd_config *cfg, struct rmd_plan *plan, uns
 	return 0;
 }
 
+/* Longest spacing of status polls, in cycles (24 days at 1 kHz). */
+#define POLL_EVERY_MAX ((double)(UINT32_MAX / 2))
+
 /*
  * The status polls of bus b: round-robin weights from status_poll_hz, the
  * spacing poll_every (the largest multiple of hc that still polls every
@@ -352,6 +355,13 @@ static int plan_polls(const struct rmd_config *cfg, struct rmd_plan *plan, unsig
 		if (s < s_max)
 			s_max = s;
 	}
+	/*
+	 * A rate near 0 (the loader refuses below RMD_CONFIG_MIN_STATUS_POLL_HZ,
+	 * other callers may not) gives an s_max no unsigned holds: polling more
+	 * often than asked is allowed, converting it would be undefined.
+	 */
+	if (!(s_max <= POLL_EVERY_MAX))
+		s_max = POLL_EVERY_MAX;
 	every = (unsigned)(s_max / pb->hc) * pb->hc;
 	if (every == 0) {
 		add_err(e,

@@ -77,6 +77,9 @@ _Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_M
 /* Queued command messages LCM keeps for us before it drops (its default is 30). */
 #define COMMAND_QUEUE 4096
 
+/* config_t answers a flood of CONFIG_REQUESTs at most this often (each allocates). */
+#define CONFIG_INTERVAL_NS (100 * RMD_NS_PER_MS)
+
 /* Room for one encoded state_t or health_t (at most about 2.7 KiB and 1.7 KiB). */
 #define ENC_MAX 8192
 
@@ -258,23 +261,76 @@ static int check_entries(struct rmd_bridge *b, const rmd_command_t *msg)
 	return -1;
 }
 
-/* Sequence and timestamp against the newest accepted command. */
+/*
+ * A controller's stamps differ from the newest accepted one by at most this
+ * in normal operation; a stamp further away, either way, is a clock jump or a
+ * bad stamp (docs/lcm.md, "stale").
+ */
+#define UTIME_JUMP_US (10 * INT64_C(1000000))
+
+/* a - b, saturated to the int64_t range instead of overflowing. */
+static int64_t sub_sat(int64_t a, int64_t b)
+{
+	int64_t d;
+
+	if (__builtin_sub_overflow(a, b, &d))
+		return a < b ? INT64_MIN : INT64_MAX;
+	return d;
+}
+
+static bool utime_far(int64_t a, int64_t b, int64_t limit_us)
+{
+	int64_t d = sub_sat(a, b);
+
+	return d > limit_us || d < -limit_us;
+}
+
+/*
+ * Sequence and timestamp against the newest accepted command.  A stamp more
+ * than UTIME_JUMP_US (and stale_ms) from the reference is refused without
+ * becoming the reference; a second such stamp near the first one makes it
+ * the reference.  So one bad datagram costs at most one good command, and a
+ * bad reference (the first stamp after seq 0) is replaced by the next two.
+ */
 static int check_order(struct rmd_bridge *b, const rmd_command_t *msg)
 {
 	int64_t stale_us = (int64_t)b->opts.stale_ms * 1000;
+	int64_t jump_us = stale_us > UTIME_JUMP_US ? stale_us : UTIME_JUMP_US;
+	int64_t age_us;
 
-	if (msg->seq == 0)
+	if (msg->seq == 0) {
+		b->have_utime_jump = false;
 		return -1; /* a (re)starting controller */
+	}
 	if (b->have_seq && msg->seq < b->last_seq)
 		return reject(b, RMD_REJ_STALE,
 			      "seq %" PRId64 " went back (newest accepted %" PRId64 "; 0 restarts)",
 			      msg->seq, b->last_seq);
-	if (stale_us > 0 && msg->utime != 0 && b->have_utime &&
-	    msg->utime < b->newest_utime - stale_us)
+	if (stale_us <= 0 || msg->utime == 0 || !b->have_utime)
+		return -1;
+	if (utime_far(msg->utime, b->newest_utime, jump_us)) {
+		if (b->have_utime_jump && !utime_far(msg->utime, b->utime_jump, jump_us)) {
+			/* the controller's clock did jump: follow it */
+			b->have_utime_jump = false;
+			b->newest_utime = msg->utime;
+			return -1;
+		}
+		b->have_utime_jump = true;
+		b->utime_jump = msg->utime;
+		return reject(b, RMD_REJ_STALE,
+			      "utime %" PRId64 " is more than %" PRId64
+			      " s from the newest accepted "
+			      "%" PRId64 ": a clock jump or a bad stamp (a second stamp near it "
+			      "is accepted)",
+			      msg->utime, jump_us / 1000000, b->newest_utime);
+	}
+	b->have_utime_jump = false;
+	age_us = b->newest_utime - msg->utime; /* no overflow: |age| <= jump_us */
+	if (age_us > stale_us)
 		return reject(b, RMD_REJ_STALE,
 			      "utime %" PRId64 " is %" PRId64 " ms older than the newest "
 			      "accepted command (limit %d ms)",
-			      msg->utime, (b->newest_utime - msg->utime) / 1000, b->opts.stale_ms);
+			      msg->utime, age_us / 1000, b->opts.stale_ms);
 	return -1;
 }
 
@@ -724,6 +780,7 @@ static void *bridge_main(void *arg)
 
 	pthread_setname_np(pthread_self(), "rmd-bridge");
 	publish_config(b);
+	b->config_sent_ns = now;
 	b->next_health_ns = now + b->opts.health_period_ns;
 	for (;;) {
 		int64_t wait = b->opts.poll_ns;
@@ -757,8 +814,10 @@ static void *bridge_main(void *arg)
 			if (b->next_health_ns <= now) /* late: skip, never catch up in a burst */
 				b->next_health_ns = now + b->opts.health_period_ns;
 		}
-		if (b->config_wanted) {
+		/* at most one config_t a CONFIG_INTERVAL_NS; a request in between waits for it */
+		if (b->config_wanted && now - b->config_sent_ns >= CONFIG_INTERVAL_NS) {
 			b->config_wanted = false;
+			b->config_sent_ns = now;
 			publish_config(b);
 		}
 	}

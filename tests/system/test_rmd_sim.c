@@ -34,6 +34,7 @@
 
 #include <net/if.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <linux/can.h>
@@ -947,6 +948,115 @@ static void test_can_status_model(void **state)
 	stop_ok(c);
 }
 
+/* A config file of `n` copies of `line`, plus `extra` bytes (NUL included) at the end. */
+static void write_conf(char *path, const char *line, unsigned n, const char *extra, size_t elen)
+{
+	int fd = mkstemp(path);
+	FILE *f;
+
+	assert_true(fd >= 0);
+	f = fdopen(fd, "w");
+	assert_non_null(f);
+	for (unsigned i = 0; i < n; i++)
+		fputs(line, f);
+	if (elen)
+		assert_int_equal(fwrite(extra, 1, elen, f), elen);
+	assert_int_equal(fclose(f), 0);
+}
+
+static unsigned count_str(const char *hay, const char *needle)
+{
+	unsigned n = 0;
+
+	for (const char *p = strstr(hay, needle); p; p = strstr(p + 1, needle))
+		n++;
+	return n;
+}
+
+/* Run rmd-sim with args to its exit; remove `path` (if any).  Returns the status; c->log holds its log. */
+static int run_to_exit(struct child *c, const char *const *args, const char *path)
+{
+	int st;
+
+	spawn(c, args);
+	st = wait_exit(c, EXIT_MS);
+	if (path)
+		unlink(path);
+	close(c->err);
+	c->err = -1;
+	return st;
+}
+
+/*
+ * A FIFO in out[len]: in /tmp, or where the file system takes one (the VM
+ * guest's /tmp is the host's over 9p, which does not).
+ */
+static bool make_fifo(char *out, size_t len)
+{
+	static const char *const dirs[] = { "/tmp", "/dev/shm", "/run" };
+
+	for (size_t i = 0; i < sizeof(dirs) / sizeof(dirs[0]); i++) {
+		snprintf(out, len, "%s/rmd-sim-fifo-%d", dirs[i], (int)getpid());
+		unlink(out);
+		if (mkfifo(out, 0600) == 0)
+			return true;
+	}
+	return false;
+}
+
+/*
+ * rmd-sim reads its config file by rmdd's rules (issue 10, defect 5):
+ * before, /dev/zero hung, a NUL byte silently cut its line, and a 10 MB bad
+ * file printed a million error lines.
+ */
+static void test_hostile_config(void **state)
+{
+	const char *args[] = { "--serial", "/dev/null", "--config", NULL, NULL };
+	struct child *c = *state;
+	char path[] = "/tmp/rmd-sim-test-XXXXXX", fifo[64];
+	char expect[128];
+	int st;
+
+	/* a device and a FIFO: refused by name, at once */
+	args[3] = "/dev/zero";
+	st = run_to_exit(c, args, NULL);
+	if (st != 2 || !strstr(c->log, "/dev/zero: is a character device, not a regular file"))
+		fail_msg("--config /dev/zero: status %d, log \"%s\"", st, c->log);
+	if (make_fifo(fifo, sizeof(fifo))) {
+		args[3] = fifo;
+		st = run_to_exit(c, args, fifo);
+		if (st != 2 || !strstr(c->log, "is a FIFO, not a regular file"))
+			fail_msg("--config FIFO: status %d, log \"%s\"", st, c->log);
+	} else {
+		print_message("no file system here takes a FIFO: the FIFO case is skipped\n");
+	}
+
+	/* a NUL byte: refused with its line, not cut */
+	write_conf(path, "motors = 1\n", 2, "inertia = 0.001\0junk\n", 21);
+	args[3] = path;
+	st = run_to_exit(c, args, path);
+	snprintf(expect, sizeof(expect), "%s:3: a NUL byte", path);
+	if (st != 2 || !strstr(c->log, expect))
+		fail_msg("NUL byte: status %d, log \"%s\"", st, c->log);
+
+	/* 10 MB: refused by its size, one line */
+	strcpy(path, "/tmp/rmd-sim-test-XXXXXX");
+	write_conf(path, "no equals sign\n", 700000, "", 0);
+	st = run_to_exit(c, args, path);
+	if (st != 2 || !strstr(c->log, "larger than the limit of 1 MiB") ||
+	    count_str(c->log, "<3>") != 1)
+		fail_msg("10 MB: status %d, log \"%.2000s\"", st, c->log);
+
+	/* 60 000 bad lines under the size bound: the error cap */
+	strcpy(path, "/tmp/rmd-sim-test-XXXXXX");
+	write_conf(path, "no equals sign\n", 60000, "", 0);
+	st = run_to_exit(c, args, path);
+	if (st != 2 || !strstr(c->log, "more errors not shown") || count_str(c->log, "<3>") > 34 ||
+	    c->logn >= sizeof(c->log) / 2)
+		fail_msg("60000 bad lines: status %d, %u error lines, log \"%.2000s\"", st,
+			 count_str(c->log, "<3>"), c->log);
+}
+
 int main(void)
 {
 	const char *env = getenv("RMDSIM"), *build = getenv("BUILD");
@@ -968,8 +1078,11 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_bad_config, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_open_failure, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_can_status_model, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_hostile_config, setup, teardown),
 	};
 
+	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_hostile_config */
+		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	if (env && *env)
 		snprintf(rmdsim, sizeof(rmdsim), "%s", env);
 	else

@@ -61,6 +61,7 @@
 #define EXIT_NO_CAPS 77 /* the child could not drop its capabilities */
 
 static char rmdd[4096];
+static char rmdd_test[4096]; /* rmdd with its test hooks (RMDD_TEST_STALL_AFTER_MS) */
 static char tmpdir[256];
 /* The daemon a test runs, killed by the per-test teardown if a failure left it running. */
 static pid_t live_pid;
@@ -80,6 +81,7 @@ struct spawn_opts {
 	const char *stall_ms;	   /* RMDD_TEST_STALL_AFTER_MS */
 	bool no_rt;		   /* take away the real-time privileges */
 	int fifo_prio;		   /* start at SCHED_FIFO (CPUSchedulingPolicy=); 0: no */
+	const char *env_extra;	   /* "NAME=VALUE" put in the environment last */
 };
 
 static int64_t now_ms(void)
@@ -125,6 +127,8 @@ static void child_env(const void *ctx)
 	}
 	if (so->stall_ms)
 		setenv("RMDD_TEST_STALL_AFTER_MS", so->stall_ms, 1);
+	if (so->env_extra)
+		putenv((char *)so->env_extra);
 	if (so->no_rt)
 		drop_rt();
 	if (so->fifo_prio) {
@@ -139,7 +143,7 @@ static void child_env(const void *ctx)
 static void spawn(struct proc *p, const struct spawn_opts *so, const char *const *args)
 {
 	memset(p, 0, sizeof(*p));
-	p->pid = spawn_piped(rmdd, args, &p->fd, child_env, so);
+	p->pid = spawn_piped(so && so->stall_ms ? rmdd_test : rmdd, args, &p->fd, child_env, so);
 	live_pid = p->pid;
 }
 
@@ -747,12 +751,118 @@ static void test_require_rt_refuses(void **state)
 	assert_null(strstr(p.out, "running:"));
 }
 
+/* ---- hostile input (issue 10, defects 6, 7, 8) ------------------------------------ */
+
+/*
+ * The installed rmdd has no test hook: RMDD_TEST_STALL_AFTER_MS in its
+ * environment does nothing, and the name is not in the binary.  Before, it
+ * stopped the rt loop of the production daemon.
+ */
+static void test_no_stall_hook_in_rmdd(void **state)
+{
+	static struct proc p;
+	static char bin[4 << 20];
+	struct spawn_opts so = { .env_extra = "RMDD_TEST_STALL_AFTER_MS=100" };
+	FILE *f;
+	size_t n;
+
+	(void)state;
+	f = fopen(rmdd, "rb");
+	assert_non_null(f);
+	n = fread(bin, 1, sizeof(bin), f);
+	fclose(f);
+	assert_true(n > 0 && n < sizeof(bin));
+	if (memmem(bin, n, "RMDD_TEST_STALL_AFTER_MS", 24))
+		fail_msg("%s holds the test hook RMDD_TEST_STALL_AFTER_MS", rmdd);
+	spawn(&p, &so, SIM3);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	for (int64_t end = now_ms() + 600; now_ms() < end;)
+		pump(&p, 50);
+	if (strstr(p.out, "test hook"))
+		fail_msg("the installed rmdd ran the test hook:\n%s", p.out);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+}
+
+/* rmdd-test's hook takes 1..86400000 ms; before, 2^63 - 1 overflowed. */
+static void test_stall_hook_bounds(void **state)
+{
+	static const char *const bad[] = { "9223372036854775807", "9223372036854776", "-5", "0",
+					   "12abc" };
+	static struct proc p;
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+		struct spawn_opts so = { .stall_ms = bad[i] };
+		char want[128];
+		int st;
+
+		spawn(&p, &so, SIM3);
+		st = finish(&p, 5000);
+		snprintf(want, sizeof(want),
+			 "RMDD_TEST_STALL_AFTER_MS=\"%s\": expected 1..86400000", bad[i]);
+		if (st != 2 || !strstr(p.out, want))
+			fail_msg("RMDD_TEST_STALL_AFTER_MS=%s: exit %d, output:\n%s", bad[i], st,
+				 p.out);
+	}
+}
+
+/*
+ * A CPU in loop.cpu_affinity that does not exist: --check-config refuses it
+ * and the daemon names it.  Before, --check-config passed and the daemon
+ * said "no real-time guarantees ... run as root", false on both counts.
+ */
+static void test_cpu_affinity_missing(void **state)
+{
+	static struct proc p;
+	char path[512];
+	/* argv[0]: --check-config, then --config */
+	const char *argv[] = { "--check-config", path, "--lcm-url", "memq://", NULL };
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/cpu.yaml", tmpdir);
+	write_file(path, "loop:\n  cpu_affinity: [0, 1023]\nbuses: [{name: s0, type: sim}]\n"
+			 "motors: [{name: a, bus: s0, id: 1, mode: torque, "
+			 "torque_constant_nm_a: 2}]\n");
+	assert_int_equal(run(&p, argv), 1);
+	expect_in(&p, "cpu.yaml: loop.cpu_affinity: CPU 1023 does not exist on this machine, or "
+		      "rmdd may not use it (it may use CPUs 0");
+	argv[0] = "--config";
+	assert_int_equal(run(&p, argv), 1);
+	expect_in(&p, "<3>rmdd: ");
+	expect_in(&p, "loop.cpu_affinity: CPU 1023 does not exist on this machine");
+	assert_null(strstr(p.out, "run as root"));
+	assert_null(strstr(p.out, "running:"));
+}
+
+/* --check-config of a FIFO or a directory: refused by name at once (a FIFO blocked). */
+static void test_check_config_special_files(void **state)
+{
+	static const char *const expect[] = { "fifo.yaml: is a FIFO, not a regular file",
+					      ": is a directory, not a regular file" };
+	static struct proc p;
+	char fifo[512];
+	const char *check[] = { "--check-config", NULL, NULL };
+
+	(void)state;
+	snprintf(fifo, sizeof(fifo), "%s/fifo.yaml", tmpdir);
+	unlink(fifo);
+	assert_int_equal(mkfifo(fifo, 0600), 0);
+	for (int i = 0; i < 2; i++) {
+		check[1] = i ? tmpdir : fifo;
+		assert_int_equal(run(&p, check), 1);
+		expect_in(&p, expect[i]);
+	}
+	unlink(fifo);
+}
+
 /* ---- set-up ----------------------------------------------------------------------- */
 
 static int setup(void **state)
 {
 	(void)state;
-	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0)
+	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0 ||
+	    find_prog(rmdd_test, sizeof(rmdd_test), "RMDD_TEST", "rmdd-test") < 0)
 		return -1;
 	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_rmdd.XXXXXX");
 	if (!mkdtemp(tmpdir))
@@ -798,7 +908,13 @@ int main(void)
 		cmocka_unit_test_teardown(test_notify_without_watchdog, reap),
 		cmocka_unit_test_teardown(test_no_rt_warns_once_and_runs, reap),
 		cmocka_unit_test_teardown(test_require_rt_refuses, reap),
+		cmocka_unit_test_teardown(test_no_stall_hook_in_rmdd, reap),
+		cmocka_unit_test_teardown(test_stall_hook_bounds, reap),
+		cmocka_unit_test_teardown(test_cpu_affinity_missing, reap),
+		cmocka_unit_test_teardown(test_check_config_special_files, reap),
 	};
 
+	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_cpu_affinity_missing */
+		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("rmdd", tests, setup, teardown);
 }

@@ -1241,6 +1241,118 @@ static void test_one_controller_at_a_time(void **state)
 	assert_int_equal(owner_lines, 1);
 }
 
+/* ---- hostile stamps (issue 10, defect 1) ----------------------------------- */
+
+struct stamp_step {
+	int64_t seq, utime;
+	bool ok;
+};
+
+static void run_stamps(struct fixture *f, const char *name, const struct stamp_step *steps,
+		       size_t n)
+{
+	struct rmd_command c;
+
+	for (size_t i = 0; i < n; i++) {
+		rmd_command_t m = base_cmd(steps[i].seq);
+		struct rmd_bridge_stats before = stats(f), now;
+
+		m.utime = steps[i].utime;
+		send_cmd(f, &m);
+		WAIT_UNTIL(f,
+			   stats(f).accepted + stats(f).rejected ==
+				   before.accepted + before.rejected + 1,
+			   2000);
+		now = stats(f);
+		if (now.accepted != before.accepted + steps[i].ok ||
+		    now.rejected != before.rejected + !steps[i].ok)
+			fail_msg("%s step %zu (seq %lld utime %lld): expected %s, accepted %llu "
+				 "rejected %llu",
+				 name, i, (long long)steps[i].seq, (long long)steps[i].utime,
+				 steps[i].ok ? "accepted" : "rejected",
+				 (unsigned long long)now.accepted,
+				 (unsigned long long)now.rejected);
+		assert_int_equal(take_command(f, &c), steps[i].ok);
+	}
+}
+
+/*
+ * Full-width stamps: the comparison must not overflow (the sanitizer build
+ * died on these pairs), and one bad stamp must not lock the controller out:
+ * before the fix, seq 0 with utime INT64_MIN + 1 (or a stamp at INT64_MAX)
+ * made every later correctly stamped command "stale".
+ */
+static void test_utime_full_width(void **state)
+{
+	struct fixture *f = fixture(state);
+	static const struct stamp_step far_past_ref[] = {
+		{ 0, INT64_MIN + 1, true }, /* restart with a bad stamp: the reference */
+		{ 1, 5, false },	    /* far from it: refused, remembered */
+		{ 2, 1005, true },	    /* near the remembered one: the new reference */
+		{ 3, 2005, true },
+		{ 4, 3005, true },
+	};
+	static const struct stamp_step far_past[] = {
+		{ 0, 1000, true },
+		{ 1, (int64_t)1e10, false }, /* 10^4 s ahead: refused, not the reference */
+		{ 2, INT64_MIN, false },     /* far past (the overflow of the issue) */
+		{ 3, 2000, true },	     /* the controller goes on */
+		{ 4, 3000, true },
+	};
+	static const struct stamp_step far_future[] = {
+		{ 0, 1000, true },	     { 1, INT64_MAX, false }, { 2, 2000, true },
+		{ 3, INT64_MIN + 1, false }, { 4, 3000, true },	      { 5, 2899, true },
+		{ 6, 2000, true },     /* 1 ms older: within stale_ms */
+		{ 7, -200000, false }, /* 203 ms older: stale */
+	};
+
+	start(f);
+	run_stamps(f, "far past reference", far_past_ref,
+		   sizeof(far_past_ref) / sizeof(far_past_ref[0]));
+	run_stamps(f, "far past", far_past, sizeof(far_past) / sizeof(far_past[0]));
+	run_stamps(f, "far future", far_future, sizeof(far_future) / sizeof(far_future[0]));
+}
+
+/*
+ * A flood of CONFIG_REQUESTs (10 kHz of empty datagrams for 1 s) gets a
+ * bounded number of config_t: at most one every 100 ms; the last request of
+ * the flood is still answered.  Before the fix rmdd answered each one.
+ */
+static void test_config_request_flood(void **state)
+{
+	struct fixture *f = fixture(state);
+	int64_t t0, t_end, elapsed_ns, next;
+	uint64_t n, bound;
+
+	start(f);
+	WAIT_UNTIL(f, stats(f).configs_published >= 1, 2000);
+	assert_int_equal(stats(f).configs_published, 1);
+	t0 = now_ns();
+	next = t0;
+	for (unsigned i = 0; i < 10000; i++) {
+		assert_int_equal(lcm_publish(f->ctl, PREFIX "CONFIG_REQUEST", "", 0), 0);
+		next += 100000; /* 10 kHz */
+		while (now_ns() < next) {
+		}
+	}
+	t_end = now_ns();
+	elapsed_ns = t_end - t0;
+	/* the pending request's answer comes at most 100 ms after the last one */
+	WAIT_UNTIL(f, false, 300);
+	n = stats(f).configs_published;
+	bound = 1 + (uint64_t)(elapsed_ns / 100000000) + 2;
+	printf("config request flood: %llu config_t in %.2f s (bound %llu)\n",
+	       (unsigned long long)n, (double)elapsed_ns / 1e9, (unsigned long long)bound);
+	if (n > bound || n < 2)
+		fail_msg("%llu config_t for 10000 requests in %.2f s: expected 2..%llu",
+			 (unsigned long long)n, (double)elapsed_ns / 1e9,
+			 (unsigned long long)bound);
+	/* one more request, after the interval: answered */
+	assert_int_equal(lcm_publish(f->ctl, PREFIX "CONFIG_REQUEST", "", 0), 0);
+	WAIT_UNTIL(f, stats(f).configs_published == n + 1, 2000);
+	assert_int_equal(stats(f).configs_published, n + 1);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1256,6 +1368,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_health_10hz, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_config_on_request, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_one_controller_at_a_time, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_utime_full_width, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_config_request_flood, setup, teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood */

@@ -16,7 +16,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
+
+#include <sys/stat.h>
 
 #include <cmocka.h>
 
@@ -143,7 +146,7 @@ static void test_example_rmdd(void **state)
 	(void)state;
 	assert_int_equal(load_rel("examples/rmdd.yaml"), 0);
 	assert_int_equal(cfg.loop.n_cpus, 1);
-	assert_int_equal(cfg.loop.cpus[0], 2);
+	assert_int_equal(cfg.loop.cpus[0], 1);
 	i = rmd_config_bus_find(&cfg, "can1");
 	assert_true(i >= 0);
 	assert_string_equal(cfg.buses[i].interface, "can1"); /* defaults to the name */
@@ -359,7 +362,7 @@ static const struct bad_str bad_strs[] = {
 	{ "gear-negative",
 	  BUS
 	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, gear_ratio: -6, torque_constant_nm_a: 2}\n",
-	  { "motors[0].gear_ratio: -6 is out of range (> 0" } },
+	  { "motors[0].gear_ratio: -6 is out of range (0.01..10000)" } },
 	{ "no-kt",
 	  BUS "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque}\n",
 	  { ":4: motors[0].torque_constant_nm_a: required for protocol v3" } },
@@ -616,20 +619,277 @@ static void test_names(void **state)
 	assert_string_equal(rmd_safe_action_name(RMD_SAFE_HOLD), "hold");
 }
 
+/* ---- hostile files (issue 10, defects 2, 3, 4, 8, 10) --------------------- */
+
+static double mono_s(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + ts.tv_nsec / 1e9;
+}
+
+static void key_line(FILE *f, unsigned i)
+{
+	fprintf(f, "k%05u: 1\n", i);
+}
+
+static void dup_line(FILE *f, unsigned i)
+{
+	fprintf(f, "x: %u\n", i);
+}
+
+static void flow_entry(FILE *f, unsigned i)
+{
+	(void)i;
+	fputs("0,", f);
+}
+
+static void comment_line(FILE *f, unsigned i)
+{
+	fprintf(f, "# %07u of a long comment\n", i);
+}
+
+/* A temporary file: head, then line(f, i) for i < n, then tail. */
+static void write_big(char *path, size_t len, const char *tag, const char *head,
+		      void (*line)(FILE *f, unsigned i), unsigned n, const char *tail)
+{
+	FILE *f;
+	int fd;
+
+	snprintf(path, len, "/tmp/rmd-test-%s-XXXXXX", tag);
+	fd = mkstemp(path);
+	assert_true(fd >= 0);
+	f = fdopen(fd, "w");
+	assert_non_null(f);
+	fputs(head, f);
+	for (unsigned i = 0; i < n; i++)
+		line(f, i);
+	fputs(tail, f);
+	assert_int_equal(fclose(f), 0);
+}
+
+/* Load path, refused (-EINVAL), within 5 s; remove it. */
+static void load_fast(const char *path, const char *what)
+{
+	double t0 = mono_s(), dt;
+	int r = rmd_config_load(path, &cfg, &sim, err, sizeof(err));
+
+	dt = mono_s() - t0;
+	unlink(path);
+	printf("%s: %.3f s\n", what, dt);
+	assert_int_equal(r, -EINVAL);
+	if (dt > 5.0)
+		fail_msg("%s took %.1f s", what, dt);
+}
+
+/*
+ * Size and node bounds, the error cap, duplicates in O(n log n): before,
+ * 100 000 unknown keys took 20 s (a quadratic duplicate check), and a 100 MB
+ * file was read whole (1.8 GB after 90 s).
+ */
+static void test_hostile_sizes(void **state)
+{
+	char path[256];
+	double t0, dt;
+	int fd, r;
+
+	(void)state;
+	/* 100 MB, sparse: refused by its size before a byte is read */
+	snprintf(path, sizeof(path), "/tmp/rmd-test-huge-XXXXXX");
+	fd = mkstemp(path);
+	assert_true(fd >= 0);
+	assert_int_equal(ftruncate(fd, 100 * 1024 * 1024), 0);
+	close(fd);
+	t0 = mono_s();
+	r = rmd_config_load(path, &cfg, &sim, err, sizeof(err));
+	dt = mono_s() - t0;
+	unlink(path);
+	assert_int_equal(r, -EFBIG);
+	expect_in(err, path);
+	expect_in(err, ": 104857600 bytes: larger than the limit of 1 MiB (1048576 bytes)");
+	assert_true(dt < 1.0);
+
+	/* 100 000 unknown keys (1 MB): the error cap, fast (was 20 s) */
+	write_big(path, sizeof(path), "keys", minimal, key_line, 100000, "");
+	load_fast(path, "100000 unknown keys");
+	expect_in(err, ":5: k00000: unknown key; allowed: loop, safety");
+	expect_in(err, "more errors not shown");
+	assert_true(count_lines(err) + 1 <= 33); /* lines joined by '\n', none after the last */
+
+	/* 100 000 times the same key: duplicates found by sorting */
+	write_big(path, sizeof(path), "dups", "", dup_line, 100000, "");
+	load_fast(path, "100000 duplicate keys");
+	expect_in(err, ":2: x: duplicate key (first at line 1)");
+
+	/* a flow list of 500 000 entries (1 MB): the node bound */
+	write_big(path, sizeof(path), "flow", "motors: [", flow_entry, 500000, "0]\n");
+	r = rmd_config_load(path, &cfg, &sim, err, sizeof(err));
+	unlink(path);
+	assert_int_equal(r, -EINVAL);
+	expect_in(err, ":1: motors[262141]: more than 262144 keys, values and entries: a "
+		       "configuration file has a few thousand");
+
+	/* over the size bound by text, not by holes */
+	write_big(path, sizeof(path), "long", minimal, comment_line, 40000, "");
+	r = rmd_config_load(path, &cfg, &sim, err, sizeof(err));
+	unlink(path);
+	assert_int_equal(r, -EFBIG);
+	expect_in(err, "bytes: larger than the limit of 1 MiB");
+}
+
+/* More than 64 anchors: said so, with the line; before, "out of memory". */
+static void test_hostile_anchors(void **state)
+{
+	char yaml[4096];
+	size_t k = (size_t)snprintf(yaml, sizeof(yaml), "%s", minimal);
+
+	(void)state;
+	for (unsigned i = 0; i < 65; i++)
+		k += (size_t)snprintf(yaml + k, sizeof(yaml) - k, "x%u: &a%u 1\n", i, i);
+	assert_int_equal(load_str("anchors", yaml), -EINVAL);
+	expect_in(err, ":69: x64: more than 64 anchors (&name): rmdd keeps at most 64");
+	if (strstr(err, "out of memory"))
+		fail_msg("%s", err);
+}
+
+/* A directory, a FIFO, a device: refused by name, never read (a FIFO blocked before). */
+static void test_special_files(void **state)
+{
+	char dir[] = "/tmp/rmd-test-dir-XXXXXX", fifo[300];
+
+	(void)state;
+	assert_non_null(mkdtemp(dir));
+	assert_int_equal(rmd_config_load(dir, &cfg, &sim, err, sizeof(err)), -EISDIR);
+	expect_in(err, dir);
+	expect_in(err, ": is a directory, not a regular file");
+	snprintf(fifo, sizeof(fifo), "%s/fifo.yaml", dir);
+	assert_int_equal(mkfifo(fifo, 0600), 0);
+	alarm(10); /* a blocking open of the FIFO ends the test here */
+	assert_int_equal(rmd_config_load(fifo, &cfg, &sim, err, sizeof(err)), -EINVAL);
+	alarm(0);
+	expect_in(err, "fifo.yaml: is a FIFO, not a regular file");
+	unlink(fifo);
+	rmdir(dir);
+	assert_int_equal(rmd_config_load("/dev/zero", &cfg, &sim, err, sizeof(err)), -EINVAL);
+	expect_in(err, "/dev/zero: is a character device, not a regular file");
+}
+
+/* An embedded NUL is refused, not cut (before, "ab\0cd" loaded as "ab"). */
+static void test_nul_refused(void **state)
+{
+	char path[256];
+	FILE *f;
+	int fd;
+
+	(void)state;
+	assert_int_equal(load_str("nul-escape", "buses:\n  - {name: can0, type: socketcan}\n"
+						"motors:\n  - name: \"m\\0x\"\n"
+						"    bus: can0\n    id: 1\n    mode: torque\n"
+						"    torque_constant_nm_a: 2\n"),
+			 -EINVAL);
+	expect_in(err, ":4: motors[0].name: the value contains a NUL character (\\0)");
+	/* a raw NUL byte in the file */
+	snprintf(path, sizeof(path), "/tmp/rmd-test-nul-XXXXXX");
+	fd = mkstemp(path);
+	assert_true(fd >= 0);
+	f = fdopen(fd, "w");
+	assert_non_null(f);
+	fputs(minimal, f);
+	fwrite("x: a\0b\n", 1, 7, f);
+	fclose(f);
+	assert_int_equal(rmd_config_load(path, &cfg, &sim, err, sizeof(err)), -EILSEQ);
+	unlink(path);
+	expect_in(err, ":5: a NUL byte: a configuration file is text");
+}
+
+/* A u64 bound prints as 2^64 - 1, not as the double 2^64. */
+static void test_range_u64(void **state)
+{
+	(void)state;
+	assert_int_equal(load_str("seed", "buses:\n  - name: s\n    type: sim\n    sim:\n"
+					  "      seed: -1\n"
+					  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, "
+					  "torque_constant_nm_a: 2}\n"),
+			 -EINVAL);
+	expect_in(err, ":5: buses[0].sim.seed: -1 is out of range (0..18446744073709551615)");
+}
+
+/* Physical quantities have real lower bounds: 1e-300 passed before. */
+static void test_physical_lower_bounds(void **state)
+{
+	static const struct {
+		const char *motor, *expect;
+	} cases[] = {
+		{ "gear_ratio: 1e-300",
+		  "motors[0].gear_ratio: 1e-300 is out of range (0.01..10000)" },
+		{ "torque_constant_nm_a: 1e-300",
+		  "motors[0].torque_constant_nm_a: 1e-300 is out of range (0.001..10000)" },
+		{ "limits: {velocity_rad_s: 1e-300}",
+		  "motors[0].limits.velocity_rad_s: 1e-300 is out of range (0.001..10000)" },
+		{ "limits: {torque_nm: 1e-300}",
+		  "motors[0].limits.torque_nm: 1e-300 is out of range (0.001..100000)" },
+		{ "status_poll_hz: 1e-300",
+		  "motors[0].status_poll_hz: 1e-300 Hz is below 0.001 Hz (one poll every 1000 s): "
+		  "use 0 to turn status polls off" },
+		{ "status_poll_hz: 2e-7", "motors[0].status_poll_hz: 2e-07 Hz is below 0.001 Hz" },
+		{ "mit: {t_min: 0, t_max: 1e-300}",
+		  "motors[0].mit.t_min: 0..1e-300 is narrower than 0.001: the MIT frame codes it "
+		  "in 12 bits (V3 §5)" },
+		{ "mit: {p_min: 1, p_max: 1.0001}",
+		  "motors[0].mit.p_min: 1..1.0001 is narrower than 0.001: the MIT frame codes it "
+		  "in 16 bits" },
+	};
+	char yaml[1024];
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+		snprintf(yaml, sizeof(yaml),
+			 "buses:\n  - {name: can0, type: socketcan}\nmotors:\n"
+			 "  - {name: m1, bus: can0, id: 1, mode: mit, protocol: mit, %s}\n",
+			 cases[i].motor);
+		if (load_str("lower", yaml) != -EINVAL)
+			fail_msg("%s: accepted", cases[i].motor);
+		expect_in(err, cases[i].expect);
+	}
+	/* the bounds themselves pass */
+	assert_int_equal(load_str("lower-ok", "buses:\n  - {name: can0, type: socketcan}\n"
+					      "motors:\n  - {name: m1, bus: can0, id: 1, mode: "
+					      "mit, protocol: mit, gear_ratio: 0.01, "
+					      "torque_constant_nm_a: 0.001, status_poll_hz: 0.001, "
+					      "limits: {velocity_rad_s: 0.001, torque_nm: 0.001}, "
+					      "mit: {kd_min: 0, kd_max: 0.001}}\n"),
+			 0);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_examples_load), cmocka_unit_test(test_example_sim12),
-		cmocka_unit_test(test_example_rmdd),  cmocka_unit_test(test_defaults),
-		cmocka_unit_test(test_bad_files),     cmocka_unit_test(test_nonexistent),
-		cmocka_unit_test(test_bad_strings),   cmocka_unit_test(test_too_many_motors),
-		cmocka_unit_test(test_good_values),   cmocka_unit_test(test_small_err_buffer),
-		cmocka_unit_test(test_sim_default),   cmocka_unit_test(test_names),
+		cmocka_unit_test(test_examples_load),
+		cmocka_unit_test(test_example_sim12),
+		cmocka_unit_test(test_example_rmdd),
+		cmocka_unit_test(test_defaults),
+		cmocka_unit_test(test_bad_files),
+		cmocka_unit_test(test_nonexistent),
+		cmocka_unit_test(test_bad_strings),
+		cmocka_unit_test(test_too_many_motors),
+		cmocka_unit_test(test_good_values),
+		cmocka_unit_test(test_small_err_buffer),
+		cmocka_unit_test(test_sim_default),
+		cmocka_unit_test(test_names),
 		cmocka_unit_test(test_fault_units),
+		cmocka_unit_test(test_hostile_sizes),
+		cmocka_unit_test(test_hostile_anchors),
+		cmocka_unit_test(test_special_files),
+		cmocka_unit_test(test_nul_refused),
+		cmocka_unit_test(test_range_u64),
+		cmocka_unit_test(test_physical_lower_bounds),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 
 	if (dir && *dir)
 		snprintf(srcdir, sizeof(srcdir), "%s", dir);
+	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_special_files */
+		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests(tests, NULL, NULL);
 }

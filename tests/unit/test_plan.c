@@ -753,6 +753,32 @@ static int find_rmdd(void **state)
 	return find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd");
 }
 
+/*
+ * A status poll rate near 0 (1e-300 Hz; the loader refuses it, other callers
+ * may not): the spacing was a float-to-unsigned conversion out of range,
+ * undefined, and on x86-64 it gave 0 and the self-contradicting "status
+ * polls at 1e-300 Hz in all do not fit" (issue 10, defect 3).
+ */
+static void test_poll_rate_near_zero(void **state)
+{
+	static const double rates[] = { 1e-300, 1e-12, 2e-7, 1e-3 };
+	const struct rmd_plan_bus *pb = &plan.bus[0];
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(rates) / sizeof(rates[0]); i++) {
+		cfg_reset(1000);
+		add_bus("can0", RMD_BUS_KIND_SOCKETCAN);
+		/* alone on its bus: nothing else bounds the spacing */
+		add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, rates[i]);
+		if (build() != 0)
+			fail_msg("status_poll_hz %g: %s", rates[i], err);
+		assert_true(pb->poll_every > 0);
+		assert_int_equal(pb->poll_every % pb->hc, 0);
+		/* at least the rate asked for, never less */
+		assert_true(plan.motor[0].poll_hz >= rates[i]);
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -771,6 +797,7 @@ int main(void)
 		cmocka_unit_test(test_32_on_one_bus),
 		cmocka_unit_test(test_sim12_feasible),
 		cmocka_unit_test(test_print),
+		cmocka_unit_test(test_poll_rate_near_zero),
 	};
 	const struct CMUnitTest proc_tests[] = {
 		cmocka_unit_test(test_rmdd_check_examples),

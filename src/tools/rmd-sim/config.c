@@ -23,6 +23,7 @@
 #include <string.h>
 
 #include "rmd/codec.h"
+#include "rmd/config.h"
 #include "rmd/mit.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
@@ -747,90 +748,113 @@ static int parse_section(char *line)
 	return (int)id;
 }
 
+/* One line of a config file (its text in line[], modified); 0 or -EINVAL, logged. */
+static int config_line(struct sim_config *c, const char *path, unsigned lineno, char *line,
+		       int *motor)
+{
+	char where[SIM_WHERE_MAX], *s, *eq, *key, *value, *hash;
+
+	s = trim(line);
+	if (!*s || *s == '#' || *s == ';')
+		return 0;
+	/* A comment after a section or a value starts with a blank and '#'. */
+	for (hash = strchr(s, '#'); hash; hash = strchr(hash + 1, '#')) {
+		if (isspace((unsigned char)hash[-1])) {
+			*hash = '\0';
+			s = trim(s);
+			break;
+		}
+	}
+	if (*s == '[') {
+		int m = parse_section(s);
+
+		if (m < 0) {
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s:%u: expected a section [global] or [motor N], "
+				 "N 1..32",
+				 path, lineno);
+			return -EINVAL;
+		}
+		*motor = m;
+		if (m && !(c->motor_refs & (UINT32_C(1) << (m - 1)))) {
+			c->motor_refs |= UINT32_C(1) << (m - 1);
+			snprintf(c->motor_ref_where[m - 1], sizeof(c->motor_ref_where[0]),
+				 "%s:%u: [motor %d]", path, lineno, m);
+		}
+		return 0;
+	}
+	eq = strchr(s, '=');
+	if (!eq) {
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: %s:%u: expected KEY = VALUE, a [section] or "
+			 "a # comment",
+			 path, lineno);
+		return -EINVAL;
+	}
+	*eq = '\0';
+	key = trim(s);
+	value = eq + 1;
+	value = trim(value);
+	snprintf(where, sizeof(where), "%s:%u: %s", path, lineno, key);
+	if (!strcasecmp(key, "config")) {
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: config files do not include others", where);
+		return -EINVAL;
+	}
+	return sim_config_set(c, (uint8_t)*motor, key, value, where) < 0 ? -EINVAL : 0;
+}
+
+/* Error lines a config file may produce before the rest is not read (rmdd's cap too). */
+#define FILE_ERRORS_MAX 32
+
+/*
+ * The file is read as rmdd's is (rmd_config_file_read): a regular file only,
+ * so never blocking on a FIFO or reading /dev/zero, at most
+ * RMD_CONFIG_FILE_MAX bytes, no NUL byte; at most FILE_ERRORS_MAX errors.
+ */
 int sim_config_file(struct sim_config *c, const char *path)
 {
-	char line[1024], where[SIM_WHERE_MAX];
-	unsigned lineno = 0;
-	int motor = 0, r = 0;
-	FILE *f = fopen(path, "re");
+	char line[1024], why[160];
+	unsigned lineno = 0, nerr = 0, nul_line;
+	int motor = 0, r;
+	char *text, *next;
+	size_t len;
 
-	if (!f) {
-		int e = errno;
-
-		tool_log(TOOL_LOG_ERR, "rmd-sim: --config %s: %s", path, strerror(e));
-		return -e;
+	r = rmd_config_file_read(path, &text, &len, &nul_line, why, sizeof(why));
+	if (r < 0) {
+		if (nul_line)
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s:%u: %s", path, nul_line, why);
+		else
+			tool_log(TOOL_LOG_ERR, "rmd-sim: --config %s: %s", path, why);
+		return r;
 	}
-	while (fgets(line, sizeof(line), f)) {
-		char *s, *eq, *key, *value, *hash;
-		size_t n = strlen(line);
+	for (next = text; *next;) {
+		char *nl = strchr(next, '\n');
+		size_t n = nl ? (size_t)(nl - next) : strlen(next);
 
 		lineno++;
-		if (n == sizeof(line) - 1 && line[n - 1] != '\n' && !feof(f)) {
+		if (n > sizeof(line) - 2) {
 			tool_log(TOOL_LOG_ERR, "rmd-sim: %s:%u: line longer than %zu characters",
 				 path, lineno, sizeof(line) - 2);
 			r = -EINVAL;
 			break;
 		}
-		s = trim(line);
-		if (!*s || *s == '#' || *s == ';')
-			continue;
-		/* A comment after a section or a value starts with a blank and '#'. */
-		for (hash = strchr(s, '#'); hash; hash = strchr(hash + 1, '#')) {
-			if (isspace((unsigned char)hash[-1])) {
-				*hash = '\0';
-				s = trim(s);
+		memcpy(line, next, n);
+		line[n] = '\0';
+		next += nl ? n + 1 : n;
+		if (config_line(c, path, lineno, line, &motor) < 0) {
+			r = -EINVAL;
+			if (++nerr == FILE_ERRORS_MAX) {
+				if (*next)
+					tool_log(
+						TOOL_LOG_ERR,
+						"rmd-sim: %s: more errors not shown; the rest of the "
+						"file is not read",
+						path);
 				break;
 			}
 		}
-		if (*s == '[') {
-			int m = parse_section(s);
-
-			if (m < 0) {
-				tool_log(
-					TOOL_LOG_ERR,
-					"rmd-sim: %s:%u: expected a section [global] or [motor N], "
-					"N 1..32",
-					path, lineno);
-				r = -EINVAL;
-				continue;
-			}
-			motor = m;
-			if (motor && !(c->motor_refs & (UINT32_C(1) << (motor - 1)))) {
-				c->motor_refs |= UINT32_C(1) << (motor - 1);
-				snprintf(c->motor_ref_where[motor - 1],
-					 sizeof(c->motor_ref_where[0]), "%s:%u: [motor %d]", path,
-					 lineno, motor);
-			}
-			continue;
-		}
-		eq = strchr(s, '=');
-		if (!eq) {
-			tool_log(TOOL_LOG_ERR,
-				 "rmd-sim: %s:%u: expected KEY = VALUE, a [section] or "
-				 "a # comment",
-				 path, lineno);
-			r = -EINVAL;
-			continue;
-		}
-		*eq = '\0';
-		key = trim(s);
-		value = eq + 1;
-		value = trim(value);
-		snprintf(where, sizeof(where), "%s:%u: %s", path, lineno, key);
-		if (!strcasecmp(key, "config")) {
-			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: config files do not include others",
-				 where);
-			r = -EINVAL;
-			continue;
-		}
-		if (sim_config_set(c, (uint8_t)motor, key, value, where) < 0)
-			r = -EINVAL;
 	}
-	if (ferror(f)) {
-		tool_log(TOOL_LOG_ERR, "rmd-sim: --config %s: read error", path);
-		r = -EIO;
-	}
-	fclose(f);
+	free(text);
 	return r;
 }
 

@@ -31,10 +31,12 @@
  * bring-up).  Every signal is blocked in every thread and read from the
  * main thread's signalfd.
  *
- * Test hook: RMDD_TEST_STALL_AFTER_MS=N in the environment makes the main
- * thread stop the rt loop N ms after it started, without joining it or
- * telling anyone: the loop thread exits (stopping the motors), its
- * heartbeat freezes, and the real watchdog logic must stop the pings.
+ * Test hook, only in build/rmdd-test (compiled with -DRMDD_TEST_HOOKS; the
+ * installed rmdd has none): RMDD_TEST_STALL_AFTER_MS=N (1..86400000) in the
+ * environment makes the main thread stop the rt loop N ms after it started,
+ * without joining it or telling anyone: the loop thread exits (stopping the
+ * motors), its heartbeat freezes, and the real watchdog logic must stop the
+ * pings.
  *
  * Exit statuses: 0 ok, 1 failure, 2 usage.  Non-rt.
  */
@@ -191,7 +193,6 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 		{ NULL, 0, NULL, 0 },
 	};
 	bool sim = false, check = false;
-	const char *env;
 	int c;
 
 	memset(o, 0, sizeof(*o));
@@ -259,10 +260,76 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 			RMD_CONFIG_URL_LEN - 1);
 		return -EINVAL;
 	}
-	env = getenv("RMDD_TEST_STALL_AFTER_MS");
-	if (env && *env)
-		o->stall_after_ns = strtoll(env, NULL, 10) * RMD_NS_PER_MS;
+#ifdef RMDD_TEST_HOOKS
+	{
+		const char *env = getenv("RMDD_TEST_STALL_AFTER_MS");
+		long long ms;
+		char *end;
+
+		if (env && *env) {
+			errno = 0;
+			ms = strtoll(env, &end, 10);
+			if (errno || *end || ms < 1 || ms > 86400000) {
+				fprintf(stderr,
+					"rmdd: RMDD_TEST_STALL_AFTER_MS=\"%s\": expected 1..86400000 "
+					"(ms)\n",
+					env);
+				return -EINVAL;
+			}
+			o->stall_after_ns = ms * RMD_NS_PER_MS;
+		}
+	}
+#endif
 	o->mode = check ? MODE_CHECK : sim ? MODE_SIM : MODE_RUN;
+	return 0;
+}
+
+/* "0-1,4" of the CPUs in set. */
+static void cpu_list(const cpu_set_t *set, char *out, size_t len)
+{
+	size_t k = 0;
+
+	out[0] = '\0';
+	for (int c = 0; c < CPU_SETSIZE && k < len; c++) {
+		int last = c;
+
+		if (!CPU_ISSET(c, set))
+			continue;
+		while (last + 1 < CPU_SETSIZE && CPU_ISSET(last + 1, set))
+			last++;
+		if (last > c)
+			k += (size_t)snprintf(out + k, len - k, "%s%d-%d", k ? "," : "", c, last);
+		else
+			k += (size_t)snprintf(out + k, len - k, "%s%d", k ? "," : "", c);
+		c = last;
+	}
+}
+
+/*
+ * Every CPU of loop.cpu_affinity exists and this process may use it (its
+ * affinity, e.g. systemd's CPUAffinity=).  Returns 0, or -EINVAL with a
+ * message naming the first one that does not.
+ */
+static int check_cpus(const struct rmd_config *cfg, char *msg, size_t len)
+{
+	cpu_set_t set;
+	char cpus[256];
+
+	if (!cfg->loop.n_cpus || sched_getaffinity(0, sizeof(set), &set) < 0)
+		return 0; /* none asked for, or cannot tell: the thread's start says */
+	for (unsigned k = 0; k < cfg->loop.n_cpus; k++) {
+		unsigned cpu = cfg->loop.cpus[k];
+
+		if (cpu < CPU_SETSIZE && CPU_ISSET(cpu, &set))
+			continue;
+		cpu_list(&set, cpus, sizeof(cpus));
+		snprintf(
+			msg, len,
+			"%s: loop.cpu_affinity: CPU %u does not exist on this machine, or rmdd may "
+			"not use it (it may use CPUs %s)",
+			cfg->source, cpu, cpus);
+		return -EINVAL;
+	}
 	return 0;
 }
 
@@ -275,6 +342,8 @@ static int check_config(const char *path)
 	int r;
 
 	r = rmd_config_load(path, &cfg, NULL, err, sizeof(err));
+	if (!r)
+		r = check_cpus(&cfg, err, sizeof(err));
 	if (r) {
 		fprintf(stderr, "%s\n", err);
 		return RMDD_EXIT_FAIL;
@@ -334,6 +403,10 @@ static int load(struct rmdd *d, const struct rmdd_opts *o)
 	}
 	if (o->lcm_url)
 		snprintf(d->cfg.lcm.url, sizeof(d->cfg.lcm.url), "%s", o->lcm_url);
+	if (check_cpus(&d->cfg, err, sizeof(err)) < 0) {
+		log_lines(3, err);
+		return RMDD_EXIT_FAIL;
+	}
 	r = rmd_plan_build(&d->cfg, &d->plan, err, sizeof(err));
 	if (r) {
 		log_lines(3, err);
@@ -699,12 +772,14 @@ static int serve(struct rmdd *d, const struct rmdd_opts *o)
 			handle_signal(d, (int)si.ssi_signo);
 		}
 		now = rmd_now_ns();
+#ifdef RMDD_TEST_HOOKS
 		if (stall_at && now >= stall_at) {
 			tool_log(4, "test hook RMDD_TEST_STALL_AFTER_MS: the rt loop stops now and "
 				    "nobody is told");
 			rmd_loop_request_stop(d->loop);
 			stall_at = 0;
 		}
+#endif
 		if (now >= next_look) {
 			look(&lv, d, now);
 			next_look = now + LOOK_PERIOD_NS;
