@@ -742,6 +742,92 @@ static void test_require_rt_refuses(void **state)
 	assert_null(strstr(p.out, "running:"));
 }
 
+/* ---- issue 13: comm-loss protection -------------------------------------------- */
+
+/*
+ * The issue's reproducer: motor 1's frames are dropped from 5 ms to 300 ms,
+ * so its 0xB3 answer at bring-up is lost.  probe.on_missing refuse: exit 1,
+ * naming the motor and why; start: it is armed once it answers, and the
+ * exit line says every motor's protection stays set.
+ */
+static void test_comm_loss_reproducer(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, "--lcm-url", "memq://", "-v", NULL };
+	static const char body[] =
+		"buses:\n"
+		"  - name: s0\n"
+		"    type: sim\n"
+		"    sim:\n"
+		"      faults: [{kind: drop, motor: 1, probability: 1, start_s: 0.005, end_s: 0.3}]\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n";
+	char text[1024];
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/cl-refuse.yaml", tmpdir);
+	snprintf(text, sizeof(text), "probe: {on_missing: refuse}\n%s", body);
+	write_file(path, text);
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p,
+		  "<4>rmdd:   s0: comm-loss protection (0xB3) 100 ms: motor 1 (a) did not "
+		  "answer 0xB3: it cannot be enabled until it does; 2 3 (2 set, echo verified)");
+	expect_in(&p, "0 motor(s) missing, 1 without comm-loss protection (0xB3 not set), and "
+		      "probe.on_missing is refuse");
+	assert_null(strstr(p.out, "running:"));
+
+	snprintf(path, sizeof(path), "%s/cl-start.yaml", tmpdir);
+	snprintf(text, sizeof(text), "probe: {on_missing: start}\n%s", body);
+	write_file(path, text);
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	wait_for(&p,
+		 "<6>rmdd: s0: motor 1 (a): comm-loss protection (0xB3) 100 ms set, echo "
+		 "verified",
+		 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	expect_in(&p, "every motor was sent stop (0x80); their comm-loss protection (0xB3) stays "
+		      "set");
+}
+
+/*
+ * The exit line names exactly the motors whose protection is set: motor 1
+ * never answers 0xB3 (the sim drops those answers), motor 3's is off by
+ * its own key.
+ */
+static void test_comm_loss_exit_line(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, "--lcm-url", "memq://", "-v", NULL };
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/cl-exit.yaml", tmpdir);
+	write_file(path, "probe: {on_missing: start}\n"
+			 "buses:\n"
+			 "  - name: s0\n"
+			 "    type: sim\n"
+			 "    sim:\n"
+			 "      faults: [{kind: drop, motor: 1, probability: 1, cmd: 179}]\n"
+			 "motors:\n"
+			 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2, "
+			 "comm_loss_ms: 0}\n");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	expect_in(&p, "motor 3 (c) off (its comm_loss_ms: 0);");
+	expect_in(&p, "<5>rmdd: every motor was sent stop (0x80); comm-loss protection (0xB3) "
+		      "stays set on b; not set on a (did not answer 0xB3), c (off by config)\n");
+	assert_null(strstr(p.out, "their comm-loss protection (0xB3) stays set"));
+}
+
 /* ---- set-up ----------------------------------------------------------------------- */
 
 static int setup(void **state)
@@ -804,6 +890,8 @@ int main(void)
 		cmocka_unit_test_teardown(test_notify_without_watchdog, reap),
 		cmocka_unit_test_teardown(test_no_rt_warns_once_and_runs, reap),
 		cmocka_unit_test_teardown(test_require_rt_refuses, reap),
+		cmocka_unit_test_teardown(test_comm_loss_reproducer, reap),
+		cmocka_unit_test_teardown(test_comm_loss_exit_line, reap),
 	};
 
 	return cmocka_run_group_tests_name("rmdd", tests, setup, teardown);
