@@ -745,6 +745,28 @@ static void test_require_rt_refuses(void **state)
 /* ---- issue 13: comm-loss protection -------------------------------------------- */
 
 /*
+ * rmdd's configuration for these tests, at tmpdir/name: three motors a, b,
+ * c on sim bus s0 with the given probe.on_missing and sim fault; c_extra
+ * goes into motor c's entry.
+ */
+static void write_cl_config(char *path, size_t len, const char *name, const char *on_missing,
+			    const char *fault, const char *c_extra)
+{
+	char text[1024];
+
+	snprintf(path, len, "%s/%s", tmpdir, name);
+	snprintf(text, sizeof(text),
+		 "probe: {on_missing: %s}\n"
+		 "buses: [{name: s0, type: sim, sim: {faults: [%s]}}]\n"
+		 "motors:\n"
+		 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		 "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		 "  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2%s}\n",
+		 on_missing, fault, c_extra);
+	write_file(path, text);
+}
+
+/*
  * The issue's reproducer: motor 1's frames are dropped from 5 ms to 300 ms,
  * so its 0xB3 answer at bring-up is lost.  probe.on_missing refuse: exit 1,
  * naming the motor and why; start: it is armed once it answers, and the
@@ -752,25 +774,14 @@ static void test_require_rt_refuses(void **state)
  */
 static void test_comm_loss_reproducer(void **state)
 {
+	static const char drop[] = "{kind: drop, motor: 1, probability: 1, start_s: 0.005, "
+				   "end_s: 0.3}";
 	static struct proc p;
 	char path[512];
 	const char *args[] = { "--config", path, "--lcm-url", "memq://", "-v", NULL };
-	static const char body[] =
-		"buses:\n"
-		"  - name: s0\n"
-		"    type: sim\n"
-		"    sim:\n"
-		"      faults: [{kind: drop, motor: 1, probability: 1, start_s: 0.005, end_s: 0.3}]\n"
-		"motors:\n"
-		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n";
-	char text[1024];
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/cl-refuse.yaml", tmpdir);
-	snprintf(text, sizeof(text), "probe: {on_missing: refuse}\n%s", body);
-	write_file(path, text);
+	write_cl_config(path, sizeof(path), "cl-refuse.yaml", "refuse", drop, "");
 	assert_int_equal(run(&p, args), 1);
 	expect_in(&p,
 		  "<4>rmdd:   s0: comm-loss protection (0xB3) 100 ms: motor 1 (a) did not "
@@ -779,9 +790,7 @@ static void test_comm_loss_reproducer(void **state)
 		      "probe.on_missing is refuse");
 	assert_null(strstr(p.out, "running:"));
 
-	snprintf(path, sizeof(path), "%s/cl-start.yaml", tmpdir);
-	snprintf(text, sizeof(text), "probe: {on_missing: start}\n%s", body);
-	write_file(path, text);
+	write_cl_config(path, sizeof(path), "cl-start.yaml", "start", drop, "");
 	spawn(&p, NULL, args);
 	wait_for(&p, "<5>rmdd: running:", 5000);
 	wait_for(&p,
@@ -796,8 +805,8 @@ static void test_comm_loss_reproducer(void **state)
 
 /*
  * The exit line names exactly the motors whose protection is set: motor 1
- * never answers 0xB3 (the sim drops those answers), motor 3's is off by
- * its own key.
+ * never answers 0xB3 (the sim drops those answers, command 179 = 0xB3),
+ * motor 3's is off by its own key.
  */
 static void test_comm_loss_exit_line(void **state)
 {
@@ -806,18 +815,8 @@ static void test_comm_loss_exit_line(void **state)
 	const char *args[] = { "--config", path, "--lcm-url", "memq://", "-v", NULL };
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/cl-exit.yaml", tmpdir);
-	write_file(path, "probe: {on_missing: start}\n"
-			 "buses:\n"
-			 "  - name: s0\n"
-			 "    type: sim\n"
-			 "    sim:\n"
-			 "      faults: [{kind: drop, motor: 1, probability: 1, cmd: 179}]\n"
-			 "motors:\n"
-			 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-			 "  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2, "
-			 "comm_loss_ms: 0}\n");
+	write_cl_config(path, sizeof(path), "cl-exit.yaml", "start",
+			"{kind: drop, motor: 1, probability: 1, cmd: 179}", ", comm_loss_ms: 0");
 	spawn(&p, NULL, args);
 	wait_for(&p, "<5>rmdd: running:", 5000);
 	kill(p.pid, SIGTERM);

@@ -1074,6 +1074,35 @@ static bool moved_since(unsigned i, unsigned from)
 }
 
 /*
+ * Three motors, probe.on_missing start, fault f on bus 0 (its times from
+ * now on the sim bus's clock), bring-up; R.cmd enables every motor at
+ * 1 rad/s.  Returns where the trace stands.
+ */
+static unsigned cl_rig(struct rmd_sim_fault f)
+{
+	rig_up(3, missing_start);
+	if (f.start_ns)
+		f.start_ns += sim_time(0);
+	if (f.end_ns)
+		f.end_ns += sim_time(0);
+	set_faults(0, &f, 1);
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 3; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	return trace_n;
+}
+
+/* What a controller does for motor i back from LOST: enable = 0, then 1 (1 rad/s); 22 cycles. */
+static void cl_reenable(unsigned i)
+{
+	cmd_motor(i, false, RMD_MODE_SPEED);
+	run(2, true);
+	cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(20, true);
+}
+
+/*
  * The issue's reproducer: motor 1's frames are dropped from 5 ms to 300 ms
  * of the sim bus, so its 0xB3 answer at bring-up is lost.  With
  * probe.on_missing refuse, bring-up refuses to start; with start, motor 1
@@ -1102,17 +1131,11 @@ static void test_cl_reproducer(void **state)
 	rig_down();
 
 	/* start: nothing moves motor 1 until it is armed */
-	rig_up(3, missing_start);
-	drop.start_ns = sim_time(0) + 5 * MS;
-	drop.end_ns = sim_time(0) + 300 * MS;
-	set_faults(0, &drop, 1);
-	bring_up();
+	drop.start_ns = 5 * MS;
+	drop.end_ns = 300 * MS;
+	from = cl_rig(drop);
 	assert_int_equal(R.report.unarmed, 1);
 	assert_int_equal(cl_of(0), RMD_CL_NO_ANSWER);
-	cmd_clear();
-	for (unsigned i = 0; i < 3; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	from = trace_n;
 	for (unsigned k = 0; k < 1500; k++) {
 		run(1, true);
 		if (lifecycle(0) == RMD_LC_ENABLED && !rmd_comm_loss_set(cl_of(0)))
@@ -1131,10 +1154,7 @@ static void test_cl_reproducer(void **state)
 	assert_int_equal(sim_motor(0)->ram.comm_timeout_ms, R.cfg.safety.comm_loss_ms);
 	/* back from LOST it wants enable 0 then 1, and then it runs */
 	assert_int_equal(lifecycle(0), RMD_LC_READY);
-	cmd_motor(0, false, RMD_MODE_SPEED);
-	run(2, true);
-	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(20, true);
+	cl_reenable(0);
 	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
 	rig_down();
 }
@@ -1153,15 +1173,9 @@ static void test_cl_refused(void **state)
 	unsigned from, writes;
 
 	(void)state;
-	rig_up(3, missing_start);
-	set_faults(0, &drop, 1);
-	bring_up();
+	from = cl_rig(drop);
 	assert_int_equal(R.report.motor[1].b3, RMD_B3_NO_ANSWER);
 	assert_int_equal(R.report.unarmed, 1);
-	cmd_clear();
-	for (unsigned i = 0; i < 3; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	from = trace_n;
 	run(3000, true);
 	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
 	assert_int_equal(lifecycle(1), RMD_LC_READY);
@@ -1196,25 +1210,16 @@ static void test_cl_late_motor(void **state)
 	unsigned from, first_b3 = 0, first_move = 0;
 
 	(void)state;
-	rig_up(3, missing_start);
-	gone.end_ns = sim_time(0) + 10000 * MS;
-	set_faults(0, &gone, 1);
-	bring_up();
+	gone.end_ns = 10000 * MS;
+	from = cl_rig(gone);
 	assert_int_equal(R.report.motor[2].state, RMD_BRINGUP_MISSING);
 	assert_int_equal(cl_of(2), RMD_CL_PENDING);
-	cmd_clear();
-	for (unsigned i = 0; i < 3; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	from = trace_n;
 	run(10600, true);
 	assert_int_equal(lifecycle(2), RMD_LC_READY);
 	assert_int_equal(cl_of(2), RMD_CL_ARMED);
 	assert_int_equal(sim_motor(2)->rom.comm_timeout_ms, R.cfg.safety.comm_loss_ms);
 	/* the controller re-enables it (enable 0, then 1) */
-	cmd_motor(2, false, RMD_MODE_SPEED);
-	run(2, true);
-	cmd_motor(2, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(20, true);
+	cl_reenable(2);
 	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
 	for (unsigned k = from; k < trace_n; k++) {
 		const struct sent *t = &trace[k];
