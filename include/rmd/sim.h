@@ -110,6 +110,11 @@ struct rmd_sim_motor_params {
 	 * manual's text allows both.
 	 */
 	bool v2_angle_magnitude;
+	/*
+	 * V3 §2.30: answer 0xB3 with the command byte and zeros (the manual's
+	 * example 2) instead of repeating the request (its text).
+	 */
+	bool b3_answer_zeros;
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */

@@ -844,8 +844,10 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 	case 0xB2: /* V3 §2.29 */
 		put_int(&rep, rspec, RMD_FLD_VERSION, m->p.version_date);
 		return emit(m, proto, &rep, out, max);
-	case 0xB3: /* V3 §2.30: ROM, echoed */
+	case 0xB3: /* V3 §2.30: ROM, echoed (or, example 2, zeros) */
 		m->ram.comm_timeout_ms = m->rom.comm_timeout_ms = (uint32_t)req.v[RMD_FLD_TIMEOUT];
+		if (m->p.b3_answer_zeros)
+			return emit(m, proto, &rep, out, max);
 		return echo(f, reply_id, out, max);
 	case 0xB4: { /* V3 §2.31: stored; "the reply is random content" */
 		uint64_t r = rmd_sim_motor_rand(m);

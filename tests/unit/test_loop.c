@@ -1332,6 +1332,43 @@ static void test_v2_start_angle(void **state)
 	}
 }
 
+/*
+ * V3 §2.30 example 2: a motor that answers 0xB3 with zeros is armed (the
+ * form recorded), at bring-up and when the loop writes it again.
+ */
+static void test_cl_zeros_answer(void **state)
+{
+	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
+				      .motor_id = 1,
+				      .probability = 1.0 };
+
+	(void)state;
+	rig_up(3, NULL);
+	sim_motor(0)->p.b3_answer_zeros = true;
+	bring_up();
+	assert_int_equal(R.report.motor[0].b3, RMD_B3_ZEROS);
+	assert_int_equal(R.report.unarmed, 0);
+	assert_int_equal(cl_of(0), RMD_CL_ARMED_ZEROS);
+	assert_int_equal(cl_of(1), RMD_CL_ARMED);
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(20, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	/* lost and back: the loop's own write is answered with zeros too */
+	drop.start_ns = sim_time(0);
+	set_faults(0, &drop, 1);
+	run(30, true);
+	assert_int_equal(lifecycle(0), RMD_LC_LOST);
+	assert_int_equal(cl_of(0), RMD_CL_PENDING);
+	set_faults(0, NULL, 0);
+	run(700, true);
+	assert_int_equal(cl_of(0), RMD_CL_ARMED_ZEROS);
+	assert_int_equal(cl_events(0, RMD_CL_ARMED_ZEROS, 0), 1);
+	cl_reenable(0);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1357,6 +1394,7 @@ int main(void)
 		cmocka_unit_test(test_cl_late_motor),
 		cmocka_unit_test(test_cl_off_by_config),
 		cmocka_unit_test(test_v2_start_angle),
+		cmocka_unit_test(test_cl_zeros_answer),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);

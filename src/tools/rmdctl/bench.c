@@ -513,13 +513,9 @@ static int run_reqs(struct dev *d, struct req *q, unsigned n)
 	return 0;
 }
 
-/* One request; reports failure.  Returns 0 or RMDCTL_EXIT_DATA. */
-static int ask(struct dev *d, struct req *q)
+/* The answer run_reqs() got for one request; reports failure.  Returns 0 or RMDCTL_EXIT_DATA. */
+static int ask_check(struct dev *d, struct req *q)
 {
-	int r = run_reqs(d, q, 1);
-
-	if (r)
-		return r;
 	if (!q->answered && !q->ok) {
 		report_missing(d, q, "");
 		return RMDCTL_EXIT_DATA;
@@ -529,6 +525,14 @@ static int ask(struct dev *d, struct req *q)
 		return RMDCTL_EXIT_DATA;
 	}
 	return 0;
+}
+
+/* One request; reports failure.  Returns 0 or RMDCTL_EXIT_DATA. */
+static int ask(struct dev *d, struct req *q)
+{
+	int r = run_reqs(d, q, 1);
+
+	return r ? r : ask_check(d, q);
 }
 
 /*
@@ -1220,10 +1224,17 @@ static int run_set_timeout(struct dev *d, int argc, char **argv)
 		    d->name, ms);
 	if (r)
 		goto out;
-	/* V3 §2.30: stored in ROM; the answer echoes the request. */
+	/* V3 §2.30: stored in ROM; the answer echoes the request, or (example 2) is zeros. */
 	req_init(&q, id, 0xB3);
 	rmd_msg_set(&q.msg, RMD_FLD_TIMEOUT, (int64_t)ms);
-	r = ask(d, &q);
+	r = run_reqs(d, &q, 1);
+	if (!r && q.answered && !q.ok && !memcmp(q.t.rep.f.data, "\xB3\0\0\0\0\0\0", 8)) {
+		printf("%s: motor %u: comm-loss protection written to ROM; answered with zeros "
+		       "(V3 §2.30 example 2): accepted, the time is not verified\n",
+		       d->name, id);
+		goto out;
+	}
+	r = r ? r : ask_check(d, &q);
 	if (r)
 		goto out;
 	if (ms)
