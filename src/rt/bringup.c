@@ -3,8 +3,9 @@
  * Bring-up, before the rt thread starts: probe every configured motor
  * (model 0xB5, version 0xB2, status 0x9A), scan each bus for ids that
  * answer but are not configured, and write each motor's comm-loss
- * protection (0xB3), whose outcome the loop takes over (lifecycle.c).  Every request goes through rmd_txn_run(), the one
- * request/reply engine; the result is data (rmd/bringup.h).
+ * protection (0xB3), whose outcome the loop takes over (lifecycle.c).
+ * Every request goes through rmd_txn_run(), the one request/reply engine;
+ * the result is data (rmd/bringup.h).
  *
  * Non-rt: blocks on the buses for a bounded time.
  */
@@ -209,10 +210,11 @@ static int scan_bus(struct rmd_loop *l, unsigned b)
 /* What an answer to 0xB3 `req` says, for the report (rep: NULL when none came).  Non-rt. */
 static enum rmd_bringup_b3 b3_outcome(const struct rmd_frame *req, const struct rmd_frame *rep)
 {
+	enum rmd_comm_loss cl;
+
 	if (!rep)
 		return RMD_B3_NO_ANSWER;
-	enum rmd_comm_loss cl = loop_b3_outcome(req->data, rep);
-
+	cl = loop_b3_outcome(req->data, rep);
 	if (cl == RMD_CL_ARMED)
 		return RMD_B3_SET;
 	return cl == RMD_CL_ARMED_ZEROS ? RMD_B3_ZEROS : RMD_B3_DIFFERS;

@@ -328,7 +328,7 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
 /*
  * Each motor's 0xB3 (V3 §2.30) is a precondition of motion (enum
  * rmd_comm_loss, rmd/state.h).  Bring-up writes it last and hands its
- * outcome to loop_cl_bringup().  The loop writes it again, in rounds of up
+ * outcome to loop_cl_outcome().  The loop writes it again, in rounds of up
  * to ARM_TRIES writes (each a one-shot in the motor's control slot, its
  * answer awaited for the bus's reply deadline after the slot comes):
  *   - when a motor answers after PROBE or LOST (loop_enter()): found after
@@ -339,7 +339,8 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
  * An enable that arrives during a round waits for it and is applied once
  * the motor is armed, unless the controller has gone quiet for
  * command_timeout_ms meanwhile or the watchdog tripped; a round that fails
- * refuses it.  An enable for a motor whose round failed is refused.  A
+ * refuses it.  An enable for a motor whose round failed less than
+ * ARM_ROUND_NS ago is refused (a later one starts a new round).  A
  * refusal is counted per motor (unarmed_rejects, in health) and reported
  * through the event ring once per episode (until the motor is armed or
  * lost).  Motors whose protection is off by config, and V2 motors, which
