@@ -64,9 +64,9 @@
  * or LOST (found late, or back and perhaps swapped), and when an enable
  * arrives for a motor that is not armed (at most one round a second: the
  * write goes to ROM).  An enable during a round waits for it and applies
- * once the motor is armed (if commands still arrive); an enable for a
- * motor whose round failed is refused, counted (health unarmed_rejects)
- * and reported once per episode (RMD_EV_COMM_LOSS).  FAULT -> READY keeps
+ * once the motor is armed (if commands still arrive); a failed round
+ * refuses it, as it does an enable within a second of it: counted (health
+ * unarmed_rejects) and reported once per episode (RMD_EV_COMM_LOSS).  FAULT -> READY keeps
  * the protection (the motor answered all along).  A motor whose
  * comm_loss_ms is 0 by config, and a V2 motor (no 0xB3), are not held
  * back.
