@@ -5,7 +5,8 @@
  * (0xB5 model, 0xB2 version, 0x9A status), ask every id that is not
  * configured on a bus for its status (0x9A) once, and write the configured
  * 0xB3 comm-loss time to every motor that answered, last, checking its
- * answer.  V2 has no 0xB5, 0xB2 or 0xB3: V2 motors are probed with 0x9A,
+ * answer; the outcome is the loop's protection state (enum rmd_comm_loss,
+ * rmd/loop.h "Comm-loss protection").  V2 has no 0xB5, 0xB2 or 0xB3: V2 motors are probed with 0x9A,
  * and 0x92 anchors their unwrapped encoder position.  Each probe is tried
  * RMD_LOOP_PROBE_TRIES times, RMD_LOOP_PROBE_TIMEOUT_NS each (a transport
  * with a reply timeout of its own: that plus 1 ms).
@@ -57,12 +58,26 @@ struct rmd_bringup_motor {
 	uint16_t error_code;
 	bool v2_angle; /* V2: 0x92 answered, positions continue from the motor's angle */
 	enum rmd_bringup_b3 b3;
+	uint32_t comm_loss_ms; /* what 0xB3 wrote (its own key or safety.comm_loss_ms; 0: off) */
+	/*
+	 * The protection's state as the loop takes it over (enum
+	 * rmd_comm_loss): a motor that is not armed here is written again by
+	 * the loop before it may leave READY.
+	 */
+	uint8_t comm_loss;
 };
 
 struct rmd_bringup {
 	unsigned n_motors, n_buses; /* of the configuration */
-	uint32_t comm_loss_ms;	    /* what 0xB3 wrote (safety.comm_loss_ms; 0: off) */
-	unsigned missing;	    /* motors MISSING */
+	uint32_t comm_loss_ms; /* safety.comm_loss_ms (a motor's own key: motor[].comm_loss_ms) */
+	unsigned missing;      /* motors MISSING */
+	/*
+	 * Motors found whose protection is not set (0xB3 unanswered or
+	 * answered with another time), and not off by config: they cannot be
+	 * enabled until the loop arms them; probe.on_missing: refuse counts
+	 * them as missing.
+	 */
+	unsigned unarmed;
 	struct rmd_bringup_motor motor[RMD_MAX_MOTORS]; /* config order */
 	/* per bus: ids that answered but are not configured, bit id - 1 */
 	uint32_t unexpected_ids[RMD_MAX_BUSES];
@@ -70,8 +85,8 @@ struct rmd_bringup {
 
 /*
  * Bring the motors of l up (see the top of this file) and describe what
- * was found in *out.  Returns 0, -ENODEV when a motor is missing and
- * probe.on_missing is refuse (out is filled all the same), or -EBUSY while
+ * was found in *out.  Returns 0, -ENODEV when a motor is missing or
+ * unarmed and probe.on_missing is refuse (out is filled all the same), or -EBUSY while
  * the thread runs.  Non-rt.
  */
 int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out);

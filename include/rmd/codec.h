@@ -85,13 +85,30 @@ enum rmd_field {
 	RMD_FLD_COUNT
 };
 
-/* One field of a frame's data: little-endian, `size` bytes from `off`. */
+/*
+ * One field of a frame's data: little-endian, `size` bytes from `off`.
+ *
+ * sign_byte: the byte after the field is a sign flag (V2 §3.21 .. §3.25,
+ * §3.29: "int64_t, valid data is 6 bytes, the seventh byte represents
+ * positive and negative, 0 positive, 1 negative").  The manual allows two
+ * readings of a negative value, and both decode right:
+ *   - the field's bytes are the low bytes of the int64 (two's complement),
+ *     the flag 1 (or 0xFF, the int64's next byte): the field's top bit is
+ *     set, and the field read as two's complement is the value;
+ *   - the field's bytes are the magnitude, the flag nonzero: the field's
+ *     top bit is clear, and the value is minus the field.
+ * So: top bit set -> two's complement (whatever the flag: no magnitude
+ * reaches 2^(8 size - 1)); top bit clear -> the field, negated when the flag
+ * is nonzero.  Encoding writes the manual's own form: two's complement and
+ * the flag 1 for a negative value (e.g. -50.00 deg is 78 EC FF FF FF FF 01).
+ */
 struct rmd_field_spec {
 	uint8_t field; /* enum rmd_field */
 	uint8_t off;   /* first byte in data[] */
 	uint8_t size;  /* 1..7 */
 	bool is_signed;
-	double scale; /* native unit per LSB (1.0 for counts and codes) */
+	double scale;	/* native unit per LSB (1.0 for counts and codes) */
+	bool sign_byte; /* data[off + size] is a sign flag (above); is_signed too */
 };
 
 #define RMD_LAYOUT_MAX 7

@@ -121,7 +121,7 @@ struct rmd_config_loop {
 };
 
 struct rmd_config_safety {
-	uint32_t comm_loss_ms;	      /* 0xB3 (V3 §2.30, ROM) written at bring-up; 0: off */
+	uint32_t comm_loss_ms;	      /* 0xB3 (V3 §2.30, ROM) of every motor; 0: off */
 	unsigned missed_replies_lost; /* consecutive missed replies: the motor is lost */
 	uint32_t command_timeout_ms;  /* controller silent this long: safe_action */
 	enum rmd_safe_action safe_action;
@@ -131,6 +131,12 @@ struct rmd_config_safety {
 };
 
 struct rmd_config_probe {
+	/*
+	 * A motor that does not answer the probe, or whose comm-loss
+	 * protection (0xB3) could not be set at bring-up (unless it is off by
+	 * config): refuse to start, or start and keep it from moving until it
+	 * answers and is armed.
+	 */
 	enum rmd_on_missing on_missing;
 };
 
@@ -175,8 +181,16 @@ struct rmd_config_motor {
 	struct rmd_mit_ranges mit; /* MIT packing ranges (V3 §5.1) */
 	unsigned rate_divisor;	   /* commanded every n-th cycle, 1.. */
 	double status_poll_hz;	   /* 0x9A polls per second; 0: none */
-	unsigned line;		   /* of the entry in the file, for messages */
+	/*
+	 * This motor's 0xB3 time (V3 §2.30), ms; 0: its protection off, by
+	 * choice; RMD_CONFIG_COMM_LOSS_INHERIT: safety.comm_loss_ms.  Read it
+	 * with rmd_config_comm_loss_ms().
+	 */
+	int32_t comm_loss_ms;
+	unsigned line; /* of the entry in the file, for messages */
 };
+
+#define RMD_CONFIG_COMM_LOSS_INHERIT (-1)
 
 struct rmd_config {
 	char source[RMD_CONFIG_SOURCE_LEN]; /* the file, or "(built-in sim)" */
@@ -189,6 +203,14 @@ struct rmd_config {
 	struct rmd_config_motor motors[RMD_MAX_MOTORS];
 	unsigned n_motors;
 };
+
+/* Motor i's 0xB3 time in ms (its own key, else safety.comm_loss_ms); 0: off.  rt-safe. */
+static inline uint32_t rmd_config_comm_loss_ms(const struct rmd_config *cfg, unsigned i)
+{
+	int32_t ms = cfg->motors[i].comm_loss_ms;
+
+	return ms >= 0 ? (uint32_t)ms : cfg->safety.comm_loss_ms;
+}
 
 /* Every default, no buses and no motors.  Non-rt. */
 void rmd_config_defaults(struct rmd_config *cfg);

@@ -62,6 +62,21 @@
  * safe action for every enabled motor (SAFE), RMD_WD_TRIPPED, latched
  * until a command with an enable newer than the trip.
  *
+ * Comm-loss protection.  Each motor's own protection (0xB3, V3 §2.30) is
+ * a precondition of motion (enum rmd_comm_loss, rmd/state.h): a READY or
+ * SAFE motor that is not armed is not enabled.  Bring-up writes it last;
+ * the loop writes it again (rounds of up to 3 writes, one-shots in the
+ * control slot, matched like the others) when a motor answers after PROBE
+ * or LOST (found late, or back and perhaps swapped), and when an enable
+ * arrives for a motor that is not armed (at most one round a second: the
+ * write goes to ROM).  An enable during a round waits for it and applies
+ * once the motor is armed (if commands still arrive); a failed round
+ * refuses it, as it does an enable within a second of it: counted (health
+ * unarmed_rejects) and reported once per episode (RMD_EV_COMM_LOSS).  FAULT -> READY keeps
+ * the protection (the motor answered all along).  A motor whose
+ * comm_loss_ms is 0 by config, and a V2 motor (no 0xB3), are not held
+ * back.
+ *
  * Safe actions, per motor: stop 0x80; hold 0x81; brake 0x80 then 0x78;
  * damp: MIT frames with kp 0, kd > 0 in every control slot (MIT motors),
  * else 0xA2 speed 0 once.  A setpoint with NaN/Inf is never encoded: the
@@ -247,6 +262,14 @@ void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *o
  * i out of range.  Non-rt.
  */
 const struct rmd_motor *rmd_loop_motor(const struct rmd_loop *l, unsigned i);
+
+/*
+ * Motor i's comm-loss protection (enum rmd_comm_loss) as the loop holds it
+ * now; RMD_CL_PENDING for i out of range.  Not synchronised with the
+ * thread: call it before rmd_loop_start() or after rmd_loop_join() (the
+ * health carries it while the thread runs).  Non-rt.
+ */
+uint8_t rmd_loop_comm_loss(const struct rmd_loop *l, unsigned i);
 
 /*
  * Copy of the newest health (the one the loop also puts in opts.health,

@@ -102,7 +102,19 @@ struct rmd_sim_motor_params {
 	uint32_t version_date; /* 0xB2, e.g. 20220206 */
 	double turnaround_ns;  /* request end to reply start, mean */
 	double turnaround_jitter_ns;
-	uint64_t seed; /* PRNG seed; 0: derived from id */
+	uint64_t seed;		/* PRNG seed; 0: derived from id */
+	double start_angle_deg; /* output angle at first power-on (multi-turn, not wrapped) */
+	/*
+	 * V2 §3.29 0x92 (and §3.21..§3.23): a negative value as its magnitude
+	 * and the sign flag 1, instead of two's complement and the flag 1; the
+	 * manual's text allows both.
+	 */
+	bool v2_angle_magnitude;
+	/*
+	 * V3 §2.30: answer 0xB3 with the command byte and zeros (the manual's
+	 * example 2) instead of repeating the request (its text).
+	 */
+	bool b3_answer_zeros;
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */

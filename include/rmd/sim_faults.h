@@ -64,6 +64,13 @@ struct rmd_sim_fault {
 	int64_t end_ns;
 	int64_t param;	 /* see enum rmd_sim_fault_kind */
 	uint32_t can_id; /* FLOOD: the foreign frames' 11-bit identifier */
+	/*
+	 * Per-frame kinds: only frames whose data[0] is cmd (a reply to that
+	 * command, e.g. 0xB3); 0: every frame.  count: the fault hits at most
+	 * this many frames (e.g. drop the first 0xB3 answer); 0: no limit.
+	 */
+	uint8_t cmd;
+	uint32_t count;
 };
 
 /*
@@ -80,6 +87,7 @@ struct rmd_sim_faults {
 	uint32_t absent;		     /* bit id - 1: an open DISAPPEAR hits motor id */
 	uint32_t unpowered;		     /* ... one with param 1 (power lost) */
 	uint16_t error_bits[RMD_MAX_MOTORS]; /* open ERROR_FLAG bits of motor id at [id - 1] */
+	uint32_t hits[RMD_SIM_MAX_FAULTS];   /* per-frame kinds: frames hit, against count */
 	/* The windows' next edge after last_ns, so an update between edges is a no-op. */
 	int64_t last_ns, next_edge_ns;
 };
@@ -138,8 +146,8 @@ uint32_t rmd_sim_faults_update(struct rmd_sim_faults *fs, int64_t t, uint64_t *c
  * draw from *rng.  Returns false when the frame is dropped.  Each hit is
  * counted in counts[kind].  rt-safe.
  */
-bool rmd_sim_faults_frame(const struct rmd_sim_faults *fs, uint64_t *rng, uint8_t motor_id,
-			  int64_t t, struct rmd_frame *f, int64_t *ready_ns, uint64_t *counts);
+bool rmd_sim_faults_frame(struct rmd_sim_faults *fs, uint64_t *rng, uint8_t motor_id, int64_t t,
+			  struct rmd_frame *f, int64_t *ready_ns, uint64_t *counts);
 
 /* What the open windows do now (motor_id 1..32).  rt-safe. */
 static inline bool rmd_sim_faults_bus_off(const struct rmd_sim_faults *fs)

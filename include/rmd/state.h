@@ -33,6 +33,40 @@ enum rmd_lifecycle {
 	RMD_LC_COUNT
 };
 
+/*
+ * A motor's own comm-loss protection (0xB3, V3 §2.30; DESIGN.md): it stops
+ * the motor when it hears nothing for the configured time, so it is a
+ * precondition of motion.  The values are those of rmd.health_t CL_*.
+ * A motor may leave READY only when rmd_comm_loss_allows_motion().
+ */
+enum rmd_comm_loss {
+	RMD_CL_PENDING = 0, /* not armed yet: being written, or the motor is not there */
+	RMD_CL_ARMED,	    /* written, and the answer repeats the request (echo-verified) */
+	/*
+	 * Written, answered with the command byte and zeros: V3 §2.30 example
+	 * 2 shows that answer to a write of 1000 ms, and real firmware answers
+	 * either way, so it counts as armed; the time is not verified.
+	 */
+	RMD_CL_ARMED_ZEROS,
+	RMD_CL_NO_ANSWER,   /* no answer to the bounded writes: cannot be enabled */
+	RMD_CL_DIFFERS,	    /* answered with another time than written: cannot be enabled */
+	RMD_CL_OFF,	    /* off by the configuration (comm_loss_ms: 0) */
+	RMD_CL_UNSUPPORTED, /* protocol V2: it has no 0xB3, and no protection */
+	RMD_CL_COUNT
+};
+
+/* The protection is set (armed, either answer form).  rt-safe. */
+static inline bool rmd_comm_loss_set(uint8_t cl)
+{
+	return cl == RMD_CL_ARMED || cl == RMD_CL_ARMED_ZEROS;
+}
+
+/* The motor may be enabled: armed, off by config, or a V2 motor (no 0xB3).  rt-safe. */
+static inline bool rmd_comm_loss_allows_motion(uint8_t cl)
+{
+	return rmd_comm_loss_set(cl) || cl == RMD_CL_OFF || cl == RMD_CL_UNSUPPORTED;
+}
+
 /* One motor's setpoint, already validated and clamped to its limits. */
 struct rmd_setpoint {
 	bool enable;
@@ -125,6 +159,11 @@ struct rmd_health {
 	uint8_t watchdog;		 /* enum rmd_watchdog_state */
 	uint64_t safe_action_events;	 /* times a safe action was applied */
 	uint64_t ignored[RMD_IGN_KINDS]; /* command entries not acted on, by enum rmd_ignore */
+	/* per motor, config order, nmotors of them */
+	uint32_t nmotors;
+	uint8_t comm_loss[RMD_MAX_MOTORS];	  /* enum rmd_comm_loss */
+	uint32_t comm_loss_ms[RMD_MAX_MOTORS];	  /* what 0xB3 writes (0: off) */
+	uint64_t unarmed_rejects[RMD_MAX_MOTORS]; /* enables refused: protection not set */
 };
 
 /* Why the bridge refused a command message (counted in rmd_health). */
@@ -151,6 +190,12 @@ enum rmd_event_kind {
 	RMD_EV_SEND_FAILED,	/* a = -errno, b = frames not sent */
 	RMD_EV_UNEXPECTED,	/* a = CAN id, b = first data byte */
 	RMD_EV_RT, /* real-time scheduling not granted, once: a = -errno, b = RMD_LOOP_RT_* */
+	/*
+	 * A motor's comm-loss protection: a = enum rmd_comm_loss, b = 1 when
+	 * an enable was refused for it (once per episode: until it is armed or
+	 * lost), else 0 (armed by the loop, or the bounded writes failed).
+	 */
+	RMD_EV_COMM_LOSS,
 };
 
 struct rmd_event {

@@ -69,6 +69,7 @@ void rmd_config_motor_defaults(struct rmd_config_motor *m)
 	m->mit = rmd_mit_default_ranges;
 	m->rate_divisor = 1;
 	m->status_poll_hz = RMD_CONFIG_DEFAULT_STATUS_POLL_HZ;
+	m->comm_loss_ms = RMD_CONFIG_COMM_LOSS_INHERIT;
 }
 
 int rmd_config_bus_find(const struct rmd_config *cfg, const char *name)

@@ -167,7 +167,9 @@ static const struct field fault_fields[] = {
 	NS("end_s", F, end_ns, 0, 1e6, 1e9), INT("param", F, param, -1e15, 1e15, 0),
 	/* rmd-sim's units: delay:ID:US, flood:..:PERIOD_US */
 	NS("delay_us", F, param, 0, 1e7, 1000.0), NS("period_us", F, param, 0, 1e7, 1000.0),
-	UINT("can_id", F, can_id, 0, 0x7FF, 0), END
+	UINT("can_id", F, can_id, 0, 0x7FF, 0),
+	/* per-frame kinds: answers to this command only, at most count of them */
+	UINT("cmd", F, cmd, 0, 255, 0), UINT("count", F, count, 0, 4294967295.0, 0), END
 };
 #undef F
 
@@ -235,6 +237,7 @@ static const struct field motor_fields[] = {
 	MAP("mit", M, mit, mit_fields),
 	UINT("rate_divisor", M, rate_divisor, 1, RMD_CONFIG_DIVISOR_MAX, 0),
 	DBL("status_poll_hz", M, status_poll_hz, 0, RMD_CONFIG_RATE_MAX_HZ, 0),
+	INT("comm_loss_ms", M, comm_loss_ms, 0, 600000, 0),
 	LATER("sim"),
 	END
 };
@@ -755,6 +758,14 @@ static void validate_lcm(struct yctx *c, const struct rmd_config *cfg, const str
 				"\"%s\": use letters, digits and _ . - / only", p);
 }
 
+/* The entry of motor i in the file, or NULL. */
+static const struct ynode *motor_node(const struct ynode *root, unsigned i)
+{
+	const struct ynode *seq = rmd_yaml_get(root, "motors", NULL);
+
+	return seq && seq->kind == Y_SEQ && i < seq->n ? seq->kids[i] : NULL;
+}
+
 /* Timeouts against the loop and the motors' command periods. */
 static void validate_timing(struct yctx *c, const struct rmd_config *cfg, const struct ynode *root)
 {
@@ -768,21 +779,27 @@ static void validate_timing(struct yctx *c, const struct rmd_config *cfg, const 
 				"safety.command_timeout_ms",
 				"%u ms is shorter than two cycles (%g ms at %u Hz)",
 				s->command_timeout_ms, 2.0 * cycle_ms, rate);
-	if (s->comm_loss_ms == 0)
-		return;
 	for (unsigned i = 0; i < cfg->n_motors; i++) {
 		const struct rmd_config_motor *m = &cfg->motors[i];
+		uint32_t ms = rmd_config_comm_loss_ms(cfg, i);
 		double need_ms = 5.0 * cycle_ms * m->rate_divisor;
+		bool own = m->comm_loss_ms >= 0;
+		char kp[PATH_LEN];
 
-		if ((double)s->comm_loss_ms < need_ms) {
-			rmd_yaml_report(
-				c, rmd_yaml_line_of(sn, "comm_loss_ms"), "safety.comm_loss_ms",
+		if (ms == 0 || (double)ms >= need_ms)
+			continue;
+		if (own)
+			snprintf(kp, sizeof(kp), "motors[%u].comm_loss_ms", i);
+		rmd_yaml_report(c,
+				own ? rmd_yaml_line_of(motor_node(root, i), "comm_loss_ms") :
+				      rmd_yaml_line_of(sn, "comm_loss_ms"),
+				own ? kp : "safety.comm_loss_ms",
 				"%u ms is shorter than 5 command periods of motor %s (%g ms): its "
 				"own protection would trip in normal operation; use >= %.0f, or 0 "
 				"(off)",
-				s->comm_loss_ms, m->name, need_ms, ceil(need_ms));
+				ms, m->name, need_ms, ceil(need_ms));
+		if (!own)
 			return;
-		}
 	}
 }
 

@@ -286,6 +286,27 @@ static int64_t get_le(const uint8_t *p, unsigned size, bool is_signed)
 	return (int64_t)u;
 }
 
+/*
+ * A sign_byte field (struct rmd_field_spec): encode in the manual's form,
+ * two's complement and the flag 1 when negative.  Pure.
+ */
+static void put_field(uint8_t *data, const struct rmd_field_spec *fs, int64_t raw)
+{
+	put_le(&data[fs->off], fs->size, raw);
+	if (fs->sign_byte)
+		data[fs->off + fs->size] = raw < 0;
+}
+
+/* Read a field; a sign_byte field takes both of the manual's readings (rmd/codec.h).  Pure. */
+static int64_t get_field(const uint8_t *data, const struct rmd_field_spec *fs)
+{
+	int64_t v = get_le(&data[fs->off], fs->size, fs->is_signed);
+
+	if (fs->sign_byte && v > 0 && data[fs->off + fs->size])
+		return -v; /* a magnitude and the flag */
+	return v;	   /* two's complement (top bit set), or positive with flag 0 */
+}
+
 static uint32_t frame_id(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id,
 			 const struct rmd_cmd_spec *spec)
 {
@@ -326,7 +347,7 @@ int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const s
 
 		if (!fits(fs, msg->v[fs->field]))
 			return -ERANGE;
-		put_le(&out->data[fs->off], fs->size, msg->v[fs->field]);
+		put_field(out->data, fs, msg->v[fs->field]);
 	}
 	return 0;
 }
@@ -340,7 +361,7 @@ static bool reserved_bytes_zero(const struct rmd_cmd_spec *spec, const struct rm
 	if (!(spec->flags & RMD_CMD_NO_CMD_BYTE))
 		used[0] = true;
 	for (unsigned i = 0; i < l->n; i++)
-		for (unsigned b = 0; b < l->f[i].size; b++)
+		for (unsigned b = 0; b < l->f[i].size + (l->f[i].sign_byte ? 1u : 0u); b++)
 			used[l->f[i].off + b] = true;
 	for (unsigned b = 0; b < RMD_FRAME_LEN; b++)
 		if (!used[b] && data[b])
@@ -357,7 +378,7 @@ static void decode_fields(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 	for (unsigned i = 0; i < l->n; i++) {
 		const struct rmd_field_spec *fs = &l->f[i];
 
-		rmd_msg_set(msg, fs->field, get_le(&f->data[fs->off], fs->size, fs->is_signed));
+		rmd_msg_set(msg, fs->field, get_field(f->data, fs));
 	}
 }
 

@@ -13,13 +13,18 @@ extern const struct rmd_cmd_spec rmd_v2_cmds[];
 extern const size_t rmd_v2_ncmds;
 
 /* Table-writing shorthands: signed / unsigned little-endian fields. */
-#define RMD_S(fld, off, size, scale)                        \
-	{                                                   \
-		RMD_FLD_##fld, (off), (size), true, (scale) \
+#define RMD_S(fld, off, size, scale)                               \
+	{                                                          \
+		RMD_FLD_##fld, (off), (size), true, (scale), false \
 	}
-#define RMD_U(fld, off, size, scale)                         \
-	{                                                    \
-		RMD_FLD_##fld, (off), (size), false, (scale) \
+#define RMD_U(fld, off, size, scale)                                \
+	{                                                           \
+		RMD_FLD_##fld, (off), (size), false, (scale), false \
+	}
+/* A signed field of `size` bytes with a sign-flag byte after it (rmd_field_spec.sign_byte). */
+#define RMD_SF(fld, off, size, scale)                             \
+	{                                                         \
+		RMD_FLD_##fld, (off), (size), true, (scale), true \
 	}
 #define RMD_LAYOUT(...)                                                 \
 	{                                                               \

@@ -8,10 +8,12 @@
  * them:
  * - §3.21 .. §3.25, §3.29: multi-turn values are "int64_t, valid data is 6
  *   bytes" at data[1..6] with data[7] described as a sign flag (1 negative,
- *   0 positive).  The rows read data[1..7] as one 56-bit two's-complement
- *   integer: the first 7 bytes of that int64.  This equals the manual for
- *   every value >= 0 (flag byte 0); a negative value carries 0xFF in data[7]
- *   as a two's-complement int64 does, where the text says 1.
+ *   0 positive).  Firmware writes a negative value either as the int64's
+ *   low six bytes (two's complement) with the flag 1 (or 0xFF, the int64's
+ *   seventh byte), or as the magnitude with the flag 1: the rows read
+ *   data[1..6] with data[7] as a sign byte (struct rmd_field_spec.sign_byte),
+ *   which takes both: -50.00 deg is 78 EC FF FF FF FF 01 or 88 13 00 00 00
+ *   00 01.  Encoding writes the first form.
  * - §3.48: the 0x73 TF reply has no command byte (iq sits in data[0..1]).
  *   Its reply layout starts at data[0]; encoding is exact, but rmd_decode()
  *   finds the row only when data[0] happens to be 0x73.  A caller that sent
@@ -40,8 +42,8 @@
 /* §3.1 .. §3.18: one Q24 int32 gain at data[4..7]. */
 #define V2_GAIN(fld) RMD_LAYOUT(RMD_S(fld, 4, 4, V2_Q24))
 
-/* §3.21 .. §3.25, §3.29: 56-bit multi-turn value at data[1..7] (see above). */
-#define V2_MULTI(fld, scale) RMD_LAYOUT(RMD_S(fld, 1, 7, scale))
+/* §3.21 .. §3.25, §3.29: 48-bit multi-turn value at data[1..6], sign at data[7] (see above). */
+#define V2_MULTI(fld, scale) RMD_LAYOUT(RMD_SF(fld, 1, 6, scale))
 
 const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	/* §3.1 .. §3.6: read one gain; the reply carries it at data[4..7]. */
@@ -148,7 +150,7 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	  RMD_CMD_ROM,
 	  { 0 },
 	  RMD_LAYOUT(RMD_U(ENCODER_OFF, 6, 2, 1.0)) },
-	/* §3.29: multi-turn angle, 0.01 deg, 56 bits (see the top of this file). */
+	/* §3.29: multi-turn angle, 0.01 deg, 48 bits and a sign byte (see the top of this file). */
 	{ 0x92, "read_multi_turn_angle", 0, { 0 }, V2_MULTI(ANGLE, 0.01) },
 	/*
 	 * §3.30: single-turn angle 0..35999, 0.01 deg, at data[6..7].  The

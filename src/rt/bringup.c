@@ -3,8 +3,9 @@
  * Bring-up, before the rt thread starts: probe every configured motor
  * (model 0xB5, version 0xB2, status 0x9A), scan each bus for ids that
  * answer but are not configured, and write each motor's comm-loss
- * protection (0xB3).  Every request goes through rmd_txn_run(), the one
- * request/reply engine; the result is data (rmd/bringup.h).
+ * protection (0xB3), whose outcome the loop takes over (lifecycle.c).
+ * Every request goes through rmd_txn_run(), the one request/reply engine;
+ * the result is data (rmd/bringup.h).
  *
  * Non-rt: blocks on the buses for a bounded time.
  */
@@ -206,52 +207,86 @@ static int scan_bus(struct rmd_loop *l, unsigned b)
 	return 0;
 }
 
-/*
- * What an answer to 0xB3 `req` says: the request repeated (set), the
- * command byte and zeros (V3 §2.30 example 2), or something else.  Pure.
- */
+/* What an answer to 0xB3 `req` says, for the report (rep: NULL when none came).  Non-rt. */
 static enum rmd_bringup_b3 b3_outcome(const struct rmd_frame *req, const struct rmd_frame *rep)
 {
-	static const uint8_t zeros[RMD_FRAME_LEN - 1];
+	enum rmd_comm_loss cl;
 
-	if (rep->len == req->len && !memcmp(rep->data, req->data, RMD_FRAME_LEN))
+	if (!rep)
+		return RMD_B3_NO_ANSWER;
+	cl = loop_b3_outcome(req->data, rep);
+	if (cl == RMD_CL_ARMED)
 		return RMD_B3_SET;
-	if (rep->len == RMD_FRAME_LEN && rep->data[0] == req->data[0] &&
-	    !memcmp(rep->data + 1, zeros, sizeof(zeros)))
-		return RMD_B3_ZEROS;
-	return RMD_B3_DIFFERS;
+	return cl == RMD_CL_ARMED_ZEROS ? RMD_B3_ZEROS : RMD_B3_DIFFERS;
+}
+
+/* The loop's protection state after bring-up's write came to b3.  Pure. */
+static enum rmd_comm_loss b3_state(enum rmd_bringup_b3 b3)
+{
+	switch (b3) {
+	case RMD_B3_SET:
+		return RMD_CL_ARMED;
+	case RMD_B3_ZEROS:
+		return RMD_CL_ARMED_ZEROS;
+	case RMD_B3_DIFFERS:
+		return RMD_CL_DIFFERS;
+	case RMD_B3_NO_ANSWER:
+		return RMD_CL_NO_ANSWER;
+	case RMD_B3_NOT_APPLICABLE:
+		break;
+	}
+	return RMD_CL_PENDING;
 }
 
 /*
- * V3 §2.30: write the comm-loss protection time (ROM) to every motor of bus
- * b that answered the probe, all in one batch, and check each answer, as
- * the last step of bring-up: a motor starts counting at the write, and the
- * loop's first cycle follows at once.  Non-rt.
+ * V3 §2.30: write each motor's comm-loss protection time (ROM) to every
+ * motor of bus b that answered the probe, all in one batch, each tried
+ * RMD_LOOP_PROBE_TRIES times, and check each answer, as the last step of
+ * bring-up: a motor starts counting at the write, and the loop's first
+ * cycle follows at once.  The outcome becomes the loop's protection state
+ * (lifecycle.c): a motor not armed here is written again by the loop
+ * before it may move.  Non-rt.
  */
 static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *out)
 {
 	struct probe_ctx pc = { .l = l, .bus = b };
 	struct rmd_txn_opts o = txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(&l->bus[b]));
-	struct rmd_msg msg = { .cmd = 0xB3 };
 	struct rmd_txn t[RMD_MAX_MOTORS];
 	unsigned idx[RMD_MAX_MOTORS], n = 0;
+	int64_t now;
+	int r = 0;
 
-	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, out->comm_loss_ms);
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
+		struct rmd_msg msg = { .cmd = 0xB3 };
 
+		out->motor[i].comm_loss_ms = rmd_config_comm_loss_ms(l->cfg, i);
 		if (lm->m.bus != b || lm->m.proto == RMD_PROTO_V2 ||
 		    lm->st.lifecycle == RMD_LC_LOST)
 			continue;
 		out->motor[i].b3 = RMD_B3_NO_ANSWER;
+		rmd_msg_set(&msg, RMD_FLD_TIMEOUT, out->motor[i].comm_loss_ms);
 		if (rmd_txn_prepare(&t[n], lm->m.proto, lm->m.id, &msg) == 0)
 			idx[n++] = i;
 	}
-	if (!n || rmd_txn_run(l->bus[b].bus, t, n, &o) < 0)
-		return;
-	for (unsigned k = 0; k < n; k++)
-		if (t[k].done)
-			out->motor[idx[k]].b3 = b3_outcome(&t[k].req, &t[k].rep.f);
+	if (n)
+		r = rmd_txn_run(l->bus[b].bus, t, n, &o);
+	now = loop_now(l);
+	for (unsigned k = 0; k < n; k++) {
+		struct rmd_bringup_motor *bm = &out->motor[idx[k]];
+
+		bm->b3 = b3_outcome(&t[k].req, r >= 0 && t[k].done ? &t[k].rep.f : NULL);
+		loop_cl_outcome(l, &l->mot[idx[k]], b3_state(bm->b3), now);
+	}
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		if (lm->m.bus != b)
+			continue;
+		out->motor[i].comm_loss = lm->cl;
+		if (!rmd_comm_loss_allows_motion(lm->cl) && lm->st.lifecycle != RMD_LC_LOST)
+			out->unarmed++;
+	}
 }
 
 /* Every bus: what came before the first request answers none of them.  Non-rt. */
@@ -289,8 +324,11 @@ int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out)
 		arm_comm_loss(l, b, out);
 	/* what bring-up found is the state before the first cycle */
 	loop_fill_snapshot(l, loop_now(l));
+	loop_fill_health(l, loop_now(l)); /* each motor's protection, for config_t at once */
 	loop_pub_write(l);
-	if (out->missing && l->cfg->probe.on_missing == RMD_MISSING_REFUSE)
+	if (l->o.health)
+		rmd_latest_put(l->o.health, &l->health);
+	if ((out->missing || out->unarmed) && l->cfg->probe.on_missing == RMD_MISSING_REFUSE)
 		return -ENODEV;
 	return 0;
 }

@@ -2,8 +2,10 @@
 /*
  * The rt loop's motor lifecycle: the one state-change function
  * loop_enter() and what decides to call it (missed replies, answers, error
- * flags, the host's commands and the host watchdog).  See rmd/loop.h
- * "Lifecycle" and "Safe actions"; the shared state is loop_priv.h.
+ * flags, the host's commands and the host watchdog), and each motor's
+ * comm-loss protection (0xB3), a precondition of leaving READY.  See
+ * rmd/loop.h "Lifecycle", "Safe actions" and "Comm-loss protection"; the
+ * shared state is loop_priv.h.
  *
  * Execution context: rt-safe: called from the cycle (loop_enter() also from bring-up
  * and rmd_loop_stop_motors()); no allocation, no lock, no text.
@@ -56,6 +58,9 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 	loop_event(l, now, RMD_EV_SAFE_ACTION, loop_idx(l, lm), lm->m.bus, a, 0);
 }
 
+static void cl_forget(struct rmd_loop *l, struct lmotor *lm);
+static void cl_start_round(struct lmotor *lm);
+
 /* rt-safe. */
 static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
 {
@@ -76,6 +81,12 @@ static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
  *   LOST,    the safe action once when it was ENABLED, else nothing waits;
  *   FAULT    FAULT reports the error code; LOST re-probes after
  *            RMD_LOOP_REPROBE_NS.
+ *
+ * Comm-loss protection: LOST forgets it (the motor that comes back may have
+ * been swapped or reflashed); READY from PROBE or LOST starts a round of
+ * 0xB3 writes (a motor found after bring-up, or back).  FAULT -> READY
+ * keeps it: the motor answered all along, and a power cycle makes it miss
+ * replies, which is LOST (the time is in its ROM anyway).
  *
  * The enable-edge rule (rmd/loop.h): a motor that enters LOST or FAULT,
  * returns from them, or is made SAFE for any reason but the host
@@ -113,6 +124,11 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		} else {
 			lm->need_edge = true;
 		}
+		if (old == RMD_LC_PROBE || old == RMD_LC_LOST) {
+			cl_forget(l, lm);
+			if (lm->cl == RMD_CL_PENDING)
+				cl_start_round(lm);
+		}
 		if (old == RMD_LC_FAULT)
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, 0, 0);
 		break;
@@ -121,11 +137,14 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		if (old == RMD_LC_ENABLED)
 			queue_safe(l, lm, false, now);
 		lm->need_edge = true;
-		if (lc == RMD_LC_LOST)
+		lm->cl_want = false;
+		if (lc == RMD_LC_LOST) {
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-		else
+			cl_forget(l, lm);
+		} else {
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
 				   lm->st.error_code, 0);
+		}
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_COUNT:
@@ -194,6 +213,9 @@ void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int6
 /* ------------------------------------------------------------------ */
 /* Commands and the host watchdog */
 
+static void cl_enable_wanted(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
+			     int64_t now);
+
 /* Returns -1 when acted on, else the enum rmd_ignore reason it was not.  rt-safe. */
 static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			int64_t now)
@@ -203,6 +225,11 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 	case RMD_LC_SAFE:
 		if (lm->need_edge)
 			return RMD_IGN_EDGE;
+		if (!rmd_comm_loss_allows_motion(lm->cl)) {
+			/* armed first, then enabled, or refused with a reason (unarmed_rejects) */
+			cl_enable_wanted(l, lm, sp, now);
+			return -1;
+		}
 		lm->sp = *sp;
 		lm->st.mode = sp->mode;
 		loop_enter(l, lm, RMD_LC_ENABLED, now);
@@ -224,6 +251,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	lm->need_edge = false; /* the enable = 0 the edge rule waits for */
+	lm->cl_want = false;
 	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
 	case RMD_LC_ENABLED:
 	case RMD_LC_SAFE:
@@ -313,4 +341,201 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
 	set_watchdog(l, RMD_WD_TRIPPED, now);
 	for (unsigned i = 0; i < l->n_motors; i++)
 		make_safe(l, &l->mot[i], now);
+}
+
+/* ------------------------------------------------------------------ */
+/* Comm-loss protection */
+
+/*
+ * Each motor's 0xB3 (V3 §2.30) is a precondition of motion (enum
+ * rmd_comm_loss, rmd/state.h).  Bring-up writes it last and hands its
+ * outcome to loop_cl_outcome().  The loop writes it again, in rounds of up
+ * to ARM_TRIES writes (each a one-shot in the motor's control slot, its
+ * answer awaited for the bus's reply deadline after the slot comes):
+ *   - when a motor answers after PROBE or LOST (loop_enter()): found after
+ *     bring-up, or back, and perhaps swapped or reflashed;
+ *   - when an enable arrives for a motor that is not armed, at most one
+ *     round per ARM_ROUND_NS: 0xB3 writes the motor's ROM, so it is never
+ *     written in a loop of its own.
+ * An enable that arrives during a round waits for it and is applied once
+ * the motor is armed, unless the controller has gone quiet for
+ * command_timeout_ms meanwhile or the watchdog tripped; a round that fails
+ * refuses it.  An enable for a motor whose round failed less than
+ * ARM_ROUND_NS ago is refused (a later one starts a new round).  A
+ * refusal is counted per motor (unarmed_rejects, in health) and reported
+ * through the event ring once per episode (until the motor is armed or
+ * lost).  Motors whose protection is off by config, and V2 motors, which
+ * have none, are not written by the loop and never held back.
+ */
+
+/* rt-safe. */
+static uint32_t cl_ms(const struct rmd_loop *l, const struct lmotor *lm)
+{
+	return rmd_config_comm_loss_ms(l->cfg, loop_idx(l, lm));
+}
+
+/* Forget the protection: the motor may not be the one that was armed.  rt-safe. */
+static void cl_forget(struct rmd_loop *l, struct lmotor *lm)
+{
+	if (lm->m.proto == RMD_PROTO_V2)
+		lm->cl = RMD_CL_UNSUPPORTED;
+	else if (!cl_ms(l, lm))
+		lm->cl = RMD_CL_OFF;
+	else
+		lm->cl = RMD_CL_PENDING;
+	lm->cl_round = false;
+	lm->cl_want = false;
+	lm->cl_warned = false;
+}
+
+/* rt-safe. */
+static void cl_start_round(struct lmotor *lm)
+{
+	lm->cl_round = true;
+	lm->cl_differs = false;
+	lm->cl_tries = 0;
+	lm->cl_try_end_ns = INT64_MIN; /* the first write goes out at once */
+}
+
+/* An enable refused for lm: counted, reported once per episode.  rt-safe. */
+static void cl_refuse(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	lm->unarmed_rejects++;
+	if (lm->cl_warned)
+		return;
+	lm->cl_warned = true;
+	loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->cl, 1);
+}
+
+/* An enable for a READY or SAFE motor that is not armed (enable_motor()).  rt-safe. */
+static void cl_enable_wanted(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
+			     int64_t now)
+{
+	if (!lm->cl_round && now - lm->cl_round_end_ns < ARM_ROUND_NS) {
+		cl_refuse(l, lm, now);
+		return;
+	}
+	if (!lm->cl_round)
+		cl_start_round(lm);
+	lm->cl_want = true;
+	lm->cl_sp = *sp;
+}
+
+/* Queue the next write of lm's round.  False when its one-shot queue is full.  rt-safe. */
+static bool cl_push(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	struct rmd_msg msg = { .cmd = 0xB3 };
+	unsigned div = l->cfg->motors[loop_idx(l, lm)].rate_divisor;
+	struct rmd_frame f;
+
+	if (lm->n_oneshot >= ONESHOTS)
+		return false;
+	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, cl_ms(l, lm));
+	if (rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, &f) < 0)
+		return false;
+	oneshot_push(lm, &f);
+	/* it goes out after the one-shots before it, one per control slot */
+	lm->cl_try_end_ns = now + l->bus[lm->m.bus].reply_ns +
+			    (int64_t)lm->n_oneshot * (div ? div : 1u) * l->period_ns;
+	return true;
+}
+
+/* One step of lm's round: the next write, or its end.  rt-safe. */
+static void cl_round_step(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	if (lm->st.lifecycle == RMD_LC_LOST || lm->st.lifecycle == RMD_LC_PROBE ||
+	    now < lm->cl_try_end_ns)
+		return;
+	if (lm->cl_tries < ARM_TRIES) {
+		if (cl_push(l, lm, now))
+			lm->cl_tries++;
+		return;
+	}
+	lm->cl_round = false;
+	lm->cl = lm->cl_differs ? RMD_CL_DIFFERS : RMD_CL_NO_ANSWER;
+	lm->cl_round_end_ns = now;
+	if (lm->cl_want) {
+		lm->cl_want = false;
+		cl_refuse(l, lm, now);
+	} else {
+		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->cl, 0);
+	}
+}
+
+/* The enable that waited for lm's round, now that it is armed.  rt-safe. */
+static void cl_apply_enable(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * RMD_NS_PER_MS;
+
+	lm->cl_want = false;
+	if (l->wd == RMD_WD_TRIPPED || (timeout > 0 && now - l->last_cmd_rx_ns > timeout))
+		return; /* the controller went quiet meanwhile */
+	enable_motor(l, lm, &lm->cl_sp, now);
+}
+
+/* Every motor's round, and the enables waiting for one: step 3 of the cycle.  rt-safe. */
+void loop_comm_loss(struct rmd_loop *l, int64_t now)
+{
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		if (lm->cl_round)
+			cl_round_step(l, lm, now);
+		else if (lm->cl_want)
+			cl_apply_enable(l, lm, now);
+	}
+}
+
+/*
+ * What an answer to the 0xB3 request `req` says: the request repeated
+ * (armed, echo-verified), the command byte and zeros (V3 §2.30 example 2),
+ * or something else.  Pure.
+ */
+enum rmd_comm_loss loop_b3_outcome(const uint8_t *req, const struct rmd_frame *rep)
+{
+	static const uint8_t zeros[RMD_FRAME_LEN - 1];
+
+	if (rep->len == RMD_FRAME_LEN && !memcmp(rep->data, req, RMD_FRAME_LEN))
+		return RMD_CL_ARMED;
+	if (rep->len == RMD_FRAME_LEN && rep->data[0] == req[0] &&
+	    !memcmp(rep->data + 1, zeros, sizeof(zeros)))
+		return RMD_CL_ARMED_ZEROS;
+	return RMD_CL_DIFFERS;
+}
+
+/* An answer to a 0xB3 the loop wrote (loop_rx.c).  rt-safe. */
+void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
+		    const struct rmd_frame *rep, int64_t now)
+{
+	enum rmd_comm_loss cl = loop_b3_outcome(req, rep);
+	bool was = rmd_comm_loss_set(lm->cl);
+
+	if (lm->cl == RMD_CL_OFF || lm->cl == RMD_CL_UNSUPPORTED)
+		return;
+	if (!rmd_comm_loss_set(cl)) {
+		lm->cl_differs = true;
+		if (!lm->cl_round)
+			lm->cl = RMD_CL_DIFFERS;
+		return;
+	}
+	lm->cl = (uint8_t)cl;
+	lm->cl_round = false;
+	lm->cl_warned = false;
+	lm->cl_round_end_ns = now;
+	if (!was)
+		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, cl, 0);
+}
+
+/* Bring-up's outcome for lm (bringup.c): what its own writes came to.  rt-safe. */
+void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss cl, int64_t now)
+{
+	cl_forget(l, lm);
+	if (lm->cl == RMD_CL_PENDING)
+		lm->cl = (uint8_t)cl;
+	lm->cl_round_end_ns = now;
+}
+
+uint8_t rmd_loop_comm_loss(const struct rmd_loop *l, unsigned i)
+{
+	return i < l->n_motors ? l->mot[i].cl : RMD_CL_PENDING;
 }

@@ -181,7 +181,7 @@ static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_
 }
 
 /* The health of the window since the last one, into l->health.  rt-safe. */
-static void fill_health(struct rmd_loop *l, int64_t now)
+void loop_fill_health(struct rmd_loop *l, int64_t now)
 {
 	struct rmd_health *h = &l->health;
 
@@ -213,6 +213,12 @@ static void fill_health(struct rmd_loop *l, int64_t now)
 	h->watchdog = l->wd;
 	h->safe_action_events = l->cnt.safe_actions;
 	memcpy(h->ignored, l->cnt.ignored, sizeof(h->ignored));
+	h->nmotors = l->n_motors;
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		h->comm_loss[i] = l->mot[i].cl;
+		h->comm_loss_ms[i] = rmd_config_comm_loss_ms(l->cfg, i);
+		h->unarmed_rejects[i] = l->mot[i].unarmed_rejects;
+	}
 	l->health_fresh = true;
 }
 
@@ -243,7 +249,7 @@ static void publish(struct rmd_loop *l, int64_t now)
 	loop_fill_snapshot(l, now);
 	wake_summary(l);
 	if (health) {
-		fill_health(l, now);
+		loop_fill_health(l, now);
 		l->next_health_cycle = l->cycle + l->health_every;
 	}
 	loop_pub_write(l);
@@ -334,6 +340,7 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 		loop_drain(l, b, now);
 	loop_check_deadlines(l, now);
 	loop_take_command(l, now);
+	loop_comm_loss(l, now);
 	loop_watchdog(l, now);
 	for (unsigned b = 0; b < l->n_buses; b++)
 		all_sent &= loop_send_bus(l, b, now);

@@ -37,6 +37,8 @@
 #define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
 #define STOP_TRIES 50			/* rmd_loop_stop_motors(): sends per bus ... */
 #define STOP_STEP_NS 200000		/* ... this far apart */
+#define ARM_TRIES 3			/* 0xB3 writes of one round in the loop */
+#define ARM_ROUND_NS RMD_NS_PER_S	/* a refused enable starts a new round this long after */
 
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {
@@ -73,6 +75,20 @@ struct lmotor {
 	int64_t next_probe_ns;
 	bool replied;
 	uint64_t last_reply_cycle;
+	/*
+	 * Comm-loss protection (0xB3, lifecycle.c "Comm-loss protection"): its
+	 * state, the round of writes in progress, an enable waiting for it.
+	 */
+	uint8_t cl;		   /* enum rmd_comm_loss */
+	bool cl_round;		   /* a round of writes runs */
+	bool cl_differs;	   /* this round had an answer with another time */
+	bool cl_warned;		   /* this episode's refusal was reported */
+	unsigned cl_tries;	   /* writes of this round */
+	int64_t cl_try_end_ns;	   /* the current write's answer is awaited until then */
+	int64_t cl_round_end_ns;   /* when the last round ended */
+	bool cl_want;		   /* an enable waits for the round */
+	struct rmd_setpoint cl_sp; /* ... with this setpoint */
+	uint64_t unarmed_rejects;  /* enables refused: protection not set */
 	/* bring-up */
 	char model[8];
 	uint32_t version;
@@ -183,6 +199,7 @@ void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, un
 		int64_t a, int64_t b);
 void loop_pub_write(struct rmd_loop *l);
 void loop_fill_snapshot(struct rmd_loop *l, int64_t now);
+void loop_fill_health(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
 
 /* loop_rx.c.  rt-safe. */
@@ -201,6 +218,11 @@ void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now);
 void loop_take_command(struct rmd_loop *l, int64_t now);
 void loop_watchdog(struct rmd_loop *l, int64_t now);
+void loop_comm_loss(struct rmd_loop *l, int64_t now);
+void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
+		    const struct rmd_frame *rep, int64_t now);
+void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss cl, int64_t now);
+enum rmd_comm_loss loop_b3_outcome(const uint8_t *req, const struct rmd_frame *rep);
 
 /* loop_tx.c.  rt-safe. */
 void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind);

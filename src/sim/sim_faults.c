@@ -223,8 +223,8 @@ static bool retarget(uint32_t *can_id, unsigned other)
 	return false;
 }
 
-bool rmd_sim_faults_frame(const struct rmd_sim_faults *fs, uint64_t *rng, uint8_t motor_id,
-			  int64_t t, struct rmd_frame *f, int64_t *ready_ns, uint64_t *counts)
+bool rmd_sim_faults_frame(struct rmd_sim_faults *fs, uint64_t *rng, uint8_t motor_id, int64_t t,
+			  struct rmd_frame *f, int64_t *ready_ns, uint64_t *counts)
 {
 	for (unsigned k = 0; k < fs->n; k++) {
 		const struct rmd_sim_fault *ft = &fs->f[k];
@@ -232,8 +232,13 @@ bool rmd_sim_faults_frame(const struct rmd_sim_faults *fs, uint64_t *rng, uint8_
 		if (rmd_sim_fault_is_window(ft->kind) || !rmd_sim_fault_hits(ft, motor_id) ||
 		    !window_open(ft, t))
 			continue;
+		/* only the answers to one command, at most count of them */
+		if ((ft->cmd && (!f->len || f->data[0] != ft->cmd)) ||
+		    (ft->count && fs->hits[k] >= ft->count))
+			continue;
 		if (!rmd_rng_roll(rng, ft->probability))
 			continue;
+		fs->hits[k]++;
 		switch (ft->kind) {
 		case RMD_SIM_FAULT_DROP:
 			counts[ft->kind]++;

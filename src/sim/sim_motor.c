@@ -223,6 +223,8 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 	m->present = true;
 	rmd_sim_motor_seed(m, m->p.seed);
 	boot(m, now_ns);
+	/* first power-on: where the shaft happens to be, turns included */
+	m->pos_rad = m->p.start_angle_deg * (M_PI / 180.0);
 }
 
 void rmd_sim_motor_power_cycle(struct rmd_sim_motor *m, int64_t now_ns)
@@ -281,6 +283,28 @@ static int echo(const struct rmd_frame *f, uint32_t reply_id, struct rmd_frame *
 	return 1;
 }
 
+/*
+ * V2 §3.21 .. §3.23, §3.29: the other reading of a negative multi-turn
+ * value the manual allows, the magnitude in data[1..6] and the flag 1 in
+ * data[7] (the codec writes two's complement and the flag 1).
+ */
+static void v2_sign_magnitude(enum rmd_proto proto, const struct rmd_msg *msg, struct rmd_frame *fr)
+{
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(proto, msg->cmd);
+	const struct rmd_layout *l;
+	uint64_t mag;
+
+	if (rmd_proto_table(proto) != RMD_PROTO_V2 || !spec)
+		return;
+	l = rmd_cmd_layout(spec, RMD_DIR_REPLY);
+	if (l->n != 1 || !l->f[0].sign_byte || msg->v[l->f[0].field] >= 0)
+		return;
+	mag = (uint64_t)(-msg->v[l->f[0].field]);
+	for (unsigned b = 0; b < l->f[0].size; b++, mag >>= 8)
+		fr->data[l->f[0].off + b] = (uint8_t)mag;
+	fr->data[l->f[0].off + l->f[0].size] = 1;
+}
+
 static int emit(const struct rmd_sim_motor *m, enum rmd_proto proto, const struct rmd_msg *msg,
 		struct rmd_frame *out, int max)
 {
@@ -290,6 +314,8 @@ static int emit(const struct rmd_sim_motor *m, enum rmd_proto proto, const struc
 		return 0;
 	if (rmd_encode(proto, RMD_DIR_REPLY, m->ram.can_id, msg, &fr) < 0)
 		return 0;
+	if (m->p.v2_angle_magnitude)
+		v2_sign_magnitude(proto, msg, &fr);
 	*out = fr;
 	return 1;
 }
@@ -783,8 +809,10 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 	case 0xB2: /* V3 §2.29 */
 		put_int(&rep, rspec, RMD_FLD_VERSION, m->p.version_date);
 		return emit(m, proto, &rep, out, max);
-	case 0xB3: /* V3 §2.30: ROM, echoed */
+	case 0xB3: /* V3 §2.30: ROM, echoed (or, example 2, zeros) */
 		m->ram.comm_timeout_ms = m->rom.comm_timeout_ms = (uint32_t)req.v[RMD_FLD_TIMEOUT];
+		if (m->p.b3_answer_zeros)
+			return emit(m, proto, &rep, out, max);
 		return echo(f, reply_id, out, max);
 	case 0xB4: { /* V3 §2.31: stored; "the reply is random content" */
 		uint64_t r = rmd_sim_motor_rand(m);

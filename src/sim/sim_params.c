@@ -79,6 +79,12 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    "MIT ranges P,V,T,KP,KD: p ±P rad, v ±V rad/s, t ±T N·m, kp 0..KP, kd 0..KD; "
 	    "rmdd.yaml: the motor's mit",
 	    RMD_SIM_PARAM_MOTOR_KEY),
+	ROW("start_angle_deg", "start-angle", REAL, start_angle_deg, -1e9, 1e9, false, "°",
+	    "output angle at first power-on, multi-turn", 0),
+	ROW("v2_angle_magnitude", "v2-angle-magnitude", BOOL, v2_angle_magnitude, 0, 0, false, "",
+	    "V2 0x92/0x60..0x62: a negative value as magnitude + sign flag 1 (yes/no)", 0),
+	ROW("b3_answer_zeros", "b3-answer-zeros", BOOL, b3_answer_zeros, 0, 0, false, "",
+	    "answer 0xB3 with zeros (V3 §2.30 example 2), not its echo (yes/no)", 0),
 	ROW("turnaround_us", NULL, US, turnaround_ns, 0, 1e6, false, "µs",
 	    "request end to reply start, mean", 0),
 	ROW("turnaround_jitter_us", "jitter-us", US, turnaround_jitter_ns, 0, 1e6, false, "µs",

@@ -90,6 +90,9 @@ struct rmd_bridge_buf {
 	rmd_state_t state;
 	rmd_motor_state_t state_motor[RMD_MAX_MOTORS]; /* state.motor */
 	rmd_health_t health;
+	int8_t health_cl[RMD_MAX_MOTORS]; /* health_t's per-motor arrays */
+	int32_t health_cl_ms[RMD_MAX_MOTORS];
+	int64_t health_unarmed[RMD_MAX_MOTORS];
 	char bus_name[RMD_MAX_BUSES][RMD_BRIDGE_NAME_LEN];
 	rmd_config_t config;
 	rmd_bus_config_t config_bus[RMD_MAX_BUSES];
@@ -692,6 +695,15 @@ static void publish_health(struct rmd_bridge *b, int64_t now)
 	o->owner = b->owned ? b->owner : 0;
 	o->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);
 	o->takeovers = sat64(read_count(&b->n_takeovers));
+	o->motor_count = (int16_t)(h->nmotors < RMD_MAX_MOTORS ? h->nmotors : RMD_MAX_MOTORS);
+	o->comm_loss = b->buf->health_cl;
+	o->comm_loss_ms = b->buf->health_cl_ms;
+	o->unarmed_rejects = b->buf->health_unarmed;
+	for (int i = 0; i < o->motor_count; i++) {
+		o->comm_loss[i] = (int8_t)h->comm_loss[i];
+		o->comm_loss_ms[i] = sat32(h->comm_loss_ms[i]);
+		o->unarmed_rejects[i] = sat64(h->unarmed_rejects[i]);
+	}
 
 	n = rmd_health_t_encode(b->buf->enc, 0, ENC_MAX, o);
 	if (publish_encoded(b, b->ch_health, n))
@@ -702,6 +714,8 @@ static void publish_config(struct rmd_bridge *b)
 {
 	struct rmd_bridge_opts *op = &b->opts;
 	rmd_config_t *c = &b->buf->config;
+	static const struct rmd_health none;
+	const struct rmd_health *h = &none;
 
 	c->utime = rmd_now_ns() / 1000;
 	c->prefix = op->prefix;
@@ -717,6 +731,9 @@ static void publish_config(struct rmd_bridge *b)
 	}
 	c->motor_count = (int16_t)op->nmotors;
 	c->motor = b->buf->config_motor;
+	/* the protection's state and time come from the loop's newest health */
+	if (op->health)
+		rmd_latest_get(op->health, (const void **)&h);
 	for (unsigned i = 0; i < op->nmotors; i++) {
 		const struct rmd_motor_info *m = &op->motor[i];
 
@@ -735,6 +752,8 @@ static void publish_config(struct rmd_bridge *b)
 			.kp_max = m->kp_max,
 			.kd_min = m->kd_min,
 			.kd_max = m->kd_max,
+			.comm_loss_ms = i < h->nmotors ? sat32(h->comm_loss_ms[i]) : -1,
+			.comm_loss = i < h->nmotors ? (int8_t)h->comm_loss[i] : 0,
 		};
 	}
 	/* Rare, so the generated publish (it allocates) is fine here. */

@@ -890,6 +890,91 @@ static int teardown(void **state)
 	return rm_tree(tmpdir);
 }
 
+/* ---- issue 13: comm-loss protection -------------------------------------------- */
+
+/*
+ * rmdd's configuration for these tests, at tmpdir/name: three motors a, b,
+ * c on sim bus s0 with the given probe.on_missing and sim fault; c_extra
+ * goes into motor c's entry.
+ */
+static void write_cl_config(char *path, size_t len, const char *name, const char *on_missing,
+			    const char *fault, const char *c_extra)
+{
+	char text[1024];
+
+	snprintf(path, len, "%s/%s", tmpdir, name);
+	snprintf(text, sizeof(text),
+		 "probe: {on_missing: %s}\n"
+		 "buses: [{name: s0, type: sim, sim: {faults: [%s]}}]\n"
+		 "motors:\n"
+		 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		 "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		 "  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2%s}\n",
+		 on_missing, fault, c_extra);
+	write_file(path, text);
+}
+
+/*
+ * The issue's reproducer: motor 1's frames are dropped from 5 ms to 300 ms,
+ * so its 0xB3 answer at bring-up is lost.  probe.on_missing refuse: exit 1,
+ * naming the motor and why; start: it is armed once it answers, and the
+ * exit line says every motor's protection stays set.
+ */
+static void test_comm_loss_reproducer(void **state)
+{
+	static const char drop[] = "{kind: drop, motor: 1, probability: 1, start_s: 0.005, "
+				   "end_s: 0.3}";
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, "--lcm-url", "memq://", "-v", NULL };
+
+	(void)state;
+	write_cl_config(path, sizeof(path), "cl-refuse.yaml", "refuse", drop, "");
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p,
+		  "<4>rmdd:   s0: comm-loss protection (0xB3) 100 ms: motor 1 (a) did not "
+		  "answer 0xB3: it cannot be enabled until it does; 2 3 (2 set, echo verified)");
+	expect_in(&p, "0 motor(s) missing, 1 without comm-loss protection (0xB3 not set), and "
+		      "probe.on_missing is refuse");
+	assert_null(strstr(p.out, "running:"));
+
+	write_cl_config(path, sizeof(path), "cl-start.yaml", "start", drop, "");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	wait_for(&p,
+		 "<6>rmdd: s0: motor 1 (a): comm-loss protection (0xB3) 100 ms set, echo "
+		 "verified",
+		 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	expect_in(&p, "every motor was sent stop (0x80); their comm-loss protection (0xB3) stays "
+		      "set");
+}
+
+/*
+ * The exit line names exactly the motors whose protection is set: motor 1
+ * never answers 0xB3 (the sim drops those answers, command 179 = 0xB3),
+ * motor 3's is off by its own key.
+ */
+static void test_comm_loss_exit_line(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *args[] = { "--config", path, "--lcm-url", "memq://", "-v", NULL };
+
+	(void)state;
+	write_cl_config(path, sizeof(path), "cl-exit.yaml", "start",
+			"{kind: drop, motor: 1, probability: 1, cmd: 179}", ", comm_loss_ms: 0");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	expect_in(&p, "motor 3 (c) off (its comm_loss_ms: 0);");
+	expect_in(&p, "<5>rmdd: every motor was sent stop (0x80); comm-loss protection (0xB3) "
+		      "stays set on b; not set on a (did not answer 0xB3), c (off by config)\n");
+	assert_null(strstr(p.out, "their comm-loss protection (0xB3) stays set"));
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -912,6 +997,8 @@ int main(void)
 		cmocka_unit_test_teardown(test_stall_hook_bounds, reap),
 		cmocka_unit_test_teardown(test_cpu_affinity_missing, reap),
 		cmocka_unit_test_teardown(test_check_config_special_files, reap),
+		cmocka_unit_test_teardown(test_comm_loss_reproducer, reap),
+		cmocka_unit_test_teardown(test_comm_loss_exit_line, reap),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_cpu_affinity_missing */

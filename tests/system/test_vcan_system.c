@@ -26,7 +26,11 @@
  *             - kill -9: every motor's own 0xB3 protection trips (its
  *               0xF1 in candump comm_loss_ms after the last frame it heard,
  *               + COMM_SLACK_MS); 0x9A reads, by hand and by rmdctl, show
- *               the brake locked and the output off.
+ *               the brake locked and the output off;
+ *             - comm-loss (issue 13): rmd-sim loses c1's first 0xB3 answer
+ *               and powers c2 up LATE_S after it starts: c1 is written
+ *               again, c2 gets 0xB3, echo-verified, before anything moves
+ *               it, and trips on its own after kill -9.
  *
  * Time: candump -L stamps frames with the kernel's receive time
  * (CLOCK_REALTIME), so the test takes its own reference times from the same
@@ -139,6 +143,8 @@
 
 #define SETPOINT_RAD 0.2
 #define MAX_VEL_RAD_S 1.0
+#define RMD_STR_(x) #x
+#define RMD_STR(x) RMD_STR_(x)
 
 /* ---- state ---------------------------------------------------------------- */
 
@@ -1760,6 +1766,130 @@ static void test_system_kill9(void **state)
 	}
 }
 
+/* ---- issue 13: comm-loss protection on the wire ----------------------------------- */
+
+#define LATE_S 12 /* rmd-sim powers motor c2 up this long after it starts */
+
+/* The first frame to motor i that moves it (setpoints, 0x77 brake release), at or after t0. */
+static const struct cframe *first_move(unsigned i, int64_t t0)
+{
+	const struct cframe *best = NULL;
+
+	for (size_t k = 0; k < S.nframes; k++) {
+		const struct cframe *f = &S.frames[k];
+		uint8_t c = f->data[0];
+
+		if (!frame_is(f, S.cfg.motors[i].bus, req_id(i), -1, t0, T_END) ||
+		    !((c >= 0xA1 && c <= 0xA8) || c == 0x77 || c == 0x88))
+			continue;
+		if (!best || f->t_ns < best->t_ns)
+			best = f;
+	}
+	return best;
+}
+
+/*
+ * rmd-sim on vcan2 loses motor c1's first answer to 0xB3 and powers motor
+ * c2 up only LATE_S after it starts (a leg powered after the PC).  rmdd
+ * (probe.on_missing start) writes c1's 0xB3 again and arms it; c2, first
+ * heard about ten seconds after rmdd started, gets 0xB3, echo-verified,
+ * before any frame that moves it; after kill -9 rmdd, c2 trips on its own.
+ */
+static void test_system_comm_loss(void **state)
+{
+	const unsigned b = 2, c1 = 6, c2 = 7;
+	const char *argv[] = { S.rmdsim,
+			       "--can",
+			       "vcan2",
+			       "--motors",
+			       "1,2",
+			       "--seed",
+			       "3",
+			       "--fault",
+			       "drop:1:1/0xB3,1",
+			       "--fault",
+			       "disappear:2:0:" RMD_STR(LATE_S) ":reboot",
+			       NULL };
+	const struct cframe *req, *rep, *mv, *f1;
+	int64_t t_start, t_kill, end;
+	char want[160];
+
+	(void)state;
+	system_begin();
+	assert_string_equal(S.cfg.motors[c1].name, "c1");
+	assert_string_equal(S.cfg.motors[c2].name, "c2");
+	if (rmdd_running()) {
+		kill(S.rmdd_kid->pid, SIGTERM);
+		kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
+	}
+	controller(false, false);
+	kid_free(S.sims[b]);
+	S.sims[b] = kid_spawn("rmd-sim vcan2 (faults)", argv, NULL, SIM_FIFO_PRIO);
+	kid_wait_output(S.sims[b], ": ready", READY_MS, service);
+	sync_log();
+	t_start = real_ns();
+	rmdd_start();
+	if (!strstr(S.rmdd_kid->out, "vcan2: motor 2 (c2): missing"))
+		fail_msg("c2 was not missing at bring-up:\n%s", S.rmdd_kid->out);
+	/* c1: its first 0xB3 answer lost, written again and armed */
+	sync_log();
+	print_message("comm-loss: c1 got %u 0xB3 writes at bring-up, %u answered\n",
+		      count_frames(0, b, req_id(c1), 0xB3, t_start, T_END),
+		      count_frames(0, b, rep_id(c1), 0xB3, t_start, T_END));
+	assert_true(count_frames(0, b, req_id(c1), 0xB3, t_start, T_END) >= 2);
+	assert_true(count_frames(0, b, rep_id(c1), 0xB3, t_start, T_END) >= 1);
+	assert_null(strstr(S.rmdd_kid->out, "(c1) did not answer 0xB3"));
+
+	/* the controller streams enable = 1; c2 comes up about LATE_S later */
+	controller(true, true);
+	end = mono_ns() + (LATE_S + 30) * NS_PER_S;
+	while (S.lc[c2] != RMD_STATE_T_LC_READY && S.lc[c2] != RMD_STATE_T_LC_ENABLED) {
+		if (mono_ns() > end)
+			fail_msg("c2 not READY %d s after rmdd started (lifecycles %s); rmdd:\n%s",
+				 LATE_S + 30, lc_list(), kid_tail(S.rmdd_kid));
+		service(20);
+	}
+	snprintf(want, sizeof(want),
+		 "vcan2: motor 2 (c2): comm-loss protection (0xB3) %u ms set, echo verified",
+		 S.cfg.safety.comm_loss_ms);
+	kid_wait_output(S.rmdd_kid, want, ENABLE_MS, service);
+	enable_all();
+	sync_log();
+	req = first_frame(0, b, req_id(c2), 0xB3, t_start, T_END);
+	rep = req ? first_frame(0, b, rep_id(c2), 0xB3, req->t_ns, T_END) : NULL;
+	mv = first_move(c2, t_start);
+	if (!req || !rep || !mv)
+		fail_msg("c2: 0xB3 %s, its answer %s, a move %s; its frames:\n%s",
+			 req ? "sent" : "never sent", rep ? "came" : "never came",
+			 mv ? "sent" : "never sent", motor_frames(c2, t_start));
+	print_message("comm-loss: c2's 0xB3 %.1f s after rmdd started, answered (echo) %.1f ms "
+		      "later; its first move %.1f ms after that\n",
+		      ms_of(req->t_ns - t_start) / 1000.0, ms_of(rep->t_ns - req->t_ns),
+		      ms_of(mv->t_ns - rep->t_ns));
+	if (memcmp(rep->data, req->data, RMD_FRAME_LEN))
+		fail_msg("c2: the 0xB3 answer does not repeat the request");
+	if (mv->t_ns < rep->t_ns)
+		fail_msg("c2: moved %.1f ms before its 0xB3 was answered",
+			 ms_of(rep->t_ns - mv->t_ns));
+
+	/* kill -9: c2 stops by itself */
+	t_kill = real_ns();
+	kill(S.rmdd_kid->pid, SIGKILL);
+	assert_int_equal(kid_wait_exit(S.rmdd_kid, EXIT_MS, service), 128 + SIGKILL);
+	controller(false, false);
+	end = mono_ns() + (int64_t)(S.cfg.safety.comm_loss_ms + 3000) * NS_PER_MS;
+	do {
+		run_for(50);
+		sync_log();
+		f1 = first_frame(0, b, rep_id(c2), 0xF1, t_kill, T_END);
+		if (!f1 && mono_ns() > end)
+			fail_msg("kill -9 rmdd: c2 sent no 0xF1 within %u ms; its frames:\n%s",
+				 S.cfg.safety.comm_loss_ms + 3000, motor_frames(c2, t_kill));
+	} while (!f1);
+	print_message("comm-loss: kill -9 rmdd: c2's 0xF1 %.1f ms after the kill\n",
+		      ms_of(f1->t_ns - t_kill));
+}
+
 /* ---- main ------------------------------------------------------------------------ */
 
 /* RMD_VSYS_KEEP=DIR: keep candump's log and the configuration there (the guest's /dev/shm is its own). */
@@ -1821,6 +1951,7 @@ int main(void)
 		cmocka_unit_test(test_system_watchdog),
 		cmocka_unit_test(test_system_sigterm),
 		cmocka_unit_test(test_system_kill9),
+		cmocka_unit_test(test_system_comm_loss),
 	};
 	const char *why;
 
@@ -1830,5 +1961,7 @@ int main(void)
 	S.have_can = !why;
 	if (why)
 		printf("SKIP: %s\n", why);
+	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_system_comm_loss */
+		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("vcan_system", tests, NULL, group_teardown);
 }

@@ -1353,6 +1353,50 @@ static void test_config_request_flood(void **state)
 	assert_int_equal(stats(f).configs_published, n + 1);
 }
 
+/* Issue 13: each motor's comm-loss protection in health_t and config_t. */
+static void test_comm_loss_published(void **state)
+{
+	struct fixture *f = fixture(state);
+	struct rmd_health h;
+	const rmd_health_t *o;
+	const rmd_config_t *c;
+
+	memset(&h, 0, sizeof(h));
+	h.nmotors = NMOTORS;
+	for (int i = 0; i < NMOTORS; i++) {
+		h.comm_loss[i] = RMD_CL_ARMED;
+		h.comm_loss_ms[i] = 100;
+	}
+	h.comm_loss[1] = RMD_CL_NO_ANSWER;
+	h.unarmed_rejects[1] = 1234;
+	h.comm_loss[2] = RMD_CL_OFF;
+	h.comm_loss_ms[2] = 0;
+	h.comm_loss[3] = RMD_CL_ARMED_ZEROS;
+	rmd_latest_put(&f->health, &h);
+	listen(f);
+	start(f);
+	WAIT_UNTIL(f, f->rx.n_health >= 2 && f->rx.n_config >= 1, 2000);
+	o = f->rx.health;
+	assert_int_equal(o->motor_count, NMOTORS);
+	assert_int_equal(o->comm_loss[0], RMD_HEALTH_T_CL_ARMED);
+	assert_int_equal(o->comm_loss[1], RMD_HEALTH_T_CL_NO_ANSWER);
+	assert_int_equal(o->comm_loss[2], RMD_HEALTH_T_CL_OFF);
+	assert_int_equal(o->comm_loss[3], RMD_HEALTH_T_CL_ARMED_ZEROS);
+	assert_int_equal(o->comm_loss_ms[0], 100);
+	assert_int_equal(o->comm_loss_ms[2], 0);
+	assert_int_equal(o->unarmed_rejects[1], 1234);
+	assert_int_equal(o->unarmed_rejects[0], 0);
+	c = f->rx.config;
+	assert_int_equal(c->motor[1].comm_loss, RMD_HEALTH_T_CL_NO_ANSWER);
+	assert_int_equal(c->motor[1].comm_loss_ms, 100);
+	assert_int_equal(c->motor[2].comm_loss, RMD_HEALTH_T_CL_OFF);
+	assert_int_equal(c->motor[2].comm_loss_ms, 0);
+	/* the values are one enum */
+	assert_int_equal(RMD_HEALTH_T_CL_PENDING, RMD_CL_PENDING);
+	assert_int_equal(RMD_HEALTH_T_CL_DIFFERS, RMD_CL_DIFFERS);
+	assert_int_equal(RMD_HEALTH_T_CL_UNSUPPORTED, RMD_CL_UNSUPPORTED);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1370,6 +1414,7 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_one_controller_at_a_time, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_utime_full_width, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_config_request_flood, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_comm_loss_published, setup, teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood */

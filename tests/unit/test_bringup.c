@@ -269,9 +269,14 @@ static void test_b3_outcomes(void **state)
 
 	(void)state;
 	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		/* issue 13: probe.on_missing refuse counts a motor not armed as missing */
+		bool unarmed = cases[k].want == RMD_B3_NO_ANSWER || cases[k].want == RMD_B3_DIFFERS;
+
 		rig_up(2, cases[k].how, NULL, 0);
 		R.cfg.safety.comm_loss_ms = cases[k].comm_loss_ms;
-		assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+		assert_int_equal(rmd_loop_bringup(R.l, &R.bu), unarmed ? -ENODEV : 0);
+		assert_int_equal(R.bu.unarmed, unarmed ? 2 : 0);
+		assert_int_equal(R.bu.missing, 0);
 		assert_int_equal(R.bu.comm_loss_ms, cases[k].comm_loss_ms);
 		for (unsigned i = 0; i < 2; i++) {
 			if (R.bu.motor[i].b3 != cases[k].want)

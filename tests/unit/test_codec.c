@@ -828,10 +828,13 @@ static void test_encode_errors(void **state)
 	rmd_msg_set(&m, RMD_FLD_MODEL, INT64_C(1) << 56);
 	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REPLY, 1, &m, &f), -ERANGE);
 
+	/* V2 §3.29: six data bytes and a sign byte (was read as 56 bits) */
 	m = (struct rmd_msg){ .cmd = 0x92 };
+	rmd_msg_set(&m, RMD_FLD_ANGLE, INT64_C(1) << 47);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 1, &m, &f), -ERANGE);
 	rmd_msg_set(&m, RMD_FLD_ANGLE, INT64_C(1) << 55);
 	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 1, &m, &f), -ERANGE);
-	rmd_msg_set(&m, RMD_FLD_ANGLE, -(INT64_C(1) << 55));
+	rmd_msg_set(&m, RMD_FLD_ANGLE, -(INT64_C(1) << 47));
 	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 1, &m, &f), 0);
 
 	/* Bad motor, direction or protocol. */
@@ -1127,6 +1130,60 @@ static void test_version_date(void **state)
 				 dates[k].valid);
 }
 
+/*
+ * V2 §3.29 (and §3.21 .. §3.25): the multi-turn angle in both of the
+ * manual's readings, six data bytes and a sign byte.  Issue 13: the reply
+ * 142#9278ECFFFFFFFF01 was read as (2^49 - 5000) x 0.01 deg.
+ */
+static void test_v2_multi_turn_sign(void **state)
+{
+	static const struct {
+		const char *hex;
+		int64_t angle; /* 0.01 deg */
+	} v[] = {
+		/* -50.00 deg, two's complement and the flag 1 (the int64's low bytes) */
+		{ "142#9278ECFFFFFFFF01", -5000 },
+		/* -50.00 deg, magnitude and the flag 1 */
+		{ "142#9288130000000001", -5000 },
+		/* -50.00 deg, the int64's first seven bytes (flag byte 0xFF) */
+		{ "142#9278ECFFFFFFFFFF", -5000 },
+		/* +100.00 deg */
+		{ "142#9210270000000000", 10000 },
+		/* across encoder wraps: +3600.00 deg (10 turns), -3600.00 deg both ways */
+		{ "142#92407E0500000000", 360000 },
+		{ "142#92C081FAFFFFFF01", -360000 },
+		{ "142#92407E0500000001", -360000 },
+		/* 0 with the flag set is 0 */
+		{ "142#9200000000000001", 0 },
+		/* the largest magnitudes of 48 bits */
+		{ "142#92FFFFFFFFFF7F00", (INT64_C(1) << 47) - 1 },
+		{ "142#92FFFFFFFFFF7F01", -((INT64_C(1) << 47) - 1) },
+		{ "142#92000000000080FF", -(INT64_C(1) << 47) },
+	};
+	struct rmd_msg m;
+	struct rmd_frame f;
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(v) / sizeof(v[0]); i++) {
+		if (decode_hex(RMD_PROTO_V2, RMD_DIR_REPLY, v[i].hex, &m) != 0 ||
+		    m.v[RMD_FLD_ANGLE] != v[i].angle)
+			fail_msg("%s: %lld, want %lld", v[i].hex, (long long)m.v[RMD_FLD_ANGLE],
+				 (long long)v[i].angle);
+	}
+	/* encoding writes the manual's form: two's complement, flag 1 */
+	m = (struct rmd_msg){ .cmd = 0x92 };
+	rmd_msg_set(&m, RMD_FLD_ANGLE, -5000);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &m, &f), 0);
+	assert_int_equal(f.can_id, 0x142);
+	assert_memory_equal(f.data, "\x92\x78\xEC\xFF\xFF\xFF\xFF\x01", 8);
+	rmd_msg_set(&m, RMD_FLD_ANGLE, 10000);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &m, &f), 0);
+	assert_memory_equal(f.data, "\x92\x10\x27\x00\x00\x00\x00\x00", 8);
+	/* the encoder's multi-turn reads take the same sign byte (§3.21) */
+	assert_int_equal(decode_hex(RMD_PROTO_V2, RMD_DIR_REPLY, "142#6010270000000001", &m), 0);
+	assert_int_equal(m.v[RMD_FLD_ENCODER], -10000);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1146,6 +1203,7 @@ int main(void)
 		cmocka_unit_test(test_run_mode_names),
 		cmocka_unit_test(test_model),
 		cmocka_unit_test(test_version_date),
+		cmocka_unit_test(test_v2_multi_turn_sign),
 	};
 
 	return cmocka_run_group_tests_name("codec", tests, NULL, NULL);

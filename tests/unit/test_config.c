@@ -862,6 +862,46 @@ static void test_physical_lower_bounds(void **state)
 			 0);
 }
 
+/* Issue 13: a motor's own comm_loss_ms (0: off), its check, and the faults' cmd and count. */
+static void test_comm_loss_keys(void **state)
+{
+	(void)state;
+	assert_int_equal(
+		load_str("cl.yaml",
+			 "safety: {comm_loss_ms: 150}\n"
+			 "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n"
+			 "        - {kind: drop, motor: 1, cmd: 0xB3, count: 1}\n"
+			 "motors:\n"
+			 "  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: b, bus: s, id: 2, mode: torque, torque_constant_nm_a: 2, "
+			 "comm_loss_ms: 0}\n"
+			 "  - {name: c, bus: s, id: 3, mode: torque, torque_constant_nm_a: 2, "
+			 "comm_loss_ms: 250}\n"),
+		0);
+	assert_int_equal(cfg.motors[0].comm_loss_ms, RMD_CONFIG_COMM_LOSS_INHERIT);
+	assert_int_equal(rmd_config_comm_loss_ms(&cfg, 0), 150);
+	assert_int_equal(rmd_config_comm_loss_ms(&cfg, 1), 0);
+	assert_int_equal(rmd_config_comm_loss_ms(&cfg, 2), 250);
+	assert_int_equal(sim.buses[0].faults[0].cmd, 0xB3);
+	assert_int_equal(sim.buses[0].faults[0].count, 1);
+	/* a motor's own time is checked against its command period like the global one */
+	assert_int_equal(
+		load_str("cl-short.yaml",
+			 "loop: {rate_hz: 100}\n"
+			 "buses:\n  - {name: s, type: sim}\n"
+			 "motors:\n"
+			 "  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2, "
+			 "comm_loss_ms: 20}\n"),
+		-EINVAL);
+	expect_in(err, ":5: motors[0].comm_loss_ms: 20 ms is shorter than 5 command "
+		       "periods of motor a");
+	assert_true(load_str("cl-neg.yaml",
+			     "buses:\n  - {name: s, type: sim}\n"
+			     "motors:\n"
+			     "  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2, "
+			     "comm_loss_ms: -1}\n") < 0);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -884,6 +924,7 @@ int main(void)
 		cmocka_unit_test(test_nul_refused),
 		cmocka_unit_test(test_range_u64),
 		cmocka_unit_test(test_physical_lower_bounds),
+		cmocka_unit_test(test_comm_loss_keys),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

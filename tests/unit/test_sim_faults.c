@@ -236,13 +236,38 @@ static void test_per_frame(void **state)
 	}
 }
 
+/* A per-frame fault limited to the answers of one command, and to the first count of them. */
+static void test_cmd_and_count(void **state)
+{
+	static const struct rmd_sim_fault drop_b3 = {
+		.kind = RMD_SIM_FAULT_DROP, .motor_id = 1, .probability = 1, .cmd = 0xB3, .count = 2
+	};
+	struct rmd_sim_faults fs;
+	uint64_t rng = 1, counts[RMD_SIM_FAULT_COUNT] = { 0 };
+	struct rmd_frame b3 = { .can_id = 0x241, .len = 8, .data = { 0xB3, 0, 0, 0, 0x64 } };
+	struct rmd_frame st = { .can_id = 0x241, .len = 8, .data = { 0x9C } };
+	int64_t ready = 0;
+
+	(void)state;
+	assert_int_equal(rmd_sim_faults_set(&fs, &drop_b3, 1), 0);
+	/* another command's answer passes; the first two 0xB3 answers are lost, not the third */
+	assert_true(rmd_sim_faults_frame(&fs, &rng, 1, 0, &st, &ready, counts));
+	assert_false(rmd_sim_faults_frame(&fs, &rng, 1, 0, &b3, &ready, counts));
+	assert_true(rmd_sim_faults_frame(&fs, &rng, 1, 0, &st, &ready, counts));
+	assert_false(rmd_sim_faults_frame(&fs, &rng, 1, 0, &b3, &ready, counts));
+	assert_true(rmd_sim_faults_frame(&fs, &rng, 1, 0, &b3, &ready, counts));
+	assert_int_equal(counts[RMD_SIM_FAULT_DROP], 2);
+	/* setting the table again starts the count again */
+	assert_int_equal(rmd_sim_faults_set(&fs, &drop_b3, 1), 0);
+	assert_false(rmd_sim_faults_frame(&fs, &rng, 1, 0, &b3, &ready, counts));
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_names),
-		cmocka_unit_test(test_check),
-		cmocka_unit_test(test_windows),
-		cmocka_unit_test(test_per_frame),
+		cmocka_unit_test(test_names),	      cmocka_unit_test(test_check),
+		cmocka_unit_test(test_windows),	      cmocka_unit_test(test_per_frame),
+		cmocka_unit_test(test_cmd_and_count),
 	};
 
 	return cmocka_run_group_tests_name("sim_faults", tests, NULL, NULL);

@@ -197,9 +197,10 @@ void sim_format_motors(uint32_t mask, char *buf, size_t size)
 /* -------------------------------------------------------------------------- */
 /* Faults                                                                     */
 
-#define FAULT_SYNTAX                                                                           \
-	"drop:ID:P, delay:ID:US:P, bad_dlc:ID:DLC:P, garbage:ID:P, wrong_id:ID:OTHER:P "       \
-	"(each with an optional @START_S-END_S window), disappear:ID:START_S:END_S[:reboot], " \
+#define FAULT_SYNTAX                                                                     \
+	"drop:ID:P, delay:ID:US:P, bad_dlc:ID:DLC:P, garbage:ID:P, wrong_id:ID:OTHER:P " \
+	"(each with an optional /CMD[,COUNT] filter and @START_S-END_S window), "        \
+	"disappear:ID:START_S:END_S[:reboot], "                                          \
 	"error_flag:ID:BITS:AT_S[:END_S], flood:CANID:PERIOD_US:START_S[:END_S]"
 
 struct fault_syntax {
@@ -208,11 +209,11 @@ struct fault_syntax {
 };
 
 static const struct fault_syntax fault_syntaxes[] = {
-	{ RMD_SIM_FAULT_DROP, "drop:ID:P[@START_S-END_S]" },
-	{ RMD_SIM_FAULT_DELAY, "delay:ID:US:P[@START_S-END_S]" },
-	{ RMD_SIM_FAULT_BAD_DLC, "bad_dlc:ID:DLC:P[@START_S-END_S]" },
-	{ RMD_SIM_FAULT_GARBAGE, "garbage:ID:P[@START_S-END_S]" },
-	{ RMD_SIM_FAULT_WRONG_ID, "wrong_id:ID:OTHER_ID:P[@START_S-END_S]" },
+	{ RMD_SIM_FAULT_DROP, "drop:ID:P[/CMD[,COUNT]][@START_S-END_S]" },
+	{ RMD_SIM_FAULT_DELAY, "delay:ID:US:P[/CMD[,COUNT]][@START_S-END_S]" },
+	{ RMD_SIM_FAULT_BAD_DLC, "bad_dlc:ID:DLC:P[/CMD[,COUNT]][@START_S-END_S]" },
+	{ RMD_SIM_FAULT_GARBAGE, "garbage:ID:P[/CMD[,COUNT]][@START_S-END_S]" },
+	{ RMD_SIM_FAULT_WRONG_ID, "wrong_id:ID:OTHER_ID:P[/CMD[,COUNT]][@START_S-END_S]" },
 	{ RMD_SIM_FAULT_DISAPPEAR, "disappear:ID:START_S:END_S[:reboot]" },
 	{ RMD_SIM_FAULT_ERROR_FLAG, "error_flag:ID:BITS:AT_S[:END_S]" },
 	{ RMD_SIM_FAULT_FLOOD, "flood:CANID:PERIOD_US:START_S[:END_S]" },
@@ -321,9 +322,28 @@ static int fault_error(const char *where, const char *spec, const char *what,
 	return -EINVAL;
 }
 
+/* "CMD[,COUNT]": only frames whose first byte is CMD, at most COUNT of them (rmd/sim_faults.h). */
+static int parse_fault_filter(char *s, struct rmd_sim_fault *f)
+{
+	char *comma = strchr(s, ',');
+	uint64_t v;
+
+	if (comma)
+		*comma++ = '\0';
+	if (rmd_sim_parse_u64(s, &v) < 0 || v < 1 || v > 0xFF)
+		return -EINVAL;
+	f->cmd = (uint8_t)v;
+	if (!comma)
+		return 0;
+	if (rmd_sim_parse_u64(comma, &v) < 0 || v < 1 || v > UINT32_MAX)
+		return -EINVAL;
+	f->count = (uint32_t)v;
+	return 0;
+}
+
 static int parse_fault(struct sim_config *c, const char *spec, const char *where)
 {
-	char buf[SIM_VALUE_MAX], *fld[MAX_FAULT_FIELDS], *window, *p;
+	char buf[SIM_VALUE_MAX], *fld[MAX_FAULT_FIELDS], *window, *filter, *p;
 	struct rmd_sim_fault f;
 	unsigned n = 0;
 	int kind;
@@ -338,6 +358,9 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 	window = strchr(buf, '@');
 	if (window)
 		*window++ = '\0';
+	filter = strchr(buf, '/');
+	if (filter)
+		*filter++ = '\0';
 	for (p = buf; n < MAX_FAULT_FIELDS;) {
 		fld[n++] = p;
 		p = strchr(p, ':');
@@ -473,6 +496,11 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 	if (window && !per_frame)
 		return fault_error(where, spec,
 				   "this fault takes its window in its fields, not '@'", f.kind);
+	if (filter && (!per_frame || parse_fault_filter(filter, &f) < 0))
+		return fault_error(where, spec,
+				   "/CMD[,COUNT] (a command byte 1..0xff, at most COUNT frames) is "
+				   "for per-frame faults",
+				   f.kind);
 	if (window) {
 		char *dash = strchr(window, '-');
 

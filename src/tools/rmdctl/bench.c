@@ -380,13 +380,9 @@ int rmdctl_exchange(struct dev *d, struct req *q, unsigned n)
 	return r;
 }
 
-/* One request; reports failure.  Returns 0 or RMDCTL_EXIT_DATA. */
-int rmdctl_ask(struct dev *d, struct req *q)
+/* The answer rmdctl_run_reqs() got for one request; reports failure.  Returns 0 or RMDCTL_EXIT_DATA. */
+int rmdctl_ask_check(struct dev *d, struct req *q)
 {
-	int r = rmdctl_run_reqs(d, q, 1);
-
-	if (r)
-		return r;
 	if (!q->answered && !q->ok) {
 		rmdctl_report_missing(d, q, "");
 		return RMDCTL_EXIT_DATA;
@@ -396,6 +392,14 @@ int rmdctl_ask(struct dev *d, struct req *q)
 		return RMDCTL_EXIT_DATA;
 	}
 	return 0;
+}
+
+/* One request; reports failure.  Returns 0 or RMDCTL_EXIT_DATA. */
+int rmdctl_ask(struct dev *d, struct req *q)
+{
+	int r = rmdctl_run_reqs(d, q, 1);
+
+	return r ? r : rmdctl_ask_check(d, q);
 }
 
 /*

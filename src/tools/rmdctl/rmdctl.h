@@ -170,6 +170,8 @@ void rmdctl_req_init(struct req *q, uint8_t id, uint8_t cmd);
 int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n);
 /* Open the bus, rmdctl_run_reqs(), close it: 0 or an exit status. */
 int rmdctl_exchange(struct dev *d, struct req *q, unsigned n);
+/* The answer rmdctl_run_reqs() got for one request; reports failure.  0 or RMDCTL_EXIT_DATA. */
+int rmdctl_ask_check(struct dev *d, struct req *q);
 /* One request; failure reported.  0 or RMDCTL_EXIT_DATA. */
 int rmdctl_ask(struct dev *d, struct req *q);
 /* "motor 3 did not answer 0x9A within 5 ms (3 tries)" + more. */

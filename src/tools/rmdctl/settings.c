@@ -208,10 +208,17 @@ int rmdctl_run_set_timeout(struct dev *d, int argc, char **argv)
 			   id, d->name, ms);
 	if (r)
 		goto out;
-	/* V3 §2.30: stored in ROM; the answer echoes the request. */
+	/* V3 §2.30: stored in ROM; the answer echoes the request, or (example 2) is zeros. */
 	rmdctl_req_init(&q, id, 0xB3);
 	rmd_msg_set(&q.msg, RMD_FLD_TIMEOUT, (int64_t)ms);
-	r = rmdctl_ask(d, &q);
+	r = rmdctl_run_reqs(d, &q, 1);
+	if (!r && q.answered && !q.ok && !memcmp(q.t.rep.f.data, "\xB3\0\0\0\0\0\0", 8)) {
+		printf("%s: motor %u: comm-loss protection written to ROM; answered with zeros "
+		       "(V3 §2.30 example 2): accepted, the time is not verified\n",
+		       d->name, id);
+		goto out;
+	}
+	r = r ? r : rmdctl_ask_check(d, &q);
 	if (r)
 		goto out;
 	if (ms)

@@ -554,6 +554,7 @@ static int b3_line(const struct rmd_config *cfg, unsigned b, const struct rmd_br
 	for (unsigned i = 0; i < bu->n_motors; i++) {
 		const struct rmd_config_motor *c = &cfg->motors[i];
 		enum rmd_bringup_b3 b3 = bu->motor[i].b3;
+		uint32_t ms = bu->motor[i].comm_loss_ms;
 
 		if (c->bus != b || b3 == RMD_B3_NOT_APPLICABLE)
 			continue;
@@ -565,9 +566,16 @@ static int b3_line(const struct rmd_config *cfg, unsigned b, const struct rmd_br
 			if (bu->comm_loss_ms)
 				line_add(ln, "%u ms:", (unsigned)bu->comm_loss_ms);
 		}
+		if (ms != bu->comm_loss_ms && !ms) {
+			/* its own key turns it off: whatever the answer, it may move */
+			line_add(ln, " motor %u (%s) off (its comm_loss_ms: 0);", c->id, c->name);
+			continue;
+		}
 		switch (b3) {
 		case RMD_B3_SET:
 			line_add(ln, " %u", c->id);
+			if (ms != bu->comm_loss_ms)
+				line_add(ln, " (%u ms)", (unsigned)ms);
 			set++;
 			break;
 		case RMD_B3_ZEROS:
@@ -577,13 +585,18 @@ static int b3_line(const struct rmd_config *cfg, unsigned b, const struct rmd_br
 				level = 5;
 			break;
 		case RMD_B3_NO_ANSWER:
-			line_add(ln, " motor %u (%s) did not answer 0xB3;", c->id, c->name);
-			level = 4;
+			line_add(ln,
+				 " motor %u (%s) did not answer 0xB3: it cannot be enabled until "
+				 "it does;",
+				 c->id, c->name);
+			level = ms ? 4 : level;
 			break;
 		case RMD_B3_DIFFERS:
-			line_add(ln, " motor %u (%s) NOT confirmed (the echo differs);", c->id,
-				 c->name);
-			level = 4;
+			line_add(ln,
+				 " motor %u (%s) NOT confirmed (the echo differs): it cannot be "
+				 "enabled until it is;",
+				 c->id, c->name);
+			level = ms ? 4 : level;
 			break;
 		case RMD_B3_NOT_APPLICABLE:
 			break;
@@ -592,6 +605,77 @@ static int b3_line(const struct rmd_config *cfg, unsigned b, const struct rmd_br
 	if (level)
 		line_add(ln, " (%u set, echo verified)", set);
 	return level;
+}
+
+/* What a motor's protection is, for the exit line. */
+static const char *comm_loss_why(uint8_t cl)
+{
+	switch (cl) {
+	case RMD_CL_NO_ANSWER:
+		return "did not answer 0xB3";
+	case RMD_CL_DIFFERS:
+		return "answered 0xB3 with another time";
+	case RMD_CL_OFF:
+		return "off by config";
+	case RMD_CL_UNSUPPORTED:
+		return "V2: none";
+	default:
+		return "never armed";
+	}
+}
+
+/* What rmd_loop_stop_motors() sent, for the exit line (safety.shutdown_action).  Non-rt. */
+static const char *shutdown_said(const struct rmd_config_safety *s)
+{
+	switch (s->shutdown_action) {
+	case RMD_SHUTDOWN_STOP:
+		return "every motor was sent stop (0x80)";
+	case RMD_SHUTDOWN_HOLD:
+		return "the driven motors were sent hold (0x81), the others stop (0x80)";
+	case RMD_SHUTDOWN_DAMP:
+		return "the driven motors were damped, then every motor was sent stop (0x80) and "
+		       "brake (0x78)";
+	case RMD_SHUTDOWN_BRAKE:
+		return "every motor was sent stop (0x80) and brake (0x78)";
+	case RMD_SHUTDOWN_DEFAULT:
+		break;
+	}
+	return s->safe_action == RMD_SAFE_BRAKE ?
+		       "every motor was sent stop (0x80) and brake (0x78)" :
+		       "every motor was sent stop (0x80)";
+}
+
+/*
+ * The last line: what the motors were sent and whose comm-loss protection
+ * stays set, naming exactly the motors it is set on (after the loop's
+ * thread is joined, so the loop's state is final).
+ */
+static void exit_line(const struct rmdd *d)
+{
+	const struct rmd_config *cfg = &d->cfg;
+	const char *sent = shutdown_said(&cfg->safety);
+	unsigned set = 0, k = 0;
+	struct line ln = { .n = 0 };
+
+	for (unsigned i = 0; i < cfg->n_motors; i++)
+		set += rmd_comm_loss_set(rmd_loop_comm_loss(d->loop, i));
+	if (set == cfg->n_motors) {
+		tool_log(5, "%s; their comm-loss protection (0xB3) stays set", sent);
+		return;
+	}
+	for (unsigned i = 0; i < cfg->n_motors; i++)
+		if (rmd_comm_loss_set(rmd_loop_comm_loss(d->loop, i)))
+			line_add(&ln, "%s%s", k++ ? ", " : "", cfg->motors[i].name);
+	line_add(&ln, "%snot set on ", set ? "; " : "none; ");
+	k = 0;
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		uint8_t cl = rmd_loop_comm_loss(d->loop, i);
+
+		if (!rmd_comm_loss_set(cl))
+			line_add(&ln, "%s%s (%s)", k++ ? ", " : "", cfg->motors[i].name,
+				 comm_loss_why(cl));
+	}
+	tool_log(5, "%s; comm-loss protection (0xB3) stays set on %s", sent, ln.s);
 }
 
 /* Bring-up with its report.  Returns an exit status. */
@@ -626,12 +710,20 @@ static int bringup(struct rmdd *d)
 	}
 	/* what bring-up reported through the ring goes out now */
 	rmdd_monitor_drain(&d->mon);
-	if (r == -ENODEV) {
+	if (r == -ENODEV && !bu.unarmed) {
 		tool_log(
 			3,
 			"%u motor(s) missing and probe.on_missing is refuse in %s (set it to start "
 			"to run without them)",
 			bu.missing, cfg->source);
+		return RMDD_EXIT_FAIL;
+	}
+	if (r == -ENODEV) {
+		tool_log(3,
+			 "%u motor(s) missing, %u without comm-loss protection (0xB3 not set), and "
+			 "probe.on_missing is refuse in %s (set it to start to run and keep them "
+			 "from moving until they answer and are armed)",
+			 bu.missing, bu.unarmed, cfg->source);
 		return RMDD_EXIT_FAIL;
 	}
 	if (r < 0) {
@@ -814,27 +906,6 @@ static int serve(struct rmdd *d, const struct rmdd_opts *o)
 	}
 }
 
-/* What rmd_loop_stop_motors() sent, for the exit line (safety.shutdown_action).  Non-rt. */
-static const char *shutdown_said(const struct rmd_config_safety *s)
-{
-	switch (s->shutdown_action) {
-	case RMD_SHUTDOWN_STOP:
-		return "every motor was sent stop (0x80)";
-	case RMD_SHUTDOWN_HOLD:
-		return "the driven motors were sent hold (0x81), the others stop (0x80)";
-	case RMD_SHUTDOWN_DAMP:
-		return "the driven motors were damped, then every motor was sent stop (0x80) and "
-		       "brake (0x78)";
-	case RMD_SHUTDOWN_BRAKE:
-		return "every motor was sent stop (0x80) and brake (0x78)";
-	case RMD_SHUTDOWN_DEFAULT:
-		break;
-	}
-	return s->safe_action == RMD_SAFE_BRAKE ?
-		       "every motor was sent stop (0x80) and brake (0x78)" :
-		       "every motor was sent stop (0x80)";
-}
-
 /* ---- the daemon ---------------------------------------------------------------- */
 
 static int run(const struct rmdd_opts *o)
@@ -972,8 +1043,7 @@ err_stop_loop:
 		tool_log(3, "rt loop thread: join: %s", strerror(-r));
 	if (ret == RMDD_EXIT_OK) {
 		rmdd_stats_print(&d->stats, "exit");
-		tool_log(5, "%s; their comm-loss protection (0xB3) stays set",
-			 shutdown_said(&d->cfg.safety));
+		exit_line(d);
 	}
 err_stop_bridge:
 	rmd_bridge_stop(&d->bridge);

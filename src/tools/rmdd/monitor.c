@@ -149,6 +149,33 @@ static void log_motor_error(const struct rmd_config *cfg, const struct rmd_event
 	tool_log(4, "%s: error flags 0x%04X (%s)", ctx, code, n ? list : "unknown bits");
 }
 
+/* RMD_EV_COMM_LOSS: armed by the loop (info), or not, and an enable refused (warning). */
+static void log_comm_loss(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	uint32_t ms = e->motor < cfg->n_motors ? rmd_config_comm_loss_ms(cfg, e->motor) : 0;
+	const char *why = e->a == RMD_CL_DIFFERS ? "it answered 0xB3 with another time" :
+						   "it did not answer 0xB3";
+	char ctx[96];
+
+	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	if (e->a == RMD_CL_ARMED || e->a == RMD_CL_ARMED_ZEROS) {
+		tool_log(6, "%s: comm-loss protection (0xB3) %u ms set, %s", ctx, (unsigned)ms,
+			 e->a == RMD_CL_ARMED ? "echo verified" :
+						"answered zeros, not verified (V3 §2.30)");
+		return;
+	}
+	if (e->b)
+		tool_log(4,
+			 "%s: enable refused: its comm-loss protection (0xB3) is not set (%s); "
+			 "further refusals are counted in health_t",
+			 ctx, why);
+	else
+		tool_log(4,
+			 "%s: comm-loss protection (0xB3) not set: %s; it cannot be enabled "
+			 "until it is",
+			 ctx, why);
+}
+
 static void log_bus_state(const struct rmd_config *cfg, const struct rmd_event *e)
 {
 	enum rmd_bus_state s = (enum rmd_bus_state)e->a;
@@ -242,6 +269,9 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		break;
 	case RMD_EV_BUS_STATE:
 		log_bus_state(cfg, e);
+		break;
+	case RMD_EV_COMM_LOSS:
+		log_comm_loss(cfg, e);
 		break;
 	case RMD_EV_OVERRUN:
 		/* the first of each second now, the rest summed up by overrun_summary() */

@@ -2,17 +2,18 @@
 /*
  * rmdd internals: the daemon's parts and what they share.
  *
- *   rmdd.c         options, the lifecycle (build, start, serve, tear down)
- *   rmdd_buses.c   open every configured bus
- *   rmdd_lcm.c     the LCM bridge's options from the configuration
- *   rmdd_log.c     stderr logging, and the monitor thread: drains the rt
- *                  loop's event ring and logs on change, samples each
- *                  motor's reply latency
- *   rmdd_stats.c   the statistics (SIGUSR1, exit) and the STATUS= line
- *   rmdd_notify.c  systemd: READY=1, STATUS=, WATCHDOG=1, STOPPING=1
+ *   main.c     options, bring-up's report, the lifecycle (build, start,
+ *              serve, tear down)
+ *   buses.c    open every configured bus
+ *   lcm.c      the LCM bridge's options from the configuration
+ *   monitor.c  the monitor thread: drains the rt loop's event ring and logs
+ *              on change, samples each motor's reply latency
+ *   stats.c    the statistics (SIGUSR1, exit) and the STATUS= line
+ *   notify.c   systemd: READY=1, STATUS=, WATCHDOG=1, STOPPING=1
  *
+ * Logging is src/tools/common/log.c, shared with rmdctl and rmd-sim.
  * Everything here is non-rt: the only rt code of the daemon is the loop
- * (src/loop.c), which these parts never call into except through its
+ * (src/rt/), which these parts never call into except through its
  * thread-safe getters.
  */
 #ifndef RMDD_H
@@ -48,7 +49,7 @@ enum {
 /* The monitor looks at the ring and the snapshot this often. */
 #define RMDD_MONITOR_PERIOD_NS 5000000
 
-/* ---- the monitor thread (rmdd_log.c) ------------------------------------ */
+/* ---- the monitor thread (monitor.c) ------------------------------------- */
 
 /* One motor's reply latency as sampled by the monitor. */
 struct rmdd_lat {
