@@ -434,12 +434,18 @@ static double move_speed(const struct rmd_sim_motor *m, double dps)
 	return rad(dps);
 }
 
-/* Planned move to `target` (pos_rad frame) at up to `vmax`: 0xA4 and kin. */
-static void move_to(struct rmd_sim_motor *m, double target, double vmax)
+/* Enter a position mode aiming at `target` (pos_rad frame) at up to `vmax`. */
+static void aim(struct rmd_sim_motor *m, enum rmd_sim_ctrl mode, double target, double vmax)
 {
-	enter(m, RMD_SIM_POS_ABS);
+	enter(m, mode);
 	m->sp_pos_rad = target;
 	m->sp_max_speed_rad_s = vmax;
+}
+
+/* Planned move to `target` at up to `vmax`: 0xA4 and kin. */
+static void move_to(struct rmd_sim_motor *m, double target, double vmax)
+{
+	aim(m, RMD_SIM_POS_ABS, target, vmax);
 }
 
 /*
@@ -502,9 +508,7 @@ static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct r
 			break;
 		}
 		/* V3 §2.19.1: direct tracking through the position PI. */
-		enter(m, RMD_SIM_POS_TRACK);
-		m->sp_pos_rad = ang + off;
-		m->sp_max_speed_rad_s = vmax;
+		aim(m, RMD_SIM_POS_TRACK, ang + off, vmax);
 		break;
 	case 0xA4:
 		/* V3 §2.20 / V2 §3.40: absolute, planned with 0x43 index 0/1. */
@@ -516,9 +520,7 @@ static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct r
 			break;
 		}
 		/* V3 §2.21: tracking with a speed limit (0.01 dps, row-scaled). */
-		enter(m, RMD_SIM_POS_TRACK);
-		m->sp_pos_rad = ang + off;
-		m->sp_max_speed_rad_s = vmax;
+		aim(m, RMD_SIM_POS_TRACK, ang + off, vmax);
 		break;
 	case 0xA6:
 		move_to(m, single_turn_target(m, deg(ang), msg->v[RMD_FLD_SPIN_DIR]), vmax);

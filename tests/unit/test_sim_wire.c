@@ -430,6 +430,17 @@ static void test_overload_runs_late(void **state)
 
 /* ---- (d) faults ----------------------------------------------------------- */
 
+/* Frames on can_id every period_ns during [start_ns, end_ns). */
+static struct rmd_sim_fault flood(uint32_t can_id, int64_t period_ns, int64_t start_ns,
+				  int64_t end_ns)
+{
+	return (struct rmd_sim_fault){ .kind = RMD_SIM_FAULT_FLOOD,
+				       .start_ns = start_ns,
+				       .end_ns = end_ns,
+				       .param = period_ns,
+				       .can_id = can_id };
+}
+
 static void set_faults(const struct rmd_sim_fault *f, size_t n)
 {
 	assert_int_equal(rmd_sim_wire_set_faults(&bus, f, n), 0);
@@ -673,11 +684,7 @@ static void test_fault_bus_off_window(void **state)
  */
 static void test_fault_flood_low_id_steals_wire(void **state)
 {
-	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_FLOOD,
-					 .start_ns = 10 * MS,
-					 .end_ns = 30 * MS,
-					 .param = 50 * US,
-					 .can_id = 0x000 };
+	const struct rmd_sim_fault f = flood(0x000, 50 * US, 10 * MS, 30 * MS);
 	double load;
 
 	(void)state;
@@ -708,11 +715,7 @@ static void test_fault_flood_low_id_steals_wire(void **state)
  */
 static void test_fault_flood_high_id_yields(void **state)
 {
-	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_FLOOD,
-					 .start_ns = 10 * MS,
-					 .end_ns = 30 * MS,
-					 .param = 200 * US,
-					 .can_id = 0x7FF };
+	const struct rmd_sim_fault f = flood(0x7FF, 200 * US, 10 * MS, 30 * MS);
 	static int64_t clean[40];
 	int64_t worst = 0;
 	unsigned k = 0;
@@ -827,11 +830,7 @@ static void test_unsolicited_frames(void **state)
 /* A host that never reads loses frames at the receive queue, counted. */
 static void test_rx_overflow_counted(void **state)
 {
-	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_FLOOD,
-					 .start_ns = 0,
-					 .end_ns = 100 * MS,
-					 .param = 200 * US,
-					 .can_id = 0x7FF };
+	const struct rmd_sim_fault f = flood(0x7FF, 200 * US, 0, 100 * MS);
 
 	(void)state;
 	set_faults(&f, 1);
