@@ -22,6 +22,7 @@
 
 #include <cmocka.h>
 
+#include "harness/rig.h"
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
 #include "rmd/bus_rs485.h"
@@ -152,17 +153,8 @@ static void test_found(void **state)
 	assert_int_equal(R.bu.n_buses, 2);
 	assert_int_equal(R.bu.missing, 0);
 	assert_int_equal(R.bu.comm_loss_ms, R.cfg.safety.comm_loss_ms);
-	for (unsigned i = 0; i < 4; i++) {
-		const struct rmd_bringup_motor *m = &R.bu.motor[i];
-
-		assert_int_equal(m->state, RMD_BRINGUP_FOUND);
-		assert_string_equal(m->model, "X8S2V10");
-		assert_int_equal(m->version, 20220206);
-		assert_true(m->status);
-		assert_float_equal(m->voltage_v, 48.0, 0.05);
-		assert_int_equal(m->error_code, 0);
-		assert_int_equal(m->b3, RMD_B3_SET);
-	}
+	for (unsigned i = 0; i < 4; i++)
+		rig_assert_default_motor(&R.bu.motor[i]);
 	assert_int_equal(R.bu.unexpected_ids[0], 0);
 	assert_int_equal(R.bu.unexpected_ids[1], 0);
 	rig_down();
