@@ -30,17 +30,12 @@ static uint64_t seed;
 /* Default ranges but torque ±18 N·m, as some firmware has (DESIGN.md); set by main(). */
 static struct rmd_mit_ranges ranges_t18;
 
-/* Every value equals its code: shows where each bit lands. */
+/* Every value equals its code (every minimum 0): shows where each bit lands. */
 static const struct rmd_mit_ranges ranges_identity = {
-	.p_min = 0.0,
 	.p_max = 65535.0,
-	.v_min = 0.0,
 	.v_max = 4095.0,
-	.t_min = 0.0,
 	.t_max = 4095.0,
-	.kp_min = 0.0,
 	.kp_max = 4095.0,
-	.kd_min = 0.0,
 	.kd_max = 4095.0,
 };
 
