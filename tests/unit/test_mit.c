@@ -486,21 +486,31 @@ struct bad_frame_vec {
 
 static void test_cmd_bad_frames(void **state)
 {
-	const struct bad_frame_vec vecs[] = {
-		{ "DLC 7", "401#E66682E052333B", -EBADMSG },
-		{ "DLC 0", "401#", -EBADMSG },
-		{ "id 0x400", "400#E66682E052333B55", -EINVAL },
-		{ "id 0x421", "421#E66682E052333B55", -EINVAL },
-		{ "V3 single-motor id 0x141", "141#E66682E052333B55", -EINVAL },
-		{ "MIT reply id 0x501", "501#E66682E052333B55", -EINVAL },
+	/* V3 §5.4 example 1 (401#E66682E052333B55) with another CAN ID or DLC. */
+	const struct {
+		const char *name;
+		uint32_t can_id;
+		uint8_t len;
+		int want;
+	} vecs[] = {
+		{ "DLC 7", 0x401, 7, -EBADMSG },
+		{ "DLC 0", 0x401, 0, -EBADMSG },
+		{ "id 0x400", 0x400, 8, -EINVAL },
+		{ "id 0x421", 0x421, 8, -EINVAL },
+		{ "V3 single-motor id 0x141", 0x141, 8, -EINVAL },
+		{ "MIT reply id 0x501", 0x501, 8, -EINVAL },
 	};
 
 	(void)state;
 	for (size_t i = 0; i < sizeof(vecs) / sizeof(vecs[0]); i++) {
-		struct rmd_frame f = frame_from(vecs[i].hex);
+		struct rmd_frame f = frame_from("401#E66682E052333B55");
 		struct rmd_mit_cmd c = { 7.0, 7.0, 7.0, 7.0, 7.0 };
 		uint8_t id = 99;
-		int ret = rmd_mit_decode_cmd(&rmd_mit_default_ranges, &f, &id, &c);
+		int ret;
+
+		f.can_id = vecs[i].can_id;
+		f.len = vecs[i].len;
+		ret = rmd_mit_decode_cmd(&rmd_mit_default_ranges, &f, &id, &c);
 
 		if (ret != vecs[i].want)
 			fail_msg("%s: decode returned %d, want %d", vecs[i].name, ret,
