@@ -181,12 +181,9 @@ static int teardown(void **state)
 		kill(c->pid, SIGKILL);
 		waitpid(c->pid, NULL, 0);
 	}
-	if (c->err >= 0)
-		close(c->err);
-	if (c->master >= 0)
-		close(c->master);
-	if (c->can >= 0)
-		close(c->can);
+	close_fd(&c->err);
+	close_fd(&c->master);
+	close_fd(&c->can);
 	free(c);
 	return 0;
 }
