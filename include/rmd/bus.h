@@ -155,6 +155,17 @@ const char *rmd_bus_state_name(enum rmd_bus_state state);
 int64_t rmd_bus_never_due_ns(const struct rmd_bus *bus);
 
 /*
+ * A transport's ops table (src/bus/bus_*.c): its functions are PREFIX_send,
+ * PREFIX_recv, PREFIX_fd and PREFIX_close, its kind "PREFIX"; its state and
+ * stats are the bus's own fields.
+ */
+#define RMD_BUS_OPS(prefix, next_due_ns_)                                                         \
+	{                                                                                         \
+		.kind = #prefix, .send = prefix##_send, .recv = prefix##_recv, .fd = prefix##_fd, \
+		.next_due_ns = (next_due_ns_), .close = prefix##_close,                           \
+	}
+
+/*
  * A decorator: a bus that hands frames on to another and may look at or
  * change them on the way (rmdctl --trace, tests).  Its priv is a struct
  * rmd_bus_wrap; RMD_BUS_WRAP_OPS() gives it ops that forward fd,

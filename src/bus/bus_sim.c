@@ -111,14 +111,7 @@ static void sim_close(struct rmd_bus *bus)
 	memset(bus, 0, sizeof(*bus));
 }
 
-static const struct rmd_bus_ops sim_ops = {
-	.kind = "sim",
-	.send = sim_send,
-	.recv = sim_recv,
-	.fd = sim_fd,
-	.next_due_ns = rmd_bus_never_due_ns,
-	.close = sim_close,
-};
+static const struct rmd_bus_ops sim_ops = RMD_BUS_OPS(sim, rmd_bus_never_due_ns);
 
 /* Power on the motors of opts at sim time 0.  Non-rt. */
 static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_sim_opts *opts,
