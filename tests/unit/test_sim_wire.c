@@ -22,6 +22,7 @@
 
 #include <cmocka.h>
 
+#include "harness/suite.h"
 #include "rmd/can_timing.h"
 #include "rmd/codec.h"
 #include "rmd/sim_wire.h"
@@ -940,29 +941,29 @@ static void test_config_validation(void **state)
 
 int main(void)
 {
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup_teardown(test_acceptance_8_pairs, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_arbitration_lowest_id_first, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_arbitration_replies_overtake, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_overload_runs_late, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_drop_rate, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_delay_rate, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_corrupt_rate, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_wrong_id_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_disappear_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_error_flag_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_bus_off_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_flood_low_id_steals_wire, setup,
-						teardown),
-		cmocka_unit_test_setup_teardown(test_fault_flood_high_id_yields, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_txqueuelen_enobufs, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_send_rejects_bad_frames, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_unsolicited_frames, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_rx_overflow_counted, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_load_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_deterministic, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_config_validation, setup, teardown),
+	struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_acceptance_8_pairs),
+		cmocka_unit_test(test_arbitration_lowest_id_first),
+		cmocka_unit_test(test_arbitration_replies_overtake),
+		cmocka_unit_test(test_overload_runs_late),
+		cmocka_unit_test(test_fault_drop_rate),
+		cmocka_unit_test(test_fault_delay_rate),
+		cmocka_unit_test(test_fault_corrupt_rate),
+		cmocka_unit_test(test_fault_wrong_id_window),
+		cmocka_unit_test(test_fault_disappear_window),
+		cmocka_unit_test(test_fault_error_flag_window),
+		cmocka_unit_test(test_fault_bus_off_window),
+		cmocka_unit_test(test_fault_flood_low_id_steals_wire),
+		cmocka_unit_test(test_fault_flood_high_id_yields),
+		cmocka_unit_test(test_txqueuelen_enobufs),
+		cmocka_unit_test(test_send_rejects_bad_frames),
+		cmocka_unit_test(test_unsolicited_frames),
+		cmocka_unit_test(test_rx_overflow_counted),
+		cmocka_unit_test(test_load_window),
+		cmocka_unit_test(test_deterministic),
+		cmocka_unit_test(test_config_validation),
 	};
 
+	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
 	return cmocka_run_group_tests_name("sim_wire", tests, NULL, NULL);
 }
