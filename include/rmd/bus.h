@@ -158,4 +158,47 @@ const char *rmd_bus_state_name(enum rmd_bus_state state);
 /* next_due_ns of a transport without a queue of its own (CAN, sim): INT64_MAX.  Rt-safe. */
 int64_t rmd_bus_never_due_ns(const struct rmd_bus *bus);
 
+/*
+ * A transport's ops table (src/bus/bus_*.c): its functions are PREFIX_send,
+ * PREFIX_recv, PREFIX_fd and PREFIX_close, its kind "PREFIX"; its state and
+ * stats are the bus's own fields.
+ */
+#define RMD_BUS_OPS(prefix, next_due_ns_)                                                         \
+	{                                                                                         \
+		.kind = #prefix, .send = prefix##_send, .recv = prefix##_recv, .fd = prefix##_fd, \
+		.next_due_ns = (next_due_ns_), .close = prefix##_close,                           \
+	}
+
+/*
+ * A decorator: a bus that hands frames on to another and may look at or
+ * change them on the way (rmdctl --trace, tests).  Its priv is a struct
+ * rmd_bus_wrap; RMD_BUS_WRAP_OPS() gives it ops that forward fd,
+ * next_due_ns, state and stats to the wrapped bus, and a close that leaves
+ * the wrapped bus to its owner.  send_/recv_ may be rmd_bus_wrap_send/recv.
+ */
+struct rmd_bus_wrap {
+	struct rmd_bus *inner; /* the bus it forwards to */
+	void *ctx;	       /* the decorator's own state */
+};
+
+#define RMD_BUS_WRAP_OPS(kind_, send_, recv_)                                             \
+	{                                                                                 \
+		.kind = (kind_), .send = (send_), .recv = (recv_), .fd = rmd_bus_wrap_fd, \
+		.next_due_ns = rmd_bus_wrap_next_due_ns, .state = rmd_bus_wrap_state,     \
+		.stats = rmd_bus_wrap_stats, .close = rmd_bus_wrap_close,                 \
+	}
+
+/* Make `bus` the decorator `ops` over w->inner: its name and caps, priv = w. */
+void rmd_bus_wrap_init(struct rmd_bus *bus, const struct rmd_bus_ops *ops, struct rmd_bus_wrap *w);
+
+/* The forwarding ops (rt-safe). */
+int rmd_bus_wrap_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n,
+		      int64_t now_ns);
+int rmd_bus_wrap_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now_ns);
+int rmd_bus_wrap_fd(const struct rmd_bus *bus);
+int64_t rmd_bus_wrap_next_due_ns(const struct rmd_bus *bus);
+enum rmd_bus_state rmd_bus_wrap_state(const struct rmd_bus *bus);
+const struct rmd_bus_stats *rmd_bus_wrap_stats(const struct rmd_bus *bus);
+void rmd_bus_wrap_close(struct rmd_bus *bus);
+
 #endif /* RMD_BUS_H */

@@ -714,14 +714,7 @@ static void rs485_close(struct rmd_bus *bus)
 	memset(bus, 0, sizeof(*bus));
 }
 
-static const struct rmd_bus_ops rs485_ops = {
-	.kind = "rs485",
-	.send = rs485_send,
-	.recv = rs485_recv,
-	.fd = rs485_fd,
-	.next_due_ns = rs485_next_due_ns,
-	.close = rs485_close,
-};
+static const struct rmd_bus_ops rs485_ops = RMD_BUS_OPS(rs485, rs485_next_due_ns);
 
 static const struct rmd_bus_ops rs485_device_ops = {
 	.kind = "rs485",

@@ -111,14 +111,7 @@ static void sim_close(struct rmd_bus *bus)
 	memset(bus, 0, sizeof(*bus));
 }
 
-static const struct rmd_bus_ops sim_ops = {
-	.kind = "sim",
-	.send = sim_send,
-	.recv = sim_recv,
-	.fd = sim_fd,
-	.next_due_ns = rmd_bus_never_due_ns,
-	.close = sim_close,
-};
+static const struct rmd_bus_ops sim_ops = RMD_BUS_OPS(sim, rmd_bus_never_due_ns);
 
 /* Power on the motors of opts at sim time 0.  Non-rt. */
 static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_sim_opts *opts,
@@ -152,6 +145,18 @@ static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_
 	return 0;
 }
 
+/* An option list of n `what`s: at most max, and there when n > 0.  Returns 0 or -errno. */
+static int check_list(const char *name, const char *what, unsigned n, unsigned max,
+		      const void *list, char *err, size_t errlen)
+{
+	if (n > max)
+		return rmd_errf(err, errlen, -E2BIG, "%s: %u %ss, at most %u", name, n, what, max);
+	if (n && !list)
+		return rmd_errf(err, errlen, -EINVAL, "%s: %u %ss but no %s list", name, n, what,
+				what);
+	return 0;
+}
+
 int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus_sim_opts *opts,
 		     char *err, size_t errlen)
 {
@@ -165,18 +170,13 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 		name = "sim";
 	if (!opts)
 		return rmd_errf(err, errlen, -EINVAL, "%s: no options", name);
-	if (opts->n_motors > RMD_MAX_MOTORS)
-		return rmd_errf(err, errlen, -E2BIG, "%s: %u motors, at most %d", name,
-				opts->n_motors, RMD_MAX_MOTORS);
-	if (opts->n_motors && !opts->motors)
-		return rmd_errf(err, errlen, -EINVAL, "%s: %u motors but no motor list", name,
-				opts->n_motors);
-	if (opts->n_faults > RMD_SIM_MAX_FAULTS)
-		return rmd_errf(err, errlen, -E2BIG, "%s: %u faults, at most %d", name,
-				opts->n_faults, RMD_SIM_MAX_FAULTS);
-	if (opts->n_faults && !opts->faults)
-		return rmd_errf(err, errlen, -EINVAL, "%s: %u faults but no fault list", name,
-				opts->n_faults);
+	r = check_list(name, "motor", opts->n_motors, RMD_MAX_MOTORS, opts->motors, err, errlen);
+	if (r < 0)
+		return r;
+	r = check_list(name, "fault", opts->n_faults, RMD_SIM_MAX_FAULTS, opts->faults, err,
+		       errlen);
+	if (r < 0)
+		return r;
 
 	p = calloc(1, sizeof(*p));
 	if (!p)

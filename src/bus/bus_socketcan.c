@@ -478,14 +478,7 @@ static void socketcan_close(struct rmd_bus *bus)
 	memset(bus, 0, sizeof(*bus));
 }
 
-static const struct rmd_bus_ops socketcan_ops = {
-	.kind = "socketcan",
-	.send = socketcan_send,
-	.recv = socketcan_recv,
-	.fd = socketcan_fd,
-	.next_due_ns = rmd_bus_never_due_ns,
-	.close = socketcan_close,
-};
+static const struct rmd_bus_ops socketcan_ops = RMD_BUS_OPS(socketcan, rmd_bus_never_due_ns);
 
 void rmd_socketcan_error_frame(struct rmd_bus *bus, const struct can_frame *cf)
 {

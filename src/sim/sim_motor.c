@@ -39,42 +39,45 @@
 /* -------------------------------------------------------------------------- */
 /* Parameters, PRNG                                                           */
 
+/* The simulator's default motor (id, protocol and MIT ranges aside). */
+static const struct rmd_sim_motor_params default_params = {
+	/* An X8-class geared actuator (X8-S2 V10), all at the output shaft. */
+	.model = "X8S2V10",
+	.version_date = 20220206,
+	.inertia_kgm2 = 0.005,
+	.viscous_nm_s_rad = 0.02,
+	.coulomb_nm = 0.1,
+	.kt_nm_a = 2.0,
+	.gear_ratio = 6.0,
+	.pole_pairs = 10,
+	.max_current_a = 20.0,
+	.load_nm = 0.0,
+	/* Beyond the ~1190 dps no-load speed at 48 V: only a load gets there. */
+	.max_speed_dps = 1500.0,
+	.fw_max_speed_dps = 1000.0,
+	.phase_resistance_ohm = 0.3,
+	.thermal_resistance_c_w = 2.0,
+	.thermal_tau_s = 300.0,
+	.ambient_c = 25.0,
+	.supply_v = 48.0,
+	.over_temp_c = 80.0,
+	.over_temp_clear_c = 70.0,
+	.under_voltage_v = 24.0,
+	.over_voltage_v = 60.0,
+	.stall_time_s = 1.0,
+	.has_brake = true,
+	.encoder_bits = 16,
+	/* DESIGN.md: motors answer 0.5-0.8 ms after a request. */
+	.turnaround_ns = 500000.0,
+	.turnaround_jitter_ns = 100000.0,
+};
+
 void rmd_sim_motor_params_default(struct rmd_sim_motor_params *p, uint8_t id, enum rmd_proto proto)
 {
-	memset(p, 0, sizeof(*p));
+	*p = default_params;
 	p->id = id;
 	p->proto = proto;
-	/* An X8-class geared actuator (X8-S2 V10), all at the output shaft. */
-	p->inertia_kgm2 = 0.005;
-	p->viscous_nm_s_rad = 0.02;
-	p->coulomb_nm = 0.1;
-	p->kt_nm_a = 2.0;
-	p->gear_ratio = 6.0;
-	p->pole_pairs = 10;
-	p->max_current_a = 20.0;
-	p->load_nm = 0.0;
-	/* Beyond the ~1190 dps no-load speed at 48 V: only a load gets there. */
-	p->max_speed_dps = 1500.0;
-	p->fw_max_speed_dps = 1000.0;
-	p->phase_resistance_ohm = 0.3;
-	p->thermal_resistance_c_w = 2.0;
-	p->thermal_tau_s = 300.0;
-	p->ambient_c = 25.0;
-	p->supply_v = 48.0;
-	p->over_temp_c = 80.0;
-	p->over_temp_clear_c = 70.0;
-	p->under_voltage_v = 24.0;
-	p->over_voltage_v = 60.0;
-	p->stall_time_s = 1.0;
-	p->has_brake = true;
-	p->encoder_bits = 16;
 	p->mit = rmd_mit_default_ranges;
-	memcpy(p->model, "X8S2V10", 8);
-	p->version_date = 20220206;
-	/* DESIGN.md: motors answer 0.5-0.8 ms after a request. */
-	p->turnaround_ns = 500000.0;
-	p->turnaround_jitter_ns = 100000.0;
-	p->seed = 0;
 }
 
 /* splitmix64: spreads a small seed (the ID) over all 64 bits, never 0 out. */
@@ -460,12 +463,18 @@ static double move_speed(const struct rmd_sim_motor *m, double dps)
 	return rad(dps);
 }
 
-/* Planned move to `target` (pos_rad frame) at up to `vmax`: 0xA4 and kin. */
-static void move_to(struct rmd_sim_motor *m, double target, double vmax)
+/* Enter a position mode aiming at `target` (pos_rad frame) at up to `vmax`. */
+static void aim(struct rmd_sim_motor *m, enum rmd_sim_ctrl mode, double target, double vmax)
 {
-	enter(m, RMD_SIM_POS_ABS);
+	enter(m, mode);
 	m->sp_pos_rad = target;
 	m->sp_max_speed_rad_s = vmax;
+}
+
+/* Planned move to `target` at up to `vmax`: 0xA4 and kin. */
+static void move_to(struct rmd_sim_motor *m, double target, double vmax)
+{
+	aim(m, RMD_SIM_POS_ABS, target, vmax);
 }
 
 /*
@@ -528,9 +537,7 @@ static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct r
 			break;
 		}
 		/* V3 §2.19.1: direct tracking through the position PI. */
-		enter(m, RMD_SIM_POS_TRACK);
-		m->sp_pos_rad = ang + off;
-		m->sp_max_speed_rad_s = vmax;
+		aim(m, RMD_SIM_POS_TRACK, ang + off, vmax);
 		break;
 	case 0xA4:
 		/* V3 §2.20 / V2 §3.40: absolute, planned with 0x43 index 0/1. */
@@ -542,9 +549,7 @@ static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct r
 			break;
 		}
 		/* V3 §2.21: tracking with a speed limit (0.01 dps, row-scaled). */
-		enter(m, RMD_SIM_POS_TRACK);
-		m->sp_pos_rad = ang + off;
-		m->sp_max_speed_rad_s = vmax;
+		aim(m, RMD_SIM_POS_TRACK, ang + off, vmax);
 		break;
 	case 0xA6:
 		move_to(m, single_turn_target(m, deg(ang), msg->v[RMD_FLD_SPIN_DIR]), vmax);

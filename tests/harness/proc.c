@@ -72,6 +72,13 @@ void temp_file(char *path, const char *text)
 	assert_int_equal(fclose(f), 0);
 }
 
+void close_fd(int *fd)
+{
+	if (*fd >= 0)
+		close(*fd);
+	*fd = -1;
+}
+
 int rm_tree(const char *dir)
 {
 	char cmd[1200];

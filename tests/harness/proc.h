@@ -30,6 +30,9 @@ void temp_file(char *path, const char *text);
 /* rm -rf dir (a suite's temporary folder): 0, or -1 when that failed. */
 int rm_tree(const char *dir);
 
+/* Close *fd if it is open (>= 0); *fd becomes -1. */
+void close_fd(int *fd);
+
 /*
  * Start path with args (argv[1..], NULL-terminated) as a child that dies
  * with the test: stdin /dev/null, stdout and stderr into one pipe whose

@@ -27,3 +27,15 @@ void rig_open_buses(const struct rmd_config *cfg, const struct rmd_sim_setup *si
 		fail_msg("sim bus %s: %s", cfg->buses[b].name, err);
 	}
 }
+
+void rig_assert_default_motor(const struct rmd_bringup_motor *m)
+{
+	assert_int_equal(m->state, RMD_BRINGUP_FOUND);
+	assert_string_equal(m->model, "X8S2V10");
+	assert_int_equal(m->version, 20220206);
+	assert_true(m->status);
+	assert_float_equal(m->voltage_v, 48.0, 0.05);
+	assert_float_equal(m->temp_c, 25.0, 0.5);
+	assert_int_equal(m->error_code, 0);
+	assert_int_equal(m->b3, RMD_B3_SET);
+}

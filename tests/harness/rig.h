@@ -8,6 +8,7 @@
 #ifndef RMD_TESTS_RIG_H
 #define RMD_TESTS_RIG_H
 
+#include "rmd/bringup.h"
 #include "rmd/bus.h"
 #include "rmd/config.h"
 #include "rmd/sim_setup.h"
@@ -19,5 +20,11 @@
  */
 void rig_open_buses(const struct rmd_config *cfg, const struct rmd_sim_setup *sim,
 		    struct rmd_bus *buses);
+
+/*
+ * m, as bring-up reports a simulator default motor: found, X8S2V10,
+ * firmware 20220206, 48.0 V, 25 °C, no errors, 0xB3 written.
+ */
+void rig_assert_default_motor(const struct rmd_bringup_motor *m);
 
 #endif /* RMD_TESTS_RIG_H */

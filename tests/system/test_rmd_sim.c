@@ -48,6 +48,7 @@
 #include "rmd/rs485.h"
 
 #include "harness/proc.h"
+#include "harness/suite.h"
 
 #define READY_MS 15000 /* rmd-sim's start, under ASan inside the VM */
 #define REPLY_MS 5000  /* a reply that must come */
@@ -182,12 +183,9 @@ static int teardown(void **state)
 		kill(c->pid, SIGKILL);
 		waitpid(c->pid, NULL, 0);
 	}
-	if (c->err >= 0)
-		close(c->err);
-	if (c->master >= 0)
-		close(c->master);
-	if (c->can >= 0)
-		close(c->can);
+	close_fd(&c->err);
+	close_fd(&c->master);
+	close_fd(&c->can);
 	free(c);
 	return 0;
 }
@@ -1060,29 +1058,30 @@ static void test_hostile_config(void **state)
 int main(void)
 {
 	const char *env = getenv("RMDSIM"), *build = getenv("BUILD");
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup_teardown(test_status_and_model, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_silent_ids, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_move_then_angle, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_broadcast, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_resync_after_noise, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_faults, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_windows, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_local_echo, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_config_file, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_example_config, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_verbose_frames, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_sigterm, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_hangup, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_bad_arguments, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_bad_config, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_open_failure, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_can_status_model, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_hostile_config, setup, teardown),
+	struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_status_and_model),
+		cmocka_unit_test(test_silent_ids),
+		cmocka_unit_test(test_move_then_angle),
+		cmocka_unit_test(test_broadcast),
+		cmocka_unit_test(test_resync_after_noise),
+		cmocka_unit_test(test_faults),
+		cmocka_unit_test(test_fault_windows),
+		cmocka_unit_test(test_local_echo),
+		cmocka_unit_test(test_config_file),
+		cmocka_unit_test(test_example_config),
+		cmocka_unit_test(test_verbose_frames),
+		cmocka_unit_test(test_sigterm),
+		cmocka_unit_test(test_hangup),
+		cmocka_unit_test(test_bad_arguments),
+		cmocka_unit_test(test_bad_config),
+		cmocka_unit_test(test_open_failure),
+		cmocka_unit_test(test_can_status_model),
+		cmocka_unit_test(test_hostile_config),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_hostile_config */
 		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
+	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
 	if (env && *env)
 		snprintf(rmdsim, sizeof(rmdsim), "%s", env);
 	else

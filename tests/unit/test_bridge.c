@@ -33,6 +33,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/lcm_loopback.h"
+#include "harness/suite.h"
 #include "rmd/bridge.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
@@ -1399,24 +1400,25 @@ static void test_comm_loss_published(void **state)
 
 int main(void)
 {
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup_teardown(test_init_checks_opts, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_command_roundtrip, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_prefix_is_not_a_pattern, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_clamp, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_hostile_rejected_by_kind, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_stale, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_flood, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_state_published, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_state_every_nth, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_health_10hz, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_config_on_request, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_one_controller_at_a_time, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_utime_full_width, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_config_request_flood, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_comm_loss_published, setup, teardown),
+	struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_init_checks_opts),
+		cmocka_unit_test(test_command_roundtrip),
+		cmocka_unit_test(test_prefix_is_not_a_pattern),
+		cmocka_unit_test(test_clamp),
+		cmocka_unit_test(test_hostile_rejected_by_kind),
+		cmocka_unit_test(test_stale),
+		cmocka_unit_test(test_flood),
+		cmocka_unit_test(test_state_published),
+		cmocka_unit_test(test_state_every_nth),
+		cmocka_unit_test(test_health_10hz),
+		cmocka_unit_test(test_config_on_request),
+		cmocka_unit_test(test_one_controller_at_a_time),
+		cmocka_unit_test(test_utime_full_width),
+		cmocka_unit_test(test_config_request_flood),
+		cmocka_unit_test(test_comm_loss_published),
 	};
 
+	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood */
 		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests(tests, group_setup, NULL);

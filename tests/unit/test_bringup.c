@@ -22,6 +22,7 @@
 
 #include <cmocka.h>
 
+#include "harness/rig.h"
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
 #include "rmd/bus_rs485.h"
@@ -59,32 +60,21 @@ enum tamper {
 	TAMPER_DIFFER, /* another time than written */
 };
 
-struct tamper_bus {
-	struct rmd_bus *inner;
-	enum tamper how;
-};
-
-static int tb_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n, int64_t now_ns)
-{
-	struct tamper_bus *tb = bus->priv;
-
-	return rmd_bus_send(tb->inner, frames, n, now_ns);
-}
-
 static int tb_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now_ns)
 {
-	struct tamper_bus *tb = bus->priv;
-	int n = rmd_bus_recv(tb->inner, out, max, now_ns), k = 0;
+	const struct rmd_bus_wrap *w = bus->priv;
+	const enum tamper *how = w->ctx;
+	int n = rmd_bus_wrap_recv(bus, out, max, now_ns), k = 0;
 
 	for (int i = 0; i < n; i++) {
 		struct rmd_frame *f = &out[i].f;
 
 		if (f->len == RMD_FRAME_LEN && f->data[0] == 0xB3) {
-			if (tb->how == TAMPER_DROP)
+			if (*how == TAMPER_DROP)
 				continue;
-			if (tb->how == TAMPER_ZEROS)
+			if (*how == TAMPER_ZEROS)
 				memset(f->data + 1, 0, RMD_FRAME_LEN - 1);
-			if (tb->how == TAMPER_DIFFER)
+			if (*how == TAMPER_DIFFER)
 				f->data[4] ^= 0x01; /* the time's low byte */
 		}
 		out[k++] = out[i];
@@ -92,49 +82,7 @@ static int tb_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, in
 	return n < 0 ? n : k;
 }
 
-static int tb_fd(const struct rmd_bus *bus)
-{
-	const struct tamper_bus *tb = bus->priv;
-
-	return rmd_bus_fd(tb->inner);
-}
-
-static int64_t tb_next_due_ns(const struct rmd_bus *bus)
-{
-	const struct tamper_bus *tb = bus->priv;
-
-	return rmd_bus_next_due_ns(tb->inner);
-}
-
-static enum rmd_bus_state tb_state(const struct rmd_bus *bus)
-{
-	const struct tamper_bus *tb = bus->priv;
-
-	return rmd_bus_state(tb->inner);
-}
-
-static const struct rmd_bus_stats *tb_stats(const struct rmd_bus *bus)
-{
-	const struct tamper_bus *tb = bus->priv;
-
-	return rmd_bus_stats(tb->inner);
-}
-
-static void tb_close(struct rmd_bus *bus)
-{
-	memset(bus, 0, sizeof(*bus));
-}
-
-static const struct rmd_bus_ops tamper_ops = {
-	.kind = "tamper",
-	.send = tb_send,
-	.recv = tb_recv,
-	.fd = tb_fd,
-	.next_due_ns = tb_next_due_ns,
-	.state = tb_state,
-	.stats = tb_stats,
-	.close = tb_close,
-};
+static const struct rmd_bus_ops tamper_ops = RMD_BUS_WRAP_OPS("tamper", rmd_bus_wrap_send, tb_recv);
 
 /* ---- the rig: n sim motors (three to a bus) behind the decorator, one loop ---------- */
 
@@ -143,7 +91,8 @@ struct rig {
 	struct rmd_sim_setup simset;
 	struct rmd_plan plan;
 	struct rmd_bus sim[RMD_MAX_BUSES]; /* as rmd_bus_open() opened them */
-	struct tamper_bus tb[RMD_MAX_BUSES];
+	struct rmd_bus_wrap tb[RMD_MAX_BUSES];
+	enum tamper how;
 	struct rmd_bus bus[RMD_MAX_BUSES]; /* what the loop drives */
 	struct rmd_loop *l;
 	struct rmd_bringup bu;
@@ -162,6 +111,7 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 	char err[1024];
 
 	memset(&R, 0, sizeof(R));
+	R.how = how;
 	t_now = 1000 * MS;
 	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.simset, n), 0);
 	memcpy(R.simset.buses[0].faults, faults, n_faults * sizeof(*faults));
@@ -175,11 +125,8 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 		rmd_bus_open_ctx_of(&R.cfg, &R.simset, b, motors, &ctx);
 		if (rmd_bus_open(&R.sim[b], &R.cfg.buses[b], &ctx, err, sizeof(err)))
 			fail_msg("%s: %s", R.cfg.buses[b].name, err);
-		R.tb[b] = (struct tamper_bus){ .inner = &R.sim[b], .how = how };
-		R.bus[b] = (struct rmd_bus){ .ops = &tamper_ops,
-					     .caps = R.sim[b].caps,
-					     .priv = &R.tb[b] };
-		snprintf(R.bus[b].name, sizeof(R.bus[b].name), "%s", R.sim[b].name);
+		R.tb[b] = (struct rmd_bus_wrap){ .inner = &R.sim[b], .ctx = &R.how };
+		rmd_bus_wrap_init(&R.bus[b], &tamper_ops, &R.tb[b]);
 	}
 	R.l = rmd_loop_new(&o, err, sizeof(err));
 	if (!R.l)
@@ -206,17 +153,8 @@ static void test_found(void **state)
 	assert_int_equal(R.bu.n_buses, 2);
 	assert_int_equal(R.bu.missing, 0);
 	assert_int_equal(R.bu.comm_loss_ms, R.cfg.safety.comm_loss_ms);
-	for (unsigned i = 0; i < 4; i++) {
-		const struct rmd_bringup_motor *m = &R.bu.motor[i];
-
-		assert_int_equal(m->state, RMD_BRINGUP_FOUND);
-		assert_string_equal(m->model, "X8S2V10");
-		assert_int_equal(m->version, 20220206);
-		assert_true(m->status);
-		assert_float_equal(m->voltage_v, 48.0, 0.05);
-		assert_int_equal(m->error_code, 0);
-		assert_int_equal(m->b3, RMD_B3_SET);
-	}
+	for (unsigned i = 0; i < 4; i++)
+		rig_assert_default_motor(&R.bu.motor[i]);
 	assert_int_equal(R.bu.unexpected_ids[0], 0);
 	assert_int_equal(R.bu.unexpected_ids[1], 0);
 	rig_down();

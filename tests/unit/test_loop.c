@@ -304,6 +304,30 @@ static int64_t sim_time(unsigned bus)
 	return rmd_bus_sim_time_ns(&R.buses[bus], t_now);
 }
 
+/*
+ * Fault f on bus 0 from the sim's time now, for for_ns (0: until cleared);
+ * returns trace_n, where its effects begin.
+ */
+static unsigned fault_now(struct rmd_sim_fault *f, int64_t for_ns)
+{
+	f->start_ns = sim_time(0);
+	if (for_ns)
+		f->end_ns = f->start_ns + for_ns;
+	set_faults(0, f, 1);
+	return trace_n;
+}
+
+/* Three motors brought up, the first n running in speed mode at vel_rad_s for `cycles`. */
+static void up_at_speed(tweak_fn *tweak, unsigned n, double vel_rad_s, unsigned cycles)
+{
+	rig_up(3, tweak);
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < n; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = vel_rad_s;
+	run(cycles, true);
+}
+
 /* ---- tests ------------------------------------------------------------------- */
 
 static void test_bringup_ready_not_moved(void **state)
@@ -320,17 +344,8 @@ static void test_bringup_ready_not_moved(void **state)
 	assert_int_equal(R.report.n_motors, 3);
 	assert_int_equal(R.report.missing, 0);
 	for (unsigned i = 0; i < 3; i++) {
-		const struct rmd_bringup_motor *bm = &R.report.motor[i];
-
-		assert_int_equal(bm->state, RMD_BRINGUP_FOUND);
-		assert_string_equal(bm->model, "X8S2V10");
-		assert_int_equal(bm->version, 20220206);
-		assert_true(bm->status);
-		assert_float_equal(bm->voltage_v, 48.0, 0.05);
-		assert_float_equal(bm->temp_c, 25.0, 0.5);
-		assert_int_equal(bm->error_code, 0);
 		/* 0xB3 is written last, to every motor, after all probes */
-		assert_int_equal(bm->b3, RMD_B3_SET);
+		rig_assert_default_motor(&R.report.motor[i]);
 		n++;
 	}
 	assert_int_equal(n, 3);
@@ -526,9 +541,7 @@ static void test_lost_and_recovery(void **state)
 	three_at_speed();
 	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_SPEED);
 
-	drop.start_ns = sim_time(0);
-	set_faults(0, &drop, 1);
-	from = trace_n;
+	from = fault_now(&drop, 0);
 	/* each cycle one more missed reply, N = 10 in a row: LOST */
 	for (unsigned k = 0; k < 30 && !n_lost; k++) {
 		run(1, true);
@@ -577,15 +590,8 @@ static void test_lost_all(void **state)
 	unsigned from;
 
 	(void)state;
-	rig_up(3, lost_all);
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 3; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 2.0;
-	run(100, true);
-	gone.start_ns = sim_time(0);
-	set_faults(0, &gone, 1);
-	from = trace_n;
+	up_at_speed(lost_all, 3, 2.0, 100);
+	from = fault_now(&gone, 0);
 	run(30, true);
 	assert_int_equal(lifecycle(2), RMD_LC_LOST);
 	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
@@ -622,9 +628,7 @@ static void test_fault_flags(void **state)
 	cmd_motor(0, true, RMD_MODE_TORQUE)->torque_nm = 0.0;
 	run(50, true);
 	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
-	hot.start_ns = sim_time(0);
-	hot.end_ns = hot.start_ns + 500 * MS;
-	set_faults(0, &hot, 1);
+	fault_now(&hot, 500 * MS);
 	run(300, true); /* 0x9A polls at 10 Hz */
 	s = snap();
 	assert_int_equal(s.m[0].lifecycle, RMD_LC_FAULT);
@@ -675,12 +679,7 @@ static void test_watchdog(void **state)
 	unsigned from;
 
 	(void)state;
-	rig_up(3, NULL);
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 2; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(150, true);
+	up_at_speed(NULL, 2, 1.0, 150);
 	assert_true(rmd_latest_get(&R.health, &p));
 	h = p;
 	assert_int_equal(h->watchdog, RMD_WD_OK);
@@ -919,14 +918,8 @@ static void test_bus_off(void **state)
 	struct rmd_loop_counters c;
 
 	(void)state;
-	rig_up(3, NULL);
-	bring_up();
-	cmd_clear();
-	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(100, true);
-	off.start_ns = sim_time(0);
-	off.end_ns = off.start_ns + 50 * MS;
-	set_faults(0, &off, 1);
+	up_at_speed(NULL, 1, 1.0, 100);
+	fault_now(&off, 50 * MS);
 	run(30, true);
 	/* nothing leaves: each request unsent is a missed reply, N in a row: LOST */
 	for (unsigned i = 0; i < 3; i++)

@@ -159,6 +159,13 @@ static void brake_release(struct rmd_sim_motor *m, enum rmd_proto proto, uint8_t
 	expect_echo(m, &f, (proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + id);
 }
 
+/* A simulator default motor, its brake released: ready to move. */
+static void motor_ready(struct rmd_sim_motor *m, uint8_t id, enum rmd_proto proto)
+{
+	motor_init(m, id, proto);
+	brake_release(m, proto, id);
+}
+
 static int setup(void **state)
 {
 	(void)state;
@@ -180,8 +187,7 @@ static void test_abs_move_time(void **state)
 	int64_t t0, t_reach = -1;
 
 	(void)state;
-	motor_init(&m, 1, RMD_PROTO_V3);
-	brake_release(&m, RMD_PROTO_V3, 1);
+	motor_ready(&m, 1, RMD_PROTO_V3);
 	for (int i = 0; i < 2; i++) {
 		f = REQ(V3, 1, 0x43, KV(INDEX, i), KV(ACCEL, 2000));
 		expect_echo(&m, &f, 0x241);
@@ -260,8 +266,7 @@ static void test_position_tracking(void **state)
 	int64_t a;
 
 	(void)state;
-	motor_init(&m, 1, RMD_PROTO_V3);
-	brake_release(&m, RMD_PROTO_V3, 1);
+	motor_ready(&m, 1, RMD_PROTO_V3);
 	f = REQ(V3, 1, 0xA5, KV(MAX_SPEED, 5000), KV(ANGLE, 1000));
 	(void)ask(&m, RMD_PROTO_V3, &f, NULL);
 	advance(&m, 100 * MS);
@@ -352,8 +357,7 @@ static void test_comm_loss_sequence(void **state)
 	int f1 = 0;
 
 	(void)state;
-	motor_init(&m, 1, RMD_PROTO_V3);
-	brake_release(&m, RMD_PROTO_V3, 1);
+	motor_ready(&m, 1, RMD_PROTO_V3);
 	f = REQ(V3, 1, 0xA2, KV(SPEED, 10000));
 	(void)ask(&m, RMD_PROTO_V3, &f, NULL);
 	advance_talking(&m, 1, 200 * MS);
@@ -514,8 +518,7 @@ static void test_power_cycle_ram_rom(void **state)
 	int f1 = 0;
 
 	(void)state;
-	motor_init(&m, 1, RMD_PROTO_V3);
-	brake_release(&m, RMD_PROTO_V3, 1);
+	motor_ready(&m, 1, RMD_PROTO_V3);
 	f = REQ(V3, 1, 0xA4, KV(MAX_SPEED, 720), KV(ANGLE, 100000));
 	(void)ask(&m, RMD_PROTO_V3, &f, NULL);
 	advance(&m, 2000 * MS);
@@ -910,8 +913,7 @@ static void test_v2_commands(void **state)
 	int64_t e;
 
 	(void)state;
-	motor_init(&m, 2, RMD_PROTO_V2);
-	brake_release(&m, RMD_PROTO_V2, 2);
+	motor_ready(&m, 2, RMD_PROTO_V2);
 	/* V2 §3.40: 0xA4 to 90 deg. */
 	f = REQ(V2, 2, 0xA4, KV(MAX_SPEED, 360), KV(ANGLE, 9000));
 	{

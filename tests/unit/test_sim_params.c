@@ -54,6 +54,12 @@ static struct sim_config sc;
 /* A value of the row that is not its default, as text. */
 static void sample(const struct rmd_sim_param *row, char *out, size_t size)
 {
+	static const char *const text[] = {
+		[RMD_SIM_PARAM_PROTO] = "mit",
+		[RMD_SIM_PARAM_MODEL] = "T3ST",
+		[RMD_SIM_PARAM_VERSION] = "20230102",
+		[RMD_SIM_PARAM_MIT] = "10,40,20,400,4",
+	};
 	struct rmd_sim_motor_params d;
 	const char *field;
 	double v;
@@ -79,16 +85,10 @@ static void sample(const struct rmd_sim_param *row, char *out, size_t size)
 		snprintf(out, size, "%s", b ? "false" : "true");
 		break;
 	case RMD_SIM_PARAM_PROTO:
-		snprintf(out, size, "mit");
-		break;
 	case RMD_SIM_PARAM_MODEL:
-		snprintf(out, size, "T3ST");
-		break;
 	case RMD_SIM_PARAM_VERSION:
-		snprintf(out, size, "20230102");
-		break;
 	case RMD_SIM_PARAM_MIT:
-		snprintf(out, size, "10,40,20,400,4");
+		snprintf(out, size, "%s", text[row->type]);
 		break;
 	}
 }

@@ -22,6 +22,7 @@
 
 #include <cmocka.h>
 
+#include "harness/suite.h"
 #include "rmd/can_timing.h"
 #include "rmd/codec.h"
 #include "rmd/sim_wire.h"
@@ -430,6 +431,17 @@ static void test_overload_runs_late(void **state)
 
 /* ---- (d) faults ----------------------------------------------------------- */
 
+/* Frames on can_id every period_ns during [start_ns, end_ns). */
+static struct rmd_sim_fault flood(uint32_t can_id, int64_t period_ns, int64_t start_ns,
+				  int64_t end_ns)
+{
+	return (struct rmd_sim_fault){ .kind = RMD_SIM_FAULT_FLOOD,
+				       .start_ns = start_ns,
+				       .end_ns = end_ns,
+				       .param = period_ns,
+				       .can_id = can_id };
+}
+
 static void set_faults(const struct rmd_sim_fault *f, size_t n)
 {
 	assert_int_equal(rmd_sim_wire_set_faults(&bus, f, n), 0);
@@ -673,11 +685,7 @@ static void test_fault_bus_off_window(void **state)
  */
 static void test_fault_flood_low_id_steals_wire(void **state)
 {
-	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_FLOOD,
-					 .start_ns = 10 * MS,
-					 .end_ns = 30 * MS,
-					 .param = 50 * US,
-					 .can_id = 0x000 };
+	const struct rmd_sim_fault f = flood(0x000, 50 * US, 10 * MS, 30 * MS);
 	double load;
 
 	(void)state;
@@ -708,11 +716,7 @@ static void test_fault_flood_low_id_steals_wire(void **state)
  */
 static void test_fault_flood_high_id_yields(void **state)
 {
-	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_FLOOD,
-					 .start_ns = 10 * MS,
-					 .end_ns = 30 * MS,
-					 .param = 200 * US,
-					 .can_id = 0x7FF };
+	const struct rmd_sim_fault f = flood(0x7FF, 200 * US, 10 * MS, 30 * MS);
 	static int64_t clean[40];
 	int64_t worst = 0;
 	unsigned k = 0;
@@ -827,11 +831,7 @@ static void test_unsolicited_frames(void **state)
 /* A host that never reads loses frames at the receive queue, counted. */
 static void test_rx_overflow_counted(void **state)
 {
-	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_FLOOD,
-					 .start_ns = 0,
-					 .end_ns = 100 * MS,
-					 .param = 200 * US,
-					 .can_id = 0x7FF };
+	const struct rmd_sim_fault f = flood(0x7FF, 200 * US, 0, 100 * MS);
 
 	(void)state;
 	set_faults(&f, 1);
@@ -941,29 +941,29 @@ static void test_config_validation(void **state)
 
 int main(void)
 {
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup_teardown(test_acceptance_8_pairs, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_arbitration_lowest_id_first, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_arbitration_replies_overtake, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_overload_runs_late, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_drop_rate, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_delay_rate, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_corrupt_rate, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_wrong_id_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_disappear_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_error_flag_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_bus_off_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_fault_flood_low_id_steals_wire, setup,
-						teardown),
-		cmocka_unit_test_setup_teardown(test_fault_flood_high_id_yields, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_txqueuelen_enobufs, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_send_rejects_bad_frames, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_unsolicited_frames, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_rx_overflow_counted, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_load_window, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_deterministic, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_config_validation, setup, teardown),
+	struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_acceptance_8_pairs),
+		cmocka_unit_test(test_arbitration_lowest_id_first),
+		cmocka_unit_test(test_arbitration_replies_overtake),
+		cmocka_unit_test(test_overload_runs_late),
+		cmocka_unit_test(test_fault_drop_rate),
+		cmocka_unit_test(test_fault_delay_rate),
+		cmocka_unit_test(test_fault_corrupt_rate),
+		cmocka_unit_test(test_fault_wrong_id_window),
+		cmocka_unit_test(test_fault_disappear_window),
+		cmocka_unit_test(test_fault_error_flag_window),
+		cmocka_unit_test(test_fault_bus_off_window),
+		cmocka_unit_test(test_fault_flood_low_id_steals_wire),
+		cmocka_unit_test(test_fault_flood_high_id_yields),
+		cmocka_unit_test(test_txqueuelen_enobufs),
+		cmocka_unit_test(test_send_rejects_bad_frames),
+		cmocka_unit_test(test_unsolicited_frames),
+		cmocka_unit_test(test_rx_overflow_counted),
+		cmocka_unit_test(test_load_window),
+		cmocka_unit_test(test_deterministic),
+		cmocka_unit_test(test_config_validation),
 	};
 
+	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
 	return cmocka_run_group_tests_name("sim_wire", tests, NULL, NULL);
 }

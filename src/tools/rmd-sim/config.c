@@ -17,6 +17,7 @@
 #include <errno.h>
 #include <math.h>
 #include <net/if.h>
+#include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -341,6 +342,24 @@ static int parse_fault_filter(char *s, struct rmd_sim_fault *f)
 	return 0;
 }
 
+/*
+ * A fault's time fields: `start` (named start_name in the message) and
+ * `end`, which may be NULL or empty (never).  Returns 0 or -EINVAL, logged.
+ */
+static int parse_fault_times(const char *where, const char *spec, struct rmd_sim_fault *f,
+			     const char *start_name, const char *start, const char *end)
+{
+	char what[64];
+
+	if (parse_seconds(start, &f->start_ns) < 0) {
+		snprintf(what, sizeof(what), "%s must be 0..1e6 s", start_name);
+		return fault_error(where, spec, what, f->kind);
+	}
+	if (end && *end && parse_seconds(end, &f->end_ns) < 0)
+		return fault_error(where, spec, "END_S must be empty (never) or 0..1e6 s", f->kind);
+	return 0;
+}
+
 static int parse_fault(struct sim_config *c, const char *spec, const char *where)
 {
 	char buf[SIM_VALUE_MAX], *fld[MAX_FAULT_FIELDS], *window, *filter, *p;
@@ -423,11 +442,8 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 	case RMD_SIM_FAULT_DISAPPEAR:
 		if (n != 4 && n != 5)
 			return fault_error(where, spec, "expected 4 or 5 fields", f.kind);
-		if (parse_seconds(fld[2], &f.start_ns) < 0)
-			return fault_error(where, spec, "START_S must be 0..1e6 s", f.kind);
-		if (*fld[3] && parse_seconds(fld[3], &f.end_ns) < 0)
-			return fault_error(where, spec, "END_S must be empty (never) or 0..1e6 s",
-					   f.kind);
+		if (parse_fault_times(where, spec, &f, "START_S", fld[2], fld[3]) < 0)
+			return -EINVAL;
 		if (n == 5) {
 			if (strcmp(fld[4], "reboot"))
 				return fault_error(where, spec,
@@ -449,11 +465,8 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 				 names);
 			return fault_error(where, spec, what, f.kind);
 		}
-		if (parse_seconds(fld[3], &f.start_ns) < 0)
-			return fault_error(where, spec, "AT_S must be 0..1e6 s", f.kind);
-		if (n == 5 && *fld[4] && parse_seconds(fld[4], &f.end_ns) < 0)
-			return fault_error(where, spec, "END_S must be empty (never) or 0..1e6 s",
-					   f.kind);
+		if (parse_fault_times(where, spec, &f, "AT_S", fld[3], n == 5 ? fld[4] : NULL) < 0)
+			return -EINVAL;
 		break;
 	}
 	case RMD_SIM_FAULT_FLOOD: {
@@ -470,11 +483,9 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 			return fault_error(where, spec, "PERIOD_US must be 100..10000000 µs",
 					   f.kind);
 		f.param = (int64_t)llround(us * 1000.0);
-		if (parse_seconds(fld[3], &f.start_ns) < 0)
-			return fault_error(where, spec, "START_S must be 0..1e6 s", f.kind);
-		if (n == 5 && *fld[4] && parse_seconds(fld[4], &f.end_ns) < 0)
-			return fault_error(where, spec, "END_S must be empty (never) or 0..1e6 s",
-					   f.kind);
+		if (parse_fault_times(where, spec, &f, "START_S", fld[3], n == 5 ? fld[4] : NULL) <
+		    0)
+			return -EINVAL;
 		break;
 	}
 	case RMD_SIM_FAULT_BUS_OFF:
@@ -553,16 +564,29 @@ static bool normalize_key(const char *key, char out[SIM_KEY_MAX])
 	return true;
 }
 
+/* Log `rmd-sim: WHERE "VALUE": expected ...`; returns -EINVAL. */
+__attribute__((format(printf, 3, 4))) static int expected(const char *where, const char *value,
+							  const char *fmt, ...)
+{
+	char what[256];
+	va_list ap;
+
+	va_start(ap, fmt);
+	vsnprintf(what, sizeof(what), fmt, ap);
+	va_end(ap);
+	tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": expected %s", where, value, what);
+	return -EINVAL;
+}
+
 static int set_global(struct sim_config *c, const char *key, const char *value, const char *where)
 {
 	if (!strcmp(key, "can")) {
 		if (!*value || strlen(value) >= IFNAMSIZ || strchr(value, '/') ||
 		    strpbrk(value, " \t:")) {
-			tool_log(TOOL_LOG_ERR,
-				 "rmd-sim: %s \"%s\": expected a network interface name of 1..%d "
-				 "characters without '/', ':' or blanks (e.g. can0, vcan0)",
-				 where, value, IFNAMSIZ - 1);
-			return -EINVAL;
+			return expected(where, value,
+					"a network interface name of 1..%d characters without '/', "
+					"':' or blanks (e.g. can0, vcan0)",
+					IFNAMSIZ - 1);
 		}
 		c->wire = SIM_WIRE_CAN;
 		snprintf(c->device, sizeof(c->device), "%s", value);
@@ -570,11 +594,10 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 	}
 	if (!strcmp(key, "serial")) {
 		if (!*value || strlen(value) >= sizeof(c->device)) {
-			tool_log(TOOL_LOG_ERR,
-				 "rmd-sim: %s \"%s\": expected a serial device path of 1..%zu "
-				 "characters (e.g. /dev/ttyUSB0)",
-				 where, value, sizeof(c->device) - 1);
-			return -EINVAL;
+			return expected(
+				where, value,
+				"a serial device path of 1..%zu characters (e.g. /dev/ttyUSB0)",
+				sizeof(c->device) - 1);
 		}
 		c->wire = SIM_WIRE_SERIAL;
 		snprintf(c->device, sizeof(c->device), "%s", value);
@@ -589,40 +612,27 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 			snprintf(c->baud_where, sizeof(c->baud_where), "%s", where);
 			return 0;
 		}
-		tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": expected " BAUD_LIST, where, value);
-		return -EINVAL;
+		return expected(where, value, BAUD_LIST);
 	}
 	if (!strcmp(key, "local-echo")) {
-		if (rmd_sim_parse_bool(value, &c->local_echo) < 0) {
-			tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": expected yes or no", where,
-				 value);
-			return -EINVAL;
-		}
+		if (rmd_sim_parse_bool(value, &c->local_echo) < 0)
+			return expected(where, value, "yes or no");
 		snprintf(c->echo_where, sizeof(c->echo_where), "%s", where);
 		return 0;
 	}
 	if (!strcmp(key, "motors")) {
-		if (parse_motors(value, &c->motors) < 0) {
-			tool_log(
-				TOOL_LOG_ERR,
-				"rmd-sim: %s \"%s\": expected motor ids 1..32 as a list of ids and "
-				"ascending ranges, e.g. 1-4,7",
-				where, value);
-			return -EINVAL;
-		}
+		if (parse_motors(value, &c->motors) < 0)
+			return expected(where, value,
+					"motor ids 1..32 as a list of ids and ascending ranges, "
+					"e.g. 1-4,7");
 		return 0;
 	}
 	if (!strcmp(key, "fault"))
 		return parse_fault(c, value, where);
 	if (!strcmp(key, "seed")) {
-		if (rmd_sim_parse_u64(value, &c->seed) < 0) {
-			tool_log(
-				TOOL_LOG_ERR,
-				"rmd-sim: %s \"%s\": expected an unsigned 64-bit integer (decimal, or "
-				"hex with 0x)",
-				where, value);
-			return -EINVAL;
-		}
+		if (rmd_sim_parse_u64(value, &c->seed) < 0)
+			return expected(where, value,
+					"an unsigned 64-bit integer (decimal, or hex with 0x)");
 		return 0;
 	}
 	if (!strcmp(key, "verbosity")) {
@@ -633,10 +643,7 @@ static int set_global(struct sim_config *c, const char *key, const char *value, 
 		} else if (!strcasecmp(value, "frames")) {
 			c->verbosity = SIM_FRAMES;
 		} else {
-			tool_log(TOOL_LOG_ERR,
-				 "rmd-sim: %s \"%s\": expected quiet, normal or frames", where,
-				 value);
-			return -EINVAL;
+			return expected(where, value, "quiet, normal or frames");
 		}
 		tool_log_set_level((int)c->verbosity);
 		return 0;
@@ -680,10 +687,8 @@ int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const c
 		return -EINVAL;
 	}
 	rmd_sim_motor_params_default(&scratch, motor ? motor : 1, RMD_PROTO_V3);
-	if (rmd_sim_param_parse(&scratch, spec, value, allowed, sizeof(allowed)) < 0) {
-		tool_log(TOOL_LOG_ERR, "rmd-sim: %s \"%s\": expected %s", where, value, allowed);
-		return -EINVAL;
-	}
+	if (rmd_sim_param_parse(&scratch, spec, value, allowed, sizeof(allowed)) < 0)
+		return expected(where, value, "%s", allowed);
 	if (strlen(value) >= SIM_VALUE_MAX) {
 		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: value longer than %d characters", where,
 			 SIM_VALUE_MAX - 1);
@@ -899,6 +904,17 @@ static uint64_t mix(uint64_t x)
 	return x ? x : 1;
 }
 
+/* A pair of motor settings where lo must stay below hi.  Returns 0 or -EINVAL, logged. */
+static int check_below(uint8_t id, const char *lo_name, double lo, const char *hi_name, double hi,
+		       const char *unit)
+{
+	if (lo < hi)
+		return 0;
+	tool_log(TOOL_LOG_ERR, "rmd-sim: motor %u: %s (%g %s) must be below %s (%g %s)", id,
+		 lo_name, lo, unit, hi_name, hi, unit);
+	return -EINVAL;
+}
+
 static int build_motor(struct sim_config *c, uint8_t id)
 {
 	struct rmd_sim_motor_params *p = &c->params[id - 1];
@@ -919,20 +935,11 @@ static int build_motor(struct sim_config *c, uint8_t id)
 	}
 	p->id = id;
 	p->seed = mix(c->seed ^ ((uint64_t)id << 56));
-	if (!(p->over_temp_clear_c < p->over_temp_c)) {
-		tool_log(
-			TOOL_LOG_ERR,
-			"rmd-sim: motor %u: over-temp-clear (%g °C) must be below over-temp (%g °C)",
-			id, p->over_temp_clear_c, p->over_temp_c);
+	if (check_below(id, "over-temp-clear", p->over_temp_clear_c, "over-temp", p->over_temp_c,
+			"°C") < 0 ||
+	    check_below(id, "under-voltage", p->under_voltage_v, "over-voltage", p->over_voltage_v,
+			"V") < 0)
 		return -EINVAL;
-	}
-	if (!(p->under_voltage_v < p->over_voltage_v)) {
-		tool_log(
-			TOOL_LOG_ERR,
-			"rmd-sim: motor %u: under-voltage (%g V) must be below over-voltage (%g V)",
-			id, p->under_voltage_v, p->over_voltage_v);
-		return -EINVAL;
-	}
 	if (c->wire == SIM_WIRE_SERIAL && p->proto == RMD_PROTO_V2) {
 		tool_log(TOOL_LOG_ERR,
 			 "rmd-sim: motor %u: protocol v2 on --serial: V2.0 motors have no RS485 "

@@ -18,6 +18,7 @@
 #include <math.h>
 #include <signal.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -159,67 +160,25 @@ static void trace_frame(struct dev *d, const char *dir, const struct rmd_frame *
 static int trace_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n,
 		      int64_t now_ns)
 {
-	struct dev *d = bus->priv;
-	int r = rmd_bus_send(&d->bus, frames, n, now_ns);
+	int r = rmd_bus_wrap_send(bus, frames, n, now_ns);
+	const struct rmd_bus_wrap *w = bus->priv;
 
 	for (int i = 0; i < r; i++)
-		trace_frame(d, "TX", &frames[i], now_ns);
+		trace_frame(w->ctx, "TX", &frames[i], now_ns);
 	return r;
 }
 
 static int trace_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now_ns)
 {
-	struct dev *d = bus->priv;
-	int r = rmd_bus_recv(&d->bus, out, max, now_ns);
+	int r = rmd_bus_wrap_recv(bus, out, max, now_ns);
+	const struct rmd_bus_wrap *w = bus->priv;
 
 	for (int i = 0; i < r; i++)
-		trace_frame(d, "RX", &out[i].f, out[i].t_ns);
+		trace_frame(w->ctx, "RX", &out[i].f, out[i].t_ns);
 	return r;
 }
 
-static int trace_fd(const struct rmd_bus *bus)
-{
-	const struct dev *d = bus->priv;
-
-	return rmd_bus_fd(&d->bus);
-}
-
-static int64_t trace_next_due_ns(const struct rmd_bus *bus)
-{
-	const struct dev *d = bus->priv;
-
-	return rmd_bus_next_due_ns(&d->bus);
-}
-
-static enum rmd_bus_state trace_state(const struct rmd_bus *bus)
-{
-	const struct dev *d = bus->priv;
-
-	return rmd_bus_state(&d->bus);
-}
-
-static const struct rmd_bus_stats *trace_stats(const struct rmd_bus *bus)
-{
-	const struct dev *d = bus->priv;
-
-	return rmd_bus_stats(&d->bus);
-}
-
-static void trace_close(struct rmd_bus *bus)
-{
-	memset(bus, 0, sizeof(*bus));
-}
-
-static const struct rmd_bus_ops trace_ops = {
-	.kind = "trace",
-	.send = trace_send,
-	.recv = trace_recv,
-	.fd = trace_fd,
-	.next_due_ns = trace_next_due_ns,
-	.state = trace_state,
-	.stats = trace_stats,
-	.close = trace_close,
-};
+static const struct rmd_bus_ops trace_ops = RMD_BUS_WRAP_OPS("trace", trace_send, trace_recv);
 
 /* ---- the bus -------------------------------------------------------------------------- */
 
@@ -248,9 +207,8 @@ int rmdctl_open_bus(struct dev *d)
 	/* Half duplex RS485 queues requests behind each other's answers. */
 	d->txn.spacing_ns = rmd_bus_caps(&d->bus)->request_spacing_ns;
 	if (d->trace) {
-		d->tbus = d->bus;
-		d->tbus.ops = &trace_ops;
-		d->tbus.priv = d;
+		d->twrap = (struct rmd_bus_wrap){ .inner = &d->bus, .ctx = d };
+		rmd_bus_wrap_init(&d->tbus, &trace_ops, &d->twrap);
 		d->b = &d->tbus;
 	}
 	return 0;
@@ -453,6 +411,44 @@ int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, 
 
 /* ---- the command line ----------------------------------------------------------------- */
 
+/*
+ * Options: name, short letter (0: none), takes a value, O_* flag (0: every
+ * command), and for a switch the struct dev bool it sets (0: not a switch;
+ * offset 0 is `cmd`, never a bool), its line in the usage.
+ */
+#define SWITCH(field) offsetof(struct dev, field)
+static const struct {
+	const char *name;
+	char shortc;
+	bool arg;
+	unsigned flag;
+	size_t sets;
+	const char *usage; /* for a command's own option (flag != 0) */
+} optdefs[] = {
+	{ "bus", 'b', true, 0, 0, NULL },
+	{ "baud", 0, true, 0, 0, NULL },
+	{ "protocol", 'p', true, 0, 0, NULL },
+	{ "timeout", 0, true, 0, 0, NULL },
+	{ "tries", 0, true, 0, 0, NULL },
+	{ "trace", 0, false, 0, SWITCH(trace), NULL },
+	{ "help", 'h', false, 0, 0, NULL },
+	{ "json", 'j', false, O_JSON, SWITCH(json),
+	  "  --json           one JSON object per motor and line (keys of `rmdctl decode`)\n" },
+	{ "yes", 'y', false, O_YES, SWITCH(yes),
+	  "  -y, --yes        do not ask for confirmation (needed without a terminal)\n" },
+	{ "rom", 0, false, O_ROM, SWITCH(rom),
+	  "  --rom            write to ROM (kept at power off)\n" },
+	{ "speed", 0, true, O_SPEED, 0,
+	  "  --speed DPS      maximum speed of the move (default 30)\n" },
+	{ "force", 0, false, O_FORCE, SWITCH(force),
+	  "  --force          skip the safety limits described above\n" },
+	{ "no-wait", 0, false, O_NOWAIT, SWITCH(no_wait),
+	  "  --no-wait        do not wait for the motor to arrive\n" },
+	{ "once", 0, false, O_ONCE, SWITCH(once), "  --once           print one table and exit\n" },
+	{ "interval", 0, true, O_INTERVAL, 0, "  --interval MS    refresh period (default 200)\n" },
+};
+#define NOPTS (sizeof(optdefs) / sizeof(optdefs[0]))
+
 void rmdctl_dev_usage(FILE *f, const struct rmdctl_cmd *c)
 {
 	fprintf(f, "usage: rmdctl %s [OPTIONS] %s\n\n%s\n", c->name, c->args, c->help);
@@ -470,55 +466,15 @@ void rmdctl_dev_usage(FILE *f, const struct rmdctl_cmd *c)
 		   "  --trace          print every frame sent and received on stderr\n");
 	if (c->opts) {
 		fprintf(f, "%s options:\n", c->name);
-		if (c->opts & O_JSON)
-			fprintf(f, "  --json           one JSON object per motor and line (keys of "
-				   "`rmdctl decode`)\n");
-		if (c->opts & O_YES)
-			fprintf(f, "  -y, --yes        do not ask for confirmation (needed without "
-				   "a terminal)\n");
-		if (c->opts & O_ROM)
-			fprintf(f, "  --rom            write to ROM (kept at power off)\n");
-		if (c->opts & O_SPEED)
-			fprintf(f, "  --speed DPS      maximum speed of the move (default 30)\n");
-		if (c->opts & O_FORCE)
-			fprintf(f, "  --force          skip the safety limits described above\n");
-		if (c->opts & O_NOWAIT)
-			fprintf(f, "  --no-wait        do not wait for the motor to arrive\n");
-		if (c->opts & O_ONCE)
-			fprintf(f, "  --once           print one table and exit\n");
-		if (c->opts & O_INTERVAL)
-			fprintf(f, "  --interval MS    refresh period (default 200)\n");
+		for (size_t k = 0; k < NOPTS; k++)
+			if (c->opts & optdefs[k].flag)
+				fputs(optdefs[k].usage, f);
 	}
 	fprintf(f, "\nexit status: 0 ok; 1 the bus or a motor failed (each failure names the\n"
 		   "bus, the motor and the command), or confirmation was declined; 2 usage\n"
 		   "error, or a confirmation that could not be asked (no terminal, no --yes)\n"
 		   "or a safety limit.\n");
 }
-
-/* Options: name, short letter (0: none), takes a value, O_* flag (0: every command). */
-static const struct {
-	const char *name;
-	char shortc;
-	bool arg;
-	unsigned flag;
-} optdefs[] = {
-	{ "bus", 'b', true, 0 },
-	{ "baud", 0, true, 0 },
-	{ "protocol", 'p', true, 0 },
-	{ "timeout", 0, true, 0 },
-	{ "tries", 0, true, 0 },
-	{ "trace", 0, false, 0 },
-	{ "help", 'h', false, 0 },
-	{ "json", 'j', false, O_JSON },
-	{ "yes", 'y', false, O_YES },
-	{ "rom", 0, false, O_ROM },
-	{ "speed", 0, true, O_SPEED },
-	{ "force", 0, false, O_FORCE },
-	{ "no-wait", 0, false, O_NOWAIT },
-	{ "once", 0, false, O_ONCE },
-	{ "interval", 0, true, O_INTERVAL },
-};
-#define NOPTS (sizeof(optdefs) / sizeof(optdefs[0]))
 
 /* A negative number ("-10", "-.5") is an argument, not an option. */
 static bool is_number(const char *s)
@@ -534,7 +490,9 @@ static int set_option(struct dev *d, size_t k, const char *v)
 	uint64_t u;
 	double x;
 
-	if (!strcmp(name, "bus")) {
+	if (optdefs[k].sets) {
+		*(bool *)((char *)d + optdefs[k].sets) = true;
+	} else if (!strcmp(name, "bus")) {
 		d->bus_spec = v;
 	} else if (!strcmp(name, "baud")) {
 		if (rmdctl_parse_uint(v, 1, UINT32_MAX, &u) < 0)
@@ -554,27 +512,13 @@ static int set_option(struct dev *d, size_t k, const char *v)
 		if (rmdctl_parse_uint(v, 1, 100, &u) < 0)
 			goto bad;
 		d->tries = (unsigned)u;
-	} else if (!strcmp(name, "trace")) {
-		d->trace = true;
 	} else if (!strcmp(name, "help")) {
 		rmdctl_dev_usage(stdout, d->cmd);
 		return 1;
-	} else if (!strcmp(name, "json")) {
-		d->json = true;
-	} else if (!strcmp(name, "yes")) {
-		d->yes = true;
-	} else if (!strcmp(name, "rom")) {
-		d->rom = true;
 	} else if (!strcmp(name, "speed")) {
 		if (rmdctl_parse_double(v, &x) < 0)
 			goto bad;
 		d->speed_dps = x;
-	} else if (!strcmp(name, "force")) {
-		d->force = true;
-	} else if (!strcmp(name, "no-wait")) {
-		d->no_wait = true;
-	} else if (!strcmp(name, "once")) {
-		d->once = true;
 	} else if (!strcmp(name, "interval")) {
 		if (rmdctl_parse_double(v, &x) < 0 || x < 10 || x > 3600000)
 			goto bad;

@@ -108,9 +108,10 @@ struct dev {
 	double speed_dps;
 	double interval_ms;
 	/* the bus */
-	struct rmd_bus bus;  /* the transport */
-	struct rmd_bus tbus; /* --trace: prints every frame, then calls bus */
-	struct rmd_bus *b;   /* what the commands use: &bus or &tbus */
+	struct rmd_bus bus;	   /* the transport */
+	struct rmd_bus tbus;	   /* --trace: prints every frame, then calls bus */
+	struct rmd_bus_wrap twrap; /* tbus's priv */
+	struct rmd_bus *b;	   /* what the commands use: &bus or &tbus */
 	char name[sizeof(((struct rmd_bus *)0)->name)]; /* the bus's, kept after close */
 	struct rmd_txn_opts txn;
 	int64_t t0_ns; /* start, for --trace and monitor times */
