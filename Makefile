@@ -200,6 +200,15 @@ $(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# bench/insn-per-cycle.sh and bench/insn-guard.sh run this rig under
+# callgrind: the loop on simulated buses with an injected clock.
+INSN_RIG := $(BUILD)/bench/insn_rig
+all: $(INSN_RIG)
+$(BUILD)/bench/insn_rig.o: | $(GEN_HDRS)
+$(INSN_RIG): $(BUILD)/bench/insn_rig.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 # Suites include the harness as "harness/<name>.h".
 $(BUILD)/tests/%.o: override CFLAGS += -Itests
 

@@ -210,6 +210,37 @@ const struct rmd_layout *rmd_cmd_layout(const struct rmd_cmd_spec *spec, enum rm
 const struct rmd_field_spec *rmd_layout_field(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 					      enum rmd_field fld);
 
+/*
+ * One field of a row, read from or written into a frame's data (8 bytes),
+ * as the interpreter above does it: for callers that resolved a row's
+ * fields once and handle each frame without a struct rmd_msg (the rt
+ * loop's motors, rmd/motor.h).  rmd_field_write() does not check that raw
+ * fits: rmd_field_bounds() gives the field's integer range.
+ */
+static inline int64_t rmd_field_read(const struct rmd_field_spec *fs, const uint8_t *data)
+{
+	unsigned drop = 64u - 8u * fs->size;
+	uint64_t u;
+
+	/* the 8 data bytes as one little-endian word: the field is bytes off..off+size-1 */
+	__builtin_memcpy(&u, data, sizeof(u));
+#if __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+	u = __builtin_bswap64(u);
+#endif
+	u = (u >> (8u * fs->off)) << drop;
+	return fs->is_signed ? (int64_t)u >> drop : (int64_t)(u >> drop);
+}
+
+static inline void rmd_field_write(const struct rmd_field_spec *fs, uint8_t *data, int64_t raw)
+{
+	uint64_t u = (uint64_t)raw;
+
+	for (unsigned i = 0; i < fs->size; i++, u >>= 8)
+		data[fs->off + i] = (uint8_t)u;
+}
+
+void rmd_field_bounds(const struct rmd_field_spec *fs, int64_t *lo, int64_t *hi);
+
 /* JSON key of a field (see enum rmd_field). */
 const char *rmd_field_key(enum rmd_field fld);
 

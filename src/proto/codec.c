@@ -216,6 +216,19 @@ static int64_t get_le(const uint8_t *p, unsigned size, bool is_signed)
 	return (int64_t)u;
 }
 
+void rmd_field_bounds(const struct rmd_field_spec *fs, int64_t *lo, int64_t *hi)
+{
+	unsigned bits = 8u * fs->size;
+
+	if (fs->is_signed) {
+		*lo = -(INT64_C(1) << (bits - 1));
+		*hi = (INT64_C(1) << (bits - 1)) - 1;
+	} else {
+		*lo = 0;
+		*hi = (int64_t)((UINT64_C(1) << bits) - 1);
+	}
+}
+
 static uint32_t frame_id(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id,
 			 const struct rmd_cmd_spec *spec)
 {

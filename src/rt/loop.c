@@ -398,9 +398,8 @@ void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *o
 static bool outstanding_any(const struct rmd_loop *l)
 {
 	for (unsigned i = 0; i < l->n_motors; i++)
-		for (unsigned k = 0; k < OUTSTANDING; k++)
-			if (l->mot[i].os[k].used && l->mot[i].st.lifecycle != RMD_LC_LOST)
-				return true;
+		if (l->mot[i].os_used && l->mot[i].st.lifecycle != RMD_LC_LOST)
+			return true;
 	return false;
 }
 

@@ -46,9 +46,8 @@ enum req_kind {
 	REQ_BATCH,	 /* V2 0x280: one request, every batched motor answers */
 };
 
-/* A request in flight. */
+/* A request in flight (its bit in struct lmotor.os_used says it is). */
 struct outstanding {
-	bool used;
 	bool echo_is_reply; /* the command's answer repeats it (0x80, 0xB3, ...) */
 	uint16_t cmd;	    /* command byte of the answer, or RMD_MOTOR_CMD_MIT */
 	uint32_t reply_id;
@@ -62,6 +61,7 @@ struct lmotor {
 	struct rmd_motor m; /* the motor's one record: identity, bus, limits, ... */
 	struct rmd_motor_state st;
 	struct outstanding os[OUTSTANDING];
+	uint8_t os_used; /* bit k: os[k] is in flight (OUTSTANDING <= 8) */
 	uint64_t seq;
 	unsigned consecutive;	/* missed replies in a row */
 	struct rmd_setpoint sp; /* in force while ENABLED */

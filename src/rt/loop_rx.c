@@ -32,32 +32,29 @@ static bool echo_is_reply(const struct rmd_motor *m, const struct rmd_frame *f)
 /* rt-safe. */
 void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now)
 {
-	struct outstanding *o = NULL, *oldest = NULL;
+	unsigned free_mask = ~(unsigned)lm->os_used & ((1u << OUTSTANDING) - 1);
+	unsigned k;
+	struct outstanding *o;
 
-	for (unsigned k = 0; k < OUTSTANDING; k++) {
-		struct outstanding *e = &lm->os[k];
-
-		if (!e->used) {
-			o = e;
-			break;
-		}
-		if (!oldest || e->seq < oldest->seq)
-			oldest = e;
-	}
-	if (!o) {
+	if (free_mask) {
+		k = (unsigned)__builtin_ctz(free_mask);
+	} else {
 		/* full: the oldest has waited longest, it counts as missed */
-		o = oldest;
-		o->used = false;
+		k = 0;
+		for (unsigned j = 1; j < OUTSTANDING; j++)
+			if (lm->os[j].seq < lm->os[k].seq)
+				k = j;
+		lm->os_used &= (uint8_t) ~(1u << k);
 		loop_miss(l, lm, now);
 	}
-	memset(o, 0, sizeof(*o));
-	o->used = true;
+	o = &lm->os[k];
 	rmd_motor_reply_key(&lm->m, f, &o->reply_id, &o->cmd);
 	o->echo_is_reply = echo_is_reply(&lm->m, f);
 	o->seq = lm->seq++;
 	o->sent_ns = now;
 	o->deadline_ns = now + l->bus[lm->m.bus].reply_ns;
 	memcpy(o->data, f->data, sizeof(o->data));
+	lm->os_used |= (uint8_t)(1u << k);
 }
 
 /* The oldest request of lm that frame f (id, cmd) answers, or NULL.  rt-safe. */
@@ -65,13 +62,19 @@ static struct outstanding *os_match(struct lmotor *lm, uint32_t id, uint16_t cmd
 {
 	struct outstanding *best = NULL;
 
-	for (unsigned k = 0; k < OUTSTANDING; k++) {
-		struct outstanding *e = &lm->os[k];
+	for (unsigned m = lm->os_used; m; m &= m - 1) {
+		struct outstanding *e = &lm->os[__builtin_ctz(m)];
 
-		if (e->used && e->reply_id == id && e->cmd == cmd && (!best || e->seq < best->seq))
+		if (e->reply_id == id && e->cmd == cmd && (!best || e->seq < best->seq))
 			best = e;
 	}
 	return best;
+}
+
+/* Request o of lm is answered or given up.  rt-safe. */
+static void os_done(struct lmotor *lm, const struct outstanding *o)
+{
+	lm->os_used &= (uint8_t) ~(1u << (unsigned)(o - lm->os));
 }
 
 /* ------------------------------------------------------------------ */
@@ -139,7 +142,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		bool echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
 			    !memcmp(f->data, o->data, RMD_FRAME_LEN);
 
-		o->used = false;
+		os_done(lm, o);
 		l->cnt.replies++;
 		lm->st.reply_latency_ns = rx->t_ns - o->sent_ns;
 		loop_alive(l, lm, now);
@@ -196,11 +199,11 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		for (unsigned k = 0; k < OUTSTANDING; k++) {
-			struct outstanding *o = &lm->os[k];
+		for (unsigned m = lm->os_used; m; m &= m - 1) {
+			struct outstanding *o = &lm->os[__builtin_ctz(m)];
 
-			if (o->used && o->deadline_ns <= now) {
-				o->used = false;
+			if (o->deadline_ns <= now) {
+				os_done(lm, o);
 				loop_miss(l, lm, now);
 			}
 		}
