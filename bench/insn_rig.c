@@ -130,6 +130,7 @@ static int open_buses(void)
 
 int main(int argc, char **argv)
 {
+	struct rmd_loop_counters c;
 	struct rmd_loop_stats st;
 	struct rmd_loop_opts o;
 	struct rmd_loop *l;
@@ -197,12 +198,15 @@ int main(int argc, char **argv)
 	CALLGRIND_DUMP_STATS_AT("measured");
 	rmd_loop_get_snapshot(l, &snap);
 	rmd_loop_get_stats(l, &st);
+	rmd_loop_get_counters(l, &c);
 	for (unsigned i = 0; i < snap.n; i++)
 		n_lc[snap.m[i].lifecycle & 7]++;
 	printf("insn_rig: motors %u buses %u measured_cycles %u mode %s enabled %u ready %u "
-	       "plan_misses %llu\n",
+	       "plan_misses %llu replies %llu bad_replies %llu missed %llu\n",
 	       cfg.n_motors, cfg.n_buses, cycles, enabled ? "enabled" : "ready",
-	       n_lc[RMD_LC_ENABLED], n_lc[RMD_LC_READY], (unsigned long long)st.plan_misses);
+	       n_lc[RMD_LC_ENABLED], n_lc[RMD_LC_READY], (unsigned long long)st.plan_misses,
+	       (unsigned long long)c.replies, (unsigned long long)c.bad_replies,
+	       (unsigned long long)c.missed);
 	rmd_loop_free(l);
 	for (unsigned b = 0; b < cfg.n_buses; b++)
 		rmd_bus_close(&buses[b]);

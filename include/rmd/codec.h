@@ -150,8 +150,14 @@ struct rmd_addr {
  */
 enum rmd_proto rmd_proto_table(enum rmd_proto proto);
 
+/* The rows by command byte, [proto == RMD_PROTO_V2][cmd]; read through rmd_cmd_find(). */
+extern const struct rmd_cmd_spec *rmd_cmd_by_byte[2][256];
+
 /* The row for `cmd` in the table of `proto`, or NULL if there is none.  O(1). */
-const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd);
+static inline const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd)
+{
+	return rmd_cmd_by_byte[proto == RMD_PROTO_V2][cmd];
+}
 
 /*
  * All rows of a protocol's table, for tools and tests that walk every

@@ -129,7 +129,8 @@ struct rmd_motor {
 	struct rmd_mit_ranges mit;
 	struct rmd_mit_valid_ranges mit_ok; /* mit, validated once (MIT motors) */
 	double damp_kd;
-	enum rmd_proto table;		 /* rmd_proto_table(proto) */
+	enum rmd_proto table; /* rmd_proto_table(proto) */
+	uint32_t reply_id;    /* replies to 0x140 + ID: 0x240 + ID (V3, MIT), 0x140 + ID (V2) */
 	struct rmd_motor_row torque_row; /* 0xA1: current */
 	struct rmd_motor_row speed_row;	 /* 0xA2: speed */
 	struct rmd_motor_row pos_row;	 /* 0xA4: angle, max speed */

@@ -25,6 +25,7 @@
 #include <poll.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -149,7 +150,9 @@ void loop_pub_write(struct rmd_loop *l)
 {
 	atomic_fetch_add_explicit(&l->pub_seq, 1, memory_order_relaxed);
 	atomic_thread_fence(memory_order_release);
-	memcpy(&l->pub_snap, &l->snap, sizeof(l->snap));
+	/* the motors past n stay as rmd_loop_new() left them, in both copies */
+	memcpy(&l->pub_snap, &l->snap,
+	       offsetof(struct rmd_snapshot, m) + l->n_motors * sizeof(l->snap.m[0]));
 	l->pub_stats = l->stats;
 	l->pub_cnt = l->cnt;
 	if (l->health_fresh) {

@@ -18,15 +18,29 @@
 /* ------------------------------------------------------------------ */
 /* Requests in flight */
 
-/* rt-safe. */
-static bool echo_is_reply(const struct rmd_motor *m, const struct rmd_frame *f)
+/*
+ * What answers request f of motor m: its reply key (rmd_motor_reply_key())
+ * and whether the answer repeats it.  The motor's own 0x140 + ID frames
+ * (setpoints, status reads) take the short way: their answer comes on the
+ * motor's reply identifier with their command byte.  rt-safe.
+ */
+static void os_key(const struct rmd_motor *m, const struct rmd_frame *f, struct outstanding *o)
 {
 	const struct rmd_cmd_spec *spec;
 
-	if (f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len)
-		return false;
-	spec = rmd_cmd_find(m->proto, f->data[0]);
-	return spec && (spec->flags & RMD_CMD_ECHO);
+	if (f->can_id == RMD_CAN_REQ_BASE + m->id && f->len) {
+		o->reply_id = m->reply_id;
+		o->cmd = f->data[0];
+		spec = rmd_cmd_find(m->table, f->data[0]);
+		o->echo_is_reply = spec && (spec->flags & RMD_CMD_ECHO);
+		return;
+	}
+	rmd_motor_reply_key(m, f, &o->reply_id, &o->cmd);
+	/* 0x280, MIT and empty frames are never echoed */
+	spec = f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len ?
+		       NULL :
+		       rmd_cmd_find(m->table, f->data[0]);
+	o->echo_is_reply = spec && (spec->flags & RMD_CMD_ECHO);
 }
 
 /* rt-safe. */
@@ -48,8 +62,7 @@ void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *
 		loop_miss(l, lm, now);
 	}
 	o = &lm->os[k];
-	rmd_motor_reply_key(&lm->m, f, &o->reply_id, &o->cmd);
-	o->echo_is_reply = echo_is_reply(&lm->m, f);
+	os_key(&lm->m, f, o);
 	o->seq = lm->seq++;
 	o->sent_ns = now;
 	o->deadline_ns = now + l->bus[lm->m.bus].reply_ns;

@@ -150,6 +150,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->mit = c->mit;
 	m->damp_kd = RMD_MOTOR_DAMP_KD;
 	m->table = rmd_proto_table(m->proto);
+	m->reply_id = (m->table == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
 	row_resolve(m, 0xA1, RMD_FLD_CURRENT, RMD_FLD_COUNT, &m->torque_row);
 	row_resolve(m, 0xA2, RMD_FLD_SPEED, RMD_FLD_COUNT, &m->speed_row);
 	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
@@ -631,8 +632,7 @@ int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_
 		r->cmd = RMD_MOTOR_CMD_MIT;
 		return decode_mit(m, f, r);
 	}
-	if (f->can_id !=
-	    (m->table == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id)
+	if (f->can_id != m->reply_id)
 		return -EINVAL;
 	if (f->len != RMD_FRAME_LEN)
 		return -EBADMSG;
