@@ -102,17 +102,46 @@ void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, un
 		.b = b,
 	};
 
-	if (l->o.events)
+	if (l->o.events) {
 		rmd_ring_push(l->o.events, &e);
+		l->ev_pushed = true;
+	}
+}
+
+/* Wake the events' reader when events came (one eventfd write a cycle at most).  rt-safe. */
+static void events_wake(struct rmd_loop *l)
+{
+	uint64_t one = 1;
+	ssize_t w;
+
+	if (!l->ev_pushed || l->events_fd < 0)
+		return;
+	l->ev_pushed = false;
+	/* Non-blocking; EAGAIN means a wake-up is pending anyway. */
+	w = write(l->events_fd, &one, sizeof(one));
+	(void)w;
+}
+
+/* Non-rt. */
+void rmd_loop_set_events_fd(struct rmd_loop *l, int fd)
+{
+	l->events_fd = fd;
 }
 
 /* ------------------------------------------------------------------ */
-/* rt-safe. */
+/* One wake-up `lat` late (under stat_begin()).  rt-safe. */
 static void wake_record(struct rmd_loop *l, int64_t lat)
 {
+	uint64_t us;
+
 	if (lat < 0)
 		lat = 0;
 	l->hist[rmd_hist_bucket(lat)]++;
+	us = (uint64_t)lat / RMD_NS_PER_US;
+	if (us < RMD_LOOP_WAKE_US_BUCKETS)
+		l->wake_us[us]++;
+	else
+		l->wake_over++;
 	l->wake_n++;
 	l->wake_sum += lat;
 	if (l->wake_n == 1 || lat < l->stats.wake_min_ns)
@@ -121,25 +150,51 @@ static void wake_record(struct rmd_loop *l, int64_t lat)
 		l->stats.wake_max_ns = lat;
 }
 
-/* rt-safe. */
-static void wake_summary(struct rmd_loop *l)
+/*
+ * The 99th percentile of n samples, rounded up to their bucket's bound and
+ * capped at max: from the 1 us buckets when it lies in them (us may be
+ * NULL), else from the log-scale ones.  Pure.
+ */
+static int64_t p99_of(uint64_t n, const uint64_t *us, const uint64_t *logh, const uint32_t *logh32,
+		      int64_t max)
 {
-	uint64_t want, sum = 0;
+	uint64_t want = n - n / 100, sum = 0; /* the 99th percentile, rounded up */
 
-	if (!l->wake_n)
-		return;
-	l->stats.wake_avg_ns = l->wake_sum / (int64_t)l->wake_n;
-	want = l->wake_n - l->wake_n / 100; /* the 99th percentile, rounded up */
+	if (!n)
+		return 0;
+	for (unsigned k = 0; us && k < RMD_LOOP_WAKE_US_BUCKETS; k++) {
+		sum += us[k];
+		if (sum >= want) {
+			int64_t up = (int64_t)(k + 1) * RMD_NS_PER_US - 1;
+
+			return up < max ? up : max;
+		}
+	}
+	sum = 0;
 	for (unsigned b = 0; b < RMD_HIST_BUCKETS; b++) {
-		sum += l->hist[b];
+		sum += logh ? logh[b] : logh32[b];
 		if (sum >= want) {
 			int64_t up = rmd_hist_upper(b);
 
-			l->stats.wake_p99_ns = up < l->stats.wake_max_ns ? up :
-									   l->stats.wake_max_ns;
-			break;
+			return up < max ? up : max;
 		}
 	}
+	return max;
+}
+
+/* Average and p99 of the wake-ups so far, into l->stats (with the health: ~10 Hz).  rt-safe. */
+static void wake_summary(struct rmd_loop *l)
+{
+	if (!l->wake_n)
+		return;
+	l->stats.wake_avg_ns = l->wake_sum / (int64_t)l->wake_n;
+	l->stats.wake_p99_ns = p99_of(l->wake_n, l->wake_us, l->hist, NULL, l->stats.wake_max_ns);
+}
+
+/* Non-rt. */
+int64_t rmd_latency_p99(const struct rmd_latency *lat)
+{
+	return p99_of(lat->n, NULL, NULL, lat->hist, lat->max_ns);
 }
 
 /* ------------------------------------------------------------------ */
@@ -190,6 +245,7 @@ static void fill_health(struct rmd_loop *l, int64_t now)
 
 	memset(h, 0, sizeof(*h));
 	h->t_ns = now;
+	wake_summary(l);
 	h->loop = l->stats;
 	h->nbuses = l->n_buses;
 	for (unsigned b = 0; b < l->n_buses; b++) {
@@ -243,7 +299,6 @@ static void publish(struct rmd_loop *l, int64_t now)
 	bool health = l->cycle >= l->next_health_cycle;
 
 	loop_fill_snapshot(l, now);
-	wake_summary(l);
 	if (health) {
 		fill_health(l, now);
 		l->next_health_cycle = l->cycle + l->health_every;
@@ -318,11 +373,14 @@ static void schedule(struct rmd_loop *l, int64_t now)
 		l->next_tick_ns = now + l->period_ns;
 		return;
 	}
+	/* true lateness: from the tick intended, however many periods it skipped */
+	stat_begin(l);
+	wake_record(l, now - l->next_tick_ns);
+	stat_end(l);
 	if (now - l->next_tick_ns >= l->period_ns)
 		loop_skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns);
 	tick = l->next_tick_ns;
 	l->next_tick_ns = tick + l->period_ns;
-	wake_record(l, now - tick);
 }
 
 /* rt-safe. */
@@ -348,6 +406,7 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 	if (end - now > l->stats.cycle_max_ns)
 		l->stats.cycle_max_ns = end - now;
 	publish(l, now);
+	events_wake(l);
 	l->cycle++;
 	atomic_fetch_add_explicit(&l->heartbeat, 1, memory_order_release);
 }
@@ -358,10 +417,84 @@ uint64_t rmd_loop_heartbeat(const struct rmd_loop *l)
 	return atomic_load_explicit(&l->heartbeat, memory_order_acquire);
 }
 
-/* Any thread; non-rt. */
+/*
+ * Copy `size` bytes at `src` (the loop's histograms) consistently under
+ * stat_seq.  Any thread; non-rt (spins while the loop writes).
+ */
+static void stat_read(const struct rmd_loop *l, void *dst, const void *src, size_t size)
+{
+	for (;;) {
+		unsigned s0 = atomic_load_explicit(&l->stat_seq, memory_order_acquire);
+
+		if (s0 & 1u) {
+			sched_yield();
+			continue;
+		}
+		memcpy(dst, src, size);
+		atomic_thread_fence(memory_order_acquire);
+		if (atomic_load_explicit(&l->stat_seq, memory_order_relaxed) == s0)
+			return;
+	}
+}
+
+/* Any thread; non-rt: the average and p99 from the histograms as they are now. */
 void rmd_loop_get_stats(const struct rmd_loop *l, struct rmd_loop_stats *out)
 {
+	struct { /* ~10 KB on the caller's (non-rt) stack */
+		uint64_t n;
+		int64_t sum;
+		uint64_t hist[RMD_HIST_BUCKETS];
+		uint64_t us[RMD_LOOP_WAKE_US_BUCKETS];
+	} w;
+
 	pub_read(l, out, &l->pub_stats, sizeof(*out));
+	for (;;) {
+		unsigned s0 = atomic_load_explicit(&l->stat_seq, memory_order_acquire);
+
+		if (s0 & 1u) {
+			sched_yield();
+			continue;
+		}
+		w.n = l->wake_n;
+		w.sum = l->wake_sum;
+		memcpy(w.hist, l->hist, sizeof(w.hist));
+		memcpy(w.us, l->wake_us, sizeof(w.us));
+		atomic_thread_fence(memory_order_acquire);
+		if (atomic_load_explicit(&l->stat_seq, memory_order_relaxed) == s0)
+			break;
+	}
+	if (w.n) {
+		out->wake_avg_ns = w.sum / (int64_t)w.n;
+		out->wake_p99_ns = p99_of(w.n, w.us, w.hist, NULL, out->wake_max_ns);
+	}
+}
+
+/* Any thread; non-rt. */
+void rmd_loop_get_wake_hist(const struct rmd_loop *l, struct rmd_loop_wake_hist *out)
+{
+	for (;;) {
+		unsigned s0 = atomic_load_explicit(&l->stat_seq, memory_order_acquire);
+
+		if (s0 & 1u) {
+			sched_yield();
+			continue;
+		}
+		out->n = l->wake_n;
+		memcpy(out->us, l->wake_us, sizeof(out->us));
+		out->over = l->wake_over;
+		atomic_thread_fence(memory_order_acquire);
+		if (atomic_load_explicit(&l->stat_seq, memory_order_relaxed) == s0)
+			return;
+	}
+}
+
+/* Any thread; non-rt. */
+bool rmd_loop_get_reply_latency(const struct rmd_loop *l, unsigned i, struct rmd_latency *out)
+{
+	if (i >= l->n_motors)
+		return false;
+	stat_read(l, out, &l->mot[i].lat, sizeof(*out));
+	return true;
 }
 
 /* Any thread; non-rt. */
@@ -594,7 +727,9 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 		l->health_every = every ? (unsigned)every : 1u;
 	}
 	l->wd = RMD_WD_IDLE;
+	l->events_fd = -1;
 	atomic_init(&l->pub_seq, 0);
+	atomic_init(&l->stat_seq, 0);
 	atomic_init(&l->heartbeat, 0);
 	atomic_init(&l->stop, false);
 	l->snap.n = l->n_motors;

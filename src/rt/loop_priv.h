@@ -72,6 +72,7 @@ struct lmotor {
 	int64_t next_probe_ns;
 	bool replied;
 	uint64_t last_reply_cycle;
+	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
 	/* bring-up */
 	char model[8];
 	uint32_t version;
@@ -131,7 +132,11 @@ struct rmd_loop {
 	/* statistics */
 	struct rmd_loop_stats stats;
 	struct rmd_loop_counters cnt;
+	/* wake-up lateness and reply latencies: written under stat_seq (stat_begin()) */
+	atomic_uint stat_seq;
 	uint64_t hist[RMD_HIST_BUCKETS];
+	uint64_t wake_us[RMD_LOOP_WAKE_US_BUCKETS];
+	uint64_t wake_over;
 	uint64_t wake_n;
 	int64_t wake_sum;
 	uint64_t ov_pending; /* ticks skipped, not yet reported */
@@ -139,6 +144,10 @@ struct rmd_loop {
 	int64_t ov_ev_ns;
 	uint64_t next_health_cycle;
 	unsigned health_every;
+
+	/* the events' reader: woken at the end of a cycle that pushed events */
+	int events_fd;	/* eventfd or -1 (rmd_loop_set_events_fd()) */
+	bool ev_pushed; /* an event went into the ring since the last wake-up */
 
 	/* work copies */
 	struct rmd_snapshot snap;
@@ -165,6 +174,22 @@ struct rmd_loop {
 static inline unsigned loop_idx(const struct rmd_loop *l, const struct lmotor *lm)
 {
 	return (unsigned)(lm - l->mot);
+}
+
+/*
+ * The histograms other threads read (rmd_loop_get_wake_hist(),
+ * rmd_loop_get_reply_latency()) change between stat_begin() and
+ * stat_end(): a sequence lock, as the published copies.  rt-safe.
+ */
+static inline void stat_begin(struct rmd_loop *l)
+{
+	atomic_fetch_add_explicit(&l->stat_seq, 1, memory_order_relaxed);
+	atomic_thread_fence(memory_order_release);
+}
+
+static inline void stat_end(struct rmd_loop *l)
+{
+	atomic_fetch_add_explicit(&l->stat_seq, 1, memory_order_release);
 }
 
 /* rt-safe. */

@@ -93,6 +93,18 @@ static void os_done(struct lmotor *lm, const struct outstanding *o)
 /* ------------------------------------------------------------------ */
 /* Receiving */
 
+/* One reply latency into lat (under stat_begin()).  rt-safe. */
+static void lat_add(struct rmd_latency *lat, int64_t ns)
+{
+	if (!lat->n || ns < lat->min_ns)
+		lat->min_ns = ns;
+	if (!lat->n || ns > lat->max_ns)
+		lat->max_ns = ns;
+	lat->n++;
+	lat->sum_ns += ns;
+	lat->hist[rmd_hist_bucket(ns)]++;
+}
+
 /* rt-safe. */
 void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now)
 {
@@ -158,6 +170,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		os_done(lm, o);
 		l->cnt.replies++;
 		lm->st.reply_latency_ns = rx->t_ns - o->sent_ns;
+		lat_add(&lm->lat, lm->st.reply_latency_ns);
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* DESIGN.md: after a comm-loss trip the first command is only echoed */
@@ -199,8 +212,10 @@ void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
 
 		if (n <= 0)
 			return;
+		stat_begin(l);
 		for (int k = 0; k < n; k++)
 			handle_frame(l, b, &lb->rx[k]);
+		stat_end(l);
 		if (n < RX_BATCH)
 			return;
 	}
