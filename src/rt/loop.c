@@ -306,7 +306,12 @@ static void publish(struct rmd_loop *l, int64_t now)
 	loop_pub_write(l);
 	if (l->o.snapshots) {
 		rmd_latest_put(l->o.snapshots, s);
-		if (l->o.snapshot_fd >= 0) {
+		/*
+		 * The bridge publishes every lcm.state_every_n-th state (LCM's
+		 * udpm cannot tell whether anyone listens): it is woken for
+		 * those only, not every cycle (issue 11 point 4).
+		 */
+		if (l->o.snapshot_fd >= 0 && l->cycle % l->state_every == 0) {
 			uint64_t one = 1;
 			/* Non-blocking; EAGAIN means the bridge has a wake-up pending anyway. */
 			ssize_t w = write(l->o.snapshot_fd, &one, sizeof(one));
@@ -726,6 +731,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 
 		l->health_every = every ? (unsigned)every : 1u;
 	}
+	l->state_every = cfg->lcm.state_every_n ? cfg->lcm.state_every_n : 1u;
 	l->wd = RMD_WD_IDLE;
 	l->events_fd = -1;
 	atomic_init(&l->pub_seq, 0);

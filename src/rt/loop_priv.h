@@ -144,6 +144,7 @@ struct rmd_loop {
 	int64_t ov_ev_ns;
 	uint64_t next_health_cycle;
 	unsigned health_every;
+	unsigned state_every; /* lcm.state_every_n: the bridge is woken every this many cycles */
 
 	/* the events' reader: woken at the end of a cycle that pushed events */
 	int events_fd;	/* eventfd or -1 (rmd_loop_set_events_fd()) */

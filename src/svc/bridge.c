@@ -601,7 +601,8 @@ static void *bridge_main(void *arg)
 	publish_config(b);
 	b->next_health_ns = now + b->opts.health_period_ns;
 	for (;;) {
-		int64_t wait = b->opts.poll_ns;
+		/* woken by the loop (notify_fd) and LCM: no polling, only the health timer */
+		int64_t wait = b->opts.notify_fd >= 0 ? INT64_MAX : b->opts.poll_ns;
 		struct timespec ts;
 
 		now = rmd_now_ns();
