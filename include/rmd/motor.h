@@ -109,6 +109,18 @@ struct rmd_motor_row {
 };
 
 /*
+ * The reply most frames of a cycle carry, resolved once by
+ * rmd_motor_init(): status 2 (V3 §2.13, V2 §3.32), the answer to 0x9C and
+ * to every control command.  cmds has bit c set when command c's reply row
+ * has exactly 0x9C's reply layout; the field specs are that layout's (NULL:
+ * absent), so rmd_motor_decode() reads such a reply without walking the row.
+ */
+struct rmd_motor_status2 {
+	uint8_t cmds[32];
+	const struct rmd_field_spec *temp, *current, *speed, *angle, *encoder;
+};
+
+/*
  * The one record of a motor, built once from its config entry by
  * rmd_motor_init(): identity, conversions, limits, MIT ranges; and its
  * decode state.  The plan, the loop and (through struct rmd_motor_info)
@@ -134,6 +146,7 @@ struct rmd_motor {
 	struct rmd_motor_row torque_row; /* 0xA1: current */
 	struct rmd_motor_row speed_row;	 /* 0xA2: speed */
 	struct rmd_motor_row pos_row;	 /* 0xA4: angle, max speed */
+	struct rmd_motor_status2 st2;	 /* replies with 0x9C's layout */
 	/* V2 position: the rotor encoder unwrapped from a reference */
 	bool v2_have_ref;      /* a reference angle was set */
 	double v2_ref_rad;     /* native output angle at the anchor */

@@ -115,6 +115,50 @@ static int row_encode(const struct rmd_motor *m, const struct rmd_motor_row *row
 	return 0;
 }
 
+/* Same fields at the same places with the same LSBs.  Non-rt. */
+static bool layout_equal(const struct rmd_layout *a, const struct rmd_layout *b)
+{
+	if (a->n != b->n)
+		return false;
+	for (unsigned i = 0; i < a->n; i++)
+		if (a->f[i].field != b->f[i].field || a->f[i].off != b->f[i].off ||
+		    a->f[i].size != b->f[i].size || a->f[i].is_signed != b->f[i].is_signed ||
+		    a->f[i].scale != b->f[i].scale)
+			return false;
+	return true;
+}
+
+/* Resolve the status 2 reply of the motor's table (struct rmd_motor_status2).  Non-rt. */
+static void status2_resolve(struct rmd_motor *m)
+{
+	const struct rmd_cmd_spec *st2 = rmd_cmd_find(m->table, 0x9C);
+	struct rmd_motor_status2 *s = &m->st2;
+	const struct rmd_layout *l;
+
+	memset(s, 0, sizeof(*s));
+	if (!st2)
+		return;
+	l = rmd_cmd_layout(st2, RMD_DIR_REPLY);
+	for (unsigned c = 0; c < 256; c++) {
+		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, (uint8_t)c);
+
+		if (spec && !(spec->flags & RMD_CMD_NO_CMD_BYTE) &&
+		    !(m->table == RMD_PROTO_V3 && c == 0x79) &&
+		    layout_equal(rmd_cmd_layout(spec, RMD_DIR_REPLY), l))
+			s->cmds[c / 8] |= (uint8_t)(1u << (c % 8));
+	}
+	s->temp = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_TEMP);
+	s->current = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_CURRENT);
+	s->speed = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_SPEED);
+	s->angle = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_ANGLE);
+	s->encoder = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_ENCODER);
+	/* a layout with other fields, or one field twice, takes the general way */
+	if ((s->temp != NULL) + (s->current != NULL) + (s->speed != NULL) + (s->angle != NULL) +
+		    (s->encoder != NULL) !=
+	    l->n)
+		memset(s->cmds, 0, sizeof(s->cmds));
+}
+
 /* rt-safe. */
 int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 {
@@ -154,6 +198,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	row_resolve(m, 0xA1, RMD_FLD_CURRENT, RMD_FLD_COUNT, &m->torque_row);
 	row_resolve(m, 0xA2, RMD_FLD_SPEED, RMD_FLD_COUNT, &m->speed_row);
 	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
+	status2_resolve(m);
 	if (m->proto == RMD_PROTO_MIT) {
 		if (rmd_mit_ranges_validate(&m->mit, &m->mit_ok) < 0)
 			return -EINVAL;
@@ -537,6 +582,48 @@ static int decode_mit(struct rmd_motor *m, const struct rmd_frame *f, struct rmd
 	return 0;
 }
 
+/* Field fs of data in its native unit.  rt-safe. */
+static double native_of(const struct rmd_field_spec *fs, const uint8_t *data)
+{
+	return (double)rmd_field_read(fs, data) * (fs->scale > 0.0 ? fs->scale : 1.0);
+}
+
+/*
+ * A reply with the status 2 layout (struct rmd_motor_status2), its fields
+ * read in their known roles: what reply_fields() below gives for it.
+ * rt-safe.
+ */
+static void status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+{
+	const struct rmd_motor_status2 *s = &m->st2;
+
+	if (s->temp) {
+		r->temp_c = native_of(s->temp, f->data);
+		r->have |= RMD_MOTOR_HAVE_TEMP;
+	}
+	if (s->current) {
+		r->current_a = m->dir * native_of(s->current, f->data);
+		r->torque_nm = m->kt_nm_a > 0.0 ? r->current_a * m->kt_nm_a : NAN;
+		r->have |= RMD_MOTOR_HAVE_TORQUE;
+	}
+	if (s->speed) {
+		r->vel_rad_s =
+			m->dir * native_of(s->speed, f->data) / DEG_PER_RAD / m->native_per_output;
+		r->have |= RMD_MOTOR_HAVE_VEL;
+	}
+	if (s->angle) {
+		double angle = native_of(s->angle, f->data);
+
+		r->pos_rad =
+			rmd_motor_from_native_pos(m, angle / DEG_PER_RAD / m->native_per_output);
+		r->have |= RMD_MOTOR_HAVE_POS;
+	} else if (m->table == RMD_PROTO_V2 && s->encoder && f->data[0] != 0x60) {
+		r->pos_rad = rmd_motor_from_native_pos(
+			m, v2_unwrap(m, (uint16_t)rmd_field_read(s->encoder, f->data)));
+		r->have |= RMD_MOTOR_HAVE_POS;
+	}
+}
+
 /*
  * The reply of a 0x140 + ID command row, decoded in one pass over the
  * row's reply layout into r (what rmd_decode() and a walk over its struct
@@ -637,6 +724,10 @@ int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_
 	if (f->len != RMD_FRAME_LEN)
 		return -EBADMSG;
 	r->cmd = f->data[0];
+	if ((m->st2.cmds[f->data[0] / 8] >> (f->data[0] % 8)) & 1) {
+		status2_read(m, f, r);
+		return 0;
+	}
 	return reply_fields(m, f, r);
 }
 

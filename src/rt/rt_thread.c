@@ -93,7 +93,8 @@ static void collect_until_tick(struct rmd_loop *l)
 		now = rmd_now_ns();
 		/* only the buses that have frames, or whose queue is due */
 		for (unsigned k = 0; k < n; k++)
-			if ((r > 0 && pfd[k].revents) || rmd_bus_next_due_ns(l->bus[which[k]].bus) <= now)
+			if ((r > 0 && pfd[k].revents) ||
+			    rmd_bus_next_due_ns(l->bus[which[k]].bus) <= now)
 				loop_drain(l, which[k], now);
 	}
 }
