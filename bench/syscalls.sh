@@ -1,10 +1,11 @@
 #!/bin/sh
 # Issue 11 point 2: system calls per cycle of rmdd's loop on SocketCAN,
 # counted, not estimated: 9 V3 motors (rmd-sim) on vcan0..vcan2 at 1 kHz,
-# every motor READY (one status read a motor a cycle), the loop thread
-# traced with `strace -c` for WINDOW seconds, the cycles of that window
-# from rmdd's own statistics (SIGUSR1 before and after).  Then the whole
-# process for the same window: the bridge's and the monitor's calls.
+# every motor READY (one status read a motor a cycle), every system call
+# entry of the process's threads counted by the kernel (a tracefs
+# histogram on raw_syscalls:sys_enter, keyed by thread and call) for
+# WINDOW seconds; the cycles of that window are the loop thread's
+# clock_nanosleep calls (one a cycle).
 # The same run measures the baseline BASE (bench/lib.sh) first.
 #
 #   bench/syscalls.sh            # on this host when it has vcan, else in the QEMU guest (tests/vm)
@@ -13,8 +14,8 @@
 # total, and per bus; writes bench/results/syscalls.txt and .png.
 # Target (issue 11): <= 2 per bus (one sendmmsg, one recvmmsg), plus the
 # timer wait (clock_nanosleep), plus at most one wake of the bridge
-# (an eventfd write).  strace stops the thread at every call, so the loop
-# runs slower while traced (overruns): the figures are per cycle run.
+# (an eventfd write).  The figures are per cycle run (a cycle skipped by an
+# overrun makes no calls).
 # Environment: BUILD (build), BASE (8c261d5; none: no baseline), WINDOW (5 s), OUT.
 set -eu
 cd "$(dirname "$0")/.."
@@ -27,7 +28,6 @@ if [ -z "${RMD_BENCH_IN_VM:-}" ]; then
 	mkdir -p "$OUT"
 	base_dir=
 	[ "$BASE" != none ] && base_dir=$(bench_base build/rmdd build/rmd-sim)
-	command -v strace >/dev/null 2>&1 || { echo "syscalls: needs strace"; exit 2; }
 	RMD_BENCH_IN_VM=1 RMD_BENCH_BASE_DIR=$base_dir RMD_BENCH_WINDOW=$WINDOW RMD_BENCH_OUT=$OUT \
 		tests/vm/vm-run --vcan 3 --timeout 900 -- "$0"
 	rc=$?
@@ -65,6 +65,7 @@ fi
 # ---- in the guest (or on a host with vcan) ----
 OUT=$RMD_BENCH_OUT
 WINDOW=$RMD_BENCH_WINDOW
+mkdir -p "$OUT"
 work=/dev/shm/rmdd-bench-syscalls
 rm -rf "$work"
 mkdir -p "$work"
@@ -89,10 +90,13 @@ motors:
   - {name: c3, bus: vcan2, id: 3, mode: torque, torque_constant_nm_a: 2}
 YAML
 
-# strace -c's table -> "name calls" lines
-calls() {
-	awk '$1 ~ /^[0-9.]+$/ && NF >= 5 { n = $NF; c = $4; if (n != "total") print n, c }' "$1"
-}
+# tracefs: a histogram of system call entries by thread and call (the
+# kernel counts; the threads are not stopped as under strace)
+T=/sys/kernel/tracing
+[ -d $T/events ] || mount -t tracefs nodev $T 2>/dev/null || true
+E=$T/events/raw_syscalls/sys_enter
+[ -w "$E/trigger" ] || { echo "syscalls: no tracefs histogram triggers here ($E)"; exit 2; }
+HIST='hist:keys=common_pid,id.syscall:vals=hitcount:size=4096'
 
 # measure BUILD_DIR LABEL: appends "LABEL name per_cycle" rows to $work/rows
 measure() {
@@ -114,44 +118,39 @@ measure() {
 		sleep 0.1
 	done
 	sleep 2
-	tid=$(bench_tid $pid rmd-loop || true)
-	# the baseline's loop thread has no name: the one at SCHED_FIFO
-	[ -n "$tid" ] || for t in /proc/$pid/task/*; do
+	# the loop: the SCHED_FIFO thread (the baseline's has no name)
+	tid=
+	for t in /proc/$pid/task/*; do
 		[ "$(awk '{print $41}' "$t/stat")" = 1 ] && tid=$(basename "$t")
 	done
 	[ -n "$tid" ] || { echo "syscalls: no loop thread in $pid"; kill $pid $sims; exit 1; }
-	kill -USR1 $pid
-	sleep 0.3
-	c0=$(bench_cycles "$log")
-	strace -c -q -p "$tid" -o "$work/$label.loop.strace" &
-	st=$!
+	echo "$HIST" >"$E/trigger"
 	sleep "$WINDOW"
-	kill -INT $st
-	wait $st || true
-	kill -USR1 $pid
-	sleep 0.3
-	c1=$(bench_cycles "$log")
-	strace -c -q -f -p "$pid" -o "$work/$label.all.strace" &
-	st=$!
-	sleep "$WINDOW"
-	kill -INT $st
-	wait $st || true
-	kill -USR1 $pid
-	sleep 0.3
-	c2=$(bench_cycles "$log")
+	cp "$E/hist" "$work/$label.hist" 2>/dev/null || true
+	echo "!$HIST" >"$E/trigger" 2>/dev/null || true
+	# tid -> thread name
+	for t in /proc/$pid/task/*; do
+		echo "$(basename "$t") $(cat "$t/comm")"
+	done >"$work/$label.threads"
 	kill -TERM $pid
 	wait $pid || true
 	kill $sims 2>/dev/null || true
 	wait 2>/dev/null || true
-	n1=$((c1 - c0))
-	n2=$((c2 - c1))
-	echo "--- $label ($dir): loop thread $tid, $n1 cycles traced; whole process $n2 cycles"
-	calls "$work/$label.loop.strace" | awk -v n="$n1" -v l="$label" \
-		'{ t += $2; printf "%s %s %.2f\n", l, $1, $2 / n } END { printf "%s total %.2f\n", l, t / n }' \
-		>>"$work/rows"
-	calls "$work/$label.all.strace" | awk -v n="$n2" -v l="$label" \
-		'{ t += $2; printf "  process %-16s %8.2f a cycle\n", $1, $2 / n } END { printf "  process %-16s %8.2f a cycle (all threads)\n", "total", t / n }' \
-		>>"$work/$label.process"
+	sed -n 's/.*common_pid: *\([0-9]*\), *id: *sys_\([a-z0-9_]*\).*hitcount: *\([0-9]*\).*/\1 \2 \3/p' \
+		"$work/$label.hist" >"$work/$label.calls"
+	# cycles in the window: each ends in one clock_nanosleep of the loop thread
+	n=$(awk -v tid="$tid" '$1 == tid && $2 == "clock_nanosleep" { print $3 }' "$work/$label.calls")
+	[ -n "$n" ] && [ "$n" -gt 0 ] || { echo "syscalls: no cycles counted"; exit 1; }
+	# "{ common_pid: 158, id: sys_recvmmsg [299] } hitcount: 1234" -> "tid name count"
+	echo "--- $label ($dir): loop thread $tid, $n cycles in ${WINDOW} s"
+	awk -v n="$n" -v l="$label" -v tid="$tid" '$1 == tid { t += $3; printf "%s %s %.2f\n", l, $2, $3 / n }
+		END { printf "%s total %.2f\n", l, t / n }' "$work/$label.calls" >>"$work/rows"
+	awk -v n="$n" 'NR == FNR { name[$1] = $2; next }
+		($1 in name) { c[name[$1] " " $2] += $3; th[name[$1]] += $3; t += $3 }
+		END { for (k in th) printf "  %-14s %-18s %8.2f calls a cycle\n", k, "(all)", th[k] / n
+		      for (k in c) { split(k, p, " "); printf "  %-14s %-18s %8.2f\n", p[1], p[2], c[k] / n }
+		      printf "  %-14s %-18s %8.2f calls a cycle\n", "process", "(all threads)", t / n }' \
+		"$work/$label.threads" "$work/$label.calls" >"$work/$label.process"
 }
 
 : >"$work/rows"
@@ -161,7 +160,7 @@ measure "$BUILD" this
 txt=$OUT/syscalls.txt
 {
 	echo "# bench/syscalls.sh, $(date -u +%Y-%m-%d), $(uname -r), 3 SocketCAN buses (vcan) x 3 V3 motors (rmd-sim), READY, 1 kHz"
-	echo "# loop thread, calls per cycle (strace -c over ${WINDOW} s; cycles from rmdd's statistics)"
+	echo "# loop thread, calls per cycle (tracefs sys_enter histogram over ${WINDOW} s; a cycle = one clock_nanosleep)"
 	printf '%-18s %8s %8s %7s\n' syscall this base ratio
 	awk '{ v[$1 " " $2] = $3; n[$2] = 1 }
 	END {
