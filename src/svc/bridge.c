@@ -602,7 +602,7 @@ static void *bridge_main(void *arg)
 	b->next_health_ns = now + b->opts.health_period_ns;
 	for (;;) {
 		/* woken by the loop (notify_fd) and LCM: no polling, only the health timer */
-		int64_t wait = b->opts.notify_fd >= 0 ? INT64_MAX : b->opts.poll_ns;
+		int64_t wait = b->opts.poll_ns;
 		struct timespec ts;
 
 		now = rmd_now_ns();
