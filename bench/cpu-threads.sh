@@ -35,14 +35,8 @@ run() {
 	dir=$1
 	label=$2
 	log=$work/$label.log
-	"$dir/rmdd" --config "$CONFIG" --lcm-url "$LCM_URL" 2>"$log" &
-	pid=$!
-	i=0
-	while ! grep -q "rmdd: running:" "$log" 2>/dev/null; do
-		i=$((i + 1))
-		[ $i -lt 100 ] && kill -0 $pid 2>/dev/null || { cat "$log"; exit 1; }
-		sleep 0.1
-	done
+	bench_rmdd_start "$dir/rmdd" "$log" --config "$CONFIG" --lcm-url "$LCM_URL"
+	pid=$BENCH_PID
 	ctl=
 	if [ -x "$BUILD/sine_controller" ]; then
 		"$BUILD/sine_controller" --mode mit --url "$LCM_URL" >/dev/null 2>&1 &

@@ -16,8 +16,8 @@
 # 24 32"), OUT (bench/results).
 set -eu
 cd "$(dirname "$0")/.."
+. bench/lib.sh
 BUILD=${BUILD:-build}
-BASE=${BASE:-8c261d5}
 CYCLES=${CYCLES:-1000}
 COUNTS=${COUNTS:-3 6 12 18 24 32}
 OUT=${OUT:-bench/results}
@@ -28,10 +28,8 @@ command -v valgrind >/dev/null 2>&1 || { echo "insn-per-cycle: needs valgrind"; 
 
 base_rig=
 if [ "$BASE" != none ]; then
-	dir=$(mktemp -d /tmp/rmdd-bench-base.XXXXXX)
-	echo "insn-per-cycle: building the baseline $BASE in $dir"
-	git archive "$BASE" | tar -x -C "$dir"
-	make -C "$dir" -j2 build/librmd.a >"$dir/build.log" 2>&1 || { cat "$dir/build.log"; exit 1; }
+	echo "insn-per-cycle: building the baseline $BASE"
+	dir=$(bench_base build/librmd.a)
 	cc -O2 -g -std=gnu11 -I"$dir/include" -I"$dir/src" -I"$dir/build/gen" \
 		-o "$dir/insn_rig" bench/insn_rig.c "$dir/build/librmd.a" \
 		$(pkg-config --libs libmodbus yaml-0.1 lcm libsystemd 2>/dev/null) -lm
@@ -76,8 +74,8 @@ END {
 }' "$data" >>"$txt"
 cat "$txt"
 
-if /usr/bin/python3 -c 'import matplotlib' 2>/dev/null; then
-	/usr/bin/python3 - "$data" "$OUT/insn-per-cycle.png" "$BASE" <<'PY'
+if py=$(bench_plot); then
+	"$py" - "$data" "$OUT/insn-per-cycle.png" "$BASE" <<'PY'
 import sys
 import matplotlib
 matplotlib.use("Agg")
@@ -101,5 +99,4 @@ PY
 else
 	echo "insn-per-cycle: wrote $txt (no plot: apt-get install python3-matplotlib)"
 fi
-[ -n "$base_rig" ] && rm -rf "$(dirname "$base_rig")"
 exit 0

@@ -23,14 +23,8 @@ command -v cyclictest >/dev/null 2>&1 || { echo "latency-vs-cyclictest: needs cy
 work=$(mktemp -d /tmp/rmdd-bench-lat.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 
-"$BUILD/rmdd" --config "$CONFIG" --require-rt --lcm-url memq:// 2>"$work/rmdd.log" &
-pid=$!
-i=0
-while ! grep -q "rmdd: running:" "$work/rmdd.log" 2>/dev/null; do
-	i=$((i + 1))
-	[ $i -lt 100 ] && kill -0 $pid 2>/dev/null || { cat "$work/rmdd.log"; exit 1; }
-	sleep 0.1
-done
+bench_rmdd_start "$BUILD/rmdd" "$work/rmdd.log" --config "$CONFIG" --require-rt --lcm-url memq://
+pid=$BENCH_PID
 cyclictest -m -t1 -p 39 -i 1000 -D "$DURATION" -q -h 1000 >"$work/ct.log" 2>&1 &
 ct=$!
 sleep "$DURATION"

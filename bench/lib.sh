@@ -44,3 +44,23 @@ bench_tid() {
 bench_cycles() {
 	sed -n 's/.*statistics (.*) after .* s: \([0-9]*\) cycles.*/\1/p' "$1" | tail -n 1
 }
+
+# Start rmdd (ARGS) with its stderr in LOG and wait until it says it runs;
+# its pid in BENCH_PID.  bench_rmdd_start RMDD LOG ARGS...
+bench_rmdd_start() {
+	rmdd=$1
+	log=$2
+	shift 2
+	"$rmdd" "$@" 2>"$log" &
+	BENCH_PID=$!
+	i=0
+	while ! grep -q "rmdd: running:" "$log" 2>/dev/null; do
+		i=$((i + 1))
+		if [ $i -ge 300 ] || ! kill -0 $BENCH_PID 2>/dev/null; then
+			cat "$log"
+			echo "bench: rmdd did not start: $rmdd $*"
+			exit 1
+		fi
+		sleep 0.1
+	done
+}

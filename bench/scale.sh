@@ -26,14 +26,8 @@ trap 'rm -rf "$work"' EXIT
 # run BUILD_DIR LABEL N: appends "LABEL N loop% proc% misses overruns cycles"
 run() {
 	log=$work/$2-$3.log
-	"$1/rmdd" --sim "$3" --require-rt --lcm-url memq:// 2>"$log" &
-	pid=$!
-	i=0
-	while ! grep -q "rmdd: running:" "$log" 2>/dev/null; do
-		i=$((i + 1))
-		[ $i -lt 100 ] && kill -0 $pid 2>/dev/null || { cat "$log"; exit 1; }
-		sleep 0.1
-	done
+	bench_rmdd_start "$1/rmdd" "$log" --sim "$3" --require-rt --lcm-url memq://
+	pid=$BENCH_PID
 	sleep 1
 	t0=$(cat /proc/$pid/task/*/stat | awk '{ t += $14 + $15; if ($41 == 1) l += $14 + $15 } END { print l, t }')
 	sleep "$DURATION"

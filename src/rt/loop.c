@@ -136,15 +136,15 @@ static void wake_record(struct rmd_loop *l, int64_t lat)
 
 	if (lat < 0)
 		lat = 0;
-	l->hist[rmd_hist_bucket(lat)]++;
+	l->wake.hist[rmd_hist_bucket(lat)]++;
 	us = (uint64_t)lat / RMD_NS_PER_US;
 	if (us < RMD_LOOP_WAKE_US_BUCKETS)
-		l->wake_us[us]++;
+		l->wake.us[us]++;
 	else
-		l->wake_over++;
-	l->wake_n++;
-	l->wake_sum += lat;
-	if (l->wake_n == 1 || lat < l->stats.wake_min_ns)
+		l->wake.over++;
+	l->wake.n++;
+	l->wake.sum += lat;
+	if (l->wake.n == 1 || lat < l->stats.wake_min_ns)
 		l->stats.wake_min_ns = lat;
 	if (lat > l->stats.wake_max_ns)
 		l->stats.wake_max_ns = lat;
@@ -185,10 +185,11 @@ static int64_t p99_of(uint64_t n, const uint64_t *us, const uint64_t *logh, cons
 /* Average and p99 of the wake-ups so far, into l->stats (with the health: ~10 Hz).  rt-safe. */
 static void wake_summary(struct rmd_loop *l)
 {
-	if (!l->wake_n)
+	if (!l->wake.n)
 		return;
-	l->stats.wake_avg_ns = l->wake_sum / (int64_t)l->wake_n;
-	l->stats.wake_p99_ns = p99_of(l->wake_n, l->wake_us, l->hist, NULL, l->stats.wake_max_ns);
+	l->stats.wake_avg_ns = l->wake.sum / (int64_t)l->wake.n;
+	l->stats.wake_p99_ns =
+		p99_of(l->wake.n, l->wake.us, l->wake.hist, NULL, l->stats.wake_max_ns);
 }
 
 /* Non-rt. */
@@ -219,13 +220,14 @@ void loop_pub_write(struct rmd_loop *l)
 }
 
 /*
- * Copy `size` bytes at `src` (inside l's published copies) consistently.
- * Any thread; non-rt (spins while the loop writes).
+ * Copy `size` bytes at `src` consistently under the sequence lock `seq`
+ * (only the loop writes what it guards).  Any thread; non-rt (spins while
+ * the loop writes).
  */
-static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_t size)
+static void seq_read(const atomic_uint *seq, void *dst, const void *src, size_t size)
 {
 	for (;;) {
-		unsigned s0 = atomic_load_explicit(&l->pub_seq, memory_order_acquire);
+		unsigned s0 = atomic_load_explicit(seq, memory_order_acquire);
 
 		if (s0 & 1u) {
 			sched_yield();
@@ -233,9 +235,15 @@ static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_
 		}
 		memcpy(dst, src, size);
 		atomic_thread_fence(memory_order_acquire);
-		if (atomic_load_explicit(&l->pub_seq, memory_order_relaxed) == s0)
+		if (atomic_load_explicit(seq, memory_order_relaxed) == s0)
 			return;
 	}
+}
+
+/* Copy `size` bytes at `src` (inside l's published copies) consistently.  Non-rt. */
+static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_t size)
+{
+	seq_read(&l->pub_seq, dst, src, size);
 }
 
 /* The health of the window since the last one, into l->health.  rt-safe. */
@@ -422,52 +430,13 @@ uint64_t rmd_loop_heartbeat(const struct rmd_loop *l)
 	return atomic_load_explicit(&l->heartbeat, memory_order_acquire);
 }
 
-/*
- * Copy `size` bytes at `src` (the loop's histograms) consistently under
- * stat_seq.  Any thread; non-rt (spins while the loop writes).
- */
-static void stat_read(const struct rmd_loop *l, void *dst, const void *src, size_t size)
-{
-	for (;;) {
-		unsigned s0 = atomic_load_explicit(&l->stat_seq, memory_order_acquire);
-
-		if (s0 & 1u) {
-			sched_yield();
-			continue;
-		}
-		memcpy(dst, src, size);
-		atomic_thread_fence(memory_order_acquire);
-		if (atomic_load_explicit(&l->stat_seq, memory_order_relaxed) == s0)
-			return;
-	}
-}
-
 /* Any thread; non-rt: the average and p99 from the histograms as they are now. */
 void rmd_loop_get_stats(const struct rmd_loop *l, struct rmd_loop_stats *out)
 {
-	struct { /* ~10 KB on the caller's (non-rt) stack */
-		uint64_t n;
-		int64_t sum;
-		uint64_t hist[RMD_HIST_BUCKETS];
-		uint64_t us[RMD_LOOP_WAKE_US_BUCKETS];
-	} w;
+	struct loop_wake w; /* ~10 KB on the caller's (non-rt) stack */
 
 	pub_read(l, out, &l->pub_stats, sizeof(*out));
-	for (;;) {
-		unsigned s0 = atomic_load_explicit(&l->stat_seq, memory_order_acquire);
-
-		if (s0 & 1u) {
-			sched_yield();
-			continue;
-		}
-		w.n = l->wake_n;
-		w.sum = l->wake_sum;
-		memcpy(w.hist, l->hist, sizeof(w.hist));
-		memcpy(w.us, l->wake_us, sizeof(w.us));
-		atomic_thread_fence(memory_order_acquire);
-		if (atomic_load_explicit(&l->stat_seq, memory_order_relaxed) == s0)
-			break;
-	}
+	seq_read(&l->stat_seq, &w, &l->wake, sizeof(w));
 	if (w.n) {
 		out->wake_avg_ns = w.sum / (int64_t)w.n;
 		out->wake_p99_ns = p99_of(w.n, w.us, w.hist, NULL, out->wake_max_ns);
@@ -477,20 +446,12 @@ void rmd_loop_get_stats(const struct rmd_loop *l, struct rmd_loop_stats *out)
 /* Any thread; non-rt. */
 void rmd_loop_get_wake_hist(const struct rmd_loop *l, struct rmd_loop_wake_hist *out)
 {
-	for (;;) {
-		unsigned s0 = atomic_load_explicit(&l->stat_seq, memory_order_acquire);
+	struct loop_wake w;
 
-		if (s0 & 1u) {
-			sched_yield();
-			continue;
-		}
-		out->n = l->wake_n;
-		memcpy(out->us, l->wake_us, sizeof(out->us));
-		out->over = l->wake_over;
-		atomic_thread_fence(memory_order_acquire);
-		if (atomic_load_explicit(&l->stat_seq, memory_order_relaxed) == s0)
-			return;
-	}
+	seq_read(&l->stat_seq, &w, &l->wake, sizeof(w));
+	out->n = w.n;
+	memcpy(out->us, w.us, sizeof(out->us));
+	out->over = w.over;
 }
 
 /* Any thread; non-rt. */
@@ -498,7 +459,7 @@ bool rmd_loop_get_reply_latency(const struct rmd_loop *l, unsigned i, struct rmd
 {
 	if (i >= l->n_motors)
 		return false;
-	stat_read(l, out, &l->mot[i].lat, sizeof(*out));
+	seq_read(&l->stat_seq, out, &l->mot[i].lat, sizeof(*out));
 	return true;
 }
 

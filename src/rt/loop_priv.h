@@ -134,11 +134,13 @@ struct rmd_loop {
 	struct rmd_loop_counters cnt;
 	/* wake-up lateness and reply latencies: written under stat_seq (stat_begin()) */
 	atomic_uint stat_seq;
-	uint64_t hist[RMD_HIST_BUCKETS];
-	uint64_t wake_us[RMD_LOOP_WAKE_US_BUCKETS];
-	uint64_t wake_over;
-	uint64_t wake_n;
-	int64_t wake_sum;
+	struct loop_wake {
+		uint64_t n;
+		int64_t sum;
+		uint64_t hist[RMD_HIST_BUCKETS];       /* rmd/hist.h buckets */
+		uint64_t us[RMD_LOOP_WAKE_US_BUCKETS]; /* 1 us buckets */
+		uint64_t over;			       /* at RMD_LOOP_WAKE_US_BUCKETS us or later */
+	} wake;
 	uint64_t ov_pending; /* ticks skipped, not yet reported */
 	bool ov_any;
 	int64_t ov_ev_ns;
