@@ -582,6 +582,39 @@ static int decode_mit(struct rmd_motor *m, const struct rmd_frame *f, struct rmd
 	return 0;
 }
 
+/* The native iq x (A) of a reply, in the reported frame.  rt-safe. */
+static void take_current(const struct rmd_motor *m, double x, struct rmd_motor_reply *r)
+{
+	r->current_a = m->dir * x;
+	r->torque_nm = m->kt_nm_a > 0.0 ? r->current_a * m->kt_nm_a : NAN;
+	r->have |= RMD_MOTOR_HAVE_TORQUE;
+}
+
+/* The native speed x (dps) of a reply, in the reported frame.  rt-safe. */
+static void take_speed(const struct rmd_motor *m, double x, struct rmd_motor_reply *r)
+{
+	r->vel_rad_s = m->dir * x / DEG_PER_RAD / m->native_per_output;
+	r->have |= RMD_MOTOR_HAVE_VEL;
+}
+
+/*
+ * The position of a reply: its angle (V3 status 2 in whole degrees, 0x92 in
+ * 0.01 deg: the output angle), else a V2 encoder value unwrapped (not the
+ * 0x60 raw read).  rt-safe.
+ */
+static void take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_enc,
+			  uint16_t enc, uint8_t cmd, struct rmd_motor_reply *r)
+{
+	if (have_angle) {
+		r->pos_rad = rmd_motor_from_native_pos(m, angle_deg / DEG_PER_RAD /
+								  m->native_per_output);
+		r->have |= RMD_MOTOR_HAVE_POS;
+	} else if (m->table == RMD_PROTO_V2 && have_enc && cmd != 0x60) {
+		r->pos_rad = rmd_motor_from_native_pos(m, v2_unwrap(m, enc));
+		r->have |= RMD_MOTOR_HAVE_POS;
+	}
+}
+
 /* Field fs of data in its native unit.  rt-safe. */
 static double native_of(const struct rmd_field_spec *fs, const uint8_t *data)
 {
@@ -601,27 +634,13 @@ static void status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct 
 		r->temp_c = native_of(s->temp, f->data);
 		r->have |= RMD_MOTOR_HAVE_TEMP;
 	}
-	if (s->current) {
-		r->current_a = m->dir * native_of(s->current, f->data);
-		r->torque_nm = m->kt_nm_a > 0.0 ? r->current_a * m->kt_nm_a : NAN;
-		r->have |= RMD_MOTOR_HAVE_TORQUE;
-	}
-	if (s->speed) {
-		r->vel_rad_s =
-			m->dir * native_of(s->speed, f->data) / DEG_PER_RAD / m->native_per_output;
-		r->have |= RMD_MOTOR_HAVE_VEL;
-	}
-	if (s->angle) {
-		double angle = native_of(s->angle, f->data);
-
-		r->pos_rad =
-			rmd_motor_from_native_pos(m, angle / DEG_PER_RAD / m->native_per_output);
-		r->have |= RMD_MOTOR_HAVE_POS;
-	} else if (m->table == RMD_PROTO_V2 && s->encoder && f->data[0] != 0x60) {
-		r->pos_rad = rmd_motor_from_native_pos(
-			m, v2_unwrap(m, (uint16_t)rmd_field_read(s->encoder, f->data)));
-		r->have |= RMD_MOTOR_HAVE_POS;
-	}
+	if (s->current)
+		take_current(m, native_of(s->current, f->data), r);
+	if (s->speed)
+		take_speed(m, native_of(s->speed, f->data), r);
+	take_position(m, s->angle, s->angle ? native_of(s->angle, f->data) : 0, s->encoder,
+		      s->encoder ? (uint16_t)rmd_field_read(s->encoder, f->data) : 0, f->data[0],
+		      r);
 }
 
 /*
@@ -655,13 +674,10 @@ static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct r
 			r->have |= RMD_MOTOR_HAVE_TEMP;
 			break;
 		case RMD_FLD_CURRENT:
-			r->current_a = m->dir * x;
-			r->torque_nm = m->kt_nm_a > 0.0 ? r->current_a * m->kt_nm_a : NAN;
-			r->have |= RMD_MOTOR_HAVE_TORQUE;
+			take_current(m, x, r);
 			break;
 		case RMD_FLD_SPEED:
-			r->vel_rad_s = m->dir * x / DEG_PER_RAD / m->native_per_output;
-			r->have |= RMD_MOTOR_HAVE_VEL;
+			take_speed(m, x, r);
 			break;
 		case RMD_FLD_ANGLE:
 			have_angle = true;
@@ -699,15 +715,7 @@ static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct r
 			break;
 		}
 	}
-	if (have_angle) {
-		/* V3 status 2 (whole degrees) or 0x92 (0.01 deg): the output angle */
-		r->pos_rad =
-			rmd_motor_from_native_pos(m, angle / DEG_PER_RAD / m->native_per_output);
-		r->have |= RMD_MOTOR_HAVE_POS;
-	} else if (m->table == RMD_PROTO_V2 && have_enc && spec->cmd != 0x60) {
-		r->pos_rad = rmd_motor_from_native_pos(m, v2_unwrap(m, enc));
-		r->have |= RMD_MOTOR_HAVE_POS;
-	}
+	take_position(m, have_angle, angle, have_enc, enc, spec->cmd, r);
 	return 0;
 }
 
