@@ -601,7 +601,6 @@ static void *bridge_main(void *arg)
 	publish_config(b);
 	b->next_health_ns = now + b->opts.health_period_ns;
 	for (;;) {
-		/* woken by the loop (notify_fd) and LCM: no polling, only the health timer */
 		int64_t wait = b->opts.poll_ns;
 		struct timespec ts;
 
