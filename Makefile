@@ -116,7 +116,7 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
-	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2
+	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib
 
 deps:
 	apt-get update -qq
@@ -216,6 +216,15 @@ $(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# bench/insn-per-cycle.sh and bench/insn-guard.sh run this rig under
+# callgrind: the loop on simulated buses with an injected clock.
+INSN_RIG := $(BUILD)/bench/insn_rig
+all: $(INSN_RIG)
+$(BUILD)/bench/insn_rig.o: | $(GEN_HDRS)
+$(INSN_RIG): $(BUILD)/bench/insn_rig.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 # Suites include the harness as "harness/<name>.h".
 $(BUILD)/tests/%.o: override CFLAGS += -Itests
 
@@ -245,8 +254,14 @@ ifeq ($(SANITIZE),1)
 VCAN_TESTS := $(filter-out %/test_vcan_system,$(VCAN_TESTS))
 endif
 
+# bench/insn-guard.sh: the loop's instructions per cycle must not rise more
+# than 5 % above the committed figure (callgrind counts; not a timing test).
+# Sanitizer builds count their own instrumentation: not there.
 test: all
 	$(Q)BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) -- $(TESTS)
+ifneq ($(SANITIZE),1)
+	$(Q)BUILD=$(BUILD) bench/insn-guard.sh
+endif
 
 # rmdd's systemd units (systemd also searches /usr/local/lib/systemd/system),
 # its configuration (an existing one is never overwritten: a user's edits

@@ -22,6 +22,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <errno.h>
 #include <stdint.h>
 
 #include "rmd/frame.h"
@@ -167,8 +168,14 @@ struct rmd_addr {
  */
 enum rmd_proto rmd_proto_table(enum rmd_proto proto);
 
+/* The rows by command byte, [proto == RMD_PROTO_V2][cmd]; read through rmd_cmd_find(). */
+extern const struct rmd_cmd_spec *rmd_cmd_by_byte[2][256];
+
 /* The row for `cmd` in the table of `proto`, or NULL if there is none.  O(1). */
-const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd);
+static inline const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd)
+{
+	return rmd_cmd_by_byte[proto == RMD_PROTO_V2][cmd];
+}
 
 /*
  * All rows of a protocol's table, for tools and tests that walk every
@@ -241,6 +248,39 @@ double rmd_field_to_native(const struct rmd_field_spec *fs, int64_t raw);
 int rmd_field_from_native(const struct rmd_field_spec *fs, double native, int64_t *raw);
 
 /*
+ * rmd_field_from_native() with the field's range [lo, hi] given (resolved
+ * once by a caller on the rt path): the one rounding rule, without libm.
+ * rt-safe.
+ */
+static inline int rmd_field_raw_in(const struct rmd_field_spec *fs, int64_t lo, int64_t hi,
+				   double native, int64_t *raw)
+{
+	double x = native / (fs->scale > 0.0 ? fs->scale : 1.0);
+	int64_t v;
+
+	if (x != x) { /* NaN */
+		*raw = 0;
+		return -ERANGE;
+	}
+	/* lo <= 0 <= hi: lo - 0.5 and hi + 0.5 round away from zero, outside */
+	if (x <= (double)lo) {
+		*raw = lo;
+		return x <= (double)lo - 0.5 ? -ERANGE : 0;
+	}
+	if (x >= (double)hi) {
+		*raw = hi;
+		return x >= (double)hi + 0.5 ? -ERANGE : 0;
+	}
+	v = (int64_t)x; /* towards zero; the fraction x - v is exact */
+	if (x - (double)v >= 0.5)
+		v++;
+	else if (x - (double)v <= -0.5)
+		v--;
+	*raw = v;
+	return 0;
+}
+
+/*
  * Field `fld` of the `dir` layout of `spec` set to `native` and marked
  * present: 0, -ERANGE (saturated, as above) or -ENOENT when the layout has
  * no such field (msg untouched).
@@ -251,6 +291,42 @@ int rmd_msg_set_native(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enu
 /* Field `fld` of `msg` in native units; `def` when the layout lacks it or msg does not have it. */
 double rmd_msg_get_native(const struct rmd_msg *msg, const struct rmd_cmd_spec *spec,
 			  enum rmd_dir dir, enum rmd_field fld, double def);
+
+/*
+ * One field of a row, read from or written into a frame's data (8 bytes),
+ * as the interpreter above does it: for callers that resolved a row's
+ * fields once and handle each frame without a struct rmd_msg (the rt
+ * loop's motors, rmd/motor.h).  rmd_field_write() does not check that raw
+ * fits: rmd_field_range() gives the field's integer range.
+ */
+static inline int64_t rmd_field_read(const struct rmd_field_spec *fs, const uint8_t *data)
+{
+	unsigned drop = 64u - 8u * fs->size;
+	uint64_t u;
+
+	/* the 8 data bytes as one little-endian word: the field is bytes off..off+size-1 */
+	__builtin_memcpy(&u, data, sizeof(u));
+#if __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+	u = __builtin_bswap64(u);
+#endif
+	u = (u >> (8u * fs->off)) << drop;
+	int64_t v = fs->is_signed ? (int64_t)u >> drop : (int64_t)(u >> drop);
+
+	/* a sign_byte field's second reading: a magnitude and the flag (V2 §3.29) */
+	if (fs->sign_byte && v > 0 && data[fs->off + fs->size])
+		return -v;
+	return v;
+}
+
+static inline void rmd_field_write(const struct rmd_field_spec *fs, uint8_t *data, int64_t raw)
+{
+	uint64_t u = (uint64_t)raw;
+
+	for (unsigned i = 0; i < fs->size; i++, u >>= 8)
+		data[fs->off + i] = (uint8_t)u;
+	if (fs->sign_byte) /* the manual's form: two's complement, and the flag 1 when negative */
+		data[fs->off + fs->size] = raw < 0;
+}
 
 /* JSON key of a field (see enum rmd_field). */
 const char *rmd_field_key(enum rmd_field fld);

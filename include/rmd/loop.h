@@ -109,6 +109,7 @@
 #include "rmd/motor.h"
 #include "rmd/plan.h"
 #include "rmd/spsc.h"
+#include "rmd/hist.h"
 #include "rmd/state.h"
 
 struct rmd_loop;
@@ -255,6 +256,51 @@ void rmd_loop_get_snapshot(const struct rmd_loop *l, struct rmd_snapshot *out);
 
 /* Copy of the counters so far; safe from any thread. */
 void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *out);
+
+/*
+ * Wake-up lateness (issue 11): how late each cycle started after its
+ * intended tick, counting every period a stall skipped (a 30 ms stall at
+ * 1 kHz is one wake-up 30 ms late, plus 29 overruns), as cyclictest counts
+ * its own.  Buckets of 1 us as cyclictest -h: us[k] counts wake-ups late
+ * by k us to k + 1 us (exclusive), k < RMD_LOOP_WAKE_US_BUCKETS; `over`
+ * the later ones.  struct rmd_loop_stats' wake_* figures are the same
+ * samples (p99 to 1 us below RMD_LOOP_WAKE_US_BUCKETS us, to 25 % above:
+ * rmd/hist.h).
+ */
+#define RMD_LOOP_WAKE_US_BUCKETS 1000
+struct rmd_loop_wake_hist {
+	uint64_t n;
+	uint64_t us[RMD_LOOP_WAKE_US_BUCKETS];
+	uint64_t over;
+};
+
+/*
+ * One motor's reply latency, from the loop's own stamps: the request's
+ * send (the cycle's start) to the reply's receive time (the kernel's stamp
+ * on SocketCAN), every matched reply; hist[] in rmd/hist.h's buckets (4
+ * an octave: a percentile within 25 %).
+ */
+struct rmd_latency {
+	uint64_t n;
+	int64_t min_ns, max_ns, sum_ns;
+	uint32_t hist[RMD_HIST_BUCKETS];
+};
+
+/*
+ * An eventfd (non-blocking) the loop writes at the end of a cycle that
+ * pushed events into opts->events, so that their reader sleeps until there
+ * is something to read; -1: none.  Non-rt: before the loop's thread starts,
+ * or after it stopped.
+ */
+void rmd_loop_set_events_fd(struct rmd_loop *l, int fd);
+
+/* Copies of the histograms so far; safe from any thread (non-rt; spins while the loop writes). */
+void rmd_loop_get_wake_hist(const struct rmd_loop *l, struct rmd_loop_wake_hist *out);
+/* Motor i's reply latency; false for i out of range. */
+bool rmd_loop_get_reply_latency(const struct rmd_loop *l, unsigned i, struct rmd_latency *out);
+
+/* The 99th percentile of lat (rounded up to its bucket's bound, at most max_ns); 0 without samples. */
+int64_t rmd_latency_p99(const struct rmd_latency *lat);
 
 /*
  * Motor i's record (rmd/motor.h), built by rmd_loop_new(): its identity,

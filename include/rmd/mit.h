@@ -62,6 +62,19 @@ struct rmd_mit_reply {
 bool rmd_mit_ranges_valid(const struct rmd_mit_ranges *r);
 
 /*
+ * Ranges that passed rmd_mit_ranges_valid() once, so that the per-frame
+ * pack and unpack below need not check them again (issue 11: the rt loop
+ * encodes and decodes MIT frames every cycle).  Only
+ * rmd_mit_ranges_validate() fills one; its first member is the ranges.
+ */
+struct rmd_mit_valid_ranges {
+	struct rmd_mit_ranges r;
+};
+
+/* Copy r into *out when rmd_mit_ranges_valid(r).  Returns 0 or -EINVAL. */
+int rmd_mit_ranges_validate(const struct rmd_mit_ranges *r, struct rmd_mit_valid_ranges *out);
+
+/*
  * Ranges from their maxima "P,V,T,KP,KD" (e.g. "12.5,45,24,500,5", V3
  * §5.1): position, velocity and torque symmetric, kp and kd from 0; each a
  * finite number > 0.  Returns 0 or -EINVAL (r untouched on error).
@@ -89,6 +102,9 @@ double rmd_mit_from_uint(uint32_t u, double min, double max, unsigned bits);
  */
 int rmd_mit_encode_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id,
 		       const struct rmd_mit_cmd *cmd, struct rmd_frame *out);
+/* rmd_mit_encode_cmd() over validated ranges: -EINVAL for a bad id or a non-finite field. */
+int rmd_mit_pack_cmd(const struct rmd_mit_valid_ranges *r, uint8_t motor_id,
+		     const struct rmd_mit_cmd *cmd, struct rmd_frame *out);
 /*
  * Decode a request frame (0x401..0x420).  Returns 0, -EINVAL for another
  * CAN ID or invalid ranges, -EBADMSG for a DLC other than 8.
@@ -107,6 +123,9 @@ int rmd_mit_encode_reply(const struct rmd_mit_ranges *r, const struct rmd_mit_re
  * motor ID of the CAN ID.
  */
 int rmd_mit_decode_reply(const struct rmd_mit_ranges *r, const struct rmd_frame *f,
+			 struct rmd_mit_reply *rep);
+/* rmd_mit_decode_reply() over validated ranges. */
+int rmd_mit_unpack_reply(const struct rmd_mit_valid_ranges *r, const struct rmd_frame *f,
 			 struct rmd_mit_reply *rep);
 
 #endif /* RMD_MIT_H */

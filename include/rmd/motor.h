@@ -91,6 +91,35 @@ enum {
 	RMD_MOTOR_HAVE_TIMEOUT = 1u << 9, /* 0xB3 echo */
 };
 
+/* A request field of a control row, resolved once by rmd_motor_init(). */
+struct rmd_motor_field {
+	const struct rmd_field_spec *fs; /* NULL: the row has no such field */
+	int64_t lo, hi;			 /* its integer range */
+};
+
+/*
+ * A control command of the motor's table (0xA1, 0xA2, 0xA4), resolved once
+ * by rmd_motor_init(): its row and the request fields the setpoint fills,
+ * so that rmd_motor_encode() writes the frame without a struct rmd_msg.
+ * The codec's table stays the one source of the layout and the LSBs.
+ */
+struct rmd_motor_row {
+	const struct rmd_cmd_spec *spec; /* NULL: the protocol has no such command */
+	struct rmd_motor_field f[2];
+};
+
+/*
+ * The reply most frames of a cycle carry, resolved once by
+ * rmd_motor_init(): status 2 (V3 §2.13, V2 §3.32), the answer to 0x9C and
+ * to every control command.  cmds has bit c set when command c's reply row
+ * has exactly 0x9C's reply layout; the field specs are that layout's (NULL:
+ * absent), so rmd_motor_decode() reads such a reply without walking the row.
+ */
+struct rmd_motor_status2 {
+	uint8_t cmds[32];
+	const struct rmd_field_spec *temp, *current, *speed, *angle, *encoder;
+};
+
 /*
  * The one record of a motor, built once from its config entry by
  * rmd_motor_init(): identity, conversions, limits, MIT ranges; and its
@@ -110,7 +139,14 @@ struct rmd_motor {
 	double kt_nm_a; /* output N·m per A of iq; 0: unknown */
 	struct rmd_config_limits limits;
 	struct rmd_mit_ranges mit;
+	struct rmd_mit_valid_ranges mit_ok; /* mit, validated once (MIT motors) */
 	double damp_kd;
+	enum rmd_proto table; /* rmd_proto_table(proto) */
+	uint32_t reply_id;    /* replies to 0x140 + ID: 0x240 + ID (V3, MIT), 0x140 + ID (V2) */
+	struct rmd_motor_row torque_row; /* 0xA1: current */
+	struct rmd_motor_row speed_row;	 /* 0xA2: speed */
+	struct rmd_motor_row pos_row;	 /* 0xA4: angle, max speed */
+	struct rmd_motor_status2 st2;	 /* replies with 0x9C's layout */
 	/* V2 position: the rotor encoder unwrapped from a reference */
 	bool v2_have_ref;      /* a reference angle was set */
 	double v2_ref_rad;     /* native output angle at the anchor */

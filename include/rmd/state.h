@@ -121,8 +121,8 @@ struct rmd_snapshot {
 
 struct rmd_loop_stats {
 	uint64_t cycles;
-	uint64_t overruns;   /* cycles whose wake-up came after the next deadline */
-	int64_t wake_min_ns; /* wake-up latency: actual - intended wake-up */
+	uint64_t overruns; /* cycles whose wake-up came after the next deadline */
+	int64_t wake_min_ns; /* wake-up lateness: actual - intended wake-up, skipped periods included */
 	int64_t wake_avg_ns;
 	int64_t wake_p99_ns;
 	int64_t wake_max_ns;

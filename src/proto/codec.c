@@ -76,11 +76,11 @@ size_t rmd_cmd_table(enum rmd_proto proto, const struct rmd_cmd_spec **rows)
 }
 
 /*
- * Command byte -> row index + 1 (0: no row), per table (V3, V2): filled
- * once when the program is loaded, before any thread runs, and only read
- * afterwards, so rmd_cmd_find() is one lookup on the rt path.
+ * Command byte -> row, per table (V3, V2): filled once when the program is
+ * loaded, before any thread runs, and only read afterwards, so
+ * rmd_cmd_find() is one load on the rt path.
  */
-static uint8_t cmd_index[2][256];
+const struct rmd_cmd_spec *rmd_cmd_by_byte[2][256];
 
 __attribute__((constructor)) static void cmd_index_build(void)
 {
@@ -89,20 +89,8 @@ __attribute__((constructor)) static void cmd_index_build(void)
 		size_t n = rmd_cmd_table(t ? RMD_PROTO_V2 : RMD_PROTO_V3, &rows);
 
 		for (size_t i = n; i-- > 0;) /* the first row of a byte wins, as a scan would */
-			cmd_index[t][rows[i].cmd] = (uint8_t)(i + 1);
+			rmd_cmd_by_byte[t][rows[i].cmd] = &rows[i];
 	}
-}
-
-const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd)
-{
-	const struct rmd_cmd_spec *rows;
-	unsigned t = rmd_proto_table(proto) == RMD_PROTO_V2;
-	unsigned k = cmd_index[t][cmd];
-
-	if (!k)
-		return NULL;
-	rmd_cmd_table(proto, &rows);
-	return &rows[k - 1];
 }
 
 static bool id_in(uint32_t can_id, uint32_t base, uint8_t *motor_id)
@@ -221,25 +209,10 @@ double rmd_field_to_native(const struct rmd_field_spec *fs, int64_t raw)
 
 int rmd_field_from_native(const struct rmd_field_spec *fs, double native, int64_t *raw)
 {
-	double x = round(native / lsb(fs));
 	int64_t lo, hi;
 
 	rmd_field_range(fs, &lo, &hi);
-	if (isnan(x)) {
-		*raw = 0;
-		return -ERANGE;
-	}
-	if (x <= (double)lo) {
-		*raw = lo;
-		return x < (double)lo ? -ERANGE : 0;
-	}
-	/* (double)hi may round up to 2^bits: compare, never convert, above it. */
-	if (x >= (double)hi) {
-		*raw = hi;
-		return x > (double)hi ? -ERANGE : 0;
-	}
-	*raw = (int64_t)x;
-	return 0;
+	return rmd_field_raw_in(fs, lo, hi, native, raw);
 }
 
 int rmd_msg_set_native(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_dir dir,

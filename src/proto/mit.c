@@ -70,36 +70,58 @@ bool rmd_mit_ranges_valid(const struct rmd_mit_ranges *r)
 	       range_ok(r->kd_min, r->kd_max) && r->kp_min >= 0.0 && r->kd_min >= 0.0;
 }
 
-uint32_t rmd_mit_to_uint(double x, double min, double max, unsigned bits)
+/*
+ * x quantised over a valid range [min, max] to `top` = 2^bits - 1.  round()
+ * of a value >= 0 is its integer part plus one when the fraction is >= 0.5
+ * (the fraction of a double is exact), without a libm call per field.
+ */
+static uint32_t to_uint(double x, double min, double max, uint32_t top)
 {
-	uint32_t top;
 	double u;
+	uint32_t i;
 
-	if (!bits_ok(bits) || !range_ok(min, max))
-		return 0;
-	top = top_code(bits);
 	/* Clamp first; !(x > min) also catches NaN. */
 	if (!(x > min))
 		return 0;
 	if (x >= max)
 		return top;
 	/* Multiply before dividing, as the formula reads: exact halves stay exact. */
-	u = round((x - min) * (double)top / (max - min));
-	return u >= (double)top ? top : (uint32_t)u;
+	u = (x - min) * (double)top / (max - min);
+	if (u >= (double)top)
+		return top;
+	i = (uint32_t)u;
+	return u - (double)i >= 0.5 ? i + 1 : i;
 }
 
-double rmd_mit_from_uint(uint32_t u, double min, double max, unsigned bits)
+static double from_uint(uint32_t u, double min, double max, uint32_t top)
 {
-	uint32_t top;
-
-	if (!bits_ok(bits) || !range_ok(min, max))
-		return NAN;
-	top = top_code(bits);
 	if (u == 0)
 		return min;
 	if (u >= top)
 		return max;
 	return min + (double)u * (max - min) / (double)top;
+}
+
+uint32_t rmd_mit_to_uint(double x, double min, double max, unsigned bits)
+{
+	if (!bits_ok(bits) || !range_ok(min, max))
+		return 0;
+	return to_uint(x, min, max, top_code(bits));
+}
+
+double rmd_mit_from_uint(uint32_t u, double min, double max, unsigned bits)
+{
+	if (!bits_ok(bits) || !range_ok(min, max))
+		return NAN;
+	return from_uint(u, min, max, top_code(bits));
+}
+
+int rmd_mit_ranges_validate(const struct rmd_mit_ranges *r, struct rmd_mit_valid_ranges *out)
+{
+	if (!rmd_mit_ranges_valid(r))
+		return -EINVAL;
+	out->r = *r;
+	return 0;
 }
 
 static bool cmd_finite(const struct rmd_mit_cmd *c)
@@ -108,19 +130,39 @@ static bool cmd_finite(const struct rmd_mit_cmd *c)
 	       isfinite(c->kd) && isfinite(c->t_ff_nm);
 }
 
+static int pack_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id, const struct rmd_mit_cmd *cmd,
+		    struct rmd_frame *out);
+static int unpack_reply(const struct rmd_mit_ranges *r, const struct rmd_frame *f,
+			struct rmd_mit_reply *rep);
+
 int rmd_mit_encode_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id,
 		       const struct rmd_mit_cmd *cmd, struct rmd_frame *out)
 {
+	if (!rmd_mit_ranges_valid(r))
+		return -EINVAL;
+	return pack_cmd(r, motor_id, cmd, out);
+}
+
+int rmd_mit_pack_cmd(const struct rmd_mit_valid_ranges *vr, uint8_t motor_id,
+		     const struct rmd_mit_cmd *cmd, struct rmd_frame *out)
+{
+	return pack_cmd(&vr->r, motor_id, cmd, out);
+}
+
+/* V3 §5.2 over ranges known to be valid. */
+static int pack_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id, const struct rmd_mit_cmd *cmd,
+		    struct rmd_frame *out)
+{
 	uint32_t p, v, kp, kd, t;
 
-	if (!mit_id_ok(motor_id) || !rmd_mit_ranges_valid(r) || !cmd_finite(cmd))
+	if (!mit_id_ok(motor_id) || !cmd_finite(cmd))
 		return -EINVAL;
 
-	p = rmd_mit_to_uint(cmd->p_des_rad, r->p_min, r->p_max, P_BITS);
-	v = rmd_mit_to_uint(cmd->v_des_rad_s, r->v_min, r->v_max, V_BITS);
-	kp = rmd_mit_to_uint(cmd->kp, r->kp_min, r->kp_max, KP_BITS);
-	kd = rmd_mit_to_uint(cmd->kd, r->kd_min, r->kd_max, KD_BITS);
-	t = rmd_mit_to_uint(cmd->t_ff_nm, r->t_min, r->t_max, T_BITS);
+	p = to_uint(cmd->p_des_rad, r->p_min, r->p_max, top_code(P_BITS));
+	v = to_uint(cmd->v_des_rad_s, r->v_min, r->v_max, top_code(V_BITS));
+	kp = to_uint(cmd->kp, r->kp_min, r->kp_max, top_code(KP_BITS));
+	kd = to_uint(cmd->kd, r->kd_min, r->kd_max, top_code(KD_BITS));
+	t = to_uint(cmd->t_ff_nm, r->t_min, r->t_max, top_code(T_BITS));
 
 	out->can_id = RMD_CAN_MIT_REQ_BASE + motor_id;
 	out->len = RMD_FRAME_LEN;
@@ -199,11 +241,26 @@ int rmd_mit_encode_reply(const struct rmd_mit_ranges *r, const struct rmd_mit_re
 int rmd_mit_decode_reply(const struct rmd_mit_ranges *r, const struct rmd_frame *f,
 			 struct rmd_mit_reply *rep)
 {
+	if (!rmd_mit_ranges_valid(r))
+		return -EINVAL;
+	return unpack_reply(r, f, rep);
+}
+
+int rmd_mit_unpack_reply(const struct rmd_mit_valid_ranges *vr, const struct rmd_frame *f,
+			 struct rmd_mit_reply *rep)
+{
+	return unpack_reply(&vr->r, f, rep);
+}
+
+/* V3 §5.3 over ranges known to be valid. */
+static int unpack_reply(const struct rmd_mit_ranges *r, const struct rmd_frame *f,
+			struct rmd_mit_reply *rep)
+{
 	const uint8_t *d = f->data;
 	uint32_t p, v, t;
 	uint8_t id;
 
-	if (!rmd_mit_ranges_valid(r) || f->can_id <= RMD_CAN_MIT_REPLY_BASE ||
+	if (f->can_id <= RMD_CAN_MIT_REPLY_BASE ||
 	    f->can_id > RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
 		return -EINVAL;
 	id = (uint8_t)(f->can_id - RMD_CAN_MIT_REPLY_BASE);
@@ -216,9 +273,9 @@ int rmd_mit_decode_reply(const struct rmd_mit_ranges *r, const struct rmd_frame 
 	t = (uint32_t)(d[4] & 0xFu) << 8 | d[5];
 
 	rep->motor_id = id;
-	rep->pos_rad = rmd_mit_from_uint(p, r->p_min, r->p_max, P_BITS);
-	rep->vel_rad_s = rmd_mit_from_uint(v, r->v_min, r->v_max, V_BITS);
-	rep->torque_nm = rmd_mit_from_uint(t, r->t_min, r->t_max, T_BITS);
+	rep->pos_rad = from_uint(p, r->p_min, r->p_max, top_code(P_BITS));
+	rep->vel_rad_s = from_uint(v, r->v_min, r->v_max, top_code(V_BITS));
+	rep->torque_nm = from_uint(t, r->t_min, r->t_max, top_code(T_BITS));
 	return 0;
 }
 

@@ -25,6 +25,7 @@
 #include <poll.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -101,44 +102,100 @@ void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, un
 		.b = b,
 	};
 
-	if (l->o.events)
+	if (l->o.events) {
 		rmd_ring_push(l->o.events, &e);
+		l->ev_pushed = true;
+	}
+}
+
+/* Wake the events' reader when events came (one eventfd write a cycle at most).  rt-safe. */
+static void events_wake(struct rmd_loop *l)
+{
+	uint64_t one = 1;
+	ssize_t w;
+
+	if (!l->ev_pushed || l->events_fd < 0)
+		return;
+	l->ev_pushed = false;
+	/* Non-blocking; EAGAIN means a wake-up is pending anyway. */
+	w = write(l->events_fd, &one, sizeof(one));
+	(void)w;
+}
+
+/* Non-rt. */
+void rmd_loop_set_events_fd(struct rmd_loop *l, int fd)
+{
+	l->events_fd = fd;
 }
 
 /* ------------------------------------------------------------------ */
-/* rt-safe. */
+/* One wake-up `lat` late (under stat_begin()).  rt-safe. */
 static void wake_record(struct rmd_loop *l, int64_t lat)
 {
+	uint64_t us;
+
 	if (lat < 0)
 		lat = 0;
-	l->hist[rmd_hist_bucket(lat)]++;
-	l->wake_n++;
-	l->wake_sum += lat;
-	if (l->wake_n == 1 || lat < l->stats.wake_min_ns)
+	l->wake.hist[rmd_hist_bucket(lat)]++;
+	us = (uint64_t)lat / RMD_NS_PER_US;
+	if (us < RMD_LOOP_WAKE_US_BUCKETS)
+		l->wake.us[us]++;
+	else
+		l->wake.over++;
+	l->wake.n++;
+	l->wake.sum += lat;
+	if (l->wake.n == 1 || lat < l->stats.wake_min_ns)
 		l->stats.wake_min_ns = lat;
 	if (lat > l->stats.wake_max_ns)
 		l->stats.wake_max_ns = lat;
 }
 
-/* rt-safe. */
-static void wake_summary(struct rmd_loop *l)
+/*
+ * The 99th percentile of n samples, rounded up to their bucket's bound and
+ * capped at max: from the 1 us buckets when it lies in them (us may be
+ * NULL), else from the log-scale ones.  Pure.
+ */
+static int64_t p99_of(uint64_t n, const uint64_t *us, const uint64_t *logh, const uint32_t *logh32,
+		      int64_t max)
 {
-	uint64_t want, sum = 0;
+	uint64_t want = n - n / 100, sum = 0; /* the 99th percentile, rounded up */
 
-	if (!l->wake_n)
-		return;
-	l->stats.wake_avg_ns = l->wake_sum / (int64_t)l->wake_n;
-	want = l->wake_n - l->wake_n / 100; /* the 99th percentile, rounded up */
+	if (!n)
+		return 0;
+	for (unsigned k = 0; us && k < RMD_LOOP_WAKE_US_BUCKETS; k++) {
+		sum += us[k];
+		if (sum >= want) {
+			int64_t up = (int64_t)(k + 1) * RMD_NS_PER_US - 1;
+
+			return up < max ? up : max;
+		}
+	}
+	sum = 0;
 	for (unsigned b = 0; b < RMD_HIST_BUCKETS; b++) {
-		sum += l->hist[b];
+		sum += logh ? logh[b] : logh32[b];
 		if (sum >= want) {
 			int64_t up = rmd_hist_upper(b);
 
-			l->stats.wake_p99_ns = up < l->stats.wake_max_ns ? up :
-									   l->stats.wake_max_ns;
-			break;
+			return up < max ? up : max;
 		}
 	}
+	return max;
+}
+
+/* Average and p99 of the wake-ups so far, into l->stats (with the health: ~10 Hz).  rt-safe. */
+static void wake_summary(struct rmd_loop *l)
+{
+	if (!l->wake.n)
+		return;
+	l->stats.wake_avg_ns = l->wake.sum / (int64_t)l->wake.n;
+	l->stats.wake_p99_ns =
+		p99_of(l->wake.n, l->wake.us, l->wake.hist, NULL, l->stats.wake_max_ns);
+}
+
+/* Non-rt. */
+int64_t rmd_latency_p99(const struct rmd_latency *lat)
+{
+	return p99_of(lat->n, NULL, NULL, lat->hist, lat->max_ns);
 }
 
 /* ------------------------------------------------------------------ */
@@ -149,7 +206,9 @@ void loop_pub_write(struct rmd_loop *l)
 {
 	atomic_fetch_add_explicit(&l->pub_seq, 1, memory_order_relaxed);
 	atomic_thread_fence(memory_order_release);
-	memcpy(&l->pub_snap, &l->snap, sizeof(l->snap));
+	/* the motors past n stay as rmd_loop_new() left them, in both copies */
+	memcpy(&l->pub_snap, &l->snap,
+	       offsetof(struct rmd_snapshot, m) + l->n_motors * sizeof(l->snap.m[0]));
 	l->pub_stats = l->stats;
 	l->pub_cnt = l->cnt;
 	if (l->health_fresh) {
@@ -161,13 +220,14 @@ void loop_pub_write(struct rmd_loop *l)
 }
 
 /*
- * Copy `size` bytes at `src` (inside l's published copies) consistently.
- * Any thread; non-rt (spins while the loop writes).
+ * Copy `size` bytes at `src` consistently under the sequence lock `seq`
+ * (only the loop writes what it guards).  Any thread; non-rt (spins while
+ * the loop writes).
  */
-static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_t size)
+static void seq_read(const atomic_uint *seq, void *dst, const void *src, size_t size)
 {
 	for (;;) {
-		unsigned s0 = atomic_load_explicit(&l->pub_seq, memory_order_acquire);
+		unsigned s0 = atomic_load_explicit(seq, memory_order_acquire);
 
 		if (s0 & 1u) {
 			sched_yield();
@@ -175,9 +235,15 @@ static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_
 		}
 		memcpy(dst, src, size);
 		atomic_thread_fence(memory_order_acquire);
-		if (atomic_load_explicit(&l->pub_seq, memory_order_relaxed) == s0)
+		if (atomic_load_explicit(seq, memory_order_relaxed) == s0)
 			return;
 	}
+}
+
+/* Copy `size` bytes at `src` (inside l's published copies) consistently.  Non-rt. */
+static void pub_read(const struct rmd_loop *l, void *dst, const void *src, size_t size)
+{
+	seq_read(&l->pub_seq, dst, src, size);
 }
 
 /* The health of the window since the last one, into l->health.  rt-safe. */
@@ -187,6 +253,7 @@ void loop_fill_health(struct rmd_loop *l, int64_t now)
 
 	memset(h, 0, sizeof(*h));
 	h->t_ns = now;
+	wake_summary(l);
 	h->loop = l->stats;
 	h->nbuses = l->n_buses;
 	for (unsigned b = 0; b < l->n_buses; b++) {
@@ -247,7 +314,6 @@ static void publish(struct rmd_loop *l, int64_t now)
 	bool health = l->cycle >= l->next_health_cycle;
 
 	loop_fill_snapshot(l, now);
-	wake_summary(l);
 	if (health) {
 		loop_fill_health(l, now);
 		l->next_health_cycle = l->cycle + l->health_every;
@@ -255,7 +321,12 @@ static void publish(struct rmd_loop *l, int64_t now)
 	loop_pub_write(l);
 	if (l->o.snapshots) {
 		rmd_latest_put(l->o.snapshots, s);
-		if (l->o.snapshot_fd >= 0) {
+		/*
+		 * The bridge publishes every lcm.state_every_n-th state (LCM's
+		 * udpm cannot tell whether anyone listens): it is woken for
+		 * those only, not every cycle (issue 11 point 4).
+		 */
+		if (l->o.snapshot_fd >= 0 && l->cycle % l->state_every == 0) {
 			uint64_t one = 1;
 			/* Non-blocking; EAGAIN means the bridge has a wake-up pending anyway. */
 			ssize_t w = write(l->o.snapshot_fd, &one, sizeof(one));
@@ -322,11 +393,14 @@ static void schedule(struct rmd_loop *l, int64_t now)
 		l->next_tick_ns = now + l->period_ns;
 		return;
 	}
+	/* true lateness: from the tick intended, however many periods it skipped */
+	stat_begin(l);
+	wake_record(l, now - l->next_tick_ns);
+	stat_end(l);
 	if (now - l->next_tick_ns >= l->period_ns)
 		loop_skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns);
 	tick = l->next_tick_ns;
 	l->next_tick_ns = tick + l->period_ns;
-	wake_record(l, now - tick);
 }
 
 /* rt-safe. */
@@ -353,6 +427,7 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 	if (end - now > l->stats.cycle_max_ns)
 		l->stats.cycle_max_ns = end - now;
 	publish(l, now);
+	events_wake(l);
 	l->cycle++;
 	atomic_fetch_add_explicit(&l->heartbeat, 1, memory_order_release);
 }
@@ -363,10 +438,37 @@ uint64_t rmd_loop_heartbeat(const struct rmd_loop *l)
 	return atomic_load_explicit(&l->heartbeat, memory_order_acquire);
 }
 
-/* Any thread; non-rt. */
+/* Any thread; non-rt: the average and p99 from the histograms as they are now. */
 void rmd_loop_get_stats(const struct rmd_loop *l, struct rmd_loop_stats *out)
 {
+	struct loop_wake w; /* ~10 KB on the caller's (non-rt) stack */
+
 	pub_read(l, out, &l->pub_stats, sizeof(*out));
+	seq_read(&l->stat_seq, &w, &l->wake, sizeof(w));
+	if (w.n) {
+		out->wake_avg_ns = w.sum / (int64_t)w.n;
+		out->wake_p99_ns = p99_of(w.n, w.us, w.hist, NULL, out->wake_max_ns);
+	}
+}
+
+/* Any thread; non-rt. */
+void rmd_loop_get_wake_hist(const struct rmd_loop *l, struct rmd_loop_wake_hist *out)
+{
+	struct loop_wake w;
+
+	seq_read(&l->stat_seq, &w, &l->wake, sizeof(w));
+	out->n = w.n;
+	memcpy(out->us, w.us, sizeof(out->us));
+	out->over = w.over;
+}
+
+/* Any thread; non-rt. */
+bool rmd_loop_get_reply_latency(const struct rmd_loop *l, unsigned i, struct rmd_latency *out)
+{
+	if (i >= l->n_motors)
+		return false;
+	seq_read(&l->stat_seq, out, &l->mot[i].lat, sizeof(*out));
+	return true;
 }
 
 /* Any thread; non-rt. */
@@ -406,9 +508,8 @@ void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *o
 static bool outstanding_any(const struct rmd_loop *l)
 {
 	for (unsigned i = 0; i < l->n_motors; i++)
-		for (unsigned k = 0; k < OUTSTANDING; k++)
-			if (l->mot[i].os[k].used && l->mot[i].st.lifecycle != RMD_LC_LOST)
-				return true;
+		if (l->mot[i].os_used && l->mot[i].st.lifecycle != RMD_LC_LOST)
+			return true;
 	return false;
 }
 
@@ -653,8 +754,11 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 
 		l->health_every = every ? (unsigned)every : 1u;
 	}
+	l->state_every = cfg->lcm.state_every_n ? cfg->lcm.state_every_n : 1u;
 	l->wd = RMD_WD_IDLE;
+	l->events_fd = -1;
 	atomic_init(&l->pub_seq, 0);
+	atomic_init(&l->stat_seq, 0);
 	atomic_init(&l->heartbeat, 0);
 	atomic_init(&l->stop, false);
 	l->snap.n = l->n_motors;

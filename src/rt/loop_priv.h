@@ -48,9 +48,8 @@ enum req_kind {
 	REQ_BATCH,	 /* V2 0x280: one request, every batched motor answers */
 };
 
-/* A request in flight. */
+/* A request in flight (its bit in struct lmotor.os_used says it is). */
 struct outstanding {
-	bool used;
 	bool echo_is_reply; /* the command's answer repeats it (0x80, 0xB3, ...) */
 	uint16_t cmd;	    /* command byte of the answer, or RMD_MOTOR_CMD_MIT */
 	uint32_t reply_id;
@@ -64,6 +63,7 @@ struct lmotor {
 	struct rmd_motor m; /* the motor's one record: identity, bus, limits, ... */
 	struct rmd_motor_state st;
 	struct outstanding os[OUTSTANDING];
+	uint8_t os_used; /* bit k: os[k] is in flight (OUTSTANDING <= 8) */
 	uint64_t seq;
 	unsigned consecutive;	/* missed replies in a row */
 	struct rmd_setpoint sp; /* in force while ENABLED */
@@ -89,6 +89,7 @@ struct lmotor {
 	bool cl_want;		   /* an enable waits for the round */
 	struct rmd_setpoint cl_sp; /* ... with this setpoint */
 	uint64_t unarmed_rejects;  /* enables refused: protection not set */
+	struct rmd_latency lat;	   /* every matched reply; under rmd_loop.stat_seq */
 	/* bring-up */
 	char model[8];
 	uint32_t version;
@@ -148,14 +149,25 @@ struct rmd_loop {
 	/* statistics */
 	struct rmd_loop_stats stats;
 	struct rmd_loop_counters cnt;
-	uint64_t hist[RMD_HIST_BUCKETS];
-	uint64_t wake_n;
-	int64_t wake_sum;
+	/* wake-up lateness and reply latencies: written under stat_seq (stat_begin()) */
+	atomic_uint stat_seq;
+	struct loop_wake {
+		uint64_t n;
+		int64_t sum;
+		uint64_t hist[RMD_HIST_BUCKETS];       /* rmd/hist.h buckets */
+		uint64_t us[RMD_LOOP_WAKE_US_BUCKETS]; /* 1 us buckets */
+		uint64_t over;			       /* at RMD_LOOP_WAKE_US_BUCKETS us or later */
+	} wake;
 	uint64_t ov_pending; /* ticks skipped, not yet reported */
 	bool ov_any;
 	int64_t ov_ev_ns;
 	uint64_t next_health_cycle;
 	unsigned health_every;
+	unsigned state_every; /* lcm.state_every_n: the bridge is woken every this many cycles */
+
+	/* the events' reader: woken at the end of a cycle that pushed events */
+	int events_fd;	/* eventfd or -1 (rmd_loop_set_events_fd()) */
+	bool ev_pushed; /* an event went into the ring since the last wake-up */
 
 	/* work copies */
 	struct rmd_snapshot snap;
@@ -182,6 +194,22 @@ struct rmd_loop {
 static inline unsigned loop_idx(const struct rmd_loop *l, const struct lmotor *lm)
 {
 	return (unsigned)(lm - l->mot);
+}
+
+/*
+ * The histograms other threads read (rmd_loop_get_wake_hist(),
+ * rmd_loop_get_reply_latency()) change between stat_begin() and
+ * stat_end(): a sequence lock, as the published copies.  rt-safe.
+ */
+static inline void stat_begin(struct rmd_loop *l)
+{
+	atomic_fetch_add_explicit(&l->stat_seq, 1, memory_order_relaxed);
+	atomic_thread_fence(memory_order_release);
+}
+
+static inline void stat_end(struct rmd_loop *l)
+{
+	atomic_fetch_add_explicit(&l->stat_seq, 1, memory_order_release);
 }
 
 /* rt-safe. */

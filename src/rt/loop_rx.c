@@ -18,46 +18,56 @@
 /* ------------------------------------------------------------------ */
 /* Requests in flight */
 
-/* rt-safe. */
-static bool echo_is_reply(const struct rmd_motor *m, const struct rmd_frame *f)
+/*
+ * What answers request f of motor m: its reply key (rmd_motor_reply_key())
+ * and whether the answer repeats it.  The motor's own 0x140 + ID frames
+ * (setpoints, status reads) take the short way: their answer comes on the
+ * motor's reply identifier with their command byte.  rt-safe.
+ */
+static void os_key(const struct rmd_motor *m, const struct rmd_frame *f, struct outstanding *o)
 {
 	const struct rmd_cmd_spec *spec;
 
-	if (f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len)
-		return false;
-	spec = rmd_cmd_find(m->proto, f->data[0]);
-	return spec && (spec->flags & RMD_CMD_ECHO);
+	if (f->can_id == RMD_CAN_REQ_BASE + m->id && f->len) {
+		o->reply_id = m->reply_id;
+		o->cmd = f->data[0];
+		spec = rmd_cmd_find(m->table, f->data[0]);
+		o->echo_is_reply = spec && (spec->flags & RMD_CMD_ECHO);
+		return;
+	}
+	rmd_motor_reply_key(m, f, &o->reply_id, &o->cmd);
+	/* 0x280, MIT and empty frames are never echoed */
+	spec = f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len ?
+		       NULL :
+		       rmd_cmd_find(m->table, f->data[0]);
+	o->echo_is_reply = spec && (spec->flags & RMD_CMD_ECHO);
 }
 
 /* rt-safe. */
 void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now)
 {
-	struct outstanding *o = NULL, *oldest = NULL;
+	unsigned free_mask = ~(unsigned)lm->os_used & ((1u << OUTSTANDING) - 1);
+	unsigned k;
+	struct outstanding *o;
 
-	for (unsigned k = 0; k < OUTSTANDING; k++) {
-		struct outstanding *e = &lm->os[k];
-
-		if (!e->used) {
-			o = e;
-			break;
-		}
-		if (!oldest || e->seq < oldest->seq)
-			oldest = e;
-	}
-	if (!o) {
+	if (free_mask) {
+		k = (unsigned)__builtin_ctz(free_mask);
+	} else {
 		/* full: the oldest has waited longest, it counts as missed */
-		o = oldest;
-		o->used = false;
+		k = 0;
+		for (unsigned j = 1; j < OUTSTANDING; j++)
+			if (lm->os[j].seq < lm->os[k].seq)
+				k = j;
+		lm->os_used &= (uint8_t) ~(1u << k);
 		loop_miss(l, lm, now);
 	}
-	memset(o, 0, sizeof(*o));
-	o->used = true;
-	rmd_motor_reply_key(&lm->m, f, &o->reply_id, &o->cmd);
-	o->echo_is_reply = echo_is_reply(&lm->m, f);
+	o = &lm->os[k];
+	os_key(&lm->m, f, o);
 	o->seq = lm->seq++;
 	o->sent_ns = now;
 	o->deadline_ns = now + l->bus[lm->m.bus].reply_ns;
 	memcpy(o->data, f->data, sizeof(o->data));
+	lm->os_used |= (uint8_t)(1u << k);
 }
 
 /* The oldest request of lm that frame f (id, cmd) answers, or NULL.  rt-safe. */
@@ -65,17 +75,35 @@ static struct outstanding *os_match(struct lmotor *lm, uint32_t id, uint16_t cmd
 {
 	struct outstanding *best = NULL;
 
-	for (unsigned k = 0; k < OUTSTANDING; k++) {
-		struct outstanding *e = &lm->os[k];
+	for (unsigned m = lm->os_used; m; m &= m - 1) {
+		struct outstanding *e = &lm->os[__builtin_ctz(m)];
 
-		if (e->used && e->reply_id == id && e->cmd == cmd && (!best || e->seq < best->seq))
+		if (e->reply_id == id && e->cmd == cmd && (!best || e->seq < best->seq))
 			best = e;
 	}
 	return best;
 }
 
+/* Request o of lm is answered or given up.  rt-safe. */
+static void os_done(struct lmotor *lm, const struct outstanding *o)
+{
+	lm->os_used &= (uint8_t) ~(1u << (unsigned)(o - lm->os));
+}
+
 /* ------------------------------------------------------------------ */
 /* Receiving */
+
+/* One reply latency into lat (under stat_begin()).  rt-safe. */
+static void lat_add(struct rmd_latency *lat, int64_t ns)
+{
+	if (!lat->n || ns < lat->min_ns)
+		lat->min_ns = ns;
+	if (!lat->n || ns > lat->max_ns)
+		lat->max_ns = ns;
+	lat->n++;
+	lat->sum_ns += ns;
+	lat->hist[rmd_hist_bucket(ns)]++;
+}
 
 /* rt-safe. */
 void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now)
@@ -141,9 +169,10 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		bool echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
 			    !memcmp(f->data, o->data, RMD_FRAME_LEN);
 
-		o->used = false;
+		os_done(lm, o);
 		l->cnt.replies++;
 		lm->st.reply_latency_ns = rx->t_ns - o->sent_ns;
+		lat_add(&lm->lat, lm->st.reply_latency_ns);
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* DESIGN.md: after a comm-loss trip the first command is only echoed */
@@ -190,8 +219,10 @@ void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
 
 		if (n <= 0)
 			return;
+		stat_begin(l);
 		for (int k = 0; k < n; k++)
 			handle_frame(l, b, &lb->rx[k]);
+		stat_end(l);
 		if (n < RX_BATCH)
 			return;
 	}
@@ -203,11 +234,11 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		for (unsigned k = 0; k < OUTSTANDING; k++) {
-			struct outstanding *o = &lm->os[k];
+		for (unsigned m = lm->os_used; m; m &= m - 1) {
+			struct outstanding *o = &lm->os[__builtin_ctz(m)];
 
-			if (o->used && o->deadline_ns <= now) {
-				o->used = false;
+			if (o->deadline_ns <= now) {
+				os_done(lm, o);
 				loop_miss(l, lm, now);
 			}
 		}

@@ -33,21 +33,117 @@ static double clampf(double x, double lo, double hi, unsigned *fl)
 }
 
 /*
- * Request field `fld` of `spec` = `native` in the field's unit, by the
- * codec's one rule (rmd_field_from_native()): saturated values flag
- * RMD_MOTOR_CLAMPED.  rt-safe.
+ * `native` in the unit of field fs by the codec's one rule
+ * (rmd_field_raw_in(): rounded to the LSB, saturated to [lo, hi], the
+ * field's integer range); a saturated value flags RMD_MOTOR_CLAMPED.
+ * rt-safe.
  */
+static int64_t field_raw(const struct rmd_field_spec *fs, int64_t lo, int64_t hi, double native,
+			 unsigned *fl)
+{
+	int64_t raw;
+
+	if (rmd_field_raw_in(fs, lo, hi, native, &raw) == -ERANGE)
+		*fl |= RMD_MOTOR_CLAMPED;
+	return raw;
+}
+
+/* Request field `fld` of `spec` = `native` in the field's unit (field_raw()).  rt-safe. */
 static void put(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_field fld,
 		double native, unsigned *fl)
 {
-	if (rmd_msg_set_native(msg, spec, RMD_DIR_REQUEST, fld, native) == -ERANGE)
-		*fl |= RMD_MOTOR_CLAMPED;
+	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, fld);
+	int64_t lo, hi;
+
+	if (!fs)
+		return;
+	rmd_field_range(fs, &lo, &hi);
+	rmd_msg_set(msg, fld, field_raw(fs, lo, hi, native, fl));
 }
 
-/* Reply field `fld` in its native unit.  rt-safe. */
-static double get(const struct rmd_cmd_spec *spec, const struct rmd_msg *msg, enum rmd_field fld)
+/* Resolve command `cmd`'s row and request fields a, b of the motor's table.  Non-rt. */
+static void row_resolve(const struct rmd_motor *m, uint8_t cmd, enum rmd_field a, enum rmd_field b,
+			struct rmd_motor_row *row)
 {
-	return rmd_msg_get_native(msg, spec, RMD_DIR_REPLY, fld, 0.0);
+	enum rmd_field flds[2] = { a, b };
+
+	memset(row, 0, sizeof(*row));
+	row->spec = rmd_cmd_find(m->proto, cmd);
+	if (!row->spec || (row->spec->flags & RMD_CMD_NO_CMD_BYTE))
+		return;
+	for (unsigned k = 0; k < 2; k++) {
+		struct rmd_motor_field *mf = &row->f[k];
+
+		mf->fs = rmd_layout_field(row->spec, RMD_DIR_REQUEST, flds[k]);
+		if (mf->fs)
+			rmd_field_range(mf->fs, &mf->lo, &mf->hi);
+	}
+}
+
+/*
+ * The request of a resolved row with its fields set to native[0..1] (as
+ * rmd_encode() of a message holding only them writes it: reserved bytes
+ * zero).  rt-safe.
+ */
+static int row_encode(const struct rmd_motor *m, const struct rmd_motor_row *row,
+		      const double native[2], struct rmd_frame *out, unsigned *fl)
+{
+	memset(out, 0, sizeof(*out));
+	out->can_id = RMD_CAN_REQ_BASE + m->id;
+	out->len = RMD_FRAME_LEN;
+	out->data[0] = row->spec->cmd;
+	for (unsigned k = 0; k < 2; k++) {
+		const struct rmd_motor_field *mf = &row->f[k];
+
+		if (mf->fs)
+			rmd_field_write(mf->fs, out->data,
+					field_raw(mf->fs, mf->lo, mf->hi, native[k], fl));
+	}
+	return 0;
+}
+
+/* Same fields at the same places with the same LSBs.  Non-rt. */
+static bool layout_equal(const struct rmd_layout *a, const struct rmd_layout *b)
+{
+	if (a->n != b->n)
+		return false;
+	for (unsigned i = 0; i < a->n; i++)
+		if (a->f[i].field != b->f[i].field || a->f[i].off != b->f[i].off ||
+		    a->f[i].size != b->f[i].size || a->f[i].is_signed != b->f[i].is_signed ||
+		    a->f[i].scale != b->f[i].scale)
+			return false;
+	return true;
+}
+
+/* Resolve the status 2 reply of the motor's table (struct rmd_motor_status2).  Non-rt. */
+static void status2_resolve(struct rmd_motor *m)
+{
+	const struct rmd_cmd_spec *st2 = rmd_cmd_find(m->table, 0x9C);
+	struct rmd_motor_status2 *s = &m->st2;
+	const struct rmd_layout *l;
+
+	memset(s, 0, sizeof(*s));
+	if (!st2)
+		return;
+	l = rmd_cmd_layout(st2, RMD_DIR_REPLY);
+	for (unsigned c = 0; c < 256; c++) {
+		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, (uint8_t)c);
+
+		if (spec && !(spec->flags & RMD_CMD_NO_CMD_BYTE) &&
+		    !(m->table == RMD_PROTO_V3 && c == 0x79) &&
+		    layout_equal(rmd_cmd_layout(spec, RMD_DIR_REPLY), l))
+			s->cmds[c / 8] |= (uint8_t)(1u << (c % 8));
+	}
+	s->temp = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_TEMP);
+	s->current = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_CURRENT);
+	s->speed = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_SPEED);
+	s->angle = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_ANGLE);
+	s->encoder = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_ENCODER);
+	/* a layout with other fields, or one field twice, takes the general way */
+	if ((s->temp != NULL) + (s->current != NULL) + (s->speed != NULL) + (s->angle != NULL) +
+		    (s->encoder != NULL) !=
+	    l->n)
+		memset(s->cmds, 0, sizeof(s->cmds));
 }
 
 /* rt-safe. */
@@ -84,7 +180,15 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->limits = c->limits;
 	m->mit = c->mit;
 	m->damp_kd = RMD_MOTOR_DAMP_KD;
+	m->table = rmd_proto_table(m->proto);
+	m->reply_id = (m->table == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
+	row_resolve(m, 0xA1, RMD_FLD_CURRENT, RMD_FLD_COUNT, &m->torque_row);
+	row_resolve(m, 0xA2, RMD_FLD_SPEED, RMD_FLD_COUNT, &m->speed_row);
+	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
+	status2_resolve(m);
 	if (m->proto == RMD_PROTO_MIT) {
+		if (rmd_mit_ranges_validate(&m->mit, &m->mit_ok) < 0)
+			return -EINVAL;
 		if (m->damp_kd > m->mit.kd_max)
 			m->damp_kd = m->mit.kd_max;
 		if (m->damp_kd < m->mit.kd_min)
@@ -184,10 +288,19 @@ static int encode_msg(const struct rmd_motor *m, const struct rmd_msg *msg, stru
 /* rt-safe. */
 int rmd_motor_encode_cmd(const struct rmd_motor *m, uint8_t cmd, struct rmd_frame *out)
 {
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, cmd);
 	struct rmd_msg msg;
 
-	if (!rmd_cmd_find(m->proto, cmd))
+	if (!spec)
 		return -ENOENT;
+	/* a row without fields on 0x140 + ID: the command byte and zeros */
+	if (!(spec->flags & RMD_CMD_NO_CMD_BYTE) && !(m->table == RMD_PROTO_V3 && cmd == 0x79)) {
+		memset(out, 0, sizeof(*out));
+		out->can_id = RMD_CAN_REQ_BASE + m->id;
+		out->len = RMD_FRAME_LEN;
+		out->data[0] = cmd;
+		return 0;
+	}
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = cmd;
 	return encode_msg(m, &msg, out);
@@ -217,32 +330,28 @@ static double torque_to_iq(const struct rmd_motor *m, double torque_nm)
 static int encode_torque(const struct rmd_motor *m, double torque_nm, struct rmd_frame *out,
 			 unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA1);
-	struct rmd_msg msg;
+	double v[2];
 
-	if (!spec)
+	if (!m->torque_row.spec)
 		return -EOPNOTSUPP;
 	if (!(m->kt_nm_a > 0.0))
 		return -EOPNOTSUPP;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = 0xA1;
-	put(&msg, spec, RMD_FLD_CURRENT, torque_to_iq(m, torque_nm), fl);
-	return encode_msg(m, &msg, out);
+	v[0] = torque_to_iq(m, torque_nm);
+	v[1] = 0;
+	return row_encode(m, &m->torque_row, v, out, fl);
 }
 
 /* 0xA2 at vel_rad_s (reported frame, within the limit).  rt-safe. */
 static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_frame *out,
 			unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA2);
-	struct rmd_msg msg;
+	double v[2];
 
-	if (!spec)
+	if (!m->speed_row.spec)
 		return -EOPNOTSUPP;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = 0xA2;
-	put(&msg, spec, RMD_FLD_SPEED, m->dir * vel_rad_s * DEG_PER_RAD * m->native_per_output, fl);
-	return encode_msg(m, &msg, out);
+	v[0] = m->dir * vel_rad_s * DEG_PER_RAD * m->native_per_output;
+	v[1] = 0;
+	return row_encode(m, &m->speed_row, v, out, fl);
 }
 
 /*
@@ -252,17 +361,14 @@ static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_
 static int encode_position(const struct rmd_motor *m, double pos_rad, double mv_rad_s,
 			   struct rmd_frame *out, unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA4);
 	double native = rmd_motor_to_native_pos(m, pos_rad);
-	struct rmd_msg msg;
+	double v[2];
 
-	if (!spec)
+	if (!m->pos_row.spec)
 		return -EOPNOTSUPP;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = 0xA4;
-	put(&msg, spec, RMD_FLD_ANGLE, native * DEG_PER_RAD * m->native_per_output, fl);
-	put(&msg, spec, RMD_FLD_MAX_SPEED, mv_rad_s * DEG_PER_RAD * m->native_per_output, fl);
-	return encode_msg(m, &msg, out);
+	v[0] = native * DEG_PER_RAD * m->native_per_output;
+	v[1] = mv_rad_s * DEG_PER_RAD * m->native_per_output;
+	return row_encode(m, &m->pos_row, v, out, fl);
 }
 
 /*
@@ -272,7 +378,7 @@ static int encode_position(const struct rmd_motor *m, double pos_rad, double mv_
 static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 		      struct rmd_frame *out, unsigned *fl)
 {
-	const struct rmd_mit_ranges *r = &m->mit;
+	const struct rmd_mit_ranges *r = &m->mit_ok.r;
 	struct rmd_mit_cmd c;
 
 	if (m->proto != RMD_PROTO_MIT)
@@ -282,7 +388,7 @@ static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 	c.t_ff_nm = clampf(m->dir * sp->torque_nm, r->t_min, r->t_max, fl);
 	c.kp = clampf(sp->kp, r->kp_min, r->kp_max, fl);
 	c.kd = clampf(sp->kd, r->kd_min, r->kd_max, fl);
-	return rmd_mit_encode_cmd(r, m->id, &c, out) < 0 ? -EOPNOTSUPP : 0;
+	return rmd_mit_pack_cmd(&m->mit_ok, m->id, &c, out) < 0 ? -EOPNOTSUPP : 0;
 }
 
 /* rt-safe. */
@@ -343,7 +449,7 @@ int rmd_motor_encode_safe(const struct rmd_motor *m, enum rmd_safe_action a,
 			/* kp 0: no position target; kd > 0 resists motion; no torque. */
 			struct rmd_mit_cmd c = { .kd = m->damp_kd };
 
-			return rmd_mit_encode_cmd(&m->mit, m->id, &c, &out[0]) < 0 ? -EINVAL : 1;
+			return rmd_mit_pack_cmd(&m->mit_ok, m->id, &c, &out[0]) < 0 ? -EINVAL : 1;
 		}
 		{
 			struct rmd_frame f;
@@ -452,7 +558,7 @@ static int decode_mit(struct rmd_motor *m, const struct rmd_frame *f, struct rmd
 
 	if (m->proto != RMD_PROTO_MIT)
 		return -EINVAL;
-	ret = rmd_mit_decode_reply(&m->mit, f, &rep);
+	ret = rmd_mit_unpack_reply(&m->mit_ok, f, &rep);
 	if (ret < 0)
 		return ret;
 	r->pos_rad = rmd_motor_from_native_pos(m, rep.pos_rad);
@@ -463,83 +569,161 @@ static int decode_mit(struct rmd_motor *m, const struct rmd_frame *f, struct rmd
 	return 0;
 }
 
+/* The native iq x (A) of a reply, in the reported frame.  rt-safe. */
+static void take_current(const struct rmd_motor *m, double x, struct rmd_motor_reply *r)
+{
+	r->current_a = m->dir * x;
+	r->torque_nm = m->kt_nm_a > 0.0 ? r->current_a * m->kt_nm_a : NAN;
+	r->have |= RMD_MOTOR_HAVE_TORQUE;
+}
+
+/* The native speed x (dps) of a reply, in the reported frame.  rt-safe. */
+static void take_speed(const struct rmd_motor *m, double x, struct rmd_motor_reply *r)
+{
+	r->vel_rad_s = m->dir * x / DEG_PER_RAD / m->native_per_output;
+	r->have |= RMD_MOTOR_HAVE_VEL;
+}
+
+/*
+ * The position of a reply: its angle (V3 status 2 in whole degrees, 0x92 in
+ * 0.01 deg: the output angle), else a V2 encoder value unwrapped (not the
+ * 0x60 raw read).  rt-safe.
+ */
+static void take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_enc,
+			  uint16_t enc, uint8_t cmd, struct rmd_motor_reply *r)
+{
+	if (have_angle) {
+		r->pos_rad = rmd_motor_from_native_pos(m, angle_deg / DEG_PER_RAD /
+								  m->native_per_output);
+		r->have |= RMD_MOTOR_HAVE_POS;
+	} else if (m->table == RMD_PROTO_V2 && have_enc && cmd != 0x60) {
+		r->pos_rad = rmd_motor_from_native_pos(m, v2_unwrap(m, enc));
+		r->have |= RMD_MOTOR_HAVE_POS;
+	}
+}
+
+/* Field fs of data in its native unit.  rt-safe. */
+static double native_of(const struct rmd_field_spec *fs, const uint8_t *data)
+{
+	return (double)rmd_field_read(fs, data) * (fs->scale > 0.0 ? fs->scale : 1.0);
+}
+
+/*
+ * A reply with the status 2 layout (struct rmd_motor_status2), its fields
+ * read in their known roles: what reply_fields() below gives for it.
+ * rt-safe.
+ */
+static void status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+{
+	const struct rmd_motor_status2 *s = &m->st2;
+
+	if (s->temp) {
+		r->temp_c = native_of(s->temp, f->data);
+		r->have |= RMD_MOTOR_HAVE_TEMP;
+	}
+	if (s->current)
+		take_current(m, native_of(s->current, f->data), r);
+	if (s->speed)
+		take_speed(m, native_of(s->speed, f->data), r);
+	take_position(m, s->angle, s->angle ? native_of(s->angle, f->data) : 0, s->encoder,
+		      s->encoder ? (uint16_t)rmd_field_read(s->encoder, f->data) : 0, f->data[0],
+		      r);
+}
+
+/*
+ * The reply of a 0x140 + ID command row, decoded in one pass over the
+ * row's reply layout into r (what rmd_decode() and a walk over its struct
+ * rmd_msg gave, without the message zeroed and searched per frame).
+ * Returns 0, or -ENOENT / -EINVAL as rmd_decode().  rt-safe.
+ */
+static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+{
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, f->data[0]);
+	const struct rmd_layout *l;
+	bool have_angle = false, have_enc = false;
+	double angle = 0;
+	uint16_t enc = 0;
+
+	if (!spec || (spec->flags & RMD_CMD_NO_CMD_BYTE))
+		return -ENOENT;
+	/* V3 §4: 0x79 travels on 0x300 only, never on 0x240 + ID */
+	if (m->table == RMD_PROTO_V3 && spec->cmd == 0x79)
+		return -EINVAL;
+	l = rmd_cmd_layout(spec, RMD_DIR_REPLY);
+	for (unsigned i = 0; i < l->n; i++) {
+		const struct rmd_field_spec *fs = &l->f[i];
+		int64_t raw = rmd_field_read(fs, f->data);
+		double x = (double)raw * (fs->scale > 0.0 ? fs->scale : 1.0); /* native unit */
+
+		switch (fs->field) { /* uint8_t: the fields a state carries */
+		case RMD_FLD_TEMP:
+			r->temp_c = x;
+			r->have |= RMD_MOTOR_HAVE_TEMP;
+			break;
+		case RMD_FLD_CURRENT:
+			take_current(m, x, r);
+			break;
+		case RMD_FLD_SPEED:
+			take_speed(m, x, r);
+			break;
+		case RMD_FLD_ANGLE:
+			have_angle = true;
+			angle = x;
+			break;
+		case RMD_FLD_ENCODER:
+			have_enc = true;
+			enc = (uint16_t)raw;
+			break;
+		case RMD_FLD_VOLTAGE:
+			r->voltage_v = x;
+			r->have |= RMD_MOTOR_HAVE_VOLTAGE;
+			break;
+		case RMD_FLD_ERROR:
+			r->error_code = (uint16_t)raw;
+			r->have |= RMD_MOTOR_HAVE_ERROR;
+			break;
+		case RMD_FLD_BRAKE:
+			r->brake_released = raw != 0;
+			r->have |= RMD_MOTOR_HAVE_BRAKE;
+			break;
+		case RMD_FLD_MODEL:
+			rmd_model_string(raw, r->model);
+			r->have |= RMD_MOTOR_HAVE_MODEL;
+			break;
+		case RMD_FLD_VERSION:
+			r->version_date = (uint32_t)raw;
+			r->have |= RMD_MOTOR_HAVE_VERSION;
+			break;
+		case RMD_FLD_TIMEOUT:
+			r->comm_timeout_ms = (uint32_t)raw;
+			r->have |= RMD_MOTOR_HAVE_TIMEOUT;
+			break;
+		default: /* fields a motor's state does not carry */
+			break;
+		}
+	}
+	take_position(m, have_angle, angle, have_enc, enc, spec->cmd, r);
+	return 0;
+}
+
 /* rt-safe. */
 int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
 {
-	const struct rmd_cmd_spec *spec;
-	enum rmd_proto proto = rmd_proto_table(m->proto);
-	struct rmd_msg msg;
-	int ret;
-
 	memset(r, 0, sizeof(*r));
 	if (f->can_id == RMD_CAN_MIT_REPLY_BASE + m->id) {
 		r->cmd = RMD_MOTOR_CMD_MIT;
 		return decode_mit(m, f, r);
 	}
-	if (f->can_id != (proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id)
+	if (f->can_id != m->reply_id)
 		return -EINVAL;
 	if (f->len != RMD_FRAME_LEN)
 		return -EBADMSG;
 	r->cmd = f->data[0];
-	ret = rmd_decode(proto, RMD_DIR_REPLY, f, &msg, NULL);
-	if (ret < 0)
-		return ret;
-	spec = rmd_cmd_find(proto, msg.cmd);
-	if (!spec)
-		return -ENOENT;
-	if (rmd_msg_has(&msg, RMD_FLD_TEMP)) {
-		r->temp_c = get(spec, &msg, RMD_FLD_TEMP);
-		r->have |= RMD_MOTOR_HAVE_TEMP;
+	if ((m->st2.cmds[f->data[0] / 8] >> (f->data[0] % 8)) & 1) {
+		status2_read(m, f, r);
+		return 0;
 	}
-	if (rmd_msg_has(&msg, RMD_FLD_CURRENT)) {
-		double iq = get(spec, &msg, RMD_FLD_CURRENT);
-
-		r->current_a = m->dir * iq;
-		r->torque_nm = m->kt_nm_a > 0.0 ? r->current_a * m->kt_nm_a : NAN;
-		r->have |= RMD_MOTOR_HAVE_TORQUE;
-	}
-	if (rmd_msg_has(&msg, RMD_FLD_SPEED)) {
-		double dps = get(spec, &msg, RMD_FLD_SPEED);
-
-		r->vel_rad_s = m->dir * dps / DEG_PER_RAD / m->native_per_output;
-		r->have |= RMD_MOTOR_HAVE_VEL;
-	}
-	if (rmd_msg_has(&msg, RMD_FLD_ANGLE)) {
-		/* V3 status 2 (whole degrees) or 0x92 (0.01 deg): the output angle */
-		double native = get(spec, &msg, RMD_FLD_ANGLE) / DEG_PER_RAD / m->native_per_output;
-
-		r->pos_rad = rmd_motor_from_native_pos(m, native);
-		r->have |= RMD_MOTOR_HAVE_POS;
-	} else if (proto == RMD_PROTO_V2 && rmd_msg_has(&msg, RMD_FLD_ENCODER) && msg.cmd != 0x60) {
-		r->pos_rad = rmd_motor_from_native_pos(
-			m, v2_unwrap(m, (uint16_t)msg.v[RMD_FLD_ENCODER]));
-		r->have |= RMD_MOTOR_HAVE_POS;
-	}
-	if (rmd_msg_has(&msg, RMD_FLD_VOLTAGE)) {
-		r->voltage_v = get(spec, &msg, RMD_FLD_VOLTAGE);
-		r->have |= RMD_MOTOR_HAVE_VOLTAGE;
-	}
-	if (rmd_msg_has(&msg, RMD_FLD_ERROR)) {
-		r->error_code = (uint16_t)msg.v[RMD_FLD_ERROR];
-		r->have |= RMD_MOTOR_HAVE_ERROR;
-	}
-	if (rmd_msg_has(&msg, RMD_FLD_BRAKE)) {
-		r->brake_released = msg.v[RMD_FLD_BRAKE] != 0;
-		r->have |= RMD_MOTOR_HAVE_BRAKE;
-	}
-	if (rmd_msg_has(&msg, RMD_FLD_MODEL)) {
-		rmd_model_string(msg.v[RMD_FLD_MODEL], r->model);
-		r->have |= RMD_MOTOR_HAVE_MODEL;
-	}
-	if (rmd_msg_has(&msg, RMD_FLD_VERSION)) {
-		r->version_date = (uint32_t)msg.v[RMD_FLD_VERSION];
-		r->have |= RMD_MOTOR_HAVE_VERSION;
-	}
-	if (rmd_msg_has(&msg, RMD_FLD_TIMEOUT)) {
-		r->comm_timeout_ms = (uint32_t)msg.v[RMD_FLD_TIMEOUT];
-		r->have |= RMD_MOTOR_HAVE_TIMEOUT;
-	}
-	return 0;
+	return reply_fields(m, f, r);
 }
 
 /* rt-safe. */

@@ -33,9 +33,24 @@ static bool stopping(const struct rmd_loop *l)
 }
 
 /*
- * Between ticks: wait on the buses that have a descriptor and read what
- * comes (and let a transport's own queue advance when it is due), until just
- * before the next tick.
+ * Whether bus b is served between ticks: a transport that queues its own
+ * requests (RS485, half duplex) writes the next one only when it is read,
+ * so it is waited on and read as its frames come.  A full-duplex bus with
+ * kernel receive stamps (SocketCAN) is not: its replies wait in the socket
+ * with their stamps until the next cycle's one batched receive (issue 11:
+ * one send and one receive call per bus per cycle).  rt-safe.
+ */
+static bool collect_between_ticks(const struct rmd_bus *bus)
+{
+	const struct rmd_bus_caps *caps = rmd_bus_caps(bus);
+
+	return caps->half_duplex || caps->queue_len > 0;
+}
+
+/*
+ * Between ticks: wait on the buses served between ticks (see above) and
+ * read those that have frames (or whose transport's queue is due), until
+ * just before the next tick.
  * rt-safe.
  */
 static void collect_until_tick(struct rmd_loop *l)
@@ -46,7 +61,7 @@ static void collect_until_tick(struct rmd_loop *l)
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		int fd = rmd_bus_fd(l->bus[b].bus);
 
-		if (fd < 0)
+		if (fd < 0 || !collect_between_ticks(l->bus[b].bus))
 			continue;
 		pfd[n] = (struct pollfd){ .fd = fd, .events = POLLIN };
 		which[n++] = b;
@@ -76,8 +91,11 @@ static void collect_until_tick(struct rmd_loop *l)
 		if (r < 0 && errno != EINTR)
 			return;
 		now = rmd_now_ns();
+		/* only the buses that have frames, or whose queue is due */
 		for (unsigned k = 0; k < n; k++)
-			loop_drain(l, which[k], now);
+			if ((r > 0 && pfd[k].revents) ||
+			    rmd_bus_next_due_ns(l->bus[which[k]].bus) <= now)
+				loop_drain(l, which[k], now);
 	}
 }
 
@@ -87,6 +105,8 @@ static void *thread_main(void *arg)
 	struct rmd_loop *l = arg;
 	int64_t now;
 
+	/* one name to find it by (/proc/PID/task/TID/comm; bench/ scripts) */
+	pthread_setname_np(pthread_self(), "rmd-loop");
 	prefault_stack();
 	now = rmd_now_ns();
 	while (!stopping(l)) {

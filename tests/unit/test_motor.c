@@ -750,6 +750,135 @@ static void test_modes_and_info(void **state)
 	assert_true(info.kp_max == cm.mit.kp_max && info.kd_max == cm.mit.kd_max);
 }
 
+/*
+ * issue 11: rmd_motor_encode() and rmd_motor_decode() read the rows they
+ * resolved at init instead of interpreting a struct rmd_msg per frame; they
+ * must give what the codec's interpreter gives.  Seeded setpoints in every
+ * mode of V2 and V3 motors (direction, gear, offset), encoded both ways,
+ * and seeded replies of every command decoded both ways.
+ */
+static double rnd(unsigned *seed, double lo, double hi)
+{
+	*seed = *seed * 1103515245u + 12345u;
+	return lo + (hi - lo) * (double)((*seed >> 8) & 0xFFFFFF) / (double)0xFFFFFF;
+}
+
+/* The interpreter's frame: native values rounded (llround) and clamped to each field. */
+static void ref_put(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_field fld,
+		    double native)
+{
+	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, fld);
+	int64_t lo, hi;
+	double raw;
+
+	if (!fs)
+		return;
+	rmd_field_range(fs, &lo, &hi);
+	raw = native / (fs->scale > 0.0 ? fs->scale : 1.0);
+	rmd_msg_set(msg, fld, raw <= (double)lo ? lo : raw >= (double)hi ? hi : llround(raw));
+}
+
+static void test_resolved_rows_match_interpreter(void **state)
+{
+	static const enum rmd_proto protos[] = { RMD_PROTO_V3, RMD_PROTO_V2 };
+	static const enum rmd_mode modes[] = { RMD_MODE_TORQUE, RMD_MODE_SPEED, RMD_MODE_POSITION };
+	unsigned seed = 11;
+
+	(void)state;
+	for (unsigned p = 0; p < 2; p++) {
+		for (unsigned k = 0; k < 300; k++) {
+			enum rmd_mode mode = modes[k % 3];
+			struct rmd_config_motor c = cfg_motor(2, protos[p], mode);
+			struct rmd_setpoint sp = sp_mode(mode);
+			const struct rmd_cmd_spec *spec;
+			struct rmd_frame got, want;
+			struct rmd_msg msg;
+			struct rmd_motor m;
+			double dpr = 180.0 / M_PI;
+
+			c.direction = k & 1 ? -1 : 1;
+			c.gear_ratio = k % 5 ? 1.0 : 9.0;
+			c.units = k % 7 ? RMD_UNITS_OUTPUT : RMD_UNITS_ROTOR;
+			c.zero_offset_rad = rnd(&seed, -1, 1);
+			m = motor_of(&c);
+			sp.torque_nm = rnd(&seed, -200, 200);
+			sp.vel_rad_s = rnd(&seed, -500, 500);
+			sp.pos_rad = rnd(&seed, -1e5, 1e5);
+			sp.max_vel_rad_s = rnd(&seed, 0, 50);
+			assert_int_equal(rmd_motor_encode(&m, &sp, &got, NULL), 0);
+
+			memset(&msg, 0, sizeof(msg));
+			msg.cmd = mode == RMD_MODE_TORQUE ? 0xA1 :
+				  mode == RMD_MODE_SPEED  ? 0xA2 :
+							    0xA4;
+			spec = rmd_cmd_find(protos[p], msg.cmd);
+			assert_non_null(spec);
+			if (mode == RMD_MODE_TORQUE)
+				ref_put(&msg, spec, RMD_FLD_CURRENT,
+					c.direction * sp.torque_nm / 2.0);
+			else if (mode == RMD_MODE_SPEED)
+				ref_put(&msg, spec, RMD_FLD_SPEED,
+					c.direction * sp.vel_rad_s * dpr * m.native_per_output);
+			else {
+				ref_put(&msg, spec, RMD_FLD_ANGLE,
+					(c.direction * sp.pos_rad + c.zero_offset_rad) * dpr *
+						m.native_per_output);
+				ref_put(&msg, spec, RMD_FLD_MAX_SPEED,
+					sp.max_vel_rad_s * dpr * m.native_per_output);
+			}
+			assert_int_equal(rmd_encode(protos[p], RMD_DIR_REQUEST, 2, &msg, &want), 0);
+			assert_int_equal(got.can_id, want.can_id);
+			assert_int_equal(got.len, want.len);
+			assert_memory_equal(got.data, want.data, RMD_FRAME_LEN);
+		}
+		/* replies of every command byte, random data: the fields the interpreter finds */
+		for (unsigned cmd = 0; cmd < 256; cmd++) {
+			struct rmd_config_motor c = cfg_motor(3, protos[p], RMD_MODE_TORQUE);
+			struct rmd_motor m = motor_of(&c);
+			const struct rmd_cmd_spec *spec = rmd_cmd_find(protos[p], (uint8_t)cmd);
+			struct rmd_motor_reply r;
+			struct rmd_frame f = { .can_id = m.reply_id, .len = RMD_FRAME_LEN };
+			struct rmd_msg msg;
+			int ret, ref;
+
+			f.data[0] = (uint8_t)cmd;
+			for (unsigned b = 1; b < RMD_FRAME_LEN; b++)
+				f.data[b] = (uint8_t)rnd(&seed, 0, 255);
+			ret = rmd_motor_decode(&m, &f, &r);
+			ref = rmd_decode(protos[p], RMD_DIR_REPLY, &f, &msg, NULL);
+			if (ref < 0 || !spec) {
+				assert_true(ret < 0);
+				continue;
+			}
+			assert_int_equal(ret, 0);
+			assert_int_equal(!!(r.have & RMD_MOTOR_HAVE_TEMP),
+					 rmd_msg_has(&msg, RMD_FLD_TEMP));
+			if (rmd_msg_has(&msg, RMD_FLD_TEMP))
+				assert_true(r.temp_c == (double)msg.v[RMD_FLD_TEMP] *
+								rmd_layout_field(spec,
+										 RMD_DIR_REPLY,
+										 RMD_FLD_TEMP)
+									->scale);
+			assert_int_equal(!!(r.have & RMD_MOTOR_HAVE_TORQUE),
+					 rmd_msg_has(&msg, RMD_FLD_CURRENT));
+			if (rmd_msg_has(&msg, RMD_FLD_CURRENT))
+				assert_true(r.current_a == (double)msg.v[RMD_FLD_CURRENT] *
+								   rmd_layout_field(spec,
+										    RMD_DIR_REPLY,
+										    RMD_FLD_CURRENT)
+									   ->scale);
+			assert_int_equal(!!(r.have & RMD_MOTOR_HAVE_ERROR),
+					 rmd_msg_has(&msg, RMD_FLD_ERROR));
+			if (rmd_msg_has(&msg, RMD_FLD_ERROR))
+				assert_int_equal(r.error_code, (uint16_t)msg.v[RMD_FLD_ERROR]);
+			assert_int_equal(!!(r.have & RMD_MOTOR_HAVE_VEL),
+					 rmd_msg_has(&msg, RMD_FLD_SPEED));
+			assert_int_equal(!!(r.have & RMD_MOTOR_HAVE_VOLTAGE),
+					 rmd_msg_has(&msg, RMD_FLD_VOLTAGE));
+		}
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -769,6 +898,7 @@ int main(void)
 		cmocka_unit_test(test_position_round_trip),
 		cmocka_unit_test(test_clamp_rule),
 		cmocka_unit_test(test_modes_and_info),
+		cmocka_unit_test(test_resolved_rows_match_interpreter),
 	};
 
 	return cmocka_run_group_tests_name("motor", tests, NULL, NULL);

@@ -3,16 +3,13 @@
  * rmdd's monitor thread (it logs through tools/common/log.h: one line per
  * call on stderr, "<N>rmdd: ..." with the syslog level N, STYLE.md).
  *
- * The monitor is a normal-priority thread that wakes every
- * RMDD_MONITOR_PERIOD_NS and
- *   - drains the rt loop's event ring and logs each event with its context
- *     ("can0: motor 3 (knee_l): lost (10 missed replies in a row)"); the
- *     loop sends events only on change, and overruns are summed up to one
- *     line a second here;
- *   - samples every motor's reply latency from the loop's snapshot (the
- *     snapshot carries the latest reply's latency only, so this is a
- *     sample: one value per motor per monitor period, when a new reply
- *     came in).
+ * The monitor is a normal-priority thread that sleeps until the rt loop
+ * writes its eventfd (at the end of a cycle that pushed events; issue 11:
+ * no polling) and then drains the loop's event ring and logs each event
+ * with its context ("can0: motor 3 (knee_l): lost (10 missed replies in a
+ * row)"); the loop sends events only on change, and overruns are summed up
+ * to one line a second here (the only timed wake-up, while a summary is
+ * open).  Reply latencies are the loop's own (rmd_loop_get_reply_latency()).
  * Everything here is non-rt.
  */
 #define _GNU_SOURCE /* pthread_setname_np */
@@ -347,69 +344,54 @@ void rmdd_monitor_drain(struct rmdd_monitor *m)
 	}
 }
 
-/* ---- latency ------------------------------------------------------------------ */
-
-static void lat_add(struct rmdd_lat *l, int64_t ns)
-{
-	if (!l->n || ns < l->min_ns)
-		l->min_ns = ns;
-	if (!l->n || ns > l->max_ns)
-		l->max_ns = ns;
-	l->n++;
-	l->sum_ns += ns;
-	l->hist[rmd_hist_bucket(ns)]++;
-}
-
-static void sample_latency(struct rmdd_monitor *m)
-{
-	static struct rmd_snapshot s; /* the monitor thread's alone */
-	uint64_t since;
-
-	rmd_loop_get_snapshot(m->loop, &s);
-	if (!m->have_prev || s.cycle < m->prev_cycle) {
-		m->have_prev = true;
-		m->prev_cycle = s.cycle;
-		return;
-	}
-	since = s.cycle - m->prev_cycle;
-	if (!since)
-		return;
-	m->prev_cycle = s.cycle;
-	pthread_mutex_lock(&m->lock);
-	for (unsigned i = 0; i < s.n && i < RMD_MAX_MOTORS; i++) {
-		const struct rmd_motor_state *ms = &s.m[i];
-
-		/* a reply came since the last look */
-		if (ms->reply_age_cycles < since && ms->reply_latency_ns > 0)
-			lat_add(&m->lat[i], ms->reply_latency_ns);
-	}
-	pthread_mutex_unlock(&m->lock);
-}
-
-void rmdd_monitor_latency(struct rmdd_monitor *m, struct rmdd_lat out[RMD_MAX_MOTORS])
-{
-	pthread_mutex_lock(&m->lock);
-	memcpy(out, m->lat, sizeof(m->lat));
-	pthread_mutex_unlock(&m->lock);
-}
-
 /* ---- the thread ----------------------------------------------------------------- */
+
+/*
+ * The wait until there is something to do: the loop's event eventfd (or
+ * a stop) without a timeout; with overruns summed up, until the end of
+ * their one-second window.
+ */
+static int monitor_wait(struct rmdd_monitor *m)
+{
+	struct pollfd pfd[2] = {
+		{ .fd = m->stop_fd, .events = POLLIN },
+		{ .fd = m->wake_fd, .events = POLLIN },
+	};
+	struct timespec ts, *tsp = NULL;
+
+	if (m->overruns_logged) {
+		int64_t left = m->overrun_window_ns + RMD_NS_PER_S - rmd_now_ns();
+
+		if (left < 0)
+			left = 0;
+		ts.tv_sec = left / RMD_NS_PER_S;
+		ts.tv_nsec = left % RMD_NS_PER_S;
+		tsp = &ts;
+	}
+	if (ppoll(pfd, 2, tsp, NULL) < 0 && errno != EINTR)
+		return -errno;
+	if (pfd[0].revents & POLLIN)
+		return 1;
+	if (pfd[1].revents & POLLIN) {
+		uint64_t v;
+
+		if (read(m->wake_fd, &v, sizeof(v)) < 0) {
+			/* EAGAIN: another read took it */
+		}
+	}
+	return 0;
+}
 
 static void *monitor_main(void *arg)
 {
 	struct rmdd_monitor *m = arg;
-	struct pollfd pfd = { .fd = m->stop_fd, .events = POLLIN };
-	const struct timespec period = { 0, RMDD_MONITOR_PERIOD_NS };
 
 	pthread_setname_np(pthread_self(), "rmdd-monitor");
 	for (;;) {
-		int r = ppoll(&pfd, 1, &period, NULL);
-
-		if (r > 0)
+		if (monitor_wait(m) != 0)
 			break;
 		rmdd_monitor_drain(m);
 		overrun_summary(m, rmd_now_ns());
-		sample_latency(m);
 	}
 	return NULL;
 }
@@ -423,15 +405,20 @@ int rmdd_monitor_init(struct rmdd_monitor *m, const struct rmd_config *cfg, stru
 	m->cfg = cfg;
 	m->loop = loop;
 	m->events = events;
+	m->wake_fd = -1;
 	m->stop_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
 	if (m->stop_fd < 0)
 		return -errno;
-	r = -pthread_mutex_init(&m->lock, NULL);
-	if (r) {
+	m->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	if (m->wake_fd < 0) {
+		r = -errno;
 		close(m->stop_fd);
 		m->stop_fd = -1;
+		return r;
 	}
-	return r;
+	/* the loop writes it in a cycle that pushed events: the monitor sleeps otherwise */
+	rmd_loop_set_events_fd(loop, m->wake_fd);
+	return 0;
 }
 
 int rmdd_monitor_start(struct rmdd_monitor *m)
@@ -467,5 +454,9 @@ void rmdd_monitor_fini(struct rmdd_monitor *m)
 	if (m->stop_fd >= 0)
 		close(m->stop_fd);
 	m->stop_fd = -1;
-	pthread_mutex_destroy(&m->lock);
+	if (m->wake_fd >= 0) {
+		rmd_loop_set_events_fd(m->loop, -1);
+		close(m->wake_fd);
+	}
+	m->wake_fd = -1;
 }

@@ -46,17 +46,8 @@ enum {
 
 /* Event ring between the rt loop and the monitor: 4096 records of 32 bytes. */
 #define RMDD_EVENT_SLOTS 4096
-/* The monitor looks at the ring and the snapshot this often. */
-#define RMDD_MONITOR_PERIOD_NS 5000000
 
 /* ---- the monitor thread (monitor.c) ------------------------------------- */
-
-/* One motor's reply latency as sampled by the monitor. */
-struct rmdd_lat {
-	uint64_t n;
-	int64_t min_ns, max_ns, sum_ns;
-	uint32_t hist[RMD_HIST_BUCKETS];
-};
 
 struct rmdd_monitor {
 	const struct rmd_config *cfg;
@@ -66,17 +57,12 @@ struct rmdd_monitor {
 	pthread_t thread;
 	bool running;
 	int stop_fd; /* eventfd: rmdd_monitor_stop() wakes the thread */
+	int wake_fd; /* eventfd: the loop wakes the thread when it pushed events */
 
 	/* Owned by the thread. */
-	uint64_t prev_cycle;
-	bool have_prev;
 	uint64_t ring_dropped;
 	int64_t overrun_window_ns; /* start of the current one-second overrun summary */
 	uint64_t overruns_logged, overruns_pending, skipped_pending;
-
-	/* Shared with the main thread, under lock. */
-	pthread_mutex_t lock;
-	struct rmdd_lat lat[RMD_MAX_MOTORS];
 };
 
 /* Set up (no thread yet).  Returns 0 or -errno. */
@@ -93,9 +79,6 @@ int rmdd_monitor_start(struct rmdd_monitor *m);
 void rmdd_monitor_stop(struct rmdd_monitor *m);
 
 void rmdd_monitor_fini(struct rmdd_monitor *m);
-
-/* Copy of the latency samples, for the main thread. */
-void rmdd_monitor_latency(struct rmdd_monitor *m, struct rmdd_lat out[RMD_MAX_MOTORS]);
 
 /* Name of a lifecycle state ("ready", "lost", ...). */
 const char *rmdd_lifecycle_name(unsigned lc);

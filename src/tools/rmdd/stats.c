@@ -3,7 +3,10 @@
  * rmdd's statistics, printed on SIGUSR1 and on exit: the rt loop's wake-up
  * latency (min/avg/p99/max), overruns and plan misses; every bus's load and
  * counters; every motor's state, sampled reply latency and missed replies;
- * the LCM bridge's counters.  And the one-line summary systemd shows as the
+ * the LCM bridge's counters.  The loop measures every figure itself: the
+ * wake-up lateness counts every period a stall skipped (cyclictest's
+ * meaning), its histogram has cyclictest's 1 us buckets, and the reply
+ * latencies are every matched reply's, from the loop's own stamps.  And the one-line summary systemd shows as the
  * service's STATUS=.  Non-rt.
  *
  * The lines are stable and easy to grep (bench/sim-60s.sh reads
@@ -24,21 +27,6 @@
 static double us(int64_t ns)
 {
 	return (double)ns / (double)RMD_NS_PER_US;
-}
-
-static int64_t lat_p99(const struct rmdd_lat *l)
-{
-	uint64_t want = l->n - l->n / 100, sum = 0;
-
-	for (unsigned b = 0; b < RMD_HIST_BUCKETS; b++) {
-		sum += l->hist[b];
-		if (sum >= want) {
-			int64_t up = rmd_hist_upper(b);
-
-			return up < l->max_ns ? up : l->max_ns;
-		}
-	}
-	return l->max_ns;
 }
 
 static const char *wd_name(unsigned wd)
@@ -93,25 +81,60 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 	}
 }
 
+/*
+ * The wake-up lateness histogram in cyclictest's buckets (1 us, [k, k+1)
+ * us, to 1000 us): the non-empty ones as "us:count", a few lines of them.
+ */
+static void print_wake_hist(const struct rmdd_stats_src *s)
+{
+	static struct rmd_loop_wake_hist wh; /* main thread only */
+	char line[900];
+	size_t used = 0;
+	bool first = true;
+
+	rmd_loop_get_wake_hist(s->loop, &wh);
+	tool_log_always(
+		6,
+		"  loop: wake-up lateness histogram, 1 us buckets [k, k+1) us as cyclictest "
+		"-h %u: %" PRIu64 " wake-ups, %" PRIu64 " at %u us or later",
+		RMD_LOOP_WAKE_US_BUCKETS, wh.n, wh.over, RMD_LOOP_WAKE_US_BUCKETS);
+	line[0] = '\0';
+	for (unsigned k = 0; k < RMD_LOOP_WAKE_US_BUCKETS; k++) {
+		if (!wh.us[k])
+			continue;
+		if (used > sizeof(line) - 32) {
+			tool_log_always(6, "  loop: wake-up us:count %s", line);
+			used = 0;
+			line[0] = '\0';
+		}
+		used += (size_t)snprintf(line + used, sizeof(line) - used, "%s%u:%" PRIu64,
+					 used ? " " : "", k, wh.us[k]);
+		first = false;
+	}
+	if (!first)
+		tool_log_always(6, "  loop: wake-up us:count %s", line);
+}
+
 static void print_motors(const struct rmdd_stats_src *s, const struct rmd_snapshot *snap)
 {
-	static struct rmdd_lat lat[RMD_MAX_MOTORS]; /* main thread only */
+	static struct rmd_latency lat; /* main thread only */
 	const struct rmd_config *cfg = s->cfg;
 
-	rmdd_monitor_latency(s->mon, lat);
 	for (unsigned i = 0; i < cfg->n_motors; i++) {
 		const struct rmd_config_motor *c = &cfg->motors[i];
 		const struct rmd_motor_state *ms = &snap->m[i];
-		const struct rmdd_lat *l = &lat[i];
+		const struct rmd_latency *l = &lat;
 		char latency[160] = "reply latency: no samples";
 		char age[48] = "no reply yet";
 
+		if (!rmd_loop_get_reply_latency(s->loop, i, &lat))
+			lat.n = 0;
 		if (l->n)
 			snprintf(latency, sizeof(latency),
 				 "reply latency min %.0f, avg %.0f, p99 %.0f, max %.0f us (%" PRIu64
 				 " samples)",
-				 us(l->min_ns), us(l->sum_ns / (int64_t)l->n), us(lat_p99(l)),
-				 us(l->max_ns), l->n);
+				 us(l->min_ns), us(l->sum_ns / (int64_t)l->n),
+				 us(rmd_latency_p99(l)), us(l->max_ns), l->n);
 		if (ms->reply_age_cycles != UINT32_MAX)
 			snprintf(age, sizeof(age), "last reply %u cycles ago",
 				 (unsigned)ms->reply_age_cycles);
@@ -149,6 +172,7 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 			"  loop: overruns %" PRIu64 ", plan misses %" PRIu64
 			", frames not sent %" PRIu64,
 			st.overruns, st.plan_misses, c.frames_not_sent);
+	print_wake_hist(s);
 	tool_log_always(6,
 			"  replies: matched %" PRIu64 ", missed %" PRIu64 ", echoed %" PRIu64
 			", unsolicited %" PRIu64 ", unexpected %" PRIu64 ", undecodable %" PRIu64,

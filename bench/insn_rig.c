@@ -1,0 +1,214 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The rig bench/insn-per-cycle.sh and bench/insn-guard.sh run under
+ * callgrind: rmdd's loop on simulated buses with an injected clock, every
+ * motor brought up, then WARM cycles, then CYCLES cycles measured.
+ *
+ *   insn_rig CONFIG.yaml [enabled|ready] [CYCLES]
+ *   insn_rig --sim N     [enabled|ready] [CYCLES]   N V3 torque motors, 3 a bus
+ *
+ * "enabled": a command enabling every motor in its configured mode each
+ * cycle (the bridge's hand-over, as rmdd runs); "ready": no command, every
+ * motor READY (status polls only).  The measured cycles are
+ * rmd_loop_cycle(); the scripts exclude the simulated bus and motors with
+ * callgrind's --toggle-collect on the sim bus's send and receive, and
+ * the rig zeroes callgrind's counts before the measured cycles and dumps
+ * them after (valgrind/callgrind.h's client requests).  The
+ * rig prints how many cycles it measured and the motors' lifecycles, so a
+ * run that did not reach the state it claims fails loudly.
+ *
+ * Non-rt, a benchmark: it allocates at set-up only.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rmd/bringup.h"
+#include "rmd/bus_open.h"
+#include "rmd/config.h"
+#include "rmd/config_yaml.h"
+#include "rmd/loop.h"
+#include "rmd/plan.h"
+#include "rmd/spsc.h"
+#include "rmd/state.h"
+
+#if __has_include(<valgrind/callgrind.h>)
+#include <valgrind/callgrind.h>
+#else
+#define CALLGRIND_ZERO_STATS
+#define CALLGRIND_DUMP_STATS_AT(s) ((void)(s))
+#endif
+
+#define MS INT64_C(1000000)
+#define WARM 2000
+
+static int64_t t_now;
+
+static int64_t fake_now(void *ctx)
+{
+	(void)ctx;
+	return t_now;
+}
+
+static void fake_sleep(void *ctx, int64_t ns)
+{
+	(void)ctx;
+	t_now += ns;
+}
+
+static struct rmd_config cfg;
+static struct rmd_sim_setup sim;
+static struct rmd_plan plan;
+static struct rmd_bus buses[RMD_MAX_BUSES];
+static struct rmd_latest cmds, snaps, health;
+static struct rmd_command cmd_buf[3], cmd;
+static struct rmd_snapshot snap_buf[3], snap;
+static struct rmd_health health_buf[3];
+static struct rmd_ring events;
+static struct rmd_event ev_buf[1024];
+static struct rmd_bringup report;
+
+static void command_for(unsigned k)
+{
+	cmd.rx_ns = t_now;
+	cmd.seq = k;
+	for (unsigned i = 0; i < cfg.n_motors; i++) {
+		struct rmd_setpoint *sp = &cmd.m[i];
+
+		cmd.present |= 1u << i;
+		sp->enable = true;
+		sp->mode = (uint8_t)cfg.motors[i].mode;
+		sp->pos_rad = 0.5 * sin(k * 0.001);
+		sp->vel_rad_s = 0.5 * cos(k * 0.002);
+		sp->torque_nm = 0.2 * sin(k * 0.003);
+		sp->kp = 5.0;
+		sp->kd = 0.2;
+		sp->max_vel_rad_s = 2.0;
+	}
+}
+
+/* The measured part: callgrind's --toggle-collect names this function. */
+__attribute__((noinline)) void rig_cycles(struct rmd_loop *l, unsigned n, bool enabled,
+					  unsigned k0);
+__attribute__((noinline)) void rig_cycles(struct rmd_loop *l, unsigned n, bool enabled, unsigned k0)
+{
+	struct rmd_event ev;
+	const void *p;
+
+	for (unsigned k = k0; k < k0 + n; k++) {
+		if (enabled) {
+			command_for(k);
+			rmd_latest_put(&cmds, &cmd);
+		}
+		rmd_loop_cycle(l, t_now);
+		t_now += plan.period_ns;
+		while (rmd_ring_pop(&events, &ev))
+			;
+		rmd_latest_get(&snaps, &p);
+		rmd_latest_get(&health, &p);
+	}
+}
+
+static int open_buses(void)
+{
+	char err[512];
+
+	for (unsigned b = 0; b < cfg.n_buses; b++) {
+		struct rmd_bus_open_motor ms[RMD_MAX_MOTORS];
+		struct rmd_bus_open_ctx ctx;
+
+		rmd_bus_open_ctx_of(&cfg, &sim, b, ms, &ctx);
+		if (rmd_bus_open(&buses[b], &cfg.buses[b], &ctx, err, sizeof(err)) < 0) {
+			fprintf(stderr, "insn_rig: bus %s: %s\n", cfg.buses[b].name, err);
+			return -1;
+		}
+	}
+	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	struct rmd_loop_counters c;
+	struct rmd_loop_stats st;
+	struct rmd_loop_opts o;
+	struct rmd_loop *l;
+	unsigned cycles = 1000, n_lc[8] = { 0 };
+	bool enabled = true;
+	char err[2048];
+	int a = 1, r;
+
+	if (argc < 2) {
+		fprintf(stderr, "usage: insn_rig CONFIG.yaml|--sim N [enabled|ready] [CYCLES]\n");
+		return 2;
+	}
+	if (!strcmp(argv[1], "--sim") && argc > 2) {
+		r = rmd_config_sim_default(&cfg, &sim, (unsigned)atoi(argv[2]));
+		a = 3;
+	} else {
+		r = rmd_config_load(argv[1], &cfg, &sim, err, sizeof(err));
+		a = 2;
+	}
+	if (r) {
+		fprintf(stderr, "insn_rig: config: %s\n", r == -EINVAL ? err : "cannot load");
+		return 1;
+	}
+	if (argc > a)
+		enabled = strcmp(argv[a], "ready") != 0;
+	if (argc > a + 1)
+		cycles = (unsigned)atoi(argv[a + 1]);
+	if (rmd_plan_build(&cfg, &plan, err, sizeof(err))) {
+		fprintf(stderr, "insn_rig: plan: %s\n", err);
+		return 1;
+	}
+	if (open_buses())
+		return 1;
+	rmd_latest_init(&cmds, cmd_buf, sizeof(struct rmd_command));
+	rmd_latest_init(&snaps, snap_buf, sizeof(struct rmd_snapshot));
+	rmd_latest_init(&health, health_buf, sizeof(struct rmd_health));
+	rmd_ring_init(&events, ev_buf, 1024, sizeof(struct rmd_event));
+	t_now = 1000 * MS;
+	o = (struct rmd_loop_opts){
+		.cfg = &cfg,
+		.plan = &plan,
+		.buses = buses,
+		.commands = &cmds,
+		.snapshots = &snaps,
+		.health = &health,
+		.events = &events,
+		.snapshot_fd = -1,
+		.now_ns = fake_now,
+		.sleep_ns = fake_sleep,
+	};
+	l = rmd_loop_new(&o, err, sizeof(err));
+	if (!l) {
+		fprintf(stderr, "insn_rig: %s\n", err);
+		return 1;
+	}
+	if (rmd_loop_bringup(l, &report)) {
+		fprintf(stderr, "insn_rig: bring-up failed\n");
+		return 1;
+	}
+	t_now = (t_now / MS + 1) * MS;
+	rig_cycles(l, WARM, enabled, 0);
+	/* only the measured cycles in callgrind's dump (no-ops outside valgrind) */
+	CALLGRIND_ZERO_STATS;
+	rig_cycles(l, cycles, enabled, WARM);
+	CALLGRIND_DUMP_STATS_AT("measured");
+	rmd_loop_get_snapshot(l, &snap);
+	rmd_loop_get_stats(l, &st);
+	rmd_loop_get_counters(l, &c);
+	for (unsigned i = 0; i < snap.n; i++)
+		n_lc[snap.m[i].lifecycle & 7]++;
+	printf("insn_rig: motors %u buses %u measured_cycles %u mode %s enabled %u ready %u "
+	       "plan_misses %llu replies %llu bad_replies %llu missed %llu\n",
+	       cfg.n_motors, cfg.n_buses, cycles, enabled ? "enabled" : "ready",
+	       n_lc[RMD_LC_ENABLED], n_lc[RMD_LC_READY], (unsigned long long)st.plan_misses,
+	       (unsigned long long)c.replies, (unsigned long long)c.bad_replies,
+	       (unsigned long long)c.missed);
+	rmd_loop_free(l);
+	for (unsigned b = 0; b < cfg.n_buses; b++)
+		rmd_bus_close(&buses[b]);
+	return (enabled ? n_lc[RMD_LC_ENABLED] : n_lc[RMD_LC_READY]) == cfg.n_motors ? 0 : 1;
+}

@@ -1,0 +1,66 @@
+# Shared by the bench/ scripts (sourced, POSIX sh).
+#
+# bench_base TARGETS...   build the baseline revision $BASE (default
+#                         8c261d5, the main branch before issue 11) into
+#                         /tmp/rmdd-bench-base-$BASE (kept for the next
+#                         script of the same run) and print that directory;
+#                         TARGETS are make targets (build/rmdd, ...).
+# bench_plot              the Python with matplotlib (Debian's python3-matplotlib), or
+#                         nothing: the scripts then write their text reports only.
+BASE=${BASE:-8c261d5}
+
+bench_base() {
+	dir=/tmp/rmdd-bench-base-$BASE
+	if [ ! -f "$dir/Makefile" ]; then
+		mkdir -p "$dir"
+		git archive "$BASE" | tar -x -C "$dir" || return 1
+	fi
+	make -C "$dir" -j2 "$@" >"$dir/build.log" 2>&1 || {
+		cat "$dir/build.log" >&2
+		return 1
+	}
+	echo "$dir"
+}
+
+bench_plot() {
+	for py in /usr/bin/python3 python3; do
+		if "$py" -c 'import matplotlib' 2>/dev/null; then
+			echo "$py"
+			return 0
+		fi
+	done
+	return 1
+}
+
+# The TID of the thread of process $1 whose comm is $2, or nothing.
+bench_tid() {
+	for t in /proc/"$1"/task/*; do
+		[ "$(cat "$t/comm" 2>/dev/null)" = "$2" ] && { basename "$t"; return 0; }
+	done
+	return 1
+}
+
+# Cycles rmdd reported in its last "statistics (WHY) ... N cycles" line of log $1.
+bench_cycles() {
+	sed -n 's/.*statistics (.*) after .* s: \([0-9]*\) cycles.*/\1/p' "$1" | tail -n 1
+}
+
+# Start rmdd (ARGS) with its stderr in LOG and wait until it says it runs;
+# its pid in BENCH_PID.  bench_rmdd_start RMDD LOG ARGS...
+bench_rmdd_start() {
+	rmdd=$1
+	log=$2
+	shift 2
+	"$rmdd" "$@" 2>"$log" &
+	BENCH_PID=$!
+	i=0
+	while ! grep -q "rmdd: running:" "$log" 2>/dev/null; do
+		i=$((i + 1))
+		if [ $i -ge 300 ] || ! kill -0 $BENCH_PID 2>/dev/null; then
+			cat "$log"
+			echo "bench: rmdd did not start: $rmdd $*"
+			exit 1
+		fi
+		sleep 0.1
+	done
+}
