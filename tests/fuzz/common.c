@@ -29,3 +29,13 @@ const char *fuzz_file(const uint8_t *data, size_t size)
 	FUZZ_CHECK(pwrite(fd, data, size, 0) == (ssize_t)size);
 	return path;
 }
+
+/*
+ * UBSan's reports are fatal, as ASan's, also when a harness is run by hand
+ * on one input (tests/fuzz/run adds the known-defect suppressions).
+ */
+const char *__ubsan_default_options(void);
+const char *__ubsan_default_options(void)
+{
+	return "halt_on_error=1:print_stacktrace=1";
+}

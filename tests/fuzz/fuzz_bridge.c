@@ -108,8 +108,9 @@ static int build(struct fuzz_in *in, uint8_t tag, int64_t *utime, int64_t *seq)
 {
 	memset(&msg, 0, sizeof(msg));
 	if (tag & 2) {
-		*utime += (int8_t)fuzz_u8(in) * 1000;
-		*seq += (int8_t)fuzz_u8(in);
+		/* steps from the previous values, wrapping as a controller's counters might */
+		*utime = (int64_t)((uint64_t)*utime + (uint64_t)((int8_t)fuzz_u8(in) * 1000));
+		*seq = (int64_t)((uint64_t)*seq + (uint64_t)(int8_t)fuzz_u8(in));
 	} else {
 		*utime = (int64_t)fuzz_u64(in);
 		*seq = (int64_t)fuzz_u64(in);
