@@ -8,6 +8,8 @@
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
 #   make python-venv     build/venv: a venv with `pip install ./python` (lcm from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
+#   make fuzz            build the libFuzzer harnesses (tests/fuzz/) into build/fuzz
+#                        with clang and run each FUZZ_SECONDS (10) on its corpus
 #   SANITIZE=1           ASan + UBSan + float-cast-overflow (objects go to build/san)
 #   WERROR=1             warnings are errors (CI sets it)
 #   V=1                  echo every command
@@ -116,7 +118,8 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
-	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib
+	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib \
+	clang libclang-rt-dev
 
 deps:
 	apt-get update -qq
@@ -310,6 +313,54 @@ check-layers:
 
 format-check:
 	$(Q)$(CLANG_FORMAT) --dry-run -Werror $(FORMAT_SRCS) && echo "format-check: ok"
+
+# ---- fuzzing (tests/fuzz/README.md) -------------------------------------------------------
+# Every harness tests/fuzz/fuzz_<name>.c is linked with libFuzzer against the
+# library (and the program objects it needs) built again by clang with
+# ASan, UBSan and float-cast-overflow, into $(FUZZ_DIR).  `make fuzz` builds
+# them and runs each for FUZZ_SECONDS on its corpus (tests/fuzz/run); a
+# crash, leak, sanitizer report or timeout fails it.  Debian 12: clang and
+# libclang-rt-dev (libclang_rt.fuzzer), in DEB_PACKAGES.
+FUZZ_CC ?= clang
+FUZZ_DIR := build/fuzz
+FUZZ_SECONDS ?= 10
+FUZZ_SAN := -fsanitize=address,undefined,float-cast-overflow -fno-omit-frame-pointer
+FUZZ_CFLAGS := -O1 -g -std=gnu11 $(WARN) $(FUZZ_SAN) -fsanitize=fuzzer-no-link \
+	-Iinclude -Isrc -I$(BUILD)/gen $(PKG_CFLAGS) -MMD -MP
+FUZZ_SRCS := $(wildcard tests/fuzz/fuzz_*.c)
+FUZZERS := $(FUZZ_SRCS:tests/fuzz/%.c=$(FUZZ_DIR)/%)
+FUZZ_LIB := $(FUZZ_DIR)/librmd.a
+FUZZ_LIB_OBJS := $(LIB_SRCS:%.c=$(FUZZ_DIR)/obj/%.o) $(GEN_SRCS:%.c=$(FUZZ_DIR)/obj/%.o)
+
+.PHONY: fuzz fuzz-build
+
+$(FUZZ_DIR)/obj/%.o: %.c | $(GEN_HDRS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  FUZZCC  $<")
+	$(Q)$(FUZZ_CC) $(FUZZ_CFLAGS) -c -o $@ $<
+
+# lcm-gen's C is sanitized but not coverage-guided: its byte loops are not
+# ours to explore, and cost the bridge harness most of its speed.
+$(FUZZ_DIR)/obj/$(BUILD)/gen/%.o: $(BUILD)/gen/%.c | $(GEN_HDRS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  FUZZCC  $<")
+	$(Q)$(FUZZ_CC) $(filter-out -fsanitize=fuzzer-no-link -O1,$(FUZZ_CFLAGS)) -O2 $(GEN_CFLAGS) -c -o $@ $<
+
+$(FUZZ_LIB): $(FUZZ_LIB_OBJS)
+	@$(if $(Q),echo "  AR      $@")
+	$(Q)rm -f $@ && $(AR) rcs $@ $^
+
+$(FUZZ_DIR)/fuzz_%: $(FUZZ_DIR)/obj/tests/fuzz/fuzz_%.o $(FUZZ_DIR)/obj/tests/fuzz/common.o $(FUZZ_LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(FUZZ_CC) $(FUZZ_SAN) -fsanitize=fuzzer -o $@ $(filter %.o,$^) $(filter %.a,$^) $(LIBS)
+
+# rmd-sim's config reader is a program file: linked in as test_sim_params does.
+$(FUZZ_DIR)/fuzz_sim_config: $(FUZZ_DIR)/obj/src/tools/rmd-sim/config.o
+
+fuzz-build: $(FUZZERS)
+
+fuzz: fuzz-build
+	$(Q)FUZZ_DIR=$(FUZZ_DIR) tests/fuzz/run --seconds $(FUZZ_SECONDS) $(notdir $(FUZZERS))
 
 clean:
 	rm -rf build python/build python/rmd.egg-info

@@ -28,7 +28,9 @@
  * Load and validate the YAML file at `path` into *cfg, and the sim
  * buses' simulator settings into *sim (may be NULL: checked, then
  * dropped), defaults for what it leaves out.  Returns 0, -errno when the
- * file cannot be read, or -EINVAL for a file with errors; err then holds
+ * file cannot be read or is refused as a whole (rmd_config_file_read():
+ * -EISDIR, -EFBIG, -EILSEQ for a NUL byte, ...), or -EINVAL for a file
+ * with errors; err then holds
  * one line per error (up to a few dozen, joined with '\n', no trailing
  * newline), each naming the file, the line and the key.  *cfg and *sim are
  * unspecified after a failure.  Non-rt: allocates while parsing, frees
