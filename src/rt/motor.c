@@ -181,15 +181,29 @@ static int encode_msg(const struct rmd_motor *m, const struct rmd_msg *msg, stru
 	return rmd_encode(m->proto, RMD_DIR_REQUEST, m->id, msg, out);
 }
 
+/*
+ * Start msg as an empty `cmd` of the motor's protocol: its spec, or NULL
+ * (msg untouched) when the protocol has no such command.  rt-safe.
+ */
+static const struct rmd_cmd_spec *msg_start(const struct rmd_motor *m, uint8_t cmd,
+					    struct rmd_msg *msg)
+{
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, cmd);
+
+	if (spec) {
+		memset(msg, 0, sizeof(*msg));
+		msg->cmd = cmd;
+	}
+	return spec;
+}
+
 /* rt-safe. */
 int rmd_motor_encode_cmd(const struct rmd_motor *m, uint8_t cmd, struct rmd_frame *out)
 {
 	struct rmd_msg msg;
 
-	if (!rmd_cmd_find(m->proto, cmd))
+	if (!msg_start(m, cmd, &msg))
 		return -ENOENT;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = cmd;
 	return encode_msg(m, &msg, out);
 }
 
@@ -217,15 +231,11 @@ static double torque_to_iq(const struct rmd_motor *m, double torque_nm)
 static int encode_torque(const struct rmd_motor *m, double torque_nm, struct rmd_frame *out,
 			 unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA1);
 	struct rmd_msg msg;
+	const struct rmd_cmd_spec *spec = msg_start(m, 0xA1, &msg);
 
-	if (!spec)
+	if (!spec || !(m->kt_nm_a > 0.0))
 		return -EOPNOTSUPP;
-	if (!(m->kt_nm_a > 0.0))
-		return -EOPNOTSUPP;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = 0xA1;
 	put(&msg, spec, RMD_FLD_CURRENT, torque_to_iq(m, torque_nm), fl);
 	return encode_msg(m, &msg, out);
 }
@@ -234,13 +244,11 @@ static int encode_torque(const struct rmd_motor *m, double torque_nm, struct rmd
 static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_frame *out,
 			unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA2);
 	struct rmd_msg msg;
+	const struct rmd_cmd_spec *spec = msg_start(m, 0xA2, &msg);
 
 	if (!spec)
 		return -EOPNOTSUPP;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = 0xA2;
 	put(&msg, spec, RMD_FLD_SPEED, m->dir * vel_rad_s * DEG_PER_RAD * m->native_per_output, fl);
 	return encode_msg(m, &msg, out);
 }
@@ -252,14 +260,12 @@ static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_
 static int encode_position(const struct rmd_motor *m, double pos_rad, double mv_rad_s,
 			   struct rmd_frame *out, unsigned *fl)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, 0xA4);
 	double native = rmd_motor_to_native_pos(m, pos_rad);
 	struct rmd_msg msg;
+	const struct rmd_cmd_spec *spec = msg_start(m, 0xA4, &msg);
 
 	if (!spec)
 		return -EOPNOTSUPP;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = 0xA4;
 	put(&msg, spec, RMD_FLD_ANGLE, native * DEG_PER_RAD * m->native_per_output, fl);
 	put(&msg, spec, RMD_FLD_MAX_SPEED, mv_rad_s * DEG_PER_RAD * m->native_per_output, fl);
 	return encode_msg(m, &msg, out);
