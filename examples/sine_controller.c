@@ -205,6 +205,22 @@ static int parse_num(const char *opt, const char *s, double min, double max, dou
 	return 0;
 }
 
+/* A numeric option: its letter, its long name, its range and where it goes. */
+struct num_opt {
+	int c;
+	const char *name;
+	double min, max;
+	double *dst;
+};
+
+static const struct num_opt *num_opt(const struct num_opt *t, size_t n, int c)
+{
+	for (size_t i = 0; i < n; i++)
+		if (t[i].c == c)
+			return &t[i];
+	return NULL;
+}
+
 /* Fill o from the command line.  Returns 0, 1 (--help printed) or -EINVAL after a message. */
 static int parse_args(int argc, char **argv, struct opts *o)
 {
@@ -220,6 +236,14 @@ static int parse_args(int argc, char **argv, struct opts *o)
 		{ "duration", required_argument, NULL, 't' },
 		{ "help", no_argument, NULL, 'h' },
 		{ NULL, 0, NULL, 0 },
+	};
+	const struct num_opt nums[] = {
+		{ 'a', "amplitude", 0, 100, &o->amplitude_rad },
+		{ 'f', "freq", 0, 100, &o->freq_hz },
+		{ 'r', "rate", 1, 10000, &o->rate_hz },
+		{ 'p', "kp", 0, 1e6, &o->kp },
+		{ 'd', "kd", 0, 1e6, &o->kd },
+		{ 't', "duration", 0, 1e9, &o->duration_s },
 	};
 	const char *env = getenv("LCM_DEFAULT_URL");
 	int c, r = 0;
@@ -242,36 +266,25 @@ static int parse_args(int argc, char **argv, struct opts *o)
 			}
 			o->mit = !strcmp(optarg, "mit");
 			break;
-		case 'a':
-			r = parse_num("amplitude", optarg, 0, 100, &o->amplitude_rad);
-			break;
-		case 'f':
-			r = parse_num("freq", optarg, 0, 100, &o->freq_hz);
-			break;
-		case 'r':
-			r = parse_num("rate", optarg, 1, 10000, &o->rate_hz);
-			break;
-		case 'p':
-			r = parse_num("kp", optarg, 0, 1e6, &o->kp);
-			break;
-		case 'd':
-			r = parse_num("kd", optarg, 0, 1e6, &o->kd);
-			break;
 		case 'u':
 			o->url = optarg;
 			break;
 		case 'P':
 			o->prefix = optarg;
 			break;
-		case 't':
-			r = parse_num("duration", optarg, 0, 1e9, &o->duration_s);
-			break;
 		case 'h':
 			usage(stdout);
 			return 1;
-		default:
-			usage(stderr);
-			return -EINVAL;
+		default: {
+			const struct num_opt *n = num_opt(nums, sizeof(nums) / sizeof(nums[0]), c);
+
+			if (!n) {
+				usage(stderr);
+				return -EINVAL;
+			}
+			r = parse_num(n->name, optarg, n->min, n->max, n->dst);
+			break;
+		}
 		}
 	}
 	if (!r && optind < argc) {
@@ -287,11 +300,16 @@ static int parse_args(int argc, char **argv, struct opts *o)
 
 /* ---- LCM ------------------------------------------------------------------ */
 
+/* A message's motor count, as many as we keep: 0..MAX_MOTORS. */
+static int motors_in(int count)
+{
+	return count < 0 ? 0 : count < MAX_MOTORS ? count : MAX_MOTORS;
+}
+
 static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
 		      void *user)
 {
 	struct ctl *c = user;
-	int n = msg->motor_count < MAX_MOTORS ? msg->motor_count : MAX_MOTORS;
 
 	(void)rbuf;
 	(void)channel;
@@ -299,7 +317,7 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 		return;
 	c->period_us = msg->period_us;
 	c->bus_count = msg->bus_count;
-	c->motor_count = n > 0 ? n : 0;
+	c->motor_count = motors_in(msg->motor_count);
 	for (int i = 0; i < c->motor_count; i++) {
 		const rmd_motor_config_t *mc = &msg->motor[i];
 		struct motor_cfg *m = &c->cfg[i];
@@ -360,11 +378,10 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 		     void *user)
 {
 	struct ctl *c = user;
-	int n = msg->count < MAX_MOTORS ? msg->count : MAX_MOTORS;
 
 	(void)rbuf;
 	(void)channel;
-	c->state_count = n > 0 ? n : 0;
+	c->state_count = motors_in(msg->count);
 	for (int i = 0; i < c->state_count; i++) {
 		c->state_lc[i] = msg->motor[i].lifecycle;
 		c->state_pos[i] = msg->motor[i].position;

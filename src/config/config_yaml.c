@@ -353,6 +353,36 @@ static void validate_sim_model(struct yctx *c, const struct rmd_sim_motor_params
 	}
 }
 
+/*
+ * Entry i of seq (node n): its line into *line, its path into path.
+ * Returns whether it is a map: only a map has keys to check.  Non-rt.
+ */
+static bool entry_start(const struct ynode *n, const char *seq, unsigned i, unsigned *line,
+			char *path)
+{
+	*line = n->line;
+	rmd_yaml_path_idx(path, seq, i);
+	return n->kind == Y_MAP;
+}
+
+/*
+ * Entry i (at path) of the sequence seq, which is named `what`: reported
+ * when `name` is already that of entry `first` (the first so named, or
+ * -ENOENT).  Non-rt.
+ */
+static void name_unique(struct yctx *c, const struct ynode *seq, unsigned i, const char *path,
+			const char *what, const char *name, int first)
+{
+	char kp[PATH_LEN];
+
+	if (!name[0] || first < 0 || (unsigned)first >= i)
+		return;
+	rmd_yaml_path_key(kp, path, "name");
+	rmd_yaml_report(c, rmd_yaml_line_of(seq->kids[i], "name"), kp,
+			"\"%s\" is already the name of %s[%d] (line %u)", name, what, first,
+			seq->kids[first]->line);
+}
+
 static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_sim_setup *sim,
 			   const struct ynode *seq)
 {
@@ -363,19 +393,9 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 		struct rmd_config_bus *b = &cfg->buses[i];
 		const struct ynode *bn = seq->kids[i];
 
-		b->line = bn->line;
-		rmd_yaml_path_idx(path, "buses", i);
-		if (bn->kind != Y_MAP)
+		if (!entry_start(bn, "buses", i, &b->line, path))
 			continue;
-		for (unsigned j = 0; j < i; j++) {
-			if (b->name[0] && !strcmp(cfg->buses[j].name, b->name)) {
-				rmd_yaml_path_key(kp, path, "name");
-				rmd_yaml_report(c, rmd_yaml_line_of(bn, "name"), kp,
-						"\"%s\" is already the name of buses[%u] (line %u)",
-						b->name, j, cfg->buses[j].line);
-				break;
-			}
-		}
+		name_unique(c, seq, i, path, "buses", b->name, rmd_config_bus_find(cfg, b->name));
 		if (c->bad[MARK_BUS - 1] & (1u << i))
 			continue;
 		switch (b->kind) {
@@ -632,20 +652,10 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 		unsigned bl = 0;
 		int bi = -1;
 
-		m->line = mn->line;
-		rmd_yaml_path_idx(path, "motors", i);
-		if (mn->kind != Y_MAP)
+		if (!entry_start(mn, "motors", i, &m->line, path))
 			continue;
-		for (unsigned j = 0; j < i; j++) {
-			if (m->name[0] && !strcmp(cfg->motors[j].name, m->name)) {
-				rmd_yaml_path_key(kp, path, "name");
-				rmd_yaml_report(
-					c, rmd_yaml_line_of(mn, "name"), kp,
-					"\"%s\" is already the name of motors[%u] (line %u)",
-					m->name, j, cfg->motors[j].line);
-				break;
-			}
-		}
+		name_unique(c, seq, i, path, "motors", m->name,
+			    rmd_config_motor_find(cfg, m->name));
 		/* bus */
 		rmd_yaml_path_key(kp, path, "bus");
 		bv = rmd_yaml_get(mn, "bus", &bl);

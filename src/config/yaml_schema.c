@@ -446,28 +446,10 @@ static void store_uint(void *dst, size_t size, uint64_t v)
 	}
 }
 
+/* A signed field holds the same two's-complement bits as its unsigned twin. */
 static void store_int(void *dst, size_t size, int64_t v)
 {
-	switch (size) {
-	case 1: {
-		int8_t x = (int8_t)v;
-		memcpy(dst, &x, 1);
-		break;
-	}
-	case 2: {
-		int16_t x = (int16_t)v;
-		memcpy(dst, &x, 2);
-		break;
-	}
-	case 4: {
-		int32_t x = (int32_t)v;
-		memcpy(dst, &x, 4);
-		break;
-	}
-	default:
-		memcpy(dst, &v, 8);
-		break;
-	}
+	store_uint(dst, size, (uint64_t)v);
 }
 
 /* ".inf", "-.Inf", ".nan", "nan", "infinity": YAML's and strtod's spellings. */

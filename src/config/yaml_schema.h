@@ -110,31 +110,22 @@ struct field {
 };
 
 #define SZ(st, m) sizeof(((st *)0)->m)
-#define UINT(k, st, m, lo, hi, fl)                                                                \
-	{                                                                                         \
-		.key = k, .type = T_UINT, .flags = fl, .off = offsetof(st, m), .size = SZ(st, m), \
-		.min = lo, .max = hi                                                              \
+/* An integer field of type ty (T_UINT or T_INT); w, when not NULL, is appended to a range error */
+#define INTEGER(ty, k, st, m, lo, hi, fl, w)                                                  \
+	{                                                                                     \
+		.key = k, .type = ty, .flags = fl, .off = offsetof(st, m), .size = SZ(st, m), \
+		.min = lo, .max = hi, .why = w                                                \
 	}
-#define UINTW(k, st, m, lo, hi, w)                                                              \
-	{                                                                                       \
-		.key = k, .type = T_UINT, .off = offsetof(st, m), .size = SZ(st, m), .min = lo, \
-		.max = hi, .why = w                                                             \
-	}
-#define INT(k, st, m, lo, hi, fl)                                                                \
-	{                                                                                        \
-		.key = k, .type = T_INT, .flags = fl, .off = offsetof(st, m), .size = SZ(st, m), \
-		.min = lo, .max = hi                                                             \
-	}
-#define DBL(k, st, m, lo, hi, fl)                                                           \
-	{                                                                                   \
-		.key = k, .type = T_DOUBLE, .flags = fl, .off = offsetof(st, m), .min = lo, \
-		.max = hi                                                                   \
-	}
+#define UINT(k, st, m, lo, hi, fl) INTEGER(T_UINT, k, st, m, lo, hi, fl, NULL)
+#define UINTW(k, st, m, lo, hi, w) INTEGER(T_UINT, k, st, m, lo, hi, 0, w)
+#define INT(k, st, m, lo, hi, fl) INTEGER(T_INT, k, st, m, lo, hi, fl, NULL)
+/* scale sc: 0 means 1 */
 #define DBLS(k, st, m, lo, hi, fl, sc)                                                      \
 	{                                                                                   \
 		.key = k, .type = T_DOUBLE, .flags = fl, .off = offsetof(st, m), .min = lo, \
 		.max = hi, .scale = sc                                                      \
 	}
+#define DBL(k, st, m, lo, hi, fl) DBLS(k, st, m, lo, hi, fl, 0)
 #define NS(k, st, m, lo, hi, sc)                                                                  \
 	{                                                                                         \
 		.key = k, .type = T_NS, .off = offsetof(st, m), .min = lo, .max = hi, .scale = sc \

@@ -267,6 +267,12 @@ void assert_has(const char *hay, const char *needle, const char *what)
 		fail_msg("%s: \"%s\" missing from:\n%s", what, needle, hay);
 }
 
+void assert_has_each(const char *hay, const char *const *needles, const char *what)
+{
+	for (; *needles; needles++)
+		assert_has(hay, *needles, what);
+}
+
 void assert_lacks(const char *hay, const char *needle, const char *what)
 {
 	if (strstr(hay, needle))

@@ -71,6 +71,10 @@ void run_free(struct run *r);
 /* needle in hay, else fail showing what: and hay. */
 void assert_has(const char *hay, const char *needle, const char *what);
 void assert_lacks(const char *hay, const char *needle, const char *what);
+/* Each of the NULL-terminated needles in hay, as assert_has(). */
+void assert_has_each(const char *hay, const char *const *needles, const char *what);
+#define ASSERT_HAS_ALL(hay, what, ...) \
+	assert_has_each(hay, (const char *const[]){ __VA_ARGS__, NULL }, what)
 
 /* r exited with status, else fail showing both its streams. */
 void assert_status(const struct run *r, int status, const char *what);

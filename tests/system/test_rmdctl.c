@@ -169,15 +169,12 @@ static void test_decode_text(void **state)
 	RUN(&r, NULL, "decode", sample);
 	assert_int_equal(r.status, 1);
 	assert_int_equal(count_lines(r.out), SAMPLE_FRAMES);
-	assert_has(r.out,
-		   "can0 241 motor 1 reply read_status_1: temperature 50 °C, brake released, "
-		   "voltage 48.5 V, errors 0x0004 (low_voltage)\n",
-		   "text");
-	assert_has(r.out, "141 motor 1 request speed: speed -100 dps\n", "text");
-	assert_has(r.out, "model \"X8S2V10\"", "text");
-	assert_has(r.out, "can0 141 motor 1 request unknown", "text");
-	assert_has(r.out, "C7 00 00 00 00 00 00 00\n", "text");
-	assert_has(r.out, "401 motor 1 request mit: position ", "text");
+	ASSERT_HAS_ALL(r.out, "text",
+		       "can0 241 motor 1 reply read_status_1: temperature 50 °C, brake released, "
+		       "voltage 48.5 V, errors 0x0004 (low_voltage)\n",
+		       "141 motor 1 request speed: speed -100 dps\n", "model \"X8S2V10\"",
+		       "can0 141 motor 1 request unknown", "C7 00 00 00 00 00 00 00\n",
+		       "401 motor 1 request mit: position ");
 	run_free(&r);
 }
 

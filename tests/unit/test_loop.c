@@ -226,6 +226,17 @@ static void run(unsigned n, bool with_cmd)
 	events_pump();
 }
 
+/* How many commands the loop ignored for `why` over n cycles run with R.cmd. */
+static uint64_t ignored_over(unsigned n, enum rmd_ignore why)
+{
+	struct rmd_loop_counters c0, c1;
+
+	rmd_loop_get_counters(R.l, &c0);
+	run(n, true);
+	rmd_loop_get_counters(R.l, &c1);
+	return c1.ignored[why] - c0.ignored[why];
+}
+
 static void cmd_clear(void)
 {
 	memset(&R.cmd, 0, sizeof(R.cmd));
@@ -1053,7 +1064,6 @@ static void test_enable_edge_latched(void **state)
 	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
 				      .motor_id = 2,
 				      .probability = 1.0 };
-	struct rmd_loop_counters c0, c1;
 	struct rmd_snapshot s;
 	struct rmd_health h;
 
@@ -1071,10 +1081,7 @@ static void test_enable_edge_latched(void **state)
 	for (unsigned k = 0; k < 30 && lifecycle(1) != RMD_LC_LOST; k++)
 		run(1, true);
 	assert_int_equal(lifecycle(1), RMD_LC_LOST);
-	rmd_loop_get_counters(R.l, &c0);
-	run(10, true);
-	rmd_loop_get_counters(R.l, &c1);
-	assert_int_equal(c1.ignored[RMD_IGN_NOT_READY] - c0.ignored[RMD_IGN_NOT_READY], 10);
+	assert_int_equal(ignored_over(10, RMD_IGN_NOT_READY), 10);
 	/* its values stay those of its last reply, and say so */
 	s = snap();
 	assert_true(s.m[1].rx_ns < s.t_ns - 10 * period());
@@ -1083,10 +1090,7 @@ static void test_enable_edge_latched(void **state)
 	set_faults(0, NULL, 0);
 	run(1200, true);
 	assert_int_equal(lifecycle(1), RMD_LC_READY);
-	rmd_loop_get_counters(R.l, &c0);
-	run(5, true);
-	rmd_loop_get_counters(R.l, &c1);
-	assert_int_equal(c1.ignored[RMD_IGN_EDGE] - c0.ignored[RMD_IGN_EDGE], 5);
+	assert_int_equal(ignored_over(5, RMD_IGN_EDGE), 5);
 	assert_int_equal(lifecycle(1), RMD_LC_READY);
 
 	/* enable = 0 then enable = 1 within one cycle: the loop sees only the second */

@@ -585,19 +585,16 @@ static int b3_line(const struct rmd_config *cfg, unsigned b, const struct rmd_br
 				level = 5;
 			break;
 		case RMD_B3_NO_ANSWER:
-			line_add(ln,
-				 " motor %u (%s) did not answer 0xB3: it cannot be enabled until "
-				 "it does;",
-				 c->id, c->name);
+		case RMD_B3_DIFFERS: {
+			bool none = b3 == RMD_B3_NO_ANSWER;
+
+			line_add(ln, " motor %u (%s) %s: it cannot be enabled until %s;", c->id,
+				 c->name,
+				 none ? "did not answer 0xB3" : "NOT confirmed (the echo differs)",
+				 none ? "it does" : "it is");
 			level = ms ? 4 : level;
 			break;
-		case RMD_B3_DIFFERS:
-			line_add(ln,
-				 " motor %u (%s) NOT confirmed (the echo differs): it cannot be "
-				 "enabled until it is;",
-				 c->id, c->name);
-			level = ms ? 4 : level;
-			break;
+		}
 		case RMD_B3_NOT_APPLICABLE:
 			break;
 		}
