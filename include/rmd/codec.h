@@ -262,14 +262,17 @@ static inline int rmd_field_raw_in(const struct rmd_field_spec *fs, int64_t lo, 
 		*raw = 0;
 		return -ERANGE;
 	}
-	/* lo <= 0 <= hi: lo - 0.5 and hi + 0.5 round away from zero, outside */
+	/*
+	 * lo <= 0 <= hi: half an LSB beyond an end rounds away from zero, out.
+	 * (double)hi may round up to 2^bits: compare, never convert, above it.
+	 */
 	if (x <= (double)lo) {
 		*raw = lo;
-		return x <= (double)lo - 0.5 ? -ERANGE : 0;
+		return x < (double)lo && (double)lo - x >= 0.5 ? -ERANGE : 0;
 	}
 	if (x >= (double)hi) {
 		*raw = hi;
-		return x >= (double)hi + 0.5 ? -ERANGE : 0;
+		return x > (double)hi && x - (double)hi >= 0.5 ? -ERANGE : 0;
 	}
 	v = (int64_t)x; /* towards zero; the fraction x - v is exact */
 	if (x - (double)v >= 0.5)
