@@ -1428,6 +1428,7 @@ static void rate_window(struct window *w)
 		      "ms, one at rmd-sim's %d up to %.1f ms (period %.1f ms)\n",
 		      (int)S.cfg.loop.rt_priority, w->stall_loop_ms, SIM_FIFO_PRIO, w->stall_sim_ms,
 		      1000.0 / rate);
+	print_message("  lifecycles at the end (state_t): %s\n", lc_list());
 	for (unsigned b = 0; b < S.nbus; b++) {
 		unsigned bus_frames = 0;
 
@@ -1571,13 +1572,15 @@ static void test_system_rate(void **state)
 			break;
 		if (!stalled)
 			fail_msg("no window of %u passed, and the guest never stalled a thread at "
-				 "the loop's or rmd-sim's priority for a period; the last: %s",
-				 RATE_WINDOWS, w.per_cycle_err);
+				 "the loop's or rmd-sim's priority for a period; the last: %s; "
+				 "rmdd:\n%s",
+				 RATE_WINDOWS, w.per_cycle_err, kid_tail(S.rmdd_kid));
 		if (pace() * 2 > MAX_PACE)
 			fail_msg("busy machine: no window of %u passed even at %.0f Hz (every time "
 				 "%u times the file's), the guest stalling the loop's priority for "
-				 "%.1f ms; the last: %s",
-				 RATE_WINDOWS, rate, pace(), w.stall_loop_ms, w.per_cycle_err);
+				 "%.1f ms; the last: %s; rmdd:\n%s",
+				 RATE_WINDOWS, rate, pace(), w.stall_loop_ms, w.per_cycle_err,
+				 kid_tail(S.rmdd_kid));
 		print_message("busy machine: no window of %u passed at %.0f Hz, and the guest "
 			      "stalled threads at the loop's priority for up to %.1f ms, at "
 			      "rmd-sim's for %.1f ms (the period is %.1f ms): it cannot support "
