@@ -121,6 +121,7 @@ struct fixture {
 
 	int64_t seq;
 	int64_t last_pub_ns;	/* when stream() last published */
+	int64_t max_pub_gap_ns; /* the longest gap between two of stream()'s publishes */
 	int64_t fresh_after_ns; /* done_fresh_health(): a health_t newer than this */
 	double target[NMOTORS];
 	uint8_t buf[4096];
@@ -561,6 +562,8 @@ static bool stream(struct fixture *f, bool enable, int ms,
 			rmd_command_t m = cmd_all(f, enable);
 
 			send_cmd(f, &m);
+			if (f->last_pub_ns && now_ns() - f->last_pub_ns > f->max_pub_gap_ns)
+				f->max_pub_gap_ns = now_ns() - f->last_pub_ns;
 			f->last_pub_ns = now_ns();
 			next = now + CTL_PERIOD_MS * NS_PER_MS;
 		}
@@ -1046,9 +1049,25 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 
 	start_rmdd(f);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
-	enable_in_place(f);
-	stream(f, true, 300, done_never, 0);
-	h = stream_health(f, true);
+	/*
+	 * On a busy machine (issue 10) this test itself, the controller, may be
+	 * held off longer than the command timeout: rmdd then trips rightly.
+	 * When the longest gap between its own publishes shows that, it
+	 * enables again (at most 3 times), said so; otherwise a trip fails.
+	 */
+	for (unsigned tries = 1;; tries++) {
+		enable_in_place(f);
+		f->max_pub_gap_ns = 0;
+		stream(f, true, 300, done_never, 0);
+		h = stream_health(f, true);
+		if (h->watchdog == RMD_HEALTH_T_WD_OK || tries == 3 ||
+		    f->max_pub_gap_ns <= COMMAND_TIMEOUT_MS * NS_PER_MS)
+			break;
+		print_message("busy machine: the controller (this test) was held off %.1f ms "
+			      "between two commands, past the %d ms timeout: rmdd tripped rightly; "
+			      "enabling again\n",
+			      f->max_pub_gap_ns / 1e6, COMMAND_TIMEOUT_MS);
+	}
 	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
 	safe0 = h->safe_action_events;
 

@@ -975,7 +975,8 @@ static void test_health_10hz(void **state)
 	struct rmd_health h;
 	rmd_command_t m = base_cmd(1);
 	const rmd_health_t *o;
-	double mean_ms;
+	double mean_ms, stall_ms;
+	struct sleeper ref = { 0 };
 
 	memset(&h, 0, sizeof(h));
 	h.loop.cycles = 5000;
@@ -1004,15 +1005,29 @@ static void test_health_10hz(void **state)
 	rmd_latest_put(&f->health, &h);
 
 	listen(f);
+	/*
+	 * A reference sleeper at the bridge's (normal) priority: on a busy
+	 * machine (issue 10) the bridge's 100 ms wake-ups come late by what
+	 * such a thread is held off, so the upper bound adds the worst delay
+	 * it saw meanwhile (each interval is at most one late wake-up longer).
+	 */
+	assert_int_equal(sleeper_start(&ref, 10000000, 0), 0);
 	start(f);
 	m.count = 40;
 	send_cmd(f, &m);
 	WAIT_UNTIL(f, stats(f).rejected == 1, 2000);
-	WAIT_UNTIL(f, f->rx.n_health >= 6, 2000);
+	WAIT_UNTIL(f, f->rx.n_health >= 6, 4000);
+	stall_ms = (double)(sleeper_worst_ns(&ref) + ref.period_ns) / 1e6;
+	sleeper_stop(&ref);
 	assert_true(f->rx.n_health >= 6);
 	mean_ms = (f->rx.health_rx_ns[5] - f->rx.health_rx_ns[1]) / 4 / 1e6;
-	print_message("health_t every %.1f ms\n", mean_ms);
-	assert_true(mean_ms > 70 && mean_ms < 160);
+	print_message("health_t every %.1f ms (bound 70 .. 160 ms + the machine's worst "
+		      "normal-priority delay %.1f ms)\n",
+		      mean_ms, stall_ms);
+	if (stall_ms > 60)
+		print_message("busy machine: a normal-priority thread was held off %.1f ms\n",
+			      stall_ms);
+	assert_true(mean_ms > 70 && mean_ms < 160 + stall_ms);
 
 	o = f->rx.health;
 	assert_true(o->utime > 0);
