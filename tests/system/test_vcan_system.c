@@ -117,7 +117,7 @@
 #define ENABLE_MS 30000	   /* enable -> every motor ENABLED in state_t */
 #define TOOL_MS 30000	   /* one rmdctl run */
 #define EXIT_MS 15000	   /* SIGTERM -> rmdd gone */
-#define SYNC_MS 10000	   /* candump's log catches up with a marker */
+#define SYNC_MS 60000	   /* candump's log catches up with a marker (a wait) */
 #define EXEC_SLACK_MS 3000 /* rmdctl: process start and exit in the guest */
 /*
  * The safe action's delay (test_system_watchdog): SEND_SLACK_MS for a
