@@ -1135,6 +1135,9 @@ static unsigned whole_run_rms(const char *out, double *max_rms)
 	return n;
 }
 
+/* rmdd's line when its watchdog trips (src/tools/rmdd/monitor.c). */
+#define WD_TRIP_LINE "controller: no command for"
+
 /* Run an example controller to its end (--duration) and check what it printed. */
 static void run_example(struct fixture *f, const char *const *argv, bool python, unsigned motors,
 			const char *mode)
@@ -1143,20 +1146,39 @@ static void run_example(struct fixture *f, const char *const *argv, bool python,
 	double rms = 0;
 	int st;
 
-	f->child = spawn(argv, f->child_log, python);
-	st = wait_exit(f->child, 20000);
-	if (st < 0)
-		fail_msg("%s did not end within 20 s; its output:\n%s", argv[0],
-			 slurp(f->child_log));
-	f->child = 0;
-	out = slurp(f->child_log);
-	if (st != 0)
-		fail_msg("%s exited %d; its output:\n%s\nrmdd's:\n%s", argv[0], st, out,
-			 slurp(f->log));
-	/* a line a second per motor, then the whole run's */
-	if (count_of(out, "tracking error rms ") < 3 * motors || whole_run_rms(out, &rms) != motors)
-		fail_msg("%s: want tracking error lines for %u motors; its output:\n%s", argv[0],
-			 motors, out);
+	/*
+	 * On a busy machine (issue 10) the example itself may be held off past
+	 * the command timeout: rmdd trips rightly (its log says "controller: no
+	 * command for"), and the motors stop tracking meanwhile.  Such a run is
+	 * the machine's: run the example again (at most 3 times), said so.
+	 */
+	for (unsigned tries = 1;; tries++) {
+		unsigned trips = count_of(slurp(f->log), WD_TRIP_LINE);
+
+		f->child = spawn(argv, f->child_log, python);
+		st = wait_exit(f->child, 20000);
+		if (st < 0)
+			fail_msg("%s did not end within 20 s; its output:\n%s", argv[0],
+				 slurp(f->child_log));
+		f->child = 0;
+		trips = count_of(slurp(f->log), WD_TRIP_LINE) - trips;
+		out = slurp(f->child_log);
+		if (st != 0)
+			fail_msg("%s exited %d; its output:\n%s\nrmdd's:\n%s", argv[0], st, out,
+				 slurp(f->log));
+		/* a line a second per motor, then the whole run's */
+		if (count_of(out, "tracking error rms ") < 3 * motors ||
+		    whole_run_rms(out, &rms) != motors)
+			fail_msg("%s: want tracking error lines for %u motors; its output:\n%s",
+				 argv[0], motors, out);
+		if (rms < 0.1 || !trips || tries == 3)
+			break;
+		print_message("busy machine: %s: tracking error rms %.4f rad, and rmdd tripped "
+			      "its watchdog %u time(s) meanwhile: the example was held off past "
+			      "the command timeout; running it again\n",
+			      argv[0], rms, trips);
+		WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	}
 	assert_true(count_of(out, mode) >= motors);
 	/* it tracks: the error is a small part of the 0.5 rad amplitude */
 	if (!(rms < 0.1))
@@ -1217,6 +1239,8 @@ static void test_ctrl_c_stops_cleanly(void **state)
 	struct fixture *f = fixture(state);
 	const char *argv[] = { sine_bin, "--url", f->url, "--mode", "mit", NULL };
 	const rmd_health_t *h;
+	int64_t safe0;
+	unsigned trips;
 	int st;
 
 	start_rmdd(f);
@@ -1235,10 +1259,28 @@ static void test_ctrl_c_stops_cleanly(void **state)
 	assert_non_null(strstr(slurp(f->child_log), "stopped: enable = 0 sent to 3 motors"));
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 500);
 	assert_true(all_in(f, RMD_STATE_T_LC_READY));
+	/*
+	 * Safe actions while the example ran are the machine's only when rmdd
+	 * says its watchdog tripped then (a busy machine held the example off
+	 * past the command timeout, issue 10); after the stop there must be none.
+	 */
+	h = health_after(f, now_ns(), 1000);
+	safe0 = h->safe_action_events;
+	trips = count_of(slurp(f->log), WD_TRIP_LINE);
+	if (safe0 && !trips)
+		fail_msg("%lld safe actions while the example ran, and no watchdog trip in "
+			 "rmdd's log:\n%s",
+			 (long long)safe0, slurp(f->log));
+	if (safe0)
+		print_message("busy machine: rmdd tripped its watchdog %u time(s) while the "
+			      "example ran (held off past the command timeout): %lld safe "
+			      "actions then\n",
+			      trips, (long long)safe0);
 	/* well past the command timeout: no motor enabled, so no trip and no safe action */
 	WAIT_UNTIL(f, false, 3 * COMMAND_TIMEOUT_MS);
 	h = health_after(f, now_ns(), 1000);
-	assert_int_equal(h->safe_action_events, 0);
+	assert_int_equal(h->safe_action_events, safe0);
+	assert_int_equal(count_of(slurp(f->log), WD_TRIP_LINE), trips);
 	assert_int_not_equal(h->watchdog, RMD_HEALTH_T_WD_TRIPPED);
 	assert_true(all_in(f, RMD_STATE_T_LC_READY));
 }
