@@ -917,11 +917,12 @@ static double ran_fraction(int64_t cycles, int64_t skipped)
 static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 {
 	struct fixture *f = fixture(state);
-	const int n = FLOOD_HZ * FLOOD_S;
-	int64_t sent_good = 0, sent_bad[RMD_HEALTH_T_REJ_KINDS] = { 0 }, bad = 0;
+	int hz = FLOOD_HZ, n;
+	int64_t sent_good, sent_bad[RMD_HEALTH_T_REJ_KINDS], bad;
 	rmd_health_t *hb, *h0, *h1;
-	int64_t t, t0, t1, ticks, cycles, overruns, got_bad = 0;
+	int64_t t, t0, t1, ticks, cycles, overruns, got_bad;
 	double rate, base_ran, need;
+	bool exact;
 
 	start_rmdd(f);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
@@ -934,6 +935,18 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 	assert_int_equal(h0->watchdog, RMD_HEALTH_T_WD_OK);
 	base_ran = ran_fraction(h0->cycles - hb->cycles, h0->overruns - hb->overruns);
 
+	/*
+	 * On a busy machine (issue 10) the sender may not keep FLOOD_HZ, or the
+	 * kernel may drop datagrams before rmdd's bridge, held off, reads them:
+	 * no daemon can count those.  The flood then runs again at half the
+	 * rate (down to FLOOD_HZ / 4), said so, with the same checks; only at
+	 * the slowest pace does a sender that fell behind get the checks of
+	 * what arrived.
+	 */
+again:
+	n = hz * FLOOD_S;
+	sent_good = bad = got_bad = 0;
+	memset(sent_bad, 0, sizeof(sent_bad));
 	/* No listener during the flood: its LCM thread would copy all of it. */
 	listen_off(f);
 	prctl(PR_SET_TIMERSLACK, 1UL); /* 50 us steps: the default slack would halve the rate */
@@ -948,7 +961,7 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 			bad++;
 		}
 		/* a late sender catches up without sleeping */
-		t += NS_PER_S / FLOOD_HZ;
+		t += NS_PER_S / hz;
 		if (now_ns() < t) {
 			struct timespec ts = { t / NS_PER_S, t % NS_PER_S };
 
@@ -993,15 +1006,32 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 		assert_true(h1->rejected_by_kind[k] - h0->rejected_by_kind[k] <= sent_bad[k]);
 	assert_true(h1->commands_accepted - h0->commands_accepted <=
 		    sent_good + 400 /* the controller's own, around the flood */);
+	exact = flood_kept_pace(t1 - t0);
+	for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
+		exact &= h1->rejected_by_kind[k] - h0->rejected_by_kind[k] == sent_bad[k];
+	if (!exact && hz > FLOOD_HZ / 4) {
+		print_message("flood: busy machine: at %d Hz the sender %s, %lld of %lld hostile "
+			      "messages counted (the kernel drops what a held-off bridge does not "
+			      "read); again at a slower pace, %d Hz\n",
+			      hz, flood_kept_pace(t1 - t0) ? "kept pace" : "fell behind",
+			      (long long)got_bad, (long long)bad, hz / 2);
+		rmd_health_t_destroy(h0);
+		rmd_health_t_destroy(h1);
+		hz /= 2;
+		stream(f, true, 300, done_never, 0);
+		h0 = rmd_health_t_copy(stream_health(f, true));
+		goto again;
+	}
 	if (flood_kept_pace(t1 - t0)) {
 		/* every hostile message is counted, as what it was */
 		for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
 			assert_int_equal(h1->rejected_by_kind[k] - h0->rejected_by_kind[k],
 					 sent_bad[k]);
 	} else {
-		print_message("flood: sanitizer build, or the sender fell behind %d Hz: "
-			      "checking what arrived, not that all did\n",
-			      FLOOD_HZ);
+		print_message(
+			"flood: sanitizer build, or the sender fell behind %d Hz even at the slowest pace: "
+			"checking what arrived, not that all did\n",
+			hz);
 		assert_true(got_bad * 2 >= bad);
 	}
 	/*
