@@ -1071,6 +1071,34 @@ again:
 
 /* ---- tests: the watchdog ------------------------------------------------------------------ */
 
+/*
+ * The controller streams enable for 300 ms; then the next health_t.  On a
+ * busy machine (issue 10) this test itself, the controller, may be held off
+ * longer than the command timeout: rmdd then trips rightly.  When the
+ * longest gap between its own publishes shows that, it enables again (at
+ * most 3 times), said so, and *safe0 takes the safe actions of that trip;
+ * a trip without such a gap is returned for the caller to fail on.
+ */
+static const rmd_health_t *health_enabled(struct fixture *f, int64_t *safe0)
+{
+	const rmd_health_t *h;
+
+	for (unsigned tries = 1;; tries++) {
+		f->max_pub_gap_ns = 0;
+		stream(f, true, 300, done_never, 0);
+		h = stream_health(f, true);
+		if (h->watchdog == RMD_HEALTH_T_WD_OK || tries == 3 ||
+		    f->max_pub_gap_ns <= COMMAND_TIMEOUT_MS * NS_PER_MS)
+			return h;
+		print_message("busy machine: the controller (this test) was held off %.1f ms "
+			      "between two commands, past the %d ms timeout: rmdd tripped rightly; "
+			      "enabling again\n",
+			      f->max_pub_gap_ns / 1e6, COMMAND_TIMEOUT_MS);
+		*safe0 = h->safe_action_events;
+		stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED);
+	}
+}
+
 static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 {
 	struct fixture *f = fixture(state);
@@ -1079,25 +1107,8 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 
 	start_rmdd(f);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
-	/*
-	 * On a busy machine (issue 10) this test itself, the controller, may be
-	 * held off longer than the command timeout: rmdd then trips rightly.
-	 * When the longest gap between its own publishes shows that, it
-	 * enables again (at most 3 times), said so; otherwise a trip fails.
-	 */
-	for (unsigned tries = 1;; tries++) {
-		enable_in_place(f);
-		f->max_pub_gap_ns = 0;
-		stream(f, true, 300, done_never, 0);
-		h = stream_health(f, true);
-		if (h->watchdog == RMD_HEALTH_T_WD_OK || tries == 3 ||
-		    f->max_pub_gap_ns <= COMMAND_TIMEOUT_MS * NS_PER_MS)
-			break;
-		print_message("busy machine: the controller (this test) was held off %.1f ms "
-			      "between two commands, past the %d ms timeout: rmdd tripped rightly; "
-			      "enabling again\n",
-			      f->max_pub_gap_ns / 1e6, COMMAND_TIMEOUT_MS);
-	}
+	enable_in_place(f);
+	h = health_enabled(f, &safe0);
 	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
 	safe0 = h->safe_action_events;
 
@@ -1136,7 +1147,7 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 	if (!stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED))
 		fail_msg("enable after the trip did not re-enable the motors; rmdd's output:\n%s",
 			 slurp(f->log));
-	h = stream_health(f, true);
+	h = health_enabled(f, &safe0);
 	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
 	assert_int_equal(h->safe_action_events, safe0);
 	disable_all(f);
