@@ -2,6 +2,7 @@
 #
 #   make                 build the library, tools and test binaries
 #   make test            run every cmocka suite (tests/run-tests.sh)
+#                        (tests/busy-check: make test N times beside a CPU hog)
 #   make install         PREFIX=/usr/local DESTDIR=
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
@@ -119,7 +120,7 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib \
-	clang libclang-rt-dev
+	clang libclang-rt-dev stress-ng
 
 deps:
 	apt-get update -qq

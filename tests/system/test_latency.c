@@ -91,6 +91,8 @@
 #define EVENT_SLOTS 4096
 #define PROBE_MAX 16384 /* jitter probe samples (1 ms apart) */
 #define PREFIX "LAT_"
+#define ENABLE_WAIT_S 30 /* enable -> ENABLED: a wait */
+#define TAIL_WAIT_S 10	 /* the last setpoint's frame: a wait */
 
 /* A frame of ours seen by the shim or the tap: its code and times. */
 struct rec {
@@ -143,9 +145,12 @@ static int shim_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsign
 	for (int k = 0; k < r; k++) {
 		int16_t code = frame_code(&frames[k]);
 
-		if (code && probe.n_handover < MAX_RECORDS)
-			probe.handover[probe.n_handover++] =
+		if (code && probe.n_handover < MAX_RECORDS) {
+			probe.handover[probe.n_handover] =
 				(struct rec){ .code = code, .t_ns = t, .tick_ns = now };
+			/* published: the test thread waits for the last one (last_out()) */
+			__atomic_store_n(&probe.n_handover, probe.n_handover + 1, __ATOMIC_RELEASE);
+		}
 	}
 	return r;
 }
@@ -192,6 +197,37 @@ static void *jitter_main(void *arg)
 }
 
 /* ---- statistics ---------------------------------------------------------------------- */
+
+static int cmp64(const void *a, const void *b);
+static int64_t pct(const int64_t *v, unsigned n, double p);
+
+/*
+ * The probe's delays as a message arriving at a random moment meets them:
+ * a wake-up L late means the thread was held off for L; a message arriving
+ * 1, 2, ... ms into that waits L - 1 ms, L - 2 ms, ...  Each probe sample
+ * (1 ms apart) stands for the 1 ms slices of its stall.  Returns the p99.
+ */
+static int64_t time_weighted_p99(const int64_t *lat, unsigned n)
+{
+	size_t cap = 0, m = 0;
+	int64_t *v, p;
+
+	for (unsigned k = 0; k < n; k++)
+		cap += 1 + (size_t)(lat[k] > 0 ? lat[k] / NS_PER_MS : 0);
+	v = malloc(cap * sizeof(*v));
+	assert_non_null(v);
+	for (unsigned k = 0; k < n; k++) {
+		int64_t l = lat[k] > 0 ? lat[k] : 0;
+
+		v[m++] = l;
+		for (l -= NS_PER_MS; l > 0; l -= NS_PER_MS)
+			v[m++] = l;
+	}
+	qsort(v, m, sizeof(*v), cmp64);
+	p = pct(v, (unsigned)m, 99);
+	free(v);
+	return p;
+}
 
 static int cmp64(const void *a, const void *b)
 {
@@ -472,6 +508,15 @@ static rmd_command_t torque_cmd(int64_t seq, double torque_nm)
 	return m;
 }
 
+/* The last setpoint's frame has been handed over (read while the rt thread writes). */
+static bool last_out(void)
+{
+	unsigned n = __atomic_load_n(&probe.n_handover, __ATOMIC_ACQUIRE);
+
+	return n && __atomic_load_n(&probe.handover[n - 1].code, __ATOMIC_RELAXED) ==
+			    code_of(N_PUBLISH - 1);
+}
+
 static enum rmd_lifecycle lifecycle(struct daemon *d)
 {
 	struct rmd_snapshot s;
@@ -512,11 +557,11 @@ static void test_publish_to_frame_latency(void **state)
 	double torque[N_PUBLISH];
 	struct rmd_loop_stats ls;
 	struct dist dl, dt, dw, di, dj;
-	int64_t allowance;
+	int64_t allowance, tw_p99;
 	pthread_t jth;
 	lcm_t *pub;
-	int64_t seq = 0, t, epoch, next_out, next_tick, next_wire;
-	unsigned superseded = 0, n_wire = 0, missed_first = 0;
+	int64_t seq = 0, t, t0, epoch, next_out, next_tick, next_wire;
+	unsigned superseded = 0, n_wire = 0, missed_first = 0, edges = 0;
 	uint64_t seed = (uint64_t)now_ns();
 
 	if (!d)
@@ -534,17 +579,40 @@ static void test_publish_to_frame_latency(void **state)
 
 	pub = lcm_create(d->url);
 	assert_non_null(pub);
-	/* enable, torque 0, until the loop drives the motor */
-	t = now_ns() + 2 * NS_PER_S;
-	while (lifecycle(d) != RMD_LC_ENABLED && now_ns() < t) {
+	/*
+	 * enable, torque 0, until the loop drives the motor: a wait, not a
+	 * bound (ENABLE_WAIT_S; on a busy machine the first commands take
+	 * seconds), its time printed
+	 */
+	t0 = now_ns();
+	t = t0 + ENABLE_WAIT_S * NS_PER_S;
+	for (unsigned k = 1; lifecycle(d) != RMD_LC_ENABLED && now_ns() < t; k++) {
 		rmd_command_t m = torque_cmd(seq++, 0);
 		struct timespec ts = { 0, PUBLISH_GAP_NS };
 
+		/*
+		 * A motor back from LOST (a busy machine can starve the sim bus's
+		 * replies after bring-up) takes enable = 1 only after an enable = 0
+		 * (include/rmd/loop.h, "need_edge"): one each second, as rmdd asks.
+		 */
+		if (k % 200 == 0) {
+			m.motor[0].enable = 0;
+			edges++;
+		}
 		assert_int_equal(rmd_command_t_publish(pub, PREFIX "COMMAND", &m), 0);
 		nanosleep(&ts, NULL);
 	}
-	if (lifecycle(d) != RMD_LC_ENABLED)
-		fail_msg("the motor was not enabled within 2 s");
+	if (lifecycle(d) != RMD_LC_ENABLED) {
+		struct rmd_bridge_stats bs;
+
+		rmd_bridge_get_stats(&d->bridge, &bs);
+		fail_msg("the motor was not enabled within %d s: lifecycle %d; the bridge "
+			 "accepted %llu, rejected %llu commands",
+			 ENABLE_WAIT_S, (int)lifecycle(d), (unsigned long long)bs.accepted,
+			 (unsigned long long)bs.rejected);
+	}
+	print_message("enabled %.0f ms after the first enable%s\n", (now_ns() - t0) / 1e6,
+		      edges ? " (after enable = 0 first: the motor had been LOST)" : "");
 	assert_int_equal(pthread_create(&jth, NULL, jitter_main, &jit), 0);
 	/* the controller: N setpoints, ~200 Hz with a random phase against the ticks */
 	t = now_ns();
@@ -561,9 +629,14 @@ static void test_publish_to_frame_latency(void **state)
 		t_pub[k] = now_ns();
 		assert_int_equal(lcm_publish(pub, PREFIX "COMMAND", buf, (unsigned)len), 0);
 	}
-	/* the last one out, then stop everything that writes what we read */
-	t = now_ns() + 100 * NS_PER_MS;
-	while (now_ns() < t)
+	/*
+	 * the last one out (a wait of at most TAIL_WAIT_S: on a busy machine the
+	 * bridge may hand it over late, and a setpoint without a later frame has
+	 * no latency), then stop everything that writes what we read
+	 */
+	t0 = now_ns();
+	t = t0 + TAIL_WAIT_S * NS_PER_S;
+	while (now_ns() < t0 + 100 * NS_PER_MS || (!last_out() && now_ns() < t))
 		sched_yield();
 	atomic_store(&jit.stop, true);
 	pthread_join(jth, NULL);
@@ -677,12 +750,29 @@ static void test_publish_to_frame_latency(void **state)
 	 * bound is one cycle + 200 us + twice the probe's p99.  Whether the
 	 * plain bound (one cycle + 200 us) held is printed either way.
 	 */
-	allowance = 2 * dj.p99;
+	/*
+	 * A busy machine (issue 10) holds a normal-priority thread off for
+	 * tens of milliseconds at a time.  The probe sees such a stall once,
+	 * as one late wake-up, but every setpoint published during it waits:
+	 * what a message arriving at a random moment meets is the probe's
+	 * delay weighted by time (tw_p99, see time_weighted()).  A setpoint
+	 * meets it three times: the test's own publish (t_pub is read before
+	 * it), LCM's receive thread and the bridge.  The judged allowance is
+	 * the larger of the two readings.
+	 */
+	tw_p99 = time_weighted_p99(wake, jit.n);
+	allowance = 2 * dj.p99 > 3 * tw_p99 ? 2 * dj.p99 : 3 * tw_p99;
 	print_message("strict bound: p99 <= period + 200 us = %lld us: p99 is %.0f us: %s\n",
 		      (long long)((period + MARGIN_NS) / NS_PER_US), dl.p99 / 1e3,
 		      dl.p99 <= period + MARGIN_NS ? "held" : "NOT held on this machine");
-	print_message("judged bound: period + 200 us + 2 x probe p99 (%.0f us) = %lld us\n",
-		      dj.p99 / 1e3, (long long)((period + MARGIN_NS + allowance) / NS_PER_US));
+	print_message("judged bound: period + 200 us + max(2 x probe p99 (%.0f us), 3 x the "
+		      "probe's time-weighted p99 (%.0f us)) = %lld us\n",
+		      dj.p99 / 1e3, tw_p99 / 1e3,
+		      (long long)((period + MARGIN_NS + allowance) / NS_PER_US));
+	if (dl.p99 > period + MARGIN_NS + 2 * dj.p99)
+		print_message("busy machine: p99 held only against the probe's time-weighted "
+			      "delay: the machine held normal-priority threads off for whole "
+			      "milliseconds at a time\n");
 
 	/* every setpoint went out, none before it was published */
 	assert_true(dl.min > 0);

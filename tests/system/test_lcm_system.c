@@ -122,6 +122,7 @@ struct fixture {
 	int64_t seq;
 	int64_t controller;	/* command_t.controller of the commands cmd_new() makes */
 	int64_t last_pub_ns;	/* when stream() last published */
+	int64_t max_pub_gap_ns; /* the longest gap between two of stream()'s publishes */
 	int64_t fresh_after_ns; /* done_fresh_health(): a health_t newer than this */
 	double target[NMOTORS];
 	uint8_t buf[4096];
@@ -576,6 +577,8 @@ static bool stream(struct fixture *f, bool enable, int ms,
 			rmd_command_t m = cmd_all(f, enable);
 
 			send_cmd(f, &m);
+			if (f->last_pub_ns && now_ns() - f->last_pub_ns > f->max_pub_gap_ns)
+				f->max_pub_gap_ns = now_ns() - f->last_pub_ns;
 			f->last_pub_ns = now_ns();
 			next = now + CTL_PERIOD_MS * NS_PER_MS;
 		}
@@ -929,11 +932,12 @@ static double ran_fraction(int64_t cycles, int64_t skipped)
 static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 {
 	struct fixture *f = fixture(state);
-	const int n = FLOOD_HZ * FLOOD_S;
-	int64_t sent_good = 0, sent_bad[RMD_HEALTH_T_REJ_KINDS] = { 0 }, bad = 0;
+	int hz = FLOOD_HZ, n;
+	int64_t sent_good, sent_bad[RMD_HEALTH_T_REJ_KINDS], bad;
 	rmd_health_t *hb, *h0, *h1;
-	int64_t t, t0, t1, ticks, cycles, overruns, got_bad = 0;
+	int64_t t, t0, t1, ticks, cycles, overruns, got_bad;
 	double rate, base_ran, need;
+	bool exact;
 
 	start_rmdd(f);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
@@ -946,6 +950,18 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 	assert_int_equal(h0->watchdog, RMD_HEALTH_T_WD_OK);
 	base_ran = ran_fraction(h0->cycles - hb->cycles, h0->overruns - hb->overruns);
 
+	/*
+	 * On a busy machine (issue 10) the sender may not keep FLOOD_HZ, or the
+	 * kernel may drop datagrams before rmdd's bridge, held off, reads them:
+	 * no daemon can count those.  The flood then runs again at half the
+	 * rate (down to FLOOD_HZ / 4), said so, with the same checks; only at
+	 * the slowest pace does a sender that fell behind get the checks of
+	 * what arrived.
+	 */
+again:
+	n = hz * FLOOD_S;
+	sent_good = bad = got_bad = 0;
+	memset(sent_bad, 0, sizeof(sent_bad));
 	/* No listener during the flood: its LCM thread would copy all of it. */
 	listen_off(f);
 	prctl(PR_SET_TIMERSLACK, 1UL); /* 50 us steps: the default slack would halve the rate */
@@ -960,7 +976,7 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 			bad++;
 		}
 		/* a late sender catches up without sleeping */
-		t += NS_PER_S / FLOOD_HZ;
+		t += NS_PER_S / hz;
 		if (now_ns() < t) {
 			struct timespec ts = { t / NS_PER_S, t % NS_PER_S };
 
@@ -1005,15 +1021,32 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 		assert_true(h1->rejected_by_kind[k] - h0->rejected_by_kind[k] <= sent_bad[k]);
 	assert_true(h1->commands_accepted - h0->commands_accepted <=
 		    sent_good + 400 /* the controller's own, around the flood */);
+	exact = flood_kept_pace(t1 - t0);
+	for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
+		exact &= h1->rejected_by_kind[k] - h0->rejected_by_kind[k] == sent_bad[k];
+	if (!exact && hz > FLOOD_HZ / 4) {
+		print_message("flood: busy machine: at %d Hz the sender %s, %lld of %lld hostile "
+			      "messages counted (the kernel drops what a held-off bridge does not "
+			      "read); again at a slower pace, %d Hz\n",
+			      hz, flood_kept_pace(t1 - t0) ? "kept pace" : "fell behind",
+			      (long long)got_bad, (long long)bad, hz / 2);
+		rmd_health_t_destroy(h0);
+		rmd_health_t_destroy(h1);
+		hz /= 2;
+		stream(f, true, 300, done_never, 0);
+		h0 = rmd_health_t_copy(stream_health(f, true));
+		goto again;
+	}
 	if (flood_kept_pace(t1 - t0)) {
 		/* every hostile message is counted, as what it was */
 		for (int k = 0; k < RMD_HEALTH_T_REJ_KINDS; k++)
 			assert_int_equal(h1->rejected_by_kind[k] - h0->rejected_by_kind[k],
 					 sent_bad[k]);
 	} else {
-		print_message("flood: sanitizer build, or the sender fell behind %d Hz: "
-			      "checking what arrived, not that all did\n",
-			      FLOOD_HZ);
+		print_message(
+			"flood: sanitizer build, or the sender fell behind %d Hz even at the slowest pace: "
+			"checking what arrived, not that all did\n",
+			hz);
 		assert_true(got_bad * 2 >= bad);
 	}
 	/*
@@ -1053,6 +1086,34 @@ static void test_flood_counted_while_the_loop_keeps_its_cycle(void **state)
 
 /* ---- tests: the watchdog ------------------------------------------------------------------ */
 
+/*
+ * The controller streams enable for 300 ms; then the next health_t.  On a
+ * busy machine (issue 10) this test itself, the controller, may be held off
+ * longer than the command timeout: rmdd then trips rightly.  When the
+ * longest gap between its own publishes shows that, it enables again (at
+ * most 3 times), said so, and *safe0 takes the safe actions of that trip;
+ * a trip without such a gap is returned for the caller to fail on.
+ */
+static const rmd_health_t *health_enabled(struct fixture *f, int64_t *safe0)
+{
+	const rmd_health_t *h;
+
+	for (unsigned tries = 1;; tries++) {
+		f->max_pub_gap_ns = 0;
+		stream(f, true, 300, done_never, 0);
+		h = stream_health(f, true);
+		if (h->watchdog == RMD_HEALTH_T_WD_OK || tries == 3 ||
+		    f->max_pub_gap_ns <= COMMAND_TIMEOUT_MS * NS_PER_MS)
+			return h;
+		print_message("busy machine: the controller (this test) was held off %.1f ms "
+			      "between two commands, past the %d ms timeout: rmdd tripped rightly; "
+			      "enabling again\n",
+			      f->max_pub_gap_ns / 1e6, COMMAND_TIMEOUT_MS);
+		*safe0 = h->safe_action_events;
+		stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED);
+	}
+}
+
 static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 {
 	struct fixture *f = fixture(state);
@@ -1062,8 +1123,7 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 	start_rmdd(f);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 	enable_in_place(f);
-	stream(f, true, 300, done_never, 0);
-	h = stream_health(f, true);
+	h = health_enabled(f, &safe0);
 	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
 	safe0 = h->safe_action_events;
 
@@ -1102,7 +1162,7 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 	if (!stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED))
 		fail_msg("enable after the trip did not re-enable the motors; rmdd's output:\n%s",
 			 slurp(f->log));
-	h = stream_health(f, true);
+	h = health_enabled(f, &safe0);
 	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
 	assert_int_equal(h->safe_action_events, safe0);
 	disable_all(f);
@@ -1131,6 +1191,9 @@ static unsigned whole_run_rms(const char *out, double *max_rms)
 	return n;
 }
 
+/* rmdd's line when its watchdog trips (src/tools/rmdd/monitor.c). */
+#define WD_TRIP_LINE "controller: no command for"
+
 /* Run an example controller to its end (--duration) and check what it printed. */
 static void run_example(struct fixture *f, const char *const *argv, bool python, unsigned motors,
 			const char *mode)
@@ -1139,20 +1202,39 @@ static void run_example(struct fixture *f, const char *const *argv, bool python,
 	double rms = 0;
 	int st;
 
-	f->child = spawn(argv, f->child_log, python);
-	st = wait_exit(f->child, 20000);
-	if (st < 0)
-		fail_msg("%s did not end within 20 s; its output:\n%s", argv[0],
-			 slurp(f->child_log));
-	f->child = 0;
-	out = slurp(f->child_log);
-	if (st != 0)
-		fail_msg("%s exited %d; its output:\n%s\nrmdd's:\n%s", argv[0], st, out,
-			 slurp(f->log));
-	/* a line a second per motor, then the whole run's */
-	if (count_of(out, "tracking error rms ") < 3 * motors || whole_run_rms(out, &rms) != motors)
-		fail_msg("%s: want tracking error lines for %u motors; its output:\n%s", argv[0],
-			 motors, out);
+	/*
+	 * On a busy machine (issue 10) the example itself may be held off past
+	 * the command timeout: rmdd trips rightly (its log says "controller: no
+	 * command for"), and the motors stop tracking meanwhile.  Such a run is
+	 * the machine's: run the example again (at most 3 times), said so.
+	 */
+	for (unsigned tries = 1;; tries++) {
+		unsigned trips = count_of(slurp(f->log), WD_TRIP_LINE);
+
+		f->child = spawn(argv, f->child_log, python);
+		st = wait_exit(f->child, 20000);
+		if (st < 0)
+			fail_msg("%s did not end within 20 s; its output:\n%s", argv[0],
+				 slurp(f->child_log));
+		f->child = 0;
+		trips = count_of(slurp(f->log), WD_TRIP_LINE) - trips;
+		out = slurp(f->child_log);
+		if (st != 0)
+			fail_msg("%s exited %d; its output:\n%s\nrmdd's:\n%s", argv[0], st, out,
+				 slurp(f->log));
+		/* a line a second per motor, then the whole run's */
+		if (count_of(out, "tracking error rms ") < 3 * motors ||
+		    whole_run_rms(out, &rms) != motors)
+			fail_msg("%s: want tracking error lines for %u motors; its output:\n%s",
+				 argv[0], motors, out);
+		if (rms < 0.1 || !trips || tries == 3)
+			break;
+		print_message("busy machine: %s: tracking error rms %.4f rad, and rmdd tripped "
+			      "its watchdog %u time(s) meanwhile: the example was held off past "
+			      "the command timeout; running it again\n",
+			      argv[0], rms, trips);
+		WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	}
 	assert_true(count_of(out, mode) >= motors);
 	/* it tracks: the error is a small part of the 0.5 rad amplitude */
 	if (!(rms < 0.1))
@@ -1213,6 +1295,8 @@ static void test_ctrl_c_stops_cleanly(void **state)
 	struct fixture *f = fixture(state);
 	const char *argv[] = { sine_bin, "--url", f->url, "--mode", "mit", NULL };
 	const rmd_health_t *h;
+	int64_t safe0;
+	unsigned trips;
 	int st;
 
 	start_rmdd(f);
@@ -1231,10 +1315,28 @@ static void test_ctrl_c_stops_cleanly(void **state)
 	assert_non_null(strstr(slurp(f->child_log), "stopped: enable = 0 sent to 3 motors"));
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 500);
 	assert_true(all_in(f, RMD_STATE_T_LC_READY));
+	/*
+	 * Safe actions while the example ran are the machine's only when rmdd
+	 * says its watchdog tripped then (a busy machine held the example off
+	 * past the command timeout, issue 10); after the stop there must be none.
+	 */
+	h = health_after(f, now_ns(), 1000);
+	safe0 = h->safe_action_events;
+	trips = count_of(slurp(f->log), WD_TRIP_LINE);
+	if (safe0 && !trips)
+		fail_msg("%lld safe actions while the example ran, and no watchdog trip in "
+			 "rmdd's log:\n%s",
+			 (long long)safe0, slurp(f->log));
+	if (safe0)
+		print_message("busy machine: rmdd tripped its watchdog %u time(s) while the "
+			      "example ran (held off past the command timeout): %lld safe "
+			      "actions then\n",
+			      trips, (long long)safe0);
 	/* well past the command timeout: no motor enabled, so no trip and no safe action */
 	WAIT_UNTIL(f, false, 3 * COMMAND_TIMEOUT_MS);
 	h = health_after(f, now_ns(), 1000);
-	assert_int_equal(h->safe_action_events, 0);
+	assert_int_equal(h->safe_action_events, safe0);
+	assert_int_equal(count_of(slurp(f->log), WD_TRIP_LINE), trips);
 	assert_int_not_equal(h->watchdog, RMD_HEALTH_T_WD_TRIPPED);
 	assert_true(all_in(f, RMD_STATE_T_LC_READY));
 }

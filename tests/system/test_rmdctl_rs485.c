@@ -25,9 +25,19 @@
  * 5 ms: three processes and a relay thread share this 2-CPU VM, and a
  * 15 ms stall is not what these tests are about.  The silent-motor test
  * keeps the default, where the bound is the point.
+ *
+ * On a busy machine (issue 10) three normal-priority processes and the
+ * relay can still lose the CPU for longer than that: a run given
+ * OK_TIMEOUT_ARG that reports a motor that "did not answer" is run again
+ * at a slower pace, its timeout x OK_SLOWER (at most OK_RETRIES times), and
+ * says so; every check then holds against the timeout the run used
+ * (ok_timeout_ms), which stays raised for the rest of the suite.
  */
 #define OK_TIMEOUT_MS 20
-#define OK_TIMEOUT_ARG "20"
+#define OK_TIMEOUT_ARG "@ok" /* run_argv() puts ok_timeout_ms in its place */
+#define OK_SLOWER 5
+#define OK_RETRIES 1
+#define OK_MAX_MS 500 /* never slower: a scan's 29 silent ids x 3 tries must fit RUN_LIMIT_MS */
 #define _GNU_SOURCE
 
 #include <errno.h>
@@ -326,8 +336,11 @@ static void need_sim(struct rig *g)
 		fail_msg("rmd-sim is not running; its log:\n%s", g->sim_log);
 }
 
-/* Run rmdctl with args (NULL-terminated); rmd-sim's log is drained meanwhile. */
-static void run_argv(struct rig *g, struct run *r, const char *const *args)
+/* The per-try timeout of runs that must succeed (OK_TIMEOUT_MS, raised on a busy machine). */
+static unsigned ok_timeout_ms = OK_TIMEOUT_MS;
+
+/* Run rmdctl with args (NULL-terminated) once; rmd-sim's log is drained meanwhile. */
+static void run_once(struct rig *g, struct run *r, const char *const *args)
 {
 	const char *argv[48];
 	int out[2], err[2], st;
@@ -394,6 +407,42 @@ static void run_argv(struct rig *g, struct run *r, const char *const *args)
 			 RUN_LIMIT_MS, r->err);
 	}
 	r->status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+/*
+ * Run rmdctl with args; "--timeout" OK_TIMEOUT_ARG becomes ok_timeout_ms,
+ * and such a run in which a motor did not answer is run again at a slower
+ * pace (see OK_SLOWER), said on the output.
+ */
+static void run_argv(struct rig *g, struct run *r, const char *const *args)
+{
+	const char *argv[48];
+	char tmo[16];
+	int ok_at = -1;
+	size_t n = 0;
+
+	for (; args[n] && n < 47; n++) {
+		argv[n] = args[n];
+		if (!strcmp(args[n], OK_TIMEOUT_ARG))
+			ok_at = (int)n;
+	}
+	argv[n] = NULL;
+	for (unsigned k = 0;; k++) {
+		if (ok_at >= 0) {
+			snprintf(tmo, sizeof(tmo), "%u", ok_timeout_ms);
+			argv[ok_at] = tmo;
+		}
+		run_once(g, r, argv);
+		if (ok_at < 0 || k == OK_RETRIES || ok_timeout_ms * OK_SLOWER > OK_MAX_MS ||
+		    !strstr(r->err, " did not answer "))
+			return;
+		print_message(
+			"busy machine: rmdctl %s with --timeout %u: a motor did not answer "
+			"in time (%.200s); the answer was slower than the machine let rmd-sim, "
+			"the relay and rmdctl run: again at a slower pace, --timeout %u\n",
+			argv[0], ok_timeout_ms, r->err, ok_timeout_ms * OK_SLOWER);
+		ok_timeout_ms *= OK_SLOWER;
+	}
 }
 
 #define RUN(g, r, ...) run_argv((g), (r), (const char *const[]){ __VA_ARGS__, NULL })
@@ -565,8 +614,7 @@ static void test_scan(void **state)
 {
 	struct rig *g = *state;
 	/* 32 probes, then 0xB5 and 0xB2 of the three that answered. */
-	int64_t bound = silent_ns(RMD_MAX_MOTORS, OK_TIMEOUT_MS * MS, RMD_TXN_TRIES) +
-			silent_ns(6, OK_TIMEOUT_MS * MS, RMD_TXN_TRIES) + MARGIN_MS * MS;
+	int64_t bound;
 	struct run *r = &g->run;
 	char want[256];
 	unsigned seen = 0, lines = 0;
@@ -574,6 +622,9 @@ static void test_scan(void **state)
 	need_sim(g);
 	RUN(g, r, "scan", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout", OK_TIMEOUT_ARG,
 	    "--json");
+	/* the bound of the timeout the run used (raised on a busy machine) */
+	bound = silent_ns(RMD_MAX_MOTORS, ok_timeout_ms * MS, RMD_TXN_TRIES) +
+		silent_ns(6, ok_timeout_ms * MS, RMD_TXN_TRIES) + MARGIN_MS * MS;
 	assert_status(r, 0, "scan --json");
 	/* issue 4: "on a pseudo-terminal those settings are skipped with a notice" */
 	assert_has(r, r->err, "pseudo-terminal", "scan --json stderr");

@@ -38,6 +38,19 @@
  * motor or rmdd listens to it) sent on every bus tells when the log has
  * caught up with "now".
  *
+ * A busy machine (issue 10): the emulated guest loses the host's CPUs for
+ * milliseconds to seconds when the host is loaded, and then everything in it
+ * runs late.  A test fails only for wrong behaviour: each time bound is
+ * judged against what this run achieved, measured in the run itself -- the
+ * loop's own cycle count, skipped ticks, wake-up and cycle times (health_t),
+ * and the scheduling delay of reference sleepers in the guest
+ * (harness/sleeper.h: one at rmd-sim's priority, one at the loop's, one at
+ * normal priority like LCM and the bridge).  Where the guest cannot support
+ * a check at all (the loop cannot run its configured rate), the test runs
+ * it again at a slower pace (rmdd restarted with every time of its
+ * configuration 2, 4 or 8 times longer: rate, status polls, command
+ * timeout, comm-loss) and says so in a line that starts "busy machine:".
+ *
  * Run it with (tests/vm/README.md):
  *   make BUILD=build/vsys build/vsys/tests/system/test_vcan_system build/vsys/rmdd \
  *        build/vsys/rmd-sim build/vsys/rmdctl
@@ -92,6 +105,7 @@
 
 #include "harness/json.h"
 #include "harness/proc.h"
+#include "harness/sleeper.h"
 
 #define NS_PER_MS INT64_C(1000000)
 #define NS_PER_S INT64_C(1000000000)
@@ -99,19 +113,25 @@
 /*
  * Margins.  The guest runs under TCG, about 8x slower than the host
  * (tests/vm/README.md); starting a program from the 9p share takes 0.1-1 s.
+ * READY_MS and ENABLE_MS are waits, not bounds: with the host's CPUs busy
+ * the guest runs 10-20x slower still (measured: rmdd's loop at 9 Hz of its
+ * 100 Hz, a cycle of 370 ms, no "running" 20 s after the start).
  */
-#define READY_MS 20000	   /* rmd-sim, candump, rmdd up (rmdd: bring-up of 8 motors) */
-#define ENABLE_MS 10000	   /* enable -> every motor ENABLED in state_t */
+#define READY_MS 60000	   /* rmd-sim, candump, rmdd up (rmdd: bring-up of 8 motors) */
+#define ENABLE_MS 30000	   /* enable -> every motor ENABLED in state_t */
 #define TOOL_MS 30000	   /* one rmdctl run */
 #define EXIT_MS 15000	   /* SIGTERM -> rmdd gone */
-#define SYNC_MS 10000	   /* candump's log catches up with a marker */
+#define SYNC_MS 60000	   /* candump's log catches up with a marker (a wait) */
 #define EXEC_SLACK_MS 3000 /* rmdctl: process start and exit in the guest */
 /*
  * The safe action's delay (test_system_watchdog): SEND_SLACK_MS for a
- * cycle's frames to leave after its tick; LCM_SLACK_MS for the hop from the
- * test's publish to rmdd's bridge (UDP multicast on loopback, the bridge
- * thread's wake-up, both SCHED_OTHER in the emulated guest: measured 2..23
- * ms from the publish to the first cycle that sent the command).
+ * cycle's frames to leave after its tick (or rmdd's own longest cycle, when
+ * longer: a busy guest preempts the loop mid-cycle); LCM_SLACK_MS for the
+ * hop from the test's publish to rmdd's bridge (UDP multicast on loopback,
+ * the bridge thread's wake-up, both SCHED_OTHER in the emulated guest:
+ * measured 2..23 ms from the publish to the first cycle that sent the
+ * command), plus twice the worst delay a normal-priority reference sleeper
+ * saw meanwhile (two such wake-ups: LCM's receive thread and the bridge).
  */
 #define SEND_SLACK_MS 2
 #define LCM_SLACK_MS 30
@@ -120,8 +140,10 @@
  * (src/sim_motor.c), on a timerfd, counting from when it read the last
  * frame.  Its reads and its timer run at SCHED_FIFO, but the guest's
  * emulated CPUs themselves lose the host's CPUs for milliseconds at a time
- * on a loaded host (measured: 0.6..15.5 ms late).  50 ms still tells the
- * 0xB3 trip (comm_loss_ms) from anything else (0xF1 repeats each second).
+ * on a loaded host (measured: 0.6..15.5 ms late; with the host's CPUs all
+ * busy, far more).  50 ms still tells the 0xB3 trip (comm_loss_ms) from
+ * anything else (0xF1 repeats each second); on top comes the worst delay a
+ * reference sleeper at rmd-sim's priority saw meanwhile (test_system_kill9).
  */
 #define COMM_SLACK_MS 50
 /*
@@ -135,6 +157,14 @@
 #define SETTLE_MS 300	      /* steady state before a measurement window */
 #define WINDOW_MS 1000	      /* the rate window */
 #define RATE_WINDOWS 3
+/*
+ * The slower paces the rate test retries at, when the guest stalled rmdd's
+ * loop for whole periods (see test_system_rate): every time of the
+ * configuration 2, 4, then MAX_PACE times longer (write_config()), and the
+ * test's own settle and measurement windows with them.
+ */
+#define MAX_PACE 8
+#define SLEEPER_PERIOD_MS 5	    /* the reference sleepers wake every 5 ms: cheap in the guest */
 #define CTL_PERIOD_MS 10	    /* the controller publishes at 100 Hz */
 #define KEEPALIVE_MS 50		    /* see keepalive() */
 #define MARKER_ID 0x7E0u	    /* not a motor's, not rmdd's: nobody answers it */
@@ -216,6 +246,15 @@ static struct {
 	int ka_bus;
 	unsigned ka_id;
 	int64_t ka_next;
+
+	/*
+	 * Reference sleepers: the scheduling delay the guest imposed in this
+	 * run, at rmd-sim's priority, at the loop's, and at normal priority
+	 * (LCM's receive thread and the bridge).
+	 */
+	struct sleeper sl_sim, sl_loop, sl_other;
+	unsigned pace; /* 1: the file's times; P: P times slower (write_config()) */
+	unsigned base_rate_hz, base_timeout_ms, base_loss_ms; /* the file's */
 } S;
 
 /* ---- small helpers ----------------------------------------------------------- */
@@ -239,6 +278,32 @@ static int64_t real_ns(void)
 static double ms_of(int64_t ns)
 {
 	return (double)ns / 1e6;
+}
+
+/* Begin a measurement window of every reference sleeper. */
+static void sleepers_mark(void)
+{
+	sleeper_mark(&S.sl_sim);
+	sleeper_mark(&S.sl_loop);
+	sleeper_mark(&S.sl_other);
+}
+
+/*
+ * The worst scheduling delay s saw since its mark, ms: its latest wake-up
+ * plus its period (a stall that began just after a wake-up shows only as
+ * far as it outlasted the period).
+ */
+static double stall_ms(struct sleeper *s)
+{
+	int64_t w = sleeper_worst_ns(s);
+
+	return w > 0 ? ms_of(w + s->period_ns) : 0;
+}
+
+/* The pace: 1, or how many times the file's times rmdd runs at (write_config()). */
+static unsigned pace(void)
+{
+	return S.pace > 1 ? S.pace : 1;
 }
 
 static const char *iface(unsigned b)
@@ -637,11 +702,35 @@ static void need_exec(const char *path)
 			 S.build, path);
 }
 
-/* tests/data/vcan/system.yaml with URL_PLACEHOLDER replaced, into S.cfgpath; then load it. */
+/*
+ * The value after "key:" in gen (a YAML text we wrote) replaced by value;
+ * fails when the key is not there.
+ */
+static char *yaml_set(char *gen, const char *key, const char *value)
+{
+	char *at = strstr(gen, key), *eol, *out;
+
+	if (!at)
+		fail_msg("tests/data/vcan/system.yaml has no %s", key);
+	eol = strchr(at, '\n');
+	if (asprintf(&out, "%.*s%s %s%s", (int)(at - gen), gen, key, value, eol ? eol : "") < 0)
+		fail_msg("out of memory");
+	free(gen);
+	return out;
+}
+
+/*
+ * tests/data/vcan/system.yaml with URL_PLACEHOLDER replaced, into
+ * S.cfgpath; then load it.  At a slower pace (S.pace = P > 1, a busy
+ * machine: see test_system_rate) every time of the file is P times longer:
+ * the loop rate and each motor's status polls P times lower, the command
+ * timeout and the comm-loss time P times longer.
+ */
 static void write_config(void)
 {
 	const char *src = getenv("RMD_SRCDIR");
-	char tpl[256], err[4096], *text, *at;
+	char tpl[256], err[4096], *text, *at, *gen = NULL;
+	size_t gen_len = 0;
 	FILE *in, *out;
 	long n;
 
@@ -662,7 +751,7 @@ static void write_config(void)
 	/* a port per run: concurrent runs never hear each other */
 	snprintf(S.url, sizeof(S.url), "udpm://239.255.76.67:%d?ttl=0",
 		 20000 + (int)(getpid() % 20000));
-	out = fopen(S.cfgpath, "w");
+	out = open_memstream(&gen, &gen_len);
 	assert_non_null(out);
 	for (const char *p = text; *p;) {
 		at = strstr(p, URL_PLACEHOLDER);
@@ -675,9 +764,41 @@ static void write_config(void)
 	}
 	assert_int_equal(fclose(out), 0);
 	free(text);
+	out = fopen(S.cfgpath, "w");
+	assert_non_null(out);
+	if (S.pace > 1) {
+		char v[32];
+		unsigned p = S.pace;
+
+		snprintf(v, sizeof(v), "%u", S.base_rate_hz / p);
+		gen = yaml_set(gen, "rate_hz:", v);
+		snprintf(v, sizeof(v), "%u", S.base_timeout_ms * p);
+		gen = yaml_set(gen, "command_timeout_ms:", v);
+		snprintf(v, sizeof(v), "%u", S.base_loss_ms * p);
+		gen = yaml_set(gen, "comm_loss_ms:", v);
+		/* each motor's status polls (the default 10 Hz), as one more key of its map */
+		for (char *m = gen; (m = strstr(m, "gear_ratio: 6}"));) {
+			char *g;
+
+			if (asprintf(&g, "%.*sgear_ratio: 6, status_poll_hz: %g}%s", (int)(m - gen),
+				     gen, 10.0 / p, m + strlen("gear_ratio: 6}")) < 0)
+				fail_msg("out of memory");
+			m = g + (m - gen) + strlen("gear_ratio: 6, status_poll_hz: }");
+			free(gen);
+			gen = g;
+		}
+	}
+	fputs(gen, out);
+	free(gen);
+	assert_int_equal(fclose(out), 0);
 	if (rmd_config_load(S.cfgpath, &S.cfg, NULL, err, sizeof(err)) < 0)
 		fail_msg("%s (from %s): %s", S.cfgpath, tpl, err);
 	S.nbus = S.cfg.n_buses;
+	if (S.pace <= 1) {
+		S.base_rate_hz = S.cfg.loop.rate_hz;
+		S.base_timeout_ms = S.cfg.safety.command_timeout_ms;
+		S.base_loss_ms = S.cfg.safety.comm_loss_ms;
+	}
 	if (S.nbus > NBUS_MAX)
 		fail_msg("%s: %u buses, the test handles %d", tpl, S.nbus, NBUS_MAX);
 	for (unsigned b = 0; b < S.nbus; b++)
@@ -773,6 +894,11 @@ static void system_begin(void)
 	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
 		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
 	write_config();
+	if (sleeper_start(&S.sl_sim, SLEEPER_PERIOD_MS * NS_PER_MS, SIM_FIFO_PRIO) < 0 ||
+	    sleeper_start(&S.sl_loop, SLEEPER_PERIOD_MS * NS_PER_MS, (int)S.cfg.loop.rt_priority) <
+		    0 ||
+	    sleeper_start(&S.sl_other, SLEEPER_PERIOD_MS * NS_PER_MS, 0) < 0)
+		fail_msg("cannot start the reference sleepers");
 	sims_start();
 	candump_start();
 	lcm_start();
@@ -920,23 +1046,67 @@ static bool wait_all_lc(int8_t lc, int ms)
  * second after enable = 1 gets what rmdd's log asks for: enable = 0 (once
  * every motor is READY), then 1 again.  Returns the time taken, ms.
  */
-static double enable_all(void)
+static bool enable_try(double *ms)
 {
 	int64_t t0 = mono_ns(), end = t0 + ENABLE_MS * NS_PER_MS;
 
 	for (;;) {
 		controller(true, true);
-		if (wait_all_lc(RMD_STATE_T_LC_ENABLED, 1000))
-			return ms_of(mono_ns() - t0);
+		if (wait_all_lc(RMD_STATE_T_LC_ENABLED, 1000 * (int)pace())) {
+			*ms = ms_of(mono_ns() - t0);
+			return true;
+		}
 		if (mono_ns() > end)
-			fail_msg("not every motor ENABLED %d ms after enable (lifecycles %s; "
-				 "%" PRIu64 " state_t, %" PRIu64 " health_t received); rmdd:\n%s",
-				 ENABLE_MS, lc_list(), S.n_state, S.n_health, kid_tail(S.rmdd_kid));
+			return false;
 		S.edge_toggles++;
 		controller(true, false);
-		wait_all_lc(RMD_STATE_T_LC_READY, 2000);
+		wait_all_lc(RMD_STATE_T_LC_READY, 2000 * (int)pace());
 		run_for(3 * CTL_PERIOD_MS);
 	}
+}
+
+/*
+ * enable_try(), and when the motors do not all get ENABLED while the guest
+ * stalled a thread at the loop's or rmd-sim's priority for a period or more
+ * (since the last sleepers_mark()): the machine cannot run the system at
+ * this pace -- motors go LOST and trip their comm-loss protection because
+ * nobody runs, not because rmdd is wrong.  Then rmdd starts again at a
+ * slower pace (write_config()), said on a "busy machine:" line.
+ */
+static double enable_all(void)
+{
+	double ms, stall;
+	int st;
+
+	while (!enable_try(&ms)) {
+		stall = stall_ms(&S.sl_loop) > stall_ms(&S.sl_sim) ? stall_ms(&S.sl_loop) :
+								     stall_ms(&S.sl_sim);
+		if (stall < 1000.0 / S.cfg.loop.rate_hz || pace() * 2 > MAX_PACE)
+			fail_msg("not every motor ENABLED %d ms after enable at %u Hz (lifecycles "
+				 "%s; %" PRIu64 " state_t, %" PRIu64 " health_t received; the "
+				 "guest's worst delay at the loop's or rmd-sim's priority %.1f "
+				 "ms); rmdd:\n%s",
+				 ENABLE_MS, S.cfg.loop.rate_hz, lc_list(), S.n_state, S.n_health,
+				 stall, kid_tail(S.rmdd_kid));
+		print_message("busy machine: not every motor ENABLED %d ms after enable at %u Hz "
+			      "(lifecycles %s), the guest stalling threads at the loop's or "
+			      "rmd-sim's priority for %.1f ms (the period is %.1f ms).  Again at a "
+			      "slower pace: every time of the configuration %u times the file's; "
+			      "the later tests run at it too\n",
+			      ENABLE_MS, S.cfg.loop.rate_hz, lc_list(), stall,
+			      1000.0 / S.cfg.loop.rate_hz, pace() * 2);
+		controller(false, false);
+		kill(S.rmdd_kid->pid, SIGTERM);
+		st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
+		if (st != 0)
+			fail_msg("rmdd: exit status %d after SIGTERM; its output:\n%s", st,
+				 kid_tail(S.rmdd_kid));
+		S.pace = pace() * 2;
+		write_config();
+		sleepers_mark();
+		rmdd_start();
+	}
+	return ms;
 }
 
 /*
@@ -982,6 +1152,22 @@ static void report_start(int64_t t_start)
 		      trips,
 		      trips ? " -- rmdd let them go silent between bring-up and its first cycle" :
 			      "");
+	/*
+	 * What rmdd does between the two (LCM, mlockall, the thread's start)
+	 * runs at normal priority: on a busy machine the guest may hold it off
+	 * longer than comm_loss_ms.  rmdd is at fault only when the gap, less
+	 * the worst delay a normal-priority sleeper saw during the start, is
+	 * still longer.
+	 */
+	if (trips && first &&
+	    ms_of(first->t_ns - scan_end->t_ns) - stall_ms(&S.sl_other) <=
+		    S.cfg.safety.comm_loss_ms) {
+		print_message("busy machine: the guest held a normal-priority thread off for up "
+			      "to %.1f ms during rmdd's start: the trips are the machine's, not "
+			      "rmdd's (it re-probes the motors; enable follows)\n",
+			      stall_ms(&S.sl_other));
+		trips = 0;
+	}
 	if (trips)
 		fail_msg("%u motor(s) tripped their comm-loss protection between bring-up and "
 			 "the first cycle",
@@ -995,6 +1181,7 @@ static void rmdd_up_and_enabled(void)
 		unsigned toggles = S.edge_toggles;
 		double ms;
 
+		sleepers_mark();
 		rmdd_start();
 		ms = enable_all();
 		report_start(t_start);
@@ -1179,12 +1366,12 @@ static void test_rmdctl_scan_move(void **state)
 /* Wait for the next state_t; its cycle number and time (rmdd's CLOCK_MONOTONIC, ns). */
 static void next_state(int64_t *cycle, int64_t *t_ns)
 {
-	int64_t end = mono_ns() + 2 * NS_PER_S;
+	int64_t end = mono_ns() + 2 * NS_PER_S * (int64_t)pace();
 	uint64_t n = S.n_state;
 
 	while (S.n_state == n) {
 		if (mono_ns() > end)
-			fail_msg("no state_t from rmdd for 2 s");
+			fail_msg("no state_t from rmdd for %u s", 2 * pace());
 		service(2);
 	}
 	*cycle = S.st_cycle;
@@ -1194,9 +1381,10 @@ static void next_state(int64_t *cycle, int64_t *t_ns)
 /* One rate window's verdict. */
 struct window {
 	double secs, loop_hz;
-	int64_t cycles;
-	double worst_sp, max_sp; /* lowest and highest setpoints per second of a motor */
-	double poll_hz;		 /* the highest status_poll_hz configured */
+	int64_t cycles, skipped;
+	double stall_loop_ms, stall_sim_ms; /* the sleepers' worst delay in the window */
+	double worst_sp, max_sp;	    /* lowest and highest setpoints per second of a motor */
+	double poll_hz;			    /* the highest status_poll_hz configured */
 	char per_cycle_err[256];
 };
 
@@ -1223,11 +1411,15 @@ static void rate_window(struct window *w)
 	 * between t0 and t1, each shifted by half a period to be safe.
 	 */
 	off = real_ns() - mono_ns();
-	h0 = S.h;
 	next_state(&c0, &t0);
-	run_for(WINDOW_MS);
+	h0 = S.h;
+	sleepers_mark();
+	run_for(WINDOW_MS * (int)pace());
 	next_state(&c1, &t1);
 	h1 = S.h;
+	w->stall_loop_ms = stall_ms(&S.sl_loop);
+	w->stall_sim_ms = stall_ms(&S.sl_sim);
+	w->skipped = h1.overruns - h0.overruns;
 	sync_log();
 	t0 += off + (int64_t)(5e8 / rate);
 	t1 += off + (int64_t)(5e8 / rate);
@@ -1241,6 +1433,11 @@ static void rate_window(struct window *w)
 		      w->secs, w->cycles, w->loop_hz, S.cfg.loop.rate_hz, 100.0 * w->loop_hz / rate,
 		      h1.overruns - h0.overruns, h1.plan_misses - h0.plan_misses, h1.wake_avg_us,
 		      h1.wake_p99_us, h1.wake_max_us, h1.cycle_max_us);
+	print_message("  the guest meanwhile: a thread at the loop's priority %d waited up to %.1f "
+		      "ms, one at rmd-sim's %d up to %.1f ms (period %.1f ms)\n",
+		      (int)S.cfg.loop.rt_priority, w->stall_loop_ms, SIM_FIFO_PRIO, w->stall_sim_ms,
+		      1000.0 / rate);
+	print_message("  lifecycles at the end (state_t): %s\n", lc_list());
 	for (unsigned b = 0; b < S.nbus; b++) {
 		unsigned bus_frames = 0;
 
@@ -1283,50 +1480,132 @@ static void rate_window(struct window *w)
 	}
 }
 
+/*
+ * Stop rmdd and start it again at a slower pace (a busy machine): the
+ * configuration is written anew with every time `pace` times longer
+ * (write_config()), and every later test runs at it.
+ */
+static void rmdd_restart_at(unsigned pace)
+{
+	int st;
+
+	controller(false, false);
+	if (rmdd_running()) {
+		kill(S.rmdd_kid->pid, SIGTERM);
+		st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
+		if (st != 0)
+			fail_msg("rmdd: exit status %d after SIGTERM; its output:\n%s", st,
+				 kid_tail(S.rmdd_kid));
+	}
+	S.pace = pace;
+	write_config();
+	rmdd_up_and_enabled();
+}
+
+/*
+ * One window's verdict (w->per_cycle_err, empty: passed).  Returns true
+ * when the window failed because the guest stalled: a reference sleeper at
+ * the loop's or at rmd-sim's priority waited a whole period or more in it.
+ */
+static bool judge_window(struct window *w, double *want)
+{
+	double rate = S.cfg.loop.rate_hz, period_ms = 1000.0 / rate;
+	size_t n = sizeof(w->per_cycle_err);
+
+	/* setpoints: of the cycles the loop ran, less the status polls' share */
+	*want = MIN_RATE_FRACTION * (w->loop_hz - w->poll_hz);
+	if (!w->per_cycle_err[0] && w->worst_sp < *want)
+		snprintf(w->per_cycle_err, n,
+			 "the slowest motor got %.0f setpoints/s, below %.0f%% of the %.1f Hz "
+			 "the loop ran less %.0f Hz of status polls",
+			 w->worst_sp, 100.0 * MIN_RATE_FRACTION, w->loop_hz, w->poll_hz);
+	if (!w->per_cycle_err[0] && w->max_sp > 1.02 * rate + 2)
+		snprintf(w->per_cycle_err, n,
+			 "a motor got %.0f setpoints/s, above the %.0f Hz loop rate", w->max_sp,
+			 rate);
+	if (!w->per_cycle_err[0] && w->loop_hz > 1.02 * rate + 2)
+		snprintf(w->per_cycle_err, n, "the loop ran %.1f cycles/s, above its %.0f Hz",
+			 w->loop_hz, rate);
+	/* the pace: MIN_RATE_FRACTION of the configured periods at least */
+	if (!w->per_cycle_err[0] && w->loop_hz < MIN_RATE_FRACTION * rate)
+		snprintf(w->per_cycle_err, n,
+			 "the loop ran %.1f%% of its %.0f Hz (%" PRId64 " periods skipped)",
+			 100.0 * w->loop_hz / rate, rate, w->skipped);
+	if (!w->per_cycle_err[0])
+		return false;
+	return w->stall_loop_ms >= period_ms || w->stall_sim_ms >= period_ms;
+}
+
 static void test_system_rate(void **state)
 {
 	struct window w;
-	unsigned k;
+	unsigned k, stalled;
 	double rate, want = 0;
 
 	(void)state;
 	system_begin();
-	rate = S.cfg.loop.rate_hz;
 	if (rmdd_running())
 		enable_all();
 	else
 		rmdd_up_and_enabled();
-	run_for(SETTLE_MS);
+	run_for(SETTLE_MS * (int)pace());
 	/*
-	 * A window passes when every motor got one request per cycle rmdd ran
-	 * and setpoints at MIN_RATE_FRACTION of the configured rate at least
-	 * (less the status polls that take a setpoint's place on a full bus).
-	 * Both depend on the emulated guest getting the host's CPUs (a starved
-	 * loop overruns, loses replies, and in the end motors): the first of up
-	 * to RATE_WINDOWS windows that passes counts; every one is printed.
+	 * A window passes when every motor got one request per cycle rmdd ran,
+	 * setpoints at MIN_RATE_FRACTION of the cycles it ran at least (less the
+	 * status polls that take a setpoint's place on a full bus), never more
+	 * than the configured rate, and the loop ran MIN_RATE_FRACTION of its
+	 * periods.  All of it depends on the emulated guest getting the host's
+	 * CPUs (a starved loop overruns, loses replies, and in the end motors):
+	 * the first of up to RATE_WINDOWS windows that passes counts; every one
+	 * is printed.  When none passes and the guest stalled the loop's or
+	 * rmd-sim's priority for a whole period in a window (the reference
+	 * sleepers), the machine could not support the rate: rmdd runs again at
+	 * half the rate, said on a "busy machine:" line.  A window that fails
+	 * while the sleepers never waited a period is rmdd's fault.
 	 */
-	for (k = 0; k < RATE_WINDOWS; k++) {
-		rate_window(&w);
-		want = MIN_RATE_FRACTION * (rate - w.poll_hz);
-		if (!w.per_cycle_err[0] && w.worst_sp < want)
-			snprintf(w.per_cycle_err, sizeof(w.per_cycle_err),
-				 "the slowest motor got %.0f setpoints/s, below %.0f%% of %.0f Hz "
-				 "less %.0f Hz of status polls",
-				 w.worst_sp, 100.0 * MIN_RATE_FRACTION, rate, w.poll_hz);
-		if (!w.per_cycle_err[0] && w.max_sp > 1.02 * rate + 2)
-			snprintf(w.per_cycle_err, sizeof(w.per_cycle_err),
-				 "a motor got %.0f setpoints/s, above the %.0f Hz loop rate",
-				 w.max_sp, rate);
-		if (!w.per_cycle_err[0])
+	for (;;) {
+		rate = S.cfg.loop.rate_hz;
+		stalled = 0;
+		for (k = 0; k < RATE_WINDOWS; k++) {
+			bool st;
+
+			rate_window(&w);
+			st = judge_window(&w, &want);
+			if (!w.per_cycle_err[0])
+				break;
+			stalled += st;
+			print_message("  window %u: %s%s\n", k + 1, w.per_cycle_err,
+				      st ? " (the guest stalled for a period or more)" : "");
+		}
+		if (k < RATE_WINDOWS)
 			break;
-		print_message("  window %u: %s\n", k + 1, w.per_cycle_err);
+		if (!stalled)
+			fail_msg("no window of %u passed, and the guest never stalled a thread at "
+				 "the loop's or rmd-sim's priority for a period; the last: %s; "
+				 "rmdd:\n%s",
+				 RATE_WINDOWS, w.per_cycle_err, kid_tail(S.rmdd_kid));
+		if (pace() * 2 > MAX_PACE)
+			fail_msg("busy machine: no window of %u passed even at %.0f Hz (every time "
+				 "%u times the file's), the guest stalling the loop's priority for "
+				 "%.1f ms; the last: %s; rmdd:\n%s",
+				 RATE_WINDOWS, rate, pace(), w.stall_loop_ms, w.per_cycle_err,
+				 kid_tail(S.rmdd_kid));
+		print_message("busy machine: no window of %u passed at %.0f Hz, and the guest "
+			      "stalled threads at the loop's priority for up to %.1f ms, at "
+			      "rmd-sim's for %.1f ms (the period is %.1f ms): it cannot support "
+			      "this pace now.  Again at a slower pace: every time of the "
+			      "configuration %u times the file's (rmdd at %u Hz, command timeout "
+			      "%u ms, comm-loss %u ms); the later tests run at it too\n",
+			      RATE_WINDOWS, rate, w.stall_loop_ms, w.stall_sim_ms, 1000.0 / rate,
+			      pace() * 2, S.base_rate_hz / (pace() * 2),
+			      S.base_timeout_ms * pace() * 2, S.base_loss_ms * pace() * 2);
+		rmdd_restart_at(pace() * 2);
+		run_for(SETTLE_MS * (int)pace());
 	}
-	if (k == RATE_WINDOWS)
-		fail_msg("no window of %u passed; the last: %s", RATE_WINDOWS, w.per_cycle_err);
-	print_message("rate: window %u: every motor got one request per cycle rmdd ran; setpoints "
-		      "per motor %.0f .. %.0f per second = %.1f .. %.1f%% of %.0f Hz (at least "
-		      "%.0f/s required)\n",
-		      k + 1, w.worst_sp, w.max_sp, 100.0 * w.worst_sp / rate,
+	print_message("rate: window %u at %.0f Hz: every motor got one request per cycle rmdd "
+		      "ran (%.1f Hz); setpoints per motor %.0f .. %.0f per second = %.1f .. "
+		      "%.1f%% of %.0f Hz (at least %.0f/s required)\n",
+		      k + 1, rate, w.loop_hz, w.worst_sp, w.max_sp, 100.0 * w.worst_sp / rate,
 		      100.0 * w.max_sp / rate, rate, want);
 	print_message("candump: %u unparsed lines, %u DROPCOUNT lines%s%s\n", S.bad_lines,
 		      S.drop_lines, S.drop_lines ? ": " : "", S.drop_text);
@@ -1376,7 +1655,7 @@ static const struct cframe *first_of_last_setpoint(unsigned i, int64_t t_end)
 
 static void test_system_watchdog(void **state)
 {
-	double limit_ms, pub_limit_ms, period_ms, wake_ms;
+	double limit_ms, pub_limit_ms, period_ms, wake_ms, send_ms, hop_ms;
 	double max_ms = 0, min_ms = 1e9, max_pub = 0, min_pub = 1e9;
 	int64_t t_last, t_en, end, skipped;
 	struct health h0;
@@ -1388,20 +1667,22 @@ static void test_system_watchdog(void **state)
 	period_ms = 1000.0 / S.cfg.loop.rate_hz;
 	rmdd_up_and_enabled();
 	sync_log();
-	log_forget(); /* keep what runs up to the event: the last frames before it count */
-	run_for(SETTLE_MS);
+	log_forget();	 /* keep what runs up to the event: the last frames before it count */
+	sleepers_mark(); /* the guest's delays from the last command's hop on */
+	run_for(SETTLE_MS * (int)pace());
 
 	/* "kill" the controller: no command after this one */
 	h0 = S.h;
 	controller(false, true);
 	t_last = S.last_pub_real;
-	end = mono_ns() + 3 * NS_PER_S;
+	end = mono_ns() + 3 * NS_PER_S * (int64_t)pace();
 	while (S.h.watchdog != RMD_HEALTH_T_WD_TRIPPED || !all_lc(RMD_STATE_T_LC_SAFE)) {
 		if (mono_ns() > end)
-			fail_msg("controller quiet for 3 s: health_t watchdog %d (expected TRIPPED "
-				 "%d), lifecycles %s; rmdd:\n%s",
-				 S.h.watchdog, RMD_HEALTH_T_WD_TRIPPED, lc_list(),
-				 kid_tail(S.rmdd_kid));
+			fail_msg(
+				"controller quiet for %u s: health_t watchdog %d (expected TRIPPED "
+				"%d), lifecycles %s; rmdd:\n%s",
+				3 * pace(), S.h.watchdog, RMD_HEALTH_T_WD_TRIPPED, lc_list(),
+				kid_tail(S.rmdd_kid));
 		service(10);
 	}
 	sync_log();
@@ -1412,21 +1693,27 @@ static void test_system_watchdog(void **state)
 	 * most timeout + 1 cycle after that first cycle, plus what rmdd itself
 	 * reports about its schedule: its worst wake-up latency, and one
 	 * period for each tick it skipped (overruns) meanwhile; SEND_SLACK_MS
-	 * for the frames to leave after the tick.  From the test's publish on,
-	 * the LCM hop comes on top (LCM_SLACK_MS).
+	 * for the frames to leave after the tick, or rmdd's longest cycle when
+	 * longer.  From the test's publish on, the LCM hop comes on top
+	 * (LCM_SLACK_MS + twice the worst normal-priority delay measured).
 	 */
 	skipped = S.h.overruns - h0.overruns;
 	wake_ms = S.h.wake_max_us / 1000.0;
+	send_ms = S.h.cycle_max_us / 1000.0 > SEND_SLACK_MS ? S.h.cycle_max_us / 1000.0 :
+							      SEND_SLACK_MS;
+	hop_ms = LCM_SLACK_MS + 2 * stall_ms(&S.sl_other);
 	limit_ms = S.cfg.safety.command_timeout_ms + period_ms + wake_ms +
-		   (double)skipped * period_ms + SEND_SLACK_MS;
-	pub_limit_ms = limit_ms + LCM_SLACK_MS;
+		   (double)skipped * period_ms + send_ms;
+	pub_limit_ms = limit_ms + hop_ms;
 	print_message("controller quiet: health_t TRIPPED, every motor SAFE.  Safe action 0x%02X "
 		      "after the first cycle that carried the last command: limit = timeout %u ms "
 		      "+ 1 cycle %.1f ms + rmdd's worst wake-up %.2f ms + %" PRId64 " skipped "
-		      "tick(s) x %.1f ms + %d ms = %.1f ms; after the test published it: + LCM "
-		      "hop %d ms = %.1f ms\n",
+		      "tick(s) x %.1f ms + frames out %.1f ms (rmdd's longest cycle, at least %d "
+		      "ms) = %.1f ms; after the test published it: + LCM hop %.1f ms (%d ms + 2 x "
+		      "the guest's worst normal-priority delay %.1f ms) = %.1f ms\n",
 		      sc, S.cfg.safety.command_timeout_ms, period_ms, wake_ms, skipped, period_ms,
-		      SEND_SLACK_MS, limit_ms, LCM_SLACK_MS, pub_limit_ms);
+		      send_ms, SEND_SLACK_MS, limit_ms, hop_ms, LCM_SLACK_MS, stall_ms(&S.sl_other),
+		      pub_limit_ms);
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
 		const struct rmd_config_motor *m = &S.cfg.motors[i];
 		const struct cframe *f = first_frame(0, m->bus, req_id(i), sc, t_last, T_END);
@@ -1488,7 +1775,7 @@ static void test_system_watchdog(void **state)
 	{
 		double ms = enable_all();
 
-		end = mono_ns() + 3 * NS_PER_S;
+		end = mono_ns() + 3 * NS_PER_S * (int64_t)pace();
 		while (S.h.watchdog != RMD_HEALTH_T_WD_OK) {
 			if (mono_ns() > end)
 				fail_msg("re-enabled, but health_t watchdog stays %d",
@@ -1525,7 +1812,7 @@ static void test_system_sigterm(void **state)
 	rmdd_up_and_enabled();
 	sync_log();
 	log_forget(); /* keep what runs up to the event: the last frames before it count */
-	run_for(SETTLE_MS);
+	run_for(SETTLE_MS * (int)pace());
 	t_term = real_ns();
 	t0 = mono_ns();
 	kill(S.rmdd_kid->pid, SIGTERM); /* the controller keeps publishing meanwhile */
@@ -1602,9 +1889,43 @@ static struct rmd_frame read_9a(int fd, unsigned i, int ms)
 	}
 }
 
+/*
+ * Motor i's first 0xF1 after the last request it heard (from rmdd, before
+ * the kill): its 0xB3 trip.  A motor that rmdd, starved of CPU, left
+ * unheard for comm_loss_ms before the kill tripped then; the 0xF1 after the
+ * kill is that trip's once-a-second repeat and does not count.
+ */
+static const struct cframe *trip_frame(unsigned i, const struct cframe **last)
+{
+	const struct rmd_config_motor *m = &S.cfg.motors[i];
+
+	*last = last_frame(0, m->bus, req_id(i), -1, 0, T_END);
+	return *last ? first_frame(0, m->bus, rep_id(i), 0xF1, (*last)->t_ns, T_END) : NULL;
+}
+
+/*
+ * After the trip, a motor answers only while it hears a frame every
+ * comm_loss_ms.  On a busy machine the guest may hold this test, the
+ * keepalive, rmdctl or rmd-sim off that long: true (and said on a "busy
+ * machine:" line) when motor i's 0xF1 since t (CLOCK_REALTIME) shows it
+ * tripped again, so that the step may be run again; false otherwise.
+ */
+static bool tripped_again(unsigned i, int64_t t, const char *when)
+{
+	const struct rmd_config_motor *m = &S.cfg.motors[i];
+
+	sync_log();
+	if (!first_frame(0, m->bus, rep_id(i), 0xF1, t, T_END))
+		return false;
+	print_message("busy machine: %s motor %u tripped again %s (its 0xF1 is in the log): the "
+		      "guest held a sender off for comm_loss_ms; again\n",
+		      iface(m->bus), m->id, when);
+	return true;
+}
+
 static void test_system_kill9(void **state)
 {
-	double loss, max_ms = 0, min_ms = 1e9;
+	double loss, max_ms = 0, min_ms = 1e9, stall, limit;
 	int64_t t_kill, end;
 	bool all;
 	int st;
@@ -1617,7 +1938,8 @@ static void test_system_kill9(void **state)
 	rmdd_up_and_enabled();
 	sync_log();
 	log_forget(); /* keep what runs up to the event: the last frames before it count */
-	run_for(SETTLE_MS);
+	sleepers_mark();
+	run_for(SETTLE_MS * (int)pace());
 	t_kill = real_ns();
 	kill(S.rmdd_kid->pid, SIGKILL);
 	st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
@@ -1630,20 +1952,30 @@ static void test_system_kill9(void **state)
 		all = true;
 		run_for(50);
 		sync_log();
-		for (unsigned i = 0; i < S.cfg.n_motors; i++)
-			all &= first_frame(0, S.cfg.motors[i].bus, rep_id(i), 0xF1, t_kill,
-					   T_END) != NULL;
+		for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+			const struct cframe *last;
+
+			all &= trip_frame(i, &last) != NULL;
+		}
 		if (!all && mono_ns() > end)
 			fail_msg("kill -9 rmdd: not every motor sent 0xF1 within %.0f ms",
 				 loss + 3000);
 	} while (!all);
+	/*
+	 * The guest's own delay: rmd-sim's timer and reads run at SIM_FIFO_PRIO,
+	 * and a sleeper at that priority measured how late the guest let such a
+	 * thread run between the last frames and the trips.
+	 */
+	stall = stall_ms(&S.sl_sim);
+	limit = loss + COMM_SLACK_MS + stall;
 	print_message("kill -9 rmdd: each motor's 0xF1 after the last frame it heard (limit "
-		      "comm_loss %.0f ms + %d ms):\n",
-		      loss, COMM_SLACK_MS);
+		      "comm_loss %.0f ms + %d ms + the guest's worst delay at rmd-sim's priority "
+		      "%.1f ms = %.1f ms):\n",
+		      loss, COMM_SLACK_MS, stall, limit);
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
 		const struct rmd_config_motor *m = &S.cfg.motors[i];
-		const struct cframe *f1 = first_frame(0, m->bus, rep_id(i), 0xF1, t_kill, T_END);
-		const struct cframe *last = last_frame(0, m->bus, req_id(i), -1, 0, f1->t_ns);
+		const struct cframe *last;
+		const struct cframe *f1 = trip_frame(i, &last);
 		double d;
 
 		if (!last)
@@ -1652,17 +1984,19 @@ static void test_system_kill9(void **state)
 				 iface(m->bus), m->id, motor_frames(i, t_kill));
 		d = ms_of(f1->t_ns - last->t_ns);
 		print_message("  %s motor %u: last request 0x%02X at %+.2f ms of the kill, 0xF1 "
-			      "%.2f ms after it\n",
-			      iface(m->bus), m->id, last->data[0], ms_of(last->t_ns - t_kill), d);
+			      "%.2f ms after it%s\n",
+			      iface(m->bus), m->id, last->data[0], ms_of(last->t_ns - t_kill), d,
+			      f1->t_ns < t_kill ? " (before the kill: rmdd's loop left the motor "
+						  "unheard that long)" :
+						  "");
 		if (d > max_ms)
 			max_ms = d;
 		if (d < min_ms)
 			min_ms = d;
-		if (d < loss - 1.0 || d > loss + COMM_SLACK_MS)
+		if (d < loss - 1.0 || d > limit)
 			fail_msg("%s motor %u: 0xF1 %.2f ms after the last frame, expected %.0f .. "
-				 "%.0f ms; its last frames (ms after the kill):\n%s",
-				 iface(m->bus), m->id, d, loss, loss + COMM_SLACK_MS,
-				 motor_frames(i, t_kill));
+				 "%.1f ms; its last frames (ms after the kill):\n%s",
+				 iface(m->bus), m->id, d, loss, limit, motor_frames(i, t_kill));
 	}
 	print_message("0xB3 trip after the last frame: min %.2f ms, max %.2f ms\n", min_ms, max_ms);
 
@@ -1679,8 +2013,22 @@ static void test_system_kill9(void **state)
 
 			if (m->bus != b)
 				continue;
-			e = read_9a(fd, i, 2000);
-			f = read_9a(fd, i, 2000);
+			/*
+			 * The second 0x9A must reach the motor within comm_loss_ms of
+			 * the first, or it trips again and only echoes that too.  On a
+			 * busy machine the guest may hold this test (or rmd-sim) off
+			 * that long: when a 0xF1 between the two shows the new trip,
+			 * the pair is asked again (at most 5 times), said so.
+			 */
+			for (unsigned tries = 1;; tries++) {
+				int64_t t_e = real_ns();
+
+				e = read_9a(fd, i, 2000);
+				f = read_9a(fd, i, 2000);
+				if (memcmp(f.data, (const uint8_t[8]){ 0x9A }, 8) || tries == 5 ||
+				    !tripped_again(i, t_e, "between two 0x9A"))
+					break;
+			}
 			if (rmd_decode(RMD_PROTO_V3, RMD_DIR_REPLY, &f, &msg, NULL) < 0 ||
 			    !rmd_msg_has(&msg, RMD_FLD_BRAKE))
 				fail_msg("%s motor %u: 0x9A answer does not decode", iface(b),
@@ -1713,9 +2061,20 @@ static void test_system_kill9(void **state)
 		snprintf(id, sizeof(id), "%u", m->id);
 		S.ka_bus = (int)m->bus;
 		S.ka_id = m->id;
-		S.ka_next = 0;
-		service(0);
-		run_tool(&r, argv);
+		for (unsigned tries = 1;; tries++) {
+			int64_t t_run = real_ns();
+
+			S.ka_next = 0;
+			service(0);
+			run_tool(&r, argv);
+			if (tries == 5 ||
+			    (r.status == 0 && json_line(r.out, 0, line, sizeof(line)) &&
+			     json_num(line, "voltage_v") >= 1))
+				break;
+			/* the keepalive (this test) or rmdctl lapsed: again */
+			if (!tripped_again(i, t_run, "during rmdctl status"))
+				break;
+		}
 		S.ka_bus = -1;
 		if (r.status != 0 || !json_line(r.out, 0, line, sizeof(line)))
 			fail_msg("rmdctl status %u --bus %s: exit %d\n%s%s", m->id, iface(m->bus),
@@ -1922,6 +2281,9 @@ static int group_teardown(void **state)
 {
 	(void)state;
 	kids_kill_all();
+	sleeper_stop(&S.sl_sim);
+	sleeper_stop(&S.sl_loop);
+	sleeper_stop(&S.sl_other);
 	keep_files();
 	if (S.lcm) {
 		if (S.sub_state)

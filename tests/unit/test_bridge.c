@@ -43,6 +43,8 @@
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
+#include "harness/sleeper.h"
+
 #define NMOTORS 12
 #define NMIT 4 /* motors 0..3 may run MIT, the others not */
 #define NBUSES 4
@@ -791,9 +793,16 @@ static void test_flood(void **state)
 	pthread_t th;
 	clockid_t cpu_clock;
 	struct timespec cpu;
-	int64_t t, t0, lag, seq = 1, bad = 0;
+	int64_t t, t0, lag, seq = 1, bad = 0, stall;
+	struct sleeper ref = { 0 };
 
 	start(f);
+	/*
+	 * A reference sleeper at the bridge's (normal) priority: the worst
+	 * delay this machine imposed on such a thread during the flood bounds
+	 * how far behind a bridge that keeps pace may fall (issue 10).
+	 */
+	assert_int_equal(sleeper_start(&ref, 1000000, 0), 0);
 	prctl(PR_SET_TIMERSLACK,
 	      1UL); /* 50 us steps: the default 50 us slack would halve the rate */
 	assert_int_equal(pthread_create(&th, NULL, fake_rt_main, &rt), 0);
@@ -818,6 +827,8 @@ static void test_flood(void **state)
 	atomic_store(&rt.stop, true);
 	pthread_join(th, NULL);
 	t = now_ns();
+	stall = sleeper_worst_ns(&ref);
+	sleeper_stop(&ref);
 	print_message("flood: %d messages in %.3f s\n", n, (t - t0) / 1e9);
 	WAIT_UNTIL(f, stats(f).accepted + stats(f).rejected == (uint64_t)n,
 		   flood_kept_pace(t - t0) ? 5000 : 1000);
@@ -840,8 +851,18 @@ static void test_flood(void **state)
 		/* Every message is accounted for, each as what it was. */
 		assert_int_equal(st.accepted, n - bad);
 		assert_int_equal(st.rejected, bad);
-		/* No backlog built up: the bridge kept pace with the flood. */
-		assert_true(lag < 250000000);
+		/*
+		 * No backlog built up: the bridge kept pace with the flood, but
+		 * for what the machine held a normal-priority thread off.
+		 */
+		print_message("flood: backlog %.1f ms; bound 250 ms + the machine's worst "
+			      "normal-priority delay during the flood %.1f ms\n",
+			      lag / 1e6, stall / 1e6);
+		if (stall > 50000000)
+			print_message("flood: busy machine: a normal-priority thread was held off "
+				      "%.1f ms\n",
+				      stall / 1e6);
+		assert_true(lag < 250000000 + stall);
 		/*
 		 * State publishing went on through the flood.  Newest wins, so a
 		 * snapshot the bridge did not look at within its 1 ms is replaced.
@@ -980,7 +1001,8 @@ static void test_health_10hz(void **state)
 	struct rmd_health h;
 	rmd_command_t m = base_cmd(1);
 	const rmd_health_t *o;
-	double mean_ms;
+	double mean_ms, stall_ms;
+	struct sleeper ref = { 0 };
 
 	memset(&h, 0, sizeof(h));
 	h.loop.cycles = 5000;
@@ -1009,15 +1031,29 @@ static void test_health_10hz(void **state)
 	rmd_latest_put(&f->health, &h);
 
 	listen(f);
+	/*
+	 * A reference sleeper at the bridge's (normal) priority: on a busy
+	 * machine (issue 10) the bridge's 100 ms wake-ups come late by what
+	 * such a thread is held off, so the upper bound adds the worst delay
+	 * it saw meanwhile (each interval is at most one late wake-up longer).
+	 */
+	assert_int_equal(sleeper_start(&ref, 10000000, 0), 0);
 	start(f);
 	m.count = 40;
 	send_cmd(f, &m);
 	WAIT_UNTIL(f, stats(f).rejected == 1, 2000);
-	WAIT_UNTIL(f, f->rx.n_health >= 6, 2000);
+	WAIT_UNTIL(f, f->rx.n_health >= 6, 4000);
+	stall_ms = (double)(sleeper_worst_ns(&ref) + ref.period_ns) / 1e6;
+	sleeper_stop(&ref);
 	assert_true(f->rx.n_health >= 6);
 	mean_ms = (f->rx.health_rx_ns[5] - f->rx.health_rx_ns[1]) / 4 / 1e6;
-	print_message("health_t every %.1f ms\n", mean_ms);
-	assert_true(mean_ms > 70 && mean_ms < 160);
+	print_message("health_t every %.1f ms (bound 70 .. 160 ms + the machine's worst "
+		      "normal-priority delay %.1f ms)\n",
+		      mean_ms, stall_ms);
+	if (stall_ms > 60)
+		print_message("busy machine: a normal-priority thread was held off %.1f ms\n",
+			      stall_ms);
+	assert_true(mean_ms > 70 && mean_ms < 160 + stall_ms);
 
 	o = f->rx.health;
 	assert_true(o->utime > 0);

@@ -1,0 +1,101 @@
+// SPDX-License-Identifier: MIT
+/* A reference sleeper: see sleeper.h. */
+#define _GNU_SOURCE
+#include "harness/sleeper.h"
+
+#include <errno.h>
+#include <sched.h>
+#include <time.h>
+
+#define NS_PER_S INT64_C(1000000000)
+
+static int64_t mono(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
+}
+
+static void *sleeper_main(void *arg)
+{
+	struct sleeper *s = arg;
+	int64_t next = mono();
+
+	while (!atomic_load(&s->stop)) {
+		struct timespec ts;
+		int64_t late, now;
+
+		next += s->period_ns;
+		ts.tv_sec = next / NS_PER_S;
+		ts.tv_nsec = next % NS_PER_S;
+		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR)
+			;
+		now = mono();
+		late = now - next;
+		if (late > atomic_load(&s->worst_ns))
+			atomic_store(&s->worst_ns, late);
+		if (late > atomic_load(&s->total_worst_ns))
+			atomic_store(&s->total_worst_ns, late);
+		atomic_fetch_add(&s->wakes, 1);
+		/* a wake-up later than a period: start again from now, no burst */
+		if (now - next > s->period_ns)
+			next = now;
+	}
+	return NULL;
+}
+
+int sleeper_start(struct sleeper *s, int64_t period_ns, int fifo)
+{
+	pthread_attr_t attr;
+	int rc;
+
+	s->period_ns = period_ns;
+	s->fifo = fifo;
+	s->is_fifo = false;
+	atomic_store(&s->stop, false);
+	atomic_store(&s->worst_ns, 0);
+	atomic_store(&s->total_worst_ns, 0);
+	atomic_store(&s->wakes, 0);
+	pthread_attr_init(&attr);
+	if (fifo > 0) {
+		struct sched_param sp = { .sched_priority = fifo };
+
+		pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
+		pthread_attr_setschedpolicy(&attr, SCHED_FIFO);
+		pthread_attr_setschedparam(&attr, &sp);
+		rc = pthread_create(&s->thread, &attr, sleeper_main, s);
+		if (rc == 0)
+			s->is_fifo = true;
+		else
+			fifo = 0; /* not granted: at normal priority, said in is_fifo */
+	}
+	if (fifo <= 0) {
+		pthread_attr_destroy(&attr);
+		pthread_attr_init(&attr);
+		rc = pthread_create(&s->thread, &attr, sleeper_main, s);
+	}
+	pthread_attr_destroy(&attr);
+	s->started = rc == 0;
+	return -rc;
+}
+
+void sleeper_mark(struct sleeper *s)
+{
+	atomic_store(&s->worst_ns, 0);
+	atomic_store(&s->wakes, 0);
+}
+
+int64_t sleeper_worst_ns(struct sleeper *s)
+{
+	return atomic_load(&s->worst_ns);
+}
+
+void sleeper_stop(struct sleeper *s)
+{
+	if (!s->started)
+		return;
+	atomic_store(&s->stop, true);
+	pthread_join(s->thread, NULL);
+	s->started = false;
+}

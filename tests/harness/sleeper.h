@@ -1,0 +1,48 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * A reference sleeper (issue 10: tests that hold on a busy machine): a
+ * thread that sleeps to every period with clock_nanosleep(TIMER_ABSTIME)
+ * and records how late it wakes.  Its lateness is the scheduling delay the
+ * machine imposed in that run on a thread of its class (SCHED_FIFO at a
+ * given priority, or normal), so that a test can judge a time bound of the
+ * programs it watches against what the machine actually delivered, instead
+ * of against a guess.  The worst lateness is kept per window: a test marks
+ * the start of the interval it judges and reads the worst since then.
+ */
+#ifndef RMD_TESTS_SLEEPER_H
+#define RMD_TESTS_SLEEPER_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+struct sleeper {
+	int64_t period_ns;
+	int fifo;     /* SCHED_FIFO priority, or 0: normal */
+	bool is_fifo; /* the priority was granted */
+	pthread_t thread;
+	bool started;
+	atomic_bool stop;
+	atomic_llong worst_ns;	     /* the worst lateness since sleeper_mark() */
+	atomic_llong wakes;	     /* wake-ups since sleeper_mark() */
+	atomic_llong total_worst_ns; /* the worst since the start */
+};
+
+/*
+ * Start s: wake every period_ns at SCHED_FIFO priority fifo (when granted:
+ * root; else at normal priority, said in is_fifo), or at normal priority
+ * for fifo 0.  Returns 0 or -errno.
+ */
+int sleeper_start(struct sleeper *s, int64_t period_ns, int fifo);
+
+/* Begin a window: forget the worst lateness so far. */
+void sleeper_mark(struct sleeper *s);
+
+/* The worst lateness since the last sleeper_mark(), ns (0 before a wake-up). */
+int64_t sleeper_worst_ns(struct sleeper *s);
+
+/* Stop and join the thread (nothing when not started). */
+void sleeper_stop(struct sleeper *s);
+
+#endif /* RMD_TESTS_SLEEPER_H */
