@@ -8,7 +8,7 @@
 #     frame of every cycle was taken by its bus) and "frames not sent 0",
 #   - it ran about DURATION * rate cycles.
 # Overruns and missed replies are reported, not judged: on a virtual
-# machine they come from the host's scheduling (DESIGN.md: judge latency
+# machine they come from the host's scheduling (docs/design.md: judge latency
 # as a ratio against cyclictest in the same run; when cyclictest is
 # installed it runs beside rmdd and its summary is printed).
 #

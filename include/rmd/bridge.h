@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The LCM bridge (DESIGN.md layer 6): a normal-priority thread that owns
+ * The LCM bridge (docs/design.md, layer svc): a normal-priority thread that owns
  * rmdd's LCM instance.  It is the only thread that calls LCM.
  *
  *   PREFIX "COMMAND"         in   rmd.command_t: decoded, validated, clamped,

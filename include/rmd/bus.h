@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Transports behind one ops table (DESIGN.md layer 2), like libmodbus
+ * Transports behind one ops table (docs/design.md, layer bus), like libmodbus
  * backends: SocketCAN, RS485 serial, and the in-process simulated bus.
  * The rest of the program never asks which one it holds: what it needs to
  * know (half duplex, the transport's reply timeout, how far apart queued
@@ -27,7 +27,7 @@
 
 /*
  * Wire time a request and its reply add to the requests queued behind them
- * on CAN: 2 frames of at most 135 bits (DESIGN.md) at 500 kbit/s, rounded up.
+ * on CAN: 2 frames of at most 135 bits (docs/design.md) at 500 kbit/s, rounded up.
  */
 #define RMD_BUS_CAN_SPACING_NS 300000
 

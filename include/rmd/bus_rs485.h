@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The RS485 transport (DESIGN.md layer 2): one serial line of V3 motors
+ * The RS485 transport (docs/design.md, layer bus): one serial line of V3 motors
  * behind struct rmd_bus_ops, framed as V3 §1.2.2 (rmd/rs485.h).
  *
  * libmodbus opens and configures the port (RTU context: 8N1 raw termios,
@@ -74,7 +74,7 @@
 /* One frame on the wire, 8N1 (10 bits a byte: start, 8 data, stop). */
 #define RMD_RS485_FRAME_BITS (RMD_RS485_FRAME_LEN * 10u)
 
-/* Fixed part of the default reply timeout (a motor answers within 0.5-0.8 ms, DESIGN.md). */
+/* Fixed part of the default reply timeout (a motor answers within 0.5-0.8 ms, docs/design.md). */
 #define RMD_RS485_TURNAROUND_NS 2000000
 
 /* Device role: bytes of replies not yet written. */

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The in-process simulated transport (DESIGN.md layer 2): a struct
+ * The in-process simulated transport (docs/design.md, layer bus): a struct
  * rmd_sim_wire (rmd/sim_wire.h) with its motors, behind struct rmd_bus_ops,
  * so rmdd and rmdctl run with no hardware and never know it.
  *

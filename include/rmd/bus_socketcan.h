@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The SocketCAN transport (DESIGN.md layer 2): one raw CAN socket per
+ * The SocketCAN transport (docs/design.md, layer bus): one raw CAN socket per
  * interface behind struct rmd_bus_ops.
  *
  * The socket is non-blocking and admits, through a kernel filter, only the

@@ -30,7 +30,7 @@
  * an upper bound: the fixed RTR/IDE/r0 bits and the CRC decide how close a
  * real frame comes to it (the longest 8-byte frame tests/unit/test_can_timing.c
  * finds is 03E#3C3C3C3C3C3C3C1B, 132 bits), but a budget must not bet on
- * the CRC.  Those are DESIGN.md's 111 and 135 bits:
+ * the CRC.  Those are docs/design.md's 111 and 135 bits:
  * 111-135 us per 8-byte frame at 1 Mbit/s, so 7 frames fit in 1 ms.
  */
 #ifndef RMD_CAN_TIMING_H

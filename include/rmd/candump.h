@@ -15,7 +15,7 @@
  * protocols: extended identifiers, remote, CAN FD and error frames are
  * refused with a reason, as is every malformed line.
  *
- * Layer 1 of DESIGN.md: pure, no allocation, no locale, rt-safe.
+ * Layer 1 of docs/design.md: pure, no allocation, no locale, rt-safe.
  */
 #ifndef RMD_CANDUMP_H
 #define RMD_CANDUMP_H

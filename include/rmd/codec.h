@@ -2,7 +2,7 @@
 /*
  * RMD protocol codec, V2.0 and V3.x: bytes <-> decoded messages.
  *
- * Layer 1 of DESIGN.md: pure functions, no I/O, clock, globals (other than
+ * Layer 1 of docs/design.md: pure functions, no I/O, clock, globals (other than
  * const tables), allocation or logging.  Every function here is rt-safe.
  *
  * The codec is table driven.  Each command of each protocol has a

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * rmdd's configuration model (DESIGN.md layer 7): plain structs, their
+ * rmdd's configuration model (docs/design.md, layer tools): plain structs, their
  * defaults, and the names a config file spells.  The YAML file is read
  * by rmd_config_load() (rmd/config_yaml.h); the simulator's settings of a
  * sim bus are not here but in struct rmd_sim_setup (rmd/sim_setup.h),
@@ -37,7 +37,7 @@
 #define RMD_CONFIG_MAX_CPUS 64	  /* entries of loop.cpu_affinity */
 
 #define RMD_CONFIG_RATE_MAX_HZ 2000 /* loop.rate_hz: 1..this */
-/* STYLE.md / DESIGN.md: SCHED_FIFO 1..49; IRQ threads sit at 50. */
+/* STYLE.md / docs/design.md: SCHED_FIFO 1..49; IRQ threads sit at 50. */
 #define RMD_CONFIG_PRIO_MAX 49
 #define RMD_CONFIG_DIVISOR_MAX 1000 /* motors[].rate_divisor: 1..this */
 
@@ -55,7 +55,7 @@
 #define RMD_CONFIG_DEFAULT_PRIORITY 40
 #define RMD_CONFIG_DEFAULT_BITRATE 1000000
 #define RMD_CONFIG_DEFAULT_BAUD 1000000
-/* DESIGN.md "Turnaround": a motor answers 0.5-0.8 ms after a request. */
+/* docs/design.md "Turnaround": a motor answers 0.5-0.8 ms after a request. */
 #define RMD_CONFIG_DEFAULT_RS485_TURNAROUND_NS 800000
 #define RMD_CONFIG_DEFAULT_COMM_LOSS_MS 100
 #define RMD_CONFIG_DEFAULT_MISSED_LOST 10

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * rmdd's configuration from a YAML file (DESIGN.md layer 7): the file ->
+ * rmdd's configuration from a YAML file (docs/design.md, layer tools): the file ->
  * struct rmd_config (rmd/config.h) and, for its sim buses, struct
  * rmd_sim_setup (rmd/sim_setup.h).
  *
@@ -42,7 +42,7 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 /*
  * The configuration `rmdd --sim` runs: `nmotors` (1..RMD_MAX_MOTORS) V3
  * torque-mode motors with the simulator's default model, three per 1 Mbit/s
- * sim bus (the most that fit at 1 kHz, DESIGN.md), at 1 kHz, and their
+ * sim bus (the most that fit at 1 kHz, docs/design.md), at 1 kHz, and their
  * simulator settings in *sim (may be NULL).  Returns 0 or -EINVAL.  Non-rt.
  */
 int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, unsigned nmotors);

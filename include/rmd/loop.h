@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The real-time loop (DESIGN.md layer 5): one SCHED_FIFO thread that, at
+ * The real-time loop (docs/design.md, layer rt): one SCHED_FIFO thread that, at
  * every tick of an absolute CLOCK_MONOTONIC schedule,
  *
  *   1. drains every bus (replies that arrived since the last tick, with
@@ -143,7 +143,7 @@ struct rmd_loop_opts {
 /* A lost motor is re-probed (0x9A) this often: 2 Hz. */
 #define RMD_LOOP_REPROBE_NS 500000000
 /*
- * Reply deadline beyond a bus's worst-case cycle (DESIGN.md: a motor answers
+ * Reply deadline beyond a bus's worst-case cycle (docs/design.md: a motor answers
  * in 0.5-0.8 ms, USB adapters add ~1 ms): 3 ms at 1 kHz on a full bus.
  */
 #define RMD_LOOP_REPLY_MARGIN_NS 2000000

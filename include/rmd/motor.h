@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * One motor's units, in one place (DESIGN.md "Units"): SI at the output
+ * One motor's units, in one place (docs/design.md "Units"): SI at the output
  * shaft, as LCM and the configuration speak them, <-> the protocol's
  * native units on the wire (0.01 A, 0.01 dps, 0.01 deg, MIT codes), with
  * the motor's direction, zero offset, torque constant and gear ratio.
@@ -69,7 +69,7 @@
  */
 #define RMD_MOTOR_CMD_MIT 0x100u
 
-/* The unsolicited frame of a motor whose comm-loss protection tripped (DESIGN.md). */
+/* The unsolicited frame of a motor whose comm-loss protection tripped (docs/design.md). */
 #define RMD_MOTOR_CMD_COMM_LOST 0xF1u
 
 /* rmd_motor_encode() *flags */

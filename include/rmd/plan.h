@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Per-bus cycle plans (DESIGN.md layer 4): which requests go out on which
+ * Per-bus cycle plans (docs/design.md, layer rt): which requests go out on which
  * bus in which cycle, and what that costs on the wire in the worst case.
  *
  * Each cycle the rt loop sends, on every bus, the requests of

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Simulated RMD motors and the simulated CAN bus they share (DESIGN.md
+ * Simulated RMD motors and the simulated CAN bus they share (docs/design.md
  * layer 3).  Time is always an injected int64_t nanosecond clock: nothing
  * here reads a real clock, sleeps or allocates, so a test can drive a
  * motor through seconds of simulated time in microseconds, and the
@@ -39,7 +39,7 @@
  * - Comm-loss protection (V3 §2.30, 0xB3, ROM) arms at the first frame
  *   addressed to the motor after a start.  When it trips: output off,
  *   mode cleared, brake locked, a 0xF1 frame at once and then every
- *   second (seen on V4 firmware, DESIGN.md); the first frame after that is
+ *   second (seen on V4 firmware, docs/design.md); the first frame after that is
  *   echoed on the reply identifier and not executed.
  */
 #ifndef RMD_SIM_H

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Injected faults of the simulator (DESIGN.md layer 3): one engine for the
+ * Injected faults of the simulator (docs/design.md, layer sim): one engine for the
  * in-process wire (rmd/sim_wire.h, simulated time) and rmd-sim on a real
  * wire (CLOCK_MONOTONIC).
  *

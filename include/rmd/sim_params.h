@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The simulated motor's parameters as text (DESIGN.md layer 3): one table
+ * The simulated motor's parameters as text (docs/design.md, layer sim): one table
  * of every field of struct rmd_sim_motor_params a user may set, with its
  * name, range, unit and help, and one parser from text to the field.
  * rmdd.yaml's `sim:` sections (src/config/config_yaml.c) and rmd-sim's

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The simulator's settings for a configuration (DESIGN.md layer 3): per
+ * The simulator's settings for a configuration (docs/design.md, layer sim): per
  * sim bus its wire (seed, host queue), its motor model and its fault
  * table; per motor its own model.  rmdd's YAML loader fills it from the
  * `sim:` sections (rmd/config_yaml.h) beside struct rmd_config, which
@@ -18,7 +18,7 @@
 #include "rmd/sim.h"
 #include "rmd/sim_faults.h"
 
-/* SocketCAN's default txqueuelen (DESIGN.md), a sim bus's host queue too. */
+/* SocketCAN's default txqueuelen (docs/design.md), a sim bus's host queue too. */
 #define RMD_SIM_DEFAULT_TXQUEUELEN 10
 
 /* One sim bus's simulator: wire (rmd/sim_wire.h), motor model, faults (rmd/sim_faults.h). */

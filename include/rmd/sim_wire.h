@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The simulated CAN wire (DESIGN.md layer 3): up to RMD_MAX_MOTORS simulated
+ * The simulated CAN wire (docs/design.md, layer sim): up to RMD_MAX_MOTORS simulated
  * motors (rmd/sim.h) on one wire with a timing model and fault injection.
  * The bus layer's transport over it is rmd/bus_sim.h.
  *

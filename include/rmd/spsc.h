@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Lock-free single-producer/single-consumer hand-overs between the rt loop
- * and normal threads (DESIGN.md layers 5 and 6).  Neither side ever
+ * and normal threads (docs/design.md, layers rt and svc).  Neither side ever
  * blocks, allocates or takes a lock; the caller provides the storage.
  *
  * struct rmd_ring: a power-of-two queue of fixed-size records (events from

@@ -22,7 +22,7 @@
 /* Control modes: enum rmd_mode (rmd/mode.h).  The safe actions are enum
  * rmd_safe_action in rmd/config.h. */
 
-/* Motor lifecycle (DESIGN.md); the values are those of rmd.state_t. */
+/* Motor lifecycle (docs/design.md); the values are those of rmd.state_t. */
 enum rmd_lifecycle {
 	RMD_LC_PROBE = 0, /* asking model, version, status */
 	RMD_LC_READY,	  /* answered; output off, brake engaged */
@@ -34,7 +34,7 @@ enum rmd_lifecycle {
 };
 
 /*
- * A motor's own comm-loss protection (0xB3, V3 §2.30; DESIGN.md): it stops
+ * A motor's own comm-loss protection (0xB3, V3 §2.30; docs/design.md): it stops
  * the motor when it hears nothing for the configured time, so it is a
  * precondition of motion.  The values are those of rmd.health_t CL_*.
  * A motor may leave READY only when rmd_comm_loss_allows_motion().

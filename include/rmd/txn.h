@@ -10,7 +10,7 @@
  * can, the rest follows as it drains), then each request waits for its own
  * answer, matched by reply identifier and command byte, never by "the next
  * frame": replies of other motors, late replies and unsolicited frames are
- * not mistaken for it (DESIGN.md "Turnaround").  What did not answer by its
+ * not mistaken for it (docs/design.md "Turnaround").  What did not answer by its
  * deadline is sent again, up to `tries` sends in all.  A silent motor thus
  * costs at most tries * (timeout + its place in the batch * spacing); the
  * call never hangs.
@@ -32,7 +32,7 @@
 #include "rmd/bus.h"
 #include "rmd/codec.h"
 
-/* Per-try wait for an answer: a motor answers in 0.5-0.8 ms, USB adds ~1 ms (DESIGN.md). */
+/* Per-try wait for an answer: a motor answers in 0.5-0.8 ms, USB adds ~1 ms (docs/design.md). */
 #define RMD_TXN_TIMEOUT_NS 5000000
 #define RMD_TXN_TRIES 3
 /* The spacing of a CAN bus (struct rmd_bus_caps.request_spacing_ns). */

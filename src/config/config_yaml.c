@@ -38,7 +38,7 @@ enum { MARK_BUS = 1, MARK_MOTOR = 2 };
 
 static const char prio_why[] =
 	"the kernel's IRQ threads run at SCHED_FIFO 50 and deliver this loop's own replies; a "
-	"loop at 50 or above starves them (DESIGN.md), and 99 is the kernel's own level";
+	"loop at 50 or above starves them (docs/design.md), and 99 is the kernel's own level";
 
 static const struct field loop_fields[] = {
 	UINT("rate_hz", struct rmd_config_loop, rate_hz, 1, RMD_CONFIG_RATE_MAX_HZ, 0),
@@ -906,7 +906,7 @@ out:
 
 int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, unsigned nmotors)
 {
-	const unsigned per_bus = 3; /* DESIGN.md: 3 motors per 1 Mbit/s bus at 1 kHz */
+	const unsigned per_bus = 3; /* docs/design.md: 3 motors per 1 Mbit/s bus at 1 kHz */
 	struct rmd_sim_bus_setup model;
 
 	if (nmotors < 1 || nmotors > RMD_MAX_MOTORS)

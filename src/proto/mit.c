@@ -2,7 +2,7 @@
 /*
  * MIT motion mode packing (V3 §5), bytes <-> SI values over per-motor ranges.
  *
- * Quantisation divides by 2^bits - 1 (DESIGN.md), so code 0 is min and the
+ * Quantisation divides by 2^bits - 1 (docs/design.md), so code 0 is min and the
  * top code is max.  The manual's worked example (V3 §5.4) divides the 16-bit
  * position by 65536 (58982 / 65536 * 25 - 12.5 = 9.9998, printed "9.99") but
  * every 12-bit field by 4095; with 65536 the top code could never reach

@@ -175,7 +175,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		lat_add(&lm->lat, lm->st.reply_latency_ns);
 		loop_alive(l, lm, now);
 		if (echo) {
-			/* DESIGN.md: after a comm-loss trip the first command is only echoed */
+			/* docs/design.md: after a comm-loss trip the first command is only echoed */
 			l->cnt.echoes++;
 			return;
 		}
@@ -189,7 +189,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		return;
 	}
 	if (cmd == RMD_MOTOR_CMD_COMM_LOST) {
-		/* DESIGN.md: the motor's comm-loss protection tripped; its output is off */
+		/* docs/design.md: the motor's comm-loss protection tripped; its output is off */
 		l->cnt.unsolicited++;
 		if (lm->st.lifecycle != RMD_LC_LOST) {
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), b,

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * A simulated RMD motor behind its frame interface (DESIGN.md layer 3):
+ * A simulated RMD motor behind its frame interface (docs/design.md, layer sim):
  * lifecycle, settings (RAM/ROM), comm-loss protection, unsolicited frames
  * and every command of the V2.0 and V3.6 manuals.  Under them, the
  * mechanics, the firmware's control loops, temperature and fault detection
@@ -27,7 +27,7 @@
 #include "rmd/sim.h"
 #include "sim_motor_priv.h"
 
-/* DESIGN.md (seen on V4 firmware): a 0xF1 frame each second after a trip. */
+/* docs/design.md (seen on V4 firmware): a 0xF1 frame each second after a trip. */
 #define COMM_LOST_PERIOD_NS INT64_C(1000000000)
 /* V3 §2.33.4 index 3: while faulted, 0x9A every 100 ms. */
 #define ERROR_REPORT_PERIOD_NS INT64_C(100000000)
@@ -67,7 +67,7 @@ static const struct rmd_sim_motor_params default_params = {
 	.stall_time_s = 1.0,
 	.has_brake = true,
 	.encoder_bits = 16,
-	/* DESIGN.md: motors answer 0.5-0.8 ms after a request. */
+	/* docs/design.md: motors answer 0.5-0.8 ms after a request. */
 	.turnaround_ns = 500000.0,
 	.turnaround_jitter_ns = 100000.0,
 };
@@ -184,7 +184,7 @@ static void rom_defaults(struct rmd_sim_motor *m)
 
 /*
  * Start the firmware: power-on or 0x76.  RAM settings come from ROM, the
- * multi-turn count is lost (DESIGN.md) unless 0x20 index 4 saved it and
+ * multi-turn count is lost (docs/design.md) unless 0x20 index 4 saved it and
  * index 1 did not ask to clear it (V3 §2.33.4), the brake is locked
  * (V3 §2.27.1: the brake state without power) and the shaft is at rest.
  */
@@ -965,7 +965,7 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 		break;
 	}
 
-	/* DESIGN.md: after a comm-loss trip the first command is only echoed. */
+	/* docs/design.md: after a comm-loss trip the first command is only echoed. */
 	if (note_rx(m, now_ns))
 		return echo(f, reply_id, out, max);
 
@@ -1001,7 +1001,7 @@ int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame
 	rmd_sim_motor_step(m, now_ns);
 	if (!m->present || !out)
 		max = 0;
-	/* DESIGN.md: 0xF1 each second while the protection holds (V4 firmware). */
+	/* docs/design.md: 0xF1 each second while the protection holds (V4 firmware). */
 	while (m->comm_lost && m->next_f1_ns <= now_ns) {
 		if (n >= max) {
 			if (m->present && out)

@@ -371,7 +371,7 @@ static void thermal(struct rmd_sim_motor *m, double dt)
 
 /*
  * V3 §2.30: no frame for longer than the 0xB3 time cuts the output and
- * locks the brake; DESIGN.md: 0xF1 frames from then on, each second.
+ * locks the brake; docs/design.md: 0xF1 frames from then on, each second.
  */
 static void check_comm(struct rmd_sim_motor *m)
 {

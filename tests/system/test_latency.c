@@ -33,7 +33,7 @@
  * with clock_nanosleep(TIMER_ABSTIME) and records how late it wakes.  The
  * p99 is judged against one cycle + 200 us + twice that probe's p99 (a
  * command crosses two normal-priority wake-ups: LCM's receive thread and
- * the bridge), DESIGN.md's rule for this noisy virtual machine; whether
+ * the bridge), docs/design.md's rule for this noisy virtual machine; whether
  * the plain bound held is printed too.  What a bridge of no delay would give (the first cycle
  * after each publish) is printed too, so the part of the latency the tick
  * imposes is told from the part the LCM receive path and the bridge add.
@@ -742,7 +742,7 @@ static void test_publish_to_frame_latency(void **state)
 		      (long long)(ls.wake_max_ns / NS_PER_US), (unsigned long long)ls.cycles,
 		      (unsigned long long)ls.overruns, (long long)(ls.cycle_max_ns / NS_PER_US));
 	/*
-	 * DESIGN.md: this machine is itself a VM whose scheduler wakes threads
+	 * docs/design.md: this machine is itself a VM whose scheduler wakes threads
 	 * milliseconds late at times; latency is judged against the noise
 	 * measured in the same run.  A command crosses two normal-priority
 	 * wake-ups before the rt loop sees it (LCM's udpm receive thread, then

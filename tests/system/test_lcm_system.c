@@ -1061,7 +1061,7 @@ again:
 			 (long long)(cycles + overruns), (long long)ticks);
 	/*
 	 * This machine is a VM whose own scheduler makes the loop skip periods
-	 * now and then (DESIGN.md): judged against the quiet second before,
+	 * now and then (docs/design.md): judged against the quiet second before,
 	 * the flood may cost at most 10 points of the periods run (90% when
 	 * the quiet second ran them all).
 	 */

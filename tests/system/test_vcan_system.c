@@ -535,7 +535,7 @@ static void publish(void)
 
 /*
  * A motor whose 0xB3 protection tripped only echoes the first frame it
- * hears next (DESIGN.md), and trips again comm_loss_ms after the last
+ * hears next (docs/design.md), and trips again comm_loss_ms after the last
  * one.  A program that starts longer than that after the previous frame
  * (rmdctl in the guest: 0.1-1 s) always meets a freshly tripped motor.
  * keepalive() reads one motor's status 2 (0x9C, V3 §2.13: changes nothing)
@@ -939,7 +939,7 @@ static void rmdd_start(void)
 	S.rmdd_kid = kid_spawn("rmdd", argv, NULL, 0);
 	kid_wait_output(S.rmdd_kid, "rmdd: running:", READY_MS, service);
 	print_bringup(S.rmdd_kid);
-	/* DESIGN.md: after a comm-loss trip the first command is only echoed */
+	/* docs/design.md: after a comm-loss trip the first command is only echoed */
 	if (strstr(S.rmdd_kid->out, "(no model)"))
 		fail_msg("bring-up took the echo of 0xB5 from a motor whose 0xB3 protection had "
 			 "tripped for its model (\"(no model)\"):\n%s",
@@ -2120,7 +2120,7 @@ static void test_system_kill9(void **state)
 			      line);
 		if (json_num(line, "voltage_v") < 1 && json_num(line, "temperature_c") < 1)
 			fail_msg("rmdctl took the motor's echo of 0x9A (the first frame after a "
-				 "comm-loss trip, DESIGN.md) for its status: %s",
+				 "comm-loss trip, docs/design.md) for its status: %s",
 				 line);
 	}
 }

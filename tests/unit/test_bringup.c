@@ -335,7 +335,7 @@ static void test_config_timing(void **state)
 	(void)state;
 	assert_int_equal(rmd_bus_config_timing(&can, &t), 0);
 	assert_int_equal(t.bitrate, 1000000);
-	assert_int_equal(t.frame_bits, 135); /* DESIGN.md: worst-case stuffed 8-byte frame */
+	assert_int_equal(t.frame_bits, 135); /* docs/design.md: worst-case stuffed 8-byte frame */
 	assert_int_equal(t.turnaround_ns, 0);
 	assert_false(t.half_duplex);
 	assert_int_equal(rmd_bus_config_timing(&rs, &t), 0);

@@ -3,7 +3,7 @@
  * can_timing tests: frames worked out by hand, then thousands of seeded
  * random frames cross-checked against a second, deliberately naive model
  * in this file (build the bit string as an array, CRC by polynomial long
- * division, stuff into a second array, count), and the bounds of DESIGN.md.
+ * division, stuff into a second array, count), and the bounds of docs/design.md.
  */
 #include <errno.h>
 #include <setjmp.h>
@@ -258,7 +258,7 @@ static void test_uniform_data_every_id(void **state)
 	}
 }
 
-/* DESIGN.md: 111 bits unstuffed, 135 worst case, for 8 data bytes. */
+/* docs/design.md: 111 bits unstuffed, 135 worst case, for 8 data bytes. */
 static void test_bounds_design_figures(void **state)
 {
 	static const unsigned worst[9] = { 55, 65, 75, 85, 95, 105, 115, 125, 135 };

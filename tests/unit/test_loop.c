@@ -507,7 +507,7 @@ static void test_enable_position_moves(void **state)
 	/* the others were not enabled and did not move */
 	assert_int_equal(s.m[1].lifecycle, RMD_LC_READY);
 	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
-	/* DESIGN.md: answers 0.5-0.8 ms after the request, plus wire time */
+	/* docs/design.md: answers 0.5-0.8 ms after the request, plus wire time */
 	for (unsigned i = 0; i < 3; i++) {
 		if (s.m[i].reply_latency_ns < 500 * US || s.m[i].reply_latency_ns > 1200 * US)
 			fail_msg("motor %u: latency %lld ns", i,

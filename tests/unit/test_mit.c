@@ -27,7 +27,7 @@
 
 static uint64_t seed;
 
-/* Default ranges but torque ±18 N·m, as some firmware has (DESIGN.md); set by main(). */
+/* Default ranges but torque ±18 N·m, as some firmware has (docs/design.md); set by main(). */
 static struct rmd_mit_ranges ranges_t18;
 
 /* Every value equals its code (every minimum 0): shows where each bit lands. */

@@ -291,7 +291,7 @@ static void test_clamp_mit(void **state)
 	uint8_t id;
 
 	(void)state;
-	c.mit.t_min = -18.0; /* some firmware (DESIGN.md) */
+	c.mit.t_min = -18.0; /* some firmware (docs/design.md) */
 	c.mit.t_max = 18.0;
 	c.limits.position_max_rad = 1.0;
 	c.limits.torque_nm = 30.0;

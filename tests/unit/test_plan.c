@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * Bus planner: budgets with the exact numbers of DESIGN.md (135-bit frames,
+ * Bus planner: budgets with the exact numbers of docs/design.md (135-bit frames,
  * 3 V3/MIT motors or 4 batched V2 motors per 1 Mbit/s bus at 1 kHz), V2
  * 0x280 batching, rate divisors, status polls, RS485, and
  * `rmdd --check-config` run as a process on the examples.
@@ -188,7 +188,7 @@ static const struct variant variants[] = {
 			0, 0 },
 	[ONE_V3_500K] = { "can0", RMD_BUS_KIND_SOCKETCAN, 500000, 1000, 1, 1, RMD_PROTO_V3,
 			  RMD_MODE_TORQUE, 1, 0, 0, "", 2 * 2 * FRAME_NS, 0 },
-	/* DESIGN.md: 32 motors on one bus top out near 116 Hz */
+	/* docs/design.md: 32 motors on one bus top out near 116 Hz */
 	[V3_32] = { CAN0, 1, 32, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 1, -ENOSPC,
 		    "can0: 32 motors at 1000 Hz need 8640 µs per cycle worst case, " NO_ROOM_3
 		    "115 Hz",
@@ -597,7 +597,7 @@ static void test_bitrate_500k(void **state)
 				"the cycle is 1000 µs: use ≤ 1 motor, or a rate ≤ 925 Hz");
 }
 
-/* DESIGN.md: 32 motors on one bus top out near 116 Hz. */
+/* docs/design.md: 32 motors on one bus top out near 116 Hz. */
 static void test_32_on_one_bus(void **state)
 {
 	struct rmd_plan_slot s[RMD_PLAN_MAX_SLOTS];

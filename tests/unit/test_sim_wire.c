@@ -387,7 +387,7 @@ static void test_overload_runs_late(void **state)
 	int64_t early, late, m1, m5;
 
 	(void)state;
-	/* 3 motors at 1 kHz fit (DESIGN.md): latency stays put. */
+	/* 3 motors at 1 kHz fit (docs/design.md): latency stays put. */
 	add_motors(3);
 	assert_int_equal(run_cycles(3, 0x9C, t0, MS, 40, 10 * MS), 0);
 	latencies(3, t0, 40);
@@ -751,7 +751,7 @@ static void test_fault_flood_high_id_yields(void **state)
 
 /* ---- queues, statistics, configuration ------------------------------------ */
 
-/* DESIGN.md: txqueuelen 10 refuses a 32-frame burst with ENOBUFS. */
+/* docs/design.md: txqueuelen 10 refuses a 32-frame burst with ENOBUFS. */
 static void test_txqueuelen_enobufs(void **state)
 {
 	struct rmd_frame f[32];
@@ -798,7 +798,7 @@ static void test_send_rejects_bad_frames(void **state)
  * Unsolicited frames take the same way as replies, at the time they fall
  * due: V3 §2.30 comm-loss protection set to 100 ms, then silence.  The
  * motor trips 100 ms after the last frame it heard and sends 0xF1 then and
- * every second (DESIGN.md, V4 firmware).
+ * every second (docs/design.md, V4 firmware).
  */
 static void test_unsolicited_frames(void **state)
 {

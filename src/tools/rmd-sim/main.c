@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * rmd-sim: simulated RMD motors on a real wire (DESIGN.md layer 7, the
+ * rmd-sim: simulated RMD motors on a real wire (docs/design.md, layer tools, the
  * `rmd-sim` tool of layer 3's simulator).
  *
  *   rmd-sim [options] --can IFACE

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * rmdd: the real-time daemon for RMD motors (DESIGN.md layer 7).
+ * rmdd: the real-time daemon for RMD motors (docs/design.md, layer tools).
  *
  *   rmdd --check-config FILE   load FILE, plan every bus, print the plan;
  *                              exit 0 when it fits, 1 with the errors

@@ -125,7 +125,7 @@ static void log_motor_error(const struct rmd_config *cfg, const struct rmd_event
 
 	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
 	if (e->b == RMD_MOTOR_CMD_COMM_LOST) {
-		/* DESIGN.md: the motor heard nothing for its 0xB3 time */
+		/* docs/design.md: the motor heard nothing for its 0xB3 time */
 		tool_log(4,
 			 "%s: its comm-loss protection tripped (0xF1): output off, brake locked; "
 			 "treated as lost",
