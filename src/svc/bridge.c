@@ -695,14 +695,23 @@ static void publish_health(struct rmd_bridge *b, int64_t now)
 	o->owner = b->owned ? b->owner : 0;
 	o->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);
 	o->takeovers = sat64(read_count(&b->n_takeovers));
-	o->motor_count = (int16_t)(h->nmotors < RMD_MAX_MOTORS ? h->nmotors : RMD_MAX_MOTORS);
+	/*
+	 * Every configured motor, always (config_t's count): before the loop's
+	 * first health its entries read "pending", and a C subscriber never
+	 * decodes an empty int8_t array (LCM 1.3.1's generated decode passes
+	 * NULL to memcpy for one).
+	 */
+	o->motor_count =
+		(int16_t)(b->opts.nmotors < RMD_MAX_MOTORS ? b->opts.nmotors : RMD_MAX_MOTORS);
 	o->comm_loss = b->buf->health_cl;
 	o->comm_loss_ms = b->buf->health_cl_ms;
 	o->unarmed_rejects = b->buf->health_unarmed;
 	for (int i = 0; i < o->motor_count; i++) {
-		o->comm_loss[i] = (int8_t)h->comm_loss[i];
-		o->comm_loss_ms[i] = sat32(h->comm_loss_ms[i]);
-		o->unarmed_rejects[i] = sat64(h->unarmed_rejects[i]);
+		bool known = (unsigned)i < h->nmotors;
+
+		o->comm_loss[i] = known ? (int8_t)h->comm_loss[i] : 0;
+		o->comm_loss_ms[i] = known ? sat32(h->comm_loss_ms[i]) : 0;
+		o->unarmed_rejects[i] = known ? sat64(h->unarmed_rejects[i]) : 0;
 	}
 
 	n = rmd_health_t_encode(b->buf->enc, 0, ENC_MAX, o);

@@ -761,7 +761,7 @@ static void test_require_rt_refuses(void **state)
 static void test_no_stall_hook_in_rmdd(void **state)
 {
 	static struct proc p;
-	static char bin[4 << 20];
+	static char bin[64 << 20]; /* rmdd, sanitizer builds included */
 	struct spawn_opts so = { .env_extra = "RMDD_TEST_STALL_AFTER_MS=100" };
 	FILE *f;
 	size_t n;

@@ -114,7 +114,8 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 	R.how = how;
 	t_now = 1000 * MS;
 	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.simset, n), 0);
-	memcpy(R.simset.buses[0].faults, faults, n_faults * sizeof(*faults));
+	if (n_faults)
+		memcpy(R.simset.buses[0].faults, faults, n_faults * sizeof(*faults));
 	R.simset.buses[0].n_faults = n_faults;
 	if (rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err)))
 		fail_msg("plan: %s", err);

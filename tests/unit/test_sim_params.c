@@ -230,7 +230,7 @@ static void test_help(void **state)
 		if (!at)
 			fail_msg("--help does not name %s:\n%s", row->key, text);
 		/* the row's own entry: up to the next option */
-		end = strstr(at + 2, "\n  --");
+		end = strstr(at, "\n  --"); /* at starts with "--", never with a newline */
 		n = end ? (size_t)(end - at) : strlen(at);
 		snprintf(entry, sizeof(entry), "%.*s", (int)n, at);
 		at = entry;
