@@ -19,7 +19,6 @@ cd "$(dirname "$0")/.."
 . bench/lib.sh
 bench_init insn
 CYCLES=${CYCLES:-1000}
-COUNTS=${COUNTS:-3 6 12 18 24 32}
 RIG=$BUILD/bench/insn_rig
 command -v valgrind >/dev/null 2>&1 || { echo "insn-per-cycle: needs valgrind"; exit 2; }
 [ -x "$RIG" ] || { echo "insn-per-cycle: no $RIG (make)"; exit 2; }

@@ -16,6 +16,8 @@
 #                         sys.argv[2:], and makes fig), save PNG and say
 #                         what was written.
 BASE=${BASE:-8c261d5}
+# The motor counts the scaling benches sweep (insn-per-cycle.sh, scale.sh).
+COUNTS=${COUNTS:-3 6 12 18 24 32}
 
 bench_base() {
 	dir=/tmp/rmdd-bench-base-$BASE

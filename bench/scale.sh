@@ -16,7 +16,6 @@ cd "$(dirname "$0")/.."
 . bench/lib.sh
 bench_init scale
 DURATION=${DURATION:-10}
-COUNTS=${COUNTS:-3 6 12 18 24 32}
 hz=$(getconf CLK_TCK)
 
 # run BUILD_DIR LABEL N: appends "LABEL N loop% proc% misses overruns cycles"
