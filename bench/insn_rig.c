@@ -17,7 +17,8 @@
  * rig prints how many cycles it measured and the motors' lifecycles, so a
  * run that did not reach the state it claims fails loudly.
  *
- * Non-rt, a benchmark: it allocates at set-up only.
+ * Non-rt, a benchmark: it allocates at set-up only.  The clock is
+ * tests/harness/clock.c (self-contained: the baseline build links it too).
  */
 #include <errno.h>
 #include <math.h>
@@ -25,6 +26,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "harness/clock.h" /* the loop suites' injected clock: t_now */
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
 #include "rmd/config.h"
@@ -43,20 +45,6 @@
 
 #define MS INT64_C(1000000)
 #define WARM 2000
-
-static int64_t t_now;
-
-static int64_t fake_now(void *ctx)
-{
-	(void)ctx;
-	return t_now;
-}
-
-static void fake_sleep(void *ctx, int64_t ns)
-{
-	(void)ctx;
-	t_now += ns;
-}
 
 static struct rmd_config cfg;
 static struct rmd_sim_setup sim;
