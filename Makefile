@@ -225,7 +225,7 @@ INSN_RIG := $(BUILD)/bench/insn_rig
 all: $(INSN_RIG)
 $(BUILD)/bench/insn_rig.o: override CFLAGS += -Itests
 $(BUILD)/bench/insn_rig.o: | $(GEN_HDRS)
-$(INSN_RIG): $(BUILD)/bench/insn_rig.o $(BUILD)/tests/harness/clock.o $(LIB)
+$(INSN_RIG): $(BUILD)/bench/insn_rig.o $(BUILD)/tests/harness/clock.o $(BUILD)/tests/harness/loop_io.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 

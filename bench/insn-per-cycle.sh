@@ -28,7 +28,8 @@ if [ "$BASE" != none ]; then
 	echo "insn-per-cycle: building the baseline $BASE"
 	dir=$(bench_base build/librmd.a)
 	cc -O2 -g -std=gnu11 -I"$dir/include" -I"$dir/src" -I"$dir/build/gen" -Itests \
-		-o "$dir/insn_rig" bench/insn_rig.c tests/harness/clock.c "$dir/build/librmd.a" \
+		-o "$dir/insn_rig" bench/insn_rig.c tests/harness/clock.c \
+		tests/harness/loop_io.c "$dir/build/librmd.a" \
 		$(pkg-config --libs libmodbus yaml-0.1 lcm libsystemd 2>/dev/null) -lm
 	base_rig=$dir/insn_rig
 fi

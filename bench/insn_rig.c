@@ -27,6 +27,7 @@
 #include <string.h>
 
 #include "harness/clock.h" /* the loop suites' injected clock: t_now */
+#include "harness/loop_io.h"
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
 #include "rmd/config.h"
@@ -50,12 +51,9 @@ static struct rmd_config cfg;
 static struct rmd_sim_setup sim;
 static struct rmd_plan plan;
 static struct rmd_bus buses[RMD_MAX_BUSES];
-static struct rmd_latest cmds, snaps, health;
-static struct rmd_command cmd_buf[3], cmd;
-static struct rmd_snapshot snap_buf[3], snap;
-static struct rmd_health health_buf[3];
-static struct rmd_ring events;
-static struct rmd_event ev_buf[1024];
+static struct rig_loop_io io;
+static struct rmd_command cmd;
+static struct rmd_snapshot snap;
 static struct rmd_bringup report;
 
 static void command_for(unsigned k)
@@ -88,14 +86,14 @@ __attribute__((noinline)) void rig_cycles(struct rmd_loop *l, unsigned n, bool e
 	for (unsigned k = k0; k < k0 + n; k++) {
 		if (enabled) {
 			command_for(k);
-			rmd_latest_put(&cmds, &cmd);
+			rmd_latest_put(&io.cmds, &cmd);
 		}
 		rmd_loop_cycle(l, t_now);
 		t_now += plan.period_ns;
-		while (rmd_ring_pop(&events, &ev))
+		while (rmd_ring_pop(&io.events, &ev))
 			;
-		rmd_latest_get(&snaps, &p);
-		rmd_latest_get(&health, &p);
+		rmd_latest_get(&io.snaps, &p);
+		rmd_latest_get(&io.health, &p);
 	}
 }
 
@@ -152,23 +150,11 @@ int main(int argc, char **argv)
 	}
 	if (open_buses())
 		return 1;
-	rmd_latest_init(&cmds, cmd_buf, sizeof(struct rmd_command));
-	rmd_latest_init(&snaps, snap_buf, sizeof(struct rmd_snapshot));
-	rmd_latest_init(&health, health_buf, sizeof(struct rmd_health));
-	rmd_ring_init(&events, ev_buf, 1024, sizeof(struct rmd_event));
 	t_now = 1000 * MS;
-	o = (struct rmd_loop_opts){
-		.cfg = &cfg,
-		.plan = &plan,
-		.buses = buses,
-		.commands = &cmds,
-		.snapshots = &snaps,
-		.health = &health,
-		.events = &events,
-		.snapshot_fd = -1,
-		.now_ns = fake_now,
-		.sleep_ns = fake_sleep,
-	};
+	if (rig_loop_opts(&io, &cfg, &plan, buses, &o)) {
+		fprintf(stderr, "insn_rig: event ring\n");
+		return 1;
+	}
 	l = rmd_loop_new(&o, err, sizeof(err));
 	if (!l) {
 		fprintf(stderr, "insn_rig: %s\n", err);

@@ -40,6 +40,7 @@
 #include "rmd/state.h"
 
 #include "harness/clock.h"
+#include "harness/loop_io.h"
 #include "harness/rig.h"
 
 #define MS INT64_C(1000000)
@@ -66,12 +67,7 @@ struct rig {
 	struct rmd_plan plan;
 	struct rmd_bus buses[RMD_MAX_BUSES];
 	int64_t epoch[RMD_MAX_BUSES]; /* caller time at sim time 0 */
-	struct rmd_latest cmds, snaps, health;
-	struct rmd_command cmd_buf[3];
-	struct rmd_snapshot snap_buf[3];
-	struct rmd_health health_buf[3];
-	struct rmd_ring events;
-	struct rmd_event ev_buf[1024];
+	struct rig_loop_io io;	      /* commands, snapshots, health, events */
 	struct rmd_loop *l;
 	struct rmd_command cmd;	   /* the command the test builds */
 	struct rmd_bringup report; /* of the last bring-up */
@@ -95,7 +91,7 @@ static void events_pump(void)
 {
 	struct rmd_event e;
 
-	while (rmd_ring_pop(&R.events, &e))
+	while (rmd_ring_pop(&R.io.events, &e))
 		if (nev < EVENTS_MAX)
 			evs[nev++] = e;
 }
@@ -160,22 +156,11 @@ static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
 	if (r)
 		fail_msg("plan: %s", err);
 	open_buses();
-	rmd_latest_init(&R.cmds, R.cmd_buf, sizeof(struct rmd_command));
-	rmd_latest_init(&R.snaps, R.snap_buf, sizeof(struct rmd_snapshot));
-	rmd_latest_init(&R.health, R.health_buf, sizeof(struct rmd_health));
-	assert_int_equal(rmd_ring_init(&R.events, R.ev_buf, 1024, sizeof(struct rmd_event)), 0);
-	o = (struct rmd_loop_opts){
-		.cfg = &R.cfg,
-		.plan = &R.plan,
-		.buses = R.buses,
-		.commands = &R.cmds,
-		.snapshots = &R.snaps,
-		.health = &R.health,
-		.events = &R.events,
-		.snapshot_fd = -1,
-		.now_ns = real ? NULL : fake_now,
-		.sleep_ns = real ? NULL : fake_sleep,
-	};
+	assert_int_equal(rig_loop_opts(&R.io, &R.cfg, &R.plan, R.buses, &o), 0);
+	if (real) { /* the loop's own clock */
+		o.now_ns = NULL;
+		o.sleep_ns = NULL;
+	}
 	R.l = rmd_loop_new(&o, err, sizeof(err));
 	if (!R.l)
 		fail_msg("rmd_loop_new: %s", err);
@@ -218,7 +203,7 @@ static void run(unsigned n, bool with_cmd)
 		if (with_cmd) {
 			R.cmd.rx_ns = t_now;
 			R.cmd.seq++;
-			rmd_latest_put(&R.cmds, &R.cmd);
+			rmd_latest_put(&R.io.cmds, &R.cmd);
 		}
 		rmd_loop_cycle(R.l, t_now);
 		t_now += period();
@@ -691,7 +676,7 @@ static void test_watchdog(void **state)
 
 	(void)state;
 	up_at_speed(NULL, 2, 1.0, 150);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_int_equal(h->watchdog, RMD_WD_OK);
 	last_cmd = t_now - period();
@@ -711,7 +696,7 @@ static void test_watchdog(void **state)
 	assert_int_equal(lifecycle(2), RMD_LC_READY);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
 	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, -1), 2);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_int_equal(h->watchdog, RMD_WD_TRIPPED);
 	assert_int_equal(h->safe_action_events, 2);
@@ -722,7 +707,7 @@ static void test_watchdog(void **state)
 	run(150, true);
 	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_int_equal(h->watchdog, RMD_WD_OK);
 	rig_down();
@@ -965,7 +950,7 @@ static void test_health(void **state)
 	rig_up(6, NULL);
 	bring_up();
 	run(250, false);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_int_equal(h->nbuses, 2);
 	assert_string_equal(h->bus[1].name, "sim1");
@@ -1039,7 +1024,7 @@ static void test_health_getter(void **state)
 	assert_false(rmd_loop_get_health(R.l, &got)); /* none before the first cycle */
 	bring_up();
 	run(250, false);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_true(rmd_loop_get_health(R.l, &got));
 	assert_memory_equal(&got, h, sizeof(got));

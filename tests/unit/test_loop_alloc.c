@@ -40,6 +40,7 @@
 
 #include "harness/alloc_count.h"
 #include "harness/clock.h"
+#include "harness/loop_io.h"
 #include "harness/rig.h"
 
 #define MS INT64_C(1000000)
@@ -51,12 +52,9 @@ static struct rmd_config cfg;
 static struct rmd_sim_setup sim;
 static struct rmd_plan plan;
 static struct rmd_bus buses[RMD_MAX_BUSES];
-static struct rmd_latest cmds, snaps, health;
-static struct rmd_command cmd_buf[3], cmd;
-static struct rmd_snapshot snap_buf[3], snap;
-static struct rmd_health health_buf[3];
-static struct rmd_ring events;
-static struct rmd_event ev_buf[256];
+static struct rig_loop_io io;
+static struct rmd_command cmd;
+static struct rmd_snapshot snap;
 static struct rmd_bringup report;
 
 /* sim0: V3 position, V3 speed, MIT; sim1: V3 torque x3; sim2: four V2 in one 0x280 frame */
@@ -140,22 +138,7 @@ static void test_cycle_allocates_nothing(void **state)
 		fail_msg("%s", err);
 	assert_int_equal(plan.bus[2].batch, RMD_BATCH_ON);
 	rig_open_buses(&cfg, &sim, buses);
-	rmd_latest_init(&cmds, cmd_buf, sizeof(struct rmd_command));
-	rmd_latest_init(&snaps, snap_buf, sizeof(struct rmd_snapshot));
-	rmd_latest_init(&health, health_buf, sizeof(struct rmd_health));
-	assert_int_equal(rmd_ring_init(&events, ev_buf, 256, sizeof(struct rmd_event)), 0);
-	o = (struct rmd_loop_opts){
-		.cfg = &cfg,
-		.plan = &plan,
-		.buses = buses,
-		.commands = &cmds,
-		.snapshots = &snaps,
-		.health = &health,
-		.events = &events,
-		.snapshot_fd = -1,
-		.now_ns = fake_now,
-		.sleep_ns = fake_sleep,
-	};
+	assert_int_equal(rig_loop_opts(&io, &cfg, &plan, buses, &o), 0);
 	l = rmd_loop_new(&o, err, sizeof(err));
 	if (!l)
 		fail_msg("%s", err);
@@ -194,14 +177,14 @@ static void test_cycle_allocates_nothing(void **state)
 		/* the controller is silent for 300 ms from 8000 */
 		if (k < 8000 || k >= 8300) {
 			command_for(k);
-			rmd_latest_put(&cmds, &cmd);
+			rmd_latest_put(&io.cmds, &cmd);
 		}
 		rmd_loop_cycle(l, t_now);
 		t_now += plan.period_ns;
-		while (rmd_ring_pop(&events, &ev))
+		while (rmd_ring_pop(&io.events, &ev))
 			nev++;
-		rmd_latest_get(&snaps, &p);
-		rmd_latest_get(&health, &p);
+		rmd_latest_get(&io.snaps, &p);
+		rmd_latest_get(&io.health, &p);
 	}
 	rmd_loop_get_snapshot(l, &snap);
 	rmd_loop_get_stats(l, &st);
