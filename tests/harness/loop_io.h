@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The configuration, plan, buses and channels of a loop of the rigs (test_loop, test_loop_alloc,
+ * The configuration, plan, buses and channels of a loop of the rigs (test_loop, test_loop_alloc, test_latency,
  * bench/insn_rig.c): commands in, snapshots and health out, events to the
  * logger, and the loop's options on them with the injected clock
  * (harness/clock.h).  No cmocka: bench/insn_rig.c links it, also against
@@ -27,7 +27,7 @@ struct rig_loop {
 	struct rmd_snapshot snap_buf[3];
 	struct rmd_health health_buf[3];
 	struct rmd_ring events;
-	struct rmd_event ev_buf[1024];
+	struct rmd_event ev_buf[4096];
 };
 
 /*
