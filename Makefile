@@ -224,8 +224,9 @@ $(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
 # callgrind: the loop on simulated buses with an injected clock.
 INSN_RIG := $(BUILD)/bench/insn_rig
 all: $(INSN_RIG)
+$(BUILD)/bench/insn_rig.o: override CFLAGS += -Itests
 $(BUILD)/bench/insn_rig.o: | $(GEN_HDRS)
-$(INSN_RIG): $(BUILD)/bench/insn_rig.o $(LIB)
+$(INSN_RIG): $(BUILD)/bench/insn_rig.o $(BUILD)/tests/harness/clock.o $(BUILD)/tests/harness/loop_io.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 

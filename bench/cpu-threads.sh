@@ -15,15 +15,11 @@
 set -eu
 cd "$(dirname "$0")/.."
 . bench/lib.sh
-BUILD=${BUILD:-build}
+bench_init cpu
 DURATION=${DURATION:-20}
 CONFIG=${CONFIG:-examples/sim-12.yaml}
 LCM_URL=${LCM_URL:-udpm://239.255.76.67:7667?ttl=0}
-OUT=${OUT:-bench/results}
-mkdir -p "$OUT"
 hz=$(getconf CLK_TCK)
-work=$(mktemp -d /tmp/rmdd-bench-cpu.XXXXXX)
-trap 'rm -rf "$work"' EXIT
 
 # ticks of thread $1/$2 (utime + stime); comm may not hold spaces
 ticks() {
@@ -90,14 +86,9 @@ txt=$OUT/cpu-threads.txt
 	grep ' thread ' "$work/rows" | awk '{ printf "  %-5s %-28s %6.1f %%\n", $1, $3, $4 }'
 } >"$txt"
 cat "$txt"
-if py=$(bench_plot); then
-	"$py" - "$work/rows" "$OUT/cpu-threads.png" "$BASE" <<'PY'
-import sys
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+bench_plot_png cpu-threads "$txt" "$OUT/cpu-threads.png" "$work/rows" "$BASE" <<'PY'
 v = {}
-for l in open(sys.argv[1]):
+for l in open(sys.argv[2]):
     p = l.split()
     if len(p) == 3 and p[1] in ("loop", "rest"):
         v[(p[0], p[1])] = float(p[2])
@@ -112,8 +103,4 @@ ax.set_xticklabels(["baseline " + sys.argv[3] if b == "base" else "this build" f
 ax.set_ylabel("% of one CPU")
 ax.set_title("rmdd CPU by thread (sim-12, 1 kHz, udpm)")
 ax.legend()
-fig.tight_layout()
-fig.savefig(sys.argv[2], dpi=100)
 PY
-	echo "cpu-threads: wrote $txt and $OUT/cpu-threads.png"
-fi

@@ -17,12 +17,9 @@
 set -eu
 cd "$(dirname "$0")/.."
 . bench/lib.sh
-BUILD=${BUILD:-build}
+bench_init insn
 CYCLES=${CYCLES:-1000}
-COUNTS=${COUNTS:-3 6 12 18 24 32}
-OUT=${OUT:-bench/results}
 RIG=$BUILD/bench/insn_rig
-mkdir -p "$OUT"
 command -v valgrind >/dev/null 2>&1 || { echo "insn-per-cycle: needs valgrind"; exit 2; }
 [ -x "$RIG" ] || { echo "insn-per-cycle: no $RIG (make)"; exit 2; }
 
@@ -30,8 +27,9 @@ base_rig=
 if [ "$BASE" != none ]; then
 	echo "insn-per-cycle: building the baseline $BASE"
 	dir=$(bench_base build/librmd.a)
-	cc -O2 -g -std=gnu11 -I"$dir/include" -I"$dir/src" -I"$dir/build/gen" \
-		-o "$dir/insn_rig" bench/insn_rig.c "$dir/build/librmd.a" \
+	cc -O2 -g -std=gnu11 -I"$dir/include" -I"$dir/src" -I"$dir/build/gen" -Itests \
+		-o "$dir/insn_rig" bench/insn_rig.c tests/harness/clock.c \
+		tests/harness/loop_io.c "$dir/build/librmd.a" \
 		$(pkg-config --libs libmodbus yaml-0.1 lcm libsystemd 2>/dev/null) -lm
 	base_rig=$dir/insn_rig
 fi
@@ -74,13 +72,8 @@ END {
 }' "$data" >>"$txt"
 cat "$txt"
 
-if py=$(bench_plot); then
-	"$py" - "$data" "$OUT/insn-per-cycle.png" "$BASE" <<'PY'
-import sys
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
-rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
+bench_plot_png insn-per-cycle "$txt" "$OUT/insn-per-cycle.png" "$data" "$BASE" <<'PY'
+rows = [l.split() for l in open(sys.argv[2]) if l.strip()]
 sc = [(int(r[0].split("-")[1]), r[1], r[2]) for r in rows if r[0].endswith("-v3-torque-enabled")]
 fig, ax = plt.subplots(figsize=(6, 4))
 ax.plot([n for n, _, _ in sc], [int(a) for _, a, _ in sc], "o-", label="this build")
@@ -92,11 +85,5 @@ ax.set_title("rmdd loop: instructions per cycle vs motors")
 ax.set_ylim(bottom=0)
 ax.grid(True, alpha=0.3)
 ax.legend()
-fig.tight_layout()
-fig.savefig(sys.argv[2], dpi=100)
 PY
-	echo "insn-per-cycle: wrote $txt and $OUT/insn-per-cycle.png"
-else
-	echo "insn-per-cycle: wrote $txt (no plot: apt-get install python3-matplotlib)"
-fi
 exit 0

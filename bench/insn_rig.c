@@ -17,7 +17,8 @@
  * rig prints how many cycles it measured and the motors' lifecycles, so a
  * run that did not reach the state it claims fails loudly.
  *
- * Non-rt, a benchmark: it allocates at set-up only.
+ * Non-rt, a benchmark: it allocates at set-up only.  The clock is
+ * tests/harness/clock.c (self-contained: the baseline build links it too).
  */
 #include <errno.h>
 #include <math.h>
@@ -25,6 +26,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "harness/clock.h" /* the loop suites' injected clock: t_now */
+#include "harness/loop_io.h"
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
 #include "rmd/config.h"
@@ -44,42 +47,21 @@
 #define MS INT64_C(1000000)
 #define WARM 2000
 
-static int64_t t_now;
-
-static int64_t fake_now(void *ctx)
-{
-	(void)ctx;
-	return t_now;
-}
-
-static void fake_sleep(void *ctx, int64_t ns)
-{
-	(void)ctx;
-	t_now += ns;
-}
-
-static struct rmd_config cfg;
-static struct rmd_sim_setup sim;
-static struct rmd_plan plan;
-static struct rmd_bus buses[RMD_MAX_BUSES];
-static struct rmd_latest cmds, snaps, health;
-static struct rmd_command cmd_buf[3], cmd;
-static struct rmd_snapshot snap_buf[3], snap;
-static struct rmd_health health_buf[3];
-static struct rmd_ring events;
-static struct rmd_event ev_buf[1024];
+static struct rig_loop R; /* configuration, plan, buses, channels */
+static struct rmd_command cmd;
+static struct rmd_snapshot snap;
 static struct rmd_bringup report;
 
 static void command_for(unsigned k)
 {
 	cmd.rx_ns = t_now;
 	cmd.seq = k;
-	for (unsigned i = 0; i < cfg.n_motors; i++) {
+	for (unsigned i = 0; i < R.cfg.n_motors; i++) {
 		struct rmd_setpoint *sp = &cmd.m[i];
 
 		cmd.present |= 1u << i;
 		sp->enable = true;
-		sp->mode = (uint8_t)cfg.motors[i].mode;
+		sp->mode = (uint8_t)R.cfg.motors[i].mode;
 		sp->pos_rad = 0.5 * sin(k * 0.001);
 		sp->vel_rad_s = 0.5 * cos(k * 0.002);
 		sp->torque_nm = 0.2 * sin(k * 0.003);
@@ -100,14 +82,14 @@ __attribute__((noinline)) void rig_cycles(struct rmd_loop *l, unsigned n, bool e
 	for (unsigned k = k0; k < k0 + n; k++) {
 		if (enabled) {
 			command_for(k);
-			rmd_latest_put(&cmds, &cmd);
+			rmd_latest_put(&R.cmds, &cmd);
 		}
 		rmd_loop_cycle(l, t_now);
-		t_now += plan.period_ns;
-		while (rmd_ring_pop(&events, &ev))
+		t_now += R.plan.period_ns;
+		while (rmd_ring_pop(&R.events, &ev))
 			;
-		rmd_latest_get(&snaps, &p);
-		rmd_latest_get(&health, &p);
+		rmd_latest_get(&R.snaps, &p);
+		rmd_latest_get(&R.health, &p);
 	}
 }
 
@@ -115,13 +97,13 @@ static int open_buses(void)
 {
 	char err[512];
 
-	for (unsigned b = 0; b < cfg.n_buses; b++) {
+	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
 		struct rmd_bus_open_motor ms[RMD_MAX_MOTORS];
 		struct rmd_bus_open_ctx ctx;
 
-		rmd_bus_open_ctx_of(&cfg, &sim, b, ms, &ctx);
-		if (rmd_bus_open(&buses[b], &cfg.buses[b], &ctx, err, sizeof(err)) < 0) {
-			fprintf(stderr, "insn_rig: bus %s: %s\n", cfg.buses[b].name, err);
+		rmd_bus_open_ctx_of(&R.cfg, &R.sim, b, ms, &ctx);
+		if (rmd_bus_open(&R.buses[b], &R.cfg.buses[b], &ctx, err, sizeof(err)) < 0) {
+			fprintf(stderr, "insn_rig: bus %s: %s\n", R.cfg.buses[b].name, err);
 			return -1;
 		}
 	}
@@ -144,10 +126,10 @@ int main(int argc, char **argv)
 		return 2;
 	}
 	if (!strcmp(argv[1], "--sim") && argc > 2) {
-		r = rmd_config_sim_default(&cfg, &sim, (unsigned)atoi(argv[2]));
+		r = rmd_config_sim_default(&R.cfg, &R.sim, (unsigned)atoi(argv[2]));
 		a = 3;
 	} else {
-		r = rmd_config_load(argv[1], &cfg, &sim, err, sizeof(err));
+		r = rmd_config_load(argv[1], &R.cfg, &R.sim, err, sizeof(err));
 		a = 2;
 	}
 	if (r) {
@@ -158,29 +140,17 @@ int main(int argc, char **argv)
 		enabled = strcmp(argv[a], "ready") != 0;
 	if (argc > a + 1)
 		cycles = (unsigned)atoi(argv[a + 1]);
-	if (rmd_plan_build(&cfg, &plan, err, sizeof(err))) {
+	if (rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err))) {
 		fprintf(stderr, "insn_rig: plan: %s\n", err);
 		return 1;
 	}
 	if (open_buses())
 		return 1;
-	rmd_latest_init(&cmds, cmd_buf, sizeof(struct rmd_command));
-	rmd_latest_init(&snaps, snap_buf, sizeof(struct rmd_snapshot));
-	rmd_latest_init(&health, health_buf, sizeof(struct rmd_health));
-	rmd_ring_init(&events, ev_buf, 1024, sizeof(struct rmd_event));
 	t_now = 1000 * MS;
-	o = (struct rmd_loop_opts){
-		.cfg = &cfg,
-		.plan = &plan,
-		.buses = buses,
-		.commands = &cmds,
-		.snapshots = &snaps,
-		.health = &health,
-		.events = &events,
-		.snapshot_fd = -1,
-		.now_ns = fake_now,
-		.sleep_ns = fake_sleep,
-	};
+	if (rig_loop_opts(&R, &o)) {
+		fprintf(stderr, "insn_rig: event ring\n");
+		return 1;
+	}
 	l = rmd_loop_new(&o, err, sizeof(err));
 	if (!l) {
 		fprintf(stderr, "insn_rig: %s\n", err);
@@ -203,12 +173,12 @@ int main(int argc, char **argv)
 		n_lc[snap.m[i].lifecycle & 7]++;
 	printf("insn_rig: motors %u buses %u measured_cycles %u mode %s enabled %u ready %u "
 	       "plan_misses %llu replies %llu bad_replies %llu missed %llu\n",
-	       cfg.n_motors, cfg.n_buses, cycles, enabled ? "enabled" : "ready",
+	       R.cfg.n_motors, R.cfg.n_buses, cycles, enabled ? "enabled" : "ready",
 	       n_lc[RMD_LC_ENABLED], n_lc[RMD_LC_READY], (unsigned long long)st.plan_misses,
 	       (unsigned long long)c.replies, (unsigned long long)c.bad_replies,
 	       (unsigned long long)c.missed);
 	rmd_loop_free(l);
-	for (unsigned b = 0; b < cfg.n_buses; b++)
-		rmd_bus_close(&buses[b]);
-	return (enabled ? n_lc[RMD_LC_ENABLED] : n_lc[RMD_LC_READY]) == cfg.n_motors ? 0 : 1;
+	for (unsigned b = 0; b < R.cfg.n_buses; b++)
+		rmd_bus_close(&R.buses[b]);
+	return (enabled ? n_lc[RMD_LC_ENABLED] : n_lc[RMD_LC_READY]) == R.cfg.n_motors ? 0 : 1;
 }

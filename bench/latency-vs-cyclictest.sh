@@ -14,14 +14,10 @@
 set -eu
 cd "$(dirname "$0")/.."
 . bench/lib.sh
-BUILD=${BUILD:-build}
 DURATION=${DURATION:-30}
 CONFIG=${CONFIG:-examples/sim-12.yaml}
-OUT=${OUT:-bench/results}
-mkdir -p "$OUT"
 command -v cyclictest >/dev/null 2>&1 || { echo "latency-vs-cyclictest: needs cyclictest (apt-get install rt-tests)"; exit 2; }
-work=$(mktemp -d /tmp/rmdd-bench-lat.XXXXXX)
-trap 'rm -rf "$work"' EXIT
+bench_init lat
 
 bench_rmdd_start "$BUILD/rmdd" "$work/rmdd.log" --config "$CONFIG" --require-rt --lcm-url memq://
 pid=$BENCH_PID
@@ -69,12 +65,7 @@ txt=$OUT/latency-vs-cyclictest.txt
 cat "$txt"
 cp "$work/rmdd.hist" "$OUT/latency-rmdd.hist"
 cp "$work/ct.hist" "$OUT/latency-cyclictest.hist"
-if py=$(bench_plot); then
-	"$py" - "$work/rmdd.hist" "$work/ct.hist" "$OUT/latency-vs-cyclictest.png" <<'PY'
-import sys
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+bench_plot_png latency-vs-cyclictest "$txt" "$OUT/latency-vs-cyclictest.png" "$work/rmdd.hist" "$work/ct.hist" <<'PY'
 def load(p):
     h = {}
     for l in open(p):
@@ -83,7 +74,7 @@ def load(p):
             h[int(a)] = int(b)
     return h
 fig, ax = plt.subplots(figsize=(7, 4))
-for p, label in ((sys.argv[1], "rmdd loop (FIFO 40)"), (sys.argv[2], "cyclictest (FIFO 39)")):
+for p, label in ((sys.argv[2], "rmdd loop (FIFO 40)"), (sys.argv[3], "cyclictest (FIFO 39)")):
     h = load(p)
     if h:
         xs = sorted(h)
@@ -94,8 +85,4 @@ ax.set_ylabel("wake-ups")
 ax.set_title("wake-up lateness: rmdd vs cyclictest, same run")
 ax.grid(True, alpha=0.3)
 ax.legend()
-fig.tight_layout()
-fig.savefig(sys.argv[3], dpi=100)
 PY
-	echo "latency-vs-cyclictest: wrote $txt and $OUT/latency-vs-cyclictest.png"
-fi

@@ -7,7 +7,17 @@
 #                         TARGETS are make targets (build/rmdd, ...).
 # bench_plot              the Python with matplotlib (Debian's python3-matplotlib), or
 #                         nothing: the scripts then write their text reports only.
+# bench_init NAME         the prologue of a script: BUILD (build) and OUT
+#                         (bench/results) defaults, OUT made, and a work
+#                         directory $work removed when the script exits.
+# bench_plot_png NAME TXT PNG ARGS...
+#                         the epilogue: plot with the Python on stdin (it
+#                         finds sys, plt and PNG = sys.argv[1], ARGS in
+#                         sys.argv[2:], and makes fig), save PNG and say
+#                         what was written.
 BASE=${BASE:-8c261d5}
+# The motor counts the scaling benches sweep (insn-per-cycle.sh, scale.sh).
+COUNTS=${COUNTS:-3 6 12 18 24 32}
 
 bench_base() {
 	dir=/tmp/rmdd-bench-base-$BASE
@@ -30,6 +40,34 @@ bench_plot() {
 		fi
 	done
 	return 1
+}
+
+bench_init() {
+	BUILD=${BUILD:-build}
+	OUT=${OUT:-bench/results}
+	mkdir -p "$OUT"
+	work=$(mktemp -d "/tmp/rmdd-bench-$1.XXXXXX")
+	trap 'rm -rf "$work"' EXIT
+}
+
+bench_plot_png() {
+	name=$1
+	txt=$2
+	png=$3
+	shift 3
+	if ! py=$(bench_plot); then
+		cat >/dev/null
+		echo "$name: wrote $txt (no plot: apt-get install python3-matplotlib)"
+		return 0
+	fi
+	{
+		printf '%s\n' 'import sys' 'import matplotlib' 'matplotlib.use("Agg")' \
+			'import matplotlib.pyplot as plt'
+		cat
+		printf '%s\n' 'fig.tight_layout()' 'fig.savefig(sys.argv[1], dpi=100)'
+	} >"$work/plot.py"
+	"$py" "$work/plot.py" "$png" "$@"
+	echo "$name: wrote $txt and $png"
 }
 
 # The TID of the thread of process $1 whose comm is $2, or nothing.

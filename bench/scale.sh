@@ -14,14 +14,9 @@
 set -eu
 cd "$(dirname "$0")/.."
 . bench/lib.sh
-BUILD=${BUILD:-build}
+bench_init scale
 DURATION=${DURATION:-10}
-COUNTS=${COUNTS:-3 6 12 18 24 32}
-OUT=${OUT:-bench/results}
-mkdir -p "$OUT"
 hz=$(getconf CLK_TCK)
-work=$(mktemp -d /tmp/rmdd-bench-scale.XXXXXX)
-trap 'rm -rf "$work"' EXIT
 
 # run BUILD_DIR LABEL N: appends "LABEL N loop% proc% misses overruns cycles"
 run() {
@@ -67,13 +62,8 @@ txt=$OUT/scale.txt
 } >"$txt"
 cp "$work/rows" "$OUT/scale.dat"
 cat "$txt"
-if py=$(bench_plot); then
-	"$py" - "$work/rows" "$OUT/scale.png" "$BASE" <<'PY'
-import sys
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
-rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
+bench_plot_png scale "$txt" "$OUT/scale.png" "$work/rows" "$BASE" <<'PY'
+rows = [l.split() for l in open(sys.argv[2]) if l.strip()]
 fig, ax = plt.subplots(figsize=(6, 4))
 for b, style, label in (("base", "s--", "baseline " + sys.argv[3]), ("this", "o-", "this build")):
     r = sorted((int(x[1]), float(x[2])) for x in rows if x[0] == b)
@@ -85,8 +75,4 @@ ax.set_ylim(bottom=0)
 ax.set_title("rmdd loop thread CPU vs motors")
 ax.grid(True, alpha=0.3)
 ax.legend()
-fig.tight_layout()
-fig.savefig(sys.argv[2], dpi=100)
 PY
-	echo "scale: wrote $txt and $OUT/scale.png"
-fi

@@ -636,6 +636,18 @@ static void status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct 
  * rmd_msg gave, without the message zeroed and searched per frame).
  * Returns 0, or -ENOENT / -EINVAL as rmd_decode().  rt-safe.
  */
+/*
+ * What a reply field stored as it comes (reply_fields() below) says the
+ * reply has; 0 for the fields taken in their own way (current, speed,
+ * position) or not carried.
+ */
+static const unsigned field_have[256] = {
+	[RMD_FLD_TEMP] = RMD_MOTOR_HAVE_TEMP,	    [RMD_FLD_VOLTAGE] = RMD_MOTOR_HAVE_VOLTAGE,
+	[RMD_FLD_ERROR] = RMD_MOTOR_HAVE_ERROR,	    [RMD_FLD_BRAKE] = RMD_MOTOR_HAVE_BRAKE,
+	[RMD_FLD_MODEL] = RMD_MOTOR_HAVE_MODEL,	    [RMD_FLD_VERSION] = RMD_MOTOR_HAVE_VERSION,
+	[RMD_FLD_TIMEOUT] = RMD_MOTOR_HAVE_TIMEOUT,
+};
+
 static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
 {
 	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, f->data[0]);
@@ -658,7 +670,6 @@ static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct r
 		switch (fs->field) { /* uint8_t: the fields a state carries */
 		case RMD_FLD_TEMP:
 			r->temp_c = x;
-			r->have |= RMD_MOTOR_HAVE_TEMP;
 			break;
 		case RMD_FLD_CURRENT:
 			take_current(m, x, r);
@@ -676,31 +687,26 @@ static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct r
 			break;
 		case RMD_FLD_VOLTAGE:
 			r->voltage_v = x;
-			r->have |= RMD_MOTOR_HAVE_VOLTAGE;
 			break;
 		case RMD_FLD_ERROR:
 			r->error_code = (uint16_t)raw;
-			r->have |= RMD_MOTOR_HAVE_ERROR;
 			break;
 		case RMD_FLD_BRAKE:
 			r->brake_released = raw != 0;
-			r->have |= RMD_MOTOR_HAVE_BRAKE;
 			break;
 		case RMD_FLD_MODEL:
 			rmd_model_string(raw, r->model);
-			r->have |= RMD_MOTOR_HAVE_MODEL;
 			break;
 		case RMD_FLD_VERSION:
 			r->version_date = (uint32_t)raw;
-			r->have |= RMD_MOTOR_HAVE_VERSION;
 			break;
 		case RMD_FLD_TIMEOUT:
 			r->comm_timeout_ms = (uint32_t)raw;
-			r->have |= RMD_MOTOR_HAVE_TIMEOUT;
 			break;
 		default: /* fields a motor's state does not carry */
 			break;
 		}
+		r->have |= field_have[fs->field];
 	}
 	take_position(m, have_angle, angle, have_enc, enc, spec->cmd, r);
 	return 0;

@@ -64,6 +64,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/lcm_loopback.h"
+#include "harness/loop_io.h"
 #include "harness/rig.h"
 #include "rmd/time.h"
 #include "rmd/bridge.h"
@@ -88,8 +89,7 @@
 #define PUBLISH_GAP_NS (5 * NS_PER_MS) /* ~200 Hz, plus a random 0..1 ms */
 #define MARGIN_NS (200 * NS_PER_US)    /* issue 6: one cycle plus 200 us at p99 */
 #define MAX_RECORDS 16384	       /* every cycle's frame for 16 s */
-#define EVENT_SLOTS 4096
-#define PROBE_MAX 16384 /* jitter probe samples (1 ms apart) */
+#define PROBE_MAX 16384		       /* jitter probe samples (1 ms apart) */
 #define PREFIX "LAT_"
 #define ENABLE_WAIT_S 30 /* enable -> ENABLED: a wait */
 #define TAIL_WAIT_S 10	 /* the last setpoint's frame: a wait */
@@ -314,17 +314,8 @@ static int group_setup(void **state)
 /* ---- the daemon's pieces ----------------------------------------------------------------- */
 
 struct daemon {
-	struct rmd_config cfg;
-	struct rmd_sim_setup sim;
-	struct rmd_plan plan;
-	struct rmd_bus bus[RMD_MAX_BUSES];
+	struct rig_loop r; /* configuration, plan, buses, channels */
 	unsigned n_open;
-	struct rmd_latest commands, snapshots, health;
-	struct rmd_command cmd_buf[3];
-	struct rmd_snapshot snap_buf[3];
-	struct rmd_health health_buf[3];
-	struct rmd_ring events;
-	struct rmd_event event_buf[EVENT_SLOTS];
 	struct rmd_loop *loop;
 	struct rmd_bridge bridge;
 	bool bridge_init, loop_started;
@@ -337,8 +328,8 @@ struct daemon {
 /* Open every bus of cfg as rmdd does (src/tools/rmdd/buses.c), all sim buses here. */
 static void open_buses(struct daemon *d)
 {
-	rig_open_buses(&d->cfg, &d->sim, d->bus);
-	d->n_open = d->cfg.n_buses;
+	rig_open_buses(&d->r.cfg, &d->r.sim, d->r.buses);
+	d->n_open = d->r.cfg.n_buses;
 }
 
 /* The bridge's options from the configuration, as rmdd fills them (src/tools/rmdd_lcm.c). */
@@ -347,9 +338,9 @@ static void bridge_opts(struct daemon *d, struct rmd_bridge_opts *o)
 	rmd_bridge_opts_init(o);
 	snprintf(o->url, sizeof(o->url), "%s", d->url);
 	snprintf(o->prefix, sizeof(o->prefix), "%s", PREFIX);
-	o->nmotors = d->cfg.n_motors;
-	for (unsigned i = 0; i < d->cfg.n_motors; i++) {
-		const struct rmd_config_motor *c = &d->cfg.motors[i];
+	o->nmotors = d->r.cfg.n_motors;
+	for (unsigned i = 0; i < d->r.cfg.n_motors; i++) {
+		const struct rmd_config_motor *c = &d->r.cfg.motors[i];
 		struct rmd_motor_info *m = &o->motor[i];
 
 		snprintf(m->name, sizeof(m->name), "%s", c->name);
@@ -364,18 +355,18 @@ static void bridge_opts(struct daemon *d, struct rmd_bridge_opts *o)
 		m->vel_max_rad_s = c->limits.velocity_rad_s;
 		m->torque_max_nm = c->limits.torque_nm;
 	}
-	o->nbuses = d->cfg.n_buses;
-	for (unsigned b = 0; b < d->cfg.n_buses; b++) {
-		snprintf(o->bus[b].name, sizeof(o->bus[b].name), "%s", d->cfg.buses[b].name);
+	o->nbuses = d->r.cfg.n_buses;
+	for (unsigned b = 0; b < d->r.cfg.n_buses; b++) {
+		snprintf(o->bus[b].name, sizeof(o->bus[b].name), "%s", d->r.cfg.buses[b].name);
 		snprintf(o->bus[b].kind, sizeof(o->bus[b].kind), "sim");
-		o->bus[b].bitrate = d->cfg.buses[b].bitrate;
+		o->bus[b].bitrate = d->r.cfg.buses[b].bitrate;
 	}
-	o->period_ns = d->plan.period_ns;
-	o->state_every = d->cfg.lcm.state_every_n;
-	o->stale_ms = (int)d->cfg.lcm.stale_ms;
-	o->commands = &d->commands;
-	o->snapshots = &d->snapshots;
-	o->health = &d->health;
+	o->period_ns = d->r.plan.period_ns;
+	o->state_every = d->r.cfg.lcm.state_every_n;
+	o->stale_ms = (int)d->r.cfg.lcm.stale_ms;
+	o->commands = &d->r.cmds;
+	o->snapshots = &d->r.snaps;
+	o->health = &d->r.health;
 }
 
 static int setup(void **state)
@@ -401,41 +392,29 @@ static int setup(void **state)
 	assert_non_null(d->log);
 
 	/* rmdd --sim 1: one V3 motor on a 1 Mbit/s sim bus, at 1 kHz */
-	assert_int_equal(rmd_config_sim_default(&d->cfg, &d->sim, 1), 0);
-	if (rmd_plan_build(&d->cfg, &d->plan, err, sizeof(err)) < 0)
+	assert_int_equal(rmd_config_sim_default(&d->r.cfg, &d->r.sim, 1), 0);
+	if (rmd_plan_build(&d->r.cfg, &d->r.plan, err, sizeof(err)) < 0)
 		fail_msg("plan: %s", err);
 	open_buses(d);
-	rmd_latest_init(&d->commands, d->cmd_buf, sizeof(d->cmd_buf[0]));
-	rmd_latest_init(&d->snapshots, d->snap_buf, sizeof(d->snap_buf[0]));
-	rmd_latest_init(&d->health, d->health_buf, sizeof(d->health_buf[0]));
-	assert_int_equal(
-		rmd_ring_init(&d->events, d->event_buf, EVENT_SLOTS, sizeof(d->event_buf[0])), 0);
-	lo = (struct rmd_loop_opts){
-		.cfg = &d->cfg,
-		.plan = &d->plan,
-		.buses = d->bus,
-		.commands = &d->commands,
-		.snapshots = &d->snapshots,
-		.health = &d->health,
-		.events = &d->events,
-		.snapshot_fd = -1,
-	};
+	assert_int_equal(rig_loop_opts(&d->r, &lo), 0);
+	lo.now_ns = NULL; /* the loop's own clock */
+	lo.sleep_ns = NULL;
 	d->loop = rmd_loop_new(&lo, err, sizeof(err));
 	if (!d->loop)
 		fail_msg("rmd_loop_new: %s", err);
 	if (rmd_loop_bringup(d->loop, &report) < 0)
 		fail_msg("bring-up failed");
-	assert_int_equal(rmd_motor_init(&d->motor, &d->cfg.motors[0]), 0);
-	probe = (struct probe){ .can_id = 0x140u + d->cfg.motors[0].id };
+	assert_int_equal(rmd_motor_init(&d->motor, &d->r.cfg.motors[0]), 0);
+	probe = (struct probe){ .can_id = 0x140u + d->r.cfg.motors[0].id };
 
 	/* the wire's candump, then the hand-over shim (the sim bus is found by its ops) */
-	sim = rmd_bus_sim_get(&d->bus[0]);
+	sim = rmd_bus_sim_get(&d->r.buses[0]);
 	assert_non_null(sim);
 	rmd_sim_wire_set_tap(sim, tap, NULL);
-	real_ops = d->bus[0].ops;
+	real_ops = d->r.buses[0].ops;
 	shim_ops = *real_ops;
 	shim_ops.send = shim_send;
-	d->bus[0].ops = &shim_ops;
+	d->r.buses[0].ops = &shim_ops;
 
 	bridge_opts(d, &bo);
 	if (rmd_bridge_init(&d->bridge, &bo, err, sizeof(err)) < 0)
@@ -446,7 +425,7 @@ static int setup(void **state)
 	d->loop_started = true;
 	/* rmd_loop_start() says in the ring, before the thread runs, what it was refused */
 	d->fifo = true;
-	for (struct rmd_event ev; rmd_ring_pop(&d->events, &ev);)
+	for (struct rmd_event ev; rmd_ring_pop(&d->r.events, &ev);)
 		if (ev.kind == RMD_EV_RT && ev.b == RMD_LOOP_RT_FIFO)
 			d->fifo = false;
 	/* the loop runs: its first cycle */
@@ -470,10 +449,10 @@ static int teardown(void **state)
 	if (d->bridge_init)
 		rmd_bridge_fini(&d->bridge);
 	rmd_loop_free(d->loop);
-	if (d->n_open && d->bus[0].ops == &shim_ops)
-		d->bus[0].ops = real_ops;
+	if (d->n_open && d->r.buses[0].ops == &shim_ops)
+		d->r.buses[0].ops = real_ops;
 	for (unsigned b = d->n_open; b-- > 0;)
-		rmd_bus_close(&d->bus[b]);
+		rmd_bus_close(&d->r.buses[b]);
 	fclose(d->log);
 	free(d);
 	return 0;
@@ -552,7 +531,7 @@ static void test_publish_to_frame_latency(void **state)
 	static int64_t lat_wire[N_PUBLISH], ideal[N_PUBLISH], wake[PROBE_MAX];
 	static struct jitter jit;
 	static uint8_t buf[4096];
-	const int64_t period = d ? d->plan.period_ns : 0;
+	const int64_t period = d ? d->r.plan.period_ns : 0;
 	const bool fifo = d && d->fifo;
 	double torque[N_PUBLISH];
 	struct rmd_loop_stats ls;
@@ -571,7 +550,7 @@ static void test_publish_to_frame_latency(void **state)
 		struct rmd_setpoint s = { .enable = true, .mode = RMD_MODE_TORQUE };
 		struct rmd_frame f;
 
-		torque[k] = code_of(k) * 0.01 * d->cfg.motors[0].torque_constant_nm_a;
+		torque[k] = code_of(k) * 0.01 * d->r.cfg.motors[0].torque_constant_nm_a;
 		s.torque_nm = torque[k];
 		assert_int_equal(rmd_motor_encode(&d->motor, &s, &f, NULL), 0);
 		assert_int_equal(frame_code(&f), code_of(k));
@@ -645,9 +624,9 @@ static void test_publish_to_frame_latency(void **state)
 	assert_int_equal(rmd_loop_join(d->loop), 0);
 	d->loop_started = false;
 	lcm_destroy(pub);
-	d->bus[0].ops = real_ops;
+	d->r.buses[0].ops = real_ops;
 	t = now_ns();
-	epoch = t - rmd_bus_sim_time_ns(&d->bus[0], t);
+	epoch = t - rmd_bus_sim_time_ns(&d->r.buses[0], t);
 
 	/*
 	 * Each record is the first frame of a new setpoint: match it to the
@@ -719,7 +698,7 @@ static void test_publish_to_frame_latency(void **state)
 	dj = summarise(wake, jit.n);
 	print_message("publish -> frame, %u setpoints at ~%.0f Hz, loop %u Hz (period %lld us), "
 		      "%u replaced by a newer one within a cycle\n",
-		      N_PUBLISH, 1e9 / (PUBLISH_GAP_NS + NS_PER_MS / 2), d->plan.rate_hz,
+		      N_PUBLISH, 1e9 / (PUBLISH_GAP_NS + NS_PER_MS / 2), d->r.plan.rate_hz,
 		      (long long)(period / NS_PER_US), superseded);
 	print_dist("hand-over to the bus (asserted):", &dl);
 	print_dist("the cycle's tick (loop's now):", &dt);

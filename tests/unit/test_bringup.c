@@ -22,6 +22,7 @@
 
 #include <cmocka.h>
 
+#include "harness/clock.h"
 #include "harness/rig.h"
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
@@ -36,20 +37,6 @@
 #include "rmd/sim_wire.h"
 
 #define MS INT64_C(1000000)
-
-static int64_t t_now;
-
-static int64_t clock_now(void *ctx)
-{
-	(void)ctx;
-	return t_now;
-}
-
-static void clock_sleep(void *ctx, int64_t ns)
-{
-	(void)ctx;
-	t_now += ns;
-}
 
 /* ---- a decorator that tampers with the answers to 0xB3 ------------------------------ */
 
@@ -106,8 +93,8 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 	struct rmd_loop_opts o = { .cfg = &R.cfg,
 				   .plan = &R.plan,
 				   .buses = R.bus,
-				   .now_ns = clock_now,
-				   .sleep_ns = clock_sleep };
+				   .now_ns = fake_now,
+				   .sleep_ns = fake_sleep };
 	char err[1024];
 
 	memset(&R, 0, sizeof(R));

@@ -40,6 +40,7 @@
 #include "rmd/state.h"
 
 #include "harness/clock.h"
+#include "harness/loop_io.h"
 #include "harness/rig.h"
 
 #define MS INT64_C(1000000)
@@ -61,17 +62,8 @@ static unsigned trace_n;
 /* ---- the rig ---------------------------------------------------------------- */
 
 struct rig {
-	struct rmd_config cfg;
-	struct rmd_sim_setup sim;
-	struct rmd_plan plan;
-	struct rmd_bus buses[RMD_MAX_BUSES];
 	int64_t epoch[RMD_MAX_BUSES]; /* caller time at sim time 0 */
-	struct rmd_latest cmds, snaps, health;
-	struct rmd_command cmd_buf[3];
-	struct rmd_snapshot snap_buf[3];
-	struct rmd_health health_buf[3];
-	struct rmd_ring events;
-	struct rmd_event ev_buf[1024];
+	struct rig_loop io;	      /* configuration, plan, buses, channels */
 	struct rmd_loop *l;
 	struct rmd_command cmd;	   /* the command the test builds */
 	struct rmd_bringup report; /* of the last bring-up */
@@ -95,7 +87,7 @@ static void events_pump(void)
 {
 	struct rmd_event e;
 
-	while (rmd_ring_pop(&R.events, &e))
+	while (rmd_ring_pop(&R.io.events, &e))
 		if (nev < EVENTS_MAX)
 			evs[nev++] = e;
 }
@@ -118,7 +110,7 @@ static void sync_sim(struct rmd_config *cfg)
 {
 	for (unsigned i = 0; i < cfg->n_motors; i++) {
 		struct rmd_config_motor *m = &cfg->motors[i];
-		struct rmd_sim_motor_params *p = &R.sim.motors[i];
+		struct rmd_sim_motor_params *p = &R.io.sim.motors[i];
 
 		p->id = m->id;
 		p->proto = m->proto;
@@ -131,9 +123,9 @@ static void sync_sim(struct rmd_config *cfg)
 
 static void open_buses(void)
 {
-	rig_open_buses(&R.cfg, &R.sim, R.buses);
-	for (unsigned b = 0; b < R.cfg.n_buses; b++)
-		rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.buses[b]), tap, (void *)(uintptr_t)b);
+	rig_open_buses(&R.io.cfg, &R.io.sim, R.io.buses);
+	for (unsigned b = 0; b < R.io.cfg.n_buses; b++)
+		rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.io.buses[b]), tap, (void *)(uintptr_t)b);
 }
 
 /*
@@ -150,32 +142,21 @@ static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
 	trace_n = 0;
 	nev = 0;
 	t_now = 1000 * MS;
-	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.sim, n), 0);
-	R.cfg.safety.safe_action = RMD_SAFE_STOP;
-	R.cfg.safety.lost_motor_action = RMD_LOST_MOTOR;
+	assert_int_equal(rmd_config_sim_default(&R.io.cfg, &R.io.sim, n), 0);
+	R.io.cfg.safety.safe_action = RMD_SAFE_STOP;
+	R.io.cfg.safety.lost_motor_action = RMD_LOST_MOTOR;
 	if (tweak)
-		tweak(&R.cfg);
-	sync_sim(&R.cfg);
-	r = rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err));
+		tweak(&R.io.cfg);
+	sync_sim(&R.io.cfg);
+	r = rmd_plan_build(&R.io.cfg, &R.io.plan, err, sizeof(err));
 	if (r)
 		fail_msg("plan: %s", err);
 	open_buses();
-	rmd_latest_init(&R.cmds, R.cmd_buf, sizeof(struct rmd_command));
-	rmd_latest_init(&R.snaps, R.snap_buf, sizeof(struct rmd_snapshot));
-	rmd_latest_init(&R.health, R.health_buf, sizeof(struct rmd_health));
-	assert_int_equal(rmd_ring_init(&R.events, R.ev_buf, 1024, sizeof(struct rmd_event)), 0);
-	o = (struct rmd_loop_opts){
-		.cfg = &R.cfg,
-		.plan = &R.plan,
-		.buses = R.buses,
-		.commands = &R.cmds,
-		.snapshots = &R.snaps,
-		.health = &R.health,
-		.events = &R.events,
-		.snapshot_fd = -1,
-		.now_ns = real ? NULL : fake_now,
-		.sleep_ns = real ? NULL : fake_sleep,
-	};
+	assert_int_equal(rig_loop_opts(&R.io, &o), 0);
+	if (real) { /* the loop's own clock */
+		o.now_ns = NULL;
+		o.sleep_ns = NULL;
+	}
 	R.l = rmd_loop_new(&o, err, sizeof(err));
 	if (!R.l)
 		fail_msg("rmd_loop_new: %s", err);
@@ -190,8 +171,8 @@ static void rig_down(void)
 {
 	rmd_loop_free(R.l);
 	R.l = NULL;
-	for (unsigned b = 0; b < R.cfg.n_buses; b++)
-		rmd_bus_close(&R.buses[b]);
+	for (unsigned b = 0; b < R.io.cfg.n_buses; b++)
+		rmd_bus_close(&R.io.buses[b]);
 }
 
 /* Bring-up, then the clock on a whole millisecond; the epochs for the tap. */
@@ -202,13 +183,13 @@ static void bring_up(void)
 	if (r)
 		fail_msg("bring-up: %d", r);
 	t_now = (t_now / MS + 1) * MS;
-	for (unsigned b = 0; b < R.cfg.n_buses; b++)
-		R.epoch[b] = t_now - rmd_bus_sim_time_ns(&R.buses[b], t_now);
+	for (unsigned b = 0; b < R.io.cfg.n_buses; b++)
+		R.epoch[b] = t_now - rmd_bus_sim_time_ns(&R.io.buses[b], t_now);
 }
 
 static int64_t period(void)
 {
-	return R.plan.period_ns;
+	return R.io.plan.period_ns;
 }
 
 /* n cycles, one period apart; with_cmd: publish R.cmd before each. */
@@ -218,7 +199,7 @@ static void run(unsigned n, bool with_cmd)
 		if (with_cmd) {
 			R.cmd.rx_ns = t_now;
 			R.cmd.seq++;
-			rmd_latest_put(&R.cmds, &R.cmd);
+			rmd_latest_put(&R.io.cmds, &R.cmd);
 		}
 		rmd_loop_cycle(R.l, t_now);
 		t_now += period();
@@ -263,9 +244,9 @@ static struct rmd_snapshot snap(void)
 
 static struct rmd_sim_motor *sim_motor(unsigned i)
 {
-	const struct rmd_config_motor *m = &R.cfg.motors[i];
+	const struct rmd_config_motor *m = &R.io.cfg.motors[i];
 
-	return rmd_sim_wire_motor(rmd_bus_sim_get(&R.buses[m->bus]), m->id);
+	return rmd_sim_wire_motor(rmd_bus_sim_get(&R.io.buses[m->bus]), m->id);
 }
 
 static unsigned lifecycle(unsigned i)
@@ -276,7 +257,7 @@ static unsigned lifecycle(unsigned i)
 /* Host frames to motor i (its 0x140 + ID or 0x400 + ID) with command byte cmd since trace[from]. */
 static unsigned sent_to(unsigned i, int cmd, unsigned from)
 {
-	const struct rmd_config_motor *m = &R.cfg.motors[i];
+	const struct rmd_config_motor *m = &R.io.cfg.motors[i];
 	unsigned n = 0;
 
 	for (unsigned k = from; k < trace_n; k++) {
@@ -306,13 +287,13 @@ static void set_faults(unsigned bus, const struct rmd_sim_fault *f, size_t n)
 {
 	static const struct rmd_sim_fault none;
 
-	assert_int_equal(rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.buses[bus]), f ? f : &none, n),
-			 0);
+	assert_int_equal(
+		rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.io.buses[bus]), f ? f : &none, n), 0);
 }
 
 static int64_t sim_time(unsigned bus)
 {
-	return rmd_bus_sim_time_ns(&R.buses[bus], t_now);
+	return rmd_bus_sim_time_ns(&R.io.buses[bus], t_now);
 }
 
 /*
@@ -368,15 +349,15 @@ static void test_bringup_ready_not_moved(void **state)
 	}
 
 	/* no command: polled for 2 s, never moved, frames exactly as planned */
-	tx0 = R.buses[0].stats.tx_frames;
+	tx0 = R.io.buses[0].stats.tx_frames;
 	for (unsigned k = 0; k < 2000; k++) {
 		struct rmd_plan_slot slots[RMD_PLAN_MAX_SLOTS];
 
-		want += rmd_plan_cycle(&R.plan, 0, k, slots);
+		want += rmd_plan_cycle(&R.io.plan, 0, k, slots);
 	}
 	trace_n = 0;
 	run(2000, false);
-	assert_int_equal(R.buses[0].stats.tx_frames - tx0, want);
+	assert_int_equal(R.io.buses[0].stats.tx_frames - tx0, want);
 	for (unsigned k = 0; k < trace_n; k++)
 		if (moves_frame(&trace[k].f))
 			fail_msg("frame %03X#%02X sent to a READY motor", trace[k].f.can_id,
@@ -410,10 +391,10 @@ static void test_bringup_unexpected(void **state)
 	(void)state;
 	rig_up(3, NULL);
 	/* a motor on the wire that the configuration does not know */
-	p = R.sim.motors[0];
+	p = R.io.sim.motors[0];
 	p.id = 7;
 	p.seed = 0;
-	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.buses[0]), &p, 0) >= 0);
+	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.io.buses[0]), &p, 0) >= 0);
 	bring_up();
 	/* sim0: motor 7 answers, but is not configured */
 	assert_int_equal(R.report.unexpected_ids[0], 1u << (7 - 1));
@@ -560,10 +541,10 @@ static void test_lost_and_recovery(void **state)
 			n_lost = k + 1;
 	}
 	s = snap();
-	if (n_lost < R.cfg.safety.missed_replies_lost ||
-	    n_lost > R.cfg.safety.missed_replies_lost + 3)
+	if (n_lost < R.io.cfg.safety.missed_replies_lost ||
+	    n_lost > R.io.cfg.safety.missed_replies_lost + 3)
 		fail_msg("lost after %u cycles", n_lost);
-	assert_true(s.m[1].missed_replies >= R.cfg.safety.missed_replies_lost);
+	assert_true(s.m[1].missed_replies >= R.io.cfg.safety.missed_replies_lost);
 	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 1), 1);
 	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
 	/* the safe action (stop) went out to it; the others keep running */
@@ -691,7 +672,7 @@ static void test_watchdog(void **state)
 
 	(void)state;
 	up_at_speed(NULL, 2, 1.0, 150);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_int_equal(h->watchdog, RMD_WD_OK);
 	last_cmd = t_now - period();
@@ -711,7 +692,7 @@ static void test_watchdog(void **state)
 	assert_int_equal(lifecycle(2), RMD_LC_READY);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
 	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, -1), 2);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_int_equal(h->watchdog, RMD_WD_TRIPPED);
 	assert_int_equal(h->safe_action_events, 2);
@@ -722,7 +703,7 @@ static void test_watchdog(void **state)
 	run(150, true);
 	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_int_equal(h->watchdog, RMD_WD_OK);
 	rig_down();
@@ -888,7 +869,7 @@ static void test_v2_batch(void **state)
 
 	(void)state;
 	rig_up(4, v2_batch);
-	assert_int_equal(R.plan.bus[0].batch, RMD_BATCH_ON);
+	assert_int_equal(R.io.plan.bus[0].batch, RMD_BATCH_ON);
 	bring_up();
 	/* motor 3: V2 (no model or version query), 48.0 V, 25 °C, no 0xB3 in V2 */
 	assert_int_equal(R.report.motor[2].state, RMD_BRINGUP_FOUND);
@@ -965,7 +946,7 @@ static void test_health(void **state)
 	rig_up(6, NULL);
 	bring_up();
 	run(250, false);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_int_equal(h->nbuses, 2);
 	assert_string_equal(h->bus[1].name, "sim1");
@@ -1039,16 +1020,16 @@ static void test_health_getter(void **state)
 	assert_false(rmd_loop_get_health(R.l, &got)); /* none before the first cycle */
 	bring_up();
 	run(250, false);
-	assert_true(rmd_latest_get(&R.health, &p));
+	assert_true(rmd_latest_get(&R.io.health, &p));
 	h = p;
 	assert_true(rmd_loop_get_health(R.l, &got));
 	assert_memory_equal(&got, h, sizeof(got));
 	assert_int_equal(got.loop.cycles, 201);
 	m = rmd_loop_motor(R.l, 5);
 	assert_non_null(m);
-	assert_string_equal(m->name, R.cfg.motors[5].name);
-	assert_int_equal(m->bus, R.cfg.motors[5].bus);
-	assert_int_equal(m->id, R.cfg.motors[5].id);
+	assert_string_equal(m->name, R.io.cfg.motors[5].name);
+	assert_int_equal(m->bus, R.io.cfg.motors[5].bus);
+	assert_int_equal(m->id, R.io.cfg.motors[5].id);
 	assert_null(rmd_loop_motor(R.l, 6));
 	rig_down();
 }
@@ -1203,7 +1184,7 @@ static unsigned cl_events(unsigned i, int a, int b)
 /* A frame that moves motor i went out since trace[from]. */
 static bool moved_since(unsigned i, unsigned from)
 {
-	const struct rmd_config_motor *m = &R.cfg.motors[i];
+	const struct rmd_config_motor *m = &R.io.cfg.motors[i];
 
 	for (unsigned k = from; k < trace_n; k++)
 		if (trace[k].bus == m->bus && (trace[k].f.can_id & 0xFF) == m->id &&
@@ -1290,7 +1271,7 @@ static void test_cl_reproducer(void **state)
 	assert_int_equal(cl_of(0), RMD_CL_ARMED);
 	assert_true(sent_to(0, 0xB3, from) >= 1);
 	assert_int_equal(cl_events(0, RMD_CL_ARMED, 0), 1);
-	assert_int_equal(sim_motor(0)->ram.comm_timeout_ms, R.cfg.safety.comm_loss_ms);
+	assert_int_equal(sim_motor(0)->ram.comm_timeout_ms, R.io.cfg.safety.comm_loss_ms);
 	/* back from LOST it wants enable 0 then 1, and then it runs */
 	assert_int_equal(lifecycle(0), RMD_LC_READY);
 	cl_reenable(0);
@@ -1325,7 +1306,7 @@ static void test_cl_refused(void **state)
 	assert_int_equal(h.nmotors, 3);
 	assert_int_equal(h.comm_loss[0], RMD_CL_ARMED);
 	assert_int_equal(h.comm_loss[1], RMD_CL_NO_ANSWER);
-	assert_int_equal(h.comm_loss_ms[1], R.cfg.safety.comm_loss_ms);
+	assert_int_equal(h.comm_loss_ms[1], R.io.cfg.safety.comm_loss_ms);
 	assert_true(h.unarmed_rejects[1] > 2000);
 	assert_int_equal(h.unarmed_rejects[0], 0);
 	assert_int_equal(cl_events(1, RMD_CL_NO_ANSWER, 1), 1);
@@ -1356,7 +1337,7 @@ static void test_cl_late_motor(void **state)
 	run(10600, true);
 	assert_int_equal(lifecycle(2), RMD_LC_READY);
 	assert_int_equal(cl_of(2), RMD_CL_ARMED);
-	assert_int_equal(sim_motor(2)->rom.comm_timeout_ms, R.cfg.safety.comm_loss_ms);
+	assert_int_equal(sim_motor(2)->rom.comm_timeout_ms, R.io.cfg.safety.comm_loss_ms);
 	/* the controller re-enables it (enable 0, then 1) */
 	cl_reenable(2);
 	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
@@ -1390,8 +1371,8 @@ static void test_cl_off_by_config(void **state)
 
 	(void)state;
 	rig_up(3, cl_off_motor2);
-	assert_int_equal(rmd_config_comm_loss_ms(&R.cfg, 1), 0);
-	assert_int_equal(rmd_config_comm_loss_ms(&R.cfg, 0), R.cfg.safety.comm_loss_ms);
+	assert_int_equal(rmd_config_comm_loss_ms(&R.io.cfg, 1), 0);
+	assert_int_equal(rmd_config_comm_loss_ms(&R.io.cfg, 0), R.io.cfg.safety.comm_loss_ms);
 	set_faults(0, &drop, 1);
 	assert_int_equal(rmd_loop_bringup(R.l, &R.report), 0); /* refuse would not refuse it */
 	t_now = (t_now / MS + 1) * MS;
@@ -1400,7 +1381,7 @@ static void test_cl_off_by_config(void **state)
 	assert_int_equal(cl_of(1), RMD_CL_OFF);
 	/* bring-up wrote 0 (off) to it, and the time to the others */
 	assert_int_equal(sim_motor(1)->ram.comm_timeout_ms, 0);
-	assert_int_equal(sim_motor(0)->ram.comm_timeout_ms, R.cfg.safety.comm_loss_ms);
+	assert_int_equal(sim_motor(0)->ram.comm_timeout_ms, R.io.cfg.safety.comm_loss_ms);
 	cmd_clear();
 	cmd_motor(1, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
 	run(200, true);
@@ -1441,15 +1422,15 @@ static void test_v2_start_angle(void **state)
 		rig_up(2, v2_two);
 		/* the motors power on at the angle; the sim answers 0x92 in the form */
 		rig_down();
-		R.sim.motors[0].start_angle_deg = c[k].deg;
-		R.sim.motors[0].v2_angle_magnitude = c[k].magnitude;
-		R.sim.motors[0].gear_ratio = R.cfg.motors[0].gear_ratio;
+		R.io.sim.motors[0].start_angle_deg = c[k].deg;
+		R.io.sim.motors[0].v2_angle_magnitude = c[k].magnitude;
+		R.io.sim.motors[0].gear_ratio = R.io.cfg.motors[0].gear_ratio;
 		open_buses();
 		R.l = NULL;
 		{
-			struct rmd_loop_opts o = { .cfg = &R.cfg,
-						   .plan = &R.plan,
-						   .buses = R.buses,
+			struct rmd_loop_opts o = { .cfg = &R.io.cfg,
+						   .plan = &R.io.plan,
+						   .buses = R.io.buses,
 						   .snapshot_fd = -1,
 						   .now_ns = fake_now,
 						   .sleep_ns = fake_sleep };

@@ -40,6 +40,7 @@
 
 #include "harness/alloc_count.h"
 #include "harness/clock.h"
+#include "harness/loop_io.h"
 #include "harness/rig.h"
 
 #define MS INT64_C(1000000)
@@ -47,43 +48,36 @@
 
 /* ---- the rig ----------------------------------------------------------------------- */
 
-static struct rmd_config cfg;
-static struct rmd_sim_setup sim;
-static struct rmd_plan plan;
-static struct rmd_bus buses[RMD_MAX_BUSES];
-static struct rmd_latest cmds, snaps, health;
-static struct rmd_command cmd_buf[3], cmd;
-static struct rmd_snapshot snap_buf[3], snap;
-static struct rmd_health health_buf[3];
-static struct rmd_ring events;
-static struct rmd_event ev_buf[256];
+static struct rig_loop R; /* configuration, plan, buses, channels */
+static struct rmd_command cmd;
+static struct rmd_snapshot snap;
 static struct rmd_bringup report;
 
 /* sim0: V3 position, V3 speed, MIT; sim1: V3 torque x3; sim2: four V2 in one 0x280 frame */
 static void make_config(void)
 {
-	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 10), 0);
-	cfg.safety.safe_action = RMD_SAFE_DAMP;
-	cfg.safety.lost_motor_action = RMD_LOST_ALL;
-	cfg.motors[0].mode = RMD_MODE_POSITION;
-	cfg.motors[0].limits.position_min_rad = -1.0;
-	cfg.motors[0].limits.position_max_rad = 1.0;
-	cfg.motors[1].mode = RMD_MODE_SPEED;
-	cfg.motors[2].proto = RMD_PROTO_MIT;
-	cfg.motors[2].mode = RMD_MODE_MIT;
+	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.sim, 10), 0);
+	R.cfg.safety.safe_action = RMD_SAFE_DAMP;
+	R.cfg.safety.lost_motor_action = RMD_LOST_ALL;
+	R.cfg.motors[0].mode = RMD_MODE_POSITION;
+	R.cfg.motors[0].limits.position_min_rad = -1.0;
+	R.cfg.motors[0].limits.position_max_rad = 1.0;
+	R.cfg.motors[1].mode = RMD_MODE_SPEED;
+	R.cfg.motors[2].proto = RMD_PROTO_MIT;
+	R.cfg.motors[2].mode = RMD_MODE_MIT;
 	for (unsigned i = 6; i < 10; i++) {
-		cfg.motors[i].bus = 2;
-		cfg.motors[i].id = (uint8_t)(i - 5);
-		cfg.motors[i].proto = RMD_PROTO_V2;
-		cfg.motors[i].status_poll_hz = 0;
+		R.cfg.motors[i].bus = 2;
+		R.cfg.motors[i].id = (uint8_t)(i - 5);
+		R.cfg.motors[i].proto = RMD_PROTO_V2;
+		R.cfg.motors[i].status_poll_hz = 0;
 	}
-	cfg.n_buses = 3;
-	for (unsigned i = 0; i < cfg.n_motors; i++) {
-		sim.motors[i].id = cfg.motors[i].id;
-		sim.motors[i].proto = cfg.motors[i].proto;
+	R.cfg.n_buses = 3;
+	for (unsigned i = 0; i < R.cfg.n_motors; i++) {
+		R.sim.motors[i].id = R.cfg.motors[i].id;
+		R.sim.motors[i].proto = R.cfg.motors[i].proto;
 	}
-	for (unsigned b = 0; b < cfg.n_buses; b++)
-		sim.buses[b].host_fifo = true;
+	for (unsigned b = 0; b < R.cfg.n_buses; b++)
+		R.sim.buses[b].host_fifo = true;
 }
 
 /* This cycle's command: every mode, now and then NaN, a pause for the watchdog. */
@@ -92,13 +86,13 @@ static void command_for(unsigned k)
 	memset(&cmd, 0, sizeof(cmd));
 	cmd.rx_ns = t_now;
 	cmd.seq = k;
-	for (unsigned i = 0; i < cfg.n_motors; i++) {
+	for (unsigned i = 0; i < R.cfg.n_motors; i++) {
 		struct rmd_setpoint *sp = &cmd.m[i];
 
 		cmd.present |= 1u << i;
 		/* a disable now and then: the motors brought back from LOST take it as the edge */
 		sp->enable = k % 1000 != 500;
-		sp->mode = (uint8_t)cfg.motors[i].mode;
+		sp->mode = (uint8_t)R.cfg.motors[i].mode;
 		sp->pos_rad = 2.0 * sin(k * 0.001); /* beyond the window: clamped */
 		sp->vel_rad_s = 0.5 * cos(k * 0.002);
 		sp->torque_nm = 0.2 * sin(k * 0.003);
@@ -135,27 +129,12 @@ static void test_cycle_allocates_nothing(void **state)
 		skip();
 	t_now = 1000 * MS;
 	make_config();
-	r = rmd_plan_build(&cfg, &plan, err, sizeof(err));
+	r = rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err));
 	if (r)
 		fail_msg("%s", err);
-	assert_int_equal(plan.bus[2].batch, RMD_BATCH_ON);
-	rig_open_buses(&cfg, &sim, buses);
-	rmd_latest_init(&cmds, cmd_buf, sizeof(struct rmd_command));
-	rmd_latest_init(&snaps, snap_buf, sizeof(struct rmd_snapshot));
-	rmd_latest_init(&health, health_buf, sizeof(struct rmd_health));
-	assert_int_equal(rmd_ring_init(&events, ev_buf, 256, sizeof(struct rmd_event)), 0);
-	o = (struct rmd_loop_opts){
-		.cfg = &cfg,
-		.plan = &plan,
-		.buses = buses,
-		.commands = &cmds,
-		.snapshots = &snaps,
-		.health = &health,
-		.events = &events,
-		.snapshot_fd = -1,
-		.now_ns = fake_now,
-		.sleep_ns = fake_sleep,
-	};
+	assert_int_equal(R.plan.bus[2].batch, RMD_BATCH_ON);
+	rig_open_buses(&R.cfg, &R.sim, R.buses);
+	assert_int_equal(rig_loop_opts(&R, &o), 0);
 	l = rmd_loop_new(&o, err, sizeof(err));
 	if (!l)
 		fail_msg("%s", err);
@@ -180,28 +159,28 @@ static void test_cycle_allocates_nothing(void **state)
 		const void *p;
 
 		if (k == 2000) {
-			drop.start_ns = rmd_bus_sim_time_ns(&buses[0], t_now);
+			drop.start_ns = rmd_bus_sim_time_ns(&R.buses[0], t_now);
 			drop.end_ns = drop.start_ns + 50 * MS;
-			rmd_sim_wire_set_faults(rmd_bus_sim_get(&buses[0]), &drop, 1);
+			rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.buses[0]), &drop, 1);
 		}
 		if (k == 4000) {
-			hot.start_ns = rmd_bus_sim_time_ns(&buses[1], t_now);
+			hot.start_ns = rmd_bus_sim_time_ns(&R.buses[1], t_now);
 			hot.end_ns = hot.start_ns + 300 * MS;
-			rmd_sim_wire_set_faults(rmd_bus_sim_get(&buses[1]), &hot, 1);
+			rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.buses[1]), &hot, 1);
 		}
 		if (k == 7000)
 			t_now += 5 * MS; /* an overrun */
 		/* the controller is silent for 300 ms from 8000 */
 		if (k < 8000 || k >= 8300) {
 			command_for(k);
-			rmd_latest_put(&cmds, &cmd);
+			rmd_latest_put(&R.cmds, &cmd);
 		}
 		rmd_loop_cycle(l, t_now);
-		t_now += plan.period_ns;
-		while (rmd_ring_pop(&events, &ev))
+		t_now += R.plan.period_ns;
+		while (rmd_ring_pop(&R.events, &ev))
 			nev++;
-		rmd_latest_get(&snaps, &p);
-		rmd_latest_get(&health, &p);
+		rmd_latest_get(&R.snaps, &p);
+		rmd_latest_get(&R.health, &p);
 	}
 	rmd_loop_get_snapshot(l, &snap);
 	rmd_loop_get_stats(l, &st);
@@ -216,18 +195,18 @@ static void test_cycle_allocates_nothing(void **state)
 	assert_int_equal(st.overruns, 5);
 	assert_true(c.nonfinite > 0);
 	assert_true(c.clamped > 0);
-	assert_true(c.missed >= cfg.safety.missed_replies_lost);
+	assert_true(c.missed >= R.cfg.safety.missed_replies_lost);
 	assert_true(c.safe_actions >= 3);
 	assert_true(c.replies > 40000);
 	assert_true(nev > 20);
-	for (unsigned i = 0; i < cfg.n_motors; i++)
+	for (unsigned i = 0; i < R.cfg.n_motors; i++)
 		if (snap.m[i].lifecycle != RMD_LC_ENABLED)
 			fail_msg("motor %u ends in lifecycle %u", i, snap.m[i].lifecycle);
 	print_message("%d cycles, %llu replies, %llu missed, %u events, 0 allocations\n", CYCLES,
 		      (unsigned long long)c.replies, (unsigned long long)c.missed, nev);
 	rmd_loop_free(l);
-	for (unsigned b = 0; b < cfg.n_buses; b++)
-		rmd_bus_close(&buses[b]);
+	for (unsigned b = 0; b < R.cfg.n_buses; b++)
+		rmd_bus_close(&R.buses[b]);
 }
 
 int main(void)
