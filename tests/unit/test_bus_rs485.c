@@ -288,6 +288,26 @@ static void open_bus_fake(struct rmd_bus *bus, struct pty *pt, const struct rmd_
 	fake_start(fk);
 }
 
+/* One test's line: the bus, its pseudo-terminal, what it received, its counters. */
+struct link {
+	struct rmd_bus bus;
+	struct pty pt;
+	struct rmd_bus_rx rx[8];
+	struct rmd_rs485_stats xs;
+};
+
+/* The line open with the fake motors fk, and frames f[0..n) sent at once: when. */
+static int64_t link_start(struct link *l, const struct rmd_rs485_opts *opts, struct fake *fk,
+			  const struct rmd_frame *f, unsigned n)
+{
+	int64_t t0;
+
+	open_bus_fake(&l->bus, &l->pt, opts, fk);
+	t0 = now_ns();
+	assert_int_equal(rmd_bus_send(&l->bus, f, n, t0), (int)n);
+	return t0;
+}
+
 static void close_bus(struct rmd_bus *bus, struct pty *pt)
 {
 	rmd_bus_close(bus);
@@ -478,31 +498,27 @@ static void test_round_trip(void **state)
 	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = ANSWER_NS };
 	struct fake *fk = fake_new((struct fake){ .present = 1u << 1 });
 	struct rmd_frame f = frame(0x141, status1_req);
-	struct rmd_bus_rx rx[4];
-	struct rmd_bus bus;
-	struct pty pt;
+	struct link l;
 	int64_t t0, t1;
 
 	(void)state;
-	open_bus_fake(&bus, &pt, &opts, fk);
-	t0 = now_ns();
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
-	assert_int_equal(pending_of(&bus), 1);
-	assert_int_equal(rmd_bus_next_due_ns(&bus), t0 + ANSWER_NS);
-	assert_int_equal(drive(&bus, rx, 4, 1, t0 + LIMIT_NS), 1);
+	t0 = link_start(&l, &opts, fk, &f, 1);
+	assert_int_equal(pending_of(&l.bus), 1);
+	assert_int_equal(rmd_bus_next_due_ns(&l.bus), t0 + ANSWER_NS);
+	assert_int_equal(drive(&l.bus, l.rx, 4, 1, t0 + LIMIT_NS), 1);
 	t1 = now_ns();
 	fake_stop(fk);
 
-	assert_rx(&rx[0], 0x241, status1_reply);
-	assert_true(rx[0].t_ns > t0 && rx[0].t_ns <= t1);
+	assert_rx(&l.rx[0], 0x241, status1_reply);
+	assert_true(l.rx[0].t_ns > t0 && l.rx[0].t_ns <= t1);
 	assert_int_equal(fk->requests, 1);
 	assert_int_equal(fk->seen_id[0], 1);
 	assert_int_equal(fk->seen_cmd[0], 0x9A);
 	assert_int_equal(fk->bad_bytes, 0);
-	assert_int_equal(bus.stats.tx_frames, 1);
-	assert_int_equal(bus.stats.rx_frames, 1);
-	assert_int_equal(bus.stats.rx_errors, 0);
-	close_bus(&bus, &pt);
+	assert_int_equal(l.bus.stats.tx_frames, 1);
+	assert_int_equal(l.bus.stats.rx_frames, 1);
+	assert_int_equal(l.bus.stats.rx_errors, 0);
+	close_bus(&l.bus, &l.pt);
 }
 
 /* Six requests to three motors in one send(): the wire carries one at a time. */
@@ -511,34 +527,31 @@ static void test_one_request_at_a_time(void **state)
 	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = ANSWER_NS };
 	struct fake *fk = fake_new((struct fake){ .present = 0xEu, .delay_ns = 3 * MS });
 	struct rmd_frame f[6];
-	struct rmd_bus_rx rx[8];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 
 	(void)state;
 	for (unsigned i = 0; i < 6; i++)
 		f[i] = frame(0x141 + i % 3, status1_req);
-	open_bus_fake(&bus, &pt, &opts, fk);
-	assert_int_equal(rmd_bus_send(&bus, f, 6, now_ns()), 6);
-	assert_int_equal(pending_of(&bus), 6);
-	assert_int_equal(drive(&bus, rx, 8, 6, now_ns() + LIMIT_NS), 6);
+	open_bus_fake(&l.bus, &l.pt, &opts, fk);
+	assert_int_equal(rmd_bus_send(&l.bus, f, 6, now_ns()), 6);
+	assert_int_equal(pending_of(&l.bus), 6);
+	assert_int_equal(drive(&l.bus, l.rx, 8, 6, now_ns() + LIMIT_NS), 6);
 	fake_stop(fk);
 
 	assert_int_equal(fk->overlaps, 0);
 	assert_int_equal(fk->requests, 6);
 	for (unsigned i = 0; i < 6; i++) {
 		assert_int_equal(fk->seen_id[i], 1 + i % 3);
-		assert_rx(&rx[i], 0x241 + i % 3, status1_reply);
+		assert_rx(&l.rx[i], 0x241 + i % 3, status1_reply);
 		if (i)
-			assert_true(rx[i].t_ns >=
-				    rx[i - 1].t_ns + 2 * MS); /* delay_ns, less slack */
+			assert_true(l.rx[i].t_ns >=
+				    l.rx[i - 1].t_ns + 2 * MS); /* delay_ns, less slack */
 	}
-	rmd_rs485_stats(&bus, &xs);
-	assert_int_equal(xs.reply_timeouts, 0);
-	assert_int_equal(bus.stats.tx_frames, 6);
-	assert_int_equal(bus.stats.rx_frames, 6);
-	close_bus(&bus, &pt);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_int_equal(l.xs.reply_timeouts, 0);
+	assert_int_equal(l.bus.stats.tx_frames, 6);
+	assert_int_equal(l.bus.stats.rx_frames, 6);
+	close_bus(&l.bus, &l.pt);
 }
 
 /* A silent motor costs its reply timeout, then the queue moves on. */
@@ -548,21 +561,16 @@ static void test_silent_motor_times_out(void **state)
 	struct rmd_rs485_opts opts = { .baud = 115200, .reply_timeout_ns = timeout };
 	struct fake *fk = fake_new((struct fake){ .present = 1u << 1 });
 	struct rmd_frame f[2] = { frame(0x145, status1_req), frame(0x141, status1_req) };
-	struct rmd_bus_rx rx[4];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 	int64_t t0;
 
 	(void)state;
-	open_bus_fake(&bus, &pt, &opts, fk);
-	t0 = now_ns();
-	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
+	t0 = link_start(&l, &opts, fk, f, 2);
 	/* Motor 5 never answers: nothing but the timeout ends its request. */
-	assert_int_equal(drive(&bus, rx, 4, 1, t0 + LIMIT_NS), 1);
+	assert_int_equal(drive(&l.bus, l.rx, 4, 1, t0 + LIMIT_NS), 1);
 	fake_stop(fk);
 
-	assert_rx(&rx[0], 0x241, status1_reply);
+	assert_rx(&l.rx[0], 0x241, status1_reply);
 	assert_int_equal(fk->requests, 2);
 	assert_int_equal(fk->seen_id[0], 5);
 	assert_int_equal(fk->seen_id[1], 1);
@@ -570,9 +578,9 @@ static void test_silent_motor_times_out(void **state)
 	assert_true(fk->seen_ns[1] >= t0 + timeout);
 	assert_true(fk->seen_ns[1] < t0 + timeout + 1000 * MS);
 	/* Motor 1's answer is late only on a machine that stalls the fake for SHORT_NS. */
-	rmd_rs485_stats(&bus, &xs);
-	assert_in_range(xs.reply_timeouts, 1, 2);
-	close_bus(&bus, &pt);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_in_range(l.xs.reply_timeouts, 1, 2);
+	close_bus(&l.bus, &l.pt);
 }
 
 /* A reply with a broken CRC is dropped and counted; its request times out. */
@@ -581,22 +589,19 @@ static void test_bad_crc_dropped(void **state)
 	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = SHORT_NS };
 	struct fake *fk = fake_new((struct fake){ .present = 1u << 1, .corrupt_first = 1 });
 	struct rmd_frame f[2] = { frame(0x141, status1_req), frame(0x141, status1_req) };
-	struct rmd_bus_rx rx[4];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 
 	(void)state;
-	exchange(&bus, &pt, &opts, fk, f, 2, rx, 4, 1);
+	exchange(&l.bus, &l.pt, &opts, fk, f, 2, l.rx, 4, 1);
 
-	assert_rx(&rx[0], 0x241, status1_reply);
-	assert_int_equal(bus.stats.rx_errors, 1);
-	assert_int_equal(bus.stats.rx_frames, 1);
-	rmd_rs485_stats(&bus, &xs);
-	assert_in_range(xs.reply_timeouts, 1, 2); /* 2: the good answer came late */
-	assert_int_equal(xs.dropped_bytes, RMD_RS485_FRAME_LEN);
+	assert_rx(&l.rx[0], 0x241, status1_reply);
+	assert_int_equal(l.bus.stats.rx_errors, 1);
+	assert_int_equal(l.bus.stats.rx_frames, 1);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_in_range(l.xs.reply_timeouts, 1, 2); /* 2: the good answer came late */
+	assert_int_equal(l.xs.dropped_bytes, RMD_RS485_FRAME_LEN);
 	assert_int_equal(fk->overlaps, 0);
-	close_bus(&bus, &pt);
+	close_bus(&l.bus, &l.pt);
 }
 
 /* Line noise before a reply, stray headers in it, is skipped: one error per run. */
@@ -607,20 +612,17 @@ static void test_garbage_skipped(void **state)
 	struct fake *fk = fake_new((struct fake){
 		.present = 1u << 2, .garbage = noise, .garbage_len = sizeof(noise) });
 	struct rmd_frame f = frame(0x142, status1_req);
-	struct rmd_bus_rx rx[4];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 
 	(void)state;
-	exchange(&bus, &pt, &opts, fk, &f, 1, rx, 4, 1);
+	exchange(&l.bus, &l.pt, &opts, fk, &f, 1, l.rx, 4, 1);
 
-	assert_rx(&rx[0], 0x242, status1_reply);
-	assert_int_equal(bus.stats.rx_errors, 1);
-	rmd_rs485_stats(&bus, &xs);
-	assert_int_equal(xs.dropped_bytes, sizeof(noise));
-	assert_int_equal(xs.reply_timeouts, 0);
-	close_bus(&bus, &pt);
+	assert_rx(&l.rx[0], 0x242, status1_reply);
+	assert_int_equal(l.bus.stats.rx_errors, 1);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_int_equal(l.xs.dropped_bytes, sizeof(noise));
+	assert_int_equal(l.xs.reply_timeouts, 0);
+	close_bus(&l.bus, &l.pt);
 }
 
 /* V3 §6.2: one 0xCD request, every motor answers from its own ID. */
@@ -632,34 +634,29 @@ static void test_broadcast(void **state)
 				       .broadcast_timeout_ns = 5000 * MS };
 	struct fake *fk = fake_new((struct fake){ .present = 0xEu, .delay_ns = 2 * MS });
 	struct rmd_frame f[2] = { frame(0x280, off_req), frame(0x142, status1_req) };
-	struct rmd_bus_rx rx[8];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 	int64_t t0;
 
 	(void)state;
-	open_bus_fake(&bus, &pt, &opts, fk);
-	t0 = now_ns();
-	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
-	assert_int_equal(rmd_bus_next_due_ns(&bus), t0 + 5000 * MS);
-	assert_int_equal(drive(&bus, rx, 8, 4, t0 + LIMIT_NS), 4);
+	t0 = link_start(&l, &opts, fk, f, 2);
+	assert_int_equal(rmd_bus_next_due_ns(&l.bus), t0 + 5000 * MS);
+	assert_int_equal(drive(&l.bus, l.rx, 8, 4, t0 + LIMIT_NS), 4);
 	fake_stop(fk);
 
-	assert_rx(&rx[0], 0x241, off_req);
-	assert_rx(&rx[1], 0x242, off_req);
-	assert_rx(&rx[2], 0x243, off_req);
-	assert_rx(&rx[3], 0x242, status1_reply);
+	assert_rx(&l.rx[0], 0x241, off_req);
+	assert_rx(&l.rx[1], 0x242, off_req);
+	assert_rx(&l.rx[2], 0x243, off_req);
+	assert_rx(&l.rx[3], 0x242, status1_reply);
 	/* Ended by the third answer, long before its 5 s timeout. */
-	assert_true(rx[3].t_ns < t0 + 5000 * MS);
+	assert_true(l.rx[3].t_ns < t0 + 5000 * MS);
 	assert_int_equal(fk->requests, 2);
 	assert_int_equal(fk->seen_id[0], RMD_RS485_BROADCAST);
 	assert_int_equal(fk->seen_cmd[0], 0x80);
 	assert_int_equal(fk->overlaps, 0);
-	rmd_rs485_stats(&bus, &xs);
-	assert_int_equal(xs.reply_timeouts, 0);
-	assert_int_equal(xs.broadcasts_short, 0);
-	close_bus(&bus, &pt);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_int_equal(l.xs.reply_timeouts, 0);
+	assert_int_equal(l.xs.broadcasts_short, 0);
+	close_bus(&l.bus, &l.pt);
 }
 
 /* Unknown motor count: the broadcast lasts its timeout, which is no error. */
@@ -669,27 +666,22 @@ static void test_broadcast_unknown_count(void **state)
 	struct rmd_rs485_opts opts = { .baud = 1000000, .broadcast_timeout_ns = timeout };
 	struct fake *fk = fake_new((struct fake){ .present = 0x6u });
 	struct rmd_frame f = frame(0x280, off_req);
-	struct rmd_bus_rx rx[4];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 	int64_t t0, t1;
 
 	(void)state;
-	open_bus_fake(&bus, &pt, &opts, fk);
-	t0 = now_ns();
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
-	assert_int_equal(drive(&bus, rx, 4, 2, t0 + LIMIT_NS), 2);
+	t0 = link_start(&l, &opts, fk, &f, 1);
+	assert_int_equal(drive(&l.bus, l.rx, 4, 2, t0 + LIMIT_NS), 2);
 	t1 = now_ns();
 	fake_stop(fk);
 
-	assert_rx(&rx[0], 0x241, off_req);
-	assert_rx(&rx[1], 0x242, off_req);
+	assert_rx(&l.rx[0], 0x241, off_req);
+	assert_rx(&l.rx[1], 0x242, off_req);
 	assert_true(t1 >= t0 + timeout);
-	rmd_rs485_stats(&bus, &xs);
-	assert_int_equal(xs.reply_timeouts, 0);
-	assert_int_equal(xs.broadcasts_short, 0);
-	close_bus(&bus, &pt);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_int_equal(l.xs.reply_timeouts, 0);
+	assert_int_equal(l.xs.broadcasts_short, 0);
+	close_bus(&l.bus, &l.pt);
 }
 
 /* V3 §4 / §7: 0x79 goes out on 0x300 as 0xCD, and its answer from 0xCD comes back on 0x300. */
@@ -701,19 +693,16 @@ static void test_set_id_mapping(void **state)
 				       .broadcast_timeout_ns = ANSWER_NS };
 	struct fake *fk = fake_new((struct fake){ .present = 1u << 2 });
 	struct rmd_frame f = frame(0x300, read_id);
-	struct rmd_bus_rx rx[4];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 
 	(void)state;
-	exchange(&bus, &pt, &opts, fk, &f, 1, rx, 4, 1);
+	exchange(&l.bus, &l.pt, &opts, fk, &f, 1, l.rx, 4, 1);
 
 	assert_int_equal(fk->seen_id[0], RMD_RS485_BROADCAST);
-	assert_rx(&rx[0], 0x300, read_id);
-	rmd_rs485_stats(&bus, &xs);
-	assert_int_equal(xs.broadcasts_short, 0);
-	close_bus(&bus, &pt);
+	assert_rx(&l.rx[0], 0x300, read_id);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_int_equal(l.xs.broadcasts_short, 0);
+	close_bus(&l.bus, &l.pt);
 }
 
 /* A two-wire adapter hears the request: with local_echo the echo is dropped,
@@ -726,21 +715,18 @@ static void test_local_echo(void **state)
 	struct fake *fk =
 		fake_new((struct fake){ .present = 1u << 1, .echo = true, .delay_ns = 1 * MS });
 	struct rmd_frame f[2] = { frame(0x141, off_req), frame(0x141, status1_req) };
-	struct rmd_bus_rx rx[4];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 
 	(void)state;
-	exchange(&bus, &pt, &opts, fk, f, 2, rx, 4, 2);
+	exchange(&l.bus, &l.pt, &opts, fk, f, 2, l.rx, 4, 2);
 
-	assert_rx(&rx[0], 0x241, off_req);
-	assert_rx(&rx[1], 0x241, status1_reply);
-	rmd_rs485_stats(&bus, &xs);
-	assert_int_equal(xs.echoes, 2);
-	assert_int_equal(xs.reply_timeouts, 0);
+	assert_rx(&l.rx[0], 0x241, off_req);
+	assert_rx(&l.rx[1], 0x241, status1_reply);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_int_equal(l.xs.echoes, 2);
+	assert_int_equal(l.xs.reply_timeouts, 0);
 	assert_int_equal(fk->overlaps, 0);
-	close_bus(&bus, &pt);
+	close_bus(&l.bus, &l.pt);
 }
 
 /*
@@ -754,55 +740,52 @@ static void test_partial_and_late_frames(void **state)
 	struct rmd_rs485_opts opts = { .baud = 1000000, .reply_timeout_ns = timeout };
 	struct rmd_frame f[2] = { frame(0x141, status1_req), frame(0x142, angle_req) };
 	uint8_t wire[RMD_RS485_FRAME_LEN], want[RMD_RS485_FRAME_LEN];
-	struct rmd_bus_rx rx[4];
-	struct rmd_bus bus;
-	struct rmd_rs485_stats xs;
-	struct pty pt;
+	struct link l;
 	int64_t t0;
 
 	(void)state;
-	open_bus(&bus, &pt, &opts);
+	open_bus(&l.bus, &l.pt, &opts);
 	t0 = now_ns();
-	assert_int_equal(rmd_bus_send(&bus, f, 2, t0), 2);
-	master_read(pt.master, wire, RMD_RS485_FRAME_LEN);
+	assert_int_equal(rmd_bus_send(&l.bus, f, 2, t0), 2);
+	master_read(l.pt.master, wire, RMD_RS485_FRAME_LEN);
 	rmd_rs485_build(1, status1_req, want, sizeof(want));
 	assert_memory_equal(wire, want, RMD_RS485_FRAME_LEN);
 
 	/* Motor 1 answers too late: only its timeout sends the request for motor 2. */
-	assert_int_equal(drive_to(&bus, rx, 4, 0, 1, t0 + 10 * MS), 0);
-	assert_int_equal(pending_of(&bus), 2);
-	master_quiet(pt.master, 0);
-	assert_int_equal(drive_to(&bus, rx, 4, 0, 1, t0 + LIMIT_NS), 0);
+	assert_int_equal(drive_to(&l.bus, l.rx, 4, 0, 1, t0 + 10 * MS), 0);
+	assert_int_equal(pending_of(&l.bus), 2);
+	master_quiet(l.pt.master, 0);
+	assert_int_equal(drive_to(&l.bus, l.rx, 4, 0, 1, t0 + LIMIT_NS), 0);
 	assert_true(now_ns() >= t0 + timeout);
-	rmd_rs485_stats(&bus, &xs);
-	assert_int_equal(xs.reply_timeouts, 1);
-	assert_int_equal(pending_of(&bus), 1);
-	master_read(pt.master, wire, RMD_RS485_FRAME_LEN);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_int_equal(l.xs.reply_timeouts, 1);
+	assert_int_equal(pending_of(&l.bus), 1);
+	master_read(l.pt.master, wire, RMD_RS485_FRAME_LEN);
 	rmd_rs485_build(2, angle_req, want, sizeof(want));
 	assert_memory_equal(wire, want, RMD_RS485_FRAME_LEN);
 
 	/* The late answer, in two pieces, is passed on but answers nothing. */
 	rmd_rs485_build(1, status1_reply, wire, sizeof(wire));
-	assert_int_equal(write(pt.master, wire, 5), 5);
-	wait_readable(rmd_bus_fd(&bus));
-	assert_int_equal(rmd_bus_recv(&bus, rx, 4, now_ns()), 0);
-	assert_int_equal(write(pt.master, wire + 5, RMD_RS485_FRAME_LEN - 5),
+	assert_int_equal(write(l.pt.master, wire, 5), 5);
+	wait_readable(rmd_bus_fd(&l.bus));
+	assert_int_equal(rmd_bus_recv(&l.bus, l.rx, 4, now_ns()), 0);
+	assert_int_equal(write(l.pt.master, wire + 5, RMD_RS485_FRAME_LEN - 5),
 			 RMD_RS485_FRAME_LEN - 5);
 	/* An unsolicited 0x9A from motor 2 has the wrong command byte to answer 0x92. */
-	master_write_frame(pt.master, 2, status1_reply);
-	assert_int_equal(drive_to(&bus, rx, 4, 2, 1, now_ns() + LIMIT_NS), 2);
-	assert_rx(&rx[0], 0x241, status1_reply);
-	assert_rx(&rx[1], 0x242, status1_reply);
-	assert_int_equal(pending_of(&bus), 1);
+	master_write_frame(l.pt.master, 2, status1_reply);
+	assert_int_equal(drive_to(&l.bus, l.rx, 4, 2, 1, now_ns() + LIMIT_NS), 2);
+	assert_rx(&l.rx[0], 0x241, status1_reply);
+	assert_rx(&l.rx[1], 0x242, status1_reply);
+	assert_int_equal(pending_of(&l.bus), 1);
 
-	master_write_frame(pt.master, 2, angle_req);
-	assert_int_equal(drive(&bus, rx, 4, 1, now_ns() + LIMIT_NS), 1);
-	assert_rx(&rx[0], 0x242, angle_req);
-	assert_int_equal(pending_of(&bus), 0);
-	assert_int_equal(bus.stats.rx_errors, 0);
-	rmd_rs485_stats(&bus, &xs);
-	assert_int_equal(xs.reply_timeouts, 1);
-	close_bus(&bus, &pt);
+	master_write_frame(l.pt.master, 2, angle_req);
+	assert_int_equal(drive(&l.bus, l.rx, 4, 1, now_ns() + LIMIT_NS), 1);
+	assert_rx(&l.rx[0], 0x242, angle_req);
+	assert_int_equal(pending_of(&l.bus), 0);
+	assert_int_equal(l.bus.stats.rx_errors, 0);
+	rmd_rs485_stats(&l.bus, &l.xs);
+	assert_int_equal(l.xs.reply_timeouts, 1);
+	close_bus(&l.bus, &l.pt);
 }
 
 static void test_send_refusals(void **state)
