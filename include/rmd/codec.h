@@ -296,10 +296,11 @@ double rmd_msg_get_native(const struct rmd_msg *msg, const struct rmd_cmd_spec *
 			  enum rmd_dir dir, enum rmd_field fld, double def);
 
 /*
- * One field of a row, read from or written into a frame's data (8 bytes),
- * as the interpreter above does it: for callers that resolved a row's
+ * One field of a row, read from or written into a frame's data (8 bytes):
+ * the interpreter above uses them, and so do callers that resolved a row's
  * fields once and handle each frame without a struct rmd_msg (the rt
- * loop's motors, rmd/motor.h).  rmd_field_write() does not check that raw
+ * loop's motors, rmd/motor.h).  A sign_byte field takes both of the
+ * manual's readings and is written in its form (V2 §3.29).  rmd_field_write() does not check that raw
  * fits: rmd_field_range() gives the field's integer range.
  */
 static inline int64_t rmd_field_read(const struct rmd_field_spec *fs, const uint8_t *data)

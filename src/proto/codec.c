@@ -239,47 +239,6 @@ double rmd_msg_get_native(const struct rmd_msg *msg, const struct rmd_cmd_spec *
 	return rmd_field_to_native(fs, msg->v[fld]);
 }
 
-static void put_le(uint8_t *p, unsigned size, int64_t raw)
-{
-	uint64_t u = (uint64_t)raw;
-
-	for (unsigned i = 0; i < size; i++, u >>= 8)
-		p[i] = (uint8_t)u;
-}
-
-static int64_t get_le(const uint8_t *p, unsigned size, bool is_signed)
-{
-	uint64_t u = 0;
-	unsigned bits = 8u * size;
-
-	for (unsigned i = size; i-- > 0;)
-		u = (u << 8) | p[i];
-	if (is_signed && (u >> (bits - 1)) & 1)
-		u |= ~UINT64_C(0) << bits;
-	return (int64_t)u;
-}
-
-/*
- * A sign_byte field (struct rmd_field_spec): encode in the manual's form,
- * two's complement and the flag 1 when negative.  Pure.
- */
-static void put_field(uint8_t *data, const struct rmd_field_spec *fs, int64_t raw)
-{
-	put_le(&data[fs->off], fs->size, raw);
-	if (fs->sign_byte)
-		data[fs->off + fs->size] = raw < 0;
-}
-
-/* Read a field; a sign_byte field takes both of the manual's readings (rmd/codec.h).  Pure. */
-static int64_t get_field(const uint8_t *data, const struct rmd_field_spec *fs)
-{
-	int64_t v = get_le(&data[fs->off], fs->size, fs->is_signed);
-
-	if (fs->sign_byte && v > 0 && data[fs->off + fs->size])
-		return -v; /* a magnitude and the flag */
-	return v;	   /* two's complement (top bit set), or positive with flag 0 */
-}
-
 static uint32_t frame_id(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id,
 			 const struct rmd_cmd_spec *spec)
 {
@@ -320,7 +279,7 @@ int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const s
 
 		if (!fits(fs, msg->v[fs->field]))
 			return -ERANGE;
-		put_field(out->data, fs, msg->v[fs->field]);
+		rmd_field_write(fs, out->data, msg->v[fs->field]);
 	}
 	return 0;
 }
@@ -351,7 +310,7 @@ static void decode_fields(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 	for (unsigned i = 0; i < l->n; i++) {
 		const struct rmd_field_spec *fs = &l->f[i];
 
-		rmd_msg_set(msg, fs->field, get_field(f->data, fs));
+		rmd_msg_set(msg, fs->field, rmd_field_read(fs, f->data));
 	}
 }
 
