@@ -14,6 +14,7 @@
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
+#include "rmd/time.h"
 #include "harness/lcm_loopback.h"
 
 static int lcm_loopback_got;
@@ -102,14 +103,6 @@ void *fixture_or_skip(void **state)
 
 /* ---- the listener ---------------------------------------------------------- */
 
-static int64_t mono_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
 static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
 		     void *user)
 {
@@ -138,7 +131,7 @@ static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 		rmd_health_t_destroy(rx->health);
 	rx->health = rmd_health_t_copy(msg);
 	if (rx->n_health < LCM_RX_HEALTH)
-		rx->health_rx_ns[rx->n_health] = mono_ns();
+		rx->health_rx_ns[rx->n_health] = rmd_now_ns();
 	rx->n_health++;
 }
 

@@ -23,6 +23,7 @@
 
 #include <cmocka.h>
 
+#include "rmd/time.h"
 #include "harness/proc.h"
 
 #define NS_PER_MS INT64_C(1000000)
@@ -30,14 +31,6 @@
 #define ARGS_MAX 64
 
 static struct kid kids[KID_MAX];
-
-static int64_t mono_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
 
 static int status_of(int ws)
 {
@@ -191,7 +184,7 @@ void run_prog(struct run *r, const char *path, const char *const *args, const st
 	struct sink s[2] = { { .fd = -1 }, { .fd = -1 } };
 	int po[2], pe[2], in, ws = 0, limit_ms = o && o->limit_ms ? o->limit_ms : RUN_LIMIT_MS;
 	service_fn *service = o ? o->service : NULL;
-	int64_t t0 = mono_ns(), end = t0 + limit_ms * NS_PER_MS;
+	int64_t t0 = rmd_now_ns(), end = t0 + limit_ms * NS_PER_MS;
 	pid_t pid;
 
 	memset(r, 0, sizeof(*r));
@@ -219,7 +212,7 @@ void run_prog(struct run *r, const char *path, const char *const *args, const st
 		struct pollfd p[2] = { { .fd = s[0].fd, .events = POLLIN },
 				       { .fd = s[1].fd, .events = POLLIN } };
 
-		if (mono_ns() > end) {
+		if (rmd_now_ns() > end) {
 			kill(pid, SIGKILL);
 			waitpid(pid, NULL, 0);
 			for (unsigned i = 0; i < 2; i++)
@@ -243,7 +236,7 @@ void run_prog(struct run *r, const char *path, const char *const *args, const st
 		if (service)
 			service(0);
 	}
-	r->took_ns = mono_ns() - t0;
+	r->took_ns = rmd_now_ns() - t0;
 	r->status = status_of(ws);
 	for (unsigned i = 0; i < 2; i++)
 		if (!s[i].buf) {
@@ -495,10 +488,10 @@ static void kid_service(struct kid *k, service_fn *service, int ms)
 
 void kid_wait_output(struct kid *k, const char *needle, int ms, service_fn *service)
 {
-	int64_t end = mono_ns() + ms * NS_PER_MS;
+	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
 
 	while (!strstr(k->out, needle)) {
-		if (mono_ns() > end || k->fd < 0)
+		if (rmd_now_ns() > end || k->fd < 0)
 			fail_msg("%s: no \"%s\" within %d ms%s; its output:\n%s", k->name, needle,
 				 ms, k->fd < 0 ? " (it exited)" : "", kid_tail(k));
 		kid_service(k, service, 20);
@@ -507,10 +500,10 @@ void kid_wait_output(struct kid *k, const char *needle, int ms, service_fn *serv
 
 int kid_wait_exit(struct kid *k, int ms, service_fn *service)
 {
-	int64_t end = mono_ns() + ms * NS_PER_MS;
+	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
 
 	while (!kid_poll_exit(k) || k->fd >= 0) {
-		if (mono_ns() > end)
+		if (rmd_now_ns() > end)
 			fail_msg("%s (pid %d) did not exit within %d ms; its output:\n%s", k->name,
 				 (int)k->pid, ms, kid_tail(k));
 		kid_service(k, service, 10);

@@ -120,14 +120,6 @@ static const struct rmd_bus_ops *real_ops;
 static struct rmd_bus_ops shim_ops;
 static bool no_multicast;
 
-static int64_t now_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
-}
-
 /* The code of a torque frame of ours: its current field (V3 §2.17, 0xA1, bytes 4..5); else 0. */
 static int16_t frame_code(const struct rmd_frame *f)
 {
@@ -139,7 +131,7 @@ static int16_t frame_code(const struct rmd_frame *f)
 /* rt-safe: the hand-over of every frame the loop sends, timed, then the real send. */
 static int shim_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n, int64_t now)
 {
-	int64_t t = now_ns();
+	int64_t t = rmd_now_ns();
 	int r = real_ops->send(bus, frames, n, now);
 
 	for (int k = 0; k < r; k++) {
@@ -181,17 +173,17 @@ struct jitter {
 static void *jitter_main(void *arg)
 {
 	struct jitter *j = arg;
-	int64_t next = now_ns() + NS_PER_MS;
+	int64_t next = rmd_now_ns() + NS_PER_MS;
 
 	while (!atomic_load(&j->stop) && j->n < PROBE_MAX) {
 		struct timespec ts = { next / NS_PER_S, next % NS_PER_S };
 
 		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR)
 			;
-		j->lat_ns[j->n++] = now_ns() - next;
+		j->lat_ns[j->n++] = rmd_now_ns() - next;
 		next += NS_PER_MS;
-		if (next < now_ns()) /* never catch up in a burst */
-			next = now_ns() + NS_PER_MS;
+		if (next < rmd_now_ns()) /* never catch up in a burst */
+			next = rmd_now_ns() + NS_PER_MS;
 	}
 	return NULL;
 }
@@ -429,8 +421,8 @@ static int setup(void **state)
 		if (ev.kind == RMD_EV_RT && ev.b == RMD_LOOP_RT_FIFO)
 			d->fifo = false;
 	/* the loop runs: its first cycle */
-	t = now_ns() + 2 * NS_PER_S;
-	while (rmd_loop_heartbeat(d->loop) == 0 && now_ns() < t)
+	t = rmd_now_ns() + 2 * NS_PER_S;
+	while (rmd_loop_heartbeat(d->loop) == 0 && rmd_now_ns() < t)
 		sched_yield();
 	assert_true(rmd_loop_heartbeat(d->loop) > 0);
 	return 0;
@@ -477,7 +469,7 @@ static rmd_command_t torque_cmd(int64_t seq, double torque_nm)
 	memset(&m, 0, sizeof(m));
 	memset(&motor, 0, sizeof(motor));
 	m.motor = &motor;
-	m.utime = now_ns() / 1000;
+	m.utime = rmd_now_ns() / 1000;
 	m.seq = seq;
 	m.count = 1;
 	m.motor[0].index = 0;
@@ -541,7 +533,7 @@ static void test_publish_to_frame_latency(void **state)
 	lcm_t *pub;
 	int64_t seq = 0, t, t0, epoch, next_out, next_tick, next_wire;
 	unsigned superseded = 0, n_wire = 0, missed_first = 0, edges = 0;
-	uint64_t seed = (uint64_t)now_ns();
+	uint64_t seed = (uint64_t)rmd_now_ns();
 
 	if (!d)
 		skip();
@@ -563,9 +555,9 @@ static void test_publish_to_frame_latency(void **state)
 	 * bound (ENABLE_WAIT_S; on a busy machine the first commands take
 	 * seconds), its time printed
 	 */
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	t = t0 + ENABLE_WAIT_S * NS_PER_S;
-	for (unsigned k = 1; lifecycle(d) != RMD_LC_ENABLED && now_ns() < t; k++) {
+	for (unsigned k = 1; lifecycle(d) != RMD_LC_ENABLED && rmd_now_ns() < t; k++) {
 		rmd_command_t m = torque_cmd(seq++, 0);
 		struct timespec ts = { 0, PUBLISH_GAP_NS };
 
@@ -590,11 +582,11 @@ static void test_publish_to_frame_latency(void **state)
 			 ENABLE_WAIT_S, (int)lifecycle(d), (unsigned long long)bs.accepted,
 			 (unsigned long long)bs.rejected);
 	}
-	print_message("enabled %.0f ms after the first enable%s\n", (now_ns() - t0) / 1e6,
+	print_message("enabled %.0f ms after the first enable%s\n", (rmd_now_ns() - t0) / 1e6,
 		      edges ? " (after enable = 0 first: the motor had been LOST)" : "");
 	assert_int_equal(pthread_create(&jth, NULL, jitter_main, &jit), 0);
 	/* the controller: N setpoints, ~200 Hz with a random phase against the ticks */
-	t = now_ns();
+	t = rmd_now_ns();
 	for (unsigned k = 0; k < N_PUBLISH; k++) {
 		rmd_command_t m = torque_cmd(seq++, torque[k]);
 		int len = rmd_command_t_encode(buf, 0, (int)sizeof(buf), &m);
@@ -605,7 +597,7 @@ static void test_publish_to_frame_latency(void **state)
 		t += PUBLISH_GAP_NS + (int64_t)((seed >> 33) % (uint64_t)NS_PER_MS);
 		ts = (struct timespec){ t / NS_PER_S, t % NS_PER_S };
 		clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
-		t_pub[k] = now_ns();
+		t_pub[k] = rmd_now_ns();
 		assert_int_equal(lcm_publish(pub, PREFIX "COMMAND", buf, (unsigned)len), 0);
 	}
 	/*
@@ -613,9 +605,9 @@ static void test_publish_to_frame_latency(void **state)
 	 * bridge may hand it over late, and a setpoint without a later frame has
 	 * no latency), then stop everything that writes what we read
 	 */
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	t = t0 + TAIL_WAIT_S * NS_PER_S;
-	while (now_ns() < t0 + 100 * NS_PER_MS || (!last_out() && now_ns() < t))
+	while (rmd_now_ns() < t0 + 100 * NS_PER_MS || (!last_out() && rmd_now_ns() < t))
 		sched_yield();
 	atomic_store(&jit.stop, true);
 	pthread_join(jth, NULL);
@@ -625,7 +617,7 @@ static void test_publish_to_frame_latency(void **state)
 	d->loop_started = false;
 	lcm_destroy(pub);
 	d->r.buses[0].ops = real_ops;
-	t = now_ns();
+	t = rmd_now_ns();
 	epoch = t - rmd_bus_sim_time_ns(&d->r.buses[0], t);
 
 	/*

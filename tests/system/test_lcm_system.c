@@ -128,22 +128,14 @@ struct fixture {
 	uint8_t buf[4096];
 };
 
-static int64_t now_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
-}
-
 static void pump(struct fixture *f, int ms);
 
 /* Until `cond` holds or `ms` pass, handling what the listener receives. */
-#define WAIT_UNTIL(f, cond, ms)                                    \
-	do {                                                       \
-		int64_t end_ = now_ns() + (int64_t)(ms)*NS_PER_MS; \
-		while (!(cond) && now_ns() < end_)                 \
-			pump(f, 1);                                \
+#define WAIT_UNTIL(f, cond, ms)                                        \
+	do {                                                           \
+		int64_t end_ = rmd_now_ns() + (int64_t)(ms)*NS_PER_MS; \
+		while (!(cond) && rmd_now_ns() < end_)                 \
+			pump(f, 1);                                    \
 	} while (0)
 
 /* ---- files ------------------------------------------------------------------- */
@@ -219,13 +211,13 @@ static pid_t spawn(const char *const *argv, const char *log, bool with_pythonpat
  */
 static int wait_exit(pid_t pid, int timeout_ms)
 {
-	int64_t end = now_ns() + (int64_t)timeout_ms * NS_PER_MS;
+	int64_t end = rmd_now_ns() + (int64_t)timeout_ms * NS_PER_MS;
 	int pfd = (int)syscall(SYS_pidfd_open, pid, 0);
 	int ws;
 
 	for (;;) {
 		pid_t r = waitpid(pid, &ws, WNOHANG);
-		int64_t left = end - now_ns();
+		int64_t left = end - rmd_now_ns();
 
 		if (r == pid)
 			break;
@@ -435,7 +427,7 @@ static struct fixture *fixture(void **state)
 
 static void request_config(struct fixture *f)
 {
-	rmd_config_request_t req = { .utime = now_ns() / 1000 };
+	rmd_config_request_t req = { .utime = rmd_now_ns() / 1000 };
 
 	assert_int_equal(rmd_config_request_t_publish(f->pub, "RMD_CONFIG_REQUEST", &req), 0);
 }
@@ -444,14 +436,14 @@ static void request_config(struct fixture *f)
 static void start_rmdd_with(struct fixture *f, const char *path)
 {
 	const char *argv[] = { rmdd_bin, "--config", path, "--lcm-url", f->url, NULL };
-	int64_t end = now_ns() + 10 * NS_PER_S, next = 0;
+	int64_t end = rmd_now_ns() + 10 * NS_PER_S, next = 0;
 
 	f->rmdd = spawn(argv, f->log, false);
 	listen_on(f);
 	while (!f->rx.config || !f->rx.n_states) {
 		int st;
 
-		if (now_ns() >= end)
+		if (rmd_now_ns() >= end)
 			fail_msg("no config_t and state_t from rmdd within 10 s; its output:\n%s",
 				 slurp(f->log));
 		st = wait_exit(f->rmdd, 0);
@@ -459,9 +451,9 @@ static void start_rmdd_with(struct fixture *f, const char *path)
 			f->rmdd = 0;
 			fail_msg("rmdd exited (%d) at start; its output:\n%s", st, slurp(f->log));
 		}
-		if (now_ns() >= next) {
+		if (rmd_now_ns() >= next) {
 			request_config(f);
-			next = now_ns() + 200 * NS_PER_MS;
+			next = rmd_now_ns() + 200 * NS_PER_MS;
 		}
 		pump(f, 5);
 	}
@@ -498,7 +490,7 @@ static rmd_command_t cmd_new(struct fixture *f)
 	memset(cmd_motors, 0, sizeof(cmd_motors));
 	m.motor = cmd_motors;
 	m.controller = f->controller;
-	m.utime = now_ns() / 1000;
+	m.utime = rmd_now_ns() / 1000;
 	m.seq = ++f->seq;
 	return m;
 }
@@ -566,10 +558,10 @@ static bool all_at_target(const struct fixture *f, double tol)
 static bool stream(struct fixture *f, bool enable, int ms,
 		   bool (*done)(const struct fixture *f, int arg), int arg)
 {
-	int64_t end = now_ns() + (int64_t)ms * NS_PER_MS, next = 0;
+	int64_t end = rmd_now_ns() + (int64_t)ms * NS_PER_MS, next = 0;
 
 	while (!done(f, arg)) {
-		int64_t now = now_ns();
+		int64_t now = rmd_now_ns();
 
 		if (now >= end)
 			return false;
@@ -577,9 +569,9 @@ static bool stream(struct fixture *f, bool enable, int ms,
 			rmd_command_t m = cmd_all(f, enable);
 
 			send_cmd(f, &m);
-			if (f->last_pub_ns && now_ns() - f->last_pub_ns > f->max_pub_gap_ns)
-				f->max_pub_gap_ns = now_ns() - f->last_pub_ns;
-			f->last_pub_ns = now_ns();
+			if (f->last_pub_ns && rmd_now_ns() - f->last_pub_ns > f->max_pub_gap_ns)
+				f->max_pub_gap_ns = rmd_now_ns() - f->last_pub_ns;
+			f->last_pub_ns = rmd_now_ns();
 			next = now + CTL_PERIOD_MS * NS_PER_MS;
 		}
 		pump(f, 1);
@@ -609,7 +601,7 @@ static bool done_fresh_health(const struct fixture *f, int arg)
  */
 static const rmd_health_t *stream_health(struct fixture *f, bool enable)
 {
-	f->fresh_after_ns = now_ns();
+	f->fresh_after_ns = rmd_now_ns();
 	if (!stream(f, enable, 1000, done_fresh_health, 0))
 		fail_msg("no health_t from rmdd within 1 s; its output:\n%s", slurp(f->log));
 	return f->rx.health;
@@ -676,7 +668,7 @@ static void test_setpoints_move_the_motors(void **state)
 
 	for (int i = 0; i < NMOTORS; i++)
 		f->target[i] = i < NPOS ? 0.8 : -0.6;
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	if (!stream(f, true, 5000, done_target, 20)) {
 		for (int i = 0; i < NMOTORS; i++)
 			print_message("motor %d: lifecycle %d, position %.4f rad, target %.4f\n", i,
@@ -686,7 +678,7 @@ static void test_setpoints_move_the_motors(void **state)
 			 slurp(f->log));
 	}
 	print_message("setpoints: every motor within 20 mrad of its target after %.0f ms\n",
-		      (now_ns() - t0) / 1e6);
+		      (rmd_now_ns() - t0) / 1e6);
 	/* state_t: the modes commanded, fresh replies, the supply, cycles advancing */
 	assert_true(f->rx.state.cycle > s0.cycle);
 	assert_true(f->rx.state.utime > s0.utime);
@@ -965,7 +957,7 @@ again:
 	/* No listener during the flood: its LCM thread would copy all of it. */
 	listen_off(f);
 	prctl(PR_SET_TIMERSLACK, 1UL); /* 50 us steps: the default slack would halve the rate */
-	t0 = t = now_ns();
+	t0 = t = rmd_now_ns();
 	for (int i = 0; i < n; i++) {
 		int kind = flood_send(f, i);
 
@@ -977,13 +969,13 @@ again:
 		}
 		/* a late sender catches up without sleeping */
 		t += NS_PER_S / hz;
-		if (now_ns() < t) {
+		if (rmd_now_ns() < t) {
 			struct timespec ts = { t / NS_PER_S, t % NS_PER_S };
 
 			clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
 		}
 	}
-	t1 = now_ns();
+	t1 = rmd_now_ns();
 	listen_on(f);
 	/* the controller goes on; health_t after the flood, once the counts settle */
 	stream(f, true, 300, done_never, 0);
@@ -1320,7 +1312,7 @@ static void test_ctrl_c_stops_cleanly(void **state)
 	 * says its watchdog tripped then (a busy machine held the example off
 	 * past the command timeout, issue 10); after the stop there must be none.
 	 */
-	h = health_after(f, now_ns(), 1000);
+	h = health_after(f, rmd_now_ns(), 1000);
 	safe0 = h->safe_action_events;
 	trips = count_of(slurp(f->log), WD_TRIP_LINE);
 	if (safe0 && !trips)
@@ -1334,7 +1326,7 @@ static void test_ctrl_c_stops_cleanly(void **state)
 			      trips, (long long)safe0);
 	/* well past the command timeout: no motor enabled, so no trip and no safe action */
 	WAIT_UNTIL(f, false, 3 * COMMAND_TIMEOUT_MS);
-	h = health_after(f, now_ns(), 1000);
+	h = health_after(f, rmd_now_ns(), 1000);
 	assert_int_equal(h->safe_action_events, safe0);
 	assert_int_equal(count_of(slurp(f->log), WD_TRIP_LINE), trips);
 	assert_int_not_equal(h->watchdog, RMD_HEALTH_T_WD_TRIPPED);
@@ -1347,26 +1339,26 @@ static void test_examples_refuse_without_rmdd(void **state)
 	struct fixture *f = fixture(state);
 	const char *c_argv[] = { sine_bin, "--url", f->url, NULL };
 	const char *py_argv[] = { "python3", sine_py, "--url", f->url, NULL };
-	int64_t t0 = now_ns();
+	int64_t t0 = rmd_now_ns();
 	int st;
 
 	f->child = spawn(c_argv, f->child_log, false);
 	st = wait_exit(f->child, 5000);
 	f->child = st < 0 ? f->child : 0;
 	assert_int_equal(st, 1);
-	assert_true(now_ns() - t0 < 4 * NS_PER_S);
+	assert_true(rmd_now_ns() - t0 < 4 * NS_PER_S);
 	assert_non_null(strstr(slurp(f->child_log), "no rmd.config_t on RMD_CONFIG within 2 s: "
 						    "is rmdd running"));
 	if (python_missing("the Python half of this test"))
 		return;
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	f->child = spawn(py_argv, f->child_log, true);
 	st = wait_exit(f->child, 8000);
 	f->child = st < 0 ? f->child : 0;
 	if (st != 1)
 		fail_msg("sine.py without rmdd: exit %d; its output:\n%s", st, slurp(f->child_log));
 	assert_non_null(strstr(slurp(f->child_log), "no rmd.config_t on RMD_CONFIG within 2 s"));
-	print_message("without rmdd: sine.py gave up after %.1f s\n", (now_ns() - t0) / 1e9);
+	print_message("without rmdd: sine.py gave up after %.1f s\n", (rmd_now_ns() - t0) / 1e9);
 }
 
 /* ---- tests: recording ------------------------------------------------------------------------- */
@@ -1461,8 +1453,8 @@ static void test_logger_records_state(void **state)
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 	f->child = spawn(argv, f->child_log, false);
 	/* the logger writes once it hears something (it flushes every 100 ms) */
-	end = now_ns() + 3 * NS_PER_S;
-	while (!(stat(path, &st) == 0 && st.st_size > 0) && now_ns() < end)
+	end = rmd_now_ns() + 3 * NS_PER_S;
+	while (!(stat(path, &st) == 0 && st.st_size > 0) && rmd_now_ns() < end)
 		pump(f, 5);
 	if (!(stat(path, &st) == 0 && st.st_size > 0))
 		fail_msg("lcm-logger wrote nothing within 3 s; its output:\n%s",
@@ -1555,7 +1547,7 @@ static void on_any_command(const lcm_recv_buf_t *rbuf, const char *channel, void
 	(void)channel;
 	(void)user;
 	if (!first_command_ns)
-		first_command_ns = now_ns();
+		first_command_ns = rmd_now_ns();
 }
 
 static bool motor_in(const struct fixture *f, int i, int lc)
@@ -1594,11 +1586,11 @@ static void example_after_a_loss(struct fixture *f, const char *const *argv, boo
 	sub = lcm_subscribe(f->sub, "RMD_COMMAND", on_any_command, NULL);
 	assert_non_null(sub);
 	f->child = spawn(argv, f->child_log, python);
-	end = now_ns() + 10 * NS_PER_S;
-	while (!enabled_ns && now_ns() < end && wait_exit(f->child, 0) < 0) {
+	end = rmd_now_ns() + 10 * NS_PER_S;
+	while (!enabled_ns && rmd_now_ns() < end && wait_exit(f->child, 0) < 0) {
 		pump(f, 1);
 		if (motor_in(f, 0, RMD_STATE_T_LC_ENABLED))
-			enabled_ns = now_ns();
+			enabled_ns = rmd_now_ns();
 	}
 	if (!enabled_ns || !first_command_ns)
 		fail_msg("%s did not enable pos_1 after its loss; its output:\n%s\nrmdd's:\n%s",
@@ -1672,8 +1664,8 @@ static void test_second_controller_rejected(void **state)
 	memcpy(home, f->target, sizeof(home));
 
 	/* A drives every motor 0.3 rad up, B (started later) 0.3 rad down, at once */
-	end = now_ns() + 1500 * NS_PER_MS;
-	while (now_ns() < end) {
+	end = rmd_now_ns() + 1500 * NS_PER_MS;
+	while (rmd_now_ns() < end) {
 		rmd_command_t m;
 
 		for (int i = 0; i < NMOTORS; i++)
@@ -1686,7 +1678,7 @@ static void test_second_controller_rejected(void **state)
 		f->controller = 0x0b0b;
 		m = cmd_all(f, true);
 		send_cmd(f, &m);
-		f->last_pub_ns = now_ns();
+		f->last_pub_ns = rmd_now_ns();
 		for (int k = 0; k < CTL_PERIOD_MS; k++) {
 			pump(f, 1);
 			near_b |= all_near(f, home, -0.3, 0.1);
@@ -1765,9 +1757,9 @@ static void test_sigterm_sends_the_configured_action(void **state)
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 	f->controller = 0x5157;
 	enable_in_place(f);
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	assert_int_equal(stop_child(&f->rmdd, SIGTERM, 5000), 0);
-	took = now_ns() - t0;
+	took = rmd_now_ns() - t0;
 	if (!strstr(slurp(f->log), "<5>rmdd: the driven motors were damped, then every motor was "
 				   "sent stop (0x80) and brake (0x78); their comm-loss protection "
 				   "(0xB3) stays set"))

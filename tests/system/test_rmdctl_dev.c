@@ -25,6 +25,7 @@
 
 #include <cmocka.h>
 
+#include "rmd/time.h"
 #include "rmd/bus.h"
 #include "rmd/bus_open.h"
 #include "rmd/bus_sim.h"
@@ -303,14 +304,6 @@ static void test_open_spec(void **state)
 
 /* ---- transactions over the sim bus ------------------------------------------------------ */
 
-static int64_t mono_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
 static void test_txn_sim(void **state)
 {
 	struct rmd_txn_opts o = { .timeout_ns = 5 * MS, .tries = 3 };
@@ -328,9 +321,9 @@ static void test_txn_sim(void **state)
 	assert_int_equal(rmd_txn_prepare(&t[3], RMD_PROTO_V3, 2, &m9a), 0);
 	assert_int_equal(t[0].reply_id, RMD_CAN_V3_REPLY_BASE + 3);
 	assert_int_equal(t[0].reply_cmd, 0x9A);
-	start = mono_ns();
+	start = rmd_now_ns();
 	assert_int_equal(rmd_txn_run(&bus, t, 4, &o), 3);
-	took = mono_ns() - start;
+	took = rmd_now_ns() - start;
 	assert_true(t[0].done && t[2].done && t[3].done);
 	assert_false(t[1].done);
 	assert_int_equal(t[0].tries, 1);

@@ -66,6 +66,7 @@
 
 #include <cmocka.h>
 
+#include "rmd/time.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/rs485.h"
 #include "rmd/txn.h"
@@ -121,17 +122,9 @@ struct rig {
 	struct run run; /* the last rmdctl run (too big for the stack of a test) */
 };
 
-static int64_t mono_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
 static int ms_left(int64_t deadline_ns)
 {
-	int64_t left = deadline_ns - mono_ns();
+	int64_t left = deadline_ns - rmd_now_ns();
 
 	return left <= 0 ? 0 : (int)((left + MS - 1) / MS);
 }
@@ -362,7 +355,7 @@ static void run_once(struct rig *g, struct run *r, const char *const *args)
 	 * close does on a real port, or the next run gets EBUSY (unless root).
 	 */
 	assert_int_equal(ioctl(g->b.hold, TIOCNXCL), 0);
-	start = mono_ns();
+	start = rmd_now_ns();
 	deadline = start + RUN_LIMIT_MS * MS;
 	pid = spawn(g->rmdctl, argv, out[1], err[1]);
 	assert_true(pid > 0);
@@ -399,7 +392,7 @@ static void run_once(struct rig *g, struct run *r, const char *const *args)
 		}
 		poll(NULL, 0, 5);
 	}
-	r->took_ns = mono_ns() - start;
+	r->took_ns = rmd_now_ns() - start;
 	if (!exited) {
 		kill(pid, SIGKILL);
 		waitpid(pid, NULL, 0);
@@ -558,7 +551,7 @@ static int group_setup(void **state)
 		goto err;
 	}
 	fcntl(g->sim_log_fd, F_SETFL, O_NONBLOCK);
-	deadline = mono_ns() + READY_MS * MS;
+	deadline = rmd_now_ns() + READY_MS * MS;
 	for (;;) {
 		struct pollfd p = { .fd = g->sim_log_fd, .events = POLLIN };
 
@@ -781,7 +774,7 @@ static void test_sim_sigterm(void **state)
 
 	need_sim(g);
 	assert_int_equal(kill(g->sim, SIGTERM), 0);
-	deadline = mono_ns() + EXIT_MS * MS;
+	deadline = rmd_now_ns() + EXIT_MS * MS;
 	for (;;) {
 		struct pollfd p = { .fd = g->sim_log_fd, .events = POLLIN };
 		pid_t w = waitpid(g->sim, &st, WNOHANG);

@@ -259,14 +259,6 @@ static struct {
 
 /* ---- small helpers ----------------------------------------------------------- */
 
-static int64_t mono_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
-}
-
 static int64_t real_ns(void)
 {
 	struct timespec ts;
@@ -514,7 +506,7 @@ static void publish(void)
 	memset(&c, 0, sizeof(c));
 	memset(motors, 0, sizeof(motors));
 	c.motor = motors;
-	c.utime = mono_ns() / 1000;
+	c.utime = rmd_now_ns() / 1000;
 	c.seq = ++S.seq;
 	c.count = (int16_t)S.cfg.n_motors;
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
@@ -559,7 +551,7 @@ static void service(int max_ms)
 {
 	struct pollfd p[KID_MAX + 1];
 	struct kid *who[KID_MAX + 1];
-	int64_t now = mono_ns();
+	int64_t now = rmd_now_ns();
 	int n = 0, t = max_ms;
 
 	if (S.ctl_on) {
@@ -591,7 +583,7 @@ static void service(int max_ms)
 				;
 		}
 	}
-	now = mono_ns();
+	now = rmd_now_ns();
 	if (S.ctl_on && now >= S.next_pub) {
 		publish();
 		S.next_pub += CTL_PERIOD_MS * NS_PER_MS;
@@ -605,16 +597,16 @@ static void service(int max_ms)
 /* Let everything run for ms milliseconds (a measurement window, not a wait for a result). */
 static void run_for(int ms)
 {
-	int64_t end = mono_ns() + ms * NS_PER_MS;
+	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
 
-	for (int64_t now = mono_ns(); now < end; now = mono_ns())
+	for (int64_t now = rmd_now_ns(); now < end; now = rmd_now_ns())
 		service((int)((end - now + NS_PER_MS - 1) / NS_PER_MS));
 }
 
 static void controller(bool on, bool enable)
 {
 	if (on && !S.ctl_on)
-		S.next_pub = mono_ns();
+		S.next_pub = rmd_now_ns();
 	S.ctl_on = on;
 	S.ctl_enable = enable;
 }
@@ -627,7 +619,7 @@ static void controller(bool on, bool enable)
 static void sync_log(void)
 {
 	uint8_t d[8] = { 'M', 'R', 'K' };
-	int64_t now = mono_ns(), end = now + SYNC_MS * NS_PER_MS, resend = now;
+	int64_t now = rmd_now_ns(), end = now + SYNC_MS * NS_PER_MS, resend = now;
 	uint32_t want = ++S.marker;
 
 	memcpy(&d[4], &want, sizeof(want));
@@ -638,7 +630,7 @@ static void sync_log(void)
 			all &= S.marker_seen[b] >= want;
 		if (all)
 			return;
-		now = mono_ns();
+		now = rmd_now_ns();
 		if (now > end)
 			fail_msg(
 				"candump's log %s did not show marker %u within %d ms; candump:\n%s",
@@ -1028,11 +1020,11 @@ static unsigned rep_id(unsigned i)
 /* Wait (publishing as the controller is set) until every motor is in lifecycle lc. */
 static bool wait_all_lc(int8_t lc, int ms)
 {
-	int64_t end = mono_ns() + ms * NS_PER_MS;
+	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
 	uint64_t n0 = S.n_state;
 
 	while (S.n_state == n0 || !all_lc(lc)) {
-		if (mono_ns() > end)
+		if (rmd_now_ns() > end)
 			return false;
 		service(10);
 	}
@@ -1048,15 +1040,15 @@ static bool wait_all_lc(int8_t lc, int ms)
  */
 static bool enable_try(double *ms)
 {
-	int64_t t0 = mono_ns(), end = t0 + ENABLE_MS * NS_PER_MS;
+	int64_t t0 = rmd_now_ns(), end = t0 + ENABLE_MS * NS_PER_MS;
 
 	for (;;) {
 		controller(true, true);
 		if (wait_all_lc(RMD_STATE_T_LC_ENABLED, 1000 * (int)pace())) {
-			*ms = ms_of(mono_ns() - t0);
+			*ms = ms_of(rmd_now_ns() - t0);
 			return true;
 		}
-		if (mono_ns() > end)
+		if (rmd_now_ns() > end)
 			return false;
 		S.edge_toggles++;
 		controller(true, false);
@@ -1366,11 +1358,11 @@ static void test_rmdctl_scan_move(void **state)
 /* Wait for the next state_t; its cycle number and time (rmdd's CLOCK_MONOTONIC, ns). */
 static void next_state(int64_t *cycle, int64_t *t_ns)
 {
-	int64_t end = mono_ns() + 2 * NS_PER_S * (int64_t)pace();
+	int64_t end = rmd_now_ns() + 2 * NS_PER_S * (int64_t)pace();
 	uint64_t n = S.n_state;
 
 	while (S.n_state == n) {
-		if (mono_ns() > end)
+		if (rmd_now_ns() > end)
 			fail_msg("no state_t from rmdd for %u s", 2 * pace());
 		service(2);
 	}
@@ -1410,7 +1402,7 @@ static void rate_window(struct window *w)
 	 * frames just after its time, so the frames of cycles c0+1 .. c1 lie
 	 * between t0 and t1, each shifted by half a period to be safe.
 	 */
-	off = real_ns() - mono_ns();
+	off = real_ns() - rmd_now_ns();
 	next_state(&c0, &t0);
 	h0 = S.h;
 	sleepers_mark();
@@ -1675,9 +1667,9 @@ static void test_system_watchdog(void **state)
 	h0 = S.h;
 	controller(false, true);
 	t_last = S.last_pub_real;
-	end = mono_ns() + 3 * NS_PER_S * (int64_t)pace();
+	end = rmd_now_ns() + 3 * NS_PER_S * (int64_t)pace();
 	while (S.h.watchdog != RMD_HEALTH_T_WD_TRIPPED || !all_lc(RMD_STATE_T_LC_SAFE)) {
-		if (mono_ns() > end)
+		if (rmd_now_ns() > end)
 			fail_msg(
 				"controller quiet for %u s: health_t watchdog %d (expected TRIPPED "
 				"%d), lifecycles %s; rmdd:\n%s",
@@ -1775,9 +1767,9 @@ static void test_system_watchdog(void **state)
 	{
 		double ms = enable_all();
 
-		end = mono_ns() + 3 * NS_PER_S * (int64_t)pace();
+		end = rmd_now_ns() + 3 * NS_PER_S * (int64_t)pace();
 		while (S.h.watchdog != RMD_HEALTH_T_WD_OK) {
-			if (mono_ns() > end)
+			if (rmd_now_ns() > end)
 				fail_msg("re-enabled, but health_t watchdog stays %d",
 					 S.h.watchdog);
 			service(10);
@@ -1814,10 +1806,10 @@ static void test_system_sigterm(void **state)
 	log_forget(); /* keep what runs up to the event: the last frames before it count */
 	run_for(SETTLE_MS * (int)pace());
 	t_term = real_ns();
-	t0 = mono_ns();
+	t0 = rmd_now_ns();
 	kill(S.rmdd_kid->pid, SIGTERM); /* the controller keeps publishing meanwhile */
 	st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
-	exit_ms = ms_of(mono_ns() - t0);
+	exit_ms = ms_of(rmd_now_ns() - t0);
 	controller(false, false);
 	if (st != 0)
 		fail_msg("rmdd: exit status %d after SIGTERM; its output:\n%s", st,
@@ -1865,7 +1857,7 @@ static struct rmd_frame read_9a(int fd, unsigned i, int ms)
 {
 	static const uint8_t req[8] = { 0x9A };
 	const struct rmd_config_motor *m = &S.cfg.motors[i];
-	int64_t end = mono_ns() + ms * NS_PER_MS;
+	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
 	struct can_frame cf;
 	struct rmd_frame f = { 0 };
 
@@ -1873,7 +1865,7 @@ static struct rmd_frame read_9a(int fd, unsigned i, int ms)
 	for (;;) {
 		struct pollfd p = { .fd = fd, .events = POLLIN };
 
-		if (mono_ns() > end)
+		if (rmd_now_ns() > end)
 			fail_msg("%s motor %u: no answer to 0x9A within %d ms", iface(m->bus),
 				 m->id, ms);
 		poll(&p, 1, 10);
@@ -1947,7 +1939,7 @@ static void test_system_kill9(void **state)
 	assert_int_equal(st, 128 + SIGKILL);
 
 	/* every motor's 0xF1 (comm-loss protection tripped) */
-	end = mono_ns() + (int64_t)(loss + 3000) * NS_PER_MS;
+	end = rmd_now_ns() + (int64_t)(loss + 3000) * NS_PER_MS;
 	do {
 		all = true;
 		run_for(50);
@@ -1957,7 +1949,7 @@ static void test_system_kill9(void **state)
 
 			all &= trip_frame(i, &last) != NULL;
 		}
-		if (!all && mono_ns() > end)
+		if (!all && rmd_now_ns() > end)
 			fail_msg("kill -9 rmdd: not every motor sent 0xF1 within %.0f ms",
 				 loss + 3000);
 	} while (!all);
@@ -2102,13 +2094,13 @@ static void test_system_kill9(void **state)
 		int64_t t = real_ns();
 
 		assert_int_equal(m->id, 1);
-		end = mono_ns() + (int64_t)(loss + 3000) * NS_PER_MS;
+		end = rmd_now_ns() + (int64_t)(loss + 3000) * NS_PER_MS;
 		for (;;) {
 			run_for(50);
 			sync_log();
 			if (first_frame(0, m->bus, rep_id(0), 0xF1, t, T_END))
 				break;
-			if (mono_ns() > end)
+			if (rmd_now_ns() > end)
 				fail_msg("%s motor 1: no 0xF1 %.0f ms after rmdctl", iface(m->bus),
 					 loss + 3000);
 		}
@@ -2201,9 +2193,9 @@ static void test_system_comm_loss(void **state)
 
 	/* the controller streams enable = 1; c2 comes up about LATE_S later */
 	controller(true, true);
-	end = mono_ns() + (LATE_S + 30) * NS_PER_S;
+	end = rmd_now_ns() + (LATE_S + 30) * NS_PER_S;
 	while (S.lc[c2] != RMD_STATE_T_LC_READY && S.lc[c2] != RMD_STATE_T_LC_ENABLED) {
-		if (mono_ns() > end)
+		if (rmd_now_ns() > end)
 			fail_msg("c2 not READY %d s after rmdd started (lifecycles %s); rmdd:\n%s",
 				 LATE_S + 30, lc_list(), kid_tail(S.rmdd_kid));
 		service(20);
@@ -2236,12 +2228,12 @@ static void test_system_comm_loss(void **state)
 	kill(S.rmdd_kid->pid, SIGKILL);
 	assert_int_equal(kid_wait_exit(S.rmdd_kid, EXIT_MS, service), 128 + SIGKILL);
 	controller(false, false);
-	end = mono_ns() + (int64_t)(S.cfg.safety.comm_loss_ms + 3000) * NS_PER_MS;
+	end = rmd_now_ns() + (int64_t)(S.cfg.safety.comm_loss_ms + 3000) * NS_PER_MS;
 	do {
 		run_for(50);
 		sync_log();
 		f1 = first_frame(0, b, rep_id(c2), 0xF1, t_kill, T_END);
-		if (!f1 && mono_ns() > end)
+		if (!f1 && rmd_now_ns() > end)
 			fail_msg("kill -9 rmdd: c2 sent no 0xF1 within %u ms; its frames:\n%s",
 				 S.cfg.safety.comm_loss_ms + 3000, motor_frames(c2, t_kill));
 	} while (!f1);

@@ -32,6 +32,7 @@
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
+#include "rmd/time.h"
 #include "harness/lcm_loopback.h"
 #include "harness/suite.h"
 #include "rmd/bridge.h"
@@ -75,14 +76,6 @@ struct fixture {
 static bool no_multicast;
 static unsigned test_no;
 
-static int64_t now_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
 struct fixture;
 static void pump(struct fixture *f);
 
@@ -90,11 +83,11 @@ static void pump(struct fixture *f);
  * Until `cond` holds or `ms` pass: pump the controller's LCM when it
  * listens, else look again every 100 us.
  */
-#define WAIT_UNTIL(f, cond, ms)                                  \
-	do {                                                     \
-		int64_t end_ = now_ns() + (int64_t)(ms)*1000000; \
-		while (!(cond) && now_ns() < end_)               \
-			pump(f);                                 \
+#define WAIT_UNTIL(f, cond, ms)                                      \
+	do {                                                         \
+		int64_t end_ = rmd_now_ns() + (int64_t)(ms)*1000000; \
+		while (!(cond) && rmd_now_ns() < end_)               \
+			pump(f);                                     \
 	} while (0)
 
 /* ---- multicast on loopback ---------------------------------------------- */
@@ -350,13 +343,13 @@ static void test_command_roundtrip(void **state)
 	m.motor[2] = (rmd_motor_command_t){ .index = 9, .enable = 0, .mode = 1, .velocity = -4 };
 	m.motor[5].position = NAN; /* beyond count: not read */
 	m.motor[6].index = 1;	   /* beyond count: no repeat */
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	send_cmd(f, &m);
 	WAIT_UNTIL(f, take_command(f, &c), 2000);
 	assert_int_equal(c.present, 1u << 1 | 1u << 2 | 1u << 9);
 	assert_int_equal(c.seq, 7);
 	assert_int_equal(c.stamp_us, 1000007);
-	assert_true(c.rx_ns >= t0 && c.rx_ns <= now_ns());
+	assert_true(c.rx_ns >= t0 && c.rx_ns <= rmd_now_ns());
 
 	assert_true(c.m[1].enable);
 	assert_int_equal(c.m[1].mode, RMD_MODE_POSITION);
@@ -754,7 +747,7 @@ static void *fake_rt_main(void *arg)
 	while (!atomic_load(&rt->stop)) {
 		struct rmd_snapshot *s = rmd_latest_write_slot(&rt->f->snapshots);
 
-		s->t_ns = now_ns();
+		s->t_ns = rmd_now_ns();
 		s->cycle = rt->puts++;
 		s->n = NMOTORS;
 		rmd_latest_publish(&rt->f->snapshots);
@@ -806,7 +799,7 @@ static void test_flood(void **state)
 	prctl(PR_SET_TIMERSLACK,
 	      1UL); /* 50 us steps: the default 50 us slack would halve the rate */
 	assert_int_equal(pthread_create(&th, NULL, fake_rt_main, &rt), 0);
-	t0 = t = now_ns();
+	t0 = t = rmd_now_ns();
 	for (int i = 0; i < n; i++) {
 		m = base_cmd(seq);
 		if (i % 10 == 9) { /* one in ten is hostile */
@@ -818,7 +811,7 @@ static void test_flood(void **state)
 		send_cmd(f, &m);
 		/* Pace the flood; a late sender catches up without sleeping. */
 		t += 1000000000 / FLOOD_HZ;
-		if (now_ns() < t) {
+		if (rmd_now_ns() < t) {
 			struct timespec ts = { t / 1000000000, t % 1000000000 };
 
 			clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
@@ -826,13 +819,13 @@ static void test_flood(void **state)
 	}
 	atomic_store(&rt.stop, true);
 	pthread_join(th, NULL);
-	t = now_ns();
+	t = rmd_now_ns();
 	stall = sleeper_worst_ns(&ref);
 	sleeper_stop(&ref);
 	print_message("flood: %d messages in %.3f s\n", n, (t - t0) / 1e9);
 	WAIT_UNTIL(f, stats(f).accepted + stats(f).rejected == (uint64_t)n,
 		   flood_kept_pace(t - t0) ? 5000 : 1000);
-	lag = now_ns() - t;
+	lag = rmd_now_ns() - t;
 	assert_int_equal(pthread_getcpuclockid(f->b.thread, &cpu_clock), 0);
 	clock_gettime(cpu_clock, &cpu);
 	st = stats(f);
@@ -888,11 +881,11 @@ static void test_flood(void **state)
 	/* Still responsive: the next command comes through promptly. */
 	(void)take_command(f, &c);
 	m = base_cmd(seq + 1);
-	t = now_ns();
+	t = rmd_now_ns();
 	send_cmd(f, &m);
 	WAIT_UNTIL(f, take_command(f, &c), 1000);
 	assert_int_equal(c.seq, seq + 1);
-	print_message("flood: next command handed over after %.3f ms\n", (now_ns() - t) / 1e6);
+	print_message("flood: next command handed over after %.3f ms\n", (rmd_now_ns() - t) / 1e6);
 }
 
 /* ---- state, health, config ------------------------------------------------- */
@@ -1364,15 +1357,15 @@ static void test_config_request_flood(void **state)
 	start(f);
 	WAIT_UNTIL(f, stats(f).configs_published >= 1, 2000);
 	assert_int_equal(stats(f).configs_published, 1);
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	next = t0;
 	for (unsigned i = 0; i < 10000; i++) {
 		assert_int_equal(lcm_publish(f->ctl, PREFIX "CONFIG_REQUEST", "", 0), 0);
 		next += 100000; /* 10 kHz */
-		while (now_ns() < next) {
+		while (rmd_now_ns() < next) {
 		}
 	}
-	t_end = now_ns();
+	t_end = rmd_now_ns();
 	elapsed_ns = t_end - t0;
 	/* the pending request's answer comes at most 100 ms after the last one */
 	WAIT_UNTIL(f, false, 300);

@@ -27,6 +27,7 @@
 
 #include <cmocka.h>
 
+#include "rmd/time.h"
 #include "rmd/bus_open.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/bus_sim.h"
@@ -60,14 +61,6 @@ static const uint8_t status1_reply[RMD_FRAME_LEN] = {
 };
 static const uint8_t status1_req[RMD_FRAME_LEN] = { 0x9A };
 static const uint8_t off_req[RMD_FRAME_LEN] = { 0x80 };
-
-static int64_t now_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
-}
 
 static struct timespec ts_of(int64_t ns)
 {
@@ -167,7 +160,7 @@ static void *fake_run(void *arg)
 		ssize_t got;
 
 		if (oh != ot) {
-			wait = owed[oh % OWED_MAX].due_ns - now_ns();
+			wait = owed[oh % OWED_MAX].due_ns - rmd_now_ns();
 			if (wait < 0)
 				wait = 0;
 		}
@@ -192,7 +185,7 @@ static void *fake_run(void *arg)
 			if (fk->requests < MAX_SEEN) {
 				fk->seen_id[fk->requests] = id;
 				fk->seen_cmd[fk->requests] = data[0];
-				fk->seen_ns[fk->requests] = now_ns();
+				fk->seen_ns[fk->requests] = rmd_now_ns();
 			}
 			fk->requests++;
 			if (oh != ot)
@@ -200,7 +193,7 @@ static void *fake_run(void *arg)
 			if (ot - oh < OWED_MAX) {
 				struct owed *o = &owed[ot++ % OWED_MAX];
 
-				o->due_ns = now_ns() + fk->delay_ns;
+				o->due_ns = rmd_now_ns() + fk->delay_ns;
 				o->id = id;
 				memcpy(o->data, data, sizeof(o->data));
 			}
@@ -211,7 +204,7 @@ static void *fake_run(void *arg)
 				fake_write(fk, wire, sizeof(wire));
 			}
 		}
-		while (oh != ot && now_ns() >= owed[oh % OWED_MAX].due_ns)
+		while (oh != ot && rmd_now_ns() >= owed[oh % OWED_MAX].due_ns)
 			fake_answer(fk, &owed[oh++ % OWED_MAX]);
 	}
 	return NULL;
@@ -303,7 +296,7 @@ static int64_t link_start(struct link *l, const struct rmd_rs485_opts *opts, str
 	int64_t t0;
 
 	open_bus_fake(&l->bus, &l->pt, opts, fk);
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	assert_int_equal(rmd_bus_send(&l->bus, f, n, t0), (int)n);
 	return t0;
 }
@@ -334,7 +327,7 @@ static unsigned drive_to(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned m
 
 	for (;;) {
 		struct pollfd pfd = { .fd = rmd_bus_fd(bus), .events = POLLIN };
-		int64_t t = now_ns(), until = limit_ns;
+		int64_t t = rmd_now_ns(), until = limit_ns;
 		struct timespec ts;
 		int r;
 
@@ -344,7 +337,7 @@ static unsigned drive_to(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned m
 			until = rmd_bus_next_due_ns(bus);
 		ts = ts_of(until > t ? until - t : 0);
 		ppoll(&pfd, 1, &ts, NULL);
-		r = rmd_bus_recv(bus, out + n, max - n, now_ns());
+		r = rmd_bus_recv(bus, out + n, max - n, rmd_now_ns());
 		assert_true(r >= 0);
 		n += (unsigned)r;
 	}
@@ -366,8 +359,8 @@ static void exchange(struct rmd_bus *bus, struct pty *pt, const struct rmd_rs485
 		     unsigned max, unsigned want)
 {
 	open_bus_fake(bus, pt, opts, fk);
-	assert_int_equal(rmd_bus_send(bus, f, n, now_ns()), n);
-	assert_int_equal(drive(bus, rx, max, want, now_ns() + LIMIT_NS), want);
+	assert_int_equal(rmd_bus_send(bus, f, n, rmd_now_ns()), n);
+	assert_int_equal(drive(bus, rx, max, want, rmd_now_ns() + LIMIT_NS), want);
 	fake_stop(fk);
 }
 
@@ -383,11 +376,11 @@ static void wait_readable(int fd)
 /* Read exactly len bytes the bus wrote, within LIMIT_NS. */
 static void master_read(int master, uint8_t *buf, size_t len)
 {
-	int64_t limit = now_ns() + LIMIT_NS;
+	int64_t limit = rmd_now_ns() + LIMIT_NS;
 
 	while (len) {
 		struct pollfd pfd = { .fd = master, .events = POLLIN };
-		int64_t t = now_ns();
+		int64_t t = rmd_now_ns();
 		struct timespec ts;
 		ssize_t got;
 
@@ -506,7 +499,7 @@ static void test_round_trip(void **state)
 	assert_int_equal(pending_of(&l.bus), 1);
 	assert_int_equal(rmd_bus_next_due_ns(&l.bus), t0 + ANSWER_NS);
 	assert_int_equal(drive(&l.bus, l.rx, 4, 1, t0 + LIMIT_NS), 1);
-	t1 = now_ns();
+	t1 = rmd_now_ns();
 	fake_stop(fk);
 
 	assert_rx(&l.rx[0], 0x241, status1_reply);
@@ -533,9 +526,9 @@ static void test_one_request_at_a_time(void **state)
 	for (unsigned i = 0; i < 6; i++)
 		f[i] = frame(0x141 + i % 3, status1_req);
 	open_bus_fake(&l.bus, &l.pt, &opts, fk);
-	assert_int_equal(rmd_bus_send(&l.bus, f, 6, now_ns()), 6);
+	assert_int_equal(rmd_bus_send(&l.bus, f, 6, rmd_now_ns()), 6);
 	assert_int_equal(pending_of(&l.bus), 6);
-	assert_int_equal(drive(&l.bus, l.rx, 8, 6, now_ns() + LIMIT_NS), 6);
+	assert_int_equal(drive(&l.bus, l.rx, 8, 6, rmd_now_ns() + LIMIT_NS), 6);
 	fake_stop(fk);
 
 	assert_int_equal(fk->overlaps, 0);
@@ -672,7 +665,7 @@ static void test_broadcast_unknown_count(void **state)
 	(void)state;
 	t0 = link_start(&l, &opts, fk, &f, 1);
 	assert_int_equal(drive(&l.bus, l.rx, 4, 2, t0 + LIMIT_NS), 2);
-	t1 = now_ns();
+	t1 = rmd_now_ns();
 	fake_stop(fk);
 
 	assert_rx(&l.rx[0], 0x241, off_req);
@@ -745,7 +738,7 @@ static void test_partial_and_late_frames(void **state)
 
 	(void)state;
 	open_bus(&l.bus, &l.pt, &opts);
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	assert_int_equal(rmd_bus_send(&l.bus, f, 2, t0), 2);
 	master_read(l.pt.master, wire, RMD_RS485_FRAME_LEN);
 	rmd_rs485_build(1, status1_req, want, sizeof(want));
@@ -756,7 +749,7 @@ static void test_partial_and_late_frames(void **state)
 	assert_int_equal(pending_of(&l.bus), 2);
 	master_quiet(l.pt.master, 0);
 	assert_int_equal(drive_to(&l.bus, l.rx, 4, 0, 1, t0 + LIMIT_NS), 0);
-	assert_true(now_ns() >= t0 + timeout);
+	assert_true(rmd_now_ns() >= t0 + timeout);
 	rmd_rs485_stats(&l.bus, &l.xs);
 	assert_int_equal(l.xs.reply_timeouts, 1);
 	assert_int_equal(pending_of(&l.bus), 1);
@@ -768,18 +761,18 @@ static void test_partial_and_late_frames(void **state)
 	rmd_rs485_build(1, status1_reply, wire, sizeof(wire));
 	assert_int_equal(write(l.pt.master, wire, 5), 5);
 	wait_readable(rmd_bus_fd(&l.bus));
-	assert_int_equal(rmd_bus_recv(&l.bus, l.rx, 4, now_ns()), 0);
+	assert_int_equal(rmd_bus_recv(&l.bus, l.rx, 4, rmd_now_ns()), 0);
 	assert_int_equal(write(l.pt.master, wire + 5, RMD_RS485_FRAME_LEN - 5),
 			 RMD_RS485_FRAME_LEN - 5);
 	/* An unsolicited 0x9A from motor 2 has the wrong command byte to answer 0x92. */
 	master_write_frame(l.pt.master, 2, status1_reply);
-	assert_int_equal(drive_to(&l.bus, l.rx, 4, 2, 1, now_ns() + LIMIT_NS), 2);
+	assert_int_equal(drive_to(&l.bus, l.rx, 4, 2, 1, rmd_now_ns() + LIMIT_NS), 2);
 	assert_rx(&l.rx[0], 0x241, status1_reply);
 	assert_rx(&l.rx[1], 0x242, status1_reply);
 	assert_int_equal(pending_of(&l.bus), 1);
 
 	master_write_frame(l.pt.master, 2, angle_req);
-	assert_int_equal(drive(&l.bus, l.rx, 4, 1, now_ns() + LIMIT_NS), 1);
+	assert_int_equal(drive(&l.bus, l.rx, 4, 1, rmd_now_ns() + LIMIT_NS), 1);
 	assert_rx(&l.rx[0], 0x242, angle_req);
 	assert_int_equal(pending_of(&l.bus), 0);
 	assert_int_equal(l.bus.stats.rx_errors, 0);
@@ -800,25 +793,25 @@ static void test_send_refusals(void **state)
 
 	/* No RS485 form: MIT (V3 §5 is CAN only), id 0 and 33, short frames. */
 	f[0] = frame(0x401, status1_req);
-	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), -EINVAL);
+	assert_int_equal(rmd_bus_send(&bus, f, 1, rmd_now_ns()), -EINVAL);
 	f[0] = frame(0x140, status1_req);
-	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), -EINVAL);
+	assert_int_equal(rmd_bus_send(&bus, f, 1, rmd_now_ns()), -EINVAL);
 	f[0] = frame(0x161, status1_req);
-	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), -EINVAL);
+	assert_int_equal(rmd_bus_send(&bus, f, 1, rmd_now_ns()), -EINVAL);
 	f[0] = frame(0x141, status1_req);
 	f[1] = frame(0x142, status1_req);
 	f[1].len = 7;
-	assert_int_equal(rmd_bus_send(&bus, f, 2, now_ns()), -EINVAL);
+	assert_int_equal(rmd_bus_send(&bus, f, 2, rmd_now_ns()), -EINVAL);
 	assert_int_equal(pending_of(&bus), 0);
 	assert_int_equal(bus.stats.tx_frames, 0);
 
 	/* A full queue takes what fits; the rest is the caller's, counted. */
 	for (unsigned i = 0; i < RMD_RS485_QUEUE + 6; i++)
 		f[i] = frame(0x141 + i % 32, status1_req);
-	assert_int_equal(rmd_bus_send(&bus, f, RMD_RS485_QUEUE + 6, now_ns()), RMD_RS485_QUEUE);
+	assert_int_equal(rmd_bus_send(&bus, f, RMD_RS485_QUEUE + 6, rmd_now_ns()), RMD_RS485_QUEUE);
 	assert_int_equal(bus.stats.tx_busy, 6);
 	assert_int_equal(pending_of(&bus), RMD_RS485_QUEUE);
-	assert_int_equal(rmd_bus_send(&bus, f, 1, now_ns()), 0);
+	assert_int_equal(rmd_bus_send(&bus, f, 1, rmd_now_ns()), 0);
 	assert_int_equal(bus.stats.tx_busy, 7);
 	assert_int_equal(bus.stats.tx_frames, 1);
 	close_bus(&bus, &pt);
@@ -842,7 +835,7 @@ static void test_caps_and_accessors(void **state)
 	assert_int_equal(caps->request_spacing_ns, caps->reply_timeout_ns);
 	assert_int_equal(caps->queue_len, RMD_RS485_QUEUE);
 	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);
-	t0 = now_ns();
+	t0 = rmd_now_ns();
 	assert_int_equal(rmd_bus_send(&bus, &f, 1, t0), 1);
 	assert_int_equal(rmd_bus_next_due_ns(&bus), t0 + caps->reply_timeout_ns);
 	assert_null(rmd_bus_sim_get(&bus));
@@ -901,16 +894,16 @@ static void open_device(struct rmd_bus *bus, struct pty *pt, bool local_echo)
 static unsigned device_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max,
 			    unsigned want, int64_t skew_ns)
 {
-	int64_t limit = now_ns() + LIMIT_NS;
+	int64_t limit = rmd_now_ns() + LIMIT_NS;
 	unsigned n = 0;
 
-	while (n < want && now_ns() < limit) {
+	while (n < want && rmd_now_ns() < limit) {
 		struct pollfd pfd = { .fd = rmd_bus_fd(bus), .events = POLLIN };
 		struct timespec ts = ts_of(10 * MS);
 		int r;
 
 		ppoll(&pfd, 1, &ts, NULL);
-		r = rmd_bus_recv(bus, out + n, max - n, now_ns() + skew_ns);
+		r = rmd_bus_recv(bus, out + n, max - n, rmd_now_ns() + skew_ns);
 		assert_true(r >= 0);
 		n += (unsigned)r;
 	}
@@ -952,27 +945,27 @@ static void test_device_role(void **state)
 	assert_int_equal(rmd_bus_stats(&bus)->rx_frames, 3);
 
 	/* Replies: 0x241 -> id 1, 0x300 -> 0xCD (V3 §7.3). */
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, rmd_now_ns()), 1);
 	master_read(pt.master, wire, sizeof(wire));
 	assert_int_equal(rmd_rs485_parse(wire, sizeof(wire), &id, data), RMD_RS485_FRAME_LEN);
 	assert_int_equal(id, 1);
 	assert_memory_equal(data, status1_reply, RMD_FRAME_LEN);
 	f = frame(0x300, set_id_read);
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, rmd_now_ns()), 1);
 	master_read(pt.master, wire, sizeof(wire));
 	assert_int_equal(rmd_rs485_parse(wire, sizeof(wire), &id, data), RMD_RS485_FRAME_LEN);
 	assert_int_equal(id, RMD_RS485_BROADCAST);
 
 	/* No RS485 form (MIT 0x400 + ID), or more than 8 bytes: refused, nothing written. */
 	f = frame(0x401, status1_reply);
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), -EINVAL);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, rmd_now_ns()), -EINVAL);
 	f = frame(0x241, status1_reply);
 	f.len = 9;
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), -EINVAL);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, rmd_now_ns()), -EINVAL);
 
 	/* BAD_DLC: 3 data bytes go out with length byte 3 and the CRC after them. */
 	f.len = 3;
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, rmd_now_ns()), 1);
 	master_read(pt.master, wire, 8);
 	assert_int_equal(wire[0], RMD_RS485_HEADER);
 	assert_int_equal(wire[1], 1);
@@ -1000,7 +993,7 @@ static void test_device_local_echo(void **state)
 	(void)state;
 	open_device(&bus, &pt, true);
 	/* 0x80's reply is byte for byte a request to id 1 (V3 §2.28). */
-	assert_int_equal(rmd_bus_send(&bus, &f, 1, now_ns()), 1);
+	assert_int_equal(rmd_bus_send(&bus, &f, 1, rmd_now_ns()), 1);
 	master_read(pt.master, wire, sizeof(wire));
 	assert_int_equal(write(pt.master, wire, sizeof(wire)), sizeof(wire));
 	assert_int_equal(write(pt.master, wire, sizeof(wire)), sizeof(wire));
@@ -1010,7 +1003,7 @@ static void test_device_local_echo(void **state)
 	assert_int_equal(rmd_bus_stats(&bus)->echoes, 1);
 
 	/* Heard back later than RMD_RS485_ECHO_EXPIRY_NS: no echo any more. */
-	t = now_ns();
+	t = rmd_now_ns();
 	assert_int_equal(rmd_bus_send(&bus, &f, 1, t), 1);
 	master_read(pt.master, wire, sizeof(wire));
 	assert_int_equal(write(pt.master, wire, sizeof(wire)), sizeof(wire));
@@ -1033,7 +1026,7 @@ static void test_device_backlog(void **state)
 	(void)state;
 	open_device(&bus, &pt, false);
 	/* Nobody reads the master: the tty and then the transport's buffer fill. */
-	while ((r = rmd_bus_send(&bus, &f, 1, now_ns())) == 1) {
+	while ((r = rmd_bus_send(&bus, &f, 1, rmd_now_ns())) == 1) {
 		sent++;
 		assert_true(sent < 1000000);
 	}
@@ -1044,8 +1037,8 @@ static void test_device_backlog(void **state)
 	assert_true(rmd_bus_next_due_ns(&bus) != INT64_MAX);
 
 	/* Read everything, writing on whenever the tty is writable again. */
-	limit = now_ns() + LIMIT_NS;
-	while (got < sent * RMD_RS485_FRAME_LEN && now_ns() < limit) {
+	limit = rmd_now_ns() + LIMIT_NS;
+	while (got < sent * RMD_RS485_FRAME_LEN && rmd_now_ns() < limit) {
 		uint8_t buf[4096];
 		struct pollfd pfd = { .fd = pt.master, .events = POLLIN };
 		struct timespec ts = ts_of(10 * MS);
@@ -1057,7 +1050,7 @@ static void test_device_backlog(void **state)
 				got += (uint64_t)n;
 		}
 		if (rmd_bus_next_due_ns(&bus) != INT64_MAX)
-			assert_int_equal(rmd_bus_send(&bus, NULL, 0, now_ns()), 0);
+			assert_int_equal(rmd_bus_send(&bus, NULL, 0, rmd_now_ns()), 0);
 	}
 	assert_int_equal(got, sent * RMD_RS485_FRAME_LEN);
 	assert_int_equal(rmd_bus_next_due_ns(&bus), INT64_MAX);

@@ -71,14 +71,6 @@ static int bus_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max)
 	return r;
 }
 
-static int64_t mono_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
 /* One rt-loop period: the caller's next cycle, not a wait for a result. */
 static void next_cycle(void)
 {
@@ -453,13 +445,13 @@ static void test_timestamps(void **state)
 	for (int i = 0; i < N; i++) {
 		struct rmd_frame f = frame(0x242, 8, (uint8_t)i);
 
-		t_sent[i] = mono_ns();
+		t_sent[i] = rmd_now_ns();
 		peer_send(peer, &f);
 		if (i % 5 == 4)
 			next_cycle(); /* spread the stamps out */
 	}
 	n = recv_until(&bus, rx, N, 2000);
-	t_recv = mono_ns();
+	t_recv = rmd_now_ns();
 	assert_int_equal(n, N);
 	for (int i = 0; i < N; i++) {
 		/* 1 ms of slack for the realtime/monotonic conversion. */
@@ -520,9 +512,9 @@ static void test_burst_over_txqueuelen(void **state)
 	open_ok(&bus, "vcan1", &opts);
 	peer = peer_open("vcan1");
 
-	t0 = mono_ns();
+	t0 = rmd_now_ns();
 	first = bus_send(&bus, tx, N);
-	slowest = mono_ns() - t0;
+	slowest = rmd_now_ns() - t0;
 	if (first < 0 || first >= N)
 		fail_msg("first send of %d frames returned %d in %lld us: want a refused tail", N,
 			 first, (long long)slowest / 1000);
@@ -533,9 +525,9 @@ static void test_burst_over_txqueuelen(void **state)
 		int r;
 
 		next_cycle();
-		t = mono_ns();
+		t = rmd_now_ns();
 		r = bus_send(&bus, tx + sent, (unsigned)(N - sent));
-		t = mono_ns() - t;
+		t = rmd_now_ns() - t;
 		slowest = t > slowest ? t : slowest;
 		assert_true(r >= 0);
 		sent += r;
@@ -661,8 +653,8 @@ static void test_candump_sees_sent_frames(void **state)
 		       "vcan2", (char *)NULL);
 		_exit(127);
 	}
-	deadline = mono_ns() + 20000 * NS_PER_MS;
-	while (!all_frames_listener("vcan2") && mono_ns() < deadline)
+	deadline = rmd_now_ns() + 20000 * NS_PER_MS;
+	while (!all_frames_listener("vcan2") && rmd_now_ns() < deadline)
 		next_cycle();
 	assert_true(all_frames_listener("vcan2"));
 
