@@ -120,7 +120,7 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib \
-	clang libclang-rt-dev stress-ng
+	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java
 
 deps:
 	apt-get update -qq
@@ -258,12 +258,20 @@ VCAN_TESTS := $(filter %/test_bus_socketcan %/test_rmd_sim %/test_vcan_system,$(
 ifeq ($(SANITIZE),1)
 VCAN_TESTS := $(filter-out %/test_vcan_system,$(VCAN_TESTS))
 endif
+# The docs test (tests/docs/check-docs): every command README.md and docs/
+# show is run, as users type it, by a scenario or a named test; the
+# SocketCAN scenarios run with the vcan suites.  Not in sanitizer runs:
+# the scenarios use the plain build, as users do.
+ifneq ($(SANITIZE),1)
+DOCS_TESTS := tests/docs/check-docs
+VCAN_TESTS += tests/docs/check-docs-can
+endif
 
 # bench/insn-guard.sh: the loop's instructions per cycle must not rise more
 # than 5 % above the committed figure (callgrind counts; not a timing test).
 # Sanitizer builds count their own instrumentation: not there.
 test: all
-	$(Q)BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) -- $(TESTS)
+	$(Q)BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) -- $(TESTS) $(DOCS_TESTS)
 ifneq ($(SANITIZE),1)
 	$(Q)BUILD=$(BUILD) bench/insn-guard.sh
 endif

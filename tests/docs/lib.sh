@@ -1,0 +1,54 @@
+# Sourced by tests/docs/scenarios/*.sh (run by tests/docs/check-docs).
+
+# wait_for FILE REGEX SECONDS: until a line of FILE matches, else fail
+# showing FILE.
+wait_for() {
+	n=$(($3 * 10))
+	while [ $n -gt 0 ]; do
+		grep -q -E "$2" "$1" 2>/dev/null && return 0
+		sleep 0.1
+		n=$((n - 1))
+	done
+	echo "no /$2/ in $1 within $3 s:"
+	cat "$1" 2>/dev/null
+	return 1
+}
+
+# stop PID [SIGNAL]: signal it (INT), wait; fail unless it exits 0.
+stop() {
+	kill -"${2:-INT}" "$1"
+	if wait "$1"; then
+		return 0
+	else
+		rc=$?
+		echo "pid $1 exited $rc after SIG${2:-INT}"
+		return 1
+	fi
+}
+
+# ran_until_stopped STATUS: a `timeout -s INT` run ended by its timeout (124)
+# or by itself with 0.
+ran_until_stopped() {
+	[ "$1" -eq 0 ] || [ "$1" -eq 124 ]
+}
+
+# skip WHY: exit 77 (check-docs reports the scenario as skipped, with WHY).
+skip() {
+	echo "$1"
+	exit 77
+}
+
+# scan_until N COMMAND...: run a scan (rmdctl scan ...) until it finds N
+# motors, up to 4 tries: a busy machine (an emulated guest) can miss
+# answers in one pass; each retry says so.  Its last output stays in scan.out.
+scan_until() {
+	want=$1
+	shift
+	for try in 1 2 3 4; do
+		"$@" > scan.out 2>&1 || true
+		cat scan.out
+		[ "$(grep -c -E '^ *[0-9]+ ' scan.out)" -ge "$want" ] && return 0
+		echo "scan_until: try $try found fewer than $want motors; again (a slow machine?)"
+	done
+	return 1
+}

@@ -1,0 +1,20 @@
+# where: host
+# docs/lcm.md, examples/README.md: record rmdd with lcm-logger, replay it.
+. "$RMD_REPO/tests/docs/lib.sh"
+rmdd --sim > rmdd.log 2>&1 &
+pid=$!
+wait_for rmdd.log 'running' 20
+lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' -c 'RMD_.*' run1.lcmlog > l1.out 2>&1 &
+lp=$!
+sleep 2
+stop $lp
+test -s run1.lcmlog
+mv run1.lcmlog channels.lcmlog
+lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' run1.lcmlog > l2.out 2>&1 &
+lp=$!
+sleep 2
+stop $lp
+stop $pid
+test -s run1.lcmlog
+lcm-logplayer --lcm-url='udpm://239.255.76.67:7668?ttl=0' run1.lcmlog
+lcm-logplayer -e 'RMD_(STATE|HEALTH|CONFIG)' run1.lcmlog
