@@ -18,3 +18,22 @@ stop $pid
 test -s run1.lcmlog
 lcm-logplayer --lcm-url='udpm://239.255.76.67:7668?ttl=0' run1.lcmlog
 lcm-logplayer -e 'RMD_(STATE|HEALTH|CONFIG)' run1.lcmlog
+
+# splitting and rotating (docs/lcm.md): a split of 0.05 MB with rotation
+rmdd --sim > rmdd2.log 2>&1 &
+pid=$!
+wait_for rmdd2.log 'running' 20
+lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' -c 'RMD_.*' --split-mb=100 --rotate=20 run.lcmlog > l3.out 2>&1 &
+lp=$!
+sleep 1
+stop $lp
+[ -s run.lcmlog.0 ]
+rm run.lcmlog.*
+# the same with a split small enough to see it happen
+lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' -c 'RMD_.*' --split-mb=0.05 --rotate=3 run.lcmlog > l4.out 2>&1 &
+lp=$!
+sleep 2
+stop $lp
+stop $pid
+ls -l run.lcmlog.*
+[ -s run.lcmlog.0 ] && [ -s run.lcmlog.1 ] && [ ! -e run.lcmlog.4 ]
