@@ -315,6 +315,7 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 
 struct item {
 	int64_t t_ns;
+	size_t order; /* events of one cycle share a time: they keep the loop's order */
 	char text[200];
 	bool trigger;
 };
@@ -323,7 +324,9 @@ static int item_cmp(const void *a, const void *b)
 {
 	const struct item *x = a, *y = b;
 
-	return (x->t_ns > y->t_ns) - (x->t_ns < y->t_ns);
+	if (x->t_ns != y->t_ns)
+		return (x->t_ns > y->t_ns) - (x->t_ns < y->t_ns);
+	return (x->order > y->order) - (x->order < y->order);
 }
 
 static FILE *open_in(const char *dir, const char *name)
@@ -410,6 +413,7 @@ static size_t merge_items(struct rmdd_incidents *in, const struct rmdd_trigger *
 		const char *kind;
 
 		items[n].t_ns = e->t_ns;
+		items[n].order = n;
 		items[n].trigger = rmdd_incident_kind(in->cfg, e, what, sizeof(what), &kind);
 		event_text(in->cfg, e, items[n].text, sizeof(items[n].text));
 		n++;
@@ -418,6 +422,7 @@ static size_t merge_items(struct rmdd_incidents *in, const struct rmdd_trigger *
 		if (!trig[k].outside)
 			continue;
 		items[n].t_ns = trig[k].t_ns;
+		items[n].order = n;
 		items[n].trigger = true;
 		snprintf(items[n].text, sizeof(items[n].text), "%s", trig[k].what);
 		n++;
