@@ -362,12 +362,14 @@ static void bus_states(struct rmd_loop *l, int64_t now)
 /*
  * Overrun events: the first at once, later ones at most once a second with
  * the ticks skipped since the last event (an overloaded loop would
- * otherwise report every cycle).
+ * otherwise report every cycle), but a burst of incidents.overrun_burst
+ * skipped ticks at once: the incident recorder dates it by its event.
  * rt-safe.
  */
 static void overrun_event(struct rmd_loop *l, int64_t now)
 {
-	if (!l->ov_pending || (l->ov_any && now - l->ov_ev_ns < EVENT_INTERVAL_NS))
+	if (!l->ov_pending || (l->ov_any && now - l->ov_ev_ns < EVENT_INTERVAL_NS &&
+			       l->ov_pending < l->cfg->incidents.overrun_burst))
 		return;
 	loop_event(l, now, RMD_EV_OVERRUN, 0xFF, 0xFF, (int64_t)l->ov_pending, 0);
 	l->ov_pending = 0;

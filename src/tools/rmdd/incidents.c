@@ -224,8 +224,10 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 	case RMD_EV_MOTOR_ERROR:
 		if (e->b == RMD_MOTOR_CMD_COMM_LOST)
 			snprintf(buf, len, "%s: 0xF1, its comm-loss protection tripped", ctx);
-		else
+		else if (e->a)
 			snprintf(buf, len, "%s: error flags 0x%04X", ctx, (unsigned)(uint16_t)e->a);
+		else
+			snprintf(buf, len, "%s: error flags cleared", ctx);
 		break;
 	case RMD_EV_BUS_STATE:
 		snprintf(buf, len, "%s: bus %s", rmdd_bus_name(cfg, e->bus),
