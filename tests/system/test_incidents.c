@@ -19,7 +19,6 @@
  * RMD_TEST_FILTER=name runs one test.
  */
 #define _GNU_SOURCE
-#include <dirent.h>
 #include <errno.h>
 #include <setjmp.h>
 #include <signal.h>
@@ -64,6 +63,21 @@ static void test_dir(char *out, size_t len, const char *name)
 	assert_int_equal(mkdir(out, 0700), 0);
 }
 
+/* incidents: (dir inc, then `more`) and sim0 with seed and the fault list `faults`. */
+static void fault_keys(char *out, size_t len, const char *inc, const char *more, unsigned seed,
+		       const char *faults)
+{
+	snprintf(out, len,
+		 "incidents: {dir: \"%s\", %s}\n"
+		 "buses:\n"
+		 "  - name: sim0\n"
+		 "    type: sim\n"
+		 "    sim:\n"
+		 "      seed: %u\n"
+		 "      faults:\n%s",
+		 inc, more, seed, faults);
+}
+
 /* Start rmdd on motors_yaml plus `keys` (incidents:, buses:), wait until it runs. */
 static struct kid *start(const char *dir, const char *keys)
 {
@@ -89,27 +103,34 @@ static void stop(struct kid *k)
 	assert_int_equal(kid_wait_exit(k, 10000, NULL), 0);
 }
 
-/* The recordings under dir (names "YYYYMMDD-HHMMSS-mmm-kind"), sorted; their count. */
-static unsigned recordings(const char *dir, char names[][300], unsigned max)
+/*
+ * Run rmdd with fault_keys(inc, more, seed, faults) in dir until its log
+ * has each of the NULL-terminated `logged` lines, then stop it (exit 0).
+ */
+static void run_faults(const char *dir, const char *inc, const char *more, unsigned seed,
+		       const char *faults, const char *const *logged)
 {
-	struct dirent **list;
-	int n = scandir(dir, &list, NULL, alphasort);
-	unsigned got = 0;
+	char keys[1024];
+	struct kid *k;
 
-	for (int i = 0; i < n; i++) {
-		if (list[i]->d_name[0] >= '0' && list[i]->d_name[0] <= '9' && got < max)
-			snprintf(names[got++], 300, "%s", list[i]->d_name);
-		free(list[i]);
-	}
-	if (n >= 0)
-		free(list);
-	return got;
+	fault_keys(keys, sizeof(keys), inc, more, seed, faults);
+	k = start(dir, keys);
+	for (; *logged; logged++)
+		kid_wait_output(k, *logged, INCIDENT_MS, NULL);
+	assert_has(k->out, "<5>rmdd: incident recorded in ", "rmdd's log");
+	stop(k);
+}
+
+/* The recordings under dir (names "YYYYMMDD-HHMMSS-mmm-kind"), sorted; their count. */
+static unsigned recordings(const char *dir, char names[][DIR_NAME_MAX], unsigned max)
+{
+	return dir_sorted(dir, "0123456789", names, max);
 }
 
 /* The recording of `kind` under dir (its path into out); fails when there is none. */
 static void recording_of(const char *dir, const char *kind, char *out, size_t len)
 {
-	char names[64][300], suffix[32];
+	char names[64][DIR_NAME_MAX], suffix[32];
 	unsigned n = recordings(dir, names, 64);
 
 	snprintf(suffix, sizeof(suffix), "-%s", kind);
@@ -240,60 +261,56 @@ static char *check_recording(const char *path, double before_s, double after_s, 
 	return summary;
 }
 
+/*
+ * The recording of `kind` under inc, checked as check_recording() does
+ * over a 0.5 s + 0.2 s window; its summary's events into ev (*n), and the
+ * index of the trigger holding needle, which must be the first (at +0).
+ * *summary: free it.
+ */
+static unsigned first_trigger(const char *inc, const char *kind, const char *needle, struct ev *ev,
+			      unsigned *n, char **summary)
+{
+	char path[700];
+	unsigned at;
+
+	recording_of(inc, kind, path, sizeof(path));
+	*summary = check_recording(path, 0.5, 0.2, 0);
+	*n = summary_events(*summary, ev, 64);
+	at = event_at(ev, *n, needle, true, *summary);
+	assert_true(ev[at].t_s == 0.0);
+	return at;
+}
+
 static void test_lost_fault_and_bus_off_recorded(void **state)
 {
-	char dir[512], keys[1024], inc[600], path[700];
+	char dir[512], inc[600];
 	struct ev ev[64];
-	struct kid *k;
 	char *summary;
 	unsigned n, at;
 
 	(void)state;
 	test_dir(dir, sizeof(dir), "faults");
 	snprintf(inc, sizeof(inc), "%s/incidents", dir);
-	snprintf(keys, sizeof(keys),
-		 "incidents: {dir: \"%s\", seconds_before: 0.5, seconds_after: 0.2,\n"
-		 "            overrun_burst: 1000000}\n"
-		 "buses:\n"
-		 "  - name: sim0\n"
-		 "    type: sim\n"
-		 "    sim:\n"
-		 "      seed: 7\n"
-		 "      faults:\n"
-		 "        - {kind: disappear, motor: 3, start_s: 1.5, end_s: 1.8, param: 1}\n"
-		 "        - {kind: error_flag, motor: 1, start_s: 3.0, end_s: 3.3, param: 0x1000}\n"
-		 "        - {kind: bus_off, start_s: 4.5, end_s: 4.55}\n",
-		 inc);
-	k = start(dir, keys);
-	kid_wait_output(k, "-lost: sim0: motor 3 (c): ready -> lost", INCIDENT_MS, NULL);
-	kid_wait_output(k, "-fault: sim0: motor 1 (a): ready -> fault", INCIDENT_MS, NULL);
-	kid_wait_output(k, "-bus: sim0: bus bus-off", INCIDENT_MS, NULL);
-	assert_has(k->out, "<5>rmdd: incident recorded in ", "rmdd's log");
-	stop(k);
+	run_faults(
+		dir, inc, "seconds_before: 0.5, seconds_after: 0.2, overrun_burst: 1000000", 7,
+		"        - {kind: disappear, motor: 3, start_s: 1.5, end_s: 1.8, param: 1}\n"
+		"        - {kind: error_flag, motor: 1, start_s: 3.0, end_s: 3.3, param: 0x1000}\n"
+		"        - {kind: bus_off, start_s: 4.5, end_s: 4.55}\n",
+		(const char *const[]){ "-lost: sim0: motor 3 (c): ready -> lost",
+				       "-fault: sim0: motor 1 (a): ready -> fault",
+				       "-bus: sim0: bus bus-off", NULL });
 
-	/* lost: the motor's loss is the trigger, its return is not in the window */
-	recording_of(inc, "lost", path, sizeof(path));
-	summary = check_recording(path, 0.5, 0.2, 0);
-	n = summary_events(summary, ev, 64);
-	at = event_at(ev, n, "sim0: motor 3 (c): ready -> lost", true, summary);
-	assert_true(ev[at].t_s == 0.0);
+	/* lost: the motor's loss is the trigger */
+	first_trigger(inc, "lost", "sim0: motor 3 (c): ready -> lost", ev, &n, &summary);
 	free(summary);
 
 	/* fault: the flags, then the state change they cause, in the loop's order */
-	recording_of(inc, "fault", path, sizeof(path));
-	summary = check_recording(path, 0.5, 0.2, 0);
-	n = summary_events(summary, ev, 64);
-	at = event_at(ev, n, "sim0: motor 1 (a): ready -> fault", true, summary);
-	assert_true(ev[at].t_s == 0.0);
+	at = first_trigger(inc, "fault", "sim0: motor 1 (a): ready -> fault", ev, &n, &summary);
 	assert_true(event_at(ev, n, "sim0: motor 1 (a): error flags 0x1000", false, summary) < at);
 	free(summary);
 
 	/* bus-off: first, then the motors it cut off are lost, then error-active again */
-	recording_of(inc, "bus", path, sizeof(path));
-	summary = check_recording(path, 0.5, 0.2, 0);
-	n = summary_events(summary, ev, 64);
-	at = event_at(ev, n, "sim0: bus bus-off", true, summary);
-	assert_true(ev[at].t_s == 0.0);
+	at = first_trigger(inc, "bus", "sim0: bus bus-off", ev, &n, &summary);
 	assert_true(event_at(ev, n, "sim0: motor 1 (a): ready -> lost", true, summary) > at);
 	assert_true(event_at(ev, n, "sim0: bus error-active", false, summary) > at);
 	free(summary);
@@ -301,7 +318,7 @@ static void test_lost_fault_and_bus_off_recorded(void **state)
 
 static void test_overrun_burst_goes_to_the_state_directory(void **state)
 {
-	char dir[512], keys[512], path[700], state_dir[600], inc[700], names[8][300];
+	char dir[512], keys[512], path[700], state_dir[600], inc[700], names[8][DIR_NAME_MAX];
 	char sum_path[800];
 	/* shorter than the motors' comm-loss time (100 ms): they keep answering */
 	struct timespec stall = { .tv_sec = 0, .tv_nsec = 80 * 1000000 };
@@ -363,8 +380,7 @@ static void test_overrun_burst_goes_to_the_state_directory(void **state)
 
 static void test_keep_bounds_the_recordings(void **state)
 {
-	char dir[512], keys[1024], inc[600], other[700], old[700], names[16][300];
-	struct kid *k;
+	char dir[512], inc[600], other[700], old[700], names[16][DIR_NAME_MAX];
 	unsigned n;
 
 	(void)state;
@@ -376,24 +392,14 @@ static void test_keep_bounds_the_recordings(void **state)
 	snprintf(old, sizeof(old), "%s/20000101-000000-000-lost", inc);
 	assert_int_equal(mkdir(other, 0700), 0);
 	assert_int_equal(mkdir(old, 0700), 0);
-	snprintf(keys, sizeof(keys),
-		 "incidents: {dir: \"%s\", seconds_before: 0.3, seconds_after: 0.1, keep: 2,\n"
-		 "            overrun_burst: 1000000}\n"
-		 "buses:\n"
-		 "  - name: sim0\n"
-		 "    type: sim\n"
-		 "    sim:\n"
-		 "      seed: 5\n"
-		 "      faults:\n"
-		 "        - {kind: disappear, motor: 1, start_s: 1.5, end_s: 1.7, param: 1}\n"
-		 "        - {kind: disappear, motor: 2, start_s: 2.5, end_s: 2.7, param: 1}\n"
-		 "        - {kind: disappear, motor: 3, start_s: 3.5, end_s: 3.7, param: 1}\n",
-		 inc);
-	k = start(dir, keys);
-	kid_wait_output(k, "-lost: sim0: motor 1 (a): ready -> lost", INCIDENT_MS, NULL);
-	kid_wait_output(k, "-lost: sim0: motor 2 (b): ready -> lost", INCIDENT_MS, NULL);
-	kid_wait_output(k, "-lost: sim0: motor 3 (c): ready -> lost", INCIDENT_MS, NULL);
-	stop(k);
+	run_faults(dir, inc,
+		   "seconds_before: 0.3, seconds_after: 0.1, keep: 2, overrun_burst: 1000000", 5,
+		   "        - {kind: disappear, motor: 1, start_s: 1.5, end_s: 1.7, param: 1}\n"
+		   "        - {kind: disappear, motor: 2, start_s: 2.5, end_s: 2.7, param: 1}\n"
+		   "        - {kind: disappear, motor: 3, start_s: 3.5, end_s: 3.7, param: 1}\n",
+		   (const char *const[]){ "-lost: sim0: motor 1 (a): ready -> lost",
+					  "-lost: sim0: motor 2 (b): ready -> lost",
+					  "-lost: sim0: motor 3 (c): ready -> lost", NULL });
 
 	n = recordings(inc, names, 16);
 	assert_int_equal(n, 2);

@@ -46,7 +46,6 @@
 #include <time.h>
 #include <unistd.h>
 
-#include <dirent.h>
 #include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
@@ -1783,23 +1782,6 @@ static void test_sigterm_sends_the_configured_action(void **state)
  */
 #define INC_TIMEOUT_MS 300
 
-/* The recordings under dir, sorted (oldest first); their count. */
-static unsigned recording_list(const char *dir, char names[][256], unsigned max)
-{
-	struct dirent **list;
-	int n = scandir(dir, &list, NULL, alphasort);
-	unsigned got = 0;
-
-	for (int i = 0; i < n; i++) {
-		if (list[i]->d_name[0] >= '0' && list[i]->d_name[0] <= '9' && got < max)
-			snprintf(names[got++], 256, "%.200s", list[i]->d_name);
-		free(list[i]);
-	}
-	if (n >= 0)
-		free(list);
-	return got;
-}
-
 /*
  * Wall-clock seconds of the lines of csv holding needle: the first one
  * after `after` (or the last one, when last).  -1: none.
@@ -1831,7 +1813,7 @@ static void test_incidents_record_intruder_and_watchdog(void **state)
 	static const char tripped[] = "* host watchdog: tripped";
 	static const char *const names[NMOTORS] = { "pos_1", "pos_2", "pos_3",
 						    "mit_1", "mit_2", "mit_3" };
-	static char list[64][256];
+	static char list[64][DIR_NAME_MAX];
 	struct fixture *f = fixture(state);
 	char path[400], inc[400], rec[700], file[800], rmdctl_bin[512];
 	const char *at = strstr(config_yaml, "command_timeout_ms: 100");
@@ -1876,7 +1858,7 @@ static void test_incidents_record_intruder_and_watchdog(void **state)
 	assert_non_null(strstr(slurp(f->log), "<5>rmdd: incident recorded in "));
 
 	/* which recordings hold the intruder and the (last) trip */
-	n = recording_list(inc, list, 64);
+	n = dir_sorted(inc, "0123456789", list, 64);
 	for (unsigned i = 0; i < n; i++) {
 		snprintf(file, sizeof(file), "%s/%.200s/summary.txt", inc, list[i]);
 		sum = slurp(file);

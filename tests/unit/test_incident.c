@@ -146,21 +146,18 @@ static void test_overwrites_and_reads_from_a_time(void **state)
 	rmd_incident_ring_free(r);
 }
 
-struct writer {
-	struct rmd_incident_ring *r;
-	atomic_bool stop;
-	uint64_t written;
-};
+/* The "loop" of the torn-record test: writes frame k at time k until told to stop. */
+static struct rmd_incident_ring *torn_ring;
+static atomic_bool torn_stop;
+static uint64_t torn_written;
 
-static void *writer_main(void *arg)
+static void *torn_loop(void *arg)
 {
-	struct writer *wr = arg;
+	(void)arg;
+	for (; !atomic_load(&torn_stop); torn_written++) {
+		struct rmd_frame f = frame_of(torn_written);
 
-	while (!atomic_load(&wr->stop)) {
-		struct rmd_frame f = frame_of(wr->written);
-
-		rmd_incident_frame(wr->r, 0, RMD_INCIDENT_TX, &f, (int64_t)wr->written);
-		wr->written++;
+		rmd_incident_frame(torn_ring, 0, RMD_INCIDENT_TX, &f, (int64_t)torn_written);
 	}
 	return NULL;
 }
@@ -168,20 +165,20 @@ static void *writer_main(void *arg)
 /* The loop writes while the writer thread reads: never a torn record, always in order. */
 static void test_no_torn_record_while_the_loop_writes(void **state)
 {
-	struct writer wr = { .r = rmd_incident_ring_new(&cfg, &plan, 10 * MS, NULL, 0) };
 	struct rmd_incident_window *w;
 	pthread_t t;
 	unsigned reads = 0, wrapped = 0;
 	size_t kept = 0;
 
 	(void)state;
-	assert_non_null(wr.r);
-	w = rmd_incident_window_new(wr.r);
+	torn_ring = rmd_incident_ring_new(&cfg, &plan, 10 * MS, NULL, 0);
+	assert_non_null(torn_ring);
+	w = rmd_incident_window_new(torn_ring);
 	assert_non_null(w);
-	atomic_init(&wr.stop, false);
-	assert_int_equal(pthread_create(&t, NULL, writer_main, &wr), 0);
+	atomic_init(&torn_stop, false);
+	assert_int_equal(pthread_create(&t, NULL, torn_loop, NULL), 0);
 	for (; reads < 2000 || wrapped < 20; reads++) {
-		rmd_incident_read(wr.r, 0, w);
+		rmd_incident_read(torn_ring, 0, w);
 		for (size_t k = 0; k < w->n_frames[0]; k++) {
 			const struct rmd_incident_frame *fr = &w->frames[0][k];
 
@@ -198,15 +195,15 @@ static void test_no_torn_record_while_the_loop_writes(void **state)
 		if (reads > 200000)
 			break;
 	}
-	atomic_store(&wr.stop, true);
+	atomic_store(&torn_stop, true);
 	pthread_join(t, NULL);
 	print_message("%u reads of a %zu-frame ring while %llu frames were written (%u after it "
 		      "wrapped), %.0f frames kept a read\n",
-		      reads, w->cap_frames[0], (unsigned long long)wr.written, wrapped,
+		      reads, w->cap_frames[0], (unsigned long long)torn_written, wrapped,
 		      (double)kept / reads);
 	assert_true(wrapped >= 20);
 	rmd_incident_window_free(w);
-	rmd_incident_ring_free(wr.r);
+	rmd_incident_ring_free(torn_ring);
 }
 
 int main(void)

@@ -331,24 +331,47 @@ static int item_cmp(const void *a, const void *b)
 	return (x->order > y->order) - (x->order < y->order);
 }
 
-static FILE *open_in(const char *dir, const char *name)
+/* What the files of one recording are written from. */
+struct out {
+	struct rmdd_incidents *in;
+	const struct rmd_incident_window *w;
+	const char *name; /* the folder's */
+	const struct rmdd_trigger *trig;
+	unsigned n_trig;
+	int64_t from_ns, read_ns; /* the window */
+	int64_t off_ns;		  /* CLOCK_MONOTONIC -> wall clock */
+	unsigned bus;		  /* write_frames(): which */
+	size_t tx[RMD_MAX_BUSES]; /* write_frames(): frames sent, per bus */
+};
+
+/* dir/name written by fn.  0, or -errno. */
+static int write_file(const char *dir, const char *name, void (*fn)(FILE *f, struct out *o),
+		      struct out *o)
 {
 	char path[PATH_MAX];
+	FILE *f;
 
-	if ((size_t)snprintf(path, sizeof(path), "%s/%s", dir, name) >= sizeof(path)) {
-		errno = ENAMETOOLONG;
-		return NULL;
-	}
-	return fopen(path, "w");
+	if ((size_t)snprintf(path, sizeof(path), "%s/%s", dir, name) >= sizeof(path))
+		return -ENAMETOOLONG;
+	f = fopen(path, "w");
+	if (!f)
+		return -errno;
+	fn(f, o);
+	return fclose(f) ? -errno : 0;
 }
 
-static void write_frames(FILE *f, const struct rmd_incident_window *w, unsigned b,
-			 const char *iface, int64_t off_ns, size_t *tx)
+static void write_frames(FILE *f, struct out *o)
 {
+	const struct rmd_incident_window *w = o->w;
+	unsigned b = o->bus;
+	size_t *tx = &o->tx[b];
+	char iface[16];
+
+	iface_of(o->in->cfg, b, iface);
 	*tx = 0;
 	for (size_t k = 0; k < w->n_frames[b]; k++) {
 		const struct rmd_incident_frame *r = &w->frames[b][k];
-		int64_t t = r->t_ns + off_ns;
+		int64_t t = r->t_ns + o->off_ns;
 
 		fprintf(f, "(%" PRId64 ".%06" PRId64 ") %s %03" PRIX32 "#", t / RMD_NS_PER_S,
 			t % RMD_NS_PER_S / 1000, iface, r->f.can_id);
@@ -359,9 +382,12 @@ static void write_frames(FILE *f, const struct rmd_incident_window *w, unsigned 
 	}
 }
 
-static void write_states(FILE *f, const struct rmd_config *cfg, const struct rmd_incident_window *w,
-			 int64_t off_ns)
+static void write_states(FILE *f, struct out *o)
 {
+	const struct rmd_config *cfg = o->in->cfg;
+	const struct rmd_incident_window *w = o->w;
+	int64_t off_ns = o->off_ns;
+
 	fprintf(f, "time_s,cycle,motor,name,lifecycle,mode,pos_rad,vel_rad_s,torque_nm,"
 		   "current_a,temp_c,voltage_v,error_code,reply_age_cycles\n");
 	for (size_t k = 0; k < w->n_states; k++) {
@@ -380,14 +406,15 @@ static void write_states(FILE *f, const struct rmd_config *cfg, const struct rmd
 	}
 }
 
-static void write_commands(FILE *f, const struct rmd_config *cfg,
-			   const struct rmd_incident_window *w, int64_t off_ns)
+static void write_commands(FILE *f, struct out *o)
 {
+	const struct rmd_config *cfg = o->in->cfg;
+
 	fprintf(f, "time_s,received_s,seq,motor,name,enable,mode,pos_rad,vel_rad_s,torque_nm,kp,"
 		   "kd,max_vel_rad_s\n");
-	for (size_t k = 0; k < w->n_commands; k++) {
-		const struct rmd_incident_command *c = &w->commands[k];
-		int64_t t = c->t_ns + off_ns, rx = c->rx_ns + off_ns;
+	for (size_t k = 0; k < o->w->n_commands; k++) {
+		const struct rmd_incident_command *c = &o->w->commands[k];
+		int64_t t = c->t_ns + o->off_ns, rx = c->rx_ns + o->off_ns;
 
 		fprintf(f,
 			"%" PRId64 ".%06" PRId64 ",%" PRId64 ".%06" PRId64 ",%" PRId64
@@ -433,10 +460,14 @@ static size_t merge_items(struct rmdd_incidents *in, const struct rmdd_trigger *
 	return n;
 }
 
-static void write_summary(FILE *f, struct rmdd_incidents *in, const char *name,
-			  const struct rmdd_trigger *trig, unsigned n_trig, int64_t from_ns,
-			  int64_t read_ns, int64_t off_ns, const size_t *tx)
+static void write_summary(FILE *f, struct out *o)
 {
+	struct rmdd_incidents *in = o->in;
+	const char *name = o->name;
+	const struct rmdd_trigger *trig = o->trig;
+	unsigned n_trig = o->n_trig;
+	int64_t from_ns = o->from_ns, read_ns = o->read_ns, off_ns = o->off_ns;
+	const size_t *tx = o->tx;
 	const struct rmd_config *cfg = in->cfg;
 	const struct rmd_incident_window *w = in->win;
 	size_t cap = w->cap_events + n_trig, n, shown = 0;
@@ -516,64 +547,54 @@ static int make_dir(const char *dir, int64_t wall_ns, const char *kind, char *na
 static void record(struct rmdd_incidents *in, const struct rmdd_trigger *trig, unsigned n_trig,
 		   int64_t read_ns)
 {
+	static const struct {
+		const char *file;
+		void (*fn)(FILE *f, struct out *o);
+	} files[] = {
+		{ "states.csv", write_states },
+		{ "commands.csv", write_commands },
+		{ "summary.txt", write_summary }, /* last: a recording with a summary is whole */
+	};
 	const struct rmd_config *cfg = in->cfg;
-	int64_t t0 = trig[0].t_ns;
-	int64_t from = t0 - (int64_t)(cfg->incidents.seconds_before * 1e9);
-	int64_t off = wall_offset_ns();
 	char name[96], path[PATH_MAX];
-	size_t tx[RMD_MAX_BUSES] = { 0 };
-	FILE *f;
+	struct out o = {
+		.in = in,
+		.w = in->win,
+		.name = name,
+		.trig = trig,
+		.n_trig = n_trig,
+		.from_ns = trig[0].t_ns - (int64_t)(cfg->incidents.seconds_before * 1e9),
+		.read_ns = read_ns,
+		.off_ns = wall_offset_ns(),
+	};
 	int r;
 
-	rmd_incident_read(in->ring, from, in->win);
+	rmd_incident_read(in->ring, o.from_ns, in->win);
 	r = mkdir_p(in->dir);
 	if (r == 0)
-		r = make_dir(in->dir, t0 + off, trig[0].kind, name, sizeof(name), path,
-			     sizeof(path));
+		r = make_dir(in->dir, trig[0].t_ns + o.off_ns, trig[0].kind, name, sizeof(name),
+			     path, sizeof(path));
 	if (r < 0) {
 		tool_log(3, "incident (%s): cannot create a directory under %s: %s", trig[0].what,
 			 in->dir, strerror(-r));
 		return;
 	}
-	for (unsigned b = 0; b < in->win->n_buses; b++) {
-		char file[64], iface[16];
+	for (o.bus = 0; o.bus < in->win->n_buses && r == 0; o.bus++) {
+		char file[64];
 
-		snprintf(file, sizeof(file), "frames-%s.log", cfg->buses[b].name);
-		iface_of(cfg, b, iface);
-		f = open_in(path, file);
-		if (!f)
-			goto err_write;
-		write_frames(f, in->win, b, iface, off, &tx[b]);
-		if (fclose(f))
-			goto err_write;
+		snprintf(file, sizeof(file), "frames-%s.log", cfg->buses[o.bus].name);
+		r = write_file(path, file, write_frames, &o);
 	}
-	f = open_in(path, "states.csv");
-	if (!f)
-		goto err_write;
-	write_states(f, cfg, in->win, off);
-	if (fclose(f))
-		goto err_write;
-	f = open_in(path, "commands.csv");
-	if (!f)
-		goto err_write;
-	write_commands(f, cfg, in->win, off);
-	if (fclose(f))
-		goto err_write;
-	/* the summary last: a recording with a summary is complete */
-	f = open_in(path, "summary.txt");
-	if (!f)
-		goto err_write;
-	write_summary(f, in, name, trig, n_trig, from, read_ns, off, tx);
-	if (fclose(f))
-		goto err_write;
+	for (size_t k = 0; k < sizeof(files) / sizeof(files[0]) && r == 0; k++)
+		r = write_file(path, files[k].file, files[k].fn, &o);
+	if (r < 0) {
+		tool_log(3, "incident (%s): writing %s: %s", trig[0].what, path, strerror(-r));
+		return;
+	}
 	in->written++;
 	tool_log(5, "incident recorded in %s: %s (summary.txt says what happened)", path,
 		 trig[0].what);
 	keep_bound(in->dir, cfg->incidents.keep);
-	return;
-
-err_write:
-	tool_log(3, "incident (%s): writing %s: %s", trig[0].what, path, strerror(errno));
 }
 
 /* ---- the thread ------------------------------------------------------------- */
