@@ -202,8 +202,8 @@ static void test_no_torn_record_while_the_loop_writes(void **state)
 	pthread_join(t, NULL);
 	print_message("%u reads of a %zu-frame ring while %llu frames were written (%u after it "
 		      "wrapped), %.0f frames kept a read\n",
-		      reads, w->cap_frames[0], (unsigned long long)atomic_load(&torn_written), wrapped,
-		      (double)kept / reads);
+		      reads, w->cap_frames[0], (unsigned long long)atomic_load(&torn_written),
+		      wrapped, (double)kept / reads);
 	assert_true(wrapped >= 20);
 	rmd_incident_window_free(w);
 	rmd_incident_ring_free(torn_ring);
