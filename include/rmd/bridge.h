@@ -110,6 +110,14 @@ struct rmd_bridge_opts {
 	 */
 	void (*log)(void *ctx, int level, const char *msg);
 	void *log_ctx;
+
+	/*
+	 * A command from a controller that does not own the motors was
+	 * rejected (once per intruding controller id, bridge thread): rmdd's
+	 * incident recorder.  NULL: nobody is told.
+	 */
+	void (*on_intruder)(void *ctx, int64_t when_ns, int64_t controller, int64_t owner);
+	void *intruder_ctx;
 };
 
 /* Counters, totals since rmd_bridge_init(). */

@@ -62,6 +62,13 @@
 #define RMD_CONFIG_DEFAULT_COMMAND_TIMEOUT_MS 100
 /* safety.shutdown_action damp: damp this long before the brake. */
 #define RMD_CONFIG_DEFAULT_SHUTDOWN_DAMP_MS 500
+/* incidents: (docs/design.md "Incidents"). */
+#define RMD_CONFIG_INCIDENT_DIR_LEN 256
+#define RMD_CONFIG_DEFAULT_INCIDENT_BEFORE_S 3.0
+#define RMD_CONFIG_DEFAULT_INCIDENT_AFTER_S 0.5
+#define RMD_CONFIG_DEFAULT_INCIDENT_KEEP 20
+#define RMD_CONFIG_DEFAULT_INCIDENT_OVERRUN_BURST 10
+#define RMD_CONFIG_INCIDENT_MAX_WINDOW_S 60.0 /* before + after: memory the loop keeps */
 #define RMD_CONFIG_DEFAULT_STATUS_POLL_HZ 10.0
 #define RMD_CONFIG_DEFAULT_LCM_URL "udpm://239.255.76.67:7667?ttl=0"
 #define RMD_CONFIG_DEFAULT_CHANNEL_PREFIX "RMD_"
@@ -140,6 +147,21 @@ struct rmd_config_probe {
 	enum rmd_on_missing on_missing;
 };
 
+/*
+ * The incident recorder: after a safety event, the frames, states,
+ * commands and events of [event - seconds_before, event + seconds_after]
+ * are written to a new directory under dir (docs/design.md "Incidents").
+ */
+struct rmd_config_incidents {
+	bool enabled;
+	/* "": $STATE_DIRECTORY/incidents (systemd), else $XDG_STATE_HOME/rmdd/incidents, ... */
+	char dir[RMD_CONFIG_INCIDENT_DIR_LEN];
+	double seconds_before;
+	double seconds_after;
+	unsigned keep;		/* recordings kept; the oldest are removed */
+	unsigned overrun_burst; /* periods skipped in one overrun report that make an incident */
+};
+
 struct rmd_config_lcm {
 	char url[RMD_CONFIG_URL_LEN];
 	char channel_prefix[RMD_CONFIG_PREFIX_LEN];
@@ -198,6 +220,7 @@ struct rmd_config {
 	struct rmd_config_safety safety;
 	struct rmd_config_probe probe;
 	struct rmd_config_lcm lcm;
+	struct rmd_config_incidents incidents;
 	struct rmd_config_bus buses[RMD_MAX_BUSES];
 	unsigned n_buses;
 	struct rmd_config_motor motors[RMD_MAX_MOTORS];

@@ -110,6 +110,7 @@
 #include "rmd/plan.h"
 #include "rmd/spsc.h"
 #include "rmd/hist.h"
+#include "rmd/incident.h"
 #include "rmd/state.h"
 
 struct rmd_loop;
@@ -122,6 +123,11 @@ struct rmd_loop_opts {
 	struct rmd_latest *snapshots; /* loop -> bridge: struct rmd_snapshot */
 	struct rmd_latest *health;    /* loop -> bridge: struct rmd_health */
 	struct rmd_ring *events;      /* loop -> logger: struct rmd_event */
+	/*
+	 * The incident recorder (rmd/incident.h): every frame, state, command
+	 * and event is copied in; NULL: none.  Must outlive the loop.
+	 */
+	struct rmd_incident_ring *incidents;
 	/*
 	 * An eventfd (non-blocking) the loop writes after each snapshot, so the
 	 * bridge publishes it at once instead of at its next poll; -1: none

@@ -44,6 +44,11 @@ void rmd_config_defaults(struct rmd_config *cfg)
 	cfg->lcm.state_every_n = 1;
 	cfg->lcm.stale_ms = RMD_CONFIG_DEFAULT_STALE_MS;
 	cfg->lcm.health_period_ms = RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS;
+	cfg->incidents.enabled = true;
+	cfg->incidents.seconds_before = RMD_CONFIG_DEFAULT_INCIDENT_BEFORE_S;
+	cfg->incidents.seconds_after = RMD_CONFIG_DEFAULT_INCIDENT_AFTER_S;
+	cfg->incidents.keep = RMD_CONFIG_DEFAULT_INCIDENT_KEEP;
+	cfg->incidents.overrun_burst = RMD_CONFIG_DEFAULT_INCIDENT_OVERRUN_BURST;
 }
 
 void rmd_config_bus_defaults(struct rmd_config_bus *b)

@@ -79,6 +79,18 @@ static const struct field lcm_fields[] = {
 	END
 };
 
+static const struct field incidents_fields[] = {
+	BOOL("enabled", struct rmd_config_incidents, enabled),
+	STR("dir", struct rmd_config_incidents, dir, 0),
+	DBL("seconds_before", struct rmd_config_incidents, seconds_before, 0.0,
+	    RMD_CONFIG_INCIDENT_MAX_WINDOW_S, 0),
+	DBL("seconds_after", struct rmd_config_incidents, seconds_after, 0.0,
+	    RMD_CONFIG_INCIDENT_MAX_WINDOW_S, 0),
+	UINT("keep", struct rmd_config_incidents, keep, 1, 10000, 0),
+	UINT("overrun_burst", struct rmd_config_incidents, overrun_burst, 1, 1000000, 0),
+	END
+};
+
 /*
  * The simulated motor's model: bus-wide (sim.motor) or per motor
  * (motors[].sim).  Its keys are the rows of the simulator's parameter
@@ -263,6 +275,7 @@ static const struct field top_fields[] = {
 	MAP("safety", C, safety, safety_fields),
 	MAP("probe", C, probe, probe_fields),
 	MAP("lcm", C, lcm, lcm_fields),
+	MAP("incidents", C, incidents, incidents_fields),
 	SEQM("buses", C, buses, n_buses, &bus_elem, bus_init, MARK_BUS),
 	SEQM("motors", C, motors, n_motors, &motor_elem, motor_init, MARK_MOTOR),
 	END
@@ -768,6 +781,25 @@ static void validate_lcm(struct yctx *c, const struct rmd_config *cfg, const str
 				"\"%s\": use letters, digits and _ . - / only", p);
 }
 
+/* The recorder's window: the loop keeps it in memory. */
+static void validate_incidents(struct yctx *c, const struct rmd_config *cfg,
+			       const struct ynode *root)
+{
+	const struct ynode *in = rmd_yaml_get(root, "incidents", NULL);
+	const struct rmd_config_incidents *ic = &cfg->incidents;
+
+	if (ic->seconds_before + ic->seconds_after > RMD_CONFIG_INCIDENT_MAX_WINDOW_S)
+		rmd_yaml_report(c, rmd_yaml_line_of(in, "seconds_after"), "incidents",
+				"seconds_before + seconds_after is %g s: at most %g s (the rt loop "
+				"keeps the window in memory)",
+				ic->seconds_before + ic->seconds_after,
+				RMD_CONFIG_INCIDENT_MAX_WINDOW_S);
+	if (ic->enabled && ic->seconds_before + ic->seconds_after <= 0.0)
+		rmd_yaml_report(c, rmd_yaml_line_of(in, "seconds_before"), "incidents",
+				"an empty window (seconds_before and seconds_after 0): set one, "
+				"or enabled: false");
+}
+
 /* The entry of motor i in the file, or NULL. */
 static const struct ynode *motor_node(const struct ynode *root, unsigned i)
 {
@@ -896,6 +928,7 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 				validate_faults(&c, cfg, sim, i, bs->kids[i]);
 	}
 	validate_lcm(&c, cfg, root);
+	validate_incidents(&c, cfg, root);
 	validate_timing(&c, cfg, root);
 	ret = c.nerr ? -EINVAL : 0;
 out:

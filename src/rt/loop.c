@@ -35,6 +35,7 @@
 #include "rmd/time.h"
 #include "rmd/hist.h"
 #include "rmd/err.h"
+#include "rmd/incident.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "loop_priv.h"
@@ -106,6 +107,9 @@ void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, un
 		rmd_ring_push(l->o.events, &e);
 		l->ev_pushed = true;
 	}
+	/* incident recorder: the events beside the frames */
+	if (l->o.incidents)
+		rmd_incident_event(l->o.incidents, &e);
 }
 
 /* Wake the events' reader when events came (one eventfd write a cycle at most).  rt-safe. */
@@ -358,12 +362,14 @@ static void bus_states(struct rmd_loop *l, int64_t now)
 /*
  * Overrun events: the first at once, later ones at most once a second with
  * the ticks skipped since the last event (an overloaded loop would
- * otherwise report every cycle).
+ * otherwise report every cycle), but a burst of incidents.overrun_burst
+ * skipped ticks at once: the incident recorder dates it by its event.
  * rt-safe.
  */
 static void overrun_event(struct rmd_loop *l, int64_t now)
 {
-	if (!l->ov_pending || (l->ov_any && now - l->ov_ev_ns < EVENT_INTERVAL_NS))
+	if (!l->ov_pending || (l->ov_any && now - l->ov_ev_ns < EVENT_INTERVAL_NS &&
+			       l->ov_pending < l->cfg->incidents.overrun_burst))
 		return;
 	loop_event(l, now, RMD_EV_OVERRUN, 0xFF, 0xFF, (int64_t)l->ov_pending, 0);
 	l->ov_pending = 0;
@@ -403,6 +409,15 @@ static void schedule(struct rmd_loop *l, int64_t now)
 	l->next_tick_ns = tick + l->period_ns;
 }
 
+/* Incident recorder: a command the loop took this cycle (rmd/incident.h).  rt-safe. */
+static void incident_command(struct rmd_loop *l, int64_t now)
+{
+	if (!l->o.incidents || !l->have_cmd || l->cmd.rx_ns == l->inc_cmd_rx_ns)
+		return;
+	l->inc_cmd_rx_ns = l->cmd.rx_ns;
+	rmd_incident_command(l->o.incidents, &l->cmd, now);
+}
+
 /* rt-safe. */
 void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 {
@@ -414,6 +429,7 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 		loop_drain(l, b, now);
 	loop_check_deadlines(l, now);
 	loop_take_command(l, now);
+	incident_command(l, now);
 	loop_comm_loss(l, now);
 	loop_watchdog(l, now);
 	for (unsigned b = 0; b < l->n_buses; b++)
@@ -427,6 +443,9 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 	if (end - now > l->stats.cycle_max_ns)
 		l->stats.cycle_max_ns = end - now;
 	publish(l, now);
+	/* incident recorder: every motor's state of this cycle */
+	if (l->o.incidents)
+		rmd_incident_snapshot(l->o.incidents, &l->snap);
 	events_wake(l);
 	l->cycle++;
 	atomic_fetch_add_explicit(&l->heartbeat, 1, memory_order_release);

@@ -23,6 +23,7 @@
 #include <time.h>
 
 #include "rmd/hist.h"
+#include "rmd/incident.h"
 #include "rmd/time.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
@@ -142,6 +143,7 @@ struct rmd_loop {
 	/* commands and the host watchdog */
 	struct rmd_command cmd;
 	bool have_cmd;
+	int64_t inc_cmd_rx_ns; /* the newest command the incident recorder has */
 	int64_t last_cmd_rx_ns;
 	uint8_t wd; /* enum rmd_watchdog_state */
 	int64_t trip_ns;

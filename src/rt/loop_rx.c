@@ -220,8 +220,13 @@ void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
 		if (n <= 0)
 			return;
 		stat_begin(l);
-		for (int k = 0; k < n; k++)
+		for (int k = 0; k < n; k++) {
+			/* incident recorder: every frame received */
+			if (l->o.incidents)
+				rmd_incident_frame(l->o.incidents, b, RMD_INCIDENT_RX, &lb->rx[k].f,
+						   lb->rx[k].t_ns);
 			handle_frame(l, b, &lb->rx[k]);
+		}
 		stat_end(l);
 		if (n < RX_BATCH)
 			return;

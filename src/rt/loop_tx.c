@@ -198,6 +198,10 @@ void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now)
 	const struct txmeta *mt = &lb->meta[k];
 	const struct rmd_frame *f = &lb->tx[k];
 
+	/* incident recorder: every frame a bus took */
+	if (l->o.incidents)
+		rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX, f,
+				   now);
 	if (mt->kind == REQ_BATCH) {
 		for (unsigned j = 0; j < lb->pb->n_motors; j++)
 			if (lb->pb->batched & (1u << j))

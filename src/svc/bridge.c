@@ -468,6 +468,10 @@ static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t n
 		atomic_store_explicit(&b->pub_owner, b->owner, memory_order_relaxed);
 		return -1;
 	}
+	/* a new intruder is an incident (rmdd's recorder) */
+	if (b->opts.on_intruder &&
+	    atomic_load_explicit(&b->pub_intruder, memory_order_relaxed) != msg->controller)
+		b->opts.on_intruder(b->opts.intruder_ctx, now, msg->controller, b->owner);
 	atomic_store_explicit(&b->pub_intruder, msg->controller, memory_order_relaxed);
 	return reject(b, RMD_REJ_OWNER,
 		      "controller %016" PRIx64 ": the motors are owned by controller %016" PRIx64

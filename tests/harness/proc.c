@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 /* Programs as processes (proc.h). */
 #define _GNU_SOURCE
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
@@ -70,6 +71,22 @@ void close_fd(int *fd)
 	if (*fd >= 0)
 		close(*fd);
 	*fd = -1;
+}
+
+unsigned dir_sorted(const char *dir, const char *first, char names[][DIR_NAME_MAX], unsigned max)
+{
+	struct dirent **list;
+	int n = scandir(dir, &list, NULL, alphasort);
+	unsigned got = 0;
+
+	for (int i = 0; i < n; i++) {
+		if (list[i]->d_name[0] && strchr(first, list[i]->d_name[0]) && got < max)
+			snprintf(names[got++], DIR_NAME_MAX, "%.200s", list[i]->d_name);
+		free(list[i]);
+	}
+	if (n >= 0)
+		free(list);
+	return got;
 }
 
 int rm_tree(const char *dir)

@@ -27,6 +27,14 @@ int find_prog(char *out, size_t size, const char *env, const char *name);
 /* A new file from the mkstemp() template path (its name replaces the XXXXXX), holding text. */
 void temp_file(char *path, const char *text);
 
+/*
+ * The entries of dir whose name begins with one of the characters of
+ * `first` (e.g. "0123456789" for rmdd's incident recordings), sorted by
+ * name, into names (at most max); their count (0 when dir is missing).
+ */
+#define DIR_NAME_MAX 256
+unsigned dir_sorted(const char *dir, const char *first, char names[][DIR_NAME_MAX], unsigned max);
+
 /* rm -rf dir (a suite's temporary folder): 0, or -1 when that failed. */
 int rm_tree(const char *dir);
 

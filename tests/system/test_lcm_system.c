@@ -15,6 +15,8 @@
  *     loop keeps its cycle and the controller's own commands get through;
  *   - controller silence trips the watchdog: the safe action, health_t
  *     says so, and a new command with enable clears it;
+ *   - an intruding controller and a watchdog trip each leave an incident
+ *     recording (docs/design.md "Incidents") in the right order;
  *   - the example controllers (build/sine_controller, examples/sine.py when
  *     Python has `lcm`) track a sine and print the tracking error, stop
  *     cleanly on SIGINT (enable = 0, exit 0), and refuse to start without
@@ -1768,6 +1770,145 @@ static void test_sigterm_sends_the_configured_action(void **state)
 	assert_true(took >= 300 * NS_PER_MS);
 }
 
+/*
+ * Issue 13 point 7: the incident recorder with a controller.  An intruding
+ * controller and a watchdog trip (with its safe actions) are recorded;
+ * the summary lists them as triggers in the loop's order (the trip, then
+ * each motor made safe); commands.csv holds the owner's commands, the last
+ * one at least the command timeout before the safe states in states.csv;
+ * every bus's frames decode with rmdctl decode.  A busy machine may trip
+ * the watchdog early too (the test controller held off): the recordings
+ * are searched, not assumed one per event.
+ */
+#define INC_TIMEOUT_MS 300
+
+/*
+ * Wall-clock seconds of the lines of csv holding needle: the first one
+ * after `after` (or the last one, when last).  -1: none.
+ */
+static double csv_time(const char *csv, const char *needle, double after, bool last)
+{
+	FILE *fp = fopen(csv, "r");
+	char line[512];
+	double t = -1;
+
+	assert_non_null(fp);
+	while (fgets(line, sizeof(line), fp)) {
+		double lt = strtod(line, NULL);
+
+		if (!strstr(line, needle) || lt <= after)
+			continue;
+		t = lt;
+		if (!last)
+			break;
+	}
+	fclose(fp);
+	return t;
+}
+
+static void test_incidents_record_intruder_and_watchdog(void **state)
+{
+	static const char intruder[] = "* controller 0000000000000b0b rejected: the motors are "
+				       "owned by controller 0000000000000a0a";
+	static const char tripped[] = "* host watchdog: tripped";
+	static const char *const names[NMOTORS] = { "pos_1", "pos_2", "pos_3",
+						    "mit_1", "mit_2", "mit_3" };
+	static char list[64][DIR_NAME_MAX];
+	struct fixture *f = fixture(state);
+	char path[400], inc[400], rec[700], file[800], rmdctl_bin[512];
+	const char *at = strstr(config_yaml, "command_timeout_ms: 100");
+	const char *sum, *trip = NULL;
+	double last_enabled, last_cmd, first_safe;
+	int intruder_in = -1, trip_in = -1;
+	unsigned n;
+	struct run r;
+	FILE *fp;
+
+	assert_int_equal(find_prog(rmdctl_bin, sizeof(rmdctl_bin), "RMDCTL", "rmdctl"), 0);
+	assert_non_null(at);
+	snprintf(inc, sizeof(inc), "%s/incidents.%u", tmpdir, test_no);
+	snprintf(path, sizeof(path), "%s/incidents.%u.yaml", tmpdir, test_no);
+	fp = fopen(path, "w");
+	assert_non_null(fp);
+	fprintf(fp, "%.*scommand_timeout_ms: %d%s", (int)(at - config_yaml), config_yaml,
+		INC_TIMEOUT_MS, at + strlen("command_timeout_ms: 100"));
+	fprintf(fp, "incidents: {dir: \"%s\", seconds_before: 1, seconds_after: 0.3}\n", inc);
+	assert_int_equal(fclose(fp), 0);
+	start_rmdd_with(f, path);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = 0x0a0a;
+	enable_in_place(f);
+
+	/* a second controller speaks once among the owner's commands */
+	stream(f, true, 300, done_never, 0);
+	f->controller = 0x0b0b;
+	{
+		rmd_command_t m = cmd_all(f, true);
+
+		send_cmd(f, &m);
+	}
+	f->controller = 0x0a0a;
+	stream(f, true, 300, done_never, 0);
+	/* then the owner goes quiet: the watchdog trips; SIGTERM writes what is pending */
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_SAFE), 2000);
+	assert_true(all_in(f, RMD_STATE_T_LC_SAFE));
+	WAIT_UNTIL(f, strstr(slurp(f->log), "host watchdog: tripped (no command in time) (summary"),
+		   2000);
+	assert_int_equal(stop_child(&f->rmdd, SIGTERM, 5000), 0);
+	assert_non_null(strstr(slurp(f->log), "<5>rmdd: incident recorded in "));
+
+	/* which recordings hold the intruder and the (last) trip */
+	n = dir_sorted(inc, "0123456789", list, 64);
+	for (unsigned i = 0; i < n; i++) {
+		snprintf(file, sizeof(file), "%s/%.200s/summary.txt", inc, list[i]);
+		sum = slurp(file);
+		if (strstr(sum, intruder) && intruder_in < 0)
+			intruder_in = (int)i;
+		if (strstr(sum, tripped))
+			trip_in = (int)i;
+	}
+	if (intruder_in < 0 || trip_in < 0)
+		fail_msg("%u recordings, the intruder in %d, a trip in %d; rmdd's output:\n%s", n,
+			 intruder_in, trip_in, slurp(f->log));
+
+	/* the intruder's recording: the owner's commands are there */
+	snprintf(file, sizeof(file), "%s/%.200s/commands.csv", inc, list[intruder_in]);
+	assert_true(csv_time(file, ",pos_1,1,position,", 0, false) > 0);
+
+	/* the trip's: the trip, then every motor made safe, in the loop's order */
+	snprintf(rec, sizeof(rec), "%s/%.200s", inc, list[trip_in]);
+	snprintf(file, sizeof(file), "%s/summary.txt", rec);
+	sum = slurp(file);
+	for (const char *p = sum; (p = strstr(p, tripped)); p++)
+		trip = p;
+	for (int i = 0; i < NMOTORS; i++) {
+		char needle[64];
+
+		snprintf(needle, sizeof(needle), "(%s): enabled -> safe", names[i]);
+		if (!strstr(trip, needle))
+			fail_msg("no \"%s\" after the trip in the summary:\n%s", needle, trip);
+	}
+	/* the owner's last command, then the timeout, then the safe states */
+	snprintf(file, sizeof(file), "%s/commands.csv", rec);
+	last_cmd = csv_time(file, ",pos_1,1,position,", 0, true);
+	snprintf(file, sizeof(file), "%s/states.csv", rec);
+	last_enabled = csv_time(file, ",pos_1,enabled,", 0, true);
+	first_safe = csv_time(file, ",pos_1,safe,", last_enabled, false);
+	print_message("watchdog recording: %u recording(s); the first safe state %.3f s after the "
+		      "last command (timeout %d ms)\n",
+		      n, first_safe - last_cmd, INC_TIMEOUT_MS);
+	assert_true(last_cmd > 0 && last_enabled > 0 && first_safe > 0);
+	assert_true(first_safe - last_cmd >= (INC_TIMEOUT_MS - 5) / 1000.0);
+	/* every bus's frames decode, line for line */
+	for (int b = 0; b < 2; b++) {
+		snprintf(file, sizeof(file), "%s/frames-sim%d.log", rec, b);
+		run_prog(&r, rmdctl_bin, (const char *const[]){ "decode", file, NULL }, NULL);
+		assert_status(&r, 0, "rmdctl decode over the recorded frames");
+		assert_true(count_lines(r.out) > 1000);
+		run_free(&r);
+	}
+}
+
 static bool done_motor0_lost(const struct fixture *f, int arg)
 {
 	(void)arg;
@@ -1850,6 +1991,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_sigterm_sends_the_configured_action, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_ignored_enable_reported, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_incidents_record_intruder_and_watchdog, setup,
+						teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood* */

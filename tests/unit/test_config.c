@@ -216,6 +216,14 @@ static void test_defaults(void **state)
 	assert_int_equal(m->line, 4);
 	expect_in(cfg.source, "/tmp/rmd-test-defaults-");
 
+	/* the incident recorder: on, 3 s before, 0.5 s after, 20 kept, no dir (the environment's) */
+	assert_true(cfg.incidents.enabled);
+	assert_true(cfg.incidents.seconds_before == 3.0);
+	assert_true(cfg.incidents.seconds_after == 0.5);
+	assert_int_equal(cfg.incidents.keep, 20);
+	assert_int_equal(cfg.incidents.overrun_burst, 10);
+	assert_string_equal(cfg.incidents.dir, "");
+
 	/* rmd_config_defaults() alone */
 	rmd_config_defaults(&cfg);
 	assert_int_equal(cfg.n_buses, 0);
@@ -447,6 +455,18 @@ static const struct bad_str bad_strs[] = {
 	{ "tab",
 	  BUS MOTORS "loop:\n\trate_hz: 5\n",
 	  { ":6: loop: syntax error: found character that cannot start any token" } },
+	{ "incident-window",
+	  BUS MOTORS "incidents:\n  seconds_before: 50\n  seconds_after: 20\n",
+	  { ":7: incidents: seconds_before + seconds_after is 70 s: at most 60 s" } },
+	{ "incident-empty",
+	  BUS MOTORS "incidents: {seconds_before: 0, seconds_after: 0}\n",
+	  { ":5: incidents: an empty window", "enabled: false" } },
+	{ "incident-keep-0",
+	  BUS MOTORS "incidents: {keep: 0}\n",
+	  { ":5: incidents.keep: 0 is out of range (1..10000)" } },
+	{ "incident-negative",
+	  BUS MOTORS "incidents: {seconds_after: -1}\n",
+	  { ":5: incidents.seconds_after: -1 is out of range" } },
 };
 
 static void test_bad_strings(void **state)

@@ -10,7 +10,8 @@
  * every mode, MIT frames, NaN setpoints, clamping, status polls, a motor
  * lost and found again, an error flag, the host watchdog tripping and
  * lifted, an overrun, health snapshots, events drained, the V2 0x280 frame,
- * and rmd_loop_stop_motors().  Not one allocation may happen.
+ * the incident recorder's ring filled and wrapped (rmd/incident.h), and
+ * rmd_loop_stop_motors().  Not one allocation may happen.
  *
  * AddressSanitizer intercepts malloc itself, so under SANITIZE=1 the test
  * is skipped with a message.
@@ -32,6 +33,7 @@
 #include "rmd/bus_sim.h"
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
+#include "rmd/incident.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/sim_wire.h"
@@ -118,6 +120,8 @@ static void test_cycle_allocates_nothing(void **state)
 	struct rmd_loop_stats st;
 	struct rmd_loop_opts o;
 	struct rmd_loop *l;
+	struct rmd_incident_ring *inc;
+	struct rmd_incident_window *w;
 	struct rmd_event ev;
 	unsigned long n;
 	unsigned nev = 0;
@@ -135,6 +139,11 @@ static void test_cycle_allocates_nothing(void **state)
 	assert_int_equal(R.plan.bus[2].batch, RMD_BATCH_ON);
 	rig_open_buses(&R.cfg, &R.sim, R.buses);
 	assert_int_equal(rig_loop_opts(&R, &o), 0);
+	/* a 1 s window (+ slack): 12 s of cycles wrap it many times */
+	inc = rmd_incident_ring_new(&R.cfg, &R.plan, 1000 * MS, err, sizeof(err));
+	if (!inc)
+		fail_msg("%s", err);
+	o.incidents = inc;
 	l = rmd_loop_new(&o, err, sizeof(err));
 	if (!l)
 		fail_msg("%s", err);
@@ -202,9 +211,25 @@ static void test_cycle_allocates_nothing(void **state)
 	for (unsigned i = 0; i < R.cfg.n_motors; i++)
 		if (snap.m[i].lifecycle != RMD_LC_ENABLED)
 			fail_msg("motor %u ends in lifecycle %u", i, snap.m[i].lifecycle);
-	print_message("%d cycles, %llu replies, %llu missed, %u events, 0 allocations\n", CYCLES,
-		      (unsigned long long)c.replies, (unsigned long long)c.missed, nev);
+	/* the recorder took every kind of record, and kept the newest when it wrapped */
+	w = rmd_incident_window_new(inc);
+	assert_non_null(w);
+	rmd_incident_read(inc, 0, w);
+	for (unsigned b = 0; b < R.cfg.n_buses; b++)
+		assert_true(w->n_frames[b] > w->cap_frames[b] / 2);
+	assert_true(w->n_states > w->cap_states / 2);
+	assert_true(w->states[0].cycle > CYCLES / 2);
+	assert_int_equal(w->states[w->n_states - 1].cycle, CYCLES - 1);
+	assert_true(w->n_commands > 0);
+	assert_true(w->n_events > 0);
+	print_message("%d cycles, %llu replies, %llu missed, %u events, 0 allocations; incident "
+		      "ring %.1f MB: %zu states from cycle %llu\n",
+		      CYCLES, (unsigned long long)c.replies, (unsigned long long)c.missed, nev,
+		      rmd_incident_ring_bytes(inc) / 1e6, w->n_states,
+		      (unsigned long long)w->states[0].cycle);
+	rmd_incident_window_free(w);
 	rmd_loop_free(l);
+	rmd_incident_ring_free(inc);
 	for (unsigned b = 0; b < R.cfg.n_buses; b++)
 		rmd_bus_close(&R.buses[b]);
 }

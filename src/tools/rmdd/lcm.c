@@ -5,6 +5,7 @@
  * modes, limits and MIT gain ranges, from the loop's motor records by
  * rmd_motor_info()).  Non-rt.
  */
+#include <inttypes.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -48,4 +49,22 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	o->health = health;
 	o->log = bridge_log;
 	o->log_ctx = NULL;
+}
+
+/* The bridge rejected a controller that does not own the motors: an incident. */
+static void bridge_intruder(void *ctx, int64_t when_ns, int64_t controller, int64_t owner)
+{
+	char what[160];
+
+	snprintf(what, sizeof(what),
+		 "controller %016" PRIx64
+		 " rejected: the motors are owned by controller %016" PRIx64,
+		 (uint64_t)controller, (uint64_t)owner);
+	rmdd_incidents_trigger(ctx, when_ns, "intruder", what, true);
+}
+
+void rmdd_lcm_incidents(struct rmd_bridge_opts *o, struct rmdd_incidents *in)
+{
+	o->on_intruder = in ? bridge_intruder : NULL;
+	o->intruder_ctx = in;
 }

@@ -116,6 +116,7 @@ struct rmdd {
 	void *buf_commands, *buf_snapshots, *buf_health, *buf_events;
 	struct rmd_loop *loop;
 	struct rmdd_monitor mon;
+	struct rmdd_incidents inc; /* the incident recorder: ring and writer */
 	struct rmd_bridge bridge;
 	struct rmdd_notify notify;
 	struct rmdd_stats_src stats;
@@ -937,6 +938,11 @@ static int run(const struct rmdd_opts *o)
 		goto err_free_handovers;
 	}
 
+	r = rmdd_incidents_init(&d->inc, &d->cfg, &d->plan, err, sizeof(err));
+	if (r < 0) {
+		tool_log(3, "%s", err);
+		goto err_free_handovers;
+	}
 	lo = (struct rmd_loop_opts){
 		.cfg = &d->cfg,
 		.plan = &d->plan,
@@ -945,6 +951,7 @@ static int run(const struct rmdd_opts *o)
 		.snapshots = &d->snapshots,
 		.health = &d->health,
 		.events = &d->events,
+		.incidents = d->inc.ring,
 		.snapshot_fd = d->snapshot_fd,
 		.require_rt = o->require_rt,
 	};
@@ -958,6 +965,8 @@ static int run(const struct rmdd_opts *o)
 		tool_log(3, "monitor: %s", strerror(-r));
 		goto err_free_loop;
 	}
+	if (d->inc.ring)
+		d->mon.incidents = &d->inc;
 	d->stats = (struct rmdd_stats_src){
 		.cfg = &d->cfg,
 		.plan = &d->plan,
@@ -983,6 +992,7 @@ static int run(const struct rmdd_opts *o)
 	main_thread_normal(d);
 	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, d->loop, &d->commands, &d->snapshots, &d->health);
 	bo.notify_fd = d->snapshot_fd;
+	rmdd_lcm_incidents(&bo, d->inc.ring ? &d->inc : NULL);
 	r = rmd_bridge_init(&d->bridge, &bo, err, sizeof(err));
 	if (r < 0) {
 		tool_log(3, "LCM: %s; --lcm-url memq:// runs without LCM traffic", err);
@@ -1015,6 +1025,16 @@ static int run(const struct rmdd_opts *o)
 		tool_log(3, "monitor thread: %s", strerror(-r));
 		goto err_stop_loop;
 	}
+	r = rmdd_incidents_start(&d->inc);
+	if (r < 0) {
+		tool_log(3, "incident writer thread: %s", strerror(-r));
+		goto err_stop_loop;
+	}
+	if (d->inc.ring)
+		tool_log(6, "incidents: recorded to %s (%.1f s before, %.1f s after; %.1f MB held)",
+			 d->inc.dir, d->cfg.incidents.seconds_before,
+			 d->cfg.incidents.seconds_after,
+			 (double)rmd_incident_ring_bytes(d->inc.ring) / 1e6);
 
 	wait_first_cycle(d);
 	tool_log(5,
@@ -1045,6 +1065,8 @@ err_stop_loop:
 err_stop_bridge:
 	rmd_bridge_stop(&d->bridge);
 	rmdd_monitor_stop(&d->mon);
+	/* after the monitor's last drain: its triggers are written now */
+	rmdd_incidents_stop(&d->inc);
 err_fini_bridge:
 	rmd_bridge_fini(&d->bridge);
 err_fini_monitor:
@@ -1052,6 +1074,7 @@ err_fini_monitor:
 err_free_loop:
 	rmd_loop_free(d->loop);
 err_free_handovers:
+	rmdd_incidents_fini(&d->inc);
 	handovers_free(d);
 	rmdd_buses_close(d->buses, d->cfg.n_buses);
 err_close_signals:

@@ -44,8 +44,7 @@ const char *rmdd_lifecycle_name(unsigned lc)
 
 /* ---- events ---------------------------------------------------------------- */
 
-/* "can0: motor 3 (knee_l)" for motor index i, or "motor 40" when out of range. */
-static void motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t len)
+void rmdd_motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t len)
 {
 	const struct rmd_config_motor *c;
 
@@ -58,7 +57,7 @@ static void motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_
 		 c->bus < cfg->n_buses ? cfg->buses[c->bus].name : "?", c->id, c->name);
 }
 
-static const char *bus_name(const struct rmd_config *cfg, unsigned b)
+const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b)
 {
 	return b < cfg->n_buses ? cfg->buses[b].name : "?";
 }
@@ -69,7 +68,7 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 	unsigned from = (unsigned)e->a, to = (unsigned)e->b;
 	char ctx[96];
 
-	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
 	switch ((enum rmd_lifecycle)to) {
 	case RMD_LC_LOST:
 		if (from == RMD_LC_PROBE)
@@ -123,7 +122,7 @@ static void log_motor_error(const struct rmd_config *cfg, const struct rmd_event
 	enum rmd_proto proto = RMD_PROTO_V3;
 	size_t n, used = 0;
 
-	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
 	if (e->b == RMD_MOTOR_CMD_COMM_LOST) {
 		/* docs/design.md: the motor heard nothing for its 0xB3 time */
 		tool_log(4,
@@ -154,7 +153,7 @@ static void log_comm_loss(const struct rmd_config *cfg, const struct rmd_event *
 						   "it did not answer 0xB3";
 	char ctx[96];
 
-	motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
 	if (e->a == RMD_CL_ARMED || e->a == RMD_CL_ARMED_ZEROS) {
 		tool_log(6, "%s: comm-loss protection (0xB3) %u ms set, %s", ctx, (unsigned)ms,
 			 e->a == RMD_CL_ARMED ? "echo verified" :
@@ -176,7 +175,7 @@ static void log_comm_loss(const struct rmd_config *cfg, const struct rmd_event *
 static void log_bus_state(const struct rmd_config *cfg, const struct rmd_event *e)
 {
 	enum rmd_bus_state s = (enum rmd_bus_state)e->a;
-	const char *name = bus_name(cfg, e->bus);
+	const char *name = rmdd_bus_name(cfg, e->bus);
 
 	switch (s) {
 	case RMD_BUS_OFF:
@@ -287,27 +286,35 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		log_watchdog(cfg, e);
 		break;
 	case RMD_EV_SAFE_ACTION:
-		motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+		rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
 		tool_log(7, "%s: safe action %s sent", ctx,
 			 rmd_safe_action_name((enum rmd_safe_action)e->a));
 		break;
 	case RMD_EV_SEND_FAILED:
 		tool_log(4, "%s: send failed (%s): %" PRId64 " frame(s) not sent",
-			 bus_name(cfg, e->bus), e->a ? strerror((int)-e->a) : "queue full", e->b);
+			 rmdd_bus_name(cfg, e->bus), e->a ? strerror((int)-e->a) : "queue full",
+			 e->b);
 		break;
 	case RMD_EV_UNEXPECTED:
 		if (e->b >= 0)
 			tool_log(5,
 				 "%s: unexpected frame 0x%03" PRIX64 " command 0x%02" PRIX64
 				 " (neither a reply nor a report; at most one such line a second)",
-				 bus_name(cfg, e->bus), (uint64_t)e->a, (uint64_t)e->b);
+				 rmdd_bus_name(cfg, e->bus), (uint64_t)e->a, (uint64_t)e->b);
 		else
 			tool_log(5, "%s: unexpected empty frame 0x%03" PRIX64,
-				 bus_name(cfg, e->bus), (uint64_t)e->a);
+				 rmdd_bus_name(cfg, e->bus), (uint64_t)e->a);
 		break;
 	default:
 		tool_log(7, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
+	}
+	if (m->incidents) {
+		const char *kind;
+		char what[160];
+
+		if (rmdd_incident_kind(cfg, e, what, sizeof(what), &kind))
+			rmdd_incidents_trigger(m->incidents, e->t_ns, kind, what, false);
 	}
 }
 

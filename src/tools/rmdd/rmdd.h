@@ -26,6 +26,7 @@
 #include <stdio.h>
 
 #include "rmd/hist.h"
+#include "rmd/incident.h"
 #include "rmd/bridge.h"
 #include "rmd/bus.h"
 #include "rmd/config.h"
@@ -47,12 +48,76 @@ enum {
 /* Event ring between the rt loop and the monitor: 4096 records of 32 bytes. */
 #define RMDD_EVENT_SLOTS 4096
 
+/* ---- the incident writer (incidents.c) ------------------------------------ */
+
+/* Triggers one recording holds (the events of its window are all in it anyway). */
+#define RMDD_INCIDENT_TRIGGERS 64
+
+/* A safety event that starts (or joins) a recording. */
+struct rmdd_trigger {
+	int64_t t_ns;	/* CLOCK_MONOTONIC */
+	bool outside;	/* not a loop event (an intruding controller): the summary lists it */
+	char kind[16];	/* for the directory name: "lost", "watchdog", ... */
+	char what[160]; /* for the summary and the log */
+};
+
+struct rmdd_incidents {
+	const struct rmd_config *cfg;
+	struct rmd_incident_ring *ring; /* NULL: incidents.enabled is false */
+	struct rmd_incident_window *win;
+	char dir[RMD_CONFIG_INCIDENT_DIR_LEN + 32];
+	pthread_t thread;
+	bool running, inited;
+	pthread_mutex_t mu;
+	pthread_cond_t cv; /* CLOCK_MONOTONIC */
+	/* under mu */
+	bool stop;
+	unsigned n_trig;
+	struct rmdd_trigger trig[RMDD_INCIDENT_TRIGGERS]; /* of the recording being made */
+	int64_t covered_ns; /* triggers up to this are in the last recording */
+	/* writer thread; read after stop */
+	unsigned written;
+};
+
+/*
+ * The ring (sized from cfg and plan) and the writer's copy of it; nothing
+ * when incidents.enabled is false.  0 or -errno with err set.
+ */
+int rmdd_incidents_init(struct rmdd_incidents *in, const struct rmd_config *cfg,
+			const struct rmd_plan *plan, char *err, size_t errlen);
+int rmdd_incidents_start(struct rmdd_incidents *in);
+/* Write what is pending at once (a shorter tail), join the thread. */
+void rmdd_incidents_stop(struct rmdd_incidents *in);
+void rmdd_incidents_fini(struct rmdd_incidents *in);
+
+/*
+ * A safety event at t_ns: a recording of [first trigger - seconds_before,
+ * first trigger + seconds_after] follows; triggers until then join it, and
+ * triggers already inside a written recording are not recorded twice.
+ * Any thread.  in may be NULL.
+ */
+void rmdd_incidents_trigger(struct rmdd_incidents *in, int64_t t_ns, const char *kind,
+			    const char *what, bool outside);
+
+/*
+ * Whether loop event e is a safety event that makes an incident (a motor
+ * lost, faulted or made safe, a watchdog trip, a safe action, an overrun
+ * of incidents.overrun_burst periods, a bus leaving error-active); its
+ * description into what and its short name into *kind.
+ */
+bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e, char *what,
+			size_t len, const char **kind);
+
+/* Where recordings go: incidents.dir, else $STATE_DIRECTORY/incidents, $XDG_STATE_HOME/rmdd/... */
+void rmdd_incidents_dir(const struct rmd_config *cfg, char *out, size_t len);
+
 /* ---- the monitor thread (monitor.c) ------------------------------------- */
 
 struct rmdd_monitor {
 	const struct rmd_config *cfg;
 	struct rmd_loop *loop;
 	struct rmd_ring *events;
+	struct rmdd_incidents *incidents; /* told of each safety event; NULL: none */
 
 	pthread_t thread;
 	bool running;
@@ -83,6 +148,11 @@ void rmdd_monitor_fini(struct rmdd_monitor *m);
 /* Name of a lifecycle state ("ready", "lost", ...). */
 const char *rmdd_lifecycle_name(unsigned lc);
 
+/* "can0: motor 3 (knee_l)" for motor index i ("motor #40" when out of range). */
+void rmdd_motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t len);
+/* Bus b's name, "?" when out of range. */
+const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
+
 /* ---- buses (rmdd_buses.c) ----------------------------------------------- */
 
 /*
@@ -104,6 +174,9 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 		   const struct rmd_plan *plan, const struct rmd_loop *loop,
 		   struct rmd_latest *commands, struct rmd_latest *snapshots,
 		   struct rmd_latest *health);
+
+/* Tell the incident recorder of intruding controllers (in NULL: nobody). */
+void rmdd_lcm_incidents(struct rmd_bridge_opts *o, struct rmdd_incidents *in);
 
 /* ---- statistics (rmdd_stats.c) --------------------------------------------- */
 

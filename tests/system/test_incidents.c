@@ -1,0 +1,454 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdd's incident recorder end to end (docs/design.md "Incidents"): the
+ * built daemon ($RMDD, else $BUILD/rmdd) runs on simulated buses with
+ * injected faults, as a real process with real signals, and each test
+ * reads the recordings it wrote:
+ *   - a motor lost, a motor faulted (error flags) and a bus leaving
+ *     error-active each make a recording whose frames `rmdctl decode`
+ *     ($RMDCTL, else $BUILD/rmdctl) reads line for line, whose states
+ *     cover the window, and whose summary lists the events in the order
+ *     they happened, the trigger at +0;
+ *   - a stalled process (SIGSTOP for 80 ms, then SIGCONT) is an overrun
+ *     burst; with no incidents.dir the recording goes to
+ *     $STATE_DIRECTORY/incidents, as under systemd's StateDirectory=;
+ *   - incidents.keep bounds the recordings: the oldest are removed, other
+ *     files in the folder are not.
+ * The watchdog, safe actions and an intruding controller need an LCM
+ * controller: tests/system/test_lcm_system.c.  Every wait has a deadline;
+ * RMD_TEST_FILTER=name runs one test.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sys/stat.h>
+
+#include <cmocka.h>
+
+#include "harness/proc.h"
+
+#define START_MS 10000
+#define INCIDENT_MS 20000
+
+static char rmdd[4096], rmdctl[4096];
+static char tmpdir[256];
+static unsigned test_no;
+
+/* The sim bus and motors of every test, after the test's own keys. */
+static const char motors_yaml[] =
+	"loop: {rate_hz: 1000}\n"
+	"safety: {missed_replies_lost: 10, lost_motor_action: motor}\n"
+	"probe: {on_missing: start}\n"
+	"lcm: {url: \"memq://\"}\n"
+	"motors:\n"
+	"  - {name: a, bus: sim0, id: 1, mode: torque, torque_constant_nm_a: 2.0}\n"
+	"  - {name: b, bus: sim0, id: 2, mode: speed, torque_constant_nm_a: 2.0}\n"
+	"  - {name: c, bus: sim0, id: 3, mode: position, torque_constant_nm_a: 2.0}\n";
+
+/* A folder of this test under the suite's. */
+static void test_dir(char *out, size_t len, const char *name)
+{
+	snprintf(out, len, "%s/%u-%s", tmpdir, ++test_no, name);
+	assert_int_equal(mkdir(out, 0700), 0);
+}
+
+/* incidents: (dir inc, then `more`) and sim0 with seed and the fault list `faults`. */
+static void fault_keys(char *out, size_t len, const char *inc, const char *more, unsigned seed,
+		       const char *faults)
+{
+	snprintf(out, len,
+		 "incidents: {dir: \"%s\", %s}\n"
+		 "buses:\n"
+		 "  - name: sim0\n"
+		 "    type: sim\n"
+		 "    sim:\n"
+		 "      seed: %u\n"
+		 "      faults:\n%s",
+		 inc, more, seed, faults);
+}
+
+/* Start rmdd on motors_yaml plus `keys` (incidents:, buses:), wait until it runs. */
+static struct kid *start(const char *dir, const char *keys)
+{
+	char path[512], text[4096];
+	struct kid *k;
+	FILE *f;
+
+	snprintf(path, sizeof(path), "%s/rmdd.yaml", dir);
+	snprintf(text, sizeof(text), "%s%s", keys, motors_yaml);
+	f = fopen(path, "w");
+	assert_non_null(f);
+	fputs(text, f);
+	assert_int_equal(fclose(f), 0);
+	k = kid_spawn("rmdd", (const char *const[]){ rmdd, "--config", path, NULL }, NULL, 0);
+	assert_non_null(k);
+	kid_wait_output(k, "rmdd: running:", START_MS, NULL);
+	return k;
+}
+
+static void stop(struct kid *k)
+{
+	kill(k->pid, SIGTERM);
+	assert_int_equal(kid_wait_exit(k, 10000, NULL), 0);
+}
+
+/*
+ * Run rmdd with fault_keys(inc, more, seed, faults) in dir until its log
+ * has each of the NULL-terminated `logged` lines, then stop it (exit 0).
+ */
+static void run_faults(const char *dir, const char *inc, const char *more, unsigned seed,
+		       const char *faults, const char *const *logged)
+{
+	char keys[1024];
+	struct kid *k;
+
+	fault_keys(keys, sizeof(keys), inc, more, seed, faults);
+	k = start(dir, keys);
+	for (; *logged; logged++)
+		kid_wait_output(k, *logged, INCIDENT_MS, NULL);
+	assert_has(k->out, "<5>rmdd: incident recorded in ", "rmdd's log");
+	stop(k);
+}
+
+/* The recordings under dir (names "YYYYMMDD-HHMMSS-mmm-kind"), sorted; their count. */
+static unsigned recordings(const char *dir, char names[][DIR_NAME_MAX], unsigned max)
+{
+	return dir_sorted(dir, "0123456789", names, max);
+}
+
+/* The recording of `kind` under dir (its path into out); fails when there is none. */
+static void recording_of(const char *dir, const char *kind, char *out, size_t len)
+{
+	char names[64][DIR_NAME_MAX], suffix[32];
+	unsigned n = recordings(dir, names, 64);
+
+	snprintf(suffix, sizeof(suffix), "-%s", kind);
+	for (unsigned i = 0; i < n; i++) {
+		const char *s = names[i] + strlen(names[i]) - strlen(suffix);
+
+		if (strlen(names[i]) > strlen(suffix) && !strcmp(s, suffix)) {
+			snprintf(out, len, "%s/%s", dir, names[i]);
+			return;
+		}
+	}
+	fail_msg("no %s recording under %s (%u recordings)", kind, dir, n);
+}
+
+static char *slurp(const char *path)
+{
+	FILE *f = fopen(path, "r");
+	char *buf;
+	long n;
+
+	if (!f)
+		fail_msg("%s: %s", path, strerror(errno));
+	fseek(f, 0, SEEK_END);
+	n = ftell(f);
+	fseek(f, 0, SEEK_SET);
+	buf = calloc(1, (size_t)n + 1);
+	assert_non_null(buf);
+	assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+	fclose(f);
+	return buf;
+}
+
+/* One line of the summary's "What happened" list. */
+struct ev {
+	double t_s; /* from the first trigger */
+	bool trigger;
+	char text[200];
+};
+
+/* The summary's event list, checked to be in time order; its length. */
+static unsigned summary_events(const char *summary, struct ev *ev, unsigned max)
+{
+	const char *p = strstr(summary, "What happened, in order");
+	unsigned n = 0;
+
+	assert_non_null(p);
+	p = strchr(p, '\n') + 1;
+	while (*p == ' ' && n < max) {
+		char mark;
+		int used = 0;
+
+		if (sscanf(p, " %lf %c %n", &ev[n].t_s, &mark, &used) < 2 || !used)
+			break;
+		ev[n].trigger = mark == '*';
+		p += ev[n].trigger ? used : used - 2; /* not a trigger: the mark was the text */
+		snprintf(ev[n].text, sizeof(ev[n].text), "%.*s", (int)strcspn(p, "\n"), p);
+		if (n && ev[n].t_s < ev[n - 1].t_s)
+			fail_msg("summary out of order at \"%s\":\n%s", ev[n].text, summary);
+		n++;
+		p += strcspn(p, "\n") + 1;
+	}
+	return n;
+}
+
+/* Index of the first event holding needle (a trigger when `trigger`), else fails. */
+static unsigned event_at(const struct ev *ev, unsigned n, const char *needle, bool trigger,
+			 const char *summary)
+{
+	for (unsigned i = 0; i < n; i++)
+		if (strstr(ev[i].text, needle) && (!trigger || ev[i].trigger))
+			return i;
+	fail_msg("no %s \"%s\" in the summary:\n%s", trigger ? "trigger" : "event", needle,
+		 summary);
+	return 0;
+}
+
+static unsigned lines_of(const char *s)
+{
+	unsigned n = 0;
+
+	for (; *s; s++)
+		n += *s == '\n';
+	return n;
+}
+
+/*
+ * The recording at path: its frames decode with rmdctl decode line for
+ * line, its states cover [-before, +after] of the trigger at 1 kHz for 3
+ * motors, but for missing_s the loop did not run; its summary returned
+ * (free it).
+ */
+static char *check_recording(const char *path, double before_s, double after_s, double missing_s)
+{
+	double ran_s = before_s + after_s - missing_s;
+
+	char frames[600], states_path[600], summary_path[600];
+	struct run r;
+	char *frames_text, *states, *summary;
+	unsigned nframes, nstates;
+
+	snprintf(frames, sizeof(frames), "%s/frames-sim0.log", path);
+	snprintf(states_path, sizeof(states_path), "%s/states.csv", path);
+	snprintf(summary_path, sizeof(summary_path), "%s/summary.txt", path);
+	frames_text = slurp(frames);
+	nframes = lines_of(frames_text);
+	run_prog(&r, rmdctl, (const char *const[]){ "decode", "--protocol", "v3", frames, NULL },
+		 NULL);
+	assert_status(&r, 0, "rmdctl decode over the recorded frames");
+	assert_int_equal(count_lines(r.out), nframes);
+	assert_has(r.out, "read_status_2", "rmdctl decode");
+	/* at least one frame a cycle over the window */
+	if (nframes < (unsigned)(0.9 * ran_s * 1000))
+		fail_msg("%u frames in %s: fewer than one a cycle over %.3f s", nframes, frames,
+			 ran_s);
+	run_free(&r);
+	states = slurp(states_path);
+	nstates = lines_of(states) - 1;
+	/* every motor, every cycle of the window (the tail may be cut by a stop: 90 %) */
+	if (nstates < (unsigned)(0.9 * 3 * ran_s * 1000))
+		fail_msg("%u states in %s", nstates, states_path);
+	summary = slurp(summary_path);
+	assert_has(summary, "What:", summary_path);
+	assert_has(summary, "rmdctl decode --protocol v3 frames-sim0.log", summary_path);
+	print_message("%s: %u frames decoded, %u states\n", strrchr(path, '/') + 1, nframes,
+		      nstates);
+	free(frames_text);
+	free(states);
+	return summary;
+}
+
+/*
+ * The recording of `kind` under inc, checked as check_recording() does
+ * over a 0.5 s + 0.2 s window; its summary's events into ev (*n), and the
+ * index of the trigger holding needle, which must be the first (at +0).
+ * *summary: free it.
+ */
+static unsigned first_trigger(const char *inc, const char *kind, const char *needle, struct ev *ev,
+			      unsigned *n, char **summary)
+{
+	char path[700];
+	unsigned at;
+
+	recording_of(inc, kind, path, sizeof(path));
+	*summary = check_recording(path, 0.5, 0.2, 0);
+	*n = summary_events(*summary, ev, 64);
+	at = event_at(ev, *n, needle, true, *summary);
+	assert_true(ev[at].t_s == 0.0);
+	return at;
+}
+
+static void test_lost_fault_and_bus_off_recorded(void **state)
+{
+	char dir[512], inc[600];
+	struct ev ev[64];
+	char *summary;
+	unsigned n, at;
+
+	(void)state;
+	test_dir(dir, sizeof(dir), "faults");
+	snprintf(inc, sizeof(inc), "%s/incidents", dir);
+	run_faults(
+		dir, inc, "seconds_before: 0.5, seconds_after: 0.2, overrun_burst: 1000000", 7,
+		"        - {kind: disappear, motor: 3, start_s: 1.5, end_s: 1.8, param: 1}\n"
+		"        - {kind: error_flag, motor: 1, start_s: 3.0, end_s: 3.3, param: 0x1000}\n"
+		"        - {kind: bus_off, start_s: 4.5, end_s: 4.55}\n",
+		(const char *const[]){ "-lost: sim0: motor 3 (c): ready -> lost",
+				       "-fault: sim0: motor 1 (a): ready -> fault",
+				       "-bus: sim0: bus bus-off", NULL });
+
+	/* lost: the motor's loss is the trigger */
+	first_trigger(inc, "lost", "sim0: motor 3 (c): ready -> lost", ev, &n, &summary);
+	free(summary);
+
+	/* fault: the flags, then the state change they cause, in the loop's order */
+	at = first_trigger(inc, "fault", "sim0: motor 1 (a): ready -> fault", ev, &n, &summary);
+	assert_true(event_at(ev, n, "sim0: motor 1 (a): error flags 0x1000", false, summary) < at);
+	free(summary);
+
+	/* bus-off: first, then the motors it cut off are lost, then error-active again */
+	at = first_trigger(inc, "bus", "sim0: bus bus-off", ev, &n, &summary);
+	assert_true(event_at(ev, n, "sim0: motor 1 (a): ready -> lost", true, summary) > at);
+	assert_true(event_at(ev, n, "sim0: bus error-active", false, summary) > at);
+	free(summary);
+}
+
+static void test_overrun_burst_goes_to_the_state_directory(void **state)
+{
+	char dir[512], keys[512], path[700], state_dir[600], inc[700], names[8][DIR_NAME_MAX];
+	char sum_path[800];
+	/* shorter than the motors' comm-loss time (100 ms): they keep answering */
+	struct timespec stall = { .tv_sec = 0, .tv_nsec = 80 * 1000000 };
+	struct ev ev[64];
+	struct kid *k;
+	char *summary, *states, *p;
+	double last = 0, gap = 0;
+	long skipped = 0;
+	unsigned n, at;
+
+	(void)state;
+	test_dir(dir, sizeof(dir), "overrun");
+	snprintf(state_dir, sizeof(state_dir), "%s/state", dir);
+	snprintf(inc, sizeof(inc), "%s/incidents", state_dir);
+	snprintf(keys, sizeof(keys),
+		 "incidents: {seconds_before: 0.5, seconds_after: 0.2, overrun_burst: 50}\n"
+		 "buses: [{name: sim0, type: sim, sim: {seed: 3}}]\n");
+	/* systemd's StateDirectory=rmdd sets it; no incidents.dir: recordings go under it */
+	setenv("STATE_DIRECTORY", state_dir, 1);
+	k = start(dir, keys);
+	unsetenv("STATE_DIRECTORY");
+	/* a window's worth of cycles first (the stall is not a result to wait for) */
+	nanosleep(&(struct timespec){ .tv_sec = 1 }, NULL);
+	/* the whole process stops: the loop wakes 80 periods late, or later */
+	assert_int_equal(kill(k->pid, SIGSTOP), 0);
+	nanosleep(&stall, NULL);
+	assert_int_equal(kill(k->pid, SIGCONT), 0);
+	kid_wait_output(k, "-overrun: rt loop: overrun, ", INCIDENT_MS, NULL);
+	stop(k);
+
+	assert_true(recordings(inc, names, 8) >= 1);
+	recording_of(inc, "overrun", path, sizeof(path));
+	snprintf(sum_path, sizeof(sum_path), "%s/summary.txt", path);
+	summary = slurp(sum_path);
+	n = summary_events(summary, ev, 64);
+	at = event_at(ev, n, "rt loop: overrun, ", true, summary);
+	assert_true(ev[at].t_s == 0.0);
+	assert_int_equal(sscanf(strstr(ev[at].text, "overrun, "), "overrun, %ld", &skipped), 1);
+	assert_true(skipped >= 50);
+	free(summary);
+	/* the periods the stall skipped have no cycle */
+	summary = check_recording(path, 0.5, 0.2, skipped / 1000.0);
+	/* the states show the stall as one gap of about the periods skipped */
+	snprintf(path + strlen(path), sizeof(path) - strlen(path), "/states.csv");
+	states = slurp(path);
+	for (p = strchr(states, '\n') + 1; *p; p = strchr(p, '\n') + 1) {
+		double t = strtod(p, NULL);
+
+		if (last > 0 && t - last > gap)
+			gap = t - last;
+		last = t;
+	}
+	print_message("stall: %ld periods skipped, %.0f ms between two recorded cycles\n", skipped,
+		      gap * 1000);
+	assert_true(gap >= (skipped - 1) / 1000.0);
+	free(states);
+	free(summary);
+}
+
+static void test_keep_bounds_the_recordings(void **state)
+{
+	char dir[512], inc[600], other[700], old[700], names[16][DIR_NAME_MAX];
+	unsigned n;
+
+	(void)state;
+	test_dir(dir, sizeof(dir), "keep");
+	snprintf(inc, sizeof(inc), "%s/incidents", dir);
+	assert_int_equal(mkdir(inc, 0700), 0);
+	/* somebody's notes and an old recording */
+	snprintf(other, sizeof(other), "%s/notes", inc);
+	snprintf(old, sizeof(old), "%s/20000101-000000-000-lost", inc);
+	assert_int_equal(mkdir(other, 0700), 0);
+	assert_int_equal(mkdir(old, 0700), 0);
+	run_faults(dir, inc,
+		   "seconds_before: 0.3, seconds_after: 0.1, keep: 2, overrun_burst: 1000000", 5,
+		   "        - {kind: disappear, motor: 1, start_s: 1.5, end_s: 1.7, param: 1}\n"
+		   "        - {kind: disappear, motor: 2, start_s: 2.5, end_s: 2.7, param: 1}\n"
+		   "        - {kind: disappear, motor: 3, start_s: 3.5, end_s: 3.7, param: 1}\n",
+		   (const char *const[]){ "-lost: sim0: motor 1 (a): ready -> lost",
+					  "-lost: sim0: motor 2 (b): ready -> lost",
+					  "-lost: sim0: motor 3 (c): ready -> lost", NULL });
+
+	n = recordings(inc, names, 16);
+	assert_int_equal(n, 2);
+	/* the newest two: motors 2 and 3; the old one and motor 1's removed, the notes kept */
+	for (unsigned i = 0; i < n; i++) {
+		char p[1024], *summary;
+
+		snprintf(p, sizeof(p), "%s/%.300s/summary.txt", inc, names[i]);
+		summary = slurp(p);
+		assert_has(summary, i ? "What:    sim0: motor 3 (c)" : "What:    sim0: motor 2 (b)",
+			   p);
+		free(summary);
+	}
+	assert_int_equal(access(old, F_OK), -1);
+	assert_int_equal(access(other, F_OK), 0);
+}
+
+static int group_setup(void **state)
+{
+	(void)state;
+	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0 ||
+	    find_prog(rmdctl, sizeof(rmdctl), "RMDCTL", "rmdctl") < 0)
+		return -1;
+	snprintf(tmpdir, sizeof(tmpdir), "/tmp/rmd-test-incidents-XXXXXX");
+	return mkdtemp(tmpdir) ? 0 : -1;
+}
+
+static int group_teardown(void **state)
+{
+	(void)state;
+	kid_kill_all();
+	return rm_tree(tmpdir);
+}
+
+static int teardown(void **state)
+{
+	(void)state;
+	kid_kill_all();
+	return 0;
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test_teardown(test_lost_fault_and_bus_off_recorded, teardown),
+		cmocka_unit_test_teardown(test_overrun_burst_goes_to_the_state_directory, teardown),
+		cmocka_unit_test_teardown(test_keep_bounds_the_recordings, teardown),
+	};
+
+	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
+	return cmocka_run_group_tests_name("incidents", tests, group_setup, group_teardown);
+}
