@@ -39,6 +39,12 @@ while [ $# -gt 0 ]; do
 	esac
 done
 
+# rmdd records incidents under $XDG_STATE_HOME/rmdd/incidents when nothing
+# else says where: the suites' daemons write into a folder of this run.
+state_home=$(mktemp -d /tmp/rmd-tests-state.XXXXXX)
+export XDG_STATE_HOME="$state_home"
+trap 'rm -rf "$state_home"' EXIT
+
 passed=0
 failed=0
 bad=""
