@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 
@@ -127,6 +128,50 @@ pid_t spawn_piped(const char *path, const char *const *args, int *fd,
 	}
 	close(pfd[1]);
 	*fd = pfd[0];
+	return pid;
+}
+
+void journal_stream_env(const void *ctx)
+{
+	struct stat st;
+	char v[64];
+
+	(void)ctx;
+	if (fstat(STDERR_FILENO, &st) < 0)
+		return;
+	snprintf(v, sizeof(v), "%llu:%llu", (unsigned long long)st.st_dev,
+		 (unsigned long long)st.st_ino);
+	setenv("JOURNAL_STREAM", v, 1);
+}
+
+pid_t spawn_pty(const char *path, const char *const *args, int *master,
+		void (*in_child)(const void *ctx), const void *ctx)
+{
+	const char *argv[ARGS_MAX];
+	int m, s;
+	pid_t pid;
+
+	make_argv(argv, path, args);
+	m = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+	assert_true(m >= 0);
+	assert_int_equal(grantpt(m), 0);
+	assert_int_equal(unlockpt(m), 0);
+	pid = fork();
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		setsid();
+		s = open(ptsname(m), O_RDWR); /* the session's controlling terminal */
+		if (s < 0)
+			_exit(126);
+		child_prepare(s, s, s);
+		if (in_child)
+			in_child(ctx);
+		execv(path, (char *const *)argv);
+		fprintf(stderr, "exec %s: %s\n", path, strerror(errno));
+		_exit(127);
+	}
+	fcntl(m, F_SETFL, O_NONBLOCK);
+	*master = m;
 	return pid;
 }
 

@@ -42,6 +42,21 @@ void close_fd(int *fd);
 pid_t spawn_piped(const char *path, const char *const *args, int *fd,
 		  void (*in_child)(const void *ctx), const void *ctx);
 
+/*
+ * In a child before exec: JOURNAL_STREAM=DEV:INO of its stderr, as systemd
+ * sets it when journald reads the stream, so the program logs as under
+ * journald ("<N>" priority prefixes).  The ctx is unused: an in_child hook.
+ */
+void journal_stream_env(const void *ctx);
+
+/*
+ * spawn_piped() on a new pseudo-terminal: stdin, stdout and stderr are its
+ * terminal (isatty() is true), *master its other side, which the test
+ * reads (non-blocking) and writes.  The child's pid.
+ */
+pid_t spawn_pty(const char *path, const char *const *args, int *master,
+		void (*in_child)(const void *ctx), const void *ctx);
+
 /* ---- one run to its end ------------------------------------------------------ */
 
 struct run {

@@ -135,7 +135,8 @@ static bool wait_log(struct child *c, const char *needle, int timeout_ms)
 
 static void spawn(struct child *c, const char *const *args)
 {
-	c->pid = spawn_piped(rmdsim, args, &c->err, NULL, NULL);
+	/* as under journald: the checks read the <N> levels */
+	c->pid = spawn_piped(rmdsim, args, &c->err, journal_stream_env, NULL);
 	fcntl(c->err, F_SETFL, O_NONBLOCK);
 	c->logn = 0;
 	c->log[0] = '\0';

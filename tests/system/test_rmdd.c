@@ -82,6 +82,7 @@ struct spawn_opts {
 	bool no_rt;		   /* take away the real-time privileges */
 	int fifo_prio;		   /* start at SCHED_FIFO (CPUSchedulingPolicy=); 0: no */
 	const char *env_extra;	   /* "NAME=VALUE" put in the environment last */
+	bool plain_log;		   /* no JOURNAL_STREAM: rmdd logs as on a pipe */
 };
 
 static int64_t now_ms(void)
@@ -116,6 +117,9 @@ static void child_env(const void *ctx)
 	unsetenv("WATCHDOG_USEC");
 	unsetenv("WATCHDOG_PID");
 	unsetenv("RMDD_TEST_STALL_AFTER_MS");
+	/* as under journald: the checks read the <N> levels, unless a test asks for plain text */
+	if (!so || !so->plain_log)
+		journal_stream_env(NULL);
 	if (!so)
 		return;
 	if (so->notify_socket)
