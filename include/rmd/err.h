@@ -14,8 +14,9 @@ __attribute__((format(printf, 4, 5))) int rmd_errf(char *err, size_t len, int re
 						   ...);
 
 /*
- * Edit distance of a and b (inserts, deletes, replacements), for the "did
- * you mean" of messages; 99 when either is longer than 63 characters.
+ * Edit distance of a and b (inserts, deletes, replacements, and two
+ * neighbours swapped), for the "did you mean" of messages; 99 when either
+ * is longer than 63 characters.
  * Non-rt.
  */
 unsigned rmd_edit_distance(const char *a, const char *b);

@@ -555,3 +555,56 @@ int kid_wait_exit(struct kid *k, int ms, service_fn *service)
 	}
 	return k->status;
 }
+
+/* ---- what the build wrote beside the programs --------------------------------- */
+
+static const char *build_dir(void)
+{
+	const char *b = getenv("BUILD");
+
+	return b && *b ? b : "build";
+}
+
+const char *built_version(char *buf, size_t size)
+{
+	char path[512], line[256];
+	const char *q;
+	FILE *f;
+
+	snprintf(path, sizeof(path), "%s/gen/rmd_version.h", build_dir());
+	f = fopen(path, "r");
+	if (!f)
+		fail_msg("%s: %s (the build writes it)", path, strerror(errno));
+	buf[0] = '\0';
+	while (fgets(line, sizeof(line), f))
+		if (!strncmp(line, "#define RMD_VERSION \"", 21) && (q = strchr(line + 21, '"')))
+			snprintf(buf, size, "%.*s", (int)(q - line - 21), line + 21);
+	fclose(f);
+	if (!buf[0])
+		fail_msg("%s holds no RMD_VERSION", path);
+	return buf;
+}
+
+void run_completion(struct run *r, const char *prog, const char *line, const char *net)
+{
+	static const char script[] =
+		"source \"$1\" || exit 1\n"
+		"read -r -a COMP_WORDS <<<\"$2\"\n"
+		"[[ $2 == *' ' ]] && COMP_WORDS+=('')\n"
+		"COMP_CWORD=$((${#COMP_WORDS[@]} - 1))\n"
+		"[[ -n $3 ]] && export RMD_COMPLETION_NET=$3\n"
+		"\"$4\"\n"
+		"printf '%s\\n' \"${COMPREPLY[@]}\"\n";
+	char path[512], fn[64];
+
+	snprintf(path, sizeof(path), "%s/completion/%s", build_dir(), prog);
+	snprintf(fn, sizeof(fn), "_%s", prog);
+	for (char *c = fn; *c; c++)
+		if (*c == '-')
+			*c = '_';
+	run_prog(r, "/bin/bash",
+		 (const char *const[]){ "-c", script, "completion", path, line, net ? net : "", fn,
+					NULL },
+		 NULL);
+	assert_status(r, 0, line);
+}

@@ -112,6 +112,24 @@ struct run_case {
 /* Run path once per case and check each; o as for run_prog(). */
 void run_cases(const char *path, const struct run_case *c, size_t n, const struct run_opts *o);
 
+/* ---- what the build wrote beside the programs --------------------------------- */
+
+/*
+ * The version the build gave the programs: RMD_VERSION of
+ * $BUILD/gen/rmd_version.h (BUILD defaults to build), into buf; fails the
+ * test when there is none.
+ */
+const char *built_version(char *buf, size_t size);
+
+/*
+ * Bash completion as a user gets it: source $BUILD/completion/prog, set
+ * COMP_WORDS to the words of line (a trailing blank starts a new, empty
+ * word) and call the script's function.  r->out holds the offered words,
+ * one per line.  net, when given, replaces /sys/class/net (a folder of
+ * NAME/type files: 280 is CAN).
+ */
+void run_completion(struct run *r, const char *prog, const char *line, const char *net);
+
 /* ---- children beside the test --------------------------------------------------- */
 
 #define KID_MAX 8
