@@ -587,14 +587,13 @@ const char *built_version(char *buf, size_t size)
 
 void run_completion(struct run *r, const char *prog, const char *line, const char *net)
 {
-	static const char script[] =
-		"source \"$1\" || exit 1\n"
-		"read -r -a COMP_WORDS <<<\"$2\"\n"
-		"[[ $2 == *' ' ]] && COMP_WORDS+=('')\n"
-		"COMP_CWORD=$((${#COMP_WORDS[@]} - 1))\n"
-		"[[ -n $3 ]] && export RMD_COMPLETION_NET=$3\n"
-		"\"$4\"\n"
-		"printf '%s\\n' \"${COMPREPLY[@]}\"\n";
+	static const char script[] = "source \"$1\" || exit 1\n"
+				     "read -r -a COMP_WORDS <<<\"$2\"\n"
+				     "[[ $2 == *' ' ]] && COMP_WORDS+=('')\n"
+				     "COMP_CWORD=$((${#COMP_WORDS[@]} - 1))\n"
+				     "[[ -n $3 ]] && export RMD_COMPLETION_NET=$3\n"
+				     "\"$4\"\n"
+				     "printf '%s\\n' \"${COMPREPLY[@]}\"\n";
 	char path[512], fn[64];
 
 	snprintf(path, sizeof(path), "%s/completion/%s", build_dir(), prog);
@@ -607,4 +606,25 @@ void run_completion(struct run *r, const char *prog, const char *line, const cha
 					NULL },
 		 NULL);
 	assert_status(r, 0, line);
+}
+
+void fake_net_dir(char *dir, size_t size)
+{
+	static const char *const ifs[][2] = { { "can0", "280" },
+					      { "vcan1", "280" },
+					      { "eth0", "1" } };
+	char path[600];
+	FILE *f;
+
+	snprintf(dir, size, "/tmp/rmd-net-XXXXXX");
+	assert_non_null(mkdtemp(dir));
+	for (size_t i = 0; i < 3; i++) {
+		snprintf(path, sizeof(path), "%s/%s", dir, ifs[i][0]);
+		assert_int_equal(mkdir(path, 0755), 0);
+		snprintf(path, sizeof(path), "%s/%s/type", dir, ifs[i][0]);
+		f = fopen(path, "w");
+		assert_non_null(f);
+		fprintf(f, "%s\n", ifs[i][1]);
+		fclose(f);
+	}
 }

@@ -130,6 +130,12 @@ const char *built_version(char *buf, size_t size);
  */
 void run_completion(struct run *r, const char *prog, const char *line, const char *net);
 
+/*
+ * A new folder (its path into dir) standing in for /sys/class/net: can0
+ * and vcan1 (type 280, CAN) and eth0 (type 1).  rm_tree() it after.
+ */
+void fake_net_dir(char *dir, size_t size);
+
 /* ---- children beside the test --------------------------------------------------- */
 
 #define KID_MAX 8

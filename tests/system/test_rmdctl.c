@@ -745,26 +745,6 @@ static void test_move_progress_on_terminal(void **state)
 	run_free(&r);
 }
 
-/* A folder standing in for /sys/class/net: can0 and vcan1 (type 280), eth0 (type 1). */
-static void fake_net(char *dir, size_t size)
-{
-	static const char *const ifs[][2] = { { "can0", "280" }, { "vcan1", "280" }, { "eth0", "1" } };
-	char path[600];
-	FILE *f;
-
-	snprintf(dir, size, "/tmp/rmdctl-net-XXXXXX");
-	assert_non_null(mkdtemp(dir));
-	for (size_t i = 0; i < 3; i++) {
-		snprintf(path, sizeof(path), "%s/%s", dir, ifs[i][0]);
-		assert_int_equal(mkdir(path, 0755), 0);
-		snprintf(path, sizeof(path), "%s/%s/type", dir, ifs[i][0]);
-		f = fopen(path, "w");
-		assert_non_null(f);
-		fprintf(f, "%s\n", ifs[i][1]);
-		fclose(f);
-	}
-}
-
 /*
  * The bash completion the build wrote is `rmdctl --completion bash`: the
  * commands, each command's own options, --bus from the CAN interfaces.
@@ -815,7 +795,7 @@ static void test_completion(void **state)
 	assert_string_equal(r.out, "v3\nv2\nmit\n");
 	run_free(&r);
 
-	fake_net(net, sizeof(net));
+	fake_net_dir(net, sizeof(net));
 	run_completion(&r, "rmdctl", "rmdctl scan --bus ", net);
 	ASSERT_HAS_ALL(r.out, "--bus", "can0\n", "vcan1\n", "sim\n");
 	assert_lacks(r.out, "eth0", "--bus");
