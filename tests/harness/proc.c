@@ -608,6 +608,16 @@ void run_completion(struct run *r, const char *prog, const char *line, const cha
 	assert_status(r, 0, line);
 }
 
+void assert_completion(const char *prog, const char *line, const char *net, const char *want)
+{
+	struct run r;
+
+	run_completion(&r, prog, line, net);
+	if (strcmp(r.out, want))
+		fail_msg("completion of \"%s\": offered\n%s\nexpected\n%s", line, r.out, want);
+	run_free(&r);
+}
+
 void fake_net_dir(char *dir, size_t size)
 {
 	static const char *const ifs[][2] = { { "can0", "280" },

@@ -129,6 +129,8 @@ const char *built_version(char *buf, size_t size);
  * NAME/type files: 280 is CAN).
  */
 void run_completion(struct run *r, const char *prog, const char *line, const char *net);
+/* run_completion() offers exactly want ("word\nword\n"; "\n" for nothing). */
+void assert_completion(const char *prog, const char *line, const char *net, const char *want);
 
 /*
  * A new folder (its path into dir) standing in for /sys/class/net: can0

@@ -1136,22 +1136,13 @@ static void test_usage_error_is_short(void **state)
 static void test_completion(void **state)
 {
 	char net[64];
-	struct run r;
 
 	(void)state;
-	run_completion(&r, "rmd-sim", "rmd-sim --versi", NULL);
-	assert_string_equal(r.out, "--version\n--version_date\n");
-	run_free(&r);
-	run_completion(&r, "rmd-sim", "rmd-sim --protocol ", NULL);
-	assert_string_equal(r.out, "v3\nv2\nmit\n");
-	run_free(&r);
-	run_completion(&r, "rmd-sim", "rmd-sim --verbosity f", NULL);
-	assert_string_equal(r.out, "frames\n");
-	run_free(&r);
+	assert_completion("rmd-sim", "rmd-sim --versi", NULL, "--version\n--version_date\n");
+	assert_completion("rmd-sim", "rmd-sim --protocol ", NULL, "v3\nv2\nmit\n");
+	assert_completion("rmd-sim", "rmd-sim --verbosity f", NULL, "frames\n");
 	fake_net_dir(net, sizeof(net));
-	run_completion(&r, "rmd-sim", "rmd-sim --can ", net);
-	assert_string_equal(r.out, "can0\nvcan1\n");
-	run_free(&r);
+	assert_completion("rmd-sim", "rmd-sim --can ", net, "can0\nvcan1\n");
 	assert_int_equal(rm_tree(net), 0);
 }
 

@@ -753,56 +753,34 @@ static void test_completion(void **state)
 {
 	char net[64], path[600];
 	struct run r, gen;
-	FILE *f;
-	long len;
-	char *text;
 
 	(void)state;
 	RUN(&gen, NULL, "--completion", "bash");
 	assert_status(&gen, 0, "--completion bash");
 	snprintf(path, sizeof(path), "%s/completion/rmdctl",
 		 getenv("BUILD") && *getenv("BUILD") ? getenv("BUILD") : "build");
-	f = fopen(path, "r");
-	assert_non_null(f);
-	fseek(f, 0, SEEK_END);
-	len = ftell(f);
-	rewind(f);
-	text = calloc(1, (size_t)len + 1);
-	assert_non_null(text);
-	assert_int_equal(fread(text, 1, (size_t)len, f), (size_t)len);
-	fclose(f);
-	assert_string_equal(text, gen.out);
-	free(text);
+	run_prog(&r, "/usr/bin/cmp", (const char *const[]){ path, "-", NULL },
+		 &(struct run_opts){ .input = gen.out, .input_len = strlen(gen.out) });
+	assert_status(&r, 0, "the installed script is rmdctl --completion bash");
+	run_free(&r);
 	run_free(&gen);
 
-	run_completion(&r, "rmdctl", "rmdctl sta", NULL);
-	assert_string_equal(r.out, "status\n");
-	run_free(&r);
+	assert_completion("rmdctl", "rmdctl sta", NULL, "status\n");
 	run_completion(&r, "rmdctl", "rmdctl s", NULL);
 	ASSERT_HAS_ALL(r.out, "rmdctl s", "scan\n", "status\n", "set-id\n", "stop\n");
 	run_free(&r);
-	run_completion(&r, "rmdctl", "rmdctl help mo", NULL);
-	assert_string_equal(r.out, "monitor\nmove\n");
-	run_free(&r);
+	assert_completion("rmdctl", "rmdctl help mo", NULL, "monitor\nmove\n");
 	/* each command's own options: move has --speed, status has not */
-	run_completion(&r, "rmdctl", "rmdctl move 1 10 --sp", NULL);
-	assert_string_equal(r.out, "--speed\n");
-	run_free(&r);
-	run_completion(&r, "rmdctl", "rmdctl status 1 --sp", NULL);
-	assert_string_equal(r.out, "\n");
-	run_free(&r);
-	run_completion(&r, "rmdctl", "rmdctl decode --protocol ", NULL);
-	assert_string_equal(r.out, "v3\nv2\nmit\n");
-	run_free(&r);
+	assert_completion("rmdctl", "rmdctl move 1 10 --sp", NULL, "--speed\n");
+	assert_completion("rmdctl", "rmdctl status 1 --sp", NULL, "\n");
+	assert_completion("rmdctl", "rmdctl decode --protocol ", NULL, "v3\nv2\nmit\n");
 
 	fake_net_dir(net, sizeof(net));
 	run_completion(&r, "rmdctl", "rmdctl scan --bus ", net);
 	ASSERT_HAS_ALL(r.out, "--bus", "can0\n", "vcan1\n", "sim\n");
 	assert_lacks(r.out, "eth0", "--bus");
 	run_free(&r);
-	run_completion(&r, "rmdctl", "rmdctl status 1 -b vc", net);
-	assert_string_equal(r.out, "vcan1\n");
-	run_free(&r);
+	assert_completion("rmdctl", "rmdctl status 1 -b vc", net, "vcan1\n");
 	assert_int_equal(rm_tree(net), 0);
 }
 

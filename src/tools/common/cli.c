@@ -274,3 +274,11 @@ void tool_completion_bash(FILE *f, const char *prog, const struct tool_opt *opts
 	}
 	fprintf(f, "\tesac\n}\n\ncomplete -F %s %s\n", fn, prog);
 }
+
+bool tool_completion_shell(const char *prog, const char *shell)
+{
+	if (shell && !strcmp(shell, "bash"))
+		return true;
+	fprintf(stderr, "%s: --completion %s: only bash\n", prog, shell ? shell : "");
+	return false;
+}

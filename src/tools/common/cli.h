@@ -40,6 +40,16 @@ struct tool_opt {
 	unsigned flag;	   /* the program's own use (rmdctl: which commands have it) */
 };
 
+/*
+ * The hidden option of every program: `PROG --completion bash` prints the
+ * script the build installs (not in --help, not offered by completion).
+ */
+#define TOOL_OPT_COMPLETION                                                         \
+	{                                                                           \
+		.name = "completion", .has_arg = required_argument, .arg = "SHELL", \
+		.value = TOOL_VAL_WORDS, .words = "bash"                            \
+	}
+
 /* getopt_long returns shortc, or TOOL_OPT_BASE + the row's index for a row without one. */
 #define TOOL_OPT_BASE 0x100
 
@@ -101,5 +111,8 @@ struct tool_compl_cmd {
  */
 void tool_completion_bash(FILE *f, const char *prog, const struct tool_opt *opts, size_t n,
 			  const struct tool_compl_cmd *cmds, size_t ncmds);
+
+/* --completion SHELL: true for bash, else false after "PROG: --completion SHELL: only bash". */
+bool tool_completion_shell(const char *prog, const char *shell);
 
 #endif /* RMD_TOOL_CLI_H */

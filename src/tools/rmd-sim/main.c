@@ -75,11 +75,7 @@ static const struct tool_opt prog_opts[] = {
 	{ .name = "quiet", .shortc = 'q', .help = "" },
 	{ .name = "help", .shortc = 'h', .help = "" },
 	{ .name = "version", .shortc = 'V', .help = "" },
-	/* not offered: the build asks for the script it installs */
-	{ .name = "completion",
-	  .has_arg = required_argument,
-	  .value = TOOL_VAL_WORDS,
-	  .words = "bash" },
+	TOOL_OPT_COMPLETION,
 };
 #define NPROG (sizeof(prog_opts) / sizeof(prog_opts[0]))
 enum { OPT_CONFIG = TOOL_OPT_BASE, OPT_SET, OPT_COMPLETION = TOOL_OPT_BASE + NPROG - 1 };

@@ -125,11 +125,7 @@ static const struct rmdctl_cmd cmds[] = {
 static const struct tool_opt main_opts[] = {
 	{ .name = "help", .shortc = 'h', .help = "" },
 	{ .name = "version", .shortc = 'V', .help = "" },
-	/* not offered: the build asks for the script it installs */
-	{ .name = "completion",
-	  .has_arg = required_argument,
-	  .value = TOOL_VAL_WORDS,
-	  .words = "bash" },
+	TOOL_OPT_COMPLETION,
 };
 #define NMAIN (sizeof(main_opts) / sizeof(main_opts[0]))
 
@@ -309,10 +305,8 @@ int main(int argc, char **argv)
 		return RMDCTL_EXIT_OK;
 	}
 	if (!strcmp(argv[1], "--completion")) {
-		if (argc != 3 || strcmp(argv[2], "bash")) {
-			fprintf(stderr, "rmdctl: --completion bash (only bash)\n");
+		if (!tool_completion_shell("rmdctl", argc == 3 ? argv[2] : NULL))
 			return RMDCTL_EXIT_USAGE;
-		}
 		completion();
 		return RMDCTL_EXIT_OK;
 	}

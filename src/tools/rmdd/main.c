@@ -158,12 +158,7 @@ static const struct tool_opt opts[] = {
 	{ .name = "quiet", .shortc = 'q', .help = "only warnings and errors" },
 	{ .name = "help", .shortc = 'h', .help = "this text" },
 	{ .name = "version", .shortc = 'V', .help = "print \"rmdd VERSION\" and exit" },
-	/* not in --help: the build asks for the script it installs */
-	{ .name = "completion",
-	  .has_arg = required_argument,
-	  .arg = "SHELL",
-	  .value = TOOL_VAL_WORDS,
-	  .words = "bash" },
+	TOOL_OPT_COMPLETION,
 };
 #define NOPTS (sizeof(opts) / sizeof(opts[0]))
 #define OPT_COMPLETION (TOOL_OPT_BASE + (int)NOPTS - 1)
@@ -268,10 +263,8 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 			o->mode = MODE_VERSION;
 			return 0;
 		case OPT_COMPLETION:
-			if (strcmp(optarg, "bash")) {
-				fprintf(stderr, "rmdd: --completion %s: only bash\n", optarg);
+			if (!tool_completion_shell("rmdd", optarg))
 				return -EINVAL;
-			}
 			o->mode = MODE_COMPLETION;
 			return 0;
 		default:
