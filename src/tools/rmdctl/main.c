@@ -138,7 +138,8 @@ void rmdctl_usage_hint(const struct rmdctl_cmd *c)
 				"rmdctl --help");
 		return;
 	}
-	snprintf(line, sizeof(line), "rmdctl %s [OPTIONS] %s", c->name, c->args);
+	snprintf(line, sizeof(line), "rmdctl %s [OPTIONS]%s%s", c->name, c->args ? " " : "",
+		 c->args ? c->args : "");
 	snprintf(help, sizeof(help), "rmdctl %s --help", c->name);
 	tool_usage_hint(line, help);
 }
