@@ -3,8 +3,7 @@
 #   make                 build the library, tools and test binaries
 #   make test            run every cmocka suite (tests/run-tests.sh)
 #                        (tests/busy-check: make test N times beside a CPU hog)
-#   make install         PREFIX=/usr/local DESTDIR= (programs, units, config,
-#                        examples, bash completion)
+#   make install         PREFIX=/usr/local DESTDIR=
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
