@@ -25,6 +25,29 @@
 #include "tools/common/cli.h"
 #include "rmd-sim.h"
 
+/* The program's own options: rows 0..NPROG-1 of the option table. */
+static const struct tool_opt prog_opts[] = {
+	{ .name = "config",
+	  .has_arg = required_argument,
+	  .arg = "FILE",
+	  .help = "read settings from FILE (KEY = VALUE lines, [motor N]\n"
+		  "sections); later options override its global values",
+	  .value = TOOL_VAL_FILE },
+	{ .name = "set",
+	  .has_arg = required_argument,
+	  .arg = "[ID:]KEY=VALUE",
+	  .help = "a motor parameter, for motor ID or every motor" },
+	{ .name = "verbose", .shortc = 'v', .help = "also log every frame, decoded" },
+	{ .name = "quiet", .shortc = 'q', .help = "log errors and warnings only" },
+	{ .name = "help", .shortc = 'h', .help = "this text" },
+	{ .name = "version",
+	  .shortc = 'V',
+	  .help = "print \"rmd-sim VERSION\" and exit (the simulated\n"
+		  "firmware date is --version-date)" },
+	TOOL_OPT_COMPLETION,
+};
+#define NPROG (sizeof(prog_opts) / sizeof(prog_opts[0]))
+
 static void usage(void)
 {
 	printf("Usage: rmd-sim [options] --can IFACE\n"
@@ -32,16 +55,9 @@ static void usage(void)
 	       "\n"
 	       "Simulated MyActuator RMD motors (V3, V2 or MIT protocol) answering on a\n"
 	       "SocketCAN interface or an RS485 line.  Stops on SIGINT or SIGTERM.\n"
-	       "\n"
-	       "  --config FILE       read settings from FILE (KEY = VALUE lines, [motor N]\n"
-	       "                      sections); later options override its global values\n"
-	       "  --set [ID:]KEY=VALUE  a motor parameter, for motor ID or every motor\n"
-	       "  -v, --verbose       also log every frame, decoded\n"
-	       "  -q, --quiet         log errors and warnings only\n"
-	       "  -h, --help          this text\n"
-	       "  -V, --version       print \"rmd-sim VERSION\" and exit (the simulated\n"
-	       "                      firmware date is --version-date)\n"
 	       "\n");
+	tool_opts_help(stdout, prog_opts, NPROG);
+	printf("\n");
 	sim_config_help();
 	printf("\n"
 	       "FAULTS (--fault, repeatable; ID 1..32 or * for every motor; P 0..1):\n"
@@ -63,21 +79,6 @@ static void usage(void)
 	       "See docs/rmd-sim.md.\n");
 }
 
-/* The program's own options: rows 0..NPROG-1 of the option table. */
-static const struct tool_opt prog_opts[] = {
-	{ .name = "config",
-	  .has_arg = required_argument,
-	  .arg = "FILE",
-	  .help = "",
-	  .value = TOOL_VAL_FILE },
-	{ .name = "set", .has_arg = required_argument, .arg = "[ID:]KEY=VALUE", .help = "" },
-	{ .name = "verbose", .shortc = 'v', .help = "" },
-	{ .name = "quiet", .shortc = 'q', .help = "" },
-	{ .name = "help", .shortc = 'h', .help = "" },
-	{ .name = "version", .shortc = 'V', .help = "" },
-	TOOL_OPT_COMPLETION,
-};
-#define NPROG (sizeof(prog_opts) / sizeof(prog_opts[0]))
 enum { OPT_CONFIG = TOOL_OPT_BASE, OPT_SET, OPT_COMPLETION = TOOL_OPT_BASE + NPROG - 1 };
 
 #define MAX_OPTS 160
