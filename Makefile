@@ -22,6 +22,9 @@ PREFIX ?= /usr/local
 BINDIR ?= $(PREFIX)/bin
 SYSCONFDIR ?= /etc
 DESTDIR ?=
+# The version: `git describe` of the newest v* tag (v0.2.0 is the first
+# release); a tree without git or tags says 0.2.0+unknown.
+RMD_VERSION := $(shell v=$$(git describe --tags --match 'v[0-9]*' --dirty 2>/dev/null) && echo $${v#v} || echo 0.2.0+unknown)
 
 CC ?= cc
 CLANG_FORMAT ?= clang-format
@@ -185,6 +188,27 @@ $(LCM_JAVA): $(LCM_TYPES)
 	$(Q)$(JAVAC) -nowarn -cp $(LCM_JAR) -d $(BUILD)/java/classes $(BUILD)/java/src/rmd/*.java
 	$(Q)$(JAR) cf $@ -C $(BUILD)/java/classes .
 
+# RMD_VERSION reaches the programs through one header, rewritten only when
+# the string changes: a new commit relinks nothing, and the library never
+# sees it.
+VERSION_HDR := $(BUILD)/gen/rmd_version.h
+.PHONY: FORCE
+$(VERSION_HDR): FORCE
+	@mkdir -p $(dir $@)
+	$(Q)printf '#define RMD_VERSION "%s"\n' '$(RMD_VERSION)' >$@.tmp
+	$(Q)if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv -f $@.tmp $@; fi
+$(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) $(RMDD_SRCS:%.c=$(BUILD)/%.o): \
+	| $(VERSION_HDR)
+
+# Bash completion, from each program's own option tables (PROG --completion bash).
+COMPLETIONS := $(patsubst $(BUILD)/%,$(BUILD)/completion/%,$(PROGS))
+BASHCOMPDIR ?= $(PREFIX)/share/bash-completion/completions
+all: $(COMPLETIONS)
+$(BUILD)/completion/%: $(BUILD)/%
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  GEN     $@")
+	$(Q)$< --completion bash >$@.tmp && mv -f $@.tmp $@
+
 $(RMDCTL): $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
@@ -202,7 +226,7 @@ $(RMDD): $(RMDD_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 RMDD_TEST := $(BUILD)/rmdd-test
 RMDD_TEST_MAIN := $(BUILD)/test-hooks/src/tools/rmdd/main.o
 all: $(RMDD_TEST)
-$(RMDD_TEST_MAIN): src/tools/rmdd/main.c | $(GEN_HDRS)
+$(RMDD_TEST_MAIN): src/tools/rmdd/main.c | $(GEN_HDRS) $(VERSION_HDR)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  CC      $< (test hooks)")
 	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -DRMDD_TEST_HOOKS -c -o $@ $<
@@ -296,6 +320,8 @@ install: all
 	chmod 0644 $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
 	install -m 0644 systemd/rmdd-can@.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	install -m 0644 $(RMDD_EXAMPLES) $(DESTDIR)$(EXAMPLESDIR)/
+	install -d $(DESTDIR)$(BASHCOMPDIR)
+	install -m 0644 $(COMPLETIONS) $(DESTDIR)$(BASHCOMPDIR)/
 	@if [ -e $(RMDD_CONF) ]; then \
 		echo "install: kept the existing $(RMDD_CONF); the new example is $(DESTDIR)$(EXAMPLESDIR)/rmdd.yaml"; \
 	else \
@@ -308,6 +334,7 @@ uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
+	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
 	-rmdir $(DESTDIR)$(EXAMPLESDIR) $(DESTDIR)$(PREFIX)/share/rmdd 2>/dev/null
 	@echo "uninstall: kept $(RMDD_CONF) (your configuration); remove it by hand"
 

@@ -26,6 +26,7 @@
 
 #include <yaml.h>
 
+#include "rmd/err.h"
 #include "yaml_schema.h"
 
 #define MAX_ERRORS 32 /* error lines kept in err */
@@ -700,34 +701,6 @@ void rmd_yaml_walk_value(struct yctx *c, const struct ynode *v, const struct fie
 	}
 }
 
-/* Edit distance of a and b (insert, delete, replace), up to 63 characters each. */
-static unsigned edit_distance(const char *a, const char *b)
-{
-	unsigned row[64], n = (unsigned)strlen(b), m = (unsigned)strlen(a);
-
-	if (n > 63 || m > 63)
-		return 99;
-	for (unsigned j = 0; j <= n; j++)
-		row[j] = j;
-	for (unsigned i = 1; i <= m; i++) {
-		unsigned diag = row[0];
-
-		row[0] = i;
-		for (unsigned j = 1; j <= n; j++) {
-			unsigned up = row[j];
-			unsigned best = diag + (a[i - 1] != b[j - 1]);
-
-			if (up + 1 < best)
-				best = up + 1;
-			if (row[j - 1] + 1 < best)
-				best = row[j - 1] + 1;
-			row[j] = best;
-			diag = up;
-		}
-	}
-	return row[n];
-}
-
 /* The allowed key closest to a misspelt one (at most 2 edits), or NULL. */
 static const char *nearest_key(const char *key, const struct field *fields)
 {
@@ -735,7 +708,7 @@ static const char *nearest_key(const char *key, const struct field *fields)
 	unsigned best_d = 3;
 
 	for (unsigned j = 0; fields[j].key; j++) {
-		unsigned d = edit_distance(key, fields[j].key);
+		unsigned d = rmd_edit_distance(key, fields[j].key);
 
 		if (d < best_d) {
 			best_d = d;

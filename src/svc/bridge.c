@@ -981,10 +981,11 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	lcm_url(b->url, sizeof(b->url), opts->url);
 	b->lcm = lcm_create(b->url);
 	if (!b->lcm) {
+		/* the URL as given: b->url adds parameters the user never wrote */
 		snprintf(err, errlen,
-			 "LCM: cannot create \"%s\" (bad URL, or multicast not routable: see "
-			 "docs/lcm.md)",
-			 b->url);
+			 "cannot create \"%s\": a bad URL, or multicast has no route (for "
+			 "loopback: ip route add 224.0.0.0/4 dev lo; docs/lcm.md)",
+			 opts->url);
 		r = -EIO;
 		goto err_close_stop;
 	}

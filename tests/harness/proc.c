@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 
@@ -144,6 +145,50 @@ pid_t spawn_piped(const char *path, const char *const *args, int *fd,
 	}
 	close(pfd[1]);
 	*fd = pfd[0];
+	return pid;
+}
+
+void journal_stream_env(const void *ctx)
+{
+	struct stat st;
+	char v[64];
+
+	(void)ctx;
+	if (fstat(STDERR_FILENO, &st) < 0)
+		return;
+	snprintf(v, sizeof(v), "%llu:%llu", (unsigned long long)st.st_dev,
+		 (unsigned long long)st.st_ino);
+	setenv("JOURNAL_STREAM", v, 1);
+}
+
+pid_t spawn_pty(const char *path, const char *const *args, int *master,
+		void (*in_child)(const void *ctx), const void *ctx)
+{
+	const char *argv[ARGS_MAX];
+	int m, s;
+	pid_t pid;
+
+	make_argv(argv, path, args);
+	m = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+	assert_true(m >= 0);
+	assert_int_equal(grantpt(m), 0);
+	assert_int_equal(unlockpt(m), 0);
+	pid = fork();
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		setsid();
+		s = open(ptsname(m), O_RDWR); /* the session's controlling terminal */
+		if (s < 0)
+			_exit(126);
+		child_prepare(s, s, s);
+		if (in_child)
+			in_child(ctx);
+		execv(path, (char *const *)argv);
+		fprintf(stderr, "exec %s: %s\n", path, strerror(errno));
+		_exit(127);
+	}
+	fcntl(m, F_SETFL, O_NONBLOCK);
+	*master = m;
 	return pid;
 }
 
@@ -526,4 +571,87 @@ int kid_wait_exit(struct kid *k, int ms, service_fn *service)
 		kid_service(k, service, 10);
 	}
 	return k->status;
+}
+
+/* ---- what the build wrote beside the programs --------------------------------- */
+
+static const char *build_dir(void)
+{
+	const char *b = getenv("BUILD");
+
+	return b && *b ? b : "build";
+}
+
+const char *built_version(char *buf, size_t size)
+{
+	char path[512], line[256];
+	const char *q;
+	FILE *f;
+
+	snprintf(path, sizeof(path), "%s/gen/rmd_version.h", build_dir());
+	f = fopen(path, "r");
+	if (!f)
+		fail_msg("%s: %s (the build writes it)", path, strerror(errno));
+	buf[0] = '\0';
+	while (fgets(line, sizeof(line), f))
+		if (!strncmp(line, "#define RMD_VERSION \"", 21) && (q = strchr(line + 21, '"')))
+			snprintf(buf, size, "%.*s", (int)(q - line - 21), line + 21);
+	fclose(f);
+	if (!buf[0])
+		fail_msg("%s holds no RMD_VERSION", path);
+	return buf;
+}
+
+void run_completion(struct run *r, const char *prog, const char *line, const char *net)
+{
+	static const char script[] = "source \"$1\" || exit 1\n"
+				     "read -r -a COMP_WORDS <<<\"$2\"\n"
+				     "[[ $2 == *' ' ]] && COMP_WORDS+=('')\n"
+				     "COMP_CWORD=$((${#COMP_WORDS[@]} - 1))\n"
+				     "[[ -n $3 ]] && export RMD_COMPLETION_NET=$3\n"
+				     "\"$4\"\n"
+				     "printf '%s\\n' \"${COMPREPLY[@]}\"\n";
+	char path[512], fn[64];
+
+	snprintf(path, sizeof(path), "%s/completion/%s", build_dir(), prog);
+	snprintf(fn, sizeof(fn), "_%s", prog);
+	for (char *c = fn; *c; c++)
+		if (*c == '-')
+			*c = '_';
+	run_prog(r, "/bin/bash",
+		 (const char *const[]){ "-c", script, "completion", path, line, net ? net : "", fn,
+					NULL },
+		 NULL);
+	assert_status(r, 0, line);
+}
+
+void assert_completion(const char *prog, const char *line, const char *net, const char *want)
+{
+	struct run r;
+
+	run_completion(&r, prog, line, net);
+	if (strcmp(r.out, want))
+		fail_msg("completion of \"%s\": offered\n%s\nexpected\n%s", line, r.out, want);
+	run_free(&r);
+}
+
+void fake_net_dir(char *dir, size_t size)
+{
+	static const char *const ifs[][2] = { { "can0", "280" },
+					      { "vcan1", "280" },
+					      { "eth0", "1" } };
+	char path[600];
+	FILE *f;
+
+	snprintf(dir, size, "/tmp/rmd-net-XXXXXX");
+	assert_non_null(mkdtemp(dir));
+	for (size_t i = 0; i < 3; i++) {
+		snprintf(path, sizeof(path), "%s/%s", dir, ifs[i][0]);
+		assert_int_equal(mkdir(path, 0755), 0);
+		snprintf(path, sizeof(path), "%s/%s/type", dir, ifs[i][0]);
+		f = fopen(path, "w");
+		assert_non_null(f);
+		fprintf(f, "%s\n", ifs[i][1]);
+		fclose(f);
+	}
 }

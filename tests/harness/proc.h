@@ -50,6 +50,21 @@ void close_fd(int *fd);
 pid_t spawn_piped(const char *path, const char *const *args, int *fd,
 		  void (*in_child)(const void *ctx), const void *ctx);
 
+/*
+ * In a child before exec: JOURNAL_STREAM=DEV:INO of its stderr, as systemd
+ * sets it when journald reads the stream, so the program logs as under
+ * journald ("<N>" priority prefixes).  The ctx is unused: an in_child hook.
+ */
+void journal_stream_env(const void *ctx);
+
+/*
+ * spawn_piped() on a new pseudo-terminal: stdin, stdout and stderr are its
+ * terminal (isatty() is true), *master its other side, which the test
+ * reads (non-blocking) and writes.  The child's pid.
+ */
+pid_t spawn_pty(const char *path, const char *const *args, int *master,
+		void (*in_child)(const void *ctx), const void *ctx);
+
 /* ---- one run to its end ------------------------------------------------------ */
 
 struct run {
@@ -104,6 +119,32 @@ struct run_case {
 
 /* Run path once per case and check each; o as for run_prog(). */
 void run_cases(const char *path, const struct run_case *c, size_t n, const struct run_opts *o);
+
+/* ---- what the build wrote beside the programs --------------------------------- */
+
+/*
+ * The version the build gave the programs: RMD_VERSION of
+ * $BUILD/gen/rmd_version.h (BUILD defaults to build), into buf; fails the
+ * test when there is none.
+ */
+const char *built_version(char *buf, size_t size);
+
+/*
+ * Bash completion as a user gets it: source $BUILD/completion/prog, set
+ * COMP_WORDS to the words of line (a trailing blank starts a new, empty
+ * word) and call the script's function.  r->out holds the offered words,
+ * one per line.  net, when given, replaces /sys/class/net (a folder of
+ * NAME/type files: 280 is CAN).
+ */
+void run_completion(struct run *r, const char *prog, const char *line, const char *net);
+/* run_completion() offers exactly want ("word\nword\n"; "\n" for nothing). */
+void assert_completion(const char *prog, const char *line, const char *net, const char *want);
+
+/*
+ * A new folder (its path into dir) standing in for /sys/class/net: can0
+ * and vcan1 (type 280, CAN) and eth0 (type 1).  rm_tree() it after.
+ */
+void fake_net_dir(char *dir, size_t size);
 
 /* ---- children beside the test --------------------------------------------------- */
 

@@ -199,6 +199,8 @@ static pid_t spawn(const char *const *argv, const char *log, bool with_pythonpat
 		unsetenv("LCM_DEFAULT_URL");
 		unsetenv("NOTIFY_SOCKET");
 		unsetenv("RMDD_TEST_STALL_AFTER_MS");
+		/* as under journald: the checks read the <N> levels */
+		journal_stream_env(NULL);
 		if (with_pythonpath)
 			setenv("PYTHONPATH", pythonpath, 1);
 		execvp(argv[0], (char *const *)argv);

@@ -135,7 +135,8 @@ static bool wait_log(struct child *c, const char *needle, int timeout_ms)
 
 static void spawn(struct child *c, const char *const *args)
 {
-	c->pid = spawn_piped(rmdsim, args, &c->err, NULL, NULL);
+	/* as under journald: the checks read the <N> levels */
+	c->pid = spawn_piped(rmdsim, args, &c->err, journal_stream_env, NULL);
 	fcntl(c->err, F_SETFL, O_NONBLOCK);
 	c->logn = 0;
 	c->log[0] = '\0';
@@ -1060,6 +1061,91 @@ static void test_hostile_config(void **state)
 			 count_str(c->log, "<3>"), c->log);
 }
 
+/* ---- issue 12: --version, --version-date, usage errors, completion --------------------- */
+
+/* --version and -V: "rmd-sim VERSION", the version the build gave every program. */
+static void test_version(void **state)
+{
+	static const char *const flags[] = { "--version", "-V" };
+	char ver[128], want[160];
+
+	(void)state;
+	snprintf(want, sizeof(want), "rmd-sim %s\n", built_version(ver, sizeof(ver)));
+	for (size_t i = 0; i < 2; i++) {
+		struct run r;
+
+		run_prog(&r, rmdsim, (const char *const[]){ flags[i], NULL }, NULL);
+		assert_status(&r, 0, flags[i]);
+		assert_string_equal(r.out, want);
+		assert_string_equal(r.err, "");
+		run_free(&r);
+	}
+}
+
+/*
+ * The firmware date (0xB2) is --version-date now; "version" stays its alias
+ * in --set and config files, where it clashes with nothing.
+ */
+static void test_version_date(void **state)
+{
+	static const char *const args[] = { "--motors", "1-2",	 "--version-date",
+					    "20230517", "--set", "2:version=20211231",
+					    NULL };
+	static const int64_t want[] = { 20230517, 20211231 };
+	struct child *c = *state;
+
+	start_serial(c, args);
+	for (uint8_t id = 1; id <= 2; id++) {
+		uint8_t req[RMD_FRAME_LEN], rep[RMD_FRAME_LEN];
+		struct rmd_msg msg;
+
+		cmd_data(req, 0xB2);
+		ask(c, id, req, rep);
+		decode_reply(rep, id, &msg);
+		assert_int_equal(msg.v[RMD_FLD_VERSION], want[id - 1]);
+	}
+	stop_ok(c);
+}
+
+/*
+ * A mistyped option: one line with a suggestion, the usage line and "see
+ * --help", plain text (no JOURNAL_STREAM here), exit 2.
+ */
+static void test_usage_error_is_short(void **state)
+{
+	static const char want[] =
+		"rmd-sim: unknown option \"--inertai\" (did you mean --inertia?) (rmd-sim --help "
+		"lists the options)\n"
+		"usage: rmd-sim [options] --can IFACE | --serial DEVICE [--baud B]\n"
+		"see `rmd-sim --help`\n";
+	struct run r;
+
+	(void)state;
+	run_prog(&r, rmdsim,
+		 (const char *const[]){ "--serial", "/dev/null", "--inertai", "3", NULL }, NULL);
+	assert_status(&r, 2, "--inertai");
+	assert_string_equal(r.err, want);
+	run_free(&r);
+	run_prog(&r, rmdsim, (const char *const[]){ "--can", "vcan0", "--versoin", NULL }, NULL);
+	assert_status(&r, 2, "--versoin");
+	assert_has(r.err, "(did you mean --version?)", "--versoin");
+	run_free(&r);
+}
+
+/* The installed completion: options, --can from the CAN interfaces, value words. */
+static void test_completion(void **state)
+{
+	char net[64];
+
+	(void)state;
+	assert_completion("rmd-sim", "rmd-sim --versi", NULL, "--version\n--version_date\n");
+	assert_completion("rmd-sim", "rmd-sim --protocol ", NULL, "v3\nv2\nmit\n");
+	assert_completion("rmd-sim", "rmd-sim --verbosity f", NULL, "frames\n");
+	fake_net_dir(net, sizeof(net));
+	assert_completion("rmd-sim", "rmd-sim --can ", net, "can0\nvcan1\n");
+	assert_int_equal(rm_tree(net), 0);
+}
+
 int main(void)
 {
 	const char *env = getenv("RMDSIM"), *build = getenv("BUILD");
@@ -1082,6 +1168,10 @@ int main(void)
 		cmocka_unit_test(test_open_failure),
 		cmocka_unit_test(test_can_status_model),
 		cmocka_unit_test(test_hostile_config),
+		cmocka_unit_test(test_version),
+		cmocka_unit_test(test_version_date),
+		cmocka_unit_test(test_usage_error_is_short),
+		cmocka_unit_test(test_completion),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_hostile_config */

@@ -16,6 +16,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -501,6 +504,286 @@ static void test_usage_errors(void **state)
 	run_cases(rmdctl, usage_cases, sizeof(usage_cases) / sizeof(usage_cases[0]), NULL);
 }
 
+/* ---- issue 12: version, usage errors, --yes, --trace, move progress, completion ----------- */
+
+/* `rmdctl --version`: "rmdctl VERSION", the version the build gave every program. */
+static void test_version(void **state)
+{
+	char ver[128], want[160];
+	struct run r;
+
+	(void)state;
+	snprintf(want, sizeof(want), "rmdctl %s\n", built_version(ver, sizeof(ver)));
+	RUN(&r, NULL, "--version");
+	assert_status(&r, 0, "--version");
+	assert_string_equal(r.out, want);
+	assert_string_equal(r.err, "");
+	run_free(&r);
+}
+
+/* A usage error is one line (with a suggestion), the usage line and "see --help": no page. */
+static const struct {
+	const char *args[8];
+	const char *first; /* the first line of stderr */
+	const char *usage; /* the usage line */
+} short_usage[] = {
+	{ { "stauts" },
+	  "rmdctl: unknown command \"stauts\" (did you mean status?)",
+	  "usage: rmdctl COMMAND" },
+	{ { "help", "mvoe" },
+	  "rmdctl: no help for \"mvoe\" (did you mean move?)",
+	  "usage: rmdctl COMMAND" },
+	{ { "status", "1", "--bus", "sim", "--jsn" },
+	  "rmdctl status: unknown option \"--jsn\" (did you mean --json?)",
+	  "usage: rmdctl status [OPTIONS] ID" },
+	{ { "move", "1", "--bus", "sim", "--yes", "--sped", "10" },
+	  "rmdctl move: unknown option \"--sped\" (did you mean --speed?)",
+	  "usage: rmdctl move [OPTIONS] ID DEG" },
+	{ { "decode", "--protocl", "v3" },
+	  "rmdctl decode: unknown option \"--protocl\" (did you mean --protocol?)",
+	  "usage: rmdctl decode [OPTIONS] [FILE]" },
+	{ { "encode", "--id", "1", "torq", "1" },
+	  "rmdctl encode: unknown command \"torq\" (did you mean torque?)",
+	  "usage: rmdctl encode [OPTIONS] COMMAND [ARGS...]" },
+	{ { "scan", "--frobnicate" },
+	  "rmdctl scan: unknown option \"--frobnicate\"",
+	  "usage: rmdctl scan [OPTIONS] [IDS]" },
+	{ { NULL }, "rmdctl: missing COMMAND", "usage: rmdctl COMMAND" },
+};
+
+static void test_usage_error_is_short(void **state)
+{
+	(void)state;
+	for (size_t i = 0; i < sizeof(short_usage) / sizeof(short_usage[0]); i++) {
+		const char *first = short_usage[i].first;
+		struct run r;
+
+		run_argv(&r, NULL, short_usage[i].args);
+		assert_status(&r, 2, first);
+		assert_string_equal(r.out, "");
+		if (strncmp(r.err, first, strlen(first)) || r.err[strlen(first)] != '\n')
+			fail_msg("first line is not \"%s\":\n%s", first, r.err);
+		assert_has(r.err, short_usage[i].usage, first);
+		assert_has(r.err, "see `rmdctl", first);
+		assert_has(r.err, "--help`\n", first);
+		if (count_lines(r.err) != 3)
+			fail_msg("%zu lines, expected 3:\n%s", count_lines(r.err), r.err);
+		run_free(&r);
+	}
+}
+
+/* --yes is accepted by every command, whether it asks anything or not. */
+static void test_yes_everywhere(void **state)
+{
+	static const char *const cmds[][8] = {
+		{ "scan", "1-3", "--bus", "sim:1-3", "--yes" },
+		{ "info", "1", "--bus", "sim:1-3", "--yes" },
+		{ "status", "1", "--bus", "sim:1-3", "-y" },
+		{ "monitor", "1", "--once", "--bus", "sim:1-3", "--yes" },
+		{ "stop", "1", "--bus", "sim:1-3", "--yes" },
+		{ "off", "1", "--bus", "sim:1-3", "--yes" },
+		{ "reset", "1", "--bus", "sim:1-3", "--yes" },
+		{ "brake", "1", "on", "--bus", "sim:1-3", "--yes" },
+		{ "accel", "1", "--bus", "sim:1-3", "--yes" },
+		{ "pid", "1", "--bus", "sim:1-3", "--yes" },
+		{ "set-zero", "1", "--bus", "sim:1-3", "--yes" },
+		{ "set-timeout", "1", "100", "--bus", "sim:1-3", "--yes" },
+		{ "move", "1", "1", "--bus", "sim:1-3", "--yes" },
+		{ "encode", "--yes", "--id", "1", "stop" },
+		{ "decode", "--yes" },
+	};
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(cmds) / sizeof(cmds[0]); i++) {
+		struct run r;
+
+		run_argv(&r, "", cmds[i]);
+		assert_status(&r, 0, cmds[i][0]);
+		run_free(&r);
+	}
+}
+
+/* A candump -l line: "(SSSSSSSSSS.UUUUUU) IFACE ID#DATA", nothing else. */
+static bool is_candump_l(const char *s, size_t len)
+{
+	size_t i = 0, k;
+
+	if (len < 21 || s[0] != '(' || s[11] != '.' || s[18] != ')' || s[19] != ' ')
+		return false;
+	for (k = 1; k < 18; k++)
+		if (k != 11 && (s[k] < '0' || s[k] > '9'))
+			return false;
+	for (i = 20; i < len && s[i] != ' '; i++)
+		if (s[i] == '#')
+			return false;
+	if (i == 20 || i - 20 > 15 || i + 5 > len)
+		return false;
+	for (k = i + 1; k < i + 4; k++)
+		if (!strchr("0123456789ABCDEF", s[k]))
+			return false;
+	if (s[i + 4] != '#' || (len - i - 5) % 2 || len - i - 5 > 16)
+		return false;
+	for (k = i + 5; k < len; k++)
+		if (!strchr("0123456789ABCDEF", s[k]))
+			return false;
+	return true;
+}
+
+/*
+ * --trace: every frame is an exact candump -l line, followed by a '#'
+ * comment (canplayer reads only lines that start with '('); rmdctl decode
+ * reads the whole trace back, frame for frame.
+ */
+static void test_trace_is_candump_l(void **state)
+{
+	unsigned frames = 0, comments = 0, decoded = 0;
+	struct run r, d;
+	const char *p;
+
+	(void)state;
+	RUN(&r, NULL, "status", "1", "--bus", "sim:1-3", "--trace");
+	assert_status(&r, 0, "status --trace");
+	for (p = r.err; *p;) {
+		size_t len = strcspn(p, "\n");
+
+		if (p[0] == '(') {
+			if (!is_candump_l(p, len))
+				fail_msg("not a candump -l line: \"%.*s\"", (int)len, p);
+			if (strncmp(p + len, "\n# ", 3))
+				fail_msg("no comment after \"%.*s\"", (int)len, p);
+			frames++;
+		} else if (!strncmp(p, "# TX ", 5) || !strncmp(p, "# RX ", 5)) {
+			comments++;
+		} else {
+			fail_msg("a trace line that is neither: \"%.*s\"", (int)len, p);
+		}
+		p += len + (p[len] == '\n');
+	}
+	/* 0x9A, 0x92, 0x9C out and back at least */
+	assert_true(frames >= 6);
+	assert_int_equal(frames, comments);
+	assert_has(r.err, " sim:1-3 141#9A00000000000000\n# TX read_status_1", "trace");
+
+	run_argv(&d, r.err, (const char *const[]){ "decode", "--json", NULL });
+	assert_status(&d, 0, "decode of the trace");
+	for (p = d.out; (p = strstr(p, "\"interface\":\"sim:1-3\"")); p++)
+		decoded++;
+	assert_int_equal(decoded, frames);
+	assert_has(d.out, "\"raw\":\"9A00000000000000\"", "decode of the trace");
+	assert_has(d.out, "\"name\":\"read_status_1\"", "decode of the trace");
+	run_free(&d);
+	run_free(&r);
+}
+
+/* Read a pty master until the child exits; its output into buf.  The exit status. */
+static int pty_finish(pid_t pid, int m, char *buf, size_t size)
+{
+	size_t len = 0;
+	int ws = 0;
+	bool done = false;
+
+	for (int waited_ms = 0; waited_ms < 30000;) {
+		struct pollfd pfd = { .fd = m, .events = POLLIN };
+		ssize_t k;
+
+		if (poll(&pfd, 1, 10) <= 0) {
+			waited_ms += 10;
+			if (done)
+				break;
+			done = waitpid(pid, &ws, WNOHANG) == pid;
+			continue;
+		}
+		k = read(m, buf + len, size - 1 - len);
+		if (k <= 0) {
+			if (!done)
+				done = waitpid(pid, &ws, 0) == pid;
+			break;
+		}
+		len += (size_t)k;
+	}
+	if (!done) {
+		kill(pid, SIGKILL);
+		waitpid(pid, &ws, 0);
+		fail_msg("rmdctl on a terminal did not exit; output:\n%.*s", (int)len, buf);
+	}
+	close(m);
+	buf[len] = '\0';
+	return WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+}
+
+/* move shows where the motor is on a terminal, and nothing of it on a pipe. */
+static void test_move_progress_on_terminal(void **state)
+{
+	static const char *const args[] = { "move", "2", "10", "--bus", "sim", "--yes", NULL };
+	static char out[65536];
+	unsigned updates = 0;
+	struct run r;
+	const char *p;
+	int m;
+	pid_t pid;
+
+	(void)state;
+	pid = spawn_pty(rmdctl, args, &m, NULL, NULL);
+	assert_int_equal(pty_finish(pid, m, out, sizeof(out)), 0);
+	for (p = out; (p = strstr(p, "\rsim: motor 2: ")); p++) {
+		const char *of = strstr(p, " deg of 10.00 ("), *next = strchr(p + 1, '\r');
+
+		updates += of && (!next || of < next);
+	}
+	/* a 10 deg move at 30 dps takes about 0.33 s: a line every 20 ms poll */
+	if (updates < 3)
+		fail_msg("%u progress updates on the terminal:\n%s", updates, out);
+	assert_has(out, "(100 %)", "progress");
+	/* the line is erased before the result */
+	assert_has(out, "\r\033[Ksim: motor 2: at 10.00 deg", "progress");
+
+	run_argv(&r, NULL, args);
+	assert_status(&r, 0, "move on a pipe");
+	assert_lacks(r.out, "deg of", "move on a pipe");
+	assert_lacks(r.out, "\r", "move on a pipe");
+	assert_has(r.out, "sim: motor 2: at 10.00 deg", "move on a pipe");
+	run_free(&r);
+}
+
+/*
+ * The bash completion the build wrote is `rmdctl --completion bash`: the
+ * commands, each command's own options, --bus from the CAN interfaces.
+ */
+static void test_completion(void **state)
+{
+	char net[64], path[600];
+	struct run r, gen;
+
+	(void)state;
+	RUN(&gen, NULL, "--completion", "bash");
+	assert_status(&gen, 0, "--completion bash");
+	snprintf(path, sizeof(path), "%s/completion/rmdctl",
+		 getenv("BUILD") && *getenv("BUILD") ? getenv("BUILD") : "build");
+	run_prog(&r, "/usr/bin/cmp", (const char *const[]){ path, "-", NULL },
+		 &(struct run_opts){ .input = gen.out, .input_len = strlen(gen.out) });
+	assert_status(&r, 0, "the installed script is rmdctl --completion bash");
+	run_free(&r);
+	run_free(&gen);
+
+	assert_completion("rmdctl", "rmdctl sta", NULL, "status\n");
+	run_completion(&r, "rmdctl", "rmdctl s", NULL);
+	ASSERT_HAS_ALL(r.out, "rmdctl s", "scan\n", "status\n", "set-id\n", "stop\n");
+	run_free(&r);
+	assert_completion("rmdctl", "rmdctl help mo", NULL, "monitor\nmove\n");
+	/* each command's own options: move has --speed, status has not */
+	assert_completion("rmdctl", "rmdctl move 1 10 --sp", NULL, "--speed\n");
+	assert_completion("rmdctl", "rmdctl status 1 --sp", NULL, "\n");
+	assert_completion("rmdctl", "rmdctl decode --protocol ", NULL, "v3\nv2\nmit\n");
+
+	fake_net_dir(net, sizeof(net));
+	run_completion(&r, "rmdctl", "rmdctl scan --bus ", net);
+	ASSERT_HAS_ALL(r.out, "--bus", "can0\n", "vcan1\n", "sim\n");
+	assert_lacks(r.out, "eth0", "--bus");
+	run_free(&r);
+	assert_completion("rmdctl", "rmdctl status 1 -b vc", net, "vcan1\n");
+	assert_int_equal(rm_tree(net), 0);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -518,6 +801,12 @@ int main(void)
 		cmocka_unit_test(test_encode_decode_round_trip),
 		cmocka_unit_test(test_help),
 		cmocka_unit_test(test_usage_errors),
+		cmocka_unit_test(test_version),
+		cmocka_unit_test(test_usage_error_is_short),
+		cmocka_unit_test(test_yes_everywhere),
+		cmocka_unit_test(test_trace_is_candump_l),
+		cmocka_unit_test(test_move_progress_on_terminal),
+		cmocka_unit_test(test_completion),
 	};
 
 	return cmocka_run_group_tests_name("rmdctl", tests, setup, NULL);

@@ -544,8 +544,8 @@ static void test_set_timeout(void **state)
 	assert_has(r.out, "500 ms", "set-timeout");
 	assert_has(r.out, "echo verified", "set-timeout");
 	/* V3 §2.30: 0xB3 with 500 = 0x1F4 at data[4..7], echoed. */
-	assert_has(r.err, "TX 142#B3000000F4010000", "set-timeout trace");
-	assert_has(r.err, "RX 242#B3000000F4010000", "set-timeout trace");
+	assert_has(r.err, ") sim:1-3 142#B3000000F4010000\n# TX ", "set-timeout trace");
+	assert_has(r.err, ") sim:1-3 242#B3000000F4010000\n# RX ", "set-timeout trace");
 	run_free(&r);
 
 	CHECK_RUN(.args = { "set-timeout", "7", "500", "--yes", "--bus", "sim:1-3" }, .status = 1,

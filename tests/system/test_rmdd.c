@@ -82,6 +82,7 @@ struct spawn_opts {
 	bool no_rt;		   /* take away the real-time privileges */
 	int fifo_prio;		   /* start at SCHED_FIFO (CPUSchedulingPolicy=); 0: no */
 	const char *env_extra;	   /* "NAME=VALUE" put in the environment last */
+	bool plain_log;		   /* no JOURNAL_STREAM: rmdd logs as on a pipe */
 };
 
 static int64_t now_ms(void)
@@ -116,6 +117,9 @@ static void child_env(const void *ctx)
 	unsetenv("WATCHDOG_USEC");
 	unsetenv("WATCHDOG_PID");
 	unsetenv("RMDD_TEST_STALL_AFTER_MS");
+	/* as under journald: the checks read the <N> levels, unless a test asks for plain text */
+	if (!so || !so->plain_log)
+		journal_stream_env(NULL);
 	if (!so)
 		return;
 	if (so->notify_socket)
@@ -975,6 +979,156 @@ static void test_comm_loss_exit_line(void **state)
 	assert_null(strstr(p.out, "their comm-loss protection (0xB3) stays set"));
 }
 
+/* ---- issue 12: version, usage errors, plain logs off journald, -q, the LCM error --------- */
+
+/* --version and -V: "rmdd VERSION", the version the build gave every program. */
+static void test_version(void **state)
+{
+	static const char *const longv[] = { "--version", NULL }, *const shortv[] = { "-V", NULL };
+	static struct proc p;
+	char ver[128], want[160];
+
+	(void)state;
+	snprintf(want, sizeof(want), "rmdd %s\n", built_version(ver, sizeof(ver)));
+	assert_int_equal(run(&p, longv), 0);
+	assert_string_equal(p.out, want);
+	assert_int_equal(run(&p, shortv), 0);
+	assert_string_equal(p.out, want);
+}
+
+/* A usage error: one line (a suggestion for a near miss), the usage line, "see --help". */
+static void test_usage_error_is_short(void **state)
+{
+	static const char *const cases[][5] = {
+		{ "--chek-config", "x.yaml", NULL,
+		  "rmdd: unknown option \"--chek-config\" (did you mean --check-config?)\n" },
+		{ "--sim", "3", "extra", NULL, "rmdd: unexpected argument \"extra\"\n" },
+		{ "--config", NULL, NULL, NULL, "rmdd: --config needs a value\n" },
+	};
+	static struct proc p;
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+		const char *first = cases[i][4] ? cases[i][4] : cases[i][3];
+
+		assert_int_equal(run(&p, cases[i]), 2);
+		if (strncmp(p.out, first, strlen(first)))
+			fail_msg("expected first \"%s\", got:\n%s", first, p.out);
+		expect_in(&p, "\nusage: rmdd [--config FILE | --sim [N] | --check-config FILE] "
+			      "[OPTIONS]\nsee `rmdd --help`\n");
+		assert_int_equal(count_of(p.out, "\n"), 3);
+	}
+}
+
+/* Read up to "running:", stop with SIGTERM; the output must hold no "<N>" prefix. */
+static void expect_plain_run(struct proc *p, const char *what)
+{
+	wait_for(p, "rmdd: running: 3 motor(s)", 5000);
+	kill(p->pid, SIGTERM);
+	assert_int_equal(finish(p, 5000), 0);
+	expect_in(p, "rmdd: statistics (exit)");
+	for (int level = 0; level <= 7; level++) {
+		char tag[8];
+
+		snprintf(tag, sizeof(tag), "<%d>", level);
+		if (strstr(p->out, tag))
+			fail_msg("%s: a %s prefix off journald:\n%s", what, tag, p->out);
+	}
+}
+
+static void no_journal(const void *ctx)
+{
+	(void)ctx;
+	unsetenv("JOURNAL_STREAM");
+}
+
+/*
+ * <N> prefixes only when journald reads stderr (JOURNAL_STREAM = its
+ * device:inode; the other tests run so): plain on a pipe, on a pipe whose
+ * JOURNAL_STREAM names another stream, and on a terminal.
+ */
+static void test_log_plain_off_journald(void **state)
+{
+	static struct proc p;
+	struct spawn_opts so = { .plain_log = true };
+
+	(void)state;
+	spawn(&p, &so, SIM3);
+	expect_plain_run(&p, "a pipe");
+
+	so.env_extra = "JOURNAL_STREAM=1:1";
+	spawn(&p, &so, SIM3);
+	expect_plain_run(&p, "a pipe, JOURNAL_STREAM of another stream");
+
+	memset(&p, 0, sizeof(p));
+	p.pid = spawn_pty(rmdd, SIM3, &p.fd, no_journal, NULL);
+	live_pid = p.pid;
+	expect_plain_run(&p, "a terminal");
+
+	/* and with journald: the levels */
+	spawn(&p, NULL, SIM3);
+	wait_for(&p, "<5>rmdd: running: 3 motor(s)", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	expect_in(&p, "<6>rmdd: statistics (exit)");
+}
+
+/* -q: only warnings and errors; the exit statistics are info, so they go too. */
+static void test_quiet_is_quiet(void **state)
+{
+	static const char *const args[] = { "--sim", "3", "--lcm-url", "memq://", "-q", NULL };
+	static struct proc p;
+	struct notify n;
+	struct spawn_opts so = { 0 };
+	char buf[1024];
+
+	(void)state;
+	notify_open(&n, "notify-quiet");
+	so.notify_socket = n.path;
+	spawn(&p, &so, args);
+	assert_true(notify_recv(&n, buf, sizeof(buf), 5000));
+	assert_non_null(strstr(buf, "READY=1"));
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	notify_close(&n);
+	for (int level = 5; level <= 7; level++) {
+		char tag[8];
+
+		snprintf(tag, sizeof(tag), "<%d>", level);
+		if (strstr(p.out, tag))
+			fail_msg("-q printed a %s line:\n%s", tag, p.out);
+	}
+	assert_null(strstr(p.out, "statistics"));
+}
+
+/* An LCM URL that cannot be created: one clean line, the URL as given, no doubled prefix. */
+static void test_lcm_error_is_clean(void **state)
+{
+	static const char *const args[] = { "--sim", "3", "--lcm-url", "udpm://300.1.1.1:7667",
+					    NULL };
+	static struct proc p;
+
+	(void)state;
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p, "<3>rmdd: LCM: cannot create \"udpm://300.1.1.1:7667\": a bad URL, or "
+		      "multicast has no route");
+	assert_int_equal(count_of(p.out, "LCM:"), 1);
+	assert_null(strstr(p.out, "recv_buf_size"));
+	assert_null(strstr(p.out, "running:"));
+}
+
+/* A directory given as --config (not only --check-config) is named as one. */
+static void test_config_directory(void **state)
+{
+	static struct proc p;
+	const char *args[] = { "--config", tmpdir, "--lcm-url", "memq://", NULL };
+
+	(void)state;
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p, ": is a directory, not a regular file");
+	assert_null(strstr(p.out, "syntax error"));
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -999,6 +1153,12 @@ int main(void)
 		cmocka_unit_test_teardown(test_check_config_special_files, reap),
 		cmocka_unit_test_teardown(test_comm_loss_reproducer, reap),
 		cmocka_unit_test_teardown(test_comm_loss_exit_line, reap),
+		cmocka_unit_test_teardown(test_version, reap),
+		cmocka_unit_test_teardown(test_usage_error_is_short, reap),
+		cmocka_unit_test_teardown(test_log_plain_off_journald, reap),
+		cmocka_unit_test_teardown(test_quiet_is_quiet, reap),
+		cmocka_unit_test_teardown(test_lcm_error_is_clean, reap),
+		cmocka_unit_test_teardown(test_config_directory, reap),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_cpu_affinity_missing */

@@ -6,7 +6,10 @@
 #include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <unistd.h>
+
+#include <sys/stat.h>
 
 #include "log.h"
 
@@ -16,11 +19,28 @@ static const char *log_name;
 static int log_level = TOOL_LOG_INFO;
 static unsigned log_flags;
 
+bool tool_log_to_journal(void)
+{
+	const char *env = getenv("JOURNAL_STREAM");
+	unsigned long long dev, ino;
+	struct stat st;
+	char extra;
+
+	/* systemd.exec(5): "DEVICE:INODE" of the stream journald reads. */
+	if (!env || sscanf(env, "%llu:%llu%c", &dev, &ino, &extra) != 2)
+		return false;
+	if (fstat(STDERR_FILENO, &st) < 0)
+		return false;
+	return (unsigned long long)st.st_dev == dev && (unsigned long long)st.st_ino == ino;
+}
+
 void tool_log_init(const char *name, int max_level, unsigned flags)
 {
 	log_name = name;
 	log_level = max_level;
 	log_flags = flags;
+	if (!tool_log_to_journal())
+		log_flags |= TOOL_LOG_NO_LEVEL;
 }
 
 void tool_log_set_level(int max_level)

@@ -7,6 +7,10 @@
  *   "<N>message"         rmd-sim: name NULL (its messages carry "rmd-sim: ")
  *   "rmdctl scan: message"  rmdctl: TOOL_LOG_NO_LEVEL, for a terminal
  *
+ * The "<N>" prefix is written only when journald reads stderr (systemd
+ * sets JOURNAL_STREAM to its device and inode): on a terminal, a pipe or a
+ * file the lines are plain text.
+ *
  * Each program sets its name and verbosity once with tool_log_init().
  * Non-rt.
  */
@@ -29,10 +33,15 @@ enum {
 	TOOL_LOG_NO_LEVEL = 1u << 0, /* no "<N>" prefix */
 };
 
+/* True when journald reads stderr: JOURNAL_STREAM names its device and inode. */
+bool tool_log_to_journal(void);
+
 /*
  * name: printed as "name: " after the level prefix (NULL: nothing; the
  * string must outlive the logging); max_level: the most verbose level that
- * tool_log() prints.  Until called: no name, level 6, "<N>" prefixes.
+ * tool_log() prints; flags: TOOL_LOG_NO_LEVEL, which tool_log_init() adds
+ * unless tool_log_to_journal().  Until called: no name, level 6, "<N>"
+ * prefixes.
  */
 void tool_log_init(const char *name, int max_level, unsigned flags);
 

@@ -112,6 +112,11 @@ const char *sim_config_key(unsigned i, bool *is_flag)
 	return param_name(i / PARAM_NAMES, i % PARAM_NAMES) ?: "";
 }
 
+bool sim_config_key_listed(unsigned i)
+{
+	return i < ARRAY_SIZE(globals) || (i - ARRAY_SIZE(globals)) % PARAM_NAMES == 0;
+}
+
 void sim_config_help(void)
 {
 	printf("Wire and program:\n");

@@ -22,7 +22,31 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "tools/common/cli.h"
 #include "rmd-sim.h"
+
+/* The program's own options: rows 0..NPROG-1 of the option table. */
+static const struct tool_opt prog_opts[] = {
+	{ .name = "config",
+	  .has_arg = required_argument,
+	  .arg = "FILE",
+	  .help = "read settings from FILE (KEY = VALUE lines, [motor N]\n"
+		  "sections); later options override its global values",
+	  .value = TOOL_VAL_FILE },
+	{ .name = "set",
+	  .has_arg = required_argument,
+	  .arg = "[ID:]KEY=VALUE",
+	  .help = "a motor parameter, for motor ID or every motor" },
+	{ .name = "verbose", .shortc = 'v', .help = "also log every frame, decoded" },
+	{ .name = "quiet", .shortc = 'q', .help = "log errors and warnings only" },
+	{ .name = "help", .shortc = 'h', .help = "this text" },
+	{ .name = "version",
+	  .shortc = 'V',
+	  .help = "print \"rmd-sim VERSION\" and exit (the simulated\n"
+		  "firmware date is --version-date)" },
+	TOOL_OPT_COMPLETION,
+};
+#define NPROG (sizeof(prog_opts) / sizeof(prog_opts[0]))
 
 static void usage(void)
 {
@@ -31,14 +55,9 @@ static void usage(void)
 	       "\n"
 	       "Simulated MyActuator RMD motors (V3, V2 or MIT protocol) answering on a\n"
 	       "SocketCAN interface or an RS485 line.  Stops on SIGINT or SIGTERM.\n"
-	       "\n"
-	       "  --config FILE       read settings from FILE (KEY = VALUE lines, [motor N]\n"
-	       "                      sections); later options override its global values\n"
-	       "  --set [ID:]KEY=VALUE  a motor parameter, for motor ID or every motor\n"
-	       "  -v, --verbose       also log every frame, decoded\n"
-	       "  -q, --quiet         log errors and warnings only\n"
-	       "  -h, --help          this text\n"
 	       "\n");
+	tool_opts_help(stdout, prog_opts, NPROG);
+	printf("\n");
 	sim_config_help();
 	printf("\n"
 	       "FAULTS (--fault, repeatable; ID 1..32 or * for every motor; P 0..1):\n"
@@ -60,38 +79,84 @@ static void usage(void)
 	       "See docs/rmd-sim.md.\n");
 }
 
-enum {
-	OPT_CONFIG = 0x100,
-	OPT_SET,
-	OPT_KEY = 0x200, /* + index of sim_config_key() */
-};
+enum { OPT_CONFIG = TOOL_OPT_BASE, OPT_SET, OPT_COMPLETION = TOOL_OPT_BASE + NPROG - 1 };
 
-#define MAX_OPTS 128
+#define MAX_OPTS 160
+#define USAGE_LINE "rmd-sim [options] --can IFACE | --serial DEVICE [--baud B]"
+
+/* What completion offers for the value of setting key. */
+static void key_value(struct tool_opt *o, const char *key)
+{
+	static const struct {
+		const char *key;
+		enum tool_value value;
+		const char *words;
+	} kinds[] = {
+		{ "can", TOOL_VAL_CAN, NULL },
+		{ "serial", TOOL_VAL_SERIAL, NULL },
+		{ "baud", TOOL_VAL_WORDS, "115200 500000 1000000 1500000 2000000" },
+		{ "verbosity", TOOL_VAL_WORDS, "quiet normal frames" },
+		{ "protocol", TOOL_VAL_WORDS, "v3 v2 mit" },
+	};
+
+	for (size_t k = 0; k < sizeof(kinds) / sizeof(kinds[0]); k++)
+		if (!strcmp(kinds[k].key, key)) {
+			o->value = kinds[k].value;
+			o->words = kinds[k].words;
+		}
+}
+
+/*
+ * The option table: the program's options, then every setting by each of
+ * its names (config.c), except a name the program's options take
+ * ("version", the old spelling of version_date).  keyidx[] maps a row to
+ * its setting.  Returns the row count.
+ */
+static size_t build_opts(struct tool_opt *o, unsigned *keyidx)
+{
+	size_t n = NPROG;
+	const char *key;
+	bool flag;
+
+	memcpy(o, prog_opts, sizeof(prog_opts));
+	for (unsigned i = 0; (key = sim_config_key(i, &flag)) && n < MAX_OPTS; i++) {
+		bool taken = false;
+
+		for (size_t k = 0; k < NPROG; k++)
+			taken |= !strcmp(prog_opts[k].name, key);
+		if (!*key || taken)
+			continue;
+		keyidx[n] = i;
+		o[n] = (struct tool_opt){
+			.name = key,
+			.has_arg = flag ? no_argument : required_argument,
+			.help = sim_config_key_listed(i) ? "" : NULL,
+		};
+		key_value(&o[n], key);
+		n++;
+	}
+	return n;
+}
 
 int main(int argc, char **argv)
 {
 	static struct sim_config cfg;
-	static struct option opts[MAX_OPTS];
-	unsigned n = 0;
+	static struct tool_opt table[MAX_OPTS];
+	static struct option opts[MAX_OPTS + 1];
+	static unsigned keyidx[MAX_OPTS];
+	char shorts[32], msg[200];
+	size_t n;
 	bool flag;
 	const char *key;
 
 	tool_log_init(NULL, SIM_NORMAL, 0);
 	sim_config_init(&cfg);
-	opts[n++] = (struct option){ "config", required_argument, NULL, OPT_CONFIG };
-	opts[n++] = (struct option){ "set", required_argument, NULL, OPT_SET };
-	opts[n++] = (struct option){ "verbose", no_argument, NULL, 'v' };
-	opts[n++] = (struct option){ "quiet", no_argument, NULL, 'q' };
-	opts[n++] = (struct option){ "help", no_argument, NULL, 'h' };
-	for (unsigned i = 0; (key = sim_config_key(i, &flag)) && n < MAX_OPTS - 1; i++)
-		if (*key)
-			opts[n++] = (struct option){ key, flag ? no_argument : required_argument,
-						     NULL, OPT_KEY + (int)i };
-	opts[n] = (struct option){ NULL, 0, NULL, 0 };
+	n = build_opts(table, keyidx);
+	tool_opts_getopt(table, n, opts, shorts, sizeof(shorts));
 
 	opterr = 0;
 	for (;;) {
-		int longidx = -1, c = getopt_long(argc, argv, ":vqh", opts, &longidx);
+		int c = getopt_long(argc, argv, shorts, opts, NULL);
 		char where[64];
 
 		if (c == -1)
@@ -108,6 +173,17 @@ int main(int argc, char **argv)
 		case 'h':
 			usage();
 			return SIM_EXIT_OK;
+		case 'V':
+			tool_print_version("rmd-sim");
+			return SIM_EXIT_OK;
+		case OPT_COMPLETION:
+			if (strcmp(optarg, "bash")) {
+				tool_log(TOOL_LOG_ERR, "rmd-sim: --completion %s: only bash",
+					 optarg);
+				return SIM_EXIT_USAGE;
+			}
+			tool_completion_bash(stdout, "rmd-sim", table, n, NULL, 0);
+			return SIM_EXIT_OK;
 		case OPT_CONFIG:
 			if (sim_config_file(&cfg, optarg) < 0)
 				return SIM_EXIT_USAGE;
@@ -117,23 +193,14 @@ int main(int argc, char **argv)
 				return SIM_EXIT_USAGE;
 			break;
 		case ':':
-			tool_log(TOOL_LOG_ERR, "rmd-sim: %s needs a value (rmd-sim --help)",
-				 argv[optind - 1]);
-			return SIM_EXIT_USAGE;
 		case '?':
-			if (optopt)
-				tool_log(TOOL_LOG_ERR,
-					 "rmd-sim: unknown option \"-%c\" (rmd-sim --help "
-					 "lists the options)",
-					 optopt);
-			else
-				tool_log(TOOL_LOG_ERR,
-					 "rmd-sim: unknown option \"%s\" (rmd-sim --help "
-					 "lists the options)",
-					 argv[optind - 1]);
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s (rmd-sim --help lists the options)",
+				 tool_getopt_error(msg, sizeof(msg), c, argv, table, n));
+			tool_usage_hint(USAGE_LINE, "rmd-sim --help");
 			return SIM_EXIT_USAGE;
 		default:
-			if (c < OPT_KEY || !(key = sim_config_key((unsigned)(c - OPT_KEY), &flag)))
+			if (c < TOOL_OPT_BASE + (int)NPROG || c >= TOOL_OPT_BASE + (int)n ||
+			    !(key = sim_config_key(keyidx[c - TOOL_OPT_BASE], &flag)))
 				return SIM_EXIT_USAGE;
 			snprintf(where, sizeof(where), "--%s", key);
 			if (sim_config_set(&cfg, 0, key, flag ? "yes" : optarg, where) < 0)
@@ -146,6 +213,7 @@ int main(int argc, char **argv)
 			 "rmd-sim: unexpected argument \"%s\" (options take the form "
 			 "--name VALUE; rmd-sim --help)",
 			 argv[optind]);
+		tool_usage_hint(USAGE_LINE, "rmd-sim --help");
 		return SIM_EXIT_USAGE;
 	}
 	if (sim_config_finish(&cfg) < 0)

@@ -111,6 +111,8 @@ int sim_config_finish(struct sim_config *c);
  * takes no value on the command line (local-echo).
  */
 const char *sim_config_key(unsigned i, bool *is_flag);
+/* Key i is a setting's own name (listed by --help), not its '-' spelling or its alias. */
+bool sim_config_key_listed(unsigned i);
 
 /* Option help: one line per setting key, for --help. */
 void sim_config_help(void);

@@ -48,6 +48,15 @@ static void on_signal(int sig)
 
 /* ---- small helpers -------------------------------------------------------------------- */
 
+/* CLOCK_REALTIME in ns: --trace stamps frames with wall-clock time, as candump -l does. */
+static int64_t wall_now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_REALTIME, &ts);
+	return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
 const struct rmd_cmd_spec *rmdctl_spec(const struct dev *d, uint8_t cmd)
 {
 	return rmd_cmd_find(d->proto, cmd);
@@ -142,19 +151,35 @@ __attribute__((format(printf, 2, 3))) int rmdctl_confirm(struct dev *d, const ch
 
 /* ---- --trace: a bus that prints every frame, then hands it on --------------------------- */
 
-/* "(0.000120) can0 TX 141#9A00000000000000  read_status_1": candump's layout, then decoded. */
+/* The interface column of a trace line: at most 15 characters, no '/' (a tty's basename). */
+static const char *trace_iface(const struct dev *d, char *buf, size_t size)
+{
+	const char *slash = strrchr(d->name, '/');
+
+	snprintf(buf, size, "%.15s", slash ? slash + 1 : d->name);
+	return buf;
+}
+
+/*
+ * --trace: "(1732415033.123456) can0 141#9A00000000000000", exactly a
+ * `candump -l` line (wall-clock time), then "# TX read_status_1 ...", a
+ * comment canplayer and `rmdctl decode` skip.  One write per frame.
+ */
 static void trace_frame(struct dev *d, const char *dir, const struct rmd_frame *f, int64_t t_ns)
 {
-	int64_t rel = t_ns - d->t0_ns;
-	char desc[512];
+	int64_t wall = d->t0_wall_ns + (t_ns - d->t0_ns);
+	char desc[512], iface[16], line[sizeof(desc) + 96];
+	int n;
 
 	rmd_describe_frame(desc, sizeof(desc), d->proto,
 			   dir[0] == 'T' ? RMD_DIR_REQUEST : RMD_DIR_REPLY, NULL, f);
-	fprintf(stderr, "(%" PRId64 ".%06" PRId64 ") %s %s %03" PRIX32 "#", rel / 1000000000,
-		(rel % 1000000000) / 1000, d->name, dir, f->can_id);
+	n = snprintf(line, sizeof(line), "(%010" PRId64 ".%06" PRId64 ") %s %03" PRIX32 "#",
+		     wall / 1000000000, (wall % 1000000000) / 1000,
+		     trace_iface(d, iface, sizeof(iface)), f->can_id);
 	for (unsigned i = 0; i < f->len && i < RMD_FRAME_LEN; i++)
-		fprintf(stderr, "%02X", f->data[i]);
-	fprintf(stderr, "  %s\n", desc);
+		n += snprintf(line + n, sizeof(line) - (size_t)n, "%02X", f->data[i]);
+	snprintf(line + n, sizeof(line) - (size_t)n, "\n# %s %s\n", dir, desc);
+	fputs(line, stderr);
 }
 
 static int trace_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n,
@@ -412,63 +437,93 @@ int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, 
 /* ---- the command line ----------------------------------------------------------------- */
 
 /*
- * Options: name, short letter (0: none), takes a value, O_* flag (0: every
- * command), and for a switch the struct dev bool it sets (0: not a switch;
- * offset 0 is `cmd`, never a bool), its line in the usage.
+ * The options of the device commands: those with flag 0 every command
+ * has, the others the commands whose opts share a bit with their flag.
+ * The same rows make getopt-like parsing (parse_args), --help and the bash
+ * completion.
  */
-#define SWITCH(field) offsetof(struct dev, field)
-static const struct {
-	const char *name;
-	char shortc;
-	bool arg;
-	unsigned flag;
-	size_t sets;
-	const char *usage; /* for a command's own option (flag != 0) */
-} optdefs[] = {
-	{ "bus", 'b', true, 0, 0, NULL },
-	{ "baud", 0, true, 0, 0, NULL },
-	{ "protocol", 'p', true, 0, 0, NULL },
-	{ "timeout", 0, true, 0, 0, NULL },
-	{ "tries", 0, true, 0, 0, NULL },
-	{ "trace", 0, false, 0, SWITCH(trace), NULL },
-	{ "help", 'h', false, 0, 0, NULL },
-	{ "json", 'j', false, O_JSON, SWITCH(json),
-	  "  --json           one JSON object per motor and line (keys of `rmdctl decode`)\n" },
-	{ "yes", 'y', false, O_YES, SWITCH(yes),
-	  "  -y, --yes        do not ask for confirmation (needed without a terminal)\n" },
-	{ "rom", 0, false, O_ROM, SWITCH(rom),
-	  "  --rom            write to ROM (kept at power off)\n" },
-	{ "speed", 0, true, O_SPEED, 0,
-	  "  --speed DPS      maximum speed of the move (default 30)\n" },
-	{ "force", 0, false, O_FORCE, SWITCH(force),
-	  "  --force          skip the safety limits described above\n" },
-	{ "no-wait", 0, false, O_NOWAIT, SWITCH(no_wait),
-	  "  --no-wait        do not wait for the motor to arrive\n" },
-	{ "once", 0, false, O_ONCE, SWITCH(once), "  --once           print one table and exit\n" },
-	{ "interval", 0, true, O_INTERVAL, 0, "  --interval MS    refresh period (default 200)\n" },
+const struct tool_opt rmdctl_dev_opts[] = {
+	{ .name = "bus",
+	  .shortc = 'b',
+	  .has_arg = required_argument,
+	  .arg = "SPEC",
+	  .help = "can0 (SocketCAN interface), /dev/ttyUSB0 (RS485,\n"
+		  "any path starting with /), sim (simulated motors\n"
+		  "1..4 in this process) or sim:1-3,7 (simulated\n"
+		  "motors 1, 2, 3, 7).  Default: $" BUS_ENV ", else\n" DEFAULT_BUS
+		  ".  Simulated motors power on fresh in every\n"
+		  "rmdctl run: nothing persists.",
+	  .value = TOOL_VAL_BUS },
+	{ .name = "baud",
+	  .has_arg = required_argument,
+	  .arg = "N",
+	  .help = "RS485 bit rate (default 1000000)",
+	  .value = TOOL_VAL_WORDS,
+	  .words = "115200 500000 1000000 1500000 2000000" },
+	{ .name = "protocol",
+	  .shortc = 'p',
+	  .has_arg = required_argument,
+	  .arg = "P",
+	  .help = "v3 (default) or v2",
+	  .value = TOOL_VAL_WORDS,
+	  .words = "v3 v2" },
+	{ .name = "timeout",
+	  .has_arg = required_argument,
+	  .arg = "MS",
+	  .help = "wait per try for each answer (default 5)" },
+	{ .name = "tries",
+	  .has_arg = required_argument,
+	  .arg = "N",
+	  .help = "sends per request before giving up (default 3)" },
+	{ .name = "trace",
+	  .help = "print every frame sent and received on stderr as\n"
+		  "`candump -l` lines (canplayer and `rmdctl decode`\n"
+		  "read them), each followed by a '#' comment line\n"
+		  "that decodes it" },
+	{ .name = "yes",
+	  .shortc = 'y',
+	  .help = "do not ask for confirmation (needed without a\n"
+		  "terminal; commands that ask nothing accept it too)" },
+	{ .name = "help", .shortc = 'h', .help = "this text" },
+	{ .name = "json",
+	  .shortc = 'j',
+	  .help = "one JSON object per motor and line (keys of\n"
+		  "`rmdctl decode`)",
+	  .flag = O_JSON },
+	{ .name = "rom", .help = "write to ROM (kept at power off)", .flag = O_ROM },
+	{ .name = "speed",
+	  .has_arg = required_argument,
+	  .arg = "DPS",
+	  .help = "maximum speed of the move (default 30)",
+	  .flag = O_SPEED },
+	{ .name = "force", .help = "skip the safety limits described above", .flag = O_FORCE },
+	{ .name = "no-wait", .help = "do not wait for the motor to arrive", .flag = O_NOWAIT },
+	{ .name = "once", .help = "print one table and exit", .flag = O_ONCE },
+	{ .name = "interval",
+	  .has_arg = required_argument,
+	  .arg = "MS",
+	  .help = "refresh period (default 200)",
+	  .flag = O_INTERVAL },
 };
-#define NOPTS (sizeof(optdefs) / sizeof(optdefs[0]))
+const size_t rmdctl_n_dev_opts = sizeof(rmdctl_dev_opts) / sizeof(rmdctl_dev_opts[0]);
+#define NOPTS rmdctl_n_dev_opts
 
 void rmdctl_dev_usage(FILE *f, const struct rmdctl_cmd *c)
 {
+	struct tool_opt own[sizeof(rmdctl_dev_opts) / sizeof(rmdctl_dev_opts[0])];
+	size_t n_every = 0, n_own = 0;
+
 	fprintf(f, "usage: rmdctl %s [OPTIONS] %s\n\n%s\n", c->name, c->args, c->help);
-	fprintf(f, "bus options (every device command):\n"
-		   "  --bus SPEC       can0 (SocketCAN interface), /dev/ttyUSB0 (RS485, any path\n"
-		   "                   starting with /), sim (simulated motors 1..4 in this\n"
-		   "                   process) or sim:1-3,7 (simulated motors 1, 2, 3, 7).\n"
-		   "                   Default: $" BUS_ENV ", else " DEFAULT_BUS
-		   ".  Simulated motors\n"
-		   "                   power on fresh in every rmdctl run: nothing persists.\n"
-		   "  --baud N         RS485 bit rate (default 1000000)\n"
-		   "  --protocol P     v3 (default) or v2\n"
-		   "  --timeout MS     wait per try for each answer (default 5)\n"
-		   "  --tries N        sends per request before giving up (default 3)\n"
-		   "  --trace          print every frame sent and received on stderr\n");
-	if (c->opts) {
+	for (size_t k = 0; k < NOPTS; k++)
+		if (!rmdctl_dev_opts[k].flag)
+			n_every = k + 1;
+		else if (c->opts & rmdctl_dev_opts[k].flag)
+			own[n_own++] = rmdctl_dev_opts[k];
+	fprintf(f, "options of every device command:\n");
+	tool_opts_help(f, rmdctl_dev_opts, n_every);
+	if (n_own) {
 		fprintf(f, "%s options:\n", c->name);
-		for (size_t k = 0; k < NOPTS; k++)
-			if (c->opts & optdefs[k].flag)
-				fputs(optdefs[k].usage, f);
+		tool_opts_help(f, own, n_own);
 	}
 	fprintf(f, "\nexit status: 0 ok; 1 the bus or a motor failed (each failure names the\n"
 		   "bus, the motor and the command), or confirmation was declined; 2 usage\n"
@@ -483,15 +538,38 @@ static bool is_number(const char *s)
 	       ((s[1] >= '0' && s[1] <= '9') || (s[1] == '.' && s[2] >= '0' && s[2] <= '9'));
 }
 
+/* The struct dev bool a switch sets, or NULL. */
+static bool *switch_of(struct dev *d, const char *name)
+{
+	static const struct {
+		const char *name;
+		size_t off;
+	} sw[] = {
+		{ "trace", offsetof(struct dev, trace) },
+		{ "json", offsetof(struct dev, json) },
+		{ "yes", offsetof(struct dev, yes) },
+		{ "rom", offsetof(struct dev, rom) },
+		{ "force", offsetof(struct dev, force) },
+		{ "no-wait", offsetof(struct dev, no_wait) },
+		{ "once", offsetof(struct dev, once) },
+	};
+
+	for (size_t i = 0; i < sizeof(sw) / sizeof(sw[0]); i++)
+		if (!strcmp(sw[i].name, name))
+			return (bool *)((char *)d + sw[i].off);
+	return NULL;
+}
+
 /* Apply option k with value v.  Returns 0, 1 (--help printed) or -EINVAL (reported). */
 static int set_option(struct dev *d, size_t k, const char *v)
 {
-	const char *name = optdefs[k].name;
+	const char *name = rmdctl_dev_opts[k].name;
+	bool *sw = switch_of(d, name);
 	uint64_t u;
 	double x;
 
-	if (optdefs[k].sets) {
-		*(bool *)((char *)d + optdefs[k].sets) = true;
+	if (sw) {
+		*sw = true;
 	} else if (!strcmp(name, "bus")) {
 		d->bus_spec = v;
 	} else if (!strcmp(name, "baud")) {
@@ -538,6 +616,7 @@ static int parse_args(struct dev *d, int argc, char **argv, char **pos)
 
 	for (int i = 1; i < argc; i++) {
 		const char *a = argv[i], *v = NULL, *eq;
+		const struct tool_opt *opt;
 		size_t k, len;
 		int r;
 
@@ -553,33 +632,41 @@ static int parse_args(struct dev *d, int argc, char **argv, char **pos)
 			eq = strchr(a + 2, '=');
 			len = eq ? (size_t)(eq - a - 2) : strlen(a + 2);
 			for (k = 0; k < NOPTS; k++)
-				if (strlen(optdefs[k].name) == len &&
-				    !strncmp(optdefs[k].name, a + 2, len))
+				if (strlen(rmdctl_dev_opts[k].name) == len &&
+				    !strncmp(rmdctl_dev_opts[k].name, a + 2, len))
 					break;
 			if (eq)
 				v = eq + 1;
 		} else {
 			for (k = 0; k < NOPTS; k++)
-				if (optdefs[k].shortc && optdefs[k].shortc == a[1] && !a[2])
+				if (rmdctl_dev_opts[k].shortc &&
+				    rmdctl_dev_opts[k].shortc == a[1] && !a[2])
 					break;
 		}
 		if (k == NOPTS) {
-			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", a);
+			const char *near = tool_nearest_opt(a, rmdctl_dev_opts, NOPTS);
+
+			if (a[1] == '-' && near)
+				tool_log(TOOL_LOG_ERR, "unknown option \"%s\" (did you mean --%s?)",
+					 a, near);
+			else
+				tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", a);
 			return -1;
 		}
-		if (optdefs[k].flag && !(d->cmd->opts & optdefs[k].flag)) {
-			tool_log(TOOL_LOG_ERR, "option --%s does not apply to %s", optdefs[k].name,
+		opt = &rmdctl_dev_opts[k];
+		if (opt->flag && !(d->cmd->opts & opt->flag)) {
+			tool_log(TOOL_LOG_ERR, "option --%s does not apply to %s", opt->name,
 				 d->cmd->name);
 			return -1;
 		}
-		if (optdefs[k].arg && !v) {
+		if (opt->has_arg && !v) {
 			if (i + 1 >= argc) {
 				tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", a);
 				return -1;
 			}
 			v = argv[++i];
-		} else if (!optdefs[k].arg && v) {
-			tool_log(TOOL_LOG_ERR, "option --%s takes no value", optdefs[k].name);
+		} else if (!opt->has_arg && v) {
+			tool_log(TOOL_LOG_ERR, "option --%s takes no value", opt->name);
 			return -1;
 		}
 		r = set_option(d, k, v);
@@ -607,6 +694,7 @@ int rmdctl_dev_run(const struct rmdctl_cmd *cmd, int argc, char **argv)
 	d.speed_dps = MOVE_SPEED_DPS;
 	d.interval_ms = MONITOR_INTERVAL_MS;
 	d.t0_ns = rmd_now_ns();
+	d.t0_wall_ns = wall_now_ns();
 
 	pos = calloc((size_t)argc + 1, sizeof(*pos));
 	if (!pos) {
@@ -625,7 +713,7 @@ int rmdctl_dev_run(const struct rmdctl_cmd *cmd, int argc, char **argv)
 	}
 	if (npos < 0) {
 		free(pos);
-		rmdctl_dev_usage(stderr, d.cmd);
+		rmdctl_usage_hint(d.cmd);
 		return RMDCTL_EXIT_USAGE;
 	}
 	/* "ID ...": every such command's motor, checked once here. */

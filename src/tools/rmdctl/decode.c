@@ -433,14 +433,21 @@ static int decode_opt(int c, void *ctx)
 	return 0;
 }
 
+const struct tool_opt rmdctl_decode_opts[] = {
+	RMDCTL_CODEC_OPTS,
+	{ .name = "json", .shortc = 'j', .help = "" },
+	{ .name = "direction",
+	  .shortc = 'd',
+	  .has_arg = required_argument,
+	  .arg = "D",
+	  .help = "",
+	  .value = TOOL_VAL_WORDS,
+	  .words = "request reply" },
+};
+const size_t rmdctl_n_decode_opts = sizeof(rmdctl_decode_opts) / sizeof(rmdctl_decode_opts[0]);
+
 int rmdctl_decode_run(int argc, char **argv)
 {
-	static const struct option longopts[] = {
-		RMDCTL_CODEC_LONGOPTS,
-		{ "json", no_argument, NULL, 'j' },
-		{ "direction", required_argument, NULL, 'd' },
-		{ NULL, 0, NULL, 0 },
-	};
 	struct decode_opts opts = {
 		.proto = RMD_PROTO_V3,
 		.dir = RMD_DIR_UNKNOWN,
@@ -450,8 +457,8 @@ int rmdctl_decode_run(int argc, char **argv)
 	FILE *in = stdin;
 	int r, status;
 
-	r = rmdctl_codec_getopt(argc, argv, ":p:jm:d:h", longopts, &opts.proto, &opts.ranges,
-				rmdctl_decode_usage, decode_opt, &opts);
+	r = rmdctl_codec_getopt(argc, argv, rmdctl_decode_opts, rmdctl_n_decode_opts, false,
+				&opts.proto, &opts.ranges, rmdctl_decode_usage, decode_opt, &opts);
 	if (r >= 0)
 		return r;
 	if (argc - optind > 1) {
@@ -478,6 +485,6 @@ int rmdctl_decode_run(int argc, char **argv)
 	return status;
 
 usage:
-	rmdctl_decode_usage(stderr);
+	rmdctl_usage_hint_name("decode");
 	return RMDCTL_EXIT_USAGE;
 }

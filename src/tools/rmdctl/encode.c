@@ -624,25 +624,27 @@ static int encode_opt(int c, void *p)
 	return 0;
 }
 
+const struct tool_opt rmdctl_encode_opts[] = {
+	RMDCTL_CODEC_OPTS,
+	{ .name = "id", .shortc = 'i', .has_arg = required_argument, .arg = "N", .help = "" },
+};
+const size_t rmdctl_n_encode_opts = sizeof(rmdctl_encode_opts) / sizeof(rmdctl_encode_opts[0]);
+
 int rmdctl_encode_run(int argc, char **argv)
 {
-	static const struct option longopts[] = {
-		RMDCTL_CODEC_LONGOPTS,
-		{ "id", required_argument, NULL, 'i' },
-		{ NULL, 0, NULL, 0 },
-	};
 	struct enc_ctx ctx = {
 		.proto = RMD_PROTO_V3,
 		.motor_id = -1,
 		.r = rmd_mit_default_ranges,
 	};
 	const struct enc_cmd *ec = NULL;
+	struct tool_near near;
 	struct rmd_frame frame;
 	int r;
 
 	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
-	r = rmdctl_codec_getopt(argc, argv, "+:p:i:m:h", longopts, &ctx.proto, &ctx.r,
-				rmdctl_encode_usage, encode_opt, &ctx);
+	r = rmdctl_codec_getopt(argc, argv, rmdctl_encode_opts, rmdctl_n_encode_opts, true,
+				&ctx.proto, &ctx.r, rmdctl_encode_usage, encode_opt, &ctx);
 	if (r >= 0)
 		return r;
 	ctx.table = rmd_proto_table(ctx.proto);
@@ -650,9 +652,17 @@ int rmdctl_encode_run(int argc, char **argv)
 		tool_log(TOOL_LOG_ERR, "missing COMMAND");
 		goto usage;
 	}
-	for (size_t i = 0; i < NENC; i++)
+	tool_near_init(&near, argv[optind]);
+	for (size_t i = 0; i < NENC; i++) {
 		if (!strcmp(enc_cmds[i].name, argv[optind]))
 			ec = &enc_cmds[i];
+		tool_near_try(&near, enc_cmds[i].name);
+	}
+	if (!ec && near.best) {
+		tool_log(TOOL_LOG_ERR, "unknown command \"%s\" (did you mean %s?)", argv[optind],
+			 near.best);
+		goto usage;
+	}
 	if (!ec) {
 		tool_log(TOOL_LOG_ERR, "unknown command \"%s\"", argv[optind]);
 		goto usage;
@@ -672,6 +682,6 @@ int rmdctl_encode_run(int argc, char **argv)
 	return RMDCTL_EXIT_OK;
 
 usage:
-	rmdctl_encode_usage(stderr);
+	rmdctl_usage_hint_name("encode");
 	return RMDCTL_EXIT_USAGE;
 }

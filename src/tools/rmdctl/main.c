@@ -33,10 +33,12 @@
 static const struct rmdctl_cmd cmds[] = {
 	{ .name = "decode",
 	  .summary = "print candump output as decoded quantities (text or JSON)",
+	  .args = "[FILE]",
 	  .main = rmdctl_decode_run,
 	  .usage = rmdctl_decode_usage },
 	{ .name = "encode",
 	  .summary = "print one command as a frame in cansend syntax",
+	  .args = "COMMAND [ARGS...]",
 	  .main = rmdctl_encode_run,
 	  .usage = rmdctl_encode_usage },
 	DEV("scan", "list the motors that answer on a bus", "[IDS]", 0, 1, O_JSON,
@@ -119,15 +121,46 @@ static const struct rmdctl_cmd cmds[] = {
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
-int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const struct option *longopts,
-			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+/* rmdctl's own options, before any command. */
+static const struct tool_opt main_opts[] = {
+	{ .name = "help", .shortc = 'h', .help = "" },
+	{ .name = "version", .shortc = 'V', .help = "" },
+	TOOL_OPT_COMPLETION,
+};
+#define NMAIN (sizeof(main_opts) / sizeof(main_opts[0]))
+
+void rmdctl_usage_hint(const struct rmdctl_cmd *c)
+{
+	char line[160], help[64];
+
+	if (!c) {
+		tool_usage_hint("rmdctl COMMAND [ARGS...]  (rmdctl help lists the commands)",
+				"rmdctl --help");
+		return;
+	}
+	snprintf(line, sizeof(line), "rmdctl %s [OPTIONS]%s%s", c->name, c->args ? " " : "",
+		 c->args ? c->args : "");
+	snprintf(help, sizeof(help), "rmdctl %s --help", c->name);
+	tool_usage_hint(line, help);
+}
+
+int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t n,
+			bool stop_at_operand, enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
 			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx)
 {
+	struct option longopts[16];
+	char shorts[40], msg[160];
 	int c;
 
+	if (n >= sizeof(longopts) / sizeof(longopts[0]))
+		n = sizeof(longopts) / sizeof(longopts[0]) - 1;
+	/* '+': stop at the first operand */
+	shorts[0] = '+';
+	tool_opts_getopt(o, n, longopts, shorts + 1, sizeof(shorts) - 1);
 	optind = 0; /* glibc: full re-initialisation */
 	opterr = 0;
-	while ((c = getopt_long(argc, argv, optstring, longopts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, stop_at_operand ? shorts : shorts + 1, longopts,
+				NULL)) != -1) {
 		switch (c) {
 		case 'p':
 			if (rmd_proto_parse(optarg, proto) < 0) {
@@ -148,11 +181,12 @@ int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const stru
 		case 'h':
 			usage(stdout);
 			return RMDCTL_EXIT_OK;
+		case 'y':
+			break; /* nothing to confirm */
 		case ':':
-			tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
-			goto usage;
 		case '?':
-			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
+			tool_log(TOOL_LOG_ERR, "%s",
+				 tool_getopt_error(msg, sizeof(msg), c, argv, o, n));
 			goto usage;
 		default:
 			if (own(c, ctx) < 0)
@@ -162,7 +196,7 @@ int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const stru
 	}
 	return -1;
 usage:
-	usage(stderr);
+	rmdctl_usage_hint_name(argv[0]);
 	return RMDCTL_EXIT_USAGE;
 }
 
@@ -181,6 +215,7 @@ static void usage(FILE *f)
 {
 	fprintf(f, "usage: rmdctl COMMAND [ARGS...]\n"
 		   "       rmdctl help [COMMAND]\n"
+		   "       rmdctl --version\n"
 		   "\n"
 		   "Tool for MyActuator RMD servo motors (protocols V2, V3 and MIT mode).\n"
 		   "\n"
@@ -205,18 +240,76 @@ static const struct rmdctl_cmd *find_cmd(const char *name)
 	return NULL;
 }
 
+void rmdctl_usage_hint_name(const char *name)
+{
+	rmdctl_usage_hint(find_cmd(name));
+}
+
 static bool is_help(const char *s)
 {
 	return !strcmp(s, "-h") || !strcmp(s, "--help") || !strcmp(s, "help");
+}
+
+/* "unknown command "stauts" (did you mean status?)", the usage line and "see --help". */
+static int unknown_command(const char *what, const char *name)
+{
+	struct tool_near near;
+
+	tool_near_init(&near, name);
+	for (size_t i = 0; i < NCMDS; i++)
+		tool_near_try(&near, cmds[i].name);
+	if (name[0] == '-')
+		fprintf(stderr, "rmdctl: %s \"%s\" (options come after COMMAND)\n", what, name);
+	else if (near.best)
+		fprintf(stderr, "rmdctl: %s \"%s\" (did you mean %s?)\n", what, name, near.best);
+	else
+		fprintf(stderr, "rmdctl: %s \"%s\"\n", what, name);
+	rmdctl_usage_hint(NULL);
+	return RMDCTL_EXIT_USAGE;
+}
+
+/* `rmdctl --completion bash`: every command with its options, from the tables of --help. */
+static void completion(void)
+{
+	struct tool_compl_cmd cc[NCMDS];
+
+	for (size_t i = 0; i < NCMDS; i++) {
+		cc[i] = (struct tool_compl_cmd){ .name = cmds[i].name };
+		if (cmds[i].run) {
+			cc[i].opts = rmdctl_dev_opts;
+			cc[i].n = rmdctl_n_dev_opts;
+			cc[i].flags = cmds[i].opts;
+		} else if (!strcmp(cmds[i].name, "decode")) {
+			cc[i].opts = rmdctl_decode_opts;
+			cc[i].n = rmdctl_n_decode_opts;
+			cc[i].files = true;
+		} else if (!strcmp(cmds[i].name, "encode")) {
+			cc[i].opts = rmdctl_encode_opts;
+			cc[i].n = rmdctl_n_encode_opts;
+		}
+	}
+	tool_completion_bash(stdout, "rmdctl", main_opts, NMAIN, cc, NCMDS);
 }
 
 int main(int argc, char **argv)
 {
 	const struct rmdctl_cmd *cmd;
 
+	tool_log_init("rmdctl", TOOL_LOG_DEBUG, TOOL_LOG_NO_LEVEL);
 	if (argc < 2) {
-		usage(stderr);
+		fprintf(stderr, "rmdctl: missing COMMAND\n");
+		rmdctl_usage_hint(NULL);
 		return RMDCTL_EXIT_USAGE;
+	}
+	if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V")) {
+		tool_print_version("rmdctl");
+		return RMDCTL_EXIT_OK;
+	}
+	if (!strcmp(argv[1], "--completion")) {
+		if (!tool_completion_shell("rmdctl", argc == 3 ? argv[2] : NULL))
+			return RMDCTL_EXIT_USAGE;
+		completion();
+		return RMDCTL_EXIT_OK;
 	}
 	if (is_help(argv[1])) {
 		if (argc == 2) {
@@ -224,11 +317,8 @@ int main(int argc, char **argv)
 			return RMDCTL_EXIT_OK;
 		}
 		cmd = find_cmd(argv[2]);
-		if (!cmd || argc > 3) {
-			fprintf(stderr, "rmdctl: no help for \"%s\"\n", argv[2]);
-			usage(stderr);
-			return RMDCTL_EXIT_USAGE;
-		}
+		if (!cmd || argc > 3)
+			return unknown_command("no help for", argv[2]);
 		if (cmd->usage)
 			cmd->usage(stdout);
 		else
@@ -236,11 +326,8 @@ int main(int argc, char **argv)
 		return RMDCTL_EXIT_OK;
 	}
 	cmd = find_cmd(argv[1]);
-	if (!cmd) {
-		fprintf(stderr, "rmdctl: unknown command \"%s\"\n", argv[1]);
-		usage(stderr);
-		return RMDCTL_EXIT_USAGE;
-	}
+	if (!cmd)
+		return unknown_command("unknown command", argv[1]);
 	/* Messages read "rmdctl scan: ...". */
 	snprintf(log_name, sizeof(log_name), "rmdctl %s", cmd->name);
 	tool_log_init(log_name, TOOL_LOG_DEBUG, TOOL_LOG_NO_LEVEL);

@@ -8,6 +8,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "rmd/time.h"
 #include "rmd/codec.h"
@@ -175,8 +176,30 @@ static void stop_motor(struct dev *d, uint8_t id)
 		tool_log(TOOL_LOG_ERR, "%s: motor %u: stop (0x81) not acknowledged", d->name, id);
 }
 
+/*
+ * On a terminal (stdout), one line that move_wait() rewrites as the motor
+ * goes: "can0: motor 3: 45.20 deg of 90.00 (50 %), 1.5 s"; NULL erases it.
+ * Nothing when stdout is a file, a pipe, or --json.
+ */
+static void move_progress(const struct dev *d, uint8_t id, const double *deg, double from,
+			  double target, int64_t since_ns)
+{
+	double travel = fabs(target - from);
+
+	if (d->json || !isatty(STDOUT_FILENO))
+		return;
+	if (!deg) {
+		fputs("\r\033[K", stdout);
+		return;
+	}
+	printf("\r%s: motor %u: %.2f deg of %.2f (%.0f %%), %.1f s\033[K", d->name, id, *deg,
+	       target, travel > 0 ? 100.0 * fmin(1.0, fabs(*deg - from) / travel) : 100.0,
+	       (double)(rmd_now_ns() - since_ns) / 1e9);
+	fflush(stdout);
+}
+
 /* Poll 0x92 until the motor is within MOVE_TOL_DEG of target, stops short, or time runs out. */
-static int move_wait(struct dev *d, uint8_t id, double from, double target, double *final,
+static int move_poll(struct dev *d, uint8_t id, double from, double target, double *final,
 		     const char **why)
 {
 	double travel = fabs(target - from), last = from;
@@ -200,6 +223,7 @@ static int move_wait(struct dev *d, uint8_t id, double from, double target, doub
 			return r;
 		}
 		now = rmd_now_ns();
+		move_progress(d, id, final, from, target, t0);
 		/* Two polls in a row within tolerance: arrived and settled. */
 		near = fabs(*final - target) <= MOVE_TOL_DEG ? near + 1 : 0;
 		if (near >= 2)
@@ -216,6 +240,16 @@ static int move_wait(struct dev *d, uint8_t id, double from, double target, doub
 			return RMDCTL_EXIT_DATA;
 		}
 	}
+}
+
+/* move_poll(), with the progress line of a terminal erased after it. */
+static int move_wait(struct dev *d, uint8_t id, double from, double target, double *final,
+		     const char **why)
+{
+	int r = move_poll(d, id, from, target, final, why);
+
+	move_progress(d, id, NULL, from, target, 0);
+	return r;
 }
 
 int rmdctl_run_move(struct dev *d, int argc, char **argv)

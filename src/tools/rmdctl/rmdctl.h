@@ -17,6 +17,7 @@
 #include "rmd/codec.h"
 #include "rmd/mit.h"
 #include "rmd/txn.h"
+#include "tools/common/cli.h"
 #include "tools/common/log.h"
 
 /* Exit statuses of every command (printed by `rmdctl --help`). */
@@ -63,25 +64,40 @@ void rmdctl_decode_usage(FILE *f);
 int rmdctl_encode_run(int argc, char **argv);
 void rmdctl_encode_usage(FILE *f);
 
-/* The long options rmdctl_codec_getopt() handles: first in decode's and encode's tables. */
+/* The options rmdctl_codec_getopt() handles: first in decode's and encode's tables. */
 /* clang-format off */
-#define RMDCTL_CODEC_LONGOPTS \
-	{ "protocol", required_argument, NULL, 'p' }, \
-	{ "mit-ranges", required_argument, NULL, 'm' }, \
-	{ "help", no_argument, NULL, 'h' }
+#define RMDCTL_CODEC_OPTS \
+	{ .name = "protocol", .shortc = 'p', .has_arg = required_argument, .arg = "P", \
+	  .help = "", .value = TOOL_VAL_WORDS, .words = "v3 v2 mit" }, \
+	{ .name = "mit-ranges", .shortc = 'm', .has_arg = required_argument, \
+	  .arg = "P,V,T,KP,KD", .help = "" }, \
+	{ .name = "help", .shortc = 'h', .help = "" }, \
+	{ .name = "yes", .shortc = 'y', .help = "" }
 /* clang-format on */
 
+/* decode's and encode's options (their --help texts describe them). */
+extern const struct tool_opt rmdctl_decode_opts[], rmdctl_encode_opts[];
+extern const size_t rmdctl_n_decode_opts, rmdctl_n_encode_opts;
+
 /*
- * The command line of decode and encode, up to their operands: the options
- * both have (-p/--protocol into *proto, -m/--mit-ranges into *ranges,
- * -h/--help) here, each other option character through own(c, ctx), which
- * returns 0 or -1 (reported).  Returns -1 to go on (optind at the first
- * operand), or the exit status: RMDCTL_EXIT_OK after --help, or
- * RMDCTL_EXIT_USAGE after a bad option (reported, usage on stderr).
+ * The command line of decode and encode, up to their operands, from their
+ * option table o[0..n): the options both have (-p/--protocol into *proto,
+ * -m/--mit-ranges into *ranges, -h/--help, and -y/--yes, which every
+ * rmdctl command accepts and these ignore) here, each other option's
+ * short letter through own(c, ctx), which returns 0 or -1 (reported).
+ * stop_at_operand: options end at the first operand (encode's values may
+ * be negative).  Returns -1 to go on (optind at the first operand), or the
+ * exit status: RMDCTL_EXIT_OK after --help, or RMDCTL_EXIT_USAGE after a
+ * bad option (reported, with the usage line).
  */
-int rmdctl_codec_getopt(int argc, char **argv, const char *optstring, const struct option *longopts,
-			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t n,
+			bool stop_at_operand, enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
 			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx);
+
+/* After a usage error of command c (NULL: no command): the usage line and "see --help". */
+void rmdctl_usage_hint(const struct rmdctl_cmd *c);
+/* The same for the command named name (decode, encode). */
+void rmdctl_usage_hint_name(const char *name);
 
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
@@ -114,7 +130,8 @@ struct dev {
 	struct rmd_bus *b;	   /* what the commands use: &bus or &tbus */
 	char name[sizeof(((struct rmd_bus *)0)->name)]; /* the bus's, kept after close */
 	struct rmd_txn_opts txn;
-	int64_t t0_ns; /* start, for --trace and monitor times */
+	int64_t t0_ns;	    /* start, for --trace and monitor times */
+	int64_t t0_wall_ns; /* the same instant in CLOCK_REALTIME, for --trace */
 };
 
 /* One request to one motor and what came of it. */
@@ -141,6 +158,9 @@ extern volatile sig_atomic_t rmdctl_interrupted;
 int rmdctl_dev_run(const struct rmdctl_cmd *cmd, int argc, char **argv);
 /* `rmdctl CMD --help` of a device command. */
 void rmdctl_dev_usage(FILE *f, const struct rmdctl_cmd *c);
+/* The options of the device commands (bench.c): struct tool_opt.flag is O_*, 0 for every one. */
+extern const struct tool_opt rmdctl_dev_opts[];
+extern const size_t rmdctl_n_dev_opts;
 
 const struct rmd_cmd_spec *rmdctl_spec(const struct dev *d, uint8_t cmd);
 /* "5", "0.5": a number of ms for messages. */

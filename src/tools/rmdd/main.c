@@ -64,11 +64,9 @@
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
 #include "rmd/plan.h"
+#include "tools/common/cli.h"
 #include "rmdd.h"
 
-#ifndef RMD_VERSION
-#define RMD_VERSION "0.1.0"
-#endif
 #ifndef RMDD_DEFAULT_CONFIG
 #define RMDD_DEFAULT_CONFIG "/etc/rmdd/rmdd.yaml"
 #endif
@@ -90,6 +88,7 @@ enum rmdd_mode {
 	MODE_CHECK,   /* --check-config */
 	MODE_HELP,
 	MODE_VERSION,
+	MODE_COMPLETION, /* --completion bash: the script the build installs */
 };
 
 struct rmdd_opts {
@@ -122,34 +121,68 @@ struct rmdd {
 	struct rmdd_stats_src stats;
 };
 
+#define STR_(x) #x
+#define STR(x) STR_(x)
+
+/* The options: getopt, --help and the bash completion. */
+static const struct tool_opt opts[] = {
+	{ .name = "config",
+	  .shortc = 'c',
+	  .has_arg = required_argument,
+	  .arg = "FILE",
+	  .help = "configuration (default " RMDD_DEFAULT_CONFIG ")",
+	  .value = TOOL_VAL_FILE },
+	{ .name = "check-config",
+	  .shortc = 'C',
+	  .has_arg = required_argument,
+	  .arg = "FILE",
+	  .help = "check FILE and print each bus's plan and budget;\n"
+		  "exit 0 when every bus fits, 1 otherwise",
+	  .value = TOOL_VAL_FILE },
+	{ .name = "sim",
+	  .shortc = 's',
+	  .has_arg = optional_argument,
+	  .arg = "N",
+	  .help = "run on N (1.." STR(RMD_MAX_MOTORS) ", default " STR(
+		  RMDD_SIM_DEFAULT_MOTORS) ") built-in simulated\n"
+					   "motors, three per simulated 1 Mbit/s bus, at 1 kHz" },
+	{ .name = "lcm-url",
+	  .shortc = 'l',
+	  .has_arg = required_argument,
+	  .arg = "URL",
+	  .help = "LCM provider instead of the configuration's lcm.url\n"
+		  "(memq:// keeps all traffic inside rmdd)" },
+	{ .name = "require-rt",
+	  .shortc = 'r',
+	  .help = "exit unless SCHED_FIFO and mlockall are granted" },
+	{ .name = "verbose", .shortc = 'v', .help = "also debug messages" },
+	{ .name = "quiet", .shortc = 'q', .help = "only warnings and errors" },
+	{ .name = "help", .shortc = 'h', .help = "this text" },
+	{ .name = "version", .shortc = 'V', .help = "print \"rmdd VERSION\" and exit" },
+	TOOL_OPT_COMPLETION,
+};
+#define NOPTS (sizeof(opts) / sizeof(opts[0]))
+#define OPT_COMPLETION (TOOL_OPT_BASE + (int)NOPTS - 1)
+
+#define USAGE_LINE "rmdd [--config FILE | --sim [N] | --check-config FILE] [OPTIONS]"
+
 static void usage(FILE *out)
 {
-	fprintf(out,
-		"usage: rmdd [--config FILE] [--require-rt] [--lcm-url URL] [-v|-q]\n"
-		"       rmdd --sim [N] [--require-rt] [--lcm-url URL] [-v|-q]\n"
-		"       rmdd --check-config FILE\n"
-		"\n"
-		"Drives MyActuator RMD motors on CAN buses and RS485 lines at up to 1 kHz\n"
-		"and serves them over LCM.\n"
-		"\n"
-		"  -c, --config FILE        configuration (default %s)\n"
-		"  -C, --check-config FILE  check FILE and print each bus's plan and budget;\n"
-		"                           exit 0 when every bus fits, 1 otherwise\n"
-		"  -s, --sim [N]            run on N (1..%d, default %d) built-in simulated\n"
-		"                           motors, three per simulated 1 Mbit/s bus, at 1 kHz\n"
-		"  -l, --lcm-url URL        LCM provider instead of the configuration's lcm.url\n"
-		"                           (memq:// keeps all traffic inside rmdd)\n"
-		"  -r, --require-rt         exit unless SCHED_FIFO and mlockall are granted\n"
-		"  -v, --verbose            also debug messages\n"
-		"  -q, --quiet              only warnings and errors\n"
-		"  -h, --help               this text\n"
-		"  -V, --version            version\n"
-		"\n"
-		"Signals: SIGTERM or SIGINT stop every motor and exit 0 after printing the\n"
-		"statistics; SIGUSR1 prints them and keeps running; SIGHUP is ignored.\n"
-		"Exit status: 0 ok, 1 failure (configuration, plan, bus, bring-up, LCM,\n"
-		"--require-rt), 2 bad command line.\n",
-		RMDD_DEFAULT_CONFIG, RMD_MAX_MOTORS, RMDD_SIM_DEFAULT_MOTORS);
+	fprintf(out, "usage: rmdd [--config FILE] [--require-rt] [--lcm-url URL] [-v|-q]\n"
+		     "       rmdd --sim [N] [--require-rt] [--lcm-url URL] [-v|-q]\n"
+		     "       rmdd --check-config FILE\n"
+		     "\n"
+		     "Drives MyActuator RMD motors on CAN buses and RS485 lines at up to 1 kHz\n"
+		     "and serves them over LCM.\n"
+		     "\n");
+	tool_opts_help(out, opts, NOPTS);
+	fprintf(out, "\n"
+		     "Log lines carry journald's <N> priority prefixes when journald reads them\n"
+		     "(JOURNAL_STREAM), and are plain text elsewhere.\n"
+		     "Signals: SIGTERM or SIGINT stop every motor and exit 0 after printing the\n"
+		     "statistics; SIGUSR1 prints them and keeps running; SIGHUP is ignored.\n"
+		     "Exit status: 0 ok, 1 failure (configuration, plan, bus, bring-up, LCM,\n"
+		     "--require-rt), 2 bad command line.\n");
 }
 
 /* "6" -> 6 when it is a motor count 1..RMD_MAX_MOTORS. */
@@ -181,25 +214,17 @@ static bool all_digits(const char *s)
 /* Fill o from the command line.  Returns 0, or -EINVAL after a message. */
 static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 {
-	static const struct option longopts[] = {
-		{ "config", required_argument, NULL, 'c' },
-		{ "check-config", required_argument, NULL, 'C' },
-		{ "sim", optional_argument, NULL, 's' },
-		{ "lcm-url", required_argument, NULL, 'l' },
-		{ "require-rt", no_argument, NULL, 'r' },
-		{ "verbose", no_argument, NULL, 'v' },
-		{ "quiet", no_argument, NULL, 'q' },
-		{ "help", no_argument, NULL, 'h' },
-		{ "version", no_argument, NULL, 'V' },
-		{ NULL, 0, NULL, 0 },
-	};
+	struct option longopts[NOPTS + 1];
+	char shorts[64], msg[160];
 	bool sim = false, check = false;
 	int c;
 
 	memset(o, 0, sizeof(*o));
 	o->config = RMDD_DEFAULT_CONFIG;
 	o->sim_motors = RMDD_SIM_DEFAULT_MOTORS;
-	while ((c = getopt_long(argc, argv, "c:C:s::l:rvqhV", longopts, NULL)) != -1) {
+	tool_opts_getopt(opts, NOPTS, longopts, shorts, sizeof(shorts));
+	opterr = 0;
+	while ((c = getopt_long(argc, argv, shorts, longopts, NULL)) != -1) {
 		switch (c) {
 		case 'c':
 			o->config = optarg;
@@ -238,14 +263,19 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 		case 'V':
 			o->mode = MODE_VERSION;
 			return 0;
+		case OPT_COMPLETION:
+			if (!tool_completion_shell("rmdd", optarg))
+				return -EINVAL;
+			o->mode = MODE_COMPLETION;
+			return 0;
 		default:
-			usage(stderr);
+			fprintf(stderr, "rmdd: %s\n",
+				tool_getopt_error(msg, sizeof(msg), c, argv, opts, NOPTS));
 			return -EINVAL;
 		}
 	}
 	if (optind < argc) {
 		fprintf(stderr, "rmdd: unexpected argument \"%s\"\n", argv[optind]);
-		usage(stderr);
 		return -EINVAL;
 	}
 	if (sim && check) {
@@ -1059,7 +1089,9 @@ err_stop_loop:
 	if (r < 0)
 		tool_log(3, "rt loop thread: join: %s", strerror(-r));
 	if (ret == RMDD_EXIT_OK) {
-		rmdd_stats_print(&d->stats, "exit");
+		/* -q: only warnings and errors, so no statistics (SIGUSR1 still asks for them) */
+		if (tool_log_enabled(TOOL_LOG_INFO))
+			rmdd_stats_print(&d->stats, "exit");
 		exit_line(d);
 	}
 err_stop_bridge:
@@ -1090,14 +1122,19 @@ int main(int argc, char **argv)
 	struct rmdd_opts o;
 
 	tool_log_init("rmdd", TOOL_LOG_INFO, 0);
-	if (parse_args(argc, argv, &o))
+	if (parse_args(argc, argv, &o)) {
+		tool_usage_hint(USAGE_LINE, "rmdd --help");
 		return RMDD_EXIT_USAGE;
+	}
 	switch (o.mode) {
 	case MODE_HELP:
 		usage(stdout);
 		return RMDD_EXIT_OK;
 	case MODE_VERSION:
-		printf("rmdd %s\n", RMD_VERSION);
+		tool_print_version("rmdd");
+		return RMDD_EXIT_OK;
+	case MODE_COMPLETION:
+		tool_completion_bash(stdout, "rmdd", opts, NOPTS, NULL, 0);
 		return RMDD_EXIT_OK;
 	case MODE_CHECK:
 		return check_config(o.config);
