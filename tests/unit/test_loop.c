@@ -70,6 +70,8 @@ struct rig {
 };
 
 static struct rig R;
+/* when set, rig_up() hands it the simulated motors' setup before it opens the buses */
+static void (*rig_sim_tweak)(struct rmd_sim_setup *sim);
 static struct rmd_event evs[EVENTS_MAX];
 static unsigned nev;
 
@@ -148,6 +150,8 @@ static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
 	if (tweak)
 		tweak(&R.io.cfg);
 	sync_sim(&R.io.cfg);
+	if (rig_sim_tweak)
+		rig_sim_tweak(&R.io.sim);
 	r = rmd_plan_build(&R.io.cfg, &R.io.plan, err, sizeof(err));
 	if (r)
 		fail_msg("plan: %s", err);
@@ -1533,6 +1537,71 @@ static void test_wake_hist_and_reply_latency(void **state)
 	rig_down();
 }
 
+/* 100 Hz, probe.on_missing start */
+static void slow_missing_start(struct rmd_config *cfg)
+{
+	cfg->probe.on_missing = RMD_MISSING_START;
+	cfg->loop.rate_hz = 100;
+}
+
+/* Motor 3 was left by an earlier run with a 3 ms protection in ROM, tripped since. */
+static void rom_3ms_tripped_motor3(struct rmd_sim_setup *sim)
+{
+	sim->motors[2].comm_loss_rom_ms = 3;
+	sim->motors[2].comm_loss_tripped = true;
+}
+
+/*
+ * The loop's own round after PROBE/LOST -> READY against a motor that
+ * trips between two of the loop's frames: motor 3 keeps 3 ms in ROM from
+ * an earlier run (tripped: it echoes the first command), its cable is cut
+ * through bring-up, and at 100 Hz its first answer (an echo) and the
+ * round's 0xB3 a cycle later are 10 ms apart: it trips in between and
+ * only echoes the 0xB3, which is its answer.  The status read queued
+ * ahead of the 0xB3 takes that echo, so the write is done: the motor's ROM
+ * holds the configured time, and once enabled it moves (with 3 ms it
+ * would trip between every two frames and only echo them).
+ */
+static void test_cl_round_after_trip(void **state)
+{
+	/* its cable cut through bring-up; firmware that sends no 0xF1 when it trips */
+	struct rmd_sim_fault f[2] = {
+		{ .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 3 },
+		{ .kind = RMD_SIM_FAULT_DROP, .motor_id = 3, .probability = 1.0, .cmd = 0xF1 },
+	};
+	struct rmd_loop_counters c;
+	unsigned from;
+
+	(void)state;
+	rig_sim_tweak = rom_3ms_tripped_motor3;
+	rig_up(3, slow_missing_start);
+	rig_sim_tweak = NULL;
+	assert_true(sim_motor(2)->comm_lost && sim_motor(2)->echo_next);
+	assert_int_equal(sim_motor(2)->rom.comm_timeout_ms, 3);
+	f[0].end_ns = sim_time(0) + 500 * MS;
+	set_faults(0, f, 2);
+	bring_up();
+	assert_int_equal(R.report.motor[2].state, RMD_BRINGUP_MISSING);
+	cmd_clear();
+	from = trace_n;
+	run(150, false);
+	assert_true(sent_to(2, 0xB3, from) >= 1);
+	if (sim_motor(2)->rom.comm_timeout_ms != R.io.cfg.safety.comm_loss_ms)
+		fail_msg("motor 3: ROM keeps %u ms, configured %u: its echo passed for the write",
+			 sim_motor(2)->rom.comm_timeout_ms, R.io.cfg.safety.comm_loss_ms);
+	assert_int_equal(lifecycle(2), RMD_LC_READY);
+	assert_int_equal(cl_of(2), RMD_CL_ARMED);
+	rmd_loop_get_counters(R.l, &c);
+	assert_true(c.echoes >= 2); /* its first answer, and the read ahead of the 0xB3 */
+	/* armed for real: the controller enables it and it moves */
+	cl_reenable(2);
+	run(30, true);
+	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(2)->ctrl, RMD_SIM_SPEED);
+	assert_false(sim_motor(2)->comm_lost);
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1562,6 +1631,7 @@ int main(void)
 		cmocka_unit_test(test_v2_start_angle),
 		cmocka_unit_test(test_cl_zeros_answer),
 		cmocka_unit_test(test_wake_hist_and_reply_latency),
+		cmocka_unit_test(test_cl_round_after_trip),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);
