@@ -351,7 +351,9 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
  * rmd_comm_loss, rmd/state.h).  Bring-up writes it last and hands its
  * outcome to loop_cl_outcome().  The loop writes it again, in rounds of up
  * to ARM_TRIES writes (each a one-shot in the motor's control slot, its
- * answer awaited for the bus's reply deadline after the slot comes):
+ * answer awaited for the bus's reply deadline after the slot comes; a
+ * status read goes ahead of it in that slot, loop_tx.c, so that a motor
+ * that tripped since its last frame echoes the read, not the write):
  *   - when a motor answers after PROBE or LOST (loop_enter()): found after
  *     bring-up, or back, and perhaps swapped or reflashed;
  *   - when an enable arrives for a motor that is not armed, at most one
