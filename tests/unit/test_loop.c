@@ -862,6 +862,7 @@ static void v2_batch(struct rmd_config *cfg)
 		m->proto = RMD_PROTO_V2;
 		m->mode = RMD_MODE_TORQUE;
 		m->status_poll_hz = 0; /* no room for polls beside a full 0x280 cycle */
+		m->comm_loss_ms = 0;   /* V2: no 0xB3; driven only with the protection off */
 	}
 	cfg->n_buses = 1;
 }
@@ -1402,13 +1403,15 @@ static void v2_two(struct rmd_config *cfg)
 	for (unsigned i = 0; i < 2; i++) {
 		cfg->motors[i].proto = RMD_PROTO_V2;
 		cfg->motors[i].mode = RMD_MODE_TORQUE;
+		cfg->motors[i].comm_loss_ms = 0; /* V2: no 0xB3, off by config */
 	}
 }
 
 /*
  * V2 §3.29: motors whose multi-turn angle is -50 deg (in both of the
  * manual's readings), +100 deg or ten turns and more report it; V2 motors
- * have no 0xB3 and are UNSUPPORTED, never held back.
+ * have no 0xB3: with comm_loss_ms 0 (as a loaded config must say) they are
+ * OFF by config, never held back.
  */
 static void test_v2_start_angle(void **state)
 {
@@ -1445,7 +1448,7 @@ static void test_v2_start_angle(void **state)
 		}
 		bring_up();
 		assert_true(R.report.motor[0].v2_angle);
-		assert_int_equal(cl_of(0), RMD_CL_UNSUPPORTED);
+		assert_int_equal(cl_of(0), RMD_CL_OFF);
 		run(50, false);
 		s = snap();
 		if (fabs(s.m[0].pos_rad - c[k].deg * M_PI / 180.0) > 0.01)
@@ -1602,6 +1605,65 @@ static void test_cl_round_after_trip(void **state)
 	rig_down();
 }
 
+/* motors 1 and 2 V2 in torque mode: 1 without comm_loss_ms 0 (as no loaded config has it), 2 with */
+static void v2_one_unprotected(struct rmd_config *cfg)
+{
+	v2_two(cfg);
+	cfg->motors[0].comm_loss_ms = RMD_CONFIG_COMM_LOSS_INHERIT;
+}
+
+static void v2_one_unprotected_start(struct rmd_config *cfg)
+{
+	v2_one_unprotected(cfg);
+	cfg->probe.on_missing = RMD_MISSING_START;
+}
+
+/*
+ * Issue 13 for V2 motors, which have no 0xB3: one whose config turns the
+ * protection off (comm_loss_ms 0) is OFF by config, as a V3 motor would
+ * be, and runs; one whose config does not (the loader refuses that file,
+ * a program may still build it) is UNSUPPORTED: bring-up counts it as
+ * not armed (probe.on_missing refuse refuses to start), every enable is
+ * refused, counted and reported once, and nothing moves it or writes 0xB3.
+ */
+static void test_v2_protection_off_by_config(void **state)
+{
+	static struct rmd_health h;
+	unsigned from;
+
+	(void)state;
+	rig_up(3, v2_one_unprotected);
+	assert_int_equal(rmd_loop_bringup(R.l, &R.report), -ENODEV);
+	assert_int_equal(R.report.unarmed, 1);
+	assert_int_equal(R.report.motor[0].comm_loss, RMD_CL_UNSUPPORTED);
+	assert_int_equal(R.report.motor[1].comm_loss, RMD_CL_OFF);
+	rig_down();
+
+	rig_up(3, v2_one_unprotected_start);
+	bring_up();
+	assert_int_equal(cl_of(0), RMD_CL_UNSUPPORTED);
+	assert_int_equal(cl_of(1), RMD_CL_OFF);
+	cmd_clear();
+	for (unsigned i = 0; i < 2; i++)
+		cmd_motor(i, true, RMD_MODE_TORQUE)->torque_nm = 0.5;
+	from = trace_n;
+	run(300, true);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_false(moved_since(0, from));
+	assert_int_equal(sent_to(0, 0xB3, from), 0);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
+	assert_int_equal(cl_events(0, RMD_CL_UNSUPPORTED, 1), 1);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_TORQUE);
+	assert_true(rmd_loop_get_health(R.l, &h));
+	assert_int_equal(h.comm_loss[0], RMD_CL_UNSUPPORTED);
+	assert_true(h.unarmed_rejects[0] >= 100); /* health is a snapshot of some cycles ago */
+	assert_int_equal(h.comm_loss[1], RMD_CL_OFF);
+	assert_int_equal(h.comm_loss_ms[1], 0);
+	assert_int_equal(h.unarmed_rejects[1], 0);
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1632,6 +1694,7 @@ int main(void)
 		cmocka_unit_test(test_cl_zeros_answer),
 		cmocka_unit_test(test_wake_hist_and_reply_latency),
 		cmocka_unit_test(test_cl_round_after_trip),
+		cmocka_unit_test(test_v2_protection_off_by_config),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);
