@@ -525,6 +525,22 @@ static void three_at_speed(void)
 	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
 }
 
+/*
+ * Motor 2 alone got the safe action: one event, its stop (0x80) on the wire
+ * since trace[from] and its output off; motors 1 and 3 still ENABLED.
+ * Runs 5 cycles.
+ */
+static void assert_motor2_alone_stopped(unsigned from)
+{
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 1), 1);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
+	run(5, true);
+	assert_int_equal(sent_to(1, 0x80, from), 1);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+}
+
 static void test_lost_and_recovery(void **state)
 {
 	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
@@ -549,14 +565,8 @@ static void test_lost_and_recovery(void **state)
 	    n_lost > R.io.cfg.safety.missed_replies_lost + 3)
 		fail_msg("lost after %u cycles", n_lost);
 	assert_true(s.m[1].missed_replies >= R.io.cfg.safety.missed_replies_lost);
-	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 1), 1);
-	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
 	/* the safe action (stop) went out to it; the others keep running */
-	run(5, true);
-	assert_int_equal(sent_to(1, 0x80, from), 1);
-	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
-	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
-	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+	assert_motor2_alone_stopped(from);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
 
 	/* it answers again: READY, not ENABLED, though enable = 1 keeps coming */
@@ -1716,13 +1726,7 @@ static void lost_by_frame_fault(struct rmd_sim_fault f)
 	c = counters_since(&c0);
 	assert_true(c.missed >= n);
 	assert_true(c.unexpected >= n - 1);
-	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 1), 1);
-	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
-	run(5, true);
-	assert_int_equal(sent_to(1, 0x80, from), 1);
-	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
-	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
-	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+	assert_motor2_alone_stopped(from);
 	run(1000, true);
 	assert_true(count_ev(RMD_EV_UNEXPECTED, -1) <= 2); /* at most once a second per bus */
 	set_faults(0, NULL, 0);
@@ -1882,11 +1886,7 @@ static void test_fault_over_temperature(void **state)
 	unsigned k;
 
 	(void)state;
-	rig_up(3, NULL);
-	bring_up();
-	cmd_clear();
-	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(50, true);
+	up_at_speed(NULL, 1, 1.0, 50);
 	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
 	m = sim_motor(0);
 	m->p.thermal_tau_s = 0.05;
