@@ -27,18 +27,18 @@
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 
-#define OUTSTANDING 8			    /* requests in flight per motor */
-#define ONESHOTS 4			    /* one-shot frames waiting per motor */
-#define RX_BATCH 64			    /* frames per recv() call */
-#define RX_ROUNDS 8			    /* recv() calls per bus per drain: bounded work */
-#define TX_MAX (2 * RMD_PLAN_MAX_SLOTS + 8) /* frames of one bus in one cycle (loop_tx.c) */
-#define EVENT_INTERVAL_NS RMD_NS_PER_S	    /* repeated bus events: at most one a second */
-#define COLLECT_GUARD_NS 50000		    /* stop polling the buses this long before the tick */
-#define COLLECT_MIN_STEP_NS 50000	    /* shortest wait between two looks at the buses */
-#define STOP_TRIES 50			    /* rmd_loop_stop_motors(): sends per bus ... */
-#define STOP_STEP_NS 200000		    /* ... this far apart */
-#define ARM_TRIES 3			    /* 0xB3 writes of one round in the loop */
-#define ARM_ROUND_NS RMD_NS_PER_S /* a refused enable starts a new round this long after */
+#define OUTSTANDING 8			/* requests in flight per motor */
+#define ONESHOTS 4			/* one-shot frames waiting per motor */
+#define RX_BATCH 64			/* frames per recv() call */
+#define RX_ROUNDS 8			/* recv() calls per bus per drain: bounded work */
+#define TX_MAX (2 * RMD_PLAN_MAX_SLOTS) /* frames of one bus in one cycle: 2 a slot */
+#define EVENT_INTERVAL_NS RMD_NS_PER_S	/* repeated bus events: at most one a second */
+#define COLLECT_GUARD_NS 50000		/* stop polling the buses this long before the tick */
+#define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
+#define STOP_TRIES 50			/* rmd_loop_stop_motors(): sends per bus ... */
+#define STOP_STEP_NS 200000		/* ... this far apart */
+#define ARM_TRIES 3			/* 0xB3 writes of one round in the loop */
+#define ARM_ROUND_NS RMD_NS_PER_S	/* a refused enable starts a new round this long after */
 
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {
