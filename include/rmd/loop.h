@@ -66,7 +66,8 @@
  * a precondition of motion (enum rmd_comm_loss, rmd/state.h): a READY or
  * SAFE motor that is not armed is not enabled.  Bring-up writes it last;
  * the loop writes it again (rounds of up to 3 writes, one-shots in the
- * control slot, matched like the others) when a motor answers after PROBE
+ * control slot behind a 0x9A that takes a tripped motor's echo, matched
+ * like the others) when a motor answers after PROBE
  * or LOST (found late, or back and perhaps swapped), and when an enable
  * arrives for a motor that is not armed (at most one round a second: the
  * write goes to ROM).  An enable during a round waits for it and applies

@@ -115,6 +115,15 @@ struct rmd_sim_motor_params {
 	 * example 2) instead of repeating the request (its text).
 	 */
 	bool b3_answer_zeros;
+	/*
+	 * An earlier run's comm-loss protection (V3 §2.30): the 0xB3 time in
+	 * ROM at first power-on (ms; 0: off), and whether it has tripped
+	 * already (rmdd killed, the motor still powered): the first command
+	 * the motor then gets is only echoed (docs/design.md), and 0xF1
+	 * frames come each second until then.
+	 */
+	unsigned comm_loss_rom_ms;
+	bool comm_loss_tripped;
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */

@@ -48,10 +48,15 @@ enum rmd_comm_loss {
 	 * either way, so it counts as armed; the time is not verified.
 	 */
 	RMD_CL_ARMED_ZEROS,
-	RMD_CL_NO_ANSWER,   /* no answer to the bounded writes: cannot be enabled */
-	RMD_CL_DIFFERS,	    /* answered with another time than written: cannot be enabled */
-	RMD_CL_OFF,	    /* off by the configuration (comm_loss_ms: 0) */
-	RMD_CL_UNSUPPORTED, /* protocol V2: it has no 0xB3, and no protection */
+	RMD_CL_NO_ANSWER, /* no answer to the bounded writes: cannot be enabled */
+	RMD_CL_DIFFERS,	  /* answered with another time than written: cannot be enabled */
+	RMD_CL_OFF,	  /* off by the configuration (comm_loss_ms: 0) */
+	/*
+	 * Protocol V2: it has no 0xB3 and no protection (the V2 manual's
+	 * command list, §2), and its comm_loss_ms is not 0: never enabled.  A
+	 * loaded configuration refuses this; with comm_loss_ms: 0 it is OFF.
+	 */
+	RMD_CL_UNSUPPORTED,
 	RMD_CL_COUNT
 };
 
@@ -61,10 +66,10 @@ static inline bool rmd_comm_loss_set(uint8_t cl)
 	return cl == RMD_CL_ARMED || cl == RMD_CL_ARMED_ZEROS;
 }
 
-/* The motor may be enabled: armed, off by config, or a V2 motor (no 0xB3).  rt-safe. */
+/* The motor may be enabled: armed, or off by config (V2 motors: only so).  rt-safe. */
 static inline bool rmd_comm_loss_allows_motion(uint8_t cl)
 {
-	return rmd_comm_loss_set(cl) || cl == RMD_CL_OFF || cl == RMD_CL_UNSUPPORTED;
+	return rmd_comm_loss_set(cl) || cl == RMD_CL_OFF;
 }
 
 /* One motor's setpoint, already validated and clamped to its limits. */

@@ -845,6 +845,37 @@ static void validate_timing(struct yctx *c, const struct rmd_config *cfg, const 
 	}
 }
 
+/*
+ * Issue 13: a motor that cannot be armed moves only when the config turns
+ * its protection off.  V2 motors have none: the V2 manual's command list
+ * (rmd-can-protocol-v2.0-en.txt §2, 52 commands) has no 0xB3 and no other
+ * communication timeout.  So a V2 motor needs comm_loss_ms 0, its own or
+ * safety's, written in the file (the default is not 0).
+ */
+static void validate_v2_protection(struct yctx *c, const struct rmd_config *cfg,
+				   const struct ynode *root)
+{
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		const struct rmd_config_motor *m = &cfg->motors[i];
+		const struct ynode *mn = motor_node(root, i);
+		char kp[PATH_LEN];
+
+		if (m->proto != RMD_PROTO_V2 || !rmd_config_comm_loss_ms(cfg, i))
+			continue;
+		snprintf(kp, sizeof(kp), "motors[%u].comm_loss_ms", i);
+		rmd_yaml_report(
+			c,
+			m->comm_loss_ms >= 0 ? rmd_yaml_line_of(mn, "comm_loss_ms") :
+					       rmd_yaml_line_of(mn, "protocol"),
+			kp,
+			"motor %s is V2, which has no comm-loss protection (no 0xB3 in the "
+			"V2 manual): rmdd drives it only with the protection off explicitly; "
+			"write comm_loss_ms: 0 in its entry (if rmdd dies, nothing stops it "
+			"but its power)",
+			m->name);
+	}
+}
+
 /* ------------------------------------------------------------------ */
 /* API */
 
@@ -930,6 +961,7 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 	validate_lcm(&c, cfg, root);
 	validate_incidents(&c, cfg, root);
 	validate_timing(&c, cfg, root);
+	validate_v2_protection(&c, cfg, root);
 	ret = c.nerr ? -EINVAL : 0;
 out:
 	rmd_yaml_tree_free(&t);

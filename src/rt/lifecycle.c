@@ -351,7 +351,9 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
  * rmd_comm_loss, rmd/state.h).  Bring-up writes it last and hands its
  * outcome to loop_cl_outcome().  The loop writes it again, in rounds of up
  * to ARM_TRIES writes (each a one-shot in the motor's control slot, its
- * answer awaited for the bus's reply deadline after the slot comes):
+ * answer awaited for the bus's reply deadline after the slot comes; a
+ * status read goes ahead of it in that slot, loop_tx.c, so that a motor
+ * that tripped since its last frame echoes the read, not the write):
  *   - when a motor answers after PROBE or LOST (loop_enter()): found after
  *     bring-up, or back, and perhaps swapped or reflashed;
  *   - when an enable arrives for a motor that is not armed, at most one
@@ -364,8 +366,11 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
  * ARM_ROUND_NS ago is refused (a later one starts a new round).  A
  * refusal is counted per motor (unarmed_rejects, in health) and reported
  * through the event ring once per episode (until the motor is armed or
- * lost).  Motors whose protection is off by config, and V2 motors, which
- * have none, are not written by the loop and never held back.
+ * lost).  Motors whose protection is off by config are not written by
+ * the loop and never held back.  V2 motors have none (no 0xB3): they move
+ * only when their config turns it off (comm_loss_ms: 0, OFF as any other);
+ * else (UNSUPPORTED: a configuration the loader refuses) every enable is
+ * refused, and nothing is written.
  */
 
 /* rt-safe. */
@@ -377,10 +382,10 @@ static uint32_t cl_ms(const struct rmd_loop *l, const struct lmotor *lm)
 /* Forget the protection: the motor may not be the one that was armed.  rt-safe. */
 static void cl_forget(struct rmd_loop *l, struct lmotor *lm)
 {
-	if (lm->m.proto == RMD_PROTO_V2)
-		lm->cl = RMD_CL_UNSUPPORTED;
-	else if (!cl_ms(l, lm))
+	if (!cl_ms(l, lm))
 		lm->cl = RMD_CL_OFF;
+	else if (lm->m.proto == RMD_PROTO_V2)
+		lm->cl = RMD_CL_UNSUPPORTED;
 	else
 		lm->cl = RMD_CL_PENDING;
 	lm->cl_round = false;
@@ -411,6 +416,10 @@ static void cl_refuse(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 static void cl_enable_wanted(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			     int64_t now)
 {
+	if (lm->cl == RMD_CL_UNSUPPORTED) {
+		cl_refuse(l, lm, now); /* nothing to write */
+		return;
+	}
 	if (!lm->cl_round && now - lm->cl_round_end_ns < ARM_ROUND_NS) {
 		cl_refuse(l, lm, now);
 		return;

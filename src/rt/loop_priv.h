@@ -32,7 +32,7 @@
 #define ONESHOTS 4			/* one-shot frames waiting per motor */
 #define RX_BATCH 64			/* frames per recv() call */
 #define RX_ROUNDS 8			/* recv() calls per bus per drain: bounded work */
-#define TX_MAX (RMD_PLAN_MAX_SLOTS + 8) /* frames of one bus in one cycle */
+#define TX_MAX (2 * RMD_PLAN_MAX_SLOTS) /* frames of one bus in one cycle: 2 a slot */
 #define EVENT_INTERVAL_NS RMD_NS_PER_S	/* repeated bus events: at most one a second */
 #define COLLECT_GUARD_NS 50000		/* stop polling the buses this long before the tick */
 #define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */

@@ -79,6 +79,32 @@ static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm
 		push_cmd(l, lb, lm, 0x80);
 }
 
+/*
+ * A one-shot whose echo the loop takes as proof that the motor did it: the
+ * 0xB3 write (V3 §2.30; lifecycle.c "Comm-loss protection").  A motor whose
+ * protection tripped only echoes the first command it gets
+ * (docs/design.md), and an echo is all 0xB3's answer is.  rt-safe.
+ */
+static bool oneshot_echo_verified(const struct lmotor *lm, const struct rmd_frame *f)
+{
+	return f->can_id == RMD_CAN_REQ_BASE + lm->m.id && f->len && f->data[0] == 0xB3;
+}
+
+/*
+ * The head of lm's one-shot queue.  An echo-verified one goes right behind
+ * a status read (0x9A) in the same slot: that read takes the echo of a
+ * motor that tripped since its last frame, whatever the gap between its
+ * frames, and the write is done.  That is one exchange more than the plan
+ * counts, only for these writes (at most ARM_TRIES in a round; TX_MAX has
+ * room for a second frame in every slot).  rt-safe.
+ */
+static void push_oneshot(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+{
+	if (oneshot_echo_verified(lm, &lm->oneshot[0]))
+		push_cmd(l, lb, lm, 0x9A);
+	loop_push_tx(lb, &lm->oneshot[0], loop_idx(l, lm), REQ_ONESHOT);
+}
+
 /* rt-safe. */
 static void add_control(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
 {
@@ -86,7 +112,7 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, 
 
 	/* one-shots first: an ENABLED motor's brake release, the others' stops */
 	if (lm->n_oneshot) {
-		loop_push_tx(lb, &lm->oneshot[0], loop_idx(l, lm), REQ_ONESHOT);
+		push_oneshot(l, lb, lm);
 		return;
 	}
 	if (lm->st.lifecycle == RMD_LC_ENABLED) {
@@ -143,7 +169,7 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 		struct lmotor *lm = &l->mot[pb->motors[k]];
 
 		if ((pb->batched & (1u << k)) && lm->n_oneshot) {
-			loop_push_tx(lb, &lm->oneshot[0], loop_idx(l, lm), REQ_ONESHOT);
+			push_oneshot(l, lb, lm);
 			queued = true;
 			room--;
 		}

@@ -176,7 +176,8 @@ static void rom_defaults(struct rmd_sim_motor *m)
 		r->pid[i] = rmd_sim_pid_default(m->p.proto, i);
 	for (unsigned i = 0; i < 4; i++)
 		r->accel_dps2[i] = ACCEL_DEFAULT_DPS2;
-	r->baud_code = 1; /* V3 §2.31.1: 1 is CAN 1 Mbit/s */
+	r->baud_code = 1;			    /* V3 §2.31.1: 1 is CAN 1 Mbit/s */
+	r->comm_timeout_ms = m->p.comm_loss_rom_ms; /* an earlier run's 0xB3 */
 	/* V3 §3.1: off, so 0x280 reaches the motor out of the box. */
 	r->can_filter = false;
 	r->multiturn_save = false;
@@ -228,6 +229,14 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 	boot(m, now_ns);
 	/* first power-on: where the shaft happens to be, turns included */
 	m->pos_rad = m->p.start_angle_deg * (M_PI / 180.0);
+	/* an earlier run's protection, tripped since (V2 has none) */
+	if (m->p.comm_loss_tripped && m->ram.comm_timeout_ms && m->p.proto != RMD_PROTO_V2) {
+		m->comm_armed = true;
+		m->last_rx_ns = now_ns;
+		m->comm_lost = true;
+		m->echo_next = true;
+		m->next_f1_ns = now_ns;
+	}
 }
 
 void rmd_sim_motor_power_cycle(struct rmd_sim_motor *m, int64_t now_ns)

@@ -860,6 +860,34 @@ static void test_check_config_special_files(void **state)
 	unlink(fifo);
 }
 
+/*
+ * Issue 13: a V2 motor (no 0xB3) is driven only with comm_loss_ms: 0 in the
+ * file: --check-config refuses it otherwise, naming the motor and the key
+ * to write, and takes it with the key.
+ */
+static void test_check_config_v2_protection(void **state)
+{
+	static const char head[] = "buses: [{name: s0, type: sim}]\n"
+				   "motors: [{name: grip, bus: s0, id: 1, protocol: v2, "
+				   "mode: torque, torque_constant_nm_a: 2";
+	static struct proc p;
+	char path[512], yaml[512];
+	const char *argv[] = { "--check-config", path, NULL };
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/v2.yaml", tmpdir);
+	snprintf(yaml, sizeof(yaml), "%s}]\n", head);
+	write_file(path, yaml);
+	assert_int_equal(run(&p, argv), 1);
+	expect_in(&p, "v2.yaml:2: motors[0].comm_loss_ms: motor grip is V2, which has no "
+		      "comm-loss protection (no 0xB3 in the V2 manual): rmdd drives it only with "
+		      "the protection off explicitly; write comm_loss_ms: 0 in its entry");
+	snprintf(yaml, sizeof(yaml), "%s, comm_loss_ms: 0}]\n", head);
+	write_file(path, yaml);
+	assert_int_equal(run(&p, argv), 0);
+	assert_null(strstr(p.out, "comm_loss_ms"));
+}
+
 /* ---- set-up ----------------------------------------------------------------------- */
 
 static int setup(void **state)
@@ -1159,6 +1187,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_quiet_is_quiet, reap),
 		cmocka_unit_test_teardown(test_lcm_error_is_clean, reap),
 		cmocka_unit_test_teardown(test_config_directory, reap),
+		cmocka_unit_test_teardown(test_check_config_v2_protection, reap),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_cpu_affinity_missing */

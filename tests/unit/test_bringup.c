@@ -86,6 +86,8 @@ struct rig {
 };
 
 static struct rig R;
+/* when set, rig_up() hands it the simulated motors' setup before it opens the buses */
+static void (*rig_sim_tweak)(struct rmd_sim_setup *sim);
 
 static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faults,
 		   unsigned n_faults)
@@ -104,6 +106,8 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 	if (n_faults)
 		memcpy(R.simset.buses[0].faults, faults, n_faults * sizeof(*faults));
 	R.simset.buses[0].n_faults = n_faults;
+	if (rig_sim_tweak)
+		rig_sim_tweak(&R.simset);
 	if (rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err)))
 		fail_msg("plan: %s", err);
 	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
@@ -333,6 +337,42 @@ static void test_config_timing(void **state)
 	assert_true(t.half_duplex);
 }
 
+/*
+ * Motor 1 kept a 1 ms protection in ROM from an earlier run: armed by its
+ * probe, it trips while bring-up scans the bus, so it only echoes the
+ * first command it gets next, and 0xB3's answer is its echo.  The status
+ * read that goes first takes the echo: the write is done and its echo is
+ * the motor's, the ROM holds the configured time (commit f3bb014; without
+ * the read, 0xB3 was reported set while the ROM kept 1 ms).
+ */
+static void rom_1ms_motor1(struct rmd_sim_setup *sim)
+{
+	sim->motors[0].comm_loss_rom_ms = 1;
+}
+
+static void test_b3_after_trip(void **state)
+{
+	const struct rmd_sim_motor *m;
+
+	(void)state;
+	rig_sim_tweak = rom_1ms_motor1;
+	rig_up(3, TAMPER_NONE, NULL, 0);
+	rig_sim_tweak = NULL;
+	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 1);
+	assert_int_equal(m->rom.comm_timeout_ms, 1);
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	for (unsigned i = 0; i < 3; i++) {
+		m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[R.cfg.motors[i].bus]),
+				       R.cfg.motors[i].id);
+		assert_int_equal(R.bu.motor[i].b3, RMD_B3_SET);
+		if (m->rom.comm_timeout_ms != R.cfg.safety.comm_loss_ms)
+			fail_msg(
+				"motor %u: ROM keeps %u ms, configured %u: its echo passed for the write",
+				i + 1, m->rom.comm_timeout_ms, R.cfg.safety.comm_loss_ms);
+	}
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -343,6 +383,7 @@ int main(void)
 		cmocka_unit_test(test_sim_caps_and_accessors),
 		cmocka_unit_test(test_open_config_equals_spec),
 		cmocka_unit_test(test_config_timing),
+		cmocka_unit_test(test_b3_after_trip),
 	};
 
 	return cmocka_run_group_tests_name("bringup", tests, NULL, NULL);

@@ -922,6 +922,51 @@ static void test_comm_loss_keys(void **state)
 			     "comm_loss_ms: -1}\n") < 0);
 }
 
+/*
+ * Issue 13: a V2 motor has no 0xB3 (the V2 manual's command list), so it
+ * is driven only when the file turns its protection off: comm_loss_ms 0,
+ * its own or safety's.  Otherwise the file is refused, naming the motor
+ * and what to write.
+ */
+static void test_v2_needs_protection_off(void **state)
+{
+#define V2_BUS "buses:\n  - {name: s, type: sim}\nmotors:\n"
+#define V2_MOTOR \
+	"  - {name: grip, bus: s, id: 1, protocol: v2, mode: torque, torque_constant_nm_a: 2"
+	(void)state;
+	/* the default (100 ms) does not do */
+	assert_int_equal(load_str("v2-default", V2_BUS V2_MOTOR "}\n"), -EINVAL);
+	expect_in(err, ":4: motors[0].comm_loss_ms: motor grip is V2, which has no comm-loss "
+		       "protection (no 0xB3 in the V2 manual)");
+	expect_in(err, "write comm_loss_ms: 0 in its entry");
+	/* nor its own time, nor safety's: the line is the key's */
+	assert_int_equal(load_str("v2-own", V2_BUS "  - {name: a, bus: s, id: 2, mode: torque, "
+						   "torque_constant_nm_a: 2}\n" V2_MOTOR
+						   ",\n     comm_loss_ms: 200}\n"),
+			 -EINVAL);
+	expect_in(err, ":6: motors[1].comm_loss_ms: motor grip is V2");
+	assert_null(strstr(err, "motor a "));
+	assert_int_equal(load_str("v2-safety",
+				  "safety: {comm_loss_ms: 300}\n" V2_BUS V2_MOTOR "}\n"),
+			 -EINVAL);
+	expect_in(err, "motor grip is V2");
+	/* the motor's own 0 is the consent, and only its own motor gets it */
+	assert_int_equal(load_str("v2-off",
+				  V2_BUS V2_MOTOR ", comm_loss_ms: 0}\n"
+						  "  - {name: b, bus: s, id: 2, mode: torque, "
+						  "torque_constant_nm_a: 2}\n"),
+			 0);
+	assert_string_equal(err, "");
+	assert_int_equal(rmd_config_comm_loss_ms(&cfg, 0), 0);
+	assert_int_equal(rmd_config_comm_loss_ms(&cfg, 1), RMD_CONFIG_DEFAULT_COMM_LOSS_MS);
+	/* safety's 0, written, turns it off for every motor, V2 included */
+	assert_int_equal(
+		load_str("v2-all-off", "safety: {comm_loss_ms: 0}\n" V2_BUS V2_MOTOR "}\n"), 0);
+	assert_int_equal(rmd_config_comm_loss_ms(&cfg, 0), 0);
+#undef V2_MOTOR
+#undef V2_BUS
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -945,6 +990,7 @@ int main(void)
 		cmocka_unit_test(test_range_u64),
 		cmocka_unit_test(test_physical_lower_bounds),
 		cmocka_unit_test(test_comm_loss_keys),
+		cmocka_unit_test(test_v2_needs_protection_off),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

@@ -70,6 +70,8 @@ struct rig {
 };
 
 static struct rig R;
+/* when set, rig_up() hands it the simulated motors' setup before it opens the buses */
+static void (*rig_sim_tweak)(struct rmd_sim_setup *sim);
 static struct rmd_event evs[EVENTS_MAX];
 static unsigned nev;
 
@@ -148,6 +150,8 @@ static void rig_up_clock(unsigned n, tweak_fn *tweak, bool real)
 	if (tweak)
 		tweak(&R.io.cfg);
 	sync_sim(&R.io.cfg);
+	if (rig_sim_tweak)
+		rig_sim_tweak(&R.io.sim);
 	r = rmd_plan_build(&R.io.cfg, &R.io.plan, err, sizeof(err));
 	if (r)
 		fail_msg("plan: %s", err);
@@ -521,6 +525,22 @@ static void three_at_speed(void)
 	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
 }
 
+/*
+ * Motor 2 alone got the safe action: one event, its stop (0x80) on the wire
+ * since trace[from] and its output off; motors 1 and 3 still ENABLED.
+ * Runs 5 cycles.
+ */
+static void assert_motor2_alone_stopped(unsigned from)
+{
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 1), 1);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
+	run(5, true);
+	assert_int_equal(sent_to(1, 0x80, from), 1);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+}
+
 static void test_lost_and_recovery(void **state)
 {
 	struct rmd_sim_fault drop = { .kind = RMD_SIM_FAULT_DROP,
@@ -545,14 +565,8 @@ static void test_lost_and_recovery(void **state)
 	    n_lost > R.io.cfg.safety.missed_replies_lost + 3)
 		fail_msg("lost after %u cycles", n_lost);
 	assert_true(s.m[1].missed_replies >= R.io.cfg.safety.missed_replies_lost);
-	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 1), 1);
-	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
 	/* the safe action (stop) went out to it; the others keep running */
-	run(5, true);
-	assert_int_equal(sent_to(1, 0x80, from), 1);
-	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
-	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
-	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+	assert_motor2_alone_stopped(from);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
 
 	/* it answers again: READY, not ENABLED, though enable = 1 keeps coming */
@@ -858,6 +872,7 @@ static void v2_batch(struct rmd_config *cfg)
 		m->proto = RMD_PROTO_V2;
 		m->mode = RMD_MODE_TORQUE;
 		m->status_poll_hz = 0; /* no room for polls beside a full 0x280 cycle */
+		m->comm_loss_ms = 0;   /* V2: no 0xB3; driven only with the protection off */
 	}
 	cfg->n_buses = 1;
 }
@@ -1398,13 +1413,15 @@ static void v2_two(struct rmd_config *cfg)
 	for (unsigned i = 0; i < 2; i++) {
 		cfg->motors[i].proto = RMD_PROTO_V2;
 		cfg->motors[i].mode = RMD_MODE_TORQUE;
+		cfg->motors[i].comm_loss_ms = 0; /* V2: no 0xB3, off by config */
 	}
 }
 
 /*
  * V2 §3.29: motors whose multi-turn angle is -50 deg (in both of the
  * manual's readings), +100 deg or ten turns and more report it; V2 motors
- * have no 0xB3 and are UNSUPPORTED, never held back.
+ * have no 0xB3: with comm_loss_ms 0 (as a loaded config must say) they are
+ * OFF by config, never held back.
  */
 static void test_v2_start_angle(void **state)
 {
@@ -1441,7 +1458,7 @@ static void test_v2_start_angle(void **state)
 		}
 		bring_up();
 		assert_true(R.report.motor[0].v2_angle);
-		assert_int_equal(cl_of(0), RMD_CL_UNSUPPORTED);
+		assert_int_equal(cl_of(0), RMD_CL_OFF);
 		run(50, false);
 		s = snap();
 		if (fabs(s.m[0].pos_rad - c[k].deg * M_PI / 180.0) > 0.01)
@@ -1533,6 +1550,367 @@ static void test_wake_hist_and_reply_latency(void **state)
 	rig_down();
 }
 
+/* 100 Hz, probe.on_missing start */
+static void slow_missing_start(struct rmd_config *cfg)
+{
+	cfg->probe.on_missing = RMD_MISSING_START;
+	cfg->loop.rate_hz = 100;
+}
+
+/* Motor 3 was left by an earlier run with a 3 ms protection in ROM, tripped since. */
+static void rom_3ms_tripped_motor3(struct rmd_sim_setup *sim)
+{
+	sim->motors[2].comm_loss_rom_ms = 3;
+	sim->motors[2].comm_loss_tripped = true;
+}
+
+/*
+ * The loop's own round after PROBE/LOST -> READY against a motor that
+ * trips between two of the loop's frames: motor 3 keeps 3 ms in ROM from
+ * an earlier run (tripped: it echoes the first command), its cable is cut
+ * through bring-up, and at 100 Hz its first answer (an echo) and the
+ * round's 0xB3 a cycle later are 10 ms apart: it trips in between and
+ * only echoes the 0xB3, which is its answer.  The status read queued
+ * ahead of the 0xB3 takes that echo, so the write is done: the motor's ROM
+ * holds the configured time, and once enabled it moves (with 3 ms it
+ * would trip between every two frames and only echo them).
+ */
+static void test_cl_round_after_trip(void **state)
+{
+	/* its cable cut through bring-up; firmware that sends no 0xF1 when it trips */
+	struct rmd_sim_fault f[2] = {
+		{ .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 3 },
+		{ .kind = RMD_SIM_FAULT_DROP, .motor_id = 3, .probability = 1.0, .cmd = 0xF1 },
+	};
+	struct rmd_loop_counters c;
+	unsigned from;
+
+	(void)state;
+	rig_sim_tweak = rom_3ms_tripped_motor3;
+	rig_up(3, slow_missing_start);
+	rig_sim_tweak = NULL;
+	assert_true(sim_motor(2)->comm_lost && sim_motor(2)->echo_next);
+	assert_int_equal(sim_motor(2)->rom.comm_timeout_ms, 3);
+	f[0].end_ns = sim_time(0) + 500 * MS;
+	set_faults(0, f, 2);
+	bring_up();
+	assert_int_equal(R.report.motor[2].state, RMD_BRINGUP_MISSING);
+	cmd_clear();
+	from = trace_n;
+	run(150, false);
+	assert_true(sent_to(2, 0xB3, from) >= 1);
+	if (sim_motor(2)->rom.comm_timeout_ms != R.io.cfg.safety.comm_loss_ms)
+		fail_msg("motor 3: ROM keeps %u ms, configured %u: its echo passed for the write",
+			 sim_motor(2)->rom.comm_timeout_ms, R.io.cfg.safety.comm_loss_ms);
+	assert_int_equal(lifecycle(2), RMD_LC_READY);
+	assert_int_equal(cl_of(2), RMD_CL_ARMED);
+	rmd_loop_get_counters(R.l, &c);
+	assert_true(c.echoes >= 2); /* its first answer, and the read ahead of the 0xB3 */
+	/* armed for real: the controller enables it and it moves */
+	cl_reenable(2);
+	run(30, true);
+	assert_int_equal(lifecycle(2), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(2)->ctrl, RMD_SIM_SPEED);
+	assert_false(sim_motor(2)->comm_lost);
+	rig_down();
+}
+
+/* motors 1 and 2 V2 in torque mode: 1 without comm_loss_ms 0 (as no loaded config has it), 2 with */
+static void v2_one_unprotected(struct rmd_config *cfg)
+{
+	v2_two(cfg);
+	cfg->motors[0].comm_loss_ms = RMD_CONFIG_COMM_LOSS_INHERIT;
+}
+
+static void v2_one_unprotected_start(struct rmd_config *cfg)
+{
+	v2_one_unprotected(cfg);
+	cfg->probe.on_missing = RMD_MISSING_START;
+}
+
+/*
+ * Issue 13 for V2 motors, which have no 0xB3: one whose config turns the
+ * protection off (comm_loss_ms 0) is OFF by config, as a V3 motor would
+ * be, and runs; one whose config does not (the loader refuses that file,
+ * a program may still build it) is UNSUPPORTED: bring-up counts it as
+ * not armed (probe.on_missing refuse refuses to start), every enable is
+ * refused, counted and reported once, and nothing moves it or writes 0xB3.
+ */
+static void test_v2_protection_off_by_config(void **state)
+{
+	static struct rmd_health h;
+	unsigned from;
+
+	(void)state;
+	rig_up(3, v2_one_unprotected);
+	assert_int_equal(rmd_loop_bringup(R.l, &R.report), -ENODEV);
+	assert_int_equal(R.report.unarmed, 1);
+	assert_int_equal(R.report.motor[0].comm_loss, RMD_CL_UNSUPPORTED);
+	assert_int_equal(R.report.motor[1].comm_loss, RMD_CL_OFF);
+	rig_down();
+
+	rig_up(3, v2_one_unprotected_start);
+	bring_up();
+	assert_int_equal(cl_of(0), RMD_CL_UNSUPPORTED);
+	assert_int_equal(cl_of(1), RMD_CL_OFF);
+	cmd_clear();
+	for (unsigned i = 0; i < 2; i++)
+		cmd_motor(i, true, RMD_MODE_TORQUE)->torque_nm = 0.5;
+	from = trace_n;
+	run(300, true);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_false(moved_since(0, from));
+	assert_int_equal(sent_to(0, 0xB3, from), 0);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
+	assert_int_equal(cl_events(0, RMD_CL_UNSUPPORTED, 1), 1);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_TORQUE);
+	assert_true(rmd_loop_get_health(R.l, &h));
+	assert_int_equal(h.comm_loss[0], RMD_CL_UNSUPPORTED);
+	assert_true(h.unarmed_rejects[0] >= 100); /* health is a snapshot of some cycles ago */
+	assert_int_equal(h.comm_loss[1], RMD_CL_OFF);
+	assert_int_equal(h.comm_loss_ms[1], 0);
+	assert_int_equal(h.unarmed_rejects[1], 0);
+	rig_down();
+}
+
+/* ---- issue 10 point 5: the fault matrix (docs/faults.md), one fault kind per test -------- */
+
+/* Loop counters since c0. */
+static struct rmd_loop_counters counters_since(const struct rmd_loop_counters *c0)
+{
+	struct rmd_loop_counters c;
+
+	rmd_loop_get_counters(R.l, &c);
+	c.missed -= c0->missed;
+	c.unexpected -= c0->unexpected;
+	c.bad_replies -= c0->bad_replies;
+	c.replies -= c0->replies;
+	return c;
+}
+
+/*
+ * Cycles from now until motor i is LOST (at most `max`), with R.cmd; the
+ * bound of the matrix: missed_replies_lost requests in a row, each missed
+ * at its deadline (a few cycles after it went out).
+ */
+static unsigned cycles_to_lost(unsigned i, unsigned max)
+{
+	for (unsigned k = 1; k <= max; k++) {
+		run(1, true);
+		if (lifecycle(i) == RMD_LC_LOST)
+			return k;
+	}
+	fail_msg("motor %u not lost in %u cycles", i + 1, max);
+	return 0;
+}
+
+/*
+ * A per-frame fault on all of motor 2's frames that leaves its requests
+ * unanswered (the reply is unreadable as its answer): LOST within
+ * missed_replies_lost + 3 cycles, with the safe action for it alone; the
+ * frames counted unexpected and reported at most once a second; READY
+ * once the fault ends, ENABLED again after enable 0 then 1.
+ */
+static void lost_by_frame_fault(struct rmd_sim_fault f)
+{
+	unsigned n = R.io.cfg.safety.missed_replies_lost, from;
+	struct rmd_loop_counters c0, c;
+
+	three_at_speed();
+	rmd_loop_get_counters(R.l, &c0);
+	nev = 0;
+	from = fault_now(&f, 0);
+	if (cycles_to_lost(1, n + 3) < n)
+		fail_msg("lost before %u missed replies", n);
+	c = counters_since(&c0);
+	assert_true(c.missed >= n);
+	assert_true(c.unexpected >= n - 1);
+	assert_motor2_alone_stopped(from);
+	run(1000, true);
+	assert_true(count_ev(RMD_EV_UNEXPECTED, -1) <= 2); /* at most once a second per bus */
+	set_faults(0, NULL, 0);
+	run(700, true);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	cl_reenable(1);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_SPEED);
+	rig_down();
+}
+
+/* garbage: random data bytes, so no answer matches its request. */
+static void test_fault_garbage(void **state)
+{
+	(void)state;
+	lost_by_frame_fault((struct rmd_sim_fault){
+		.kind = RMD_SIM_FAULT_GARBAGE, .motor_id = 2, .probability = 1.0 });
+}
+
+/* bad_dlc 0: an empty frame is no answer. */
+static void test_fault_bad_dlc_empty(void **state)
+{
+	(void)state;
+	lost_by_frame_fault((struct rmd_sim_fault){
+		.kind = RMD_SIM_FAULT_BAD_DLC, .motor_id = 2, .probability = 1.0, .param = 0 });
+}
+
+/* wrong_id: motor 2 answers on motor 1's identifier; motor 2's requests go unanswered. */
+static void test_fault_wrong_id(void **state)
+{
+	(void)state;
+	lost_by_frame_fault((struct rmd_sim_fault){
+		.kind = RMD_SIM_FAULT_WRONG_ID, .motor_id = 2, .probability = 1.0, .param = 1 });
+}
+
+/*
+ * bad_dlc 1..7: the answer carries its command byte, so it matches its
+ * request (the motor is there) but cannot be decoded: each is counted
+ * (bad_replies) and the motor's values stay those of its last good reply.
+ * It is not lost: a gap the matrix names (its state's rx time stops).
+ */
+static void test_fault_bad_dlc_short(void **state)
+{
+	struct rmd_sim_fault f = {
+		.kind = RMD_SIM_FAULT_BAD_DLC, .motor_id = 2, .probability = 1.0, .param = 4
+	};
+	struct rmd_loop_counters c0, c;
+	struct rmd_snapshot s0, s;
+
+	(void)state;
+	three_at_speed();
+	rmd_loop_get_counters(R.l, &c0);
+	fault_now(&f, 0);
+	run(2, true);
+	s0 = snap();
+	run(100, true);
+	c = counters_since(&c0);
+	s = snap();
+	assert_true(c.bad_replies >= 95);
+	assert_int_equal(c.missed, 0);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	assert_true(s.m[1].pos_rad == s0.m[1].pos_rad); /* frozen */
+	assert_true(s.m[0].pos_rad > s0.m[0].pos_rad + 0.05);
+	assert_int_equal(s.m[1].rx_ns, s0.m[1].rx_ns);
+	set_faults(0, NULL, 0);
+	run(5, true);
+	assert_true(snap().m[1].pos_rad > s.m[1].pos_rad + 0.05);
+	rig_down();
+}
+
+/*
+ * delay: an answer within the reply deadline (1 ms at 1 kHz) changes
+ * nothing; one past it (10 ms) makes the first requests missed (counted),
+ * then the late answers match newer requests of the same command: the
+ * motor is not lost (a gap the matrix names: its values are the delay
+ * old, and reply_latency_ns does not show it).
+ */
+static void test_fault_delay(void **state)
+{
+	struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_DELAY, .motor_id = 2, .probability = 1.0 };
+	struct rmd_loop_counters c0, c;
+
+	(void)state;
+	three_at_speed();
+	f.param = 1 * MS;
+	rmd_loop_get_counters(R.l, &c0);
+	fault_now(&f, 0);
+	run(300, true);
+	c = counters_since(&c0);
+	assert_int_equal(c.missed, 0);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	f.param = 10 * MS;
+	fault_now(&f, 0);
+	rmd_loop_get_counters(R.l, &c0);
+	run(300, true);
+	c = counters_since(&c0);
+	if (c.missed < 1 || c.missed > 12)
+		fail_msg("%llu missed with a 10 ms delay", (unsigned long long)c.missed);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	rig_down();
+}
+
+/*
+ * flood: a foreign node's frames on an identifier no motor uses are counted
+ * (unexpected) and reported at most once a second, and change nothing else;
+ * one on identifier 0x001 every 100 us wins every arbitration, so nothing
+ * of rmdd's leaves: every motor LOST (safe action, plan misses), READY once
+ * the flood ends.
+ */
+static void test_fault_flood(void **state)
+{
+	struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_FLOOD,
+				   .param = 200 * US,
+				   .can_id = 0x7FF };
+	struct rmd_loop_counters c0, c;
+	struct rmd_loop_stats st;
+
+	(void)state;
+	three_at_speed();
+	rmd_loop_get_counters(R.l, &c0);
+	nev = 0;
+	fault_now(&f, 0);
+	run(1500, true);
+	c = counters_since(&c0);
+	assert_true(c.unexpected >= 1500); /* at least one a cycle: it yields to rmdd's frames */
+	assert_int_equal(c.missed, 0);
+	assert_true(count_ev(RMD_EV_UNEXPECTED, -1) <= 2);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_ENABLED);
+	f.can_id = 0x001;
+	f.param = 100 * US;
+	fault_now(&f, 0);
+	run(30, true);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_LOST);
+	rmd_loop_get_stats(R.l, &st);
+	assert_true(st.plan_misses > 0);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, -1), 3);
+	set_faults(0, NULL, 0);
+	run(700, true);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_READY);
+	rig_down();
+}
+
+/*
+ * Over-temperature, from the motor's own physics rather than an injected
+ * flag: motor 1 heats past its over_temp_c (the sim's ambient raised, its
+ * thermal time constant shortened); the 0x9A poll (10 Hz) reads error
+ * 0x1000: FAULT with the safe action and the error in state and event,
+ * within one poll period; it cools below over_temp_clear_c: READY.
+ */
+static void test_fault_over_temperature(void **state)
+{
+	struct rmd_sim_motor *m;
+	struct rmd_snapshot s;
+	unsigned k;
+
+	(void)state;
+	up_at_speed(NULL, 1, 1.0, 50);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	m = sim_motor(0);
+	m->p.thermal_tau_s = 0.05;
+	m->p.ambient_c = m->p.over_temp_c + 20.0;
+	nev = 0;
+	for (k = 0; k < 500 && !(m->errors & RMD_SIM_ERR_OVER_TEMP); k++)
+		run(1, true);
+	assert_true(m->errors & RMD_SIM_ERR_OVER_TEMP);
+	run(110, true); /* the next 0x9A poll (10 Hz), and its answer */
+	s = snap();
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_FAULT);
+	assert_true(s.m[0].error_code & RMD_SIM_ERR_OVER_TEMP);
+	assert_true(s.m[0].temp_c > m->p.over_temp_c);
+	assert_int_equal(count_ev(RMD_EV_MOTOR_ERROR, 0), 1);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 1);
+	assert_int_equal(m->ctrl, RMD_SIM_OFF);
+	m->p.ambient_c = 25.0;
+	run(1000, true);
+	s = snap();
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
+	assert_int_equal(s.m[0].error_code, 0);
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1562,6 +1940,15 @@ int main(void)
 		cmocka_unit_test(test_v2_start_angle),
 		cmocka_unit_test(test_cl_zeros_answer),
 		cmocka_unit_test(test_wake_hist_and_reply_latency),
+		cmocka_unit_test(test_cl_round_after_trip),
+		cmocka_unit_test(test_v2_protection_off_by_config),
+		cmocka_unit_test(test_fault_garbage),
+		cmocka_unit_test(test_fault_bad_dlc_empty),
+		cmocka_unit_test(test_fault_wrong_id),
+		cmocka_unit_test(test_fault_bad_dlc_short),
+		cmocka_unit_test(test_fault_delay),
+		cmocka_unit_test(test_fault_flood),
+		cmocka_unit_test(test_fault_over_temperature),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);

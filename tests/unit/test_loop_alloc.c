@@ -72,6 +72,7 @@ static void make_config(void)
 		R.cfg.motors[i].id = (uint8_t)(i - 5);
 		R.cfg.motors[i].proto = RMD_PROTO_V2;
 		R.cfg.motors[i].status_poll_hz = 0;
+		R.cfg.motors[i].comm_loss_ms = 0; /* V2: no 0xB3, off by config */
 	}
 	R.cfg.n_buses = 3;
 	for (unsigned i = 0; i < R.cfg.n_motors; i++) {
