@@ -33,6 +33,7 @@
 #include "rmd/describe.h"
 #include "rmd/txn.h"
 #include "rmdctl.h"
+#include "tools/common/buslock.h"
 
 #define DEFAULT_BUS "can0"
 #define BUS_ENV "RMDCTL_BUS"
@@ -182,6 +183,30 @@ static const struct rmd_bus_ops trace_ops = RMD_BUS_WRAP_OPS("trace", trace_send
 
 /* ---- the bus -------------------------------------------------------------------------- */
 
+/*
+ * A bus a running rmdd drives (its lock, tools/common/buslock.h) is not
+ * rmdctl's to talk on: requests and answers would cross rmdd's, and a
+ * write would change a motor under it.  Refused unless --force.  Checked
+ * on the open bus, before anything is sent; buses without a descriptor
+ * (sim) live in this process.
+ */
+static int check_owner(struct dev *d)
+{
+	char key[256], path[TOOL_BUSLOCK_PATH_LEN];
+	pid_t pid;
+
+	if (d->force || rmd_bus_fd(&d->bus) < 0 ||
+	    tool_buslock_key(key, sizeof(key), d->bus_spec) < 0 ||
+	    !tool_buslock_held(key, path, sizeof(path), &pid))
+		return 0;
+	tool_log(TOOL_LOG_ERR,
+		 "%s is in use by a running rmdd (pid %ld, lock %s): its traffic and rmdctl's "
+		 "would mix.  Watch it with `rmdctl top`, stop it (systemctl stop rmdd), or add "
+		 "--force",
+		 d->bus_spec, (long)pid, path);
+	return RMDCTL_EXIT_USAGE;
+}
+
 int rmdctl_open_bus(struct dev *d)
 {
 	struct rmd_bus_open_opts o = {
@@ -196,6 +221,11 @@ int rmdctl_open_bus(struct dev *d)
 	if (r < 0) {
 		tool_log(TOOL_LOG_ERR, "%s", err[0] ? err : strerror(-r));
 		return RMDCTL_EXIT_DATA;
+	}
+	r = check_owner(d);
+	if (r) {
+		rmd_bus_close(&d->bus);
+		return r;
 	}
 	if (err[0])
 		tool_log(TOOL_LOG_ERR, "note: %s", err);
@@ -440,8 +470,7 @@ static const struct {
 	  "  --rom            write to ROM (kept at power off)\n" },
 	{ "speed", 0, true, O_SPEED, 0,
 	  "  --speed DPS      maximum speed of the move (default 30)\n" },
-	{ "force", 0, false, O_FORCE, SWITCH(force),
-	  "  --force          skip the safety limits described above\n" },
+	{ "force", 0, false, 0, SWITCH(force), NULL },
 	{ "no-wait", 0, false, O_NOWAIT, SWITCH(no_wait),
 	  "  --no-wait        do not wait for the motor to arrive\n" },
 	{ "once", 0, false, O_ONCE, SWITCH(once), "  --once           print one table and exit\n" },
@@ -452,18 +481,22 @@ static const struct {
 void rmdctl_dev_usage(FILE *f, const struct rmdctl_cmd *c)
 {
 	fprintf(f, "usage: rmdctl %s [OPTIONS] %s\n\n%s\n", c->name, c->args, c->help);
-	fprintf(f, "bus options (every device command):\n"
-		   "  --bus SPEC       can0 (SocketCAN interface), /dev/ttyUSB0 (RS485, any path\n"
-		   "                   starting with /), sim (simulated motors 1..4 in this\n"
-		   "                   process) or sim:1-3,7 (simulated motors 1, 2, 3, 7).\n"
-		   "                   Default: $" BUS_ENV ", else " DEFAULT_BUS
-		   ".  Simulated motors\n"
-		   "                   power on fresh in every rmdctl run: nothing persists.\n"
-		   "  --baud N         RS485 bit rate (default 1000000)\n"
-		   "  --protocol P     v3 (default) or v2\n"
-		   "  --timeout MS     wait per try for each answer (default 5)\n"
-		   "  --tries N        sends per request before giving up (default 3)\n"
-		   "  --trace          print every frame sent and received on stderr\n");
+	fprintf(f,
+		"bus options (every device command):\n"
+		"  --bus SPEC       can0 (SocketCAN interface), /dev/ttyUSB0 (RS485, any path\n"
+		"                   starting with /), sim (simulated motors 1..4 in this\n"
+		"                   process) or sim:1-3,7 (simulated motors 1, 2, 3, 7).\n"
+		"                   Default: $" BUS_ENV ", else " DEFAULT_BUS
+		".  Simulated motors\n"
+		"                   power on fresh in every rmdctl run: nothing persists.\n"
+		"  --baud N         RS485 bit rate (default 1000000)\n"
+		"  --protocol P     v3 (default) or v2\n"
+		"  --timeout MS     wait per try for each answer (default 5)\n"
+		"  --tries N        sends per request before giving up (default 3)\n"
+		"  --trace          print every frame sent and received on stderr\n"
+		"  --force          talk on a bus that a running rmdd drives (refused\n"
+		"                   otherwise)%s\n",
+		c->opts & O_FORCE ? "; also skips the safety limits described above" : "");
 	if (c->opts) {
 		fprintf(f, "%s options:\n", c->name);
 		for (size_t k = 0; k < NOPTS; k++)

@@ -7,6 +7,7 @@
  *   read.c      scan, info, status, monitor
  *   settings.c  set-id, set-zero, set-timeout, accel, pid
  *   motion.c    brake, stop, off, reset, move
+ *   top.c       a running rmdd, over LCM (no bus)
  *   bench.c     what the device commands share: command line, bus, --trace,
  *               confirmation, transactions; output.c prints their results
  *
@@ -39,6 +40,10 @@ static const struct rmdctl_cmd cmds[] = {
 	  .summary = "print one command as a frame in cansend syntax",
 	  .main = rmdctl_encode_run,
 	  .usage = rmdctl_encode_usage },
+	{ .name = "top",
+	  .summary = "live view of a running rmdd over LCM (motors, buses, loop)",
+	  .main = rmdctl_top_run,
+	  .usage = rmdctl_top_usage },
 	DEV("scan", "list the motors that answer on a bus", "[IDS]", 0, 1, O_JSON,
 	    "Probes ids 1..32 (or IDS, e.g. 1-8) with 0x9A status, pipelined, then asks\n"
 	    "the motors that answered for their model (0xB5) and firmware date (0xB2;\n"

@@ -62,6 +62,9 @@ int rmdctl_decode_run(int argc, char **argv);
 void rmdctl_decode_usage(FILE *f);
 int rmdctl_encode_run(int argc, char **argv);
 void rmdctl_encode_usage(FILE *f);
+/* top.c: a running rmdd over LCM */
+int rmdctl_top_run(int argc, char **argv);
+void rmdctl_top_usage(FILE *f);
 
 /* The long options rmdctl_codec_getopt() handles: first in decode's and encode's tables. */
 /* clang-format off */
