@@ -169,7 +169,7 @@ static int pump(struct top *t, int64_t deadline_ns, int64_t *next_ask_ns)
 			return 0;
 		ms = (int)((deadline_ns - now + 999999) / 1000000);
 		r = lcm_handle_timeout(t->lcm, ms > 50 ? 50 : ms);
-		if (r < 0)
+		if (r < 0 && !stop) /* Ctrl-C interrupts the wait: not an error */
 			return -EIO;
 	}
 }
