@@ -67,7 +67,9 @@ static const struct rmdctl_cmd cmds[] = {
 	    "A live table of the status of every motor (IDS, or those that answer a\n"
 	    "probe of 1..32), refreshed every 200 ms until Ctrl-C; on a terminal the\n"
 	    "screen is cleared each time.  --once prints one table and exits (1 if a\n"
-	    "motor did not answer).\n",
+	    "motor did not answer).  It talks on the bus itself: on a bus a running\n"
+	    "rmdd drives it refuses (--force talks anyway); `rmdctl top` shows rmdd's\n"
+	    "view instead.\n",
 	    rmdctl_run_monitor),
 	DEV("dump", "every motor's readable settings as YAML (restore writes them back)", "[IDS]",
 	    0, 1, 0,
