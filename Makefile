@@ -7,7 +7,7 @@
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
-#   make python-venv     build/venv: a venv with `pip install ./python` (lcm from PyPI)
+#   make python-venv     build/venv: a venv with `pip install './python[plot]'` (lcm, matplotlib from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
 #   make fuzz            build the libFuzzer harnesses (tests/fuzz/) into build/fuzz
 #                        with clang and run each FUZZ_SECONDS (10) on its corpus
@@ -172,10 +172,12 @@ $(LCM_PYTHON): $(LCM_TYPES) $(PYTHON_SRCS)
 python-venv: $(VENV_STAMP)
 
 $(VENV_STAMP): $(LCM_TYPES) $(PYTHON_SRCS)
-	@$(if $(Q),echo "  VENV    $(VENV) (pip install ./python)")
+	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot]')")
 	$(Q)test -x $(VENV)/bin/python3 || python3 -m venv $(VENV)
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
-		--force-reinstall ./python
+		'./python[plot]'
+	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
+		--force-reinstall --no-deps ./python
 	$(Q)touch $@
 
 lcm-java: $(LCM_JAVA)

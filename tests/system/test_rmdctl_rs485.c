@@ -72,6 +72,7 @@
 #include "rmd/txn.h"
 
 #include "harness/json.h"
+#include "harness/settings_trip.h"
 
 #define MS 1000000LL
 #define BAUD 1000000
@@ -764,6 +765,32 @@ static void test_status_silent(void **state)
 	assert_status(r, 0, "status 3 after the silent id");
 }
 
+/* settings_trip.h's run(): one rmdctl run on the rig. */
+static void trip_run(void *ctx, const char *const *args, int *status, const char **out,
+		     const char **err)
+{
+	struct rig *g = ctx;
+
+	run_argv(g, &g->run, args);
+	*status = g->run.status;
+	*out = g->run.out;
+	*err = g->run.err;
+}
+
+/* Issue 12: dump, edit, restore, dump again: the same rmd-sim keeps the settings between runs. */
+static void test_dump_restore(void **state)
+{
+	struct rig *g = *state;
+	char dir[] = "/tmp/test_rmdctl_rs485.XXXXXX";
+	const char *bus[] = { "--bus",	   g->b.path,	   "--baud", BAUD_ARG,
+			      "--timeout", OK_TIMEOUT_ARG, NULL };
+
+	need_sim(g);
+	assert_non_null(mkdtemp(dir));
+	settings_round_trip(trip_run, g, bus, dir);
+	assert_int_equal(rmdir(dir), 0);
+}
+
 /* SIGTERM: exit 0 with the summary; every byte relayed was a whole frame, none was noise. */
 static void test_sim_sigterm(void **state)
 {
@@ -812,6 +839,7 @@ int main(void)
 		cmocka_unit_test(test_status),
 		cmocka_unit_test(test_move_then_status),
 		cmocka_unit_test(test_status_silent),
+		cmocka_unit_test(test_dump_restore),
 		cmocka_unit_test(test_sim_sigterm),
 	};
 

@@ -105,6 +105,7 @@
 
 #include "harness/json.h"
 #include "harness/proc.h"
+#include "harness/settings_trip.h"
 #include "harness/sleeper.h"
 
 #define NS_PER_MS INT64_C(1000000)
@@ -1234,6 +1235,44 @@ static int rmdctl_teardown(void **state)
 	return 0;
 }
 
+/* settings_trip.h's run(): one rmdctl run in the guest. */
+static void trip_run(void *ctx, const char *const *args, int *status, const char **out,
+		     const char **err)
+{
+	static struct run r;
+	const char *argv[40] = { S.rmdctl };
+	size_t n = 1;
+
+	(void)ctx;
+	for (; *args && n < 39; args++)
+		argv[n++] = *args;
+	argv[n] = NULL;
+	run_tool(&r, argv);
+	*status = r.status;
+	*out = r.out;
+	*err = r.err;
+}
+
+/* Issue 12: dump, edit, restore, dump again on rmd-sim's motors over vcan0. */
+static void test_rmdctl_dump_restore(void **state)
+{
+	const char *sim_argv[] = { S.rmdsim, "--can", "vcan0", "--motors", "1-2", NULL };
+	/* 50 ms per try: the emulated guest (see test_rmdctl_scan_move) */
+	const char *bus[] = { "--bus", "vcan0", "--timeout", "50", NULL };
+	struct kid *sim;
+
+	(void)state;
+	if (!S.have_can)
+		skip();
+	need_exec(S.rmdsim);
+	need_exec(S.rmdctl);
+	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
+		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
+	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, 0);
+	kid_wait_output(sim, ": ready", READY_MS, service);
+	settings_round_trip(trip_run, NULL, bus, S.dir);
+}
+
 static void test_rmdctl_scan_move(void **state)
 {
 	const char *sim_argv[] = { S.rmdsim,
@@ -2301,6 +2340,7 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test_teardown(test_rmdctl_scan_move, rmdctl_teardown),
+		cmocka_unit_test_teardown(test_rmdctl_dump_restore, rmdctl_teardown),
 		cmocka_unit_test(test_system_rate),
 		cmocka_unit_test(test_system_watchdog),
 		cmocka_unit_test(test_system_sigterm),

@@ -33,6 +33,7 @@
 #include "rmd/describe.h"
 #include "rmd/txn.h"
 #include "rmdctl.h"
+#include "tools/common/buslock.h"
 
 #define DEFAULT_BUS "can0"
 #define BUS_ENV "RMDCTL_BUS"
@@ -207,6 +208,30 @@ static const struct rmd_bus_ops trace_ops = RMD_BUS_WRAP_OPS("trace", trace_send
 
 /* ---- the bus -------------------------------------------------------------------------- */
 
+/*
+ * A bus a running rmdd drives (its lock, tools/common/buslock.h) is not
+ * rmdctl's to talk on: requests and answers would cross rmdd's, and a
+ * write would change a motor under it.  Refused unless --force.  Checked
+ * on the open bus, before anything is sent; buses without a descriptor
+ * (sim) live in this process.
+ */
+static int check_owner(struct dev *d)
+{
+	char key[256], path[TOOL_BUSLOCK_PATH_LEN];
+	pid_t pid;
+
+	if (d->force || rmd_bus_fd(&d->bus) < 0 ||
+	    tool_buslock_key(key, sizeof(key), d->bus_spec) < 0 ||
+	    !tool_buslock_held(key, path, sizeof(path), &pid))
+		return 0;
+	tool_log(TOOL_LOG_ERR,
+		 "%s is in use by a running rmdd (pid %ld, lock %s): its traffic and rmdctl's "
+		 "would mix.  Watch it with `rmdctl top`, stop it (systemctl stop rmdd), or add "
+		 "--force",
+		 d->bus_spec, (long)pid, path);
+	return RMDCTL_EXIT_USAGE;
+}
+
 int rmdctl_open_bus(struct dev *d)
 {
 	struct rmd_bus_open_opts o = {
@@ -221,6 +246,11 @@ int rmdctl_open_bus(struct dev *d)
 	if (r < 0) {
 		tool_log(TOOL_LOG_ERR, "%s", err[0] ? err : strerror(-r));
 		return RMDCTL_EXIT_DATA;
+	}
+	r = check_owner(d);
+	if (r) {
+		rmd_bus_close(&d->bus);
+		return r;
 	}
 	if (err[0])
 		tool_log(TOOL_LOG_ERR, "note: %s", err);
@@ -484,6 +514,10 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .shortc = 'y',
 	  .help = "do not ask for confirmation (needed without a\n"
 		  "terminal; commands that ask nothing accept it too)" },
+	{ .name = "force",
+	  .help = "talk on a bus that a running rmdd drives (refused\n"
+		  "otherwise); set-id, accel and move: also skip their\n"
+		  "safety limits described above" },
 	{ .name = "help", .shortc = 'h', .help = "this text" },
 	{ .name = "json",
 	  .shortc = 'j',
@@ -496,7 +530,6 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .arg = "DPS",
 	  .help = "maximum speed of the move (default 30)",
 	  .flag = O_SPEED },
-	{ .name = "force", .help = "skip the safety limits described above", .flag = O_FORCE },
 	{ .name = "no-wait", .help = "do not wait for the motor to arrive", .flag = O_NOWAIT },
 	{ .name = "once", .help = "print one table and exit", .flag = O_ONCE },
 	{ .name = "interval",

@@ -6,7 +6,9 @@
  *   encode.c    one command -> a frame in cansend syntax
  *   read.c      scan, info, status, monitor
  *   settings.c  set-id, set-zero, set-timeout, accel, pid
+ *   dump.c      dump, restore: every readable setting as YAML, and back
  *   motion.c    brake, stop, off, reset, move
+ *   top.c       a running rmdd, over LCM (no bus)
  *   bench.c     what the device commands share: command line, bus, --trace,
  *               confirmation, transactions; output.c prints their results
  *
@@ -41,6 +43,10 @@ static const struct rmdctl_cmd cmds[] = {
 	  .args = "COMMAND [ARGS...]",
 	  .main = rmdctl_encode_run,
 	  .usage = rmdctl_encode_usage },
+	{ .name = "top",
+	  .summary = "live view of a running rmdd over LCM (motors, buses, loop)",
+	  .main = rmdctl_top_run,
+	  .usage = rmdctl_top_usage },
 	DEV("scan", "list the motors that answer on a bus", "[IDS]", 0, 1, O_JSON,
 	    "Probes ids 1..32 (or IDS, e.g. 1-8) with 0x9A status, pipelined, then asks\n"
 	    "the motors that answered for their model (0xB5) and firmware date (0xB2;\n"
@@ -63,8 +69,28 @@ static const struct rmdctl_cmd cmds[] = {
 	    "A live table of the status of every motor (IDS, or those that answer a\n"
 	    "probe of 1..32), refreshed every 200 ms until Ctrl-C; on a terminal the\n"
 	    "screen is cleared each time.  --once prints one table and exits (1 if a\n"
-	    "motor did not answer).\n",
+	    "motor did not answer).  It talks on the bus itself: on a bus a running\n"
+	    "rmdd drives it refuses (--force talks anyway); `rmdctl top` shows rmdd's\n"
+	    "view instead.\n",
 	    rmdctl_run_monitor),
+	DEV("dump", "every motor's readable settings as YAML (restore writes them back)", "[IDS]",
+	    0, 1, 0,
+	    "Writes the settings of every motor that answers (IDS, or a probe of 1..32)\n"
+	    "as YAML on stdout: PI gains (0x30), position-planning acceleration (0x42)\n"
+	    "and multi-turn zero offset (0x62); model and firmware date as comments.  V3\n"
+	    "cannot read back the comm-loss time (0xB3), the CAN-ID filter (0x20), the\n"
+	    "baud rate (0xB4) or the other three accelerations (0x43 index 1..3): they\n"
+	    "are not in the file.  V3 only.\n",
+	    rmdctl_run_dump),
+	DEV("restore", "write settings from a dump back, showing the diff (ROM)", "FILE", 1, 1,
+	    O_YES,
+	    "Reads FILE (from `rmdctl dump`), reads the same settings of each motor in\n"
+	    "it, prints what differs, asks once, and writes only that, to ROM: gains\n"
+	    "(0x32), acceleration (0x43 index 0), zero offset (0x63: used after a reset\n"
+	    "or power cycle).  A `comm_loss_ms: MS` added to a motor is written (0xB3)\n"
+	    "every time, as it cannot be read back.  Without a terminal and --yes it\n"
+	    "prints the diff and refuses (exit 2): a dry run.  V3 only.\n",
+	    rmdctl_run_restore),
 	DEV("set-id", "renumber a motor (ROM)", "OLD NEW", 2, 2, O_YES | O_FORCE,
 	    "Renumbers motor OLD to NEW (0x79, ROM) and checks that NEW answers.  V3\n"
 	    "sends 0x79 on 0x300, which every motor on the bus with its CAN-ID filter\n"

@@ -17,11 +17,7 @@
 
 /* ---- scan ----------------------------------------------------------------------------- */
 
-/*
- * The optional IDS argument (or ids 1..32), then the bus opened.  Returns
- * the id count, or minus the exit status (reported).
- */
-static int ids_open(struct dev *d, int argc, char **argv, uint8_t *ids)
+int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids)
 {
 	int n = argc ? rmd_bus_open_parse_ids(argv[0], ids) : (int)rmdctl_all_ids(ids);
 	int r;
@@ -47,7 +43,7 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 	int m, r;
 	char ms[32];
 
-	m = ids_open(d, argc, argv, ids);
+	m = rmdctl_ids_open(d, argc, argv, ids);
 	if (m < 0)
 		return -m;
 	n = (unsigned)m;
@@ -262,7 +258,7 @@ int rmdctl_run_monitor(struct dev *d, int argc, char **argv)
 	unsigned n;
 	int m, r, status = RMDCTL_EXIT_OK;
 
-	m = ids_open(d, argc, argv, ids);
+	m = rmdctl_ids_open(d, argc, argv, ids);
 	if (m < 0)
 		return -m;
 	n = (unsigned)m;

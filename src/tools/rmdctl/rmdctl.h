@@ -63,6 +63,9 @@ int rmdctl_decode_run(int argc, char **argv);
 void rmdctl_decode_usage(FILE *f);
 int rmdctl_encode_run(int argc, char **argv);
 void rmdctl_encode_usage(FILE *f);
+/* top.c: a running rmdd over LCM */
+int rmdctl_top_run(int argc, char **argv);
+void rmdctl_top_usage(FILE *f);
 
 /* The options rmdctl_codec_getopt() handles: first in decode's and encode's tables. */
 /* clang-format off */
@@ -199,6 +202,11 @@ int rmdctl_ask(struct dev *d, struct req *q);
 void rmdctl_report_missing(struct dev *d, const struct req *q, const char *more);
 /* Every failed request of a batch reported; returns how many failed. */
 unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n);
+/*
+ * The optional IDS argument (argc 0 or 1: ids 1..32 when none), then the
+ * bus opened.  Returns the id count, or minus the exit status (reported).
+ */
+int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids);
 /* Probe ids[0..n) with 0x9A; found[] gets those that answered.  The count or -exit. */
 int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st);
 
@@ -244,5 +252,8 @@ int rmdctl_run_stop(struct dev *d, int argc, char **argv);
 int rmdctl_run_off(struct dev *d, int argc, char **argv);
 int rmdctl_run_reset(struct dev *d, int argc, char **argv);
 int rmdctl_run_move(struct dev *d, int argc, char **argv);
+/* dump.c */
+int rmdctl_run_dump(struct dev *d, int argc, char **argv);
+int rmdctl_run_restore(struct dev *d, int argc, char **argv);
 
 #endif /* RMDCTL_H */

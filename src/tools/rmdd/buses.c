@@ -12,6 +12,36 @@
 
 #include "rmd/bus_open.h"
 #include "rmdd.h"
+#include "tools/common/buslock.h"
+
+/* Each real bus's lock (tools/common/buslock.h), held while rmdd runs; -1: none. */
+static int lock_fd[RMD_MAX_BUSES] = { [0 ... RMD_MAX_BUSES - 1] = -1 };
+
+/*
+ * Take the lock of bus b (open), so that rmdctl does not talk on it behind
+ * rmdd's back and a second rmdd does not start on it.  A bus without a
+ * descriptor (sim: inside this process) has none.
+ */
+static int lock_bus(const struct rmd_config_bus *cb, struct rmd_bus *bus, unsigned b)
+{
+	const char *dev = cb->device[0] ? cb->device : cb->interface[0] ? cb->interface : cb->name;
+	char key[256], path[TOOL_BUSLOCK_PATH_LEN] = "";
+	pid_t owner;
+	int r;
+
+	if (rmd_bus_fd(bus) < 0)
+		return 0;
+	r = tool_buslock_key(key, sizeof(key), dev);
+	if (r == 0)
+		r = tool_buslock_take(key, &lock_fd[b], path, sizeof(path), &owner);
+	if (r == -EBUSY)
+		tool_log(3, "bus %s: %s is in use by another rmdd (pid %ld, lock %s)", cb->name,
+			 dev, (long)owner, path);
+	else if (r < 0) /* no place for a lock file: run, but rmdctl cannot see rmdd */
+		tool_log(4, "bus %s: no lock file (%s: %s): rmdctl will not know rmdd drives it",
+			 cb->name, path, strerror(-r));
+	return r == -EBUSY ? r : 0;
+}
 
 int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *sim,
 		    const struct rmd_plan *plan, struct rmd_bus buses[RMD_MAX_BUSES])
@@ -38,6 +68,11 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *si
 					 rmd_bus_kind_name(cb->kind), err[0] ? err : strerror(-r));
 			goto err_close_opened;
 		}
+		r = lock_bus(cb, &buses[b], b);
+		if (r < 0) {
+			rmd_bus_close(&buses[b]);
+			goto err_close_opened;
+		}
 		if (err[0]) /* a notice, e.g. an RS485 port without kernel RS485 mode */
 			tool_log(5, "bus %s: %s", cb->name, err);
 		tool_log(7, "bus %s: open (%s)", cb->name, buses[b].ops->kind);
@@ -51,6 +86,8 @@ err_close_opened:
 
 void rmdd_buses_close(struct rmd_bus *buses, unsigned n)
 {
-	for (unsigned b = n; b-- > 0;)
+	for (unsigned b = n; b-- > 0;) {
 		rmd_bus_close(&buses[b]);
+		tool_buslock_release(&lock_fd[b]);
+	}
 }

@@ -31,15 +31,11 @@
 #include "rmd/thread.h"
 #include "rmd/codec.h"
 #include "rmdd.h"
+#include "tools/common/names.h"
 
 const char *rmdd_lifecycle_name(unsigned lc)
 {
-	static const char *const names[RMD_LC_COUNT] = {
-		[RMD_LC_PROBE] = "probe", [RMD_LC_READY] = "ready", [RMD_LC_ENABLED] = "enabled",
-		[RMD_LC_FAULT] = "fault", [RMD_LC_LOST] = "lost",   [RMD_LC_SAFE] = "safe",
-	};
-
-	return lc < RMD_LC_COUNT ? names[lc] : "?";
+	return tool_lifecycle_name(lc);
 }
 
 /* ---- events ---------------------------------------------------------------- */

@@ -1,0 +1,286 @@
+# SPDX-License-Identifier: MIT
+"""rmd-plot: selected fields of rmdd over time, from a running daemon or a log.
+
+    rmd-plot --field position --field velocity            # live window
+    rmd-plot --log run.lcmlog --field position --out pos.png
+    rmd-plot --log run.lcmlog --field torque --motor motor1 --csv torque.csv
+    rmd-plot --seconds 5 --field health.wake_max_us --out wake.png   # live, no display
+
+FIELDS
+  a state_t motor field, one line per motor (--motor NAME|INDEX narrows):
+    position velocity torque current temperature voltage error_code
+    lifecycle mode reply_latency_us reply_age_cycles missed_replies
+  health.F, one line: cycles overruns plan_misses wake_min_us wake_avg_us
+    wake_p99_us wake_max_us cycle_max_us watchdog safe_action_events
+    commands_accepted commands_rejected commands_clamped
+  bus.F, one line per bus: load tx_frames rx_frames tx_busy rx_errors
+    bus_errors state
+
+Time is seconds from the first message plotted, on rmdd's clock (the
+messages' utime).  Motors are named by rmd.config_t when the log holds one
+(or, live, rmdd answers the request for it); else motorN by index.
+
+--csv writes every point plotted as `t_s,series,value` rows (series as in
+the legend: "motor1.position", "health.wake_max_us", "can0.load"), to check
+or to read elsewhere.  --out FILE writes the figure (PNG, or what the suffix
+says) without a display; without --out a live window follows rmdd, and a log
+is shown in a window.
+"""
+
+import argparse
+import os
+import sys
+import time
+
+MOTOR_FIELDS = (
+    "position", "velocity", "torque", "current", "temperature", "voltage", "error_code",
+    "lifecycle", "mode", "reply_latency_us", "reply_age_cycles", "missed_replies",
+)
+HEALTH_FIELDS = (
+    "cycles", "overruns", "plan_misses", "wake_min_us", "wake_avg_us", "wake_p99_us",
+    "wake_max_us", "cycle_max_us", "watchdog", "safe_action_events", "commands_accepted",
+    "commands_rejected", "commands_clamped",
+)
+BUS_FIELDS = ("load", "tx_frames", "rx_frames", "tx_busy", "rx_errors", "bus_errors", "state")
+UNITS = {
+    "position": "rad", "velocity": "rad/s", "torque": "N*m", "current": "A",
+    "temperature": "degC", "voltage": "V", "reply_latency_us": "us",
+    "reply_age_cycles": "cycles", "load": "fraction",
+}
+DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
+
+
+class Usage(Exception):
+    """A bad command line: said once, exit 2."""
+
+
+def parse_field(spec):
+    """'position' -> ('state', 'position'); 'health.x', 'bus.x' likewise."""
+    kind, _, name = spec.partition(".") if "." in spec else ("state", "", spec)
+    table = {"state": MOTOR_FIELDS, "health": HEALTH_FIELDS, "bus": BUS_FIELDS}.get(kind)
+    if table is None or name not in table:
+        raise Usage(f"unknown field {spec!r} (rmd-plot --help lists them)")
+    return kind, name
+
+
+class Series:
+    """Points per series name, in arrival order, on rmdd's clock."""
+
+    def __init__(self, fields, motors, prefix):
+        self.fields = fields
+        self.motors = motors  # names or indices as given; empty: all
+        self.prefix = prefix
+        self.config = None
+        self.points = {}  # name -> ([t_us], [value])
+        self.t0_us = None
+
+    def motor_name(self, i):
+        if self.config is not None and i < self.config.motor_count:
+            return self.config.motor[i].name
+        return f"motor{i}"
+
+    def wanted(self, i):
+        return not self.motors or self.motor_name(i) in self.motors or str(i) in self.motors
+
+    def add(self, name, t_us, value):
+        if self.t0_us is None:
+            self.t0_us = t_us
+        ts, vs = self.points.setdefault(name, ([], []))
+        ts.append(t_us)
+        vs.append(float(value))
+
+    def on_message(self, channel, data):
+        """One message of rmdd's (its channel without the prefix decides the type)."""
+        import rmd
+
+        if not channel.startswith(self.prefix):
+            return
+        what = channel[len(self.prefix):]
+        try:
+            if what == "CONFIG":
+                self.config = rmd.config_t.decode(data)
+            elif what == "STATE":
+                self._state(rmd.state_t.decode(data))
+            elif what == "HEALTH":
+                self._health(rmd.health_t.decode(data))
+        except ValueError:
+            pass  # another layout on our channel: not ours to plot
+
+    def _state(self, s):
+        for kind, name in self.fields:
+            if kind != "state":
+                continue
+            for i in range(s.count):
+                m = s.motor[i]
+                if self.wanted(m.index):
+                    self.add(f"{self.motor_name(m.index)}.{name}", s.utime, getattr(m, name))
+
+    def _health(self, h):
+        for kind, name in self.fields:
+            if kind == "health":
+                self.add(f"health.{name}", h.utime, getattr(h, name))
+            elif kind == "bus":
+                for b in range(h.bus_count):
+                    self.add(f"{h.bus[b].name}.{name}", h.utime, getattr(h.bus[b], name))
+
+    def rows(self):
+        """(t_s, series, value) of every point, series in first-seen order."""
+        for name, (ts, vs) in self.points.items():
+            for t, v in zip(ts, vs):
+                yield (t - self.t0_us) / 1e6, name, v
+
+
+def read_log(path, series):
+    """Every event of an lcm-logger log through series."""
+    import lcm
+
+    try:
+        log = lcm.EventLog(path, "r")
+    except (IOError, OSError) as e:
+        raise Usage(f"{path}: {e}") from e
+    for ev in log:
+        series.on_message(ev.channel, ev.data)
+    log.close()
+
+
+def write_csv(path, series):
+    out = sys.stdout if path == "-" else open(path, "w", encoding="utf-8")
+    out.write("t_s,series,value\n")
+    for t, name, v in series.rows():
+        out.write(f"{t:.6f},{name},{v!r}\n")
+    if out is not sys.stdout:
+        out.close()
+
+
+def draw(fig, axes, series, window_s=None):
+    """One subplot per field, one line per series of that field."""
+    for ax, (kind, name) in zip(axes, series.fields):
+        ax.clear()
+        suffix = f".{name}"
+        for sname, (ts, vs) in series.points.items():
+            if not sname.endswith(suffix) or (kind == "health") != sname.startswith("health."):
+                continue
+            t = [(x - series.t0_us) / 1e6 for x in ts]
+            if window_s and t:
+                keep = next((k for k, x in enumerate(t) if x >= t[-1] - window_s), 0)
+                t, vs = t[keep:], vs[keep:]
+            ax.plot(t, vs, label=sname)
+        unit = UNITS.get(name, "us" if name.endswith("_us") else None)
+        ax.set_ylabel(f"{name} ({unit})" if unit else name)
+        ax.grid(True, alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper left", fontsize="small")
+    axes[-1].set_xlabel("s (rmdd's clock)")
+    fig.tight_layout()
+
+
+def figure(series):
+    import matplotlib.pyplot as plt
+
+    n = len(series.fields)
+    fig, axes = plt.subplots(n, 1, sharex=True, figsize=(9, 2.6 * n + 0.6), squeeze=False)
+    return plt, fig, [a[0] for a in axes]
+
+
+def live(args, series):
+    """Listen to rmdd: for --seconds into --out/--csv, or a window until closed."""
+    import select
+
+    import lcm
+
+    import rmd
+
+    url = args.lcm_url or os.environ.get("LCM_DEFAULT_URL") or DEFAULT_URL
+    try:
+        lc = lcm.LCM(url)
+    except (IOError, OSError, RuntimeError) as e:
+        raise Usage(f"LCM: cannot open {url}: {e}") from e
+    lc.subscribe(f"{args.prefix}(STATE|HEALTH|CONFIG)", series.on_message)
+    req = rmd.config_request_t()
+
+    def pump(seconds):
+        end = time.monotonic() + seconds
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                return
+            if series.config is None:
+                req.utime = int(time.monotonic() * 1e6)
+                lc.publish(f"{args.prefix}CONFIG_REQUEST", req.encode())
+            if select.select([lc.fileno()], [], [], min(left, 0.05))[0]:
+                lc.handle()
+
+    if args.out or args.csv:
+        pump(args.seconds)
+        if not series.points:
+            raise Usage(f"nothing from rmdd on {url} (prefix {args.prefix}) in "
+                        f"{args.seconds:g} s: is it running?")
+        return None
+    plt, fig, axes = figure(series)
+    from matplotlib.animation import FuncAnimation
+
+    def update(_frame):
+        pump(0.05)
+        if series.points:
+            draw(fig, axes, series, args.window)
+
+    anim = FuncAnimation(fig, update, interval=100, cache_frame_data=False)
+    plt.show()
+    return anim
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(
+        prog="rmd-plot", description=__doc__.split("\n", 2)[2],
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--log", metavar="FILE", help="an lcm-logger log (default: a running rmdd)")
+    p.add_argument("--field", "-f", action="append", metavar="F",
+                   help="what to plot (repeat; default: position)")
+    p.add_argument("--motor", "-m", action="append", metavar="NAME",
+                   help="only these motors, by name or index (repeat)")
+    p.add_argument("--out", "-o", metavar="FILE", help="write the figure (e.g. x.png), no window")
+    p.add_argument("--csv", metavar="FILE", help="write the points as t_s,series,value (- stdout)")
+    p.add_argument("--lcm-url", metavar="URL", help="live: rmdd's LCM URL "
+                   "(default $LCM_DEFAULT_URL, else " + DEFAULT_URL + ")")
+    p.add_argument("--prefix", default="RMD_", help="rmdd's channel prefix (default RMD_)")
+    p.add_argument("--seconds", type=float, default=5.0,
+                   help="live with --out or --csv: listen this long (default 5)")
+    p.add_argument("--window", type=float, default=10.0,
+                   help="live window: seconds shown (default 10)")
+    args = p.parse_args(argv)
+    try:
+        series = Series([parse_field(f) for f in (args.field or ["position"])],
+                        args.motor or [], args.prefix)
+        if args.out:
+            import matplotlib
+
+            matplotlib.use("Agg")  # no display needed
+        if args.log:
+            read_log(args.log, series)
+            if not series.points:
+                raise Usage(f"{args.log}: no {args.prefix}STATE/HEALTH message with "
+                            "those fields")
+        else:
+            keep = live(args, series)  # noqa: F841  (the live window's animation)
+            if not (args.out or args.csv):
+                return 0
+        if args.csv:
+            write_csv(args.csv, series)
+        if args.out or args.log and not args.csv:
+            plt, fig, axes = figure(series)
+            draw(fig, axes, series)
+            if args.out:
+                fig.savefig(args.out, dpi=100)
+            else:
+                plt.show()
+    except Usage as e:
+        print(f"rmd-plot: {e}", file=sys.stderr)
+        return 2
+    except ImportError as e:
+        print(f"rmd-plot: {e} (pip install 'rmd[plot]' or matplotlib)", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

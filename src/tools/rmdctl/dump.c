@@ -1,0 +1,451 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl dump and restore: every motor's readable settings as YAML, and
+ * back (what moteus users get from --dump-config / --restore-config).
+ *
+ * What V3 lets a host read back, and so what a dump holds (V3 §2): the PI
+ * gains (0x30), the position-planning acceleration (0x42: one value, the
+ * 0x43 index 0 one) and the multi-turn zero offset in use (0x62); the id
+ * is the motor's address, model (0xB5) and firmware date (0xB2) are
+ * recorded for the reader.  What it cannot read: the comm-loss time (0xB3
+ * only writes, §2.30), the CAN-ID filter and other 0x20 functions (§2.33
+ * only writes), the baud rate (0xB4, §2.31), and the other three
+ * accelerations (0x43 index 1..3).  restore writes comm_loss_ms when a
+ * file names it, always (it cannot tell whether it differs).
+ *
+ * restore reads the motors first, prints what would change and asks once
+ * (--yes); unchanged values are not written.  Writes go to ROM: gains
+ * 0x32, acceleration 0x43 index 0 (RAM and ROM), zero offset 0x63 (used
+ * after a reset or power cycle), 0xB3.  Non-rt.
+ */
+#include <errno.h>
+#include <inttypes.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <yaml.h>
+
+#include "rmd/codec.h"
+#include "rmdctl.h"
+
+/* The readable settings of one motor, and which a file gives. */
+struct settings {
+	uint8_t id;
+	int64_t pid[6];
+	int64_t accel_dps2;
+	int64_t zero_offset;
+	int64_t comm_loss_ms; /* restore: -1 when the file does not name it */
+	bool has_pid, has_accel, has_zero;
+	unsigned line; /* of the entry in the file */
+};
+
+static const enum rmd_field pid_fields[6] = { RMD_FLD_CURR_KP, RMD_FLD_CURR_KI, RMD_FLD_SPD_KP,
+					      RMD_FLD_SPD_KI,  RMD_FLD_POS_KP,	RMD_FLD_POS_KI };
+static const char *const pid_keys[6] = { "current_kp", "current_ki",  "speed_kp",
+					 "speed_ki",   "position_kp", "position_ki" };
+
+static int v3_only(const struct dev *d)
+{
+	if (d->proto != RMD_PROTO_V2)
+		return 0;
+	tool_log(TOOL_LOG_ERR, "%s speaks protocol V3 only", d->cmd->name);
+	return RMDCTL_EXIT_USAGE;
+}
+
+/* Read motor s->id's settings (0x30, 0x42, 0x62; 0xB5 and 0xB2 into rec when given). */
+static int read_settings(struct dev *d, struct settings *s, struct rec *info)
+{
+	static const uint8_t cmds[] = { 0x30, 0x42, 0x62, 0xB5, 0xB2 };
+	struct req q[sizeof(cmds)];
+	unsigned n = info ? 5 : 3;
+	int r;
+
+	for (unsigned i = 0; i < n; i++)
+		rmdctl_req_init(&q[i], s->id, cmds[i]);
+	r = rmdctl_run_reqs(d, q, n);
+	if (r)
+		return r;
+	if (rmdctl_report_failed(d, q, n))
+		return RMDCTL_EXIT_DATA;
+	for (unsigned i = 0; i < 6; i++)
+		s->pid[i] = q[0].rep.v[pid_fields[i]];
+	s->accel_dps2 = q[1].rep.v[RMD_FLD_ACCEL];
+	s->zero_offset = q[2].rep.v[RMD_FLD_ENCODER_OFF];
+	s->has_pid = s->has_accel = s->has_zero = true;
+	if (info)
+		for (unsigned i = 3; i < n; i++)
+			rmdctl_rec_add_req(info, d, &q[i], true);
+	return 0;
+}
+
+/* ---- dump ------------------------------------------------------------------------------ */
+
+int rmdctl_run_dump(struct dev *d, int argc, char **argv)
+{
+	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
+	struct req st[RMD_MAX_MOTORS];
+	char stamp[32];
+	time_t now = time(NULL);
+	int n, m, r;
+
+	r = v3_only(d);
+	if (r)
+		return r;
+	n = rmdctl_ids_open(d, argc, argv, ids);
+	if (n < 0)
+		return -n;
+	m = rmdctl_probe(d, ids, (unsigned)n, found, st);
+	if (m <= 0) {
+		if (m == 0)
+			tool_log(TOOL_LOG_ERR, "%s: no motor answered 0x9A: nothing to dump",
+				 d->name);
+		r = m < 0 ? -m : RMDCTL_EXIT_DATA;
+		goto out;
+	}
+	strftime(stamp, sizeof(stamp), "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));
+	printf("# rmdctl dump: the settings of the motors on %s (protocol V3), %s.\n"
+	       "# Read back: PI gains (0x30), position-planning acceleration (0x42, the\n"
+	       "# 0x43 index 0 value), multi-turn zero offset in use (0x62, encoder counts).\n"
+	       "# Not readable (V3 has no read for them): comm-loss time (0xB3), CAN-ID\n"
+	       "# filter (0x20), baud rate (0xB4), the other accelerations (0x43 index 1..3).\n"
+	       "# `rmdctl restore FILE` writes back what differs (ROM), after a confirmation;\n"
+	       "# a `comm_loss_ms: MS` line added to a motor is written as given.\n"
+	       "bus: %s\n"
+	       "protocol: v3\n"
+	       "motors:\n",
+	       d->name, stamp, d->name);
+	for (int i = 0; i < m; i++) {
+		struct settings s = { .id = found[i] };
+		struct rec info = { 0 };
+		char model[8];
+
+		r = read_settings(d, &s, &info);
+		if (r)
+			goto out;
+		rmd_model_string(info.raw[RMD_FLD_MODEL], model);
+		printf("  - id: %u\n"
+		       "    model: \"%s\"  # not restored\n"
+		       "    firmware: %" PRId64 "  # not restored\n"
+		       "    pid: {",
+		       s.id, model, info.raw[RMD_FLD_VERSION]);
+		for (unsigned k = 0; k < 6; k++)
+			printf("%s%s: %" PRId64, k ? ", " : "", pid_keys[k], s.pid[k]);
+		printf("}\n"
+		       "    accel_dps2: %" PRId64 "\n"
+		       "    zero_offset: %" PRId64 "\n",
+		       s.accel_dps2, s.zero_offset);
+	}
+	r = RMDCTL_EXIT_OK;
+out:
+	rmdctl_close_bus(d);
+	return r;
+}
+
+/* ---- the file -------------------------------------------------------------------------- */
+
+struct file {
+	const char *path;
+	yaml_document_t doc;
+	struct settings motor[RMD_MAX_MOTORS];
+	unsigned n;
+};
+
+static int bad(const struct file *f, const yaml_node_t *node, const char *what)
+{
+	tool_log(TOOL_LOG_ERR, "%s:%zu: %s", f->path, node->start_mark.line + 1, what);
+	return -EINVAL;
+}
+
+static const char *scalar(const yaml_node_t *n)
+{
+	return n && n->type == YAML_SCALAR_NODE ? (const char *)n->data.scalar.value : NULL;
+}
+
+/* A whole integer scalar in [lo, hi]. */
+static int integer(const struct file *f, const yaml_node_t *n, int64_t lo, int64_t hi,
+		   const char *key, int64_t *v)
+{
+	const char *s = scalar(n);
+	char *end, msg[160];
+	long long x;
+
+	errno = 0;
+	x = s ? strtoll(s, &end, 10) : 0;
+	if (!s || !*s || *end || errno || x < lo || x > hi) {
+		snprintf(msg, sizeof(msg), "%s: want an integer %" PRId64 "..%" PRId64, key, lo,
+			 hi);
+		return bad(f, n, msg);
+	}
+	*v = x;
+	return 0;
+}
+
+static int parse_pid(struct file *f, yaml_node_t *n, struct settings *s)
+{
+	bool seen[6] = { false };
+
+	if (n->type != YAML_MAPPING_NODE)
+		return bad(f, n, "pid: want a mapping of the six gains");
+	for (yaml_node_pair_t *p = n->data.mapping.pairs.start; p < n->data.mapping.pairs.top;
+	     p++) {
+		yaml_node_t *k = yaml_document_get_node(&f->doc, p->key);
+		yaml_node_t *v = yaml_document_get_node(&f->doc, p->value);
+		unsigned i;
+
+		for (i = 0; i < 6 && (!scalar(k) || strcmp(scalar(k), pid_keys[i])); i++)
+			;
+		if (i == 6)
+			return bad(f, k,
+				   "pid: unknown key (current_kp, current_ki, speed_kp, "
+				   "speed_ki, position_kp, position_ki)");
+		/* V3 §2.2: uint8 gains */
+		if (integer(f, v, 0, 255, pid_keys[i], &s->pid[i]) < 0)
+			return -EINVAL;
+		seen[i] = true;
+	}
+	for (unsigned i = 0; i < 6; i++)
+		if (!seen[i])
+			return bad(f, n, "pid: give all six gains");
+	s->has_pid = true;
+	return 0;
+}
+
+static int parse_motor(struct file *f, yaml_node_t *n, struct settings *s)
+{
+	int64_t id = 0;
+
+	s->comm_loss_ms = -1;
+	s->line = (unsigned)n->start_mark.line + 1;
+	if (n->type != YAML_MAPPING_NODE)
+		return bad(f, n, "a motor: want a mapping (id: N, pid: {...}, ...)");
+	for (yaml_node_pair_t *p = n->data.mapping.pairs.start; p < n->data.mapping.pairs.top;
+	     p++) {
+		yaml_node_t *k = yaml_document_get_node(&f->doc, p->key);
+		yaml_node_t *v = yaml_document_get_node(&f->doc, p->value);
+		const char *key = scalar(k) ? scalar(k) : "";
+		int r = 0;
+
+		if (!strcmp(key, "id"))
+			r = integer(f, v, 1, RMD_MAX_MOTORS, key, &id);
+		else if (!strcmp(key, "pid"))
+			r = parse_pid(f, v, s);
+		else if (!strcmp(key, "accel_dps2")) /* V3 §2.5.1 */
+			r = integer(f, v, 100, 60000, key, &s->accel_dps2);
+		else if (!strcmp(key, "zero_offset"))
+			r = integer(f, v, INT32_MIN, INT32_MAX, key, &s->zero_offset);
+		else if (!strcmp(key, "comm_loss_ms"))
+			r = integer(f, v, 0, UINT32_MAX, key, &s->comm_loss_ms);
+		else if (strcmp(key, "model") && strcmp(key, "firmware"))
+			r = bad(f, k,
+				"unknown key (id, pid, accel_dps2, zero_offset, comm_loss_ms; "
+				"model and firmware are ignored)");
+		if (r < 0)
+			return r;
+		s->has_accel |= !strcmp(key, "accel_dps2");
+		s->has_zero |= !strcmp(key, "zero_offset");
+	}
+	if (!id)
+		return bad(f, n, "a motor without id");
+	s->id = (uint8_t)id;
+	return 0;
+}
+
+static int parse_file(struct file *f)
+{
+	yaml_node_t *root, *motors = NULL;
+	yaml_parser_t parser;
+	FILE *fp = fopen(f->path, "r");
+	int r = -EINVAL;
+
+	if (!fp) {
+		tool_log(TOOL_LOG_ERR, "%s: %s", f->path, strerror(errno));
+		return -errno;
+	}
+	yaml_parser_initialize(&parser);
+	yaml_parser_set_input_file(&parser, fp);
+	if (!yaml_parser_load(&parser, &f->doc)) {
+		tool_log(TOOL_LOG_ERR, "%s:%zu: %s", f->path, parser.problem_mark.line + 1,
+			 parser.problem ? parser.problem : "not YAML");
+		yaml_parser_delete(&parser);
+		fclose(fp);
+		return -EINVAL;
+	}
+	yaml_parser_delete(&parser);
+	fclose(fp);
+	root = yaml_document_get_root_node(&f->doc);
+	if (root && root->type == YAML_MAPPING_NODE)
+		for (yaml_node_pair_t *p = root->data.mapping.pairs.start;
+		     p < root->data.mapping.pairs.top; p++) {
+			const char *key = scalar(yaml_document_get_node(&f->doc, p->key));
+
+			if (key && !strcmp(key, "motors"))
+				motors = yaml_document_get_node(&f->doc, p->value);
+		}
+	if (!motors || motors->type != YAML_SEQUENCE_NODE) {
+		tool_log(TOOL_LOG_ERR, "%s: no `motors:` list (write one with rmdctl dump)",
+			 f->path);
+		goto out;
+	}
+	for (yaml_node_item_t *it = motors->data.sequence.items.start;
+	     it < motors->data.sequence.items.top; it++) {
+		yaml_node_t *n = yaml_document_get_node(&f->doc, *it);
+
+		if (f->n == RMD_MAX_MOTORS) {
+			bad(f, n, "more than 32 motors");
+			goto out;
+		}
+		if (parse_motor(f, n, &f->motor[f->n]) < 0)
+			goto out;
+		for (unsigned i = 0; i < f->n; i++)
+			if (f->motor[i].id == f->motor[f->n].id) {
+				bad(f, n, "this id twice");
+				goto out;
+			}
+		f->n++;
+	}
+	r = 0;
+out:
+	yaml_document_delete(&f->doc);
+	return r;
+}
+
+/* ---- restore --------------------------------------------------------------------------- */
+
+/* One change: a line of the diff, and the request that makes it. */
+struct change {
+	uint8_t id;
+	char text[160];
+	struct req q;
+};
+
+/* The changes that bring motor `now` (read) to `want` (the file); returns how many. */
+static unsigned diff(const struct settings *want, const struct settings *now, struct change *c)
+{
+	unsigned n = 0, o = 0;
+	bool pid_differs = false;
+
+	if (want->has_pid) {
+		for (unsigned i = 0; i < 6; i++)
+			pid_differs |= want->pid[i] != now->pid[i];
+		if (pid_differs) {
+			rmdctl_req_init(&c[n].q, want->id, 0x32); /* V3 §2.3: ROM */
+			for (unsigned i = 0; i < 6; i++) {
+				rmd_msg_set(&c[n].q.msg, pid_fields[i], want->pid[i]);
+				if (want->pid[i] != now->pid[i])
+					o += (unsigned)snprintf(c[n].text + o,
+								sizeof(c[n].text) - o,
+								"%s %s %" PRId64 " -> %" PRId64,
+								o ? "," : "pid:", pid_keys[i],
+								now->pid[i], want->pid[i]);
+			}
+			n++;
+		}
+	}
+	if (want->has_accel && want->accel_dps2 != now->accel_dps2) {
+		rmdctl_req_init(&c[n].q, want->id, 0x43); /* V3 §2.5: index 0, RAM and ROM */
+		rmd_msg_set(&c[n].q.msg, RMD_FLD_INDEX, 0);
+		rmd_msg_set(&c[n].q.msg, RMD_FLD_ACCEL, want->accel_dps2);
+		snprintf(c[n++].text, sizeof(c->text), "accel_dps2 %" PRId64 " -> %" PRId64,
+			 now->accel_dps2, want->accel_dps2);
+	}
+	if (want->has_zero && want->zero_offset != now->zero_offset) {
+		rmdctl_req_init(&c[n].q, want->id, 0x63); /* V3 §2.9: ROM, after a restart */
+		rmd_msg_set(&c[n].q.msg, RMD_FLD_ENCODER_OFF, want->zero_offset);
+		snprintf(c[n++].text, sizeof(c->text),
+			 "zero_offset %" PRId64 " -> %" PRId64 " (used after `rmdctl reset %u`)",
+			 now->zero_offset, want->zero_offset, want->id);
+	}
+	if (want->comm_loss_ms >= 0) {
+		rmdctl_req_init(&c[n].q, want->id, 0xB3); /* V3 §2.30: ROM */
+		rmd_msg_set(&c[n].q.msg, RMD_FLD_TIMEOUT, want->comm_loss_ms);
+		snprintf(c[n++].text, sizeof(c->text),
+			 "comm_loss_ms -> %" PRId64 " (cannot be read back: written as given)",
+			 want->comm_loss_ms);
+	}
+	for (unsigned i = 0; i < n; i++)
+		c[i].id = want->id;
+	return n;
+}
+
+/* V3 §2.30 example 2: 0xB3 may be answered with zeros instead of the echo. */
+static bool b3_zeros(const struct req *q)
+{
+	return q->msg.cmd == 0xB3 && q->answered && !q->ok &&
+	       !memcmp(q->t.rep.f.data, "\xB3\0\0\0\0\0\0", 8);
+}
+
+int rmdctl_run_restore(struct dev *d, int argc, char **argv)
+{
+	/* at most four changes per motor: gains, acceleration, zero offset, comm-loss time */
+	static struct change ch[4 * RMD_MAX_MOTORS];
+	static struct file f;
+	unsigned n = 0, bad_writes = 0, motors_changed = 0;
+	int r;
+
+	(void)argc;
+	memset(&f, 0, sizeof(f));
+	f.path = argv[0];
+	r = v3_only(d);
+	if (r)
+		return r;
+	if (parse_file(&f) < 0)
+		return RMDCTL_EXIT_DATA;
+	r = rmdctl_open_bus(d);
+	if (r)
+		return r;
+	for (unsigned i = 0; i < f.n; i++) {
+		struct settings now = { .id = f.motor[i].id };
+		unsigned k;
+
+		r = read_settings(d, &now, NULL);
+		if (r) {
+			tool_log(TOOL_LOG_ERR,
+				 "%s:%u: motor %u: cannot read its settings: nothing "
+				 "written",
+				 f.path, f.motor[i].line, now.id);
+			goto out;
+		}
+		k = diff(&f.motor[i], &now, &ch[n]);
+		if (!k)
+			printf("%s: motor %u: unchanged\n", d->name, now.id);
+		for (unsigned j = 0; j < k; j++)
+			printf("%s: motor %u: %s\n", d->name, now.id, ch[n + j].text);
+		motors_changed += k > 0;
+		n += k;
+	}
+	if (!n) {
+		printf("%s: nothing to write: every motor has the settings of %s\n", d->name,
+		       f.path);
+		goto out;
+	}
+	fflush(stdout);
+	r = rmdctl_confirm(d, "write %s %u change%s to %u motor%s on %s (ROM)",
+			   n == 1 ? "this" : "these", n, n == 1 ? "" : "s", motors_changed,
+			   motors_changed == 1 ? "" : "s", d->name);
+	if (r)
+		goto out;
+	for (unsigned i = 0; i < n; i++) {
+		r = rmdctl_run_reqs(d, &ch[i].q, 1);
+		if (r)
+			goto out;
+		if (b3_zeros(&ch[i].q))
+			continue;
+		if (rmdctl_ask_check(d, &ch[i].q)) {
+			tool_log(TOOL_LOG_ERR, "%s: motor %u: %s: not written", d->name, ch[i].id,
+				 ch[i].text);
+			bad_writes++;
+		}
+	}
+	if (bad_writes) {
+		r = RMDCTL_EXIT_DATA;
+		goto out;
+	}
+	printf("%s: %u change%s to %u motor%s written to ROM, each answered\n", d->name, n,
+	       n == 1 ? "" : "s", motors_changed, motors_changed == 1 ? "" : "s");
+out:
+	rmdctl_close_bus(d);
+	return r;
+}

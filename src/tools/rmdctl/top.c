@@ -1,0 +1,569 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl top: a live view of a running rmdd, from what it publishes on LCM
+ * (docs/lcm.md): rmd.config_t names the buses and motors (asked for on
+ * PREFIX CONFIG_REQUEST, as the bridge expects), rmd.health_t gives the
+ * loop, the buses, the watchdog and each motor's comm-loss protection
+ * (0xB3), rmd.state_t each motor's lifecycle, mode and measurements.
+ *
+ * It never opens a bus: it only listens (and asks for config_t), so it runs
+ * beside rmdd, unlike `rmdctl monitor`.  On a terminal the screen is redrawn
+ * every --interval (100 ms) with plain ANSI escapes; otherwise a plain table
+ * is printed every --interval (1 s).  --once prints one table, --json one
+ * JSON object, each once config, health and state have all come.  Non-rt.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <inttypes.h>
+#include <math.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <lcm/lcm.h>
+
+#include "rmd/config.h"
+#include "rmd/time.h"
+#include "rmd/rmd_config_request_t.h"
+#include "rmd/rmd_config_t.h"
+#include "rmd/rmd_health_t.h"
+#include "rmd/rmd_state_t.h"
+#include "rmdctl.h"
+#include "tools/common/names.h"
+
+#define DEFAULT_PREFIX "RMD_"
+#define TTY_INTERVAL_MS 100.0
+#define PLAIN_INTERVAL_MS 1000.0
+#define WAIT_S 3.0
+#define ASK_EVERY_NS INT64_C(500000000) /* config_t requests until one comes */
+#define STALE_NS INT64_C(1000000000)	/* "no health for 1.2 s" */
+#define CHANNEL_LEN 96
+
+struct top {
+	const char *url, *prefix;
+	bool json, once, tty;
+	double interval_ms, wait_s;
+
+	lcm_t *lcm;
+	char ch_state[CHANNEL_LEN], ch_health[CHANNEL_LEN], ch_config[CHANNEL_LEN],
+		ch_request[CHANNEL_LEN];
+	rmd_config_t *cfg; /* the newest of each (copies), NULL until one came */
+	rmd_health_t *health;
+	rmd_state_t *state;
+	int64_t cfg_rx_ns, health_rx_ns, state_rx_ns;
+	uint64_t n_states;
+};
+
+static volatile sig_atomic_t stop;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	stop = 1;
+}
+
+void rmdctl_top_usage(FILE *f)
+{
+	fprintf(f,
+		"usage: rmdctl top [--lcm-url URL] [--prefix P] [--json | --once] [--interval MS]\n"
+		"                  [--wait S]\n"
+		"\n"
+		"A live view of a running rmdd, from what it publishes on LCM: every motor's\n"
+		"name, bus and id, lifecycle and mode, position (rad), velocity (rad/s), torque\n"
+		"(N*m), temperature (degC), error flags, reply latency (us) and age (ms),\n"
+		"missed replies and comm-loss protection (0xB3); each bus's state, load, frames\n"
+		"and errors; the rt loop's wake-up latency, overruns, and the watchdog.\n"
+		"It only listens (and asks for rmd.config_t), so it runs beside rmdd; `rmdctl\n"
+		"monitor` opens the bus itself and is refused on a bus rmdd drives.\n"
+		"\n"
+		"  --lcm-url URL    rmdd's LCM URL (default $LCM_DEFAULT_URL, else\n"
+		"                   " RMD_CONFIG_DEFAULT_LCM_URL ")\n"
+		"  --prefix P       rmdd's channel prefix (default " DEFAULT_PREFIX ")\n"
+		"  --json           print one JSON object and exit (scripts)\n"
+		"  --once           print one table and exit\n"
+		"  --interval MS    refresh period (default 100 on a terminal, else 1000)\n"
+		"  --wait S         with --json or --once: give up after S seconds without\n"
+		"                   config, health and state (default 3)\n"
+		"  -h, --help       this text\n"
+		"\n"
+		"On a terminal the screen is redrawn in place until Ctrl-C; otherwise a plain\n"
+		"table is printed each period.  JSON numbers are SI (rad, rad/s, N*m, degC, V);\n"
+		"a value a motor has not reported yet is null.\n"
+		"\n"
+		"exit status: 0 ok; 1 nothing heard from rmdd within --wait (--json, --once),\n"
+		"or LCM failed; 2 usage error.\n");
+}
+
+/* ---- LCM ------------------------------------------------------------------------------ */
+
+static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
+		     void *user)
+{
+	struct top *t = user;
+
+	(void)rbuf;
+	(void)channel;
+	if (t->state)
+		rmd_state_t_destroy(t->state);
+	t->state = rmd_state_t_copy(msg);
+	t->state_rx_ns = rmd_now_ns();
+	t->n_states++;
+}
+
+static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_health_t *msg,
+		      void *user)
+{
+	struct top *t = user;
+
+	(void)rbuf;
+	(void)channel;
+	if (t->health)
+		rmd_health_t_destroy(t->health);
+	t->health = rmd_health_t_copy(msg);
+	t->health_rx_ns = rmd_now_ns();
+}
+
+static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
+		      void *user)
+{
+	struct top *t = user;
+
+	(void)rbuf;
+	(void)channel;
+	if (t->cfg)
+		rmd_config_t_destroy(t->cfg);
+	t->cfg = rmd_config_t_copy(msg);
+	t->cfg_rx_ns = rmd_now_ns();
+}
+
+/* config_t, health_t and state_t have come, and agree on the motors. */
+static bool complete(const struct top *t)
+{
+	return t->cfg && t->health && t->state && t->state->count == t->cfg->motor_count &&
+	       t->health->motor_count == t->cfg->motor_count;
+}
+
+/* Ask rmdd for config_t (docs/lcm.md: any message on PREFIX CONFIG_REQUEST). */
+static void ask_config(struct top *t)
+{
+	rmd_config_request_t req = { .utime = rmd_now_ns() / 1000 };
+
+	rmd_config_request_t_publish(t->lcm, t->ch_request, &req);
+}
+
+/* Handle LCM until deadline_ns (monotonic), asking for config_t meanwhile when missing. */
+static int pump(struct top *t, int64_t deadline_ns, int64_t *next_ask_ns)
+{
+	for (;;) {
+		int64_t now = rmd_now_ns();
+		int ms, r;
+
+		if (!t->cfg && now >= *next_ask_ns) {
+			ask_config(t);
+			*next_ask_ns = now + ASK_EVERY_NS;
+		}
+		if (now >= deadline_ns || stop)
+			return 0;
+		ms = (int)((deadline_ns - now + 999999) / 1000000);
+		r = lcm_handle_timeout(t->lcm, ms > 50 ? 50 : ms);
+		if (r < 0 && !stop) /* Ctrl-C interrupts the wait: not an error */
+			return -EIO;
+	}
+}
+
+/* ---- the view ------------------------------------------------------------------------- */
+
+static const char *num(char *buf, size_t size, double v, int prec)
+{
+	if (!isfinite(v))
+		return "-";
+	snprintf(buf, size, "%.*f", prec, v);
+	return buf;
+}
+
+static const char *mode_name(int mode)
+{
+	return mode >= 0 && mode < RMD_MODE_COUNT ? rmd_mode_name((enum rmd_mode)mode) : "?";
+}
+
+static const char *bus_state_name(int s)
+{
+	return s >= RMD_BUS_ACTIVE && s <= RMD_BUS_OFF ? rmd_bus_state_name((enum rmd_bus_state)s) :
+							 "?";
+}
+
+/* The state's motor i, by index (state_t.motor[i] is motor i, but check). */
+static const rmd_motor_state_t *motor_state(const struct top *t, int i)
+{
+	if (t->state && i < t->state->count && t->state->motor[i].index == i)
+		return &t->state->motor[i];
+	return NULL;
+}
+
+static void print_table(const struct top *t, FILE *f)
+{
+	const rmd_config_t *c = t->cfg;
+	const rmd_health_t *h = t->health;
+	int64_t now = rmd_now_ns();
+	char b[6][32];
+
+	fprintf(f, "rmdd on %s, prefix %s", t->url, t->prefix);
+	if (c)
+		fprintf(f, ", period %d us, state every %d", c->period_us, c->state_every);
+	if (t->state)
+		fprintf(f, ", cycle %" PRId64, t->state->cycle);
+	fputc('\n', f);
+	if (!c || !h || !t->state) {
+		fprintf(f, "waiting for rmdd: config %s, health %s, state %s\n", c ? "yes" : "no",
+			h ? "yes" : "no", t->state ? "yes" : "no");
+		return;
+	}
+	if (now - t->health_rx_ns > STALE_NS || now - t->state_rx_ns > STALE_NS)
+		fprintf(f, "STALE: no health for %.1f s, no state for %.1f s (rmdd stopped?)\n",
+			(double)(now - t->health_rx_ns) / 1e9,
+			(double)(now - t->state_rx_ns) / 1e9);
+	fprintf(f,
+		"loop: cycles %" PRId64 ", overruns %" PRId64 ", plan misses %" PRId64
+		"; wake-up us min %s avg %s p99 %s max %s; cycle max %s us\n",
+		h->cycles, h->overruns, h->plan_misses, num(b[0], 32, h->wake_min_us, 1),
+		num(b[1], 32, h->wake_avg_us, 1), num(b[2], 32, h->wake_p99_us, 1),
+		num(b[3], 32, h->wake_max_us, 1), num(b[4], 32, h->cycle_max_us, 1));
+	fprintf(f,
+		"watchdog %s, safe actions %" PRId64 "; commands accepted %" PRId64
+		", rejected %" PRId64 ", clamped %" PRId64 "; %s\n",
+		tool_watchdog_name((unsigned)h->watchdog), h->safe_action_events,
+		h->commands_accepted, h->commands_rejected, h->commands_clamped,
+		h->owned ? "owned" : "no owner");
+	fprintf(f, "\n%-12s %-9s %-14s %6s %10s %10s %7s %8s %8s %6s\n", "BUS", "KIND", "STATE",
+		"LOAD%", "TX", "RX", "TXBUSY", "RXERR", "BUSERR", "CHG");
+	for (int i = 0; i < h->bus_count && i < RMD_HEALTH_T_MAX_BUSES; i++) {
+		const rmd_bus_health_t *bh = &h->bus[i];
+
+		fprintf(f,
+			"%-12s %-9s %-14s %6.1f %10" PRId64 " %10" PRId64 " %7" PRId64 " %8" PRId64
+			" %8" PRId64 " %6" PRId64 "\n",
+			bh->name, i < c->bus_count ? c->bus[i].kind : "?",
+			bus_state_name(bh->state), bh->load * 100.0, bh->tx_frames, bh->rx_frames,
+			bh->tx_busy, bh->rx_errors, bh->bus_errors, bh->state_changes);
+	}
+	fprintf(f, "\n%3s %-12s %-8s %3s %-8s %-8s %9s %9s %8s %6s %6s %6s %7s %8s %s\n", "IDX",
+		"NAME", "BUS", "ID", "LIFECYC", "MODE", "POS_RAD", "VEL_RAD_S", "TORQUE", "TEMP",
+		"ERR", "LAT_US", "AGE_MS", "MISSED", "PROTECTION");
+	for (int i = 0; i < c->motor_count; i++) {
+		const rmd_motor_config_t *mc = &c->motor[i];
+		const rmd_motor_state_t *ms = motor_state(t, i);
+		char prot[32];
+
+		snprintf(prot, sizeof(prot), "%s %dms",
+			 i < h->motor_count ? tool_comm_loss_name((unsigned)h->comm_loss[i]) : "?",
+			 i < h->motor_count ? h->comm_loss_ms[i] : -1);
+		if (!ms) {
+			fprintf(f, "%3d %-12s (not in state_t)\n", i, mc->name);
+			continue;
+		}
+		fprintf(f,
+			"%3d %-12s %-8s %3d %-8s %-8s %9s %9s %8s %6s %#6x %6d %7.1f %8" PRId64
+			" %s\n",
+			i, mc->name,
+			mc->bus >= 0 && mc->bus < c->bus_count ? c->bus[mc->bus].name : "?", mc->id,
+			tool_lifecycle_name((unsigned)ms->lifecycle), mode_name(ms->mode),
+			num(b[0], 32, ms->position, 4), num(b[1], 32, ms->velocity, 3),
+			num(b[2], 32, ms->torque, 3), num(b[3], 32, ms->temperature, 0),
+			(unsigned)ms->error_code, ms->reply_latency_us,
+			ms->reply_age_cycles * c->period_us / 1000.0, ms->missed_replies, prot);
+	}
+}
+
+/* A JSON string (names from config_t: [a-z0-9_] and paths, escaped anyway). */
+static void json_str(FILE *f, const char *s)
+{
+	fputc('"', f);
+	for (; *s; s++) {
+		if (*s == '"' || *s == '\\')
+			fprintf(f, "\\%c", *s);
+		else if ((unsigned char)*s < 0x20)
+			fprintf(f, "\\u%04x", (unsigned char)*s);
+		else
+			fputc(*s, f);
+	}
+	fputc('"', f);
+}
+
+/* A number, or null (NaN: not reported yet). */
+static void json_num(FILE *f, double v)
+{
+	if (isfinite(v))
+		fprintf(f, "%.9g", v);
+	else
+		fputs("null", f);
+}
+
+/* ,"key":"value" */
+static void json_kstr(FILE *f, const char *key, const char *v)
+{
+	fprintf(f, ",\"%s\":", key);
+	json_str(f, v);
+}
+
+static void json_knum(FILE *f, const char *key, double v)
+{
+	fprintf(f, ",\"%s\":", key);
+	json_num(f, v);
+}
+
+static void json_kint(FILE *f, const char *key, int64_t v)
+{
+	fprintf(f, ",\"%s\":%" PRId64, key, v);
+}
+
+static void print_json(const struct top *t, FILE *f)
+{
+	const rmd_config_t *c = t->cfg;
+	const rmd_health_t *h = t->health;
+	const rmd_state_t *s = t->state;
+
+	fputs("{\"url\":", f);
+	json_str(f, t->url);
+	json_kstr(f, "prefix", c->prefix);
+	json_kint(f, "period_us", c->period_us);
+	json_kint(f, "state_every", c->state_every);
+	json_kint(f, "cycle", s->cycle);
+	json_kint(f, "cycles", h->cycles);
+	json_kint(f, "overruns", h->overruns);
+	json_kint(f, "plan_misses", h->plan_misses);
+	json_knum(f, "wake_min_us", h->wake_min_us);
+	json_knum(f, "wake_avg_us", h->wake_avg_us);
+	json_knum(f, "wake_p99_us", h->wake_p99_us);
+	json_knum(f, "wake_max_us", h->wake_max_us);
+	json_knum(f, "cycle_max_us", h->cycle_max_us);
+	json_kstr(f, "watchdog", tool_watchdog_name((unsigned)h->watchdog));
+	json_kint(f, "safe_action_events", h->safe_action_events);
+	json_kint(f, "commands_accepted", h->commands_accepted);
+	json_kint(f, "commands_rejected", h->commands_rejected);
+	json_kint(f, "commands_clamped", h->commands_clamped);
+	fprintf(f, ",\"owned\":%s", h->owned ? "true" : "false");
+	json_kint(f, "owner", h->owner);
+	fputs(",\"buses\":[", f);
+	for (int i = 0; i < h->bus_count && i < RMD_HEALTH_T_MAX_BUSES; i++) {
+		const rmd_bus_health_t *bh = &h->bus[i];
+
+		fputs(i ? ",{\"name\":" : "{\"name\":", f);
+		json_str(f, bh->name);
+		json_kstr(f, "kind", i < c->bus_count ? c->bus[i].kind : "?");
+		json_kint(f, "bitrate", i < c->bus_count ? c->bus[i].bitrate : 0);
+		json_kstr(f, "state", bus_state_name(bh->state));
+		json_knum(f, "load", bh->load);
+		json_kint(f, "tx_frames", bh->tx_frames);
+		json_kint(f, "rx_frames", bh->rx_frames);
+		json_kint(f, "tx_busy", bh->tx_busy);
+		json_kint(f, "rx_errors", bh->rx_errors);
+		json_kint(f, "bus_errors", bh->bus_errors);
+		json_kint(f, "state_changes", bh->state_changes);
+		fputc('}', f);
+	}
+	fputs("],\"motors\":[", f);
+	for (int i = 0; i < c->motor_count; i++) {
+		const rmd_motor_config_t *mc = &c->motor[i];
+		const rmd_motor_state_t *ms = motor_state(t, i);
+
+		fprintf(f, "%s{\"index\":%d", i ? "," : "", i);
+		json_kstr(f, "name", mc->name);
+		json_kstr(f, "bus",
+			  mc->bus >= 0 && mc->bus < c->bus_count ? c->bus[mc->bus].name : "?");
+		json_kint(f, "id", mc->id);
+		json_kstr(f, "protocol", mc->protocol);
+		if (ms) {
+			json_kstr(f, "lifecycle", tool_lifecycle_name((unsigned)ms->lifecycle));
+			json_kstr(f, "mode", mode_name(ms->mode));
+			json_knum(f, "position", ms->position);
+			json_knum(f, "velocity", ms->velocity);
+			json_knum(f, "torque", ms->torque);
+			json_knum(f, "current", ms->current);
+			json_knum(f, "temperature", ms->temperature);
+			json_knum(f, "voltage", ms->voltage);
+			json_kint(f, "error_code", ms->error_code);
+			json_kint(f, "reply_latency_us", ms->reply_latency_us);
+			json_kint(f, "reply_age_cycles", ms->reply_age_cycles);
+			json_kint(f, "missed_replies", ms->missed_replies);
+		}
+		json_kstr(f, "comm_loss", tool_comm_loss_name((unsigned)h->comm_loss[i]));
+		json_kint(f, "comm_loss_ms", h->comm_loss_ms[i]);
+		json_kint(f, "unarmed_rejects", h->unarmed_rejects[i]);
+		fputc('}', f);
+	}
+	fputs("]}\n", f);
+}
+
+/* ---- the command ---------------------------------------------------------------------- */
+
+static int parse(struct top *t, int argc, char **argv)
+{
+	static const struct option longopts[] = {
+		{ "lcm-url", required_argument, NULL, 'l' },
+		{ "prefix", required_argument, NULL, 'P' },
+		{ "json", no_argument, NULL, 'j' },
+		{ "once", no_argument, NULL, 'o' },
+		{ "interval", required_argument, NULL, 'i' },
+		{ "wait", required_argument, NULL, 'w' },
+		{ "help", no_argument, NULL, 'h' },
+		{ 0 },
+	};
+	int c;
+
+	optind = 0; /* glibc: full re-initialisation */
+	opterr = 0;
+	while ((c = getopt_long(argc, argv, ":jh", longopts, NULL)) != -1) {
+		switch (c) {
+		case 'l':
+			t->url = optarg;
+			break;
+		case 'P':
+			t->prefix = optarg;
+			break;
+		case 'j':
+			t->json = true;
+			break;
+		case 'o':
+			t->once = true;
+			break;
+		case 'i':
+			if (rmdctl_parse_double(optarg, &t->interval_ms) < 0 ||
+			    t->interval_ms < 10 || t->interval_ms > 3600000) {
+				tool_log(TOOL_LOG_ERR, "bad --interval \"%s\" (10..3600000 ms)",
+					 optarg);
+				return -1;
+			}
+			break;
+		case 'w':
+			if (rmdctl_parse_double(optarg, &t->wait_s) < 0 || t->wait_s <= 0 ||
+			    t->wait_s > 3600) {
+				tool_log(TOOL_LOG_ERR, "bad --wait \"%s\" (seconds, 0..3600)",
+					 optarg);
+				return -1;
+			}
+			break;
+		case 'h':
+			rmdctl_top_usage(stdout);
+			return 1;
+		case ':':
+			tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
+			return -1;
+		default:
+			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
+			return -1;
+		}
+	}
+	if (optind < argc) {
+		tool_log(TOOL_LOG_ERR, "unexpected argument \"%s\"", argv[optind]);
+		return -1;
+	}
+	if (t->json && t->once) {
+		tool_log(TOOL_LOG_ERR, "--json and --once exclude each other");
+		return -1;
+	}
+	if (strlen(t->prefix) + strlen("CONFIG_REQUEST") >= CHANNEL_LEN) {
+		tool_log(TOOL_LOG_ERR, "--prefix \"%s\" is too long", t->prefix);
+		return -1;
+	}
+	return 0;
+}
+
+static int run(struct top *t)
+{
+	int64_t start = rmd_now_ns(), next_ask = start, next_draw = start;
+	bool one_shot = t->json || t->once;
+
+	for (;;) {
+		if (one_shot) {
+			if (pump(t, rmd_now_ns() + 20000000, &next_ask) < 0)
+				return -EIO;
+			if (complete(t))
+				break;
+			if (stop || rmd_now_ns() - start > (int64_t)(t->wait_s * 1e9)) {
+				tool_log(TOOL_LOG_ERR,
+					 "no complete %sCONFIG, %sHEALTH and %sSTATE within %g s "
+					 "(config %s, health %s, state %s): is rmdd running, with "
+					 "--lcm-url %s and prefix %s?",
+					 t->prefix, t->prefix, t->prefix, t->wait_s,
+					 t->cfg ? "yes" : "no", t->health ? "yes" : "no",
+					 t->state ? "yes" : "no", t->url, t->prefix);
+				return -ETIMEDOUT;
+			}
+			continue;
+		}
+		next_draw += (int64_t)(t->interval_ms * 1e6);
+		if (pump(t, next_draw, &next_ask) < 0)
+			return -EIO;
+		if (stop)
+			return 0;
+		if (t->tty)
+			fputs("\033[H\033[2J", stdout); /* home, clear */
+		else
+			fputc('\n', stdout);
+		print_table(t, stdout);
+		fflush(stdout);
+	}
+	if (t->json)
+		print_json(t, stdout);
+	else
+		print_table(t, stdout);
+	return 0;
+}
+
+int rmdctl_top_run(int argc, char **argv)
+{
+	struct top t = { .prefix = DEFAULT_PREFIX, .wait_s = WAIT_S };
+	struct sigaction sa;
+	const char *env = getenv("LCM_DEFAULT_URL");
+	int r;
+
+	t.url = env && *env ? env : RMD_CONFIG_DEFAULT_LCM_URL;
+	t.tty = isatty(STDOUT_FILENO);
+	r = parse(&t, argc, argv);
+	if (r > 0)
+		return RMDCTL_EXIT_OK;
+	if (r < 0) {
+		rmdctl_top_usage(stderr);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (t.interval_ms == 0)
+		t.interval_ms = t.tty ? TTY_INTERVAL_MS : PLAIN_INTERVAL_MS;
+	snprintf(t.ch_state, sizeof(t.ch_state), "%sSTATE", t.prefix);
+	snprintf(t.ch_health, sizeof(t.ch_health), "%sHEALTH", t.prefix);
+	snprintf(t.ch_config, sizeof(t.ch_config), "%sCONFIG", t.prefix);
+	snprintf(t.ch_request, sizeof(t.ch_request), "%sCONFIG_REQUEST", t.prefix);
+
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_signal;
+	sigemptyset(&sa.sa_mask);
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+
+	t.lcm = lcm_create(t.url);
+	if (!t.lcm) {
+		tool_log(TOOL_LOG_ERR,
+			 "LCM: cannot open %s (docs/lcm.md: a robot PC without a network)", t.url);
+		return RMDCTL_EXIT_DATA;
+	}
+	rmd_state_t_subscribe(t.lcm, t.ch_state, on_state, &t);
+	rmd_health_t_subscribe(t.lcm, t.ch_health, on_health, &t);
+	rmd_config_t_subscribe(t.lcm, t.ch_config, on_config, &t);
+	r = run(&t);
+	if (r == -EIO)
+		tool_log(TOOL_LOG_ERR, "LCM: receiving on %s failed", t.url);
+	lcm_destroy(t.lcm);
+	if (t.cfg)
+		rmd_config_t_destroy(t.cfg);
+	if (t.health)
+		rmd_health_t_destroy(t.health);
+	if (t.state)
+		rmd_state_t_destroy(t.state);
+	if (fflush(stdout) != 0 || ferror(stdout)) {
+		tool_log(TOOL_LOG_ERR, "write error: %s", strerror(errno));
+		return RMDCTL_EXIT_DATA;
+	}
+	return r < 0 ? RMDCTL_EXIT_DATA : RMDCTL_EXIT_OK;
+}

@@ -1,0 +1,153 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The dump/restore round trip (settings_trip.h).
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "settings_trip.h"
+
+#define TEXT_MAX 8192
+
+struct trip {
+	settings_run_fn *run;
+	void *ctx;
+	const char *const *bus_args;
+	int status;
+	const char *out, *err;
+};
+
+/* rmdctl args... bus_args...; must exit `status`. */
+static void trip_run(struct trip *t, int status, const char *const *args)
+{
+	const char *argv[32];
+	size_t n = 0;
+
+	for (; *args && n < 16; args++)
+		argv[n++] = *args;
+	for (const char *const *b = t->bus_args; *b && n < 31; b++)
+		argv[n++] = *b;
+	argv[n] = NULL;
+	t->run(t->ctx, argv, &t->status, &t->out, &t->err);
+	if (t->status != status)
+		fail_msg("rmdctl %s %s: exit %d, expected %d\nstdout:\n%s\nstderr:\n%s", argv[0],
+			 argv[1] ? argv[1] : "", t->status, status, t->out, t->err);
+}
+#define TRIP(t, status, ...) trip_run((t), (status), (const char *const[]){ __VA_ARGS__, NULL })
+
+static void has(const struct trip *t, const char *hay, const char *needle)
+{
+	if (!strstr(hay, needle))
+		fail_msg("\"%s\" missing from:\n%s\nstderr:\n%s", needle, hay, t->err);
+}
+
+/* The dump from "motors:" on (the header has the time), into buf. */
+static void motors_of(const struct trip *t, char *buf)
+{
+	const char *m = strstr(t->out, "\nmotors:\n");
+
+	if (!m)
+		fail_msg("no motors: list in the dump:\n%s", t->out);
+	snprintf(buf, TEXT_MAX, "%s", m);
+}
+
+static void write_file(const char *path, const char *text)
+{
+	FILE *f = fopen(path, "w");
+
+	assert_non_null(f);
+	assert_int_equal(fputs(text, f) >= 0, 1);
+	assert_int_equal(fclose(f), 0);
+}
+
+/* s with the first `from` after `after` replaced by `to`, into buf. */
+static void edit(char *buf, const char *s, const char *after, const char *from, const char *to)
+{
+	const char *a = strstr(s, after), *p = a ? strstr(a, from) : NULL;
+
+	if (!p)
+		fail_msg("no \"%s\" after \"%s\" in:\n%s", from, after, s);
+	snprintf(buf, TEXT_MAX, "%.*s%s%s", (int)(p - s), s, to, p + strlen(from));
+}
+
+void settings_round_trip(settings_run_fn *run, void *ctx, const char *const *bus_args,
+			 const char *dir)
+{
+	static char orig[TEXT_MAX], text[TEXT_MAX], a[TEXT_MAX], b[TEXT_MAX], path[2][512];
+	struct trip t = { .run = run, .ctx = ctx, .bus_args = bus_args };
+
+	snprintf(path[0], sizeof(path[0]), "%s/motors.yaml", dir);
+	snprintf(path[1], sizeof(path[1]), "%s/edited.yaml", dir);
+
+	/* dump: both motors, rmd-sim's defaults (src/sim) */
+	TRIP(&t, 0, "dump", "1-2");
+	snprintf(orig, sizeof(orig), "%s", t.out);
+	write_file(path[0], orig);
+	has(&t, orig, "protocol: v3\n");
+	has(&t, orig, "  - id: 1\n");
+	has(&t, orig, "  - id: 2\n");
+	has(&t, orig,
+	    "    pid: {current_kp: 85, current_ki: 25, speed_kp: 85, speed_ki: 25, "
+	    "position_kp: 85, position_ki: 25}\n");
+	has(&t, orig, "    accel_dps2: 10000\n");
+	has(&t, orig, "    zero_offset: 0\n");
+	has(&t, orig, "# Not readable");
+
+	/* edit: motor 1's speed kp, acceleration and zero; motor 2's comm-loss time */
+	edit(a, orig, "id: 1", "speed_kp: 85", "speed_kp: 60");
+	edit(b, a, "id: 1", "accel_dps2: 10000", "accel_dps2: 2500");
+	edit(a, b, "id: 1", "zero_offset: 0", "zero_offset: 1234");
+	edit(text, a, "id: 2", "zero_offset: 0\n", "zero_offset: 0\n    comm_loss_ms: 300\n");
+	write_file(path[1], text);
+
+	/* without a terminal and --yes: the diff, a refusal, nothing written */
+	TRIP(&t, 2, "restore", path[1]);
+	has(&t, t.out, "motor 1: pid: speed_kp 85 -> 60\n");
+	has(&t, t.out, "motor 1: accel_dps2 10000 -> 2500\n");
+	has(&t, t.out, "motor 1: zero_offset 0 -> 1234 (used after `rmdctl reset 1`)\n");
+	has(&t, t.out, "motor 2: comm_loss_ms -> 300 (cannot be read back: written as given)\n");
+	if (strstr(t.out, "motor 2: pid") || strstr(t.out, "motor 2: accel"))
+		fail_msg("motor 2's unchanged values in the diff:\n%s", t.out);
+	has(&t, t.err, "refusing to write these 4 changes to 2 motors on ");
+	TRIP(&t, 0, "dump", "1-2");
+	motors_of(&t, a);
+	motors_of(&(struct trip){ .out = orig }, b);
+	assert_string_equal(a, b);
+
+	/* --yes: written; read back; the zero offset after a reset */
+	TRIP(&t, 0, "restore", path[1], "--yes");
+	has(&t, t.out, ": 4 changes to 2 motors written to ROM, each answered\n");
+	TRIP(&t, 0, "dump", "1-2");
+	has(&t, t.out, "speed_kp: 60, ");
+	has(&t, t.out, "accel_dps2: 2500\n    zero_offset: 0\n"); /* ROM: after a reset */
+	TRIP(&t, 0, "reset", "1");
+	TRIP(&t, 0, "dump", "1-2");
+	motors_of(&t, a);
+	motors_of(&(struct trip){ .out = text }, b);
+	/* the edited file less motor 2's comm_loss_ms line, which a dump cannot hold */
+	edit(text, b, "id: 2", "    comm_loss_ms: 300\n", "");
+	assert_string_equal(a, text);
+
+	/* again: only what a dump cannot read is written */
+	TRIP(&t, 0, "restore", path[1], "--yes");
+	has(&t, t.out, "motor 1: unchanged\n");
+	has(&t, t.out, ": 1 change to 1 motor written to ROM, each answered\n");
+
+	/* and back to the first dump */
+	TRIP(&t, 0, "restore", path[0], "--yes");
+	has(&t, t.out, "motor 2: unchanged\n");
+	TRIP(&t, 0, "reset", "1");
+	TRIP(&t, 0, "dump", "1-2");
+	motors_of(&t, a);
+	motors_of(&(struct trip){ .out = orig }, b);
+	assert_string_equal(a, b);
+	assert_int_equal(remove(path[0]), 0);
+	assert_int_equal(remove(path[1]), 0);
+}

@@ -1,0 +1,27 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * `rmdctl dump` -> edit -> `rmdctl restore` -> `rmdctl dump` on motors that
+ * keep their settings between rmdctl runs (rmd-sim on a pty, or on vcan in
+ * the guest), for the suites that drive rmdctl on such a line: each runs
+ * rmdctl its own way, through run().  Motors 1 and 2 must answer, with
+ * rmd-sim's defaults, and get them back at the end.
+ */
+#ifndef RMD_TESTS_SETTINGS_TRIP_H
+#define RMD_TESTS_SETTINGS_TRIP_H
+
+/*
+ * Run rmdctl with args (argv[1..], NULL-terminated); *status, and its
+ * stdout and stderr (valid until the next call).
+ */
+typedef void settings_run_fn(void *ctx, const char *const *args, int *status, const char **out,
+			     const char **err);
+
+/*
+ * The round trip; bus_args (NULL-terminated, e.g. "--bus", "vcan0") end
+ * every command line; its two files go to dir (removed at the end).
+ * Fails the test on any difference.
+ */
+void settings_round_trip(settings_run_fn *run, void *ctx, const char *const *bus_args,
+			 const char *dir);
+
+#endif /* RMD_TESTS_SETTINGS_TRIP_H */
