@@ -662,6 +662,16 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 		 * entry frames included: hold must not be undone) */
 		loop_frames_drop(lm);
 	}
+	/*
+	 * A last state and health after the stops (issue 13): the exit
+	 * statistics then count every frame sent, the final stops included,
+	 * and the states say READY.
+	 */
+	loop_fill_snapshot(l, now);
+	loop_fill_health(l, now);
+	loop_pub_write(l);
+	if (l->o.health)
+		rmd_latest_put(l->o.health, &l->health);
 }
 
 /* ------------------------------------------------------------------ */

@@ -826,6 +826,39 @@ static void test_stop_motors(void **state)
 	rig_down();
 }
 
+/*
+ * After rmd_loop_stop_motors() the published health counts every frame the
+ * buses sent, the final stops included (issue 13: rmdd's exit statistics
+ * read it after the loop's thread ended), and the published state is READY.
+ */
+static void test_health_after_stop_counts_the_stops(void **state)
+{
+	static struct rmd_health h;
+	struct rmd_snapshot *snap = malloc(sizeof(*snap));
+
+	(void)state;
+	assert_non_null(snap);
+	rig_up(6, NULL); /* two buses */
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 6; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(300, true);
+	rmd_loop_stop_motors(R.l, t_now);
+	assert_true(rmd_loop_get_health(R.l, &h));
+	for (unsigned b = 0; b < R.io.cfg.n_buses; b++) {
+		const struct rmd_bus_stats *bs = rmd_bus_stats(&R.io.buses[b]);
+
+		assert_int_equal(h.bus[b].stats.tx_frames, bs->tx_frames);
+		assert_int_equal(h.bus[b].stats.rx_frames, bs->rx_frames);
+	}
+	rmd_loop_get_snapshot(R.l, snap);
+	for (unsigned i = 0; i < 6; i++)
+		assert_int_equal(snap->m[i].lifecycle, RMD_LC_READY);
+	free(snap);
+	rig_down();
+}
+
 static void test_overrun(void **state)
 {
 	struct rmd_loop_stats st;
@@ -1925,6 +1958,7 @@ int main(void)
 		cmocka_unit_test(test_watchdog),
 		cmocka_unit_test(test_nan_never_on_wire),
 		cmocka_unit_test(test_stop_motors),
+		cmocka_unit_test(test_health_after_stop_counts_the_stops),
 		cmocka_unit_test(test_overrun),
 		cmocka_unit_test(test_v2_batch),
 		cmocka_unit_test(test_bus_off),
