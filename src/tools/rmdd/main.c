@@ -646,9 +646,10 @@ static const char *comm_loss_why(uint8_t cl)
 	case RMD_CL_OFF:
 		return "off by config";
 	case RMD_CL_UNSUPPORTED:
-		return "V2: none";
+		return "V2 has no 0xB3";
 	default:
-		return "never armed";
+		/* RMD_CL_PENDING: missing at bring-up, or lost and not answered since */
+		return "not armed: missing or lost, not re-armed since";
 	}
 }
 
