@@ -26,6 +26,11 @@ kill $cd_pid; wait $cd_pid || true
 for f in 141#A100000064000000 142#A400C80028230000 280#3F00C1FF1F000000; do
 	grep -q " can0 $f\$" frames.out || { echo "candump did not see $f"; tail frames.out; exit 1; }
 done
+# settings into a file and back (unchanged: nothing to write)
+rmdctl dump --bus can0 > motors.yaml
+cat motors.yaml
+grep -q 'speed_kp' motors.yaml
+echo y | script -qec "rmdctl restore motors.yaml --bus can0" /dev/null > restore.out; cat restore.out
 stop $sim
 
 rmd-sim --config examples/rmd-sim.conf > s1.log 2>&1 &
