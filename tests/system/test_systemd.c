@@ -15,7 +15,8 @@
  *             the offline file) rates its exposure 2.0 or lower;
  *   start     `systemctl start` returns (Type=notify: after READY=1), the
  *             unit is active with a STATUS= text; the daemon runs as a
- *             dynamic user, not root, with its memory locked and a thread at
+ *             dynamic user, not root, in group dialout (serial adapters,
+ *             through PrivateUsers=), with its memory locked and a thread at
  *             SCHED_FIFO (the filter and namespaces let real time through),
  *             and publishes state_t over LCM multicast (IPAddressAllow=);
  *   watchdog  it stays up, same process, no restart, through 3 WatchdogSec
@@ -32,6 +33,7 @@
 #define _GNU_SOURCE
 #include <dirent.h>
 #include <errno.h>
+#include <grp.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -404,6 +406,42 @@ static long status_field(long pid, const char *key)
 	return v;
 }
 
+/* The Groups: line of /proc/pid/status (static buffer). */
+static const char *groups_of(long pid)
+{
+	static char groups[256];
+	char path[64], line[256];
+	FILE *f;
+
+	groups[0] = '\0';
+	snprintf(path, sizeof(path), "/proc/%ld/status", pid);
+	f = fopen(path, "r");
+	if (!f)
+		return groups;
+	while (fgets(line, sizeof(line), f))
+		if (strncmp(line, "Groups:", 7) == 0)
+			snprintf(groups, sizeof(groups), "%s", line + 7);
+	fclose(f);
+	groups[strcspn(groups, "\n")] = '\0';
+	return groups;
+}
+
+/* Whether pid's supplementary groups hold dialout (serial adapters' group). */
+static bool has_dialout(long pid)
+{
+	const struct group *g = getgrnam("dialout");
+	char want[32], have[300];
+
+	if (!g)
+		fail_msg("no group dialout on this system");
+	snprintf(want, sizeof(want), " %u ", (unsigned)g->gr_gid);
+	snprintf(have, sizeof(have), " %s ", groups_of(pid));
+	for (char *t = have; *t; t++)
+		if (*t == '\t')
+			*t = ' ';
+	return strstr(have, want) != NULL;
+}
+
 static void test_start(void **state)
 {
 	struct run r = { 0 };
@@ -436,6 +474,15 @@ static void test_start(void **state)
 		fail_msg(
 			"rmdd (pid %ld) has no memory locked (VmLck %ld kB): mlockall refused?\n%s",
 			pid, status_field(pid, "VmLck:"), journal());
+	fprintf(stderr,
+		"test_systemd: rmdd runs as uid %ld, %ld kB locked, cgroup memory %s, "
+		"groups:%s\n",
+		status_field(pid, "Uid:"), status_field(pid, "VmLck:"),
+		prop("MemoryCurrent", text, sizeof(text)), groups_of(pid));
+	if (!has_dialout(pid))
+		fail_msg("rmdd (pid %ld) lacks group dialout (SupplementaryGroups=): no serial "
+			 "adapters\n%s",
+			 pid, journal());
 	if (thread_policy_fifo(pid) != 1)
 		fail_msg("no thread of rmdd (pid %ld) runs at SCHED_FIFO\n%s", pid, journal());
 
