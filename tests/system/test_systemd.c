@@ -138,20 +138,22 @@ static long prop_ms(const char *name)
 	return (long)ms;
 }
 
-/* What systemd said about rmdd, and rmdd's last lines, for failure messages. */
+/*
+ * What systemd said about rmdd and rmdd's last lines, printed on stderr
+ * whole (a failure message would cut them); "" to end the message with.
+ */
 static const char *journal(void)
 {
-	static char text[8192];
 	struct run sd = { 0 }, own = { 0 };
 
-	sh(&sd, "journalctl -o short-monotonic --no-pager -n 25 UNIT=rmdd.service", 30000);
-	sh(&own, "journalctl -o short-monotonic --no-pager -n 12 _SYSTEMD_UNIT=rmdd.service",
+	sh(&sd, "journalctl -o short-monotonic --no-pager -n 40 UNIT=rmdd.service", 30000);
+	sh(&own, "journalctl -o short-monotonic --no-pager -n 15 _SYSTEMD_UNIT=rmdd.service",
 	   30000);
-	snprintf(text, sizeof(text), "systemd about rmdd.service:\n%s%s\nrmdd's last lines:\n%s%s",
-		 sd.out, sd.err, own.out, own.err);
+	fprintf(stderr, "---- systemd about rmdd.service:\n%s%s---- rmdd's last lines:\n%s%s----\n",
+		sd.out, sd.err, own.out, own.err);
 	run_free(&sd);
 	run_free(&own);
-	return text;
+	return "(journal above)";
 }
 
 /* rmdd's MainPID, which must be a process (kill(0, ...) would hit the test). */
