@@ -293,11 +293,24 @@ DOCS_TESTS := tests/docs/check-docs
 VCAN_TESTS += tests/docs/check-docs-can
 endif
 
+# test_systemd runs rmdd.service under systemd as PID 1 (the QEMU guest
+# booted with systemd: tests/vm/vm-run --systemd), installed as `make install`
+# installs it: into $(SYSTEMD_ROOT) here, copied into the guest's / there.
+# Not under SANITIZE=1: the unit's MemoryMax= and mlockall() do not fit ASan.
+SYSTEMD_TESTS := $(if $(filter 1,$(SANITIZE)),,$(filter %/test_systemd,$(TESTS)))
+SYSTEMD_ROOT := $(BUILD)/systemd-root
+$(SYSTEMD_ROOT).installed: $(PROGS) systemd/rmdd.service.in
+	$(Q)rm -rf $(SYSTEMD_ROOT)
+	$(Q)$(MAKE) --no-print-directory -s install DESTDIR=$(abspath $(SYSTEMD_ROOT)) \
+		PREFIX=/usr SYSCONFDIR=/etc >/dev/null
+	$(Q)touch $@
+
 # bench/insn-guard.sh: the loop's instructions per cycle must not rise more
 # than 5 % above the committed figure (callgrind counts; not a timing test).
 # Sanitizer builds count their own instrumentation: not there.
-test: all
-	$(Q)BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) -- $(TESTS) $(DOCS_TESTS)
+test: all $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
+	$(Q)BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) --systemd $(SYSTEMD_TESTS) \
+		-- $(TESTS) $(DOCS_TESTS)
 ifneq ($(SANITIZE),1)
 	$(Q)BUILD=$(BUILD) bench/insn-guard.sh
 endif

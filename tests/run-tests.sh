@@ -3,12 +3,14 @@
 # summary line that CI reads:
 #   tests: N passed, N failed
 #
-#   tests/run-tests.sh [--vcan SUITE...] -- SUITE...
+#   tests/run-tests.sh [--vcan SUITE...] [--systemd SUITE...] -- SUITE...
 #
 # SUITEs after "--" run here.  SUITEs after --vcan need real SocketCAN with
 # vcan0..vcan2: they run through tests/vm/vm-run (on this host when its
 # kernel has vcan, else in a QEMU guest booting Debian's kernel); when
 # neither is possible they are skipped with one loud line saying why.
+# SUITEs after --systemd need systemd as PID 1 and vcan0: they run in the
+# guest booted with systemd as init (vm-run --systemd), or are skipped alike.
 #
 # A suite that runs longer than RMD_SUITE_TIMEOUT seconds (default 600) is
 # killed and counted as failed: a hang must never stall CI.
@@ -17,13 +19,16 @@ set -u
 limit=${RMD_SUITE_TIMEOUT:-600}
 here=$(dirname "$0")
 vcan=""
+systemd=""
 tally=""
 while [ $# -gt 0 ]; do
 	case "$1" in
-	--vcan)
+	--vcan | --systemd)
+		group=$1
 		shift
-		while [ $# -gt 0 ] && [ "$1" != "--" ]; do
-			vcan="$vcan $1"
+		while [ $# -gt 0 ] && [ "$1" != "--" ] && [ "$1" != "--vcan" ] &&
+			[ "$1" != "--systemd" ]; do
+			if [ "$group" = --vcan ]; then vcan="$vcan $1"; else systemd="$systemd $1"; fi
 			shift
 		done
 		;;
@@ -66,24 +71,42 @@ for t in "$@"; do
 	rm -f "$out"
 done
 
+# in_vm LABEL VM-RUN-OPTIONS... -- SUITE...: the suites in one guest, their
+# tally added to this run's.
+in_vm()
+{
+	label=$1
+	shift
+	t=$(mktemp /tmp/rmd-tally.XXXXXX)
+	opts=""
+	while [ "$1" != "--" ]; do
+		opts="$opts $1"
+		shift
+	done
+	shift
+	# shellcheck disable=SC2086 # the option and suite lists are meant to split
+	"$here/vm/vm-run" $opts --timeout $((limit * 3)) -- "$here/run-tests.sh" --tally "$t" -- "$@"
+	rc=$?
+	if read -r p f <"$t" 2>/dev/null; then
+		passed=$((passed + p))
+		failed=$((failed + f))
+	fi
+	if [ "$rc" -ne 0 ]; then
+		bad="$bad $label(rc=$rc)"
+		[ -s "$t" ] || failed=$((failed + 1))
+	fi
+	rm -f "$t"
+}
+
 if [ -n "$vcan" ]; then
 	echo "== SocketCAN suites on vcan:$vcan"
-	if "$here/vm/vm-available"; then
-		t=$(mktemp /tmp/rmd-tally.XXXXXX)
-		# shellcheck disable=SC2086 # the suite list is meant to split
-		"$here/vm/vm-run" --vcan 3 --timeout $((limit * 3)) -- \
-			"$here/run-tests.sh" --tally "$t" -- $vcan
-		rc=$?
-		if read -r p f <"$t" 2>/dev/null; then
-			passed=$((passed + p))
-			failed=$((failed + f))
-		fi
-		if [ "$rc" -ne 0 ]; then
-			bad="$bad vcan-suites(rc=$rc)"
-			[ -s "$t" ] || failed=$((failed + 1))
-		fi
-		rm -f "$t"
-	fi
+	# shellcheck disable=SC2086 # the suite list is meant to split
+	! "$here/vm/vm-available" || in_vm vcan-suites --vcan 3 -- $vcan
+fi
+if [ -n "$systemd" ]; then
+	echo "== suites under systemd as PID 1:$systemd"
+	# shellcheck disable=SC2086 # the suite list is meant to split
+	! "$here/vm/vm-available" --systemd || in_vm systemd-suites --systemd --vcan 1 -- $systemd
 fi
 
 if [ -n "$tally" ]; then

@@ -16,9 +16,10 @@ vm_dir=$(cd "$(dirname "$0")" && pwd -P)
 repo_root=$(cd "$vm_dir/../.." && pwd -P)
 vm_cache_dir=${RMD_VM_CACHE:-$repo_root/build/vm}
 
-# virtio transport + 9p to reach the host's root, then the CAN stack.
-# Their dependencies (netfs, 9pnet, can-dev, ...) are resolved with modprobe -S.
-vm_modules="virtio_pci virtio_mmio 9pnet_virtio 9p can can_raw can_bcm can_gw vcan"
+# virtio transport + 9p to reach the host's root, overlay for a systemd boot
+# (vm-run --systemd), then the CAN stack.  Their dependencies (netfs, 9pnet,
+# can-dev, ...) are resolved with modprobe -S.
+vm_modules="virtio_pci virtio_mmio 9pnet_virtio 9p overlay can can_raw can_bcm can_gw vcan"
 
 vm_log()
 {
