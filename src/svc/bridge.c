@@ -984,7 +984,7 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 		/* the URL as given: b->url adds parameters the user never wrote */
 		snprintf(err, errlen,
 			 "cannot create \"%s\": a bad URL, or multicast has no route (for "
-			 "loopback: ip route add 224.0.0.0/4 dev lo; docs/lcm.md)",
+			 "loopback: ip route add 224.0.0.0/4 dev lo src 127.0.0.1; docs/lcm.md)",
 			 opts->url);
 		r = -EIO;
 		goto err_close_stop;

@@ -60,17 +60,18 @@ bool lcm_loopback_ready(const char *suite)
 	if (geteuid() == 0) {
 		fprintf(stderr,
 			"%s: routing multicast on loopback: "
-			"ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n",
+			"ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo src 127.0.0.1\n",
 			suite);
 		if (system("ip link set lo up multicast on && "
-			   "(ip route add 224.0.0.0/4 dev lo 2>/dev/null || true)") != 0)
+			   "(ip route add 224.0.0.0/4 dev lo src 127.0.0.1 2>/dev/null || true)") !=
+		    0)
 			fprintf(stderr, "%s: ip failed\n", suite);
 		if (lcm_loopback_works())
 			return true;
 	}
 	fprintf(stderr,
 		"\n*** %s: SKIPPING every test: LCM multicast on loopback is not routable%s.\n"
-		"*** As root: ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo\n\n",
+		"*** As root: ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo src 127.0.0.1\n\n",
 		suite, geteuid() ? " and this is not root" : " even after routing it");
 	return false;
 }

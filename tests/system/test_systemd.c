@@ -444,6 +444,44 @@ static bool has_dialout(long pid)
 	return strstr(have, want) != NULL;
 }
 
+/*
+ * docs/troubleshooting.md "Reading the log", its commands as written: the
+ * statistics SIGUSR1 asks for reach the journal, -p warning keeps only
+ * warnings and errors (journald took rmdd's <N> prefixes as priorities),
+ * and -f follows.
+ */
+static void read_the_log_as_documented(void)
+{
+	struct run r = { 0 };
+	int64_t deadline = rmd_now_ns() + (int64_t)START_MS * 1000000;
+	bool seen = false;
+
+	sh_ok("systemctl kill -s USR1 rmdd", 30000);
+	while (!seen && rmd_now_ns() < deadline) {
+		sh(&r, "journalctl -u rmdd", 30000);
+		seen = r.status == 0 && strstr(r.out, "statistics (SIGUSR1)");
+		if (!seen && !strstr(r.out, "running:"))
+			fail_msg("`journalctl -u rmdd`: exit %d, no 'running:' line\n%s%s",
+				 r.status, r.out, r.err);
+		run_free(&r);
+		if (!seen)
+			usleep(200000);
+	}
+	if (!seen)
+		fail_msg("`systemctl kill -s USR1 rmdd`: no statistics in the journal\n%s",
+			 journal());
+	sh(&r, "journalctl -u rmdd -p warning", 30000);
+	if (r.status != 0 || strstr(r.out, "running:") || strstr(r.out, "statistics (SIGUSR1)"))
+		fail_msg("`journalctl -u rmdd -p warning`: exit %d, info lines in it:\n%s",
+			 r.status, r.out);
+	run_free(&r);
+	sh(&r, "timeout 3 journalctl -u rmdd -f", 30000);
+	if (r.status != 124 || !strstr(r.out, "rmdd"))
+		fail_msg("`journalctl -u rmdd -f`: exit %d (124: still following), output:\n%s",
+			 r.status, r.out);
+	run_free(&r);
+}
+
 static void test_start(void **state)
 {
 	struct run r = { 0 };
@@ -500,6 +538,7 @@ static void test_start(void **state)
 	lcm_destroy(lcm);
 	if (rx.n_states == 0)
 		fail_msg("no RMD_STATE on %s within %d ms\n%s", S.url, LCM_WAIT_MS, journal());
+	read_the_log_as_documented();
 }
 
 /*

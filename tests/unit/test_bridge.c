@@ -8,7 +8,7 @@
  * state_t and health_t; config_t answers a request.
  *
  * When multicast on loopback is not routable, the suite routes it itself
- * when root (ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo)
+ * when root (ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo src 127.0.0.1)
  * and otherwise skips every test, loudly.
  */
 #define _GNU_SOURCE

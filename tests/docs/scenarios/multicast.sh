@@ -13,7 +13,7 @@ cat before.log
 [ $rc -eq 1 ] || { echo "rmdd --sim exited $rc without a multicast route (expected 1)"; exit 1; }
 grep -q 'LCM' before.log
 sudo ip link set lo multicast on
-sudo ip route add 224.0.0.0/4 dev lo
+sudo ip route add 224.0.0.0/4 dev lo src 127.0.0.1
 rmdd --sim > after.log 2>&1 &
 pid=$!
 wait_for after.log "running" 20
