@@ -17,7 +17,7 @@
  *
  * Wire tap.  With opts.tap, every frame that finishes on the wire (the
  * host's, the motors', a flood's) is written to that path as a `candump -l`
- * line, "(SECONDS.MICROSECONDS) NAME ID#DATA", stamped with its end of frame
+ * line, "(SECONDS.MICROSECONDS) NAME ID#DATA T|R" (T: the host sent it), stamped with its end of frame
  * in the caller's clock (CLOCK_MONOTONIC for rmdd: the clock of state_t's
  * utime and rx_time_ns).  A regular file is created or truncated and
  * appended to (several buses may share one); a FIFO must have its reader

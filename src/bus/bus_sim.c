@@ -3,6 +3,7 @@
  * The in-process simulated transport: struct rmd_sim_wire behind struct
  * rmd_bus_ops.  See rmd/bus_sim.h.
  */
+#define _GNU_SOURCE /* F_SETPIPE_SZ */
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -99,6 +100,9 @@ static void tap_frame(void *ctx, const struct rmd_sim_pending *p, int64_t start_
 		*o++ = hex[p->f.data[i] >> 4];
 		*o++ = hex[p->f.data[i] & 0xFu];
 	}
+	/* candump -l's direction: T the host transmitted it, R it received it */
+	*o++ = ' ';
+	*o++ = p->src == RMD_SIM_SRC_HOST ? 'T' : 'R';
 	*o++ = '\n';
 	if (tp->len + (unsigned)(o - line) > sizeof(tp->buf))
 		tap_flush(tp);
@@ -115,6 +119,8 @@ static int tap_open(struct bus_sim *p, const char *name, const char *path, char 
 	if (fd < 0)
 		return rmd_errf(err, errlen, -errno, "%s: tap %s: %s", name, path,
 				errno == ENXIO ? "a FIFO without a reader" : strerror(errno));
+	/* a FIFO: room for a second of a busy wire while its reader waits for a CPU */
+	(void)fcntl(fd, F_SETPIPE_SZ, 1 << 20);
 	p->tap.fd = fd;
 	snprintf(p->tap.name, sizeof(p->tap.name), "%s", name);
 	rmd_sim_wire_set_tap(&p->sim, tap_frame, p);
