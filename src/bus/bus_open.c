@@ -316,3 +316,10 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 	free(sim);
 	return r;
 }
+
+int64_t rmd_bus_open_time_zero_ns(struct rmd_bus *bus, int64_t now_ns)
+{
+	if (!rmd_bus_sim_get(bus))
+		return 0;
+	return now_ns - rmd_bus_sim_time_ns(bus, now_ns);
+}
