@@ -21,10 +21,12 @@
  * in the caller's clock (CLOCK_MONOTONIC for rmdd: the clock of state_t's
  * utime and rx_time_ns).  A regular file is created or truncated and
  * appended to (several buses may share one); a FIFO must have its reader
- * already.  Lines are written whole, PIPE_BUF bytes at a time, without
- * blocking: when a FIFO is full the lines of that write are lost (counted,
- * rmd_bus_sim_tap_lost()), the loop never waits for the reader.  A test
- * and soak aid: it costs a write() every ~90 frames.
+ * already.  Lines are written whole, PIPE_BUF bytes at a time, with
+ * O_NONBLOCK: when a FIFO is full the lines of that write are lost (counted,
+ * rmd_bus_sim_tap_lost()).  O_NONBLOCK does not cover the pipe's lock,
+ * though: a reader descheduled while it copies holds it, and the loop's
+ * write() waits (36 ms on a busy machine here); prefer a regular file.  A
+ * test and soak aid: it costs a write() every ~90 frames.
  *
  * Not thread-safe (one owner, like the sim bus).  send/recv/fd are rt-safe
  * (bounded work, no allocation, no syscalls but the tap's non-blocking
