@@ -46,7 +46,7 @@ esac
 dir=$(mktemp -d /tmp/rmdd-soak.XXXXXX)
 pids=
 cleanup() {
-	for p in $pids; do kill "$p" 2>/dev/null; done
+	for p in $pids ${BENCH_PID:-}; do kill "$p" 2>/dev/null; done
 	[ -n "${KEEP:-}" ] || rm -rf "$dir"
 }
 trap cleanup EXIT
@@ -65,20 +65,9 @@ echo "soak: seed $SEED, $DURATION s, work directory $dir (SEED=$SEED $0 $DURATIO
 "$PY" bench/soak_lcm.py plan "$dir" "$SEED" "$DURATION" "$SOAK_URL" "$SOAK_PREFIX" \
 	"$dir/wire.candump" || exit 2
 
-"$RMDD" --config "$dir/soak.yaml" --require-rt 2>"$dir/rmdd.log" &
-rmdd_pid=$!
-pids="$pids $rmdd_pid"
-i=0
-while ! grep -q "rmdd: running:" "$dir/rmdd.log" 2>/dev/null; do
-	i=$((i + 1))
-	if [ $i -ge 300 ] || ! kill -0 $rmdd_pid 2>/dev/null; then
-		cat "$dir/rmdd.log"
-		echo "soak: FAIL: rmdd did not start"
-		KEEP=1
-		exit 2
-	fi
-	sleep 0.1
-done
+. bench/lib.sh
+bench_rmdd_start "$RMDD" "$dir/rmdd.log" --config "$dir/soak.yaml" --require-rt
+rmdd_pid=$BENCH_PID
 
 # VmRSS (KiB) once a second, on the machine's monotonic clock
 (

@@ -31,25 +31,26 @@ import struct
 import sys
 import time
 
+KT = "torque_constant_nm_a: 2.0"
+MIT_RANGES = "mit: {t_min: -18, t_max: 18, kp_max: 200, kd_max: 4}"
+
+
+def limits(pos=None, vel=10, torque=10):
+    """A motor's limits: yaml."""
+    p = "position_min_rad: %g, position_max_rad: %g, " % pos if pos else ""
+    return "limits: {%svelocity_rad_s: %g, torque_nm: %g}" % (p, vel, torque)
+
+
 MOTORS = [
-    # name, bus, id, protocol, mode, extra yaml
-    ("v3_torque", "b0", 1, "v3", "torque",
-     "torque_constant_nm_a: 2.0, gear_ratio: 6, limits: {torque_nm: 5, velocity_rad_s: 10}"),
-    ("v3_speed", "b0", 2, "v3", "speed",
-     "torque_constant_nm_a: 2.0, direction: -1, limits: {velocity_rad_s: 8, torque_nm: 10}"),
-    ("mit_a", "b1", 1, "mit", "mit",
-     "limits: {position_min_rad: -2, position_max_rad: 2, velocity_rad_s: 10, torque_nm: 8}, "
-     "mit: {t_min: -18, t_max: 18, kp_max: 200, kd_max: 4}"),
-    ("mit_b", "b1", 2, "mit", "mit",
-     "direction: -1, zero_offset_rad: 0.2, limits: {position_min_rad: -1.5, position_max_rad: "
-     "1.5, velocity_rad_s: 6, torque_nm: 6}, mit: {t_min: -18, t_max: 18, kp_max: 200, "
-     "kd_max: 4}"),
-    ("v2_pos", "b2", 1, "v2", "position",
-     "torque_constant_nm_a: 2.0, limits: {position_min_rad: -2.5, position_max_rad: 2.5, "
-     "velocity_rad_s: 5, torque_nm: 10}"),
-    ("v3_pos", "b2", 2, "v3", "position",
-     "torque_constant_nm_a: 2.0, direction: -1, zero_offset_rad: 0.3, limits: "
-     "{position_min_rad: -2, position_max_rad: 2.5, velocity_rad_s: 6, torque_nm: 10}"),
+    # name, bus, id, protocol, mode, the rest of its yaml
+    ("v3_torque", "b0", 1, "v3", "torque", "%s, gear_ratio: 6, %s" % (KT, limits(torque=5))),
+    ("v3_speed", "b0", 2, "v3", "speed", "%s, direction: -1, %s" % (KT, limits(vel=8))),
+    ("mit_a", "b1", 1, "mit", "mit", "%s, %s" % (limits((-2, 2), 10, 8), MIT_RANGES)),
+    ("mit_b", "b1", 2, "mit", "mit", "direction: -1, zero_offset_rad: 0.2, %s, %s"
+     % (limits((-1.5, 1.5), 6, 6), MIT_RANGES)),
+    ("v2_pos", "b2", 1, "v2", "position", "%s, %s" % (KT, limits((-2.5, 2.5), 5))),
+    ("v3_pos", "b2", 2, "v3", "position", "%s, direction: -1, zero_offset_rad: 0.3, %s"
+     % (KT, limits((-2, 2.5), 6))),
 ]
 BUSES = ["b0", "b1", "b2"]
 RATE_HZ = 1000
