@@ -256,6 +256,14 @@ $(INSN_RIG): $(BUILD)/bench/insn_rig.o $(BUILD)/tests/harness/clock.o $(BUILD)/t
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# bench/soak.sh's wire checker: every setpoint on the sim buses' tap against the limits.
+SOAK_WIRE := $(BUILD)/bench/soak_wire
+all: $(SOAK_WIRE)
+$(BUILD)/bench/soak_wire.o: | $(GEN_HDRS)
+$(SOAK_WIRE): $(BUILD)/bench/soak_wire.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 # Suites include the harness as "harness/<name>.h".
 $(BUILD)/tests/%.o: override CFLAGS += -Itests
 

@@ -154,4 +154,12 @@ int rmd_bus_open_parse_ids(const char *list, uint8_t ids[RMD_MAX_MOTORS]);
 /* True when spec names the simulated bus ("sim" or "sim:..."). Pure. */
 bool rmd_bus_open_is_sim(const char *spec);
 
+/*
+ * A simulated bus's time 0 in the caller's clock (now_ns's, CLOCK_MONOTONIC
+ * for rmdd), from which its fault windows count (rmd/bus_sim.h "Time"); 0
+ * for a bus with no time of its own (SocketCAN, RS485).  A sim bus not used
+ * yet starts at its first use: now_ns.  Rt-safe.
+ */
+int64_t rmd_bus_open_time_zero_ns(struct rmd_bus *bus, int64_t now_ns);
+
 #endif /* RMD_BUS_OPEN_H */

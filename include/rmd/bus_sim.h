@@ -15,8 +15,22 @@
  * once, and only to a caller that calls recv() again later: fd() is -1,
  * the caller steps its clock forward (rmd/txn.h sleeps in small steps).
  *
+ * Wire tap.  With opts.tap, every frame that finishes on the wire (the
+ * host's, the motors', a flood's) is written to that path as a `candump -l`
+ * line, "(SECONDS.MICROSECONDS) NAME ID#DATA T|R" (T: the host sent it), stamped with its end of frame
+ * in the caller's clock (CLOCK_MONOTONIC for rmdd: the clock of state_t's
+ * utime and rx_time_ns).  A regular file is created or truncated and
+ * appended to (several buses may share one); a FIFO must have its reader
+ * already.  Lines are written whole, PIPE_BUF bytes at a time, with
+ * O_NONBLOCK: when a FIFO is full the lines of that write are lost (counted,
+ * rmd_bus_sim_tap_lost()).  O_NONBLOCK does not cover the pipe's lock,
+ * though: a reader descheduled while it copies holds it, and the loop's
+ * write() waits (36 ms on a busy machine here); prefer a regular file.  A
+ * test and soak aid: it costs a write() every ~90 frames.
+ *
  * Not thread-safe (one owner, like the sim bus).  send/recv/fd are rt-safe
- * (bounded work, no allocation, no syscalls); open and close are not.
+ * (bounded work, no allocation, no syscalls but the tap's non-blocking
+ * write()); open and close are not.
  */
 #ifndef RMD_BUS_SIM_H
 #define RMD_BUS_SIM_H
@@ -48,6 +62,7 @@ struct rmd_bus_sim_opts {
 	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_WIRE_TXQ; 0: the sim bus's default */
 	const struct rmd_sim_fault *faults; /* in sim time (see above); may be NULL */
 	unsigned n_faults;
+	const char *tap; /* wire tap: a file or FIFO (below); NULL: none */
 };
 
 /*
@@ -59,6 +74,7 @@ struct rmd_bus_sim_opts {
  *   -EEXIST  two motors with one id
  *   -E2BIG   more than RMD_MAX_MOTORS motors or RMD_SIM_MAX_FAULTS faults
  *   -ENOMEM  out of memory
+ *   other    the tap could not be opened (-ENXIO: a FIFO without a reader)
  * Non-rt: allocates.
  */
 int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus_sim_opts *opts,
@@ -76,5 +92,8 @@ struct rmd_sim_wire *rmd_bus_sim_get(struct rmd_bus *bus);
  * first send() or recv() (which will make now_ns the epoch).  Rt-safe.
  */
 int64_t rmd_bus_sim_time_ns(const struct rmd_bus *bus, int64_t now_ns);
+
+/* Lines of the wire tap lost to a full FIFO or a failed write so far (0: no tap).  Rt-safe. */
+uint64_t rmd_bus_sim_tap_lost(const struct rmd_bus *bus);
 
 #endif /* RMD_BUS_SIM_H */

@@ -21,6 +21,9 @@
 /* SocketCAN's default txqueuelen (docs/design.md), a sim bus's host queue too. */
 #define RMD_SIM_DEFAULT_TXQUEUELEN 10
 
+/* Room for a wire tap's path (struct rmd_sim_bus_setup.tap), NUL included. */
+#define RMD_SIM_TAP_PATH_LEN 128
+
 /* One sim bus's simulator: wire (rmd/sim_wire.h), motor model, faults (rmd/sim_faults.h). */
 struct rmd_sim_bus_setup {
 	uint64_t seed;	     /* faults' and motors' PRNG; 0: 1 */
@@ -33,6 +36,11 @@ struct rmd_sim_bus_setup {
 	struct rmd_sim_motor_params motor;
 	struct rmd_sim_fault faults[RMD_SIM_MAX_FAULTS];
 	unsigned n_faults;
+	/*
+	 * Wire tap (rmd/bus_sim.h): every frame on this bus's wire, as a
+	 * `candump -l` line, to this file or FIFO; "" (default): none.
+	 */
+	char tap[RMD_SIM_TAP_PATH_LEN];
 };
 
 struct rmd_sim_setup {

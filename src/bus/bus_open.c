@@ -97,6 +97,7 @@ static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.txqueuelen = sim->txqueuelen,
 		.faults = sim->n_faults ? sim->faults : NULL,
 		.n_faults = sim->n_faults,
+		.tap = sim->tap[0] ? sim->tap : NULL,
 	};
 
 	for (unsigned i = 0; i < ctx->n_motors; i++)
@@ -314,4 +315,11 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 	r = rmd_bus_open(bus, &cb, &ctx, err, errlen);
 	free(sim);
 	return r;
+}
+
+int64_t rmd_bus_open_time_zero_ns(struct rmd_bus *bus, int64_t now_ns)
+{
+	if (!rmd_bus_sim_get(bus))
+		return 0;
+	return now_ns - rmd_bus_sim_time_ns(bus, now_ns);
 }

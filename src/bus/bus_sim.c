@@ -3,12 +3,16 @@
  * The in-process simulated transport: struct rmd_sim_wire behind struct
  * rmd_bus_ops.  See rmd/bus_sim.h.
  */
+#define _GNU_SOURCE /* F_SETPIPE_SZ */
 #include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "rmd/err.h"
 #include "rmd/bus_sim.h"
@@ -16,10 +20,20 @@
 /* Frames moved from the sim bus per rmd_sim_wire_recv() call (stack buffer). */
 #define RX_CHUNK 32
 
+/* The wire tap (rmd/bus_sim.h): whole candump -l lines, one write() a PIPE_BUF. */
+struct bus_tap {
+	int fd;		     /* -1: no tap */
+	char name[32];	     /* struct rmd_bus.name */
+	unsigned len, lines; /* bytes and lines in buf */
+	uint64_t lost;	     /* lines lost */
+	char buf[PIPE_BUF];
+};
+
 struct bus_sim {
 	struct rmd_sim_wire sim;
 	bool started;	  /* the epoch is set */
 	int64_t epoch_ns; /* caller's now_ns at sim time 0 */
+	struct bus_tap tap;
 };
 
 static struct bus_sim *priv(const struct rmd_bus *bus)
@@ -35,6 +49,82 @@ static int64_t to_sim(struct bus_sim *p, int64_t now_ns)
 		p->epoch_ns = now_ns;
 	}
 	return now_ns - p->epoch_ns;
+}
+
+/* Write the tap's buffered lines; a short or refused write loses them.  Rt-safe. */
+static void tap_flush(struct bus_tap *tp)
+{
+	if (tp->len && write(tp->fd, tp->buf, tp->len) != (ssize_t)tp->len)
+		tp->lost += tp->lines;
+	tp->len = 0;
+	tp->lines = 0;
+}
+
+static char *put_dec(char *o, uint64_t v, unsigned min_digits)
+{
+	char d[20];
+	unsigned n = 0;
+
+	do {
+		d[n++] = (char)('0' + v % 10);
+		v /= 10;
+	} while (v || n < min_digits);
+	while (n)
+		*o++ = d[--n];
+	return o;
+}
+
+/* rmd_sim_wire_tap_fn: frame p ended at eof_ns (sim time).  Rt-safe. */
+static void tap_frame(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
+{
+	static const char hex[] = "0123456789ABCDEF";
+	struct bus_sim *bs = ctx;
+	struct bus_tap *tp = &bs->tap;
+	uint64_t t_us = (uint64_t)(eof_ns + bs->epoch_ns) / 1000u;
+	char line[96], *o = line;
+
+	(void)start_ns;
+	*o++ = '(';
+	o = put_dec(o, t_us / 1000000u, 1);
+	*o++ = '.';
+	o = put_dec(o, t_us % 1000000u, 6);
+	*o++ = ')';
+	*o++ = ' ';
+	for (const char *c = tp->name; *c; c++)
+		*o++ = *c;
+	*o++ = ' ';
+	for (int sh = 8; sh >= 0; sh -= 4)
+		*o++ = hex[(p->f.can_id >> sh) & 0xFu];
+	*o++ = '#';
+	for (unsigned i = 0; i < p->f.len && i < RMD_FRAME_LEN; i++) {
+		*o++ = hex[p->f.data[i] >> 4];
+		*o++ = hex[p->f.data[i] & 0xFu];
+	}
+	/* candump -l's direction: T the host transmitted it, R it received it */
+	*o++ = ' ';
+	*o++ = p->src == RMD_SIM_SRC_HOST ? 'T' : 'R';
+	*o++ = '\n';
+	if (tp->len + (unsigned)(o - line) > sizeof(tp->buf))
+		tap_flush(tp);
+	memcpy(tp->buf + tp->len, line, (size_t)(o - line));
+	tp->len += (unsigned)(o - line);
+	tp->lines++;
+}
+
+/* Open opts->tap (rmd/bus_sim.h).  Non-rt. */
+static int tap_open(struct bus_sim *p, const char *name, const char *path, char *err, size_t errlen)
+{
+	int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_NONBLOCK | O_CLOEXEC, 0644);
+
+	if (fd < 0)
+		return rmd_errf(err, errlen, -errno, "%s: tap %s: %s", name, path,
+				errno == ENXIO ? "a FIFO without a reader" : strerror(errno));
+	/* a FIFO: room for a second of a busy wire while its reader waits for a CPU */
+	(void)fcntl(fd, F_SETPIPE_SZ, 1 << 20);
+	p->tap.fd = fd;
+	snprintf(p->tap.name, sizeof(p->tap.name), "%s", name);
+	rmd_sim_wire_set_tap(&p->sim, tap_frame, p);
+	return 0;
 }
 
 /* Follow the sim bus's bus-off windows.  Rt-safe. */
@@ -105,6 +195,10 @@ static void sim_close(struct rmd_bus *bus)
 	struct bus_sim *p = priv(bus);
 
 	if (p) {
+		if (p->tap.fd >= 0) {
+			tap_flush(&p->tap);
+			close(p->tap.fd);
+		}
 		rmd_sim_wire_fini(&p->sim);
 		free(p);
 	}
@@ -181,6 +275,7 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	p = calloc(1, sizeof(*p));
 	if (!p)
 		return rmd_errf(err, errlen, -ENOMEM, "%s: out of memory", name);
+	p->tap.fd = -1;
 	r = rmd_sim_wire_init(&p->sim, opts->bitrate ? opts->bitrate : RMD_BUS_SIM_BITRATE,
 			      opts->seed ? opts->seed : RMD_BUS_SIM_SEED, opts->flags);
 	if (r < 0) {
@@ -205,6 +300,11 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 			r = rmd_errf(err, errlen, r, "%s: bad fault table: %s", name, strerror(-r));
 			goto err_fini;
 		}
+	}
+	if (opts->tap) {
+		r = tap_open(p, name, opts->tap, err, errlen);
+		if (r < 0)
+			goto err_fini;
 	}
 
 	bus->ops = &sim_ops;
@@ -237,4 +337,11 @@ int64_t rmd_bus_sim_time_ns(const struct rmd_bus *bus, int64_t now_ns)
 		return 0;
 	p = priv(bus);
 	return p->started ? now_ns - p->epoch_ns : 0;
+}
+
+uint64_t rmd_bus_sim_tap_lost(const struct rmd_bus *bus)
+{
+	if (!bus || bus->ops != &sim_ops)
+		return 0;
+	return priv(bus)->tap.lost;
 }

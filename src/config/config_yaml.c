@@ -194,6 +194,7 @@ static const struct field sim_fields[] = {
 	BOOL("host_fifo", S, host_fifo),
 	MAP("motor", S, motor, sim_motor_fields),
 	SEQ("faults", S, faults, n_faults, &fault_elem, fault_init),
+	STR("tap", S, tap, 0),
 	END
 };
 #undef S

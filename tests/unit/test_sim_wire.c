@@ -19,12 +19,17 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+#include <sys/stat.h>
 
 #include <cmocka.h>
 
 #include "harness/suite.h"
 #include "rmd/can_timing.h"
 #include "rmd/codec.h"
+#include "rmd/bus_sim.h"
+#include "rmd/candump.h"
 #include "rmd/sim_wire.h"
 
 #define SEED_DEFAULT 0x51b05eedu
@@ -939,6 +944,78 @@ static void test_config_validation(void **state)
 	assert_non_null(rmd_sim_wire_motor(&bus, 7));
 }
 
+/* One line of a tap file, parsed; its direction token (T: the host sent it) in *dir. */
+static void tap_line(FILE *in, struct rmd_candump_line *c, char *dir)
+{
+	char line[128];
+	size_t n;
+
+	assert_non_null(fgets(line, sizeof(line), in));
+	n = strlen(line);
+	assert_true(n > 3 && line[n - 1] == '\n' && line[n - 3] == ' ');
+	*dir = line[n - 2];
+	assert_int_equal(rmd_candump_parse(line, c), 0);
+}
+
+/*
+ * sim.tap (rmd/bus_sim.h): the host's request and the motor's reply, as
+ * candump -l lines in the caller's clock, T and R; a FIFO with no reader is
+ * refused at open.
+ */
+static void test_bus_sim_tap(void **state)
+{
+	char path[] = "/tmp/rmd-test-tap.XXXXXX";
+	const struct rmd_bus_sim_motor m = { .id = 3, .proto = RMD_PROTO_V3 };
+	struct rmd_bus_sim_opts o = { .motors = &m, .n_motors = 1, .tap = path };
+	const struct rmd_frame req = { .can_id = 0x143, .len = 8, .data = { 0x9A } };
+	const int64_t t0 = 5000000000; /* the caller's clock: 5 s */
+	struct rmd_candump_line c1, c2;
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus b;
+	char err[256], d1, d2;
+	double s1, s2;
+	FILE *in;
+	int fd;
+
+	(void)state;
+	fd = mkstemp(path);
+	assert_true(fd >= 0);
+	close(fd);
+	assert_int_equal(rmd_bus_sim_open(&b, "s0", &o, err, sizeof(err)), 0);
+	assert_int_equal(rmd_bus_send(&b, &req, 1, t0), 1);
+	assert_int_equal(rmd_bus_recv(&b, rx, 4, t0 + 5000000), 1);
+	assert_int_equal(rx[0].f.can_id, 0x243);
+	assert_int_equal(rmd_bus_sim_tap_lost(&b), 0);
+	rmd_bus_close(&b); /* writes what is buffered */
+
+	in = fopen(path, "r");
+	assert_non_null(in);
+	tap_line(in, &c1, &d1);
+	tap_line(in, &c2, &d2);
+	assert_string_equal(c1.iface, "s0");
+	assert_int_equal(c1.frame.can_id, 0x143);
+	assert_memory_equal(c1.frame.data, req.data, 8);
+	assert_int_equal(d1, 'T');
+	assert_int_equal(c2.frame.can_id, 0x243);
+	assert_memory_equal(c2.frame.data, rx[0].f.data, 8);
+	assert_int_equal(d2, 'R');
+	/* end of frame, in the caller's clock: the reply's is its receive time */
+	s1 = (double)c1.time_sec + c1.time_frac / 1e6;
+	s2 = (double)c2.time_sec + c2.time_frac / 1e6;
+	assert_int_equal(c1.time_digits, 6);
+	assert_true(s1 > 5.0 && s1 < s2 && s2 < 5.005);
+	assert_true(fabs(s2 - (double)rx[0].t_ns / 1e9) < 1.5e-6);
+	assert_int_equal(fgetc(in), EOF);
+	fclose(in);
+
+	/* a FIFO must have its reader first: rmdd's loop never waits for one */
+	unlink(path);
+	assert_int_equal(mkfifo(path, 0600), 0);
+	assert_int_equal(rmd_bus_sim_open(&b, "s0", &o, err, sizeof(err)), -ENXIO);
+	assert_non_null(strstr(err, "without a reader"));
+	unlink(path);
+}
+
 int main(void)
 {
 	struct CMUnitTest tests[] = {
@@ -962,6 +1039,7 @@ int main(void)
 		cmocka_unit_test(test_load_window),
 		cmocka_unit_test(test_deterministic),
 		cmocka_unit_test(test_config_validation),
+		cmocka_unit_test(test_bus_sim_tap),
 	};
 
 	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
