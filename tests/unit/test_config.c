@@ -83,6 +83,7 @@ static void test_examples_load(void **state)
 		"examples/v2-batch.yaml",
 		"examples/rs485.yaml",
 		"examples/sim-faults.yaml",
+		"examples/sim-fine.yaml",
 		"tests/data/config/five-per-bus.yaml", /* loads; the planner refuses it */
 	};
 
@@ -902,6 +903,56 @@ static void test_comm_loss_keys(void **state)
 			     "comm_loss_ms: -1}\n") < 0);
 }
 
+/* motors[].feedback (docs/feedback.md): its keys, defaults and refusals. */
+static void test_feedback_keys(void **state)
+{
+	static const char head[] =
+		"loop: {rate_hz: 500}\nbuses:\n  - {name: s, type: sim}\nmotors:\n";
+	char y[1024];
+
+	(void)state;
+	snprintf(y, sizeof(y),
+		 "%s  - {name: a, bus: s, id: 1, mode: position, torque_constant_nm_a: 2, "
+		 "feedback: {position: multi_turn, rate_hz: 125}}\n"
+		 "  - {name: b, bus: s, id: 2, protocol: mit, mode: mit, "
+		 "feedback: {position: multi_turn}}\n"
+		 "  - {name: c, bus: s, id: 3, mode: position, torque_constant_nm_a: 2}\n",
+		 head);
+	if (load_str("fb.yaml", y))
+		fail_msg("%s", err);
+	assert_int_equal(cfg.motors[0].feedback.position, RMD_FEEDBACK_MULTI_TURN);
+	assert_float_equal(cfg.motors[0].feedback.rate_hz, 125.0, 0);
+	assert_int_equal(cfg.motors[1].feedback.position, RMD_FEEDBACK_MULTI_TURN);
+	assert_float_equal(cfg.motors[1].feedback.rate_hz, 0.0, 0);
+	assert_int_equal(cfg.motors[2].feedback.position, RMD_FEEDBACK_CONTROL);
+	/* V2 replies carry the encoder: no 0x92 reads for them */
+	snprintf(y, sizeof(y),
+		 "%s  - {name: a, bus: s, id: 1, protocol: v2, mode: torque, "
+		 "torque_constant_nm_a: 2, feedback: {position: multi_turn}}\n",
+		 head);
+	assert_int_equal(load_str("fb-v2.yaml", y), -EINVAL);
+	expect_in(err, ":5: motors[0].feedback.position: multi_turn is for v3 and mit motors");
+	snprintf(y, sizeof(y),
+		 "%s  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2, "
+		 "feedback: {rate_hz: 100}}\n",
+		 head);
+	assert_int_equal(load_str("fb-rate.yaml", y), -EINVAL);
+	expect_in(err, "motors[0].feedback.rate_hz: sets the rate of 0x92 reads: it needs "
+		       "position: multi_turn");
+	snprintf(y, sizeof(y),
+		 "%s  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2, "
+		 "feedback: {position: multi_turn, rate_hz: 1000}}\n",
+		 head);
+	assert_int_equal(load_str("fb-fast.yaml", y), -EINVAL);
+	expect_in(err, "motors[0].feedback.rate_hz: 1000 is more than loop.rate_hz (500)");
+	snprintf(y, sizeof(y),
+		 "%s  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2, "
+		 "feedback: {position: fine}}\n",
+		 head);
+	assert_int_equal(load_str("fb-name.yaml", y), -EINVAL);
+	expect_in(err, "motors[0].feedback.position");
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -925,6 +976,7 @@ int main(void)
 		cmocka_unit_test(test_range_u64),
 		cmocka_unit_test(test_physical_lower_bounds),
 		cmocka_unit_test(test_comm_loss_keys),
+		cmocka_unit_test(test_feedback_keys),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 
