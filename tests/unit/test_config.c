@@ -908,6 +908,22 @@ static void test_feedback_keys(void **state)
 {
 	static const char head[] =
 		"loop: {rate_hz: 500}\nbuses:\n  - {name: s, type: sim}\nmotors:\n";
+	static const struct {
+		const char *motor, *err;
+	} bad[] = {
+		/* V2 replies carry the encoder: no 0x92 reads for them */
+		{ "protocol: v2, mode: torque, torque_constant_nm_a: 2, feedback: {position: "
+		  "multi_turn}",
+		  ":5: motors[0].feedback.position: multi_turn is for v3 and mit motors" },
+		{ "mode: torque, torque_constant_nm_a: 2, feedback: {rate_hz: 100}",
+		  "motors[0].feedback.rate_hz: sets the rate of 0x92 reads: it needs position: "
+		  "multi_turn" },
+		{ "mode: torque, torque_constant_nm_a: 2, feedback: {position: multi_turn, "
+		  "rate_hz: 1000}",
+		  "motors[0].feedback.rate_hz: 1000 is more than loop.rate_hz (500)" },
+		{ "mode: torque, torque_constant_nm_a: 2, feedback: {position: fine}",
+		  "motors[0].feedback.position" },
+	};
 	char y[1024];
 
 	(void)state;
@@ -925,32 +941,12 @@ static void test_feedback_keys(void **state)
 	assert_int_equal(cfg.motors[1].feedback.position, RMD_FEEDBACK_MULTI_TURN);
 	assert_float_equal(cfg.motors[1].feedback.rate_hz, 0.0, 0);
 	assert_int_equal(cfg.motors[2].feedback.position, RMD_FEEDBACK_CONTROL);
-	/* V2 replies carry the encoder: no 0x92 reads for them */
-	snprintf(y, sizeof(y),
-		 "%s  - {name: a, bus: s, id: 1, protocol: v2, mode: torque, "
-		 "torque_constant_nm_a: 2, feedback: {position: multi_turn}}\n",
-		 head);
-	assert_int_equal(load_str("fb-v2.yaml", y), -EINVAL);
-	expect_in(err, ":5: motors[0].feedback.position: multi_turn is for v3 and mit motors");
-	snprintf(y, sizeof(y),
-		 "%s  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2, "
-		 "feedback: {rate_hz: 100}}\n",
-		 head);
-	assert_int_equal(load_str("fb-rate.yaml", y), -EINVAL);
-	expect_in(err, "motors[0].feedback.rate_hz: sets the rate of 0x92 reads: it needs "
-		       "position: multi_turn");
-	snprintf(y, sizeof(y),
-		 "%s  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2, "
-		 "feedback: {position: multi_turn, rate_hz: 1000}}\n",
-		 head);
-	assert_int_equal(load_str("fb-fast.yaml", y), -EINVAL);
-	expect_in(err, "motors[0].feedback.rate_hz: 1000 is more than loop.rate_hz (500)");
-	snprintf(y, sizeof(y),
-		 "%s  - {name: a, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2, "
-		 "feedback: {position: fine}}\n",
-		 head);
-	assert_int_equal(load_str("fb-name.yaml", y), -EINVAL);
-	expect_in(err, "motors[0].feedback.position");
+	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
+		snprintf(y, sizeof(y), "%s  - {name: a, bus: s, id: 1, %s}\n", head, bad[k].motor);
+		if (load_str("fb-bad.yaml", y) != -EINVAL)
+			fail_msg("feedback case %zu loaded: %s", k, bad[k].motor);
+		expect_in(err, bad[k].err);
+	}
 }
 
 int main(void)
