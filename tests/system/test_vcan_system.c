@@ -2380,9 +2380,9 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 			print_message(
 				"busy machine: %s got no setpoint %s (%s), the guest stalling "
 				"the loop and rmd-sim by %.1f and %.1f ms.  Again at %u times "
-				"the file's times\n",
+				"the file's times; rmdd:\n%s\n",
 				S.cfg.motors[i].name, when, lc_list(), stall_ms(&S.sl_loop),
-				stall_ms(&S.sl_sim), pace() * 2);
+				stall_ms(&S.sl_sim), pace() * 2, kid_tail(S.rmdd_kid));
 			return false;
 		}
 		if (n_other || !n_own)
@@ -2553,6 +2553,7 @@ static void test_system_sine_after_loss(void **state)
 	assert_string_equal(S.cfg.motors[m].name, "a1");
 	rmdd_stop();
 	S.ctl_id = 0;
+again:
 	rmdd_start();
 	if (!wait_all_lc(RMD_STATE_T_LC_READY, ENABLE_MS))
 		fail_msg("not every motor READY after rmdd started (lifecycles %s)", lc_list());
@@ -2593,6 +2594,25 @@ static void test_system_sine_after_loss(void **state)
 			enabled_ns = rmd_now_ns();
 	}
 	lcm_unsubscribe(S.lcm, sub);
+	if (!enabled_ns) {
+		double period_ms = 1000.0 / S.cfg.loop.rate_hz;
+
+		print_message("rmdd:\n%s\n", kid_tail(S.rmdd_kid));
+		if ((stall_ms(&S.sl_loop) >= period_ms || stall_ms(&S.sl_sim) >= period_ms) &&
+		    pace() * 2 <= MAX_PACE) {
+			print_message("busy machine: a1 not ENABLED by sine_controller (%s), the "
+				      "guest stalling the loop and rmd-sim by %.1f and %.1f ms.  "
+				      "Again at %u times the file's times\n",
+				      lc_list(), stall_ms(&S.sl_loop), stall_ms(&S.sl_sim),
+				      pace() * 2);
+			kid_free(ctl);
+			rmdd_stop();
+			S.pace = pace() * 2;
+			write_config();
+			snprintf(secs, sizeof(secs), "%u", 2 * pace());
+			goto again;
+		}
+	}
 	if (!enabled_ns)
 		fail_msg("sine_controller did not enable a1 after its loss (lifecycles %s); its "
 			 "output:\n%s\nrmdd:\n%s",
@@ -2693,11 +2713,12 @@ static bool fine_window(double per_cycle)
 			 "rmd-sim in time; rmdd:\n%s",
 			 lc_list(), kid_tail(S.rmdd_kid));
 	if (!tracked && pace() * 2 <= MAX_PACE) {
-		print_message("busy machine: the motors did not stay ENABLED (%s), the guest "
-			      "stalling the loop's and rmd-sim's threads by %.1f and %.1f ms (the "
-			      "period is %.1f ms).  Again at %u times the file's times\n",
-			      lc_list(), stall_ms(&S.sl_loop), stall_ms(&S.sl_sim), period_ms,
-			      pace() * 2);
+		print_message(
+			"busy machine: the motors did not stay ENABLED (%s), the guest "
+			"stalling the loop's and rmd-sim's threads by %.1f and %.1f ms (the "
+			"period is %.1f ms).  Again at %u times the file's times; rmdd:\n%s\n",
+			lc_list(), stall_ms(&S.sl_loop), stall_ms(&S.sl_sim), period_ms, pace() * 2,
+			kid_tail(S.rmdd_kid));
 		return false;
 	}
 	if (!tracked)
