@@ -30,7 +30,15 @@
  *             - comm-loss (issue 13): rmd-sim loses c1's first 0xB3 answer
  *               and powers c2 up LATE_S after it starts: c1 is written
  *               again, c2 gets 0xB3, echo-verified, before anything moves
- *               it, and trips on its own after kill -9.
+ *               it, and trips on its own after kill -9;
+ *             - one controller at a time (issue 13): with a second controller
+ *               publishing, candump shows the owner's setpoints alone; its
+ *               takeover is logged and hands the wire over;
+ *             - after a loss (issue 13): rmd-sim on vcan0 killed and started
+ *               again; build/sine_controller enables a1 within a second;
+ *             - fine position (issue 13): feedback.position multi_turn on
+ *               every motor: 0x92 answered at the rate --check-config
+ *               promises, state_t positions in 0.01 deg steps.
  *
  * Time: candump -L stamps frames with the kernel's receive time
  * (CLOCK_REALTIME), so the test takes its own reference times from the same
@@ -53,7 +61,7 @@
  *
  * Run it with (tests/vm/README.md):
  *   make BUILD=build/vsys build/vsys/tests/system/test_vcan_system build/vsys/rmdd \
- *        build/vsys/rmd-sim build/vsys/rmdctl
+ *        build/vsys/rmd-sim build/vsys/rmdctl build/vsys/sine_controller
  *   BUILD=build/vsys tests/vm/vm-run --vcan 3 --timeout 900 -- \
  *        build/vsys/tests/system/test_vcan_system
  * (RMD_VSYS_KEEP=DIR keeps candump's log and rmdd's configuration in DIR.)
