@@ -2367,8 +2367,8 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 	double period_ms = 1000.0 * pace() / S.base_rate_hz;
 	unsigned n_own = 0, n_other = 0;
 
-	run_for(SETTLE_MS * (int)pace());
 	sleepers_mark();
+	run_for(SETTLE_MS * (int)pace());
 	*t0 = real_ns();
 	run_for(WINDOW_MS * (int)pace());
 	*t1 = real_ns();
@@ -2392,6 +2392,23 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 				S.cfg.motors[i].name, when, lc_list(), stall_ms(&S.sl_loop),
 				stall_ms(&S.sl_sim), pace() * 2, kid_tail(S.rmdd_kid));
 			return false;
+		}
+		/*
+		 * An owner silent for command_timeout_ms loses the motors
+		 * (docs/lcm.md): when the guest held the test's own thread off
+		 * that long, the other controller's setpoints are rmdd's rule.
+		 */
+		if (n_other && stall_ms(&S.sl_other) >= S.cfg.safety.command_timeout_ms) {
+			print_message(
+				"busy machine: %s got %u setpoints of the other controller "
+				"%s, the guest holding the owner's thread off for %.1f ms "
+				"(command_timeout_ms %u: ownership lapses, as documented)%s\n",
+				S.cfg.motors[i].name, n_other, when, stall_ms(&S.sl_other),
+				S.cfg.safety.command_timeout_ms,
+				pace() * 2 <= MAX_PACE ? ".  Again at a slower pace" :
+							 ": not judged");
+			*n = n_own;
+			return pace() * 2 > MAX_PACE;
 		}
 		if (n_other || !n_own)
 			fail_msg("%s %s: %u setpoints of the owner (angle %d), %u of the other "
