@@ -188,6 +188,27 @@ struct rmd_config_limits {
 	double torque_nm;      /* |torque| setpoint limit; omitted: none (+inf) */
 };
 
+/*
+ * Where a motor's reported position comes from (motors[].feedback.position;
+ * docs/feedback.md).
+ */
+enum rmd_feedback_pos {
+	/* "control": the replies to its setpoints and status reads (V3: whole degrees) */
+	RMD_FEEDBACK_CONTROL = 0,
+	/*
+	 * "multi_turn": 0x92 reads (V3 §2.11: output multi-turn angle, 0.01
+	 * deg) planned between the setpoints; the position is the newest
+	 * read's, with its receive time, and the control replies' angle is not
+	 * used.  V3 and MIT motors (V2 control replies carry the encoder).
+	 */
+	RMD_FEEDBACK_MULTI_TURN,
+};
+
+struct rmd_config_feedback {
+	enum rmd_feedback_pos position;
+	double rate_hz; /* 0x92 reads per second; 0: the motor's command rate */
+};
+
 struct rmd_config_motor {
 	char name[RMD_CONFIG_NAME_LEN]; /* [a-z0-9_], unique */
 	unsigned bus;			/* index into rmd_config.buses[] */
@@ -209,7 +230,8 @@ struct rmd_config_motor {
 	 * with rmd_config_comm_loss_ms().
 	 */
 	int32_t comm_loss_ms;
-	unsigned line; /* of the entry in the file, for messages */
+	struct rmd_config_feedback feedback; /* where state_t.position comes from */
+	unsigned line;			     /* of the entry in the file, for messages */
 };
 
 #define RMD_CONFIG_COMM_LOSS_INHERIT (-1)
@@ -254,6 +276,7 @@ extern const char *const rmd_safe_action_names[];
 extern const char *const rmd_lost_action_names[];
 extern const char *const rmd_shutdown_action_names[];
 extern const char *const rmd_on_missing_names[];
+extern const char *const rmd_feedback_pos_names[];
 
 /*
  * Names as the file spells them ("socketcan", "torque", "damp", ...;

@@ -87,6 +87,9 @@ int rmd_mit_ranges_parse(const char *maxima, struct rmd_mit_ranges *r);
  * or an invalid range.  The encoders below refuse NaN and ±Inf before they
  * get here; this primitive alone has no error channel.
  */
+/* V3 §5: bits of the position in requests and replies. */
+#define RMD_MIT_POS_BITS 16
+
 uint32_t rmd_mit_to_uint(double x, double min, double max, unsigned bits);
 /*
  * The value of code u: min + u * (max - min) / (2^bits - 1); code 0 gives

@@ -69,6 +69,9 @@
  */
 #define RMD_MOTOR_CMD_MIT 0x100u
 
+/* V3 §2.11 / V2 §3.29: read the output shaft's multi-turn angle, 0.01 deg. */
+#define RMD_MOTOR_CMD_FINE_POS 0x92u
+
 /* The unsolicited frame of a motor whose comm-loss protection tripped (docs/design.md). */
 #define RMD_MOTOR_CMD_COMM_LOST 0xF1u
 
@@ -147,6 +150,8 @@ struct rmd_motor {
 	struct rmd_motor_row speed_row;	 /* 0xA2: speed */
 	struct rmd_motor_row pos_row;	 /* 0xA4: angle, max speed */
 	struct rmd_motor_status2 st2;	 /* replies with 0x9C's layout */
+	/* feedback.position multi_turn: the position comes from 0x92 replies only */
+	bool fine_pos;
 	/* V2 position: the rotor encoder unwrapped from a reference */
 	bool v2_have_ref;      /* a reference angle was set */
 	double v2_ref_rad;     /* native output angle at the anchor */
@@ -167,16 +172,18 @@ struct rmd_motor {
  */
 struct rmd_motor_info {
 	char name[RMD_MOTOR_NAME_LEN];
-	uint8_t bus;	       /* index into the buses */
-	uint8_t id;	       /* 1..32 on its bus */
-	char protocol[8];      /* "v2", "v3", "mit": informational, for config_t */
-	uint8_t modes;	       /* RMD_MOTOR_MODE_BIT()s the motor may be commanded in */
-	double pos_min_rad;    /* setpoints are clamped to [pos_min_rad, pos_max_rad] */
-	double pos_max_rad;    /*   (+-INFINITY: no limit) */
-	double vel_max_rad_s;  /* |velocity| and max_velocity clamp (INFINITY: none) */
-	double torque_max_nm;  /* |torque| clamp (INFINITY: none) */
-	double kp_min, kp_max; /* MIT stiffness range, N·m/rad: outside is rejected */
-	double kd_min, kd_max; /* MIT damping range, N·m·s/rad: outside is rejected */
+	uint8_t bus;		   /* index into the buses */
+	uint8_t id;		   /* 1..32 on its bus */
+	char protocol[8];	   /* "v2", "v3", "mit": informational, for config_t */
+	uint8_t modes;		   /* RMD_MOTOR_MODE_BIT()s the motor may be commanded in */
+	double pos_min_rad;	   /* setpoints are clamped to [pos_min_rad, pos_max_rad] */
+	double pos_max_rad;	   /*   (+-INFINITY: no limit) */
+	double vel_max_rad_s;	   /* |velocity| and max_velocity clamp (INFINITY: none) */
+	double torque_max_nm;	   /* |torque| clamp (INFINITY: none) */
+	double kp_min, kp_max;	   /* MIT stiffness range, N·m/rad: outside is rejected */
+	double kd_min, kd_max;	   /* MIT damping range, N·m·s/rad: outside is rejected */
+	double pos_resolution_rad; /* step of the reported position (rmd_motor_pos_resolution_rad()) */
+	double pos_rate_hz;	   /* new positions planned per second (the plan's pos_hz) */
 };
 
 /* Which setpoint values a mode uses (the others are not read).  rt-safe. */
@@ -310,6 +317,25 @@ int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_
 
 /* Copy what r carried into the state (position, speed, torque, ...).  rt-safe. */
 void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st);
+
+/*
+ * Fuse reply r, received at t_ns, into the state (docs/feedback.md
+ * "Fusion"): every value is the newest the motor said, with the time of
+ * the reply it came from: pos_rx_ns for the position, rx_ns for velocity,
+ * torque and current.  A motor with fine position feedback (fine_pos)
+ * takes its position from 0x92 replies only: a control reply's coarser
+ * angle never replaces it, and nothing is extrapolated.  rt-safe.
+ */
+void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
+		    struct rmd_motor_state *st);
+
+/*
+ * The step of the position rmd_motor_take() reports, rad at the output
+ * shaft: the 0x92 angle's LSB (0.01 deg) with fine_pos, else the control
+ * replies' (V3 whole degrees, V2 one encoder count, MIT its 16-bit code
+ * over [p_min, p_max]).  rt-safe.
+ */
+double rmd_motor_pos_resolution_rad(const struct rmd_motor *m);
 
 /*
  * V2: the native output angle (rad) read with 0x92 at bring-up; the next

@@ -42,6 +42,12 @@
  *   place of the polled motor's control frame in that cycle (the motor
  *   keeps its last setpoint for one more cycle).  A poll for a motor in a
  *   0x280 frame cannot take its place, so it needs the room.
+ * - Fine position reads (motors[].feedback.position: multi_turn,
+ *   docs/feedback.md): 0x92 (V3 §2.11, 0.01 deg) every `fine_divisor`-th
+ *   cycle, the largest divisor that keeps feedback.rate_hz (default: the
+ *   motor's command rate).  They are planned like control frames, each
+ *   motor's reads a unit with its own phase, so they count in the busiest
+ *   cycle that must fit, and never take a setpoint's place.
  *
  * The plan holds fixed arrays only; rmd_plan_cycle() reads it without
  * allocating.
@@ -60,13 +66,14 @@
 
 #define RMD_PLAN_MAX_HC 64     /* control pattern of one bus: lcm of its rate divisors */
 #define RMD_PLAN_MAX_POLLS 256 /* entries of one bus's poll round robin */
-/* Requests of one bus in one cycle: a 0x280 frame, every motor, a poll. */
-#define RMD_PLAN_MAX_SLOTS (RMD_MAX_MOTORS + 2)
+/* Requests of one bus in one cycle: a 0x280 frame, every motor and its 0x92 read, a poll. */
+#define RMD_PLAN_MAX_SLOTS (2 * RMD_MAX_MOTORS + 2)
 
 enum rmd_slot_kind {
 	RMD_SLOT_CONTROL = 0, /* a motor's setpoint: V2/V3 0x140 + ID, MIT 0x400 + ID */
 	RMD_SLOT_V2_TORQUES,  /* V2 §4.1 0x280: the torques of the batched motors */
 	RMD_SLOT_STATUS,      /* 0x9A on 0x140 + ID (MIT motors speak V3 too) */
+	RMD_SLOT_FINE,	      /* 0x92 on 0x140 + ID: the fine position read */
 };
 
 /* One request of a cycle. */
@@ -100,11 +107,14 @@ struct rmd_plan_motor {
 	uint8_t id;
 	enum rmd_proto proto;
 	unsigned divisor;
-	unsigned phase;	    /* commanded in cycles n with n % divisor == phase */
-	bool batched;	    /* in the bus's 0x280 frame */
-	double poll_hz;	    /* status polls per second it gets */
-	unsigned polls;	    /* its entries in the round robin */
-	unsigned replacing; /* of those, how many take a control frame's place */
+	unsigned phase;	       /* commanded in cycles n with n % divisor == phase */
+	bool batched;	       /* in the bus's 0x280 frame */
+	double poll_hz;	       /* status polls per second it gets */
+	unsigned polls;	       /* its entries in the round robin */
+	unsigned replacing;    /* of those, how many take a control frame's place */
+	unsigned fine_divisor; /* 0x92 read in cycles n % fine_divisor == fine_phase; 0: none */
+	unsigned fine_phase;
+	double pos_hz; /* new positions per second: 0x92 reads, else the command rate */
 };
 
 struct rmd_plan_bus {
@@ -114,6 +124,7 @@ struct rmd_plan_bus {
 	/* Control pattern: repeats every hc cycles. */
 	unsigned hc;
 	uint32_t due[RMD_PLAN_MAX_HC];	    /* bit `local`: commanded in cycles n % hc == c */
+	uint32_t fine[RMD_PLAN_MAX_HC];	    /* bit `local`: its 0x92 read in cycles n % hc == c */
 	uint16_t frames[RMD_PLAN_MAX_HC];   /* wire frames of cycle c, without polls */
 	uint16_t requests[RMD_PLAN_MAX_HC]; /* requests of cycle c, without polls */
 	uint32_t batched;		    /* bits of the motors in the 0x280 frame */
@@ -131,6 +142,7 @@ struct rmd_plan_bus {
 	int64_t worst_ns;      /* busiest cycle, polls included */
 	unsigned max_frames;   /* frames of the busiest cycle */
 	unsigned max_requests; /* most requests in one cycle: the TX burst */
+	unsigned n_fine;       /* motors with 0x92 reads */
 	double avg_frames;     /* frames per cycle over the hyperperiod */
 	double avg_ns;	       /* wire time per cycle over the hyperperiod */
 	bool feasible;
@@ -162,7 +174,7 @@ void rmd_plan_print(const struct rmd_plan *plan, const struct rmd_config *cfg, F
 /*
  * The requests of bus `bus` in cycle `n` (counted from 0 at the loop's
  * start) into out[]: the 0x280 frame first, then control frames in file
- * order, then the status poll.  Returns the count (0 for a bus out of
+ * order, then 0x92 reads in file order, then the status poll.  Returns the count (0 for a bus out of
  * range).  rt-safe: no allocation, bounded by RMD_PLAN_MAX_SLOTS.
  */
 unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,

@@ -113,7 +113,8 @@ struct rmd_motor_state {
 	uint32_t reply_age_cycles; /* cycles since the last reply (0: this cycle) */
 	int64_t reply_latency_ns;  /* request sent -> reply received, last reply */
 	uint64_t missed_replies;   /* replies that never came, total */
-	int64_t rx_ns; /* receive time of the reply pos/vel/torque came from; 0: none yet */
+	int64_t rx_ns;		   /* receive time of the reply vel/torque came from; 0: none yet */
+	int64_t pos_rx_ns;	   /* receive time of the reply pos_rad came from; 0: none yet */
 };
 
 /* State of every motor after one cycle. */

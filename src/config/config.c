@@ -24,6 +24,7 @@ const char *const rmd_safe_action_names[] = { "stop", "hold", "damp", "brake", N
 const char *const rmd_lost_action_names[] = { "motor", "all", NULL };
 const char *const rmd_shutdown_action_names[] = { "default", "stop", "hold", "damp", "brake", NULL };
 const char *const rmd_on_missing_names[] = { "refuse", "start", NULL };
+const char *const rmd_feedback_pos_names[] = { "control", "multi_turn", NULL };
 _Static_assert(RMD_MODE_COUNT == 4, "rmd_mode_names[] follows enum rmd_mode");
 
 void rmd_config_defaults(struct rmd_config *cfg)

@@ -234,6 +234,13 @@ static const struct field mit_fields[] = { DBL("p_min", R, p_min, -1e6, 1e6, 0),
 					   END };
 #undef R
 
+#define FB struct rmd_config_feedback
+static const struct field feedback_fields[] = {
+	ENUM("position", FB, position, rmd_feedback_pos_names, 0),
+	DBL("rate_hz", FB, rate_hz, 1, RMD_CONFIG_RATE_MAX_HZ, 0), END
+};
+#undef FB
+
 #define M struct rmd_config_motor
 static const struct field motor_fields[] = {
 	STR("name", M, name, F_REQUIRED | F_IDENT),
@@ -251,6 +258,7 @@ static const struct field motor_fields[] = {
 	UINT("rate_divisor", M, rate_divisor, 1, RMD_CONFIG_DIVISOR_MAX, 0),
 	DBL("status_poll_hz", M, status_poll_hz, 0, RMD_CONFIG_RATE_MAX_HZ, 0),
 	INT("comm_loss_ms", M, comm_loss_ms, 0, 600000, 0),
+	MAP("feedback", M, feedback, feedback_fields),
 	LATER("sim"),
 	END
 };
@@ -491,6 +499,34 @@ static void only_for(struct yctx *c, const struct ynode *fn, const char *path, c
 	rmd_yaml_path_key(kp, path, key);
 	rmd_yaml_report(c, rmd_yaml_line_of(fn, key), kp, "only for kind %s",
 			rmd_sim_fault_kind_name(kind));
+}
+
+/* motors[].feedback: 0x92 reads for V3 and MIT motors, at most once a cycle. */
+static void validate_feedback(struct yctx *c, const struct rmd_config *cfg,
+			      const struct rmd_config_motor *m, const struct ynode *fn,
+			      const char *path)
+{
+	const struct rmd_config_feedback *fb = &m->feedback;
+	char kp[PATH_LEN];
+
+	if (fb->position == RMD_FEEDBACK_MULTI_TURN && m->proto == RMD_PROTO_V2) {
+		rmd_yaml_path_key(kp, path, "feedback.position");
+		rmd_yaml_report(
+			c, rmd_yaml_line_of(fn, "position"), kp,
+			"multi_turn is for v3 and mit motors: a v2 motor's control replies "
+			"carry its encoder (V2 §3.32, 2^16 counts a rotor turn), finer than "
+			"0x92's 0.01 deg");
+	}
+	if (fb->rate_hz > 0 && fb->position != RMD_FEEDBACK_MULTI_TURN) {
+		rmd_yaml_path_key(kp, path, "feedback.rate_hz");
+		rmd_yaml_report(c, rmd_yaml_line_of(fn, "rate_hz"), kp,
+				"sets the rate of 0x92 reads: it needs position: multi_turn");
+	} else if (fb->rate_hz > cfg->loop.rate_hz) {
+		rmd_yaml_path_key(kp, path, "feedback.rate_hz");
+		rmd_yaml_report(c, rmd_yaml_line_of(fn, "rate_hz"), kp,
+				"%g is more than loop.rate_hz (%u): at most one read a cycle",
+				fb->rate_hz, cfg->loop.rate_hz);
+	}
 }
 
 /* The fault entries of sim bus i, once its motors are known. */
@@ -760,6 +796,7 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 				m->status_poll_hz, (double)rate / m->rate_divisor, rate,
 				m->rate_divisor);
 		}
+		validate_feedback(c, cfg, m, rmd_yaml_get(mn, "feedback", NULL), path);
 		validate_motor_sim(c, cfg, sim, i, mn, path);
 	}
 }

@@ -23,7 +23,7 @@
 #include "rmd/mit.h"
 
 /* V3 §5.2, §5.3: field widths. */
-#define P_BITS 16
+#define P_BITS RMD_MIT_POS_BITS
 #define V_BITS 12
 #define KP_BITS 12
 #define KD_BITS 12

@@ -142,9 +142,7 @@ static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 
 	if (rmd_motor_decode(&lm->m, f, &r) < 0)
 		return false;
-	rmd_motor_apply(&r, &lm->st);
-	if (r.have & (RMD_MOTOR_HAVE_POS | RMD_MOTOR_HAVE_VEL | RMD_MOTOR_HAVE_TORQUE))
-		lm->st.rx_ns = now; /* the reply's receive time (rmd_bus_rx.t_ns) */
+	rmd_motor_take(&lm->m, &r, now, &lm->st); /* now: the reply's rmd_bus_rx.t_ns */
 	if (r.have & RMD_MOTOR_HAVE_ERROR)
 		loop_note_errors(l, lm, prev, now);
 	return true;

@@ -151,6 +151,16 @@ static void add_status(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, i
 		push_cmd(l, lb, lm, 0x9A);
 }
 
+/*
+ * A fine position read (rmd/plan.h, docs/feedback.md): 0x92 in every
+ * lifecycle but LOST, whose re-probe is the control slot's.  rt-safe.
+ */
+static void add_fine(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+{
+	if (lm->st.lifecycle != RMD_LC_LOST)
+		push_cmd(l, lb, lm, RMD_MOTOR_CMD_FINE_POS);
+}
+
 /* The V2 0x280 slot (rmd/loop.h "Frames").  rt-safe. */
 static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 {
@@ -259,6 +269,9 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 			break;
 		case RMD_SLOT_STATUS:
 			add_status(l, lb, &l->mot[slots[s].motor], now);
+			break;
+		case RMD_SLOT_FINE:
+			add_fine(l, lb, &l->mot[slots[s].motor]);
 			break;
 		}
 	}

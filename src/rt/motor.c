@@ -182,6 +182,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->damp_kd = RMD_MOTOR_DAMP_KD;
 	m->table = rmd_proto_table(m->proto);
 	m->reply_id = (m->table == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
+	m->fine_pos = c->feedback.position == RMD_FEEDBACK_MULTI_TURN;
 	row_resolve(m, 0xA1, RMD_FLD_CURRENT, RMD_FLD_COUNT, &m->torque_row);
 	row_resolve(m, 0xA2, RMD_FLD_SPEED, RMD_FLD_COUNT, &m->speed_row);
 	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
@@ -232,6 +233,7 @@ void rmd_motor_info(const struct rmd_motor *m, bool batched, struct rmd_motor_in
 	out->kp_max = mit ? m->mit.kp_max : 0;
 	out->kd_min = mit ? m->mit.kd_min : 0;
 	out->kd_max = mit ? m->mit.kd_max : 0;
+	out->pos_resolution_rad = rmd_motor_pos_resolution_rad(m);
 }
 
 /* x within [lo, hi]; the first change of a rmd_motor_clamp() call goes in *note.  rt-safe. */
@@ -732,21 +734,65 @@ int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_
 	return reply_fields(m, f, r);
 }
 
-/* rt-safe. */
-void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st)
+/* The values of r that `have` names into st.  rt-safe. */
+static void apply_have(const struct rmd_motor_reply *r, unsigned have, struct rmd_motor_state *st)
 {
-	if (r->have & RMD_MOTOR_HAVE_POS)
+	if (have & RMD_MOTOR_HAVE_POS)
 		st->pos_rad = r->pos_rad;
-	if (r->have & RMD_MOTOR_HAVE_VEL)
+	if (have & RMD_MOTOR_HAVE_VEL)
 		st->vel_rad_s = r->vel_rad_s;
-	if (r->have & RMD_MOTOR_HAVE_TORQUE) {
+	if (have & RMD_MOTOR_HAVE_TORQUE) {
 		st->torque_nm = r->torque_nm;
 		st->current_a = r->current_a;
 	}
-	if (r->have & RMD_MOTOR_HAVE_TEMP)
+	if (have & RMD_MOTOR_HAVE_TEMP)
 		st->temp_c = r->temp_c;
-	if (r->have & RMD_MOTOR_HAVE_VOLTAGE)
+	if (have & RMD_MOTOR_HAVE_VOLTAGE)
 		st->voltage_v = r->voltage_v;
-	if (r->have & RMD_MOTOR_HAVE_ERROR)
+	if (have & RMD_MOTOR_HAVE_ERROR)
 		st->error_code = r->error_code;
+}
+
+/* rt-safe. */
+void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st)
+{
+	apply_have(r, r->have, st);
+}
+
+/* rt-safe. */
+void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
+		    struct rmd_motor_state *st)
+{
+	unsigned have = r->have;
+
+	/* V3 §2.11: 0x92 is the one reply with the 0.01 deg multi-turn angle */
+	if (m->fine_pos && r->cmd != RMD_MOTOR_CMD_FINE_POS)
+		have &= ~(unsigned)RMD_MOTOR_HAVE_POS;
+	apply_have(r, have, st);
+	if (have & RMD_MOTOR_HAVE_POS)
+		st->pos_rx_ns = t_ns;
+	if (have & (RMD_MOTOR_HAVE_VEL | RMD_MOTOR_HAVE_TORQUE))
+		st->rx_ns = t_ns;
+}
+
+/* rt-safe. */
+double rmd_motor_pos_resolution_rad(const struct rmd_motor *m)
+{
+	const struct rmd_cmd_spec *spec;
+	const struct rmd_field_spec *fs = NULL;
+
+	if (m->fine_pos) {
+		spec = rmd_cmd_find(m->table, RMD_MOTOR_CMD_FINE_POS);
+		fs = spec ? rmd_layout_field(spec, RMD_DIR_REPLY, RMD_FLD_ANGLE) : NULL;
+	} else if (m->proto == RMD_PROTO_MIT) {
+		return (m->mit.p_max - m->mit.p_min) / (double)((1u << RMD_MIT_POS_BITS) - 1);
+	} else if (m->st2.angle) {
+		fs = m->st2.angle;
+	} else if (m->st2.encoder) {
+		/* V2 §3.32: one count of the rotor encoder, unwrapped by v2_unwrap() */
+		return 2.0 * M_PI / RMD_MOTOR_V2_ENCODER_COUNTS / m->gear_ratio;
+	}
+	if (!fs || !(fs->scale > 0.0))
+		return NAN;
+	return fs->scale / DEG_PER_RAD / m->native_per_output;
 }

@@ -4,8 +4,8 @@
  *
  * Building a bus's plan (non-rt):
  * 1. plan_control(): decide the V2 0x280 batch, the control pattern's
- *    length hc (lcm of the rate divisors), and a phase per control unit (a
- *    motor, or the batch), greedily: units commanded every cycle first,
+ *    length hc (lcm of the rate divisors and 0x92 read divisors), and a
+ *    phase per unit (a motor, the batch, or a motor's 0x92 reads), greedily: units commanded every cycle first,
  *    then the costlier ones, each in the phase that keeps the busiest
  *    cycle lowest.  The busiest cycle must fit in the cycle.
  * 2. plan_polls(): the status polls' round robin and where in the control
@@ -21,14 +21,20 @@
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "rmd/bus_open.h"
 #include "rmd/can_timing.h"
+#include "rmd/motor.h"
 #include "rmd/plan.h"
 
 /* Frames of a request and its reply. */
 #define EXCHANGE_FRAMES 2u
+
+/* The overload message of a bus with 0x92 reads (rmd/plan.h). */
+#define FINE_INCLUDED " (0x92 position reads included)"
+#define FINE_LOWER ", or a lower feedback.rate_hz"
 
 /* Error lines, joined with '\n'. */
 struct errbuf {
@@ -89,17 +95,24 @@ int64_t rmd_plan_cost_ns(const struct rmd_plan_bus *b, unsigned frames, unsigned
 	       (int64_t)requests * b->turnaround_ns;
 }
 
-/* A motor, or the 0x280 batch: commanded together, in one phase. */
+/* A motor, the 0x280 batch, or a motor's 0x92 reads: sent together, in one phase. */
 struct unit {
 	uint32_t mask; /* local bits */
 	unsigned divisor;
 	unsigned frames; /* per command: request + replies */
 	unsigned order;	 /* file order of its first motor */
+	bool fine;	 /* 0x92 reads, not setpoints */
 };
 
-/* Units every cycle first, then costlier, then shorter divisors, then file order. */
+/*
+ * Setpoints before 0x92 reads (the reads fill the cycles the setpoints
+ * leave least busy); then units every cycle first, then costlier, then
+ * shorter divisors, then file order.
+ */
 static bool unit_before(const struct unit *a, const struct unit *b)
 {
+	if (a->fine != b->fine)
+		return !a->fine;
 	if ((a->divisor == 1) != (b->divisor == 1))
 		return a->divisor == 1;
 	if (a->frames != b->frames)
@@ -161,12 +174,16 @@ static int plan_control(const struct rmd_config *cfg, struct rmd_plan *plan, uns
 			uint64_t *hc_out)
 {
 	struct rmd_plan_bus *pb = &plan->bus[b];
-	struct unit units[RMD_MAX_MOTORS];
+	struct unit units[2 * RMD_MAX_MOTORS];
 	unsigned nu = 0;
 	uint64_t hc = 1;
 
 	for (unsigned l = 0; l < n; l++) {
+		unsigned fd = plan->motor[pb->motors[l]].fine_divisor;
+
 		hc = lcm_u64(hc, cfg->motors[pb->motors[l]].rate_divisor);
+		if (fd)
+			hc = lcm_u64(hc, fd);
 		if (hc > 1000000)
 			hc = 1000000; /* saturate: only the message uses it */
 	}
@@ -177,6 +194,8 @@ static int plan_control(const struct rmd_config *cfg, struct rmd_plan *plan, uns
 	memset(pb->due, 0, sizeof(pb->due));
 	memset(pb->frames, 0, sizeof(pb->frames));
 	memset(pb->requests, 0, sizeof(pb->requests));
+	memset(pb->fine, 0, sizeof(pb->fine));
+	pb->n_fine = 0;
 	plan_batch(cfg, pb, n);
 
 	if (pb->batched) {
@@ -199,7 +218,21 @@ static int plan_control(const struct rmd_config *cfg, struct rmd_plan *plan, uns
 			.order = l,
 		};
 	}
-	/* insertion sort: at most 32 units */
+	for (unsigned l = 0; l < n; l++) {
+		unsigned fd = plan->motor[pb->motors[l]].fine_divisor;
+
+		if (!fd)
+			continue;
+		units[nu++] = (struct unit){
+			.mask = 1u << l,
+			.divisor = fd,
+			.frames = EXCHANGE_FRAMES,
+			.order = l,
+			.fine = true,
+		};
+		pb->n_fine++;
+	}
+	/* insertion sort: at most 64 units */
 	for (unsigned i = 1; i < nu; i++) {
 		struct unit u = units[i];
 		unsigned j = i;
@@ -232,10 +265,15 @@ static int plan_control(const struct rmd_config *cfg, struct rmd_plan *plan, uns
 		for (unsigned c = best; c < pb->hc; c += u->divisor) {
 			pb->frames[c] = (uint16_t)(pb->frames[c] + u->frames);
 			pb->requests[c]++;
-			pb->due[c] |= u->mask;
+			if (u->fine)
+				pb->fine[c] |= u->mask;
+			else
+				pb->due[c] |= u->mask;
 		}
 		for (unsigned l = 0; l < n; l++) {
-			if (u->mask & (1u << l)) {
+			if (u->fine && (u->mask & (1u << l))) {
+				plan->motor[pb->motors[l]].fine_phase = best;
+			} else if (u->mask & (1u << l)) {
 				plan->motor[pb->motors[l]].phase = best;
 				plan->motor[pb->motors[l]].batched = (pb->batched >> l) & 1u;
 			}
@@ -477,16 +515,34 @@ static void report_overload(const struct rmd_config *cfg, struct rmd_plan *plan,
 	fmt_us(c_us, sizeof(c_us), plan->period_ns);
 	if (fit > 0)
 		add_err(e,
-			"%s: %u motor%s at %u Hz need%s %s µs per cycle worst case, the cycle is "
-			"%s µs: use ≤ %u motor%s, or a rate ≤ %lld Hz",
+			"%s: %u motor%s at %u Hz need%s %s µs per cycle worst case%s, the cycle is "
+			"%s µs: use ≤ %u motor%s, or a rate ≤ %lld Hz%s",
 			cfg->buses[b].name, count, count == 1 ? "" : "s", plan->rate_hz,
-			count == 1 ? "s" : "", n_us, c_us, fit, fit == 1 ? "" : "s", rate_max);
+			count == 1 ? "s" : "", n_us, pb->n_fine ? FINE_INCLUDED : "", c_us, fit,
+			fit == 1 ? "" : "s", rate_max, pb->n_fine ? FINE_LOWER : "");
 	else
 		add_err(e,
-			"%s: %u motor%s at %u Hz need%s %s µs per cycle worst case, the cycle is "
-			"%s µs: use a rate ≤ %lld Hz",
+			"%s: %u motor%s at %u Hz need%s %s µs per cycle worst case%s, the cycle is "
+			"%s µs: use a rate ≤ %lld Hz%s",
 			cfg->buses[b].name, count, count == 1 ? "" : "s", plan->rate_hz,
-			count == 1 ? "s" : "", n_us, c_us, rate_max);
+			count == 1 ? "s" : "", n_us, pb->n_fine ? FINE_INCLUDED : "", c_us,
+			rate_max, pb->n_fine ? FINE_LOWER : "");
+}
+
+/*
+ * Cycles between a motor's 0x92 reads: the largest that keeps at least
+ * feedback.rate_hz (default: the command rate); 0: no fine feedback.
+ */
+static unsigned fine_divisor(const struct rmd_config *cfg, const struct rmd_config_motor *m)
+{
+	double d;
+
+	if (m->feedback.position != RMD_FEEDBACK_MULTI_TURN)
+		return 0;
+	if (!(m->feedback.rate_hz > 0.0))
+		return m->rate_divisor;
+	d = floor((double)cfg->loop.rate_hz / m->feedback.rate_hz * (1.0 + 1e-12));
+	return d < 1.0 ? 1u : d > RMD_CONFIG_DIVISOR_MAX ? RMD_CONFIG_DIVISOR_MAX : (unsigned)d;
 }
 
 int rmd_plan_build(const struct rmd_config *cfg, struct rmd_plan *plan, char *err, size_t errlen)
@@ -540,7 +596,11 @@ int rmd_plan_build(const struct rmd_config *cfg, struct rmd_plan *plan, char *er
 			.id = m->id,
 			.proto = m->proto,
 			.divisor = m->rate_divisor,
+			.fine_divisor = fine_divisor(cfg, m),
 		};
+		plan->motor[i].pos_hz = (double)plan->rate_hz /
+					(plan->motor[i].fine_divisor ? plan->motor[i].fine_divisor :
+								       m->rate_divisor);
 		pb->motors[pb->n_motors++] = (uint8_t)i;
 	}
 	plan->feasible = true;
@@ -594,7 +654,7 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 {
 	const struct rmd_plan_bus *pb;
 	const struct rmd_plan_poll *poll = NULL;
-	uint32_t due;
+	uint32_t due, fine;
 	unsigned cnt = 0;
 
 	if (bus >= plan->n_buses)
@@ -611,6 +671,7 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 	}
 	if (poll && poll->replaces)
 		due &= ~(1u << plan->motor[poll->motor].local);
+	fine = pb->fine[n % pb->hc];
 	if (due & pb->batched)
 		out[cnt++] = (struct rmd_plan_slot){
 			.kind = RMD_SLOT_V2_TORQUES,
@@ -632,6 +693,18 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			.can_id = (uint16_t)((pm->proto == RMD_PROTO_MIT ? RMD_CAN_MIT_REQ_BASE :
 									   RMD_CAN_REQ_BASE) +
 					     pm->id),
+		};
+	}
+	for (unsigned l = 0; fine && l < pb->n_motors; l++) {
+		uint8_t mi = pb->motors[l];
+
+		if (!(fine & (1u << l)))
+			continue;
+		out[cnt++] = (struct rmd_plan_slot){
+			.kind = RMD_SLOT_FINE,
+			.motor = mi,
+			.replies = 1,
+			.can_id = (uint16_t)(RMD_CAN_REQ_BASE + plan->motor[mi].id),
 		};
 	}
 	if (poll)
@@ -664,6 +737,52 @@ static const char *batch_note(enum rmd_plan_batch batch)
 		       "broadcast command (V3 §3)";
 	}
 	return NULL;
+}
+
+/*
+ * The highest loop rate at which bus b fits with its 0x92 reads at their
+ * asked rates (not below the fastest feedback.rate_hz); 0: none.  Non-rt.
+ */
+static unsigned fine_max_rate(const struct rmd_config *cfg, unsigned b)
+{
+	struct rmd_config *c = malloc(sizeof(*c));
+	struct rmd_plan *p = malloc(sizeof(*p));
+	unsigned found = 0, r_min = 1;
+
+	if (!c || !p)
+		goto out;
+	memcpy(c, cfg, sizeof(*c));
+	for (unsigned i = 0; i < c->n_motors; i++)
+		if (c->motors[i].bus == b && c->motors[i].feedback.rate_hz > r_min)
+			r_min = (unsigned)ceil(c->motors[i].feedback.rate_hz);
+	for (unsigned r = RMD_CONFIG_RATE_MAX_HZ; r >= r_min && !found; r--) {
+		c->loop.rate_hz = r;
+		rmd_plan_build(c, p, NULL, 0);
+		if (p->bus[b].feasible)
+			found = r;
+	}
+out:
+	free(p);
+	free(c);
+	return found;
+}
+
+/* A motor's fine position line of the plan: its reads and their resolution.  Non-rt. */
+static void print_fine(const struct rmd_plan *plan, const struct rmd_config *cfg, unsigned mi,
+		       FILE *out)
+{
+	const struct rmd_plan_motor *pm = &plan->motor[mi];
+	struct rmd_motor m;
+	double res = NAN;
+
+	if (rmd_motor_init(&m, &cfg->motors[mi]) == 0)
+		res = rmd_motor_pos_resolution_rad(&m);
+	char every[32] = "every cycle";
+
+	if (pm->fine_divisor > 1)
+		snprintf(every, sizeof(every), "every %u cycles", pm->fine_divisor);
+	fprintf(out, "  %-20s position: 0x92 %s (%g Hz), step %g° (%.3g µrad)\n", "", every,
+		pm->pos_hz, res * 180.0 / M_PI, res * 1e6);
 }
 
 static void print_bus(const struct rmd_plan *plan, const struct rmd_config *cfg, unsigned b,
@@ -709,6 +828,8 @@ static void print_bus(const struct rmd_plan *plan, const struct rmd_config *cfg,
 				pm->replacing		   ? ", some in place of a setpoint" :
 							     ", extra frames");
 		fprintf(out, "%s\n", pm->batched ? "  [0x280]" : "");
+		if (pm->fine_divisor)
+			print_fine(plan, cfg, mi, out);
 	}
 	if (pb->batched) {
 		fprintf(out, "  0x280 frame: torques of");
@@ -732,6 +853,17 @@ static void print_bus(const struct rmd_plan *plan, const struct rmd_config *cfg,
 	if (pb->poll_every)
 		fprintf(out, ", a status poll every %u cycles, repeats every %llu cycles",
 			pb->poll_every, (unsigned long long)pb->hyperperiod);
+	if (pb->n_fine) {
+		unsigned r = fine_max_rate(cfg, b);
+
+		if (r)
+			fprintf(out,
+				"\n  with its 0x92 reads this bus fits a loop rate up to %u Hz", r);
+		else
+			fprintf(out,
+				"\n  with its 0x92 reads this bus fits no loop rate up to %u Hz",
+				RMD_CONFIG_RATE_MAX_HZ);
+	}
 	fprintf(out, "\n  verdict: %s\n\n", pb->feasible ? "ok" : "DOES NOT FIT");
 }
 

@@ -632,6 +632,7 @@ static void publish_state(struct rmd_bridge *b)
 		o->reply_latency_us = sat32(m->reply_latency_ns / 1000);
 		o->missed_replies = sat64(m->missed_replies);
 		o->rx_time_ns = m->rx_ns;
+		o->position_rx_time_ns = m->pos_rx_ns;
 	}
 	n = rmd_state_t_encode(b->buf->enc, 0, ENC_MAX, st);
 	if (publish_encoded(b, b->ch_state, n))
@@ -767,6 +768,8 @@ static void publish_config(struct rmd_bridge *b)
 			.kd_max = m->kd_max,
 			.comm_loss_ms = i < h->nmotors ? sat32(h->comm_loss_ms[i]) : -1,
 			.comm_loss = i < h->nmotors ? (int8_t)h->comm_loss[i] : 0,
+			.position_resolution = m->pos_resolution_rad,
+			.position_rate_hz = m->pos_rate_hz,
 		};
 	}
 	/* Rare, so the generated publish (it allocates) is fine here. */

@@ -83,6 +83,7 @@ static void test_examples_load(void **state)
 		"examples/v2-batch.yaml",
 		"examples/rs485.yaml",
 		"examples/sim-faults.yaml",
+		"examples/sim-fine.yaml",
 		"tests/data/config/five-per-bus.yaml", /* loads; the planner refuses it */
 	};
 
@@ -967,6 +968,52 @@ static void test_v2_needs_protection_off(void **state)
 #undef V2_BUS
 }
 
+/* motors[].feedback (docs/feedback.md): its keys, defaults and refusals. */
+static void test_feedback_keys(void **state)
+{
+	static const char head[] =
+		"loop: {rate_hz: 500}\nbuses:\n  - {name: s, type: sim}\nmotors:\n";
+	static const struct {
+		const char *motor, *err;
+	} bad[] = {
+		/* V2 replies carry the encoder: no 0x92 reads for them */
+		{ "protocol: v2, mode: torque, torque_constant_nm_a: 2, feedback: {position: "
+		  "multi_turn}",
+		  ":5: motors[0].feedback.position: multi_turn is for v3 and mit motors" },
+		{ "mode: torque, torque_constant_nm_a: 2, feedback: {rate_hz: 100}",
+		  "motors[0].feedback.rate_hz: sets the rate of 0x92 reads: it needs position: "
+		  "multi_turn" },
+		{ "mode: torque, torque_constant_nm_a: 2, feedback: {position: multi_turn, "
+		  "rate_hz: 1000}",
+		  "motors[0].feedback.rate_hz: 1000 is more than loop.rate_hz (500)" },
+		{ "mode: torque, torque_constant_nm_a: 2, feedback: {position: fine}",
+		  "motors[0].feedback.position" },
+	};
+	char y[1024];
+
+	(void)state;
+	snprintf(y, sizeof(y),
+		 "%s  - {name: a, bus: s, id: 1, mode: position, torque_constant_nm_a: 2, "
+		 "feedback: {position: multi_turn, rate_hz: 125}}\n"
+		 "  - {name: b, bus: s, id: 2, protocol: mit, mode: mit, "
+		 "feedback: {position: multi_turn}}\n"
+		 "  - {name: c, bus: s, id: 3, mode: position, torque_constant_nm_a: 2}\n",
+		 head);
+	if (load_str("fb.yaml", y))
+		fail_msg("%s", err);
+	assert_int_equal(cfg.motors[0].feedback.position, RMD_FEEDBACK_MULTI_TURN);
+	assert_float_equal(cfg.motors[0].feedback.rate_hz, 125.0, 0);
+	assert_int_equal(cfg.motors[1].feedback.position, RMD_FEEDBACK_MULTI_TURN);
+	assert_float_equal(cfg.motors[1].feedback.rate_hz, 0.0, 0);
+	assert_int_equal(cfg.motors[2].feedback.position, RMD_FEEDBACK_CONTROL);
+	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
+		snprintf(y, sizeof(y), "%s  - {name: a, bus: s, id: 1, %s}\n", head, bad[k].motor);
+		if (load_str("fb-bad.yaml", y) != -EINVAL)
+			fail_msg("feedback case %zu loaded: %s", k, bad[k].motor);
+		expect_in(err, bad[k].err);
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -991,6 +1038,7 @@ int main(void)
 		cmocka_unit_test(test_physical_lower_bounds),
 		cmocka_unit_test(test_comm_loss_keys),
 		cmocka_unit_test(test_v2_needs_protection_off),
+		cmocka_unit_test(test_feedback_keys),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

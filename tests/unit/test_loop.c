@@ -1944,6 +1944,126 @@ static void test_fault_over_temperature(void **state)
 	rig_down();
 }
 
+/* ---- issue 13: fine position feedback ------------------------------------------ */
+
+/*
+ * 500 Hz; motor 0 in position mode with 0x92 reads every cycle
+ * (feedback.position multi_turn), motor 1 in position mode without.
+ */
+static void fine_tweak(struct rmd_config *cfg)
+{
+	cfg->loop.rate_hz = 500;
+	for (unsigned i = 0; i < 2; i++) {
+		cfg->motors[i].mode = RMD_MODE_POSITION;
+		cfg->motors[i].limits.velocity_rad_s = 5.0;
+	}
+	cfg->motors[0].feedback.position = RMD_FEEDBACK_MULTI_TURN;
+}
+
+/* pos_rad in units of 0.01 deg, and how far it is from a whole one. */
+static double centideg_off(double pos_rad, double *cd)
+{
+	*cd = pos_rad * 18000.0 / M_PI;
+	return fabs(*cd - round(*cd));
+}
+
+/*
+ * Issue 13 acceptance on the sim bus: a V3 position-mode motor tracking a
+ * slow sine reports its position in 0.01 deg steps (0x92), each with the
+ * receive time of the 0x92 answer it came from, at the planned read rate;
+ * the motor without fine feedback reports whole degrees (V3 §2.13.3), and
+ * the bus stays within its planned frames.
+ */
+static void test_fine_position_sine(void **state)
+{
+	const struct rmd_plan_motor *pm;
+	const unsigned cycles = 2000; /* 4 s at 500 Hz: two periods of the sine */
+	unsigned from, fine_steps = 0, whole_1 = 0, new_pos_t = 0;
+	int64_t last_pos_t = 0, worst_age = 0;
+	double worst_err = 0, err;
+	struct rmd_snapshot s;
+
+	(void)state;
+	rig_up(3, fine_tweak);
+	pm = &R.io.plan.motor[0];
+	assert_int_equal(pm->fine_divisor, 1);
+	assert_float_equal(pm->pos_hz, 500.0, 1e-9);
+	assert_int_equal(R.io.plan.motor[1].fine_divisor, 0);
+	assert_true(R.io.plan.bus[0].worst_ns <= period());
+	bring_up();
+	run(50, false);
+	cmd_clear();
+	from = trace_n;
+	for (unsigned k = 0; k < cycles; k++) {
+		double t = (double)k / 500.0, cd;
+		struct rmd_sim_motor *m = sim_motor(0);
+
+		for (unsigned i = 0; i < 2; i++) {
+			struct rmd_setpoint *sp = cmd_motor(i, true, RMD_MODE_POSITION);
+
+			sp->pos_rad = 0.5 * sin(2.0 * M_PI * 0.5 * t);
+			sp->max_vel_rad_s = 5.0;
+		}
+		run(1, true);
+		s = snap();
+		if (k < 100 || s.m[0].lifecycle != RMD_LC_ENABLED)
+			continue;
+		/* 0.01 deg steps, and mostly not whole degrees while moving */
+		if (centideg_off(s.m[0].pos_rad, &cd) > 1e-6)
+			fail_msg("cycle %u: position %.9f rad is %.6f centidegrees: not 0.01 deg "
+				 "steps",
+				 k, s.m[0].pos_rad, cd);
+		fine_steps += fabs(cd / 100.0 - round(cd / 100.0)) > 0.004;
+		whole_1 += centideg_off(s.m[1].pos_rad, &cd) < 1e-6 &&
+			   fabs(cd / 100.0 - round(cd / 100.0)) < 1e-6;
+		/* the position's time is its 0x92 answer's; a new one each cycle */
+		assert_true(s.m[0].pos_rx_ns > 0 && s.m[0].pos_rx_ns <= t_now);
+		if (s.m[0].pos_rx_ns != last_pos_t)
+			new_pos_t++;
+		last_pos_t = s.m[0].pos_rx_ns;
+		/* its age at the state's time (the cycle's tick) */
+		if (s.t_ns - s.m[0].pos_rx_ns > worst_age)
+			worst_age = s.t_ns - s.m[0].pos_rx_ns;
+		/*
+		 * What the motor said: its true angle, but for its motion since
+		 * the answer (its age, and a period for the sim's own clock, which
+		 * runs up to the last frame it carried) at the sine's top speed.
+		 */
+		err = fabs(s.m[0].pos_rad - m->pos_rad) -
+		      0.5 * M_PI * (double)(t_now - s.m[0].pos_rx_ns + period()) / 1e9;
+		if (err > worst_err)
+			worst_err = err;
+	}
+	print_message("fine: %u of %u states off whole degrees, %u new position times, oldest "
+		      "%.2f ms, error beyond motion %.5f deg\n",
+		      fine_steps, cycles - 100, new_pos_t, (double)worst_age / 1e6,
+		      worst_err * 180.0 / M_PI);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_true(fine_steps > (cycles - 100) * 9 / 10);
+	/* the motor without fine feedback: whole degrees, as V3 control replies carry */
+	assert_int_equal(whole_1, cycles - 100);
+	/* a new 0x92 answer every cycle (pos_hz 500 at 500 Hz), none older than a cycle */
+	assert_true(new_pos_t >= (cycles - 100) * 98 / 100);
+	assert_true(worst_age > 0 && worst_age <= period());
+	assert_true(worst_err <= 0);
+	/* velocity and torque keep the control replies' time */
+	assert_true(s.m[0].rx_ns > 0 && s.m[0].rx_ns != s.m[0].pos_rx_ns);
+	assert_int_equal(s.m[1].rx_ns, s.m[1].pos_rx_ns);
+	/* the wire: one 0x92 a cycle to motor 0, none to motor 1, every setpoint still sent */
+	assert_true(sent_to(0, 0x92, from) >= cycles - 1 && sent_to(0, 0x92, from) <= cycles);
+	assert_int_equal(sent_to(1, 0x92, from), 0);
+	assert_true(sent_to(0, 0xA4, from) + sent_to(0, 0x9A, from) >= cycles - 100);
+	/* at rest, exactly what the motor measures, to half the LSB */
+	cmd_motor(0, true, RMD_MODE_POSITION)->pos_rad = 0.123456;
+	run(1000, true);
+	s = snap();
+	assert_float_equal(s.m[0].pos_rad * 180.0 / M_PI, sim_motor(0)->pos_rad * 180.0 / M_PI,
+			   0.005 + 1e-9);
+	assert_float_equal(s.m[0].pos_rad, 0.123456, 0.0002);
+	assert_int_equal(snap().m[0].missed_replies, 0);
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1983,6 +2103,7 @@ int main(void)
 		cmocka_unit_test(test_fault_delay),
 		cmocka_unit_test(test_fault_flood),
 		cmocka_unit_test(test_fault_over_temperature),
+		cmocka_unit_test(test_fine_position_sine),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);

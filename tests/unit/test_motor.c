@@ -879,6 +879,107 @@ static void test_resolved_rows_match_interpreter(void **state)
 	}
 }
 
+/* ---- issue 13: fine position feedback ------------------------------------------ */
+
+/* Decode hex (a reply of m) and fuse it into st at t_ns. */
+static void take_hex(struct rmd_motor *m, const char *hex, int64_t t_ns, struct rmd_motor_state *st)
+{
+	struct rmd_frame f = frame_from(hex);
+	struct rmd_motor_reply r;
+
+	if (rmd_motor_decode(m, &f, &r) < 0)
+		fail_msg("%s: not a reply of motor %u", hex, m->id);
+	rmd_motor_take(m, &r, t_ns, st);
+}
+
+/*
+ * rmd_motor_take(): with feedback.position multi_turn the position is the
+ * newest 0x92 answer's (0.01 deg, V3 §2.11), with its receive time; a
+ * control reply's whole degrees (V3 §2.13.3) never replace it, but give
+ * velocity and torque their own time.  Without it every reply's angle is
+ * taken, with one time for all.
+ */
+static void test_fine_feedback_fusion(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_POSITION);
+	struct rmd_motor fine, coarse;
+	struct rmd_motor_state st = { 0 }, sc = { 0 };
+
+	(void)state;
+	coarse = motor_of(&c);
+	c.feedback.position = RMD_FEEDBACK_MULTI_TURN;
+	fine = motor_of(&c);
+	assert_true(fine.fine_pos);
+	assert_false(coarse.fine_pos);
+
+	/* 0x92: 12345 = 123.45 deg */
+	take_hex(&fine, "241#9200000039300000", 1000, &st);
+	assert_float_equal(st.pos_rad, 123.45 * DEG, 1e-12);
+	assert_int_equal(st.pos_rx_ns, 1000);
+	assert_int_equal(st.rx_ns, 0); /* nothing but the position came */
+	/* 0x9C: 30 degC, 1.00 A, 500 dps, 123 deg: the angle is not taken */
+	take_hex(&fine, "241#9C1E6400F4017B00", 2000, &st);
+	assert_float_equal(st.pos_rad, 123.45 * DEG, 1e-12);
+	assert_int_equal(st.pos_rx_ns, 1000);
+	assert_float_equal(st.vel_rad_s, 500 * DEG, 1e-12);
+	assert_float_equal(st.current_a, 1.0, 1e-12);
+	assert_int_equal(st.rx_ns, 2000);
+	/* the control answer to 0xA4 alike */
+	take_hex(&fine, "241#A41E6400F4017C00", 3000, &st);
+	assert_float_equal(st.pos_rad, 123.45 * DEG, 1e-12);
+	assert_int_equal(st.rx_ns, 3000);
+	/* a newer 0x92, negative: -50.00 deg */
+	take_hex(&fine, "241#9200000078ECFFFF", 4000, &st);
+	assert_float_equal(st.pos_rad, -50.0 * DEG, 1e-12);
+	assert_int_equal(st.pos_rx_ns, 4000);
+	assert_int_equal(st.rx_ns, 3000);
+
+	/* control feedback: the control reply's angle, one time for every value */
+	take_hex(&coarse, "241#9C1E6400F4017B00", 2000, &sc);
+	assert_float_equal(sc.pos_rad, 123.0 * DEG, 1e-12);
+	assert_int_equal(sc.pos_rx_ns, 2000);
+	assert_int_equal(sc.rx_ns, 2000);
+	take_hex(&coarse, "241#9200000039300000", 2500, &sc);
+	assert_float_equal(sc.pos_rad, 123.45 * DEG, 1e-12);
+	assert_int_equal(sc.pos_rx_ns, 2500);
+	assert_int_equal(sc.rx_ns, 2000);
+}
+
+/* rmd_motor_pos_resolution_rad() and config_t's copy, per protocol and feedback. */
+static void test_position_resolution(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(1, RMD_PROTO_V3, RMD_MODE_POSITION);
+	struct rmd_motor m;
+	struct rmd_motor_info info;
+
+	(void)state;
+	m = motor_of(&c);
+	assert_float_equal(rmd_motor_pos_resolution_rad(&m), 1.0 * DEG, 1e-15);
+	rmd_motor_info(&m, false, &info);
+	assert_float_equal(info.pos_resolution_rad, 1.0 * DEG, 1e-15);
+	c.feedback.position = RMD_FEEDBACK_MULTI_TURN;
+	m = motor_of(&c);
+	assert_float_equal(rmd_motor_pos_resolution_rad(&m), 0.01 * DEG, 1e-15);
+	/* units rotor: the motor's degrees are the rotor's, gear_ratio of them an output degree */
+	c.units = RMD_UNITS_ROTOR;
+	c.gear_ratio = 9.0;
+	m = motor_of(&c);
+	assert_float_equal(rmd_motor_pos_resolution_rad(&m), 0.01 * DEG / 9.0, 1e-15);
+	/* V2: one count of the rotor encoder (V2 §3.32) */
+	c = cfg_motor(2, RMD_PROTO_V2, RMD_MODE_TORQUE);
+	c.gear_ratio = 6.0;
+	m = motor_of(&c);
+	assert_float_equal(rmd_motor_pos_resolution_rad(&m), 2.0 * M_PI / 65536.0 / 6.0, 1e-15);
+	/* MIT: its 16-bit code over [p_min, p_max] (V3 §5), or 0x92's 0.01 deg */
+	c = cfg_motor(3, RMD_PROTO_MIT, RMD_MODE_MIT);
+	m = motor_of(&c);
+	assert_float_equal(rmd_motor_pos_resolution_rad(&m), (c.mit.p_max - c.mit.p_min) / 65535.0,
+			   1e-15);
+	c.feedback.position = RMD_FEEDBACK_MULTI_TURN;
+	m = motor_of(&c);
+	assert_float_equal(rmd_motor_pos_resolution_rad(&m), 0.01 * DEG, 1e-15);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -899,6 +1000,8 @@ int main(void)
 		cmocka_unit_test(test_clamp_rule),
 		cmocka_unit_test(test_modes_and_info),
 		cmocka_unit_test(test_resolved_rows_match_interpreter),
+		cmocka_unit_test(test_fine_feedback_fusion),
+		cmocka_unit_test(test_position_resolution),
 	};
 
 	return cmocka_run_group_tests_name("motor", tests, NULL, NULL);

@@ -224,6 +224,8 @@ static void variant(unsigned k)
  * most one status poll, each motor commanded exactly at its divisor unless
  * a poll takes its place.  Counts per motor go to ctrl[] and polls[].
  */
+static unsigned fine_reads[RMD_MAX_MOTORS]; /* walk(): 0x92 reads per motor */
+
 static void walk(unsigned b, uint64_t cycles, unsigned ctrl[RMD_MAX_MOTORS],
 		 unsigned polls[RMD_MAX_MOTORS])
 {
@@ -232,6 +234,7 @@ static void walk(unsigned b, uint64_t cycles, unsigned ctrl[RMD_MAX_MOTORS],
 
 	memset(ctrl, 0, RMD_MAX_MOTORS * sizeof(ctrl[0]));
 	memset(polls, 0, RMD_MAX_MOTORS * sizeof(polls[0]));
+	memset(fine_reads, 0, sizeof(fine_reads));
 	for (uint64_t n = 0; n < cycles; n++) {
 		unsigned cnt = rmd_plan_cycle(&plan, b, n, s), frames = 0, status = 0;
 		int polled = -1;
@@ -256,6 +259,16 @@ static void walk(unsigned b, uint64_t cycles, unsigned ctrl[RMD_MAX_MOTORS],
 				polled = s[i].motor;
 				assert_int_equal(s[i].can_id, 0x140 + cfg.motors[s[i].motor].id);
 				break;
+			case RMD_SLOT_FINE: {
+				const struct rmd_plan_motor *pm = &plan.motor[s[i].motor];
+
+				/* a 0x92 read exactly at its divisor and phase */
+				assert_true(pm->fine_divisor > 0);
+				assert_int_equal(n % pm->fine_divisor, pm->fine_phase);
+				assert_int_equal(s[i].can_id, 0x140 + cfg.motors[s[i].motor].id);
+				fine_reads[s[i].motor]++;
+				break;
+			}
 			}
 		}
 		assert_true(status <= 1);
@@ -779,6 +792,147 @@ static void test_poll_rate_near_zero(void **state)
 	}
 }
 
+/* ------------------------------------------------------------------ */
+/* issue 13: fine position reads (0x92) in the plan */
+
+static void fine(unsigned i, double rate_hz)
+{
+	cfg.motors[i].feedback.position = RMD_FEEDBACK_MULTI_TURN;
+	cfg.motors[i].feedback.rate_hz = rate_hz;
+}
+
+/* The plan's text for --check-config, in a malloc'ed string. */
+static char *printed(void)
+{
+	char *buf = NULL;
+	size_t len = 0;
+	FILE *f = open_memstream(&buf, &len);
+
+	assert_non_null(f);
+	rmd_plan_print(&plan, &cfg, f);
+	fclose(f);
+	return buf;
+}
+
+/*
+ * Two V3 motors at 1 kHz with 0x92 reads at 250 Hz and a third commanded
+ * every other cycle: each read every 4th cycle, in the cycles without the
+ * third motor's setpoint (the reads fill the least busy ones), every
+ * setpoint still sent, and the busiest cycle within the budget the walk
+ * checks cycle by cycle.
+ */
+static void test_fine_reads_planned(void **state)
+{
+	unsigned ctrl[RMD_MAX_MOTORS], polls[RMD_MAX_MOTORS];
+	const struct rmd_plan_bus *pb = &plan.bus[0];
+	char *out;
+
+	(void)state;
+	can0(1000);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_POSITION, 1, 10);
+	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_POSITION, 1, 10);
+	add_motor(0, 3, RMD_PROTO_V3, RMD_MODE_POSITION, 2, 0); /* no fine feedback */
+	fine(0, 250);
+	fine(1, 250);
+	expect_ok();
+	assert_int_equal(pb->n_fine, 2);
+	assert_int_equal(pb->hc, 4);
+	for (unsigned i = 0; i < 2; i++) {
+		assert_int_equal(plan.motor[i].fine_divisor, 4);
+		assert_float_equal(plan.motor[i].pos_hz, 250.0, 1e-9);
+	}
+	assert_int_equal(plan.motor[2].fine_divisor, 0);
+	assert_float_equal(plan.motor[2].pos_hz, 500.0, 1e-9);
+	assert_int_not_equal(plan.motor[0].fine_phase, plan.motor[1].fine_phase);
+	for (unsigned i = 0; i < 2; i++)
+		assert_int_not_equal(plan.motor[i].fine_phase % 2, plan.motor[2].phase);
+	/* 4 or 6 frames of setpoints, a read where there are 4: never more than 6 */
+	assert_int_equal(pb->control_ns, 6 * FRAME_NS);
+	assert_true(pb->worst_ns <= plan.period_ns);
+	walk(0, pb->hyperperiod * 2, ctrl, polls);
+	for (unsigned i = 0; i < 3; i++) /* every setpoint */
+		assert_int_equal(ctrl[i] + polls[i],
+				 pb->hyperperiod * 2 / cfg.motors[i].rate_divisor);
+	assert_int_equal(fine_reads[0], pb->hyperperiod * 2 / 4);
+	assert_int_equal(fine_reads[1], pb->hyperperiod * 2 / 4);
+	assert_int_equal(fine_reads[2], 0);
+	out = printed();
+	expect_in(out, "position: 0x92 every 4 cycles (250 Hz), step 0.01° (175 µrad)");
+	expect_in(out, "with its 0x92 reads this bus fits a loop rate up to ");
+	free(out);
+	/* a rate that is not a whole divisor: the next faster one (at least what was asked) */
+	can0(1000);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_POSITION, 1, 10);
+	fine(0, 300);
+	expect_ok();
+	assert_int_equal(plan.motor[0].fine_divisor, 3);
+	assert_true(plan.motor[0].pos_hz >= 300.0);
+	/* default: the command rate; with rate_divisor 2, every other cycle */
+	can0(1000);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_POSITION, 2, 0);
+	fine(0, 0);
+	expect_ok();
+	assert_int_equal(plan.motor[0].fine_divisor, 2);
+	assert_float_equal(plan.motor[0].pos_hz, 500.0, 1e-9);
+}
+
+/*
+ * The budget holds with the reads: three motors with reads every cycle do
+ * not fit 1 kHz, and the refusal says the reads are in the count and what
+ * to lower; the rate it names, and the rate the print says the bus fits,
+ * do fit; without fine feedback the print says nothing of 0x92.
+ */
+static void test_fine_budget(void **state)
+{
+	char *out;
+	unsigned fits;
+	const char *at;
+
+	(void)state;
+	can0(1000);
+	for (unsigned id = 1; id <= 3; id++)
+		add_motor(0, id, RMD_PROTO_V3, RMD_MODE_POSITION, 1, 10);
+	expect_ok();
+	out = printed();
+	assert_null(strstr(out, "0x92"));
+	free(out);
+	for (unsigned i = 0; i < 3; i++)
+		fine(i, 0);
+	expect_refused(-ENOSPC, "can0: 3 motors at 1000 Hz need 1620 µs per cycle worst case "
+				"(0x92 position reads included), the cycle is 1000 µs: use ≤ 1 "
+				"motor, or a rate ≤ 617 Hz, or a lower feedback.rate_hz");
+	out = printed();
+	at = strstr(out, "with its 0x92 reads this bus fits a loop rate up to ");
+	assert_non_null(at);
+	fits = (unsigned)atoi(at + strlen("with its 0x92 reads this bus fits a loop rate up to "));
+	free(out);
+	assert_int_equal(fits, 617);
+	cfg.loop.rate_hz = fits;
+	expect_ok();
+	assert_true(plan.bus[0].worst_ns <= plan.period_ns);
+	cfg.loop.rate_hz = fits + 1;
+	assert_int_equal(build(), -ENOSPC);
+	/* two of them at 1 kHz with reads at 250 Hz fit */
+	can0(1000);
+	for (unsigned id = 1; id <= 2; id++)
+		add_motor(0, id, RMD_PROTO_V3, RMD_MODE_POSITION, 1, 10);
+	fine(0, 250);
+	fine(1, 250);
+	expect_ok();
+	assert_int_equal(plan.bus[0].control_ns, 6 * FRAME_NS);
+}
+
+/* rmdd --check-config on the example with fine feedback: the reads and the rate printed. */
+static void test_rmdd_check_fine_example(void **state)
+{
+	(void)state;
+	check_config(&(struct check_case){ "examples/sim-fine.yaml", 0,
+					   "position: 0x92 every cycle (500 Hz), step 0.01°", "" });
+	check_config(&(struct check_case){ "examples/sim-fine.yaml", 0,
+					   "with its 0x92 reads this bus fits a loop rate up to",
+					   "" });
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -798,11 +952,14 @@ int main(void)
 		cmocka_unit_test(test_sim12_feasible),
 		cmocka_unit_test(test_print),
 		cmocka_unit_test(test_poll_rate_near_zero),
+		cmocka_unit_test(test_fine_reads_planned),
+		cmocka_unit_test(test_fine_budget),
 	};
 	const struct CMUnitTest proc_tests[] = {
 		cmocka_unit_test(test_rmdd_check_examples),
 		cmocka_unit_test(test_rmdd_check_refuses),
 		cmocka_unit_test(test_rmdd_options),
+		cmocka_unit_test(test_rmdd_check_fine_example),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 	int fails;

@@ -27,8 +27,10 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	snprintf(o->url, sizeof(o->url), "%s", cfg->lcm.url);
 	snprintf(o->prefix, sizeof(o->prefix), "%s", cfg->lcm.channel_prefix);
 	o->nmotors = cfg->n_motors;
-	for (unsigned i = 0; i < cfg->n_motors && i < RMD_MAX_MOTORS; i++)
+	for (unsigned i = 0; i < cfg->n_motors && i < RMD_MAX_MOTORS; i++) {
 		rmd_motor_info(rmd_loop_motor(loop, i), plan->motor[i].batched, &o->motor[i]);
+		o->motor[i].pos_rate_hz = plan->motor[i].pos_hz;
+	}
 	o->nbuses = cfg->n_buses;
 	for (unsigned b = 0; b < cfg->n_buses && b < RMD_MAX_BUSES; b++) {
 		const struct rmd_config_bus *cb = &cfg->buses[b];
