@@ -3,7 +3,10 @@
 #   make                 build the library, tools and test binaries
 #   make test            run every cmocka suite (tests/run-tests.sh)
 #                        (tests/busy-check: make test N times beside a CPU hog)
-#   make install         PREFIX=/usr/local DESTDIR=
+#   make install         PREFIX=/usr/local DESTDIR=  (programs, units, man pages,
+#                        LCM types: .lcm, headers, pkg-config rmd-lcm, jar, Python)
+#   make deb             the Debian package in $(BUILD)/deb (debian/README.source)
+#   make man             the man pages into $(BUILD)/man (help2man)
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
@@ -264,11 +267,14 @@ endif
 
 # bench/insn-guard.sh: the loop's instructions per cycle must not rise more
 # than 5 % above the committed figure (callgrind counts; not a timing test).
+# tests/package/check-install: `make install` into a scratch DESTDIR, used
+# as a user would (tests/package/check-deb does it for the package).
 # Sanitizer builds count their own instrumentation: not there.
 test: all
 	$(Q)BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) -- $(TESTS)
 ifneq ($(SANITIZE),1)
 	$(Q)BUILD=$(BUILD) bench/insn-guard.sh
+	$(Q)BUILD=$(BUILD) MAKE="$(MAKE)" tests/package/check-install
 endif
 
 # ---- install (README.md "Install"; debian/rules packages `make install`) ----
