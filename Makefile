@@ -409,7 +409,9 @@ uninstall:
 # dpkg-buildpackage runs in a copy of the tree whose debian/changelog says
 # the version: RMD_VERSION made a Debian version that rises with every
 # commit (0.2.0-5-gabc1234-dirty -> 0.2.0+git5.gabc1234.dirty); its
-# debian/copyright is LICENSE.
+# debian/copyright is LICENSE.  The package build sees none of this make's
+# variables, nor the caller's environment (env -i): debian/rules sets its
+# own.
 DEB_VERSION = $(shell echo '$(RMD_VERSION)' | sed -E -e 's/-([0-9]+)-g/+git\1.g/' \
 	-e 's/-dirty$$/.dirty/' -e 's/^([^+]*)\.dirty$$/\1+dirty/')
 DEB_SRC := $(BUILD)/deb/rmdd
@@ -426,7 +428,8 @@ deb:
 		'Upstream-Name: rmdd' '' 'Files: *' 'Copyright: 2026 The rmdd authors' 'License: Expat' '' \
 		'License: Expat'; sed -n -e '/^Permission/,$$s/^$$/./' -e '/^Permission/,$$s/^/ /p' LICENSE; } \
 		>$(DEB_SRC)/debian/copyright
-	cd $(DEB_SRC) && RMD_VERSION='$(RMD_VERSION)' dpkg-buildpackage -b -us -uc
+	cd $(DEB_SRC) && env -i PATH="$$PATH" HOME="$$HOME" LANG=C.UTF-8 RMD_VERSION='$(RMD_VERSION)' \
+		$${DEB_BUILD_OPTIONS:+DEB_BUILD_OPTIONS="$$DEB_BUILD_OPTIONS"} dpkg-buildpackage -b -us -uc --jobs=auto
 	@ls $(BUILD)/deb/*.deb
 
 FORMAT_SRCS = $(shell find src include tests bench examples -name '*.[ch]' 2>/dev/null)
