@@ -3,7 +3,10 @@
 #   make                 build the library, tools and test binaries
 #   make test            run every cmocka suite (tests/run-tests.sh)
 #                        (tests/busy-check: make test N times beside a CPU hog)
-#   make install         PREFIX=/usr/local DESTDIR=
+#   make install         PREFIX=/usr/local DESTDIR=  (programs, units, man pages,
+#                        LCM types: .lcm, headers, pkg-config rmd-lcm, jar, Python)
+#   make deb             the Debian package in $(BUILD)/deb (debian/README.source)
+#   make man             the man pages into $(BUILD)/man (help2man)
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
@@ -123,7 +126,8 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib \
-	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java
+	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
+	debhelper dh-python help2man man-db debootstrap
 
 deps:
 	apt-get update -qq
@@ -315,28 +319,48 @@ $(SYSTEMD_ROOT).installed: $(PROGS) systemd/rmdd.service.in
 
 # bench/insn-guard.sh: the loop's instructions per cycle must not rise more
 # than 5 % above the committed figure (callgrind counts; not a timing test).
+# tests/package/check-install: `make install` into a scratch DESTDIR, used
+# as a user would (tests/package/check-deb does it for the package).
 # Sanitizer builds count their own instrumentation: not there.
 test: all $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
 	$(Q)BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) --systemd $(SYSTEMD_TESTS) \
 		-- $(TESTS) $(DOCS_TESTS)
 ifneq ($(SANITIZE),1)
 	$(Q)BUILD=$(BUILD) bench/insn-guard.sh
+	$(Q)BUILD=$(BUILD) MAKE="$(MAKE)" tests/package/check-install
 endif
 
+# ---- install (README.md "Install"; debian/rules packages `make install`) ----
 # rmdd's systemd units (systemd also searches /usr/local/lib/systemd/system),
 # its configuration (an existing one is never overwritten: a user's edits
-# survive `make install`), and the examples: configurations and the
-# systemd-networkd files that bring CAN interfaces up (copy them to
-# /etc/systemd/network/ to use them).
+# survive `make install`), and the examples: configurations, the example
+# controllers and the systemd-networkd files that bring CAN interfaces up
+# (copy them to /etc/systemd/network/ to use them).
 SYSTEMDUNITDIR ?= $(PREFIX)/lib/systemd/system
-EXAMPLESDIR ?= $(PREFIX)/share/rmdd/examples
+LIBDIR ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+DATADIR ?= $(PREFIX)/share
+MANDIR ?= $(DATADIR)/man
+DOCDIR ?= $(DATADIR)/doc/rmdd
+EXAMPLESDIR ?= $(DOCDIR)/examples
+JAVADIR ?= $(DATADIR)/java
+LCMDIR ?= $(DATADIR)/rmdd/lcm
+PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
+# Debian's python3 reads /usr/lib/python3/dist-packages (packages) and
+# /usr/local/lib/python3.X/dist-packages (everything else).
+PYTHONDIR ?= $(if $(filter /usr,$(PREFIX)),/usr/lib/python3/dist-packages,$(PREFIX)/lib/$(shell \
+	python3 -c 'import sys; print("python%d.%d" % sys.version_info[:2])')/dist-packages)
 RMDD_CONF := $(DESTDIR)$(SYSCONFDIR)/rmdd/rmdd.yaml
-RMDD_EXAMPLES := $(wildcard examples/*.yaml) systemd/80-can.network systemd/80-can.link
+RMDD_EXAMPLES := $(wildcard examples/*) systemd/80-can.network systemd/80-can.link
+RMDD_DOCS := $(wildcard docs/*.md)
 
-install: all
+.PHONY: install-lcm install-man install-docs man deb
+
+install: all install-lcm install-man install-docs
 	install -D -m 0755 $(RMDCTL) $(DESTDIR)$(BINDIR)/rmdctl
 	$(if $(RMDSIM_SRCS),install -D -m 0755 $(RMDSIM) $(DESTDIR)$(BINDIR)/rmd-sim)
 	install -D -m 0755 $(RMDD) $(DESTDIR)$(BINDIR)/rmdd
+	install -D -m 0755 src/tools/rmd-spy/rmd-spy $(DESTDIR)$(BINDIR)/rmd-spy
 	install -d $(DESTDIR)$(SYSTEMDUNITDIR) $(DESTDIR)$(EXAMPLESDIR)
 	sed -e 's|@BINDIR@|$(BINDIR)|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' \
 		systemd/rmdd.service.in >$(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
@@ -353,13 +377,117 @@ install: all
 	fi
 	@echo "install: edit $(SYSCONFDIR)/rmdd/rmdd.yaml, then: systemctl daemon-reload && systemctl enable --now rmdd"
 
+# The LCM types for controllers: the .lcm files; lcm-gen's C as headers
+# <rmd/rmd_<type>.h> under $(INCLUDEDIR)/rmd_lcm and a static library of
+# position-independent objects, found by `pkg-config --cflags --libs
+# rmd-lcm`; the jar for lcm-spy; the Python package `rmd` (types and
+# rmd.Client; its `lcm` comes from PyPI: Debian 12 has no python3-lcm).
+RMD_LCM_LIB := $(BUILD)/rmd-lcm/librmd-lcm.a
+RMD_LCM_OBJS := $(GEN_SRCS:$(BUILD)/gen/%.c=$(BUILD)/rmd-lcm/%.o)
+
+$(BUILD)/rmd-lcm/%.o: $(BUILD)/gen/%.c
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $< (PIC)")
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) $(GEN_CFLAGS) -fPIC -c -o $@ $<
+
+$(RMD_LCM_LIB): $(RMD_LCM_OBJS)
+	@$(if $(Q),echo "  AR      $@")
+	$(Q)rm -f $@ && $(AR) rcs $@ $^
+
+install-lcm: $(RMD_LCM_LIB) $(LCM_JAVA) $(LCM_PYTHON)
+	install -d $(DESTDIR)$(LCMDIR) $(DESTDIR)$(INCLUDEDIR)/rmd_lcm/rmd $(DESTDIR)$(PKGCONFIGDIR) \
+		$(DESTDIR)$(PYTHONDIR)/rmd
+	install -m 0644 $(LCM_TYPES) $(DESTDIR)$(LCMDIR)/
+	install -m 0644 $(GEN_HDRS) $(DESTDIR)$(INCLUDEDIR)/rmd_lcm/rmd/
+	install -D -m 0644 $(RMD_LCM_LIB) $(DESTDIR)$(LIBDIR)/librmd-lcm.a
+	printf '%s\n' 'includedir=$(INCLUDEDIR)' 'libdir=$(LIBDIR)' '' 'Name: rmd-lcm' \
+		'Description: rmdd LCM types as lcm-gen C, included as rmd/rmd_<type>.h' \
+		'Version: $(RMD_VERSION)' 'Requires: lcm' 'Cflags: -I$${includedir}/rmd_lcm' \
+		'Libs: -L$${libdir} -lrmd-lcm' >$(DESTDIR)$(PKGCONFIGDIR)/rmd-lcm.pc
+	install -D -m 0644 $(LCM_JAVA) $(DESTDIR)$(JAVADIR)/rmd-types.jar
+	install -m 0644 $(BUILD)/python/rmd/*.py $(DESTDIR)$(PYTHONDIR)/rmd/
+
+# Man pages: help2man makes rmdd(8), rmdctl(1) and rmd-sim(1) from the
+# program's own --help (the options have one copy) and
+# docs/man/<program>.h2m (description, files, examples, see also);
+# rmdd.yaml(5) is docs/man/rmdd.yaml.5.in around examples/rmdd.yaml.
+HELP2MAN ?= help2man
+MAN_PAGES := $(BUILD)/man/rmdd.8 $(BUILD)/man/rmdctl.1 $(BUILD)/man/rmd-sim.1 $(BUILD)/man/rmdd.yaml.5
+MAN_H2M = $(HELP2MAN) --no-info --no-discard-stderr --version-string='$(RMD_VERSION)' \
+	--section=$(subst .,,$(suffix $@)) --include=$(filter %.h2m,$^) --output=$@ "docs/man/gnu-help $<"
+
+man: $(MAN_PAGES)
+
+$(BUILD)/man/%.1: $(BUILD)/% docs/man/%.h2m docs/man/gnu-help
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)$(MAN_H2M)
+
+$(BUILD)/man/%.8: $(BUILD)/% docs/man/%.h2m docs/man/gnu-help
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)$(MAN_H2M)
+
+# examples/rmdd.yaml as roff text: backslashes and minus signs escaped, a
+# leading . or ' made literal.
+$(BUILD)/man/rmdd.yaml.5: docs/man/rmdd.yaml.5.in examples/rmdd.yaml
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)sed -e 's/\\/\\e/g' -e 's/-/\\-/g' -e "s/^[.']/\\\\\&&/" examples/rmdd.yaml >$@.yaml
+	$(Q)sed -e '/^@EXAMPLE@$$/{r $@.yaml' -e 'd;}' -e 's/@VERSION@/$(RMD_VERSION)/g' $< >$@
+	$(Q)rm -f $@.yaml
+
+install-man: $(MAN_PAGES)
+	install -d $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man5 $(DESTDIR)$(MANDIR)/man8
+	install -m 0644 $(filter %.1,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man1/
+	install -m 0644 $(filter %.5,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man5/
+	install -m 0644 $(filter %.8,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man8/
+
+# README.md, LICENSE and docs/ keep their relative places (the README's
+# links hold); the examples go beside them (EXAMPLESDIR).
+install-docs:
+	install -d $(DESTDIR)$(DOCDIR)/docs $(DESTDIR)$(DOCDIR)/python
+	install -m 0644 README.md LICENSE $(DESTDIR)$(DOCDIR)/
+	install -m 0644 $(RMDD_DOCS) $(DESTDIR)$(DOCDIR)/docs/
+	install -m 0644 python/README.md $(DESTDIR)$(DOCDIR)/python/
+
 uninstall:
-	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd
+	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
-	-rmdir $(DESTDIR)$(EXAMPLESDIR) $(DESTDIR)$(PREFIX)/share/rmdd 2>/dev/null
+	rm -f $(addprefix $(DESTDIR)$(MANDIR)/,$(foreach m,$(MAN_PAGES),man$(subst .,,$(suffix $(m)))/$(notdir $(m))))
+	rm -rf $(DESTDIR)$(LCMDIR) $(DESTDIR)$(INCLUDEDIR)/rmd_lcm $(DESTDIR)$(PYTHONDIR)/rmd $(DESTDIR)$(DOCDIR)
+	rm -f $(DESTDIR)$(LIBDIR)/librmd-lcm.a $(DESTDIR)$(PKGCONFIGDIR)/rmd-lcm.pc $(DESTDIR)$(JAVADIR)/rmd-types.jar
+	-rmdir $(DESTDIR)$(DATADIR)/rmdd 2>/dev/null
 	@echo "uninstall: kept $(RMDD_CONF) (your configuration); remove it by hand"
+
+# `make deb`: the Debian package, in $(BUILD)/deb (debian/README.source).
+# dpkg-buildpackage runs in a copy of the tree whose debian/changelog says
+# the version: RMD_VERSION made a Debian version that rises with every
+# commit (0.2.0-5-gabc1234-dirty -> 0.2.0+git5.gabc1234.dirty); its
+# debian/copyright is LICENSE.  The package build sees none of this make's
+# variables, nor the caller's environment (env -i): debian/rules sets its
+# own.
+DEB_VERSION = $(shell echo '$(RMD_VERSION)' | sed -E -e 's/-([0-9]+)-g/+git\1.g/' \
+	-e 's/-dirty$$/.dirty/' -e 's/^([^+]*)\.dirty$$/\1+dirty/')
+DEB_SRC := $(BUILD)/deb/rmdd
+
+deb:
+	rm -rf $(BUILD)/deb && mkdir -p $(DEB_SRC)
+	tar -c --exclude=./build --exclude=./.git --exclude=./debian/rmdd --exclude=__pycache__ \
+		--exclude=./python/build --exclude='./python/*.egg-info' . | tar -x -C $(DEB_SRC)
+	printf 'rmdd (%s) unstable; urgency=medium\n\n  * Built by make deb from %s (git describe).\n\n -- %s  %s\n' \
+		'$(DEB_VERSION)' '$(RMD_VERSION)' "$$(sed -n 's/^Maintainer: //p' debian/control)" \
+		"$$(date -R -d @$$(git log -1 --format=%ct 2>/dev/null || date +%s))" \
+		>$(DEB_SRC)/debian/changelog
+	{ printf '%s\n' 'Format: https://www.debian.org/doc/packaging-manuals/copyright-format/1.0/' \
+		'Upstream-Name: rmdd' '' 'Files: *' 'Copyright: 2026 The rmdd authors' 'License: Expat' '' \
+		'License: Expat'; sed -n -e '/^Permission/,$$s/^$$/./' -e '/^Permission/,$$s/^/ /p' LICENSE; } \
+		>$(DEB_SRC)/debian/copyright
+	cd $(DEB_SRC) && env -i PATH="$$PATH" HOME="$$HOME" LANG=C.UTF-8 RMD_VERSION='$(RMD_VERSION)' \
+		$${DEB_BUILD_OPTIONS:+DEB_BUILD_OPTIONS="$$DEB_BUILD_OPTIONS"} dpkg-buildpackage -b -us -uc --jobs=auto
+	@ls $(BUILD)/deb/*.deb
 
 FORMAT_SRCS = $(shell find src include tests bench examples -name '*.[ch]' 2>/dev/null)
 
