@@ -50,7 +50,7 @@ run() {
 	while read -r t comm pol t0; do
 		echo "$t $comm $pol $t0 $(ticks $pid $t)" >>"$work/$label.t1"
 	done <"$work/$label.t0"
-	[ -n "$ctl" ] && kill $ctl 2>/dev/null
+	[ -n "$ctl" ] && { kill $ctl 2>/dev/null || true; } # it may have ended (memq://)
 	kill -TERM $pid
 	wait $pid || true
 	# the loop: the thread named rmd-loop (the bridge and LCM's receive
