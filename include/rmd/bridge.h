@@ -234,7 +234,10 @@ struct rmd_bridge {
 void rmd_bridge_opts_init(struct rmd_bridge_opts *opts);
 
 /*
- * Check `opts`, create the LCM instance and subscribe.  Returns 0, or
+ * Check `opts`, create the LCM instance and subscribe.  The threads that
+ * appear in the process meanwhile are taken for LCM's (and raised by
+ * rmd_bridge_start()): no other thread of the caller's may start during
+ * the call.  Returns 0, or
  * -EINVAL (bad options) / -EIO (LCM could not be created or subscribed)
  * with the reason in err.  On failure nothing needs undoing.  Non-rt.
  */

@@ -1007,6 +1007,9 @@ static void raise_threads(struct rmd_bridge *b)
 	struct sched_param sp = { .sched_priority = (int)b->opts.rt_priority };
 	int r;
 
+	b->rt_granted = 0; /* a restart starts over */
+	b->rt_error = 0;
+	b->n_lcm_rt = 0;
 	if (!b->opts.rt_priority)
 		return;
 	r = pthread_setschedparam(b->thread, SCHED_FIFO, &sp);
