@@ -1,6 +1,7 @@
 #!/bin/sh
 # Issue 11 point 4: CPU time of rmdd's threads, the loop thread against the
-# rest of the process (the bridge, the monitor, main), from
+# rest of the process (the bridge, LCM's receive thread, which keeps the
+# name rmdd, the monitor, the incident writer, main), from
 # /proc/PID/task/*/stat (utime + stime) over DURATION seconds of
 # examples/sim-12.yaml at 1 kHz with a controller streaming commands
 # (examples/sine_controller, when built) and LCM on UDP multicast
@@ -49,13 +50,14 @@ run() {
 	while read -r t comm pol t0; do
 		echo "$t $comm $pol $t0 $(ticks $pid $t)" >>"$work/$label.t1"
 	done <"$work/$label.t0"
-	[ -n "$ctl" ] && kill $ctl 2>/dev/null
+	[ -n "$ctl" ] && { kill $ctl 2>/dev/null || true; } # it may have ended (memq://)
 	kill -TERM $pid
 	wait $pid || true
-	# the loop: the SCHED_FIFO thread (policy 1)
+	# the loop: the thread named rmd-loop (the bridge and LCM's receive
+	# thread run at SCHED_FIFO too, policy 1, since issue 11 point 3)
 	awk -v hz="$hz" -v d="$DURATION" -v l="$label" '
-		{ pct = 100 * ($5 - $4) / hz / d; if ($3 == 1) loop += pct; else rest += pct
-		  printf "%s thread %s(%s) %.1f\n", l, $2, ($3 == 1 ? "loop" : "other"), pct }
+		{ pct = 100 * ($5 - $4) / hz / d; if ($2 == "rmd-loop") loop += pct; else rest += pct
+		  printf "%s thread %s(%s) %.1f\n", l, $2, ($2 == "rmd-loop" ? "loop" : $3 == 1 ? "fifo" : "other"), pct }
 		END { printf "%s loop %.1f\n%s rest %.1f\n", l, loop, l, rest }' "$work/$label.t1" >>"$work/rows"
 }
 

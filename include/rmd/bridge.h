@@ -1,7 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The LCM bridge (docs/design.md, layer svc): a normal-priority thread that owns
- * rmdd's LCM instance.  It is the only thread that calls LCM.
+ * The LCM bridge (docs/design.md, layer svc): the thread that owns rmdd's LCM
+ * instance, at SCHED_FIFO opts.rt_priority (below the rt loop's) together
+ * with the receive thread LCM's udpm provider starts, so that a command
+ * never waits for a normal-priority wake-up; 0: both at normal priority.
+ * It is the only thread that calls LCM.
  *
  *   PREFIX "COMMAND"         in   rmd.command_t: decoded, validated, clamped,
  *                                 handed to the rt loop as struct rmd_command
@@ -35,6 +38,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <sys/types.h>
 
 #include <lcm/lcm.h>
 
@@ -44,7 +48,7 @@
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
-/* Longest sleep between looks at the snapshots: half a 1 kHz period (without notify_fd). */
+/* Longest sleep between looks at the snapshots without notify_fd: half a 1 kHz period. */
 #define RMD_BRIDGE_DEFAULT_POLL_NS 500000
 /*
  * Kernel receive buffer asked of a udpm:// URL that does not set
@@ -53,6 +57,9 @@
  * (docs/lcm.md).
  */
 #define RMD_BRIDGE_UDPM_RCVBUF (4 << 20)
+
+/* LCM's own threads the bridge raises with itself, at most. */
+#define RMD_BRIDGE_LCM_THREADS 4
 
 #define RMD_BRIDGE_URL_LEN 256
 #define RMD_BRIDGE_PREFIX_LEN 32
@@ -83,7 +90,14 @@ struct rmd_bridge_opts {
 	int stale_ms;		  /* reject utime this much older than the newest; 0: no check */
 	int command_timeout_ms;	  /* an owner silent this long loses the motors; 0: never */
 	int64_t health_period_ns; /* health_t period */
-	int64_t poll_ns;	  /* longest sleep when nothing wakes the bridge */
+	int64_t poll_ns;	  /* without notify_fd: longest sleep between looks at snapshots */
+	/*
+	 * SCHED_FIFO priority of the bridge thread and of LCM's receive
+	 * threads (the ones lcm_create/lcm_subscribe started), 1..98, below
+	 * the rt loop's; 0: normal priority.  Refused (no CAP_SYS_NICE or
+	 * RLIMIT_RTPRIO): both run at normal priority, and the stats say why.
+	 */
+	unsigned rt_priority;
 
 	/*
 	 * The hand-overs, created by the daemon with rmd_latest_init() and
@@ -98,8 +112,11 @@ struct rmd_bridge_opts {
 	struct rmd_latest *health;
 
 	/*
-	 * An eventfd the rt loop writes after each snapshot, so the bridge
-	 * publishes it at once instead of at its next poll; -1: none.
+	 * An eventfd the rt loop writes after each snapshot: the bridge sleeps
+	 * until it (or a command, or the health timer) wakes it, and publishes
+	 * the snapshot at once; -1: none, the bridge looks every poll_ns.  On
+	 * memq:// nobody can listen to state_t: no state_t is encoded and
+	 * notify_fd is not watched.
 	 */
 	int notify_fd;
 
@@ -135,6 +152,11 @@ struct rmd_bridge_stats {
 	bool owned;	     /* a controller owns the motors: */
 	int64_t owner;	     /* its command_t.controller */
 	int64_t intruder;    /* newest controller rejected for not owning them; 0: none */
+	/* After rmd_bridge_start(): */
+	unsigned rt_priority;	 /* the bridge thread's SCHED_FIFO priority; 0: normal */
+	int rt_error;		 /* 0, or -errno of the refused SCHED_FIFO */
+	unsigned lcm_threads;	 /* LCM's receive threads found (udpm: 1) */
+	unsigned lcm_threads_rt; /* of which raised to SCHED_FIFO rt_priority */
 };
 
 struct rmd_bridge_buf; /* decode and encode buffers, bridge thread only */
@@ -148,7 +170,14 @@ struct rmd_bridge {
 	pthread_t thread;
 	bool running;
 	struct rmd_bridge_buf *buf;
-	char url[RMD_BRIDGE_URL_LEN + 32]; /* as given to lcm_create() */
+	char url[RMD_BRIDGE_URL_LEN + 32];     /* as given to lcm_create() */
+	bool state_listeners;		       /* not memq://: state_t can have a subscriber */
+	pid_t lcm_tid[RMD_BRIDGE_LCM_THREADS]; /* threads LCM started in rmd_bridge_init() */
+	unsigned n_lcm_tid;
+	/* Set by rmd_bridge_start(), read by rmd_bridge_get_stats(). */
+	unsigned rt_granted;
+	int rt_error;
+	unsigned n_lcm_rt;
 
 	char ch_command[RMD_BRIDGE_PREFIX_LEN + 16];
 	char ch_state[RMD_BRIDGE_PREFIX_LEN + 16];
@@ -205,7 +234,10 @@ struct rmd_bridge {
 void rmd_bridge_opts_init(struct rmd_bridge_opts *opts);
 
 /*
- * Check `opts`, create the LCM instance and subscribe.  Returns 0, or
+ * Check `opts`, create the LCM instance and subscribe.  The threads that
+ * appear in the process meanwhile are taken for LCM's (and raised by
+ * rmd_bridge_start()): no other thread of the caller's may start during
+ * the call.  Returns 0, or
  * -EINVAL (bad options) / -EIO (LCM could not be created or subscribed)
  * with the reason in err.  On failure nothing needs undoing.  Non-rt.
  */
@@ -213,9 +245,11 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 		    size_t errlen);
 
 /*
- * Start the bridge thread (SCHED_OTHER whatever the caller's policy, all
- * signals blocked); it publishes config_t first.  Returns 0 or -errno.
- * Non-rt.
+ * Start the bridge thread (all signals blocked; SCHED_FIFO opts.rt_priority,
+ * and LCM's receive threads with it, or SCHED_OTHER whatever the caller's
+ * policy when that is 0 or refused: rmd_bridge_get_stats() says which); it
+ * publishes config_t first.  Returns 0 or -errno (a refused SCHED_FIFO is
+ * not an error).  Non-rt.
  */
 int rmd_bridge_start(struct rmd_bridge *b);
 

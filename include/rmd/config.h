@@ -53,6 +53,8 @@
 
 #define RMD_CONFIG_DEFAULT_RATE_HZ 1000
 #define RMD_CONFIG_DEFAULT_PRIORITY 40
+/* lcm.rt_priority when the file does not set it: one below loop.rt_priority. */
+#define RMD_CONFIG_LCM_PRIO_AUTO 0xffffu
 #define RMD_CONFIG_DEFAULT_BITRATE 1000000
 #define RMD_CONFIG_DEFAULT_BAUD 1000000
 /* docs/design.md "Turnaround": a motor answers 0.5-0.8 ms after a request. */
@@ -168,6 +170,12 @@ struct rmd_config_lcm {
 	unsigned state_every_n;	   /* publish motor state every n cycles */
 	uint32_t stale_ms;	   /* reject commands this much older than the newest; 0: off */
 	uint32_t health_period_ms; /* publish health this often */
+	/*
+	 * SCHED_FIFO priority of the bridge thread and of LCM's receive
+	 * thread, below loop.rt_priority; 0: normal priority;
+	 * RMD_CONFIG_LCM_PRIO_AUTO: loop.rt_priority - 1 (docs/design.md).
+	 */
+	unsigned rt_priority;
 };
 
 struct rmd_config_bus {

@@ -45,6 +45,7 @@ void rmd_config_defaults(struct rmd_config *cfg)
 	cfg->lcm.state_every_n = 1;
 	cfg->lcm.stale_ms = RMD_CONFIG_DEFAULT_STALE_MS;
 	cfg->lcm.health_period_ms = RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS;
+	cfg->lcm.rt_priority = RMD_CONFIG_LCM_PRIO_AUTO;
 	cfg->incidents.enabled = true;
 	cfg->incidents.seconds_before = RMD_CONFIG_DEFAULT_INCIDENT_BEFORE_S;
 	cfg->incidents.seconds_after = RMD_CONFIG_DEFAULT_INCIDENT_AFTER_S;

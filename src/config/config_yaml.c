@@ -76,6 +76,7 @@ static const struct field lcm_fields[] = {
 	UINT("state_every_n", struct rmd_config_lcm, state_every_n, 1, 10000, 0),
 	UINT("stale_ms", struct rmd_config_lcm, stale_ms, 0, 600000, 0),
 	UINT("health_period_ms", struct rmd_config_lcm, health_period_ms, 10, 600000, 0),
+	UINT("rt_priority", struct rmd_config_lcm, rt_priority, 0, RMD_CONFIG_PRIO_MAX - 1, 0),
 	END
 };
 
@@ -817,6 +818,12 @@ static void validate_lcm(struct yctx *c, const struct rmd_config *cfg, const str
 	    strlen(p))
 		rmd_yaml_report(c, rmd_yaml_line_of(ln, "channel_prefix"), "lcm.channel_prefix",
 				"\"%s\": use letters, digits and _ . - / only", p);
+	if (cfg->lcm.rt_priority != RMD_CONFIG_LCM_PRIO_AUTO &&
+	    cfg->lcm.rt_priority >= cfg->loop.rt_priority)
+		rmd_yaml_report(c, rmd_yaml_line_of(ln, "rt_priority"), "lcm.rt_priority",
+				"%u: must be below loop.rt_priority (%u): the bridge must never "
+				"hold off the rt loop; 0 runs it at normal priority",
+				cfg->lcm.rt_priority, cfg->loop.rt_priority);
 }
 
 /* The recorder's window: the loop keeps it in memory. */

@@ -6,10 +6,12 @@
 #define _GNU_SOURCE /* ppoll, pthread_setname_np */
 
 #include <ctype.h>
+#include <dirent.h>
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
 #include <poll.h>
+#include <sched.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -601,7 +603,8 @@ static void publish_state(struct rmd_bridge *b)
 	rmd_state_t *st = &b->buf->state;
 	int n;
 
-	if (!b->opts.snapshots || !rmd_latest_get(b->opts.snapshots, (const void **)&s))
+	if (!b->state_listeners || !b->opts.snapshots ||
+	    !rmd_latest_get(b->opts.snapshots, (const void **)&s))
 		return;
 	if (b->state_sent && s->cycle - b->last_state_cycle < b->opts.state_every)
 		return;
@@ -802,6 +805,22 @@ static void drain(struct rmd_bridge *b)
 	}
 }
 
+/*
+ * How long the bridge may sleep: until the health timer or a pending
+ * config_t is due; a state_t is due when the loop's notify_fd says so, and
+ * only without one does the bridge look every poll_ns.
+ */
+static int64_t sleep_ns(const struct rmd_bridge *b, int64_t now, bool notified)
+{
+	int64_t due = b->next_health_ns;
+
+	if (b->config_wanted && b->config_sent_ns + CONFIG_INTERVAL_NS < due)
+		due = b->config_sent_ns + CONFIG_INTERVAL_NS;
+	if (!notified && b->state_listeners && b->opts.snapshots && now + b->opts.poll_ns < due)
+		due = now + b->opts.poll_ns;
+	return due > now ? due - now : 0;
+}
+
 static void *bridge_main(void *arg)
 {
 	struct rmd_bridge *b = arg;
@@ -810,7 +829,8 @@ static void *bridge_main(void *arg)
 		{ .fd = lcm_get_fileno(b->lcm), .events = POLLIN },
 		{ .fd = b->opts.notify_fd, .events = POLLIN },
 	};
-	nfds_t nfds = b->opts.notify_fd >= 0 ? 3 : 2;
+	/* no state_t to publish: the loop's pokes need not wake us */
+	nfds_t nfds = b->opts.notify_fd >= 0 && b->state_listeners ? 3 : 2;
 	int64_t now = rmd_now_ns();
 
 	pthread_setname_np(pthread_self(), "rmd-bridge");
@@ -818,12 +838,11 @@ static void *bridge_main(void *arg)
 	b->config_sent_ns = now;
 	b->next_health_ns = now + b->opts.health_period_ns;
 	for (;;) {
-		int64_t wait = b->opts.poll_ns;
+		int64_t wait;
 		struct timespec ts;
 
 		now = rmd_now_ns();
-		if (b->next_health_ns - now < wait)
-			wait = b->next_health_ns - now > 0 ? b->next_health_ns - now : 0;
+		wait = sleep_ns(b, now, b->opts.notify_fd >= 0);
 		ts.tv_sec = wait / 1000000000;
 		ts.tv_nsec = wait % 1000000000;
 		if (ppoll(fds, nfds, &ts, NULL) < 0 && errno != EINTR) {
@@ -911,6 +930,8 @@ static int check_opts(const struct rmd_bridge_opts *o, char *err, size_t errlen)
 		return snprintf(err, errlen,
 				"stale_ms or command_timeout_ms < 0, or a period <= 0"),
 		       -EINVAL;
+	if (o->rt_priority > 98)
+		return snprintf(err, errlen, "rt_priority %u (0..98)", o->rt_priority), -EINVAL;
 	for (unsigned i = 0; i < o->nbuses; i++)
 		if (strnlen(o->bus[i].name, RMD_BRIDGE_NAME_LEN) == RMD_BRIDGE_NAME_LEN ||
 		    strnlen(o->bus[i].kind, sizeof(o->bus[i].kind)) == sizeof(o->bus[i].kind))
@@ -940,6 +961,74 @@ static int check_opts(const struct rmd_bridge_opts *o, char *err, size_t errlen)
 	return 0;
 }
 
+/* ---- LCM's own threads ---------------------------------------------------- */
+
+#define TASKS_MAX 256
+
+/* The process's thread ids, at most max of them; returns how many. */
+static unsigned list_tasks(pid_t *tid, unsigned max)
+{
+	DIR *d = opendir("/proc/self/task");
+	struct dirent *e;
+	unsigned n = 0;
+
+	if (!d)
+		return 0;
+	while ((e = readdir(d)) && n < max)
+		if (e->d_name[0] != '.')
+			tid[n++] = (pid_t)atoi(e->d_name);
+	closedir(d);
+	return n;
+}
+
+/*
+ * The threads that are in the process now and were not in before[]: the
+ * ones LCM started (udpm: its receive thread, which reads the socket and
+ * signals lcm_get_fileno()'s pipe), which the bridge raises with itself.
+ */
+static void find_lcm_threads(struct rmd_bridge *b, const pid_t *before, unsigned n_before)
+{
+	pid_t now[TASKS_MAX];
+	unsigned n = list_tasks(now, TASKS_MAX);
+
+	for (unsigned i = 0; i < n && b->n_lcm_tid < RMD_BRIDGE_LCM_THREADS; i++) {
+		bool old = false;
+
+		for (unsigned j = 0; j < n_before && !old; j++)
+			old = now[i] == before[j];
+		if (!old)
+			b->lcm_tid[b->n_lcm_tid++] = now[i];
+	}
+}
+
+/*
+ * The bridge thread and LCM's receive threads to SCHED_FIFO rt_priority.
+ * Refused: all stay at normal priority, and rt_error says why.
+ */
+static void raise_threads(struct rmd_bridge *b)
+{
+	struct sched_param sp = { .sched_priority = (int)b->opts.rt_priority };
+	int r;
+
+	b->rt_granted = 0; /* a restart starts over */
+	b->rt_error = 0;
+	b->n_lcm_rt = 0;
+	if (!b->opts.rt_priority)
+		return;
+	r = pthread_setschedparam(b->thread, SCHED_FIFO, &sp);
+	if (r) {
+		b->rt_error = -r;
+		return;
+	}
+	b->rt_granted = b->opts.rt_priority;
+	for (unsigned i = 0; i < b->n_lcm_tid; i++) {
+		if (sched_setscheduler(b->lcm_tid[i], SCHED_FIFO, &sp) == 0)
+			b->n_lcm_rt++;
+		else if (errno != ESRCH) /* gone: nothing to raise */
+			b->rt_error = -errno;
+	}
+}
+
 /* A udpm URL gets a receive buffer that rides out a flood, unless it names one. */
 static void lcm_url(char *out, size_t len, const char *url)
 {
@@ -954,6 +1043,8 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 		    size_t errlen)
 {
 	char re[2 * RMD_BRIDGE_PREFIX_LEN + 16];
+	pid_t tasks[TASKS_MAX];
+	unsigned n_tasks;
 	int r;
 
 	memset(b, 0, sizeof(*b));
@@ -982,6 +1073,8 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 		goto err_free_buf;
 	}
 	lcm_url(b->url, sizeof(b->url), opts->url);
+	b->state_listeners = strncmp(b->url, "memq://", 7) != 0;
+	n_tasks = list_tasks(tasks, TASKS_MAX);
 	b->lcm = lcm_create(b->url);
 	if (!b->lcm) {
 		/* the URL as given: b->url adds parameters the user never wrote */
@@ -1005,6 +1098,7 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 		goto err_destroy_lcm;
 	}
 	lcm_subscription_set_queue_capacity(b->sub_command, COMMAND_QUEUE);
+	find_lcm_threads(b, tasks, n_tasks);
 	return 0;
 
 err_destroy_lcm:
@@ -1026,9 +1120,11 @@ int rmd_bridge_start(struct rmd_bridge *b)
 	if (b->running)
 		return -EALREADY;
 	r = rmd_thread_start_normal(&b->thread, bridge_main, b);
-	if (!r)
-		b->running = true;
-	return r;
+	if (r)
+		return r;
+	b->running = true;
+	raise_threads(b);
+	return 0;
 }
 
 void rmd_bridge_stop(struct rmd_bridge *b)
@@ -1083,4 +1179,8 @@ void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
 	st->owned = atomic_load_explicit(&b->pub_owned, memory_order_relaxed);
 	st->owner = atomic_load_explicit(&b->pub_owner, memory_order_relaxed);
 	st->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);
+	st->rt_priority = b->rt_granted;
+	st->rt_error = b->rt_error;
+	st->lcm_threads = b->n_lcm_tid;
+	st->lcm_threads_rt = b->n_lcm_rt;
 }

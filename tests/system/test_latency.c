@@ -6,10 +6,20 @@
  * them: rmd_config_sim_default() (one V3 motor on a 1 Mbit/s sim bus at
  * 1 kHz), the plan, the sim bus (rmd_bus_sim_open), the triple buffers and
  * the event ring, rmd_loop_new/bringup/start (SCHED_FIFO when granted) and
- * the LCM bridge on a udpm URL of its own on loopback.  The test thread is
+ * the LCM bridge on a udpm URL of its own on loopback, at SCHED_FIFO one
+ * below the loop as rmdd runs it (lcm.rt_priority).  The test thread is
  * the controller: it publishes command_t at ~200 Hz (random phase against
  * the loop's ticks), each with a torque of its own, so the 0xA1 frame that
- * carries it is recognisable by its current field (bytes 4..5).
+ * carries it is recognisable by its current field (bytes 4..5).  When the
+ * bridge has SCHED_FIFO, so has the controller (one below the bridge): a
+ * real-time controller, whose own starvation between reading the clock and
+ * publishing is not rmdd's latency.
+ *
+ * bench/lcm-latency.sh runs it at 1 kHz, with and without CPU hogs, beside
+ * cyclictest: RMD_LAT_N (setpoints, default 1000), RMD_LAT_GAP_US (mean gap
+ * between publishes, each +-25 % at random; default 5 ms + 0..1 ms) and
+ * RMD_LAT_OUT (a file of the samples: write_samples()); RMD_LAT_BRIDGE_PRIO
+ * sets the bridge's priority (0: normal, as before issue 11).
  *
  * Three times are taken for each setpoint's first frame:
  *   hand-over  CLOCK_MONOTONIC when the rt loop hands the frame to the bus:
@@ -28,12 +38,15 @@
  * Both are printed.
  *
  * The machine's own noise is measured in the same run: the rt loop's own
- * wake-up statistics (SCHED_FIFO: what cyclictest would show), and a probe
- * thread at normal priority, like the bridge's, that sleeps to every 1 ms
- * with clock_nanosleep(TIMER_ABSTIME) and records how late it wakes.  The
- * p99 is judged against one cycle + 200 us + twice that probe's p99 (a
- * command crosses two normal-priority wake-ups: LCM's receive thread and
- * the bridge), docs/design.md's rule for this noisy virtual machine; whether
+ * wake-up statistics, and a probe thread at the bridge's priority (what
+ * cyclictest -p at that priority measures) that sleeps to every 1 ms with
+ * clock_nanosleep(TIMER_ABSTIME) and records how late it wakes.  With the
+ * bridge at SCHED_FIFO the p99 is judged against one cycle + 100 us + that
+ * probe's p99 (issue 11: the command path depends on no normal-priority
+ * wake-up).  Without SCHED_FIFO (not root) the bridge, LCM's receive thread
+ * and the probe run at normal priority, and the old rule applies: one cycle
+ * + 200 us + twice the probe's p99 (a command crosses two normal-priority
+ * wake-ups), docs/design.md's rule for this noisy virtual machine.  Whether
  * the plain bound held is printed too.  What a bridge of no delay would give (the first cycle
  * after each publish) is printed too, so the part of the latency the tick
  * imposes is told from the part the LCM receive path and the bridge add.
@@ -85,9 +98,10 @@
 #define NS_PER_MS INT64_C(1000000)
 #define NS_PER_S INT64_C(1000000000)
 
-#define N_PUBLISH 1000		       /* setpoints measured */
+#define N_MAX 10000		       /* setpoints measured at most (RMD_LAT_N) */
 #define PUBLISH_GAP_NS (5 * NS_PER_MS) /* ~200 Hz, plus a random 0..1 ms */
 #define MARGIN_NS (200 * NS_PER_US)    /* issue 6: one cycle plus 200 us at p99 */
+#define MARGIN_RT_NS (100 * NS_PER_US) /* issue 11: one cycle plus 100 us, bridge at FIFO */
 #define MAX_RECORDS 16384	       /* every cycle's frame for 16 s */
 #define PROBE_MAX 16384		       /* jitter probe samples (1 ms apart) */
 #define PREFIX "LAT_"
@@ -116,6 +130,7 @@ struct probe {
 };
 
 static struct probe probe;
+static unsigned N_PUBLISH = 1000; /* RMD_LAT_N */
 static const struct rmd_bus_ops *real_ops;
 static struct rmd_bus_ops shim_ops;
 static bool no_multicast;
@@ -166,6 +181,7 @@ static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, in
 
 struct jitter {
 	atomic_bool stop;
+	int prio; /* SCHED_FIFO priority; 0: normal */
 	unsigned n;
 	int64_t lat_ns[PROBE_MAX];
 };
@@ -174,7 +190,10 @@ static void *jitter_main(void *arg)
 {
 	struct jitter *j = arg;
 	int64_t next = rmd_now_ns() + NS_PER_MS;
+	struct sched_param sp = { .sched_priority = j->prio };
 
+	if (j->prio && pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp))
+		j->prio = 0;
 	while (!atomic_load(&j->stop) && j->n < PROBE_MAX) {
 		struct timespec ts = { next / NS_PER_S, next % NS_PER_S };
 
@@ -356,6 +375,10 @@ static void bridge_opts(struct daemon *d, struct rmd_bridge_opts *o)
 	o->period_ns = d->r.plan.period_ns;
 	o->state_every = d->r.cfg.lcm.state_every_n;
 	o->stale_ms = (int)d->r.cfg.lcm.stale_ms;
+	/* as rmdd: lcm.rt_priority's default; RMD_LAT_BRIDGE_PRIO=0: normal, as before issue 11 */
+	o->rt_priority = getenv("RMD_LAT_BRIDGE_PRIO") ?
+				 (unsigned)atoi(getenv("RMD_LAT_BRIDGE_PRIO")) :
+				 d->r.cfg.loop.rt_priority - 1;
 	o->commands = &d->r.cmds;
 	o->snapshots = &d->r.snaps;
 	o->health = &d->r.health;
@@ -515,20 +538,52 @@ static int match(const struct rec *r, int64_t offset, const int64_t *t_pub, unsi
 	return q;
 }
 
+/*
+ * RMD_LAT_OUT (bench/lcm-latency.sh): "h NS" per setpoint (publish ->
+ * hand-over), "w NS" per setpoint seen on the simulated wire, "i NS" per
+ * setpoint as a bridge of no delay would give, "p NS" per probe wake-up
+ * (how late).
+ */
+static void write_samples(const char *path, const int64_t *lat, const int64_t *lat_wire,
+			  unsigned n_wire, const int64_t *ideal, const int64_t *wake,
+			  unsigned n_wake)
+{
+	FILE *f = fopen(path, "w");
+
+	if (!f)
+		fail_msg("RMD_LAT_OUT %s: %s", path, strerror(errno));
+	for (unsigned k = 0; k < N_PUBLISH; k++)
+		fprintf(f, "h %lld\n", (long long)lat[k]);
+	for (unsigned k = 0; k < n_wire; k++)
+		fprintf(f, "w %lld\n", (long long)lat_wire[k]);
+	for (unsigned k = 0; k < N_PUBLISH; k++)
+		if (ideal[k] < INT64_MAX / 2)
+			fprintf(f, "i %lld\n", (long long)ideal[k]);
+	for (unsigned k = 0; k < n_wake; k++)
+		fprintf(f, "p %lld\n", (long long)wake[k]);
+	assert_int_equal(fclose(f), 0);
+}
+
 static void test_publish_to_frame_latency(void **state)
 {
 	struct daemon *d = *state;
-	static int64_t t_pub[N_PUBLISH], first_out[N_PUBLISH], first_tick[N_PUBLISH];
-	static int64_t first_wire[N_PUBLISH], lat[N_PUBLISH], lat_tick[N_PUBLISH];
-	static int64_t lat_wire[N_PUBLISH], ideal[N_PUBLISH], wake[PROBE_MAX];
+	static int64_t t_pub[N_MAX], first_out[N_MAX], first_tick[N_MAX];
+	static int64_t first_wire[N_MAX], lat[N_MAX], lat_tick[N_MAX];
+	static int64_t lat_wire[N_MAX], ideal[N_MAX], wake[PROBE_MAX];
+	static double torque[N_MAX];
 	static struct jitter jit;
 	static uint8_t buf[4096];
 	const int64_t period = d ? d->r.plan.period_ns : 0;
 	const bool fifo = d && d->fifo;
-	double torque[N_PUBLISH];
+	const char *env_n = getenv("RMD_LAT_N"), *env_gap = getenv("RMD_LAT_GAP_US");
+	const char *env_out = getenv("RMD_LAT_OUT");
+	int64_t gap_ns = env_gap ? atoll(env_gap) * NS_PER_US : 0; /* 0: PUBLISH_GAP_NS + 0..1 ms */
+	struct rmd_bridge_stats bst;
+	struct sched_param ctl_sp = { 0 };
+	bool bridge_rt;
 	struct rmd_loop_stats ls;
 	struct dist dl, dt, dw, di, dj;
-	int64_t allowance, tw_p99;
+	int64_t allowance, tw_p99, margin;
 	pthread_t jth;
 	lcm_t *pub;
 	int64_t seq = 0, t, t0, epoch, next_out, next_tick, next_wire;
@@ -537,6 +592,10 @@ static void test_publish_to_frame_latency(void **state)
 
 	if (!d)
 		skip();
+	if (env_n)
+		N_PUBLISH = (unsigned)atoi(env_n);
+	assert_true(N_PUBLISH >= 100 && N_PUBLISH <= N_MAX);
+	assert_true(!env_gap || gap_ns >= 100 * NS_PER_US);
 	/* Each setpoint's torque, and the code its 0xA1 frame will carry. */
 	for (unsigned k = 0; k < N_PUBLISH; k++) {
 		struct rmd_setpoint s = { .enable = true, .mode = RMD_MODE_TORQUE };
@@ -584,6 +643,22 @@ static void test_publish_to_frame_latency(void **state)
 	}
 	print_message("enabled %.0f ms after the first enable%s\n", (rmd_now_ns() - t0) / 1e6,
 		      edges ? " (after enable = 0 first: the motor had been LOST)" : "");
+	/*
+	 * The bridge and LCM's receive thread at SCHED_FIFO: the probe at
+	 * their priority (cyclictest's view of it), the controller one below.
+	 */
+	rmd_bridge_get_stats(&d->bridge, &bst);
+	bridge_rt = bst.rt_priority && bst.lcm_threads_rt == bst.lcm_threads;
+	jit.prio = bridge_rt ? (int)bst.rt_priority : 0;
+	if (bridge_rt) {
+		ctl_sp.sched_priority = (int)bst.rt_priority - 1;
+		if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &ctl_sp))
+			ctl_sp.sched_priority = 0;
+	}
+	print_message("bridge: %s (LCM receive threads %u, raised %u); probe and controller: "
+		      "%s\n",
+		      bst.rt_priority ? "SCHED_FIFO" : "normal priority", bst.lcm_threads,
+		      bst.lcm_threads_rt, bridge_rt ? "SCHED_FIFO" : "normal priority");
 	assert_int_equal(pthread_create(&jth, NULL, jitter_main, &jit), 0);
 	/* the controller: N setpoints, ~200 Hz with a random phase against the ticks */
 	t = rmd_now_ns();
@@ -594,7 +669,10 @@ static void test_publish_to_frame_latency(void **state)
 
 		assert_true(len > 0);
 		seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
-		t += PUBLISH_GAP_NS + (int64_t)((seed >> 33) % (uint64_t)NS_PER_MS);
+		if (gap_ns) /* the mean gap, +-25 % */
+			t += gap_ns - gap_ns / 4 + (int64_t)((seed >> 33) % (uint64_t)(gap_ns / 2));
+		else
+			t += PUBLISH_GAP_NS + (int64_t)((seed >> 33) % (uint64_t)NS_PER_MS);
 		ts = (struct timespec){ t / NS_PER_S, t % NS_PER_S };
 		clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
 		t_pub[k] = rmd_now_ns();
@@ -611,6 +689,10 @@ static void test_publish_to_frame_latency(void **state)
 		sched_yield();
 	atomic_store(&jit.stop, true);
 	pthread_join(jth, NULL);
+	if (ctl_sp.sched_priority) {
+		ctl_sp.sched_priority = 0;
+		pthread_setschedparam(pthread_self(), SCHED_OTHER, &ctl_sp);
+	}
 	rmd_loop_get_stats(d->loop, &ls);
 	rmd_loop_request_stop(d->loop);
 	assert_int_equal(rmd_loop_join(d->loop), 0);
@@ -690,8 +772,8 @@ static void test_publish_to_frame_latency(void **state)
 	dj = summarise(wake, jit.n);
 	print_message("publish -> frame, %u setpoints at ~%.0f Hz, loop %u Hz (period %lld us), "
 		      "%u replaced by a newer one within a cycle\n",
-		      N_PUBLISH, 1e9 / (PUBLISH_GAP_NS + NS_PER_MS / 2), d->r.plan.rate_hz,
-		      (long long)(period / NS_PER_US), superseded);
+		      N_PUBLISH, 1e9 / (gap_ns ? gap_ns : PUBLISH_GAP_NS + NS_PER_MS / 2),
+		      d->r.plan.rate_hz, (long long)(period / NS_PER_US), superseded);
 	print_dist("hand-over to the bus (asserted):", &dl);
 	print_dist("the cycle's tick (loop's now):", &dt);
 	print_dist("start on the simulated wire:", &dw);
@@ -702,8 +784,9 @@ static void test_publish_to_frame_latency(void **state)
 		      "time left before that cycle\n",
 		      missed_first, N_PUBLISH, 100.0 * missed_first / N_PUBLISH);
 	print_message("noise in the same run: the rt loop's wake-up (%s) and a probe thread at "
-		      "normal priority like the bridge's (clock_nanosleep every 1 ms):\n",
-		      fifo ? "SCHED_FIFO, cyclictest's view" : "NOT real-time: SCHED_FIFO refused");
+		      "the bridge's priority (%s; clock_nanosleep every 1 ms, as cyclictest):\n",
+		      fifo ? "SCHED_FIFO" : "NOT real-time: SCHED_FIFO refused",
+		      jit.prio ? "SCHED_FIFO" : "normal");
 	print_dist("  probe wake-up latency:", &dj);
 	print_message("  rt loop wake-up latency: min %lld  avg %lld  p99 %lld  max %lld us; "
 		      "%llu cycles, %llu periods skipped, longest cycle %lld us\n",
@@ -712,53 +795,92 @@ static void test_publish_to_frame_latency(void **state)
 		      (long long)(ls.wake_p99_ns / NS_PER_US),
 		      (long long)(ls.wake_max_ns / NS_PER_US), (unsigned long long)ls.cycles,
 		      (unsigned long long)ls.overruns, (long long)(ls.cycle_max_ns / NS_PER_US));
+	if (env_out)
+		write_samples(env_out, lat, lat_wire, n_wire, ideal, wake, jit.n);
 	/*
 	 * docs/design.md: this machine is itself a VM whose scheduler wakes threads
 	 * milliseconds late at times; latency is judged against the noise
-	 * measured in the same run.  A command crosses two normal-priority
-	 * wake-ups before the rt loop sees it (LCM's udpm receive thread, then
-	 * the bridge), each exposed to the noise the probe measured, so the
-	 * bound is one cycle + 200 us + twice the probe's p99.  Whether the
-	 * plain bound (one cycle + 200 us) held is printed either way.
-	 */
-	/*
-	 * A busy machine (issue 10) holds a normal-priority thread off for
-	 * tens of milliseconds at a time.  The probe sees such a stall once,
-	 * as one late wake-up, but every setpoint published during it waits:
-	 * what a message arriving at a random moment meets is the probe's
-	 * delay weighted by time (tw_p99, see time_weighted()).  A setpoint
-	 * meets it three times: the test's own publish (t_pub is read before
-	 * it), LCM's receive thread and the bridge.  The judged allowance is
-	 * the larger of the two readings.
+	 * measured in the same run.
+	 *
+	 * A busy machine (issue 10) holds even a SCHED_FIFO thread off for
+	 * whole milliseconds when the hypervisor takes its vCPU.  The probe sees
+	 * such a stall once, as one late wake-up, but every setpoint published
+	 * during it waits: what a message arriving at a random moment meets is
+	 * the probe's delay weighted by time (tw_p99, see time_weighted()).
 	 */
 	tw_p99 = time_weighted_p99(wake, jit.n);
-	allowance = 2 * dj.p99 > 3 * tw_p99 ? 2 * dj.p99 : 3 * tw_p99;
-	print_message("strict bound: p99 <= period + 200 us = %lld us: p99 is %.0f us: %s\n",
-		      (long long)((period + MARGIN_NS) / NS_PER_US), dl.p99 / 1e3,
-		      dl.p99 <= period + MARGIN_NS ? "held" : "NOT held on this machine");
-	print_message("judged bound: period + 200 us + max(2 x probe p99 (%.0f us), 3 x the "
-		      "probe's time-weighted p99 (%.0f us)) = %lld us\n",
-		      dj.p99 / 1e3, tw_p99 / 1e3,
-		      (long long)((period + MARGIN_NS + allowance) / NS_PER_US));
-	if (dl.p99 > period + MARGIN_NS + 2 * dj.p99)
-		print_message("busy machine: p99 held only against the probe's time-weighted "
-			      "delay: the machine held normal-priority threads off for whole "
-			      "milliseconds at a time\n");
+	if (jit.prio) {
+		/*
+		 * Bridge at SCHED_FIFO (issue 11): no normal-priority wake-up is
+		 * left on the command's path, and what a FIFO thread at the
+		 * bridge's priority meets is what the probe measured (cyclictest's
+		 * view): one cycle + 100 us + the probe's p99.  When the machine
+		 * stalled whole milliseconds, the stall as a setpoint meets it
+		 * (tw_p99), once: a stall of the CPU holds the FIFO threads it
+		 * crosses (the controller, LCM's receive thread, the bridge)
+		 * together, where normal-priority threads queue one after another.
+		 */
+		margin = MARGIN_RT_NS;
+		allowance = dj.p99 > tw_p99 ? dj.p99 : tw_p99;
+		print_message(
+			"strict bound: p99 <= period + 100 us = %lld us: p99 is %.0f us: %s\n",
+			(long long)((period + margin) / NS_PER_US), dl.p99 / 1e3,
+			dl.p99 <= period + margin ? "held" : "NOT held on this machine");
+		print_message("judged bound: period + 100 us + max(the probe's p99 (%.0f us), "
+			      "its time-weighted p99 (%.0f us)) = %lld us\n",
+			      dj.p99 / 1e3, tw_p99 / 1e3,
+			      (long long)((period + margin + allowance) / NS_PER_US));
+		if (dl.p99 > period + margin + dj.p99)
+			print_message(
+				"busy machine: p99 held only against the probe's time-weighted "
+				"delay: the machine held even SCHED_FIFO threads off for whole "
+				"milliseconds at a time\n");
+	} else {
+		/*
+		 * Normal priority (not root): a command crosses two normal-priority
+		 * wake-ups before the rt loop sees it (LCM's udpm receive thread,
+		 * then the bridge), each exposed to the noise the probe measured,
+		 * so the bound is one cycle + 200 us + twice the probe's p99.
+		 *
+		 * A busy machine holds a normal-priority thread off for tens of
+		 * milliseconds at a time (the stall as a setpoint meets it: tw_p99,
+		 * above), three times: the test's own publish (t_pub is read
+		 * before it), LCM's receive thread and the bridge.  The judged
+		 * allowance is the larger of the two readings.
+		 */
+		margin = MARGIN_NS;
+		allowance = 2 * dj.p99 > 3 * tw_p99 ? 2 * dj.p99 : 3 * tw_p99;
+		print_message(
+			"strict bound: p99 <= period + 200 us = %lld us: p99 is %.0f us: %s\n",
+			(long long)((period + margin) / NS_PER_US), dl.p99 / 1e3,
+			dl.p99 <= period + margin ? "held" : "NOT held on this machine");
+		print_message(
+			"judged bound: period + 200 us + max(2 x probe p99 (%.0f us), 3 x the "
+			"probe's time-weighted p99 (%.0f us)) = %lld us\n",
+			dj.p99 / 1e3, tw_p99 / 1e3,
+			(long long)((period + margin + allowance) / NS_PER_US));
+		if (dl.p99 > period + margin + 2 * dj.p99)
+			print_message(
+				"busy machine: p99 held only against the probe's time-weighted "
+				"delay: the machine held normal-priority threads off for whole "
+				"milliseconds at a time\n");
+	}
 
 	/* every setpoint went out, none before it was published */
 	assert_true(dl.min > 0);
 	assert_true(dl.max < INT64_MAX / 2);
-	if (dl.p99 > period + MARGIN_NS + allowance)
-		fail_msg("publish -> frame p99 %.0f us > one cycle + 200 us + 2 x the machine's "
-			 "normal-priority wake-up p99 (%lld us); a bridge of no delay would give "
-			 "p99 %.0f us, and %.1f%% of the setpoints missed the first cycle after "
-			 "their publish.  The machine's noise in the same run: jitter probe p99 "
-			 "%.0f us, max %.0f us; rt loop wake-up p99 %lld us, max %lld us%s",
-			 dl.p99 / 1e3, (long long)((period + MARGIN_NS + allowance) / NS_PER_US),
-			 di.p99 / 1e3, 100.0 * missed_first / N_PUBLISH, dj.p99 / 1e3, dj.max / 1e3,
-			 (long long)(ls.wake_p99_ns / NS_PER_US),
-			 (long long)(ls.wake_max_ns / NS_PER_US),
-			 fifo ? "" : " (the rt loop had no SCHED_FIFO: run as root)");
+	if (dl.p99 > period + margin + allowance)
+		fail_msg(
+			"publish -> frame p99 %.0f us > the judged bound %lld us (above); a "
+			"bridge of no delay would give p99 %.0f us, and %.1f%% of the setpoints "
+			"missed the first cycle after their publish.  The machine's noise in the "
+			"same run: jitter probe p99 %.0f us, max %.0f us; rt loop wake-up p99 %lld "
+			"us, max %lld us%s",
+			dl.p99 / 1e3, (long long)((period + margin + allowance) / NS_PER_US),
+			di.p99 / 1e3, 100.0 * missed_first / N_PUBLISH, dj.p99 / 1e3, dj.max / 1e3,
+			(long long)(ls.wake_p99_ns / NS_PER_US),
+			(long long)(ls.wake_max_ns / NS_PER_US),
+			fifo ? "" : " (the rt loop had no SCHED_FIFO: run as root)");
 }
 
 int main(void)

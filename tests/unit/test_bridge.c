@@ -13,9 +13,11 @@
  */
 #define _GNU_SOURCE
 
+#include <dirent.h>
 #include <errno.h>
 #include <math.h>
 #include <pthread.h>
+#include <sched.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -323,6 +325,11 @@ static void test_init_checks_opts(void **state)
 	snprintf(o.url, sizeof(o.url), "nosuchprovider://x");
 	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EIO);
 	assert_non_null(strstr(err, "nosuchprovider"));
+
+	o = f->opts;
+	o.rt_priority = 99; /* the kernel's own level */
+	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "rt_priority"));
 
 	/* The defaults keep traffic on the host. */
 	rmd_bridge_opts_init(&o);
@@ -1427,6 +1434,178 @@ static void test_comm_loss_published(void **state)
 	assert_int_equal(RMD_HEALTH_T_CL_UNSUPPORTED, RMD_CL_UNSUPPORTED);
 }
 
+/* ---- threads ------------------------------------------------------------- */
+
+/* The id of our thread named comm, or 0. */
+static pid_t thread_named(const char *comm)
+{
+	DIR *d = opendir("/proc/self/task");
+	struct dirent *e;
+	pid_t tid = 0;
+
+	assert_non_null(d);
+	while (!tid && (e = readdir(d))) {
+		char path[300], name[32] = "";
+		FILE *fp;
+
+		if (e->d_name[0] == '.')
+			continue;
+		snprintf(path, sizeof(path), "/proc/self/task/%s/comm", e->d_name);
+		fp = fopen(path, "r");
+		if (fp && fgets(name, sizeof(name), fp) && !strncmp(name, comm, strlen(comm)) &&
+		    name[strlen(comm)] == '\n')
+			tid = (pid_t)atoi(e->d_name);
+		if (fp)
+			fclose(fp);
+	}
+	closedir(d);
+	return tid;
+}
+
+/* How often thread tid went to sleep and was woken (voluntary context switches). */
+static long wakeups(pid_t tid)
+{
+	char path[64], line[128];
+	long n = -1;
+	FILE *fp;
+
+	snprintf(path, sizeof(path), "/proc/self/task/%d/status", (int)tid);
+	fp = fopen(path, "r");
+	assert_non_null(fp);
+	while (fgets(line, sizeof(line), fp))
+		if (sscanf(line, "voluntary_ctxt_switches: %ld", &n) == 1)
+			break;
+	fclose(fp);
+	assert_true(n >= 0);
+	return n;
+}
+
+/*
+ * rt_priority: the bridge thread and LCM's udpm receive thread (the one
+ * thread lcm_subscribe started) run at SCHED_FIFO, and commands still
+ * arrive.  Without CAP_SYS_NICE both stay normal and the stats say why.
+ */
+static void test_rt_priority(void **state)
+{
+	struct fixture *f = fixture(state);
+	rmd_command_t m = base_cmd(1);
+	struct rmd_command cmd;
+	struct rmd_bridge_stats st;
+	struct sched_param sp;
+	int policy;
+	pid_t tid;
+
+	f->opts.rt_priority = 7;
+	start(f);
+	st = stats(f);
+	assert_int_equal(st.lcm_threads, 1); /* LCM 1.3.1's udpm: one receive thread */
+	if (st.rt_error == -EPERM) {
+		assert_int_equal(st.rt_priority, 0);
+		print_message("SCHED_FIFO refused (not root): the priority is not tested\n");
+		skip();
+	}
+	assert_int_equal(st.rt_error, 0);
+	assert_int_equal(st.rt_priority, 7);
+	assert_int_equal(st.lcm_threads_rt, 1);
+	assert_int_equal(pthread_getschedparam(f->b.thread, &policy, &sp), 0);
+	assert_int_equal(policy, SCHED_FIFO);
+	assert_int_equal(sp.sched_priority, 7);
+	tid = f->b.lcm_tid[0];
+	assert_int_equal(sched_getscheduler(tid), SCHED_FIFO);
+	assert_int_equal(sched_getparam(tid, &sp), 0);
+	assert_int_equal(sp.sched_priority, 7);
+	/* the test's own thread and LCM's of the controller stay as they were */
+	assert_int_equal(sched_getscheduler(0), SCHED_OTHER);
+
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &cmd), 2000);
+	assert_int_equal(cmd.seq, 1);
+	assert_int_equal(stats(f).accepted, 1);
+}
+
+/*
+ * With the loop's notify_fd the bridge sleeps until something happens: no
+ * poll_ns wake-ups (2000 a second before), one wake-up per snapshot.
+ */
+static void test_sleeps_when_idle(void **state)
+{
+	struct fixture *f = fixture(state);
+	long w0, w1, w2;
+	pid_t tid;
+
+	f->opts.notify_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	assert_true(f->opts.notify_fd >= 0);
+	f->opts.health_period_ns = 10 * INT64_C(1000000000); /* no health_t in the test */
+	start(f);
+	WAIT_UNTIL(f, stats(f).configs_published == 1, 2000);
+	tid = thread_named("rmd-bridge");
+	assert_true(tid > 0);
+	w0 = wakeups(tid);
+	WAIT_UNTIL(f, false, 300);
+	w1 = wakeups(tid);
+	print_message("bridge wake-ups in 300 ms idle: %ld (poll_ns %lld us would give %lld)\n",
+		      w1 - w0, (long long)(f->opts.poll_ns / 1000),
+		      (long long)(300000000 / f->opts.poll_ns));
+	assert_true(w1 - w0 <= 2);
+	for (uint64_t cycle = 1; cycle <= 20; cycle++) {
+		put_snapshot(f, cycle);
+		WAIT_UNTIL(f, stats(f).states_published == cycle, 2000);
+	}
+	w2 = wakeups(tid);
+	assert_int_equal(stats(f).states_published, 20);
+	assert_true(w2 - w1 >= 20);
+	assert_true(w2 - w1 <= 20 + 2);
+}
+
+/*
+ * memq://: nobody can subscribe to the bridge's instance, so no state_t is
+ * encoded and the loop's pokes do not wake the bridge; health_t still
+ * goes out on its timer and commands are handled.
+ */
+static void test_memq_encodes_no_state(void **state)
+{
+	struct fixture *f = fixture(state);
+	int64_t t0, timer;
+	long w0, w1;
+	pid_t tid;
+
+	snprintf(f->opts.url, sizeof(f->opts.url), "memq://");
+	f->opts.notify_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	assert_true(f->opts.notify_fd >= 0);
+	f->opts.health_period_ns = 50 * INT64_C(1000000);
+	start(f);
+	WAIT_UNTIL(f, stats(f).health_published >= 1, 2000);
+	tid = thread_named("rmd-bridge");
+	assert_true(tid > 0);
+	w0 = wakeups(tid);
+	t0 = rmd_now_ns();
+	for (uint64_t cycle = 1; cycle <= 200; cycle++) {
+		struct rmd_snapshot *s = rmd_latest_write_slot(&f->snapshots);
+		struct timespec ts = { 0, 1000000 };
+		uint64_t one = 1;
+
+		/* as the loop does (put_snapshot() would wait for the bridge to take it) */
+		memset(s, 0, sizeof(*s));
+		s->cycle = cycle;
+		s->n = NMOTORS;
+		rmd_latest_publish(&f->snapshots);
+		assert_int_equal(write(f->opts.notify_fd, &one, sizeof(one)), sizeof(one));
+		nanosleep(&ts, NULL);
+	}
+	w1 = wakeups(tid);
+	timer = (rmd_now_ns() - t0) / f->opts.health_period_ns + 1; /* the health timer's */
+	print_message("memq: %ld bridge wake-ups over 200 snapshots in %.0f ms, %llu health_t\n",
+		      w1 - w0, (rmd_now_ns() - t0) / 1e6,
+		      (unsigned long long)stats(f).health_published);
+	assert_int_equal(stats(f).states_published, 0);
+	/* not even looked at: the triple buffer's "fresh" bit is still set (spsc.h) */
+	assert_true(atomic_load(&f->snapshots.state) & 4u);
+	assert_true(stats(f).health_published >= 2);
+	/* the health timer's only (each publish may wake it once more: memq's own pipe) */
+	assert_true(w1 - w0 <= 2 * timer + 2);
+	assert_int_equal(stats(f).lcm_threads, 0);
+}
+
 int main(void)
 {
 	struct CMUnitTest tests[] = {
@@ -1445,6 +1624,9 @@ int main(void)
 		cmocka_unit_test(test_utime_full_width),
 		cmocka_unit_test(test_config_request_flood),
 		cmocka_unit_test(test_comm_loss_published),
+		cmocka_unit_test(test_rt_priority),
+		cmocka_unit_test(test_sleeps_when_idle),
+		cmocka_unit_test(test_memq_encodes_no_state),
 	};
 
 	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);

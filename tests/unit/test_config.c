@@ -1014,6 +1014,32 @@ static void test_feedback_keys(void **state)
 	}
 }
 
+/* lcm.rt_priority: one below the loop unless set; never at or above the loop's. */
+static void test_lcm_rt_priority(void **state)
+{
+	static const char motors[] = "buses:\n  - {name: s, type: sim}\n"
+				     "motors:\n"
+				     "  - {name: a, bus: s, id: 1, mode: torque, "
+				     "torque_constant_nm_a: 2}\n";
+	char doc[512];
+
+	(void)state;
+	assert_int_equal(load_str("lp-auto.yaml", motors), 0);
+	assert_int_equal(cfg.lcm.rt_priority, RMD_CONFIG_LCM_PRIO_AUTO);
+	snprintf(doc, sizeof(doc), "loop: {rt_priority: 30}\nlcm: {rt_priority: 29}\n%s", motors);
+	assert_int_equal(load_str("lp-29.yaml", doc), 0);
+	assert_int_equal(cfg.lcm.rt_priority, 29);
+	snprintf(doc, sizeof(doc), "lcm: {rt_priority: 0}\n%s", motors);
+	assert_int_equal(load_str("lp-0.yaml", doc), 0);
+	assert_int_equal(cfg.lcm.rt_priority, 0);
+	snprintf(doc, sizeof(doc), "loop: {rt_priority: 30}\nlcm: {rt_priority: 30}\n%s", motors);
+	assert_int_equal(load_str("lp-30.yaml", doc), -EINVAL);
+	expect_in(err, ":2: lcm.rt_priority: 30: must be below loop.rt_priority (30)");
+	snprintf(doc, sizeof(doc), "lcm: {rt_priority: 49}\n%s", motors);
+	assert_int_equal(load_str("lp-49.yaml", doc), -EINVAL);
+	expect_in(err, "lcm.rt_priority: 49 is out of range (0..48)");
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1039,6 +1065,7 @@ int main(void)
 		cmocka_unit_test(test_comm_loss_keys),
 		cmocka_unit_test(test_v2_needs_protection_off),
 		cmocka_unit_test(test_feedback_keys),
+		cmocka_unit_test(test_lcm_rt_priority),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

@@ -46,11 +46,28 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	o->command_timeout_ms = (int)cfg->safety.command_timeout_ms;
 	if (cfg->lcm.health_period_ms)
 		o->health_period_ns = (int64_t)cfg->lcm.health_period_ms * 1000000;
+	/* one below the loop unless configured: never holds the loop off */
+	o->rt_priority = cfg->lcm.rt_priority == RMD_CONFIG_LCM_PRIO_AUTO ?
+				 cfg->loop.rt_priority - 1 :
+				 cfg->lcm.rt_priority;
 	o->commands = commands;
 	o->snapshots = snapshots;
 	o->health = health;
 	o->log = bridge_log;
 	o->log_ctx = NULL;
+}
+
+/* What the bridge's threads were granted, at info level: refused, commands wait longer. */
+void rmdd_lcm_started(struct rmd_bridge *b)
+{
+	struct rmd_bridge_stats st;
+
+	rmd_bridge_get_stats(b, &st);
+	if (st.rt_error)
+		tool_log(6,
+			 "LCM bridge: SCHED_FIFO %u refused (%s): commands wait for "
+			 "normal-priority wake-ups (docs/design.md, Threads)",
+			 b->opts.rt_priority, strerror(-st.rt_error));
 }
 
 /* The bridge rejected a controller that does not own the motors: an incident. */

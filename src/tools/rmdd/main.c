@@ -1035,6 +1035,7 @@ static int run(const struct rmdd_opts *o)
 		tool_log(3, "LCM bridge thread: %s", strerror(-r));
 		goto err_fini_bridge;
 	}
+	rmdd_lcm_started(&d->bridge);
 	if (bringup(d) != RMDD_EXIT_OK)
 		goto err_stop_bridge;
 

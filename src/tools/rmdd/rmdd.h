@@ -178,6 +178,9 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 /* Tell the incident recorder of intruding controllers (in NULL: nobody). */
 void rmdd_lcm_incidents(struct rmd_bridge_opts *o, struct rmdd_incidents *in);
 
+/* After rmd_bridge_start(): says, at info level, when SCHED_FIFO was refused. */
+void rmdd_lcm_started(struct rmd_bridge *b);
+
 /* ---- statistics (rmdd_stats.c) --------------------------------------------- */
 
 struct rmdd_stats_src {
