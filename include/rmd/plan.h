@@ -35,13 +35,16 @@
  *   4 V2 motors then cost 5 frames instead of 8.
  * - Status polls: 0x9A (V3 §2.12, V2 §3.31: temperature, voltage, error
  *   flags; MIT replies carry none of these, V2/V3 control replies carry
- *   only the temperature) at each motor's status_poll_hz.  At most one poll
- *   per bus per cycle: one every `poll_every` cycles (a multiple of hc),
- *   taking the motors in a weighted round robin (`polls`).  A poll is an
- *   extra request when the cycle has room for it; otherwise it takes the
- *   place of the polled motor's control frame in that cycle (the motor
- *   keeps its last setpoint for one more cycle).  A poll for a motor in a
- *   0x280 frame cannot take its place, so it needs the room.
+ *   only the temperature) at each motor's status_poll_hz.  A poll cycle
+ *   comes every `poll_every` cycles (a multiple of hc) and takes the next
+ *   `poll_burst` entries of a weighted round robin (`polls`): one when
+ *   that keeps every motor's rate, else as few as do, always of different
+ *   motors (3 motors polled at 10 Hz in a 25 Hz loop: 2 a cycle).  Each
+ *   poll is an extra request when its cycle has room for it, the poll
+ *   cycle's other polls counted; otherwise it takes the place of the
+ *   polled motor's control frame in that cycle (the motor keeps its last
+ *   setpoint for one more cycle).  A poll for a motor in a 0x280 frame
+ *   cannot take its place, so it needs the room.
  * - Fine position reads (motors[].feedback.position: multi_turn,
  *   docs/feedback.md): 0x92 (V3 §2.11, 0.01 deg) every `fine_divisor`-th
  *   cycle, the largest divisor that keeps feedback.rate_hz (default: the
@@ -66,8 +69,11 @@
 
 #define RMD_PLAN_MAX_HC 64     /* control pattern of one bus: lcm of its rate divisors */
 #define RMD_PLAN_MAX_POLLS 256 /* entries of one bus's poll round robin */
-/* Requests of one bus in one cycle: a 0x280 frame, every motor and its 0x92 read, a poll. */
-#define RMD_PLAN_MAX_SLOTS (2 * RMD_MAX_MOTORS + 2)
+/*
+ * Requests of one bus in one cycle: a 0x280 frame, every motor, its 0x92
+ * read and its status poll.
+ */
+#define RMD_PLAN_MAX_SLOTS (3 * RMD_MAX_MOTORS + 1)
 
 enum rmd_slot_kind {
 	RMD_SLOT_CONTROL = 0, /* a motor's setpoint: V2/V3 0x140 + ID, MIT 0x400 + ID */
@@ -129,8 +135,13 @@ struct rmd_plan_bus {
 	uint16_t requests[RMD_PLAN_MAX_HC]; /* requests of cycle c, without polls */
 	uint32_t batched;		    /* bits of the motors in the 0x280 frame */
 	enum rmd_plan_batch batch;
-	/* Status polls: one in every poll_every cycles (0: none), round robin. */
+	/*
+	 * Status polls: a poll cycle every poll_every cycles (0: none) takes
+	 * the next poll_burst entries of the round robin (n_polls, a multiple
+	 * of poll_burst).
+	 */
 	unsigned poll_every;
+	unsigned poll_burst;
 	unsigned n_polls;
 	struct rmd_plan_poll polls[RMD_PLAN_MAX_POLLS];
 	uint64_t hyperperiod; /* the whole schedule repeats every this many cycles */
@@ -174,8 +185,8 @@ void rmd_plan_print(const struct rmd_plan *plan, const struct rmd_config *cfg, F
 /*
  * The requests of bus `bus` in cycle `n` (counted from 0 at the loop's
  * start) into out[]: the 0x280 frame first, then control frames in file
- * order, then 0x92 reads in file order, then the status poll.  Returns the count (0 for a bus out of
- * range).  rt-safe: no allocation, bounded by RMD_PLAN_MAX_SLOTS.
+ * order, then 0x92 reads in file order, then the status polls in round-robin order.
+ * Returns the count (0 for a bus out of range).  rt-safe: no allocation, bounded by RMD_PLAN_MAX_SLOTS.
  */
 unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			struct rmd_plan_slot out[RMD_PLAN_MAX_SLOTS]);

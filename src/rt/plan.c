@@ -8,14 +8,16 @@
  *    phase per unit (a motor, the batch, or a motor's 0x92 reads), greedily: units commanded every cycle first,
  *    then the costlier ones, each in the phase that keeps the busiest
  *    cycle lowest.  The busiest cycle must fit in the cycle.
- * 2. plan_polls(): the status polls' round robin and where in the control
- *    pattern each poll goes (extra, or in place of a control frame).
+ * 2. plan_polls(): the status polls' round robin, how many go in one poll
+ *    cycle, and where in the control pattern each poll goes (extra, or in
+ *    place of a control frame).
  * All frames are 8-byte frames, so a cycle's cost is a count of frames
  * (requests + replies) and of requests: rmd_plan_cost_ns().
  *
  * rmd_plan_cycle() (rt-safe) reads the plan: the control pattern at
- * n % hc, and the poll of round-robin entry (n / poll_every) % n_polls
- * when n % poll_every is that entry's cycle.
+ * n % hc, and the polls of round-robin entries poll_burst * p ..
+ * poll_burst * (p + 1) - 1, p = (n / poll_every) % (n_polls / poll_burst),
+ * whose cycle is n % poll_every.
  */
 #include <errno.h>
 #include <math.h>
@@ -299,10 +301,54 @@ static int plan_control(const struct rmd_config *cfg, struct rmd_plan *plan, uns
 #define POLL_EVERY_MAX ((double)(UINT32_MAX / 2))
 
 /*
+ * The spacing of poll cycles of k entries each: the largest multiple of hc
+ * that still polls every motor at least every 1/status_poll_hz s, a motor
+ * whose entries are at most gap[l] apart waiting at most ceil(gap[l] / k)
+ * poll cycles; 0 when there is none.  Non-rt.
+ */
+static unsigned poll_spacing(const struct rmd_config *cfg, const struct rmd_plan_bus *pb,
+			     unsigned rate, const unsigned gap[], unsigned k)
+{
+	double s_max = INFINITY;
+
+	for (unsigned l = 0; l < pb->n_motors; l++) {
+		double f = cfg->motors[pb->motors[l]].status_poll_hz, s;
+
+		if (!gap[l])
+			continue;
+		s = floor((double)rate / (f * ((gap[l] + k - 1u) / k)) * (1.0 + 1e-12));
+		if (s < s_max)
+			s_max = s;
+	}
+	/*
+	 * A rate near 0 (the loader refuses below RMD_CONFIG_MIN_STATUS_POLL_HZ,
+	 * other callers may not) gives an s_max no unsigned holds: polling more
+	 * often than asked is allowed, converting it would be undefined.
+	 */
+	if (!(s_max <= POLL_EVERY_MAX))
+		s_max = POLL_EVERY_MAX;
+	return (unsigned)(s_max / pb->hc) * pb->hc;
+}
+
+/*
+ * The polls of entry i's poll cycle (its poll_burst entries) before it
+ * that go in cycle c as extra requests.  Non-rt.
+ */
+static unsigned group_extras(const struct rmd_plan_bus *pb, unsigned i, unsigned c)
+{
+	unsigned cnt = 0;
+
+	for (unsigned j = i - i % pb->poll_burst; j < i; j++)
+		if (!pb->polls[j].replaces && pb->polls[j].cycle == c)
+			cnt++;
+	return cnt;
+}
+
+/*
  * The status polls of bus b: round-robin weights from status_poll_hz, the
- * spacing poll_every (the largest multiple of hc that still polls every
- * motor at least every 1/status_poll_hz s), and each entry's cycle.
- * Returns 0 or -ENOSPC.
+ * polls per poll cycle poll_burst (as few as the rates need), the spacing
+ * poll_every (poll_spacing()), and each entry's cycle.  Returns 0 or
+ * -ENOSPC.
  */
 static int plan_polls(const struct rmd_config *cfg, struct rmd_plan *plan, unsigned b,
 		      struct errbuf *e)
@@ -313,11 +359,13 @@ static int plan_polls(const struct rmd_config *cfg, struct rmd_plan *plan, unsig
 	uint64_t w[RMD_MAX_MOTORS] = { 0 }, g = 0, total = 0;
 	int64_t cur[RMD_MAX_MOTORS] = { 0 };
 	uint8_t seq[RMD_PLAN_MAX_POLLS];
-	double hz_sum = 0.0, s_max = INFINITY;
-	unsigned every;
+	unsigned gap[RMD_MAX_MOTORS] = { 0 };
+	double hz_sum = 0.0;
+	unsigned every = 0, burst, burst_max = RMD_MAX_MOTORS, n_entries;
 	char a[32], c_us[32];
 
 	pb->poll_every = 0;
+	pb->poll_burst = 0;
 	pb->n_polls = 0;
 	for (unsigned l = 0; l < pb->n_motors; l++) {
 		double f = cfg->motors[pb->motors[l]].status_poll_hz;
@@ -367,12 +415,13 @@ static int plan_polls(const struct rmd_config *cfg, struct rmd_plan *plan, unsig
 		seq[k] = (uint8_t)pick;
 	}
 	/*
-	 * poll_every: every motor's longest gap between two of its entries
-	 * (round the wheel) times poll_every must not exceed 1/status_poll_hz.
+	 * gap[l]: the longest, step: the shortest distance between two of
+	 * motor l's entries (round the wheel).  A poll cycle takes k entries
+	 * of the wheel in turn, so k must not exceed any motor's step: the k
+	 * polls of a poll cycle go to k different motors.
 	 */
 	for (unsigned l = 0; l < pb->n_motors; l++) {
-		double f = cfg->motors[pb->motors[l]].status_poll_hz, s;
-		unsigned first = 0, last = 0, gap = 0;
+		unsigned first = 0, last = 0, step = (unsigned)total;
 		bool seen = false;
 
 		if (!w[l])
@@ -382,37 +431,53 @@ static int plan_polls(const struct rmd_config *cfg, struct rmd_plan *plan, unsig
 				continue;
 			if (!seen)
 				first = k;
-			else if (k - last > gap)
-				gap = k - last;
+			else if (k - last > gap[l])
+				gap[l] = k - last;
+			if (seen && k - last < step)
+				step = k - last;
 			last = k;
 			seen = true;
 		}
-		if (first + (unsigned)total - last > gap)
-			gap = first + (unsigned)total - last;
-		s = floor((double)rate / (f * gap) * (1.0 + 1e-12));
-		if (s < s_max)
-			s_max = s;
+		if (first + (unsigned)total - last > gap[l])
+			gap[l] = first + (unsigned)total - last;
+		if (first + (unsigned)total - last < step)
+			step = first + (unsigned)total - last;
+		if (step < burst_max)
+			burst_max = step;
 	}
-	/*
-	 * A rate near 0 (the loader refuses below RMD_CONFIG_MIN_STATUS_POLL_HZ,
-	 * other callers may not) gives an s_max no unsigned holds: polling more
-	 * often than asked is allowed, converting it would be undefined.
-	 */
-	if (!(s_max <= POLL_EVERY_MAX))
-		s_max = POLL_EVERY_MAX;
-	every = (unsigned)(s_max / pb->hc) * pb->hc;
+	/* as few polls per poll cycle as the rates need: k = 1 is the plan of one poll a cycle */
+	for (burst = 1; burst <= burst_max; burst++) {
+		if (lcm_u64(total, burst) > RMD_PLAN_MAX_POLLS)
+			continue;
+		every = poll_spacing(cfg, pb, rate, gap, burst);
+		if (every)
+			break;
+	}
 	if (every == 0) {
-		add_err(e,
-			"%s: status polls at %g Hz in all do not fit in one poll every %u "
-			"cycle%s (%g a second at %u Hz): lower status_poll_hz",
-			cfg->buses[b].name, hz_sum, pb->hc, pb->hc == 1 ? "" : "s",
-			(double)rate / pb->hc, rate);
+		if (burst_max == 1)
+			add_err(e,
+				"%s: status polls at %g Hz in all do not fit in one poll every %u "
+				"cycle%s (%g a second at %u Hz): lower status_poll_hz",
+				cfg->buses[b].name, hz_sum, pb->hc, pb->hc == 1 ? "" : "s",
+				(double)rate / pb->hc, rate);
+		else
+			add_err(e,
+				"%s: status polls at %g Hz in all do not fit in %u polls of different "
+				"motors every %u cycle%s (%g a second at %u Hz): lower "
+				"status_poll_hz",
+				cfg->buses[b].name, hz_sum, burst_max, pb->hc,
+				pb->hc == 1 ? "" : "s", (double)burst_max * rate / pb->hc, rate);
 		return -ENOSPC;
 	}
+	/* the wheel repeated until its length is a whole number of poll cycles */
+	n_entries = (unsigned)lcm_u64(total, burst);
+	for (unsigned k = (unsigned)total; k < n_entries; k++)
+		seq[k] = seq[k - total];
 	pb->poll_every = every;
-	pb->n_polls = (unsigned)total;
+	pb->poll_burst = burst;
+	pb->n_polls = n_entries;
 	/* where each entry goes */
-	for (unsigned k = 0; k < total; k++) {
+	for (unsigned k = 0; k < n_entries; k++) {
 		struct rmd_plan_poll *p = &pb->polls[k];
 		struct rmd_plan_motor *pm;
 		int64_t best_cost = INT64_MAX;
@@ -420,10 +485,11 @@ static int plan_polls(const struct rmd_config *cfg, struct rmd_plan *plan, unsig
 
 		p->motor = pb->motors[seq[k]];
 		pm = &plan->motor[p->motor];
-		/* extra, in the least busy cycle, if it fits there */
+		/* extra, in the least busy cycle (its poll cycle's polls included), if it fits */
 		for (unsigned c = 0; c < pb->hc; c++) {
-			int64_t cost = rmd_plan_cost_ns(pb, pb->frames[c] + EXCHANGE_FRAMES,
-							pb->requests[c] + 1u);
+			unsigned x = group_extras(pb, k, c) + 1u;
+			int64_t cost = rmd_plan_cost_ns(pb, pb->frames[c] + x * EXCHANGE_FRAMES,
+							pb->requests[c] + x);
 
 			if (cost < best_cost) {
 				best_cost = cost;
@@ -446,7 +512,7 @@ static int plan_polls(const struct rmd_config *cfg, struct rmd_plan *plan, unsig
 				cfg->buses[b].name, cfg->motors[p->motor].name,
 				fmt_us(a, sizeof(a), best_cost),
 				fmt_us(c_us, sizeof(c_us), period));
-			pb->n_polls = k;
+			pb->n_polls = k - k % burst;
 			return -ENOSPC;
 		}
 		pm->polls++;
@@ -454,7 +520,7 @@ static int plan_polls(const struct rmd_config *cfg, struct rmd_plan *plan, unsig
 	for (unsigned l = 0; l < pb->n_motors; l++) {
 		struct rmd_plan_motor *pm = &plan->motor[pb->motors[l]];
 
-		pm->poll_hz = (double)pm->polls * rate / ((double)total * every);
+		pm->poll_hz = (double)pm->polls * rate * burst / ((double)n_entries * every);
 	}
 	return 0;
 }
@@ -472,14 +538,20 @@ static void plan_totals(struct rmd_plan_bus *pb)
 	}
 	pb->avg_frames = (double)sum_frames / pb->hc;
 	pb->avg_ns = (double)sum_ns / pb->hc;
-	pb->hyperperiod = pb->poll_every ? (uint64_t)pb->poll_every * pb->n_polls : pb->hc;
+	pb->hyperperiod =
+		pb->poll_every ? (uint64_t)pb->poll_every * (pb->n_polls / pb->poll_burst) : pb->hc;
 	for (unsigned k = 0; k < pb->n_polls; k++) {
 		const struct rmd_plan_poll *p = &pb->polls[k];
-		unsigned f = pb->frames[p->cycle], r = pb->requests[p->cycle];
-		int64_t base = rmd_plan_cost_ns(pb, f, r), with;
+		unsigned f = pb->frames[p->cycle], r = pb->requests[p->cycle], x;
+		int64_t base, with;
 
 		if (p->replaces)
 			continue;
+		/* this poll is the x-th extra one in its cycle */
+		x = group_extras(pb, k, p->cycle) + 1u;
+		f += (x - 1u) * EXCHANGE_FRAMES;
+		r += x - 1u;
+		base = rmd_plan_cost_ns(pb, f, r);
 		with = rmd_plan_cost_ns(pb, f + EXCHANGE_FRAMES, r + 1u);
 		if (with > pb->worst_ns)
 			pb->worst_ns = with;
@@ -653,9 +725,9 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			struct rmd_plan_slot out[RMD_PLAN_MAX_SLOTS])
 {
 	const struct rmd_plan_bus *pb;
-	const struct rmd_plan_poll *poll = NULL;
+	const struct rmd_plan_poll *grp = NULL;
 	uint32_t due, fine;
-	unsigned cnt = 0;
+	unsigned cnt = 0, at = 0, burst = 0;
 
 	if (bus >= plan->n_buses)
 		return 0;
@@ -664,13 +736,14 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 		return 0;
 	due = pb->due[n % pb->hc];
 	if (pb->poll_every && pb->n_polls) {
-		const struct rmd_plan_poll *p = &pb->polls[(n / pb->poll_every) % pb->n_polls];
-
-		if (n % pb->poll_every == p->cycle)
-			poll = p;
+		/* the poll cycle's entries; those for this cycle, in place of a setpoint or not */
+		burst = pb->poll_burst;
+		grp = &pb->polls[(n / pb->poll_every) % (pb->n_polls / burst) * burst];
+		at = (unsigned)(n % pb->poll_every);
+		for (unsigned j = 0; j < burst; j++)
+			if (grp[j].cycle == at && grp[j].replaces)
+				due &= ~(1u << plan->motor[grp[j].motor].local);
 	}
-	if (poll && poll->replaces)
-		due &= ~(1u << plan->motor[poll->motor].local);
 	fine = pb->fine[n % pb->hc];
 	if (due & pb->batched)
 		out[cnt++] = (struct rmd_plan_slot){
@@ -707,13 +780,16 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			.can_id = (uint16_t)(RMD_CAN_REQ_BASE + plan->motor[mi].id),
 		};
 	}
-	if (poll)
+	for (unsigned j = 0; j < burst; j++) {
+		if (grp[j].cycle != at)
+			continue;
 		out[cnt++] = (struct rmd_plan_slot){
 			.kind = RMD_SLOT_STATUS,
-			.motor = poll->motor,
+			.motor = grp[j].motor,
 			.replies = 1,
-			.can_id = (uint16_t)(RMD_CAN_REQ_BASE + plan->motor[poll->motor].id),
+			.can_id = (uint16_t)(RMD_CAN_REQ_BASE + plan->motor[grp[j].motor].id),
 		};
+	}
 	return cnt;
 }
 
@@ -850,9 +926,12 @@ static void print_bus(const struct rmd_plan *plan, const struct rmd_config *cfg,
 		fmt_us(a_us, sizeof(a_us), (int64_t)ceil(pb->avg_ns)),
 		100.0 * pb->avg_ns / (double)plan->period_ns);
 	fprintf(out, "  schedule: control pattern %u cycle%s", pb->hc, pb->hc == 1 ? "" : "s");
-	if (pb->poll_every)
+	if (pb->poll_every && pb->poll_burst == 1)
 		fprintf(out, ", a status poll every %u cycles, repeats every %llu cycles",
 			pb->poll_every, (unsigned long long)pb->hyperperiod);
+	else if (pb->poll_every)
+		fprintf(out, ", %u status polls every %u cycles, repeats every %llu cycles",
+			pb->poll_burst, pb->poll_every, (unsigned long long)pb->hyperperiod);
 	if (pb->n_fine) {
 		unsigned r = fine_max_rate(cfg, b);
 

@@ -2064,6 +2064,76 @@ static void test_fine_position_sine(void **state)
 	rig_down();
 }
 
+/* Issue 13's 25 Hz bus: 3 V3 position motors, the default status_poll_hz. */
+static void r25_tweak(struct rmd_config *cfg)
+{
+	cfg->loop.rate_hz = 25;
+	cfg->safety.comm_loss_ms = 400;
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		cfg->motors[i].mode = RMD_MODE_POSITION;
+		cfg->motors[i].rate_divisor = 1;
+		cfg->motors[i].status_poll_hz = RMD_CONFIG_DEFAULT_STATUS_POLL_HZ;
+	}
+}
+
+/*
+ * Issue 13: 30 status polls a second on a 25 Hz loop go two a cycle
+ * (rmd/plan.h), and the loop sends and matches them all: over 2 simulated
+ * seconds every motor gets >= 20 0x9A polls on the wire, every frame of
+ * the plan goes out, and no reply is missed, ENABLED (setpoint and poll in
+ * one cycle) or READY.
+ */
+static void test_polls_two_a_cycle(void **state)
+{
+	const unsigned cycles = 50; /* 2 s at 25 Hz */
+	struct rmd_loop_counters c0, c1;
+	uint64_t want = 0, tx0, n = 0; /* n: the loop's cycle (0 after bring-up) */
+	unsigned from;
+	struct rmd_snapshot s;
+
+	(void)state;
+	rig_up(3, r25_tweak);
+	assert_int_equal(R.io.plan.bus[0].poll_burst, 2);
+	bring_up();
+	for (int enabled = 0; enabled <= 1; enabled++) {
+		cmd_clear();
+		for (unsigned i = 0; enabled && i < 3; i++)
+			cmd_motor(i, true, RMD_MODE_POSITION)->pos_rad = 0.1 * i;
+		run(3, enabled); /* into ENABLED */
+		n += 3;
+		want = 0;
+		for (uint64_t k = 0; k < cycles; k++) {
+			struct rmd_plan_slot slots[RMD_PLAN_MAX_SLOTS];
+
+			want += rmd_plan_cycle(&R.io.plan, 0, n + k, slots);
+		}
+		n += cycles;
+		rmd_loop_get_counters(R.l, &c0);
+		tx0 = R.io.buses[0].stats.tx_frames;
+		from = trace_n;
+		run(cycles, enabled);
+		rmd_loop_get_counters(R.l, &c1);
+		s = snap();
+		for (unsigned i = 0; i < 3; i++) {
+			print_message("%s motor %u: %u 0x9A polls in %u cycles\n",
+				      enabled ? "enabled" : "ready", i, sent_to(i, 0x9A, from),
+				      cycles);
+			assert_true(sent_to(i, 0x9A, from) >= 20);
+			assert_int_equal(s.m[i].lifecycle, enabled ? RMD_LC_ENABLED : RMD_LC_READY);
+			assert_int_equal(s.m[i].missed_replies, 0);
+			/* the setpoints still go every cycle */
+			if (enabled)
+				assert_int_equal(sent_to(i, 0xA4, from), cycles);
+		}
+		assert_int_equal(R.io.buses[0].stats.tx_frames - tx0, want);
+		assert_int_equal(c1.missed - c0.missed, 0);
+		assert_int_equal(c1.frames_not_sent - c0.frames_not_sent, 0);
+		assert_int_equal(c1.unexpected - c0.unexpected, 0);
+		assert_int_equal(c1.replies - c0.replies, want);
+	}
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -2104,6 +2174,7 @@ int main(void)
 		cmocka_unit_test(test_fault_flood),
 		cmocka_unit_test(test_fault_over_temperature),
 		cmocka_unit_test(test_fine_position_sine),
+		cmocka_unit_test(test_polls_two_a_cycle),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);

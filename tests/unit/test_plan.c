@@ -221,7 +221,7 @@ static void variant(unsigned k)
 /*
  * Walk `cycles` cycles of bus b through rmd_plan_cycle() and check it
  * against the plan: every cycle within the worst case and the cycle, at
- * most one status poll, each motor commanded exactly at its divisor unless
+ * most poll_burst status polls of different motors, each motor commanded exactly at its divisor unless
  * a poll takes its place.  Counts per motor go to ctrl[] and polls[].
  */
 static unsigned fine_reads[RMD_MAX_MOTORS]; /* walk(): 0x92 reads per motor */
@@ -237,7 +237,7 @@ static void walk(unsigned b, uint64_t cycles, unsigned ctrl[RMD_MAX_MOTORS],
 	memset(fine_reads, 0, sizeof(fine_reads));
 	for (uint64_t n = 0; n < cycles; n++) {
 		unsigned cnt = rmd_plan_cycle(&plan, b, n, s), frames = 0, status = 0;
-		int polled = -1;
+		uint64_t polled = 0; /* bit mi: motor mi polled in this cycle */
 
 		assert_true(cnt <= RMD_PLAN_MAX_SLOTS);
 		for (unsigned i = 0; i < cnt; i++) {
@@ -256,7 +256,9 @@ static void walk(unsigned b, uint64_t cycles, unsigned ctrl[RMD_MAX_MOTORS],
 			case RMD_SLOT_STATUS:
 				status++;
 				polls[s[i].motor]++;
-				polled = s[i].motor;
+				/* one poll per motor per cycle */
+				assert_false(polled & (1ull << s[i].motor));
+				polled |= 1ull << s[i].motor;
 				assert_int_equal(s[i].can_id, 0x140 + cfg.motors[s[i].motor].id);
 				break;
 			case RMD_SLOT_FINE: {
@@ -271,7 +273,7 @@ static void walk(unsigned b, uint64_t cycles, unsigned ctrl[RMD_MAX_MOTORS],
 			}
 			}
 		}
-		assert_true(status <= 1);
+		assert_true(status <= (pb->poll_every ? pb->poll_burst : 0));
 		assert_true(frames <= pb->max_frames);
 		assert_true(rmd_plan_cost_ns(pb, frames, cnt) <= pb->worst_ns);
 		assert_true(pb->worst_ns <= plan.period_ns);
@@ -285,7 +287,7 @@ static void walk(unsigned b, uint64_t cycles, unsigned ctrl[RMD_MAX_MOTORS],
 				if ((s[i].kind == RMD_SLOT_CONTROL && s[i].motor == mi) ||
 				    (s[i].kind == RMD_SLOT_V2_TORQUES && pm->batched))
 					seen = true;
-			if (due && !seen && polled != (int)mi)
+			if (due && !seen && !(polled & (1ull << mi)))
 				fail_msg("cycle %llu: motor %s due but not commanded",
 					 (unsigned long long)n, cfg.motors[mi].name);
 			if (!due && seen)
@@ -559,13 +561,26 @@ static void test_polls_spread(void **state)
 	assert_true(gap[1] > 0 && gap[1] <= 50);
 	assert_true(gap[2] > 0 && gap[2] <= 200);
 
-	/* the sum of the polls cannot exceed one per cycle */
+	/* one motor's polls cannot exceed one per cycle */
 	can0(100);
-	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 60);
-	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 60);
+	add_motor(0, 1, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 120);
 	expect_refused(-ENOSPC,
 		       "can0: status polls at 120 Hz in all do not fit in one poll every 1 cycle "
 		       "(100 a second at 100 Hz): lower status_poll_hz");
+	/* two motors' polls: two a cycle at most, one each */
+	add_motor(0, 2, RMD_PROTO_V3, RMD_MODE_TORQUE, 1, 120);
+	expect_refused(-ENOSPC,
+		       "can0: status polls at 240 Hz in all do not fit in 2 polls of different "
+		       "motors every 1 cycle (200 a second at 100 Hz): lower status_poll_hz");
+	/* 120 Hz in all over two motors fit, two polls a cycle */
+	cfg.motors[0].status_poll_hz = 60;
+	cfg.motors[1].status_poll_hz = 60;
+	expect_ok();
+	assert_int_equal(pb->poll_burst, 2);
+	/* 2 setpoints and 2 polls, with their replies */
+	assert_int_equal(pb->worst_ns, 8 * FRAME_NS);
+	assert_true(plan.motor[0].poll_hz >= 60 && plan.motor[1].poll_hz >= 60);
+	walk(0, pb->hyperperiod * 2, ctrl, polls);
 }
 
 /* A poll of a motor in the 0x280 frame cannot take its place: it needs room. */
@@ -922,6 +937,88 @@ static void test_fine_budget(void **state)
 	assert_int_equal(plan.bus[0].control_ns, 6 * FRAME_NS);
 }
 
+/*
+ * Issue 13: 3 motors at 25 Hz with the default status_poll_hz (10 Hz, 30
+ * polls a second in all) on a 2 %-load bus.  One poll a cycle gives 25 a
+ * second: two a cycle fit, each motor polled at >= 10 Hz, and the busiest
+ * cycle counts both.
+ */
+static const char r25_yaml[] =
+	"loop: {rate_hz: 25}\n"
+	"safety: {comm_loss_ms: 400}\n"
+	"buses: [{name: sim0, type: sim}]\n"
+	"motors:\n"
+	"  - {name: a, bus: sim0, id: 1, mode: position, torque_constant_nm_a: 2.0}\n"
+	"  - {name: b, bus: sim0, id: 2, mode: position, torque_constant_nm_a: 2.0}\n"
+	"  - {name: c, bus: sim0, id: 3, mode: position, torque_constant_nm_a: 2.0}\n";
+
+static void test_polls_burst(void **state)
+{
+	unsigned ctrl[RMD_MAX_MOTORS], polls[RMD_MAX_MOTORS];
+	const struct rmd_plan_bus *pb = &plan.bus[0];
+	struct rmd_plan_slot s[RMD_PLAN_MAX_SLOTS];
+	uint64_t last[RMD_MAX_MOTORS] = { 0 };
+	char path[] = "/tmp/test_plan_r25_XXXXXX";
+	char *out;
+
+	(void)state;
+	temp_file(path, r25_yaml);
+	assert_int_equal(rmd_config_load(path, &cfg, NULL, err, sizeof(err)), 0);
+	unlink(path);
+	for (unsigned i = 0; i < 3; i++)
+		assert_float_equal(cfg.motors[i].status_poll_hz, RMD_CONFIG_DEFAULT_STATUS_POLL_HZ,
+				   0);
+	expect_ok();
+	assert_int_equal(pb->poll_burst, 2);
+	assert_int_equal(pb->poll_every, 1);
+	assert_int_equal(pb->n_polls % pb->poll_burst, 0);
+	/* 3 setpoints and 2 polls, with their replies */
+	assert_int_equal(pb->control_ns, 6 * FRAME_NS);
+	assert_int_equal(pb->worst_ns, 10 * FRAME_NS);
+	assert_int_equal(pb->max_frames, 10);
+	assert_int_equal(pb->max_requests, 5);
+	for (unsigned i = 0; i < 3; i++) {
+		assert_true(plan.motor[i].poll_hz >= 10.0);
+		assert_int_equal(plan.motor[i].replacing, 0);
+	}
+	/* one simulated second: >= 10 polls each, never more than 1/10 s apart */
+	walk(0, 25, ctrl, polls);
+	for (unsigned i = 0; i < 3; i++) {
+		assert_true(polls[i] >= 10);
+		assert_int_equal(ctrl[i], 25);
+	}
+	for (uint64_t n = 0; n < 3 * pb->hyperperiod + 25; n++) {
+		unsigned cnt = rmd_plan_cycle(&plan, 0, n, s);
+
+		for (unsigned i = 0; i < cnt; i++) {
+			if (s[i].kind != RMD_SLOT_STATUS)
+				continue;
+			if (last[s[i].motor])
+				assert_true((n - last[s[i].motor]) * 10 <= 25);
+			last[s[i].motor] = n;
+		}
+	}
+	out = printed();
+	expect_in(out, "10 Hz asked, 16.7 Hz planned, extra frames");
+	expect_in(out, "worst case: 1350 µs per cycle of 40000 µs, load 3.4%");
+	expect_in(out, "schedule: control pattern 1 cycle, 2 status polls every 1 cycles, "
+		       "repeats every 3 cycles");
+	expect_in(out, "verdict: every bus fits");
+	free(out);
+}
+
+/* The same through rmdd --check-config: accepted, the polls per poll cycle printed. */
+static void test_rmdd_check_polls_burst(void **state)
+{
+	char path[] = "/tmp/test_plan_r25_XXXXXX";
+
+	(void)state;
+	temp_file(path, r25_yaml);
+	check_config(&(struct check_case){ path, 0, "2 status polls every 1 cycles", "" });
+	check_config(&(struct check_case){ path, 0, "verdict: every bus fits", "" });
+	unlink(path);
+}
+
 /* rmdd --check-config on the example with fine feedback: the reads and the rate printed. */
 static void test_rmdd_check_fine_example(void **state)
 {
@@ -954,12 +1051,14 @@ int main(void)
 		cmocka_unit_test(test_poll_rate_near_zero),
 		cmocka_unit_test(test_fine_reads_planned),
 		cmocka_unit_test(test_fine_budget),
+		cmocka_unit_test(test_polls_burst),
 	};
 	const struct CMUnitTest proc_tests[] = {
 		cmocka_unit_test(test_rmdd_check_examples),
 		cmocka_unit_test(test_rmdd_check_refuses),
 		cmocka_unit_test(test_rmdd_options),
 		cmocka_unit_test(test_rmdd_check_fine_example),
+		cmocka_unit_test(test_rmdd_check_polls_burst),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 	int fails;
