@@ -79,7 +79,8 @@ static struct bmotor motors[RMD_MAX_MOTORS];
 static struct bbus buses[RMD_MAX_BUSES];
 static struct worker workers[RMD_MAX_BUSES];
 static pthread_barrier_t cycle_end;
-static volatile bool stop;
+static uint64_t stop_at; /* the last cycle, 0: not yet */
+static bool failed;
 static int64_t timeout_ns = 5000000;
 static uint64_t cycles;
 static unsigned n_workers = 1;
@@ -183,26 +184,33 @@ static int transact(struct worker *w, struct bbus *b, struct bmotor *m)
 	return r;
 }
 
-/* Serve w's motors one after the other, cycle after cycle, until the end (worker 0 says when). */
+/*
+ * Serve w's motors one after the other, cycle after cycle.  Worker 0 names
+ * the last cycle (stop_at) before the barrier that ends it; every worker
+ * stops after that cycle's barrier, so none is left waiting at the next.
+ */
 static void *work(void *arg)
 {
 	struct worker *w = arg;
 
-	while (!stop) {
+	for (uint64_t c = 1;; c++) {
 		for (unsigned i = 0; i < w->nb && !w->err; i++)
 			for (unsigned k = 0; k < w->b[i]->n && !w->err; k++)
 				w->err = transact(w, w->b[i], w->b[i]->m[k]);
-		if (w == &workers[0]) {
-			cycles++;
-			if (rmd_now_ns() >= end_ns)
-				stop = true;
-		}
 		if (w->err)
-			stop = true;
+			__atomic_store_n(&failed, true, __ATOMIC_RELAXED);
+		if (w == &workers[0]) {
+			cycles = c;
+			if (rmd_now_ns() >= end_ns || __atomic_load_n(&failed, __ATOMIC_RELAXED))
+				__atomic_store_n(&stop_at, c, __ATOMIC_RELEASE);
+		}
 		if (n_workers > 1)
 			pthread_barrier_wait(&cycle_end);
+		uint64_t last = __atomic_load_n(&stop_at, __ATOMIC_ACQUIRE);
+
+		if (last && c >= last)
+			return NULL;
 	}
-	return NULL;
 }
 
 static int open_bus(unsigned i, char *err, size_t errlen)

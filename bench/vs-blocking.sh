@@ -19,15 +19,21 @@
 # the 4 buses with one thread a bus and a barrier a cycle ("threads").
 # rmdd's rate is searched: the planner's highest loop.rate_hz
 # (`rmdd --check-config`, at most 2000), then DURATION seconds at that rate,
-# 5 % lower while replies were missed or the plan missed; reported is the
-# rate it ran and the cycles a second it measured (overruns, the machine's
-# scheduling, skip periods).
+# 5 % lower after two runs at a rate missed a reply or the plan; reported
+# is the rate it ran and the cycles a second it measured (overruns, the
+# machine's scheduling, skip periods).  Host transmit queues hold 64
+# frames, as README.md has users set them (`txqueuelen: 64` on the sim
+# buses, `vm-run --txqueuelen 64`): 12 requests on one bus overflow the
+# default 10.
 #
 #   bench/vs-blocking.sh               # root (SCHED_FIFO)
-#   VCAN=0 bench/vs-blocking.sh        # the sim part only
+#   VCAN=0 bench/vs-blocking.sh        # the sim part only (SIMBUS=0: vcan only)
+#   ROWS=bench/results/vs-blocking.dat bench/vs-blocking.sh   # table and plot again
 #
 # Environment: BUILD (build), DURATION (5 s a run), COUNTS_VB ("1 3 6 12"),
-# VCAN (1), OUT (bench/results).  Writes $OUT/vs-blocking.txt and .png.
+# VCAN (1), SIMBUS (1), TRIES (8: rmdd runs a configuration at most; then
+# the last run is reported, marked), TRIES_VCAN (2: in an emulated guest
+# the machine, not the rate, misses), OUT (bench/results).  Writes $OUT/vs-blocking.txt and .png.
 set -eu
 cd "$(dirname "$0")/.."
 . bench/lib.sh
@@ -35,6 +41,9 @@ BUILD=${BUILD:-build}
 DURATION=${DURATION:-5}
 COUNTS_VB=${COUNTS_VB:-1 3 6 12}
 VCAN=${VCAN:-1}
+SIMBUS=${SIMBUS:-1}
+TRIES=${TRIES:-8}
+TRIES_VCAN=${TRIES_VCAN:-2}
 OUT=${OUT:-bench/results}
 
 # cfg KIND N NB RATE FILE: N V3 motors on NB buses of KIND (sim | socketcan)
@@ -42,11 +51,12 @@ cfg() {
 	{
 		echo "loop: {rate_hz: $4, rt_priority: 40}"
 		echo "incidents: {enabled: false}"
+		echo "probe: {on_missing: start}"
 		echo "buses:"
 		b=0
 		while [ $b -lt "$3" ]; do
 			if [ "$1" = sim ]; then
-				echo "  - {name: s$b, type: sim, sim: {seed: $((b + 1))}}"
+				echo "  - {name: s$b, type: sim, sim: {seed: $((b + 1)), txqueuelen: 64}}"
 			else
 				echo "  - {name: vcan$b, type: socketcan}"
 			fi
@@ -87,11 +97,12 @@ fifo() {
 	if command -v chrt >/dev/null 2>&1; then chrt -f 40 "$@"; else "$@"; fi
 }
 
-# rmdd_rate KIND N NB: appends "KIND rmdd N NB rate_hz measured_hz plan_max tries"
+# rmdd_rate KIND N NB: appends "KIND rmdd N NB rate_hz measured_hz plan_max tries missed"
 rmdd_rate() {
 	pmax=$(plan_max "$1" "$2" "$3")
 	rate=$pmax
 	tries=0
+	fails=0
 	while :; do
 		tries=$((tries + 1))
 		cfg "$1" "$2" "$3" "$rate" "$work/rmdd.yaml"
@@ -105,11 +116,21 @@ rmdd_rate() {
 		pm=$(sed -n 's/.*plan misses \([0-9]*\).*/\1/p' "$log" | tail -n 1)
 		hz=$(sed -n 's/.*Hz (\([0-9.]*\) Hz measured).*/\1/p' "$log" | tail -n 1)
 		if [ "${missed:-1}" = 0 ] && [ "${pm:-1}" = 0 ]; then
-			echo "$1 rmdd $2 $3 $rate $hz $pmax $tries" >>"$work/rows"
+			echo "$1 rmdd $2 $3 $rate $hz $pmax $tries 0" >>"$work/rows"
 			return 0
 		fi
-		echo "vs-blocking: rmdd $1 $2 motors / $3 buses at $rate Hz: missed ${missed:-?}, plan misses ${pm:-?}; 5 % lower"
-		[ $tries -lt 6 ] || { echo "$1 rmdd $2 $3 0 0 $pmax $tries" >>"$work/rows"; return 0; }
+		over=$(sed -n 's/.*loop: overruns \([0-9]*\),.*/\1/p' "$log" | tail -n 1)
+		echo "vs-blocking: rmdd $1 $2 motors / $3 buses at $rate Hz: missed ${missed:-?}," \
+			"plan misses ${pm:-?}, overruns ${over:-?}" >>"$work/retries"
+		# out of tries: the last run, marked
+		if [ $tries -ge "$TRIES" ]; then
+			echo "$1 rmdd $2 $3 $rate ${hz:-0} $pmax $tries $((${missed:-0} + ${pm:-0}))" >>"$work/rows"
+			return 0
+		fi
+		# a second run at the same rate first: an overrun (the machine's) can cost a reply
+		fails=$((fails + 1))
+		[ $fails -lt 2 ] && continue
+		fails=0
 		rate=$((rate * 95 / 100))
 	done
 }
@@ -149,8 +170,12 @@ measure() {
 # ---- in the guest (or on a host with vcan): rmd-sim on vcan0..3 ----
 if [ -n "${RMD_BENCH_IN_VM:-}" ]; then
 	work=$RMD_BENCH_WORK
+	DURATION=$RMD_BENCH_DURATION
+	TRIES=$RMD_BENCH_TRIES
+	COUNTS_VB=$RMD_BENCH_COUNTS
 	: >"$work/rows"
 	: >"$work/blocking.log"
+	: >"$work/retries"
 	# every id 1..12 on each interface: a configuration uses those it names
 	sims=
 	for b in 0 1 2 3; do
@@ -167,17 +192,29 @@ fi
 bench_init vs-blocking
 : >"$work/rows"
 : >"$work/blocking.log"
+: >"$work/retries"
 [ -x "$BUILD/bench/blocking_driver" ] || { echo "vs-blocking: no $BUILD/bench/blocking_driver (make)"; exit 2; }
-measure sim
+if [ -n "${ROWS:-}" ]; then
+	cp "$ROWS" "$work/rows"
+	SIMBUS=0
+	VCAN=0
+fi
+[ "$SIMBUS" = 1 ] && measure sim
 if [ "$VCAN" = 1 ]; then
 	mkdir -p "$work/vm"
 	for n in $COUNTS_VB; do
 		for nb in $(layouts "$n"); do plan_max socketcan "$n" "$nb" >/dev/null; done
 	done
 	cp "$work/plan" "$work/vm/plan"
-	RMD_BENCH_IN_VM=1 RMD_BENCH_WORK=$work/vm BUILD=$BUILD DURATION=$DURATION \
-		COUNTS_VB=$COUNTS_VB tests/vm/vm-run --vcan 4 --timeout 1800 -- "$0"
+	: >"$work/vm/rows"
+	: >"$work/vm/retries"
+	: >"$work/vm/blocking.log"
+	# vm-run passes BUILD and RMD_* on
+	RMD_BENCH_IN_VM=1 RMD_BENCH_WORK=$work/vm BUILD=$BUILD RMD_BENCH_DURATION=$DURATION \
+		RMD_BENCH_TRIES=$TRIES_VCAN RMD_BENCH_COUNTS="$COUNTS_VB" tests/vm/vm-run --vcan 4 --txqueuelen 64 --timeout 2400 -- "$0" ||
+		echo "vs-blocking: the vcan part failed (exit $?); its rows so far are kept"
 	cat "$work/vm/rows" >>"$work/rows"
+	cat "$work/vm/retries" >>"$work/retries"
 	cat "$work/vm/blocking.log" >>"$work/blocking.log" 2>/dev/null || true
 fi
 
@@ -189,7 +226,7 @@ txt=$OUT/vs-blocking.txt
 		r/blk r/thr
 	awk '$2 == "blocking" { b[$1, $3] = $6 ($7 != "0" ? "*" : "") }
 	$2 == "threads" { t[$1, $3] = $6 ($7 != "0" ? "*" : "") }
-	$2 == "rmdd" { k[++n] = $1 " " $3 " " $4; r[n] = $6; p[n] = $5 }
+	$2 == "rmdd" { k[++n] = $1 " " $3 " " $4; r[n] = $6; p[n] = $5; x[n] = ($9 != "0" ? "*" : " ") }
 	END {
 		for (i = 1; i <= n; i++) {
 			split(k[i], a, " ")
@@ -197,16 +234,19 @@ txt=$OUT/vs-blocking.txt
 			tt = (a[3] > 1 && (a[1], a[2]) in t) ? t[a[1], a[2]] : "-"
 			rb = (bb != "-" && bb > 0) ? sprintf("%.2f", r[i] / bb) : "-"
 			rt = (tt != "-" && tt > 0) ? sprintf("%.2f", r[i] / tt) : "-"
-			printf "%-9s %6d %5d %9s %9s %6.0f (%4d) %7s %7s\n", a[1], a[2], a[3], bb, tt, r[i], p[i], rb, rt
+			printf "%-9s %6d %5d %9s %9s %5.0f%s(%4d) %7s %7s\n", a[1], a[2], a[3], bb, tt, r[i], x[i], p[i], rb, rt
 		}
 	}' "$work/rows" | sort -k1,1 -k2n -k3n
 	echo "# blocking: one thread over every motor (the motors on 1 bus; on 4 buses it is the same"
 	echo "#   sequence); threads: one blocking thread a bus, on the row's buses, a barrier a cycle"
 	echo "# rmdd: cycles a second measured at the highest rate_hz with 0 missed replies and 0 plan"
 	echo "#   misses (in brackets; the planner's maximum unless a run missed); r/blk, r/thr: ratios"
-	echo "# *: the blocking driver missed replies (its 5 ms timeout) in that run"
+	echo "# *: replies were missed in that run (the blocking driver: its 5 ms timeout; rmdd: out of"
+	echo "#   TRIES runs, the last one's rate, missed replies + plan misses counted in the notes below)"
 	echo "# the blocking driver's runs:"
 	sed 's/^/#   /' "$work/blocking.log"
+	echo "# rmdd's runs that missed (each rate is run twice before it is lowered by 5 %):"
+	sed 's/^vs-blocking: /#   /' "$work/retries"
 } >"$txt"
 cp "$work/rows" "$OUT/vs-blocking.dat"
 cat "$txt"
@@ -219,15 +259,21 @@ series = (("blocking", False, "s--", "blocking driver, 1 thread"),
           ("rmdd", False, "o-", "rmdd, 1 bus"), ("rmdd", True, "D-", "rmdd, 4 buses (3 for 3)"))
 for ax, w in zip(axs[0], wires):
     for d, multi, st, label in series:
-        pts = sorted((int(r[2]), float(r[5])) for r in rows
+        # (motors, rate, missed): hollow markers for runs that missed replies
+        pts = sorted((int(r[2]), float(r[5]), (r[8] if d == "rmdd" else r[6]) != "0") for r in rows
                      if r[0] == w and r[1] == d and (int(r[3]) > 1) == multi)
         if pts:
-            ax.plot([n for n, _ in pts], [v for _, v in pts], st, label=label)
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], st, label=label)
+            bad = [p for p in pts if p[2]]
+            if bad:
+                ax.plot([p[0] for p in bad], [p[1] for p in bad], st[0], ms=11, mfc="none",
+                        color="red")
     ax.set_xticks(sorted({int(r[2]) for r in rows}))
     ax.set_xlabel("motors")
     ax.set_ylabel("full control cycles / s (0 missed replies)")
     ax.set_yscale("log")
-    ax.set_title({"sim": "in-process sim bus (1 Mbit/s wire model)", "socketcan": "rmd-sim over vcan"}[w])
+    ax.set_title({"sim": "in-process sim bus (1 Mbit/s wire model)",
+                  "socketcan": "rmd-sim over vcan"}[w] + "; red ring: replies missed", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
 PY
