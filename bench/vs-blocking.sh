@@ -219,10 +219,21 @@ if [ "$VCAN" = 1 ]; then
 fi
 
 txt=$OUT/vs-blocking.txt
+# the runs' own lines, kept beside the .dat for a re-plot (ROWS=)
+if [ -n "${ROWS:-}" ]; then
+	cat "${ROWS%.dat}.runs" >"$work/runs" 2>/dev/null || : >"$work/runs"
+else
+	{
+		echo "# the blocking driver's runs:"
+		sed 's/^/#   /' "$work/blocking.log"
+		echo "# rmdd's runs that missed (each rate is run twice before it is lowered by 5 %):"
+		sed 's/^vs-blocking: /#   /' "$work/retries"
+	} >"$work/runs"
+fi
 {
 	echo "# bench/vs-blocking.sh, $(date -u +%Y-%m-%d), $(git rev-parse --short HEAD), $(uname -r), ${DURATION} s a run"
 	echo "# full control cycles a second (every motor one 0x9C request and its reply), 0 missed replies"
-	printf "%-9s %6s %5s %9s %9s %12s %7s %7s\n", wire motors buses blocking threads "rmdd (rate)" \
+	printf "%-9s %6s %5s %9s %9s %12s %7s %7s\n" wire motors buses blocking threads "rmdd (rate)" \
 		r/blk r/thr
 	awk '$2 == "blocking" { b[$1, $3] = $6 ($7 != "0" ? "*" : "") }
 	$2 == "threads" { t[$1, $3] = $6 ($7 != "0" ? "*" : "") }
@@ -232,8 +243,10 @@ txt=$OUT/vs-blocking.txt
 			split(k[i], a, " ")
 			bb = ((a[1], a[2]) in b) ? b[a[1], a[2]] : "-"
 			tt = (a[3] > 1 && (a[1], a[2]) in t) ? t[a[1], a[2]] : "-"
-			rb = (bb != "-" && bb > 0) ? sprintf("%.2f", r[i] / bb) : "-"
-			rt = (tt != "-" && tt > 0) ? sprintf("%.2f", r[i] / tt) : "-"
+			# a ratio only where neither run missed replies
+			ok = x[i] == " "
+			rb = (ok && bb !~ /[-*]/ && bb > 0) ? sprintf("%.2f", r[i] / bb) : "-"
+			rt = (ok && tt !~ /[-*]/ && tt > 0) ? sprintf("%.2f", r[i] / tt) : "-"
 			printf "%-9s %6d %5d %9s %9s %5.0f%s(%4d) %7s %7s\n", a[1], a[2], a[3], bb, tt, r[i], x[i], p[i], rb, rt
 		}
 	}' "$work/rows" | sort -k1,1 -k2n -k3n
@@ -242,13 +255,11 @@ txt=$OUT/vs-blocking.txt
 	echo "# rmdd: cycles a second measured at the highest rate_hz with 0 missed replies and 0 plan"
 	echo "#   misses (in brackets; the planner's maximum unless a run missed); r/blk, r/thr: ratios"
 	echo "# *: replies were missed in that run (the blocking driver: its 5 ms timeout; rmdd: out of"
-	echo "#   TRIES runs, the last one's rate, missed replies + plan misses counted in the notes below)"
-	echo "# the blocking driver's runs:"
-	sed 's/^/#   /' "$work/blocking.log"
-	echo "# rmdd's runs that missed (each rate is run twice before it is lowered by 5 %):"
-	sed 's/^vs-blocking: /#   /' "$work/retries"
+	echo "#   TRIES runs, the last one's rate); no ratio then"
+	cat "$work/runs"
 } >"$txt"
 cp "$work/rows" "$OUT/vs-blocking.dat"
+cp "$work/runs" "$OUT/vs-blocking.runs"
 cat "$txt"
 bench_plot_png vs-blocking "$txt" "$OUT/vs-blocking.png" "$work/rows" <<'PY'
 rows = [l.split() for l in open(sys.argv[2]) if l.strip()]
