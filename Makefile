@@ -268,6 +268,14 @@ $(SOAK_WIRE): $(BUILD)/bench/soak_wire.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# bench/vs-blocking.sh's baseline: a sequential request/reply driver.
+BLOCKING_DRIVER := $(BUILD)/bench/blocking_driver
+all: $(BLOCKING_DRIVER)
+$(BUILD)/bench/blocking_driver.o: | $(GEN_HDRS)
+$(BLOCKING_DRIVER): $(BUILD)/bench/blocking_driver.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 # Suites include the harness as "harness/<name>.h".
 $(BUILD)/tests/%.o: override CFLAGS += -Itests
 

@@ -1,6 +1,7 @@
 #!/bin/sh
 # Acceptance run of issue 5: 12 motors on 4 simulated 1 Mbit/s buses at
-# 1 kHz (examples/sim-12.yaml), for 60 s at SCHED_FIFO; statistics on
+# 1 kHz (examples/sim-12.yaml), for 60 s at SCHED_FIFO (issue 11: also
+# 32 motors on 11 buses, SIM=32); statistics on
 # SIGUSR1 half-way and on SIGTERM at the end.  Passes when
 #   - rmdd ran at SCHED_FIFO (--require-rt) and exited 0 on SIGTERM,
 #   - both blocks of statistics were printed,
@@ -15,10 +16,12 @@
 #   bench/sim-60s.sh                    # needs root (or LimitRTPRIO/LimitMEMLOCK)
 #   DURATION=10 bench/sim-60s.sh        # a shorter run
 #   RMDD=build/dmn/rmdd LOG=/tmp/rmdd.log bench/sim-60s.sh
+#   SIM=32 bench/sim-60s.sh             # rmdd --sim 32: 32 V3 motors on 11 buses
 #
 # Environment: RMDD (default $BUILD/rmdd, BUILD default build), CONFIG
-# (examples/sim-12.yaml), DURATION (60 s), LCM_URL (memq://: no network
-# needed; give a udpm:// URL to publish for real), LOG (kept when given).
+# (examples/sim-12.yaml), SIM (N: `rmdd --sim N` instead of CONFIG),
+# DURATION (60 s), LCM_URL (memq://: no network needed; give a udpm:// URL
+# to publish for real), LOG (kept when given).
 set -u
 
 BUILD=${BUILD:-build}
@@ -39,11 +42,16 @@ fail() {
 }
 
 [ -x "$RMDD" ] || { echo "sim-60s: no $RMDD (make, or set RMDD)"; exit 2; }
-[ -r "$CONFIG" ] || { echo "sim-60s: no $CONFIG"; exit 2; }
+if [ -n "${SIM:-}" ]; then
+	set -- --sim "$SIM"
+else
+	[ -r "$CONFIG" ] || { echo "sim-60s: no $CONFIG"; exit 2; }
+	set -- --config "$CONFIG"
+fi
 
 status=0
-echo "sim-60s: $RMDD --config $CONFIG --require-rt --lcm-url $LCM_URL for $DURATION s"
-"$RMDD" --config "$CONFIG" --require-rt --lcm-url "$LCM_URL" 2>"$LOG" &
+echo "sim-60s: $RMDD $* --require-rt --lcm-url $LCM_URL for $DURATION s"
+"$RMDD" "$@" --require-rt --lcm-url "$LCM_URL" 2>"$LOG" &
 pid=$!
 
 # started?  (bring-up takes well under a second)
