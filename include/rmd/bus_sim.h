@@ -63,6 +63,7 @@ struct rmd_bus_sim_opts {
 	const struct rmd_sim_fault *faults; /* in sim time (see above); may be NULL */
 	unsigned n_faults;
 	const char *tap; /* wire tap: a file or FIFO (below); NULL: none */
+	unsigned burst;	 /* frames per cycle the TX queue must hold; 0: no check */
 };
 
 /*
@@ -71,6 +72,7 @@ struct rmd_bus_sim_opts {
  * motors of opts.  Returns 0, or -errno with a one-line message in err:
  *   -EINVAL  opts NULL, a motor id outside 1..32, a bad bitrate, queue
  *            length or fault entry
+ *   -ENOBUFS a TX queue shorter than burst (as SocketCAN's txqueuelen check)
  *   -EEXIST  two motors with one id
  *   -E2BIG   more than RMD_MAX_MOTORS motors or RMD_SIM_MAX_FAULTS faults
  *   -ENOMEM  out of memory

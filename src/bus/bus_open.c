@@ -98,6 +98,7 @@ static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.faults = sim->n_faults ? sim->faults : NULL,
 		.n_faults = sim->n_faults,
 		.tap = sim->tap[0] ? sim->tap : NULL,
+		.burst = ctx->burst,
 	};
 
 	for (unsigned i = 0; i < ctx->n_motors; i++)

@@ -291,6 +291,14 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 			goto err_fini;
 		}
 	}
+	/* the check a CAN interface's txqueuelen gets (bus_socketcan.c): a cycle's burst fits */
+	if (opts->burst && p->sim.txq_len < opts->burst) {
+		r = rmd_errf(err, errlen, -ENOBUFS,
+			     "%s: TX queue of %u frames cannot hold a %u-frame cycle: set its "
+			     "sim.txqueuelen to %u or more (up to %d)",
+			     name, p->sim.txq_len, opts->burst, opts->burst, RMD_SIM_WIRE_TXQ);
+		goto err_fini;
+	}
 	r = add_motors(p, name, opts, err, errlen);
 	if (r < 0)
 		goto err_fini;

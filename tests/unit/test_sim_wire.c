@@ -1016,6 +1016,27 @@ static void test_bus_sim_tap(void **state)
 	unlink(path);
 }
 
+/*
+ * A cycle's burst that the host TX queue cannot hold is refused at open,
+ * as SocketCAN's txqueuelen is (bench/vs-blocking found 12 requests a
+ * cycle on the default 10-frame queue planned "fits" and then missing).
+ */
+static void test_bus_sim_burst_needs_queue(void **state)
+{
+	const struct rmd_bus_sim_motor m = { .id = 1, .proto = RMD_PROTO_V3 };
+	struct rmd_bus_sim_opts o = { .motors = &m, .n_motors = 1, .txqueuelen = 10, .burst = 12 };
+	struct rmd_bus b;
+	char err[256];
+
+	(void)state;
+	assert_int_equal(rmd_bus_sim_open(&b, "s0", &o, err, sizeof(err)), -ENOBUFS);
+	assert_non_null(strstr(err, "s0: TX queue of 10 frames cannot hold a 12-frame cycle: "
+				    "set its sim.txqueuelen to 12 or more"));
+	o.txqueuelen = 12;
+	assert_int_equal(rmd_bus_sim_open(&b, "s0", &o, err, sizeof(err)), 0);
+	rmd_bus_close(&b);
+}
+
 int main(void)
 {
 	struct CMUnitTest tests[] = {
@@ -1040,6 +1061,7 @@ int main(void)
 		cmocka_unit_test(test_deterministic),
 		cmocka_unit_test(test_config_validation),
 		cmocka_unit_test(test_bus_sim_tap),
+		cmocka_unit_test(test_bus_sim_burst_needs_queue),
 	};
 
 	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
