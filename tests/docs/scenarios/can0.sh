@@ -14,7 +14,7 @@ wait_for sim.log 'ready' 30
 scan_until 3 rmdctl scan --bus can0
 rmdctl status 3 --bus can0 --json | tee status.json
 grep -q '"id":3' status.json
-rc=0; timeout -s INT 2 rmdctl monitor --bus can0 > monitor.out 2>&1 || rc=$?; ran_until_stopped $rc
+rc=0; timeout -k 10 -s INT 2 rmdctl monitor --bus can0 > monitor.out 2>&1 || rc=$?; ran_until_stopped $rc
 # the two that ask first, answered on a terminal (script gives them one)
 echo y | script -qec "rmdctl move 3 90 --speed 30 --bus can0" /dev/null > move.out; cat move.out
 echo y | script -qec "rmdctl set-timeout 3 100 --bus can0" /dev/null > timeout.out; cat timeout.out

@@ -1,5 +1,6 @@
 # where: host
 # home: empty
+# net: host (pip fetches from PyPI)
 # README.md, examples/README.md, python/README.md, docs/lcm.md: the Python
 # package into a venv, as Debian 12 wants it (PEP 668).
 python3 -m venv ~/rmd-venv

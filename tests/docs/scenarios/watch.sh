@@ -20,7 +20,7 @@ rmdd --config legs.yaml > rmdd.log 2>&1 &
 pid=$!
 wait_for rmdd.log 'running' 20
 
-rc=0; timeout -s INT 2 rmdctl top > top.out 2>&1 || rc=$?; ran_until_stopped $rc
+rc=0; timeout -k 10 -s INT 2 rmdctl top > top.out 2>&1 || rc=$?; ran_until_stopped $rc
 grep -q knee_l top.out
 rmdctl top --once > once.out
 grep -q hip_l once.out
@@ -38,7 +38,7 @@ EOY
 rmdd --config arm.yaml > arm.log 2>&1 &
 arm=$!
 wait_for arm.log 'running' 20
-rc=0; timeout -s INT 3 rmdctl top --lcm-url 'udpm://239.255.76.67:7667?ttl=1' --prefix ARM_ > arm.out 2>&1 || rc=$?
+rc=0; timeout -k 10 -s INT 3 rmdctl top --lcm-url 'udpm://239.255.76.67:7667?ttl=1' --prefix ARM_ > arm.out 2>&1 || rc=$?
 cat arm.out | head -5; ran_until_stopped $rc
 grep -q wrist arm.out
 stop $arm
@@ -58,7 +58,7 @@ png run1.png
 ~/rmd-venv/bin/rmd-plot --seconds 10 --field health.wake_max_us --field bus.load --out rt.png
 png rt.png
 if command -v xvfb-run > /dev/null; then
-	rc=0; timeout -s INT 10 xvfb-run -a ~/rmd-venv/bin/rmd-plot --field position --field velocity > live.out 2>&1 || rc=$?
+	rc=0; timeout -k 10 -s INT 10 xvfb-run -a ~/rmd-venv/bin/rmd-plot --field position --field velocity > live.out 2>&1 || rc=$?
 	cat live.out; ran_until_stopped $rc
 fi
 stop $pid
