@@ -200,4 +200,14 @@ void kid_wait_output(struct kid *k, const char *needle, int ms, service_fn *serv
 /* Wait for k to exit, at most ms (else fail); its status. */
 int kid_wait_exit(struct kid *k, int ms, service_fn *service);
 
+struct sleeper;
+
+/*
+ * kid_wait_exit(), with ms counted in the time the machine let a thread
+ * run (issue 10): the wait grows by what the reference sleeper ref (NULL:
+ * none) was held off meanwhile, so that a busy machine stretches it and an
+ * idle one keeps it.
+ */
+int kid_wait_exit_held(struct kid *k, int ms, service_fn *service, struct sleeper *ref);
+
 #endif /* RMD_TESTS_PROC_H */

@@ -37,6 +37,7 @@ static void *sleeper_main(void *arg)
 			atomic_store(&s->worst_ns, late);
 		if (late > atomic_load(&s->total_worst_ns))
 			atomic_store(&s->total_worst_ns, late);
+		atomic_fetch_add(&s->late_sum_ns, late);
 		atomic_fetch_add(&s->wakes, 1);
 		/* a wake-up later than a period: start again from now, no burst */
 		if (now - next > s->period_ns)
@@ -57,6 +58,7 @@ int sleeper_start(struct sleeper *s, int64_t period_ns, int fifo)
 	atomic_store(&s->worst_ns, 0);
 	atomic_store(&s->total_worst_ns, 0);
 	atomic_store(&s->wakes, 0);
+	atomic_store(&s->late_sum_ns, 0);
 	pthread_attr_init(&attr);
 	if (fifo > 0) {
 		struct sched_param sp = { .sched_priority = fifo };
@@ -84,11 +86,17 @@ void sleeper_mark(struct sleeper *s)
 {
 	atomic_store(&s->worst_ns, 0);
 	atomic_store(&s->wakes, 0);
+	atomic_store(&s->late_sum_ns, 0);
 }
 
 int64_t sleeper_worst_ns(struct sleeper *s)
 {
 	return atomic_load(&s->worst_ns);
+}
+
+int64_t sleeper_held_off_ns(struct sleeper *s)
+{
+	return atomic_load(&s->late_sum_ns);
 }
 
 void sleeper_stop(struct sleeper *s)

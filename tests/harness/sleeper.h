@@ -27,6 +27,7 @@ struct sleeper {
 	atomic_llong worst_ns;	     /* the worst lateness since sleeper_mark() */
 	atomic_llong wakes;	     /* wake-ups since sleeper_mark() */
 	atomic_llong total_worst_ns; /* the worst since the start */
+	atomic_llong late_sum_ns;    /* all its lateness since sleeper_mark() */
 };
 
 /*
@@ -41,6 +42,13 @@ void sleeper_mark(struct sleeper *s);
 
 /* The worst lateness since the last sleeper_mark(), ns (0 before a wake-up). */
 int64_t sleeper_worst_ns(struct sleeper *s);
+
+/*
+ * How long the machine held the sleeper off since the last sleeper_mark(),
+ * ns: the sum of its wake-ups' lateness -- the time a thread of its class
+ * could not run when it wanted to.
+ */
+int64_t sleeper_held_off_ns(struct sleeper *s);
 
 /* Stop and join the thread (nothing when not started). */
 void sleeper_stop(struct sleeper *s);

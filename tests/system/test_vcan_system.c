@@ -163,10 +163,12 @@
  * CPUs, shared with rmdd, candump and this test, do not starve it.
  */
 #define SIM_FIFO_PRIO 45
-#define MIN_RATE_FRACTION 0.8 /* requests per second per motor, of the loop rate */
-#define SETTLE_MS 300	      /* steady state before a measurement window */
-#define WINDOW_MS 1000	      /* the rate window */
+#define CANDUMP_FIFO_PRIO (SIM_FIFO_PRIO + 1) /* see candump_start() */
+#define MIN_RATE_FRACTION 0.8		      /* requests per second per motor, of the loop rate */
+#define SETTLE_MS 300			      /* steady state before a measurement window */
+#define WINDOW_MS 1000			      /* the rate window */
 #define RATE_WINDOWS 3
+#define MAX_PACE_WINDOWS 8 /* at MAX_PACE: windows tried for one without a stall */
 /*
  * The slower paces the rate test retries at, when the guest stalled rmdd's
  * loop for whole periods (see test_system_rate): every time of the
@@ -337,6 +339,65 @@ static double stall_ms(struct sleeper *s)
 static unsigned pace(void)
 {
 	return S.pace > 1 ? S.pace : 1;
+}
+
+/*
+ * Start the reference sleepers (once): at rmd-sim's priority, at the loop's
+ * (loop_prio), and at normal priority.
+ */
+static void sleepers_up(int loop_prio)
+{
+	if (S.sl_sim.started) {
+		if (S.sl_loop.fifo != loop_prio) { /* the configuration's, now that it is read */
+			sleeper_stop(&S.sl_loop);
+			if (sleeper_start(&S.sl_loop, SLEEPER_PERIOD_MS * NS_PER_MS, loop_prio) < 0)
+				fail_msg("cannot start the reference sleepers");
+		}
+		return;
+	}
+	if (sleeper_start(&S.sl_sim, SLEEPER_PERIOD_MS * NS_PER_MS, SIM_FIFO_PRIO) < 0 ||
+	    sleeper_start(&S.sl_loop, SLEEPER_PERIOD_MS * NS_PER_MS, loop_prio) < 0 ||
+	    sleeper_start(&S.sl_other, SLEEPER_PERIOD_MS * NS_PER_MS, 0) < 0)
+		fail_msg("cannot start the reference sleepers");
+}
+
+/* The worst delay since the mark at the loop's or at rmd-sim's priority, ms. */
+static double stall_rt_ms(void)
+{
+	double l = stall_ms(&S.sl_loop), m = stall_ms(&S.sl_sim);
+
+	return l > m ? l : m;
+}
+
+/*
+ * Why ENABLED motors may leave that state, since the sleepers' mark,
+ * without rmdd being wrong (issue 10): the guest held rmdd's loop or
+ * rmd-sim off for about the motors' comm-loss time (the motors' own 0xB3
+ * protection trips: the gap a motor hears is a period plus the stall), or
+ * held the controller, this test at normal priority, off for the command
+ * timeout (rmdd's watchdog trips rightly).  NULL when the sleepers saw
+ * neither, else the reason, for a "busy machine:" line.
+ */
+static const char *disable_explained(void)
+{
+	static char why[192];
+	double period_ms = 1000.0 / S.cfg.loop.rate_hz;
+
+	if (stall_rt_ms() + 2 * period_ms >= S.cfg.safety.comm_loss_ms) {
+		snprintf(why, sizeof(why),
+			 "the guest held the loop's or rmd-sim's priority off %.1f ms (comm-loss "
+			 "%u ms, period %.1f ms)",
+			 stall_rt_ms(), S.cfg.safety.comm_loss_ms, period_ms);
+		return why;
+	}
+	if (stall_ms(&S.sl_other) + CTL_PERIOD_MS >= S.cfg.safety.command_timeout_ms) {
+		snprintf(why, sizeof(why),
+			 "the guest held the controller (normal priority) off %.1f ms (command "
+			 "timeout %u ms)",
+			 stall_ms(&S.sl_other), S.cfg.safety.command_timeout_ms);
+		return why;
+	}
+	return NULL;
 }
 
 static const char *iface(unsigned b)
@@ -718,8 +779,12 @@ static void sync_log(void)
 		now = rmd_now_ns();
 		if (now > end)
 			fail_msg(
-				"candump's log %s did not show marker %u within %d ms; candump:\n%s",
-				S.logpath, (unsigned)want, SYNC_MS, kid_tail(S.candump));
+				"candump's log %s did not show marker %u within %d ms (candump %s; "
+				"the guest held a normal-priority thread off %.1f ms meanwhile); "
+				"candump:\n%s",
+				S.logpath, (unsigned)want, SYNC_MS,
+				kid_poll_exit(S.candump) ? "exited" : "running",
+				ms_of(sleeper_held_off_ns(&S.sl_other)), kid_tail(S.candump));
 		if (now >= resend) {
 			for (unsigned b = 0; b < S.nbus; b++)
 				if (S.marker_seen[b] < want)
@@ -738,6 +803,50 @@ static void run_tool(struct run *r, const char *const *argv)
 	run_free(r);
 	run_prog(r, argv[0], argv + 1,
 		 &(struct run_opts){ .limit_ms = TOOL_MS, .service = service });
+}
+
+/*
+ * run_tool() for a run that must succeed, argv holding "--timeout" MS (each
+ * try's wait for an answer).  rmd-sim answers at SIM_FIFO_PRIO in the
+ * guest, but the guest itself loses the host's CPUs on a busy host (issue
+ * 10): when the run fails while a reference sleeper at rmd-sim's or at
+ * normal priority (rmdctl's) was held off a try's time or more, the run is
+ * the machine's, and goes again with every try 2, 4, then MAX_PACE times
+ * longer, said on a "busy machine:" line.  A failure without such a stall
+ * is returned as it is.
+ */
+static void run_tool_ok(struct run *r, const char **argv)
+{
+	static char tmo[16];
+	unsigned slot = 0, base_ms = 0, p = 1;
+	const char *orig = NULL;
+
+	for (unsigned k = 1; argv[k]; k++)
+		if (!strcmp(argv[k - 1], "--timeout")) {
+			slot = k;
+			orig = argv[k];
+			base_ms = (unsigned)atoi(argv[k]);
+		}
+	for (;;) {
+		double stall;
+
+		sleepers_mark();
+		run_tool(r, argv);
+		stall = stall_ms(&S.sl_sim) > stall_ms(&S.sl_other) ? stall_ms(&S.sl_sim) :
+								      stall_ms(&S.sl_other);
+		if (r->status == 0 || !slot || p * 2 > MAX_PACE || stall < base_ms * p)
+			break;
+		p *= 2;
+		print_message(
+			"busy machine: %s %s failed (exit %d) while the guest held a thread at "
+			"rmd-sim's or normal priority off %.1f ms, past the %u ms a try "
+			"waits: again with --timeout %u\n",
+			argv[0], argv[1], r->status, stall, base_ms * p / 2, base_ms * p);
+		snprintf(tmo, sizeof(tmo), "%u", base_ms * p);
+		argv[slot] = tmo;
+	}
+	if (slot)
+		argv[slot] = orig; /* the next run starts at the caller's timeout again */
 }
 
 /* ---- environment -------------------------------------------------------------------- */
@@ -942,7 +1051,12 @@ static void candump_start(void)
 	for (unsigned b = 0; b < S.nbus; b++)
 		argv[a++] = iface(b);
 	argv[a] = NULL;
-	S.candump = kid_spawn("candump", argv, S.logpath, 0);
+	/*
+	 * candump is the test's instrument: above every thread of the system
+	 * under test, so that a busy guest, whose emulated CPUs the real-time
+	 * threads then fill, never starves it (it only reads and writes).
+	 */
+	S.candump = kid_spawn("candump", argv, S.logpath, CANDUMP_FIFO_PRIO);
 	S.log_fd = open(S.logpath, O_RDONLY | O_CLOEXEC);
 	if (S.log_fd < 0)
 		fail_msg("%s: %s", S.logpath, strerror(errno));
@@ -982,11 +1096,7 @@ static void system_begin(void)
 	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
 		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
 	write_config();
-	if (sleeper_start(&S.sl_sim, SLEEPER_PERIOD_MS * NS_PER_MS, SIM_FIFO_PRIO) < 0 ||
-	    sleeper_start(&S.sl_loop, SLEEPER_PERIOD_MS * NS_PER_MS, (int)S.cfg.loop.rt_priority) <
-		    0 ||
-	    sleeper_start(&S.sl_other, SLEEPER_PERIOD_MS * NS_PER_MS, 0) < 0)
-		fail_msg("cannot start the reference sleepers");
+	sleepers_up((int)S.cfg.loop.rt_priority);
 	sims_start();
 	candump_start();
 	lcm_start();
@@ -1185,7 +1295,7 @@ static double enable_all(void)
 			      1000.0 / S.cfg.loop.rate_hz, pace() * 2);
 		controller(false, false);
 		kill(S.rmdd_kid->pid, SIGTERM);
-		st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
+		st = kid_wait_exit_held(S.rmdd_kid, EXIT_MS, service, &S.sl_other);
 		if (st != 0)
 			fail_msg("rmdd: exit status %d after SIGTERM; its output:\n%s", st,
 				 kid_tail(S.rmdd_kid));
@@ -1404,18 +1514,20 @@ static void test_rmdctl_scan_move(void **state)
 	static struct run r;
 	char line[1024], model[16];
 	struct kid *sim;
-	double base_ms, angle;
+	double base_ms, angle, held_ms;
 
 	(void)state;
 	if (!S.have_can)
 		skip();
 	need_exec(S.rmdsim);
 	need_exec(S.rmdctl);
-	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, 0);
+	sleepers_up(SIM_FIFO_PRIO - 5);
+	/* the motors are the hardware: they answer whatever the guest's load (SIM_FIFO_PRIO) */
+	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, SIM_FIFO_PRIO);
 	kid_wait_output(sim, ": ready", READY_MS, service);
 
 	/* scan: exactly the simulated motors, with their models and dates */
-	run_tool(&r, scan);
+	run_tool_ok(&r, scan);
 	if (r.status != 0)
 		fail_msg("rmdctl scan --bus vcan0: exit %d\n%s%s", r.status, r.out, r.err);
 	for (unsigned k = 0; k < 3; k++) {
@@ -1443,11 +1555,13 @@ static void test_rmdctl_scan_move(void **state)
 	print_message("scan vcan1 (no motors): exit 1 in %.0f ms: %s", ms_of(r.took_ns), r.err);
 
 	/* a silent motor: "did not answer", exit 1, within the stated timeout */
-	run_tool(&r, st1);
+	run_tool_ok(&r, st1);
 	if (r.status != 0)
 		fail_msg("rmdctl status 1: exit %d\n%s%s", r.status, r.out, r.err);
 	base_ms = ms_of(r.took_ns);
+	sleepers_mark();
 	run_tool(&r, st9);
+	held_ms = ms_of(sleeper_held_off_ns(&S.sl_other));
 	if (r.status != 1 || !strstr(r.err, "motor 9 did not answer"))
 		fail_msg("rmdctl status 9 (nobody simulates it): exit %d, expected 1 with "
 			 "\"motor 9 did not answer\"; stderr:\n%s",
@@ -1463,23 +1577,33 @@ static void test_rmdctl_scan_move(void **state)
 		      "status (stated: 3 requests x %.0f tries x %.0f ms = %.0f ms): %s",
 		      ms_of(r.took_ns), ms_of(r.took_ns) - base_ms, tries, try_ms,
 		      3 * tries * try_ms, r.err);
-	if (ms_of(r.took_ns) > 3 * tries * try_ms + EXEC_SLACK_MS)
-		fail_msg("rmdctl status 9 took %.0f ms: more than %.0f ms + %d ms to start",
-			 ms_of(r.took_ns), 3 * tries * try_ms, EXEC_SLACK_MS);
+	/*
+	 * rmdctl runs at normal priority: on top of its stated time and the
+	 * start, the time the guest held such a thread off meanwhile (the
+	 * normal-priority sleeper's summed lateness, issue 10).
+	 */
+	if (ms_of(r.took_ns) > 3 * tries * try_ms + EXEC_SLACK_MS + held_ms)
+		fail_msg("rmdctl status 9 took %.0f ms: more than %.0f ms + %d ms to start + "
+			 "%.1f ms the guest held a normal-priority thread off",
+			 ms_of(r.took_ns), 3 * tries * try_ms, EXEC_SLACK_MS, held_ms);
+	if (held_ms > 100)
+		print_message("busy machine: the guest held a normal-priority thread off %.1f ms "
+			      "during rmdctl status 9\n",
+			      held_ms);
 
 	/* move motor 2 to 10 degrees; status shows it there, and the others stayed */
-	run_tool(&r, move);
+	run_tool_ok(&r, move);
 	if (r.status != 0)
 		fail_msg("rmdctl move 2 10: exit %d\n%s%s", r.status, r.out, r.err);
 	print_message("move: %s", r.out);
-	run_tool(&r, st2);
+	run_tool_ok(&r, st2);
 	if (r.status != 0 || !json_line(r.out, 0, line, sizeof(line)))
 		fail_msg("rmdctl status 2: exit %d\n%s%s", r.status, r.out, r.err);
 	angle = json_num(line, "angle_deg");
 	print_message("status 2 after the move: angle %.2f deg (%s)\n", angle, line);
 	if (fabs(angle - 10.0) > 0.5)
 		fail_msg("motor 2 at %.2f deg after rmdctl move 2 10", angle);
-	run_tool(&r, st1);
+	run_tool_ok(&r, st1);
 	if (r.status != 0 || !json_line(r.out, 0, line, sizeof(line)))
 		fail_msg("rmdctl status 1: exit %d\n%s%s", r.status, r.out, r.err);
 	if (fabs(json_num(line, "angle_deg")) > 0.5)
@@ -1618,7 +1742,7 @@ static void rmdd_restart_at(unsigned pace)
 	controller(false, false);
 	if (rmdd_running()) {
 		kill(S.rmdd_kid->pid, SIGTERM);
-		st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
+		st = kid_wait_exit_held(S.rmdd_kid, EXIT_MS, service, &S.sl_other);
 		if (st != 0)
 			fail_msg("rmdd: exit status %d after SIGTERM; its output:\n%s", st,
 				 kid_tail(S.rmdd_kid));
@@ -1665,7 +1789,7 @@ static bool judge_window(struct window *w, double *want)
 static void test_system_rate(void **state)
 {
 	struct window w;
-	unsigned k, stalled;
+	unsigned k, stalled, windows;
 	double rate, want = 0;
 
 	(void)state;
@@ -1690,11 +1814,26 @@ static void test_system_rate(void **state)
 	 * while the sleepers never waited a period is rmdd's fault.
 	 */
 	for (;;) {
+		windows = pace() * 2 > MAX_PACE ? MAX_PACE_WINDOWS : RATE_WINDOWS;
 		rate = S.cfg.loop.rate_hz;
 		stalled = 0;
-		for (k = 0; k < RATE_WINDOWS; k++) {
+		for (k = 0; k < windows; k++) {
 			bool st;
 
+			/*
+			 * A stall in the last window may have cost the motors their
+			 * ENABLED state (comm-loss trips, a starved controller): then
+			 * they are enabled again first -- only when the sleepers
+			 * explain it; otherwise the window judges what rmdd did.
+			 */
+			if (k > 0 && !all_lc(RMD_STATE_T_LC_ENABLED) && disable_explained()) {
+				print_message(
+					"busy machine: motors left ENABLED (%s) since the last "
+					"window: %s; enabling them again\n",
+					lc_list(), disable_explained());
+				enable_all();
+				run_for(SETTLE_MS * (int)pace());
+			}
 			rate_window(&w);
 			st = judge_window(&w, &want);
 			if (!w.per_cycle_err[0])
@@ -1703,19 +1842,29 @@ static void test_system_rate(void **state)
 			print_message("  window %u: %s%s\n", k + 1, w.per_cycle_err,
 				      st ? " (the guest stalled for a period or more)" : "");
 		}
-		if (k < RATE_WINDOWS)
+		if (k < windows)
 			break;
-		if (!stalled)
-			fail_msg("no window of %u passed, and the guest never stalled a thread at "
-				 "the loop's or rmd-sim's priority for a period; the last: %s; "
-				 "rmdd:\n%s",
-				 RATE_WINDOWS, w.per_cycle_err, kid_tail(S.rmdd_kid));
-		if (pace() * 2 > MAX_PACE)
-			fail_msg("busy machine: no window of %u passed even at %.0f Hz (every time "
-				 "%u times the file's), the guest stalling the loop's priority for "
-				 "%.1f ms; the last: %s; rmdd:\n%s",
-				 RATE_WINDOWS, rate, pace(), w.stall_loop_ms, w.per_cycle_err,
-				 kid_tail(S.rmdd_kid));
+		if (!stalled || (pace() * 2 > MAX_PACE && stalled < windows))
+			fail_msg(
+				"no window of %u passed, and in %u of them the guest never stalled "
+				"a thread at the loop's or rmd-sim's priority for a period; the "
+				"last: %s; rmdd:\n%s",
+				windows, windows - stalled, w.per_cycle_err, kid_tail(S.rmdd_kid));
+		if (pace() * 2 > MAX_PACE) {
+			/*
+			 * Even the slowest pace found the guest stalled in every
+			 * window: nothing here can tell rmdd's rate.  Said so; a
+			 * window without a stall that fails still fails above.
+			 */
+			print_message(
+				"busy machine: no window of %u passed even at %.0f Hz (every "
+				"time %u times the file's), and the guest stalled the loop's "
+				"or rmd-sim's priority for a period or more in every one (the "
+				"last: %.1f ms): the rate cannot be judged on this machine "
+				"now; the last: %s\n",
+				windows, rate, pace(), w.stall_loop_ms, w.per_cycle_err);
+			break;
+		}
 		print_message("busy machine: no window of %u passed at %.0f Hz, and the guest "
 			      "stalled threads at the loop's priority for up to %.1f ms, at "
 			      "rmd-sim's for %.1f ms (the period is %.1f ms): it cannot support "
@@ -1728,11 +1877,13 @@ static void test_system_rate(void **state)
 		rmdd_restart_at(pace() * 2);
 		run_for(SETTLE_MS * (int)pace());
 	}
-	print_message("rate: window %u at %.0f Hz: every motor got one request per cycle rmdd "
-		      "ran (%.1f Hz); setpoints per motor %.0f .. %.0f per second = %.1f .. "
-		      "%.1f%% of %.0f Hz (at least %.0f/s required)\n",
-		      k + 1, rate, w.loop_hz, w.worst_sp, w.max_sp, 100.0 * w.worst_sp / rate,
-		      100.0 * w.max_sp / rate, rate, want);
+	if (k < windows)
+		print_message(
+			"rate: window %u at %.0f Hz: every motor got one request per cycle rmdd "
+			"ran (%.1f Hz); setpoints per motor %.0f .. %.0f per second = %.1f .. "
+			"%.1f%% of %.0f Hz (at least %.0f/s required)\n",
+			k + 1, rate, w.loop_hz, w.worst_sp, w.max_sp, 100.0 * w.worst_sp / rate,
+			100.0 * w.max_sp / rate, rate, want);
 	print_message("candump: %u unparsed lines, %u DROPCOUNT lines%s%s\n", S.bad_lines,
 		      S.drop_lines, S.drop_lines ? ": " : "", S.drop_text);
 
@@ -1740,11 +1891,23 @@ static void test_system_rate(void **state)
 	kill(S.rmdd_kid->pid, SIGUSR1);
 	kid_wait_output(S.rmdd_kid, "statistics (SIGUSR1)", EXIT_MS, service);
 	{
+		/*
+		 * A new state_t within 200 ms (2 periods at the slowest pace) of
+		 * the time the guest let a normal-priority thread run -- this
+		 * listener, rmdd's bridge -- not of the wall clock (issue 10).
+		 */
 		uint64_t n = S.n_state;
+		int64_t t0 = rmd_now_ns(), held0 = sleeper_held_off_ns(&S.sl_other);
+		int64_t wait_ns = 200 * NS_PER_MS * (int64_t)pace(), held = 0;
 
-		run_for(200);
+		while (rmdd_running() && S.n_state == n &&
+		       rmd_now_ns() - t0 - (held = sleeper_held_off_ns(&S.sl_other) - held0) <
+			       wait_ns)
+			service(10);
 		if (!rmdd_running() || S.n_state == n)
-			fail_msg("rmdd stopped after SIGUSR1; its output:\n%s",
+			fail_msg("rmdd stopped after SIGUSR1 (%s; no state_t for %.0f ms + %.1f ms "
+				 "the guest held a normal-priority thread off); its output:\n%s",
+				 rmdd_running() ? "running" : "exited", ms_of(wait_ns), ms_of(held),
 				 kid_tail(S.rmdd_kid));
 	}
 	print_message("SIGUSR1: statistics printed, rmdd keeps running\n");
@@ -1779,6 +1942,45 @@ static const struct cframe *first_of_last_setpoint(unsigned i, int64_t t_end)
 	return first;
 }
 
+#define WD_TRIES 3 /* test_system_watchdog's tries on a busy machine */
+
+/*
+ * The controller went quiet and the guest stalled past a protection
+ * timeout (test_system_watchdog): every motor must be SAFE (the
+ * watchdog's safe action) or have stopped by its own comm-loss protection
+ * (its 0xF1 in candump's log since t_mark), and no setpoint reached a
+ * motor after its 0xF1 or safe action.
+ */
+static void watchdog_outcome_accepted(int64_t t_mark, uint8_t sc)
+{
+	unsigned by_sa = 0, by_f1 = 0;
+
+	sync_log();
+	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
+		const struct rmd_config_motor *m = &S.cfg.motors[i];
+		const struct cframe *f1 = first_frame(0, m->bus, rep_id(i), 0xF1, t_mark, T_END);
+		const struct cframe *sa = first_frame(0, m->bus, req_id(i), sc, t_mark, T_END);
+		const struct cframe *stop = f1 && (!sa || f1->t_ns < sa->t_ns) ? f1 : sa;
+		unsigned after;
+
+		if (!stop)
+			fail_msg(
+				"%s motor %u: neither the safe action 0x%02X nor its own 0xF1 after "
+				"the controller went quiet (lifecycles %s); its frames:\n%s",
+				iface(m->bus), m->id, sc, lc_list(), motor_frames(i, t_mark));
+		after = count_frames(0, m->bus, req_id(i), control_cmd(m->mode), stop->t_ns, T_END);
+		if (after)
+			fail_msg("%s motor %u: %u setpoints after its %s", iface(m->bus), m->id,
+				 after, stop == f1 ? "0xF1" : "safe action");
+		by_f1 += stop == f1;
+		by_sa += stop != f1;
+	}
+	print_message("busy machine: after %u tries the outcome is accepted as the stall "
+		      "explains it: %u motor(s) stopped by the watchdog's 0x%02X, %u by their own "
+		      "comm-loss protection (0xF1); no setpoint after either\n",
+		      WD_TRIES, by_sa, sc, by_f1);
+}
+
 static void test_system_watchdog(void **state)
 {
 	double limit_ms, pub_limit_ms, period_ms, wake_ms, send_ms, hop_ms;
@@ -1790,26 +1992,67 @@ static void test_system_watchdog(void **state)
 	(void)state;
 	system_begin();
 	sc = safe_cmd(S.cfg.safety.safe_action);
-	period_ms = 1000.0 / S.cfg.loop.rate_hz;
-	rmdd_up_and_enabled();
-	sync_log();
-	log_forget();	 /* keep what runs up to the event: the last frames before it count */
-	sleepers_mark(); /* the guest's delays from the last command's hop on */
-	run_for(SETTLE_MS * (int)pace());
+	/*
+	 * On a busy machine the guest may stall rmdd's loop or rmd-sim longer
+	 * than the motors' comm-loss time while the controller is quiet: the
+	 * motors' own 0xB3 protection then trips first (0xF1), rmdd takes them
+	 * as lost, and its watchdog has no enabled motor left to act on -- a
+	 * different outcome, and a right one.  It counts as the machine's only
+	 * when the reference sleepers measured such a stall (disable_explained(),
+	 * also for a controller held off past the command timeout): the step
+	 * then runs again at a slower pace (WD_TRIES in all), said on a "busy
+	 * machine:" line; after the last try that outcome is accepted, checked
+	 * for what it must be (each motor either SAFE or stopped by its own
+	 * 0xF1, no setpoint after it).  Without such a stall it fails as ever.
+	 */
+	for (unsigned tries = 1;; tries++) {
+		const char *why;
+		int64_t t_mark;
 
-	/* "kill" the controller: no command after this one */
-	h0 = S.h;
-	controller(false, true);
-	t_last = S.last_pub_real;
-	end = rmd_now_ns() + 3 * NS_PER_S * (int64_t)pace();
-	while (S.h.watchdog != RMD_HEALTH_T_WD_TRIPPED || !all_lc(RMD_STATE_T_LC_SAFE)) {
-		if (rmd_now_ns() > end)
+		rmdd_up_and_enabled();
+		period_ms = 1000.0 / S.cfg.loop.rate_hz; /* the enable may have slowed the pace */
+		sync_log();
+		log_forget(); /* keep what runs up to the event: the last frames before it count */
+		sleepers_mark(); /* the guest's delays from the last command's hop on */
+		t_mark = real_ns();
+		run_for(SETTLE_MS * (int)pace());
+
+		/* "kill" the controller: no command after this one */
+		h0 = S.h;
+		controller(false, true);
+		t_last = S.last_pub_real;
+		end = rmd_now_ns() + 3 * NS_PER_S * (int64_t)pace();
+		while (S.h.watchdog != RMD_HEALTH_T_WD_TRIPPED || !all_lc(RMD_STATE_T_LC_SAFE)) {
+			if (rmd_now_ns() > end)
+				break;
+			service(10);
+		}
+		if (S.h.watchdog == RMD_HEALTH_T_WD_TRIPPED && all_lc(RMD_STATE_T_LC_SAFE))
+			break;
+		why = disable_explained();
+		if (!why)
 			fail_msg(
 				"controller quiet for %u s: health_t watchdog %d (expected TRIPPED "
 				"%d), lifecycles %s; rmdd:\n%s",
 				3 * pace(), S.h.watchdog, RMD_HEALTH_T_WD_TRIPPED, lc_list(),
 				kid_tail(S.rmdd_kid));
-		service(10);
+		print_message("busy machine: controller quiet for %u s: health_t watchdog %d, "
+			      "lifecycles %s, not the watchdog's safe action on every motor: %s\n",
+			      3 * pace(), S.h.watchdog, lc_list(), why);
+		if (tries == WD_TRIES) {
+			watchdog_outcome_accepted(t_mark, sc);
+			return;
+		}
+		if (pace() * 2 <= MAX_PACE) {
+			print_message(
+				"busy machine: again at a slower pace: every time of the "
+				"configuration %u times the file's; the later tests run at it "
+				"too\n",
+				pace() * 2);
+			rmdd_restart_at(pace() * 2);
+		} else {
+			print_message("busy machine: again\n");
+		}
 	}
 	sync_log();
 	/*
@@ -1942,7 +2185,7 @@ static void test_system_sigterm(void **state)
 	t_term = real_ns();
 	t0 = rmd_now_ns();
 	kill(S.rmdd_kid->pid, SIGTERM); /* the controller keeps publishing meanwhile */
-	st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
+	st = kid_wait_exit_held(S.rmdd_kid, EXIT_MS, service, &S.sl_other);
 	exit_ms = ms_of(rmd_now_ns() - t0);
 	controller(false, false);
 	if (st != 0)
@@ -2052,7 +2295,7 @@ static bool tripped_again(unsigned i, int64_t t, const char *when)
 static void test_system_kill9(void **state)
 {
 	double loss, max_ms = 0, min_ms = 1e9, stall, limit;
-	int64_t t_kill, end;
+	int64_t t_kill, end, held0;
 	bool all;
 	int st;
 	static struct run r;
@@ -2060,20 +2303,25 @@ static void test_system_kill9(void **state)
 
 	(void)state;
 	system_begin();
-	loss = S.cfg.safety.comm_loss_ms;
 	rmdd_up_and_enabled();
+	/* after the enable: on a busy machine it may have slowed the pace (enable_all()) */
+	loss = S.cfg.safety.comm_loss_ms;
 	sync_log();
 	log_forget(); /* keep what runs up to the event: the last frames before it count */
 	sleepers_mark();
 	run_for(SETTLE_MS * (int)pace());
 	t_kill = real_ns();
 	kill(S.rmdd_kid->pid, SIGKILL);
-	st = kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
+	st = kid_wait_exit_held(S.rmdd_kid, EXIT_MS, service, &S.sl_other);
 	controller(false, false);
 	assert_int_equal(st, 128 + SIGKILL);
 
-	/* every motor's 0xF1 (comm-loss protection tripped) */
+	/*
+	 * every motor's 0xF1 (comm-loss protection tripped), waiting loss + 3 s
+	 * of the time the guest let rmd-sim's priority run
+	 */
 	end = rmd_now_ns() + (int64_t)(loss + 3000) * NS_PER_MS;
+	held0 = sleeper_held_off_ns(&S.sl_sim);
 	do {
 		all = true;
 		run_for(50);
@@ -2083,21 +2331,31 @@ static void test_system_kill9(void **state)
 
 			all &= trip_frame(i, &last) != NULL;
 		}
-		if (!all && rmd_now_ns() > end)
-			fail_msg("kill -9 rmdd: not every motor sent 0xF1 within %.0f ms",
-				 loss + 3000);
+		if (!all && rmd_now_ns() - (sleeper_held_off_ns(&S.sl_sim) - held0) > end)
+			fail_msg("kill -9 rmdd: not every motor sent 0xF1 within %.0f ms (+ %.1f "
+				 "ms the guest held rmd-sim's priority off)",
+				 loss + 3000, ms_of(sleeper_held_off_ns(&S.sl_sim) - held0));
 	} while (!all);
 	/*
 	 * The guest's own delay: rmd-sim's timer and reads run at SIM_FIFO_PRIO,
-	 * and a sleeper at that priority measured how late the guest let such a
-	 * thread run between the last frames and the trips.
+	 * and a sleeper at that priority measured how long the guest held such
+	 * a thread off since before the last frames: the sum of its lateness,
+	 * as a motor's timer is late by every stall between its last frame and
+	 * its trip, not by the worst alone (measured: stalls of 1.35 s and
+	 * 0.6 s in one such interval on a loaded host).
 	 */
-	stall = stall_ms(&S.sl_sim);
+	stall = ms_of(sleeper_held_off_ns(&S.sl_sim));
+	if (stall < stall_ms(&S.sl_sim))
+		stall = stall_ms(&S.sl_sim);
 	limit = loss + COMM_SLACK_MS + stall;
 	print_message("kill -9 rmdd: each motor's 0xF1 after the last frame it heard (limit "
-		      "comm_loss %.0f ms + %d ms + the guest's worst delay at rmd-sim's priority "
+		      "comm_loss %.0f ms + %d ms + the time the guest held rmd-sim's priority off "
 		      "%.1f ms = %.1f ms):\n",
 		      loss, COMM_SLACK_MS, stall, limit);
+	if (stall > COMM_SLACK_MS)
+		print_message("busy machine: the guest held rmd-sim's priority off %.1f ms "
+			      "around the kill\n",
+			      stall);
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
 		const struct rmd_config_motor *m = &S.cfg.motors[i];
 		const struct cframe *last;
@@ -2305,7 +2563,7 @@ static void test_system_comm_loss(void **state)
 	assert_string_equal(S.cfg.motors[c2].name, "c2");
 	if (rmdd_running()) {
 		kill(S.rmdd_kid->pid, SIGTERM);
-		kid_wait_exit(S.rmdd_kid, EXIT_MS, service);
+		kid_wait_exit_held(S.rmdd_kid, EXIT_MS, service, &S.sl_other);
 	}
 	controller(false, false);
 	kid_free(S.sims[b]);
@@ -2360,7 +2618,8 @@ static void test_system_comm_loss(void **state)
 	/* kill -9: c2 stops by itself */
 	t_kill = real_ns();
 	kill(S.rmdd_kid->pid, SIGKILL);
-	assert_int_equal(kid_wait_exit(S.rmdd_kid, EXIT_MS, service), 128 + SIGKILL);
+	assert_int_equal(kid_wait_exit_held(S.rmdd_kid, EXIT_MS, service, &S.sl_other),
+			 128 + SIGKILL);
 	controller(false, false);
 	end = rmd_now_ns() + (int64_t)(S.cfg.safety.comm_loss_ms + 3000) * NS_PER_MS;
 	do {

@@ -47,6 +47,7 @@
 #include "rmd/state.h"
 
 #include "harness/sleeper.h"
+#include "harness/thread_sched.h"
 
 #define NMOTORS 12
 #define NMIT 4 /* motors 0..3 may run MIT, the others not */
@@ -793,8 +794,10 @@ static void test_flood(void **state)
 	pthread_t th;
 	clockid_t cpu_clock;
 	struct timespec cpu;
-	int64_t t, t0, lag, seq = 1, bad = 0, stall;
+	int64_t t, t0, lag, seq = 1, bad = 0, stall, held_ns = 0;
 	struct sleeper ref = { 0 };
+	struct thread_sched sched0;
+	pid_t bridge_tid;
 
 	start(f);
 	/*
@@ -805,6 +808,10 @@ static void test_flood(void **state)
 	assert_int_equal(sleeper_start(&ref, 1000000, 0), 0);
 	prctl(PR_SET_TIMERSLACK,
 	      1UL); /* 50 us steps: the default 50 us slack would halve the rate */
+	/* the kernel's account of the bridge thread itself: how long it waited for a CPU */
+	WAIT_UNTIL(f, (bridge_tid = thread_find(getpid(), "rmd-bridge")) > 0, 2000);
+	if (bridge_tid < 0 || thread_sched_read(getpid(), bridge_tid, &sched0) < 0)
+		bridge_tid = -1;
 	assert_int_equal(pthread_create(&th, NULL, fake_rt_main, &rt), 0);
 	t0 = t = rmd_now_ns();
 	for (int i = 0; i < n; i++) {
@@ -829,6 +836,8 @@ static void test_flood(void **state)
 	t = rmd_now_ns();
 	stall = sleeper_worst_ns(&ref);
 	sleeper_stop(&ref);
+	if (bridge_tid > 0)
+		held_ns = thread_wait_since(getpid(), bridge_tid, &sched0);
 	print_message("flood: %d messages in %.3f s\n", n, (t - t0) / 1e9);
 	WAIT_UNTIL(f, stats(f).accepted + stats(f).rejected == (uint64_t)n,
 		   flood_kept_pace(t - t0) ? 5000 : 1000);
@@ -868,9 +877,22 @@ static void test_flood(void **state)
 		 * snapshot the bridge did not look at within its 1 ms is replaced.
 		 * 80-98% went out on the 2-CPU build VM, which this test loads
 		 * itself (the flood) and which deschedules threads for
-		 * milliseconds: demand half.
+		 * milliseconds: demand half.  Of the snapshots, that is, that the
+		 * bridge could have seen: one put while the machine kept the
+		 * bridge thread waiting for a CPU (the kernel's count, issue 10)
+		 * is replaced before it runs -- at most one a millisecond of that
+		 * wait.  A bridge that stops publishing under a flood still
+		 * fails: it gets the CPU (its wait is small) and publishes none.
 		 */
-		assert_true(st.states_published * 2 >= rt.puts);
+		print_message("flood: the bridge thread waited %.1f ms for a CPU (the kernel's "
+			      "count%s): at least half of %llu - %.0f snapshots must go out\n",
+			      held_ns / 1e6, bridge_tid > 0 ? "" : ": not readable, taken as 0",
+			      (unsigned long long)rt.puts, (double)(held_ns / 1000000));
+		if (held_ns > 50000000)
+			print_message("flood: busy machine: the bridge thread waited %.1f ms for a "
+				      "CPU during the flood\n",
+				      held_ns / 1e6);
+		assert_true(st.states_published * 2 + (uint64_t)(held_ns / 1000000) >= rt.puts);
 	} else {
 		/*
 		 * The sender itself could not keep 20 kHz (sanitizers, a loaded
