@@ -32,11 +32,15 @@ run() {
 	misses=$(sed -n 's/.*plan misses \([0-9]*\).*/\1/p' "$log" | tail -n 1)
 	over=$(sed -n 's/.*loop: overruns \([0-9]*\).*/\1/p' "$log" | tail -n 1)
 	cyc=$(bench_cycles "$log")
+	# bus load: the busiest bus's measured load over the run and the plan's worst cycle
+	sed -n 's/.*  bus [^ ]* (.*): load [0-9]*% (last window), \([0-9]*\)% (run); plan \([0-9]*\)% worst.*/\1 \2/p' "$log" |
+		awk -v l="$2" -v n="$3" '{ if ($1 > r) r = $1; if ($2 > w) w = $2 } END { print l, n, r + 0, w + 0 }' >>"$work/load"
 	echo "$2 $3 $t0 $t1 $misses $over $cyc" | awk -v hz="$hz" -v d="$DURATION" \
 		'{ printf "%s %s %.1f %.1f %s %s %s\n", $1, $2, 100 * ($5 - $3) / hz / d, 100 * ($6 - $4) / hz / d, $7, $8, $9 }' >>"$work/rows"
 }
 
 : >"$work/rows"
+: >"$work/load"
 if [ "$BASE" != none ]; then
 	bdir=$(bench_base build/rmdd)
 	for n in $COUNTS; do run "$bdir/build" base "$n"; done
@@ -73,6 +77,22 @@ ax.set_xlabel("motors (rmdd --sim N, 1 kHz)")
 ax.set_ylabel("% of one CPU")
 ax.set_ylim(bottom=0)
 ax.set_title("rmdd loop thread CPU vs motors")
+ax.grid(True, alpha=0.3)
+ax.legend()
+PY
+
+# The bus-load figure: the busiest bus's load, measured over the run and as planned.
+cp "$work/load" "$OUT/scale-bus-load.dat"
+bench_plot_png scale "$txt" "$OUT/scale-bus-load.png" "$work/load" <<'PY'
+rows = [l.split() for l in open(sys.argv[2]) if l.strip()]
+fig, ax = plt.subplots(figsize=(6, 4))
+r = sorted((int(x[1]), float(x[2]), float(x[3])) for x in rows if x[0] == "this")
+ax.plot([n for n, _, _ in r], [m for _, m, _ in r], "o-", label="measured over the run (health_t)")
+ax.plot([n for n, _, _ in r], [w for _, _, w in r], "s--", label="planned worst cycle (--check-config)")
+ax.set_xlabel("motors (rmdd --sim N, 1 kHz, 3 a bus)")
+ax.set_ylabel("busiest bus's load, % of 1 Mbit/s")
+ax.set_ylim(0, 100)
+ax.set_title("bus load vs motors")
 ax.grid(True, alpha=0.3)
 ax.legend()
 PY
