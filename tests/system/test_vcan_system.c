@@ -2798,7 +2798,7 @@ static void test_system_two_controllers(void **state)
 			 " rejected (owner) %" PRId64 "; want owner a0a, intruder b0b",
 			 S.h.owned, S.h.owner, S.h.intruder, S.h.rejected_owner);
 	kid_wait_output(S.rmdd_kid,
-			"<4>rmdd: rejected RMD_COMMAND: controller 0000000000000b0b: the motors "
+			"rmdd: rejected RMD_COMMAND: controller 0000000000000b0b: the motors "
 			"are owned by controller 0000000000000a0a",
 			TOOL_MS, service);
 	print_message("two controllers: %" PRId64 " of the intruder's commands rejected, the "
@@ -2809,7 +2809,7 @@ static void test_system_two_controllers(void **state)
 	/* B takes over, as a supervisor does: logged, and B's setpoints alone from then on */
 	S.intruder_takeover = true;
 	kid_wait_output(S.rmdd_kid,
-			"<4>rmdd: RMD_COMMAND: controller 0000000000000b0b takes the motors over "
+			"rmdd: RMD_COMMAND: controller 0000000000000b0b takes the motors over "
 			"from controller 0000000000000a0a",
 			TOOL_MS, service);
 	if (!wait_health(owned_by_b, 2000 * (int)pace()))
