@@ -52,3 +52,25 @@ scan_until() {
 	done
 	return 1
 }
+
+# tty_answer REGEX ANSWER COMMAND: run COMMAND (one string) on a terminal
+# (script(1) gives it a pty), wait until its output matches REGEX (its
+# question), then type ANSWER; its output stays in tty.out.  Bounded: a
+# question that never comes, or a command that never ends, fails.
+tty_answer() {
+	rm -f tty.in tty.out
+	mkfifo tty.in
+	timeout -k 5 120 script -qec "$3" /dev/null < tty.in > tty.out 2>&1 &
+	tp=$!
+	exec 7> tty.in
+	if ! wait_for tty.out "$1" 60; then
+		exec 7>&-
+		kill $tp 2>/dev/null
+		return 1
+	fi
+	echo "$2" >&7
+	if wait $tp; then rc=0; else rc=$?; fi
+	exec 7>&-
+	cat tty.out
+	[ $rc -eq 0 ] || { echo "\`$3\` exited $rc"; return 1; }
+}

@@ -548,12 +548,19 @@ int rmdctl_top_run(int argc, char **argv)
 			 "LCM: cannot open %s (docs/lcm.md: a robot PC without a network)", t.url);
 		return RMDCTL_EXIT_DATA;
 	}
-	rmd_state_t_subscribe(t.lcm, t.ch_state, on_state, &t);
-	rmd_health_t_subscribe(t.lcm, t.ch_health, on_health, &t);
-	rmd_config_t_subscribe(t.lcm, t.ch_config, on_config, &t);
+	/* the generated subscriptions are the caller's to free (lcm-gen's C) */
+	rmd_state_t_subscription_t *s_state =
+		rmd_state_t_subscribe(t.lcm, t.ch_state, on_state, &t);
+	rmd_health_t_subscription_t *s_health =
+		rmd_health_t_subscribe(t.lcm, t.ch_health, on_health, &t);
+	rmd_config_t_subscription_t *s_config =
+		rmd_config_t_subscribe(t.lcm, t.ch_config, on_config, &t);
 	r = run(&t);
 	if (r == -EIO)
 		tool_log(TOOL_LOG_ERR, "LCM: receiving on %s failed", t.url);
+	rmd_state_t_unsubscribe(t.lcm, s_state);
+	rmd_health_t_unsubscribe(t.lcm, s_health);
+	rmd_config_t_unsubscribe(t.lcm, s_config);
 	lcm_destroy(t.lcm);
 	if (t.cfg)
 		rmd_config_t_destroy(t.cfg);
