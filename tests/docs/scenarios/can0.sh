@@ -13,7 +13,7 @@ sim=$!
 wait_for sim.log 'ready' 30
 scan_until 3 rmdctl scan --bus can0
 rmdctl status 3 --bus can0 --json | tee status.json
-grep -q '"id":3' status.json
+grep -q '"motor_id":3' status.json
 rc=0; timeout -k 10 -s INT 2 rmdctl monitor --bus can0 > monitor.out 2>&1 || rc=$?; ran_until_stopped $rc
 # the two that ask first, answered on a terminal (script gives them one)
 tty_answer '\[y/N\]' y "rmdctl move 3 90 --speed 30 --bus can0"
