@@ -822,6 +822,15 @@ static void test_publish_to_frame_latency(void **state)
 		 */
 		margin = MARGIN_RT_NS;
 		allowance = dj.p99 > tw_p99 ? dj.p99 : tw_p99;
+#ifdef __SANITIZE_ADDRESS__
+		/*
+		 * A sanitizer build (SANITIZE=1) checks memory, not latency: its
+		 * instrumented decode and hand-over run several times slower than
+		 * the probe, so the stall it meets counts on each of the three
+		 * threads, as at normal priority.
+		 */
+		allowance = 3 * allowance;
+#endif
 		print_message(
 			"strict bound: p99 <= period + 100 us = %lld us: p99 is %.0f us: %s\n",
 			(long long)((period + margin) / NS_PER_US), dl.p99 / 1e3,
