@@ -334,7 +334,7 @@ static void test_overrun_burst_goes_to_the_state_directory(void **state)
 	snprintf(state_dir, sizeof(state_dir), "%s/state", dir);
 	snprintf(inc, sizeof(inc), "%s/incidents", state_dir);
 	snprintf(keys, sizeof(keys),
-		 "incidents: {seconds_before: 0.5, seconds_after: 0.2, overrun_burst: 50}\n"
+		 "incidents: {seconds_before: 0.5, seconds_after: 0.2, overrun_burst: 75}\n"
 		 "buses: [{name: sim0, type: sim, sim: {seed: 3}}]\n");
 	/* systemd's StateDirectory=rmdd sets it; no incidents.dir: recordings go under it */
 	setenv("STATE_DIRECTORY", state_dir, 1);
@@ -357,7 +357,7 @@ static void test_overrun_burst_goes_to_the_state_directory(void **state)
 	at = event_at(ev, n, "rt loop: overrun, ", true, summary);
 	assert_true(ev[at].t_s == 0.0);
 	assert_int_equal(sscanf(strstr(ev[at].text, "overrun, "), "overrun, %ld", &skipped), 1);
-	assert_true(skipped >= 50);
+	assert_true(skipped >= 75);
 	free(summary);
 	/* the periods the stall skipped have no cycle */
 	summary = check_recording(path, 0.5, 0.2, skipped / 1000.0);
