@@ -58,11 +58,14 @@ scan_until() {
 # question), then type ANSWER; its output stays in tty.out.  Bounded: a
 # question that never comes, or a command that never ends, fails.
 tty_answer() {
-	rm -f tty.in tty.out
-	mkfifo tty.in
-	timeout -k 5 120 script -qec "$3" /dev/null < tty.in > tty.out 2>&1 &
+	rm -f tty.out
+	# the FIFO on a tmpfs: the guest's 9p /tmp cannot hold one
+	fifo=$(mktemp -u /dev/shm/rmd-tty.XXXXXX)
+	mkfifo "$fifo"
+	timeout -k 5 120 script -qec "$3" /dev/null < "$fifo" > tty.out 2>&1 &
 	tp=$!
-	exec 7> tty.in
+	exec 7> "$fifo"
+	rm -f "$fifo"
 	if ! wait_for tty.out "$1" 60; then
 		exec 7>&-
 		kill $tp 2>/dev/null
