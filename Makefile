@@ -27,7 +27,12 @@ SYSCONFDIR ?= /etc
 DESTDIR ?=
 # The version: `git describe` of the newest v* tag (v0.2.0 is the first
 # release); a tree without git or tags says 0.2.0+unknown.
-RMD_VERSION := $(shell v=$$(git describe --tags --match 'v[0-9]*' --dirty 2>/dev/null) && echo $${v#v} || echo 0.2.0+unknown)
+# git runs in the Makefile's own checkout (a tree of symlinks to it, as the
+# docs test makes, describes the same commit); make deb passes its version.
+RMD_TOP := $(dir $(realpath $(firstword $(MAKEFILE_LIST))))
+ifndef RMD_VERSION
+RMD_VERSION := $(shell v=$$(git -C '$(RMD_TOP)' describe --tags --match 'v[0-9]*' --dirty 2>/dev/null) && echo $${v#v} || echo 0.2.0+unknown)
+endif
 
 CC ?= cc
 CLANG_FORMAT ?= clang-format
