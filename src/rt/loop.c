@@ -667,11 +667,8 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	 * statistics then count every frame sent, the final stops included,
 	 * and the states say READY.
 	 */
-	loop_fill_snapshot(l, now);
-	loop_fill_health(l, now);
-	loop_pub_write(l);
-	if (l->o.health)
-		rmd_latest_put(l->o.health, &l->health);
+	l->next_health_cycle = l->cycle; /* a health now, whatever its period */
+	publish(l, now);
 }
 
 /* ------------------------------------------------------------------ */
