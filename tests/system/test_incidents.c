@@ -13,7 +13,9 @@
  *     burst; with no incidents.dir the recording goes to
  *     $STATE_DIRECTORY/incidents, as under systemd's StateDirectory=;
  *   - incidents.keep bounds the recordings: the oldest are removed, other
- *     files in the folder are not.
+ *     files in the folder are not;
+ *   - a motor lost amid overruns (SIGSTOP every 200 ms) names the
+ *     recording that takes it in: "-lost", not "-overrun".
  * The watchdog, safe actions and an intruding controller need an LCM
  * controller: tests/system/test_lcm_system.c.  Every wait has a deadline;
  * RMD_TEST_FILTER=name runs one test.
@@ -165,7 +167,7 @@ static char *slurp(const char *path)
 
 /* One line of the summary's "What happened" list. */
 struct ev {
-	double t_s; /* from the first trigger */
+	double t_s; /* from the trigger named in What: */
 	bool trigger;
 	char text[200];
 };
@@ -423,6 +425,81 @@ static void test_keep_bounds_the_recordings(void **state)
 	assert_int_equal(access(other, F_OK), 0);
 }
 
+/*
+ * A motor lost while the machine keeps overrunning: the overruns' recording
+ * takes the loss in (it comes within their tail), and is named after the
+ * loss, not filed as one more overrun.
+ */
+static void test_lost_amid_overruns_named_lost(void **state)
+{
+	char dir[512], inc[600], keys[1024], names[64][DIR_NAME_MAX];
+	struct timespec stall = { .tv_sec = 0, .tv_nsec = 30 * 1000000 };
+	struct timespec between = { .tv_sec = 0, .tv_nsec = 170 * 1000000 };
+	struct kid *k;
+	unsigned n, lost = 0, folded = 0;
+
+	(void)state;
+	test_dir(dir, sizeof(dir), "amid");
+	snprintf(inc, sizeof(inc), "%s/incidents", dir);
+	fault_keys(keys, sizeof(keys), inc,
+		   "seconds_before: 0.3, seconds_after: 2, overrun_burst: 20", 7,
+		   "        - {kind: disappear, motor: 3, start_s: 3, end_s: 300, param: 1}\n");
+	k = start(dir, keys);
+	/* stalls every 200 ms (shorter than the comm-loss time) until the loss is recorded */
+	for (int ms = 0; !strstr(k->out, "-lost: sim0: motor 3 (c): ready -> lost"); ms += 200) {
+		if (ms > INCIDENT_MS)
+			fail_msg("no -lost recording in %d ms:\n%s", ms, kid_tail(k));
+		assert_int_equal(kill(k->pid, SIGSTOP), 0);
+		nanosleep(&stall, NULL);
+		assert_int_equal(kill(k->pid, SIGCONT), 0);
+		nanosleep(&between, NULL);
+		kid_read(k);
+	}
+	stop(k);
+
+	/* whichever recording holds the loss as a trigger is named after it */
+	n = recordings(inc, names, 64);
+	for (unsigned i = 0; i < n; i++) {
+		char p[1024], *summary;
+		struct ev ev[64];
+		double before, own_from;
+		unsigned m;
+
+		snprintf(p, sizeof(p), "%s/%.300s/summary.txt", inc, names[i]);
+		summary = slurp(p);
+		m = summary_events(summary, ev, 64);
+		/*
+		 * Its own triggers come from seconds_before past the window's start on;
+		 * before that, a trigger was an earlier recording's (its tail read it).
+		 */
+		assert_non_null(strstr(summary, "Window:  "));
+		assert_int_equal(sscanf(strstr(summary, "Window:  "), "Window: %lf", &before), 1);
+		own_from = 0.3 - before - 1e-6;
+		for (unsigned j = 0; j < m; j++) {
+			if (!ev[j].trigger || ev[j].t_s < own_from ||
+			    !strstr(ev[j].text, "motor 3 (c): ready -> lost"))
+				continue;
+			if (!strstr(names[i], "-lost"))
+				fail_msg("%s holds the loss but is named as if it did not:\n%s",
+					 names[i], summary);
+			assert_has(summary, "What:    sim0: motor 3 (c): ready -> lost", p);
+			assert_true(ev[j].t_s == 0.0);
+			lost++;
+			/* an overrun before it, in the same recording: the fold happened */
+			for (unsigned e = 0; e < j; e++)
+				folded += ev[e].trigger && ev[e].t_s >= own_from &&
+					  strstr(ev[e].text, "overrun") != NULL;
+		}
+		free(summary);
+	}
+	assert_int_equal(lost, 1);
+	if (folded)
+		assert_has(k->out, "-lost: sim0: motor 3 (c): ready -> lost, and ", "rmdd's log");
+	print_message("%u recordings; the loss %s\n", n,
+		      folded ? "came inside an overrun's tail and named its recording" :
+			       "fell between two overrun recordings (nothing to fold this run)");
+}
+
 static int group_setup(void **state)
 {
 	(void)state;
@@ -453,6 +530,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_lost_fault_and_bus_off_recorded, teardown),
 		cmocka_unit_test_teardown(test_overrun_burst_goes_to_the_state_directory, teardown),
 		cmocka_unit_test_teardown(test_keep_bounds_the_recordings, teardown),
+		cmocka_unit_test_teardown(test_lost_amid_overruns_named_lost, teardown),
 	};
 
 	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));

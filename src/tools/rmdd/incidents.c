@@ -486,7 +486,7 @@ static void write_summary(FILE *f, struct out *o)
 			"");
 	fprintf(f, "Config:  %s, %u Hz, %u motor(s) on %u bus(es)\n", cfg->source,
 		cfg->loop.rate_hz, cfg->n_motors, cfg->n_buses);
-	fprintf(f, "\nWhat happened, in order (seconds from the first trigger; * a trigger):\n");
+	fprintf(f, "\nWhat happened, in order (seconds from When; * a trigger):\n");
 	n = items ? merge_items(in, trig, n_trig, items, cap) : 0;
 	for (size_t k = 0; k < n; k++) {
 		/* one page: the triggers always, the other events while there is room */
@@ -543,6 +543,35 @@ static int make_dir(const char *dir, int64_t wall_ns, const char *kind, char *na
 	return -EEXIST;
 }
 
+/*
+ * The trigger a recording is named after goes first: the first that is not an overrun.  A
+ * loaded machine can overrun again and again; a motor lost in the middle of that must not be
+ * filed under "overrun".  The others keep their order.
+ */
+static void lead_trigger(struct rmdd_trigger *trig, unsigned n)
+{
+	struct rmdd_trigger lead;
+	unsigned k = 0;
+
+	while (k < n && !strcmp(trig[k].kind, "overrun"))
+		k++;
+	if (k == 0 || k == n)
+		return;
+	lead = trig[k];
+	memmove(&trig[1], &trig[0], k * sizeof(trig[0]));
+	trig[0] = lead;
+}
+
+static int64_t first_trigger_ns(const struct rmdd_trigger *trig, unsigned n)
+{
+	int64_t t = trig[0].t_ns;
+
+	for (unsigned k = 1; k < n; k++)
+		if (trig[k].t_ns < t)
+			t = trig[k].t_ns;
+	return t;
+}
+
 /* Copy the window out of the ring and write it.  Writer thread. */
 static void record(struct rmdd_incidents *in, const struct rmdd_trigger *trig, unsigned n_trig,
 		   int64_t read_ns)
@@ -563,7 +592,8 @@ static void record(struct rmdd_incidents *in, const struct rmdd_trigger *trig, u
 		.name = name,
 		.trig = trig,
 		.n_trig = n_trig,
-		.from_ns = trig[0].t_ns - (int64_t)(cfg->incidents.seconds_before * 1e9),
+		.from_ns = first_trigger_ns(trig, n_trig) -
+			   (int64_t)(cfg->incidents.seconds_before * 1e9),
 		.read_ns = read_ns,
 		.off_ns = wall_offset_ns(),
 	};
@@ -592,8 +622,14 @@ static void record(struct rmdd_incidents *in, const struct rmdd_trigger *trig, u
 		return;
 	}
 	in->written++;
-	tool_log(5, "incident recorded in %s: %s (summary.txt says what happened)", path,
-		 trig[0].what);
+	if (n_trig > 1)
+		tool_log(5,
+			 "incident recorded in %s: %s, and %u more trigger(s) (summary.txt says "
+			 "what happened)",
+			 path, trig[0].what, n_trig - 1);
+	else
+		tool_log(5, "incident recorded in %s: %s (summary.txt says what happened)", path,
+			 trig[0].what);
 	keep_bound(in->dir, cfg->incidents.keep);
 }
 
@@ -625,6 +661,7 @@ static void *writer_main(void *arg)
 		}
 		n = in->n_trig;
 		memcpy(trig, in->trig, n * sizeof(trig[0]));
+		lead_trigger(trig, n);
 		in->n_trig = 0;
 		read_ns = rmd_now_ns();
 		/* what happened up to now is in this recording */
