@@ -55,7 +55,15 @@ struct rmd_mit_reply {
 };
 
 /*
- * True when every pair has finite min < max with a finite span, and the
+ * The largest magnitude of any range bound.  Beyond it min + u * span / top
+ * and (x - min) * top overflow a double (fuzz_mit's F1); no firmware range
+ * comes near it.  The one copy of the rule: rmdd's and rmd-sim's YAML and
+ * rmdctl's --mit-ranges all refuse bounds past it through here.
+ */
+#define RMD_MIT_RANGE_LIMIT 1e6
+
+/*
+ * True when every pair has min < max, both within +-RMD_MIT_RANGE_LIMIT, and the
  * gains cannot go negative (kp_min >= 0, kd_min >= 0: a negative gain is a
  * destabilising command no firmware range needs).
  */
@@ -77,7 +85,8 @@ int rmd_mit_ranges_validate(const struct rmd_mit_ranges *r, struct rmd_mit_valid
 /*
  * Ranges from their maxima "P,V,T,KP,KD" (e.g. "12.5,45,24,500,5", V3
  * §5.1): position, velocity and torque symmetric, kp and kd from 0; each a
- * finite number > 0.  Returns 0 or -EINVAL (r untouched on error).
+ * number > 0 and at most RMD_MIT_RANGE_LIMIT.  Returns 0 or -EINVAL (r
+ * untouched on error).
  */
 int rmd_mit_ranges_parse(const char *maxima, struct rmd_mit_ranges *r);
 

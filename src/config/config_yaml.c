@@ -222,17 +222,19 @@ static const struct field limits_fields[] = {
 #undef L
 
 #define R struct rmd_mit_ranges
-static const struct field mit_fields[] = { DBL("p_min", R, p_min, -1e6, 1e6, 0),
-					   DBL("p_max", R, p_max, -1e6, 1e6, 0),
-					   DBL("v_min", R, v_min, -1e6, 1e6, 0),
-					   DBL("v_max", R, v_max, -1e6, 1e6, 0),
-					   DBL("t_min", R, t_min, -1e6, 1e6, 0),
-					   DBL("t_max", R, t_max, -1e6, 1e6, 0),
-					   DBL("kp_min", R, kp_min, 0, 1e6, 0),
-					   DBL("kp_max", R, kp_max, 0, 1e6, 0),
-					   DBL("kd_min", R, kd_min, 0, 1e6, 0),
-					   DBL("kd_max", R, kd_max, 0, 1e6, 0),
-					   END };
+static const struct field mit_fields[] = {
+	DBL("p_min", R, p_min, -RMD_MIT_RANGE_LIMIT, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("p_max", R, p_max, -RMD_MIT_RANGE_LIMIT, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("v_min", R, v_min, -RMD_MIT_RANGE_LIMIT, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("v_max", R, v_max, -RMD_MIT_RANGE_LIMIT, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("t_min", R, t_min, -RMD_MIT_RANGE_LIMIT, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("t_max", R, t_max, -RMD_MIT_RANGE_LIMIT, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("kp_min", R, kp_min, 0, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("kp_max", R, kp_max, 0, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("kd_min", R, kd_min, 0, RMD_MIT_RANGE_LIMIT, 0),
+	DBL("kd_max", R, kd_max, 0, RMD_MIT_RANGE_LIMIT, 0),
+	END
+};
 #undef R
 
 #define FB struct rmd_config_feedback

@@ -44,7 +44,8 @@ const struct rmd_mit_ranges rmd_mit_default_ranges = {
 
 static bool range_ok(double min, double max)
 {
-	return isfinite(min) && isfinite(max) && min < max && isfinite(max - min);
+	/* !(a <= b) also refuses NaN */
+	return min >= -RMD_MIT_RANGE_LIMIT && max <= RMD_MIT_RANGE_LIMIT && min < max;
 }
 
 static bool bits_ok(unsigned bits)
@@ -281,6 +282,7 @@ static int unpack_reply(const struct rmd_mit_ranges *r, const struct rmd_frame *
 
 int rmd_mit_ranges_parse(const char *s, struct rmd_mit_ranges *r)
 {
+	struct rmd_mit_ranges out;
 	double m[5];
 	const char *p = s;
 
@@ -298,7 +300,7 @@ int rmd_mit_ranges_parse(const char *s, struct rmd_mit_ranges *r)
 			return -EINVAL;
 		p += n + (i < 4);
 	}
-	*r = (struct rmd_mit_ranges){
+	out = (struct rmd_mit_ranges){
 		.p_min = -m[0],
 		.p_max = m[0],
 		.v_min = -m[1],
@@ -310,5 +312,8 @@ int rmd_mit_ranges_parse(const char *s, struct rmd_mit_ranges *r)
 		.kd_min = 0,
 		.kd_max = m[4],
 	};
-	return rmd_mit_ranges_valid(r) ? 0 : -EINVAL;
+	if (!rmd_mit_ranges_valid(&out))
+		return -EINVAL;
+	*r = out;
+	return 0;
 }

@@ -64,20 +64,6 @@ static void check_reply(const struct rmd_mit_ranges *r, const struct rmd_frame *
 	}
 }
 
-/*
- * A valid range whose span times 2^16 - 1 is not a finite double: code u
- * decodes to min + u * span / top, which overflows to infinity.
- */
-static bool span_overflows(const struct rmd_mit_ranges *r)
-{
-	const double lim = DBL_MAX / 65536;
-
-	return rmd_mit_ranges_valid(r) &&
-	       (r->p_max - r->p_min > lim || r->v_max - r->v_min > lim ||
-		r->t_max - r->t_min > lim || r->kp_max - r->kp_min > lim ||
-		r->kd_max - r->kd_min > lim);
-}
-
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
 	struct fuzz_in in = { data, size };
@@ -98,7 +84,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	if (sel & 1) {
 		fuzz_take(&in, &fr, sizeof(fr));
 		r = &fr;
-		FUZZ_KNOWN(span_overflows(r), "F1: rmd_mit_from_uint() overflows to infinity");
 	}
 	check_cmd(r, &f);
 	check_reply(r, &f);

@@ -255,6 +255,12 @@ static void test_decode_mit_ranges(void **state)
 	RUN(&r, "", "decode", "--mit-ranges", "1,2,3,4,-5");
 	assert_int_equal(r.status, 2);
 	run_free(&r);
+	/* F1 (fuzz_mit): a range this wide decoded positions to infinity ("null") */
+	RUN(&r, "501#01FFFE8008000000\n", "decode", "--protocol", "mit", "--mit-ranges",
+	    "1e305,45,24,500,5");
+	assert_int_equal(r.status, 2);
+	assert_has(r.err, "each at most 1e+06", "rmdctl decode --mit-ranges 1e305,...");
+	run_free(&r);
 }
 
 static void test_decode_v2_and_direction(void **state)

@@ -476,6 +476,26 @@ static void test_ranges_valid(void **state)
 	wide.p_min = -DBL_MAX;
 	wide.p_max = DBL_MAX;
 	assert_false(rmd_mit_ranges_valid(&wide));
+	/*
+	 * F1 (fuzz_mit): a finite span whose product with the top code is not
+	 * (1e305 * 65535 overflows) decoded every code but 0 and the top to
+	 * infinity.  Bounds beyond RMD_MIT_RANGE_LIMIT are refused; at it, every
+	 * code decodes to a finite value inside the range.
+	 */
+	wide = rmd_mit_default_ranges;
+	wide.p_min = -1e305;
+	wide.p_max = 1e305;
+	assert_false(rmd_mit_ranges_valid(&wide));
+	wide.p_min = -RMD_MIT_RANGE_LIMIT;
+	wide.p_max = RMD_MIT_RANGE_LIMIT;
+	assert_true(rmd_mit_ranges_valid(&wide));
+	for (uint32_t u = 0; u <= 0xFFFF; u += 0x1111) {
+		double x = rmd_mit_from_uint(u, wide.p_min, wide.p_max, 16);
+
+		assert_true(isfinite(x) && x >= wide.p_min && x <= wide.p_max);
+	}
+	wide.p_max = nextafter(RMD_MIT_RANGE_LIMIT, INFINITY);
+	assert_false(rmd_mit_ranges_valid(&wide));
 }
 
 struct bad_frame_vec {
@@ -718,7 +738,8 @@ static void test_ranges_parse(void **state)
 					   "12.5,45,24,500,5 ",
 					   "nan,45,24,500,5",
 					   "inf,45,24,500,5",
-					   "1e999,45,24,500,5" };
+					   "1e999,45,24,500,5",
+					   "1e305,45,24,500,5" /* F1 */ };
 	struct rmd_mit_ranges r = { 0 }, before;
 
 	(void)state;

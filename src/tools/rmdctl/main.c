@@ -197,10 +197,10 @@ int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t 
 			break;
 		case 'm':
 			if (rmd_mit_ranges_parse(optarg, ranges) < 0) {
-				tool_log(
-					TOOL_LOG_ERR,
-					"bad --mit-ranges \"%s\" (five positive numbers P,V,T,KP,KD)",
-					optarg);
+				tool_log(TOOL_LOG_ERR,
+					 "bad --mit-ranges \"%s\" (five positive numbers "
+					 "P,V,T,KP,KD, each at most %g)",
+					 optarg, RMD_MIT_RANGE_LIMIT);
 				goto usage;
 			}
 			break;
