@@ -48,7 +48,10 @@ MOTORS = [
     ("mit_a", "b1", 1, "mit", "mit", "%s, %s" % (limits((-2, 2), 10, 8), MIT_RANGES)),
     ("mit_b", "b1", 2, "mit", "mit", "direction: -1, zero_offset_rad: 0.2, %s, %s"
      % (limits((-1.5, 1.5), 6, 6), MIT_RANGES)),
-    ("v2_pos", "b2", 1, "v2", "position", "%s, %s" % (KT, limits((-2.5, 2.5), 5))),
+    # the V2 manual has no comm-loss command (0xB3): rmdd drives a V2 motor only
+    # when its entry turns the protection off
+    ("v2_pos", "b2", 1, "v2", "position", "%s, comm_loss_ms: 0, %s"
+     % (KT, limits((-2.5, 2.5), 5))),
     ("v3_pos", "b2", 2, "v3", "position", "%s, direction: -1, zero_offset_rad: 0.3, %s"
      % (KT, limits((-2, 2.5), 6))),
 ]

@@ -827,8 +827,12 @@ static void test_publish_to_frame_latency(void **state)
 		 * A sanitizer build (SANITIZE=1) checks memory, not latency: its
 		 * instrumented decode and hand-over run several times slower than
 		 * the probe, so the stall it meets counts on each of the three
-		 * threads, as at normal priority.
+		 * threads, as at normal priority.  And its instrumented cycle can
+		 * itself run past the tick on a busy machine: the loop's own
+		 * wake-up p99, measured in the run, is noise the frame meets too.
 		 */
+		if (ls.wake_p99_ns > allowance)
+			allowance = ls.wake_p99_ns;
 		allowance = 3 * allowance;
 #endif
 		print_message(
@@ -836,8 +840,13 @@ static void test_publish_to_frame_latency(void **state)
 			(long long)((period + margin) / NS_PER_US), dl.p99 / 1e3,
 			dl.p99 <= period + margin ? "held" : "NOT held on this machine");
 		print_message("judged bound: period + 100 us + max(the probe's p99 (%.0f us), "
-			      "its time-weighted p99 (%.0f us)) = %lld us\n",
+			      "its time-weighted p99 (%.0f us)%s) = %lld us\n",
 			      dj.p99 / 1e3, tw_p99 / 1e3,
+#ifdef __SANITIZE_ADDRESS__
+			      ", the loop's wake-up p99; x 3 under the sanitizer",
+#else
+			      "",
+#endif
 			      (long long)((period + margin + allowance) / NS_PER_US));
 		if (dl.p99 > period + margin + dj.p99)
 			print_message(
