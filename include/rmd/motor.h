@@ -121,6 +121,8 @@ struct rmd_motor_row {
 struct rmd_motor_status2 {
 	uint8_t cmds[32];
 	const struct rmd_field_spec *temp, *current, *speed, *angle, *encoder;
+	/* their readings, worked out once (rmd_field_rd_init()) */
+	struct rmd_field_rd temp_rd, current_rd, speed_rd, angle_rd, encoder_rd;
 };
 
 /*

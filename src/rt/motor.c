@@ -115,6 +115,14 @@ static bool layout_equal(const struct rmd_layout *a, const struct rmd_layout *b)
 	return true;
 }
 
+/* fs's reading (struct rmd_field_rd), or zeros when fs is NULL.  Non-rt. */
+static void rd_of(const struct rmd_field_spec *fs, struct rmd_field_rd *rd)
+{
+	memset(rd, 0, sizeof(*rd));
+	if (fs)
+		rmd_field_rd_init(fs, rd);
+}
+
 /* Resolve the status 2 reply of the motor's table (struct rmd_motor_status2).  Non-rt. */
 static void status2_resolve(struct rmd_motor *m)
 {
@@ -139,6 +147,11 @@ static void status2_resolve(struct rmd_motor *m)
 	s->speed = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_SPEED);
 	s->angle = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_ANGLE);
 	s->encoder = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_ENCODER);
+	rd_of(s->temp, &s->temp_rd);
+	rd_of(s->current, &s->current_rd);
+	rd_of(s->speed, &s->speed_rd);
+	rd_of(s->angle, &s->angle_rd);
+	rd_of(s->encoder, &s->encoder_rd);
 	/* a layout with other fields, or one field twice, takes the general way */
 	if ((s->temp != NULL) + (s->current != NULL) + (s->speed != NULL) + (s->angle != NULL) +
 		    (s->encoder != NULL) !=
@@ -604,10 +617,10 @@ static void take_position(struct rmd_motor *m, bool have_angle, double angle_deg
 	}
 }
 
-/* Field fs of data in its native unit.  rt-safe. */
-static double native_of(const struct rmd_field_spec *fs, const uint8_t *data)
+/* The field rd reads of data, in its native unit.  rt-safe. */
+static inline double native_of(const struct rmd_field_rd *rd, const uint8_t *data)
 {
-	return (double)rmd_field_read(fs, data) * (fs->scale > 0.0 ? fs->scale : 1.0);
+	return (double)rmd_field_rd_raw(rd, data) * rd->scale;
 }
 
 /*
@@ -620,16 +633,16 @@ static void status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct 
 	const struct rmd_motor_status2 *s = &m->st2;
 
 	if (s->temp) {
-		r->temp_c = native_of(s->temp, f->data);
+		r->temp_c = native_of(&s->temp_rd, f->data);
 		r->have |= RMD_MOTOR_HAVE_TEMP;
 	}
 	if (s->current)
-		take_current(m, native_of(s->current, f->data), r);
+		take_current(m, native_of(&s->current_rd, f->data), r);
 	if (s->speed)
-		take_speed(m, native_of(s->speed, f->data), r);
-	take_position(m, s->angle, s->angle ? native_of(s->angle, f->data) : 0, s->encoder,
-		      s->encoder ? (uint16_t)rmd_field_read(s->encoder, f->data) : 0, f->data[0],
-		      r);
+		take_speed(m, native_of(&s->speed_rd, f->data), r);
+	take_position(m, s->angle, s->angle ? native_of(&s->angle_rd, f->data) : 0, s->encoder,
+		      s->encoder ? (uint16_t)rmd_field_rd_raw(&s->encoder_rd, f->data) : 0,
+		      f->data[0], r);
 }
 
 /*
