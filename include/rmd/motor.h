@@ -332,6 +332,15 @@ void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, 
 		    struct rmd_motor_state *st);
 
 /*
+ * rmd_motor_decode() and rmd_motor_take() of one reply in one call, as the
+ * rt loop takes every reply: returns what rmd_motor_decode() returns, and
+ * on 0 the reply's RMD_MOTOR_HAVE_* in *have (st untouched otherwise).
+ * rt-safe.
+ */
+int rmd_motor_receive(struct rmd_motor *m, const struct rmd_frame *f, int64_t t_ns,
+		      struct rmd_motor_state *st, unsigned *have);
+
+/*
  * The step of the position rmd_motor_take() reports, rad at the output
  * shaft: the 0x92 angle's LSB (0.01 deg) with fine_pos, else the control
  * replies' (V3 whole degrees, V2 one encoder count, MIT its 16-bit code

@@ -137,13 +137,13 @@ struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
 static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
 			int64_t now)
 {
-	struct rmd_motor_reply r;
 	uint16_t prev = lm->st.error_code;
+	unsigned have;
 
-	if (rmd_motor_decode(&lm->m, f, &r) < 0)
+	/* now: the reply's rmd_bus_rx.t_ns */
+	if (rmd_motor_receive(&lm->m, f, now, &lm->st, &have) < 0)
 		return false;
-	rmd_motor_take(&lm->m, &r, now, &lm->st); /* now: the reply's rmd_bus_rx.t_ns */
-	if (r.have & RMD_MOTOR_HAVE_ERROR)
+	if (have & RMD_MOTOR_HAVE_ERROR)
 		loop_note_errors(l, lm, prev, now);
 	return true;
 }

@@ -38,8 +38,8 @@ static double clampf(double x, double lo, double hi, unsigned *fl)
  * field's integer range); a saturated value flags RMD_MOTOR_CLAMPED.
  * rt-safe.
  */
-static int64_t field_raw(const struct rmd_field_spec *fs, int64_t lo, int64_t hi, double native,
-			 unsigned *fl)
+static inline __attribute__((always_inline)) int64_t
+field_raw(const struct rmd_field_spec *fs, int64_t lo, int64_t hi, double native, unsigned *fl)
 {
 	int64_t raw;
 
@@ -85,8 +85,10 @@ static void row_resolve(const struct rmd_motor *m, uint8_t cmd, enum rmd_field a
  * rmd_encode() of a message holding only them writes it: reserved bytes
  * zero).  rt-safe.
  */
-static int row_encode(const struct rmd_motor *m, const struct rmd_motor_row *row,
-		      const double native[2], struct rmd_frame *out, unsigned *fl)
+static inline __attribute__((always_inline)) int row_encode(const struct rmd_motor *m,
+							    const struct rmd_motor_row *row,
+							    const double native[2],
+							    struct rmd_frame *out, unsigned *fl)
 {
 	memset(out, 0, sizeof(*out));
 	out->can_id = RMD_CAN_REQ_BASE + m->id;
@@ -552,7 +554,7 @@ void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad)
 }
 
 /* V2 §3.32: rotor single-turn encoder -> native multi-turn output angle.  rt-safe. */
-static double v2_unwrap(struct rmd_motor *m, uint16_t enc)
+static __attribute__((noinline)) double v2_unwrap(struct rmd_motor *m, uint16_t enc)
 {
 	if (!m->v2_anchored) {
 		m->v2_anchored = true;
@@ -663,7 +665,8 @@ static const unsigned field_have[256] = {
 	[RMD_FLD_TIMEOUT] = RMD_MOTOR_HAVE_TIMEOUT,
 };
 
-static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const struct rmd_frame *f,
+						  struct rmd_motor_reply *r)
 {
 	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, f->data[0]);
 	const struct rmd_layout *l;
@@ -727,8 +730,9 @@ static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct r
 	return 0;
 }
 
-/* rt-safe. */
-int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+/* rmd_motor_decode(), inlined into its two callers.  rt-safe. */
+static inline __attribute__((always_inline)) int
+decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
 {
 	memset(r, 0, sizeof(*r));
 	if (f->can_id == RMD_CAN_MIT_REPLY_BASE + m->id) {
@@ -745,6 +749,12 @@ int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_
 		return 0;
 	}
 	return reply_fields(m, f, r);
+}
+
+/* rt-safe. */
+int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+{
+	return decode(m, f, r);
 }
 
 /* The values of r that `have` names into st.  rt-safe. */
@@ -772,9 +782,10 @@ void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st
 	apply_have(r, r->have, st);
 }
 
-/* rt-safe. */
-void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
-		    struct rmd_motor_state *st)
+/* rmd_motor_take(), inlined into its two callers.  rt-safe. */
+static inline __attribute__((always_inline)) void take(const struct rmd_motor *m,
+						       const struct rmd_motor_reply *r,
+						       int64_t t_ns, struct rmd_motor_state *st)
 {
 	unsigned have = r->have;
 
@@ -786,6 +797,27 @@ void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, 
 		st->pos_rx_ns = t_ns;
 	if (have & (RMD_MOTOR_HAVE_VEL | RMD_MOTOR_HAVE_TORQUE))
 		st->rx_ns = t_ns;
+}
+
+/* rt-safe. */
+void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
+		    struct rmd_motor_state *st)
+{
+	take(m, r, t_ns, st);
+}
+
+/* rt-safe. */
+int rmd_motor_receive(struct rmd_motor *m, const struct rmd_frame *f, int64_t t_ns,
+		      struct rmd_motor_state *st, unsigned *have)
+{
+	struct rmd_motor_reply r;
+	int ret = decode(m, f, &r);
+
+	if (ret < 0)
+		return ret;
+	take(m, &r, t_ns, st);
+	*have = r.have;
+	return 0;
 }
 
 /* rt-safe. */
