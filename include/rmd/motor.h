@@ -152,6 +152,7 @@ struct rmd_motor {
 	struct rmd_motor_row speed_row;	 /* 0xA2: speed */
 	struct rmd_motor_row pos_row;	 /* 0xA4: angle, max speed */
 	struct rmd_motor_status2 st2;	 /* replies with 0x9C's layout */
+	uint8_t echo[32]; /* bit c: command c's answer repeats it (RMD_CMD_ECHO of its row) */
 	/* feedback.position multi_turn: the position comes from 0x92 replies only */
 	bool fine_pos;
 	/* V2 position: the rotor encoder unwrapped from a reference */
@@ -161,6 +162,12 @@ struct rmd_motor {
 	uint16_t v2_enc_last;  /* last encoder value */
 	int64_t v2_enc_counts; /* unwrapped counts since the anchor */
 };
+
+/* Whether the answer to command `cmd` of the motor's table repeats the request.  rt-safe. */
+static inline bool rmd_motor_echoes(const struct rmd_motor *m, uint8_t cmd)
+{
+	return (m->echo[cmd / 8] >> (cmd % 8)) & 1;
+}
 
 /* Bit of a modes mask (rmd_motor_modes()) for each enum rmd_mode. */
 #define RMD_MOTOR_MODE_BIT(mode) (1u << (mode))

@@ -5,9 +5,10 @@
  *
  *   loop.c       construction, the cycle, schedule, publishing,
  *                getters, stopping the motors                 rt-safe / non-rt
- *   loop_rx.c    requests in flight, matching, deadlines      rt-safe
+ *   loop_rx.c    requests in flight (booking, loop_commit()),
+ *                matching, deadlines                          rt-safe
  *   lifecycle.c  loop_enter(), commands, the host watchdog    rt-safe
- *   loop_tx.c    a cycle's frames, one send, booking          rt-safe
+ *   loop_tx.c    a cycle's frames, one send                   rt-safe
  *   bringup.c    probing and arming the motors before start  non-rt
  *   rt_thread.c  the SCHED_FIFO thread and its set-up        rt-safe / non-rt
  *
@@ -233,7 +234,7 @@ void loop_fill_health(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
 
 /* loop_rx.c.  rt-safe. */
-void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now);
+void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now);
 void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
 struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id);
 void loop_drain(struct rmd_loop *l, unsigned b, int64_t now);
@@ -256,7 +257,6 @@ enum rmd_comm_loss loop_b3_outcome(const uint8_t *req, const struct rmd_frame *r
 
 /* loop_tx.c.  rt-safe. */
 void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind);
-void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now);
 bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now);
 
 #endif /* RMD_LOOP_PRIV_H */

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 /*
- * The rt loop's receiving side: the requests in flight of each motor, the
- * matching of a received frame to its motor and request, decoding into the
- * motor's state, and the reply deadlines.  See rmd/loop.h "Matching and
+ * The rt loop's receiving side: the requests in flight of each motor (a
+ * frame the bus took is booked here, loop_commit()), the matching of a
+ * received frame to its motor and request, decoding into the motor's
+ * state, and the reply deadlines.  See rmd/loop.h "Matching and
  * deadlines"; the shared state is loop_priv.h.
  *
  * Execution context: rt-safe: called from the cycle (and from rmd_loop_stop_motors()
@@ -24,27 +25,25 @@
  * (setpoints, status reads) take the short way: their answer comes on the
  * motor's reply identifier with their command byte.  rt-safe.
  */
-static void os_key(const struct rmd_motor *m, const struct rmd_frame *f, struct outstanding *o)
+static inline __attribute__((always_inline)) void
+os_key(const struct rmd_motor *m, const struct rmd_frame *f, struct outstanding *o)
 {
-	const struct rmd_cmd_spec *spec;
-
 	if (f->can_id == RMD_CAN_REQ_BASE + m->id && f->len) {
 		o->reply_id = m->reply_id;
 		o->cmd = f->data[0];
-		spec = rmd_cmd_find(m->table, f->data[0]);
-		o->echo_is_reply = spec && (spec->flags & RMD_CMD_ECHO);
+		o->echo_is_reply = rmd_motor_echoes(m, f->data[0]);
 		return;
 	}
 	rmd_motor_reply_key(m, f, &o->reply_id, &o->cmd);
 	/* 0x280, MIT and empty frames are never echoed */
-	spec = f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len ?
-		       NULL :
-		       rmd_cmd_find(m->table, f->data[0]);
-	o->echo_is_reply = spec && (spec->flags & RMD_CMD_ECHO);
+	o->echo_is_reply = f->can_id != RMD_CAN_MULTI &&
+			   f->can_id != RMD_CAN_MIT_REQ_BASE + m->id && f->len &&
+			   rmd_motor_echoes(m, f->data[0]);
 }
 
-/* rt-safe. */
-void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now)
+/* Request f of lm, sent at now, is in flight.  rt-safe. */
+static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, struct lmotor *lm,
+							 const struct rmd_frame *f, int64_t now)
 {
 	unsigned free_mask = ~(unsigned)lm->os_used & ((1u << OUTSTANDING) - 1);
 	unsigned k;
@@ -70,24 +69,56 @@ void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *
 	lm->os_used |= (uint8_t)(1u << k);
 }
 
-/* The oldest request of lm that frame f (id, cmd) answers, or NULL.  rt-safe. */
-static struct outstanding *os_match(struct lmotor *lm, uint32_t id, uint16_t cmd)
+/* rt-safe. */
+static void oneshot_pop(struct lmotor *lm)
 {
-	struct outstanding *best = NULL;
+	if (!lm->n_oneshot)
+		return;
+	for (unsigned k = 1; k < lm->n_oneshot; k++)
+		lm->oneshot[k - 1] = lm->oneshot[k];
+	lm->n_oneshot--;
+}
+
+/* Book frame k of bus b, which the bus took.  rt-safe. */
+void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now)
+{
+	const struct txmeta *mt = &lb->meta[k];
+	const struct rmd_frame *f = &lb->tx[k];
+
+	/* incident recorder: every frame a bus took */
+	if (l->o.incidents)
+		rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX, f,
+				   now);
+	if (mt->kind == REQ_BATCH) {
+		for (unsigned j = 0; j < lb->pb->n_motors; j++)
+			if (lb->pb->batched & (1u << j))
+				os_add(l, &l->mot[lb->pb->motors[j]], f, now);
+		return;
+	}
+	if (mt->kind == REQ_ONESHOT)
+		oneshot_pop(&l->mot[mt->motor]);
+	os_add(l, &l->mot[mt->motor], f, now);
+}
+
+/* The slot of lm's oldest request that frame f (id, cmd) answers, or -1.  rt-safe. */
+static int os_match(const struct lmotor *lm, uint32_t id, uint16_t cmd)
+{
+	int best = -1;
 
 	for (unsigned m = lm->os_used; m; m &= m - 1) {
-		struct outstanding *e = &lm->os[__builtin_ctz(m)];
+		int k = __builtin_ctz(m);
+		const struct outstanding *e = &lm->os[k];
 
-		if (e->reply_id == id && e->cmd == cmd && (!best || e->seq < best->seq))
-			best = e;
+		if (e->reply_id == id && e->cmd == cmd && (best < 0 || e->seq < lm->os[best].seq))
+			best = k;
 	}
 	return best;
 }
 
-/* Request o of lm is answered or given up.  rt-safe. */
-static void os_done(struct lmotor *lm, const struct outstanding *o)
+/* Request in slot k of lm is answered or given up.  rt-safe. */
+static void os_done(struct lmotor *lm, unsigned k)
 {
-	lm->os_used &= (uint8_t) ~(1u << (unsigned)(o - lm->os));
+	lm->os_used &= (uint8_t) ~(1u << k);
 }
 
 /* ------------------------------------------------------------------ */
@@ -154,20 +185,23 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	const struct rmd_frame *f = &rx->f;
 	struct lmotor *lm = loop_motor_of(l, b, f->can_id);
 	int64_t now = rx->t_ns;
-	struct outstanding *o;
+	const struct outstanding *o;
 	uint16_t cmd;
+	int k;
 
 	if (!lm || !f->len) {
 		loop_unexpected(l, b, f, now);
 		return;
 	}
 	cmd = f->can_id > RMD_CAN_MIT_REPLY_BASE ? RMD_MOTOR_CMD_MIT : f->data[0];
-	o = os_match(lm, f->can_id, cmd);
-	if (o) {
-		bool echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
-			    !memcmp(f->data, o->data, RMD_FRAME_LEN);
+	k = os_match(lm, f->can_id, cmd);
+	if (k >= 0) {
+		bool echo;
 
-		os_done(lm, o);
+		o = &lm->os[k];
+		echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
+		       !memcmp(f->data, o->data, RMD_FRAME_LEN);
+		os_done(lm, (unsigned)k);
 		l->cnt.replies++;
 		lm->st.reply_latency_ns = rx->t_ns - o->sent_ns;
 		lat_add(&lm->lat, lm->st.reply_latency_ns);
@@ -238,10 +272,10 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 		struct lmotor *lm = &l->mot[i];
 
 		for (unsigned m = lm->os_used; m; m &= m - 1) {
-			struct outstanding *o = &lm->os[__builtin_ctz(m)];
+			unsigned k = (unsigned)__builtin_ctz(m);
 
-			if (o->deadline_ns <= now) {
-				os_done(lm, o);
+			if (lm->os[k].deadline_ns <= now) {
+				os_done(lm, k);
 				loop_miss(l, lm, now);
 			}
 		}

@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: MIT
 /*
  * The rt loop's sending side: one cycle's frames of a bus from its plan
- * slots (setpoints, one-shots, status reads, the V2 0x280 frame), one send
- * call, and the booking of what the bus took.  See rmd/loop.h "Frames";
- * the shared state is loop_priv.h.
+ * slots (setpoints, one-shots, status reads, the V2 0x280 frame) and one
+ * send call; loop_commit() (loop_rx.c) books what the bus took.  See
+ * rmd/loop.h "Frames"; the shared state is loop_priv.h.
  *
- * Execution context: rt-safe: called from the cycle (loop_push_tx() and loop_commit()
- * also from rmd_loop_stop_motors()); no allocation, no lock, no text.
+ * Execution context: rt-safe: called from the cycle (loop_push_tx() also
+ * from rmd_loop_stop_motors()); no allocation, no lock, no text.
  */
 #include <errno.h>
 #include <string.h>
@@ -14,16 +14,6 @@
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "loop_priv.h"
-
-/* rt-safe. */
-static void oneshot_pop(struct lmotor *lm)
-{
-	if (!lm->n_oneshot)
-		return;
-	for (unsigned k = 1; k < lm->n_oneshot; k++)
-		lm->oneshot[k - 1] = lm->oneshot[k];
-	lm->n_oneshot--;
-}
 
 /* ------------------------------------------------------------------ */
 /* Sending */
@@ -226,27 +216,6 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 		}
 		return;
 	}
-}
-
-/* Book frame k of bus b, which the bus took.  rt-safe. */
-void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now)
-{
-	const struct txmeta *mt = &lb->meta[k];
-	const struct rmd_frame *f = &lb->tx[k];
-
-	/* incident recorder: every frame a bus took */
-	if (l->o.incidents)
-		rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX, f,
-				   now);
-	if (mt->kind == REQ_BATCH) {
-		for (unsigned j = 0; j < lb->pb->n_motors; j++)
-			if (lb->pb->batched & (1u << j))
-				loop_os_add(l, &l->mot[lb->pb->motors[j]], f, now);
-		return;
-	}
-	if (mt->kind == REQ_ONESHOT)
-		oneshot_pop(&l->mot[mt->motor]);
-	loop_os_add(l, &l->mot[mt->motor], f, now);
 }
 
 /* Send the cycle's frames of bus b in one call.  False when it did not take them all.  rt-safe. */

@@ -202,6 +202,12 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	row_resolve(m, 0xA2, RMD_FLD_SPEED, RMD_FLD_COUNT, &m->speed_row);
 	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
 	status2_resolve(m);
+	for (unsigned k = 0; k < 256; k++) {
+		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, (uint8_t)k);
+
+		if (spec && (spec->flags & RMD_CMD_ECHO))
+			m->echo[k / 8] |= (uint8_t)(1u << (k % 8));
+	}
 	if (m->proto == RMD_PROTO_MIT) {
 		if (rmd_mit_ranges_validate(&m->mit, &m->mit_ok) < 0)
 			return -EINVAL;
