@@ -283,17 +283,17 @@ static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t 
  */
 void loop_take_command(struct rmd_loop *l, int64_t now)
 {
-	const struct rmd_command *c = &l->cmd;
+	const struct rmd_command *c;
 	const void *p;
 	bool any_enable = false;
 
 	if (!l->o.commands || !rmd_latest_get(l->o.commands, &p))
 		return;
-	memcpy(&l->cmd, p, sizeof(l->cmd));
+	c = p;
 	l->cnt.commands++;
-	if (!l->have_cmd || c->rx_ns > l->last_cmd_rx_ns)
+	if (!l->cmd || c->rx_ns > l->last_cmd_rx_ns)
 		l->last_cmd_rx_ns = c->rx_ns;
-	l->have_cmd = true;
+	l->cmd = c;
 	/* A command from before the trip does not lift it. */
 	if (l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns) {
 		for (unsigned i = 0; i < l->n_motors; i++)

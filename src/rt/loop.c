@@ -324,7 +324,20 @@ static void publish(struct rmd_loop *l, int64_t now)
 	}
 	loop_pub_write(l);
 	if (l->o.snapshots) {
-		rmd_latest_put(l->o.snapshots, s);
+		struct rmd_latest *sl = l->o.snapshots;
+		unsigned slot = 1u << sl->write_idx;
+
+		/*
+		 * The motors up to n; past them a slot keeps what its first,
+		 * whole copy put there: l->snap's, which stay as rmd_loop_new()
+		 * left them.
+		 */
+		memcpy(rmd_latest_write_slot(sl), s,
+		       l->snap_slots & slot ?
+			       offsetof(struct rmd_snapshot, m) + l->n_motors * sizeof(s->m[0]) :
+			       sizeof(*s));
+		l->snap_slots |= slot;
+		rmd_latest_publish(sl);
 		/*
 		 * The bridge publishes every lcm.state_every_n-th state (LCM's
 		 * udpm cannot tell whether anyone listens): it is woken for
@@ -412,10 +425,10 @@ static void schedule(struct rmd_loop *l, int64_t now)
 /* Incident recorder: a command the loop took this cycle (rmd/incident.h).  rt-safe. */
 static void incident_command(struct rmd_loop *l, int64_t now)
 {
-	if (!l->o.incidents || !l->have_cmd || l->cmd.rx_ns == l->inc_cmd_rx_ns)
+	if (!l->o.incidents || !l->cmd || l->cmd->rx_ns == l->inc_cmd_rx_ns)
 		return;
-	l->inc_cmd_rx_ns = l->cmd.rx_ns;
-	rmd_incident_command(l->o.incidents, &l->cmd, now);
+	l->inc_cmd_rx_ns = l->cmd->rx_ns;
+	rmd_incident_command(l->o.incidents, l->cmd, now);
 }
 
 /* rt-safe. */

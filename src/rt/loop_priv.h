@@ -142,8 +142,11 @@ struct rmd_loop {
 	uint64_t cycle; /* index of the cycle running, from 0 */
 
 	/* commands and the host watchdog */
-	struct rmd_command cmd;
-	bool have_cmd;
+	/*
+	 * The newest command: the reader's slot of o.commands, which stays
+	 * the loop's until its next rmd_latest_get() (no copy).  NULL: none yet.
+	 */
+	const struct rmd_command *cmd;
 	int64_t inc_cmd_rx_ns; /* the newest command the incident recorder has */
 	int64_t last_cmd_rx_ns;
 	uint8_t wd; /* enum rmd_watchdog_state */
@@ -174,6 +177,7 @@ struct rmd_loop {
 
 	/* work copies */
 	struct rmd_snapshot snap;
+	unsigned snap_slots;	  /* bit i: o.snapshots' slot i had one whole copy of snap */
 	struct rmd_health health; /* filled every health_every cycles */
 	bool health_fresh;	  /* filled, not yet in pub_health */
 
