@@ -185,16 +185,6 @@ void loop_miss(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 		loop_motor_lost(l, lm, now);
 }
 
-/* The motor answered something: it is there.  rt-safe. */
-void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
-{
-	lm->consecutive = 0;
-	lm->replied = true;
-	lm->last_reply_cycle = l->cycle;
-	if (lm->st.lifecycle == RMD_LC_LOST || lm->st.lifecycle == RMD_LC_PROBE)
-		loop_enter(l, lm, RMD_LC_READY, now);
-}
-
 /* Error flags from a 0x9A answer or report.  prev: the code before it.  rt-safe. */
 void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now)
 {
@@ -216,6 +206,13 @@ void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int6
 static void cl_enable_wanted(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			     int64_t now);
 
+/* sp is in force (ENABLED).  rt-safe. */
+static inline void take_setpoint(struct lmotor *lm, const struct rmd_setpoint *sp)
+{
+	lm->sp = *sp;
+	lm->st.mode = sp->mode;
+}
+
 /* Returns -1 when acted on, else the enum rmd_ignore reason it was not.  rt-safe. */
 static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			int64_t now)
@@ -230,13 +227,11 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 			cl_enable_wanted(l, lm, sp, now);
 			return -1;
 		}
-		lm->sp = *sp;
-		lm->st.mode = sp->mode;
+		take_setpoint(lm, sp);
 		loop_enter(l, lm, RMD_LC_ENABLED, now);
 		break;
 	case RMD_LC_ENABLED:
-		lm->sp = *sp;
-		lm->st.mode = sp->mode;
+		take_setpoint(lm, sp);
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_FAULT:
@@ -311,10 +306,13 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 		if (!(c->present & (1u << i)))
 			continue;
 		if (c->m[i].enable) {
-			int why;
+			int why = -1;
 
 			any_enable = true;
-			why = enable_motor(l, lm, &c->m[i], now);
+			if (lm->st.lifecycle == RMD_LC_ENABLED) /* enable_motor()'s, every cycle */
+				take_setpoint(lm, &c->m[i]);
+			else
+				why = enable_motor(l, lm, &c->m[i], now);
 			if (why >= 0)
 				l->cnt.ignored[why]++;
 		} else {

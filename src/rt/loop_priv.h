@@ -225,6 +225,34 @@ static inline enum rmd_safe_action loop_safe_action(const struct rmd_loop *l)
 	return l->cfg->safety.safe_action;
 }
 
+/* lifecycle.c.  rt-safe. */
+void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
+
+/* The motor a received identifier belongs to, or NULL.  rt-safe. */
+static inline struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
+{
+	const struct lbus *lb = &l->bus[b];
+	unsigned k = 0;
+
+	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+		k = lb->by_v3[id - RMD_CAN_V3_REPLY_BASE];
+	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
+		k = lb->by_v2[id - RMD_CAN_REQ_BASE];
+	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
+		k = lb->by_mit[id - RMD_CAN_MIT_REPLY_BASE];
+	return k ? &l->mot[k - 1] : NULL;
+}
+
+/* The motor answered something: it is there.  rt-safe. */
+static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	lm->consecutive = 0;
+	lm->replied = true;
+	lm->last_reply_cycle = l->cycle;
+	if (lm->st.lifecycle == RMD_LC_LOST || lm->st.lifecycle == RMD_LC_PROBE)
+		loop_enter(l, lm, RMD_LC_READY, now);
+}
+
 /* loop.c.  rt-safe unless said. */
 int64_t loop_now(const struct rmd_loop *l);
 struct timespec loop_ts(int64_t ns);
@@ -240,16 +268,13 @@ void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
 /* loop_rx.c.  rt-safe. */
 void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now);
 void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
-struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id);
 void loop_drain(struct rmd_loop *l, unsigned b, int64_t now);
 void loop_check_deadlines(struct rmd_loop *l, int64_t now);
 
 /* lifecycle.c.  rt-safe. */
-void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
 void loop_frames_drop(struct lmotor *lm);
 void loop_motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_miss(struct rmd_loop *l, struct lmotor *lm, int64_t now);
-void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now);
 void loop_take_command(struct rmd_loop *l, int64_t now);
 void loop_watchdog(struct rmd_loop *l, int64_t now);

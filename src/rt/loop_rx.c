@@ -149,21 +149,6 @@ void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 	loop_event(l, now, RMD_EV_UNEXPECTED, 0xFF, b, f->can_id, f->len ? f->data[0] : -1);
 }
 
-/* The motor a received identifier belongs to, or NULL.  rt-safe. */
-struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
-{
-	const struct lbus *lb = &l->bus[b];
-	unsigned k = 0;
-
-	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
-		k = lb->by_v3[id - RMD_CAN_V3_REPLY_BASE];
-	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
-		k = lb->by_v2[id - RMD_CAN_REQ_BASE];
-	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
-		k = lb->by_mit[id - RMD_CAN_MIT_REPLY_BASE];
-	return k ? &l->mot[k - 1] : NULL;
-}
-
 /* Decode f into lm's state; false when it cannot be decoded.  rt-safe. */
 static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
 			int64_t now)

@@ -268,26 +268,37 @@ static double clamp_value(double x, double lo, double hi, const char *field, uns
 	return y;
 }
 
-/* rt-safe. */
-unsigned rmd_motor_clamp(const struct rmd_config_limits *lim, struct rmd_setpoint *sp,
-			 struct rmd_motor_clamp_note *note)
+/*
+ * rmd_motor_clamp() of sp as if in `mode`: inlined where the mode is known,
+ * only that mode's fields are looked at.  rt-safe.
+ */
+static inline __attribute__((always_inline)) unsigned
+clamp_mode(const struct rmd_config_limits *lim, unsigned mode, struct rmd_setpoint *sp,
+	   struct rmd_motor_clamp_note *note)
 {
 	double vmax = lim->velocity_rad_s, tmax = lim->torque_nm;
 	unsigned n = 0;
 
-	if (rmd_mode_uses_pos(sp->mode))
+	if (rmd_mode_uses_pos(mode))
 		sp->pos_rad = clamp_value(sp->pos_rad, lim->position_min_rad, lim->position_max_rad,
 					  "position", &n, note);
-	if (rmd_mode_uses_vel(sp->mode))
+	if (rmd_mode_uses_vel(mode))
 		sp->vel_rad_s = clamp_value(sp->vel_rad_s, -vmax, vmax, "velocity", &n, note);
-	if (rmd_mode_uses_torque(sp->mode))
+	if (rmd_mode_uses_torque(mode))
 		sp->torque_nm = clamp_value(sp->torque_nm, -tmax, tmax, "torque", &n, note);
 	/* 0 asks for the motor's limit; 0 stays when it has none (the firmware's own) */
-	if (sp->mode == RMD_MODE_POSITION && isfinite(vmax))
+	if (mode == RMD_MODE_POSITION && isfinite(vmax))
 		sp->max_vel_rad_s = sp->max_vel_rad_s == 0 ? vmax :
 							     clamp_value(sp->max_vel_rad_s, 0, vmax,
 									 "max_velocity", &n, note);
 	return n;
+}
+
+/* rt-safe. */
+unsigned rmd_motor_clamp(const struct rmd_config_limits *lim, struct rmd_setpoint *sp,
+			 struct rmd_motor_clamp_note *note)
+{
+	return clamp_mode(lim, sp->mode, sp, note);
 }
 
 /* rt-safe. */
@@ -418,33 +429,39 @@ static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 int rmd_motor_encode(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 		     struct rmd_frame *out, unsigned *flags)
 {
-	struct rmd_setpoint c = *sp; /* clamped to the limits */
+	struct rmd_setpoint c = *sp; /* clamped to the limits (rmd_motor_clamp()) */
 	unsigned fl = 0;
 	int r;
 
 	c.max_vel_rad_s = fabs(c.max_vel_rad_s);
-	if (rmd_motor_clamp(&m->limits, &c, NULL))
-		fl |= RMD_MOTOR_CLAMPED;
 	switch ((enum rmd_mode)sp->mode) {
 	case RMD_MODE_TORQUE:
 		if (!isfinite(sp->torque_nm))
 			return -EDOM;
+		if (clamp_mode(&m->limits, RMD_MODE_TORQUE, &c, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_torque(m, c.torque_nm, out, &fl);
 		break;
 	case RMD_MODE_SPEED:
 		if (!isfinite(sp->vel_rad_s))
 			return -EDOM;
+		if (clamp_mode(&m->limits, RMD_MODE_SPEED, &c, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_speed(m, c.vel_rad_s, out, &fl);
 		break;
 	case RMD_MODE_POSITION:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->max_vel_rad_s))
 			return -EDOM;
+		if (clamp_mode(&m->limits, RMD_MODE_POSITION, &c, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_position(m, c.pos_rad, c.max_vel_rad_s, out, &fl);
 		break;
 	case RMD_MODE_MIT:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->vel_rad_s) ||
 		    !isfinite(sp->torque_nm) || !isfinite(sp->kp) || !isfinite(sp->kd))
 			return -EDOM;
+		if (clamp_mode(&m->limits, RMD_MODE_MIT, &c, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_mit(m, &c, out, &fl);
 		break;
 	case RMD_MODE_COUNT:
@@ -636,7 +653,8 @@ static inline double native_of(const struct rmd_field_rd *rd, const uint8_t *dat
  * read in their known roles: what reply_fields() below gives for it.
  * rt-safe.
  */
-static void status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+static inline __attribute__((always_inline)) void
+status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
 {
 	const struct rmd_motor_status2 *s = &m->st2;
 
