@@ -80,27 +80,30 @@ static void row_resolve(const struct rmd_motor *m, uint8_t cmd, enum rmd_field a
 	}
 }
 
+/* Request field mf (resolved, or absent) of data = native.  rt-safe. */
+static inline __attribute__((always_inline)) void
+row_field(const struct rmd_motor_field *mf, uint8_t *data, double native, unsigned *fl)
+{
+	if (mf->fs)
+		rmd_field_write(mf->fs, data, field_raw(mf->fs, mf->lo, mf->hi, native, fl));
+}
+
 /*
- * The request of a resolved row with its fields set to native[0..1] (as
+ * The request of a resolved row with its fields set to a and b (as
  * rmd_encode() of a message holding only them writes it: reserved bytes
  * zero).  rt-safe.
  */
 static inline __attribute__((always_inline)) int row_encode(const struct rmd_motor *m,
 							    const struct rmd_motor_row *row,
-							    const double native[2],
+							    double a, double b,
 							    struct rmd_frame *out, unsigned *fl)
 {
 	memset(out, 0, sizeof(*out));
 	out->can_id = RMD_CAN_REQ_BASE + m->id;
 	out->len = RMD_FRAME_LEN;
 	out->data[0] = row->spec->cmd;
-	for (unsigned k = 0; k < 2; k++) {
-		const struct rmd_motor_field *mf = &row->f[k];
-
-		if (mf->fs)
-			rmd_field_write(mf->fs, out->data,
-					field_raw(mf->fs, mf->lo, mf->hi, native[k], fl));
-	}
+	row_field(&row->f[0], out->data, a, fl);
+	row_field(&row->f[1], out->data, b, fl);
 	return 0;
 }
 
@@ -364,28 +367,21 @@ static double torque_to_iq(const struct rmd_motor *m, double torque_nm)
 static int encode_torque(const struct rmd_motor *m, double torque_nm, struct rmd_frame *out,
 			 unsigned *fl)
 {
-	double v[2];
-
 	if (!m->torque_row.spec)
 		return -EOPNOTSUPP;
 	if (!(m->kt_nm_a > 0.0))
 		return -EOPNOTSUPP;
-	v[0] = torque_to_iq(m, torque_nm);
-	v[1] = 0;
-	return row_encode(m, &m->torque_row, v, out, fl);
+	return row_encode(m, &m->torque_row, torque_to_iq(m, torque_nm), 0, out, fl);
 }
 
 /* 0xA2 at vel_rad_s (reported frame, within the limit).  rt-safe. */
 static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_frame *out,
 			unsigned *fl)
 {
-	double v[2];
-
 	if (!m->speed_row.spec)
 		return -EOPNOTSUPP;
-	v[0] = m->dir * vel_rad_s * DEG_PER_RAD * m->native_per_output;
-	v[1] = 0;
-	return row_encode(m, &m->speed_row, v, out, fl);
+	return row_encode(m, &m->speed_row, m->dir * vel_rad_s * DEG_PER_RAD * m->native_per_output,
+			  0, out, fl);
 }
 
 /*
@@ -396,13 +392,11 @@ static int encode_position(const struct rmd_motor *m, double pos_rad, double mv_
 			   struct rmd_frame *out, unsigned *fl)
 {
 	double native = rmd_motor_to_native_pos(m, pos_rad);
-	double v[2];
 
 	if (!m->pos_row.spec)
 		return -EOPNOTSUPP;
-	v[0] = native * DEG_PER_RAD * m->native_per_output;
-	v[1] = mv_rad_s * DEG_PER_RAD * m->native_per_output;
-	return row_encode(m, &m->pos_row, v, out, fl);
+	return row_encode(m, &m->pos_row, native * DEG_PER_RAD * m->native_per_output,
+			  mv_rad_s * DEG_PER_RAD * m->native_per_output, out, fl);
 }
 
 /*
