@@ -581,10 +581,10 @@ static int64_t send_queued(struct rmd_loop *l, int64_t now)
 			if (off[b] >= lb->ntx)
 				continue;
 			r = rmd_bus_send(lb->bus, lb->tx + off[b], lb->ntx - off[b], now);
-			for (int k = 0; k < r; k++)
-				loop_commit(l, lb, off[b] + (unsigned)k, now);
-			if (r > 0)
+			if (r > 0) {
+				loop_commit(l, lb, off[b], off[b] + (unsigned)r, now);
 				off[b] += (unsigned)r;
+			}
 			left |= off[b] < lb->ntx;
 		}
 		if (!left)

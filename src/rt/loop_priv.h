@@ -266,7 +266,7 @@ void loop_fill_health(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
 
 /* loop_rx.c.  rt-safe. */
-void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now);
+void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to, int64_t now);
 void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
 void loop_drain(struct rmd_loop *l, unsigned b, int64_t now);
 void loop_check_deadlines(struct rmd_loop *l, int64_t now);

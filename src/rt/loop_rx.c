@@ -79,25 +79,27 @@ static void oneshot_pop(struct lmotor *lm)
 	lm->n_oneshot--;
 }
 
-/* Book frame k of bus b, which the bus took.  rt-safe. */
-void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now)
+/* Book frames from..to-1 of lb's cycle, which the bus took.  rt-safe. */
+void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to, int64_t now)
 {
-	const struct txmeta *mt = &lb->meta[k];
-	const struct rmd_frame *f = &lb->tx[k];
+	for (unsigned k = from; k < to; k++) {
+		const struct txmeta *mt = &lb->meta[k];
+		const struct rmd_frame *f = &lb->tx[k];
 
-	/* incident recorder: every frame a bus took */
-	if (l->o.incidents)
-		rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX, f,
-				   now);
-	if (mt->kind == REQ_BATCH) {
-		for (unsigned j = 0; j < lb->pb->n_motors; j++)
-			if (lb->pb->batched & (1u << j))
-				os_add(l, &l->mot[lb->pb->motors[j]], f, now);
-		return;
+		/* incident recorder: every frame a bus took */
+		if (l->o.incidents)
+			rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX,
+					   f, now);
+		if (mt->kind == REQ_BATCH) {
+			for (unsigned j = 0; j < lb->pb->n_motors; j++)
+				if (lb->pb->batched & (1u << j))
+					os_add(l, &l->mot[lb->pb->motors[j]], f, now);
+			continue;
+		}
+		if (mt->kind == REQ_ONESHOT)
+			oneshot_pop(&l->mot[mt->motor]);
+		os_add(l, &l->mot[mt->motor], f, now);
 	}
-	if (mt->kind == REQ_ONESHOT)
-		oneshot_pop(&l->mot[mt->motor]);
-	os_add(l, &l->mot[mt->motor], f, now);
 }
 
 /* The slot of lm's oldest request that frame f (id, cmd) answers, or -1.  rt-safe. */

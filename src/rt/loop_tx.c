@@ -248,8 +248,7 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 		return true;
 	r = rmd_bus_send(lb->bus, lb->tx, lb->ntx, now);
 	taken = r > 0 ? (unsigned)r : 0;
-	for (unsigned k = 0; k < taken && k < lb->ntx; k++)
-		loop_commit(l, lb, k, now);
+	loop_commit(l, lb, 0, taken < lb->ntx ? taken : lb->ntx, now);
 	if (taken >= lb->ntx) {
 		lb->failing = false;
 		return true;
