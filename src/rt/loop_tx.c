@@ -29,26 +29,30 @@ void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, en
 }
 
 /* rt-safe. */
-static void push_cmd(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, uint8_t cmd)
+static void push_cmd(struct rmd_loop *l, struct lbus *lb, unsigned i, uint8_t cmd)
 {
+	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f;
 
 	if (rmd_motor_encode_cmd(&lm->m, cmd, &f) == 0)
-		loop_push_tx(lb, &f, loop_idx(l, lm), REQ_STATUS);
+		loop_push_tx(lb, &f, i, REQ_STATUS);
 }
 
 /* A lost motor's 0x9A re-probe, when one is due.  rt-safe. */
-static void push_reprobe(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
+	struct lmotor *lm = &l->mot[i];
+
 	if (now < lm->next_probe_ns)
 		return;
 	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-	push_cmd(l, lb, lm, 0x9A);
+	push_cmd(l, lb, i, 0x9A);
 }
 
 /* The setpoint's frame, or the safe action's first frame instead of a refused one.  rt-safe. */
-static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+static void push_setpoint(struct rmd_loop *l, struct lbus *lb, unsigned i)
 {
+	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f, safe[2];
 	unsigned fl = 0;
 	int r = rmd_motor_encode(&lm->m, &lm->sp, &f, &fl);
@@ -56,7 +60,7 @@ static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm
 	if (r == 0) {
 		if (fl & RMD_MOTOR_CLAMPED)
 			l->cnt.clamped++;
-		loop_push_tx(lb, &f, loop_idx(l, lm), REQ_CONTROL);
+		loop_push_tx(lb, &f, i, REQ_CONTROL);
 		return;
 	}
 	if (r == -EDOM)
@@ -64,9 +68,9 @@ static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm
 	else
 		l->cnt.unsupported++;
 	if (rmd_motor_encode_safe(&lm->m, loop_safe_action(l), safe) > 0)
-		loop_push_tx(lb, &safe[0], loop_idx(l, lm), REQ_CONTROL);
+		loop_push_tx(lb, &safe[0], i, REQ_CONTROL);
 	else
-		push_cmd(l, lb, lm, 0x80);
+		push_cmd(l, lb, i, 0x80);
 }
 
 /*
@@ -88,43 +92,46 @@ static bool oneshot_echo_verified(const struct lmotor *lm, const struct rmd_fram
  * counts, only for these writes (at most ARM_TRIES in a round; TX_MAX has
  * room for a second frame in every slot).  rt-safe.
  */
-static void push_oneshot(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i)
 {
+	struct lmotor *lm = &l->mot[i];
+
 	if (oneshot_echo_verified(lm, &lm->oneshot[0]))
-		push_cmd(l, lb, lm, 0x9A);
-	loop_push_tx(lb, &lm->oneshot[0], loop_idx(l, lm), REQ_ONESHOT);
+		push_cmd(l, lb, i, 0x9A);
+	loop_push_tx(lb, &lm->oneshot[0], i, REQ_ONESHOT);
 }
 
 /* rt-safe. */
-static void add_control(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
+	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f[2];
 
 	/* one-shots first: an ENABLED motor's brake release, the others' stops */
 	if (lm->n_oneshot) {
-		push_oneshot(l, lb, lm);
+		push_oneshot(l, lb, i);
 		return;
 	}
 	if (lm->st.lifecycle == RMD_LC_ENABLED) {
-		push_setpoint(l, lb, lm);
+		push_setpoint(l, lb, i);
 		return;
 	}
 	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
 	case RMD_LC_SAFE:
 		if (lm->damp_stream && rmd_motor_encode_safe(&lm->m, RMD_SAFE_DAMP, f) == 1) {
-			loop_push_tx(lb, &f[0], loop_idx(l, lm), REQ_CONTROL);
+			loop_push_tx(lb, &f[0], i, REQ_CONTROL);
 			break;
 		}
-		push_cmd(l, lb, lm, 0x9C);
+		push_cmd(l, lb, i, 0x9C);
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_READY:
 	case RMD_LC_FAULT:
 		/* read only: V3 §2.13 / V2 §3.32 status 2 (MIT motors answer V3) */
-		push_cmd(l, lb, lm, 0x9C);
+		push_cmd(l, lb, i, 0x9C);
 		break;
 	case RMD_LC_LOST:
-		push_reprobe(l, lb, lm, now);
+		push_reprobe(l, lb, i, now);
 		break;
 	case RMD_LC_ENABLED:
 	case RMD_LC_COUNT:
@@ -133,22 +140,26 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, 
 }
 
 /* rt-safe. */
-static void add_status(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
+	struct lmotor *lm = &l->mot[i];
+
 	if (lm->st.lifecycle == RMD_LC_LOST)
-		push_reprobe(l, lb, lm, now);
+		push_reprobe(l, lb, i, now);
 	else
-		push_cmd(l, lb, lm, 0x9A);
+		push_cmd(l, lb, i, 0x9A);
 }
 
 /*
  * A fine position read (rmd/plan.h, docs/feedback.md): 0x92 in every
  * lifecycle but LOST, whose re-probe is the control slot's.  rt-safe.
  */
-static void add_fine(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+static void add_fine(struct rmd_loop *l, struct lbus *lb, unsigned i)
 {
+	struct lmotor *lm = &l->mot[i];
+
 	if (lm->st.lifecycle != RMD_LC_LOST)
-		push_cmd(l, lb, lm, RMD_MOTOR_CMD_FINE_POS);
+		push_cmd(l, lb, i, RMD_MOTOR_CMD_FINE_POS);
 }
 
 /* The V2 0x280 slot (rmd/loop.h "Frames").  rt-safe. */
@@ -166,10 +177,10 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 	 * frame's budget (1 + n frames; a one-shot and its answer are 2).
 	 */
 	for (unsigned k = 0; k < pb->n_motors && room; k++) {
-		struct lmotor *lm = &l->mot[pb->motors[k]];
+		unsigned i = pb->motors[k];
 
-		if ((pb->batched & (1u << k)) && lm->n_oneshot) {
-			push_oneshot(l, lb, lm);
+		if ((pb->batched & (1u << k)) && l->mot[i].n_oneshot) {
+			push_oneshot(l, lb, i);
 			queued = true;
 			room--;
 		}
@@ -202,17 +213,17 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 	}
 	/* Nobody to drive: one status read, the motors in turn. */
 	for (unsigned n = 0; n < pb->n_motors; n++) {
-		unsigned k = lb->batch_rr++ % pb->n_motors;
-		struct lmotor *lm = &l->mot[pb->motors[k]];
+		unsigned k = lb->batch_rr++ % pb->n_motors, i = pb->motors[k];
+		struct lmotor *lm = &l->mot[i];
 
 		if (!(pb->batched & (1u << k)))
 			continue;
 		if (lm->st.lifecycle == RMD_LC_LOST) {
 			if (now < lm->next_probe_ns)
 				continue;
-			push_reprobe(l, lb, lm, now);
+			push_reprobe(l, lb, i, now);
 		} else {
-			push_cmd(l, lb, lm, 0x9C);
+			push_cmd(l, lb, i, 0x9C);
 		}
 		return;
 	}
@@ -231,16 +242,16 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 	for (unsigned s = 0; s < n; s++) {
 		switch (slots[s].kind) {
 		case RMD_SLOT_CONTROL:
-			add_control(l, lb, &l->mot[slots[s].motor], now);
+			add_control(l, lb, slots[s].motor, now);
 			break;
 		case RMD_SLOT_V2_TORQUES:
 			add_batch(l, lb, now);
 			break;
 		case RMD_SLOT_STATUS:
-			add_status(l, lb, &l->mot[slots[s].motor], now);
+			add_status(l, lb, slots[s].motor, now);
 			break;
 		case RMD_SLOT_FINE:
-			add_fine(l, lb, &l->mot[slots[s].motor]);
+			add_fine(l, lb, slots[s].motor);
 			break;
 		}
 	}
