@@ -311,10 +311,25 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
  * The identifier and command a reply to `req` (a frame of this motor)
  * comes with: V3 and MIT-as-V3 on 0x240 + ID, V2 on 0x140 + ID, MIT on
  * 0x500 + ID (cmd RMD_MOTOR_CMD_MIT); a V2 0x280 frame is answered like
- * 0xA1 (V2 §4.2).
+ * 0xA1 (V2 §4.2).  rt-safe (inline: the loop books every frame with it).
  */
-void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req, uint32_t *reply_id,
-			 uint16_t *cmd);
+static inline void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req,
+				       uint32_t *reply_id, uint16_t *cmd)
+{
+	if (req->can_id == RMD_CAN_MIT_REQ_BASE + m->id) {
+		*reply_id = RMD_CAN_MIT_REPLY_BASE + m->id;
+		*cmd = RMD_MOTOR_CMD_MIT;
+		return;
+	}
+	if (req->can_id == RMD_CAN_MULTI) {
+		/* V2 §4.2: each motor of the frame answers like 0xA1 */
+		*reply_id = RMD_CAN_REQ_BASE + m->id;
+		*cmd = 0xA1;
+		return;
+	}
+	*reply_id = (m->proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
+	*cmd = req->len ? req->data[0] : 0;
+}
 
 /*
  * Decode a reply of this motor into r.  Returns 0; -EINVAL when the frame

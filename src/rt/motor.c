@@ -546,25 +546,6 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
 }
 
 /* rt-safe. */
-void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req, uint32_t *reply_id,
-			 uint16_t *cmd)
-{
-	if (req->can_id == RMD_CAN_MIT_REQ_BASE + m->id) {
-		*reply_id = RMD_CAN_MIT_REPLY_BASE + m->id;
-		*cmd = RMD_MOTOR_CMD_MIT;
-		return;
-	}
-	if (req->can_id == RMD_CAN_MULTI) {
-		/* V2 §4.2: each motor of the frame answers like 0xA1 */
-		*reply_id = RMD_CAN_REQ_BASE + m->id;
-		*cmd = 0xA1;
-		return;
-	}
-	*reply_id = (m->proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
-	*cmd = req->len ? req->data[0] : 0;
-}
-
-/* rt-safe. */
 void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad)
 {
 	m->v2_have_ref = true;
