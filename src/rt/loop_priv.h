@@ -53,8 +53,8 @@ enum req_kind {
 /* A request in flight (its bit in struct lmotor.os_used says it is). */
 struct outstanding {
 	bool echo_is_reply; /* the command's answer repeats it (0x80, 0xB3, ...) */
-	uint16_t cmd;	    /* command byte of the answer, or RMD_MOTOR_CMD_MIT */
-	uint32_t reply_id;
+	/* the answer's identifier and command byte (or RMD_MOTOR_CMD_MIT): os_keyof() */
+	uint64_t key;
 	uint64_t seq; /* send order */
 	int64_t sent_ns;
 	int64_t deadline_ns;

@@ -25,16 +25,24 @@
  * (setpoints, status reads) take the short way: their answer comes on the
  * motor's reply identifier with their command byte.  rt-safe.
  */
+static inline uint64_t os_keyof(uint32_t reply_id, uint16_t cmd)
+{
+	return (uint64_t)reply_id << 16 | cmd;
+}
+
 static inline __attribute__((always_inline)) void
 os_key(const struct rmd_motor *m, const struct rmd_frame *f, struct outstanding *o)
 {
+	uint32_t reply_id;
+	uint16_t cmd;
+
 	if (f->can_id == RMD_CAN_REQ_BASE + m->id && f->len) {
-		o->reply_id = m->reply_id;
-		o->cmd = f->data[0];
+		o->key = os_keyof(m->reply_id, f->data[0]);
 		o->echo_is_reply = rmd_motor_echoes(m, f->data[0]);
 		return;
 	}
-	rmd_motor_reply_key(m, f, &o->reply_id, &o->cmd);
+	rmd_motor_reply_key(m, f, &reply_id, &cmd);
+	o->key = os_keyof(reply_id, cmd);
 	/* 0x280, MIT and empty frames are never echoed */
 	o->echo_is_reply = f->can_id != RMD_CAN_MULTI &&
 			   f->can_id != RMD_CAN_MIT_REQ_BASE + m->id && f->len &&
@@ -105,13 +113,14 @@ void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to
 /* The slot of lm's oldest request that frame f (id, cmd) answers, or -1.  rt-safe. */
 static int os_match(const struct lmotor *lm, uint32_t id, uint16_t cmd)
 {
+	uint64_t key = os_keyof(id, cmd);
 	int best = -1;
 
 	for (unsigned m = lm->os_used; m; m &= m - 1) {
 		int k = __builtin_ctz(m);
 		const struct outstanding *e = &lm->os[k];
 
-		if (e->reply_id == id && e->cmd == cmd && (best < 0 || e->seq < lm->os[best].seq))
+		if (e->key == key && (best < 0 || e->seq < lm->os[best].seq))
 			best = k;
 	}
 	return best;

@@ -731,11 +731,19 @@ static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const str
 	return 0;
 }
 
-/* rmd_motor_decode(), inlined into its two callers.  rt-safe. */
+/*
+ * rmd_motor_decode(), inlined into its two callers.  `zero`: r is zeroed
+ * first, as rmd_motor_decode() promises; without it only r->have is, and
+ * only the values it names are set (all rmd_motor_receive() reads).
+ * rt-safe.
+ */
 static inline __attribute__((always_inline)) int
-decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r, bool zero)
 {
-	memset(r, 0, sizeof(*r));
+	if (zero)
+		memset(r, 0, sizeof(*r));
+	else
+		r->have = 0;
 	if (f->can_id == RMD_CAN_MIT_REPLY_BASE + m->id) {
 		r->cmd = RMD_MOTOR_CMD_MIT;
 		return decode_mit(m, f, r);
@@ -755,7 +763,7 @@ decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r
 /* rt-safe. */
 int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
 {
-	return decode(m, f, r);
+	return decode(m, f, r, true);
 }
 
 /* The values of r that `have` names into st.  rt-safe. */
@@ -812,7 +820,7 @@ int rmd_motor_receive(struct rmd_motor *m, const struct rmd_frame *f, int64_t t_
 		      struct rmd_motor_state *st, unsigned *have)
 {
 	struct rmd_motor_reply r;
-	int ret = decode(m, f, &r);
+	int ret = decode(m, f, &r, false);
 
 	if (ret < 0)
 		return ret;
