@@ -606,8 +606,9 @@ static void take_speed(const struct rmd_motor *m, double x, struct rmd_motor_rep
  * 0.01 deg: the output angle), else a V2 encoder value unwrapped (not the
  * 0x60 raw read).  rt-safe.
  */
-static void take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_enc,
-			  uint16_t enc, uint8_t cmd, struct rmd_motor_reply *r)
+static inline __attribute__((always_inline)) void
+take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_enc, uint16_t enc,
+	      uint8_t cmd, struct rmd_motor_reply *r)
 {
 	if (have_angle) {
 		r->pos_rad = rmd_motor_from_native_pos(m, angle_deg / DEG_PER_RAD /
