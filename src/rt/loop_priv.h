@@ -63,7 +63,11 @@ struct outstanding {
 
 struct lmotor {
 	struct rmd_motor m; /* the motor's one record: identity, bus, limits, ... */
-	struct rmd_motor_state st;
+	/*
+	 * The motor's state: its entry of rmd_loop.snap, so that the
+	 * snapshot is filled without a copy (loop_fill_snapshot()).
+	 */
+	struct rmd_motor_state *st;
 	struct outstanding os[OUTSTANDING];
 	uint8_t os_used; /* bit k: os[k] is in flight (OUTSTANDING <= 8) */
 	uint64_t seq;
@@ -249,7 +253,7 @@ static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now
 	lm->consecutive = 0;
 	lm->replied = true;
 	lm->last_reply_cycle = l->cycle;
-	if (lm->st.lifecycle == RMD_LC_LOST || lm->st.lifecycle == RMD_LC_PROBE)
+	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE)
 		loop_enter(l, lm, RMD_LC_READY, now);
 }
 

@@ -164,11 +164,11 @@ void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
 			int64_t now)
 {
-	uint16_t prev = lm->st.error_code;
+	uint16_t prev = lm->st->error_code;
 	unsigned have;
 
 	/* now: the reply's rmd_bus_rx.t_ns */
-	if (rmd_motor_receive(&lm->m, f, now, &lm->st, &have) < 0)
+	if (rmd_motor_receive(&lm->m, f, now, lm->st, &have) < 0)
 		return false;
 	if (have & RMD_MOTOR_HAVE_ERROR)
 		loop_note_errors(l, lm, prev, now);
@@ -199,8 +199,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		       !memcmp(f->data, o->data, RMD_FRAME_LEN);
 		os_done(lm, (unsigned)k);
 		l->cnt.replies++;
-		lm->st.reply_latency_ns = rx->t_ns - o->sent_ns;
-		lat_add(&lm->lat, lm->st.reply_latency_ns);
+		lm->st->reply_latency_ns = rx->t_ns - o->sent_ns;
+		lat_add(&lm->lat, lm->st->reply_latency_ns);
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */
@@ -219,9 +219,9 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	if (cmd == RMD_MOTOR_CMD_COMM_LOST) {
 		/* docs/design.md: the motor's comm-loss protection tripped; its output is off */
 		l->cnt.unsolicited++;
-		if (lm->st.lifecycle != RMD_LC_LOST) {
+		if (lm->st->lifecycle != RMD_LC_LOST) {
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), b,
-				   lm->st.error_code, RMD_MOTOR_CMD_COMM_LOST);
+				   lm->st->error_code, RMD_MOTOR_CMD_COMM_LOST);
 			loop_motor_lost(l, lm, now);
 		}
 		return;

@@ -112,11 +112,11 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t
 		push_oneshot(l, lb, i);
 		return;
 	}
-	if (lm->st.lifecycle == RMD_LC_ENABLED) {
+	if (lm->st->lifecycle == RMD_LC_ENABLED) {
 		push_setpoint(l, lb, i);
 		return;
 	}
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
+	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_SAFE:
 		if (lm->damp_stream && rmd_motor_encode_safe(&lm->m, RMD_SAFE_DAMP, f) == 1) {
 			loop_push_tx(lb, &f[0], i, REQ_CONTROL);
@@ -144,7 +144,7 @@ static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t 
 {
 	struct lmotor *lm = &l->mot[i];
 
-	if (lm->st.lifecycle == RMD_LC_LOST)
+	if (lm->st->lifecycle == RMD_LC_LOST)
 		push_reprobe(l, lb, i, now);
 	else
 		push_cmd(l, lb, i, 0x9A);
@@ -158,7 +158,7 @@ static void add_fine(struct rmd_loop *l, struct lbus *lb, unsigned i)
 {
 	struct lmotor *lm = &l->mot[i];
 
-	if (lm->st.lifecycle != RMD_LC_LOST)
+	if (lm->st->lifecycle != RMD_LC_LOST)
 		push_cmd(l, lb, i, RMD_MOTOR_CMD_FINE_POS);
 }
 
@@ -193,7 +193,7 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 		if (!(pb->batched & (1u << k)) || lm->m.id < 1 || lm->m.id > 4)
 			continue;
 		ms[lm->m.id - 1] = &lm->m;
-		if (lm->st.lifecycle != RMD_LC_ENABLED)
+		if (lm->st->lifecycle != RMD_LC_ENABLED)
 			continue;
 		any = true;
 		if (lm->sp.mode == RMD_MODE_TORQUE) {
@@ -218,7 +218,7 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 
 		if (!(pb->batched & (1u << k)))
 			continue;
-		if (lm->st.lifecycle == RMD_LC_LOST) {
+		if (lm->st->lifecycle == RMD_LC_LOST) {
 			if (now < lm->next_probe_ns)
 				continue;
 			push_reprobe(l, lb, i, now);
