@@ -151,8 +151,10 @@ int rmd_mit_pack_cmd(const struct rmd_mit_valid_ranges *vr, uint8_t motor_id,
 }
 
 /* V3 §5.2 over ranges known to be valid, of a good id and finite fields. */
-static void pack(const struct rmd_mit_ranges *r, uint8_t motor_id, const struct rmd_mit_cmd *cmd,
-		 struct rmd_frame *out)
+static inline __attribute__((always_inline)) void pack(const struct rmd_mit_ranges *r,
+						       uint8_t motor_id,
+						       const struct rmd_mit_cmd *cmd,
+						       struct rmd_frame *out)
 {
 	uint32_t p, v, kp, kd, t;
 
