@@ -303,9 +303,32 @@ double rmd_msg_get_native(const struct rmd_msg *msg, const struct rmd_cmd_spec *
  * manual's readings and is written in its form (V2 §3.29).  rmd_field_write() does not check that raw
  * fits: rmd_field_range() gives the field's integer range.
  */
-static inline int64_t rmd_field_read(const struct rmd_field_spec *fs, const uint8_t *data)
+/*
+ * A field's reading worked out once (rmd_field_rd_init()), for callers
+ * that read the same field of many frames: rmd_field_read() is
+ * rmd_field_rd_raw() of the spec, and scale is the field's native unit per
+ * LSB (1.0 for counts and codes), so that raw * scale is its native value.
+ */
+struct rmd_field_rd {
+	uint8_t shl, shr; /* the field's top byte to the word's top, then its size down */
+	bool is_signed;
+	bool sign_byte; /* data[sign_at] is the field's sign flag */
+	uint8_t sign_at;
+	double scale;
+};
+
+static inline void rmd_field_rd_init(const struct rmd_field_spec *fs, struct rmd_field_rd *rd)
 {
-	unsigned drop = 64u - 8u * fs->size;
+	rd->shl = (uint8_t)(64u - 8u * (fs->off + fs->size));
+	rd->shr = (uint8_t)(64u - 8u * fs->size);
+	rd->is_signed = fs->is_signed;
+	rd->sign_byte = fs->sign_byte;
+	rd->sign_at = (uint8_t)(fs->off + fs->size);
+	rd->scale = fs->scale > 0.0 ? fs->scale : 1.0;
+}
+
+static inline int64_t rmd_field_rd_raw(const struct rmd_field_rd *rd, const uint8_t *data)
+{
 	uint64_t u;
 
 	/* the 8 data bytes as one little-endian word: the field is bytes off..off+size-1 */
@@ -313,21 +336,39 @@ static inline int64_t rmd_field_read(const struct rmd_field_spec *fs, const uint
 #if __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
 	u = __builtin_bswap64(u);
 #endif
-	u = (u >> (8u * fs->off)) << drop;
-	int64_t v = fs->is_signed ? (int64_t)u >> drop : (int64_t)(u >> drop);
+	u <<= rd->shl;
+	int64_t v = rd->is_signed ? (int64_t)u >> rd->shr : (int64_t)(u >> rd->shr);
 
 	/* a sign_byte field's second reading: a magnitude and the flag (V2 §3.29) */
-	if (fs->sign_byte && v > 0 && data[fs->off + fs->size])
+	if (rd->sign_byte && v > 0 && data[rd->sign_at])
 		return -v;
 	return v;
 }
 
+/* Field fs's value in the frame's data[] (raw, in LSBs).  rt-safe. */
+static inline int64_t rmd_field_read(const struct rmd_field_spec *fs, const uint8_t *data)
+{
+	struct rmd_field_rd rd;
+
+	rmd_field_rd_init(fs, &rd);
+	return rmd_field_rd_raw(&rd, data);
+}
+
 static inline void rmd_field_write(const struct rmd_field_spec *fs, uint8_t *data, int64_t raw)
 {
-	uint64_t u = (uint64_t)raw;
+	unsigned at = 8u * fs->off;
+	uint64_t u, mask = (UINT64_MAX >> (64u - 8u * fs->size)) << at;
 
-	for (unsigned i = 0; i < fs->size; i++, u >>= 8)
-		data[fs->off + i] = (uint8_t)u;
+	/* bytes off..off+size-1 of the data as one little-endian word (rmd_field_read()) */
+	__builtin_memcpy(&u, data, sizeof(u));
+#if __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+	u = __builtin_bswap64(u);
+#endif
+	u = (u & ~mask) | (((uint64_t)raw << at) & mask);
+#if __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+	u = __builtin_bswap64(u);
+#endif
+	__builtin_memcpy(data, &u, sizeof(u));
 	if (fs->sign_byte) /* the manual's form: two's complement, and the flag 1 when negative */
 		data[fs->off + fs->size] = raw < 0;
 }

@@ -118,6 +118,13 @@ int rmd_mit_encode_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id,
 int rmd_mit_pack_cmd(const struct rmd_mit_valid_ranges *r, uint8_t motor_id,
 		     const struct rmd_mit_cmd *cmd, struct rmd_frame *out);
 /*
+ * rmd_mit_pack_cmd() of a command its caller checked: motor_id 1..32 and
+ * every field finite (rmd_motor_encode() checks both first).  Values
+ * outside the ranges are clamped all the same.  rt-safe.
+ */
+void rmd_mit_pack_good(const struct rmd_mit_valid_ranges *r, uint8_t motor_id,
+		       const struct rmd_mit_cmd *cmd, struct rmd_frame *out);
+/*
  * Decode a request frame (0x401..0x420).  Returns 0, -EINVAL for another
  * CAN ID or invalid ranges, -EBADMSG for a DLC other than 8.
  */

@@ -121,6 +121,8 @@ struct rmd_motor_row {
 struct rmd_motor_status2 {
 	uint8_t cmds[32];
 	const struct rmd_field_spec *temp, *current, *speed, *angle, *encoder;
+	/* their readings, worked out once (rmd_field_rd_init()) */
+	struct rmd_field_rd temp_rd, current_rd, speed_rd, angle_rd, encoder_rd;
 };
 
 /*
@@ -150,6 +152,7 @@ struct rmd_motor {
 	struct rmd_motor_row speed_row;	 /* 0xA2: speed */
 	struct rmd_motor_row pos_row;	 /* 0xA4: angle, max speed */
 	struct rmd_motor_status2 st2;	 /* replies with 0x9C's layout */
+	uint8_t echo[32]; /* bit c: command c's answer repeats it (RMD_CMD_ECHO of its row) */
 	/* feedback.position multi_turn: the position comes from 0x92 replies only */
 	bool fine_pos;
 	/* V2 position: the rotor encoder unwrapped from a reference */
@@ -159,6 +162,12 @@ struct rmd_motor {
 	uint16_t v2_enc_last;  /* last encoder value */
 	int64_t v2_enc_counts; /* unwrapped counts since the anchor */
 };
+
+/* Whether the answer to command `cmd` of the motor's table repeats the request.  rt-safe. */
+static inline bool rmd_motor_echoes(const struct rmd_motor *m, uint8_t cmd)
+{
+	return (m->echo[cmd / 8] >> (cmd % 8)) & 1;
+}
 
 /* Bit of a modes mask (rmd_motor_modes()) for each enum rmd_mode. */
 #define RMD_MOTOR_MODE_BIT(mode) (1u << (mode))
@@ -302,10 +311,25 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
  * The identifier and command a reply to `req` (a frame of this motor)
  * comes with: V3 and MIT-as-V3 on 0x240 + ID, V2 on 0x140 + ID, MIT on
  * 0x500 + ID (cmd RMD_MOTOR_CMD_MIT); a V2 0x280 frame is answered like
- * 0xA1 (V2 §4.2).
+ * 0xA1 (V2 §4.2).  rt-safe (inline: the loop books every frame with it).
  */
-void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req, uint32_t *reply_id,
-			 uint16_t *cmd);
+static inline void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req,
+				       uint32_t *reply_id, uint16_t *cmd)
+{
+	if (req->can_id == RMD_CAN_MIT_REQ_BASE + m->id) {
+		*reply_id = RMD_CAN_MIT_REPLY_BASE + m->id;
+		*cmd = RMD_MOTOR_CMD_MIT;
+		return;
+	}
+	if (req->can_id == RMD_CAN_MULTI) {
+		/* V2 §4.2: each motor of the frame answers like 0xA1 */
+		*reply_id = RMD_CAN_REQ_BASE + m->id;
+		*cmd = 0xA1;
+		return;
+	}
+	*reply_id = (m->proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
+	*cmd = req->len ? req->data[0] : 0;
+}
 
 /*
  * Decode a reply of this motor into r.  Returns 0; -EINVAL when the frame
@@ -328,6 +352,15 @@ void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st
  */
 void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
 		    struct rmd_motor_state *st);
+
+/*
+ * rmd_motor_decode() and rmd_motor_take() of one reply in one call, as the
+ * rt loop takes every reply: returns what rmd_motor_decode() returns, and
+ * on 0 the reply's RMD_MOTOR_HAVE_* in *have (st untouched otherwise).
+ * rt-safe.
+ */
+int rmd_motor_receive(struct rmd_motor *m, const struct rmd_frame *f, int64_t t_ns,
+		      struct rmd_motor_state *st, unsigned *have);
 
 /*
  * The step of the position rmd_motor_take() reports, rad at the output

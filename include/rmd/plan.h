@@ -127,6 +127,9 @@ struct rmd_plan_bus {
 	enum rmd_bus_kind kind;
 	unsigned n_motors;
 	uint8_t motors[RMD_MAX_MOTORS]; /* cfg->motors[] indices, in file order */
+	/* by local bit: the identifier of the control request (0x140 or 0x400 + ID), and 0x140 + ID */
+	uint16_t ctl_id[RMD_MAX_MOTORS];
+	uint16_t req_id[RMD_MAX_MOTORS];
 	/* Control pattern: repeats every hc cycles. */
 	unsigned hc;
 	uint32_t due[RMD_PLAN_MAX_HC];	    /* bit `local`: commanded in cycles n % hc == c */

@@ -150,14 +150,13 @@ int rmd_mit_pack_cmd(const struct rmd_mit_valid_ranges *vr, uint8_t motor_id,
 	return pack_cmd(&vr->r, motor_id, cmd, out);
 }
 
-/* V3 §5.2 over ranges known to be valid. */
-static int pack_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id, const struct rmd_mit_cmd *cmd,
-		    struct rmd_frame *out)
+/* V3 §5.2 over ranges known to be valid, of a good id and finite fields. */
+static inline __attribute__((always_inline)) void pack(const struct rmd_mit_ranges *r,
+						       uint8_t motor_id,
+						       const struct rmd_mit_cmd *cmd,
+						       struct rmd_frame *out)
 {
 	uint32_t p, v, kp, kd, t;
-
-	if (!mit_id_ok(motor_id) || !cmd_finite(cmd))
-		return -EINVAL;
 
 	p = to_uint(cmd->p_des_rad, r->p_min, r->p_max, top_code(P_BITS));
 	v = to_uint(cmd->v_des_rad_s, r->v_min, r->v_max, top_code(V_BITS));
@@ -175,7 +174,22 @@ static int pack_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id, const stru
 	out->data[5] = (uint8_t)(kd >> 4);
 	out->data[6] = (uint8_t)((kd & 0xFu) << 4 | t >> 8);
 	out->data[7] = (uint8_t)t;
+}
+
+/* V3 §5.2 over ranges known to be valid. */
+static int pack_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id, const struct rmd_mit_cmd *cmd,
+		    struct rmd_frame *out)
+{
+	if (!mit_id_ok(motor_id) || !cmd_finite(cmd))
+		return -EINVAL;
+	pack(r, motor_id, cmd, out);
 	return 0;
+}
+
+void rmd_mit_pack_good(const struct rmd_mit_valid_ranges *vr, uint8_t motor_id,
+		       const struct rmd_mit_cmd *cmd, struct rmd_frame *out)
+{
+	pack(&vr->r, motor_id, cmd, out);
 }
 
 int rmd_mit_decode_cmd(const struct rmd_mit_ranges *r, const struct rmd_frame *f, uint8_t *motor_id,

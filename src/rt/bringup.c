@@ -152,7 +152,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		ret = probe_cmd(l, lm, 0x9A, &r);
 	}
 	if (ret == 0) {
-		rmd_motor_apply(&r, &lm->st);
+		rmd_motor_apply(&r, lm->st);
 		out->status = true;
 		out->voltage_v = r.voltage_v;
 		out->temp_c = r.temp_c;
@@ -169,9 +169,9 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 	now = loop_now(l);
 	lm->consecutive = 0;
 	loop_enter(l, lm, RMD_LC_READY, now);
-	if (lm->st.error_code)
+	if (lm->st->error_code)
 		loop_note_errors(l, lm, 0, now);
-	out->state = lm->st.error_code ? RMD_BRINGUP_FAULT : RMD_BRINGUP_FOUND;
+	out->state = lm->st->error_code ? RMD_BRINGUP_FAULT : RMD_BRINGUP_FOUND;
 	return 0;
 }
 
@@ -263,7 +263,7 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 
 		out->motor[i].comm_loss_ms = rmd_config_comm_loss_ms(l->cfg, i);
 		if (lm->m.bus != b || lm->m.proto == RMD_PROTO_V2 ||
-		    lm->st.lifecycle == RMD_LC_LOST)
+		    lm->st->lifecycle == RMD_LC_LOST)
 			continue;
 		out->motor[i].b3 = RMD_B3_NO_ANSWER;
 		rmd_msg_set(&msg, RMD_FLD_TIMEOUT, out->motor[i].comm_loss_ms);
@@ -293,7 +293,7 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 		if (lm->m.bus != b)
 			continue;
 		out->motor[i].comm_loss = lm->cl;
-		if (!rmd_comm_loss_allows_motion(lm->cl) && lm->st.lifecycle != RMD_LC_LOST)
+		if (!rmd_comm_loss_allows_motion(lm->cl) && lm->st->lifecycle != RMD_LC_LOST)
 			out->unarmed++;
 	}
 }

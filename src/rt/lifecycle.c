@@ -97,7 +97,7 @@ static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
  */
 void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
 {
-	enum rmd_lifecycle old = (enum rmd_lifecycle)lm->st.lifecycle;
+	enum rmd_lifecycle old = (enum rmd_lifecycle)lm->st->lifecycle;
 	bool was_on = old == RMD_LC_ENABLED || old == RMD_LC_SAFE;
 
 	if (old == lc)
@@ -118,7 +118,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		if (was_on) {
 			push_oneshot_cmd(lm, 0x80);
 			push_oneshot_cmd(lm, 0x78);
-			lm->st.mode = (uint8_t)lm->m.mode;
+			lm->st->mode = (uint8_t)lm->m.mode;
 		} else if (old == RMD_LC_PROBE) {
 			lm->need_edge = false;
 		} else {
@@ -143,28 +143,28 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			cl_forget(l, lm);
 		} else {
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
-				   lm->st.error_code, 0);
+				   lm->st->error_code, 0);
 		}
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_COUNT:
 		break;
 	}
-	lm->st.lifecycle = (uint8_t)lc;
+	lm->st->lifecycle = (uint8_t)lc;
 	loop_event(l, now, RMD_EV_MOTOR_STATE, loop_idx(l, lm), lm->m.bus, old, lc);
 }
 
 /* An ENABLED motor gets the safe action and becomes SAFE.  rt-safe. */
 static void make_safe(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	if (lm->st.lifecycle == RMD_LC_ENABLED)
+	if (lm->st->lifecycle == RMD_LC_ENABLED)
 		loop_enter(l, lm, RMD_LC_SAFE, now);
 }
 
 /* rt-safe. */
 void loop_motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	if (lm->st.lifecycle == RMD_LC_LOST)
+	if (lm->st->lifecycle == RMD_LC_LOST)
 		return;
 	loop_enter(l, lm, RMD_LC_LOST, now);
 	if (l->cfg->safety.lost_motor_action == RMD_LOST_ALL)
@@ -178,29 +178,19 @@ void loop_miss(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	unsigned n = l->cfg->safety.missed_replies_lost ? l->cfg->safety.missed_replies_lost : 1;
 
-	lm->st.missed_replies++;
+	lm->st->missed_replies++;
 	l->cnt.missed++;
 	lm->consecutive++;
-	if (lm->consecutive >= n && lm->st.lifecycle != RMD_LC_LOST)
+	if (lm->consecutive >= n && lm->st->lifecycle != RMD_LC_LOST)
 		loop_motor_lost(l, lm, now);
-}
-
-/* The motor answered something: it is there.  rt-safe. */
-void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
-{
-	lm->consecutive = 0;
-	lm->replied = true;
-	lm->last_reply_cycle = l->cycle;
-	if (lm->st.lifecycle == RMD_LC_LOST || lm->st.lifecycle == RMD_LC_PROBE)
-		loop_enter(l, lm, RMD_LC_READY, now);
 }
 
 /* Error flags from a 0x9A answer or report.  prev: the code before it.  rt-safe. */
 void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now)
 {
-	uint16_t code = lm->st.error_code;
+	uint16_t code = lm->st->error_code;
 
-	if (lm->st.lifecycle != RMD_LC_FAULT) {
+	if (lm->st->lifecycle != RMD_LC_FAULT) {
 		if (code)
 			loop_enter(l, lm, RMD_LC_FAULT, now);
 	} else if (!code) {
@@ -216,11 +206,18 @@ void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int6
 static void cl_enable_wanted(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			     int64_t now);
 
+/* sp is in force (ENABLED).  rt-safe. */
+static inline void take_setpoint(struct lmotor *lm, const struct rmd_setpoint *sp)
+{
+	lm->sp = *sp;
+	lm->st->mode = sp->mode;
+}
+
 /* Returns -1 when acted on, else the enum rmd_ignore reason it was not.  rt-safe. */
 static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			int64_t now)
 {
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
+	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_READY:
 	case RMD_LC_SAFE:
 		if (lm->need_edge)
@@ -230,13 +227,11 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 			cl_enable_wanted(l, lm, sp, now);
 			return -1;
 		}
-		lm->sp = *sp;
-		lm->st.mode = sp->mode;
+		take_setpoint(lm, sp);
 		loop_enter(l, lm, RMD_LC_ENABLED, now);
 		break;
 	case RMD_LC_ENABLED:
-		lm->sp = *sp;
-		lm->st.mode = sp->mode;
+		take_setpoint(lm, sp);
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_FAULT:
@@ -252,7 +247,7 @@ static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	lm->need_edge = false; /* the enable = 0 the edge rule waits for */
 	lm->cl_want = false;
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
+	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_ENABLED:
 	case RMD_LC_SAFE:
 		loop_enter(l, lm, RMD_LC_READY, now);
@@ -283,17 +278,17 @@ static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t 
  */
 void loop_take_command(struct rmd_loop *l, int64_t now)
 {
-	const struct rmd_command *c = &l->cmd;
+	const struct rmd_command *c;
 	const void *p;
 	bool any_enable = false;
 
 	if (!l->o.commands || !rmd_latest_get(l->o.commands, &p))
 		return;
-	memcpy(&l->cmd, p, sizeof(l->cmd));
+	c = p;
 	l->cnt.commands++;
-	if (!l->have_cmd || c->rx_ns > l->last_cmd_rx_ns)
+	if (!l->cmd || c->rx_ns > l->last_cmd_rx_ns)
 		l->last_cmd_rx_ns = c->rx_ns;
-	l->have_cmd = true;
+	l->cmd = c;
 	/* A command from before the trip does not lift it. */
 	if (l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns) {
 		for (unsigned i = 0; i < l->n_motors; i++)
@@ -311,10 +306,13 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 		if (!(c->present & (1u << i)))
 			continue;
 		if (c->m[i].enable) {
-			int why;
+			int why = -1;
 
 			any_enable = true;
-			why = enable_motor(l, lm, &c->m[i], now);
+			if (lm->st->lifecycle == RMD_LC_ENABLED) /* enable_motor()'s, every cycle */
+				take_setpoint(lm, &c->m[i]);
+			else
+				why = enable_motor(l, lm, &c->m[i], now);
 			if (why >= 0)
 				l->cnt.ignored[why]++;
 		} else {
@@ -334,7 +332,7 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
 	if (l->wd != RMD_WD_OK || timeout <= 0 || now - l->last_cmd_rx_ns <= timeout)
 		return;
 	for (unsigned i = 0; i < l->n_motors; i++)
-		any |= l->mot[i].st.lifecycle == RMD_LC_ENABLED;
+		any |= l->mot[i].st->lifecycle == RMD_LC_ENABLED;
 	if (!any)
 		return;
 	l->trip_ns = now;
@@ -452,7 +450,7 @@ static bool cl_push(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 /* One step of lm's round: the next write, or its end.  rt-safe. */
 static void cl_round_step(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	if (lm->st.lifecycle == RMD_LC_LOST || lm->st.lifecycle == RMD_LC_PROBE ||
+	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE ||
 	    now < lm->cl_try_end_ns)
 		return;
 	if (lm->cl_tries < ARM_TRIES) {

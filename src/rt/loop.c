@@ -305,8 +305,8 @@ void loop_fill_snapshot(struct rmd_loop *l, int64_t now)
 		struct lmotor *lm = &l->mot[i];
 		uint64_t age = lm->replied ? l->cycle - lm->last_reply_cycle : UINT32_MAX;
 
-		lm->st.reply_age_cycles = age > UINT32_MAX ? UINT32_MAX : (uint32_t)age;
-		s->m[i] = lm->st;
+		/* lm->st is s->m[i] */
+		lm->st->reply_age_cycles = age > UINT32_MAX ? UINT32_MAX : (uint32_t)age;
 	}
 }
 
@@ -324,7 +324,20 @@ static void publish(struct rmd_loop *l, int64_t now)
 	}
 	loop_pub_write(l);
 	if (l->o.snapshots) {
-		rmd_latest_put(l->o.snapshots, s);
+		struct rmd_latest *sl = l->o.snapshots;
+		unsigned slot = 1u << sl->write_idx;
+
+		/*
+		 * The motors up to n; past them a slot keeps what its first,
+		 * whole copy put there: l->snap's, which stay as rmd_loop_new()
+		 * left them.
+		 */
+		memcpy(rmd_latest_write_slot(sl), s,
+		       l->snap_slots & slot ?
+			       offsetof(struct rmd_snapshot, m) + l->n_motors * sizeof(s->m[0]) :
+			       sizeof(*s));
+		l->snap_slots |= slot;
+		rmd_latest_publish(sl);
 		/*
 		 * The bridge publishes every lcm.state_every_n-th state (LCM's
 		 * udpm cannot tell whether anyone listens): it is woken for
@@ -412,10 +425,10 @@ static void schedule(struct rmd_loop *l, int64_t now)
 /* Incident recorder: a command the loop took this cycle (rmd/incident.h).  rt-safe. */
 static void incident_command(struct rmd_loop *l, int64_t now)
 {
-	if (!l->o.incidents || !l->have_cmd || l->cmd.rx_ns == l->inc_cmd_rx_ns)
+	if (!l->o.incidents || !l->cmd || l->cmd->rx_ns == l->inc_cmd_rx_ns)
 		return;
-	l->inc_cmd_rx_ns = l->cmd.rx_ns;
-	rmd_incident_command(l->o.incidents, &l->cmd, now);
+	l->inc_cmd_rx_ns = l->cmd->rx_ns;
+	rmd_incident_command(l->o.incidents, l->cmd, now);
 }
 
 /* rt-safe. */
@@ -527,7 +540,7 @@ void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *o
 static bool outstanding_any(const struct rmd_loop *l)
 {
 	for (unsigned i = 0; i < l->n_motors; i++)
-		if (l->mot[i].os_used && l->mot[i].st.lifecycle != RMD_LC_LOST)
+		if (l->mot[i].os_used && l->mot[i].st->lifecycle != RMD_LC_LOST)
 			return true;
 	return false;
 }
@@ -568,10 +581,10 @@ static int64_t send_queued(struct rmd_loop *l, int64_t now)
 			if (off[b] >= lb->ntx)
 				continue;
 			r = rmd_bus_send(lb->bus, lb->tx + off[b], lb->ntx - off[b], now);
-			for (int k = 0; k < r; k++)
-				loop_commit(l, lb, off[b] + (unsigned)k, now);
-			if (r > 0)
+			if (r > 0) {
+				loop_commit(l, lb, off[b], off[b] + (unsigned)r, now);
 				off[b] += (unsigned)r;
+			}
 			left |= off[b] < lb->ntx;
 		}
 		if (!left)
@@ -604,8 +617,8 @@ static void queue_stop(struct rmd_loop *l, int driven, uint8_t cmd, bool brake)
 		lb->ntx = 0;
 		for (unsigned k = 0; k < lb->pb->n_motors; k++) {
 			struct lmotor *lm = &l->mot[lb->pb->motors[k]];
-			bool on = lm->st.lifecycle == RMD_LC_ENABLED ||
-				  lm->st.lifecycle == RMD_LC_SAFE;
+			bool on = lm->st->lifecycle == RMD_LC_ENABLED ||
+				  lm->st->lifecycle == RMD_LC_SAFE;
 			struct rmd_frame f[2];
 			int n = 0;
 
@@ -656,7 +669,7 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		if (lm->st.lifecycle == RMD_LC_ENABLED || lm->st.lifecycle == RMD_LC_SAFE)
+		if (lm->st->lifecycle == RMD_LC_ENABLED || lm->st->lifecycle == RMD_LC_SAFE)
 			loop_enter(l, lm, RMD_LC_READY, now);
 		/* the stop frames went out above: nothing waits any more (READY's
 		 * entry frames included: hold must not be undone) */
@@ -765,15 +778,16 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 			lb->by_v3[c->id] = (uint8_t)(i + 1);
 			break;
 		}
-		lm->st.lifecycle = RMD_LC_PROBE;
-		lm->st.mode = (uint8_t)c->mode;
-		lm->st.pos_rad = NAN;
-		lm->st.vel_rad_s = NAN;
-		lm->st.torque_nm = NAN;
-		lm->st.current_a = NAN;
-		lm->st.temp_c = NAN;
-		lm->st.voltage_v = NAN;
-		lm->st.reply_age_cycles = UINT32_MAX;
+		lm->st = &l->snap.m[i];
+		lm->st->lifecycle = RMD_LC_PROBE;
+		lm->st->mode = (uint8_t)c->mode;
+		lm->st->pos_rad = NAN;
+		lm->st->vel_rad_s = NAN;
+		lm->st->torque_nm = NAN;
+		lm->st->current_a = NAN;
+		lm->st->temp_c = NAN;
+		lm->st->voltage_v = NAN;
+		lm->st->reply_age_cycles = UINT32_MAX;
 	}
 	{
 		uint64_t every = (uint64_t)cfg->lcm.health_period_ms * cfg->loop.rate_hz / 1000u;
@@ -787,9 +801,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 	atomic_init(&l->stat_seq, 0);
 	atomic_init(&l->heartbeat, 0);
 	atomic_init(&l->stop, false);
-	l->snap.n = l->n_motors;
-	for (unsigned i = 0; i < l->n_motors; i++)
-		l->snap.m[i] = l->mot[i].st;
+	l->snap.n = l->n_motors; /* the motors' states are in it already (lmotor.st) */
 	loop_pub_write(l);
 	return l;
 }

@@ -5,9 +5,10 @@
  *
  *   loop.c       construction, the cycle, schedule, publishing,
  *                getters, stopping the motors                 rt-safe / non-rt
- *   loop_rx.c    requests in flight, matching, deadlines      rt-safe
+ *   loop_rx.c    requests in flight (booking, loop_commit()),
+ *                matching, deadlines                          rt-safe
  *   lifecycle.c  loop_enter(), commands, the host watchdog    rt-safe
- *   loop_tx.c    a cycle's frames, one send, booking          rt-safe
+ *   loop_tx.c    a cycle's frames, one send                   rt-safe
  *   bringup.c    probing and arming the motors before start  non-rt
  *   rt_thread.c  the SCHED_FIFO thread and its set-up        rt-safe / non-rt
  *
@@ -52,8 +53,8 @@ enum req_kind {
 /* A request in flight (its bit in struct lmotor.os_used says it is). */
 struct outstanding {
 	bool echo_is_reply; /* the command's answer repeats it (0x80, 0xB3, ...) */
-	uint16_t cmd;	    /* command byte of the answer, or RMD_MOTOR_CMD_MIT */
-	uint32_t reply_id;
+	/* the answer's identifier and command byte (or RMD_MOTOR_CMD_MIT): os_keyof() */
+	uint64_t key;
 	uint64_t seq; /* send order */
 	int64_t sent_ns;
 	int64_t deadline_ns;
@@ -62,7 +63,11 @@ struct outstanding {
 
 struct lmotor {
 	struct rmd_motor m; /* the motor's one record: identity, bus, limits, ... */
-	struct rmd_motor_state st;
+	/*
+	 * The motor's state: its entry of rmd_loop.snap, so that the
+	 * snapshot is filled without a copy (loop_fill_snapshot()).
+	 */
+	struct rmd_motor_state *st;
 	struct outstanding os[OUTSTANDING];
 	uint8_t os_used; /* bit k: os[k] is in flight (OUTSTANDING <= 8) */
 	uint64_t seq;
@@ -141,8 +146,11 @@ struct rmd_loop {
 	uint64_t cycle; /* index of the cycle running, from 0 */
 
 	/* commands and the host watchdog */
-	struct rmd_command cmd;
-	bool have_cmd;
+	/*
+	 * The newest command: the reader's slot of o.commands, which stays
+	 * the loop's until its next rmd_latest_get() (no copy).  NULL: none yet.
+	 */
+	const struct rmd_command *cmd;
 	int64_t inc_cmd_rx_ns; /* the newest command the incident recorder has */
 	int64_t last_cmd_rx_ns;
 	uint8_t wd; /* enum rmd_watchdog_state */
@@ -173,6 +181,7 @@ struct rmd_loop {
 
 	/* work copies */
 	struct rmd_snapshot snap;
+	unsigned snap_slots;	  /* bit i: o.snapshots' slot i had one whole copy of snap */
 	struct rmd_health health; /* filled every health_every cycles */
 	bool health_fresh;	  /* filled, not yet in pub_health */
 
@@ -220,6 +229,34 @@ static inline enum rmd_safe_action loop_safe_action(const struct rmd_loop *l)
 	return l->cfg->safety.safe_action;
 }
 
+/* lifecycle.c.  rt-safe. */
+void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
+
+/* The motor a received identifier belongs to, or NULL.  rt-safe. */
+static inline struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
+{
+	const struct lbus *lb = &l->bus[b];
+	unsigned k = 0;
+
+	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+		k = lb->by_v3[id - RMD_CAN_V3_REPLY_BASE];
+	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
+		k = lb->by_v2[id - RMD_CAN_REQ_BASE];
+	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
+		k = lb->by_mit[id - RMD_CAN_MIT_REPLY_BASE];
+	return k ? &l->mot[k - 1] : NULL;
+}
+
+/* The motor answered something: it is there.  rt-safe. */
+static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	lm->consecutive = 0;
+	lm->replied = true;
+	lm->last_reply_cycle = l->cycle;
+	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE)
+		loop_enter(l, lm, RMD_LC_READY, now);
+}
+
 /* loop.c.  rt-safe unless said. */
 int64_t loop_now(const struct rmd_loop *l);
 struct timespec loop_ts(int64_t ns);
@@ -233,18 +270,15 @@ void loop_fill_health(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
 
 /* loop_rx.c.  rt-safe. */
-void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now);
+void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to, int64_t now);
 void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
-struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id);
 void loop_drain(struct rmd_loop *l, unsigned b, int64_t now);
 void loop_check_deadlines(struct rmd_loop *l, int64_t now);
 
 /* lifecycle.c.  rt-safe. */
-void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
 void loop_frames_drop(struct lmotor *lm);
 void loop_motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_miss(struct rmd_loop *l, struct lmotor *lm, int64_t now);
-void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int64_t now);
 void loop_take_command(struct rmd_loop *l, int64_t now);
 void loop_watchdog(struct rmd_loop *l, int64_t now);
@@ -256,7 +290,6 @@ enum rmd_comm_loss loop_b3_outcome(const uint8_t *req, const struct rmd_frame *r
 
 /* loop_tx.c.  rt-safe. */
 void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind);
-void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now);
 bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now);
 
 #endif /* RMD_LOOP_PRIV_H */

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 /*
- * The rt loop's receiving side: the requests in flight of each motor, the
- * matching of a received frame to its motor and request, decoding into the
- * motor's state, and the reply deadlines.  See rmd/loop.h "Matching and
+ * The rt loop's receiving side: the requests in flight of each motor (a
+ * frame the bus took is booked here, loop_commit()), the matching of a
+ * received frame to its motor and request, decoding into the motor's
+ * state, and the reply deadlines.  See rmd/loop.h "Matching and
  * deadlines"; the shared state is loop_priv.h.
  *
  * Execution context: rt-safe: called from the cycle (and from rmd_loop_stop_motors()
@@ -24,27 +25,33 @@
  * (setpoints, status reads) take the short way: their answer comes on the
  * motor's reply identifier with their command byte.  rt-safe.
  */
-static void os_key(const struct rmd_motor *m, const struct rmd_frame *f, struct outstanding *o)
+static inline uint64_t os_keyof(uint32_t reply_id, uint16_t cmd)
 {
-	const struct rmd_cmd_spec *spec;
-
-	if (f->can_id == RMD_CAN_REQ_BASE + m->id && f->len) {
-		o->reply_id = m->reply_id;
-		o->cmd = f->data[0];
-		spec = rmd_cmd_find(m->table, f->data[0]);
-		o->echo_is_reply = spec && (spec->flags & RMD_CMD_ECHO);
-		return;
-	}
-	rmd_motor_reply_key(m, f, &o->reply_id, &o->cmd);
-	/* 0x280, MIT and empty frames are never echoed */
-	spec = f->can_id == RMD_CAN_MULTI || f->can_id == RMD_CAN_MIT_REQ_BASE + m->id || !f->len ?
-		       NULL :
-		       rmd_cmd_find(m->table, f->data[0]);
-	o->echo_is_reply = spec && (spec->flags & RMD_CMD_ECHO);
+	return (uint64_t)reply_id << 16 | cmd;
 }
 
-/* rt-safe. */
-void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now)
+static inline __attribute__((always_inline)) void
+os_key(const struct rmd_motor *m, const struct rmd_frame *f, struct outstanding *o)
+{
+	uint32_t reply_id;
+	uint16_t cmd;
+
+	if (f->can_id == RMD_CAN_REQ_BASE + m->id && f->len) {
+		o->key = os_keyof(m->reply_id, f->data[0]);
+		o->echo_is_reply = rmd_motor_echoes(m, f->data[0]);
+		return;
+	}
+	rmd_motor_reply_key(m, f, &reply_id, &cmd);
+	o->key = os_keyof(reply_id, cmd);
+	/* 0x280, MIT and empty frames are never echoed */
+	o->echo_is_reply = f->can_id != RMD_CAN_MULTI &&
+			   f->can_id != RMD_CAN_MIT_REQ_BASE + m->id && f->len &&
+			   rmd_motor_echoes(m, f->data[0]);
+}
+
+/* Request f of lm, sent at now, is in flight.  rt-safe. */
+static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, struct lmotor *lm,
+							 const struct rmd_frame *f, int64_t now)
 {
 	unsigned free_mask = ~(unsigned)lm->os_used & ((1u << OUTSTANDING) - 1);
 	unsigned k;
@@ -70,24 +77,59 @@ void loop_os_add(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *
 	lm->os_used |= (uint8_t)(1u << k);
 }
 
-/* The oldest request of lm that frame f (id, cmd) answers, or NULL.  rt-safe. */
-static struct outstanding *os_match(struct lmotor *lm, uint32_t id, uint16_t cmd)
+/* rt-safe. */
+static void oneshot_pop(struct lmotor *lm)
 {
-	struct outstanding *best = NULL;
+	if (!lm->n_oneshot)
+		return;
+	for (unsigned k = 1; k < lm->n_oneshot; k++)
+		lm->oneshot[k - 1] = lm->oneshot[k];
+	lm->n_oneshot--;
+}
+
+/* Book frames from..to-1 of lb's cycle, which the bus took.  rt-safe. */
+void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to, int64_t now)
+{
+	for (unsigned k = from; k < to; k++) {
+		const struct txmeta *mt = &lb->meta[k];
+		const struct rmd_frame *f = &lb->tx[k];
+
+		/* incident recorder: every frame a bus took */
+		if (l->o.incidents)
+			rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX,
+					   f, now);
+		if (mt->kind == REQ_BATCH) {
+			for (unsigned j = 0; j < lb->pb->n_motors; j++)
+				if (lb->pb->batched & (1u << j))
+					os_add(l, &l->mot[lb->pb->motors[j]], f, now);
+			continue;
+		}
+		if (mt->kind == REQ_ONESHOT)
+			oneshot_pop(&l->mot[mt->motor]);
+		os_add(l, &l->mot[mt->motor], f, now);
+	}
+}
+
+/* The slot of lm's oldest request that frame f (id, cmd) answers, or -1.  rt-safe. */
+static int os_match(const struct lmotor *lm, uint32_t id, uint16_t cmd)
+{
+	uint64_t key = os_keyof(id, cmd);
+	int best = -1;
 
 	for (unsigned m = lm->os_used; m; m &= m - 1) {
-		struct outstanding *e = &lm->os[__builtin_ctz(m)];
+		int k = __builtin_ctz(m);
+		const struct outstanding *e = &lm->os[k];
 
-		if (e->reply_id == id && e->cmd == cmd && (!best || e->seq < best->seq))
-			best = e;
+		if (e->key == key && (best < 0 || e->seq < lm->os[best].seq))
+			best = k;
 	}
 	return best;
 }
 
-/* Request o of lm is answered or given up.  rt-safe. */
-static void os_done(struct lmotor *lm, const struct outstanding *o)
+/* Request in slot k of lm is answered or given up.  rt-safe. */
+static void os_done(struct lmotor *lm, unsigned k)
 {
-	lm->os_used &= (uint8_t) ~(1u << (unsigned)(o - lm->os));
+	lm->os_used &= (uint8_t) ~(1u << k);
 }
 
 /* ------------------------------------------------------------------ */
@@ -118,32 +160,17 @@ void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 	loop_event(l, now, RMD_EV_UNEXPECTED, 0xFF, b, f->can_id, f->len ? f->data[0] : -1);
 }
 
-/* The motor a received identifier belongs to, or NULL.  rt-safe. */
-struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
-{
-	const struct lbus *lb = &l->bus[b];
-	unsigned k = 0;
-
-	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
-		k = lb->by_v3[id - RMD_CAN_V3_REPLY_BASE];
-	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
-		k = lb->by_v2[id - RMD_CAN_REQ_BASE];
-	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
-		k = lb->by_mit[id - RMD_CAN_MIT_REPLY_BASE];
-	return k ? &l->mot[k - 1] : NULL;
-}
-
 /* Decode f into lm's state; false when it cannot be decoded.  rt-safe. */
 static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
 			int64_t now)
 {
-	struct rmd_motor_reply r;
-	uint16_t prev = lm->st.error_code;
+	uint16_t prev = lm->st->error_code;
+	unsigned have;
 
-	if (rmd_motor_decode(&lm->m, f, &r) < 0)
+	/* now: the reply's rmd_bus_rx.t_ns */
+	if (rmd_motor_receive(&lm->m, f, now, lm->st, &have) < 0)
 		return false;
-	rmd_motor_take(&lm->m, &r, now, &lm->st); /* now: the reply's rmd_bus_rx.t_ns */
-	if (r.have & RMD_MOTOR_HAVE_ERROR)
+	if (have & RMD_MOTOR_HAVE_ERROR)
 		loop_note_errors(l, lm, prev, now);
 	return true;
 }
@@ -154,23 +181,26 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	const struct rmd_frame *f = &rx->f;
 	struct lmotor *lm = loop_motor_of(l, b, f->can_id);
 	int64_t now = rx->t_ns;
-	struct outstanding *o;
+	const struct outstanding *o;
 	uint16_t cmd;
+	int k;
 
 	if (!lm || !f->len) {
 		loop_unexpected(l, b, f, now);
 		return;
 	}
 	cmd = f->can_id > RMD_CAN_MIT_REPLY_BASE ? RMD_MOTOR_CMD_MIT : f->data[0];
-	o = os_match(lm, f->can_id, cmd);
-	if (o) {
-		bool echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
-			    !memcmp(f->data, o->data, RMD_FRAME_LEN);
+	k = os_match(lm, f->can_id, cmd);
+	if (k >= 0) {
+		bool echo;
 
-		os_done(lm, o);
+		o = &lm->os[k];
+		echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
+		       !memcmp(f->data, o->data, RMD_FRAME_LEN);
+		os_done(lm, (unsigned)k);
 		l->cnt.replies++;
-		lm->st.reply_latency_ns = rx->t_ns - o->sent_ns;
-		lat_add(&lm->lat, lm->st.reply_latency_ns);
+		lm->st->reply_latency_ns = rx->t_ns - o->sent_ns;
+		lat_add(&lm->lat, lm->st->reply_latency_ns);
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */
@@ -189,9 +219,9 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	if (cmd == RMD_MOTOR_CMD_COMM_LOST) {
 		/* docs/design.md: the motor's comm-loss protection tripped; its output is off */
 		l->cnt.unsolicited++;
-		if (lm->st.lifecycle != RMD_LC_LOST) {
+		if (lm->st->lifecycle != RMD_LC_LOST) {
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), b,
-				   lm->st.error_code, RMD_MOTOR_CMD_COMM_LOST);
+				   lm->st->error_code, RMD_MOTOR_CMD_COMM_LOST);
 			loop_motor_lost(l, lm, now);
 		}
 		return;
@@ -238,10 +268,10 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 		struct lmotor *lm = &l->mot[i];
 
 		for (unsigned m = lm->os_used; m; m &= m - 1) {
-			struct outstanding *o = &lm->os[__builtin_ctz(m)];
+			unsigned k = (unsigned)__builtin_ctz(m);
 
-			if (o->deadline_ns <= now) {
-				os_done(lm, o);
+			if (lm->os[k].deadline_ns <= now) {
+				os_done(lm, k);
 				loop_miss(l, lm, now);
 			}
 		}

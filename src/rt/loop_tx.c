@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: MIT
 /*
  * The rt loop's sending side: one cycle's frames of a bus from its plan
- * slots (setpoints, one-shots, status reads, the V2 0x280 frame), one send
- * call, and the booking of what the bus took.  See rmd/loop.h "Frames";
- * the shared state is loop_priv.h.
+ * slots (setpoints, one-shots, status reads, the V2 0x280 frame) and one
+ * send call; loop_commit() (loop_rx.c) books what the bus took.  See
+ * rmd/loop.h "Frames"; the shared state is loop_priv.h.
  *
- * Execution context: rt-safe: called from the cycle (loop_push_tx() and loop_commit()
- * also from rmd_loop_stop_motors()); no allocation, no lock, no text.
+ * Execution context: rt-safe: called from the cycle (loop_push_tx() also
+ * from rmd_loop_stop_motors()); no allocation, no lock, no text.
  */
 #include <errno.h>
 #include <string.h>
@@ -14,16 +14,6 @@
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "loop_priv.h"
-
-/* rt-safe. */
-static void oneshot_pop(struct lmotor *lm)
-{
-	if (!lm->n_oneshot)
-		return;
-	for (unsigned k = 1; k < lm->n_oneshot; k++)
-		lm->oneshot[k - 1] = lm->oneshot[k];
-	lm->n_oneshot--;
-}
 
 /* ------------------------------------------------------------------ */
 /* Sending */
@@ -39,26 +29,30 @@ void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, en
 }
 
 /* rt-safe. */
-static void push_cmd(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, uint8_t cmd)
+static void push_cmd(struct rmd_loop *l, struct lbus *lb, unsigned i, uint8_t cmd)
 {
+	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f;
 
 	if (rmd_motor_encode_cmd(&lm->m, cmd, &f) == 0)
-		loop_push_tx(lb, &f, loop_idx(l, lm), REQ_STATUS);
+		loop_push_tx(lb, &f, i, REQ_STATUS);
 }
 
 /* A lost motor's 0x9A re-probe, when one is due.  rt-safe. */
-static void push_reprobe(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
+	struct lmotor *lm = &l->mot[i];
+
 	if (now < lm->next_probe_ns)
 		return;
 	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-	push_cmd(l, lb, lm, 0x9A);
+	push_cmd(l, lb, i, 0x9A);
 }
 
 /* The setpoint's frame, or the safe action's first frame instead of a refused one.  rt-safe. */
-static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+static void push_setpoint(struct rmd_loop *l, struct lbus *lb, unsigned i)
 {
+	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f, safe[2];
 	unsigned fl = 0;
 	int r = rmd_motor_encode(&lm->m, &lm->sp, &f, &fl);
@@ -66,7 +60,7 @@ static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm
 	if (r == 0) {
 		if (fl & RMD_MOTOR_CLAMPED)
 			l->cnt.clamped++;
-		loop_push_tx(lb, &f, loop_idx(l, lm), REQ_CONTROL);
+		loop_push_tx(lb, &f, i, REQ_CONTROL);
 		return;
 	}
 	if (r == -EDOM)
@@ -74,9 +68,9 @@ static void push_setpoint(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm
 	else
 		l->cnt.unsupported++;
 	if (rmd_motor_encode_safe(&lm->m, loop_safe_action(l), safe) > 0)
-		loop_push_tx(lb, &safe[0], loop_idx(l, lm), REQ_CONTROL);
+		loop_push_tx(lb, &safe[0], i, REQ_CONTROL);
 	else
-		push_cmd(l, lb, lm, 0x80);
+		push_cmd(l, lb, i, 0x80);
 }
 
 /*
@@ -98,43 +92,46 @@ static bool oneshot_echo_verified(const struct lmotor *lm, const struct rmd_fram
  * counts, only for these writes (at most ARM_TRIES in a round; TX_MAX has
  * room for a second frame in every slot).  rt-safe.
  */
-static void push_oneshot(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i)
 {
+	struct lmotor *lm = &l->mot[i];
+
 	if (oneshot_echo_verified(lm, &lm->oneshot[0]))
-		push_cmd(l, lb, lm, 0x9A);
-	loop_push_tx(lb, &lm->oneshot[0], loop_idx(l, lm), REQ_ONESHOT);
+		push_cmd(l, lb, i, 0x9A);
+	loop_push_tx(lb, &lm->oneshot[0], i, REQ_ONESHOT);
 }
 
 /* rt-safe. */
-static void add_control(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
+	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f[2];
 
 	/* one-shots first: an ENABLED motor's brake release, the others' stops */
 	if (lm->n_oneshot) {
-		push_oneshot(l, lb, lm);
+		push_oneshot(l, lb, i);
 		return;
 	}
-	if (lm->st.lifecycle == RMD_LC_ENABLED) {
-		push_setpoint(l, lb, lm);
+	if (lm->st->lifecycle == RMD_LC_ENABLED) {
+		push_setpoint(l, lb, i);
 		return;
 	}
-	switch ((enum rmd_lifecycle)lm->st.lifecycle) {
+	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_SAFE:
 		if (lm->damp_stream && rmd_motor_encode_safe(&lm->m, RMD_SAFE_DAMP, f) == 1) {
-			loop_push_tx(lb, &f[0], loop_idx(l, lm), REQ_CONTROL);
+			loop_push_tx(lb, &f[0], i, REQ_CONTROL);
 			break;
 		}
-		push_cmd(l, lb, lm, 0x9C);
+		push_cmd(l, lb, i, 0x9C);
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_READY:
 	case RMD_LC_FAULT:
 		/* read only: V3 §2.13 / V2 §3.32 status 2 (MIT motors answer V3) */
-		push_cmd(l, lb, lm, 0x9C);
+		push_cmd(l, lb, i, 0x9C);
 		break;
 	case RMD_LC_LOST:
-		push_reprobe(l, lb, lm, now);
+		push_reprobe(l, lb, i, now);
 		break;
 	case RMD_LC_ENABLED:
 	case RMD_LC_COUNT:
@@ -143,22 +140,26 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, 
 }
 
 /* rt-safe. */
-static void add_status(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm, int64_t now)
+static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
-	if (lm->st.lifecycle == RMD_LC_LOST)
-		push_reprobe(l, lb, lm, now);
+	struct lmotor *lm = &l->mot[i];
+
+	if (lm->st->lifecycle == RMD_LC_LOST)
+		push_reprobe(l, lb, i, now);
 	else
-		push_cmd(l, lb, lm, 0x9A);
+		push_cmd(l, lb, i, 0x9A);
 }
 
 /*
  * A fine position read (rmd/plan.h, docs/feedback.md): 0x92 in every
  * lifecycle but LOST, whose re-probe is the control slot's.  rt-safe.
  */
-static void add_fine(struct rmd_loop *l, struct lbus *lb, struct lmotor *lm)
+static void add_fine(struct rmd_loop *l, struct lbus *lb, unsigned i)
 {
-	if (lm->st.lifecycle != RMD_LC_LOST)
-		push_cmd(l, lb, lm, RMD_MOTOR_CMD_FINE_POS);
+	struct lmotor *lm = &l->mot[i];
+
+	if (lm->st->lifecycle != RMD_LC_LOST)
+		push_cmd(l, lb, i, RMD_MOTOR_CMD_FINE_POS);
 }
 
 /* The V2 0x280 slot (rmd/loop.h "Frames").  rt-safe. */
@@ -176,10 +177,10 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 	 * frame's budget (1 + n frames; a one-shot and its answer are 2).
 	 */
 	for (unsigned k = 0; k < pb->n_motors && room; k++) {
-		struct lmotor *lm = &l->mot[pb->motors[k]];
+		unsigned i = pb->motors[k];
 
-		if ((pb->batched & (1u << k)) && lm->n_oneshot) {
-			push_oneshot(l, lb, lm);
+		if ((pb->batched & (1u << k)) && l->mot[i].n_oneshot) {
+			push_oneshot(l, lb, i);
 			queued = true;
 			room--;
 		}
@@ -192,7 +193,7 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 		if (!(pb->batched & (1u << k)) || lm->m.id < 1 || lm->m.id > 4)
 			continue;
 		ms[lm->m.id - 1] = &lm->m;
-		if (lm->st.lifecycle != RMD_LC_ENABLED)
+		if (lm->st->lifecycle != RMD_LC_ENABLED)
 			continue;
 		any = true;
 		if (lm->sp.mode == RMD_MODE_TORQUE) {
@@ -212,41 +213,20 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 	}
 	/* Nobody to drive: one status read, the motors in turn. */
 	for (unsigned n = 0; n < pb->n_motors; n++) {
-		unsigned k = lb->batch_rr++ % pb->n_motors;
-		struct lmotor *lm = &l->mot[pb->motors[k]];
+		unsigned k = lb->batch_rr++ % pb->n_motors, i = pb->motors[k];
+		struct lmotor *lm = &l->mot[i];
 
 		if (!(pb->batched & (1u << k)))
 			continue;
-		if (lm->st.lifecycle == RMD_LC_LOST) {
+		if (lm->st->lifecycle == RMD_LC_LOST) {
 			if (now < lm->next_probe_ns)
 				continue;
-			push_reprobe(l, lb, lm, now);
+			push_reprobe(l, lb, i, now);
 		} else {
-			push_cmd(l, lb, lm, 0x9C);
+			push_cmd(l, lb, i, 0x9C);
 		}
 		return;
 	}
-}
-
-/* Book frame k of bus b, which the bus took.  rt-safe. */
-void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned k, int64_t now)
-{
-	const struct txmeta *mt = &lb->meta[k];
-	const struct rmd_frame *f = &lb->tx[k];
-
-	/* incident recorder: every frame a bus took */
-	if (l->o.incidents)
-		rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX, f,
-				   now);
-	if (mt->kind == REQ_BATCH) {
-		for (unsigned j = 0; j < lb->pb->n_motors; j++)
-			if (lb->pb->batched & (1u << j))
-				loop_os_add(l, &l->mot[lb->pb->motors[j]], f, now);
-		return;
-	}
-	if (mt->kind == REQ_ONESHOT)
-		oneshot_pop(&l->mot[mt->motor]);
-	loop_os_add(l, &l->mot[mt->motor], f, now);
 }
 
 /* Send the cycle's frames of bus b in one call.  False when it did not take them all.  rt-safe. */
@@ -262,16 +242,16 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 	for (unsigned s = 0; s < n; s++) {
 		switch (slots[s].kind) {
 		case RMD_SLOT_CONTROL:
-			add_control(l, lb, &l->mot[slots[s].motor], now);
+			add_control(l, lb, slots[s].motor, now);
 			break;
 		case RMD_SLOT_V2_TORQUES:
 			add_batch(l, lb, now);
 			break;
 		case RMD_SLOT_STATUS:
-			add_status(l, lb, &l->mot[slots[s].motor], now);
+			add_status(l, lb, slots[s].motor, now);
 			break;
 		case RMD_SLOT_FINE:
-			add_fine(l, lb, &l->mot[slots[s].motor]);
+			add_fine(l, lb, slots[s].motor);
 			break;
 		}
 	}
@@ -279,8 +259,7 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 		return true;
 	r = rmd_bus_send(lb->bus, lb->tx, lb->ntx, now);
 	taken = r > 0 ? (unsigned)r : 0;
-	for (unsigned k = 0; k < taken && k < lb->ntx; k++)
-		loop_commit(l, lb, k, now);
+	loop_commit(l, lb, 0, taken < lb->ntx ? taken : lb->ntx, now);
 	if (taken >= lb->ntx) {
 		lb->failing = false;
 		return true;

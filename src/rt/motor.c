@@ -38,8 +38,8 @@ static double clampf(double x, double lo, double hi, unsigned *fl)
  * field's integer range); a saturated value flags RMD_MOTOR_CLAMPED.
  * rt-safe.
  */
-static int64_t field_raw(const struct rmd_field_spec *fs, int64_t lo, int64_t hi, double native,
-			 unsigned *fl)
+static inline __attribute__((always_inline)) int64_t
+field_raw(const struct rmd_field_spec *fs, int64_t lo, int64_t hi, double native, unsigned *fl)
 {
 	int64_t raw;
 
@@ -80,25 +80,30 @@ static void row_resolve(const struct rmd_motor *m, uint8_t cmd, enum rmd_field a
 	}
 }
 
+/* Request field mf (resolved, or absent) of data = native.  rt-safe. */
+static inline __attribute__((always_inline)) void
+row_field(const struct rmd_motor_field *mf, uint8_t *data, double native, unsigned *fl)
+{
+	if (mf->fs)
+		rmd_field_write(mf->fs, data, field_raw(mf->fs, mf->lo, mf->hi, native, fl));
+}
+
 /*
- * The request of a resolved row with its fields set to native[0..1] (as
+ * The request of a resolved row with its fields set to a and b (as
  * rmd_encode() of a message holding only them writes it: reserved bytes
  * zero).  rt-safe.
  */
-static int row_encode(const struct rmd_motor *m, const struct rmd_motor_row *row,
-		      const double native[2], struct rmd_frame *out, unsigned *fl)
+static inline __attribute__((always_inline)) int row_encode(const struct rmd_motor *m,
+							    const struct rmd_motor_row *row,
+							    double a, double b,
+							    struct rmd_frame *out, unsigned *fl)
 {
 	memset(out, 0, sizeof(*out));
 	out->can_id = RMD_CAN_REQ_BASE + m->id;
 	out->len = RMD_FRAME_LEN;
 	out->data[0] = row->spec->cmd;
-	for (unsigned k = 0; k < 2; k++) {
-		const struct rmd_motor_field *mf = &row->f[k];
-
-		if (mf->fs)
-			rmd_field_write(mf->fs, out->data,
-					field_raw(mf->fs, mf->lo, mf->hi, native[k], fl));
-	}
+	row_field(&row->f[0], out->data, a, fl);
+	row_field(&row->f[1], out->data, b, fl);
 	return 0;
 }
 
@@ -113,6 +118,14 @@ static bool layout_equal(const struct rmd_layout *a, const struct rmd_layout *b)
 		    a->f[i].scale != b->f[i].scale)
 			return false;
 	return true;
+}
+
+/* fs's reading (struct rmd_field_rd), or zeros when fs is NULL.  Non-rt. */
+static void rd_of(const struct rmd_field_spec *fs, struct rmd_field_rd *rd)
+{
+	memset(rd, 0, sizeof(*rd));
+	if (fs)
+		rmd_field_rd_init(fs, rd);
 }
 
 /* Resolve the status 2 reply of the motor's table (struct rmd_motor_status2).  Non-rt. */
@@ -139,6 +152,11 @@ static void status2_resolve(struct rmd_motor *m)
 	s->speed = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_SPEED);
 	s->angle = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_ANGLE);
 	s->encoder = rmd_layout_field(st2, RMD_DIR_REPLY, RMD_FLD_ENCODER);
+	rd_of(s->temp, &s->temp_rd);
+	rd_of(s->current, &s->current_rd);
+	rd_of(s->speed, &s->speed_rd);
+	rd_of(s->angle, &s->angle_rd);
+	rd_of(s->encoder, &s->encoder_rd);
 	/* a layout with other fields, or one field twice, takes the general way */
 	if ((s->temp != NULL) + (s->current != NULL) + (s->speed != NULL) + (s->angle != NULL) +
 		    (s->encoder != NULL) !=
@@ -187,6 +205,12 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	row_resolve(m, 0xA2, RMD_FLD_SPEED, RMD_FLD_COUNT, &m->speed_row);
 	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
 	status2_resolve(m);
+	for (unsigned k = 0; k < 256; k++) {
+		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, (uint8_t)k);
+
+		if (spec && (spec->flags & RMD_CMD_ECHO))
+			m->echo[k / 8] |= (uint8_t)(1u << (k % 8));
+	}
 	if (m->proto == RMD_PROTO_MIT) {
 		if (rmd_mit_ranges_validate(&m->mit, &m->mit_ok) < 0)
 			return -EINVAL;
@@ -247,26 +271,37 @@ static double clamp_value(double x, double lo, double hi, const char *field, uns
 	return y;
 }
 
-/* rt-safe. */
-unsigned rmd_motor_clamp(const struct rmd_config_limits *lim, struct rmd_setpoint *sp,
-			 struct rmd_motor_clamp_note *note)
+/*
+ * rmd_motor_clamp() of sp as if in `mode`: inlined where the mode is known,
+ * only that mode's fields are looked at.  rt-safe.
+ */
+static inline __attribute__((always_inline)) unsigned
+clamp_mode(const struct rmd_config_limits *lim, unsigned mode, struct rmd_setpoint *sp,
+	   struct rmd_motor_clamp_note *note)
 {
 	double vmax = lim->velocity_rad_s, tmax = lim->torque_nm;
 	unsigned n = 0;
 
-	if (rmd_mode_uses_pos(sp->mode))
+	if (rmd_mode_uses_pos(mode))
 		sp->pos_rad = clamp_value(sp->pos_rad, lim->position_min_rad, lim->position_max_rad,
 					  "position", &n, note);
-	if (rmd_mode_uses_vel(sp->mode))
+	if (rmd_mode_uses_vel(mode))
 		sp->vel_rad_s = clamp_value(sp->vel_rad_s, -vmax, vmax, "velocity", &n, note);
-	if (rmd_mode_uses_torque(sp->mode))
+	if (rmd_mode_uses_torque(mode))
 		sp->torque_nm = clamp_value(sp->torque_nm, -tmax, tmax, "torque", &n, note);
 	/* 0 asks for the motor's limit; 0 stays when it has none (the firmware's own) */
-	if (sp->mode == RMD_MODE_POSITION && isfinite(vmax))
+	if (mode == RMD_MODE_POSITION && isfinite(vmax))
 		sp->max_vel_rad_s = sp->max_vel_rad_s == 0 ? vmax :
 							     clamp_value(sp->max_vel_rad_s, 0, vmax,
 									 "max_velocity", &n, note);
 	return n;
+}
+
+/* rt-safe. */
+unsigned rmd_motor_clamp(const struct rmd_config_limits *lim, struct rmd_setpoint *sp,
+			 struct rmd_motor_clamp_note *note)
+{
+	return clamp_mode(lim, sp->mode, sp, note);
 }
 
 /* rt-safe. */
@@ -332,28 +367,21 @@ static double torque_to_iq(const struct rmd_motor *m, double torque_nm)
 static int encode_torque(const struct rmd_motor *m, double torque_nm, struct rmd_frame *out,
 			 unsigned *fl)
 {
-	double v[2];
-
 	if (!m->torque_row.spec)
 		return -EOPNOTSUPP;
 	if (!(m->kt_nm_a > 0.0))
 		return -EOPNOTSUPP;
-	v[0] = torque_to_iq(m, torque_nm);
-	v[1] = 0;
-	return row_encode(m, &m->torque_row, v, out, fl);
+	return row_encode(m, &m->torque_row, torque_to_iq(m, torque_nm), 0, out, fl);
 }
 
 /* 0xA2 at vel_rad_s (reported frame, within the limit).  rt-safe. */
 static int encode_speed(const struct rmd_motor *m, double vel_rad_s, struct rmd_frame *out,
 			unsigned *fl)
 {
-	double v[2];
-
 	if (!m->speed_row.spec)
 		return -EOPNOTSUPP;
-	v[0] = m->dir * vel_rad_s * DEG_PER_RAD * m->native_per_output;
-	v[1] = 0;
-	return row_encode(m, &m->speed_row, v, out, fl);
+	return row_encode(m, &m->speed_row, m->dir * vel_rad_s * DEG_PER_RAD * m->native_per_output,
+			  0, out, fl);
 }
 
 /*
@@ -364,13 +392,11 @@ static int encode_position(const struct rmd_motor *m, double pos_rad, double mv_
 			   struct rmd_frame *out, unsigned *fl)
 {
 	double native = rmd_motor_to_native_pos(m, pos_rad);
-	double v[2];
 
 	if (!m->pos_row.spec)
 		return -EOPNOTSUPP;
-	v[0] = native * DEG_PER_RAD * m->native_per_output;
-	v[1] = mv_rad_s * DEG_PER_RAD * m->native_per_output;
-	return row_encode(m, &m->pos_row, v, out, fl);
+	return row_encode(m, &m->pos_row, native * DEG_PER_RAD * m->native_per_output,
+			  mv_rad_s * DEG_PER_RAD * m->native_per_output, out, fl);
 }
 
 /*
@@ -390,40 +416,48 @@ static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 	c.t_ff_nm = clampf(m->dir * sp->torque_nm, r->t_min, r->t_max, fl);
 	c.kp = clampf(sp->kp, r->kp_min, r->kp_max, fl);
 	c.kd = clampf(sp->kd, r->kd_min, r->kd_max, fl);
-	return rmd_mit_pack_cmd(&m->mit_ok, m->id, &c, out) < 0 ? -EOPNOTSUPP : 0;
+	/* id 1..32 (rmd_motor_init()); every field finite: sp's are, the clamps keep them */
+	rmd_mit_pack_good(&m->mit_ok, m->id, &c, out);
+	return 0;
 }
 
 /* rt-safe. */
 int rmd_motor_encode(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 		     struct rmd_frame *out, unsigned *flags)
 {
-	struct rmd_setpoint c = *sp; /* clamped to the limits */
+	struct rmd_setpoint c = *sp; /* clamped to the limits (rmd_motor_clamp()) */
 	unsigned fl = 0;
 	int r;
 
 	c.max_vel_rad_s = fabs(c.max_vel_rad_s);
-	if (rmd_motor_clamp(&m->limits, &c, NULL))
-		fl |= RMD_MOTOR_CLAMPED;
 	switch ((enum rmd_mode)sp->mode) {
 	case RMD_MODE_TORQUE:
 		if (!isfinite(sp->torque_nm))
 			return -EDOM;
+		if (clamp_mode(&m->limits, RMD_MODE_TORQUE, &c, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_torque(m, c.torque_nm, out, &fl);
 		break;
 	case RMD_MODE_SPEED:
 		if (!isfinite(sp->vel_rad_s))
 			return -EDOM;
+		if (clamp_mode(&m->limits, RMD_MODE_SPEED, &c, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_speed(m, c.vel_rad_s, out, &fl);
 		break;
 	case RMD_MODE_POSITION:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->max_vel_rad_s))
 			return -EDOM;
+		if (clamp_mode(&m->limits, RMD_MODE_POSITION, &c, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_position(m, c.pos_rad, c.max_vel_rad_s, out, &fl);
 		break;
 	case RMD_MODE_MIT:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->vel_rad_s) ||
 		    !isfinite(sp->torque_nm) || !isfinite(sp->kp) || !isfinite(sp->kd))
 			return -EDOM;
+		if (clamp_mode(&m->limits, RMD_MODE_MIT, &c, NULL))
+			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_mit(m, &c, out, &fl);
 		break;
 	case RMD_MODE_COUNT:
@@ -512,25 +546,6 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
 }
 
 /* rt-safe. */
-void rmd_motor_reply_key(const struct rmd_motor *m, const struct rmd_frame *req, uint32_t *reply_id,
-			 uint16_t *cmd)
-{
-	if (req->can_id == RMD_CAN_MIT_REQ_BASE + m->id) {
-		*reply_id = RMD_CAN_MIT_REPLY_BASE + m->id;
-		*cmd = RMD_MOTOR_CMD_MIT;
-		return;
-	}
-	if (req->can_id == RMD_CAN_MULTI) {
-		/* V2 §4.2: each motor of the frame answers like 0xA1 */
-		*reply_id = RMD_CAN_REQ_BASE + m->id;
-		*cmd = 0xA1;
-		return;
-	}
-	*reply_id = (m->proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
-	*cmd = req->len ? req->data[0] : 0;
-}
-
-/* rt-safe. */
 void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad)
 {
 	m->v2_have_ref = true;
@@ -539,7 +554,7 @@ void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad)
 }
 
 /* V2 §3.32: rotor single-turn encoder -> native multi-turn output angle.  rt-safe. */
-static double v2_unwrap(struct rmd_motor *m, uint16_t enc)
+static __attribute__((noinline)) double v2_unwrap(struct rmd_motor *m, uint16_t enc)
 {
 	if (!m->v2_anchored) {
 		m->v2_anchored = true;
@@ -591,8 +606,9 @@ static void take_speed(const struct rmd_motor *m, double x, struct rmd_motor_rep
  * 0.01 deg: the output angle), else a V2 encoder value unwrapped (not the
  * 0x60 raw read).  rt-safe.
  */
-static void take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_enc,
-			  uint16_t enc, uint8_t cmd, struct rmd_motor_reply *r)
+static inline __attribute__((always_inline)) void
+take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_enc, uint16_t enc,
+	      uint8_t cmd, struct rmd_motor_reply *r)
 {
 	if (have_angle) {
 		r->pos_rad = rmd_motor_from_native_pos(m, angle_deg / DEG_PER_RAD /
@@ -604,10 +620,10 @@ static void take_position(struct rmd_motor *m, bool have_angle, double angle_deg
 	}
 }
 
-/* Field fs of data in its native unit.  rt-safe. */
-static double native_of(const struct rmd_field_spec *fs, const uint8_t *data)
+/* The field rd reads of data, in its native unit.  rt-safe. */
+static inline double native_of(const struct rmd_field_rd *rd, const uint8_t *data)
 {
-	return (double)rmd_field_read(fs, data) * (fs->scale > 0.0 ? fs->scale : 1.0);
+	return (double)rmd_field_rd_raw(rd, data) * rd->scale;
 }
 
 /*
@@ -615,21 +631,22 @@ static double native_of(const struct rmd_field_spec *fs, const uint8_t *data)
  * read in their known roles: what reply_fields() below gives for it.
  * rt-safe.
  */
-static void status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+static inline __attribute__((always_inline)) void
+status2_read(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
 {
 	const struct rmd_motor_status2 *s = &m->st2;
 
 	if (s->temp) {
-		r->temp_c = native_of(s->temp, f->data);
+		r->temp_c = native_of(&s->temp_rd, f->data);
 		r->have |= RMD_MOTOR_HAVE_TEMP;
 	}
 	if (s->current)
-		take_current(m, native_of(s->current, f->data), r);
+		take_current(m, native_of(&s->current_rd, f->data), r);
 	if (s->speed)
-		take_speed(m, native_of(s->speed, f->data), r);
-	take_position(m, s->angle, s->angle ? native_of(s->angle, f->data) : 0, s->encoder,
-		      s->encoder ? (uint16_t)rmd_field_read(s->encoder, f->data) : 0, f->data[0],
-		      r);
+		take_speed(m, native_of(&s->speed_rd, f->data), r);
+	take_position(m, s->angle, s->angle ? native_of(&s->angle_rd, f->data) : 0, s->encoder,
+		      s->encoder ? (uint16_t)rmd_field_rd_raw(&s->encoder_rd, f->data) : 0,
+		      f->data[0], r);
 }
 
 /*
@@ -650,7 +667,8 @@ static const unsigned field_have[256] = {
 	[RMD_FLD_TIMEOUT] = RMD_MOTOR_HAVE_TIMEOUT,
 };
 
-static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const struct rmd_frame *f,
+						  struct rmd_motor_reply *r)
 {
 	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, f->data[0]);
 	const struct rmd_layout *l;
@@ -714,10 +732,19 @@ static int reply_fields(struct rmd_motor *m, const struct rmd_frame *f, struct r
 	return 0;
 }
 
-/* rt-safe. */
-int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+/*
+ * rmd_motor_decode(), inlined into its two callers.  `zero`: r is zeroed
+ * first, as rmd_motor_decode() promises; without it only r->have is, and
+ * only the values it names are set (all rmd_motor_receive() reads).
+ * rt-safe.
+ */
+static inline __attribute__((always_inline)) int
+decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r, bool zero)
 {
-	memset(r, 0, sizeof(*r));
+	if (zero)
+		memset(r, 0, sizeof(*r));
+	else
+		r->have = 0;
 	if (f->can_id == RMD_CAN_MIT_REPLY_BASE + m->id) {
 		r->cmd = RMD_MOTOR_CMD_MIT;
 		return decode_mit(m, f, r);
@@ -732,6 +759,12 @@ int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_
 		return 0;
 	}
 	return reply_fields(m, f, r);
+}
+
+/* rt-safe. */
+int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_motor_reply *r)
+{
+	return decode(m, f, r, true);
 }
 
 /* The values of r that `have` names into st.  rt-safe. */
@@ -759,9 +792,10 @@ void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st
 	apply_have(r, r->have, st);
 }
 
-/* rt-safe. */
-void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
-		    struct rmd_motor_state *st)
+/* rmd_motor_take(), inlined into its two callers.  rt-safe. */
+static inline __attribute__((always_inline)) void take(const struct rmd_motor *m,
+						       const struct rmd_motor_reply *r,
+						       int64_t t_ns, struct rmd_motor_state *st)
 {
 	unsigned have = r->have;
 
@@ -773,6 +807,27 @@ void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, 
 		st->pos_rx_ns = t_ns;
 	if (have & (RMD_MOTOR_HAVE_VEL | RMD_MOTOR_HAVE_TORQUE))
 		st->rx_ns = t_ns;
+}
+
+/* rt-safe. */
+void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
+		    struct rmd_motor_state *st)
+{
+	take(m, r, t_ns, st);
+}
+
+/* rt-safe. */
+int rmd_motor_receive(struct rmd_motor *m, const struct rmd_frame *f, int64_t t_ns,
+		      struct rmd_motor_state *st, unsigned *have)
+{
+	struct rmd_motor_reply r;
+	int ret = decode(m, f, &r, false);
+
+	if (ret < 0)
+		return ret;
+	take(m, &r, t_ns, st);
+	*have = r.have;
+	return 0;
 }
 
 /* rt-safe. */

@@ -673,6 +673,11 @@ int rmd_plan_build(const struct rmd_config *cfg, struct rmd_plan *plan, char *er
 		plan->motor[i].pos_hz = (double)plan->rate_hz /
 					(plan->motor[i].fine_divisor ? plan->motor[i].fine_divisor :
 								       m->rate_divisor);
+		pb->req_id[pb->n_motors] = (uint16_t)(RMD_CAN_REQ_BASE + m->id);
+		pb->ctl_id[pb->n_motors] =
+			(uint16_t)((m->proto == RMD_PROTO_MIT ? RMD_CAN_MIT_REQ_BASE :
+								RMD_CAN_REQ_BASE) +
+				   m->id);
 		pb->motors[pb->n_motors++] = (uint8_t)i;
 	}
 	plan->feasible = true;
@@ -752,32 +757,25 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			.replies = (uint8_t)__builtin_popcount(pb->batched),
 			.can_id = RMD_CAN_MULTI,
 		};
-	for (unsigned l = 0; l < pb->n_motors; l++) {
-		const struct rmd_plan_motor *pm;
-		uint8_t mi = pb->motors[l];
+	/* the set bits in order: the motors in file order, as the masks' bits are */
+	for (uint32_t m = due & ~pb->batched; m; m &= m - 1) {
+		unsigned l = (unsigned)__builtin_ctz(m);
 
-		if (!(due & (1u << l)) || (pb->batched & (1u << l)))
-			continue;
-		pm = &plan->motor[mi];
 		out[cnt++] = (struct rmd_plan_slot){
 			.kind = RMD_SLOT_CONTROL,
-			.motor = mi,
+			.motor = pb->motors[l],
 			.replies = 1,
-			.can_id = (uint16_t)((pm->proto == RMD_PROTO_MIT ? RMD_CAN_MIT_REQ_BASE :
-									   RMD_CAN_REQ_BASE) +
-					     pm->id),
+			.can_id = pb->ctl_id[l],
 		};
 	}
-	for (unsigned l = 0; fine && l < pb->n_motors; l++) {
-		uint8_t mi = pb->motors[l];
+	for (uint32_t m = fine; m; m &= m - 1) {
+		unsigned l = (unsigned)__builtin_ctz(m);
 
-		if (!(fine & (1u << l)))
-			continue;
 		out[cnt++] = (struct rmd_plan_slot){
 			.kind = RMD_SLOT_FINE,
-			.motor = mi,
+			.motor = pb->motors[l],
 			.replies = 1,
-			.can_id = (uint16_t)(RMD_CAN_REQ_BASE + plan->motor[mi].id),
+			.can_id = pb->req_id[l],
 		};
 	}
 	for (unsigned j = 0; j < burst; j++) {
