@@ -157,6 +157,8 @@ struct rmd_bridge_stats {
 	int rt_error;		 /* 0, or -errno of the refused SCHED_FIFO */
 	unsigned lcm_threads;	 /* LCM's receive threads found (udpm: 1) */
 	unsigned lcm_threads_rt; /* of which raised to SCHED_FIFO rt_priority */
+	/* udpm: LCM's receive socket drops the bridge's own datagrams in the kernel */
+	bool own_dropped;
 };
 
 struct rmd_bridge_buf; /* decode and encode buffers, bridge thread only */
@@ -174,6 +176,7 @@ struct rmd_bridge {
 	bool state_listeners;		       /* not memq://: state_t can have a subscriber */
 	pid_t lcm_tid[RMD_BRIDGE_LCM_THREADS]; /* threads LCM started in rmd_bridge_init() */
 	unsigned n_lcm_tid;
+	bool own_dropped; /* see rmd_bridge_stats */
 	/* Set by rmd_bridge_start(), read by rmd_bridge_get_stats(). */
 	unsigned rt_granted;
 	int rt_error;

@@ -20,7 +20,12 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <arpa/inet.h>
+#include <linux/filter.h>
+#include <netinet/in.h>
 #include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
 
 #include "rmd/time.h"
 #include "rmd/thread.h"
@@ -1029,6 +1034,120 @@ static void raise_threads(struct rmd_bridge *b)
 	}
 }
 
+/* ---- LCM's sockets: our own datagrams dropped in the kernel ---------------- */
+
+#define FDS_MAX 1024
+
+/* The process's open descriptors, at most max of them; returns how many. */
+static unsigned list_fds(int *fd, unsigned max)
+{
+	DIR *d = opendir("/proc/self/fd");
+	struct dirent *e;
+	unsigned n = 0;
+
+	if (!d)
+		return 0;
+	while ((e = readdir(d)) && n < max)
+		if (e->d_name[0] != '.' && atoi(e->d_name) != dirfd(d))
+			fd[n++] = atoi(e->d_name);
+	closedir(d);
+	return n;
+}
+
+/* fd's local IPv4 address, if it is a UDP/IPv4 socket. */
+static bool udp4_name(int fd, struct sockaddr_in *a)
+{
+	struct stat st;
+	socklen_t len = sizeof(*a);
+	int type;
+	socklen_t tlen = sizeof(type);
+
+	return fstat(fd, &st) == 0 && S_ISSOCK(st.st_mode) &&
+	       getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &tlen) == 0 && type == SOCK_DGRAM &&
+	       getsockname(fd, (struct sockaddr *)a, &len) == 0 && a->sin_family == AF_INET;
+}
+
+/* A udpm URL's group and port ("udpm://239.255.76.67:7667?..."; LCM's defaults when empty). */
+static bool udpm_group(const char *url, struct sockaddr_in *group)
+{
+	char host[64];
+	size_t n = strcspn(url + 7, "?:");
+	const char *port = url + 7 + n;
+
+	if (strncmp(url, "udpm://", 7) != 0 || n >= sizeof(host))
+		return false;
+	memcpy(host, url + 7, n);
+	host[n] = '\0';
+	memset(group, 0, sizeof(*group));
+	group->sin_family = AF_INET;
+	group->sin_port = htons(*port == ':' ? (uint16_t)atoi(port + 1) : 7667);
+	return inet_aton(n ? host : "239.255.76.67", &group->sin_addr) != 0;
+}
+
+/*
+ * LCM's udpm provider loops every datagram it sends back to the host, so
+ * its receive thread woke for each state_t the bridge published, read it
+ * and dropped it (the bridge subscribes to none of its own channels), and
+ * the send woke it across CPUs.  A socket filter on LCM's receive socket
+ * drops them in the kernel instead: datagrams from the bridge's send
+ * socket (source address and port); everything else passes.  The sockets
+ * are the UDP ones that appeared since before[]: the receive socket bound
+ * to the group's port, the send socket to the port its first send (LCM's
+ * self-test) took.  Anything unexpected leaves the filter off, which
+ * costs CPU, nothing else.  Returns whether it is on.
+ */
+static bool drop_own_datagrams(const char *url, const int *before, unsigned n_before)
+{
+	int now[FDS_MAX], rfd = -1, sfd = -1, probe;
+	unsigned n = list_fds(now, FDS_MAX);
+	struct sockaddr_in group, from = { 0 }, src;
+	socklen_t len = sizeof(src);
+	bool ok;
+
+	if (!udpm_group(url, &group))
+		return false;
+	for (unsigned i = 0; i < n; i++) {
+		struct sockaddr_in a;
+		bool old = false;
+
+		for (unsigned j = 0; j < n_before && !old; j++)
+			old = now[i] == before[j];
+		if (old || !udp4_name(now[i], &a))
+			continue;
+		if (a.sin_port == group.sin_port && rfd < 0)
+			rfd = now[i];
+		else if (a.sin_port && sfd < 0)
+			sfd = now[i], from = a;
+		else
+			return false; /* not the two sockets of LCM 1.3's udpm */
+	}
+	if (rfd < 0 || sfd < 0)
+		return false;
+	/* the source address the kernel gives a datagram to the group */
+	probe = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+	if (probe < 0)
+		return false;
+	ok = connect(probe, (struct sockaddr *)&group, sizeof(group)) == 0 &&
+	     getsockname(probe, (struct sockaddr *)&src, &len) == 0;
+	close(probe);
+	if (!ok)
+		return false;
+	{
+		/* a UDP socket's filter sees the UDP header at 0 (SKF_NET_OFF: the IP header) */
+		struct sock_filter code[] = {
+			BPF_STMT(BPF_LD | BPF_W | BPF_ABS, (uint32_t)SKF_NET_OFF + 12),
+			BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, ntohl(src.sin_addr.s_addr), 0, 3),
+			BPF_STMT(BPF_LD | BPF_H | BPF_ABS, 0),
+			BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, ntohs(from.sin_port), 0, 1),
+			BPF_STMT(BPF_RET | BPF_K, 0),
+			BPF_STMT(BPF_RET | BPF_K, 0xFFFFFFFF),
+		};
+		struct sock_fprog prog = { .len = sizeof(code) / sizeof(code[0]), .filter = code };
+
+		return setsockopt(rfd, SOL_SOCKET, SO_ATTACH_FILTER, &prog, sizeof(prog)) == 0;
+	}
+}
+
 /* A udpm URL gets a receive buffer that rides out a flood, unless it names one. */
 static void lcm_url(char *out, size_t len, const char *url)
 {
@@ -1044,7 +1163,8 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 {
 	char re[2 * RMD_BRIDGE_PREFIX_LEN + 16];
 	pid_t tasks[TASKS_MAX];
-	unsigned n_tasks;
+	int fds[FDS_MAX];
+	unsigned n_tasks, n_fds;
 	int r;
 
 	memset(b, 0, sizeof(*b));
@@ -1075,6 +1195,7 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	lcm_url(b->url, sizeof(b->url), opts->url);
 	b->state_listeners = strncmp(b->url, "memq://", 7) != 0;
 	n_tasks = list_tasks(tasks, TASKS_MAX);
+	n_fds = list_fds(fds, FDS_MAX);
 	b->lcm = lcm_create(b->url);
 	if (!b->lcm) {
 		/* the URL as given: b->url adds parameters the user never wrote */
@@ -1099,6 +1220,7 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	}
 	lcm_subscription_set_queue_capacity(b->sub_command, COMMAND_QUEUE);
 	find_lcm_threads(b, tasks, n_tasks);
+	b->own_dropped = drop_own_datagrams(b->url, fds, n_fds);
 	return 0;
 
 err_destroy_lcm:
@@ -1183,4 +1305,5 @@ void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
 	st->rt_error = b->rt_error;
 	st->lcm_threads = b->n_lcm_tid;
 	st->lcm_threads_rt = b->n_lcm_rt;
+	st->own_dropped = b->own_dropped;
 }

@@ -1580,6 +1580,45 @@ static void test_sleeps_when_idle(void **state)
 }
 
 /*
+ * udpm loops every datagram back to the host: LCM's receive thread woke
+ * for each state_t the bridge sent and dropped it.  Its socket now drops
+ * them in the kernel: 200 states reach the controller and wake LCM's
+ * thread (almost) never; a command still wakes it and arrives.
+ */
+static void test_own_datagrams_dropped(void **state)
+{
+	struct fixture *f = fixture(state);
+	rmd_command_t m = base_cmd(1);
+	struct rmd_command cmd;
+	long w0, w1;
+	pid_t tid;
+
+	f->opts.notify_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	assert_true(f->opts.notify_fd >= 0);
+	f->opts.health_period_ns = 10 * INT64_C(1000000000); /* no health_t in the test */
+	listen(f);
+	start(f);
+	assert_true(stats(f).own_dropped);
+	assert_int_equal(stats(f).lcm_threads, 1);
+	tid = f->b.lcm_tid[0];
+	WAIT_UNTIL(f, stats(f).configs_published == 1, 2000);
+	WAIT_UNTIL(f, false, 20); /* config_t's own loop-back, if any, went by */
+	w0 = wakeups(tid);
+	for (uint64_t cycle = 1; cycle <= 200; cycle++)
+		put_snapshot(f, cycle);
+	WAIT_UNTIL(f, f->rx.n_states >= 200, 2000);
+	w1 = wakeups(tid);
+	print_message("LCM's receive thread: %ld wake-ups over 200 state_t sent\n", w1 - w0);
+	assert_int_equal(f->rx.n_states, 200);
+	assert_true(w1 - w0 <= 10);
+
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &cmd), 2000);
+	assert_int_equal(cmd.seq, 1);
+	assert_true(wakeups(tid) > w1);
+}
+
+/*
  * memq://: nobody can subscribe to the bridge's instance, so no state_t is
  * encoded and the loop's pokes do not wake the bridge; health_t still
  * goes out on its timer and commands are handled.
@@ -1649,6 +1688,7 @@ int main(void)
 		cmocka_unit_test(test_rt_priority),
 		cmocka_unit_test(test_sleeps_when_idle),
 		cmocka_unit_test(test_memq_encodes_no_state),
+		cmocka_unit_test(test_own_datagrams_dropped),
 	};
 
 	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
