@@ -125,6 +125,21 @@ static void run_faults(const char *dir, const char *inc, const char *more, unsig
 	stop(k);
 }
 
+/*
+ * A folder `name` of this test (into dir, its incidents/ into inc) and rmd
+ * started there with fault_keys(inc, more, seed 7, faults).
+ */
+static struct kid *start_faults(const char *name, char *dir, size_t dlen, char *inc, size_t ilen,
+				const char *more, const char *faults)
+{
+	char keys[1024];
+
+	test_dir(dir, dlen, name);
+	snprintf(inc, ilen, "%s/incidents", dir);
+	fault_keys(keys, sizeof(keys), inc, more, 7, faults);
+	return start(dir, keys);
+}
+
 /* The recordings under dir (names "YYYYMMDD-HHMMSS-mmm-kind"), sorted; their count. */
 static unsigned recordings(const char *dir, char names[][DIR_NAME_MAX], unsigned max)
 {
@@ -421,17 +436,15 @@ static void stall(struct kid *k, long ms)
  */
 static void test_overruns_recorded_once_a_minute(void **state)
 {
-	char dir[512], inc[600], keys[1024];
+	char dir[512], inc[600];
 	struct kid *k;
 
 	(void)state;
-	test_dir(dir, sizeof(dir), "holdoff");
-	snprintf(inc, sizeof(inc), "%s/incidents", dir);
 	/* the motor disappears after both stalls (each waits for its outcome first) */
-	fault_keys(keys, sizeof(keys), inc,
-		   "seconds_before: 0.3, seconds_after: 0.1, overrun_burst: 75", 7,
-		   "        - {kind: disappear, motor: 3, start_s: 6, end_s: 300, param: 1}\n");
-	k = start(dir, keys);
+	k = start_faults(
+		"holdoff", dir, sizeof(dir), inc, sizeof(inc),
+		"seconds_before: 0.3, seconds_after: 0.1, overrun_burst: 75",
+		"        - {kind: disappear, motor: 3, start_s: 6, end_s: 300, param: 1}\n");
 	stall(k, 80);
 	kid_wait_output(k, "-overrun: rt loop: overrun, ", INCIDENT_MS, NULL);
 	stall(k, 80);
@@ -488,19 +501,17 @@ static void test_keep_bounds_the_recordings(void **state)
  */
 static void test_lost_amid_overruns_named_lost(void **state)
 {
-	char dir[512], inc[600], keys[1024], names[64][DIR_NAME_MAX];
+	char dir[512], inc[600], names[64][DIR_NAME_MAX];
 	struct timespec stall = { .tv_sec = 0, .tv_nsec = 30 * 1000000 };
 	struct timespec between = { .tv_sec = 0, .tv_nsec = 170 * 1000000 };
 	struct kid *k;
 	unsigned n, lost = 0, folded = 0;
 
 	(void)state;
-	test_dir(dir, sizeof(dir), "amid");
-	snprintf(inc, sizeof(inc), "%s/incidents", dir);
-	fault_keys(keys, sizeof(keys), inc,
-		   "seconds_before: 0.3, seconds_after: 2, overrun_burst: 20", 7,
-		   "        - {kind: disappear, motor: 3, start_s: 3, end_s: 300, param: 1}\n");
-	k = start(dir, keys);
+	k = start_faults(
+		"amid", dir, sizeof(dir), inc, sizeof(inc),
+		"seconds_before: 0.3, seconds_after: 2, overrun_burst: 20",
+		"        - {kind: disappear, motor: 3, start_s: 3, end_s: 300, param: 1}\n");
 	/* stalls every 200 ms (shorter than the comm-loss time) until the loss is recorded */
 	for (int ms = 0; !strstr(k->out, "-lost: sim0: motor 3 (c): ready -> lost"); ms += 200) {
 		if (ms > INCIDENT_MS)
