@@ -180,8 +180,9 @@ struct rmd_bridge {
 	bool state_listeners;		       /* not memq://: state_t can have a subscriber */
 	pid_t lcm_tid[RMD_BRIDGE_LCM_THREADS]; /* threads LCM started in rmd_bridge_init() */
 	unsigned n_lcm_tid;
-	int rx_fd;	  /* udpm: the bridge's own receive socket; else -1 (LCM's pipe) */
-	bool own_dropped; /* see rmd_bridge_stats */
+	int rx_fd;	     /* udpm: the bridge's own receive socket; else -1 (LCM's pipe) */
+	int ep_fd, timer_fd; /* the bridge thread's one wait: epoll set, health timer */
+	bool own_dropped;    /* see rmd_bridge_stats */
 	/* Set by rmd_bridge_start(), read by rmd_bridge_get_stats(). */
 	unsigned rt_granted;
 	int rt_error;

@@ -23,9 +23,11 @@
 #include <arpa/inet.h>
 #include <linux/filter.h>
 #include <netinet/in.h>
+#include <sys/epoll.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/timerfd.h>
 
 #include "rmd/time.h"
 #include "rmd/thread.h"
@@ -991,45 +993,105 @@ static int64_t sleep_ns(const struct rmd_bridge *b, int64_t now, bool notified)
 	return due > now ? due - now : 0;
 }
 
+/* What woke the bridge: epoll_event.data.u32. */
+enum { WAKE_STOP, WAKE_RX, WAKE_SNAPSHOT, WAKE_TIMER };
+
+/*
+ * The bridge's one wait, set up once (rmd_bridge_init): an epoll set of
+ * rmd_bridge_stop()'s eventfd, the receive descriptor (udpm: the bridge's
+ * socket; else LCM's), the loop's notify_fd and a timerfd for the health
+ * timer and a pending config_t.  The registrations persist, and notify_fd
+ * is edge-triggered and never read: a snapshot costs one epoll_wait, not a
+ * poll set built and torn down, a timer armed and cancelled and a read.
+ * 0 or -errno.
+ */
+static int wait_setup(struct rmd_bridge *b)
+{
+	struct {
+		int fd;
+		uint32_t events, what;
+	} w[] = {
+		{ b->stop_fd, EPOLLIN, WAKE_STOP },
+		/* udpm: our own socket (lcm_get_fileno() would start LCM's receive thread) */
+		{ b->rx_fd >= 0 ? b->rx_fd : lcm_get_fileno(b->lcm), EPOLLIN, WAKE_RX },
+		{ -1, EPOLLIN, WAKE_TIMER },
+		/* no state_t to publish: the loop's pokes need not wake us */
+		{ b->state_listeners ? b->opts.notify_fd : -1, EPOLLIN | EPOLLET, WAKE_SNAPSHOT },
+	};
+
+	b->ep_fd = epoll_create1(EPOLL_CLOEXEC);
+	b->timer_fd = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
+	if (b->ep_fd < 0 || b->timer_fd < 0)
+		return -errno;
+	w[2].fd = b->timer_fd;
+	for (unsigned k = 0; k < sizeof(w) / sizeof(w[0]); k++) {
+		struct epoll_event ev = { .events = w[k].events, .data.u32 = w[k].what };
+
+		if (w[k].fd >= 0 && epoll_ctl(b->ep_fd, EPOLL_CTL_ADD, w[k].fd, &ev) < 0)
+			return -errno;
+	}
+	return 0;
+}
+
+static void wait_close(struct rmd_bridge *b)
+{
+	if (b->ep_fd >= 0)
+		close(b->ep_fd);
+	if (b->timer_fd >= 0)
+		close(b->timer_fd);
+	b->ep_fd = b->timer_fd = -1;
+}
+
+/* The timer to CLOCK_MONOTONIC due_ns (already past: at once).  Bridge thread. */
+static void arm_timer(struct rmd_bridge *b, int64_t due_ns)
+{
+	struct itimerspec its = { .it_value = { .tv_sec = due_ns / RMD_NS_PER_S,
+						.tv_nsec = due_ns % RMD_NS_PER_S } };
+
+	if (due_ns <= 0) /* 0 would disarm it */
+		its.it_value.tv_nsec = 1;
+	timerfd_settime(b->timer_fd, TFD_TIMER_ABSTIME, &its, NULL);
+}
+
 static void *bridge_main(void *arg)
 {
 	struct rmd_bridge *b = arg;
-	struct pollfd fds[3] = {
-		{ .fd = b->stop_fd, .events = POLLIN },
-		/* udpm: our own socket (lcm_get_fileno() would start LCM's receive thread) */
-		{ .fd = b->rx_fd >= 0 ? b->rx_fd : lcm_get_fileno(b->lcm), .events = POLLIN },
-		{ .fd = b->opts.notify_fd, .events = POLLIN },
-	};
-	/* no state_t to publish: the loop's pokes need not wake us */
-	nfds_t nfds = b->opts.notify_fd >= 0 && b->state_listeners ? 3 : 2;
-	int64_t now = rmd_now_ns();
+	int64_t now = rmd_now_ns(), armed_ns = -1;
+	bool stop = false;
 
 	pthread_setname_np(pthread_self(), "rmd-bridge");
 	publish_config(b);
 	b->config_sent_ns = now;
 	b->next_health_ns = now + b->opts.health_period_ns;
-	for (;;) {
-		int64_t wait;
-		struct timespec ts;
+	while (!stop) {
+		struct epoll_event ev[4];
+		bool readable = false;
+		int64_t due;
+		int n;
 
 		now = rmd_now_ns();
-		wait = sleep_ns(b, now, b->opts.notify_fd >= 0);
-		ts.tv_sec = wait / 1000000000;
-		ts.tv_nsec = wait % 1000000000;
-		if (ppoll(fds, nfds, &ts, NULL) < 0 && errno != EINTR) {
+		due = now + sleep_ns(b, now, b->opts.notify_fd >= 0);
+		if (due != armed_ns) {
+			arm_timer(b, due);
+			armed_ns = due;
+		}
+		n = epoll_wait(b->ep_fd, ev, 4, -1);
+		if (n < 0 && errno != EINTR) {
 			logf_(b, 3, "LCM bridge: poll: %s; the bridge stops", strerror(errno));
 			break;
 		}
-		if (fds[0].revents)
-			break;
-		if (nfds > 2 && fds[2].revents & POLLIN) {
+		for (int k = 0; k < n; k++) {
 			uint64_t v;
 
-			if (read(fds[2].fd, &v, sizeof(v)) < 0) {
-				/* another reader got there first, or the fd is broken: poll decides */
-			}
+			if (ev[k].data.u32 == WAKE_STOP)
+				stop = true;
+			readable |= ev[k].data.u32 == WAKE_RX;
+			if (ev[k].data.u32 == WAKE_TIMER && read(b->timer_fd, &v, sizeof(v)) >= 0)
+				armed_ns = -1; /* expired: armed again for what is due next */
 		}
-		if (fds[1].revents & POLLIN)
+		if (stop)
+			break;
+		if (readable)
 			drain(b);
 		publish_state(b);
 		now = rmd_now_ns();
@@ -1358,6 +1420,8 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	memset(b, 0, sizeof(*b));
 	b->stop_fd = -1;
 	b->rx_fd = -1;
+	b->ep_fd = -1;
+	b->timer_fd = -1;
 	r = check_opts(opts, err, errlen);
 	if (r < 0)
 		return r;
@@ -1407,7 +1471,7 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 			goto err_destroy_lcm;
 		}
 		b->own_dropped = drop_own_datagrams(b->rx_fd, &group, fds, n_fds);
-		return 0;
+		goto wait;
 	}
 	channel_regex(re, sizeof(re), opts->prefix, "COMMAND");
 	b->sub_command = lcm_subscribe(b->lcm, re, on_command, b);
@@ -1423,7 +1487,15 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	}
 	lcm_subscription_set_queue_capacity(b->sub_command, COMMAND_QUEUE);
 	find_lcm_threads(b, tasks, n_tasks);
-	return 0;
+wait:
+	r = wait_setup(b);
+	if (r == 0)
+		return 0;
+	snprintf(err, errlen, "epoll, timerfd: %s", strerror(-r));
+	wait_close(b);
+	if (b->rx_fd >= 0)
+		close(b->rx_fd);
+	b->rx_fd = -1;
 
 err_destroy_lcm:
 	lcm_destroy(b->lcm);
@@ -1484,6 +1556,7 @@ void rmd_bridge_fini(struct rmd_bridge *b)
 	if (b->rx_fd >= 0)
 		close(b->rx_fd);
 	b->rx_fd = -1;
+	wait_close(b);
 	free(b->buf);
 	b->buf = NULL;
 }
