@@ -370,15 +370,26 @@ static void write_frames(FILE *f, struct out *o)
 
 	iface_of(o->in->cfg, b, iface);
 	*tx = 0;
+	/* one formatted prefix and the bytes by hand: a window holds some 100 k frames */
 	for (size_t k = 0; k < w->n_frames[b]; k++) {
+		static const char hex[] = "0123456789ABCDEF";
 		const struct rmd_incident_frame *r = &w->frames[b][k];
 		int64_t t = r->t_ns + o->off_ns;
+		char line[128];
+		int n = snprintf(line, sizeof(line),
+				 "(%" PRId64 ".%06" PRId64 ") %s %03" PRIX32 "#", t / RMD_NS_PER_S,
+				 t % RMD_NS_PER_S / 1000, iface, r->f.can_id);
 
-		fprintf(f, "(%" PRId64 ".%06" PRId64 ") %s %03" PRIX32 "#", t / RMD_NS_PER_S,
-			t % RMD_NS_PER_S / 1000, iface, r->f.can_id);
-		for (unsigned j = 0; j < r->f.len && j < RMD_FRAME_LEN; j++)
-			fprintf(f, "%02X", r->f.data[j]);
-		fprintf(f, " %c\n", r->dir == RMD_INCIDENT_TX ? 'T' : 'R');
+		if (n < 0 || (size_t)n > sizeof(line) - 2 * RMD_FRAME_LEN - 4)
+			continue;
+		for (unsigned j = 0; j < r->f.len && j < RMD_FRAME_LEN; j++) {
+			line[n++] = hex[r->f.data[j] >> 4];
+			line[n++] = hex[r->f.data[j] & 15];
+		}
+		line[n++] = ' ';
+		line[n++] = r->dir == RMD_INCIDENT_TX ? 'T' : 'R';
+		line[n++] = '\n';
+		fwrite(line, 1, (size_t)n, f);
 		*tx += r->dir == RMD_INCIDENT_TX;
 	}
 }
