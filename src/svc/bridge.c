@@ -3,14 +3,13 @@
  * The LCM bridge thread: commands in (decode, validate, clamp, hand over),
  * state, health and configuration out.  See rmd/bridge.h and docs/lcm.md.
  */
-#define _GNU_SOURCE /* ppoll, pthread_setname_np */
+#define _GNU_SOURCE /* pthread_setname_np */
 
 #include <ctype.h>
 #include <dirent.h>
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
-#include <poll.h>
 #include <sched.h>
 #include <signal.h>
 #include <stdarg.h>
