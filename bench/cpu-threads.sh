@@ -1,7 +1,8 @@
 #!/bin/sh
 # Issue 11 point 4: CPU time of rmdd's threads, the loop thread against the
-# rest of the process (the bridge, LCM's receive thread, which keeps the
-# name rmdd, the monitor, the incident writer, main), from
+# rest of the process (the bridge, the monitor, the incident writer, main;
+# a baseline before the bridge read udpm itself also has LCM's receive
+# thread, which keeps the name rmdd and runs at SCHED_FIFO), from
 # /proc/PID/task/*/stat (utime + stime) over DURATION seconds of
 # examples/sim-12.yaml at 1 kHz with a controller streaming commands
 # (examples/sine_controller, when built) and LCM on UDP multicast
@@ -53,8 +54,8 @@ run() {
 	[ -n "$ctl" ] && { kill $ctl 2>/dev/null || true; } # it may have ended (memq://)
 	kill -TERM $pid
 	wait $pid || true
-	# the loop: the thread named rmd-loop (the bridge and LCM's receive
-	# thread run at SCHED_FIFO too, policy 1, since issue 11 point 3)
+	# the loop: the thread named rmd-loop (the bridge, and in older builds
+	# LCM's receive thread, run at SCHED_FIFO too, policy 1)
 	awk -v hz="$hz" -v d="$DURATION" -v l="$label" '
 		{ pct = 100 * ($5 - $4) / hz / d; if ($2 == "rmd-loop") loop += pct; else rest += pct
 		  printf "%s thread %s(%s) %.1f\n", l, $2, ($2 == "rmd-loop" ? "loop" : $3 == 1 ? "fifo" : "other"), pct }
@@ -71,7 +72,7 @@ run "$BUILD" this
 txt=$OUT/cpu-threads.txt
 {
 	echo "# bench/cpu-threads.sh, $(date -u +%Y-%m-%d), $CONFIG, $LCM_URL, ${DURATION} s, controller: $([ -x "$BUILD/sine_controller" ] && echo sine_controller || echo none)"
-	echo "# CPU % of one CPU (utime + stime from /proc/PID/task/*/stat)"
+	echo "# CPU % of one CPU (utime + stime from /proc/PID/task/*/stat); BASE=$BASE"
 	printf '%-28s %7s %7s %7s\n' "" this base ratio
 	awk '$2 == "loop" || $2 == "rest" { v[$1 " " $2] = $3 }
 	END {

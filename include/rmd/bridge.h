@@ -1,9 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The LCM bridge (docs/design.md, layer svc): the thread that owns rmdd's LCM
- * instance, at SCHED_FIFO opts.rt_priority (below the rt loop's) together
- * with the receive thread LCM's udpm provider starts, so that a command
- * never waits for a normal-priority wake-up; 0: both at normal priority.
+ * instance, at SCHED_FIFO opts.rt_priority (below the rt loop's), so that a
+ * command never waits for a normal-priority wake-up; 0: normal priority.
+ * On udpm:// it reads the multicast socket itself (LCM sends; its own
+ * datagrams, which LCM loops back, are dropped by a socket filter), so no
+ * LCM receive thread stands between a command and the loop; with other
+ * providers it raises the threads lcm_subscribe() starts with itself.
  * It is the only thread that calls LCM.
  *
  *   PREFIX "COMMAND"         in   rmd.command_t: decoded, validated, clamped,
@@ -155,8 +158,11 @@ struct rmd_bridge_stats {
 	/* After rmd_bridge_start(): */
 	unsigned rt_priority;	 /* the bridge thread's SCHED_FIFO priority; 0: normal */
 	int rt_error;		 /* 0, or -errno of the refused SCHED_FIFO */
-	unsigned lcm_threads;	 /* LCM's receive threads found (udpm: 1) */
+	unsigned lcm_threads;	 /* LCM's receive threads found (udpm: 0, the bridge reads) */
 	unsigned lcm_threads_rt; /* of which raised to SCHED_FIFO rt_priority */
+	/* udpm: the bridge's socket drops its own datagrams in the kernel */
+	bool own_dropped;
+	uint64_t datagrams; /* udpm: datagrams the bridge read from its socket */
 };
 
 struct rmd_bridge_buf; /* decode and encode buffers, bridge thread only */
@@ -174,6 +180,9 @@ struct rmd_bridge {
 	bool state_listeners;		       /* not memq://: state_t can have a subscriber */
 	pid_t lcm_tid[RMD_BRIDGE_LCM_THREADS]; /* threads LCM started in rmd_bridge_init() */
 	unsigned n_lcm_tid;
+	int rx_fd;	     /* udpm: the bridge's own receive socket; else -1 (LCM's pipe) */
+	int ep_fd, timer_fd; /* the bridge thread's one wait: epoll set, health timer */
+	bool own_dropped;    /* see rmd_bridge_stats */
 	/* Set by rmd_bridge_start(), read by rmd_bridge_get_stats(). */
 	unsigned rt_granted;
 	int rt_error;
@@ -215,6 +224,7 @@ struct rmd_bridge {
 	atomic_uint_fast64_t n_publish_errors;
 	atomic_uint_fast64_t n_lcm_errors;
 	atomic_uint_fast64_t n_takeovers;
+	atomic_uint_fast64_t n_datagrams;
 	atomic_bool pub_owned;
 	_Atomic int64_t pub_owner;
 	_Atomic int64_t pub_intruder;

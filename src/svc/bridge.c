@@ -3,14 +3,13 @@
  * The LCM bridge thread: commands in (decode, validate, clamp, hand over),
  * state, health and configuration out.  See rmd/bridge.h and docs/lcm.md.
  */
-#define _GNU_SOURCE /* ppoll, pthread_setname_np */
+#define _GNU_SOURCE /* pthread_setname_np */
 
 #include <ctype.h>
 #include <dirent.h>
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
-#include <poll.h>
 #include <sched.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -20,7 +19,14 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <arpa/inet.h>
+#include <linux/filter.h>
+#include <netinet/in.h>
+#include <sys/epoll.h>
 #include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/timerfd.h>
 
 #include "rmd/time.h"
 #include "rmd/thread.h"
@@ -85,6 +91,33 @@ _Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_M
 /* Room for one encoded state_t or health_t (at most about 2.7 KiB and 1.7 KiB). */
 #define ENC_MAX 8192
 
+/*
+ * udpm: the bridge reads the multicast socket itself (LCM 1.3's wire format,
+ * lcm/lcm_udpm.c): a short message is one datagram "LC02", sequence number,
+ * channel and NUL, payload; a longer one is fragments "LC03", sequence
+ * number, message size, offset, fragment number and count, the channel
+ * (first fragment only), data.
+ */
+#define UDPM_MAGIC_SHORT 0x4c433032u
+#define UDPM_MAGIC_LONG 0x4c433033u
+#define UDPM_SHORT_HDR 8
+#define UDPM_LONG_HDR 20
+#define UDPM_PKT_MAX 65536
+/* Messages reassembled at once (one a sender is usual), and the largest: a command_t of
+ * 32 motors is under 2 KiB; a longer message on our channels is refused as too long. */
+#define UDPM_FRAGS 4
+#define UDPM_MSG_MAX 65536
+
+struct udpm_frag {
+	bool used;
+	struct sockaddr_in from;
+	uint32_t seqno, size;
+	uint16_t left; /* fragments still to come */
+	int64_t t_ns;  /* the newest fragment's: the oldest slot is reused */
+	char channel[LCM_MAX_CHANNEL_NAME_LENGTH + 1];
+	unsigned char data[UDPM_MSG_MAX];
+};
+
 struct rmd_bridge_buf {
 	rmd_command_t msg;
 	rmd_motor_command_t msg_motor[RMD_MAX_MOTORS]; /* msg.motor: decoded in place */
@@ -100,6 +133,8 @@ struct rmd_bridge_buf {
 	rmd_bus_config_t config_bus[RMD_MAX_BUSES];
 	rmd_motor_config_t config_motor[RMD_MAX_MOTORS];
 	unsigned char enc[ENC_MAX];
+	unsigned char pkt[UDPM_PKT_MAX];   /* udpm: one datagram */
+	struct udpm_frag frag[UDPM_FRAGS]; /* udpm: messages being reassembled */
 };
 
 static const char *const reject_names[RMD_REJ_KINDS] = {
@@ -784,6 +819,138 @@ static void publish_config(struct rmd_bridge *b)
 
 /* ---- the thread --------------------------------------------------------- */
 
+/* ---- udpm: the bridge's own receive socket ------------------------------- */
+
+/* A whole message on `channel`: the subscriptions' handlers, as lcm_handle() would call them. */
+static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data, uint32_t size)
+{
+	lcm_recv_buf_t rb = { .data = data, .data_size = size, .lcm = b->lcm };
+
+	if (!strcmp(channel, b->ch_command))
+		on_command(&rb, channel, b);
+	else if (!strcmp(channel, b->ch_config_req))
+		on_config_request(&rb, channel, b);
+}
+
+static uint32_t be32(const unsigned char *p)
+{
+	return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+static uint16_t be16(const unsigned char *p)
+{
+	return (uint16_t)(p[0] << 8 | p[1]);
+}
+
+/* The slot of (from, seqno): the one that has it, else a free one, else the oldest. */
+static struct udpm_frag *udpm_slot(struct rmd_bridge *b, const struct sockaddr_in *from,
+				   uint32_t seqno, uint32_t size)
+{
+	struct udpm_frag *f = b->buf->frag, *pick = NULL;
+
+	for (unsigned k = 0; k < UDPM_FRAGS; k++, f++) {
+		if (f->used && f->seqno == seqno && f->from.sin_port == from->sin_port &&
+		    f->from.sin_addr.s_addr == from->sin_addr.s_addr) {
+			if (f->size == size)
+				return f;
+			f->used = false; /* a stale message of that sequence number */
+		}
+		if (!pick || (pick->used && (!f->used || f->t_ns < pick->t_ns)))
+			pick = f;
+	}
+	pick->used = false;
+	return pick;
+}
+
+/* One fragment of a long message; the message is dispatched when its last fragment came. */
+static void udpm_fragment(struct rmd_bridge *b, const struct sockaddr_in *from,
+			  const unsigned char *p, size_t n)
+{
+	uint32_t seqno = be32(p + 4), size = be32(p + 8), off = be32(p + 12);
+	uint16_t no = be16(p + 16), count = be16(p + 18);
+	const unsigned char *d = p + UDPM_LONG_HDR;
+	size_t len = n - UDPM_LONG_HDR;
+	struct udpm_frag *f;
+	char channel[LCM_MAX_CHANNEL_NAME_LENGTH + 1] = "";
+
+	if (no == 0) {
+		size_t cl = strnlen((const char *)d, len);
+
+		if (cl > LCM_MAX_CHANNEL_NAME_LENGTH || cl == len)
+			return;
+		memcpy(channel, d, cl + 1);
+		d += cl + 1;
+		len -= cl + 1;
+		if (size > UDPM_MSG_MAX) {
+			/* LCM handed these to the bridge, which refused them: so does it */
+			if (!strcmp(channel, b->ch_command))
+				reject(b, RMD_REJ_DECODE, "%u bytes: longer than any rmd.command_t",
+				       (unsigned)size);
+			return;
+		}
+	}
+	if (size > UDPM_MSG_MAX || !count || (uint64_t)off + len > size)
+		return;
+	f = udpm_slot(b, from, seqno, size);
+	if (!f->used) {
+		*f = (struct udpm_frag){
+			.used = true, .from = *from, .seqno = seqno, .size = size, .left = count
+		};
+	}
+	if (no == 0)
+		memcpy(f->channel, channel, sizeof(channel));
+	memcpy(f->data + off, d, len);
+	f->t_ns = rmd_now_ns();
+	if (--f->left)
+		return;
+	f->used = false;
+	if (f->channel[0])
+		udpm_dispatch(b, f->channel, f->data, f->size);
+}
+
+/* One datagram: a short message, or a fragment of a long one; anything else is dropped. */
+static void udpm_packet(struct rmd_bridge *b, const struct sockaddr_in *from, size_t n)
+{
+	unsigned char *p = b->buf->pkt;
+	size_t cl;
+
+	if (n >= UDPM_LONG_HDR && be32(p) == UDPM_MAGIC_LONG) {
+		udpm_fragment(b, from, p, n);
+		return;
+	}
+	if (n < UDPM_SHORT_HDR || be32(p) != UDPM_MAGIC_SHORT)
+		return;
+	cl = strnlen((const char *)p + UDPM_SHORT_HDR, n - UDPM_SHORT_HDR);
+	if (cl > LCM_MAX_CHANNEL_NAME_LENGTH || cl == n - UDPM_SHORT_HDR)
+		return;
+	udpm_dispatch(b, (const char *)p + UDPM_SHORT_HDR, p + UDPM_SHORT_HDR + cl + 1,
+		      (uint32_t)(n - UDPM_SHORT_HDR - cl - 1));
+}
+
+/* Read what the socket holds, looking at the snapshots after each datagram (as drain()). */
+static void drain_socket(struct rmd_bridge *b)
+{
+	for (int n = 0; n < DRAIN_MAX; n++) {
+		struct sockaddr_in from;
+		socklen_t flen = sizeof(from);
+		ssize_t r = recvfrom(b->rx_fd, b->buf->pkt, UDPM_PKT_MAX, MSG_DONTWAIT,
+				     (struct sockaddr *)&from, &flen);
+
+		if (r < 0) {
+			if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)
+				return;
+			if (read_count(&b->n_lcm_errors) == 0)
+				logf_(b, 4, "LCM receive failed (%s); further failures are counted",
+				      strerror(errno));
+			count(&b->n_lcm_errors);
+			return;
+		}
+		count(&b->n_datagrams);
+		udpm_packet(b, &from, (size_t)r);
+		publish_state(b);
+	}
+}
+
 /*
  * Handle what LCM has queued, and look at the snapshots after each message
  * (an atomic load when there is none): a flood of commands never holds
@@ -791,6 +958,10 @@ static void publish_config(struct rmd_bridge *b)
  */
 static void drain(struct rmd_bridge *b)
 {
+	if (b->rx_fd >= 0) {
+		drain_socket(b);
+		return;
+	}
 	for (int n = 0; n < DRAIN_MAX; n++) {
 		int r = lcm_handle_timeout(b->lcm, 0);
 
@@ -821,44 +992,105 @@ static int64_t sleep_ns(const struct rmd_bridge *b, int64_t now, bool notified)
 	return due > now ? due - now : 0;
 }
 
+/* What woke the bridge: epoll_event.data.u32. */
+enum { WAKE_STOP, WAKE_RX, WAKE_SNAPSHOT, WAKE_TIMER };
+
+/*
+ * The bridge's one wait, set up once (rmd_bridge_init): an epoll set of
+ * rmd_bridge_stop()'s eventfd, the receive descriptor (udpm: the bridge's
+ * socket; else LCM's), the loop's notify_fd and a timerfd for the health
+ * timer and a pending config_t.  The registrations persist, and notify_fd
+ * is edge-triggered and never read: a snapshot costs one epoll_wait, not a
+ * poll set built and torn down, a timer armed and cancelled and a read.
+ * 0 or -errno.
+ */
+static int wait_setup(struct rmd_bridge *b)
+{
+	struct {
+		int fd;
+		uint32_t events, what;
+	} w[] = {
+		{ b->stop_fd, EPOLLIN, WAKE_STOP },
+		/* udpm: our own socket (lcm_get_fileno() would start LCM's receive thread) */
+		{ b->rx_fd >= 0 ? b->rx_fd : lcm_get_fileno(b->lcm), EPOLLIN, WAKE_RX },
+		{ -1, EPOLLIN, WAKE_TIMER },
+		/* no state_t to publish: the loop's pokes need not wake us */
+		{ b->state_listeners ? b->opts.notify_fd : -1, EPOLLIN | EPOLLET, WAKE_SNAPSHOT },
+	};
+
+	b->ep_fd = epoll_create1(EPOLL_CLOEXEC);
+	b->timer_fd = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
+	if (b->ep_fd < 0 || b->timer_fd < 0)
+		return -errno;
+	w[2].fd = b->timer_fd;
+	for (unsigned k = 0; k < sizeof(w) / sizeof(w[0]); k++) {
+		struct epoll_event ev = { .events = w[k].events, .data.u32 = w[k].what };
+
+		if (w[k].fd >= 0 && epoll_ctl(b->ep_fd, EPOLL_CTL_ADD, w[k].fd, &ev) < 0)
+			return -errno;
+	}
+	return 0;
+}
+
+static void wait_close(struct rmd_bridge *b)
+{
+	if (b->ep_fd >= 0)
+		close(b->ep_fd);
+	if (b->timer_fd >= 0)
+		close(b->timer_fd);
+	b->ep_fd = b->timer_fd = -1;
+}
+
+/* The timer to CLOCK_MONOTONIC due_ns (already past: at once).  Bridge thread. */
+static void arm_timer(struct rmd_bridge *b, int64_t due_ns)
+{
+	struct itimerspec its = { .it_value = { .tv_sec = due_ns / RMD_NS_PER_S,
+						.tv_nsec = due_ns % RMD_NS_PER_S } };
+
+	if (due_ns <= 0) /* 0 would disarm it */
+		its.it_value.tv_nsec = 1;
+	timerfd_settime(b->timer_fd, TFD_TIMER_ABSTIME, &its, NULL);
+}
+
 static void *bridge_main(void *arg)
 {
 	struct rmd_bridge *b = arg;
-	struct pollfd fds[3] = {
-		{ .fd = b->stop_fd, .events = POLLIN },
-		{ .fd = lcm_get_fileno(b->lcm), .events = POLLIN },
-		{ .fd = b->opts.notify_fd, .events = POLLIN },
-	};
-	/* no state_t to publish: the loop's pokes need not wake us */
-	nfds_t nfds = b->opts.notify_fd >= 0 && b->state_listeners ? 3 : 2;
-	int64_t now = rmd_now_ns();
+	int64_t now = rmd_now_ns(), armed_ns = -1;
+	bool stop = false;
 
 	pthread_setname_np(pthread_self(), "rmd-bridge");
 	publish_config(b);
 	b->config_sent_ns = now;
 	b->next_health_ns = now + b->opts.health_period_ns;
-	for (;;) {
-		int64_t wait;
-		struct timespec ts;
+	while (!stop) {
+		struct epoll_event ev[4];
+		bool readable = false;
+		int64_t due;
+		int n;
 
 		now = rmd_now_ns();
-		wait = sleep_ns(b, now, b->opts.notify_fd >= 0);
-		ts.tv_sec = wait / 1000000000;
-		ts.tv_nsec = wait % 1000000000;
-		if (ppoll(fds, nfds, &ts, NULL) < 0 && errno != EINTR) {
+		due = now + sleep_ns(b, now, b->opts.notify_fd >= 0);
+		if (due != armed_ns) {
+			arm_timer(b, due);
+			armed_ns = due;
+		}
+		n = epoll_wait(b->ep_fd, ev, 4, -1);
+		if (n < 0 && errno != EINTR) {
 			logf_(b, 3, "LCM bridge: poll: %s; the bridge stops", strerror(errno));
 			break;
 		}
-		if (fds[0].revents)
-			break;
-		if (nfds > 2 && fds[2].revents & POLLIN) {
+		for (int k = 0; k < n; k++) {
 			uint64_t v;
 
-			if (read(fds[2].fd, &v, sizeof(v)) < 0) {
-				/* another reader got there first, or the fd is broken: poll decides */
-			}
+			if (ev[k].data.u32 == WAKE_STOP)
+				stop = true;
+			readable |= ev[k].data.u32 == WAKE_RX;
+			if (ev[k].data.u32 == WAKE_TIMER && read(b->timer_fd, &v, sizeof(v)) >= 0)
+				armed_ns = -1; /* expired: armed again for what is due next */
 		}
-		if (fds[1].revents & POLLIN)
+		if (stop)
+			break;
+		if (readable)
 			drain(b);
 		publish_state(b);
 		now = rmd_now_ns();
@@ -964,19 +1196,26 @@ static int check_opts(const struct rmd_bridge_opts *o, char *err, size_t errlen)
 /* ---- LCM's own threads ---------------------------------------------------- */
 
 #define TASKS_MAX 256
+#define FDS_MAX 1024
 
-/* The process's thread ids, at most max of them; returns how many. */
-static unsigned list_tasks(pid_t *tid, unsigned max)
+/*
+ * The numbers named in /proc/self/<what> ("task": thread ids, "fd": open
+ * descriptors, less the one reading it), at most max; returns how many.
+ */
+static unsigned list_ids(const char *what, int *id, unsigned max)
 {
-	DIR *d = opendir("/proc/self/task");
+	char path[32];
+	DIR *d;
 	struct dirent *e;
 	unsigned n = 0;
 
+	snprintf(path, sizeof(path), "/proc/self/%s", what);
+	d = opendir(path);
 	if (!d)
 		return 0;
 	while ((e = readdir(d)) && n < max)
-		if (e->d_name[0] != '.')
-			tid[n++] = (pid_t)atoi(e->d_name);
+		if (e->d_name[0] != '.' && atoi(e->d_name) != dirfd(d))
+			id[n++] = atoi(e->d_name);
 	closedir(d);
 	return n;
 }
@@ -986,10 +1225,10 @@ static unsigned list_tasks(pid_t *tid, unsigned max)
  * ones LCM started (udpm: its receive thread, which reads the socket and
  * signals lcm_get_fileno()'s pipe), which the bridge raises with itself.
  */
-static void find_lcm_threads(struct rmd_bridge *b, const pid_t *before, unsigned n_before)
+static void find_lcm_threads(struct rmd_bridge *b, const int *before, unsigned n_before)
 {
-	pid_t now[TASKS_MAX];
-	unsigned n = list_tasks(now, TASKS_MAX);
+	int now[TASKS_MAX];
+	unsigned n = list_ids("task", now, TASKS_MAX);
 
 	for (unsigned i = 0; i < n && b->n_lcm_tid < RMD_BRIDGE_LCM_THREADS; i++) {
 		bool old = false;
@@ -1029,6 +1268,135 @@ static void raise_threads(struct rmd_bridge *b)
 	}
 }
 
+/* ---- udpm: the bridge's own receive socket ------------------------------- */
+
+/* fd's local IPv4 address, if it is a UDP/IPv4 socket. */
+static bool udp4_name(int fd, struct sockaddr_in *a)
+{
+	struct stat st;
+	socklen_t len = sizeof(*a);
+	int type;
+	socklen_t tlen = sizeof(type);
+
+	return fstat(fd, &st) == 0 && S_ISSOCK(st.st_mode) &&
+	       getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &tlen) == 0 && type == SOCK_DGRAM &&
+	       getsockname(fd, (struct sockaddr *)a, &len) == 0 && a->sin_family == AF_INET;
+}
+
+/* A udpm URL's group and port ("udpm://239.255.76.67:7667?..."; LCM's defaults when empty). */
+static bool udpm_group(const char *url, struct sockaddr_in *group)
+{
+	char host[64];
+	size_t n = strcspn(url + 7, "?:");
+	const char *port = url + 7 + n;
+
+	if (strncmp(url, "udpm://", 7) != 0 || n >= sizeof(host))
+		return false;
+	memcpy(host, url + 7, n);
+	host[n] = '\0';
+	memset(group, 0, sizeof(*group));
+	group->sin_family = AF_INET;
+	group->sin_port = htons(*port == ':' ? (uint16_t)atoi(port + 1) : 7667);
+	return inet_aton(n ? host : "239.255.76.67", &group->sin_addr) != 0;
+}
+
+/*
+ * The bridge's receive socket for a udpm URL, as LCM's provider opens its
+ * own: bound to the group's port (shared, SO_REUSEADDR), in the group,
+ * with the URL's recv_buf_size.  Reading it in the bridge thread spares a
+ * wake-up of LCM's receive thread and its pipe for every command.  Returns
+ * the descriptor or -errno.
+ */
+static int udpm_open(const char *url, const struct sockaddr_in *group)
+{
+	const char *rb = strstr(url, "recv_buf_size=");
+	struct ip_mreq mreq = { .imr_multiaddr = group->sin_addr };
+	int one = 1, size = rb ? atoi(rb + 14) : 0;
+	int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+
+	mreq.imr_interface.s_addr = htonl(INADDR_ANY);
+	if (fd < 0)
+		return -errno;
+	if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one)) < 0 ||
+	    (size > 0 && setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &size, sizeof(size)) < 0) ||
+	    bind(fd, (const struct sockaddr *)group, sizeof(*group)) < 0 ||
+	    setsockopt(fd, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof(mreq)) < 0) {
+		int r = -errno;
+
+		close(fd);
+		return r;
+	}
+	return fd;
+}
+
+/*
+ * LCM's udpm provider loops every datagram it sends back to the host, so
+ * each state_t the bridge published came back to its own socket.  A socket
+ * filter drops them in the kernel: datagrams from LCM's send socket (the
+ * one UDP socket lcm_create() left open since before[]; bound here to the
+ * port its first send would take) and the source address the kernel gives
+ * a datagram to the group; everything else passes.  Anything unexpected
+ * leaves the filter off, which costs a read of each, nothing else.
+ * Returns whether it is on.
+ */
+static bool drop_own_datagrams(int rx_fd, const struct sockaddr_in *group, const int *before,
+			       unsigned n_before)
+{
+	int now[FDS_MAX], sfd = -1, probe;
+	unsigned n = list_ids("fd", now, FDS_MAX);
+	struct sockaddr_in from = { 0 }, src;
+	socklen_t len = sizeof(src);
+	bool ok;
+
+	for (unsigned i = 0; i < n; i++) {
+		struct sockaddr_in a;
+		bool old = now[i] == rx_fd;
+
+		for (unsigned j = 0; j < n_before && !old; j++)
+			old = now[i] == before[j];
+		if (old || !udp4_name(now[i], &a))
+			continue;
+		if (sfd >= 0)
+			return false; /* not LCM 1.3's udpm: one send socket */
+		sfd = now[i];
+		from = a;
+	}
+	if (sfd < 0)
+		return false;
+	if (!from.sin_port) {
+		struct sockaddr_in any = { .sin_family = AF_INET };
+
+		len = sizeof(from);
+		if (bind(sfd, (struct sockaddr *)&any, sizeof(any)) < 0 ||
+		    getsockname(sfd, (struct sockaddr *)&from, &len) < 0 || !from.sin_port)
+			return false;
+	}
+	/* the source address the kernel gives a datagram to the group */
+	probe = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+	if (probe < 0)
+		return false;
+	len = sizeof(src);
+	ok = connect(probe, (const struct sockaddr *)group, sizeof(*group)) == 0 &&
+	     getsockname(probe, (struct sockaddr *)&src, &len) == 0;
+	close(probe);
+	if (!ok)
+		return false;
+	{
+		/* a UDP socket's filter sees the UDP header at 0 (SKF_NET_OFF: the IP header) */
+		struct sock_filter code[] = {
+			BPF_STMT(BPF_LD | BPF_W | BPF_ABS, (uint32_t)SKF_NET_OFF + 12),
+			BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, ntohl(src.sin_addr.s_addr), 0, 3),
+			BPF_STMT(BPF_LD | BPF_H | BPF_ABS, 0),
+			BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, ntohs(from.sin_port), 0, 1),
+			BPF_STMT(BPF_RET | BPF_K, 0),
+			BPF_STMT(BPF_RET | BPF_K, 0xFFFFFFFF),
+		};
+		struct sock_fprog prog = { .len = sizeof(code) / sizeof(code[0]), .filter = code };
+
+		return setsockopt(rx_fd, SOL_SOCKET, SO_ATTACH_FILTER, &prog, sizeof(prog)) == 0;
+	}
+}
+
 /* A udpm URL gets a receive buffer that rides out a flood, unless it names one. */
 static void lcm_url(char *out, size_t len, const char *url)
 {
@@ -1043,12 +1411,16 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 		    size_t errlen)
 {
 	char re[2 * RMD_BRIDGE_PREFIX_LEN + 16];
-	pid_t tasks[TASKS_MAX];
-	unsigned n_tasks;
+	int tasks[TASKS_MAX], fds[FDS_MAX];
+	unsigned n_tasks, n_fds;
+	struct sockaddr_in group;
 	int r;
 
 	memset(b, 0, sizeof(*b));
 	b->stop_fd = -1;
+	b->rx_fd = -1;
+	b->ep_fd = -1;
+	b->timer_fd = -1;
 	r = check_opts(opts, err, errlen);
 	if (r < 0)
 		return r;
@@ -1074,7 +1446,8 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	}
 	lcm_url(b->url, sizeof(b->url), opts->url);
 	b->state_listeners = strncmp(b->url, "memq://", 7) != 0;
-	n_tasks = list_tasks(tasks, TASKS_MAX);
+	n_tasks = list_ids("task", tasks, TASKS_MAX);
+	n_fds = list_ids("fd", fds, FDS_MAX);
 	b->lcm = lcm_create(b->url);
 	if (!b->lcm) {
 		/* the URL as given: b->url adds parameters the user never wrote */
@@ -1084,6 +1457,20 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 			 opts->url);
 		r = -EIO;
 		goto err_close_stop;
+	}
+	if (udpm_group(b->url, &group)) {
+		/* no subscription: LCM starts no receive thread, the bridge reads */
+		b->rx_fd = udpm_open(b->url, &group);
+		if (b->rx_fd < 0) {
+			snprintf(err, errlen,
+				 "LCM \"%s\": cannot subscribe: %s (multicast not routable? see "
+				 "docs/lcm.md)",
+				 b->url, strerror(-b->rx_fd));
+			r = -EIO;
+			goto err_destroy_lcm;
+		}
+		b->own_dropped = drop_own_datagrams(b->rx_fd, &group, fds, n_fds);
+		goto wait;
 	}
 	channel_regex(re, sizeof(re), opts->prefix, "COMMAND");
 	b->sub_command = lcm_subscribe(b->lcm, re, on_command, b);
@@ -1099,7 +1486,15 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	}
 	lcm_subscription_set_queue_capacity(b->sub_command, COMMAND_QUEUE);
 	find_lcm_threads(b, tasks, n_tasks);
-	return 0;
+wait:
+	r = wait_setup(b);
+	if (r == 0)
+		return 0;
+	snprintf(err, errlen, "epoll, timerfd: %s", strerror(-r));
+	wait_close(b);
+	if (b->rx_fd >= 0)
+		close(b->rx_fd);
+	b->rx_fd = -1;
 
 err_destroy_lcm:
 	lcm_destroy(b->lcm);
@@ -1157,6 +1552,10 @@ void rmd_bridge_fini(struct rmd_bridge *b)
 	if (b->stop_fd >= 0)
 		close(b->stop_fd);
 	b->stop_fd = -1;
+	if (b->rx_fd >= 0)
+		close(b->rx_fd);
+	b->rx_fd = -1;
+	wait_close(b);
 	free(b->buf);
 	b->buf = NULL;
 }
@@ -1183,4 +1582,6 @@ void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
 	st->rt_error = b->rt_error;
 	st->lcm_threads = b->n_lcm_tid;
 	st->lcm_threads_rt = b->n_lcm_rt;
+	st->own_dropped = b->own_dropped;
+	st->datagrams = read_count(&b->n_datagrams);
 }

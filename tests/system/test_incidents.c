@@ -15,7 +15,9 @@
  *   - incidents.keep bounds the recordings: the oldest are removed, other
  *     files in the folder are not;
  *   - a motor lost amid overruns (SIGSTOP every 200 ms) names the
- *     recording that takes it in: "-lost", not "-overrun".
+ *     recording that takes it in: "-lost", not "-overrun";
+ *   - overruns alone make one recording a minute: a second stall soon after
+ *     is logged as not recorded, a motor lost meanwhile is recorded.
  * The watchdog, safe actions and an intruding controller need an LCM
  * controller: tests/system/test_lcm_system.c.  Every wait has a deadline;
  * RMD_TEST_FILTER=name runs one test.
@@ -123,6 +125,21 @@ static void run_faults(const char *dir, const char *inc, const char *more, unsig
 	stop(k);
 }
 
+/*
+ * A folder `name` of this test (into dir, its incidents/ into inc) and rmd
+ * started there with fault_keys(inc, more, seed 7, faults).
+ */
+static struct kid *start_faults(const char *name, char *dir, size_t dlen, char *inc, size_t ilen,
+				const char *more, const char *faults)
+{
+	char keys[1024];
+
+	test_dir(dir, dlen, name);
+	snprintf(inc, ilen, "%s/incidents", dir);
+	fault_keys(keys, sizeof(keys), inc, more, 7, faults);
+	return start(dir, keys);
+}
+
 /* The recordings under dir (names "YYYYMMDD-HHMMSS-mmm-kind"), sorted; their count. */
 static unsigned recordings(const char *dir, char names[][DIR_NAME_MAX], unsigned max)
 {
@@ -130,21 +147,37 @@ static unsigned recordings(const char *dir, char names[][DIR_NAME_MAX], unsigned
 }
 
 /* The recording of `kind` under dir (its path into out); fails when there is none. */
+/* Whether recording `name` is filed as `kind` (its name ends in "-kind"). */
+static bool filed_as(const char *name, const char *kind)
+{
+	size_t n = strlen(name), k = strlen(kind);
+
+	return n > k + 1 && name[n - k - 1] == '-' && !strcmp(name + n - k, kind);
+}
+
 static void recording_of(const char *dir, const char *kind, char *out, size_t len)
 {
-	char names[64][DIR_NAME_MAX], suffix[32];
+	char names[64][DIR_NAME_MAX];
 	unsigned n = recordings(dir, names, 64);
 
-	snprintf(suffix, sizeof(suffix), "-%s", kind);
 	for (unsigned i = 0; i < n; i++) {
-		const char *s = names[i] + strlen(names[i]) - strlen(suffix);
-
-		if (strlen(names[i]) > strlen(suffix) && !strcmp(s, suffix)) {
-			snprintf(out, len, "%s/%s", dir, names[i]);
+		if (filed_as(names[i], kind)) {
+			snprintf(out, len, "%s/%.300s", dir, names[i]);
 			return;
 		}
 	}
 	fail_msg("no %s recording under %s (%u recordings)", kind, dir, n);
+}
+
+/* How many recordings under dir are filed as `kind`. */
+static unsigned recordings_of(const char *dir, const char *kind)
+{
+	char names[64][DIR_NAME_MAX];
+	unsigned n = recordings(dir, names, 64), m = 0;
+
+	for (unsigned i = 0; i < n; i++)
+		m += filed_as(names[i], kind);
+	return m;
 }
 
 static char *slurp(const char *path)
@@ -386,6 +419,42 @@ static void test_overrun_burst_goes_to_the_state_directory(void **state)
 	free(summary);
 }
 
+/* Stop the whole process for `ms`: the loop wakes that many periods late, or later. */
+static void stall(struct kid *k, long ms)
+{
+	struct timespec ts = { .tv_sec = 0, .tv_nsec = ms * 1000000 };
+
+	assert_int_equal(kill(k->pid, SIGSTOP), 0);
+	nanosleep(&ts, NULL);
+	assert_int_equal(kill(k->pid, SIGCONT), 0);
+}
+
+/*
+ * Overruns alone make one recording a RMDD_INCIDENT_OVERRUN_HOLDOFF_S (60 s):
+ * a second burst soon after the first is said in the log, not recorded,
+ * and a motor lost meanwhile is recorded all the same.
+ */
+static void test_overruns_recorded_once_a_minute(void **state)
+{
+	char dir[512], inc[600];
+	struct kid *k;
+
+	(void)state;
+	/* the motor disappears after both stalls (each waits for its outcome first) */
+	k = start_faults(
+		"holdoff", dir, sizeof(dir), inc, sizeof(inc),
+		"seconds_before: 0.3, seconds_after: 0.1, overrun_burst: 75",
+		"        - {kind: disappear, motor: 3, start_s: 6, end_s: 300, param: 1}\n");
+	stall(k, 80);
+	kid_wait_output(k, "-overrun: rt loop: overrun, ", INCIDENT_MS, NULL);
+	stall(k, 80);
+	kid_wait_output(k, "rmdd: incident not recorded: rt loop: overrun, ", INCIDENT_MS, NULL);
+	kid_wait_output(k, "-lost: sim0: motor 3 (c): ready -> lost", INCIDENT_MS, NULL);
+	stop(k);
+	assert_int_equal(recordings_of(inc, "overrun"), 1);
+	assert_int_equal(recordings_of(inc, "lost"), 1);
+}
+
 static void test_keep_bounds_the_recordings(void **state)
 {
 	char dir[512], inc[600], other[700], old[700], names[16][DIR_NAME_MAX];
@@ -432,19 +501,17 @@ static void test_keep_bounds_the_recordings(void **state)
  */
 static void test_lost_amid_overruns_named_lost(void **state)
 {
-	char dir[512], inc[600], keys[1024], names[64][DIR_NAME_MAX];
+	char dir[512], inc[600], names[64][DIR_NAME_MAX];
 	struct timespec stall = { .tv_sec = 0, .tv_nsec = 30 * 1000000 };
 	struct timespec between = { .tv_sec = 0, .tv_nsec = 170 * 1000000 };
 	struct kid *k;
 	unsigned n, lost = 0, folded = 0;
 
 	(void)state;
-	test_dir(dir, sizeof(dir), "amid");
-	snprintf(inc, sizeof(inc), "%s/incidents", dir);
-	fault_keys(keys, sizeof(keys), inc,
-		   "seconds_before: 0.3, seconds_after: 2, overrun_burst: 20", 7,
-		   "        - {kind: disappear, motor: 3, start_s: 3, end_s: 300, param: 1}\n");
-	k = start(dir, keys);
+	k = start_faults(
+		"amid", dir, sizeof(dir), inc, sizeof(inc),
+		"seconds_before: 0.3, seconds_after: 2, overrun_burst: 20",
+		"        - {kind: disappear, motor: 3, start_s: 3, end_s: 300, param: 1}\n");
 	/* stalls every 200 ms (shorter than the comm-loss time) until the loss is recorded */
 	for (int ms = 0; !strstr(k->out, "-lost: sim0: motor 3 (c): ready -> lost"); ms += 200) {
 		if (ms > INCIDENT_MS)
@@ -529,6 +596,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test_teardown(test_lost_fault_and_bus_off_recorded, teardown),
 		cmocka_unit_test_teardown(test_overrun_burst_goes_to_the_state_directory, teardown),
+		cmocka_unit_test_teardown(test_overruns_recorded_once_a_minute, teardown),
 		cmocka_unit_test_teardown(test_keep_bounds_the_recordings, teardown),
 		cmocka_unit_test_teardown(test_lost_amid_overruns_named_lost, teardown),
 	};

@@ -28,8 +28,11 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/eventfd.h>
 #include <sys/prctl.h>
+#include <sys/socket.h>
 
 #include <cmocka.h>
 #include <lcm/lcm.h>
@@ -67,7 +70,7 @@ struct fixture {
 
 	/*
 	 * The test controller and what it received.  It listens only when a
-	 * test asks (listen()): a udpm instance that subscribes gets a reader
+	 * test asks (ctl_listen()): a udpm instance that subscribes gets a reader
 	 * thread that copies every datagram on the port, the flood included.
 	 */
 	lcm_t *ctl;
@@ -173,7 +176,7 @@ static int setup(void **state)
 }
 
 /* The controller subscribes to what the bridge publishes. */
-static void listen(struct fixture *f)
+static void ctl_listen(struct fixture *f)
 {
 	lcm_rx_listen(&f->rx, f->ctl, PREFIX);
 	f->listening = true;
@@ -959,7 +962,7 @@ static void test_state_published(void **state)
 
 	f->opts.notify_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
 	assert_true(f->opts.notify_fd >= 0);
-	listen(f);
+	ctl_listen(f);
 	start(f);
 	put_snapshot(f, 41);
 	WAIT_UNTIL(f, f->rx.n_states >= 1, 2000);
@@ -1002,7 +1005,7 @@ static void test_state_every_nth(void **state)
 	f->opts.notify_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
 	assert_true(f->opts.notify_fd >= 0);
 	f->opts.state_every = 3;
-	listen(f);
+	ctl_listen(f);
 	start(f);
 	for (uint64_t cycle = 100; cycle < 110; cycle++)
 		put_snapshot(f, cycle);
@@ -1052,7 +1055,7 @@ static void test_health_10hz(void **state)
 	h.safe_action_events = 2;
 	rmd_latest_put(&f->health, &h);
 
-	listen(f);
+	ctl_listen(f);
 	/*
 	 * A reference sleeper at the bridge's (normal) priority: on a busy
 	 * machine (issue 10) the bridge's 100 ms wake-ups come late by what
@@ -1116,7 +1119,7 @@ static void test_config_on_request(void **state)
 
 	f->opts.motor[6].pos_min_rad = -INFINITY;
 	f->opts.period_ns = 2000000;
-	listen(f);
+	ctl_listen(f);
 	start(f);
 	/* Once at start... */
 	WAIT_UNTIL(f, f->rx.n_config >= 1, 2000);
@@ -1199,7 +1202,7 @@ static void test_one_controller_at_a_time(void **state)
 	h.ignored[RMD_IGN_EDGE] = 3;
 	h.ignored[RMD_IGN_TRIPPED] = 1;
 	rmd_latest_put(&f->health, &h);
-	listen(f);
+	ctl_listen(f);
 	start(f);
 
 	/* A enables: it owns them */
@@ -1432,7 +1435,7 @@ static void test_comm_loss_published(void **state)
 	h.comm_loss_ms[2] = 0;
 	h.comm_loss[3] = RMD_CL_ARMED_ZEROS;
 	rmd_latest_put(&f->health, &h);
-	listen(f);
+	ctl_listen(f);
 	start(f);
 	WAIT_UNTIL(f, f->rx.n_health >= 2 && f->rx.n_config >= 1, 2000);
 	o = f->rx.health;
@@ -1503,9 +1506,10 @@ static long wakeups(pid_t tid)
 }
 
 /*
- * rt_priority: the bridge thread and LCM's udpm receive thread (the one
- * thread lcm_subscribe started) run at SCHED_FIFO, and commands still
- * arrive.  Without CAP_SYS_NICE both stay normal and the stats say why.
+ * rt_priority: the bridge thread runs at SCHED_FIFO and commands still
+ * arrive; on udpm no LCM receive thread stands between the socket and the
+ * bridge (it reads the socket itself), so there is none to raise.  Without
+ * CAP_SYS_NICE the bridge stays normal and the stats say why.
  */
 static void test_rt_priority(void **state)
 {
@@ -1515,12 +1519,11 @@ static void test_rt_priority(void **state)
 	struct rmd_bridge_stats st;
 	struct sched_param sp;
 	int policy;
-	pid_t tid;
 
 	f->opts.rt_priority = 7;
 	start(f);
 	st = stats(f);
-	assert_int_equal(st.lcm_threads, 1); /* LCM 1.3.1's udpm: one receive thread */
+	assert_int_equal(st.lcm_threads, 0); /* udpm: the bridge reads the socket */
 	if (st.rt_error == -EPERM) {
 		assert_int_equal(st.rt_priority, 0);
 		print_message("SCHED_FIFO refused (not root): the priority is not tested\n");
@@ -1528,13 +1531,9 @@ static void test_rt_priority(void **state)
 	}
 	assert_int_equal(st.rt_error, 0);
 	assert_int_equal(st.rt_priority, 7);
-	assert_int_equal(st.lcm_threads_rt, 1);
+	assert_int_equal(st.lcm_threads_rt, 0);
 	assert_int_equal(pthread_getschedparam(f->b.thread, &policy, &sp), 0);
 	assert_int_equal(policy, SCHED_FIFO);
-	assert_int_equal(sp.sched_priority, 7);
-	tid = f->b.lcm_tid[0];
-	assert_int_equal(sched_getscheduler(tid), SCHED_FIFO);
-	assert_int_equal(sched_getparam(tid, &sp), 0);
 	assert_int_equal(sp.sched_priority, 7);
 	/* the test's own thread and LCM's of the controller stay as they were */
 	assert_int_equal(sched_getscheduler(0), SCHED_OTHER);
@@ -1577,6 +1576,134 @@ static void test_sleeps_when_idle(void **state)
 	assert_int_equal(stats(f).states_published, 20);
 	assert_true(w2 - w1 >= 20);
 	assert_true(w2 - w1 <= 20 + 2);
+}
+
+/*
+ * udpm loops every datagram back to the host: each state_t the bridge sent
+ * came back to its own socket.  The socket drops them in the kernel: 200
+ * states reach the controller and the bridge reads none of them back; a
+ * command still arrives, in one datagram.
+ */
+static void test_own_datagrams_dropped(void **state)
+{
+	struct fixture *f = fixture(state);
+	rmd_command_t m = base_cmd(1);
+	struct rmd_command cmd;
+	uint64_t d0, d1;
+
+	f->opts.notify_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+	assert_true(f->opts.notify_fd >= 0);
+	f->opts.health_period_ns = 10 * INT64_C(1000000000); /* no health_t in the test */
+	ctl_listen(f);
+	start(f);
+	assert_true(stats(f).own_dropped);
+	WAIT_UNTIL(f, f->rx.n_config >= 1, 2000);
+	d0 = stats(f).datagrams;
+	for (uint64_t cycle = 1; cycle <= 200; cycle++)
+		put_snapshot(f, cycle);
+	WAIT_UNTIL(f, f->rx.n_states >= 200, 2000);
+	d1 = stats(f).datagrams;
+	print_message("the bridge read %llu datagrams back over 200 state_t sent\n",
+		      (unsigned long long)(d1 - d0));
+	assert_int_equal(f->rx.n_states, 200);
+	assert_int_equal(d1 - d0, 0);
+
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &cmd), 2000);
+	assert_int_equal(cmd.seq, 1);
+	assert_int_equal(stats(f).datagrams, d1 + 1);
+}
+
+/*
+ * One fragment of an LCM message (lcm/lcm_udpm.c's "LC03" header, then the
+ * channel in the first fragment), `len` bytes of msg from `off`, sent from fd.
+ */
+static void send_fragment(int fd, const struct sockaddr_in *to, uint32_t seqno,
+			  const unsigned char *msg, uint32_t size, uint32_t off, uint16_t no,
+			  uint32_t len, const char *channel)
+{
+	unsigned char pkt[2048];
+	uint32_t hdr[4] = { htonl(0x4c433033), htonl(seqno), htonl(size), htonl(off) };
+	uint16_t frag[2] = { htons(no), htons(2) };
+	size_t n = 0;
+
+	memcpy(pkt, hdr, sizeof(hdr));
+	memcpy(pkt + sizeof(hdr), frag, sizeof(frag));
+	n = sizeof(hdr) + sizeof(frag);
+	if (no == 0) {
+		memcpy(pkt + n, channel, strlen(channel) + 1);
+		n += strlen(channel) + 1;
+	}
+	memcpy(pkt + n, msg + off, len);
+	n += len;
+	assert_int_equal(sendto(fd, pkt, n, 0, (const struct sockaddr *)to, sizeof(*to)),
+			 (ssize_t)n);
+}
+
+/*
+ * A message longer than one datagram comes in fragments (LCM's udpm wire
+ * format), which the bridge puts together: a 3000-byte CONFIG_REQUEST is
+ * answered, a command with 3000 bytes after its end is refused as exactly
+ * that, and the fragments of two senders' commands, interleaved, make two
+ * whole commands.
+ */
+static void test_fragments_reassembled(void **state)
+{
+	struct fixture *f = fixture(state);
+	static unsigned char big[8192];
+	static unsigned char enc[2][1024];
+	rmd_command_t m = base_cmd(7);
+	struct rmd_command cmd;
+	struct sockaddr_in to = { 0 };
+	int n, sock[2], enc_n[2], port;
+	char line[512], ip[16];
+	bool said = false;
+
+	ctl_listen(f);
+	start(f);
+	WAIT_UNTIL(f, f->rx.n_config >= 1, 2000);
+	memset(big, 0x5a, sizeof(big));
+	assert_int_equal(lcm_publish(f->ctl, PREFIX "CONFIG_REQUEST", big, 3000), 0);
+	WAIT_UNTIL(f, f->rx.n_config >= 2, 2000);
+	assert_int_equal(f->rx.n_config, 2);
+
+	n = rmd_command_t_encode(big, 0, sizeof(big), &m);
+	assert_true(n > 0);
+	assert_int_equal(lcm_publish(f->ctl, f->ch_command, big, (unsigned)n + 3000), 0);
+	WAIT_UNTIL(f, stats(f).rejected_by_kind[RMD_REJ_DECODE] == 1, 2000);
+	assert_int_equal(stats(f).rejected_by_kind[RMD_REJ_DECODE], 1);
+	assert_false(take_command(f, &cmd));
+
+	/* two senders' fragments interleaved: both commands are taken, whole */
+	for (int k = 0; k < 2; k++)
+		sock[k] = socket(AF_INET, SOCK_DGRAM, 0);
+	assert_int_equal(sscanf(f->url, "udpm://%15[0-9.]:%d", ip, &port), 2);
+	to.sin_family = AF_INET;
+	to.sin_port = htons((uint16_t)port);
+	assert_int_equal(inet_aton(ip, &to.sin_addr), 1);
+	for (int k = 0; k < 2; k++) {
+		m = base_cmd(20 + k);
+		enc_n[k] = rmd_command_t_encode(enc[k], 0, sizeof(enc[k]), &m);
+		assert_true(enc_n[k] > 60);
+	}
+	for (int part = 0; part < 2; part++)
+		for (int k = 0; k < 2; k++)
+			send_fragment(sock[k], &to, (uint32_t)(77 + k), enc[k], (uint32_t)enc_n[k],
+				      part ? 60 : 0, (uint16_t)part,
+				      part ? (uint32_t)enc_n[k] - 60 : 60, f->ch_command);
+	WAIT_UNTIL(f, stats(f).accepted == 2, 2000);
+	assert_int_equal(stats(f).accepted, 2);
+	assert_true(take_command(f, &cmd));
+	assert_int_equal(cmd.seq, 21);
+	for (int k = 0; k < 2; k++)
+		close(sock[k]);
+
+	/* the trailing bytes were counted whole (the log is written after the count) */
+	rmd_bridge_stop(&f->b);
+	rewind(f->log);
+	while (fgets(line, sizeof(line), f->log))
+		said |= strstr(line, "3000 bytes after the end of an rmd.command_t") != NULL;
+	assert_true(said);
 }
 
 /*
@@ -1649,6 +1776,8 @@ int main(void)
 		cmocka_unit_test(test_rt_priority),
 		cmocka_unit_test(test_sleeps_when_idle),
 		cmocka_unit_test(test_memq_encodes_no_state),
+		cmocka_unit_test(test_own_datagrams_dropped),
+		cmocka_unit_test(test_fragments_reassembled),
 	};
 
 	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);

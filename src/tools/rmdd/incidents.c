@@ -11,7 +11,8 @@
  * rmdd_incidents_trigger(); this normal-priority thread then waits for
  * the tail (seconds_after, one timed wait for that event, no polling),
  * copies the window out of the ring and writes the files.  Triggers that
- * come while it waits belong to the same recording.  Everything here is
+ * come while it waits belong to the same recording.  Overruns alone make at
+ * most one recording a RMDD_INCIDENT_OVERRUN_HOLDOFF_S.  Everything here is
  * non-rt.
  */
 #define _GNU_SOURCE /* pthread_setname_np */
@@ -369,15 +370,26 @@ static void write_frames(FILE *f, struct out *o)
 
 	iface_of(o->in->cfg, b, iface);
 	*tx = 0;
+	/* one formatted prefix and the bytes by hand: a window holds some 100 k frames */
 	for (size_t k = 0; k < w->n_frames[b]; k++) {
+		static const char hex[] = "0123456789ABCDEF";
 		const struct rmd_incident_frame *r = &w->frames[b][k];
 		int64_t t = r->t_ns + o->off_ns;
+		char line[128];
+		int n = snprintf(line, sizeof(line),
+				 "(%" PRId64 ".%06" PRId64 ") %s %03" PRIX32 "#", t / RMD_NS_PER_S,
+				 t % RMD_NS_PER_S / 1000, iface, r->f.can_id);
 
-		fprintf(f, "(%" PRId64 ".%06" PRId64 ") %s %03" PRIX32 "#", t / RMD_NS_PER_S,
-			t % RMD_NS_PER_S / 1000, iface, r->f.can_id);
-		for (unsigned j = 0; j < r->f.len && j < RMD_FRAME_LEN; j++)
-			fprintf(f, "%02X", r->f.data[j]);
-		fprintf(f, " %c\n", r->dir == RMD_INCIDENT_TX ? 'T' : 'R');
+		if (n < 0 || (size_t)n > sizeof(line) - 2 * RMD_FRAME_LEN - 4)
+			continue;
+		for (unsigned j = 0; j < r->f.len && j < RMD_FRAME_LEN; j++) {
+			line[n++] = hex[r->f.data[j] >> 4];
+			line[n++] = hex[r->f.data[j] & 15];
+		}
+		line[n++] = ' ';
+		line[n++] = r->dir == RMD_INCIDENT_TX ? 'T' : 'R';
+		line[n++] = '\n';
+		fwrite(line, 1, (size_t)n, f);
 		*tx += r->dir == RMD_INCIDENT_TX;
 	}
 }
@@ -666,6 +678,13 @@ static void *writer_main(void *arg)
 		read_ns = rmd_now_ns();
 		/* what happened up to now is in this recording */
 		in->covered_ns = read_ns;
+		/* every trigger an overrun (lead_trigger() put any other first) */
+		if (!strcmp(trig[0].kind, "overrun")) {
+			in->overrun_quiet_ns =
+				trig[0].t_ns +
+				(int64_t)RMDD_INCIDENT_OVERRUN_HOLDOFF_S * RMD_NS_PER_S;
+			in->overrun_held = false;
+		}
 		pthread_mutex_unlock(&in->mu);
 		record(in, trig, n, read_ns);
 		pthread_mutex_lock(&in->mu);
@@ -677,10 +696,16 @@ static void *writer_main(void *arg)
 void rmdd_incidents_trigger(struct rmdd_incidents *in, int64_t t_ns, const char *kind,
 			    const char *what, bool outside)
 {
+	bool held = false;
+
 	if (!in || !in->ring)
 		return;
 	pthread_mutex_lock(&in->mu);
-	if (t_ns > in->covered_ns && in->n_trig < RMDD_INCIDENT_TRIGGERS) {
+	if (!in->n_trig && t_ns < in->overrun_quiet_ns && !strcmp(kind, "overrun")) {
+		/* said once a hold-off: the monitor's overrun lines count the rest */
+		held = !in->overrun_held;
+		in->overrun_held = true;
+	} else if (t_ns > in->covered_ns && in->n_trig < RMDD_INCIDENT_TRIGGERS) {
 		struct rmdd_trigger *t = &in->trig[in->n_trig++];
 
 		t->t_ns = t_ns;
@@ -690,6 +715,11 @@ void rmdd_incidents_trigger(struct rmdd_incidents *in, int64_t t_ns, const char 
 		pthread_cond_signal(&in->cv);
 	}
 	pthread_mutex_unlock(&in->mu);
+	if (held)
+		tool_log(5,
+			 "incident not recorded: %s (overruns alone make one recording every %d s "
+			 "at most; the overrun lines count the rest)",
+			 what, RMDD_INCIDENT_OVERRUN_HOLDOFF_S);
 }
 
 int rmdd_incidents_init(struct rmdd_incidents *in, const struct rmd_config *cfg,
@@ -702,6 +732,7 @@ int rmdd_incidents_init(struct rmdd_incidents *in, const struct rmd_config *cfg,
 	memset(in, 0, sizeof(*in));
 	in->cfg = cfg;
 	in->covered_ns = INT64_MIN;
+	in->overrun_quiet_ns = INT64_MIN;
 	if (!ic->enabled)
 		return 0;
 	rmdd_incidents_dir(cfg, in->dir, sizeof(in->dir));

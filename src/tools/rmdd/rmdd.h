@@ -53,6 +53,15 @@ enum {
 /* Triggers one recording holds (the events of its window are all in it anyway). */
 #define RMDD_INCIDENT_TRIGGERS 64
 
+/*
+ * After a recording filed as an overrun, overruns alone start no recording
+ * for this long (they still join a recording something else started): a
+ * machine that overruns again and again would otherwise write one every
+ * few seconds, each some MB and a tenth of a second of CPU, and push the
+ * recordings worth keeping out of incidents.keep.
+ */
+#define RMDD_INCIDENT_OVERRUN_HOLDOFF_S 60
+
 /* A safety event that starts (or joins) a recording. */
 struct rmdd_trigger {
 	int64_t t_ns;	/* CLOCK_MONOTONIC */
@@ -74,7 +83,9 @@ struct rmdd_incidents {
 	bool stop;
 	unsigned n_trig;
 	struct rmdd_trigger trig[RMDD_INCIDENT_TRIGGERS]; /* of the recording being made */
-	int64_t covered_ns; /* triggers up to this are in the last recording */
+	int64_t covered_ns;	  /* triggers up to this are in the last recording */
+	int64_t overrun_quiet_ns; /* overruns alone record nothing before this */
+	bool overrun_held;	  /* one was held back since the last overrun recording */
 	/* writer thread; read after stop */
 	unsigned written;
 };
