@@ -497,7 +497,8 @@ static void test_keep_bounds_the_recordings(void **state)
 /*
  * A motor lost while the machine keeps overrunning: the overruns' recording
  * takes the loss in (it comes within their tail), and is named after the
- * loss, not filed as one more overrun.
+ * loss, not filed as one more overrun.  Overruns alone start one recording
+ * a minute: the first stall's, whose 5 s tail spans the loss at 2 s.
  */
 static void test_lost_amid_overruns_named_lost(void **state)
 {
@@ -510,8 +511,8 @@ static void test_lost_amid_overruns_named_lost(void **state)
 	(void)state;
 	k = start_faults(
 		"amid", dir, sizeof(dir), inc, sizeof(inc),
-		"seconds_before: 0.3, seconds_after: 2, overrun_burst: 20",
-		"        - {kind: disappear, motor: 3, start_s: 3, end_s: 300, param: 1}\n");
+		"seconds_before: 0.3, seconds_after: 5, overrun_burst: 20",
+		"        - {kind: disappear, motor: 3, start_s: 2, end_s: 300, param: 1}\n");
 	/* stalls every 200 ms (shorter than the comm-loss time) until the loss is recorded */
 	for (int ms = 0; !strstr(k->out, "-lost: sim0: motor 3 (c): ready -> lost"); ms += 200) {
 		if (ms > INCIDENT_MS)
