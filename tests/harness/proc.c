@@ -549,29 +549,43 @@ static void kid_service(struct kid *k, service_fn *service, int ms)
 		poll(NULL, 0, ms);
 }
 
-void kid_wait_output(struct kid *k, const char *needle, int ms, service_fn *service)
+void kid_wait_output_held(struct kid *k, const char *needle, int ms, service_fn *service,
+			  struct sleeper *ref)
 {
-	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
+	struct held_deadline d;
 
+	held_deadline_start(&d, ref, ms);
 	while (!strstr(k->out, needle)) {
-		if (rmd_now_ns() > end || k->fd < 0)
-			fail_msg("%s: no \"%s\" within %d ms%s; its output:\n%s", k->name, needle,
-				 ms, k->fd < 0 ? " (it exited)" : "", kid_tail(k));
+		if (held_deadline_passed(&d) || k->fd < 0) {
+			char held[96] = "";
+
+			if (ref)
+				snprintf(held, sizeof(held),
+					 " (+ %.1f ms the machine held a reference thread off)",
+					 (double)held_deadline_held_ns(&d) / 1e6);
+			fail_msg("%s: no \"%s\" within %d ms%s%s; its output:\n%s", k->name, needle,
+				 ms, held, k->fd < 0 ? " (it exited)" : "", kid_tail(k));
+		}
 		kid_service(k, service, 20);
 	}
 }
 
+void kid_wait_output(struct kid *k, const char *needle, int ms, service_fn *service)
+{
+	kid_wait_output_held(k, needle, ms, service, NULL);
+}
+
 int kid_wait_exit_held(struct kid *k, int ms, service_fn *service, struct sleeper *ref)
 {
-	int64_t t0 = rmd_now_ns(), held0 = ref ? sleeper_held_off_ns(ref) : 0, held = 0;
+	struct held_deadline d;
 
+	held_deadline_start(&d, ref, ms);
 	while (!kid_poll_exit(k) || k->fd >= 0) {
-		if (ref)
-			held = sleeper_held_off_ns(ref) - held0;
-		if (rmd_now_ns() - t0 - held > ms * NS_PER_MS)
+		if (held_deadline_passed(&d))
 			fail_msg("%s (pid %d) did not exit within %d ms (%.1f ms more, what the "
 				 "machine held a reference thread off meanwhile); its output:\n%s",
-				 k->name, (int)k->pid, ms, (double)held / 1e6, kid_tail(k));
+				 k->name, (int)k->pid, ms, (double)held_deadline_held_ns(&d) / 1e6,
+				 kid_tail(k));
 		kid_service(k, service, 10);
 	}
 	return k->status;
