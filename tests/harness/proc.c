@@ -596,6 +596,54 @@ int kid_wait_exit(struct kid *k, int ms, service_fn *service)
 	return kid_wait_exit_held(k, ms, service, NULL);
 }
 
+/* Every thread of pid is stopped (or traced): true; false when one runs or none is seen. */
+static bool pid_stopped(pid_t pid)
+{
+	char path[64], line[512];
+	unsigned seen = 0;
+	struct dirent *e;
+	DIR *d;
+
+	snprintf(path, sizeof(path), "/proc/%d/task", (int)pid);
+	d = opendir(path);
+	if (!d)
+		return false;
+	while ((e = readdir(d))) {
+		char stat_path[sizeof(path) + sizeof(e->d_name) + 8];
+		const char *rp;
+		FILE *f;
+
+		if (e->d_name[0] == '.')
+			continue;
+		snprintf(stat_path, sizeof(stat_path), "%s/%s/stat", path, e->d_name);
+		f = fopen(stat_path, "r");
+		if (!f)
+			continue;
+		rp = fgets(line, sizeof(line), f) ? strrchr(line, ')') : NULL;
+		fclose(f);
+		/* "TID (comm) S ...": the state after the name's closing parenthesis */
+		if (!rp || (rp[2] != 'T' && rp[2] != 't')) {
+			closedir(d);
+			return false;
+		}
+		seen++;
+	}
+	closedir(d);
+	return seen > 0;
+}
+
+bool pid_wait_stopped(pid_t pid, int ms)
+{
+	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
+
+	while (!pid_stopped(pid)) {
+		if (rmd_now_ns() > end)
+			return false;
+		poll(NULL, 0, 1);
+	}
+	return true;
+}
+
 /* ---- what the build wrote beside the programs --------------------------------- */
 
 static const char *build_dir(void)

@@ -207,6 +207,14 @@ struct sleeper;
 void kid_wait_output_held(struct kid *k, const char *needle, int ms, service_fn *service,
 			  struct sleeper *ref);
 
+/*
+ * Wait until every thread of process pid is stopped (state T in
+ * /proc/PID/task/TID/stat), at most ms; false when not.  A SIGSTOP takes
+ * effect only once the process's threads run, which a busy machine can
+ * delay: a SIGCONT sent before that cancels the stop (signal(7)).
+ */
+bool pid_wait_stopped(pid_t pid, int ms);
+
 /* Wait for k to exit, at most ms (else fail); its status. */
 int kid_wait_exit(struct kid *k, int ms, service_fn *service);
 
