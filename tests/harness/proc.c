@@ -596,11 +596,27 @@ int kid_wait_exit(struct kid *k, int ms, service_fn *service)
 	return kid_wait_exit_held(k, ms, service, NULL);
 }
 
-/* Every thread of pid is stopped (or traced): true; false when one runs or none is seen. */
+/* Thread tid of pid's state letter (stat(5): "TID (comm) S ..."), or 0 when unreadable. */
+static char thread_state(pid_t pid, const char *tid)
+{
+	char path[64 + 256], line[512];
+	const char *rp = NULL;
+	FILE *f;
+
+	snprintf(path, sizeof(path), "/proc/%d/task/%s/stat", (int)pid, tid);
+	f = fopen(path, "re");
+	if (f) {
+		rp = fgets(line, sizeof(line), f) ? strrchr(line, ')') : NULL;
+		fclose(f);
+	}
+	return rp && rp[1] == ' ' ? rp[2] : 0;
+}
+
+/* Every thread of pid is stopped (T) or traced (t); false when one is not, or none is seen. */
 static bool pid_stopped(pid_t pid)
 {
-	char path[64], line[512];
-	unsigned seen = 0;
+	char path[64];
+	unsigned seen = 0, stopped = 0;
 	struct dirent *e;
 	DIR *d;
 
@@ -608,28 +624,15 @@ static bool pid_stopped(pid_t pid)
 	d = opendir(path);
 	if (!d)
 		return false;
-	while ((e = readdir(d))) {
-		char stat_path[sizeof(path) + sizeof(e->d_name) + 8];
-		const char *rp;
-		FILE *f;
+	while ((e = readdir(d)))
+		if (e->d_name[0] != '.') {
+			char st = thread_state(pid, e->d_name);
 
-		if (e->d_name[0] == '.')
-			continue;
-		snprintf(stat_path, sizeof(stat_path), "%s/%s/stat", path, e->d_name);
-		f = fopen(stat_path, "r");
-		if (!f)
-			continue;
-		rp = fgets(line, sizeof(line), f) ? strrchr(line, ')') : NULL;
-		fclose(f);
-		/* "TID (comm) S ...": the state after the name's closing parenthesis */
-		if (!rp || (rp[2] != 'T' && rp[2] != 't')) {
-			closedir(d);
-			return false;
+			seen++;
+			stopped += st == 'T' || st == 't';
 		}
-		seen++;
-	}
 	closedir(d);
-	return seen > 0;
+	return seen && stopped == seen;
 }
 
 bool pid_wait_stopped(pid_t pid, int ms)
