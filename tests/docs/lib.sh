@@ -77,3 +77,58 @@ tty_answer() {
 	cat tty.out
 	[ $rc -eq 0 ] || { echo "\`$3\` exited $rc"; return 1; }
 }
+
+# wait_until SECONDS COMMAND...: until COMMAND succeeds (tried every 0.1 s),
+# else fail saying so.
+wait_until() {
+	n=$(($1 * 10))
+	shift
+	while [ $n -gt 0 ]; do
+		"$@" && return 0
+		sleep 0.1
+		n=$((n - 1))
+	done
+	echo "\`$*\` did not succeed in time"
+	return 1
+}
+
+# cpu_wait_us: how long tasks on this machine have waited for a CPU so far,
+# µs (the kernel's pressure stall information: /proc/pressure/cpu, "some"
+# total); nothing when the kernel does not say.
+cpu_wait_us() {
+	sed -n 's/^some .*total=\([0-9]*\)$/\1/p' /proc/pressure/cpu 2>/dev/null
+}
+
+# paced SECONDS OUT REGEX COMMAND...: run COMMAND for SECONDS, stopped with
+# SIGINT as Ctrl-C stops it (it must end 0, by itself or by the signal),
+# its output in OUT, which must have a line matching REGEX.  A busy machine
+# may not let it get that far in SECONDS (issue 10): when the kernel says
+# tasks waited for a CPU for a tenth of the run or more (or cannot say), it
+# runs again with twice the time, at most 3 times, said on a line that
+# starts "busy machine:".  On an idle machine a run without REGEX fails.
+paced() {
+	secs=$1
+	out=$2
+	re=$3
+	shift 3
+	for try in 1 2 3 4; do
+		w0=$(cpu_wait_us)
+		t0=$(date +%s%N)
+		rc=0
+		timeout -k 10 -s INT "$secs" "$@" > "$out" 2>&1 || rc=$?
+		ran_until_stopped $rc || { cat "$out"; echo "\`$*\` exited $rc"; return 1; }
+		grep -q -E "$re" "$out" && return 0
+		run_ms=$((($(date +%s%N) - t0) / 1000000))
+		w1=$(cpu_wait_us)
+		waited_ms=$(((${w1:-0} - ${w0:-0}) / 1000))
+		if [ $try -eq 4 ] || { [ -n "$w0" ] && [ $((waited_ms * 10)) -lt $run_ms ]; }; then
+			cat "$out"
+			echo "no /$re/ in the output of \`$*\` after $secs s (tasks waited $waited_ms ms for a CPU in its $run_ms ms)"
+			return 1
+		fi
+		note="tasks waited $waited_ms ms for a CPU in its $run_ms ms"
+		[ -n "$w0" ] || note="the kernel does not say how busy it is"
+		echo "busy machine: no /$re/ in $secs s of \`$*\`; $note; again with $((secs * 2)) s"
+		secs=$((secs * 2))
+	done
+}

@@ -549,29 +549,43 @@ static void kid_service(struct kid *k, service_fn *service, int ms)
 		poll(NULL, 0, ms);
 }
 
-void kid_wait_output(struct kid *k, const char *needle, int ms, service_fn *service)
+void kid_wait_output_held(struct kid *k, const char *needle, int ms, service_fn *service,
+			  struct sleeper *ref)
 {
-	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
+	struct held_deadline d;
 
+	held_deadline_start(&d, ref, ms);
 	while (!strstr(k->out, needle)) {
-		if (rmd_now_ns() > end || k->fd < 0)
-			fail_msg("%s: no \"%s\" within %d ms%s; its output:\n%s", k->name, needle,
-				 ms, k->fd < 0 ? " (it exited)" : "", kid_tail(k));
+		if (held_deadline_passed(&d) || k->fd < 0) {
+			char held[96] = "";
+
+			if (ref)
+				snprintf(held, sizeof(held),
+					 " (+ %.1f ms the machine held a reference thread off)",
+					 (double)held_deadline_held_ns(&d) / 1e6);
+			fail_msg("%s: no \"%s\" within %d ms%s%s; its output:\n%s", k->name, needle,
+				 ms, held, k->fd < 0 ? " (it exited)" : "", kid_tail(k));
+		}
 		kid_service(k, service, 20);
 	}
 }
 
+void kid_wait_output(struct kid *k, const char *needle, int ms, service_fn *service)
+{
+	kid_wait_output_held(k, needle, ms, service, NULL);
+}
+
 int kid_wait_exit_held(struct kid *k, int ms, service_fn *service, struct sleeper *ref)
 {
-	int64_t t0 = rmd_now_ns(), held0 = ref ? sleeper_held_off_ns(ref) : 0, held = 0;
+	struct held_deadline d;
 
+	held_deadline_start(&d, ref, ms);
 	while (!kid_poll_exit(k) || k->fd >= 0) {
-		if (ref)
-			held = sleeper_held_off_ns(ref) - held0;
-		if (rmd_now_ns() - t0 - held > ms * NS_PER_MS)
+		if (held_deadline_passed(&d))
 			fail_msg("%s (pid %d) did not exit within %d ms (%.1f ms more, what the "
 				 "machine held a reference thread off meanwhile); its output:\n%s",
-				 k->name, (int)k->pid, ms, (double)held / 1e6, kid_tail(k));
+				 k->name, (int)k->pid, ms, (double)held_deadline_held_ns(&d) / 1e6,
+				 kid_tail(k));
 		kid_service(k, service, 10);
 	}
 	return k->status;
@@ -580,6 +594,57 @@ int kid_wait_exit_held(struct kid *k, int ms, service_fn *service, struct sleepe
 int kid_wait_exit(struct kid *k, int ms, service_fn *service)
 {
 	return kid_wait_exit_held(k, ms, service, NULL);
+}
+
+/* Thread tid of pid's state letter (stat(5): "TID (comm) S ..."), or 0 when unreadable. */
+static char thread_state(pid_t pid, const char *tid)
+{
+	char path[64 + 256], line[512];
+	const char *rp = NULL;
+	FILE *f;
+
+	snprintf(path, sizeof(path), "/proc/%d/task/%s/stat", (int)pid, tid);
+	f = fopen(path, "re");
+	if (f) {
+		rp = fgets(line, sizeof(line), f) ? strrchr(line, ')') : NULL;
+		fclose(f);
+	}
+	return rp && rp[1] == ' ' ? rp[2] : 0;
+}
+
+/* Every thread of pid is stopped (T) or traced (t); false when one is not, or none is seen. */
+static bool pid_stopped(pid_t pid)
+{
+	char path[64];
+	unsigned seen = 0, stopped = 0;
+	struct dirent *e;
+	DIR *d;
+
+	snprintf(path, sizeof(path), "/proc/%d/task", (int)pid);
+	d = opendir(path);
+	if (!d)
+		return false;
+	while ((e = readdir(d)))
+		if (e->d_name[0] != '.') {
+			char st = thread_state(pid, e->d_name);
+
+			seen++;
+			stopped += st == 'T' || st == 't';
+		}
+	closedir(d);
+	return seen && stopped == seen;
+}
+
+bool pid_wait_stopped(pid_t pid, int ms)
+{
+	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
+
+	while (!pid_stopped(pid)) {
+		if (rmd_now_ns() > end)
+			return false;
+		poll(NULL, 0, 1);
+	}
+	return true;
 }
 
 /* ---- what the build wrote beside the programs --------------------------------- */

@@ -197,10 +197,26 @@ const char *kid_tail(const struct kid *k);
  */
 void kid_wait_output(struct kid *k, const char *needle, int ms, service_fn *service);
 
+struct sleeper;
+
+/*
+ * kid_wait_output(), with ms counted in the time the machine let a thread
+ * run (issue 10): the wait grows by what the reference sleeper ref (NULL:
+ * none) was held off meanwhile.
+ */
+void kid_wait_output_held(struct kid *k, const char *needle, int ms, service_fn *service,
+			  struct sleeper *ref);
+
+/*
+ * Wait until every thread of process pid is stopped (state T in
+ * /proc/PID/task/TID/stat), at most ms; false when not.  A SIGSTOP takes
+ * effect only once the process's threads run, which a busy machine can
+ * delay: a SIGCONT sent before that cancels the stop (signal(7)).
+ */
+bool pid_wait_stopped(pid_t pid, int ms);
+
 /* Wait for k to exit, at most ms (else fail); its status. */
 int kid_wait_exit(struct kid *k, int ms, service_fn *service);
-
-struct sleeper;
 
 /*
  * kid_wait_exit(), with ms counted in the time the machine let a thread

@@ -107,3 +107,21 @@ void sleeper_stop(struct sleeper *s)
 	pthread_join(s->thread, NULL);
 	s->started = false;
 }
+
+void held_deadline_start(struct held_deadline *d, struct sleeper *s, int64_t ms)
+{
+	d->s = s;
+	d->ms = ms;
+	d->t0_ns = mono();
+	d->held0_ns = s ? sleeper_held_off_ns(s) : 0;
+}
+
+int64_t held_deadline_held_ns(const struct held_deadline *d)
+{
+	return d->s ? sleeper_held_off_ns(d->s) - d->held0_ns : 0;
+}
+
+bool held_deadline_passed(const struct held_deadline *d)
+{
+	return mono() - d->t0_ns - held_deadline_held_ns(d) > d->ms * 1000000;
+}

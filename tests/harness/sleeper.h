@@ -53,4 +53,23 @@ int64_t sleeper_held_off_ns(struct sleeper *s);
 /* Stop and join the thread (nothing when not started). */
 void sleeper_stop(struct sleeper *s);
 
+/*
+ * A deadline counted in the time the machine let threads of s's class run:
+ * ms of CLOCK_MONOTONIC after held_deadline_start(), plus all the time s
+ * was held off since then, so that a busy machine stretches it and an idle
+ * one keeps it.  s NULL: a plain deadline.
+ */
+struct held_deadline {
+	struct sleeper *s;
+	int64_t t0_ns, held0_ns, ms;
+};
+
+void held_deadline_start(struct held_deadline *d, struct sleeper *s, int64_t ms);
+
+/* How long the machine held s off since held_deadline_start(), ns (0 without s). */
+int64_t held_deadline_held_ns(const struct held_deadline *d);
+
+/* The deadline has passed: more than ms since the start, less the time held off. */
+bool held_deadline_passed(const struct held_deadline *d);
+
 #endif /* RMD_TESTS_SLEEPER_H */

@@ -1594,7 +1594,14 @@ struct log_summary {
 	rmd_motor_state_t last_enabled_motor[RMD_STATE_T_MAX_MOTORS]; /* its motor[] */
 	bool have_enabled;
 	bool cycles_increase;
+	int64_t first_cycle, last_cycle; /* of the first and the last state */
 };
+
+/* The log holds what test_logger_records_state checks: state_t, health_t and command_t. */
+static bool logged_enough(const struct log_summary *ls)
+{
+	return ls->states > 300 && ls->health >= 3 && ls->commands > 50;
+}
 
 static void read_log(const char *path, struct log_summary *ls)
 {
@@ -1612,7 +1619,9 @@ static void read_log(const char *path, struct log_summary *ls)
 			bool all;
 
 			assert_true(rmd_state_t_decode(ev->data, 0, (int)ev->datalen, &s) > 0);
-			ls->states++;
+			if (!ls->states++)
+				ls->first_cycle = s.cycle;
+			ls->last_cycle = s.cycle;
 			if (s.cycle <= last_cycle)
 				ls->cycles_increase = false;
 			last_cycle = s.cycle;
@@ -1661,8 +1670,8 @@ static void test_logger_records_state(void **state)
 	char path[400], py[400], url_opt[160];
 	const char *argv[] = { "lcm-logger", url_opt, "-c", "RMD_.*", "-f", "-q", path, NULL };
 	struct log_summary ls;
+	struct held_deadline d;
 	struct stat st;
-	int64_t end;
 	int rc;
 
 	if (!have_logger) {
@@ -1676,31 +1685,47 @@ static void test_logger_records_state(void **state)
 	start_rmdd(f);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 	f->child = spawn(argv, f->child_log, false);
-	/* the logger writes once it hears something (it flushes every 100 ms) */
-	end = rmd_now_ns() + 3 * NS_PER_S;
-	while (!(stat(path, &st) == 0 && st.st_size > 0) && rmd_now_ns() < end)
+	/*
+	 * the logger writes once it hears something (it flushes every 100 ms);
+	 * a wait in the time the machine let a normal-priority thread run
+	 */
+	held_deadline_start(&d, &ref, 3000);
+	while (!(stat(path, &st) == 0 && st.st_size > 0) && !held_deadline_passed(&d))
 		pump(f, 5);
 	if (!(stat(path, &st) == 0 && st.st_size > 0))
-		fail_msg("lcm-logger wrote nothing within 3 s; its output:\n%s",
-			 slurp(f->child_log));
+		fail_msg("lcm-logger wrote nothing within 3 s (+ %.1f ms the machine held a "
+			 "normal-priority thread off); its output:\n%s",
+			 held_deadline_held_ns(&d) / 1e6, slurp(f->child_log));
 	for (int i = 0; i < NMOTORS; i++)
 		f->target[i] = i < NPOS ? -0.5 : 0.7;
 	if (!stream(f, true, 5000, done_target, 20))
 		fail_msg("the motors did not reach their targets; rmdd's output:\n%s",
 			 slurp(f->log));
 	stream(f, true, 300, done_never, 0);
+	/*
+	 * On a busy machine (issue 10) lcm-logger, at normal priority, is held
+	 * off and the kernel drops what overflows its socket meanwhile: 300 ms
+	 * at 1 kHz may leave fewer states in the log than the checks below
+	 * want.  Stream at the targets until the log holds them, for at most 5
+	 * s of the time the machine let a normal-priority thread run; the log's
+	 * share of rmdd's cycles is printed.
+	 */
+	held_deadline_start(&d, &ref, 5000);
+	for (read_log(path, &ls); !logged_enough(&ls) && !held_deadline_passed(&d);
+	     read_log(path, &ls))
+		stream(f, true, 100, done_never, 0);
 	disable_all(f);
 	rc = stop_child(&f->child, SIGINT, 3000);
 	if (rc != 0)
 		fail_msg("lcm-logger: exit %d on SIGINT; its output:\n%s", rc, slurp(f->child_log));
 
 	read_log(path, &ls);
-	print_message("lcm-logger: %u state_t, %u health_t, %u command_t, %u config_t, "
-		      "%u other\n",
-		      ls.states, ls.health, ls.commands, ls.configs, ls.other);
-	assert_true(ls.states > 300);
-	assert_true(ls.health >= 3);
-	assert_true(ls.commands > 50);
+	print_message("lcm-logger: %u state_t (of %lld cycles: %.0f %%), %u health_t, %u "
+		      "command_t, %u config_t, %u other\n",
+		      ls.states, (long long)(ls.last_cycle - ls.first_cycle + 1),
+		      100.0 * ls.states / (double)(ls.last_cycle - ls.first_cycle + 1), ls.health,
+		      ls.commands, ls.configs, ls.other);
+	assert_true(logged_enough(&ls));
 	assert_true(ls.cycles_increase);
 	assert_int_equal(ls.other, 0);
 	assert_true(ls.have_enabled);

@@ -7,15 +7,15 @@ wait_for rmdd.log 'running' 20
 lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' -c 'RMD_.*' run1.lcmlog > l1.out 2>&1 &
 lp=$!
 sleep 2
+wait_until 30 test -s run1.lcmlog # a busy machine holds the logger off longer
 stop $lp
-test -s run1.lcmlog
 mv run1.lcmlog channels.lcmlog
 lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' run1.lcmlog > l2.out 2>&1 &
 lp=$!
 sleep 2
+wait_until 30 test -s run1.lcmlog
 stop $lp
 stop $pid
-test -s run1.lcmlog
 lcm-logplayer --lcm-url='udpm://239.255.76.67:7668?ttl=0' run1.lcmlog
 lcm-logplayer -e 'RMD_(STATE|HEALTH|CONFIG)' run1.lcmlog
 
@@ -26,13 +26,14 @@ wait_for rmdd2.log 'running' 20
 lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' -c 'RMD_.*' --split-mb=100 --rotate=20 run.lcmlog > l3.out 2>&1 &
 lp=$!
 sleep 1
+wait_until 30 test -s run.lcmlog.0
 stop $lp
-[ -s run.lcmlog.0 ]
 rm run.lcmlog.*
 # the same with a split small enough to see it happen
 lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' -c 'RMD_.*' --split-mb=0.05 --rotate=3 run.lcmlog > l4.out 2>&1 &
 lp=$!
 sleep 2
+wait_until 30 test -s run.lcmlog.1 # 0.05 MB split at least once
 stop $lp
 stop $pid
 ls -l run.lcmlog.*

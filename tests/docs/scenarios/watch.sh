@@ -20,8 +20,7 @@ rmdd --config legs.yaml > rmdd.log 2>&1 &
 pid=$!
 wait_for rmdd.log 'running' 20
 
-rc=0; timeout -k 10 -s INT 2 rmdctl top > top.out 2>&1 || rc=$?; ran_until_stopped $rc
-grep -q knee_l top.out
+paced 2 top.out knee_l rmdctl top
 rmdctl top --once > once.out
 grep -q hip_l once.out
 rmdctl top --json > rmdd.json
@@ -38,9 +37,8 @@ EOY
 rmdd --config arm.yaml > arm.log 2>&1 &
 arm=$!
 wait_for arm.log 'running' 20
-rc=0; timeout -k 10 -s INT 3 rmdctl top --lcm-url 'udpm://239.255.76.67:7667?ttl=1' --prefix ARM_ > arm.out 2>&1 || rc=$?
-cat arm.out | head -5; ran_until_stopped $rc
-grep -q wrist arm.out
+paced 3 arm.out wrist rmdctl top --lcm-url 'udpm://239.255.76.67:7667?ttl=1' --prefix ARM_
+head -5 arm.out
 stop $arm
 
 # rmd-plot: the log, then the live daemon
