@@ -98,6 +98,15 @@ enum rmd_udpm_verdict rmd_udpm_rx_packet(struct rmd_udpm_rx *rx, uint32_t from_a
 					 uint16_t from_port, const unsigned char *pkt, size_t len,
 					 struct rmd_udpm_msg *out);
 
+/*
+ * The headers as LCM writes them (big-endian), for tests and tools that
+ * send udpm: an LC02 short message's (RMD_UDPM_SHORT_HDR bytes at p), and
+ * an LC03 fragment's (RMD_UDPM_LONG_HDR bytes).  rt-safe.
+ */
+void rmd_udpm_put_short_header(unsigned char *p, uint32_t seqno);
+void rmd_udpm_put_fragment_header(unsigned char *p, uint32_t seqno, uint32_t size, uint32_t off,
+				  uint16_t no, uint16_t count);
+
 /* "message", "pending", "bad-magic" ...: for logs and tests. */
 const char *rmd_udpm_verdict_name(enum rmd_udpm_verdict v);
 

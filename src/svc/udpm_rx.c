@@ -44,6 +44,33 @@ static uint16_t be16(const unsigned char *p)
 	return (uint16_t)(p[0] << 8 | p[1]);
 }
 
+static void put32(unsigned char *p, uint32_t v)
+{
+	p[0] = (unsigned char)(v >> 24);
+	p[1] = (unsigned char)(v >> 16);
+	p[2] = (unsigned char)(v >> 8);
+	p[3] = (unsigned char)v;
+}
+
+void rmd_udpm_put_short_header(unsigned char *p, uint32_t seqno)
+{
+	put32(p, RMD_UDPM_MAGIC_SHORT);
+	put32(p + 4, seqno);
+}
+
+void rmd_udpm_put_fragment_header(unsigned char *p, uint32_t seqno, uint32_t size, uint32_t off,
+				  uint16_t no, uint16_t count)
+{
+	put32(p, RMD_UDPM_MAGIC_LONG);
+	put32(p + 4, seqno);
+	put32(p + 8, size);
+	put32(p + 12, off);
+	p[16] = (unsigned char)(no >> 8);
+	p[17] = (unsigned char)no;
+	p[18] = (unsigned char)(count >> 8);
+	p[19] = (unsigned char)count;
+}
+
 /* The channel at the front of p[0..len): its length, or -1 without a NUL or too long. */
 static int channel_len(const unsigned char *p, size_t len)
 {
@@ -79,12 +106,15 @@ static struct rmd_udpm_slot *slot_for(struct rmd_udpm_rx *rx, uint32_t addr, uin
 	pick = own ? own : free_ ? free_ : oldest;
 	if (pick->used)
 		rx->abandoned++;
-	*pick = (struct rmd_udpm_slot){ .used = true,
-					.from_addr = addr,
-					.from_port = port,
-					.seqno = seqno,
-					.size = size,
-					.count = count };
+	/* field by field: the 64 KiB of data need no clearing, the tiling check covers them */
+	pick->used = true;
+	pick->from_addr = addr;
+	pick->from_port = port;
+	pick->seqno = seqno;
+	pick->size = size;
+	pick->count = count;
+	pick->have = 0;
+	pick->channel[0] = '\0';
 	return pick;
 }
 

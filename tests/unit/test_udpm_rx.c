@@ -39,32 +39,13 @@ static struct dgram dg[DG_MAX];
 static struct rmd_udpm_rx rx;
 static unsigned char payload[RMD_UDPM_MSG_MAX + 16];
 
-static void put32(unsigned char *p, uint32_t v)
-{
-	p[0] = (unsigned char)(v >> 24);
-	p[1] = (unsigned char)(v >> 16);
-	p[2] = (unsigned char)(v >> 8);
-	p[3] = (unsigned char)v;
-}
-
-static void put16(unsigned char *p, uint16_t v)
-{
-	p[0] = (unsigned char)(v >> 8);
-	p[1] = (unsigned char)v;
-}
-
 /* An LC03 fragment header and what follows it, into d. */
 static void fragment(struct dgram *d, uint32_t seqno, uint32_t size, uint32_t off, uint16_t no,
 		     uint16_t count, const char *channel, const unsigned char *data, size_t len)
 {
 	size_t cl = channel ? strlen(channel) + 1 : 0;
 
-	put32(d->b, RMD_UDPM_MAGIC_LONG);
-	put32(d->b + 4, seqno);
-	put32(d->b + 8, size);
-	put32(d->b + 12, off);
-	put16(d->b + 16, no);
-	put16(d->b + 18, count);
+	rmd_udpm_put_fragment_header(d->b, seqno, size, off, no, count);
 	if (cl)
 		memcpy(d->b + RMD_UDPM_LONG_HDR, channel, cl);
 	memcpy(d->b + RMD_UDPM_LONG_HDR + cl, data, len);
@@ -86,8 +67,7 @@ static unsigned lcm_publish_as(const char *channel, const unsigned char *data, u
 	unsigned n;
 
 	if (total <= frag + 12) {
-		put32(dg[0].b, RMD_UDPM_MAGIC_SHORT);
-		put32(dg[0].b + 4, seqno);
+		rmd_udpm_put_short_header(dg[0].b, seqno);
 		memcpy(dg[0].b + RMD_UDPM_SHORT_HDR, channel, cl);
 		memcpy(dg[0].b + RMD_UDPM_SHORT_HDR + cl, data, len);
 		dg[0].n = RMD_UDPM_SHORT_HDR + cl + len;
@@ -273,6 +253,14 @@ static void test_fragment_vector(void **state)
 	EXPECT(A_PORT, &d[0], RMD_UDPM_PENDING, &m);
 	EXPECT(A_PORT, &d[1], RMD_UDPM_MESSAGE, &m);
 	assert_message(&m, "CH", (const unsigned char *)"\xAA\xBB\xCC\xDD\xEE\xFF", 6);
+
+	/* rmd_udpm_put_fragment_header() writes the same bytes */
+	fragment(&dg[0], 42, 6, 0, 0, 2, "CH", (const unsigned char *)"\xAA\xBB\xCC", 3);
+	fragment(&dg[1], 42, 6, 3, 1, 2, NULL, (const unsigned char *)"\xDD\xEE\xFF", 3);
+	for (unsigned k = 0; k < 2; k++) {
+		assert_int_equal(dg[k].n, d[k].n);
+		assert_memory_equal(dg[k].b, d[k].b, d[k].n);
+	}
 }
 
 /*
