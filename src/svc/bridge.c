@@ -31,6 +31,7 @@
 #include "rmd/time.h"
 #include "rmd/thread.h"
 #include "rmd/bridge.h"
+#include "rmd/udpm_rx.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_t.h"
 #include "rmd/rmd_health_t.h"
@@ -91,32 +92,8 @@ _Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_M
 /* Room for one encoded state_t or health_t (at most about 2.7 KiB and 1.7 KiB). */
 #define ENC_MAX 8192
 
-/*
- * udpm: the bridge reads the multicast socket itself (LCM 1.3's wire format,
- * lcm/lcm_udpm.c): a short message is one datagram "LC02", sequence number,
- * channel and NUL, payload; a longer one is fragments "LC03", sequence
- * number, message size, offset, fragment number and count, the channel
- * (first fragment only), data.
- */
-#define UDPM_MAGIC_SHORT 0x4c433032u
-#define UDPM_MAGIC_LONG 0x4c433033u
-#define UDPM_SHORT_HDR 8
-#define UDPM_LONG_HDR 20
-#define UDPM_PKT_MAX 65536
-/* Messages reassembled at once (one a sender is usual), and the largest: a command_t of
- * 32 motors is under 2 KiB; a longer message on our channels is refused as too long. */
-#define UDPM_FRAGS 4
-#define UDPM_MSG_MAX 65536
-
-struct udpm_frag {
-	bool used;
-	struct sockaddr_in from;
-	uint32_t seqno, size;
-	uint16_t left; /* fragments still to come */
-	int64_t t_ns;  /* the newest fragment's: the oldest slot is reused */
-	char channel[LCM_MAX_CHANNEL_NAME_LENGTH + 1];
-	unsigned char data[UDPM_MSG_MAX];
-};
+/* udpm: the bridge reads the multicast socket itself (LCM's wire format: rmd/udpm_rx.h). */
+_Static_assert(RMD_UDPM_CHANNEL_MAX == LCM_MAX_CHANNEL_NAME_LENGTH, "LCM's channel names");
 
 struct rmd_bridge_buf {
 	rmd_command_t msg;
@@ -133,8 +110,8 @@ struct rmd_bridge_buf {
 	rmd_bus_config_t config_bus[RMD_MAX_BUSES];
 	rmd_motor_config_t config_motor[RMD_MAX_MOTORS];
 	unsigned char enc[ENC_MAX];
-	unsigned char pkt[UDPM_PKT_MAX];   /* udpm: one datagram */
-	struct udpm_frag frag[UDPM_FRAGS]; /* udpm: messages being reassembled */
+	unsigned char pkt[RMD_UDPM_PKT_MAX]; /* udpm: one datagram */
+	struct rmd_udpm_rx rx;		     /* udpm: messages being put together */
 };
 
 static const char *const reject_names[RMD_REJ_KINDS] = {
@@ -832,99 +809,19 @@ static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data,
 		on_config_request(&rb, channel, b);
 }
 
-static uint32_t be32(const unsigned char *p)
-{
-	return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-}
-
-static uint16_t be16(const unsigned char *p)
-{
-	return (uint16_t)(p[0] << 8 | p[1]);
-}
-
-/* The slot of (from, seqno): the one that has it, else a free one, else the oldest. */
-static struct udpm_frag *udpm_slot(struct rmd_bridge *b, const struct sockaddr_in *from,
-				   uint32_t seqno, uint32_t size)
-{
-	struct udpm_frag *f = b->buf->frag, *pick = NULL;
-
-	for (unsigned k = 0; k < UDPM_FRAGS; k++, f++) {
-		if (f->used && f->seqno == seqno && f->from.sin_port == from->sin_port &&
-		    f->from.sin_addr.s_addr == from->sin_addr.s_addr) {
-			if (f->size == size)
-				return f;
-			f->used = false; /* a stale message of that sequence number */
-		}
-		if (!pick || (pick->used && (!f->used || f->t_ns < pick->t_ns)))
-			pick = f;
-	}
-	pick->used = false;
-	return pick;
-}
-
-/* One fragment of a long message; the message is dispatched when its last fragment came. */
-static void udpm_fragment(struct rmd_bridge *b, const struct sockaddr_in *from,
-			  const unsigned char *p, size_t n)
-{
-	uint32_t seqno = be32(p + 4), size = be32(p + 8), off = be32(p + 12);
-	uint16_t no = be16(p + 16), count = be16(p + 18);
-	const unsigned char *d = p + UDPM_LONG_HDR;
-	size_t len = n - UDPM_LONG_HDR;
-	struct udpm_frag *f;
-	char channel[LCM_MAX_CHANNEL_NAME_LENGTH + 1] = "";
-
-	if (no == 0) {
-		size_t cl = strnlen((const char *)d, len);
-
-		if (cl > LCM_MAX_CHANNEL_NAME_LENGTH || cl == len)
-			return;
-		memcpy(channel, d, cl + 1);
-		d += cl + 1;
-		len -= cl + 1;
-		if (size > UDPM_MSG_MAX) {
-			/* LCM handed these to the bridge, which refused them: so does it */
-			if (!strcmp(channel, b->ch_command))
-				reject(b, RMD_REJ_DECODE, "%u bytes: longer than any rmd.command_t",
-				       (unsigned)size);
-			return;
-		}
-	}
-	if (size > UDPM_MSG_MAX || !count || (uint64_t)off + len > size)
-		return;
-	f = udpm_slot(b, from, seqno, size);
-	if (!f->used) {
-		*f = (struct udpm_frag){
-			.used = true, .from = *from, .seqno = seqno, .size = size, .left = count
-		};
-	}
-	if (no == 0)
-		memcpy(f->channel, channel, sizeof(channel));
-	memcpy(f->data + off, d, len);
-	f->t_ns = rmd_now_ns();
-	if (--f->left)
-		return;
-	f->used = false;
-	if (f->channel[0])
-		udpm_dispatch(b, f->channel, f->data, f->size);
-}
-
-/* One datagram: a short message, or a fragment of a long one; anything else is dropped. */
+/* One datagram: a whole message goes to its handler; the rest is put together or dropped. */
 static void udpm_packet(struct rmd_bridge *b, const struct sockaddr_in *from, size_t n)
 {
-	unsigned char *p = b->buf->pkt;
-	size_t cl;
+	struct rmd_udpm_msg m;
+	enum rmd_udpm_verdict v = rmd_udpm_rx_packet(&b->buf->rx, from->sin_addr.s_addr,
+						     from->sin_port, b->buf->pkt, n, &m);
 
-	if (n >= UDPM_LONG_HDR && be32(p) == UDPM_MAGIC_LONG) {
-		udpm_fragment(b, from, p, n);
-		return;
-	}
-	if (n < UDPM_SHORT_HDR || be32(p) != UDPM_MAGIC_SHORT)
-		return;
-	cl = strnlen((const char *)p + UDPM_SHORT_HDR, n - UDPM_SHORT_HDR);
-	if (cl > LCM_MAX_CHANNEL_NAME_LENGTH || cl == n - UDPM_SHORT_HDR)
-		return;
-	udpm_dispatch(b, (const char *)p + UDPM_SHORT_HDR, p + UDPM_SHORT_HDR + cl + 1,
-		      (uint32_t)(n - UDPM_SHORT_HDR - cl - 1));
+	if (v == RMD_UDPM_MESSAGE) /* lcm_recv_buf_t's data is not const; no handler writes it */
+		udpm_dispatch(b, m.channel, (void *)m.data, m.size);
+	else if (v == RMD_UDPM_TOO_LONG && !strcmp(m.channel, b->ch_command))
+		/* LCM handed these to the bridge, which refused them: so does it */
+		reject(b, RMD_REJ_DECODE, "%u bytes: longer than any rmd.command_t",
+		       (unsigned)m.size);
 }
 
 /* Read what the socket holds, looking at the snapshots after each datagram (as drain()). */
@@ -933,7 +830,7 @@ static void drain_socket(struct rmd_bridge *b)
 	for (int n = 0; n < DRAIN_MAX; n++) {
 		struct sockaddr_in from;
 		socklen_t flen = sizeof(from);
-		ssize_t r = recvfrom(b->rx_fd, b->buf->pkt, UDPM_PKT_MAX, MSG_DONTWAIT,
+		ssize_t r = recvfrom(b->rx_fd, b->buf->pkt, RMD_UDPM_PKT_MAX, MSG_DONTWAIT,
 				     (struct sockaddr *)&from, &flen);
 
 		if (r < 0) {
