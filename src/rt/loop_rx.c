@@ -90,14 +90,14 @@ static void oneshot_pop(struct lmotor *lm)
 /* Book frames from..to-1 of lb's cycle, which the bus took.  rt-safe. */
 void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to, int64_t now)
 {
+	/* incident recorder: every frame a bus took */
+	if (l->o.incidents && to > from)
+		rmd_incident_tx(l->o.incidents, (unsigned)(lb - l->bus), &lb->tx[from], to - from,
+				now);
 	for (unsigned k = from; k < to; k++) {
 		const struct txmeta *mt = &lb->meta[k];
 		const struct rmd_frame *f = &lb->tx[k];
 
-		/* incident recorder: every frame a bus took */
-		if (l->o.incidents)
-			rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX,
-					   f, now);
 		if (mt->kind == REQ_BATCH) {
 			for (unsigned j = 0; j < lb->pb->n_motors; j++)
 				if (lb->pb->batched & (1u << j))
@@ -247,14 +247,12 @@ void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
 
 		if (n <= 0)
 			return;
+		/* incident recorder: every frame received */
+		if (l->o.incidents)
+			rmd_incident_rx(l->o.incidents, b, lb->rx, (unsigned)n);
 		stat_begin(l);
-		for (int k = 0; k < n; k++) {
-			/* incident recorder: every frame received */
-			if (l->o.incidents)
-				rmd_incident_frame(l->o.incidents, b, RMD_INCIDENT_RX, &lb->rx[k].f,
-						   lb->rx[k].t_ns);
+		for (int k = 0; k < n; k++)
 			handle_frame(l, b, &lb->rx[k]);
-		}
 		stat_end(l);
 		if (n < RX_BATCH)
 			return;
