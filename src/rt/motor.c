@@ -212,6 +212,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 			m->echo[k / 8] |= (uint8_t)(1u << (k % 8));
 	}
 	if (m->proto == RMD_PROTO_MIT) {
+		m->mit_kp = m->mit_kd = NAN; /* no gains' codes yet (encode_mit()) */
 		if (rmd_mit_ranges_validate(&m->mit, &m->mit_ok) < 0)
 			return -EINVAL;
 		if (m->damp_kd > m->mit.kd_max)
@@ -401,10 +402,11 @@ static int encode_position(const struct rmd_motor *m, double pos_rad, double mv_
 
 /*
  * MIT frame (V3 §5.2) from reported-frame values within the limits; the
- * MIT ranges clamp too (rmd_mit_encode_cmd()).  rt-safe.
+ * MIT ranges clamp too (rmd_mit_encode_cmd()).  The gains' codes are
+ * worked out again only when a gain changed (m->mit_kp, mit_kd).  rt-safe.
  */
-static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
-		      struct rmd_frame *out, unsigned *fl)
+static int encode_mit(struct rmd_motor *m, const struct rmd_setpoint *sp, struct rmd_frame *out,
+		      unsigned *fl)
 {
 	const struct rmd_mit_ranges *r = &m->mit_ok.r;
 	struct rmd_mit_cmd c;
@@ -414,16 +416,24 @@ static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 	c.p_des_rad = clampf(rmd_motor_to_native_pos(m, sp->pos_rad), r->p_min, r->p_max, fl);
 	c.v_des_rad_s = clampf(m->dir * sp->vel_rad_s, r->v_min, r->v_max, fl);
 	c.t_ff_nm = clampf(m->dir * sp->torque_nm, r->t_min, r->t_max, fl);
-	c.kp = clampf(sp->kp, r->kp_min, r->kp_max, fl);
-	c.kd = clampf(sp->kd, r->kd_min, r->kd_max, fl);
+	if (sp->kp != m->mit_kp || sp->kd != m->mit_kd) {
+		m->mit_gains_fl = 0;
+		rmd_mit_gain_codes(&m->mit_ok,
+				   clampf(sp->kp, r->kp_min, r->kp_max, &m->mit_gains_fl),
+				   clampf(sp->kd, r->kd_min, r->kd_max, &m->mit_gains_fl),
+				   &m->mit_gains);
+		m->mit_kp = sp->kp;
+		m->mit_kd = sp->kd;
+	}
+	*fl |= m->mit_gains_fl;
 	/* id 1..32 (rmd_motor_init()); every field finite: sp's are, the clamps keep them */
-	rmd_mit_pack_good(&m->mit_ok, m->id, &c, out);
+	rmd_mit_pack_gains(&m->mit_ok, m->id, &c, &m->mit_gains, out);
 	return 0;
 }
 
 /* rt-safe. */
-int rmd_motor_encode(const struct rmd_motor *m, const struct rmd_setpoint *sp,
-		     struct rmd_frame *out, unsigned *flags)
+int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct rmd_frame *out,
+		     unsigned *flags)
 {
 	struct rmd_setpoint c = *sp; /* clamped to the limits (rmd_motor_clamp()) */
 	unsigned fl = 0;
