@@ -72,7 +72,6 @@ static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, str
 	os_key(&lm->m, f, o);
 	o->seq = lm->seq++;
 	o->sent_ns = now;
-	o->deadline_ns = now + l->bus[lm->m.bus].reply_ns;
 	memcpy(o->data, f->data, sizeof(o->data));
 	lm->os_used |= (uint8_t)(1u << k);
 }
@@ -192,6 +191,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	cmd = f->can_id > RMD_CAN_MIT_REPLY_BASE ? RMD_MOTOR_CMD_MIT : f->data[0];
 	k = os_match(lm, f->can_id, cmd);
 	if (k >= 0) {
+		int64_t latency_ns;
 		bool echo;
 
 		o = &lm->os[k];
@@ -199,8 +199,9 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		       !memcmp(f->data, o->data, RMD_FRAME_LEN);
 		os_done(lm, (unsigned)k);
 		l->cnt.replies++;
-		lm->st->reply_latency_ns = rx->t_ns - o->sent_ns;
-		lat_add(&lm->lat, lm->st->reply_latency_ns);
+		latency_ns = rx->t_ns - o->sent_ns;
+		lm->st->reply_latency_ns = latency_ns;
+		lat_add(&lm->lat, latency_ns);
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */
@@ -264,11 +265,13 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 {
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
+		/* a request's deadline: its bus's reply_ns after it was sent */
+		int64_t sent_by = now - l->bus[lm->m.bus].reply_ns;
 
 		for (unsigned m = lm->os_used; m; m &= m - 1) {
 			unsigned k = (unsigned)__builtin_ctz(m);
 
-			if (lm->os[k].deadline_ns <= now) {
+			if (lm->os[k].sent_ns <= sent_by) {
 				os_done(lm, k);
 				loop_miss(l, lm, now);
 			}
