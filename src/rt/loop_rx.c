@@ -137,10 +137,14 @@ static void os_done(struct lmotor *lm, unsigned k)
 /* One reply latency into lat (under stat_begin()).  rt-safe. */
 static void lat_add(struct rmd_latency *lat, int64_t ns)
 {
-	if (!lat->n || ns < lat->min_ns)
+	if (!lat->n) {
 		lat->min_ns = ns;
-	if (!lat->n || ns > lat->max_ns)
 		lat->max_ns = ns;
+	} else if (ns < lat->min_ns) {
+		lat->min_ns = ns;
+	} else if (ns > lat->max_ns) {
+		lat->max_ns = ns;
+	}
 	lat->n++;
 	lat->sum_ns += ns;
 	lat->hist[rmd_hist_bucket(ns)]++;

@@ -439,7 +439,6 @@ int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct 
 	unsigned fl = 0;
 	int r;
 
-	c.max_vel_rad_s = fabs(c.max_vel_rad_s);
 	switch ((enum rmd_mode)sp->mode) {
 	case RMD_MODE_TORQUE:
 		if (!isfinite(sp->torque_nm))
@@ -458,6 +457,7 @@ int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct 
 	case RMD_MODE_POSITION:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->max_vel_rad_s))
 			return -EDOM;
+		c.max_vel_rad_s = fabs(c.max_vel_rad_s);
 		if (clamp_mode(&m->limits, RMD_MODE_POSITION, &c, NULL))
 			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_position(m, c.pos_rad, c.max_vel_rad_s, out, &fl);
