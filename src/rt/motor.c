@@ -777,16 +777,30 @@ int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_
 	return decode(m, f, r, true);
 }
 
-/* The values of r that `have` names into st.  rt-safe. */
-static void apply_have(const struct rmd_motor_reply *r, unsigned have, struct rmd_motor_state *st)
+/*
+ * The values of r that `have` names into st; with `stamp`, the receive
+ * times of those that have one (t_ns).  rt-safe.
+ */
+static inline __attribute__((always_inline)) void apply_have(const struct rmd_motor_reply *r,
+							     unsigned have, bool stamp,
+							     int64_t t_ns,
+							     struct rmd_motor_state *st)
 {
-	if (have & RMD_MOTOR_HAVE_POS)
+	if (have & RMD_MOTOR_HAVE_POS) {
 		st->pos_rad = r->pos_rad;
-	if (have & RMD_MOTOR_HAVE_VEL)
+		if (stamp)
+			st->pos_rx_ns = t_ns;
+	}
+	if (have & RMD_MOTOR_HAVE_VEL) {
 		st->vel_rad_s = r->vel_rad_s;
+		if (stamp)
+			st->rx_ns = t_ns;
+	}
 	if (have & RMD_MOTOR_HAVE_TORQUE) {
 		st->torque_nm = r->torque_nm;
 		st->current_a = r->current_a;
+		if (stamp)
+			st->rx_ns = t_ns;
 	}
 	if (have & RMD_MOTOR_HAVE_TEMP)
 		st->temp_c = r->temp_c;
@@ -799,7 +813,7 @@ static void apply_have(const struct rmd_motor_reply *r, unsigned have, struct rm
 /* rt-safe. */
 void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st)
 {
-	apply_have(r, r->have, st);
+	apply_have(r, r->have, false, 0, st);
 }
 
 /* rmd_motor_take(), inlined into its two callers.  rt-safe. */
@@ -812,11 +826,7 @@ static inline __attribute__((always_inline)) void take(const struct rmd_motor *m
 	/* V3 §2.11: 0x92 is the one reply with the 0.01 deg multi-turn angle */
 	if (m->fine_pos && r->cmd != RMD_MOTOR_CMD_FINE_POS)
 		have &= ~(unsigned)RMD_MOTOR_HAVE_POS;
-	apply_have(r, have, st);
-	if (have & RMD_MOTOR_HAVE_POS)
-		st->pos_rx_ns = t_ns;
-	if (have & (RMD_MOTOR_HAVE_VEL | RMD_MOTOR_HAVE_TORQUE))
-		st->rx_ns = t_ns;
+	apply_have(r, have, true, t_ns, st);
 }
 
 /* rt-safe. */
