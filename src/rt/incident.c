@@ -195,17 +195,28 @@ static inline void frame_rec(struct rmd_incident_frame *rec, enum rmd_incident_d
 	rec->f = *f;
 }
 
+/*
+ * Claim n records of bus's frame ring: the ring, its first index in *h;
+ * NULL for a bus the ring does not have, or no record.  rt-safe.
+ */
+static inline struct orec *frames_claim(struct rmd_incident_ring *r, unsigned bus, unsigned n,
+					uint_fast64_t *h)
+{
+	if (bus >= r->n_buses || !n)
+		return NULL;
+	*h = orec_claim(&r->frames[bus], n);
+	return &r->frames[bus];
+}
+
 /* rt-safe. */
 void rmd_incident_frame(struct rmd_incident_ring *r, unsigned bus, enum rmd_incident_dir dir,
 			const struct rmd_frame *f, int64_t t_ns)
 {
-	struct orec *o;
 	uint_fast64_t h;
+	struct orec *o = frames_claim(r, bus, 1, &h);
 
-	if (bus >= r->n_buses)
+	if (!o)
 		return;
-	o = &r->frames[bus];
-	h = orec_claim(o, 1);
 	frame_rec(orec_at(o, struct rmd_incident_frame, h), dir, f, t_ns);
 	orec_publish(o, h + 1);
 }
@@ -214,13 +225,11 @@ void rmd_incident_frame(struct rmd_incident_ring *r, unsigned bus, enum rmd_inci
 void rmd_incident_tx(struct rmd_incident_ring *r, unsigned bus, const struct rmd_frame *f,
 		     unsigned n, int64_t t_ns)
 {
-	struct orec *o;
 	uint_fast64_t h;
+	struct orec *o = frames_claim(r, bus, n, &h);
 
-	if (bus >= r->n_buses || !n)
+	if (!o)
 		return;
-	o = &r->frames[bus];
-	h = orec_claim(o, n);
 	for (unsigned k = 0; k < n; k++)
 		frame_rec(orec_at(o, struct rmd_incident_frame, h + k), RMD_INCIDENT_TX, &f[k],
 			  t_ns);
@@ -231,13 +240,11 @@ void rmd_incident_tx(struct rmd_incident_ring *r, unsigned bus, const struct rmd
 void rmd_incident_rx(struct rmd_incident_ring *r, unsigned bus, const struct rmd_bus_rx *rx,
 		     unsigned n)
 {
-	struct orec *o;
 	uint_fast64_t h;
+	struct orec *o = frames_claim(r, bus, n, &h);
 
-	if (bus >= r->n_buses || !n)
+	if (!o)
 		return;
-	o = &r->frames[bus];
-	h = orec_claim(o, n);
 	for (unsigned k = 0; k < n; k++)
 		frame_rec(orec_at(o, struct rmd_incident_frame, h + k), RMD_INCIDENT_RX, &rx[k].f,
 			  rx[k].t_ns);
