@@ -269,13 +269,12 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 {
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
-		/* a request's deadline: its bus's reply_ns after it was sent */
-		int64_t sent_by = now - l->bus[lm->m.bus].reply_ns;
 
 		for (unsigned m = lm->os_used; m; m &= m - 1) {
 			unsigned k = (unsigned)__builtin_ctz(m);
 
-			if (lm->os[k].sent_ns <= sent_by) {
+			/* a request's deadline: its bus's reply_ns after it was sent */
+			if (lm->os[k].sent_ns <= now - l->bus[lm->m.bus].reply_ns) {
 				os_done(lm, k);
 				loop_miss(l, lm, now);
 			}
