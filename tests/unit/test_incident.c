@@ -85,21 +85,29 @@ static void test_sized_from_the_plan_and_window(void **state)
 	rmd_incident_ring_free(NULL);
 }
 
-static void test_overwrites_and_reads_from_a_time(void **state)
+/* A ring of a 100 ms window and a window to read it into; *cap: bus 0's frames it holds. */
+static struct rmd_incident_ring *ring_100ms(struct rmd_incident_window **w, size_t *cap)
 {
 	struct rmd_incident_ring *r = rmd_incident_ring_new(&cfg, &plan, 100 * MS, NULL, 0);
+
+	assert_non_null(r);
+	*w = rmd_incident_window_new(r);
+	assert_non_null(*w);
+	*cap = (*w)->cap_frames[0];
+	return r;
+}
+
+static void test_overwrites_and_reads_from_a_time(void **state)
+{
 	struct rmd_incident_window *w;
+	size_t cap;
+	struct rmd_incident_ring *r = ring_100ms(&w, &cap);
 	struct rmd_snapshot s = { .n = 3 };
 	struct rmd_command c = { .present = 0x5, .seq = 7 };
 	struct rmd_event e = { .kind = RMD_EV_OVERRUN, .a = 12 };
-	size_t cap;
 	uint64_t total;
 
 	(void)state;
-	assert_non_null(r);
-	w = rmd_incident_window_new(r);
-	assert_non_null(w);
-	cap = w->cap_frames[0];
 	total = 3 * cap + 17;
 	for (uint64_t k = 0; k < total; k++) {
 		struct rmd_frame f = frame_of(k);
@@ -157,18 +165,14 @@ static void test_overwrites_and_reads_from_a_time(void **state)
  */
 static void test_batches_read_as_single_records(void **state)
 {
-	struct rmd_incident_ring *r = rmd_incident_ring_new(&cfg, &plan, 100 * MS, NULL, 0);
 	struct rmd_incident_window *w;
+	size_t cap;
+	struct rmd_incident_ring *r = ring_100ms(&w, &cap);
 	uint64_t k = 0;
 	int64_t *t_of;
 	uint8_t *dir_of;
-	size_t cap;
 
 	(void)state;
-	assert_non_null(r);
-	w = rmd_incident_window_new(r);
-	assert_non_null(w);
-	cap = w->cap_frames[0];
 	assert_true(cap >= 16);
 	/* each frame's expected time and direction */
 	t_of = calloc(2 * cap + 16, sizeof(*t_of));
