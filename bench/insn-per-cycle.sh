@@ -3,7 +3,10 @@
 # user space, rmd_loop_cycle() minus the simulated bus and motors; see
 # bench/insn-count.sh), for examples/sim-12.yaml with every motor ENABLED
 # and with every motor READY, and for `--sim N` (N V3 torque motors, three
-# a bus) from 3 to 32 motors: the per-motor slope.  Each figure is printed
+# a bus) from 3 to 32 motors: the per-motor slope.  These run with the
+# incident recorder off; one more row, sim-12 ENABLED with the recorder on
+# as rmdd sets it up by default (incidents.enabled), gives the recorder's
+# own cost a cycle (the baseline had no recorder: "-").  Each figure is printed
 # with the same figure of a baseline built from BASE in the same run (the
 # rig, bench/insn_rig.c, is compiled against both).
 #
@@ -24,6 +27,7 @@ command -v valgrind >/dev/null 2>&1 || { echo "insn-per-cycle: needs valgrind"; 
 [ -x "$RIG" ] || { echo "insn-per-cycle: no $RIG (make)"; exit 2; }
 
 base_rig=
+base_incidents=0
 if [ "$BASE" != none ]; then
 	echo "insn-per-cycle: building the baseline $BASE"
 	dir=$(bench_base build/librmd.a)
@@ -32,6 +36,7 @@ if [ "$BASE" != none ]; then
 		tests/harness/loop_io.c "$dir/build/librmd.a" \
 		$(pkg-config --libs libmodbus yaml-0.1 lcm libsystemd 2>/dev/null) -lm
 	base_rig=$dir/insn_rig
+	[ -f "$dir/include/rmd/incident.h" ] && base_incidents=1
 fi
 
 txt=$OUT/insn-per-cycle.txt
@@ -48,7 +53,8 @@ row() { # name, rig args...
 	a=$(bench/insn-count.sh "$RIG" "$@" "$CYCLES")
 	b=-
 	r=-
-	if [ -n "$base_rig" ]; then
+	# a baseline without an incident recorder has no figure with it
+	if [ -n "$base_rig" ] && { [ "$1" != --incidents ] || [ "$base_incidents" = 1 ]; }; then
 		b=$(bench/insn-count.sh "$base_rig" "$@" "$CYCLES")
 		r=$(awk -v a="$a" -v b="$b" 'BEGIN { printf "%.2f", a / b }')
 	fi
@@ -57,6 +63,7 @@ row() { # name, rig args...
 }
 row sim-12-enabled examples/sim-12.yaml enabled
 row sim-12-ready examples/sim-12.yaml ready
+row sim-12-enabled-incidents --incidents examples/sim-12.yaml enabled
 for n in $COUNTS; do
 	row "sim-$n-v3-torque-enabled" --sim "$n" enabled
 done
@@ -70,6 +77,9 @@ END {
 	if (z[1] != "-") { b = (k * sxz - sx * sz) / d; line = line sprintf(" %10.0f %7.2f", b, a / b) }
 	print line
 }' "$data" >>"$txt"
+awk '$1 == "sim-12-enabled" { off = $2 } $1 == "sim-12-enabled-incidents" { on = $2 }
+END { printf "%-26s %10d   (sim-12-enabled-incidents - sim-12-enabled)\n", "incident recorder", on - off }' \
+	"$data" >>"$txt"
 cat "$txt"
 
 bench_plot_png insn-per-cycle "$txt" "$OUT/insn-per-cycle.png" "$data" "$BASE" <<'PY'

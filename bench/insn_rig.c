@@ -4,9 +4,13 @@
  * callgrind: rmdd's loop on simulated buses with an injected clock, every
  * motor brought up, then WARM cycles, then CYCLES cycles measured.
  *
- *   insn_rig CONFIG.yaml [enabled|ready] [CYCLES]
- *   insn_rig --sim N     [enabled|ready] [CYCLES]   N V3 torque motors, 3 a bus
+ *   insn_rig [--incidents] CONFIG.yaml [enabled|ready] [CYCLES]
+ *   insn_rig [--incidents] --sim N     [enabled|ready] [CYCLES]   N V3 torque motors, 3 a bus
  *
+ * --incidents: with the incident recorder on, its ring made as rmdd makes
+ * it (src/tools/rmdd/incidents.c: the config's window, incidents.enabled
+ * or not); without, the recorder is off.  A build without the recorder
+ * (the baseline of bench/insn-per-cycle.sh) exits 3 when asked for it.
  * "enabled": a command enabling every motor in its configured mode each
  * cycle (the bridge's hand-over, as rmdd runs); "ready": no command, every
  * motor READY (status polls only).  The measured cycles are
@@ -32,6 +36,10 @@
 #include "rmd/bus_open.h"
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
+#if __has_include("rmd/incident.h")
+#include "rmd/incident.h"
+#define RIG_INCIDENTS 1
+#endif
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/spsc.h"
@@ -93,6 +101,30 @@ __attribute__((noinline)) void rig_cycles(struct rmd_loop *l, unsigned n, bool e
 	}
 }
 
+/*
+ * The incident recorder's ring into o, as rmdd's rmdd_incidents_init()
+ * makes it: seconds before + after the event.  0, or -1 with a message.
+ */
+static int add_incidents(struct rmd_loop_opts *o)
+{
+#ifdef RIG_INCIDENTS
+	const struct rmd_config_incidents *ic = &R.cfg.incidents;
+	int64_t window_ns = (int64_t)((ic->seconds_before + ic->seconds_after) * 1e9);
+	char err[512];
+
+	o->incidents = rmd_incident_ring_new(&R.cfg, &R.plan, window_ns, err, sizeof(err));
+	if (!o->incidents) {
+		fprintf(stderr, "insn_rig: %s\n", err);
+		return -1;
+	}
+	return 0;
+#else
+	(void)o;
+	fprintf(stderr, "insn_rig: this build has no incident recorder\n");
+	return -1;
+#endif
+}
+
 static int open_buses(void)
 {
 	char err[512];
@@ -117,12 +149,18 @@ int main(int argc, char **argv)
 	struct rmd_loop_opts o;
 	struct rmd_loop *l;
 	unsigned cycles = 1000, n_lc[8] = { 0 };
-	bool enabled = true;
+	bool enabled = true, incidents = false;
 	char err[2048];
 	int a = 1, r;
 
+	if (argc > 1 && !strcmp(argv[1], "--incidents")) {
+		incidents = true;
+		argv++;
+		argc--;
+	}
 	if (argc < 2) {
-		fprintf(stderr, "usage: insn_rig CONFIG.yaml|--sim N [enabled|ready] [CYCLES]\n");
+		fprintf(stderr, "usage: insn_rig [--incidents] CONFIG.yaml|--sim N [enabled|ready] "
+				"[CYCLES]\n");
 		return 2;
 	}
 	if (!strcmp(argv[1], "--sim") && argc > 2) {
@@ -151,6 +189,8 @@ int main(int argc, char **argv)
 		fprintf(stderr, "insn_rig: event ring\n");
 		return 1;
 	}
+	if (incidents && add_incidents(&o))
+		return 3;
 	l = rmd_loop_new(&o, err, sizeof(err));
 	if (!l) {
 		fprintf(stderr, "insn_rig: %s\n", err);
@@ -171,13 +211,16 @@ int main(int argc, char **argv)
 	rmd_loop_get_counters(l, &c);
 	for (unsigned i = 0; i < snap.n; i++)
 		n_lc[snap.m[i].lifecycle & 7]++;
-	printf("insn_rig: motors %u buses %u measured_cycles %u mode %s enabled %u ready %u "
-	       "plan_misses %llu replies %llu bad_replies %llu missed %llu\n",
+	printf("insn_rig: motors %u buses %u measured_cycles %u mode %s incidents %s enabled %u "
+	       "ready %u plan_misses %llu replies %llu bad_replies %llu missed %llu\n",
 	       R.cfg.n_motors, R.cfg.n_buses, cycles, enabled ? "enabled" : "ready",
-	       n_lc[RMD_LC_ENABLED], n_lc[RMD_LC_READY], (unsigned long long)st.plan_misses,
-	       (unsigned long long)c.replies, (unsigned long long)c.bad_replies,
-	       (unsigned long long)c.missed);
+	       incidents ? "on" : "off", n_lc[RMD_LC_ENABLED], n_lc[RMD_LC_READY],
+	       (unsigned long long)st.plan_misses, (unsigned long long)c.replies,
+	       (unsigned long long)c.bad_replies, (unsigned long long)c.missed);
 	rmd_loop_free(l);
+#ifdef RIG_INCIDENTS
+	rmd_incident_ring_free(o.incidents);
+#endif
 	for (unsigned b = 0; b < R.cfg.n_buses; b++)
 		rmd_bus_close(&R.buses[b]);
 	return (enabled ? n_lc[RMD_LC_ENABLED] : n_lc[RMD_LC_READY]) == R.cfg.n_motors ? 0 : 1;

@@ -118,12 +118,24 @@ int rmd_mit_encode_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id,
 int rmd_mit_pack_cmd(const struct rmd_mit_valid_ranges *r, uint8_t motor_id,
 		     const struct rmd_mit_cmd *cmd, struct rmd_frame *out);
 /*
+ * The codes of a command's gains, kp and kd (clamped to their ranges as
+ * rmd_mit_pack_cmd() does), which a caller keeps while the gains do not
+ * change: they are two of a frame's five quantised fields.  rt-safe.
+ */
+struct rmd_mit_gain_codes {
+	uint16_t kp, kd;
+};
+void rmd_mit_gain_codes(const struct rmd_mit_valid_ranges *r, double kp, double kd,
+			struct rmd_mit_gain_codes *g);
+/*
  * rmd_mit_pack_cmd() of a command its caller checked: motor_id 1..32 and
- * every field finite (rmd_motor_encode() checks both first).  Values
+ * every field finite (rmd_motor_encode() checks both first), its gains
+ * given as their codes g (cmd->kp and cmd->kd are not read).  Values
  * outside the ranges are clamped all the same.  rt-safe.
  */
-void rmd_mit_pack_good(const struct rmd_mit_valid_ranges *r, uint8_t motor_id,
-		       const struct rmd_mit_cmd *cmd, struct rmd_frame *out);
+void rmd_mit_pack_gains(const struct rmd_mit_valid_ranges *r, uint8_t motor_id,
+			const struct rmd_mit_cmd *cmd, const struct rmd_mit_gain_codes *g,
+			struct rmd_frame *out);
 /*
  * Decode a request frame (0x401..0x420).  Returns 0, -EINVAL for another
  * CAN ID or invalid ranges, -EBADMSG for a DLC other than 8.

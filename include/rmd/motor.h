@@ -145,6 +145,14 @@ struct rmd_motor {
 	struct rmd_config_limits limits;
 	struct rmd_mit_ranges mit;
 	struct rmd_mit_valid_ranges mit_ok; /* mit, validated once (MIT motors) */
+	/*
+	 * MIT encode state: the last setpoint's gains (NaN: none yet), their
+	 * codes and whether clamping them changed them (RMD_MOTOR_CLAMPED).
+	 * Gains seldom change between setpoints; their codes are kept.
+	 */
+	double mit_kp, mit_kd;
+	struct rmd_mit_gain_codes mit_gains;
+	unsigned mit_gains_fl;
 	double damp_kd;
 	enum rmd_proto table; /* rmd_proto_table(proto) */
 	uint32_t reply_id;    /* replies to 0x140 + ID: 0x240 + ID (V3, MIT), 0x140 + ID (V2) */
@@ -266,14 +274,14 @@ unsigned rmd_motor_clamp(const struct rmd_config_limits *lim, struct rmd_setpoin
 
 /*
  * Encode setpoint sp for the motor, in the setpoint's mode (sp->mode, enum
- * rmd_mode), as one frame.  Values are clamped (RMD_MOTOR_CLAMPED in
- * *flags, which may be NULL).  Returns 0; -EDOM when a value the mode uses
+ * rmd_mode), as one frame; m keeps its encode state (the MIT gains' codes).
+ * Values are clamped (RMD_MOTOR_CLAMPED in *flags, which may be NULL).  Returns 0; -EDOM when a value the mode uses
  * is NaN or infinite (nothing encoded); -EOPNOTSUPP for a mode the
  * protocol cannot do (MIT on a V2/V3 motor, an unknown mode) or torque
  * without a torque constant.
  */
-int rmd_motor_encode(const struct rmd_motor *m, const struct rmd_setpoint *sp,
-		     struct rmd_frame *out, unsigned *flags);
+int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct rmd_frame *out,
+		     unsigned *flags);
 
 /*
  * The frames of safe action `a` for this motor (1 or 2, returned):

@@ -194,6 +194,23 @@ void rmd_plan_print(const struct rmd_plan *plan, const struct rmd_config *cfg, F
 unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			struct rmd_plan_slot out[RMD_PLAN_MAX_SLOTS]);
 
+/*
+ * The same requests as the plan's masks, which the rt loop walks without
+ * a slot array: bit `local` of a mask is the bus's motors[local].
+ */
+struct rmd_plan_due {
+	bool batch;	  /* the 0x280 frame (RMD_SLOT_V2_TORQUES) */
+	uint32_t control; /* control frames, the batched motors' excluded */
+	uint32_t fine;	  /* 0x92 reads */
+	/* status reads: the entries of polls[0..n_polls - 1] whose cycle is `at` */
+	const struct rmd_plan_poll *polls;
+	unsigned n_polls;
+	unsigned at;
+};
+
+/* Bus `bus`'s requests of cycle n into *d; false when it has none planned.  rt-safe. */
+bool rmd_plan_due(const struct rmd_plan *plan, unsigned bus, uint64_t n, struct rmd_plan_due *d);
+
 /* Worst-case wire time of `frames` frames and `requests` requests on bus b.  rt-safe. */
 int64_t rmd_plan_cost_ns(const struct rmd_plan_bus *b, unsigned frames, unsigned requests);
 

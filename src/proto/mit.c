@@ -150,20 +150,11 @@ int rmd_mit_pack_cmd(const struct rmd_mit_valid_ranges *vr, uint8_t motor_id,
 	return pack_cmd(&vr->r, motor_id, cmd, out);
 }
 
-/* V3 §5.2 over ranges known to be valid, of a good id and finite fields. */
-static inline __attribute__((always_inline)) void pack(const struct rmd_mit_ranges *r,
-						       uint8_t motor_id,
-						       const struct rmd_mit_cmd *cmd,
-						       struct rmd_frame *out)
+/* V3 §5.2's layout of the five codes. */
+static inline __attribute__((always_inline)) void put(uint8_t motor_id, uint32_t p, uint32_t v,
+						      uint32_t kp, uint32_t kd, uint32_t t,
+						      struct rmd_frame *out)
 {
-	uint32_t p, v, kp, kd, t;
-
-	p = to_uint(cmd->p_des_rad, r->p_min, r->p_max, top_code(P_BITS));
-	v = to_uint(cmd->v_des_rad_s, r->v_min, r->v_max, top_code(V_BITS));
-	kp = to_uint(cmd->kp, r->kp_min, r->kp_max, top_code(KP_BITS));
-	kd = to_uint(cmd->kd, r->kd_min, r->kd_max, top_code(KD_BITS));
-	t = to_uint(cmd->t_ff_nm, r->t_min, r->t_max, top_code(T_BITS));
-
 	out->can_id = RMD_CAN_MIT_REQ_BASE + motor_id;
 	out->len = RMD_FRAME_LEN;
 	out->data[0] = (uint8_t)(p >> 8);
@@ -176,6 +167,19 @@ static inline __attribute__((always_inline)) void pack(const struct rmd_mit_rang
 	out->data[7] = (uint8_t)t;
 }
 
+/* V3 §5.2 over ranges known to be valid, of a good id and finite fields. */
+static inline __attribute__((always_inline)) void pack(const struct rmd_mit_ranges *r,
+						       uint8_t motor_id,
+						       const struct rmd_mit_cmd *cmd,
+						       struct rmd_frame *out)
+{
+	put(motor_id, to_uint(cmd->p_des_rad, r->p_min, r->p_max, top_code(P_BITS)),
+	    to_uint(cmd->v_des_rad_s, r->v_min, r->v_max, top_code(V_BITS)),
+	    to_uint(cmd->kp, r->kp_min, r->kp_max, top_code(KP_BITS)),
+	    to_uint(cmd->kd, r->kd_min, r->kd_max, top_code(KD_BITS)),
+	    to_uint(cmd->t_ff_nm, r->t_min, r->t_max, top_code(T_BITS)), out);
+}
+
 /* V3 §5.2 over ranges known to be valid. */
 static int pack_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id, const struct rmd_mit_cmd *cmd,
 		    struct rmd_frame *out)
@@ -186,10 +190,24 @@ static int pack_cmd(const struct rmd_mit_ranges *r, uint8_t motor_id, const stru
 	return 0;
 }
 
-void rmd_mit_pack_good(const struct rmd_mit_valid_ranges *vr, uint8_t motor_id,
-		       const struct rmd_mit_cmd *cmd, struct rmd_frame *out)
+void rmd_mit_gain_codes(const struct rmd_mit_valid_ranges *vr, double kp, double kd,
+			struct rmd_mit_gain_codes *g)
 {
-	pack(&vr->r, motor_id, cmd, out);
+	const struct rmd_mit_ranges *r = &vr->r;
+
+	g->kp = (uint16_t)to_uint(kp, r->kp_min, r->kp_max, top_code(KP_BITS));
+	g->kd = (uint16_t)to_uint(kd, r->kd_min, r->kd_max, top_code(KD_BITS));
+}
+
+void rmd_mit_pack_gains(const struct rmd_mit_valid_ranges *vr, uint8_t motor_id,
+			const struct rmd_mit_cmd *cmd, const struct rmd_mit_gain_codes *g,
+			struct rmd_frame *out)
+{
+	const struct rmd_mit_ranges *r = &vr->r;
+
+	put(motor_id, to_uint(cmd->p_des_rad, r->p_min, r->p_max, top_code(P_BITS)),
+	    to_uint(cmd->v_des_rad_s, r->v_min, r->v_max, top_code(V_BITS)), g->kp, g->kd,
+	    to_uint(cmd->t_ff_nm, r->t_min, r->t_max, top_code(T_BITS)), out);
 }
 
 int rmd_mit_decode_cmd(const struct rmd_mit_ranges *r, const struct rmd_frame *f, uint8_t *motor_id,

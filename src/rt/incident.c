@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: MIT
 /*
  * The incident recorder's ring (rmd/incident.h).  The loop's calls are
- * rt-safe: a memcpy into a slot allocated and touched before the loop
- * started, and two atomic stores.  Reading, allocation and freeing are
+ * rt-safe: fixed-size copies into slots allocated and touched before the
+ * loop started, and two atomic stores a batch of records.  Reading, allocation and freeing are
  * non-rt.
  *
- * Each ring overwrites its oldest record.  The writer announces the index
- * it is about to write (`claim`) before it writes and publishes it
- * (`head`) after; a reader copies the slots up to `head` and then keeps
+ * Each ring overwrites its oldest record.  The writer announces the last
+ * index it is about to write (`claim`) before it writes and publishes
+ * them (`head`) after; a reader copies the slots up to `head` and then keeps
  * only the indices the writer cannot have reached since (index >= claim -
  * capacity), as the sequence locks of loop.c do.
  */
@@ -21,7 +21,7 @@
 #include "rmd/incident.h"
 
 struct orec {
-	_Alignas(64) atomic_uint_fast64_t claim; /* index being written + 1 */
+	_Alignas(64) atomic_uint_fast64_t claim; /* last index being written + 1 */
 	_Alignas(64) atomic_uint_fast64_t head;	 /* records written */
 	size_t mask;				 /* slots - 1 */
 	size_t size;				 /* bytes per record */
@@ -65,16 +65,28 @@ static int orec_init(struct orec *o, double slots, size_t size, size_t *bytes)
 	return 0;
 }
 
-/* rt-safe. */
-static void orec_push(struct orec *o, const void *rec)
+/*
+ * The loop's writes, in batches: claim the next n records of o (announce
+ * the last index written + 1) before writing them, publish them after.
+ * Between the two the loop writes each record's fields straight into its
+ * slot (orec_at()), a fixed-size copy the compiler inlines.  rt-safe.
+ */
+static inline uint_fast64_t orec_claim(struct orec *o, size_t n)
 {
 	uint_fast64_t h = atomic_load_explicit(&o->head, memory_order_relaxed);
 
-	atomic_store_explicit(&o->claim, h + 1, memory_order_relaxed);
+	atomic_store_explicit(&o->claim, h + n, memory_order_relaxed);
 	atomic_thread_fence(memory_order_release);
-	memcpy(o->buf + (h & o->mask) * o->size, rec, o->size);
-	atomic_store_explicit(&o->head, h + 1, memory_order_release);
+	return h;
 }
+
+static inline void orec_publish(struct orec *o, uint_fast64_t end)
+{
+	atomic_store_explicit(&o->head, end, memory_order_release);
+}
+
+/* Slot of record i of o, a ring of records of type T.  rt-safe. */
+#define orec_at(o, T, i) ((T *)(void *)(o)->buf + ((i) & (o)->mask))
 
 /*
  * Copy the records of o whose first field (int64_t t_ns) is >= from_ns
@@ -175,61 +187,125 @@ size_t rmd_incident_ring_bytes(const struct rmd_incident_ring *r)
 }
 
 /* rt-safe. */
+static inline void frame_rec(struct rmd_incident_frame *rec, enum rmd_incident_dir dir,
+			     const struct rmd_frame *f, int64_t t_ns)
+{
+	rec->t_ns = t_ns;
+	rec->dir = (uint8_t)dir;
+	rec->f = *f;
+}
+
+/*
+ * Claim n records of bus's frame ring: the ring, its first index in *h;
+ * NULL for a bus the ring does not have, or no record.  rt-safe.
+ */
+static inline struct orec *frames_claim(struct rmd_incident_ring *r, unsigned bus, unsigned n,
+					uint_fast64_t *h)
+{
+	if (bus >= r->n_buses || !n)
+		return NULL;
+	*h = orec_claim(&r->frames[bus], n);
+	return &r->frames[bus];
+}
+
+/* rt-safe. */
 void rmd_incident_frame(struct rmd_incident_ring *r, unsigned bus, enum rmd_incident_dir dir,
 			const struct rmd_frame *f, int64_t t_ns)
 {
-	struct rmd_incident_frame rec = { .t_ns = t_ns, .dir = (uint8_t)dir, .f = *f };
+	uint_fast64_t h;
+	struct orec *o = frames_claim(r, bus, 1, &h);
 
-	if (bus < r->n_buses)
-		orec_push(&r->frames[bus], &rec);
+	if (!o)
+		return;
+	frame_rec(orec_at(o, struct rmd_incident_frame, h), dir, f, t_ns);
+	orec_publish(o, h + 1);
+}
+
+/* rt-safe. */
+void rmd_incident_tx(struct rmd_incident_ring *r, unsigned bus, const struct rmd_frame *f,
+		     unsigned n, int64_t t_ns)
+{
+	uint_fast64_t h;
+	struct orec *o = frames_claim(r, bus, n, &h);
+
+	if (!o)
+		return;
+	for (unsigned k = 0; k < n; k++)
+		frame_rec(orec_at(o, struct rmd_incident_frame, h + k), RMD_INCIDENT_TX, &f[k],
+			  t_ns);
+	orec_publish(o, h + n);
+}
+
+/* rt-safe. */
+void rmd_incident_rx(struct rmd_incident_ring *r, unsigned bus, const struct rmd_bus_rx *rx,
+		     unsigned n)
+{
+	uint_fast64_t h;
+	struct orec *o = frames_claim(r, bus, n, &h);
+
+	if (!o)
+		return;
+	for (unsigned k = 0; k < n; k++)
+		frame_rec(orec_at(o, struct rmd_incident_frame, h + k), RMD_INCIDENT_RX, &rx[k].f,
+			  rx[k].t_ns);
+	orec_publish(o, h + n);
 }
 
 /* rt-safe. */
 void rmd_incident_snapshot(struct rmd_incident_ring *r, const struct rmd_snapshot *s)
 {
-	for (unsigned i = 0; i < s->n && i < RMD_MAX_MOTORS; i++) {
-		const struct rmd_motor_state *m = &s->m[i];
-		struct rmd_incident_state rec = {
-			.t_ns = s->t_ns,
-			.cycle = s->cycle,
-			.motor = (uint8_t)i,
-			.lifecycle = m->lifecycle,
-			.mode = m->mode,
-			.error_code = m->error_code,
-			.reply_age_cycles = m->reply_age_cycles,
-			.pos_rad = m->pos_rad,
-			.vel_rad_s = m->vel_rad_s,
-			.torque_nm = m->torque_nm,
-			.current_a = m->current_a,
-			.temp_c = m->temp_c,
-			.voltage_v = m->voltage_v,
-		};
+	struct orec *o = &r->states;
+	unsigned n = s->n < RMD_MAX_MOTORS ? s->n : RMD_MAX_MOTORS;
+	uint_fast64_t h = orec_claim(o, n);
 
-		orec_push(&r->states, &rec);
+	for (unsigned i = 0; i < n; i++) {
+		const struct rmd_motor_state *m = &s->m[i];
+		struct rmd_incident_state *rec = orec_at(o, struct rmd_incident_state, h + i);
+
+		rec->t_ns = s->t_ns;
+		rec->cycle = s->cycle;
+		rec->motor = (uint8_t)i;
+		rec->lifecycle = m->lifecycle;
+		rec->mode = m->mode;
+		rec->error_code = m->error_code;
+		rec->reply_age_cycles = m->reply_age_cycles;
+		rec->pos_rad = m->pos_rad;
+		rec->vel_rad_s = m->vel_rad_s;
+		rec->torque_nm = m->torque_nm;
+		rec->current_a = m->current_a;
+		rec->temp_c = m->temp_c;
+		rec->voltage_v = m->voltage_v;
 	}
+	orec_publish(o, h + n);
 }
 
 /* rt-safe. */
 void rmd_incident_command(struct rmd_incident_ring *r, const struct rmd_command *c, int64_t t_ns)
 {
-	for (uint32_t p = c->present; p; p &= p - 1) {
-		unsigned i = (unsigned)__builtin_ctz(p);
-		struct rmd_incident_command rec = {
-			.t_ns = t_ns,
-			.rx_ns = c->rx_ns,
-			.seq = c->seq,
-			.motor = (uint8_t)i,
-			.sp = c->m[i],
-		};
+	struct orec *o = &r->commands;
+	uint_fast64_t h = orec_claim(o, (size_t)__builtin_popcount(c->present)), i = h;
 
-		orec_push(&r->commands, &rec);
+	for (uint32_t p = c->present; p; p &= p - 1, i++) {
+		unsigned k = (unsigned)__builtin_ctz(p);
+		struct rmd_incident_command *rec = orec_at(o, struct rmd_incident_command, i);
+
+		rec->t_ns = t_ns;
+		rec->rx_ns = c->rx_ns;
+		rec->seq = c->seq;
+		rec->motor = (uint8_t)k;
+		rec->sp = c->m[k];
 	}
+	orec_publish(o, i);
 }
 
 /* rt-safe. */
 void rmd_incident_event(struct rmd_incident_ring *r, const struct rmd_event *e)
 {
-	orec_push(&r->events, e);
+	struct orec *o = &r->events;
+	uint_fast64_t h = orec_claim(o, 1);
+
+	*orec_at(o, struct rmd_event, h) = *e;
+	orec_publish(o, h + 1);
 }
 
 /* Non-rt. */

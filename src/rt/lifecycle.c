@@ -281,6 +281,7 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 	const struct rmd_command *c;
 	const void *p;
 	bool any_enable = false;
+	uint32_t present;
 
 	if (!l->o.commands || !rmd_latest_get(l->o.commands, &p))
 		return;
@@ -296,6 +297,8 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 				l->cnt.ignored[RMD_IGN_TRIPPED]++;
 		return;
 	}
+	/* c is not the loop's to write: its mask read once */
+	present = c->present;
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
@@ -303,7 +306,7 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 			lm->disables_seen = c->disables[i];
 			disable_motor(l, lm, now);
 		}
-		if (!(c->present & (1u << i)))
+		if (!(present & (1u << i)))
 			continue;
 		if (c->m[i].enable) {
 			int why = -1;

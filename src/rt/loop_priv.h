@@ -55,9 +55,8 @@ struct outstanding {
 	bool echo_is_reply; /* the command's answer repeats it (0x80, 0xB3, ...) */
 	/* the answer's identifier and command byte (or RMD_MOTOR_CMD_MIT): os_keyof() */
 	uint64_t key;
-	uint64_t seq; /* send order */
-	int64_t sent_ns;
-	int64_t deadline_ns;
+	uint64_t seq;	 /* send order */
+	int64_t sent_ns; /* missed at sent_ns + its bus's reply_ns (loop_check_deadlines()) */
 	uint8_t data[RMD_FRAME_LEN]; /* the request, to tell an echo */
 };
 

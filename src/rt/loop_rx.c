@@ -72,7 +72,6 @@ static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, str
 	os_key(&lm->m, f, o);
 	o->seq = lm->seq++;
 	o->sent_ns = now;
-	o->deadline_ns = now + l->bus[lm->m.bus].reply_ns;
 	memcpy(o->data, f->data, sizeof(o->data));
 	lm->os_used |= (uint8_t)(1u << k);
 }
@@ -90,14 +89,14 @@ static void oneshot_pop(struct lmotor *lm)
 /* Book frames from..to-1 of lb's cycle, which the bus took.  rt-safe. */
 void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to, int64_t now)
 {
+	/* incident recorder: every frame a bus took */
+	if (l->o.incidents && to > from)
+		rmd_incident_tx(l->o.incidents, (unsigned)(lb - l->bus), &lb->tx[from], to - from,
+				now);
 	for (unsigned k = from; k < to; k++) {
 		const struct txmeta *mt = &lb->meta[k];
 		const struct rmd_frame *f = &lb->tx[k];
 
-		/* incident recorder: every frame a bus took */
-		if (l->o.incidents)
-			rmd_incident_frame(l->o.incidents, (unsigned)(lb - l->bus), RMD_INCIDENT_TX,
-					   f, now);
 		if (mt->kind == REQ_BATCH) {
 			for (unsigned j = 0; j < lb->pb->n_motors; j++)
 				if (lb->pb->batched & (1u << j))
@@ -138,10 +137,14 @@ static void os_done(struct lmotor *lm, unsigned k)
 /* One reply latency into lat (under stat_begin()).  rt-safe. */
 static void lat_add(struct rmd_latency *lat, int64_t ns)
 {
-	if (!lat->n || ns < lat->min_ns)
+	if (!lat->n) {
 		lat->min_ns = ns;
-	if (!lat->n || ns > lat->max_ns)
 		lat->max_ns = ns;
+	} else if (ns < lat->min_ns) {
+		lat->min_ns = ns;
+	} else if (ns > lat->max_ns) {
+		lat->max_ns = ns;
+	}
 	lat->n++;
 	lat->sum_ns += ns;
 	lat->hist[rmd_hist_bucket(ns)]++;
@@ -192,6 +195,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	cmd = f->can_id > RMD_CAN_MIT_REPLY_BASE ? RMD_MOTOR_CMD_MIT : f->data[0];
 	k = os_match(lm, f->can_id, cmd);
 	if (k >= 0) {
+		int64_t latency_ns;
 		bool echo;
 
 		o = &lm->os[k];
@@ -199,8 +203,9 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		       !memcmp(f->data, o->data, RMD_FRAME_LEN);
 		os_done(lm, (unsigned)k);
 		l->cnt.replies++;
-		lm->st->reply_latency_ns = rx->t_ns - o->sent_ns;
-		lat_add(&lm->lat, lm->st->reply_latency_ns);
+		latency_ns = rx->t_ns - o->sent_ns;
+		lm->st->reply_latency_ns = latency_ns;
+		lat_add(&lm->lat, latency_ns);
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */
@@ -247,14 +252,12 @@ void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
 
 		if (n <= 0)
 			return;
+		/* incident recorder: every frame received */
+		if (l->o.incidents)
+			rmd_incident_rx(l->o.incidents, b, lb->rx, (unsigned)n);
 		stat_begin(l);
-		for (int k = 0; k < n; k++) {
-			/* incident recorder: every frame received */
-			if (l->o.incidents)
-				rmd_incident_frame(l->o.incidents, b, RMD_INCIDENT_RX, &lb->rx[k].f,
-						   lb->rx[k].t_ns);
+		for (int k = 0; k < n; k++)
 			handle_frame(l, b, &lb->rx[k]);
-		}
 		stat_end(l);
 		if (n < RX_BATCH)
 			return;
@@ -270,7 +273,8 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 		for (unsigned m = lm->os_used; m; m &= m - 1) {
 			unsigned k = (unsigned)__builtin_ctz(m);
 
-			if (lm->os[k].deadline_ns <= now) {
+			/* a request's deadline: its bus's reply_ns after it was sent */
+			if (lm->os[k].sent_ns <= now - l->bus[lm->m.bus].reply_ns) {
 				os_done(lm, k);
 				loop_miss(l, lm, now);
 			}

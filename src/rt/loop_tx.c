@@ -233,28 +233,23 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 {
 	struct lbus *lb = &l->bus[b];
-	struct rmd_plan_slot slots[RMD_PLAN_MAX_SLOTS];
-	unsigned n = rmd_plan_cycle(l->plan, b, l->cycle, slots);
+	struct rmd_plan_due d;
 	unsigned taken;
 	int r;
 
 	lb->ntx = 0;
-	for (unsigned s = 0; s < n; s++) {
-		switch (slots[s].kind) {
-		case RMD_SLOT_CONTROL:
-			add_control(l, lb, slots[s].motor, now);
-			break;
-		case RMD_SLOT_V2_TORQUES:
-			add_batch(l, lb, now);
-			break;
-		case RMD_SLOT_STATUS:
-			add_status(l, lb, slots[s].motor, now);
-			break;
-		case RMD_SLOT_FINE:
-			add_fine(l, lb, slots[s].motor);
-			break;
-		}
-	}
+	if (!rmd_plan_due(l->plan, b, l->cycle, &d))
+		return true;
+	/* in rmd_plan_cycle()'s order: 0x280, control, 0x92 reads, status reads */
+	if (d.batch)
+		add_batch(l, lb, now);
+	for (uint32_t m = d.control; m; m &= m - 1)
+		add_control(l, lb, lb->pb->motors[__builtin_ctz(m)], now);
+	for (uint32_t m = d.fine; m; m &= m - 1)
+		add_fine(l, lb, lb->pb->motors[__builtin_ctz(m)]);
+	for (unsigned j = 0; j < d.n_polls; j++)
+		if (d.polls[j].cycle == d.at)
+			add_status(l, lb, d.polls[j].motor, now);
 	if (!lb->ntx)
 		return true;
 	r = rmd_bus_send(lb->bus, lb->tx, lb->ntx, now);

@@ -212,6 +212,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 			m->echo[k / 8] |= (uint8_t)(1u << (k % 8));
 	}
 	if (m->proto == RMD_PROTO_MIT) {
+		m->mit_kp = m->mit_kd = NAN; /* no gains' codes yet (encode_mit()) */
 		if (rmd_mit_ranges_validate(&m->mit, &m->mit_ok) < 0)
 			return -EINVAL;
 		if (m->damp_kd > m->mit.kd_max)
@@ -401,10 +402,11 @@ static int encode_position(const struct rmd_motor *m, double pos_rad, double mv_
 
 /*
  * MIT frame (V3 §5.2) from reported-frame values within the limits; the
- * MIT ranges clamp too (rmd_mit_encode_cmd()).  rt-safe.
+ * MIT ranges clamp too (rmd_mit_encode_cmd()).  The gains' codes are
+ * worked out again only when a gain changed (m->mit_kp, mit_kd).  rt-safe.
  */
-static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
-		      struct rmd_frame *out, unsigned *fl)
+static int encode_mit(struct rmd_motor *m, const struct rmd_setpoint *sp, struct rmd_frame *out,
+		      unsigned *fl)
 {
 	const struct rmd_mit_ranges *r = &m->mit_ok.r;
 	struct rmd_mit_cmd c;
@@ -414,22 +416,29 @@ static int encode_mit(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 	c.p_des_rad = clampf(rmd_motor_to_native_pos(m, sp->pos_rad), r->p_min, r->p_max, fl);
 	c.v_des_rad_s = clampf(m->dir * sp->vel_rad_s, r->v_min, r->v_max, fl);
 	c.t_ff_nm = clampf(m->dir * sp->torque_nm, r->t_min, r->t_max, fl);
-	c.kp = clampf(sp->kp, r->kp_min, r->kp_max, fl);
-	c.kd = clampf(sp->kd, r->kd_min, r->kd_max, fl);
+	if (sp->kp != m->mit_kp || sp->kd != m->mit_kd) {
+		m->mit_gains_fl = 0;
+		rmd_mit_gain_codes(&m->mit_ok,
+				   clampf(sp->kp, r->kp_min, r->kp_max, &m->mit_gains_fl),
+				   clampf(sp->kd, r->kd_min, r->kd_max, &m->mit_gains_fl),
+				   &m->mit_gains);
+		m->mit_kp = sp->kp;
+		m->mit_kd = sp->kd;
+	}
+	*fl |= m->mit_gains_fl;
 	/* id 1..32 (rmd_motor_init()); every field finite: sp's are, the clamps keep them */
-	rmd_mit_pack_good(&m->mit_ok, m->id, &c, out);
+	rmd_mit_pack_gains(&m->mit_ok, m->id, &c, &m->mit_gains, out);
 	return 0;
 }
 
 /* rt-safe. */
-int rmd_motor_encode(const struct rmd_motor *m, const struct rmd_setpoint *sp,
-		     struct rmd_frame *out, unsigned *flags)
+int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct rmd_frame *out,
+		     unsigned *flags)
 {
 	struct rmd_setpoint c = *sp; /* clamped to the limits (rmd_motor_clamp()) */
 	unsigned fl = 0;
 	int r;
 
-	c.max_vel_rad_s = fabs(c.max_vel_rad_s);
 	switch ((enum rmd_mode)sp->mode) {
 	case RMD_MODE_TORQUE:
 		if (!isfinite(sp->torque_nm))
@@ -448,6 +457,7 @@ int rmd_motor_encode(const struct rmd_motor *m, const struct rmd_setpoint *sp,
 	case RMD_MODE_POSITION:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->max_vel_rad_s))
 			return -EDOM;
+		c.max_vel_rad_s = fabs(c.max_vel_rad_s);
 		if (clamp_mode(&m->limits, RMD_MODE_POSITION, &c, NULL))
 			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_position(m, c.pos_rad, c.max_vel_rad_s, out, &fl);
@@ -767,16 +777,30 @@ int rmd_motor_decode(struct rmd_motor *m, const struct rmd_frame *f, struct rmd_
 	return decode(m, f, r, true);
 }
 
-/* The values of r that `have` names into st.  rt-safe. */
-static void apply_have(const struct rmd_motor_reply *r, unsigned have, struct rmd_motor_state *st)
+/*
+ * The values of r that `have` names into st; with `stamp`, the receive
+ * times of those that have one (t_ns).  rt-safe.
+ */
+static inline __attribute__((always_inline)) void apply_have(const struct rmd_motor_reply *r,
+							     unsigned have, bool stamp,
+							     int64_t t_ns,
+							     struct rmd_motor_state *st)
 {
-	if (have & RMD_MOTOR_HAVE_POS)
+	if (have & RMD_MOTOR_HAVE_POS) {
 		st->pos_rad = r->pos_rad;
-	if (have & RMD_MOTOR_HAVE_VEL)
+		if (stamp)
+			st->pos_rx_ns = t_ns;
+	}
+	if (have & RMD_MOTOR_HAVE_VEL) {
 		st->vel_rad_s = r->vel_rad_s;
+		if (stamp)
+			st->rx_ns = t_ns;
+	}
 	if (have & RMD_MOTOR_HAVE_TORQUE) {
 		st->torque_nm = r->torque_nm;
 		st->current_a = r->current_a;
+		if (stamp)
+			st->rx_ns = t_ns;
 	}
 	if (have & RMD_MOTOR_HAVE_TEMP)
 		st->temp_c = r->temp_c;
@@ -789,7 +813,7 @@ static void apply_have(const struct rmd_motor_reply *r, unsigned have, struct rm
 /* rt-safe. */
 void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st)
 {
-	apply_have(r, r->have, st);
+	apply_have(r, r->have, false, 0, st);
 }
 
 /* rmd_motor_take(), inlined into its two callers.  rt-safe. */
@@ -802,11 +826,7 @@ static inline __attribute__((always_inline)) void take(const struct rmd_motor *m
 	/* V3 §2.11: 0x92 is the one reply with the 0.01 deg multi-turn angle */
 	if (m->fine_pos && r->cmd != RMD_MOTOR_CMD_FINE_POS)
 		have &= ~(unsigned)RMD_MOTOR_HAVE_POS;
-	apply_have(r, have, st);
-	if (have & RMD_MOTOR_HAVE_POS)
-		st->pos_rx_ns = t_ns;
-	if (have & (RMD_MOTOR_HAVE_VEL | RMD_MOTOR_HAVE_TORQUE))
-		st->rx_ns = t_ns;
+	apply_have(r, have, true, t_ns, st);
 }
 
 /* rt-safe. */

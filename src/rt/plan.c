@@ -726,31 +726,47 @@ int rmd_plan_build(const struct rmd_config *cfg, struct rmd_plan *plan, char *er
 	return ret;
 }
 
+bool rmd_plan_due(const struct rmd_plan *plan, unsigned bus, uint64_t n, struct rmd_plan_due *d)
+{
+	const struct rmd_plan_bus *pb;
+	uint32_t due;
+
+	if (bus >= plan->n_buses)
+		return false;
+	pb = &plan->bus[bus];
+	if (pb->n_motors == 0 || pb->hc == 0)
+		return false;
+	due = pb->due[n % pb->hc];
+	d->polls = NULL;
+	d->n_polls = 0;
+	d->at = 0;
+	if (pb->poll_every && pb->n_polls) {
+		/* the poll cycle's entries; those for this cycle, in place of a setpoint or not */
+		d->n_polls = pb->poll_burst;
+		d->polls =
+			&pb->polls[(n / pb->poll_every) % (pb->n_polls / d->n_polls) * d->n_polls];
+		d->at = (unsigned)(n % pb->poll_every);
+		for (unsigned j = 0; j < d->n_polls; j++)
+			if (d->polls[j].cycle == d->at && d->polls[j].replaces)
+				due &= ~(1u << plan->motor[d->polls[j].motor].local);
+	}
+	d->batch = (due & pb->batched) != 0;
+	d->control = due & ~pb->batched;
+	d->fine = pb->fine[n % pb->hc];
+	return true;
+}
+
 unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			struct rmd_plan_slot out[RMD_PLAN_MAX_SLOTS])
 {
 	const struct rmd_plan_bus *pb;
-	const struct rmd_plan_poll *grp = NULL;
-	uint32_t due, fine;
-	unsigned cnt = 0, at = 0, burst = 0;
+	struct rmd_plan_due d;
+	unsigned cnt = 0;
 
-	if (bus >= plan->n_buses)
+	if (!rmd_plan_due(plan, bus, n, &d))
 		return 0;
 	pb = &plan->bus[bus];
-	if (pb->n_motors == 0 || pb->hc == 0)
-		return 0;
-	due = pb->due[n % pb->hc];
-	if (pb->poll_every && pb->n_polls) {
-		/* the poll cycle's entries; those for this cycle, in place of a setpoint or not */
-		burst = pb->poll_burst;
-		grp = &pb->polls[(n / pb->poll_every) % (pb->n_polls / burst) * burst];
-		at = (unsigned)(n % pb->poll_every);
-		for (unsigned j = 0; j < burst; j++)
-			if (grp[j].cycle == at && grp[j].replaces)
-				due &= ~(1u << plan->motor[grp[j].motor].local);
-	}
-	fine = pb->fine[n % pb->hc];
-	if (due & pb->batched)
+	if (d.batch)
 		out[cnt++] = (struct rmd_plan_slot){
 			.kind = RMD_SLOT_V2_TORQUES,
 			.motor = 0,
@@ -758,7 +774,7 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			.can_id = RMD_CAN_MULTI,
 		};
 	/* the set bits in order: the motors in file order, as the masks' bits are */
-	for (uint32_t m = due & ~pb->batched; m; m &= m - 1) {
+	for (uint32_t m = d.control; m; m &= m - 1) {
 		unsigned l = (unsigned)__builtin_ctz(m);
 
 		out[cnt++] = (struct rmd_plan_slot){
@@ -768,7 +784,7 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			.can_id = pb->ctl_id[l],
 		};
 	}
-	for (uint32_t m = fine; m; m &= m - 1) {
+	for (uint32_t m = d.fine; m; m &= m - 1) {
 		unsigned l = (unsigned)__builtin_ctz(m);
 
 		out[cnt++] = (struct rmd_plan_slot){
@@ -778,14 +794,14 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			.can_id = pb->req_id[l],
 		};
 	}
-	for (unsigned j = 0; j < burst; j++) {
-		if (grp[j].cycle != at)
+	for (unsigned j = 0; j < d.n_polls; j++) {
+		if (d.polls[j].cycle != d.at)
 			continue;
 		out[cnt++] = (struct rmd_plan_slot){
 			.kind = RMD_SLOT_STATUS,
-			.motor = grp[j].motor,
+			.motor = d.polls[j].motor,
 			.replies = 1,
-			.can_id = (uint16_t)(RMD_CAN_REQ_BASE + plan->motor[grp[j].motor].id),
+			.can_id = (uint16_t)(RMD_CAN_REQ_BASE + plan->motor[d.polls[j].motor].id),
 		};
 	}
 	return cnt;

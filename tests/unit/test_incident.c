@@ -13,6 +13,7 @@
 #include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -84,21 +85,29 @@ static void test_sized_from_the_plan_and_window(void **state)
 	rmd_incident_ring_free(NULL);
 }
 
-static void test_overwrites_and_reads_from_a_time(void **state)
+/* A ring of a 100 ms window and a window to read it into; *cap: bus 0's frames it holds. */
+static struct rmd_incident_ring *ring_100ms(struct rmd_incident_window **w, size_t *cap)
 {
 	struct rmd_incident_ring *r = rmd_incident_ring_new(&cfg, &plan, 100 * MS, NULL, 0);
+
+	assert_non_null(r);
+	*w = rmd_incident_window_new(r);
+	assert_non_null(*w);
+	*cap = (*w)->cap_frames[0];
+	return r;
+}
+
+static void test_overwrites_and_reads_from_a_time(void **state)
+{
 	struct rmd_incident_window *w;
+	size_t cap;
+	struct rmd_incident_ring *r = ring_100ms(&w, &cap);
 	struct rmd_snapshot s = { .n = 3 };
 	struct rmd_command c = { .present = 0x5, .seq = 7 };
 	struct rmd_event e = { .kind = RMD_EV_OVERRUN, .a = 12 };
-	size_t cap;
 	uint64_t total;
 
 	(void)state;
-	assert_non_null(r);
-	w = rmd_incident_window_new(r);
-	assert_non_null(w);
-	cap = w->cap_frames[0];
 	total = 3 * cap + 17;
 	for (uint64_t k = 0; k < total; k++) {
 		struct rmd_frame f = frame_of(k);
@@ -143,6 +152,68 @@ static void test_overwrites_and_reads_from_a_time(void **state)
 	assert_int_equal(w->n_frames[0], 10);
 	assert_int_equal(index_of(&w->frames[0][0].f), total - 10);
 	assert_int_equal(w->n_states, 0);
+	rmd_incident_window_free(w);
+	rmd_incident_ring_free(r);
+}
+
+/*
+ * issue 11: the loop writes a bus's frames in batches (rmd_incident_tx(),
+ * rmd_incident_rx()); batches of uneven sizes, across the ring's wrap,
+ * read back as the same records one at a time would: in order, each with
+ * its direction and time (a frame taken at the batch's time, a received
+ * one at its own).
+ */
+static void test_batches_read_as_single_records(void **state)
+{
+	struct rmd_incident_window *w;
+	size_t cap;
+	struct rmd_incident_ring *r = ring_100ms(&w, &cap);
+	uint64_t k = 0;
+	int64_t *t_of;
+	uint8_t *dir_of;
+
+	(void)state;
+	assert_true(cap >= 16);
+	/* each frame's expected time and direction */
+	t_of = calloc(2 * cap + 16, sizeof(*t_of));
+	dir_of = calloc(2 * cap + 16, sizeof(*dir_of));
+	assert_true(t_of && dir_of);
+	/* none for a bus the ring does not have, none for an empty batch */
+	rmd_incident_tx(r, RMD_MAX_BUSES - 1, &(struct rmd_frame){ 0 }, 1, 1);
+	rmd_incident_rx(r, 0, NULL, 0);
+	for (unsigned b = 0; k < 2 * cap + 5; b++) {
+		unsigned n = 1 + b % 7;
+		struct rmd_frame tx[8];
+		struct rmd_bus_rx rx[8];
+
+		/* even batches taken at the time of their first frame, odd ones received */
+		for (unsigned j = 0; j < n; j++, k++) {
+			tx[j] = frame_of(k);
+			rx[j] = (struct rmd_bus_rx){ .f = frame_of(k), .t_ns = (int64_t)k * 1000 };
+			dir_of[k] = b % 2 ? RMD_INCIDENT_RX : RMD_INCIDENT_TX;
+			t_of[k] = b % 2 ? (int64_t)k * 1000 : (int64_t)(k - j) * 1000;
+		}
+		if (b % 2)
+			rmd_incident_rx(r, 0, rx, n);
+		else
+			rmd_incident_tx(r, 0, tx, n, (int64_t)(k - n) * 1000);
+	}
+	rmd_incident_read(r, 0, w);
+	assert_int_equal(w->n_frames[0], cap);
+	for (size_t j = 0; j < cap; j++) {
+		const struct rmd_incident_frame *f = &w->frames[0][j];
+		uint64_t want = k - cap + j;
+
+		if (index_of(&f->f) != want || f->f.can_id != 0x141 || f->f.len != 8)
+			fail_msg("record %zu: frame %llu, want %llu", j,
+				 (unsigned long long)index_of(&f->f), (unsigned long long)want);
+		if (f->dir != dir_of[want] || f->t_ns != t_of[want])
+			fail_msg("record %zu (frame %llu): dir %u time %lld, want %u %lld", j,
+				 (unsigned long long)want, f->dir, (long long)f->t_ns, dir_of[want],
+				 (long long)t_of[want]);
+	}
+	free(t_of);
+	free(dir_of);
 	rmd_incident_window_free(w);
 	rmd_incident_ring_free(r);
 }
@@ -214,6 +285,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_sized_from_the_plan_and_window),
 		cmocka_unit_test(test_overwrites_and_reads_from_a_time),
+		cmocka_unit_test(test_batches_read_as_single_records),
 		cmocka_unit_test(test_no_torn_record_while_the_loop_writes),
 	};
 

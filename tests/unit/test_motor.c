@@ -312,6 +312,42 @@ static void test_clamp_mit(void **state)
 	assert_float_equal(got.t_ff_nm, 18.0, 1e-9);
 }
 
+/*
+ * issue 11: an MIT motor keeps its gains' codes between setpoints
+ * (struct rmd_motor.mit_gains); the frames and the clamp flag must be
+ * those of a motor that works every code out afresh, whether the gains
+ * stay, change, come back or are clamped.
+ */
+static void test_mit_gain_codes_kept(void **state)
+{
+	static const double gains[][2] = {
+		{ 5.0, 0.2 },	 { 5.0, 0.2 },	  { 7.5, 0.2 },	 { 7.5, 1.0 }, { 5.0, 0.2 },
+		{ 1000.0, 0.2 }, { 1000.0, 0.2 }, { 5.0, -1.0 }, { 0.0, 0.0 }, { -0.0, 0.0 },
+	};
+	struct rmd_config_motor c = cfg_motor(3, RMD_PROTO_MIT, RMD_MODE_MIT);
+	struct rmd_motor kept = motor_of(&c);
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(gains) / sizeof(gains[0]); k++) {
+		struct rmd_motor fresh = motor_of(&c);
+		struct rmd_setpoint sp = sp_mode(RMD_MODE_MIT);
+		struct rmd_frame got, want;
+		unsigned fl_got = 0, fl_want = 0;
+
+		sp.pos_rad = 0.1 * (double)k;
+		sp.vel_rad_s = -0.2 * (double)k;
+		sp.torque_nm = 0.3;
+		sp.kp = gains[k][0];
+		sp.kd = gains[k][1];
+		assert_int_equal(rmd_motor_encode(&kept, &sp, &got, &fl_got), 0);
+		assert_int_equal(rmd_motor_encode(&fresh, &sp, &want, &fl_want), 0);
+		if (got.can_id != want.can_id || got.len != want.len ||
+		    memcmp(got.data, want.data, sizeof(got.data)) || fl_got != fl_want)
+			fail_msg("setpoint %zu (kp %g, kd %g): frame or flags differ", k, sp.kp,
+				 sp.kd);
+	}
+}
+
 static void test_nonfinite_refused(void **state)
 {
 	static const double bad[] = { NAN, INFINITY, -INFINITY };
@@ -323,7 +359,7 @@ static void test_nonfinite_refused(void **state)
 	for (size_t k = 0; k < 3; k++) {
 		/* every field each mode uses, one at a time */
 		struct {
-			const struct rmd_motor *m;
+			struct rmd_motor *m;
 			enum rmd_mode mode;
 			size_t field; /* offset into struct rmd_setpoint */
 		} cases[] = {
@@ -988,6 +1024,7 @@ int main(void)
 		cmocka_unit_test(test_clamp),
 		cmocka_unit_test(test_clamp_mit),
 		cmocka_unit_test(test_nonfinite_refused),
+		cmocka_unit_test(test_mit_gain_codes_kept),
 		cmocka_unit_test(test_unsupported),
 		cmocka_unit_test(test_v2_batch),
 		cmocka_unit_test(test_safe_frames),
