@@ -55,11 +55,20 @@ run() {
 	kill -TERM $pid
 	wait $pid || true
 	# the loop: the thread named rmd-loop (the bridge, and in older builds
-	# LCM's receive thread, run at SCHED_FIFO too, policy 1)
+	# LCM's receive thread, run at SCHED_FIFO too, policy 1); a build from
+	# before the threads had names (e.g. the default BASE) ran its loop in
+	# the main thread "rmdd", its only one at SCHED_FIFO
 	awk -v hz="$hz" -v d="$DURATION" -v l="$label" '
-		{ pct = 100 * ($5 - $4) / hz / d; if ($2 == "rmd-loop") loop += pct; else rest += pct
-		  printf "%s thread %s(%s) %.1f\n", l, $2, ($2 == "rmd-loop" ? "loop" : $3 == 1 ? "fifo" : "other"), pct }
-		END { printf "%s loop %.1f\n%s rest %.1f\n", l, loop, l, rest }' "$work/$label.t1" >>"$work/rows"
+		{ n++; name[n] = $2; pol[n] = $3; pct[n] = 100 * ($5 - $4) / hz / d
+		  if ($2 == "rmd-loop") named = 1 }
+		END {
+			for (i = 1; i <= n; i++) {
+				is_loop = named ? name[i] == "rmd-loop" : (name[i] == "rmdd" && pol[i] == 1)
+				if (is_loop) loop += pct[i]; else rest += pct[i]
+				printf "%s thread %s(%s) %.1f\n", l, name[i], is_loop ? "loop" : pol[i] == 1 ? "fifo" : "other", pct[i]
+			}
+			printf "%s loop %.1f\n%s rest %.1f\n", l, loop, l, rest
+		}' "$work/$label.t1" >>"$work/rows"
 }
 
 : >"$work/rows"

@@ -4,13 +4,13 @@
 # publishing at 1 kHz (each gap +-25 % at random), quiet and with every CPU
 # running a hog (stress-ng --cpu NCPU, or busy shell loops without it).
 # The measurement is tests/system/test_latency (rmdd --sim 1's pieces in
-# one process: the loop at SCHED_FIFO 40, the bridge and LCM's receive
-# thread at 39 as rmdd runs them, udpm on loopback; the frame is timed at
+# one process: the loop at SCHED_FIFO 40, the bridge at 39 as rmdd runs
+# it (on udpm it reads the socket itself), udpm on loopback; the frame is timed at
 # the sim bus's send, where SocketCAN would write it, and on the simulated
 # wire).  The baseline, in the same run, is cyclictest -p 39 -i 1000: the
 # machine's own wake-up latency at the bridge's priority.  Target: p99 <=
 # one cycle + 100 us (+ cyclictest's p99: the machine's own part).  A third
-# run, hogs-old, puts the bridge and LCM's receive thread back at normal
+# run, hogs-old, puts the bridge back at normal
 # priority (as before issue 11; lcm.rt_priority: 0).
 #
 #   bench/lcm-latency.sh          # root (SCHED_FIFO, multicast route); rt-tests
