@@ -85,12 +85,10 @@ void rmd_incident_ring_free(struct rmd_incident_ring *r);
 size_t rmd_incident_ring_bytes(const struct rmd_incident_ring *r);
 
 /*
- * The loop's side: copy records in, overwriting the oldest.  A frame; n
- * frames a bus took at t_ns; n frames received (each at its rx time); a
- * motor state a motor of s; a record a motor of c's setpoints.  rt-safe.
+ * The loop's side: copy records in, overwriting the oldest.  n frames a
+ * bus took at t_ns; n frames received (each at its rx time); a motor state
+ * a motor of s; a record a motor of c's setpoints.  rt-safe.
  */
-void rmd_incident_frame(struct rmd_incident_ring *r, unsigned bus, enum rmd_incident_dir dir,
-			const struct rmd_frame *f, int64_t t_ns);
 void rmd_incident_tx(struct rmd_incident_ring *r, unsigned bus, const struct rmd_frame *f,
 		     unsigned n, int64_t t_ns);
 void rmd_incident_rx(struct rmd_incident_ring *r, unsigned bus, const struct rmd_bus_rx *rx,

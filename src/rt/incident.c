@@ -209,19 +209,6 @@ static inline struct orec *frames_claim(struct rmd_incident_ring *r, unsigned bu
 }
 
 /* rt-safe. */
-void rmd_incident_frame(struct rmd_incident_ring *r, unsigned bus, enum rmd_incident_dir dir,
-			const struct rmd_frame *f, int64_t t_ns)
-{
-	uint_fast64_t h;
-	struct orec *o = frames_claim(r, bus, 1, &h);
-
-	if (!o)
-		return;
-	frame_rec(orec_at(o, struct rmd_incident_frame, h), dir, f, t_ns);
-	orec_publish(o, h + 1);
-}
-
-/* rt-safe. */
 void rmd_incident_tx(struct rmd_incident_ring *r, unsigned bus, const struct rmd_frame *f,
 		     unsigned n, int64_t t_ns)
 {

@@ -110,10 +110,12 @@ static void test_overwrites_and_reads_from_a_time(void **state)
 	(void)state;
 	total = 3 * cap + 17;
 	for (uint64_t k = 0; k < total; k++) {
-		struct rmd_frame f = frame_of(k);
+		struct rmd_bus_rx rx = { .f = frame_of(k), .t_ns = (int64_t)k * 1000 };
 
-		rmd_incident_frame(r, 0, k % 2 ? RMD_INCIDENT_RX : RMD_INCIDENT_TX, &f,
-				   (int64_t)k * 1000);
+		if (k % 2)
+			rmd_incident_rx(r, 0, &rx, 1);
+		else
+			rmd_incident_tx(r, 0, &rx.f, 1, rx.t_ns);
 	}
 	s.t_ns = 5;
 	s.cycle = 42;
@@ -125,7 +127,7 @@ static void test_overwrites_and_reads_from_a_time(void **state)
 	{
 		struct rmd_frame f = frame_of(1);
 
-		rmd_incident_frame(r, RMD_MAX_BUSES - 1, RMD_INCIDENT_TX, &f, 1);
+		rmd_incident_tx(r, RMD_MAX_BUSES - 1, &f, 1, 1);
 	}
 
 	rmd_incident_read(r, 0, w);
@@ -229,7 +231,7 @@ static void *torn_loop(void *arg)
 	for (uint64_t k = 0; !atomic_load(&torn_stop); k++) {
 		struct rmd_frame f = frame_of(k);
 
-		rmd_incident_frame(torn_ring, 0, RMD_INCIDENT_TX, &f, (int64_t)k);
+		rmd_incident_tx(torn_ring, 0, &f, 1, (int64_t)k);
 		atomic_store_explicit(&torn_written, k + 1, memory_order_relaxed);
 	}
 	return NULL;
