@@ -597,7 +597,7 @@ static void record(struct rmdd_incidents *in, const struct rmdd_trigger *trig, u
 		{ "summary.txt", write_summary }, /* last: a recording with a summary is whole */
 	};
 	const struct rmd_config *cfg = in->cfg;
-	char name[96], path[PATH_MAX];
+	char name[96], path[PATH_MAX], more[48] = "";
 	struct out o = {
 		.in = in,
 		.w = in->win,
@@ -635,13 +635,9 @@ static void record(struct rmdd_incidents *in, const struct rmdd_trigger *trig, u
 	}
 	in->written++;
 	if (n_trig > 1)
-		tool_log(5,
-			 "incident recorded in %s: %s, and %u more trigger(s) (summary.txt says "
-			 "what happened)",
-			 path, trig[0].what, n_trig - 1);
-	else
-		tool_log(5, "incident recorded in %s: %s (summary.txt says what happened)", path,
-			 trig[0].what);
+		snprintf(more, sizeof(more), ", and %u more trigger(s)", n_trig - 1);
+	tool_log(5, "incident recorded in %s: %s%s (summary.txt says what happened)", path,
+		 trig[0].what, more);
 	keep_bound(in->dir, cfg->incidents.keep);
 }
 
