@@ -1505,6 +1505,22 @@ static long wakeups(pid_t tid)
 	return n;
 }
 
+/* Whether thread tid is asleep (state S in /proc/self/task/tid/stat). */
+static bool asleep(pid_t tid)
+{
+	char path[64], line[512], *p;
+	bool s = false;
+	FILE *fp;
+
+	snprintf(path, sizeof(path), "/proc/self/task/%d/stat", (int)tid);
+	fp = fopen(path, "r");
+	assert_non_null(fp);
+	if (fgets(line, sizeof(line), fp) && (p = strrchr(line, ')')))
+		s = p[1] == ' ' && p[2] == 'S';
+	fclose(fp);
+	return s;
+}
+
 /*
  * rt_priority: the bridge thread runs at SCHED_FIFO and commands still
  * arrive; on udpm no LCM receive thread stands between the socket and the
@@ -1546,7 +1562,9 @@ static void test_rt_priority(void **state)
 
 /*
  * With the loop's notify_fd the bridge sleeps until something happens: no
- * poll_ns wake-ups (2000 a second before), one wake-up per snapshot.
+ * poll_ns wake-ups (2000 a second before), one wake-up per snapshot.  Each
+ * snapshot is put while the bridge sleeps: one put while it was still on
+ * its way back to epoll_wait() would wake nothing, on a busy machine.
  */
 static void test_sleeps_when_idle(void **state)
 {
@@ -1569,9 +1587,11 @@ static void test_sleeps_when_idle(void **state)
 		      (long long)(300000000 / f->opts.poll_ns));
 	assert_true(w1 - w0 <= 2);
 	for (uint64_t cycle = 1; cycle <= 20; cycle++) {
+		WAIT_UNTIL(f, asleep(tid), 2000);
 		put_snapshot(f, cycle);
 		WAIT_UNTIL(f, stats(f).states_published == cycle, 2000);
 	}
+	WAIT_UNTIL(f, asleep(tid), 2000);
 	w2 = wakeups(tid);
 	assert_int_equal(stats(f).states_published, 20);
 	assert_true(w2 - w1 >= 20);
