@@ -120,10 +120,12 @@ struct rmd_incident_window *rmd_incident_window_new(const struct rmd_incident_ri
 void rmd_incident_window_free(struct rmd_incident_window *w);
 
 /*
- * Copy every record with t_ns >= from_ns into w (any thread; one reader at
- * a time, while the loop writes).  Non-rt.
+ * Copy every record with from_ns <= t_ns <= to_ns into w (any thread; one
+ * reader at a time, while the loop writes).  Records after to_ns the loop
+ * wrote while the reader waited stay out: they belong to the next window.
+ * Non-rt.
  */
-void rmd_incident_read(const struct rmd_incident_ring *r, int64_t from_ns,
+void rmd_incident_read(const struct rmd_incident_ring *r, int64_t from_ns, int64_t to_ns,
 		       struct rmd_incident_window *w);
 
 #endif /* RMD_INCIDENT_H */

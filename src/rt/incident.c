@@ -89,11 +89,11 @@ static inline void orec_publish(struct orec *o, uint_fast64_t end)
 #define orec_at(o, T, i) ((T *)(void *)(o)->buf + ((i) & (o)->mask))
 
 /*
- * Copy the records of o whose first field (int64_t t_ns) is >= from_ns
- * into out (o->mask + 1 records at most), oldest first; the count.
- * Non-rt.
+ * Copy the records of o whose first field (int64_t t_ns) lies in
+ * [from_ns, to_ns] into out (o->mask + 1 records at most), oldest first;
+ * the count.  Non-rt.
  */
-static size_t orec_read(const struct orec *o, int64_t from_ns, void *out)
+static size_t orec_read(const struct orec *o, int64_t from_ns, int64_t to_ns, void *out)
 {
 	size_t cap = o->mask + 1, n = 0;
 	uint_fast64_t head = atomic_load_explicit(&o->head, memory_order_acquire);
@@ -112,7 +112,7 @@ static size_t orec_read(const struct orec *o, int64_t from_ns, void *out)
 		if (claim > cap && i < claim - cap)
 			continue;
 		memcpy(&t, rec, sizeof(t));
-		if (t < from_ns)
+		if (t < from_ns || t > to_ns)
 			continue;
 		if (dst + n * o->size != rec)
 			memmove(dst + n * o->size, rec, o->size);
@@ -338,7 +338,7 @@ void rmd_incident_window_free(struct rmd_incident_window *w)
 }
 
 /* Non-rt. */
-void rmd_incident_read(const struct rmd_incident_ring *r, int64_t from_ns,
+void rmd_incident_read(const struct rmd_incident_ring *r, int64_t from_ns, int64_t to_ns,
 		       struct rmd_incident_window *w)
 {
 	_Static_assert(offsetof(struct rmd_incident_frame, t_ns) == 0 &&
@@ -347,8 +347,8 @@ void rmd_incident_read(const struct rmd_incident_ring *r, int64_t from_ns,
 			       offsetof(struct rmd_event, t_ns) == 0,
 		       "orec_read() reads each record's time first");
 	for (unsigned b = 0; b < r->n_buses && b < w->n_buses; b++)
-		w->n_frames[b] = orec_read(&r->frames[b], from_ns, w->frames[b]);
-	w->n_states = orec_read(&r->states, from_ns, w->states);
-	w->n_commands = orec_read(&r->commands, from_ns, w->commands);
-	w->n_events = orec_read(&r->events, from_ns, w->events);
+		w->n_frames[b] = orec_read(&r->frames[b], from_ns, to_ns, w->frames[b]);
+	w->n_states = orec_read(&r->states, from_ns, to_ns, w->states);
+	w->n_commands = orec_read(&r->commands, from_ns, to_ns, w->commands);
+	w->n_events = orec_read(&r->events, from_ns, to_ns, w->events);
 }

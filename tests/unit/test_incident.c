@@ -130,7 +130,7 @@ static void test_overwrites_and_reads_from_a_time(void **state)
 		rmd_incident_tx(r, RMD_MAX_BUSES - 1, &f, 1, 1);
 	}
 
-	rmd_incident_read(r, 0, w);
+	rmd_incident_read(r, 0, INT64_MAX, w);
 	assert_int_equal(w->n_frames[0], cap);
 	for (size_t k = 0; k < cap; k++) {
 		uint64_t want = total - cap + k;
@@ -150,10 +150,18 @@ static void test_overwrites_and_reads_from_a_time(void **state)
 	assert_int_equal(w->events[0].a, 12);
 
 	/* from a time on: only the newer records */
-	rmd_incident_read(r, (int64_t)(total - 10) * 1000, w);
+	rmd_incident_read(r, (int64_t)(total - 10) * 1000, INT64_MAX, w);
 	assert_int_equal(w->n_frames[0], 10);
 	assert_int_equal(index_of(&w->frames[0][0].f), total - 10);
 	assert_int_equal(w->n_states, 0);
+	/* up to a time: what the loop wrote after it is the next window's */
+	rmd_incident_read(r, (int64_t)(total - 10) * 1000, (int64_t)(total - 5) * 1000, w);
+	assert_int_equal(w->n_frames[0], 6);
+	assert_int_equal(index_of(&w->frames[0][5].f), total - 5);
+	rmd_incident_read(r, 0, 6, w);
+	assert_int_equal(w->n_states, 3);   /* at 5 */
+	assert_int_equal(w->n_commands, 2); /* at 6 */
+	assert_int_equal(w->n_events, 0);   /* at 7 */
 	rmd_incident_window_free(w);
 	rmd_incident_ring_free(r);
 }
@@ -200,7 +208,7 @@ static void test_batches_read_as_single_records(void **state)
 		else
 			rmd_incident_tx(r, 0, tx, n, (int64_t)(k - n) * 1000);
 	}
-	rmd_incident_read(r, 0, w);
+	rmd_incident_read(r, 0, INT64_MAX, w);
 	assert_int_equal(w->n_frames[0], cap);
 	for (size_t j = 0; j < cap; j++) {
 		const struct rmd_incident_frame *f = &w->frames[0][j];
@@ -256,7 +264,7 @@ static void test_no_torn_record_while_the_loop_writes(void **state)
 	/* until the ring wrapped under the reader 20 times (2 CPUs shared: a deadline, not a count) */
 	for (int64_t end = rmd_now_ns() + 20 * RMD_NS_PER_S;
 	     (reads < 2000 || wrapped < 20) && rmd_now_ns() < end; reads++) {
-		rmd_incident_read(torn_ring, 0, w);
+		rmd_incident_read(torn_ring, 0, INT64_MAX, w);
 		for (size_t k = 0; k < w->n_frames[0]; k++) {
 			const struct rmd_incident_frame *fr = &w->frames[0][k];
 

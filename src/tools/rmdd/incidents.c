@@ -611,7 +611,7 @@ static void record(struct rmdd_incidents *in, const struct rmdd_trigger *trig, u
 	};
 	int r;
 
-	rmd_incident_read(in->ring, o.from_ns, in->win);
+	rmd_incident_read(in->ring, o.from_ns, o.read_ns, in->win);
 	r = mkdir_p(in->dir);
 	if (r == 0)
 		r = make_dir(in->dir, trig[0].t_ns + o.off_ns, trig[0].kind, name, sizeof(name),
