@@ -190,7 +190,7 @@ enum rmd_event_kind {
 	RMD_EV_MOTOR_STATE = 0, /* a = old lifecycle, b = new lifecycle */
 	RMD_EV_MOTOR_ERROR,	/* a = error code */
 	RMD_EV_BUS_STATE,	/* a = enum rmd_bus_state */
-	RMD_EV_OVERRUN,		/* a = cycles skipped */
+	RMD_EV_OVERRUN,		/* a = cycles skipped, b = the most of them at once */
 	RMD_EV_WATCHDOG,	/* a = enum rmd_watchdog_state */
 	RMD_EV_SAFE_ACTION,	/* a = enum rmd_safe_action (rmd/config.h) */
 	RMD_EV_SEND_FAILED,	/* a = -errno, b = frames not sent */

@@ -375,17 +375,19 @@ static void bus_states(struct rmd_loop *l, int64_t now)
 /*
  * Overrun events: the first at once, later ones at most once a second with
  * the ticks skipped since the last event (an overloaded loop would
- * otherwise report every cycle), but a burst of incidents.overrun_burst
- * skipped ticks at once: the incident recorder dates it by its event.
- * rt-safe.
+ * otherwise report every cycle), but a burst -- incidents.overrun_burst
+ * ticks skipped by one late wake-up, not scattered over the second -- at
+ * once: the incident recorder dates it by its event.  rt-safe.
  */
 static void overrun_event(struct rmd_loop *l, int64_t now)
 {
 	if (!l->ov_pending || (l->ov_any && now - l->ov_ev_ns < EVENT_INTERVAL_NS &&
-			       l->ov_pending < l->cfg->incidents.overrun_burst))
+			       l->ov_worst < l->cfg->incidents.overrun_burst))
 		return;
-	loop_event(l, now, RMD_EV_OVERRUN, 0xFF, 0xFF, (int64_t)l->ov_pending, 0);
+	loop_event(l, now, RMD_EV_OVERRUN, 0xFF, 0xFF, (int64_t)l->ov_pending,
+		   (int64_t)l->ov_worst);
 	l->ov_pending = 0;
+	l->ov_worst = 0;
 	l->ov_any = true;
 	l->ov_ev_ns = now;
 }
@@ -397,6 +399,8 @@ void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped)
 		return;
 	l->stats.overruns += (uint64_t)skipped;
 	l->ov_pending += (uint64_t)skipped;
+	if ((uint64_t)skipped > l->ov_worst)
+		l->ov_worst = (uint64_t)skipped;
 	l->next_tick_ns += skipped * l->period_ns;
 	overrun_event(l, now);
 }

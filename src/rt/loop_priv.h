@@ -168,6 +168,7 @@ struct rmd_loop {
 		uint64_t over;			       /* at RMD_LOOP_WAKE_US_BUCKETS us or later */
 	} wake;
 	uint64_t ov_pending; /* ticks skipped, not yet reported */
+	uint64_t ov_worst;   /* the most of them skipped at once */
 	bool ov_any;
 	int64_t ov_ev_ns;
 	uint64_t next_health_cycle;

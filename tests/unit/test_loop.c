@@ -895,6 +895,35 @@ static void test_overrun(void **state)
 	rig_down();
 }
 
+/*
+ * incidents.overrun_burst (10 here) is one late wake-up's skip: twelve
+ * scattered one-tick overruns within a second wait for the once-a-second
+ * report (which says 12, at most 1 at once); one wake-up 10 periods late
+ * is reported at once.
+ */
+static void test_overrun_burst_is_one_skip(void **state)
+{
+	(void)state;
+	rig_up(3, NULL);
+	assert_int_equal(R.io.cfg.incidents.overrun_burst, 10);
+	bring_up();
+	run(1, false);
+	t_now += period(); /* the first overrun: reported at once */
+	run(1, false);
+	assert_int_equal(count_ev(RMD_EV_OVERRUN, -1), 1);
+	for (int k = 0; k < 12; k++) {
+		t_now += period();
+		run(2, false);
+	}
+	assert_int_equal(count_ev(RMD_EV_OVERRUN, -1), 1);
+	t_now += 10 * period();
+	run(1, false);
+	assert_int_equal(count_ev(RMD_EV_OVERRUN, -1), 2);
+	assert_int_equal(evs[nev - 1].a, 12 + 10);
+	assert_int_equal(evs[nev - 1].b, 10);
+	rig_down();
+}
+
 static void v2_batch(struct rmd_config *cfg)
 {
 	for (unsigned i = 0; i < 4; i++) {
@@ -2150,6 +2179,7 @@ int main(void)
 		cmocka_unit_test(test_stop_motors),
 		cmocka_unit_test(test_health_after_stop_counts_the_stops),
 		cmocka_unit_test(test_overrun),
+		cmocka_unit_test(test_overrun_burst_is_one_skip),
 		cmocka_unit_test(test_v2_batch),
 		cmocka_unit_test(test_bus_off),
 		cmocka_unit_test(test_health),

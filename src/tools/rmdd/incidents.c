@@ -235,7 +235,13 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 			 rmd_bus_state_name((enum rmd_bus_state)e->a));
 		break;
 	case RMD_EV_OVERRUN:
-		snprintf(buf, len, "rt loop: overrun, %" PRId64 " period(s) skipped", e->a);
+		if (e->b > 0 && e->b < e->a)
+			snprintf(buf, len,
+				 "rt loop: overrun, %" PRId64 " period(s) skipped, at most %" PRId64
+				 " at once",
+				 e->a, e->b);
+		else
+			snprintf(buf, len, "rt loop: overrun, %" PRId64 " period(s) skipped", e->a);
 		break;
 	case RMD_EV_WATCHDOG:
 		snprintf(buf, len, "host watchdog: %s",
@@ -293,7 +299,7 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 		*kind = "safe";
 		break;
 	case RMD_EV_OVERRUN:
-		if (e->a < (int64_t)cfg->incidents.overrun_burst)
+		if (e->b < (int64_t)cfg->incidents.overrun_burst)
 			return false;
 		*kind = "overrun";
 		break;
