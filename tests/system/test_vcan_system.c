@@ -2997,8 +2997,25 @@ again:
 			      "normal threads by up to %.1f and %.1f ms\n",
 			      took_ms, stall_ms(&S.sl_loop), stall_ms(&S.sl_other));
 	st = kid_wait_exit(ctl, (int)(2 * pace()) * 1000 + TOOL_MS, service);
-	if (st != 0)
-		fail_msg("%s: exit %d; its output:\n%s", who, st, kid_tail(ctl));
+	/*
+	 * The example stops (exit 1) when no state_t came for a second: rmdd
+	 * gone, as it documents.  A guest that held rmdd's loop or the
+	 * controller itself off for that long (less the state_t period) looks
+	 * the same to it: said, and not held against either.
+	 */
+	if (st == 1 && strstr(ctl->out, "no state_t from rmdd for") &&
+	    fmax(stall_ms(&S.sl_loop), stall_ms(&S.sl_other)) + state_ms >= 1000.0) {
+		print_message("busy machine: %s stopped, no state_t for a second, the guest "
+			      "holding the loop's and normal threads off up to %.1f and %.1f ms "
+			      "(state_t period %.0f ms)\n",
+			      who, stall_ms(&S.sl_loop), stall_ms(&S.sl_other), state_ms);
+		st = 0;
+	}
+	if (st != 0) {
+		/* whole: cmocka cuts a long failure message short */
+		print_message("%s: its output:\n%s\n", who, kid_tail(ctl));
+		fail_msg("%s: exit %d (its output above)", who, st);
+	}
 	/* its wait for READY is 500 ms: a guest that delays state_t longer makes it say so */
 	if (strstr(ctl->out, "not ready"))
 		print_message("busy machine: %s did not see READY within its 500 ms "
