@@ -35,13 +35,13 @@ int64_t run_bound_check(struct sleeper *s, const char *what, int64_t took_ns, in
 		      ms_of(design_ns), ms_of(bound_ns));
 	if (took_ns > bound_ns)
 		fail_msg("%s took %.1f ms, more than its bound of %.1f ms: its design bound, a "
-			 "process's start and end (%.1f ms) twice, and %u waits late by %.1f ms",
+			 "trivial run (%.1f ms) twice, and %u waits late by %.1f ms",
 			 what, ms_of(took_ns), ms_of(bound_ns), ms_of(startup_ns), waits,
 			 ms_of(late_ns));
 	if (took_ns > design_ns + startup_ns)
 		print_message("busy machine: %s took %.1f ms, more than its design bound of %.1f "
-			      "ms and a process's start and end (%.1f ms), within what the machine "
-			      "added: that start and end again, and %u waits late by up to %.1f ms "
+			      "ms and a trivial run (%.1f ms), within what the machine added: that "
+			      "trivial run again, and %u waits late by up to %.1f ms "
 			      "in all (a normal-priority thread was held off %.1f ms at worst, "
 			      "%.1f ms in all, plus a period each)\n",
 			      what, ms_of(took_ns), ms_of(design_ns), ms_of(startup_ns), waits,
