@@ -315,14 +315,35 @@ static void test_open_spec(void **state)
 
 /* ---- transactions over the sim bus ------------------------------------------------------ */
 
+/* The batch of test_txn_sim(), one silent of four: a run_bound_fn. */
+struct txn_batch {
+	struct rmd_bus *bus;
+	struct rmd_txn *t;
+	struct rmd_txn_opts o;
+	int done; /* rmd_txn_run()'s result */
+	int64_t took_ns;
+};
+
+static int64_t txn_batch_run(void *ctx, int64_t *startup_ns, int64_t *design_ns)
+{
+	struct txn_batch *b = ctx;
+	int64_t start = rmd_now_ns();
+
+	b->done = rmd_txn_run(b->bus, b->t, 4, &b->o);
+	b->took_ns = rmd_now_ns() - start;
+	*startup_ns = 0; /* no process to start */
+	(void)design_ns;
+	return b->took_ns;
+}
+
 static void test_txn_sim(void **state)
 {
-	struct rmd_txn_opts o = { .timeout_ns = 5 * MS, .tries = 3 };
 	const uint8_t ids[] = { 1, 2, 3 };
 	struct rmd_msg m9a = { .cmd = 0x9A }, mb5 = { .cmd = 0xB5 };
 	struct rmd_txn t[4];
 	struct rmd_bus bus;
-	int64_t start, took;
+	struct txn_batch b = { .bus = &bus, .t = t, .o = { .timeout_ns = 5 * MS, .tries = 3 } };
+	int64_t took;
 
 	(void)state;
 	open_sim(&bus, ids, 3, RMD_PROTO_V3);
@@ -332,10 +353,16 @@ static void test_txn_sim(void **state)
 	assert_int_equal(rmd_txn_prepare(&t[3], RMD_PROTO_V3, 2, &m9a), 0);
 	assert_int_equal(t[0].reply_id, RMD_CAN_V3_REPLY_BASE + 3);
 	assert_int_equal(t[0].reply_cmd, 0x9A);
-	sleeper_mark(&ref);
-	start = rmd_now_ns();
-	assert_int_equal(rmd_txn_run(&bus, t, 4, &o), 3);
-	took = rmd_now_ns() - start;
+	/*
+	 * A silent motor costs about tries * timeout, never a hang: at most
+	 * the batch's design bound plus what the machine held this thread off
+	 * at the start of each try (one wait a try).
+	 */
+	run_bound_judge(&ref, "rmd_txn_run, one of 4 silent", txn_batch_run, &b,
+			txn_silent_ns(4, b.o.timeout_ns, b.o.tries, RMD_TXN_CAN_SPACING_NS),
+			b.o.tries);
+	took = b.took_ns;
+	assert_int_equal(b.done, 3);
 	assert_true(t[0].done && t[2].done && t[3].done);
 	assert_false(t[1].done);
 	assert_int_equal(t[0].tries, 1);
@@ -345,24 +372,16 @@ static void test_txn_sim(void **state)
 	assert_int_equal(t[2].rep.f.can_id, RMD_CAN_V3_REPLY_BASE + 1);
 	assert_int_equal(t[2].rep.f.data[0], 0xB5);
 	assert_int_equal(t[3].rep.f.can_id, RMD_CAN_V3_REPLY_BASE + 2);
-	/*
-	 * A silent motor costs about tries * timeout, never a hang: at least
-	 * each try's timeout, at most the batch's design bound plus what the
-	 * machine held this thread off at the start of each try (one wait a
-	 * try; no process to start).
-	 */
+	/* ... and at least each try's timeout. */
 	if (took < 15 * MS)
 		fail_msg("took %.1f ms, less than 3 tries of 5 ms", (double)took / MS);
-	run_bound_check(&ref, "rmd_txn_run, one of 4 silent", took,
-			txn_silent_ns(4, o.timeout_ns, o.tries, RMD_TXN_CAN_SPACING_NS), 0,
-			o.tries);
 	/* A reset answers nothing: done once sent. */
 	{
 		struct rmd_msg m76 = { .cmd = 0x76 };
 
 		assert_int_equal(rmd_txn_prepare(&t[0], RMD_PROTO_V3, 1, &m76), 0);
 		assert_true(t[0].no_reply);
-		assert_int_equal(rmd_txn_run(&bus, t, 1, &o), 1);
+		assert_int_equal(rmd_txn_run(&bus, t, 1, &b.o), 1);
 	}
 	rmd_bus_close(&bus);
 }
@@ -429,25 +448,42 @@ static int64_t trivial_took_ns(void)
 	return took;
 }
 
+/* One timed rmdctl run: a run_bound_fn. */
+struct timed {
+	struct run *r;
+	const char *const *args;
+};
+
+/* Run t's args, as run_argv(), beside a trivial run before and one after (the longer). */
+static int64_t timed_run(void *ctx, int64_t *startup_ns, int64_t *design_ns)
+{
+	struct timed *t = ctx;
+	int64_t after_ns;
+
+	(void)design_ns;
+	*startup_ns = trivial_took_ns();
+	run_free(t->r);
+	run_argv(t->r, t->args);
+	after_ns = trivial_took_ns();
+	if (after_ns > *startup_ns)
+		*startup_ns = after_ns;
+	return t->r->took_ns;
+}
+
 /*
  * Run rmdctl with args, as run_argv(), and fail unless it ended within its
- * bound (harness/run_bound.h): design_ns, what it takes on an idle machine
- * (and the test's look for its exit), plus what the machine measurably
- * added -- a trivial run's took (the longer of one before and one after)
- * and, for its `waits` waits in sequence, the reference sleeper's delays
- * during the run.
+ * bound (harness/run_bound.h: run_bound_judge()): design_ns, what it takes
+ * on an idle machine (and the test's look for its exit), plus what the
+ * machine measurably added -- a trivial run's took and, for its `waits`
+ * waits in sequence, the reference sleeper's delays during the run.
  */
 static void run_timed(struct run *r, const char *what, const char *const *args, int64_t design_ns,
 		      unsigned waits)
 {
-	int64_t startup_ns = trivial_took_ns(), after_ns;
+	struct timed t = { .r = r, .args = args };
 
-	sleeper_mark(&ref);
-	run_argv(r, args);
-	after_ns = trivial_took_ns();
-	if (after_ns > startup_ns)
-		startup_ns = after_ns;
-	run_bound_check(&ref, what, r->took_ns, design_ns + EXIT_POLL_MS * MS, startup_ns, waits);
+	*r = (struct run){ 0 };
+	run_bound_judge(&ref, what, timed_run, &t, design_ns + EXIT_POLL_MS * MS, waits);
 }
 
 /* A table of rmdctl runs, each run as run_argv() runs one. */

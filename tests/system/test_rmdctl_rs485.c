@@ -517,22 +517,35 @@ static int64_t trivial_took_ns(struct rig *g)
 }
 
 /*
- * Fail unless the run r, which g's reference sleeper's window (marked by
- * run_argv() at its start) covers, ended within its bound (harness/run_bound.h):
- * design_ns, what it takes on an idle machine (and the test's look for its
- * exit), plus what the machine measurably added -- a trivial run's took
- * (the longer of startup_ns, one measured before, and one now) and, for
- * its `waits` waits in sequence, the sleeper's delays.  The bound.
+ * One timed rmdctl run (a run_bound_fn): args, whose design bound is that
+ * of batches of batch[] requests nobody answers (0: no batch), one after the other, each
+ * `tries` tries of timeout_ns (0: the pace of runs that must succeed,
+ * ok_timeout_ms, as run_argv() left it).
  */
-static int64_t check_bound(struct rig *g, const struct run *r, const char *what, int64_t startup_ns,
-			   int64_t design_ns, unsigned waits)
-{
-	int64_t after_ns = trivial_took_ns(g);
+struct timed {
+	struct rig *g;
+	const char *const *args;
+	unsigned batch[2];
+	int64_t timeout_ns;
+	unsigned tries;
+};
 
-	if (after_ns > startup_ns)
-		startup_ns = after_ns;
-	return run_bound_check(&g->ref, what, r->took_ns, design_ns + EXIT_POLL_MS * MS, startup_ns,
-			       waits);
+/* Run t's args beside a trivial run before and one after (the longer); the design of its pace. */
+static int64_t timed_run(void *ctx, int64_t *startup_ns, int64_t *design_ns)
+{
+	struct timed *t = ctx;
+	int64_t after_ns;
+
+	*startup_ns = trivial_took_ns(t->g);
+	run_argv(t->g, &t->g->run, t->args);
+	after_ns = trivial_took_ns(t->g);
+	if (after_ns > *startup_ns)
+		*startup_ns = after_ns;
+	*design_ns = EXIT_POLL_MS * MS; /* the test's look for its exit */
+	for (unsigned i = 0; i < 2 && t->batch[i]; i++)
+		*design_ns += silent_ns(
+			t->batch[i], t->timeout_ns ? t->timeout_ns : ok_timeout_ms * MS, t->tries);
+	return t->g->run.took_ns;
 }
 
 /* ---- setup ------------------------------------------------------------------------------ */
@@ -668,15 +681,9 @@ static int group_teardown(void **state)
 static void test_scan(void **state)
 {
 	struct rig *g = *state;
-	int64_t startup_ns;
 	struct run *r = &g->run;
-	char want[256];
-	unsigned seen = 0, lines = 0;
-
-	need_sim(g);
-	startup_ns = trivial_took_ns(g);
-	RUN(g, r, "scan", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout", OK_TIMEOUT_ARG,
-	    "--json");
+	const char *const args[] = { "scan",	  "--bus",	  g->b.path, "--baud", BAUD_ARG,
+				     "--timeout", OK_TIMEOUT_ARG, "--json",  NULL };
 	/*
 	 * 32 probes, then 0xB5 and 0xB2 of the three that answered, at the
 	 * timeout the run used (raised on a busy machine).  Half duplex: each
@@ -684,10 +691,15 @@ static void test_scan(void **state)
 	 * before it -- a wait each, in sequence; one more for the test to see
 	 * rmdctl's end.
 	 */
-	check_bound(g, r, "scan --json", startup_ns,
-		    silent_ns(RMD_MAX_MOTORS, ok_timeout_ms * MS, RMD_TXN_TRIES) +
-			    silent_ns(6, ok_timeout_ms * MS, RMD_TXN_TRIES),
-		    (RMD_MAX_MOTORS + 6) * RMD_TXN_TRIES + 1);
+	struct timed t = {
+		.g = g, .args = args, .batch = { RMD_MAX_MOTORS, 6 }, .tries = RMD_TXN_TRIES
+	};
+	char want[256];
+	unsigned seen = 0, lines = 0;
+
+	need_sim(g);
+	run_bound_judge(&g->ref, "scan --json", timed_run, &t, 0,
+			(RMD_MAX_MOTORS + 6) * RMD_TXN_TRIES + 1);
 	assert_status(r, 0, "scan --json");
 	/* issue 4: "on a pseudo-terminal those settings are skipped with a notice" */
 	assert_has(r, r->err, "pseudo-terminal", "scan --json stderr");
@@ -784,21 +796,19 @@ static void test_move_then_status(void **state)
 /* A silent id: exit 1 with bus, motor, command, timeout and tries named, within the bound. */
 static void check_silent(struct rig *g, const char *const *args, int64_t timeout_ns, unsigned tries)
 {
-	int64_t least = (int64_t)tries * timeout_ns, bound, startup_ns;
+	int64_t least = (int64_t)tries * timeout_ns, bound;
 	struct run *r = &g->run;
+	/* status asks 3 things of the motor in one batch (0x9A, 0x92, 0x9C) */
+	struct timed t = {
+		.g = g, .args = args, .batch = { 3, 0 }, .timeout_ns = timeout_ns, .tries = tries
+	};
 	char want[256], what[64];
 
 	need_sim(g);
-	startup_ns = trivial_took_ns(g);
-	run_argv(g, r, args);
 	snprintf(what, sizeof(what), "status 9 (%lld ms x %u)", (long long)(timeout_ns / MS),
 		 tries);
-	/*
-	 * status asks 3 things of the motor in one batch (0x9A, 0x92, 0x9C):
-	 * each request of each try a wait in sequence (half duplex), one more
-	 * for the test to see rmdctl's end.
-	 */
-	bound = check_bound(g, r, what, startup_ns, silent_ns(3, timeout_ns, tries), 3 * tries + 1);
+	/* each request of each try a wait in sequence (half duplex), one more to see its end */
+	bound = run_bound_judge(&g->ref, what, timed_run, &t, 0, 3 * tries + 1);
 	assert_status(r, 1, "status 9");
 	snprintf(want, sizeof(want), "%s: motor 9 did not answer 0x9A within %lld ms (%u %s)",
 		 g->b.path, (long long)(timeout_ns / MS), tries, tries == 1 ? "try" : "tries");
