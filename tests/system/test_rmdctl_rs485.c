@@ -26,18 +26,27 @@
  * 15 ms stall is not what these tests are about.  The silent-motor test
  * keeps the default, where the bound is the point.
  *
- * On a busy machine (issue 10) three normal-priority processes and the
- * relay can still lose the CPU for longer than that: a run given
- * OK_TIMEOUT_ARG that reports a motor that "did not answer" is run again
- * at a slower pace, its timeout x OK_SLOWER (at most OK_RETRIES times), and
- * says so; every check then holds against the timeout the run used
- * (ok_timeout_ms), which stays raised for the rest of the suite.
+ * On a busy machine (issue 10) three normal-priority processes, the
+ * relay and the pseudo-terminals' kernel work can still lose the CPU for
+ * longer than that: a run given OK_TIMEOUT_ARG that reports a motor that
+ * "did not answer" is run again at a slower pace, its timeout x OK_SLOWER,
+ * up to OK_MAX_MS, and says so, with the delays the reference sleeper saw;
+ * every check then holds against the timeout the run used (ok_timeout_ms),
+ * which stays raised for the rest of the suite.  A motor that never
+ * answers fails at every pace.  (The sleeper cannot gate the retry: under
+ * a CPU hog answers went missing for 90 ms while it, rmd-sim and the relay
+ * waited for a CPU no more than 15 ms in all.)
  */
 #define OK_TIMEOUT_MS 20
 #define OK_TIMEOUT_ARG "@ok" /* run_argv() puts ok_timeout_ms in its place */
-#define OK_SLOWER 5
-#define OK_RETRIES 1
-#define OK_MAX_MS 500 /* never slower: a scan's 29 silent ids x 3 tries must fit RUN_LIMIT_MS */
+#define OK_SLOWER 2
+/*
+ * Never slower: below the 300 ms comm-loss time test_dump_restore writes
+ * to motor 2 (harness/settings_trip.c), or a try left waiting on motor 1
+ * lets motor 2 trip mid-run, which is not what these tests are about.
+ * 160 ms: a scan's 29 silent ids x 3 tries fit RUN_LIMIT_MS many times.
+ */
+#define OK_MAX_MS 160
 #define _GNU_SOURCE
 
 #include <errno.h>
@@ -72,7 +81,9 @@
 #include "rmd/txn.h"
 
 #include "harness/json.h"
+#include "harness/run_bound.h"
 #include "harness/settings_trip.h"
+#include "harness/sleeper.h"
 
 #define MS 1000000LL
 #define BAUD 1000000
@@ -80,8 +91,8 @@
 #define READY_MS 15000	   /* rmd-sim's start, under ASan inside a VM */
 #define RUN_LIMIT_MS 20000 /* any rmdctl run; beyond it: killed, a hang */
 #define EXIT_MS 5000	   /* SIGTERM to exit */
-/* Process start, bus open and exit around the transactions, under ASan on a busy host. */
-#define MARGIN_MS 1000
+#define REF_PERIOD_MS 1	   /* the reference sleeper's period */
+#define EXIT_POLL_MS 5	   /* run_once() looks for rmdctl's exit this often */
 #define RELAY_BUF 4096
 #define LOG_MAX (1 << 16)
 
@@ -120,7 +131,15 @@ struct rig {
 	int sim_log_fd;
 	char sim_log[LOG_MAX];
 	size_t sim_logn;
-	struct run run; /* the last rmdctl run (too big for the stack of a test) */
+	struct run run;	    /* the last rmdctl run (too big for the stack of a test) */
+	struct run trivial; /* a trivial one beside it: what a run costs besides its waits */
+	/*
+	 * A reference sleeper at normal priority, as rmdctl, rmd-sim and the
+	 * relay run (issue 10): the time bounds grow by the delay the machine
+	 * imposed on it during the run they judge (harness/run_bound.h),
+	 * never by a fixed margin.
+	 */
+	struct sleeper ref;
 };
 
 static int ms_left(int64_t deadline_ns)
@@ -382,7 +401,7 @@ static void run_once(struct rig *g, struct run *r, const char *const *args)
 	}
 	close(out[0]);
 	close(err[0]);
-	/* Both pipes closed: it has exited, or is about to; look every 5 ms. */
+	/* Both pipes closed: it has exited, or is about to; look every EXIT_POLL_MS. */
 	while (!out_open && !err_open && ms_left(deadline)) {
 		pid_t w = waitpid(pid, &st, WNOHANG);
 
@@ -391,7 +410,7 @@ static void run_once(struct rig *g, struct run *r, const char *const *args)
 			exited = true;
 			break;
 		}
-		poll(NULL, 0, 5);
+		poll(NULL, 0, EXIT_POLL_MS);
 	}
 	r->took_ns = rmd_now_ns() - start;
 	if (!exited) {
@@ -403,10 +422,16 @@ static void run_once(struct rig *g, struct run *r, const char *const *args)
 	r->status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
 }
 
+static double ms_of(int64_t ns)
+{
+	return (double)ns / 1e6;
+}
+
 /*
- * Run rmdctl with args; "--timeout" OK_TIMEOUT_ARG becomes ok_timeout_ms,
- * and such a run in which a motor did not answer is run again at a slower
- * pace (see OK_SLOWER), said on the output.
+ * Run rmdctl with args (the reference sleeper marked at each run's start);
+ * "--timeout" OK_TIMEOUT_ARG becomes ok_timeout_ms, and such a run in which
+ * a motor did not answer is run again at a slower pace (see OK_SLOWER),
+ * said on the output.
  */
 static void run_argv(struct rig *g, struct run *r, const char *const *args)
 {
@@ -421,20 +446,23 @@ static void run_argv(struct rig *g, struct run *r, const char *const *args)
 			ok_at = (int)n;
 	}
 	argv[n] = NULL;
-	for (unsigned k = 0;; k++) {
+	for (;;) {
 		if (ok_at >= 0) {
 			snprintf(tmo, sizeof(tmo), "%u", ok_timeout_ms);
 			argv[ok_at] = tmo;
 		}
+		sleeper_mark(&g->ref);
 		run_once(g, r, argv);
-		if (ok_at < 0 || k == OK_RETRIES || ok_timeout_ms * OK_SLOWER > OK_MAX_MS ||
+		if (ok_at < 0 || ok_timeout_ms * OK_SLOWER > OK_MAX_MS ||
 		    !strstr(r->err, " did not answer "))
 			return;
 		print_message(
 			"busy machine: rmdctl %s with --timeout %u: a motor did not answer "
 			"in time (%.200s); the answer was slower than the machine let rmd-sim, "
-			"the relay and rmdctl run: again at a slower pace, --timeout %u\n",
-			argv[0], ok_timeout_ms, r->err, ok_timeout_ms * OK_SLOWER);
+			"the relay and rmdctl run (a normal-priority thread was held off %.1f ms "
+			"at worst, %.1f ms in all): again at a slower pace, --timeout %u\n",
+			argv[0], ok_timeout_ms, r->err, ms_of(sleeper_worst_ns(&g->ref)),
+			ms_of(sleeper_held_off_ns(&g->ref)), ok_timeout_ms * OK_SLOWER);
 		ok_timeout_ms *= OK_SLOWER;
 	}
 }
@@ -462,23 +490,62 @@ static void assert_sim_log(const struct rig *g, const char *needle, const char *
 		fail_msg("%s: \"%s\" missing from rmd-sim's log:\n%s", what, needle, g->sim_log);
 }
 
-static double ms_of(int64_t ns)
-{
-	return (double)ns / 1e6;
-}
-
 /*
  * Longest a batch of n requests may keep rmd_txn_run() busy on this line
- * when nobody answers (rmd/txn.h): tries * (timeout + n * spacing), where
- * the spacing of half-duplex RS485 is the transport's default reply timeout
- * (rmd/bus_rs485.h: RMD_RS485_TURNAROUND_NS + a request's and a reply's
- * wire time).
+ * when nobody answers (txn_silent_ns()), where the spacing of half-duplex
+ * RS485 is the transport's default reply timeout (rmd/bus_rs485.h:
+ * RMD_RS485_TURNAROUND_NS + a request's and a reply's wire time).
  */
 static int64_t silent_ns(unsigned n, int64_t timeout_ns, unsigned tries)
 {
-	int64_t spacing_ns = RMD_RS485_TURNAROUND_NS + 2 * rmd_rs485_frame_ns(BAUD);
+	return txn_silent_ns(n, timeout_ns, tries,
+			     RMD_RS485_TURNAROUND_NS + 2 * rmd_rs485_frame_ns(BAUD));
+}
 
-	return (int64_t)tries * (timeout_ns + (int64_t)n * spacing_ns);
+/*
+ * The took of a trivial rmdctl run on this machine now: a process's start
+ * and end, the line opened and closed, one silent try of 1 ms.
+ */
+static int64_t trivial_took_ns(struct rig *g)
+{
+	const char *const args[] = { "status",	  "9", "--bus",	  g->b.path, "--baud", BAUD_ARG,
+				     "--timeout", "1", "--tries", "1",	     NULL };
+
+	run_once(g, &g->trivial, args);
+	assert_status(&g->trivial, 1, "a trivial status 9");
+	return g->trivial.took_ns;
+}
+
+/*
+ * One timed rmdctl run (a run_bound_fn): args, whose design bound is that
+ * of batches of batch[] requests nobody answers (0: no batch), one after the other, each
+ * `tries` tries of timeout_ns (0: the pace of runs that must succeed,
+ * ok_timeout_ms, as run_argv() left it).
+ */
+struct timed {
+	struct rig *g;
+	const char *const *args;
+	unsigned batch[2];
+	int64_t timeout_ns;
+	unsigned tries;
+};
+
+/* Run t's args beside a trivial run before and one after (the longer); the design of its pace. */
+static int64_t timed_run(void *ctx, int64_t *startup_ns, int64_t *design_ns)
+{
+	struct timed *t = ctx;
+	int64_t after_ns;
+
+	*startup_ns = trivial_took_ns(t->g);
+	run_argv(t->g, &t->g->run, t->args);
+	after_ns = trivial_took_ns(t->g);
+	if (after_ns > *startup_ns)
+		*startup_ns = after_ns;
+	*design_ns = EXIT_POLL_MS * MS; /* the test's look for its exit */
+	for (unsigned i = 0; i < 2 && t->batch[i]; i++)
+		*design_ns += silent_ns(
+			t->batch[i], t->timeout_ns ? t->timeout_ns : ok_timeout_ms * MS, t->tries);
+	return t->g->run.took_ns;
 }
 
 /* ---- setup ------------------------------------------------------------------------------ */
@@ -506,6 +573,12 @@ static int group_setup(void **state)
 		return -1;
 	*state = g;
 	g->a.master = g->a.hold = g->b.master = g->b.hold = -1;
+	if (sleeper_start(&g->ref, REF_PERIOD_MS * MS, 0) < 0) {
+		print_error("cannot start the reference sleeper\n");
+		free(g);
+		*state = NULL;
+		return -1;
+	}
 	g->stop = g->sim_log_fd = -1;
 	atomic_init(&g->a2b.bytes, 0);
 	atomic_init(&g->b2a.bytes, 0);
@@ -580,6 +653,7 @@ static int group_teardown(void **state)
 
 	if (!g)
 		return 0;
+	sleeper_stop(&g->ref);
 	if (g->sim > 0) {
 		kill(g->sim, SIGKILL);
 		waitpid(g->sim, NULL, 0);
@@ -607,18 +681,25 @@ static int group_teardown(void **state)
 static void test_scan(void **state)
 {
 	struct rig *g = *state;
-	/* 32 probes, then 0xB5 and 0xB2 of the three that answered. */
-	int64_t bound;
 	struct run *r = &g->run;
+	const char *const args[] = { "scan",	  "--bus",	  g->b.path, "--baud", BAUD_ARG,
+				     "--timeout", OK_TIMEOUT_ARG, "--json",  NULL };
+	/*
+	 * 32 probes, then 0xB5 and 0xB2 of the three that answered, at the
+	 * timeout the run used (raised on a busy machine).  Half duplex: each
+	 * request of each try goes out only when rmdctl wakes after the one
+	 * before it -- a wait each, in sequence; one more for the test to see
+	 * rmdctl's end.
+	 */
+	struct timed t = {
+		.g = g, .args = args, .batch = { RMD_MAX_MOTORS, 6 }, .tries = RMD_TXN_TRIES
+	};
 	char want[256];
 	unsigned seen = 0, lines = 0;
 
 	need_sim(g);
-	RUN(g, r, "scan", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout", OK_TIMEOUT_ARG,
-	    "--json");
-	/* the bound of the timeout the run used (raised on a busy machine) */
-	bound = silent_ns(RMD_MAX_MOTORS, ok_timeout_ms * MS, RMD_TXN_TRIES) +
-		silent_ns(6, ok_timeout_ms * MS, RMD_TXN_TRIES) + MARGIN_MS * MS;
+	run_bound_judge(&g->ref, "scan --json", timed_run, &t, 0,
+			(RMD_MAX_MOTORS + 6) * RMD_TXN_TRIES + 1);
 	assert_status(r, 0, "scan --json");
 	/* issue 4: "on a pseudo-terminal those settings are skipped with a notice" */
 	assert_has(r, r->err, "pseudo-terminal", "scan --json stderr");
@@ -646,9 +727,6 @@ static void test_scan(void **state)
 	}
 	assert_int_equal(lines, 3);
 	assert_int_equal(seen, 0xE);
-	print_message("scan --json: %.0f ms (bound %.0f ms)\n", ms_of(r->took_ns), ms_of(bound));
-	if (r->took_ns > bound)
-		fail_msg("scan took %.0f ms, more than %.0f", ms_of(r->took_ns), ms_of(bound));
 
 	/* The table a person reads. */
 	RUN(g, r, "scan", "--bus", g->b.path, "--baud", BAUD_ARG, "--timeout", OK_TIMEOUT_ARG);
@@ -718,24 +796,26 @@ static void test_move_then_status(void **state)
 /* A silent id: exit 1 with bus, motor, command, timeout and tries named, within the bound. */
 static void check_silent(struct rig *g, const char *const *args, int64_t timeout_ns, unsigned tries)
 {
-	/* status asks 3 things of the motor in one batch (0x9A, 0x92, 0x9C). */
-	int64_t least = (int64_t)tries * timeout_ns;
-	int64_t bound = silent_ns(3, timeout_ns, tries) + MARGIN_MS * MS;
+	int64_t least = (int64_t)tries * timeout_ns, bound;
 	struct run *r = &g->run;
-	char want[256];
+	/* status asks 3 things of the motor in one batch (0x9A, 0x92, 0x9C) */
+	struct timed t = {
+		.g = g, .args = args, .batch = { 3, 0 }, .timeout_ns = timeout_ns, .tries = tries
+	};
+	char want[256], what[64];
 
 	need_sim(g);
-	run_argv(g, r, args);
+	snprintf(what, sizeof(what), "status 9 (%lld ms x %u)", (long long)(timeout_ns / MS),
+		 tries);
+	/* each request of each try a wait in sequence (half duplex), one more to see its end */
+	bound = run_bound_judge(&g->ref, what, timed_run, &t, 0, 3 * tries + 1);
 	assert_status(r, 1, "status 9");
 	snprintf(want, sizeof(want), "%s: motor 9 did not answer 0x9A within %lld ms (%u %s)",
 		 g->b.path, (long long)(timeout_ns / MS), tries, tries == 1 ? "try" : "tries");
 	assert_has(r, r->err, want, "status 9");
 	assert_string_equal(r->out, "");
-	print_message("status 9 (%lld ms x %u): %.0f ms (at least %.0f, bound %.0f)\n",
-		      (long long)(timeout_ns / MS), tries, ms_of(r->took_ns), ms_of(least),
-		      ms_of(bound));
-	/* It waited for the answer each try, and not longer than the batch can take. */
-	if (r->took_ns < least || r->took_ns > bound)
+	/* It waited for the answer each try (and, above, not longer than the batch can take). */
+	if (r->took_ns < least)
 		fail_msg("status 9 took %.0f ms, expected %.0f..%.0f", ms_of(r->took_ns),
 			 ms_of(least), ms_of(bound));
 }
