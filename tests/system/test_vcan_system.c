@@ -2715,15 +2715,26 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 			n_own += v3_angle(f) == owner;
 			n_other += v3_angle(f) == other;
 		}
-		if (!n_own && !n_other && pace() * 2 <= MAX_PACE &&
-		    (stall_ms(&S.sl_loop) >= period_ms || stall_ms(&S.sl_sim) >= period_ms)) {
+		/*
+		 * No setpoint at all: the guest stalled the loop or rmd-sim a
+		 * period or more, or held a controller off past the command
+		 * timeout (the watchdog's safe action: nothing to send) or
+		 * the loop past the comm-loss time (disable_explained()).
+		 */
+		if (!n_own && !n_other &&
+		    (stall_ms(&S.sl_loop) >= period_ms || stall_ms(&S.sl_sim) >= period_ms ||
+		     disable_explained())) {
 			print_message(
 				"busy machine: %s got no setpoint %s (%s), the guest stalling "
-				"the loop and rmd-sim by %.1f and %.1f ms.  Again at %u times "
-				"the file's times; rmdd:\n%s\n",
+				"the loop, rmd-sim and the controllers by %.1f, %.1f and %.1f "
+				"ms%s; rmdd:\n%s\n",
 				S.cfg.motors[i].name, when, lc_list(), stall_ms(&S.sl_loop),
-				stall_ms(&S.sl_sim), pace() * 2, kid_tail(S.rmdd_kid));
-			return false;
+				stall_ms(&S.sl_sim), stall_ms(&S.sl_other),
+				pace() * 2 <= MAX_PACE ? ".  Again at a slower pace" :
+							 ": not judged",
+				kid_tail(S.rmdd_kid));
+			*n = 0;
+			return pace() * 2 > MAX_PACE;
 		}
 		/*
 		 * An owner silent for command_timeout_ms loses the motors
