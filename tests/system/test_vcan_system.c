@@ -371,9 +371,11 @@ static double stall_rt_ms(void)
  * Why ENABLED motors may leave that state, since the sleepers' mark,
  * without rmdd being wrong (issue 10): the guest held rmdd's loop or
  * rmd-sim off for about the motors' comm-loss time (the motors' own 0xB3
- * protection trips: the gap a motor hears is a period plus the stall), or
- * held the controller, this test at normal priority, off for the command
- * timeout (rmdd's watchdog trips rightly).  NULL when the sleepers saw
+ * protection trips: the gap a motor hears is a period plus the stall),
+ * held rmd-sim off while the loop ran for missed_replies_lost periods
+ * (rmdd takes its motors as lost, rightly), or held the controller, this
+ * test at normal priority, off for the command timeout (rmdd's watchdog
+ * trips rightly).  NULL when the sleepers saw
  * neither, else the reason, for a "busy machine:" line.
  */
 static const char *disable_explained(void)
@@ -386,6 +388,13 @@ static const char *disable_explained(void)
 			 "the guest held the loop's or rmd-sim's priority off %.1f ms (comm-loss "
 			 "%u ms, period %.1f ms)",
 			 stall_rt_ms(), S.cfg.safety.comm_loss_ms, period_ms);
+		return why;
+	}
+	if (stall_ms(&S.sl_sim) + period_ms >= S.cfg.safety.missed_replies_lost * period_ms) {
+		snprintf(why, sizeof(why),
+			 "the guest held rmd-sim's priority off %.1f ms (%u missed replies in a "
+			 "row make a motor lost, period %.1f ms)",
+			 stall_ms(&S.sl_sim), S.cfg.safety.missed_replies_lost, period_ms);
 		return why;
 	}
 	if (stall_ms(&S.sl_other) + CTL_PERIOD_MS >= S.cfg.safety.command_timeout_ms) {
