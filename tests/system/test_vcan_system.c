@@ -2860,15 +2860,33 @@ static void test_system_two_controllers(void **state)
 		      ms_of(t1 - t0));
 
 	/* B takes over, as a supervisor does: logged, and B's setpoints alone from then on */
+	sleepers_mark();
 	S.intruder_takeover = true;
 	kid_wait_output(S.rmdd_kid,
 			"rmdd: RMD_COMMAND: controller 0000000000000b0b takes the motors over "
 			"from controller 0000000000000a0a",
 			TOOL_MS, service);
-	if (!wait_health(owned_by_b, 2000 * (int)pace()))
+	if (!wait_health(owned_by_b, 2000 * (int)pace())) {
+		/*
+		 * Both controllers are this test's thread: held off past the
+		 * command timeout, B's ownership lapses and A, publishing
+		 * first after the stall, owns the motors again (docs/lcm.md).
+		 */
+		if (S.h.owned && S.h.owner == OWNER_A && S.h.takeovers == 1 &&
+		    stall_ms(&S.sl_other) + CTL_PERIOD_MS >= S.cfg.safety.command_timeout_ms) {
+			print_message("busy machine: after the takeover controller a0a owns the "
+				      "motors again, the guest holding the controllers off %.1f ms "
+				      "(command timeout %u ms: ownership lapses, as documented): "
+				      "not judged\n",
+				      stall_ms(&S.sl_other), S.cfg.safety.command_timeout_ms);
+			rmdd_stop();
+			S.ctl_id = 0;
+			return;
+		}
 		fail_msg("health_t after the takeover: owned %d owner %" PRIx64
 			 " takeovers %" PRId64,
 			 S.h.owned, S.h.owner, S.h.takeovers);
+	}
 	/* (a busy guest that drops the motors now has said so: health_t and the log stand) */
 	if (owner_alone(ang_b, ang_a, "after the takeover", &t0, &t1, &n_b))
 		print_message("two controllers: after the takeover the supervisor's setpoints "
