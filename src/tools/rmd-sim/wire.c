@@ -145,6 +145,7 @@ struct sim {
 	int status;	 /* exit status once stopping */
 	const char *why; /* why we stop */
 	bool stop;
+	bool gone; /* the line hung up, or the interface was removed */
 };
 
 /* ---- the queue of due frames ----------------------------------------------------------- */
@@ -461,6 +462,7 @@ static void check_interface(struct sim *s)
 	if (ioctl(s->fd, SIOCGIFFLAGS, &ifr) < 0) {
 		if (errno == ENODEV) {
 			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
+			s->gone = true;
 			stop(s, SIM_EXIT_RUN, "the interface was removed");
 		}
 		return;
@@ -609,6 +611,7 @@ static bool read_error(struct sim *s, int n)
 		/* EIO, or end of file with a hang-up: the other side closed the line. */
 		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
 			 n < 0 ? strerror(-n) : "end of file");
+		s->gone = true;
 		stop(s, SIM_EXIT_RUN, "hang-up");
 		return false;
 	}
@@ -620,6 +623,7 @@ static bool read_error(struct sim *s, int n)
 	}
 	if (n == -ENODEV) {
 		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
+		s->gone = true;
 		stop(s, SIM_EXIT_RUN, "the interface was removed");
 		return false;
 	}
@@ -758,7 +762,11 @@ static void finish(struct sim *s)
 	bool held = false; /* serial: reply bytes the tty has not taken */
 	unsigned n;
 
+	if (s->gone) /* in the same wake-up as the signal: nothing to read or write */
+		return;
 	wire_read(s, false);
+	if (s->gone)
+		return;
 	for (;;) {
 		int64_t now = rmd_now_ns(), next = end, due;
 		struct pollfd p = { .fd = s->fd, .events = 0 };
