@@ -697,6 +697,89 @@ static void test_sigterm(void **state)
 	assert_non_null(strstr(c->log, "<6>"));
 }
 
+/*
+ * A machine busy enough to hold rmd-sim off (issue 10): SIGSTOP stands in for the stall.
+ * Requests written meanwhile in one write are all answered once it runs again; and so
+ * are those that reached it before a SIGTERM it sees in the same wake-up: it answers,
+ * then exits, and its summary counts them answered and out.  (It used to exit with them
+ * answered but their replies still waiting their turnaround: "answered 6, out 0".)
+ */
+static void test_stall_then_burst(void **state)
+{
+	static const char *const args[] = { "--motors", "1-3", NULL };
+	static const uint8_t cmds[] = { 0x9A, 0xB5 };
+	struct child *c = *state;
+	uint8_t burst[3 * sizeof(cmds) * RMD_RS485_FRAME_LEN];
+	size_t n = 0;
+	int st;
+
+	start_serial(c, args);
+	for (uint8_t id = 1; id <= 3; id++) {
+		for (size_t k = 0; k < sizeof(cmds); k++) {
+			uint8_t req[RMD_FRAME_LEN];
+
+			cmd_data(req, cmds[k]);
+			assert_int_equal(rmd_rs485_build(id, req, burst + n, RMD_RS485_FRAME_LEN),
+					 RMD_RS485_FRAME_LEN);
+			n += RMD_RS485_FRAME_LEN;
+		}
+	}
+	for (int sigterm = 0; sigterm <= 1; sigterm++) {
+		unsigned seen = 0; /* bit (id - 1) * 2 + k: (id, cmds[k]) answered */
+
+		assert_int_equal(kill(c->pid, SIGSTOP), 0);
+		assert_int_equal(waitpid(c->pid, &st, WUNTRACED), c->pid);
+		assert_true(WIFSTOPPED(st));
+		send_raw(c, burst, n);
+		if (sigterm)
+			assert_int_equal(kill(c->pid, SIGTERM), 0);
+		assert_int_equal(kill(c->pid, SIGCONT), 0);
+		for (unsigned i = 0; i < n / RMD_RS485_FRAME_LEN; i++) {
+			uint8_t id, rep[RMD_FRAME_LEN];
+
+			if (!recv485(c, REPLY_MS, &id, rep))
+				fail_msg("%s: %u replies of %zu within %d ms; log:\n%s",
+					 sigterm ? "requests before a SIGTERM" : "after a stall", i,
+					 n / RMD_RS485_FRAME_LEN, REPLY_MS, c->log);
+			assert_true(id >= 1 && id <= 3);
+			for (unsigned k = 0; k < sizeof(cmds); k++)
+				if (rep[0] == cmds[k])
+					seen |= 1u << ((id - 1) * sizeof(cmds) + k);
+		}
+		assert_int_equal(seen, (1u << (n / RMD_RS485_FRAME_LEN)) - 1);
+	}
+	st = wait_exit(c, EXIT_MS);
+	if (st != 0)
+		fail_msg("rmd-sim exit status %d after SIGTERM; log:\n%s", st, c->log);
+	if (!strstr(c->log, "frames in 12 (answered 12), out 12;"))
+		fail_msg("summary: every request answered and out; log:\n%s", c->log);
+	expect_silence(c, "after the exit");
+}
+
+/*
+ * A reply due long after a SIGTERM (a 2 s delay fault) is not waited for: it is counted
+ * unsent, not out (had rmd-sim waited for it, it would be out).
+ */
+static void test_stop_unsent(void **state)
+{
+	static const char *const args[] = { "--fault", "delay:1:2000000:1", NULL };
+	struct child *c = *state;
+	uint8_t req[RMD_FRAME_LEN];
+	int st;
+
+	start_serial(c, args);
+	cmd_data(req, 0x9A);
+	send485(c, 1, req);
+	assert_int_equal(kill(c->pid, SIGTERM), 0);
+	st = wait_exit(c, EXIT_MS);
+	if (st != 0)
+		fail_msg("rmd-sim exit status %d after SIGTERM; log:\n%s", st, c->log);
+	if (!strstr(c->log, "frames in 1 (answered 1), out 0;") ||
+	    !strstr(c->log, "; 1 frame not sent before the stop"))
+		fail_msg("summary: the delayed reply counted unsent; log:\n%s", c->log);
+	expect_silence(c, "after the exit");
+}
+
 /* The line going away (the pty's master closed) ends rmd-sim with status 1. */
 static void test_hangup(void **state)
 {
@@ -1162,6 +1245,8 @@ int main(void)
 		cmocka_unit_test(test_example_config),
 		cmocka_unit_test(test_verbose_frames),
 		cmocka_unit_test(test_sigterm),
+		cmocka_unit_test(test_stall_then_burst),
+		cmocka_unit_test(test_stop_unsent),
 		cmocka_unit_test(test_hangup),
 		cmocka_unit_test(test_bad_arguments),
 		cmocka_unit_test(test_bad_config),

@@ -54,7 +54,8 @@ static void usage(void)
 	       "       rmd-sim [options] --serial DEVICE [--baud B]\n"
 	       "\n"
 	       "Simulated MyActuator RMD motors (V3, V2 or MIT protocol) answering on a\n"
-	       "SocketCAN interface or an RS485 line.  Stops on SIGINT or SIGTERM.\n"
+	       "SocketCAN interface or an RS485 line.  Stops on SIGINT or SIGTERM, once the\n"
+	       "requests that came before it are answered (replies due within 250 ms).\n"
 	       "\n");
 	tool_opts_help(stdout, prog_opts, NPROG);
 	printf("\n");

@@ -21,6 +21,8 @@
  * - A write that the kernel refuses for lack of room (ENOBUFS from a CAN
  *   queue of txqueuelen frames, EAGAIN) is counted and retried 200 µs later,
  *   in order; it is never fatal.
+ * - SIGINT/SIGTERM: the requests read before it, and those already on the
+ *   line, are answered at their due time (up to FINISH_NS), then it stops.
  *
  * Faults are struct rmd_sim_fault entries, with the semantics of
  * rmd/sim_wire.h where they apply to a real wire: per-frame kinds act on
@@ -46,6 +48,7 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <limits.h>
+#include <poll.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -76,12 +79,13 @@
 #include "rmd/sim_wire.h"
 #include "rmd-sim.h"
 
-#define TXQ 1024		       /* frames waiting for their due time */
-#define TICK_NS (10 * RMD_NS_PER_MS)   /* physics step of idle motors */
-#define HOUSEKEEPING_NS RMD_NS_PER_S   /* CAN interface state check */
-#define RETRY_NS (200 * RMD_NS_PER_US) /* after ENOBUFS / EAGAIN */
-#define MAX_READS 256		       /* frames read per wake-up, then timers */
-#define RX_BATCH 64		       /* frames per rmd_bus_recv() */
+#define TXQ 1024			/* frames waiting for their due time */
+#define TICK_NS (10 * RMD_NS_PER_MS)	/* physics step of idle motors */
+#define HOUSEKEEPING_NS RMD_NS_PER_S	/* CAN interface state check */
+#define RETRY_NS (200 * RMD_NS_PER_US)	/* after ENOBUFS / EAGAIN */
+#define MAX_READS 256			/* frames read per wake-up, then timers */
+#define RX_BATCH 64			/* frames per rmd_bus_recv() */
+#define FINISH_NS (250 * RMD_NS_PER_MS) /* SIGINT/SIGTERM: replies still due go out within */
 
 struct slot {
 	struct rmd_sim_motor m;
@@ -108,6 +112,7 @@ struct stats {
 	uint64_t rx_errors;   /* read errors */
 	uint64_t absent_lost; /* frames of a disappeared motor */
 	uint64_t unmappable;  /* frames with no RS485 form */
+	uint64_t unsent;      /* frames still waiting when rmd-sim stopped */
 	uint64_t faults[RMD_SIM_FAULT_COUNT];
 };
 
@@ -140,6 +145,7 @@ struct sim {
 	int status;	 /* exit status once stopping */
 	const char *why; /* why we stop */
 	bool stop;
+	bool gone; /* the line hung up, or the interface was removed */
 };
 
 /* ---- the queue of due frames ----------------------------------------------------------- */
@@ -456,6 +462,7 @@ static void check_interface(struct sim *s)
 	if (ioctl(s->fd, SIOCGIFFLAGS, &ifr) < 0) {
 		if (errno == ENODEV) {
 			tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
+			s->gone = true;
 			stop(s, SIM_EXIT_RUN, "the interface was removed");
 		}
 		return;
@@ -604,6 +611,7 @@ static bool read_error(struct sim *s, int n)
 		/* EIO, or end of file with a hang-up: the other side closed the line. */
 		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: hang-up: the line was closed (%s)", s->name,
 			 n < 0 ? strerror(-n) : "end of file");
+		s->gone = true;
 		stop(s, SIM_EXIT_RUN, "hang-up");
 		return false;
 	}
@@ -615,6 +623,7 @@ static bool read_error(struct sim *s, int n)
 	}
 	if (n == -ENODEV) {
 		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: the interface was removed", s->name);
+		s->gone = true;
 		stop(s, SIM_EXIT_RUN, "the interface was removed");
 		return false;
 	}
@@ -628,7 +637,7 @@ static void wire_read(struct sim *s, bool hup)
 {
 	struct rmd_bus_rx rx[RX_BATCH];
 
-	for (unsigned i = 0; i < MAX_READS && !s->stop;) {
+	for (unsigned i = 0; i < MAX_READS;) {
 		int n = rmd_bus_recv(&s->bus, rx, RX_BATCH, rmd_now_ns());
 
 		if (n < 0 || (n == 0 && hup)) {
@@ -718,6 +727,74 @@ static void write_due(struct sim *s, int64_t now)
 		s->st.tx_frames++;
 		log_tx(s, &e, &wire, id);
 	}
+}
+
+/* ---- stopping ------------------------------------------------------------------------- */
+
+/* The earliest due time of the motors' frames in the queue (INT64_MAX: none); *n: how many. */
+static int64_t replies_due(const struct sim *s, unsigned *n)
+{
+	int64_t t = INT64_MAX;
+
+	*n = 0;
+	for (unsigned i = 0; i < s->qn; i++) {
+		if (s->q[i].src < 0)
+			continue;
+		(*n)++;
+		if (s->q[i].due_ns < t)
+			t = s->q[i].due_ns;
+	}
+	return t;
+}
+
+/*
+ * Stopping on SIGINT/SIGTERM: the requests that reached the line before it
+ * are answered, each reply written at its due time, as the motors would
+ * before the power went; what is due more than FINISH_NS after the signal,
+ * or what the line does not take by then, is counted unsent.  Without this
+ * a request read in the wake-up that also brought the signal counted as
+ * answered while its reply, still in its turnaround, was dropped: on a busy
+ * machine the summary read like lost replies ("answered 88, out 84").
+ */
+static void finish(struct sim *s)
+{
+	int64_t end = rmd_now_ns() + FINISH_NS;
+	bool held = false; /* serial: reply bytes the tty has not taken */
+	unsigned n;
+
+	if (s->gone) /* in the same wake-up as the signal: nothing to read or write */
+		return;
+	wire_read(s, false);
+	if (s->gone)
+		return;
+	for (;;) {
+		int64_t now = rmd_now_ns(), next = end, due;
+		struct pollfd p = { .fd = s->fd, .events = 0 };
+		struct timespec ts;
+
+		write_due(s, now);
+		due = replies_due(s, &n);
+		held = s->serial && rmd_bus_next_due_ns(&s->bus) != INT64_MAX;
+		if ((!n && !held) || now >= end)
+			break;
+		if (n) {
+			if (s->retry_ns > due)
+				due = s->retry_ns;
+			if (due < next)
+				next = due;
+		}
+		if (held)
+			p.events = POLLOUT;
+		ts.tv_sec = (time_t)((next - now) / RMD_NS_PER_S);
+		ts.tv_nsec = (long)((next - now) % RMD_NS_PER_S);
+		if (ppoll(&p, 1, &ts, NULL) > 0 && (p.revents & POLLOUT))
+			serial_flush(s);
+	}
+	s->st.unsent = n;
+	if (held)
+		tool_log(TOOL_LOG_WARNING,
+			 "rmd-sim: %s: the line had not taken every reply %d ms after the stop",
+			 s->name, (int)(FINISH_NS / RMD_NS_PER_MS));
 }
 
 /* ---- the loop -------------------------------------------------------------------------- */
@@ -849,19 +926,22 @@ static void log_summary(const struct sim *s, int64_t now)
 	const struct rmd_bus_stats *bs = rmd_bus_stats(&s->bus);
 	/* Serial: the transport's rx_errors are the runs of line noise, counted in bytes. */
 	uint64_t rx_errors = s->st.rx_errors + (s->serial ? 0 : bs->rx_errors);
-	char faults[512];
+	char faults[512], unsent[80] = "";
 
 	summary_faults(s, faults, sizeof(faults));
+	if (s->st.unsent)
+		snprintf(unsent, sizeof(unsent), "; %" PRIu64 " frame%s not sent before the stop",
+			 s->st.unsent, s->st.unsent == 1 ? "" : "s");
 	tool_log(s->status == SIM_EXIT_OK ? TOOL_LOG_INFO : TOOL_LOG_ERR,
 		 "rmd-sim: %s: stopped (%s) after %.3f s: frames in %" PRIu64 " (answered %" PRIu64
 		 "), out %" PRIu64 "; tx retries %" PRIu64 ", tx errors %" PRIu64
 		 ", queue overflows %" PRIu64 ", rx errors %" PRIu64 ", line noise %" PRIu64
 		 " bytes, echoes %" PRIu64 ", lost while absent %" PRIu64
-		 ", without RS485 form %" PRIu64 "%s",
+		 ", without RS485 form %" PRIu64 "%s%s",
 		 s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
 		 s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors,
 		 s->st.txq_overflow, rx_errors, bs->rx_noise_bytes, bs->echoes, s->st.absent_lost,
-		 s->st.unmappable, faults);
+		 s->st.unmappable, faults, unsent);
 }
 
 static void handle_signal(struct sim *s)
@@ -1000,6 +1080,8 @@ int sim_run(const struct sim_config *c)
 			}
 		}
 	}
+	if (s->status == SIM_EXIT_OK)
+		finish(s);
 	log_summary(s, rmd_now_ns());
 	r = s->status;
 
