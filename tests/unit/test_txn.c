@@ -109,6 +109,52 @@ static void test_tripped_echo_is_no_answer(void **state)
 	rmd_bus_close(&x.bus);
 }
 
+/*
+ * `cmd` alone to motor 2, tripped or not: answered at the second try, sent
+ * at once behind its guard; m gets the answer.  Returns the sim time taken.
+ */
+static int64_t read_alone(bool tripped, uint8_t cmd, struct rmd_msg *m)
+{
+	struct rmd_txn t;
+	struct fix x;
+	int64_t took_ns;
+
+	open_motor(&x, tripped);
+	took_ns = run_all(&x, &t, &cmd, 1);
+	decode(&t, m);
+	assert_int_equal(t.tries, 2);
+	assert_true(t.echo_seen);
+	rmd_bus_close(&x.bus);
+	return took_ns;
+}
+
+/*
+ * Bring-up's and rmdctl's probe (0x9A) of a tripped motor: its echo, taken
+ * after the motor tripped again, read as a status of 0 V.
+ */
+static void test_tripped_status_read(void **state)
+{
+	struct rmd_msg m;
+
+	(void)state;
+	assert_true(read_alone(true, 0x9A, &m) < COMM_LOSS_MS * MS);
+	assert_true(m.v[RMD_FLD_VOLTAGE] > 0);
+}
+
+/*
+ * V3 §2.8: 0x62's answer with offset 0 repeats its request.  Alone, it is
+ * sent again at once behind a guard and taken: two exchanges and a
+ * guard's, a few ms, far from the 500 ms timeout.
+ */
+static void test_zero_answer_alone(void **state)
+{
+	struct rmd_msg m;
+
+	(void)state;
+	assert_true(read_alone(false, 0x62, &m) < 10 * MS);
+	assert_int_equal(m.v[RMD_FLD_ENCODER_OFF], 0);
+}
+
 /* One try only: the echo is all that came, and it is not taken. */
 static void test_only_echoed(void **state)
 {
@@ -128,25 +174,27 @@ static void test_only_echoed(void **state)
 }
 
 /*
- * V3 §2.8: 0x62's answer with offset 0 repeats its request.  Alone, it is
- * sent again at once behind a guard and taken: no timeout spent.
+ * V3 §4.3: 0x79's write answers with its request, on 0x300, where no 0x9A
+ * can go ahead of it: the repeat of a resend made at once is the answer.
  */
-static void test_zero_answer_alone(void **state)
+static void test_set_id_repeat(void **state)
 {
-	static const uint8_t cmds[] = { 0x62 };
+	struct rmd_msg w = { .cmd = 0x79 };
 	struct rmd_txn t;
-	struct rmd_msg m;
 	struct fix x;
-	int64_t took_ns;
+	int64_t t0;
 
 	(void)state;
 	open_motor(&x, false);
-	took_ns = run_all(&x, &t, cmds, 1);
-	decode(&t, &m);
-	assert_int_equal(m.v[RMD_FLD_ENCODER_OFF], 0);
+	rmd_msg_set(&w, RMD_FLD_READ_FLAG, 0);
+	rmd_msg_set(&w, RMD_FLD_CAN_ID, 2); /* its own id: nothing changes */
+	assert_int_equal(rmd_txn_prepare(&t, RMD_PROTO_V3, 2, &w), 0);
+	assert_false(t.guardable);
+	t0 = t_now;
+	assert_int_equal(rmd_txn_run(&x.bus, &t, 1, &x.o), 1);
+	assert_memory_equal(t.rep.f.data, t.req.data, RMD_FRAME_LEN);
 	assert_int_equal(t.tries, 2);
-	/* two exchanges and a guard's: a few ms, far from the 500 ms timeout */
-	assert_true(took_ns < 10 * MS);
+	assert_true(t_now - t0 < 10 * MS);
 	rmd_bus_close(&x.bus);
 }
 
@@ -172,9 +220,11 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_tripped_echo_is_no_answer),
+		cmocka_unit_test(test_tripped_status_read),
 		cmocka_unit_test(test_only_echoed),
 		cmocka_unit_test(test_zero_answer_alone),
 		cmocka_unit_test(test_zero_answer_in_batch),
+		cmocka_unit_test(test_set_id_repeat),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
