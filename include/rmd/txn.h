@@ -12,9 +12,9 @@
  * frame": replies of other motors, late replies and unsolicited frames are
  * not mistaken for it (docs/design.md "Turnaround").  What did not answer by its
  * deadline is sent again, up to `tries` sends in all; what was only echoed
- * (struct rmd_txn.check_echo) is sent again at once, and that send counts.  A silent motor thus
- * costs at most tries * (timeout + its place in the batch * spacing); the
- * call never hangs.
+ * (struct rmd_txn.check_echo) is sent again at once, and that send counts.
+ * A silent motor thus costs at most tries * (timeout + its place in the
+ * batch * spacing); the call never hangs.
  *
  * Time is CLOCK_MONOTONIC (or the caller's clock, opts.now_ns).  The
  * caller sleeps: in poll(2) on the bus's fd, or, for a bus without one
