@@ -24,6 +24,7 @@
 #include <stddef.h>
 #include <errno.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "rmd/frame.h"
 
@@ -146,6 +147,22 @@ struct rmd_msg {
 	uint64_t present;
 	int64_t v[RMD_FLD_COUNT];
 };
+
+/*
+ * Whether rx, which matched a request of data `req` (RMD_FRAME_LEN bytes),
+ * repeats that request byte for byte when the command's answer is no echo
+ * (`reply_echoes`: RMD_CMD_ECHO): the echo of a motor whose comm-loss
+ * protection tripped (docs/design.md: it echoes the first command it gets
+ * next and does not execute it) -- or a real answer whose values are all
+ * zero where the request has zeros (V3 §2.8: 0x62 with offset 0), which
+ * only the time the request reached the motor tells apart (rmd/txn.h).
+ * The one copy of the rule: the rt loop and txn both ask it.  rt-safe.
+ */
+static inline bool rmd_frame_repeats(const uint8_t *req, bool reply_echoes,
+				     const struct rmd_frame *rx)
+{
+	return !reply_echoes && rx->len == RMD_FRAME_LEN && !memcmp(rx->data, req, RMD_FRAME_LEN);
+}
 
 /* Where a frame goes: from its CAN identifier. */
 struct rmd_addr {

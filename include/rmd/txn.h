@@ -11,9 +11,10 @@
  * answer, matched by reply identifier and command byte, never by "the next
  * frame": replies of other motors, late replies and unsolicited frames are
  * not mistaken for it (docs/design.md "Turnaround").  What did not answer by its
- * deadline is sent again, up to `tries` sends in all.  A silent motor thus
- * costs at most tries * (timeout + its place in the batch * spacing); the
- * call never hangs.
+ * deadline is sent again, up to `tries` sends in all; what was only echoed
+ * (struct rmd_txn.check_echo) is sent again at once, and that send counts.
+ * A silent motor thus costs at most tries * (timeout + its place in the
+ * batch * spacing); the call never hangs.
  *
  * Time is CLOCK_MONOTONIC (or the caller's clock, opts.now_ns).  The
  * caller sleeps: in poll(2) on the bus's fd, or, for a bus without one
@@ -39,6 +40,8 @@
 #define RMD_TXN_CAN_SPACING_NS RMD_BUS_CAN_SPACING_NS
 /* Longest sleep between two looks at a bus without fd (the sim bus). */
 #define RMD_TXN_STEP_NS 100000
+/* The guard's command (struct rmd_txn.check_echo): read status 1 (V3 §2.12, V2 §3.31). */
+#define RMD_TXN_GUARD_CMD 0x9A
 
 /* One request and its answer. */
 struct rmd_txn {
@@ -49,15 +52,32 @@ struct rmd_txn {
 	bool any_cmd;	   /* the answer has no command byte: match by identifier */
 	bool no_reply;	   /* nothing answers (V3 0x76): done once sent */
 	/*
-	 * The command's reply is not a copy of the request, so a frame that
-	 * repeats the request byte for byte is, the first time, the echo of a
-	 * motor whose comm-loss protection tripped (it echoes the first
-	 * command after and does not execute it): the request is sent again.
-	 * A second identical answer is taken as the answer (V3 0x70 in mode 0
-	 * really is all zeros).
+	 * The command's reply is not a copy of the request, yet a frame can
+	 * repeat the request byte for byte (rmd_frame_repeats()): the echo of
+	 * a motor whose comm-loss protection tripped (it echoes the first
+	 * command it gets next and does not execute it), or a real answer of
+	 * zeros (V3 §2.8: 0x62 with offset 0; §2.1: 0x30 of a motor with no
+	 * gains).  The bytes cannot tell; the order can: such a frame is the
+	 * answer when this try went out right behind another frame to the
+	 * same motor in the same send (a request of the batch, or the guard
+	 * below) and that frame was answered or echoed before it, so the
+	 * motor was awake when the request reached it.  Otherwise it is an
+	 * echo (echo_seen): the request is sent again at once, right behind a
+	 * status read (0x9A, the guard) to the same motor, whose answer, echo
+	 * or not, proves that try.  Never "the second identical frame": a try
+	 * that waited longer than the motor's comm-loss time is echoed again.
+	 * Requests not on the motor's own identifier (0x79 on 0x300) cannot
+	 * be guarded: for them a repeat of a resend, made at once after the
+	 * echo, is the answer.
 	 */
 	bool check_echo;
-	bool echo_seen;
+	bool guardable; /* sent on 0x140 + ID: a 0x9A to that id can go ahead of it */
+	bool echo_seen; /* only echoed so far (also a result: done false, echo_seen: echoes only) */
+	unsigned heard; /* frames that answered or echoed it, this run */
+	unsigned prev;	/* 1 + index of the request right ahead of this try, same motor; 0: none */
+	unsigned prev_heard; /* its `heard` when this try went out */
+	bool guard_sent;     /* this try went out right behind a guard */
+	bool guard_heard;    /* ... and the guard was answered or echoed */
 	/* results */
 	bool done;	       /* answered (or, no_reply, sent) */
 	unsigned tries;	       /* sends made */

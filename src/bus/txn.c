@@ -46,6 +46,7 @@ int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
 	/* V3 §2.25: 0x76 does not answer; V3 §2.31: 0xB4's answer is noise, when it comes. */
 	t->no_reply = spec->flags & (RMD_CMD_NO_REPLY | RMD_CMD_RANDOM_REPLY);
 	t->check_echo = !(spec->flags & RMD_CMD_ECHO);
+	t->guardable = t->req.can_id == RMD_CAN_REQ_BASE + motor_id;
 	return 0;
 }
 
@@ -74,24 +75,48 @@ static bool stopped(const struct rmd_txn_opts *opts)
 }
 
 /*
+ * Did try of x reach an awake motor?  It went out right behind a guard or
+ * another request to the same motor that has been answered or echoed
+ * since (struct rmd_txn.check_echo).
+ */
+static bool reached_awake(const struct rmd_txn *t, const struct rmd_txn *x)
+{
+	return x->guard_heard || (x->prev && t[x->prev - 1].heard > x->prev_heard);
+}
+
+/*
  * Does rx answer one of t[0..n)?  The first waiting request it matches
- * takes it; the echo of a request whose answer is no echo is noted (the
- * comm-loss rule of struct rmd_txn.check_echo).  False: it answers none.
+ * takes it; a repeat of a request that is only its echo (the comm-loss
+ * rule of struct rmd_txn.check_echo) has it sent again at once.  Else a
+ * guard's answer.  False: it answers none.
  */
 static bool take(struct rmd_txn *t, unsigned n, const struct rmd_bus_rx *rx)
 {
 	for (unsigned i = 0; i < n; i++) {
+		struct rmd_txn *x = &t[i];
+
 		/* Any try's answer will do: matched, it answers this request. */
-		if (t[i].done || !t[i].tries || t[i].no_reply || !rmd_txn_matches(&t[i], &rx->f))
+		if (x->done || !x->tries || x->no_reply || !rmd_txn_matches(x, &rx->f))
 			continue;
-		if (t[i].check_echo && !t[i].echo_seen && rx->f.len == t[i].req.len &&
-		    !memcmp(rx->f.data, t[i].req.data, t[i].req.len)) {
-			t[i].echo_seen = true; /* only echoed: the next try answers */
+		x->heard++;
+		if (x->check_echo && rmd_frame_repeats(x->req.data, false, &rx->f) &&
+		    !reached_awake(t, x) && (x->guardable || !x->echo_seen)) {
+			x->echo_seen = true; /* only echoed: sent again, behind a guard */
+			x->sent = false;
 			return true;
 		}
-		t[i].done = true;
-		t[i].rep = *rx;
+		x->done = true;
+		x->rep = *rx;
 		return true;
+	}
+	for (unsigned i = 0; i < n; i++) {
+		struct rmd_txn *x = &t[i];
+
+		if (x->guard_sent && !x->guard_heard && rx->f.can_id == x->reply_id &&
+		    rx->f.len >= 1 && rx->f.data[0] == RMD_TXN_GUARD_CMD) {
+			x->guard_heard = true;
+			return true;
+		}
 	}
 	return false;
 }
@@ -114,17 +139,44 @@ static int collect(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t n
 	return 0;
 }
 
-/* Send what of this round is not sent yet, as much as the bus takes. */
+/* Can x be sent (again) in this round? */
+static bool sendable(const struct rmd_txn *x, unsigned max_tries)
+{
+	return !x->done && !x->sent && x->tries < max_tries;
+}
+
+/* The guard of x (struct rmd_txn.check_echo): a status read on x's identifier. */
+static struct rmd_frame guard_of(const struct rmd_txn *x)
+{
+	struct rmd_frame g = { .can_id = x->req.can_id, .len = RMD_FRAME_LEN };
+
+	g.data[0] = RMD_TXN_GUARD_CMD;
+	return g;
+}
+
+#define TXN_GUARD_BIT (1u << 31) /* idx[] of send_some(): the guard of that request */
+
+/*
+ * Send what of this round is not sent yet, as much as the bus takes; a
+ * request only echoed so far goes right behind its guard.  Each try
+ * notes what went right ahead of it (struct rmd_txn.check_echo).
+ */
 static int send_some(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t now_ns,
-		     int64_t timeout_ns, int64_t spacing_ns, unsigned *k)
+		     int64_t timeout_ns, int64_t spacing_ns, unsigned max_tries, unsigned *k)
 {
 	struct rmd_frame frames[TXN_BATCH];
 	unsigned idx[TXN_BATCH], m = 0;
 	int r;
 
 	for (unsigned i = 0; i < n && m < TXN_BATCH; i++) {
-		if (t[i].done || t[i].sent)
+		if (!sendable(&t[i], max_tries))
 			continue;
+		if (t[i].echo_seen && t[i].guardable) {
+			if (m + 2 > TXN_BATCH)
+				break;
+			idx[m] = i | TXN_GUARD_BIT;
+			frames[m++] = guard_of(&t[i]);
+		}
 		idx[m] = i;
 		frames[m++] = t[i].req;
 	}
@@ -134,12 +186,22 @@ static int send_some(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t
 	if (r < 0)
 		return r;
 	for (int j = 0; j < r; j++) {
-		struct rmd_txn *x = &t[idx[j]];
+		struct rmd_txn *x = &t[idx[j] & ~TXN_GUARD_BIT], *a;
 
+		(*k)++; /* a guard holds up what follows like a request */
+		if (idx[j] & TXN_GUARD_BIT)
+			continue;
+		a = j ? &t[idx[j - 1] & ~TXN_GUARD_BIT] : NULL;
+		x->guard_sent = a == x;
+		x->guard_heard = false;
+		x->prev = 0;
+		if (a && a != x && a->guardable && x->guardable && a->req.can_id == x->req.can_id) {
+			x->prev = (unsigned)(a - t) + 1;
+			x->prev_heard = a->heard;
+		}
 		x->sent = true;
 		x->tries++;
-		x->deadline_ns = now_ns + timeout_ns + (int64_t)*k * spacing_ns;
-		(*k)++;
+		x->deadline_ns = now_ns + timeout_ns + (int64_t)(*k - 1) * spacing_ns;
 		if (x->no_reply)
 			x->done = true;
 	}
@@ -182,7 +244,7 @@ static void wait_until(struct rmd_bus *bus, int64_t now_ns, int64_t until_ns,
 
 /* One round: send every waiting request once, wait for answers until the last deadline. */
 static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t timeout_ns,
-		      int64_t spacing_ns, const struct rmd_txn_opts *opts)
+		      int64_t spacing_ns, unsigned max_tries, const struct rmd_txn_opts *opts)
 {
 	/* A bus that takes no frame at all (bus-off, a stuck queue) ends the round too. */
 	int64_t end_ns = now_of(opts) + timeout_ns + (int64_t)n * spacing_ns;
@@ -200,7 +262,7 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 		if (stopped(opts))
 			return -EINTR;
 		if (now < end_ns) {
-			r = send_some(bus, t, n, now, timeout_ns, spacing_ns, &k);
+			r = send_some(bus, t, n, now, timeout_ns, spacing_ns, max_tries, &k);
 			if (r < 0)
 				return r;
 		}
@@ -210,10 +272,12 @@ static int round_once(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_
 		for (unsigned i = 0; i < n; i++) {
 			if (t[i].done)
 				continue;
-			if (!t[i].sent) {
-				unsent = now < end_ns;
+			if (sendable(&t[i], max_tries)) {
+				unsent |= now < end_ns;
 				continue;
 			}
+			if (!t[i].sent)
+				continue;
 			if (t[i].deadline_ns > now) {
 				waiting = true;
 				if (t[i].deadline_ns < next)
@@ -262,13 +326,18 @@ int rmd_txn_run(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, const struct
 		t[i].done = false;
 		t[i].tries = 0;
 		t[i].sent = false;
+		t[i].echo_seen = false;
+		t[i].heard = 0;
+		t[i].prev = 0;
+		t[i].guard_sent = false;
+		t[i].guard_heard = false;
 	}
 	/* Nothing received before the requests left can answer them. */
 	r = collect(bus, t, 0, now_of(opts), opts);
 	if (r < 0)
 		return r;
 	for (unsigned round = 0; round < tries; round++) {
-		r = round_once(bus, t, n, timeout_ns, spacing_ns, opts);
+		r = round_once(bus, t, n, timeout_ns, spacing_ns, tries, opts);
 		if (r < 0)
 			return r;
 		done = 0;

@@ -199,8 +199,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		bool echo;
 
 		o = &lm->os[k];
-		echo = !o->echo_is_reply && f->len == RMD_FRAME_LEN &&
-		       !memcmp(f->data, o->data, RMD_FRAME_LEN);
+		echo = rmd_frame_repeats(o->data, o->echo_is_reply, f);
 		os_done(lm, (unsigned)k);
 		l->cnt.replies++;
 		latency_ns = rx->t_ns - o->sent_ns;

@@ -304,11 +304,23 @@ void rmdctl_req_init(struct req *q, uint8_t id, uint8_t cmd)
 	q->msg.cmd = cmd;
 }
 
-/* "motor 3 did not answer 0x9A within 5 ms (3 tries)" + more, or why it was not sent. */
+/*
+ * "motor 3 did not answer 0x9A within 5 ms (3 tries)" + more, or why it was
+ * not sent, or that the motor only echoed it (rmd/txn.h: the echo of a
+ * tripped comm-loss protection is not taken as the answer).
+ */
 void rmdctl_report_missing(struct dev *d, const struct req *q, const char *more)
 {
 	char ms[32];
 
+	if (q->t.echo_seen) {
+		tool_log(TOOL_LOG_ERR,
+			 "%s: motor %u only echoed 0x%02X (%u %s): it repeated the request, as a "
+			 "motor whose comm-loss protection (0xB3) tripped does instead of "
+			 "answering; not taken as the answer",
+			 d->name, q->id, q->msg.cmd, q->t.tries, q->t.tries == 1 ? "try" : "tries");
+		return;
+	}
 	if (q->t.tries == 0) {
 		tool_log(TOOL_LOG_ERR,
 			 "%s: could not send 0x%02X to motor %u: the bus took no frame (%s)",
@@ -415,6 +427,12 @@ int rmdctl_ask(struct dev *d, struct req *q)
 	return r ? r : rmdctl_ask_check(d, q);
 }
 
+/* q got no frame at all (not even its echo). */
+static bool silent(const struct req *q)
+{
+	return !q->answered && !q->ok && !q->t.echo_seen;
+}
+
 /*
  * Every failed request of a batch, reported; a motor that answered none of
  * its requests gets one line.  Returns how many requests failed.
@@ -436,11 +454,11 @@ unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n)
 			continue;
 		}
 		for (unsigned j = 0; j < i; j++)
-			told |= q[j].id == q[i].id && !q[j].answered && !q[j].ok;
-		if (told)
+			told |= q[j].id == q[i].id && silent(&q[j]);
+		if (told && silent(&q[i]))
 			continue;
-		for (unsigned j = i + 1; j < n && o < sizeof(more); j++)
-			if (q[j].id == q[i].id && !q[j].answered && !q[j].ok)
+		for (unsigned j = i + 1; j < n && o < sizeof(more) && silent(&q[i]); j++)
+			if (q[j].id == q[i].id && silent(&q[j]))
 				o += (size_t)snprintf(more + o, sizeof(more) - o, "%s0x%02X",
 						      o ? ", " : ", nor ", q[j].msg.cmd);
 		rmdctl_report_missing(d, &q[i], more);
@@ -448,7 +466,7 @@ unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n)
 	return bad;
 }
 
-/* Probe ids[0..n) with 0x9A; found[] gets those that answered.  Returns the count or -exit. */
+/* Probe ids[0..n) with 0x9A; found[] gets those that answered (one that only echoed is reported).  Returns the count or -exit. */
 int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st)
 {
 	int r, m = 0;
@@ -458,9 +476,12 @@ int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, 
 	r = rmdctl_run_reqs(d, st, n);
 	if (r)
 		return -r;
-	for (unsigned i = 0; i < n; i++)
+	for (unsigned i = 0; i < n; i++) {
 		if (st[i].ok)
 			found[m++] = ids[i];
+		else if (st[i].t.echo_seen) /* there, but tripped: say so */
+			rmdctl_report_missing(d, &st[i], "");
+	}
 	return m;
 }
 

@@ -198,7 +198,7 @@ int rmdctl_exchange(struct dev *d, struct req *q, unsigned n);
 int rmdctl_ask_check(struct dev *d, struct req *q);
 /* One request; failure reported.  0 or RMDCTL_EXIT_DATA. */
 int rmdctl_ask(struct dev *d, struct req *q);
-/* "motor 3 did not answer 0x9A within 5 ms (3 tries)" + more. */
+/* "motor 3 did not answer 0x9A within 5 ms (3 tries)" + more; or "motor 3 only echoed 0x30 ...". */
 void rmdctl_report_missing(struct dev *d, const struct req *q, const char *more);
 /* Every failed request of a batch reported; returns how many failed. */
 unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n);
@@ -207,7 +207,7 @@ unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n);
  * bus opened.  Returns the id count, or minus the exit status (reported).
  */
 int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids);
-/* Probe ids[0..n) with 0x9A; found[] gets those that answered.  The count or -exit. */
+/* Probe ids[0..n) with 0x9A; found[] gets those that answered (one that only echoed is reported).  The count or -exit. */
 int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st);
 
 /* ---- output (output.c) ------------------------------------------------------------------ */
