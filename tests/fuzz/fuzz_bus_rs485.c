@@ -27,6 +27,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 #include <sys/ioctl.h>
 
@@ -37,7 +38,13 @@
 #include "fuzz.h"
 
 #define MAX_RECORDS 64
-#define WAIT_MS 500 /* the pty moves bytes at once; this only bounds a stuck run */
+/*
+ * The pty moves bytes through the kernel's tty worker, a normal-priority
+ * kernel thread: on a busy machine it held them 0.5-0.8 s (an hour's run
+ * beside other work failed here at 500 ms; tests/harness/pty_probe.h).
+ * This only bounds a stuck run.
+ */
+#define WAIT_MS 10000
 
 static int pty_open(char *path, size_t len)
 {
@@ -62,15 +69,20 @@ static void drain(int master)
 static void line_write(int master, int slave, const uint8_t *buf, size_t len)
 {
 	int avail = 0, before = 0;
+	struct timespec t0, t;
 
 	if (!len)
 		return;
 	FUZZ_CHECK(ioctl(slave, FIONREAD, &before) == 0);
 	FUZZ_CHECK(write(master, buf, len) == (ssize_t)len);
-	for (int i = 0; i < WAIT_MS; i++) {
+	clock_gettime(CLOCK_MONOTONIC, &t0);
+	for (;;) {
 		FUZZ_CHECK(ioctl(slave, FIONREAD, &avail) == 0);
 		if ((size_t)avail >= (size_t)before + len)
 			return;
+		clock_gettime(CLOCK_MONOTONIC, &t);
+		if ((t.tv_sec - t0.tv_sec) * 1000 + (t.tv_nsec - t0.tv_nsec) / 1000000 > WAIT_MS)
+			break;
 		poll(NULL, 0, 1);
 	}
 	FUZZ_CHECK(!"the pty did not pass the bytes on");
