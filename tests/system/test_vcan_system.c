@@ -3050,8 +3050,9 @@ again:
 		st = 0;
 	}
 	if (st != 0) {
-		/* whole: cmocka cuts a long failure message short */
-		print_message("%s: its output:\n%s\n", who, kid_tail(ctl));
+		/* whole: cmocka cuts print_message() and fail_msg() at 1 kB */
+		printf("%s: its output:\n%s\n", who, kid_tail(ctl));
+		fflush(stdout);
 		fail_msg("%s: exit %d (its output above)", who, st);
 	}
 	/* its wait for READY is 500 ms: a guest that delays state_t longer makes it say so */
