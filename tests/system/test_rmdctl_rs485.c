@@ -436,6 +436,19 @@ static double ms_of(int64_t ns)
 }
 
 /*
+ * rmdctl said an answer did not come in time: a motor that "did not
+ * answer", a scan where "no motor answered", or a motor that "only echoed"
+ * -- on this half-duplex line an answer held past its timeout makes the
+ * next request's answer come without the one before it, and a status
+ * read at 0.00 deg answers with a copy of its request (rmd/txn.h).
+ */
+static bool answer_missing(const char *err)
+{
+	return strstr(err, " did not answer ") || strstr(err, ": no motor answered ") ||
+	       strstr(err, " only echoed ");
+}
+
+/*
  * Run rmdctl with args (the reference sleeper marked at each run's start);
  * "--timeout" OK_TIMEOUT_ARG becomes ok_timeout_ms, and such a run in which
  * a motor did not answer is run again at a slower pace (see OK_SLOWER),
@@ -462,7 +475,7 @@ static void run_argv(struct rig *g, struct run *r, const char *const *args)
 		sleeper_mark(&g->ref);
 		pty_probe_mark(&g->pty);
 		run_once(g, r, argv);
-		if (ok_at < 0 || !strstr(r->err, " did not answer "))
+		if (ok_at < 0 || !answer_missing(r->err))
 			return;
 		if (ok_timeout_ms * OK_SLOWER > OK_MAX_MS) {
 			if (again++ == PTY_AGAIN ||
