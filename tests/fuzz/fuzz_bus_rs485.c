@@ -20,6 +20,7 @@
  * a call) until it has nothing more.
  */
 #define _GNU_SOURCE
+#include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <stddef.h>
@@ -65,23 +66,45 @@ static void drain(int master)
 		;
 }
 
-/* Write to the line and wait until the bus's side can read all of it. */
+static int64_t ms_since(const struct timespec *t0)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)(t.tv_sec - t0->tv_sec) * 1000 + (t.tv_nsec - t0->tv_nsec) / 1000000;
+}
+
+/*
+ * Write to the line and wait until the bus's side can read all of it.  The
+ * write itself may take part of it, or be interrupted (libFuzzer's alarm),
+ * while the tty worker is held off: the rest goes on, within WAIT_MS.
+ */
 static void line_write(int master, int slave, const uint8_t *buf, size_t len)
 {
 	int avail = 0, before = 0;
-	struct timespec t0, t;
+	struct timespec t0;
+	size_t done = 0;
 
 	if (!len)
 		return;
 	FUZZ_CHECK(ioctl(slave, FIONREAD, &before) == 0);
-	FUZZ_CHECK(write(master, buf, len) == (ssize_t)len);
 	clock_gettime(CLOCK_MONOTONIC, &t0);
+	while (done < len) {
+		ssize_t w = write(master, buf + done, len - done);
+
+		if (w > 0)
+			done += (size_t)w;
+		else
+			FUZZ_CHECK(w < 0 && (errno == EAGAIN || errno == EINTR));
+		FUZZ_CHECK(ms_since(&t0) <= WAIT_MS || !"the pty took no more bytes");
+		if (done < len)
+			poll(NULL, 0, 1);
+	}
 	for (;;) {
 		FUZZ_CHECK(ioctl(slave, FIONREAD, &avail) == 0);
 		if ((size_t)avail >= (size_t)before + len)
 			return;
-		clock_gettime(CLOCK_MONOTONIC, &t);
-		if ((t.tv_sec - t0.tv_sec) * 1000 + (t.tv_nsec - t0.tv_nsec) / 1000000 > WAIT_MS)
+		if (ms_since(&t0) > WAIT_MS)
 			break;
 		poll(NULL, 0, 1);
 	}
