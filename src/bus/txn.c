@@ -99,7 +99,7 @@ static bool take(struct rmd_txn *t, unsigned n, const struct rmd_bus_rx *rx)
 		if (x->done || !x->tries || x->no_reply || !rmd_txn_matches(x, &rx->f))
 			continue;
 		x->heard++;
-		if (x->check_echo && rmd_frame_repeats(x->req.data, false, &rx->f) &&
+		if (rmd_frame_repeats(x->req.data, !x->check_echo, &rx->f) &&
 		    !reached_awake(t, x) && (x->guardable || !x->echo_seen)) {
 			x->echo_seen = true; /* only echoed: sent again, behind a guard */
 			x->sent = false;
