@@ -66,6 +66,11 @@ struct rmd_txn {
 	 * status read (0x9A, the guard) to the same motor, whose answer, echo
 	 * or not, proves that try.  Never "the second identical frame": a try
 	 * that waited longer than the motor's comm-loss time is echoed again.
+	 * A motor answers in order: a repeat that comes while the frame ahead
+	 * of this try is unanswered is an earlier try's (answered late, or
+	 * echoed), and is passed over; so every resend of such a request
+	 * goes behind a guard, after a timeout too (a 0x9A request, its own
+	 * guard, excepted).
 	 * Requests not on the motor's own identifier (0x79 on 0x300) cannot
 	 * be guarded: for them a repeat of a resend, made at once after the
 	 * echo, is the answer.

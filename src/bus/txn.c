@@ -85,6 +85,16 @@ static bool reached_awake(const struct rmd_txn *t, const struct rmd_txn *x)
 }
 
 /*
+ * Is this try still waiting for the frame right ahead of it (its guard, or
+ * the request ahead) to be answered?  A motor answers in order, so until
+ * then a frame for x is an earlier try's, answered late.
+ */
+static bool ahead_unheard(const struct rmd_txn *t, const struct rmd_txn *x)
+{
+	return (x->guard_sent || x->prev) && !reached_awake(t, x);
+}
+
+/*
  * Does rx answer one of t[0..n)?  The first waiting request it matches
  * takes it; a repeat of a request that is only its echo (the comm-loss
  * rule of struct rmd_txn.check_echo) has it sent again at once.  Else a
@@ -94,13 +104,24 @@ static bool take(struct rmd_txn *t, unsigned n, const struct rmd_bus_rx *rx)
 {
 	for (unsigned i = 0; i < n; i++) {
 		struct rmd_txn *x = &t[i];
+		bool repeats;
 
 		/* Any try's answer will do: matched, it answers this request. */
 		if (x->done || !x->tries || x->no_reply || !rmd_txn_matches(x, &rx->f))
 			continue;
+		repeats = rmd_frame_repeats(x->req.data, !x->check_echo, &rx->f);
+		/*
+		 * A repeat can be an earlier try's late answer or its echo:
+		 * neither tells about this try, whose own frame comes after
+		 * the one ahead of it (a 0x9A request's guard answers first).
+		 */
+		if (repeats && ahead_unheard(t, x)) {
+			if (x->guard_sent && rx->f.data[0] == RMD_TXN_GUARD_CMD)
+				x->guard_heard = true;
+			return true;
+		}
 		x->heard++;
-		if (rmd_frame_repeats(x->req.data, !x->check_echo, &rx->f) &&
-		    !reached_awake(t, x) && (x->guardable || !x->echo_seen)) {
+		if (repeats && !reached_awake(t, x) && (x->guardable || !x->echo_seen)) {
 			x->echo_seen = true; /* only echoed: sent again, behind a guard */
 			x->sent = false;
 			return true;
@@ -157,6 +178,19 @@ static struct rmd_frame guard_of(const struct rmd_txn *x)
 #define TXN_GUARD_BIT (1u << 31) /* idx[] of send_some(): the guard of that request */
 
 /*
+ * Does x's next try go behind a guard?  After an echo; and every resend of
+ * a request whose answer can repeat it, so that a late answer of the try
+ * before, which comes ahead of the guard's, is not judged as this try's
+ * (take()).  A status read is its own guard: resent alone.
+ */
+static bool guarded(const struct rmd_txn *x)
+{
+	if (!x->guardable)
+		return false;
+	return x->echo_seen || (x->tries && x->check_echo && x->req.data[0] != RMD_TXN_GUARD_CMD);
+}
+
+/*
  * Send what of this round is not sent yet, as much as the bus takes; a
  * request only echoed so far goes right behind its guard.  Each try
  * notes what went right ahead of it (struct rmd_txn.check_echo).
@@ -171,7 +205,7 @@ static int send_some(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t
 	for (unsigned i = 0; i < n && m < TXN_BATCH; i++) {
 		if (!sendable(&t[i], max_tries))
 			continue;
-		if (t[i].echo_seen && t[i].guardable) {
+		if (guarded(&t[i])) {
 			if (m + 2 > TXN_BATCH)
 				break;
 			idx[m] = i | TXN_GUARD_BIT;

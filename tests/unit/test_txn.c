@@ -216,6 +216,48 @@ static void test_zero_answer_in_batch(void **state)
 	rmd_bus_close(&x.bus);
 }
 
+/*
+ * A per-try timeout shorter than the motor's turnaround (a loaded machine,
+ * an emulated guest): every answer comes after its try was given up and
+ * sent again.  0x62's zeros, late, are an earlier try's answer, not an
+ * echo of the resend: taken within the tries, never "only echoed".
+ */
+static void test_late_zero_answer(void **state)
+{
+	static const uint8_t cmds[] = { 0x62 };
+	struct rmd_txn t;
+	struct rmd_msg m;
+	struct fix x;
+
+	(void)state;
+	open_motor(&x, false);
+	x.o.timeout_ns = 300000; /* under the sim's 0.5 ms turnaround */
+	prepare(&t, cmds, 1);
+	assert_int_equal(rmd_txn_run(&x.bus, &t, 1, &x.o), 1);
+	decode(&t, &m);
+	assert_int_equal(m.v[RMD_FLD_ENCODER_OFF], 0);
+	assert_false(t.echo_seen);
+	rmd_bus_close(&x.bus);
+}
+
+/* The same, tripped: the first try's late echo is passed over too. */
+static void test_late_echo(void **state)
+{
+	static const uint8_t cmds[] = { 0x30 };
+	struct rmd_txn t;
+	struct rmd_msg m;
+	struct fix x;
+
+	(void)state;
+	open_motor(&x, true);
+	x.o.timeout_ns = 300000;
+	prepare(&t, cmds, 1);
+	assert_int_equal(rmd_txn_run(&x.bus, &t, 1, &x.o), 1);
+	decode(&t, &m);
+	assert_int_equal(m.v[RMD_FLD_CURR_KP], 85);
+	rmd_bus_close(&x.bus);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -225,6 +267,8 @@ int main(void)
 		cmocka_unit_test(test_zero_answer_alone),
 		cmocka_unit_test(test_zero_answer_in_batch),
 		cmocka_unit_test(test_set_id_repeat),
+		cmocka_unit_test(test_late_zero_answer),
+		cmocka_unit_test(test_late_echo),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
