@@ -70,6 +70,9 @@ struct lmotor {
 	struct outstanding os[OUTSTANDING];
 	uint8_t os_used; /* bit k: os[k] is in flight (OUTSTANDING <= 8) */
 	uint64_t seq;
+	/* the newest request answered or echoed: its seq + 1 (0: none) and when it went */
+	uint64_t heard_seq;
+	int64_t heard_sent_ns;
 	unsigned consecutive;	/* missed replies in a row */
 	struct rmd_setpoint sp; /* in force while ENABLED */
 	bool need_edge;		/* enable = 1 counts only after an enable = 0 */

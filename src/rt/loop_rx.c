@@ -178,6 +178,17 @@ static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 	return true;
 }
 
+/*
+ * Did the request right ahead of o, to the same motor in the same send,
+ * get its answer or echo?  Then o reached an awake motor, and a repeat of
+ * o is its answer (V3 §2.8: 0x62, V3 §2.11: 0x92 at exactly 0.00 deg), as
+ * txn judges (rmd/txn.h): a motor answers in order.  rt-safe.
+ */
+static bool ahead_heard(const struct lmotor *lm, const struct outstanding *o)
+{
+	return o->seq && lm->heard_seq == o->seq && lm->heard_sent_ns == o->sent_ns;
+}
+
 /* rt-safe. */
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
@@ -199,7 +210,9 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		bool echo;
 
 		o = &lm->os[k];
-		echo = rmd_frame_repeats(o->data, o->echo_is_reply, f);
+		echo = rmd_frame_repeats(o->data, o->echo_is_reply, f) && !ahead_heard(lm, o);
+		lm->heard_seq = o->seq + 1;
+		lm->heard_sent_ns = o->sent_ns;
 		os_done(lm, (unsigned)k);
 		l->cnt.replies++;
 		latency_ns = rx->t_ns - o->sent_ns;

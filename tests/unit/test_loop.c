@@ -2093,6 +2093,46 @@ static void test_fine_position_sine(void **state)
 	rig_down();
 }
 
+/*
+ * V3 §2.11: at exactly 0.00 deg the 0x92 answer repeats its request byte
+ * for byte.  Right behind the motor's answered setpoint it is the answer,
+ * not a tripped motor's echo: the position stays fresh (a new 0x92 time
+ * each cycle) and no echo is counted.
+ */
+static void test_fine_position_at_zero(void **state)
+{
+	struct rmd_loop_counters c0, c1;
+	struct rmd_snapshot s;
+	int64_t last_pos_t;
+
+	(void)state;
+	rig_up(3, fine_tweak);
+	bring_up();
+	run(50, false);
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_POSITION)->pos_rad = 0.0;
+	cmd_motor(0, true, RMD_MODE_POSITION)->max_vel_rad_s = 5.0;
+	run(1000, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	/* the motor is at 0.00 deg to the 0x92 LSB: its answer repeats the request */
+	assert_true(fabs(sim_motor(0)->pos_rad * 18000.0 / M_PI) < 0.5);
+	rmd_loop_get_counters(R.l, &c0);
+	last_pos_t = snap().m[0].pos_rx_ns;
+	for (unsigned k = 0; k < 100; k++) {
+		run(1, true);
+		s = snap();
+		if (s.m[0].pos_rx_ns == last_pos_t)
+			fail_msg("cycle %u: position time not renewed: the 0x92 answer at 0.00 deg "
+				 "was taken for an echo",
+				 k);
+		last_pos_t = s.m[0].pos_rx_ns;
+		assert_float_equal(s.m[0].pos_rad, 0.0, 1e-12);
+	}
+	rmd_loop_get_counters(R.l, &c1);
+	assert_int_equal(c1.echoes, c0.echoes);
+	rig_down();
+}
+
 /* Issue 13's 25 Hz bus: 3 V3 position motors, the default status_poll_hz. */
 static void r25_tweak(struct rmd_config *cfg)
 {
@@ -2204,6 +2244,7 @@ int main(void)
 		cmocka_unit_test(test_fault_flood),
 		cmocka_unit_test(test_fault_over_temperature),
 		cmocka_unit_test(test_fine_position_sine),
+		cmocka_unit_test(test_fine_position_at_zero),
 		cmocka_unit_test(test_polls_two_a_cycle),
 	};
 
