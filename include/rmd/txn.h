@@ -70,7 +70,10 @@ struct rmd_txn {
 	 * of this try is unanswered is an earlier try's (answered late, or
 	 * echoed), and is passed over; so every resend of such a request
 	 * goes behind a guard, after a timeout too (a 0x9A request, its own
-	 * guard, excepted).
+	 * guard, excepted).  A request whose answer is its echo (a write) or
+	 * that has none goes behind a guard too, at every try, unless another
+	 * frame to the motor goes right ahead of it in the send: a tripped
+	 * motor's echo would pass for its answer, and it is not executed.
 	 * Requests not on the motor's own identifier (0x79 on 0x300) cannot
 	 * be guarded: for them a repeat of a resend, made at once after the
 	 * echo, is the answer.

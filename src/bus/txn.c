@@ -178,16 +178,25 @@ static struct rmd_frame guard_of(const struct rmd_txn *x)
 #define TXN_GUARD_BIT (1u << 31) /* idx[] of send_some(): the guard of that request */
 
 /*
- * Does x's next try go behind a guard?  After an echo; and every resend of
- * a request whose answer can repeat it, so that a late answer of the try
- * before, which comes ahead of the guard's, is not judged as this try's
- * (take()).  A status read is its own guard: resent alone.
+ * Does x's next try go behind a guard?  `ahead`: the frame going right
+ * ahead of it in this send, NULL for none.
+ * - After an echo; and every resend of a request whose answer can repeat
+ *   it, so that a late answer of the try before, which comes ahead of the
+ *   guard's, is not judged as this try's (take()).  A status read is its
+ *   own guard: resent alone.
+ * - A request whose answer is its echo (a write: 0xB3, 0x32, ...) or that
+ *   has none (0x76), unless another frame to the motor goes right ahead of
+ *   it: a motor whose protection tripped echoes the first command it gets
+ *   without executing it, and for such a request that echo looks like the
+ *   answer, or goes unseen.
  */
-static bool guarded(const struct rmd_txn *x)
+static bool guarded(const struct rmd_txn *x, const struct rmd_frame *ahead)
 {
 	if (!x->guardable)
 		return false;
-	return x->echo_seen || (x->tries && x->check_echo && x->req.data[0] != RMD_TXN_GUARD_CMD);
+	if (!x->check_echo || x->no_reply)
+		return !ahead || ahead->can_id != x->req.can_id;
+	return x->echo_seen || (x->tries && x->req.data[0] != RMD_TXN_GUARD_CMD);
 }
 
 /*
@@ -205,7 +214,7 @@ static int send_some(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t
 	for (unsigned i = 0; i < n && m < TXN_BATCH; i++) {
 		if (!sendable(&t[i], max_tries))
 			continue;
-		if (guarded(&t[i])) {
+		if (guarded(&t[i], m ? &frames[m - 1] : NULL)) {
 			if (m + 2 > TXN_BATCH)
 				break;
 			idx[m] = i | TXN_GUARD_BIT;

@@ -251,15 +251,14 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 {
 	struct probe_ctx pc = { .l = l, .bus = b };
 	struct rmd_txn_opts o = txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(&l->bus[b]));
-	/* per motor: a status read (0x9A), then the write (0xB3) */
-	struct rmd_txn t[2 * RMD_MAX_MOTORS];
+	struct rmd_txn t[RMD_MAX_MOTORS];
 	unsigned idx[RMD_MAX_MOTORS], n = 0;
 	int64_t now;
 	int r = 0;
 
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
-		struct rmd_msg wake = { .cmd = 0x9A }, msg = { .cmd = 0xB3 };
+		struct rmd_msg msg = { .cmd = 0xB3 };
 
 		out->motor[i].comm_loss_ms = rmd_config_comm_loss_ms(l->cfg, i);
 		if (lm->m.bus != b || lm->m.proto == RMD_PROTO_V2 ||
@@ -270,19 +269,18 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 		/*
 		 * A motor whose protection tripped (it may have, while bring-up
 		 * probed the others) only echoes the first command it gets, and
-		 * 0xB3's answer is its echo: a status read goes first, so that
-		 * an echo cannot pass for the write (txn tells a 0x9A echo).
+		 * 0xB3's answer is its echo: txn sends a status read right ahead
+		 * of it, which takes that echo (rmd/txn.h).
 		 */
-		if (rmd_txn_prepare(&t[2 * n], lm->m.proto, lm->m.id, &wake) == 0 &&
-		    rmd_txn_prepare(&t[2 * n + 1], lm->m.proto, lm->m.id, &msg) == 0)
+		if (rmd_txn_prepare(&t[n], lm->m.proto, lm->m.id, &msg) == 0)
 			idx[n++] = i;
 	}
 	if (n)
-		r = rmd_txn_run(l->bus[b].bus, t, 2 * n, &o);
+		r = rmd_txn_run(l->bus[b].bus, t, n, &o);
 	now = loop_now(l);
 	for (unsigned k = 0; k < n; k++) {
 		struct rmd_bringup_motor *bm = &out->motor[idx[k]];
-		const struct rmd_txn *w = &t[2 * k + 1];
+		const struct rmd_txn *w = &t[k];
 
 		bm->b3 = b3_outcome(&w->req, r >= 0 && w->done ? &w->rep.f : NULL);
 		loop_cl_outcome(l, &l->mot[idx[k]], b3_state(bm->b3), now);

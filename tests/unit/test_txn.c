@@ -258,6 +258,34 @@ static void test_late_echo(void **state)
 	rmd_bus_close(&x.bus);
 }
 
+/*
+ * A write whose answer is its echo, to a tripped motor: `rmdctl
+ * set-timeout 2 0`.  The motor echoes the first command it gets without
+ * executing it; that echo looked like the write's answer.  A guard goes
+ * ahead of it, so the write is executed: with the protection off, a read
+ * a long silence later is answered at the first try, not echoed.
+ */
+static void test_tripped_write_executes(void **state)
+{
+	static const uint8_t cmds[] = { 0x30 };
+	struct rmd_msg w = { .cmd = 0xB3 };
+	struct rmd_txn t;
+	struct fix x;
+
+	(void)state;
+	open_motor(&x, true);
+	rmd_msg_set(&w, RMD_FLD_TIMEOUT, 0);
+	assert_int_equal(rmd_txn_prepare(&t, RMD_PROTO_V3, 2, &w), 0);
+	assert_int_equal(rmd_txn_run(&x.bus, &t, 1, &x.o), 1);
+	assert_memory_equal(t.rep.f.data, t.req.data, RMD_FRAME_LEN);
+	t_now += 2 * COMM_LOSS_MS * MS;
+	x.o.tries = 1;
+	prepare(&t, cmds, 1);
+	assert_int_equal(rmd_txn_run(&x.bus, &t, 1, &x.o), 1);
+	assert_false(t.echo_seen);
+	rmd_bus_close(&x.bus);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -269,6 +297,7 @@ int main(void)
 		cmocka_unit_test(test_set_id_repeat),
 		cmocka_unit_test(test_late_zero_answer),
 		cmocka_unit_test(test_late_echo),
+		cmocka_unit_test(test_tripped_write_executes),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
