@@ -12,7 +12,7 @@ rmd-sim --can can0 --motors 1-3 > sim.log 2>&1 &
 sim=$!
 wait_for sim.log 'ready' 30
 scan_until 3 rmdctl scan --bus can0
-rmdctl status 3 --bus can0 --json | tee status.json
+answered "rmdctl status 3 --bus can0 --json | tee status.json"
 grep -q '"motor_id":3' status.json
 rc=0; timeout -k 10 -s INT 2 rmdctl monitor --bus can0 > monitor.out 2>&1 || rc=$?; ran_until_stopped $rc
 # the two that ask first, answered on a terminal (script gives them one)
@@ -27,11 +27,11 @@ for f in 141#A100000064000000 142#A400C80028230000 280#3F00C1FF1F000000; do
 	grep -q " can0 $f\$" frames.out || { echo "candump did not see $f"; tail frames.out; exit 1; }
 done
 # settings into a file and back (unchanged: nothing to write)
-rmdctl dump --bus can0 > motors.yaml
+answered "rmdctl dump --bus can0 > motors.yaml"
 cat motors.yaml
 grep -q 'speed_kp' motors.yaml
 # unchanged: nothing to ask, nothing to write
-rmdctl restore motors.yaml --bus can0 < /dev/null
+answered "rmdctl restore motors.yaml --bus can0 < /dev/null"
 stop $sim
 
 rmd-sim --config examples/rmd-sim.conf > s1.log 2>&1 &
