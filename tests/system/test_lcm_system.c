@@ -2097,7 +2097,7 @@ static void test_owner_kept_through_a_stall(void **state)
 		enable_in_place(f);
 		memcpy(f->home, f->target, sizeof(f->home));
 		f->fresh_after_ns = rmd_now_ns();
-		if (!both_publish(f, 3000, false, done_a_drives, 0, &near_b))
+		if (!both_publish(f, 3000 * (int)pace, false, done_a_drives, 0, &near_b))
 			fail_msg("the motors did not follow the owner; rmdd's output:\n%s",
 				 slurp(f->log));
 		h = f->rx.health;
@@ -2128,7 +2128,7 @@ static void test_owner_kept_through_a_stall(void **state)
 		 * queued has been read by then)
 		 */
 		f->fresh_after_ns = t_cont + (int64_t)f->timeout_ms * NS_PER_MS;
-		drives = both_publish(f, 3000, false, done_a_drives, 0, &near_b);
+		drives = both_publish(f, 3000 * (int)pace, false, done_a_drives, 0, &near_b);
 		if (f->max_pub_gap_ns < (int64_t)f->timeout_ms * NS_PER_MS)
 			break;
 		if (pace * 2 > MAX_PACE) {
