@@ -949,11 +949,9 @@ static bool drain_lcm(struct rmd_bridge *b)
  */
 static void drain(struct rmd_bridge *b)
 {
-	struct timespec rt;
-	int64_t start = rmd_now_ns();
+	int64_t start;
 
-	clock_gettime(CLOCK_REALTIME, &rt);
-	b->rx_off_ns = rmd_timespec_ns(&rt) - start;
+	b->rx_off_ns = rmd_realtime_offset_ns(&start);
 	if (b->rx_fd >= 0 ? drain_socket(b) : drain_lcm(b))
 		b->rx_seen_ns = start;
 }
