@@ -547,7 +547,7 @@ static int64_t utime_ns(int64_t us)
 /*
  * When the message being handled arrived, on CLOCK_MONOTONIC: its receive
  * stamp real_ns (CLOCK_REALTIME; 0: none, then now) moved onto
- * CLOCK_MONOTONIC by the offset drain_begin() measured, and held to what
+ * CLOCK_MONOTONIC by the offset drain() measured, and held to what
  * is certain whatever the realtime clock did in between: not after now
  * (it is being handled), not before the drain that last found nothing
  * queued began (it would have been read then: b->rx_seen_ns), and after
@@ -949,9 +949,15 @@ static bool drain_lcm(struct rmd_bridge *b)
  */
 static void drain(struct rmd_bridge *b)
 {
-	int64_t start;
+	int64_t start, off = rmd_realtime_offset_ns(&start);
 
-	b->rx_off_ns = rmd_realtime_offset_ns(&start);
+	/*
+	 * A clock step since the last drain: each stamp of this one is right
+	 * with one of the two offsets.  The smaller makes it the later: a step
+	 * never makes a controller look silent (the bounds hold either way).
+	 */
+	b->rx_off_ns = off < b->rx_off_last_ns ? off : b->rx_off_last_ns;
+	b->rx_off_last_ns = off;
 	if (b->rx_fd >= 0 ? drain_socket(b) : drain_lcm(b))
 		b->rx_seen_ns = start;
 }
@@ -1400,7 +1406,8 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	int r;
 
 	memset(b, 0, sizeof(*b));
-	b->rx_seen_ns = b->rx_at_ns = rmd_now_ns(); /* nothing can have come before */
+	b->rx_off_last_ns = rmd_realtime_offset_ns(&b->rx_seen_ns);
+	b->rx_at_ns = b->rx_seen_ns; /* nothing can have come before */
 	b->stop_fd = -1;
 	b->rx_fd = -1;
 	b->ep_fd = -1;
