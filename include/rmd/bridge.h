@@ -209,7 +209,7 @@ struct rmd_bridge {
 	bool owned;
 	int64_t owner;			   /* command_t.controller of the owner */
 	uint32_t owner_on;		   /* motors the owner enabled and has not disabled */
-	int64_t owner_rx_ns;		   /* its newest accepted command */
+	int64_t owner_rx_ns;		   /* when its newest accepted command arrived */
 	bool have_controller;		   /* last_controller is set: */
 	int64_t last_controller;	   /* whose sequence last_seq and newest_utime are */
 	uint32_t disables[RMD_MAX_MOTORS]; /* enable = 0 entries accepted, per motor */
@@ -234,6 +234,20 @@ struct rmd_bridge {
 	bool have_utime_jump;
 	/* Owned by the bridge thread: when the last config_t went out. */
 	int64_t config_sent_ns;
+	/*
+	 * Owned by the bridge thread: when messages arrived (arrival_ns() in
+	 * bridge.c), CLOCK_MONOTONIC unless said.  rx_seen_ns: every message
+	 * that arrived before it has been looked at; rx_at_ns: the arrival of
+	 * the newest one; rx_off_last_ns: CLOCK_REALTIME - CLOCK_MONOTONIC
+	 * at the last drain, rx_off_ns: the one its stamps are moved by (the
+	 * smaller of it and the one before); rx_real_ns: udpm: the kernel's
+	 * receive stamp of the datagram being handled, CLOCK_REALTIME (0: none).
+	 */
+	int64_t rx_seen_ns;
+	int64_t rx_at_ns;
+	int64_t rx_off_ns;
+	int64_t rx_off_last_ns;
+	int64_t rx_real_ns;
 };
 
 /*

@@ -56,7 +56,7 @@ struct rmd_incident_state {
 /* One motor's entry of a command the loop took. */
 struct rmd_incident_command {
 	int64_t t_ns;  /* the cycle that took it */
-	int64_t rx_ns; /* when the bridge accepted it */
+	int64_t rx_ns; /* when it arrived at the bridge (rmd_command.rx_ns) */
 	int64_t seq;   /* the controller's sequence number */
 	uint8_t motor; /* config index */
 	struct rmd_setpoint sp;

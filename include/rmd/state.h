@@ -86,7 +86,7 @@ struct rmd_setpoint {
 
 /* A controller's command, as the bridge hands it to the rt loop. */
 struct rmd_command {
-	int64_t rx_ns;	  /* CLOCK_MONOTONIC when the bridge accepted it */
+	int64_t rx_ns;	  /* CLOCK_MONOTONIC when it arrived (its receive stamp), not when read */
 	int64_t stamp_us; /* the controller's own timestamp */
 	int64_t seq;	  /* the controller's sequence number */
 	uint32_t present; /* bit i: m[i] carries a setpoint for motor i */

@@ -29,4 +29,29 @@ static inline int64_t rmd_timespec_ns(const struct timespec *ts)
 	return (int64_t)ts->tv_sec * RMD_NS_PER_S + ts->tv_nsec;
 }
 
+/*
+ * CLOCK_REALTIME - CLOCK_MONOTONIC now, for moving a kernel receive stamp
+ * (CLOCK_REALTIME: no socket option gives a CLOCK_MONOTONIC one) onto the
+ * one clock: the REALTIME read bracketed between two MONOTONIC reads,
+ * against their midpoint.  The offset drifts only while REALTIME is slewed
+ * (adjtimex: <= 500 ppm) or stepped (settimeofday, an NTP/PTP step); a
+ * step between a stamp and this read misplaces the stamp by the step, so
+ * callers clamp the result to *mono_now_ns (what came cannot have come
+ * after it was read), where this stores the MONOTONIC time of the read.
+ * rt-safe.
+ */
+static inline int64_t rmd_realtime_offset_ns(int64_t *mono_now_ns)
+{
+	struct timespec m0, r, m1;
+	int64_t m0_ns, m1_ns;
+
+	clock_gettime(CLOCK_MONOTONIC, &m0);
+	clock_gettime(CLOCK_REALTIME, &r);
+	clock_gettime(CLOCK_MONOTONIC, &m1);
+	m0_ns = rmd_timespec_ns(&m0);
+	m1_ns = rmd_timespec_ns(&m1);
+	*mono_now_ns = m1_ns;
+	return rmd_timespec_ns(&r) - (m0_ns + (m1_ns - m0_ns) / 2);
+}
+
 #endif /* RMD_TIME_H */

@@ -26,6 +26,7 @@
 #include <linux/can/raw.h>
 
 #include "rmd/err.h"
+#include "rmd/time.h"
 #include "rmd/bus_socketcan.h"
 
 #define BATCH RMD_SOCKETCAN_BATCH
@@ -71,39 +72,6 @@ struct socketcan {
 	struct can_frame rx_cf[BATCH];
 	union ctrl_buf rx_ctrl[BATCH];
 };
-
-static int64_t timespec_ns(const struct timespec *ts)
-{
-	return (int64_t)ts->tv_sec * 1000000000 + ts->tv_nsec;
-}
-
-/*
- * Receive timestamps.  The kernel stamps a received frame with
- * CLOCK_REALTIME (skb->tstamp, taken when the driver hands the frame to the
- * stack); no socket option gives a CLOCK_MONOTONIC receive stamp.  We
- * convert with the REALTIME - MONOTONIC offset read right after the frames
- * were dequeued, bracketing the REALTIME read between two MONOTONIC reads
- * and taking their midpoint.  The offset drifts only while REALTIME is
- * slewed (adjtimex: <= 500 ppm, < 0.5 us over the ~1 ms a frame waits in
- * the socket) or stepped (settimeofday, an NTP/PTP step).  A step between
- * a frame's arrival and our read misplaces that frame by the step, so the
- * result is clamped to the dequeue time: a frame cannot arrive after we
- * read it.  Returns the offset; stores the dequeue time in *mono_now_ns.
- * Rt-safe.
- */
-static int64_t realtime_offset(int64_t *mono_now_ns)
-{
-	struct timespec m0, r, m1;
-	int64_t m0_ns, m1_ns;
-
-	clock_gettime(CLOCK_MONOTONIC, &m0);
-	clock_gettime(CLOCK_REALTIME, &r);
-	clock_gettime(CLOCK_MONOTONIC, &m1);
-	m0_ns = timespec_ns(&m0);
-	m1_ns = timespec_ns(&m1);
-	*mono_now_ns = m1_ns;
-	return timespec_ns(&r) - (m0_ns + (m1_ns - m0_ns) / 2);
-}
 
 static int add_filter(struct can_filter *f, int n, canid_t id)
 {
@@ -365,7 +333,14 @@ static int socketcan_send(struct rmd_bus *bus, const struct rmd_frame *frames, u
 	return r;
 }
 
-/* Fold the ancillary data of one frame in: its receive time and the drop counter.  Rt-safe. */
+/*
+ * Fold the ancillary data of one frame in: its receive time and the drop
+ * counter.  The kernel stamps a frame with CLOCK_REALTIME (skb->tstamp,
+ * when the driver hands it to the stack): moved onto CLOCK_MONOTONIC by
+ * offset_ns, rmd_realtime_offset_ns() read right after the frames were
+ * dequeued (it drifts < 0.5 us over the ~1 ms a frame waits in the
+ * socket), and clamped to the dequeue time (rmd/time.h).  Rt-safe.
+ */
 static int64_t rx_ancillary(struct rmd_bus *bus, struct socketcan *p, struct msghdr *mh,
 			    int64_t offset_ns, int64_t mono_now_ns)
 {
@@ -379,7 +354,7 @@ static int64_t rx_ancillary(struct rmd_bus *bus, struct socketcan *p, struct msg
 			struct timespec ts;
 
 			memcpy(&ts, CMSG_DATA(c), sizeof(ts));
-			t_ns = timespec_ns(&ts) - offset_ns;
+			t_ns = rmd_timespec_ns(&ts) - offset_ns;
 			if (t_ns > mono_now_ns)
 				t_ns = mono_now_ns;
 		} else if (c->cmsg_type == SO_RXQ_OVFL &&
@@ -418,7 +393,7 @@ static int socketcan_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned 
 			/* Keep what we have; the error is reported on the next call. */
 			return count ? (int)count : -errno;
 		}
-		offset_ns = realtime_offset(&mono_now_ns);
+		offset_ns = rmd_realtime_offset_ns(&mono_now_ns);
 		for (int i = 0; i < r; i++) {
 			struct msghdr *mh = &p->rx_msg[i].msg_hdr;
 			const struct can_frame *cf = &p->rx_cf[i];

@@ -274,10 +274,16 @@ static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t 
  * The newest command.  An enable = 0 the loop did not see (the bridge
  * handed a newer command over before this cycle) shows as a change of
  * disables[]: it is acted on first, so enable = 0 then enable = 1 works
- * however fast they come.  rt-safe.
+ * however fast they come, and always, whenever it arrived.  rx_ns is
+ * when the command arrived: after rmdd was held off, the bridge hands
+ * over what queued meanwhile with its old stamps, so a command from
+ * before a trip does not lift it, and one that is older than the command
+ * timeout already moves nothing (the watchdog trips on it this cycle).
+ * rt-safe.
  */
 void loop_take_command(struct rmd_loop *l, int64_t now)
 {
+	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * RMD_NS_PER_MS;
 	const struct rmd_command *c;
 	const void *p;
 	bool any_enable = false;
@@ -290,13 +296,6 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 	if (!l->cmd || c->rx_ns > l->last_cmd_rx_ns)
 		l->last_cmd_rx_ns = c->rx_ns;
 	l->cmd = c;
-	/* A command from before the trip does not lift it. */
-	if (l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns) {
-		for (unsigned i = 0; i < l->n_motors; i++)
-			if (c->present & (1u << i) && c->m[i].enable)
-				l->cnt.ignored[RMD_IGN_TRIPPED]++;
-		return;
-	}
 	/* c is not the loop's to write: its mask read once */
 	present = c->present;
 	for (unsigned i = 0; i < l->n_motors; i++) {
@@ -306,6 +305,17 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 			lm->disables_seen = c->disables[i];
 			disable_motor(l, lm, now);
 		}
+	}
+	if ((l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns) ||
+	    (timeout > 0 && now - c->rx_ns > timeout)) {
+		for (unsigned i = 0; i < l->n_motors; i++)
+			if (present & (1u << i) && c->m[i].enable)
+				l->cnt.ignored[RMD_IGN_TRIPPED]++;
+		return;
+	}
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
 		if (!(present & (1u << i)))
 			continue;
 		if (c->m[i].enable) {

@@ -448,12 +448,18 @@ static int decode_command(struct rmd_bridge *b, const lcm_recv_buf_t *rbuf, rmd_
 	return -1;
 }
 
-/* The owner went quiet for the command timeout: ownership ends.  Bridge thread. */
-static void owner_expire(struct rmd_bridge *b, int64_t now)
+/*
+ * The owner went quiet for the command timeout: ownership ends.  `at` is a
+ * time up to which every message that arrived has been looked at (a
+ * message's arrival, or b->rx_seen_ns), never merely the time now: after
+ * the bridge was held off, the owner's commands that queued meanwhile
+ * have not been read yet, and it was not silent.  Bridge thread.
+ */
+static void owner_expire(struct rmd_bridge *b, int64_t at)
 {
 	int64_t timeout = (int64_t)b->opts.command_timeout_ms * RMD_NS_PER_MS;
 
-	if (!b->owned || timeout <= 0 || now - b->owner_rx_ns <= timeout)
+	if (!b->owned || timeout <= 0 || at - b->owner_rx_ns <= timeout)
 		return;
 	/* not logged: the watchdog trip (rmdd's log) says the controller went quiet */
 	b->owned = false;
@@ -463,11 +469,12 @@ static void owner_expire(struct rmd_bridge *b, int64_t now)
 /*
  * One controller at a time (docs/lcm.md): a command from another
  * controller than the owner is rejected, unless it takes the motors over.
- * Returns -1 or RMD_REJ_OWNER.  Bridge thread.
+ * at: when the command arrived (arrival_ns()).  Returns -1 or
+ * RMD_REJ_OWNER.  Bridge thread.
  */
-static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t now)
+static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t at)
 {
-	owner_expire(b, now);
+	owner_expire(b, at);
 	if (!b->owned || msg->controller == b->owner)
 		return -1;
 	if (msg->takeover) {
@@ -478,14 +485,14 @@ static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t n
 		count(&b->n_takeovers);
 		b->owner = msg->controller;
 		b->owner_on = 0;
-		b->owner_rx_ns = now;
+		b->owner_rx_ns = at;
 		atomic_store_explicit(&b->pub_owner, b->owner, memory_order_relaxed);
 		return -1;
 	}
 	/* a new intruder is an incident (rmdd's recorder) */
 	if (b->opts.on_intruder &&
 	    atomic_load_explicit(&b->pub_intruder, memory_order_relaxed) != msg->controller)
-		b->opts.on_intruder(b->opts.intruder_ctx, now, msg->controller, b->owner);
+		b->opts.on_intruder(b->opts.intruder_ctx, at, msg->controller, b->owner);
 	atomic_store_explicit(&b->pub_intruder, msg->controller, memory_order_relaxed);
 	return reject(b, RMD_REJ_OWNER,
 		      "controller %016" PRIx64 ": the motors are owned by controller %016" PRIx64
@@ -494,11 +501,11 @@ static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t n
 }
 
 /*
- * An accepted command: who owns the motors now (said in state_t and
- * health_t, not logged: a controller's start and end are routine), and
- * the enable = 0 counts.  Bridge thread.
+ * An accepted command that arrived at `at`: who owns the motors now (said
+ * in state_t and health_t, not logged: a controller's start and end are
+ * routine), and the enable = 0 counts.  Bridge thread.
  */
-static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg, int64_t now)
+static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg, int64_t at)
 {
 	uint32_t on = 0, off = 0;
 
@@ -521,12 +528,45 @@ static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg, int64_
 	}
 	if (!b->owned || msg->controller != b->owner)
 		return;
-	b->owner_rx_ns = now;
+	b->owner_rx_ns = at;
 	b->owner_on = (b->owner_on | on) & ~off;
 	if (!b->owner_on) {
 		b->owned = false;
 		atomic_store_explicit(&b->pub_owned, false, memory_order_relaxed);
 	}
+}
+
+/* LCM's recv_utime (CLOCK_REALTIME, us) in ns; 0 (none) when out of range. */
+static int64_t utime_ns(int64_t us)
+{
+	int64_t ns;
+
+	return us > 0 && !__builtin_mul_overflow(us, RMD_NS_PER_US, &ns) ? ns : 0;
+}
+
+/*
+ * When the message being handled arrived, on CLOCK_MONOTONIC: its receive
+ * stamp real_ns (CLOCK_REALTIME; 0: none, then now) moved onto
+ * CLOCK_MONOTONIC by the offset drain() measured, and held to what
+ * is certain whatever the realtime clock did in between: not after now
+ * (it is being handled), not before the drain that last found nothing
+ * queued began (it would have been read then: b->rx_seen_ns), and after
+ * the previous message's (they are read in the order they came).  So a
+ * clock step moves a stamp at most to those bounds, and each command's
+ * rx_ns is its own.  Bridge thread.
+ */
+static int64_t arrival_ns(struct rmd_bridge *b, int64_t real_ns, int64_t now)
+{
+	int64_t t = real_ns > 0 ? sub_sat(real_ns, b->rx_off_ns) : now;
+
+	if (t < b->rx_seen_ns)
+		t = b->rx_seen_ns;
+	if (t <= b->rx_at_ns)
+		t = b->rx_at_ns + 1;
+	if (t > now)
+		t = now;
+	b->rx_at_ns = t;
+	return t;
 }
 
 static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
@@ -535,11 +575,13 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 	struct rmd_bridge_buf *buf = b->buf;
 	rmd_command_t *msg = &buf->msg;
 	struct clamp_note note = { 0 };
-	int64_t now = rmd_now_ns();
+	/* udpm: the kernel's stamp of our socket's datagram; else LCM's own receive time */
+	int64_t at = arrival_ns(b, b->rx_fd >= 0 ? b->rx_real_ns : utime_ns(rbuf->recv_utime),
+				rmd_now_ns());
 
 	(void)channel;
 	if (decode_command(b, rbuf, msg) >= 0 || check_entries(b, msg) >= 0 ||
-	    check_owner(b, msg, now) >= 0)
+	    check_owner(b, msg, at) >= 0)
 		return;
 	/* a different controller starts its own sequence */
 	if (!b->have_controller || msg->controller != b->last_controller)
@@ -559,10 +601,10 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		b->have_utime = true;
 	}
 
-	note_accepted(b, msg, now);
+	note_accepted(b, msg, at);
 	fill_command(b, msg, &buf->cmd, &note);
 	memcpy(buf->cmd.disables, b->disables, sizeof(buf->cmd.disables));
-	buf->cmd.rx_ns = now;
+	buf->cmd.rx_ns = at;
 	rmd_latest_put(b->opts.commands, &buf->cmd);
 	count(&b->n_accepted);
 	if (note.any) {
@@ -710,7 +752,7 @@ static void publish_health(struct rmd_bridge *b, int64_t now)
 	o->commands_clamped = sat64(read_count(&b->n_clamped));
 	for (int k = 0; k < RMD_IGN_KINDS; k++)
 		o->ignored_by_kind[k] = sat64(h->ignored[k]);
-	owner_expire(b, now);
+	owner_expire(b, b->rx_seen_ns); /* not now: see owner_expire() */
 	o->owned = b->owned;
 	o->owner = b->owned ? b->owner : 0;
 	o->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);
@@ -801,7 +843,10 @@ static void publish_config(struct rmd_bridge *b)
 /* A whole message on `channel`: the subscriptions' handlers, as lcm_handle() would call them. */
 static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data, uint32_t size)
 {
-	lcm_recv_buf_t rb = { .data = data, .data_size = size, .lcm = b->lcm };
+	lcm_recv_buf_t rb = { .data = data,
+			      .data_size = size,
+			      .recv_utime = b->rx_real_ns / RMD_NS_PER_US,
+			      .lcm = b->lcm };
 
 	if (!strcmp(channel, b->ch_command))
 		on_command(&rb, channel, b);
@@ -824,41 +869,60 @@ static void udpm_packet(struct rmd_bridge *b, const struct sockaddr_in *from, si
 		       (unsigned)m.size);
 }
 
+/* The kernel's receive stamp of a datagram (SO_TIMESTAMPNS), CLOCK_REALTIME ns; 0: none. */
+static int64_t rx_stamp_ns(struct msghdr *mh)
+{
+	for (struct cmsghdr *c = CMSG_FIRSTHDR(mh); c; c = CMSG_NXTHDR(mh, c))
+		if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS &&
+		    c->cmsg_len >= CMSG_LEN(sizeof(struct timespec))) {
+			struct timespec ts;
+
+			memcpy(&ts, CMSG_DATA(c), sizeof(ts));
+			return rmd_timespec_ns(&ts);
+		}
+	return 0;
+}
+
 /* Read what the socket holds, looking at the snapshots after each datagram (as drain()). */
-static void drain_socket(struct rmd_bridge *b)
+static bool drain_socket(struct rmd_bridge *b)
 {
 	for (int n = 0; n < DRAIN_MAX; n++) {
 		struct sockaddr_in from;
-		socklen_t flen = sizeof(from);
-		ssize_t r = recvfrom(b->rx_fd, b->buf->pkt, RMD_UDPM_PKT_MAX, MSG_DONTWAIT,
-				     (struct sockaddr *)&from, &flen);
+		union {
+			char buf[CMSG_SPACE(sizeof(struct timespec))];
+			struct cmsghdr align;
+		} ctl;
+		struct iovec iov = { .iov_base = b->buf->pkt, .iov_len = RMD_UDPM_PKT_MAX };
+		struct msghdr mh = { .msg_name = &from,
+				     .msg_namelen = sizeof(from),
+				     .msg_iov = &iov,
+				     .msg_iovlen = 1,
+				     .msg_control = ctl.buf,
+				     .msg_controllen = sizeof(ctl.buf) };
+		ssize_t r = recvmsg(b->rx_fd, &mh, MSG_DONTWAIT);
 
 		if (r < 0) {
-			if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)
-				return;
+			if (errno == EAGAIN || errno == EWOULDBLOCK)
+				return true;
+			if (errno == EINTR)
+				return false;
 			if (read_count(&b->n_lcm_errors) == 0)
 				logf_(b, 4, "LCM receive failed (%s); further failures are counted",
 				      strerror(errno));
 			count(&b->n_lcm_errors);
-			return;
+			return false;
 		}
 		count(&b->n_datagrams);
+		b->rx_real_ns = rx_stamp_ns(&mh);
 		udpm_packet(b, &from, (size_t)r);
 		publish_state(b);
 	}
+	return false;
 }
 
-/*
- * Handle what LCM has queued, and look at the snapshots after each message
- * (an atomic load when there is none): a flood of commands never holds
- * back the state.
- */
-static void drain(struct rmd_bridge *b)
+/* What LCM has queued (not udpm); true when it found nothing more. */
+static bool drain_lcm(struct rmd_bridge *b)
 {
-	if (b->rx_fd >= 0) {
-		drain_socket(b);
-		return;
-	}
 	for (int n = 0; n < DRAIN_MAX; n++) {
 		int r = lcm_handle_timeout(b->lcm, 0);
 
@@ -869,8 +933,33 @@ static void drain(struct rmd_bridge *b)
 			count(&b->n_lcm_errors);
 		}
 		if (r <= 0)
-			return;
+			return r == 0;
 	}
+	return false;
+}
+
+/*
+ * Handle what has queued, and look at the snapshots after each message
+ * (an atomic load when there is none): a flood of commands never holds
+ * back the state.  Messages are judged by when they arrived
+ * (arrival_ns()): the offset of CLOCK_REALTIME, on which receive stamps
+ * come, is measured here, and a drain that finds the queue empty makes
+ * its start b->rx_seen_ns, up to when every message has been looked at
+ * (a drain cut short by DRAIN_MAX or an error leaves it).  Bridge thread.
+ */
+static void drain(struct rmd_bridge *b)
+{
+	int64_t start, off = rmd_realtime_offset_ns(&start);
+
+	/*
+	 * A clock step since the last drain: each stamp of this one is right
+	 * with one of the two offsets.  The smaller makes it the later: a step
+	 * never makes a controller look silent (the bounds hold either way).
+	 */
+	b->rx_off_ns = off < b->rx_off_last_ns ? off : b->rx_off_last_ns;
+	b->rx_off_last_ns = off;
+	if (b->rx_fd >= 0 ? drain_socket(b) : drain_lcm(b))
+		b->rx_seen_ns = start;
 }
 
 /*
@@ -992,6 +1081,7 @@ static void *bridge_main(void *arg)
 		publish_state(b);
 		now = rmd_now_ns();
 		if (now >= b->next_health_ns) {
+			drain(b); /* health_t's owner: judged on every message that came */
 			publish_health(b, now);
 			b->next_health_ns += b->opts.health_period_ns;
 			if (b->next_health_ns <= now) /* late: skip, never catch up in a burst */
@@ -1214,6 +1304,8 @@ static int udpm_open(const char *url, const struct sockaddr_in *group)
 	mreq.imr_interface.s_addr = htonl(INADDR_ANY);
 	if (fd < 0)
 		return -errno;
+	/* receive stamps (arrival_ns()); without them a command's arrival is when it is read */
+	setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &one, sizeof(one));
 	if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one)) < 0 ||
 	    (size > 0 && setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &size, sizeof(size)) < 0) ||
 	    bind(fd, (const struct sockaddr *)group, sizeof(*group)) < 0 ||
@@ -1314,6 +1406,8 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	int r;
 
 	memset(b, 0, sizeof(*b));
+	b->rx_off_last_ns = rmd_realtime_offset_ns(&b->rx_seen_ns);
+	b->rx_at_ns = b->rx_seen_ns; /* nothing can have come before */
 	b->stop_fd = -1;
 	b->rx_fd = -1;
 	b->ep_fd = -1;

@@ -17,6 +17,9 @@
  *     says so, and a new command with enable clears it;
  *   - an intruding controller and a watchdog trip each leave an incident
  *     recording (docs/design.md "Incidents") in the right order;
+ *   - rmdd stopped (SIGSTOP) past the command timeout while two controllers
+ *     publish: the owner keeps the motors, the intruder's queued commands
+ *     are rejected;
  *   - the example controllers (build/sine_controller, examples/sine.py when
  *     Python has `lcm`) track a sine and print the tracking error, stop
  *     cleanly on SIGINT (enable = 0, exit 0), and refuse to start without
@@ -140,6 +143,8 @@ struct fixture {
 	struct thread_sched bridge0; /* its counters at busy_mark() */
 	int64_t fresh_after_ns;	     /* done_fresh_health(): a health_t newer than this */
 	double target[NMOTORS];
+	double home[NMOTORS]; /* two controllers: where A (+0.3) and B (-0.3) drive from */
+	unsigned n_b_sent;    /* two controllers: B's commands sent */
 	uint8_t buf[4096];
 };
 
@@ -444,6 +449,8 @@ static int teardown(void **state)
 	if (!f)
 		return 0;
 	stop_child(&f->child, SIGKILL, 2000);
+	if (f->rmdd > 0)
+		kill(f->rmdd, SIGCONT); /* a test that stopped it (SIGSTOP) and failed */
 	if (f->rmdd > 0 && stop_child(&f->rmdd, SIGTERM, 5000) != 0)
 		fprintf(stderr, "test_lcm_system: rmdd did not stop cleanly; its output:\n%s\n",
 			slurp(f->log));
@@ -585,6 +592,16 @@ static bool all_at_target(const struct fixture *f, double tol)
 	return true;
 }
 
+/* The controller published now: f->last_pub_ns, and the longest gap in f->max_pub_gap_ns. */
+static void note_pub(struct fixture *f)
+{
+	int64_t now = rmd_now_ns();
+
+	if (f->last_pub_ns && now - f->last_pub_ns > f->max_pub_gap_ns)
+		f->max_pub_gap_ns = now - f->last_pub_ns;
+	f->last_pub_ns = now;
+}
+
 /*
  * Publish cmd_all(enable) every CTL_PERIOD_MS, as a controller does, until
  * done(f) or ms pass.  Returns whether done(f) held.
@@ -603,9 +620,7 @@ static bool stream(struct fixture *f, bool enable, int ms,
 			rmd_command_t m = cmd_all(f, enable);
 
 			send_cmd(f, &m);
-			if (f->last_pub_ns && rmd_now_ns() - f->last_pub_ns > f->max_pub_gap_ns)
-				f->max_pub_gap_ns = rmd_now_ns() - f->last_pub_ns;
-			f->last_pub_ns = rmd_now_ns();
+			note_pub(f);
 			next = now + CTL_PERIOD_MS * NS_PER_MS;
 		}
 		pump(f, 1);
@@ -717,11 +732,10 @@ static bool trip_explained(const struct fixture *f)
 }
 
 /*
- * rmdd again, on the suite's configuration with every time of its safety
- * section pace times the file's (a busy machine: see
- * test_silence_trips_the_watchdog_and_enable_clears_it).
+ * rmdd (again), on the suite's configuration with the safety section's
+ * comm_loss_ms and command_timeout_ms as given.
  */
-static void restart_rmdd_paced(struct fixture *f, unsigned pace)
+static void restart_rmdd_timed(struct fixture *f, unsigned comm_loss_ms, unsigned timeout_ms)
 {
 	static const char from[] = "comm_loss_ms: 100, command_timeout_ms: 100";
 	const char *at = strstr(config_yaml, from);
@@ -734,14 +748,23 @@ static void restart_rmdd_paced(struct fixture *f, unsigned pace)
 	listen_off(f);
 	lcm_rx_free(&f->rx);
 	memset(&f->rx, 0, sizeof(f->rx));
-	snprintf(path, sizeof(path), "%s/paced-%u.yaml", tmpdir, pace);
+	snprintf(path, sizeof(path), "%s/timed-%u-%u.yaml", tmpdir, comm_loss_ms, timeout_ms);
 	fp = fopen(path, "w");
 	assert_non_null(fp);
 	fprintf(fp, "%.*scomm_loss_ms: %u, command_timeout_ms: %u%s", (int)(at - config_yaml),
-		config_yaml, 100 * pace, COMMAND_TIMEOUT_MS * pace, at + strlen(from));
+		config_yaml, comm_loss_ms, timeout_ms, at + strlen(from));
 	assert_int_equal(fclose(fp), 0);
 	start_rmdd_with(f, path);
-	f->timeout_ms = COMMAND_TIMEOUT_MS * (int)pace;
+	f->timeout_ms = (int)timeout_ms;
+}
+
+/*
+ * rmdd again, with every time of its safety section pace times the file's
+ * (a busy machine: see test_silence_trips_the_watchdog_and_enable_clears_it).
+ */
+static void restart_rmdd_paced(struct fixture *f, unsigned pace)
+{
+	restart_rmdd_timed(f, 100 * pace, COMMAND_TIMEOUT_MS * pace);
 }
 
 /* ---- tests: the round trip ------------------------------------------------------------ */
@@ -1927,6 +1950,60 @@ static bool all_near(const struct fixture *f, const double *target, double off, 
 	return true;
 }
 
+#define CTL_A 0x0a0a /* two controllers: A, the owner, drives every motor to home + 0.3 */
+#define CTL_B 0x0b0b /* B, the intruder, to home - 0.3 */
+
+/* One command with enable = 1 from controller A or B (CTL_*), towards its target. */
+static void send_as(struct fixture *f, int64_t who)
+{
+	rmd_command_t m;
+
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = f->home[i] + (who == CTL_A ? 0.3 : -0.3);
+	f->controller = who;
+	m = cmd_all(f, true);
+	send_cmd(f, &m);
+	if (who == CTL_A)
+		note_pub(f);
+	else
+		f->n_b_sent++;
+}
+
+/*
+ * A and B each publish every CTL_PERIOD_MS (A first, or B when b_first)
+ * for ms, or until done(f, arg) holds; *near_b says whether state_t showed
+ * every motor near B's target meanwhile.  The gaps between A's commands go
+ * into f->max_pub_gap_ns.  Then f speaks as A again.  Returns whether done
+ * held.
+ */
+static bool both_publish(struct fixture *f, int ms, bool b_first,
+			 bool (*done)(const struct fixture *f, int arg), int arg, bool *near_b)
+{
+	int64_t end = rmd_now_ns() + (int64_t)ms * NS_PER_MS;
+	bool ok = false;
+
+	while (!(ok = done(f, arg)) && rmd_now_ns() < end) {
+		send_as(f, b_first ? CTL_B : CTL_A);
+		send_as(f, b_first ? CTL_A : CTL_B);
+		for (int k = 0; k < CTL_PERIOD_MS; k++) {
+			pump(f, 1);
+			*near_b |= all_near(f, f->home, -0.3, 0.1);
+		}
+	}
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = f->home[i] + 0.3;
+	f->controller = CTL_A;
+	return ok;
+}
+
+/* A state_t and a health_t since f->fresh_after_ns, every motor ENABLED at A's target (20 mrad). */
+static bool done_a_drives(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return done_fresh_health(f, 0) && f->rx.state.utime * 1000 > f->fresh_after_ns &&
+	       all_in(f, RMD_STATE_T_LC_ENABLED) && all_near(f, f->home, 0.3, 0.02);
+}
+
 /*
  * Issue 13: two controllers publishing at once.  The first to enable owns
  * the motors; the second is rejected and reported (health_t owner and
@@ -1935,46 +2012,22 @@ static bool all_near(const struct fixture *f, const double *target, double off, 
 static void test_second_controller_rejected(void **state)
 {
 	struct fixture *f = fixture(state);
-	double home[NMOTORS];
-	int64_t end;
 	bool near_b = false;
 	const rmd_health_t *h;
 	const char *log;
 
 	start_rmdd(f);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
-	f->controller = 0x0a0a;
+	f->controller = CTL_A;
 	enable_in_place(f);
-	memcpy(home, f->target, sizeof(home));
+	memcpy(f->home, f->target, sizeof(f->home));
 
 	/* A drives every motor 0.3 rad up, B (started later) 0.3 rad down, at once */
-	end = rmd_now_ns() + 1500 * NS_PER_MS;
-	while (rmd_now_ns() < end) {
-		rmd_command_t m;
-
-		for (int i = 0; i < NMOTORS; i++)
-			f->target[i] = home[i] + 0.3;
-		f->controller = 0x0a0a;
-		m = cmd_all(f, true);
-		send_cmd(f, &m);
-		for (int i = 0; i < NMOTORS; i++)
-			f->target[i] = home[i] - 0.3;
-		f->controller = 0x0b0b;
-		m = cmd_all(f, true);
-		send_cmd(f, &m);
-		f->last_pub_ns = rmd_now_ns();
-		for (int k = 0; k < CTL_PERIOD_MS; k++) {
-			pump(f, 1);
-			near_b |= all_near(f, home, -0.3, 0.1);
-		}
-	}
+	both_publish(f, 1500, false, done_never, 0, &near_b);
 	assert_false(near_b);
-	if (!all_near(f, home, 0.3, 0.02) || !all_in(f, RMD_STATE_T_LC_ENABLED))
+	if (!all_near(f, f->home, 0.3, 0.02) || !all_in(f, RMD_STATE_T_LC_ENABLED))
 		fail_msg("the motors did not follow the owner alone; rmdd's output:\n%s",
 			 slurp(f->log));
-	f->controller = 0x0a0a;
-	for (int i = 0; i < NMOTORS; i++)
-		f->target[i] = home[i] + 0.3;
 	h = stream_health(f, true);
 	assert_true(h->owned);
 	assert_int_equal(h->owner, 0x0a0a);
@@ -1984,9 +2037,9 @@ static void test_second_controller_rejected(void **state)
 	assert_int_equal(f->rx.state.owner, 0x0a0a);
 
 	/* B takes over, as a supervisor does (takeover = true): it drives them now */
-	f->controller = 0x0b0b;
+	f->controller = CTL_B;
 	for (int i = 0; i < NMOTORS; i++)
-		f->target[i] = home[i] - 0.3;
+		f->target[i] = f->home[i] - 0.3;
 	{
 		rmd_command_t m = cmd_all(f, true);
 
@@ -2011,6 +2064,114 @@ static void test_second_controller_rejected(void **state)
 	assert_false(h->owned);
 	f->controller = 0x0c0c;
 	enable_in_place(f);
+	disable_all(f);
+}
+
+/*
+ * Issue 10: rmdd held off (SIGSTOP) for several command timeouts while A
+ * owns the motors and B publishes beside it.  Both go on publishing
+ * meanwhile, B first, so that B's command is the first rmdd reads when it
+ * goes on (SIGCONT).  A was never silent: its commands only queued, and
+ * rmdd judges each by when it arrived, so A still owns the motors, every
+ * B command is rejected, and B's setpoints never reach the motors (the
+ * loop may trip on the stall; A's next enable then restarts them).
+ * Before the fix rmdd judged by when it read them: A looked silent, and B
+ * took the motors.  The stall is measured; a run in which this test held
+ * A's own commands further apart than the command timeout is the
+ * machine's, and runs again with a longer timeout.  The motors' own
+ * comm-loss time is long here: the stall is rmdd's, not the motors'.
+ */
+static void test_owner_kept_through_a_stall(void **state)
+{
+	struct fixture *f = fixture(state);
+	const rmd_health_t *h;
+	int64_t t_stop, t_cont, rejected0, takeovers0;
+	unsigned pace = 1, n_b;
+	bool near_b = false, drives;
+	int ws;
+
+	for (;;) {
+		restart_rmdd_timed(f, 5000, COMMAND_TIMEOUT_MS * pace);
+		WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+		f->controller = CTL_A;
+		enable_in_place(f);
+		memcpy(f->home, f->target, sizeof(f->home));
+		f->fresh_after_ns = rmd_now_ns();
+		if (!both_publish(f, 3000 * (int)pace, false, done_a_drives, 0, &near_b))
+			fail_msg("the motors did not follow the owner; rmdd's output:\n%s",
+				 slurp(f->log));
+		h = f->rx.health;
+		if (!h->owned || h->owner != CTL_A)
+			fail_msg("health_t: owned %d owner %llx before the stall", h->owned,
+				 (long long)h->owner);
+		rejected0 = h->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER];
+		takeovers0 = h->takeovers;
+
+		/* A's last command before the stall, read by rmdd before it stops */
+		f->max_pub_gap_ns = 0;
+		send_as(f, CTL_A);
+		for (int k = 0; k < CTL_PERIOD_MS; k++)
+			pump(f, 1);
+		assert_int_equal(kill(f->rmdd, SIGSTOP), 0);
+		assert_int_equal(waitpid(f->rmdd, &ws, WUNTRACED), f->rmdd);
+		assert_true(WIFSTOPPED(ws));
+		t_stop = rmd_now_ns();
+		f->n_b_sent = 0;
+		both_publish(f, 4 * f->timeout_ms, true, done_never, 0, &near_b);
+		n_b = f->n_b_sent;
+		t_cont = rmd_now_ns();
+		assert_int_equal(kill(f->rmdd, SIGCONT), 0);
+
+		/*
+		 * both go on until the motors are at A's target, in a state_t and
+		 * a health_t from a command timeout after rmdd went on (what was
+		 * queued has been read by then)
+		 */
+		f->fresh_after_ns = t_cont + (int64_t)f->timeout_ms * NS_PER_MS;
+		drives = both_publish(f, 3000 * (int)pace, false, done_a_drives, 0, &near_b);
+		if (f->max_pub_gap_ns < (int64_t)f->timeout_ms * NS_PER_MS)
+			break;
+		if (pace * 2 > MAX_PACE) {
+			print_message(
+				"busy machine: this test held controller A's commands %.1f ms "
+				"apart, past the %d ms command timeout, even at %u times the "
+				"file's: not judged\n",
+				f->max_pub_gap_ns / 1e6, f->timeout_ms, pace);
+			skip();
+		}
+		print_message("busy machine: this test held controller A's commands %.1f ms "
+			      "apart, past the %d ms command timeout (A went silent: ownership "
+			      "may lapse rightly); again with a command timeout of %u ms\n",
+			      f->max_pub_gap_ns / 1e6, f->timeout_ms,
+			      COMMAND_TIMEOUT_MS * pace * 2);
+		pace *= 2;
+		near_b = false;
+	}
+	h = f->rx.health;
+	print_message("stall: rmdd stopped %.0f ms (command timeout %d ms), A's commands at most "
+		      "%.1f ms apart, %u of B's sent meanwhile; after it: owner %llx, %lld of B's "
+		      "rejected, takeovers %lld, the motors %s A's target\n",
+		      (t_cont - t_stop) / 1e6, f->timeout_ms, f->max_pub_gap_ns / 1e6, n_b,
+		      (long long)h->owner,
+		      (long long)(h->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER] - rejected0),
+		      (long long)(h->takeovers - takeovers0), drives ? "at" : "not at");
+	/* the stall was the test's point: longer than the timeout, by what this run measured */
+	assert_true(t_cont - t_stop > 2 * (int64_t)f->timeout_ms * NS_PER_MS);
+	assert_true(n_b > 0);
+	if (!h->owned || h->owner != CTL_A || h->takeovers != takeovers0 || near_b)
+		fail_msg(
+			"after the stall: owned %d owner %llx takeovers %lld -> %lld, the motors %s "
+			"near B's target; rmdd's output:\n%s",
+			h->owned, (long long)h->owner, (long long)takeovers0,
+			(long long)h->takeovers, near_b ? "came" : "never came", slurp(f->log));
+	assert_int_equal(h->intruder, CTL_B);
+	/* every B command that queued during the stall was read, and refused */
+	assert_true(h->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER] >= rejected0 + n_b);
+	assert_true(f->rx.state.owned);
+	assert_int_equal(f->rx.state.owner, CTL_A);
+	if (!drives)
+		fail_msg("the motors did not follow the owner after the stall; rmdd's output:\n%s",
+			 slurp(f->log));
 	disable_all(f);
 }
 
@@ -2278,6 +2439,7 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_c_example_after_a_loss, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_python_example_after_a_loss, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_second_controller_rejected, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_owner_kept_through_a_stall, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_sigterm_sends_the_configured_action, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_ignored_enable_reported, setup, teardown),

@@ -1303,6 +1303,106 @@ static void test_one_controller_at_a_time(void **state)
 	assert_int_equal(owner_lines, 1);
 }
 
+/* on_intruder that holds the bridge thread until `hold_release` is set (at most 5 s). */
+static atomic_bool hold_release;
+
+static void hold_bridge(void *ctx, int64_t when_ns, int64_t controller, int64_t owner)
+{
+	int64_t end = rmd_now_ns() + 5 * INT64_C(1000000000);
+	struct timespec ts = { 0, 100000 };
+
+	(void)ctx;
+	(void)when_ns;
+	(void)controller;
+	(void)owner;
+	while (!atomic_load(&hold_release) && rmd_now_ns() < end)
+		nanosleep(&ts, NULL);
+}
+
+/*
+ * Issue 10: ownership and rx_ns go by when a command arrived, not when the
+ * bridge read it.  The bridge thread is held (in on_intruder, for B's
+ * first command) for three command timeouts while A goes on publishing and
+ * B publishes again first: A was never silent, so B's queued command is
+ * rejected, A still owns the motors, and the command handed over carries
+ * the time it arrived, before the bridge went on.  Before the fix B took
+ * the motors and rx_ns was the time the bridge read it.  A run in which
+ * the machine held this test's own commands further apart than the
+ * timeout (A was silent) is the machine's: again with a longer one.
+ */
+static void test_owner_judged_by_arrival(void **state)
+{
+	struct fixture *f = fixture(state);
+	struct rmd_command c;
+	rmd_command_t m;
+	int64_t t_sent0 = 0, t_sent1 = 0, t_release, t_end, gap, seq;
+
+	for (int timeout_ms = 100;; timeout_ms *= 2) {
+		f->opts.command_timeout_ms = timeout_ms;
+		f->opts.on_intruder = hold_bridge;
+		atomic_store(&hold_release, false);
+		start(f);
+		seq = 1;
+		while (take_command(f, &c)) /* a former run's */
+			;
+
+		/* A enables: it owns them */
+		m = ctl_cmd(0xA, seq++, true);
+		t_sent1 = rmd_now_ns();
+		send_cmd(f, &m);
+		WAIT_UNTIL(f, take_command(f, &c), 2000);
+		assert_int_equal(stats(f).owner, 0xA);
+
+		/* B: its rejection holds the bridge; B again, then A every 10 ms, queue */
+		m = ctl_cmd(0xB, 1, true);
+		send_cmd(f, &m);
+		m = ctl_cmd(0xB, 2, true);
+		send_cmd(f, &m);
+		gap = rmd_now_ns() - t_sent1;
+		t_end = rmd_now_ns() + 3 * (int64_t)timeout_ms * 1000000;
+		while (rmd_now_ns() < t_end) {
+			struct timespec ts = { 0, 10000000 };
+
+			m = ctl_cmd(0xA, seq++, true);
+			t_sent0 = rmd_now_ns();
+			send_cmd(f, &m);
+			if (t_sent0 - t_sent1 > gap)
+				gap = t_sent0 - t_sent1;
+			t_sent1 = rmd_now_ns();
+			nanosleep(&ts, NULL);
+		}
+		t_release = rmd_now_ns();
+		atomic_store(&hold_release, true);
+		WAIT_UNTIL(f, stats(f).accepted + stats(f).rejected == (uint64_t)seq + 1, 2000);
+		if (gap < (int64_t)timeout_ms * 1000000)
+			break;
+		if (timeout_ms >= 1600) {
+			print_message("busy machine: A's commands %.1f ms apart even with a %d ms "
+				      "timeout: not judged\n",
+				      gap / 1e6, timeout_ms);
+			skip();
+		}
+		print_message("busy machine: A's commands %.1f ms apart, past the %d ms command "
+			      "timeout: again with %d ms\n",
+			      gap / 1e6, timeout_ms, 2 * timeout_ms);
+		rmd_bridge_fini(&f->b);
+		f->started = false;
+	}
+
+	assert_int_equal(stats(f).accepted, seq - 1);
+	/* (A, silent since, may have lost them by now: its last owner is what counts) */
+	assert_int_equal(stats(f).rejected_by_kind[RMD_REJ_OWNER], 2);
+	assert_int_equal(stats(f).owner, 0xA);
+	assert_int_equal(stats(f).takeovers, 0);
+	/* the newest command: A's last, stamped when it arrived (1 ms for the clocks' offset) */
+	assert_true(take_command(f, &c));
+	assert_int_equal(c.seq, seq - 1);
+	if (c.rx_ns < t_sent0 - 1000000 || c.rx_ns > t_sent1 + 1000000 || c.rx_ns >= t_release)
+		fail_msg("rx_ns %lld: sent in [%lld, %lld], the bridge went on at %lld",
+			 (long long)c.rx_ns, (long long)t_sent0, (long long)t_sent1,
+			 (long long)t_release);
+}
+
 /* ---- hostile stamps (issue 10, defect 1) ----------------------------------- */
 
 struct stamp_step {
@@ -1790,6 +1890,7 @@ int main(void)
 		cmocka_unit_test(test_health_10hz),
 		cmocka_unit_test(test_config_on_request),
 		cmocka_unit_test(test_one_controller_at_a_time),
+		cmocka_unit_test(test_owner_judged_by_arrival),
 		cmocka_unit_test(test_utime_full_width),
 		cmocka_unit_test(test_config_request_flood),
 		cmocka_unit_test(test_comm_loss_published),

@@ -723,6 +723,73 @@ static void test_watchdog(void **state)
 	rig_down();
 }
 
+/* R.cmd handed over stamped rx_ns (when it arrived), then one cycle. */
+static void cycle_with_cmd_at(int64_t rx_ns)
+{
+	R.cmd.rx_ns = rx_ns;
+	R.cmd.seq++;
+	rmd_latest_put(&R.io.cmds, &R.cmd);
+	rmd_loop_cycle(R.l, t_now);
+	t_now += period();
+}
+
+/*
+ * Issue 10: rx_ns is when a command arrived, so after rmdd was held off the
+ * bridge hands over what queued meanwhile with old stamps.  One from before
+ * a trip does not lift it, but its enable = 0 is acted on (SAFE -> READY);
+ * one from after the trip that is older than the command timeout when the
+ * loop takes it moves nothing (before, it enabled the motor, released its
+ * brake and tripped again in the same cycle); a fresh one enables.
+ */
+static void test_commands_queued_in_a_stall(void **state)
+{
+	struct rmd_loop_counters c0, c1;
+	int64_t last_cmd, trip;
+	unsigned from;
+
+	(void)state;
+	up_at_speed(NULL, 1, 1.0, 150);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	last_cmd = t_now - period();
+	/* the controller's commands stop reaching the loop: it trips */
+	run(300, false);
+	trip = last_cmd + 101 * MS;
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+
+	/* from before the trip: motor 0 enable = 0 (acted on), motor 1 enable = 1 (not) */
+	rmd_loop_get_counters(R.l, &c0);
+	from = trace_n;
+	cmd_clear();
+	cmd_motor(0, false, RMD_MODE_SPEED);
+	R.cmd.disables[0]++;
+	cmd_motor(1, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	cycle_with_cmd_at(trip - 50 * MS);
+	rmd_loop_get_counters(R.l, &c1);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	assert_int_equal(c1.ignored[RMD_IGN_TRIPPED] - c0.ignored[RMD_IGN_TRIPPED], 1);
+
+	/* from after the trip, 150 ms old when taken (timeout 100 ms): nothing moves */
+	cmd_clear();
+	cmd_motor(1, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	cycle_with_cmd_at(t_now - 150 * MS);
+	run(20, false);
+	assert_true(t_now - 170 * MS > trip);
+	rmd_loop_get_counters(R.l, &c1);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	assert_int_equal(c1.ignored[RMD_IGN_TRIPPED] - c0.ignored[RMD_IGN_TRIPPED], 2);
+	for (unsigned k = from; k < trace_n; k++)
+		if (moves_frame(&trace[k].f))
+			fail_msg("a frame that moves, %03x %02x, from a command of the stall",
+				 trace[k].f.can_id, trace[k].f.data[0]);
+
+	/* a fresh command enables */
+	run(20, true);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	rig_down();
+}
+
 static void mit_third(struct rmd_config *cfg)
 {
 	cfg->motors[2].proto = RMD_PROTO_MIT;
@@ -2215,6 +2282,7 @@ int main(void)
 		cmocka_unit_test(test_fault_flags),
 		cmocka_unit_test(test_comm_loss_trip),
 		cmocka_unit_test(test_watchdog),
+		cmocka_unit_test(test_commands_queued_in_a_stall),
 		cmocka_unit_test(test_nan_never_on_wire),
 		cmocka_unit_test(test_stop_motors),
 		cmocka_unit_test(test_health_after_stop_counts_the_stops),
