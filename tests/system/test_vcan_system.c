@@ -269,6 +269,13 @@ static struct {
 	int64_t next_pub;      /* CLOCK_MONOTONIC */
 	int64_t last_pub_real; /* CLOCK_REALTIME just before the last publish */
 	uint64_t n_pub;
+	/*
+	 * The owner's (ctl_id's) last command, and the longest gap between two
+	 * of them since the sleepers' mark, rmd_now_ns(): how long rmdd heard
+	 * nothing of it, measured where it is made (the reference sleeper is
+	 * another thread, which the guest may run while it holds this one).
+	 */
+	int64_t own_last_ns, own_gap_ns;
 
 	unsigned edge_toggles; /* enable = 0 sent to get enable = 1 taken */
 	/*
@@ -317,6 +324,7 @@ static double ms_of(int64_t ns)
 /* Begin a measurement window of every reference sleeper. */
 static void sleepers_mark(void)
 {
+	S.own_gap_ns = 0;
 	sleeper_mark(&S.sl_sim);
 	sleeper_mark(&S.sl_loop);
 	sleeper_mark(&S.sl_other);
@@ -360,6 +368,12 @@ static void sleepers_up(int loop_prio)
 		fail_msg("cannot start the reference sleepers");
 }
 
+/* The owner's longest silence since the mark, ms: the widest gap between two of its commands. */
+static double own_gap_ms(void)
+{
+	return ms_of(S.own_gap_ns);
+}
+
 /* The worst delay since the mark at the loop's or at rmd-sim's priority, ms. */
 static double stall_rt_ms(void)
 {
@@ -398,11 +412,13 @@ static const char *disable_explained(void)
 			 stall_ms(&S.sl_sim), S.cfg.safety.missed_replies_lost, period_ms);
 		return why;
 	}
-	if (stall_ms(&S.sl_other) + CTL_PERIOD_MS >= S.cfg.safety.command_timeout_ms) {
-		snprintf(why, sizeof(why),
-			 "the guest held the controller (normal priority) off %.1f ms (command "
-			 "timeout %u ms)",
-			 stall_ms(&S.sl_other), S.cfg.safety.command_timeout_ms);
+	if (stall_ms(&S.sl_other) + CTL_PERIOD_MS >= S.cfg.safety.command_timeout_ms ||
+	    own_gap_ms() >= S.cfg.safety.command_timeout_ms) {
+		snprintf(
+			why, sizeof(why),
+			"the guest held the controller (normal priority) off %.1f ms, its commands "
+			"%.1f ms apart (command timeout %u ms)",
+			stall_ms(&S.sl_other), own_gap_ms(), S.cfg.safety.command_timeout_ms);
 		return why;
 	}
 	return NULL;
@@ -672,6 +688,11 @@ static void publish_as(int64_t id, double off_rad, bool takeover)
 
 static void publish(void)
 {
+	int64_t now = rmd_now_ns();
+
+	if (S.own_last_ns && now - S.own_last_ns > S.own_gap_ns)
+		S.own_gap_ns = now - S.own_last_ns;
+	S.own_last_ns = now;
 	publish_as(S.ctl_id, 0, false);
 	if (S.intruder_id) {
 		publish_as(S.intruder_id, INTRUDER_OFF_RAD, S.intruder_takeover);
@@ -759,8 +780,10 @@ static void run_for(int ms)
 
 static void controller(bool on, bool enable)
 {
-	if (on && !S.ctl_on)
+	if (on && !S.ctl_on) {
 		S.next_pub = rmd_now_ns();
+		S.own_last_ns = 0; /* a pause of its own is no gap (own_gap_ms()) */
+	}
 	S.ctl_on = on;
 	S.ctl_enable = enable;
 }
@@ -2753,13 +2776,15 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 		 * (docs/lcm.md): when the guest held the test's own thread off
 		 * that long, the other controller's setpoints are rmdd's rule.
 		 */
-		if (n_other && stall_ms(&S.sl_other) >= S.cfg.safety.command_timeout_ms) {
+		if (n_other && (stall_ms(&S.sl_other) >= S.cfg.safety.command_timeout_ms ||
+				own_gap_ms() >= S.cfg.safety.command_timeout_ms)) {
 			print_message(
 				"busy machine: %s got %u setpoints of the other controller "
-				"%s, the guest holding the owner's thread off for %.1f ms "
-				"(command_timeout_ms %u: ownership lapses, as documented)%s\n",
+				"%s, the guest holding the owner's thread off for %.1f ms, its "
+				"commands %.1f ms apart (command_timeout_ms %u: ownership "
+				"lapses, as documented)%s\n",
 				S.cfg.motors[i].name, n_other, when, stall_ms(&S.sl_other),
-				S.cfg.safety.command_timeout_ms,
+				own_gap_ms(), S.cfg.safety.command_timeout_ms,
 				pace() * 2 <= MAX_PACE ? ".  Again at a slower pace" :
 							 ": not judged");
 			*n = n_own;
@@ -2768,9 +2793,15 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 		}
 		if (n_other || !n_own)
 			fail_msg("%s %s: %u setpoints of the owner (angle %d), %u of the other "
-				 "controller (angle %d); its frames:\n%s",
+				 "controller (angle %d); the owner's commands at most %.1f ms "
+				 "apart, the guest's stalls %.1f (loop) %.1f (rmd-sim) %.1f "
+				 "(normal) ms; health_t: owned %d owner %" PRIx64
+				 " takeovers %" PRId64 " rejected (owner) %" PRId64
+				 "; its frames:\n%s",
 				 S.cfg.motors[i].name, when, n_own, (int)owner, n_other, (int)other,
-				 motor_frames(i, *t0));
+				 own_gap_ms(), stall_ms(&S.sl_loop), stall_ms(&S.sl_sim),
+				 stall_ms(&S.sl_other), S.h.owned, S.h.owner, S.h.takeovers,
+				 S.h.rejected_owner, motor_frames(i, *t0));
 	}
 	*n = n_own;
 	return true;
