@@ -185,6 +185,7 @@
 
 #define SETPOINT_RAD 0.2
 #define MAX_VEL_RAD_S 1.0
+#define VEL_STEPS 13	     /* max_velocity takes this many values in turn (publish_as()) */
 #define INTRUDER_OFF_RAD 0.1 /* issue 13: the second controller's setpoints, beside the owner's */
 #define SINE_HZ 0.25	     /* issue 13: the slow sine of test_system_fine_position */
 
@@ -677,8 +678,14 @@ static void publish_as(int64_t id, double off_rad, bool takeover)
 		m->enable = S.ctl_enable;
 		m->mode = RMD_COMMAND_T_MODE_POSITION;
 		m->position = SETPOINT_RAD + off_rad + sine;
-		/* alternating: the frames tell which command a cycle carried */
-		m->max_velocity = MAX_VEL_RAD_S + (double)(c.seq & 1) * 0.05;
+		/*
+		 * Thirteen values in turn: the frames tell which command a cycle
+		 * carried.  Two were too few: a loop slowed to a period of two
+		 * or more of the controller's (the slower paces) took commands
+		 * of one parity only, every cycle alike.  The loop takes 1..8
+		 * commands a cycle at the paces here, never a multiple of 13.
+		 */
+		m->max_velocity = MAX_VEL_RAD_S + (double)(c.seq % VEL_STEPS) * 0.05;
 	}
 	S.last_pub_real = real_ns();
 	if (rmd_command_t_publish(S.lcm, "RMD_COMMAND", &c) < 0)
@@ -1949,7 +1956,8 @@ static void test_system_rate(void **state)
 /*
  * The first of the frames to motor i, before t_end, that carry the same
  * setpoint as the last one: the first cycle that had the last command.
- * The controller alternates max_velocity, so consecutive commands differ.
+ * The controller's max_velocity takes VEL_STEPS values in turn, so the
+ * commands of consecutive cycles differ.
  */
 static const struct cframe *first_of_last_setpoint(unsigned i, int64_t t_end)
 {
