@@ -240,14 +240,12 @@ struct rmd_bridge {
 	 * that arrived before it has been looked at; rx_at_ns: the arrival of
 	 * the newest one; rx_off_last_ns: CLOCK_REALTIME - CLOCK_MONOTONIC
 	 * at the last drain, rx_off_ns: the one its stamps are moved by (the
-	 * smaller of it and the one before); rx_real_ns: udpm: the kernel's
-	 * receive stamp of the datagram being handled, CLOCK_REALTIME (0: none).
+	 * smaller of it and the one before).
 	 */
 	int64_t rx_seen_ns;
 	int64_t rx_at_ns;
 	int64_t rx_off_ns;
 	int64_t rx_off_last_ns;
-	int64_t rx_real_ns;
 };
 
 /*

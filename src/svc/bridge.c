@@ -575,9 +575,8 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 	struct rmd_bridge_buf *buf = b->buf;
 	rmd_command_t *msg = &buf->msg;
 	struct clamp_note note = { 0 };
-	/* udpm: the kernel's stamp of our socket's datagram; else LCM's own receive time */
-	int64_t at = arrival_ns(b, b->rx_fd >= 0 ? b->rx_real_ns : utime_ns(rbuf->recv_utime),
-				rmd_now_ns());
+	/* LCM's receive time; on the bridge's own socket, the kernel's stamp (udpm_dispatch()) */
+	int64_t at = arrival_ns(b, utime_ns(rbuf->recv_utime), rmd_now_ns());
 
 	(void)channel;
 	if (decode_command(b, rbuf, msg) >= 0 || check_entries(b, msg) >= 0 ||
@@ -840,12 +839,17 @@ static void publish_config(struct rmd_bridge *b)
 
 /* ---- udpm: the bridge's own receive socket ------------------------------- */
 
-/* A whole message on `channel`: the subscriptions' handlers, as lcm_handle() would call them. */
-static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data, uint32_t size)
+/*
+ * A whole message on `channel`, whose last datagram the kernel stamped at
+ * real_ns (CLOCK_REALTIME; 0: none): the subscriptions' handlers, as
+ * lcm_handle() would call them.
+ */
+static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data, uint32_t size,
+			  int64_t real_ns)
 {
 	lcm_recv_buf_t rb = { .data = data,
 			      .data_size = size,
-			      .recv_utime = b->rx_real_ns / RMD_NS_PER_US,
+			      .recv_utime = real_ns / RMD_NS_PER_US,
 			      .lcm = b->lcm };
 
 	if (!strcmp(channel, b->ch_command))
@@ -854,15 +858,19 @@ static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data,
 		on_config_request(&rb, channel, b);
 }
 
-/* One datagram: a whole message goes to its handler; the rest is put together or dropped. */
-static void udpm_packet(struct rmd_bridge *b, const struct sockaddr_in *from, size_t n)
+/*
+ * One datagram, stamped at real_ns: a whole message goes to its handler;
+ * the rest is put together or dropped.
+ */
+static void udpm_packet(struct rmd_bridge *b, const struct sockaddr_in *from, size_t n,
+			int64_t real_ns)
 {
 	struct rmd_udpm_msg m;
 	enum rmd_udpm_verdict v = rmd_udpm_rx_packet(&b->buf->rx, from->sin_addr.s_addr,
 						     from->sin_port, b->buf->pkt, n, &m);
 
 	if (v == RMD_UDPM_MESSAGE) /* lcm_recv_buf_t's data is not const; no handler writes it */
-		udpm_dispatch(b, m.channel, (void *)m.data, m.size);
+		udpm_dispatch(b, m.channel, (void *)m.data, m.size, real_ns);
 	else if (v == RMD_UDPM_TOO_LONG && !strcmp(m.channel, b->ch_command))
 		/* LCM handed these to the bridge, which refused them: so does it */
 		reject(b, RMD_REJ_DECODE, "%u bytes: longer than any rmd.command_t",
@@ -913,8 +921,7 @@ static bool drain_socket(struct rmd_bridge *b)
 			return false;
 		}
 		count(&b->n_datagrams);
-		b->rx_real_ns = rx_stamp_ns(&mh);
-		udpm_packet(b, &from, (size_t)r);
+		udpm_packet(b, &from, (size_t)r, rx_stamp_ns(&mh));
 		publish_state(b);
 	}
 	return false;
