@@ -59,6 +59,7 @@
 #include <lcm/eventlog.h>
 #include <lcm/lcm.h>
 
+#include "harness/gap.h"
 #include "harness/lcm_loopback.h"
 #include "harness/proc.h"
 #include "harness/sleeper.h"
@@ -135,8 +136,7 @@ struct fixture {
 
 	int64_t seq;
 	int64_t controller;	     /* command_t.controller of the commands cmd_new() makes */
-	int64_t last_pub_ns;	     /* when stream() last published */
-	int64_t max_pub_gap_ns;	     /* the longest gap between two of stream()'s publishes */
+	struct gap ctl_gap;	     /* the controller's publishes: the latest, the widest gap */
 	int timeout_ms;		     /* rmdd's command timeout (COMMAND_TIMEOUT_MS x the pace) */
 	bool trip_explained;	     /* health_enabled(): its last trip was the machine's */
 	pid_t bridge_tid;	     /* rmdd's bridge thread (busy_mark()), or <= 0 */
@@ -592,16 +592,6 @@ static bool all_at_target(const struct fixture *f, double tol)
 	return true;
 }
 
-/* The controller published now: f->last_pub_ns, and the longest gap in f->max_pub_gap_ns. */
-static void note_pub(struct fixture *f)
-{
-	int64_t now = rmd_now_ns();
-
-	if (f->last_pub_ns && now - f->last_pub_ns > f->max_pub_gap_ns)
-		f->max_pub_gap_ns = now - f->last_pub_ns;
-	f->last_pub_ns = now;
-}
-
 /*
  * Publish cmd_all(enable) every CTL_PERIOD_MS, as a controller does, until
  * done(f) or ms pass.  Returns whether done(f) held.
@@ -620,7 +610,7 @@ static bool stream(struct fixture *f, bool enable, int ms,
 			rmd_command_t m = cmd_all(f, enable);
 
 			send_cmd(f, &m);
-			note_pub(f);
+			gap_note(&f->ctl_gap);
 			next = now + CTL_PERIOD_MS * NS_PER_MS;
 		}
 		pump(f, 1);
@@ -722,13 +712,13 @@ static int64_t handover_held_ns(const struct fixture *f)
 /*
  * A watchdog trip is the machine's when commands may have reached rmdd's
  * loop further apart than its command timeout: the longest gap between
- * the controller's publishes (f->max_pub_gap_ns) plus the longest the
+ * the controller's publishes (f->ctl_gap.max_ns) plus the longest the
  * machine may have held the bridge's hand-over off (handover_held_ns()).
  * On an idle machine both are small, and a trip is rmdd's.
  */
 static bool trip_explained(const struct fixture *f)
 {
-	return f->max_pub_gap_ns + handover_held_ns(f) > (int64_t)f->timeout_ms * NS_PER_MS;
+	return f->ctl_gap.max_ns + handover_held_ns(f) > (int64_t)f->timeout_ms * NS_PER_MS;
 }
 
 /*
@@ -1094,14 +1084,12 @@ again:
 	listen_off(f);
 	prctl(PR_SET_TIMERSLACK, 1UL); /* 50 us steps: the default slack would halve the rate */
 	busy_mark(f);
-	f->max_pub_gap_ns = 0;
-	t0 = t = f->last_pub_ns = rmd_now_ns();
+	gap_mark(&f->ctl_gap);
+	t0 = t = f->ctl_gap.last_ns = rmd_now_ns();
 	for (int i = 0; i < n; i++) {
 		int kind = flood_send(f, i);
 
-		if (rmd_now_ns() - f->last_pub_ns > f->max_pub_gap_ns)
-			f->max_pub_gap_ns = rmd_now_ns() - f->last_pub_ns;
-		f->last_pub_ns = rmd_now_ns();
+		gap_note(&f->ctl_gap);
 
 		if (kind < 0) {
 			sent_good++;
@@ -1175,7 +1163,7 @@ again:
 			      "sender held off %.1f ms between messages and a normal-priority "
 			      "thread (rmdd's bridge) up to %.1f ms, past the %d ms timeout "
 			      "together; enabling again, the flood again at %d Hz\n",
-			      f->max_pub_gap_ns / 1e6, handover_held_ns(f) / 1e6, f->timeout_ms,
+			      f->ctl_gap.max_ns / 1e6, handover_held_ns(f) / 1e6, f->timeout_ms,
 			      hz > FLOOD_HZ / 4 ? hz / 2 : hz);
 		rmd_health_t_destroy(h0);
 		rmd_health_t_destroy(h1);
@@ -1266,7 +1254,7 @@ static const rmd_health_t *health_enabled(struct fixture *f, int64_t *safe0)
 	const rmd_health_t *h;
 
 	for (unsigned tries = 1;; tries++) {
-		f->max_pub_gap_ns = 0;
+		gap_mark(&f->ctl_gap);
 		busy_mark(f);
 		stream(f, true, 300, done_never, 0);
 		h = stream_health(f, true);
@@ -1277,7 +1265,7 @@ static const rmd_health_t *health_enabled(struct fixture *f, int64_t *safe0)
 			      "between two commands, and a normal-priority thread (rmdd's bridge) "
 			      "up to %.1f ms, past the %d ms timeout together: rmdd tripped "
 			      "rightly; enabling again\n",
-			      f->max_pub_gap_ns / 1e6, handover_held_ns(f) / 1e6, f->timeout_ms);
+			      f->ctl_gap.max_ns / 1e6, handover_held_ns(f) / 1e6, f->timeout_ms);
 		*safe0 = h->safe_action_events;
 		stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED);
 	}
@@ -1310,7 +1298,7 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 		if (h->watchdog == RMD_HEALTH_T_WD_OK) {
 			safe0 = h->safe_action_events;
 			/* the controller goes quiet: state_t shows the safe action first (every cycle) ... */
-			t_quiet = f->last_pub_ns;
+			t_quiet = f->ctl_gap.last_ns;
 			busy_mark(f);
 			WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_SAFE), 2000 * pace);
 			if (!all_in(f, RMD_STATE_T_LC_SAFE))
@@ -1332,7 +1320,7 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 				"time %u times the file's, the controller held off %.1f ms, a "
 				"hand-over held off up to %.1f ms: the watchdog cannot be "
 				"judged on this machine now\n",
-				pace, f->max_pub_gap_ns / 1e6, handover_held_ns(f) / 1e6);
+				pace, f->ctl_gap.max_ns / 1e6, handover_held_ns(f) / 1e6);
 			skip();
 		}
 		print_message("busy machine: rmdd's watchdog tripped %s: the controller was held "
@@ -1341,7 +1329,7 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 			      "times the file's\n",
 			      early ? "before the timeout after the last command" :
 				      "while the controller streamed",
-			      f->max_pub_gap_ns / 1e6, handover_held_ns(f) / 1e6, f->timeout_ms,
+			      f->ctl_gap.max_ns / 1e6, handover_held_ns(f) / 1e6, f->timeout_ms,
 			      pace * 2);
 		pace *= 2;
 		restart_rmdd_paced(f, pace);
@@ -1964,7 +1952,7 @@ static void send_as(struct fixture *f, int64_t who)
 	m = cmd_all(f, true);
 	send_cmd(f, &m);
 	if (who == CTL_A)
-		note_pub(f);
+		gap_note(&f->ctl_gap);
 	else
 		f->n_b_sent++;
 }
@@ -1973,7 +1961,7 @@ static void send_as(struct fixture *f, int64_t who)
  * A and B each publish every CTL_PERIOD_MS (A first, or B when b_first)
  * for ms, or until done(f, arg) holds; *near_b says whether state_t showed
  * every motor near B's target meanwhile.  The gaps between A's commands go
- * into f->max_pub_gap_ns.  Then f speaks as A again.  Returns whether done
+ * into f->ctl_gap.max_ns.  Then f speaks as A again.  Returns whether done
  * held.
  */
 static bool both_publish(struct fixture *f, int ms, bool b_first,
@@ -2108,7 +2096,7 @@ static void test_owner_kept_through_a_stall(void **state)
 		takeovers0 = h->takeovers;
 
 		/* A's last command before the stall, read by rmdd before it stops */
-		f->max_pub_gap_ns = 0;
+		gap_mark(&f->ctl_gap);
 		send_as(f, CTL_A);
 		for (int k = 0; k < CTL_PERIOD_MS; k++)
 			pump(f, 1);
@@ -2129,20 +2117,20 @@ static void test_owner_kept_through_a_stall(void **state)
 		 */
 		f->fresh_after_ns = t_cont + (int64_t)f->timeout_ms * NS_PER_MS;
 		drives = both_publish(f, 3000 * (int)pace, false, done_a_drives, 0, &near_b);
-		if (f->max_pub_gap_ns < (int64_t)f->timeout_ms * NS_PER_MS)
+		if (f->ctl_gap.max_ns < (int64_t)f->timeout_ms * NS_PER_MS)
 			break;
 		if (pace * 2 > MAX_PACE) {
 			print_message(
 				"busy machine: this test held controller A's commands %.1f ms "
 				"apart, past the %d ms command timeout, even at %u times the "
 				"file's: not judged\n",
-				f->max_pub_gap_ns / 1e6, f->timeout_ms, pace);
+				f->ctl_gap.max_ns / 1e6, f->timeout_ms, pace);
 			skip();
 		}
 		print_message("busy machine: this test held controller A's commands %.1f ms "
 			      "apart, past the %d ms command timeout (A went silent: ownership "
 			      "may lapse rightly); again with a command timeout of %u ms\n",
-			      f->max_pub_gap_ns / 1e6, f->timeout_ms,
+			      f->ctl_gap.max_ns / 1e6, f->timeout_ms,
 			      COMMAND_TIMEOUT_MS * pace * 2);
 		pace *= 2;
 		near_b = false;
@@ -2151,7 +2139,7 @@ static void test_owner_kept_through_a_stall(void **state)
 	print_message("stall: rmdd stopped %.0f ms (command timeout %d ms), A's commands at most "
 		      "%.1f ms apart, %u of B's sent meanwhile; after it: owner %llx, %lld of B's "
 		      "rejected, takeovers %lld, the motors %s A's target\n",
-		      (t_cont - t_stop) / 1e6, f->timeout_ms, f->max_pub_gap_ns / 1e6, n_b,
+		      (t_cont - t_stop) / 1e6, f->timeout_ms, f->ctl_gap.max_ns / 1e6, n_b,
 		      (long long)h->owner,
 		      (long long)(h->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER] - rejected0),
 		      (long long)(h->takeovers - takeovers0), drives ? "at" : "not at");

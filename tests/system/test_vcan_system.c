@@ -111,6 +111,7 @@
 #include "rmd/rmd_health_t.h"
 #include "rmd/rmd_state_t.h"
 
+#include "harness/gap.h"
 #include "harness/json.h"
 #include "harness/proc.h"
 #include "harness/settings_trip.h"
@@ -270,13 +271,8 @@ static struct {
 	int64_t next_pub;      /* CLOCK_MONOTONIC */
 	int64_t last_pub_real; /* CLOCK_REALTIME just before the last publish */
 	uint64_t n_pub;
-	/*
-	 * The owner's (ctl_id's) last command, and the longest gap between two
-	 * of them since the sleepers' mark, rmd_now_ns(): how long rmdd heard
-	 * nothing of it, measured where it is made (the reference sleeper is
-	 * another thread, which the guest may run while it holds this one).
-	 */
-	int64_t own_last_ns, own_gap_ns;
+	/* the owner's (ctl_id's) commands: how long rmdd heard nothing of it (harness/gap.h) */
+	struct gap own;
 
 	unsigned edge_toggles; /* enable = 0 sent to get enable = 1 taken */
 	/*
@@ -325,7 +321,7 @@ static double ms_of(int64_t ns)
 /* Begin a measurement window of every reference sleeper. */
 static void sleepers_mark(void)
 {
-	S.own_gap_ns = 0;
+	gap_mark(&S.own);
 	sleeper_mark(&S.sl_sim);
 	sleeper_mark(&S.sl_loop);
 	sleeper_mark(&S.sl_other);
@@ -372,7 +368,7 @@ static void sleepers_up(int loop_prio)
 /* The owner's longest silence since the mark, ms: the widest gap between two of its commands. */
 static double own_gap_ms(void)
 {
-	return ms_of(S.own_gap_ns);
+	return ms_of(S.own.max_ns);
 }
 
 /* The worst delay since the mark at the loop's or at rmd-sim's priority, ms. */
@@ -695,11 +691,7 @@ static void publish_as(int64_t id, double off_rad, bool takeover)
 
 static void publish(void)
 {
-	int64_t now = rmd_now_ns();
-
-	if (S.own_last_ns && now - S.own_last_ns > S.own_gap_ns)
-		S.own_gap_ns = now - S.own_last_ns;
-	S.own_last_ns = now;
+	gap_note(&S.own);
 	publish_as(S.ctl_id, 0, false);
 	if (S.intruder_id) {
 		publish_as(S.intruder_id, INTRUDER_OFF_RAD, S.intruder_takeover);
@@ -789,7 +781,7 @@ static void controller(bool on, bool enable)
 {
 	if (on && !S.ctl_on) {
 		S.next_pub = rmd_now_ns();
-		S.own_last_ns = 0; /* a pause of its own is no gap (own_gap_ms()) */
+		gap_pause(&S.own); /* a pause of its own is no gap (own_gap_ms()) */
 	}
 	S.ctl_on = on;
 	S.ctl_enable = enable;
