@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The one clock (util layer): int64_t nanoseconds of CLOCK_MONOTONIC, the
- * only time type in rmdd (STYLE.md "Names").  Kernel receive stamps of
- * SocketCAN frames are converted onto this clock by the bus layer.
+ * only time type in rmdd (STYLE.md "Names").  Kernel receive stamps
+ * (CLOCK_REALTIME) are moved onto it with rmd_realtime_offset_ns(): the
+ * SocketCAN bus's frames, the bridge's datagrams.
  */
 #ifndef RMD_TIME_H
 #define RMD_TIME_H
