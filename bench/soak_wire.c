@@ -74,13 +74,13 @@ static double field(const struct rmd_msg *msg, const struct rmd_cmd_spec *spec, 
 static void check_cmd(const char *line, const struct rmd_motor *m, const struct rmd_motor_info *mi,
 		      const struct rmd_frame *f)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, f->data[0]);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->d->table, f->data[0]);
 	struct rmd_msg msg;
 	double lsb, lsb2, v, ms;
 
 	if (!spec || (f->data[0] != 0xA1 && f->data[0] != 0xA2 && f->data[0] != 0xA4))
 		return;
-	if (rmd_decode(m->table, RMD_DIR_REQUEST, f, &msg, NULL) < 0) {
+	if (rmd_decode(m->d->table, RMD_DIR_REQUEST, f, &msg, NULL) < 0) {
 		violation(line, m, "undecodable setpoint", f->data[0], 0, 0);
 		return;
 	}
@@ -218,7 +218,7 @@ int main(int argc, char **argv)
 			check_cmd(line, &motors[i], &info[i], f);
 		else if (f->can_id > 0x400 && f->can_id <= 0x420 &&
 			 (i = motor_of((unsigned)b, f->can_id - 0x400)) >= 0 &&
-			 motors[i].proto == RMD_PROTO_MIT)
+			 (motors[i].caps & RMD_DIALECT_MIT))
 			check_mit(line, &motors[i], &info[i], f);
 		else if (f->can_id != 0x280 && f->can_id != 0x300 && f->len &&
 			 (f->data[0] == 0xA1 || f->data[0] == 0xA2 || f->data[0] == 0xA4 ||

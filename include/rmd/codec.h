@@ -28,10 +28,16 @@
 
 #include "rmd/frame.h"
 
+/*
+ * The firmware dialects, as keys: what each is (its table, identifiers,
+ * capabilities) is its record, rmd_dialect() of rmd/dialect.h.  Outside
+ * src/proto/ nothing compares these values (tests/check-layers).
+ */
 enum rmd_proto {
 	RMD_PROTO_V3 = 0, /* replies on 0x240 + ID */
 	RMD_PROTO_V2,	  /* replies on 0x140 + ID */
 	RMD_PROTO_MIT,	  /* 0x400 + ID / 0x500 + ID, see rmd/mit.h */
+	RMD_PROTO_COUNT	  /* not a dialect: how many there are */
 };
 
 enum rmd_dir {
@@ -178,20 +184,21 @@ struct rmd_addr {
 #define RMD_V2_CMD_MULTI_TORQUE 0x00u
 
 /*
- * The command table a protocol's 0x140 + ID frames use: V2's for V2, V3's
- * for V3 and for MIT (V3 §5: MIT motors also speak V3).  Every function
- * below that takes a proto reads it through this, so RMD_PROTO_MIT means
- * "the V3 table" everywhere in the codec.
+ * The dialect whose command table a dialect's 0x140 + ID frames use
+ * (struct rmd_dialect.table): itself, or V3 for MIT (V3 §5: MIT motors
+ * also speak V3).  Every function below that takes a proto reads the
+ * table through the dialect, so RMD_PROTO_MIT means "the V3 table"
+ * everywhere in the codec.  Out of range: itself.
  */
 enum rmd_proto rmd_proto_table(enum rmd_proto proto);
 
-/* The rows by command byte, [proto == RMD_PROTO_V2][cmd]; read through rmd_cmd_find(). */
-extern const struct rmd_cmd_spec *rmd_cmd_by_byte[2][256];
+/* The rows by command byte, [proto][cmd] (src/proto/dialect.c); read through rmd_cmd_find(). */
+extern const struct rmd_cmd_spec *rmd_cmd_by_byte[RMD_PROTO_COUNT][256];
 
 /* The row for `cmd` in the table of `proto`, or NULL if there is none.  O(1). */
 static inline const struct rmd_cmd_spec *rmd_cmd_find(enum rmd_proto proto, uint8_t cmd)
 {
-	return rmd_cmd_by_byte[proto == RMD_PROTO_V2][cmd];
+	return (unsigned)proto < RMD_PROTO_COUNT ? rmd_cmd_by_byte[proto][cmd] : NULL;
 }
 
 /*
@@ -401,13 +408,14 @@ const char *rmd_field_key(enum rmd_field fld);
 size_t rmd_error_names(enum rmd_proto proto, uint16_t code, const char **names, size_t max);
 
 /*
- * Protocol names.  Keys "v3", "v2", "mit" (config files and command
- * lines; rmd_proto_keys[] is NULL-terminated, in enum order); names "V3",
- * "V2", "MIT" (the manuals' spelling, for messages); "?" out of range.
- * rmd_proto_parse() takes a key in any letter case ("v3", "V3", "Mit") and
- * returns 0, or -EINVAL for anything else (*proto untouched).
+ * Protocol names, from the dialects' records.  Keys "v3", "v2", "mit"
+ * (config files and command lines; rmd_proto_keys[] is NULL-terminated,
+ * in enum order, filled before main()); names "V3", "V2", "MIT" (the
+ * manuals' spelling, for messages); "?" out of range.  rmd_proto_parse()
+ * takes a key in any letter case ("v3", "V3", "Mit") and returns 0, or
+ * -EINVAL for anything else (*proto untouched).
  */
-extern const char *const rmd_proto_keys[];
+extern const char *rmd_proto_keys[RMD_PROTO_COUNT + 1];
 const char *rmd_proto_key(enum rmd_proto proto);
 const char *rmd_proto_name(enum rmd_proto proto);
 int rmd_proto_parse(const char *s, enum rmd_proto *proto);

@@ -50,6 +50,7 @@
 
 #include "rmd/codec.h"
 #include "rmd/config.h"
+#include "rmd/dialect.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmd/state.h"
@@ -136,6 +137,9 @@ struct rmd_motor {
 	uint8_t bus;	  /* index into cfg->buses[] */
 	uint8_t id;
 	enum rmd_proto proto;
+	/* the motor's dialect (rmd/dialect.h): its table, ids and capabilities */
+	const struct rmd_dialect *d;
+	uint32_t caps; /* d->caps, beside the fields the cycle reads */
 	enum rmd_mode mode;
 	double dir;		  /* +1 or -1 */
 	double native_per_output; /* 1, or gear_ratio when the protocol speaks the rotor */
@@ -154,8 +158,7 @@ struct rmd_motor {
 	struct rmd_mit_gain_codes mit_gains;
 	unsigned mit_gains_fl;
 	double damp_kd;
-	enum rmd_proto table; /* rmd_proto_table(proto) */
-	uint32_t reply_id;    /* replies to 0x140 + ID: 0x240 + ID (V3, MIT), 0x140 + ID (V2) */
+	uint32_t reply_id;		 /* replies to 0x140 + ID: d->reply_base + ID */
 	struct rmd_motor_row torque_row; /* 0xA1: current */
 	struct rmd_motor_row speed_row;	 /* 0xA2: speed */
 	struct rmd_motor_row pos_row;	 /* 0xA4: angle, max speed */
@@ -335,7 +338,7 @@ static inline void rmd_motor_reply_key(const struct rmd_motor *m, const struct r
 		*cmd = 0xA1;
 		return;
 	}
-	*reply_id = (m->proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
+	*reply_id = m->reply_id;
 	*cmd = req->len ? req->data[0] : 0;
 }
 

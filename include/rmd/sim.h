@@ -49,6 +49,7 @@
 #include <stdint.h>
 
 #include "rmd/codec.h"
+#include "rmd/dialect.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 
@@ -163,6 +164,7 @@ struct rmd_sim_settings {
  */
 struct rmd_sim_motor {
 	struct rmd_sim_motor_params p;
+	const struct rmd_dialect *d; /* of p.proto: what the simulated firmware speaks */
 	struct rmd_sim_settings rom;
 	struct rmd_sim_settings ram; /* ram.can_id is the motor's ID now */
 	bool clear_multiturn;	     /* 0x20 index 1: wrap at the next start (ROM) */

@@ -10,6 +10,7 @@
 
 #include "rmd/err.h"
 #include "rmd/bus_open.h"
+#include "rmd/dialect.h"
 #include "rmd/can_timing.h"
 #include "rmd/bus_rs485.h"
 #include "rmd/bus_sim.h"
@@ -122,12 +123,15 @@ static int open_rs485(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 	};
 
 	/* V3 §1.2: RS485 frames carry the V3 command set; V2 is CAN only. */
-	for (unsigned i = 0; i < ctx->n_motors; i++)
-		if (ctx->motors[i].proto == RMD_PROTO_V2)
-			return rmd_errf(
-				err, errlen, -EINVAL,
-				"%s: protocol V2 has no RS485 interface (V2 motors are CAN only)",
-				cb->device);
+	for (unsigned i = 0; i < ctx->n_motors; i++) {
+		const struct rmd_dialect *d = rmd_dialect(ctx->motors[i].proto);
+
+		if (d && !rmd_dialect_has(d, RMD_DIALECT_RS485))
+			return rmd_errf(err, errlen, -EINVAL,
+					"%s: protocol %s has no RS485 interface (%s motors are CAN "
+					"only)",
+					cb->device, d->name, d->name);
+	}
 	return rmd_rs485_open(bus, cb->device, &ro, err, errlen);
 }
 
@@ -288,7 +292,7 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 	n = rmd_bus_spec_parse(spec, o, &cb, ids, err, errlen);
 	if (n < 0)
 		return n;
-	if (o->proto != RMD_PROTO_V3 && o->proto != RMD_PROTO_V2 && o->proto != RMD_PROTO_MIT)
+	if (!rmd_dialect(o->proto))
 		return rmd_errf(err, errlen, -EINVAL, "%s: unknown protocol %d", spec,
 				(int)o->proto);
 	if (cb.kind == RMD_BUS_KIND_SIM) {

@@ -16,6 +16,7 @@
 
 #include "rmd/err.h"
 #include "rmd/bus_sim.h"
+#include "rmd/dialect.h"
 
 /* Frames moved from the sim bus per rmd_sim_wire_recv() call (stack buffer). */
 #define RX_CHUNK 32
@@ -219,8 +220,7 @@ static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_
 		if (m->id < 1 || m->id > RMD_MAX_MOTORS)
 			return rmd_errf(err, errlen, -EINVAL, "%s: motor id %u out of range 1..%d",
 					name, m->id, RMD_MAX_MOTORS);
-		if (m->proto != RMD_PROTO_V3 && m->proto != RMD_PROTO_V2 &&
-		    m->proto != RMD_PROTO_MIT)
+		if (!rmd_dialect(m->proto))
 			return rmd_errf(err, errlen, -EINVAL, "%s: motor %u: unknown protocol %d",
 					name, m->id, (int)m->proto);
 		if (m->params)

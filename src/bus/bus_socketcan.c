@@ -25,6 +25,7 @@
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
 
+#include "rmd/dialect.h"
 #include "rmd/err.h"
 #include "rmd/time.h"
 #include "rmd/bus_socketcan.h"
@@ -114,31 +115,23 @@ static int build_filters(const char *ifname, const struct rmd_socketcan_opts *op
 				opts->n_motors);
 	for (unsigned i = 0; i < opts->n_motors; i++) {
 		const struct rmd_socketcan_motor *m = &opts->motors[i];
+		const struct rmd_dialect *d;
 
 		if (m->id < 1 || m->id > RMD_MAX_MOTORS)
 			return rmd_errf(err, errlen, -EINVAL, "%s: motor id %u out of range 1..%d",
 					ifname, m->id, RMD_MAX_MOTORS);
-		switch (m->proto) {
-		case RMD_PROTO_V3:
-			n = add_filter(f, n, RMD_CAN_V3_REPLY_BASE + m->id);
-			break;
-		case RMD_PROTO_V2:
-			/* V2 §1: requests and replies share 0x140 + ID. */
-			n = add_filter(f, n, RMD_CAN_REQ_BASE + m->id);
-			break;
-		case RMD_PROTO_MIT:
-			/*
-			 * V3 §5: MIT replies on 0x500 + ID; the motor's V3
-			 * firmware still answers probes (0xB5, 0x9A) on
-			 * 0x240 + ID.
-			 */
-			n = add_filter(f, n, RMD_CAN_MIT_REPLY_BASE + m->id);
-			n = add_filter(f, n, RMD_CAN_V3_REPLY_BASE + m->id);
-			break;
-		default:
+		d = rmd_dialect(m->proto);
+		if (!d)
 			return rmd_errf(err, errlen, -EINVAL, "%s: motor %u: unknown protocol %d",
 					ifname, m->id, (int)m->proto);
-		}
+		/* its replies (V2 §1: on 0x140 + ID, shared with requests) */
+		n = add_filter(f, n, d->reply_base + m->id);
+		/*
+		 * V3 §5: MIT replies on 0x500 + ID; the motor's V3 firmware
+		 * still answers probes (0xB5, 0x9A) on 0x240 + ID.
+		 */
+		if (d->ctl_reply_base != d->reply_base)
+			n = add_filter(f, n, d->ctl_reply_base + m->id);
 	}
 	if (opts->set_id_replies)
 		n = add_filter(f, n, RMD_CAN_SET_ID); /* V3 §4.4: 0x79 replies on 0x300 */

@@ -10,6 +10,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "rmd/dialect.h"
 #include "rmd/time.h"
 #include "rmd/txn.h"
 
@@ -21,26 +22,29 @@
 int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
 		    const struct rmd_msg *msg)
 {
+	/* MIT motors answer the V3 table (V3 §5): the dialect of its 0x140 + ID frames */
+	const struct rmd_dialect *d = rmd_dialect(rmd_proto_table(proto));
 	const struct rmd_cmd_spec *spec;
+	uint32_t set_id_can;
 	int r;
 
 	memset(t, 0, sizeof(*t));
-	proto = rmd_proto_table(proto); /* MIT motors answer the V3 table (V3 §5) */
-	spec = rmd_cmd_find(proto, msg->cmd);
+	if (!d)
+		return -EINVAL;
+	spec = rmd_cmd_find(d->proto, msg->cmd);
 	if (!spec)
 		return -ENOENT;
-	/* A broadcast (0x280) has many answers: not a transaction. */
-	if (motor_id == 0 && !(proto == RMD_PROTO_V3 && spec->cmd == 0x79))
+	/* A broadcast (0x280) has many answers: not a transaction; V3 §4's 0x79 on 0x300 is one. */
+	set_id_can = spec->cmd == 0x79 ? rmd_dialect_set_id_can(d) : 0;
+	if (motor_id == 0 && !set_id_can)
 		return -EINVAL;
-	r = rmd_encode(proto, RMD_DIR_REQUEST, motor_id, msg, &t->req);
+	r = rmd_encode(d->proto, RMD_DIR_REQUEST, motor_id, msg, &t->req);
 	if (r < 0)
 		return r;
-	if (proto == RMD_PROTO_V2)
-		t->reply_id = t->req.can_id; /* V2 §1: replies share 0x140 + ID */
-	else if (t->req.can_id == RMD_CAN_SET_ID)
-		t->reply_id = RMD_CAN_SET_ID; /* V3 §4.3: 0x79 answers on 0x300 */
+	if (set_id_can)
+		t->reply_id = set_id_can; /* V3 §4.3: 0x79 answers on 0x300 */
 	else
-		t->reply_id = RMD_CAN_V3_REPLY_BASE + motor_id;
+		t->reply_id = d->reply_base + (uint32_t)motor_id; /* V2 §1: shared with requests */
 	t->reply_cmd = spec->cmd;
 	t->any_cmd = spec->flags & RMD_CMD_NO_CMD_BYTE;
 	/* V3 §2.25: 0x76 does not answer; V3 §2.31: 0xB4's answer is noise, when it comes. */

@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "rmd/config_yaml.h"
+#include "rmd/dialect.h"
 #include "rmd/rs485.h"
 #include "rmd/sim_params.h"
 #include "rmd/sim_wire.h"
@@ -512,7 +513,8 @@ static void validate_feedback(struct yctx *c, const struct rmd_config *cfg,
 	const struct rmd_config_feedback *fb = &m->feedback;
 	char kp[PATH_LEN];
 
-	if (fb->position == RMD_FEEDBACK_MULTI_TURN && m->proto == RMD_PROTO_V2) {
+	if (fb->position == RMD_FEEDBACK_MULTI_TURN &&
+	    !rmd_dialect_has(rmd_dialect(m->proto), RMD_DIALECT_FINE_ANGLE)) {
 		rmd_yaml_path_key(kp, path, "feedback.position");
 		rmd_yaml_report(
 			c, rmd_yaml_line_of(fn, "position"), kp,
@@ -702,6 +704,7 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 	for (unsigned i = 0; i < cfg->n_motors; i++) {
 		struct rmd_config_motor *m = &cfg->motors[i];
 		const struct ynode *mn = seq->kids[i], *bv;
+		const struct rmd_dialect *d;
 		unsigned bl = 0;
 		int bi = -1;
 
@@ -744,18 +747,21 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 			}
 		}
 		/* protocol and mode */
-		if (m->proto == RMD_PROTO_MIT && m->mode != RMD_MODE_MIT) {
+		d = rmd_dialect(m->proto);
+		if (rmd_dialect_has(d, RMD_DIALECT_MIT) && m->mode != RMD_MODE_MIT) {
 			rmd_yaml_path_key(kp, path, "mode");
 			rmd_yaml_report(c, rmd_yaml_line_of(mn, "mode"), kp,
 					"%s: a mit protocol motor runs in mode mit (V3 §5)",
 					rmd_mode_name(m->mode));
-		} else if (m->mode == RMD_MODE_MIT && m->proto != RMD_PROTO_MIT) {
+		} else if (m->mode == RMD_MODE_MIT && !rmd_dialect_has(d, RMD_DIALECT_MIT)) {
 			rmd_yaml_path_key(kp, path, "mode");
 			rmd_yaml_report(c, rmd_yaml_line_of(mn, "mode"), kp,
 					"mit needs protocol mit (this motor is %s)",
 					rmd_proto_key(m->proto));
 		}
-		if (cfg->buses[bi].kind == RMD_BUS_KIND_RS485 && m->proto != RMD_PROTO_V3) {
+		if (cfg->buses[bi].kind == RMD_BUS_KIND_RS485 &&
+		    (!rmd_dialect_has(d, RMD_DIALECT_RS485) ||
+		     rmd_dialect_has(d, RMD_DIALECT_MIT))) {
 			rmd_yaml_path_key(kp, path, "protocol");
 			rmd_yaml_report(
 				c, rmd_yaml_line_of(mn, "protocol"), kp,
@@ -763,7 +769,7 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 				"rs485",
 				rmd_proto_key(m->proto), cfg->buses[bi].name);
 		}
-		if (m->proto != RMD_PROTO_MIT && !(m->torque_constant_nm_a > 0)) {
+		if (!rmd_dialect_has(d, RMD_DIALECT_MIT) && !(m->torque_constant_nm_a > 0)) {
 			rmd_yaml_path_key(kp, path, "torque_constant_nm_a");
 			rmd_yaml_report(
 				c, mn->line, kp,
@@ -907,7 +913,8 @@ static void validate_v2_protection(struct yctx *c, const struct rmd_config *cfg,
 		const struct ynode *mn = motor_node(root, i);
 		char kp[PATH_LEN];
 
-		if (m->proto != RMD_PROTO_V2 || !rmd_config_comm_loss_ms(cfg, i))
+		if (rmd_dialect_has(rmd_dialect(m->proto), RMD_DIALECT_COMM_LOSS_B3) ||
+		    !rmd_config_comm_loss_ms(cfg, i))
 			continue;
 		snprintf(kp, sizeof(kp), "motors[%u].comm_loss_ms", i);
 		rmd_yaml_report(

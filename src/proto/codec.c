@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 /*
- * The codec's interpreter: one encoder and one decoder for every row of the
- * V2 and V3 command tables (src/codec_v2.c, src/codec_v3.c).
+ * The codec's interpreter: one encoder and one decoder for every row of
+ * every dialect's command table (src/proto/codec_*.c), with the dialect's
+ * identifiers from its record (src/proto/dialect.c).
  * Everything here is pure and rt-safe.
  */
 #include <errno.h>
@@ -9,6 +10,7 @@
 #include <string.h>
 
 #include "rmd/codec.h"
+#include "rmd/dialect.h"
 #include "codec_tables.h"
 
 static const char *const field_keys[RMD_FLD_COUNT] = {
@@ -61,36 +63,21 @@ const char *rmd_field_key(enum rmd_field fld)
 
 enum rmd_proto rmd_proto_table(enum rmd_proto proto)
 {
-	/* V3 §5: an MIT motor answers the V3 command set on 0x140 + ID. */
-	return proto == RMD_PROTO_V2 ? RMD_PROTO_V2 : RMD_PROTO_V3;
+	const struct rmd_dialect *d = rmd_dialect(proto);
+
+	return d ? d->table : proto;
 }
 
 size_t rmd_cmd_table(enum rmd_proto proto, const struct rmd_cmd_spec **rows)
 {
-	if (rmd_proto_table(proto) == RMD_PROTO_V2) {
-		*rows = rmd_v2_cmds;
-		return rmd_v2_ncmds;
+	const struct rmd_dialect *d = rmd_dialect(rmd_proto_table(proto));
+
+	if (!d) {
+		*rows = NULL;
+		return 0;
 	}
-	*rows = rmd_v3_cmds;
-	return rmd_v3_ncmds;
-}
-
-/*
- * Command byte -> row, per table (V3, V2): filled once when the program is
- * loaded, before any thread runs, and only read afterwards, so
- * rmd_cmd_find() is one load on the rt path.
- */
-const struct rmd_cmd_spec *rmd_cmd_by_byte[2][256];
-
-__attribute__((constructor)) static void cmd_index_build(void)
-{
-	for (unsigned t = 0; t < 2; t++) {
-		const struct rmd_cmd_spec *rows;
-		size_t n = rmd_cmd_table(t ? RMD_PROTO_V2 : RMD_PROTO_V3, &rows);
-
-		for (size_t i = n; i-- > 0;) /* the first row of a byte wins, as a scan would */
-			rmd_cmd_by_byte[t][rows[i].cmd] = &rows[i];
-	}
+	*rows = d->rows;
+	return *d->n_rows;
 }
 
 static bool id_in(uint32_t can_id, uint32_t base, uint8_t *motor_id)
@@ -103,41 +90,37 @@ static bool id_in(uint32_t can_id, uint32_t base, uint8_t *motor_id)
 
 int rmd_addr_from_id(enum rmd_proto proto, uint32_t can_id, struct rmd_addr *addr)
 {
+	const struct rmd_dialect *d = rmd_dialect(proto);
+
 	memset(addr, 0, sizeof(*addr));
-	switch (proto) {
-	case RMD_PROTO_V3:
-		if (id_in(can_id, RMD_CAN_REQ_BASE, &addr->motor_id)) {
+	if (!d)
+		return -EINVAL;
+	/* MIT frames (V3 §5): the dialect's own control identifiers, nothing else */
+	if (rmd_dialect_has(d, RMD_DIALECT_MIT)) {
+		if (id_in(can_id, d->ctl_req_base, &addr->motor_id)) {
 			addr->dir = RMD_DIR_REQUEST;
 			return 0;
 		}
-		if (id_in(can_id, RMD_CAN_V3_REPLY_BASE, &addr->motor_id)) {
-			addr->dir = RMD_DIR_REPLY;
-			return 0;
-		}
-		/* V3 §4: the 0x79 request and its reply both use 0x300. */
-		if (can_id == RMD_CAN_SET_ID) {
-			addr->dir = RMD_DIR_UNKNOWN;
-			addr->broadcast = true;
-			return 0;
-		}
-		break;
-	case RMD_PROTO_V2:
-		/* V2 §1: requests and replies share 0x140 + ID. */
-		if (id_in(can_id, RMD_CAN_REQ_BASE, &addr->motor_id)) {
-			addr->dir = RMD_DIR_UNKNOWN;
-			return 0;
-		}
-		break;
-	case RMD_PROTO_MIT:
-		if (id_in(can_id, RMD_CAN_MIT_REQ_BASE, &addr->motor_id)) {
-			addr->dir = RMD_DIR_REQUEST;
-			return 0;
-		}
-		if (id_in(can_id, RMD_CAN_MIT_REPLY_BASE, &addr->motor_id)) {
+		if (id_in(can_id, d->ctl_reply_base, &addr->motor_id)) {
 			addr->dir = RMD_DIR_REPLY;
 			return 0;
 		}
 		return -EINVAL;
+	}
+	if (id_in(can_id, d->req_base, &addr->motor_id)) {
+		/* V2 §1: requests and replies share 0x140 + ID. */
+		addr->dir = rmd_dialect_shared_ids(d) ? RMD_DIR_UNKNOWN : RMD_DIR_REQUEST;
+		return 0;
+	}
+	if (id_in(can_id, d->reply_base, &addr->motor_id)) {
+		addr->dir = RMD_DIR_REPLY;
+		return 0;
+	}
+	/* V3 §4: the 0x79 request and its reply both use 0x300. */
+	if (can_id && can_id == rmd_dialect_set_id_can(d)) {
+		addr->dir = RMD_DIR_UNKNOWN;
+		addr->broadcast = true;
+		return 0;
 	}
 	if (can_id == RMD_CAN_MULTI) {
 		addr->dir = RMD_DIR_REQUEST;
@@ -239,38 +222,45 @@ double rmd_msg_get_native(const struct rmd_msg *msg, const struct rmd_cmd_spec *
 	return rmd_field_to_native(fs, msg->v[fld]);
 }
 
-static uint32_t frame_id(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id,
+/* Whether `spec` rides on the dialect's own set-ID identifier (V3 §4: 0x79 on 0x300). */
+static bool on_set_id_can(const struct rmd_dialect *d, const struct rmd_cmd_spec *spec)
+{
+	return rmd_dialect_set_id_can(d) && spec->cmd == 0x79;
+}
+
+static uint32_t frame_id(const struct rmd_dialect *d, enum rmd_dir dir, uint8_t motor_id,
 			 const struct rmd_cmd_spec *spec)
 {
 	/* V3 §4: 0x79 is addressed to every motor on 0x300, both ways. */
-	if (proto == RMD_PROTO_V3 && spec->cmd == 0x79)
-		return RMD_CAN_SET_ID;
+	if (on_set_id_can(d, spec))
+		return rmd_dialect_set_id_can(d);
 	if (dir == RMD_DIR_REQUEST)
-		return motor_id ? RMD_CAN_REQ_BASE + motor_id : RMD_CAN_MULTI;
-	return (proto == RMD_PROTO_V3 ? RMD_CAN_V3_REPLY_BASE : RMD_CAN_REQ_BASE) + motor_id;
+		return motor_id ? d->req_base + motor_id : RMD_CAN_MULTI;
+	return d->reply_base + (uint32_t)motor_id;
 }
 
 int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const struct rmd_msg *msg,
 	       struct rmd_frame *out)
 {
+	const struct rmd_dialect *d = rmd_dialect(rmd_proto_table(proto));
 	const struct rmd_cmd_spec *spec;
 	const struct rmd_layout *l;
 
-	proto = rmd_proto_table(proto);
-	if (motor_id > RMD_MAX_MOTORS || (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY))
+	if (!d || motor_id > RMD_MAX_MOTORS || (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY))
 		return -EINVAL;
-	spec = rmd_cmd_find(proto, msg->cmd);
+	spec = rmd_cmd_find(d->proto, msg->cmd);
 	if (!spec)
 		return -ENOENT;
 	/* A reply always comes from one motor; V2's 0x280 carries only torques. */
-	if (motor_id == 0 && dir == RMD_DIR_REPLY && !(proto == RMD_PROTO_V3 && spec->cmd == 0x79))
+	if (motor_id == 0 && dir == RMD_DIR_REPLY && !on_set_id_can(d, spec))
 		return -EINVAL;
-	if (proto == RMD_PROTO_V2 && (motor_id == 0) != (spec->cmd == RMD_V2_CMD_MULTI_TORQUE))
+	if (rmd_dialect_has(d, RMD_DIALECT_BATCH_280) &&
+	    (motor_id == 0) != (spec->cmd == RMD_V2_CMD_MULTI_TORQUE))
 		return -EINVAL;
 
 	l = rmd_cmd_layout(spec, dir);
 	memset(out, 0, sizeof(*out));
-	out->can_id = frame_id(proto, dir, motor_id, spec);
+	out->can_id = frame_id(d, dir, motor_id, spec);
 	out->len = RMD_FRAME_LEN;
 	if (!(spec->flags & RMD_CMD_NO_CMD_BYTE))
 		out->data[0] = spec->cmd;
@@ -317,6 +307,7 @@ static void decode_fields(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f,
 	       struct rmd_msg *msg, enum rmd_dir *dir_out)
 {
+	const struct rmd_dialect *d;
 	const struct rmd_cmd_spec *spec;
 	struct rmd_addr addr;
 	int r;
@@ -325,6 +316,7 @@ int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f
 	if (f->len != RMD_FRAME_LEN)
 		return -EBADMSG;
 	proto = rmd_proto_table(proto);
+	d = rmd_dialect(proto);
 	r = rmd_addr_from_id(proto, f->can_id, &addr);
 	if (r < 0)
 		return r;
@@ -333,7 +325,7 @@ int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f
 	else if (addr.dir != RMD_DIR_UNKNOWN && addr.dir != dir)
 		return -EINVAL;
 
-	if (proto == RMD_PROTO_V2 && f->can_id == RMD_CAN_MULTI)
+	if (rmd_dialect_has(d, RMD_DIALECT_BATCH_280) && f->can_id == RMD_CAN_MULTI)
 		spec = rmd_cmd_find(proto, RMD_V2_CMD_MULTI_TORQUE);
 	else
 		spec = rmd_cmd_find(proto, f->data[0]);
@@ -342,7 +334,8 @@ int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f
 		return -ENOENT;
 	}
 	/* V3 §4: 0x300 carries 0x79 and nothing else, and 0x79 travels only there. */
-	if (proto == RMD_PROTO_V3 && (f->can_id == RMD_CAN_SET_ID) != (spec->cmd == 0x79)) {
+	if (rmd_dialect_set_id_can(d) &&
+	    (f->can_id == rmd_dialect_set_id_can(d)) != (spec->cmd == 0x79)) {
 		msg->cmd = spec->cmd;
 		return -EINVAL;
 	}

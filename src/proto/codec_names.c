@@ -10,27 +10,26 @@
 #include <stdint.h>
 
 #include "rmd/codec.h"
-
-/* In the order of enum rmd_proto. */
-const char *const rmd_proto_keys[] = { "v3", "v2", "mit", NULL };
-static const char *const proto_names[] = { "V3", "V2", "MIT" };
-_Static_assert(RMD_PROTO_V3 == 0 && RMD_PROTO_V2 == 1 && RMD_PROTO_MIT == 2,
-	       "rmd_proto_keys[] follows enum rmd_proto");
+#include "rmd/dialect.h"
 
 const char *rmd_proto_key(enum rmd_proto proto)
 {
-	return (unsigned)proto < 3 ? rmd_proto_keys[proto] : "?";
+	const struct rmd_dialect *d = rmd_dialect(proto);
+
+	return d ? d->key : "?";
 }
 
 const char *rmd_proto_name(enum rmd_proto proto)
 {
-	return (unsigned)proto < 3 ? proto_names[proto] : "?";
+	const struct rmd_dialect *d = rmd_dialect(proto);
+
+	return d ? d->name : "?";
 }
 
 int rmd_proto_parse(const char *s, enum rmd_proto *proto)
 {
-	for (unsigned i = 0; i < 3; i++) {
-		const char *k = rmd_proto_keys[i];
+	for (unsigned i = 0; i < RMD_PROTO_COUNT; i++) {
+		const char *k = rmd_dialect((enum rmd_proto)i)->key;
 		size_t j;
 
 		/* ASCII case-insensitive, whatever the locale. */
@@ -44,59 +43,6 @@ int rmd_proto_parse(const char *s, enum rmd_proto *proto)
 	return -EINVAL;
 }
 
-struct flag_name {
-	uint16_t code;
-	const char *name;
-};
-
-/* V3 §2.12 table 1 (System_errorState): one bit per condition. */
-static const struct flag_name v3_error_bits[] = {
-	{ 0x0002, "stall" },
-	{ 0x0004, "low_voltage" },
-	{ 0x0008, "over_voltage" },
-	{ 0x0010, "phase_overcurrent" },
-	{ 0x0040, "power_overrun" },
-	/* §8.2 calls it a calibration parameter read error; §2.12 says write. */
-	{ 0x0080, "calibration_write_error" },
-	{ 0x0100, "overspeed" },
-	{ 0x1000, "over_temperature" },
-	{ 0x2000, "encoder_calibration_error" },
-};
-
-/*
- * V2 §3.31 table 1 (System_errorState): one bit per condition.  The table
- * lists hardware over-current as 0x0000, which no bit can be; it is the
- * only free bit below 0x2000 and heads the list as bit 0 would, so it is
- * taken as 0x0001.
- */
-static const struct flag_name v2_error_bits[] = {
-	{ 0x0001, "hardware_overcurrent" },
-	{ 0x0002, "stall" },
-	{ 0x0004, "low_voltage" },
-	{ 0x0008, "over_voltage" },
-	{ 0x0010, "overcurrent" },
-	{ 0x0020, "brake_open_failed" },
-	{ 0x0040, "bus_current_error" },
-	{ 0x0080, "battery_voltage_error" },
-	{ 0x0100, "overspeed" },
-	{ 0x0200, "position_loop_exceeded" },
-	{ 0x0400, "vdd_error" },
-	{ 0x0800, "dsp_over_temperature" },
-	{ 0x1000, "over_temperature" },
-	{ 0x2000, "encoder_calibration_error" },
-};
-
-/*
- * V2 §3.31 table 2 (CAN_errorState): whole codes, not bits (0x00F0 is not
- * bits 4..7 of table 1).  §3.37 names 0x00F6 as the "three-loop operation
- * error" that table 2 lists as 0x00F2; both are accepted.
- */
-static const struct flag_name v2_error_codes[] = {
-	{ 0x00F0, "pid_rom_write_unsafe" }, { 0x00F1, "encoder_rom_write_unsafe" },
-	{ 0x00F2, "loop_switch_unsafe" },   { 0x00F3, "brake_not_open" },
-	{ 0x00F4, "rom_write_unsafe" },	    { 0x00F6, "loop_switch_unsafe" },
-};
-
 /* A bit no table names keeps a name of its own, so no flag goes unreported. */
 static const char *const unknown_bits[16] = {
 	"unknown_0x0001", "unknown_0x0002", "unknown_0x0004", "unknown_0x0008",
@@ -105,9 +51,7 @@ static const char *const unknown_bits[16] = {
 	"unknown_0x1000", "unknown_0x2000", "unknown_0x4000", "unknown_0x8000",
 };
 
-#define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
-
-static const char *bit_name(const struct flag_name *t, size_t n, uint16_t bit)
+static const char *bit_name(const struct rmd_flag_name *t, size_t n, uint16_t bit)
 {
 	for (size_t i = 0; i < n; i++)
 		if (t[i].code == bit)
@@ -117,37 +61,25 @@ static const char *bit_name(const struct flag_name *t, size_t n, uint16_t bit)
 
 size_t rmd_error_names(enum rmd_proto proto, uint16_t code, const char **names, size_t max)
 {
-	const struct flag_name *bits;
-	size_t nbits, count = 0;
+	const struct rmd_dialect *d = rmd_dialect(proto);
+	size_t count = 0;
 
-	switch (proto) {
-	case RMD_PROTO_V3:
-		bits = v3_error_bits;
-		nbits = ARRAY_SIZE(v3_error_bits);
-		break;
-	case RMD_PROTO_V2:
-		for (size_t i = 0; i < ARRAY_SIZE(v2_error_codes); i++) {
-			if (v2_error_codes[i].code == code) {
-				if (max > 0)
-					names[0] = v2_error_codes[i].name;
-				return 1;
-			}
-		}
-		bits = v2_error_bits;
-		nbits = ARRAY_SIZE(v2_error_bits);
-		break;
-	case RMD_PROTO_MIT:
-	default:
+	if (!d)
 		return 0;
+	for (size_t i = 0; i < d->n_error_codes; i++) {
+		if (d->error_codes[i].code == code) {
+			if (max > 0)
+				names[0] = d->error_codes[i].name;
+			return 1;
+		}
 	}
-
 	for (unsigned b = 0; b < 16; b++) {
 		uint16_t bit = (uint16_t)(1u << b);
 		const char *name;
 
 		if (!(code & bit))
 			continue;
-		name = bit_name(bits, nbits, bit);
+		name = bit_name(d->error_bits, d->n_error_bits, bit);
 		if (count < max)
 			names[count] = name ? name : unknown_bits[b];
 		count++;
@@ -157,36 +89,11 @@ size_t rmd_error_names(enum rmd_proto proto, uint16_t code, const char **names, 
 
 const char *rmd_run_mode_name(enum rmd_proto proto, uint8_t mode)
 {
-	switch (proto) {
-	case RMD_PROTO_V3:
-		/* V3 §2.23.3 */
-		switch (mode) {
-		case 0x01:
-			return "current_loop";
-		case 0x02:
-			return "speed_loop";
-		case 0x03:
-			return "position_loop";
-		default:
-			return NULL;
-		}
-	case RMD_PROTO_V2:
-		/* V2 §3.45 */
-		switch (mode) {
-		case 0x00:
-			return "current_loop";
-		case 0x01:
-			return "speed_loop";
-		case 0x02:
-			return "position_loop";
-		case 0xFF:
-			return "init";
-		default:
-			return NULL;
-		}
-	case RMD_PROTO_MIT:
-		break;
-	}
+	const struct rmd_dialect *d = rmd_dialect(proto);
+
+	for (size_t i = 0; d && i < d->n_run_modes; i++)
+		if (d->run_modes[i].code == mode)
+			return d->run_modes[i].name;
 	return NULL;
 }
 

@@ -123,42 +123,49 @@ static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, struct 
 static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor *out)
 {
 	struct lmotor *lm = &l->mot[i];
-	bool v2 = lm->m.proto == RMD_PROTO_V2;
+	const struct rmd_dialect *d = lm->m.d;
 	struct rmd_motor_reply r;
 	int64_t now;
-	int ret;
 
 	memset(out, 0, sizeof(*out));
-	/* V3 §2.32 model; V2 has no model or version query: its status answers */
-	out->probe_cmd = v2 ? 0x9A : 0xB5;
 	out->tries = RMD_LOOP_PROBE_TRIES;
 	out->timeout_ns = probe_timeout_ns(&l->bus[lm->m.bus]);
-	ret = probe_cmd(l, lm, out->probe_cmd, &r);
-	now = loop_now(l);
-	if (ret < 0) {
-		out->state = RMD_BRINGUP_MISSING;
-		loop_enter(l, lm, RMD_LC_LOST, now);
-		lm->next_probe_ns = now; /* the first cycle probes again */
-		return -ENODEV;
+	/*
+	 * The dialect's probes in order (V3: model 0xB5, firmware date 0xB2,
+	 * status 0x9A; V2 has no model or version query: its status answers).
+	 * The first tells whether the motor is there.
+	 */
+	for (unsigned k = 0; k < d->n_probes; k++) {
+		uint8_t cmd = d->probe[k];
+		int pr = probe_cmd(l, lm, cmd, &r);
+
+		if (k == 0) {
+			out->probe_cmd = cmd;
+			if (pr < 0) {
+				now = loop_now(l);
+				out->state = RMD_BRINGUP_MISSING;
+				loop_enter(l, lm, RMD_LC_LOST, now);
+				lm->next_probe_ns = now; /* the first cycle probes again */
+				return -ENODEV;
+			}
+		}
+		if (pr < 0)
+			continue;
+		if (r.have & RMD_MOTOR_HAVE_MODEL) {
+			snprintf(lm->model, sizeof(lm->model), "%s", r.model);
+			memcpy(out->model, lm->model, sizeof(out->model));
+		}
+		if (r.have & RMD_MOTOR_HAVE_VERSION)
+			out->version = lm->version = r.version_date;
+		if (cmd == 0x9A) { /* V3 §2.12 / V2 §3.31 status 1 */
+			rmd_motor_apply(&r, lm->st);
+			out->status = true;
+			out->voltage_v = r.voltage_v;
+			out->temp_c = r.temp_c;
+			out->error_code = r.error_code;
+		}
 	}
-	if (!v2) {
-		snprintf(lm->model, sizeof(lm->model), "%s", r.model);
-		memcpy(out->model, lm->model, sizeof(out->model));
-		/* V3 §2.29 firmware date */
-		if (probe_cmd(l, lm, 0xB2, &r) == 0)
-			lm->version = r.version_date;
-		out->version = lm->version;
-		/* V3 §2.12 status 1 */
-		ret = probe_cmd(l, lm, 0x9A, &r);
-	}
-	if (ret == 0) {
-		rmd_motor_apply(&r, lm->st);
-		out->status = true;
-		out->voltage_v = r.voltage_v;
-		out->temp_c = r.temp_c;
-		out->error_code = r.error_code;
-	}
-	if (v2) {
+	if (rmd_dialect_has(d, RMD_DIALECT_ENCODER_UNWRAP)) {
 		/* V2 §3.29: the multi-turn angle anchors the unwrapped encoder */
 		if (probe_cmd(l, lm, 0x92, &r) == 0 && (r.have & RMD_MOTOR_HAVE_POS)) {
 			rmd_motor_set_v2_reference(&lm->m,
@@ -261,7 +268,7 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 		struct rmd_msg msg = { .cmd = 0xB3 };
 
 		out->motor[i].comm_loss_ms = rmd_config_comm_loss_ms(l->cfg, i);
-		if (lm->m.bus != b || lm->m.proto == RMD_PROTO_V2 ||
+		if (lm->m.bus != b || !rmd_dialect_has(lm->m.d, RMD_DIALECT_COMM_LOSS_B3) ||
 		    lm->st->lifecycle == RMD_LC_LOST)
 			continue;
 		out->motor[i].b3 = RMD_B3_NO_ANSWER;

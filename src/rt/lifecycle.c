@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "rmd/loop.h"
+#include "rmd/dialect.h"
 #include "rmd/motor.h"
 #include "loop_priv.h"
 
@@ -45,7 +46,7 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 	struct rmd_frame f[2];
 	int n;
 
-	if (a == RMD_SAFE_DAMP && lm->m.proto == RMD_PROTO_MIT && stream) {
+	if (a == RMD_SAFE_DAMP && (lm->m.caps & RMD_DIALECT_MIT) && stream) {
 		lm->damp_stream = true;
 	} else {
 		n = rmd_motor_encode_safe(&lm->m, a, f);
@@ -395,7 +396,7 @@ static void cl_forget(struct rmd_loop *l, struct lmotor *lm)
 {
 	if (!cl_ms(l, lm))
 		lm->cl = RMD_CL_OFF;
-	else if (lm->m.proto == RMD_PROTO_V2)
+	else if (!(lm->m.caps & RMD_DIALECT_COMM_LOSS_B3))
 		lm->cl = RMD_CL_UNSUPPORTED;
 	else
 		lm->cl = RMD_CL_PENDING;

@@ -770,18 +770,9 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 			return NULL;
 		}
 		lb = &l->bus[c->bus];
-		switch (c->proto) {
-		case RMD_PROTO_V2:
-			lb->by_v2[c->id] = (uint8_t)(i + 1);
-			break;
-		case RMD_PROTO_MIT:
-			lb->by_mit[c->id] = (uint8_t)(i + 1);
-			lb->by_v3[c->id] = (uint8_t)(i + 1);
-			break;
-		case RMD_PROTO_V3:
-			lb->by_v3[c->id] = (uint8_t)(i + 1);
-			break;
-		}
+		/* the identifiers its dialect answers on: its replies, its control replies */
+		*lbus_slot(lb, lm->m.reply_id) = (uint8_t)(i + 1);
+		*lbus_slot(lb, lm->m.d->ctl_reply_base + (uint32_t)c->id) = (uint8_t)(i + 1);
 		lm->st = &l->snap.m[i];
 		lm->st->lifecycle = RMD_LC_PROBE;
 		lm->st->mode = (uint8_t)c->mode;

@@ -235,18 +235,28 @@ static inline enum rmd_safe_action loop_safe_action(const struct rmd_loop *l)
 /* lifecycle.c.  rt-safe. */
 void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);
 
+/*
+ * The slot of lb's routing tables a received identifier falls in (which
+ * holds its motor's index + 1, or 0), or NULL for an identifier no motor
+ * answers on.  rt-safe.
+ */
+static inline uint8_t *lbus_slot(struct lbus *lb, uint32_t id)
+{
+	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+		return &lb->by_v3[id - RMD_CAN_V3_REPLY_BASE];
+	if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
+		return &lb->by_v2[id - RMD_CAN_REQ_BASE];
+	if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
+		return &lb->by_mit[id - RMD_CAN_MIT_REPLY_BASE];
+	return NULL;
+}
+
 /* The motor a received identifier belongs to, or NULL.  rt-safe. */
 static inline struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint32_t id)
 {
-	const struct lbus *lb = &l->bus[b];
-	unsigned k = 0;
+	const uint8_t *slot = lbus_slot(&l->bus[b], id);
+	unsigned k = slot ? *slot : 0;
 
-	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
-		k = lb->by_v3[id - RMD_CAN_V3_REPLY_BASE];
-	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
-		k = lb->by_v2[id - RMD_CAN_REQ_BASE];
-	else if (id > RMD_CAN_MIT_REPLY_BASE && id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS)
-		k = lb->by_mit[id - RMD_CAN_MIT_REPLY_BASE];
 	return k ? &l->mot[k - 1] : NULL;
 }
 

@@ -61,6 +61,12 @@ static void put(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum rmd_f
 	rmd_msg_set(msg, fld, field_raw(fs, lo, hi, native, fl));
 }
 
+/* Whether command `cmd` rides on the dialect's own set-ID identifier (V3 §4: 0x79 on 0x300). */
+static inline bool on_set_id_can(const struct rmd_motor *m, uint8_t cmd)
+{
+	return cmd == 0x79 && rmd_dialect_set_id_can(m->d);
+}
+
 /* Resolve command `cmd`'s row and request fields a, b of the motor's table.  Non-rt. */
 static void row_resolve(const struct rmd_motor *m, uint8_t cmd, enum rmd_field a, enum rmd_field b,
 			struct rmd_motor_row *row)
@@ -68,7 +74,7 @@ static void row_resolve(const struct rmd_motor *m, uint8_t cmd, enum rmd_field a
 	enum rmd_field flds[2] = { a, b };
 
 	memset(row, 0, sizeof(*row));
-	row->spec = rmd_cmd_find(m->proto, cmd);
+	row->spec = rmd_cmd_find(m->d->table, cmd);
 	if (!row->spec || (row->spec->flags & RMD_CMD_NO_CMD_BYTE))
 		return;
 	for (unsigned k = 0; k < 2; k++) {
@@ -131,7 +137,7 @@ static void rd_of(const struct rmd_field_spec *fs, struct rmd_field_rd *rd)
 /* Resolve the status 2 reply of the motor's table (struct rmd_motor_status2).  Non-rt. */
 static void status2_resolve(struct rmd_motor *m)
 {
-	const struct rmd_cmd_spec *st2 = rmd_cmd_find(m->table, 0x9C);
+	const struct rmd_cmd_spec *st2 = rmd_cmd_find(m->d->table, 0x9C);
 	struct rmd_motor_status2 *s = &m->st2;
 	const struct rmd_layout *l;
 
@@ -140,10 +146,9 @@ static void status2_resolve(struct rmd_motor *m)
 		return;
 	l = rmd_cmd_layout(st2, RMD_DIR_REPLY);
 	for (unsigned c = 0; c < 256; c++) {
-		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, (uint8_t)c);
+		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->d->table, (uint8_t)c);
 
-		if (spec && !(spec->flags & RMD_CMD_NO_CMD_BYTE) &&
-		    !(m->table == RMD_PROTO_V3 && c == 0x79) &&
+		if (spec && !(spec->flags & RMD_CMD_NO_CMD_BYTE) && !on_set_id_can(m, (uint8_t)c) &&
 		    layout_equal(rmd_cmd_layout(spec, RMD_DIR_REPLY), l))
 			s->cmds[c / 8] |= (uint8_t)(1u << (c % 8));
 	}
@@ -167,28 +172,28 @@ static void status2_resolve(struct rmd_motor *m)
 /* rt-safe. */
 int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 {
+	const struct rmd_dialect *d;
+
 	memset(m, 0, sizeof(*m));
 	if ((c->direction != 1 && c->direction != -1) || !(c->gear_ratio > 0.0) ||
 	    !isfinite(c->gear_ratio) || c->id < 1 || c->id > RMD_MAX_MOTORS ||
 	    !isfinite(c->zero_offset_rad))
 		return -EINVAL;
-	switch (c->proto) {
-	case RMD_PROTO_MIT:
+	d = rmd_dialect(c->proto);
+	if (!d)
+		return -EINVAL;
+	if (rmd_dialect_has(d, RMD_DIALECT_MIT)) {
 		if (!rmd_mit_ranges_valid(&c->mit))
 			return -EINVAL;
-		break;
-	case RMD_PROTO_V2:
-	case RMD_PROTO_V3:
-		if (!(c->torque_constant_nm_a > 0.0) || !isfinite(c->torque_constant_nm_a))
-			return -EINVAL;
-		break;
-	default:
+	} else if (!(c->torque_constant_nm_a > 0.0) || !isfinite(c->torque_constant_nm_a)) {
 		return -EINVAL;
 	}
 	m->name = c->name;
 	m->bus = (uint8_t)c->bus;
 	m->id = c->id;
 	m->proto = c->proto;
+	m->d = d;
+	m->caps = d->caps;
 	m->mode = c->mode;
 	m->dir = c->direction;
 	m->gear_ratio = c->gear_ratio;
@@ -198,20 +203,19 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->limits = c->limits;
 	m->mit = c->mit;
 	m->damp_kd = RMD_MOTOR_DAMP_KD;
-	m->table = rmd_proto_table(m->proto);
-	m->reply_id = (m->table == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) + m->id;
+	m->reply_id = d->reply_base + (uint32_t)m->id;
 	m->fine_pos = c->feedback.position == RMD_FEEDBACK_MULTI_TURN;
 	row_resolve(m, 0xA1, RMD_FLD_CURRENT, RMD_FLD_COUNT, &m->torque_row);
 	row_resolve(m, 0xA2, RMD_FLD_SPEED, RMD_FLD_COUNT, &m->speed_row);
 	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
 	status2_resolve(m);
 	for (unsigned k = 0; k < 256; k++) {
-		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, (uint8_t)k);
+		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->d->table, (uint8_t)k);
 
 		if (spec && (spec->flags & RMD_CMD_ECHO))
 			m->echo[k / 8] |= (uint8_t)(1u << (k % 8));
 	}
-	if (m->proto == RMD_PROTO_MIT) {
+	if (m->caps & RMD_DIALECT_MIT) {
 		m->mit_kp = m->mit_kd = NAN; /* no gains' codes yet (encode_mit()) */
 		if (rmd_mit_ranges_validate(&m->mit, &m->mit_ok) < 0)
 			return -EINVAL;
@@ -233,7 +237,7 @@ unsigned rmd_motor_modes(const struct rmd_motor *m, bool batched)
 	if (batched)
 		return modes;
 	modes |= RMD_MOTOR_MODE_BIT(RMD_MODE_SPEED) | RMD_MOTOR_MODE_BIT(RMD_MODE_POSITION);
-	if (m->proto == RMD_PROTO_MIT)
+	if (m->caps & RMD_DIALECT_MIT)
 		modes |= RMD_MOTOR_MODE_BIT(RMD_MODE_MIT);
 	return modes;
 }
@@ -241,7 +245,7 @@ unsigned rmd_motor_modes(const struct rmd_motor *m, bool batched)
 /* Non-rt. */
 void rmd_motor_info(const struct rmd_motor *m, bool batched, struct rmd_motor_info *out)
 {
-	bool mit = m->proto == RMD_PROTO_MIT;
+	bool mit = m->caps & RMD_DIALECT_MIT;
 
 	memset(out, 0, sizeof(*out));
 	snprintf(out->name, sizeof(out->name), "%s", m->name ? m->name : "");
@@ -326,13 +330,13 @@ static int encode_msg(const struct rmd_motor *m, const struct rmd_msg *msg, stru
 /* rt-safe. */
 int rmd_motor_encode_cmd(const struct rmd_motor *m, uint8_t cmd, struct rmd_frame *out)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->proto, cmd);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->d->table, cmd);
 	struct rmd_msg msg;
 
 	if (!spec)
 		return -ENOENT;
 	/* a row without fields on 0x140 + ID: the command byte and zeros */
-	if (!(spec->flags & RMD_CMD_NO_CMD_BYTE) && !(m->table == RMD_PROTO_V3 && cmd == 0x79)) {
+	if (!(spec->flags & RMD_CMD_NO_CMD_BYTE) && !on_set_id_can(m, cmd)) {
 		memset(out, 0, sizeof(*out));
 		out->can_id = RMD_CAN_REQ_BASE + m->id;
 		out->len = RMD_FRAME_LEN;
@@ -350,7 +354,7 @@ int rmd_motor_encode_comm_timeout(const struct rmd_motor *m, uint32_t ms, struct
 	struct rmd_msg msg;
 
 	/* V3 §2.30; V2 has no comm-loss protection command. */
-	if (m->proto == RMD_PROTO_V2)
+	if (!(m->caps & RMD_DIALECT_COMM_LOSS_B3))
 		return -EOPNOTSUPP;
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = 0xB3;
@@ -411,7 +415,7 @@ static int encode_mit(struct rmd_motor *m, const struct rmd_setpoint *sp, struct
 	const struct rmd_mit_ranges *r = &m->mit_ok.r;
 	struct rmd_mit_cmd c;
 
-	if (m->proto != RMD_PROTO_MIT)
+	if (!(m->caps & RMD_DIALECT_MIT))
 		return -EOPNOTSUPP;
 	c.p_des_rad = clampf(rmd_motor_to_native_pos(m, sp->pos_rad), r->p_min, r->p_max, fl);
 	c.v_des_rad_s = clampf(m->dir * sp->vel_rad_s, r->v_min, r->v_max, fl);
@@ -491,7 +495,7 @@ int rmd_motor_encode_safe(const struct rmd_motor *m, enum rmd_safe_action a,
 	case RMD_SAFE_HOLD:
 		return rmd_motor_encode_cmd(m, 0x81, &out[0]) < 0 ? -EINVAL : 1;
 	case RMD_SAFE_DAMP:
-		if (m->proto == RMD_PROTO_MIT) {
+		if (m->caps & RMD_DIALECT_MIT) {
 			/* kp 0: no position target; kd > 0 resists motion; no torque. */
 			struct rmd_mit_cmd c = { .kd = m->damp_kd };
 
@@ -519,10 +523,17 @@ int rmd_motor_encode_safe(const struct rmd_motor *m, enum rmd_safe_action a,
 int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double torque_nm[4],
 			      struct rmd_frame *out, unsigned *flags, unsigned *nonfinite)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(RMD_PROTO_V2, RMD_V2_CMD_MULTI_TORQUE);
+	const struct rmd_dialect *d = NULL;
+	const struct rmd_cmd_spec *spec;
 	struct rmd_msg msg;
 	unsigned fl = 0, bad = 0;
 
+	/* the frame is the dialect's of its motors (V2 §4.1), all of which must batch */
+	for (unsigned k = 0; k < 4 && !d; k++)
+		d = m[k] ? m[k]->d : NULL;
+	if (!d || !rmd_dialect_has(d, RMD_DIALECT_BATCH_280))
+		return -EINVAL;
+	spec = rmd_cmd_find(d->proto, RMD_V2_CMD_MULTI_TORQUE);
 	if (!spec)
 		return -EINVAL;
 	memset(&msg, 0, sizeof(msg));
@@ -535,7 +546,7 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
 		rmd_msg_set(&msg, fld, 0);
 		if (!mk)
 			continue;
-		if (mk->proto != RMD_PROTO_V2 || mk->id != k + 1 || !(mk->kt_nm_a > 0.0))
+		if (mk->d != d || mk->id != k + 1 || !(mk->kt_nm_a > 0.0))
 			return -EINVAL;
 		if (!isfinite(torque_nm[k])) {
 			bad++;
@@ -546,7 +557,7 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
 			fl |= RMD_MOTOR_CLAMPED;
 		put(&msg, spec, fld, torque_to_iq(mk, t.torque_nm), &fl);
 	}
-	if (rmd_encode(RMD_PROTO_V2, RMD_DIR_REQUEST, 0, &msg, out) < 0)
+	if (rmd_encode(d->proto, RMD_DIR_REQUEST, 0, &msg, out) < 0)
 		return -EINVAL;
 	if (flags)
 		*flags = fl;
@@ -583,7 +594,7 @@ static int decode_mit(struct rmd_motor *m, const struct rmd_frame *f, struct rmd
 	struct rmd_mit_reply rep;
 	int ret;
 
-	if (m->proto != RMD_PROTO_MIT)
+	if (!(m->caps & RMD_DIALECT_MIT))
 		return -EINVAL;
 	ret = rmd_mit_unpack_reply(&m->mit_ok, f, &rep);
 	if (ret < 0)
@@ -624,7 +635,7 @@ take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_
 		r->pos_rad = rmd_motor_from_native_pos(m, angle_deg / DEG_PER_RAD /
 								  m->native_per_output);
 		r->have |= RMD_MOTOR_HAVE_POS;
-	} else if (m->table == RMD_PROTO_V2 && have_enc && cmd != 0x60) {
+	} else if ((m->caps & RMD_DIALECT_ENCODER_UNWRAP) && have_enc && cmd != 0x60) {
 		r->pos_rad = rmd_motor_from_native_pos(m, v2_unwrap(m, enc));
 		r->have |= RMD_MOTOR_HAVE_POS;
 	}
@@ -680,7 +691,7 @@ static const unsigned field_have[256] = {
 static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const struct rmd_frame *f,
 						  struct rmd_motor_reply *r)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->table, f->data[0]);
+	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->d->table, f->data[0]);
 	const struct rmd_layout *l;
 	bool have_angle = false, have_enc = false;
 	double angle = 0;
@@ -689,7 +700,7 @@ static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const str
 	if (!spec || (spec->flags & RMD_CMD_NO_CMD_BYTE))
 		return -ENOENT;
 	/* V3 §4: 0x79 travels on 0x300 only, never on 0x240 + ID */
-	if (m->table == RMD_PROTO_V3 && spec->cmd == 0x79)
+	if (on_set_id_can(m, spec->cmd))
 		return -EINVAL;
 	l = rmd_cmd_layout(spec, RMD_DIR_REPLY);
 	for (unsigned i = 0; i < l->n; i++) {
@@ -857,9 +868,9 @@ double rmd_motor_pos_resolution_rad(const struct rmd_motor *m)
 	const struct rmd_field_spec *fs = NULL;
 
 	if (m->fine_pos) {
-		spec = rmd_cmd_find(m->table, RMD_MOTOR_CMD_FINE_POS);
+		spec = rmd_cmd_find(m->d->table, RMD_MOTOR_CMD_FINE_POS);
 		fs = spec ? rmd_layout_field(spec, RMD_DIR_REPLY, RMD_FLD_ANGLE) : NULL;
-	} else if (m->proto == RMD_PROTO_MIT) {
+	} else if (m->caps & RMD_DIALECT_MIT) {
 		return (m->mit.p_max - m->mit.p_min) / (double)((1u << RMD_MIT_POS_BITS) - 1);
 	} else if (m->st2.angle) {
 		fs = m->st2.angle;

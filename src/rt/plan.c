@@ -28,6 +28,7 @@
 
 #include "rmd/bus_open.h"
 #include "rmd/can_timing.h"
+#include "rmd/dialect.h"
 #include "rmd/motor.h"
 #include "rmd/plan.h"
 
@@ -138,7 +139,7 @@ static void plan_batch(const struct rmd_config *cfg, struct rmd_plan_bus *pb, un
 	for (unsigned l = 0; l < n; l++) {
 		const struct rmd_config_motor *m = &cfg->motors[pb->motors[l]];
 
-		if (m->proto != RMD_PROTO_V2) {
+		if (!rmd_dialect_has(rmd_dialect(m->proto), RMD_DIALECT_BATCH_280)) {
 			others = true;
 			continue;
 		}
@@ -673,11 +674,8 @@ int rmd_plan_build(const struct rmd_config *cfg, struct rmd_plan *plan, char *er
 		plan->motor[i].pos_hz = (double)plan->rate_hz /
 					(plan->motor[i].fine_divisor ? plan->motor[i].fine_divisor :
 								       m->rate_divisor);
-		pb->req_id[pb->n_motors] = (uint16_t)(RMD_CAN_REQ_BASE + m->id);
-		pb->ctl_id[pb->n_motors] =
-			(uint16_t)((m->proto == RMD_PROTO_MIT ? RMD_CAN_MIT_REQ_BASE :
-								RMD_CAN_REQ_BASE) +
-				   m->id);
+		pb->req_id[pb->n_motors] = (uint16_t)(rmd_dialect(m->proto)->req_base + m->id);
+		pb->ctl_id[pb->n_motors] = (uint16_t)(rmd_dialect(m->proto)->ctl_req_base + m->id);
 		pb->motors[pb->n_motors++] = (uint8_t)i;
 	}
 	plan->feasible = true;

@@ -113,7 +113,7 @@ static void sanitize(struct rmd_sim_motor_params *p)
 	rmd_sim_motor_params_default(&d, p->id, p->proto);
 	if (p->id < 1 || p->id > RMD_MAX_MOTORS)
 		p->id = 1;
-	if (p->proto != RMD_PROTO_V2 && p->proto != RMD_PROTO_MIT)
+	if (!rmd_dialect(p->proto))
 		p->proto = RMD_PROTO_V3;
 #define POSITIVE(f)                                   \
 	do {                                          \
@@ -220,6 +220,7 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 	memset(m, 0, sizeof(*m));
 	m->p = *p;
 	sanitize(&m->p);
+	m->d = rmd_dialect(m->p.proto);
 	rom_defaults(m);
 	m->pos_rad = 0.0;
 	m->temp_c = m->p.ambient_c;
@@ -230,7 +231,8 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 	/* first power-on: where the shaft happens to be, turns included */
 	m->pos_rad = m->p.start_angle_deg * (M_PI / 180.0);
 	/* an earlier run's protection, tripped since (V2 has none) */
-	if (m->p.comm_loss_tripped && m->ram.comm_timeout_ms && m->p.proto != RMD_PROTO_V2) {
+	if (m->p.comm_loss_tripped && m->ram.comm_timeout_ms &&
+	    rmd_dialect_has(m->d, RMD_DIALECT_COMM_LOSS_B3)) {
 		m->comm_armed = true;
 		m->last_rx_ns = now_ns;
 		m->comm_lost = true;
@@ -306,7 +308,8 @@ static void v2_sign_magnitude(enum rmd_proto proto, const struct rmd_msg *msg, s
 	const struct rmd_layout *l;
 	uint64_t mag;
 
-	if (rmd_proto_table(proto) != RMD_PROTO_V2 || !spec)
+	/* only V2's rows have a sign byte (rmd_field_spec.sign_byte) */
+	if (!spec)
 		return;
 	l = rmd_cmd_layout(spec, RMD_DIR_REPLY);
 	if (l->n != 1 || !l->f[0].sign_byte || msg->v[l->f[0].field] >= 0)
@@ -407,10 +410,19 @@ static void fill_status3(const struct rmd_sim_motor *m, struct rmd_msg *msg,
 	put(msg, spec, RMD_FLD_PHASE_C, -m->iq_a * sin(th + 2.0 * M_PI / 3.0));
 }
 
-/* Run mode, V3 §2.23.3 (1 current, 2 speed, 3 position) / V2 §3.45 (0, 1, 2, 0xFF). */
-static uint8_t run_mode(const struct rmd_sim_motor *m, enum rmd_proto proto)
+/* The code of run mode `name` in the dialect's 0x70 table (struct rmd_dialect.run_modes), or 0. */
+static uint8_t run_mode_code(const struct rmd_dialect *d, const char *name)
 {
-	uint8_t base = proto == RMD_PROTO_V2 ? 0 : 1;
+	for (size_t i = 0; i < d->n_run_modes; i++)
+		if (!strcmp(d->run_modes[i].name, name))
+			return (uint8_t)d->run_modes[i].code;
+	return 0;
+}
+
+/* Run mode, V3 §2.23.3 (1 current, 2 speed, 3 position) / V2 §3.45 (0, 1, 2, 0xFF). */
+static uint8_t run_mode(const struct rmd_sim_motor *m)
+{
+	uint8_t base = run_mode_code(m->d, "current_loop");
 
 	switch (m->ctrl) {
 	case RMD_SIM_TORQUE:
@@ -425,8 +437,8 @@ static uint8_t run_mode(const struct rmd_sim_motor *m, enum rmd_proto proto)
 	case RMD_SIM_OFF:
 		break;
 	}
-	/* V2: "not in three-ring mode" 0xFF; V3 lists no value: 0. */
-	return proto == RMD_PROTO_V2 ? 0xFF : 0x00;
+	/* V2: "not in three-ring mode" 0xFF (init); V3 lists no value: 0. */
+	return run_mode_code(m->d, "init");
 }
 
 /* -------------------------------------------------------------------------- */
@@ -526,8 +538,10 @@ static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct r
 	double ang = rad(get(spec, msg, RMD_FLD_ANGLE, 0.0));
 	double vmax = move_speed(m, get(spec, msg, RMD_FLD_MAX_SPEED, 0.0));
 	double off = rmd_sim_offset_rad(m);
-	bool v2 = proto == RMD_PROTO_V2;
+	/* V3.4 .. V3.6: 0xA3 and 0xA5 track; V2: they move (absolute, single turn) */
+	bool track = rmd_dialect_has(m->d, RMD_DIALECT_TRACK_A3_A5);
 
+	(void)proto;
 	if (m->errors)
 		return;
 	switch (msg->cmd) {
@@ -541,7 +555,7 @@ static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct r
 		break;
 	case 0xA3:
 		/* V2 §3.39: absolute, with the firmware's speed and acceleration. */
-		if (v2) {
+		if (!track) {
 			move_to(m, ang + off, vmax);
 			break;
 		}
@@ -553,7 +567,7 @@ static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct r
 		move_to(m, ang + off, vmax);
 		break;
 	case 0xA5:
-		if (v2) {
+		if (!track) {
 			move_to(m, single_turn_target(m, deg(ang), msg->v[RMD_FLD_SPIN_DIR]), vmax);
 			break;
 		}
@@ -637,7 +651,7 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 {
 	const struct rmd_cmd_spec *spec, *rspec;
 	struct rmd_msg req, rep;
-	bool v2 = proto == RMD_PROTO_V2;
+	const struct rmd_dialect *d = m->d;
 	uint8_t cmd;
 
 	if (rmd_decode(proto, RMD_DIR_REQUEST, f, &req, NULL) < 0)
@@ -649,7 +663,7 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 	msg_for(proto, cmd, &rep, &rspec);
 
 	/* V2 §3.1 .. §3.18: one Q24 gain per command. */
-	if (v2 && cmd >= 0x30 && cmd <= 0x41) {
+	if (d->pid == RMD_PID_V2_PER_GAIN && cmd >= 0x30 && cmd <= 0x41) {
 		if (cmd <= 0x35) {
 			put_pid(m, &rep, rspec);
 			return emit(m, proto, &rep, out, max);
@@ -670,7 +684,7 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 		put_int(&rep, rspec, RMD_FLD_ACCEL, m->ram.accel_dps2[0]);
 		return emit(m, proto, &rep, out, max);
 	case 0x43:
-		if (v2) {
+		if (!rmd_layout_field(spec, RMD_DIR_REQUEST, RMD_FLD_INDEX)) {
 			/* V2 §3.20: one acceleration, RAM only. */
 			int64_t a = req.v[RMD_FLD_ACCEL];
 			uint32_t u = a < 0 ? 0 : a > UINT32_MAX ? UINT32_MAX : (uint32_t)a;
@@ -703,7 +717,7 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 		put_int(&rep, rspec, RMD_FLD_ENCODER_OFF, m->rom.encoder_offset);
 		return emit(m, proto, &rep, out, max);
 	case 0x70: /* V3 §2.23 / V2 §3.45 */
-		put_int(&rep, rspec, RMD_FLD_MODE, run_mode(m, proto));
+		put_int(&rep, rspec, RMD_FLD_MODE, run_mode(m));
 		return emit(m, proto, &rep, out, max);
 	case 0x71: /* V3 §2.24 / V2 §3.46: 0.1 W */
 		put(&rep, rspec, RMD_FLD_POWER, rmd_sim_power_w(m));
@@ -725,7 +739,7 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 	}
 	case 0x76: {
 		/* V3 §2.25: resets and does not answer; V2 §3.49: echoes first. */
-		int n = v2 ? echo(f, reply_id, out, max) : 0;
+		int n = spec->flags & RMD_CMD_NO_REPLY ? 0 : echo(f, reply_id, out, max);
 
 		boot(m, now_ns);
 		return n;
@@ -743,7 +757,8 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 			put_int(&rep, rspec, RMD_FLD_READ_FLAG, 1);
 			/* V3 §4.4 example 2: the reply identifier 0x240 + ID; V2: the ID. */
 			put_int(&rep, rspec, RMD_FLD_CAN_ID,
-				v2 ? m->ram.can_id : RMD_CAN_V3_REPLY_BASE + m->ram.can_id);
+				d->set_id == RMD_SET_ID_79_OWN ? m->ram.can_id :
+								 d->reply_base + m->ram.can_id);
 			return emit(m, proto, &rep, out, max);
 		}
 		if (req.v[RMD_FLD_READ_FLAG] != 0 || id < 1 || id > RMD_MAX_MOTORS)
@@ -860,9 +875,9 @@ static int v2_multi_torque(struct rmd_sim_motor *m, const struct rmd_frame *f,
 	struct rmd_msg req, rep;
 	enum rmd_field fld = (enum rmd_field)(RMD_FLD_CURRENT_1 + m->ram.can_id - 1);
 
-	if (rmd_decode(RMD_PROTO_V2, RMD_DIR_REQUEST, f, &req, NULL) < 0)
+	if (rmd_decode(m->d->proto, RMD_DIR_REQUEST, f, &req, NULL) < 0)
 		return 0;
-	spec = rmd_cmd_find(RMD_PROTO_V2, RMD_V2_CMD_MULTI_TORQUE);
+	spec = rmd_cmd_find(m->d->proto, RMD_V2_CMD_MULTI_TORQUE);
 	if (!spec)
 		return 0;
 	if (!m->errors) {
@@ -870,11 +885,11 @@ static int v2_multi_torque(struct rmd_sim_motor *m, const struct rmd_frame *f,
 		m->sp_current_a = get(spec, &req, fld, 0.0);
 	}
 	settle(m);
-	msg_for(RMD_PROTO_V2, 0xA1, &rep, &a1);
+	msg_for(m->d->proto, 0xA1, &rep, &a1);
 	if (!a1)
 		return 0;
 	fill_status2(m, &rep, a1);
-	return emit(m, RMD_PROTO_V2, &rep, out, max);
+	return emit(m, m->d->proto, &rep, out, max);
 }
 
 /* V3 §5: MIT motion mode; the reply on 0x500 + ID. */
@@ -922,20 +937,20 @@ enum route { R_NONE, R_SINGLE, R_BROADCAST, R_SET_ID, R_V2_MULTI, R_MIT };
 static enum route route_of(const struct rmd_sim_motor *m, uint32_t can_id)
 {
 	uint8_t id = m->ram.can_id;
-	bool v2 = m->p.proto == RMD_PROTO_V2;
+	bool batch = rmd_dialect_has(m->d, RMD_DIALECT_BATCH_280);
 
-	if (can_id == RMD_CAN_REQ_BASE + id)
+	if (can_id == m->d->req_base + id)
 		return R_SINGLE;
 	if (can_id == RMD_CAN_MULTI) {
 		/* V2 §4.1: motors 1..4 only.  V3 §3.1: only with the filter off. */
-		if (v2)
+		if (batch)
 			return id >= 1 && id <= 4 ? R_V2_MULTI : R_NONE;
 		return m->ram.can_filter ? R_NONE : R_BROADCAST;
 	}
 	/* V3 §4.1: every motor takes 0x300, unless its filter is on (§2.33.4). */
-	if (can_id == RMD_CAN_SET_ID && !v2)
+	if (can_id == rmd_dialect_set_id_can(m->d) && can_id)
 		return m->ram.can_filter ? R_NONE : R_SET_ID;
-	if (can_id == RMD_CAN_MIT_REQ_BASE + id && m->p.proto == RMD_PROTO_MIT)
+	if (can_id == m->d->ctl_req_base + id && rmd_dialect_has(m->d, RMD_DIALECT_MIT))
 		return R_MIT;
 	return R_NONE;
 }
@@ -969,8 +984,7 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 	case R_BROADCAST:
 	case R_V2_MULTI:
 	default:
-		reply_id = (proto == RMD_PROTO_V2 ? RMD_CAN_REQ_BASE : RMD_CAN_V3_REPLY_BASE) +
-			   m->ram.can_id;
+		reply_id = rmd_dialect(proto)->reply_base + m->ram.can_id;
 		break;
 	}
 
@@ -998,7 +1012,7 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 
 static bool reporting(const struct rmd_sim_motor *m)
 {
-	return m->p.proto != RMD_PROTO_V2 && m->error_reports && m->errors;
+	return rmd_dialect_has(m->d, RMD_DIALECT_FUNC_CTRL) && m->error_reports && m->errors;
 }
 
 int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame *out, int max)
@@ -1036,11 +1050,11 @@ int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame
 			m->next_9a_ns += ERROR_REPORT_PERIOD_NS;
 			continue;
 		}
-		msg_for(RMD_PROTO_V3, 0x9A, &rep, &spec);
+		msg_for(m->d->table, 0x9A, &rep, &spec);
 		if (!spec)
 			break;
 		fill_status1(m, &rep, spec);
-		n += emit(m, RMD_PROTO_V3, &rep, &out[n], max - n);
+		n += emit(m, m->d->table, &rep, &out[n], max - n);
 		m->next_9a_ns += ERROR_REPORT_PERIOD_NS;
 	}
 	return n;
@@ -1052,7 +1066,8 @@ int64_t rmd_sim_motor_next_event_ns(const struct rmd_sim_motor *m)
 
 	if (m->comm_lost) {
 		t = m->next_f1_ns;
-	} else if (m->comm_armed && m->ram.comm_timeout_ms && m->p.proto != RMD_PROTO_V2) {
+	} else if (m->comm_armed && m->ram.comm_timeout_ms &&
+		   rmd_dialect_has(m->d, RMD_DIALECT_COMM_LOSS_B3)) {
 		/* The trip, and its first 0xF1, at the first step past the timeout. */
 		int64_t due = m->last_rx_ns + (int64_t)m->ram.comm_timeout_ms * 1000000 + 1;
 		int64_t k =

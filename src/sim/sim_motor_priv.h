@@ -21,7 +21,7 @@
 /* The factory value of PI gain i (RMD_FLD_CURR_KP order) of a protocol. */
 static inline int64_t rmd_sim_pid_default(enum rmd_proto proto, unsigned i)
 {
-	if (proto == RMD_PROTO_V2)
+	if (rmd_dialect(proto)->pid == RMD_PID_V2_PER_GAIN)
 		return V2_PID_DEFAULT;
 	return i % 2 ? V3_PID_DEFAULT_KI : V3_PID_DEFAULT_KP;
 }

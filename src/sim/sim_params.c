@@ -192,15 +192,7 @@ int rmd_sim_parse_bool(const char *s, bool *b)
 
 static int parse_proto(const char *s, enum rmd_proto *proto)
 {
-	if (!strcasecmp(s, "v3"))
-		*proto = RMD_PROTO_V3;
-	else if (!strcasecmp(s, "v2"))
-		*proto = RMD_PROTO_V2;
-	else if (!strcasecmp(s, "mit"))
-		*proto = RMD_PROTO_MIT;
-	else
-		return -EINVAL;
-	return 0;
+	return rmd_proto_parse(s, proto); /* the dialects' keys (rmd/dialect.h) */
 }
 
 /* "P,V,T,KP,KD", each > 0 and at most 1e6. */

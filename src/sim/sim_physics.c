@@ -375,7 +375,8 @@ static void thermal(struct rmd_sim_motor *m, double dt)
  */
 static void check_comm(struct rmd_sim_motor *m)
 {
-	if (!m->comm_armed || m->comm_lost || !m->ram.comm_timeout_ms || m->p.proto == RMD_PROTO_V2)
+	if (!m->comm_armed || m->comm_lost || !m->ram.comm_timeout_ms ||
+	    !rmd_dialect_has(m->d, RMD_DIALECT_COMM_LOSS_B3))
 		return;
 	if (m->t_ns - m->last_rx_ns <= (int64_t)m->ram.comm_timeout_ms * 1000000)
 		return;
@@ -417,7 +418,7 @@ static int64_t idle_steps(const struct rmd_sim_motor *m, int64_t n)
 	if (m->temp_c > p->over_temp_c || p->ambient_c > p->over_temp_c)
 		return 0;
 	if (m->comm_armed && !m->comm_lost && m->ram.comm_timeout_ms &&
-	    m->p.proto != RMD_PROTO_V2) {
+	    rmd_dialect_has(m->d, RMD_DIALECT_COMM_LOSS_B3)) {
 		int64_t deadline = m->last_rx_ns + (int64_t)m->ram.comm_timeout_ms * 1000000;
 		int64_t k = (deadline - m->t_ns) / RMD_SIM_STEP_NS;
 

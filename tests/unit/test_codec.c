@@ -1025,7 +1025,8 @@ static const struct err_case {
 	/* V2 §3.31 table 2: whole codes. */
 	{ RMD_PROTO_V2, 0x00F0, 1, { "pid_rom_write_unsafe" } },
 	{ RMD_PROTO_V2, 0x00F3, 1, { "brake_not_open" } },
-	{ RMD_PROTO_MIT, 0x0004, 0, { NULL } },
+	/* MIT motors answer 0x9A in V3 (V3 §5): V3's table names their flags. */
+	{ RMD_PROTO_MIT, 0x0004, 1, { "low_voltage" } },
 };
 
 static void test_error_names(void **state)
@@ -1076,7 +1077,8 @@ static void test_run_mode_names(void **state)
 		{ RMD_PROTO_V2, 2, "position_loop" },
 		{ RMD_PROTO_V2, 0xFF, "init" },
 		{ RMD_PROTO_V2, 3, NULL },
-		{ RMD_PROTO_MIT, 1, NULL },
+		/* MIT motors answer 0x70 in V3 (V3 §5) */
+		{ RMD_PROTO_MIT, 1, "current_loop" },
 	};
 
 	(void)state;

@@ -25,6 +25,7 @@
 
 #include "rmd/codec.h"
 #include "rmd/config.h"
+#include "rmd/dialect.h"
 #include "rmd/mit.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
@@ -945,11 +946,13 @@ static int build_motor(struct sim_config *c, uint8_t id)
 	    check_below(id, "under-voltage", p->under_voltage_v, "over-voltage", p->over_voltage_v,
 			"V") < 0)
 		return -EINVAL;
-	if (c->wire == SIM_WIRE_SERIAL && p->proto == RMD_PROTO_V2) {
+	if (c->wire == SIM_WIRE_SERIAL &&
+	    !rmd_dialect_has(rmd_dialect(p->proto), RMD_DIALECT_RS485)) {
 		tool_log(TOOL_LOG_ERR,
-			 "rmd-sim: motor %u: protocol v2 on --serial: V2.0 motors have no RS485 "
-			 "interface (the V2 manual is CAN only); use --can, or protocol v3",
-			 id);
+			 "rmd-sim: motor %u: protocol %s on --serial: %s motors have no RS485 "
+			 "interface (the %s manual is CAN only); use --can, or protocol v3",
+			 id, rmd_proto_key(p->proto), rmd_proto_name(p->proto),
+			 rmd_proto_name(p->proto));
 		return -EINVAL;
 	}
 	return 0;

@@ -233,9 +233,9 @@ static enum rmd_proto request_proto(struct sim *s, uint32_t can_id,
 		sl = &s->slots[0];
 	if (!sl)
 		return RMD_PROTO_V3;
-	if (sl->m.p.proto == RMD_PROTO_MIT) {
+	if (rmd_dialect_has(sl->m.d, RMD_DIALECT_MIT)) {
 		*mit = &sl->m.p.mit;
-		return can_id > RMD_CAN_MIT_REQ_BASE ? RMD_PROTO_MIT : RMD_PROTO_V3;
+		return can_id > sl->m.d->ctl_req_base ? sl->m.d->proto : sl->m.d->table;
 	}
 	return sl->m.p.proto;
 }
@@ -293,10 +293,11 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 
 		proto = sl->m.p.proto;
 		mit = &sl->m.p.mit;
-		if (proto == RMD_PROTO_MIT &&
-		    !(e->f.can_id > RMD_CAN_MIT_REPLY_BASE &&
-		      e->f.can_id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS))
-			proto = RMD_PROTO_V3;
+		/* an MIT motor's other frames are its table's (V3 §5) */
+		if (rmd_dialect_has(sl->m.d, RMD_DIALECT_MIT) &&
+		    !(e->f.can_id > sl->m.d->ctl_reply_base &&
+		      e->f.can_id <= sl->m.d->ctl_reply_base + (uint32_t)RMD_MAX_MOTORS))
+			proto = sl->m.d->table;
 		snprintf(who, sizeof(who), "motor %u", sl->id);
 		describe(desc, sizeof(desc), proto, RMD_DIR_REPLY, mit, wire);
 	} else {
@@ -912,7 +913,7 @@ static void log_startup(const struct sim *s)
 			 list, desc[i]);
 	}
 	for (unsigned i = 0; i < s->n; i++)
-		if (s->serial && s->slots[i].m.p.proto == RMD_PROTO_MIT)
+		if (s->serial && rmd_dialect_has(s->slots[i].m.d, RMD_DIALECT_MIT))
 			tool_log(TOOL_LOG_INFO,
 				 "rmd-sim: motor %u: MIT frames have no RS485 form; it "
 				 "answers V3 commands",

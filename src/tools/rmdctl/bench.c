@@ -631,7 +631,8 @@ static int set_option(struct dev *d, size_t k, const char *v)
 			goto bad;
 		d->baud = (uint32_t)u;
 	} else if (!strcmp(name, "protocol")) {
-		if (rmd_proto_parse(v, &d->proto) < 0 || d->proto == RMD_PROTO_MIT) {
+		if (rmd_proto_parse(v, &d->proto) < 0 ||
+		    rmd_dialect_has(rmd_dialect(d->proto), RMD_DIALECT_MIT)) {
 			tool_log(TOOL_LOG_ERR,
 				 "bad --protocol \"%s\" (v3 or v2; MIT motors answer v3)", v);
 			return -EINVAL;

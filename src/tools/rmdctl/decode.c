@@ -252,7 +252,8 @@ static void decode_table(enum rmd_proto proto, const struct decode_opts *opts, s
 
 	d->proto = proto;
 	d->dir = d->addr.dir != RMD_DIR_UNKNOWN ? d->addr.dir : opts->dir;
-	if (f->len > 0 && !(proto == RMD_PROTO_V2 && f->can_id == RMD_CAN_MULTI))
+	if (f->len > 0 && !(rmd_dialect_has(rmd_dialect(proto), RMD_DIALECT_BATCH_280) &&
+			    f->can_id == RMD_CAN_MULTI))
 		d->cmd = f->data[0];
 	if (opts->dir != RMD_DIR_UNKNOWN && d->addr.dir != RMD_DIR_UNKNOWN &&
 	    opts->dir != d->addr.dir) {
@@ -298,7 +299,7 @@ static void decode_frame(const struct decode_opts *opts, const struct rmd_candum
 	d->dir = opts->dir;
 	d->proto = proto;
 	/* MIT motors run V3 firmware: under v3 and mit both, 0x4xx/0x5xx are MIT. */
-	if (proto == RMD_PROTO_V3 &&
+	if (rmd_dialect_has(rmd_dialect(proto), RMD_DIALECT_MIT_FRAMES) &&
 	    rmd_addr_from_id(RMD_PROTO_MIT, line->frame.can_id, &d->addr) == 0) {
 		d->addr_ok = true;
 		decode_mit(opts, d);

@@ -49,9 +49,13 @@ static const char *const pid_keys[6] = { "current_kp", "current_ki",  "speed_kp"
 
 static int v3_only(const struct dev *d)
 {
-	if (d->proto != RMD_PROTO_V2)
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
+
+	/* 0x30's six gains (V3 §2.1), 0xB5 and 0xB2 */
+	if (dl->pid == RMD_PID_U8_SIX &&
+	    rmd_dialect_has(dl, RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2))
 		return 0;
-	tool_log(TOOL_LOG_ERR, "%s speaks protocol V3 only", d->cmd->name);
+	tool_log(TOOL_LOG_ERR, "%s speaks protocol V3 only (not %s)", d->cmd->name, dl->name);
 	return RMDCTL_EXIT_USAGE;
 }
 

@@ -373,10 +373,21 @@ static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 		}
 	}
 	if (!in_proto) {
-		tool_log(TOOL_LOG_ERR, "%s: not a command of protocol %s%s", ec->name,
-			 rmd_proto_name(ctx->proto),
-			 ctx->table == RMD_PROTO_V3 ? " (V2 only: --protocol v2)" :
-						      " (V3 only: --protocol v3)");
+		char keys[64] = "";
+		size_t nd, k = 0;
+		const struct rmd_dialect *dl = rmd_dialect_list(&nd);
+
+		/* the dialects whose tables have it */
+		for (size_t i = 0; i < nd; i++)
+			for (size_t j = 0; j < sizeof(ec->v) / sizeof(ec->v[0]); j++)
+				if (dl[i].table == dl[i].proto &&
+				    (ec->v[j].protos & (1u << dl[i].proto))) {
+					k += (size_t)snprintf(keys + k, sizeof(keys) - k, "%s%s",
+							      k ? " or " : "", dl[i].key);
+					break;
+				}
+		tool_log(TOOL_LOG_ERR, "%s: not a command of protocol %s (--protocol %s)", ec->name,
+			 rmd_proto_name(ctx->proto), keys);
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
@@ -416,10 +427,11 @@ static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 	uint8_t cmd = 0x30;
 	int r;
 
-	if (argc != (ctx->table == RMD_PROTO_V2 ? 1 : 0)) {
+	bool per_gain = rmd_dialect(ctx->table)->pid == RMD_PID_V2_PER_GAIN;
+
+	if (argc != (per_gain ? 1 : 0)) {
 		tool_log(TOOL_LOG_ERR, "%s: protocol %s takes %s", ec->name,
-			 rmd_proto_name(ctx->proto),
-			 ctx->table == RMD_PROTO_V2 ? "one LOOP" : "no argument");
+			 rmd_proto_name(ctx->proto), per_gain ? "one LOOP" : "no argument");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
@@ -457,7 +469,7 @@ static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 	struct rmd_mit_cmd mc;
 	int ret;
 
-	if (ctx->proto == RMD_PROTO_V2) {
+	if (!rmd_dialect_has(rmd_dialect(ctx->proto), RMD_DIALECT_MIT_FRAMES)) {
 		tool_log(TOOL_LOG_ERR, "mit: MIT mode is V3 firmware's (use --protocol v3 or mit)");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;

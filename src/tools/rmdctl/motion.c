@@ -98,7 +98,11 @@ int rmdctl_run_off(struct dev *d, int argc, char **argv)
 
 int rmdctl_run_reset(struct dev *d, int argc, char **argv)
 {
-	bool v2 = d->proto == RMD_PROTO_V2;
+	const struct rmd_cmd_spec *reset = rmd_cmd_find(d->proto, 0x76);
+	/* V3 §2.25: no answer; V2 §3.49: echoes, then resets (the row says which) */
+	bool answers = reset && !(reset->flags & RMD_CMD_NO_REPLY);
+	/* V3 §2.28: the runtime restarts at 0; V2 has only 0x9A */
+	bool runtime = rmd_cmd_find(d->proto, 0xB1) != NULL;
 	int64_t t_reset, until;
 	struct req q;
 	uint8_t id = d->id;
@@ -111,7 +115,7 @@ int rmdctl_run_reset(struct dev *d, int argc, char **argv)
 		return r;
 	/* V3 §2.25: no answer; V2 §3.49: echoes, then resets. */
 	rmdctl_req_init(&q, id, 0x76);
-	r = v2 ? rmdctl_ask(d, &q) : rmdctl_run_reqs(d, &q, 1);
+	r = answers ? rmdctl_ask(d, &q) : rmdctl_run_reqs(d, &q, 1);
 	if (r)
 		goto out;
 	t_reset = rmd_now_ns();
@@ -121,14 +125,15 @@ int rmdctl_run_reset(struct dev *d, int argc, char **argv)
 	do {
 		int64_t now;
 
-		rmdctl_req_init(&q, id, v2 ? 0x9A : 0xB1);
+		rmdctl_req_init(&q, id, runtime ? 0xB1 : 0x9A);
 		if (rmdctl_run_reqs(d, &q, 1))
 			goto out;
 		now = rmd_now_ns();
-		if (q.ok && (v2 || q.rep.v[RMD_FLD_RUNTIME] <= (now - t_reset) / 1000000 + 100)) {
+		if (q.ok &&
+		    (!runtime || q.rep.v[RMD_FLD_RUNTIME] <= (now - t_reset) / 1000000 + 100)) {
 			printf("%s: motor %u: reset (0x76), answering again after %.0f ms%s\n",
 			       d->name, id, (double)(now - t_reset) / 1e6,
-			       v2 ? "" : "; multi-turn position restarts within +-180 deg");
+			       runtime ? "; multi-turn position restarts within +-180 deg" : "");
 			r = RMDCTL_EXIT_OK;
 			goto out;
 		}

@@ -37,7 +37,8 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 					       RMD_FLD_VOLTAGE, RMD_FLD_BRAKE,	 RMD_FLD_ERROR };
 	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS], info[2 * RMD_MAX_MOTORS];
-	bool v3 = d->proto != RMD_PROTO_V2;
+	/* V3 §2.32, §2.29: model and firmware date */
+	bool v3 = rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2);
 	int64_t t0 = rmd_now_ns();
 	unsigned n, ni = 0;
 	int m, r;
@@ -119,7 +120,7 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 
 	(void)argc;
 	(void)argv;
-	if (d->proto != RMD_PROTO_V2) {
+	if (rmdctl_dialect(d)->pid == RMD_PID_U8_SIX) {
 		rmdctl_req_init(&q[n++], id, 0xB5); /* V3 §2.32 */
 		rmdctl_req_init(&q[n++], id, 0xB2); /* V3 §2.29 */
 		rmdctl_req_init(&q[n++], id, 0xB1); /* V3 §2.28 */

@@ -15,6 +15,7 @@
 
 #include "rmd/bus.h"
 #include "rmd/codec.h"
+#include "rmd/dialect.h"
 #include "rmd/mit.h"
 #include "rmd/txn.h"
 #include "tools/common/cli.h"
@@ -120,7 +121,7 @@ struct dev {
 	/* options */
 	const char *bus_spec;
 	uint32_t baud;
-	enum rmd_proto proto;
+	enum rmd_proto proto; /* its record: rmdctl_dialect() */
 	double timeout_ms;
 	unsigned tries;
 	bool json, yes, rom, force, no_wait, once, trace;
@@ -255,5 +256,11 @@ int rmdctl_run_move(struct dev *d, int argc, char **argv);
 /* dump.c */
 int rmdctl_run_dump(struct dev *d, int argc, char **argv);
 int rmdctl_run_restore(struct dev *d, int argc, char **argv);
+
+/* The dialect the motors on the device speak (--protocol), rmd/dialect.h. */
+static inline const struct rmd_dialect *rmdctl_dialect(const struct dev *d)
+{
+	return rmd_dialect(d->proto);
+}
 
 #endif /* RMDCTL_H */

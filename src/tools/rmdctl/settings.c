@@ -54,7 +54,9 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 {
 	uint8_t old_id, new_id, all[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS], q;
-	bool v3 = d->proto != RMD_PROTO_V2, old_seen = false, new_seen = false;
+	/* V3 §4: 0x79 rides on 0x300, to every motor */
+	bool v3 = rmdctl_dialect(d)->set_id == RMD_SET_ID_79_300, old_seen = false,
+	     new_seen = false;
 	int64_t until;
 	int m, r;
 
@@ -194,9 +196,9 @@ int rmdctl_run_set_timeout(struct dev *d, int argc, char **argv)
 			 argv[1], UINT32_MAX);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (d->proto == RMD_PROTO_V2) {
-		tool_log(TOOL_LOG_ERR,
-			 "protocol V2 has no comm-loss protection (0xB3 is V3 §2.30)");
+	if (!rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_COMM_LOSS_B3)) {
+		tool_log(TOOL_LOG_ERR, "protocol %s has no comm-loss protection (0xB3 is V3 §2.30)",
+			 rmdctl_dialect(d)->name);
 		return RMDCTL_EXIT_USAGE;
 	}
 	r = rmdctl_open_bus_for(d, true, "write the comm timeout of motor %u on %s", id,
@@ -241,7 +243,9 @@ static const char *const accel_names[4] = { "position-accel", "position-decel", 
 
 int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 {
-	bool v2 = d->proto == RMD_PROTO_V2;
+	const struct rmd_cmd_spec *w = rmd_cmd_find(d->proto, 0x43);
+	/* V3 §2.5 writes by index; V2 §3.20 writes its one acceleration */
+	bool v2 = w && !rmd_layout_field(w, RMD_DIR_REQUEST, RMD_FLD_INDEX);
 	struct rec rec = { 0 };
 	uint64_t index = 0, dps2;
 	const char *sval;
@@ -327,7 +331,7 @@ static int pid_read(struct dev *d, uint8_t id)
 	unsigned n = 0;
 	int r;
 
-	if (d->proto == RMD_PROTO_V2)
+	if (rmdctl_dialect(d)->pid == RMD_PID_V2_PER_GAIN)
 		for (unsigned i = 0; i < 6; i++)
 			rmdctl_req_init(&q[n++], id, rmdctl_v2_pid_read[i]);
 	else
@@ -345,7 +349,8 @@ static int pid_read(struct dev *d, uint8_t id)
 
 int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 {
-	bool v2 = d->proto == RMD_PROTO_V2;
+	/* V2 §3.1 .. §3.18: one Q24 gain a command; V3 §2.2: six uint8 gains in one */
+	bool v2 = rmdctl_dialect(d)->pid == RMD_PID_V2_PER_GAIN;
 	double g[6];
 	struct req q[6];
 	unsigned n = 0;

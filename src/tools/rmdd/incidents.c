@@ -30,6 +30,7 @@
 
 #include <sys/stat.h>
 
+#include "rmd/dialect.h"
 #include "rmd/motor.h"
 #include "rmd/thread.h"
 #include "rmd/time.h"
@@ -179,19 +180,24 @@ static void iface_of(const struct rmd_config *cfg, unsigned b, char out[16])
 	snprintf(out, 16, "%s", cb->interface[0] ? cb->interface : cb->name);
 }
 
-/* The rmdctl decode protocol of bus b's motors: "v2" when they are all V2, else "v3". */
+/*
+ * The rmdctl decode protocol of bus b's motors: the key of the table they
+ * all share (MIT motors: V3's), else "v3".
+ */
 static const char *decode_proto(const struct rmd_config *cfg, unsigned b)
 {
-	bool any = false;
+	const struct rmd_dialect *t = NULL;
 
 	for (unsigned i = 0; i < cfg->n_motors; i++) {
-		if (cfg->motors[i].bus != b)
+		const struct rmd_dialect *d = rmd_dialect(cfg->motors[i].proto);
+
+		if (cfg->motors[i].bus != b || !d)
 			continue;
-		if (cfg->motors[i].proto != RMD_PROTO_V2)
+		if (t && t->proto != d->table)
 			return "v3";
-		any = true;
+		t = rmd_dialect(d->table);
 	}
-	return any ? "v2" : "v3";
+	return t ? t->key : "v3";
 }
 
 /* enum rmd_comm_loss in a few words. */

@@ -61,6 +61,7 @@
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
 #include "rmd/codec.h"
+#include "rmd/dialect.h"
 #include "rmd/time.h"
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
@@ -527,7 +528,7 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		      struct line *ln)
 {
 	const struct rmd_config_motor *c = &cfg->motors[i];
-	bool v2 = c->proto == RMD_PROTO_V2;
+	const struct rmd_dialect *d = rmd_dialect(c->proto);
 	int level = 6;
 
 	line_add(ln, "%s: motor %u (%s): ", cfg->buses[c->bus].name, c->id, c->name);
@@ -536,8 +537,8 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 			 bm->tries, (long long)(bm->timeout_ns / RMD_NS_PER_MS));
 		return 4;
 	}
-	if (v2) {
-		line_add(ln, "V2 (no model or version query)");
+	if (!rmd_dialect_has(d, RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2)) {
+		line_add(ln, "%s (no model or version query)", d->name);
 	} else {
 		line_add(ln, "%s", bm->model[0] ? bm->model : "(no model)");
 		if (!bm->version) {
@@ -553,8 +554,7 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		line_add(ln, ", %.1f V, %.0f °C", bm->voltage_v, bm->temp_c);
 		if (bm->error_code) {
 			const char *names[4];
-			size_t n = rmd_error_names(v2 ? RMD_PROTO_V2 : RMD_PROTO_V3, bm->error_code,
-						   names, 4);
+			size_t n = rmd_error_names(c->proto, bm->error_code, names, 4);
 
 			line_add(ln, ", errors 0x%04X (", bm->error_code);
 			for (size_t k = 0; k < n && k < 4; k++)
@@ -565,11 +565,10 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		line_add(ln, ", no answer to 0x9A");
 		level = 4;
 	}
-	if (v2) {
-		if (!bm->v2_angle)
-			line_add(ln, ", no 0x92 angle: positions start at 0");
-		line_add(ln, ", no 0xB3 in V2 (no comm-loss protection)");
-	}
+	if (rmd_dialect_has(d, RMD_DIALECT_ENCODER_UNWRAP) && !bm->v2_angle)
+		line_add(ln, ", no 0x92 angle: positions start at 0");
+	if (!rmd_dialect_has(d, RMD_DIALECT_COMM_LOSS_B3))
+		line_add(ln, ", no 0xB3 in %s (no comm-loss protection)", d->name);
 	return level;
 }
 

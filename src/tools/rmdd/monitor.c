@@ -131,8 +131,8 @@ static void log_motor_error(const struct rmd_config *cfg, const struct rmd_event
 		tool_log(5, "%s: error flags cleared", ctx);
 		return;
 	}
-	if (e->motor < cfg->n_motors && cfg->motors[e->motor].proto == RMD_PROTO_V2)
-		proto = RMD_PROTO_V2;
+	if (e->motor < cfg->n_motors)
+		proto = cfg->motors[e->motor].proto; /* its dialect's flags */
 	n = rmd_error_names(proto, code, names, 8);
 	list[0] = '\0';
 	for (size_t k = 0; k < n && k < 8 && used < sizeof(list); k++)

@@ -1,0 +1,154 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Firmware dialects as data: one record per protocol generation (V2.0,
+ * V3.x, MIT), with everything the layers above the codec need to know about
+ * it -- its command table, the CAN identifiers it uses, what it can do
+ * (capability bits), its error flags and its bring-up probes.
+ *
+ * This is the proto layer's answer to "what does this motor speak?".  A
+ * motor record points at its dialect once, at init (rmd/motor.h); rt, bus,
+ * sim and tools read the record's fields and capability bits and never
+ * compare enum rmd_proto (tests/check-layers refuses such a comparison
+ * outside src/proto/).  enum rmd_proto stays the dialect's key: an index
+ * into the list, the value a config file names.
+ *
+ * How to add a dialect (docs/design.md "How to add a dialect"): its value
+ * in enum rmd_proto (codec.h), its command table (src/proto/codec_<key>.c),
+ * one row of the list in src/proto/dialect.c, and the simulated motor's
+ * behaviour where it differs (src/sim/, read through the same bits).
+ *
+ * Pure, const after the program is loaded, rt-safe.
+ */
+#ifndef RMD_DIALECT_H
+#define RMD_DIALECT_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rmd/codec.h"
+
+/* struct rmd_dialect.caps: what the motors of a dialect can do. */
+enum {
+	/* 0xB5 answers the model (V3 §2.32) */
+	RMD_DIALECT_MODEL_B5 = 1u << 0,
+	/* 0xB2 answers the firmware date (V3 §2.29) */
+	RMD_DIALECT_VERSION_B2 = 1u << 1,
+	/*
+	 * 0xB3 sets the motor's own comm-loss protection (V3 §2.30); a motor
+	 * whose protection tripped only echoes its next command and may send
+	 * 0xF1 frames (docs/design.md).  V2 has none: nothing but its power
+	 * stops a V2 motor when the host dies.
+	 */
+	RMD_DIALECT_COMM_LOSS_B3 = 1u << 2,
+	/* 0x280 carries four torques, motors 1..4, one reply each (V2 §4.1) */
+	RMD_DIALECT_BATCH_280 = 1u << 3,
+	/* the command set also travels on RS485 (V3 §1.2); V2 is CAN only */
+	RMD_DIALECT_RS485 = 1u << 4,
+	/*
+	 * control replies carry the rotor's single-turn encoder, not the
+	 * output angle (V2 §3.32): the host unwraps it from a reference
+	 */
+	RMD_DIALECT_ENCODER_UNWRAP = 1u << 5,
+	/* MIT motion mode on 0x400 + ID, replies on 0x500 + ID (V3 §5) */
+	RMD_DIALECT_MIT = 1u << 6,
+	/* 0x20 function control (V3 §2.33): index 3 turns on 0x9A error reports */
+	RMD_DIALECT_FUNC_CTRL = 1u << 7,
+	/* 0x92's output angle is the fine position feedback (V3 §2.11, 0.01 deg) */
+	RMD_DIALECT_FINE_ANGLE = 1u << 8,
+	/*
+	 * 0xA3 and 0xA5 track a position through the position loop (V3 §2.19,
+	 * §2.21; removed in V3.7); in V2 they move (absolute, single turn)
+	 */
+	RMD_DIALECT_TRACK_A3_A5 = 1u << 9,
+	/*
+	 * the firmware takes MIT frames on 0x400 + ID (V3 §5) whether or not
+	 * the motor is driven by them (RMD_DIALECT_MIT)
+	 */
+	RMD_DIALECT_MIT_FRAMES = 1u << 10,
+};
+
+/* How a motor's CAN ID is set (struct rmd_dialect.set_id). */
+enum rmd_set_id {
+	RMD_SET_ID_NONE = 0,
+	RMD_SET_ID_79_OWN, /* 0x79 on the motor's own 0x140 + ID (V2 §3.52) */
+	RMD_SET_ID_79_300, /* 0x79 on 0x300, to every motor (V3 §4) */
+};
+
+/* How a motor's PID gains are read and written (struct rmd_dialect.pid). */
+enum rmd_pid_layout {
+	RMD_PID_NONE = 0,
+	RMD_PID_V2_PER_GAIN, /* one command a gain and a place (V2 §3.1 .. §3.18) */
+	RMD_PID_U8_SIX,	     /* six uint8 gains in one frame, 0x30/0x31/0x32 (V3 §2.1) */
+};
+
+/* One named error flag of a dialect's table. */
+struct rmd_flag_name {
+	uint16_t code;
+	const char *name;
+};
+
+#define RMD_DIALECT_PROBES_MAX 4
+
+struct rmd_dialect {
+	enum rmd_proto proto; /* its key; rmd_dialect(proto) returns this record */
+	const char *key;      /* "v3": config files and command lines */
+	const char *name;     /* "V3": the manuals' spelling, for messages */
+	const char *manual;   /* the manual its table follows, for docs and messages */
+	/*
+	 * The dialect whose command table its 0x140 + ID frames use: itself,
+	 * or V3 for MIT (V3 §5: an MIT motor answers the V3 command set).
+	 */
+	enum rmd_proto table;
+	const struct rmd_cmd_spec *rows; /* the command table (rmd_cmd_table()), *n_rows rows */
+	const size_t *n_rows;
+	uint32_t caps; /* RMD_DIALECT_* */
+	/* CAN identifiers (motor ID added to the bases) */
+	uint16_t req_base;	 /* requests: 0x140 */
+	uint16_t reply_base;	 /* replies: 0x240 (V3), or 0x140 shared with requests (V2) */
+	uint16_t ctl_req_base;	 /* setpoint frames: 0x140, or 0x400 (MIT) */
+	uint16_t ctl_reply_base; /* their replies: reply_base, or 0x500 (MIT) */
+	enum rmd_set_id set_id;
+	enum rmd_pid_layout pid;
+	/* error flags, as 0x9A reports them */
+	const struct rmd_flag_name *error_bits;
+	size_t n_error_bits;
+	/* whole error codes that are not bits (V2 §3.31 table 2), or none */
+	const struct rmd_flag_name *error_codes;
+	size_t n_error_codes;
+	/* 0x70's run modes (V3 §2.23.3, V2 §3.45) */
+	const struct rmd_flag_name *run_modes;
+	size_t n_run_modes;
+	/*
+	 * Bring-up's probes, in order: the first tells whether the motor is
+	 * there; status 0x9A is always among them.
+	 */
+	uint8_t probe[RMD_DIALECT_PROBES_MAX];
+	unsigned n_probes;
+};
+
+/* The record of dialect `proto`, or NULL when there is none.  rt-safe. */
+const struct rmd_dialect *rmd_dialect(enum rmd_proto proto);
+
+/* Every dialect, in enum order (the list's length in *n). */
+const struct rmd_dialect *rmd_dialect_list(size_t *n);
+
+/* Whether d has every capability bit of `caps`.  rt-safe. */
+static inline bool rmd_dialect_has(const struct rmd_dialect *d, uint32_t caps)
+{
+	return (d->caps & caps) == caps;
+}
+
+/* Whether d's requests and replies share one identifier (V2 §1).  rt-safe. */
+static inline bool rmd_dialect_shared_ids(const struct rmd_dialect *d)
+{
+	return d->req_base == d->reply_base;
+}
+
+/* The identifier of a set-ID (0x79) frame when it rides on one of its own; 0 otherwise. */
+static inline uint32_t rmd_dialect_set_id_can(const struct rmd_dialect *d)
+{
+	return d->set_id == RMD_SET_ID_79_300 ? RMD_CAN_SET_ID : 0;
+}
+
+#endif /* RMD_DIALECT_H */

@@ -1,0 +1,172 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The list of firmware dialects (rmd/dialect.h): one row each, with its
+ * command table, identifiers, capabilities, error flags and probes.
+ * Adding a dialect is its table and one row here (docs/design.md).
+ */
+#include <stddef.h>
+
+#include "rmd/dialect.h"
+#include "codec_tables.h"
+
+#define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
+
+/* V3 §2.12 table 1 (System_errorState): one bit per condition. */
+static const struct rmd_flag_name v3_error_bits[] = {
+	{ 0x0002, "stall" },
+	{ 0x0004, "low_voltage" },
+	{ 0x0008, "over_voltage" },
+	{ 0x0010, "phase_overcurrent" },
+	{ 0x0040, "power_overrun" },
+	/* §8.2 calls it a calibration parameter read error; §2.12 says write. */
+	{ 0x0080, "calibration_write_error" },
+	{ 0x0100, "overspeed" },
+	{ 0x1000, "over_temperature" },
+	{ 0x2000, "encoder_calibration_error" },
+};
+
+/*
+ * V2 §3.31 table 1 (System_errorState): one bit per condition.  The table
+ * lists hardware over-current as 0x0000, which no bit can be; it is the
+ * only free bit below 0x2000 and heads the list as bit 0 would, so it is
+ * taken as 0x0001.
+ */
+static const struct rmd_flag_name v2_error_bits[] = {
+	{ 0x0001, "hardware_overcurrent" },
+	{ 0x0002, "stall" },
+	{ 0x0004, "low_voltage" },
+	{ 0x0008, "over_voltage" },
+	{ 0x0010, "overcurrent" },
+	{ 0x0020, "brake_open_failed" },
+	{ 0x0040, "bus_current_error" },
+	{ 0x0080, "battery_voltage_error" },
+	{ 0x0100, "overspeed" },
+	{ 0x0200, "position_loop_exceeded" },
+	{ 0x0400, "vdd_error" },
+	{ 0x0800, "dsp_over_temperature" },
+	{ 0x1000, "over_temperature" },
+	{ 0x2000, "encoder_calibration_error" },
+};
+
+/*
+ * V2 §3.31 table 2 (CAN_errorState): whole codes, not bits (0x00F0 is not
+ * bits 4..7 of table 1).  §3.37 names 0x00F6 as the "three-loop operation
+ * error" that table 2 lists as 0x00F2; both are accepted.
+ */
+static const struct rmd_flag_name v2_error_codes[] = {
+	{ 0x00F0, "pid_rom_write_unsafe" }, { 0x00F1, "encoder_rom_write_unsafe" },
+	{ 0x00F2, "loop_switch_unsafe" },   { 0x00F3, "brake_not_open" },
+	{ 0x00F4, "rom_write_unsafe" },	    { 0x00F6, "loop_switch_unsafe" },
+};
+
+/* V3 §2.23.3: 0x70's run modes. */
+static const struct rmd_flag_name v3_run_modes[] = {
+	{ 0x01, "current_loop" },
+	{ 0x02, "speed_loop" },
+	{ 0x03, "position_loop" },
+};
+
+/* V2 §3.45: 0x70's run modes. */
+static const struct rmd_flag_name v2_run_modes[] = {
+	{ 0x00, "current_loop" },
+	{ 0x01, "speed_loop" },
+	{ 0x02, "position_loop" },
+	{ 0xFF, "init" },
+};
+
+/* What V3.x and its MIT motors share: the V3 command set, ids and probes. */
+#define V3_COMMON                                                                        \
+	.table = RMD_PROTO_V3, .rows = rmd_v3_cmds, .n_rows = &rmd_v3_ncmds,             \
+	.req_base = RMD_CAN_REQ_BASE, .reply_base = RMD_CAN_V3_REPLY_BASE,               \
+	.set_id = RMD_SET_ID_79_300, .pid = RMD_PID_U8_SIX, .error_bits = v3_error_bits, \
+	.n_error_bits = ARRAY_SIZE(v3_error_bits), .run_modes = v3_run_modes,            \
+	.n_run_modes = ARRAY_SIZE(v3_run_modes), .probe = { 0xB5, 0xB2, 0x9A }, .n_probes = 3
+
+#define V3_CAPS                                                                     \
+	(RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2 | RMD_DIALECT_COMM_LOSS_B3 | \
+	 RMD_DIALECT_FUNC_CTRL | RMD_DIALECT_FINE_ANGLE | RMD_DIALECT_TRACK_A3_A5 | \
+	 RMD_DIALECT_MIT_FRAMES)
+
+/* In enum order. */
+static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
+	[RMD_PROTO_V3] = {
+		.proto = RMD_PROTO_V3,
+		.key = "v3",
+		.name = "V3",
+		.manual = "V3.6 (rmd-can-rs485-protocol-v3.6)",
+		V3_COMMON,
+		.caps = V3_CAPS | RMD_DIALECT_RS485,
+		.ctl_req_base = RMD_CAN_REQ_BASE,
+		.ctl_reply_base = RMD_CAN_V3_REPLY_BASE,
+	},
+	[RMD_PROTO_V2] = {
+		.proto = RMD_PROTO_V2,
+		.key = "v2",
+		.name = "V2",
+		.manual = "V2.0 (rmd-can-protocol-v2.0)",
+		.table = RMD_PROTO_V2,
+		.rows = rmd_v2_cmds,
+		.n_rows = &rmd_v2_ncmds,
+		/* V2 §1: requests and replies share 0x140 + ID */
+		.req_base = RMD_CAN_REQ_BASE,
+		.reply_base = RMD_CAN_REQ_BASE,
+		.ctl_req_base = RMD_CAN_REQ_BASE,
+		.ctl_reply_base = RMD_CAN_REQ_BASE,
+		.caps = RMD_DIALECT_BATCH_280 | RMD_DIALECT_ENCODER_UNWRAP,
+		.set_id = RMD_SET_ID_79_OWN,
+		.pid = RMD_PID_V2_PER_GAIN,
+		.error_bits = v2_error_bits,
+		.n_error_bits = ARRAY_SIZE(v2_error_bits),
+		.error_codes = v2_error_codes,
+		.n_error_codes = ARRAY_SIZE(v2_error_codes),
+		.run_modes = v2_run_modes,
+		.n_run_modes = ARRAY_SIZE(v2_run_modes),
+		/* V2 has no model or version query: its status answers */
+		.probe = { 0x9A },
+		.n_probes = 1,
+	},
+	[RMD_PROTO_MIT] = {
+		.proto = RMD_PROTO_MIT,
+		.key = "mit",
+		.name = "MIT",
+		.manual = "V3.6 §5 (MIT motion mode)",
+		V3_COMMON,
+		/* its V3 commands travel on RS485; its MIT frames do not (V3 §5) */
+		.caps = V3_CAPS | RMD_DIALECT_MIT | RMD_DIALECT_RS485,
+		.ctl_req_base = RMD_CAN_MIT_REQ_BASE,
+		.ctl_reply_base = RMD_CAN_MIT_REPLY_BASE,
+	},
+};
+
+/* Config keys in enum order, NULL-terminated (codec.h). */
+const char *rmd_proto_keys[RMD_PROTO_COUNT + 1];
+
+/*
+ * Command byte -> row, per dialect (MIT's are V3's): filled once when the
+ * program is loaded, before any thread runs, and only read afterwards, so
+ * rmd_cmd_find() is one load on the rt path.
+ */
+const struct rmd_cmd_spec *rmd_cmd_by_byte[RMD_PROTO_COUNT][256];
+
+__attribute__((constructor)) static void dialects_build(void)
+{
+	for (unsigned p = 0; p < RMD_PROTO_COUNT; p++) {
+		const struct rmd_dialect *d = &dialects[p];
+
+		/* the first row of a byte wins, as a scan would */
+		for (size_t i = *d->n_rows; i-- > 0;)
+			rmd_cmd_by_byte[p][d->rows[i].cmd] = &d->rows[i];
+		rmd_proto_keys[p] = d->key;
+	}
+}
+
+const struct rmd_dialect *rmd_dialect(enum rmd_proto proto)
+{
+	return (unsigned)proto < RMD_PROTO_COUNT ? &dialects[proto] : NULL;
+}
+
+const struct rmd_dialect *rmd_dialect_list(size_t *n)
+{
+	*n = RMD_PROTO_COUNT;
+	return dialects;
+}
