@@ -510,7 +510,7 @@ format:
 # Includes point down the layers, no include circle, and nothing outside the
 # bus layer names a transport (tests/check-layers says what it checks).
 check-layers:
-	$(Q)tests/check-layers .
+	$(Q)tests/check-layers . && tests/check-layers --selftest
 
 format-check:
 	$(Q)$(CLANG_FORMAT) --dry-run -Werror $(FORMAT_SRCS) && echo "format-check: ok"
