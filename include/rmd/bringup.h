@@ -28,6 +28,22 @@ enum rmd_bringup_state {
 	RMD_BRINGUP_FOUND = 0, /* answered, no error flags */
 	RMD_BRINGUP_MISSING,   /* no answer to the first probe */
 	RMD_BRINGUP_FAULT,     /* answered, with error flags (error_code) */
+	/*
+	 * answered, but cannot be what its configuration says (mismatch):
+	 * never driven, and bring-up fails whatever probe.on_missing says
+	 */
+	RMD_BRINGUP_MISMATCH,
+};
+
+/* Why a motor's configuration does not fit what it answered. */
+enum rmd_bringup_mismatch {
+	RMD_BRINGUP_MISMATCH_NONE = 0,
+	/* its firmware date says another dialect than its protocol (docs/protocol-v4.md) */
+	RMD_BRINGUP_MISMATCH_FIRMWARE,
+	/* its dialect has no 0xB3 (V2), and its comm_loss_ms is not 0 */
+	RMD_BRINGUP_MISMATCH_NO_COMM_LOSS,
+	/* feedback.position multi_turn, and its dialect's 0x92 is not the fine position */
+	RMD_BRINGUP_MISMATCH_NO_FINE_ANGLE,
 };
 
 /* What came of the 0xB3 write (V3 §2.30). */
@@ -46,6 +62,14 @@ enum rmd_bringup_b3 {
 
 struct rmd_bringup_motor {
 	enum rmd_bringup_state state;
+	/*
+	 * The dialect it was probed in: its protocol's, or with `protocol:
+	 * auto` (proto_auto) the one it answered in, auto_certain false when
+	 * its firmware date could not tell the generation (V3 taken).
+	 */
+	enum rmd_proto proto;
+	bool proto_auto, auto_certain;
+	enum rmd_bringup_mismatch mismatch; /* RMD_BRINGUP_MISMATCH: why */
 	/* MISSING: the request that went unanswered, its tries and their wait */
 	uint8_t probe_cmd;
 	unsigned tries;
@@ -71,6 +95,7 @@ struct rmd_bringup {
 	unsigned n_motors, n_buses; /* of the configuration */
 	uint32_t comm_loss_ms; /* safety.comm_loss_ms (a motor's own key: motor[].comm_loss_ms) */
 	unsigned missing;      /* motors MISSING */
+	unsigned mismatched;   /* motors MISMATCH */
 	/*
 	 * Motors found whose protection is not set (0xB3 unanswered or
 	 * answered with another time), and not off by config: they cannot be
@@ -85,9 +110,10 @@ struct rmd_bringup {
 
 /*
  * Bring the motors of l up (see the top of this file) and describe what
- * was found in *out.  Returns 0, -ENODEV when a motor is missing or
- * unarmed and probe.on_missing is refuse (out is filled all the same), or -EBUSY while
- * the thread runs.  Non-rt.
+ * was found in *out.  Returns 0, -EPROTO when a motor's configuration does
+ * not fit what it answered (RMD_BRINGUP_MISMATCH), -ENODEV when a motor
+ * is missing or unarmed and probe.on_missing is refuse (out is filled all
+ * the same), or -EBUSY while the thread runs.  Non-rt.
  */
 int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out);
 

@@ -53,7 +53,8 @@ struct rmd_bus_open_opts {
 /* A motor on the bus being opened. */
 struct rmd_bus_open_motor {
 	uint8_t id;	      /* 1..32 */
-	enum rmd_proto proto; /* V3, V2 or MIT */
+	enum rmd_proto proto; /* its dialect (rmd/dialect.h) */
+	bool any_dialect;     /* `protocol: auto`: the replies of every dialect are admitted */
 	/* sim buses: the simulated motor; NULL: rmd_sim_motor_params_default() */
 	const struct rmd_sim_motor_params *sim;
 };

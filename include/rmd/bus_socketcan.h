@@ -40,6 +40,7 @@
 struct rmd_socketcan_motor {
 	uint8_t id;	      /* 1..32 */
 	enum rmd_proto proto; /* V3: 0x240 + ID; V2: 0x140 + ID; MIT: 0x500 + ID and 0x240 + ID */
+	bool any_dialect;     /* the replies of every dialect (`protocol: auto`) */
 };
 
 struct rmd_socketcan_opts {

@@ -221,7 +221,13 @@ struct rmd_config_motor {
 	char name[RMD_CONFIG_NAME_LEN]; /* [a-z0-9_], unique */
 	unsigned bus;			/* index into rmd_config.buses[] */
 	uint8_t id;			/* 1..32, unique per bus */
+	/*
+	 * Its firmware dialect (rmd/dialect.h).  With `protocol: auto`
+	 * (proto_auto) this is V3 until bring-up decides from what the motor
+	 * says (docs/protocol-v4.md "Which dialect a motor speaks").
+	 */
 	enum rmd_proto proto;
+	bool proto_auto;
 	enum rmd_mode mode;
 	int direction;	   /* +1, or -1: the motor turns the other way */
 	double gear_ratio; /* motor turns per output turn, > 0 */
@@ -277,6 +283,14 @@ int rmd_config_bus_find(const struct rmd_config *cfg, const char *name);
 int rmd_config_motor_find(const struct rmd_config *cfg, const char *name);
 
 /* Names as the file spells them, indexed by their enum, NULL-terminated. */
+/*
+ * The `protocol` key's values: every dialect's key, then "auto"
+ * (RMD_CONFIG_PROTO_AUTO, which the loader turns into proto_auto and a V3
+ * provisional dialect).  NULL-terminated; filled before main().
+ */
+#define RMD_CONFIG_PROTO_AUTO ((enum rmd_proto)RMD_PROTO_COUNT)
+extern const char *rmd_config_proto_keys[RMD_PROTO_COUNT + 2];
+
 extern const char *const rmd_bus_kind_names[];
 extern const char *const rmd_mode_names[];
 extern const char *const rmd_units_names[];

@@ -139,7 +139,8 @@ struct rmd_motor {
 	enum rmd_proto proto;
 	/* the motor's dialect (rmd/dialect.h): its table, ids and capabilities */
 	const struct rmd_dialect *d;
-	uint32_t caps; /* d->caps, beside the fields the cycle reads */
+	uint32_t caps;	      /* d->caps, beside the fields the cycle reads */
+	enum rmd_proto table; /* d->table: the rows of its 0x140 + ID frames (rmd_motor_row()) */
 	enum rmd_mode mode;
 	double dir;		  /* +1 or -1 */
 	double native_per_output; /* 1, or gear_ratio when the protocol speaks the rotor */
@@ -173,6 +174,12 @@ struct rmd_motor {
 	uint16_t v2_enc_last;  /* last encoder value */
 	int64_t v2_enc_counts; /* unwrapped counts since the anchor */
 };
+
+/* The row of command `cmd` in the motor's table, or NULL (rmd_cmd_find(), checked at init).  rt-safe. */
+static inline const struct rmd_cmd_spec *rmd_motor_row(const struct rmd_motor *m, uint8_t cmd)
+{
+	return rmd_cmd_by_byte[m->table][cmd];
+}
 
 /* Whether the answer to command `cmd` of the motor's table repeats the request.  rt-safe. */
 static inline bool rmd_motor_echoes(const struct rmd_motor *m, uint8_t cmd)
@@ -251,6 +258,14 @@ struct rmd_motor_reply {
  * ranges for an MIT motor, or a V2/V3 motor without torque constant.
  */
 int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c);
+
+/*
+ * Rebuild the record for dialect `proto` from the same config entry c:
+ * bring-up's answer to `protocol: auto` (rmd/bringup.h).  Returns what
+ * rmd_motor_init() returns.  Non-rt (before the loop runs).
+ */
+int rmd_motor_set_dialect(struct rmd_motor *m, const struct rmd_config_motor *c,
+			  enum rmd_proto proto);
 
 /*
  * The modes the motor can be commanded in, RMD_MOTOR_MODE_BIT()s: torque

@@ -149,8 +149,10 @@ static int open_socketcan(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 	};
 
 	for (unsigned i = 0; i < ctx->n_motors; i++)
-		motors[i] = (struct rmd_socketcan_motor){ .id = ctx->motors[i].id,
-							  .proto = ctx->motors[i].proto };
+		motors[i] =
+			(struct rmd_socketcan_motor){ .id = ctx->motors[i].id,
+						      .proto = ctx->motors[i].proto,
+						      .any_dialect = ctx->motors[i].any_dialect };
 	return rmd_socketcan_open(bus, cb->interface[0] ? cb->interface : cb->name, &so, err,
 				  errlen);
 }
@@ -191,7 +193,10 @@ void rmd_bus_open_ctx_of(const struct rmd_config *cfg, const struct rmd_sim_setu
 
 		if (m->bus == b)
 			motors[ctx->n_motors++] = (struct rmd_bus_open_motor){
-				.id = m->id, .proto = m->proto, .sim = sim ? &sim->motors[i] : NULL
+				.id = m->id,
+				.proto = m->proto,
+				.any_dialect = m->proto_auto,
+				.sim = sim ? &sim->motors[i] : NULL,
 			};
 	}
 	if (sim && cfg->buses[b].kind == RMD_BUS_KIND_SIM)

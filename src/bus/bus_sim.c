@@ -223,12 +223,12 @@ static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_
 		if (!rmd_dialect(m->proto))
 			return rmd_errf(err, errlen, -EINVAL, "%s: motor %u: unknown protocol %d",
 					name, m->id, (int)m->proto);
+		/* the simulated firmware: its model's (config: motors[].sim.firmware), else the host's */
 		if (m->params)
 			params = *m->params;
 		else
 			rmd_sim_motor_params_default(&params, m->id, m->proto);
 		params.id = m->id;
-		params.proto = m->proto;
 		r = rmd_sim_wire_add_motor(&p->sim, &params, 0);
 		if (r == -EEXIST)
 			return rmd_errf(err, errlen, r, "%s: motor id %u given twice", name, m->id);

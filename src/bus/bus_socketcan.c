@@ -126,6 +126,15 @@ static int build_filters(const char *ifname, const struct rmd_socketcan_opts *op
 					ifname, m->id, (int)m->proto);
 		/* its replies (V2 §1: on 0x140 + ID, shared with requests) */
 		n = add_filter(f, n, d->reply_base + m->id);
+		/* `protocol: auto`: bring-up asks in every dialect (rmd/bringup.h) */
+		if (m->any_dialect) {
+			size_t nd;
+			const struct rmd_dialect *all = rmd_dialect_list(&nd);
+
+			for (size_t k = 0; k < nd; k++)
+				if (!rmd_dialect_has(&all[k], RMD_DIALECT_MIT))
+					n = add_filter(f, n, all[k].reply_base + m->id);
+		}
 		/*
 		 * V3 §5: MIT replies on 0x500 + ID; the motor's V3 firmware
 		 * still answers probes (0xB5, 0x9A) on 0x240 + ID.

@@ -61,6 +61,15 @@ void rmd_config_bus_defaults(struct rmd_config_bus *b)
 	b->turnaround_ns = RMD_CONFIG_DEFAULT_RS485_TURNAROUND_NS;
 }
 
+const char *rmd_config_proto_keys[RMD_PROTO_COUNT + 2];
+
+__attribute__((constructor)) static void proto_keys_build(void)
+{
+	for (unsigned p = 0; p < RMD_PROTO_COUNT; p++)
+		rmd_config_proto_keys[p] = rmd_proto_key((enum rmd_proto)p);
+	rmd_config_proto_keys[RMD_PROTO_COUNT] = "auto";
+}
+
 void rmd_config_motor_defaults(struct rmd_config_motor *m)
 {
 	memset(m, 0, sizeof(*m));

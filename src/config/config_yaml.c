@@ -250,7 +250,7 @@ static const struct field motor_fields[] = {
 	STR("name", M, name, F_REQUIRED | F_IDENT),
 	LATER("bus"),
 	UINT("id", M, id, 1, RMD_MAX_MOTORS, F_REQUIRED),
-	ENUM("protocol", M, proto, rmd_proto_keys, 0),
+	ENUM("protocol", M, proto, rmd_config_proto_keys, 0),
 	ENUM("mode", M, mode, rmd_mode_names, F_REQUIRED),
 	INT("direction", M, direction, -1, 1, F_SIGN),
 	DBL("gear_ratio", M, gear_ratio, RMD_CONFIG_MIN_GEAR_RATIO, 1e4, 0),
@@ -644,7 +644,9 @@ static void validate_motor_sim(struct yctx *c, struct rmd_config *cfg, struct rm
 		validate_sim_model(c, p, sn, kp);
 	}
 	p->id = m->id;
-	p->proto = m->proto;
+	/* the simulated firmware: the motor's protocol, unless its sim: says another */
+	if (!(sn && rmd_yaml_get(sn, "firmware", NULL)))
+		p->proto = m->proto;
 	p->mit = m->mit;
 	if (rmd_yaml_get(mn, "gear_ratio", NULL))
 		p->gear_ratio = m->gear_ratio;
@@ -746,7 +748,17 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 				break;
 			}
 		}
-		/* protocol and mode */
+		/* protocol and mode; auto: V3 until bring-up hears the motor */
+		if (m->proto == RMD_CONFIG_PROTO_AUTO) {
+			m->proto_auto = true;
+			m->proto = RMD_PROTO_V3;
+			if (m->mode == RMD_MODE_MIT) {
+				rmd_yaml_path_key(kp, path, "protocol");
+				rmd_yaml_report(c, rmd_yaml_line_of(mn, "protocol"), kp,
+						"auto cannot tell an MIT motor: mode mit needs "
+						"protocol mit");
+			}
+		}
 		d = rmd_dialect(m->proto);
 		if (rmd_dialect_has(d, RMD_DIALECT_MIT) && m->mode != RMD_MODE_MIT) {
 			rmd_yaml_path_key(kp, path, "mode");

@@ -165,6 +165,20 @@ const struct rmd_dialect *rmd_dialect(enum rmd_proto proto)
 	return (unsigned)proto < RMD_PROTO_COUNT ? &dialects[proto] : NULL;
 }
 
+const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certain)
+{
+	uint32_t date = rmd_version_date_valid(version) ? version : version / 100;
+
+	*certain = rmd_version_date_valid(date);
+	/*
+	 * Every V3.x and V4.x firmware answers 0xB2, and every date up to
+	 * the float PID layout (V4.2, 2024-05-28) keeps V3.6's commands for
+	 * what rmdd and its tools use.  Until the V4 dialect's row exists,
+	 * V3 is the answer for every date.
+	 */
+	return &dialects[RMD_PROTO_V3];
+}
+
 const struct rmd_dialect *rmd_dialect_list(size_t *n)
 {
 	*n = RMD_PROTO_COUNT;

@@ -119,17 +119,134 @@ static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, struct 
 	return rmd_motor_decode(&lm->m, &t.rep.f, r) < 0 ? -EBADMSG : 0;
 }
 
+/*
+ * Motor i speaks dialect `proto` from now on: its record rebuilt, the
+ * loop's routing moved to the identifiers that dialect answers on.
+ * Non-rt.
+ */
+static int use_dialect(struct rmd_loop *l, unsigned i, enum rmd_proto proto)
+{
+	struct lmotor *lm = &l->mot[i];
+	struct lbus *lb = &l->bus[lm->m.bus];
+	int r;
+
+	if (lm->m.proto == proto)
+		return 0;
+	*lbus_slot(lb, lm->m.reply_id) = 0;
+	*lbus_slot(lb, lm->m.d->ctl_reply_base + (uint32_t)lm->m.id) = 0;
+	r = rmd_motor_set_dialect(&lm->m, &l->cfg->motors[i], proto);
+	*lbus_slot(lb, lm->m.reply_id) = (uint8_t)(i + 1);
+	*lbus_slot(lb, lm->m.d->ctl_reply_base + (uint32_t)lm->m.id) = (uint8_t)(i + 1);
+	return r;
+}
+
+/*
+ * `protocol: auto`: which dialect motor i answers in.  Each dialect that
+ * is not told by configuration alone (MIT is a way of driving V3
+ * firmware) asks its first probe, one request per distinct probe and
+ * reply identifier, in the list's order; the first to be answered is the
+ * motor's family, and its firmware date (0xB2) picks the generation
+ * within it (rmd_dialect_for_firmware()).  Returns 0 with the motor
+ * switched, or -ENODEV when nothing answered (the motor stays V3).
+ * Non-rt.
+ */
+static int resolve_auto(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor *out)
+{
+	struct lmotor *lm = &l->mot[i];
+	size_t n;
+	const struct rmd_dialect *list = rmd_dialect_list(&n);
+	uint32_t tried[RMD_PROTO_COUNT];
+	unsigned n_tried = 0;
+	struct rmd_motor_reply r;
+
+	for (size_t k = 0; k < n; k++) {
+		const struct rmd_dialect *d = &list[k];
+		uint32_t key = (uint32_t)d->reply_base << 8 | d->probe[0];
+		bool seen = false;
+
+		if (rmd_dialect_has(d, RMD_DIALECT_MIT) || d->table != d->proto)
+			continue;
+		for (unsigned j = 0; j < n_tried; j++)
+			seen |= tried[j] == key;
+		if (seen)
+			continue;
+		tried[n_tried++] = key;
+		if (use_dialect(l, i, d->proto) < 0)
+			continue;
+		if (probe_cmd(l, lm, d->probe[0], &r) < 0)
+			continue;
+		out->auto_certain = !rmd_dialect_has(d, RMD_DIALECT_VERSION_B2);
+		if (rmd_dialect_has(d, RMD_DIALECT_VERSION_B2) && probe_cmd(l, lm, 0xB2, &r) == 0 &&
+		    (r.have & RMD_MOTOR_HAVE_VERSION)) {
+			const struct rmd_dialect *fw =
+				rmd_dialect_for_firmware(r.version_date, &out->auto_certain);
+
+			if (fw->reply_base == d->reply_base)
+				use_dialect(l, i, fw->proto);
+		}
+		return 0;
+	}
+	use_dialect(l, i, RMD_PROTO_V3);
+	return -ENODEV;
+}
+
+/*
+ * What in the configuration of motor i its dialect cannot do, or
+ * RMD_BRINGUP_MISMATCH_NONE: the configured dialect against the one its
+ * firmware date says; for `protocol: auto`, what the loader would have
+ * refused had the file named the dialect found (comm-loss protection,
+ * fine feedback).  Non-rt.
+ */
+static enum rmd_bringup_mismatch mismatch_of(const struct rmd_loop *l, unsigned i,
+					     const struct rmd_bringup_motor *bm)
+{
+	const struct rmd_config_motor *c = &l->cfg->motors[i];
+	const struct rmd_dialect *d = l->mot[i].m.d;
+	bool certain;
+
+	if (!c->proto_auto && bm->version) {
+		const struct rmd_dialect *fw = rmd_dialect_for_firmware(bm->version, &certain);
+
+		if (certain && fw->table != d->table)
+			return RMD_BRINGUP_MISMATCH_FIRMWARE;
+	}
+	/*
+	 * The loader refuses these for a configured dialect; a program that
+	 * builds such a configuration gets the loop's own answer (an
+	 * unprotected motor is never enabled: lifecycle.c)
+	 */
+	if (!c->proto_auto)
+		return RMD_BRINGUP_MISMATCH_NONE;
+	if (!rmd_dialect_has(d, RMD_DIALECT_COMM_LOSS_B3) && rmd_config_comm_loss_ms(l->cfg, i))
+		return RMD_BRINGUP_MISMATCH_NO_COMM_LOSS;
+	if (c->feedback.position == RMD_FEEDBACK_MULTI_TURN &&
+	    !rmd_dialect_has(d, RMD_DIALECT_FINE_ANGLE))
+		return RMD_BRINGUP_MISMATCH_NO_FINE_ANGLE;
+	return RMD_BRINGUP_MISMATCH_NONE;
+}
+
 /* Probe motor i into *out.  Returns 0, or -ENODEV when it is missing.  Non-rt. */
 static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor *out)
 {
 	struct lmotor *lm = &l->mot[i];
-	const struct rmd_dialect *d = lm->m.d;
+	const struct rmd_dialect *d;
 	struct rmd_motor_reply r;
 	int64_t now;
 
 	memset(out, 0, sizeof(*out));
 	out->tries = RMD_LOOP_PROBE_TRIES;
 	out->timeout_ns = probe_timeout_ns(&l->bus[lm->m.bus]);
+	out->proto_auto = l->cfg->motors[i].proto_auto;
+	if (out->proto_auto && resolve_auto(l, i, out) < 0) {
+		out->probe_cmd = lm->m.d->probe[0];
+		now = loop_now(l);
+		out->state = RMD_BRINGUP_MISSING;
+		loop_enter(l, lm, RMD_LC_LOST, now);
+		lm->next_probe_ns = now; /* the first cycle probes again, as V3 */
+		return -ENODEV;
+	}
+	d = lm->m.d;
+	out->proto = lm->m.proto;
 	/*
 	 * The dialect's probes in order (V3: model 0xB5, firmware date 0xB2,
 	 * status 0x9A; V2 has no model or version query: its status answers).
@@ -174,6 +291,14 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		}
 	}
 	now = loop_now(l);
+	out->mismatch = mismatch_of(l, i, out);
+	if (out->mismatch != RMD_BRINGUP_MISMATCH_NONE) {
+		/* never driven, never re-probed: the configuration must change */
+		out->state = RMD_BRINGUP_MISMATCH;
+		loop_enter(l, lm, RMD_LC_LOST, now);
+		lm->next_probe_ns = INT64_MAX;
+		return -ENODEV;
+	}
 	lm->consecutive = 0;
 	loop_enter(l, lm, RMD_LC_READY, now);
 	if (lm->st->error_code)
@@ -326,8 +451,12 @@ int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out)
 	out->comm_loss_ms = l->cfg->safety.comm_loss_ms;
 	flush_buses(l);
 	for (unsigned i = 0; i < l->n_motors; i++)
-		if (probe_motor(l, i, &out->motor[i]) < 0)
-			out->missing++;
+		if (probe_motor(l, i, &out->motor[i]) < 0) {
+			if (out->motor[i].state == RMD_BRINGUP_MISMATCH)
+				out->mismatched++;
+			else
+				out->missing++;
+		}
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		/* late answers tell of ids too: the scan's txn hands them to probe_stray() */
 		scan_bus(l, b);
@@ -342,6 +471,8 @@ int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out)
 	loop_pub_write(l);
 	if (l->o.health)
 		rmd_latest_put(l->o.health, &l->health);
+	if (out->mismatched)
+		return -EPROTO; /* whatever probe.on_missing says: the configuration is wrong */
 	if ((out->missing || out->unarmed) && l->cfg->probe.on_missing == RMD_MISSING_REFUSE)
 		return -ENODEV;
 	return 0;

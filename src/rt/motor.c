@@ -74,7 +74,7 @@ static void row_resolve(const struct rmd_motor *m, uint8_t cmd, enum rmd_field a
 	enum rmd_field flds[2] = { a, b };
 
 	memset(row, 0, sizeof(*row));
-	row->spec = rmd_cmd_find(m->d->table, cmd);
+	row->spec = rmd_motor_row(m, cmd);
 	if (!row->spec || (row->spec->flags & RMD_CMD_NO_CMD_BYTE))
 		return;
 	for (unsigned k = 0; k < 2; k++) {
@@ -194,6 +194,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->proto = c->proto;
 	m->d = d;
 	m->caps = d->caps;
+	m->table = d->table;
 	m->mode = c->mode;
 	m->dir = c->direction;
 	m->gear_ratio = c->gear_ratio;
@@ -210,7 +211,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
 	status2_resolve(m);
 	for (unsigned k = 0; k < 256; k++) {
-		const struct rmd_cmd_spec *spec = rmd_cmd_find(m->d->table, (uint8_t)k);
+		const struct rmd_cmd_spec *spec = rmd_motor_row(m, (uint8_t)k);
 
 		if (spec && (spec->flags & RMD_CMD_ECHO))
 			m->echo[k / 8] |= (uint8_t)(1u << (k % 8));
@@ -225,6 +226,19 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 			m->damp_kd = m->mit.kd_min;
 	}
 	return 0;
+}
+
+/* Non-rt. */
+int rmd_motor_set_dialect(struct rmd_motor *m, const struct rmd_config_motor *c,
+			  enum rmd_proto proto)
+{
+	struct rmd_config_motor as = *c;
+	int r;
+
+	as.proto = proto;
+	r = rmd_motor_init(m, &as);
+	m->name = c->name; /* the entry's, which outlives the motor; not the copy's */
+	return r;
 }
 
 /* rt-safe. */
@@ -330,7 +344,7 @@ static int encode_msg(const struct rmd_motor *m, const struct rmd_msg *msg, stru
 /* rt-safe. */
 int rmd_motor_encode_cmd(const struct rmd_motor *m, uint8_t cmd, struct rmd_frame *out)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->d->table, cmd);
+	const struct rmd_cmd_spec *spec = rmd_motor_row(m, cmd);
 	struct rmd_msg msg;
 
 	if (!spec)
@@ -691,7 +705,7 @@ static const unsigned field_have[256] = {
 static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const struct rmd_frame *f,
 						  struct rmd_motor_reply *r)
 {
-	const struct rmd_cmd_spec *spec = rmd_cmd_find(m->d->table, f->data[0]);
+	const struct rmd_cmd_spec *spec = rmd_motor_row(m, f->data[0]);
 	const struct rmd_layout *l;
 	bool have_angle = false, have_enc = false;
 	double angle = 0;
@@ -868,7 +882,7 @@ double rmd_motor_pos_resolution_rad(const struct rmd_motor *m)
 	const struct rmd_field_spec *fs = NULL;
 
 	if (m->fine_pos) {
-		spec = rmd_cmd_find(m->d->table, RMD_MOTOR_CMD_FINE_POS);
+		spec = rmd_motor_row(m, RMD_MOTOR_CMD_FINE_POS);
 		fs = spec ? rmd_layout_field(spec, RMD_DIR_REPLY, RMD_FLD_ANGLE) : NULL;
 	} else if (m->caps & RMD_DIALECT_MIT) {
 		return (m->mit.p_max - m->mit.p_min) / (double)((1u << RMD_MIT_POS_BITS) - 1);

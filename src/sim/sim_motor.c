@@ -984,7 +984,7 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 	case R_BROADCAST:
 	case R_V2_MULTI:
 	default:
-		reply_id = rmd_dialect(proto)->reply_base + m->ram.can_id;
+		reply_id = m->d->reply_base + m->ram.can_id;
 		break;
 	}
 

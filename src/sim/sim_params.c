@@ -30,6 +30,11 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	ROW("protocol", NULL, PROTO, proto, 0, 0, false, "",
 	    "v3, v2 or mit (MIT motors also speak V3); rmdd.yaml: the motor's protocol",
 	    RMD_SIM_PARAM_MOTOR_KEY),
+	ROW("firmware", NULL, PROTO, proto, 0, 0, false, "",
+	    "the simulated firmware's dialect, v3, v2 or mit; rmdd.yaml motors[].sim: what a "
+	    "motor with protocol auto turns out to speak (or another than its protocol, to see "
+	    "the mismatch refused); rmd-sim: the same as protocol",
+	    0),
 	ROW("model", NULL, MODEL, model, 0, 0, false, "",
 	    "0xB5 model string, 1..7 ASCII characters", 0),
 	ROW("version_date", "version", VERSION, version_date, 0, 0, false, "yyyymmdd",

@@ -88,6 +88,8 @@ struct rig {
 static struct rig R;
 /* when set, rig_up() hands it the simulated motors' setup before it opens the buses */
 static void (*rig_sim_tweak)(struct rmd_sim_setup *sim);
+/* when set, rig_up() hands it the configuration and the simulated motors' setup, first */
+static void (*rig_cfg_tweak)(struct rmd_config *cfg, struct rmd_sim_setup *sim);
 
 static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faults,
 		   unsigned n_faults)
@@ -106,6 +108,8 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 	if (n_faults)
 		memcpy(R.simset.buses[0].faults, faults, n_faults * sizeof(*faults));
 	R.simset.buses[0].n_faults = n_faults;
+	if (rig_cfg_tweak)
+		rig_cfg_tweak(&R.cfg, &R.simset);
 	if (rig_sim_tweak)
 		rig_sim_tweak(&R.simset);
 	if (rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err)))
@@ -373,6 +377,88 @@ static void test_b3_after_trip(void **state)
 	rig_down();
 }
 
+/* ---- protocol: auto ----------------------------------------------------------------- */
+
+/*
+ * Motors 1 and 2 `protocol: auto`, their simulated firmware V3 and V2 (with
+ * comm_loss_ms 0, as a V2 motor needs); motor 3 v3 as configured.
+ */
+static void tweak_auto(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	cfg->motors[0].proto_auto = true;
+	cfg->motors[1].proto_auto = true;
+	cfg->motors[1].comm_loss_ms = 0;
+	sim->motors[1].proto = RMD_PROTO_V2;
+}
+
+/* The V2 motor of tweak_auto(), its comm_loss_ms left at the default (not 0). */
+static void tweak_auto_v2_protected(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	cfg->motors[1].proto_auto = true;
+	sim->motors[1].proto = RMD_PROTO_V2;
+}
+
+static void test_auto_picks_each_dialect(void **state)
+{
+	struct rmd_snapshot s;
+
+	(void)state;
+	rig_cfg_tweak = tweak_auto;
+	rig_up(3, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	/* motor 1: V3 firmware dated 20220206, a date that tells */
+	assert_true(R.bu.motor[0].proto_auto);
+	assert_int_equal(R.bu.motor[0].proto, RMD_PROTO_V3);
+	assert_true(R.bu.motor[0].auto_certain);
+	rig_assert_default_motor(&R.bu.motor[0]);
+	/* motor 2: no answer to 0xB5 on 0x240 + ID, its V2 status on 0x140 + ID */
+	assert_true(R.bu.motor[1].proto_auto);
+	assert_int_equal(R.bu.motor[1].proto, RMD_PROTO_V2);
+	assert_int_equal(R.bu.motor[1].state, RMD_BRINGUP_FOUND);
+	assert_true(R.bu.motor[1].status);
+	assert_int_equal(R.bu.motor[1].b3, RMD_B3_NOT_APPLICABLE);
+	/* motor 3: as configured */
+	assert_false(R.bu.motor[2].proto_auto);
+	assert_int_equal(R.bu.motor[2].proto, RMD_PROTO_V3);
+	assert_int_equal(R.bu.mismatched, 0);
+	assert_int_equal(R.bu.missing, 0);
+	/* the loop takes each motor's answers on its dialect's identifiers */
+	for (unsigned k = 0; k < 300; k++) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	rmd_loop_get_snapshot(R.l, &s);
+	for (unsigned k = 0; k < 3; k++)
+		if (s.m[k].lifecycle != RMD_LC_READY || s.m[k].reply_age_cycles > 200 ||
+		    s.m[k].missed_replies)
+			fail_msg("motor %u: lifecycle %u, last reply %u cycles ago, %llu missed",
+				 k + 1, s.m[k].lifecycle, s.m[k].reply_age_cycles,
+				 (unsigned long long)s.m[k].missed_replies);
+	rig_down();
+}
+
+static void test_auto_v2_with_protection_is_refused(void **state)
+{
+	struct rmd_snapshot s;
+
+	(void)state;
+	rig_cfg_tweak = tweak_auto_v2_protected;
+	rig_up(3, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	/* whatever probe.on_missing says: the configuration must change */
+	R.cfg.probe.on_missing = RMD_MISSING_START;
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), -EPROTO);
+	assert_int_equal(R.bu.mismatched, 1);
+	assert_int_equal(R.bu.motor[1].state, RMD_BRINGUP_MISMATCH);
+	assert_int_equal(R.bu.motor[1].mismatch, RMD_BRINGUP_MISMATCH_NO_COMM_LOSS);
+	assert_int_equal(R.bu.motor[1].proto, RMD_PROTO_V2);
+	assert_int_equal(R.bu.motor[0].state, RMD_BRINGUP_FOUND);
+	rmd_loop_get_snapshot(R.l, &s);
+	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -384,6 +470,8 @@ int main(void)
 		cmocka_unit_test(test_open_config_equals_spec),
 		cmocka_unit_test(test_config_timing),
 		cmocka_unit_test(test_b3_after_trip),
+		cmocka_unit_test(test_auto_picks_each_dialect),
+		cmocka_unit_test(test_auto_v2_with_protection_is_refused),
 	};
 
 	return cmocka_run_group_tests_name("bringup", tests, NULL, NULL);

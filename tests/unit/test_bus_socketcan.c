@@ -323,7 +323,7 @@ static void test_open_interface_down(void **state)
 
 static void test_open_small_txqueuelen(void **state)
 {
-	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3 };
+	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3, false };
 	struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1, .burst = 24 };
 	struct rmd_bus bus;
 	char err[256];
@@ -349,7 +349,7 @@ static void test_open_small_txqueuelen(void **state)
 
 static void test_open_bad_motor(void **state)
 {
-	struct rmd_socketcan_motor m = { 0, RMD_PROTO_V3 };
+	struct rmd_socketcan_motor m = { 0, RMD_PROTO_V3, false };
 	struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1 };
 	struct rmd_bus bus;
 	char err[256];
@@ -386,8 +386,8 @@ static void open_ok(struct rmd_bus *bus, const char *ifname, const struct rmd_so
  */
 static void test_filter(void **state)
 {
-	static const struct rmd_socketcan_motor motors[] = { { 1, RMD_PROTO_V3 },
-							     { 3, RMD_PROTO_MIT } };
+	static const struct rmd_socketcan_motor motors[] = { { 1, RMD_PROTO_V3, false },
+							     { 3, RMD_PROTO_MIT, false } };
 	const struct rmd_socketcan_opts opts = { .motors = motors, .n_motors = 2 };
 	const struct rmd_frame want[] = { frame(0x241, 8, 1), frame(0x503, 8, 4),
 					  frame(0x243, 8, 8), frame(0x241, 4, 11) };
@@ -433,7 +433,7 @@ static void test_filter(void **state)
 static void test_timestamps(void **state)
 {
 	enum { N = 20 };
-	const struct rmd_socketcan_motor m = { 2, RMD_PROTO_V3 };
+	const struct rmd_socketcan_motor m = { 2, RMD_PROTO_V3, false };
 	const struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1 };
 	struct rmd_bus_rx rx[N];
 	struct rmd_bus bus;
@@ -485,7 +485,7 @@ static void test_timestamps(void **state)
 static void test_burst_over_txqueuelen(void **state)
 {
 	enum { N = 32 };
-	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3 };
+	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3, false };
 	const struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1 };
 	struct rmd_frame tx[N], rx[N + 1];
 	struct rmd_bus bus;
@@ -571,7 +571,7 @@ static void test_error_frames_on_vcan(void **state)
 		{ CAN_ERR_LOSTARB, 0, RMD_BUS_OFF, 3 }, /* not in our error mask */
 		{ CAN_ERR_RESTARTED, 0, RMD_BUS_ACTIVE, 4 },
 	};
-	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3 };
+	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3, false };
 	const struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1 };
 	const struct rmd_frame sentinel = frame(0x241, 8, 0x55);
 	struct rmd_bus_rx rx[4];
@@ -625,7 +625,7 @@ static void test_candump_sees_sent_frames(void **state)
 {
 	enum { N = 100, PER_CYCLE = 20 };
 	const char *log = "/dev/shm/rmd_test_bus_socketcan.log";
-	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3 };
+	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3, false };
 	const struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1, .burst = PER_CYCLE };
 	struct rmd_frame tx[N];
 	struct rmd_bus bus;
@@ -702,7 +702,7 @@ static void test_candump_sees_sent_frames(void **state)
 static void test_recv_batches(void **state)
 {
 	enum { BIG = 150, SMALL = 20, MAX_SMALL = 7 };
-	const struct rmd_socketcan_motor m = { 5, RMD_PROTO_V3 };
+	const struct rmd_socketcan_motor m = { 5, RMD_PROTO_V3, false };
 	const struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1 };
 	struct rmd_bus_rx rx[BIG];
 	struct rmd_bus bus;
@@ -751,7 +751,7 @@ static void test_recv_batches(void **state)
 static void test_rx_overflow_counted(void **state)
 {
 	enum { N = 50 };
-	const struct rmd_socketcan_motor m = { 6, RMD_PROTO_V3 };
+	const struct rmd_socketcan_motor m = { 6, RMD_PROTO_V3, false };
 	const struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1, .rcvbuf_bytes = 1 };
 	struct rmd_bus_rx rx[N + 1];
 	struct rmd_bus bus;

@@ -528,7 +528,7 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		      struct line *ln)
 {
 	const struct rmd_config_motor *c = &cfg->motors[i];
-	const struct rmd_dialect *d = rmd_dialect(c->proto);
+	const struct rmd_dialect *d = rmd_dialect(bm->proto);
 	int level = 6;
 
 	line_add(ln, "%s: motor %u (%s): ", cfg->buses[c->bus].name, c->id, c->name);
@@ -554,7 +554,7 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		line_add(ln, ", %.1f V, %.0f °C", bm->voltage_v, bm->temp_c);
 		if (bm->error_code) {
 			const char *names[4];
-			size_t n = rmd_error_names(c->proto, bm->error_code, names, 4);
+			size_t n = rmd_error_names(bm->proto, bm->error_code, names, 4);
 
 			line_add(ln, ", errors 0x%04X (", bm->error_code);
 			for (size_t k = 0; k < n && k < 4; k++)
@@ -565,10 +565,49 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		line_add(ln, ", no answer to 0x9A");
 		level = 4;
 	}
+	if (bm->proto_auto)
+		line_add(ln,
+			 bm->auto_certain ? ", protocol auto: %s" :
+					    ", protocol auto: %s (its firmware date does not tell "
+					    "the generation: the conservative one taken)",
+			 d->key);
 	if (rmd_dialect_has(d, RMD_DIALECT_ENCODER_UNWRAP) && !bm->v2_angle)
 		line_add(ln, ", no 0x92 angle: positions start at 0");
 	if (!rmd_dialect_has(d, RMD_DIALECT_COMM_LOSS_B3))
 		line_add(ln, ", no 0xB3 in %s (no comm-loss protection)", d->name);
+	if (bm->state == RMD_BRINGUP_MISMATCH) {
+		line_add(ln, "; refused: ");
+		switch (bm->mismatch) {
+		case RMD_BRINGUP_MISMATCH_FIRMWARE: {
+			bool certain;
+			const char *fw = rmd_dialect_for_firmware(bm->version, &certain)->key;
+
+			line_add(ln,
+				 "its firmware %u is %s, but its protocol is %s (set protocol: %s, "
+				 "or auto)",
+				 (unsigned)bm->version, fw, rmd_proto_key(c->proto), fw);
+			break;
+		}
+		case RMD_BRINGUP_MISMATCH_NO_COMM_LOSS:
+			line_add(
+				ln,
+				"it answers as %s, which has no comm-loss protection (0xB3), and its "
+				"comm_loss_ms is %u (set protocol: %s and comm_loss_ms: 0, as for a "
+				"%s motor)",
+				d->name, (unsigned)rmd_config_comm_loss_ms(cfg, i), d->key,
+				d->name);
+			break;
+		case RMD_BRINGUP_MISMATCH_NO_FINE_ANGLE:
+			line_add(ln,
+				 "it answers as %s, whose 0x92 is not the fine position: "
+				 "feedback.position multi_turn is for v3 and mit motors",
+				 d->name);
+			break;
+		case RMD_BRINGUP_MISMATCH_NONE:
+			break;
+		}
+		return 3;
+	}
 	return level;
 }
 
@@ -739,6 +778,13 @@ static int bringup(struct rmdd *d)
 	}
 	/* what bring-up reported through the ring goes out now */
 	rmdd_monitor_drain(&d->mon);
+	if (r == -EPROTO) {
+		tool_log(3,
+			 "%u motor(s) answered as another dialect than %s says, or one that cannot "
+			 "do what it asks (above)",
+			 bu.mismatched, cfg->source);
+		return RMDD_EXIT_FAIL;
+	}
 	if (r == -ENODEV && !bu.unarmed) {
 		tool_log(
 			3,
