@@ -106,6 +106,21 @@ struct rmd_bringup {
 	struct rmd_bringup_motor motor[RMD_MAX_MOTORS]; /* config order */
 	/* per bus: ids that answered but are not configured, bit id - 1 */
 	uint32_t unexpected_ids[RMD_MAX_BUSES];
+	/* per bus: what its answers took */
+	struct rmd_bringup_bus {
+		/*
+		 * Round trips, request sent to answer received, of the n
+		 * requests answered at their first try (0: none).
+		 */
+		unsigned n;
+		int64_t rtt_min_ns, rtt_max_ns;
+		/*
+		 * The plan's promise needs every reply in by the next cycle:
+		 * rtt_max_ns beyond the period (which a cycle's own sends
+		 * also take from) means replies will be missed.
+		 */
+		bool exceeds_period;
+	} bus[RMD_MAX_BUSES];
 };
 
 /*

@@ -147,7 +147,17 @@ struct rmd_config_probe {
 	 * answers and is armed.
 	 */
 	enum rmd_on_missing on_missing;
+	/*
+	 * The longest bring-up (and the loop's re-arming through it) waits
+	 * for one answer, ms: a USB-CAN adapter's 1 ms packets, a USB-RS485
+	 * converter's 16 ms latency timer and firmware that writes ROM
+	 * slowly all fit.  Once motors of a bus answered, requests to it wait
+	 * a few of their measured round trips instead (rmd/bringup.h).
+	 */
+	unsigned reply_timeout_ms;
 };
+
+#define RMD_CONFIG_DEFAULT_PROBE_REPLY_TIMEOUT_MS 100
 
 /*
  * The incident recorder: after a safety event, the frames, states,

@@ -170,18 +170,24 @@ enum {
 
 /* Counters beyond struct rmd_loop_stats (rmd_loop_get_counters()). */
 struct rmd_loop_counters {
-	uint64_t replies;	  /* matched to a request */
-	uint64_t missed;	  /* requests whose deadline passed */
-	uint64_t echoes;	  /* requests echoed instead of answered (after a comm-loss trip) */
-	uint64_t unsolicited;	  /* used without a request: 0x9A reports, 0xF1 */
-	uint64_t unexpected;	  /* neither matched nor used (late replies included) */
-	uint64_t bad_replies;	  /* matched, but could not be decoded */
-	uint64_t nonfinite;	  /* setpoints with NaN/Inf: safe frame sent instead */
-	uint64_t unsupported;	  /* setpoints in a mode the motor cannot take: same */
-	uint64_t clamped;	  /* setpoints clamped to a limit */
-	uint64_t frames_not_sent; /* frames a bus did not take */
-	uint64_t commands;	  /* commands taken from the bridge */
-	uint64_t safe_actions;	  /* safe actions applied, per motor */
+	uint64_t replies;     /* matched to a request */
+	uint64_t missed;      /* requests whose deadline passed */
+	uint64_t echoes;      /* requests echoed instead of answered (after a comm-loss trip) */
+	uint64_t unsolicited; /* used without a request: 0x9A reports, 0xF1 */
+	uint64_t unexpected;  /* neither matched nor used, nor the answer of a request given up */
+	/*
+	 * answers of rmdd's own requests that came after their deadline (a
+	 * reply the cycle gave up on, a bring-up try retried): counted, not used
+	 */
+	uint64_t late;
+	int64_t late_max_ns;		 /* the latest of them, request sent to answer received */
+	uint64_t bad_replies;		 /* matched, but could not be decoded */
+	uint64_t nonfinite;		 /* setpoints with NaN/Inf: safe frame sent instead */
+	uint64_t unsupported;		 /* setpoints in a mode the motor cannot take: same */
+	uint64_t clamped;		 /* setpoints clamped to a limit */
+	uint64_t frames_not_sent;	 /* frames a bus did not take */
+	uint64_t commands;		 /* commands taken from the bridge */
+	uint64_t safe_actions;		 /* safe actions applied, per motor */
 	uint64_t ignored[RMD_IGN_KINDS]; /* enable = 1 entries not acted on, by enum rmd_ignore */
 };
 

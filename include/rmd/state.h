@@ -202,6 +202,13 @@ enum rmd_event_kind {
 	 * lost), else 0 (armed by the loop, or the bounded writes failed).
 	 */
 	RMD_EV_COMM_LOSS,
+	/*
+	 * The answer to a request of rmdd's that was given up (a reply past
+	 * its deadline, an earlier try of bring-up): a = ns since it was
+	 * sent, b = its command byte (or RMD_MOTOR_CMD_MIT); at most one a
+	 * second per bus.
+	 */
+	RMD_EV_LATE,
 };
 
 struct rmd_event {

@@ -90,6 +90,7 @@ struct rmd_txn {
 	bool done;	       /* answered (or, no_reply, sent) */
 	unsigned tries;	       /* sends made */
 	struct rmd_bus_rx rep; /* the answer, when done and !no_reply */
+	int64_t first_sent_ns; /* when its first try went out: tries 1, rep.t_ns - this is its round trip */
 	/* rmd_txn_run() internals */
 	bool sent;
 	int64_t deadline_ns;

@@ -247,7 +247,8 @@ static int send_some(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t
 			x->prev_heard = a->heard;
 		}
 		x->sent = true;
-		x->tries++;
+		if (!x->tries++)
+			x->first_sent_ns = now_ns;
 		x->deadline_ns = now_ns + timeout_ns + (int64_t)(*k - 1) * spacing_ns;
 		if (x->no_reply)
 			x->done = true;

@@ -39,6 +39,7 @@ void rmd_config_defaults(struct rmd_config *cfg)
 	cfg->safety.lost_motor_action = RMD_LOST_ALL;
 	cfg->safety.shutdown_damp_ms = RMD_CONFIG_DEFAULT_SHUTDOWN_DAMP_MS;
 	cfg->probe.on_missing = RMD_MISSING_REFUSE;
+	cfg->probe.reply_timeout_ms = RMD_CONFIG_DEFAULT_PROBE_REPLY_TIMEOUT_MS;
 	snprintf(cfg->lcm.url, sizeof(cfg->lcm.url), "%s", RMD_CONFIG_DEFAULT_LCM_URL);
 	snprintf(cfg->lcm.channel_prefix, sizeof(cfg->lcm.channel_prefix), "%s",
 		 RMD_CONFIG_DEFAULT_CHANNEL_PREFIX);

@@ -68,7 +68,8 @@ static const struct field safety_fields[] = {
 };
 
 static const struct field probe_fields[] = {
-	ENUM("on_missing", struct rmd_config_probe, on_missing, rmd_on_missing_names, 0), END
+	ENUM("on_missing", struct rmd_config_probe, on_missing, rmd_on_missing_names, 0),
+	UINT("reply_timeout_ms", struct rmd_config_probe, reply_timeout_ms, 1, 10000, 0), END
 };
 
 static const struct field lcm_fields[] = {
@@ -801,6 +802,10 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 		rmd_yaml_path_key(kp, path, "mit");
 		validate_mit(c, &m->mit, rmd_yaml_get(mn, "mit", NULL), kp);
 		/* rates */
+		/* the default never asks more than the motor's command rate (rate_hz below 10) */
+		if (!rmd_yaml_get(mn, "status_poll_hz", NULL) &&
+		    m->status_poll_hz > (double)rate / m->rate_divisor)
+			m->status_poll_hz = (double)rate / m->rate_divisor;
 		if (m->status_poll_hz > 0 && m->status_poll_hz < RMD_CONFIG_MIN_STATUS_POLL_HZ) {
 			rmd_yaml_path_key(kp, path, "status_poll_hz");
 			rmd_yaml_report(c, rmd_yaml_line_of(mn, "status_poll_hz"), kp,

@@ -73,15 +73,64 @@ static struct rmd_txn_opts txn_opts(struct probe_ctx *pc, unsigned tries, int64_
 	};
 }
 
-/*
- * The wait of one probe on bus lb: RMD_LOOP_PROBE_TIMEOUT_NS, or the
- * transport's own reply timeout plus 1 ms where it has one.  Non-rt.
- */
-static int64_t probe_timeout_ns(const struct lbus *lb)
-{
-	int64_t t = rmd_bus_caps(lb->bus)->reply_timeout_ns;
+/* Round trips a bus's requests wait once it has answered some (RMD_LOOP_PROBE_TIMEOUT_NS at least). */
+#define RTT_WAITS 4
 
-	return t ? t + RMD_NS_PER_MS : RMD_LOOP_PROBE_TIMEOUT_NS;
+/*
+ * The wait of one try on bus lb: probe.reply_timeout_ms until motors of
+ * the bus answered, then RTT_WAITS of the longest round trip measured on
+ * it (no less than RMD_LOOP_PROBE_TIMEOUT_NS, no more than the bound) --
+ * except for a ROM write (`rom`), which firmware may take its time over;
+ * never less than the transport's own reply timeout plus 1 ms.  Non-rt.
+ */
+static int64_t probe_timeout_ns(const struct rmd_loop *l, const struct lbus *lb, bool rom)
+{
+	int64_t bound = (int64_t)l->cfg->probe.reply_timeout_ms * RMD_NS_PER_MS;
+	int64_t t = rmd_bus_caps(lb->bus)->reply_timeout_ns, w = bound;
+
+	if (lb->rtt_n && !rom) {
+		w = RTT_WAITS * lb->rtt_max_ns;
+		if (w < RMD_LOOP_PROBE_TIMEOUT_NS)
+			w = RMD_LOOP_PROBE_TIMEOUT_NS;
+		if (w > bound)
+			w = bound;
+	}
+	if (t && w < t + RMD_NS_PER_MS)
+		w = t + RMD_NS_PER_MS;
+	return w;
+}
+
+/*
+ * The tries of t that were given up -- all of them when it was not
+ * answered, all but one when it was -- may still be answered: the loop
+ * counts such answers late, not unexpected (loop_gone()).  Non-rt.
+ */
+static void give_up_tries(struct lmotor *lm, const struct rmd_txn *t)
+{
+	unsigned n = t->tries - (t->done ? 1u : 0u);
+	uint64_t key = loop_reply_key(t->reply_id, t->reply_cmd);
+
+	if (t->no_reply)
+		return;
+	for (unsigned k = 0; k < n && k < GONE; k++)
+		loop_gone(lm, key, t->first_sent_ns);
+}
+
+/* What the answers of t[0..n) on bus lb tell of its round trip.  Non-rt. */
+static void learn_rtt(struct lbus *lb, const struct rmd_txn *t, unsigned n)
+{
+	for (unsigned k = 0; k < n; k++) {
+		int64_t rtt = t[k].rep.t_ns - t[k].first_sent_ns;
+
+		/* an answer after a retry may be any try's: not a measure */
+		if (!t[k].done || t[k].no_reply || t[k].tries != 1 || rtt < 0)
+			continue;
+		if (!lb->rtt_n || rtt < lb->rtt_min_ns)
+			lb->rtt_min_ns = rtt;
+		if (!lb->rtt_n || rtt > lb->rtt_max_ns)
+			lb->rtt_max_ns = rtt;
+		lb->rtt_n++;
+	}
 }
 
 /*
@@ -93,16 +142,19 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_ms
 		      struct rmd_txn *t)
 {
 	struct probe_ctx pc = { .l = l, .bus = lm->m.bus };
-	struct rmd_txn_opts o =
-		txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(&l->bus[lm->m.bus]));
+	struct lbus *lb = &l->bus[lm->m.bus];
+	struct rmd_txn_opts o;
 	int r;
 
 	r = rmd_txn_prepare(t, lm->m.proto, lm->m.id, msg);
 	if (r < 0)
 		return r;
-	r = rmd_txn_run(l->bus[lm->m.bus].bus, t, 1, &o);
+	o = txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(l, lb, false));
+	r = rmd_txn_run(lb->bus, t, 1, &o);
 	if (r < 0)
 		return r;
+	learn_rtt(lb, t, 1);
+	give_up_tries(lm, t);
 	return t->done ? 0 : -ETIMEDOUT;
 }
 
@@ -235,7 +287,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 
 	memset(out, 0, sizeof(*out));
 	out->tries = RMD_LOOP_PROBE_TRIES;
-	out->timeout_ns = probe_timeout_ns(&l->bus[lm->m.bus]);
+	out->timeout_ns = probe_timeout_ns(l, &l->bus[lm->m.bus], false);
 	out->proto_auto = l->cfg->motors[i].proto_auto;
 	if (out->proto_auto && resolve_auto(l, i, out) < 0) {
 		out->probe_cmd = lm->m.d->probe[0];
@@ -318,7 +370,7 @@ static int scan_bus(struct rmd_loop *l, unsigned b)
 {
 	struct lbus *lb = &l->bus[b];
 	struct probe_ctx pc = { .l = l, .bus = b };
-	struct rmd_txn_opts o = txn_opts(&pc, 1, RMD_LOOP_PROBE_TIMEOUT_NS);
+	struct rmd_txn_opts o = txn_opts(&pc, 1, probe_timeout_ns(l, lb, false));
 	struct rmd_txn t[RMD_MAX_MOTORS];
 	struct rmd_msg msg = { .cmd = 0x9A };
 	unsigned n = 0;
@@ -333,9 +385,17 @@ static int scan_bus(struct rmd_loop *l, unsigned b)
 	r = rmd_txn_run(lb->bus, t, n, &o);
 	if (r < 0)
 		return r;
-	for (unsigned k = 0; k < n; k++)
-		if (t[k].done)
-			lb->unexpected_ids |= 1u << (t[k].req.can_id - RMD_CAN_REQ_BASE - 1);
+	for (unsigned k = 0; k < n; k++) {
+		uint32_t bit = 1u << (t[k].req.can_id - RMD_CAN_REQ_BASE - 1);
+
+		if (t[k].done) {
+			lb->unexpected_ids |= bit;
+		} else {
+			/* an answer that still comes is late (loop_rx.c) */
+			lb->scan_gone_ids |= bit;
+			lb->scan_sent_ns = t[k].first_sent_ns;
+		}
+	}
 	return 0;
 }
 
@@ -371,6 +431,29 @@ static enum rmd_comm_loss b3_state(enum rmd_bringup_b3 b3)
 }
 
 /*
+ * The wait of one try of bus b's 0xB3 writes: a ROM write's (V3 §2.30:
+ * 0xB3 is stored in ROM), but short enough that the motors armed first
+ * in the batch hear the loop's first cycle before their protection
+ * trips while a silent one is tried: no more than the bus's shortest
+ * comm-loss time over the tries and the cycle that follows them -- and
+ * never less than a read's wait.  Non-rt.
+ */
+static int64_t arm_timeout_ns(const struct rmd_loop *l, unsigned b)
+{
+	int64_t w = probe_timeout_ns(l, &l->bus[b], true);
+	int64_t floor = probe_timeout_ns(l, &l->bus[b], false);
+
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		int64_t cl = (int64_t)rmd_config_comm_loss_ms(l->cfg, i) * RMD_NS_PER_MS;
+		int64_t most = cl / (RMD_LOOP_PROBE_TRIES + 1) - l->period_ns;
+
+		if (l->mot[i].m.bus == b && cl && most < w)
+			w = most;
+	}
+	return w < floor ? floor : w;
+}
+
+/*
  * V3 §2.30: write each motor's comm-loss protection time (ROM) to every
  * motor of bus b that answered the probe, all in one batch, each tried
  * RMD_LOOP_PROBE_TRIES times, and check each answer, as the last step of
@@ -382,7 +465,7 @@ static enum rmd_comm_loss b3_state(enum rmd_bringup_b3 b3)
 static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *out)
 {
 	struct probe_ctx pc = { .l = l, .bus = b };
-	struct rmd_txn_opts o = txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(&l->bus[b]));
+	struct rmd_txn_opts o = txn_opts(&pc, RMD_LOOP_PROBE_TRIES, arm_timeout_ns(l, b));
 	struct rmd_txn t[RMD_MAX_MOTORS];
 	unsigned idx[RMD_MAX_MOTORS], n = 0;
 	int64_t now;
@@ -415,6 +498,7 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 		const struct rmd_txn *w = &t[k];
 
 		bm->b3 = b3_outcome(&w->req, r >= 0 && w->done ? &w->rep.f : NULL);
+		give_up_tries(&l->mot[idx[k]], w);
 		loop_cl_outcome(l, &l->mot[idx[k]], b3_state(bm->b3), now);
 	}
 	for (unsigned i = 0; i < l->n_motors; i++) {
@@ -463,8 +547,17 @@ int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out)
 		out->unexpected_ids[b] = l->bus[b].unexpected_ids;
 	}
 	/* last, so that no motor goes quiet between its 0xB3 and the first cycle */
-	for (unsigned b = 0; b < l->n_buses; b++)
+	for (unsigned b = 0; b < l->n_buses; b++) {
+		const struct lbus *lb = &l->bus[b];
+
 		arm_comm_loss(l, b, out);
+		out->bus[b] = (struct rmd_bringup_bus){
+			.n = lb->rtt_n,
+			.rtt_min_ns = lb->rtt_min_ns,
+			.rtt_max_ns = lb->rtt_max_ns,
+			.exceeds_period = lb->rtt_n && lb->rtt_max_ns >= l->period_ns,
+		};
+	}
 	/* what bring-up found is the state before the first cycle */
 	loop_fill_snapshot(l, loop_now(l));
 	loop_fill_health(l, loop_now(l)); /* each motor's protection, for config_t at once */

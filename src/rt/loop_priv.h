@@ -29,10 +29,11 @@
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 
-#define OUTSTANDING 8			/* requests in flight per motor */
-#define ONESHOTS 4			/* one-shot frames waiting per motor */
-#define RX_BATCH 64			/* frames per recv() call */
-#define RX_ROUNDS 8			/* recv() calls per bus per drain: bounded work */
+#define OUTSTANDING 8 /* requests in flight per motor */
+#define GONE 8	      /* requests given up per motor, whose answers may still come */
+#define ONESHOTS 4    /* one-shot frames waiting per motor */
+#define RX_BATCH 64   /* frames per recv() call */
+#define RX_ROUNDS 8   /* recv() calls per bus per drain: bounded work */
 #define TX_MAX (2 * RMD_PLAN_MAX_SLOTS) /* frames of one bus in one cycle: 2 a slot */
 #define EVENT_INTERVAL_NS RMD_NS_PER_S	/* repeated bus events: at most one a second */
 #define COLLECT_GUARD_NS 50000		/* stop polling the buses this long before the tick */
@@ -69,6 +70,16 @@ struct lmotor {
 	struct rmd_motor_state *st;
 	struct outstanding os[OUTSTANDING];
 	uint8_t os_used; /* bit k: os[k] is in flight (OUTSTANDING <= 8) */
+	/*
+	 * Requests given up (missed, or a bring-up try retried), newest
+	 * last, a ring: an answer that comes for one is late, not unexpected
+	 * (loop_gone(), loop_rx.c).
+	 */
+	struct gone {
+		uint64_t key; /* os_keyof() of its answer; 0: free */
+		int64_t sent_ns;
+	} gone[GONE];
+	unsigned gone_next;
 	uint64_t seq;
 	/* the newest request answered or echoed: its seq + 1 (0: none) and when it went */
 	uint64_t heard_seq;
@@ -124,13 +135,19 @@ struct lbus {
 	unsigned batch_rr; /* round robin of the 0x280 slot's status reads */
 	uint8_t state_seen;
 	bool failing;
-	int64_t ev_send_ns, ev_unexpected_ns;
-	bool ev_send_any, ev_unexpected_any;
+	int64_t ev_send_ns, ev_unexpected_ns, ev_late_ns;
+	bool ev_send_any, ev_unexpected_any, ev_late_any;
 	/* load over the last health window */
 	uint64_t frames_t0;
 	int64_t load_t0;
 	double load;
 	uint32_t unexpected_ids; /* bring-up: ids that answered but are not configured */
+	/* bring-up's scan: ids asked (0x9A) that did not answer in time, bit id - 1, and when */
+	uint32_t scan_gone_ids;
+	int64_t scan_sent_ns;
+	/* bring-up: round trips of requests answered at their first try (struct rmd_bringup_bus) */
+	unsigned rtt_n;
+	int64_t rtt_min_ns, rtt_max_ns;
 };
 
 struct rmd_loop {
@@ -230,6 +247,24 @@ static inline void stat_end(struct rmd_loop *l)
 static inline enum rmd_safe_action loop_safe_action(const struct rmd_loop *l)
 {
 	return l->cfg->safety.safe_action;
+}
+
+/* The key of an answer: its identifier and command byte (or RMD_MOTOR_CMD_MIT).  rt-safe. */
+static inline uint64_t loop_reply_key(uint32_t reply_id, uint16_t cmd)
+{
+	return (uint64_t)reply_id << 16 | cmd;
+}
+
+/*
+ * A request of lm, sent at sent_ns, whose answer (loop_reply_key()) was
+ * given up: if it still comes, it is late, not unexpected.  rt-safe.
+ */
+static inline void loop_gone(struct lmotor *lm, uint64_t key, int64_t sent_ns)
+{
+	struct gone *g = &lm->gone[lm->gone_next++ % GONE];
+
+	g->key = key;
+	g->sent_ns = sent_ns;
 }
 
 /* lifecycle.c.  rt-safe. */

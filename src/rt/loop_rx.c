@@ -27,7 +27,7 @@
  */
 static inline uint64_t os_keyof(uint32_t reply_id, uint16_t cmd)
 {
-	return (uint64_t)reply_id << 16 | cmd;
+	return loop_reply_key(reply_id, cmd);
 }
 
 static inline __attribute__((always_inline)) void
@@ -49,6 +49,12 @@ os_key(const struct rmd_motor *m, const struct rmd_frame *f, struct outstanding 
 			   rmd_motor_echoes(m, f->data[0]);
 }
 
+/* Request o of lm is given up: an answer that still comes is late (loop_gone()).  rt-safe. */
+static inline void os_give_up(struct lmotor *lm, const struct outstanding *o)
+{
+	loop_gone(lm, o->key, o->sent_ns);
+}
+
 /* Request f of lm, sent at now, is in flight.  rt-safe. */
 static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, struct lmotor *lm,
 							 const struct rmd_frame *f, int64_t now)
@@ -66,6 +72,7 @@ static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, str
 			if (lm->os[j].seq < lm->os[k].seq)
 				k = j;
 		lm->os_used &= (uint8_t) ~(1u << k);
+		os_give_up(lm, &lm->os[k]);
 		loop_miss(l, lm, now);
 	}
 	o = &lm->os[k];
@@ -163,6 +170,62 @@ void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 	loop_event(l, now, RMD_EV_UNEXPECTED, 0xFF, b, f->can_id, f->len ? f->data[0] : -1);
 }
 
+/*
+ * Is f (id, cmd) the answer of a request of lm given up?  Then it is
+ * counted late, with its delay, and the entry used up.  rt-safe.
+ */
+static bool took_late(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32_t id, uint16_t cmd,
+		      int64_t now)
+{
+	uint64_t key = os_keyof(id, cmd);
+	struct lbus *lb = &l->bus[b];
+	int best = -1;
+
+	for (unsigned k = 0; k < GONE; k++)
+		if (lm->gone[k].key == key &&
+		    (best < 0 || lm->gone[k].sent_ns < lm->gone[best].sent_ns))
+			best = (int)k;
+	if (best < 0)
+		return false;
+	lm->gone[best].key = 0;
+	l->cnt.late++;
+	if (now - lm->gone[best].sent_ns > l->cnt.late_max_ns)
+		l->cnt.late_max_ns = now - lm->gone[best].sent_ns;
+	if (!lb->ev_late_any || now - lb->ev_late_ns >= EVENT_INTERVAL_NS) {
+		lb->ev_late_any = true;
+		lb->ev_late_ns = now;
+		loop_event(l, now, RMD_EV_LATE, loop_idx(l, lm), b, now - lm->gone[best].sent_ns,
+			   cmd);
+	}
+	return true;
+}
+
+/*
+ * Is f the late answer of bring-up's scan (0x9A to an id that is not
+ * configured, rmd/bringup.h), on V3's or V2's reply identifier?  Counted
+ * late once per id; the bring-up report named the ids that answered in
+ * time.  rt-safe.
+ */
+static bool scan_late(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+	uint32_t id = f->can_id, mid = 0;
+
+	if (!lb->scan_gone_ids || !f->len || f->data[0] != 0x9A)
+		return false;
+	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+		mid = id - RMD_CAN_V3_REPLY_BASE;
+	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
+		mid = id - RMD_CAN_REQ_BASE;
+	if (!mid || !(lb->scan_gone_ids & (1u << (mid - 1))))
+		return false;
+	lb->scan_gone_ids &= ~(1u << (mid - 1));
+	l->cnt.late++;
+	if (now - lb->scan_sent_ns > l->cnt.late_max_ns)
+		l->cnt.late_max_ns = now - lb->scan_sent_ns;
+	return true;
+}
+
 /* Decode f into lm's state; false when it cannot be decoded.  rt-safe. */
 static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
 			int64_t now)
@@ -200,6 +263,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	int k;
 
 	if (!lm || !f->len) {
+		if (!lm && scan_late(l, b, f, now))
+			return;
 		loop_unexpected(l, b, f, now);
 		return;
 	}
@@ -251,6 +316,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			l->cnt.bad_replies++;
 		return;
 	}
+	if (took_late(l, b, lm, f->can_id, cmd, now))
+		return;
 	loop_unexpected(l, b, f, now);
 }
 
@@ -288,6 +355,7 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 			/* a request's deadline: its bus's reply_ns after it was sent */
 			if (lm->os[k].sent_ns <= now - l->bus[lm->m.bus].reply_ns) {
 				os_done(lm, k);
+				os_give_up(lm, &lm->os[k]);
 				loop_miss(l, lm, now);
 			}
 		}

@@ -459,6 +459,80 @@ static void test_auto_v2_with_protection_is_refused(void **state)
 	rig_down();
 }
 
+/* ---- slow answers (issue 21) ---------------------------------------------------------- */
+
+/* Motors that answer 8 ms late, a 5 ms try, 50 Hz: every probe is tried twice. */
+static void tweak_slow(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	cfg->loop.rate_hz = 50;
+	cfg->safety.comm_loss_ms = 200;
+	cfg->safety.command_timeout_ms = 200;
+	cfg->probe.reply_timeout_ms = 5;
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		cfg->motors[i].status_poll_hz = 10;
+		sim->motors[i].turnaround_ns = 8 * MS;
+		sim->motors[i].turnaround_jitter_ns = 0;
+	}
+}
+
+/* Motors that answer 20 ms late: a bring-up that waits probe.reply_timeout_ms (100). */
+static void tweak_20ms(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	cfg->loop.rate_hz = 10;
+	cfg->safety.comm_loss_ms = 1000;
+	cfg->safety.command_timeout_ms = 500;
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		cfg->motors[i].status_poll_hz = 10;
+		sim->motors[i].turnaround_ns = 20 * MS;
+		sim->motors[i].turnaround_jitter_ns = 0;
+	}
+}
+
+static void test_slow_motors_are_found_and_measured(void **state)
+{
+	(void)state;
+	rig_cfg_tweak = tweak_20ms;
+	rig_up(2, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	for (unsigned i = 0; i < 2; i++) {
+		assert_int_equal(R.bu.motor[i].state, RMD_BRINGUP_FOUND);
+		assert_int_equal(R.bu.motor[i].b3, RMD_B3_SET);
+	}
+	/* the round trip the motors took, measured: 20 ms and the frames' wire time */
+	assert_true(R.bu.bus[0].n >= 4);
+	assert_true(R.bu.bus[0].rtt_min_ns >= 20 * MS);
+	assert_true(R.bu.bus[0].rtt_max_ns < 21 * MS);
+	assert_false(R.bu.bus[0].exceeds_period); /* 100 ms at 10 Hz */
+	rig_down();
+}
+
+/*
+ * Bring-up's earlier try answered after it gave up, then the loop: the
+ * answer is counted late, never unexpected.
+ */
+static void test_late_answers_of_bringup_are_late(void **state)
+{
+	struct rmd_loop_counters c;
+
+	(void)state;
+	rig_cfg_tweak = tweak_slow;
+	rig_up(2, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	for (unsigned k = 0; k < 50; k++) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	rmd_loop_get_counters(R.l, &c);
+	if (c.unexpected || !c.late || c.missed)
+		fail_msg("unexpected %llu, late %llu (the latest %.1f ms), missed %llu: bring-up's "
+			 "retried probes' answers must come as late",
+			 (unsigned long long)c.unexpected, (unsigned long long)c.late,
+			 (double)c.late_max_ns / 1e6, (unsigned long long)c.missed);
+	rig_down();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -472,6 +546,8 @@ int main(void)
 		cmocka_unit_test(test_b3_after_trip),
 		cmocka_unit_test(test_auto_picks_each_dialect),
 		cmocka_unit_test(test_auto_v2_with_protection_is_refused),
+		cmocka_unit_test(test_slow_motors_are_found_and_measured),
+		cmocka_unit_test(test_late_answers_of_bringup_are_late),
 	};
 
 	return cmocka_run_group_tests_name("bringup", tests, NULL, NULL);

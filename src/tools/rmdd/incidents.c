@@ -268,6 +268,10 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 		snprintf(buf, len, "%s: unexpected frame 0x%03" PRIX64, rmdd_bus_name(cfg, e->bus),
 			 (uint64_t)e->a);
 		break;
+	case RMD_EV_LATE:
+		snprintf(buf, len, "%s: a late answer, %.1f ms after its request", ctx,
+			 (double)e->a / 1e6);
+		break;
 	case RMD_EV_RT:
 		snprintf(buf, len, "rt loop: real-time request %" PRId64 " refused", e->b);
 		break;
@@ -317,6 +321,7 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 	case RMD_EV_MOTOR_ERROR: /* the FAULT or LOST that follows is the incident */
 	case RMD_EV_SEND_FAILED:
 	case RMD_EV_UNEXPECTED:
+	case RMD_EV_LATE:
 	case RMD_EV_RT:
 	case RMD_EV_COMM_LOSS:
 	default:

@@ -746,6 +746,32 @@ static void exit_line(const struct rmdd *d)
 	tool_log(5, "%s; comm-loss protection (0xB3) stays set on %s", sent, ln.s);
 }
 
+/*
+ * "bus: round trip 0.52 .. 0.61 ms (12 answers)": what bring-up measured,
+ * and a warning when the longest takes the whole period the plan gives a
+ * reply (docs/troubleshooting.md "Slow answers").
+ */
+static void rtt_line(const struct rmd_config *cfg, unsigned b, const struct rmd_bringup_bus *bb,
+		     int64_t period_ns)
+{
+	if (!bb->n)
+		return;
+	if (!bb->exceeds_period) {
+		tool_log(6, "  %s: round trip %.2f .. %.2f ms (%u answers at their first try)",
+			 cfg->buses[b].name, (double)bb->rtt_min_ns / 1e6,
+			 (double)bb->rtt_max_ns / 1e6, bb->n);
+		return;
+	}
+	tool_log(4,
+		 "  %s: round trip %.2f .. %.2f ms (%u answers at their first try): longer than "
+		 "a cycle (%.2f ms at %u Hz), so replies will come after their deadline and "
+		 "count as missed; lower loop.rate_hz to at most %u Hz, or find what delays them "
+		 "(a USB adapter or converter: docs/troubleshooting.md)",
+		 cfg->buses[b].name, (double)bb->rtt_min_ns / 1e6, (double)bb->rtt_max_ns / 1e6,
+		 bb->n, (double)period_ns / 1e6, cfg->loop.rate_hz,
+		 (unsigned)(1e9 / ((double)bb->rtt_max_ns * 1.25)));
+}
+
 /* Bring-up with its report.  Returns an exit status. */
 static int bringup(struct rmdd *d)
 {
@@ -775,6 +801,8 @@ static int bringup(struct rmdd *d)
 			if (level)
 				tool_log(level, "  %s", ln.s);
 		}
+		for (unsigned b = 0; b < bu.n_buses; b++)
+			rtt_line(cfg, b, &bu.bus[b], d->plan.period_ns);
 	}
 	/* what bring-up reported through the ring goes out now */
 	rmdd_monitor_drain(&d->mon);

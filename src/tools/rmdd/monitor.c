@@ -291,6 +291,22 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 			 rmdd_bus_name(cfg, e->bus), e->a ? strerror((int)-e->a) : "queue full",
 			 e->b);
 		break;
+	case RMD_EV_LATE:
+		rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+		if (e->b == RMD_MOTOR_CMD_MIT)
+			tool_log(6,
+				 "%s: the answer to an MIT frame came %.1f ms after it was sent, "
+				 "after rmdd gave it up: counted late, not used (at most one such "
+				 "line a second)",
+				 ctx, (double)e->a / 1e6);
+		else
+			tool_log(6,
+				 "%s: the answer to 0x%02" PRIX64
+				 " came %.1f ms after it was sent, "
+				 "after rmdd gave it up: counted late, not used (at most one such "
+				 "line a second)",
+				 ctx, (uint64_t)e->b, (double)e->a / 1e6);
+		break;
 	case RMD_EV_UNEXPECTED:
 		if (e->b >= 0)
 			tool_log(5,

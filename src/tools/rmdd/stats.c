@@ -175,8 +175,10 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 	print_wake_hist(s);
 	tool_log_always(6,
 			"  replies: matched %" PRIu64 ", missed %" PRIu64 ", echoed %" PRIu64
-			", unsolicited %" PRIu64 ", unexpected %" PRIu64 ", undecodable %" PRIu64,
-			c.replies, c.missed, c.echoes, c.unsolicited, c.unexpected, c.bad_replies);
+			", unsolicited %" PRIu64 ", unexpected %" PRIu64 ", late %" PRIu64
+			" (the latest %.1f ms), undecodable %" PRIu64,
+			c.replies, c.missed, c.echoes, c.unsolicited, c.unexpected, c.late,
+			(double)c.late_max_ns / 1e6, c.bad_replies);
 	tool_log_always(6,
 			"  setpoints: commands %" PRIu64 ", clamped %" PRIu64
 			", non-finite %" PRIu64 ", unsupported %" PRIu64 ", safe actions %" PRIu64
