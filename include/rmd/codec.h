@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * RMD protocol codec, V2.0 and V3.x: bytes <-> decoded messages.
+ * RMD protocol codec, V2.0, V3.x and V4.x: bytes <-> decoded messages.
  *
  * Layer 1 of docs/design.md: pure functions, no I/O, clock, globals (other than
  * const tables), allocation or logging.  Every function here is rt-safe.
@@ -37,6 +37,7 @@ enum rmd_proto {
 	RMD_PROTO_V3 = 0, /* replies on 0x240 + ID */
 	RMD_PROTO_V2,	  /* replies on 0x140 + ID */
 	RMD_PROTO_MIT,	  /* 0x400 + ID / 0x500 + ID, see rmd/mit.h */
+	RMD_PROTO_V4,	  /* replies on 0x240 + ID; float PID gains by index */
 	RMD_PROTO_COUNT	  /* not a dialect: how many there are */
 };
 
@@ -90,6 +91,12 @@ enum rmd_field {
 	RMD_FLD_CURRENT_3,   /* current_3_a */
 	RMD_FLD_CURRENT_4,   /* current_4_a */
 	RMD_FLD_BATTERY,     /* battery_v: V2 0x72 */
+	RMD_FLD_GAIN,	     /* gain: V4 0x30..0x32, one PID gain (float) */
+	RMD_FLD_MOS_TEMP,    /* mos_temperature_c: V4.3 0x9A (unverified) */
+	RMD_FLD_MAX_TORQUE,  /* max_torque_pct: V4.3 0xA2, % rated current (unverified) */
+	RMD_FLD_REPORT_CMD,  /* report_command: V4 0xB6, the reply pushed */
+	RMD_FLD_REPORT_ON,   /* report_enable: V4 0xB6, 1 on, 0 off */
+	RMD_FLD_REPORT_MS,   /* report_interval_ms: V4 0xB6, 10 ms a step */
 	RMD_FLD_COUNT
 };
 
@@ -109,6 +116,13 @@ enum rmd_field {
  * reaches 2^(8 size - 1)); top bit clear -> the field, negated when the flag
  * is nonzero.  Encoding writes the manual's own form: two's complement and
  * the flag 1 for a negative value (e.g. -50.00 deg is 78 EC FF FF FF FF 01).
+ *
+ * is_float: the field is a little-endian IEEE 754 binary32 (V4.2 §2.1 ..
+ * §2.3: a PID gain, 0x3F800000 = 1.0).  Its raw value is the 32 bits
+ * (size 4, unsigned, scale 1.0), so encode, decode and decode(encode(x))
+ * stay integer; rmd_field_to_native() and rmd_field_from_native() convert
+ * through float.  No float field is on the rt loop's path: the rt loop
+ * reads fields through rmd_field_rd_*, which know integers only.
  */
 struct rmd_field_spec {
 	uint8_t field; /* enum rmd_field */
@@ -117,6 +131,7 @@ struct rmd_field_spec {
 	bool is_signed;
 	double scale;	/* native unit per LSB (1.0 for counts and codes) */
 	bool sign_byte; /* data[off + size] is a sign flag (above); is_signed too */
+	bool is_float;	/* IEEE 754 binary32, raw = its bits (above) */
 };
 
 #define RMD_LAYOUT_MAX 7
@@ -266,6 +281,9 @@ const struct rmd_field_spec *rmd_layout_field(const struct rmd_cmd_spec *spec, e
  * signed or unsigned, 8 * size bits).  rmd_field_from_native() stores the
  * result in *raw and returns 0, or -ERANGE when the rounded value lay
  * outside the range (*raw saturated) or native was NaN (*raw 0).
+ * A float field (is_float) is native rounded to the nearest binary32, its
+ * bits in *raw: -ERANGE for NaN (*raw 0) or beyond the largest finite
+ * float (*raw that largest, with native's sign).
  */
 void rmd_field_range(const struct rmd_field_spec *fs, int64_t *lo, int64_t *hi);
 double rmd_field_to_native(const struct rmd_field_spec *fs, int64_t raw);
@@ -408,9 +426,9 @@ const char *rmd_field_key(enum rmd_field fld);
 size_t rmd_error_names(enum rmd_proto proto, uint16_t code, const char **names, size_t max);
 
 /*
- * Protocol names, from the dialects' records.  Keys "v3", "v2", "mit"
+ * Protocol names, from the dialects' records.  Keys "v3", "v2", "mit", "v4"
  * (config files and command lines; rmd_proto_keys[] is NULL-terminated,
- * in enum order, filled before main()); names "V3", "V2", "MIT" (the
+ * in enum order, filled before main()); names "V3", "V2", "MIT", "V4" (the
  * manuals' spelling, for messages); "?" out of range.  rmd_proto_parse()
  * takes a key in any letter case ("v3", "V3", "Mit") and returns 0, or
  * -EINVAL for anything else (*proto untouched).
@@ -429,7 +447,14 @@ void rmd_model_string(int64_t raw, char buf[8]);
 /* String of up to 7 ASCII characters -> 0xB5 model field value. */
 int64_t rmd_model_raw(const char *s);
 
-/* 0xB2 version date yyyymmdd -> true when it is a plausible calendar date. */
-bool rmd_version_date_valid(uint32_t yyyymmdd);
+/*
+ * 0xB2 version: yyyymmdd (V3 §2.29, V4.2 §2.29: 20220206), or on newer
+ * firmware yyyymmddNN, a build number after the date (2025070202 from an
+ * X4-36, 2025).  rmd_version_date() gives the date yyyymmdd of either
+ * form, or 0 when it is no plausible calendar date in 2000..2099;
+ * rmd_version_date_valid() tells whether there is one.
+ */
+uint32_t rmd_version_date(uint32_t version);
+bool rmd_version_date_valid(uint32_t version);
 
 #endif /* RMD_CODEC_H */

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Firmware dialects as data: one record per protocol generation (V2.0,
- * V3.x, MIT), with everything the layers above the codec need to know about
+ * V3.x, MIT, V4.x), with everything the layers above the codec need to know about
  * it -- its command table, the CAN identifiers it uses, what it can do
  * (capability bits), its error flags and its bring-up probes.
  *
@@ -66,6 +66,19 @@ enum {
 	 * the motor is driven by them (RMD_DIALECT_MIT)
 	 */
 	RMD_DIALECT_MIT_FRAMES = 1u << 10,
+	/* 0x79 sets and reads the CAN ID on 0x300, both ways (V3 §4, V4.2 §4) */
+	RMD_DIALECT_ID_300 = 1u << 11,
+	/*
+	 * 0xB6 makes the motor push a reply every n x 10 ms, and no longer
+	 * answer that read (V4.2 §2.33); CAN only
+	 */
+	RMD_DIALECT_ACTIVE_REPLY = 1u << 12,
+	/* 0x42 reads the acceleration of an index, as 0x43 writes it (V4.2 §2.4) */
+	RMD_DIALECT_ACCEL_INDEX = 1u << 13,
+	/* 0x20 index 4 keeps the multi-turn angle at power off (V3 §2.33.4, V4.2 §2.34.4) */
+	RMD_DIALECT_MULTI_TURN_SAVE = 1u << 14,
+	/* 0x20 indexes 6 and 7 set the position limits, in ROM (V4.2 §2.34.4) */
+	RMD_DIALECT_ANGLE_LIMITS = 1u << 15,
 };
 
 /* How a motor's CAN ID is set (struct rmd_dialect.set_id). */
@@ -73,6 +86,13 @@ enum rmd_set_id {
 	RMD_SET_ID_NONE = 0,
 	RMD_SET_ID_79_OWN, /* 0x79 on the motor's own 0x140 + ID (V2 §3.52) */
 	RMD_SET_ID_79_300, /* 0x79 on 0x300, to every motor (V3 §4) */
+	/*
+	 * 0x20 index 5 on the motor's own 0x140 + ID writes the new ID to ROM,
+	 * 0x76 makes it effective (V4.2 §2.34.4).  X4-36 and X4-64 firmware of
+	 * 2025 (0xB2 2025070202) no longer answer 0x79; they echo 0x20 from
+	 * the new 0x240 + ID and take requests on the old one until the reset.
+	 */
+	RMD_SET_ID_FUNC_20,
 };
 
 /* How a motor's PID gains are read and written (struct rmd_dialect.pid). */
@@ -80,6 +100,12 @@ enum rmd_pid_layout {
 	RMD_PID_NONE = 0,
 	RMD_PID_V2_PER_GAIN, /* one command a gain and a place (V2 §3.1 .. §3.18) */
 	RMD_PID_U8_SIX,	     /* six uint8 gains in one frame, 0x30/0x31/0x32 (V3 §2.1) */
+	/*
+	 * one float gain a frame, its index at data[1] (1, 2 current KP/KI;
+	 * 4, 5 speed KP/KI; 7, 8, 9 position KP/KI/KD), 0x30/0x31/0x32
+	 * (V4.2 §2.1 .. §2.3)
+	 */
+	RMD_PID_FLOAT_INDEXED,
 };
 
 /* One named error flag of a dialect's table. */
@@ -127,6 +153,17 @@ struct rmd_dialect {
 	unsigned n_probes;
 };
 
+/*
+ * The dialect for `protocol: auto`, from a motor's 0xB2 answer (V3 §2.29:
+ * yyyymmdd; newer firmware yyyymmddNN, rmd_version_date()).  A date on or
+ * after 2024-05-28, V4.2's revision date (V4.2 §9: the float PID layout),
+ * gives V4; a plausible earlier date V3 (V3.x, V4.0 and V4.1 firmware keep
+ * V3.6's uint8 PID layout, the difference that matters to the tools); both
+ * with *certain true.  No plausible date: V3, *certain false.  Never NULL.
+ * rt-safe.
+ */
+const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certain);
+
 /* The record of dialect `proto`, or NULL when there is none.  rt-safe. */
 const struct rmd_dialect *rmd_dialect(enum rmd_proto proto);
 
@@ -157,7 +194,7 @@ static inline bool rmd_dialect_shared_ids(const struct rmd_dialect *d)
 /* The identifier of a set-ID (0x79) frame when it rides on one of its own; 0 otherwise. */
 static inline uint32_t rmd_dialect_set_id_can(const struct rmd_dialect *d)
 {
-	return d->set_id == RMD_SET_ID_79_300 ? RMD_CAN_SET_ID : 0;
+	return rmd_dialect_has(d, RMD_DIALECT_ID_300) ? RMD_CAN_SET_ID : 0;
 }
 
 #endif /* RMD_DIALECT_H */

@@ -6,6 +6,7 @@
  * Everything here is pure and rt-safe.
  */
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -52,6 +53,12 @@ static const char *const field_keys[RMD_FLD_COUNT] = {
 	[RMD_FLD_CURRENT_3] = "current_3_a",
 	[RMD_FLD_CURRENT_4] = "current_4_a",
 	[RMD_FLD_BATTERY] = "battery_v",
+	[RMD_FLD_GAIN] = "gain",
+	[RMD_FLD_MOS_TEMP] = "mos_temperature_c",
+	[RMD_FLD_MAX_TORQUE] = "max_torque_pct",
+	[RMD_FLD_REPORT_CMD] = "report_command",
+	[RMD_FLD_REPORT_ON] = "report_enable",
+	[RMD_FLD_REPORT_MS] = "report_interval_ms",
 };
 
 const char *rmd_field_key(enum rmd_field fld)
@@ -185,8 +192,28 @@ static double lsb(const struct rmd_field_spec *fs)
 	return fs->scale > 0.0 ? fs->scale : 1.0;
 }
 
+/* V4.2 §2.1: a float field's 32 bits, little-endian on the wire, as a float. */
+static float float_of(int64_t raw)
+{
+	uint32_t u = (uint32_t)raw;
+	float x;
+
+	memcpy(&x, &u, sizeof(x));
+	return x;
+}
+
+static int64_t float_bits(float x)
+{
+	uint32_t u;
+
+	memcpy(&u, &x, sizeof(u));
+	return (int64_t)u;
+}
+
 double rmd_field_to_native(const struct rmd_field_spec *fs, int64_t raw)
 {
+	if (fs->is_float)
+		return (double)float_of(raw);
 	return (double)raw * lsb(fs);
 }
 
@@ -194,6 +221,18 @@ int rmd_field_from_native(const struct rmd_field_spec *fs, double native, int64_
 {
 	int64_t lo, hi;
 
+	if (fs->is_float) {
+		if (isnan(native)) {
+			*raw = 0;
+			return -ERANGE;
+		}
+		if (fabs(native) > FLT_MAX) {
+			*raw = float_bits(native < 0 ? -FLT_MAX : FLT_MAX);
+			return -ERANGE;
+		}
+		*raw = float_bits((float)native);
+		return 0;
+	}
 	rmd_field_range(fs, &lo, &hi);
 	return rmd_field_raw_in(fs, lo, hi, native, raw);
 }

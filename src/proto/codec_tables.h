@@ -11,20 +11,27 @@ extern const struct rmd_cmd_spec rmd_v3_cmds[];
 extern const size_t rmd_v3_ncmds;
 extern const struct rmd_cmd_spec rmd_v2_cmds[];
 extern const size_t rmd_v2_ncmds;
+extern const struct rmd_cmd_spec rmd_v4_cmds[];
+extern const size_t rmd_v4_ncmds;
 
 /* Table-writing shorthands: signed / unsigned little-endian fields. */
-#define RMD_S(fld, off, size, scale)                               \
-	{                                                          \
-		RMD_FLD_##fld, (off), (size), true, (scale), false \
+#define RMD_S(fld, off, size, scale)                                      \
+	{                                                                 \
+		RMD_FLD_##fld, (off), (size), true, (scale), false, false \
 	}
-#define RMD_U(fld, off, size, scale)                                \
-	{                                                           \
-		RMD_FLD_##fld, (off), (size), false, (scale), false \
+#define RMD_U(fld, off, size, scale)                                       \
+	{                                                                  \
+		RMD_FLD_##fld, (off), (size), false, (scale), false, false \
 	}
 /* A signed field of `size` bytes with a sign-flag byte after it (rmd_field_spec.sign_byte). */
-#define RMD_SF(fld, off, size, scale)                             \
-	{                                                         \
-		RMD_FLD_##fld, (off), (size), true, (scale), true \
+#define RMD_SF(fld, off, size, scale)                                    \
+	{                                                                \
+		RMD_FLD_##fld, (off), (size), true, (scale), true, false \
+	}
+/* A little-endian IEEE 754 binary32 at data[off..off + 3] (rmd_field_spec.is_float). */
+#define RMD_F(fld, off)                                          \
+	{                                                        \
+		RMD_FLD_##fld, (off), 4, false, 1.0, false, true \
 	}
 #define RMD_LAYOUT(...)                                                 \
 	{                                                               \

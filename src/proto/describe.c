@@ -81,8 +81,8 @@ static const struct {
 	const char *suffix;
 	const char *unit;
 } unit_suffixes[] = {
-	{ "_c", "°C" },	   { "_a", "A" }, { "_dps", "dps" }, { "_dps2", "dps/s" },
-	{ "_deg", "deg" }, { "_v", "V" }, { "_w", "W" },     { "_ms", "ms" },
+	{ "_c", "°C" }, { "_a", "A" }, { "_dps", "dps" }, { "_dps2", "dps/s" }, { "_deg", "deg" },
+	{ "_v", "V" },	{ "_w", "W" }, { "_ms", "ms" },	  { "_pct", "%" },
 };
 
 void rmd_field_label(enum rmd_field fld, char *label, size_t size, const char **unit)
@@ -270,10 +270,10 @@ static void field(struct rmd_text *t, enum rmd_describe_style style, enum rmd_pr
 		return;
 	}
 	rmd_field_label(fld, label, sizeof(label), &unit);
-	if (fs->scale == 1.0)
+	if (fs->scale == 1.0 && !fs->is_float)
 		q_int(t, style, rmd_field_key(fld), label, raw, unit);
 	else
-		rmd_describe_real(t, style, rmd_field_key(fld), label, (double)raw * fs->scale,
+		rmd_describe_real(t, style, rmd_field_key(fld), label, rmd_field_to_native(fs, raw),
 				  RMD_DESCRIBE_DIGITS, unit);
 }
 

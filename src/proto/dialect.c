@@ -4,25 +4,40 @@
  * command table, identifiers, capabilities, error flags and probes.
  * Adding a dialect is its table and one row here (docs/design.md).
  */
+#include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "rmd/dialect.h"
 #include "codec_tables.h"
 
 #define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
 
-/* V3 §2.12 table 1 (System_errorState): one bit per condition. */
-static const struct rmd_flag_name v3_error_bits[] = {
-	{ 0x0002, "stall" },
-	{ 0x0004, "low_voltage" },
-	{ 0x0008, "over_voltage" },
-	{ 0x0010, "phase_overcurrent" },
-	{ 0x0040, "power_overrun" },
-	/* §8.2 calls it a calibration parameter read error; §2.12 says write. */
-	{ 0x0080, "calibration_write_error" },
-	{ 0x0100, "overspeed" },
-	{ 0x1000, "over_temperature" },
-	{ 0x2000, "encoder_calibration_error" },
+/*
+ * V3 §2.12 table 1 (System_errorState), and V4.2 §2.14 table 1, the same
+ * bits: one bit per condition.  V4.2 calls 0x0010 "over current", its §8.2
+ * "phase-current over-current".  §8.2 of both calls 0x0080 a calibration
+ * parameter read error; §2.12 / §2.14 say write.
+ */
+#define V3X_ERROR_BITS                                                              \
+	{ 0x0002, "stall" }, { 0x0004, "low_voltage" }, { 0x0008, "over_voltage" }, \
+		{ 0x0010, "phase_overcurrent" }, { 0x0040, "power_overrun" },       \
+		{ 0x0080, "calibration_write_error" }, { 0x0100, "overspeed" },     \
+		{ 0x1000, "over_temperature" },                                     \
+	{                                                                           \
+		0x2000, "encoder_calibration_error"                                 \
+	}
+
+static const struct rmd_flag_name v3_error_bits[] = { V3X_ERROR_BITS };
+
+/*
+ * V4.2 §2.14 table 1, and two bits of the V4.3 manual, unverified: named
+ * when they come, never relied on.
+ */
+static const struct rmd_flag_name v4_error_bits[] = {
+	V3X_ERROR_BITS,
+	{ 0x0800, "component_over_temperature" }, /* V4.3, unverified */
+	{ 0x4000, "encoder_data_error" },	  /* V4.3, unverified */
 };
 
 /*
@@ -82,10 +97,13 @@ static const struct rmd_flag_name v2_run_modes[] = {
 	.n_error_bits = ARRAY_SIZE(v3_error_bits), .run_modes = v3_run_modes,            \
 	.n_run_modes = ARRAY_SIZE(v3_run_modes), .probe = { 0xB5, 0xB2, 0x9A }, .n_probes = 3
 
-#define V3_CAPS                                                                     \
+/* What V3.x and V4.x motors can both do (V4.2 §9: V4 removes 0xA3, merges 0xA5). */
+#define V3X_CAPS                                                                    \
 	(RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2 | RMD_DIALECT_COMM_LOSS_B3 | \
-	 RMD_DIALECT_FUNC_CTRL | RMD_DIALECT_FINE_ANGLE | RMD_DIALECT_TRACK_A3_A5 | \
-	 RMD_DIALECT_MIT_FRAMES)
+	 RMD_DIALECT_FUNC_CTRL | RMD_DIALECT_FINE_ANGLE | RMD_DIALECT_MIT_FRAMES |  \
+	 RMD_DIALECT_ID_300 | RMD_DIALECT_MULTI_TURN_SAVE)
+
+#define V3_CAPS (V3X_CAPS | RMD_DIALECT_TRACK_A3_A5)
 
 /* In enum order. */
 static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
@@ -136,6 +154,31 @@ static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
 		.ctl_req_base = RMD_CAN_MIT_REQ_BASE,
 		.ctl_reply_base = RMD_CAN_MIT_REPLY_BASE,
 	},
+	[RMD_PROTO_V4] = {
+		.proto = RMD_PROTO_V4,
+		.key = "v4",
+		.name = "V4",
+		.manual = "V4.2 (rmd-servo-protocol-v4.2, 2024.05)",
+		.table = RMD_PROTO_V4,
+		.rows = rmd_v4_cmds,
+		.n_rows = &rmd_v4_ncmds,
+		/* V4.2 §1.1.2, §4: V3's identifiers; §1.2: the same set on RS485 */
+		.req_base = RMD_CAN_REQ_BASE,
+		.reply_base = RMD_CAN_V3_REPLY_BASE,
+		.ctl_req_base = RMD_CAN_REQ_BASE,
+		.ctl_reply_base = RMD_CAN_V3_REPLY_BASE,
+		.caps = V3X_CAPS | RMD_DIALECT_RS485 | RMD_DIALECT_ACTIVE_REPLY |
+			RMD_DIALECT_ACCEL_INDEX | RMD_DIALECT_ANGLE_LIMITS,
+		.set_id = RMD_SET_ID_FUNC_20,
+		.pid = RMD_PID_FLOAT_INDEXED,
+		.error_bits = v4_error_bits,
+		.n_error_bits = ARRAY_SIZE(v4_error_bits),
+		/* V4.2 §2.24.3: V3's run modes */
+		.run_modes = v3_run_modes,
+		.n_run_modes = ARRAY_SIZE(v3_run_modes),
+		.probe = { 0xB5, 0xB2, 0x9A },
+		.n_probes = 3,
+	},
 };
 
 /* Config keys in enum order, NULL-terminated (codec.h). */
@@ -183,4 +226,23 @@ const struct rmd_dialect *rmd_dialect_list(size_t *n)
 {
 	*n = RMD_PROTO_COUNT;
 	return dialects;
+}
+
+/*
+ * V4.2 §9: the float PID layout (0x30 .. 0x32 by index) is the revision of
+ * 2024-05-28; V3.7 .. V4.1 (2022-11 .. 2024-02) changed position commands
+ * and added 0x90, 0x94, 0xA6, 0xB6 and 0x20 indexes, but kept V3.6's six
+ * uint8 gains, which is what reading or writing a motor's settings hinges
+ * on.  A firmware date says when the firmware was built, not which manual
+ * it follows, so the cut is the best the date can tell: firmware built
+ * before V4.2 existed cannot speak it; firmware built after it is taken to.
+ */
+#define V4_FLOAT_PID_DATE 20240528u
+
+const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certain)
+{
+	uint32_t date = rmd_version_date(version);
+
+	*certain = date != 0;
+	return &dialects[date >= V4_FLOAT_PID_DATE ? RMD_PROTO_V4 : RMD_PROTO_V3];
 }

@@ -22,6 +22,7 @@
 #include <cmocka.h>
 
 #include "rmd/codec.h"
+#include "rmd/dialect.h"
 
 #include "harness/hex.h"
 #include "harness/rng.h"
@@ -1027,11 +1028,17 @@ static const struct err_case {
 	{ RMD_PROTO_V2, 0x00F3, 1, { "brake_not_open" } },
 	/* MIT motors answer 0x9A in V3 (V3 §5): V3's table names their flags. */
 	{ RMD_PROTO_MIT, 0x0004, 1, { "low_voltage" } },
+	/* V4.2 §2.14 table 1 (its remark: 0x0016 is stall, low voltage, over current). */
+	{ RMD_PROTO_V4, 0x0004, 1, { "low_voltage" } },
+	{ RMD_PROTO_V4, 0x0016, 3, { "stall", "low_voltage" } },
+	/* V4.3's two bits, unverified: named under V4 only. */
+	{ RMD_PROTO_V4, 0x4800, 2, { "component_over_temperature", "encoder_data_error" } },
+	{ RMD_PROTO_V3, 0x0800, 1, { "unknown_0x0800" } },
 };
 
 static void test_error_names(void **state)
 {
-	static const enum rmd_proto bit_protos[] = { RMD_PROTO_V3, RMD_PROTO_V2 };
+	static const enum rmd_proto bit_protos[] = { RMD_PROTO_V3, RMD_PROTO_V2, RMD_PROTO_V4 };
 	const char *names[16];
 
 	(void)state;
@@ -1114,22 +1121,123 @@ static void test_model(void **state)
 static void test_version_date(void **state)
 {
 	static const struct {
-		uint32_t date;
-		bool valid;
+		uint32_t version;
+		uint32_t date; /* 0: not valid */
 	} dates[] = {
-		{ 20220206, true }, /* V3 §2.29.4 */
-		{ 20211126, true }, /* V3 §2.29.3 */
-		{ 20240229, true },    { 20001231, true },  { 20230229, false },
-		{ 20220230, false },   { 20221301, false }, { 20220100, false },
-		{ 20220001, false },   { 19991231, false }, { 0, false },
-		{ UINT32_MAX, false },
+		{ 20220206, 20220206 }, /* V3 §2.29.4, V4.2 §2.29.4 */
+		{ 20211126, 20211126 }, /* V3 §2.29.3 */
+		{ 20240229, 20240229 },
+		{ 20001231, 20001231 },
+		{ 20230229, 0 },
+		{ 20220230, 0 },
+		{ 20221301, 0 },
+		{ 20220100, 0 },
+		{ 20220001, 0 },
+		{ 19991231, 0 },
+		{ 0, 0 },
+		{ UINT32_MAX, 0 },
+		/* yyyymmddNN: 0x78B41E7A from an X4-36 (2025) */
+		{ 0x78B41E7Au, 20250702 },
+		{ 2025070200, 20250702 },
+		{ 2099123199, 20991231 },
+		{ 2024022900, 20240229 },
+		{ 2023022901, 0 },
+		{ 2025133102, 0 },
+		{ 2100010100, 0 },
+		{ 1999123100, 0 },
+		/* nine digits are neither form */
+		{ 202507020, 0 },
 	};
 
 	(void)state;
-	for (size_t k = 0; k < ARRAY_SIZE(dates); k++)
-		if (rmd_version_date_valid(dates[k].date) != dates[k].valid)
-			fail_msg("%u: valid %d, want %d", (unsigned)dates[k].date, !dates[k].valid,
-				 dates[k].valid);
+	assert_int_equal(2025070202u, 0x78B41E7Au);
+	for (size_t k = 0; k < ARRAY_SIZE(dates); k++) {
+		if (rmd_version_date(dates[k].version) != dates[k].date)
+			fail_msg("%u: date %u, want %u", (unsigned)dates[k].version,
+				 (unsigned)rmd_version_date(dates[k].version),
+				 (unsigned)dates[k].date);
+		if (rmd_version_date_valid(dates[k].version) != (dates[k].date != 0))
+			fail_msg("%u: valid %d, want %d", (unsigned)dates[k].version,
+				 dates[k].date == 0, dates[k].date != 0);
+	}
+}
+
+/*
+ * protocol: auto (rmd_dialect_for_firmware()): V4.2's revision date
+ * 2024-05-28 (V4.2 §9) is the first that gives V4; earlier plausible dates
+ * give V3; no date gives V3, uncertain.
+ */
+static void test_dialect_for_firmware(void **state)
+{
+	static const struct {
+		uint32_t version;
+		enum rmd_proto proto;
+		bool certain;
+	} cases[] = {
+		{ 2025070202, RMD_PROTO_V4, true }, /* X4-36, 2025 */
+		{ 20240528, RMD_PROTO_V4, true },    { 2024052800, RMD_PROTO_V4, true },
+		{ 20240527, RMD_PROTO_V3, true },    { 2024052799, RMD_PROTO_V3, true },
+		{ 20240213, RMD_PROTO_V3, true }, /* V4.1's date: uint8 gains still */
+		{ 20220206, RMD_PROTO_V3, true }, /* V3 §2.29.4 */
+		{ 0, RMD_PROTO_V3, false },	     { 20241332, RMD_PROTO_V3, false },
+		{ UINT32_MAX, RMD_PROTO_V3, false },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < ARRAY_SIZE(cases); k++) {
+		bool certain = !cases[k].certain;
+		const struct rmd_dialect *d = rmd_dialect_for_firmware(cases[k].version, &certain);
+
+		assert_non_null(d);
+		if (d->proto != cases[k].proto || certain != cases[k].certain)
+			fail_msg("%u: %s certain %d, want %s certain %d",
+				 (unsigned)cases[k].version, d->key, certain,
+				 rmd_proto_key(cases[k].proto), cases[k].certain);
+	}
+}
+
+/*
+ * V4.2 §2.1 .. §2.3: a float field's raw value is its 32 bits; native
+ * values go through binary32 (§2.1.5: 0x3F800000 = 1.0; §2.2.5:
+ * 0x3FC00000 = 1.5).
+ */
+static void test_float_field(void **state)
+{
+	const struct rmd_cmd_spec *s = rmd_cmd_find(RMD_PROTO_V4, 0x31);
+	const struct rmd_field_spec *fs;
+	struct rmd_msg m = { .cmd = 0x31 };
+	int64_t raw = -1;
+
+	(void)state;
+	assert_non_null(s);
+	fs = rmd_layout_field(s, RMD_DIR_REQUEST, RMD_FLD_GAIN);
+	assert_non_null(fs);
+	assert_true(fs->is_float && fs->size == 4 && !fs->is_signed);
+	assert_true(rmd_field_to_native(fs, 0x3F800000) == 1.0);
+	assert_true(rmd_field_to_native(fs, 0x3FC00000) == 1.5);
+	assert_true(rmd_field_to_native(fs, 0xBF800000) == -1.0);
+	assert_int_equal(rmd_field_from_native(fs, 1.5, &raw), 0);
+	assert_true(raw == 0x3FC00000);
+	assert_int_equal(rmd_field_from_native(fs, -2.0, &raw), 0);
+	assert_true(raw == 0xC0000000);
+	/* nearest binary32: 0.1 is 0x3DCCCCCD */
+	assert_int_equal(rmd_field_from_native(fs, 0.1, &raw), 0);
+	assert_true(raw == 0x3DCCCCCD);
+	assert_int_equal(rmd_field_from_native(fs, NAN, &raw), -ERANGE);
+	assert_true(raw == 0);
+	assert_int_equal(rmd_field_from_native(fs, 1e39, &raw), -ERANGE);
+	assert_true(raw == 0x7F7FFFFF);
+	assert_int_equal(rmd_field_from_native(fs, -1e39, &raw), -ERANGE);
+	assert_true(raw == 0xFF7FFFFF);
+	/* through a message, and on the wire little-endian */
+	assert_int_equal(rmd_msg_set_native(&m, s, RMD_DIR_REQUEST, RMD_FLD_GAIN, 1.5), 0);
+	assert_true(m.v[RMD_FLD_GAIN] == 0x3FC00000);
+	assert_true(rmd_msg_get_native(&m, s, RMD_DIR_REQUEST, RMD_FLD_GAIN, 0) == 1.5);
+	assert_true(rmd_msg_get_native(&m, s, RMD_DIR_REPLY, RMD_FLD_GAIN, 0) == 1.5);
+	/* an integer field keeps the integer rule */
+	fs = rmd_layout_field(s, RMD_DIR_REQUEST, RMD_FLD_INDEX);
+	assert_false(fs->is_float);
+	assert_true(rmd_field_to_native(fs, 7) == 7.0);
 }
 
 /*
@@ -1205,6 +1313,8 @@ int main(void)
 		cmocka_unit_test(test_run_mode_names),
 		cmocka_unit_test(test_model),
 		cmocka_unit_test(test_version_date),
+		cmocka_unit_test(test_dialect_for_firmware),
+		cmocka_unit_test(test_float_field),
 		cmocka_unit_test(test_v2_multi_turn_sign),
 	};
 

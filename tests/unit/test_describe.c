@@ -188,8 +188,9 @@ static void test_proto_names(void **state)
 		enum rmd_proto proto;
 	} cases[] = {
 		{ "v3", 0, RMD_PROTO_V3 },   { "V3", 0, RMD_PROTO_V3 },	  { "v2", 0, RMD_PROTO_V2 },
-		{ "MIT", 0, RMD_PROTO_MIT }, { "Mit", 0, RMD_PROTO_MIT }, { "v4", -EINVAL, 0 },
-		{ "", -EINVAL, 0 },	     { "mitt", -EINVAL, 0 },	  { "v", -EINVAL, 0 },
+		{ "MIT", 0, RMD_PROTO_MIT }, { "Mit", 0, RMD_PROTO_MIT }, { "v4", 0, RMD_PROTO_V4 },
+		{ "V4", 0, RMD_PROTO_V4 },   { "v5", -EINVAL, 0 },	  { "", -EINVAL, 0 },
+		{ "mitt", -EINVAL, 0 },	     { "v", -EINVAL, 0 },
 	};
 
 	(void)state;
@@ -202,8 +203,9 @@ static void test_proto_names(void **state)
 	}
 	assert_string_equal(rmd_proto_name(RMD_PROTO_MIT), "MIT");
 	assert_string_equal(rmd_proto_key(RMD_PROTO_V2), "v2");
+	assert_string_equal(rmd_proto_name(RMD_PROTO_V4), "V4");
 	assert_string_equal(rmd_proto_key((enum rmd_proto)7), "?");
-	assert_null(rmd_proto_keys[3]);
+	assert_null(rmd_proto_keys[RMD_PROTO_COUNT]);
 }
 
 static void test_rs485_bauds(void **state)

@@ -64,6 +64,14 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 	if (rmdctl_parse_id(argv[0], "OLD id", &old_id) < 0 ||
 	    rmdctl_parse_id(argv[1], "NEW id", &new_id) < 0)
 		return RMDCTL_EXIT_USAGE;
+	/* V4.2 §2.34.4: 0x20 index 5 and a 0x76 reset; not written here yet */
+	if (rmdctl_dialect(d)->set_id == RMD_SET_ID_FUNC_20) {
+		tool_log(TOOL_LOG_ERR,
+			 "%s: set-id does not speak %s yet (0x20 index 5, then 0x76): see "
+			 "`rmdctl encode --protocol %s function_control`",
+			 d->name, rmdctl_dialect(d)->name, rmdctl_dialect(d)->key);
+		return RMDCTL_EXIT_USAGE;
+	}
 	if (old_id == new_id) {
 		tool_log(TOOL_LOG_ERR, "OLD and NEW are both %u", old_id);
 		return RMDCTL_EXIT_USAGE;
@@ -357,6 +365,14 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 	uint8_t id = d->id;
 	int r;
 
+	/* V4.2 §2.1 .. §2.3: one float gain by index a frame; not read or written here yet */
+	if (rmdctl_dialect(d)->pid == RMD_PID_FLOAT_INDEXED) {
+		tool_log(TOOL_LOG_ERR,
+			 "%s: pid does not speak %s gains yet (one float by index): see "
+			 "`rmdctl encode --protocol %s pid`",
+			 d->name, rmdctl_dialect(d)->name, rmdctl_dialect(d)->key);
+		return RMDCTL_EXIT_USAGE;
+	}
 	if (argc == 1) {
 		if (d->rom) {
 			tool_log(TOOL_LOG_ERR, "--rom applies to writing gains");

@@ -1,0 +1,155 @@
+// SPDX-License-Identifier: MIT
+/*
+ * Protocol V4.2 command table (rmd-servo-protocol-v4.2-en.txt, MyActuator
+ * "Servo Motor Control Protocol V4.2", 2024.05).  Section numbers (§) are
+ * that manual's.  Identifiers as in V3: requests on 0x140 + ID (0x280 for
+ * every motor, §3), replies on 0x240 + ID, 0x79 on 0x300 (§4), MIT frames
+ * on 0x400 + ID (§5).
+ *
+ * §9 lists what changed since V3.6, whose table is codec_v3.c: 0xA3
+ * removed and 0xA5 merged into 0xA4 (V3.7); 0xA6, 0x90 and 0x94 added
+ * (V3.7); an index in 0x42 and 0xB6 added (V3.9); 0x20 indexes 5, 6, 7
+ * (V4.0); circleAngle uint16 (V4.1); 0x30 .. 0x32 one float gain by index
+ * (V4.2).  V4.2 prints no 0x71 (motor power): it is left out.  The rows
+ * both manuals print alike are codec_v3x_rows.h.
+ *
+ * Fields marked "V4.3, unverified" come from a V4.3 manual no motor here
+ * has confirmed: decoded when present, never depended on; V4.2 firmware
+ * sends zero there.
+ *
+ * Every row is checked against the manual's worked examples in
+ * tests/unit/test_codec.c.  Where the text contradicts itself, the row
+ * takes what real firmware may send, and says so.
+ */
+#include "codec_tables.h"
+#include "codec_v3x_rows.h"
+
+/*
+ * §2.1.3, §2.2.2, §2.3.2: one gain a frame, its index at data[1] (§2.1.4:
+ * 1 current KP, 2 current KI, 4 speed KP, 5 speed KI, 7 position KP,
+ * 8 position KI, 9 position KD) and the gain a float at data[4..7]
+ * (0x3F800000 = 1.0, §2.1.5).
+ */
+#define V4_PID RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_F(GAIN, 4))
+
+/*
+ * §2.22.3: 0xA6 answers temperature, iq, speed and the single-turn
+ * encoder (uint16 counts) where the other control replies have the angle.
+ */
+#define V4_STATUS2_ENCODER                                                                      \
+	RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_S(CURRENT, 2, 2, 0.01), RMD_S(SPEED, 4, 2, 1.0), \
+		   RMD_U(ENCODER, 6, 2, 1.0))
+
+const struct rmd_cmd_spec rmd_v4_cmds[] = {
+	/* §2.1: read the gain of an index; the reply carries both. */
+	{ 0x30, "read_pid", 0, RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0)), V4_PID },
+	/* §2.2: one gain to RAM, lost at power off; the reply echoes. */
+	{ 0x31, "write_pid_ram", RMD_CMD_ECHO, V4_PID, { 0 } },
+	/* §2.3: one gain to ROM, kept at power off; the reply echoes. */
+	{ 0x32, "write_pid_rom", RMD_CMD_ECHO | RMD_CMD_ROM, V4_PID, { 0 } },
+	/*
+	 * §2.4: the index (as 0x43's, §2.4.4) at data[1] of the request and
+	 * of the reply; accel int32 1 dps/s.  Firmware before V3.9 answers
+	 * without an index (data[1] 0, read as index 0).
+	 */
+	{ 0x42, "read_accel", 0, RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0)),
+	  RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_S(ACCEL, 4, 4, 1.0)) },
+	V3X_ROW_43,
+	V3X_ROW_60,
+	V3X_ROW_61,
+	V3X_ROW_62,
+	V3X_ROW_63,
+	V3X_ROW_64,
+	V3X_ROW_70,
+	V3X_ROW_76,
+	V3X_ROW_77,
+	V3X_ROW_78,
+	V3X_ROW_79,
+	V3X_ROW_80,
+	V3X_ROW_81,
+	/*
+	 * §2.11: single-turn encoder: position (raw minus offset), raw
+	 * position and zero offset, uint16 counts at data[2..7].  (§2.11.3's
+	 * "Data" column names data[1..6] for bytes 2..7: a typo, the example
+	 * 2099 = 0x0833 sits at data[2..3].)
+	 */
+	{ 0x90,
+	  "read_encoder_single",
+	  0,
+	  { 0 },
+	  RMD_LAYOUT(RMD_U(ENCODER, 2, 2, 1.0), RMD_U(ENCODER_RAW, 4, 2, 1.0),
+		     RMD_U(ENCODER_OFF, 6, 2, 1.0)) },
+	V3X_ROW_92,
+	/*
+	 * §2.13: single-turn angle circleAngle at data[6..7], 0.01 deg,
+	 * 0..35999.  §2.13.3 still calls it int16_t, which cannot hold 35999;
+	 * §9 V4.1 made it uint16_t: read as uint16, as firmware sends it.
+	 */
+	{ 0x94, "read_angle_single", 0, { 0 }, RMD_LAYOUT(RMD_U(ANGLE, 6, 2, 0.01)) },
+	/*
+	 * §2.14: temperature, brake, voltage 0.1 V, error flags (§2.14 table
+	 * 1; dialect.c).  data[2], NULL in V4.2, is the MOS temperature in
+	 * V4.3 (int8 1 degC, unverified).
+	 */
+	{ 0x9A,
+	  "read_status_1",
+	  0,
+	  { 0 },
+	  RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_S(MOS_TEMP, 2, 1, 1.0), RMD_U(BRAKE, 3, 1, 1.0),
+		     RMD_U(VOLTAGE, 4, 2, 0.1), RMD_U(ERROR, 6, 2, 1.0)) },
+	V3X_ROW_9C,
+	V3X_ROW_9D,
+	V3X_ROW_A1,
+	/*
+	 * §2.20: speedControl int32 0.01 dps.  data[1], NULL in V4.2, is the
+	 * maximum torque in % of the rated current in V4.3 (uint8,
+	 * unverified); 0 there is what a V4.2 host sends.
+	 */
+	{ 0xA2, "speed", RMD_CMD_MOVES,
+	  RMD_LAYOUT(RMD_U(MAX_TORQUE, 1, 1, 1.0), RMD_S(SPEED, 4, 4, 0.01)), V3X_STATUS2 },
+	V3X_ROW_A4,
+	/*
+	 * §2.22: single-turn position: spinDirection at data[1] (0 clockwise,
+	 * 1 counterclockwise), maxSpeed uint16 1 dps, angleControl uint16
+	 * 0.01 deg at data[4..5].  §2.22.1 gives 0..35999, yet the §2.22.4
+	 * example sends 36000 (0x8CA0, "360 and 0 degrees coincide"): the
+	 * whole uint16 is taken.  §2.22.2 leaves data[6..7] NULL although the
+	 * example's text speaks of "Data[4] to data[7]".
+	 */
+	{ 0xA6, "position_single", RMD_CMD_MOVES,
+	  RMD_LAYOUT(RMD_U(SPIN_DIR, 1, 1, 1.0), RMD_U(MAX_SPEED, 2, 2, 1.0),
+		     RMD_U(ANGLE, 4, 2, 0.01)),
+	  V4_STATUS2_ENCODER },
+	V3X_ROW_A8,
+	V3X_ROW_B1,
+	V3X_ROW_B2,
+	V3X_ROW_B3,
+	V3X_ROW_B4,
+	V3X_ROW_B5,
+	/*
+	 * §2.33: active reply, CAN only.  data[1] the command whose reply
+	 * the motor pushes (0x60 0x61 0x62 0x92 0x9A 0x9C 0x9D 0x9E), data[2]
+	 * 1 on / 0 off, data[3..4] uint16 interval in 10 ms.  §2.33.3: no
+	 * reply once on; for off the manual says nothing, so no answer is
+	 * awaited (an echo, should one come, reads as the request).  The
+	 * §2.33.4 example (interval 0x0001) says both "20ms" and "10ms": one
+	 * step is 10 ms, as §2.33.2 defines it.
+	 */
+	{ 0xB6,
+	  "active_reply",
+	  RMD_CMD_NO_REPLY,
+	  RMD_LAYOUT(RMD_U(REPORT_CMD, 1, 1, 1.0), RMD_U(REPORT_ON, 2, 1, 1.0),
+		     RMD_U(REPORT_MS, 3, 2, 10.0)),
+	  { 0 } },
+	/*
+	 * §2.34: function index (§2.34.4: 1 clear multi-turn and save, 2 CAN
+	 * ID filter, saved in flash, 3 0x9A error reports, 4 save multi-turn
+	 * at power off, 5 set the CAN ID, to ROM, effective after a reset,
+	 * 6/7 maximum positive/negative angle of position control, to ROM,
+	 * effective at once; the manual gives no unit for 6/7) and an int32
+	 * value; the reply echoes.  Flagged ROM because indexes 1, 2, 5, 6, 7
+	 * write flash.
+	 */
+	{ 0x20, "function_control", RMD_CMD_ECHO | RMD_CMD_ROM, V3X_FUNC_CTRL, { 0 } },
+};
+const size_t rmd_v4_ncmds = sizeof(rmd_v4_cmds) / sizeof(rmd_v4_cmds[0]);
