@@ -151,6 +151,11 @@ struct rmd_dialect {
 	 */
 	uint8_t probe[RMD_DIALECT_PROBES_MAX];
 	unsigned n_probes;
+	/*
+	 * A 0xB2 firmware version of this generation seen in the field, which
+	 * the simulator reports unless told another; 0: the dialect has no 0xB2.
+	 */
+	uint32_t example_version;
 };
 
 /*
@@ -169,15 +174,6 @@ const struct rmd_dialect *rmd_dialect(enum rmd_proto proto);
 
 /* Every dialect, in enum order (the list's length in *n). */
 const struct rmd_dialect *rmd_dialect_list(size_t *n);
-
-/*
- * The dialect a motor speaks, from the firmware version its 0xB2 answers
- * (`protocol: auto`; docs/protocol-v4.md says why these dates):
- * yyyymmdd (V3 §2.29), or yyyymmddNN as 2025 firmware answers
- * (2025070202).  *certain is false when the version is no plausible
- * date: then the conservative dialect (V3) is returned.  Never NULL.
- */
-const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certain);
 
 /* Whether d has every capability bit of `caps`.  rt-safe. */
 static inline bool rmd_dialect_has(const struct rmd_dialect *d, uint32_t caps)

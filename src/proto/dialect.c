@@ -90,12 +90,13 @@ static const struct rmd_flag_name v2_run_modes[] = {
 };
 
 /* What V3.x and its MIT motors share: the V3 command set, ids and probes. */
-#define V3_COMMON                                                                        \
-	.table = RMD_PROTO_V3, .rows = rmd_v3_cmds, .n_rows = &rmd_v3_ncmds,             \
-	.req_base = RMD_CAN_REQ_BASE, .reply_base = RMD_CAN_V3_REPLY_BASE,               \
-	.set_id = RMD_SET_ID_79_300, .pid = RMD_PID_U8_SIX, .error_bits = v3_error_bits, \
-	.n_error_bits = ARRAY_SIZE(v3_error_bits), .run_modes = v3_run_modes,            \
-	.n_run_modes = ARRAY_SIZE(v3_run_modes), .probe = { 0xB5, 0xB2, 0x9A }, .n_probes = 3
+#define V3_COMMON                                                                              \
+	.table = RMD_PROTO_V3, .rows = rmd_v3_cmds, .n_rows = &rmd_v3_ncmds,                   \
+	.req_base = RMD_CAN_REQ_BASE, .reply_base = RMD_CAN_V3_REPLY_BASE,                     \
+	.set_id = RMD_SET_ID_79_300, .pid = RMD_PID_U8_SIX, .error_bits = v3_error_bits,       \
+	.n_error_bits = ARRAY_SIZE(v3_error_bits), .run_modes = v3_run_modes,                  \
+	.n_run_modes = ARRAY_SIZE(v3_run_modes), .probe = { 0xB5, 0xB2, 0x9A }, .n_probes = 3, \
+	.example_version = 20220206
 
 /* What V3.x and V4.x motors can both do (V4.2 §9: V4 removes 0xA3, merges 0xA5). */
 #define V3X_CAPS                                                                    \
@@ -178,6 +179,8 @@ static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
 		.n_run_modes = ARRAY_SIZE(v3_run_modes),
 		.probe = { 0xB5, 0xB2, 0x9A },
 		.n_probes = 3,
+		/* an X4-36's answer, 0x78B41E7A (a public issue thread of 2025) */
+		.example_version = 2025070202,
 	},
 };
 
@@ -206,20 +209,6 @@ __attribute__((constructor)) static void dialects_build(void)
 const struct rmd_dialect *rmd_dialect(enum rmd_proto proto)
 {
 	return (unsigned)proto < RMD_PROTO_COUNT ? &dialects[proto] : NULL;
-}
-
-const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certain)
-{
-	uint32_t date = rmd_version_date_valid(version) ? version : version / 100;
-
-	*certain = rmd_version_date_valid(date);
-	/*
-	 * Every V3.x and V4.x firmware answers 0xB2, and every date up to
-	 * the float PID layout (V4.2, 2024-05-28) keeps V3.6's commands for
-	 * what rmdd and its tools use.  Until the V4 dialect's row exists,
-	 * V3 is the answer for every date.
-	 */
-	return &dialects[RMD_PROTO_V3];
 }
 
 const struct rmd_dialect *rmd_dialect_list(size_t *n)

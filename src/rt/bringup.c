@@ -47,6 +47,12 @@ static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
 
 	if (loop_motor_of(pc->l, pc->bus, id))
 		return;
+	/* a configured motor answering in another dialect than asked (protocol: auto) */
+	for (unsigned i = 0; i < pc->l->n_motors; i++)
+		if (pc->l->mot[i].m.bus == pc->bus &&
+		    (id == RMD_CAN_REQ_BASE + pc->l->mot[i].m.id ||
+		     id == RMD_CAN_V3_REPLY_BASE + pc->l->mot[i].m.id))
+			return;
 	if (id > RMD_CAN_V3_REPLY_BASE && id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
 		mid = id - RMD_CAN_V3_REPLY_BASE;
 	else if (id > RMD_CAN_REQ_BASE && id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)

@@ -43,7 +43,7 @@
 static const struct rmd_sim_motor_params default_params = {
 	/* An X8-class geared actuator (X8-S2 V10), all at the output shaft. */
 	.model = "X8S2V10",
-	.version_date = 20220206,
+	.version_date = 0, /* its dialect's example_version (rmd/dialect.h) */
 	.inertia_kgm2 = 0.005,
 	.viscous_nm_s_rad = 0.02,
 	.coulomb_nm = 0.1,
@@ -115,6 +115,8 @@ static void sanitize(struct rmd_sim_motor_params *p)
 		p->id = 1;
 	if (!rmd_dialect(p->proto))
 		p->proto = RMD_PROTO_V3;
+	if (!p->version_date)
+		p->version_date = rmd_dialect(p->proto)->example_version;
 #define POSITIVE(f)                                   \
 	do {                                          \
 		if (!(p->f > 0.0) || !isfinite(p->f)) \

@@ -38,7 +38,7 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	ROW("model", NULL, MODEL, model, 0, 0, false, "",
 	    "0xB5 model string, 1..7 ASCII characters", 0),
 	ROW("version_date", "version", VERSION, version_date, 0, 0, false, "yyyymmdd",
-	    "0xB2 firmware date", 0),
+	    "0xB2 firmware date (default: one of its dialect's, V3 20220206, V4 2025070202)", 0),
 	ROW("inertia_kgm2", "inertia", REAL, inertia_kgm2, 0, 1000, true, "kg·m²",
 	    "inertia at the output shaft, rotor reflected", 0),
 	ROW("viscous_nm_s_rad", "viscous", REAL, viscous_nm_s_rad, 0, 1e4, false, "N·m·s/rad",

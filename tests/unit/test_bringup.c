@@ -391,6 +391,14 @@ static void tweak_auto(struct rmd_config *cfg, struct rmd_sim_setup *sim)
 	sim->motors[1].proto = RMD_PROTO_V2;
 }
 
+/* Motor 1 auto on V4 firmware; motor 2 v3 as configured, but on V4 firmware. */
+static void tweak_v4(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	cfg->motors[0].proto_auto = true;
+	sim->motors[0].proto = RMD_PROTO_V4;
+	sim->motors[1].proto = RMD_PROTO_V4;
+}
+
 /* The V2 motor of tweak_auto(), its comm_loss_ms left at the default (not 0). */
 static void tweak_auto_v2_protected(struct rmd_config *cfg, struct rmd_sim_setup *sim)
 {
@@ -435,6 +443,33 @@ static void test_auto_picks_each_dialect(void **state)
 			fail_msg("motor %u: lifecycle %u, last reply %u cycles ago, %llu missed",
 				 k + 1, s.m[k].lifecycle, s.m[k].reply_age_cycles,
 				 (unsigned long long)s.m[k].missed_replies);
+	rig_down();
+}
+
+static void test_auto_v4_and_a_mismatch(void **state)
+{
+	struct rmd_snapshot s;
+
+	(void)state;
+	rig_cfg_tweak = tweak_v4;
+	rig_up(3, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	R.cfg.probe.on_missing = RMD_MISSING_START;
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), -EPROTO);
+	/* motor 1: its 0xB2 says a date after V4.2's, and the yyyymmddNN form */
+	assert_int_equal(R.bu.motor[0].proto, RMD_PROTO_V4);
+	assert_true(R.bu.motor[0].auto_certain);
+	assert_int_equal(R.bu.motor[0].version, 2025070202);
+	assert_int_equal(R.bu.motor[0].state, RMD_BRINGUP_FOUND);
+	assert_int_equal(R.bu.motor[0].b3, RMD_B3_SET);
+	/* motor 2: protocol v3, firmware V4: refused, never driven */
+	assert_int_equal(R.bu.motor[1].state, RMD_BRINGUP_MISMATCH);
+	assert_int_equal(R.bu.motor[1].mismatch, RMD_BRINGUP_MISMATCH_FIRMWARE);
+	assert_int_equal(R.bu.mismatched, 1);
+	rmd_loop_get_snapshot(R.l, &s);
+	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
+	assert_int_equal(s.m[2].lifecycle, RMD_LC_READY);
 	rig_down();
 }
 
@@ -546,6 +581,7 @@ int main(void)
 		cmocka_unit_test(test_b3_after_trip),
 		cmocka_unit_test(test_auto_picks_each_dialect),
 		cmocka_unit_test(test_auto_v2_with_protection_is_refused),
+		cmocka_unit_test(test_auto_v4_and_a_mismatch),
 		cmocka_unit_test(test_slow_motors_are_found_and_measured),
 		cmocka_unit_test(test_late_answers_of_bringup_are_late),
 	};

@@ -68,8 +68,10 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 	switch ((enum rmd_lifecycle)to) {
 	case RMD_LC_LOST:
 		if (from == RMD_LC_PROBE)
-			tool_log(4, "%s: missing at bring-up; probed again every %d ms", ctx,
-				 (int)(RMD_LOOP_REPROBE_NS / 1000000));
+			tool_log(4,
+				 "%s: not brought up (the report above says why); a missing motor "
+				 "is probed again every %d ms",
+				 ctx, (int)(RMD_LOOP_REPROBE_NS / 1000000));
 		else
 			tool_log(
 				4,
