@@ -70,6 +70,13 @@ struct rmd_bringup_motor {
 	enum rmd_proto proto;
 	bool proto_auto, auto_certain;
 	enum rmd_bringup_mismatch mismatch; /* RMD_BRINGUP_MISMATCH: why */
+	/*
+	 * Replies it pushed unasked during bring-up (0xB6 active reply, V4.2
+	 * §2.33, left on by another tool), bit k: its dialect's reports[k];
+	 * and whether bring-up turned every one off (0xB6, enable 0).
+	 */
+	uint8_t pushed;
+	bool reports_off;
 	/* MISSING: the request that went unanswered, its tries and their wait */
 	uint8_t probe_cmd;
 	unsigned tries;

@@ -152,6 +152,12 @@ struct rmd_dialect {
 	uint8_t probe[RMD_DIALECT_PROBES_MAX];
 	unsigned n_probes;
 	/*
+	 * The replies 0xB6 can have the motor push unasked (V4.2 §2.33.2),
+	 * which bring-up turns off; none without RMD_DIALECT_ACTIVE_REPLY.
+	 */
+	uint8_t reports[8];
+	unsigned n_reports;
+	/*
 	 * A 0xB2 firmware version of this generation seen in the field, which
 	 * the simulator reports unless told another; 0: the dialect has no 0xB2.
 	 */

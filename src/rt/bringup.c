@@ -38,6 +38,16 @@ static void ctx_sleep(void *ctx, int64_t ns)
 	loop_wait_bus(pc->l, pc->l->bus[pc->bus].bus, ns);
 }
 
+/* Whether bring-up itself asks motor lm for `cmd` (its probes, 0x9A, V2's 0x92).  Non-rt. */
+static bool bringup_asks(const struct lmotor *lm, uint8_t cmd)
+{
+	for (unsigned k = 0; k < lm->m.d->n_probes; k++)
+		if (lm->m.d->probe[k] == cmd)
+			return true;
+	return cmd == 0x9A || (cmd == RMD_MOTOR_CMD_FINE_POS &&
+			       rmd_dialect_has(lm->m.d, RMD_DIALECT_ENCODER_UNWRAP));
+}
+
 /* A frame that answers no request: remember ids that are not configured.  Non-rt. */
 static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
 {
@@ -45,8 +55,20 @@ static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
 	uint32_t id = rx->f.can_id;
 	unsigned mid = 0;
 
-	if (loop_motor_of(pc->l, pc->bus, id))
+	struct lmotor *lm = loop_motor_of(pc->l, pc->bus, id);
+
+	if (lm) {
+		/*
+		 * A configured motor's frame nobody asked for: a pushed reply
+		 * (0xB6)?  Not one bring-up asks for itself (0x9A, its
+		 * probes): those may be the late answer of an earlier try.
+		 */
+		for (unsigned k = 0; k < lm->m.d->n_reports && rx->f.len; k++)
+			if (rx->f.data[0] == lm->m.d->reports[k] &&
+			    !bringup_asks(lm, rx->f.data[0]))
+				lm->pushed |= (uint8_t)(1u << k);
 		return;
+	}
 	/* a configured motor answering in another dialect than asked (protocol: auto) */
 	for (unsigned i = 0; i < pc->l->n_motors; i++)
 		if (pc->l->mot[i].m.bus == pc->bus &&
@@ -283,6 +305,45 @@ static enum rmd_bringup_mismatch mismatch_of(const struct rmd_loop *l, unsigned 
 	return RMD_BRINGUP_MISMATCH_NONE;
 }
 
+/*
+ * V4.2 §2.33: a motor left in active-reply mode (0xB6) by another tool
+ * pushes the chosen replies every n x 10 ms and no longer answers those
+ * reads.  Turn every one off, in one send, right after the motor answered
+ * its first probe (so it is awake: a motor whose comm-loss protection
+ * tripped echoes, not executes, the first command it gets, and that was
+ * the probe).  No answer is awaited: the manual gives none for off.  True
+ * when the bus took all of them.  Non-rt.
+ */
+static bool reports_off(struct rmd_loop *l, struct lmotor *lm)
+{
+	struct lbus *lb = &l->bus[lm->m.bus];
+	const struct rmd_dialect *d = lm->m.d;
+	struct rmd_frame f[8];
+	unsigned n = 0;
+	int sent = 0;
+
+	for (unsigned k = 0; k < d->n_reports && k < 8; k++) {
+		struct rmd_msg msg = { .cmd = 0xB6 };
+
+		rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, d->reports[k]);
+		rmd_msg_set(&msg, RMD_FLD_REPORT_ON, 0);
+		rmd_msg_set(&msg, RMD_FLD_REPORT_MS, 0);
+		if (rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, &f[n]) == 0)
+			n++;
+	}
+	/* the bus takes what it can now, the rest as it drains (bounded) */
+	for (unsigned tries = 0; (unsigned)sent < n && tries < 100; tries++) {
+		int r = rmd_bus_send(lb->bus, f + sent, n - (unsigned)sent, loop_now(l));
+
+		if (r < 0)
+			return false;
+		sent += r;
+		if ((unsigned)sent < n)
+			loop_wait_bus(l, lb->bus, RMD_NS_PER_MS);
+	}
+	return n == d->n_reports && (unsigned)sent == n;
+}
+
 /* Probe motor i into *out.  Returns 0, or -ENODEV when it is missing.  Non-rt. */
 static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor *out)
 {
@@ -323,6 +384,9 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 				lm->next_probe_ns = now; /* the first cycle probes again */
 				return -ENODEV;
 			}
+			/* it is there: what it may push unasked goes off before the reads */
+			if (rmd_dialect_has(d, RMD_DIALECT_ACTIVE_REPLY))
+				out->reports_off = reports_off(l, lm);
 		}
 		if (pr < 0)
 			continue;
@@ -349,6 +413,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		}
 	}
 	now = loop_now(l);
+	out->pushed = lm->pushed;
 	out->mismatch = mismatch_of(l, i, out);
 	if (out->mismatch != RMD_BRINGUP_MISMATCH_NONE) {
 		/* never driven, never re-probed: the configuration must change */

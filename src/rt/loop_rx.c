@@ -226,6 +226,15 @@ static bool scan_late(struct rmd_loop *l, unsigned b, const struct rmd_frame *f,
 	return true;
 }
 
+/* Whether lm's dialect can push reply `cmd` unasked (0xB6, V4.2 §2.33).  rt-safe. */
+static bool pushed_report(const struct lmotor *lm, uint16_t cmd)
+{
+	for (unsigned k = 0; k < lm->m.d->n_reports; k++)
+		if (cmd == lm->m.d->reports[k])
+			return true;
+	return false;
+}
+
 /* Decode f into lm's state; false when it cannot be decoded.  rt-safe. */
 static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
 			int64_t now)
@@ -308,16 +317,20 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		}
 		return;
 	}
-	if (cmd == 0x9A) {
-		/* V3 §2.33.4 index 3: error reports every 100 ms, unasked */
+	if (took_late(l, b, lm, f->can_id, cmd, now))
+		return;
+	/*
+	 * V3 §2.33.4 index 3: error reports (0x9A) every 100 ms, unasked; V4.2
+	 * §2.33: the replies 0xB6 has the motor push, if another tool left it
+	 * on after bring-up turned it off.  What they say is the motor's.
+	 */
+	if (cmd == 0x9A || pushed_report(lm, cmd)) {
 		l->cnt.unsolicited++;
 		loop_alive(l, lm, now);
 		if (!take_values(l, lm, f, now))
 			l->cnt.bad_replies++;
 		return;
 	}
-	if (took_late(l, b, lm, f->can_id, cmd, now))
-		return;
 	loop_unexpected(l, b, f, now);
 }
 

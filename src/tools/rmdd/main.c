@@ -565,6 +565,20 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		line_add(ln, ", no answer to 0x9A");
 		level = 4;
 	}
+	if (bm->pushed) {
+		line_add(ln, ", it pushed");
+		for (unsigned k = 0; k < d->n_reports; k++)
+			if (bm->pushed & (1u << k))
+				line_add(ln, " 0x%02X", d->reports[k]);
+		line_add(ln, " unasked (0xB6 active reply, left on by another tool)%s",
+			 bm->reports_off ? ": turned off" : "");
+	}
+	if (rmd_dialect_has(d, RMD_DIALECT_ACTIVE_REPLY) && !bm->reports_off &&
+	    bm->state != RMD_BRINGUP_MISSING) {
+		line_add(ln, ", 0xB6 active reply not turned off: its pushed replies are taken "
+			     "as reports");
+		level = 4;
+	}
 	if (bm->proto_auto)
 		line_add(ln,
 			 bm->auto_certain ? ", protocol auto: %s" :
