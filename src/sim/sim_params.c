@@ -31,7 +31,7 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    "v3, v2 or mit (MIT motors also speak V3); rmdd.yaml: the motor's protocol",
 	    RMD_SIM_PARAM_MOTOR_KEY),
 	ROW("firmware", NULL, PROTO, proto, 0, 0, false, "",
-	    "the simulated firmware's dialect, v3, v2 or mit; rmdd.yaml motors[].sim: what a "
+	    "the simulated firmware's dialect (a protocol key); rmdd.yaml motors[].sim: what a "
 	    "motor with protocol auto turns out to speak (or another than its protocol, to see "
 	    "the mismatch refused); rmd-sim: the same as protocol",
 	    0),

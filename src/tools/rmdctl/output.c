@@ -163,7 +163,29 @@ void rmdctl_json_begin(const struct dev *d, uint8_t id)
 {
 	fputs("{\"bus\":", stdout);
 	json_str(stdout, d->name);
-	printf(",\"motor_id\":%u,\"protocol\":\"%s\"", id, rmd_proto_name(d->proto));
+	/* the key, as rmdd.yaml and --protocol spell it */
+	printf(",\"motor_id\":%u,\"protocol\":\"%s\"", id, rmd_proto_key(d->proto));
+}
+
+const struct rmd_dialect *rmdctl_rec_dialect(const struct dev *d, const struct rec *r,
+					     bool *certain)
+{
+	*certain = false;
+	if (!(r->present & (UINT64_C(1) << RMD_FLD_VERSION)) ||
+	    !rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_VERSION_B2))
+		return NULL;
+	return rmd_dialect_for_firmware((uint32_t)r->raw[RMD_FLD_VERSION], certain);
+}
+
+/* ,"dialect":"v4","dialect_certain":true: what r's firmware date says, when it has one. */
+static void json_dialect(const struct dev *d, const struct rec *r)
+{
+	bool certain;
+	const struct rmd_dialect *fw = rmdctl_rec_dialect(d, r, &certain);
+
+	if (fw)
+		printf(",\"dialect\":\"%s\",\"dialect_certain\":%s", fw->key,
+		       certain ? "true" : "false");
 }
 
 /* "  label:   value unit" */
@@ -188,14 +210,23 @@ static void text_field(const struct dev *d, const struct rec *r, enum rmd_field 
 void rmdctl_print_rec(const struct dev *d, uint8_t id, const struct rec *r,
 		      const enum rmd_field *order, size_t n)
 {
+	bool certain;
+	const struct rmd_dialect *fw = rmdctl_rec_dialect(d, r, &certain);
+
 	if (d->json) {
 		rmdctl_json_begin(d, id);
+		json_dialect(d, r);
 		for (size_t i = 0; i < n; i++)
 			rmdctl_json_field(d, r, order[i]);
 		fputs("}\n", stdout);
 		return;
 	}
-	printf("%s motor %u (%s)\n", d->name, id, rmd_proto_name(d->proto));
+	printf("%s motor %u (%s", d->name, id, rmd_proto_key(d->proto));
+	if (fw && fw->table != rmdctl_dialect(d)->table)
+		printf("; its firmware date says %s: --protocol %s", fw->key, fw->key);
+	else if (fw && !certain)
+		printf("; its firmware date tells no generation");
+	printf(")\n");
 	for (size_t i = 0; i < n; i++)
 		text_field(d, r, order[i]);
 }

@@ -42,7 +42,7 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 	int64_t t0 = rmd_now_ns();
 	unsigned n, ni = 0;
 	int m, r;
-	char ms[32];
+	char ms[32], pk[8];
 
 	m = rmdctl_ids_open(d, argc, argv, ids);
 	if (m < 0)
@@ -67,8 +67,8 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 		rmdctl_report_failed(d, info, ni);
 	}
 	if (!d->json && m > 0)
-		printf("%3s  %-8s %-9s %-5s %6s %9s  %-8s %s\n", "ID", "MODEL", "FIRMWARE", "PROTO",
-		       "TEMP_C", "VOLTAGE_V", "BRAKE", "ERRORS");
+		printf("%3s  %-8s %-10s %-5s %6s %9s  %-8s %s\n", "ID", "MODEL", "FIRMWARE",
+		       "PROTO", "TEMP_C", "VOLTAGE_V", "BRAKE", "ERRORS");
 	for (unsigned i = 0, k = 0; i < n; i++) {
 		struct rec rec = { 0 };
 		char c[6][64];
@@ -85,8 +85,16 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 		}
 		for (unsigned j = 0; j < 6; j++)
 			rmdctl_field_text(d, &rec, cols[j], c[j], sizeof(c[j]));
-		printf("%3u  %-8s %-9s %-5s %6s %9s  %-8s %s\n", ids[i], c[0], c[1],
-		       rmd_proto_name(d->proto), c[2], c[3], c[4], c[5]);
+		/* the dialect its firmware date says, "?" when the date tells none */
+		{
+			bool certain;
+			const struct rmd_dialect *fw = rmdctl_rec_dialect(d, &rec, &certain);
+
+			snprintf(pk, sizeof(pk), "%s%s", fw ? fw->key : rmd_proto_key(d->proto),
+				 fw && !certain ? "?" : "");
+		}
+		printf("%3u  %-8s %-10s %-5s %6s %9s  %-8s %s\n", ids[i], c[0], c[1], pk, c[2],
+		       c[3], c[4], c[5]);
 	}
 	if (m == 0)
 		tool_log(TOOL_LOG_ERR,

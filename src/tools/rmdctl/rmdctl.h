@@ -257,6 +257,14 @@ int rmdctl_run_move(struct dev *d, int argc, char **argv);
 int rmdctl_run_dump(struct dev *d, int argc, char **argv);
 int rmdctl_run_restore(struct dev *d, int argc, char **argv);
 
+struct rec;
+/*
+ * The dialect the firmware date in r says (rmd_dialect_for_firmware()),
+ * when r has one and --protocol's dialect has 0xB2; else NULL.
+ */
+const struct rmd_dialect *rmdctl_rec_dialect(const struct dev *d, const struct rec *r,
+					     bool *certain);
+
 /* The dialect the motors on the device speak (--protocol), rmd/dialect.h. */
 static inline const struct rmd_dialect *rmdctl_dialect(const struct dev *d)
 {
