@@ -175,7 +175,12 @@ struct rmd_config_incidents {
 };
 
 struct rmd_config_lcm {
+	/*
+	 * The LCM provider.  url_given: the file wrote it; else rmdd takes
+	 * $LCM_DEFAULT_URL when set, as LCM's own tools do (docs/lcm.md).
+	 */
 	char url[RMD_CONFIG_URL_LEN];
+	bool url_given;
 	char channel_prefix[RMD_CONFIG_PREFIX_LEN];
 	unsigned state_every_n;	   /* publish motor state every n cycles */
 	uint32_t stale_ms;	   /* reject commands this much older than the newest; 0: off */

@@ -1033,6 +1033,11 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 	validate_incidents(&c, cfg, root);
 	validate_timing(&c, cfg, root);
 	validate_v2_protection(&c, cfg, root);
+	{
+		const struct ynode *ln = rmd_yaml_get(root, "lcm", NULL);
+
+		cfg->lcm.url_given = ln && ln->kind == Y_MAP && rmd_yaml_get(ln, "url", NULL);
+	}
 	ret = c.nerr ? -EINVAL : 0;
 out:
 	rmd_yaml_tree_free(&t);

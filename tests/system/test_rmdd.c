@@ -844,6 +844,35 @@ static void test_cpu_affinity_missing(void **state)
 	assert_null(strstr(p.out, "running:"));
 }
 
+/*
+ * Issue 21: the LCM URL is --lcm-url, else the file's lcm.url, else
+ * $LCM_DEFAULT_URL (as LCM's own tools), else the default.
+ */
+static void test_lcm_default_url(void **state)
+{
+	static const char *const sim1[] = { "--sim", "1", NULL };
+	struct spawn_opts so = { .env_extra = "LCM_DEFAULT_URL=memq://" };
+	static struct proc p;
+	static char path[512];
+	static const char *const file[] = { "--config", path, NULL };
+
+	(void)state;
+	/* no file: the environment's URL */
+	spawn(&p, &so, sim1);
+	wait_for(&p, "; LCM memq://, channels", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	/* a file that writes lcm.url: the file's (memq:// with a query LCM ignores) */
+	so.env_extra = "LCM_DEFAULT_URL=udpm://239.255.76.67:7667?ttl=0";
+	config_file(path, "url.yaml",
+		    "lcm: {url: \"memq://?from=file\"}\nbuses: [{name: s0, type: sim}]\n"
+		    "motors: [{name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}]\n");
+	spawn(&p, &so, file);
+	wait_for(&p, "; LCM memq://?from=file, channels", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+}
+
 /* --check-config of a FIFO or a directory: refused by name at once (a FIFO blocked). */
 static void test_check_config_special_files(void **state)
 {
@@ -1183,6 +1212,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_no_stall_hook_in_rmdd, reap),
 		cmocka_unit_test_teardown(test_stall_hook_bounds, reap),
 		cmocka_unit_test_teardown(test_cpu_affinity_missing, reap),
+		cmocka_unit_test_teardown(test_lcm_default_url, reap),
 		cmocka_unit_test_teardown(test_check_config_special_files, reap),
 		cmocka_unit_test_teardown(test_comm_loss_reproducer, reap),
 		cmocka_unit_test_teardown(test_comm_loss_exit_line, reap),

@@ -434,8 +434,18 @@ static int load(struct rmdd *d, const struct rmdd_opts *o)
 			return RMDD_EXIT_FAIL;
 		}
 	}
-	if (o->lcm_url)
+	/* --lcm-url, else the file's lcm.url, else $LCM_DEFAULT_URL, else the default */
+	if (o->lcm_url) {
 		snprintf(d->cfg.lcm.url, sizeof(d->cfg.lcm.url), "%s", o->lcm_url);
+	} else if (!d->cfg.lcm.url_given) {
+		const char *env = getenv("LCM_DEFAULT_URL");
+
+		if (env && env[0] && strlen(env) < sizeof(d->cfg.lcm.url))
+			snprintf(d->cfg.lcm.url, sizeof(d->cfg.lcm.url), "%s", env);
+		else if (env && env[0])
+			tool_log(4, "LCM_DEFAULT_URL: longer than %zu characters: ignored",
+				 sizeof(d->cfg.lcm.url) - 1);
+	}
 	if (check_cpus(&d->cfg, err, sizeof(err)) < 0) {
 		log_lines(3, err);
 		return RMDD_EXIT_FAIL;
