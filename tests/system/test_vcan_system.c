@@ -1508,6 +1508,75 @@ static void test_rmdctl_dump_restore(void **state)
 	settings_round_trip(trip_run, NULL, bus, S.dir);
 }
 
+/*
+ * Issue 19: protocol auto over real SocketCAN.  rmd-sim simulates a V2, a
+ * V3 (firmware 20220206) and a V4 (2025070202) motor on vcan0; rmdd's
+ * entries say `protocol: auto` for all three, and one more entry says v3
+ * for a motor whose firmware is V4.  Bring-up must name each dialect,
+ * refuse the mismatch, and exit with the report (no motor driven).
+ */
+static void test_auto_dialects(void **state)
+{
+	const char *sim_argv[] = { S.rmdsim,	    "--can", "vcan0",	      "--motors",
+				   "1-4",	    "--set", "1:protocol=v2", "--set",
+				   "3:protocol=v4", "--set", "4:protocol=v4", NULL };
+	static const char yaml[] = "loop: {rate_hz: 50}\n"
+				   "safety: {comm_loss_ms: 1000, command_timeout_ms: 500}\n"
+				   "probe: {on_missing: start}\n"
+				   "lcm: {url: \"memq://\"}\n"
+				   "incidents: {enabled: false}\n"
+				   "buses: [{name: vcan0, type: socketcan}]\n"
+				   "motors:\n"
+				   "  - {name: m1, bus: vcan0, id: 1, protocol: auto, mode: torque,"
+				   " torque_constant_nm_a: 2, comm_loss_ms: 0}\n"
+				   "  - {name: m2, bus: vcan0, id: 2, protocol: auto, mode: torque,"
+				   " torque_constant_nm_a: 2}\n"
+				   "  - {name: m3, bus: vcan0, id: 3, protocol: auto, mode: torque,"
+				   " torque_constant_nm_a: 2}\n"
+				   "  - {name: m4, bus: vcan0, id: 4, protocol: v3, mode: torque,"
+				   " torque_constant_nm_a: 2}\n";
+	static const char *const want[] = {
+		"motor 1 (m1): V2 (no model or version query)",
+		"protocol auto: v2",
+		"motor 2 (m2): X8S2V10, firmware 20220206",
+		"protocol auto: v3",
+		"motor 3 (m3): X8S2V10, firmware 2025070202",
+		"protocol auto: v4",
+		"motor 4 (m4): X8S2V10, firmware 2025070202",
+		"refused: its firmware 2025070202 is v4, but its protocol is v3",
+	};
+	char path[600];
+	const char *argv[] = { S.rmdd, "--config", path, NULL };
+	struct kid *sim, *d;
+	FILE *f;
+	int st;
+
+	(void)state;
+	if (!S.have_can)
+		skip();
+	need_exec(S.rmdsim);
+	need_exec(S.rmdd);
+	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
+		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
+	snprintf(path, sizeof(path), "%s/auto.yaml", S.dir);
+	f = fopen(path, "w");
+	if (!f || fputs(yaml, f) < 0 || fclose(f))
+		fail_msg("%s: %s", path, strerror(errno));
+	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, SIM_FIFO_PRIO);
+	kid_wait_output(sim, ": ready", READY_MS, service);
+	d = kid_spawn("rmdd", argv, NULL, 0);
+	st = kid_wait_exit(d, READY_MS, service);
+	for (size_t k = 0; k < sizeof(want) / sizeof(want[0]); k++)
+		if (!strstr(d->out, want[k]))
+			fail_msg("rmdd's bring-up report lacks \"%s\":\n%s", want[k], d->out);
+	if (st != 1 || !strstr(d->out, "answered as another dialect"))
+		fail_msg("rmdd with a mismatched motor: exit %d, expected 1 with the reason:\n%s",
+			 st, d->out);
+	if (strstr(d->out, "running:"))
+		fail_msg("rmdd ran with a refused motor:\n%s", d->out);
+	print_message("auto on vcan0: v2, v3, v4 found; a v3 entry on V4 firmware refused\n");
+}
+
 static void test_rmdctl_scan_move(void **state)
 {
 	const char *sim_argv[] = { S.rmdsim,
@@ -3374,6 +3443,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test_teardown(test_rmdctl_scan_move, rmdctl_teardown),
 		cmocka_unit_test_teardown(test_rmdctl_dump_restore, rmdctl_teardown),
+		cmocka_unit_test_teardown(test_auto_dialects, rmdctl_teardown),
 		cmocka_unit_test(test_system_rate),
 		cmocka_unit_test(test_system_watchdog),
 		cmocka_unit_test(test_system_sigterm),
