@@ -79,11 +79,15 @@ struct vec {
 #define MODEL_X8S2V10 INT64_C(0x30315632533858)
 
 /*
- * 126 vectors:
+ * 220 vectors:
  * - 90 V3 CAN example frames: every CAN frame printed in §2.1 .. §2.33,
  *   §3.2 and §4.4 of rmd-can-rs485-protocol-v3.6-zh.txt, in manual order
  *   (§2.15, §2.16, §2.26 and §2.27 print none; §5's MIT frames belong to
  *   the MIT packing tests, the RS485 frames to the RS485 framing tests).
+ * - 94 V4 CAN example frames: every CAN frame printed in §2.1 .. §2.34,
+ *   §3.2 and §4.4 of rmd-servo-protocol-v4.2-en.txt, in manual order
+ *   (§2.17, §2.18, §2.26 and §2.27 print none; §5 and the RS485 frames
+ *   as for V3).
  * - 36 V2 vectors: the V2 manual prints no frame; its only worked values
  *   are the Q24 gain examples of §3.1 .. §3.18 (0.25 = 4194304), written
  *   here as the request and reply frames its data tables define.
@@ -258,6 +262,184 @@ static const struct vec vectors[] = {
 	V("v3 §4.4 ex2 reply", V3, REPLY, "300#7900010000004202", 0x79, F(READ_FLAG, 1, 1),
 	  F(CAN_ID, 0x242, 0x242)),
 
+	/*
+	 * V4.2 (rmd-servo-protocol-v4.2-en.txt), every CAN frame of its
+	 * "Communication Example"s in manual order.  §2.1 .. §2.3: one float
+	 * gain by index (0x3F800000 = 1.0, 0x3FC00000 = 1.5).
+	 */
+	V("v4 §2.1.5 ex1 request", V4, REQUEST, "141#3001000000000000", 0x30, F(INDEX, 1, 1)),
+	V("v4 §2.1.5 ex1 reply", V4, REPLY, "241#300100000000803F", 0x30, F(INDEX, 1, 1),
+	  F(GAIN, 0x3F800000, 1.0)),
+	V("v4 §2.2.5 ex1 request", V4, REQUEST, "141#310100000000C03F", 0x31, F(INDEX, 1, 1),
+	  F(GAIN, 0x3FC00000, 1.5)),
+	V("v4 §2.2.5 ex1 reply", V4, REPLY, "241#310100000000C03F", 0x31, F(INDEX, 1, 1),
+	  F(GAIN, 0x3FC00000, 1.5)),
+	V("v4 §2.3.5 ex1 request", V4, REQUEST, "141#320100000000C03F", 0x32, F(INDEX, 1, 1),
+	  F(GAIN, 0x3FC00000, 1.5)),
+	V("v4 §2.3.5 ex1 reply", V4, REPLY, "241#320100000000C03F", 0x32, F(INDEX, 1, 1),
+	  F(GAIN, 0x3FC00000, 1.5)),
+	/* V4.2 §2.4.5: position accel and decel by index, 10000 dps/s */
+	V("v4 §2.4.5 ex1 request", V4, REQUEST, "141#4200000000000000", 0x42, F(INDEX, 0, 0)),
+	V("v4 §2.4.5 ex1 reply", V4, REPLY, "241#4200000010270000", 0x42, F(INDEX, 0, 0),
+	  F(ACCEL, 10000, 10000)),
+	V("v4 §2.4.5 ex2 request", V4, REQUEST, "141#4201000000000000", 0x42, F(INDEX, 1, 1)),
+	V("v4 §2.4.5 ex2 reply", V4, REPLY, "241#4201000010270000", 0x42, F(INDEX, 1, 1),
+	  F(ACCEL, 10000, 10000)),
+	/* V4.2 §2.5.5 (example 4's reply is described, not printed) */
+	V("v4 §2.5.5 ex1 request", V4, REQUEST, "141#4300000010270000", 0x43, F(INDEX, 0, 0),
+	  F(ACCEL, 10000, 10000)),
+	V("v4 §2.5.5 ex1 reply", V4, REPLY, "241#4300000010270000", 0x43, F(INDEX, 0, 0),
+	  F(ACCEL, 10000, 10000)),
+	V("v4 §2.5.5 ex2 request", V4, REQUEST, "141#4301000010270000", 0x43, F(INDEX, 1, 1),
+	  F(ACCEL, 10000, 10000)),
+	V("v4 §2.5.5 ex2 reply", V4, REPLY, "241#4301000010270000", 0x43, F(INDEX, 1, 1),
+	  F(ACCEL, 10000, 10000)),
+	V("v4 §2.5.5 ex3 request", V4, REQUEST, "141#4302000010270000", 0x43, F(INDEX, 2, 2),
+	  F(ACCEL, 10000, 10000)),
+	V("v4 §2.5.5 ex3 reply", V4, REPLY, "241#4302000010270000", 0x43, F(INDEX, 2, 2),
+	  F(ACCEL, 10000, 10000)),
+	V("v4 §2.5.5 ex4 request", V4, REQUEST, "141#4303000010270000", 0x43, F(INDEX, 3, 3),
+	  F(ACCEL, 10000, 10000)),
+	/* V4.2 §2.6.4 .. §2.10.4 */
+	V0("v4 §2.6.4 ex1 request", V4, REQUEST, "141#6000000000000000", 0x60),
+	V("v4 §2.6.4 ex1 reply", V4, REPLY, "241#6000000010270000", 0x60, F(ENCODER, 10000, 10000)),
+	V0("v4 §2.7.4 ex1 request", V4, REQUEST, "141#6100000000000000", 0x61),
+	V("v4 §2.7.4 ex1 reply", V4, REPLY, "241#6100000010270000", 0x61,
+	  F(ENCODER_RAW, 10000, 10000)),
+	V0("v4 §2.8.4 ex1 request", V4, REQUEST, "141#6200000000000000", 0x62),
+	V("v4 §2.8.4 ex1 reply", V4, REPLY, "241#6200000010270000", 0x62,
+	  F(ENCODER_OFF, 10000, 10000)),
+	V("v4 §2.9.4 ex1 request", V4, REQUEST, "141#6300000010270000", 0x63,
+	  F(ENCODER_OFF, 10000, 10000)),
+	V("v4 §2.9.4 ex1 reply", V4, REPLY, "241#6300000010270000", 0x63,
+	  F(ENCODER_OFF, 10000, 10000)),
+	V0("v4 §2.10.4 ex1 request", V4, REQUEST, "141#6400000000000000", 0x64),
+	V("v4 §2.10.4 ex1 reply", V4, REPLY, "241#6400000010270000", 0x64,
+	  F(ENCODER_OFF, 10000, 10000)),
+	/* V4.2 §2.11.4: single-turn encoder 2099, raw 11454, offset 9355 */
+	V0("v4 §2.11.4 ex1 request", V4, REQUEST, "141#9000000000000000", 0x90),
+	V("v4 §2.11.4 ex1 reply", V4, REPLY, "241#90003308BE2C8B24", 0x90, F(ENCODER, 2099, 2099),
+	  F(ENCODER_RAW, 11454, 11454), F(ENCODER_OFF, 9355, 9355)),
+	/* V4.2 §2.12.4: 36000 * 0.01 = 360 deg */
+	V0("v4 §2.12.4 ex1 request", V4, REQUEST, "141#9200000000000000", 0x92),
+	V("v4 §2.12.4 ex1 reply", V4, REPLY, "241#92000000A08C0000", 0x92, F(ANGLE, 36000, 360.0)),
+	/* V4.2 §2.13.4: single-turn angle 10000 * 0.01 = 100 deg */
+	V0("v4 §2.13.4 ex1 request", V4, REQUEST, "141#9400000000000000", 0x94),
+	V("v4 §2.13.4 ex1 reply", V4, REPLY, "241#9400000000001027", 0x94, F(ANGLE, 10000, 100.0)),
+	/* V4.2 §2.14.4: 50 degC, brake released, 48.5 V, low voltage; no MOS temperature */
+	V0("v4 §2.14.4 ex1 request", V4, REQUEST, "141#9A00000000000000", 0x9A),
+	V("v4 §2.14.4 ex1 reply", V4, REPLY, "241#9A320001E5010400", 0x9A, F(TEMP, 50, 50),
+	  F(MOS_TEMP, 0, 0), F(BRAKE, 1, 1), F(VOLTAGE, 485, 48.5), F(ERROR, 4, 4)),
+	/* V4.2 §2.15.4, §2.16.4 */
+	V0("v4 §2.15.4 ex1 request", V4, REQUEST, "141#9C00000000000000", 0x9C),
+	V("v4 §2.15.4 ex1 reply", V4, REPLY, "241#9C326400F4012D00", 0x9C, ST2_POS),
+	V0("v4 §2.16.4 ex1 request", V4, REQUEST, "141#9D00000000000000", 0x9D),
+	V("v4 §2.16.4 ex1 reply", V4, REPLY, "241#9D32C20B10FAC0F9", 0x9D, F(TEMP, 50, 50),
+	  F(PHASE_A, 3010, 30.1), F(PHASE_B, -1520, -15.2), F(PHASE_C, -1600, -16.0)),
+	/* V4.2 §2.19.4: 1 A and -1 A */
+	V("v4 §2.19.4 ex1 request", V4, REQUEST, "141#A100000064000000", 0xA1,
+	  F(CURRENT, 100, 1.0)),
+	V("v4 §2.19.4 ex1 reply", V4, REPLY, "241#A1326400F4012D00", 0xA1, ST2_POS),
+	V("v4 §2.19.4 ex2 request", V4, REQUEST, "141#A10000009CFF0000", 0xA1,
+	  F(CURRENT, -100, -1.0)),
+	V("v4 §2.19.4 ex2 reply", V4, REPLY, "241#A1329CFF0CFED3FF", 0xA1, ST2_NEG),
+	/* V4.2 §2.20.4: 100 dps and -100 dps, no torque limit (V4.3's data[1]) */
+	V("v4 §2.20.4 ex1 request", V4, REQUEST, "141#A200000010270000", 0xA2, F(MAX_TORQUE, 0, 0),
+	  F(SPEED, 10000, 100.0)),
+	V("v4 §2.20.4 ex1 reply", V4, REPLY, "241#A2326400F4012D00", 0xA2, ST2_POS),
+	V("v4 §2.20.4 ex2 request", V4, REQUEST, "141#A2000000F0D8FFFF", 0xA2, F(MAX_TORQUE, 0, 0),
+	  F(SPEED, -10000, -100.0)),
+	V("v4 §2.20.4 ex2 reply", V4, REPLY, "241#A2329CFF0CFED3FF", 0xA2, ST2_NEG),
+	/* V4.2 §2.21.4: 500 dps limit, 360 deg and -360 deg */
+	V("v4 §2.21.4 ex1 request", V4, REQUEST, "141#A400F401A08C0000", 0xA4,
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, 36000, 360.0)),
+	V("v4 §2.21.4 ex1 reply", V4, REPLY, "241#A4326400F4012D00", 0xA4, ST2_POS),
+	V("v4 §2.21.4 ex2 request", V4, REQUEST, "141#A400F4016073FFFF", 0xA4,
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, -36000, -360.0)),
+	V("v4 §2.21.4 ex2 reply", V4, REPLY, "241#A4329CFF0CFED3FF", 0xA4, ST2_NEG),
+	/*
+	 * V4.2 §2.22.4: single-turn 360 deg (beyond §2.22.1's 0..35999: the
+	 * example decides), clockwise then counterclockwise, at 500 dps; the
+	 * reply carries encoder 1000, not an angle.
+	 */
+	V("v4 §2.22.4 ex1 request", V4, REQUEST, "141#A600F401A08C0000", 0xA6, F(SPIN_DIR, 0, 0),
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, 36000, 360.0)),
+	V("v4 §2.22.4 ex1 reply", V4, REPLY, "241#A6326400F401E803", 0xA6, F(TEMP, 50, 50),
+	  F(CURRENT, 100, 1.0), F(SPEED, 500, 500), F(ENCODER, 1000, 1000)),
+	V("v4 §2.22.4 ex2 request", V4, REQUEST, "141#A601F401A08C0000", 0xA6, F(SPIN_DIR, 1, 1),
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, 36000, 360.0)),
+	V("v4 §2.22.4 ex2 reply", V4, REPLY, "241#A6326400F401E803", 0xA6, F(TEMP, 50, 50),
+	  F(CURRENT, 100, 1.0), F(SPEED, 500, 500), F(ENCODER, 1000, 1000)),
+	/* V4.2 §2.23.4: 500 dps limit, +360 deg and -360 deg from here */
+	V("v4 §2.23.4 ex1 request", V4, REQUEST, "141#A800F401A08C0000", 0xA8,
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, 36000, 360.0)),
+	V("v4 §2.23.4 ex1 reply", V4, REPLY, "241#A8326400F4012D00", 0xA8, ST2_POS),
+	V("v4 §2.23.4 ex2 request", V4, REQUEST, "141#A800F4016073FFFF", 0xA8,
+	  F(MAX_SPEED, 500, 500.0), F(ANGLE, -36000, -360.0)),
+	V("v4 §2.23.4 ex2 reply", V4, REPLY, "241#A8329CFF0CFED3FF", 0xA8, ST2_NEG),
+	/* V4.2 §2.24.4: position loop; §2.25.4: reset, no reply */
+	V0("v4 §2.24.4 ex1 request", V4, REQUEST, "141#7000000000000000", 0x70),
+	V("v4 §2.24.4 ex1 reply", V4, REPLY, "241#7000000000000003", 0x70, F(MODE, 3, 3)),
+	V0("v4 §2.25.4 ex1 request", V4, REQUEST, "141#7600000000000000", 0x76),
+	/* V4.2 §2.28.4: 268435456 ms; §2.29.4: 2022-02-06 */
+	V0("v4 §2.28.4 ex1 request", V4, REQUEST, "141#B100000000000000", 0xB1),
+	V("v4 §2.28.4 ex1 reply", V4, REPLY, "241#B100000000000010", 0xB1,
+	  F(RUNTIME, 268435456, 268435456.0)),
+	V0("v4 §2.29.4 ex1 request", V4, REQUEST, "141#B200000000000000", 0xB2),
+	V("v4 §2.29.4 ex1 reply", V4, REPLY, "241#B20000002E893401", 0xB2,
+	  F(VERSION, 20220206, 20220206.0)),
+	/* V4.2 §2.30.4: example 2's reply is printed as zeros, as in V3 */
+	V("v4 §2.30.4 ex1 request", V4, REQUEST, "141#B300000000000000", 0xB3, F(TIMEOUT, 0, 0)),
+	V("v4 §2.30.4 ex1 reply", V4, REPLY, "241#B300000000000000", 0xB3, F(TIMEOUT, 0, 0)),
+	V("v4 §2.30.4 ex2 request", V4, REQUEST, "141#B3000000E8030000", 0xB3,
+	  F(TIMEOUT, 1000, 1000.0)),
+	V("v4 §2.30.4 ex2 reply (printed as zeros)", V4, REPLY, "241#B300000000000000", 0xB3,
+	  F(TIMEOUT, 0, 0)),
+	/* V4.2 §2.31.4: baud codes 0, 1, 2 */
+	V("v4 §2.31.4 ex1 request", V4, REQUEST, "141#B400000000000000", 0xB4, F(BAUD, 0, 0)),
+	V("v4 §2.31.4 ex2 request", V4, REQUEST, "141#B400000000000001", 0xB4, F(BAUD, 1, 1)),
+	V("v4 §2.31.4 ex3 request", V4, REQUEST, "141#B400000000000002", 0xB4, F(BAUD, 2, 2)),
+	/* V4.2 §2.32.4: "X8S2V10" */
+	V0("v4 §2.32.4 ex1 request", V4, REQUEST, "141#B500000000000000", 0xB5),
+	V("v4 §2.32.4 ex1 reply", V4, REPLY, "241#B558385332563130", 0xB5,
+	  F(MODEL, MODEL_X8S2V10, (double)MODEL_X8S2V10)),
+	/* V4.2 §2.33.4: push 0x60's reply every 1 x 10 ms; no reply */
+	V("v4 §2.33.4 ex1 request", V4, REQUEST, "141#B660010100000000", 0xB6,
+	  F(REPORT_CMD, 0x60, 0x60), F(REPORT_ON, 1, 1), F(REPORT_MS, 1, 10.0)),
+	/* V4.2 §2.34.5: index 1 (clear multi-turn), index 2 value 1 (CAN ID filter on) */
+	V("v4 §2.34.5 ex1 request", V4, REQUEST, "141#2001000000000000", 0x20, F(INDEX, 1, 1),
+	  F(VALUE, 0, 0)),
+	V("v4 §2.34.5 ex1 reply", V4, REPLY, "241#2001000000000000", 0x20, F(INDEX, 1, 1),
+	  F(VALUE, 0, 0)),
+	V("v4 §2.34.5 ex2 request", V4, REQUEST, "141#2002000001000000", 0x20, F(INDEX, 2, 2),
+	  F(VALUE, 1, 1)),
+	V("v4 §2.34.5 ex2 reply", V4, REPLY, "241#2002000001000000", 0x20, F(INDEX, 2, 2),
+	  F(VALUE, 1, 1)),
+	/* V4.2 §3.2: one command to every motor on 0x280, one reply per motor */
+	V0("v4 §3.2 ex1 request", V4, REQUEST, "280#8000000000000000", 0x80),
+	V0("v4 §3.2 ex1 reply motor 1", V4, REPLY, "241#8000000000000000", 0x80),
+	V0("v4 §3.2 ex1 reply motor 2", V4, REPLY, "242#8000000000000000", 0x80),
+	V0("v4 §3.2 ex1 reply motor 3", V4, REPLY, "243#8000000000000000", 0x80),
+	V0("v4 §3.2 ex1 reply motor 4", V4, REPLY, "244#8000000000000000", 0x80),
+	V0("v4 §3.2 ex2 request", V4, REQUEST, "280#6000000000000000", 0x60),
+	V("v4 §3.2 ex2 reply motor 1", V4, REPLY, "241#6000000010270000", 0x60,
+	  F(ENCODER, 10000, 10000)),
+	V("v4 §3.2 ex2 reply motor 2", V4, REPLY, "242#60000000204E0000", 0x60,
+	  F(ENCODER, 20000, 20000)),
+	V("v4 §3.2 ex2 reply motor 3", V4, REPLY, "243#6000000030750000", 0x60,
+	  F(ENCODER, 30000, 30000)),
+	V("v4 §3.2 ex2 reply motor 4", V4, REPLY, "244#60000000409C0000", 0x60,
+	  F(ENCODER, 40000, 40000)),
+	/* V4.2 §4.4: 0x79 on 0x300, as V3 §4.4 */
+	V("v4 §4.4 ex1 request", V4, REQUEST, "300#7900000000000002", 0x79, F(READ_FLAG, 0, 0),
+	  F(CAN_ID, 2, 2)),
+	V("v4 §4.4 ex1 reply (write echo)", V4, REQUEST, "300#7900000000000002", 0x79,
+	  F(READ_FLAG, 0, 0), F(CAN_ID, 2, 2)),
+	V("v4 §4.4 ex2 request", V4, REQUEST, "300#7900010000000000", 0x79, F(READ_FLAG, 1, 1),
+	  F(CAN_ID, 0, 0)),
+	V("v4 §4.4 ex2 reply", V4, REPLY, "300#7900010000004202", 0x79, F(READ_FLAG, 1, 1),
+	  F(CAN_ID, 0x242, 0x242)),
+
 	/* V2 §3.1 .. §3.6: read a gain; the reply holds 0.25 in Q24 */
 	V0("v2 §3.1 request", V2, REQUEST, "141#3000000000000000", 0x30),
 	V("v2 §3.1 reply kp=0.25", V2, REPLY, "141#3000000000004000", 0x30, Q24_QUARTER(POS_KP)),
@@ -312,6 +494,7 @@ static const struct vec vectors[] = {
 
 #define N_V3_VECTORS 90
 #define N_V2_VECTORS 36
+#define N_V4_VECTORS 94
 
 static uint64_t field_mask(const struct vec *v)
 {
@@ -350,7 +533,7 @@ static void check_decode(const struct vec *v, const struct rmd_frame *f, enum rm
 				 (long long)m.v[e->fld], (long long)e->raw);
 		if (!fs)
 			fail_msg("%s: %s not in the layout", v->name, rmd_field_key(e->fld));
-		native = (double)m.v[e->fld] * fs->scale;
+		native = rmd_field_to_native(fs, m.v[e->fld]);
 		if (fabs(native - e->native) > 1e-9 * fmax(1.0, fabs(e->native)))
 			fail_msg("%s: %s = %.9g in native units, manual says %.9g", v->name,
 				 rmd_field_key(e->fld), native, e->native);
@@ -379,7 +562,7 @@ static void check_encode(const struct vec *v, const struct rmd_frame *want)
 
 static void test_manual_vectors(void **state)
 {
-	size_t n_v3 = 0, n_v2 = 0;
+	size_t n[RMD_PROTO_COUNT] = { 0 };
 
 	(void)state;
 	for (size_t i = 0; i < ARRAY_SIZE(vectors); i++) {
@@ -396,16 +579,15 @@ static void test_manual_vectors(void **state)
 		 */
 		check_decode(v, &f, RMD_DIR_UNKNOWN);
 		check_encode(v, &f);
-		if (v->proto == RMD_PROTO_V3)
-			n_v3++;
-		else
-			n_v2++;
+		n[v->proto]++;
 	}
-	assert_int_equal(n_v3, N_V3_VECTORS);
-	assert_int_equal(n_v2, N_V2_VECTORS);
-	print_message("codec: %zu manual vectors checked (%zu V3 example frames, "
+	assert_int_equal(n[RMD_PROTO_V3], N_V3_VECTORS);
+	assert_int_equal(n[RMD_PROTO_V2], N_V2_VECTORS);
+	assert_int_equal(n[RMD_PROTO_V4], N_V4_VECTORS);
+	assert_int_equal(ARRAY_SIZE(vectors), N_V3_VECTORS + N_V2_VECTORS + N_V4_VECTORS);
+	print_message("codec: %zu manual vectors checked (%zu V3 and %zu V4 example frames, "
 		      "%zu V2 frames from worked values)\n",
-		      n_v3 + n_v2, n_v3, n_v2);
+		      ARRAY_SIZE(vectors), n[RMD_PROTO_V3], n[RMD_PROTO_V4], n[RMD_PROTO_V2]);
 }
 
 /* ---- Table consistency ------------------------------------------------- */
@@ -414,6 +596,13 @@ static const uint8_t v3_cmds[] = {
 	0x30, 0x31, 0x32, 0x42, 0x43, 0x60, 0x61, 0x62, 0x63, 0x64, 0x92, 0x9A,
 	0x9C, 0x9D, 0x80, 0x81, 0xA1, 0xA2, 0xA3, 0xA4, 0xA5, 0xA8, 0x70, 0x71,
 	0x76, 0x77, 0x78, 0xB1, 0xB2, 0xB3, 0xB4, 0xB5, 0x20, 0x79,
+};
+
+/* V4.2 §2.1 .. §2.34, §4: no 0xA3, 0xA5 (§9, V3.7) nor 0x71; 0x90, 0x94, 0xA6, 0xB6 new. */
+static const uint8_t v4_cmds[] = {
+	0x30, 0x31, 0x32, 0x42, 0x43, 0x60, 0x61, 0x62, 0x63, 0x64, 0x90, 0x92,
+	0x94, 0x9A, 0x9C, 0x9D, 0x80, 0x81, 0xA1, 0xA2, 0xA4, 0xA6, 0xA8, 0x70,
+	0x76, 0x77, 0x78, 0xB1, 0xB2, 0xB3, 0xB4, 0xB5, 0xB6, 0x20, 0x79,
 };
 
 static const uint8_t v2_cmds[] = {
@@ -552,6 +741,20 @@ static void test_tables(void **state)
 	(void)state;
 	check_table(RMD_PROTO_V3, v3_cmds, ARRAY_SIZE(v3_cmds));
 	check_table(RMD_PROTO_V2, v2_cmds, ARRAY_SIZE(v2_cmds));
+	check_table(RMD_PROTO_V4, v4_cmds, ARRAY_SIZE(v4_cmds));
+	/* V4 leaves V3's position tracking and power reading out (V4.2 §9) */
+	assert_null(rmd_cmd_find(RMD_PROTO_V4, 0xA3));
+	assert_null(rmd_cmd_find(RMD_PROTO_V4, 0xA5));
+	assert_null(rmd_cmd_find(RMD_PROTO_V4, 0x71));
+	/* rows both manuals print alike are one row, not a copy */
+	assert_ptr_not_equal(rmd_cmd_find(RMD_PROTO_V4, 0x9C), rmd_cmd_find(RMD_PROTO_V3, 0x9C));
+	assert_memory_equal(&rmd_cmd_find(RMD_PROTO_V4, 0x9C)->rep,
+			    &rmd_cmd_find(RMD_PROTO_V3, 0x9C)->rep, sizeof(struct rmd_layout));
+	assert_true(rmd_cmd_find(RMD_PROTO_V4, 0x32)->flags & RMD_CMD_ROM);
+	assert_false(rmd_cmd_find(RMD_PROTO_V4, 0x31)->flags & RMD_CMD_ROM);
+	assert_true(rmd_cmd_find(RMD_PROTO_V4, 0xA6)->flags & RMD_CMD_MOVES);
+	assert_true(rmd_cmd_find(RMD_PROTO_V4, 0xB6)->flags & RMD_CMD_NO_REPLY);
+	assert_int_equal(rmd_proto_table(RMD_PROTO_V4), RMD_PROTO_V4);
 	assert_true(RMD_FLD_COUNT <= 64);
 	for (int f = 0; f < RMD_FLD_COUNT; f++)
 		if (!snake_case(rmd_field_key((enum rmd_field)f)) ||
@@ -625,8 +828,9 @@ static void round_trip_row(enum rmd_proto proto, const struct rmd_cmd_spec *s, e
 		uint8_t motor = multi ? 0 : (uint8_t)(1 + rng_next(rng) % RMD_MAX_MOTORS);
 		int r;
 
-		/* V3 §3: any request may go to every motor on 0x280. */
-		if (proto == RMD_PROTO_V3 && dir == RMD_DIR_REQUEST && rng_next(rng) % 8 == 0)
+		/* V3 §3, V4.2 §3: any request may go to every motor on 0x280. */
+		if (!rmd_dialect_has(rmd_dialect(proto), RMD_DIALECT_BATCH_280) &&
+		    dir == RMD_DIR_REQUEST && rng_next(rng) % 8 == 0)
 			motor = 0;
 		for (unsigned i = 0; i < l->n; i++) {
 			int64_t raw = rng_field(rng, &l->f[i]);
@@ -688,8 +892,19 @@ static void test_round_trip(void **state)
 	print_message("codec: round-trip seed %llu (set RMD_TEST_SEED to repeat)\n",
 		      (unsigned long long)seed_used);
 	rng = seed_used;
-	round_trip_table(RMD_PROTO_V3, &rng);
-	round_trip_table(RMD_PROTO_V2, &rng);
+	/* every dialect with a table of its own (MIT's is V3's) */
+	{
+		size_t nd, walked = 0;
+		const struct rmd_dialect *dl = rmd_dialect_list(&nd);
+
+		for (size_t i = 0; i < nd; i++) {
+			if (dl[i].table != dl[i].proto)
+				continue;
+			round_trip_table(dl[i].proto, &rng);
+			walked++;
+		}
+		assert_int_equal(walked, 3); /* V3, V2, V4 */
+	}
 }
 
 /* ---- Malformed frames and bad arguments ------------------------------- */
@@ -716,6 +931,13 @@ static void test_bad_length(void **state)
 	}
 	f.len = 9;
 	assert_int_equal(rmd_decode(RMD_PROTO_V3, RMD_DIR_UNKNOWN, &f, &m, NULL), -EBADMSG);
+	/* V4.2 §1.1.2: DLC 8, the float PID reply too */
+	f = frame_from("241#300100000000803F");
+	for (uint8_t len = 0; len <= 9; len++) {
+		f.len = len;
+		assert_int_equal(rmd_decode(RMD_PROTO_V4, RMD_DIR_UNKNOWN, &f, &m, NULL),
+				 len == RMD_FRAME_LEN ? 0 : -EBADMSG);
+	}
 }
 
 static void test_bad_id(void **state)
@@ -737,6 +959,10 @@ static void test_bad_id(void **state)
 		{ RMD_PROTO_V3, "300#8000000000000000" },  /* V3 §4: 0x300 is 0x79 only */
 		{ RMD_PROTO_V3, "141#7900010000000000" },  /* and 0x79 is 0x300 only */
 		{ RMD_PROTO_MIT, "401#9C00000000000000" }, /* MIT frames are not the table's */
+		{ RMD_PROTO_V4, "140#9C00000000000000" },
+		{ RMD_PROTO_V4, "261#9C00000000000000" },
+		{ RMD_PROTO_V4, "300#2005000002000000" }, /* V4.2 §4: 0x300 is 0x79 only */
+		{ RMD_PROTO_V4, "141#7900010000000000" },
 	};
 	struct rmd_addr a;
 	struct rmd_msg m;
@@ -791,6 +1017,22 @@ static void test_unknown_command(void **state)
 			 -ENOENT);
 	assert_int_equal(m.cmd, 0x00);
 	assert_int_equal(m.present, 0);
+	/* V4.2 §9: 0xA3 removed, 0xA5 merged into 0xA4; 0x71 is not in V4.2 */
+	assert_int_equal(decode_hex(RMD_PROTO_V4, RMD_DIR_UNKNOWN, "141#A300000064000000", &m),
+			 -ENOENT);
+	assert_int_equal(m.cmd, 0xA3);
+	assert_int_equal(decode_hex(RMD_PROTO_V4, RMD_DIR_UNKNOWN, "141#A500881364000000", &m),
+			 -ENOENT);
+	assert_int_equal(decode_hex(RMD_PROTO_V4, RMD_DIR_UNKNOWN, "241#710000000000D007", &m),
+			 -ENOENT);
+	assert_int_equal(decode_hex(RMD_PROTO_V4, RMD_DIR_UNKNOWN, "241#FF00000000000000", &m),
+			 -ENOENT);
+	assert_int_equal(m.present, 0);
+	/* and V4's new commands are unknown to V3 */
+	assert_int_equal(decode_hex(RMD_PROTO_V3, RMD_DIR_UNKNOWN, "141#B660010100000000", &m),
+			 -ENOENT);
+	assert_int_equal(decode_hex(RMD_PROTO_V3, RMD_DIR_UNKNOWN, "141#A600F401A08C0000", &m),
+			 -ENOENT);
 
 	{
 		struct rmd_msg in = { .cmd = 0xFF };
@@ -799,6 +1041,10 @@ static void test_unknown_command(void **state)
 		assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &in, &f), -ENOENT);
 		in.cmd = 0x94;
 		assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &in, &f), -ENOENT);
+		in.cmd = 0xA3;
+		assert_int_equal(rmd_encode(RMD_PROTO_V4, RMD_DIR_REQUEST, 1, &in, &f), -ENOENT);
+		in.cmd = 0x94;
+		assert_int_equal(rmd_encode(RMD_PROTO_V4, RMD_DIR_REQUEST, 1, &in, &f), 0);
 	}
 }
 
@@ -1241,6 +1487,31 @@ static void test_float_field(void **state)
 }
 
 /*
+ * V4.2 §2.13 / §9 V4.1: circleAngle is uint16 (0..35999), although
+ * §2.13.3 still says int16_t; 0xA6's angleControl is uint16 (§2.22.1).
+ */
+static void test_v4_single_turn(void **state)
+{
+	struct rmd_msg m;
+
+	(void)state;
+	assert_int_equal(decode_hex(RMD_PROTO_V4, RMD_DIR_REPLY, "241#9400000000009F8C", &m), 0);
+	assert_int_equal(m.v[RMD_FLD_ANGLE], 35999);
+	assert_int_equal(decode_hex(RMD_PROTO_V4, RMD_DIR_REQUEST, "141#A601F4019F8C0000", &m), 0);
+	assert_int_equal(m.v[RMD_FLD_ANGLE], 35999);
+	assert_int_equal(m.v[RMD_FLD_SPIN_DIR], 1);
+	/* 0x90's three uint16 counts */
+	assert_int_equal(decode_hex(RMD_PROTO_V4, RMD_DIR_REPLY, "241#9000FFFF0080FF7F", &m), 0);
+	assert_int_equal(m.v[RMD_FLD_ENCODER], 65535);
+	assert_int_equal(m.v[RMD_FLD_ENCODER_RAW], 32768);
+	assert_int_equal(m.v[RMD_FLD_ENCODER_OFF], 32767);
+	/* V4.3's MOS temperature (unverified) at 0x9A data[2], int8 */
+	assert_int_equal(decode_hex(RMD_PROTO_V4, RMD_DIR_REPLY, "241#9A32F601E5010000", &m), 0);
+	assert_int_equal(m.v[RMD_FLD_MOS_TEMP], -10);
+	assert_int_equal(m.v[RMD_FLD_TEMP], 50);
+}
+
+/*
  * V2 §3.29 (and §3.21 .. §3.25): the multi-turn angle in both of the
  * manual's readings, six data bytes and a sign byte.  Issue 13: the reply
  * 142#9278ECFFFFFFFF01 was read as (2^49 - 5000) x 0.01 deg.
@@ -1315,6 +1586,7 @@ int main(void)
 		cmocka_unit_test(test_version_date),
 		cmocka_unit_test(test_dialect_for_firmware),
 		cmocka_unit_test(test_float_field),
+		cmocka_unit_test(test_v4_single_turn),
 		cmocka_unit_test(test_v2_multi_turn_sign),
 	};
 

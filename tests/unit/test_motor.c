@@ -816,12 +816,12 @@ static void ref_put(struct rmd_msg *msg, const struct rmd_cmd_spec *spec, enum r
 
 static void test_resolved_rows_match_interpreter(void **state)
 {
-	static const enum rmd_proto protos[] = { RMD_PROTO_V3, RMD_PROTO_V2 };
+	static const enum rmd_proto protos[] = { RMD_PROTO_V3, RMD_PROTO_V2, RMD_PROTO_V4 };
 	static const enum rmd_mode modes[] = { RMD_MODE_TORQUE, RMD_MODE_SPEED, RMD_MODE_POSITION };
 	unsigned seed = 11;
 
 	(void)state;
-	for (unsigned p = 0; p < 2; p++) {
+	for (unsigned p = 0; p < sizeof(protos) / sizeof(protos[0]); p++) {
 		for (unsigned k = 0; k < 300; k++) {
 			enum rmd_mode mode = modes[k % 3];
 			struct rmd_config_motor c = cfg_motor(2, protos[p], mode);
