@@ -97,6 +97,7 @@ enum rmd_field {
 	RMD_FLD_REPORT_CMD,  /* report_command: V4 0xB6, the reply pushed */
 	RMD_FLD_REPORT_ON,   /* report_enable: V4 0xB6, 1 on, 0 off */
 	RMD_FLD_REPORT_MS,   /* report_interval_ms: V4 0xB6, 10 ms a step */
+	RMD_FLD_POS_KD,	     /* position_kd: V4 0x30 index 9 (as a struct rmd_pid_slot's field) */
 	RMD_FLD_COUNT
 };
 

@@ -108,6 +108,19 @@ enum rmd_pid_layout {
 	RMD_PID_FLOAT_INDEXED,
 };
 
+/*
+ * One PID gain of a dialect's layout: the enum rmd_field it is known by
+ * (its JSON and dump key, rmd_field_key()), and the index that addresses
+ * it where gains go one a frame (RMD_PID_FLOAT_INDEXED; 0 otherwise).
+ */
+struct rmd_pid_slot {
+	uint8_t field;
+	uint8_t index;
+};
+
+/* The most gains a layout has (V4.2 §2.1.4: seven). */
+#define RMD_PID_SLOTS_MAX 7
+
 /* One named error flag of a dialect's table. */
 struct rmd_flag_name {
 	uint16_t code;
@@ -136,6 +149,9 @@ struct rmd_dialect {
 	uint16_t ctl_reply_base; /* their replies: reply_base, or 0x500 (MIT) */
 	enum rmd_set_id set_id;
 	enum rmd_pid_layout pid;
+	/* the gains of that layout, in order (V3 §2.1: six; V4.2 §2.1.4: seven by index) */
+	const struct rmd_pid_slot *pid_slots;
+	unsigned n_pid_slots;
 	/* error flags, as 0x9A reports them */
 	const struct rmd_flag_name *error_bits;
 	size_t n_error_bits;

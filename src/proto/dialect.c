@@ -89,11 +89,31 @@ static const struct rmd_flag_name v2_run_modes[] = {
 	{ 0xFF, "init" },
 };
 
+/* V3 §2.1.3: six uint8 gains in one frame, in this order. */
+static const struct rmd_pid_slot v3_pid[] = {
+	{ RMD_FLD_CURR_KP, 0 }, { RMD_FLD_CURR_KI, 0 }, { RMD_FLD_SPD_KP, 0 },
+	{ RMD_FLD_SPD_KI, 0 },	{ RMD_FLD_POS_KP, 0 },	{ RMD_FLD_POS_KI, 0 },
+};
+
+/* V2 §3.1 .. §3.6: one Q24 gain a command, in this order. */
+static const struct rmd_pid_slot v2_pid[] = {
+	{ RMD_FLD_CURR_KP, 0 }, { RMD_FLD_CURR_KI, 0 }, { RMD_FLD_SPD_KP, 0 },
+	{ RMD_FLD_SPD_KI, 0 },	{ RMD_FLD_POS_KP, 0 },	{ RMD_FLD_POS_KI, 0 },
+};
+
+/* V4.2 §2.1.4: one float gain a frame, addressed by index. */
+static const struct rmd_pid_slot v4_pid[] = {
+	{ RMD_FLD_CURR_KP, 1 }, { RMD_FLD_CURR_KI, 2 }, { RMD_FLD_SPD_KP, 4 },
+	{ RMD_FLD_SPD_KI, 5 },	{ RMD_FLD_POS_KP, 7 },	{ RMD_FLD_POS_KI, 8 },
+	{ RMD_FLD_POS_KD, 9 },
+};
+
 /* What V3.x and its MIT motors share: the V3 command set, ids and probes. */
 #define V3_COMMON                                                                              \
 	.table = RMD_PROTO_V3, .rows = rmd_v3_cmds, .n_rows = &rmd_v3_ncmds,                   \
 	.req_base = RMD_CAN_REQ_BASE, .reply_base = RMD_CAN_V3_REPLY_BASE,                     \
-	.set_id = RMD_SET_ID_79_300, .pid = RMD_PID_U8_SIX, .error_bits = v3_error_bits,       \
+	.set_id = RMD_SET_ID_79_300, .pid = RMD_PID_U8_SIX, .pid_slots = v3_pid,               \
+	.n_pid_slots = ARRAY_SIZE(v3_pid), .error_bits = v3_error_bits,                        \
 	.n_error_bits = ARRAY_SIZE(v3_error_bits), .run_modes = v3_run_modes,                  \
 	.n_run_modes = ARRAY_SIZE(v3_run_modes), .probe = { 0xB5, 0xB2, 0x9A }, .n_probes = 3, \
 	.example_version = 20220206
@@ -134,6 +154,8 @@ static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
 		.caps = RMD_DIALECT_BATCH_280 | RMD_DIALECT_ENCODER_UNWRAP,
 		.set_id = RMD_SET_ID_79_OWN,
 		.pid = RMD_PID_V2_PER_GAIN,
+		.pid_slots = v2_pid,
+		.n_pid_slots = ARRAY_SIZE(v2_pid),
 		.error_bits = v2_error_bits,
 		.n_error_bits = ARRAY_SIZE(v2_error_bits),
 		.error_codes = v2_error_codes,
@@ -172,6 +194,8 @@ static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
 			RMD_DIALECT_ACCEL_INDEX | RMD_DIALECT_ANGLE_LIMITS,
 		.set_id = RMD_SET_ID_FUNC_20,
 		.pid = RMD_PID_FLOAT_INDEXED,
+		.pid_slots = v4_pid,
+		.n_pid_slots = ARRAY_SIZE(v4_pid),
 		.error_bits = v4_error_bits,
 		.n_error_bits = ARRAY_SIZE(v4_error_bits),
 		/* V4.2 §2.24.3: V3's run modes */

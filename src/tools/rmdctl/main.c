@@ -112,12 +112,14 @@ static const struct rmdctl_cmd cmds[] = {
 	    "ROM: asks for confirmation), DPS2 100..60000 dps/s; V2 `accel ID DPS2`\n"
 	    "(RAM).\n",
 	    rmdctl_run_accel),
-	DEV("pid", "read or write PI gains", "ID [CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI]", 1,
-	    7, O_JSON | O_YES | O_ROM,
+	DEV("pid", "read or write PID gains",
+	    "ID [CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI [POS_KD]]", 1, 8,
+	    O_JSON | O_YES | O_ROM,
 	    "Reads the PI gains of the current, speed and position loops (0x30), or\n"
 	    "writes all six: V3 integers 0..255 (units of 1/256 of a model-dependent\n"
 	    "maximum) with 0x31 (RAM) or, with --rom, 0x32 (ROM: asks for\n"
-	    "confirmation); V2 Q24 reals with 0x36..0x3B / 0x3C..0x41.\n",
+	    "confirmation); V2 Q24 reals with 0x36..0x3B / 0x3C..0x41; V4 (V4.2 §2.1)\n"
+	    "reals, one 0x30/0x31/0x32 frame by index each, and the position KD too.\n",
 	    rmdctl_run_pid),
 	DEV("brake", "lock or release the brake", "ID on|off", 2, 2, O_YES,
 	    "on (or lock): brake locked (0x78).  off (or release): brake released\n"

@@ -25,7 +25,22 @@ bool rmdctl_rec_has(const struct rec *r, enum rmd_field f)
 
 double rmdctl_rec_val(const struct rec *r, enum rmd_field f)
 {
+	if ((r->is_float >> f) & 1) {
+		uint32_t u = (uint32_t)r->raw[f];
+		float x;
+
+		memcpy(&x, &u, sizeof(x));
+		return x;
+	}
 	return (double)r->raw[f] * r->scale[f];
+}
+
+void rmdctl_rec_set_float(struct rec *r, enum rmd_field f, int64_t bits)
+{
+	r->present |= UINT64_C(1) << f;
+	r->is_float |= UINT64_C(1) << f;
+	r->raw[f] = bits;
+	r->scale[f] = 1.0;
 }
 
 /* Fold the fields of an answer into r; keep what r has unless overwrite. */
@@ -42,6 +57,10 @@ void rmdctl_rec_add(struct rec *r, const struct rmd_cmd_spec *spec, const struct
 		r->present |= UINT64_C(1) << f;
 		r->raw[f] = m->v[f];
 		r->scale[f] = l->f[i].scale;
+		if (l->f[i].is_float)
+			r->is_float |= UINT64_C(1) << f;
+		else
+			r->is_float &= ~(UINT64_C(1) << f);
 	}
 }
 
@@ -110,7 +129,9 @@ const char *rmdctl_field_text(const struct dev *d, const struct rec *r, enum rmd
 			 name ? name : "", name ? ")" : "");
 		return buf;
 	}
-	if (r->scale[f] == 1.0)
+	if ((r->is_float >> f) & 1) /* binary32: 9 digits give it back exactly */
+		snprintf(buf, size, "%.9g", rmdctl_rec_val(r, f));
+	else if (r->scale[f] == 1.0)
 		snprintf(buf, size, "%" PRId64, r->raw[f]);
 	else
 		rmd_fmt_real(buf, size, rmdctl_rec_val(r, f), FIELD_DIGITS);

@@ -151,9 +151,16 @@ struct req {
 /* Fields gathered from several answers of one motor, in native units. */
 struct rec {
 	uint64_t present;
+	uint64_t is_float; /* bit f: raw[f] holds binary32 bits (V4.2 §2.1 gains) */
 	int64_t raw[RMD_FLD_COUNT];
 	double scale[RMD_FLD_COUNT];
 };
+
+/* V4.2 §2.1: the dialect's gains read one 0x30 by index each into rec; an exit status. */
+int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec);
+
+/* Field f of r is the binary32 whose bits are `bits` (a V4 gain, read by index). */
+void rmdctl_rec_set_float(struct rec *r, enum rmd_field f, int64_t bits);
 
 /* Set by SIGINT/SIGTERM: waits end early, move stops the motor, monitor exits. */
 extern volatile sig_atomic_t rmdctl_interrupted;

@@ -50,6 +50,78 @@ static int others_renumbered(struct dev *d, const uint8_t *before, unsigned n, u
 	return RMDCTL_EXIT_DATA;
 }
 
+/* An echo of `data` from one of ids[] (set_id_func_20()). */
+struct echo_cap {
+	uint32_t ids[2];
+	uint8_t data[RMD_FRAME_LEN];
+	uint32_t from; /* 0: none seen */
+};
+
+static void cap_echo(void *ctx, const struct rmd_bus_rx *rx)
+{
+	struct echo_cap *c = ctx;
+
+	if ((rx->f.can_id == c->ids[0] || rx->f.can_id == c->ids[1]) &&
+	    rx->f.len == RMD_FRAME_LEN && !memcmp(rx->f.data, c->data, RMD_FRAME_LEN))
+		c->from = rx->f.can_id;
+}
+
+/*
+ * V4.2 §2.34.4: the ID is 0x20 index 5, written to ROM, taken after a
+ * reset (0x76).  The reply is the request (§2.34.3), but firmware
+ * 2025070202 (X4-36) sends it from the NEW id, while it still takes
+ * requests on the old one until the reset: either is the answer.  Then
+ * 0x76 to the old id.  Returns an exit status.
+ */
+static int set_id_func_20(struct dev *d, uint8_t old_id, uint8_t new_id)
+{
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
+	struct rmd_txn_opts o = d->txn;
+	struct echo_cap cap = { .ids = { dl->reply_base + (uint32_t)old_id,
+					 dl->reply_base + (uint32_t)new_id } };
+	struct rmd_msg msg = { .cmd = 0x20 };
+	struct rmd_txn t;
+	struct req rst;
+	int r;
+
+	r = rmdctl_confirm(d,
+			   "write CAN id %u to motor %u on %s (0x20 index 5, ROM), then reset it "
+			   "(0x76) so that it takes the id",
+			   new_id, old_id, d->name);
+	if (r)
+		return r;
+	rmd_msg_set(&msg, RMD_FLD_INDEX, 5);
+	rmd_msg_set(&msg, RMD_FLD_VALUE, new_id);
+	r = rmd_txn_prepare(&t, d->proto, old_id, &msg);
+	if (r < 0) {
+		tool_log(TOOL_LOG_ERR, "motor %u: cannot encode 0x20 index 5: %s", old_id,
+			 strerror(-r));
+		return RMDCTL_EXIT_DATA;
+	}
+	memcpy(cap.data, t.req.data, RMD_FRAME_LEN);
+	o.unmatched = cap_echo;
+	o.unmatched_ctx = &cap;
+	r = rmd_txn_run(d->b, &t, 1, &o);
+	if (r < 0) {
+		tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
+		return RMDCTL_EXIT_DATA;
+	}
+	if (t.done)
+		cap.from = t.reply_id;
+	if (!cap.from) {
+		tool_log(TOOL_LOG_ERR,
+			 "%s: motor %u did not answer 0x20 index 5 (from id %u or %u): the id may "
+			 "not have changed; not reset",
+			 d->name, old_id, old_id, new_id);
+		return RMDCTL_EXIT_DATA;
+	}
+	tool_log(TOOL_LOG_INFO, "%s: motor %u took id %u (answered from id %u); resetting it",
+		 d->name, old_id, new_id, (unsigned)(cap.from - dl->reply_base));
+	/* V4.2 §2.25: 0x76 does not answer */
+	rmdctl_req_init(&rst, old_id, 0x76);
+	return rmdctl_run_reqs(d, &rst, 1);
+}
+
 int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 {
 	uint8_t old_id, new_id, all[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
@@ -64,14 +136,6 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 	if (rmdctl_parse_id(argv[0], "OLD id", &old_id) < 0 ||
 	    rmdctl_parse_id(argv[1], "NEW id", &new_id) < 0)
 		return RMDCTL_EXIT_USAGE;
-	/* V4.2 §2.34.4: 0x20 index 5 and a 0x76 reset; not written here yet */
-	if (rmdctl_dialect(d)->set_id == RMD_SET_ID_FUNC_20) {
-		tool_log(TOOL_LOG_ERR,
-			 "%s: set-id does not speak %s yet (0x20 index 5, then 0x76): see "
-			 "`rmdctl encode --protocol %s function_control`",
-			 d->name, rmdctl_dialect(d)->name, rmdctl_dialect(d)->key);
-		return RMDCTL_EXIT_USAGE;
-	}
 	if (old_id == new_id) {
 		tool_log(TOOL_LOG_ERR, "OLD and NEW are both %u", old_id);
 		return RMDCTL_EXIT_USAGE;
@@ -114,6 +178,12 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 			goto out;
 		}
 	}
+	if (rmdctl_dialect(d)->set_id == RMD_SET_ID_FUNC_20) {
+		r = set_id_func_20(d, old_id, new_id);
+		if (r)
+			goto out;
+		goto renumbered;
+	}
 	r = rmdctl_confirm(d, "write CAN id %u to motor %u on %s (ROM%s)", new_id, old_id, d->name,
 			   v3 ? "; every motor with the CAN-ID filter off hears it" : "");
 	if (r)
@@ -138,6 +208,7 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 		r = RMDCTL_EXIT_DATA;
 		goto out;
 	}
+renumbered:
 	/* The new id answers, the old one no longer does. */
 	until = rmd_now_ns() + SET_ID_WAIT_NS;
 	do {
@@ -332,6 +403,46 @@ out:
 static const enum rmd_field pid_fields[6] = { RMD_FLD_CURR_KP, RMD_FLD_CURR_KI, RMD_FLD_SPD_KP,
 					      RMD_FLD_SPD_KI,  RMD_FLD_POS_KP,	RMD_FLD_POS_KI };
 
+/* V4.2 §2.1: the dialect's gains, one 0x30 by index each, into rec.  Non-rt. */
+int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec)
+{
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
+	struct req q[RMD_PID_SLOTS_MAX];
+	unsigned n = 0;
+	int r;
+
+	for (unsigned i = 0; i < dl->n_pid_slots && n < RMD_PID_SLOTS_MAX; i++) {
+		rmdctl_req_init(&q[n], id, 0x30);
+		rmd_msg_set(&q[n++].msg, RMD_FLD_INDEX, dl->pid_slots[i].index);
+	}
+	r = rmdctl_exchange(d, q, n);
+	if (r)
+		return r;
+	if (rmdctl_report_failed(d, q, n))
+		return RMDCTL_EXIT_DATA;
+	for (unsigned i = 0; i < n; i++) {
+		/* the answer names its index (§2.1.3): it must be the one asked */
+		if (q[i].rep.v[RMD_FLD_INDEX] != dl->pid_slots[i].index) {
+			tool_log(TOOL_LOG_ERR, "%s: motor %u answered 0x30 index %u with index %" PRId64,
+				 d->name, id, dl->pid_slots[i].index, q[i].rep.v[RMD_FLD_INDEX]);
+			return RMDCTL_EXIT_DATA;
+		}
+		rmdctl_rec_set_float(rec, (enum rmd_field)dl->pid_slots[i].field,
+				     q[i].rep.v[RMD_FLD_GAIN]);
+	}
+	return RMDCTL_EXIT_OK;
+}
+
+/* The fields of the dialect's gains, in its order, into f; their count. */
+static unsigned pid_order(const struct rmd_dialect *dl, enum rmd_field f[RMD_PID_SLOTS_MAX])
+{
+	unsigned n = 0;
+
+	for (unsigned i = 0; i < dl->n_pid_slots && n < RMD_PID_SLOTS_MAX; i++)
+		f[n++] = (enum rmd_field)dl->pid_slots[i].field;
+	return n;
+}
+
 static int pid_read(struct dev *d, uint8_t id)
 {
 	struct rec rec = { 0 };
@@ -339,6 +450,14 @@ static int pid_read(struct dev *d, uint8_t id)
 	unsigned n = 0;
 	int r;
 
+	if (rmdctl_dialect(d)->pid == RMD_PID_FLOAT_INDEXED) {
+		enum rmd_field order[RMD_PID_SLOTS_MAX];
+
+		r = rmdctl_pid_read_indexed(d, id, &rec);
+		if (!r)
+			rmdctl_print_rec(d, id, &rec, order, pid_order(rmdctl_dialect(d), order));
+		return r;
+	}
 	if (rmdctl_dialect(d)->pid == RMD_PID_V2_PER_GAIN)
 		for (unsigned i = 0; i < 6; i++)
 			rmdctl_req_init(&q[n++], id, rmdctl_v2_pid_read[i]);
@@ -355,6 +474,71 @@ static int pid_read(struct dev *d, uint8_t id)
 	return RMDCTL_EXIT_OK;
 }
 
+/*
+ * V4.2 §2.2 / §2.3: gains[0..n) (six, or seven with POS_KD) written one
+ * 0x31 (RAM) or 0x32 (ROM) frame by index each, echo checked.  Non-rt.
+ */
+static int pid_write_indexed(struct dev *d, uint8_t id, int n, char **gains)
+{
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
+	uint8_t cmd = d->rom ? 0x32 : 0x31;
+	struct req q[RMD_PID_SLOTS_MAX];
+	double g[RMD_PID_SLOTS_MAX];
+	enum rmd_field order[RMD_PID_SLOTS_MAX];
+	int r;
+
+	if (n != (int)dl->n_pid_slots - 1 && n != (int)dl->n_pid_slots) {
+		tool_log(TOOL_LOG_ERR,
+			 "give the gains: CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI [POS_KD] "
+			 "(%s: reals)",
+			 dl->name);
+		return RMDCTL_EXIT_USAGE;
+	}
+	for (int i = 0; i < n; i++) {
+		/* V4.2 §2.2.2: a binary32; negative or non-finite gains make no sense */
+		if (rmdctl_parse_double(gains[i], &g[i]) < 0 || !(g[i] >= 0) || g[i] > 3.4e38) {
+			tool_log(TOOL_LOG_ERR, "bad gain \"%s\" (a real >= 0)", gains[i]);
+			return RMDCTL_EXIT_USAGE;
+		}
+		rmdctl_req_init(&q[i], id, cmd);
+		rmd_msg_set(&q[i].msg, RMD_FLD_INDEX, dl->pid_slots[i].index);
+		rmd_msg_set_native(&q[i].msg, rmdctl_spec(d, cmd), RMD_DIR_REQUEST, RMD_FLD_GAIN,
+				   g[i]);
+	}
+	r = rmdctl_open_bus_for(d, d->rom, "write the PID gains of motor %u on %s to ROM", id,
+				d->bus_spec);
+	if (r)
+		return r;
+	if (d->rom) {
+		r = rmdctl_confirm(d, "write %d PID gains to motor %u on %s (ROM)", n, id,
+				   d->name);
+		if (r)
+			goto out;
+	}
+	r = rmdctl_run_reqs(d, q, (unsigned)n);
+	if (r)
+		goto out;
+	if (rmdctl_report_failed(d, q, (unsigned)n)) {
+		r = RMDCTL_EXIT_DATA;
+		goto out;
+	}
+	if (d->json) {
+		struct rec rec = { 0 };
+
+		for (int i = 0; i < n; i++)
+			rmdctl_rec_set_float(&rec, (enum rmd_field)dl->pid_slots[i].field,
+					     q[i].msg.v[RMD_FLD_GAIN]);
+		pid_order(dl, order);
+		rmdctl_print_rec(d, id, &rec, order, (size_t)n);
+	} else {
+		printf("%s: motor %u: %d PID gains written to %s, each echoed\n", d->name, id, n,
+		       d->rom ? "RAM and ROM" : "RAM (lost at power off; --rom keeps them)");
+	}
+out:
+	rmdctl_close_bus(d);
+	return r;
+}
+
 int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 {
 	/* V2 §3.1 .. §3.18: one Q24 gain a command; V3 §2.2: six uint8 gains in one */
@@ -365,14 +549,6 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 	uint8_t id = d->id;
 	int r;
 
-	/* V4.2 §2.1 .. §2.3: one float gain by index a frame; not read or written here yet */
-	if (rmdctl_dialect(d)->pid == RMD_PID_FLOAT_INDEXED) {
-		tool_log(TOOL_LOG_ERR,
-			 "%s: pid does not speak %s gains yet (one float by index): see "
-			 "`rmdctl encode --protocol %s pid`",
-			 d->name, rmdctl_dialect(d)->name, rmdctl_dialect(d)->key);
-		return RMDCTL_EXIT_USAGE;
-	}
 	if (argc == 1) {
 		if (d->rom) {
 			tool_log(TOOL_LOG_ERR, "--rom applies to writing gains");
@@ -380,6 +556,8 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 		}
 		return pid_read(d, id);
 	}
+	if (rmdctl_dialect(d)->pid == RMD_PID_FLOAT_INDEXED)
+		return pid_write_indexed(d, id, argc - 1, argv + 1);
 	if (argc != 7) {
 		tool_log(TOOL_LOG_ERR,
 			 "give all six gains: CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI");
