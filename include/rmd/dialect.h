@@ -115,6 +115,7 @@ struct rmd_flag_name {
 };
 
 #define RMD_DIALECT_PROBES_MAX 4
+#define RMD_DIALECT_REPORTS_MAX 8
 
 struct rmd_dialect {
 	enum rmd_proto proto; /* its key; rmd_dialect(proto) returns this record */
@@ -142,6 +143,18 @@ struct rmd_dialect {
 	/* whole error codes that are not bits (V2 §3.31 table 2), or none */
 	const struct rmd_flag_name *error_codes;
 	size_t n_error_codes;
+	/*
+	 * RMD_PID_FLOAT_INDEXED: the gains by index, code = data[1] of
+	 * 0x30..0x32 (V4.2 §2.1.4), name snake_case ("position_kd"); or none
+	 */
+	const struct rmd_flag_name *pid_gains;
+	size_t n_pid_gains;
+	/*
+	 * RMD_DIALECT_ACTIVE_REPLY: the commands whose replies 0xB6 can push
+	 * (V4.2 §2.33.2), or none
+	 */
+	uint8_t report_cmds[RMD_DIALECT_REPORTS_MAX];
+	unsigned n_report_cmds;
 	/* 0x70's run modes (V3 §2.23.3, V2 §3.45) */
 	const struct rmd_flag_name *run_modes;
 	size_t n_run_modes;

@@ -74,6 +74,13 @@ static const struct rmd_flag_name v2_error_codes[] = {
 	{ 0x00F4, "rom_write_unsafe" },	    { 0x00F6, "loop_switch_unsafe" },
 };
 
+/* V4.2 §2.1.4 (and §2.2.4, §2.3.4): the gain of each index of 0x30 .. 0x32. */
+static const struct rmd_flag_name v4_pid_gains[] = {
+	{ 0x01, "current_kp" },	 { 0x02, "current_ki" },  { 0x04, "speed_kp" },
+	{ 0x05, "speed_ki" },	 { 0x07, "position_kp" }, { 0x08, "position_ki" },
+	{ 0x09, "position_kd" },
+};
+
 /* V3 §2.23.3: 0x70's run modes. */
 static const struct rmd_flag_name v3_run_modes[] = {
 	{ 0x01, "current_loop" },
@@ -171,6 +178,11 @@ static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
 			RMD_DIALECT_ACCEL_INDEX | RMD_DIALECT_ANGLE_LIMITS,
 		.set_id = RMD_SET_ID_FUNC_20,
 		.pid = RMD_PID_FLOAT_INDEXED,
+		.pid_gains = v4_pid_gains,
+		.n_pid_gains = ARRAY_SIZE(v4_pid_gains),
+		/* V4.2 §2.33.2; 0x9E is in this list only, no section defines it */
+		.report_cmds = { 0x60, 0x61, 0x62, 0x92, 0x9A, 0x9C, 0x9D, 0x9E },
+		.n_report_cmds = 8,
 		.error_bits = v4_error_bits,
 		.n_error_bits = ARRAY_SIZE(v4_error_bits),
 		/* V4.2 §2.24.3: V3's run modes */
