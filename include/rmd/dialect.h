@@ -167,7 +167,8 @@ struct rmd_dialect {
 };
 
 /*
- * The dialect for `protocol: auto`, from a motor's 0xB2 answer (V3 §2.29:
+ * The dialect for a `protocol: auto` (docs/protocol-v4.md; no config reads
+ * it yet), from a motor's 0xB2 answer (V3 §2.29:
  * yyyymmdd; newer firmware yyyymmddNN, rmd_version_date()).  A date on or
  * after 2024-05-28, V4.2's revision date (V4.2 §9: the float PID layout),
  * gives V4; a plausible earlier date V3 (V3.x, V4.0 and V4.1 firmware keep
