@@ -72,7 +72,7 @@ struct rmd_bringup_motor {
 	enum rmd_bringup_mismatch mismatch; /* RMD_BRINGUP_MISMATCH: why */
 	/*
 	 * Replies it pushed unasked during bring-up (0xB6 active reply, V4.2
-	 * §2.33, left on by another tool), bit k: its dialect's reports[k];
+	 * §2.33, left on by another tool), bit k: its dialect's report_cmds[k];
 	 * and whether bring-up turned every one off (0xB6, enable 0).
 	 */
 	uint8_t pushed;

@@ -439,6 +439,13 @@ const char *rmd_proto_key(enum rmd_proto proto);
 const char *rmd_proto_name(enum rmd_proto proto);
 int rmd_proto_parse(const char *s, enum rmd_proto *proto);
 
+/*
+ * The keys as a phrase for messages, "v3, v2, mit or v4" (sep ", " and
+ * last " or "), or with sep " " and last " " a word list; in buf, which
+ * it returns (cut short when small).  Non-rt.
+ */
+const char *rmd_proto_keys_text(char *buf, size_t size, const char *sep, const char *last);
+
 /* Name of a 0x70 run mode value ("current_loop", ...), or NULL. */
 const char *rmd_run_mode_name(enum rmd_proto proto, uint8_t mode);
 

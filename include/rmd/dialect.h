@@ -128,6 +128,7 @@ struct rmd_flag_name {
 };
 
 #define RMD_DIALECT_PROBES_MAX 4
+#define RMD_DIALECT_REPORTS_MAX 8
 
 struct rmd_dialect {
 	enum rmd_proto proto; /* its key; rmd_dialect(proto) returns this record */
@@ -158,6 +159,12 @@ struct rmd_dialect {
 	/* whole error codes that are not bits (V2 §3.31 table 2), or none */
 	const struct rmd_flag_name *error_codes;
 	size_t n_error_codes;
+	/*
+	 * RMD_DIALECT_ACTIVE_REPLY: the commands whose replies 0xB6 can push
+	 * (V4.2 §2.33.2), which bring-up turns off; or none
+	 */
+	uint8_t report_cmds[RMD_DIALECT_REPORTS_MAX];
+	unsigned n_report_cmds;
 	/* 0x70's run modes (V3 §2.23.3, V2 §3.45) */
 	const struct rmd_flag_name *run_modes;
 	size_t n_run_modes;
@@ -168,12 +175,6 @@ struct rmd_dialect {
 	uint8_t probe[RMD_DIALECT_PROBES_MAX];
 	unsigned n_probes;
 	/*
-	 * The replies 0xB6 can have the motor push unasked (V4.2 §2.33.2),
-	 * which bring-up turns off; none without RMD_DIALECT_ACTIVE_REPLY.
-	 */
-	uint8_t reports[8];
-	unsigned n_reports;
-	/*
 	 * A 0xB2 firmware version of this generation seen in the field, which
 	 * the simulator reports unless told another; 0: the dialect has no 0xB2.
 	 */
@@ -181,7 +182,8 @@ struct rmd_dialect {
 };
 
 /*
- * The dialect for `protocol: auto`, from a motor's 0xB2 answer (V3 §2.29:
+ * The dialect for a `protocol: auto` (docs/protocol-v4.md; no config reads
+ * it yet), from a motor's 0xB2 answer (V3 §2.29:
  * yyyymmdd; newer firmware yyyymmddNN, rmd_version_date()).  A date on or
  * after 2024-05-28, V4.2's revision date (V4.2 §9: the float PID layout),
  * gives V4; a plausible earlier date V3 (V3.x, V4.0 and V4.1 firmware keep

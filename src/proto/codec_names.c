@@ -8,6 +8,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "rmd/codec.h"
 #include "rmd/dialect.h"
@@ -41,6 +42,27 @@ int rmd_proto_parse(const char *s, enum rmd_proto *proto)
 		}
 	}
 	return -EINVAL;
+}
+
+const char *rmd_proto_keys_text(char *buf, size_t size, const char *sep, const char *last)
+{
+	size_t k = 0;
+
+	if (!size)
+		return buf;
+	buf[0] = '\0';
+	for (unsigned i = 0; i < RMD_PROTO_COUNT && k < size; i++) {
+		int n = snprintf(buf + k, size - k, "%s%s",
+				 !i			  ? "" :
+				 i + 1 == RMD_PROTO_COUNT ? last :
+							    sep,
+				 rmd_dialect((enum rmd_proto)i)->key);
+
+		if (n < 0)
+			break;
+		k += (size_t)n;
+	}
+	return buf;
 }
 
 /* A bit no table names keeps a name of its own, so no flag goes unreported. */

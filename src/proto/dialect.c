@@ -196,6 +196,9 @@ static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
 		.pid = RMD_PID_FLOAT_INDEXED,
 		.pid_slots = v4_pid,
 		.n_pid_slots = ARRAY_SIZE(v4_pid),
+		/* V4.2 §2.33.2; 0x9E is in this list only, no section defines it */
+		.report_cmds = { 0x60, 0x61, 0x62, 0x92, 0x9A, 0x9C, 0x9D, 0x9E },
+		.n_report_cmds = 8,
 		.error_bits = v4_error_bits,
 		.n_error_bits = ARRAY_SIZE(v4_error_bits),
 		/* V4.2 §2.24.3: V3's run modes */
@@ -203,9 +206,6 @@ static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
 		.n_run_modes = ARRAY_SIZE(v3_run_modes),
 		.probe = { 0xB5, 0xB2, 0x9A },
 		.n_probes = 3,
-		/* V4.2 §2.33.2 */
-		.reports = { 0x60, 0x61, 0x62, 0x92, 0x9A, 0x9C, 0x9D, 0x9E },
-		.n_reports = 8,
 		/* an X4-36's answer, 0x78B41E7A (a public issue thread of 2025) */
 		.example_version = 2025070202,
 	},

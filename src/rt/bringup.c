@@ -63,8 +63,8 @@ static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
 		 * (0xB6)?  Not one bring-up asks for itself (0x9A, its
 		 * probes): those may be the late answer of an earlier try.
 		 */
-		for (unsigned k = 0; k < lm->m.d->n_reports && rx->f.len; k++)
-			if (rx->f.data[0] == lm->m.d->reports[k] &&
+		for (unsigned k = 0; k < lm->m.d->n_report_cmds && rx->f.len; k++)
+			if (rx->f.data[0] == lm->m.d->report_cmds[k] &&
 			    !bringup_asks(lm, rx->f.data[0]))
 				lm->pushed |= (uint8_t)(1u << k);
 		return;
@@ -322,10 +322,10 @@ static bool reports_off(struct rmd_loop *l, struct lmotor *lm)
 	unsigned n = 0;
 	int sent = 0;
 
-	for (unsigned k = 0; k < d->n_reports && k < 8; k++) {
+	for (unsigned k = 0; k < d->n_report_cmds && k < 8; k++) {
 		struct rmd_msg msg = { .cmd = 0xB6 };
 
-		rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, d->reports[k]);
+		rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, d->report_cmds[k]);
 		rmd_msg_set(&msg, RMD_FLD_REPORT_ON, 0);
 		rmd_msg_set(&msg, RMD_FLD_REPORT_MS, 0);
 		if (rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, &f[n]) == 0)
@@ -341,7 +341,7 @@ static bool reports_off(struct rmd_loop *l, struct lmotor *lm)
 		if ((unsigned)sent < n)
 			loop_wait_bus(l, lb->bus, RMD_NS_PER_MS);
 	}
-	return n == d->n_reports && (unsigned)sent == n;
+	return n == d->n_report_cmds && (unsigned)sent == n;
 }
 
 /* Probe motor i into *out.  Returns 0, or -ENODEV when it is missing.  Non-rt. */

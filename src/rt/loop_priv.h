@@ -112,7 +112,7 @@ struct lmotor {
 	/* bring-up */
 	char model[8];
 	uint32_t version;
-	uint8_t pushed; /* bring-up: replies pushed unasked, bit k: m.d->reports[k] */
+	uint8_t pushed; /* bring-up: replies pushed unasked, bit k: m.d->report_cmds[k] */
 };
 
 struct txmeta {

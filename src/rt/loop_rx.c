@@ -229,8 +229,8 @@ static bool scan_late(struct rmd_loop *l, unsigned b, const struct rmd_frame *f,
 /* Whether lm's dialect can push reply `cmd` unasked (0xB6, V4.2 §2.33).  rt-safe. */
 static bool pushed_report(const struct lmotor *lm, uint16_t cmd)
 {
-	for (unsigned k = 0; k < lm->m.d->n_reports; k++)
-		if (cmd == lm->m.d->reports[k])
+	for (unsigned k = 0; k < lm->m.d->n_report_cmds; k++)
+		if (cmd == lm->m.d->report_cmds[k])
 			return true;
 	return false;
 }

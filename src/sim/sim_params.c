@@ -28,7 +28,7 @@
  */
 const struct rmd_sim_param rmd_sim_params[] = {
 	ROW("protocol", NULL, PROTO, proto, 0, 0, false, "",
-	    "v3, v2 or mit (MIT motors also speak V3); rmdd.yaml: the motor's protocol",
+	    "v3, v2, mit or v4 (MIT motors also speak V3); rmdd.yaml: the motor's protocol",
 	    RMD_SIM_PARAM_MOTOR_KEY),
 	ROW("firmware", NULL, PROTO, proto, 0, 0, false, "",
 	    "the simulated firmware's dialect (a protocol key); rmdd.yaml motors[].sim: what a "
@@ -258,7 +258,7 @@ int rmd_sim_param_parse(struct rmd_sim_motor_params *p, const struct rmd_sim_par
 		enum rmd_proto proto;
 
 		if (parse_proto(value, &proto) < 0) {
-			snprintf(allowed, size, "v3, v2 or mit");
+			rmd_proto_keys_text(allowed, size, ", ", " or ");
 			return -EINVAL;
 		}
 		memcpy(field, &proto, sizeof(proto));

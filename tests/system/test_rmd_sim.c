@@ -807,7 +807,7 @@ static void test_bad_arguments(void **state)
 	static const struct bad_case cases[] = {
 		{ { "--serial", "/dev/null", "--motors", "0-3" }, "--motors \"0-3\": expected" },
 		{ { "--serial", "/dev/null", "--motors", "4-2" }, "ascending ranges" },
-		{ { "--serial", "/dev/null", "--protocol", "v4" }, "v3, v2 or mit" },
+		{ { "--serial", "/dev/null", "--protocol", "v5" }, "v3, v2, mit or v4" },
 		{ { "--serial", "/dev/null", "--fault", "drop:1:2" }, "probability 0..1" },
 		{ { "--serial", "/dev/null", "--fault", "bogus:1" }, "unknown fault \"bogus\"" },
 		{ { "--serial", "/dev/null", "--fault", "delay:1:x:0.5" }, "delay:ID:US:P" },
@@ -1222,7 +1222,7 @@ static void test_completion(void **state)
 
 	(void)state;
 	assert_completion("rmd-sim", "rmd-sim --versi", NULL, "--version\n--version_date\n");
-	assert_completion("rmd-sim", "rmd-sim --protocol ", NULL, "v3\nv2\nmit\n");
+	assert_completion("rmd-sim", "rmd-sim --protocol ", NULL, "v3\nv2\nmit\nv4\n");
 	assert_completion("rmd-sim", "rmd-sim --verbosity f", NULL, "frames\n");
 	fake_net_dir(net, sizeof(net));
 	assert_completion("rmd-sim", "rmd-sim --can ", net, "can0\nvcan1\n");

@@ -296,6 +296,57 @@ static void test_decode_v2_and_direction(void **state)
 	run_free(&r);
 }
 
+/* V4.2's worked example replies under --protocol v4: float gains, indexes, new commands. */
+static void test_decode_v4(void **state)
+{
+	char line[1024];
+	struct run r;
+
+	(void)state;
+	RUN(&r,
+	    "241#300100000000803F\n241#310100000000C03F\n241#4201000010270000\n"
+	    "241#90003308BE2C8B24\n241#9400000000001027\n241#A6326400F401E803\n"
+	    "141#B660010100000000\n241#9A320001E5010048\n141#A300000064000000\n",
+	    "decode", "--json", "--protocol", "v4");
+	assert_int_equal(r.status, 0);
+	/* §2.1.5: 0x3F800000 = 1.0; §2.2.5: 0x3FC00000 = 1.5 */
+	line_with(r.out, "\"raw\":\"300100000000803F\"", line, sizeof(line));
+	assert_has(line, "\"name\":\"read_pid\",", "0x30");
+	assert_has(line, "\"index\":1,\"gain\":1}", "0x30");
+	line_with(r.out, "\"raw\":\"310100000000C03F\"", line, sizeof(line));
+	assert_has(line, "\"gain\":1.5}", "0x31");
+	/* §2.4.5 example 2 */
+	line_with(r.out, "\"raw\":\"4201000010270000\"", line, sizeof(line));
+	assert_has(line, "\"index\":1,\"accel_dps2\":10000}", "0x42");
+	/* §2.11.4 */
+	line_with(r.out, "\"raw\":\"90003308BE2C8B24\"", line, sizeof(line));
+	assert_has(line, "\"encoder\":2099,\"encoder_raw\":11454,\"encoder_offset\":9355", "0x90");
+	/* §2.13.4: 100 deg */
+	line_with(r.out, "\"raw\":\"9400000000001027\"", line, sizeof(line));
+	assert_has(line, "\"angle_deg\":100}", "0x94");
+	/* §2.22.4: the reply carries the encoder */
+	line_with(r.out, "\"raw\":\"A6326400F401E803\"", line, sizeof(line));
+	assert_has(line, "\"name\":\"position_single\"", "0xA6");
+	assert_has(line, "\"encoder\":1000", "0xA6");
+	/* §2.33.4: 0x60 every 10 ms */
+	line_with(r.out, "\"raw\":\"B660010100000000\"", line, sizeof(line));
+	assert_has(line, "\"report_command\":96,\"report_enable\":1,\"report_interval_ms\":10",
+		   "0xB6");
+	/* V4.3's bits (unverified): 0x4800 */
+	line_with(r.out, "\"raw\":\"9A320001E5010048\"", line, sizeof(line));
+	assert_has(line, "\"component_over_temperature\"", "0x9A");
+	assert_has(line, "\"encoder_data_error\"", "0x9A");
+	/* §9 (V3.7): 0xA3 removed */
+	line_with(r.out, "\"raw\":\"A300000064000000\"", line, sizeof(line));
+	assert_has(line, "\"name\":\"unknown\"", "0xA3");
+	run_free(&r);
+	/* the same 0x30 reply under v3 is six uint8 gains */
+	RUN(&r, "241#300100000000803F\n", "decode", "--json");
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "\"position_kp\":128", "v3 0x30");
+	run_free(&r);
+}
+
 /* Every line of --json output is a JSON object Python's parser accepts. */
 static void test_decode_json_valid(void **state)
 {
@@ -382,6 +433,91 @@ static const struct enc_vector enc[] = {
 	  "141#A400F401A08C0000\n",
 	  0 },
 	{ "V2 run", { "--protocol", "v2", "--id", "1", "run" }, "141#8800000000000000\n", 0 },
+	/* V4.2's worked examples (rmd-servo-protocol-v4.2-en.txt) */
+	{ "V4 §2.1.5",
+	  { "--protocol", "v4", "--id", "1", "pid-read", "current-kp" },
+	  "141#3001000000000000\n",
+	  0 },
+	{ "V4 §2.2.5",
+	  { "--protocol", "v4", "--id", "1", "pid", "current-kp", "1.5" },
+	  "141#310100000000C03F\n",
+	  0 },
+	{ "V4 §2.3.5",
+	  { "--protocol", "v4", "--id", "1", "pid-rom", "current-kp", "1.5" },
+	  "141#320100000000C03F\n",
+	  0 },
+	{ "V4 pid position kd 1.0",
+	  { "--protocol", "V4", "--id", "1", "pid", "position_kd", "1" },
+	  "141#310900000000803F\n",
+	  0 },
+	{ "V4 §2.4.5 ex 1",
+	  { "--protocol", "v4", "--id", "1", "accel-read", "0" },
+	  "141#4200000000000000\n",
+	  0 },
+	{ "V4 §2.4.5 ex 2",
+	  { "--protocol", "v4", "--id", "1", "accel-read", "1" },
+	  "141#4201000000000000\n",
+	  0 },
+	{ "V4 §2.5.5 ex 4",
+	  { "--protocol", "v4", "--id", "1", "accel", "3", "10000" },
+	  "141#4303000010270000\n",
+	  0 },
+	{ "V4 §2.11.4",
+	  { "--protocol", "v4", "--id", "1", "read-encoder-single" },
+	  "141#9000000000000000\n",
+	  0 },
+	{ "V4 §2.13.4",
+	  { "--protocol", "v4", "--id", "1", "read-angle-single" },
+	  "141#9400000000000000\n",
+	  0 },
+	{ "V4 §2.20.4 ex 2",
+	  { "--protocol", "v4", "--id", "1", "speed", "-100" },
+	  "141#A2000000F0D8FFFF\n",
+	  0 },
+	{ "V4 §2.21.4 ex 1",
+	  { "--protocol", "v4", "--id", "1", "position", "360", "500" },
+	  "141#A400F401A08C0000\n",
+	  0 },
+	{ "V4 §2.22.4 ex 1",
+	  { "--protocol", "v4", "--id", "1", "position-single", "360", "500", "0" },
+	  "141#A600F401A08C0000\n",
+	  0 },
+	{ "V4 §2.22.4 ex 2",
+	  { "--protocol", "v4", "--id", "1", "position-single", "360", "500", "1" },
+	  "141#A601F401A08C0000\n",
+	  0 },
+	{ "V4 §2.23.4 ex 2",
+	  { "--protocol", "v4", "--id", "1", "increment", "-360", "500" },
+	  "141#A800F4016073FFFF\n",
+	  0 },
+	{ "V4 §2.33.4",
+	  { "--protocol", "v4", "--id", "1", "active-reply", "60", "1", "10" },
+	  "141#B660010100000000\n",
+	  0 },
+	{ "V4 active reply off",
+	  { "--protocol", "v4", "--id", "1", "active-reply", "9C", "0", "0" },
+	  "141#B69C000000000000\n",
+	  0 },
+	{ "V4 §2.34.5 ex 1",
+	  { "--protocol", "v4", "--id", "1", "function", "1", "0" },
+	  "141#2001000000000000\n",
+	  0 },
+	{ "V4 §2.34.5 ex 2",
+	  { "--protocol", "v4", "--id", "1", "function", "2", "1" },
+	  "141#2002000001000000\n",
+	  0 },
+	{ "V4 set id 5 (§2.34.4)",
+	  { "--protocol", "v4", "--id", "1", "function", "5", "5" },
+	  "141#2005000005000000\n",
+	  0 },
+	{ "V4 negative limit (§2.34.4)",
+	  { "--protocol", "v4", "--id", "1", "function", "7", "-9000" },
+	  "141#20070000D8DCFFFF\n",
+	  0 },
+	{ "V4 raw gain",
+	  { "--protocol", "v4", "--id", "1", "raw", "write_pid_rom", "index=4", "gain=0.5" },
+	  "141#320400000000003F\n",
+	  0 },
 	/* Refusals. */
 	{ "no id", { "torque", "1" }, NULL, 2 },
 	{ "id 0", { "--id", "0", "torque", "1" }, NULL, 2 },
@@ -408,7 +544,46 @@ static const struct enc_vector enc[] = {
 	{ "multi torque under V3", { "multi-torque", "1", "2", "3", "4" }, NULL, 2 },
 	{ "V2 torque over 32 A", { "--protocol", "v2", "--id", "1", "torque", "33" }, NULL, 2 },
 	{ "V2 model", { "--protocol", "v2", "--id", "1", "model" }, NULL, 2 },
-	{ "bad protocol", { "--protocol", "v4", "--id", "1", "stop" }, NULL, 2 },
+	{ "bad protocol", { "--protocol", "v9", "--id", "1", "stop" }, NULL, 2 },
+	{ "V4 has no 0xA3 (V4.2 §9)",
+	  { "--protocol", "v4", "--id", "1", "position-track", "1" },
+	  NULL,
+	  2 },
+	{ "V4 has no 0x71", { "--protocol", "v4", "--id", "1", "power" }, NULL, 2 },
+	{ "V4 pid-read needs LOOP", { "--protocol", "v4", "--id", "1", "pid-read" }, NULL, 2 },
+	{ "V4 no gain index 3",
+	  { "--protocol", "v4", "--id", "1", "pid", "current-kd", "1" },
+	  NULL,
+	  2 },
+	{ "V4 gain nan", { "--protocol", "v4", "--id", "1", "pid", "speed-kp", "nan" }, NULL, 2 },
+	{ "V4 gain beyond float",
+	  { "--protocol", "v4", "--id", "1", "pid", "speed-kp", "1e39" },
+	  NULL,
+	  2 },
+	{ "V3 pid write", { "--id", "1", "pid", "speed-kp", "1" }, NULL, 2 },
+	{ "V4 function index 8",
+	  { "--protocol", "v4", "--id", "1", "function", "8", "0" },
+	  NULL,
+	  2 },
+	{ "V3 function index 5", { "--id", "1", "function", "5", "2" }, NULL, 2 },
+	{ "V4 single turn 361",
+	  { "--protocol", "v4", "--id", "1", "position-single", "361", "500", "0" },
+	  NULL,
+	  2 },
+	{ "V4 single turn dir 2",
+	  { "--protocol", "v4", "--id", "1", "position-single", "1", "500", "2" },
+	  NULL,
+	  2 },
+	{ "V4 active reply of 0x9B",
+	  { "--protocol", "v4", "--id", "1", "active-reply", "9B", "1", "10" },
+	  NULL,
+	  2 },
+	{ "V4 active reply on 2",
+	  { "--protocol", "v4", "--id", "1", "active-reply", "9A", "2", "10" },
+	  NULL,
+	  2 },
+	{ "V3 active reply", { "--id", "1", "active-reply", "9A", "1", "10" }, NULL, 2 },
+	{ "V4 accel-read index 4", { "--protocol", "v4", "--id", "1", "accel-read", "4" }, NULL, 2 },
 	{ "raw bad field", { "--id", "1", "raw", "0xA1", "speed_dps=1" }, NULL, 2 },
 	{ "raw bad cmd", { "--id", "1", "raw", "zz" }, NULL, 2 },
 };
@@ -471,6 +646,17 @@ static void test_encode_decode_round_trip(void **state)
 	assert_has(line, "\"motor_id\":7,", "round trip");
 	assert_has(line, "\"angle_deg\":-12.34", "round trip");
 	assert_has(line, "\"max_speed_dps\":56.78", "round trip");
+	run_free(&e);
+	run_free(&d);
+	/* V4: a float gain goes out and comes back as the nearest binary32 */
+	RUN(&e, NULL, "encode", "--protocol", "v4", "--id", "3", "pid-rom", "speed-ki", "0.25");
+	assert_int_equal(e.status, 0);
+	RUN(&d, e.out, "decode", "--json", "--protocol", "v4");
+	assert_int_equal(d.status, 0);
+	line_with(d.out, "\"name\"", line, sizeof(line));
+	assert_has(line, "\"motor_id\":3,", "v4 round trip");
+	assert_has(line, "\"name\":\"write_pid_rom\"", "v4 round trip");
+	assert_has(line, "\"index\":5,\"gain\":0.25}", "v4 round trip");
 	run_free(&e);
 	run_free(&d);
 }
@@ -779,7 +965,8 @@ static void test_completion(void **state)
 	/* each command's own options: move has --speed, status has not */
 	assert_completion("rmdctl", "rmdctl move 1 10 --sp", NULL, "--speed\n");
 	assert_completion("rmdctl", "rmdctl status 1 --sp", NULL, "\n");
-	assert_completion("rmdctl", "rmdctl decode --protocol ", NULL, "v3\nv2\nmit\n");
+	assert_completion("rmdctl", "rmdctl decode --protocol ", NULL, "v3\nv2\nmit\nv4\n");
+	assert_completion("rmdctl", "rmdctl status 1 --protocol ", NULL, "v3\nv2\nv4\n");
 
 	fake_net_dir(net, sizeof(net));
 	run_completion(&r, "rmdctl", "rmdctl scan --bus ", net);
@@ -801,6 +988,7 @@ int main(void)
 		cmocka_unit_test(test_decode_nul_and_binary),
 		cmocka_unit_test(test_decode_mit_ranges),
 		cmocka_unit_test(test_decode_v2_and_direction),
+		cmocka_unit_test(test_decode_v4),
 		cmocka_unit_test(test_decode_json_valid),
 		cmocka_unit_test(test_encode),
 		cmocka_unit_test(test_encode_messages),

@@ -518,7 +518,8 @@ static void test_scan(void **state)
 	assert_int_equal(count_lines(r.out), 3);
 	for (int id = 1; id <= 3; id++) {
 		snprintf(want, sizeof(want),
-			 "\"motor_id\":%d,\"protocol\":\"V3\",\"model\":\"X8S2V10\","
+			 "\"motor_id\":%d,\"protocol\":\"v3\",\"dialect\":\"v3\","
+			 "\"dialect_certain\":true,\"model\":\"X8S2V10\","
 			 "\"version_date\":20220206,",
 			 id);
 		assert_has(r.out, want, "scan --json");
@@ -673,7 +674,7 @@ static const struct run_case other_commands[] = {
 	{ .args = { "reset", "1", "--bus", "sim:1-3" } },
 	/* V2 has no 0xB5 */
 	{ .args = { "scan", "--protocol", "v2", "--bus", "sim:1-2", "--json" },
-	  .out_has = { "\"protocol\":\"V2\"", "\"model\":null" } },
+	  .out_has = { "\"protocol\":\"v2\"", "\"model\":null" } },
 };
 
 static void test_other_commands(void **state)

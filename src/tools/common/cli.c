@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "rmd/codec.h"
 #include "rmd/err.h"
 #include "rmd_version.h"
 #include "cli.h"
@@ -197,6 +198,13 @@ static void compl_values(FILE *f, const char *in, const struct tool_opt *o, size
 			fprintf(f, "%s\tCOMPREPLY=($(compgen -W \"%s\" -- \"$cur\"))\n", in,
 				o[i].words ? o[i].words : "");
 			break;
+		case TOOL_VAL_PROTO: {
+			char keys[64];
+
+			fprintf(f, "%s\tCOMPREPLY=($(compgen -W \"%s\" -- \"$cur\"))\n", in,
+				rmd_proto_keys_text(keys, sizeof(keys), " ", " "));
+			break;
+		}
 		case TOOL_VAL_NONE:
 			break;
 		}

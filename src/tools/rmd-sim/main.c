@@ -97,7 +97,7 @@ static void key_value(struct tool_opt *o, const char *key)
 		{ "serial", TOOL_VAL_SERIAL, NULL },
 		{ "baud", TOOL_VAL_WORDS, "115200 500000 1000000 1500000 2000000" },
 		{ "verbosity", TOOL_VAL_WORDS, "quiet normal frames" },
-		{ "protocol", TOOL_VAL_WORDS, "v3 v2 mit" },
+		{ "protocol", TOOL_VAL_PROTO, NULL },
 	};
 
 	for (size_t k = 0; k < sizeof(kinds) / sizeof(kinds[0]); k++)

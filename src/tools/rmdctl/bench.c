@@ -515,9 +515,9 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .shortc = 'p',
 	  .has_arg = required_argument,
 	  .arg = "P",
-	  .help = "v3 (default) or v2",
+	  .help = "v3 (default), v2 or v4",
 	  .value = TOOL_VAL_WORDS,
-	  .words = "v3 v2" },
+	  .words = "v3 v2 v4" },
 	{ .name = "timeout",
 	  .has_arg = required_argument,
 	  .arg = "MS",
@@ -634,7 +634,7 @@ static int set_option(struct dev *d, size_t k, const char *v)
 		if (rmd_proto_parse(v, &d->proto) < 0 ||
 		    rmd_dialect_has(rmd_dialect(d->proto), RMD_DIALECT_MIT)) {
 			tool_log(TOOL_LOG_ERR,
-				 "bad --protocol \"%s\" (v3 or v2; MIT motors answer v3)", v);
+				 "bad --protocol \"%s\" (v3, v2 or v4; MIT motors answer v3)", v);
 			return -EINVAL;
 		}
 	} else if (!strcmp(name, "timeout")) {

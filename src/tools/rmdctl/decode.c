@@ -38,7 +38,7 @@ struct decode_opts {
 /* What one frame turned out to be. */
 struct decoded {
 	const struct rmd_candump_line *line;
-	enum rmd_proto proto; /* V2 or V3 for table rows; MIT */
+	enum rmd_proto proto; /* V2, V3 or V4 for table rows; MIT */
 	bool addr_ok;	      /* the identifier belongs to the protocol */
 	struct rmd_addr addr;
 	enum rmd_dir dir;
@@ -55,7 +55,7 @@ struct decoded {
 void rmdctl_decode_usage(FILE *f)
 {
 	fprintf(f,
-		"usage: rmdctl decode [--protocol v3|v2|mit] [--json] [--mit-ranges P,V,T,KP,KD]\n"
+		"usage: rmdctl decode [--protocol v3|v2|mit|v4] [--json] [--mit-ranges P,V,T,KP,KD]\n"
 		"                     [--direction request|reply] [FILE]\n"
 		"\n"
 		"Reads candump output from FILE (or stdin, or \"-\") and prints each frame\n"
@@ -68,7 +68,9 @@ void rmdctl_decode_usage(FILE *f)
 		"\n"
 		"  --protocol P    v3 (default): requests 0x140+ID, replies 0x240+ID, and\n"
 		"                  MIT frames on 0x400+ID / 0x500+ID; mit: the same;\n"
-		"                  v2: 0x140+ID both ways, 0x280 four torques\n"
+		"                  v2: 0x140+ID both ways, 0x280 four torques; v4: as v3,\n"
+		"                  with V4.2's table (float PID gains by index, 0x90,\n"
+		"                  0x94, 0xA6, 0xB6; no 0xA3, 0xA5, 0x71)\n"
 		"  --json          one JSON object per frame: can_id, motor_id, direction,\n"
 		"                  cmd (null when the frame has no command byte), name, raw,\n"
 		"                  then the quantities in native units under the codec's\n"
@@ -243,7 +245,7 @@ static void decode_mit(const struct decode_opts *opts, struct decoded *d)
 		 d->addr.dir == RMD_DIR_REPLY ? ": D0 is not the motor id" : "");
 }
 
-/* A frame of a V2 or V3 table. */
+/* A frame of a V2, V3 or V4 table. */
 static void decode_table(enum rmd_proto proto, const struct decode_opts *opts, struct decoded *d)
 {
 	const struct rmd_frame *f = &d->line->frame;
@@ -298,7 +300,7 @@ static void decode_frame(const struct decode_opts *opts, const struct rmd_candum
 	d->name = "unknown";
 	d->dir = opts->dir;
 	d->proto = proto;
-	/* MIT motors run V3 firmware: under v3 and mit both, 0x4xx/0x5xx are MIT. */
+	/* firmware that takes MIT frames (v3, mit, v4): 0x4xx/0x5xx are MIT. */
 	if (rmd_dialect_has(rmd_dialect(proto), RMD_DIALECT_MIT_FRAMES) &&
 	    rmd_addr_from_id(RMD_PROTO_MIT, line->frame.can_id, &d->addr) == 0) {
 		d->addr_ok = true;

@@ -19,6 +19,7 @@
 
 #include "rmd/codec.h"
 #include "rmd/describe.h"
+#include "rmd/dialect.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmdctl.h"
@@ -28,12 +29,15 @@
 enum {
 	P_V3 = 1u << RMD_PROTO_V3,
 	P_V2 = 1u << RMD_PROTO_V2,
-	P_BOTH = P_V3 | P_V2,
+	P_V4 = 1u << RMD_PROTO_V4,
+	P_BOTH = P_V3 | P_V2, /* V3 and V2, not V4 */
+	P_V34 = P_V3 | P_V4,
+	P_ALL = P_V3 | P_V2 | P_V4,
 };
 
 struct enc_ctx {
-	enum rmd_proto proto;	 /* as given: v3, v2 or mit */
-	enum rmd_proto table;	 /* V3 or V2: whose rows (mit uses V3's) */
+	enum rmd_proto proto;	 /* as given: v3, v2, mit or v4 */
+	enum rmd_proto table;	 /* V3, V2 or V4: whose rows (mit uses V3's) */
 	int motor_id;		 /* 1..32, or -1 when --id was not given */
 	struct rmd_mit_ranges r; /* for `mit` */
 };
@@ -75,25 +79,30 @@ static int enc_raw(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 		   struct rmd_frame *out);
 static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
 			struct rmd_frame *out);
+static int enc_pid_write(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+			 struct rmd_frame *out);
+static int enc_active_reply(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc,
+			    char **argv, struct rmd_frame *out);
 
-/* Command bytes: V3 §2.x and V2 §3.x of the manuals, named in each help text. */
+/* Command bytes: V3 §2.x, V2 §3.x and V4.2 §2.x of the manuals, named in each help text. */
 static const struct enc_cmd enc_cmds[] = {
 	{ "torque",
 	  "AMPS",
 	  "torque current setpoint (0xA1)",
 	  NULL,
-	  { V(P_BOTH, 0xA1, 1, F(CURRENT)) } },
-	{ "speed", "DPS", "speed setpoint (0xA2)", NULL, { V(P_BOTH, 0xA2, 1, F(SPEED)) } },
+	  { V(P_ALL, 0xA1, 1, F(CURRENT)) } },
+	{ "speed", "DPS", "speed setpoint (0xA2)", NULL, { V(P_ALL, 0xA2, 1, F(SPEED)) } },
 	{ "position",
 	  "DEG [MAX_DPS]",
-	  "absolute multi-turn position: V3 0xA4 (MAX_DPS required: the manual gives\n"
-	  "no \"unlimited\" value, use position-track); V2 0xA3, or 0xA4 with MAX_DPS",
+	  "absolute multi-turn position: V3/V4 0xA4 (MAX_DPS required: the manual\n"
+	  "gives no \"unlimited\" value, use position-track); V2 0xA3, or 0xA4 with\n"
+	  "MAX_DPS",
 	  NULL,
-	  { V(P_V3, 0xA4, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA3, 1, F(ANGLE)),
+	  { V(P_V34, 0xA4, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA3, 1, F(ANGLE)),
 	    V(P_V2, 0xA4, 2, F(ANGLE), F(MAX_SPEED)) } },
 	{ "position-track",
 	  "DEG",
-	  "position tracking, no speed limit (0xA3)",
+	  "position tracking, no speed limit (V3/V2 0xA3; V4 removed it)",
 	  NULL,
 	  { V(P_BOTH, 0xA3, 1, F(ANGLE)) } },
 	{ "position-track-limited",
@@ -101,54 +110,102 @@ static const struct enc_cmd enc_cmds[] = {
 	  "position tracking with a speed limit (V3 0xA5)",
 	  NULL,
 	  { V(P_V3, 0xA5, 2, F(ANGLE), F(MAX_SPEED)) } },
+	{ "position-single",
+	  "DEG MAX_DPS DIR",
+	  "single-turn position 0..360 deg at up to MAX_DPS, DIR 0 clockwise or\n"
+	  "1 counterclockwise (V4 0xA6)",
+	  NULL,
+	  { V(P_V4, 0xA6, 3, F(ANGLE), F(MAX_SPEED), F(SPIN_DIR)) } },
 	{ "increment",
 	  "DEG [MAX_DPS]",
-	  "relative move from the current position: V3 0xA8 (MAX_DPS required);\n"
+	  "relative move from the current position: V3/V4 0xA8 (MAX_DPS required);\n"
 	  "V2 0xA7, or 0xA8 with MAX_DPS",
 	  NULL,
-	  { V(P_V3, 0xA8, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA7, 1, F(ANGLE)),
+	  { V(P_V34, 0xA8, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA7, 1, F(ANGLE)),
 	    V(P_V2, 0xA8, 2, F(ANGLE), F(MAX_SPEED)) } },
-	{ "stop", "", "stop the motor, keep its state (0x81)", NULL, { V0(P_BOTH, 0x81) } },
-	{ "off", "", "output off, state cleared (0x80)", NULL, { V0(P_BOTH, 0x80) } },
+	{ "stop", "", "stop the motor, keep its state (0x81)", NULL, { V0(P_ALL, 0x81) } },
+	{ "off", "", "output off, state cleared (0x80)", NULL, { V0(P_ALL, 0x80) } },
 	{ "run", "", "resume after stop (V2 0x88)", NULL, { V0(P_V2, 0x88) } },
-	{ "brake-release", "", "release the brake (0x77)", NULL, { V0(P_BOTH, 0x77) } },
-	{ "brake-lock", "", "lock the brake (0x78)", NULL, { V0(P_BOTH, 0x78) } },
-	{ "reset", "", "reset the motor's controller; no reply (0x76)", NULL, { V0(P_BOTH, 0x76) } },
+	{ "brake-release", "", "release the brake (0x77)", NULL, { V0(P_ALL, 0x77) } },
+	{ "brake-lock", "", "lock the brake (0x78)", NULL, { V0(P_ALL, 0x78) } },
+	{ "reset", "", "reset the motor's controller; no reply (0x76)", NULL, { V0(P_ALL, 0x76) } },
 	{ "status1",
 	  "",
 	  "read temperature, voltage, brake, errors (0x9A)",
 	  NULL,
-	  { V0(P_BOTH, 0x9A) } },
+	  { V0(P_ALL, 0x9A) } },
 	{ "status2",
 	  "",
 	  "read temperature, current, speed, angle (0x9C)",
 	  NULL,
-	  { V0(P_BOTH, 0x9C) } },
-	{ "status3", "", "read phase currents (0x9D)", NULL, { V0(P_BOTH, 0x9D) } },
-	{ "read-angle", "", "read the multi-turn angle (0x92)", NULL, { V0(P_BOTH, 0x92) } },
-	{ "model", "", "read the model string (V3 0xB5)", NULL, { V0(P_V3, 0xB5) } },
-	{ "version", "", "read the firmware date (V3 0xB2)", NULL, { V0(P_V3, 0xB2) } },
-	{ "runtime", "", "read the time since power-up (V3 0xB1)", NULL, { V0(P_V3, 0xB1) } },
-	{ "mode", "", "read the run mode (0x70)", NULL, { V0(P_BOTH, 0x70) } },
-	{ "power", "", "read the power (0x71)", NULL, { V0(P_BOTH, 0x71) } },
+	  { V0(P_ALL, 0x9C) } },
+	{ "status3", "", "read phase currents (0x9D)", NULL, { V0(P_ALL, 0x9D) } },
+	{ "read-angle", "", "read the multi-turn angle (0x92)", NULL, { V0(P_ALL, 0x92) } },
+	{ "read-angle-single",
+	  "",
+	  "read the single-turn angle (V4 0x94)",
+	  NULL,
+	  { V0(P_V4, 0x94) } },
+	{ "read-encoder-single",
+	  "",
+	  "read the single-turn encoder, raw and offset (V4 0x90)",
+	  NULL,
+	  { V0(P_V4, 0x90) } },
+	{ "model", "", "read the model string (V3/V4 0xB5)", NULL, { V0(P_V34, 0xB5) } },
+	{ "version", "", "read the firmware date (V3/V4 0xB2)", NULL, { V0(P_V34, 0xB2) } },
+	{ "runtime", "", "read the time since power-up (V3/V4 0xB1)", NULL, { V0(P_V34, 0xB1) } },
+	{ "mode", "", "read the run mode (0x70)", NULL, { V0(P_ALL, 0x70) } },
+	{ "power", "", "read the power (V3/V2 0x71)", NULL, { V0(P_BOTH, 0x71) } },
 	{ "timeout",
 	  "MS",
 	  "set the comm-loss protection time, 0 = off; stored in ROM, set it once\n"
-	  "(V3 0xB3)",
+	  "(V3/V4 0xB3)",
 	  NULL,
-	  { V(P_V3, 0xB3, 1, F(TIMEOUT)) } },
-	{ "accel-read", "", "read the acceleration (0x42)", NULL, { V0(P_BOTH, 0x42) } },
+	  { V(P_V34, 0xB3, 1, F(TIMEOUT)) } },
+	{ "accel-read",
+	  "[INDEX]",
+	  "read the acceleration (0x42); V4 reads the one of INDEX 0..3 (position\n"
+	  "accel/decel, speed accel/decel)",
+	  NULL,
+	  { V0(P_BOTH, 0x42), V(P_V4, 0x42, 1, F(INDEX)) } },
 	{ "accel",
 	  "[INDEX] DPS2",
-	  "write an acceleration: V3 0x43 takes INDEX 0..3 (position accel/decel,\n"
+	  "write an acceleration: V3/V4 0x43 takes INDEX 0..3 (position accel/decel,\n"
 	  "speed accel/decel) and DPS2 100..60000; V2 0x43 takes DPS2 only",
 	  NULL,
-	  { V(P_V3, 0x43, 2, F(INDEX), F(ACCEL)), V(P_V2, 0x43, 1, F(ACCEL)) } },
+	  { V(P_V34, 0x43, 2, F(INDEX), F(ACCEL)), V(P_V2, 0x43, 1, F(ACCEL)) } },
 	{ "pid-read",
 	  "[LOOP]",
 	  "read PID gains: V3 0x30 reads all six; V2 reads one, LOOP = position-kp,\n"
-	  "position-ki, speed-kp, speed-ki, current-kp or current-ki (0x30..0x35)",
+	  "position-ki, speed-kp, speed-ki, current-kp or current-ki (0x30..0x35);\n"
+	  "V4 0x30 reads one, LOOP as V2's or position-kd",
 	  enc_pid_read,
+	  { { 0 } } },
+	{ "pid",
+	  "LOOP GAIN",
+	  "write one gain to RAM, lost at power off (V4 0x31): LOOP as pid-read's,\n"
+	  "GAIN a real (a float on the wire)",
+	  enc_pid_write,
+	  { { 0 } } },
+	{ "pid-rom",
+	  "LOOP GAIN",
+	  "write one gain to ROM, kept at power off (V4 0x32)",
+	  enc_pid_write,
+	  { { 0 } } },
+	{ "function",
+	  "INDEX VALUE",
+	  "function control (V3/V4 0x20): 1 clear multi-turn and save, 2 CAN ID\n"
+	  "filter on/off, 3 0x9A error reports on/off, 4 keep multi-turn at power\n"
+	  "off; V4 also 5 set the CAN ID (ROM, after a reset), 6/7 positive/negative\n"
+	  "position limit (ROM)",
+	  NULL,
+	  { V(P_V34, 0x20, 2, F(INDEX), F(VALUE)) } },
+	{ "active-reply",
+	  "CMD ON MS",
+	  "have the motor push CMD's reply every MS ms (10 ms steps), ON 1, or\n"
+	  "stop, ON 0; CMD in hex: 60 61 62 92 9A 9C 9D 9E; CAN only; no reply\n"
+	  "(V4 0xB6)",
+	  enc_active_reply,
 	  { { 0 } } },
 	{ "multi-torque",
 	  "A1 A2 A3 A4",
@@ -162,7 +219,7 @@ static const struct enc_cmd enc_cmds[] = {
 	{ "mit",
 	  "P V KP KD T",
 	  "MIT motion mode on 0x400+ID: position rad, velocity rad/s, kp, kd,\n"
-	  "feed-forward torque N·m, each within --mit-ranges (V3 firmware)",
+	  "feed-forward torque N·m, each within --mit-ranges (V3 and V4 firmware)",
 	  enc_mit,
 	  { { 0 } } },
 	{ "raw",
@@ -200,19 +257,29 @@ static const struct limit {
 	{ P_V3, 0x43, F(ACCEL), 100, 60000, "V3 §2.5.1: 100..60000 dps/s" },
 	{ P_V3, 0x43, F(INDEX), 0, 3, "V3 §2.5.4: index 0..3" },
 	{ P_V3, 0x20, F(INDEX), 1, 4, "V3 §2.33.4: index 1..4" },
+	{ P_V4, 0x43, F(ACCEL), 100, 60000, "V4.2 §2.5.1: 100..60000 dps/s" },
+	{ P_V4, 0x43, F(INDEX), 0, 3, "V4.2 §2.5.4: index 0..3" },
+	{ P_V4, 0x42, F(INDEX), 0, 3, "V4.2 §2.4.4: index 0..3" },
+	{ P_V4, 0x20, F(INDEX), 1, 7, "V4.2 §2.34.4: index 1..7" },
+	{ P_V4, 0x30, F(INDEX), 1, 9, "V4.2 §2.1.4: index 1..9" },
+	{ P_V4, 0x31, F(INDEX), 1, 9, "V4.2 §2.2.4: index 1..9" },
+	{ P_V4, 0x32, F(INDEX), 1, 9, "V4.2 §2.3.4: index 1..9" },
+	{ P_V4, 0xA6, F(ANGLE), 0, 360, "V4.2 §2.22: 0..359.99 deg, and 360 as its example sends" },
+	{ P_V4, 0xA6, F(SPIN_DIR), 0, 1, "V4.2 §2.22.1: 0 clockwise, 1 counterclockwise" },
+	{ P_V4, 0xB6, F(REPORT_ON), 0, 1, "V4.2 §2.33.2: 1 on, 0 off" },
 };
 
 void rmdctl_encode_usage(FILE *f)
 {
 	fprintf(f,
-		"usage: rmdctl encode [--protocol v3|v2|mit] [--id N] [--mit-ranges P,V,T,KP,KD]\n"
+		"usage: rmdctl encode [--protocol v3|v2|mit|v4] [--id N] [--mit-ranges P,V,T,KP,KD]\n"
 		"                     COMMAND [ARGS...]\n"
 		"\n"
 		"Prints one request frame in cansend syntax (\"141#A100000064000000\"):\n"
 		"  cansend can0 $(rmdctl encode --id 1 torque 1.0)\n"
 		"Options come before COMMAND, so negative values need no quoting.\n"
 		"\n"
-		"  --protocol P    v3 (default), v2, or mit (= v3 tables plus `mit`)\n"
+		"  --protocol P    v3 (default), v2, mit (= v3 tables plus `mit`), or v4\n"
 		"  --id N          motor 1..32 (every command but multi-torque)\n"
 		"  --mit-ranges P,V,T,KP,KD\n"
 		"                  MIT ranges: position ±P rad, velocity ±V rad/s, torque\n"
@@ -277,6 +344,19 @@ static int set_field(const struct enc_ctx *ctx, const char *what, const struct r
 			 what, rmd_proto_name(ctx->table), spec->cmd, spec->name,
 			 rmd_field_key(fld));
 		return RMDCTL_EXIT_DATA;
+	}
+	if (fs->is_float) {
+		int64_t raw;
+
+		/* V4.2 §2.1: a binary32, any finite value (the manual gives no range) */
+		if (!isfinite(v) || rmd_field_from_native(fs, v, &raw) < 0) {
+			rmd_fmt_real(vs, sizeof(vs), v, 15);
+			tool_log(TOOL_LOG_ERR, "%s: %s = %s is not a finite float", what,
+				 rmd_field_key(fld), vs);
+			return RMDCTL_EXIT_USAGE;
+		}
+		rmd_msg_set(msg, fld, raw);
+		return 0;
 	}
 	bits = 8u * fs->size;
 	lo = fs->is_signed ? -(INT64_C(1) << (bits - 1)) : 0;
@@ -416,26 +496,66 @@ static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 	return finish(ctx, ec->name, spec, v->multi, &msg, out);
 }
 
+/*
+ * The index of gain LOOP ("position-kd" or "position_kd") in a dialect that
+ * reads and writes one gain by index (V4.2 §2.1.4), or -1.
+ */
+static int gain_index(const struct rmd_dialect *dl, const char *loop)
+{
+	for (size_t i = 0; i < dl->n_pid_slots && dl->pid == RMD_PID_FLOAT_INDEXED; i++) {
+		const char *a = rmd_field_key((enum rmd_field)dl->pid_slots[i].field), *b = loop;
+
+		while (*a && (*a == *b || (*a == '_' && *b == '-'))) {
+			a++;
+			b++;
+		}
+		if (!*a && !*b)
+			return dl->pid_slots[i].index;
+	}
+	return -1;
+}
+
+static int bad_loop(const struct enc_ctx *ctx, const struct enc_cmd *ec, const char *loop)
+{
+	const struct rmd_dialect *dl = rmd_dialect(ctx->table);
+
+	tool_log(TOOL_LOG_ERR, "%s: unknown LOOP \"%s\"", ec->name, loop);
+	fprintf(stderr, "LOOPs of %s:", dl->name);
+	for (size_t i = 0; i < dl->n_pid_slots; i++) {
+		fputc(' ', stderr);
+		for (const char *c = rmd_field_key((enum rmd_field)dl->pid_slots[i].field); *c; c++)
+			fputc(*c == '_' ? '-' : *c, stderr);
+	}
+	fputc('\n', stderr);
+	return RMDCTL_EXIT_USAGE;
+}
+
 static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
 			struct rmd_frame *out)
 {
 	/* V2 §2: one read command per gain, in this order from 0x30. */
 	static const char *const loops[] = { "position-kp", "position-ki", "speed-kp",
 					     "speed-ki",    "current-kp",  "current-ki" };
+	const struct rmd_dialect *dl = rmd_dialect(ctx->table);
 	const struct rmd_cmd_spec *spec;
 	struct rmd_msg msg = { 0 };
 	uint8_t cmd = 0x30;
-	int r;
+	int r, index = -1;
 
-	bool per_gain = rmd_dialect(ctx->table)->pid == RMD_PID_V2_PER_GAIN;
+	/* V2 §3.1: a command a gain; V4.2 §2.1: 0x30 and the gain's index; V3 §2.1: all six */
+	bool one = dl->pid == RMD_PID_V2_PER_GAIN || dl->pid == RMD_PID_FLOAT_INDEXED;
 
-	if (argc != (per_gain ? 1 : 0)) {
+	if (argc != (one ? 1 : 0)) {
 		tool_log(TOOL_LOG_ERR, "%s: protocol %s takes %s", ec->name,
-			 rmd_proto_name(ctx->proto), per_gain ? "one LOOP" : "no argument");
+			 rmd_proto_name(ctx->proto), one ? "one LOOP" : "no argument");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (argc == 1) {
+	if (argc == 1 && dl->pid == RMD_PID_FLOAT_INDEXED) {
+		index = gain_index(dl, argv[0]);
+		if (index < 0)
+			return bad_loop(ctx, ec, argv[0]);
+	} else if (argc == 1) {
 		size_t i;
 
 		for (i = 0; i < sizeof(loops) / sizeof(loops[0]); i++)
@@ -454,6 +574,100 @@ static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 	if (!spec)
 		return RMDCTL_EXIT_DATA;
 	msg.cmd = cmd;
+	if (index >= 0 && (r = set_field(ctx, ec->name, spec, RMD_FLD_INDEX, index, &msg)) != 0)
+		return r;
+	return finish(ctx, ec->name, spec, false, &msg, out);
+}
+
+/* V4.2 §2.2 (pid, 0x31, RAM) and §2.3 (pid-rom, 0x32, ROM): one float gain by index. */
+static int enc_pid_write(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+			 struct rmd_frame *out)
+{
+	const struct rmd_dialect *dl = rmd_dialect(ctx->table);
+	uint8_t cmd = strcmp(ec->name, "pid-rom") ? 0x31 : 0x32;
+	const struct rmd_cmd_spec *spec;
+	struct rmd_msg msg = { 0 };
+	double gain;
+	int r, index;
+
+	if (dl->pid != RMD_PID_FLOAT_INDEXED) {
+		tool_log(TOOL_LOG_ERR,
+			 "%s: protocol %s writes its gains otherwise (`raw`: six in 0x31 in V3, "
+			 "one a command from 0x36 in V2)",
+			 ec->name, rmd_proto_name(ctx->proto));
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (argc != 2) {
+		tool_log(TOOL_LOG_ERR, "%s: needs LOOP and GAIN", ec->name);
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	index = gain_index(dl, argv[0]);
+	if (index < 0)
+		return bad_loop(ctx, ec, argv[0]);
+	if ((r = parse_value(ec, argv[1], &gain)) != 0)
+		return r;
+	if ((r = need_id(ctx, ec)) != 0)
+		return r;
+	spec = find_row(ctx, ec->name, cmd);
+	if (!spec)
+		return RMDCTL_EXIT_DATA;
+	msg.cmd = cmd;
+	if ((r = set_field(ctx, ec->name, spec, RMD_FLD_INDEX, index, &msg)) != 0 ||
+	    (r = set_field(ctx, ec->name, spec, RMD_FLD_GAIN, gain, &msg)) != 0)
+		return r;
+	return finish(ctx, ec->name, spec, false, &msg, out);
+}
+
+/* V4.2 §2.33: CMD (hex) one whose reply the motor can push; ON 0/1; MS in 10 ms steps. */
+static int enc_active_reply(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc,
+			    char **argv, struct rmd_frame *out)
+{
+	const struct rmd_dialect *dl = rmd_dialect(ctx->table);
+	const struct rmd_cmd_spec *spec;
+	struct rmd_msg msg = { .cmd = 0xB6 };
+	unsigned long cmd;
+	double on, ms;
+	bool known = false;
+	char *end;
+	int r;
+
+	if (!rmd_dialect_has(dl, RMD_DIALECT_ACTIVE_REPLY)) {
+		tool_log(TOOL_LOG_ERR, "%s: protocol %s has no active reply (V4.2 §2.33: 0xB6)",
+			 ec->name, rmd_proto_name(ctx->proto));
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (argc != 3) {
+		tool_log(TOOL_LOG_ERR, "%s: needs CMD, ON and MS", ec->name);
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
+	errno = 0;
+	cmd = strtoul(argv[0], &end, 16);
+	for (unsigned i = 0; i < dl->n_report_cmds; i++)
+		known |= dl->report_cmds[i] == cmd;
+	if (end == argv[0] || *end || errno || *argv[0] == '-' || *argv[0] == '+' || !known) {
+		tool_log(TOOL_LOG_ERR, "%s: CMD \"%s\" is not one the motor pushes", ec->name,
+			 argv[0]);
+		fprintf(stderr, "CMDs of %s:", dl->name);
+		for (unsigned i = 0; i < dl->n_report_cmds; i++)
+			fprintf(stderr, " %02X", dl->report_cmds[i]);
+		fputc('\n', stderr);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if ((r = parse_value(ec, argv[1], &on)) != 0 || (r = parse_value(ec, argv[2], &ms)) != 0)
+		return r;
+	if ((r = need_id(ctx, ec)) != 0)
+		return r;
+	spec = find_row(ctx, ec->name, 0xB6);
+	if (!spec)
+		return RMDCTL_EXIT_DATA;
+	if ((r = set_field(ctx, ec->name, spec, RMD_FLD_REPORT_CMD, (double)cmd, &msg)) != 0 ||
+	    (r = set_field(ctx, ec->name, spec, RMD_FLD_REPORT_ON, on, &msg)) != 0 ||
+	    (r = set_field(ctx, ec->name, spec, RMD_FLD_REPORT_MS, ms, &msg)) != 0)
+		return r;
 	return finish(ctx, ec->name, spec, false, &msg, out);
 }
 

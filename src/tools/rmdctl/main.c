@@ -192,8 +192,10 @@ int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t 
 		switch (c) {
 		case 'p':
 			if (rmd_proto_parse(optarg, proto) < 0) {
-				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (v3, v2 or mit)",
-					 optarg);
+				char keys[64];
+
+				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (%s)", optarg,
+					 rmd_proto_keys_text(keys, sizeof(keys), ", ", " or "));
 				goto usage;
 			}
 			break;
@@ -245,7 +247,7 @@ static void usage(FILE *f)
 		   "       rmdctl help [COMMAND]\n"
 		   "       rmdctl --version\n"
 		   "\n"
-		   "Tool for MyActuator RMD servo motors (protocols V2, V3 and MIT mode).\n"
+		   "Tool for MyActuator RMD servo motors (protocols V2, V3, V4 and MIT mode).\n"
 		   "\n"
 		   "commands:\n");
 	for (size_t i = 0; i < NCMDS; i++)

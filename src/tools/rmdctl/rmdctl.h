@@ -72,7 +72,7 @@ void rmdctl_top_usage(FILE *f);
 /* clang-format off */
 #define RMDCTL_CODEC_OPTS \
 	{ .name = "protocol", .shortc = 'p', .has_arg = required_argument, .arg = "P", \
-	  .help = "", .value = TOOL_VAL_WORDS, .words = "v3 v2 mit" }, \
+	  .help = "", .value = TOOL_VAL_PROTO }, \
 	{ .name = "mit-ranges", .shortc = 'm', .has_arg = required_argument, \
 	  .arg = "P,V,T,KP,KD", .help = "" }, \
 	{ .name = "help", .shortc = 'h', .help = "" }, \

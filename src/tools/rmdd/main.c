@@ -577,9 +577,9 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 	}
 	if (bm->pushed) {
 		line_add(ln, ", it pushed");
-		for (unsigned k = 0; k < d->n_reports; k++)
+		for (unsigned k = 0; k < d->n_report_cmds; k++)
 			if (bm->pushed & (1u << k))
-				line_add(ln, " 0x%02X", d->reports[k]);
+				line_add(ln, " 0x%02X", d->report_cmds[k]);
 		line_add(ln, " unasked (0xB6 active reply, left on by another tool)%s",
 			 bm->reports_off ? ": turned off" : "");
 	}
