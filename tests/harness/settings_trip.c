@@ -121,9 +121,17 @@ void settings_round_trip(settings_run_fn *run, void *ctx, const char *const *bus
 	motors_of(&(struct trip){ .out = orig }, b);
 	assert_string_equal(a, b);
 
-	/* --yes: written; read back; the zero offset after a reset */
+	/*
+	 * --yes: written; read back; the zero offset after a reset.  A runner
+	 * that retries a run the busy machine made too slow (the RS485 suite)
+	 * shows the retry's output, which writes what the first try did not:
+	 * fewer changes, the same result, which the dumps below judge.
+	 */
 	TRIP(&t, 0, "restore", path[1], "--yes");
-	has(&t, t.out, ": 4 changes to 2 motors written to ROM, each answered\n");
+	if (!strstr(t.out, ": 4 changes to 2 motors written to ROM, each answered\n") &&
+	    !(strstr(t.err, "busy machine") && strstr(t.out, "written to ROM, each answered\n")))
+		fail_msg("restore --yes: not \"4 changes to 2 motors written\":\n%s\nstderr:\n%s",
+			 t.out, t.err);
 	TRIP(&t, 0, "dump", "1-2");
 	has(&t, t.out, "speed_kp: 60, ");
 	has(&t, t.out, "accel_dps2: 2500\n    zero_offset: 0\n"); /* ROM: after a reset */
