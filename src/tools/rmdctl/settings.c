@@ -423,8 +423,9 @@ int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec)
 	for (unsigned i = 0; i < n; i++) {
 		/* the answer names its index (§2.1.3): it must be the one asked */
 		if (q[i].rep.v[RMD_FLD_INDEX] != dl->pid_slots[i].index) {
-			tool_log(TOOL_LOG_ERR, "%s: motor %u answered 0x30 index %u with index %" PRId64,
-				 d->name, id, dl->pid_slots[i].index, q[i].rep.v[RMD_FLD_INDEX]);
+			tool_log(TOOL_LOG_ERR,
+				 "%s: motor %u answered 0x30 index %u with index %" PRId64, d->name,
+				 id, dl->pid_slots[i].index, q[i].rep.v[RMD_FLD_INDEX]);
 			return RMDCTL_EXIT_DATA;
 		}
 		rmdctl_rec_set_float(rec, (enum rmd_field)dl->pid_slots[i].field,
@@ -510,8 +511,7 @@ static int pid_write_indexed(struct dev *d, uint8_t id, int n, char **gains)
 	if (r)
 		return r;
 	if (d->rom) {
-		r = rmdctl_confirm(d, "write %d PID gains to motor %u on %s (ROM)", n, id,
-				   d->name);
+		r = rmdctl_confirm(d, "write %d PID gains to motor %u on %s (ROM)", n, id, d->name);
 		if (r)
 			goto out;
 	}
