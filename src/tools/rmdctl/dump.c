@@ -7,7 +7,11 @@
  * gains (0x30), the position-planning acceleration (0x42: one value, the
  * 0x43 index 0 one) and the multi-turn zero offset in use (0x62); the id
  * is the motor's address, model (0xB5) and firmware date (0xB2) are
- * recorded for the reader.  What it cannot read: the comm-loss time (0xB3
+ * recorded for the reader.  V4 (V4.2 §2.1, §2.4) the same, its seven
+ * float gains read one by index, and 0x42 asked for index 0.  The file
+ * names its dialect (`protocol:`): the gains of one layout mean nothing
+ * in another, so restore refuses a file of another dialect than
+ * --protocol, and with --force writes all but the gains.  What it cannot read: the comm-loss time (0xB3
  * only writes, §2.30), the CAN-ID filter and other 0x20 functions (§2.33
  * only writes), the baud rate (0xB4, §2.31), and the other three
  * accelerations (0x43 index 1..3).  restore writes comm_loss_ms when a
@@ -34,7 +38,8 @@
 /* The readable settings of one motor, and which a file gives. */
 struct settings {
 	uint8_t id;
-	int64_t pid[6];
+	/* the dialect's gains (pid_slots order): V3 integers, V4 binary32 bits */
+	int64_t pid[RMD_PID_SLOTS_MAX];
 	int64_t accel_dps2;
 	int64_t zero_offset;
 	int64_t comm_loss_ms; /* restore: -1 when the file does not name it */
@@ -42,40 +47,65 @@ struct settings {
 	unsigned line; /* of the entry in the file */
 };
 
-static const enum rmd_field pid_fields[6] = { RMD_FLD_CURR_KP, RMD_FLD_CURR_KI, RMD_FLD_SPD_KP,
-					      RMD_FLD_SPD_KI,  RMD_FLD_POS_KP,	RMD_FLD_POS_KI };
-static const char *const pid_keys[6] = { "current_kp", "current_ki",  "speed_kp",
-					 "speed_ki",   "position_kp", "position_ki" };
+/* Whether the dialect's gains are reals (V4.2 §2.1: binary32), not integers (V3 §2.1). */
+static bool float_gains(const struct rmd_dialect *dl)
+{
+	return dl->pid == RMD_PID_FLOAT_INDEXED;
+}
 
-static int v3_only(const struct dev *d)
+/* Gain k of the dialect's layout: its key ("speed_kp"). */
+static const char *pid_key(const struct rmd_dialect *dl, unsigned k)
+{
+	return rmd_field_key((enum rmd_field)dl->pid_slots[k].field);
+}
+
+static int dialect_ok(const struct dev *d)
 {
 	const struct rmd_dialect *dl = rmdctl_dialect(d);
 
-	/* 0x30's six gains (V3 §2.1), 0xB5 and 0xB2 */
-	if (dl->pid == RMD_PID_U8_SIX &&
+	/* the gains in one frame (V3 §2.1) or by index (V4.2 §2.1), 0xB5 and 0xB2 */
+	if ((dl->pid == RMD_PID_U8_SIX || dl->pid == RMD_PID_FLOAT_INDEXED) &&
 	    rmd_dialect_has(dl, RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2))
 		return 0;
-	tool_log(TOOL_LOG_ERR, "%s speaks protocol V3 only (not %s)", d->cmd->name, dl->name);
+	tool_log(TOOL_LOG_ERR, "%s speaks protocols V3 and V4 only (not %s)", d->cmd->name,
+		 dl->name);
 	return RMDCTL_EXIT_USAGE;
 }
 
-/* Read motor s->id's settings (0x30, 0x42, 0x62; 0xB5 and 0xB2 into rec when given). */
+/*
+ * Read motor s->id's settings (0x30, 0x42, 0x62; 0xB5 and 0xB2 into rec
+ * when given; V4: the gains by index, 0x42 index 0).
+ */
 static int read_settings(struct dev *d, struct settings *s, struct rec *info)
 {
 	static const uint8_t cmds[] = { 0x30, 0x42, 0x62, 0xB5, 0xB2 };
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
 	struct req q[sizeof(cmds)];
 	unsigned n = info ? 5 : 3;
+	struct rec gains = { 0 };
 	int r;
 
-	for (unsigned i = 0; i < n; i++)
+	/* V4.2 §2.4: 0x42 asks for an index, 0 the position-planning acceleration */
+	for (unsigned i = 0; i < n; i++) {
 		rmdctl_req_init(&q[i], s->id, cmds[i]);
-	r = rmdctl_run_reqs(d, q, n);
+		rmd_msg_set(&q[i].msg, RMD_FLD_INDEX, 0);
+	}
+	if (float_gains(dl)) {
+		r = rmdctl_pid_read_indexed(d, s->id, &gains);
+		if (r)
+			return r;
+		for (unsigned k = 0; k < dl->n_pid_slots; k++)
+			s->pid[k] = gains.raw[dl->pid_slots[k].field];
+	}
+	/* the V3 gains are q[0]'s; V4 read them above: q[0] is not sent */
+	r = rmdctl_run_reqs(d, q + float_gains(dl), n - float_gains(dl));
 	if (r)
 		return r;
-	if (rmdctl_report_failed(d, q, n))
+	if (rmdctl_report_failed(d, q + float_gains(dl), n - float_gains(dl)))
 		return RMDCTL_EXIT_DATA;
-	for (unsigned i = 0; i < 6; i++)
-		s->pid[i] = q[0].rep.v[pid_fields[i]];
+	if (!float_gains(dl))
+		for (unsigned k = 0; k < dl->n_pid_slots; k++)
+			s->pid[k] = q[0].rep.v[dl->pid_slots[k].field];
 	s->accel_dps2 = q[1].rep.v[RMD_FLD_ACCEL];
 	s->zero_offset = q[2].rep.v[RMD_FLD_ENCODER_OFF];
 	s->has_pid = s->has_accel = s->has_zero = true;
@@ -83,6 +113,21 @@ static int read_settings(struct dev *d, struct settings *s, struct rec *info)
 		for (unsigned i = 3; i < n; i++)
 			rmdctl_rec_add_req(info, d, &q[i], true);
 	return 0;
+}
+
+/* Gain value raw of the dialect as text: an integer, or a binary32 in nine digits. */
+static const char *gain_text(const struct rmd_dialect *dl, int64_t raw, char *buf, size_t size)
+{
+	if (float_gains(dl)) {
+		uint32_t u = (uint32_t)raw;
+		float x;
+
+		memcpy(&x, &u, sizeof(x));
+		snprintf(buf, size, "%.9g", x);
+	} else {
+		snprintf(buf, size, "%" PRId64, raw);
+	}
+	return buf;
 }
 
 /* ---- dump ------------------------------------------------------------------------------ */
@@ -95,7 +140,7 @@ int rmdctl_run_dump(struct dev *d, int argc, char **argv)
 	time_t now = time(NULL);
 	int n, m, r;
 
-	r = v3_only(d);
+	r = dialect_ok(d);
 	if (r)
 		return r;
 	n = rmdctl_ids_open(d, argc, argv, ids);
@@ -110,17 +155,21 @@ int rmdctl_run_dump(struct dev *d, int argc, char **argv)
 		goto out;
 	}
 	strftime(stamp, sizeof(stamp), "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));
-	printf("# rmdctl dump: the settings of the motors on %s (protocol V3), %s.\n"
-	       "# Read back: PI gains (0x30), position-planning acceleration (0x42, the\n"
+	printf("# rmdctl dump: the settings of the motors on %s (protocol %s), %s.\n"
+	       "# Read back: PID gains (0x30%s), position-planning acceleration (0x42, the\n"
 	       "# 0x43 index 0 value), multi-turn zero offset in use (0x62, encoder counts).\n"
-	       "# Not readable (V3 has no read for them): comm-loss time (0xB3), CAN-ID\n"
-	       "# filter (0x20), baud rate (0xB4), the other accelerations (0x43 index 1..3).\n"
+	       "# Not readable (%s has no read for them): comm-loss time (0xB3), CAN-ID\n"
+	       "# filter and other functions (0x20), baud rate (0xB4), the other\n"
+	       "# accelerations (0x43 index 1..3).\n"
 	       "# `rmdctl restore FILE` writes back what differs (ROM), after a confirmation;\n"
-	       "# a `comm_loss_ms: MS` line added to a motor is written as given.\n"
+	       "# a `comm_loss_ms: MS` line added to a motor is written as given.  The\n"
+	       "# gains are this protocol's (restore refuses the file for another).\n"
 	       "bus: %s\n"
-	       "protocol: v3\n"
+	       "protocol: %s\n"
 	       "motors:\n",
-	       d->name, stamp, d->name);
+	       d->name, rmdctl_dialect(d)->name, stamp,
+	       float_gains(rmdctl_dialect(d)) ? ", one float by index" : "",
+	       rmdctl_dialect(d)->name, d->name, rmdctl_dialect(d)->key);
 	for (int i = 0; i < m; i++) {
 		struct settings s = { .id = found[i] };
 		struct rec info = { 0 };
@@ -135,8 +184,12 @@ int rmdctl_run_dump(struct dev *d, int argc, char **argv)
 		       "    firmware: %" PRId64 "  # not restored\n"
 		       "    pid: {",
 		       s.id, model, info.raw[RMD_FLD_VERSION]);
-		for (unsigned k = 0; k < 6; k++)
-			printf("%s%s: %" PRId64, k ? ", " : "", pid_keys[k], s.pid[k]);
+		for (unsigned k = 0; k < rmdctl_dialect(d)->n_pid_slots; k++) {
+			char g[32];
+
+			printf("%s%s: %s", k ? ", " : "", pid_key(rmdctl_dialect(d), k),
+			       gain_text(rmdctl_dialect(d), s.pid[k], g, sizeof(g)));
+		}
 		printf("}\n"
 		       "    accel_dps2: %" PRId64 "\n"
 		       "    zero_offset: %" PRId64 "\n",
@@ -153,6 +206,8 @@ out:
 struct file {
 	const char *path;
 	yaml_document_t doc;
+	const struct rmd_dialect *dl; /* its `protocol:`, or --protocol's when it names none */
+	char bus[64];		      /* its `bus:`, or "" */
 	struct settings motor[RMD_MAX_MOTORS];
 	unsigned n;
 };
@@ -187,32 +242,68 @@ static int integer(const struct file *f, const yaml_node_t *n, int64_t lo, int64
 	return 0;
 }
 
+/* A real scalar that a binary32 holds (V4.2 §2.2: a float gain), >= 0; its bits into *v. */
+static int real_gain(const struct file *f, const yaml_node_t *n, const char *key, int64_t *v)
+{
+	const char *s = scalar(n);
+	char *end, msg[160];
+	double x;
+	float g;
+	uint32_t u;
+
+	errno = 0;
+	x = s ? strtod(s, &end) : 0;
+	if (!s || !*s || *end || errno || !(x >= 0) || x > 3.4e38) {
+		snprintf(msg, sizeof(msg), "%s: want a real >= 0 (a float gain)", key);
+		return bad(f, n, msg);
+	}
+	g = (float)x;
+	memcpy(&u, &g, sizeof(u));
+	*v = u;
+	return 0;
+}
+
 static int parse_pid(struct file *f, yaml_node_t *n, struct settings *s)
 {
-	bool seen[6] = { false };
+	const struct rmd_dialect *dl = f->dl;
+	bool seen[RMD_PID_SLOTS_MAX] = { false };
+	char keys[160];
+	size_t o = 0;
 
+	for (unsigned i = 0; i < dl->n_pid_slots; i++)
+		o += (size_t)snprintf(keys + o, sizeof(keys) - o, "%s%s", i ? ", " : "",
+				      pid_key(dl, i));
 	if (n->type != YAML_MAPPING_NODE)
-		return bad(f, n, "pid: want a mapping of the six gains");
+		return bad(f, n, "pid: want a mapping of the gains");
 	for (yaml_node_pair_t *p = n->data.mapping.pairs.start; p < n->data.mapping.pairs.top;
 	     p++) {
 		yaml_node_t *k = yaml_document_get_node(&f->doc, p->key);
 		yaml_node_t *v = yaml_document_get_node(&f->doc, p->value);
+		char msg[200];
 		unsigned i;
 
-		for (i = 0; i < 6 && (!scalar(k) || strcmp(scalar(k), pid_keys[i])); i++)
+		for (i = 0;
+		     i < dl->n_pid_slots && (!scalar(k) || strcmp(scalar(k), pid_key(dl, i))); i++)
 			;
-		if (i == 6)
-			return bad(f, k,
-				   "pid: unknown key (current_kp, current_ki, speed_kp, "
-				   "speed_ki, position_kp, position_ki)");
-		/* V3 §2.2: uint8 gains */
-		if (integer(f, v, 0, 255, pid_keys[i], &s->pid[i]) < 0)
+		if (i == dl->n_pid_slots) {
+			snprintf(msg, sizeof(msg), "pid: unknown key for protocol %s (%s)", dl->key,
+				 keys);
+			return bad(f, k, msg);
+		}
+		/* V3 §2.2: uint8 gains; V4.2 §2.2: binary32 */
+		if ((float_gains(dl) ? real_gain(f, v, pid_key(dl, i), &s->pid[i]) :
+				       integer(f, v, 0, 255, pid_key(dl, i), &s->pid[i])) < 0)
 			return -EINVAL;
 		seen[i] = true;
 	}
-	for (unsigned i = 0; i < 6; i++)
-		if (!seen[i])
-			return bad(f, n, "pid: give all six gains");
+	for (unsigned i = 0; i < dl->n_pid_slots; i++)
+		if (!seen[i]) {
+			char msg[200];
+
+			snprintf(msg, sizeof(msg), "pid: give all the gains of protocol %s (%s)",
+				 dl->key, keys);
+			return bad(f, n, msg);
+		}
 	s->has_pid = true;
 	return 0;
 }
@@ -284,9 +375,20 @@ static int parse_file(struct file *f)
 		for (yaml_node_pair_t *p = root->data.mapping.pairs.start;
 		     p < root->data.mapping.pairs.top; p++) {
 			const char *key = scalar(yaml_document_get_node(&f->doc, p->key));
+			yaml_node_t *v = yaml_document_get_node(&f->doc, p->value);
+			enum rmd_proto proto;
 
 			if (key && !strcmp(key, "motors"))
-				motors = yaml_document_get_node(&f->doc, p->value);
+				motors = v;
+			if (key && !strcmp(key, "bus") && scalar(v))
+				snprintf(f->bus, sizeof(f->bus), "%s", scalar(v));
+			if (key && !strcmp(key, "protocol")) {
+				if (!scalar(v) || rmd_proto_parse(scalar(v), &proto) < 0) {
+					bad(f, v, "protocol: not a protocol key (v3, v4, ...)");
+					goto out;
+				}
+				f->dl = rmd_dialect(proto);
+			}
 		}
 	if (!motors || motors->type != YAML_SEQUENCE_NODE) {
 		tool_log(TOOL_LOG_ERR, "%s: no `motors:` list (write one with rmdctl dump)",
@@ -325,28 +427,45 @@ struct change {
 	struct req q;
 };
 
-/* The changes that bring motor `now` (read) to `want` (the file); returns how many. */
-static unsigned diff(const struct settings *want, const struct settings *now, struct change *c)
+/*
+ * The changes that bring motor `now` (read) to `want` (the file), in
+ * dialect dl; returns how many.
+ */
+static unsigned diff(const struct rmd_dialect *dl, const struct settings *want,
+		     const struct settings *now, struct change *c)
 {
 	unsigned n = 0, o = 0;
 	bool pid_differs = false;
 
-	if (want->has_pid) {
-		for (unsigned i = 0; i < 6; i++)
+	if (want->has_pid && !float_gains(dl)) {
+		for (unsigned i = 0; i < dl->n_pid_slots; i++)
 			pid_differs |= want->pid[i] != now->pid[i];
 		if (pid_differs) {
 			rmdctl_req_init(&c[n].q, want->id, 0x32); /* V3 §2.3: ROM */
-			for (unsigned i = 0; i < 6; i++) {
-				rmd_msg_set(&c[n].q.msg, pid_fields[i], want->pid[i]);
+			for (unsigned i = 0; i < dl->n_pid_slots; i++) {
+				rmd_msg_set(&c[n].q.msg, dl->pid_slots[i].field, want->pid[i]);
 				if (want->pid[i] != now->pid[i])
 					o += (unsigned)snprintf(c[n].text + o,
 								sizeof(c[n].text) - o,
 								"%s %s %" PRId64 " -> %" PRId64,
-								o ? "," : "pid:", pid_keys[i],
+								o ? "," : "pid:", pid_key(dl, i),
 								now->pid[i], want->pid[i]);
 			}
 			n++;
 		}
+	}
+	/* V4.2 §2.3: one gain a frame, by index, to ROM: a change each */
+	for (unsigned i = 0; want->has_pid && float_gains(dl) && i < dl->n_pid_slots; i++) {
+		char a[32], b[32];
+
+		if (want->pid[i] == now->pid[i])
+			continue;
+		rmdctl_req_init(&c[n].q, want->id, 0x32);
+		rmd_msg_set(&c[n].q.msg, RMD_FLD_INDEX, dl->pid_slots[i].index);
+		rmd_msg_set(&c[n].q.msg, RMD_FLD_GAIN, want->pid[i]);
+		snprintf(c[n++].text, sizeof(c->text), "pid: %s %s -> %s", pid_key(dl, i),
+			 gain_text(dl, now->pid[i], a, sizeof(a)),
+			 gain_text(dl, want->pid[i], b, sizeof(b)));
 	}
 	if (want->has_accel && want->accel_dps2 != now->accel_dps2) {
 		rmdctl_req_init(&c[n].q, want->id, 0x43); /* V3 §2.5: index 0, RAM and ROM */
@@ -383,8 +502,8 @@ static bool b3_zeros(const struct req *q)
 
 int rmdctl_run_restore(struct dev *d, int argc, char **argv)
 {
-	/* at most four changes per motor: gains, acceleration, zero offset, comm-loss time */
-	static struct change ch[4 * RMD_MAX_MOTORS];
+	/* per motor at most: a change a gain (V4), acceleration, zero offset, comm-loss time */
+	static struct change ch[(RMD_PID_SLOTS_MAX + 3) * RMD_MAX_MOTORS];
 	static struct file f;
 	unsigned n = 0, bad_writes = 0, motors_changed = 0;
 	int r;
@@ -392,11 +511,30 @@ int rmdctl_run_restore(struct dev *d, int argc, char **argv)
 	(void)argc;
 	memset(&f, 0, sizeof(f));
 	f.path = argv[0];
-	r = v3_only(d);
+	f.dl = rmdctl_dialect(d);
+	r = dialect_ok(d);
 	if (r)
 		return r;
 	if (parse_file(&f) < 0)
 		return RMDCTL_EXIT_DATA;
+	if (f.bus[0] && strcmp(f.bus, d->name))
+		tool_log(TOOL_LOG_WARNING, "%s: dumped from %s, restored to %s", f.path, f.bus,
+			 d->name);
+	/* one layout's gains mean nothing in another's (V3 §2.1 uint8, V4.2 §2.1 float) */
+	if (f.dl->table != rmdctl_dialect(d)->table) {
+		if (!d->force) {
+			tool_log(
+				TOOL_LOG_ERR,
+				"%s: dumped from protocol %s motors, these are %s (--protocol %s): "
+				"their gains do not translate; --force writes all but the gains",
+				f.path, f.dl->key, rmdctl_dialect(d)->key, rmdctl_dialect(d)->key);
+			return RMDCTL_EXIT_USAGE;
+		}
+		tool_log(TOOL_LOG_WARNING, "%s: protocol %s, motors %s: the gains are not written",
+			 f.path, f.dl->key, rmdctl_dialect(d)->key);
+		for (unsigned i = 0; i < f.n; i++)
+			f.motor[i].has_pid = false;
+	}
 	r = rmdctl_open_bus(d);
 	if (r)
 		return r;
@@ -412,7 +550,7 @@ int rmdctl_run_restore(struct dev *d, int argc, char **argv)
 				 f.path, f.motor[i].line, now.id);
 			goto out;
 		}
-		k = diff(&f.motor[i], &now, &ch[n]);
+		k = diff(rmdctl_dialect(d), &f.motor[i], &now, &ch[n]);
 		if (!k)
 			printf("%s: motor %u: unchanged\n", d->name, now.id);
 		for (unsigned j = 0; j < k; j++)

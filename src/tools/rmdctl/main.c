@@ -76,20 +76,23 @@ static const struct rmdctl_cmd cmds[] = {
 	DEV("dump", "every motor's readable settings as YAML (restore writes them back)", "[IDS]",
 	    0, 1, 0,
 	    "Writes the settings of every motor that answers (IDS, or a probe of 1..32)\n"
-	    "as YAML on stdout: PI gains (0x30), position-planning acceleration (0x42)\n"
-	    "and multi-turn zero offset (0x62); model and firmware date as comments.  V3\n"
-	    "cannot read back the comm-loss time (0xB3), the CAN-ID filter (0x20), the\n"
-	    "baud rate (0xB4) or the other three accelerations (0x43 index 1..3): they\n"
-	    "are not in the file.  V3 only.\n",
+	    "as YAML on stdout: PID gains (0x30; V4: seven floats by index),\n"
+	    "position-planning acceleration (0x42) and multi-turn zero offset (0x62);\n"
+	    "model and firmware date as comments, and the protocol.  V3 and V4 cannot\n"
+	    "read back the comm-loss time (0xB3), the CAN-ID filter and other 0x20\n"
+	    "functions, the baud rate (0xB4) or the other three accelerations (0x43\n"
+	    "index 1..3): they are not in the file.  V3 and V4 only.\n",
 	    rmdctl_run_dump),
 	DEV("restore", "write settings from a dump back, showing the diff (ROM)", "FILE", 1, 1,
-	    O_YES,
+	    O_YES | O_FORCE,
 	    "Reads FILE (from `rmdctl dump`), reads the same settings of each motor in\n"
 	    "it, prints what differs, asks once, and writes only that, to ROM: gains\n"
 	    "(0x32), acceleration (0x43 index 0), zero offset (0x63: used after a reset\n"
 	    "or power cycle).  A `comm_loss_ms: MS` added to a motor is written (0xB3)\n"
 	    "every time, as it cannot be read back.  Without a terminal and --yes it\n"
-	    "prints the diff and refuses (exit 2): a dry run.  V3 only.\n",
+	    "prints the diff and refuses (exit 2): a dry run.  A file of another\n"
+	    "protocol than --protocol is refused (its gains do not translate); --force\n"
+	    "writes all but the gains.  V3 and V4 only.\n",
 	    rmdctl_run_restore),
 	DEV("set-id", "renumber a motor (ROM)", "OLD NEW", 2, 2, O_YES | O_FORCE,
 	    "Renumbers motor OLD to NEW (0x79, ROM) and checks that NEW answers.  V3\n"
