@@ -132,7 +132,7 @@ DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
-	debhelper dh-python help2man man-db debootstrap
+	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux
 
 deps:
 	apt-get update -qq
