@@ -220,9 +220,15 @@ $(BUILD)/completion/%: $(BUILD)/%
 	@$(if $(Q),echo "  GEN     $@")
 	$(Q)$< --completion bash >$@.tmp && mv -f $@.tmp $@
 
+# rmdctl top's screen (src/tools/rmdctl/top_screen.c) is drawn with
+# ncurses: only that file sees its flags, only rmdctl links it.
+CURSES_CFLAGS := $(shell pkg-config --cflags ncurses 2>/dev/null)
+CURSES_LIBS := $(or $(shell pkg-config --libs ncurses 2>/dev/null),-lncurses)
+$(BUILD)/src/tools/rmdctl/top_screen.o: override CFLAGS += $(CURSES_CFLAGS)
+
 $(RMDCTL): $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
-	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS) $(CURSES_LIBS)
 
 $(RMDSIM): $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
