@@ -84,20 +84,22 @@ static const struct {
 /*
  * How the table fits a narrower terminal, step by step until it fits: a
  * column dropped (width 0) or narrowed.  What the details line repeats
- * (reply latency and age, missed replies, bus, index) goes first; name,
- * state, mode and position stay longest.  80 columns keep NAME ID STATE
- * MODE POS VEL TORQ TEMP ERR PROT.
+ * (reply latency and age, missed replies, bus, index) goes first, then
+ * temperature and torque; names are cut only after that, as they are how
+ * the operator knows a motor; state, mode and position stay longest.  At
+ * 80 columns, names of up to 8 characters keep NAME ID STATE MODE POS VEL
+ * TORQ TEMP ERR PROT; names of 12 lose TEMP.
  */
 static const struct {
 	enum col col;
 	int width;
 } shrink[] = {
-	{ C_LAT, 0 },  { C_AGE, 0 },  { C_MISSED, 0 }, { C_BUS, 0 },	{ C_IDX, 0 },
-	{ C_NAME, 8 }, { C_TEMP, 0 }, { C_PROT, 7 },   { C_TORQUE, 0 }, { C_ERR, 0 },
-	{ C_VEL, 0 },  { C_ID, 0 },   { C_MODE, 0 },   { C_POS, 0 },	{ C_PROT, 0 },
+	{ C_LAT, 0 },  { C_AGE, 0 },	{ C_MISSED, 0 }, { C_BUS, 0 },	{ C_IDX, 0 },
+	{ C_TEMP, 0 }, { C_TORQUE, 0 }, { C_PROT, 7 },	 { C_NAME, 8 }, { C_ERR, 0 },
+	{ C_VEL, 0 },  { C_ID, 0 },	{ C_MODE, 0 },	 { C_POS, 0 },	{ C_PROT, 0 },
 };
 
-#define MARK_W 2 /* '>' picked, '!' needs attention */
+#define MARK_W 3 /* '>' picked, '!' needs attention, a space */
 
 struct ui {
 	bool colour, quit, dirty;
@@ -395,7 +397,7 @@ static void table_row(const struct top *t, const struct ui *u, int y, int i)
 	bool picked = i >= 0 && i == u->sel;
 	attr_t base = picked ? A_REVERSE : A_NORMAL;
 	enum att worst = i >= 0 ? motor_att(t, i) : ATT_NONE;
-	char mark[MARK_W + 1] = { picked ? '>' : ' ', worst >= ATT_WARN ? '!' : ' ', '\0' };
+	char mark[MARK_W + 1] = { picked ? '>' : ' ', worst >= ATT_WARN ? '!' : ' ', ' ', '\0' };
 	int x = MARK_W;
 
 	if (i < 0)
@@ -431,6 +433,7 @@ static void title(const struct top *t, const struct ui *u, int y)
 	if (t->paused)
 		add(&l, ATT_WARN, "PAUSED");
 	if (t->cfg && t->health && t->state) {
+		enum att worst = ATT_NONE;
 		int n = 0;
 
 		if (top_stale(t)) {
@@ -440,11 +443,16 @@ static void title(const struct top *t, const struct ui *u, int y)
 			add(&l, ATT_WARN, "STALE: no health or state for %.1f s",
 			    (double)(now - last) / 1e9);
 		}
-		for (int i = 0; i < t->cfg->motor_count; i++)
-			n += motor_att(t, i) >= ATT_WARN;
+		for (int i = 0; i < t->cfg->motor_count; i++) {
+			enum att a = motor_att(t, i);
+
+			n += a >= ATT_WARN;
+			if (a > worst)
+				worst = a;
+		}
 		add(&l, ATT_NONE, "%d motors", t->cfg->motor_count);
 		if (n)
-			add(&l, ATT_ALARM, "%d need%s attention", n, n == 1 ? "s" : "");
+			add(&l, worst, "%d need%s attention", n, n == 1 ? "s" : "");
 		add(&l, ATT_NONE, "cycle %" PRId64, t->state->cycle);
 		add(&l, ATT_NONE, "period %d us", t->cfg->period_us);
 	}
@@ -463,8 +471,8 @@ static void loop_line(const struct top *t, const struct ui *u, int y)
 	add(&l, ATT_NONE, "wake-up us avg %s p99 %s max %s",
 	    fit_num(b[0], 32, 9, h->wake_avg_us, 1), fit_num(b[1], 32, 9, h->wake_p99_us, 1),
 	    fit_num(b[2], 32, 9, h->wake_max_us, 1));
-	add(&l, h->overruns ? ATT_WARN : ATT_NONE, "overruns %" PRId64, h->overruns);
-	add(&l, h->plan_misses ? ATT_WARN : ATT_NONE, "plan misses %" PRId64, h->plan_misses);
+	add(&l, ATT_NONE, "overruns %" PRId64, h->overruns);
+	add(&l, ATT_NONE, "plan misses %" PRId64, h->plan_misses);
 	add(&l, ATT_NONE, "cycle max %s us", fit_num(b[3], 32, 9, h->cycle_max_us, 1));
 	add(&l, ATT_NONE, "cycles %" PRId64, h->cycles);
 	flow(u, y, 1, &l, A_NORMAL);
@@ -482,11 +490,9 @@ static void control_line(const struct top *t, const struct ui *u, int y)
 	else
 		add(&l, ATT_NONE, "no owner");
 	add(&l, ATT_NONE, "commands %" PRId64, h->commands_accepted);
-	add(&l, h->commands_rejected ? ATT_WARN : ATT_NONE, "rejected %" PRId64,
-	    h->commands_rejected);
+	add(&l, ATT_NONE, "rejected %" PRId64, h->commands_rejected);
 	add(&l, ATT_NONE, "clamped %" PRId64, h->commands_clamped);
-	add(&l, h->safe_action_events ? ATT_WARN : ATT_NONE, "safe actions %" PRId64,
-	    h->safe_action_events);
+	add(&l, ATT_NONE, "safe actions %" PRId64, h->safe_action_events);
 	flow(u, y, 1, &l, A_NORMAL);
 }
 
@@ -503,9 +509,9 @@ static void bus_line(const struct top *t, const struct ui *u, int y, int b)
 	add(&l, ATT_NONE, "load %.1f%%", bh->load * 100.0);
 	add(&l, ATT_NONE, "tx %" PRId64, bh->tx_frames);
 	add(&l, ATT_NONE, "rx %" PRId64, bh->rx_frames);
-	add(&l, bh->tx_busy ? ATT_WARN : ATT_NONE, "tx busy %" PRId64, bh->tx_busy);
-	add(&l, bh->rx_errors ? ATT_WARN : ATT_NONE, "rx errors %" PRId64, bh->rx_errors);
-	add(&l, bh->bus_errors ? ATT_WARN : ATT_NONE, "bus errors %" PRId64, bh->bus_errors);
+	add(&l, ATT_NONE, "tx busy %" PRId64, bh->tx_busy);
+	add(&l, ATT_NONE, "rx errors %" PRId64, bh->rx_errors);
+	add(&l, ATT_NONE, "bus errors %" PRId64, bh->bus_errors);
 	add(&l, ATT_NONE, "state changes %" PRId64, bh->state_changes);
 	flow(u, y, 1, &l, A_NORMAL);
 }
@@ -538,14 +544,12 @@ static void details(const struct top *t, const struct ui *u, int y, int rows)
 		    (unsigned)ms->error_code);
 		add(&l, ATT_NONE, "reply %d us, %s ms ago", ms->reply_latency_us,
 		    fit_num(b, sizeof(b), 12, ms->reply_age_cycles * c->period_us / 1000.0, 1));
-		add(&l, ms->missed_replies ? ATT_WARN : ATT_NONE, "missed %" PRId64,
-		    ms->missed_replies);
+		add(&l, ATT_NONE, "missed %" PRId64, ms->missed_replies);
 	}
 	if (u->sel < h->motor_count) {
 		add(&l, armed(h->comm_loss[u->sel]) ? ATT_NONE : ATT_WARN, "comm-loss %s %d ms",
 		    tool_comm_loss_name((unsigned)h->comm_loss[u->sel]), h->comm_loss_ms[u->sel]);
-		add(&l, h->unarmed_rejects[u->sel] ? ATT_WARN : ATT_NONE,
-		    "enables refused unarmed %" PRId64, h->unarmed_rejects[u->sel]);
+		add(&l, ATT_NONE, "enables refused unarmed %" PRId64, h->unarmed_rejects[u->sel]);
 	}
 	flow(u, y, rows, &l, A_NORMAL);
 }
@@ -564,8 +568,8 @@ static void footer(const struct ui *u, int y)
 
 /*
  * The whole screen.  Rows, most needed first: title, column heads and keys
- * always; then the loop line, the motors, the details, the watchdog line
- * and the buses, as many of each as the height leaves.
+ * always; then the loop line, the details and the motors, the watchdog
+ * line and the buses, as many of each as the height leaves.
  */
 static void draw(const struct top *t, struct ui *u)
 {
@@ -594,10 +598,10 @@ static void draw(const struct top *t, struct ui *u)
 		avail = 0;
 	lrows = avail > 0 ? 1 : 0;
 	avail -= lrows;
-	mrows = n < avail ? n : avail;
-	avail -= mrows;
-	drows = n && avail > 0 ? (avail < DETAIL_ROWS ? avail : DETAIL_ROWS) : 0;
-	avail -= drows;
+	/* the picked motor's details outrank table rows the height has no room for anyway */
+	drows = n && avail >= DETAIL_ROWS + 3 ? DETAIL_ROWS : 0;
+	mrows = n < avail - drows ? n : avail - drows;
+	avail -= mrows + drows;
 	crow = avail > 0 ? 1 : 0;
 	avail -= crow;
 	brows = t->health->bus_count < avail ? t->health->bus_count : avail;
