@@ -12,7 +12,9 @@
  *     with status 0 and the shell's screen comes back;
  *   - j moves the pick (its details line follows), p pauses, a resize to
  *     60x16 redraws within 60 columns with the picked motor in view, and
- *     Ctrl-C exits 0 and restores the terminal.
+ *     Ctrl-C exits 0 and restores the terminal;
+ *   - rmdd stopped: the title says STALE and every motor's row is marked
+ *     '!' and reads STALE, so an operator sees it without colour too.
  *
  * Without multicast on loopback (routed when root, tests/harness/
  * lcm_loopback.h) or without tmux (`make deps` installs it) every test
@@ -21,6 +23,7 @@
 #define _GNU_SOURCE
 #include <limits.h>
 #include <setjmp.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stddef.h>
@@ -390,11 +393,52 @@ static void test_keys_resize(void **state)
 	run_free(&r);
 }
 
+/* Every motor's row marked '!' and STALE, and the title says so. */
+static bool all_stale(const char *screen, const char *unused)
+{
+	char name[16];
+
+	(void)unused;
+	if (!line_starting(screen, "rmdctl top") || !has(screen, "STALE: no health or state"))
+		return false;
+	for (int i = 1; i <= NMOTORS; i++) {
+		const char *row;
+		char line[256];
+
+		snprintf(name, sizeof(name), "motor%d", i);
+		row = line_with_word(screen, name);
+		if (!row)
+			return false;
+		snprintf(line, sizeof(line), "%.*s", (int)strcspn(row, "\n"), row);
+		if (line[1] != '!' || !strstr(line, " STALE "))
+			return false;
+	}
+	return true;
+}
+
+/* rmdd gone: STALE in the title and on every motor's row, each marked. */
+static void test_stale(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	struct run r;
+
+	start_rmdd(f);
+	start_top(f, 80, 24);
+	wait_screen(f, &r, motors_ok, NULL, "12 motors at 80x24");
+	run_free(&r);
+	kill(f->rmdd->pid, SIGTERM);
+	assert_int_equal(kid_wait_exit(f->rmdd, 10000, NULL), 0);
+	wait_screen(f, &r, all_stale, NULL, "STALE on every motor after rmdd stopped");
+	assert_fits(r.out, 80, "stale");
+	run_free(&r);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test_setup_teardown(test_fits_80x24, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_keys_resize, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_stale, setup, teardown),
 	};
 
 	return cmocka_run_group_tests_name("top_tty", tests, group_setup, group_teardown);
