@@ -2,12 +2,12 @@
 /*
  * rmdctl top on a terminal: the operator's screen, drawn with ncurses.
  *
- *   rmdctl top  [PAUSED]  STALE ...  12 motors, 1 needs attention  cycle ...
- *   loop: wake-up us avg, p99, max; overruns; plan misses
+ *   rmdctl top  [PAUSED]  [STALE ...]  12 motors  1 needs attention  cycle ...
+ *   wake-up us avg, p99, max; overruns; plan misses
  *   watchdog, owner, commands accepted / rejected / clamped
  *   one line per bus: kind, state, load, frames, errors
- *     NAME     ID STATE   MODE ... PROT           <- the motor table
- *   >!knee_l    1 FAULT   ...                     <- one line per motor
+ *      NAME     ID STATE   MODE ... PROT          <- the motor table
+ *   >! knee_l    1 FAULT   ...                    <- one line per motor
  *   knee_l: the picked motor's details, on up to two lines
  *   q quit  p pause  ...                          <- the keys
  *
@@ -171,9 +171,9 @@ static void bar(int y, attr_t attr)
 /*
  * The items on rows y..y+rows-1, two spaces apart, each whole: one that
  * does not fit the rest of a row starts the next; one longer than a row is
- * left out.  Returns the rows used.
+ * left out.
  */
-static int flow(const struct ui *u, int y, int rows, const struct items *l, attr_t base)
+static void flow(const struct ui *u, int y, int rows, const struct items *l, attr_t base)
 {
 	int x = 0, row = 0;
 
@@ -193,7 +193,6 @@ static int flow(const struct ui *u, int y, int rows, const struct items *l, attr
 		put(y + row, x, l->it[i].text, len, base | att_attr(u, l->it[i].att));
 		x += len;
 	}
-	return l->n ? row + 1 : 0;
 }
 
 /* v in at most width characters: fewer decimals when it is long, "#" when even 0 are too many. */
