@@ -45,8 +45,11 @@ static void on_signal(int sig)
 	rmdctl_top_stop = 1;
 }
 
-/* top's options (rmdctl --completion bash offers them; --help lists them). */
-/* Rows of rmdctl_top_opts: getopt_long returns TOOL_OPT_BASE + row (-j and -h: the letter). */
+/*
+ * top's options, one table for getopt_long, --help, "did you mean" and
+ * `rmdctl --completion bash`.  Its rows, in order: getopt_long returns
+ * TOOL_OPT_BASE + row (-j and -h: the letter).
+ */
 enum { OPT_URL, OPT_PREFIX, OPT_JSON, OPT_ONCE, OPT_INTERVAL, OPT_WAIT, OPT_HELP };
 
 const struct tool_opt rmdctl_top_opts[] = {
