@@ -13,8 +13,9 @@
  *   - j moves the pick (its details line follows), p pauses, a resize to
  *     60x16 redraws within 60 columns with the picked motor in view, and
  *     Ctrl-C exits 0 and restores the terminal;
- *   - rmdd stopped: the title says STALE and every motor's row is marked
- *     '!' and reads STALE, so an operator sees it without colour too.
+ *   - rmdd stopped while the screen is paused: the title says STALE and
+ *     every motor's row is marked '!' and reads STALE, so an operator sees
+ *     it without colour too.
  *
  * Without multicast on loopback (routed when root, tests/harness/
  * lcm_loopback.h) or without tmux (`make deps` installs it) every test
@@ -416,7 +417,7 @@ static bool all_stale(const char *screen, const char *unused)
 	return true;
 }
 
-/* rmdd gone: STALE in the title and on every motor's row, each marked. */
+/* rmdd gone (the view paused): STALE in the title and on every motor's row, each marked. */
 static void test_stale(void **state)
 {
 	struct fixture *f = fixture_or_skip(state);
@@ -425,6 +426,10 @@ static void test_stale(void **state)
 	start_rmdd(f);
 	start_top(f, 80, 24);
 	wait_screen(f, &r, motors_ok, NULL, "12 motors at 80x24");
+	run_free(&r);
+	/* paused: the view is kept, but a daemon gone is still news */
+	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "p", NULL }, "send p");
+	wait_screen(f, &r, has, "PAUSED", "p pauses");
 	run_free(&r);
 	kill(f->rmdd->pid, SIGTERM);
 	assert_int_equal(kid_wait_exit(f->rmdd, 10000, NULL), 0);

@@ -115,8 +115,11 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 
 	(void)rbuf;
 	(void)channel;
-	if (t->paused && t->state)
-		return; /* the screen keeps what it showed */
+	if (t->paused && t->state) {
+		/* the screen keeps what it showed; that rmdd lives is still news */
+		t->state_rx_ns = rmd_now_ns();
+		return;
+	}
 	if (t->state)
 		rmd_state_t_destroy(t->state);
 	t->state = rmd_state_t_copy(msg);
@@ -131,8 +134,10 @@ static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 
 	(void)rbuf;
 	(void)channel;
-	if (t->paused && t->health)
+	if (t->paused && t->health) {
+		t->health_rx_ns = rmd_now_ns();
 		return;
+	}
 	if (t->health)
 		rmd_health_t_destroy(t->health);
 	t->health = rmd_health_t_copy(msg);
@@ -225,14 +230,9 @@ const rmd_motor_state_t *top_motor_state(const struct top *t, int i)
 	return NULL;
 }
 
-int64_t top_view_ns(const struct top *t)
-{
-	return t->paused ? t->paused_ns : rmd_now_ns();
-}
-
 bool top_stale(const struct top *t)
 {
-	int64_t now = top_view_ns(t);
+	int64_t now = rmd_now_ns();
 
 	return now - t->health_rx_ns > TOP_STALE_NS || now - t->state_rx_ns > TOP_STALE_NS;
 }
@@ -241,7 +241,7 @@ static void print_table(const struct top *t, FILE *f)
 {
 	const rmd_config_t *c = t->cfg;
 	const rmd_health_t *h = t->health;
-	int64_t now = top_view_ns(t);
+	int64_t now = rmd_now_ns();
 	char b[6][32];
 
 	fprintf(f, "rmdd on %s, prefix %s", t->url, t->prefix);

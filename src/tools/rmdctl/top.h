@@ -34,9 +34,11 @@ struct top {
 	int64_t cfg_rx_ns, health_rx_ns, state_rx_ns;
 	uint64_t n_states;
 	int64_t next_ask_ns; /* the next config_t request while none came */
-	/* the screen's pause: messages are received and dropped, the view kept */
+	/*
+	 * The screen's pause: the view is kept, messages are received and
+	 * dropped, but their times still count, so STALE stays true news.
+	 */
 	bool paused;
-	int64_t paused_ns;
 };
 
 /* Set by SIGINT and SIGTERM: every loop of top ends. */
@@ -49,9 +51,7 @@ const rmd_motor_state_t *top_motor_state(const struct top *t, int i);
 /* Names of a state_t mode and a health_t bus state; "?" when unknown. */
 const char *top_mode_name(int mode);
 const char *top_bus_state_name(int s);
-/* The time the view is of: now, or the moment of the pause. */
-int64_t top_view_ns(const struct top *t);
-/* No health_t or state_t for TOP_STALE_NS at the view's time. */
+/* No health_t or state_t for TOP_STALE_NS. */
 bool top_stale(const struct top *t);
 
 /*

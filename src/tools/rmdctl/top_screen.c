@@ -426,7 +426,7 @@ static void table_row(const struct top *t, const struct ui *u, int y, int i)
 static void title(const struct top *t, const struct ui *u, int y)
 {
 	struct items l = { .n = 0 };
-	int64_t now = top_view_ns(t);
+	int64_t now = rmd_now_ns();
 
 	add(&l, ATT_NONE, "rmdctl top");
 	if (t->paused)
@@ -648,7 +648,6 @@ static void keys(struct top *t, struct ui *u)
 		case 'p':
 		case ' ':
 			t->paused = !t->paused;
-			t->paused_ns = rmd_now_ns();
 			break;
 		case KEY_UP:
 		case 'k':
