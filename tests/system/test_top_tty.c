@@ -11,7 +11,8 @@
  *     tmux joins wrapped lines (capture-pane -J): nothing wraps; q quits
  *     with status 0 and the shell's screen comes back;
  *   - j moves the pick (its details line follows), p pauses, a resize to
- *     60x16 redraws within 60 columns with the picked motor in view, and
+ *     140x30 brings back every column, one to 60x16 redraws within 60
+ *     columns with the picked motor in view, and
  *     Ctrl-C exits 0 and restores the terminal;
  *   - rmdd stopped while the screen is paused: the title says STALE and
  *     every motor's row is marked '!' and reads STALE, so an operator sees
@@ -377,6 +378,17 @@ static void test_keys_resize(void **state)
 
 	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "p", NULL }, "send p");
 	wait_screen(f, &r, has, "PAUSED", "p pauses");
+	run_free(&r);
+
+	/* wider: the columns 80 had no room for come back */
+	tmux_ok(f,
+		(const char *const[]){ "resize-window", "-t", "top", "-x", "140", "-y", "30",
+				       NULL },
+		"resize-window 140x30");
+	wait_screen(f, &r, has, "LAT_US", "all columns at 140x30");
+	ASSERT_HAS_ALL(r.out, "140x30", " IDX ", " BUS ", " AGE_MS ", " MISSED ", " TEMP ");
+	assert_fits(r.out, 140, "140x30");
+	assert_true(picked(r.out, "motor4"));
 	run_free(&r);
 
 	/* 16 rows: the table scrolls; motor4 stays in view, with its details */
