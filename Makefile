@@ -132,7 +132,7 @@ DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
-	debhelper dh-python help2man man-db debootstrap
+	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux
 
 deps:
 	apt-get update -qq
@@ -220,9 +220,15 @@ $(BUILD)/completion/%: $(BUILD)/%
 	@$(if $(Q),echo "  GEN     $@")
 	$(Q)$< --completion bash >$@.tmp && mv -f $@.tmp $@
 
+# rmdctl top's screen (src/tools/rmdctl/top_screen.c) is drawn with
+# ncurses: only that file sees its flags, only rmdctl links it.
+CURSES_CFLAGS := $(shell pkg-config --cflags ncurses 2>/dev/null)
+CURSES_LIBS := $(or $(shell pkg-config --libs ncurses 2>/dev/null),-lncurses)
+$(BUILD)/src/tools/rmdctl/top_screen.o: override CFLAGS += $(CURSES_CFLAGS)
+
 $(RMDCTL): $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
-	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS) $(CURSES_LIBS)
 
 $(RMDSIM): $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")

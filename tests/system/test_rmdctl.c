@@ -737,6 +737,12 @@ static const struct {
 	{ { "encode", "--id", "1", "torq", "1" },
 	  "rmdctl encode: unknown command \"torq\" (did you mean torque?)",
 	  "usage: rmdctl encode [OPTIONS] COMMAND [ARGS...]" },
+	{ { "top", "--jsn" },
+	  "rmdctl top: unknown option \"--jsn\" (did you mean --json?)",
+	  "usage: rmdctl top [OPTIONS]" },
+	{ { "top", "--interval" },
+	  "rmdctl top: --interval needs a value",
+	  "usage: rmdctl top [OPTIONS]" },
 	{ { "scan", "--frobnicate" },
 	  "rmdctl scan: unknown option \"--frobnicate\"",
 	  "usage: rmdctl scan [OPTIONS] [IDS]" },
@@ -967,6 +973,9 @@ static void test_completion(void **state)
 	assert_completion("rmdctl", "rmdctl status 1 --sp", NULL, "\n");
 	assert_completion("rmdctl", "rmdctl decode --protocol ", NULL, "v3\nv2\nmit\nv4\n");
 	assert_completion("rmdctl", "rmdctl status 1 --protocol ", NULL, "v3\nv2\nv4\n");
+	/* top's options come from its table too */
+	assert_completion("rmdctl", "rmdctl top --lcm", NULL, "--lcm-url\n");
+	assert_completion("rmdctl", "rmdctl top --in", NULL, "--interval\n");
 
 	fake_net_dir(net, sizeof(net));
 	run_completion(&r, "rmdctl", "rmdctl scan --bus ", net);

@@ -8,12 +8,14 @@
  *   settings.c  set-id, set-zero, set-timeout, accel, pid
  *   dump.c      dump, restore: every readable setting as YAML, and back
  *   motion.c    brake, stop, off, reset, move
- *   top.c       a running rmdd, over LCM (no bus)
+ *   top.c       a running rmdd, over LCM (no bus); top_screen.c its
+ *               ncurses screen on a terminal
  *   bench.c     what the device commands share: command line, bus, --trace,
  *               confirmation, transactions; output.c prints their results
  *
  * Commands are the rows of `cmds` below: name, one-line summary, arguments,
- * options, help and run.  decode and encode parse their own command line.
+ * options, help and run.  decode, encode and top parse their own command
+ * line, each from its own option table.
  * Exit statuses: 0 ok, 1 data or device errors, 2 usage.  Non-rt.
  */
 #include <errno.h>
@@ -319,6 +321,9 @@ static void completion(void)
 		} else if (!strcmp(cmds[i].name, "encode")) {
 			cc[i].opts = rmdctl_encode_opts;
 			cc[i].n = rmdctl_n_encode_opts;
+		} else if (!strcmp(cmds[i].name, "top")) {
+			cc[i].opts = rmdctl_top_opts;
+			cc[i].n = rmdctl_n_top_opts;
 		}
 	}
 	tool_completion_bash(stdout, "rmdctl", main_opts, NMAIN, cc, NCMDS);

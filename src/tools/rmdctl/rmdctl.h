@@ -67,6 +67,9 @@ void rmdctl_encode_usage(FILE *f);
 /* top.c: a running rmdd over LCM */
 int rmdctl_top_run(int argc, char **argv);
 void rmdctl_top_usage(FILE *f);
+/* top's options (its --help and the bash completion). */
+extern const struct tool_opt rmdctl_top_opts[];
+extern const size_t rmdctl_n_top_opts;
 
 /* The options rmdctl_codec_getopt() handles: first in decode's and encode's tables. */
 /* clang-format off */

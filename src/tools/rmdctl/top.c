@@ -7,13 +7,13 @@
  * (0xB3), rmd.state_t each motor's lifecycle, mode and measurements.
  *
  * It never opens a bus: it only listens (and asks for config_t), so it runs
- * beside rmdd, unlike `rmdctl monitor`.  On a terminal the screen is redrawn
- * every --interval (100 ms) with plain ANSI escapes; otherwise a plain table
- * is printed every --interval (1 s).  --once prints one table, --json one
- * JSON object, each once config, health and state have all come.  Non-rt.
+ * beside rmdd, unlike `rmdctl monitor`.  On a terminal the operator's screen
+ * (top_screen.c, ncurses) is redrawn every --interval (100 ms); otherwise,
+ * or when TERM is dumb, a plain table is printed every --interval (1 s).
+ * --once prints one table, --json one JSON object, each once config, health
+ * and state have all come.  Non-rt.
  */
 #include <errno.h>
-#include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
 #include <signal.h>
@@ -28,10 +28,8 @@
 #include "rmd/config.h"
 #include "rmd/time.h"
 #include "rmd/rmd_config_request_t.h"
-#include "rmd/rmd_config_t.h"
-#include "rmd/rmd_health_t.h"
-#include "rmd/rmd_state_t.h"
 #include "rmdctl.h"
+#include "top.h"
 #include "tools/common/names.h"
 
 #define DEFAULT_PREFIX "RMD_"
@@ -39,31 +37,45 @@
 #define PLAIN_INTERVAL_MS 1000.0
 #define WAIT_S 3.0
 #define ASK_EVERY_NS INT64_C(500000000) /* config_t requests until one comes */
-#define STALE_NS INT64_C(1000000000)	/* "no health for 1.2 s" */
-#define CHANNEL_LEN 96
-
-struct top {
-	const char *url, *prefix;
-	bool json, once, tty;
-	double interval_ms, wait_s;
-
-	lcm_t *lcm;
-	char ch_state[CHANNEL_LEN], ch_health[CHANNEL_LEN], ch_config[CHANNEL_LEN],
-		ch_request[CHANNEL_LEN];
-	rmd_config_t *cfg; /* the newest of each (copies), NULL until one came */
-	rmd_health_t *health;
-	rmd_state_t *state;
-	int64_t cfg_rx_ns, health_rx_ns, state_rx_ns;
-	uint64_t n_states;
-};
-
-static volatile sig_atomic_t stop;
+volatile sig_atomic_t rmdctl_top_stop;
 
 static void on_signal(int sig)
 {
 	(void)sig;
-	stop = 1;
+	rmdctl_top_stop = 1;
 }
+
+/*
+ * top's options, one table for getopt_long, --help, "did you mean" and
+ * `rmdctl --completion bash`.  Its rows, in order: getopt_long returns
+ * TOOL_OPT_BASE + row (-j and -h: the letter).
+ */
+enum { OPT_URL, OPT_PREFIX, OPT_JSON, OPT_ONCE, OPT_INTERVAL, OPT_WAIT, OPT_HELP };
+
+const struct tool_opt rmdctl_top_opts[] = {
+	{ .name = "lcm-url",
+	  .has_arg = required_argument,
+	  .arg = "URL",
+	  .help = "rmdd's LCM URL (default $LCM_DEFAULT_URL, else\n" RMD_CONFIG_DEFAULT_LCM_URL
+		  ")" },
+	{ .name = "prefix",
+	  .has_arg = required_argument,
+	  .arg = "P",
+	  .help = "rmdd's channel prefix (default " DEFAULT_PREFIX ")" },
+	{ .name = "json", .shortc = 'j', .help = "print one JSON object and exit (scripts)" },
+	{ .name = "once", .help = "print one table and exit" },
+	{ .name = "interval",
+	  .has_arg = required_argument,
+	  .arg = "MS",
+	  .help = "refresh period (default 100 on a terminal, else 1000)" },
+	{ .name = "wait",
+	  .has_arg = required_argument,
+	  .arg = "S",
+	  .help = "with --json or --once: give up after S seconds without\n"
+		  "config, health and state (default 3)" },
+	{ .name = "help", .shortc = 'h', .help = "this text" },
+};
+const size_t rmdctl_n_top_opts = sizeof(rmdctl_top_opts) / sizeof(rmdctl_top_opts[0]);
 
 void rmdctl_top_usage(FILE *f)
 {
@@ -78,23 +90,20 @@ void rmdctl_top_usage(FILE *f)
 		"and errors; the rt loop's wake-up latency, overruns, and the watchdog.\n"
 		"It only listens (and asks for rmd.config_t), so it runs beside rmdd; `rmdctl\n"
 		"monitor` opens the bus itself and is refused on a bus rmdd drives.\n"
-		"\n"
-		"  --lcm-url URL    rmdd's LCM URL (default $LCM_DEFAULT_URL, else\n"
-		"                   " RMD_CONFIG_DEFAULT_LCM_URL ")\n"
-		"  --prefix P       rmdd's channel prefix (default " DEFAULT_PREFIX ")\n"
-		"  --json           print one JSON object and exit (scripts)\n"
-		"  --once           print one table and exit\n"
-		"  --interval MS    refresh period (default 100 on a terminal, else 1000)\n"
-		"  --wait S         with --json or --once: give up after S seconds without\n"
-		"                   config, health and state (default 3)\n"
-		"  -h, --help       this text\n"
-		"\n"
-		"On a terminal the screen is redrawn in place until Ctrl-C; otherwise a plain\n"
-		"table is printed each period.  JSON numbers are SI (rad, rad/s, N*m, degC, V);\n"
-		"a value a motor has not reported yet is null.\n"
-		"\n"
-		"exit status: 0 ok; 1 nothing heard from rmdd within --wait (--json, --once),\n"
-		"or LCM failed; 2 usage error.\n");
+		"\n");
+	tool_opts_help(f, rmdctl_top_opts, rmdctl_n_top_opts);
+	fprintf(f, "\n"
+		   "On a terminal it is a full screen, one line per motor, as wide as the\n"
+		   "terminal (narrow ones drop the less urgent columns); states that need\n"
+		   "attention are marked ! and coloured: SAFE, LOST, FAULT, STALE (nothing from\n"
+		   "rmdd for 1 s) and comm-loss protection not armed.  Keys: q quit, p or space\n"
+		   "pause, up/down or j/k pick a motor (its details show below the table).\n"
+		   "Otherwise (a pipe, a file, TERM=dumb) a plain table is printed each period.\n"
+		   "JSON numbers are SI (rad, rad/s, N*m, degC, V); a value a motor has not\n"
+		   "reported yet is null.\n"
+		   "\n"
+		   "exit status: 0 ok; 1 nothing heard from rmdd within --wait (--json, --once),\n"
+		   "or LCM failed; 2 usage error.\n");
 }
 
 /* ---- LCM ------------------------------------------------------------------------------ */
@@ -106,6 +115,11 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 
 	(void)rbuf;
 	(void)channel;
+	if (t->paused && t->state) {
+		/* the screen keeps what it showed; that rmdd lives is still news */
+		t->state_rx_ns = rmd_now_ns();
+		return;
+	}
 	if (t->state)
 		rmd_state_t_destroy(t->state);
 	t->state = rmd_state_t_copy(msg);
@@ -120,6 +134,10 @@ static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 
 	(void)rbuf;
 	(void)channel;
+	if (t->paused && t->health) {
+		t->health_rx_ns = rmd_now_ns();
+		return;
+	}
 	if (t->health)
 		rmd_health_t_destroy(t->health);
 	t->health = rmd_health_t_copy(msg);
@@ -133,6 +151,8 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 
 	(void)rbuf;
 	(void)channel;
+	if (t->paused && t->cfg)
+		return;
 	if (t->cfg)
 		rmd_config_t_destroy(t->cfg);
 	t->cfg = rmd_config_t_copy(msg);
@@ -154,22 +174,29 @@ static void ask_config(struct top *t)
 	rmd_config_request_t_publish(t->lcm, t->ch_request, &req);
 }
 
+void top_ask_config_due(struct top *t)
+{
+	int64_t now = rmd_now_ns();
+
+	if (!t->cfg && now >= t->next_ask_ns) {
+		ask_config(t);
+		t->next_ask_ns = now + ASK_EVERY_NS;
+	}
+}
+
 /* Handle LCM until deadline_ns (monotonic), asking for config_t meanwhile when missing. */
-static int pump(struct top *t, int64_t deadline_ns, int64_t *next_ask_ns)
+static int pump(struct top *t, int64_t deadline_ns)
 {
 	for (;;) {
 		int64_t now = rmd_now_ns();
 		int ms, r;
 
-		if (!t->cfg && now >= *next_ask_ns) {
-			ask_config(t);
-			*next_ask_ns = now + ASK_EVERY_NS;
-		}
-		if (now >= deadline_ns || stop)
+		top_ask_config_due(t);
+		if (now >= deadline_ns || rmdctl_top_stop)
 			return 0;
 		ms = (int)((deadline_ns - now + 999999) / 1000000);
 		r = lcm_handle_timeout(t->lcm, ms > 50 ? 50 : ms);
-		if (r < 0 && !stop) /* Ctrl-C interrupts the wait: not an error */
+		if (r < 0 && !rmdctl_top_stop) /* Ctrl-C interrupts the wait: not an error */
 			return -EIO;
 	}
 }
@@ -184,23 +211,30 @@ static const char *num(char *buf, size_t size, double v, int prec)
 	return buf;
 }
 
-static const char *mode_name(int mode)
+const char *top_mode_name(int mode)
 {
 	return mode >= 0 && mode < RMD_MODE_COUNT ? rmd_mode_name((enum rmd_mode)mode) : "?";
 }
 
-static const char *bus_state_name(int s)
+const char *top_bus_state_name(int s)
 {
 	return s >= RMD_BUS_ACTIVE && s <= RMD_BUS_OFF ? rmd_bus_state_name((enum rmd_bus_state)s) :
 							 "?";
 }
 
 /* The state's motor i, by index (state_t.motor[i] is motor i, but check). */
-static const rmd_motor_state_t *motor_state(const struct top *t, int i)
+const rmd_motor_state_t *top_motor_state(const struct top *t, int i)
 {
 	if (t->state && i < t->state->count && t->state->motor[i].index == i)
 		return &t->state->motor[i];
 	return NULL;
+}
+
+bool top_stale(const struct top *t)
+{
+	int64_t now = rmd_now_ns();
+
+	return now - t->health_rx_ns > TOP_STALE_NS || now - t->state_rx_ns > TOP_STALE_NS;
 }
 
 static void print_table(const struct top *t, FILE *f)
@@ -221,7 +255,7 @@ static void print_table(const struct top *t, FILE *f)
 			h ? "yes" : "no", t->state ? "yes" : "no");
 		return;
 	}
-	if (now - t->health_rx_ns > STALE_NS || now - t->state_rx_ns > STALE_NS)
+	if (top_stale(t))
 		fprintf(f, "STALE: no health for %.1f s, no state for %.1f s (rmdd stopped?)\n",
 			(double)(now - t->health_rx_ns) / 1e9,
 			(double)(now - t->state_rx_ns) / 1e9);
@@ -246,15 +280,16 @@ static void print_table(const struct top *t, FILE *f)
 			"%-12s %-9s %-14s %6.1f %10" PRId64 " %10" PRId64 " %7" PRId64 " %8" PRId64
 			" %8" PRId64 " %6" PRId64 "\n",
 			bh->name, i < c->bus_count ? c->bus[i].kind : "?",
-			bus_state_name(bh->state), bh->load * 100.0, bh->tx_frames, bh->rx_frames,
-			bh->tx_busy, bh->rx_errors, bh->bus_errors, bh->state_changes);
+			top_bus_state_name(bh->state), bh->load * 100.0, bh->tx_frames,
+			bh->rx_frames, bh->tx_busy, bh->rx_errors, bh->bus_errors,
+			bh->state_changes);
 	}
 	fprintf(f, "\n%3s %-12s %-8s %3s %-8s %-8s %9s %9s %8s %6s %6s %6s %7s %8s %s\n", "IDX",
 		"NAME", "BUS", "ID", "LIFECYC", "MODE", "POS_RAD", "VEL_RAD_S", "TORQUE", "TEMP",
 		"ERR", "LAT_US", "AGE_MS", "MISSED", "PROTECTION");
 	for (int i = 0; i < c->motor_count; i++) {
 		const rmd_motor_config_t *mc = &c->motor[i];
-		const rmd_motor_state_t *ms = motor_state(t, i);
+		const rmd_motor_state_t *ms = top_motor_state(t, i);
 		char prot[32];
 
 		snprintf(prot, sizeof(prot), "%s %dms",
@@ -269,7 +304,7 @@ static void print_table(const struct top *t, FILE *f)
 			" %s\n",
 			i, mc->name,
 			mc->bus >= 0 && mc->bus < c->bus_count ? c->bus[mc->bus].name : "?", mc->id,
-			tool_lifecycle_name((unsigned)ms->lifecycle), mode_name(ms->mode),
+			tool_lifecycle_name((unsigned)ms->lifecycle), top_mode_name(ms->mode),
 			num(b[0], 32, ms->position, 4), num(b[1], 32, ms->velocity, 3),
 			num(b[2], 32, ms->torque, 3), num(b[3], 32, ms->temperature, 0),
 			(unsigned)ms->error_code, ms->reply_latency_us,
@@ -354,7 +389,7 @@ static void print_json(const struct top *t, FILE *f)
 		json_str(f, bh->name);
 		json_kstr(f, "kind", i < c->bus_count ? c->bus[i].kind : "?");
 		json_kint(f, "bitrate", i < c->bus_count ? c->bus[i].bitrate : 0);
-		json_kstr(f, "state", bus_state_name(bh->state));
+		json_kstr(f, "state", top_bus_state_name(bh->state));
 		json_knum(f, "load", bh->load);
 		json_kint(f, "tx_frames", bh->tx_frames);
 		json_kint(f, "rx_frames", bh->rx_frames);
@@ -367,7 +402,7 @@ static void print_json(const struct top *t, FILE *f)
 	fputs("],\"motors\":[", f);
 	for (int i = 0; i < c->motor_count; i++) {
 		const rmd_motor_config_t *mc = &c->motor[i];
-		const rmd_motor_state_t *ms = motor_state(t, i);
+		const rmd_motor_state_t *ms = top_motor_state(t, i);
 
 		fprintf(f, "%s{\"index\":%d", i ? "," : "", i);
 		json_kstr(f, "name", mc->name);
@@ -377,7 +412,7 @@ static void print_json(const struct top *t, FILE *f)
 		json_kstr(f, "protocol", mc->protocol);
 		if (ms) {
 			json_kstr(f, "lifecycle", tool_lifecycle_name((unsigned)ms->lifecycle));
-			json_kstr(f, "mode", mode_name(ms->mode));
+			json_kstr(f, "mode", top_mode_name(ms->mode));
 			json_knum(f, "position", ms->position);
 			json_knum(f, "velocity", ms->velocity);
 			json_knum(f, "torque", ms->torque);
@@ -399,37 +434,31 @@ static void print_json(const struct top *t, FILE *f)
 
 /* ---- the command ---------------------------------------------------------------------- */
 
+/* The command line into t: 0, 1 after --help, or -1 after a usage error (reported). */
 static int parse(struct top *t, int argc, char **argv)
 {
-	static const struct option longopts[] = {
-		{ "lcm-url", required_argument, NULL, 'l' },
-		{ "prefix", required_argument, NULL, 'P' },
-		{ "json", no_argument, NULL, 'j' },
-		{ "once", no_argument, NULL, 'o' },
-		{ "interval", required_argument, NULL, 'i' },
-		{ "wait", required_argument, NULL, 'w' },
-		{ "help", no_argument, NULL, 'h' },
-		{ 0 },
-	};
+	struct option longopts[sizeof(rmdctl_top_opts) / sizeof(rmdctl_top_opts[0]) + 1];
+	char shorts[16], msg[160];
 	int c;
 
+	tool_opts_getopt(rmdctl_top_opts, rmdctl_n_top_opts, longopts, shorts, sizeof(shorts));
 	optind = 0; /* glibc: full re-initialisation */
 	opterr = 0;
-	while ((c = getopt_long(argc, argv, ":jh", longopts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, shorts, longopts, NULL)) != -1) {
 		switch (c) {
-		case 'l':
+		case TOOL_OPT_BASE + OPT_URL:
 			t->url = optarg;
 			break;
-		case 'P':
+		case TOOL_OPT_BASE + OPT_PREFIX:
 			t->prefix = optarg;
 			break;
 		case 'j':
 			t->json = true;
 			break;
-		case 'o':
+		case TOOL_OPT_BASE + OPT_ONCE:
 			t->once = true;
 			break;
-		case 'i':
+		case TOOL_OPT_BASE + OPT_INTERVAL:
 			if (rmdctl_parse_double(optarg, &t->interval_ms) < 0 ||
 			    t->interval_ms < 10 || t->interval_ms > 3600000) {
 				tool_log(TOOL_LOG_ERR, "bad --interval \"%s\" (10..3600000 ms)",
@@ -437,7 +466,7 @@ static int parse(struct top *t, int argc, char **argv)
 				return -1;
 			}
 			break;
-		case 'w':
+		case TOOL_OPT_BASE + OPT_WAIT:
 			if (rmdctl_parse_double(optarg, &t->wait_s) < 0 || t->wait_s <= 0 ||
 			    t->wait_s > 3600) {
 				tool_log(TOOL_LOG_ERR, "bad --wait \"%s\" (seconds, 0..3600)",
@@ -448,11 +477,10 @@ static int parse(struct top *t, int argc, char **argv)
 		case 'h':
 			rmdctl_top_usage(stdout);
 			return 1;
-		case ':':
-			tool_log(TOOL_LOG_ERR, "option \"%s\" needs a value", argv[optind - 1]);
-			return -1;
-		default:
-			tool_log(TOOL_LOG_ERR, "unknown option \"%s\"", argv[optind - 1]);
+		default: /* '?' and ':': "unknown option "--jsn" (did you mean --json?)" */
+			tool_log(TOOL_LOG_ERR, "%s",
+				 tool_getopt_error(msg, sizeof(msg), c, argv, rmdctl_top_opts,
+						   rmdctl_n_top_opts));
 			return -1;
 		}
 	}
@@ -464,53 +492,81 @@ static int parse(struct top *t, int argc, char **argv)
 		tool_log(TOOL_LOG_ERR, "--json and --once exclude each other");
 		return -1;
 	}
-	if (strlen(t->prefix) + strlen("CONFIG_REQUEST") >= CHANNEL_LEN) {
+	if (strlen(t->prefix) + strlen("CONFIG_REQUEST") >= TOP_CHANNEL_LEN) {
 		tool_log(TOOL_LOG_ERR, "--prefix \"%s\" is too long", t->prefix);
 		return -1;
 	}
 	return 0;
 }
 
-static int run(struct top *t)
+/* --json and --once: one object or table once config, health and state have come. */
+static int run_once(struct top *t)
 {
-	int64_t start = rmd_now_ns(), next_ask = start, next_draw = start;
-	bool one_shot = t->json || t->once;
+	int64_t start = rmd_now_ns();
 
 	for (;;) {
-		if (one_shot) {
-			if (pump(t, rmd_now_ns() + 20000000, &next_ask) < 0)
-				return -EIO;
-			if (complete(t))
-				break;
-			if (stop || rmd_now_ns() - start > (int64_t)(t->wait_s * 1e9)) {
-				tool_log(TOOL_LOG_ERR,
-					 "no complete %sCONFIG, %sHEALTH and %sSTATE within %g s "
-					 "(config %s, health %s, state %s): is rmdd running, with "
-					 "--lcm-url %s and prefix %s?",
-					 t->prefix, t->prefix, t->prefix, t->wait_s,
-					 t->cfg ? "yes" : "no", t->health ? "yes" : "no",
-					 t->state ? "yes" : "no", t->url, t->prefix);
-				return -ETIMEDOUT;
-			}
-			continue;
-		}
-		next_draw += (int64_t)(t->interval_ms * 1e6);
-		if (pump(t, next_draw, &next_ask) < 0)
+		if (pump(t, rmd_now_ns() + 20000000) < 0)
 			return -EIO;
-		if (stop)
-			return 0;
-		if (t->tty)
-			fputs("\033[H\033[2J", stdout); /* home, clear */
-		else
-			fputc('\n', stdout);
-		print_table(t, stdout);
-		fflush(stdout);
+		if (complete(t))
+			break;
+		if (rmdctl_top_stop || rmd_now_ns() - start > (int64_t)(t->wait_s * 1e9)) {
+			tool_log(TOOL_LOG_ERR,
+				 "no complete %sCONFIG, %sHEALTH and %sSTATE within %g s "
+				 "(config %s, health %s, state %s): is rmdd running, with "
+				 "--lcm-url %s and prefix %s?",
+				 t->prefix, t->prefix, t->prefix, t->wait_s, t->cfg ? "yes" : "no",
+				 t->health ? "yes" : "no", t->state ? "yes" : "no", t->url,
+				 t->prefix);
+			return -ETIMEDOUT;
+		}
 	}
 	if (t->json)
 		print_json(t, stdout);
 	else
 		print_table(t, stdout);
 	return 0;
+}
+
+/* Not a terminal (or one curses cannot drive): a plain table every --interval. */
+static int run_plain(struct top *t)
+{
+	int64_t next_draw = rmd_now_ns();
+
+	for (;;) {
+		next_draw += (int64_t)(t->interval_ms * 1e6);
+		if (pump(t, next_draw) < 0)
+			return -EIO;
+		if (rmdctl_top_stop)
+			return 0;
+		fputc('\n', stdout);
+		print_table(t, stdout);
+		fflush(stdout);
+	}
+}
+
+/* The screen wants a terminal that is more than a teletype. */
+static bool screen_terminal(void)
+{
+	const char *term = getenv("TERM");
+
+	return isatty(STDOUT_FILENO) && isatty(STDIN_FILENO) && term && *term &&
+	       strcmp(term, "dumb") != 0;
+}
+
+static int run(struct top *t)
+{
+	int r;
+
+	if (t->json || t->once)
+		return run_once(t);
+	if (t->tty) {
+		r = top_screen_run(t);
+		if (r != -ENOTTY)
+			return r;
+		tool_log(TOOL_LOG_WARNING, "curses cannot drive TERM=%s: plain tables",
+			 getenv("TERM"));
+	}
+	return run_plain(t);
 }
 
 int rmdctl_top_run(int argc, char **argv)
@@ -521,12 +577,12 @@ int rmdctl_top_run(int argc, char **argv)
 	int r;
 
 	t.url = env && *env ? env : RMD_CONFIG_DEFAULT_LCM_URL;
-	t.tty = isatty(STDOUT_FILENO);
+	t.tty = screen_terminal();
 	r = parse(&t, argc, argv);
 	if (r > 0)
 		return RMDCTL_EXIT_OK;
 	if (r < 0) {
-		rmdctl_top_usage(stderr);
+		rmdctl_usage_hint_name("top");
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (t.interval_ms == 0)

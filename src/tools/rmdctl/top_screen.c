@@ -1,0 +1,737 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl top on a terminal: the operator's screen, drawn with ncurses.
+ *
+ *   rmdctl top  [PAUSED]  [STALE ...]  12 motors  1 needs attention  cycle ...
+ *   wake-up us avg, p99, max; overruns; plan misses
+ *   watchdog, owner, commands accepted / rejected / clamped
+ *   one line per bus: kind, state, load, frames, errors
+ *      NAME     ID STATE   MODE ... PROT          <- the motor table
+ *   >! knee_l    1 FAULT   ...                    <- one line per motor
+ *   knee_l: the picked motor's details, on up to two lines
+ *   q quit  p pause  ...                          <- the keys
+ *
+ * Nothing wraps: the motor table keeps the columns that fit the width,
+ * dropping or narrowing the less urgent ones first (shrink[] below), and
+ * the other lines are lists of items that leave out what does not fit.
+ * When the motors do not fit the height, the table scrolls to the picked
+ * one.  States that need attention get a mark ('!'), upper case and a
+ * colour (red: FAULT, LOST, SAFE, error flags, a bus not active, a tripped
+ * watchdog; yellow: STALE and comm-loss protection not armed), so that a
+ * monochrome terminal shows them too.  Non-rt.
+ */
+#include <ctype.h>
+#include <curses.h>
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <poll.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "rmd/frame.h"
+#include "rmd/time.h"
+#include "top.h"
+#include "tools/common/names.h"
+
+#define POLL_MAX_MS 100 /* keys and config_t requests are served at least this often */
+#define NAME_MIN 4	/* the NAME column: from the longest name, within these */
+#define NAME_MAX 16
+#define DETAIL_ROWS 2 /* the picked motor's details */
+#define ITEM_LEN 96
+#define MAX_ITEMS 24
+
+enum att { ATT_NONE, ATT_OK, ATT_WARN, ATT_ALARM };
+enum { PAIR_OK = 1, PAIR_WARN, PAIR_ALARM };
+
+/* The motor table's columns, in screen order. */
+enum col {
+	C_IDX,
+	C_NAME,
+	C_BUS,
+	C_ID,
+	C_STATE,
+	C_MODE,
+	C_POS,
+	C_VEL,
+	C_TORQUE,
+	C_TEMP,
+	C_ERR,
+	C_LAT,
+	C_AGE,
+	C_MISSED,
+	C_PROT,
+	NCOLS
+};
+
+static const struct {
+	const char *head;
+	int width; /* on a wide terminal (NAME: from the names) */
+	bool left; /* text; numbers are right-aligned */
+} cols[NCOLS] = {
+	[C_IDX] = { "IDX", 3, false },	   [C_NAME] = { "NAME", 12, true },
+	[C_BUS] = { "BUS", 8, true },	   [C_ID] = { "ID", 3, false },
+	[C_STATE] = { "STATE", 7, true },  [C_MODE] = { "MODE", 8, true },
+	[C_POS] = { "POS", 8, false },	   [C_VEL] = { "VEL", 8, false },
+	[C_TORQUE] = { "TORQ", 7, false }, [C_TEMP] = { "TEMP", 4, false },
+	[C_ERR] = { "ERR", 4, false },	   [C_LAT] = { "LAT_US", 6, false },
+	[C_AGE] = { "AGE_MS", 6, false },  [C_MISSED] = { "MISSED", 6, false },
+	[C_PROT] = { "PROT", 11, true },
+};
+
+/*
+ * How the table fits a narrower terminal, step by step until it fits: a
+ * column dropped (width 0) or narrowed.  What the details line repeats
+ * (reply latency and age, missed replies, bus, index) goes first, then
+ * temperature and torque; names are cut only after that, as they are how
+ * the operator knows a motor; state, mode and position stay longest.  At
+ * 80 columns, names of up to 8 characters keep NAME ID STATE MODE POS VEL
+ * TORQ TEMP ERR PROT; names of 12 lose TEMP.
+ */
+static const struct {
+	enum col col;
+	int width;
+} shrink[] = {
+	{ C_LAT, 0 },  { C_AGE, 0 },	{ C_MISSED, 0 }, { C_BUS, 0 },	{ C_IDX, 0 },
+	{ C_TEMP, 0 }, { C_TORQUE, 0 }, { C_PROT, 7 },	 { C_NAME, 8 }, { C_ERR, 0 },
+	{ C_VEL, 0 },  { C_ID, 0 },	{ C_MODE, 0 },	 { C_POS, 0 },	{ C_PROT, 0 },
+};
+
+#define MARK_W 3 /* '>' picked, '!' needs attention, a space */
+
+struct ui {
+	bool colour, quit, dirty;
+	int sel, first; /* the picked motor, the table's first line */
+	int width[NCOLS];
+};
+
+/* One piece of a line of items. */
+struct item {
+	char text[ITEM_LEN];
+	enum att att;
+};
+
+struct items {
+	struct item it[MAX_ITEMS];
+	int n;
+};
+
+static void add(struct items *l, enum att att, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+
+static void add(struct items *l, enum att att, const char *fmt, ...)
+{
+	va_list ap;
+
+	if (l->n >= MAX_ITEMS)
+		return;
+	va_start(ap, fmt);
+	vsnprintf(l->it[l->n].text, ITEM_LEN, fmt, ap);
+	va_end(ap);
+	l->it[l->n++].att = att;
+}
+
+static attr_t att_attr(const struct ui *u, enum att a)
+{
+	switch (a) {
+	case ATT_NONE:
+		return A_NORMAL;
+	case ATT_OK:
+		return u->colour ? COLOR_PAIR(PAIR_OK) : A_NORMAL;
+	case ATT_WARN:
+		return u->colour ? COLOR_PAIR(PAIR_WARN) | A_BOLD : A_UNDERLINE;
+	case ATT_ALARM:
+		return u->colour ? COLOR_PAIR(PAIR_ALARM) | A_BOLD : A_BOLD | A_UNDERLINE;
+	}
+	return A_NORMAL;
+}
+
+/* At most n characters of s at (y, x), clipped to the screen's width. */
+static void put(int y, int x, const char *s, int n, attr_t attr)
+{
+	if (x >= COLS || y >= LINES || n <= 0)
+		return;
+	if (n > COLS - x)
+		n = COLS - x;
+	attrset(attr);
+	mvaddnstr(y, x, s, n);
+	attrset(A_NORMAL);
+}
+
+/* A whole row in attr (reverse video bars), blank. */
+static void bar(int y, attr_t attr)
+{
+	attrset(attr);
+	mvhline(y, 0, ' ', COLS);
+	attrset(A_NORMAL);
+}
+
+/*
+ * The items on rows y..y+rows-1, two spaces apart, each whole: one that
+ * does not fit the rest of a row starts the next; one longer than a row is
+ * left out.
+ */
+static void flow(const struct ui *u, int y, int rows, const struct items *l, attr_t base)
+{
+	int x = 0, row = 0;
+
+	for (int i = 0; i < l->n && row < rows; i++) {
+		int len = (int)strlen(l->it[i].text);
+
+		if (len > COLS)
+			continue;
+		if (x && x + 2 + len > COLS) {
+			if (row + 1 >= rows)
+				continue; /* a shorter one may still fit this row */
+			row++;
+			x = 0;
+		}
+		if (x)
+			x += 2;
+		put(y + row, x, l->it[i].text, len, base | att_attr(u, l->it[i].att));
+		x += len;
+	}
+}
+
+/* v in at most width characters: fewer decimals when it is long, "#" when even 0 are too many. */
+static const char *fit_num(char *buf, size_t size, int width, double v, int prec)
+{
+	if (!isfinite(v))
+		return "-";
+	for (int p = prec; p >= 0; p--) {
+		snprintf(buf, size, "%.*f", p, v);
+		if ((int)strlen(buf) <= width)
+			return buf;
+	}
+	return "#";
+}
+
+/* The comm-loss protection is armed (0xB3 written and answered): the motor may be enabled. */
+static bool armed(int cl)
+{
+	return cl == RMD_HEALTH_T_CL_ARMED || cl == RMD_HEALTH_T_CL_ARMED_ZEROS;
+}
+
+/* A comm-loss state in at most width characters: with its time when that fits. */
+static const char *prot_text(char *buf, size_t size, int width, int cl, int ms)
+{
+	static const char *const brief[] = {
+		[RMD_HEALTH_T_CL_PENDING] = "pending",	  [RMD_HEALTH_T_CL_ARMED] = "armed",
+		[RMD_HEALTH_T_CL_ARMED_ZEROS] = "armed0", [RMD_HEALTH_T_CL_NO_ANSWER] = "noanswer",
+		[RMD_HEALTH_T_CL_DIFFERS] = "differs",	  [RMD_HEALTH_T_CL_OFF] = "off",
+		[RMD_HEALTH_T_CL_UNSUPPORTED] = "unsup",
+	};
+	const char *name = tool_comm_loss_name((unsigned)cl);
+
+	snprintf(buf, size, "%s %dms", name, ms);
+	if ((int)strlen(buf) <= width)
+		return buf;
+	if (cl >= 0 && cl < (int)(sizeof(brief) / sizeof(brief[0])))
+		name = brief[cl];
+	snprintf(buf, size, "%s %dms", name, ms);
+	if ((int)strlen(buf) <= width)
+		return buf;
+	return name;
+}
+
+/* Upper case: states that need attention read so without colour too. */
+static const char *upper(char *buf, size_t size, const char *s)
+{
+	size_t i;
+
+	for (i = 0; s[i] && i + 1 < size; i++)
+		buf[i] = (char)toupper((unsigned char)s[i]);
+	buf[i] = '\0';
+	return buf;
+}
+
+/* Motor i's lifecycle as the table shows it, and how urgent it is. */
+static enum att motor_state_text(const struct top *t, const rmd_motor_state_t *ms, char *buf,
+				 size_t size)
+{
+	if (top_stale(t)) {
+		snprintf(buf, size, "STALE");
+		return ATT_WARN;
+	}
+	switch (ms->lifecycle) {
+	case RMD_STATE_T_LC_FAULT:
+	case RMD_STATE_T_LC_LOST:
+	case RMD_STATE_T_LC_SAFE:
+		upper(buf, size, tool_lifecycle_name((unsigned)ms->lifecycle));
+		return ATT_ALARM;
+	case RMD_STATE_T_LC_ENABLED:
+		snprintf(buf, size, "%s", tool_lifecycle_name((unsigned)ms->lifecycle));
+		return ATT_OK;
+	default:
+		snprintf(buf, size, "%s", tool_lifecycle_name((unsigned)ms->lifecycle));
+		return ATT_NONE;
+	}
+}
+
+/* Cell c of motor i in at most width characters; returns how urgent it is. */
+static enum att cell(const struct top *t, int i, enum col c, int width, char *buf, size_t size)
+{
+	const rmd_config_t *cf = t->cfg;
+	const rmd_health_t *h = t->health;
+	const rmd_motor_config_t *mc = &cf->motor[i];
+	const rmd_motor_state_t *ms = top_motor_state(t, i);
+	char num[32];
+	enum att a = ATT_NONE;
+
+	buf[0] = '\0';
+	if (!ms && c != C_IDX && c != C_NAME && c != C_BUS && c != C_ID) {
+		if (c == C_STATE)
+			snprintf(buf, size, "?");
+		return c == C_STATE ? ATT_WARN : ATT_NONE;
+	}
+	switch (c) {
+	case C_IDX:
+		snprintf(buf, size, "%d", i);
+		break;
+	case C_NAME:
+		snprintf(buf, size, "%s", mc->name);
+		break;
+	case C_BUS:
+		snprintf(buf, size, "%s",
+			 mc->bus >= 0 && mc->bus < cf->bus_count ? cf->bus[mc->bus].name : "?");
+		break;
+	case C_ID:
+		snprintf(buf, size, "%d", mc->id);
+		break;
+	case C_STATE:
+		a = motor_state_text(t, ms, buf, size);
+		break;
+	case C_MODE:
+		snprintf(buf, size, "%s", top_mode_name(ms->mode));
+		break;
+	case C_POS:
+		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->position, 3));
+		break;
+	case C_VEL:
+		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->velocity, 3));
+		break;
+	case C_TORQUE:
+		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->torque, 2));
+		break;
+	case C_TEMP:
+		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->temperature, 0));
+		break;
+	case C_ERR:
+		snprintf(buf, size, "%x", (unsigned)ms->error_code);
+		a = ms->error_code ? ATT_ALARM : ATT_NONE;
+		break;
+	case C_LAT:
+		snprintf(buf, size, "%d", ms->reply_latency_us);
+		break;
+	case C_AGE:
+		snprintf(buf, size, "%s",
+			 fit_num(num, sizeof(num), width,
+				 ms->reply_age_cycles * cf->period_us / 1000.0, 1));
+		break;
+	case C_MISSED:
+		snprintf(buf, size, "%" PRId64, ms->missed_replies);
+		break;
+	case C_PROT:
+		if (i >= h->motor_count) {
+			snprintf(buf, size, "?");
+			return ATT_WARN;
+		}
+		snprintf(buf, size, "%s",
+			 prot_text(num, sizeof(num), width, h->comm_loss[i], h->comm_loss_ms[i]));
+		a = armed(h->comm_loss[i]) ? ATT_NONE : ATT_WARN;
+		break;
+	case NCOLS:
+		break;
+	}
+	return a;
+}
+
+/* How urgent motor i is: the most urgent of its cells. */
+static enum att motor_att(const struct top *t, int i)
+{
+	static const enum col watched[] = { C_STATE, C_ERR, C_PROT };
+	enum att worst = ATT_NONE;
+	char buf[64];
+
+	for (size_t k = 0; k < sizeof(watched) / sizeof(watched[0]); k++) {
+		enum att a = cell(t, i, watched[k], 32, buf, sizeof(buf));
+
+		if (a != ATT_OK && a > worst)
+			worst = a;
+	}
+	return worst;
+}
+
+/* The columns' widths for this terminal: u->width[c], 0 when left out. */
+static void layout(const struct top *t, struct ui *u)
+{
+	int total = MARK_W, name = NAME_MIN;
+
+	for (int i = 0; i < t->cfg->motor_count; i++) {
+		int len = (int)strlen(t->cfg->motor[i].name);
+
+		if (len > name)
+			name = len;
+	}
+	for (int c = 0; c < NCOLS; c++) {
+		u->width[c] = c == C_NAME ? (name < NAME_MAX ? name : NAME_MAX) : cols[c].width;
+		total += u->width[c] + 1;
+	}
+	total--; /* no space after the last column */
+	for (size_t s = 0; s < sizeof(shrink) / sizeof(shrink[0]) && total > COLS; s++) {
+		int c = shrink[s].col, w = shrink[s].width;
+
+		if (u->width[c] <= w)
+			continue;
+		total -= u->width[c] - w + (w == 0 && u->width[c] ? 1 : 0);
+		u->width[c] = w;
+	}
+}
+
+/* One table row (motor i, or the column heads when i < 0) at line y. */
+static void table_row(const struct top *t, const struct ui *u, int y, int i)
+{
+	bool picked = i >= 0 && i == u->sel;
+	attr_t base = picked ? A_REVERSE : A_NORMAL;
+	enum att worst = i >= 0 ? motor_att(t, i) : ATT_NONE;
+	char mark[MARK_W + 1] = { picked ? '>' : ' ', worst >= ATT_WARN ? '!' : ' ', ' ', '\0' };
+	int x = MARK_W;
+
+	if (i < 0)
+		base = A_BOLD;
+	if (picked)
+		bar(y, base);
+	put(y, 0, mark, MARK_W, base | att_attr(u, worst));
+	for (int c = 0; c < NCOLS; c++) {
+		int w = u->width[c];
+		char text[64], cellbuf[80];
+		enum att a = ATT_NONE;
+
+		if (!w)
+			continue;
+		if (i < 0)
+			snprintf(text, sizeof(text), "%s", cols[c].head);
+		else
+			a = cell(t, i, c, w, text, sizeof(text));
+		snprintf(cellbuf, sizeof(cellbuf), cols[c].left ? "%-*.*s" : "%*.*s", w, w, text);
+		if (x > MARK_W)
+			put(y, x - 1, " ", 1, base);
+		put(y, x, cellbuf, w, base | att_attr(u, a));
+		x += w + 1;
+	}
+}
+
+static void title(const struct top *t, const struct ui *u, int y)
+{
+	struct items l = { .n = 0 };
+	int64_t now = rmd_now_ns();
+
+	add(&l, ATT_NONE, "rmdctl top");
+	if (t->paused)
+		add(&l, ATT_WARN, "PAUSED");
+	if (t->cfg && t->health && t->state) {
+		enum att worst = ATT_NONE;
+		int n = 0;
+
+		if (top_stale(t)) {
+			int64_t last = t->health_rx_ns < t->state_rx_ns ? t->health_rx_ns :
+									  t->state_rx_ns;
+
+			add(&l, ATT_WARN, "STALE: no health or state for %.1f s",
+			    (double)(now - last) / 1e9);
+		}
+		for (int i = 0; i < t->cfg->motor_count; i++) {
+			enum att a = motor_att(t, i);
+
+			n += a >= ATT_WARN;
+			if (a > worst)
+				worst = a;
+		}
+		add(&l, ATT_NONE, "%d motors", t->cfg->motor_count);
+		if (n)
+			add(&l, worst, "%d need%s attention", n, n == 1 ? "s" : "");
+		add(&l, ATT_NONE, "cycle %" PRId64, t->state->cycle);
+		add(&l, ATT_NONE, "period %d us", t->cfg->period_us);
+	}
+	add(&l, ATT_NONE, "%s", t->url);
+	add(&l, ATT_NONE, "prefix %s", t->prefix);
+	bar(y, A_REVERSE);
+	flow(u, y, 1, &l, A_REVERSE);
+}
+
+static void loop_line(const struct top *t, const struct ui *u, int y)
+{
+	const rmd_health_t *h = t->health;
+	struct items l = { .n = 0 };
+	char b[4][32];
+
+	add(&l, ATT_NONE, "wake-up us avg %s p99 %s max %s",
+	    fit_num(b[0], 32, 9, h->wake_avg_us, 1), fit_num(b[1], 32, 9, h->wake_p99_us, 1),
+	    fit_num(b[2], 32, 9, h->wake_max_us, 1));
+	add(&l, ATT_NONE, "overruns %" PRId64, h->overruns);
+	add(&l, ATT_NONE, "plan misses %" PRId64, h->plan_misses);
+	add(&l, ATT_NONE, "cycle max %s us", fit_num(b[3], 32, 9, h->cycle_max_us, 1));
+	add(&l, ATT_NONE, "cycles %" PRId64, h->cycles);
+	flow(u, y, 1, &l, A_NORMAL);
+}
+
+static void control_line(const struct top *t, const struct ui *u, int y)
+{
+	const rmd_health_t *h = t->health;
+	struct items l = { .n = 0 };
+
+	add(&l, h->watchdog == RMD_HEALTH_T_WD_TRIPPED ? ATT_ALARM : ATT_NONE, "watchdog %s",
+	    tool_watchdog_name((unsigned)h->watchdog));
+	if (h->owned)
+		add(&l, ATT_NONE, "owner %" PRId64, h->owner);
+	else
+		add(&l, ATT_NONE, "no owner");
+	add(&l, ATT_NONE, "commands %" PRId64, h->commands_accepted);
+	add(&l, ATT_NONE, "rejected %" PRId64, h->commands_rejected);
+	add(&l, ATT_NONE, "clamped %" PRId64, h->commands_clamped);
+	add(&l, ATT_NONE, "safe actions %" PRId64, h->safe_action_events);
+	flow(u, y, 1, &l, A_NORMAL);
+}
+
+static void bus_line(const struct top *t, const struct ui *u, int y, int b)
+{
+	const rmd_bus_health_t *bh = &t->health->bus[b];
+	struct items l = { .n = 0 };
+	enum att a = bh->state == RMD_BUS_ACTIVE  ? ATT_NONE :
+		     bh->state == RMD_BUS_WARNING ? ATT_WARN :
+						    ATT_ALARM;
+
+	add(&l, ATT_NONE, "%s (%s)", bh->name, b < t->cfg->bus_count ? t->cfg->bus[b].kind : "?");
+	add(&l, a, "%s", top_bus_state_name(bh->state));
+	add(&l, ATT_NONE, "load %.1f%%", bh->load * 100.0);
+	add(&l, ATT_NONE, "tx %" PRId64, bh->tx_frames);
+	add(&l, ATT_NONE, "rx %" PRId64, bh->rx_frames);
+	add(&l, ATT_NONE, "tx busy %" PRId64, bh->tx_busy);
+	add(&l, ATT_NONE, "rx errors %" PRId64, bh->rx_errors);
+	add(&l, ATT_NONE, "bus errors %" PRId64, bh->bus_errors);
+	add(&l, ATT_NONE, "state changes %" PRId64, bh->state_changes);
+	flow(u, y, 1, &l, A_NORMAL);
+}
+
+/* The picked motor, everything the table has no room for. */
+static void details(const struct top *t, const struct ui *u, int y, int rows)
+{
+	const rmd_config_t *c = t->cfg;
+	const rmd_health_t *h = t->health;
+	const rmd_motor_config_t *mc = &c->motor[u->sel];
+	const rmd_motor_state_t *ms = top_motor_state(t, u->sel);
+	struct items l = { .n = 0 };
+	char b[32], st[32];
+
+	add(&l, ATT_NONE, "%s: index %d, %s id %d, %s", mc->name, u->sel,
+	    mc->bus >= 0 && mc->bus < c->bus_count ? c->bus[mc->bus].name : "?", mc->id,
+	    mc->protocol);
+	if (ms) {
+		enum att a = motor_state_text(t, ms, st, sizeof(st));
+
+		add(&l, a == ATT_OK ? ATT_NONE : a, "%s", st);
+		add(&l, ATT_NONE, "mode %s", top_mode_name(ms->mode));
+		add(&l, ATT_NONE, "%s rad", fit_num(b, sizeof(b), 12, ms->position, 4));
+		add(&l, ATT_NONE, "%s rad/s", fit_num(b, sizeof(b), 12, ms->velocity, 3));
+		add(&l, ATT_NONE, "%s N*m", fit_num(b, sizeof(b), 12, ms->torque, 3));
+		add(&l, ATT_NONE, "%s A", fit_num(b, sizeof(b), 12, ms->current, 2));
+		add(&l, ATT_NONE, "%s V", fit_num(b, sizeof(b), 12, ms->voltage, 1));
+		add(&l, ATT_NONE, "%s degC", fit_num(b, sizeof(b), 12, ms->temperature, 0));
+		add(&l, ms->error_code ? ATT_ALARM : ATT_NONE, "errors %#x",
+		    (unsigned)ms->error_code);
+		add(&l, ATT_NONE, "reply %d us, %s ms ago", ms->reply_latency_us,
+		    fit_num(b, sizeof(b), 12, ms->reply_age_cycles * c->period_us / 1000.0, 1));
+		add(&l, ATT_NONE, "missed %" PRId64, ms->missed_replies);
+	}
+	if (u->sel < h->motor_count) {
+		add(&l, armed(h->comm_loss[u->sel]) ? ATT_NONE : ATT_WARN, "comm-loss %s %d ms",
+		    tool_comm_loss_name((unsigned)h->comm_loss[u->sel]), h->comm_loss_ms[u->sel]);
+		add(&l, ATT_NONE, "enables refused unarmed %" PRId64, h->unarmed_rejects[u->sel]);
+	}
+	flow(u, y, rows, &l, A_NORMAL);
+}
+
+static void footer(const struct ui *u, int y)
+{
+	struct items l = { .n = 0 };
+
+	add(&l, ATT_NONE, "q quit");
+	add(&l, ATT_NONE, "p pause");
+	add(&l, ATT_NONE, "up/down j/k: motor");
+	add(&l, ATT_NONE, "! needs attention");
+	bar(y, A_REVERSE);
+	flow(u, y, 1, &l, A_REVERSE);
+}
+
+/*
+ * The whole screen.  Rows, most needed first: title, column heads and keys
+ * always; then the loop line, the details and the motors, the watchdog
+ * line and the buses, as many of each as the height leaves.
+ */
+static void draw(const struct top *t, struct ui *u)
+{
+	int y = 0, avail, n, lrows, mrows, drows, crow, brows;
+
+	erase();
+	title(t, u, y++);
+	if (!t->cfg || !t->health || !t->state) {
+		if (LINES > 2)
+			mvprintw(y, 0, "%.*s", COLS, "waiting for rmdd ...");
+		if (LINES > 3)
+			mvprintw(y + 1, 0, "config %s, health %s, state %s", t->cfg ? "yes" : "no",
+				 t->health ? "yes" : "no", t->state ? "yes" : "no");
+		if (LINES > 1)
+			footer(u, LINES - 1);
+		refresh();
+		return;
+	}
+	n = t->cfg->motor_count;
+	if (u->sel >= n)
+		u->sel = n - 1;
+	if (u->sel < 0)
+		u->sel = 0;
+	avail = LINES - 3; /* title, column heads, keys */
+	if (avail < 0)
+		avail = 0;
+	lrows = avail > 0 ? 1 : 0;
+	avail -= lrows;
+	/* the picked motor's details outrank table rows the height has no room for anyway */
+	drows = n && avail >= DETAIL_ROWS + 3 ? DETAIL_ROWS : 0;
+	mrows = n < avail - drows ? n : avail - drows;
+	avail -= mrows + drows;
+	crow = avail > 0 ? 1 : 0;
+	avail -= crow;
+	brows = t->health->bus_count < avail ? t->health->bus_count : avail;
+	if (brows > RMD_HEALTH_T_MAX_BUSES)
+		brows = RMD_HEALTH_T_MAX_BUSES;
+
+	if (lrows)
+		loop_line(t, u, y++);
+	if (crow)
+		control_line(t, u, y++);
+	for (int b = 0; b < brows; b++)
+		bus_line(t, u, y++, b);
+	layout(t, u);
+	if (LINES > 2)
+		table_row(t, u, y++, -1);
+	/* the table scrolls to keep the picked motor in view */
+	if (u->sel < u->first)
+		u->first = u->sel;
+	if (mrows && u->sel >= u->first + mrows)
+		u->first = u->sel - mrows + 1;
+	if (u->first > n - mrows)
+		u->first = n - mrows;
+	if (u->first < 0)
+		u->first = 0;
+	for (int k = 0; k < mrows; k++)
+		table_row(t, u, y++, u->first + k);
+	if (drows)
+		details(t, u, y, drows);
+	if (LINES > 1)
+		footer(u, LINES - 1);
+	refresh();
+}
+
+/* Every key typed since the last call. */
+static void keys(struct top *t, struct ui *u)
+{
+	int ch;
+
+	while ((ch = getch()) != ERR) {
+		switch (ch) {
+		case 'q':
+		case 'Q':
+			u->quit = true;
+			break;
+		case 'p':
+		case ' ':
+			t->paused = !t->paused;
+			break;
+		case KEY_UP:
+		case 'k':
+			u->sel--;
+			break;
+		case KEY_DOWN:
+		case 'j':
+			u->sel++;
+			break;
+		case KEY_HOME:
+		case 'g':
+			u->sel = 0;
+			break;
+		case KEY_END:
+		case 'G':
+			u->sel = t->cfg ? t->cfg->motor_count - 1 : 0;
+			break;
+		default: /* KEY_RESIZE too: curses has the new size, a redraw uses it */
+			break;
+		}
+		u->dirty = true;
+	}
+}
+
+int top_screen_run(struct top *t)
+{
+	struct ui u = { .sel = 0 };
+	int64_t period = (int64_t)(t->interval_ms * 1e6), next_draw = rmd_now_ns();
+	SCREEN *scr;
+	int r = 0;
+
+	/*
+	 * newterm, not initscr: a terminal curses does not know is reported,
+	 * not fatal.  rmdctl's SIGINT and SIGTERM handlers are in place, so
+	 * curses keeps them (and adds its SIGWINCH one): Ctrl-C ends the loop
+	 * below, and endwin() restores the terminal.
+	 */
+	scr = newterm(NULL, stdout, stdin);
+	if (!scr)
+		return -ENOTTY;
+	set_term(scr);
+	cbreak();
+	noecho();
+	keypad(stdscr, TRUE);
+	nodelay(stdscr, TRUE);
+	curs_set(0);
+	if (has_colors() && start_color() == OK) {
+		short bg = use_default_colors() == OK ? -1 : COLOR_BLACK;
+
+		u.colour = true;
+		init_pair(PAIR_OK, COLOR_GREEN, bg);
+		init_pair(PAIR_WARN, COLOR_YELLOW, bg);
+		init_pair(PAIR_ALARM, COLOR_RED, bg);
+	}
+	while (!rmdctl_top_stop && !u.quit) {
+		struct pollfd p[2] = {
+			{ .fd = lcm_get_fileno(t->lcm), .events = POLLIN },
+			{ .fd = STDIN_FILENO, .events = POLLIN },
+		};
+		int64_t now = rmd_now_ns();
+		int ms;
+
+		top_ask_config_due(t);
+		if (now >= next_draw || u.dirty) {
+			draw(t, &u);
+			u.dirty = false;
+			if (now >= next_draw)
+				next_draw = now + period; /* late draws are not caught up */
+		}
+		ms = (int)((next_draw - now) / 1000000) + 1;
+		if (ms > POLL_MAX_MS)
+			ms = POLL_MAX_MS;
+		/* a signal (Ctrl-C, a resize) interrupts the wait: the loop looks again */
+		if (poll(p, 2, ms) < 0 && errno != EINTR) {
+			r = -EIO;
+			break;
+		}
+		if ((p[0].revents & POLLIN) && lcm_handle(t->lcm) < 0) {
+			r = -EIO;
+			break;
+		}
+		keys(t, &u);
+	}
+	endwin();
+	delscreen(scr);
+	return r;
+}

@@ -1,0 +1,462 @@
+// SPDX-License-Identifier: MIT
+/*
+ * rmdctl top on a terminal (src/tools/rmdctl/top_screen.c), against
+ * `rmdd --sim 12`: the screen as an operator sees it, inside tmux, whose
+ * capture-pane gives the terminal's text.  LCM runs over UDP multicast on
+ * loopback, a URL per test.
+ *
+ *   - at 80x24 (the review's terminal, users-2026-11-28 §1.6) the header,
+ *     the column heads and every one of the 12 motors show, each motor on
+ *     a line of its own, and no line is longer than 80 columns once
+ *     tmux joins wrapped lines (capture-pane -J): nothing wraps; q quits
+ *     with status 0 and the shell's screen comes back;
+ *   - j moves the pick (its details line follows), p pauses, a resize to
+ *     140x30 brings back every column, one to 60x16 redraws within 60
+ *     columns with the picked motor in view, and
+ *     Ctrl-C exits 0 and restores the terminal;
+ *   - rmdd stopped while the screen is paused: the title says STALE and
+ *     every motor's row is marked '!' and reads STALE, so an operator sees
+ *     it without colour too.
+ *
+ * Without multicast on loopback (routed when root, tests/harness/
+ * lcm_loopback.h) or without tmux (`make deps` installs it) every test
+ * skips with one loud line, as the other system suites do for their tools.
+ */
+#define _GNU_SOURCE
+#include <limits.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "harness/lcm_loopback.h"
+#include "harness/proc.h"
+#include "rmd/time.h"
+
+#define NMOTORS 12
+#define START_MS 15000	/* rmdd up, every motor answered (sanitizers, a busy machine) */
+#define SCREEN_MS 10000 /* the screen shows what a test waits for */
+#define POLL_NS 50000000L
+
+struct fixture {
+	char url[96], sock[PATH_MAX];
+	struct kid *rmdd;
+	bool tmux_up;
+};
+
+static char rmdd_bin[PATH_MAX], rmdctl_bin[PATH_MAX], tmux_bin[PATH_MAX];
+static char dir[] = "/tmp/test_top_tty.XXXXXX";
+static bool no_multicast, no_tmux;
+static unsigned test_no;
+
+/* tmux from PATH, as a user's shell would find it. */
+static bool find_tmux(void)
+{
+	const char *path = getenv("PATH");
+	char buf[PATH_MAX];
+
+	for (const char *p = path ? path : "/usr/bin:/bin"; *p;) {
+		size_t len = strcspn(p, ":");
+
+		snprintf(buf, sizeof(buf), "%.*s/tmux", (int)len, p);
+		if (len && access(buf, X_OK) == 0) {
+			snprintf(tmux_bin, sizeof(tmux_bin), "%s", buf);
+			return true;
+		}
+		p += len + (p[len] == ':');
+	}
+	return false;
+}
+
+static int group_setup(void **state)
+{
+	(void)state;
+	if (find_prog(rmdd_bin, sizeof(rmdd_bin), "RMDD", "rmdd") < 0 ||
+	    find_prog(rmdctl_bin, sizeof(rmdctl_bin), "RMDCTL", "rmdctl") < 0 || !mkdtemp(dir))
+		return -1;
+	unsetenv("LCM_DEFAULT_URL");
+	unsetenv("NOTIFY_SOCKET");
+	unsetenv("TMUX"); /* a run from inside tmux must not reach the user's server */
+	no_tmux = !find_tmux();
+	if (no_tmux)
+		fprintf(stderr,
+			"\n*** test_top_tty: SKIPPING every test: no tmux on PATH (make deps "
+			"installs it: apt-get install tmux)\n\n");
+	no_multicast = !lcm_loopback_ready("test_top_tty");
+	return 0;
+}
+
+static int group_teardown(void **state)
+{
+	(void)state;
+	kid_kill_all();
+	return rm_tree(dir);
+}
+
+/* tmux with args (NULL-terminated) on the test's own server; its output in r. */
+static void tmux_run(struct fixture *f, struct run *r, const char *const *args)
+{
+	const char *argv[24] = { "-S", f->sock, "-f", "/dev/null" };
+	size_t n = 4;
+
+	for (; *args && n < sizeof(argv) / sizeof(argv[0]) - 1; args++)
+		argv[n++] = *args;
+	argv[n] = NULL;
+	run_prog(r, tmux_bin, argv, NULL);
+}
+
+static void tmux_ok(struct fixture *f, const char *const *args, const char *what)
+{
+	struct run r;
+
+	tmux_run(f, &r, args);
+	assert_status(&r, 0, what);
+	run_free(&r);
+}
+
+static int setup(void **state)
+{
+	struct fixture *f = lcm_fixture_new(state, sizeof(*f), !no_multicast && !no_tmux);
+
+	if (!f)
+		return 0;
+	lcm_test_url(f->url, sizeof(f->url), 50000, 100, test_no);
+	snprintf(f->sock, sizeof(f->sock), "%s/tmux%u.sock", dir, test_no++);
+	*state = f;
+	return 0;
+}
+
+static int teardown(void **state)
+{
+	struct fixture *f = *state;
+
+	if (f && f->tmux_up) {
+		struct run r;
+
+		tmux_run(f, &r, (const char *const[]){ "kill-server", NULL });
+		run_free(&r);
+	}
+	kid_kill_all();
+	free(f);
+	*state = NULL;
+	return 0;
+}
+
+static void start_rmdd(struct fixture *f)
+{
+	char n[8];
+	const char *argv[] = { rmdd_bin, "--sim", n, "--lcm-url", f->url, NULL };
+
+	snprintf(n, sizeof(n), "%d", NMOTORS);
+	f->rmdd = kid_spawn("rmdd", argv, NULL, 0);
+	kid_wait_output(f->rmdd, "running:", START_MS, NULL);
+}
+
+/*
+ * rmdctl top in a w x h tmux window, as a shell runs it: TERM=screen (in
+ * every ncurses-base), Ctrl-C reaches top (the shell traps it and stays),
+ * and after top the shell says how it ended and waits, so that the test
+ * sees the screen top left behind.
+ */
+static void start_top(struct fixture *f, int w, int h)
+{
+	char ws[8], hs[8];
+	const char *args[] = { "new-session",
+			       "-d",
+			       "-x",
+			       ws,
+			       "-y",
+			       hs,
+			       "-s",
+			       "top",
+			       "/bin/sh",
+			       "-c",
+			       "trap : INT; \"$@\"; echo \"top exited $?\"; sleep 600",
+			       "sh",
+			       "/usr/bin/env",
+			       "TERM=screen",
+			       rmdctl_bin,
+			       "top",
+			       "--lcm-url",
+			       f->url,
+			       NULL };
+
+	snprintf(ws, sizeof(ws), "%d", w);
+	snprintf(hs, sizeof(hs), "%d", h);
+	tmux_ok(f, args, "tmux new-session");
+	f->tmux_up = true;
+}
+
+/* The window's text now, wrapped lines joined (-J), into r->out. */
+static void capture(struct fixture *f, struct run *r)
+{
+	tmux_run(f, r, (const char *const[]){ "capture-pane", "-p", "-J", "-t", "top", NULL });
+	assert_status(r, 0, "tmux capture-pane");
+}
+
+/* Lines of s holding the whole word w (spaces or line ends around it). */
+static unsigned lines_with_word(const char *s, const char *w)
+{
+	size_t wl = strlen(w);
+	unsigned n = 0;
+
+	while (*s) {
+		size_t len = strcspn(s, "\n");
+
+		for (const char *p = s; p + wl <= s + len; p++)
+			if (!memcmp(p, w, wl) && (p == s || p[-1] == ' ') &&
+			    (p + wl == s + len || p[wl] == ' ')) {
+				n++;
+				break;
+			}
+		s += len + (s[len] == '\n');
+	}
+	return n;
+}
+
+/* The longest line of s, in columns (the screen is ASCII). */
+static size_t longest_line(const char *s)
+{
+	size_t max = 0;
+
+	while (*s) {
+		size_t len = strcspn(s, "\n");
+
+		if (len > max)
+			max = len;
+		s += len + (s[len] == '\n');
+	}
+	return max;
+}
+
+/* The line starting with prefix, or NULL. */
+static const char *line_starting(const char *s, const char *prefix)
+{
+	for (const char *p = s; p && *p; p = strchr(p, '\n') ? strchr(p, '\n') + 1 : NULL)
+		if (!strncmp(p, prefix, strlen(prefix)))
+			return p;
+	return NULL;
+}
+
+/* Every motor's name on exactly one line, and the heads: the table is all there. */
+static bool all_motors(const char *screen)
+{
+	char name[16];
+
+	if (!line_starting(screen, "rmdctl top") || !lines_with_word(screen, "NAME") ||
+	    !lines_with_word(screen, "STATE"))
+		return false;
+	for (int i = 1; i <= NMOTORS; i++) {
+		snprintf(name, sizeof(name), "motor%d", i);
+		if (lines_with_word(screen, name) != 1)
+			return false;
+	}
+	return true;
+}
+
+static bool has(const char *screen, const char *text)
+{
+	return strstr(screen, text) != NULL;
+}
+
+/* The line of s holding the whole word w, or NULL. */
+static const char *line_with_word(const char *s, const char *w)
+{
+	size_t wl = strlen(w);
+
+	while (*s) {
+		size_t len = strcspn(s, "\n");
+
+		for (const char *p = s; p + wl <= s + len; p++)
+			if (!memcmp(p, w, wl) && (p == s || p[-1] == ' ') &&
+			    (p + wl == s + len || p[wl] == ' '))
+				return s;
+		s += len + (s[len] == '\n');
+	}
+	return NULL;
+}
+
+/* name's row is marked picked ('>') and its details line ("name: ...") shows. */
+static bool picked(const char *screen, const char *name)
+{
+	const char *row = line_with_word(screen, name);
+	char detail[32];
+
+	snprintf(detail, sizeof(detail), "%s: ", name);
+	return row && row[0] == '>' && line_starting(screen, detail);
+}
+
+/*
+ * Capture until ok(screen, arg) holds, at most SCREEN_MS; fails showing
+ * the last screen.  The last capture stays in r.
+ */
+static void wait_screen(struct fixture *f, struct run *r, bool (*ok)(const char *, const char *),
+			const char *arg, const char *what)
+{
+	int64_t end = rmd_now_ns() + (int64_t)SCREEN_MS * 1000000;
+
+	for (;;) {
+		capture(f, r);
+		if (ok(r->out, arg))
+			return;
+		if (rmd_now_ns() > end)
+			fail_msg("%s: not within %d ms; the screen:\n%s\nrmdd:\n%s", what,
+				 SCREEN_MS, r->out, kid_tail(f->rmdd));
+		run_free(r);
+		nanosleep(&(struct timespec){ .tv_nsec = POLL_NS }, NULL);
+		kid_read(f->rmdd);
+	}
+}
+
+static bool motors_ok(const char *screen, const char *unused)
+{
+	(void)unused;
+	return all_motors(screen) && has(screen, "ready");
+}
+
+static void assert_fits(const char *screen, size_t cols, const char *what)
+{
+	if (longest_line(screen) > cols)
+		fail_msg("%s: a line of %zu columns on a %zu-column terminal (it wrapped):\n%s",
+			 what, longest_line(screen), cols, screen);
+}
+
+/* The whole table at 80x24, nothing wrapped; q quits and gives the shell its screen back. */
+static void test_fits_80x24(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	struct run r;
+
+	start_rmdd(f);
+	start_top(f, 80, 24);
+	wait_screen(f, &r, motors_ok, NULL, "12 motors, each on its own line, at 80x24");
+	assert_fits(r.out, 80, "80x24");
+	assert_true(count_lines(r.out) <= 24);
+	/* the first motor is picked: its row is marked, its details follow the table */
+	assert_true(picked(r.out, "motor1"));
+	run_free(&r);
+
+	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "q", NULL }, "send q");
+	wait_screen(f, &r, has, "top exited", "q quits");
+	assert_has(r.out, "top exited 0", "q: exit status 0");
+	/* endwin() left the alternate screen: no table is left on the shell's */
+	assert_lacks(r.out, "motor1", "the terminal restored after q");
+	run_free(&r);
+}
+
+static bool fits_60(const char *screen, const char *name)
+{
+	return longest_line(screen) <= 60 && line_starting(screen, "rmdctl top") &&
+	       lines_with_word(screen, "NAME") && picked(screen, name);
+}
+
+/* j picks the next motor, p pauses, a resize redraws to the new width, Ctrl-C restores. */
+static void test_keys_resize(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	struct run r;
+
+	start_rmdd(f);
+	start_top(f, 80, 24);
+	wait_screen(f, &r, motors_ok, NULL, "12 motors at 80x24");
+	run_free(&r);
+
+	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "j", "j", "j", NULL },
+		"send j j j");
+	wait_screen(f, &r, picked, "motor4", "j j j picks motor4");
+	assert_fits(r.out, 80, "after j");
+	run_free(&r);
+
+	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "p", NULL }, "send p");
+	wait_screen(f, &r, has, "PAUSED", "p pauses");
+	run_free(&r);
+
+	/* wider: the columns 80 had no room for come back */
+	tmux_ok(f,
+		(const char *const[]){ "resize-window", "-t", "top", "-x", "140", "-y", "30",
+				       NULL },
+		"resize-window 140x30");
+	wait_screen(f, &r, has, "LAT_US", "all columns at 140x30");
+	ASSERT_HAS_ALL(r.out, "140x30", " IDX ", " BUS ", " AGE_MS ", " MISSED ", " TEMP ");
+	assert_fits(r.out, 140, "140x30");
+	assert_true(picked(r.out, "motor4"));
+	run_free(&r);
+
+	/* 16 rows: the table scrolls; motor4 stays in view, with its details */
+	tmux_ok(f,
+		(const char *const[]){ "resize-window", "-t", "top", "-x", "60", "-y", "16", NULL },
+		"resize-window 60x16");
+	wait_screen(f, &r, fits_60, "motor4", "redrawn within 60 columns, motor4 picked");
+	assert_true(count_lines(r.out) <= 16);
+	run_free(&r);
+
+	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "C-c", NULL }, "send Ctrl-C");
+	wait_screen(f, &r, has, "top exited", "Ctrl-C ends top");
+	assert_has(r.out, "top exited 0", "Ctrl-C: exit status 0");
+	assert_lacks(r.out, "motor4", "the terminal restored after Ctrl-C");
+	run_free(&r);
+}
+
+/* Every motor's row marked '!' and STALE, and the title says so. */
+static bool all_stale(const char *screen, const char *unused)
+{
+	char name[16];
+
+	(void)unused;
+	if (!line_starting(screen, "rmdctl top") || !has(screen, "STALE: no health or state"))
+		return false;
+	for (int i = 1; i <= NMOTORS; i++) {
+		const char *row;
+		char line[256];
+
+		snprintf(name, sizeof(name), "motor%d", i);
+		row = line_with_word(screen, name);
+		if (!row)
+			return false;
+		snprintf(line, sizeof(line), "%.*s", (int)strcspn(row, "\n"), row);
+		if (line[1] != '!' || !strstr(line, " STALE "))
+			return false;
+	}
+	return true;
+}
+
+/* rmdd gone (the view paused): STALE in the title and on every motor's row, each marked. */
+static void test_stale(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	struct run r;
+
+	start_rmdd(f);
+	start_top(f, 80, 24);
+	wait_screen(f, &r, motors_ok, NULL, "12 motors at 80x24");
+	run_free(&r);
+	/* paused: the view is kept, but a daemon gone is still news */
+	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "p", NULL }, "send p");
+	wait_screen(f, &r, has, "PAUSED", "p pauses");
+	run_free(&r);
+	kill(f->rmdd->pid, SIGTERM);
+	assert_int_equal(kid_wait_exit(f->rmdd, 10000, NULL), 0);
+	wait_screen(f, &r, all_stale, NULL, "STALE on every motor after rmdd stopped");
+	assert_fits(r.out, 80, "stale");
+	run_free(&r);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test_setup_teardown(test_fits_80x24, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_keys_resize, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_stale, setup, teardown),
+	};
+
+	return cmocka_run_group_tests_name("top_tty", tests, group_setup, group_teardown);
+}
