@@ -106,6 +106,21 @@ static const struct rmdctl_cmd cmds[] = {
 	    "Makes the current position the zero (0x64, ROM).  It applies after a reset\n"
 	    "(`rmdctl reset ID`, 0x76) or a power cycle.  Asks for confirmation.\n",
 	    rmdctl_run_set_zero),
+	DEV("multiturn-save", "keep the multi-turn count at power off (ROM)", "ID on|off", 2, 2,
+	    O_YES,
+	    "Turns on (or off) the motor's saving of its multi-turn count at power off\n"
+	    "(0x20 index 4, V3.5 and later, V4; ROM).  It applies after a restart\n"
+	    "(`rmdctl reset ID`).  Without it a motor comes back within one turn of its\n"
+	    "encoder after a power cycle.  No command reads it back: say\n"
+	    "multi_turn_saved in rmdd.yaml.  Asks for confirmation.\n",
+	    rmdctl_run_multiturn_save),
+	DEV("angle-limit", "set a position-mode angle limit (ROM; V4)", "ID positive|negative DEG",
+	    3, 3, O_YES,
+	    "Sets the most positive or negative output angle the motor's position modes\n"
+	    "go to (V4.2 0x20 index 6/7, ROM, at once).  The manual gives no unit: DEG\n"
+	    "is written in 0.01 deg, as its position commands take (unverified).  No\n"
+	    "command reads it back.  Asks for confirmation.\n",
+	    rmdctl_run_angle_limit),
 	DEV("set-timeout", "set the comm-loss protection time (ROM)", "ID MS", 2, 2, O_YES,
 	    "Sets the comm-loss protection time (0xB3, ROM; 0 turns it off) and checks\n"
 	    "the echo.  V3 only.  Asks for confirmation.\n",

@@ -255,6 +255,8 @@ int rmdctl_run_status(struct dev *d, int argc, char **argv);
 int rmdctl_run_monitor(struct dev *d, int argc, char **argv);
 int rmdctl_run_set_id(struct dev *d, int argc, char **argv);
 int rmdctl_run_set_zero(struct dev *d, int argc, char **argv);
+int rmdctl_run_multiturn_save(struct dev *d, int argc, char **argv);
+int rmdctl_run_angle_limit(struct dev *d, int argc, char **argv);
 int rmdctl_run_set_timeout(struct dev *d, int argc, char **argv);
 int rmdctl_run_accel(struct dev *d, int argc, char **argv);
 int rmdctl_run_pid(struct dev *d, int argc, char **argv);

@@ -234,6 +234,111 @@ out:
 	return r;
 }
 
+/*
+ * 0x20 function `index` = value to motor id (V3 §2.33, V4.2 §2.34), after
+ * a confirmation saying `what`; the reply is the request (§2.34.3).
+ * Returns an exit status.
+ */
+static int function_write(struct dev *d, uint8_t id, uint8_t index, int32_t value, const char *what)
+{
+	struct req q;
+	int r;
+
+	r = rmdctl_open_bus_for(d, true, "%s", what);
+	if (r)
+		return r;
+	r = rmdctl_confirm(d, "%s", what);
+	if (r)
+		goto out;
+	rmdctl_req_init(&q, id, 0x20);
+	rmd_msg_set(&q.msg, RMD_FLD_INDEX, index);
+	rmd_msg_set(&q.msg, RMD_FLD_VALUE, value);
+	r = rmdctl_ask(d, &q);
+out:
+	rmdctl_close_bus(d);
+	return r;
+}
+
+/*
+ * V3 §2.33.4 / V4.2 §2.34.4 index 4: the motor keeps its multi-turn count
+ * across power off (1), or starts single-turn (0); either after a restart.
+ * No command reads it back.
+ */
+int rmdctl_run_multiturn_save(struct dev *d, int argc, char **argv)
+{
+	char what[160];
+	bool on;
+	int r;
+
+	(void)argc;
+	if (!rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_MULTI_TURN_SAVE)) {
+		tool_log(TOOL_LOG_ERR, "protocol %s has no multi-turn save (0x20 index 4)",
+			 rmdctl_dialect(d)->name);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (!strcmp(argv[1], "on"))
+		on = true;
+	else if (!strcmp(argv[1], "off"))
+		on = false;
+	else {
+		tool_log(TOOL_LOG_ERR, "bad \"%s\" (on or off)", argv[1]);
+		return RMDCTL_EXIT_USAGE;
+	}
+	snprintf(what, sizeof(what),
+		 "%s multi-turn save at power off of motor %u on %s (0x20 index 4, ROM; after "
+		 "a restart)",
+		 on ? "turn on" : "turn off", d->id, d->bus_spec);
+	r = function_write(d, d->id, 4, on, what);
+	if (!r)
+		printf("%s: motor %u: multi-turn save %s; it applies after `rmdctl reset %u` or a "
+		       "power cycle (no command reads it back: say multi_turn_saved: %s in "
+		       "rmdd.yaml)\n",
+		       d->name, d->id, on ? "on" : "off", d->id, on ? "true" : "false");
+	return r;
+}
+
+/*
+ * V4.2 §2.34.4 index 6 / 7: the most positive / negative angle the
+ * position modes go to, ROM, at once.  The manual gives no unit: taken as
+ * its position commands' 0.01 deg (unverified); no command reads it back.
+ */
+int rmdctl_run_angle_limit(struct dev *d, int argc, char **argv)
+{
+	char what[200];
+	double deg;
+	uint8_t index;
+	int r;
+
+	(void)argc;
+	if (!rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_ANGLE_LIMITS)) {
+		tool_log(TOOL_LOG_ERR, "protocol %s has no angle limits (V4.2 0x20 index 6/7)",
+			 rmdctl_dialect(d)->name);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (!strcmp(argv[1], "positive"))
+		index = 6;
+	else if (!strcmp(argv[1], "negative"))
+		index = 7;
+	else {
+		tool_log(TOOL_LOG_ERR, "bad \"%s\" (positive or negative)", argv[1]);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (rmdctl_parse_double(argv[2], &deg) < 0 || !(fabs(deg) <= 2e7)) {
+		tool_log(TOOL_LOG_ERR, "bad DEG \"%s\" (degrees at the output)", argv[2]);
+		return RMDCTL_EXIT_USAGE;
+	}
+	snprintf(what, sizeof(what),
+		 "set the %s angle limit of motor %u on %s to %.2f deg (0x20 index %u, ROM, at "
+		 "once; unit 0.01 deg unverified)",
+		 argv[1], d->id, d->bus_spec, deg, index);
+	r = function_write(d, d->id, index, (int32_t)llround(deg * 100.0), what);
+	if (!r)
+		printf("%s: motor %u: %s angle limit %.2f deg written (the manual gives no unit: "
+		       "check it with a slow move)\n",
+		       d->name, d->id, argv[1], deg);
+	return r;
+}
+
 int rmdctl_run_set_zero(struct dev *d, int argc, char **argv)
 {
 	struct req q;
