@@ -232,8 +232,10 @@ struct rmd_bridge {
 	/* Owned by the bridge thread: a stamp refused as a clock jump (check_order). */
 	int64_t utime_jump;
 	bool have_utime_jump;
-	/* Owned by the bridge thread: when the last config_t went out. */
+	/* Owned by the bridge thread: when the last config_t went out, and with what dialects. */
 	int64_t config_sent_ns;
+	uint8_t config_proto[RMD_MAX_MOTORS];
+	uint32_t config_firmware[RMD_MAX_MOTORS];
 	/*
 	 * Owned by the bridge thread: when messages arrived (arrival_ns() in
 	 * bridge.c), CLOCK_MONOTONIC unless said.  rx_seen_ns: every message

@@ -170,6 +170,13 @@ struct rmd_health {
 	uint8_t comm_loss[RMD_MAX_MOTORS];	  /* enum rmd_comm_loss */
 	uint32_t comm_loss_ms[RMD_MAX_MOTORS];	  /* what 0xB3 writes (0: off) */
 	uint64_t unarmed_rejects[RMD_MAX_MOTORS]; /* enables refused: protection not set */
+	/*
+	 * The dialect it speaks (enum rmd_proto: its protocol's, or what
+	 * `protocol: auto` found at bring-up), and its 0xB2 firmware version
+	 * (0: none, or not read yet)
+	 */
+	uint8_t proto[RMD_MAX_MOTORS];
+	uint32_t firmware[RMD_MAX_MOTORS];
 };
 
 /* Why the bridge refused a command message (counted in rmd_health). */

@@ -704,6 +704,10 @@ static void publish_health(struct rmd_bridge *b, int64_t now)
 
 	if (b->opts.health)
 		rmd_latest_get(b->opts.health, (const void **)&h);
+	/* bring-up found a motor's dialect or firmware (protocol auto): config_t says it again */
+	for (unsigned i = 0; i < h->nmotors && i < b->opts.nmotors; i++)
+		if (h->proto[i] != b->config_proto[i] || h->firmware[i] != b->config_firmware[i])
+			b->config_wanted = true;
 	o->utime = now / 1000;
 	o->cycles = sat64(h->loop.cycles);
 	o->overruns = sat64(h->loop.overruns);
@@ -804,6 +808,10 @@ static void publish_config(struct rmd_bridge *b)
 	/* the protection's state and time come from the loop's newest health */
 	if (op->health)
 		rmd_latest_get(op->health, (const void **)&h);
+	for (unsigned i = 0; i < h->nmotors && i < RMD_MAX_MOTORS; i++) {
+		b->config_proto[i] = h->proto[i];
+		b->config_firmware[i] = h->firmware[i];
+	}
 	for (unsigned i = 0; i < op->nmotors; i++) {
 		const struct rmd_motor_info *m = &op->motor[i];
 
@@ -812,7 +820,11 @@ static void publish_config(struct rmd_bridge *b)
 			.name = op->motor[i].name,
 			.bus = m->bus,
 			.id = m->id,
-			.protocol = op->motor[i].protocol,
+			/* bring-up's answer for protocol auto, and the firmware date */
+			.protocol = i < h->nmotors ?
+					    (char *)rmd_proto_key((enum rmd_proto)h->proto[i]) :
+					    op->motor[i].protocol,
+			.firmware = i < h->nmotors ? sat32(h->firmware[i]) : 0,
 			.modes = (int8_t)m->modes,
 			.position_min = m->pos_min_rad,
 			.position_max = m->pos_max_rad,
