@@ -670,6 +670,21 @@ static const struct run_case other_commands[] = {
 	{ .args = { "set-id", "2", "9", "--yes", "--bus", "sim:1-3" },
 	  .status = 1,
 	  .err_has = { "3 motors answer" } },
+	/*
+	 * V4.2 §2.34.4: 0x20 index 5 on the motor's own id, echoed from the new
+	 * id, then 0x76; no other motor hears it (docs/protocol-v4.md).
+	 */
+	{ .args = { "set-id", "2", "9", "--yes", "--bus", "sim:1-3", "--protocol", "v4",
+		    "--trace" },
+	  .out_has = { "motor 2 is now motor 9" },
+	  .err_has = { "142#2005000009000000\n", "249#2005000009000000\n",
+		       "142#7600000000000000\n" } },
+	{ .args = { "set-id", "2", "3", "--yes", "--bus", "sim:1-3", "--protocol", "v4" },
+	  .status = 1,
+	  .err_has = { "id 3 is taken" } },
+	{ .args = { "pid", "1", "--bus", "sim:1-3", "--protocol", "v4" },
+	  .status = 2,
+	  .err_has = { "one float by index" } },
 	{ .args = { "reset", "1", "--bus", "sim:1-3" } },
 	/* V2 has no 0xB5 */
 	{ .args = { "scan", "--protocol", "v2", "--bus", "sim:1-2", "--json" },

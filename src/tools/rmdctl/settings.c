@@ -50,28 +50,99 @@ static int others_renumbered(struct dev *d, const uint8_t *before, unsigned n, u
 	return RMDCTL_EXIT_DATA;
 }
 
+/* Until `until`: whether the new id answers 0x9A and the old one no longer does. */
+static int moved(struct dev *d, uint8_t old_id, uint8_t new_id, int64_t until, bool *ok)
+{
+	*ok = false;
+	do {
+		struct req v[2];
+		int r;
+
+		rmdctl_req_init(&v[0], new_id, 0x9A);
+		rmdctl_req_init(&v[1], old_id, 0x9A);
+		r = rmdctl_run_reqs(d, v, 2);
+		if (r)
+			return r;
+		if (v[0].ok && !v[1].ok) {
+			*ok = true;
+			return 0;
+		}
+	} while (rmd_now_ns() < until && !rmdctl_interrupted);
+	return 0;
+}
+
+/*
+ * V4.2 §2.34.4 (RMD_SET_ID_FUNC_20): 0x20 index 5 on the motor's own
+ * 0x140 + ID writes the new ID to ROM, a 0x76 reset makes it effective.
+ * Firmware 2025070202 echoes the 0x20 from the new 0x240 + ID at once and
+ * takes requests on the old one until the reset (docs/protocol-v4.md);
+ * no other motor hears it.
+ */
+static int set_id_func_20(struct dev *d, uint8_t old_id, uint8_t new_id)
+{
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
+	struct rmd_msg msg = { .cmd = 0x20 };
+	struct rmd_txn t;
+	struct req q;
+	bool ok;
+	int r;
+
+	r = rmdctl_confirm(d, "write CAN id %u to motor %u on %s (ROM, then a reset)", new_id,
+			   old_id, d->name);
+	if (r)
+		return r;
+	rmd_msg_set(&msg, RMD_FLD_INDEX, 5);
+	rmd_msg_set(&msg, RMD_FLD_VALUE, new_id);
+	r = rmd_txn_prepare(&t, d->proto, old_id, &msg);
+	if (r < 0) {
+		tool_log(TOOL_LOG_ERR, "motor %u: cannot encode 0x20: %s", old_id, strerror(-r));
+		return RMDCTL_EXIT_DATA;
+	}
+	t.reply_id = dl->reply_base + new_id; /* the echo comes from the new id already */
+	r = rmd_txn_run(d->b, &t, 1, &d->txn);
+	if (r < 0) {
+		tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
+		return RMDCTL_EXIT_DATA;
+	}
+	if (!t.done || memcmp(t.rep.f.data, t.req.data, RMD_FRAME_LEN)) {
+		tool_log(TOOL_LOG_ERR,
+			 "%s: motor %u did not echo 0x20 index 5 from 0x%03X (the new id): the id "
+			 "may not have changed",
+			 d->name, old_id, (unsigned)t.reply_id);
+		return RMDCTL_EXIT_DATA;
+	}
+	/* V4.2 §2.25: the reset that makes the new id the motor's; no answer */
+	rmdctl_req_init(&q, old_id, 0x76);
+	r = rmdctl_run_reqs(d, &q, 1);
+	if (r)
+		return r;
+	r = moved(d, old_id, new_id, rmd_now_ns() + SET_ID_WAIT_NS, &ok);
+	if (r)
+		return r;
+	if (!ok) {
+		tool_log(TOOL_LOG_ERR,
+			 "%s: motor %u echoed the new id %u, but after the reset id %u does not "
+			 "answer as expected and id %u may still answer",
+			 d->name, old_id, new_id, new_id, old_id);
+		return RMDCTL_EXIT_DATA;
+	}
+	printf("%s: motor %u is now motor %u (ROM)\n", d->name, old_id, new_id);
+	return RMDCTL_EXIT_OK;
+}
+
 int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 {
 	uint8_t old_id, new_id, all[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS], q;
 	/* V3 §4: 0x79 rides on 0x300, to every motor */
 	bool v3 = rmdctl_dialect(d)->set_id == RMD_SET_ID_79_300, old_seen = false,
-	     new_seen = false;
-	int64_t until;
+	     new_seen = false, ok;
 	int m, r;
 
 	(void)argc;
 	if (rmdctl_parse_id(argv[0], "OLD id", &old_id) < 0 ||
 	    rmdctl_parse_id(argv[1], "NEW id", &new_id) < 0)
 		return RMDCTL_EXIT_USAGE;
-	/* V4.2 §2.34.4: 0x20 index 5 and a 0x76 reset; not written here yet */
-	if (rmdctl_dialect(d)->set_id == RMD_SET_ID_FUNC_20) {
-		tool_log(TOOL_LOG_ERR,
-			 "%s: set-id does not speak %s yet (0x20 index 5, then 0x76): see "
-			 "`rmdctl encode --protocol %s function_control`",
-			 d->name, rmdctl_dialect(d)->name, rmdctl_dialect(d)->key);
-		return RMDCTL_EXIT_USAGE;
-	}
 	if (old_id == new_id) {
 		tool_log(TOOL_LOG_ERR, "OLD and NEW are both %u", old_id);
 		return RMDCTL_EXIT_USAGE;
@@ -99,6 +170,10 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 	if (new_seen) {
 		tool_log(TOOL_LOG_ERR, "%s: id %u is taken: a motor answers on it", d->name,
 			 new_id);
+		goto out;
+	}
+	if (rmdctl_dialect(d)->set_id == RMD_SET_ID_FUNC_20) {
+		r = set_id_func_20(d, old_id, new_id);
 		goto out;
 	}
 	if (v3) {
@@ -139,21 +214,14 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 		goto out;
 	}
 	/* The new id answers, the old one no longer does. */
-	until = rmd_now_ns() + SET_ID_WAIT_NS;
-	do {
-		struct req v[2];
-
-		rmdctl_req_init(&v[0], new_id, 0x9A);
-		rmdctl_req_init(&v[1], old_id, 0x9A);
-		r = rmdctl_run_reqs(d, v, 2);
-		if (r)
-			goto out;
-		if (v[0].ok && !v[1].ok) {
-			printf("%s: motor %u is now motor %u (ROM)\n", d->name, old_id, new_id);
-			r = others_renumbered(d, found, (unsigned)m, old_id, new_id);
-			goto out;
-		}
-	} while (rmd_now_ns() < until && !rmdctl_interrupted);
+	r = moved(d, old_id, new_id, rmd_now_ns() + SET_ID_WAIT_NS, &ok);
+	if (r)
+		goto out;
+	if (ok) {
+		printf("%s: motor %u is now motor %u (ROM)\n", d->name, old_id, new_id);
+		r = others_renumbered(d, found, (unsigned)m, old_id, new_id);
+		goto out;
+	}
 	tool_log(TOOL_LOG_ERR, "%s: motor %u echoed the new id %u, but id %u %s and id %u %s",
 		 d->name, old_id, new_id, new_id, "does not answer as expected", old_id,
 		 "may still answer");
@@ -368,9 +436,9 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 	/* V4.2 §2.1 .. §2.3: one float gain by index a frame; not read or written here yet */
 	if (rmdctl_dialect(d)->pid == RMD_PID_FLOAT_INDEXED) {
 		tool_log(TOOL_LOG_ERR,
-			 "%s: pid does not speak %s gains yet (one float by index): see "
+			 "pid does not speak %s gains yet (one float by index): see "
 			 "`rmdctl encode --protocol %s pid`",
-			 d->name, rmdctl_dialect(d)->name, rmdctl_dialect(d)->key);
+			 rmdctl_dialect(d)->name, rmdctl_dialect(d)->key);
 		return RMDCTL_EXIT_USAGE;
 	}
 	if (argc == 1) {
