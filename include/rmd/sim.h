@@ -41,6 +41,14 @@
  *   mode cleared, brake locked, a 0xF1 frame at once and then every
  *   second (seen on V4 firmware, docs/design.md); the first frame after that is
  *   echoed on the reply identifier and not executed.
+ * - V4 (docs/protocol-v4.md), read through the dialect's record: one float
+ *   gain by index in 0x30..0x32 (RMD_PID_FLOAT_INDEXED), 0x42 by index,
+ *   no answer to 0x79; 0x20 index 5 writes the new ID to ROM and is
+ *   echoed from the new ID, while requests still go to the old one until
+ *   0x76 (RMD_SET_ID_FUNC_20, as firmware 2025070202 does); 0x20 index 6/7
+ *   stores the position limits (unit not given, not enforced); 0xB6
+ *   pushes a read's reply every n x 10 ms, and that read is no longer
+ *   answered (RAM: a reset ends it).
  */
 #ifndef RMD_SIM_H
 #define RMD_SIM_H
@@ -142,11 +150,15 @@ enum rmd_sim_ctrl {
 
 /* PI gains, in the order of enum rmd_field RMD_FLD_CURR_KP..RMD_FLD_POS_KI. */
 #define RMD_SIM_NPID 6
+/* V4.2 §2.1.4: float gains by 0x30..0x32 index, 1..9 (0, 3, 6 unused). */
+#define RMD_SIM_NGAIN 10
 
 /* Settings the firmware keeps: one copy in ROM (flash), one running in RAM. */
 struct rmd_sim_settings {
 	uint8_t can_id;			/* V3 §4 / V2 §3.52 */
 	int64_t pid[RMD_SIM_NPID];	/* V3 uint8 units (§2.1), V2 Q24 (§3.1) */
+	float gain[RMD_SIM_NGAIN];	/* V4.2 §2.1: by index (RMD_PID_FLOAT_INDEXED) */
+	int32_t angle_limit[2];		/* V4.2 §2.34.4 index 6, 7: positive, negative */
 	uint32_t accel_dps2[4];		/* 0x43 index 0..3 (V3 §2.5.4); 0: no limit */
 	int64_t encoder_offset;		/* multi-turn zero, counts (0x62..0x64) */
 	uint16_t encoder_offset_single; /* V2 0x90/0x91/0x19 */
@@ -169,6 +181,11 @@ struct rmd_sim_motor {
 	struct rmd_sim_settings ram; /* ram.can_id is the motor's ID now */
 	bool clear_multiturn;	     /* 0x20 index 1: wrap at the next start (ROM) */
 	bool error_reports;	     /* 0x20 index 3: 0x9A every 100 ms while faulted */
+	/* V4.2 §2.33 (0xB6): d->report_cmds[k] pushed every report_steps[k] x 10 ms; 0 off */
+	uint16_t report_steps[RMD_DIALECT_REPORTS_MAX];
+	int64_t report_next_ns[RMD_DIALECT_REPORTS_MAX];
+	/* RMD_PID_FLOAT_INDEXED: the gain index of pid[i]'s gain (same key), or -1 */
+	int8_t gain_index[RMD_SIM_NPID];
 	/* mechanics, output shaft */
 	double pos_rad; /* multi-turn, from the encoder's raw zero; RAM only */
 	double vel_rad_s;
@@ -226,7 +243,7 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 
 /*
  * Unsolicited frames due by now_ns (0xF1 each second after a comm-loss
- * trip, 0x9A error reports every 100 ms).  Frames that did not fit in
+ * trip, 0x9A error reports every 100 ms, V4 0xB6 active replies).  Frames that did not fit in
  * `max` stay due.  rt-safe.
  */
 int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame *out, int max);

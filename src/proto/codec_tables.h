@@ -33,6 +33,11 @@ extern const size_t rmd_v4_ncmds;
 	{                                                        \
 		RMD_FLD_##fld, (off), 4, false, 1.0, false, true \
 	}
+/* A layout without fields (a request or reply of the command byte alone, or none). */
+#define RMD_LAYOUT_NONE \
+	{               \
+		0       \
+	}
 #define RMD_LAYOUT(...)                                                 \
 	{                                                               \
 		.n = sizeof((struct rmd_field_spec[]){ __VA_ARGS__ }) / \

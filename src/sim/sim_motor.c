@@ -31,6 +31,8 @@
 #define COMM_LOST_PERIOD_NS INT64_C(1000000000)
 /* V3 §2.33.4 index 3: while faulted, 0x9A every 100 ms. */
 #define ERROR_REPORT_PERIOD_NS INT64_C(100000000)
+/* V4.2 §2.33.2: 0xB6's interval counts 10 ms steps. */
+#define ACTIVE_REPLY_STEP_NS INT64_C(10000000)
 /* V2 §3.47: auxiliary (encoder backup) battery; no figure given, 3.6 V cell. */
 #define BATTERY_V 3.6
 /* V3 §2.4.4: the example's 10000 dps/s, taken as the factory value. */
@@ -176,6 +178,8 @@ static void rom_defaults(struct rmd_sim_motor *m)
 	r->can_id = m->p.id;
 	for (unsigned i = 0; i < RMD_SIM_NPID; i++)
 		r->pid[i] = rmd_sim_pid_default(m->p.proto, i);
+	for (unsigned i = 0; i < RMD_SIM_NGAIN; i++)
+		r->gain[i] = V4_GAIN_DEFAULT;
 	for (unsigned i = 0; i < 4; i++)
 		r->accel_dps2[i] = ACCEL_DEFAULT_DPS2;
 	r->baud_code = 1;			    /* V3 §2.31.1: 1 is CAN 1 Mbit/s */
@@ -195,6 +199,8 @@ static void boot(struct rmd_sim_motor *m, int64_t now_ns)
 {
 	m->ram = m->rom;
 	m->error_reports = false;
+	/* V4.2 §2.33: active replies are not said to be saved: a reset ends them */
+	memset(m->report_steps, 0, sizeof(m->report_steps));
 	if (!m->rom.multiturn_save || m->clear_multiturn) {
 		double off = rmd_sim_offset_rad(m);
 		double a = m->pos_rad - off;
@@ -223,6 +229,14 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 	m->p = *p;
 	sanitize(&m->p);
 	m->d = rmd_dialect(m->p.proto);
+	/* V4.2 §2.1.4: the index of each PI gain, by its key ("current_kp") */
+	for (unsigned i = 0; i < RMD_SIM_NPID; i++) {
+		m->gain_index[i] = -1;
+		for (size_t k = 0; m->d->pid == RMD_PID_FLOAT_INDEXED && k < m->d->n_pid_slots; k++)
+			if (m->d->pid_slots[k].field == RMD_FLD_CURR_KP + i &&
+			    m->d->pid_slots[k].index < RMD_SIM_NGAIN)
+				m->gain_index[i] = (int8_t)m->d->pid_slots[k].index;
+	}
 	rom_defaults(m);
 	m->pos_rad = 0.0;
 	m->temp_c = m->p.ambient_c;
@@ -619,6 +633,86 @@ static void store_pid(struct rmd_sim_motor *m, const struct rmd_msg *msg, bool r
 	}
 }
 
+/* Whether `index` is a gain index of the dialect (V4.2 §2.1.4). */
+static bool gain_known(const struct rmd_dialect *d, int64_t index)
+{
+	for (size_t k = 0; d->pid == RMD_PID_FLOAT_INDEXED && k < d->n_pid_slots; k++)
+		if (d->pid_slots[k].index == index && index < RMD_SIM_NGAIN)
+			return true;
+	return false;
+}
+
+/*
+ * V4.2 §2.1 .. §2.3: 0x30 reads the float gain of an index, 0x31 writes it
+ * to RAM, 0x32 to RAM and ROM (both echoed).  An index §2.1.4 does not
+ * list gets no answer (the manual says nothing; the simulator stays quiet).
+ */
+static int float_gain(struct rmd_sim_motor *m, enum rmd_proto proto, const struct rmd_frame *f,
+		      uint32_t reply_id, struct rmd_frame *out, int max)
+{
+	const struct rmd_cmd_spec *spec, *rspec;
+	struct rmd_msg req, rep;
+	int64_t i;
+	double g;
+
+	if (rmd_decode(proto, RMD_DIR_REQUEST, f, &req, NULL) < 0)
+		return 0;
+	spec = rmd_cmd_find(proto, req.cmd);
+	i = req.v[RMD_FLD_INDEX];
+	if (!spec || !gain_known(m->d, i))
+		return 0;
+	if (req.cmd == 0x30) {
+		msg_for(proto, 0x30, &rep, &rspec);
+		put_int(&rep, rspec, RMD_FLD_INDEX, i);
+		put(&rep, rspec, RMD_FLD_GAIN, m->ram.gain[i]);
+		return emit(m, proto, &rep, out, max);
+	}
+	g = get(spec, &req, RMD_FLD_GAIN, NAN);
+	if (isfinite(g)) {
+		m->ram.gain[i] = (float)g;
+		if (req.cmd == 0x32)
+			m->rom.gain[i] = (float)g;
+	}
+	return echo(f, reply_id, out, max);
+}
+
+/* The slot of command `cmd` in the dialect's 0xB6 list (V4.2 §2.33.2), or -1. */
+static int report_slot(const struct rmd_dialect *d, int64_t cmd)
+{
+	for (unsigned k = 0; k < d->n_report_cmds; k++)
+		if (d->report_cmds[k] == cmd)
+			return (int)k;
+	return -1;
+}
+
+/*
+ * V4.2 §2.33: 0xB6 turns the pushed reply of one command on (every n x
+ * 10 ms; n = 0 taken as 1) or off.  Several commands each keep their own
+ * period.  No reply either way.
+ */
+static void active_reply(struct rmd_sim_motor *m, const struct rmd_msg *msg, int64_t now_ns)
+{
+	int k = report_slot(m->d, msg->v[RMD_FLD_REPORT_CMD]);
+	int64_t steps = msg->v[RMD_FLD_REPORT_MS];
+
+	if (k < 0)
+		return;
+	if (!msg->v[RMD_FLD_REPORT_ON]) {
+		m->report_steps[k] = 0;
+		return;
+	}
+	m->report_steps[k] = (uint16_t)(steps < 1 ? 1 : steps);
+	m->report_next_ns[k] = now_ns + (int64_t)m->report_steps[k] * ACTIVE_REPLY_STEP_NS;
+}
+
+/* Whether the motor pushes `cmd`'s reply, and so does not answer it (V4.2 §2.33.1). */
+static bool pushed(const struct rmd_sim_motor *m, uint8_t cmd)
+{
+	int k = rmd_dialect_has(m->d, RMD_DIALECT_ACTIVE_REPLY) ? report_slot(m->d, cmd) : -1;
+
+	return k >= 0 && m->report_steps[k];
+}
+
 /* V3 §2.33: function control. */
 static void function_control(struct rmd_sim_motor *m, const struct rmd_msg *msg, int64_t now_ns)
 {
@@ -639,6 +733,15 @@ static void function_control(struct rmd_sim_motor *m, const struct rmd_msg *msg,
 	case 4: /* save the multi-turn value at power-off (kept: it must outlive it) */
 		m->ram.multiturn_save = m->rom.multiturn_save = on;
 		break;
+	case 6: /* V4.2 §2.34.4: position limits, to ROM, effective at once */
+	case 7:
+		if (rmd_dialect_has(m->d, RMD_DIALECT_ANGLE_LIMITS)) {
+			int64_t v = msg->v[RMD_FLD_VALUE];
+			unsigned k = msg->v[RMD_FLD_INDEX] == 6 ? 0 : 1;
+
+			m->ram.angle_limit[k] = m->rom.angle_limit[k] = (int32_t)v;
+		}
+		break;
 	default:
 		break;
 	}
@@ -646,10 +749,11 @@ static void function_control(struct rmd_sim_motor *m, const struct rmd_msg *msg,
 
 /*
  * One command of the V3 table (also on 0x280, and the V3 side of MIT
- * motors) or of the V2 table.  Returns the number of replies in out[].
+ * motors), the V2 table or the V4 table, answered whether or not 0xB6
+ * pushes it.  Returns the number of replies in out[].
  */
-static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
-		   const struct rmd_frame *f, uint32_t reply_id, struct rmd_frame *out, int max)
+static int answer(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
+		  const struct rmd_frame *f, uint32_t reply_id, struct rmd_frame *out, int max)
 {
 	const struct rmd_cmd_spec *spec, *rspec;
 	struct rmd_msg req, rep;
@@ -664,6 +768,9 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 		return 0;
 	msg_for(proto, cmd, &rep, &rspec);
 
+	/* V4.2 §2.1 .. §2.3: one float gain by index. */
+	if (d->pid == RMD_PID_FLOAT_INDEXED && cmd >= 0x30 && cmd <= 0x32)
+		return float_gain(m, proto, f, reply_id, out, max);
 	/* V2 §3.1 .. §3.18: one Q24 gain per command. */
 	if (d->pid == RMD_PID_V2_PER_GAIN && cmd >= 0x30 && cmd <= 0x41) {
 		if (cmd <= 0x35) {
@@ -682,9 +789,16 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 	case 0x32: /* V3 §2.3: RAM and ROM */
 		store_pid(m, &req, cmd == 0x32);
 		return echo(f, reply_id, out, max);
-	case 0x42: /* V3 §2.4 / V2 §3.19: no index in the request; index 0 */
-		put_int(&rep, rspec, RMD_FLD_ACCEL, m->ram.accel_dps2[0]);
+	case 0x42: {
+		/* V4.2 §2.4: the index asked, echoed; V3 §2.4 / V2 §3.19: none, index 0 */
+		int64_t i = rmd_dialect_has(d, RMD_DIALECT_ACCEL_INDEX) ? req.v[RMD_FLD_INDEX] : 0;
+
+		if (i < 0 || i > 3)
+			return 0;
+		put_int(&rep, rspec, RMD_FLD_INDEX, i);
+		put_int(&rep, rspec, RMD_FLD_ACCEL, m->ram.accel_dps2[i]);
 		return emit(m, proto, &rep, out, max);
+	}
 	case 0x43:
 		if (!rmd_layout_field(spec, RMD_DIR_REQUEST, RMD_FLD_INDEX)) {
 			/* V2 §3.20: one acceleration, RAM only. */
@@ -755,6 +869,9 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 		/* V3 §4 (on 0x300, routed by the caller) / V2 §3.52: 1 read, 0 write. */
 		int64_t id = req.v[RMD_FLD_CAN_ID];
 
+		/* docs/protocol-v4.md: firmware that sets its ID by 0x20 no longer answers */
+		if (d->set_id == RMD_SET_ID_FUNC_20)
+			return 0;
 		if (req.v[RMD_FLD_READ_FLAG] == 1) {
 			put_int(&rep, rspec, RMD_FLD_READ_FLAG, 1);
 			/* V3 §4.4 example 2: the reply identifier 0x240 + ID; V2: the ID. */
@@ -862,11 +979,37 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 		put_int(&rep, rspec, RMD_FLD_MODEL, rmd_model_raw(m->p.model));
 		return emit(m, proto, &rep, out, max);
 	case 0x20: /* V3 §2.33.3: echoed */
+		/*
+		 * V4.2 §2.34.4 index 5: the new ID to ROM, effective after 0x76;
+		 * firmware 2025070202 echoes from the new 0x240 + ID at once and
+		 * takes requests on the old one until the reset.
+		 */
+		if (d->set_id == RMD_SET_ID_FUNC_20 && req.v[RMD_FLD_INDEX] == 5) {
+			int64_t id = req.v[RMD_FLD_VALUE];
+
+			if (id >= 1 && id <= RMD_MAX_MOTORS) {
+				m->rom.can_id = (uint8_t)id;
+				reply_id = d->reply_base + (uint32_t)id;
+			}
+			return echo(f, reply_id, out, max);
+		}
 		function_control(m, &req, now_ns);
 		return echo(f, reply_id, out, max);
+	case 0xB6: /* V4.2 §2.33.3: no reply */
+		active_reply(m, &req, now_ns);
+		return 0;
 	default:
 		return 0;
 	}
+}
+
+/* A request: not answered while 0xB6 pushes its reply (V4.2 §2.33.1). */
+static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
+		   const struct rmd_frame *f, uint32_t reply_id, struct rmd_frame *out, int max)
+{
+	if (pushed(m, f->data[0]))
+		return 0;
+	return answer(m, proto, now_ns, f, reply_id, out, max);
 }
 
 /* V2 §4.1: motor k (1..4) takes torque k and answers like 0xA1 (§4.2). */
@@ -1059,6 +1202,26 @@ int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame
 		n += emit(m, m->d->table, &rep, &out[n], max - n);
 		m->next_9a_ns += ERROR_REPORT_PERIOD_NS;
 	}
+	/* V4.2 §2.33: the replies 0xB6 asked for, each on its own period. */
+	for (unsigned k = 0; k < m->d->n_report_cmds && k < RMD_DIALECT_REPORTS_MAX; k++) {
+		int64_t period = (int64_t)m->report_steps[k] * ACTIVE_REPLY_STEP_NS;
+
+		while (period && m->report_next_ns[k] <= now_ns) {
+			struct rmd_frame req = { .can_id = m->d->req_base + m->ram.can_id,
+						 .len = RMD_FRAME_LEN,
+						 .data = { m->d->report_cmds[k] } };
+
+			if (n >= max) {
+				if (m->present && out)
+					break;
+				m->report_next_ns[k] += period;
+				continue;
+			}
+			n += answer(m, m->d->table, now_ns, &req, m->d->reply_base + m->ram.can_id,
+				    &out[n], max - n);
+			m->report_next_ns[k] += period;
+		}
+	}
 	return n;
 }
 
@@ -1079,5 +1242,8 @@ int64_t rmd_sim_motor_next_event_ns(const struct rmd_sim_motor *m)
 	}
 	if (reporting(m) && m->next_9a_ns < t)
 		t = m->next_9a_ns;
+	for (unsigned k = 0; k < m->d->n_report_cmds && k < RMD_DIALECT_REPORTS_MAX; k++)
+		if (m->report_steps[k] && m->report_next_ns[k] < t)
+			t = m->report_next_ns[k];
 	return t;
 }

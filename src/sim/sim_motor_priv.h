@@ -18,6 +18,9 @@
 /* V2 §3.1: Q24 gains; the manual's example value 0.25 taken as factory value. */
 #define V2_PID_DEFAULT (INT64_C(1) << 22)
 
+/* V4.2 §2.1.5: the example's gain 1.0 (0x3F800000), taken as every index's factory value. */
+#define V4_GAIN_DEFAULT 1.0f
+
 /* The factory value of PI gain i (RMD_FLD_CURR_KP order) of a protocol. */
 static inline int64_t rmd_sim_pid_default(enum rmd_proto proto, unsigned i)
 {

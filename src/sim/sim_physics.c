@@ -168,6 +168,11 @@ static double gain_scale(const struct rmd_sim_motor *m, unsigned i)
 {
 	double def = (double)rmd_sim_pid_default(m->p.proto, i);
 
+	/* V4.2 §2.1: one float gain by index, 1.0 from the factory */
+	if (m->gain_index[i] >= 0)
+		return clamp((double)m->ram.gain[m->gain_index[i]] / V4_GAIN_DEFAULT, 0.0,
+			     GAIN_SCALE_MAX);
+
 	return clamp((double)m->ram.pid[i] / def, 0.0, GAIN_SCALE_MAX);
 }
 

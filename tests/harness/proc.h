@@ -109,7 +109,7 @@ const char *line_with(const char *out, const char *needle, char *buf, size_t siz
 
 /* One run and what it must show: a row of a table of command lines. */
 struct run_case {
-	const char *args[12]; /* argv[1..], NULL-terminated */
+	const char *args[16]; /* argv[1..], NULL-terminated */
 	int status;
 	const char *out_has[4]; /* each in stdout; { "" }: stdout must be empty */
 	const char *err_has[4]; /* likewise for stderr */

@@ -671,6 +671,32 @@ static const struct run_case other_commands[] = {
 	{ .args = { "set-id", "2", "9", "--yes", "--bus", "sim:1-3" },
 	  .status = 1,
 	  .err_has = { "3 motors answer" } },
+	/*
+	 * V4.2 §2.34.4: 0x20 index 5 on the motor's own id, echoed from the new
+	 * id, then 0x76; no other motor hears it (docs/protocol-v4.md).
+	 */
+	{ .args = { "set-id", "2", "9", "--yes", "--bus", "sim:1-3", "--protocol", "v4",
+		    "--trace" },
+	  .out_has = { "motor 2 is now motor 9" },
+	  .err_has = { "142#2005000009000000\n", "249#2005000009000000\n",
+		       "142#7600000000000000\n" } },
+	{ .args = { "set-id", "2", "3", "--yes", "--bus", "sim:1-3", "--protocol", "v4" },
+	  .status = 1,
+	  .err_has = { "id 3 is taken" } },
+	/* V4.2 §2.1: seven float gains, one 0x30 by index each (the simulator's 1.0) */
+	{ .args = { "pid", "1", "--bus", "sim:1-3", "--protocol", "v4", "--trace" },
+	  .out_has = { "position kd", "current kp" },
+	  .err_has = { "141#3001000000000000\n", "141#3009000000000000\n",
+		       "241#300900000000803F\n" } },
+	/* V4.2 §2.2: 1.5 is 0x3FC00000 (§2.2.5), 0.25 0x3E800000, each echoed */
+	{ .args = { "pid", "1", "1.5", "2", "3", "4", "5", "6", "0.25", "--bus", "sim:1-3",
+		    "--protocol", "v4", "--trace" },
+	  .out_has = { "7 PID gains written to RAM" },
+	  .err_has = { "141#310100000000C03F\n", "241#310100000000C03F\n",
+		       "141#310900000000803E\n" } },
+	{ .args = { "pid", "1", "1", "2", "--bus", "sim:1-3", "--protocol", "v4" },
+	  .status = 2,
+	  .err_has = { "POS_KI [POS_KD]" } },
 	{ .args = { "reset", "1", "--bus", "sim:1-3" } },
 	/* V2 has no 0xB5 */
 	{ .args = { "scan", "--protocol", "v2", "--bus", "sim:1-2", "--json" },

@@ -1040,6 +1040,29 @@ static void test_lcm_rt_priority(void **state)
 	expect_in(err, "lcm.rt_priority: 49 is out of range (0..48)");
 }
 
+/* protocol: v4 (docs/protocol-v4.md) on CAN and on RS485 (V4.2 §1.2); not in mode mit. */
+static void test_protocol_v4(void **state)
+{
+	(void)state;
+	assert_int_equal(load_str("v4",
+				  "buses:\n  - {name: can0, type: socketcan}\n"
+				  "  - {name: rs0, type: rs485, device: /dev/ttyS0}\n"
+				  "motors:\n"
+				  "  - {name: m1, bus: can0, id: 1, protocol: v4, mode: torque, "
+				  "torque_constant_nm_a: 2}\n"
+				  "  - {name: m2, bus: rs0, id: 2, protocol: v4, mode: position, "
+				  "torque_constant_nm_a: 2}\n"),
+			 0);
+	if (cfg.n_motors != 2)
+		fail_msg("%s", err);
+	assert_int_equal(cfg.motors[0].proto, RMD_PROTO_V4);
+	assert_int_equal(cfg.motors[1].proto, RMD_PROTO_V4);
+	assert_int_not_equal(load_str("v4-mit", BUS "motors:\n  - {name: m1, bus: can0, id: 1, "
+						    "protocol: v4, mode: mit}\n"),
+			     0);
+	expect_in(err, "mit needs protocol mit (this motor is v4)");
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1066,6 +1089,7 @@ int main(void)
 		cmocka_unit_test(test_v2_needs_protection_off),
 		cmocka_unit_test(test_feedback_keys),
 		cmocka_unit_test(test_lcm_rt_priority),
+		cmocka_unit_test(test_protocol_v4),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

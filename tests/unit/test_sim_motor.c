@@ -774,13 +774,14 @@ static uint64_t rng(void)
 
 static void test_garbage_no_reply(void **state)
 {
-	struct rmd_sim_motor v3, v2, mit;
+	struct rmd_sim_motor v3, v2, mit, v4;
 	struct rmd_frame f;
 
 	(void)state;
 	motor_init(&v3, 1, RMD_PROTO_V3);
 	motor_init(&v2, 1, RMD_PROTO_V2);
 	motor_init(&mit, 1, RMD_PROTO_MIT);
+	motor_init(&v4, 1, RMD_PROTO_V4);
 
 	/* Wrong DLC. */
 	f = REQ0(V3, 1, 0x9C);
@@ -797,6 +798,12 @@ static void test_garbage_no_reply(void **state)
 		f = (struct rmd_frame){ .can_id = 0x141, .len = 8, .data = { unknown_v3[i] } };
 		expect_silence(&v3, &f);
 		expect_silence(&mit, &f);
+	}
+	/* V4.2 §9: no 0xA3, 0xA5; no 0x71 */
+	static const uint8_t unknown_v4[] = { 0x00, 0x71, 0x88, 0xA3, 0xA5, 0xA7, 0xFF };
+	for (size_t i = 0; i < sizeof(unknown_v4); i++) {
+		f = (struct rmd_frame){ .can_id = 0x141, .len = 8, .data = { unknown_v4[i] } };
+		expect_silence(&v4, &f);
 	}
 	static const uint8_t unknown_v2[] = { 0x00, 0x20, 0xB1, 0xB3, 0xB5, 0xFF };
 	for (size_t i = 0; i < sizeof(unknown_v2); i++) {
@@ -824,7 +831,10 @@ static void test_garbage_no_reply(void **state)
 	/* Random frames: never a crash, replies only on the motor's own ids. */
 	rng_state = seed;
 	for (int i = 0; i < 200000; i++) {
-		struct rmd_sim_motor *m = i % 3 == 0 ? &v3 : i % 3 == 1 ? &v2 : &mit;
+		struct rmd_sim_motor *m = i % 4 == 0 ? &v3 :
+					  i % 4 == 1 ? &v2 :
+					  i % 4 == 2 ? &mit :
+						       &v4;
 		static const uint32_t pick[] = { 0x141, 0x280, 0x300, 0x401, 0x142, 0x241 };
 		struct rmd_frame out[MAXREP];
 		uint64_t r = rng();
@@ -1029,6 +1039,178 @@ static void test_next_event(void **state)
 	now = t;
 }
 
+/* ---- V4 (docs/protocol-v4.md) ------------------------------------------- */
+
+/* Read V4 0x30's float gain of `index` (V4.2 §2.1), as its 32 bits. */
+static int64_t v4_gain_bits(struct rmd_sim_motor *m, uint8_t id, uint8_t index)
+{
+	struct rmd_frame f = REQ(V4, id, 0x30, KV(INDEX, index));
+	struct rmd_msg msg = ask(m, RMD_PROTO_V4, &f, NULL);
+
+	assert_int_equal(msg.v[RMD_FLD_INDEX], index);
+	return msg.v[RMD_FLD_GAIN];
+}
+
+/*
+ * V4.2 §2.1 .. §2.3: one float gain by index; RAM lost at power off, ROM
+ * kept; an index §2.1.4 does not list is not answered.  §2.4: 0x42 by
+ * index.  The factory gain is the §2.1.5 example's 1.0.
+ */
+static void test_v4_gains_and_accel(void **state)
+{
+	struct rmd_sim_motor m;
+	struct rmd_frame f;
+	struct rmd_msg msg;
+
+	(void)state;
+	motor_init(&m, 1, RMD_PROTO_V4);
+	assert_true(v4_gain_bits(&m, 1, 1) == 0x3F800000);
+	/* §2.2.5: current KP 1.5 to RAM; speed KI 0.25 to RAM; position KD 2.0 to ROM */
+	f = REQ(V4, 1, 0x31, KV(INDEX, 1), KV(GAIN, 0x3FC00000));
+	expect_echo(&m, &f, 0x241);
+	f = REQ(V4, 1, 0x31, KV(INDEX, 5), KV(GAIN, 0x3E800000));
+	expect_echo(&m, &f, 0x241);
+	f = REQ(V4, 1, 0x32, KV(INDEX, 9), KV(GAIN, 0x40000000));
+	expect_echo(&m, &f, 0x241);
+	assert_true(v4_gain_bits(&m, 1, 1) == 0x3FC00000);
+	assert_true(v4_gain_bits(&m, 1, 5) == 0x3E800000);
+	assert_true(v4_gain_bits(&m, 1, 9) == 0x40000000);
+	assert_true(v4_gain_bits(&m, 1, 4) == 0x3F800000);
+	rmd_sim_motor_power_cycle(&m, now);
+	assert_true(v4_gain_bits(&m, 1, 1) == 0x3F800000);
+	assert_true(v4_gain_bits(&m, 1, 9) == 0x40000000);
+	/* indexes 0, 3, 6 and 10 are no gains */
+	static const uint8_t bad[] = { 0, 3, 6, 10, 255 };
+	for (size_t i = 0; i < sizeof(bad); i++) {
+		f = REQ(V4, 1, 0x30, KV(INDEX, bad[i]));
+		expect_silence(&m, &f);
+	}
+	/* §2.4: 0x42 answers the index asked, with that acceleration */
+	f = REQ(V4, 1, 0x43, KV(INDEX, 2), KV(ACCEL, 5000));
+	expect_echo(&m, &f, 0x241);
+	f = REQ(V4, 1, 0x42, KV(INDEX, 2));
+	msg = ask(&m, RMD_PROTO_V4, &f, NULL);
+	assert_int_equal(msg.v[RMD_FLD_INDEX], 2);
+	assert_int_equal(msg.v[RMD_FLD_ACCEL], 5000);
+	f = REQ(V4, 1, 0x42, KV(INDEX, 0));
+	msg = ask(&m, RMD_PROTO_V4, &f, NULL);
+	assert_int_equal(msg.v[RMD_FLD_INDEX], 0);
+	assert_int_equal(msg.v[RMD_FLD_ACCEL], 10000);
+	f = REQ(V4, 1, 0x42, KV(INDEX, 4));
+	expect_silence(&m, &f);
+	/* a V3 motor's 0x30 is still six uint8 gains */
+	motor_init(&m, 1, RMD_PROTO_V3);
+	assert_int_equal(read_v(&m, RMD_PROTO_V3, 1, 0x30, RMD_FLD_CURR_KP), 85);
+}
+
+/*
+ * docs/protocol-v4.md: firmware 2025070202 does not answer 0x79; 0x20
+ * index 5 writes the new ID to ROM, echoed from the new 0x240 + ID at
+ * once, while requests still go to the old ID until 0x76.  Index 6/7
+ * (limits) are echoed.
+ */
+static void test_v4_set_id(void **state)
+{
+	struct rmd_sim_motor m;
+	struct rmd_frame f, out[MAXREP];
+
+	(void)state;
+	motor_init(&m, 1, RMD_PROTO_V4);
+	f = REQ(V4, 0, 0x79, KV(READ_FLAG, 1));
+	assert_int_equal(f.can_id, 0x300);
+	expect_silence(&m, &f);
+	f = REQ(V4, 0, 0x79, KV(READ_FLAG, 0), KV(CAN_ID, 2));
+	expect_silence(&m, &f);
+	assert_int_equal(read_v(&m, RMD_PROTO_V4, 1, 0x9C, RMD_FLD_TEMP), 25);
+
+	/* an ID out of 1..32 is echoed and changes nothing */
+	f = REQ(V4, 1, 0x20, KV(INDEX, 5), KV(VALUE, 33));
+	expect_echo(&m, &f, 0x241);
+	f = REQ(V4, 1, 0x20, KV(INDEX, 5), KV(VALUE, 7));
+	expect_echo(&m, &f, 0x247);
+	/* still motor 1 until the reset */
+	(void)read_v(&m, RMD_PROTO_V4, 1, 0x9A, RMD_FLD_VOLTAGE);
+	f = REQ0(V4, 7, 0x9A);
+	expect_silence(&m, &f);
+	f = REQ(V4, 1, 0x20, KV(INDEX, 6), KV(VALUE, 9000));
+	expect_echo(&m, &f, 0x241);
+	f = REQ(V4, 1, 0x20, KV(INDEX, 7), KV(VALUE, -9000));
+	expect_echo(&m, &f, 0x241);
+	f = REQ0(V4, 1, 0x76);
+	assert_int_equal(send(&m, &f, out), 0);
+	f = REQ0(V4, 1, 0x9A);
+	expect_silence(&m, &f);
+	assert_int_equal(read_v(&m, RMD_PROTO_V4, 7, 0x9C, RMD_FLD_TEMP), 25);
+	rmd_sim_motor_power_cycle(&m, now);
+	assert_int_equal(read_v(&m, RMD_PROTO_V4, 7, 0x9C, RMD_FLD_TEMP), 25);
+
+	/* a V3 motor knows no index 5: echoed, its ID kept */
+	motor_init(&m, 1, RMD_PROTO_V3);
+	f = REQ(V3, 1, 0x20, KV(INDEX, 5), KV(VALUE, 7));
+	expect_echo(&m, &f, 0x241);
+	f = REQ0(V3, 1, 0x76);
+	assert_int_equal(send(&m, &f, out), 0);
+	assert_int_equal(read_v(&m, RMD_PROTO_V3, 1, 0x9C, RMD_FLD_TEMP), 25);
+}
+
+/*
+ * V4.2 §2.33: 0xB6 pushes a read's reply every n x 10 ms and the read is
+ * no longer answered; off restores it; a reset ends it.
+ */
+static void test_v4_active_reply(void **state)
+{
+	struct rmd_sim_motor m;
+	struct rmd_frame f, out[MAXREP];
+	struct rmd_msg msg;
+	int64_t t0;
+
+	(void)state;
+	motor_init(&m, 2, RMD_PROTO_V4);
+	/* 0x9C every 2 x 10 ms: no reply to 0xB6 */
+	f = REQ(V4, 2, 0xB6, KV(REPORT_CMD, 0x9C), KV(REPORT_ON, 1), KV(REPORT_MS, 2));
+	assert_int_equal(send(&m, &f, out), 0);
+	t0 = now;
+	assert_true(rmd_sim_motor_next_event_ns(&m) == t0 + 20 * MS);
+	f = REQ0(V4, 2, 0x9C);
+	expect_silence(&m, &f);
+	(void)read_v(&m, RMD_PROTO_V4, 2, 0x9A, RMD_FLD_VOLTAGE); /* others still answer */
+	assert_int_equal(rmd_sim_motor_poll(&m, t0 + 20 * MS - 1, out, MAXREP), 0);
+	assert_int_equal(rmd_sim_motor_poll(&m, t0 + 20 * MS, out, MAXREP), 1);
+	assert_int_equal(out[0].can_id, 0x242);
+	assert_int_equal(rmd_decode(RMD_PROTO_V4, RMD_DIR_REPLY, &out[0], &msg, NULL), 0);
+	assert_int_equal(msg.cmd, 0x9C);
+	assert_true(rmd_msg_has(&msg, RMD_FLD_TEMP));
+	assert_true(rmd_sim_motor_next_event_ns(&m) == t0 + 40 * MS);
+	/* a late poll catches up, within its room */
+	assert_int_equal(rmd_sim_motor_poll(&m, t0 + 100 * MS, out, 2), 2);
+	assert_int_equal(rmd_sim_motor_poll(&m, t0 + 100 * MS, out, MAXREP), 2);
+	assert_int_equal(rmd_sim_motor_poll(&m, t0 + 100 * MS, out, MAXREP), 0);
+	now = t0 + 100 * MS;
+	/* a second command on its own period: 0x92 every 50 ms; 0x9C's at +20, +40 */
+	f = REQ(V4, 2, 0xB6, KV(REPORT_CMD, 0x92), KV(REPORT_ON, 1), KV(REPORT_MS, 5));
+	assert_int_equal(send(&m, &f, out), 0);
+	assert_int_equal(rmd_sim_motor_poll(&m, now + 50 * MS, out, MAXREP), 3);
+	/* one poll's due frames come in the order of the dialect's list (0x92 first) */
+	assert_int_equal(out[0].data[0], 0x92);
+	assert_int_equal(out[1].data[0], 0x9C);
+	assert_int_equal(out[2].data[0], 0x9C);
+	/* a command 0xB6 cannot push is ignored; 0x9C off answers again */
+	f = REQ(V4, 2, 0xB6, KV(REPORT_CMD, 0xB2), KV(REPORT_ON, 1), KV(REPORT_MS, 1));
+	assert_int_equal(send(&m, &f, out), 0);
+	(void)read_v(&m, RMD_PROTO_V4, 2, 0xB2, RMD_FLD_VERSION);
+	f = REQ(V4, 2, 0xB6, KV(REPORT_CMD, 0x9C), KV(REPORT_ON, 0), KV(REPORT_MS, 0));
+	assert_int_equal(send(&m, &f, out), 0);
+	(void)read_v(&m, RMD_PROTO_V4, 2, 0x9C, RMD_FLD_TEMP);
+	/* a reset ends 0x92's */
+	f = REQ0(V4, 2, 0x92);
+	expect_silence(&m, &f);
+	f = REQ0(V4, 2, 0x76);
+	assert_int_equal(send(&m, &f, out), 0);
+	(void)read_v(&m, RMD_PROTO_V4, 2, 0x92, RMD_FLD_ANGLE);
+	assert_true(rmd_sim_motor_next_event_ns(&m) == INT64_MAX);
+	assert_int_equal(rmd_sim_motor_poll(&m, now + 1000 * MS, out, MAXREP), 0);
+}
+
 int main(void)
 {
 	const char *env = getenv("RMD_TEST_SEED");
@@ -1050,6 +1232,9 @@ int main(void)
 		cmocka_unit_test_setup(test_v2_commands, setup),
 		cmocka_unit_test_setup(test_deterministic_jitter, setup),
 		cmocka_unit_test_setup(test_next_event, setup),
+		cmocka_unit_test_setup(test_v4_gains_and_accel, setup),
+		cmocka_unit_test_setup(test_v4_set_id, setup),
+		cmocka_unit_test_setup(test_v4_active_reply, setup),
 	};
 
 	seed = env ? strtoull(env, NULL, 0) : (uint64_t)time(NULL);

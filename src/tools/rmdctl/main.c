@@ -100,7 +100,8 @@ static const struct rmdctl_cmd cmds[] = {
 	    "Renumbers motor OLD to NEW (0x79, ROM) and checks that NEW answers.  V3\n"
 	    "sends 0x79 on 0x300, which every motor on the bus with its CAN-ID filter\n"
 	    "off (0x20 index 2) obeys: with other motors answering, set-id refuses\n"
-	    "unless --force.  Asks for confirmation.\n",
+	    "unless --force.  V4 (--protocol v4) writes NEW with 0x20 index 5 to OLD\n"
+	    "alone and resets it (0x76).  Asks for confirmation.\n",
 	    rmdctl_run_set_id),
 	DEV("set-zero", "make the current position the zero (ROM)", "ID", 1, 1, O_YES,
 	    "Makes the current position the zero (0x64, ROM).  It applies after a reset\n"
