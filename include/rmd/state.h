@@ -25,11 +25,12 @@
 /* Motor lifecycle (docs/design.md); the values are those of rmd.state_t. */
 enum rmd_lifecycle {
 	RMD_LC_PROBE = 0, /* asking model, version, status */
-	RMD_LC_READY,	  /* answered; output off, brake engaged */
+	RMD_LC_READY,	  /* output off and brake locked: both echoed (0x80, 0x78) */
 	RMD_LC_ENABLED,	  /* running the commanded mode */
 	RMD_LC_FAULT,	  /* error flags set */
 	RMD_LC_LOST,	  /* N consecutive missed replies; re-probed slowly */
 	RMD_LC_SAFE,	  /* the safe action holds it until re-enabled */
+	RMD_LC_STOPPING,  /* on its way to READY: 0x80 and 0x78 sent until echoed */
 	RMD_LC_COUNT
 };
 

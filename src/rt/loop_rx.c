@@ -105,6 +105,8 @@ void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to
 		}
 		if (mt->kind == REQ_ONESHOT)
 			oneshot_pop(&l->mot[mt->motor]);
+		else if (mt->kind == REQ_OWED)
+			loop_owed_sent(l, &l->mot[mt->motor], f->data[0], now);
 		os_add(l, &l->mot[mt->motor], f, now);
 	}
 }
@@ -222,6 +224,13 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */
 			l->cnt.echoes++;
+			return;
+		}
+		if (lm->owe && (cmd == 0x80 || cmd == 0x78) && o->seq >= lm->owe_seq &&
+		    f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS &&
+		    rmd_frame_repeats(o->data, false, f)) {
+			/* lifecycle.c "Owed frames": the motor echoed output off / brake locked */
+			loop_owed_ack(l, lm, (uint8_t)cmd, now);
 			return;
 		}
 		if (cmd == 0xB3 && f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
