@@ -147,7 +147,7 @@ struct rmd_bus_health {
 /* Why the rt loop did not act on a command's enable = 1 for a motor (counted in rmd_health). */
 enum rmd_ignore {
 	RMD_IGN_EDGE = 0,  /* the motor waits for an enable = 0 first */
-	RMD_IGN_NOT_READY, /* the motor is in PROBE, FAULT or LOST */
+	RMD_IGN_NOT_READY, /* the motor is in PROBE, STOPPING, FAULT or LOST */
 	RMD_IGN_TRIPPED,   /* the command is older than the watchdog trip */
 	RMD_IGN_KINDS
 };
