@@ -129,11 +129,8 @@ bool loop_owed_frame(const struct lmotor *lm, struct rmd_frame *f)
 	return rmd_motor_encode_cmd(&lm->m, bit == OWE_OFF ? 0x80 : 0x78, f) == 0;
 }
 
-/*
- * An owed frame (command byte cmd) of lm was taken by its bus; the
- * OWED_SENDS_MAX-th without the debt paid makes it LOST.  rt-safe.
- */
-void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now)
+/* An owed frame (command byte cmd) of lm was taken by its bus.  rt-safe. */
+void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd)
 {
 	unsigned bit = cmd == 0x80 ? OWE_OFF : OWE_BRAKE;
 
@@ -141,7 +138,18 @@ void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t 
 	if (lm->owe_sent & bit)
 		l->cnt.owed_resends++;
 	lm->owe_sent |= (uint8_t)bit;
-	if (lm->owe_sends >= OWED_SENDS_MAX)
+}
+
+/*
+ * A request of lm went unanswered, or an owed frame was answered with
+ * other bytes than its own: after OWED_SENDS_MAX owed sends the motor is
+ * LOST (loop_rx.c, while it drains or checks deadlines: never while a
+ * send is booked, whose one-shots a lifecycle change would reorder).
+ * rt-safe.
+ */
+void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	if (lm->owe && lm->owe_sends >= OWED_SENDS_MAX && lm->st->lifecycle != RMD_LC_LOST)
 		loop_motor_lost(l, lm, now);
 }
 

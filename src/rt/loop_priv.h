@@ -315,8 +315,9 @@ void loop_take_command(struct rmd_loop *l, int64_t now);
 void loop_watchdog(struct rmd_loop *l, int64_t now);
 void loop_comm_loss(struct rmd_loop *l, int64_t now);
 bool loop_owed_frame(const struct lmotor *lm, struct rmd_frame *f);
-void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now);
+void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd);
 void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now);
+void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
 		    const struct rmd_frame *rep, int64_t now);
 void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss cl, int64_t now);

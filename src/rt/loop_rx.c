@@ -106,7 +106,7 @@ void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to
 		if (mt->kind == REQ_ONESHOT)
 			oneshot_pop(&l->mot[mt->motor]);
 		else if (mt->kind == REQ_OWED)
-			loop_owed_sent(l, &l->mot[mt->motor], f->data[0], now);
+			loop_owed_sent(l, &l->mot[mt->motor], f->data[0]);
 		os_add(l, &l->mot[mt->motor], f, now);
 	}
 }
@@ -191,6 +191,29 @@ static bool ahead_heard(const struct lmotor *lm, const struct outstanding *o)
 	return o->seq && lm->heard_seq == o->seq && lm->heard_sent_ns == o->sent_ns;
 }
 
+/*
+ * f, matched to lm's request o whose answer is its echo, is the echo of
+ * an owed 0x80 or 0x78 (lifecycle.c "Owed frames": output off, brake
+ * locked): paid.  Out of line: the setpoints' answers never come here.
+ * rt-safe.
+ */
+static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmotor *lm,
+						const struct outstanding *o,
+						const struct rmd_frame *f, int64_t now)
+{
+	uint8_t cmd = f->data[0];
+
+	if (!lm->owe || (cmd != 0x80 && cmd != 0x78) || o->seq < lm->owe_seq ||
+	    f->can_id > RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+		return false;
+	if (!rmd_frame_repeats(o->data, false, f)) {
+		loop_owed_unpaid(l, lm, now); /* an answer, but not the echo */
+		return false;
+	}
+	loop_owed_ack(l, lm, cmd, now);
+	return true;
+}
+
 /* rt-safe. */
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
@@ -226,13 +249,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			l->cnt.echoes++;
 			return;
 		}
-		if (lm->owe && (cmd == 0x80 || cmd == 0x78) && o->seq >= lm->owe_seq &&
-		    f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS &&
-		    rmd_frame_repeats(o->data, false, f)) {
-			/* lifecycle.c "Owed frames": the motor echoed output off / brake locked */
-			loop_owed_ack(l, lm, (uint8_t)cmd, now);
+		if (o->echo_is_reply && owed_echo(l, lm, o, f, now))
 			return;
-		}
 		if (cmd == 0xB3 && f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
 			/* V3 §2.30: the loop's own write of the comm-loss time */
 			loop_cl_answer(l, lm, o->data, f, now);
@@ -298,6 +316,7 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 			if (lm->os[k].sent_ns <= now - l->bus[lm->m.bus].reply_ns) {
 				os_done(lm, k);
 				loop_miss(l, lm, now);
+				loop_owed_unpaid(l, lm, now);
 			}
 		}
 	}
