@@ -91,14 +91,16 @@
  * Frames.  Each bus gets exactly the requests rmd_plan_cycle() lists, in
  * one send call; what the bus does not take is counted (plan_misses) and
  * dropped (setpoints are never sent late), except one-shot frames (0x80,
- * 0x78, 0x81, ...), which wait for the next cycle.  A control slot of a
- * motor that is not ENABLED carries a one-shot if one waits, else a status
- * read (0x9C on 0x140 + ID; for MIT motors too: it cannot move the motor,
- * while even a zero-gain MIT frame would take it out of its brake-held
- * stand-still).  The V2 0x280 frame goes out only while one of its motors
- * is ENABLED (the others' slots carry 0 A: the frame cannot skip a motor)
- * and none of them has a one-shot waiting; one-shots take the slot first,
- * as many as its budget holds, and with nobody to drive it carries a
+ * 0x78, 0x81, ...), which wait for the next cycle, and owed frames
+ * (0x80, 0x78 of a STOPPING or FAULT motor), sent again until echoed.  A
+ * control slot of a motor that is not ENABLED carries an owed frame if it
+ * owes one, else a one-shot if one waits, else a status read (0x9C on
+ * 0x140 + ID; for MIT motors too: it cannot move the motor, while even a
+ * zero-gain MIT frame would take it out of its brake-held stand-still).
+ * The V2 0x280 frame goes out only while one of its motors is ENABLED (the
+ * others' slots carry 0 A: the frame cannot skip a motor) and none of them
+ * has an owed frame or a one-shot waiting; those take the slot first, as
+ * many as its budget holds, and with nobody to drive it carries a
  * round-robin 0x9C.
  *
  * Measured values not yet received are NaN in the snapshot.
