@@ -402,6 +402,49 @@ static void walk(const struct row *row)
 	rig_down();
 }
 
+/*
+ * A motor whose answers cannot be read (bad_dlc 4: matched, so it is
+ * there, but no echo repeats its request) never shows READY after
+ * enable = 0: it stays STOPPING while 0x80 and 0x78 go out again
+ * (counted), and after 16 sends it is LOST; readable again, it comes back
+ * through STOPPING to a READY it proved.
+ */
+static void test_unechoed_is_lost(void **state)
+{
+	static const struct row row = { .proto = RMD_PROTO_V3,
+					.action = RMD_SAFE_DAMP,
+					.t = T_DISABLE };
+	struct rmd_sim_fault f = {
+		.kind = RMD_SIM_FAULT_BAD_DLC, .motor_id = 1, .probability = 1.0, .param = 4
+	};
+	struct rmd_bus *bus;
+	struct rmd_loop_counters c;
+
+	(void)state;
+	rig_up(&row);
+	R.off_sent = R.brake_sent = 1;
+	if (rmd_loop_bringup(R.l, &R.report))
+		fail_msg("bring-up failed");
+	run_until(RMD_LC_READY, STOPPING_MAX, false);
+	command(true);
+	run_until(RMD_LC_ENABLED, 200, true);
+	run(100, true);
+	bus = &R.io.buses[0];
+	f.start_ns = rmd_bus_sim_time_ns(bus, t_now);
+	assert_int_equal(rmd_sim_wire_set_faults(rmd_bus_sim_get(bus), &f, 1), 0);
+	command(false);
+	R.cmd.disables[0]++;
+	memset(R.seen, 0, sizeof(R.seen));
+	run_until(RMD_LC_LOST, STOPPING_MAX, true);
+	assert_false(R.seen[RMD_LC_READY]); /* the sim did stop: rmdd could not know it */
+	rmd_loop_get_counters(R.l, &c);
+	assert_true(c.owed_resends >= 14);
+	assert_int_equal(rmd_sim_wire_set_faults(rmd_bus_sim_get(bus), &f, 0), 0);
+	run_until(RMD_LC_READY, 1500, true);
+	run(50, true);
+	rig_down();
+}
+
 /* ---- the table ------------------------------------------------------------- */
 
 #define N_ROWS (3 * 4 * 5 + 3 * 4)
@@ -421,7 +464,7 @@ int main(void)
 							      RMD_SHUTDOWN_DAMP,
 							      RMD_SHUTDOWN_BRAKE };
 	static const char *const shutdown_name[] = { "stop", "hold", "damp", "brake" };
-	struct CMUnitTest tests[N_ROWS];
+	struct CMUnitTest tests[N_ROWS + 1];
 	unsigned n = 0;
 
 	/* {dialect, safe action, transition}, then {dialect, shutdown action} */
@@ -449,5 +492,6 @@ int main(void)
 		tests[k] = (struct CMUnitTest){ .name = names[k],
 						.test_func = test_row,
 						.initial_state = &rows[k] };
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_unechoed_is_lost);
 	return _cmocka_run_group_tests("lifecycle truth", tests, n, NULL, NULL);
 }
