@@ -48,7 +48,7 @@
  * read (0x9C in their control slot, 0x9A polls), never moved; a command
  * with enable = 1 makes a READY or SAFE motor ENABLED (0x77 brake release
  * once, V3 §2.26, then its setpoints).  Error flags (0x9A) -> FAULT: 0x80,
- * and 0x78 unless the safe action is stop, until echoed (a faulted motor
+ * and 0x78 as rmd_config_fault_brakes() says, until echoed (a faulted motor
  * runs no control command, V3 §2.17.1: no safe action); cleared ->
  * STOPPING.  safety.missed_replies_lost missed replies in a row -> LOST,
  * with the safe action for the motor (and every enabled motor, SAFE, when

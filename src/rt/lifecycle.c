@@ -77,7 +77,7 @@ static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
 /*
  * A motor is READY only after it echoed output off (0x80, V3 §2.15 / V2
  * §3.34) and brake locked (0x78, V3 §2.27 / V2 §3.51), and a FAULT motor
- * gets output off (and the brake, fault_brakes()) the same way: those
+ * gets output off (and the brake, rmd_config_fault_brakes()) the same way: those
  * frames are *owed* (lm->owe) from the entry of STOPPING or FAULT on.
  * Each control slot of the motor carries one of them (0x80 and 0x78 in
  * turn) until the motor's echo of it comes: a reply on its own reply
@@ -90,17 +90,6 @@ static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
  * debt paid and the motor is LOST (it does not do what rmdd asks); every
  * send after a frame's first is counted (owed_resends).
  */
-
-/* Whether FAULT locks the brake too: every safe action but stop.  rt-safe. */
-static bool fault_brakes(const struct rmd_loop *l)
-{
-	/*
-	 * A faulted motor runs no control command (V3 §2.17.1): hold and damp
-	 * ask for a joint that stays put, which only its brake can give now;
-	 * stop asks for a shaft that turns freely.
-	 */
-	return loop_safe_action(l) != RMD_SAFE_STOP;
-}
 
 /* lm owes the frames of `bits` from now on (those its dialect has).  rt-safe. */
 static void owe(struct lmotor *lm, unsigned bits)
@@ -183,7 +172,7 @@ void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t n
  *             and PROBE (found: it may run for a previous owner).
  *   READY     only from STOPPING with nothing owed (asked for from anywhere
  *             else, it is STOPPING); the configured mode.
- *   FAULT     owes 0x80, and 0x78 unless the safe action is stop (a
+ *   FAULT     owes 0x80, and 0x78 as rmd_config_fault_brakes() says (a
  *             faulted motor runs no control command, V3 §2.17.1: no 0xA2,
  *             no 0x81); reports the error code.
  *   LOST      the safe action once when it was ENABLED, else nothing
@@ -256,7 +245,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 			cl_forget(l, lm);
 		} else {
-			owe(lm, OWE_OFF | (fault_brakes(l) ? OWE_BRAKE : 0));
+			owe(lm, OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? OWE_BRAKE : 0));
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
 				   lm->st->error_code, 0);
 		}

@@ -18,7 +18,8 @@
  *            open but for brake;
  *   FAULT    no output (the fault, or the mode off), no frame that moves;
  *            once its frames arrived the mode is off (nothing resumes when
- *            the flags clear), the brake locked unless the action is stop;
+ *            the flags clear), the brake locked unless the config asks
+ *            for a free shaft (stop, and a shutdown without the brake);
  *   PROBE, LOST, STOPPING: no promise; STOPPING is short.
  * A promise that rests on frames in flight is checked GRACE cycles after
  * the state was entered; READY rests on echoes, so from its first cycle.
@@ -200,7 +201,8 @@ static void check_truth(void)
 		if (R.in_state < GRACE)
 			return;
 		TRUTH(m->ctrl == RMD_SIM_OFF);
-		if (R.row->action != RMD_SAFE_STOP)
+		if (R.row->action != RMD_SAFE_STOP || R.row->shutdown == RMD_SHUTDOWN_BRAKE ||
+		    R.row->shutdown == RMD_SHUTDOWN_DAMP)
 			TRUTH(m->brake_locked);
 	} else if (lc != RMD_LC_PROBE && lc != RMD_LC_LOST) {
 		/* on the way to READY */
@@ -447,7 +449,7 @@ static void test_unechoed_is_lost(void **state)
 
 /* ---- the table ------------------------------------------------------------- */
 
-#define N_ROWS (3 * 4 * 5 + 3 * 4)
+#define N_ROWS (3 * 4 * 5 + 3 * 4 + 3)
 
 static struct row rows[N_ROWS];
 static char names[N_ROWS][64];
@@ -478,6 +480,14 @@ int main(void)
 					 proto_name[protos[p]], action_name[a], transition_name[t]);
 				n++;
 			}
+		/* stop, but brakes by config (shutdown brake): a fault locks the brake */
+		rows[n] = (struct row){ .proto = protos[p],
+					.action = RMD_SAFE_STOP,
+					.shutdown = RMD_SHUTDOWN_BRAKE,
+					.t = T_FAULT };
+		snprintf(names[n], sizeof(names[n]), "%s stop fault, shutdown brake",
+			 proto_name[protos[p]]);
+		n++;
 		for (unsigned a = 0; a < 4; a++) {
 			rows[n] = (struct row){ .proto = protos[p],
 						.action = RMD_SAFE_DAMP,

@@ -83,7 +83,7 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 	case RMD_LC_FAULT:
 		/* lifecycle.c: a faulted motor runs no control command, so no safe action */
 		tool_log(4, "%s: fault (error flags set); output off (0x80)%s", ctx,
-			 cfg->safety.safe_action == RMD_SAFE_STOP ? "" : ", brake locked (0x78)");
+			 rmd_config_fault_brakes(cfg) ? ", brake locked (0x78)" : "");
 		break;
 	case RMD_LC_SAFE:
 		tool_log(4, "%s: safe action %s, held until the controller enables it again", ctx,
