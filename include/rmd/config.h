@@ -286,6 +286,21 @@ static inline uint32_t rmd_config_comm_loss_ms(const struct rmd_config *cfg, uns
 	return ms >= 0 ? (uint32_t)ms : cfg->safety.comm_loss_ms;
 }
 
+/*
+ * Whether a faulted motor gets its brake locked (0x78, V3 §2.27): it runs
+ * no control command (V3 §2.17.1), so hold and damp, which ask for a joint
+ * that stays put, can only be kept by the brake, and so does a config whose
+ * shutdown action uses the brake; only a config that asks for a free shaft
+ * everywhere (safe_action stop, shutdown_action without the brake) leaves
+ * it as it was.  rt-safe.
+ */
+static inline bool rmd_config_fault_brakes(const struct rmd_config *cfg)
+{
+	return cfg->safety.safe_action != RMD_SAFE_STOP ||
+	       cfg->safety.shutdown_action == RMD_SHUTDOWN_BRAKE ||
+	       cfg->safety.shutdown_action == RMD_SHUTDOWN_DAMP;
+}
+
 /* Every default, no buses and no motors.  Non-rt. */
 void rmd_config_defaults(struct rmd_config *cfg);
 

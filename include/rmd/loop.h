@@ -39,16 +39,21 @@
  * anything else is counted and reported (RMD_EV_UNEXPECTED, at most once
  * a second per bus).
  *
- * Lifecycle.  PROBE until bring-up (or a first reply); READY motors are
- * only read (0x9C in their control slot, 0x9A polls), never moved; a
- * command with enable = 1 makes a READY or SAFE motor ENABLED (0x77 brake
- * release once, V3 §2.26, then its setpoints), enable = 0 makes it READY
- * (0x80 output off and 0x78 brake locked, once).  Error flags (0x9A) ->
- * FAULT (with the safe action when it was ENABLED), cleared -> READY.
- * safety.missed_replies_lost missed replies in a row -> LOST, with the safe
- * action for the motor (and every enabled motor, SAFE, when
+ * Lifecycle (docs/design.md "The life of a motor": what each state says
+ * of the motor's output and brake).  PROBE until bring-up (or a first
+ * reply); a motor becomes READY only through STOPPING: 0x80 output off
+ * and 0x78 brake locked, sent in its control slots until the motor echoed
+ * each (lifecycle.c "Owed frames"), from whatever state: found at
+ * bring-up, enable = 0, back from FAULT or LOST.  READY motors are only
+ * read (0x9C in their control slot, 0x9A polls), never moved; a command
+ * with enable = 1 makes a READY or SAFE motor ENABLED (0x77 brake release
+ * once, V3 §2.26, then its setpoints).  Error flags (0x9A) -> FAULT: 0x80,
+ * and 0x78 as rmd_config_fault_brakes() says, until echoed (a faulted motor
+ * runs no control command, V3 §2.17.1: no safe action); cleared ->
+ * STOPPING.  safety.missed_replies_lost missed replies in a row -> LOST,
+ * with the safe action for the motor (and every enabled motor, SAFE, when
  * lost_motor_action is all); a LOST motor is re-probed with 0x9A every
- * RMD_LOOP_REPROBE_NS and returns to READY.  A motor that returns from
+ * RMD_LOOP_REPROBE_NS and returns to STOPPING.  A motor that returns from
  * LOST or FAULT, or was made SAFE by another motor's loss, needs an
  * explicit enable = 0 before enable = 1 takes it again, so a controller
  * streaming enable = 1 does not restart it unawares.  The loop keeps only
@@ -86,14 +91,16 @@
  * Frames.  Each bus gets exactly the requests rmd_plan_cycle() lists, in
  * one send call; what the bus does not take is counted (plan_misses) and
  * dropped (setpoints are never sent late), except one-shot frames (0x80,
- * 0x78, 0x81, ...), which wait for the next cycle.  A control slot of a
- * motor that is not ENABLED carries a one-shot if one waits, else a status
- * read (0x9C on 0x140 + ID; for MIT motors too: it cannot move the motor,
- * while even a zero-gain MIT frame would take it out of its brake-held
- * stand-still).  The V2 0x280 frame goes out only while one of its motors
- * is ENABLED (the others' slots carry 0 A: the frame cannot skip a motor)
- * and none of them has a one-shot waiting; one-shots take the slot first,
- * as many as its budget holds, and with nobody to drive it carries a
+ * 0x78, 0x81, ...), which wait for the next cycle, and owed frames
+ * (0x80, 0x78 of a STOPPING or FAULT motor), sent again until echoed.  A
+ * control slot of a motor that is not ENABLED carries an owed frame if it
+ * owes one, else a one-shot if one waits, else a status read (0x9C on
+ * 0x140 + ID; for MIT motors too: it cannot move the motor, while even a
+ * zero-gain MIT frame would take it out of its brake-held stand-still).
+ * The V2 0x280 frame goes out only while one of its motors is ENABLED (the
+ * others' slots carry 0 A: the frame cannot skip a motor) and none of them
+ * has an owed frame or a one-shot waiting; those take the slot first, as
+ * many as its budget holds, and with nobody to drive it carries a
  * round-robin 0x9C.
  *
  * Measured values not yet received are NaN in the snapshot.
@@ -188,6 +195,7 @@ struct rmd_loop_counters {
 	uint64_t frames_not_sent;	 /* frames a bus did not take */
 	uint64_t commands;		 /* commands taken from the bridge */
 	uint64_t safe_actions;		 /* safe actions applied, per motor */
+	uint64_t owed_resends;		 /* owed 0x80/0x78 sent again: no echo yet (lifecycle.c) */
 	uint64_t ignored[RMD_IGN_KINDS]; /* enable = 1 entries not acted on, by enum rmd_ignore */
 };
 
@@ -212,8 +220,9 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
  * are ENABLED or SAFE and 0x80 to the others; damp, the damp safe action
  * to the ENABLED and SAFE motors once a period for shutdown_damp_ms, then
  * brake; default, brake when safe_action is brake, else stop.  One frame
- * of each kind per motor; then every motor is READY (its READY entry
- * frames are not sent).  The V3 0x280 broadcast would do it in one frame,
+ * of each kind per motor.  With brake (and damp) the driven motors are
+ * STOPPING, READY once they echoed both frames; with stop and hold they
+ * are SAFE (their brakes stay open).  The V3 0x280 broadcast would do it in one frame,
  * but it reaches only motors whose CAN-ID filter is off (V3 §3, 0x20
  * index 2), and the configuration cannot promise that, so it is not used.
  * The motors' 0xB3 protection stays in place.  Frames the bus refuses are

@@ -25,11 +25,12 @@
 /* Motor lifecycle (docs/design.md); the values are those of rmd.state_t. */
 enum rmd_lifecycle {
 	RMD_LC_PROBE = 0, /* asking model, version, status */
-	RMD_LC_READY,	  /* answered; output off, brake engaged */
+	RMD_LC_READY,	  /* output off and brake locked: both echoed (0x80, 0x78) */
 	RMD_LC_ENABLED,	  /* running the commanded mode */
 	RMD_LC_FAULT,	  /* error flags set */
 	RMD_LC_LOST,	  /* N consecutive missed replies; re-probed slowly */
 	RMD_LC_SAFE,	  /* the safe action holds it until re-enabled */
+	RMD_LC_STOPPING,  /* on its way to READY: 0x80 and 0x78 sent until echoed */
 	RMD_LC_COUNT
 };
 
@@ -146,7 +147,7 @@ struct rmd_bus_health {
 /* Why the rt loop did not act on a command's enable = 1 for a motor (counted in rmd_health). */
 enum rmd_ignore {
 	RMD_IGN_EDGE = 0,  /* the motor waits for an enable = 0 first */
-	RMD_IGN_NOT_READY, /* the motor is in PROBE, FAULT or LOST */
+	RMD_IGN_NOT_READY, /* the motor is in PROBE, STOPPING, FAULT or LOST */
 	RMD_IGN_TRIPPED,   /* the command is older than the watchdog trip */
 	RMD_IGN_KINDS
 };

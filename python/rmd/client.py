@@ -47,7 +47,7 @@ DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
 CONFIG_REQUEST_PERIOD_S = 0.25
 POLL_MAX = 1000  # messages one poll() handles at most: a flood cannot hold it
 
-LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe"]
+LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe", "stopping"]
 
 
 class RmdError(Exception):

@@ -200,6 +200,28 @@ static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, struct 
 }
 
 /*
+ * A motor found may run for a previous owner: output off (0x80, V3 §2.15)
+ * and brake locked (0x78, V3 §2.27), each awaited for its echo (txn puts
+ * a status read ahead of it, rmd/txn.h), pay what STOPPING owes
+ * (lifecycle.c "Owed frames"); what bring-up could not get echoed, the
+ * loop sends until it is.  Non-rt.
+ */
+static void stop_found(struct rmd_loop *l, struct lmotor *lm)
+{
+	static const uint8_t cmds[] = { 0x80, 0x78 };
+
+	loop_enter(l, lm, RMD_LC_STOPPING, loop_now(l));
+	for (unsigned k = 0; k < sizeof(cmds); k++) {
+		struct rmd_msg msg = { .cmd = cmds[k] };
+		struct rmd_txn t;
+
+		if (probe_xfer(l, lm, &msg, &t) == 0 && t.rep.f.len == t.req.len &&
+		    !memcmp(t.rep.f.data, t.req.data, t.req.len))
+			loop_owed_ack(l, lm, cmds[k], loop_now(l));
+	}
+}
+
+/*
  * Motor i speaks dialect `proto` from now on: its record rebuilt, the
  * loop's routing moved to the identifiers that dialect answers on.
  * Non-rt.
@@ -416,14 +438,27 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 	out->pushed = lm->pushed;
 	out->mismatch = mismatch_of(l, i, out);
 	if (out->mismatch != RMD_BRINGUP_MISMATCH_NONE) {
-		/* never driven, never re-probed: the configuration must change */
+		/*
+		 * Never driven, never re-probed: the configuration must change.
+		 * What it may run for a previous owner stops all the same: 0x80
+		 * and 0x78 are the same in every dialect (V2 §3.34, §3.51).
+		 */
+		static const uint8_t off[] = { 0x80, 0x78 };
+
+		for (unsigned k = 0; k < sizeof(off); k++) {
+			struct rmd_msg msg = { .cmd = off[k] };
+			struct rmd_txn t;
+
+			probe_xfer(l, lm, &msg, &t);
+		}
 		out->state = RMD_BRINGUP_MISMATCH;
 		loop_enter(l, lm, RMD_LC_LOST, now);
 		lm->next_probe_ns = INT64_MAX;
 		return -ENODEV;
 	}
 	lm->consecutive = 0;
-	loop_enter(l, lm, RMD_LC_READY, now);
+	stop_found(l, lm);
+	now = loop_now(l);
 	if (lm->st->error_code)
 		loop_note_errors(l, lm, 0, now);
 	out->state = lm->st->error_code ? RMD_BRINGUP_FAULT : RMD_BRINGUP_FOUND;

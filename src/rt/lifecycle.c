@@ -71,23 +71,119 @@ static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
 		oneshot_push(lm, &f);
 }
 
+/* ------------------------------------------------------------------ */
+/* Owed frames */
+
+/*
+ * A motor is READY only after it echoed output off (0x80, V3 §2.15 / V2
+ * §3.34) and brake locked (0x78, V3 §2.27 / V2 §3.51), and a FAULT motor
+ * gets output off (and the brake, rmd_config_fault_brakes()) the same way: those
+ * frames are *owed* (lm->owe) from the entry of STOPPING or FAULT on.
+ * Each control slot of the motor carries one of them (0x80 and 0x78 in
+ * turn) until the motor's echo of it comes: a reply on its own reply
+ * identifier, matched to that request by the loop's matching (loop_rx.c),
+ * repeating it byte for byte, to a request sent after the debt began
+ * (an older 0x80 proves nothing about the setpoints that followed it).
+ * An echo a motor whose comm-loss protection tripped gives without
+ * executing the frame is still true: the trip cut its output and locked
+ * its brake (V3 §2.30.1).  Bounded: OWED_SENDS_MAX sends without the
+ * debt paid and the motor is LOST (it does not do what rmdd asks); every
+ * send after a frame's first is counted (owed_resends).
+ */
+
+/* lm owes the frames of `bits` from now on (those its dialect has).  rt-safe. */
+static void owe(struct lmotor *lm, unsigned bits)
+{
+	struct rmd_frame f;
+
+	if ((bits & OWE_OFF) && rmd_motor_encode_cmd(&lm->m, 0x80, &f) < 0)
+		bits &= ~(unsigned)OWE_OFF;
+	if ((bits & OWE_BRAKE) && rmd_motor_encode_cmd(&lm->m, 0x78, &f) < 0)
+		bits &= ~(unsigned)OWE_BRAKE;
+	lm->owe = (uint8_t)bits;
+	lm->owe_sent = 0;
+	lm->owe_sends = 0;
+	lm->owe_seq = lm->seq; /* the requests booked from now on */
+}
+
+/* The owed frame lm's next control slot carries, if it owes one.  rt-safe. */
+bool loop_owed_frame(const struct lmotor *lm, struct rmd_frame *f)
+{
+	unsigned bit = lm->owe;
+
+	if (!bit)
+		return false;
+	if (bit == (OWE_OFF | OWE_BRAKE))
+		bit = lm->owe_sends % 2 ? OWE_BRAKE : OWE_OFF;
+	return rmd_motor_encode_cmd(&lm->m, bit == OWE_OFF ? 0x80 : 0x78, f) == 0;
+}
+
+/* An owed frame (command byte cmd) of lm was taken by its bus.  rt-safe. */
+void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd)
+{
+	unsigned bit = cmd == 0x80 ? OWE_OFF : OWE_BRAKE;
+
+	lm->owe_sends++;
+	if (lm->owe_sent & bit)
+		l->cnt.owed_resends++;
+	lm->owe_sent |= (uint8_t)bit;
+}
+
+/*
+ * A request of lm went unanswered, or an owed frame was answered with
+ * other bytes than its own: after OWED_SENDS_MAX owed sends the motor is
+ * LOST (loop_rx.c, while it drains or checks deadlines: never while a
+ * send is booked, whose one-shots a lifecycle change would reorder).
+ * rt-safe.
+ */
+void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	if (lm->owe && lm->owe_sends >= OWED_SENDS_MAX && lm->st->lifecycle != RMD_LC_LOST)
+		loop_motor_lost(l, lm, now);
+}
+
+/*
+ * lm echoed the owed 0x80 or 0x78 (loop_rx.c; bring-up's own for its
+ * frames): that debt is paid, and a STOPPING motor that owes nothing more
+ * is READY.  rt-safe.
+ */
+void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now)
+{
+	unsigned bit = cmd == 0x80 ? OWE_OFF : cmd == 0x78 ? OWE_BRAKE : 0;
+
+	if (!(lm->owe & bit))
+		return;
+	lm->owe &= (uint8_t)~bit;
+	if (!lm->owe && lm->st->lifecycle == RMD_LC_STOPPING)
+		loop_enter(l, lm, RMD_LC_READY, now);
+}
+
 /*
  * The one place a motor changes lifecycle state: the entry actions of lc,
  * then RMD_EV_MOTOR_STATE.  Nothing happens when lm is in lc already.
+ * What each state promises about the motor's output and brake is
+ * docs/design.md "The life of a motor".
  *
- *   ENABLED  V3 §2.26 / V2 §3.50: the brake opens before the first setpoint.
- *   SAFE     the safe action, streamed (MIT damp in every control slot).
- *   READY    from ENABLED or SAFE: output off (V3 §2.15) and brake locked
- *            (V3 §2.27), the configured mode; from PROBE: nothing waits.
- *   LOST,    the safe action once when it was ENABLED, else nothing waits;
- *   FAULT    FAULT reports the error code; LOST re-probes after
- *            RMD_LOOP_REPROBE_NS.
+ *   ENABLED   V3 §2.26 / V2 §3.50: the brake opens before the first setpoint.
+ *   SAFE      the safe action, streamed (MIT damp in every control slot).
+ *   STOPPING  owes 0x80 and 0x78 ("Owed frames"); READY once both are echoed.
+ *             Every way to READY goes through it: from ENABLED or SAFE
+ *             (enable = 0), FAULT (flags cleared), LOST (it answers again)
+ *             and PROBE (found: it may run for a previous owner).
+ *   READY     only from STOPPING with nothing owed (asked for from anywhere
+ *             else, it is STOPPING); the configured mode.
+ *   FAULT     owes 0x80, and 0x78 as rmd_config_fault_brakes() says (a
+ *             faulted motor runs no control command, V3 §2.17.1: no 0xA2,
+ *             no 0x81); reports the error code.
+ *   LOST      the safe action once when it was ENABLED, else nothing
+ *             waits; re-probes after RMD_LOOP_REPROBE_NS.
  *
  * Comm-loss protection: LOST forgets it (the motor that comes back may have
- * been swapped or reflashed); READY from PROBE or LOST starts a round of
- * 0xB3 writes (a motor found after bring-up, or back).  FAULT -> READY
- * keeps it: the motor answered all along, and a power cycle makes it miss
- * replies, which is LOST (the time is in its ROM anyway).
+ * been swapped or reflashed); READY reached from PROBE or LOST (through
+ * STOPPING, and FAULT on the way) starts a round of 0xB3 writes (a motor
+ * found after bring-up, or back).  FAULT -> READY keeps it: the motor
+ * answered all along, and a power cycle makes it miss replies, which is
+ * LOST (the time is in its ROM anyway).
  *
  * The enable-edge rule (rmd/loop.h): a motor that enters LOST or FAULT,
  * returns from them, or is made SAFE for any reason but the host
@@ -99,50 +195,57 @@ static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
 void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
 {
 	enum rmd_lifecycle old = (enum rmd_lifecycle)lm->st->lifecycle;
-	bool was_on = old == RMD_LC_ENABLED || old == RMD_LC_SAFE;
 
+	/* READY is STOPPING's debt paid, never a jump */
+	if (lc == RMD_LC_READY && (old != RMD_LC_STOPPING || lm->owe))
+		lc = RMD_LC_STOPPING;
 	if (old == lc)
 		return;
-	if (lc != RMD_LC_READY || was_on) {
-		/* LOST -> READY keeps them: the safe action still waiting goes out yet */
+	if (lc != RMD_LC_READY) {
+		/* READY keeps what waits: STOPPING queued nothing but a 0xB3 round's writes */
 		loop_frames_drop(lm);
+		lm->owe = 0;
 	}
 	switch (lc) {
 	case RMD_LC_ENABLED:
 		push_oneshot_cmd(lm, 0x77);
 		break;
 	case RMD_LC_SAFE:
-		queue_safe(l, lm, true, now);
+		if (!l->stopping) /* rmd_loop_stop_motors() sent its own */
+			queue_safe(l, lm, true, now);
 		lm->need_edge = l->wd != RMD_WD_TRIPPED;
 		break;
-	case RMD_LC_READY:
-		if (was_on) {
-			push_oneshot_cmd(lm, 0x80);
-			push_oneshot_cmd(lm, 0x78);
-			lm->st->mode = (uint8_t)lm->m.mode;
-		} else if (old == RMD_LC_PROBE) {
+	case RMD_LC_STOPPING:
+		owe(lm, OWE_OFF | OWE_BRAKE);
+		if (old != RMD_LC_FAULT) /* FAULT on the way keeps where it came from */
+			lm->stop_from = (uint8_t)old;
+		if (old == RMD_LC_PROBE)
 			lm->need_edge = false;
-		} else {
+		else if (old == RMD_LC_LOST || old == RMD_LC_FAULT)
 			lm->need_edge = true;
-		}
-		if (old == RMD_LC_PROBE || old == RMD_LC_LOST) {
+		if (old == RMD_LC_FAULT)
+			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, 0, 0);
+		break;
+	case RMD_LC_READY:
+		lm->st->mode = (uint8_t)lm->m.mode;
+		if (lm->stop_from == RMD_LC_PROBE || lm->stop_from == RMD_LC_LOST) {
 			cl_forget(l, lm);
 			if (lm->cl == RMD_CL_PENDING)
 				cl_start_round(lm);
 		}
-		if (old == RMD_LC_FAULT)
-			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, 0, 0);
+		lm->stop_from = RMD_LC_READY;
 		break;
 	case RMD_LC_LOST:
 	case RMD_LC_FAULT:
-		if (old == RMD_LC_ENABLED)
-			queue_safe(l, lm, false, now);
 		lm->need_edge = true;
 		lm->cl_want = false;
 		if (lc == RMD_LC_LOST) {
+			if (old == RMD_LC_ENABLED)
+				queue_safe(l, lm, false, now);
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 			cl_forget(l, lm);
 		} else {
+			owe(lm, OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? OWE_BRAKE : 0));
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
 				   lm->st->error_code, 0);
 		}
@@ -195,7 +298,7 @@ void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int6
 		if (code)
 			loop_enter(l, lm, RMD_LC_FAULT, now);
 	} else if (!code) {
-		loop_enter(l, lm, RMD_LC_READY, now);
+		loop_enter(l, lm, RMD_LC_STOPPING, now);
 	} else if (code != prev) {
 		loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, code, 0);
 	}
@@ -235,6 +338,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 		take_setpoint(lm, sp);
 		break;
 	case RMD_LC_PROBE:
+	case RMD_LC_STOPPING:
 	case RMD_LC_FAULT:
 	case RMD_LC_LOST:
 	case RMD_LC_COUNT:
@@ -251,9 +355,10 @@ static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_ENABLED:
 	case RMD_LC_SAFE:
-		loop_enter(l, lm, RMD_LC_READY, now);
+		loop_enter(l, lm, RMD_LC_STOPPING, now);
 		break;
 	case RMD_LC_READY:
+	case RMD_LC_STOPPING:
 	case RMD_LC_PROBE:
 	case RMD_LC_FAULT:
 	case RMD_LC_LOST:

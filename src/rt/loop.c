@@ -612,8 +612,8 @@ static int64_t send_queued(struct rmd_loop *l, int64_t now)
 
 /*
  * Queue on every bus, per motor: the safe action `driven` for a motor that
- * is ENABLED or SAFE (none: -1), else `cmd` (0: nothing); `brake` adds
- * 0x78.  rt-safe.
+ * is ENABLED or SAFE (none: -1), else `cmd` (0: nothing); `brake`, or a
+ * brake the motor owes (lifecycle.c "Owed frames"), adds 0x78.  rt-safe.
  */
 static void queue_stop(struct rmd_loop *l, int driven, uint8_t cmd, bool brake)
 {
@@ -636,7 +636,8 @@ static void queue_stop(struct rmd_loop *l, int driven, uint8_t cmd, bool brake)
 			for (int j = 0; j < n; j++)
 				loop_push_tx(lb, &f[j], loop_idx(l, lm), REQ_STATUS);
 			/* V3 §2.27 / V2 §3.51 brake locked */
-			if (brake && rmd_motor_encode_cmd(&lm->m, 0x78, &f[0]) == 0)
+			if ((brake || (lm->owe & OWE_BRAKE)) &&
+			    rmd_motor_encode_cmd(&lm->m, 0x78, &f[0]) == 0)
 				loop_push_tx(lb, &f[0], loop_idx(l, lm), REQ_STATUS);
 		}
 	}
@@ -661,6 +662,17 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 		}
 		a = RMD_SHUTDOWN_BRAKE;
 	}
+	/*
+	 * brake: the driven motors (and those on their way) are STOPPING, and
+	 * READY once they echo the frames below (lifecycle.c "Owed frames").
+	 */
+	l->stopping = true;
+	for (unsigned i = 0; i < l->n_motors && a == RMD_SHUTDOWN_BRAKE; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		if (lm->st->lifecycle == RMD_LC_ENABLED || lm->st->lifecycle == RMD_LC_SAFE)
+			loop_enter(l, lm, RMD_LC_STOPPING, now);
+	}
 	/* V3 §2.15 / V2 §3.34 output off; V3 §2.17 stop and hold */
 	queue_stop(l, a == RMD_SHUTDOWN_HOLD ? RMD_SAFE_HOLD : -1, 0x80, a == RMD_SHUTDOWN_BRAKE);
 	now = send_queued(l, now);
@@ -675,12 +687,17 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		if (lm->st->lifecycle == RMD_LC_ENABLED || lm->st->lifecycle == RMD_LC_SAFE)
-			loop_enter(l, lm, RMD_LC_READY, now);
-		/* the stop frames went out above: nothing waits any more (READY's
-		 * entry frames included: hold must not be undone) */
+		/*
+		 * stop and hold leave a driven motor SAFE: output off with its
+		 * brake open, or held by its drive (docs/lcm.md "Shutdown"),
+		 * which READY would deny; nothing more is sent.
+		 */
+		if (lm->st->lifecycle == RMD_LC_ENABLED)
+			loop_enter(l, lm, RMD_LC_SAFE, now);
+		/* the stop frames went out above: nothing waits any more (hold must not be undone) */
 		loop_frames_drop(lm);
 	}
+	l->stopping = false;
 	/*
 	 * A last state and health after the stops (issue 13): the exit
 	 * statistics then count every frame sent, the final stops included,

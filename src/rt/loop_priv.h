@@ -42,6 +42,13 @@
 #define STOP_STEP_NS 200000		/* ... this far apart */
 #define ARM_TRIES 3			/* 0xB3 writes of one round in the loop */
 #define ARM_ROUND_NS RMD_NS_PER_S	/* a refused enable starts a new round this long after */
+#define OWED_SENDS_MAX 16		/* owed 0x80/0x78 sends unechoed: the motor is lost */
+
+/* Frames a motor owes an echo of (struct lmotor.owe; lifecycle.c "Owed frames"). */
+enum {
+	OWE_OFF = 1u << 0,   /* 0x80 output off, V3 §2.15 / V2 §3.34 */
+	OWE_BRAKE = 1u << 1, /* 0x78 brake locked, V3 §2.27 / V2 §3.51 */
+};
 
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {
@@ -49,6 +56,7 @@ enum req_kind {
 	REQ_STATUS,	 /* a status read (0x9A, 0x9C) */
 	REQ_ONESHOT,	 /* the head of the motor's one-shot queue */
 	REQ_BATCH,	 /* V2 0x280: one request, every batched motor answers */
+	REQ_OWED,	 /* an owed 0x80 or 0x78, sent until its echo comes */
 };
 
 /* A request in flight (its bit in struct lmotor.os_used says it is). */
@@ -91,6 +99,15 @@ struct lmotor {
 	struct rmd_frame oneshot[ONESHOTS];
 	unsigned n_oneshot;
 	bool damp_stream; /* SAFE with MIT damp: the damp frame in every control slot */
+	/*
+	 * Owed frames (lifecycle.c "Owed frames"): OWE_* bits not yet echoed,
+	 * how many were sent, and the state STOPPING was entered from.
+	 */
+	uint8_t owe;
+	uint8_t owe_sent; /* OWE_* bits sent at least once */
+	unsigned owe_sends;
+	uint64_t owe_seq;  /* an echo pays only for a request booked from this seq on */
+	uint8_t stop_from; /* enum rmd_lifecycle */
 	int64_t next_probe_ns;
 	bool replied;
 	uint64_t last_reply_cycle;
@@ -162,6 +179,7 @@ struct rmd_loop {
 
 	/* schedule */
 	bool started;
+	bool stopping; /* rmd_loop_stop_motors() runs: SAFE's entry queues nothing */
 	int64_t next_tick_ns;
 	uint64_t cycle; /* index of the cycle running, from 0 */
 
@@ -303,7 +321,7 @@ static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now
 	lm->replied = true;
 	lm->last_reply_cycle = l->cycle;
 	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE)
-		loop_enter(l, lm, RMD_LC_READY, now);
+		loop_enter(l, lm, RMD_LC_STOPPING, now);
 }
 
 /* loop.c.  rt-safe unless said. */
@@ -332,6 +350,10 @@ void loop_note_errors(struct rmd_loop *l, struct lmotor *lm, uint16_t prev, int6
 void loop_take_command(struct rmd_loop *l, int64_t now);
 void loop_watchdog(struct rmd_loop *l, int64_t now);
 void loop_comm_loss(struct rmd_loop *l, int64_t now);
+bool loop_owed_frame(const struct lmotor *lm, struct rmd_frame *f);
+void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd);
+void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now);
+void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
 		    const struct rmd_frame *rep, int64_t now);
 void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss cl, int64_t now);

@@ -112,6 +112,8 @@ void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to
 		}
 		if (mt->kind == REQ_ONESHOT)
 			oneshot_pop(&l->mot[mt->motor]);
+		else if (mt->kind == REQ_OWED)
+			loop_owed_sent(l, &l->mot[mt->motor], f->data[0]);
 		os_add(l, &l->mot[mt->motor], f, now);
 	}
 }
@@ -261,6 +263,29 @@ static bool ahead_heard(const struct lmotor *lm, const struct outstanding *o)
 	return o->seq && lm->heard_seq == o->seq && lm->heard_sent_ns == o->sent_ns;
 }
 
+/*
+ * f, matched to lm's request o whose answer is its echo, is the echo of
+ * an owed 0x80 or 0x78 (lifecycle.c "Owed frames": output off, brake
+ * locked): paid.  Out of line: the setpoints' answers never come here.
+ * rt-safe.
+ */
+static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmotor *lm,
+						const struct outstanding *o,
+						const struct rmd_frame *f, int64_t now)
+{
+	uint8_t cmd = f->data[0];
+
+	if (!lm->owe || (cmd != 0x80 && cmd != 0x78) || o->seq < lm->owe_seq ||
+	    f->can_id > RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+		return false;
+	if (!rmd_frame_repeats(o->data, false, f)) {
+		loop_owed_unpaid(l, lm, now); /* an answer, but not the echo */
+		return false;
+	}
+	loop_owed_ack(l, lm, cmd, now);
+	return true;
+}
+
 /* rt-safe. */
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
@@ -298,6 +323,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			l->cnt.echoes++;
 			return;
 		}
+		if (o->echo_is_reply && owed_echo(l, lm, o, f, now))
+			return;
 		if (cmd == 0xB3 && f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
 			/* V3 §2.30: the loop's own write of the comm-loss time */
 			loop_cl_answer(l, lm, o->data, f, now);
@@ -370,6 +397,7 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 				os_done(lm, k);
 				os_give_up(lm, &lm->os[k]);
 				loop_miss(l, lm, now);
+				loop_owed_unpaid(l, lm, now);
 			}
 		}
 	}

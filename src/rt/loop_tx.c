@@ -101,15 +101,31 @@ static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i)
 	loop_push_tx(lb, &lm->oneshot[0], i, REQ_ONESHOT);
 }
 
+/*
+ * What waits for lm's control slot: an owed 0x80 or 0x78 first (the
+ * motor's output and brake, lifecycle.c "Owed frames"), else the head of
+ * its one-shot queue.  rt-safe.
+ */
+static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i)
+{
+	struct lmotor *lm = &l->mot[i];
+	struct rmd_frame f;
+
+	if (loop_owed_frame(lm, &f))
+		loop_push_tx(lb, &f, i, REQ_OWED);
+	else if (lm->n_oneshot)
+		push_oneshot(l, lb, i);
+}
+
 /* rt-safe. */
 static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f[2];
 
-	/* one-shots first: an ENABLED motor's brake release, the others' stops */
-	if (lm->n_oneshot) {
-		push_oneshot(l, lb, i);
+	/* owed frames and one-shots first: an ENABLED motor's brake release, the others' stops */
+	if (lm->owe || lm->n_oneshot) {
+		push_due(l, lb, i);
 		return;
 	}
 	if (lm->st->lifecycle == RMD_LC_ENABLED) {
@@ -126,6 +142,7 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_READY:
+	case RMD_LC_STOPPING:
 	case RMD_LC_FAULT:
 		/* read only: V3 §2.13 / V2 §3.32 status 2 (MIT motors answer V3) */
 		push_cmd(l, lb, i, 0x9C);
@@ -179,8 +196,8 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 	for (unsigned k = 0; k < pb->n_motors && room; k++) {
 		unsigned i = pb->motors[k];
 
-		if ((pb->batched & (1u << k)) && l->mot[i].n_oneshot) {
-			push_oneshot(l, lb, i);
+		if ((pb->batched & (1u << k)) && (l->mot[i].owe || l->mot[i].n_oneshot)) {
+			push_due(l, lb, i);
 			queued = true;
 			room--;
 		}

@@ -525,7 +525,7 @@ static void test_lost_motor_logged_with_context(void **state)
 	spawn(&p, NULL, args);
 	wait_for(&p, "<5>rmdd: running:", 5000);
 	wait_for(&p, "<4>rmdd: s0: motor 3 (knee_l): lost (10 missed replies in a row", 5000);
-	wait_for(&p, "<5>rmdd: s0: motor 3 (knee_l): back (lost -> ready)", 5000);
+	wait_for(&p, "<5>rmdd: s0: motor 3 (knee_l): back (lost -> stopping)", 5000);
 	kill(p.pid, SIGTERM);
 	assert_int_equal(finish(&p, 5000), 0);
 	/* logged on change: once each */

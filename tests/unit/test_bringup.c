@@ -455,6 +455,27 @@ static void test_auto_v4_and_a_mismatch(void **state)
 	rig_up(3, TAMPER_NONE, NULL, 0);
 	rig_cfg_tweak = NULL;
 	R.cfg.probe.on_missing = RMD_MISSING_START;
+	/* a previous owner left motor 2 running: brake released (0x77), 100 dps (0xA2) */
+	{
+		struct rmd_frame f[2] = {
+			{ .can_id = RMD_CAN_REQ_BASE + 2, .len = 8, .data = { 0x77 } },
+			{ .can_id = RMD_CAN_REQ_BASE + 2,
+			  .len = 8,
+			  .data = { 0xA2, 0, 0, 0, 0x10, 0x27 } },
+		};
+		const struct rmd_sim_motor *m;
+
+		struct rmd_bus_rx rx[8];
+
+		assert_int_equal(rmd_bus_send(&R.sim[0], f, 2, t_now), 2);
+		for (unsigned k = 0; k < 10; k++) { /* the sim bus's time moves with its calls */
+			t_now += MS;
+			rmd_bus_recv(&R.sim[0], rx, 8, t_now);
+		}
+		m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 2);
+		assert_int_equal(m->ctrl, RMD_SIM_SPEED);
+		assert_false(m->brake_locked);
+	}
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), -EPROTO);
 	/* motor 1: its 0xB2 says a date after V4.2's, and the yyyymmddNN form */
 	assert_int_equal(R.bu.motor[0].proto, RMD_PROTO_V4);
@@ -464,6 +485,14 @@ static void test_auto_v4_and_a_mismatch(void **state)
 	assert_int_equal(R.bu.motor[0].b3, RMD_B3_SET);
 	/* motor 2: protocol v3, firmware V4: refused, never driven */
 	assert_int_equal(R.bu.motor[1].state, RMD_BRINGUP_MISMATCH);
+	/* ... and stopped, in case a previous owner left it running: output off, brake locked */
+	{
+		const struct rmd_sim_motor *m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 2);
+
+		assert_non_null(m);
+		assert_int_equal(m->ctrl, RMD_SIM_OFF);
+		assert_true(m->brake_locked);
+	}
 	assert_int_equal(R.bu.motor[1].mismatch, RMD_BRINGUP_MISMATCH_FIRMWARE);
 	assert_int_equal(R.bu.mismatched, 1);
 	rmd_loop_get_snapshot(R.l, &s);

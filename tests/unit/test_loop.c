@@ -640,7 +640,8 @@ static void test_fault_flags(void **state)
 	assert_int_equal(s.m[0].lifecycle, RMD_LC_FAULT);
 	assert_int_equal(s.m[0].error_code, RMD_SIM_ERR_OVER_TEMP);
 	assert_int_equal(count_ev(RMD_EV_MOTOR_ERROR, 0), 1);
-	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 1); /* it was enabled */
+	/* no safe action: a faulted motor runs none (V3 §2.17.1); output off instead */
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
 	assert_int_equal(lifecycle(1), RMD_LC_READY);
 	run(500, true);
@@ -766,7 +767,7 @@ static void test_commands_queued_in_a_stall(void **state)
 	cmd_motor(1, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
 	cycle_with_cmd_at(trip - 50 * MS);
 	rmd_loop_get_counters(R.l, &c1);
-	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_int_equal(lifecycle(0), RMD_LC_STOPPING); /* READY once 0x80, 0x78 are echoed */
 	assert_int_equal(lifecycle(1), RMD_LC_READY);
 	assert_int_equal(c1.ignored[RMD_IGN_TRIPPED] - c0.ignored[RMD_IGN_TRIPPED], 1);
 
@@ -777,6 +778,7 @@ static void test_commands_queued_in_a_stall(void **state)
 	run(20, false);
 	assert_true(t_now - 170 * MS > trip);
 	rmd_loop_get_counters(R.l, &c1);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
 	assert_int_equal(lifecycle(1), RMD_LC_READY);
 	assert_int_equal(c1.ignored[RMD_IGN_TRIPPED] - c0.ignored[RMD_IGN_TRIPPED], 2);
 	for (unsigned k = from; k < trace_n; k++)
@@ -849,12 +851,15 @@ static void brake_safe(struct rmd_config *cfg)
 
 /*
  * Six motors on two buses, 0..driven-1 driven at 2 rad/s, the others READY;
- * then rmd_loop_stop_motors().  Every motor READY after it, its 0xB3 in
- * place.  Returns trace_n before it.
+ * then rmd_loop_stop_motors().  Every motor READY after it, but the driven
+ * ones of a shutdown without the brake (stop, hold: SAFE, brake open),
+ * its 0xB3 in place.  Returns trace_n before it.
  */
 static unsigned drive_then_stop(tweak_fn *tweak, unsigned driven)
 {
+	const struct rmd_config_safety *s = &R.io.cfg.safety;
 	unsigned from;
+	bool brakes;
 
 	rig_up(6, tweak); /* two buses */
 	bring_up();
@@ -866,8 +871,11 @@ static unsigned drive_then_stop(tweak_fn *tweak, unsigned driven)
 	from = trace_n;
 	rmd_loop_stop_motors(R.l, t_now);
 	run(5, false); /* the wire delivers them */
+	brakes = s->shutdown_action == RMD_SHUTDOWN_BRAKE ||
+		 s->shutdown_action == RMD_SHUTDOWN_DAMP ||
+		 (s->shutdown_action == RMD_SHUTDOWN_DEFAULT && s->safe_action == RMD_SAFE_BRAKE);
 	for (unsigned i = 0; i < 6; i++) {
-		assert_int_equal(lifecycle(i), RMD_LC_READY);
+		assert_int_equal(lifecycle(i), i < driven && !brakes ? RMD_LC_SAFE : RMD_LC_READY);
 		assert_int_equal(sim_motor(i)->ram.comm_timeout_ms, 100); /* 0xB3 stays */
 	}
 	return from;
@@ -896,7 +904,8 @@ static void test_stop_motors(void **state)
 /*
  * After rmd_loop_stop_motors() the published health counts every frame the
  * buses sent, the final stops included (issue 13: rmdd's exit statistics
- * read it after the loop's thread ended), and the published state is READY.
+ * read it after the loop's thread ended), and the published state is what
+ * the default shutdown (stop) left: SAFE, output off with the brake open.
  */
 static void test_health_after_stop_counts_the_stops(void **state)
 {
@@ -921,7 +930,7 @@ static void test_health_after_stop_counts_the_stops(void **state)
 	}
 	rmd_loop_get_snapshot(R.l, snap);
 	for (unsigned i = 0; i < 6; i++)
-		assert_int_equal(snap->m[i].lifecycle, RMD_LC_READY);
+		assert_int_equal(snap->m[i].lifecycle, RMD_LC_SAFE);
 	free(snap);
 	rig_down();
 }
@@ -1132,8 +1141,8 @@ static void test_thread(void **state)
 	assert_true(st.wake_max_ns >= st.wake_p99_ns && st.wake_p99_ns >= st.wake_min_ns);
 	for (unsigned i = 0; i < 3; i++) {
 		assert_int_equal(lifecycle(i), RMD_LC_READY);
-		/* on the way out, the thread stopped every motor */
-		assert_int_equal(sent_to(i, 0x80, 0), 1);
+		/* bring-up's output off, and on the way out the thread's */
+		assert_int_equal(sent_to(i, 0x80, 0), 2);
 	}
 	events_pump();
 	for (unsigned k = 0; k < nev; k++)
@@ -2030,7 +2039,7 @@ static void test_fault_over_temperature(void **state)
 	assert_true(s.m[0].error_code & RMD_SIM_ERR_OVER_TEMP);
 	assert_true(s.m[0].temp_c > m->p.over_temp_c);
 	assert_int_equal(count_ev(RMD_EV_MOTOR_ERROR, 0), 1);
-	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 1);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0); /* output off (0x80) instead */
 	assert_int_equal(m->ctrl, RMD_SIM_OFF);
 	m->p.ambient_c = 25.0;
 	run(1000, true);

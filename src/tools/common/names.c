@@ -8,8 +8,10 @@
 const char *tool_lifecycle_name(unsigned lc)
 {
 	static const char *const names[RMD_LC_COUNT] = {
-		[RMD_LC_PROBE] = "probe", [RMD_LC_READY] = "ready", [RMD_LC_ENABLED] = "enabled",
-		[RMD_LC_FAULT] = "fault", [RMD_LC_LOST] = "lost",   [RMD_LC_SAFE] = "safe",
+		[RMD_LC_PROBE] = "probe",	[RMD_LC_READY] = "ready",
+		[RMD_LC_ENABLED] = "enabled",	[RMD_LC_FAULT] = "fault",
+		[RMD_LC_LOST] = "lost",		[RMD_LC_SAFE] = "safe",
+		[RMD_LC_STOPPING] = "stopping",
 	};
 
 	return lc < RMD_LC_COUNT ? names[lc] : "?";

@@ -83,23 +83,27 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 				(int)(RMD_LOOP_REPROBE_NS / 1000000));
 		break;
 	case RMD_LC_FAULT:
-		tool_log(4, "%s: fault (error flags set)%s%s", ctx,
-			 from == RMD_LC_ENABLED ? "; safe action " : "",
-			 from == RMD_LC_ENABLED ? action : "");
+		/* lifecycle.c: a faulted motor runs no control command, so no safe action */
+		tool_log(4, "%s: fault (error flags set); output off (0x80)%s", ctx,
+			 rmd_config_fault_brakes(cfg) ? ", brake locked (0x78)" : "");
 		break;
 	case RMD_LC_SAFE:
 		tool_log(4, "%s: safe action %s, held until the controller enables it again", ctx,
 			 action);
 		break;
-	case RMD_LC_READY:
+	case RMD_LC_STOPPING:
 		if (from == RMD_LC_LOST || from == RMD_LC_FAULT)
-			tool_log(5,
-				 "%s: back (%s -> ready); send enable 0, then 1, to run it again",
-				 ctx, rmdd_lifecycle_name(from));
-		else if (from == RMD_LC_PROBE)
-			tool_log(7, "%s: ready", ctx);
+			tool_log(
+				5,
+				"%s: back (%s -> stopping); send enable 0, then 1, to run it again",
+				ctx, rmdd_lifecycle_name(from));
 		else
-			tool_log(6, "%s: %s -> ready", ctx, rmdd_lifecycle_name(from));
+			tool_log(from == RMD_LC_PROBE ? 7 : 6, "%s: %s -> stopping", ctx,
+				 rmdd_lifecycle_name(from));
+		break;
+	case RMD_LC_READY:
+		/* from STOPPING only: the motor echoed output off and brake locked */
+		tool_log(7, "%s: ready (output off, brake locked)", ctx);
 		break;
 	case RMD_LC_ENABLED:
 		tool_log(6, "%s: enabled", ctx);

@@ -182,9 +182,9 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 	tool_log_always(6,
 			"  setpoints: commands %" PRIu64 ", clamped %" PRIu64
 			", non-finite %" PRIu64 ", unsupported %" PRIu64 ", safe actions %" PRIu64
-			"; controller %s",
+			", output-off/brake resends %" PRIu64 "; controller %s",
 			c.commands, c.clamped, c.nonfinite, c.unsupported, c.safe_actions,
-			have_h ? wd_name(h.watchdog) : "idle");
+			c.owed_resends, have_h ? wd_name(h.watchdog) : "idle");
 	print_buses(s, &h, have_h, secs);
 	print_motors(s, &snap);
 	if (s->bridge) {
