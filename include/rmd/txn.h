@@ -50,7 +50,13 @@ struct rmd_txn {
 	uint32_t reply_id; /* identifier the answer comes on */
 	uint8_t reply_cmd; /* its data[0] */
 	bool any_cmd;	   /* the answer has no command byte: match by identifier */
-	bool no_reply;	   /* nothing answers (V3 0x76): done once sent */
+	/*
+	 * The answer names the request's index too (V4.2 §2.1.3, §2.4.3: 0x30
+	 * and 0x42 answer the index asked): data[index_at] must be index.
+	 * index_at 0: no such byte.
+	 */
+	uint8_t index_at, index;
+	bool no_reply; /* nothing answers (V3 0x76): done once sent */
 	/*
 	 * The command's reply is not a copy of the request, yet a frame can
 	 * repeat the request byte for byte (rmd_frame_repeats()): the echo of
@@ -132,7 +138,7 @@ struct rmd_txn_opts {
 int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
 		    const struct rmd_msg *msg);
 
-/* True when rx answers t (identifier and command byte).  Pure. */
+/* True when rx answers t (identifier, command byte, and index where it has one).  Pure. */
 bool rmd_txn_matches(const struct rmd_txn *t, const struct rmd_frame *rx);
 
 /*

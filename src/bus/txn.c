@@ -47,6 +47,18 @@ int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
 		t->reply_id = d->reply_base + (uint32_t)motor_id; /* V2 §1: shared with requests */
 	t->reply_cmd = spec->cmd;
 	t->any_cmd = spec->flags & RMD_CMD_NO_CMD_BYTE;
+	{
+		/* an index in request and reply alike (V4.2 §2.1, §2.4): answers are told apart by it */
+		const struct rmd_field_spec *qi =
+			rmd_layout_field(spec, RMD_DIR_REQUEST, RMD_FLD_INDEX);
+		const struct rmd_field_spec *ai =
+			rmd_layout_field(spec, RMD_DIR_REPLY, RMD_FLD_INDEX);
+
+		if (qi && ai && qi->off == ai->off && qi->size == 1 && ai->size == 1 && qi->off) {
+			t->index_at = qi->off;
+			t->index = t->req.data[qi->off];
+		}
+	}
 	/* V3 §2.25: 0x76 does not answer; V3 §2.31: 0xB4's answer is noise, when it comes. */
 	t->no_reply = spec->flags & (RMD_CMD_NO_REPLY | RMD_CMD_RANDOM_REPLY);
 	t->check_echo = !(spec->flags & RMD_CMD_ECHO);
@@ -57,6 +69,8 @@ int rmd_txn_prepare(struct rmd_txn *t, enum rmd_proto proto, uint8_t motor_id,
 bool rmd_txn_matches(const struct rmd_txn *t, const struct rmd_frame *rx)
 {
 	if (rx->can_id != t->reply_id)
+		return false;
+	if (t->index_at && (rx->len <= t->index_at || rx->data[t->index_at] != t->index))
 		return false;
 	return t->any_cmd || (rx->len >= 1 && rx->data[0] == t->reply_cmd);
 }

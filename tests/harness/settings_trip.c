@@ -159,3 +159,55 @@ void settings_round_trip(settings_run_fn *run, void *ctx, const char *const *bus
 	assert_int_equal(remove(path[0]), 0);
 	assert_int_equal(remove(path[1]), 0);
 }
+
+void settings_round_trip_v4(settings_run_fn *run, void *ctx, const char *const *bus_args,
+			    const char *const *v3_bus_args, const char *dir)
+{
+	static char orig[TEXT_MAX], text[TEXT_MAX], a[TEXT_MAX], b[TEXT_MAX], path[2][512];
+	struct trip t = { .run = run, .ctx = ctx, .bus_args = bus_args };
+	struct trip t3 = { .run = run, .ctx = ctx, .bus_args = v3_bus_args };
+
+	snprintf(path[0], sizeof(path[0]), "%s/v4.yaml", dir);
+	snprintf(path[1], sizeof(path[1]), "%s/v4-edited.yaml", dir);
+
+	/* dump: the simulator's gains, 1.0 each, seven of them (V4.2 §2.1.4) */
+	TRIP(&t, 0, "dump", "1-2");
+	snprintf(orig, sizeof(orig), "%s", t.out);
+	write_file(path[0], orig);
+	has(&t, orig, "protocol: v4\n");
+	has(&t, orig, "    firmware: 2025070202  # not restored\n");
+	has(&t, orig,
+	    "    pid: {current_kp: 1, current_ki: 1, speed_kp: 1, speed_ki: 1, "
+	    "position_kp: 1, position_ki: 1, position_kd: 1}\n");
+
+	/* 0.123456789 is no binary32: the nearest is 0.123456791, and that is what stays */
+	edit(text, orig, "id: 1", "speed_kp: 1,", "speed_kp: 0.123456789,");
+	edit(a, text, "id: 1", "position_kd: 1}", "position_kd: 2.5e-3}");
+	write_file(path[1], a);
+	TRIP(&t, 0, "restore", path[1], "--yes");
+	has(&t, t.out, "motor 1: pid: speed_kp 1 -> 0.123456791\n");
+	has(&t, t.out, "motor 1: pid: position_kd 1 -> 0.00249999994\n");
+	has(&t, t.out, "motor 2: unchanged\n");
+	TRIP(&t, 0, "dump", "1-2");
+	has(&t, t.out, "speed_kp: 0.123456791, ");
+	has(&t, t.out, "position_kd: 0.00249999994}");
+	/* the dump restores to itself: every gain exactly as it was read */
+	snprintf(b, sizeof(b), "%s", t.out);
+	write_file(path[1], b);
+	TRIP(&t, 0, "restore", path[1], "--yes");
+	has(&t, t.out, "motor 1: unchanged\n");
+	has(&t, t.out, "motor 2: unchanged\n");
+
+	/* a V4 file for motors said to be V3: refused, nothing written */
+	TRIP(&t3, 2, "restore", path[1], "--yes");
+	has(&t3, t3.err, "dumped from protocol v4 motors, these are v3");
+
+	/* and back to the first dump */
+	TRIP(&t, 0, "restore", path[0], "--yes");
+	TRIP(&t, 0, "dump", "1-2");
+	motors_of(&t, a);
+	motors_of(&(struct trip){ .out = orig }, b);
+	assert_string_equal(a, b);
+	assert_int_equal(remove(path[0]), 0);
+	assert_int_equal(remove(path[1]), 0);
+}

@@ -24,4 +24,12 @@ typedef void settings_run_fn(void *ctx, const char *const *args, int *status, co
 void settings_round_trip(settings_run_fn *run, void *ctx, const char *const *bus_args,
 			 const char *dir);
 
+/*
+ * The same for V4 motors (bus_args must say --protocol v4): seven float
+ * gains by index (V4.2 §2.1), one edited to a value a binary32 rounds,
+ * restored and dumped back exactly; the file refused for --protocol v3.
+ */
+void settings_round_trip_v4(settings_run_fn *run, void *ctx, const char *const *bus_args,
+			    const char *const *v3_bus_args, const char *dir);
+
 #endif /* RMD_TESTS_SETTINGS_TRIP_H */

@@ -1508,6 +1508,27 @@ static void test_rmdctl_dump_restore(void **state)
 	settings_round_trip(trip_run, NULL, bus, S.dir);
 }
 
+/* Issue 19: dump and restore of V4 motors' float gains, exactly, on rmd-sim over vcan0. */
+static void test_rmdctl_dump_restore_v4(void **state)
+{
+	const char *sim_argv[] = { S.rmdsim, "--can",	   "vcan0", "--motors",
+				   "1-2",    "--protocol", "v4",    NULL };
+	const char *bus[] = { "--bus", "vcan0", "--timeout", "50", "--protocol", "v4", NULL };
+	const char *bus3[] = { "--bus", "vcan0", "--timeout", "50", NULL };
+	struct kid *sim;
+
+	(void)state;
+	if (!S.have_can)
+		skip();
+	need_exec(S.rmdsim);
+	need_exec(S.rmdctl);
+	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
+		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
+	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, 0);
+	kid_wait_output(sim, ": ready", READY_MS, service);
+	settings_round_trip_v4(trip_run, NULL, bus, bus3, S.dir);
+}
+
 /*
  * Issue 19: protocol auto over real SocketCAN.  rmd-sim simulates a V2, a
  * V3 (firmware 20220206) and a V4 (2025070202) motor on vcan0; rmdd's
@@ -3444,6 +3465,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_rmdctl_scan_move, rmdctl_teardown),
 		cmocka_unit_test_teardown(test_rmdctl_dump_restore, rmdctl_teardown),
 		cmocka_unit_test_teardown(test_auto_dialects, rmdctl_teardown),
+		cmocka_unit_test_teardown(test_rmdctl_dump_restore_v4, rmdctl_teardown),
 		cmocka_unit_test(test_system_rate),
 		cmocka_unit_test(test_system_watchdog),
 		cmocka_unit_test(test_system_sigterm),

@@ -159,7 +159,7 @@ struct rec {
 	double scale[RMD_FLD_COUNT];
 };
 
-/* V4.2 §2.1: the dialect's gains read one 0x30 by index each into rec; an exit status. */
+/* V4.2 §2.1: the dialect's gains read one 0x30 by index each into rec (the bus open); an exit status. */
 int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec);
 
 /* Field f of r is the binary32 whose bits are `bits` (a V4 gain, read by index). */

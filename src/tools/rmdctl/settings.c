@@ -508,7 +508,7 @@ out:
 static const enum rmd_field pid_fields[6] = { RMD_FLD_CURR_KP, RMD_FLD_CURR_KI, RMD_FLD_SPD_KP,
 					      RMD_FLD_SPD_KI,  RMD_FLD_POS_KP,	RMD_FLD_POS_KI };
 
-/* V4.2 §2.1: the dialect's gains, one 0x30 by index each, into rec.  Non-rt. */
+/* V4.2 §2.1: the dialect's gains, one 0x30 by index each, into rec (the bus open).  Non-rt. */
 int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec)
 {
 	const struct rmd_dialect *dl = rmdctl_dialect(d);
@@ -520,7 +520,7 @@ int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec)
 		rmdctl_req_init(&q[n], id, 0x30);
 		rmd_msg_set(&q[n++].msg, RMD_FLD_INDEX, dl->pid_slots[i].index);
 	}
-	r = rmdctl_exchange(d, q, n);
+	r = rmdctl_run_reqs(d, q, n);
 	if (r)
 		return r;
 	if (rmdctl_report_failed(d, q, n))
@@ -559,7 +559,11 @@ static int pid_read(struct dev *d, uint8_t id)
 	if (rmdctl_dialect(d)->pid == RMD_PID_FLOAT_INDEXED) {
 		enum rmd_field order[RMD_PID_SLOTS_MAX];
 
+		r = rmdctl_open_bus(d);
+		if (r)
+			return r;
 		r = rmdctl_pid_read_indexed(d, id, &rec);
+		rmdctl_close_bus(d);
 		if (!r)
 			rmdctl_print_rec(d, id, &rec, order, pid_order(rmdctl_dialect(d), order));
 		return r;
