@@ -502,6 +502,69 @@ static void test_auto_v4_and_a_mismatch(void **state)
 	rig_down();
 }
 
+/* Three V4 motors, as configured. */
+static void tweak_all_v4(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		cfg->motors[i].proto = RMD_PROTO_V4;
+		sim->motors[i].proto = RMD_PROTO_V4;
+	}
+}
+
+/*
+ * V4.2 §2.33: motor 1 was left by another tool pushing 0x9C every 20 ms and
+ * 0x92 every 30 ms (and not answering those reads).  Bring-up sees it,
+ * turns every push off, and the loop runs it with nothing unexpected.
+ */
+static void test_active_reply_left_on(void **state)
+{
+	struct rmd_bus_rx rx[16];
+	struct rmd_frame f[2] = {
+		{ .can_id = RMD_CAN_REQ_BASE + 1, .len = 8, .data = { 0xB6, 0x9C, 1, 2, 0 } },
+		{ .can_id = RMD_CAN_REQ_BASE + 1, .len = 8, .data = { 0xB6, 0x92, 1, 3, 0 } },
+	};
+	const struct rmd_sim_motor *m;
+	struct rmd_loop_counters c;
+	struct rmd_snapshot s;
+	unsigned pushed = 0;
+
+	(void)state;
+	rig_cfg_tweak = tweak_all_v4;
+	rig_up(3, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	assert_int_equal(rmd_bus_send(&R.sim[0], f, 2, t_now), 2);
+	for (unsigned k = 0; k < 100; k++) { /* 100 ms of the sim bus: pushes come */
+		int n;
+
+		t_now += MS;
+		n = rmd_bus_recv(&R.sim[0], rx, 16, t_now);
+		for (int j = 0; j < n; j++)
+			pushed += rx[j].f.can_id == RMD_CAN_V3_REPLY_BASE + 1;
+	}
+	if (pushed < 5)
+		fail_msg("the simulated motor pushed %u replies in 100 ms", pushed);
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	assert_int_equal(R.bu.motor[0].state, RMD_BRINGUP_FOUND);
+	assert_true(R.bu.motor[0].reports_off);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(R.bu.motor[i].b3, RMD_B3_SET);
+	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 1);
+	for (unsigned k = 0; k < RMD_DIALECT_REPORTS_MAX; k++)
+		if (m->report_steps[k])
+			fail_msg("0x%02X still pushed after bring-up", m->d->report_cmds[k]);
+	for (unsigned k = 0; k < 300; k++) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	rmd_loop_get_counters(R.l, &c);
+	rmd_loop_get_snapshot(R.l, &s);
+	if (c.unexpected || c.missed || s.m[0].lifecycle != RMD_LC_READY)
+		fail_msg("after bring-up: unexpected %llu, missed %llu, motor 1 lifecycle %u",
+			 (unsigned long long)c.unexpected, (unsigned long long)c.missed,
+			 s.m[0].lifecycle);
+	rig_down();
+}
+
 static void test_auto_v2_with_protection_is_refused(void **state)
 {
 	struct rmd_snapshot s;
@@ -611,6 +674,7 @@ int main(void)
 		cmocka_unit_test(test_auto_picks_each_dialect),
 		cmocka_unit_test(test_auto_v2_with_protection_is_refused),
 		cmocka_unit_test(test_auto_v4_and_a_mismatch),
+		cmocka_unit_test(test_active_reply_left_on),
 		cmocka_unit_test(test_slow_motors_are_found_and_measured),
 		cmocka_unit_test(test_late_answers_of_bringup_are_late),
 	};
