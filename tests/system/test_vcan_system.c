@@ -1508,11 +1508,20 @@ static void test_rmdctl_dump_restore(void **state)
 	settings_round_trip(trip_run, NULL, bus, S.dir);
 }
 
-/* Issue 19: dump and restore of V4 motors' float gains, exactly, on rmd-sim over vcan0. */
+/*
+ * Issue 19: the bench tools on V4 motors (rmd-sim over vcan0): dump and
+ * restore of their float gains, exactly; set-id from 3 to 5 by 0x20 index
+ * 5 and a reset, confirmed from the new id.
+ */
 static void test_rmdctl_dump_restore_v4(void **state)
 {
 	const char *sim_argv[] = { S.rmdsim, "--can",	   "vcan0", "--motors",
-				   "1-2",    "--protocol", "v4",    NULL };
+				   "1-3",    "--protocol", "v4",    NULL };
+	const char *set_id[] = { S.rmdctl, "set-id",	"3",  "5",	    "--yes", "--bus",
+				 "vcan0",  "--timeout", "50", "--protocol", "v4",    NULL };
+	const char *scan[] = { S.rmdctl, "scan",       "--bus", "vcan0",  "--timeout",
+			       "50",	 "--protocol", "v4",	"--json", NULL };
+	static struct run r;
 	const char *bus[] = { "--bus", "vcan0", "--timeout", "50", "--protocol", "v4", NULL };
 	const char *bus3[] = { "--bus", "vcan0", "--timeout", "50", NULL };
 	struct kid *sim;
@@ -1527,6 +1536,13 @@ static void test_rmdctl_dump_restore_v4(void **state)
 	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, 0);
 	kid_wait_output(sim, ": ready", READY_MS, service);
 	settings_round_trip_v4(trip_run, NULL, bus, bus3, S.dir);
+	run_tool(&r, set_id);
+	if (r.status != 0 || !strstr(r.out, "motor 3 is now motor 5"))
+		fail_msg("rmdctl set-id 3 5 (V4): exit %d\n%s%s", r.status, r.out, r.err);
+	run_tool(&r, scan);
+	if (r.status != 0 || !strstr(r.out, "\"motor_id\":5,") || strstr(r.out, "\"motor_id\":3,"))
+		fail_msg("after set-id 3 5, scan:\n%s%s", r.out, r.err);
+	print_message("V4 on vcan0: float gains dumped and restored exactly; set-id 3 -> 5\n");
 }
 
 /*
