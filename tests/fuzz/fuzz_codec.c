@@ -79,7 +79,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	int r;
 
 	memcpy(in, data, size < sizeof(in) ? size : sizeof(in));
-	proto = (enum rmd_proto)(in[0] % 3);
+	proto = (enum rmd_proto)(in[0] % RMD_PROTO_COUNT);
 	dir = (enum rmd_dir)((in[0] >> 2) % 3);
 	f.can_id = (uint32_t)in[2] | (uint32_t)in[3] << 8;
 	f.len = in[4];

@@ -50,7 +50,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	int n;
 
 	rmd_sim_motor_params_default(&p, (uint8_t)((head >> 2) % RMD_MAX_MOTORS + 1),
-				     (enum rmd_proto)(head % 3));
+				     (enum rmd_proto)(head % RMD_PROTO_COUNT));
 	rmd_sim_motor_init(&m, &p, now);
 	while (in.n > 0) {
 		uint8_t act = fuzz_u8(&in);
