@@ -1154,6 +1154,42 @@ static void test_v4_set_id(void **state)
 }
 
 /*
+ * V4.2 §2.34.4 index 4: the multi-turn angle kept at power off, as in V3;
+ * without it a power cycle wraps it to +-180 deg.  0xA6 (§2.22) moves
+ * within one turn, in the direction asked.
+ */
+static void test_v4_multi_turn_and_single(void **state)
+{
+	struct rmd_sim_motor m;
+	struct rmd_frame f;
+	struct rmd_msg msg;
+
+	(void)state;
+	motor_ready(&m, 1, RMD_PROTO_V4);
+	f = REQ(V4, 1, 0xA4, KV(MAX_SPEED, 720), KV(ANGLE, 72000));
+	(void)ask(&m, RMD_PROTO_V4, &f, NULL);
+	advance_talking(&m, 1, 2000 * MS);
+	assert_true(llabs(read_v(&m, RMD_PROTO_V4, 1, 0x92, RMD_FLD_ANGLE) - 72000) <= 2);
+	f = REQ(V4, 1, 0x20, KV(INDEX, 4), KV(VALUE, 1));
+	expect_echo(&m, &f, 0x241);
+	rmd_sim_motor_power_cycle(&m, now);
+	assert_true(llabs(read_v(&m, RMD_PROTO_V4, 1, 0x92, RMD_FLD_ANGLE) - 72000) <= 2);
+	f = REQ(V4, 1, 0x20, KV(INDEX, 4), KV(VALUE, 0));
+	expect_echo(&m, &f, 0x241);
+	rmd_sim_motor_power_cycle(&m, now);
+	assert_true(llabs(read_v(&m, RMD_PROTO_V4, 1, 0x92, RMD_FLD_ANGLE)) <= 2);
+
+	/* 0xA6: to 90 deg counterclockwise (1) from 0: the long way, -270 deg */
+	brake_release(&m, RMD_PROTO_V4, 1);
+	f = REQ(V4, 1, 0xA6, KV(SPIN_DIR, 1), KV(MAX_SPEED, 720), KV(ANGLE, 9000));
+	msg = ask(&m, RMD_PROTO_V4, &f, NULL);
+	assert_true(rmd_msg_has(&msg, RMD_FLD_ENCODER) && !rmd_msg_has(&msg, RMD_FLD_ANGLE));
+	advance_talking(&m, 1, 2000 * MS);
+	assert_true(llabs(read_v(&m, RMD_PROTO_V4, 1, 0x92, RMD_FLD_ANGLE) + 27000) <= 2);
+	assert_true(llabs(read_v(&m, RMD_PROTO_V4, 1, 0x94, RMD_FLD_ANGLE) - 9000) <= 2);
+}
+
+/*
  * V4.2 §2.33: 0xB6 pushes a read's reply every n x 10 ms and the read is
  * no longer answered; off restores it; a reset ends it.
  */
@@ -1234,6 +1270,7 @@ int main(void)
 		cmocka_unit_test_setup(test_next_event, setup),
 		cmocka_unit_test_setup(test_v4_gains_and_accel, setup),
 		cmocka_unit_test_setup(test_v4_set_id, setup),
+		cmocka_unit_test_setup(test_v4_multi_turn_and_single, setup),
 		cmocka_unit_test_setup(test_v4_active_reply, setup),
 	};
 
