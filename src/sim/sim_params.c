@@ -37,7 +37,7 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    0),
 	ROW("model", NULL, MODEL, model, 0, 0, false, "",
 	    "0xB5 model string, 1..7 ASCII characters", 0),
-	ROW("version_date", "version", VERSION, version_date, 0, 0, false, "yyyymmdd",
+	ROW("version_date", "version", VERSION, version_date, 0, 0, false, "yyyymmdd[NN]",
 	    "0xB2 firmware date (default: one of its dialect's, V3 20220206, V4 2025070202)", 0),
 	ROW("inertia_kgm2", "inertia", REAL, inertia_kgm2, 0, 1000, true, "kg·m²",
 	    "inertia at the output shaft, rotor reflected", 0),
@@ -286,7 +286,9 @@ int rmd_sim_param_parse(struct rmd_sim_motor_params *p, const struct rmd_sim_par
 
 		if (rmd_sim_parse_u64(value, &u) < 0 || u > UINT32_MAX ||
 		    !rmd_version_date_valid((uint32_t)u)) {
-			snprintf(allowed, size, "a date yyyymmdd, e.g. 20220206 (V3 §2.29)");
+			snprintf(allowed, size,
+				 "a date yyyymmdd, e.g. 20220206 (V3 §2.29), or yyyymmddNN, e.g. "
+				 "2025070202");
 			return -EINVAL;
 		}
 		d = (uint32_t)u;
