@@ -694,6 +694,9 @@ static const struct run_case other_commands[] = {
 	  .out_has = { "7 PID gains written to RAM" },
 	  .err_has = { "141#310100000000C03F\n", "241#310100000000C03F\n",
 		       "141#310900000000803E\n" } },
+	/* info on a V4 motor: its seven gains by index, its 10-digit firmware date */
+	{ .args = { "info", "1", "--bus", "sim:1-3", "--protocol", "v4" },
+	  .out_has = { "sim:1-3 motor 1 (v4)", "firmware date    2025070202", "position kd" } },
 	{ .args = { "pid", "1", "1", "2", "--bus", "sim:1-3", "--protocol", "v4" },
 	  .status = 2,
 	  .err_has = { "POS_KI [POS_KD]" } },

@@ -118,8 +118,9 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 	static const enum rmd_field order[] = {
 		RMD_FLD_MODEL,	 RMD_FLD_VERSION, RMD_FLD_RUNTIME, RMD_FLD_ACCEL,
 		RMD_FLD_CURR_KP, RMD_FLD_CURR_KI, RMD_FLD_SPD_KP,  RMD_FLD_SPD_KI,
-		RMD_FLD_POS_KP,	 RMD_FLD_POS_KI,  RMD_FLD_MODE,
+		RMD_FLD_POS_KP,	 RMD_FLD_POS_KI,  RMD_FLD_POS_KD,  RMD_FLD_MODE,
 	};
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
 	struct req q[12];
 	struct rec rec = { 0 };
 	unsigned n = 0, bad;
@@ -128,18 +129,29 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 
 	(void)argc;
 	(void)argv;
-	if (rmdctl_dialect(d)->pid == RMD_PID_U8_SIX) {
+	if (rmd_dialect_has(dl, RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2)) {
 		rmdctl_req_init(&q[n++], id, 0xB5); /* V3 §2.32 */
 		rmdctl_req_init(&q[n++], id, 0xB2); /* V3 §2.29 */
 		rmdctl_req_init(&q[n++], id, 0xB1); /* V3 §2.28 */
+	}
+	if (dl->pid == RMD_PID_U8_SIX) {
 		rmdctl_req_init(&q[n++], id, 0x30); /* V3 §2.1: six gains */
-	} else {
+	} else if (dl->pid == RMD_PID_V2_PER_GAIN) {
 		for (unsigned i = 0; i < 6; i++)
 			rmdctl_req_init(&q[n++], id, rmdctl_v2_pid_read[i]);
 	}
-	rmdctl_req_init(&q[n++], id, 0x42); /* V3 §2.4 / V2 §3.19 */
+	/* V3 §2.4 / V2 §3.19; V4.2 §2.4: index 0, the position-planning acceleration */
+	rmdctl_req_init(&q[n], id, 0x42);
+	rmd_msg_set(&q[n++].msg, RMD_FLD_INDEX, 0);
 	rmdctl_req_init(&q[n++], id, 0x70); /* V3 §2.23 / V2 §3.45 */
-	r = rmdctl_exchange(d, q, n);
+	r = rmdctl_open_bus(d);
+	if (r)
+		return r;
+	r = rmdctl_run_reqs(d, q, n);
+	/* V4.2 §2.1: the gains one by index */
+	if (!r && dl->pid == RMD_PID_FLOAT_INDEXED)
+		r = rmdctl_pid_read_indexed(d, id, &rec);
+	rmdctl_close_bus(d);
 	if (r)
 		return r;
 	bad = rmdctl_report_failed(d, q, n);
@@ -147,14 +159,22 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 		return RMDCTL_EXIT_DATA;
 	for (unsigned i = 0; i < n; i++)
 		rmdctl_rec_add_req(&rec, d, &q[i], true);
+	/* position KD only where the layout has it (V4.2 §2.1.4 index 9) */
+	size_t n_order = sizeof(order) / sizeof(order[0]);
+	enum rmd_field shown[sizeof(order) / sizeof(order[0])];
+	size_t k = 0;
+
+	for (size_t i = 0; i < n_order; i++)
+		if (order[i] != RMD_FLD_POS_KD || dl->pid == RMD_PID_FLOAT_INDEXED)
+			shown[k++] = order[i];
 	if (d->json) {
 		rmdctl_json_begin(d, id);
-		for (size_t i = 0; i < sizeof(order) / sizeof(order[0]); i++)
-			rmdctl_json_field(d, &rec, order[i]);
+		for (size_t i = 0; i < k; i++)
+			rmdctl_json_field(d, &rec, shown[i]);
 		/* V3 §2.30: 0xB3 only writes; nothing reads the timeout back. */
 		fputs(",\"timeout_ms\":null}\n", stdout);
 	} else {
-		rmdctl_print_rec(d, id, &rec, order, sizeof(order) / sizeof(order[0]));
+		rmdctl_print_rec(d, id, &rec, shown, k);
 		printf("  %-16s %s\n", "comm timeout",
 		       "not readable (0xB3 only writes it; see `rmdctl set-timeout`)");
 	}
