@@ -144,6 +144,7 @@ struct rmd_motor {
 	double dir;		  /* +1 or -1 */
 	double native_per_output; /* 1, or gear_ratio when the protocol speaks the rotor */
 	double gear_ratio;	  /* rotor turns per output turn (encoder counts) */
+	/* the config's; the rt loop moves it (rmd_motor_shift_pos()) after a power cycle */
 	double zero_offset_rad;
 	double kt_nm_a; /* output N·m per A of iq; 0: unknown */
 	struct rmd_config_limits limits;
@@ -390,5 +391,13 @@ void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad);
 /* The native output position (rad) of a reported position, and back. */
 double rmd_motor_to_native_pos(const struct rmd_motor *m, double pos_rad);
 double rmd_motor_from_native_pos(const struct rmd_motor *m, double native_rad);
+
+/*
+ * Report every position shift_rad further from now on, and take commands
+ * in the same frame: the motor's zero offset moves by -direction *
+ * shift_rad.  The multi-turn unwrap after a power cycle and homing do it
+ * (rmd/multiturn.h); nothing moves the motor.  rt-safe.
+ */
+void rmd_motor_shift_pos(struct rmd_motor *m, double shift_rad);
 
 #endif /* RMD_MOTOR_H */

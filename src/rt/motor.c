@@ -321,6 +321,12 @@ double rmd_motor_from_native_pos(const struct rmd_motor *m, double native_rad)
 	return m->dir * (native_rad - m->zero_offset_rad);
 }
 
+/* rt-safe. */
+void rmd_motor_shift_pos(struct rmd_motor *m, double shift_rad)
+{
+	m->zero_offset_rad -= m->dir * shift_rad;
+}
+
 /* Encode msg on 0x140 + ID with the motor's table.  rt-safe. */
 static int encode_msg(const struct rmd_motor *m, const struct rmd_msg *msg, struct rmd_frame *out)
 {
