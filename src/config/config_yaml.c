@@ -263,6 +263,14 @@ static const struct field motor_fields[] = {
 	DBL("status_poll_hz", M, status_poll_hz, 0, RMD_CONFIG_RATE_MAX_HZ, 0),
 	INT("comm_loss_ms", M, comm_loss_ms, 0, 600000, 0),
 	MAP("feedback", M, feedback, feedback_fields),
+	BOOL("multi_turn_saved", M, multi_turn_saved),
+	{ .key = "travel_rad",
+	  .type = T_SEQ,
+	  .off = offsetof(M, travel_rad),
+	  .size = 2,
+	  .elem = &(const struct field){ .type = T_DOUBLE, .min = -1e6, .max = 1e6 },
+	  .elem_size = sizeof(double),
+	  .count_off = offsetof(M, n_travel) },
 	LATER("sim"),
 	END
 };
@@ -806,6 +814,13 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 				m->rate_divisor);
 		}
 		validate_feedback(c, cfg, m, rmd_yaml_get(mn, "feedback", NULL), path);
+		if (rmd_yaml_get(mn, "travel_rad", NULL) &&
+		    (m->n_travel != 2 || !(m->travel_rad[0] < m->travel_rad[1]))) {
+			rmd_yaml_path_key(kp, path, "travel_rad");
+			rmd_yaml_report(c, rmd_yaml_line_of(mn, "travel_rad"), kp,
+					"[min, max] in rad, min below max: where the joint can be "
+					"(docs/faults.md \"Position uncertain after power-off\")");
+		}
 		validate_motor_sim(c, cfg, sim, i, mn, path);
 	}
 }
