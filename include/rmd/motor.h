@@ -53,6 +53,7 @@
 #include "rmd/dialect.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
+#include "rmd/multiturn.h"
 #include "rmd/state.h"
 
 /*
@@ -173,6 +174,8 @@ struct rmd_motor {
 	bool v2_anchored;      /* the first encoder value after the reference is seen */
 	uint16_t v2_enc_last;  /* last encoder value */
 	int64_t v2_enc_counts; /* unwrapped counts since the anchor */
+	/* whether its position survives a power cycle (rmd/multiturn.h), from the config */
+	struct rmd_multiturn mt;
 };
 
 /* Whether the answer to command `cmd` of the motor's table repeats the request.  rt-safe. */
@@ -205,6 +208,11 @@ struct rmd_motor_info {
 	double kd_min, kd_max;	   /* MIT damping range, N·m·s/rad: outside is rejected */
 	double pos_resolution_rad; /* step of the reported position (rmd_motor_pos_resolution_rad()) */
 	double pos_rate_hz;	   /* new positions planned per second (the plan's pos_hz) */
+	/* rmd/multiturn.h: its facts for trusting its position after a power cycle */
+	bool multi_turn_saved; /* it keeps its multi-turn count at power-off */
+	double travel_min_rad; /* the travel band (+-INFINITY: none) */
+	double travel_max_rad;
+	double turn_period_rad; /* one rotor turn at the output: 2 pi / gear_ratio */
 };
 
 /* Which setpoint values a mode uses (the others are not read).  rt-safe. */

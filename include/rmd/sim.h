@@ -125,6 +125,11 @@ struct rmd_sim_motor_params {
 	 */
 	unsigned comm_loss_rom_ms;
 	bool comm_loss_tripped;
+	/*
+	 * 0x20 index 4 (V3 §2.33.4) already in ROM at first power-on: the
+	 * multi-turn count survives power-off and 0x76 (V3.5+ firmware).
+	 */
+	bool multi_turn_save;
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */

@@ -84,6 +84,16 @@ struct rmd_setpoint {
 	double max_vel_rad_s;
 };
 
+/*
+ * The setpoint drives the motor to a position (position mode, MIT with
+ * kp > 0), so it needs a position rmdd trusts (rmd/multiturn.h): the one
+ * copy of the rule.  rt-safe.
+ */
+static inline bool rmd_setpoint_needs_pos(const struct rmd_setpoint *sp)
+{
+	return sp->mode == RMD_MODE_POSITION || (sp->mode == RMD_MODE_MIT && sp->kp > 0.0);
+}
+
 /* A controller's command, as the bridge hands it to the rt loop. */
 struct rmd_command {
 	int64_t rx_ns;	  /* CLOCK_MONOTONIC when it arrived (its receive stamp), not when read */
@@ -103,6 +113,14 @@ struct rmd_command {
 struct rmd_motor_state {
 	uint8_t lifecycle; /* enum rmd_lifecycle */
 	uint8_t mode;	   /* enum rmd_mode in force */
+	/*
+	 * Whether pos_rad can be trusted after the motor was powered off or
+	 * reset (rmd/multiturn.h): pos_trust is enum rmd_pos_trust,
+	 * pos_certain is rmd_pos_trusted(pos_trust), the one flag the loop
+	 * checks.
+	 */
+	uint8_t pos_trust;
+	bool pos_certain;
 	double pos_rad;
 	double vel_rad_s;
 	double torque_nm;
@@ -148,6 +166,11 @@ enum rmd_ignore {
 	RMD_IGN_EDGE = 0,  /* the motor waits for an enable = 0 first */
 	RMD_IGN_NOT_READY, /* the motor is in PROBE, FAULT or LOST */
 	RMD_IGN_TRIPPED,   /* the command is older than the watchdog trip */
+	/*
+	 * the setpoint drives to a position (rmd_setpoint_needs_pos()) and
+	 * the motor's position is uncertain (rmd/multiturn.h)
+	 */
+	RMD_IGN_POS_UNCERTAIN,
 	RMD_IGN_KINDS
 };
 
@@ -202,6 +225,18 @@ enum rmd_event_kind {
 	 * lost), else 0 (armed by the loop, or the bounded writes failed).
 	 */
 	RMD_EV_COMM_LOSS,
+	/*
+	 * A motor's position after it (re)appeared, or homed: a = enum
+	 * rmd_pos_trust (rmd/multiturn.h); b = the shift applied, in
+	 * microradians (0: none).
+	 */
+	RMD_EV_POSITION,
+	/*
+	 * A setpoint that drives to a position was refused, the position being
+	 * uncertain (once per episode: until the motor's position is trusted
+	 * or it is lost): a = enum rmd_pos_trust, b = the setpoint's mode.
+	 */
+	RMD_EV_POS_REFUSED,
 };
 
 struct rmd_event {

@@ -656,6 +656,8 @@ static void validate_motor_sim(struct yctx *c, struct rmd_config *cfg, struct rm
 	p->mit = m->mit;
 	if (rmd_yaml_get(mn, "gear_ratio", NULL))
 		p->gear_ratio = m->gear_ratio;
+	if (m->multi_turn_saved)
+		p->multi_turn_save = true; /* as the config says the motor was set up */
 	if (m->torque_constant_nm_a > 0)
 		p->kt_nm_a = m->torque_constant_nm_a;
 }
@@ -1072,11 +1074,17 @@ int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, un
 		m->torque_constant_nm_a = model.motor.kt_nm_a;
 		m->limits.velocity_rad_s = 20.0;
 		m->limits.torque_nm = 10.0;
+		/*
+		 * Its simulated motors keep their multi-turn count (0x20 index 4,
+		 * V3 §2.33.4), so their positions are trusted from the start.
+		 */
+		m->multi_turn_saved = true;
 		if (!sim)
 			continue;
 		sim->motors[i] = sim->buses[m->bus].motor;
 		sim->motors[i].id = m->id;
 		sim->motors[i].proto = m->proto;
+		sim->motors[i].multi_turn_save = true;
 	}
 	return 0;
 }

@@ -28,6 +28,7 @@
 #include "rmd/time.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
+#include "rmd/multiturn.h"
 
 #define OUTSTANDING 8			/* requests in flight per motor */
 #define ONESHOTS 4			/* one-shot frames waiting per motor */
@@ -97,7 +98,15 @@ struct lmotor {
 	bool cl_want;		   /* an enable waits for the round */
 	struct rmd_setpoint cl_sp; /* ... with this setpoint */
 	uint64_t unarmed_rejects;  /* enables refused: protection not set */
-	struct rmd_latency lat;	   /* every matched reply; under rmd_loop.stat_seq */
+	/*
+	 * Multi-turn position after a power cycle (rmd/multiturn.h; the flag
+	 * is st->pos_certain, the facts m.mt): whether the next position
+	 * received after pos_settle_ns decides it.
+	 */
+	bool pos_settle;
+	int64_t pos_settle_ns;
+	bool pos_warned;	/* this episode's refusal was reported */
+	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
 	/* bring-up */
 	char model[8];
 	uint32_t version;
@@ -231,6 +240,9 @@ static inline enum rmd_safe_action loop_safe_action(const struct rmd_loop *l)
 {
 	return l->cfg->safety.safe_action;
 }
+
+/* lifecycle.c: a position received while pos_settle decides the motor's (rmd/multiturn.h).  rt-safe. */
+__attribute__((cold)) void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 
 /* lifecycle.c.  rt-safe. */
 void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);

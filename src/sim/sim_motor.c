@@ -180,7 +180,7 @@ static void rom_defaults(struct rmd_sim_motor *m)
 	r->comm_timeout_ms = m->p.comm_loss_rom_ms; /* an earlier run's 0xB3 */
 	/* V3 §3.1: off, so 0x280 reaches the motor out of the box. */
 	r->can_filter = false;
-	r->multiturn_save = false;
+	r->multiturn_save = m->p.multi_turn_save; /* an earlier 0x20 index 4 */
 }
 
 /*

@@ -89,6 +89,8 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    "0xB3 time already in ROM at first power-on (an earlier run's); 0: off", 0),
 	ROW("comm_loss_tripped", "comm-loss-tripped", BOOL, comm_loss_tripped, 0, 0, false, "",
 	    "that protection has tripped already: the first command is only echoed (yes/no)", 0),
+	ROW("multi_turn_save", "multi-turn-save", BOOL, multi_turn_save, 0, 0, false, "",
+	    "0x20 index 4 set in ROM: the multi-turn count survives power-off (yes/no)", 0),
 	ROW("turnaround_us", NULL, US, turnaround_ns, 0, 1e6, false, "µs",
 	    "request end to reply start, mean", 0),
 	ROW("turnaround_jitter_us", "jitter-us", US, turnaround_jitter_ns, 0, 1e6, false, "µs",

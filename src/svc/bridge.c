@@ -53,6 +53,13 @@ _Static_assert(RMD_STATE_T_LC_PROBE == RMD_LC_PROBE && RMD_STATE_T_LC_READY == R
 		       RMD_STATE_T_LC_FAULT == RMD_LC_FAULT && RMD_STATE_T_LC_LOST == RMD_LC_LOST &&
 		       RMD_STATE_T_LC_SAFE == RMD_LC_SAFE && RMD_LC_COUNT == 6,
 	       "lifecycle");
+_Static_assert(RMD_STATE_T_POS_UNKNOWN == RMD_POS_UNKNOWN &&
+		       RMD_STATE_T_POS_AMBIGUOUS == RMD_POS_AMBIGUOUS &&
+		       RMD_STATE_T_POS_OUTSIDE == RMD_POS_OUTSIDE &&
+		       RMD_STATE_T_POS_SAVED == RMD_POS_SAVED &&
+		       RMD_STATE_T_POS_IN_BAND == RMD_POS_IN_BAND &&
+		       RMD_STATE_T_POS_HOMED == RMD_POS_HOMED && RMD_POS_TRUST_COUNT == 6,
+	       "position trust");
 _Static_assert(RMD_HEALTH_T_WD_IDLE == RMD_WD_IDLE && RMD_HEALTH_T_WD_OK == RMD_WD_OK &&
 		       RMD_HEALTH_T_WD_TRIPPED == RMD_WD_TRIPPED,
 	       "watchdog");
@@ -69,6 +76,7 @@ _Static_assert(RMD_HEALTH_T_REJ_DECODE == RMD_REJ_DECODE &&
 _Static_assert(RMD_HEALTH_T_IGN_EDGE == RMD_IGN_EDGE &&
 		       RMD_HEALTH_T_IGN_NOT_READY == RMD_IGN_NOT_READY &&
 		       RMD_HEALTH_T_IGN_TRIPPED == RMD_IGN_TRIPPED &&
+		       RMD_HEALTH_T_IGN_POS_UNCERTAIN == RMD_IGN_POS_UNCERTAIN &&
 		       RMD_HEALTH_T_IGN_KINDS == RMD_IGN_KINDS,
 	       "ignore kinds");
 _Static_assert(RMD_BUS_HEALTH_T_BUS_ACTIVE == RMD_BUS_ACTIVE &&
@@ -689,6 +697,8 @@ static void publish_state(struct rmd_bridge *b)
 		o->missed_replies = sat64(m->missed_replies);
 		o->rx_time_ns = m->rx_ns;
 		o->position_rx_time_ns = m->pos_rx_ns;
+		o->position_certain = m->pos_certain;
+		o->position_trust = (int8_t)m->pos_trust;
 	}
 	n = rmd_state_t_encode(b->buf->enc, 0, ENC_MAX, st);
 	if (publish_encoded(b, b->ch_state, n))
@@ -826,6 +836,10 @@ static void publish_config(struct rmd_bridge *b)
 			.comm_loss = i < h->nmotors ? (int8_t)h->comm_loss[i] : 0,
 			.position_resolution = m->pos_resolution_rad,
 			.position_rate_hz = m->pos_rate_hz,
+			.multi_turn_saved = m->multi_turn_saved,
+			.travel_min = m->travel_min_rad,
+			.travel_max = m->travel_max_rad,
+			.turn_period = m->turn_period_rad,
 		};
 	}
 	/* Rare, so the generated publish (it allocates) is fine here. */

@@ -33,6 +33,7 @@
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
 #include "rmd/loop.h"
+#include "rmd/multiturn.h"
 #include "rmd/plan.h"
 #include "rmd/sim.h"
 #include "rmd/sim_wire.h"
@@ -1679,6 +1680,185 @@ static void test_wake_hist_and_reply_latency(void **state)
 	rig_down();
 }
 
+/* ---- position after a power cycle (rmd/multiturn.h) --------------------------- */
+
+/* Motor 1's case: where its joint is and what rmdd is told about it. */
+static struct pc_case {
+	const char *name;
+	double gear;
+	int dir;
+	double zero_rad;
+	double start_deg;    /* the simulated output angle at first power-on (native) */
+	double below, above; /* travel band around the truth, deg; below < 0: none */
+} pc;
+
+static double pc_truth_rad(void)
+{
+	return pc.dir * (pc.start_deg * M_PI / 180.0 - pc.zero_rad);
+}
+
+static void pc_tweak(struct rmd_config *cfg)
+{
+	struct rmd_config_motor *m = &cfg->motors[0];
+	double t = pc_truth_rad();
+
+	m->gear_ratio = pc.gear;
+	m->direction = pc.dir;
+	m->zero_offset_rad = pc.zero_rad;
+	m->multi_turn_saved = false;
+	m->n_travel = 0;
+	if (pc.below >= 0) {
+		m->n_travel = 2;
+		m->travel_rad[0] = t - pc.below * M_PI / 180.0;
+		m->travel_rad[1] = t + pc.above * M_PI / 180.0;
+	}
+}
+
+static void pc_sim(struct rmd_sim_setup *sim)
+{
+	sim->motors[0].multi_turn_save = false;
+	sim->motors[0].start_angle_deg = pc.start_deg;
+}
+
+static void pc_rig(void)
+{
+	rig_sim_tweak = pc_sim;
+	rig_up(3, pc_tweak);
+	rig_sim_tweak = NULL;
+	bring_up();
+	run(50, false);
+}
+
+/* Motor 1's power fails for 300 ms; the loop runs until it is READY again. */
+static void pc_power_cycle(void)
+{
+	struct rmd_sim_fault off = { .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 1, .param = 1 };
+
+	fault_now(&off, 300 * MS);
+	run(200, true);
+	assert_int_equal(lifecycle(0), RMD_LC_LOST);
+	assert_false(snap().m[0].pos_certain);
+	run(1300, true);
+	set_faults(0, NULL, 0);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+}
+
+/* V3 control replies carry whole degrees (V3 §2.13.3) */
+#define PC_TOL (0.5 * M_PI / 180.0 + 1e-6)
+
+/*
+ * A joint whose travel band is narrower than one rotor turn at the output
+ * (2 pi / gear_ratio) reports its true position after a power cycle, which
+ * wrapped the motor's angle (include/rmd/sim.h): at several angles, gear
+ * ratios, both directions and zero offsets.
+ */
+static void test_pos_cycle_in_band(void **state)
+{
+	static const struct pc_case cases[] = {
+		{ "direct drive, 400 deg", 1.0, 1, 0.0, 400.0, 100.0, 100.0 },
+		{ "direct drive reversed, -500 deg, zero 0.3", 1.0, -1, 0.3, -500.0, 20.0, 300.0 },
+		{ "1:6, -100 deg, band 40 deg", 6.0, 1, 0.0, -100.0, 20.0, 20.0 },
+		{ "1:9 reversed, 725 deg, zero -0.5, band 30 deg", 9.0, -1, -0.5, 725.0, 5.0,
+		  25.0 },
+		{ "1:9, 10 deg (no wrap), band at its edge", 9.0, 1, 0.0, 10.0, 0.0, 30.0 },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_snapshot s;
+
+		pc = cases[k];
+		pc_rig();
+		s = snap();
+		if (!s.m[0].pos_certain || s.m[0].pos_trust != RMD_POS_IN_BAND ||
+		    fabs(s.m[0].pos_rad - pc_truth_rad()) > PC_TOL)
+			fail_msg("%s: at bring-up: certain %d trust %d pos %g, truth %g", pc.name,
+				 s.m[0].pos_certain, s.m[0].pos_trust, s.m[0].pos_rad,
+				 pc_truth_rad());
+		cmd_clear();
+		cmd_motor(1, false, RMD_MODE_TORQUE);
+		pc_power_cycle();
+		run(20, true);
+		/* the motor's own count wrapped: it says something else now */
+		if (fabs(pc.start_deg) > 180.0)
+			assert_true(fabs(sim_motor(0)->pos_rad * 180.0 / M_PI - pc.start_deg) >
+				    90.0);
+		s = snap();
+		if (!s.m[0].pos_certain || s.m[0].pos_trust != RMD_POS_IN_BAND ||
+		    fabs(s.m[0].pos_rad - pc_truth_rad()) > PC_TOL)
+			fail_msg("%s: after the power cycle: certain %d trust %d pos %g, truth %g "
+				 "(the simulated shaft at %g deg)",
+				 pc.name, s.m[0].pos_certain, s.m[0].pos_trust, s.m[0].pos_rad,
+				 pc_truth_rad(), sim_motor(0)->pos_rad * 180.0 / M_PI);
+		/* the others kept their count (the rig's motors save it) */
+		assert_true(s.m[1].pos_certain);
+		assert_int_equal(s.m[1].pos_trust, RMD_POS_SAVED);
+		rig_down();
+	}
+}
+
+/*
+ * A joint without a band narrower than one turn: uncertain after the power
+ * cycle; a position-mode enable is refused on the wire (no 0xA4 reaches
+ * the bus), counted and reported once; torque mode still runs; switching
+ * to position while enabled stops it (safe action).
+ */
+static void test_pos_ambiguous_refused(void **state)
+{
+	static const struct pc_case cases[] = {
+		{ "1:6, no band, 100 deg", 6.0, 1, 0.0, 100.0, -1, 0 },
+		{ "1:9, band 45 deg", 9.0, -1, 0.2, 300.0, 20.0, 25.0 },
+		{ "direct drive, no band, 700 deg", 1.0, 1, 0.0, 700.0, -1, 0 },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_setpoint *sp;
+		unsigned from;
+		uint64_t n;
+
+		pc = cases[k];
+		pc_rig();
+		assert_false(snap().m[0].pos_certain);
+		assert_int_equal(snap().m[0].pos_trust, RMD_POS_AMBIGUOUS);
+		cmd_clear();
+		cmd_motor(1, false, RMD_MODE_TORQUE);
+		pc_power_cycle();
+		cmd_motor(0, false, RMD_MODE_TORQUE); /* back from LOST: enable = 0 first */
+		run(20, true);
+		assert_false(snap().m[0].pos_certain);
+		/* position mode: refused, never on the wire */
+		from = trace_n;
+		nev = 0;
+		sp = cmd_motor(0, true, RMD_MODE_POSITION);
+		sp->pos_rad = pc_truth_rad();
+		n = ignored_over(300, RMD_IGN_POS_UNCERTAIN);
+		if (n != 300)
+			fail_msg("%s: %llu of 300 position enables counted as refused", pc.name,
+				 (unsigned long long)n);
+		assert_int_equal(lifecycle(0), RMD_LC_READY);
+		assert_int_equal(sent_to(0, 0xA4, from), 0);
+		assert_int_equal(sent_to(0, 0x77, from), 0);
+		assert_int_equal(count_ev(RMD_EV_POS_REFUSED, 0), 1);
+		/* torque mode runs */
+		from = trace_n;
+		sp = cmd_motor(0, true, RMD_MODE_TORQUE);
+		sp->torque_nm = 0.1;
+		run(50, true);
+		assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+		assert_true(sent_to(0, 0xA1, from) > 40);
+		/* switching to position while enabled: the safe action, no 0xA4 */
+		from = trace_n;
+		sp = cmd_motor(0, true, RMD_MODE_POSITION);
+		sp->pos_rad = pc_truth_rad();
+		run(50, true);
+		assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+		assert_int_equal(sent_to(0, 0xA4, from), 0);
+		assert_int_equal(sent_to(0, 0x80, from), 1);
+		rig_down();
+	}
+}
+
 /* 100 Hz, probe.on_missing start */
 static void slow_missing_start(struct rmd_config *cfg)
 {
@@ -2314,6 +2494,8 @@ int main(void)
 		cmocka_unit_test(test_fine_position_sine),
 		cmocka_unit_test(test_fine_position_at_zero),
 		cmocka_unit_test(test_polls_two_a_cycle),
+		cmocka_unit_test(test_pos_cycle_in_band),
+		cmocka_unit_test(test_pos_ambiguous_refused),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);
