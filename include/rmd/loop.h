@@ -121,6 +121,7 @@ struct rmd_loop_opts {
 	const struct rmd_plan *plan;  /* built from cfg, must outlive the loop */
 	struct rmd_bus *buses;	      /* cfg->n_buses open buses, in config order */
 	struct rmd_latest *commands;  /* bridge -> loop: struct rmd_command */
+	struct rmd_latest *homes;     /* bridge -> loop: struct rmd_home; NULL: none */
 	struct rmd_latest *snapshots; /* loop -> bridge: struct rmd_snapshot */
 	struct rmd_latest *health;    /* loop -> bridge: struct rmd_health */
 	struct rmd_ring *events;      /* loop -> logger: struct rmd_event */

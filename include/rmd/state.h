@@ -110,6 +110,18 @@ struct rmd_command {
 	uint32_t disables[RMD_MAX_MOTORS];
 };
 
+/*
+ * Homing requests, as the bridge hands them to the rt loop (rmd.home_t,
+ * docs/lcm.md "Homing"): per motor, how many were accepted so far (the
+ * loop acts on a change, so one is never lost however fast they come) and
+ * the newest one's content.
+ */
+struct rmd_home {
+	uint32_t seq[RMD_MAX_MOTORS];
+	bool as_reported[RMD_MAX_MOTORS]; /* the reported position is right */
+	double pos_rad[RMD_MAX_MOTORS];	  /* else: the motor is here now */
+};
+
 struct rmd_motor_state {
 	uint8_t lifecycle; /* enum rmd_lifecycle */
 	uint8_t mode;	   /* enum rmd_mode in force */
@@ -237,6 +249,14 @@ enum rmd_event_kind {
 	 * or it is lost): a = enum rmd_pos_trust, b = the setpoint's mode.
 	 */
 	RMD_EV_POS_REFUSED,
+	/* A homing request was refused: a = enum rmd_home_refusal, b = 0. */
+	RMD_EV_HOME_REFUSED,
+};
+
+/* Why the rt loop refused a homing request (RMD_EV_HOME_REFUSED). */
+enum rmd_home_refusal {
+	RMD_HOME_ENABLED = 1, /* the motor is enabled: its position must not jump under it */
+	RMD_HOME_NO_POS,      /* it has not reported a position since it (re)appeared */
 };
 
 struct rmd_event {

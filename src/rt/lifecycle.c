@@ -651,3 +651,49 @@ void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	}
 	pos_set(l, lm, t, shift, now);
 }
+
+/*
+ * A controller homed lm (rmd.home_t): it is at pos_rad now, or where it
+ * reports (as_reported).  The reported frame shifts, the motor does not
+ * move; refused while it is enabled (the position would jump under a
+ * running loop) or before it reported a position.  rt-safe.
+ */
+static void pos_home(struct rmd_loop *l, struct lmotor *lm, bool as_reported, double pos_rad,
+		     int64_t now)
+{
+	double shift;
+
+	if (lm->st->lifecycle == RMD_LC_ENABLED) {
+		loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus,
+			   RMD_HOME_ENABLED, 0);
+		return;
+	}
+	if (lm->pos_settle || !lm->st->pos_rx_ns || !isfinite(lm->st->pos_rad) ||
+	    lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) {
+		loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus, RMD_HOME_NO_POS,
+			   0);
+		return;
+	}
+	shift = as_reported ? 0.0 : pos_rad - lm->st->pos_rad;
+	rmd_motor_shift_pos(&lm->m, shift);
+	lm->st->pos_rad += shift;
+	pos_set(l, lm, RMD_POS_HOMED, shift, now);
+}
+
+void loop_take_homes(struct rmd_loop *l, int64_t now)
+{
+	const struct rmd_home *h;
+	const void *p;
+
+	if (!l->o.homes || !rmd_latest_get(l->o.homes, &p))
+		return;
+	h = p;
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		if (h->seq[i] == lm->homes_seen)
+			continue;
+		lm->homes_seen = h->seq[i];
+		pos_home(l, lm, h->as_reported[i], h->pos_rad[i], now);
+	}
+}

@@ -106,6 +106,7 @@ struct lmotor {
 	bool pos_settle;
 	int64_t pos_settle_ns;
 	bool pos_warned;	/* this episode's refusal was reported */
+	uint32_t homes_seen;	/* rmd_home.seq[] of this motor, acted on */
 	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
 	/* bring-up */
 	char model[8];
@@ -243,6 +244,9 @@ static inline enum rmd_safe_action loop_safe_action(const struct rmd_loop *l)
 
 /* lifecycle.c: a position received while pos_settle decides the motor's (rmd/multiturn.h).  rt-safe. */
 __attribute__((cold)) void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now);
+
+/* lifecycle.c: the homing requests the bridge handed over (rmd/state.h struct rmd_home).  rt-safe. */
+void loop_take_homes(struct rmd_loop *l, int64_t now);
 
 /* lifecycle.c.  rt-safe. */
 void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);

@@ -1859,6 +1859,86 @@ static void test_pos_ambiguous_refused(void **state)
 	}
 }
 
+static struct rmd_home homes;
+
+/* Motor i homed: at pos_rad now, or as reported. */
+static void home(unsigned i, bool as_reported, double pos_rad)
+{
+	homes.seq[i]++;
+	homes.as_reported[i] = as_reported;
+	homes.pos_rad[i] = pos_rad;
+	rmd_latest_put(&R.io.homes, &homes);
+}
+
+/*
+ * Homing (rmd.home_t through the bridge) makes an uncertain position
+ * certain without moving the motor: refused while the motor is enabled;
+ * applied as a shift of the reported frame; then a position command goes
+ * where the controller means, in both directions and with a zero offset.
+ */
+static void test_pos_homed(void **state)
+{
+	static const struct pc_case cases[] = {
+		{ "1:6, 460 deg", 6.0, 1, 0.0, 460.0, -1, 0 },
+		{ "1:9 reversed, -400 deg, zero 0.4", 9.0, -1, 0.4, -400.0, -1, 0 },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_setpoint *sp;
+		struct rmd_snapshot s;
+		unsigned from;
+		double native0;
+
+		pc = cases[k];
+		memset(&homes, 0, sizeof(homes));
+		pc_rig();
+		cmd_clear();
+		cmd_motor(1, false, RMD_MODE_TORQUE);
+		pc_power_cycle();
+		cmd_motor(0, false, RMD_MODE_TORQUE);
+		run(20, true);
+		s = snap();
+		assert_false(s.m[0].pos_certain);
+		/* the motor wrapped: rmdd reports where it says it is, off by turns */
+		assert_true(fabs(s.m[0].pos_rad - pc_truth_rad()) > 0.5);
+		/* enabled (torque): homing refused */
+		nev = 0;
+		sp = cmd_motor(0, true, RMD_MODE_TORQUE);
+		run(20, true);
+		assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+		home(0, false, pc_truth_rad());
+		run(5, true);
+		assert_false(snap().m[0].pos_certain);
+		assert_int_equal(count_ev(RMD_EV_HOME_REFUSED, 0), 1);
+		/* disabled: homed, nothing moves, the position is the truth */
+		cmd_motor(0, false, RMD_MODE_TORQUE);
+		run(20, true);
+		native0 = sim_motor(0)->pos_rad;
+		from = trace_n;
+		home(0, false, pc_truth_rad());
+		run(20, true);
+		s = snap();
+		assert_true(s.m[0].pos_certain);
+		assert_int_equal(s.m[0].pos_trust, RMD_POS_HOMED);
+		assert_float_equal(s.m[0].pos_rad, pc_truth_rad(), PC_TOL);
+		for (unsigned t = from; t < trace_n; t++)
+			if (trace[t].f.can_id == 0x141 && moves_frame(&trace[t].f))
+				fail_msg("%s: homing sent 0x%02X", pc.name, trace[t].f.data[0]);
+		/* position mode now runs: 0.2 rad further, and the motor goes there */
+		from = trace_n;
+		sp = cmd_motor(0, true, RMD_MODE_POSITION);
+		sp->pos_rad = pc_truth_rad() + 0.2;
+		sp->max_vel_rad_s = 2.0;
+		run(1000, true);
+		assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+		assert_true(sent_to(0, 0xA4, from) > 900);
+		assert_float_equal(snap().m[0].pos_rad, pc_truth_rad() + 0.2, PC_TOL + 0.01);
+		assert_float_equal(sim_motor(0)->pos_rad - native0, pc.dir * 0.2, 0.02);
+		rig_down();
+	}
+}
+
 /* 100 Hz, probe.on_missing start */
 static void slow_missing_start(struct rmd_config *cfg)
 {
@@ -2496,6 +2576,7 @@ int main(void)
 		cmocka_unit_test(test_polls_two_a_cycle),
 		cmocka_unit_test(test_pos_cycle_in_band),
 		cmocka_unit_test(test_pos_ambiguous_refused),
+		cmocka_unit_test(test_pos_homed),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);

@@ -181,6 +181,14 @@ static void log_position(const struct rmd_config *cfg, const struct rmd_event *e
 	char ctx[96];
 
 	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	if (e->kind == RMD_EV_HOME_REFUSED) {
+		tool_log(4, "%s: homing refused: %s", ctx,
+			 e->a == RMD_HOME_ENABLED ?
+				 "the motor is enabled (disable it first: its position must not "
+				 "jump under a running loop)" :
+				 "it has not reported a position since it (re)appeared; try again");
+		return;
+	}
 	if (e->kind == RMD_EV_POS_REFUSED) {
 		tool_log(4,
 			 "%s: %s refused: its position is uncertain (it may have been powered "
@@ -322,6 +330,7 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		break;
 	case RMD_EV_POSITION:
 	case RMD_EV_POS_REFUSED:
+	case RMD_EV_HOME_REFUSED:
 		log_position(cfg, e);
 		break;
 	case RMD_EV_OVERRUN:
