@@ -204,8 +204,15 @@ static void log_position(const struct rmd_config *cfg, const struct rmd_event *e
 		tool_log(6, "%s: position certain: the motor keeps its multi-turn count", ctx);
 		break;
 	case RMD_POS_IN_BAND:
-		tool_log(5, "%s: position certain: one position in its travel band fits%s%.6f rad",
-			 ctx, e->b ? "; shifted by " : "", e->b ? (double)e->b * 1e-6 : 0.0);
+		/* a shift is news (the motor was powered off, or first seen off by turns) */
+		if (e->b)
+			tool_log(5,
+				 "%s: position certain: one position in its travel band fits; "
+				 "shifted by %.6f rad (whole rotor turns)",
+				 ctx, (double)e->b * 1e-6);
+		else
+			tool_log(6, "%s: position certain: one position in its travel band fits",
+				 ctx);
 		break;
 	case RMD_POS_HOMED:
 		tool_log(5, "%s: homed: position certain, shifted by %.6f rad", ctx,
