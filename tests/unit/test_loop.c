@@ -1690,6 +1690,8 @@ static struct pc_case {
 	double zero_rad;
 	double start_deg;    /* the simulated output angle at first power-on (native) */
 	double below, above; /* travel band around the truth, deg; below < 0: none */
+	bool v2;	     /* a V2 motor (else V3) */
+	bool mit;	     /* an MIT motor */
 } pc;
 
 static double pc_truth_rad(void)
@@ -1704,6 +1706,14 @@ static void pc_tweak(struct rmd_config *cfg)
 
 	m->gear_ratio = pc.gear;
 	m->direction = pc.dir;
+	if (pc.v2) {
+		m->proto = RMD_PROTO_V2;
+		m->comm_loss_ms = 0; /* V2 has no 0xB3 (the loader insists) */
+	}
+	if (pc.mit) {
+		m->proto = RMD_PROTO_MIT;
+		m->mode = RMD_MODE_MIT;
+	}
 	m->zero_offset_rad = pc.zero_rad;
 	m->multi_turn_saved = false;
 	m->n_travel = 0;
@@ -1755,12 +1765,18 @@ static void pc_power_cycle(void)
 static void test_pos_cycle_in_band(void **state)
 {
 	static const struct pc_case cases[] = {
-		{ "direct drive, 400 deg", 1.0, 1, 0.0, 400.0, 100.0, 100.0 },
-		{ "direct drive reversed, -500 deg, zero 0.3", 1.0, -1, 0.3, -500.0, 20.0, 300.0 },
-		{ "1:6, -100 deg, band 40 deg", 6.0, 1, 0.0, -100.0, 20.0, 20.0 },
-		{ "1:9 reversed, 725 deg, zero -0.5, band 30 deg", 9.0, -1, -0.5, 725.0, 5.0,
-		  25.0 },
-		{ "1:9, 10 deg (no wrap), band at its edge", 9.0, 1, 0.0, 10.0, 0.0, 30.0 },
+		{ "direct drive, 400 deg", 1.0, 1, 0.0, 400.0, 100.0, 100.0, false, false },
+		{ "direct drive reversed, -500 deg, zero 0.3", 1.0, -1, 0.3, -500.0, 20.0, 300.0,
+		  false, false },
+		{ "1:6, -100 deg, band 40 deg", 6.0, 1, 0.0, -100.0, 20.0, 20.0, false, false },
+		{ "1:9 reversed, 725 deg, zero -0.5, band 30 deg", 9.0, -1, -0.5, 725.0, 5.0, 25.0,
+		  false, false },
+		{ "1:9, 10 deg (no wrap), band at its edge", 9.0, 1, 0.0, 10.0, 0.0, 30.0, false,
+		  false },
+		{ "V2 1:6, 250 deg (rmdd unwraps the encoder)", 6.0, 1, 0.0, 250.0, 10.0, 20.0,
+		  true, false },
+		{ "MIT direct drive reversed, 300 deg", 1.0, -1, 0.1, 300.0, 90.0, 90.0, false,
+		  true },
 	};
 
 	(void)state;
@@ -1806,9 +1822,9 @@ static void test_pos_cycle_in_band(void **state)
 static void test_pos_ambiguous_refused(void **state)
 {
 	static const struct pc_case cases[] = {
-		{ "1:6, no band, 100 deg", 6.0, 1, 0.0, 100.0, -1, 0 },
-		{ "1:9, band 45 deg", 9.0, -1, 0.2, 300.0, 20.0, 25.0 },
-		{ "direct drive, no band, 700 deg", 1.0, 1, 0.0, 700.0, -1, 0 },
+		{ "1:6, no band, 100 deg", 6.0, 1, 0.0, 100.0, -1, 0, false, false },
+		{ "1:9, band 45 deg", 9.0, -1, 0.2, 300.0, 20.0, 25.0, false, false },
+		{ "direct drive, no band, 700 deg", 1.0, 1, 0.0, 700.0, -1, 0, false, false },
 	};
 
 	(void)state;
@@ -1859,6 +1875,40 @@ static void test_pos_ambiguous_refused(void **state)
 	}
 }
 
+/*
+ * An MIT motor whose position is uncertain: MIT with kp > 0 is refused (no
+ * 0x400 + ID frame), MIT with kp = 0 (damping only) runs, and switching to
+ * kp > 0 while it runs stops it.
+ */
+static void test_pos_uncertain_mit_kp(void **state)
+{
+	static const struct pc_case c = { "MIT, no band", 1.0, 1, 0.0, 500.0, -1, 0, false, true };
+	struct rmd_setpoint *sp;
+	unsigned from;
+
+	(void)state;
+	pc = c;
+	pc_rig();
+	assert_false(snap().m[0].pos_certain);
+	cmd_clear();
+	from = trace_n;
+	sp = cmd_motor(0, true, RMD_MODE_MIT);
+	sp->pos_rad = snap().m[0].pos_rad;
+	sp->kp = 5.0;
+	sp->kd = 0.5;
+	assert_int_equal(ignored_over(100, RMD_IGN_POS_UNCERTAIN), 100);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_int_equal(sent_to(0, 0x400, from), 0);
+	sp->kp = 0.0;
+	run(50, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_true(sent_to(0, 0x400, from) > 40);
+	sp->kp = 5.0;
+	run(5, true);
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	rig_down();
+}
+
 static struct rmd_home homes;
 
 /* Motor i homed: at pos_rad now, or as reported. */
@@ -1879,8 +1929,8 @@ static void home(unsigned i, bool as_reported, double pos_rad)
 static void test_pos_homed(void **state)
 {
 	static const struct pc_case cases[] = {
-		{ "1:6, 460 deg", 6.0, 1, 0.0, 460.0, -1, 0 },
-		{ "1:9 reversed, -400 deg, zero 0.4", 9.0, -1, 0.4, -400.0, -1, 0 },
+		{ "1:6, 460 deg", 6.0, 1, 0.0, 460.0, -1, 0, false, false },
+		{ "1:9 reversed, -400 deg, zero 0.4", 9.0, -1, 0.4, -400.0, -1, 0, false, false },
 	};
 
 	(void)state;
@@ -2577,6 +2627,7 @@ int main(void)
 		cmocka_unit_test(test_pos_cycle_in_band),
 		cmocka_unit_test(test_pos_ambiguous_refused),
 		cmocka_unit_test(test_pos_homed),
+		cmocka_unit_test(test_pos_uncertain_mit_kp),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);
