@@ -130,6 +130,13 @@ struct rmd_sim_motor_params {
 	 * multi-turn count survives power-off and 0x76 (V3.5+ firmware).
 	 */
 	bool multi_turn_save;
+	/*
+	 * Where a start without it leaves the angle: false, within +-180 deg of
+	 * the output; true, within one rotor turn (+-180 deg / gear_ratio at
+	 * the output), as firmware that keeps only its rotor encoder's angle
+	 * does (rmd/multiturn.h).
+	 */
+	bool wrap_rotor;
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */

@@ -1692,6 +1692,7 @@ static struct pc_case {
 	double below, above; /* travel band around the truth, deg; below < 0: none */
 	bool v2;	     /* a V2 motor (else V3) */
 	bool mit;	     /* an MIT motor */
+	bool wrap_rotor;     /* the simulated motor wraps within one rotor turn */
 } pc;
 
 static double pc_truth_rad(void)
@@ -1728,6 +1729,7 @@ static void pc_sim(struct rmd_sim_setup *sim)
 {
 	sim->motors[0].multi_turn_save = false;
 	sim->motors[0].start_angle_deg = pc.start_deg;
+	sim->motors[0].wrap_rotor = pc.wrap_rotor;
 }
 
 static void pc_rig(void)
@@ -1765,18 +1767,24 @@ static void pc_power_cycle(void)
 static void test_pos_cycle_in_band(void **state)
 {
 	static const struct pc_case cases[] = {
-		{ "direct drive, 400 deg", 1.0, 1, 0.0, 400.0, 100.0, 100.0, false, false },
+		{ "direct drive, 400 deg", 1.0, 1, 0.0, 400.0, 100.0, 100.0, false, false, false },
 		{ "direct drive reversed, -500 deg, zero 0.3", 1.0, -1, 0.3, -500.0, 20.0, 300.0,
-		  false, false },
-		{ "1:6, -100 deg, band 40 deg", 6.0, 1, 0.0, -100.0, 20.0, 20.0, false, false },
-		{ "1:9 reversed, 725 deg, zero -0.5, band 30 deg", 9.0, -1, -0.5, 725.0, 5.0, 25.0,
-		  false, false },
-		{ "1:9, 10 deg (no wrap), band at its edge", 9.0, 1, 0.0, 10.0, 0.0, 30.0, false,
+		  false, false, false },
+		{ "1:6, -100 deg, band 40 deg", 6.0, 1, 0.0, -100.0, 20.0, 20.0, false, false,
 		  false },
+		{ "1:9 reversed, 725 deg, zero -0.5, band 30 deg", 9.0, -1, -0.5, 725.0, 5.0, 25.0,
+		  false, false, false },
+		{ "1:9, 10 deg (no wrap), band at its edge", 9.0, 1, 0.0, 10.0, 0.0, 30.0, false,
+		  false, false },
 		{ "V2 1:6, 250 deg (rmdd unwraps the encoder)", 6.0, 1, 0.0, 250.0, 10.0, 20.0,
-		  true, false },
+		  true, false, false },
 		{ "MIT direct drive reversed, 300 deg", 1.0, -1, 0.1, 300.0, 90.0, 90.0, false,
-		  true },
+		  true, false },
+		/* firmware that keeps only the rotor's angle: 727 deg comes back as 7 deg */
+		{ "1:9 rotor wrap, 727 deg, band 30 deg", 9.0, 1, 0.0, 727.0, 10.0, 20.0, false,
+		  false, true },
+		{ "1:6 rotor wrap reversed, -95 deg, zero 0.2", 6.0, -1, 0.2, -95.0, 25.0, 25.0,
+		  false, false, true },
 	};
 
 	(void)state;
@@ -1822,9 +1830,10 @@ static void test_pos_cycle_in_band(void **state)
 static void test_pos_ambiguous_refused(void **state)
 {
 	static const struct pc_case cases[] = {
-		{ "1:6, no band, 100 deg", 6.0, 1, 0.0, 100.0, -1, 0, false, false },
-		{ "1:9, band 45 deg", 9.0, -1, 0.2, 300.0, 20.0, 25.0, false, false },
-		{ "direct drive, no band, 700 deg", 1.0, 1, 0.0, 700.0, -1, 0, false, false },
+		{ "1:6, no band, 100 deg", 6.0, 1, 0.0, 100.0, -1, 0, false, false, false },
+		{ "1:9, band 45 deg", 9.0, -1, 0.2, 300.0, 20.0, 25.0, false, false, false },
+		{ "direct drive, no band, 700 deg", 1.0, 1, 0.0, 700.0, -1, 0, false, false,
+		  false },
 	};
 
 	(void)state;
@@ -1882,7 +1891,12 @@ static void test_pos_ambiguous_refused(void **state)
  */
 static void test_pos_uncertain_mit_kp(void **state)
 {
-	static const struct pc_case c = { "MIT, no band", 1.0, 1, 0.0, 500.0, -1, 0, false, true };
+	static const struct pc_case c = { .name = "MIT, no band",
+					  .gear = 1.0,
+					  .dir = 1,
+					  .start_deg = 500.0,
+					  .below = -1,
+					  .mit = true };
 	struct rmd_setpoint *sp;
 	unsigned from;
 
@@ -1929,8 +1943,9 @@ static void home(unsigned i, bool as_reported, double pos_rad)
 static void test_pos_homed(void **state)
 {
 	static const struct pc_case cases[] = {
-		{ "1:6, 460 deg", 6.0, 1, 0.0, 460.0, -1, 0, false, false },
-		{ "1:9 reversed, -400 deg, zero 0.4", 9.0, -1, 0.4, -400.0, -1, 0, false, false },
+		{ "1:6, 460 deg", 6.0, 1, 0.0, 460.0, -1, 0, false, false, false },
+		{ "1:9 reversed, -400 deg, zero 0.4", 9.0, -1, 0.4, -400.0, -1, 0, false, false,
+		  false },
 	};
 
 	(void)state;
