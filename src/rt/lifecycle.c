@@ -242,6 +242,21 @@ static __attribute__((cold, noinline)) int pos_refuse(struct rmd_loop *l, struct
 	return RMD_IGN_POS_UNCERTAIN;
 }
 
+/*
+ * An ENABLED motor's setpoint while its position is uncertain: taken when
+ * it needs no trusted position, else refused (pos_refuse()).  Returns -1
+ * or RMD_IGN_POS_UNCERTAIN.  rt-safe.
+ */
+static __attribute__((noinline)) int pos_uncertain_setpoint(struct rmd_loop *l, struct lmotor *lm,
+							    const struct rmd_setpoint *sp,
+							    int64_t now)
+{
+	if (rmd_setpoint_needs_pos(sp))
+		return pos_refuse(l, lm, sp, now);
+	take_setpoint(lm, sp);
+	return -1;
+}
+
 /* Returns -1 when acted on, else the enum rmd_ignore reason it was not.  rt-safe. */
 static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			int64_t now)
@@ -350,17 +365,18 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 		if (!(present & (1u << i)))
 			continue;
 		if (c->m[i].enable) {
-			const struct rmd_setpoint *sp = &c->m[i];
 			int why = -1;
 
 			any_enable = true;
-			if (lm->st->lifecycle != RMD_LC_ENABLED)
-				why = enable_motor(l, lm, sp, now);
-			else if (__builtin_expect(!lm->st->pos_certain, 0) &&
-				 rmd_setpoint_needs_pos(sp))
-				why = pos_refuse(l, lm, sp, now);
-			else
-				take_setpoint(lm, sp); /* enable_motor()'s, every cycle */
+			if (lm->st->lifecycle ==
+			    RMD_LC_ENABLED) { /* enable_motor()'s, every cycle */
+				if (__builtin_expect(lm->st->pos_certain, 1))
+					take_setpoint(lm, &c->m[i]);
+				else
+					why = pos_uncertain_setpoint(l, lm, &c->m[i], now);
+			} else {
+				why = enable_motor(l, lm, &c->m[i], now);
+			}
 			if (why >= 0)
 				l->cnt.ignored[why]++;
 		} else {
