@@ -218,8 +218,8 @@ static void log_position(const struct rmd_config *cfg, const struct rmd_event *e
 		tool_log(5, "%s: homed: position certain, shifted by %.6f rad", ctx,
 			 (double)e->b * 1e-6);
 		break;
-	case RMD_POS_AMBIGUOUS:
-		tool_log(4,
+	case RMD_POS_AMBIGUOUS: /* notice: a torque-only robot never needs more */
+		tool_log(5,
 			 "%s: position uncertain: its travel band is not narrower than one rotor "
 			 "turn at the output (%g deg); position mode and MIT with kp > 0 are "
 			 "refused until it is homed (docs/faults.md)",
