@@ -438,8 +438,10 @@ class Client:
         if enabled:
             return []
         want, stage = (state_t.LC_ENABLED, "enabled") if ready else (state_t.LC_READY, "ready")
-        bad = [(c.motor[i].name, lifecycle_name(self.lifecycle(i))) for i in idx
-               if self.lifecycle(i) != want]
+        bad = [(c.motor[i].name, lifecycle_name(self.lifecycle(i))
+                + (" (position uncertain after a power cycle: home() it, docs/faults.md)"
+                   if ready and not self.position_certain(i) else ""))
+               for i in idx if self.lifecycle(i) != want]
         if strict:
             self.disable(idx)
             raise RmdError(f"enable: not {stage} within {timeout:g} s: "
