@@ -1689,7 +1689,7 @@ static struct pc_case {
 	int dir;
 	double zero_rad;
 	double start_deg;    /* the simulated output angle at first power-on (native) */
-	double below, above; /* travel band around the truth, deg; below < 0: none */
+	double below, above; /* travel band around the truth, deg; below -1: none */
 	bool v2;	     /* a V2 motor (else V3) */
 	bool mit;	     /* an MIT motor */
 	bool wrap_rotor;     /* the simulated motor wraps within one rotor turn */
@@ -1718,7 +1718,7 @@ static void pc_tweak(struct rmd_config *cfg)
 	m->zero_offset_rad = pc.zero_rad;
 	m->multi_turn_saved = false;
 	m->n_travel = 0;
-	if (pc.below >= 0) {
+	if (pc.below != -1) {
 		m->n_travel = 2;
 		m->travel_rad[0] = t - pc.below * M_PI / 180.0;
 		m->travel_rad[1] = t + pc.above * M_PI / 180.0;
@@ -1834,6 +1834,9 @@ static void test_pos_ambiguous_refused(void **state)
 		{ "1:9, band 45 deg", 9.0, -1, 0.2, 300.0, 20.0, 25.0, false, false, false },
 		{ "direct drive, no band, 700 deg", 1.0, 1, 0.0, 700.0, -1, 0, false, false,
 		  false },
+		/* a band beside the joint, [truth + 5, truth + 25] deg: no turn fits it */
+		{ "1:9, band beside the truth", 9.0, 1, 0.0, 200.0, -5.0, 25.0, false, false,
+		  false },
 	};
 
 	(void)state;
@@ -1845,7 +1848,9 @@ static void test_pos_ambiguous_refused(void **state)
 		pc = cases[k];
 		pc_rig();
 		assert_false(snap().m[0].pos_certain);
-		assert_int_equal(snap().m[0].pos_trust, RMD_POS_AMBIGUOUS);
+		assert_int_equal(snap().m[0].pos_trust, pc.below < 0 && pc.below != -1 ?
+								RMD_POS_OUTSIDE :
+								RMD_POS_AMBIGUOUS);
 		cmd_clear();
 		cmd_motor(1, false, RMD_MODE_TORQUE);
 		pc_power_cycle();
