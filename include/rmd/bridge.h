@@ -18,6 +18,9 @@
  *                                 bridge's own command counters
  *   PREFIX "CONFIG"          out  rmd.config_t, at start and on request
  *   PREFIX "CONFIG_REQUEST"  in   any message: publish config_t again
+ *   PREFIX "HOME"            in   rmd.home_t: a controller says where a motor
+ *                                 is (docs/lcm.md "Homing"), handed to the rt
+ *                                 loop as struct rmd_home; logged
  *
  * The rt loop and the bridge meet only in three triple buffers (rmd/spsc.h)
  * that the daemon owns and passes to both: the bridge writes commands and
@@ -113,6 +116,8 @@ struct rmd_bridge_opts {
 	struct rmd_latest *commands;
 	struct rmd_latest *snapshots;
 	struct rmd_latest *health;
+	/* struct rmd_home, bridge -> loop (its only writer); NULL: home_t is refused */
+	struct rmd_latest *homes;
 
 	/*
 	 * An eventfd the rt loop writes after each snapshot: the bridge sleeps
@@ -172,6 +177,7 @@ struct rmd_bridge {
 	lcm_t *lcm;
 	lcm_subscription_t *sub_command;
 	lcm_subscription_t *sub_config_req;
+	lcm_subscription_t *sub_home;
 	int stop_fd; /* eventfd: rmd_bridge_stop() wakes the thread */
 	pthread_t thread;
 	bool running;
@@ -193,6 +199,7 @@ struct rmd_bridge {
 	char ch_health[RMD_BRIDGE_PREFIX_LEN + 16];
 	char ch_config[RMD_BRIDGE_PREFIX_LEN + 16];
 	char ch_config_req[RMD_BRIDGE_PREFIX_LEN + 16];
+	char ch_home[RMD_BRIDGE_PREFIX_LEN + 16];
 
 	/* Owned by the bridge thread. */
 	int64_t last_seq;
@@ -213,6 +220,7 @@ struct rmd_bridge {
 	bool have_controller;		   /* last_controller is set: */
 	int64_t last_controller;	   /* whose sequence last_seq and newest_utime are */
 	uint32_t disables[RMD_MAX_MOTORS]; /* enable = 0 entries accepted, per motor */
+	struct rmd_home homes;		   /* homing requests accepted (home_t) */
 
 	/* Written by the bridge thread, read by anyone (rmd_bridge_get_stats). */
 	atomic_uint_fast64_t n_accepted;

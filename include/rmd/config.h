@@ -260,8 +260,33 @@ struct rmd_config_motor {
 	 */
 	int32_t comm_loss_ms;
 	struct rmd_config_feedback feedback; /* where state_t.position comes from */
-	unsigned line;			     /* of the entry in the file, for messages */
+	/*
+	 * Whether the reported position survives a power cycle
+	 * (rmd/multiturn.h): the motor keeps its multi-turn count at
+	 * power-off (set with 0x20 index 4, V3 §2.33.4, on firmware that has
+	 * it); or the joint's travel, [travel_rad[0], travel_rad[1]] in the
+	 * reported frame when n_travel is 2 (else its position limits).
+	 */
+	bool multi_turn_saved;
+	double travel_rad[2];
+	unsigned n_travel; /* 0: none, or 2 */
+	unsigned line;	   /* of the entry in the file, for messages */
 };
+
+/*
+ * Motor c's travel band, rad in the reported frame: travel_rad when set,
+ * else its position limits (+-INFINITY when it has none).  rt-safe.
+ */
+static inline void rmd_config_travel(const struct rmd_config_motor *c, double *lo, double *hi)
+{
+	if (c->n_travel == 2) {
+		*lo = c->travel_rad[0];
+		*hi = c->travel_rad[1];
+	} else {
+		*lo = c->limits.position_min_rad;
+		*hi = c->limits.position_max_rad;
+	}
+}
 
 #define RMD_CONFIG_COMM_LOSS_INHERIT (-1)
 

@@ -43,7 +43,9 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
  * The configuration `rmdd --sim` runs: `nmotors` (1..RMD_MAX_MOTORS) V3
  * torque-mode motors with the simulator's default model, three per 1 Mbit/s
  * sim bus (the most that fit at 1 kHz, docs/design.md), at 1 kHz, and their
- * simulator settings in *sim (may be NULL).  Returns 0 or -EINVAL.  Non-rt.
+ * simulator settings in *sim (may be NULL).  The motors keep their
+ * multi-turn count across power-off (multi_turn_saved, and the simulated
+ * motors with it).  Returns 0 or -EINVAL.  Non-rt.
  */
 int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, unsigned nmotors);
 

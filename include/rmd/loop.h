@@ -83,6 +83,21 @@
  * comm_loss_ms is 0 by config, and a V2 motor (no 0xB3), are not held
  * back.
  *
+ * Position after a power cycle (rmd/multiturn.h).  A motor's multi-turn
+ * count is RAM, so at bring-up and on every LOST -> READY the loop decides
+ * on the first position it receives whether to trust it (struct
+ * rmd_motor_state pos_trust, pos_certain): the motor keeps its count, or
+ * its travel band admits one position, which it is shifted to (the zero
+ * offset moves by whole rotor turns).  For a motor whose position is
+ * uncertain, a setpoint that drives to a position (rmd_setpoint_needs_pos():
+ * position mode, MIT with kp > 0) is not acted on (RMD_IGN_POS_UNCERTAIN,
+ * RMD_EV_POS_REFUSED once per episode), and an ENABLED motor that switches
+ * to one gets the safe action (SAFE).  Homing requests (opts.homes, struct
+ * rmd_home) make it certain: a shift of the reported frame, never a
+ * motion; refused while the motor is ENABLED or has no position yet
+ * (RMD_EV_HOME_REFUSED).  On the hot path this is one flag test per enabled
+ * motor and per reply.
+ *
  * Safe actions, per motor: stop 0x80; hold 0x81; brake 0x80 then 0x78;
  * damp: MIT frames with kp 0, kd > 0 in every control slot (MIT motors),
  * else 0xA2 speed 0 once.  A setpoint with NaN/Inf is never encoded: the
@@ -128,6 +143,7 @@ struct rmd_loop_opts {
 	const struct rmd_plan *plan;  /* built from cfg, must outlive the loop */
 	struct rmd_bus *buses;	      /* cfg->n_buses open buses, in config order */
 	struct rmd_latest *commands;  /* bridge -> loop: struct rmd_command */
+	struct rmd_latest *homes;     /* bridge -> loop: struct rmd_home; NULL: none */
 	struct rmd_latest *snapshots; /* loop -> bridge: struct rmd_snapshot */
 	struct rmd_latest *health;    /* loop -> bridge: struct rmd_health */
 	struct rmd_ring *events;      /* loop -> logger: struct rmd_event */

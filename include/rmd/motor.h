@@ -53,6 +53,7 @@
 #include "rmd/dialect.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
+#include "rmd/multiturn.h"
 #include "rmd/state.h"
 
 /*
@@ -145,6 +146,7 @@ struct rmd_motor {
 	double dir;		  /* +1 or -1 */
 	double native_per_output; /* 1, or gear_ratio when the protocol speaks the rotor */
 	double gear_ratio;	  /* rotor turns per output turn (encoder counts) */
+	/* the config's; the rt loop moves it (rmd_motor_shift_pos()) after a power cycle */
 	double zero_offset_rad;
 	double kt_nm_a; /* output N·m per A of iq; 0: unknown */
 	struct rmd_config_limits limits;
@@ -173,6 +175,8 @@ struct rmd_motor {
 	bool v2_anchored;      /* the first encoder value after the reference is seen */
 	uint16_t v2_enc_last;  /* last encoder value */
 	int64_t v2_enc_counts; /* unwrapped counts since the anchor */
+	/* whether its position survives a power cycle (rmd/multiturn.h), from the config */
+	struct rmd_multiturn mt;
 };
 
 /* The row of command `cmd` in the motor's table, or NULL (rmd_cmd_find(), checked at init).  rt-safe. */
@@ -211,6 +215,11 @@ struct rmd_motor_info {
 	double kd_min, kd_max;	   /* MIT damping range, N·m·s/rad: outside is rejected */
 	double pos_resolution_rad; /* step of the reported position (rmd_motor_pos_resolution_rad()) */
 	double pos_rate_hz;	   /* new positions planned per second (the plan's pos_hz) */
+	/* rmd/multiturn.h: its facts for trusting its position after a power cycle */
+	bool multi_turn_saved; /* it keeps its multi-turn count at power-off */
+	double travel_min_rad; /* the travel band (+-INFINITY: none) */
+	double travel_max_rad;
+	double turn_period_rad; /* one rotor turn at the output: 2 pi / gear_ratio */
 };
 
 /* Which setpoint values a mode uses (the others are not read).  rt-safe. */
@@ -405,5 +414,13 @@ void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad);
 /* The native output position (rad) of a reported position, and back. */
 double rmd_motor_to_native_pos(const struct rmd_motor *m, double pos_rad);
 double rmd_motor_from_native_pos(const struct rmd_motor *m, double native_rad);
+
+/*
+ * Report every position shift_rad further from now on, and take commands
+ * in the same frame: the motor's zero offset moves by -direction *
+ * shift_rad.  The multi-turn unwrap after a power cycle and homing do it
+ * (rmd/multiturn.h); nothing moves the motor.  rt-safe.
+ */
+void rmd_motor_shift_pos(struct rmd_motor *m, double shift_rad);
 
 #endif /* RMD_MOTOR_H */

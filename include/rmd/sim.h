@@ -133,6 +133,18 @@ struct rmd_sim_motor_params {
 	 */
 	unsigned comm_loss_rom_ms;
 	bool comm_loss_tripped;
+	/*
+	 * 0x20 index 4 (V3 §2.33.4) already in ROM at first power-on: the
+	 * multi-turn count survives power-off and 0x76 (V3.5+ firmware).
+	 */
+	bool multi_turn_save;
+	/*
+	 * Where a start without it leaves the angle: false, within +-180 deg of
+	 * the output; true, within one rotor turn (+-180 deg / gear_ratio at
+	 * the output), as firmware that keeps only its rotor encoder's angle
+	 * does (rmd/multiturn.h).
+	 */
+	bool wrap_rotor;
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */

@@ -85,6 +85,16 @@ struct rmd_setpoint {
 	double max_vel_rad_s;
 };
 
+/*
+ * The setpoint drives the motor to a position (position mode, MIT with
+ * kp > 0), so it needs a position rmdd trusts (rmd/multiturn.h): the one
+ * copy of the rule.  rt-safe.
+ */
+static inline bool rmd_setpoint_needs_pos(const struct rmd_setpoint *sp)
+{
+	return sp->mode == RMD_MODE_POSITION || (sp->mode == RMD_MODE_MIT && sp->kp > 0.0);
+}
+
 /* A controller's command, as the bridge hands it to the rt loop. */
 struct rmd_command {
 	int64_t rx_ns;	  /* CLOCK_MONOTONIC when it arrived (its receive stamp), not when read */
@@ -101,9 +111,29 @@ struct rmd_command {
 	uint32_t disables[RMD_MAX_MOTORS];
 };
 
+/*
+ * Homing requests, as the bridge hands them to the rt loop (rmd.home_t,
+ * docs/lcm.md "Homing"): per motor, how many were accepted so far (the
+ * loop acts on a change, so one is never lost however fast they come) and
+ * the newest one's content.
+ */
+struct rmd_home {
+	uint32_t seq[RMD_MAX_MOTORS];
+	bool as_reported[RMD_MAX_MOTORS]; /* the reported position is right */
+	double pos_rad[RMD_MAX_MOTORS];	  /* else: the motor is here now */
+};
+
 struct rmd_motor_state {
 	uint8_t lifecycle; /* enum rmd_lifecycle */
 	uint8_t mode;	   /* enum rmd_mode in force */
+	/*
+	 * Whether pos_rad can be trusted after the motor was powered off or
+	 * reset (rmd/multiturn.h): pos_trust is enum rmd_pos_trust,
+	 * pos_certain is rmd_pos_trusted(pos_trust), the one flag the loop
+	 * checks.
+	 */
+	uint8_t pos_trust;
+	bool pos_certain;
 	double pos_rad;
 	double vel_rad_s;
 	double torque_nm;
@@ -149,6 +179,11 @@ enum rmd_ignore {
 	RMD_IGN_EDGE = 0,  /* the motor waits for an enable = 0 first */
 	RMD_IGN_NOT_READY, /* the motor is in PROBE, STOPPING, FAULT or LOST */
 	RMD_IGN_TRIPPED,   /* the command is older than the watchdog trip */
+	/*
+	 * the setpoint drives to a position (rmd_setpoint_needs_pos()) and
+	 * the motor's position is uncertain (rmd/multiturn.h)
+	 */
+	RMD_IGN_POS_UNCERTAIN,
 	RMD_IGN_KINDS
 };
 
@@ -217,6 +252,26 @@ enum rmd_event_kind {
 	 * second per bus.
 	 */
 	RMD_EV_LATE,
+	/*
+	 * A motor's position after it (re)appeared, or homed: a = enum
+	 * rmd_pos_trust (rmd/multiturn.h); b = the shift applied, in
+	 * microradians (0: none).
+	 */
+	RMD_EV_POSITION,
+	/*
+	 * A setpoint that drives to a position was refused, the position being
+	 * uncertain (once per episode: until the motor's position is trusted
+	 * or it is lost): a = enum rmd_pos_trust, b = the setpoint's mode.
+	 */
+	RMD_EV_POS_REFUSED,
+	/* A homing request was refused: a = enum rmd_home_refusal, b = 0. */
+	RMD_EV_HOME_REFUSED,
+};
+
+/* Why the rt loop refused a homing request (RMD_EV_HOME_REFUSED). */
+enum rmd_home_refusal {
+	RMD_HOME_ENABLED = 1, /* the motor is enabled: its position must not jump under it */
+	RMD_HOME_NO_POS,      /* it has not reported a position since it (re)appeared */
 };
 
 struct rmd_event {

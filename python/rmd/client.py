@@ -254,6 +254,31 @@ class Client:
             return None
         return s.motor[i]
 
+    def position_certain(self, motor):
+        """Whether rmdd trusts the motor's position after a power cycle (state_t
+        position_certain; docs/faults.md "Position uncertain after power-off").
+        False before any state_t.  While False, position mode and MIT with kp > 0
+        are refused: home() it."""
+        ms = self.motor_state(motor)
+        return bool(ms.position_certain) if ms is not None else False
+
+    def home(self, motor, position=None):
+        """Tell rmdd where a motor (name or index) is: at `position` rad (the
+        reported frame, as state_t.position) now, or, with position None, that
+        the position it reports is right (rmd.home_t on PREFIX "HOME";
+        docs/lcm.md "Homing").  rmdd shifts its reported frame, never moves
+        the motor, and refuses it while the motor is enabled (disable() it
+        first).  Returns the message sent."""
+        from . import home_t
+        msg = home_t()
+        msg.utime = _now_us()
+        msg.controller = self.controller
+        msg.index = self.index(motor)
+        msg.as_reported = position is None
+        msg.position = 0.0 if position is None else float(position)
+        self.lc.publish(self.prefix + "HOME", msg.encode())
+        return msg
+
     def lifecycle(self, motor):
         """The motor's lifecycle (state_t.LC_*) in the newest state_t; -1 before any."""
         ms = self.motor_state(motor)
@@ -413,8 +438,10 @@ class Client:
         if enabled:
             return []
         want, stage = (state_t.LC_ENABLED, "enabled") if ready else (state_t.LC_READY, "ready")
-        bad = [(c.motor[i].name, lifecycle_name(self.lifecycle(i))) for i in idx
-               if self.lifecycle(i) != want]
+        bad = [(c.motor[i].name, lifecycle_name(self.lifecycle(i))
+                + (" (position uncertain after a power cycle: home() it, docs/faults.md)"
+                   if ready and not self.position_certain(i) else ""))
+               for i in idx if self.lifecycle(i) != want]
         if strict:
             self.disable(idx)
             raise RmdError(f"enable: not {stage} within {timeout:g} s: "

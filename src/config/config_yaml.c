@@ -264,6 +264,14 @@ static const struct field motor_fields[] = {
 	DBL("status_poll_hz", M, status_poll_hz, 0, RMD_CONFIG_RATE_MAX_HZ, 0),
 	INT("comm_loss_ms", M, comm_loss_ms, 0, 600000, 0),
 	MAP("feedback", M, feedback, feedback_fields),
+	BOOL("multi_turn_saved", M, multi_turn_saved),
+	{ .key = "travel_rad",
+	  .type = T_SEQ,
+	  .off = offsetof(M, travel_rad),
+	  .size = 2,
+	  .elem = &(const struct field){ .type = T_DOUBLE, .min = -1e6, .max = 1e6 },
+	  .elem_size = sizeof(double),
+	  .count_off = offsetof(M, n_travel) },
 	LATER("sim"),
 	END
 };
@@ -651,6 +659,8 @@ static void validate_motor_sim(struct yctx *c, struct rmd_config *cfg, struct rm
 	p->mit = m->mit;
 	if (rmd_yaml_get(mn, "gear_ratio", NULL))
 		p->gear_ratio = m->gear_ratio;
+	if (m->multi_turn_saved)
+		p->multi_turn_save = true; /* as the config says the motor was set up */
 	if (m->torque_constant_nm_a > 0)
 		p->kt_nm_a = m->torque_constant_nm_a;
 }
@@ -823,6 +833,13 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 				m->rate_divisor);
 		}
 		validate_feedback(c, cfg, m, rmd_yaml_get(mn, "feedback", NULL), path);
+		if (rmd_yaml_get(mn, "travel_rad", NULL) &&
+		    (m->n_travel != 2 || !(m->travel_rad[0] < m->travel_rad[1]))) {
+			rmd_yaml_path_key(kp, path, "travel_rad");
+			rmd_yaml_report(c, rmd_yaml_line_of(mn, "travel_rad"), kp,
+					"[min, max] in rad, min below max: where the joint can be "
+					"(docs/faults.md \"Position uncertain after power-off\")");
+		}
 		validate_motor_sim(c, cfg, sim, i, mn, path);
 	}
 }
@@ -1079,11 +1096,17 @@ int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, un
 		m->torque_constant_nm_a = model.motor.kt_nm_a;
 		m->limits.velocity_rad_s = 20.0;
 		m->limits.torque_nm = 10.0;
+		/*
+		 * Its simulated motors keep their multi-turn count (0x20 index 4,
+		 * V3 §2.33.4), so their positions are trusted from the start.
+		 */
+		m->multi_turn_saved = true;
 		if (!sim)
 			continue;
 		sim->motors[i] = sim->buses[m->bus].motor;
 		sim->motors[i].id = m->id;
 		sim->motors[i].proto = m->proto;
+		sim->motors[i].multi_turn_save = true;
 	}
 	return 0;
 }

@@ -11,11 +11,13 @@
  * and rmd_loop_stop_motors()); no allocation, no lock, no text.
  */
 #include <errno.h>
+#include <math.h>
 #include <string.h>
 
 #include "rmd/loop.h"
 #include "rmd/dialect.h"
 #include "rmd/motor.h"
+#include "rmd/multiturn.h"
 #include "loop_priv.h"
 
 /* Forget the one-shots waiting and the damp stream.  rt-safe. */
@@ -61,6 +63,8 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 
 static void cl_forget(struct rmd_loop *l, struct lmotor *lm);
 static void cl_start_round(struct lmotor *lm);
+static void pos_forget(struct lmotor *lm);
+static void pos_begin(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 
 /* rt-safe. */
 static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
@@ -178,6 +182,9 @@ void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t n
  *   LOST      the safe action once when it was ENABLED, else nothing
  *             waits; re-probes after RMD_LOOP_REPROBE_NS.
  *
+ * Position (rmd/multiturn.h): LOST forgets whether it can be trusted;
+ * READY from PROBE or LOST decides it anew (pos_begin()).
+ *
  * Comm-loss protection: LOST forgets it (the motor that comes back may have
  * been swapped or reflashed); READY reached from PROBE or LOST (through
  * STOPPING, and FAULT on the way) starts a round of 0xB3 writes (a motor
@@ -232,6 +239,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			cl_forget(l, lm);
 			if (lm->cl == RMD_CL_PENDING)
 				cl_start_round(lm);
+			pos_begin(l, lm, now); /* it may have been powered off */
 		}
 		lm->stop_from = RMD_LC_READY;
 		break;
@@ -244,6 +252,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 				queue_safe(l, lm, false, now);
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 			cl_forget(l, lm);
+			pos_forget(lm);
 		} else {
 			owe(lm, OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? OWE_BRAKE : 0));
 			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
@@ -317,6 +326,40 @@ static inline void take_setpoint(struct lmotor *lm, const struct rmd_setpoint *s
 	lm->st->mode = sp->mode;
 }
 
+/*
+ * A setpoint that drives to a position, for a motor whose position is
+ * uncertain: not taken (an ENABLED motor gets the safe action and waits
+ * for an enable = 0, as after any refusal while it runs); reported once
+ * per episode.  Returns RMD_IGN_POS_UNCERTAIN.  rt-safe.
+ */
+static __attribute__((cold, noinline)) int pos_refuse(struct rmd_loop *l, struct lmotor *lm,
+						      const struct rmd_setpoint *sp, int64_t now)
+{
+	if (!lm->pos_warned) {
+		lm->pos_warned = true;
+		loop_event(l, now, RMD_EV_POS_REFUSED, loop_idx(l, lm), lm->m.bus,
+			   lm->st->pos_trust, sp->mode);
+	}
+	if (lm->st->lifecycle == RMD_LC_ENABLED)
+		loop_enter(l, lm, RMD_LC_SAFE, now);
+	return RMD_IGN_POS_UNCERTAIN;
+}
+
+/*
+ * An ENABLED motor's setpoint while its position is uncertain: taken when
+ * it needs no trusted position, else refused (pos_refuse()).  Returns -1
+ * or RMD_IGN_POS_UNCERTAIN.  rt-safe.
+ */
+static __attribute__((noinline)) int pos_uncertain_setpoint(struct rmd_loop *l, struct lmotor *lm,
+							    const struct rmd_setpoint *sp,
+							    int64_t now)
+{
+	if (rmd_setpoint_needs_pos(sp))
+		return pos_refuse(l, lm, sp, now);
+	take_setpoint(lm, sp);
+	return -1;
+}
+
 /* Returns -1 when acted on, else the enum rmd_ignore reason it was not.  rt-safe. */
 static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			int64_t now)
@@ -326,6 +369,8 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 	case RMD_LC_SAFE:
 		if (lm->need_edge)
 			return RMD_IGN_EDGE;
+		if (!lm->st->pos_certain && rmd_setpoint_needs_pos(sp))
+			return pos_refuse(l, lm, sp, now);
 		if (!rmd_comm_loss_allows_motion(lm->cl)) {
 			/* armed first, then enabled, or refused with a reason (unarmed_rejects) */
 			cl_enable_wanted(l, lm, sp, now);
@@ -428,10 +473,15 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 			int why = -1;
 
 			any_enable = true;
-			if (lm->st->lifecycle == RMD_LC_ENABLED) /* enable_motor()'s, every cycle */
-				take_setpoint(lm, &c->m[i]);
-			else
+			if (lm->st->lifecycle ==
+			    RMD_LC_ENABLED) { /* enable_motor()'s, every cycle */
+				if (__builtin_expect(lm->st->pos_certain, 1))
+					take_setpoint(lm, &c->m[i]);
+				else
+					why = pos_uncertain_setpoint(l, lm, &c->m[i], now);
+			} else {
 				why = enable_motor(l, lm, &c->m[i], now);
+			}
 			if (why >= 0)
 				l->cnt.ignored[why]++;
 		} else {
@@ -664,4 +714,107 @@ void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss c
 uint8_t rmd_loop_comm_loss(const struct rmd_loop *l, unsigned i)
 {
 	return i < l->n_motors ? l->mot[i].cl : RMD_CL_PENDING;
+}
+
+/* ------------------------------------------------------------------ */
+/* Position after a power cycle */
+
+/*
+ * rmd/multiturn.h: a motor that appears (bring-up) or returns from LOST may
+ * have been powered off, and its multi-turn count with it.  Its position is
+ * then trusted when the config says it keeps its count, or decided on the
+ * first position received (loop_pos_settle()): shifted into its travel
+ * band when the band admits one position, else uncertain until homed.
+ */
+
+/* rt-safe. */
+static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t, double shift,
+		    int64_t now)
+{
+	lm->pos_settle = false;
+	lm->st->pos_trust = (uint8_t)t;
+	lm->st->pos_certain = rmd_pos_trusted(t);
+	if (lm->st->pos_certain)
+		lm->pos_warned = false;
+	loop_event(l, now, RMD_EV_POSITION, loop_idx(l, lm), lm->m.bus, t,
+		   (int64_t)llround(shift * 1e6));
+}
+
+/* Lost: nothing is known of its position any more.  rt-safe. */
+static void pos_forget(struct lmotor *lm)
+{
+	lm->pos_settle = false;
+	lm->pos_warned = false;
+	lm->st->pos_trust = RMD_POS_UNKNOWN;
+	lm->st->pos_certain = false;
+}
+
+/* READY from PROBE or LOST.  rt-safe. */
+static void pos_begin(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	pos_forget(lm);
+	if (lm->m.mt.saved) {
+		pos_set(l, lm, RMD_POS_SAVED, 0.0, now);
+		return;
+	}
+	lm->pos_settle = true;
+	lm->pos_settle_ns = now;
+}
+
+void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	double shift;
+	enum rmd_pos_trust t = rmd_multiturn_settle(&lm->m.mt, lm->st->pos_rad, &shift);
+
+	if (t == RMD_POS_IN_BAND && shift != 0.0) {
+		rmd_motor_shift_pos(&lm->m, shift);
+		lm->st->pos_rad += shift;
+	}
+	pos_set(l, lm, t, shift, now);
+}
+
+/*
+ * A controller homed lm (rmd.home_t): it is at pos_rad now, or where it
+ * reports (as_reported).  The reported frame shifts, the motor does not
+ * move; refused while it is enabled (the position would jump under a
+ * running loop) or before it reported a position.  rt-safe.
+ */
+static void pos_home(struct rmd_loop *l, struct lmotor *lm, bool as_reported, double pos_rad,
+		     int64_t now)
+{
+	double shift;
+
+	if (lm->st->lifecycle == RMD_LC_ENABLED) {
+		loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus,
+			   RMD_HOME_ENABLED, 0);
+		return;
+	}
+	if (lm->pos_settle || !lm->st->pos_rx_ns || !isfinite(lm->st->pos_rad) ||
+	    lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) {
+		loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus, RMD_HOME_NO_POS,
+			   0);
+		return;
+	}
+	shift = as_reported ? 0.0 : pos_rad - lm->st->pos_rad;
+	rmd_motor_shift_pos(&lm->m, shift);
+	lm->st->pos_rad += shift;
+	pos_set(l, lm, RMD_POS_HOMED, shift, now);
+}
+
+void loop_take_homes(struct rmd_loop *l, int64_t now)
+{
+	const struct rmd_home *h;
+	const void *p;
+
+	if (!l->o.homes || !rmd_latest_get(l->o.homes, &p))
+		return;
+	h = p;
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		if (h->seq[i] == lm->homes_seen)
+			continue;
+		lm->homes_seen = h->seq[i];
+		pos_home(l, lm, h->as_reported[i], h->pos_rad[i], now);
+	}
 }

@@ -448,6 +448,7 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 		loop_drain(l, b, now);
 	loop_check_deadlines(l, now);
 	loop_take_command(l, now);
+	loop_take_homes(l, now);
 	incident_command(l, now);
 	loop_comm_loss(l, now);
 	loop_watchdog(l, now);

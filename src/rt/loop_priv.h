@@ -28,6 +28,7 @@
 #include "rmd/time.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
+#include "rmd/multiturn.h"
 
 #define OUTSTANDING 8 /* requests in flight per motor */
 #define GONE 8	      /* requests given up per motor, whose answers may still come */
@@ -125,7 +126,16 @@ struct lmotor {
 	bool cl_want;		   /* an enable waits for the round */
 	struct rmd_setpoint cl_sp; /* ... with this setpoint */
 	uint64_t unarmed_rejects;  /* enables refused: protection not set */
-	struct rmd_latency lat;	   /* every matched reply; under rmd_loop.stat_seq */
+	/*
+	 * Multi-turn position after a power cycle (rmd/multiturn.h; the flag
+	 * is st->pos_certain, the facts m.mt): whether the next position
+	 * received after pos_settle_ns decides it.
+	 */
+	bool pos_settle;
+	int64_t pos_settle_ns;
+	bool pos_warned;	/* this episode's refusal was reported */
+	uint32_t homes_seen;	/* rmd_home.seq[] of this motor, acted on */
+	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
 	/* bring-up */
 	char model[8];
 	uint32_t version;
@@ -285,6 +295,12 @@ static inline void loop_gone(struct lmotor *lm, uint64_t key, int64_t sent_ns)
 	g->key = key;
 	g->sent_ns = sent_ns;
 }
+
+/* lifecycle.c: a position received while pos_settle decides the motor's (rmd/multiturn.h).  rt-safe. */
+__attribute__((cold)) void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now);
+
+/* lifecycle.c: the homing requests the bridge handed over (rmd/state.h struct rmd_home).  rt-safe. */
+void loop_take_homes(struct rmd_loop *l, int64_t now);
 
 /* lifecycle.c.  rt-safe. */
 void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now);

@@ -237,9 +237,12 @@ static bool pushed_report(const struct lmotor *lm, uint16_t cmd)
 	return false;
 }
 
-/* Decode f into lm's state; false when it cannot be decoded.  rt-safe. */
-static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f,
-			int64_t now)
+/*
+ * Decode f into lm's state; false when it cannot be decoded.  Inline: the
+ * cycle takes every reply through it.  rt-safe.
+ */
+static inline __attribute__((always_inline)) bool
+take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, int64_t now)
 {
 	uint16_t prev = lm->st->error_code;
 	unsigned have;
@@ -247,6 +250,8 @@ static bool take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 	/* now: the reply's rmd_bus_rx.t_ns */
 	if (rmd_motor_receive(&lm->m, f, now, lm->st, &have) < 0)
 		return false;
+	if (__builtin_expect(lm->pos_settle, 0) && lm->st->pos_rx_ns >= lm->pos_settle_ns)
+		loop_pos_settle(l, lm, now);
 	if (have & RMD_MOTOR_HAVE_ERROR)
 		loop_note_errors(l, lm, prev, now);
 	return true;

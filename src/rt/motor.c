@@ -225,6 +225,10 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 		if (m->damp_kd < m->mit.kd_min)
 			m->damp_kd = m->mit.kd_min;
 	}
+	m->mt.saved = c->multi_turn_saved;
+	m->mt.period_rad = rmd_multiturn_period_rad(c->gear_ratio);
+	rmd_config_travel(c, &m->mt.lo_rad, &m->mt.hi_rad);
+	m->mt.tol_rad = rmd_motor_pos_resolution_rad(m);
 	return 0;
 }
 
@@ -277,6 +281,10 @@ void rmd_motor_info(const struct rmd_motor *m, bool batched, struct rmd_motor_in
 	out->kd_min = mit ? m->mit.kd_min : 0;
 	out->kd_max = mit ? m->mit.kd_max : 0;
 	out->pos_resolution_rad = rmd_motor_pos_resolution_rad(m);
+	out->multi_turn_saved = m->mt.saved;
+	out->travel_min_rad = m->mt.lo_rad;
+	out->travel_max_rad = m->mt.hi_rad;
+	out->turn_period_rad = m->mt.period_rad;
 }
 
 /* x within [lo, hi]; the first change of a rmd_motor_clamp() call goes in *note.  rt-safe. */
@@ -333,6 +341,12 @@ double rmd_motor_to_native_pos(const struct rmd_motor *m, double pos_rad)
 double rmd_motor_from_native_pos(const struct rmd_motor *m, double native_rad)
 {
 	return m->dir * (native_rad - m->zero_offset_rad);
+}
+
+/* rt-safe. */
+void rmd_motor_shift_pos(struct rmd_motor *m, double shift_rad)
+{
+	m->zero_offset_rad -= m->dir * shift_rad;
 }
 
 /* Encode msg on 0x140 + ID with the motor's table.  rt-safe. */

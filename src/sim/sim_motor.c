@@ -186,7 +186,7 @@ static void rom_defaults(struct rmd_sim_motor *m)
 	r->comm_timeout_ms = m->p.comm_loss_rom_ms; /* an earlier run's 0xB3 */
 	/* V3 §3.1: off, so 0x280 reaches the motor out of the box. */
 	r->can_filter = false;
-	r->multiturn_save = false;
+	r->multiturn_save = m->p.multi_turn_save; /* an earlier 0x20 index 4 */
 }
 
 /*
@@ -204,8 +204,10 @@ static void boot(struct rmd_sim_motor *m, int64_t now_ns)
 	if (!m->rom.multiturn_save || m->clear_multiturn) {
 		double off = rmd_sim_offset_rad(m);
 		double a = m->pos_rad - off;
+		/* one output turn, or one rotor turn (struct rmd_sim_motor_params.wrap_rotor) */
+		double turn = 2.0 * M_PI / (m->p.wrap_rotor ? m->p.gear_ratio : 1.0);
 
-		a -= 2.0 * M_PI * floor((a + M_PI) / (2.0 * M_PI));
+		a -= turn * floor((a + turn / 2.0) / turn);
 		m->pos_rad = off + a;
 	}
 	m->clear_multiturn = false;

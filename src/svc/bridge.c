@@ -35,6 +35,7 @@
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_t.h"
 #include "rmd/rmd_health_t.h"
+#include "rmd/rmd_home_t.h"
 #include "rmd/rmd_motor_config_t.h"
 #include "rmd/rmd_state_t.h"
 
@@ -54,6 +55,13 @@ _Static_assert(RMD_STATE_T_LC_PROBE == RMD_LC_PROBE && RMD_STATE_T_LC_READY == R
 		       RMD_STATE_T_LC_SAFE == RMD_LC_SAFE &&
 		       RMD_STATE_T_LC_STOPPING == RMD_LC_STOPPING && RMD_LC_COUNT == 7,
 	       "lifecycle");
+_Static_assert(RMD_STATE_T_POS_UNKNOWN == RMD_POS_UNKNOWN &&
+		       RMD_STATE_T_POS_AMBIGUOUS == RMD_POS_AMBIGUOUS &&
+		       RMD_STATE_T_POS_OUTSIDE == RMD_POS_OUTSIDE &&
+		       RMD_STATE_T_POS_SAVED == RMD_POS_SAVED &&
+		       RMD_STATE_T_POS_IN_BAND == RMD_POS_IN_BAND &&
+		       RMD_STATE_T_POS_HOMED == RMD_POS_HOMED && RMD_POS_TRUST_COUNT == 6,
+	       "position trust");
 _Static_assert(RMD_HEALTH_T_WD_IDLE == RMD_WD_IDLE && RMD_HEALTH_T_WD_OK == RMD_WD_OK &&
 		       RMD_HEALTH_T_WD_TRIPPED == RMD_WD_TRIPPED,
 	       "watchdog");
@@ -70,6 +78,7 @@ _Static_assert(RMD_HEALTH_T_REJ_DECODE == RMD_REJ_DECODE &&
 _Static_assert(RMD_HEALTH_T_IGN_EDGE == RMD_IGN_EDGE &&
 		       RMD_HEALTH_T_IGN_NOT_READY == RMD_IGN_NOT_READY &&
 		       RMD_HEALTH_T_IGN_TRIPPED == RMD_IGN_TRIPPED &&
+		       RMD_HEALTH_T_IGN_POS_UNCERTAIN == RMD_IGN_POS_UNCERTAIN &&
 		       RMD_HEALTH_T_IGN_KINDS == RMD_IGN_KINDS,
 	       "ignore kinds");
 _Static_assert(RMD_BUS_HEALTH_T_BUS_ACTIVE == RMD_BUS_ACTIVE &&
@@ -620,6 +629,63 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 	}
 }
 
+/*
+ * rmd.home_t (docs/lcm.md "Homing"): checked, logged, and handed to the rt
+ * loop, which applies it (or refuses it: a motor that is enabled, or has
+ * no position yet) and logs the outcome.  Rare, human-paced: every one is
+ * logged.  Bridge thread.
+ */
+static void on_home(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct rmd_bridge *b = user;
+	int64_t at = arrival_ns(b, utime_ns(rbuf->recv_utime), rmd_now_ns());
+	rmd_home_t msg;
+	unsigned i;
+
+	(void)channel;
+	if (rmd_home_t_decode(rbuf->data, 0, (int)rbuf->data_size, &msg) != (int)rbuf->data_size) {
+		logf_(b, 4, "%s: refused: not an rmd.home_t (fingerprint or length)", b->ch_home);
+		return;
+	}
+	if (msg.index < 0 || (unsigned)msg.index >= b->opts.nmotors) {
+		logf_(b, 4, "%s: refused: motor index %d out of range (0..%u)", b->ch_home,
+		      msg.index, b->opts.nmotors - 1);
+		return;
+	}
+	i = (unsigned)msg.index;
+	if (!msg.as_reported && !isfinite(msg.position)) {
+		logf_(b, 4, "%s: motor %u (%s): refused: position %g is not finite", b->ch_home, i,
+		      motor_name(b, i), msg.position);
+		return;
+	}
+	owner_expire(b, at);
+	if (b->owned && msg.controller != b->owner) {
+		logf_(b, 4,
+		      "%s: motor %u (%s): refused: controller %016" PRIx64
+		      " does not own the motors (controller %016" PRIx64 " does)",
+		      b->ch_home, i, motor_name(b, i), (uint64_t)msg.controller,
+		      (uint64_t)b->owner);
+		return;
+	}
+	if (!b->opts.homes) {
+		logf_(b, 4, "%s: motor %u (%s): refused: this rmdd takes no homing", b->ch_home, i,
+		      motor_name(b, i));
+		return;
+	}
+	b->homes.seq[i]++;
+	b->homes.as_reported[i] = msg.as_reported;
+	b->homes.pos_rad[i] = msg.as_reported ? 0.0 : msg.position;
+	rmd_latest_put(b->opts.homes, &b->homes);
+	if (msg.as_reported)
+		logf_(b, 5,
+		      "%s: motor %u (%s): controller %016" PRIx64
+		      " says its reported position is right",
+		      b->ch_home, i, motor_name(b, i), (uint64_t)msg.controller);
+	else
+		logf_(b, 5, "%s: motor %u (%s): controller %016" PRIx64 " says it is at %.6f rad",
+		      b->ch_home, i, motor_name(b, i), (uint64_t)msg.controller, msg.position);
+}
+
 static void on_config_request(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
 	struct rmd_bridge *b = user;
@@ -690,6 +756,8 @@ static void publish_state(struct rmd_bridge *b)
 		o->missed_replies = sat64(m->missed_replies);
 		o->rx_time_ns = m->rx_ns;
 		o->position_rx_time_ns = m->pos_rx_ns;
+		o->position_certain = m->pos_certain;
+		o->position_trust = (int8_t)m->pos_trust;
 	}
 	n = rmd_state_t_encode(b->buf->enc, 0, ENC_MAX, st);
 	if (publish_encoded(b, b->ch_state, n))
@@ -839,6 +907,10 @@ static void publish_config(struct rmd_bridge *b)
 			.comm_loss = i < h->nmotors ? (int8_t)h->comm_loss[i] : 0,
 			.position_resolution = m->pos_resolution_rad,
 			.position_rate_hz = m->pos_rate_hz,
+			.multi_turn_saved = m->multi_turn_saved,
+			.travel_min = m->travel_min_rad,
+			.travel_max = m->travel_max_rad,
+			.turn_period = m->turn_period_rad,
 		};
 	}
 	/* Rare, so the generated publish (it allocates) is fine here. */
@@ -869,6 +941,8 @@ static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data,
 		on_command(&rb, channel, b);
 	else if (!strcmp(channel, b->ch_config_req))
 		on_config_request(&rb, channel, b);
+	else if (!strcmp(channel, b->ch_home))
+		on_home(&rb, channel, b);
 }
 
 /*
@@ -1443,6 +1517,7 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	snprintf(b->ch_health, sizeof(b->ch_health), "%sHEALTH", opts->prefix);
 	snprintf(b->ch_config, sizeof(b->ch_config), "%sCONFIG", opts->prefix);
 	snprintf(b->ch_config_req, sizeof(b->ch_config_req), "%sCONFIG_REQUEST", opts->prefix);
+	snprintf(b->ch_home, sizeof(b->ch_home), "%sHOME", opts->prefix);
 
 	b->buf = calloc(1, sizeof(*b->buf));
 	if (!b->buf) {
@@ -1487,7 +1562,9 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	b->sub_command = lcm_subscribe(b->lcm, re, on_command, b);
 	channel_regex(re, sizeof(re), opts->prefix, "CONFIG_REQUEST");
 	b->sub_config_req = lcm_subscribe(b->lcm, re, on_config_request, b);
-	if (!b->sub_command || !b->sub_config_req) {
+	channel_regex(re, sizeof(re), opts->prefix, "HOME");
+	b->sub_home = lcm_subscribe(b->lcm, re, on_home, b);
+	if (!b->sub_command || !b->sub_config_req || !b->sub_home) {
 		snprintf(err, errlen,
 			 "LCM \"%s\": cannot subscribe (multicast not routable? see "
 			 "docs/lcm.md)",
@@ -1557,6 +1634,8 @@ void rmd_bridge_fini(struct rmd_bridge *b)
 			lcm_unsubscribe(b->lcm, b->sub_command);
 		if (b->sub_config_req)
 			lcm_unsubscribe(b->lcm, b->sub_config_req);
+		if (b->sub_home)
+			lcm_unsubscribe(b->lcm, b->sub_home);
 		lcm_destroy(b->lcm);
 		b->lcm = NULL;
 	}

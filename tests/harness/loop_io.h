@@ -22,8 +22,9 @@ struct rig_loop {
 	struct rmd_sim_setup sim;
 	struct rmd_plan plan;
 	struct rmd_bus buses[RMD_MAX_BUSES];
-	struct rmd_latest cmds, snaps, health;
+	struct rmd_latest cmds, snaps, health, homes;
 	struct rmd_command cmd_buf[3];
+	struct rmd_home home_buf[3];
 	struct rmd_snapshot snap_buf[3];
 	struct rmd_health health_buf[3];
 	struct rmd_ring events;

@@ -69,6 +69,7 @@
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
 #include "rmd/rmd_health_t.h"
+#include "rmd/rmd_home_t.h"
 #include "rmd/rmd_state_t.h"
 
 #define NMOTORS 6
@@ -832,6 +833,113 @@ static void test_setpoints_move_the_motors(void **state)
 	assert_true(h->cycles > 0);
 
 	/* and back: enable = 0 makes them ready, where they stand */
+	disable_all(f);
+}
+
+/* ---- tests: position uncertain after power-off (docs/faults.md) ----------------------------- */
+
+/* Lines of the wire tap at `path` with `needle` (e.g. " 141#A4" sent by rmdd: " T"). */
+static unsigned tap_count(const char *path, const char *needle)
+{
+	char line[256];
+	unsigned n = 0;
+	FILE *fp = fopen(path, "r");
+
+	if (!fp)
+		return 0;
+	while (fgets(line, sizeof(line), fp))
+		if (strstr(line, needle) && strstr(line, " T"))
+			n++;
+	fclose(fp);
+	return n;
+}
+
+static bool done_pos1_enabled(const struct fixture *f, int arg)
+{
+	(void)arg;
+	return f->rx.state.count == NMOTORS &&
+	       f->rx.state.motor[0].lifecycle == RMD_STATE_T_LC_ENABLED;
+}
+
+/*
+ * A 1:9 geared motor whose limits (+-3 rad) span many rotor turns (40 deg
+ * at the output): its position is uncertain from the start.  Over LCM: a
+ * position-mode enable is refused (no 0xA4 for it on the wire tap; health_t
+ * counts it; the log says what to do) while the other motors run; a
+ * home_t from the owning controller makes it certain, logged, without
+ * moving it, and the same command then drives it.
+ */
+static void test_uncertain_position_refused_until_homed(void **state)
+{
+	struct fixture *f = fixture(state);
+	char path[400], tap[400], text[4096], *p;
+	const rmd_health_t *h;
+	rmd_home_t home = { 0 };
+	double pos0;
+	FILE *fp;
+
+	snprintf(tap, sizeof(tap), "%s/tap.%u.log", tmpdir, test_no);
+	snprintf(path, sizeof(path), "%s/geared.%u.yaml", tmpdir, test_no);
+	snprintf(text, sizeof(text), "%s", config_yaml);
+	/* motor pos_1 behind a 1:9 gearbox; the sim0 wire tapped */
+	p = strstr(text, "id: 1, mode: position,");
+	assert_non_null(p);
+	memmove(p + 15, p, strlen(p) + 1);
+	memcpy(p, "gear_ratio: 9, ", 15);
+	p = strstr(text, "sim: {seed: 1}");
+	assert_non_null(p);
+	{
+		char rest[4096];
+
+		snprintf(rest, sizeof(rest), "%s", p + strlen("sim: {seed: 1}"));
+		snprintf(p, sizeof(text) - (size_t)(p - text), "sim: {seed: 1, tap: '%s'}%s", tap,
+			 rest);
+	}
+	fp = fopen(path, "w");
+	assert_non_null(fp);
+	fputs(text, fp);
+	assert_int_equal(fclose(fp), 0);
+
+	start_rmdd_with(f, path);
+	assert_true(f->rx.config->motor[0].turn_period > 0.69 &&
+		    f->rx.config->motor[0].turn_period < 0.70);
+	WAIT_UNTIL(f,
+		   all_in(f, RMD_STATE_T_LC_READY) && f->rx.state.motor[1].position_certain &&
+			   f->rx.state.motor[0].position_trust != RMD_STATE_T_POS_UNKNOWN,
+		   2000);
+	assert_false(f->rx.state.motor[0].position_certain);
+	assert_int_equal(f->rx.state.motor[0].position_trust, RMD_STATE_T_POS_AMBIGUOUS);
+	assert_int_equal(f->rx.state.motor[1].position_trust, RMD_STATE_T_POS_IN_BAND);
+
+	/* every motor in position (MIT: kp > 0) mode: motor 0 refused, the rest run */
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = f->rx.state.motor[i].position + (i == 0 ? 0.3 : 0.0);
+	stream(f, true, 500, done_never, 0);
+	assert_int_equal(f->rx.state.motor[0].lifecycle, RMD_STATE_T_LC_READY);
+	assert_int_equal(f->rx.state.motor[1].lifecycle, RMD_STATE_T_LC_ENABLED);
+	h = stream_health(f, true);
+	assert_true(h->ignored_by_kind[RMD_HEALTH_T_IGN_POS_UNCERTAIN] > 10);
+	assert_int_equal(tap_count(tap, " 141#A4"), 0);
+	assert_true(tap_count(tap, " 142#A4") > 50);
+	assert_int_equal(count_of(slurp(f->log), "(pos_1): position refused: its position is "
+						 "uncertain"),
+			 1);
+
+	/* homed by the owner: the reported position is right */
+	pos0 = f->rx.state.motor[0].position;
+	home.controller = f->controller;
+	home.index = 0;
+	home.as_reported = true;
+	assert_int_equal(rmd_home_t_publish(f->pub, "RMD_HOME", &home), 0);
+	if (!stream(f, true, 2000, done_pos1_enabled, 0))
+		fail_msg("motor 0 not enabled after homing; rmdd's output:\n%s", slurp(f->log));
+	assert_true(f->rx.state.motor[0].position_certain);
+	assert_int_equal(f->rx.state.motor[0].position_trust, RMD_STATE_T_POS_HOMED);
+	assert_non_null(strstr(slurp(f->log), "(pos_1): homed: position certain"));
+	f->target[0] = pos0 + 0.3;
+	stream(f, true, 1500, done_never, 0);
+	assert_true(fabs(f->rx.state.motor[0].position - (pos0 + 0.3)) < 0.03);
+	assert_true(tap_count(tap, " 141#A4") > 50);
 	disable_all(f);
 }
 
@@ -2413,6 +2521,8 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test_setup_teardown(test_setpoints_move_the_motors, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_uncertain_position_refused_until_homed, setup,
+						teardown),
 		cmocka_unit_test_setup_teardown(test_hostile_messages_rejected_and_counted, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_flood_counted_while_the_loop_keeps_its_cycle,

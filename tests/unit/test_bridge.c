@@ -42,6 +42,7 @@
 #include "harness/suite.h"
 #include "rmd/bridge.h"
 #include "rmd/rmd_command_t.h"
+#include "rmd/rmd_home_t.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
 #include "rmd/rmd_health_t.h"
@@ -60,8 +61,9 @@
 struct fixture {
 	struct rmd_bridge b;
 	struct rmd_bridge_opts opts;
-	struct rmd_latest commands, snapshots, health;
+	struct rmd_latest commands, snapshots, health, homes;
 	struct rmd_command cmd_buf[3];
+	struct rmd_home home_buf[3];
 	struct rmd_snapshot snap_buf[3];
 	struct rmd_health health_buf[3];
 	bool started;
@@ -160,7 +162,9 @@ static int setup(void **state)
 	rmd_latest_init(&f->commands, f->cmd_buf, sizeof(f->cmd_buf[0]));
 	rmd_latest_init(&f->snapshots, f->snap_buf, sizeof(f->snap_buf[0]));
 	rmd_latest_init(&f->health, f->health_buf, sizeof(f->health_buf[0]));
+	rmd_latest_init(&f->homes, f->home_buf, sizeof(f->home_buf[0]));
 	f->opts.commands = &f->commands;
+	f->opts.homes = &f->homes;
 	f->opts.snapshots = &f->snapshots;
 	f->opts.health = &f->health;
 	f->log = tmpfile();
@@ -1177,6 +1181,79 @@ static rmd_command_t ctl_cmd(int64_t id, int64_t seq, bool enable)
 	return m;
 }
 
+/* The newest homing requests handed to the rt loop, if any came since the last call. */
+static bool take_homes(struct fixture *f, struct rmd_home *out)
+{
+	const void *p;
+
+	if (!rmd_latest_get(&f->homes, &p))
+		return false;
+	memcpy(out, p, sizeof(*out));
+	return true;
+}
+
+static void send_home(struct fixture *f, int64_t controller, int index, bool as_reported,
+		      double pos)
+{
+	char ch[64];
+	rmd_home_t h = { .utime = 1,
+			 .controller = controller,
+			 .index = (int16_t)index,
+			 .as_reported = as_reported,
+			 .position = pos };
+
+	snprintf(ch, sizeof(ch), "%sHOME", PREFIX);
+	assert_int_equal(rmd_home_t_publish(f->ctl, ch, &h), 0);
+}
+
+/*
+ * rmd.home_t (docs/lcm.md "Homing"): checked, counted per motor in the
+ * hand-over (the loop acts on a change), logged; while a controller owns
+ * the motors only it may home them.
+ */
+static void test_home(void **state)
+{
+	struct fixture *f = fixture(state);
+	struct rmd_home h;
+	rmd_command_t m;
+	char line[512];
+	bool seen_range = false, seen_owner = false;
+
+	start(f);
+	send_home(f, 5, 1, false, 0.75);
+	WAIT_UNTIL(f, take_homes(f, &h), 2000);
+	assert_int_equal(h.seq[1], 1);
+	assert_false(h.as_reported[1]);
+	assert_true(h.pos_rad[1] == 0.75);
+	send_home(f, 5, 2, true, NAN);
+	WAIT_UNTIL(f, take_homes(f, &h), 2000);
+	assert_int_equal(h.seq[1], 1);
+	assert_int_equal(h.seq[2], 1);
+	assert_true(h.as_reported[2]);
+	/* refused: out of range, not finite */
+	send_home(f, 5, 40, false, 0.1);
+	send_home(f, 5, 1, false, INFINITY);
+	/* owned by 0x77: another controller's homing is refused, the owner's taken */
+	m = ctl_cmd(0x77, 1, true);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, stats(f).owned, 2000);
+	send_home(f, 0x99, 1, false, 0.5);
+	send_home(f, 0x77, 1, false, -0.5);
+	WAIT_UNTIL(f, take_homes(f, &h) && h.seq[1] == 2, 2000);
+	assert_int_equal(h.seq[1], 2);
+	assert_true(h.pos_rad[1] == -0.5);
+	rmd_bridge_stop(&f->b);
+	rewind(f->log);
+	while (fgets(line, sizeof(line), f->log)) {
+		seen_range |= strstr(line, "<4>rmdd: TEST_HOME: refused: motor index 40 out of "
+					   "range") != NULL;
+		seen_owner |= strstr(line, "controller 0000000000000099 does not own the motors") !=
+			      NULL;
+	}
+	assert_true(seen_range);
+	assert_true(seen_owner);
+}
+
 /*
  * Issue 13: one controller at a time.  The first to enable owns the motors;
  * another is rejected (REJ_OWNER, its id in health_t) until the owner
@@ -1881,6 +1958,7 @@ int main(void)
 		cmocka_unit_test(test_init_checks_opts),
 		cmocka_unit_test(test_command_roundtrip),
 		cmocka_unit_test(test_prefix_is_not_a_pattern),
+		cmocka_unit_test(test_home),
 		cmocka_unit_test(test_clamp),
 		cmocka_unit_test(test_hostile_rejected_by_kind),
 		cmocka_unit_test(test_stale),

@@ -468,6 +468,14 @@ static const struct bad_str bad_strs[] = {
 	{ "incident-negative",
 	  BUS MOTORS "incidents: {seconds_after: -1}\n",
 	  { ":5: incidents.seconds_after: -1 is out of range" } },
+	{ "travel-order",
+	  BUS "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2,\n"
+	      "     travel_rad: [0.5, -0.5]}\n",
+	  { ":5: motors[0].travel_rad: [min, max] in rad, min below max" } },
+	{ "travel-one",
+	  BUS "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2,\n"
+	      "     travel_rad: [0.5]}\n",
+	  { "motors[0].travel_rad: [min, max] in rad" } },
 };
 
 static void test_bad_strings(void **state)
@@ -529,7 +537,8 @@ static void test_good_values(void **state)
 			 "  - {name: m2, bus: s, id: 2, protocol: v2, mode: speed, units: rotor,\n"
 			 "     gear_ratio: 9, torque_constant_nm_a: +1.5e0}\n"
 			 "  - {name: m3, bus: rs0, id: 1, mode: position, torque_constant_nm_a: 2,\n"
-			 "     limits: {position_min_rad: -1, position_max_rad: 1}}\n"),
+			 "     limits: {position_min_rad: -1, position_max_rad: 1},\n"
+			 "     multi_turn_saved: true, travel_rad: [-0.5, 0.25]}\n"),
 		0);
 	assert_string_equal(err, "");
 	assert_int_equal(cfg.loop.rate_hz, 500);
@@ -573,6 +582,11 @@ static void test_good_values(void **state)
 	assert_true(sim.motors[1].kt_nm_a == 1.5);
 	assert_int_equal(cfg.motors[2].bus, 1);
 	assert_true(cfg.motors[2].limits.position_max_rad == 1.0);
+	assert_true(cfg.motors[2].multi_turn_saved);
+	assert_int_equal(cfg.motors[2].n_travel, 2);
+	assert_true(cfg.motors[2].travel_rad[0] == -0.5 && cfg.motors[2].travel_rad[1] == 0.25);
+	assert_false(cfg.motors[1].multi_turn_saved);
+	assert_int_equal(cfg.motors[1].n_travel, 0);
 }
 
 /* A small err buffer is cut, never overrun, and stays a string. */

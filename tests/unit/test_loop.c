@@ -33,6 +33,7 @@
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
 #include "rmd/loop.h"
+#include "rmd/multiturn.h"
 #include "rmd/plan.h"
 #include "rmd/sim.h"
 #include "rmd/sim_wire.h"
@@ -1688,6 +1689,335 @@ static void test_wake_hist_and_reply_latency(void **state)
 	rig_down();
 }
 
+/* ---- position after a power cycle (rmd/multiturn.h) --------------------------- */
+
+/* Motor 1's case: where its joint is and what rmdd is told about it. */
+static struct pc_case {
+	const char *name;
+	double gear;
+	int dir;
+	double zero_rad;
+	double start_deg;    /* the simulated output angle at first power-on (native) */
+	double below, above; /* travel band around the truth, deg; below -1: none */
+	bool v2;	     /* a V2 motor (else V3) */
+	bool mit;	     /* an MIT motor */
+	bool wrap_rotor;     /* the simulated motor wraps within one rotor turn */
+} pc;
+
+static double pc_truth_rad(void)
+{
+	return pc.dir * (pc.start_deg * M_PI / 180.0 - pc.zero_rad);
+}
+
+static void pc_tweak(struct rmd_config *cfg)
+{
+	struct rmd_config_motor *m = &cfg->motors[0];
+	double t = pc_truth_rad();
+
+	m->gear_ratio = pc.gear;
+	m->direction = pc.dir;
+	if (pc.v2) {
+		m->proto = RMD_PROTO_V2;
+		m->comm_loss_ms = 0; /* V2 has no 0xB3 (the loader insists) */
+	}
+	if (pc.mit) {
+		m->proto = RMD_PROTO_MIT;
+		m->mode = RMD_MODE_MIT;
+	}
+	m->zero_offset_rad = pc.zero_rad;
+	m->multi_turn_saved = false;
+	m->n_travel = 0;
+	if (pc.below != -1) {
+		m->n_travel = 2;
+		m->travel_rad[0] = t - pc.below * M_PI / 180.0;
+		m->travel_rad[1] = t + pc.above * M_PI / 180.0;
+	}
+}
+
+static void pc_sim(struct rmd_sim_setup *sim)
+{
+	sim->motors[0].multi_turn_save = false;
+	sim->motors[0].start_angle_deg = pc.start_deg;
+	sim->motors[0].wrap_rotor = pc.wrap_rotor;
+}
+
+static void pc_rig(void)
+{
+	rig_sim_tweak = pc_sim;
+	rig_up(3, pc_tweak);
+	rig_sim_tweak = NULL;
+	bring_up();
+	run(50, false);
+}
+
+/* Motor 1's power fails for 300 ms; the loop runs until it is READY again. */
+static void pc_power_cycle(void)
+{
+	struct rmd_sim_fault off = { .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 1, .param = 1 };
+
+	fault_now(&off, 300 * MS);
+	run(200, true);
+	assert_int_equal(lifecycle(0), RMD_LC_LOST);
+	assert_false(snap().m[0].pos_certain);
+	run(1300, true);
+	set_faults(0, NULL, 0);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+}
+
+/* V3 control replies carry whole degrees (V3 §2.13.3) */
+#define PC_TOL (0.5 * M_PI / 180.0 + 1e-6)
+
+/*
+ * A joint whose travel band is narrower than one rotor turn at the output
+ * (2 pi / gear_ratio) reports its true position after a power cycle, which
+ * wrapped the motor's angle (include/rmd/sim.h): at several angles, gear
+ * ratios, both directions and zero offsets.
+ */
+static void test_pos_cycle_in_band(void **state)
+{
+	static const struct pc_case cases[] = {
+		{ "direct drive, 400 deg", 1.0, 1, 0.0, 400.0, 100.0, 100.0, false, false, false },
+		{ "direct drive reversed, -500 deg, zero 0.3", 1.0, -1, 0.3, -500.0, 20.0, 300.0,
+		  false, false, false },
+		{ "1:6, -100 deg, band 40 deg", 6.0, 1, 0.0, -100.0, 20.0, 20.0, false, false,
+		  false },
+		{ "1:9 reversed, 725 deg, zero -0.5, band 30 deg", 9.0, -1, -0.5, 725.0, 5.0, 25.0,
+		  false, false, false },
+		{ "1:9, 10 deg (no wrap), band at its edge", 9.0, 1, 0.0, 10.0, 0.0, 30.0, false,
+		  false, false },
+		{ "V2 1:6, 250 deg (rmdd unwraps the encoder)", 6.0, 1, 0.0, 250.0, 10.0, 20.0,
+		  true, false, false },
+		{ "MIT direct drive reversed, 300 deg", 1.0, -1, 0.1, 300.0, 90.0, 90.0, false,
+		  true, false },
+		/* firmware that keeps only the rotor's angle: 727 deg comes back as 7 deg */
+		{ "1:9 rotor wrap, 727 deg, band 30 deg", 9.0, 1, 0.0, 727.0, 10.0, 20.0, false,
+		  false, true },
+		{ "1:6 rotor wrap reversed, -95 deg, zero 0.2", 6.0, -1, 0.2, -95.0, 25.0, 25.0,
+		  false, false, true },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_snapshot s;
+
+		pc = cases[k];
+		pc_rig();
+		s = snap();
+		if (!s.m[0].pos_certain || s.m[0].pos_trust != RMD_POS_IN_BAND ||
+		    fabs(s.m[0].pos_rad - pc_truth_rad()) > PC_TOL)
+			fail_msg("%s: at bring-up: certain %d trust %d pos %g, truth %g", pc.name,
+				 s.m[0].pos_certain, s.m[0].pos_trust, s.m[0].pos_rad,
+				 pc_truth_rad());
+		cmd_clear();
+		cmd_motor(1, false, RMD_MODE_TORQUE);
+		pc_power_cycle();
+		run(20, true);
+		/* the motor's own count wrapped: it says something else now */
+		if (fabs(pc.start_deg) > 180.0)
+			assert_true(fabs(sim_motor(0)->pos_rad * 180.0 / M_PI - pc.start_deg) >
+				    90.0);
+		s = snap();
+		if (!s.m[0].pos_certain || s.m[0].pos_trust != RMD_POS_IN_BAND ||
+		    fabs(s.m[0].pos_rad - pc_truth_rad()) > PC_TOL)
+			fail_msg("%s: after the power cycle: certain %d trust %d pos %g, truth %g "
+				 "(the simulated shaft at %g deg)",
+				 pc.name, s.m[0].pos_certain, s.m[0].pos_trust, s.m[0].pos_rad,
+				 pc_truth_rad(), sim_motor(0)->pos_rad * 180.0 / M_PI);
+		/* the others kept their count (the rig's motors save it) */
+		assert_true(s.m[1].pos_certain);
+		assert_int_equal(s.m[1].pos_trust, RMD_POS_SAVED);
+		rig_down();
+	}
+}
+
+/*
+ * A joint without a band narrower than one turn: uncertain after the power
+ * cycle; a position-mode enable is refused on the wire (no 0xA4 reaches
+ * the bus), counted and reported once; torque mode still runs; switching
+ * to position while enabled stops it (safe action).
+ */
+static void test_pos_ambiguous_refused(void **state)
+{
+	static const struct pc_case cases[] = {
+		{ "1:6, no band, 100 deg", 6.0, 1, 0.0, 100.0, -1, 0, false, false, false },
+		{ "1:9, band 45 deg", 9.0, -1, 0.2, 300.0, 20.0, 25.0, false, false, false },
+		{ "direct drive, no band, 700 deg", 1.0, 1, 0.0, 700.0, -1, 0, false, false,
+		  false },
+		/* a band beside the joint, [truth + 5, truth + 25] deg: no turn fits it */
+		{ "1:9, band beside the truth", 9.0, 1, 0.0, 200.0, -5.0, 25.0, false, false,
+		  false },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_setpoint *sp;
+		unsigned from;
+		uint64_t n;
+
+		pc = cases[k];
+		pc_rig();
+		assert_false(snap().m[0].pos_certain);
+		assert_int_equal(snap().m[0].pos_trust, pc.below < 0 && pc.below != -1 ?
+								RMD_POS_OUTSIDE :
+								RMD_POS_AMBIGUOUS);
+		cmd_clear();
+		cmd_motor(1, false, RMD_MODE_TORQUE);
+		pc_power_cycle();
+		cmd_motor(0, false, RMD_MODE_TORQUE); /* back from LOST: enable = 0 first */
+		run(20, true);
+		assert_false(snap().m[0].pos_certain);
+		/* position mode: refused, never on the wire */
+		from = trace_n;
+		nev = 0;
+		sp = cmd_motor(0, true, RMD_MODE_POSITION);
+		sp->pos_rad = pc_truth_rad();
+		n = ignored_over(300, RMD_IGN_POS_UNCERTAIN);
+		if (n != 300)
+			fail_msg("%s: %llu of 300 position enables counted as refused", pc.name,
+				 (unsigned long long)n);
+		assert_int_equal(lifecycle(0), RMD_LC_READY);
+		assert_int_equal(sent_to(0, 0xA4, from), 0);
+		assert_int_equal(sent_to(0, 0x77, from), 0);
+		assert_int_equal(count_ev(RMD_EV_POS_REFUSED, 0), 1);
+		/* torque mode runs */
+		from = trace_n;
+		sp = cmd_motor(0, true, RMD_MODE_TORQUE);
+		sp->torque_nm = 0.1;
+		run(50, true);
+		assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+		assert_true(sent_to(0, 0xA1, from) > 40);
+		/* switching to position while enabled: the safe action, no 0xA4 */
+		from = trace_n;
+		sp = cmd_motor(0, true, RMD_MODE_POSITION);
+		sp->pos_rad = pc_truth_rad();
+		run(50, true);
+		assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+		assert_int_equal(sent_to(0, 0xA4, from), 0);
+		assert_int_equal(sent_to(0, 0x80, from), 1);
+		rig_down();
+	}
+}
+
+/*
+ * An MIT motor whose position is uncertain: MIT with kp > 0 is refused (no
+ * 0x400 + ID frame), MIT with kp = 0 (damping only) runs, and switching to
+ * kp > 0 while it runs stops it.
+ */
+static void test_pos_uncertain_mit_kp(void **state)
+{
+	static const struct pc_case c = { .name = "MIT, no band",
+					  .gear = 1.0,
+					  .dir = 1,
+					  .start_deg = 500.0,
+					  .below = -1,
+					  .mit = true };
+	struct rmd_setpoint *sp;
+	unsigned from;
+
+	(void)state;
+	pc = c;
+	pc_rig();
+	assert_false(snap().m[0].pos_certain);
+	cmd_clear();
+	from = trace_n;
+	sp = cmd_motor(0, true, RMD_MODE_MIT);
+	sp->pos_rad = snap().m[0].pos_rad;
+	sp->kp = 5.0;
+	sp->kd = 0.5;
+	assert_int_equal(ignored_over(100, RMD_IGN_POS_UNCERTAIN), 100);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_int_equal(sent_to(0, 0x400, from), 0);
+	sp->kp = 0.0;
+	run(50, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_true(sent_to(0, 0x400, from) > 40);
+	sp->kp = 5.0;
+	run(5, true);
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	rig_down();
+}
+
+static struct rmd_home homes;
+
+/* Motor i homed: at pos_rad now, or as reported. */
+static void home(unsigned i, bool as_reported, double pos_rad)
+{
+	homes.seq[i]++;
+	homes.as_reported[i] = as_reported;
+	homes.pos_rad[i] = pos_rad;
+	rmd_latest_put(&R.io.homes, &homes);
+}
+
+/*
+ * Homing (rmd.home_t through the bridge) makes an uncertain position
+ * certain without moving the motor: refused while the motor is enabled;
+ * applied as a shift of the reported frame; then a position command goes
+ * where the controller means, in both directions and with a zero offset.
+ */
+static void test_pos_homed(void **state)
+{
+	static const struct pc_case cases[] = {
+		{ "1:6, 460 deg", 6.0, 1, 0.0, 460.0, -1, 0, false, false, false },
+		{ "1:9 reversed, -400 deg, zero 0.4", 9.0, -1, 0.4, -400.0, -1, 0, false, false,
+		  false },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_setpoint *sp;
+		struct rmd_snapshot s;
+		unsigned from;
+		double native0;
+
+		pc = cases[k];
+		memset(&homes, 0, sizeof(homes));
+		pc_rig();
+		cmd_clear();
+		cmd_motor(1, false, RMD_MODE_TORQUE);
+		pc_power_cycle();
+		cmd_motor(0, false, RMD_MODE_TORQUE);
+		run(20, true);
+		s = snap();
+		assert_false(s.m[0].pos_certain);
+		/* the motor wrapped: rmdd reports where it says it is, off by turns */
+		assert_true(fabs(s.m[0].pos_rad - pc_truth_rad()) > 0.5);
+		/* enabled (torque): homing refused */
+		nev = 0;
+		sp = cmd_motor(0, true, RMD_MODE_TORQUE);
+		run(20, true);
+		assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+		home(0, false, pc_truth_rad());
+		run(5, true);
+		assert_false(snap().m[0].pos_certain);
+		assert_int_equal(count_ev(RMD_EV_HOME_REFUSED, 0), 1);
+		/* disabled: homed, nothing moves, the position is the truth */
+		cmd_motor(0, false, RMD_MODE_TORQUE);
+		run(20, true);
+		native0 = sim_motor(0)->pos_rad;
+		from = trace_n;
+		home(0, false, pc_truth_rad());
+		run(20, true);
+		s = snap();
+		assert_true(s.m[0].pos_certain);
+		assert_int_equal(s.m[0].pos_trust, RMD_POS_HOMED);
+		assert_float_equal(s.m[0].pos_rad, pc_truth_rad(), PC_TOL);
+		for (unsigned t = from; t < trace_n; t++)
+			if (trace[t].f.can_id == 0x141 && moves_frame(&trace[t].f))
+				fail_msg("%s: homing sent 0x%02X", pc.name, trace[t].f.data[0]);
+		/* position mode now runs: 0.2 rad further, and the motor goes there */
+		from = trace_n;
+		sp = cmd_motor(0, true, RMD_MODE_POSITION);
+		sp->pos_rad = pc_truth_rad() + 0.2;
+		sp->max_vel_rad_s = 2.0;
+		run(1000, true);
+		assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+		assert_true(sent_to(0, 0xA4, from) > 900);
+		assert_float_equal(snap().m[0].pos_rad, pc_truth_rad() + 0.2, PC_TOL + 0.01);
+		assert_float_equal(sim_motor(0)->pos_rad - native0, pc.dir * 0.2, 0.02);
+		rig_down();
+	}
+}
+
 /* 100 Hz, probe.on_missing start */
 static void slow_missing_start(struct rmd_config *cfg)
 {
@@ -2323,6 +2653,10 @@ int main(void)
 		cmocka_unit_test(test_fine_position_sine),
 		cmocka_unit_test(test_fine_position_at_zero),
 		cmocka_unit_test(test_polls_two_a_cycle),
+		cmocka_unit_test(test_pos_cycle_in_band),
+		cmocka_unit_test(test_pos_ambiguous_refused),
+		cmocka_unit_test(test_pos_homed),
+		cmocka_unit_test(test_pos_uncertain_mit_kp),
 	};
 
 	return cmocka_run_group_tests_name("loop", tests, NULL, NULL);

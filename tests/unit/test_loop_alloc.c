@@ -10,6 +10,8 @@
  * every mode, MIT frames, NaN setpoints, clamping, status polls, a motor
  * lost and found again, an error flag, the host watchdog tripping and
  * lifted, an overrun, health snapshots, events drained, the V2 0x280 frame,
+ * a position settled into its travel band, position enables refused for an
+ * uncertain one until it is homed,
  * the incident recorder's ring filled and wrapped (rmd/incident.h), and
  * rmd_loop_stop_motors().  Not one allocation may happen.
  *
@@ -35,6 +37,7 @@
 #include "rmd/config_yaml.h"
 #include "rmd/incident.h"
 #include "rmd/loop.h"
+#include "rmd/multiturn.h"
 #include "rmd/plan.h"
 #include "rmd/sim_wire.h"
 #include "rmd/spsc.h"
@@ -54,6 +57,7 @@ static struct rig_loop R; /* configuration, plan, buses, channels */
 static struct rmd_command cmd;
 static struct rmd_snapshot snap;
 static struct rmd_bringup report;
+static struct rmd_home homes;
 
 /* sim0: V3 position, V3 speed, MIT; sim1: V3 torque x3; sim2: four V2 in one 0x280 frame */
 static void make_config(void)
@@ -67,6 +71,13 @@ static void make_config(void)
 	R.cfg.motors[1].mode = RMD_MODE_SPEED;
 	R.cfg.motors[2].proto = RMD_PROTO_MIT;
 	R.cfg.motors[2].mode = RMD_MODE_MIT;
+	/* rmd/multiturn.h: motor 4 settled into its travel band, motor 5 uncertain until homed */
+	R.cfg.motors[4].multi_turn_saved = false;
+	R.cfg.motors[4].n_travel = 2;
+	R.cfg.motors[4].travel_rad[0] = -0.4;
+	R.cfg.motors[4].travel_rad[1] = 0.4;
+	R.cfg.motors[5].multi_turn_saved = false;
+	R.cfg.motors[5].mode = RMD_MODE_POSITION;
 	for (unsigned i = 6; i < 10; i++) {
 		R.cfg.motors[i].bus = 2;
 		R.cfg.motors[i].id = (uint8_t)(i - 5);
@@ -178,6 +189,11 @@ static void test_cycle_allocates_nothing(void **state)
 			hot.end_ns = hot.start_ns + 300 * MS;
 			rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.buses[1]), &hot, 1);
 		}
+		if (k == 3000) { /* motor 5's position-mode enables were refused until now */
+			homes.seq[5]++;
+			homes.as_reported[5] = true;
+			rmd_latest_put(&R.homes, &homes);
+		}
 		if (k == 7000)
 			t_now += 5 * MS; /* an overrun */
 		/* the controller is silent for 300 ms from 8000 */
@@ -209,6 +225,9 @@ static void test_cycle_allocates_nothing(void **state)
 	assert_true(c.safe_actions >= 3);
 	assert_true(c.replies > 40000);
 	assert_true(nev > 20);
+	assert_true(c.ignored[RMD_IGN_POS_UNCERTAIN] > 1000);
+	assert_int_equal(snap.m[4].pos_trust, RMD_POS_IN_BAND);
+	assert_int_equal(snap.m[5].pos_trust, RMD_POS_HOMED);
 	for (unsigned i = 0; i < R.cfg.n_motors; i++)
 		if (snap.m[i].lifecycle != RMD_LC_ENABLED)
 			fail_msg("motor %u ends in lifecycle %u", i, snap.m[i].lifecycle);

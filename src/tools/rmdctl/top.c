@@ -84,7 +84,8 @@ void rmdctl_top_usage(FILE *f)
 		"                  [--wait S]\n"
 		"\n"
 		"A live view of a running rmdd, from what it publishes on LCM: every motor's\n"
-		"name, bus and id, lifecycle and mode, position (rad), velocity (rad/s), torque\n"
+		"name, bus and id, lifecycle and mode, position (rad; \"?\" after it: uncertain\n"
+		"after a power cycle, docs/faults.md), velocity (rad/s), torque\n"
 		"(N*m), temperature (degC), error flags, reply latency (us) and age (ms),\n"
 		"missed replies and comm-loss protection (0xB3); each bus's state, load, frames\n"
 		"and errors; the rt loop's wake-up latency, overruns, and the watchdog.\n"
@@ -299,13 +300,17 @@ static void print_table(const struct top *t, FILE *f)
 			fprintf(f, "%3d %-12s (not in state_t)\n", i, mc->name);
 			continue;
 		}
+		/* "?": uncertain after a power cycle (docs/faults.md), not trusted for position mode */
+		num(b[0], 31, ms->position, 4);
+		if (isfinite(ms->position) && !ms->position_certain)
+			strcat(b[0], "?");
 		fprintf(f,
 			"%3d %-12s %-8s %3d %-8s %-8s %9s %9s %8s %6s %#6x %6d %7.1f %8" PRId64
 			" %s\n",
 			i, mc->name,
 			mc->bus >= 0 && mc->bus < c->bus_count ? c->bus[mc->bus].name : "?", mc->id,
 			tool_lifecycle_name((unsigned)ms->lifecycle), top_mode_name(ms->mode),
-			num(b[0], 32, ms->position, 4), num(b[1], 32, ms->velocity, 3),
+			isfinite(ms->position) ? b[0] : "-", num(b[1], 32, ms->velocity, 3),
 			num(b[2], 32, ms->torque, 3), num(b[3], 32, ms->temperature, 0),
 			(unsigned)ms->error_code, ms->reply_latency_us,
 			ms->reply_age_cycles * c->period_us / 1000.0, ms->missed_replies, prot);
@@ -414,6 +419,8 @@ static void print_json(const struct top *t, FILE *f)
 			json_kstr(f, "lifecycle", tool_lifecycle_name((unsigned)ms->lifecycle));
 			json_kstr(f, "mode", top_mode_name(ms->mode));
 			json_knum(f, "position", ms->position);
+			fprintf(f, ",\"position_certain\":%s",
+				ms->position_certain ? "true" : "false");
 			json_knum(f, "velocity", ms->velocity);
 			json_knum(f, "torque", ms->torque);
 			json_knum(f, "current", ms->current);

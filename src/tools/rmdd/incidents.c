@@ -279,6 +279,17 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 		snprintf(buf, len, "%s: comm-loss protection %s%s", ctx, comm_loss_text(e->a),
 			 e->b ? ", enable refused" : "");
 		break;
+	case RMD_EV_POSITION:
+		snprintf(buf, len, "%s: position %s", ctx,
+			 rmd_pos_trusted((unsigned)e->a) ? "certain" : "uncertain");
+		break;
+	case RMD_EV_POS_REFUSED:
+		snprintf(buf, len, "%s: %s refused, position uncertain", ctx,
+			 rmd_mode_name((enum rmd_mode)e->b));
+		break;
+	case RMD_EV_HOME_REFUSED:
+		snprintf(buf, len, "%s: homing refused", ctx);
+		break;
 	default:
 		snprintf(buf, len, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
@@ -324,6 +335,9 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 	case RMD_EV_LATE:
 	case RMD_EV_RT:
 	case RMD_EV_COMM_LOSS:
+	case RMD_EV_POSITION:
+	case RMD_EV_POS_REFUSED:
+	case RMD_EV_HOME_REFUSED:
 	default:
 		return false;
 	}

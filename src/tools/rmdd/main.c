@@ -112,9 +112,9 @@ struct rmdd {
 	int snapshot_fd; /* eventfd: the loop pokes the bridge after each snapshot */
 	struct rmd_bus buses[RMD_MAX_BUSES];
 	/* hand-overs: bridge -> loop, loop -> bridge, loop -> monitor -> bridge */
-	struct rmd_latest commands, snapshots, health;
+	struct rmd_latest commands, snapshots, health, homes;
 	struct rmd_ring events;
-	void *buf_commands, *buf_snapshots, *buf_health, *buf_events;
+	void *buf_commands, *buf_snapshots, *buf_health, *buf_events, *buf_homes;
 	struct rmd_loop *loop;
 	struct rmdd_monitor mon;
 	struct rmdd_incidents inc; /* the incident recorder: ring and writer */
@@ -490,8 +490,11 @@ static int handovers_init(struct rmdd *d)
 	d->buf_snapshots = zalloc3(sizeof(struct rmd_snapshot));
 	d->buf_health = zalloc3(sizeof(struct rmd_health));
 	d->buf_events = calloc(RMDD_EVENT_SLOTS, sizeof(struct rmd_event));
-	if (!d->buf_commands || !d->buf_snapshots || !d->buf_health || !d->buf_events)
+	d->buf_homes = zalloc3(sizeof(struct rmd_home));
+	if (!d->buf_commands || !d->buf_snapshots || !d->buf_health || !d->buf_events ||
+	    !d->buf_homes)
 		return -ENOMEM;
+	rmd_latest_init(&d->homes, d->buf_homes, sizeof(struct rmd_home));
 	rmd_latest_init(&d->commands, d->buf_commands, sizeof(struct rmd_command));
 	rmd_latest_init(&d->snapshots, d->buf_snapshots, sizeof(struct rmd_snapshot));
 	rmd_latest_init(&d->health, d->buf_health, sizeof(struct rmd_health));
@@ -505,6 +508,7 @@ static void handovers_free(struct rmdd *d)
 {
 	if (d->snapshot_fd >= 0)
 		close(d->snapshot_fd);
+	free(d->buf_homes);
 	free(d->buf_events);
 	free(d->buf_health);
 	free(d->buf_snapshots);
@@ -1077,6 +1081,7 @@ static int run(const struct rmdd_opts *o)
 		.plan = &d->plan,
 		.buses = d->buses,
 		.commands = &d->commands,
+		.homes = &d->homes,
 		.snapshots = &d->snapshots,
 		.health = &d->health,
 		.events = &d->events,
@@ -1120,6 +1125,7 @@ static int run(const struct rmdd_opts *o)
 	/* before LCM: a thread it may create must not inherit a real-time policy */
 	main_thread_normal(d);
 	rmdd_lcm_opts(&bo, &d->cfg, &d->plan, d->loop, &d->commands, &d->snapshots, &d->health);
+	bo.homes = &d->homes;
 	bo.notify_fd = d->snapshot_fd;
 	rmdd_lcm_incidents(&bo, d->inc.ring ? &d->inc : NULL);
 	r = rmd_bridge_init(&d->bridge, &bo, err, sizeof(err));

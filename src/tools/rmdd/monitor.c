@@ -174,6 +174,76 @@ static void log_comm_loss(const struct rmd_config *cfg, const struct rmd_event *
 			 ctx, why);
 }
 
+/*
+ * RMD_EV_POSITION: whether a motor's position can be trusted after it
+ * (re)appeared, or was homed; RMD_EV_POS_REFUSED: a setpoint that drives to
+ * a position refused for an uncertain one (once per episode: warning).
+ * docs/faults.md "Position uncertain after power-off".
+ */
+static void log_position(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	const struct rmd_config_motor *c = e->motor < cfg->n_motors ? &cfg->motors[e->motor] : NULL;
+	double turn_deg = c ? 360.0 / c->gear_ratio : 360.0;
+	char ctx[96];
+
+	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	if (e->kind == RMD_EV_HOME_REFUSED) {
+		tool_log(4, "%s: homing refused: %s", ctx,
+			 e->a == RMD_HOME_ENABLED ?
+				 "the motor is enabled (disable it first: its position must not "
+				 "jump under a running loop)" :
+				 "it has not reported a position since it (re)appeared; try again");
+		return;
+	}
+	if (e->kind == RMD_EV_POS_REFUSED) {
+		tool_log(4,
+			 "%s: %s refused: its position is uncertain (it may have been powered "
+			 "off: the multi-turn count is lost). Torque, speed and MIT with kp = 0 "
+			 "still run. Home it (rmd.home_t on the HOME channel), or set travel_rad "
+			 "narrower than %g deg or multi_turn_saved (docs/faults.md); further "
+			 "refusals are counted in health_t",
+			 ctx, rmd_mode_name((enum rmd_mode)e->b), turn_deg);
+		return;
+	}
+	switch ((enum rmd_pos_trust)e->a) {
+	case RMD_POS_SAVED:
+		tool_log(6, "%s: position certain: the motor keeps its multi-turn count", ctx);
+		break;
+	case RMD_POS_IN_BAND:
+		/* a shift is news (the motor was powered off, or first seen off by turns) */
+		if (e->b)
+			tool_log(5,
+				 "%s: position certain: one position in its travel band fits; "
+				 "shifted by %.6f rad (whole rotor turns)",
+				 ctx, (double)e->b * 1e-6);
+		else
+			tool_log(6, "%s: position certain: one position in its travel band fits",
+				 ctx);
+		break;
+	case RMD_POS_HOMED:
+		tool_log(5, "%s: homed: position certain, shifted by %.6f rad", ctx,
+			 (double)e->b * 1e-6);
+		break;
+	case RMD_POS_AMBIGUOUS: /* notice: a torque-only robot never needs more */
+		tool_log(5,
+			 "%s: position uncertain: its travel band is not narrower than one rotor "
+			 "turn at the output (%g deg); position mode and MIT with kp > 0 are "
+			 "refused until it is homed (docs/faults.md)",
+			 ctx, turn_deg);
+		break;
+	case RMD_POS_OUTSIDE:
+		tool_log(
+			4,
+			"%s: position uncertain: no position in its travel band fits what it "
+			"reports (outside its travel, or travel_rad wrong); home it (docs/faults.md)",
+			ctx);
+		break;
+	case RMD_POS_UNKNOWN:
+	case RMD_POS_TRUST_COUNT:
+		break;
+	}
+}
+
 static void log_bus_state(const struct rmd_config *cfg, const struct rmd_event *e)
 {
 	enum rmd_bus_state s = (enum rmd_bus_state)e->a;
@@ -270,6 +340,11 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		break;
 	case RMD_EV_COMM_LOSS:
 		log_comm_loss(cfg, e);
+		break;
+	case RMD_EV_POSITION:
+	case RMD_EV_POS_REFUSED:
+	case RMD_EV_HOME_REFUSED:
+		log_position(cfg, e);
 		break;
 	case RMD_EV_OVERRUN:
 		/* the first of each second now, the rest summed up by overrun_summary() */
