@@ -320,7 +320,9 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 			ids[n] = (uint8_t)(n + 1);
 	}
 	for (int i = 0; i < n; i++)
-		motors[i] = (struct rmd_bus_open_motor){ .id = ids[i], .proto = o->proto };
+		motors[i] = (struct rmd_bus_open_motor){ .id = ids[i],
+							 .proto = o->proto,
+							 .sim = o->sim_motor };
 	ctx.n_motors = (unsigned)n;
 	r = rmd_bus_open(bus, &cb, &ctx, err, errlen);
 	free(sim);
