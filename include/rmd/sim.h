@@ -103,6 +103,17 @@ struct rmd_sim_motor_params {
 	uint32_t version_date; /* 0xB2, e.g. 20220206 */
 	double turnaround_ns;  /* request end to reply start, mean */
 	double turnaround_jitter_ns;
+	/* a ROM write's answer comes this much later (RMD_CMD_ROM rows: the flash write) */
+	double rom_write_ns;
+	/*
+	 * The adapter between the bus and the host (rmd/sim_adapter.h): a
+	 * converter's latency timer, USB frames the replies wait for the end
+	 * of, a fixed delay; 0: none.  A bus's adapter: give every motor of
+	 * the bus the same values (rmdd.yaml sim.motor, rmd-sim's options).
+	 */
+	double adapter_latency_timer_ns;
+	double adapter_usb_frame_ns;
+	double adapter_delay_ns;
 	uint64_t seed;		/* PRNG seed; 0: derived from id */
 	double start_angle_deg; /* output angle at first power-on (multi-turn, not wrapped) */
 	/*

@@ -142,6 +142,10 @@ static void sanitize(struct rmd_sim_motor_params *p)
 	FINITE_NONNEG(supply_v);
 	FINITE_NONNEG(turnaround_ns);
 	FINITE_NONNEG(turnaround_jitter_ns);
+	FINITE_NONNEG(rom_write_ns);
+	FINITE_NONNEG(adapter_latency_timer_ns);
+	FINITE_NONNEG(adapter_usb_frame_ns);
+	FINITE_NONNEG(adapter_delay_ns);
 #undef POSITIVE
 #undef FINITE_NONNEG
 	if (!isfinite(p->load_nm))

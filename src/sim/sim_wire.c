@@ -14,6 +14,7 @@
 
 #include "rmd/rng.h"
 #include "rmd/can_timing.h"
+#include "rmd/sim_adapter.h"
 #include "rmd/sim_wire.h"
 
 _Static_assert((RMD_SIM_WIRE_TXQ & (RMD_SIM_WIRE_TXQ - 1)) == 0, "TXQ: power of two");
@@ -218,9 +219,13 @@ static void finish_frame(struct rmd_sim_wire *bus)
 			continue;
 		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int j = 0; j < n; j++)
-			motor_emit(bus, i, out[j], t, t + rmd_sim_motor_turnaround_ns(m));
+			motor_emit(bus, i, out[j], t, t + rmd_sim_adapter_answer_ns(m, &w->f));
 	}
-	if (w->src != RMD_SIM_SRC_HOST)
+	/* a motor's frame reaches the host through its adapter (rmd/sim_adapter.h) */
+	if (w->src >= 0)
+		deliver_host(bus, &w->f,
+			     rmd_sim_adapter_ns(&bus->adapter, &bus->motors[w->src].p, t));
+	else if (w->src != RMD_SIM_SRC_HOST)
 		deliver_host(bus, &w->f, t);
 }
 
@@ -409,6 +414,7 @@ int rmd_sim_wire_init(struct rmd_sim_wire *bus, uint32_t bitrate, uint64_t seed,
 	bus->txq_len = RMD_SIM_WIRE_TXQ;
 	bus->seed = seed;
 	bus->rng = rmd_rng_seed(seed);
+	rmd_sim_adapter_init(&bus->adapter);
 	return 0;
 }
 
@@ -519,8 +525,12 @@ int rmd_sim_wire_recv(struct rmd_sim_wire *bus, struct rmd_frame *out, unsigned 
 	unsigned n = 0;
 
 	while (n < max && bus->rxq_tail != bus->rxq_head) {
-		unsigned i = bus->rxq_tail++ & (RMD_SIM_WIRE_RXQ - 1);
+		unsigned i = bus->rxq_tail & (RMD_SIM_WIRE_RXQ - 1);
 
+		/* still held in the adapter */
+		if (bus->rxq_t_ns[i] > bus->now_ns)
+			break;
+		bus->rxq_tail++;
 		out[n] = bus->rxq[i];
 		if (t_ns)
 			t_ns[n] = bus->rxq_t_ns[i];
