@@ -113,9 +113,13 @@ static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 static int open_rs485(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		      const struct rmd_bus_open_ctx *ctx, char *err, size_t errlen)
 {
+	uint32_t baud = cb->baud ? cb->baud : RMD_BUS_OPEN_BAUD;
 	struct rmd_rs485_opts ro = {
-		.baud = cb->baud ? cb->baud : RMD_BUS_OPEN_BAUD,
-		.reply_timeout_ns = ctx->reply_timeout_ns,
+		.baud = baud,
+		/* the bus's turnaround_us (a slow converter's included) sets the line's timeout */
+		.reply_timeout_ns = ctx->reply_timeout_ns ?
+					    ctx->reply_timeout_ns :
+					    rmd_rs485_reply_timeout_ns(baud, cb->turnaround_ns),
 		.broadcast_replies = ctx->broadcast_replies ? ctx->broadcast_replies :
 							      ctx->n_motors,
 		.local_echo = ctx->local_echo,

@@ -288,10 +288,11 @@ int rmdctl_open_bus(struct dev *d)
 	}
 	/*
 	 * An RS485 line holds the next request until the answer or the
-	 * transport's own timeout: a --timeout given (a slow converter) is
-	 * that timeout too, lest requests go out while a motor answers.
+	 * transport's own timeout (its default: a motor's 2 ms); rtt waits
+	 * for slow converters, and the line must wait as long, lest requests
+	 * go out while a motor answers.
 	 */
-	if (d->timeout_set)
+	if (d->line_timeout)
 		o.reply_timeout_ns = (int64_t)llround(d->timeout_ms * 1e6);
 	r = rmd_bus_open_spec(&d->bus, d->bus_spec, &o, err, sizeof(err));
 	if (r < 0) {

@@ -129,7 +129,8 @@ struct dev {
 	uint32_t baud;
 	enum rmd_proto proto; /* its record: rmdctl_dialect() */
 	double timeout_ms;
-	bool timeout_set; /* --timeout given: RS485's own reply timeout too */
+	bool timeout_set;  /* --timeout given */
+	bool line_timeout; /* rtt: --timeout is RS485's own reply timeout too */
 	unsigned tries;
 	unsigned count; /* rtt --count */
 	/* --sim KEY=VALUE: the simulated motors' model, applied at open in order */

@@ -256,7 +256,7 @@ int rmdctl_run_rtt(struct dev *d, int argc, char **argv)
 
 	if (!d->timeout_set)
 		d->timeout_ms = RTT_TIMEOUT_MS;
-	d->timeout_set = true; /* an RS485 line waits as long (rmdctl_open_bus()) */
+	d->line_timeout = true; /* an RS485 line waits as long (rmdctl_open_bus()) */
 	m = rmdctl_ids_open(d, argc, argv, ids);
 	if (m < 0)
 		return -m;

@@ -766,10 +766,24 @@ static void exit_line(const struct rmdd *d)
  * reply (docs/troubleshooting.md "Slow answers").
  */
 static void rtt_line(const struct rmd_config *cfg, unsigned b, const struct rmd_bringup_bus *bb,
-		     int64_t period_ns)
+		     int64_t period_ns, const struct rmd_bus *bus)
 {
+	const struct rmd_bus_caps *caps = rmd_bus_caps(bus);
+
 	if (!bb->n)
 		return;
+	/*
+	 * A half-duplex line sends the next request when the answer or the
+	 * line's reply timeout comes: answers later than it cross requests.
+	 */
+	if (caps->half_duplex && caps->reply_timeout_ns && bb->rtt_max_ns > caps->reply_timeout_ns)
+		tool_log(4,
+			 "  %s: round trip up to %.2f ms, longer than the line's reply timeout "
+			 "%.2f ms: requests will go out while motors answer; set the bus's "
+			 "turnaround_us to at least %lld (`rmdctl rtt` measures it; "
+			 "docs/troubleshooting.md \"Slow answers\")",
+			 cfg->buses[b].name, (double)bb->rtt_max_ns / 1e6,
+			 (double)caps->reply_timeout_ns / 1e6, (long long)(bb->rtt_max_ns / 1000));
 	if (!bb->exceeds_period) {
 		tool_log(6, "  %s: round trip %.2f .. %.2f ms (%u answers at their first try)",
 			 cfg->buses[b].name, (double)bb->rtt_min_ns / 1e6,
@@ -816,7 +830,7 @@ static int bringup(struct rmdd *d)
 				tool_log(level, "  %s", ln.s);
 		}
 		for (unsigned b = 0; b < bu.n_buses; b++)
-			rtt_line(cfg, b, &bu.bus[b], d->plan.period_ns);
+			rtt_line(cfg, b, &bu.bus[b], d->plan.period_ns, &d->buses[b]);
 	}
 	/* what bring-up reported through the ring goes out now */
 	rmdd_monitor_drain(&d->mon);
