@@ -754,11 +754,11 @@ static void test_scan(void **state)
 		if (id < 1 || id > 3 || (seen & (1u << id)))
 			fail_msg("scan: unexpected or repeated motor %d:\n%s", id, r->out);
 		seen |= 1u << id;
-		snprintf(
-			want, sizeof(want),
-			"{\"bus\":\"%s\",\"motor_id\":%d,\"protocol\":\"V3\",\"model\":\"X8S2V10\","
-			"\"version_date\":20220206,",
-			g->b.path, id);
+		snprintf(want, sizeof(want),
+			 "{\"bus\":\"%s\",\"motor_id\":%d,\"protocol\":\"v3\",\"dialect\":\"v3\","
+			 "\"dialect_certain\":true,\"model\":\"X8S2V10\","
+			 "\"version_date\":20220206,",
+			 g->b.path, id);
 		assert_has(r, line, want, "scan --json");
 		assert_has(r, line, "\"errors\":[]", "scan --json");
 	}
