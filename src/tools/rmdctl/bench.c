@@ -280,7 +280,9 @@ int rmdctl_open_bus(struct dev *d)
 	char err[ERRLEN];
 	int r;
 
-	if (d->n_sim) {
+	if (d->n_sim && !rmd_bus_open_is_sim(d->bus_spec))
+		tool_log(TOOL_LOG_WARNING, "--sim: %s is no simulated bus: ignored", d->bus_spec);
+	else if (d->n_sim) {
 		r = sim_model(d, &sim);
 		if (r)
 			return r;

@@ -240,6 +240,8 @@ const char *rmdctl_field_text(const struct dev *d, const struct rec *r, enum rmd
 			      size_t size);
 /* ,"key":value for one field; null when it is missing. */
 void rmdctl_json_field(const struct dev *d, const struct rec *r, enum rmd_field f);
+/* A JSON string (quoted, escaped) on stdout. */
+void rmdctl_json_str(const char *s);
 /* {"bus":...,"motor_id":N,"protocol":"V3" */
 void rmdctl_json_begin(const struct dev *d, uint8_t id);
 /* One motor: a JSON line, or a header and one line per field. */

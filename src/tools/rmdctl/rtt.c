@@ -319,7 +319,7 @@ int rmdctl_run_rtt(struct dev *d, int argc, char **argv)
 	}
 	if (d->json) {
 		fputs("{\"bus\":", stdout);
-		printf("\"%s\"", d->name);
+		rmdctl_json_str(d->name);
 		printf(",\"motors\":%u,\"count\":%u,\"half_duplex\":%s,\"bitrate\":%" PRIu32
 		       ",\"bitrate_assumed\":%s,\"frame_us\":%.1f,\"classes\":[",
 		       n, d->count, half_duplex ? "true" : "false", bt.bitrate,
