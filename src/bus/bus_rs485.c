@@ -387,6 +387,7 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 			.reply_timeout_ns = p->reply_timeout_ns,
 			.request_spacing_ns = p->reply_timeout_ns,
 			.queue_len = RMD_RS485_QUEUE,
+			.bitrate = opts->baud,
 		};
 	bus->state = RMD_BUS_ACTIVE;
 	memset(&bus->stats, 0, sizeof(bus->stats));

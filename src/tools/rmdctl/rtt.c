@@ -42,7 +42,7 @@
 
 /* Wait per try when --timeout is not given: a 16 ms latency timer and slow firmware fit. */
 #define RTT_TIMEOUT_MS 100.0
-/* A bus whose rate the spec does not say (SocketCAN): assumed, and said so. */
+/* A bus whose rate neither the transport nor the spec says (vcan): assumed, and said so. */
 #define RTT_ASSUMED_BITRATE 1000000u
 
 /* V3 §2.12, §2.14, §2.11 (V2 §3.31, §3.33, §3.29): status 1, status 2, multi-turn angle. */
@@ -218,7 +218,12 @@ static void print_series(const struct dev *d, uint8_t id, uint8_t cmd, const str
 	       ms(s->min_ns), ms(s->median_ns), ms(s->p99_ns), ms(s->max_ns), s->lost);
 }
 
-/* The bus's rate and frame length, as the planner counts them (rmd_bus_config_timing()). */
+/*
+ * The bus's rate and frame length, as the planner counts them
+ * (rmd_bus_config_timing()), the rate as the open transport knows it
+ * (struct rmd_bus_caps.bitrate).  Returns true when the rate is assumed:
+ * neither the transport nor the spec says it (vcan).
+ */
 static bool bus_timing(const struct dev *d, struct rmd_bus_timing *t)
 {
 	struct rmd_bus_open_opts o = { .proto = d->proto, .baud = d->baud };
@@ -232,10 +237,11 @@ static bool bus_timing(const struct dev *d, struct rmd_bus_timing *t)
 		memset(t, 0, sizeof(*t));
 	if (!t->frame_bits)
 		t->frame_bits = rmd_can_frame_bits_worst(RMD_FRAME_LEN);
+	if (rmd_bus_caps(d->b)->bitrate)
+		t->bitrate = rmd_bus_caps(d->b)->bitrate;
 	if (!t->bitrate) {
-		/* RS485: rmdctl's default baud; sim: 1 Mbit/s; SocketCAN: not in the spec */
-		t->bitrate = t->half_duplex ? RMD_BUS_OPEN_BAUD : RTT_ASSUMED_BITRATE;
-		assumed = !t->half_duplex && t->port;
+		t->bitrate = RTT_ASSUMED_BITRATE;
+		assumed = true;
 	}
 	if (!t->rate_unit)
 		t->rate_unit = "bit/s";
@@ -344,7 +350,7 @@ int rmdctl_run_rtt(struct dev *d, int argc, char **argv)
 	printf("%s: %u motor%s, %u requests each per command, first tries only; %" PRIu32
 	       " %s%s, %s\n",
 	       d->name, n, n == 1 ? "" : "s", d->count, bt.bitrate, bt.rate_unit,
-	       assumed ? " (assumed: the spec does not say)" : "",
+	       assumed ? " (assumed: the interface does not say)" : "",
 	       half_duplex ? "half duplex (one request on the line at a time)" :
 			     "requests and replies overlap");
 	for (unsigned c = 0; c < N_CLASSES; c++) {
