@@ -1115,10 +1115,11 @@ static long num_after(const char *text, const char *key)
 }
 
 /*
- * rmdd on the line for RMDD_RUN_MS at rate_hz, with the turnaround rtt
- * gave: its log (statistics at SIGTERM) into log.  Returns its exit status.
+ * rmdd on the line for RMDD_RUN_MS at rate_hz with turnaround_us: its log
+ * (statistics at SIGTERM) into log.  Returns its exit status.
  */
-static int run_rmdd(struct rig *g, const char *rmdd, unsigned rate_hz, char *log, size_t cap)
+static int run_rmdd(struct rig *g, const char *rmdd, unsigned rate_hz, long turnaround_us,
+		    char *log, size_t cap)
 {
 	char cfg[] = "/tmp/rmdd-converter-XXXXXX", lockdir[] = "/tmp/rmdd-lock-XXXXXX";
 	const char *argv[] = { rmdd, "--config", cfg, NULL };
@@ -1147,7 +1148,7 @@ static int run_rmdd(struct rig *g, const char *rmdd, unsigned rate_hz, char *log
 		"safety: {command_timeout_ms: 5000, comm_loss_ms: 0}\n"
 		"incidents: {enabled: false}\n"
 		"lcm: {url: \"memq://\"}\n",
-		rate_hz, g->b.path, BAUD, rtt_turnaround_us);
+		rate_hz, g->b.path, BAUD, turnaround_us);
 	assert_int_equal(fclose(f), 0);
 	setenv("RMD_LOCK_DIR", lockdir, 1);
 	assert_int_equal(ioctl(g->b.hold, TIOCNXCL), 0);
@@ -1215,7 +1216,7 @@ static void test_rmdd_at_rtt_rate(void **state)
 
 		need_sim(g);
 		sleeper_mark(&g->ref);
-		st = run_rmdd(g, rmdd, rate, log, sizeof(log));
+		st = run_rmdd(g, rmdd, rate, rtt_turnaround_us, log, sizeof(log));
 		if (st != 0)
 			fail_msg("rmdd exit %d; its log:\n%s", st, log);
 		if (strstr(log, "longer than the line's reply timeout"))
@@ -1246,6 +1247,33 @@ static void test_rmdd_at_rtt_rate(void **state)
 			 rate, log);
 }
 
+/*
+ * The same line with the default turnaround_us (800): the line's reply
+ * timeout (2.26 ms) is shorter than the converter's 16 ms, so requests
+ * would go out while motors answer; bring-up says so, with the value to
+ * set.
+ */
+static void test_rmdd_default_turnaround_warns(void **state)
+{
+	struct rig *g = *state;
+	static char log[LOG_MAX];
+	char rmdd[4096];
+	long at_least;
+	int st;
+
+	find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd");
+	need_sim(g);
+	st = run_rmdd(g, rmdd, 5, 800, log, sizeof(log));
+	if (st != 0)
+		fail_msg("rmdd exit %d; its log:\n%s", st, log);
+	if (!strstr(log, "longer than the line's reply timeout 2.26 ms"))
+		fail_msg("no warning about the line's reply timeout:\n%s", log);
+	at_least = num_after(log, "turnaround_us to at least ");
+	if (at_least < (long)(CONVERTER_MS * 1000))
+		fail_msg("it asks for turnaround_us %ld, less than the converter's 16 ms:\n%s",
+			 at_least, log);
+}
+
 int main(void)
 {
 	/* In order: one rmd-sim for all, stopped by the last. */
@@ -1263,6 +1291,7 @@ int main(void)
 	const struct CMUnitTest converter[] = {
 		cmocka_unit_test(test_rtt_converter),
 		cmocka_unit_test(test_rmdd_at_rtt_rate),
+		cmocka_unit_test(test_rmdd_default_turnaround_warns),
 	};
 	int r = cmocka_run_group_tests_name("rmdctl_rs485", tests, group_setup, group_teardown);
 
