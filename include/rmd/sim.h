@@ -267,4 +267,12 @@ uint64_t rmd_sim_motor_rand(struct rmd_sim_motor *m);
 /* A turnaround for the next reply: mean +- uniform jitter, >= 0.  rt-safe. */
 int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m);
 
+/*
+ * The motor's answer time for request `req`: a turnaround
+ * (rmd_sim_motor_turnaround_ns()) plus rom_write_ns when the command
+ * writes ROM (RMD_CMD_ROM in its dialect's codec row: the firmware
+ * answers after the flash write).  rt-safe.
+ */
+int64_t rmd_sim_motor_answer_ns(struct rmd_sim_motor *m, const struct rmd_frame *req);
+
 #endif /* RMD_SIM_H */

@@ -24,7 +24,6 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "rmd/frame.h"
 #include "rmd/sim.h"
 
 /* One adapter's state: the latency timer's. */
@@ -36,9 +35,6 @@ struct rmd_sim_adapter {
 /* Nothing held.  rt-safe. */
 void rmd_sim_adapter_init(struct rmd_sim_adapter *a);
 
-/* True when p's adapter holds frames back at all (any of its three delays).  rt-safe. */
-bool rmd_sim_adapter_active(const struct rmd_sim_motor_params *p);
-
 /*
  * When the host gets a frame that is complete on the wire at t_ns, through
  * the adapter p describes (its state in *a).  Calls must come in the order
@@ -47,13 +43,5 @@ bool rmd_sim_adapter_active(const struct rmd_sim_motor_params *p);
  */
 int64_t rmd_sim_adapter_ns(struct rmd_sim_adapter *a, const struct rmd_sim_motor_params *p,
 			   int64_t t_ns);
-
-/*
- * The motor's answer time for request `req`: its turnaround
- * (rmd_sim_motor_turnaround_ns()) plus rom_write_ns when the command
- * writes ROM (RMD_CMD_ROM in the motor's dialect's codec row: firmware
- * answers after the flash write).  rt-safe.
- */
-int64_t rmd_sim_adapter_answer_ns(struct rmd_sim_motor *m, const struct rmd_frame *req);
 
 #endif /* RMD_SIM_ADAPTER_H */

@@ -19,7 +19,7 @@
  * - A motor's reply is ready a turnaround (rmd_sim_motor_turnaround_ns(),
  *   mean +- jitter) after the end of the request; its unsolicited frames
  *   (rmd_sim_motor_poll()) are ready when they fall due.  A ROM write's
- *   answer comes rom_write_ns later (rmd_sim_adapter_answer_ns()).
+ *   answer comes rom_write_ns later (rmd_sim_motor_answer_ns()).
  * - The host gets a motor's frame through its adapter (rmd/sim_adapter.h:
  *   a converter's latency timer, USB frames, a fixed delay): later than
  *   its end of frame, and rmd_sim_wire_recv() holds it until then.

@@ -105,6 +105,20 @@ int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m)
 	return (int64_t)llround(t);
 }
 
+int64_t rmd_sim_motor_answer_ns(struct rmd_sim_motor *m, const struct rmd_frame *req)
+{
+	int64_t t = rmd_sim_motor_turnaround_ns(m);
+	const struct rmd_cmd_spec *spec;
+
+	/* MIT frames (0x400 + ID) carry no command byte */
+	if (m->p.rom_write_ns <= 0 || req->len < 1 || req->can_id >= 0x400)
+		return t;
+	spec = rmd_cmd_find(rmd_proto_table(m->p.proto), req->data[0]);
+	if (spec && spec->flags & RMD_CMD_ROM)
+		t += (int64_t)m->p.rom_write_ns;
+	return t;
+}
+
 /* Replace nonsense (zero inertia, NaN, ...) by the defaults: never divide by 0. */
 static void sanitize(struct rmd_sim_motor_params *p)
 {

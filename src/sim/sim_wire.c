@@ -219,7 +219,7 @@ static void finish_frame(struct rmd_sim_wire *bus)
 			continue;
 		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int j = 0; j < n; j++)
-			motor_emit(bus, i, out[j], t, t + rmd_sim_adapter_answer_ns(m, &w->f));
+			motor_emit(bus, i, out[j], t, t + rmd_sim_motor_answer_ns(m, &w->f));
 	}
 	/* a motor's frame reaches the host through its adapter (rmd/sim_adapter.h) */
 	if (w->src >= 0)

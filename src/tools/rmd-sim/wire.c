@@ -403,7 +403,7 @@ static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 			continue;
 		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int k = 0; k < n; k++)
-			emit(s, i, &out[k], t, t + rmd_sim_adapter_answer_ns(&sl->m, f));
+			emit(s, i, &out[k], t, t + rmd_sim_motor_answer_ns(&sl->m, f));
 		total += n;
 	}
 	return total;
