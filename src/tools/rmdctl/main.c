@@ -85,7 +85,9 @@ static const struct rmdctl_cmd cmds[] = {
 	    "requests at once and the slowest reply must arrive before the next\n"
 	    "cycle; RS485 sends them in series, each paying its round trip (and it\n"
 	    "prints the turnaround_us for rmdd.yaml).  --timeout defaults to 100 ms\n"
-	    "here, and is RS485's own reply timeout too.  Exit 1 when nothing answers.\n",
+	    "here, and is RS485's own reply timeout too: on a line, name the motors\n"
+	    "(IDS), as each silent id of a probe holds the line that long per try.\n"
+	    "--count is at most 10000.  Exit 1 when nothing answers.\n",
 	    rmdctl_run_rtt),
 	DEV("dump", "every motor's readable settings as YAML (restore writes them back)", "[IDS]",
 	    0, 1, 0,

@@ -113,7 +113,7 @@ int rmdctl_parse_double(const char *s, double *v);
 #define MAX_REQS (3 * RMD_MAX_MOTORS)
 /* rtt --count: default and most */
 #define RMDCTL_RTT_COUNT 200
-#define RMDCTL_RTT_MAX_COUNT 100000
+#define RMDCTL_RTT_MAX_COUNT 10000
 /* --sim KEY=VALUE settings one command line may give. */
 #define MAX_SIM_SETTINGS 16
 /* Defaults of --interval (monitor) and --speed (move). */
