@@ -65,6 +65,11 @@ struct rmd_bus_caps {
 	int64_t request_spacing_ns;
 	/* Requests the transport queues itself (see next_due_ns); 0: none. */
 	unsigned queue_len;
+	/*
+	 * Bit rate on the wire (RS485: its baud), for callers that count wire
+	 * time (rmdctl rtt); 0: the transport does not know (vcan).
+	 */
+	uint32_t bitrate;
 };
 
 struct rmd_bus;

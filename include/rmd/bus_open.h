@@ -47,6 +47,12 @@ struct rmd_bus_open_opts {
 	bool local_echo;	    /* RS485: the adapter hears itself (struct rmd_rs485_opts) */
 	uint32_t sim_bitrate;	    /* sim; 0: 1 Mbit/s */
 	uint64_t sim_seed;	    /* sim; 0: the default seed */
+	/*
+	 * sim: every motor's model (rmd/sim_params.h: the motors' and the
+	 * adapter's timing among it), its id replaced by each motor's; NULL:
+	 * rmd_sim_motor_params_default() with opts.proto.
+	 */
+	const struct rmd_sim_motor_params *sim_motor;
 	bool device; /* the motors' side of the wire (rmd-sim): see struct rmd_bus_open_ctx */
 };
 

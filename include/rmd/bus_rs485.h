@@ -76,6 +76,11 @@
 
 /* Fixed part of the default reply timeout (a motor answers within 0.5-0.8 ms, docs/design.md). */
 #define RMD_RS485_TURNAROUND_NS 2000000
+/*
+ * The latency timer a USB converter's (FTDI) is set to at open, in ms:
+ * the chip holds received bytes until it expires (16 ms by default).
+ */
+#define RMD_RS485_LATENCY_TIMER_MS 1
 
 /* Device role: bytes of replies not yet written. */
 #define RMD_RS485_DEVICE_TXBUF 16384
@@ -88,8 +93,9 @@ struct rmd_rs485_opts {
 	uint32_t baud;
 	/*
 	 * Time from our write() of a request to the end of its answer.  0:
-	 * RMD_RS485_TURNAROUND_NS plus the wire time of the request and of
-	 * the reply at this baud (4.26 ms at 115200, 2.26 ms at 1000000).
+	 * rmd_rs485_reply_timeout_ns(baud, 0): RMD_RS485_TURNAROUND_NS plus
+	 * the wire time of the request and of the reply at this baud (4.26 ms
+	 * at 115200, 2.26 ms at 1000000).
 	 */
 	int64_t reply_timeout_ns;
 	/*
@@ -117,6 +123,8 @@ struct rmd_rs485_opts {
 	 * fields above only baud and local_echo are read.
 	 */
 	bool device;
+	/* Where sysfs is (the converter's latency_timer); NULL: "/sys".  For tests. */
+	const char *sysfs_root;
 };
 
 /* Counters of this transport beyond struct rmd_bus_stats. */
@@ -153,6 +161,16 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 
 /* Wire time of one 13-byte frame at `baud`, 8N1 (10 bits a byte), rounded up. Pure. */
 int64_t rmd_rs485_frame_ns(uint32_t baud);
+
+/*
+ * The reply timeout of a line whose turnaround (request end to reply
+ * start, the bus's turnaround_us) is turnaround_ns: twice that, at least
+ * RMD_RS485_TURNAROUND_NS, plus the request's and the reply's wire time.
+ * A converter that holds answers back (a 16 ms latency timer) needs a
+ * turnaround_us that includes it, or every request times out and the next
+ * goes out while a motor answers; `rmdctl rtt` measures it.  Pure.
+ */
+int64_t rmd_rs485_reply_timeout_ns(uint32_t baud, int64_t turnaround_ns);
 
 /*
  * Copy this transport's own counters.  Returns 0, or -EINVAL when bus is

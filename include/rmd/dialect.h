@@ -194,7 +194,12 @@ struct rmd_dialect {
 const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certain);
 
 /* The record of dialect `proto`, or NULL when there is none.  rt-safe. */
-const struct rmd_dialect *rmd_dialect(enum rmd_proto proto);
+extern const struct rmd_dialect rmd_dialects[RMD_PROTO_COUNT]; /* read through rmd_dialect() */
+
+static inline const struct rmd_dialect *rmd_dialect(enum rmd_proto proto)
+{
+	return (unsigned)proto < RMD_PROTO_COUNT ? &rmd_dialects[proto] : NULL;
+}
 
 /* Every dialect, in enum order (the list's length in *n). */
 const struct rmd_dialect *rmd_dialect_list(size_t *n);

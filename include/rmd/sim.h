@@ -111,6 +111,17 @@ struct rmd_sim_motor_params {
 	uint32_t version_date; /* 0xB2, e.g. 20220206 */
 	double turnaround_ns;  /* request end to reply start, mean */
 	double turnaround_jitter_ns;
+	/* a ROM write's answer comes this much later (RMD_CMD_ROM rows: the flash write) */
+	double rom_write_ns;
+	/*
+	 * The adapter between the bus and the host (rmd/sim_adapter.h): a
+	 * converter's latency timer, USB frames the replies wait for the end
+	 * of, a fixed delay; 0: none.  A bus's adapter: give every motor of
+	 * the bus the same values (rmdd.yaml sim.motor, rmd-sim's options).
+	 */
+	double adapter_latency_timer_ns;
+	double adapter_usb_frame_ns;
+	double adapter_delay_ns;
 	uint64_t seed;		/* PRNG seed; 0: derived from id */
 	double start_angle_deg; /* output angle at first power-on (multi-turn, not wrapped) */
 	/*
@@ -284,5 +295,13 @@ uint64_t rmd_sim_motor_rand(struct rmd_sim_motor *m);
 
 /* A turnaround for the next reply: mean +- uniform jitter, >= 0.  rt-safe. */
 int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m);
+
+/*
+ * What the motor adds to its turnaround (rmd_sim_motor_turnaround_ns())
+ * for request `req`: rom_write_ns when the command writes ROM
+ * (RMD_CMD_ROM in its dialect's codec row: the firmware answers after
+ * the flash write), else 0.  rt-safe.
+ */
+int64_t rmd_sim_motor_rom_extra_ns(const struct rmd_sim_motor *m, const struct rmd_frame *req);
 
 #endif /* RMD_SIM_H */

@@ -18,7 +18,11 @@
  *   time stamp.  Host frames are not echoed back.
  * - A motor's reply is ready a turnaround (rmd_sim_motor_turnaround_ns(),
  *   mean +- jitter) after the end of the request; its unsolicited frames
- *   (rmd_sim_motor_poll()) are ready when they fall due.
+ *   (rmd_sim_motor_poll()) are ready when they fall due.  A ROM write's
+ *   answer comes rom_write_ns later (rmd_sim_motor_rom_extra_ns()).
+ * - The host gets a motor's frame through its adapter (rmd/sim_adapter.h:
+ *   a converter's latency timer, USB frames, a fixed delay): later than
+ *   its end of frame, and rmd_sim_wire_recv() holds it until then.
  * So a cycle that asks for more than the wire carries runs late: frames
  * wait, and replies arrive later.  Nothing is lost unless a queue
  * overflows, a fault drops it, or the bus goes off, and each is counted.
@@ -43,6 +47,7 @@
 
 #include "rmd/frame.h"
 #include "rmd/sim.h"
+#include "rmd/sim_adapter.h"
 #include "rmd/sim_faults.h"
 
 #define RMD_SIM_WIRE_TXQ 64	   /* host frames waiting for the wire (power of two) */
@@ -128,8 +133,9 @@ struct rmd_sim_wire {
 
 	/* Host receive queue: a ring. */
 	struct rmd_frame rxq[RMD_SIM_WIRE_RXQ];
-	int64_t rxq_t_ns[RMD_SIM_WIRE_RXQ];
-	unsigned rxq_head, rxq_tail; /* free-running; index & (RXQ - 1) */
+	int64_t rxq_t_ns[RMD_SIM_WIRE_RXQ]; /* when the host gets it (after the adapter) */
+	int64_t rxq_last_ns;		    /* the latest of them ever queued */
+	unsigned rxq_head, rxq_tail;	    /* free-running; index & (RXQ - 1) */
 
 	/* Recent frames' wire intervals: a ring. */
 	int64_t hist_start_ns[RMD_SIM_WIRE_HIST];
@@ -137,6 +143,8 @@ struct rmd_sim_wire {
 	unsigned hist_n; /* free-running */
 
 	struct rmd_sim_faults faults; /* on the wire's time axis */
+	/* between the wire and the host: the motors' adapter_* parameters */
+	struct rmd_sim_adapter adapter;
 
 	struct rmd_sim_wire_stats stats;
 	rmd_sim_wire_tap_fn *tap;

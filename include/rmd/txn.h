@@ -88,7 +88,13 @@ struct rmd_txn {
 	bool guardable; /* sent on 0x140 + ID: a 0x9A to that id can go ahead of it */
 	bool echo_seen; /* only echoed so far (also a result: done false, echo_seen: echoes only) */
 	unsigned heard; /* frames that answered or echoed it, this run */
-	unsigned prev;	/* 1 + index of the request right ahead of this try, same motor; 0: none */
+	/*
+	 * Receive time of the last of those: with tries 1, heard_ns -
+	 * first_sent_ns is a round trip through the motor even when the
+	 * answer could not be told from an echo (rmdctl rtt: 0x92 at angle 0).
+	 */
+	int64_t heard_ns;
+	unsigned prev; /* 1 + index of the request right ahead of this try, same motor; 0: none */
 	unsigned prev_heard; /* its `heard` when this try went out */
 	bool guard_sent;     /* this try went out right behind a guard */
 	bool guard_heard;    /* ... and the guard was answered or echoed */

@@ -113,9 +113,13 @@ static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 static int open_rs485(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		      const struct rmd_bus_open_ctx *ctx, char *err, size_t errlen)
 {
+	uint32_t baud = cb->baud ? cb->baud : RMD_BUS_OPEN_BAUD;
 	struct rmd_rs485_opts ro = {
-		.baud = cb->baud ? cb->baud : RMD_BUS_OPEN_BAUD,
-		.reply_timeout_ns = ctx->reply_timeout_ns,
+		.baud = baud,
+		/* the bus's turnaround_us (a slow converter's included) sets the line's timeout */
+		.reply_timeout_ns = ctx->reply_timeout_ns ?
+					    ctx->reply_timeout_ns :
+					    rmd_rs485_reply_timeout_ns(baud, cb->turnaround_ns),
 		.broadcast_replies = ctx->broadcast_replies ? ctx->broadcast_replies :
 							      ctx->n_motors,
 		.local_echo = ctx->local_echo,
@@ -320,7 +324,9 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 			ids[n] = (uint8_t)(n + 1);
 	}
 	for (int i = 0; i < n; i++)
-		motors[i] = (struct rmd_bus_open_motor){ .id = ids[i], .proto = o->proto };
+		motors[i] = (struct rmd_bus_open_motor){ .id = ids[i],
+							 .proto = o->proto,
+							 .sim = o->sim_motor };
 	ctx.n_motors = (unsigned)n;
 	r = rmd_bus_open(bus, &cb, &ctx, err, errlen);
 	free(sim);

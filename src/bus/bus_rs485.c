@@ -7,6 +7,8 @@
  * framing, resynchronisation and the noise count are the same code for both.
  */
 #include <errno.h>
+#include <fcntl.h>
+#include <stdarg.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -18,6 +20,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <linux/serial.h>
 #include <modbus.h>
 
 #include "rmd/time.h"
@@ -99,6 +102,15 @@ int64_t rmd_rs485_frame_ns(uint32_t baud)
 	return (bits * RMD_NS_PER_S + baud - 1) / baud;
 }
 
+int64_t rmd_rs485_reply_timeout_ns(uint32_t baud, int64_t turnaround_ns)
+{
+	int64_t t = 2 * turnaround_ns;
+
+	if (t < RMD_RS485_TURNAROUND_NS)
+		t = RMD_RS485_TURNAROUND_NS;
+	return t + 2 * rmd_rs485_frame_ns(baud);
+}
+
 static bool is_pty(int fd, const char *device)
 {
 	struct stat st;
@@ -164,6 +176,103 @@ static int check_speed(int fd, speed_t speed)
 	return 0;
 }
 
+/* Append "; " and a formatted note to err[0..errlen) (a notice for the caller to log). */
+__attribute__((format(printf, 3, 4))) static void add_note(char *err, size_t errlen,
+							   const char *fmt, ...)
+{
+	size_t used = strnlen(err, errlen);
+	va_list ap;
+
+	if (used + 3 >= errlen)
+		return;
+	if (used) {
+		memcpy(err + used, "; ", 3);
+		used += 2;
+	}
+	va_start(ap, fmt);
+	vsnprintf(err + used, errlen - used, fmt, ap);
+	va_end(ap);
+}
+
+/* A small number from a sysfs file, or -errno. */
+static int read_sysfs_uint(const char *path)
+{
+	char buf[16];
+	ssize_t n;
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	long v;
+	char *end;
+
+	if (fd < 0)
+		return -errno;
+	n = read(fd, buf, sizeof(buf) - 1);
+	close(fd);
+	if (n <= 0)
+		return n < 0 ? -errno : -EINVAL;
+	buf[n] = '\0';
+	v = strtol(buf, &end, 10);
+	if (end == buf || v < 0 || v > 1000)
+		return -EINVAL;
+	return (int)v;
+}
+
+/*
+ * USB-serial converters hold received bytes back before they pass them to
+ * the host: an FTDI chip until its latency timer expires (16 ms by
+ * default, docs/troubleshooting.md "Slow answers"), and the tty layer may
+ * defer them to a work queue.  Ask the driver for low latency
+ * (ASYNC_LOW_LATENCY, what `setserial DEV low_latency` sets) and set an
+ * FTDI's latency_timer (sysfs, through the port's device number, so a
+ * /dev/serial/by-id/ link works too) to RMD_RS485_LATENCY_TIMER_MS.  A
+ * pseudo-terminal or a plain UART has neither (ENOTTY, EINVAL, no such
+ * file): nothing to do.  What could not be done, and what to do about it,
+ * goes into err as a notice.  Non-rt.
+ */
+static void set_low_latency(int fd, const char *device, const char *sysfs, char *err, size_t errlen)
+{
+	struct serial_struct ss;
+	struct stat st;
+	char path[256];
+	int ms, wfd;
+
+	if (ioctl(fd, TIOCGSERIAL, &ss) == 0 && !(ss.flags & ASYNC_LOW_LATENCY)) {
+		ss.flags |= ASYNC_LOW_LATENCY;
+		if (ioctl(fd, TIOCSSERIAL, &ss) < 0 && errno != ENOTTY && errno != EINVAL)
+			add_note(err, errlen,
+				 "%s: the driver refuses low-latency mode (%s): answers may wait "
+				 "in its buffers; try `setserial %s low_latency` as root",
+				 device, strerror(errno), device);
+	}
+
+	if (fstat(fd, &st) < 0 || !S_ISCHR(st.st_mode))
+		return;
+	snprintf(path, sizeof(path), "%s/dev/char/%u:%u/device/latency_timer",
+		 sysfs ? sysfs : "/sys", major(st.st_rdev), minor(st.st_rdev));
+	ms = read_sysfs_uint(path);
+	if (ms <= RMD_RS485_LATENCY_TIMER_MS) /* no such timer, or already short */
+		return;
+	wfd = open(path, O_WRONLY | O_CLOEXEC);
+	if (wfd >= 0) {
+		static const char one[] = "1\n";
+		ssize_t w = write(wfd, one, sizeof(one) - 1);
+		int e = errno;
+
+		close(wfd);
+		errno = e;
+		if (w == (ssize_t)sizeof(one) - 1 &&
+		    read_sysfs_uint(path) == RMD_RS485_LATENCY_TIMER_MS)
+			return;
+		if (w >= 0)
+			errno = EIO;
+	}
+	add_note(err, errlen,
+		 "%s: the converter's latency timer is %d ms and could not be set to %d (%s): "
+		 "every answer may come up to %d ms late; as root `echo 1 > %s`, or a udev "
+		 "rule ATTR{device/latency_timer}=\"1\" (docs/troubleshooting.md), and "
+		 "measure with `rmdctl rtt`",
+		 device, ms, RMD_RS485_LATENCY_TIMER_MS, strerror(errno), ms, path);
+}
+
 int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs485_opts *opts,
 		   char *err, size_t errlen)
 {
@@ -204,7 +313,7 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 	frame_ns = rmd_rs485_frame_ns(opts->baud);
 	p->reply_timeout_ns = opts->reply_timeout_ns;
 	if (!p->reply_timeout_ns)
-		p->reply_timeout_ns = RMD_RS485_TURNAROUND_NS + 2 * frame_ns;
+		p->reply_timeout_ns = rmd_rs485_reply_timeout_ns(opts->baud, 0);
 	p->broadcast_replies = opts->broadcast_replies;
 	expect = p->broadcast_replies ? p->broadcast_replies : RMD_MAX_MOTORS;
 	p->broadcast_timeout_ns = opts->broadcast_timeout_ns;
@@ -264,6 +373,8 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 				 "by itself (USB RS485 adapters do)",
 				 device);
 	}
+	/* The motors' side (rmd-sim) answers on time too: both roles. */
+	set_low_latency(p->fd, device, opts->sysfs_root, err, errlen);
 	/* Whatever arrived before we were listening is no answer of ours. */
 	tcflush(p->fd, TCIOFLUSH);
 
@@ -276,6 +387,7 @@ int rmd_rs485_open(struct rmd_bus *bus, const char *device, const struct rmd_rs4
 			.reply_timeout_ns = p->reply_timeout_ns,
 			.request_spacing_ns = p->reply_timeout_ns,
 			.queue_len = RMD_RS485_QUEUE,
+			.bitrate = opts->baud,
 		};
 	bus->state = RMD_BUS_ACTIVE;
 	memset(&bus->stats, 0, sizeof(bus->stats));

@@ -318,7 +318,8 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	bus->ops = &sim_ops;
 	snprintf(bus->name, sizeof(bus->name), "%s", name);
 	/* A CAN bus in a box: the same caps as SocketCAN. */
-	bus->caps = (struct rmd_bus_caps){ .request_spacing_ns = RMD_BUS_CAN_SPACING_NS };
+	bus->caps = (struct rmd_bus_caps){ .request_spacing_ns = RMD_BUS_CAN_SPACING_NS,
+					   .bitrate = p->sim.bitrate };
 	bus->state = RMD_BUS_ACTIVE;
 	bus->priv = p;
 	return 0;

@@ -23,7 +23,10 @@
 
 #include <linux/can.h>
 #include <linux/can/error.h>
+#include <linux/can/netlink.h>
 #include <linux/can/raw.h>
+#include <linux/netlink.h>
+#include <linux/rtnetlink.h>
 
 #include "rmd/dialect.h"
 #include "rmd/err.h"
@@ -442,6 +445,68 @@ static int socketcan_fd(const struct rmd_bus *bus)
 	return p ? p->fd : -1;
 }
 
+/* The attribute `type` among the rtattrs at a (len bytes), or NULL. */
+static const struct rtattr *rta_find(const struct rtattr *a, int len, unsigned short type)
+{
+	for (; RTA_OK(a, len); a = RTA_NEXT(a, len))
+		if (a->rta_type == type)
+			return a;
+	return NULL;
+}
+
+/*
+ * The interface's bit rate as the kernel has it (rtnetlink RTM_GETLINK:
+ * IFLA_LINKINFO / IFLA_INFO_DATA / IFLA_CAN_BITTIMING, what `ip -details
+ * link show` prints), for callers that count wire time (rmdctl rtt); 0
+ * when there is none (vcan, vxcan) or the kernel does not say.  Non-rt.
+ */
+static uint32_t link_bitrate(unsigned ifindex)
+{
+	struct {
+		struct nlmsghdr nh;
+		struct ifinfomsg ifi;
+	} req = {
+		.nh = { .nlmsg_len = NLMSG_LENGTH(sizeof(struct ifinfomsg)),
+			.nlmsg_type = RTM_GETLINK,
+			.nlmsg_flags = NLM_F_REQUEST },
+		.ifi = { .ifi_family = AF_UNSPEC, .ifi_index = (int)ifindex },
+	};
+	union {
+		struct nlmsghdr nh;
+		char buf[8192];
+	} rep;
+	const struct nlmsghdr *nh = &rep.nh;
+	const struct rtattr *info, *data, *bt;
+	struct can_bittiming cbt;
+	uint32_t bitrate = 0;
+	ssize_t n;
+	int len, fd = socket(AF_NETLINK, SOCK_RAW | SOCK_CLOEXEC, NETLINK_ROUTE);
+
+	if (fd < 0)
+		return 0;
+	if (send(fd, &req, req.nh.nlmsg_len, 0) < 0)
+		goto out;
+	n = recv(fd, &rep, sizeof(rep), 0);
+	if (n < (ssize_t)NLMSG_LENGTH(sizeof(struct ifinfomsg)) || !NLMSG_OK(nh, (unsigned)n) ||
+	    nh->nlmsg_type != RTM_NEWLINK)
+		goto out;
+	len = (int)(nh->nlmsg_len - NLMSG_LENGTH(sizeof(struct ifinfomsg)));
+	info = rta_find(IFLA_RTA((const struct ifinfomsg *)NLMSG_DATA(nh)), len, IFLA_LINKINFO);
+	if (!info)
+		goto out;
+	data = rta_find(RTA_DATA(info), (int)RTA_PAYLOAD(info), IFLA_INFO_DATA);
+	if (!data)
+		goto out;
+	bt = rta_find(RTA_DATA(data), (int)RTA_PAYLOAD(data), IFLA_CAN_BITTIMING);
+	if (bt && RTA_PAYLOAD(bt) >= sizeof(cbt)) {
+		memcpy(&cbt, RTA_DATA(bt), sizeof(cbt));
+		bitrate = cbt.bitrate;
+	}
+out:
+	close(fd);
+	return bitrate;
+}
+
 /* non-rt */
 static void socketcan_close(struct rmd_bus *bus)
 {
@@ -557,7 +622,8 @@ int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 	bus->ops = &socketcan_ops;
 	snprintf(bus->name, sizeof(bus->name), "%s", ifname);
 	/* Full duplex: requests and replies overlap; the caller picks its timeout. */
-	bus->caps = (struct rmd_bus_caps){ .request_spacing_ns = RMD_BUS_CAN_SPACING_NS };
+	bus->caps = (struct rmd_bus_caps){ .request_spacing_ns = RMD_BUS_CAN_SPACING_NS,
+					   .bitrate = link_bitrate(ifindex) };
 	bus->state = carrier ? RMD_BUS_ACTIVE : RMD_BUS_OFF;
 	bus->priv = p;
 	return 0;

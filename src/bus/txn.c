@@ -139,6 +139,7 @@ static bool take(struct rmd_txn *t, unsigned n, const struct rmd_bus_rx *rx)
 			return true;
 		}
 		x->heard++;
+		x->heard_ns = rx->t_ns;
 		if (repeats && !reached_awake(t, x) && (x->guardable || !x->echo_seen)) {
 			x->echo_seen = true; /* only echoed: sent again, behind a guard */
 			x->sent = false;
@@ -390,6 +391,7 @@ int rmd_txn_run(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, const struct
 		t[i].sent = false;
 		t[i].echo_seen = false;
 		t[i].heard = 0;
+		t[i].heard_ns = 0;
 		t[i].prev = 0;
 		t[i].guard_sent = false;
 		t[i].guard_heard = false;

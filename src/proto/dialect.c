@@ -127,7 +127,7 @@ static const struct rmd_pid_slot v4_pid[] = {
 #define V3_CAPS (V3X_CAPS | RMD_DIALECT_TRACK_A3_A5)
 
 /* In enum order. */
-static const struct rmd_dialect dialects[RMD_PROTO_COUNT] = {
+const struct rmd_dialect rmd_dialects[RMD_PROTO_COUNT] = {
 	[RMD_PROTO_V3] = {
 		.proto = RMD_PROTO_V3,
 		.key = "v3",
@@ -224,7 +224,7 @@ const struct rmd_cmd_spec *rmd_cmd_by_byte[RMD_PROTO_COUNT][256];
 __attribute__((constructor)) static void dialects_build(void)
 {
 	for (unsigned p = 0; p < RMD_PROTO_COUNT; p++) {
-		const struct rmd_dialect *d = &dialects[p];
+		const struct rmd_dialect *d = &rmd_dialects[p];
 
 		/* the first row of a byte wins, as a scan would */
 		for (size_t i = *d->n_rows; i-- > 0;)
@@ -233,15 +233,10 @@ __attribute__((constructor)) static void dialects_build(void)
 	}
 }
 
-const struct rmd_dialect *rmd_dialect(enum rmd_proto proto)
-{
-	return (unsigned)proto < RMD_PROTO_COUNT ? &dialects[proto] : NULL;
-}
-
 const struct rmd_dialect *rmd_dialect_list(size_t *n)
 {
 	*n = RMD_PROTO_COUNT;
-	return dialects;
+	return rmd_dialects;
 }
 
 /*
@@ -260,5 +255,5 @@ const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certa
 	uint32_t date = rmd_version_date(version);
 
 	*certain = date != 0;
-	return &dialects[date >= V4_FLOAT_PID_DATE ? RMD_PROTO_V4 : RMD_PROTO_V3];
+	return &rmd_dialects[date >= V4_FLOAT_PID_DATE ? RMD_PROTO_V4 : RMD_PROTO_V3];
 }

@@ -107,6 +107,17 @@ int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m)
 	return (int64_t)llround(t);
 }
 
+int64_t rmd_sim_motor_rom_extra_ns(const struct rmd_sim_motor *m, const struct rmd_frame *req)
+{
+	const struct rmd_cmd_spec *spec;
+
+	/* MIT frames (0x400 + ID) carry no command byte */
+	if (m->p.rom_write_ns <= 0 || req->len < 1 || req->can_id >= 0x400)
+		return 0;
+	spec = rmd_cmd_find(m->d->table, req->data[0]);
+	return spec && spec->flags & RMD_CMD_ROM ? (int64_t)m->p.rom_write_ns : 0;
+}
+
 /* Replace nonsense (zero inertia, NaN, ...) by the defaults: never divide by 0. */
 static void sanitize(struct rmd_sim_motor_params *p)
 {
@@ -144,6 +155,10 @@ static void sanitize(struct rmd_sim_motor_params *p)
 	FINITE_NONNEG(supply_v);
 	FINITE_NONNEG(turnaround_ns);
 	FINITE_NONNEG(turnaround_jitter_ns);
+	FINITE_NONNEG(rom_write_ns);
+	FINITE_NONNEG(adapter_latency_timer_ns);
+	FINITE_NONNEG(adapter_usb_frame_ns);
+	FINITE_NONNEG(adapter_delay_ns);
 #undef POSITIVE
 #undef FINITE_NONNEG
 	if (!isfinite(p->load_nm))

@@ -103,6 +103,18 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    "request end to reply start, mean", 0),
 	ROW("turnaround_jitter_us", "jitter-us", US, turnaround_jitter_ns, 0, 1e6, false, "µs",
 	    "turnaround jitter, uniform ±", 0),
+	ROW("rom_write_us", "rom-write", US, rom_write_ns, 0, 10e6, false, "µs",
+	    "extra answer time of commands that write ROM (0x32, 0x64, 0x79, 0xB3, ...)", 0),
+	ROW("adapter_latency_timer_us", NULL, US, adapter_latency_timer_ns, 0, 255e3, false, "µs",
+	    "the host's adapter: a USB-RS485 converter's latency timer, received bytes held "
+	    "until it expires (FTDI default 16000); 0: none",
+	    0),
+	ROW("adapter_usb_frame_us", NULL, US, adapter_usb_frame_ns, 0, 1e6, false, "µs",
+	    "the host's adapter: frames reach the host at the end of the USB frame they fell "
+	    "in (full speed: 1000); 0: none",
+	    0),
+	ROW("adapter_delay_us", NULL, US, adapter_delay_ns, 0, 1e6, false, "µs",
+	    "the host's adapter: a fixed delay on every frame to the host; 0: none", 0),
 };
 #undef ROW
 

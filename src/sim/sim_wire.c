@@ -14,6 +14,7 @@
 
 #include "rmd/rng.h"
 #include "rmd/can_timing.h"
+#include "rmd/sim_adapter.h"
 #include "rmd/sim_wire.h"
 
 _Static_assert((RMD_SIM_WIRE_TXQ & (RMD_SIM_WIRE_TXQ - 1)) == 0, "TXQ: power of two");
@@ -48,6 +49,8 @@ static void deliver_host(struct rmd_sim_wire *bus, const struct rmd_frame *f, in
 	}
 	bus->rxq[i] = *f;
 	bus->rxq_t_ns[i] = t;
+	if (t > bus->rxq_last_ns)
+		bus->rxq_last_ns = t;
 	bus->rxq_head++;
 	bus->stats.rx_delivered++;
 	if (used + 1 > bus->stats.rxq_hwm)
@@ -189,6 +192,15 @@ static void apply_windows(struct rmd_sim_wire *bus, int64_t t)
 }
 
 /* The frame on the wire reaches its end of frame: everyone takes it. */
+/* When a motor's frame on the wire at t reaches the host: at t without an adapter model. */
+static inline int64_t adapter_ns(struct rmd_sim_wire *bus, const struct rmd_sim_motor_params *p,
+				 int64_t t)
+{
+	if (!p->adapter_latency_timer_ns && !p->adapter_usb_frame_ns && !p->adapter_delay_ns)
+		return t;
+	return rmd_sim_adapter_ns(&bus->adapter, p, t);
+}
+
 static void finish_frame(struct rmd_sim_wire *bus)
 {
 	const struct rmd_sim_pending *w = &bus->wire;
@@ -218,9 +230,16 @@ static void finish_frame(struct rmd_sim_wire *bus)
 			continue;
 		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int j = 0; j < n; j++)
-			motor_emit(bus, i, out[j], t, t + rmd_sim_motor_turnaround_ns(m));
+			motor_emit(bus, i, out[j], t,
+				   t + rmd_sim_motor_turnaround_ns(m) +
+					   (m->p.rom_write_ns > 0 ?
+						    rmd_sim_motor_rom_extra_ns(m, &w->f) :
+						    0));
 	}
-	if (w->src != RMD_SIM_SRC_HOST)
+	/* a motor's frame reaches the host through its adapter (rmd/sim_adapter.h) */
+	if (w->src >= 0)
+		deliver_host(bus, &w->f, adapter_ns(bus, &bus->motors[w->src].p, t));
+	else if (w->src != RMD_SIM_SRC_HOST)
 		deliver_host(bus, &w->f, t);
 }
 
@@ -409,6 +428,7 @@ int rmd_sim_wire_init(struct rmd_sim_wire *bus, uint32_t bitrate, uint64_t seed,
 	bus->txq_len = RMD_SIM_WIRE_TXQ;
 	bus->seed = seed;
 	bus->rng = rmd_rng_seed(seed);
+	rmd_sim_adapter_init(&bus->adapter);
 	return 0;
 }
 
@@ -516,11 +536,16 @@ int rmd_sim_wire_send(struct rmd_sim_wire *bus, int64_t now_ns, const struct rmd
 
 int rmd_sim_wire_recv(struct rmd_sim_wire *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns)
 {
+	/* frames still held in the adapter (rmd/sim_adapter.h) end the take; none: no look */
+	bool held = bus->rxq_last_ns > bus->now_ns;
 	unsigned n = 0;
 
 	while (n < max && bus->rxq_tail != bus->rxq_head) {
-		unsigned i = bus->rxq_tail++ & (RMD_SIM_WIRE_RXQ - 1);
+		unsigned i = bus->rxq_tail & (RMD_SIM_WIRE_RXQ - 1);
 
+		if (held && bus->rxq_t_ns[i] > bus->now_ns)
+			break;
+		bus->rxq_tail++;
 		out[n] = bus->rxq[i];
 		if (t_ns)
 			t_ns[n] = bus->rxq_t_ns[i];

@@ -801,6 +801,114 @@ static void test_yes_everywhere(void **state)
 	}
 }
 
+/* ---- rtt ------------------------------------------------------------------------------- */
+
+/* Simulated motors answering in 20 ms (turnaround_us): rtt must see 20 ms, no less. */
+#define RTT_SIM_TURNAROUND_MS 20.0
+/* What the run may add on a busy machine before it is run again (rmdctl's sleeps, the scheduler). */
+#define RTT_SLACK_MS 3.0
+#define RTT_RUNS 3
+
+/*
+ * One rtt run on sim:1-3 with a 20 ms turnaround: each motor's lines and
+ * the summary.  Returns true when the run was judged, false when the
+ * machine was too busy to tell (a median beyond the slack): run again.
+ */
+static bool rtt_sim_once(bool last)
+{
+	struct run r;
+	char line[1024], sum[1024], cmd[16];
+	double min_p99 = 1e9, max_p99 = 0, worst_median = 0;
+	unsigned n;
+
+	RUN(&r, "", "rtt", "1-3", "--bus", "sim:1-3", "--count", "10", "--sim",
+	    "turnaround_us=20000", "--sim", "turnaround_jitter_us=0", "--json");
+	assert_status(&r, 0, "rtt --json");
+	for (n = 0; json_line(r.out, n, line, sizeof(line)); n++)
+		;
+	/* 3 motors x 3 commands, then the bus's summary */
+	if (n != 10)
+		fail_msg("%u JSON lines, expected 10:\n%s", n, r.out);
+	for (unsigned i = 0; i < 9; i++) {
+		double lo, med, p99;
+
+		json_line(r.out, i, line, sizeof(line));
+		json_str(line, "cmd", cmd, sizeof(cmd));
+		if (json_num(line, "answered") != 10 || json_num(line, "lost") != 0)
+			fail_msg("not every first try answered: %s", line);
+		lo = json_num(line, "min_ms");
+		med = json_num(line, "median_ms");
+		p99 = json_num(line, "p99_ms");
+		/* the sim's clock is the real one: no answer before its turnaround */
+		if (lo < RTT_SIM_TURNAROUND_MS || med < lo || p99 < med ||
+		    json_num(line, "max_ms") < p99)
+			fail_msg("round trips below the 20 ms turnaround or out of order: %s",
+				 line);
+		if (med > worst_median)
+			worst_median = med;
+		if (p99 < min_p99)
+			min_p99 = p99;
+		if (p99 > max_p99)
+			max_p99 = p99;
+	}
+	json_line(r.out, 9, sum, sizeof(sum));
+	if (worst_median > RTT_SIM_TURNAROUND_MS + RTT_SLACK_MS && !last) {
+		fprintf(stderr, "busy machine: median round trip %.3f ms, running rtt again\n",
+			worst_median);
+		run_free(&r);
+		return false;
+	}
+	if (worst_median > RTT_SIM_TURNAROUND_MS + RTT_SLACK_MS)
+		fail_msg("median round trip %.3f ms in %d runs, expected about %.0f ms",
+			 worst_median, RTT_RUNS, RTT_SIM_TURNAROUND_MS);
+	/* CAN carries the 3 requests at once: the slowest p99 is the cycle, under 50 Hz */
+	if (json_num(sum, "rate_hz") >= 50 || json_num(sum, "rate_hz") < 1 ||
+	    json_num(sum, "motors") != 3 || json_bool(sum, "half_duplex"))
+		fail_msg("summary: %s", sum);
+	if (fabs(json_num(sum, "rate_hz") - floor(1000.0 / max_p99)) > 1)
+		fail_msg("rate %g Hz does not follow from the slowest p99 %.3f ms: %s",
+			 json_num(sum, "rate_hz"), max_p99, sum);
+	(void)min_p99;
+	run_free(&r);
+
+	/* the text form says the same in words */
+	RUN(&r, "", "rtt", "1", "--bus", "sim:1", "--count", "3", "--sim", "turnaround_us=20000");
+	assert_status(&r, 0, "rtt");
+	if (!strstr(r.out, "supported loop rate") || !strstr(r.out, "0x92") ||
+	    !strstr(r.out, "P99_MS"))
+		fail_msg("rtt text:\n%s", r.out);
+	run_free(&r);
+	return true;
+}
+
+static void test_rtt_sim(void **state)
+{
+	(void)state;
+	for (int k = 0; k < RTT_RUNS && !rtt_sim_once(k == RTT_RUNS - 1); k++)
+		;
+}
+
+/* --sim takes the parameter table's keys only, with their ranges. */
+static void test_rtt_usage(void **state)
+{
+	static const char *const bad[][8] = {
+		{ "rtt", "--bus", "sim:1", "--sim", "no_such_key=1" },
+		{ "rtt", "--bus", "sim:1", "--sim", "turnaround_us" },
+		{ "rtt", "--bus", "sim:1", "--sim", "turnaround_us=-5" },
+		{ "rtt", "--bus", "sim:1", "--count", "0" },
+		{ "status", "1", "--count", "5", "--bus", "sim:1" },
+	};
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+		struct run r;
+
+		run_argv(&r, "", bad[i]);
+		assert_status(&r, 2, bad[i][3]);
+		run_free(&r);
+	}
+}
+
 /* A candump -l line: "(SSSSSSSSSS.UUUUUU) IFACE ID#DATA", nothing else. */
 static bool is_candump_l(const char *s, size_t len)
 {
@@ -1007,6 +1115,8 @@ int main(void)
 		cmocka_unit_test(test_version),
 		cmocka_unit_test(test_usage_error_is_short),
 		cmocka_unit_test(test_yes_everywhere),
+		cmocka_unit_test(test_rtt_sim),
+		cmocka_unit_test(test_rtt_usage),
 		cmocka_unit_test(test_trace_is_candump_l),
 		cmocka_unit_test(test_move_progress_on_terminal),
 		cmocka_unit_test(test_completion),

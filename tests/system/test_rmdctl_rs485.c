@@ -598,10 +598,13 @@ static void find_prog(char *out, size_t size, const char *env, const char *name)
 
 static int group_teardown(void **state);
 
+/* rmd-sim's options beyond the line and the motors, for the next group_setup(); NULL: none. */
+static const char *const *sim_extra;
+
 static int group_setup(void **state)
 {
 	struct rig *g = calloc(1, sizeof(*g));
-	const char *argv[] = { NULL, "--serial", NULL, "--baud", BAUD_ARG, "--motors", "1-3", NULL };
+	const char *argv[16] = { NULL, "--serial", NULL, "--baud", BAUD_ARG, "--motors", "1-3" };
 	int logp[2], r;
 	int64_t deadline;
 
@@ -655,6 +658,8 @@ static int group_setup(void **state)
 		goto err;
 	argv[0] = g->rmdsim;
 	argv[2] = g->a.path;
+	for (unsigned i = 7, k = 0; sim_extra && sim_extra[k] && i < 15; i++, k++)
+		argv[i] = sim_extra[k];
 	g->sim = spawn(g->rmdsim, argv, logp[1], logp[1]);
 	close(logp[1]);
 	g->sim_log_fd = logp[0];
@@ -990,6 +995,295 @@ static void test_sim_sigterm(void **state)
 	assert_int_equal(b2a % RMD_RS485_FRAME_LEN, 0);
 }
 
+/* ---- a USB-RS485 converter's latency timer (issue 21) ---------------------------------- */
+
+/*
+ * The second group's rmd-sim holds its replies as a converter whose
+ * latency timer is 16 ms would (adapter_latency_timer_us, docs/rmd-sim.md):
+ * no answer can come sooner than that after its request.
+ */
+#define CONVERTER_MS 16.0
+static const char *const converter_sim[] = { "--adapter_latency_timer_us", "16000", NULL };
+#define RTT_COUNT_ARG "20"
+#define RTT_COUNT 20
+/* A median beyond CONVERTER_MS + the line's own round trip + this: a busy machine, run again. */
+#define RTT_SLACK_MS 8.0
+#define RTT_RUNS 3
+/* rmdd runs this long at the rate rtt said (longer than a few of its cycles, at a few Hz). */
+#define RMDD_RUN_MS 3000
+#define RMDD_RUNS 3
+
+/* The first group's rtt: the line's round trip without the converter (its median). */
+static double line_median_ms;
+/* What the converter group's rtt said: the rate the line supports and its turnaround. */
+static unsigned rtt_rate_hz;
+static long rtt_turnaround_us;
+
+/*
+ * rmdctl rtt on the line, --json: every motor's lines and the summary.
+ * Returns the largest median, the smallest minimum through *min_ms, and
+ * the summary in sum.
+ */
+static double rtt_json(struct rig *g, struct run *r, char *sum, size_t len, double *min_ms)
+{
+	char line[1024];
+	double worst = 0;
+	unsigned n = 0;
+
+	RUN(g, r, "rtt", "1-3", "--bus", g->b.path, "--baud", BAUD_ARG, "--count", RTT_COUNT_ARG,
+	    "--json");
+	assert_status(r, 0, "rtt --json");
+	*min_ms = 1e9;
+	for (; json_line(r->out, n, line, sizeof(line)) && n < 9; n++) {
+		double lo = json_num(line, "min_ms"), med = json_num(line, "median_ms");
+
+		if (json_num(line, "answered") < 1 || med < lo || json_num(line, "p99_ms") < med)
+			fail_msg("rtt: %s", line);
+		worst = med > worst ? med : worst;
+		*min_ms = lo < *min_ms ? lo : *min_ms;
+	}
+	if (n != 9 || !json_line(r->out, 9, sum, len))
+		fail_msg("rtt: %u lines per motor and command, expected 9, and a summary:\n%s", n,
+			 r->out);
+	if (!json_bool(sum, "half_duplex") || json_num(sum, "motors") != 3 ||
+	    json_num(sum, "rate_hz") < 1)
+		fail_msg("rtt summary: %s", sum);
+	return worst;
+}
+
+/* The line as it is: a round trip well under a millisecond or two, measured for the next group. */
+static void test_rtt(void **state)
+{
+	struct rig *g = *state;
+	char sum[1024];
+	double lo;
+
+	need_sim(g);
+	line_median_ms = rtt_json(g, &g->run, sum, sizeof(sum), &lo);
+	print_message("rtt without converter: median up to %.3f ms, %s\n", line_median_ms, sum);
+}
+
+static int converter_setup(void **state)
+{
+	sim_extra = converter_sim;
+	return group_setup(state);
+}
+
+/*
+ * rtt sees the converter: no answer before its 16 ms, the median about
+ * 16 ms above the line's own; three motors in series on the half-duplex
+ * line then allow at most 1000 / (3 x 16) Hz, and the turnaround it gives
+ * for rmdd.yaml includes the 16 ms.
+ */
+static void test_rtt_converter(void **state)
+{
+	struct rig *g = *state;
+	struct run *r = &g->run;
+	double med = 0, lo = 0, bound = CONVERTER_MS + line_median_ms + RTT_SLACK_MS;
+	char sum[1024];
+
+	for (int k = 0; k < RTT_RUNS; k++) {
+		need_sim(g);
+		sleeper_mark(&g->ref);
+		med = rtt_json(g, r, sum, sizeof(sum), &lo);
+		if (med <= bound)
+			break;
+		print_message("busy machine: rtt median %.3f ms, beyond %.3f ms (a normal-priority "
+			      "thread was held off %.1f ms at worst): again (%d of %d)\n",
+			      med, bound, ms_of(sleeper_worst_ns(&g->ref)), k + 1, RTT_RUNS);
+	}
+	print_message("rtt with a 16 ms converter: min %.3f ms, median up to %.3f ms, %s\n", lo,
+		      med, sum);
+	if (lo < CONVERTER_MS)
+		fail_msg("an answer %.3f ms after its request, before the converter's 16 ms", lo);
+	if (med > bound)
+		fail_msg("median round trip %.3f ms in %d runs, expected about %.1f + %.3f ms", med,
+			 RTT_RUNS, CONVERTER_MS, line_median_ms);
+	/* the bus's rate: the summary's own key, after the classes' */
+	rtt_rate_hz = (unsigned)json_num(strrchr(sum, ']'), "rate_hz");
+	rtt_turnaround_us = (long)json_num(sum, "turnaround_us");
+	if (rtt_rate_hz > (unsigned)(1000.0 / (3 * CONVERTER_MS)))
+		fail_msg("rate %u Hz: three 16 ms round trips in series allow no more than %u Hz",
+			 rtt_rate_hz, (unsigned)(1000.0 / (3 * CONVERTER_MS)));
+	if (rtt_turnaround_us < (long)(CONVERTER_MS * 1000) - 2 * 130)
+		fail_msg("turnaround_us %ld does not include the converter's 16 ms",
+			 rtt_turnaround_us);
+	/* the text form: the same figures in words, and the key for rmdd.yaml */
+	RUN(g, r, "rtt", "1", "--bus", g->b.path, "--baud", BAUD_ARG, "--count", "3");
+	assert_status(r, 0, "rtt");
+	assert_has(r, r->out, "half duplex", "rtt");
+	assert_has(r, r->out, "supported loop rate", "rtt");
+	assert_has(r, r->out, "turnaround_us: ", "rtt");
+}
+
+/* A number after `key` in text (the first), or -1. */
+static long num_after(const char *text, const char *key)
+{
+	const char *p = strstr(text, key);
+
+	return p ? strtol(p + strlen(key), NULL, 10) : -1;
+}
+
+/*
+ * rmdd on the line for RMDD_RUN_MS at rate_hz with turnaround_us: its log
+ * (statistics at SIGTERM) into log.  Returns its exit status.
+ */
+static int run_rmdd(struct rig *g, const char *rmdd, unsigned rate_hz, long turnaround_us,
+		    char *log, size_t cap)
+{
+	char cfg[] = "/tmp/rmdd-converter-XXXXXX", lockdir[] = "/tmp/rmdd-lock-XXXXXX";
+	const char *argv[] = { rmdd, "--config", cfg, NULL };
+	enum { STARTING, RUNNING, STOPPING } phase = STARTING;
+	int64_t until = rmd_now_ns() + READY_MS * MS;
+	int fd, logp[2], st;
+	size_t n = 0;
+	bool open = true;
+	FILE *f;
+	pid_t pid;
+
+	fd = mkstemp(cfg);
+	assert_true(fd >= 0);
+	assert_non_null(mkdtemp(lockdir));
+	f = fdopen(fd, "w");
+	assert_non_null(f);
+	/* comm-loss protection off: the simulated motors outlive this run */
+	fprintf(f,
+		"loop: {rate_hz: %u}\n"
+		"buses:\n"
+		"  - {name: rs0, type: rs485, device: \"%s\", baud: %d, turnaround_us: %ld}\n"
+		"motors:\n"
+		"  - {name: m1, bus: rs0, id: 1, mode: position, torque_constant_nm_a: 2.0}\n"
+		"  - {name: m2, bus: rs0, id: 2, mode: position, torque_constant_nm_a: 2.0}\n"
+		"  - {name: m3, bus: rs0, id: 3, mode: position, torque_constant_nm_a: 2.0}\n"
+		"safety: {command_timeout_ms: 5000, comm_loss_ms: 0}\n"
+		"incidents: {enabled: false}\n"
+		"lcm: {url: \"memq://\"}\n",
+		rate_hz, g->b.path, BAUD, turnaround_us);
+	assert_int_equal(fclose(f), 0);
+	setenv("RMD_LOCK_DIR", lockdir, 1);
+	assert_int_equal(ioctl(g->b.hold, TIOCNXCL), 0);
+	assert_int_equal(pipe2(logp, O_CLOEXEC), 0);
+	pid = spawn(rmdd, argv, logp[1], logp[1]);
+	close(logp[1]);
+	assert_true(pid > 0);
+	fcntl(logp[0], F_SETFL, O_NONBLOCK);
+	log[0] = '\0';
+	/* up, RMDD_RUN_MS of cycles, then SIGTERM: the statistics, and the exit */
+	while (open) {
+		struct pollfd p[2] = { { .fd = logp[0], .events = POLLIN },
+				       { .fd = g->sim_log_fd, .events = POLLIN } };
+
+		if (!ms_left(until)) {
+			if (phase != RUNNING)
+				break;
+			kill(pid, SIGTERM);
+			phase = STOPPING;
+			until = rmd_now_ns() + EXIT_MS * MS;
+			continue;
+		}
+		poll(p, 2, ms_left(until));
+		open = slurp_into(logp[0], log, &n, cap);
+		drain_sim_log(g);
+		if (phase == STARTING && strstr(log, "running: 3 motor(s)")) {
+			phase = RUNNING;
+			until = rmd_now_ns() + RMDD_RUN_MS * MS;
+		}
+	}
+	close(logp[0]);
+	if (open) /* not up in time, or no exit after SIGTERM */
+		kill(pid, SIGKILL);
+	assert_int_equal(waitpid(pid, &st, 0), pid);
+	unlink(cfg);
+	rmdir(lockdir);
+	unsetenv("RMD_LOCK_DIR");
+	if (phase == STARTING)
+		fail_msg("rmdd did not start on %s at %u Hz (status %#x); its log:\n%s", g->b.path,
+			 rate_hz, st, log);
+	return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+/*
+ * rmdd brings the motors up through the converter and runs at the rate
+ * rtt said the line supports, with the turnaround it gave: every reply
+ * comes in its cycle (0 missed).  A run that missed replies while the
+ * machine held normal-priority threads off for a cycle or more is run
+ * again at half the rate, said so; one that missed them on a quiet
+ * machine fails.
+ */
+static void test_rmdd_at_rtt_rate(void **state)
+{
+	struct rig *g = *state;
+	static char log[LOG_MAX];
+	char rmdd[4096];
+	unsigned rate = rtt_rate_hz;
+	long matched = -1, missed = -1;
+
+	if (!rate)
+		fail_msg("no rate from test_rtt_converter");
+	find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd");
+	for (int k = 0; k < RMDD_RUNS; k++) {
+		int st;
+
+		need_sim(g);
+		sleeper_mark(&g->ref);
+		st = run_rmdd(g, rmdd, rate, rtt_turnaround_us, log, sizeof(log));
+		if (st != 0)
+			fail_msg("rmdd exit %d; its log:\n%s", st, log);
+		if (strstr(log, "longer than the line's reply timeout"))
+			fail_msg(
+				"bring-up: round trips beyond the line's timeout with turnaround_us "
+				"%ld:\n%s",
+				rtt_turnaround_us, log);
+		matched = num_after(log, "replies: matched ");
+		missed = num_after(log, ", missed ");
+		if (matched < 0 || missed < 0)
+			fail_msg("no reply statistics in rmdd's log:\n%s", log);
+		if (missed == 0 || sleeper_worst_ns(&g->ref) < (int64_t)(1000 / rate) * MS ||
+		    rate < 2)
+			break;
+		print_message("busy machine: rmdd at %u Hz missed %ld replies while a "
+			      "normal-priority thread was held off %.1f ms: again at %u Hz\n",
+			      rate, missed, ms_of(sleeper_worst_ns(&g->ref)), rate / 2);
+		rate /= 2;
+	}
+	print_message("rmdd at %u Hz (rtt: %u Hz, turnaround_us %ld): replies matched %ld, "
+		      "missed %ld\n",
+		      rate, rtt_rate_hz, rtt_turnaround_us, matched, missed);
+	if (missed != 0)
+		fail_msg("rmdd at %u Hz missed %ld replies; its log:\n%s", rate, missed, log);
+	/* a few seconds at a few Hz: every motor answered every cycle */
+	if (matched < 3 * (long)rate * (RMDD_RUN_MS / 1000) / 2)
+		fail_msg("only %ld replies in %d ms at %u Hz; its log:\n%s", matched, RMDD_RUN_MS,
+			 rate, log);
+}
+
+/*
+ * The same line with the default turnaround_us (800): the line's reply
+ * timeout (2.26 ms) is shorter than the converter's 16 ms, so requests
+ * would go out while motors answer; bring-up says so, with the value to
+ * set.
+ */
+static void test_rmdd_default_turnaround_warns(void **state)
+{
+	struct rig *g = *state;
+	static char log[LOG_MAX];
+	char rmdd[4096];
+	long at_least;
+	int st;
+
+	find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd");
+	need_sim(g);
+	st = run_rmdd(g, rmdd, 5, 800, log, sizeof(log));
+	if (st != 0)
+		fail_msg("rmdd exit %d; its log:\n%s", st, log);
+	if (!strstr(log, "longer than the line's reply timeout 2.26 ms"))
+		fail_msg("no warning about the line's reply timeout:\n%s", log);
+	at_least = num_after(log, "turnaround_us to at least ");
+	if (at_least < (long)(CONVERTER_MS * 1000))
+		fail_msg("it asks for turnaround_us %ld, less than the converter's 16 ms:\n%s",
+			 at_least, log);
+}
+
 int main(void)
 {
 	/* In order: one rmd-sim for all, stopped by the last. */
@@ -1000,8 +1294,17 @@ int main(void)
 		cmocka_unit_test(test_status_silent),
 		cmocka_unit_test(test_dump_restore),
 		cmocka_unit_test(test_dump_tripped),
+		cmocka_unit_test(test_rtt),
 		cmocka_unit_test(test_sim_sigterm),
 	};
+	/* A line behind a converter with a 16 ms latency timer: its own rmd-sim. */
+	const struct CMUnitTest converter[] = {
+		cmocka_unit_test(test_rtt_converter),
+		cmocka_unit_test(test_rmdd_at_rtt_rate),
+		cmocka_unit_test(test_rmdd_default_turnaround_warns),
+	};
+	int r = cmocka_run_group_tests_name("rmdctl_rs485", tests, group_setup, group_teardown);
 
-	return cmocka_run_group_tests_name("rmdctl_rs485", tests, group_setup, group_teardown);
+	return r + cmocka_run_group_tests_name("rmdctl_rs485_converter", converter, converter_setup,
+					       group_teardown);
 }

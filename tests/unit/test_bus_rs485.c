@@ -25,6 +25,9 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
+
 #include <cmocka.h>
 
 #include "rmd/time.h"
@@ -873,6 +876,109 @@ static void test_open_config_equals_spec(void **state)
 	close(pt.master);
 }
 
+/*
+ * The line's reply timeout follows the bus's turnaround_us: a converter
+ * whose latency timer adds 16 ms needs a turnaround that includes it, and
+ * the line then waits for its answers instead of writing over them.
+ */
+static void test_reply_timeout_follows_turnaround(void **state)
+{
+	const int64_t frame = rmd_rs485_frame_ns(1000000);
+	struct rmd_config_bus cb = { .kind = RMD_BUS_KIND_RS485, .baud = 1000000 };
+	struct rmd_bus a;
+	struct pty pt;
+	char err[512];
+
+	(void)state;
+	assert_int_equal(frame, 130000);
+	/* the default turnaround (800 us) keeps the 2 ms floor */
+	assert_int_equal(rmd_rs485_reply_timeout_ns(1000000, 800000), 2000000 + 2 * frame);
+	assert_int_equal(rmd_rs485_reply_timeout_ns(1000000, 17000000), 34000000 + 2 * frame);
+	pty_open(&pt);
+	snprintf(cb.name, sizeof(cb.name), "rs0");
+	snprintf(cb.device, sizeof(cb.device), "%s", pt.path);
+	cb.turnaround_ns = 17000000;
+	assert_int_equal(rmd_bus_open(&a, &cb, NULL, err, sizeof(err)), 0);
+	assert_int_equal(rmd_bus_caps(&a)->reply_timeout_ns, 34000000 + 2 * frame);
+	assert_int_equal(rmd_bus_caps(&a)->request_spacing_ns, 34000000 + 2 * frame);
+	rmd_bus_close(&a);
+	close(pt.master);
+}
+
+/* mkdir -p of path's directories (not its last part). */
+static void mkdirs(char *path)
+{
+	for (char *s = strchr(path + 1, '/'); s; s = strchr(s + 1, '/')) {
+		*s = '\0';
+		if (mkdir(path, 0755) < 0 && errno != EEXIST)
+			fail_msg("mkdir %s: %s", path, strerror(errno));
+		*s = '/';
+	}
+}
+
+static void write_file(const char *path, const char *text)
+{
+	FILE *f = fopen(path, "w");
+
+	assert_non_null(f);
+	fputs(text, f);
+	assert_int_equal(fclose(f), 0);
+}
+
+static void read_file(const char *path, char *buf, size_t len)
+{
+	FILE *f = fopen(path, "r");
+
+	assert_non_null(f);
+	if (!fgets(buf, (int)len, f))
+		buf[0] = '\0';
+	fclose(f);
+}
+
+/*
+ * An FTDI converter's latency timer (sysfs, found through the port's
+ * device number) is set to 1 ms at open; one already at 1 is left alone;
+ * a port with none (this pty under the real /sys) opens without a word
+ * about it.  The fake sysfs tree stands in for the converter.
+ */
+static void test_latency_timer_set(void **state)
+{
+	char root[] = "/tmp/rmd-sysfs-XXXXXX", path[256], buf[16], err[512];
+	struct rmd_rs485_opts opts = { .baud = 1000000 };
+	struct rmd_bus bus;
+	struct stat st;
+	struct pty pt;
+
+	(void)state;
+	assert_non_null(mkdtemp(root));
+	pty_open(&pt);
+	assert_int_equal(stat(pt.path, &st), 0);
+	snprintf(path, sizeof(path), "%s/dev/char/%u:%u/device/latency_timer", root,
+		 major(st.st_rdev), minor(st.st_rdev));
+	mkdirs(path);
+	write_file(path, "16\n");
+	opts.sysfs_root = root;
+	assert_int_equal(rmd_rs485_open(&bus, pt.path, &opts, err, sizeof(err)), 0);
+	read_file(path, buf, sizeof(buf));
+	assert_string_equal(buf, "1\n");
+	assert_null(strstr(err, "latency timer"));
+	rmd_bus_close(&bus);
+
+	write_file(path, "1\n");
+	assert_int_equal(rmd_rs485_open(&bus, pt.path, &opts, err, sizeof(err)), 0);
+	assert_null(strstr(err, "latency timer"));
+	rmd_bus_close(&bus);
+
+	/* a pty has no timer: nothing to say beyond what a pty always gets */
+	opts.sysfs_root = NULL;
+	assert_int_equal(rmd_rs485_open(&bus, pt.path, &opts, err, sizeof(err)), 0);
+	assert_null(strstr(err, "latency"));
+	assert_non_null(strstr(err, "pseudo-terminal"));
+	rmd_bus_close(&bus);
+	close(pt.master);
+	unlink(path);
+}
+
 /* ---- device role: the motors' side (rmd-sim) ------------------------------------------------ */
 
 static void open_device(struct rmd_bus *bus, struct pty *pt, bool local_echo)
@@ -1075,6 +1181,8 @@ int main(void)
 		cmocka_unit_test_teardown(test_partial_and_late_frames, teardown),
 		cmocka_unit_test_teardown(test_send_refusals, teardown),
 		cmocka_unit_test_teardown(test_caps_and_accessors, teardown),
+		cmocka_unit_test_teardown(test_reply_timeout_follows_turnaround, teardown),
+		cmocka_unit_test_teardown(test_latency_timer_set, teardown),
 		cmocka_unit_test_teardown(test_open_config_equals_spec, teardown),
 		cmocka_unit_test_teardown(test_device_role, teardown),
 		cmocka_unit_test_teardown(test_device_local_echo, teardown),

@@ -833,6 +833,130 @@ static void test_unsolicited_frames(void **state)
 	check_trace(true, false);
 }
 
+/* ---- the host's adapter and slow firmware (rmd/sim_adapter.h) ------------ */
+
+/* V3 motors 1..n answering in exactly 500 us, through the adapter of *tpl. */
+static void add_adapter_motors(unsigned n, const struct rmd_sim_motor_params *tpl)
+{
+	for (unsigned id = 1; id <= n; id++) {
+		struct rmd_sim_motor_params p = *tpl;
+
+		p.id = (uint8_t)id;
+		p.turnaround_ns = 500.0 * US;
+		p.turnaround_jitter_ns = 0;
+		assert_int_equal(rmd_sim_wire_add_motor(&bus, &p, 0), (int)id - 1);
+	}
+}
+
+/* The end of frame of the k-th motor frame on the wire (trace order). */
+static int64_t motor_eof(unsigned k)
+{
+	for (unsigned i = 0; i < trace_n; i++)
+		if (trace[i].p.src >= 0 && k-- == 0)
+			return trace[i].eof_ns;
+	fail_msg("no motor frame %u on the wire", k);
+	return 0;
+}
+
+/*
+ * A 16 ms latency timer: the three replies, all within 16 ms of the
+ * first, wait in the converter and reach the host together, 16 ms after
+ * the first one's end of frame; before then the host gets nothing.
+ */
+static void test_adapter_latency_timer(void **state)
+{
+	struct rmd_sim_motor_params p;
+	struct rmd_frame f[3];
+	int64_t t[3], flush;
+
+	(void)state;
+	rmd_sim_motor_params_default(&p, 1, RMD_PROTO_V3);
+	p.adapter_latency_timer_ns = 16.0 * MS;
+	add_adapter_motors(3, &p);
+	for (unsigned i = 0; i < 3; i++)
+		f[i] = request((uint8_t)(i + 1), 0x9A);
+	assert_int_equal(rmd_sim_wire_send(&bus, 1 * MS, f, 3), 3);
+	rmd_sim_wire_advance(&bus, 5 * MS);
+	assert_int_equal(bus.stats.frames_motor, 3);
+	flush = motor_eof(0) + 16 * MS;
+	rmd_sim_wire_advance(&bus, flush - 1);
+	assert_int_equal(rmd_sim_wire_recv(&bus, f, 3, t), 0);
+	rmd_sim_wire_advance(&bus, flush);
+	assert_int_equal(rmd_sim_wire_recv(&bus, f, 3, t), 3);
+	for (unsigned i = 0; i < 3; i++) {
+		assert_int_equal(f[i].data[0], 0x9A);
+		assert_int_equal(t[i], flush);
+	}
+	/* the timer starts again with the next reply held, not from the old flush */
+	f[0] = request(1, 0x9C);
+	assert_int_equal(rmd_sim_wire_send(&bus, 40 * MS, f, 1), 1);
+	rmd_sim_wire_advance(&bus, 80 * MS);
+	assert_int_equal(rmd_sim_wire_recv(&bus, f, 3, t), 1);
+	assert_int_equal(t[0], motor_eof(3) + 16 * MS);
+	check_trace(true, false);
+}
+
+/*
+ * USB batching into 1 ms frames, then a fixed 300 us: each reply reaches
+ * the host at the end of the USB frame its end of frame fell in, plus
+ * 300 us; replies keep their order.
+ */
+static void test_adapter_usb_frames_and_delay(void **state)
+{
+	struct rmd_sim_motor_params p;
+	struct rmd_frame f[8];
+	int64_t t[8];
+
+	(void)state;
+	rmd_sim_motor_params_default(&p, 1, RMD_PROTO_V3);
+	p.adapter_usb_frame_ns = 1.0 * MS;
+	p.adapter_delay_ns = 300.0 * US;
+	add_adapter_motors(8, &p);
+	for (unsigned i = 0; i < 8; i++)
+		f[i] = request((uint8_t)(i + 1), 0x9C);
+	assert_int_equal(rmd_sim_wire_send(&bus, 1 * MS + 123 * US, f, 8), 8);
+	rmd_sim_wire_advance(&bus, 20 * MS);
+	assert_int_equal(rmd_sim_wire_recv(&bus, f, 8, t), 8);
+	for (unsigned i = 0; i < 8; i++) {
+		int64_t eof = motor_eof(i), usb = (eof + MS - 1) / MS * MS;
+
+		assert_int_equal(t[i], usb + 300 * US);
+		assert_true(t[i] - eof >= 300 * US && t[i] - eof < 1300 * US);
+		assert_true(i == 0 || t[i] >= t[i - 1]);
+	}
+	check_trace(true, false);
+}
+
+/*
+ * Slow firmware: a ROM write (V3 §2.3 0x32, RMD_CMD_ROM) answers
+ * rom_write_us after the turnaround; a read (0x9A) on the same motor does
+ * not wait for it.
+ */
+static void test_rom_write_answers_late(void **state)
+{
+	struct rmd_sim_motor_params p;
+	struct rmd_frame f[2];
+	struct rmd_msg w = { .cmd = 0x32 };
+	int64_t t[2];
+
+	(void)state;
+	rmd_sim_motor_params_default(&p, 1, RMD_PROTO_V3);
+	p.rom_write_ns = 40.0 * MS;
+	add_adapter_motors(2, &p);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &w, &f[0]), 0);
+	f[1] = request(2, 0x9A);
+	assert_int_equal(rmd_sim_wire_send(&bus, 1 * MS, f, 2), 2);
+	rmd_sim_wire_advance(&bus, 100 * MS);
+	assert_int_equal(rmd_sim_wire_recv(&bus, f, 2, t), 2);
+	/* the read's answer first, a turnaround after its request */
+	assert_int_equal(f[0].can_id, RMD_CAN_V3_REPLY_BASE + 2);
+	assert_int_equal(trace[2].p.ready_ns, trace[1].eof_ns + 500 * US);
+	assert_int_equal(f[1].can_id, RMD_CAN_V3_REPLY_BASE + 1);
+	assert_int_equal(f[1].data[0], 0x32);
+	assert_int_equal(trace[3].p.ready_ns, trace[0].eof_ns + 500 * US + 40 * MS);
+	check_trace(true, false);
+}
+
 /* A host that never reads loses frames at the receive queue, counted. */
 static void test_rx_overflow_counted(void **state)
 {
@@ -1056,6 +1180,9 @@ int main(void)
 		cmocka_unit_test(test_txqueuelen_enobufs),
 		cmocka_unit_test(test_send_rejects_bad_frames),
 		cmocka_unit_test(test_unsolicited_frames),
+		cmocka_unit_test(test_adapter_latency_timer),
+		cmocka_unit_test(test_adapter_usb_frames_and_delay),
+		cmocka_unit_test(test_rom_write_answers_late),
 		cmocka_unit_test(test_rx_overflow_counted),
 		cmocka_unit_test(test_load_window),
 		cmocka_unit_test(test_deterministic),

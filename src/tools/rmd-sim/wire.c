@@ -75,6 +75,7 @@
 #include "rmd/describe.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
+#include "rmd/sim_adapter.h"
 #include "rmd/sim_faults.h"
 #include "rmd/sim_wire.h"
 #include "rmd-sim.h"
@@ -125,6 +126,8 @@ struct sim {
 	unsigned n;
 	struct rmd_sim_faults faults; /* times since t0 */
 	uint64_t rng;
+	/* the host's adapter, as the motors' adapter_* parameters make it (rmd/sim_adapter.h) */
+	struct rmd_sim_adapter adapter;
 
 	struct txe q[TXQ]; /* binary heap on (due_ns, seq) */
 	unsigned qn;
@@ -321,6 +324,11 @@ static void emit(struct sim *s, unsigned idx, struct rmd_frame *f, int64_t t, in
 	if (!rmd_sim_faults_frame(&s->faults, &s->rng, s->slots[idx].id, t - s->t0, f, &ready,
 				  s->st.faults))
 		return;
+	/*
+	 * rmd-sim writes the frame when the host's adapter would hand it on:
+	 * from the host's side of a pty or a line, the same thing.
+	 */
+	ready = rmd_sim_adapter_ns(&s->adapter, &s->slots[idx].m.p, ready);
 	q_push(s, (int)idx, f, ready);
 }
 
@@ -395,7 +403,9 @@ static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 			continue;
 		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int k = 0; k < n; k++)
-			emit(s, i, &out[k], t, t + rmd_sim_motor_turnaround_ns(&sl->m));
+			emit(s, i, &out[k], t,
+			     t + rmd_sim_motor_turnaround_ns(&sl->m) +
+				     rmd_sim_motor_rom_extra_ns(&sl->m, f));
 		total += n;
 	}
 	return total;
@@ -981,6 +991,7 @@ int sim_run(const struct sim_config *c)
 	s->rng = c->seed * UINT64_C(0x9E3779B97F4A7C15) + UINT64_C(0x2545F4914F6CDD1D);
 	if (!s->rng)
 		s->rng = 1;
+	rmd_sim_adapter_init(&s->adapter);
 	if (rmd_sim_faults_set(&s->faults, c->faults, c->n_faults) < 0) {
 		tool_log(TOOL_LOG_ERR, "rmd-sim: the fault table does not hold together");
 		return SIM_EXIT_USAGE;

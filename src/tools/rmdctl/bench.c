@@ -31,6 +31,7 @@
 #include "rmd/bus_open.h"
 #include "rmd/codec.h"
 #include "rmd/describe.h"
+#include "rmd/sim_params.h"
 #include "rmd/txn.h"
 #include "rmdctl.h"
 #include "tools/common/buslock.h"
@@ -232,8 +233,45 @@ static int check_owner(struct dev *d)
 	return RMDCTL_EXIT_USAGE;
 }
 
+/*
+ * The simulated motors' model: the defaults of --protocol with each --sim
+ * KEY=VALUE applied in order (rmd/sim_params.h, the table rmdd.yaml and
+ * rmd-sim read).  Returns 0 or RMDCTL_EXIT_USAGE (reported).
+ */
+static int sim_model(struct dev *d, struct rmd_sim_motor_params *p)
+{
+	rmd_sim_motor_params_default(p, 1, d->proto);
+	for (unsigned i = 0; i < d->n_sim; i++) {
+		const char *kv = d->sim_kv[i], *eq = strchr(kv, '=');
+		const struct rmd_sim_param *spec;
+		char key[64], allowed[128];
+
+		if (!eq || eq == kv || (size_t)(eq - kv) >= sizeof(key)) {
+			tool_log(TOOL_LOG_ERR,
+				 "bad --sim \"%s\" (KEY=VALUE, e.g. turnaround_us=20000)", kv);
+			return RMDCTL_EXIT_USAGE;
+		}
+		snprintf(key, sizeof(key), "%.*s", (int)(eq - kv), kv);
+		spec = rmd_sim_param_find(key);
+		/* protocol and mit are the motor's own: --protocol and the firmware say them */
+		if (!spec || spec->flags & RMD_SIM_PARAM_MOTOR_KEY) {
+			tool_log(TOOL_LOG_ERR,
+				 "--sim: unknown simulator parameter \"%s\" (docs/rmd-sim.md)",
+				 key);
+			return RMDCTL_EXIT_USAGE;
+		}
+		if (rmd_sim_param_parse(p, spec, eq + 1, allowed, sizeof(allowed)) < 0) {
+			tool_log(TOOL_LOG_ERR, "--sim %s \"%s\": expected %s", key, eq + 1,
+				 allowed);
+			return RMDCTL_EXIT_USAGE;
+		}
+	}
+	return 0;
+}
+
 int rmdctl_open_bus(struct dev *d)
 {
+	struct rmd_sim_motor_params sim;
 	struct rmd_bus_open_opts o = {
 		.proto = d->proto,
 		.set_id_replies = true, /* set-id reads 0x79 answers on 0x300 */
@@ -242,6 +280,22 @@ int rmdctl_open_bus(struct dev *d)
 	char err[ERRLEN];
 	int r;
 
+	if (d->n_sim && !rmd_bus_open_is_sim(d->bus_spec))
+		tool_log(TOOL_LOG_WARNING, "--sim: %s is no simulated bus: ignored", d->bus_spec);
+	else if (d->n_sim) {
+		r = sim_model(d, &sim);
+		if (r)
+			return r;
+		o.sim_motor = &sim;
+	}
+	/*
+	 * An RS485 line holds the next request until the answer or the
+	 * transport's own timeout (its default: a motor's 2 ms); rtt waits
+	 * for slow converters, and the line must wait as long, lest requests
+	 * go out while a motor answers.
+	 */
+	if (d->line_timeout)
+		o.reply_timeout_ns = (int64_t)llround(d->timeout_ms * 1e6);
 	r = rmd_bus_open_spec(&d->bus, d->bus_spec, &o, err, sizeof(err));
 	if (r < 0) {
 		tool_log(TOOL_LOG_ERR, "%s", err[0] ? err : strerror(-r));
@@ -526,6 +580,14 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .has_arg = required_argument,
 	  .arg = "N",
 	  .help = "sends per request before giving up (default 3)" },
+	{ .name = "sim",
+	  .has_arg = required_argument,
+	  .arg = "KEY=VALUE",
+	  .help = "simulated buses: set a parameter of every\n"
+		  "simulated motor, as rmdd.yaml's sim.motor and\n"
+		  "rmd-sim spell it (docs/rmd-sim.md), e.g.\n"
+		  "turnaround_us=20000 or adapter_latency_timer_us=16000;\n"
+		  "repeatable" },
 	{ .name = "trace",
 	  .help = "print every frame sent and received on stderr as\n"
 		  "`candump -l` lines (canplayer and `rmdctl decode`\n"
@@ -558,6 +620,11 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .arg = "MS",
 	  .help = "refresh period (default 200)",
 	  .flag = O_INTERVAL },
+	{ .name = "count",
+	  .has_arg = required_argument,
+	  .arg = "N",
+	  .help = "requests per motor and command (default 200)",
+	  .flag = O_COUNT },
 };
 const size_t rmdctl_n_dev_opts = sizeof(rmdctl_dev_opts) / sizeof(rmdctl_dev_opts[0]);
 #define NOPTS rmdctl_n_dev_opts
@@ -641,10 +708,21 @@ static int set_option(struct dev *d, size_t k, const char *v)
 		if (rmdctl_parse_double(v, &x) < 0 || x < 0.1 || x > 60000)
 			goto bad;
 		d->timeout_ms = x;
+		d->timeout_set = true;
 	} else if (!strcmp(name, "tries")) {
 		if (rmdctl_parse_uint(v, 1, 100, &u) < 0)
 			goto bad;
 		d->tries = (unsigned)u;
+	} else if (!strcmp(name, "sim")) {
+		if (d->n_sim == MAX_SIM_SETTINGS) {
+			tool_log(TOOL_LOG_ERR, "more than %d --sim settings", MAX_SIM_SETTINGS);
+			return -EINVAL;
+		}
+		d->sim_kv[d->n_sim++] = v;
+	} else if (!strcmp(name, "count")) {
+		if (rmdctl_parse_uint(v, 1, RMDCTL_RTT_MAX_COUNT, &u) < 0)
+			goto bad;
+		d->count = (unsigned)u;
 	} else if (!strcmp(name, "help")) {
 		rmdctl_dev_usage(stdout, d->cmd);
 		return 1;
@@ -746,6 +824,7 @@ int rmdctl_dev_run(const struct rmdctl_cmd *cmd, int argc, char **argv)
 	d.proto = RMD_PROTO_V3;
 	d.timeout_ms = RMD_TXN_TIMEOUT_NS / 1e6;
 	d.tries = RMD_TXN_TRIES;
+	d.count = RMDCTL_RTT_COUNT;
 	d.speed_dps = MOVE_SPEED_DPS;
 	d.interval_ms = MONITOR_INTERVAL_MS;
 	d.t0_ns = rmd_now_ns();

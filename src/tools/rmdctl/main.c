@@ -5,6 +5,7 @@
  *   decode.c    candump text -> decoded quantities
  *   encode.c    one command -> a frame in cansend syntax
  *   read.c      scan, info, status, monitor
+ *   rtt.c       round trips and the loop rate a bus supports
  *   settings.c  set-id, set-zero, set-timeout, accel, pid
  *   dump.c      dump, restore: every readable setting as YAML, and back
  *   motion.c    brake, stop, off, reset, move
@@ -75,6 +76,21 @@ static const struct rmdctl_cmd cmds[] = {
 	    "rmdd drives it refuses (--force talks anyway); `rmdctl top` shows rmdd's\n"
 	    "view instead.\n",
 	    rmdctl_run_monitor),
+	DEV("rtt", "round trip of each motor and the loop rate the bus supports", "[IDS]", 0, 1,
+	    O_JSON | O_COUNT,
+	    "Measures each motor's round trip (IDS, or those that answer a probe of\n"
+	    "1..32): --count requests of 0x9A status, 0x9C status 2 and 0x92 angle,\n"
+	    "one outstanding per motor (on RS485 one on the line), first tries only;\n"
+	    "prints min, median, p99 and max per motor and command.  Then the loop\n"
+	    "rate the bus supports, one request per motor per cycle, by the planner's\n"
+	    "arithmetic with the measured p99 as the turnaround: CAN carries the\n"
+	    "requests at once and the slowest reply must arrive before the next\n"
+	    "cycle; RS485 sends them in series, each paying its round trip (and it\n"
+	    "prints the turnaround_us for rmdd.yaml).  --timeout defaults to 100 ms\n"
+	    "here, and is RS485's own reply timeout too: on a line, name the motors\n"
+	    "(IDS), as each silent id of a probe holds the line that long per try.\n"
+	    "--count is at most 10000.  Exit 1 when nothing answers.\n",
+	    rmdctl_run_rtt),
 	DEV("dump", "every motor's readable settings as YAML (restore writes them back)", "[IDS]",
 	    0, 1, 0,
 	    "Writes the settings of every motor that answers (IDS, or a probe of 1..32)\n"

@@ -83,6 +83,11 @@ static void json_str(FILE *f, const char *s)
 	fputs(buf, f);
 }
 
+void rmdctl_json_str(const char *s)
+{
+	json_str(stdout, s);
+}
+
 /* ---- output --------------------------------------------------------------------------- */
 
 const char *rmdctl_errors_text(const struct dev *d, int64_t raw, char *buf, size_t size)

@@ -38,6 +38,7 @@ enum {
 	O_NOWAIT = 1u << 5,
 	O_ONCE = 1u << 6,
 	O_INTERVAL = 1u << 7,
+	O_COUNT = 1u << 8,
 };
 
 struct dev;
@@ -113,6 +114,11 @@ int rmdctl_parse_double(const char *s, double *v);
 
 /* Requests in one batch: three reads for each of 32 motors. */
 #define MAX_REQS (3 * RMD_MAX_MOTORS)
+/* rtt --count: default and most */
+#define RMDCTL_RTT_COUNT 200
+#define RMDCTL_RTT_MAX_COUNT 10000
+/* --sim KEY=VALUE settings one command line may give. */
+#define MAX_SIM_SETTINGS 16
 /* Defaults of --interval (monitor) and --speed (move). */
 #define MONITOR_INTERVAL_MS 200.0
 #define MOVE_SPEED_DPS 30.0
@@ -126,7 +132,13 @@ struct dev {
 	uint32_t baud;
 	enum rmd_proto proto; /* its record: rmdctl_dialect() */
 	double timeout_ms;
+	bool timeout_set;  /* --timeout given */
+	bool line_timeout; /* rtt: --timeout is RS485's own reply timeout too */
 	unsigned tries;
+	unsigned count; /* rtt --count */
+	/* --sim KEY=VALUE: the simulated motors' model, applied at open in order */
+	const char *sim_kv[MAX_SIM_SETTINGS];
+	unsigned n_sim;
 	bool json, yes, rom, force, no_wait, once, trace;
 	double speed_dps;
 	double interval_ms;
@@ -238,6 +250,8 @@ const char *rmdctl_field_text(const struct dev *d, const struct rec *r, enum rmd
 			      size_t size);
 /* ,"key":value for one field; null when it is missing. */
 void rmdctl_json_field(const struct dev *d, const struct rec *r, enum rmd_field f);
+/* A JSON string (quoted, escaped) on stdout. */
+void rmdctl_json_str(const char *s);
 /* {"bus":...,"motor_id":N,"protocol":"V3" */
 void rmdctl_json_begin(const struct dev *d, uint8_t id);
 /* One motor: a JSON line, or a header and one line per field. */
@@ -265,6 +279,8 @@ int rmdctl_run_stop(struct dev *d, int argc, char **argv);
 int rmdctl_run_off(struct dev *d, int argc, char **argv);
 int rmdctl_run_reset(struct dev *d, int argc, char **argv);
 int rmdctl_run_move(struct dev *d, int argc, char **argv);
+/* rtt.c */
+int rmdctl_run_rtt(struct dev *d, int argc, char **argv);
 /* dump.c */
 int rmdctl_run_dump(struct dev *d, int argc, char **argv);
 int rmdctl_run_restore(struct dev *d, int argc, char **argv);

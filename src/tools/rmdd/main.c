@@ -800,6 +800,28 @@ static void rtt_line(const struct rmd_config *cfg, unsigned b, const struct rmd_
 		 (unsigned)(1e9 / ((double)bb->rtt_max_ns * 1.25)));
 }
 
+/*
+ * A half-duplex line writes the next request when the answer or the
+ * line's reply timeout comes: answers later than that timeout cross
+ * requests on the wire.  Warn with what to set (the line's timeout
+ * follows the bus's turnaround_us: rmd_bus_open()).
+ */
+static void line_timeout_line(const struct rmd_config *cfg, unsigned b,
+			      const struct rmd_bringup_bus *bb, const struct rmd_bus *bus)
+{
+	const struct rmd_bus_caps *caps = rmd_bus_caps(bus);
+
+	if (!bb->n || !caps->half_duplex || !caps->reply_timeout_ns ||
+	    bb->rtt_max_ns <= caps->reply_timeout_ns)
+		return;
+	tool_log(4,
+		 "  %s: round trip up to %.2f ms, longer than the line's reply timeout %.2f ms: "
+		 "requests will go out while motors answer; set the bus's turnaround_us to at "
+		 "least %lld (`rmdctl rtt` measures it; docs/troubleshooting.md \"Slow answers\")",
+		 cfg->buses[b].name, (double)bb->rtt_max_ns / 1e6,
+		 (double)caps->reply_timeout_ns / 1e6, (long long)(bb->rtt_max_ns / 1000));
+}
+
 /* Bring-up with its report.  Returns an exit status. */
 static int bringup(struct rmdd *d)
 {
@@ -829,8 +851,10 @@ static int bringup(struct rmdd *d)
 			if (level)
 				tool_log(level, "  %s", ln.s);
 		}
-		for (unsigned b = 0; b < bu.n_buses; b++)
+		for (unsigned b = 0; b < bu.n_buses; b++) {
 			rtt_line(cfg, b, &bu.bus[b], d->plan.period_ns);
+			line_timeout_line(cfg, b, &bu.bus[b], &d->buses[b]);
+		}
 	}
 	/* what bring-up reported through the ring goes out now */
 	rmdd_monitor_drain(&d->mon);
