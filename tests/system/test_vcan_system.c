@@ -1488,15 +1488,11 @@ static void trip_run(void *ctx, const char *const *args, int *status, const char
 	*err = r.err;
 }
 
-/* Issue 12: dump, edit, restore, dump again on rmd-sim's motors over vcan0. */
-static void test_rmdctl_dump_restore(void **state)
+/* For a bench-tool test: rmd-sim as sim_argv says, ready on vcan0, and the test's folder. */
+static void bench_sim_up(const char *const *sim_argv)
 {
-	const char *sim_argv[] = { S.rmdsim, "--can", "vcan0", "--motors", "1-2", NULL };
-	/* 50 ms per try: the emulated guest (see test_rmdctl_scan_move) */
-	const char *bus[] = { "--bus", "vcan0", "--timeout", "50", NULL };
 	struct kid *sim;
 
-	(void)state;
 	if (!S.have_can)
 		skip();
 	need_exec(S.rmdsim);
@@ -1505,6 +1501,17 @@ static void test_rmdctl_dump_restore(void **state)
 		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
 	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, 0);
 	kid_wait_output(sim, ": ready", READY_MS, service);
+}
+
+/* Issue 12: dump, edit, restore, dump again on rmd-sim's motors over vcan0. */
+static void test_rmdctl_dump_restore(void **state)
+{
+	const char *sim_argv[] = { S.rmdsim, "--can", "vcan0", "--motors", "1-2", NULL };
+	/* 50 ms per try: the emulated guest (see test_rmdctl_scan_move) */
+	const char *bus[] = { "--bus", "vcan0", "--timeout", "50", NULL };
+
+	(void)state;
+	bench_sim_up(sim_argv);
 	settings_round_trip(trip_run, NULL, bus, S.dir);
 }
 
@@ -1524,17 +1531,9 @@ static void test_rmdctl_dump_restore_v4(void **state)
 	static struct run r;
 	const char *bus[] = { "--bus", "vcan0", "--timeout", "50", "--protocol", "v4", NULL };
 	const char *bus3[] = { "--bus", "vcan0", "--timeout", "50", NULL };
-	struct kid *sim;
 
 	(void)state;
-	if (!S.have_can)
-		skip();
-	need_exec(S.rmdsim);
-	need_exec(S.rmdctl);
-	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
-		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
-	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, 0);
-	kid_wait_output(sim, ": ready", READY_MS, service);
+	bench_sim_up(sim_argv);
 	settings_round_trip_v4(trip_run, NULL, bus, bus3, S.dir);
 	run_tool(&r, set_id);
 	if (r.status != 0 || !strstr(r.out, "motor 3 is now motor 5"))
