@@ -782,6 +782,20 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 					"mit needs protocol mit (this motor is %s)",
 					rmd_proto_key(m->proto));
 		}
+		/*
+		 * MIT frames carry the motor's own position and speed (V3 §5):
+		 * a rotor/output ratio applied to its 0x92 reads but not to its
+		 * MIT frames would report one angle two ways (issue 20.7)
+		 */
+		if (rmd_dialect_has(d, RMD_DIALECT_MIT) && m->units == RMD_UNITS_ROTOR) {
+			rmd_yaml_path_key(kp, path, "units");
+			rmd_yaml_report(
+				c, rmd_yaml_line_of(mn, "units"), kp,
+				"rotor is not for protocol mit: its MIT frames carry the "
+				"position the motor reports, which rmdd cannot divide by the "
+				"gear ratio in one place for both frame kinds; leave units at "
+				"output and set the MIT ranges (p_min, p_max) in those units");
+		}
 		if (cfg->buses[bi].kind == RMD_BUS_KIND_RS485 &&
 		    (!rmd_dialect_has(d, RMD_DIALECT_RS485) ||
 		     rmd_dialect_has(d, RMD_DIALECT_MIT))) {

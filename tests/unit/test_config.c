@@ -1077,10 +1077,35 @@ static void test_protocol_v4(void **state)
 	expect_in(err, "mit needs protocol mit (this motor is v4)");
 }
 
+/*
+ * Issue 19 protocol auto and issue 20.7: auto makes a V3 motor until
+ * bring-up; auto cannot tell MIT; units rotor is refused for MIT motors.
+ */
+static void test_protocol_auto_and_mit_units(void **state)
+{
+	(void)state;
+	assert_int_equal(load_str("auto",
+				  BUS "motors:\n  - {name: m1, bus: can0, id: 1, "
+				      "protocol: auto, mode: torque, torque_constant_nm_a: 2}\n"),
+			 0);
+	assert_true(cfg.motors[0].proto_auto);
+	assert_int_equal(cfg.motors[0].proto, RMD_PROTO_V3);
+	assert_int_not_equal(load_str("auto-mit", BUS "motors:\n  - {name: m1, bus: can0, id: 1, "
+						      "protocol: auto, mode: mit}\n"),
+			     0);
+	expect_in(err, "auto cannot tell an MIT motor: mode mit needs protocol mit");
+	assert_int_not_equal(load_str("mit-rotor", BUS "motors:\n  - {name: m1, bus: can0, id: 1, "
+						       "protocol: mit, mode: mit, units: rotor, "
+						       "gear_ratio: 6}\n"),
+			     0);
+	expect_in(err, "motors[0].units: rotor is not for protocol mit");
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_examples_load),
+		cmocka_unit_test(test_protocol_auto_and_mit_units),
 		cmocka_unit_test(test_example_sim12),
 		cmocka_unit_test(test_example_rmdd),
 		cmocka_unit_test(test_defaults),
