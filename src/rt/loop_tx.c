@@ -156,11 +156,20 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t
 	}
 }
 
-/* rt-safe. */
+/*
+ * A status poll's slot; where the plan put it in place of the motor's
+ * control slot (a full bus), a safe action, owed 0x80/0x78 or one-shot
+ * waiting for the motor takes it: safety frames go before polls (issue
+ * 20.8).  rt-safe.
+ */
 static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
 
+	if (__builtin_expect(lm->owe || lm->n_oneshot, 0)) {
+		push_due(l, lb, i);
+		return;
+	}
 	if (lm->st->lifecycle == RMD_LC_LOST)
 		push_reprobe(l, lb, i, now);
 	else

@@ -725,6 +725,39 @@ static void test_watchdog(void **state)
 	rig_down();
 }
 
+/*
+ * Issue 20.8: three motors at 1 kHz fill their bus, so a status poll takes
+ * a motor's control slot now and then.  Whichever cycle the controller
+ * goes quiet in, every enabled motor's safe frame is on the wire within
+ * command_timeout_ms and one cycle: a poll never holds it back a cycle.
+ */
+static void test_safe_frames_take_polls_place(void **state)
+{
+	(void)state;
+	for (unsigned off = 0; off < 40; off++) {
+		int64_t last_cmd, first80[3] = { INT64_MAX, INT64_MAX, INT64_MAX };
+		unsigned from;
+
+		up_at_speed(NULL, 3, 1.0, 150 + off);
+		last_cmd = t_now - period();
+		from = trace_n;
+		run(200, false);
+		for (unsigned k = from; k < trace_n; k++)
+			for (unsigned i = 0; i < 3; i++)
+				if (trace[k].f.can_id == RMD_CAN_REQ_BASE + i + 1 &&
+				    trace[k].f.data[0] == 0x80 && trace[k].t_ns < first80[i])
+					first80[i] = trace[k].t_ns;
+		for (unsigned i = 0; i < 3; i++)
+			/* sent in the trip's cycle: on the wire before the next one starts */
+			if (first80[i] < last_cmd + 100 * MS ||
+			    first80[i] >= last_cmd + 101 * MS + period())
+				fail_msg("quiet after %u cycles: motor %u's 0x80 at +%lld us",
+					 150 + off, i + 1,
+					 (long long)((first80[i] - last_cmd) / US));
+		rig_down();
+	}
+}
+
 /* R.cmd handed over stamped rx_ns (when it arrived), then one cycle. */
 static void cycle_with_cmd_at(int64_t rx_ns)
 {
@@ -2621,6 +2654,7 @@ int main(void)
 		cmocka_unit_test(test_fault_flags),
 		cmocka_unit_test(test_comm_loss_trip),
 		cmocka_unit_test(test_watchdog),
+		cmocka_unit_test(test_safe_frames_take_polls_place),
 		cmocka_unit_test(test_commands_queued_in_a_stall),
 		cmocka_unit_test(test_nan_never_on_wire),
 		cmocka_unit_test(test_stop_motors),
