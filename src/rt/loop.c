@@ -653,8 +653,13 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 		/* damp the driven motors, one frame each per period, then brake them all */
 		int64_t end = now + (int64_t)l->cfg->safety.shutdown_damp_ms * RMD_NS_PER_MS;
 
+		/*
+		 * the others get a status read (V3 §2.13) each period too: their
+		 * comm-loss protection must not trip during a damp phase longer
+		 * than it, and swallow the final stop as its trip's echo (issue 20.5)
+		 */
 		while (now < end) {
-			queue_stop(l, RMD_SAFE_DAMP, 0, false);
+			queue_stop(l, RMD_SAFE_DAMP, 0x9C, false);
 			now = send_queued(l, now);
 			sleep_plain(l, l->period_ns);
 			now = loop_now(l);

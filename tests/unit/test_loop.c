@@ -1298,6 +1298,36 @@ static void shutdown_damp(struct rmd_config *cfg)
 	cfg->safety.shutdown_damp_ms = 50;
 }
 
+/* damp for longer than the motors' comm-loss protection (the default's 500 ms against 100) */
+static void shutdown_damp_long(struct rmd_config *cfg)
+{
+	cfg->safety.shutdown_action = RMD_SHUTDOWN_DAMP;
+	cfg->safety.shutdown_damp_ms = 500;
+	cfg->safety.comm_loss_ms = 100;
+}
+
+/*
+ * Issue 20.5: during a damp phase longer than their protection, the
+ * motors not damped are fed (a status read every period), so their
+ * protection never trips and the final stop and brake are executed, not
+ * swallowed as a trip's echo.
+ */
+static void test_shutdown_damp_feeds_the_others(void **state)
+{
+	unsigned from;
+
+	(void)state;
+	from = drive_then_stop(shutdown_damp_long, 4);
+	for (unsigned i = 0; i < 6; i++) {
+		if (sim_motor(i)->comm_lost)
+			fail_msg("motor %u: its comm-loss protection tripped during the damp phase",
+				 i);
+		assert_braked(i, from);
+		assert_true(rmd_comm_loss_set(rmd_loop_comm_loss(R.l, i)));
+	}
+	rig_down();
+}
+
 /* Issue 13: each safety.shutdown_action, on the wire. */
 static void test_shutdown_actions(void **state)
 {
@@ -2654,6 +2684,7 @@ int main(void)
 		cmocka_unit_test(test_fault_flags),
 		cmocka_unit_test(test_comm_loss_trip),
 		cmocka_unit_test(test_watchdog),
+		cmocka_unit_test(test_shutdown_damp_feeds_the_others),
 		cmocka_unit_test(test_safe_frames_take_polls_place),
 		cmocka_unit_test(test_commands_queued_in_a_stall),
 		cmocka_unit_test(test_nan_never_on_wire),
