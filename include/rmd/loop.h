@@ -251,6 +251,13 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
 void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now_ns);
 
 /*
+ * After rmd_loop_stop_motors(): whether motor i's final frames were taken
+ * by its bus and answered (false: a bus that took nothing, bus-off, or a
+ * motor that did not answer them: not known to be stopped).  Non-rt.
+ */
+bool rmd_loop_stop_reached(const struct rmd_loop *l, unsigned i);
+
+/*
  * mlockall(MCL_CURRENT | MCL_FUTURE), once.  rmd_loop_start() does it if
  * nobody did; the daemon calls it before bring-up, because locking a big
  * process can take long and must not fall between the 0xB3 writes and the

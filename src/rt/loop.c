@@ -603,10 +603,14 @@ static int64_t send_queued(struct rmd_loop *l, int64_t now)
 			loop_drain(l, b, now);
 	}
 	for (unsigned b = 0; b < l->n_buses; b++) {
-		if (off[b] < l->bus[b].ntx)
-			loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, -ENOBUFS,
-				   l->bus[b].ntx - off[b]);
-		l->bus[b].ntx = 0;
+		struct lbus *lb = &l->bus[b];
+
+		if (off[b] < lb->ntx)
+			loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, -ENOBUFS, lb->ntx - off[b]);
+		/* what never left: its motor was not reached (the exit line says so) */
+		for (unsigned k = off[b]; k < lb->ntx; k++)
+			l->mot[lb->meta[k].motor].stop_unreached = true;
+		lb->ntx = 0;
 	}
 	return now;
 }
@@ -649,6 +653,8 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 {
 	enum rmd_shutdown_action a = shutdown_action(l);
 
+	for (unsigned i = 0; i < l->n_motors; i++)
+		l->mot[i].stop_unreached = false;
 	if (a == RMD_SHUTDOWN_DAMP) {
 		/* damp the driven motors, one frame each per period, then brake them all */
 		int64_t end = now + (int64_t)l->cfg->safety.shutdown_damp_ms * RMD_NS_PER_MS;
@@ -693,6 +699,9 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
+		/* a final frame still unanswered: not known to have reached the motor */
+		if (lm->os_used)
+			lm->stop_unreached = true;
 		/*
 		 * stop and hold leave a driven motor SAFE: output off with its
 		 * brake open, or held by its drive (docs/lcm.md "Shutdown"),
@@ -711,6 +720,12 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	 */
 	l->next_health_cycle = l->cycle; /* a health now, whatever its period */
 	publish(l, now);
+}
+
+/* Non-rt (after rmd_loop_stop_motors()). */
+bool rmd_loop_stop_reached(const struct rmd_loop *l, unsigned i)
+{
+	return i < l->n_motors && !l->mot[i].stop_unreached;
 }
 
 /* ------------------------------------------------------------------ */

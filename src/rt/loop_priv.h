@@ -140,6 +140,8 @@ struct lmotor {
 	char model[8];
 	uint32_t version;
 	uint8_t pushed; /* bring-up: replies pushed unasked, bit k: m.d->report_cmds[k] */
+	/* rmd_loop_stop_motors(): a final frame of it the bus did not take, or that went unanswered */
+	bool stop_unreached;
 };
 
 struct txmeta {

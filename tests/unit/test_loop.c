@@ -1124,6 +1124,35 @@ static void test_bus_off(void **state)
 	rig_down();
 }
 
+/*
+ * Issue 20.9: shutdown while one bus is off: the motors of the other bus
+ * are stopped and say so; those of the bus that is off are not reached,
+ * and rmd_loop_stop_reached() says so (the exit line names them).
+ */
+static void test_stop_motors_bus_off(void **state)
+{
+	struct rmd_sim_fault off = { .kind = RMD_SIM_FAULT_BUS_OFF };
+
+	(void)state;
+	rig_up(6, NULL); /* two buses: motors 0..2 on sim0, 3..5 on sim1 */
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 6; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(200, true);
+	fault_now(&off, 500 * MS); /* sim0 only */
+	run(2, true);
+	rmd_loop_stop_motors(R.l, t_now);
+	for (unsigned i = 0; i < 6; i++)
+		if (rmd_loop_stop_reached(R.l, i) != (i >= 3))
+			fail_msg("motor %u: stop %s, on a bus %s", i,
+				 rmd_loop_stop_reached(R.l, i) ? "reached" : "not reached",
+				 i < 3 ? "that is off" : "that works");
+	for (unsigned i = 3; i < 6; i++)
+		assert_int_equal(sim_motor(i)->ctrl, RMD_SIM_OFF);
+	rig_down();
+}
+
 static void test_health(void **state)
 {
 	const struct rmd_health *h;
@@ -2694,6 +2723,7 @@ int main(void)
 		cmocka_unit_test(test_overrun_burst_is_one_skip),
 		cmocka_unit_test(test_v2_batch),
 		cmocka_unit_test(test_bus_off),
+		cmocka_unit_test(test_stop_motors_bus_off),
 		cmocka_unit_test(test_health),
 		cmocka_unit_test(test_thread),
 		cmocka_unit_test(test_health_getter),

@@ -749,10 +749,25 @@ static const char *shutdown_said(const struct rmd_config_safety *s)
 static void exit_line(const struct rmdd *d)
 {
 	const struct rmd_config *cfg = &d->cfg;
-	const char *sent = shutdown_said(&cfg->safety);
-	unsigned set = 0, k = 0;
-	struct line ln = { .n = 0 };
+	const char *said = shutdown_said(&cfg->safety);
+	unsigned set = 0, k = 0, unreached = 0;
+	struct line ln = { .n = 0 }, sl = { .n = 0 };
+	const char *sent;
 
+	/* issue 20.9: the motors whose final frames no bus took or no answer confirmed */
+	for (unsigned i = 0; i < cfg->n_motors; i++)
+		if (!rmd_loop_stop_reached(d->loop, i))
+			line_add(&sl, "%s%s", unreached++ ? ", " : "", cfg->motors[i].name);
+	if (unreached) {
+		struct line w = { .n = 0 };
+
+		line_add(&w, "%s, but %s not reached (its bus took no frame, or %s not answer)",
+			 said, sl.s, unreached == 1 ? "it did" : "they did");
+		snprintf(sl.s, sizeof(sl.s), "%s", w.s);
+		sent = sl.s;
+	} else {
+		sent = said;
+	}
 	for (unsigned i = 0; i < cfg->n_motors; i++)
 		set += rmd_comm_loss_set(rmd_loop_comm_loss(d->loop, i));
 	if (set == cfg->n_motors) {
