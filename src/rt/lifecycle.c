@@ -163,8 +163,8 @@ void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t n
 }
 
 /*
- * The one place a motor changes lifecycle state: the entry actions of lc,
- * then RMD_EV_MOTOR_STATE.  Nothing happens when lm is in lc already.
+ * The one place a motor changes lifecycle state: RMD_EV_MOTOR_STATE (after
+ * the error event that causes or ends FAULT), then the entry actions of lc.  Nothing happens when lm is in lc already.
  * What each state promises about the motor's output and brake is
  * docs/design.md "The life of a motor".
  *
@@ -213,6 +213,17 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		loop_frames_drop(lm);
 		lm->owe = 0;
 	}
+	/*
+	 * The events in the order things happened (issue 20.11): the error
+	 * flags that cause FAULT, or their clearing that ends it, then the
+	 * change of state, then what the entry sends (the safe action).
+	 */
+	if (lc == RMD_LC_FAULT)
+		loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
+			   lm->st->error_code, 0);
+	else if (old == RMD_LC_FAULT && lc == RMD_LC_STOPPING)
+		loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, 0, 0);
+	loop_event(l, now, RMD_EV_MOTOR_STATE, loop_idx(l, lm), lm->m.bus, old, lc);
 	switch (lc) {
 	case RMD_LC_ENABLED:
 		push_oneshot_cmd(lm, 0x77);
@@ -230,8 +241,6 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			lm->need_edge = false;
 		else if (old == RMD_LC_LOST || old == RMD_LC_FAULT)
 			lm->need_edge = true;
-		if (old == RMD_LC_FAULT)
-			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus, 0, 0);
 		break;
 	case RMD_LC_READY:
 		lm->st->mode = (uint8_t)lm->m.mode;
@@ -255,8 +264,6 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			pos_forget(lm);
 		} else {
 			owe(lm, OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? OWE_BRAKE : 0));
-			loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
-				   lm->st->error_code, 0);
 		}
 		break;
 	case RMD_LC_PROBE:
@@ -264,7 +271,6 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		break;
 	}
 	lm->st->lifecycle = (uint8_t)lc;
-	loop_event(l, now, RMD_EV_MOTOR_STATE, loop_idx(l, lm), lm->m.bus, old, lc);
 }
 
 /* An ENABLED motor gets the safe action and becomes SAFE.  rt-safe. */

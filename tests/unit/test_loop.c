@@ -725,6 +725,48 @@ static void test_watchdog(void **state)
 	rig_down();
 }
 
+/* Index in evs[] of the first event of `kind` for motor m from evs[from] on, or nev. */
+static unsigned ev_at(unsigned from, unsigned kind, unsigned m)
+{
+	for (unsigned k = from; k < nev; k++)
+		if (evs[k].kind == kind && evs[k].motor == m)
+			return k;
+	return nev;
+}
+
+/*
+ * Issue 20.11: the loop reports in the order things happened, which the
+ * incident summary keeps: the state change before the safe action it
+ * sends, the error flags before the FAULT they cause.
+ */
+static void test_events_cause_before_effect(void **state)
+{
+	struct rmd_sim_fault flag = { .kind = RMD_SIM_FAULT_ERROR_FLAG,
+				      .motor_id = 2,
+				      .param = RMD_SIM_ERR_LOW_VOLTAGE };
+	unsigned from, st, sa, er;
+
+	(void)state;
+	up_at_speed(NULL, 2, 1.0, 150);
+	events_pump();
+	from = nev;
+	run(200, false); /* the watchdog trips: ENABLED -> SAFE, the safe action */
+	events_pump();
+	st = ev_at(from, RMD_EV_MOTOR_STATE, 0);
+	sa = ev_at(from, RMD_EV_SAFE_ACTION, 0);
+	if (st == nev || sa == nev || st > sa)
+		fail_msg("watchdog: state change at event %u, its safe action at %u", st, sa);
+	from = nev;
+	fault_now(&flag, 0);
+	run(300, false);
+	events_pump();
+	er = ev_at(from, RMD_EV_MOTOR_ERROR, 1);
+	st = ev_at(from, RMD_EV_MOTOR_STATE, 1);
+	if (er == nev || st == nev || er > st)
+		fail_msg("fault: error flags at event %u, the state change at %u", er, st);
+	rig_down();
+}
+
 /*
  * Issue 20.8: three motors at 1 kHz fill their bus, so a status poll takes
  * a motor's control slot now and then.  Whichever cycle the controller
@@ -2715,6 +2757,7 @@ int main(void)
 		cmocka_unit_test(test_watchdog),
 		cmocka_unit_test(test_shutdown_damp_feeds_the_others),
 		cmocka_unit_test(test_safe_frames_take_polls_place),
+		cmocka_unit_test(test_events_cause_before_effect),
 		cmocka_unit_test(test_commands_queued_in_a_stall),
 		cmocka_unit_test(test_nan_never_on_wire),
 		cmocka_unit_test(test_stop_motors),
