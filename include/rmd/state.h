@@ -146,6 +146,7 @@ struct rmd_motor_state {
 	uint64_t missed_replies;   /* replies that never came, total */
 	int64_t rx_ns;		   /* receive time of the reply vel/torque came from; 0: none yet */
 	int64_t pos_rx_ns;	   /* receive time of the reply pos_rad came from; 0: none yet */
+	int64_t status_rx_ns;	   /* ... error_code and voltage_v came from (0x9A); 0: none yet */
 };
 
 /* State of every motor after one cycle. */

@@ -843,10 +843,16 @@ static inline __attribute__((always_inline)) void apply_have(const struct rmd_mo
 	}
 	if (have & RMD_MOTOR_HAVE_TEMP)
 		st->temp_c = r->temp_c;
-	if (have & RMD_MOTOR_HAVE_VOLTAGE)
+	if (have & RMD_MOTOR_HAVE_VOLTAGE) {
 		st->voltage_v = r->voltage_v;
-	if (have & RMD_MOTOR_HAVE_ERROR)
+		if (stamp)
+			st->status_rx_ns = t_ns;
+	}
+	if (have & RMD_MOTOR_HAVE_ERROR) {
 		st->error_code = r->error_code;
+		if (stamp)
+			st->status_rx_ns = t_ns;
+	}
 }
 
 /* rt-safe. */

@@ -756,6 +756,7 @@ static void publish_state(struct rmd_bridge *b)
 		o->missed_replies = sat64(m->missed_replies);
 		o->rx_time_ns = m->rx_ns;
 		o->position_rx_time_ns = m->pos_rx_ns;
+		o->status_rx_time_ns = m->status_rx_ns;
 		o->position_certain = m->pos_certain;
 		o->position_trust = (int8_t)m->pos_trust;
 	}
