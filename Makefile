@@ -130,7 +130,7 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
-	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib \
+	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib python3-jsonschema python3-yaml \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
 	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux
 
@@ -320,7 +320,7 @@ endif
 # SocketCAN scenarios run with the vcan suites.  Not in sanitizer runs:
 # the scenarios use the plain build, as users do.
 ifneq ($(SANITIZE),1)
-DOCS_TESTS := tests/docs/check-docs
+DOCS_TESTS := tests/docs/check-docs tests/docs/check-schema
 VCAN_TESTS += tests/docs/check-docs-can
 endif
 
@@ -375,10 +375,20 @@ RMDD_DOCS := $(wildcard docs/*.md)
 
 .PHONY: install-lcm install-man install-docs man deb
 
+# The configuration's JSON Schema, from the loader's own tables (rmdd
+# --schema): YAML editors validate and complete rmdd.yaml with it
+# (docs/configuration.md "Editors"); tests/docs/check-schema checks it.
+RMDD_SCHEMA := $(BUILD)/rmdd.schema.json
+$(RMDD_SCHEMA): $(RMDD)
+	@$(if $(Q),echo "  GEN     $@")
+	$(Q)$(RMDD) --schema >$@.tmp && mv $@.tmp $@
+all: $(RMDD_SCHEMA)
+
 install: all install-lcm install-man install-docs
 	install -D -m 0755 $(RMDCTL) $(DESTDIR)$(BINDIR)/rmdctl
 	$(if $(RMDSIM_SRCS),install -D -m 0755 $(RMDSIM) $(DESTDIR)$(BINDIR)/rmd-sim)
 	install -D -m 0755 $(RMDD) $(DESTDIR)$(BINDIR)/rmdd
+	install -D -m 0644 $(RMDD_SCHEMA) $(DESTDIR)$(DATADIR)/rmdd/rmdd.schema.json
 	install -D -m 0755 src/tools/rmd-spy/rmd-spy $(DESTDIR)$(BINDIR)/rmd-spy
 	install -d $(DESTDIR)$(SYSTEMDUNITDIR) $(DESTDIR)$(EXAMPLESDIR)
 	sed -e 's|@BINDIR@|$(BINDIR)|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' \
@@ -476,7 +486,7 @@ uninstall:
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/,$(foreach m,$(MAN_PAGES),man$(subst .,,$(suffix $(m)))/$(notdir $(m))))
-	rm -rf $(DESTDIR)$(LCMDIR) $(DESTDIR)$(INCLUDEDIR)/rmd_lcm $(DESTDIR)$(PYTHONDIR)/rmd $(DESTDIR)$(DOCDIR)
+	rm -rf $(DESTDIR)$(LCMDIR) $(DESTDIR)$(DATADIR)/rmdd/rmdd.schema.json $(DESTDIR)$(INCLUDEDIR)/rmd_lcm $(DESTDIR)$(PYTHONDIR)/rmd $(DESTDIR)$(DOCDIR)
 	rm -f $(DESTDIR)$(LIBDIR)/librmd-lcm.a $(DESTDIR)$(PKGCONFIGDIR)/rmd-lcm.pc $(DESTDIR)$(JAVADIR)/rmd-types.jar
 	-rmdir $(DESTDIR)$(DATADIR)/rmdd 2>/dev/null
 	@echo "uninstall: kept $(RMDD_CONF) (your configuration); remove it by hand"

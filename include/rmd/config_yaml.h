@@ -20,6 +20,7 @@
 #define RMD_CONFIG_YAML_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 #include "rmd/config.h"
 #include "rmd/sim_setup.h"
@@ -48,5 +49,16 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
  * motors with it).  Returns 0 or -EINVAL.  Non-rt.
  */
 int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, unsigned nmotors);
+
+/*
+ * The file's JSON Schema (draft-07), from the tables rmd_config_load()
+ * checks with (`rmdd --schema`; the package installs it as
+ * /usr/share/rmdd/rmdd.schema.json): every key, its type, range and
+ * names, unknown keys refused, so YAML editors validate and complete while
+ * typing.  Checks across keys (a motor's bus exists, unique IDs, the bus
+ * budget) are rmdd --check-config's.  Returns 0, or -EIO when writing to
+ * out failed.  Non-rt.
+ */
+int rmd_config_schema_json(FILE *out);
 
 #endif /* RMD_CONFIG_YAML_H */

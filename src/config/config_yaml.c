@@ -1124,3 +1124,27 @@ int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, un
 	}
 	return 0;
 }
+
+/* ------------------------------------------------------------------ */
+/* The schema as JSON Schema */
+
+/* What the keys the validators check (T_LATER) hold. */
+static const struct field *schema_later(const struct field *table, const struct field *f)
+{
+	static const struct field bus_name = STR("bus", struct rmd_config_bus, name, F_IDENT);
+	static const struct field bus_sim = { .type = T_MAP, .sub = sim_fields };
+	static const struct field motor_sim = { .type = T_MAP, .sub = sim_motor_fields };
+
+	if (!strcmp(f->key, "bus"))
+		return &bus_name;
+	if (!strcmp(f->key, "sim"))
+		return table == bus_fields ? &bus_sim : &motor_sim;
+	return NULL;
+}
+
+int rmd_config_schema_json(FILE *out)
+{
+	sim_motor_fields_build();
+	return rmd_yaml_schema_json(out, "rmdd configuration (rmdd.yaml(5))", top_fields,
+				    schema_later);
+}

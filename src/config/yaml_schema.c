@@ -821,3 +821,141 @@ void rmd_yaml_walk_map(struct yctx *c, const struct ynode *m, const struct field
 		}
 	}
 }
+
+/* ------------------------------------------------------------------ */
+/* The tables as JSON Schema (draft-07), for YAML editors */
+
+static void json_str(FILE *out, const char *s)
+{
+	fputc('"', out);
+	for (; *s; s++) {
+		unsigned char ch = (unsigned char)*s;
+
+		if (ch == '"' || ch == '\\')
+			fprintf(out, "\\%c", ch);
+		else if (ch < 0x20)
+			fprintf(out, "\\u%04x", ch);
+		else
+			fputc(ch, out);
+	}
+	fputc('"', out);
+}
+
+static void json_schema_value(FILE *out, const struct field *table, const struct field *f,
+			      rmd_yaml_later_fn later, unsigned ind);
+
+/* A T_MAP's members: "type": object, its properties, required keys, no others. */
+static void json_schema_map(FILE *out, const struct field *sub, rmd_yaml_later_fn later,
+			    unsigned ind)
+{
+	bool first = true;
+
+	/* an empty (null) section means its defaults, as the loader takes it */
+	fprintf(out, "\"type\": [\"object\", \"null\"],\n%*s\"additionalProperties\": false,\n",
+		ind, "");
+	fprintf(out, "%*s\"properties\": {", ind, "");
+	for (const struct field *k = sub; k->key; k++) {
+		fprintf(out, "%s\n%*s", first ? "" : ",", ind + 2, "");
+		json_str(out, k->key);
+		fprintf(out, ": {");
+		json_schema_value(out, sub, k, later, ind + 4);
+		fprintf(out, "\n%*s}", ind + 2, "");
+		first = false;
+	}
+	fprintf(out, "\n%*s}", ind, "");
+	first = true;
+	for (const struct field *k = sub; k->key; k++) {
+		if (!(k->flags & F_REQUIRED))
+			continue;
+		fprintf(out, first ? ",\n%*s\"required\": [" : ", ", ind, "");
+		json_str(out, k->key);
+		first = false;
+	}
+	if (!first)
+		fputc(']', out);
+}
+
+/* "minimum"/"maximum" of a number, as rmd_yaml_walk_value() checks them. */
+static void json_schema_range(FILE *out, const struct field *f, unsigned ind)
+{
+	fprintf(out, ",\n%*s\"%s\": %.17g", ind, "",
+		(f->flags & F_MIN_EXCL) ? "exclusiveMinimum" : "minimum", f->min);
+	fprintf(out, ",\n%*s\"maximum\": %.17g", ind, "", f->max);
+}
+
+/* The members of one value's schema object (without its braces). */
+static void json_schema_value(FILE *out, const struct field *table, const struct field *f,
+			      rmd_yaml_later_fn later, unsigned ind)
+{
+	fprintf(out, "\n%*s", ind, "");
+	switch (f->type) {
+	case T_UINT:
+	case T_INT:
+		if (f->flags & F_SIGN) {
+			fprintf(out, "\"enum\": [-1, 1]");
+			return;
+		}
+		fprintf(out, "\"type\": \"integer\"");
+		json_schema_range(out, f, ind);
+		return;
+	case T_DOUBLE:
+	case T_NS:
+		fprintf(out, "\"type\": \"number\"");
+		json_schema_range(out, f, ind);
+		return;
+	case T_BOOL:
+		fprintf(out, "\"type\": \"boolean\"");
+		return;
+	case T_STR:
+		fprintf(out, "\"type\": \"string\",\n%*s\"maxLength\": %zu", ind, "", f->size - 1);
+		if (f->flags & F_IDENT)
+			fprintf(out, ",\n%*s\"pattern\": \"^[a-z0-9_]+$\"", ind, "");
+		return;
+	case T_ENUM:
+		fprintf(out, "\"enum\": [");
+		for (int i = 0; f->names[i]; i++) {
+			fputs(i ? ", " : "", out);
+			json_str(out, f->names[i]);
+		}
+		fputc(']', out);
+		return;
+	case T_MAP:
+		json_schema_map(out, f->sub, later, ind);
+		return;
+	case T_SEQ:
+		fprintf(out,
+			"\"type\": [\"array\", \"null\"],\n%*s\"maxItems\": %zu,\n%*s\"items\": {",
+			ind, "", f->size, ind, "");
+		json_schema_value(out, table, f->elem, later, ind + 2);
+		fprintf(out, "\n%*s}", ind, "");
+		return;
+	case T_TEXT:
+		/* its parser decides (a model name, a date): a scalar */
+		fprintf(out, "\"type\": [\"string\", \"number\"]");
+		return;
+	case T_LATER: {
+		const struct field *v = later ? later(table, f) : NULL;
+
+		if (v) {
+			/* the member's own description, under this key */
+			fprintf(out, "\"description\": \"checked with the keys around it\",");
+			json_schema_value(out, table, v, later, ind);
+		} else {
+			fprintf(out, "\"description\": \"checked with the keys around it\"");
+		}
+		return;
+	}
+	}
+}
+
+int rmd_yaml_schema_json(FILE *out, const char *title, const struct field *fields,
+			 rmd_yaml_later_fn later)
+{
+	fprintf(out,
+		"{\n  \"$schema\": \"http://json-schema.org/draft-07/schema#\",\n  \"title\": ");
+	json_str(out, title);
+	fprintf(out, ",\n  ");
+	json_schema_map(out, fields, later, 2);
+	fprintf(out, "\n}\n");
+	return fflush(out) == 0 && !ferror(out) ? 0 : -EIO;
+}

@@ -213,4 +213,21 @@ void rmd_yaml_walk_map(struct yctx *c, const struct ynode *m, const struct field
 void rmd_yaml_walk_value(struct yctx *c, const struct ynode *v, const struct field *f, void *dst,
 			 const char *path);
 
+/*
+ * What a T_LATER key holds, for the JSON Schema: the field that describes
+ * its value (a T_STR, a T_MAP, ...), or NULL for any value.  table is the
+ * table the key is in.
+ */
+typedef const struct field *(*rmd_yaml_later_fn)(const struct field *table, const struct field *f);
+
+/*
+ * The JSON Schema (draft-07) of a document whose root is the map `fields`:
+ * each key with its type, range, names and required keys, unknown keys
+ * refused, as rmd_yaml_walk_map() checks them.  What only a cross-key
+ * check or a T_TEXT parser refuses is not in it.  Returns 0, or -EIO when
+ * writing failed.  Non-rt.
+ */
+int rmd_yaml_schema_json(FILE *out, const char *title, const struct field *fields,
+			 rmd_yaml_later_fn later);
+
 #endif /* RMD_YAML_SCHEMA_H */

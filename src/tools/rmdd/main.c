@@ -7,6 +7,7 @@
  *   rmdd [--config FILE]       run the daemon (FILE defaults to
  *                              RMDD_DEFAULT_CONFIG)
  *   rmdd --sim [N]             run on N built-in simulated motors
+ *   rmdd --schema              print the configuration's JSON Schema
  *
  * The lifecycle (chrony style): main() builds everything, then starts the
  * threads, and tears down in reverse order; only main() exits.
@@ -91,6 +92,7 @@ enum rmdd_mode {
 	MODE_HELP,
 	MODE_VERSION,
 	MODE_COMPLETION, /* --completion bash: the script the build installs */
+	MODE_SCHEMA,	 /* --schema: the configuration's JSON Schema */
 };
 
 struct rmdd_opts {
@@ -161,6 +163,10 @@ static const struct tool_opt opts[] = {
 	{ .name = "quiet", .shortc = 'q', .help = "only warnings and errors" },
 	{ .name = "help", .shortc = 'h', .help = "this text" },
 	{ .name = "version", .shortc = 'V', .help = "print \"rmdd VERSION\" and exit" },
+	{ .name = "schema",
+	  .shortc = 'S',
+	  .help = "print the configuration file's JSON Schema (for YAML editors)\n"
+		  "and exit" },
 	TOOL_OPT_COMPLETION,
 };
 #define NOPTS (sizeof(opts) / sizeof(opts[0]))
@@ -264,6 +270,9 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 			return 0;
 		case 'V':
 			o->mode = MODE_VERSION;
+			return 0;
+		case 'S':
+			o->mode = MODE_SCHEMA;
 			return 0;
 		case OPT_COMPLETION:
 			if (!tool_completion_shell("rmdd", optarg))
@@ -1288,6 +1297,12 @@ int main(int argc, char **argv)
 		return RMDD_EXIT_OK;
 	case MODE_COMPLETION:
 		tool_completion_bash(stdout, "rmdd", opts, NOPTS, NULL, 0);
+		return RMDD_EXIT_OK;
+	case MODE_SCHEMA:
+		if (rmd_config_schema_json(stdout)) {
+			tool_log(3, "--schema: writing to standard output failed");
+			return RMDD_EXIT_FAIL;
+		}
 		return RMDD_EXIT_OK;
 	case MODE_CHECK:
 		return check_config(o.config);
