@@ -1111,6 +1111,12 @@ int rmd_config_sim_default(struct rmd_config *cfg, struct rmd_sim_setup *sim, un
 		m->limits.velocity_rad_s = 20.0;
 		m->limits.torque_nm = 10.0;
 		/*
+		 * One output turn either way: a position sent in degrees for
+		 * radians (90 for 1.57) is clamped to a turn, not 14 of them.
+		 */
+		m->limits.position_min_rad = -2.0 * M_PI;
+		m->limits.position_max_rad = 2.0 * M_PI;
+		/*
 		 * Its simulated motors keep their multi-turn count (0x20 index 4,
 		 * V3 §2.33.4), so their positions are trusted from the start.
 		 */

@@ -25,6 +25,7 @@
 
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
+#include "rmd/motor.h"
 
 #include "harness/proc.h"
 
@@ -620,6 +621,30 @@ static void test_sim_default(void **state)
 	for (unsigned b = 0; b < 4; b++)
 		assert_int_equal(cfg.buses[b].kind, RMD_BUS_KIND_SIM);
 	assert_string_equal(cfg.buses[3].name, "sim3");
+	/*
+	 * Issue 22.10: a position in degrees for radians (90 for 1.57) reaches
+	 * the wire as one output turn, the frame of 2 pi, not 14 turns.
+	 */
+	{
+		struct rmd_motor m;
+		struct rmd_frame slip, turn;
+		struct rmd_setpoint sp = { .enable = true,
+					   .mode = RMD_MODE_POSITION,
+					   .pos_rad = 90.0,
+					   .max_vel_rad_s = 1.0 };
+		unsigned fl = 0;
+
+		assert_int_equal(rmd_motor_init(&m, &cfg.motors[0]), 0);
+		assert_int_equal(rmd_motor_encode(&m, &sp, &slip, &fl), 0);
+		assert_true(fl & RMD_MOTOR_CLAMPED);
+		sp.pos_rad = 2.0 * M_PI;
+		assert_int_equal(rmd_motor_encode(&m, &sp, &turn, &fl), 0);
+		assert_memory_equal(slip.data, turn.data, 8);
+		sp.pos_rad = 1.57; /* inside: not clamped */
+		fl = 0;
+		assert_int_equal(rmd_motor_encode(&m, &sp, &turn, &fl), 0);
+		assert_false(fl & RMD_MOTOR_CLAMPED);
+	}
 	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 32), 0);
 	assert_int_equal(cfg.n_buses, 11);
 	assert_int_equal(rmd_config_sim_default(&cfg, &sim, 1), 0);

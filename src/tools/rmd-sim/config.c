@@ -56,7 +56,7 @@ static const struct {
 } globals[] = {
 	{ "can", "IFACE", "SocketCAN interface to answer on (e.g. vcan0)" },
 	{ "serial", "DEVICE", "RS485 serial device to answer on (e.g. /dev/ttyUSB0)" },
-	{ "baud", "B", "serial rate: " BAUD_LIST "; default 115200" },
+	{ "baud", "B", "serial rate: " BAUD_LIST "; default 1000000, as rmdd and rmdctl" },
 	{ "local-echo", "",
 	  "serial: the adapter hears its own replies; drop them (config: yes/no)" },
 	{ "motors", "LIST", "motor ids, e.g. 1-4,7 (default 1)" },
@@ -552,7 +552,7 @@ void sim_config_init(struct sim_config *c)
 {
 	memset(c, 0, sizeof(*c));
 	c->wire = SIM_WIRE_NONE;
-	c->baud = 115200;
+	c->baud = RMD_CONFIG_DEFAULT_BAUD; /* as rmdd and rmdctl */
 	c->motors = 1;
 	c->seed = 1;
 	c->verbosity = SIM_NORMAL;
