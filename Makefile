@@ -441,13 +441,20 @@ install-lcm: $(RMD_LCM_LIB) $(LCM_JAVA) $(LCM_PYTHON)
 # docs/man/<program>.h2m (description, files, examples, see also);
 # rmdd.yaml(5) is docs/man/rmdd.yaml.5.in around examples/rmdd.yaml.
 HELP2MAN ?= help2man
-MAN_PAGES := $(BUILD)/man/rmdd.8 $(BUILD)/man/rmdctl.1 $(BUILD)/man/rmd-sim.1 $(BUILD)/man/rmdd.yaml.5
+MAN_PAGES := $(BUILD)/man/rmdd.8 $(BUILD)/man/rmdctl.1 $(BUILD)/man/rmd-sim.1 $(BUILD)/man/rmd-spy.1 \
+	$(BUILD)/man/rmdd.yaml.5
 MAN_H2M = $(HELP2MAN) --no-info --no-discard-stderr --version-string='$(RMD_VERSION)' \
 	--section=$(subst .,,$(suffix $@)) --include=$(filter %.h2m,$^) --output=$@ "docs/man/gnu-help $<"
 
 man: $(MAN_PAGES)
 
 $(BUILD)/man/%.1: $(BUILD)/% docs/man/%.h2m docs/man/gnu-help
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)$(MAN_H2M)
+
+# rmd-spy is a script of the tree, not a build product
+$(BUILD)/man/rmd-spy.1: src/tools/rmd-spy/rmd-spy docs/man/rmd-spy.h2m docs/man/gnu-help
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  MAN     $@")
 	$(Q)$(MAN_H2M)
