@@ -62,10 +62,10 @@
  * since the last command is an enable = 0, acted on before the command's
  * own entry, however quickly the enable = 1 followed it.  An enable = 1
  * the loop does not act on is counted by reason (rmd_loop_counters
- * ignored[], rmd_health ignored[]).  Host watchdog: no
- * command for safety.command_timeout_ms while a motor is ENABLED -> the
- * safe action for every enabled motor (SAFE), RMD_WD_TRIPPED, latched
- * until a command with an enable newer than the trip.
+ * ignored[], rmd_health ignored[]).  Host watchdog, per motor: an ENABLED
+ * motor that no command carried with enable = 1 for
+ * safety.command_timeout_ms -> the safe action (SAFE), RMD_WD_TRIPPED,
+ * latched until a command with an enable newer than the trip.
  *
  * Comm-loss protection.  Each motor's own protection (0xB3, V3 §2.30) is
  * a precondition of motion (enum rmd_comm_loss, rmd/state.h): a READY or
