@@ -193,10 +193,9 @@ void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t n
  * LOST (the time is in its ROM anyway).
  *
  * The enable-edge rule (rmd/loop.h): a motor that enters LOST or FAULT,
- * returns from them, or is made SAFE for any reason but the host
- * watchdog, takes enable = 1 only after an enable = 0; a motor found at
- * bring-up takes it at once.  (A watchdog trip is lifted by any newer
- * enable.)  Leaving FAULT reports error code 0.
+ * returns from them, or is made SAFE for any reason, the host watchdog
+ * included, takes enable = 1 only after an enable = 0; a motor found at
+ * bring-up takes it at once.  Leaving FAULT reports error code 0.
  * rt-safe.
  */
 void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
@@ -220,7 +219,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	case RMD_LC_SAFE:
 		if (!l->stopping) /* rmd_loop_stop_motors() sent its own */
 			queue_safe(l, lm, true, now);
-		lm->need_edge = l->wd != RMD_WD_TRIPPED;
+		lm->need_edge = true; /* the host watchdog's too: the latch (rmd/loop.h) */
 		break;
 	case RMD_LC_STOPPING:
 		owe(lm, OWE_OFF | OWE_BRAKE);
@@ -478,7 +477,6 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 		if (c->m[i].enable) {
 			int why = -1;
 
-			any_enable = true;
 			l->cmd_due_ns[i] = due;
 			if (lm->st->lifecycle ==
 			    RMD_LC_ENABLED) { /* enable_motor()'s, every cycle */
@@ -491,16 +489,19 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 			}
 			if (why >= 0)
 				l->cnt.ignored[why]++;
-			else if (due < first)
-				first = due;
+			else
+				any_enable = true;
 		} else {
 			disable_motor(l, lm, now);
 		}
 	}
-	/* early is harmless: loop_watchdog() then only looks again */
-	l->wd_due_ns = first;
-	if (any_enable)
+	/* every entry acted on has `due`; early is harmless: loop_watchdog() only looks again */
+	if (any_enable) {
+		if (due < first)
+			first = due;
 		set_watchdog(l, RMD_WD_OK, now);
+	}
+	l->wd_due_ns = first;
 }
 
 /*

@@ -1350,6 +1350,18 @@ again:
 /* ---- tests: the watchdog ------------------------------------------------------------------ */
 
 /*
+ * After a trip: enable = 0, then enable = 1 (the latch, docs/lcm.md
+ * "Watchdog, latch, ownership").  Returns whether every motor is ENABLED.
+ */
+static bool disable_then_enable(struct fixture *f)
+{
+	rmd_command_t m = cmd_all(f, false);
+
+	send_cmd(f, &m);
+	return stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED);
+}
+
+/*
  * The controller streams enable for 300 ms; then the next health_t.  On a
  * busy machine (issue 10) this test itself, the controller, may be held off
  * longer than the command timeout: rmdd then trips rightly.  When the
@@ -1375,7 +1387,7 @@ static const rmd_health_t *health_enabled(struct fixture *f, int64_t *safe0)
 			      "rightly; enabling again\n",
 			      f->ctl_gap.max_ns / 1e6, handover_held_ns(f) / 1e6, f->timeout_ms);
 		*safe0 = h->safe_action_events;
-		stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED);
+		disable_then_enable(f);
 	}
 }
 
@@ -1475,10 +1487,15 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 	assert_int_equal(f->rx.health->watchdog, RMD_HEALTH_T_WD_TRIPPED);
 	assert_true(all_in(f, RMD_STATE_T_LC_SAFE));
 
-	/* a new command with enable clears it */
+	/* enable = 1 alone does not lift it (issue 20.3): the motors wait for enable = 0 */
 	safe0 = f->rx.health->safe_action_events;
-	if (!stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED))
-		fail_msg("enable after the trip did not re-enable the motors; rmdd's output:\n%s",
+	stream(f, true, 300, done_never, 0);
+	assert_true(all_in(f, RMD_STATE_T_LC_SAFE));
+	assert_int_equal(f->rx.health->watchdog, RMD_HEALTH_T_WD_TRIPPED);
+	/* enable = 0, then enable = 1, clears it */
+	if (!disable_then_enable(f))
+		fail_msg("enable 0, then 1, after the trip did not re-enable the motors; rmdd's "
+			 "output:\n%s",
 			 slurp(f->log));
 	h = health_enabled(f, &safe0);
 	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
@@ -2255,7 +2272,7 @@ static void test_intruder_never_inherits_after_a_trip(void **state)
  * goes on (SIGCONT).  A was never silent: its commands only queued, and
  * rmdd judges each by when it arrived, so A still owns the motors, every
  * B command is rejected, and B's setpoints never reach the motors (the
- * loop may trip on the stall; A's next enable then restarts them).
+ * loop may trip on the stall; A's enable = 0, then 1, restarts them).
  * Before the fix rmdd judged by when it read them: A looked silent, and B
  * took the motors.  The stall is measured; a run in which this test held
  * A's own commands further apart than the command timeout is the

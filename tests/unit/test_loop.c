@@ -715,7 +715,23 @@ static void test_watchdog(void **state)
 	/* latched: nothing changes without a command */
 	run(300, false);
 	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
-	/* a new enable lifts it */
+	/*
+	 * Issue 20.3: nor with enable = 1 alone, newer than the trip as it is
+	 * (before, the first one restarted the motors): nothing on the wire moves
+	 */
+	from = trace_n;
+	assert_int_equal(ignored_over(150, RMD_IGN_EDGE), 2 * 150);
+	for (unsigned k = from; k < trace_n; k++)
+		if (moves_frame(&trace[k].f))
+			fail_msg("a frame that moves, %03x %02x, from enable = 1 after the trip",
+				 trace[k].f.can_id, trace[k].f.data[0]);
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	assert_int_equal(lifecycle(1), RMD_LC_SAFE);
+	assert_true(rmd_latest_get(&R.io.health, &p));
+	assert_int_equal(((const struct rmd_health *)p)->watchdog, RMD_WD_TRIPPED);
+	/* enable = 0, then enable = 1, lifts it */
+	R.cmd.disables[0]++;
+	R.cmd.disables[1]++;
 	run(150, true);
 	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
