@@ -91,10 +91,10 @@ struct rmd_bridge_opts {
 	unsigned nbuses;			     /* 0..RMD_MAX_BUSES */
 	struct rmd_bridge_bus bus[RMD_MAX_BUSES];
 
-	int64_t period_ns;	  /* rt loop period, for config_t */
-	unsigned state_every;	  /* publish state_t every n-th cycle; 0 or 1: every snapshot */
-	int stale_ms;		  /* reject utime this much older than the newest; 0: no check */
-	int command_timeout_ms;	  /* an owner silent this long loses the motors; 0: never */
+	int64_t period_ns;	/* rt loop period, for config_t */
+	unsigned state_every;	/* publish state_t every n-th cycle; 0 or 1: every snapshot */
+	int stale_ms;		/* reject utime this much older than the newest; 0: no check */
+	int command_timeout_ms; /* validated only: silence no longer ends ownership (issue 20.3) */
 	int64_t health_period_ns; /* health_t period */
 	int64_t poll_ns;	  /* without notify_fd: longest sleep between looks at snapshots */
 	/*
