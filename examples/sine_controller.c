@@ -24,10 +24,11 @@
  *      may follow at once);
  *   5. publishes command_t at --rate Hz, every driven motor in each
  *      message (rmdd keeps only the newest), with a random controller id
- *      chosen at start (command_t.controller: while its motors are enabled,
- *      rmdd takes commands from no other controller), and from every state_t adds
- *      up target - position per motor: RMS and largest magnitude, printed
- *      once a second;
+ *      chosen at start (command_t.controller: until it disables its
+ *      motors, silent or not, rmdd takes commands from no other controller;
+ *      --takeover takes them from one that died owning them), and from
+ *      every state_t adds up target - position per motor: RMS and largest
+ *      magnitude, printed once a second;
  *   6. on Ctrl-C, SIGTERM or the end of --duration: enable = 0 to every
  *      driven motor, the whole run's error, exit 0.  Exit 1 when rmdd is
  *      not there or goes away, 2 for a bad command line.
@@ -89,6 +90,7 @@ struct opts {
 	const char *url;
 	const char *prefix;
 	double duration_s; /* 0: until Ctrl-C */
+	bool takeover;	   /* command_t.takeover: take the motors from their owner */
 };
 
 /* What we keep of config_t: one motor's name and limits. */
@@ -169,6 +171,7 @@ static void usage(FILE *out)
 	fprintf(out,
 		"usage: " PROG " [--mode position|mit] [--amplitude RAD] [--freq HZ] [--rate HZ]\n"
 		"                       [--kp KP] [--kd KD] [--url URL] [--prefix P] [--duration S]\n"
+		"                       [--takeover]\n"
 		"\n"
 		"Makes every rmdd motor that takes the mode follow a sine around its position,\n"
 		"and prints each motor's tracking error (target - position, RMS and max) once a\n"
@@ -183,6 +186,8 @@ static void usage(FILE *out)
 		"  -u, --url URL        LCM URL (default $LCM_DEFAULT_URL, else %s)\n"
 		"  -P, --prefix P       rmdd's channel prefix (default " DEFAULT_PREFIX ")\n"
 		"  -t, --duration S     stop after S seconds (default 0: until Ctrl-C)\n"
+		"  -T, --takeover       take the motors from the controller that owns them\n"
+		"                       (one that died owning them, say; rmdd logs it)\n"
 		"  -h, --help           this text\n"
 		"\n"
 		"Exit status: 0 stopped, 1 rmdd not running or gone, 2 bad options.\n",
@@ -234,6 +239,7 @@ static int parse_args(int argc, char **argv, struct opts *o)
 		{ "url", required_argument, NULL, 'u' },
 		{ "prefix", required_argument, NULL, 'P' },
 		{ "duration", required_argument, NULL, 't' },
+		{ "takeover", no_argument, NULL, 'T' },
 		{ "help", no_argument, NULL, 'h' },
 		{ NULL, 0, NULL, 0 },
 	};
@@ -257,7 +263,7 @@ static int parse_args(int argc, char **argv, struct opts *o)
 		.url = env && *env ? env : DEFAULT_URL,
 		.prefix = DEFAULT_PREFIX,
 	};
-	while (!r && (c = getopt_long(argc, argv, "m:a:f:r:p:d:u:P:t:h", longopts, NULL)) != -1) {
+	while (!r && (c = getopt_long(argc, argv, "m:a:f:r:p:d:u:P:t:Th", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'm':
 			if (strcmp(optarg, "mit") && strcmp(optarg, "position")) {
@@ -271,6 +277,9 @@ static int parse_args(int argc, char **argv, struct opts *o)
 			break;
 		case 'P':
 			o->prefix = optarg;
+			break;
+		case 'T':
+			o->takeover = true;
 			break;
 		case 'h':
 			usage(stdout);
@@ -436,6 +445,7 @@ static int publish(struct ctl *c, bool enable, double t)
 	msg->utime = now_ns() / 1000;
 	msg->seq = c->seq++;
 	msg->controller = c->id;
+	msg->takeover = c->o.takeover;
 	msg->count = (int16_t)c->n;
 	msg->motor = c->msg_motor;
 	memset(c->msg_motor, 0, sizeof(c->msg_motor));

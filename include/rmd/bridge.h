@@ -91,10 +91,10 @@ struct rmd_bridge_opts {
 	unsigned nbuses;			     /* 0..RMD_MAX_BUSES */
 	struct rmd_bridge_bus bus[RMD_MAX_BUSES];
 
-	int64_t period_ns;	  /* rt loop period, for config_t */
-	unsigned state_every;	  /* publish state_t every n-th cycle; 0 or 1: every snapshot */
-	int stale_ms;		  /* reject utime this much older than the newest; 0: no check */
-	int command_timeout_ms;	  /* an owner silent this long loses the motors; 0: never */
+	int64_t period_ns;	/* rt loop period, for config_t */
+	unsigned state_every;	/* publish state_t every n-th cycle; 0 or 1: every snapshot */
+	int stale_ms;		/* reject utime this much older than the newest; 0: no check */
+	int command_timeout_ms; /* validated only: silence no longer ends ownership (issue 20.3) */
 	int64_t health_period_ns; /* health_t period */
 	int64_t poll_ns;	  /* without notify_fd: longest sleep between looks at snapshots */
 	/*
@@ -214,9 +214,15 @@ struct rmd_bridge {
 	bool config_wanted;
 	/* one controller at a time (docs/lcm.md) */
 	bool owned;
-	int64_t owner;			   /* command_t.controller of the owner */
-	uint32_t owner_on;		   /* motors the owner enabled and has not disabled */
-	int64_t owner_rx_ns;		   /* when its newest accepted command arrived */
+	int64_t owner;	   /* command_t.controller of the owner */
+	uint32_t owner_on; /* motors the owner enabled and has not disabled */
+	/*
+	 * Free motors (!owned) after an owner: the controller that may enable
+	 * them next (the owner that released them, or the newest controller
+	 * to send enable = 0 since).  Before any owner (!had_owner): anyone.
+	 */
+	bool had_owner;
+	int64_t next_owner;
 	bool have_controller;		   /* last_controller is set: */
 	int64_t last_controller;	   /* whose sequence last_seq and newest_utime are */
 	uint32_t disables[RMD_MAX_MOTORS]; /* enable = 0 entries accepted, per motor */

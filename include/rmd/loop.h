@@ -54,7 +54,7 @@
  * with the safe action for the motor (and every enabled motor, SAFE, when
  * lost_motor_action is all); a LOST motor is re-probed with 0x9A every
  * RMD_LOOP_REPROBE_NS and returns to STOPPING.  A motor that returns from
- * LOST or FAULT, or was made SAFE by another motor's loss, needs an
+ * LOST or FAULT, or was made SAFE (by the host watchdog too), needs an
  * explicit enable = 0 before enable = 1 takes it again, so a controller
  * streaming enable = 1 does not restart it unawares.  The loop keeps only
  * the newest command, so it sees the enable = 0 entries through
@@ -62,10 +62,11 @@
  * since the last command is an enable = 0, acted on before the command's
  * own entry, however quickly the enable = 1 followed it.  An enable = 1
  * the loop does not act on is counted by reason (rmd_loop_counters
- * ignored[], rmd_health ignored[]).  Host watchdog: no
- * command for safety.command_timeout_ms while a motor is ENABLED -> the
- * safe action for every enabled motor (SAFE), RMD_WD_TRIPPED, latched
- * until a command with an enable newer than the trip.
+ * ignored[], rmd_health ignored[]).  Host watchdog, per motor: an ENABLED
+ * motor that no command carried with enable = 1 for
+ * safety.command_timeout_ms -> the safe action (SAFE), RMD_WD_TRIPPED,
+ * latched: the motor takes enable = 1 again only after an enable = 0 (the
+ * edge rule), both newer than the trip; RMD_WD_OK once an enable acts.
  *
  * Comm-loss protection.  Each motor's own protection (0xB3, V3 §2.30) is
  * a precondition of motion (enum rmd_comm_loss, rmd/state.h): a READY or

@@ -193,10 +193,9 @@ void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t n
  * LOST (the time is in its ROM anyway).
  *
  * The enable-edge rule (rmd/loop.h): a motor that enters LOST or FAULT,
- * returns from them, or is made SAFE for any reason but the host
- * watchdog, takes enable = 1 only after an enable = 0; a motor found at
- * bring-up takes it at once.  (A watchdog trip is lifted by any newer
- * enable.)  Leaving FAULT reports error code 0.
+ * returns from them, or is made SAFE for any reason, the host watchdog
+ * included, takes enable = 1 only after an enable = 0; a motor found at
+ * bring-up takes it at once.  Leaving FAULT reports error code 0.
  * rt-safe.
  */
 void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, int64_t now)
@@ -231,7 +230,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	case RMD_LC_SAFE:
 		if (!l->stopping) /* rmd_loop_stop_motors() sent its own */
 			queue_safe(l, lm, true, now);
-		lm->need_edge = l->wd != RMD_WD_TRIPPED;
+		lm->need_edge = true; /* the host watchdog's too: the latch (rmd/loop.h) */
 		break;
 	case RMD_LC_STOPPING:
 		owe(lm, OWE_OFF | OWE_BRAKE);
@@ -436,11 +435,15 @@ static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t 
  * over what queued meanwhile with its old stamps, so a command from
  * before a trip does not lift it, and one that is older than the command
  * timeout already moves nothing (the watchdog trips on it this cycle).
+ * The watchdog is per motor: an enable = 1 entry gives its motor until
+ * rx_ns + command_timeout_ms (cmd_due_ns); a command that does not carry
+ * a motor gives it nothing.
  * rt-safe.
  */
 void loop_take_command(struct rmd_loop *l, int64_t now)
 {
 	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * RMD_NS_PER_MS;
+	int64_t due, first = INT64_MAX;
 	const struct rmd_command *c;
 	const void *p;
 	bool any_enable = false;
@@ -450,8 +453,6 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 		return;
 	c = p;
 	l->cnt.commands++;
-	if (!l->cmd || c->rx_ns > l->last_cmd_rx_ns)
-		l->last_cmd_rx_ns = c->rx_ns;
 	l->cmd = c;
 	/* c is not the loop's to write: its mask read once */
 	present = c->present;
@@ -470,15 +471,19 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 				l->cnt.ignored[RMD_IGN_TRIPPED]++;
 		return;
 	}
+	due = timeout > 0 ? c->rx_ns + timeout : INT64_MAX;
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		if (!(present & (1u << i)))
+		if (!(present & (1u << i))) {
+			if (lm->st->lifecycle == RMD_LC_ENABLED && l->cmd_due_ns[i] < first)
+				first = l->cmd_due_ns[i];
 			continue;
+		}
 		if (c->m[i].enable) {
 			int why = -1;
 
-			any_enable = true;
+			l->cmd_due_ns[i] = due;
 			if (lm->st->lifecycle ==
 			    RMD_LC_ENABLED) { /* enable_motor()'s, every cycle */
 				if (__builtin_expect(lm->st->pos_certain, 1))
@@ -490,30 +495,59 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 			}
 			if (why >= 0)
 				l->cnt.ignored[why]++;
+			else
+				any_enable = true;
 		} else {
 			disable_motor(l, lm, now);
 		}
 	}
-	if (any_enable)
+	/* every entry acted on has `due`; early is harmless: loop_watchdog() only looks again */
+	if (any_enable) {
+		if (due < first)
+			first = due;
 		set_watchdog(l, RMD_WD_OK, now);
+	}
+	l->wd_due_ns = first;
 }
 
-/* rt-safe. */
-void loop_watchdog(struct rmd_loop *l, int64_t now)
+/*
+ * The ENABLED motors whose command deadline passed get the safe action
+ * (SAFE); the others' earliest deadline is the next to watch.  rt-safe.
+ */
+static __attribute__((cold, noinline)) void watchdog_expire(struct rmd_loop *l, int64_t now)
 {
-	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * RMD_NS_PER_MS;
-	bool any = false;
+	int64_t first = INT64_MAX;
+	bool trip = false;
 
-	if (l->wd != RMD_WD_OK || timeout <= 0 || now - l->last_cmd_rx_ns <= timeout)
-		return;
-	for (unsigned i = 0; i < l->n_motors; i++)
-		any |= l->mot[i].st->lifecycle == RMD_LC_ENABLED;
-	if (!any)
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		if (lm->st->lifecycle != RMD_LC_ENABLED)
+			continue;
+		if (now > l->cmd_due_ns[i])
+			trip = true;
+		else if (l->cmd_due_ns[i] < first)
+			first = l->cmd_due_ns[i];
+	}
+	l->wd_due_ns = first;
+	if (!trip)
 		return;
 	l->trip_ns = now;
 	set_watchdog(l, RMD_WD_TRIPPED, now);
 	for (unsigned i = 0; i < l->n_motors; i++)
-		make_safe(l, &l->mot[i], now);
+		if (now > l->cmd_due_ns[i])
+			make_safe(l, &l->mot[i], now);
+}
+
+/*
+ * The host watchdog, per motor: an ENABLED motor that no command carried
+ * for command_timeout_ms gets the safe action.  One compare a cycle: the
+ * motors are looked at only when the earliest deadline passed.  rt-safe.
+ */
+void loop_watchdog(struct rmd_loop *l, int64_t now)
+{
+	if (__builtin_expect(now > l->wd_due_ns, 0))
+		watchdog_expire(l, now);
 }
 
 /* ------------------------------------------------------------------ */
@@ -647,12 +681,14 @@ static void cl_round_step(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 /* The enable that waited for lm's round, now that it is armed.  rt-safe. */
 static void cl_apply_enable(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	int64_t timeout = (int64_t)l->cfg->safety.command_timeout_ms * RMD_NS_PER_MS;
+	int64_t due = l->cmd_due_ns[loop_idx(l, lm)];
 
 	lm->cl_want = false;
-	if (l->wd == RMD_WD_TRIPPED || (timeout > 0 && now - l->last_cmd_rx_ns > timeout))
+	if (l->wd == RMD_WD_TRIPPED || now > due)
 		return; /* the controller went quiet meanwhile */
 	enable_motor(l, lm, &lm->cl_sp, now);
+	if (lm->st->lifecycle == RMD_LC_ENABLED && due < l->wd_due_ns)
+		l->wd_due_ns = due;
 }
 
 /* Every motor's round, and the enables waiting for one: step 3 of the cycle.  rt-safe. */

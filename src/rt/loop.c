@@ -831,6 +831,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 	}
 	l->state_every = cfg->lcm.state_every_n ? cfg->lcm.state_every_n : 1u;
 	l->wd = RMD_WD_IDLE;
+	l->wd_due_ns = INT64_MAX;
 	l->events_fd = -1;
 	atomic_init(&l->pub_seq, 0);
 	atomic_init(&l->stat_seq, 0);

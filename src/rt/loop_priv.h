@@ -202,8 +202,10 @@ struct rmd_loop {
 	 */
 	const struct rmd_command *cmd;
 	int64_t inc_cmd_rx_ns; /* the newest command the incident recorder has */
-	int64_t last_cmd_rx_ns;
-	uint8_t wd; /* enum rmd_watchdog_state */
+	/* motor i, ENABLED: its last command's arrival + command_timeout_ms */
+	int64_t cmd_due_ns[RMD_MAX_MOTORS];
+	int64_t wd_due_ns; /* the earliest cmd_due_ns[] of the ENABLED motors, or later */
+	uint8_t wd;	   /* enum rmd_watchdog_state */
 	int64_t trip_ns;
 
 	/* statistics */

@@ -459,51 +459,53 @@ static int decode_command(struct rmd_bridge *b, const lcm_recv_buf_t *rbuf, rmd_
 }
 
 /*
- * The owner went quiet for the command timeout: ownership ends.  `at` is a
- * time up to which every message that arrived has been looked at (a
- * message's arrival, or b->rx_seen_ns), never merely the time now: after
- * the bridge was held off, the owner's commands that queued meanwhile
- * have not been read yet, and it was not silent.  Bridge thread.
- */
-static void owner_expire(struct rmd_bridge *b, int64_t at)
-{
-	int64_t timeout = (int64_t)b->opts.command_timeout_ms * RMD_NS_PER_MS;
-
-	if (!b->owned || timeout <= 0 || at - b->owner_rx_ns <= timeout)
-		return;
-	/* not logged: the watchdog trip (rmdd's log) says the controller went quiet */
-	b->owned = false;
-	atomic_store_explicit(&b->pub_owned, false, memory_order_relaxed);
-}
-
-/*
  * One controller at a time (docs/lcm.md): a command from another
  * controller than the owner is rejected, unless it takes the motors over.
- * at: when the command arrived (arrival_ns()).  Returns -1 or
- * RMD_REJ_OWNER.  Bridge thread.
+ * Silence does not end ownership (the watchdog makes the motors SAFE, and
+ * they wait for their owner), and free motors that had an owner are
+ * enabled only by the controller that released them or one that sent
+ * enable = 0 since: a controller rejected while another drove never
+ * inherits the motors by waiting.  at: when the command arrived
+ * (arrival_ns()).  Returns -1 or RMD_REJ_OWNER.  Bridge thread.
  */
 static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t at)
 {
-	owner_expire(b, at);
-	if (!b->owned || msg->controller == b->owner)
+	bool enables = false;
+
+	if (b->owned && msg->controller == b->owner)
 		return -1;
+	if (!b->owned) {
+		for (int k = 0; k < msg->count; k++)
+			enables |= msg->motor[k].enable != 0;
+		if (!enables || !b->had_owner || msg->controller == b->next_owner)
+			return -1;
+	}
 	if (msg->takeover) {
 		logf_(b, 4,
 		      "%s: controller %016" PRIx64
 		      " takes the motors over from controller %016" PRIx64,
-		      b->ch_command, (uint64_t)msg->controller, (uint64_t)b->owner);
+		      b->ch_command, (uint64_t)msg->controller,
+		      (uint64_t)(b->owned ? b->owner : b->next_owner));
 		count(&b->n_takeovers);
+		b->owned = true;
 		b->owner = msg->controller;
 		b->owner_on = 0;
-		b->owner_rx_ns = at;
 		atomic_store_explicit(&b->pub_owner, b->owner, memory_order_relaxed);
+		atomic_store_explicit(&b->pub_owned, true, memory_order_relaxed);
 		return -1;
 	}
 	/* a new intruder is an incident (rmdd's recorder) */
 	if (b->opts.on_intruder &&
 	    atomic_load_explicit(&b->pub_intruder, memory_order_relaxed) != msg->controller)
-		b->opts.on_intruder(b->opts.intruder_ctx, at, msg->controller, b->owner);
+		b->opts.on_intruder(b->opts.intruder_ctx, at, msg->controller,
+				    b->owned ? b->owner : b->next_owner);
 	atomic_store_explicit(&b->pub_intruder, msg->controller, memory_order_relaxed);
+	if (!b->owned)
+		return reject(b, RMD_REJ_OWNER,
+			      "controller %016" PRIx64 ": the motors were released by controller "
+			      "%016" PRIx64 "; another controller sends enable = 0 first, then "
+			      "enable = 1 (docs/lcm.md)",
+			      (uint64_t)msg->controller, (uint64_t)b->next_owner);
 	return reject(b, RMD_REJ_OWNER,
 		      "controller %016" PRIx64 ": the motors are owned by controller %016" PRIx64
 		      " (a supervisor takes them over with takeover = true: docs/lcm.md)",
@@ -511,11 +513,11 @@ static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t a
 }
 
 /*
- * An accepted command that arrived at `at`: who owns the motors now (said
- * in state_t and health_t, not logged: a controller's start and end are
- * routine), and the enable = 0 counts.  Bridge thread.
+ * An accepted command: who owns the motors now (said in state_t and
+ * health_t, not logged: a controller's start and end are routine), and the
+ * enable = 0 counts.  Bridge thread.
  */
-static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg, int64_t at)
+static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg)
 {
 	uint32_t on = 0, off = 0;
 
@@ -535,13 +537,16 @@ static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg, int64_
 		b->owner_on = 0;
 		atomic_store_explicit(&b->pub_owner, b->owner, memory_order_relaxed);
 		atomic_store_explicit(&b->pub_owned, true, memory_order_relaxed);
+	} else if (!b->owned && off) {
+		b->next_owner = msg->controller; /* it meant it: it may enable next */
 	}
 	if (!b->owned || msg->controller != b->owner)
 		return;
-	b->owner_rx_ns = at;
 	b->owner_on = (b->owner_on | on) & ~off;
 	if (!b->owner_on) {
 		b->owned = false;
+		b->had_owner = true;
+		b->next_owner = b->owner;
 		atomic_store_explicit(&b->pub_owned, false, memory_order_relaxed);
 	}
 }
@@ -610,7 +615,7 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		b->have_utime = true;
 	}
 
-	note_accepted(b, msg, at);
+	note_accepted(b, msg);
 	fill_command(b, msg, &buf->cmd, &note);
 	memcpy(buf->cmd.disables, b->disables, sizeof(buf->cmd.disables));
 	buf->cmd.rx_ns = at;
@@ -638,7 +643,6 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 static void on_home(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
 	struct rmd_bridge *b = user;
-	int64_t at = arrival_ns(b, utime_ns(rbuf->recv_utime), rmd_now_ns());
 	rmd_home_t msg;
 	unsigned i;
 
@@ -658,7 +662,6 @@ static void on_home(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 		      motor_name(b, i), msg.position);
 		return;
 	}
-	owner_expire(b, at);
 	if (b->owned && msg.controller != b->owner) {
 		logf_(b, 4,
 		      "%s: motor %u (%s): refused: controller %016" PRIx64
@@ -825,7 +828,6 @@ static void publish_health(struct rmd_bridge *b, int64_t now)
 	o->commands_clamped = sat64(read_count(&b->n_clamped));
 	for (int k = 0; k < RMD_IGN_KINDS; k++)
 		o->ignored_by_kind[k] = sat64(h->ignored[k]);
-	owner_expire(b, b->rx_seen_ns); /* not now: see owner_expire() */
 	o->owned = b->owned;
 	o->owner = b->owned ? b->owner : 0;
 	o->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);

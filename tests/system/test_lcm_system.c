@@ -1350,6 +1350,18 @@ again:
 /* ---- tests: the watchdog ------------------------------------------------------------------ */
 
 /*
+ * After a trip: enable = 0, then enable = 1 (the latch, docs/lcm.md
+ * "Watchdog, latch, ownership").  Returns whether every motor is ENABLED.
+ */
+static bool disable_then_enable(struct fixture *f)
+{
+	rmd_command_t m = cmd_all(f, false);
+
+	send_cmd(f, &m);
+	return stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED);
+}
+
+/*
  * The controller streams enable for 300 ms; then the next health_t.  On a
  * busy machine (issue 10) this test itself, the controller, may be held off
  * longer than the command timeout: rmdd then trips rightly.  When the
@@ -1375,7 +1387,7 @@ static const rmd_health_t *health_enabled(struct fixture *f, int64_t *safe0)
 			      "rightly; enabling again\n",
 			      f->ctl_gap.max_ns / 1e6, handover_held_ns(f) / 1e6, f->timeout_ms);
 		*safe0 = h->safe_action_events;
-		stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED);
+		disable_then_enable(f);
 	}
 }
 
@@ -1475,10 +1487,15 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 	assert_int_equal(f->rx.health->watchdog, RMD_HEALTH_T_WD_TRIPPED);
 	assert_true(all_in(f, RMD_STATE_T_LC_SAFE));
 
-	/* a new command with enable clears it */
+	/* enable = 1 alone does not lift it (issue 20.3): the motors wait for enable = 0 */
 	safe0 = f->rx.health->safe_action_events;
-	if (!stream(f, true, 1000, done_lifecycle, RMD_STATE_T_LC_ENABLED))
-		fail_msg("enable after the trip did not re-enable the motors; rmdd's output:\n%s",
+	stream(f, true, 300, done_never, 0);
+	assert_true(all_in(f, RMD_STATE_T_LC_SAFE));
+	assert_int_equal(f->rx.health->watchdog, RMD_HEALTH_T_WD_TRIPPED);
+	/* enable = 0, then enable = 1, clears it */
+	if (!disable_then_enable(f))
+		fail_msg("enable 0, then 1, after the trip did not re-enable the motors; rmdd's "
+			 "output:\n%s",
 			 slurp(f->log));
 	h = health_enabled(f, &safe0);
 	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
@@ -2154,12 +2171,97 @@ static void test_second_controller_rejected(void **state)
 	assert_non_null(strstr(log, "<4>rmdd: rejected RMD_COMMAND: controller 0000000000000b0b: "
 				    "the motors are owned by controller 0000000000000a0a"));
 
-	/* B disables them: released, a new controller may enable */
+	/*
+	 * B disables them: released.  A new controller streaming enable = 1
+	 * is rejected (issue 20.3); once it sent enable = 0 it may enable.
+	 */
 	disable_all(f);
 	h = stream_health(f, false);
 	assert_false(h->owned);
 	f->controller = 0x0c0c;
+	{
+		int64_t rejected0 = h->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER];
+
+		stream(f, true, 300, done_never, 0);
+		assert_true(all_in(f, RMD_STATE_T_LC_READY));
+		h = stream_health(f, false);
+		assert_true(h->rejected_by_kind[RMD_HEALTH_T_REJ_OWNER] > rejected0 + 10);
+	}
 	enable_in_place(f);
+	disable_all(f);
+}
+
+/* The daemon's configuration with the sim0 wire tapped into tap, written to path. */
+static void write_tapped_config(const char *path, const char *tap)
+{
+	char text[4096], rest[4096], *p;
+	FILE *fp;
+
+	snprintf(text, sizeof(text), "%s", config_yaml);
+	p = strstr(text, "sim: {seed: 1}");
+	assert_non_null(p);
+	snprintf(rest, sizeof(rest), "%s", p + strlen("sim: {seed: 1}"));
+	snprintf(p, sizeof(text) - (size_t)(p - text), "sim: {seed: 1, tap: '%s'}%s", tap, rest);
+	fp = fopen(path, "w");
+	assert_non_null(fp);
+	fputs(text, fp);
+	assert_int_equal(fclose(fp), 0);
+}
+
+/*
+ * Issue 20.3: the watchdog latch is not the intruder's.  A owns and drives
+ * the motors while B, a forgotten script, streams enable = 1 beside it and
+ * is rejected.  A dies: its motors' deadlines pass and they get the safe
+ * action.  B streams on for 1.5 s and never drives them: no position
+ * setpoint (0xA4) reaches the sim0 wire after the trip, the motors stay
+ * SAFE, A still owns them.  A's enable = 0, then enable = 1, drives them
+ * again.  Before the fix, B took them 6 ms after the trip.
+ */
+static void test_intruder_never_inherits_after_a_trip(void **state)
+{
+	struct fixture *f = fixture(state);
+	char path[400], tap[400];
+	const rmd_health_t *h;
+	unsigned a4_after_trip, a4_end;
+	bool near_b = false;
+
+	snprintf(tap, sizeof(tap), "%s/tap.%u.log", tmpdir, test_no);
+	snprintf(path, sizeof(path), "%s/tapped.%u.yaml", tmpdir, test_no);
+	write_tapped_config(path, tap);
+	start_rmdd_with(f, path);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = CTL_A;
+	enable_in_place(f);
+	memcpy(f->home, f->target, sizeof(f->home));
+	both_publish(f, 500, false, done_never, 0, &near_b);
+	assert_false(near_b);
+	assert_true(tap_count(tap, "#A4") > 100);
+
+	/* A dies; B streams on */
+	f->controller = CTL_B;
+	for (int i = 0; i < NMOTORS; i++)
+		f->target[i] = f->home[i] - 0.3;
+	stream(f, true, 500, done_never, 0);
+	a4_after_trip = tap_count(tap, "#A4");
+	stream(f, true, 1000, done_never, 0);
+	a4_end = tap_count(tap, "#A4");
+	if (a4_end != a4_after_trip)
+		fail_msg("%u position setpoints (0xA4) on the wire while B streamed after A's trip",
+			 a4_end - a4_after_trip);
+	h = stream_health(f, true);
+	if (!all_in(f, RMD_STATE_T_LC_SAFE) || !h->owned || h->owner != CTL_A)
+		fail_msg("B streaming enable = 1 after A's trip: motor 0 in lifecycle %d, owner "
+			 "%llx (owned %d); rmdd's output:\n%s",
+			 f->rx.state.motor[0].lifecycle, (unsigned long long)h->owner, h->owned,
+			 slurp(f->log));
+	assert_false(all_near(f, f->home, -0.3, 0.1));
+
+	/* the tripped owner lifts it: enable = 0, then enable = 1 */
+	f->controller = CTL_A;
+	disable_all(f);
+	enable_in_place(f);
+	stream(f, true, 300, done_never, 0);
+	assert_true(tap_count(tap, "#A4") > a4_end + 100);
 	disable_all(f);
 }
 
@@ -2170,7 +2272,7 @@ static void test_second_controller_rejected(void **state)
  * goes on (SIGCONT).  A was never silent: its commands only queued, and
  * rmdd judges each by when it arrived, so A still owns the motors, every
  * B command is rejected, and B's setpoints never reach the motors (the
- * loop may trip on the stall; A's next enable then restarts them).
+ * loop may trip on the stall; A's enable = 0, then 1, restarts them).
  * Before the fix rmdd judged by when it read them: A looked silent, and B
  * took the motors.  The stall is measured; a run in which this test held
  * A's own commands further apart than the command timeout is the
@@ -2541,6 +2643,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_sigterm_sends_the_configured_action, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_ignored_enable_reported, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_intruder_never_inherits_after_a_trip, setup,
+						teardown),
 		cmocka_unit_test_setup_teardown(test_incidents_record_intruder_and_watchdog, setup,
 						teardown),
 	};

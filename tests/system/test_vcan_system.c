@@ -2274,7 +2274,7 @@ static void test_system_watchdog(void **state)
 		      min_ms, max_ms, limit_ms, S.cfg.safety.command_timeout_ms + period_ms,
 		      min_pub, max_pub, pub_limit_ms, S.h.safe_action_events);
 
-	/* a new enable lifts it */
+	/* enable = 0, then 1, lifts it (enable_try() sends the enable = 0 rmdd waits for) */
 	log_forget();
 	t_en = real_ns();
 	{

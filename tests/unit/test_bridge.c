@@ -1257,8 +1257,9 @@ static void test_home(void **state)
 /*
  * Issue 13: one controller at a time.  The first to enable owns the motors;
  * another is rejected (REJ_OWNER, its id in health_t) until the owner
- * disables what it enabled, goes quiet for the command timeout, or a
- * supervisor takes over.  enable = 0 entries are counted per motor in the
+ * disables what it enabled or a supervisor takes over (silence does not
+ * end it; a controller rejected meanwhile takes the released motors only
+ * with an enable = 0 of its own first).  enable = 0 entries are counted per motor in the
  * hand-over, so the rt loop sees them however fast enable = 1 follows.
  */
 static void test_one_controller_at_a_time(void **state)
@@ -1349,18 +1350,33 @@ static void test_one_controller_at_a_time(void **state)
 	assert_int_equal(c.disables[2], 1);
 	assert_int_equal(c.disables[0], 0);
 
-	/* A enables again: it owns them; then it goes quiet past the command timeout */
+	/*
+	 * Issue 20.3: A, rejected while B drove, does not inherit the motors
+	 * by streaming enable = 1: it sends enable = 0 first, then enable = 1
+	 */
 	m = ctl_cmd(0xA, 4, true);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, stats(f).rejected_by_kind[RMD_REJ_OWNER] == 4, 2000);
+	assert_false(stats(f).owned);
+	assert_false(take_command(f, &c));
+	m = ctl_cmd(0xA, 5, false);
+	send_cmd(f, &m);
+	WAIT_UNTIL(f, take_command(f, &c), 2000);
+	assert_false(stats(f).owned);
+	m = ctl_cmd(0xA, 6, true);
 	send_cmd(f, &m);
 	WAIT_UNTIL(f, take_command(f, &c), 2000);
 	assert_int_equal(stats(f).owner, 0xA);
+	/* the counts go on: the loop compares them with the last it saw */
+	assert_int_equal(c.disables[1], 2);
+	/* silent past the command timeout, A keeps them: B is still rejected */
 	WAIT_UNTIL(f, false, 300);
 	m = ctl_cmd(0xB, 3, true);
 	send_cmd(f, &m);
-	WAIT_UNTIL(f, take_command(f, &c), 2000);
-	assert_int_equal(stats(f).owner, 0xB);
-	/* the counts go on: the loop compares them with the last it saw */
-	assert_int_equal(c.disables[1], 1);
+	WAIT_UNTIL(f, stats(f).rejected_by_kind[RMD_REJ_OWNER] == 5, 2000);
+	assert_false(take_command(f, &c));
+	assert_true(stats(f).owned);
+	assert_int_equal(stats(f).owner, 0xA);
 
 	rmd_bridge_stop(&f->b);
 	rewind(f->log);

@@ -715,7 +715,23 @@ static void test_watchdog(void **state)
 	/* latched: nothing changes without a command */
 	run(300, false);
 	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
-	/* a new enable lifts it */
+	/*
+	 * Issue 20.3: nor with enable = 1 alone, newer than the trip as it is
+	 * (before, the first one restarted the motors): nothing on the wire moves
+	 */
+	from = trace_n;
+	assert_int_equal(ignored_over(150, RMD_IGN_EDGE), 2 * 150);
+	for (unsigned k = from; k < trace_n; k++)
+		if (moves_frame(&trace[k].f))
+			fail_msg("a frame that moves, %03x %02x, from enable = 1 after the trip",
+				 trace[k].f.can_id, trace[k].f.data[0]);
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	assert_int_equal(lifecycle(1), RMD_LC_SAFE);
+	assert_true(rmd_latest_get(&R.io.health, &p));
+	assert_int_equal(((const struct rmd_health *)p)->watchdog, RMD_WD_TRIPPED);
+	/* enable = 0, then enable = 1, lifts it */
+	R.cmd.disables[0]++;
+	R.cmd.disables[1]++;
 	run(150, true);
 	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
 	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
@@ -798,6 +814,80 @@ static void test_safe_frames_take_polls_place(void **state)
 					 (long long)((first80[i] - last_cmd) / US));
 		rig_down();
 	}
+}
+
+/* The first frame to motor i with command byte cmd since trace[from]: its time, or INT64_MAX. */
+static int64_t first_to(unsigned i, int cmd, unsigned from)
+{
+	const struct rmd_config_motor *m = &R.io.cfg.motors[i];
+
+	for (unsigned k = from; k < trace_n; k++)
+		if (trace[k].bus == m->bus && trace[k].f.can_id == 0x140u + m->id &&
+		    trace[k].f.data[0] == cmd)
+			return trace[k].t_ns;
+	return INT64_MAX;
+}
+
+/*
+ * Issue 20.2: the host watchdog is per motor.  A controller that keeps
+ * streaming commands which carry only motor 0 (its arms loop died) keeps
+ * motor 0 driven, but motor 1 gets the safe action command_timeout_ms
+ * after the last command that carried it, and no setpoint reaches it after
+ * that; commands that carry no motor (count = 0) then trip motor 0 too.
+ * Judged on the wire.
+ */
+static void test_watchdog_per_motor(void **state)
+{
+	int64_t last1, last0, t80;
+	unsigned from;
+
+	(void)state;
+	up_at_speed(NULL, 2, 1.0, 150);
+	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
+	last1 = t_now - period();
+	/* the commands carry motor 0 only */
+	R.cmd.present = 1u << 0;
+	from = trace_n;
+	run(300, true);
+	t80 = first_to(1, 0x80, from);
+	if (t80 == INT64_MAX)
+		fail_msg("motor 1: no safe action (0x80) in 300 ms of commands without it");
+	if (t80 < last1 + 100 * MS || t80 > last1 + 101 * MS + 300 * US)
+		fail_msg("motor 1: 0x80 at +%lld us after its last command (want +100..101 ms)",
+			 (long long)((t80 - last1) / US));
+	for (unsigned k = from; k < trace_n; k++)
+		if (trace[k].t_ns > t80 && trace[k].f.can_id == 0x140u + R.io.cfg.motors[1].id &&
+		    trace[k].f.data[0] == 0xA2)
+			fail_msg("motor 1: 0xA2 at +%lld us, after its safe action",
+				 (long long)((trace[k].t_ns - t80) / US));
+	assert_int_equal(lifecycle(1), RMD_LC_SAFE);
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
+	/* motor 0 kept its setpoint all along */
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
+	assert_int_equal(sent_to(0, 0x80, from), 0);
+	assert_true(sent_to(0, 0xA2, from) >= 250);
+
+	/* commands that carry no motor keep nothing enabled */
+	last0 = t_now - period();
+	R.cmd.present = 0;
+	from = trace_n;
+	run(300, true);
+	t80 = first_to(0, 0x80, from);
+	if (t80 == INT64_MAX)
+		fail_msg("motor 0: no safe action (0x80) in 300 ms of commands with no motor");
+	if (t80 < last0 + 100 * MS || t80 > last0 + 101 * MS + 300 * US)
+		fail_msg("motor 0: 0x80 at +%lld us after its last command (want +100..101 ms)",
+			 (long long)((t80 - last0) / US));
+	for (unsigned k = from; k < trace_n; k++)
+		if (trace[k].t_ns > t80 && moves_frame(&trace[k].f))
+			fail_msg(
+				"a frame that moves (0x%03x %02x) at +%lld us, after the safe action",
+				trace[k].f.can_id, trace[k].f.data[0],
+				(long long)((trace[k].t_ns - t80) / US));
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_OFF);
+	rig_down();
 }
 
 /* R.cmd handed over stamped rx_ns (when it arrived), then one cycle. */
@@ -1860,6 +1950,9 @@ static void pc_tweak(struct rmd_config *cfg)
 	}
 	m->zero_offset_rad = pc.zero_rad;
 	m->multi_turn_saved = false;
+	/* no position limits: the joint turns past rmdd --sim's one turn */
+	m->limits.position_min_rad = -INFINITY;
+	m->limits.position_max_rad = INFINITY;
 	m->n_travel = 0;
 	if (pc.below != -1) {
 		m->n_travel = 2;
@@ -2758,6 +2851,7 @@ int main(void)
 		cmocka_unit_test(test_shutdown_damp_feeds_the_others),
 		cmocka_unit_test(test_safe_frames_take_polls_place),
 		cmocka_unit_test(test_events_cause_before_effect),
+		cmocka_unit_test(test_watchdog_per_motor),
 		cmocka_unit_test(test_commands_queued_in_a_stall),
 		cmocka_unit_test(test_nan_never_on_wire),
 		cmocka_unit_test(test_stop_motors),

@@ -271,8 +271,9 @@ static void log_watchdog(const struct rmd_config *cfg, const struct rmd_event *e
 	switch ((enum rmd_watchdog_state)e->a) {
 	case RMD_WD_TRIPPED:
 		tool_log(4,
-			 "controller: no command for %u ms: safe action %s on every enabled motor, "
-			 "held until a command enables them again",
+			 "controller: no command for %u ms for an enabled motor: safe action %s on "
+			 "each such motor (each has its own deadline), held until its owner "
+			 "sends enable = 0, then enable = 1",
 			 (unsigned)cfg->safety.command_timeout_ms,
 			 rmd_safe_action_name(cfg->safety.safe_action));
 		break;
