@@ -350,7 +350,8 @@ $(SYSTEMD_ROOT).installed: $(PROGS) systemd/rmdd.service.in
 # tests/package/check-install: `make install` into a scratch DESTDIR, used
 # as a user would (tests/package/check-deb does it for the package).
 # Sanitizer builds count their own instrumentation: not there.
-# All of it runs with the venv's python3 first on PATH ($(VENV_PATH)).
+# All of it runs with the venv's python3 first on PATH ($(VENV_PATH)); the
+# runner's last lines count and list skips (CI=true: tests/expected-skips).
 TEST_PATH = PATH="$(abspath $(VENV_PATH)):$$PATH"
 test: all $(VENV_PATH)/python3 $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) --systemd $(SYSTEMD_TESTS) \
