@@ -1,7 +1,7 @@
 # rmdd — one non-recursive Makefile (STYLE.md "Build").
 #
 #   make                 build the library, tools and test binaries
-#   make test            run every cmocka suite (tests/run-tests.sh)
+#   make test            run every cmocka suite (tests/run-tests.sh) with the venv's Python
 #                        (tests/busy-check: make test N times beside a CPU hog)
 #   make install         PREFIX=/usr/local DESTDIR=  (programs, units, man pages,
 #                        LCM types: .lcm, headers, pkg-config rmd-lcm, jar, Python)
@@ -180,14 +180,29 @@ $(LCM_PYTHON): $(LCM_TYPES) $(PYTHON_SRCS)
 
 python-venv: $(VENV_STAMP)
 
+# `make test` needs it: when it cannot be made, say why and what to install.
 $(VENV_STAMP): $(LCM_TYPES) $(PYTHON_SRCS)
 	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot]')")
-	$(Q)test -x $(VENV)/bin/python3 || python3 -m venv $(VENV)
+	$(Q)test -x $(VENV)/bin/pip || { rm -rf $(VENV) && python3 -m venv $(VENV); } || { \
+		rm -rf $(VENV); echo "make python-venv: python3 -m venv $(VENV) failed:" \
+		"install python3 and python3-venv (sudo make deps)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
-		'./python[plot]'
+		'./python[plot]' || { echo "make python-venv: pip install './python[plot]' into" \
+		"$(VENV) failed: it fetches lcm and matplotlib from PyPI, so it needs the network" \
+		"(or a mirror: PIP_INDEX_URL, PIP_FIND_LINKS)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
 		--force-reinstall --no-deps ./python
 	$(Q)touch $@
+
+# For `make test`: a directory holding one program, a python3 that is the
+# venv's, to put first on PATH.  test_lcm_system and the docs scenarios run
+# `python3` from PATH (Debian's cannot import lcm); the venv's bin/ itself
+# also has PyPI lcm's lcm-gen and lcm-logger, which must not shadow Debian's.
+VENV_PATH := $(VENV)-path
+$(VENV_PATH)/python3: $(VENV_STAMP)
+	@mkdir -p $(dir $@)
+	$(Q)printf '#!/bin/sh\nexec "%s/bin/python3" "$$@"\n' "$(abspath $(VENV))" >$@
+	$(Q)chmod +x $@
 
 lcm-java: $(LCM_JAVA)
 
@@ -341,12 +356,15 @@ $(SYSTEMD_ROOT).installed: $(PROGS) systemd/rmdd.service.in
 # tests/package/check-install: `make install` into a scratch DESTDIR, used
 # as a user would (tests/package/check-deb does it for the package).
 # Sanitizer builds count their own instrumentation: not there.
-test: all $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
-	$(Q)BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) --systemd $(SYSTEMD_TESTS) \
+# All of it runs with the venv's python3 first on PATH ($(VENV_PATH)); the
+# runner's last lines count and list skips (CI=true: tests/expected-skips).
+TEST_PATH = PATH="$(abspath $(VENV_PATH)):$$PATH"
+test: all $(VENV_PATH)/python3 $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
+	$(Q)$(TEST_PATH) BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) --systemd $(SYSTEMD_TESTS) \
 		-- $(TESTS) $(DOCS_TESTS)
 ifneq ($(SANITIZE),1)
-	$(Q)BUILD=$(BUILD) bench/insn-guard.sh
-	$(Q)BUILD=$(BUILD) MAKE="$(MAKE)" tests/package/check-install
+	$(Q)$(TEST_PATH) BUILD=$(BUILD) bench/insn-guard.sh
+	$(Q)$(TEST_PATH) BUILD=$(BUILD) MAKE="$(MAKE)" tests/package/check-install
 endif
 
 # ---- install (README.md "Install"; debian/rules packages `make install`) ----

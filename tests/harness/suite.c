@@ -1,6 +1,20 @@
 // SPDX-License-Identifier: MIT
 /* A suite's main() (suite.h). */
+#include <stdio.h>
+
 #include "harness/suite.h"
+
+/*
+ * tests/run-tests.sh reads a suite's output from a file, where stdout would
+ * be fully buffered and stderr not: cmocka's "[ RUN      ]" lines (stdout)
+ * would land after the reasons the tests print to stderr.  Line-buffered,
+ * each line lands where it was written, so the runner finds a skipped test's
+ * reason between its RUN and SKIPPED lines.  Every suite links this file.
+ */
+__attribute__((constructor)) static void suite_line_buffered(void)
+{
+	setvbuf(stdout, NULL, _IOLBF, 0);
+}
 
 void suite_fixture(struct CMUnitTest *tests, size_t n, CMFixtureFunction setup,
 		   CMFixtureFunction teardown)
