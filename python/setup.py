@@ -1,7 +1,10 @@
 # SPDX-License-Identifier: MIT
-# The metadata is in pyproject.toml; this only adds the generated LCM types
-# (gen_types.py: lcm-gen on ../lcm_types/*.lcm) to what build_py copies.
+# The metadata is in pyproject.toml, but for the version: rmdd's
+# (../tools/version), so the package, the .deb and `rmdd --version` agree.
+# This also adds the generated LCM types (gen_types.py: lcm-gen on
+# ../lcm_types/*.lcm) to what build_py copies.
 import os
+import subprocess
 import sys
 
 from setuptools import setup
@@ -18,4 +21,12 @@ class build_py_with_types(build_py):
             gen_types.generate(self.build_lib)
 
 
-setup(cmdclass={"build_py": build_py_with_types})
+def rmd_version():
+    """rmdd's version (../tools/version), or $RMD_VERSION when it is set."""
+    if os.environ.get("RMD_VERSION"):
+        return os.environ["RMD_VERSION"]
+    here = os.path.dirname(os.path.abspath(__file__))
+    return subprocess.check_output([os.path.join(here, "..", "tools", "version")], text=True).strip()
+
+
+setup(version=rmd_version(), cmdclass={"build_py": build_py_with_types})
