@@ -173,10 +173,11 @@ lcm-python: $(LCM_PYTHON)
 
 # The whole package, for PYTHONPATH=$(BUILD)/python in a checkout: the
 # generated types and python/rmd/*.py (python/gen_types.py, as pip does).
+# rmd.__version__ is RMD_VERSION: made again when it changes (VERSION_HDR, below).
 $(LCM_PYTHON): $(LCM_TYPES) $(PYTHON_SRCS)
 	@$(if $(Q),echo "  LCMGEN  $(BUILD)/python/rmd")
 	$(Q)rm -rf $(BUILD)/python/rmd && mkdir -p $(BUILD)/python
-	$(Q)LCM_GEN=$(LCM_GEN) python3 python/gen_types.py $(BUILD)/python --with-sources
+	$(Q)LCM_GEN=$(LCM_GEN) RMD_VERSION='$(RMD_VERSION)' python3 python/gen_types.py $(BUILD)/python --with-sources
 
 python-venv: $(VENV_STAMP)
 
@@ -210,6 +211,7 @@ $(VERSION_HDR): FORCE
 	$(Q)if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv -f $@.tmp $@; fi
 $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) $(RMDD_SRCS:%.c=$(BUILD)/%.o): \
 	| $(VERSION_HDR)
+$(LCM_PYTHON): $(VERSION_HDR)
 
 # Bash completion, from each program's own option tables (PROG --completion bash).
 COMPLETIONS := $(patsubst $(BUILD)/%,$(BUILD)/completion/%,$(PROGS))

@@ -4,7 +4,6 @@
 # This also adds the generated LCM types (gen_types.py: lcm-gen on
 # ../lcm_types/*.lcm) to what build_py copies.
 import os
-import subprocess
 import sys
 
 from setuptools import setup
@@ -21,12 +20,4 @@ class build_py_with_types(build_py):
             gen_types.generate(self.build_lib)
 
 
-def rmd_version():
-    """rmdd's version (../tools/version), or $RMD_VERSION when it is set."""
-    if os.environ.get("RMD_VERSION"):
-        return os.environ["RMD_VERSION"]
-    here = os.path.dirname(os.path.abspath(__file__))
-    return subprocess.check_output([os.path.join(here, "..", "tools", "version")], text=True).strip()
-
-
-setup(version=rmd_version(), cmdclass={"build_py": build_py_with_types})
+setup(version=gen_types.rmd_version(), cmdclass={"build_py": build_py_with_types})
