@@ -25,13 +25,13 @@ PREFIX ?= /usr/local
 BINDIR ?= $(PREFIX)/bin
 SYSCONFDIR ?= /etc
 DESTDIR ?=
-# The version: `git describe` of the newest v* tag (v0.2.0 is the first
-# release); a tree without git or tags says 0.2.0+unknown.
-# git runs in the Makefile's own checkout (a tree of symlinks to it, as the
-# docs test makes, describes the same commit); make deb passes its version.
+# The version: VERSION's release number plus the commits since the commit
+# that set it (tools/version; debian/README.source has the table).  git
+# runs in the Makefile's own checkout (a tree of symlinks to it, as the docs
+# test makes, describes the same commit); make deb passes its version.
 RMD_TOP := $(dir $(realpath $(firstword $(MAKEFILE_LIST))))
 ifndef RMD_VERSION
-RMD_VERSION := $(shell v=$$(git -C '$(RMD_TOP)' describe --tags --match 'v[0-9]*' --dirty 2>/dev/null) && echo $${v#v} || echo 0.2.0+unknown)
+RMD_VERSION := $(shell '$(RMD_TOP)tools/version')
 endif
 
 CC ?= cc
@@ -173,10 +173,11 @@ lcm-python: $(LCM_PYTHON)
 
 # The whole package, for PYTHONPATH=$(BUILD)/python in a checkout: the
 # generated types and python/rmd/*.py (python/gen_types.py, as pip does).
+# rmd.__version__ is RMD_VERSION: made again when it changes (VERSION_HDR, below).
 $(LCM_PYTHON): $(LCM_TYPES) $(PYTHON_SRCS)
 	@$(if $(Q),echo "  LCMGEN  $(BUILD)/python/rmd")
 	$(Q)rm -rf $(BUILD)/python/rmd && mkdir -p $(BUILD)/python
-	$(Q)LCM_GEN=$(LCM_GEN) python3 python/gen_types.py $(BUILD)/python --with-sources
+	$(Q)LCM_GEN=$(LCM_GEN) RMD_VERSION='$(RMD_VERSION)' python3 python/gen_types.py $(BUILD)/python --with-sources
 
 python-venv: $(VENV_STAMP)
 
@@ -225,6 +226,7 @@ $(VERSION_HDR): FORCE
 	$(Q)if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv -f $@.tmp $@; fi
 $(RMDCTL_SRCS:%.c=$(BUILD)/%.o) $(RMDSIM_SRCS:%.c=$(BUILD)/%.o) $(RMDD_SRCS:%.c=$(BUILD)/%.o): \
 	| $(VERSION_HDR)
+$(LCM_PYTHON): $(VERSION_HDR)
 
 # Bash completion, from each program's own option tables (PROG --completion bash).
 COMPLETIONS := $(patsubst $(BUILD)/%,$(BUILD)/completion/%,$(PROGS))
@@ -516,25 +518,31 @@ uninstall:
 	-rmdir $(DESTDIR)$(DATADIR)/rmdd 2>/dev/null
 	@echo "uninstall: kept $(RMDD_CONF) (your configuration); remove it by hand"
 
-# `make deb`: the Debian package, in $(BUILD)/deb (debian/README.source).
-# dpkg-buildpackage runs in a copy of the tree whose debian/changelog says
-# the version: RMD_VERSION made a Debian version that rises with every
-# commit (0.2.0-5-gabc1234-dirty -> 0.2.0+git5.gabc1234.dirty); its
-# debian/copyright is LICENSE.  The package build sees none of this make's
-# variables, nor the caller's environment (env -i): debian/rules sets its
-# own.
-DEB_VERSION = $(shell echo '$(RMD_VERSION)' | sed -E -e 's/-([0-9]+)-g/+git\1.g/' \
-	-e 's/-dirty$$/.dirty/' -e 's/^([^+]*)\.dirty$$/\1+dirty/')
+# `make deb`: the Debian packages rmdd and rmdd-dev, in $(BUILD)/deb
+# (debian/README.source).  dpkg-buildpackage runs in a copy of the tree;
+# when RMD_VERSION is not the release debian/changelog's top entry names, the
+# copy's changelog gets an entry for it on top (RMD_VERSION is a Debian
+# version as it is: tools/version).  Its debian/copyright is LICENSE.  The
+# package build sees none of this make's variables, nor the caller's
+# environment (env -i): debian/rules sets its own.
+DEB_VERSION = $(RMD_VERSION)
 DEB_SRC := $(BUILD)/deb/rmdd
+
+# `make -s version`: the version this tree builds (tools/version).
+.PHONY: version
+version:
+	@echo '$(RMD_VERSION)'
 
 deb:
 	rm -rf $(BUILD)/deb && mkdir -p $(DEB_SRC)
 	tar -c --exclude=./build --exclude=./.git --exclude=./debian/rmdd --exclude=__pycache__ \
 		--exclude=./python/build --exclude='./python/*.egg-info' . | tar -x -C $(DEB_SRC)
-	printf 'rmdd (%s) unstable; urgency=medium\n\n  * Built by make deb from %s (git describe).\n\n -- %s  %s\n' \
-		'$(DEB_VERSION)' '$(RMD_VERSION)' "$$(sed -n 's/^Maintainer: //p' debian/control)" \
-		"$$(date -R -d @$$(git log -1 --format=%ct 2>/dev/null || date +%s))" \
-		>$(DEB_SRC)/debian/changelog
+	if [ "$$(dpkg-parsechangelog -S Version -l debian/changelog)" != '$(DEB_VERSION)' ]; then \
+		{ printf 'rmdd (%s) unstable; urgency=medium\n\n  * Built by make deb from %s.\n\n -- %s  %s\n\n' \
+			'$(DEB_VERSION)' "$$(git log -1 --format=%h 2>/dev/null || echo 'a tree without history')" \
+			"$$(sed -n 's/^Maintainer: //p' debian/control)" \
+			"$$(date -R -d @$$(git log -1 --format=%ct 2>/dev/null || date +%s))"; \
+		  cat debian/changelog; } >$(DEB_SRC)/debian/changelog; fi
 	{ printf '%s\n' 'Format: https://www.debian.org/doc/packaging-manuals/copyright-format/1.0/' \
 		'Upstream-Name: rmdd' '' 'Files: *' 'Copyright: 2026 The rmdd authors' 'License: Expat' '' \
 		'License: Expat'; sed -n -e '/^Permission/,$$s/^$$/./' -e '/^Permission/,$$s/^/ /p' LICENSE; } \

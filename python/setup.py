@@ -1,6 +1,8 @@
 # SPDX-License-Identifier: MIT
-# The metadata is in pyproject.toml; this only adds the generated LCM types
-# (gen_types.py: lcm-gen on ../lcm_types/*.lcm) to what build_py copies.
+# The metadata is in pyproject.toml, but for the version: rmdd's
+# (../tools/version), so the package, the .deb and `rmdd --version` agree.
+# This also adds the generated LCM types (gen_types.py: lcm-gen on
+# ../lcm_types/*.lcm) to what build_py copies.
 import os
 import sys
 
@@ -18,4 +20,4 @@ class build_py_with_types(build_py):
             gen_types.generate(self.build_lib)
 
 
-setup(cmdclass={"build_py": build_py_with_types})
+setup(version=gen_types.rmd_version(), cmdclass={"build_py": build_py_with_types})

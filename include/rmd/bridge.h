@@ -85,6 +85,7 @@ struct rmd_bridge_opts {
 	/* LCM provider URL; udpm:// without recv_buf_size gets RMD_BRIDGE_UDPM_RCVBUF. */
 	char url[RMD_BRIDGE_URL_LEN];
 	char prefix[RMD_BRIDGE_PREFIX_LEN]; /* channel prefix */
+	char version[64]; /* config_t.version: the program's version ("" by default) */
 
 	unsigned nmotors;			     /* 1..RMD_MAX_MOTORS */
 	struct rmd_motor_info motor[RMD_MAX_MOTORS]; /* rmd_motor_info() fills them */

@@ -7,5 +7,6 @@ built (`pip install ./python`, or `make lcm-python` for build/python);
 rmd.Client talks to a running rmdd (see rmd.client).
 """
 
+from ._version import __version__  # noqa: F401  (generated: rmdd's version, as rmdd --version says)
 from ._types import *  # noqa: F401,F403  (generated: one class per lcm_types/*.lcm)
 from .client import DEFAULT_URL, Client, RmdError, lifecycle_name  # noqa: F401

@@ -865,6 +865,7 @@ static void publish_config(struct rmd_bridge *b)
 
 	c->utime = rmd_now_ns() / 1000;
 	c->prefix = op->prefix;
+	c->version = op->version;
 	c->period_us = sat32(op->period_ns / 1000);
 	c->state_every = sat32(op->state_every);
 	c->stale_ms = op->stale_ms;

@@ -772,6 +772,11 @@ static void test_setpoints_move_the_motors(void **state)
 	c = f->rx.config;
 	/* config_t: what tools label the motors with */
 	assert_string_equal(c->prefix, "RMD_");
+	{
+		char v[128];
+
+		assert_string_equal(c->version, built_version(v, sizeof(v))); /* rmdd --version's */
+	}
 	assert_int_equal(c->period_us, 1000000 / RATE_HZ);
 	assert_int_equal(c->bus_count, 2);
 	assert_string_equal(c->bus[1].name, "sim1");

@@ -89,7 +89,7 @@ const char *tool_nearest_opt(const char *arg, const struct tool_opt *o, size_t n
 /* The two lines after a usage error on stderr: "usage: LINE" and "see `HELP`". */
 void tool_usage_hint(const char *line, const char *help);
 
-/* "PROG VERSION" on stdout: the build's RMD_VERSION (git describe). */
+/* "PROG VERSION" on stdout: the build's RMD_VERSION (tools/version). */
 void tool_print_version(const char *prog);
 
 /* ---- bash completion ---------------------------------------------------------------------- */

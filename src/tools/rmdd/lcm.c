@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "rmd_version.h"
 #include "rmdd.h"
 
 /* The bridge's messages, as rmdd's own; whatever -q says, as before. */
@@ -26,6 +27,7 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	rmd_bridge_opts_init(o);
 	snprintf(o->url, sizeof(o->url), "%s", cfg->lcm.url);
 	snprintf(o->prefix, sizeof(o->prefix), "%s", cfg->lcm.channel_prefix);
+	snprintf(o->version, sizeof(o->version), "%s", RMD_VERSION);
 	o->nmotors = cfg->n_motors;
 	for (unsigned i = 0; i < cfg->n_motors && i < RMD_MAX_MOTORS; i++) {
 		rmd_motor_info(rmd_loop_motor(loop, i), plan->motor[i].batched, &o->motor[i]);
