@@ -195,6 +195,8 @@ struct rmd_bridge {
 	int rt_error;
 	unsigned n_lcm_rt;
 
+	pthread_mutex_t config_mu; /* the newest config_t's encoding (rmd_bridge_config_copy) */
+
 	char ch_command[RMD_BRIDGE_PREFIX_LEN + 16];
 	char ch_state[RMD_BRIDGE_PREFIX_LEN + 16];
 	char ch_health[RMD_BRIDGE_PREFIX_LEN + 16];
@@ -294,6 +296,14 @@ int rmd_bridge_start(struct rmd_bridge *b);
 
 /* Wake the thread, wait for it to end.  A bridge that was not started is left as is.  Non-rt. */
 void rmd_bridge_stop(struct rmd_bridge *b);
+
+/*
+ * The newest config_t the bridge published, in LCM's encoding (the bytes
+ * on the wire, without the LCM header), into out[len]: its length, or 0
+ * before the first one or when it does not fit.  Any thread (the incident
+ * writer puts it into each recording's LCM log).  Non-rt.
+ */
+int rmd_bridge_config_copy(struct rmd_bridge *b, void *out, size_t len);
 
 /* Stop if running, unsubscribe, destroy the LCM instance.  Non-rt. */
 void rmd_bridge_fini(struct rmd_bridge *b);

@@ -117,6 +117,9 @@ struct rmd_bridge_buf {
 	int64_t health_unarmed[RMD_MAX_MOTORS];
 	char bus_name[RMD_MAX_BUSES][RMD_BRIDGE_NAME_LEN];
 	rmd_config_t config;
+	/* the newest config_t as published, for rmd_bridge_config_copy(); under config_mu */
+	unsigned char config_enc[ENC_MAX];
+	int config_len;
 	rmd_bus_config_t config_bus[RMD_MAX_BUSES];
 	rmd_motor_config_t config_motor[RMD_MAX_MOTORS];
 	unsigned char enc[ENC_MAX];
@@ -917,6 +920,9 @@ static void publish_config(struct rmd_bridge *b)
 			.turn_period = m->turn_period_rad,
 		};
 	}
+	pthread_mutex_lock(&b->config_mu);
+	b->buf->config_len = rmd_config_t_encode(b->buf->config_enc, 0, ENC_MAX, c);
+	pthread_mutex_unlock(&b->config_mu);
 	/* Rare, so the generated publish (it allocates) is fine here. */
 	if (rmd_config_t_publish(b->lcm, b->ch_config, c) < 0)
 		count(&b->n_publish_errors);
@@ -1504,6 +1510,7 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	int r;
 
 	memset(b, 0, sizeof(*b));
+	b->config_mu = (pthread_mutex_t)PTHREAD_MUTEX_INITIALIZER;
 	b->rx_off_last_ns = rmd_realtime_offset_ns(&b->rx_seen_ns);
 	b->rx_at_ns = b->rx_seen_ns; /* nothing can have come before */
 	b->stop_fd = -1;
@@ -1628,6 +1635,21 @@ void rmd_bridge_stop(struct rmd_bridge *b)
 	if (read(b->stop_fd, &one, sizeof(one)) < 0) {
 		/* nothing to clear */
 	}
+}
+
+int rmd_bridge_config_copy(struct rmd_bridge *b, void *out, size_t len)
+{
+	int n = 0;
+
+	if (!b->buf)
+		return 0;
+	pthread_mutex_lock(&b->config_mu);
+	if (b->buf->config_len > 0 && (size_t)b->buf->config_len <= len) {
+		n = b->buf->config_len;
+		memcpy(out, b->buf->config_enc, (size_t)n);
+	}
+	pthread_mutex_unlock(&b->config_mu);
+	return n;
 }
 
 void rmd_bridge_fini(struct rmd_bridge *b)

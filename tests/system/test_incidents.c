@@ -17,7 +17,11 @@
  *   - a motor lost amid overruns (SIGSTOP every 200 ms) names the
  *     recording that takes it in: "-lost", not "-overrun";
  *   - overruns alone make one recording a minute: a second stall soon after
- *     is logged as not recorded, a motor lost meanwhile is recorded.
+ *     is logged as not recorded, a motor lost meanwhile is recorded;
+ *   - each recording's window.lcmlog (issue 22.9), read with LCM's own
+ *     eventlog reader: config_t first, naming the motors, then one state_t
+ *     per recorded cycle (as many as states.csv's cycles, in order, every
+ *     motor in each), and nothing on the live COMMAND channel.
  * The watchdog, safe actions and an intruding controller need an LCM
  * controller: tests/system/test_lcm_system.c.  Every wait has a deadline;
  * RMD_TEST_FILTER=name runs one test.
@@ -42,8 +46,12 @@
 
 #include <cmocka.h>
 
+#include <lcm/eventlog.h>
+
 #include "harness/proc.h"
 #include "rmd/config.h"
+#include "rmd/rmd_config_t.h"
+#include "rmd/rmd_state_t.h"
 #include "rmd/time.h"
 
 #define START_MS 10000
@@ -337,6 +345,90 @@ static unsigned first_trigger(const char *inc, const char *kind, const char *nee
 	return at;
 }
 
+/* Cycles (distinct values of the second column) of a recording's states.csv. */
+static unsigned csv_cycles(const char *rec, unsigned *rows)
+{
+	char path[800], line[512];
+	unsigned long long last = ~0ull, c;
+	unsigned n = 0;
+	FILE *f;
+
+	snprintf(path, sizeof(path), "%s/states.csv", rec);
+	f = fopen(path, "r");
+	if (!f)
+		fail_msg("%s: cannot open", path);
+	*rows = 0;
+	while (fgets(line, sizeof(line), f)) {
+		const char *comma = strchr(line, ',');
+
+		if (!comma || sscanf(comma + 1, "%llu", &c) != 1)
+			continue; /* the header */
+		++*rows;
+		n += c != last;
+		last = c;
+	}
+	fclose(f);
+	return n;
+}
+
+/*
+ * Issue 22.9: rec/window.lcmlog opens with LCM's own reader: config_t
+ * first, naming the motors; one state_t per cycle of states.csv, cycles
+ * rising, every motor in each; timestamps rising; nothing on RMD_COMMAND
+ * (a replay must never drive a running rmdd's motors).
+ */
+static void check_lcmlog(const char *rec, unsigned n_motors, const char *first_name)
+{
+	char path[800];
+	lcm_eventlog_t *log;
+	lcm_eventlog_event_t *ev;
+	unsigned states = 0, events = 0, rows, cycles = csv_cycles(rec, &rows);
+	int64_t last_cycle = -1, last_ts = 0;
+	unsigned motors_in_states = 0;
+
+	snprintf(path, sizeof(path), "%s/window.lcmlog", rec);
+	log = lcm_eventlog_create(path, "r");
+	if (!log)
+		fail_msg("%s: LCM's reader cannot open it", path);
+	while ((ev = lcm_eventlog_read_next_event(log))) {
+		if (events == 0) {
+			rmd_config_t c;
+
+			if (strcmp(ev->channel, "RMD_CONFIG") ||
+			    rmd_config_t_decode(ev->data, 0, ev->datalen, &c) < 0)
+				fail_msg("%s: first event on %s, not a config_t on RMD_CONFIG",
+					 path, ev->channel);
+			assert_int_equal(c.motor_count, n_motors);
+			assert_string_equal(c.motor[0].name, first_name);
+			rmd_config_t_decode_cleanup(&c);
+		}
+		if (!strcmp(ev->channel, "RMD_COMMAND"))
+			fail_msg("%s: an event on the live RMD_COMMAND channel", path);
+		if (ev->timestamp < last_ts)
+			fail_msg("%s: event %u's timestamp goes back", path, events);
+		last_ts = ev->timestamp;
+		if (!strcmp(ev->channel, "RMD_STATE")) {
+			rmd_state_t st;
+
+			assert_true(rmd_state_t_decode(ev->data, 0, ev->datalen, &st) >= 0);
+			if (st.cycle <= last_cycle)
+				fail_msg("%s: state_t cycle %lld after %lld", path,
+					 (long long)st.cycle, (long long)last_cycle);
+			last_cycle = st.cycle;
+			motors_in_states += (unsigned)st.count;
+			assert_int_equal(st.motor[st.count - 1].index, st.count - 1);
+			rmd_state_t_decode_cleanup(&st);
+			states++;
+		}
+		events++;
+		lcm_eventlog_free_event(ev);
+	}
+	lcm_eventlog_destroy(log);
+	if (states == 0 || states != cycles || motors_in_states != rows)
+		fail_msg("%s: %u state_t holding %u motor states; states.csv: %u cycles, %u rows",
+			 path, states, motors_in_states, cycles, rows);
+}
+
 static void test_lost_fault_and_bus_off_recorded(void **state)
 {
 	char dir[512], inc[600];
@@ -358,7 +450,14 @@ static void test_lost_fault_and_bus_off_recorded(void **state)
 
 	/* lost: the motor's loss is the trigger */
 	first_trigger(inc, "lost", "sim0: motor 3 (c): ready -> lost", ev, &n, &summary);
+	assert_non_null(strstr(summary, "window.lcmlog  an LCM log: config_t, "));
 	free(summary);
+	{
+		char rec[700];
+
+		recording_of(inc, "lost", rec, sizeof(rec));
+		check_lcmlog(rec, 3, "a");
+	}
 
 	/* fault: the flags, then the state change they cause, in the loop's order */
 	at = first_trigger(inc, "fault", "sim0: motor 1 (a): ready -> fault", ev, &n, &summary);

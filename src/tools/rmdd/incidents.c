@@ -30,7 +30,12 @@
 
 #include <sys/stat.h>
 
+#include <lcm/eventlog.h>
+
+#include "rmd/bridge.h"
 #include "rmd/dialect.h"
+#include "rmd/rmd_command_t.h"
+#include "rmd/rmd_state_t.h"
 #include "rmd/motor.h"
 #include "rmd/thread.h"
 #include "rmd/time.h"
@@ -38,6 +43,14 @@
 
 /* Lines of the summary's "what happened" list: one page. */
 #define SUMMARY_EVENTS 40
+
+/*
+ * The commands' channel in window.lcmlog: not the live COMMAND channel, so
+ * that lcm-logplayer replaying a recording beside a running rmdd never
+ * drives its motors.
+ */
+#define LOG_COMMAND_CHANNEL "COMMAND_TAKEN"
+#define LOG_ENC_MAX 16384 /* state_t of 32 motors: some 3.5 kB */
 
 /* ---- where the recordings go ---------------------------------------------- */
 
@@ -370,10 +383,12 @@ struct out {
 	const char *name; /* the folder's */
 	const struct rmdd_trigger *trig;
 	unsigned n_trig;
-	int64_t from_ns, read_ns; /* the window */
-	int64_t off_ns;		  /* CLOCK_MONOTONIC -> wall clock */
-	unsigned bus;		  /* write_frames(): which */
-	size_t tx[RMD_MAX_BUSES]; /* write_frames(): frames sent, per bus */
+	int64_t from_ns, read_ns;	 /* the window */
+	int64_t off_ns;			 /* CLOCK_MONOTONIC -> wall clock */
+	unsigned bus;			 /* write_frames(): which */
+	size_t tx[RMD_MAX_BUSES];	 /* write_frames(): frames sent, per bus */
+	size_t log_states, log_commands; /* write_lcmlog(): state_t and command_t written */
+	bool log_config;		 /* write_lcmlog(): the config_t too */
 };
 
 /* dir/name written by fn.  0, or -errno. */
@@ -557,7 +572,154 @@ static void write_summary(FILE *f, struct out *o)
 	fprintf(f, "  states.csv  %zu rows: each motor's state after each cycle\n", w->n_states);
 	fprintf(f, "  commands.csv  %zu rows: each motor's entry of each command the loop took\n",
 		w->n_commands);
+	fprintf(f,
+		"  window.lcmlog  an LCM log: %s%zu state_t on %sSTATE, %zu command_t the loop "
+		"took on %s" LOG_COMMAND_CHANNEL "; rmd-plot --log, lcm-logplayer, rmd-spy\n",
+		o->log_config ? "config_t, " : "", o->log_states, cfg->lcm.channel_prefix,
+		o->log_commands, cfg->lcm.channel_prefix);
 	free(items);
+}
+
+/* ---- the window as an LCM log ------------------------------------------------ */
+
+struct lcmlog {
+	lcm_eventlog_t *log;
+	int64_t n;
+	int err;
+	unsigned char *enc;
+};
+
+static void log_put(struct lcmlog *l, const char *prefix, const char *name, int64_t wall_ns,
+		    int len)
+{
+	char channel[RMD_CONFIG_PREFIX_LEN + 32];
+	lcm_eventlog_event_t ev = { 0 };
+
+	if (l->err || len <= 0) {
+		l->err = l->err ? l->err : -EOVERFLOW;
+		return;
+	}
+	snprintf(channel, sizeof(channel), "%s%s", prefix, name);
+	ev.eventnum = l->n++;
+	ev.timestamp = wall_ns / 1000; /* as lcm-logger stamps: wall-clock microseconds */
+	ev.channellen = (int32_t)strlen(channel);
+	ev.channel = channel;
+	ev.datalen = len;
+	ev.data = l->enc;
+	if (lcm_eventlog_write_event(l->log, &ev) != 0)
+		l->err = -EIO;
+}
+
+/*
+ * One state_t from the window's states[k..] of one cycle, as the bridge
+ * publishes it but from what the recorder keeps: the receive times and
+ * counts the recorder does not hold are 0 (docs/faults.md "Incidents").
+ * Returns the index after the cycle.
+ */
+static size_t log_state(struct lcmlog *l, struct out *o, size_t k, rmd_motor_state_t *ms)
+{
+	const struct rmd_incident_window *w = o->w;
+	const struct rmd_incident_state *s0 = &w->states[k];
+	rmd_state_t st = { .utime = s0->t_ns / 1000, .cycle = (int64_t)s0->cycle, .motor = ms };
+	size_t j = k;
+
+	for (; j < w->n_states && w->states[j].cycle == s0->cycle && st.count < RMD_MAX_MOTORS;
+	     j++) {
+		const struct rmd_incident_state *s = &w->states[j];
+
+		ms[st.count++] = (rmd_motor_state_t){
+			.index = s->motor,
+			.lifecycle = (int8_t)s->lifecycle,
+			.mode = (int8_t)s->mode,
+			.position = s->pos_rad,
+			.velocity = s->vel_rad_s,
+			.torque = s->torque_nm,
+			.current = s->current_a,
+			.temperature = s->temp_c,
+			.voltage = s->voltage_v,
+			.error_code = s->error_code,
+			.reply_age_cycles = (int32_t)s->reply_age_cycles,
+		};
+	}
+	log_put(l, o->in->cfg->lcm.channel_prefix, "STATE", s0->t_ns + o->off_ns,
+		rmd_state_t_encode(l->enc, 0, LOG_ENC_MAX, &st));
+	o->log_states++;
+	return j;
+}
+
+/* One command_t from the window's commands[k..] the loop took in one cycle from one message. */
+static size_t log_command(struct lcmlog *l, struct out *o, size_t k, rmd_motor_command_t *mc)
+{
+	const struct rmd_incident_window *w = o->w;
+	const struct rmd_incident_command *c0 = &w->commands[k];
+	rmd_command_t cmd = { .utime = (c0->rx_ns ? c0->rx_ns : c0->t_ns) / 1000,
+			      .seq = c0->seq,
+			      .motor = mc };
+	size_t j = k;
+
+	for (; j < w->n_commands && w->commands[j].t_ns == c0->t_ns &&
+	       w->commands[j].seq == c0->seq && cmd.count < RMD_MAX_MOTORS;
+	     j++) {
+		const struct rmd_incident_command *c = &w->commands[j];
+
+		mc[cmd.count++] = (rmd_motor_command_t){
+			.index = c->motor,
+			.enable = c->sp.enable,
+			.mode = (int8_t)c->sp.mode,
+			.position = c->sp.pos_rad,
+			.velocity = c->sp.vel_rad_s,
+			.torque = c->sp.torque_nm,
+			.kp = c->sp.kp,
+			.kd = c->sp.kd,
+			.max_velocity = c->sp.max_vel_rad_s,
+		};
+	}
+	log_put(l, o->in->cfg->lcm.channel_prefix, LOG_COMMAND_CHANNEL, c0->t_ns + o->off_ns,
+		rmd_command_t_encode(l->enc, 0, LOG_ENC_MAX, &cmd));
+	o->log_commands++;
+	return j;
+}
+
+/*
+ * dir/window.lcmlog: config_t (the bridge's newest), then the window's
+ * state_t and command_t in time order, so rmd-plot --log, lcm-logplayer
+ * and rmd-spy open a recording as they open lcm-logger's logs.  0 or -errno.
+ */
+static int write_lcmlog(const char *dir, struct out *o)
+{
+	const struct rmd_incident_window *w = o->w;
+	rmd_motor_state_t ms[RMD_MAX_MOTORS];
+	rmd_motor_command_t mc[RMD_MAX_MOTORS];
+	struct lcmlog l = { 0 };
+	char path[PATH_MAX];
+	size_t ks = 0, kc = 0;
+	int n;
+
+	if ((size_t)snprintf(path, sizeof(path), "%s/window.lcmlog", dir) >= sizeof(path))
+		return -ENAMETOOLONG;
+	l.enc = malloc(LOG_ENC_MAX);
+	l.log = l.enc ? lcm_eventlog_create(path, "w") : NULL;
+	if (!l.log) {
+		free(l.enc);
+		return l.enc ? -EIO : -ENOMEM;
+	}
+	n = o->in->bridge ? rmd_bridge_config_copy(o->in->bridge, l.enc, LOG_ENC_MAX) : 0;
+	if (n > 0) {
+		int64_t t = w->n_states ? w->states[0].t_ns : o->from_ns;
+
+		log_put(&l, o->in->cfg->lcm.channel_prefix, "CONFIG", t + o->off_ns, n);
+		o->log_config = true;
+	}
+	while (!l.err && (ks < w->n_states || kc < w->n_commands)) {
+		if (kc < w->n_commands &&
+		    (ks == w->n_states || w->commands[kc].t_ns <= w->states[ks].t_ns))
+			kc = log_command(&l, o, kc, mc);
+		else
+			ks = log_state(&l, o, ks, ms);
+	}
+	lcm_eventlog_destroy(l.log);
+	free(l.enc);
+	return l.err;
 }
 
 /* Create "<dir>/<stamp>-<kind>[-N]"; its name into name.  0 or -errno. */
@@ -658,6 +820,8 @@ static void record(struct rmdd_incidents *in, const struct rmdd_trigger *trig, u
 		snprintf(file, sizeof(file), "frames-%s.log", cfg->buses[o.bus].name);
 		r = write_file(path, file, write_frames, &o);
 	}
+	if (r == 0)
+		r = write_lcmlog(path, &o);
 	for (size_t k = 0; k < sizeof(files) / sizeof(files[0]) && r == 0; k++)
 		r = write_file(path, files[k].file, files[k].fn, &o);
 	if (r < 0) {

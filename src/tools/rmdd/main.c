@@ -1209,6 +1209,7 @@ static int run(const struct rmdd_opts *o)
 		tool_log(3, "monitor thread: %s", strerror(-r));
 		goto err_stop_loop;
 	}
+	d->inc.bridge = &d->bridge; /* each recording's LCM log starts with its config_t */
 	r = rmdd_incidents_start(&d->inc);
 	if (r < 0) {
 		tool_log(3, "incident writer thread: %s", strerror(-r));

@@ -88,6 +88,8 @@ struct rmdd_incidents {
 	bool overrun_held;	  /* one was held back since the last overrun recording */
 	/* writer thread; read after stop */
 	unsigned written;
+	/* the config_t of window.lcmlog (rmd_bridge_config_copy); NULL: none.  Set before start. */
+	struct rmd_bridge *bridge;
 };
 
 /*
