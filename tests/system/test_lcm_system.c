@@ -2573,6 +2573,28 @@ static void test_second_daemon_refused_then_forced(void **state)
 	if (count_of(out, "another rmdd publishes on RMD_*") != 1 || !strstr(out, pid_s))
 		fail_msg("the first rmdd did not log the conflict once, naming %s; its output:\n%s",
 			 pid_s, out);
+	/* the example controllers refuse to drive both (exit 1, naming them) */
+	for (int py = 0; py < 2; py++) {
+		const char *c_argv[] = { sine_bin, "--url", f->url, "--duration", "5", NULL };
+		const char *py_argv[] = { "python3",	sine_py, "--url", f->url,
+					  "--duration", "5",	 NULL };
+		char ex_log[400];
+		pid_t ex;
+
+		if (py && (!have_python || !sine_py[0]))
+			break;
+		snprintf(ex_log, sizeof(ex_log), "%s.ex%d", f->child_log, py);
+		ex = spawn(py ? py_argv : c_argv, ex_log, py);
+		st = wait_exit(ex, 20000);
+		if (st < 0)
+			stop_child(&ex, SIGKILL, 2000);
+		out = slurp(ex_log);
+		if (st != 1 || !strstr(out, "two rmdd publish on"))
+			fail_msg(
+				"%s beside two rmdd: exit %d (want 1, naming both); its output:\n%s",
+				py ? "sine.py" : "sine_controller", st, out);
+		print_message("%s", strstr(out, "two rmdd publish on"));
+	}
 	assert_int_equal(stop_child(&f->child, SIGTERM, 5000), 0);
 }
 
