@@ -1981,6 +1981,15 @@ static void send_other_config(struct fixture *f)
 	assert_int_equal(rmd_config_t_publish(f->ctl, PREFIX "CONFIG", &c), 0);
 }
 
+static unsigned count_in(const char *hay, const char *needle)
+{
+	unsigned n = 0;
+
+	for (const char *p = hay; (p = strstr(p, needle)); p += strlen(needle))
+		n++;
+	return n;
+}
+
 static const char *log_text(struct fixture *f)
 {
 	static char buf[16384];
@@ -2030,7 +2039,7 @@ static void test_probe_finds_another_daemon(void **state)
  * Running: another instance's health_t and config_t are counted in
  * health_t and logged once; the bridge's own (instance 7) never are.
  */
-static void test_foreign_counted_and_logged_once(void **state)
+static void test_foreign_counted_and_logged_per_episode(void **state)
 {
 	struct fixture *f = fixture(state);
 	const rmd_health_t *h;
@@ -2071,6 +2080,15 @@ static void test_foreign_counted_and_logged_once(void **state)
 				 "on host other, pid 42, configuration /etc/rmdd/other.yaml") ||
 	    strstr(strstr(log_text(f), "another rmdd") + 1, "another rmdd"))
 		fail_msg("want the conflict logged once:\n%s", log_text(f));
+	/* a second without one ends the episode; the next one is logged again */
+	WAIT_UNTIL(f, strstr(log_text(f), "went quiet"), 3000);
+	if (!strstr(log_text(f), "the other rmdd on TEST_* (instance 0123456789abcdef, host "
+				 "other, pid 42) went quiet"))
+		fail_msg("want the episode's end logged:\n%s", log_text(f));
+	send_other_health(f);
+	WAIT_UNTIL(f, stats(f).foreign == 4, 2000);
+	WAIT_UNTIL(f, count_in(log_text(f), "another rmdd publishes") == 2, 2000);
+	assert_int_equal(count_in(log_text(f), "another rmdd publishes"), 2);
 }
 
 int main(void)
@@ -2099,7 +2117,7 @@ int main(void)
 		cmocka_unit_test(test_own_datagrams_dropped),
 		cmocka_unit_test(test_fragments_reassembled),
 		cmocka_unit_test(test_probe_finds_another_daemon),
-		cmocka_unit_test(test_foreign_counted_and_logged_once),
+		cmocka_unit_test(test_foreign_counted_and_logged_per_episode),
 	};
 
 	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
