@@ -271,9 +271,21 @@ class Controller:
             if not self.motors:
                 return 0
             self.running = True
-        status = self.sine() if not self.stop else 0
+        except self.rmd.RmdError as e:  # MixedStreamError: two rmdd on the prefix
+            return self.refuse(e)
+        try:
+            status = self.sine() if not self.stop else 0
+        except self.rmd.RmdError as e:
+            return self.refuse(e)
         self.shutdown()
         return status
+
+    def refuse(self, e):
+        """Two rmdd answer on the prefix (rmd.MixedStreamError): enable = 0, exit 1."""
+        print(f"{PROG}: {e}: stopping", file=sys.stderr, flush=True)
+        self.c.allow_mixed = True  # the enable = 0 goes out to both
+        self.shutdown()
+        return 1
 
     def sine(self):
         """Stream the sine until a stop; 1 when rmdd stops publishing state."""

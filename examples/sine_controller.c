@@ -39,6 +39,7 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <getopt.h>
+#include <inttypes.h>
 #include <math.h>
 #include <poll.h>
 #include <signal.h>
@@ -57,6 +58,7 @@
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
+#include "rmd/rmd_health_t.h"
 #include "rmd/rmd_state_t.h"
 
 #define PROG "sine_controller"
@@ -124,6 +126,17 @@ struct ctl {
 	char ch_command[96], ch_config[96], ch_config_req[96], ch_state[96];
 
 	bool have_config;
+	/*
+	 * The daemon that answered (config_t, health_t: docs/lcm.md "One daemon
+	 * per prefix"); another instance on the prefix makes us stop.
+	 */
+	int64_t instance;
+	int32_t pid;
+	char host[64];
+	bool mixed;
+	int64_t other_instance;
+	int32_t other_pid;
+	char other_host[64];
 	int period_us, bus_count, motor_count;
 	struct motor_cfg cfg[MAX_MOTORS];
 
@@ -315,6 +328,44 @@ static int motors_in(int count)
 	return count < 0 ? 0 : count < MAX_MOTORS ? count : MAX_MOTORS;
 }
 
+/* A message of daemon `instance`: the first one heard is ours; another one is a mixed stream. */
+static void heard(struct ctl *c, int64_t instance, const char *host, int32_t pid)
+{
+	if (!c->instance) {
+		c->instance = instance;
+		c->pid = pid;
+		snprintf(c->host, sizeof(c->host), "%s", host);
+	} else if (instance != c->instance && !c->mixed) {
+		c->mixed = true;
+		c->other_instance = instance;
+		c->other_pid = pid;
+		snprintf(c->other_host, sizeof(c->other_host), "%s", host);
+	}
+}
+
+static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_health_t *msg,
+		      void *user)
+{
+	(void)rbuf;
+	(void)channel;
+	heard(user, msg->instance, msg->host, msg->pid);
+}
+
+/* Two rmdd on our prefix: say who, and that we stop (our commands would drive both). */
+static bool refuse_mixed(const struct ctl *c)
+{
+	if (!c->mixed)
+		return false;
+	fprintf(stderr,
+		PROG ": two rmdd publish on %s prefix %s: instance %016" PRIx64
+		     " (host %s, pid %d) and %016" PRIx64
+		     " (host %s, pid %d); our commands would drive both: stopping (stop one, or "
+		     "give one another lcm.channel_prefix)\n",
+		c->o.url, c->o.prefix, (uint64_t)c->instance, c->host, (int)c->pid,
+		(uint64_t)c->other_instance, c->other_host, (int)c->other_pid);
+	return true;
+}
+
 static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
 		      void *user)
 {
@@ -322,7 +373,9 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 
 	(void)rbuf;
 	(void)channel;
-	if (c->have_config) /* the motors do not change while rmdd runs */
+	heard(c, msg->instance, msg->host, msg->pid);
+	if (c->have_config ||
+	    msg->instance != c->instance) /* the motors do not change while rmdd runs */
 		return;
 	c->period_us = msg->period_us;
 	c->bus_count = msg->bus_count;
@@ -639,6 +692,8 @@ static int stream(struct ctl *c)
 		int64_t now = now_ns(), next;
 		double t = (double)(now - t0) / 1e9;
 
+		if (refuse_mixed(c))
+			return EXIT_FAIL;
 		if (duration && now - t0 >= duration)
 			break;
 		if (now >= next_pub) {
@@ -694,7 +749,9 @@ static void shutdown_motors(struct ctl *c)
 static int run(struct ctl *c)
 {
 	rmd_config_t_subscription_t *sub_config;
+	rmd_health_t_subscription_t *sub_health;
 	rmd_state_t_subscription_t *sub_state;
+	char ch_health[96];
 	int ret;
 
 	/* docs/lcm.md "One controller at a time": who we are to rmdd */
@@ -715,7 +772,9 @@ static int run(struct ctl *c)
 	/* LCM subscribes by regular expression: the prefix is taken as written. */
 	sub_config = rmd_config_t_subscribe(c->lcm, c->ch_config, on_config, c);
 	sub_state = rmd_state_t_subscribe(c->lcm, c->ch_state, on_state, c);
-	if (!sub_config || !sub_state) {
+	snprintf(ch_health, sizeof(ch_health), "%sHEALTH", c->o.prefix);
+	sub_health = rmd_health_t_subscribe(c->lcm, ch_health, on_health, c);
+	if (!sub_config || !sub_state || !sub_health) {
 		fprintf(stderr, PROG ": LCM %s: cannot subscribe (see docs/lcm.md)\n", c->o.url);
 		ret = EXIT_FAIL;
 		goto err_destroy;
@@ -738,13 +797,15 @@ static int run(struct ctl *c)
 		printf(", kp %g, kd %g", c->o.kp, c->o.kd);
 	printf("\n");
 
-	if (disable_first(c) < 0)
+	if (disable_first(c) < 0 || refuse_mixed(c))
 		ret = EXIT_FAIL;
 	else
 		ret = stream(c);
 	shutdown_motors(c);
 
 err_destroy:
+	if (sub_health)
+		rmd_health_t_unsubscribe(c->lcm, sub_health);
 	if (sub_state)
 		rmd_state_t_unsubscribe(c->lcm, sub_state);
 	if (sub_config)

@@ -70,6 +70,11 @@
 #define RMD_BRIDGE_URL_LEN 256
 #define RMD_BRIDGE_PREFIX_LEN 32
 #define RMD_BRIDGE_NAME_LEN 32
+#define RMD_BRIDGE_HOST_LEN 64
+#define RMD_BRIDGE_SOURCE_LEN 256
+
+/* How long rmd_bridge_probe() listens by default: three health_t periods. */
+#define RMD_BRIDGE_PROBE_NS (300 * 1000000LL)
 
 /* Bit of struct rmd_motor_info.modes for each enum rmd_mode (rmd/motor.h). */
 #define RMD_BRIDGE_MODE_BIT(mode) RMD_MOTOR_MODE_BIT(mode)
@@ -86,6 +91,16 @@ struct rmd_bridge_opts {
 	char url[RMD_BRIDGE_URL_LEN];
 	char prefix[RMD_BRIDGE_PREFIX_LEN]; /* channel prefix */
 	char version[64]; /* config_t.version: the program's version ("" by default) */
+	/*
+	 * Which daemon this is, in config_t and health_t: a random non-zero
+	 * id, the host name, the process id, the configuration's source.
+	 * Messages on the prefix's HEALTH and CONFIG with another instance
+	 * are another daemon's: counted in health_t, logged once per episode.
+	 */
+	int64_t instance;
+	char host[RMD_BRIDGE_HOST_LEN];
+	int32_t pid;
+	char source[RMD_BRIDGE_SOURCE_LEN];
 
 	unsigned nmotors;			     /* 1..RMD_MAX_MOTORS */
 	struct rmd_motor_info motor[RMD_MAX_MOTORS]; /* rmd_motor_info() fills them */
@@ -156,6 +171,7 @@ struct rmd_bridge_stats {
 	uint64_t health_published;
 	uint64_t configs_published;
 	uint64_t publish_errors;
+	uint64_t foreign;    /* another daemon's health_t and config_t on the prefix */
 	uint64_t lcm_errors; /* lcm_handle failures */
 	uint64_t takeovers;  /* command_t.takeover honoured */
 	bool owned;	     /* a controller owns the motors: */
@@ -171,6 +187,15 @@ struct rmd_bridge_stats {
 	uint64_t datagrams; /* udpm: datagrams the bridge read from its socket */
 };
 
+/* Another daemon on the prefix, as rmd_bridge_probe() or health_t saw it. */
+struct rmd_bridge_peer {
+	unsigned messages; /* its state_t, health_t and config_t that came */
+	int64_t instance;  /* 0: only state_t came, nothing names it */
+	char host[RMD_BRIDGE_HOST_LEN];
+	int32_t pid;
+	char source[RMD_BRIDGE_SOURCE_LEN]; /* "" unless its config_t came */
+};
+
 struct rmd_bridge_buf; /* decode and encode buffers, bridge thread only */
 
 struct rmd_bridge {
@@ -179,6 +204,7 @@ struct rmd_bridge {
 	lcm_subscription_t *sub_command;
 	lcm_subscription_t *sub_config_req;
 	lcm_subscription_t *sub_home;
+	lcm_subscription_t *sub_health, *sub_config; /* not udpm: another daemon's */
 	int stop_fd; /* eventfd: rmd_bridge_stop() wakes the thread */
 	pthread_t thread;
 	bool running;
@@ -231,7 +257,19 @@ struct rmd_bridge {
 	uint32_t disables[RMD_MAX_MOTORS]; /* enable = 0 entries accepted, per motor */
 	struct rmd_home homes;		   /* homing requests accepted (home_t) */
 
+	/*
+	 * Another daemon on the prefix: rmd_bridge_probe() sets probing (no
+	 * command, home or config request is acted on meanwhile); the bridge
+	 * thread owns the rest once started.  foreign_ns: the newest foreign
+	 * message's arrival; foreign_episode: logged, not yet over.
+	 */
+	bool probing;
+	struct rmd_bridge_peer foreign;
+	int64_t foreign_ns;
+	bool foreign_episode;
+
 	/* Written by the bridge thread, read by anyone (rmd_bridge_get_stats). */
+	atomic_uint_fast64_t n_foreign;
 	atomic_uint_fast64_t n_accepted;
 	atomic_uint_fast64_t n_rejected[RMD_REJ_KINDS];
 	atomic_uint_fast64_t n_clamped;
@@ -293,6 +331,16 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
  * not an error).  Non-rt.
  */
 int rmd_bridge_start(struct rmd_bridge *b);
+
+/*
+ * Before rmd_bridge_start(): ask for config_t (CONFIG_REQUEST) and listen
+ * on the prefix's STATE, HEALTH and CONFIG for wait_ns; whatever comes is
+ * another daemon's (this one publishes nothing yet).  Returns the number
+ * of such messages (0: nobody else), *peer naming the daemon when its
+ * health_t or config_t came; or -errno.  memq:// has nobody else: 0 at
+ * once.  Commands that arrive meanwhile are dropped.  Non-rt.
+ */
+int rmd_bridge_probe(struct rmd_bridge *b, int64_t wait_ns, struct rmd_bridge_peer *peer);
 
 /* Wake the thread, wait for it to end.  A bridge that was not started is left as is.  Non-rt. */
 void rmd_bridge_stop(struct rmd_bridge *b);

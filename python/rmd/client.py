@@ -28,7 +28,11 @@ What it does for you (docs/lcm.md is the contract):
     until its loop has acted on it), so enable() sends enable = 0 until
     state_t shows the motors READY, and then enable = 1;
   - on leaving a `with` block (or close()), sends enable = 0 to every motor it
-    enabled.
+    enabled;
+  - notices a mixed stream: two rmdd on one URL and prefix (config_t and
+    health_t carry each daemon's instance, host and pid).  Every call that
+    reads LCM then raises MixedStreamError naming both, unless
+    `allow_mixed` is set (docs/lcm.md "One daemon per prefix").
 
 Threads: none.  The client is single-threaded: it reads LCM only inside its
 own calls (poll(), spin(), connect(), enable(), disable()), so `state`,
@@ -52,6 +56,10 @@ LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe", "stopping"]
 
 class RmdError(Exception):
     """rmdd did not answer, or did not do what was asked."""
+
+
+class MixedStreamError(RmdError):
+    """Two rmdd publish on the client's URL and prefix: its commands drive both."""
 
 
 def lifecycle_name(lc):
@@ -81,6 +89,11 @@ class Client:
       controller  command_t.controller: this client's id (random unless given)
       takeover  command_t.takeover of the commands sent (False; a supervisor
                 sets it to take the motors over from their owner, docs/lcm.md)
+      instances {instance: (host, pid)} of every rmdd heard on the prefix
+                (config_t, health_t); more than one: a mixed stream
+      allow_mixed  False: a mixed stream raises MixedStreamError; True: only
+                `instances` and `mixed` say so (a tool that watches both)
+      mixed     None, or the message naming both daemons
     """
 
     def __init__(self, url=None, prefix="RMD_", on_state=None, controller=None):
@@ -107,6 +120,9 @@ class Client:
         self.state_rx = 0.0
         self.on_state = on_state
         self.seq = 0
+        self.instances = {}
+        self.allow_mixed = False
+        self.mixed = None
         # index -> [enable, mode, position, velocity, torque, kp, kd, max_velocity]
         self._cmd = {}
         self._enabled = set()  # motors enable() enabled and disable() has not disabled
@@ -118,11 +134,31 @@ class Client:
 
     # ---- LCM ----------------------------------------------------------------
 
+    def _heard(self, m):
+        """Note the daemon that sent config_t or health_t m (its instance, host, pid)."""
+        if m.instance in self.instances:
+            return
+        self.instances[m.instance] = (m.host, m.pid)
+        if len(self.instances) > 1 and self.mixed is None:
+            who = ", ".join(f"instance {i & (2**64 - 1):016x} on host {h}, pid {p}"
+                            for i, (h, p) in self.instances.items())
+            self.mixed = (f"two rmdd publish on {self.url} prefix {self.prefix}: {who}; "
+                          "this client's commands drive both: stop one, or give one "
+                          "another lcm.channel_prefix")
+
+    def _check_mixed(self):
+        if self.mixed is not None and not self.allow_mixed:
+            raise MixedStreamError(self.mixed)
+
     def _on_config(self, channel, data):
         try:
-            self.config = self._types[2].decode(data)
+            c = self._types[2].decode(data)
         except ValueError:
-            pass  # another type on the channel: not ours
+            return  # another type on the channel: not ours
+        self._heard(c)
+        # the first daemon's config stays: never silently switch to another's
+        if self.config is None or c.instance == self.config.instance:
+            self.config = c
 
     def _on_state(self, channel, data):
         try:
@@ -137,9 +173,12 @@ class Client:
 
     def _on_health(self, channel, data):
         try:
-            self.health = self._types[3].decode(data)
+            h = self._types[3].decode(data)
         except ValueError:
-            pass
+            return
+        self._heard(h)
+        if self.config is None or h.instance == self.config.instance:
+            self.health = h
 
     def fileno(self):
         """LCM's socket: readable when a message waits (for select())."""
@@ -161,6 +200,7 @@ class Client:
                 break
             self.lc.handle()
             n += 1
+        self._check_mixed()
         return n
 
     def wait(self, seconds):

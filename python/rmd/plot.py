@@ -71,6 +71,7 @@ class Series:
         self.motors = motors  # names or indices as given; empty: all
         self.prefix = prefix
         self.config = None
+        self.instances = {}  # every rmdd heard: instance -> (host, pid)
         self.points = {}  # name -> ([t_us], [value])
         self.t0_us = None
 
@@ -98,13 +99,28 @@ class Series:
         what = channel[len(self.prefix):]
         try:
             if what == "CONFIG":
-                self.config = rmd.config_t.decode(data)
+                c = rmd.config_t.decode(data)
+                if self._first_daemon(c):
+                    self.config = c
             elif what == "STATE":
                 self._state(rmd.state_t.decode(data))
             elif what == "HEALTH":
-                self._health(rmd.health_t.decode(data))
+                h = rmd.health_t.decode(data)
+                if self._first_daemon(h):
+                    self._health(h)
         except ValueError:
             pass  # another layout on our channel: not ours to plot
+
+    def _first_daemon(self, m):
+        """Whether config_t or health_t m is the first rmdd's; another one is said once."""
+        if m.instance not in self.instances:
+            self.instances[m.instance] = (m.host, m.pid)
+            if len(self.instances) == 2:
+                who = ", ".join(f"host {h} pid {p}" for h, p in self.instances.values())
+                print(f"rmd-plot: two rmdd on prefix {self.prefix} ({who}): their state_t "
+                      "mix in the plot; names and health are the first one's (docs/lcm.md, "
+                      "\"One daemon per prefix\")", file=sys.stderr, flush=True)
+        return m.instance == next(iter(self.instances))
 
     def _state(self, s):
         for kind, name in self.fields:

@@ -9,7 +9,9 @@
 #include <dirent.h>
 #include <errno.h>
 #include <inttypes.h>
+#include <limits.h>
 #include <math.h>
+#include <poll.h>
 #include <sched.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -33,6 +35,7 @@
 #include "rmd/bridge.h"
 #include "rmd/udpm_rx.h"
 #include "rmd/rmd_command_t.h"
+#include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
 #include "rmd/rmd_health_t.h"
 #include "rmd/rmd_home_t.h"
@@ -597,6 +600,8 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 	int64_t at = arrival_ns(b, utime_ns(rbuf->recv_utime), rmd_now_ns());
 
 	(void)channel;
+	if (b->probing)
+		return;
 	if (decode_command(b, rbuf, msg) >= 0 || check_entries(b, msg) >= 0 ||
 	    check_owner(b, msg, at) >= 0)
 		return;
@@ -650,6 +655,8 @@ static void on_home(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 	unsigned i;
 
 	(void)channel;
+	if (b->probing)
+		return;
 	if (rmd_home_t_decode(rbuf->data, 0, (int)rbuf->data_size, &msg) != (int)rbuf->data_size) {
 		logf_(b, 4, "%s: refused: not an rmd.home_t (fingerprint or length)", b->ch_home);
 		return;
@@ -698,7 +705,85 @@ static void on_config_request(const lcm_recv_buf_t *rbuf, const char *channel, v
 
 	(void)rbuf;
 	(void)channel;
-	b->config_wanted = true;
+	if (!b->probing)
+		b->config_wanted = true;
+}
+
+/* ---- another daemon on the prefix (docs/lcm.md "One daemon per prefix") ---- */
+
+/* A message of another daemon's arrived (instance 0: a state_t, which names nobody). */
+static void note_foreign(struct rmd_bridge *b, int64_t instance, const char *host, int32_t pid,
+			 const char *source)
+{
+	struct rmd_bridge_peer *f = &b->foreign;
+
+	f->messages++;
+	b->foreign_ns = rmd_now_ns();
+	if (instance) {
+		f->instance = instance;
+		snprintf(f->host, sizeof(f->host), "%s", host ? host : "");
+		f->pid = pid;
+		if (source)
+			snprintf(f->source, sizeof(f->source), "%s", source);
+	}
+	if (b->probing)
+		return;
+	count(&b->n_foreign);
+	if (b->foreign_episode)
+		return;
+	b->foreign_episode = true;
+	logf_(b, 4,
+	      "another rmdd publishes on %s*: instance %016" PRIx64
+	      " on host %s, pid %d%s%s; controllers on this prefix see both daemons' state and "
+	      "drive both: stop one, or give one another lcm.channel_prefix (its messages are "
+	      "counted in health_t foreign_messages)",
+	      b->opts.prefix, (uint64_t)f->instance, f->host[0] ? f->host : "?", (int)f->pid,
+	      f->source[0] ? ", configuration " : "", f->source);
+}
+
+/* An episode ends when nothing foreign came for this long (ten health_t periods). */
+#define FOREIGN_QUIET_NS (1000 * RMD_NS_PER_MS)
+
+static void foreign_expire(struct rmd_bridge *b, int64_t now)
+{
+	if (!b->foreign_episode || now - b->foreign_ns < FOREIGN_QUIET_NS)
+		return;
+	b->foreign_episode = false;
+	logf_(b, 5, "the other rmdd on %s* (instance %016" PRIx64 ", host %s, pid %d) went quiet",
+	      b->opts.prefix, (uint64_t)b->foreign.instance, b->foreign.host, (int)b->foreign.pid);
+}
+
+/*
+ * A message on the prefix's STATE (probing only), HEALTH or CONFIG: ours
+ * (LCM loops them back unless the socket drops them) or another daemon's.
+ * health_t at ~10 Hz and config_t on request: decoding them is cheap.
+ */
+static void on_foreign(struct rmd_bridge *b, const char *channel, const void *data, uint32_t size)
+{
+	if (!strcmp(channel, b->ch_health)) {
+		rmd_health_t h;
+
+		if (rmd_health_t_decode(data, 0, (int)size, &h) < 0)
+			return;
+		if (h.instance != b->opts.instance)
+			note_foreign(b, h.instance, h.host, h.pid, NULL);
+		rmd_health_t_decode_cleanup(&h);
+	} else if (!strcmp(channel, b->ch_config)) {
+		rmd_config_t c;
+
+		if (rmd_config_t_decode(data, 0, (int)size, &c) < 0)
+			return;
+		if (c.instance != b->opts.instance)
+			note_foreign(b, c.instance, c.host, c.pid, c.source);
+		rmd_config_t_decode_cleanup(&c);
+	} else if (b->probing && !strcmp(channel, b->ch_state)) {
+		note_foreign(b, 0, NULL, 0, NULL);
+	}
+}
+
+static void on_foreign_lcm(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	on_foreign(user, channel, rbuf->data, rbuf->data_size);
 }
 
 /* ---- publishing --------------------------------------------------------- */
@@ -785,6 +870,14 @@ static void publish_health(struct rmd_bridge *b, int64_t now)
 		if (h->proto[i] != b->config_proto[i] || h->firmware[i] != b->config_firmware[i])
 			b->config_wanted = true;
 	o->utime = now / 1000;
+	o->instance = b->opts.instance;
+	o->host = b->opts.host;
+	o->pid = b->opts.pid;
+	foreign_expire(b, now);
+	o->foreign_messages = sat64(read_count(&b->n_foreign));
+	o->foreign_instance = b->foreign.instance;
+	o->foreign_host = b->foreign.host;
+	o->foreign_pid = b->foreign.pid;
 	o->cycles = sat64(h->loop.cycles);
 	o->overruns = sat64(h->loop.overruns);
 	o->plan_misses = sat64(h->loop.plan_misses);
@@ -869,6 +962,10 @@ static void publish_config(struct rmd_bridge *b)
 	c->utime = rmd_now_ns() / 1000;
 	c->prefix = op->prefix;
 	c->version = op->version;
+	c->instance = op->instance;
+	c->host = op->host;
+	c->pid = op->pid;
+	c->source = op->source;
 	c->period_us = sat32(op->period_ns / 1000);
 	c->state_every = sat32(op->state_every);
 	c->stale_ms = op->stale_ms;
@@ -953,6 +1050,8 @@ static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data,
 		on_config_request(&rb, channel, b);
 	else if (!strcmp(channel, b->ch_home))
 		on_home(&rb, channel, b);
+	else
+		on_foreign(b, channel, data, size);
 }
 
 /*
@@ -1575,7 +1674,12 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	b->sub_config_req = lcm_subscribe(b->lcm, re, on_config_request, b);
 	channel_regex(re, sizeof(re), opts->prefix, "HOME");
 	b->sub_home = lcm_subscribe(b->lcm, re, on_home, b);
-	if (!b->sub_command || !b->sub_config_req || !b->sub_home) {
+	channel_regex(re, sizeof(re), opts->prefix, "HEALTH");
+	b->sub_health = lcm_subscribe(b->lcm, re, on_foreign_lcm, b);
+	channel_regex(re, sizeof(re), opts->prefix, "CONFIG");
+	b->sub_config = lcm_subscribe(b->lcm, re, on_foreign_lcm, b);
+	if (!b->sub_command || !b->sub_config_req || !b->sub_home || !b->sub_health ||
+	    !b->sub_config) {
 		snprintf(err, errlen,
 			 "LCM \"%s\": cannot subscribe (multicast not routable? see "
 			 "docs/lcm.md)",
@@ -1605,6 +1709,44 @@ err_free_buf:
 	free(b->buf);
 	b->buf = NULL;
 	return r;
+}
+
+int rmd_bridge_probe(struct rmd_bridge *b, int64_t wait_ns, struct rmd_bridge_peer *peer)
+{
+	rmd_config_request_t req = { .utime = rmd_now_ns() / 1000 };
+	int64_t end = rmd_now_ns() + wait_ns;
+	struct pollfd pfd = { .fd = b->rx_fd >= 0 ? b->rx_fd : lcm_get_fileno(b->lcm),
+			      .events = POLLIN };
+
+	memset(peer, 0, sizeof(*peer));
+	if (!b->state_listeners || b->running)
+		return 0;
+	memset(&b->foreign, 0, sizeof(b->foreign));
+	b->probing = true;
+	/* a daemon answers with config_t (within CONFIG_INTERVAL_NS): it names its source */
+	if (rmd_config_request_t_publish(b->lcm, b->ch_config_req, &req) < 0) {
+		b->probing = false;
+		return -EIO;
+	}
+	for (;;) {
+		int64_t now = rmd_now_ns();
+		int ms;
+
+		/* named by its config_t: nothing more to learn */
+		if (now >= end || b->foreign.source[0])
+			break;
+		ms = (int)((end - now + RMD_NS_PER_MS - 1) / RMD_NS_PER_MS);
+		if (poll(&pfd, 1, ms) < 0 && errno != EINTR) {
+			b->probing = false;
+			return -errno;
+		}
+		drain(b);
+	}
+	b->probing = false;
+	*peer = b->foreign;
+	/* the running bridge tells its own episode (it logs once) */
+	memset(&b->foreign, 0, sizeof(b->foreign));
+	return (int)(peer->messages > INT_MAX ? INT_MAX : peer->messages);
 }
 
 int rmd_bridge_start(struct rmd_bridge *b)
@@ -1662,6 +1804,10 @@ void rmd_bridge_fini(struct rmd_bridge *b)
 			lcm_unsubscribe(b->lcm, b->sub_config_req);
 		if (b->sub_home)
 			lcm_unsubscribe(b->lcm, b->sub_home);
+		if (b->sub_health)
+			lcm_unsubscribe(b->lcm, b->sub_health);
+		if (b->sub_config)
+			lcm_unsubscribe(b->lcm, b->sub_config);
 		lcm_destroy(b->lcm);
 		b->lcm = NULL;
 	}
@@ -1689,6 +1835,7 @@ void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
 	st->health_published = read_count(&b->n_health);
 	st->configs_published = read_count(&b->n_configs);
 	st->publish_errors = read_count(&b->n_publish_errors);
+	st->foreign = read_count(&b->n_foreign);
 	st->lcm_errors = read_count(&b->n_lcm_errors);
 	st->takeovers = read_count(&b->n_takeovers);
 	st->owned = atomic_load_explicit(&b->pub_owned, memory_order_relaxed);

@@ -12,6 +12,10 @@
     python_client.py takeover URL  client a enables motor1; client b is
                                  rejected (health_t intruder), then takes it
                                  over (takeover = True) and drives it
+    python_client.py mixed URL   two rmdd on URL: connect() or the polls after
+                                 it raise MixedStreamError naming both; with
+                                 allow_mixed the client keeps the first
+                                 daemon's config_t and lists both
 
 It must run the installed package (pip install ./python), not a checkout:
 it prints where rmd comes from.  Each step prints one line; a failed check
@@ -113,9 +117,34 @@ def takeover(url):
     return 0
 
 
+def mixed(url):
+    """Two daemons on the prefix: a clear error, never a silent switch."""
+    c = rmd.Client(url)
+    try:
+        c.connect(timeout=2.0)
+        c.wait(1.0)
+        fail(f"no MixedStreamError after 1 s; instances heard: {c.instances}")
+    except rmd.MixedStreamError as e:
+        print(f"mixed: {e}", flush=True)
+    c.close()
+    c = rmd.Client(url)
+    c.allow_mixed = True
+    first = c.connect(timeout=2.0).instance
+    c.wait(1.0)
+    if len(c.instances) != 2 or c.config.instance != first or c.health.instance != first:
+        fail(f"allow_mixed: instances {c.instances}, config of {c.config.instance:#x}, "
+             f"health of {c.health.instance:#x}, first {first:#x}")
+    print(f"allow_mixed: kept instance {first & (2**64 - 1):016x} of {len(c.instances)}",
+          flush=True)
+    c.close()
+    return 0
+
+
 def main():
     what, url = sys.argv[1], sys.argv[2]
     print(f"rmd from {rmd.__file__}", flush=True)
+    if what == "mixed":
+        return mixed(url)
     if what == "takeover":
         return takeover(url)
     if what == "absent":

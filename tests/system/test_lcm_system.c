@@ -2624,6 +2624,87 @@ static void test_ignored_enable_reported(void **state)
 	disable_all(f);
 }
 
+/*
+ * Issue 20.4: a second rmdd on the same URL and prefix refuses to start
+ * (exit 1) and names the first (host, pid, configuration) and the ways
+ * out; with --force it starts, and both log the conflict, the first one
+ * counting the other's messages in health_t.
+ */
+static bool first_counts_second(const struct fixture *f, pid_t second)
+{
+	const rmd_health_t *h = f->rx.health;
+
+	return h && h->pid == (int32_t)f->rmdd && h->foreign_messages > 0 &&
+	       h->foreign_pid == (int32_t)second;
+}
+
+static void test_second_daemon_refused_then_forced(void **state)
+{
+	struct fixture *f = fixture(state);
+	const char *second[] = { rmdd_bin, "--sim", "2", "--lcm-url", f->url, NULL, NULL };
+	char pid_s[32];
+	const char *out;
+	int st;
+
+	start_rmdd(f);
+	assert_int_equal(f->rx.config->pid, (int32_t)f->rmdd);
+	assert_true(f->rx.config->instance != 0);
+	assert_string_equal(f->rx.config->source, cfg_path);
+	snprintf(pid_s, sizeof(pid_s), "pid %d", (int)f->rmdd);
+
+	f->child = spawn(second, f->child_log, false);
+	st = wait_exit(f->child, 10000);
+	out = slurp(f->child_log);
+	if (st != 1 || !strstr(out, "another rmdd publishes on RMD_*") || !strstr(out, pid_s) ||
+	    !strstr(out, cfg_path) || !strstr(out, "--force") ||
+	    !strstr(out, "lcm.channel_prefix") || strstr(out, "running:"))
+		fail_msg("the second rmdd: exit %d (want 1, naming %s and %s); its output:\n%s", st,
+			 pid_s, cfg_path, out);
+	f->child = 0;
+	print_message("refused: %s", strstr(out, "another rmdd"));
+
+	second[5] = "--force";
+	f->child = spawn(second, f->child_log, false);
+	WAIT_UNTIL(f, first_counts_second(f, f->child), 10000);
+	if (!first_counts_second(f, f->child))
+		fail_msg("the first rmdd's health_t never counted the second's messages; its "
+			 "output:\n%s",
+			 slurp(f->log));
+	WAIT_UNTIL(f, strstr(slurp(f->child_log), "running:"), 5000);
+	out = slurp(f->child_log);
+	if (!strstr(out, "starting anyway (--force)") || !strstr(out, pid_s) ||
+	    count_of(out, "another rmdd publishes on RMD_*") < 2)
+		fail_msg("the forced rmdd did not log the conflict; its output:\n%s", out);
+	snprintf(pid_s, sizeof(pid_s), "pid %d", (int)f->child);
+	out = slurp(f->log);
+	if (count_of(out, "another rmdd publishes on RMD_*") != 1 || !strstr(out, pid_s))
+		fail_msg("the first rmdd did not log the conflict once, naming %s; its output:\n%s",
+			 pid_s, out);
+	/* the example controllers refuse to drive both (exit 1, naming them) */
+	for (int py = 0; py < 2; py++) {
+		const char *c_argv[] = { sine_bin, "--url", f->url, "--duration", "5", NULL };
+		const char *py_argv[] = { "python3",	sine_py, "--url", f->url,
+					  "--duration", "5",	 NULL };
+		char ex_log[400];
+		pid_t ex;
+
+		if (py && (!have_python || !sine_py[0]))
+			break;
+		snprintf(ex_log, sizeof(ex_log), "%s.ex%d", f->child_log, py);
+		ex = spawn(py ? py_argv : c_argv, ex_log, py);
+		st = wait_exit(ex, 20000);
+		if (st < 0)
+			stop_child(&ex, SIGKILL, 2000);
+		out = slurp(ex_log);
+		if (st != 1 || !strstr(out, "two rmdd publish on"))
+			fail_msg(
+				"%s beside two rmdd: exit %d (want 1, naming both); its output:\n%s",
+				py ? "sine.py" : "sine_controller", st, out);
+		print_message("%s", strstr(out, "two rmdd publish on"));
+	}
+	assert_int_equal(stop_child(&f->child, SIGTERM, 5000), 0);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -2651,6 +2732,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_intruder_never_inherits_after_a_trip, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_incidents_record_intruder_and_watchdog, setup,
+						teardown),
+		cmocka_unit_test_setup_teardown(test_second_daemon_refused_then_forced, setup,
 						teardown),
 	};
 

@@ -56,8 +56,8 @@ static unsigned test_no;
 
 struct fixture {
 	char url[96];
-	char rmdd_log[128], py_log[128];
-	pid_t rmdd, py;
+	char rmdd_log[128], py_log[128], rmdd2_log[128];
+	pid_t rmdd, py, rmdd2; /* rmdd2: a second daemon (--force) */
 	lcm_t *lcm;
 	lcm_subscription_t *sub;
 
@@ -298,6 +298,7 @@ static int setup(void **state)
 	snprintf(f->url, sizeof(f->url), "udpm://239.255.76.67:%d?ttl=0", port);
 	snprintf(f->rmdd_log, sizeof(f->rmdd_log), "%s/rmdd.%u.log", tmpdir, test_no);
 	snprintf(f->py_log, sizeof(f->py_log), "%s/python.%u.log", tmpdir, test_no);
+	snprintf(f->rmdd2_log, sizeof(f->rmdd2_log), "%s/rmdd2.%u.log", tmpdir, test_no);
 	f->lifecycle0 = f->last_enable0 = -1;
 	f->lcm = lcm_create(f->url);
 	assert_non_null(f->lcm);
@@ -314,6 +315,7 @@ static int teardown(void **state)
 	if (!f)
 		return 0;
 	end_child(&f->py, SIGKILL);
+	end_child(&f->rmdd2, SIGTERM);
 	end_child(&f->rmdd, SIGTERM);
 	lcm_unsubscribe(f->lcm, f->sub);
 	lcm_destroy(f->lcm);
@@ -471,6 +473,34 @@ static void test_second_client_rejected_then_takes_over(void **state)
 	assert_non_null(strstr(file_text(f->rmdd_log), "takes the motors over from controller"));
 }
 
+/*
+ * Issue 20.4: a second rmdd on the same URL and prefix (--force): the
+ * client raises MixedStreamError naming both daemons' pids, or with
+ * allow_mixed keeps the first one's config_t.
+ */
+static void test_two_daemons_are_a_clear_error(void **state)
+{
+	struct fixture *f = client_or_skip(state);
+	const char *argv[] = { rmdd_bin, "--sim", "2", "--lcm-url", f->url, "--force", NULL };
+	char pid1[32], pid2[32];
+	const char *out;
+	double end;
+
+	start_rmdd(f);
+	f->rmdd2 = start(argv, f->rmdd2_log);
+	for (end = mono_s() + 10; !strstr(file_text(f->rmdd2_log), "running:");) {
+		if (reap(f, &f->rmdd2, 0.05) >= 0 || mono_s() >= end)
+			fail_msg("the second rmdd (--force) not running; its output:\n%s",
+				 file_text(f->rmdd2_log));
+	}
+	snprintf(pid1, sizeof(pid1), "pid %d", (int)f->rmdd);
+	snprintf(pid2, sizeof(pid2), "pid %d", (int)f->rmdd2);
+	out = run_script(f, "mixed");
+	if (!strstr(out, "mixed: two rmdd publish on") || !strstr(out, pid1) ||
+	    !strstr(out, pid2) || !strstr(out, "allow_mixed: kept instance"))
+		fail_msg("want MixedStreamError naming %s and %s in:\n%s", pid1, pid2, out);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -479,6 +509,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_enable_after_the_watchdog_tripped, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_no_rmdd_is_a_clear_error, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_two_daemons_are_a_clear_error, setup,
+						teardown),
 		cmocka_unit_test_setup_teardown(test_second_client_rejected_then_takes_over, setup,
 						teardown),
 	};

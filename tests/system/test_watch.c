@@ -13,7 +13,10 @@
  *   - without a terminal, the live view prints plain tables (no escape
  *     sequences) until SIGINT, then exits 0;
  *   - without rmdd, --json and --once give up after --wait with a message
- *     that names the URL, and exit 1.
+ *     that names the URL, and exit 1;
+ *   - two rmdd on the prefix (the second with --force): --json says
+ *     "mixed" naming the other by pid, --once prints a MIXED line naming
+ *     both; the motors shown are the first daemon's heard.
  * rmd-plot (python/rmd/plot.py, the console script `pip install
  * './python[plot]'` installs: build/venv/bin/rmd-plot, `make python-venv`):
  *   - log: lcm-logger records a short run while the test moves motor1;
@@ -404,6 +407,61 @@ static void test_json(void **state)
 	run_free(&r);
 }
 
+/* Issue 20.4: a second rmdd on the prefix: top flags it and stays on one. */
+static void test_mixed(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	const char *second[] = { rmdd_bin, "--sim", "2", "--lcm-url", f->url, "--force", NULL };
+	const char *json[] = { "top", "--json", "--lcm-url", f->url, NULL };
+	const char *once[] = { "top", "--once", "--lcm-url", f->url, NULL };
+	struct kid *k;
+	struct run r;
+	char mixed[512], s[64];
+	const char *m;
+	int shown, other, motors;
+
+	start_rmdd(f);
+	k = kid_spawn("rmdd --force", second, NULL, 0);
+	for (int64_t end = rmd_now_ns() + (int64_t)START_MS * 1000000;
+	     !strstr(k->out, "running:");) {
+		if (rmd_now_ns() > end || kid_poll_exit(k))
+			fail_msg("rmdd --force: not running within %d ms; its output:\n%s",
+				 START_MS, kid_tail(k));
+		service(10);
+		kid_read(k);
+		kid_read(f->rmdd);
+	}
+
+	run_prog(&r, rmdctl_bin, json, &(struct run_opts){ .service = service });
+	assert_status(&r, 0, "rmdctl top --json, two daemons");
+	print_message("%s", r.out);
+	m = strstr(r.out, "\"mixed\":{");
+	if (!m)
+		fail_msg("no \"mixed\" object in:\n%s", r.out);
+	snprintf(mixed, sizeof(mixed), "%.*s", (int)(strchr(m, '}') - m), m);
+	shown = (int)json_num(r.out, "pid");
+	other = (int)json_num(mixed, "pid");
+	if (!((shown == f->rmdd->pid && other == k->pid) ||
+	      (shown == k->pid && other == f->rmdd->pid)))
+		fail_msg("pids %d shown, %d mixed; rmdd %d and %d:\n%s", shown, other,
+			 (int)f->rmdd->pid, (int)k->pid, r.out);
+	/* the motors are the shown daemon's: 3 or 2, never a mix */
+	motors = 0;
+	for (const char *p = r.out; (p = strstr(p, "{\"index\":")); p++)
+		motors++;
+	assert_int_equal(motors, shown == f->rmdd->pid ? 3 : 2);
+	json_str(mixed, "instance", s, sizeof(s));
+	assert_int_equal(strlen(s), 16);
+	run_free(&r);
+
+	run_prog(&r, rmdctl_bin, once, &(struct run_opts){ .service = service });
+	assert_status(&r, 0, "rmdctl top --once, two daemons");
+	snprintf(s, sizeof(s), "pid %d", (int)k->pid);
+	if (!strstr(r.out, "MIXED: two rmdd on this prefix") || !strstr(r.out, s))
+		fail_msg("no MIXED line naming %s in:\n%s", s, r.out);
+	run_free(&r);
+}
+
 /* Not a terminal: plain tables, one per --interval, until SIGINT. */
 static void test_live_plain(void **state)
 {
@@ -702,6 +760,7 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_json, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_live_plain, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_no_rmdd, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_mixed, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_plot_log, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_plot_live, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_plot_errors, setup, teardown),

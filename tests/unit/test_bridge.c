@@ -1968,6 +1968,146 @@ static void test_memq_encodes_no_state(void **state)
 	assert_int_equal(stats(f).lcm_threads, 0);
 }
 
+/* ---- another daemon on the prefix (issue 20.4) ------------------------------- */
+
+#define OTHER_INSTANCE INT64_C(0x0123456789abcdef)
+
+/* Another daemon's health_t: instance OTHER_INSTANCE on host "other", pid 42. */
+static void send_other_health(struct fixture *f)
+{
+	static rmd_bus_health_t bus[16];
+	rmd_health_t h = {
+		.instance = OTHER_INSTANCE, .host = "other", .pid = 42, .foreign_host = ""
+	};
+
+	for (int i = 0; i < 16; i++)
+		bus[i] = (rmd_bus_health_t){ .name = "" };
+	memcpy(h.bus, bus, sizeof(bus));
+	assert_int_equal(rmd_health_t_publish(f->ctl, PREFIX "HEALTH", &h), 0);
+}
+
+static void send_other_config(struct fixture *f)
+{
+	rmd_config_t c = { .prefix = PREFIX,
+			   .instance = OTHER_INSTANCE,
+			   .host = "other",
+			   .pid = 42,
+			   .source = "/etc/rmdd/other.yaml",
+			   .version = "0.3.0" };
+
+	assert_int_equal(rmd_config_t_publish(f->ctl, PREFIX "CONFIG", &c), 0);
+}
+
+static unsigned count_in(const char *hay, const char *needle)
+{
+	unsigned n = 0;
+
+	for (const char *p = hay; (p = strstr(p, needle)); p += strlen(needle))
+		n++;
+	return n;
+}
+
+static const char *log_text(struct fixture *f)
+{
+	static char buf[16384];
+	size_t n;
+
+	fflush(f->log);
+	rewind(f->log);
+	n = fread(buf, 1, sizeof(buf) - 1, f->log);
+	buf[n] = '\0';
+	return buf;
+}
+
+/*
+ * Before start: the probe hears nobody on a quiet prefix; it names another
+ * daemon by its health_t and config_t, and a command that came meanwhile
+ * is not handed to the loop.
+ */
+static void test_probe_finds_another_daemon(void **state)
+{
+	struct fixture *f = fixture(state);
+	struct rmd_bridge_peer p;
+	struct rmd_command cmd;
+	char err[256] = "";
+	rmd_command_t m = base_cmd(1);
+
+	f->opts.instance = 7;
+	if (rmd_bridge_init(&f->b, &f->opts, err, sizeof(err)) < 0)
+		fail_msg("rmd_bridge_init: %s", err);
+	f->started = true;
+	assert_int_equal(rmd_bridge_probe(&f->b, 50 * 1000000LL, &p), 0);
+	assert_int_equal(p.instance, 0);
+
+	send_cmd(f, &m);
+	send_other_health(f);
+	send_other_config(f);
+	assert_true(rmd_bridge_probe(&f->b, RMD_BRIDGE_PROBE_NS, &p) >= 2);
+	assert_true(p.instance == OTHER_INSTANCE);
+	assert_string_equal(p.host, "other");
+	assert_int_equal(p.pid, 42);
+	assert_string_equal(p.source, "/etc/rmdd/other.yaml");
+	assert_false(take_command(f, &cmd));
+	assert_int_equal(stats(f).accepted, 0);
+	assert_int_equal(stats(f).foreign, 0); /* the probe's are not the running count */
+}
+
+/*
+ * Running: another instance's health_t and config_t are counted in
+ * health_t and logged once; the bridge's own (instance 7) never are.
+ */
+static void test_foreign_counted_and_logged_per_episode(void **state)
+{
+	struct fixture *f = fixture(state);
+	const rmd_health_t *h;
+
+	f->opts.instance = 7;
+	snprintf(f->opts.host, sizeof(f->opts.host), "here");
+	f->opts.pid = 1234;
+	snprintf(f->opts.source, sizeof(f->opts.source), "(built-in sim)");
+	ctl_listen(f);
+	start(f);
+	WAIT_UNTIL(f, f->rx.config && f->rx.health, 2000);
+	assert_int_equal(f->rx.config->instance, 7);
+	assert_string_equal(f->rx.config->host, "here");
+	assert_int_equal(f->rx.config->pid, 1234);
+	assert_string_equal(f->rx.config->source, "(built-in sim)");
+	assert_int_equal(f->rx.health->instance, 7);
+	assert_int_equal(f->rx.health->foreign_messages, 0);
+
+	/* config_t first: the log names its configuration */
+	send_other_config(f);
+	send_other_health(f);
+	send_other_health(f);
+	WAIT_UNTIL(f, stats(f).foreign == 3, 2000);
+	/* a health_t of ours after the count (its own ones came back too, maybe) */
+	{
+		int64_t after = f->rx.health->utime;
+
+		WAIT_UNTIL(f, f->rx.health->instance == 7 && f->rx.health->utime > after + 150000,
+			   2000);
+	}
+	h = f->rx.health;
+	assert_int_equal(h->foreign_messages, 3);
+	assert_true(h->foreign_instance == OTHER_INSTANCE);
+	assert_string_equal(h->foreign_host, "other");
+	assert_int_equal(h->foreign_pid, 42);
+	assert_int_equal(stats(f).foreign, 3);
+	if (!strstr(log_text(f), "another rmdd publishes on TEST_*: instance 0123456789abcdef "
+				 "on host other, pid 42, configuration /etc/rmdd/other.yaml") ||
+	    strstr(strstr(log_text(f), "another rmdd") + 1, "another rmdd"))
+		fail_msg("want the conflict logged once:\n%s", log_text(f));
+	/* a second without one ends the episode; the next one is logged again */
+	WAIT_UNTIL(f, strstr(log_text(f), "went quiet"), 3000);
+	if (!strstr(log_text(f), "the other rmdd on TEST_* (instance 0123456789abcdef, host "
+				 "other, pid 42) went quiet"))
+		fail_msg("want the episode's end logged:\n%s", log_text(f));
+	send_other_health(f);
+	WAIT_UNTIL(f, stats(f).foreign == 4, 2000);
+	WAIT_UNTIL(f, count_in(log_text(f), "another rmdd publishes") == 2, 2000);
+	assert_int_equal(count_in(log_text(f), "another rmdd publishes"), 2);
+}
+
 int main(void)
 {
 	struct CMUnitTest tests[] = {
@@ -1993,6 +2133,8 @@ int main(void)
 		cmocka_unit_test(test_memq_encodes_no_state),
 		cmocka_unit_test(test_own_datagrams_dropped),
 		cmocka_unit_test(test_fragments_reassembled),
+		cmocka_unit_test(test_probe_finds_another_daemon),
+		cmocka_unit_test(test_foreign_counted_and_logged_per_episode),
 	};
 
 	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);

@@ -36,7 +36,8 @@
 #define TTY_INTERVAL_MS 100.0
 #define PLAIN_INTERVAL_MS 1000.0
 #define WAIT_S 3.0
-#define ASK_EVERY_NS INT64_C(500000000) /* config_t requests until one comes */
+#define TOP_MIXED_WAIT_NS INT64_C(250000000) /* 2.5 health_t periods */
+#define ASK_EVERY_NS INT64_C(500000000)	     /* config_t requests until one comes */
 volatile sig_atomic_t rmdctl_top_stop;
 
 static void on_signal(int sig)
@@ -128,6 +129,46 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 	t->n_states++;
 }
 
+/*
+ * Whether a message of daemon `instance` is the one shown: the first heard
+ * is; another is noted as the other daemon (and flags the view).
+ */
+static bool same_daemon(struct top *t, int64_t instance, const char *host, int32_t pid,
+			const char *source)
+{
+	if (!t->instance)
+		t->instance = instance;
+	if (instance == t->instance)
+		return true;
+	t->mixed = true;
+	if (instance != t->other_instance)
+		t->other_source[0] = '\0';
+	t->other_instance = instance;
+	t->other_pid = pid;
+	snprintf(t->other_host, sizeof(t->other_host), "%s", host ? host : "");
+	if (source)
+		snprintf(t->other_source, sizeof(t->other_source), "%s", source);
+	return false;
+}
+
+void top_mixed_line(const struct top *t, char *buf, size_t len)
+{
+	snprintf(buf, len,
+		 "MIXED: two rmdd on this prefix: shown instance %016" PRIx64
+		 " (host %s, pid %d); also instance %016" PRIx64
+		 " (host %s, pid %d%s%s); state_t mixes both: stop one, or give one another "
+		 "lcm.channel_prefix",
+		 (uint64_t)t->instance,
+		 t->cfg	   ? t->cfg->host :
+		 t->health ? t->health->host :
+			     "?",
+		 t->cfg	   ? (int)t->cfg->pid :
+		 t->health ? (int)t->health->pid :
+			     0,
+		 (uint64_t)t->other_instance, t->other_host, (int)t->other_pid,
+		 t->other_source[0] ? ", " : "", t->other_source);
+}
+
 static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_health_t *msg,
 		      void *user)
 {
@@ -135,6 +176,8 @@ static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 
 	(void)rbuf;
 	(void)channel;
+	if (!same_daemon(t, msg->instance, msg->host, msg->pid, NULL))
+		return;
 	if (t->paused && t->health) {
 		t->health_rx_ns = rmd_now_ns();
 		return;
@@ -152,6 +195,8 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 
 	(void)rbuf;
 	(void)channel;
+	if (!same_daemon(t, msg->instance, msg->host, msg->pid, msg->source))
+		return;
 	if (t->paused && t->cfg)
 		return;
 	if (t->cfg)
@@ -255,6 +300,12 @@ static void print_table(const struct top *t, FILE *f)
 		fprintf(f, "waiting for rmdd: config %s, health %s, state %s\n", c ? "yes" : "no",
 			h ? "yes" : "no", t->state ? "yes" : "no");
 		return;
+	}
+	if (t->mixed) {
+		char line[640];
+
+		top_mixed_line(t, line, sizeof(line));
+		fprintf(f, "%s\n", line);
 	}
 	if (top_stale(t))
 		fprintf(f, "STALE: no health for %.1f s, no state for %.1f s (rmdd stopped?)\n",
@@ -368,6 +419,21 @@ static void print_json(const struct top *t, FILE *f)
 	fputs("{\"url\":", f);
 	json_str(f, t->url);
 	json_kstr(f, "prefix", c->prefix);
+	fprintf(f, ",\"instance\":\"%016" PRIx64 "\"", (uint64_t)c->instance);
+	json_kstr(f, "host", c->host);
+	json_kint(f, "pid", c->pid);
+	json_kstr(f, "source", c->source);
+	/* another daemon on the prefix: null, or who it is */
+	if (t->mixed) {
+		fprintf(f, ",\"mixed\":{\"instance\":\"%016" PRIx64 "\"",
+			(uint64_t)t->other_instance);
+		json_kstr(f, "host", t->other_host);
+		json_kint(f, "pid", t->other_pid);
+		json_kstr(f, "source", t->other_source);
+		fputc('}', f);
+	} else {
+		fputs(",\"mixed\":null", f);
+	}
 	json_kint(f, "period_us", c->period_us);
 	json_kint(f, "state_every", c->state_every);
 	json_kint(f, "cycle", s->cycle);
@@ -514,8 +580,12 @@ static int run_once(struct top *t)
 	for (;;) {
 		if (pump(t, rmd_now_ns() + 20000000) < 0)
 			return -EIO;
-		if (complete(t))
+		if (complete(t)) {
+			/* another daemon's health_t (10 Hz) would come meanwhile: "mixed" */
+			if (pump(t, rmd_now_ns() + TOP_MIXED_WAIT_NS) < 0)
+				return -EIO;
 			break;
+		}
 		if (rmdctl_top_stop || rmd_now_ns() - start > (int64_t)(t->wait_s * 1e9)) {
 			tool_log(TOOL_LOG_ERR,
 				 "no complete %sCONFIG, %sHEALTH and %sSTATE within %g s "

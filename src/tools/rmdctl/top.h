@@ -39,6 +39,17 @@ struct top {
 	 * dropped, but their times still count, so STALE stays true news.
 	 */
 	bool paused;
+	/*
+	 * One daemon per prefix (docs/lcm.md): top shows the first instance
+	 * heard (config_t or health_t) and never switches; another one's
+	 * config_t and health_t are kept aside as `other` and flag the view
+	 * (state_t names no instance: it may mix both).
+	 */
+	int64_t instance; /* 0 until one is heard */
+	bool mixed;
+	int64_t other_instance;
+	int32_t other_pid;
+	char other_host[64], other_source[256];
 };
 
 /* Set by SIGINT and SIGTERM: every loop of top ends. */
@@ -51,6 +62,8 @@ const rmd_motor_state_t *top_motor_state(const struct top *t, int i);
 /* Names of a state_t mode and a health_t bus state; "?" when unknown. */
 const char *top_mode_name(int mode);
 const char *top_bus_state_name(int s);
+/* Another daemon's line: "MIXED: ..." naming both instances (t->mixed). */
+void top_mixed_line(const struct top *t, char *buf, size_t len);
 /* No health_t or state_t for TOP_STALE_NS. */
 bool top_stale(const struct top *t);
 

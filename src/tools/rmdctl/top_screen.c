@@ -431,6 +431,19 @@ static void title(const struct top *t, const struct ui *u, int y)
 	add(&l, ATT_NONE, "rmdctl top");
 	if (t->paused)
 		add(&l, ATT_WARN, "PAUSED");
+	/* another daemon on the prefix: both named; the view stays on the first */
+	if (t->mixed)
+		add(&l, ATT_ALARM,
+		    "MIXED: 2 rmdd: shown %08" PRIx32 " %s pid %d, also %08" PRIx32 " %s pid %d",
+		    (uint32_t)((uint64_t)t->instance >> 32),
+		    t->cfg    ? t->cfg->host :
+		    t->health ? t->health->host :
+				"?",
+		    t->cfg    ? (int)t->cfg->pid :
+		    t->health ? (int)t->health->pid :
+				0,
+		    (uint32_t)((uint64_t)t->other_instance >> 32), t->other_host,
+		    (int)t->other_pid);
 	if (t->cfg && t->health && t->state) {
 		enum att worst = ATT_NONE;
 		int n = 0;

@@ -5,10 +5,15 @@
  * modes, limits and MIT gain ranges, from the loop's motor records by
  * rmd_motor_info()).  Non-rt.
  */
+#include <errno.h>
 #include <inttypes.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
+#include <sys/random.h>
+
+#include "rmd/time.h"
 #include "rmd_version.h"
 #include "rmdd.h"
 
@@ -28,6 +33,15 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	snprintf(o->url, sizeof(o->url), "%s", cfg->lcm.url);
 	snprintf(o->prefix, sizeof(o->prefix), "%s", cfg->lcm.channel_prefix);
 	snprintf(o->version, sizeof(o->version), "%s", RMD_VERSION);
+	/* which daemon this is: random, so a restart on the same pid is another one */
+	while (!o->instance)
+		if (getrandom(&o->instance, sizeof(o->instance), 0) != sizeof(o->instance))
+			o->instance = (int64_t)rmd_now_ns() ^ ((int64_t)getpid() << 32);
+	if (gethostname(o->host, sizeof(o->host)) < 0)
+		snprintf(o->host, sizeof(o->host), "?");
+	o->host[sizeof(o->host) - 1] = '\0';
+	o->pid = (int32_t)getpid();
+	snprintf(o->source, sizeof(o->source), "%s", cfg->source);
 	o->nmotors = cfg->n_motors;
 	for (unsigned i = 0; i < cfg->n_motors && i < RMD_MAX_MOTORS; i++) {
 		rmd_motor_info(rmd_loop_motor(loop, i), plan->motor[i].batched, &o->motor[i]);
@@ -88,4 +102,40 @@ void rmdd_lcm_incidents(struct rmd_bridge_opts *o, struct rmdd_incidents *in)
 {
 	o->on_intruder = in ? bridge_intruder : NULL;
 	o->intruder_ctx = in;
+}
+
+int rmdd_lcm_alone(struct rmd_bridge *b, bool force)
+{
+	struct rmd_bridge_peer p;
+	char who[400];
+	int r = rmd_bridge_probe(b, RMD_BRIDGE_PROBE_NS, &p);
+
+	if (r < 0) {
+		tool_log(4, "LCM: could not look for another rmdd on %s* (%s); starting",
+			 b->opts.prefix, strerror(-r));
+		return 0;
+	}
+	tool_log(7, "LCM: instance %016" PRIx64 " on host %s, pid %d", (uint64_t)b->opts.instance,
+		 b->opts.host, (int)b->opts.pid);
+	if (r == 0)
+		return 0;
+	if (p.instance)
+		snprintf(who, sizeof(who), "instance %016" PRIx64 " on host %s, pid %d%s%s",
+			 (uint64_t)p.instance, p.host, (int)p.pid,
+			 p.source[0] ? ", configuration " : "", p.source);
+	else
+		snprintf(who, sizeof(who), "its state_t names no instance: an older rmdd?");
+	if (force) {
+		tool_log(4,
+			 "another rmdd publishes on %s* of %s (%s); starting anyway (--force): "
+			 "controllers on this prefix will see both daemons and drive both",
+			 b->opts.prefix, b->opts.url, who);
+		return 0;
+	}
+	tool_log(3,
+		 "another rmdd publishes on %s* of %s (%s); two daemons on one prefix take the "
+		 "same controller's commands. Give this one another lcm.channel_prefix, stop "
+		 "the other, or start with --force",
+		 b->opts.prefix, b->opts.url, who);
+	return -EEXIST;
 }

@@ -102,6 +102,7 @@ struct rmdd_opts {
 	unsigned sim_motors;	/* --sim [N] */
 	const char *lcm_url;	/* --lcm-url: replaces the configuration's lcm.url */
 	bool require_rt;	/* refuse to run without SCHED_FIFO and mlockall */
+	bool force;		/* start beside another daemon on the same URL and prefix */
 	int64_t stall_after_ns; /* RMDD_TEST_STALL_AFTER_MS */
 };
 
@@ -156,6 +157,10 @@ static const struct tool_opt opts[] = {
 	  .arg = "URL",
 	  .help = "LCM provider instead of the configuration's lcm.url\n"
 		  "(memq:// keeps all traffic inside rmdd)" },
+	{ .name = "force",
+	  .shortc = 'f',
+	  .help = "start even when another rmdd publishes on the same LCM URL\n"
+		  "and channel prefix (both then log the conflict)" },
 	{ .name = "require-rt",
 	  .shortc = 'r',
 	  .help = "exit unless SCHED_FIFO and mlockall are granted" },
@@ -176,8 +181,8 @@ static const struct tool_opt opts[] = {
 
 static void usage(FILE *out)
 {
-	fprintf(out, "usage: rmdd [--config FILE] [--require-rt] [--lcm-url URL] [-v|-q]\n"
-		     "       rmdd --sim [N] [--require-rt] [--lcm-url URL] [-v|-q]\n"
+	fprintf(out, "usage: rmdd [--config FILE] [--require-rt] [--lcm-url URL] [-f] [-v|-q]\n"
+		     "       rmdd --sim [N] [--require-rt] [--lcm-url URL] [-f] [-v|-q]\n"
 		     "       rmdd --check-config FILE\n"
 		     "\n"
 		     "Drives MyActuator RMD motors on CAN buses and RS485 lines at up to 1 kHz\n"
@@ -258,6 +263,9 @@ static int parse_args(int argc, char **argv, struct rmdd_opts *o)
 			break;
 		case 'r':
 			o->require_rt = true;
+			break;
+		case 'f':
+			o->force = true;
 			break;
 		case 'v':
 			tool_log_set_level(TOOL_LOG_DEBUG);
@@ -1181,6 +1189,9 @@ static int run(const struct rmdd_opts *o)
 		tool_log(3, "LCM: %s; --lcm-url memq:// runs without LCM traffic", err);
 		goto err_fini_monitor;
 	}
+	/* before bring-up: another daemon here would answer our controllers too */
+	if (rmdd_lcm_alone(&d->bridge, o->force) < 0)
+		goto err_fini_bridge;
 	r = rmd_bridge_start(&d->bridge);
 	if (r < 0) {
 		tool_log(3, "LCM bridge thread: %s", strerror(-r));

@@ -194,6 +194,13 @@ void rmdd_lcm_incidents(struct rmd_bridge_opts *o, struct rmdd_incidents *in);
 /* After rmd_bridge_start(): says, at info level, when SCHED_FIFO was refused. */
 void rmdd_lcm_started(struct rmd_bridge *b);
 
+/*
+ * Before bring-up: listen for another daemon on the URL and prefix.
+ * Alone: 0.  Another one: without force, log an error naming it and the
+ * ways out, -EEXIST; with force, log a warning, 0.  Non-rt.
+ */
+int rmdd_lcm_alone(struct rmd_bridge *b, bool force);
+
 /* ---- statistics (rmdd_stats.c) --------------------------------------------- */
 
 struct rmdd_stats_src {

@@ -199,6 +199,12 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 				bs.accepted, bs.rejected, bs.clamped, bs.states_published,
 				bs.health_published, bs.configs_published, bs.publish_errors,
 				bs.lcm_errors);
+		if (bs.foreign)
+			tool_log_always(6,
+					"  lcm: another rmdd on the prefix: %" PRIu64
+					" of its health_t and config_t heard (docs/lcm.md, \"One "
+					"daemon per prefix\")",
+					bs.foreign);
 	}
 	if (rmd_ring_dropped(s->events))
 		tool_log_always(6, "  events lost (ring full): %" PRIu64,
