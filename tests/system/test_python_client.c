@@ -441,8 +441,8 @@ static void test_enable_after_the_watchdog_tripped(void **state)
 	struct fixture *f = client_or_skip(state);
 
 	assert_non_null(strstr(enable_and_track(f, "trip", 2, 1), "tripped: motor1 is safe"));
-	/* rmdd saw enable = 0 before the second enable = 1 */
-	assert_non_null(strstr(file_text(f->rmdd_log), "motor 1 (motor1): safe -> ready"));
+	/* rmdd saw enable = 0 before the second enable = 1: SAFE, then STOPPING until its echoes */
+	assert_non_null(strstr(file_text(f->rmdd_log), "motor 1 (motor1): safe -> stopping"));
 }
 
 static void test_no_rmdd_is_a_clear_error(void **state)
