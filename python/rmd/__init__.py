@@ -8,4 +8,5 @@ rmd.Client talks to a running rmdd (see rmd.client).
 """
 
 from ._types import *  # noqa: F401,F403  (generated: one class per lcm_types/*.lcm)
-from .client import DEFAULT_URL, Client, RmdError, lifecycle_name  # noqa: F401
+from .client import (DEFAULT_URL, Client, MotorStopped, NotOwner, RmdError,  # noqa: F401
+                     lifecycle_name)

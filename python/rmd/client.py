@@ -30,6 +30,16 @@ What it does for you (docs/lcm.md is the contract):
   - on leaving a `with` block (or close()), sends enable = 0 to every motor it
     enabled.
 
+Mistakes it stops at once instead of leaving to rmdd's safety net:
+  - a NaN or Inf setpoint: set() raises ValueError naming the motor and the
+    field (rmdd would reject every command and its watchdog trip);
+  - a motor it enabled going SAFE (the watchdog: commands stopped for longer
+    than command_timeout_ms), LOST or FAULT: the next send() or spin()
+    raises MotorStopped, saying which and why; the client sends enable = 0
+    for it from then on and never enables it again until enable() is called;
+  - another controller owning the motors: enable() raises NotOwner naming
+    the owner's id (health_t.owner), not "motor1 is enabled".
+
 Threads: none.  The client is single-threaded: it reads LCM only inside its
 own calls (poll(), spin(), connect(), enable(), disable()), so `state`,
 `health` and `config` change only there.  Use a client from one thread, and
@@ -48,10 +58,40 @@ CONFIG_REQUEST_PERIOD_S = 0.25
 POLL_MAX = 1000  # messages one poll() handles at most: a flood cannot hold it
 
 LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe", "stopping"]
+LC_STOPPED = (3, 4, 5)  # state_t.LC_FAULT, LC_LOST, LC_SAFE
+SETPOINT_FIELDS = ("position", "velocity", "torque", "kp", "kd", "max_velocity")
 
 
 class RmdError(Exception):
     """rmdd did not answer, or did not do what was asked."""
+
+
+class MotorStopped(RmdError):
+    """A motor this client enabled left ENABLED for SAFE, LOST or FAULT.
+
+    Raised by send() (so by spin()) once state_t shows it; the client then
+    stops driving those motors (set() on them raises) and never enables
+    them again by itself: call enable() once the cause is dealt with.
+    `motors` is a list of (name, lifecycle name); `watchdog` is True when
+    rmdd's watchdog had tripped (health_t.watchdog WD_TRIPPED): the client
+    did not stream its commands every command_timeout_ms.
+    """
+
+    def __init__(self, msg, motors=(), watchdog=False):
+        super().__init__(msg)
+        self.motors = list(motors)
+        self.watchdog = watchdog
+
+
+class NotOwner(RmdError):
+    """rmdd rejects this client's commands: another controller owns the motors.
+
+    `owner` is that controller's command_t.controller id (health_t.owner).
+    """
+
+    def __init__(self, msg, owner=None):
+        super().__init__(msg)
+        self.owner = owner
 
 
 def lifecycle_name(lc):
@@ -110,6 +150,8 @@ class Client:
         # index -> [enable, mode, position, velocity, torque, kp, kd, max_velocity]
         self._cmd = {}
         self._enabled = set()  # motors enable() enabled and disable() has not disabled
+        self._stopped = {}  # index -> lifecycle name: enabled, then seen SAFE/LOST/FAULT
+        self._was_enabled = set()  # driven motors state_t has shown ENABLED
         self._subs = [
             self.lc.subscribe(prefix + "CONFIG", self._on_config),
             self.lc.subscribe(prefix + "STATE", self._on_state),
@@ -131,6 +173,9 @@ class Client:
             return
         self.state = s
         self.state_rx = time.monotonic()
+        for i, e in self._cmd.items():
+            if e[0] and i < s.count and s.motor[i].lifecycle == s.LC_ENABLED:
+                self._was_enabled.add(i)
         self.n_states += 1
         if self.on_state:
             self.on_state(s)
@@ -305,19 +350,37 @@ class Client:
         N*m, N*m/rad, N*m*s/rad.  Which fields a mode uses: docs/lcm.md.
         """
         i = self.index(motor)
-        if i not in self._cmd:
-            raise RmdError(f"{self.config.motor[i].name}: not enabled by this client")
+        name = self.config.motor[i].name
+        if i not in self._cmd or i in self._stopped:
+            why = self._stopped.get(i)
+            raise RmdError(f"{name}: not enabled by this client"
+                           + (f" ({why}: enable() it again)" if why else ""))
         e = self._cmd[i]
-        for k, v in ((2, position), (3, velocity), (4, torque), (5, kp), (6, kd),
-                     (7, max_velocity)):
-            if v is not None:
-                e[k] = float(v)
+        new = {}
+        for k, (field, v) in enumerate(zip(SETPOINT_FIELDS,
+                                           (position, velocity, torque, kp, kd, max_velocity)), 2):
+            if v is None:
+                continue
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name}: {field} = {v!r} is not a number") from None
+            if not math.isfinite(x):
+                raise ValueError(
+                    f"{name}: {field} = {x!r} is not finite (rmdd would reject the whole "
+                    "command_t, every motor's, and its watchdog then make the motors safe)")
+            new[k] = x
+        for k, x in new.items():  # all or nothing
+            e[k] = x
 
     def send(self):
         """Publish one command_t with every motor this client drives; returns it.
 
         seq counts from 0; utime is time.monotonic() in microseconds.
+        MotorStopped when state_t shows a motor this client enabled in SAFE,
+        LOST or FAULT (the client stops driving it: enable() it again).
         """
+        self._check_stopped()
         command_t = self._types[0]
         msg = command_t()
         msg.utime = _now_us()
@@ -337,6 +400,50 @@ class Client:
             c.position, c.velocity, c.torque, c.kp, c.kd, c.max_velocity = e[2:]
         self.lc.publish(self.prefix + "COMMAND", msg.encode())
         return msg
+
+    def _owned_by_other(self):
+        h = self.health
+        return h is not None and bool(h.owned) and h.owner != self.controller
+
+    def _owner_text(self):
+        h = self.health
+        return (f"controller {h.owner:#x} owns the motors (health_t.owner; this client is "
+                f"{self.controller:#x}), so rmdd rejects this client's commands: stop that "
+                "controller, or set takeover = True to take the motors over (docs/lcm.md, "
+                "\"One controller at a time\")")
+
+    def _check_stopped(self):
+        """MotorStopped for enabled motors that state_t shows SAFE, LOST or FAULT."""
+        s = self.state
+        if s is None:
+            return
+        for i, e in self._cmd.items():
+            if e[0] and i < s.count and s.motor[i].lifecycle == s.LC_ENABLED:
+                self._was_enabled.add(i)
+        bad = [i for i in self._was_enabled
+               if i in self._cmd and i < s.count and s.motor[i].lifecycle in LC_STOPPED]
+        if not bad:
+            return
+        h = self.health
+        wd = h is not None and h.watchdog == type(h).WD_TRIPPED
+        names = [(self.config.motor[i].name, lifecycle_name(s.motor[i].lifecycle))
+                 for i in sorted(bad)]
+        for i in bad:
+            self._stopped[i] = lifecycle_name(s.motor[i].lifecycle)
+            self._cmd[i][0] = False
+            self._enabled.discard(i)
+            self._was_enabled.discard(i)
+        # keep sending enable = 0 for them: what rmdd wants before a new enable
+        why = ", ".join(f"{n} is {lc}" for n, lc in names)
+        if wd:
+            why += (": rmdd's watchdog tripped (no command within command_timeout_ms: "
+                    "call spin() or send() at least every period)")
+        elif self._owned_by_other():
+            why += ": " + self._owner_text()
+        else:
+            why += " (rmdd's log and docs/faults.md say why)"
+        raise MotorStopped(f"motors stopped: {why}; this client will not enable them again "
+                           "by itself: call enable()", names, wd)
 
     def spin(self, seconds, rate_hz=200.0, before_send=None):
         """Stream the setpoints for `seconds`: send() at `rate_hz`, poll() in between.
@@ -420,9 +527,14 @@ class Client:
                 self.send()
                 if done(since):
                     return True
-                if time.monotonic() >= end:
+                if time.monotonic() >= end or (self._owned_by_other() and not self.takeover
+                                               and self.health.intruder == self.controller):
                     return False
                 self.wait(period)
+
+        for i in idx:
+            self._stopped.pop(i, None)
+            self._was_enabled.discard(i)
 
         # enable = 0 until READY, in a state_t from after two cycles of it
         ready = stream_until(lambda since: self._all_in(idx, state_t.LC_READY, since),
@@ -436,7 +548,12 @@ class Client:
             enabled = stream_until(lambda since: self._all_in(idx, state_t.LC_ENABLED, since),
                                    time.monotonic())
         if enabled:
+            self._was_enabled.update(idx)
             return []
+        if self._owned_by_other() and not self.takeover:
+            if strict:
+                self.disable(idx)
+            raise NotOwner(f"enable: {self._owner_text()}", self.health.owner)
         want, stage = (state_t.LC_ENABLED, "enabled") if ready else (state_t.LC_READY, "ready")
         bad = [(c.motor[i].name, lifecycle_name(self.lifecycle(i))
                 + (" (position uncertain after a power cycle: home() it, docs/faults.md)"
@@ -475,4 +592,5 @@ class Client:
         for i in idx:
             self._cmd.pop(i, None)
             self._enabled.discard(i)
+            self._was_enabled.discard(i)
         return n
