@@ -421,7 +421,8 @@ class Client:
             if e[0] and i < s.count and s.motor[i].lifecycle == s.LC_ENABLED:
                 self._was_enabled.add(i)
         bad = [i for i in self._was_enabled
-               if i in self._cmd and i < s.count and s.motor[i].lifecycle in LC_STOPPED]
+               if i in self._cmd and self._cmd[i][0] and i < s.count
+               and s.motor[i].lifecycle in LC_STOPPED]
         if not bad:
             return
         h = self.health
@@ -512,6 +513,8 @@ class Client:
         command_t, state_t = self._types[0], self._types[4]
         period = min(max(self.period_s, 0.001), 0.02)
         for i in idx:
+            self._stopped.pop(i, None)
+            self._was_enabled.discard(i)
             ms = self.state.motor[i] if i < self.state.count else None
             pos = ms.position if ms is not None and math.isfinite(ms.position) else 0.0
             hold = pos if mode in (command_t.MODE_POSITION, command_t.MODE_MIT) else 0.0
@@ -532,10 +535,6 @@ class Client:
                     return False
                 self.wait(period)
 
-        for i in idx:
-            self._stopped.pop(i, None)
-            self._was_enabled.discard(i)
-
         # enable = 0 until READY, in a state_t from after two cycles of it
         ready = stream_until(lambda since: self._all_in(idx, state_t.LC_READY, since),
                              time.monotonic() + 2 * self.period_s)
@@ -551,8 +550,9 @@ class Client:
             self._was_enabled.update(idx)
             return []
         if self._owned_by_other() and not self.takeover:
-            if strict:
-                self.disable(idx)
+            for i in idx:  # rmdd took none of these commands: nothing to undo
+                self._cmd.pop(i, None)
+                self._enabled.discard(i)
             raise NotOwner(f"enable: {self._owner_text()}", self.health.owner)
         want, stage = (state_t.LC_ENABLED, "enabled") if ready else (state_t.LC_READY, "ready")
         bad = [(c.motor[i].name, lifecycle_name(self.lifecycle(i))
@@ -568,7 +568,8 @@ class Client:
     def disable(self, motors=None, timeout=0.5):
         """enable = 0 for motors (default: every motor this client drives).
 
-        Sent every cycle until state_t no longer shows them ENABLED (at least
+        Sent every cycle until state_t no longer shows them ENABLED or
+        STOPPING (on their way to READY), within `timeout` s (at least
         three times: UDP may drop one); then the client stops sending them.
         """
         idx = sorted(self._cmd) if motors is None else [self.index(m) for m in motors]
@@ -585,7 +586,9 @@ class Client:
             n += 1
             s = self.state
             off = s is not None and self.state_rx >= t0 + period and all(
-                i >= s.count or s.motor[i].lifecycle != state_t.LC_ENABLED for i in idx)
+                i >= s.count
+                or s.motor[i].lifecycle not in (state_t.LC_ENABLED, state_t.LC_STOPPING)
+                for i in idx)
             if (n >= 3 and off) or time.monotonic() >= end:
                 break
             self.wait(period)
