@@ -653,6 +653,9 @@ static void test_plot_log(void **state)
 		check_csv(c.out, "motor1.position", l.t_pos, l.pos, l.n_pos, l.t0_us);
 		check_csv(c.out, "health.wake_max_us", l.t_wake, l.wake, l.n_wake, l.t0_us);
 		assert_lacks(c.out, "motor2.", "--motor motor1");
+		/* the controller's setpoint beside the state (issue 22.5): this run's 0.4 rad */
+		assert_has(c.out, ",motor1.position.cmd,0.4\n", "commanded position");
+		assert_lacks(c.out, "health.wake_max_us.cmd", "no setpoint for health");
 		run_free(&c);
 	}
 }
@@ -691,7 +694,14 @@ static void test_plot_errors(void **state)
 		{ .args = { "--lcm-url", f->url, "--seconds", "0.3", "--csv", "-" },
 		  .status = 2,
 		  .err_has = { "nothing from rmdd on", "is it running?" } },
+		/* a window without a display: said at once, exit 2 (issue 22.5) */
+		{ .args = { "--lcm-url", f->url, "--field", "position" },
+		  .status = 2,
+		  .err_has = { "rmd-plot: no display", "use --out FILE" } },
 	};
+
+	unsetenv("DISPLAY");
+	unsetenv("WAYLAND_DISPLAY");
 
 	run_cases(plot_bin, c, sizeof(c) / sizeof(c[0]), NULL);
 }
