@@ -67,13 +67,19 @@ MATPLOTLIB_HINT = ("rmd-plot draws with matplotlib, which is not installed: "
                    "apt install python3-matplotlib")
 
 
+LCM_HINT = ("the LCM Python module (lcm) is not installed for " + sys.executable
+            + ": pip install lcm (Debian 12 has no python3-lcm: python3 -m venv "
+            "--system-site-packages ~/rmd-venv; ~/rmd-venv/bin/pip install lcm matplotlib; "
+            "then RMD_PYTHON=~/rmd-venv/bin/python3 rmd-plot ...)")
+
+
 def need_display():
     """Usage when a window cannot open: no X11 or Wayland display."""
     if sys.platform.startswith(("win", "darwin")):
         return
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise Usage("no display ($DISPLAY and $WAYLAND_DISPLAY unset): use --out FILE "
-                    "(a PNG) or --csv FILE")
+        raise Usage("no display: use --out FILE (a PNG) or --csv FILE "
+                    "($DISPLAY and $WAYLAND_DISPLAY are unset)")
 
 
 def parse_field(spec):
@@ -359,6 +365,8 @@ def main(argv=None):
     except ImportError as e:
         if (e.name or "").split(".")[0] == "matplotlib":
             print(f"rmd-plot: {MATPLOTLIB_HINT}", file=sys.stderr)
+        elif e.name == "lcm":
+            print(f"rmd-plot: {LCM_HINT}", file=sys.stderr)
         else:
             print(f"rmd-plot: {e}", file=sys.stderr)
         return 1

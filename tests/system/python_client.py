@@ -6,9 +6,10 @@
                                  the `with` block (enable = 0)
     python_client.py trip URL    enable motor1, go quiet until rmdd's watchdog
                                  latches the safe action (LC_SAFE): the next
-                                 spin() raises MotorStopped and nothing
-                                 re-enables motor1 until it is enabled again: enable = 0 first, READY,
-                                 then ENABLED; track; leave the block
+                                 spin() raises MotorStopped, nothing
+                                 re-enables motor1; enable() it again:
+                                 enable = 0 first, READY, then ENABLED;
+                                 track; leave the block
     python_client.py absent URL  no rmdd: connect() raises RmdError, saying so
     python_client.py takeover URL  client a enables motor1; client b is
                                  rejected (health_t intruder), then takes it
