@@ -38,7 +38,9 @@ Mistakes it stops at once instead of leaving to rmdd's safety net:
     raises MotorStopped, saying which and why; the client sends enable = 0
     for it from then on and never enables it again until enable() is called;
   - another controller owning the motors: enable() raises NotOwner naming
-    the owner's id (health_t.owner), not "motor1 is enabled".
+    the owner's id (health_t.owner), not "motor1 is enabled"; so does
+    send() once health_t shows this client's commands rejected for it (a
+    takeover).
 
 Threads: none.  The client is single-threaded: it reads LCM only inside its
 own calls (poll(), spin(), connect(), enable(), disable()), so `state`,
@@ -378,7 +380,9 @@ class Client:
 
         seq counts from 0; utime is time.monotonic() in microseconds.
         MotorStopped when state_t shows a motor this client enabled in SAFE,
-        LOST or FAULT (the client stops driving it: enable() it again).
+        LOST or FAULT (the client stops driving it: enable() it again);
+        NotOwner when health_t shows rmdd rejecting this client's commands
+        because another controller took the motors over (likewise).
         """
         self._check_stopped()
         command_t = self._types[0]
@@ -413,7 +417,20 @@ class Client:
                 "\"One controller at a time\")")
 
     def _check_stopped(self):
-        """MotorStopped for enabled motors that state_t shows SAFE, LOST or FAULT."""
+        """MotorStopped for enabled motors that state_t shows SAFE, LOST or FAULT;
+        NotOwner when health_t shows this client rejected for not owning them."""
+        h = self.health
+        if (h is not None and not self.takeover and self._owned_by_other()
+                and h.intruder == self.controller):
+            mine = sorted(i for i, e in self._cmd.items() if e[0])
+            if mine:
+                for i in mine:
+                    self._stopped[i] = f"controller {h.owner:#x} owns it"
+                    self._cmd[i][0] = False
+                    self._enabled.discard(i)
+                    self._was_enabled.discard(i)
+                raise NotOwner(f"send: {self._owner_text()}",
+                               h.owner)
         s = self.state
         if s is None:
             return

@@ -117,6 +117,20 @@ def takeover(url):
         a.send()  # the old owner is the intruder now
         if not spin_until(b, lambda: b.health.intruder == a.controller, 2.0):
             fail("health_t does not name a as the intruder after the takeover")
+        told = []
+
+        def a_told():  # a's next send() says who owns motor1 now
+            a.poll()
+            try:
+                a.send()
+            except rmd.NotOwner as e:
+                told.append(e)
+            return bool(told)
+        if not spin_until(b, a_told, 2.0):
+            fail(f"a.send() after the takeover did not raise NotOwner: {ownership(a.health)}")
+        if told[0].owner != b.controller:
+            fail(f"NotOwner names {told[0].owner:#x}, not b {b.controller:#x}: {told[0]}")
+        print(f"a told: {told[0]}", flush=True)
         if b.lifecycle(m) != rmd.state_t.LC_ENABLED:
             fail(f"motor1 in lifecycle {b.lifecycle(m)} under b")
         print("takeover: b drives motor1, a is rejected", flush=True)

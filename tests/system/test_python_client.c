@@ -479,7 +479,7 @@ static void test_no_rmdd_is_a_clear_error(void **state)
  * Issue 13: rmd.Client identifies itself (command_t.controller, random per
  * client); a second client is rejected while the first owns the motor (its
  * enable() raises NotOwner naming the owner, issue 20.12) and takes it over
- * with takeover = True.
+ * with takeover = True; the old owner's next send() raises NotOwner.
  */
 static void test_second_client_rejected_then_takes_over(void **state)
 {
@@ -491,6 +491,8 @@ static void test_second_client_rejected_then_takes_over(void **state)
 	assert_non_null(strstr(out, "intruder: b rejected while a owns motor1"));
 	assert_non_null(strstr(out, "not owner: enable: controller "));
 	assert_non_null(strstr(out, "owns the motors (health_t.owner"));
+	/* and the old owner's next send() after the takeover */
+	assert_non_null(strstr(out, "a told: send: controller "));
 	assert_non_null(strstr(out, "takeover: b drives motor1, a is rejected"));
 	assert_non_null(strstr(file_text(f->rmdd_log), "takes the motors over from controller"));
 }
