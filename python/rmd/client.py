@@ -61,6 +61,8 @@ POLL_MAX = 1000  # messages one poll() handles at most: a flood cannot hold it
 
 LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe", "stopping"]
 LC_STOPPED = (3, 4, 5)  # state_t.LC_FAULT, LC_LOST, LC_SAFE
+SEND_GAP_S = 0.05  # sends further apart than this: check state_t before the next
+FRESH_STATE_WAIT_S = 0.1  # how long send() waits for that state_t
 SETPOINT_FIELDS = ("position", "velocity", "torque", "kp", "kd", "max_velocity")
 
 
@@ -123,6 +125,8 @@ class Client:
       controller  command_t.controller: this client's id (random unless given)
       takeover  command_t.takeover of the commands sent (False; a supervisor
                 sets it to take the motors over from their owner, docs/lcm.md)
+      stopped   {index: why} of the motors this client enabled and stopped
+                driving (MotorStopped, NotOwner) until enable() them again
     """
 
     def __init__(self, url=None, prefix="RMD_", on_state=None, controller=None):
@@ -152,8 +156,10 @@ class Client:
         # index -> [enable, mode, position, velocity, torque, kp, kd, max_velocity]
         self._cmd = {}
         self._enabled = set()  # motors enable() enabled and disable() has not disabled
-        self._stopped = {}  # index -> lifecycle name: enabled, then seen SAFE/LOST/FAULT
+        self.stopped = {}  # index -> why: enabled, then SAFE/LOST/FAULT or taken over
         self._was_enabled = set()  # driven motors state_t has shown ENABLED
+        self._newly_stopped = {}  # index -> (lifecycle name, s since the last send)
+        self._last_send = time.monotonic()
         self._subs = [
             self.lc.subscribe(prefix + "CONFIG", self._on_config),
             self.lc.subscribe(prefix + "STATE", self._on_state),
@@ -176,8 +182,19 @@ class Client:
         self.state = s
         self.state_rx = time.monotonic()
         for i, e in self._cmd.items():
-            if e[0] and i < s.count and s.motor[i].lifecycle == s.LC_ENABLED:
+            if not e[0] or i >= s.count:
+                continue
+            lc = s.motor[i].lifecycle
+            if lc == s.LC_ENABLED:
                 self._was_enabled.add(i)
+            elif lc in LC_STOPPED and i in self._was_enabled:
+                # stop driving it now: the next send() says so, and carries
+                # enable = 0 (after a watchdog trip enable = 1 restarts it)
+                e[0] = False
+                self.stopped[i] = lifecycle_name(lc)
+                self._enabled.discard(i)
+                self._was_enabled.discard(i)
+                self._newly_stopped[i] = (lifecycle_name(lc), self.state_rx - self._last_send)
         self.n_states += 1
         if self.on_state:
             self.on_state(s)
@@ -223,6 +240,7 @@ class Client:
         """enable = 0 to every motor this client enabled, then close LCM."""
         if self.lc is None:
             return
+        self._newly_stopped = {}  # leaving: nothing left to report
         try:
             if self._enabled and self.config is not None:
                 self.disable(sorted(self._enabled))
@@ -353,8 +371,8 @@ class Client:
         """
         i = self.index(motor)
         name = self.config.motor[i].name
-        if i not in self._cmd or i in self._stopped:
-            why = self._stopped.get(i)
+        if i not in self._cmd or i in self.stopped:
+            why = self.stopped.get(i)
             raise RmdError(f"{name}: not enabled by this client"
                            + (f" ({why}: enable() it again)" if why else ""))
         e = self._cmd[i]
@@ -384,7 +402,21 @@ class Client:
         NotOwner when health_t shows rmdd rejecting this client's commands
         because another controller took the motors over (likewise).
         """
+        if any(e[0] for e in self._cmd.values()):
+            # what waits first: a trip among it stops the motors here, not
+            # after this command (enable = 1) restarted them
+            while self.poll() >= POLL_MAX:
+                pass
+            if time.monotonic() - self._last_send > SEND_GAP_S:
+                # quiet for a while (paused, busy): what waited may be old (a
+                # full socket buffer keeps the oldest); a state_t that comes
+                # after it says whether rmdd's watchdog tripped meanwhile
+                n = self.n_states
+                end = time.monotonic() + FRESH_STATE_WAIT_S
+                while self.n_states == n and time.monotonic() < end:
+                    self.poll(end - time.monotonic())
         self._check_stopped()
+        self._last_send = time.monotonic()
         command_t = self._types[0]
         msg = command_t()
         msg.utime = _now_us()
@@ -425,43 +457,31 @@ class Client:
             mine = sorted(i for i, e in self._cmd.items() if e[0])
             if mine:
                 for i in mine:
-                    self._stopped[i] = f"controller {h.owner:#x} owns it"
+                    self.stopped[i] = f"controller {h.owner:#x} owns it"
                     self._cmd[i][0] = False
                     self._enabled.discard(i)
                     self._was_enabled.discard(i)
                 raise NotOwner(f"send: {self._owner_text()}",
                                h.owner)
-        s = self.state
-        if s is None:
-            return
-        for i, e in self._cmd.items():
-            if e[0] and i < s.count and s.motor[i].lifecycle == s.LC_ENABLED:
-                self._was_enabled.add(i)
-        bad = [i for i in self._was_enabled
-               if i in self._cmd and self._cmd[i][0] and i < s.count
-               and s.motor[i].lifecycle in LC_STOPPED]
+        # those still driven (a caller may have dropped some meanwhile)
+        bad = {i: v for i, v in self._newly_stopped.items() if i in self._cmd}
+        self._newly_stopped = {}
         if not bad:
             return
-        h = self.health
-        wd = h is not None and h.watchdog == type(h).WD_TRIPPED
-        names = [(self.config.motor[i].name, lifecycle_name(s.motor[i].lifecycle))
-                 for i in sorted(bad)]
-        for i in bad:
-            self._stopped[i] = lifecycle_name(s.motor[i].lifecycle)
-            self._cmd[i][0] = False
-            self._enabled.discard(i)
-            self._was_enabled.discard(i)
-        # keep sending enable = 0 for them: what rmdd wants before a new enable
+        gap = max(g for _lc, g in bad.values())
+        wd = any(lc == "safe" for lc, _g in bad.values()) and (
+            (h is not None and h.watchdog == type(h).WD_TRIPPED) or gap > SEND_GAP_S)
+        names = [(self.config.motor[i].name, bad[i][0]) for i in sorted(bad)]
         why = ", ".join(f"{n} is {lc}" for n, lc in names)
         if wd:
-            why += (": rmdd's watchdog tripped (no command within command_timeout_ms: "
-                    "call spin() or send() at least every period)")
-        elif self._owned_by_other():
-            why += ": " + self._owner_text()
+            why += (f": rmdd's watchdog tripped (this client sent nothing for {gap * 1e3:.0f} "
+                    "ms; rmdd wants a command every command_timeout_ms: call spin() or "
+                    "send() at least every period)")
         else:
             why += " (rmdd's log and docs/faults.md say why)"
-        raise MotorStopped(f"motors stopped: {why}; this client will not enable them again "
-                           "by itself: call enable()", names, wd)
+        raise MotorStopped(f"motors stopped: {why}; this client sends enable = 0 for them "
+                           "and will not enable them again by itself: call enable()",
+                           names, wd)
 
     def spin(self, seconds, rate_hz=200.0, before_send=None):
         """Stream the setpoints for `seconds`: send() at `rate_hz`, poll() in between.
@@ -530,7 +550,8 @@ class Client:
         command_t, state_t = self._types[0], self._types[4]
         period = min(max(self.period_s, 0.001), 0.02)
         for i in idx:
-            self._stopped.pop(i, None)
+            self.stopped.pop(i, None)
+            self._newly_stopped.pop(i, None)
             self._was_enabled.discard(i)
             ms = self.state.motor[i] if i < self.state.count else None
             pos = ms.position if ms is not None and math.isfinite(ms.position) else 0.0
@@ -591,6 +612,7 @@ class Client:
         """
         idx = sorted(self._cmd) if motors is None else [self.index(m) for m in motors]
         for i in idx:
+            self._newly_stopped.pop(i, None)  # disabling them: nothing to report
             if i in self._cmd:
                 self._cmd[i][0] = False
         state_t = self._types[4]
