@@ -36,7 +36,9 @@ Mistakes it stops at once instead of leaving to rmdd's safety net:
   - a motor it enabled going SAFE (the watchdog: commands stopped for longer
     than command_timeout_ms), LOST or FAULT: the next send() or spin()
     raises MotorStopped, saying which and why; the client sends enable = 0
-    for it from then on and never enables it again until enable() is called;
+    for it from then on and never enables it again until enable() is called
+    (a send() after more than 50 ms without one first waits for a fresh
+    state_t: after a trip rmdd restarts the motors on any enable = 1);
   - another controller owning the motors: enable() raises NotOwner naming
     the owner's id (health_t.owner), not "motor1 is enabled"; so does
     send() once health_t shows this client's commands rejected for it (a
