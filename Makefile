@@ -455,6 +455,14 @@ install-lcm: $(RMD_LCM_LIB) $(LCM_JAVA) $(LCM_PYTHON)
 		'Libs: -L$${libdir} -lrmd-lcm' >$(DESTDIR)$(PKGCONFIGDIR)/rmd-lcm.pc
 	install -D -m 0644 $(LCM_JAVA) $(DESTDIR)$(JAVADIR)/rmd-types.jar
 	install -m 0644 $(BUILD)/python/rmd/*.py $(DESTDIR)$(PYTHONDIR)/rmd/
+	install -d $(DESTDIR)$(BINDIR)
+	printf '%s\n' '#!/bin/sh' \
+		'# rmd-plot: the installed module rmd.plot ($(PYTHONDIR)), run by' \
+		'# $$RMD_PYTHON or the python3 on PATH: an active venv with lcm and' \
+		'# matplotlib (Debian 12 has no python3-lcm; rmd-plot(1)).' \
+		'PYTHONPATH="$(PYTHONDIR)$${PYTHONPATH:+:$$PYTHONPATH}" exec "$${RMD_PYTHON:-python3}" -m rmd.plot "$$@"' \
+		>$(DESTDIR)$(BINDIR)/rmd-plot
+	chmod 0755 $(DESTDIR)$(BINDIR)/rmd-plot
 
 # Man pages: help2man makes rmdd(8), rmdctl(1) and rmd-sim(1) from the
 # program's own --help (the options have one copy) and
@@ -495,7 +503,7 @@ $(BUILD)/man/rmdd.yaml.5: docs/man/rmdd.yaml.5.in examples/rmdd.yaml
 
 install-man: $(MAN_PAGES)
 	install -d $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man5 $(DESTDIR)$(MANDIR)/man8
-	install -m 0644 $(filter %.1,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man1/
+	install -m 0644 $(filter %.1,$(MAN_PAGES)) docs/man/rmd-plot.1 $(DESTDIR)$(MANDIR)/man1/
 	install -m 0644 $(filter %.5,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man5/
 	install -m 0644 $(filter %.8,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man8/
 
@@ -509,6 +517,7 @@ install-docs:
 
 uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
+	rm -f $(DESTDIR)$(BINDIR)/rmd-plot $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))

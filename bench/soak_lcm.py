@@ -375,7 +375,7 @@ def drive(d, seed, duration):
 
     def setpoints(t):
         for i, (name, bus, mid, proto, mode, extra) in enumerate(MOTORS):
-            if i not in c._cmd:
+            if i not in c._cmd or i in c.stopped:  # stopped: MotorStopped, NotOwner
                 continue
             m = cfg.motor[i]
             over = 3.0 if rng.random() < 0.05 else 0.8  # now and then far beyond the limits
@@ -429,7 +429,10 @@ def drive(d, seed, duration):
         while time.monotonic() - t0 < run and time.monotonic() < t_end - 3.0:
             if rng.random() < 0.01:
                 wild_stamp()
-            c.spin(0.05, rate_hz=200.0, before_send=lambda t: setpoints(time.monotonic()))
+            try:
+                c.spin(0.05, rate_hz=200.0, before_send=lambda t: setpoints(time.monotonic()))
+            except rmd.RmdError as e:  # MotorStopped: the client stops driving them
+                events.append(("stopped", time.monotonic(), str(e)))
         r = rng.random()
         if r < 0.5:  # silent: the watchdog must take over
             quiet = rng.uniform(COMMAND_TIMEOUT_MS / 1000.0 * 1.5, 2.0)

@@ -113,6 +113,7 @@ class Motor:
         self.center = 0.0
         self.lifecycle = -1
         self.was_enabled = False
+        self.stopped = False  # the client stopped driving it (MotorStopped, NotOwner)
         self.window = [0.0, 0.0, 0]  # sum of squares, max |error|, samples (this second)
         self.total = [0.0, 0.0, 0]  # the same over the whole run
 
@@ -171,9 +172,19 @@ class Controller:
 
     def publish(self, t):
         """One command_t with every driven motor on the sine at time t."""
-        for m in self.motors:
-            self.c.set(m.index, **self.setpoint(m, t))
-        self.c.send()
+        try:
+            for m in self.motors:
+                if not m.stopped and m.index not in getattr(self.c, "stopped", {}):
+                    self.c.set(m.index, **self.setpoint(m, t))
+            self.c.send()
+        except self.rmd.RmdError as e:
+            # MotorStopped (SAFE, LOST, FAULT) or NotOwner (taken over): the
+            # client no longer drives them; the sine goes on for the others
+            print(f"{PROG}: {e}", flush=True)
+            names = {n for n, _lc in getattr(e, "motors", [])}
+            for m in self.motors:
+                if not names or m.name in names:
+                    m.stopped = True
 
     def target(self, m, t):
         return m.center + self.a.amplitude * math.sin(2 * math.pi * self.a.freq * t)

@@ -9,4 +9,5 @@ rmd.Client talks to a running rmdd (see rmd.client).
 
 from ._version import __version__  # noqa: F401  (generated: rmdd's version, as rmdd --version says)
 from ._types import *  # noqa: F401,F403  (generated: one class per lcm_types/*.lcm)
-from .client import DEFAULT_URL, Client, MixedStreamError, RmdError, lifecycle_name  # noqa: F401
+from .client import (DEFAULT_URL, Client, MixedStreamError, MotorStopped,  # noqa: F401
+                     NotOwner, RmdError, lifecycle_name)

@@ -34,6 +34,20 @@ What it does for you (docs/lcm.md is the contract):
     reads LCM then raises MixedStreamError naming both, unless
     `allow_mixed` is set (docs/lcm.md "One daemon per prefix").
 
+Mistakes it stops at once instead of leaving to rmdd's safety net:
+  - a NaN or Inf setpoint: set() raises ValueError naming the motor and the
+    field (rmdd would reject every command and its watchdog trip);
+  - a motor it enabled going SAFE (the watchdog: commands stopped for longer
+    than command_timeout_ms), LOST or FAULT: the next send() or spin()
+    raises MotorStopped, saying which and why; the client sends enable = 0
+    for it from then on and never enables it again until enable() is called
+    (a send() after more than 50 ms without one first waits for a fresh
+    state_t: after a trip rmdd restarts the motors on any enable = 1);
+  - another controller owning the motors: enable() raises NotOwner naming
+    the owner's id (health_t.owner), not "motor1 is enabled"; so does
+    send() once health_t shows this client's commands rejected for it (a
+    takeover).
+
 Threads: none.  The client is single-threaded: it reads LCM only inside its
 own calls (poll(), spin(), connect(), enable(), disable()), so `state`,
 `health` and `config` change only there.  Use a client from one thread, and
@@ -52,6 +66,10 @@ CONFIG_REQUEST_PERIOD_S = 0.25
 POLL_MAX = 1000  # messages one poll() handles at most: a flood cannot hold it
 
 LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe", "stopping"]
+LC_STOPPED = (3, 4, 5)  # state_t.LC_FAULT, LC_LOST, LC_SAFE
+SEND_GAP_S = 0.05  # sends further apart than this: check state_t before the next
+FRESH_STATE_WAIT_S = 0.1  # how long send() waits for that state_t
+SETPOINT_FIELDS = ("position", "velocity", "torque", "kp", "kd", "max_velocity")
 
 
 class RmdError(Exception):
@@ -60,6 +78,34 @@ class RmdError(Exception):
 
 class MixedStreamError(RmdError):
     """Two rmdd publish on the client's URL and prefix: its commands drive both."""
+
+
+class MotorStopped(RmdError):
+    """A motor this client enabled left ENABLED for SAFE, LOST or FAULT.
+
+    Raised by send() (so by spin()) once state_t shows it; the client then
+    stops driving those motors (set() on them raises) and never enables
+    them again by itself: call enable() once the cause is dealt with.
+    `motors` is a list of (name, lifecycle name); `watchdog` is True when
+    rmdd's watchdog had tripped (health_t.watchdog WD_TRIPPED): the client
+    did not stream its commands every command_timeout_ms.
+    """
+
+    def __init__(self, msg, motors=(), watchdog=False):
+        super().__init__(msg)
+        self.motors = list(motors)
+        self.watchdog = watchdog
+
+
+class NotOwner(RmdError):
+    """rmdd rejects this client's commands: another controller owns the motors.
+
+    `owner` is that controller's command_t.controller id (health_t.owner).
+    """
+
+    def __init__(self, msg, owner=None):
+        super().__init__(msg)
+        self.owner = owner
 
 
 def lifecycle_name(lc):
@@ -94,6 +140,8 @@ class Client:
       allow_mixed  False: a mixed stream raises MixedStreamError; True: only
                 `instances` and `mixed` say so (a tool that watches both)
       mixed     None, or the message naming both daemons
+      stopped   {index: why} of the motors this client enabled and stopped
+                driving (MotorStopped, NotOwner) until enable() them again
     """
 
     def __init__(self, url=None, prefix="RMD_", on_state=None, controller=None):
@@ -126,6 +174,10 @@ class Client:
         # index -> [enable, mode, position, velocity, torque, kp, kd, max_velocity]
         self._cmd = {}
         self._enabled = set()  # motors enable() enabled and disable() has not disabled
+        self.stopped = {}  # index -> why: enabled, then SAFE/LOST/FAULT or taken over
+        self._was_enabled = set()  # driven motors state_t has shown ENABLED
+        self._newly_stopped = {}  # index -> (lifecycle name, s since the last send)
+        self._last_send = time.monotonic()
         self._subs = [
             self.lc.subscribe(prefix + "CONFIG", self._on_config),
             self.lc.subscribe(prefix + "STATE", self._on_state),
@@ -167,6 +219,20 @@ class Client:
             return
         self.state = s
         self.state_rx = time.monotonic()
+        for i, e in self._cmd.items():
+            if not e[0] or i >= s.count:
+                continue
+            lc = s.motor[i].lifecycle
+            if lc == s.LC_ENABLED:
+                self._was_enabled.add(i)
+            elif lc in LC_STOPPED and i in self._was_enabled:
+                # stop driving it now: the next send() says so, and carries
+                # enable = 0 (after a watchdog trip enable = 1 restarts it)
+                e[0] = False
+                self.stopped[i] = lifecycle_name(lc)
+                self._enabled.discard(i)
+                self._was_enabled.discard(i)
+                self._newly_stopped[i] = (lifecycle_name(lc), self.state_rx - self._last_send)
         self.n_states += 1
         if self.on_state:
             self.on_state(s)
@@ -216,6 +282,7 @@ class Client:
         """enable = 0 to every motor this client enabled, then close LCM."""
         if self.lc is None:
             return
+        self._newly_stopped = {}  # leaving: nothing left to report
         try:
             if self._enabled and self.config is not None:
                 self.disable(sorted(self._enabled))
@@ -345,19 +412,53 @@ class Client:
         N*m, N*m/rad, N*m*s/rad.  Which fields a mode uses: docs/lcm.md.
         """
         i = self.index(motor)
-        if i not in self._cmd:
-            raise RmdError(f"{self.config.motor[i].name}: not enabled by this client")
+        name = self.config.motor[i].name
+        if i not in self._cmd or i in self.stopped:
+            why = self.stopped.get(i)
+            raise RmdError(f"{name}: not enabled by this client"
+                           + (f" ({why}: enable() it again)" if why else ""))
         e = self._cmd[i]
-        for k, v in ((2, position), (3, velocity), (4, torque), (5, kp), (6, kd),
-                     (7, max_velocity)):
-            if v is not None:
-                e[k] = float(v)
+        new = {}
+        for k, (field, v) in enumerate(zip(SETPOINT_FIELDS,
+                                           (position, velocity, torque, kp, kd, max_velocity)), 2):
+            if v is None:
+                continue
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name}: {field} = {v!r} is not a number") from None
+            if not math.isfinite(x):
+                raise ValueError(
+                    f"{name}: {field} = {x!r} is not finite (rmdd would reject the whole "
+                    "command_t, every motor's, and its watchdog then make the motors safe)")
+            new[k] = x
+        for k, x in new.items():  # all or nothing
+            e[k] = x
 
     def send(self):
         """Publish one command_t with every motor this client drives; returns it.
 
         seq counts from 0; utime is time.monotonic() in microseconds.
+        MotorStopped when state_t shows a motor this client enabled in SAFE,
+        LOST or FAULT (the client stops driving it: enable() it again);
+        NotOwner when health_t shows rmdd rejecting this client's commands
+        because another controller took the motors over (likewise).
         """
+        if any(e[0] for e in self._cmd.values()):
+            # what waits first: a trip among it stops the motors here, not
+            # after this command (enable = 1) restarted them
+            while self.poll() >= POLL_MAX:
+                pass
+            if time.monotonic() - self._last_send > SEND_GAP_S:
+                # quiet for a while (paused, busy): what waited may be old (a
+                # full socket buffer keeps the oldest); a state_t that comes
+                # after it says whether rmdd's watchdog tripped meanwhile
+                n = self.n_states
+                end = time.monotonic() + FRESH_STATE_WAIT_S
+                while self.n_states == n and time.monotonic() < end:
+                    self.poll(end - time.monotonic())
+        self._check_stopped()
+        self._last_send = time.monotonic()
         command_t = self._types[0]
         msg = command_t()
         msg.utime = _now_us()
@@ -377,6 +478,52 @@ class Client:
             c.position, c.velocity, c.torque, c.kp, c.kd, c.max_velocity = e[2:]
         self.lc.publish(self.prefix + "COMMAND", msg.encode())
         return msg
+
+    def _owned_by_other(self):
+        h = self.health
+        return h is not None and bool(h.owned) and h.owner != self.controller
+
+    def _owner_text(self):
+        h = self.health
+        return (f"controller {h.owner:#x} owns the motors (health_t.owner; this client is "
+                f"{self.controller:#x}), so rmdd rejects this client's commands: stop that "
+                "controller, or set takeover = True to take the motors over (docs/lcm.md, "
+                "\"One controller at a time\")")
+
+    def _check_stopped(self):
+        """MotorStopped for enabled motors that state_t shows SAFE, LOST or FAULT;
+        NotOwner when health_t shows this client rejected for not owning them."""
+        h = self.health
+        if (h is not None and not self.takeover and self._owned_by_other()
+                and h.intruder == self.controller):
+            mine = sorted(i for i, e in self._cmd.items() if e[0])
+            if mine:
+                for i in mine:
+                    self.stopped[i] = f"controller {h.owner:#x} owns it"
+                    self._cmd[i][0] = False
+                    self._enabled.discard(i)
+                    self._was_enabled.discard(i)
+                raise NotOwner(f"send: {self._owner_text()}",
+                               h.owner)
+        # those still driven (a caller may have dropped some meanwhile)
+        bad = {i: v for i, v in self._newly_stopped.items() if i in self._cmd}
+        self._newly_stopped = {}
+        if not bad:
+            return
+        gap = max(g for _lc, g in bad.values())
+        wd = any(lc == "safe" for lc, _g in bad.values()) and (
+            (h is not None and h.watchdog == type(h).WD_TRIPPED) or gap > SEND_GAP_S)
+        names = [(self.config.motor[i].name, bad[i][0]) for i in sorted(bad)]
+        why = ", ".join(f"{n} is {lc}" for n, lc in names)
+        if wd:
+            why += (f": rmdd's watchdog tripped (this client sent nothing for {gap * 1e3:.0f} "
+                    "ms; rmdd wants a command every command_timeout_ms: call spin() or "
+                    "send() at least every period)")
+        else:
+            why += " (rmdd's log and docs/faults.md say why)"
+        raise MotorStopped(f"motors stopped: {why}; this client sends enable = 0 for them "
+                           "and will not enable them again by itself: call enable()",
+                           names, wd)
 
     def spin(self, seconds, rate_hz=200.0, before_send=None):
         """Stream the setpoints for `seconds`: send() at `rate_hz`, poll() in between.
@@ -445,6 +592,9 @@ class Client:
         command_t, state_t = self._types[0], self._types[4]
         period = min(max(self.period_s, 0.001), 0.02)
         for i in idx:
+            self.stopped.pop(i, None)
+            self._newly_stopped.pop(i, None)
+            self._was_enabled.discard(i)
             ms = self.state.motor[i] if i < self.state.count else None
             pos = ms.position if ms is not None and math.isfinite(ms.position) else 0.0
             hold = pos if mode in (command_t.MODE_POSITION, command_t.MODE_MIT) else 0.0
@@ -460,7 +610,8 @@ class Client:
                 self.send()
                 if done(since):
                     return True
-                if time.monotonic() >= end:
+                if time.monotonic() >= end or (self._owned_by_other() and not self.takeover
+                                               and self.health.intruder == self.controller):
                     return False
                 self.wait(period)
 
@@ -476,7 +627,13 @@ class Client:
             enabled = stream_until(lambda since: self._all_in(idx, state_t.LC_ENABLED, since),
                                    time.monotonic())
         if enabled:
+            self._was_enabled.update(idx)
             return []
+        if self._owned_by_other() and not self.takeover:
+            for i in idx:  # rmdd took none of these commands: nothing to undo
+                self._cmd.pop(i, None)
+                self._enabled.discard(i)
+            raise NotOwner(f"enable: {self._owner_text()}", self.health.owner)
         want, stage = (state_t.LC_ENABLED, "enabled") if ready else (state_t.LC_READY, "ready")
         bad = [(c.motor[i].name, lifecycle_name(self.lifecycle(i))
                 + (" (position uncertain after a power cycle: home() it, docs/faults.md)"
@@ -491,11 +648,13 @@ class Client:
     def disable(self, motors=None, timeout=0.5):
         """enable = 0 for motors (default: every motor this client drives).
 
-        Sent every cycle until state_t no longer shows them ENABLED (at least
+        Sent every cycle until state_t no longer shows them ENABLED or
+        STOPPING (on their way to READY), within `timeout` s (at least
         three times: UDP may drop one); then the client stops sending them.
         """
         idx = sorted(self._cmd) if motors is None else [self.index(m) for m in motors]
         for i in idx:
+            self._newly_stopped.pop(i, None)  # disabling them: nothing to report
             if i in self._cmd:
                 self._cmd[i][0] = False
         state_t = self._types[4]
@@ -508,11 +667,14 @@ class Client:
             n += 1
             s = self.state
             off = s is not None and self.state_rx >= t0 + period and all(
-                i >= s.count or s.motor[i].lifecycle != state_t.LC_ENABLED for i in idx)
+                i >= s.count
+                or s.motor[i].lifecycle not in (state_t.LC_ENABLED, state_t.LC_STOPPING)
+                for i in idx)
             if (n >= 3 and off) or time.monotonic() >= end:
                 break
             self.wait(period)
         for i in idx:
             self._cmd.pop(i, None)
             self._enabled.discard(i)
+            self._was_enabled.discard(i)
         return n

@@ -2,9 +2,9 @@
 """rmd-plot: selected fields of rmdd over time, from a running daemon or a log.
 
     rmd-plot --field position --field velocity            # live window
-    rmd-plot --log run.lcmlog --field position --out pos.png
+    rmd-plot --log run.lcmlog --field position --out pos.png   # and the setpoints
     rmd-plot --log run.lcmlog --field torque --motor motor1 --csv torque.csv
-    rmd-plot --seconds 5 --field health.wake_max_us --out wake.png   # live, no display
+    rmd-plot --seconds 5 --field health.wake_p99_us --field bus.load --out rt.png
 
 FIELDS
   a state_t motor field, one line per motor (--motor NAME|INDEX narrows):
@@ -18,13 +18,20 @@ FIELDS
 
 Time is seconds from the first message plotted, on rmdd's clock (the
 messages' utime).  Motors are named by rmd.config_t when the log holds one
-(or, live, rmdd answers the request for it); else motorN by index.
+(or, live, rmdd answers the request for it), points from before it too;
+else motorN by index.  position, velocity and torque come with the
+controller's setpoints from command_t (dashed, "motor1.position.cmd"), for
+the motors it enables in a mode that uses them, so tracking error shows.
+health.* counters that only grow (cycles, wake_max_us, the totals) show
+trends; wake_p99_us, wake_avg_us and bus.load show a run's real-time health.
 
 --csv writes every point plotted as `t_s,series,value` rows (series as in
 the legend: "motor1.position", "health.wake_max_us", "can0.load"), to check
 or to read elsewhere.  --out FILE writes the figure (PNG, or what the suffix
 says) without a display; without --out a live window follows rmdd, and a log
-is shown in a window.
+is shown in a window: these need a display ($DISPLAY), else rmd-plot says
+"no display: use --out FILE" and exits 2.  matplotlib is needed to draw
+(not for --csv alone): pip install matplotlib, or './python[plot]'.
 """
 
 import argparse
@@ -54,6 +61,27 @@ class Usage(Exception):
     """A bad command line: said once, exit 2."""
 
 
+MATPLOTLIB_HINT = ("rmd-plot draws with matplotlib, which is not installed: "
+                   "pip install matplotlib (into the environment rmd is in), or, from "
+                   "rmdd's source tree, pip install './python[plot]'; Debian: "
+                   "apt install python3-matplotlib")
+
+
+LCM_HINT = ("the LCM Python module (lcm) is not installed for " + sys.executable
+            + ": pip install lcm (Debian 12 has no python3-lcm: python3 -m venv "
+            "--system-site-packages ~/rmd-venv; ~/rmd-venv/bin/pip install lcm matplotlib; "
+            "then RMD_PYTHON=~/rmd-venv/bin/python3 rmd-plot ...)")
+
+
+def need_display():
+    """Usage when a window cannot open: no X11 or Wayland display."""
+    if sys.platform.startswith(("win", "darwin")):
+        return
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise Usage("no display: use --out FILE (a PNG) or --csv FILE "
+                    "($DISPLAY and $WAYLAND_DISPLAY are unset)")
+
+
 def parse_field(spec):
     """'position' -> ('state', 'position'); 'health.x', 'bus.x' likewise."""
     kind, _, name = spec.partition(".") if "." in spec else ("state", "", spec)
@@ -63,8 +91,23 @@ def parse_field(spec):
     return kind, name
 
 
+# state_t fields a controller commands, and the command_t modes that use them
+COMMANDED = {
+    "position": (2, 3),  # MODE_POSITION, MODE_MIT
+    "velocity": (1, 3),  # MODE_SPEED, MODE_MIT
+    "torque": (0, 3),    # MODE_TORQUE, MODE_MIT
+}
+
+
 class Series:
-    """Points per series name, in arrival order, on rmdd's clock."""
+    """Points per series, in arrival order, on rmdd's clock.
+
+    A motor's series are kept by index and named when written or drawn, so
+    the points that came before config_t are the motor's, under its name.
+    The controller's setpoints (command_t) for position, velocity and torque
+    are series of their own ("motor1.position.cmd"), on rmdd's clock: each
+    at the utime of the newest state_t when it was heard.
+    """
 
     def __init__(self, fields, motors, prefix):
         self.fields = fields
@@ -72,8 +115,9 @@ class Series:
         self.prefix = prefix
         self.config = None
         self.instances = {}  # every rmdd heard: instance -> (host, pid)
-        self.points = {}  # name -> ([t_us], [value])
+        self.points = {}  # (kind, motor index | bus name | None, field, cmd) -> ([t_us], [v])
         self.t0_us = None
+        self.state_utime = None  # the newest state_t's utime
 
     def motor_name(self, i):
         if self.config is not None and i < self.config.motor_count:
@@ -83,10 +127,24 @@ class Series:
     def wanted(self, i):
         return not self.motors or self.motor_name(i) in self.motors or str(i) in self.motors
 
-    def add(self, name, t_us, value):
+    def label(self, key):
+        """The series' name: "motor1.position", "motor1.position.cmd", "health.x", "can0.load"."""
+        kind, who, name, cmd = key
+        if kind == "state":
+            return f"{self.motor_name(who)}.{name}" + (".cmd" if cmd else "")
+        return f"{'health' if kind == 'health' else who}.{name}"
+
+    def shown(self):
+        """(key, label, ts, vs) of the series to write or draw, in first-seen order."""
+        for key, (ts, vs) in self.points.items():
+            if key[0] == "state" and not self.wanted(key[1]):
+                continue
+            yield key, self.label(key), ts, vs
+
+    def add(self, key, t_us, value):
         if self.t0_us is None:
             self.t0_us = t_us
-        ts, vs = self.points.setdefault(name, ([], []))
+        ts, vs = self.points.setdefault(key, ([], []))
         ts.append(t_us)
         vs.append(float(value))
 
@@ -108,6 +166,8 @@ class Series:
                 h = rmd.health_t.decode(data)
                 if self._first_daemon(h):
                     self._health(h)
+            elif what == "COMMAND":
+                self._command(rmd.command_t.decode(data))
         except ValueError:
             pass  # another layout on our channel: not ours to plot
 
@@ -123,25 +183,36 @@ class Series:
         return m.instance == next(iter(self.instances))
 
     def _state(self, s):
+        self.state_utime = s.utime
         for kind, name in self.fields:
             if kind != "state":
                 continue
             for i in range(s.count):
                 m = s.motor[i]
-                if self.wanted(m.index):
-                    self.add(f"{self.motor_name(m.index)}.{name}", s.utime, getattr(m, name))
+                self.add(("state", m.index, name, False), s.utime, getattr(m, name))
+
+    def _command(self, c):
+        if self.state_utime is None:
+            return  # no rmdd clock to put it on yet
+        for kind, name in self.fields:
+            if kind != "state" or name not in COMMANDED:
+                continue
+            for m in c.motor[:c.count]:
+                if m.enable and m.mode in COMMANDED[name]:
+                    self.add(("state", m.index, name, True), self.state_utime, getattr(m, name))
 
     def _health(self, h):
         for kind, name in self.fields:
             if kind == "health":
-                self.add(f"health.{name}", h.utime, getattr(h, name))
+                self.add(("health", None, name, False), h.utime, getattr(h, name))
             elif kind == "bus":
                 for b in range(h.bus_count):
-                    self.add(f"{h.bus[b].name}.{name}", h.utime, getattr(h.bus[b], name))
+                    self.add(("bus", h.bus[b].name, name, False), h.utime,
+                             getattr(h.bus[b], name))
 
     def rows(self):
         """(t_s, series, value) of every point, series in first-seen order."""
-        for name, (ts, vs) in self.points.items():
+        for _key, name, ts, vs in self.shown():
             for t, v in zip(ts, vs):
                 yield (t - self.t0_us) / 1e6, name, v
 
@@ -172,15 +243,19 @@ def draw(fig, axes, series, window_s=None):
     """One subplot per field, one line per series of that field."""
     for ax, (kind, name) in zip(axes, series.fields):
         ax.clear()
-        suffix = f".{name}"
-        for sname, (ts, vs) in series.points.items():
-            if not sname.endswith(suffix) or (kind == "health") != sname.startswith("health."):
+        colors = {}
+        for key, sname, ts, vs in series.shown():
+            if key[0] != kind or key[2] != name:
                 continue
             t = [(x - series.t0_us) / 1e6 for x in ts]
             if window_s and t:
                 keep = next((k for k, x in enumerate(t) if x >= t[-1] - window_s), 0)
                 t, vs = t[keep:], vs[keep:]
-            ax.plot(t, vs, label=sname)
+            if key[3]:  # the setpoint: dashed, in its motor's colour
+                ax.plot(t, vs, label=sname, linestyle="--", drawstyle="steps-post",
+                        color=colors.get(key[1]))
+            else:
+                colors[key[1]] = ax.plot(t, vs, label=sname)[0].get_color()
         unit = UNITS.get(name, "us" if name.endswith("_us") else None)
         ax.set_ylabel(f"{name} ({unit})" if unit else name)
         ax.grid(True, alpha=0.3)
@@ -188,6 +263,13 @@ def draw(fig, axes, series, window_s=None):
             ax.legend(loc="upper left", fontsize="small")
     axes[-1].set_xlabel("s (rmdd's clock)")
     fig.tight_layout()
+
+
+def need_window(plt):
+    """Usage when matplotlib has no interactive backend (it fell back to Agg)."""
+    if plt.get_backend().lower() in ("agg", "pdf", "ps", "svg", "cairo", "template"):
+        raise Usage(f"no display: matplotlib's backend is {plt.get_backend()} (no GUI "
+                    "toolkit such as tkinter): use --out FILE")
 
 
 def figure(series):
@@ -211,7 +293,7 @@ def live(args, series):
         lc = lcm.LCM(url)
     except (IOError, OSError, RuntimeError) as e:
         raise Usage(f"LCM: cannot open {url}: {e}") from e
-    lc.subscribe(f"{args.prefix}(STATE|HEALTH|CONFIG)", series.on_message)
+    lc.subscribe(f"{args.prefix}(STATE|HEALTH|CONFIG|COMMAND)", series.on_message)
     req = rmd.config_request_t()
 
     def pump(seconds):
@@ -233,6 +315,7 @@ def live(args, series):
                         f"{args.seconds:g} s: is it running?")
         return None
     plt, fig, axes = figure(series)
+    need_window(plt)
     from matplotlib.animation import FuncAnimation
 
     def update(_frame):
@@ -267,15 +350,17 @@ def main(argv=None):
     try:
         series = Series([parse_field(f) for f in (args.field or ["position"])],
                         args.motor or [], args.prefix)
+        if not (args.out or args.csv):
+            need_display()  # before listening or reading: say it now
         if args.out:
             import matplotlib
 
             matplotlib.use("Agg")  # no display needed
         if args.log:
             read_log(args.log, series)
-            if not series.points:
+            if not any(True for _ in series.shown()):
                 raise Usage(f"{args.log}: no {args.prefix}STATE/HEALTH message with "
-                            "those fields")
+                            "those fields" + (" and motors" if args.motor else ""))
         else:
             keep = live(args, series)  # noqa: F841  (the live window's animation)
             if not (args.out or args.csv):
@@ -288,12 +373,18 @@ def main(argv=None):
             if args.out:
                 fig.savefig(args.out, dpi=100)
             else:
+                need_window(plt)
                 plt.show()
     except Usage as e:
         print(f"rmd-plot: {e}", file=sys.stderr)
         return 2
     except ImportError as e:
-        print(f"rmd-plot: {e} (pip install 'rmd[plot]' or matplotlib)", file=sys.stderr)
+        if (e.name or "").split(".")[0] == "matplotlib":
+            print(f"rmd-plot: {MATPLOTLIB_HINT}", file=sys.stderr)
+        elif e.name == "lcm":
+            print(f"rmd-plot: {LCM_HINT}", file=sys.stderr)
+        else:
+            print(f"rmd-plot: {e}", file=sys.stderr)
         return 1
     return 0
 

@@ -5,9 +5,11 @@
     python_client.py track URL   enable motor1, make it track a position, leave
                                  the `with` block (enable = 0)
     python_client.py trip URL    enable motor1, go quiet until rmdd's watchdog
-                                 latches the safe action (LC_SAFE), then
-                                 enable it again: enable = 0 first, READY,
-                                 then ENABLED; track; leave the block
+                                 latches the safe action (LC_SAFE): the next
+                                 spin() raises MotorStopped, nothing
+                                 re-enables motor1; enable() it again:
+                                 enable = 0 first, READY, then ENABLED;
+                                 track; leave the block
     python_client.py absent URL  no rmdd: connect() raises RmdError, saying so
     python_client.py takeover URL  client a enables motor1; client b is
                                  rejected (health_t intruder), then takes it
@@ -103,6 +105,14 @@ def takeover(url):
         if not (a.state.owned and a.state.owner == a.controller):
             fail("state_t does not name a as the owner")
         print("intruder: b rejected while a owns motor1", flush=True)
+        try:
+            b.enable([m], rmd.command_t.MODE_POSITION)
+            fail("b.enable() while a owns motor1 did not raise")
+        except rmd.NotOwner as e:
+            if e.owner != a.controller or f"{a.controller:#x}" not in str(e):
+                fail(f"NotOwner does not name a ({a.controller:#x}): {e}")
+            print(f"not owner: {e}", flush=True)
+        spin_until(a, lambda: False, 0.05)
         b.takeover = True
         b.enable([m], rmd.command_t.MODE_POSITION)
         if not spin_until(b, lambda: b.health.owner == b.controller
@@ -111,6 +121,20 @@ def takeover(url):
         a.send()  # the old owner is the intruder now
         if not spin_until(b, lambda: b.health.intruder == a.controller, 2.0):
             fail("health_t does not name a as the intruder after the takeover")
+        told = []
+
+        def a_told():  # a's next send() says who owns motor1 now
+            a.poll()
+            try:
+                a.send()
+            except rmd.NotOwner as e:
+                told.append(e)
+            return bool(told)
+        if not spin_until(b, a_told, 2.0):
+            fail(f"a.send() after the takeover did not raise NotOwner: {ownership(a.health)}")
+        if told[0].owner != b.controller:
+            fail(f"NotOwner names {told[0].owner:#x}, not b {b.controller:#x}: {told[0]}")
+        print(f"a told: {told[0]}", flush=True)
         if b.lifecycle(m) != rmd.state_t.LC_ENABLED:
             fail(f"motor1 in lifecycle {b.lifecycle(m)} under b")
         print("takeover: b drives motor1, a is rejected", flush=True)
@@ -173,8 +197,31 @@ def main():
             if c.lifecycle(m) != rmd.state_t.LC_SAFE:
                 fail(f"no LC_SAFE 2 s after the commands stopped: lifecycle {c.lifecycle(m)}")
             print("tripped: motor1 is safe", flush=True)
+            c.wait(0.3)  # health_t (10 Hz) says the watchdog tripped
+            try:
+                c.spin(0.1)
+                fail("spin() after the watchdog trip did not raise MotorStopped")
+            except rmd.MotorStopped as e:
+                if e.motors != [("motor1", "safe")] or not e.watchdog:
+                    fail(f"MotorStopped: motors {e.motors} watchdog {e.watchdog}: {e}")
+                print(f"stopped: {e}", flush=True)
+            c.spin(0.5)  # no exception again, and no enable = 1 without enable()
+            if c.lifecycle(m) == rmd.state_t.LC_ENABLED:
+                fail("motor1 ENABLED again after the trip without enable()")
+            try:
+                c.set(m, position=start)
+                fail("set() on a stopped motor did not raise")
+            except rmd.RmdError as e:
+                print(f"set after the trip: {e}", flush=True)
             m = connect_and_enable(c)
             start = c.motor_state(m).position
+        try:
+            c.set(m, position=0.1, velocity=float("nan"))
+            fail("set(velocity=nan) did not raise")
+        except ValueError as e:
+            if "motor1" not in str(e) or "velocity" not in str(e):
+                fail(f"ValueError does not name motor1 and velocity: {e}")
+            print(f"nan: {e}", flush=True)
         track(c, m, start + 0.5)
         track(c, m, start - 0.2)
         print(f"leaving: seq {c.seq}", flush=True)

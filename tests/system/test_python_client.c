@@ -9,10 +9,13 @@
  *   - track: the client enables motor1, the measured position reaches two
  *     targets, leaving the `with` block sends enable = 0 and motor1 ends
  *     READY; its seq starts at 0 and never goes back, no command is
- *     rejected, and the watchdog has nothing to trip afterwards;
+ *     rejected (a NaN setpoint is a ValueError in set(), never sent), and
+ *     the watchdog has nothing to trip afterwards;
  *   - trip: after the client goes quiet rmdd's watchdog latches the safe
- *     action (LC_SAFE); enable() brings motor1 back (enable = 0 seen before
- *     enable = 1), it tracks again and ends READY;
+ *     action (LC_SAFE); the next spin() raises MotorStopped naming the
+ *     watchdog, later spins do not re-enable motor1 and set() refuses it;
+ *     enable() brings motor1 back (enable = 0 seen before enable = 1), it
+ *     tracks again and ends READY;
  *   - absent: without rmdd, connect() raises RmdError naming the URL.
  *
  * The Python is $RMD_PYTHON, else BUILD/venv/bin/python3 or build/venv
@@ -433,16 +436,34 @@ static const char *enable_and_track(struct fixture *f, const char *what, unsigne
 
 static void test_enable_track_and_disable_on_exit(void **state)
 {
-	enable_and_track(client_or_skip(state), "track", 1, 0);
+	const char *out = enable_and_track(client_or_skip(state), "track", 1, 0);
+
+	/* issue 20.12: a NaN setpoint is a ValueError, never sent (check_after: 0 rejected) */
+	assert_non_null(strstr(out, "nan: motor1: velocity = nan is not finite"));
 }
 
 static void test_enable_after_the_watchdog_tripped(void **state)
 {
 	struct fixture *f = client_or_skip(state);
 
-	assert_non_null(strstr(enable_and_track(f, "trip", 2, 1), "tripped: motor1 is safe"));
-	/* rmdd saw enable = 0 before the second enable = 1: SAFE, then STOPPING until its echoes */
-	assert_non_null(strstr(file_text(f->rmdd_log), "motor 1 (motor1): safe -> stopping"));
+	const char *out = enable_and_track(f, "trip", 2, 1);
+
+	assert_non_null(strstr(out, "tripped: motor1 is safe"));
+	/* issue 20.12: the next spin() says so, and nothing re-enables motor1 */
+	assert_non_null(strstr(out, "stopped: motors stopped: motor1 is safe: rmdd's watchdog "
+				    "tripped"));
+	assert_non_null(strstr(out, "set after the trip: motor1: not enabled by this client "
+				    "(safe: enable() it again)"));
+	/*
+	 * rmdd saw enable = 0 before the second enable = 1: the client sends it
+	 * from the trip on (safe -> stopping -> ready), then enable() enables
+	 */
+	{
+		const char *log = file_text(f->rmdd_log), *left = strstr(log, "(motor1): safe -> ");
+
+		if (!left || !strstr(left, "(motor1): enabled"))
+			fail_msg("want motor1 to leave SAFE, then be enabled, in rmdd's log:\n%s", log);
+	}
 }
 
 static void test_no_rmdd_is_a_clear_error(void **state)
@@ -458,8 +479,9 @@ static void test_no_rmdd_is_a_clear_error(void **state)
 
 /*
  * Issue 13: rmd.Client identifies itself (command_t.controller, random per
- * client); a second client is rejected while the first owns the motor and
- * takes it over with takeover = True.
+ * client); a second client is rejected while the first owns the motor (its
+ * enable() raises NotOwner naming the owner, issue 20.12) and takes it over
+ * with takeover = True; the old owner's next send() raises NotOwner.
  */
 static void test_second_client_rejected_then_takes_over(void **state)
 {
@@ -469,6 +491,10 @@ static void test_second_client_rejected_then_takes_over(void **state)
 	start_rmdd(f);
 	out = run_script(f, "takeover");
 	assert_non_null(strstr(out, "intruder: b rejected while a owns motor1"));
+	assert_non_null(strstr(out, "not owner: enable: controller "));
+	assert_non_null(strstr(out, "owns the motors (health_t.owner"));
+	/* and the old owner's next send() after the takeover */
+	assert_non_null(strstr(out, "a told: send: controller "));
 	assert_non_null(strstr(out, "takeover: b drives motor1, a is rejected"));
 	assert_non_null(strstr(file_text(f->rmdd_log), "takes the motors over from controller"));
 }

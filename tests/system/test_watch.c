@@ -22,10 +22,14 @@
  *   - log: lcm-logger records a short run while the test moves motor1;
  *     rmd-plot --log draws position and wake-up latency into a PNG and
  *     writes its points as CSV, which must hold exactly the log's state_t
- *     and health_t values (read here with LCM's C event log reader);
+ *     and health_t values (read here with LCM's C event log reader), and
+ *     the commanded position (motor1.position.cmd, from command_t);
+ *   - late config: a log whose config_t comes after state_t: every point
+ *     is motor1's, none under a motor0 name;
  *   - live: it listens for a second, names the motors from the config_t it
  *     asks for, and writes PNG and CSV;
- *   - a bad field, a missing log, no rmdd: exit 2 with the reason.
+ *   - a bad field, a missing log, no rmdd, a window without a display:
+ *     exit 2 with the reason.
  * Without multicast on loopback (routed when root,
  * tests/harness/lcm_loopback.h) every test skips loudly; without the venv's
  * rmd-plot or lcm-logger, the rmd-plot tests do.  RMD_TEST_FILTER=test_json
@@ -55,6 +59,7 @@
 #include "harness/proc.h"
 #include "rmd/time.h"
 #include "rmd/rmd_command_t.h"
+#include "rmd/rmd_config_request_t.h"
 
 #define NMOTORS 3
 #define START_MS 15000 /* rmdd up, every motor ready (sanitizers, a busy machine) */
@@ -562,6 +567,7 @@ struct logged {
 	double pos[MAX_POINTS], wake[MAX_POINTS / 10];
 	int64_t t0_us; /* the first state_t's or health_t's, in log order: rmd-plot's time 0 */
 	bool config;
+	unsigned pos_before_config; /* state_t before the first config_t */
 };
 
 static void read_log(const char *path, struct logged *l)
@@ -581,6 +587,8 @@ static void read_log(const char *path, struct logged *l)
 			if (s.count > 0 && l->n_pos < MAX_POINTS) {
 				l->t_pos[l->n_pos] = s.utime;
 				l->pos[l->n_pos++] = s.motor[0].position;
+				if (!l->config)
+					l->pos_before_config++;
 			}
 			rmd_state_t_decode_cleanup(&s);
 		} else if (!strcmp(ev->channel, "RMD_HEALTH") &&
@@ -711,8 +719,54 @@ static void test_plot_log(void **state)
 		check_csv(c.out, "motor1.position", l.t_pos, l.pos, l.n_pos, l.t0_us);
 		check_csv(c.out, "health.wake_max_us", l.t_wake, l.wake, l.n_wake, l.t0_us);
 		assert_lacks(c.out, "motor2.", "--motor motor1");
+		/* the controller's setpoint beside the state (issue 22.5): this run's 0.4 rad */
+		assert_has(c.out, ",motor1.position.cmd,0.4\n", "commanded position");
+		assert_lacks(c.out, "health.wake_max_us.cmd", "no setpoint for health");
 		run_free(&c);
 	}
+}
+
+/*
+ * Issue 22.5: a log that starts after rmdd holds config_t only from a later
+ * request; the points before it are the motor's, under its name (one
+ * motor1.position series, every state_t of the log), no motor0 series.
+ */
+static void test_plot_log_late_config(void **state)
+{
+	struct fixture *f = plot_or_skip(state, true);
+	char url_opt[128];
+	const char *logger_argv[] = { "lcm-logger", "-f", url_opt, f->log, NULL };
+	const char *args[] = { "--log", f->log, "--field", "position", "--csv", f->csv, NULL };
+	const char *cat[] = { f->csv, NULL };
+	rmd_config_request_t req = { 0 };
+	static struct logged l;
+	struct kid *logger;
+	struct run r, c;
+
+	memset(&l, 0, sizeof(l));
+	snprintf(url_opt, sizeof(url_opt), "--lcm-url=%s", f->url);
+	start_rmdd(f); /* its config_t goes out before the logger listens */
+	logger = kid_spawn("lcm-logger", logger_argv, NULL, 0);
+	wait_logging(f->log);
+	service(300);
+	req.utime = rmd_now_ns() / 1000;
+	assert_int_equal(rmd_config_request_t_publish(F->lcm, "RMD_CONFIG_REQUEST", &req), 0);
+	service(300);
+	kill(logger->pid, SIGINT);
+	assert_int_equal(kid_wait_exit(logger, 5000, NULL), 0);
+	kid_kill_all();
+
+	read_log(f->log, &l);
+	assert_true(l.config);
+	if (l.pos_before_config < 10)
+		fail_msg("only %u state_t before the config_t in the log", l.pos_before_config);
+	run_prog(&r, plot_bin, args, NULL);
+	assert_status(&r, 0, "rmd-plot --log --csv");
+	run_free(&r);
+	run_prog(&c, "/bin/cat", cat, NULL);
+	check_csv(c.out, "motor1.position", l.t_pos, l.pos, l.n_pos, l.t0_us);
+	assert_lacks(c.out, "motor0.", "points before config_t under a motorN name");
+	run_free(&c);
 }
 
 static void test_plot_live(void **state)
@@ -749,7 +803,14 @@ static void test_plot_errors(void **state)
 		{ .args = { "--lcm-url", f->url, "--seconds", "0.3", "--csv", "-" },
 		  .status = 2,
 		  .err_has = { "nothing from rmdd on", "is it running?" } },
+		/* a window without a display: said at once, exit 2 (issue 22.5) */
+		{ .args = { "--lcm-url", f->url, "--field", "position" },
+		  .status = 2,
+		  .err_has = { "rmd-plot: no display", "use --out FILE" } },
 	};
+
+	unsetenv("DISPLAY");
+	unsetenv("WAYLAND_DISPLAY");
 
 	run_cases(plot_bin, c, sizeof(c) / sizeof(c[0]), NULL);
 }
@@ -762,6 +823,7 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_no_rmdd, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_mixed, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_plot_log, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_plot_log_late_config, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_plot_live, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_plot_errors, setup, teardown),
 	};

@@ -51,9 +51,9 @@ rm torque.png
 ~/rmd-venv/bin/rmd-plot --log run.lcmlog --field torque --out torque.png
 png torque.png
 cp run.lcmlog run1.lcmlog
-~/rmd-venv/bin/rmd-plot --log run1.lcmlog --field position --field health.wake_max_us --out run1.png
+~/rmd-venv/bin/rmd-plot --log run1.lcmlog --field position --field health.wake_p99_us --out run1.png
 png run1.png
-~/rmd-venv/bin/rmd-plot --seconds 10 --field health.wake_max_us --field bus.load --out rt.png
+~/rmd-venv/bin/rmd-plot --seconds 10 --field health.wake_p99_us --field bus.load --out rt.png
 png rt.png
 if command -v xvfb-run > /dev/null; then
 	rc=0; timeout -k 10 -s INT 10 xvfb-run -a ~/rmd-venv/bin/rmd-plot --field position --field velocity > live.out 2>&1 || rc=$?
