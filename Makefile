@@ -361,7 +361,7 @@ $(SYSTEMD_ROOT).installed: $(PROGS) systemd/rmdd.service.in
 # All of it runs with the venv's python3 first on PATH ($(VENV_PATH)); the
 # runner's last lines count and list skips (CI=true: tests/expected-skips).
 TEST_PATH = PATH="$(abspath $(VENV_PATH)):$$PATH"
-test: all $(VENV_PATH)/python3 $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
+test: all $(VENV_PATH)/python3 $(LCM_PYTHON) $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) --systemd $(SYSTEMD_TESTS) \
 		-- $(TESTS) $(DOCS_TESTS)
 ifneq ($(SANITIZE),1)

@@ -462,7 +462,8 @@ static void test_enable_after_the_watchdog_tripped(void **state)
 		const char *log = file_text(f->rmdd_log), *left = strstr(log, "(motor1): safe -> ");
 
 		if (!left || !strstr(left, "(motor1): enabled"))
-			fail_msg("want motor1 to leave SAFE, then be enabled, in rmdd's log:\n%s", log);
+			fail_msg("want motor1 to leave SAFE, then be enabled, in rmdd's log:\n%s",
+				 log);
 	}
 }
 
