@@ -36,6 +36,7 @@ is shown in a window: these need a display ($DISPLAY), else rmd-plot says
 
 import argparse
 import os
+import signal
 import sys
 import time
 
@@ -166,7 +167,8 @@ class Series:
                 h = rmd.health_t.decode(data)
                 if self._first_daemon(h):
                     self._health(h)
-            elif what == "COMMAND":
+            elif what in ("COMMAND", "COMMAND_TAKEN"):
+                # COMMAND_TAKEN: an incident recording's commands (rmdd took them)
                 self._command(rmd.command_t.decode(data))
         except ValueError:
             pass  # another layout on our channel: not ours to plot
@@ -218,9 +220,15 @@ class Series:
 
 
 def read_log(path, series):
-    """Every event of an lcm-logger log through series."""
+    """Every event of an lcm-logger log, or of an incident folder's window.lcmlog, through series."""
     import lcm
 
+    if os.path.isdir(path):
+        folder = path
+        path = os.path.join(folder, "window.lcmlog")
+        if not os.path.exists(path):
+            raise Usage(f"{folder}: a folder without window.lcmlog: not an rmdd incident "
+                        "recording (or one made before rmdd wrote them)")
     try:
         log = lcm.EventLog(path, "r")
     except (IOError, OSError) as e:
@@ -329,10 +337,13 @@ def live(args, series):
 
 
 def main(argv=None):
+    # `rmd-plot --csv - | head` ends quietly when head has read enough
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     p = argparse.ArgumentParser(
         prog="rmd-plot", description=__doc__.split("\n", 2)[2],
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--log", metavar="FILE", help="an lcm-logger log (default: a running rmdd)")
+    p.add_argument("--log", metavar="FILE", help="an lcm-logger log, or an incident folder "
+                   "(its window.lcmlog); default: a running rmdd")
     p.add_argument("--field", "-f", action="append", metavar="F",
                    help="what to plot (repeat; default: position)")
     p.add_argument("--motor", "-m", action="append", metavar="NAME",
