@@ -39,6 +39,9 @@
  *             - fine position (issue 13): feedback.position multi_turn on
  *               every motor: 0x92 answered at the rate --check-config
  *               promises, state_t positions in 0.01 deg steps.
+ *   slow      rmd-sim's answers 16 ms late (an adapter) and 2..10 ms late:
+ *             rmdd at 10 Hz, restarted 3 times on tripped motors, arms them
+ *             every time and counts 0 unexpected frames (issue 21).
  *
  * Time: candump -L stamps frames with the kernel's receive time
  * (CLOCK_REALTIME), so the test takes its own reference times from the same
@@ -1611,6 +1614,120 @@ static void test_auto_dialects(void **state)
 	if (strstr(d->out, "running:"))
 		fail_msg("rmdd ran with a refused motor:\n%s", d->out);
 	print_message("auto on vcan0: v2, v3, v4 found; a v3 entry on V4 firmware refused\n");
+}
+
+/* A number after `key` in s (its last occurrence), or -1. */
+static long stat_after(const char *s, const char *key)
+{
+	const char *p = NULL;
+	long v = -1;
+
+	for (const char *q = s; (q = strstr(q, key)); q++)
+		p = q;
+	if (p && sscanf(p + strlen(key), "%ld", &v) != 1)
+		v = -1;
+	return v;
+}
+
+/*
+ * Issue 21: rmd-sim's motors answer late, as through real adapters: first
+ * 16 ms behind a converter's latency timer (adapter_delay_us), then 2..10
+ * ms (turnaround 6 ms +- 4 ms).  rmdd at 10 Hz brings them up and arms
+ * them (0xB3 echo verified) every time, restarted 3 times on the same
+ * motors, whose protection trips between the runs; its exit statistics
+ * show 0 unexpected frames (answers to earlier tries are late, not
+ * foreign) and no missed reply unless the guest stalled the loop (an
+ * overrun, said so).
+ */
+static void test_slow_answers_restarts(void **state)
+{
+	static const char yaml[] =
+		"loop: {rate_hz: 10}\n"
+		"safety: {comm_loss_ms: 500, command_timeout_ms: 500}\n"
+		"probe: {on_missing: refuse}\n"
+		"lcm: {url: \"memq://\"}\n"
+		"incidents: {enabled: false}\n"
+		"buses: [{name: vcan0, type: socketcan}]\n"
+		"motors:\n"
+		"  - {name: m1, bus: vcan0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: m2, bus: vcan0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: m3, bus: vcan0, id: 3, mode: torque, torque_constant_nm_a: 2}\n";
+	static const char *const fast16[] = { "adapter_delay_us=16000", "turnaround_jitter_us=0",
+					      NULL };
+	static const char *const late2_10[] = { "turnaround_us=6000", "turnaround_jitter_us=4000",
+						NULL };
+	static const char *const *const sims[] = { fast16, late2_10 };
+	static const char *const what[] = { "a converter's 16 ms", "2..10 ms late" };
+	char path[600];
+	const char *argv[] = { S.rmdd, "--config", path, NULL };
+	FILE *f;
+
+	(void)state;
+	if (!S.have_can)
+		skip();
+	need_exec(S.rmdsim);
+	need_exec(S.rmdd);
+	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
+		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
+	snprintf(path, sizeof(path), "%s/slow.yaml", S.dir);
+	f = fopen(path, "w");
+	if (!f || fputs(yaml, f) < 0 || fclose(f))
+		fail_msg("%s: %s", path, strerror(errno));
+	for (unsigned k = 0; k < 2; k++) {
+		const char *sim_argv[16] = { S.rmdsim, "--can", "vcan0", "--motors", "1-3" };
+		unsigned a = 5;
+		struct kid *sim;
+
+		for (const char *const *set = sims[k]; *set; set++) {
+			sim_argv[a++] = "--set";
+			sim_argv[a++] = *set;
+		}
+		sim_argv[a] = NULL;
+		sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, SIM_FIFO_PRIO);
+		kid_wait_output(sim, ": ready", READY_MS, service);
+		for (unsigned run = 0; run < (k ? 3u : 1u); run++) {
+			struct kid *d = kid_spawn("rmdd", argv, NULL, 0);
+			long unexpected, missed, overruns, late;
+			int st;
+
+			kid_wait_output(d, "running:", READY_MS, service);
+			if (!strstr(d->out, "(3 set, echo verified)"))
+				fail_msg("%s, run %u: not every motor armed:\n%s", what[k], run + 1,
+					 d->out);
+			{
+				/* the answers really came late: bring-up's measured round trip */
+				const char *rt = strstr(d->out, "round trip ");
+				double lo = 0;
+
+				if (!rt || sscanf(rt, "round trip %lf", &lo) != 1 ||
+				    lo < (k ? 2.0 : 16.0))
+					fail_msg(
+						"%s, run %u: round trip from %.2f ms, want >= %.0f "
+						"ms:\n%s",
+						what[k], run + 1, lo, k ? 2.0 : 16.0, d->out);
+			}
+			usleep(2000 * 1000); /* 20 cycles */
+			kill(d->pid, SIGTERM);
+			st = kid_wait_exit(d, READY_MS, service);
+			unexpected = stat_after(d->out, "unexpected ");
+			missed = stat_after(d->out, ", missed ");
+			overruns = stat_after(d->out, "loop: overruns ");
+			late = stat_after(d->out, ", late ");
+			if (st != 0 || unexpected != 0)
+				fail_msg("%s, run %u: exit %d, %ld unexpected frame(s):\n%s",
+					 what[k], run + 1, st, unexpected, d->out);
+			if (missed != 0 && overruns == 0)
+				fail_msg("%s, run %u: %ld missed replies with no overrun:\n%s",
+					 what[k], run + 1, missed, d->out);
+			print_message("%s, run %u: armed, 0 unexpected, %ld late, %ld missed (%ld "
+				      "overruns)\n",
+				      what[k], run + 1, late, missed, overruns);
+			kid_free(d);
+			/* silence longer than comm_loss_ms: the motors' protection trips */
+			usleep(1000 * 1000);
+		}
+		kid_free(sim);
+	}
 }
 
 static void test_rmdctl_scan_move(void **state)
@@ -3480,6 +3597,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_rmdctl_scan_move, rmdctl_teardown),
 		cmocka_unit_test_teardown(test_rmdctl_dump_restore, rmdctl_teardown),
 		cmocka_unit_test_teardown(test_auto_dialects, rmdctl_teardown),
+		cmocka_unit_test_teardown(test_slow_answers_restarts, rmdctl_teardown),
 		cmocka_unit_test_teardown(test_rmdctl_dump_restore_v4, rmdctl_teardown),
 		cmocka_unit_test(test_system_rate),
 		cmocka_unit_test(test_system_watchdog),
