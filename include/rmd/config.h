@@ -268,6 +268,13 @@ struct rmd_config_motor {
 	 * reported frame when n_travel is 2 (else its position limits).
 	 */
 	bool multi_turn_saved;
+	/*
+	 * Issue 20.13: after the brake release (0x77, V3 §2.26) rmdd sends
+	 * this motor status reads only, no setpoint, for this long, so no
+	 * torque works against a brake still opening; 0: no brake (setpoints
+	 * from the next slot).  Users of braked RMD motors measured 50..150 ms.
+	 */
+	uint32_t brake_release_ms;
 	double travel_rad[2];
 	unsigned n_travel; /* 0: none, or 2 */
 	unsigned line;	   /* of the entry in the file, for messages */

@@ -147,6 +147,11 @@ struct rmd_motor_state {
 	int64_t rx_ns;		   /* receive time of the reply vel/torque came from; 0: none yet */
 	int64_t pos_rx_ns;	   /* receive time of the reply pos_rad came from; 0: none yet */
 	int64_t status_rx_ns;	   /* ... error_code and voltage_v came from (0x9A); 0: none yet */
+	/*
+	 * ENABLED with a brake_release_ms: setpoints are held back until this
+	 * time (the last brake release sent + brake_release_ms); 0: none.
+	 */
+	int64_t release_until_ns;
 };
 
 /* State of every motor after one cycle. */

@@ -265,6 +265,7 @@ static const struct field motor_fields[] = {
 	INT("comm_loss_ms", M, comm_loss_ms, 0, 600000, 0),
 	MAP("feedback", M, feedback, feedback_fields),
 	BOOL("multi_turn_saved", M, multi_turn_saved),
+	UINT("brake_release_ms", M, brake_release_ms, 0, 2000, 0),
 	{ .key = "travel_rad",
 	  .type = T_SEQ,
 	  .off = offsetof(M, travel_rad),

@@ -207,6 +207,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		lc = RMD_LC_STOPPING;
 	if (old == lc)
 		return;
+	lm->st->release_until_ns = 0; /* ENABLED's brake release sets it anew (loop_tx.c) */
 	if (lc != RMD_LC_READY) {
 		/* READY keeps what waits: STOPPING queued nothing but a 0xB3 round's writes */
 		loop_frames_drop(lm);

@@ -92,12 +92,21 @@ static bool oneshot_echo_verified(const struct lmotor *lm, const struct rmd_fram
  * counts, only for these writes (at most ARM_TRIES in a round; TX_MAX has
  * room for a second frame in every slot).  rt-safe.
  */
-static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i)
+static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
 
 	if (oneshot_echo_verified(lm, &lm->oneshot[0]))
 		push_cmd(l, lb, i, 0x9A);
+	/*
+	 * Issue 20.13: the brake opens over brake_release_ms from its (last)
+	 * release; a period more, as this frame leaves later in its cycle than
+	 * the first setpoint may in the cycle the wait ends in.
+	 */
+	if (lm->oneshot[0].data[0] == 0x77 && l->cfg->motors[i].brake_release_ms)
+		lm->st->release_until_ns =
+			now + (int64_t)l->cfg->motors[i].brake_release_ms * RMD_NS_PER_MS +
+			l->period_ns;
 	loop_push_tx(lb, &lm->oneshot[0], i, REQ_ONESHOT);
 }
 
@@ -106,7 +115,7 @@ static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i)
  * motor's output and brake, lifecycle.c "Owed frames"), else the head of
  * its one-shot queue.  rt-safe.
  */
-static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i)
+static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f;
@@ -114,7 +123,7 @@ static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i)
 	if (loop_owed_frame(lm, &f))
 		loop_push_tx(lb, &f, i, REQ_OWED);
 	else if (lm->n_oneshot)
-		push_oneshot(l, lb, i);
+		push_oneshot(l, lb, i, now);
 }
 
 /* rt-safe. */
@@ -125,11 +134,15 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t
 
 	/* owed frames and one-shots first: an ENABLED motor's brake release, the others' stops */
 	if (lm->owe || lm->n_oneshot) {
-		push_due(l, lb, i);
+		push_due(l, lb, i, now);
 		return;
 	}
 	if (lm->st->lifecycle == RMD_LC_ENABLED) {
-		push_setpoint(l, lb, i);
+		/* issue 20.13: while the brake opens, status reads keep the motor fed */
+		if (__builtin_expect(now < lm->st->release_until_ns, 0))
+			push_cmd(l, lb, i, 0x9C);
+		else
+			push_setpoint(l, lb, i);
 		return;
 	}
 	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
@@ -167,7 +180,7 @@ static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t 
 	struct lmotor *lm = &l->mot[i];
 
 	if (__builtin_expect(lm->owe || lm->n_oneshot, 0)) {
-		push_due(l, lb, i);
+		push_due(l, lb, i, now);
 		return;
 	}
 	if (lm->st->lifecycle == RMD_LC_LOST)
@@ -206,7 +219,7 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 		unsigned i = pb->motors[k];
 
 		if ((pb->batched & (1u << k)) && (l->mot[i].owe || l->mot[i].n_oneshot)) {
-			push_due(l, lb, i);
+			push_due(l, lb, i, now);
 			queued = true;
 			room--;
 		}
@@ -219,8 +232,8 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 		if (!(pb->batched & (1u << k)) || lm->m.id < 1 || lm->m.id > 4)
 			continue;
 		ms[lm->m.id - 1] = &lm->m;
-		if (lm->st->lifecycle != RMD_LC_ENABLED)
-			continue;
+		if (lm->st->lifecycle != RMD_LC_ENABLED || now < lm->st->release_until_ns)
+			continue; /* 0 A for it meanwhile: no torque against its brake */
 		any = true;
 		if (lm->sp.mode == RMD_MODE_TORQUE) {
 			torque[lm->m.id - 1] = lm->sp.torque_nm;

@@ -850,6 +850,7 @@ static void publish_state(struct rmd_bridge *b)
 		o->status_rx_time_ns = m->status_rx_ns;
 		o->position_certain = m->pos_certain;
 		o->position_trust = (int8_t)m->pos_trust;
+		o->brake_releasing = m->release_until_ns > s->t_ns;
 	}
 	n = rmd_state_t_encode(b->buf->enc, 0, ENC_MAX, st);
 	if (publish_encoded(b, b->ch_state, n))

@@ -890,6 +890,57 @@ static void test_watchdog_per_motor(void **state)
 	rig_down();
 }
 
+static void brake_100ms(struct rmd_config *cfg)
+{
+	cfg->motors[0].brake_release_ms = 100;
+}
+
+/*
+ * Issue 20.13: brake release takes time.  Motor 0 (brake_release_ms 100)
+ * gets its brake release (0x77), then status reads only -- no setpoint --
+ * for 100 ms from the 0x77, while its snapshot says the brake is opening
+ * (state_t.brake_releasing); then its setpoints.  Motor 1 (no brake time)
+ * gets its setpoints from the next slot.  Judged on the wire.
+ */
+static void test_brake_release_holds_setpoints(void **state)
+{
+	int64_t t77, ta2, t77b, ta2b;
+	unsigned from;
+
+	(void)state;
+	rig_up(3, brake_100ms);
+	bring_up();
+	cmd_clear();
+	from = trace_n;
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	cmd_motor(1, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(50, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	t77 = first_to(0, 0x77, from);
+	if (t77 == INT64_MAX)
+		fail_msg("motor 0: no brake release (0x77) after enable");
+	if (first_to(0, 0xA2, from) != INT64_MAX)
+		fail_msg("motor 0: a speed setpoint %lld us after its brake release",
+			 (long long)((first_to(0, 0xA2, from) - t77) / US));
+	assert_true(snap().m[0].release_until_ns > t_now);
+	assert_int_not_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
+	/* the other motor, without a brake time, runs at once */
+	t77b = first_to(1, 0x77, from);
+	ta2b = first_to(1, 0xA2, from);
+	if (t77b == INT64_MAX || ta2b == INT64_MAX || ta2b - t77b > 3 * MS)
+		fail_msg("motor 1: 0x77 at %lld, first 0xA2 at %lld (want within 3 ms)",
+			 (long long)t77b, (long long)ta2b);
+	run(100, true);
+	ta2 = first_to(0, 0xA2, from);
+	if (ta2 < t77 + 100 * MS || ta2 > t77 + 100 * MS + 2 * period())
+		fail_msg("motor 0: first setpoint %lld us after its brake release (want 100 ms)",
+			 (long long)((ta2 - t77) / US));
+	assert_true(sent_to(0, 0x9C, from) >= 90); /* fed by status reads meanwhile */
+	assert_int_equal(snap().m[0].release_until_ns > t_now, false);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
+	rig_down();
+}
+
 /* R.cmd handed over stamped rx_ns (when it arrived), then one cycle. */
 static void cycle_with_cmd_at(int64_t rx_ns)
 {
@@ -2852,6 +2903,7 @@ int main(void)
 		cmocka_unit_test(test_safe_frames_take_polls_place),
 		cmocka_unit_test(test_events_cause_before_effect),
 		cmocka_unit_test(test_watchdog_per_motor),
+		cmocka_unit_test(test_brake_release_holds_setpoints),
 		cmocka_unit_test(test_commands_queued_in_a_stall),
 		cmocka_unit_test(test_nan_never_on_wire),
 		cmocka_unit_test(test_stop_motors),
