@@ -6,7 +6,7 @@
  * (its mode, its brake, its errors: rmd_sim_wire_motor()) and the frames
  * the sim bus carried, for every transition (bring-up of a motor a
  * previous owner left running; READY, ENABLED, then enable = 0, error
- * flags, loss, the host watchdog, shutdown; and back), for V2, V3 and MIT
+ * flags, loss, the host watchdog, shutdown; and back), for V2, V3, MIT and V4
  * motors, with every safe action and shutdown action: a table of rows.
  *
  * What each state promises, as the table says:
@@ -67,8 +67,10 @@ enum transition {
 
 static const char *const transition_name[] = { "found running", "disable",  "fault",
 					       "lost",		"watchdog", "shutdown" };
-static const char *const
-	proto_name[] = { [RMD_PROTO_V2] = "V2", [RMD_PROTO_V3] = "V3", [RMD_PROTO_MIT] = "MIT" };
+static const char *const proto_name[] = { [RMD_PROTO_V2] = "V2",
+					  [RMD_PROTO_V3] = "V3",
+					  [RMD_PROTO_MIT] = "MIT",
+					  [RMD_PROTO_V4] = "V4" };
 static const char *const action_name[] = { "stop", "hold", "damp", "brake" };
 
 struct row {
@@ -449,7 +451,8 @@ static void test_unechoed_is_lost(void **state)
 
 /* ---- the table ------------------------------------------------------------- */
 
-#define N_ROWS (3 * 4 * 5 + 3 * 4 + 3)
+#define N_PROTOS 4 /* V2, V3, MIT, V4 */
+#define N_ROWS (N_PROTOS * 4 * 5 + N_PROTOS * 4 + N_PROTOS)
 
 static struct row rows[N_ROWS];
 static char names[N_ROWS][64];
@@ -461,7 +464,8 @@ static void test_row(void **state)
 
 int main(void)
 {
-	static const enum rmd_proto protos[] = { RMD_PROTO_V2, RMD_PROTO_V3, RMD_PROTO_MIT };
+	static const enum rmd_proto protos[N_PROTOS] = { RMD_PROTO_V2, RMD_PROTO_V3, RMD_PROTO_MIT,
+							 RMD_PROTO_V4 };
 	static const enum rmd_shutdown_action shutdowns[] = { RMD_SHUTDOWN_STOP, RMD_SHUTDOWN_HOLD,
 							      RMD_SHUTDOWN_DAMP,
 							      RMD_SHUTDOWN_BRAKE };
@@ -470,7 +474,7 @@ int main(void)
 	unsigned n = 0;
 
 	/* {dialect, safe action, transition}, then {dialect, shutdown action} */
-	for (unsigned p = 0; p < 3; p++) {
+	for (unsigned p = 0; p < N_PROTOS; p++) {
 		for (unsigned a = RMD_SAFE_STOP; a <= RMD_SAFE_BRAKE; a++)
 			for (unsigned t = T_FOUND; t <= T_WATCHDOG; t++) {
 				rows[n] = (struct row){ .proto = protos[p],
