@@ -41,7 +41,8 @@
  *               promises, state_t positions in 0.01 deg steps.
  *   slow      rmd-sim's answers 16 ms late (an adapter) and 2..10 ms late:
  *             rmdd at 10 Hz, restarted 3 times on tripped motors, arms them
- *             every time and counts 0 unexpected frames (issue 21).
+ *             every time, build/sine_controller enables them, and it counts
+ *             0 unexpected frames (issue 21).
  *
  * Time: candump -L stamps frames with the kernel's receive time
  * (CLOCK_REALTIME), so the test takes its own reference times from the same
@@ -1641,17 +1642,21 @@ static long stat_after(const char *s, const char *key)
  */
 static void test_slow_answers_restarts(void **state)
 {
-	static const char yaml[] =
+	static const char yaml_fmt[] =
 		"loop: {rate_hz: 10}\n"
 		"safety: {comm_loss_ms: 500, command_timeout_ms: 500}\n"
 		"probe: {on_missing: refuse}\n"
-		"lcm: {url: \"memq://\"}\n"
+		"lcm: {url: \"%s\"}\n"
 		"incidents: {enabled: false}\n"
 		"buses: [{name: vcan0, type: socketcan}]\n"
 		"motors:\n"
-		"  - {name: m1, bus: vcan0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: m2, bus: vcan0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: m3, bus: vcan0, id: 3, mode: torque, torque_constant_nm_a: 2}\n";
+		"  - {name: m1, bus: vcan0, id: 1, mode: position, torque_constant_nm_a: 2,"
+		" multi_turn_saved: true}\n"
+		"  - {name: m2, bus: vcan0, id: 2, mode: position, torque_constant_nm_a: 2,"
+		" multi_turn_saved: true}\n"
+		"  - {name: m3, bus: vcan0, id: 3, mode: position, torque_constant_nm_a: 2,"
+		" multi_turn_saved: true}\n";
+	char yaml[1024], url[96], sine[600];
 	static const char *const fast16[] = { "adapter_delay_us=16000", "turnaround_jitter_us=0",
 					      NULL };
 	static const char *const late2_10[] = { "turnaround_us=6000", "turnaround_jitter_us=4000",
@@ -1671,6 +1676,12 @@ static void test_slow_answers_restarts(void **state)
 		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
 	snprintf(path, sizeof(path), "%s/slow.yaml", S.dir);
 	f = fopen(path, "w");
+	/* a port of this run's: concurrent runs never hear each other */
+	snprintf(url, sizeof(url), "udpm://239.255.76.67:%d?ttl=0",
+		 40000 + (int)(getpid() % 20000));
+	snprintf(yaml, sizeof(yaml), yaml_fmt, url);
+	snprintf(sine, sizeof(sine), "%s/sine_controller", S.build);
+	need_exec(sine);
 	if (!f || fputs(yaml, f) < 0 || fclose(f))
 		fail_msg("%s: %s", path, strerror(errno));
 	for (unsigned k = 0; k < 2; k++) {
@@ -1706,7 +1717,23 @@ static void test_slow_answers_restarts(void **state)
 						"ms:\n%s",
 						what[k], run + 1, lo, k ? 2.0 : 16.0, d->out);
 			}
-			usleep(2000 * 1000); /* 20 cycles */
+			{
+				/* a controller enables them: 1.5 s of a small sine, then enable = 0 */
+				const char *cargv[] = { sine,	"--url",  url,	"--duration",
+							"1.5",	"--rate", "50", "--amplitude",
+							"0.05", NULL };
+				struct kid *c = kid_spawn("sine_controller", cargv, NULL, 0);
+				int cst = kid_wait_exit(c, READY_MS, service);
+
+				kid_read(d);
+				if (cst != 0 || !strstr(d->out, "(m1): enabled") ||
+				    !strstr(d->out, "(m3): enabled"))
+					fail_msg("%s, run %u: sine_controller exit %d; the motors "
+						 "enabled? rmdd:\n%s\ncontroller:\n%s",
+						 what[k], run + 1, cst, d->out, c->out);
+				kid_free(c);
+			}
+			usleep(1000 * 1000); /* 10 cycles more */
 			kill(d->pid, SIGTERM);
 			st = kid_wait_exit(d, READY_MS, service);
 			unexpected = stat_after(d->out, "unexpected ");
