@@ -1976,9 +1976,21 @@ static void test_memq_encodes_no_state(void **state)
 static void send_other_health(struct fixture *f)
 {
 	static rmd_bus_health_t bus[16];
-	rmd_health_t h = {
-		.instance = OTHER_INSTANCE, .host = "other", .pid = 42, .foreign_host = ""
-	};
+	/*
+	 * One motor, as every rmdd has: with motor_count 0 lcm-gen's code
+	 * memcpy()s 0 bytes from and to NULL arrays, which UBSan refuses.
+	 */
+	static int8_t cl[1];
+	static int32_t cl_ms[1];
+	static int64_t unarmed[1];
+	rmd_health_t h = { .instance = OTHER_INSTANCE,
+			   .host = "other",
+			   .pid = 42,
+			   .foreign_host = "",
+			   .motor_count = 1,
+			   .comm_loss = cl,
+			   .comm_loss_ms = cl_ms,
+			   .unarmed_rejects = unarmed };
 
 	for (int i = 0; i < 16; i++)
 		bus[i] = (rmd_bus_health_t){ .name = "" };
