@@ -1403,6 +1403,7 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 	int64_t t_quiet = 0, t_safe = 0, t_trip, safe0, stall;
 	char line[64];
 	unsigned pace = 1;
+	int wd_enabled = -1;
 
 	start_rmdd(f);
 	/*
@@ -1420,6 +1421,8 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 		WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 		enable_in_place(f);
 		h = health_enabled(f, &safe0);
+		/* h is the fixture's newest health_t: a later one frees it (read it now) */
+		wd_enabled = h->watchdog;
 		if (h->watchdog == RMD_HEALTH_T_WD_OK) {
 			safe0 = h->safe_action_events;
 			/* the controller goes quiet: state_t shows the safe action first (every cycle) ... */
@@ -1459,7 +1462,7 @@ static void test_silence_trips_the_watchdog_and_enable_clears_it(void **state)
 		pace *= 2;
 		restart_rmdd_paced(f, pace);
 	}
-	assert_int_equal(h->watchdog, RMD_HEALTH_T_WD_OK);
+	assert_int_equal(wd_enabled, RMD_HEALTH_T_WD_OK);
 	stall = handover_held_ns(f);
 	/* ... then health_t (10 Hz) */
 	WAIT_UNTIL(f, f->rx.health->watchdog == RMD_HEALTH_T_WD_TRIPPED, 1000);
