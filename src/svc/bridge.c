@@ -1018,11 +1018,16 @@ static void publish_config(struct rmd_bridge *b)
 			.turn_period = m->turn_period_rad,
 		};
 	}
+	/*
+	 * Encoded once: the bytes published are the ones rmd_bridge_config_copy()
+	 * hands out.  Only this thread writes them, so reading them unlocked
+	 * here is safe; the lock keeps a copier from seeing them half-written.
+	 */
 	pthread_mutex_lock(&b->config_mu);
 	b->buf->config_len = rmd_config_t_encode(b->buf->config_enc, 0, ENC_MAX, c);
 	pthread_mutex_unlock(&b->config_mu);
-	/* Rare, so the generated publish (it allocates) is fine here. */
-	if (rmd_config_t_publish(b->lcm, b->ch_config, c) < 0)
+	if (b->buf->config_len < 0 ||
+	    lcm_publish(b->lcm, b->ch_config, b->buf->config_enc, (unsigned)b->buf->config_len) < 0)
 		count(&b->n_publish_errors);
 	else
 		count(&b->n_configs);
