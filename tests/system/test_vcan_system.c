@@ -1557,6 +1557,19 @@ static void test_rmdctl_dump_restore_v4(void **state)
  * for a motor whose firmware is V4.  Bring-up must name each dialect,
  * refuse the mismatch, and exit with the report (no motor driven).
  */
+/* S.dir/name holding text (a configuration of one test); its path into path. */
+static void config_file(const char *name, const char *text, char *path, size_t len)
+{
+	FILE *f;
+
+	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
+		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
+	snprintf(path, len, "%s/%s", S.dir, name);
+	f = fopen(path, "w");
+	if (!f || fputs(text, f) < 0 || fclose(f))
+		fail_msg("%s: %s", path, strerror(errno));
+}
+
 static void test_auto_dialects(void **state)
 {
 	const char *sim_argv[] = { S.rmdsim,	    "--can", "vcan0",	      "--motors",
@@ -1590,7 +1603,6 @@ static void test_auto_dialects(void **state)
 	char path[600];
 	const char *argv[] = { S.rmdd, "--config", path, NULL };
 	struct kid *sim, *d;
-	FILE *f;
 	int st;
 
 	(void)state;
@@ -1598,12 +1610,7 @@ static void test_auto_dialects(void **state)
 		skip();
 	need_exec(S.rmdsim);
 	need_exec(S.rmdd);
-	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
-		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
-	snprintf(path, sizeof(path), "%s/auto.yaml", S.dir);
-	f = fopen(path, "w");
-	if (!f || fputs(yaml, f) < 0 || fclose(f))
-		fail_msg("%s: %s", path, strerror(errno));
+	config_file("auto.yaml", yaml, path, sizeof(path));
 	sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, SIM_FIFO_PRIO);
 	kid_wait_output(sim, ": ready", READY_MS, service);
 	d = kid_spawn("rmdd", argv, NULL, 0);
@@ -1671,25 +1678,19 @@ static void test_slow_answers_restarts(void **state)
 					    "20 ms late, motor 3 appearing after 4 s" };
 	char path[600];
 	const char *argv[] = { S.rmdd, "--config", path, NULL };
-	FILE *f;
 
 	(void)state;
 	if (!S.have_can)
 		skip();
 	need_exec(S.rmdsim);
 	need_exec(S.rmdd);
-	if (mkdir(S.dir, 0755) < 0 && errno != EEXIST)
-		fail_msg("mkdir %s: %s", S.dir, strerror(errno));
-	snprintf(path, sizeof(path), "%s/slow.yaml", S.dir);
-	f = fopen(path, "w");
 	/* a port of this run's: concurrent runs never hear each other */
 	snprintf(url, sizeof(url), "udpm://239.255.76.67:%d?ttl=0",
 		 40000 + (int)(getpid() % 20000));
 	snprintf(yaml, sizeof(yaml), yaml_fmt, url);
 	snprintf(sine, sizeof(sine), "%s/sine_controller", S.build);
 	need_exec(sine);
-	if (!f || fputs(yaml, f) < 0 || fclose(f))
-		fail_msg("%s: %s", path, strerror(errno));
+	config_file("slow.yaml", yaml, path, sizeof(path));
 	for (unsigned k = 0; k < 3; k++) {
 		const char *sim_argv[20] = { S.rmdsim, "--can", "vcan0", "--motors", "1-3" };
 		unsigned a = 5;
