@@ -729,3 +729,16 @@ void fake_net_dir(char *dir, size_t size)
 		fclose(f);
 	}
 }
+
+bool find_rmd_plot(char *out, size_t len)
+{
+	const char *env = getenv("RMD_PLOT"), *build = getenv("BUILD");
+
+	if (env && *env)
+		snprintf(out, len, "%s", env);
+	else
+		snprintf(out, len, "%s/venv/bin/rmd-plot", build && *build ? build : "build");
+	if (access(out, X_OK) != 0)
+		snprintf(out, len, "build/venv/bin/rmd-plot");
+	return access(out, X_OK) == 0;
+}

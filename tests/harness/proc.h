@@ -104,6 +104,13 @@ void assert_status(const struct run *r, int status, const char *what);
 
 size_t count_lines(const char *s);
 
+/*
+ * The venv's rmd-plot into out: $RMD_PLOT, else $BUILD/venv/bin/rmd-plot,
+ * else build/venv/bin/rmd-plot (one venv serves every BUILD).  True when
+ * it is executable.
+ */
+bool find_rmd_plot(char *out, size_t len);
+
 /* The line of out holding needle, copied into buf; fails when there is none. */
 const char *line_with(const char *out, const char *needle, char *buf, size_t size);
 

@@ -431,20 +431,6 @@ static void check_lcmlog(const char *rec, unsigned n_motors, const char *first_n
 			 path, states, motors_in_states, cycles, rows);
 }
 
-/* The venv's rmd-plot ($RMD_PLOT, else $BUILD/venv, else build/venv), or false. */
-static bool find_plot(char *out, size_t len)
-{
-	const char *env = getenv("RMD_PLOT"), *build = getenv("BUILD");
-
-	if (env && *env)
-		snprintf(out, len, "%s", env);
-	else
-		snprintf(out, len, "%s/venv/bin/rmd-plot", build && *build ? build : "build");
-	if (access(out, X_OK) != 0)
-		snprintf(out, len, "build/venv/bin/rmd-plot");
-	return access(out, X_OK) == 0;
-}
-
 /*
  * Issue 22.9 and 22.5: rmd-plot --log opens an incident folder (its
  * window.lcmlog): each motor's position series named from the recorded
@@ -457,7 +443,7 @@ static bool check_plot(const char *rec, unsigned cycles)
 	unsigned char sig[8] = { 0 };
 	FILE *f;
 
-	if (!find_plot(plot, sizeof(plot)))
+	if (!find_rmd_plot(plot, sizeof(plot)))
 		return false;
 	run_prog(&r, plot,
 		 (const char *const[]){ "--log", rec, "--field", "position", "--csv", "-", NULL },

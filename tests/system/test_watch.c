@@ -174,21 +174,17 @@ static void service(int ms)
 	} while (rmd_now_ns() < end);
 }
 
-/* The venv's rmd-plot ($RMD_PLOT, else BUILD/venv, else build/venv: one venv for every BUILD). */
+/* The venv's rmd-plot (find_rmd_plot()), and whether it and lcm-logger run here. */
 static void find_plot(void)
 {
-	const char *build = getenv("BUILD"), *env = getenv("RMD_PLOT");
 	char cmd[PATH_MAX + 64];
 
-	if (env && *env)
-		snprintf(plot_bin, sizeof(plot_bin), "%s", env);
-	else
-		snprintf(plot_bin, sizeof(plot_bin), "%s/venv/bin/rmd-plot",
-			 build && *build ? build : "build");
-	if (access(plot_bin, X_OK) != 0)
-		snprintf(plot_bin, sizeof(plot_bin), "build/venv/bin/rmd-plot");
-	snprintf(cmd, sizeof(cmd), "'%s' --help >/dev/null 2>&1", plot_bin);
-	no_plot = access(plot_bin, X_OK) != 0 || system(cmd) != 0;
+	no_plot = !find_rmd_plot(plot_bin, sizeof(plot_bin));
+	if (!no_plot) {
+		/* with matplotlib: --help imports it */
+		snprintf(cmd, sizeof(cmd), "'%s' --help >/dev/null 2>&1", plot_bin);
+		no_plot = system(cmd) != 0;
+	}
 	no_logger = system("command -v lcm-logger >/dev/null 2>&1") != 0;
 	if (no_plot || no_logger)
 		fprintf(stderr,
