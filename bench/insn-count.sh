@@ -1,6 +1,7 @@
 #!/bin/sh
 # Instructions per cycle of rmdd's loop (callgrind Ir, user space: the
-# loop's cycle, rmd_loop_cycle(), minus the simulated bus and motors --
+# loop's cycle as the rt thread runs it, the rig's rig_cycle() (a baseline
+# rig's rmd_loop_cycle()), minus the simulated bus and motors --
 # callgrind stops counting inside the sim bus's send and receive).
 #
 #   bench/insn-count.sh RIG ARGS...     prints one integer: Ir per measured cycle
@@ -14,7 +15,7 @@ shift
 out=$(mktemp /tmp/rmdd-insn.XXXXXX)
 trap 'rm -f "$out" "$out".*' EXIT
 valgrind --tool=callgrind --callgrind-out-file="$out" --collect-atstart=no \
-	--toggle-collect=rmd_loop_cycle --toggle-collect=sim_send --toggle-collect=sim_recv \
+	--toggle-collect=rmd_loop_cycle --toggle-collect=rig_cycle --toggle-collect=sim_send --toggle-collect=sim_recv \
 	"$rig" "$@" >"$out.rig" 2>"$out.err" || {
 	cat "$out.rig" "$out.err" >&2
 	echo "insn-count: the rig failed: $rig $*" >&2

@@ -13,8 +13,12 @@
  *      watchdog and each motor's lifecycle;
  *   4. sends this cycle's frames (rmd_plan_cycle()) on every bus, setpoints
  *      converted, clamped and encoded by rmd/motor.h;
- *   5. publishes a state snapshot (and ~10 Hz health) to the bridge and,
- *      under a sequence lock, to rmd_loop_get_*();
+ *   5. waits for the replies to this cycle's requests (a wake when the
+ *      last is expected from the motors' recent round trips, then the
+ *      buses' readiness) and, as soon as they are in or the next tick is
+ *      near, publishes a state snapshot (and ~10 Hz health) to the bridge
+ *      and, under a sequence lock, to rmd_loop_get_*(): the controller
+ *      can answer a cycle's measurements in the next cycle's frames;
  *   6. sleeps to the next tick; overruns are counted and the schedule skips
  *      ahead, never catching up in a burst.
  *
@@ -23,7 +27,9 @@
  * by rmd_loop_new() before the thread starts.
  *
  * For tests the same cycle runs without a thread and with an injected
- * clock: rmd_loop_cycle(l, now) does steps 1..5 for the tick at `now`.
+ * clock: rmd_loop_cycle(l, now) does steps 1..5 for the tick at `now`,
+ * publishing at once; rmd_loop_tick(), rmd_loop_collect() and
+ * rmd_loop_publish() are its parts, as the thread runs them.
  *
  * Matching and deadlines.  Each motor keeps a small ring of its
  * outstanding requests (reply identifier, command byte, send time); a
@@ -225,10 +231,37 @@ void rmd_loop_free(struct rmd_loop *l);
 /* Bring-up, before the thread starts: rmd_loop_bringup() in rmd/bringup.h. */
 
 /*
- * One cycle for the tick at now_ns (steps 1..5 above).  rt-safe.  The
- * thread calls it; tests call it directly with their own clock.
+ * One cycle for the tick at now_ns (steps 1..5 above), its state published
+ * at once, before any reply to its requests can be in: rmd_loop_tick() +
+ * rmd_loop_publish().  rt-safe.  Tests call it with their own clock.
  */
 void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
+
+/* The cycle's steps 1..4 (and the bus states) for the tick at now_ns; nothing published.  rt-safe. */
+void rmd_loop_tick(struct rmd_loop *l, int64_t now_ns);
+
+/*
+ * Step 5's receive: take every frame the buses have by now_ns.  True when
+ * no reply this cycle's tick asked for is awaited any more: each motor
+ * that answers (it answered its last request) has answered.  rt-safe.
+ */
+bool rmd_loop_collect(struct rmd_loop *l, int64_t now_ns);
+
+/*
+ * Step 5's wait, as the thread decides it at now_ns: 0 when no reply of
+ * the cycle is awaited (publish now); the time the last awaited one is
+ * expected (collect then); -1 when it is expected too close to the next
+ * tick for a controller to answer it in time, or the state is out: the
+ * next tick publishes after its receive.  rt-safe.
+ */
+int64_t rmd_loop_reply_due(const struct rmd_loop *l, int64_t now_ns);
+
+/*
+ * Step 5's publish: the cycle's state snapshot (and health when due) to
+ * the bridge and rmd_loop_get_*(), stamped now_ns; then the next cycle
+ * may tick.  Once per cycle: a second call is a no-op.  rt-safe.
+ */
+void rmd_loop_publish(struct rmd_loop *l, int64_t now_ns);
 
 /*
  * Stop every motor with safety.shutdown_action (rmd/config.h): stop, 0x80

@@ -438,7 +438,7 @@ static void incident_command(struct rmd_loop *l, int64_t now)
 }
 
 /* rt-safe. */
-void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
+void rmd_loop_tick(struct rmd_loop *l, int64_t now)
 {
 	bool all_sent = true;
 	int64_t end;
@@ -446,6 +446,12 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 	schedule(l, now);
 	for (unsigned b = 0; b < l->n_buses; b++)
 		loop_drain(l, b, now);
+	/* the last cycle's state, if its replies were not in before this tick: with them */
+	if (!l->published)
+		rmd_loop_publish(l, now);
+	l->tick_ns = now;
+	l->published = false;
+	l->await_due_ns = 0;
 	loop_check_deadlines(l, now);
 	loop_take_command(l, now);
 	loop_take_homes(l, now);
@@ -462,13 +468,60 @@ void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
 	end = loop_now(l);
 	if (end - now > l->stats.cycle_max_ns)
 		l->stats.cycle_max_ns = end - now;
+	events_wake(l);
+}
+
+/* rt-safe. */
+bool rmd_loop_collect(struct rmd_loop *l, int64_t now)
+{
+	for (unsigned b = 0; b < l->n_buses; b++)
+		loop_drain(l, b, now);
+	return !loop_awaited(l);
+}
+
+/* rmd_loop_reply_due(), and in *owing the buses that owe replies (loop_awaited()).  rt-safe. */
+int64_t loop_reply_due(const struct rmd_loop *l, int64_t now, unsigned *owing)
+{
+	int64_t due = l->await_due_ns, deadline = l->next_tick_ns - PUBLISH_LEAD_NS;
+
+	*owing = 0;
+	if (l->published || due > deadline)
+		return -1; /* the next tick publishes, after its receive */
+	*owing = loop_awaited(l);
+	if (!*owing)
+		return 0;
+	if (now >= deadline)
+		return -1;
+	return due > now ? due : now;
+}
+
+/* rt-safe. */
+int64_t rmd_loop_reply_due(const struct rmd_loop *l, int64_t now)
+{
+	unsigned owing;
+
+	return loop_reply_due(l, now, &owing);
+}
+
+/* rt-safe. */
+void rmd_loop_publish(struct rmd_loop *l, int64_t now)
+{
+	if (l->published)
+		return;
+	l->published = true;
 	publish(l, now);
 	/* incident recorder: every motor's state of this cycle */
 	if (l->o.incidents)
 		rmd_incident_snapshot(l->o.incidents, &l->snap);
-	events_wake(l);
 	l->cycle++;
 	atomic_fetch_add_explicit(&l->heartbeat, 1, memory_order_release);
+}
+
+/* rt-safe. */
+void rmd_loop_cycle(struct rmd_loop *l, int64_t now)
+{
+	rmd_loop_tick(l, now);
+	rmd_loop_publish(l, now);
 }
 
 /* rt-safe. */
@@ -783,6 +836,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 	l->n_buses = cfg->n_buses;
 	l->n_motors = cfg->n_motors;
 	l->period_ns = plan->period_ns;
+	l->published = true; /* no cycle yet whose state is owed */
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		struct lbus *lb = &l->bus[b];
 

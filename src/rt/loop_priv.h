@@ -39,11 +39,19 @@
 #define EVENT_INTERVAL_NS RMD_NS_PER_S	/* repeated bus events: at most one a second */
 #define COLLECT_GUARD_NS 50000		/* stop polling the buses this long before the tick */
 #define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
-#define STOP_TRIES 50			/* rmd_loop_stop_motors(): sends per bus ... */
-#define STOP_STEP_NS 200000		/* ... this far apart */
-#define ARM_TRIES 3			/* 0xB3 writes of one round in the loop */
-#define ARM_ROUND_NS RMD_NS_PER_S	/* a refused enable starts a new round this long after */
-#define OWED_SENDS_MAX 16		/* owed 0x80/0x78 sends unechoed: the motor is lost */
+/*
+ * The state waits for the cycle's replies until this long before the next
+ * tick: a controller could not answer a later one in time.  What is not in
+ * by then is published after the tick's receive (rmd_loop_tick()), as
+ * without the wait.
+ */
+#define PUBLISH_LEAD_NS 100000
+#define COLLECT_SIM_STEP_NS 20000 /* a bus without a descriptor (sim): looked at this often */
+#define STOP_TRIES 50		  /* rmd_loop_stop_motors(): sends per bus ... */
+#define STOP_STEP_NS 200000	  /* ... this far apart */
+#define ARM_TRIES 3		  /* 0xB3 writes of one round in the loop */
+#define ARM_ROUND_NS RMD_NS_PER_S /* a refused enable starts a new round this long after */
+#define OWED_SENDS_MAX 16	  /* owed 0x80/0x78 sends unechoed: the motor is lost */
 
 /* Frames a motor owes an echo of (struct lmotor.owe; lifecycle.c "Owed frames"). */
 enum {
@@ -93,6 +101,9 @@ struct lmotor {
 	/* the newest request answered or echoed: its seq + 1 (0: none) and when it went */
 	uint64_t heard_seq;
 	int64_t heard_sent_ns;
+	/* the last request whose answer the cycle that sent it waits for: its seq + 1 (loop_awaited()) */
+	uint64_t await_seq;
+	int64_t rtt_est_ns;	/* the mean round trip of its answers, an eighth each */
 	unsigned consecutive;	/* missed replies in a row */
 	struct rmd_setpoint sp; /* in force while ENABLED */
 	bool need_edge;		/* enable = 1 counts only after an enable = 0 */
@@ -111,6 +122,7 @@ struct lmotor {
 	uint8_t stop_from; /* enum rmd_lifecycle */
 	int64_t next_probe_ns;
 	bool replied;
+	bool answers; /* it answered its last request: replied and no miss since (loop_alive()) */
 	uint64_t last_reply_cycle;
 	/*
 	 * Comm-loss protection (0xB3, lifecycle.c "Comm-loss protection"): its
@@ -193,7 +205,11 @@ struct rmd_loop {
 	bool started;
 	bool stopping; /* rmd_loop_stop_motors() runs: SAFE's entry queues nothing */
 	int64_t next_tick_ns;
-	uint64_t cycle; /* index of the cycle running, from 0 */
+	int64_t tick_ns; /* the running cycle's tick: its requests' sent_ns */
+	uint64_t cycle;	 /* index of the cycle running, from 0 */
+	bool published;	 /* the running cycle's state is out (rmd_loop_publish()) */
+	/* when the last reply the running cycle waits for is expected (loop_rx.c await_add()) */
+	int64_t await_due_ns;
 
 	/* commands and the host watchdog */
 	/*
@@ -339,6 +355,7 @@ static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now
 {
 	lm->consecutive = 0;
 	lm->replied = true;
+	lm->answers = true;
 	lm->last_reply_cycle = l->cycle;
 	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE)
 		loop_enter(l, lm, RMD_LC_STOPPING, now);
@@ -355,12 +372,14 @@ void loop_pub_write(struct rmd_loop *l);
 void loop_fill_snapshot(struct rmd_loop *l, int64_t now);
 void loop_fill_health(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
+int64_t loop_reply_due(const struct rmd_loop *l, int64_t now, unsigned *owing);
 
 /* loop_rx.c.  rt-safe. */
 void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to, int64_t now);
 void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now);
 void loop_drain(struct rmd_loop *l, unsigned b, int64_t now);
 void loop_check_deadlines(struct rmd_loop *l, int64_t now);
+unsigned loop_awaited(const struct rmd_loop *l);
 
 /* lifecycle.c.  rt-safe. */
 void loop_frames_drop(struct lmotor *lm);

@@ -55,6 +55,24 @@ static inline void os_give_up(struct lmotor *lm, const struct outstanding *o)
 	loop_gone(lm, o->key, o->sent_ns);
 }
 
+/*
+ * The replies the running cycle waits for (loop_awaited()): those to the
+ * requests sent at its tick to a motor that answers (it answered its last
+ * request, loop_alive()), other than a status read 0x9A (error flags,
+ * temperature, voltage: read a few times a second, its answer joins the
+ * next cycle's state; the measurements a controller answers come with the
+ * setpoints' replies and 0x9C).  A motor answers in order, so it owes
+ * nothing once it answered the last of them (heard_seq).  rt-safe.
+ */
+static inline void await_add(struct rmd_loop *l, struct lmotor *lm, const struct outstanding *o)
+{
+	if (lm->answers & ((o->key & 0xFFFF) != 0x9A)) {
+		lm->await_seq = o->seq + 1;
+		if (o->sent_ns + lm->rtt_est_ns > l->await_due_ns)
+			l->await_due_ns = o->sent_ns + lm->rtt_est_ns;
+	}
+}
+
 /* Request f of lm, sent at now, is in flight.  rt-safe. */
 static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, struct lmotor *lm,
 							 const struct rmd_frame *f, int64_t now)
@@ -79,6 +97,7 @@ static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, str
 	os_key(&lm->m, f, o);
 	o->seq = lm->seq++;
 	o->sent_ns = now;
+	await_add(l, lm, o);
 	memcpy(o->data, f->data, sizeof(o->data));
 	lm->os_used |= (uint8_t)(1u << k);
 }
@@ -322,6 +341,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		latency_ns = rx->t_ns - o->sent_ns;
 		lm->st->reply_latency_ns = latency_ns;
 		lat_add(&lm->lat, latency_ns);
+		/* the round trip its next answer is expected in (loop_awaited()): a mean */
+		lm->rtt_est_ns += (latency_ns - lm->rtt_est_ns) >> 3;
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */
@@ -406,4 +427,21 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 			}
 		}
 	}
+}
+
+/*
+ * The buses (bit b) on which the running cycle still waits for a reply
+ * (await_add()).  rt-safe.
+ */
+unsigned loop_awaited(const struct rmd_loop *l)
+{
+	unsigned buses = 0;
+
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		const struct lmotor *lm = &l->mot[i];
+
+		if (lm->answers && lm->heard_seq < lm->await_seq)
+			buses |= 1u << lm->m.bus;
+	}
+	return buses;
 }

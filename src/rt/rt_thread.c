@@ -33,69 +33,108 @@ static bool stopping(const struct rmd_loop *l)
 }
 
 /*
- * Whether bus b is served between ticks: a transport that queues its own
- * requests (RS485, half duplex) writes the next one only when it is read,
- * so it is waited on and read as its frames come.  A full-duplex bus with
- * kernel receive stamps (SocketCAN) is not: its replies wait in the socket
- * with their stamps until the next cycle's one batched receive (issue 11:
- * one send and one receive call per bus per cycle).  rt-safe.
+ * Whether bus b is served between ticks whatever the cycle awaits: a
+ * transport that queues its own requests (RS485, half duplex) writes the
+ * next one only when it is read, so it is waited on and read as its frames
+ * come.  A full-duplex bus (SocketCAN, sim) is read when the cycle's
+ * replies on it are due (between_ticks()).  rt-safe.
  */
-static bool collect_between_ticks(const struct rmd_bus *bus)
+static bool queues_requests(const struct rmd_bus *bus)
 {
 	const struct rmd_bus_caps *caps = rmd_bus_caps(bus);
 
 	return caps->half_duplex || caps->queue_len > 0;
 }
 
-/*
- * Between ticks: wait on the buses served between ticks (see above) and
- * read those that have frames (or whose transport's queue is due), until
- * just before the next tick.
- * rt-safe.
- */
-static void collect_until_tick(struct rmd_loop *l)
+static int64_t min64(int64_t a, int64_t b)
 {
-	struct pollfd pfd[RMD_MAX_BUSES];
-	unsigned which[RMD_MAX_BUSES], n = 0;
+	return a < b ? a : b;
+}
 
-	for (unsigned b = 0; b < l->n_buses; b++) {
-		int fd = rmd_bus_fd(l->bus[b].bus);
+/*
+ * Between ticks (rmd/loop.h step 5, docs/design.md "The cycle"): the
+ * cycle's state is published as soon as the replies to its requests are
+ * in, so that a controller answering it makes the next tick.  The thread
+ * sleeps until the last reply is expected (the motors' mean round trips),
+ * reads the buses that owe replies, and waits for what is still missing
+ * on their descriptors (a bus without one, the sim bus, is looked at every
+ * COLLECT_SIM_STEP_NS), up to PUBLISH_LEAD_NS before the next tick.  What
+ * is not in by then, or not expected by then, is left to the next tick,
+ * which publishes after its receive (rmd_loop_tick()): no wake-up near the
+ * tick for a state no controller could answer in time.  Meanwhile and
+ * after, the buses that queue their own requests (RS485) are served as
+ * their frames come, until COLLECT_GUARD_NS before the tick.  rt-safe.
+ */
+static void between_ticks(struct rmd_loop *l)
+{
+	int64_t deadline = l->next_tick_ns - PUBLISH_LEAD_NS;
+	bool waiting = true, looked = false; /* looked: the owing buses were read when due */
 
-		if (fd < 0 || !collect_between_ticks(l->bus[b].bus))
-			continue;
-		pfd[n] = (struct pollfd){ .fd = fd, .events = POLLIN };
-		which[n++] = b;
-	}
-	if (!n)
-		return;
-	while (!stopping(l)) {
+	for (;;) {
+		struct pollfd pfd[RMD_MAX_BUSES];
+		unsigned which[RMD_MAX_BUSES], n = 0, owing = 0;
 		int64_t now = rmd_now_ns(), until = l->next_tick_ns - COLLECT_GUARD_NS;
+		int64_t due = 0, wake = until;
+		bool queues = false;
 		struct timespec ts;
 		int r;
 
-		if (now >= until)
-			return;
-		for (unsigned k = 0; k < n; k++) {
-			int64_t d = rmd_bus_next_due_ns(l->bus[which[k]].bus);
-
-			if (d == INT64_MAX)
+		if (waiting) {
+			due = stopping(l) ? -1 : loop_reply_due(l, now, &owing);
+			if (due < 0)
+				owing = 0;
+			if (!due)
+				rmd_loop_publish(l, now);
+			if (due <= 0)
+				waiting = false; /* published, or the next tick publishes */
+			else if (now >= due && !looked) {
+				looked = true;
+				for (unsigned b = 0; b < l->n_buses; b++)
+					if (owing & (1u << b))
+						loop_drain(l, b, now);
 				continue;
-			/* at least a short step: a past deadline must not spin */
-			if (d < now + COLLECT_MIN_STEP_NS)
-				d = now + COLLECT_MIN_STEP_NS;
-			if (d < until)
-				until = d;
+			}
 		}
-		ts = loop_ts(until - now);
+		if (now >= until || stopping(l))
+			return;
+		if (owing)
+			wake = min64(deadline, due > now ? due : now + COLLECT_SIM_STEP_NS);
+		for (unsigned b = 0; b < l->n_buses; b++) {
+			struct rmd_bus *bus = l->bus[b].bus;
+			int fd = rmd_bus_fd(bus);
+			bool queue = queues_requests(bus);
+			bool ready = looked && (owing & (1u << b)); /* readiness: what is missing */
+
+			if (queue) {
+				int64_t d = rmd_bus_next_due_ns(bus);
+
+				/* at least a short step: a past deadline must not spin */
+				wake = min64(wake, d < now + COLLECT_MIN_STEP_NS ?
+							   now + COLLECT_MIN_STEP_NS :
+							   d);
+				queues = true;
+			}
+			if (fd >= 0 && (queue || ready)) {
+				pfd[n] = (struct pollfd){ .fd = fd, .events = POLLIN };
+				which[n++] = b;
+			}
+		}
+		if (!waiting && !queues)
+			return;
+		ts = loop_ts(wake - now);
 		r = ppoll(pfd, n, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return;
 		now = rmd_now_ns();
-		/* only the buses that have frames, or whose queue is due */
+		/* the buses that have frames, whose queue is due, or (no descriptor) that owe */
 		for (unsigned k = 0; k < n; k++)
 			if ((r > 0 && pfd[k].revents) ||
-			    rmd_bus_next_due_ns(l->bus[which[k]].bus) <= now)
+			    (queues_requests(l->bus[which[k]].bus) &&
+			     rmd_bus_next_due_ns(l->bus[which[k]].bus) <= now))
 				loop_drain(l, which[k], now);
+		for (unsigned b = 0; looked && b < l->n_buses; b++)
+			if ((owing & (1u << b)) && rmd_bus_fd(l->bus[b].bus) < 0)
+				loop_drain(l, b, now);
 	}
 }
 
@@ -112,18 +151,19 @@ static void *thread_main(void *arg)
 	while (!stopping(l)) {
 		struct timespec ts;
 
-		rmd_loop_cycle(l, now);
+		rmd_loop_tick(l, now);
 		now = rmd_now_ns();
 		/* the work ran past the next tick: skip it, never catch up in a burst */
 		if (now > l->next_tick_ns)
 			loop_skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns + 1);
-		collect_until_tick(l);
+		between_ticks(l);
 		ts = loop_ts(l->next_tick_ns);
 		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR &&
 		       !stopping(l))
 			;
 		now = rmd_now_ns();
 	}
+	rmd_loop_publish(l, rmd_now_ns()); /* the last cycle's state, if still owed */
 	rmd_loop_stop_motors(l, rmd_now_ns());
 	return NULL;
 }

@@ -1406,6 +1406,89 @@ static void test_thread(void **state)
 	rig_down();
 }
 
+/*
+ * Issue 23: the thread's cycle in parts.  After rmd_loop_tick() nothing is
+ * published; rmd_loop_collect() says when the replies to the tick's
+ * requests are in, and rmd_loop_publish() then puts out a state that holds
+ * them (age 0, received after the tick), before the next tick, once.  A
+ * motor that stopped answering is waited for until it missed once, never
+ * again while it stays silent.  Over the cycles the wait for the last reply
+ * stays inside the period on the sim bus (its motors answer 0.5 +- 0.1 ms).
+ */
+static int64_t collect_until_in(int64_t tick)
+{
+	int64_t t = tick;
+
+	while (!rmd_loop_collect(R.l, t) && t < tick + period())
+		t += 10 * US;
+	return t;
+}
+
+static void test_state_when_replies_are_in(void **state)
+{
+	struct rmd_sim_fault gone = { .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 2 };
+	struct rmd_snapshot s0, s1;
+	int64_t tick, t, worst = 0;
+
+	(void)state;
+	rig_up(2, NULL);
+	bring_up();
+	cmd_clear();
+	for (unsigned i = 0; i < 2; i++)
+		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	run(50, true);
+	s0 = snap();
+	tick = t_now;
+	rmd_loop_tick(R.l, tick);
+	assert_int_equal(snap().cycle, s0.cycle); /* nothing out yet */
+	assert_false(rmd_loop_collect(R.l, tick + 100 * US));
+	t = collect_until_in(tick);
+	if (t <= tick + 300 * US || t >= tick + period())
+		fail_msg("the replies in %lld us after the tick", (long long)((t - tick) / US));
+	assert_int_equal(snap().cycle, s0.cycle);
+	rmd_loop_publish(R.l, t);
+	s1 = snap();
+	assert_int_equal(s1.cycle, s0.cycle + 1);
+	assert_int_equal(s1.t_ns, t);
+	for (unsigned i = 0; i < 2; i++) {
+		assert_int_equal(s1.m[i].reply_age_cycles, 0);
+		assert_true(s1.m[i].rx_ns > tick && s1.m[i].rx_ns <= t);
+	}
+	rmd_loop_publish(R.l, t + 10 * US); /* once a cycle */
+	assert_int_equal(snap().cycle, s1.cycle);
+	assert_int_equal(snap().t_ns, t);
+
+	/* many cycles: every one's replies in before its next tick */
+	for (unsigned k = 0; k < 200; k++) {
+		tick += period();
+		R.cmd.rx_ns = tick;
+		R.cmd.seq++;
+		rmd_latest_put(&R.io.cmds, &R.cmd);
+		rmd_loop_tick(R.l, tick);
+		t = collect_until_in(tick);
+		assert_true(t < tick + period());
+		if (t - tick > worst)
+			worst = t - tick;
+		rmd_loop_publish(R.l, t);
+	}
+	print_message("last reply of a cycle in at most %lld us after its tick\n",
+		      (long long)(worst / US));
+
+	/* motor 3 gone: waited for in the cycle it first misses, not after */
+	t_now = tick + period();
+	fault_now(&gone, 0);
+	for (unsigned k = 0; k < 10; k++) {
+		tick += period();
+		rmd_loop_tick(R.l, tick);
+		t = collect_until_in(tick);
+		if (k >= 4)
+			assert_true(t < tick + period());
+		rmd_loop_publish(R.l, t);
+	}
+	assert_true(snap().m[1].reply_age_cycles > 0);
+	rig_down();
+}
+
 /* The seqlock getter gives the health the triple buffer got, and the motor records. */
 static void test_health_getter(void **state)
 {
@@ -2915,6 +2998,7 @@ int main(void)
 		cmocka_unit_test(test_stop_motors_bus_off),
 		cmocka_unit_test(test_health),
 		cmocka_unit_test(test_thread),
+		cmocka_unit_test(test_state_when_replies_are_in),
 		cmocka_unit_test(test_health_getter),
 		cmocka_unit_test(test_enable_edge_latched),
 		cmocka_unit_test(test_shutdown_actions),
