@@ -83,6 +83,7 @@ static void test_examples_load(void **state)
 		"examples/sim-12.yaml",
 		"examples/v2-batch.yaml",
 		"examples/rs485.yaml",
+		"examples/rs485-rig.yaml",
 		"examples/sim-faults.yaml",
 		"examples/sim-fine.yaml",
 		"tests/data/config/five-per-bus.yaml", /* loads; the planner refuses it */
