@@ -1071,7 +1071,7 @@ static void test_one_yaml_rs485(void **state)
 
 /*
  * Which bus of an rmdd.yaml rmd-sim simulates: --bus, else the one on the
- * wire it is given, else the only one; a choice left open, a sim bus and
+ * wire it is given (--serial), else the only one; a choice left open, a sim bus and
  * an unknown name are refused naming the buses; the file's errors name
  * its line and key.  Options override the file.
  */
@@ -1138,6 +1138,33 @@ static void test_yaml_bus_choice(void **state)
 	send485(c, 1, req); /* not on vcan1 */
 	expect_silence(c, "motor 1 of vcan0");
 	stop_ok(c);
+
+	/* no --bus: the bus on the wire given, here the pty's slave, of two rs485 buses */
+	yaml_remove(dir, path);
+	strcpy(dir, "/tmp/rmd-sim-yaml-XXXXXX");
+	pty_open(c);
+	{
+		char text[1024];
+		const char *args[] = { "--config", path, "--serial", c->pts, NULL };
+
+		snprintf(text, sizeof(text),
+			 "buses:\n"
+			 "  - {name: rs0, type: rs485, device: /dev/ttyS0}\n"
+			 "  - {name: rs1, type: rs485, device: %s, sim: {motor: {model: WIRE1}}}\n"
+			 "motors:\n"
+			 "  - {name: a, bus: rs0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: b, bus: rs1, id: 4, mode: torque, torque_constant_nm_a: 2}\n",
+			 c->pts);
+		yaml_file(dir, path, sizeof(path), text);
+		spawn(c, args);
+		if (!wait_log(c, ": ready", READY_MS))
+			fail_msg("rmd-sim did not get ready; its log:\n%s", c->log);
+	}
+	assert_non_null(strstr(c->log, "rig.yaml: bus rs1, motors 4 b"));
+	cmd_data(req, 0xB5);
+	ask(c, 4, req, rep);
+	stop_ok(c);
+	close_fd(&c->master);
 
 	/* an error in the file: its line and key */
 	yaml_remove(dir, path);
