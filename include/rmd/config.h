@@ -202,6 +202,12 @@ struct rmd_config_bus {
 	uint32_t baud;			       /* rs485: bit/s (V3 §1.2.1) */
 	int64_t turnaround_ns; /* rs485: request end to reply start, budgeted per request */
 	unsigned line;	       /* of the entry in the file, for messages */
+	/*
+	 * socketcan, rs485: the file gives the bus or a motor on it a `sim:`
+	 * section.  It is rmd-sim's, which simulates the bus's motors on the
+	 * real wire (docs/rmd-sim.md); rmdd does not use it.
+	 */
+	bool sim_section;
 };
 
 struct rmd_config_limits {
@@ -342,6 +348,13 @@ void rmd_config_motor_defaults(struct rmd_config_motor *m);
 
 /* The index of the bus or motor called `name`, or -ENOENT.  rt-safe. */
 int rmd_config_bus_find(const struct rmd_config *cfg, const char *name);
+
+/*
+ * The real wire of bus b, as rmd-sim answers on it: its SocketCAN interface
+ * (*serial false) or its RS485 device (*serial true); NULL for a bus rmdd
+ * simulates in-process (type sim).  rt-safe.
+ */
+const char *rmd_config_bus_wire(const struct rmd_config_bus *b, bool *serial);
 int rmd_config_motor_find(const struct rmd_config *cfg, const char *name);
 
 /* Names as the file spells them, indexed by their enum, NULL-terminated. */

@@ -14,7 +14,10 @@
  *   x.yaml:7: buses[0].type: "canbus" is not one of socketcan, rs485, sim
  *
  * The simulated motor's keys (`sim.motor:`, `motors[].sim:`) are the rows
- * of the simulator's parameter table, as rmd-sim reads them.
+ * of the simulator's parameter table, as rmd-sim reads them.  A socketcan
+ * or rs485 bus may have them too: they are rmd-sim's, which simulates that
+ * bus's motors on the real wire from the same file (`rmd-sim --config
+ * rmdd.yaml`); rmdd talks to the wire (struct rmd_config_bus.sim_section).
  */
 #ifndef RMD_CONFIG_YAML_H
 #define RMD_CONFIG_YAML_H
@@ -26,9 +29,9 @@
 #include "rmd/sim_setup.h"
 
 /*
- * Load and validate the YAML file at `path` into *cfg, and the sim
- * buses' simulator settings into *sim (may be NULL: checked, then
- * dropped), defaults for what it leaves out.  Returns 0, -errno when the
+ * Load and validate the YAML file at `path` into *cfg, and the buses'
+ * simulator settings into *sim (may be NULL: checked, then dropped),
+ * defaults for what it leaves out.  Returns 0, -errno when the
  * file cannot be read or is refused as a whole (rmd_config_file_read():
  * -EISDIR, -EFBIG, -EILSEQ for a NUL byte, ...), or -EINVAL for a file
  * with errors; err then holds

@@ -46,9 +46,10 @@ struct rmd_sim_bus_setup {
 struct rmd_sim_setup {
 	struct rmd_sim_bus_setup buses[RMD_MAX_BUSES]; /* as rmd_config.buses[] */
 	/*
-	 * The simulated motor of rmd_config.motors[i] on a sim bus: its bus's
-	 * model with the motor's overrides, id, proto, kt (when given), gear
-	 * ratio and MIT ranges.
+	 * The simulated motor of rmd_config.motors[i]: its bus's model with
+	 * the motor's overrides, id, proto, kt (when given), gear ratio and MIT
+	 * ranges.  rmdd runs those of its sim buses; rmd-sim those of the
+	 * socketcan or rs485 bus it simulates.
 	 */
 	struct rmd_sim_motor_params motors[RMD_MAX_MOTORS];
 };

@@ -97,6 +97,21 @@ int rmd_config_bus_find(const struct rmd_config *cfg, const char *name)
 	return -ENOENT;
 }
 
+const char *rmd_config_bus_wire(const struct rmd_config_bus *b, bool *serial)
+{
+	switch (b->kind) {
+	case RMD_BUS_KIND_SOCKETCAN:
+		*serial = false;
+		return b->interface;
+	case RMD_BUS_KIND_RS485:
+		*serial = true;
+		return b->device;
+	case RMD_BUS_KIND_SIM:
+		break;
+	}
+	return NULL;
+}
+
 int rmd_config_motor_find(const struct rmd_config *cfg, const char *name)
 {
 	for (unsigned i = 0; i < cfg->n_motors; i++)

@@ -7,8 +7,10 @@
  * is yaml_schema.c; this file holds rmdd's tables and the checks across
  * keys (validate_*): a motor's bus exists, IDs are unique per bus, names
  * are unique, protocol and mode agree, ranges are ordered, keys belong to
- * the bus type; sim buses get their motors' model parameters.  Every error
- * goes through rmd_yaml_report(): "FILE:LINE: key.path: message".
+ * the bus type; every motor gets its simulated model's parameters (rmdd's
+ * sim buses use them; on a socketcan or rs485 bus they are rmd-sim's).
+ * Every error goes through rmd_yaml_report(): "FILE:LINE: key.path:
+ * message".
  */
 #include <errno.h>
 #include <math.h>
@@ -370,6 +372,41 @@ static void bus_key_unused(struct yctx *c, const struct ynode *bn, const char *p
 			rmd_bus_kind_name(b->kind));
 }
 
+/*
+ * The `sim:` section of a socketcan or rs485 bus: rmd-sim's, which
+ * simulates that bus's motors on the real wire (docs/rmd-sim.md); rmdd
+ * talks to the wire and does not use it.  Its keys of the in-process wire
+ * have no meaning there and are refused.
+ */
+static void real_bus_sim(struct yctx *c, const struct ynode *bn, const char *path,
+			 struct rmd_config_bus *b)
+{
+	static const struct {
+		const char *key, *instead;
+	} wire_only[] = {
+		{ "tap", "candump IFACE or rmd-sim -v logs a real wire's frames" },
+		{ "txqueuelen", "the interface's own (ip link set IFACE txqueuelen N)" },
+		{ "host_fifo", "the kernel's queue sends in order" },
+	};
+	const struct ynode *sn = rmd_yaml_get(bn, "sim", NULL);
+	char sp[PATH_LEN], kp[PATH_LEN];
+	unsigned kl;
+
+	if (!sn)
+		return;
+	b->sim_section = true;
+	rmd_yaml_path_key(sp, path, "sim");
+	for (size_t k = 0; k < sizeof(wire_only) / sizeof(wire_only[0]); k++) {
+		if (!rmd_yaml_get(sn, wire_only[k].key, &kl))
+			continue;
+		rmd_yaml_path_key(kp, sp, wire_only[k].key);
+		rmd_yaml_report(c, kl, kp,
+				"only for type sim (the in-process wire); on a %s bus, which "
+				"rmd-sim simulates, %s",
+				rmd_bus_kind_name(b->kind), wire_only[k].instead);
+	}
+}
+
 static void validate_sim_model(struct yctx *c, const struct rmd_sim_motor_params *p,
 			       const struct ynode *n, const char *path)
 {
@@ -439,7 +476,7 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 			bus_key_unused(c, bn, path, "device", b, "rs485");
 			bus_key_unused(c, bn, path, "baud", b, "rs485");
 			bus_key_unused(c, bn, path, "turnaround_us", b, "rs485");
-			bus_key_unused(c, bn, path, "sim", b, "sim");
+			real_bus_sim(c, bn, path, b);
 			rmd_yaml_path_key(kp, path, "interface");
 			if (!rmd_yaml_get(bn, "interface", NULL)) {
 				if (strlen(b->name) >= sizeof(b->interface))
@@ -462,7 +499,7 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 		case RMD_BUS_KIND_RS485:
 			bus_key_unused(c, bn, path, "interface", b, "socketcan");
 			bus_key_unused(c, bn, path, "bitrate", b, "socketcan or sim");
-			bus_key_unused(c, bn, path, "sim", b, "sim");
+			real_bus_sim(c, bn, path, b);
 			rmd_yaml_path_key(kp, path, "device");
 			if (!rmd_yaml_get(bn, "device", NULL))
 				rmd_yaml_report(c, bn->line, kp,
@@ -480,9 +517,7 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 					b->baud);
 			}
 			break;
-		case RMD_BUS_KIND_SIM: {
-			const struct ynode *sn = rmd_yaml_get(bn, "sim", NULL);
-
+		case RMD_BUS_KIND_SIM:
 			bus_key_unused(c, bn, path, "interface", b, "socketcan");
 			bus_key_unused(c, bn, path, "device", b, "rs485");
 			bus_key_unused(c, bn, path, "baud", b, "rs485");
@@ -493,12 +528,11 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 						"%u is out of range (10000..1000000 for a sim bus)",
 						b->bitrate);
 			}
-			rmd_yaml_path_key(kp, path, "sim.motor");
-			validate_sim_model(c, &sim->buses[i].motor, rmd_yaml_get(sn, "motor", NULL),
-					   kp);
 			break;
 		}
-		}
+		rmd_yaml_path_key(kp, path, "sim.motor");
+		validate_sim_model(c, &sim->buses[i].motor,
+				   rmd_yaml_get(rmd_yaml_get(bn, "sim", NULL), "motor", NULL), kp);
 	}
 }
 
@@ -563,6 +597,21 @@ static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 		const char *what = NULL;
 
 		snprintf(path, sizeof(path), "buses[%u].sim.faults[%u]", bi, i);
+		/* rmd-sim's faults on a real wire (docs/rmd-sim.md "Faults") */
+		if (f->kind == RMD_SIM_FAULT_BUS_OFF && b->kind != RMD_BUS_KIND_SIM) {
+			rmd_yaml_path_key(kp, path, "kind");
+			rmd_yaml_report(
+				c, rmd_yaml_line_of(fn, "kind"), kp,
+				"bus_off is for type sim: on a %s bus the kernel's controller "
+				"owns the bus state, which rmd-sim cannot change (take the "
+				"interface down: ip link set IFACE down)",
+				rmd_bus_kind_name(b->kind));
+		} else if (f->kind == RMD_SIM_FAULT_FLOOD && b->kind == RMD_BUS_KIND_RS485) {
+			rmd_yaml_path_key(kp, path, "kind");
+			rmd_yaml_report(
+				c, rmd_yaml_line_of(fn, "kind"), kp,
+				"flood needs a CAN bus (an RS485 line has no arbitration to win)");
+		}
 		if (bus_wide && f->motor_id) {
 			rmd_yaml_path_key(kp, path, "motor");
 			rmd_yaml_report(c, rmd_yaml_line_of(fn, "motor"), kp,
@@ -640,12 +689,9 @@ static void validate_motor_sim(struct yctx *c, struct rmd_config *cfg, struct rm
 	char kp[PATH_LEN];
 
 	rmd_yaml_path_key(kp, path, "sim");
-	if (sn && b->kind != RMD_BUS_KIND_SIM) {
-		rmd_yaml_report(c, rmd_yaml_line_of(mn, "sim"), kp,
-				"only for motors on a sim bus (%s is %s)", b->name,
-				rmd_bus_kind_name(b->kind));
-		return;
-	}
+	/* on a socketcan or rs485 bus: rmd-sim's, as the bus's own sim: (real_bus_sim()) */
+	if (sn && b->kind != RMD_BUS_KIND_SIM)
+		cfg->buses[m->bus].sim_section = true;
 	*p = sim->buses[m->bus].motor;
 	if (sn) {
 		struct field f = { .type = T_MAP, .sub = sim_motor_fields };
@@ -1057,8 +1103,7 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 		if (ms && ms->kind == Y_SEQ)
 			validate_motors(&c, cfg, sim, ms);
 		for (unsigned i = 0; bs && bs->kind == Y_SEQ && i < cfg->n_buses; i++)
-			if (cfg->buses[i].kind == RMD_BUS_KIND_SIM &&
-			    !(c.bad[MARK_BUS - 1] & (1u << i)))
+			if (!(c.bad[MARK_BUS - 1] & (1u << i)))
 				validate_faults(&c, cfg, sim, i, bs->kids[i]);
 	}
 	validate_lcm(&c, cfg, root);

@@ -170,6 +170,26 @@ static int wait_exit(struct child *c, int timeout_ms)
 	return -1;
 }
 
+/*
+ * Two pseudo-terminals and the test between their masters, a null-modem
+ * cable in software: rmd-sim on one slave, rmdd on the other (each wants a
+ * device path).  The test holds each slave open itself, raw, so that a
+ * master never hangs up while no program has its line open.
+ */
+struct line_end {
+	int master, hold;
+	char path[64];
+};
+
+static struct line_end ends[2];
+static char rmdd_path[512];
+
+static void line_end_close(struct line_end *e)
+{
+	close_fd(&e->hold);
+	close_fd(&e->master);
+}
+
 static int setup(void **state)
 {
 	struct child *c = calloc(1, sizeof(*c));
@@ -178,6 +198,8 @@ static int setup(void **state)
 		return -1;
 	c->err = c->master = c->can = -1;
 	*state = c;
+	for (int i = 0; i < 2; i++)
+		ends[i].master = ends[i].hold = -1;
 	return 0;
 }
 
@@ -193,6 +215,9 @@ static int teardown(void **state)
 	close_fd(&c->master);
 	close_fd(&c->can);
 	free(c);
+	kid_kill_all();
+	line_end_close(&ends[0]);
+	line_end_close(&ends[1]);
 	return 0;
 }
 
@@ -890,6 +915,277 @@ static void test_open_failure(void **state)
 	assert_non_null(strstr(c->log, "/nonexistent/ttyRMD: no such device"));
 }
 
+/* ---- one rmdd.yaml for rmd-sim and rmdd (issue 22.7) ----------------------------------- */
+
+static void line_end_open(struct line_end *e)
+{
+	struct termios tio;
+
+	e->master = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+	assert_true(e->master >= 0);
+	assert_int_equal(grantpt(e->master), 0);
+	assert_int_equal(unlockpt(e->master), 0);
+	assert_int_equal(ptsname_r(e->master, e->path, sizeof(e->path)), 0);
+	e->hold = open(e->path, O_RDWR | O_NOCTTY | O_CLOEXEC | O_NONBLOCK);
+	assert_true(e->hold >= 0);
+	for (int i = 0; i < 2; i++) {
+		int fd = i ? e->hold : e->master;
+
+		assert_int_equal(tcgetattr(fd, &tio), 0);
+		cfmakeraw(&tio);
+		assert_int_equal(tcsetattr(fd, TCSANOW, &tio), 0);
+	}
+	fcntl(e->master, F_SETFL, O_NONBLOCK);
+}
+
+/* Copy what one master has to the other, unchanged. */
+static void relay(int from, int to)
+{
+	uint8_t b[4096];
+	ssize_t n = read(from, b, sizeof(b));
+
+	for (ssize_t done = 0; n > 0 && done < n;) {
+		ssize_t w = write(to, b + done, (size_t)(n - done));
+		struct pollfd p = { .fd = to, .events = POLLOUT };
+
+		if (w > 0)
+			done += w;
+		else if (w < 0 && errno != EAGAIN)
+			fail_msg("relay: write: %s", strerror(errno));
+		else
+			poll(&p, 1, 100);
+	}
+}
+
+/* The kids' service (harness/proc.h): relay the line, read their output, at most ms. */
+static void relay_service(int ms)
+{
+	struct pollfd p[2 + KID_MAX];
+	struct kid *who[KID_MAX];
+	unsigned n = kid_pollfds(p + 2, who, KID_MAX);
+
+	p[0] = (struct pollfd){ .fd = ends[0].master, .events = POLLIN };
+	p[1] = (struct pollfd){ .fd = ends[1].master, .events = POLLIN };
+	if (poll(p, 2 + n, ms) <= 0)
+		return;
+	if (p[0].revents & POLLIN)
+		relay(ends[0].master, ends[1].master);
+	if (p[1].revents & POLLIN)
+		relay(ends[1].master, ends[0].master);
+	for (unsigned i = 0; i < n; i++)
+		kid_read(who[i]);
+}
+
+/* dir (a mkdtemp template) / rig.yaml holding text; its path into path. */
+static void yaml_file(char *dir, char *path, size_t size, const char *text)
+{
+	FILE *f;
+
+	assert_non_null(mkdtemp(dir));
+	snprintf(path, size, "%s/rig.yaml", dir);
+	f = fopen(path, "w");
+	assert_non_null(f);
+	fputs(text, f);
+	assert_int_equal(fclose(f), 0);
+}
+
+static void yaml_remove(const char *dir, const char *path)
+{
+	unlink(path);
+	rmdir(dir);
+}
+
+/*
+ * One rmdd.yaml describes an RS485 bus once: its motors (ids 3 and 5, not
+ * rmd-sim's default 1) and their simulated models in its sim: sections.
+ * rmd-sim simulates them from it (--serial replaces the file's device: the
+ * other end of the line); rmdd, from the same file, brings them up over the
+ * line, hears the models the file gave them, and says that it simulates
+ * nothing itself.
+ */
+static void test_one_yaml_rs485(void **state)
+{
+	char dir[] = "/tmp/rmd-sim-yaml-XXXXXX", path[128], yaml[2048];
+	struct kid *sim, *rmdd;
+	const char *sim_argv[] = { rmdsim, "--config", path, "--serial", ends[0].path, NULL };
+	const char *rmdd_argv[] = { rmdd_path, "--config", path, NULL };
+
+	(void)state;
+	if (find_prog(rmdd_path, sizeof(rmdd_path), "RMDD", "rmdd") < 0)
+		fail_msg("rmdd not built");
+	line_end_open(&ends[0]);
+	line_end_open(&ends[1]);
+	/* a slow pace and long patience: a pseudo-terminal stalls for up to 0.5 s */
+	snprintf(
+		yaml, sizeof(yaml),
+		"loop: {rate_hz: 50}\n"
+		"safety: {missed_replies_lost: 100, comm_loss_ms: 2000, command_timeout_ms: 1000}\n"
+		"probe: {reply_timeout_ms: 2000}\n"
+		"lcm: {url: \"memq://\"}\n"
+		"incidents: {enabled: false}\n"
+		"buses:\n"
+		"  - name: rs0\n"
+		"    type: rs485\n"
+		"    device: %s\n"
+		"    turnaround_us: 5000\n"
+		"    sim:\n"
+		"      seed: 4\n"
+		"      motor: {model: ONEYML, turnaround_us: 300}\n"
+		"motors:\n"
+		"  - {name: pan, bus: rs0, id: 3, mode: position, torque_constant_nm_a: 2,\n"
+		"     multi_turn_saved: true}\n"
+		"  - {name: tilt, bus: rs0, id: 5, mode: position, torque_constant_nm_a: 2,\n"
+		"     multi_turn_saved: true, sim: {model: TILT1, load_nm: 0.5}}\n",
+		ends[1].path);
+	yaml_file(dir, path, sizeof(path), yaml);
+
+	sim = kid_spawn("rmd-sim", sim_argv, NULL, 0);
+	kid_wait_output(sim, ": ready", READY_MS, relay_service);
+	assert_has(sim->out, "rig.yaml: bus rs0, motors 3 pan, 5 tilt", "rmd-sim");
+	assert_has(sim->out, "motor 3: V3 ONEYML", "rmd-sim");
+	assert_has(sim->out,
+		   "motor 5: V3 TILT1 (fw 20220206), inertia 0.005 kg·m², kt 2 N·m/A, "
+		   "gear 6, load 0.5 N·m",
+		   "rmd-sim");
+	assert_has(sim->out, "seed 4", "rmd-sim");
+
+	rmdd = kid_spawn("rmdd", rmdd_argv, NULL, 0);
+	kid_wait_output(rmdd, "running:", READY_MS, relay_service);
+	assert_has(rmdd->out, "bus rs0: its sim: sections are rmd-sim's", "rmdd");
+	assert_has(rmdd->out, "motor 3 (pan): ONEYML", "rmdd");
+	assert_has(rmdd->out, "motor 5 (tilt): TILT1", "rmdd");
+	assert_lacks(rmdd->out, "unexpected", "rmdd");
+
+	/* rmdd stops its motors over the line, then rmd-sim ends */
+	assert_int_equal(kill(rmdd->pid, SIGTERM), 0);
+	assert_int_equal(kid_wait_exit(rmdd, EXIT_MS, relay_service), 0);
+	assert_has(rmdd->out, "every motor was sent stop", "rmdd");
+	assert_int_equal(kill(sim->pid, SIGTERM), 0);
+	assert_int_equal(kid_wait_exit(sim, EXIT_MS, relay_service), 0);
+	kid_free(rmdd);
+	kid_free(sim);
+	yaml_remove(dir, path);
+	line_end_close(&ends[0]);
+	line_end_close(&ends[1]);
+}
+
+/*
+ * Which bus of an rmdd.yaml rmd-sim simulates: --bus, else the one on the
+ * wire it is given (--serial), else the only one; a choice left open, a sim bus and
+ * an unknown name are refused naming the buses; the file's errors name
+ * its line and key.  Options override the file.
+ */
+static void test_yaml_bus_choice(void **state)
+{
+	static const char rig[] =
+		"buses:\n"
+		"  - {name: vcan0, type: socketcan}\n"
+		"  - name: vcan1\n"
+		"    type: socketcan\n"
+		"    sim:\n"
+		"      seed: 12\n"
+		"      motor: {load_nm: 2}\n"
+		"      faults: [{kind: drop, motor: 2, cmd: 0x9A}]\n"
+		"  - {name: s0, type: sim}\n"
+		"motors:\n"
+		"  - {name: a, bus: vcan0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: vcan1, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: c, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n";
+	char dir[] = "/tmp/rmd-sim-yaml-XXXXXX", path[128], where[256];
+	struct child *c = *state;
+	struct run r;
+	uint8_t req[RMD_FRAME_LEN], rep[RMD_FRAME_LEN];
+
+	yaml_file(dir, path, sizeof(path), rig);
+	run_prog(&r, rmdsim, (const char *const[]){ "--config", path, NULL }, NULL);
+	assert_status(&r, 2, "two real buses");
+	assert_has(r.err,
+		   "2 buses rmd-sim could simulate: vcan0 (vcan0), vcan1 (vcan1); choose "
+		   "one with --bus NAME",
+		   "two real buses");
+	run_free(&r);
+	run_prog(&r, rmdsim, (const char *const[]){ "--config", path, "--bus", "s0", NULL }, NULL);
+	assert_status(&r, 2, "--bus s0");
+	assert_has(r.err, "--bus s0: a sim bus, which rmdd simulates itself", "--bus s0");
+	run_free(&r);
+	run_prog(&r, rmdsim, (const char *const[]){ "--bus", "can9", "--config", path, NULL },
+		 NULL);
+	assert_status(&r, 2, "--bus can9");
+	assert_has(r.err, "--bus can9: ", "--bus can9");
+	assert_has(r.err, "has no such bus", "--bus can9");
+	run_free(&r);
+	run_prog(&r, rmdsim, (const char *const[]){ "--can", "vcan0", "--bus", "vcan0", NULL },
+		 NULL);
+	assert_status(&r, 2, "--bus without a yaml");
+	assert_has(r.err, "names a bus of an rmdd.yaml", "--bus without a yaml");
+	run_free(&r);
+
+	/* --bus vcan1 on a pty: its motor 2, its seed, model and fault; --seed overrides */
+	{
+		const char *args[] = { "--bus", "vcan1", "--config", path, "--seed", "5", NULL };
+
+		start_serial(c, args);
+	}
+	assert_non_null(strstr(c->log, "rig.yaml: bus vcan1, motors 2 b"));
+	assert_non_null(strstr(c->log, "load 2 N·m"));
+	assert_non_null(strstr(c->log, "seed 5"));
+	assert_non_null(strstr(c->log, "fault 1: drop motor 2 (buses[1].sim.faults[0])"));
+	cmd_data(req, 0xB5);
+	ask(c, 2, req, rep);
+	cmd_data(req, 0x9A);
+	send485(c, 2, req); /* dropped: the file's fault (0x9A answers, probability 1) */
+	expect_silence(c, "motor 2's 0x9A under drop");
+	send485(c, 1, req); /* not on vcan1 */
+	expect_silence(c, "motor 1 of vcan0");
+	stop_ok(c);
+
+	/* no --bus: the bus on the wire given, here the pty's slave, of two rs485 buses */
+	yaml_remove(dir, path);
+	strcpy(dir, "/tmp/rmd-sim-yaml-XXXXXX");
+	pty_open(c);
+	{
+		char text[1024];
+		const char *args[] = { "--config", path, "--serial", c->pts, NULL };
+
+		snprintf(text, sizeof(text),
+			 "buses:\n"
+			 "  - {name: rs0, type: rs485, device: /dev/ttyS0}\n"
+			 "  - {name: rs1, type: rs485, device: %s, sim: {motor: {model: WIRE1}}}\n"
+			 "motors:\n"
+			 "  - {name: a, bus: rs0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+			 "  - {name: b, bus: rs1, id: 4, mode: torque, torque_constant_nm_a: 2}\n",
+			 c->pts);
+		yaml_file(dir, path, sizeof(path), text);
+		spawn(c, args);
+		if (!wait_log(c, ": ready", READY_MS))
+			fail_msg("rmd-sim did not get ready; its log:\n%s", c->log);
+	}
+	assert_non_null(strstr(c->log, "rig.yaml: bus rs1, motors 4 b"));
+	cmd_data(req, 0xB5);
+	ask(c, 4, req, rep);
+	stop_ok(c);
+	close_fd(&c->master);
+
+	/* an error in the file: its line and key */
+	yaml_remove(dir, path);
+	strcpy(dir, "/tmp/rmd-sim-yaml-XXXXXX");
+	yaml_file(dir, path, sizeof(path),
+		  "buses:\n"
+		  "  - {name: rs0, type: rs485, device: /dev/ttyS0}\n"
+		  "motors:\n"
+		  "  - {name: a, bus: rs0, id: 1, mode: torque, torque_constant_nm_a: 2,\n"
+		  "     sim: {inertia_kgm2: -1}}\n");
+	run_prog(&r, rmdsim, (const char *const[]){ "--config", path, NULL }, NULL);
+	assert_status(&r, 2, "bad yaml");
+	snprintf(where, sizeof(where),
+		 "rmd-sim: %s:5: motors[0].sim.inertia_kgm2: -1 is out of "
+		 "range",
+		 path);
+	assert_has(r.err, where, "bad yaml");
+	run_free(&r);
+	yaml_remove(dir, path);
+}
+
 /* ---- SocketCAN ------------------------------------------------------------------------- */
 
 static bool have_vcan0(void)
@@ -1199,7 +1495,8 @@ static void test_usage_error_is_short(void **state)
 	static const char want[] =
 		"rmd-sim: unknown option \"--inertai\" (did you mean --inertia?) (rmd-sim --help "
 		"lists the options)\n"
-		"usage: rmd-sim [options] --can IFACE | --serial DEVICE [--baud B]\n"
+		"usage: rmd-sim [options] --can IFACE | --serial DEVICE [--baud B] | --config "
+		"rmdd.yaml\n"
 		"see `rmd-sim --help`\n";
 	struct run r;
 
@@ -1251,6 +1548,8 @@ int main(void)
 		cmocka_unit_test(test_bad_arguments),
 		cmocka_unit_test(test_bad_config),
 		cmocka_unit_test(test_open_failure),
+		cmocka_unit_test(test_one_yaml_rs485),
+		cmocka_unit_test(test_yaml_bus_choice),
 		cmocka_unit_test(test_can_status_model),
 		cmocka_unit_test(test_hostile_config),
 		cmocka_unit_test(test_version),

@@ -83,6 +83,7 @@ static void test_examples_load(void **state)
 		"examples/sim-12.yaml",
 		"examples/v2-batch.yaml",
 		"examples/rs485.yaml",
+		"examples/rs485-rig.yaml",
 		"examples/sim-faults.yaml",
 		"examples/sim-fine.yaml",
 		"tests/data/config/five-per-bus.yaml", /* loads; the planner refuses it */
@@ -401,10 +402,34 @@ static const struct bad_str bad_strs[] = {
 	{ "dup-bus",
 	  "buses:\n  - {name: can0, type: socketcan}\n  - {name: can0, type: socketcan}\n" MOTORS,
 	  { ":3: buses[1].name: \"can0\" is already the name of buses[0] (line 2)" } },
-	{ "sim-on-can",
+	/* a socketcan or rs485 bus's sim: is rmd-sim's: what a real wire cannot do is refused */
+	{ "sim-on-can-tap",
+	  "buses:\n  - name: can0\n    type: socketcan\n    sim: {seed: 2, tap: /tmp/x}\n" MOTORS,
+	  { ":4: buses[0].sim.tap: only for type sim (the in-process wire); on a socketcan bus",
+	    "candump IFACE" } },
+	{ "sim-on-rs485-txqueuelen",
+	  "buses:\n  - name: rs0\n    type: rs485\n    device: /dev/ttyS0\n"
+	  "    sim:\n      txqueuelen: 4\n"
+	  "motors:\n  - {name: m1, bus: rs0, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":6: buses[0].sim.txqueuelen: only for type sim (the in-process wire); on a rs485 bus" } },
+	{ "sim-on-can-bus-off",
+	  "buses:\n  - name: can0\n    type: socketcan\n    sim:\n      faults:\n"
+	  "        - {kind: bus_off, start_s: 1}\n" MOTORS,
+	  { ":6: buses[0].sim.faults[0].kind: bus_off is for type sim: on a socketcan bus the "
+	    "kernel's controller owns the bus state" } },
+	{ "sim-on-rs485-flood",
+	  "buses:\n  - name: rs0\n    type: rs485\n    device: /dev/ttyS0\n    sim:\n"
+	  "      faults:\n        - {kind: flood, can_id: 0x100, period_us: 1000}\n"
+	  "motors:\n  - {name: m1, bus: rs0, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
+	  { ":7: buses[0].sim.faults[0].kind: flood needs a CAN bus" } },
+	{ "sim-on-can-fault-motor",
+	  "buses:\n  - name: can0\n    type: socketcan\n    sim:\n      faults:\n"
+	  "        - {kind: drop, motor: 3}\n" MOTORS,
+	  { ":6: buses[0].sim.faults[0].motor: no motor with id 3 on bus can0" } },
+	{ "sim-on-can-model",
 	  BUS
-	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2, sim: {load_nm: 1}}\n",
-	  { ":4: motors[0].sim: only for motors on a sim bus (can0 is socketcan)" } },
+	  "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2, sim: {load_nm: x}}\n",
+	  { ":4: motors[0].sim.load_nm: expected a number" } },
 	{ "fault-kind",
 	  "buses:\n  - name: s\n    type: sim\n    sim:\n      faults:\n        - {kind: explode}\n"
 	  "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n",
@@ -497,6 +522,72 @@ static void test_bad_strings(void **state)
 }
 
 /* 33 motors: one too many, named at the 33rd entry's line. */
+/*
+ * Issue 22.7: one file for rmdd and rmd-sim.  A socketcan or rs485 bus takes
+ * a sim: section, and its motors theirs; rmdd does not use them (it says so:
+ * sim_section), rmd-sim simulates the bus from them: the bus's model with the
+ * motor's own keys and entry (id, protocol, kt, gear), its seed and faults.
+ */
+static void test_sim_on_real_bus(void **state)
+{
+	static const char yaml[] =
+		"buses:\n"
+		"  - name: can0\n"
+		"    type: socketcan\n"
+		"  - name: rs0\n"
+		"    type: rs485\n"
+		"    device: /dev/ttyS0\n"
+		"    baud: 500000\n"
+		"    sim:\n"
+		"      seed: 9\n"
+		"      motor: {model: RIG1, turnaround_us: 300}\n"
+		"      faults:\n"
+		"        - {kind: drop, motor: 2, probability: 0.25}\n"
+		"  - name: can1\n"
+		"    type: socketcan\n"
+		"motors:\n"
+		"  - {name: a, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: rs0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: c, bus: rs0, id: 2, mode: torque, torque_constant_nm_a: 0.9,\n"
+		"     gear_ratio: 9, sim: {load_nm: 1.5, model: RIG2}}\n"
+		"  - {name: d, bus: can1, id: 4, mode: torque, torque_constant_nm_a: 2,\n"
+		"     protocol: v2, comm_loss_ms: 0, sim: {inertia_kgm2: 0.02}}\n";
+	bool serial = true;
+
+	(void)state;
+	if (load_str("sim-real", yaml))
+		fail_msg("%s", err);
+	assert_false(cfg.buses[0].sim_section);
+	assert_true(cfg.buses[1].sim_section);
+	assert_true(cfg.buses[2].sim_section); /* from motor d's sim: alone */
+	assert_string_equal(rmd_config_bus_wire(&cfg.buses[0], &serial), "can0");
+	assert_false(serial);
+	assert_string_equal(rmd_config_bus_wire(&cfg.buses[1], &serial), "/dev/ttyS0");
+	assert_true(serial);
+	assert_int_equal(sim.buses[1].seed, 9);
+	assert_int_equal(sim.buses[1].n_faults, 1);
+	assert_int_equal(sim.buses[1].faults[0].kind, RMD_SIM_FAULT_DROP);
+	assert_int_equal(sim.buses[1].faults[0].motor_id, 2);
+	/* b: the bus's model */
+	assert_string_equal(sim.motors[1].model, "RIG1");
+	assert_int_equal(sim.motors[1].id, 1);
+	assert_true(sim.motors[1].turnaround_ns == 300000.0);
+	assert_true(sim.motors[1].load_nm == 0.0);
+	/* c: its own sim: and its entry win */
+	assert_string_equal(sim.motors[2].model, "RIG2");
+	assert_int_equal(sim.motors[2].id, 2);
+	assert_true(sim.motors[2].load_nm == 1.5);
+	assert_true(sim.motors[2].kt_nm_a == 0.9);
+	assert_true(sim.motors[2].gear_ratio == 9.0);
+	assert_true(sim.motors[2].turnaround_ns == 300000.0);
+	/* d: on a bus without sim: of its own, its protocol is the firmware's */
+	assert_int_equal(sim.motors[3].proto, RMD_PROTO_V2);
+	assert_true(sim.motors[3].inertia_kgm2 == 0.02);
+	/* a sim bus has no real wire */
+	cfg.buses[0].kind = RMD_BUS_KIND_SIM;
+	assert_null(rmd_config_bus_wire(&cfg.buses[0], &serial));
+}
+
 static void test_too_many_motors(void **state)
 {
 	static char yaml[8192];
@@ -1137,6 +1228,7 @@ int main(void)
 		cmocka_unit_test(test_bad_files),
 		cmocka_unit_test(test_nonexistent),
 		cmocka_unit_test(test_bad_strings),
+		cmocka_unit_test(test_sim_on_real_bus),
 		cmocka_unit_test(test_too_many_motors),
 		cmocka_unit_test(test_good_values),
 		cmocka_unit_test(test_small_err_buffer),

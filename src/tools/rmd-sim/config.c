@@ -9,7 +9,9 @@
  * Settings are recorded in the order given and replayed onto each motor's
  * struct rmd_sim_motor_params by sim_config_finish(): every global setting
  * first, then the motor's own ([motor N] sections, --set N:KEY=VALUE), so
- * a per-motor value wins over a global one wherever each came from.
+ * a per-motor value wins over a global one wherever each came from.  They
+ * start from the defaults, or from the motor of an rmdd.yaml
+ * (sim_config_yaml(), rmdd's own loader), which they all override.
  *
  * Non-rt.
  */
@@ -25,6 +27,7 @@
 
 #include "rmd/codec.h"
 #include "rmd/config.h"
+#include "rmd/config_yaml.h"
 #include "rmd/dialect.h"
 #include "rmd/mit.h"
 #include "rmd/rs485.h"
@@ -898,6 +901,180 @@ int sim_config_file(struct sim_config *c, const char *path)
 }
 
 /* -------------------------------------------------------------------------- */
+/* rmdd.yaml                                                                  */
+
+bool sim_config_is_yaml(const char *path)
+{
+	const char *dot = strrchr(path, '.');
+
+	return dot && !strchr(dot, '/') && (!strcasecmp(dot, ".yaml") || !strcasecmp(dot, ".yml"));
+}
+
+/* The loader's error lines, each as one log line. */
+static void log_lines(const char *text)
+{
+	while (*text) {
+		const char *nl = strchr(text, '\n');
+		int n = nl ? (int)(nl - text) : (int)strlen(text);
+
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %.*s", n, text);
+		text += n + (nl ? 1 : 0);
+	}
+}
+
+/* The bus of cfg to simulate (sim_config_yaml()): its index, or -EINVAL (logged). */
+static int pick_bus(const struct rmd_config *cfg, const char *path, const char *bus,
+		    const char *wire)
+{
+	char names[RMD_MAX_BUSES * (RMD_CONFIG_NAME_LEN + RMD_CONFIG_PATH_LEN + 8)];
+	int n = 0, only = -1, match = -1, nmatch = 0;
+	size_t k = 0;
+	bool serial;
+
+	names[0] = '\0';
+	for (unsigned i = 0; i < cfg->n_buses; i++) {
+		const char *w = rmd_config_bus_wire(&cfg->buses[i], &serial);
+
+		if (!w)
+			continue;
+		if (k < sizeof(names))
+			k += (size_t)snprintf(names + k, sizeof(names) - k, "%s%s (%s)",
+					      k ? ", " : "", cfg->buses[i].name, w);
+		n++;
+		only = (int)i;
+		if (wire && !strcmp(w, wire)) {
+			match = (int)i;
+			nmatch++;
+		}
+	}
+	if (bus) {
+		int i = rmd_config_bus_find(cfg, bus);
+
+		if (i < 0) {
+			tool_log(TOOL_LOG_ERR, "rmd-sim: --bus %s: %s has no such bus; %s%s", bus,
+				 path,
+				 n ? "buses rmd-sim simulates: " : "and no socketcan or rs485 bus",
+				 names);
+			return -EINVAL;
+		}
+		if (!rmd_config_bus_wire(&cfg->buses[i], &serial)) {
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: --bus %s: a sim bus, which rmdd simulates itself; "
+				 "rmd-sim simulates a socketcan or rs485 bus%s%s",
+				 bus, n ? ": " : "", names);
+			return -EINVAL;
+		}
+		return i;
+	}
+	if (nmatch == 1)
+		return match;
+	if (n == 1)
+		return only;
+	if (n == 0)
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: %s: no socketcan or rs485 bus to simulate (rmdd simulates its "
+			 "sim buses itself)",
+			 path);
+	else
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: %s: %d buses rmd-sim could simulate: %s; choose one with --bus "
+			 "NAME",
+			 path, n, names);
+	return -EINVAL;
+}
+
+/* The faults of the file's bus bi (checked by the loader) after those recorded. */
+static int yaml_faults(struct sim_config *c, const char *path, unsigned bi,
+		       const struct rmd_sim_bus_setup *sb)
+{
+	for (unsigned i = 0; i < sb->n_faults; i++) {
+		const struct rmd_sim_fault *f = &sb->faults[i];
+		char motor[16] = "";
+
+		if (c->n_faults >= RMD_SIM_MAX_FAULTS) {
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: %s: buses[%u].sim.faults[%u]: more than %d faults", path,
+				 bi, i, RMD_SIM_MAX_FAULTS);
+			return -EINVAL;
+		}
+		if (f->motor_id)
+			snprintf(motor, sizeof(motor), " motor %u", f->motor_id);
+		c->faults[c->n_faults] = *f;
+		snprintf(c->fault_text[c->n_faults], sizeof(c->fault_text[0]),
+			 "%s%s (buses[%u].sim.faults[%u])", rmd_sim_fault_kind_name(f->kind), motor,
+			 bi, i);
+		snprintf(c->fault_where[c->n_faults], sizeof(c->fault_where[0]),
+			 "%s: buses[%u].sim.faults[%u]", path, bi, i);
+		c->n_faults++;
+	}
+	return 0;
+}
+
+int sim_config_yaml(struct sim_config *c, const char *path, const char *bus, const char *wire)
+{
+	static char err[8192];
+	struct rmd_config *cfg = malloc(sizeof(*cfg));
+	struct rmd_sim_setup *sim = malloc(sizeof(*sim));
+	char where[SIM_WHERE_MAX], list[512];
+	const struct rmd_config_bus *b;
+	const char *dev;
+	uint32_t mask = 0;
+	size_t k = 0;
+	bool serial;
+	int r, bi;
+
+	if (!cfg || !sim) {
+		tool_log(TOOL_LOG_ERR, "rmd-sim: --config %s: out of memory", path);
+		r = -ENOMEM;
+		goto out;
+	}
+	r = rmd_config_load(path, cfg, sim, err, sizeof(err));
+	if (r < 0) {
+		log_lines(err);
+		goto out;
+	}
+	bi = pick_bus(cfg, path, bus, wire);
+	if (bi < 0) {
+		r = bi;
+		goto out;
+	}
+	b = &cfg->buses[bi];
+	dev = rmd_config_bus_wire(b, &serial);
+	snprintf(where, sizeof(where), "%s: buses[%d] (%s)", path, bi, b->name);
+	r = set_global(c, serial ? "serial" : "can", dev, where);
+	if (r < 0)
+		goto out;
+	if (serial)
+		c->baud = b->baud; /* not baud_where: --can may replace the wire */
+	list[0] = '\0';
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		const struct rmd_config_motor *m = &cfg->motors[i];
+
+		if (m->bus != (unsigned)bi)
+			continue;
+		mask |= UINT32_C(1) << (m->id - 1);
+		c->base[m->id - 1] = sim->motors[i];
+		if (k < sizeof(list))
+			k += (size_t)snprintf(list + k, sizeof(list) - k, "%s%u %s", k ? ", " : "",
+					      m->id, m->name);
+	}
+	if (!mask) {
+		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: no motor is on it", where);
+		r = -EINVAL;
+		goto out;
+	}
+	c->motors = mask;
+	c->base_set = mask;
+	c->seed = sim->buses[bi].seed ? sim->buses[bi].seed : 1;
+	r = yaml_faults(c, path, (unsigned)bi, &sim->buses[bi]);
+	snprintf(c->yaml_bus, sizeof(c->yaml_bus), "%s: bus %s, motors %s", path, b->name, list);
+out:
+	free(sim);
+	free(cfg);
+	return r;
+}
+
+/* -------------------------------------------------------------------------- */
 /* Final checks                                                               */
 
 /* splitmix64, to give each motor its own jitter stream from the one seed. */
@@ -926,7 +1103,10 @@ static int build_motor(struct sim_config *c, uint8_t id)
 	struct rmd_sim_motor_params *p = &c->params[id - 1];
 	char allowed[256];
 
-	rmd_sim_motor_params_default(p, id, RMD_PROTO_V3);
+	if (c->base_set & (UINT32_C(1) << (id - 1)))
+		*p = c->base[id - 1];
+	else
+		rmd_sim_motor_params_default(p, id, RMD_PROTO_V3);
 	/* Every global setting, then the motor's own. */
 	for (int pass = 0; pass < 2; pass++) {
 		for (unsigned i = 0; i < c->n_settings; i++) {

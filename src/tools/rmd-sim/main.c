@@ -5,11 +5,13 @@
  *
  *   rmd-sim [options] --can IFACE
  *   rmd-sim [options] --serial DEVICE [--baud B]
+ *   rmd-sim [options] --config rmdd.yaml [--bus NAME]
  *
  * The motors are struct rmd_sim_motor (src/sim/sim_motor.c); this program
  * feeds them the frames that arrive on a SocketCAN interface or an RS485
  * line and writes their replies after their turnaround.  The command line
- * (here), the config file (config.c) and the event loop (wire.c) are
+ * (here), the config files (config.c: an rmdd.yaml through rmdd's loader,
+ * or rmd-sim's KEY = VALUE format) and the event loop (wire.c) are
  * described in docs/rmd-sim.md; -v describes frames with rmd/describe.h and
  * every line goes through the programs' one logger (tools/common/log.h).
  *
@@ -30,9 +32,17 @@ static const struct tool_opt prog_opts[] = {
 	{ .name = "config",
 	  .has_arg = required_argument,
 	  .arg = "FILE",
-	  .help = "read settings from FILE (KEY = VALUE lines, [motor N]\n"
-		  "sections); later options override its global values",
+	  .help = "an rmdd.yaml (FILE.yaml, .yml): simulate the motors\n"
+		  "of one of its socketcan or rs485 buses, as its sim:\n"
+		  "sections say; every other option overrides it.\n"
+		  "Other FILE: KEY = VALUE lines, [motor N] sections,\n"
+		  "read here; later options override its global values",
 	  .value = TOOL_VAL_FILE },
+	{ .name = "bus",
+	  .has_arg = required_argument,
+	  .arg = "NAME",
+	  .help = "the rmdd.yaml's bus to simulate (default: the one on\n"
+		  "the wire of --can or --serial, else its only one)" },
 	{ .name = "set",
 	  .has_arg = required_argument,
 	  .arg = "[ID:]KEY=VALUE",
@@ -52,10 +62,17 @@ static void usage(void)
 {
 	printf("Usage: rmd-sim [options] --can IFACE\n"
 	       "       rmd-sim [options] --serial DEVICE [--baud B]\n"
+	       "       rmd-sim [options] --config rmdd.yaml [--bus NAME]\n"
 	       "\n"
 	       "Simulated MyActuator RMD motors (V3, V2 or MIT protocol) answering on a\n"
 	       "SocketCAN interface or an RS485 line.  Stops on SIGINT or SIGTERM, once the\n"
 	       "requests that came before it are answered (replies due within 250 ms).\n"
+	       "\n"
+	       "One file describes a bus for rmdd and rmd-sim: given rmdd's configuration,\n"
+	       "rmd-sim answers on the interface or device of one of its socketcan or rs485\n"
+	       "buses as that bus's motors (ids and protocols from motors[]), with the models\n"
+	       "of the bus's sim: section and the motors' own (motors[].sim), its sim.seed\n"
+	       "and sim.faults.  rmdd does not simulate such a bus: it talks to the wire.\n"
 	       "\n");
 	tool_opts_help(stdout, prog_opts, NPROG);
 	printf("\n");
@@ -80,10 +97,10 @@ static void usage(void)
 	       "See docs/rmd-sim.md.\n");
 }
 
-enum { OPT_CONFIG = TOOL_OPT_BASE, OPT_SET, OPT_COMPLETION = TOOL_OPT_BASE + NPROG - 1 };
+enum { OPT_CONFIG = TOOL_OPT_BASE, OPT_BUS, OPT_SET, OPT_COMPLETION = TOOL_OPT_BASE + NPROG - 1 };
 
 #define MAX_OPTS 160
-#define USAGE_LINE "rmd-sim [options] --can IFACE | --serial DEVICE [--baud B]"
+#define USAGE_LINE "rmd-sim [options] --can IFACE | --serial DEVICE [--baud B] | --config rmdd.yaml"
 
 /* What completion offers for the value of setting key. */
 static void key_value(struct tool_opt *o, const char *key)
@@ -139,6 +156,55 @@ static size_t build_opts(struct tool_opt *o, unsigned *keyidx)
 	return n;
 }
 
+/*
+ * An rmdd.yaml given with --config is read before the other options, so
+ * that every one of them overrides it wherever it stands: a first pass
+ * finds it, --bus, and the wire named by the last --can or --serial (the
+ * bus to pick).  The second pass reports what is wrong.  Returns 0 or an
+ * exit status.
+ */
+static int read_yaml(struct sim_config *cfg, int argc, char **argv, const char *shorts,
+		     const struct option *opts, const unsigned *keyidx, size_t n)
+{
+	const char *yaml = NULL, *bus = NULL, *wire = NULL, *key;
+	bool flag, now = true;
+
+	for (;;) {
+		int c = getopt_long(argc, argv, shorts, opts, NULL);
+
+		if (c == -1)
+			break;
+		if (c == 'h' || c == 'V' || c == OPT_COMPLETION)
+			now = false; /* the second pass answers them */
+		else if (c == OPT_CONFIG && sim_config_is_yaml(optarg) && yaml &&
+			 strcmp(yaml, optarg)) {
+			tool_log(TOOL_LOG_ERR,
+				 "rmd-sim: --config %s: one rmdd.yaml only (already %s); "
+				 "choose its bus with --bus",
+				 optarg, yaml);
+			return SIM_EXIT_USAGE;
+		} else if (c == OPT_CONFIG && sim_config_is_yaml(optarg))
+			yaml = optarg;
+		else if (c == OPT_BUS)
+			bus = optarg;
+		else if (c >= TOOL_OPT_BASE + (int)NPROG && c < TOOL_OPT_BASE + (int)n &&
+			 (key = sim_config_key(keyidx[c - TOOL_OPT_BASE], &flag)) &&
+			 (!strcmp(key, "can") || !strcmp(key, "serial")))
+			wire = optarg;
+	}
+	optind = 0; /* glibc: start the second pass afresh */
+	if (bus && !yaml) {
+		tool_log(TOOL_LOG_ERR,
+			 "rmd-sim: --bus %s: names a bus of an rmdd.yaml given with --config "
+			 "FILE.yaml",
+			 bus);
+		return SIM_EXIT_USAGE;
+	}
+	if (yaml && now && sim_config_yaml(cfg, yaml, bus, wire) < 0)
+		return SIM_EXIT_USAGE;
+	return 0;
+}
+
 int main(int argc, char **argv)
 {
 	static struct sim_config cfg;
@@ -149,6 +215,7 @@ int main(int argc, char **argv)
 	size_t n;
 	bool flag;
 	const char *key;
+	int r;
 
 	tool_log_init(NULL, SIM_NORMAL, 0);
 	sim_config_init(&cfg);
@@ -156,6 +223,9 @@ int main(int argc, char **argv)
 	tool_opts_getopt(table, n, opts, shorts, sizeof(shorts));
 
 	opterr = 0;
+	r = read_yaml(&cfg, argc, argv, shorts, opts, keyidx, n);
+	if (r)
+		return r;
 	for (;;) {
 		int c = getopt_long(argc, argv, shorts, opts, NULL);
 		char where[64];
@@ -186,8 +256,11 @@ int main(int argc, char **argv)
 			tool_completion_bash(stdout, "rmd-sim", table, n, NULL, 0);
 			return SIM_EXIT_OK;
 		case OPT_CONFIG:
-			if (sim_config_file(&cfg, optarg) < 0)
+			/* an rmdd.yaml is read already (read_yaml()) */
+			if (!sim_config_is_yaml(optarg) && sim_config_file(&cfg, optarg) < 0)
 				return SIM_EXIT_USAGE;
+			break;
+		case OPT_BUS:
 			break;
 		case OPT_SET:
 			if (sim_config_set_arg(&cfg, optarg, "--set") < 0)

@@ -77,6 +77,14 @@ struct sim_config {
 	char fault_where[RMD_SIM_MAX_FAULTS][SIM_WHERE_MAX];
 	unsigned n_faults;
 
+	/*
+	 * An rmdd.yaml (sim_config_yaml()): the model of motor id i + 1 there,
+	 * for the ids in base_set; the settings above apply on top of it.
+	 */
+	struct rmd_sim_motor_params base[RMD_MAX_MOTORS];
+	uint32_t base_set;
+	char yaml_bus[512]; /* "rmdd.yaml: bus rs0, motors 1 pan, 2 tilt", for the startup log */
+
 	/* Filled by sim_config_finish(): the parameters of motor id i + 1. */
 	struct rmd_sim_motor_params params[RMD_MAX_MOTORS];
 };
@@ -98,8 +106,26 @@ int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const c
 /* "[ID:]KEY=VALUE" (--set).  Returns 0 or -EINVAL (logged). */
 int sim_config_set_arg(struct sim_config *c, const char *arg, const char *where);
 
-/* Read a config file (format in docs/rmd-sim.md).  Returns 0 or -errno (logged). */
+/*
+ * Read a KEY = VALUE config file (format in docs/rmd-sim.md, kept as an
+ * alias of an rmdd.yaml's sim: sections).  Returns 0 or -errno (logged).
+ */
 int sim_config_file(struct sim_config *c, const char *path);
+
+/* Whether path names an rmdd.yaml (".yaml", ".yml"), not a KEY = VALUE file. */
+bool sim_config_is_yaml(const char *path);
+
+/*
+ * An rmdd.yaml, read by rmdd's loader (docs/rmd-sim.md "One file for rmdd
+ * and rmd-sim"): the wire of one of its socketcan or rs485 buses, that
+ * bus's motors (ids, protocols and models from motors[] and the sim:
+ * sections), its sim.seed and sim.faults.  The bus: `bus` when not NULL;
+ * else the one whose interface or device is `wire` (--can or --serial,
+ * may be NULL); else the file's only such bus.  Settings recorded before or
+ * after apply on top.  Returns 0 or -errno, logged: a file's errors name
+ * its line and key.
+ */
+int sim_config_yaml(struct sim_config *c, const char *path, const char *bus, const char *wire);
 
 /* Cross-checks, and params[] of every motor.  Returns 0 or -EINVAL (logged). */
 int sim_config_finish(struct sim_config *c);

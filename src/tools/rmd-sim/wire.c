@@ -891,6 +891,8 @@ static void log_startup(const struct sim *s)
 		return;
 	tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %s, %u motor%s, seed %" PRIu64, s->name,
 		 s->serial ? "RS485 line" : "SocketCAN", s->n, s->n == 1 ? "" : "s", c->seed);
+	if (c->yaml_bus[0])
+		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %s", s->name, c->yaml_bus);
 	if (s->serial)
 		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %u baud 8N1%s", s->name, c->baud,
 			 c->local_echo ? ", local echo dropped" : "");

@@ -383,12 +383,31 @@ static int check_cpus(const struct rmd_config *cfg, char *msg, size_t len)
 	return 0;
 }
 
+/*
+ * The note for a socketcan or rs485 bus with `sim:` sections, which are
+ * rmd-sim's: "" for another bus.  Non-rt.
+ */
+static const char *sim_note(const struct rmd_config *cfg, unsigned b, char *buf, size_t len)
+{
+	const struct rmd_config_bus *cb = &cfg->buses[b];
+	bool serial;
+	const char *wire = rmd_config_bus_wire(cb, &serial);
+
+	if (!cb->sim_section || !wire)
+		return "";
+	snprintf(buf, len,
+		 "bus %s: its sim: sections are rmd-sim's (rmd-sim --config %s --bus %s); rmdd "
+		 "simulates nothing on it and talks to the motors on %s",
+		 cb->name, cfg->source, cb->name, wire);
+	return buf;
+}
+
 /* --check-config: exit status 0 when every bus fits. */
 static int check_config(const char *path)
 {
 	static struct rmd_config cfg; /* large: off the stack */
 	static struct rmd_plan plan;
-	char err[RMDD_ERR_LEN];
+	char err[RMDD_ERR_LEN], note[RMD_CONFIG_SOURCE_LEN + RMD_CONFIG_PATH_LEN + 256];
 	int r;
 
 	r = rmd_config_load(path, &cfg, NULL, err, sizeof(err));
@@ -400,6 +419,9 @@ static int check_config(const char *path)
 	}
 	r = rmd_plan_build(&cfg, &plan, err, sizeof(err));
 	rmd_plan_print(&plan, &cfg, stdout);
+	for (unsigned b = 0; b < cfg.n_buses; b++)
+		if (*sim_note(&cfg, b, note, sizeof(note)))
+			printf("\n%s\n", note);
 	fflush(stdout);
 	if (r) {
 		fprintf(stderr, "%s\n", err);
@@ -450,6 +472,9 @@ static int load(struct rmdd *d, const struct rmdd_opts *o)
 			log_lines(3, err);
 			return RMDD_EXIT_FAIL;
 		}
+		for (unsigned b = 0; b < d->cfg.n_buses; b++)
+			if (*sim_note(&d->cfg, b, err, sizeof(err)))
+				tool_log(6, "%s", err);
 	}
 	/* --lcm-url, else the file's lcm.url, else $LCM_DEFAULT_URL, else the default */
 	if (o->lcm_url) {
