@@ -1,19 +1,20 @@
 // SPDX-License-Identifier: MIT
 /*
- * The real-time loop: its construction, the cycle (rmd_loop_cycle(), in
- * the order rmd/loop.h gives), the schedule, publishing, the getters and
+ * The real-time loop: its construction, the cycle (rmd_loop_tick(),
+ * rmd_loop_collect(), rmd_loop_publish(); rmd_loop_cycle() for the suites;
+ * in the order rmd/loop.h gives), the schedule, publishing, the getters and
  * stopping the motors.  See rmd/loop.h for the behaviour.  Receiving is
  * loop_rx.c, the lifecycle and commands lifecycle.c, sending loop_tx.c,
  * bring-up bringup.c, the thread rt_thread.c; what they share is
  * loop_priv.h.
  *
- * Execution context: rmd_loop_cycle() and what it calls are rt-safe;
+ * Execution context: the cycle's functions and what they call are rt-safe;
  * rmd_loop_stop_motors() is bounded but blocking (it sleeps between
  * sends); construction is non-rt; the getters are non-rt, any thread.
  *
  * Everything the cycle touches lives in struct rmd_loop, allocated and
  * written once by rmd_loop_new(): fixed arrays sized by RMD_MAX_MOTORS and
- * RMD_MAX_BUSES.  The cycle (rmd_loop_cycle() and what it calls) takes no
+ * RMD_MAX_BUSES.  The cycle (its functions and what they call) takes no
  * lock, allocates nothing and formats no text; it talks to other threads
  * through the triple buffers and the event ring of rmd/spsc.h, and through
  * a sequence lock that rmd_loop_get_*() read.  Bring-up and the thread's

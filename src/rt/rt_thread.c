@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 /*
- * The SCHED_FIFO thread that runs rmd_loop_cycle() at every tick: memory
- * locking, the prefaulted stack, CPU affinity and priority, collecting
- * replies between ticks, start, stop and join.  The thread body is rt-safe;
+ * The SCHED_FIFO thread that runs the cycle at every tick (rmd_loop_tick(),
+ * then the wait for its replies and rmd_loop_publish()): memory locking, the
+ * prefaulted stack, CPU affinity and priority, collecting replies between
+ * ticks, start, stop and join.  The thread body is rt-safe;
  * its set-up and tear-down are non-rt.
  */
 #define _GNU_SOURCE /* ppoll, pthread_setaffinity_np */
