@@ -41,11 +41,11 @@
 #define COLLECT_MIN_STEP_NS 50000	/* shortest wait between two looks at the buses */
 /*
  * The state waits for the cycle's replies until this long before the next
- * tick: a controller could not answer a later one in time.  What is not in
+ * tick: no controller could answer a later one in time (docs/design.md).  What is not in
  * by then is published after the tick's receive (rmd_loop_tick()), as
  * without the wait.
  */
-#define PUBLISH_LEAD_NS 100000
+#define PUBLISH_LEAD_NS 50000
 #define COLLECT_SIM_STEP_NS 20000 /* a bus without a descriptor (sim): looked at this often */
 #define STOP_TRIES 50		  /* rmd_loop_stop_motors(): sends per bus ... */
 #define STOP_STEP_NS 200000	  /* ... this far apart */
