@@ -52,6 +52,15 @@ static int64_t min64(int64_t a, int64_t b)
 	return a < b ? a : b;
 }
 
+/* Whether one of the buses in mask has no descriptor to wait on (the sim bus).  rt-safe. */
+static bool blind(const struct rmd_loop *l, unsigned mask)
+{
+	for (unsigned b = 0; b < l->n_buses; b++)
+		if ((mask & (1u << b)) && rmd_bus_fd(l->bus[b].bus) < 0)
+			return true;
+	return false;
+}
+
 /*
  * Between ticks (rmd/loop.h step 5, docs/design.md "The cycle"): the
  * cycle's state is published as soon as the replies to its requests are
@@ -98,8 +107,11 @@ static void between_ticks(struct rmd_loop *l)
 		}
 		if (now >= until || stopping(l))
 			return;
-		if (owing)
-			wake = min64(deadline, due > now ? due : now + COLLECT_SIM_STEP_NS);
+		if (owing && due > now)
+			wake = due;
+		else if (owing) /* readiness on a descriptor, steps for a bus without one */
+			wake = blind(l, owing) ? min64(deadline, now + COLLECT_SIM_STEP_NS) :
+						 deadline;
 		for (unsigned b = 0; b < l->n_buses; b++) {
 			struct rmd_bus *bus = l->bus[b].bus;
 			int fd = rmd_bus_fd(bus);
