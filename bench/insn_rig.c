@@ -80,25 +80,14 @@ static void command_for(unsigned k)
 }
 
 /*
- * One cycle as the rt thread runs it (src/rt/rt_thread.c): the tick, then,
- * when the loop waits for the cycle's replies, a receive when they are
- * expected (or, still missing, just before its publish deadline) and the
- * publish; otherwise the next tick publishes.  Callgrind counts inside it
+ * One cycle as the rt thread runs it (harness/loop_io.h rig_loop_cycle()).
+ * Callgrind counts inside it
  * (bench/insn-count.sh; a baseline's rig counts inside rmd_loop_cycle()).
  */
 __attribute__((noinline)) void rig_cycle(struct rmd_loop *l);
 __attribute__((noinline)) void rig_cycle(struct rmd_loop *l)
 {
-	int64_t due;
-
-	rmd_loop_tick(l, t_now);
-	due = rmd_loop_reply_due(l, t_now);
-	if (due > 0 && !rmd_loop_collect(l, due)) {
-		due = t_now + R.plan.period_ns * 9 / 10;
-		rmd_loop_collect(l, due);
-	}
-	if (due >= 0)
-		rmd_loop_publish(l, due ? due : t_now);
+	rig_loop_cycle(l, t_now, R.plan.period_ns);
 }
 
 /* The measured part: callgrind's --toggle-collect names this function. */

@@ -16,25 +16,33 @@
 # timer wait (clock_nanosleep), plus at most one wake of the bridge
 # (an eventfd write).  The figures are per cycle run (a cycle skipped by an
 # overrun makes no calls).
-# Environment: BUILD (build), BASE (8c261d5; none: no baseline), WINDOW (5 s), OUT.
+# Environment: BUILD (build), BASE (8c261d5; none: no baseline), WINDOW (5 s),
+# PER_BUS (motors a bus, 1..3; 3), OUT.  With PER_BUS other than 3 the
+# files are syscalls-PER_BUS.*: a bus of one or two motors is one whose
+# state is published as soon as the cycle's replies are in (issue 23), a
+# full one (three) the one the next tick publishes.
 set -eu
 cd "$(dirname "$0")/.."
 . bench/lib.sh
 BUILD=${BUILD:-build}
 WINDOW=${WINDOW:-5}
+PER_BUS=${RMD_BENCH_PER_BUS:-${PER_BUS:-3}}
+case "$PER_BUS" in 1 | 2 | 3) ;; *) echo "syscalls: PER_BUS is 1, 2 or 3, not $PER_BUS"; exit 2 ;; esac
+name=syscalls
+[ "$PER_BUS" = 3 ] || name=syscalls-$PER_BUS
 OUT=${OUT:-bench/results}
 
 if [ -z "${RMD_BENCH_IN_VM:-}" ]; then
 	mkdir -p "$OUT"
 	base_dir=
 	[ "$BASE" != none ] && base_dir=$(bench_base build/rmdd build/rmd-sim)
-	RMD_BENCH_IN_VM=1 RMD_BENCH_BASE_DIR=$base_dir RMD_BENCH_WINDOW=$WINDOW RMD_BENCH_OUT=$OUT \
+	RMD_BENCH_IN_VM=1 RMD_BENCH_BASE_DIR=$base_dir RMD_BENCH_WINDOW=$WINDOW RMD_BENCH_OUT=$OUT RMD_BENCH_PER_BUS=$PER_BUS \
 		tests/vm/vm-run --vcan 3 --timeout 900 -- "$0"
 	rc=$?
 	[ $rc -eq 0 ] || exit $rc
-	data=$OUT/syscalls.dat
+	data=$OUT/$name.dat
 	if py=$(bench_plot); then
-		"$py" - "$data" "$OUT/syscalls.png" "$BASE" <<'PY'
+		"$py" - "$data" "$OUT/$name.png" "$BASE" <<'PY'
 import sys
 import matplotlib
 matplotlib.use("Agg")
@@ -57,7 +65,7 @@ ax.legend()
 fig.tight_layout()
 fig.savefig(sys.argv[2], dpi=100)
 PY
-		echo "syscalls: wrote $OUT/syscalls.txt and $OUT/syscalls.png"
+		echo "syscalls: wrote $OUT/$name.txt and $OUT/$name.png"
 	fi
 	exit 0
 fi
@@ -69,8 +77,9 @@ mkdir -p "$OUT"
 work=/dev/shm/rmdd-bench-syscalls
 rm -rf "$work"
 mkdir -p "$work"
-cfg=$work/vcan-9.yaml
-cat >"$cfg" <<'YAML'
+cfg=$work/vcan.yaml
+{
+	cat <<'YAML'
 loop: {rate_hz: 1000, rt_priority: 40}
 safety: {comm_loss_ms: 200, missed_replies_lost: 50}
 probe: {on_missing: start}
@@ -79,16 +88,13 @@ buses:
   - {name: vcan1, type: socketcan}
   - {name: vcan2, type: socketcan}
 motors:
-  - {name: a1, bus: vcan0, id: 1, mode: torque, torque_constant_nm_a: 2}
-  - {name: a2, bus: vcan0, id: 2, mode: torque, torque_constant_nm_a: 2}
-  - {name: a3, bus: vcan0, id: 3, mode: torque, torque_constant_nm_a: 2}
-  - {name: b1, bus: vcan1, id: 1, mode: torque, torque_constant_nm_a: 2}
-  - {name: b2, bus: vcan1, id: 2, mode: torque, torque_constant_nm_a: 2}
-  - {name: b3, bus: vcan1, id: 3, mode: torque, torque_constant_nm_a: 2}
-  - {name: c1, bus: vcan2, id: 1, mode: torque, torque_constant_nm_a: 2}
-  - {name: c2, bus: vcan2, id: 2, mode: torque, torque_constant_nm_a: 2}
-  - {name: c3, bus: vcan2, id: 3, mode: torque, torque_constant_nm_a: 2}
 YAML
+	for b in 0 1 2; do
+		for id in $(seq "$PER_BUS"); do
+			echo "  - {name: m$b$id, bus: vcan$b, id: $id, mode: torque, torque_constant_nm_a: 2}"
+		done
+	done
+} >"$cfg"
 
 # tracefs: a histogram of system call entries by thread and call (the
 # kernel counts; the threads are not stopped as under strace)
@@ -105,7 +111,7 @@ measure() {
 	log=$work/$label.log
 	sims=
 	for b in 0 1 2; do
-		"$dir/rmd-sim" --can vcan$b --motors 1-3 >"$work/sim$b.log" 2>&1 &
+		"$dir/rmd-sim" --can vcan$b --motors 1-"$PER_BUS" >"$work/sim$b.log" 2>&1 &
 		sims="$sims $!"
 	done
 	sleep 1
@@ -157,9 +163,9 @@ measure() {
 [ -n "${RMD_BENCH_BASE_DIR:-}" ] && measure "$RMD_BENCH_BASE_DIR/build" base
 measure "$BUILD" this
 
-txt=$OUT/syscalls.txt
+txt=$OUT/$name.txt
 {
-	echo "# bench/syscalls.sh, $(date -u +%Y-%m-%d), $(uname -r), 3 SocketCAN buses (vcan) x 3 V3 motors (rmd-sim), READY, 1 kHz"
+	echo "# bench/syscalls.sh, $(date -u +%Y-%m-%d), $(uname -r), 3 SocketCAN buses (vcan) x $PER_BUS V3 motors (rmd-sim), READY, 1 kHz"
 	echo "# loop thread, calls per cycle (tracefs sys_enter histogram over ${WINDOW} s; a cycle = one clock_nanosleep)"
 	printf '%-18s %8s %8s %7s\n' syscall this base ratio
 	awk '{ v[$1 " " $2] = $3; n[$2] = 1 }
@@ -176,5 +182,5 @@ txt=$OUT/syscalls.txt
 		[ -f "$work/$l.process" ] && { echo "# whole process ($l)"; cat "$work/$l.process"; }
 	done
 } >"$txt"
-cp "$work/rows" "$OUT/syscalls.dat"
+cp "$work/rows" "$OUT/$name.dat"
 cat "$txt"

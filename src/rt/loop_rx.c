@@ -67,6 +67,8 @@ static inline void os_give_up(struct lmotor *lm, const struct outstanding *o)
 static inline void await_add(struct rmd_loop *l, struct lmotor *lm, const struct outstanding *o)
 {
 	if (lm->answers & ((o->key & 0xFFFF) != 0x9A)) {
+		/* when it comes: the motor's mean round trip, each request an eighth of the last */
+		lm->rtt_est_ns += (lm->st->reply_latency_ns - lm->rtt_est_ns) >> 3;
 		lm->await_seq = o->seq + 1;
 		if (o->sent_ns + lm->rtt_est_ns > l->await_due_ns)
 			l->await_due_ns = o->sent_ns + lm->rtt_est_ns;
@@ -341,8 +343,6 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		latency_ns = rx->t_ns - o->sent_ns;
 		lm->st->reply_latency_ns = latency_ns;
 		lat_add(&lm->lat, latency_ns);
-		/* the round trip its next answer is expected in (loop_awaited()): a mean */
-		lm->rtt_est_ns += (latency_ns - lm->rtt_est_ns) >> 3;
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */

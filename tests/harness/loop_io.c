@@ -24,3 +24,17 @@ int rig_loop_opts(struct rig_loop *r, struct rmd_loop_opts *o)
 	return rmd_ring_init(&r->events, r->ev_buf, sizeof(r->ev_buf) / sizeof(r->ev_buf[0]),
 			     sizeof(struct rmd_event));
 }
+
+void rig_loop_cycle(struct rmd_loop *l, int64_t now, int64_t period_ns)
+{
+	int64_t due;
+
+	rmd_loop_tick(l, now);
+	due = rmd_loop_reply_due(l, now);
+	if (due > 0 && !rmd_loop_collect(l, due)) {
+		due = now + period_ns * 9 / 10;
+		rmd_loop_collect(l, due);
+	}
+	if (due >= 0)
+		rmd_loop_publish(l, due ? due : now);
+}

@@ -38,4 +38,13 @@ struct rig_loop {
  */
 int rig_loop_opts(struct rig_loop *r, struct rmd_loop_opts *o);
 
+/*
+ * One cycle for the tick at now as the rt thread runs it
+ * (src/rt/rt_thread.c), on the injected clock: the tick; when the loop
+ * waits for the cycle's replies, a receive when they are expected (still
+ * missing: a second at 9/10 of the period, before the publish deadline)
+ * and the publish; otherwise the next tick publishes.
+ */
+void rig_loop_cycle(struct rmd_loop *l, int64_t now, int64_t period_ns);
+
 #endif /* RMD_TESTS_LOOP_IO_H */
