@@ -6,7 +6,7 @@
  *
  *   delay_controller run --url URL [--prefix P] [--seconds S] [--rt-priority N]
  *                        [--warmup-ms MS] --out LOG
- *   delay_controller match LOG CANDUMP... [--offset-us US] [--no-wire-time]
+ *   delay_controller match LOG CANDUMP... [--kernel-stamps]
  *
  * run: a controller that answers each state_t at once.  It asks for
  * rmdd's configuration (config_t: each motor's bus and ID, each bus's
@@ -14,9 +14,9 @@
  * and then, inside the handler of every state_t, publishes a command_t
  * that enables every motor in speed mode at a velocity that names the
  * state: tag = 1 + cycle % TAG_MOD, velocity = tag * 0.01 deg/s, which
- * rmdd rounds to the raw value tag in the 0xA2 frame (V3 §2.17: int32
- * speed in 0.01 dps, bytes 4..7; at most 10 deg/s, harmless to a
- * simulated motor).  At SCHED_FIFO --rt-priority (set it below rmdd's LCM
+ * rmdd rounds to the raw value tag in the 0xA2 frame (int32 speed in
+ * 0.01 dps, bytes 4..7, as codec_v3.c's 0xA2 row packs it; at most
+ * 10 deg/s, harmless to a simulated motor).  At SCHED_FIFO --rt-priority (set it below rmdd's LCM
  * bridge) and mlockall()ed; states are logged into memory allocated before
  * the first one: per state and motor, the cycle, the tag, when the state
  * was read and the command published, the motor's lifecycle and its
@@ -24,21 +24,26 @@
  * kernel's receive stamp for SocketCAN).  Recording starts --warmup-ms
  * after every motor is ENABLED and lasts --seconds; then enable = 0 to
  * every motor and the log (text) is written to LOG:
+ *   o OFFSET_NS                              CLOCK_REALTIME - CLOCK_MONOTONIC
  *   b BUS BITRATE                            one line a bus
  *   m INDEX BUS ID                           one line a motor
  *   s CYCLE TAG READ_NS PUB_NS INDEX LC RX_NS  one line a state and motor
  *
  * match: the delays.  For each motor, each reply counts once, in the first
- * state that carries it (a new rx_time_ns); its frame is the motor's reply
- * (0x240 + ID, direction R) in the candump -l file of its bus whose stamp
- * is rx_time_ns (+ --offset-us; within a microsecond), and the response
- * is the first frame to that motor (0x140 + ID, direction T) after it
- * that is a 0xA2 with the state's tag.  Both are taken at their start: the
- * candump stamp (end of frame for the sim bus's tap) minus the frame's
- * wire time up to its end of frame, its exact bits with stuffing
- * (rmd_can_frame_bits() less the interframe space) at the bus's bitrate;
- * --no-wire-time takes the stamps as they are (a vcan frame's kernel
- * stamp).  Prints "INDEX DELAY_US" a reply on stdout, and to stderr what
+ * state that carries it (a new rx_time_ns); its frame is the motor's 0xA2
+ * reply (0x240 + ID) in the candump -l file of its bus stamped at
+ * rx_time_ns (within a microsecond), and the response is the first frame
+ * to that motor (0x140 + ID, direction T; without a direction, the
+ * identifier says it) after it that is a 0xA2 with the state's tag.  Both
+ * are taken at their start: the candump stamp (end of frame for the sim
+ * bus's tap, in CLOCK_MONOTONIC) minus the frame's wire time up to its end
+ * of frame, its exact bits with stuffing (rmd_can_frame_bits() less the
+ * interframe space) at the bus's bitrate.  --kernel-stamps: the candump
+ * of a SocketCAN interface (candump -L), stamped by the kernel in
+ * CLOCK_REALTIME, which rmdd's rx_time_ns are moved from onto
+ * CLOCK_MONOTONIC: the reply is looked for at rx_time_ns + the log's
+ * offset (within TOL_KERNEL_US, the nearest), and the stamps are taken as
+ * they are (vcan has no wire time).  Prints "INDEX DELAY_US" a reply on stdout, and to stderr what
  * was counted and what was not: replies without a response frame within
  * 100 ms (superseded: the next state's command went out first) and
  * replies not found in the candump.
@@ -83,6 +88,7 @@
 #define NS_PER_S INT64_C(1000000000)
 #define SEARCH_US 100000	    /* a response later than this is not looked for */
 #define MAX_RECS (4u * 1024 * 1024) /* states x motors a run keeps */
+#define TOL_KERNEL_US 50	    /* --kernel-stamps: rmdd's offset and ours differ a little */
 
 /* ---- run ------------------------------------------------------------------ */
 
@@ -112,6 +118,7 @@ struct ctl {
 	size_t n_recs, lost_recs;
 
 	int64_t seq, id;
+	int64_t rt_offset_ns; /* CLOCK_REALTIME - CLOCK_MONOTONIC at start */
 	rmd_command_t msg;
 	rmd_motor_command_t msg_motor[MAX_MOTORS];
 	uint8_t buf[4096];
@@ -124,7 +131,12 @@ static void on_signal(int sig)
 	stop_signal = sig;
 }
 
-/* One command_t to every motor: speed mode at tag * 0.01 deg/s, or enable = 0.  Returns 0 or -EIO. */
+/*
+ * One command_t to every motor: speed mode at tag * 0.01 deg/s, or enable
+ * = 0; enable = 0 also to a motor last seen SAFE or FAULT, which takes
+ * enable = 1 only after it (docs/lcm.md; a stalled machine trips the
+ * command timeout).  Returns 0 or -EIO.
+ */
 static int publish(struct ctl *c, bool enable, int tag)
 {
 	rmd_command_t *msg = &c->msg;
@@ -141,7 +153,8 @@ static int publish(struct ctl *c, bool enable, int tag)
 
 		memset(mc, 0, sizeof(*mc));
 		mc->index = (int16_t)i;
-		mc->enable = enable;
+		mc->enable = enable && c->last_lc[i] != RMD_STATE_T_LC_SAFE &&
+			     c->last_lc[i] != RMD_STATE_T_LC_FAULT;
 		mc->mode = RMD_COMMAND_T_MODE_SPEED;
 		mc->velocity = tag * 0.01 / DEG_PER_RAD;
 	}
@@ -185,14 +198,14 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 
 	(void)rbuf;
 	(void)channel;
-	if (c->enable && publish(c, true, tag) < 0)
-		stop_signal = SIGPIPE;
-	pub_ns = rmd_now_ns();
-	c->states++;
 	for (int i = 0; i < n; i++) {
 		c->last_lc[i] = msg->motor[i].lifecycle;
 		all_enabled &= msg->motor[i].lifecycle == RMD_STATE_T_LC_ENABLED;
 	}
+	if (c->enable && publish(c, true, tag) < 0)
+		stop_signal = SIGPIPE;
+	pub_ns = rmd_now_ns();
+	c->states++;
 	if (all_enabled && !c->enabled_ns) {
 		c->enabled_ns = read_ns;
 		c->record_from = read_ns + c->warmup_ns;
@@ -251,6 +264,7 @@ static int write_log(const struct ctl *c, const char *path)
 
 	if (!f)
 		return -errno;
+	fprintf(f, "o %" PRId64 "\n", c->rt_offset_ns);
 	for (int b = 0; b < c->n_buses; b++)
 		fprintf(f, "b %s %" PRId32 "\n", c->bus_name[b], c->bitrate[b]);
 	for (int i = 0; i < c->n_motors; i++)
@@ -330,6 +344,7 @@ static int run(int argc, char **argv)
 	}
 	c.id = (int64_t)rmd_now_ns() ^ ((int64_t)getpid() << 32);
 	c.warmup_ns = (int64_t)(warmup_ms * 1e6);
+	c.rt_offset_ns = rmd_realtime_offset_ns(&end);
 	for (int i = 0; i < MAX_MOTORS; i++)
 		c.last_lc[i] = -1;
 	snprintf(c.ch_command, sizeof(c.ch_command), "%sCOMMAND", prefix);
@@ -443,7 +458,7 @@ static int hexval(int ch)
 /* "(sec.usec) bus ID#DATA [T|R]" into its bus's list.  Returns 0, or -EINVAL for a line skipped. */
 static int parse_candump(const char *line)
 {
-	char bus[NAME_LEN], frame[64], dir[4] = "R";
+	char bus[NAME_LEN], frame[64], dir[4] = "";
 	unsigned long long sec, usec;
 	struct wframe w = { 0 };
 	struct wbus *b;
@@ -469,7 +484,8 @@ static int parse_candump(const char *line)
 			return -EINVAL;
 		w.f.data[i] = (uint8_t)(hi << 4 | lo);
 	}
-	w.tx = dir[0] == 'T';
+	/* candump -L without -x: the motors answer on 0x240 + ID (V3 §1), the host sends the rest */
+	w.tx = dir[0] ? dir[0] == 'T' : !(id >= 0x240 && id < 0x280);
 	b = wbus_of(bus);
 	if (!b)
 		return -EINVAL;
@@ -523,26 +539,23 @@ static int match(int argc, char **argv)
 	struct wbus *mbus[MAX_MOTORS] = { 0 };
 	int mid[MAX_MOTORS] = { 0 };
 	int64_t last_rx[MAX_MOTORS] = { 0 };
-	int64_t offset_us = 0;
-	bool wire_time = true;
+	int64_t offset_us = 0, tol_us = 1;
+	bool wire_time = true, kernel = false;
 	unsigned long counted = 0, superseded = 0, no_reply = 0, not_enabled = 0;
 	char line[256];
 	FILE *log;
 
 	if (argc < 4) {
-		fprintf(stderr, "usage: " PROG " match LOG CANDUMP... [--offset-us US] "
-				"[--no-wire-time]\n");
+		fprintf(stderr, "usage: " PROG " match LOG CANDUMP... [--kernel-stamps]\n");
 		return 2;
 	}
 	for (int a = 3; a < argc; a++) {
 		FILE *f;
 
-		if (!strcmp(argv[a], "--offset-us") && a + 1 < argc) {
-			offset_us = atoll(argv[++a]);
-			continue;
-		}
-		if (!strcmp(argv[a], "--no-wire-time")) {
+		if (!strcmp(argv[a], "--kernel-stamps")) {
+			kernel = true;
 			wire_time = false;
+			tol_us = TOL_KERNEL_US;
 			continue;
 		}
 		f = fopen(argv[a], "r");
@@ -565,10 +578,16 @@ static int match(int argc, char **argv)
 		long long cycle, read_ns, pub_ns, rx_ns;
 		int tag, idx, lc, id;
 		unsigned long br;
+		long long off;
 		const struct wframe *rep = NULL, *cmd = NULL;
 		struct wbus *b;
 		size_t k;
 
+		if (sscanf(line, "o %lld", &off) == 1) {
+			if (kernel)
+				offset_us = off / 1000;
+			continue;
+		}
 		if (sscanf(line, "b %31s %lu", name, &br) == 2) {
 			b = wbus_of(name);
 			if (b)
@@ -595,15 +614,16 @@ static int match(int argc, char **argv)
 			continue;
 		}
 		b = mbus[idx];
-		for (k = lower_bound(b, rx_ns / 1000 + offset_us - 1); k < b->n; k++) {
+		for (k = lower_bound(b, rx_ns / 1000 + offset_us - tol_us); k < b->n; k++) {
 			const struct wframe *w = &b->fr[k];
+			int64_t at = rx_ns / 1000 + offset_us;
 
-			if (w->t_us > rx_ns / 1000 + offset_us + 1)
+			if (w->t_us > at + tol_us)
 				break;
-			if (!w->tx && w->f.can_id == 0x240u + (unsigned)mid[idx]) {
+			if (!w->tx && w->f.can_id == 0x240u + (unsigned)mid[idx] &&
+			    w->f.data[0] == 0xA2 &&
+			    (!rep || llabs(w->t_us - at) < llabs(rep->t_us - at)))
 				rep = w;
-				break;
-			}
 		}
 		if (!rep) {
 			no_reply++;
@@ -644,6 +664,6 @@ int main(int argc, char **argv)
 		return match(argc, argv);
 	fprintf(stderr, "usage: " PROG " run --url URL --out LOG [--prefix P] [--seconds S]\n"
 			"                        [--rt-priority N] [--warmup-ms MS]\n"
-			"       " PROG " match LOG CANDUMP... [--offset-us US] [--no-wire-time]\n");
+			"       " PROG " match LOG CANDUMP... [--kernel-stamps]\n");
 	return 2;
 }
