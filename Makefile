@@ -308,6 +308,14 @@ $(BLOCKING_DRIVER): $(BUILD)/bench/blocking_driver.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# bench/control-delay.sh's controller (answers each state_t at once) and its matcher.
+DELAY_CONTROLLER := $(BUILD)/bench/delay_controller
+all: $(DELAY_CONTROLLER)
+$(BUILD)/bench/delay_controller.o: | $(GEN_HDRS)
+$(DELAY_CONTROLLER): $(BUILD)/bench/delay_controller.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 # Suites include the harness as "harness/<name>.h".
 $(BUILD)/tests/%.o: override CFLAGS += -Itests
 
