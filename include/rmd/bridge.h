@@ -1,13 +1,13 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The LCM bridge (docs/design.md, layer svc): the thread that owns rmdd's LCM
- * instance, at SCHED_FIFO opts.rt_priority (below the rt loop's), so that a
- * command never waits for a normal-priority wake-up; 0: normal priority.
- * On udpm:// it reads the multicast socket itself (LCM sends; its own
- * datagrams, which LCM loops back, are dropped by a socket filter), so no
+ * The LCM bridge (docs/design.md, layer svc): the policy between LCM and
+ * the rt loop, in a thread at SCHED_FIFO opts.rt_priority (below the rt
+ * loop's), so that a command never waits for a normal-priority wake-up; 0:
+ * normal priority.  It reaches LCM only through its link (rmd/lcm_link.h),
+ * which it reads in that thread: on udpm:// the link's own socket, so no
  * LCM receive thread stands between a command and the loop; with other
- * providers it raises the threads lcm_subscribe() starts with itself.
- * It is the only thread that calls LCM.
+ * providers LCM's receive threads are raised with the bridge's.  It is the
+ * only thread that uses the link.
  *
  *   PREFIX "COMMAND"         in   rmd.command_t: decoded, validated, clamped,
  *                                 handed to the rt loop as struct rmd_command
@@ -46,10 +46,9 @@
 #include <stdint.h>
 #include <sys/types.h>
 
-#include <lcm/lcm.h>
-
 #include "rmd/config.h"
 #include "rmd/frame.h"
+#include "rmd/lcm_link.h"
 #include "rmd/motor.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
@@ -63,9 +62,6 @@
  * (docs/lcm.md).
  */
 #define RMD_BRIDGE_UDPM_RCVBUF (4 << 20)
-
-/* LCM's own threads the bridge raises with itself, at most. */
-#define RMD_BRIDGE_LCM_THREADS 4
 
 #define RMD_BRIDGE_URL_LEN 256
 #define RMD_BRIDGE_PREFIX_LEN 32
@@ -172,7 +168,7 @@ struct rmd_bridge_stats {
 	uint64_t configs_published;
 	uint64_t publish_errors;
 	uint64_t foreign;    /* another daemon's health_t and config_t on the prefix */
-	uint64_t lcm_errors; /* lcm_handle failures */
+	uint64_t lcm_errors; /* the link's receive failures */
 	uint64_t takeovers;  /* command_t.takeover honoured */
 	bool owned;	     /* a controller owns the motors: */
 	int64_t owner;	     /* its command_t.controller */
@@ -182,9 +178,9 @@ struct rmd_bridge_stats {
 	int rt_error;		 /* 0, or -errno of the refused SCHED_FIFO */
 	unsigned lcm_threads;	 /* LCM's receive threads found (udpm: 0, the bridge reads) */
 	unsigned lcm_threads_rt; /* of which raised to SCHED_FIFO rt_priority */
-	/* udpm: the bridge's socket drops its own datagrams in the kernel */
+	/* udpm: the link's socket drops the bridge's own datagrams in the kernel */
 	bool own_dropped;
-	uint64_t datagrams; /* udpm: datagrams the bridge read from its socket */
+	uint64_t datagrams; /* udpm: datagrams the bridge read from the link's socket */
 };
 
 /* Another daemon on the prefix, as rmd_bridge_probe() or health_t saw it. */
@@ -200,26 +196,16 @@ struct rmd_bridge_buf; /* decode and encode buffers, bridge thread only */
 
 struct rmd_bridge {
 	struct rmd_bridge_opts opts;
-	lcm_t *lcm;
-	lcm_subscription_t *sub_command;
-	lcm_subscription_t *sub_config_req;
-	lcm_subscription_t *sub_home;
-	lcm_subscription_t *sub_health, *sub_config; /* not udpm: another daemon's */
-	int stop_fd; /* eventfd: rmd_bridge_stop() wakes the thread */
+	struct rmd_lcm_link *link; /* LCM: messages in and out */
+	int stop_fd;		   /* eventfd: rmd_bridge_stop() wakes the thread */
 	pthread_t thread;
 	bool running;
 	struct rmd_bridge_buf *buf;
-	char url[RMD_BRIDGE_URL_LEN + 32];     /* as given to lcm_create() */
-	bool state_listeners;		       /* not memq://: state_t can have a subscriber */
-	pid_t lcm_tid[RMD_BRIDGE_LCM_THREADS]; /* threads LCM started in rmd_bridge_init() */
-	unsigned n_lcm_tid;
-	int rx_fd;	     /* udpm: the bridge's own receive socket; else -1 (LCM's pipe) */
-	int ep_fd, timer_fd; /* the bridge thread's one wait: epoll set, health timer */
-	bool own_dropped;    /* see rmd_bridge_stats */
+	bool state_listeners; /* not memq://: state_t can have a subscriber */
+	int ep_fd, timer_fd;  /* the bridge thread's one wait: epoll set, health timer */
 	/* Set by rmd_bridge_start(), read by rmd_bridge_get_stats(). */
 	unsigned rt_granted;
 	int rt_error;
-	unsigned n_lcm_rt;
 
 	pthread_mutex_t config_mu; /* the newest config_t's encoding (rmd_bridge_config_copy) */
 
@@ -279,7 +265,6 @@ struct rmd_bridge {
 	atomic_uint_fast64_t n_publish_errors;
 	atomic_uint_fast64_t n_lcm_errors;
 	atomic_uint_fast64_t n_takeovers;
-	atomic_uint_fast64_t n_datagrams;
 	atomic_bool pub_owned;
 	_Atomic int64_t pub_owner;
 	_Atomic int64_t pub_intruder;
@@ -313,12 +298,11 @@ struct rmd_bridge {
 void rmd_bridge_opts_init(struct rmd_bridge_opts *opts);
 
 /*
- * Check `opts`, create the LCM instance and subscribe.  The threads that
- * appear in the process meanwhile are taken for LCM's (and raised by
- * rmd_bridge_start()): no other thread of the caller's may start during
- * the call.  Returns 0, or
- * -EINVAL (bad options) / -EIO (LCM could not be created or subscribed)
- * with the reason in err.  On failure nothing needs undoing.  Non-rt.
+ * Check `opts` and open the link (rmd_lcm_link_new()).  Not udpm: the
+ * threads that appear in the process meanwhile are taken for LCM's (and
+ * raised by rmd_bridge_start()), so no other thread of the caller's may
+ * start during the call.  Returns 0, or -EINVAL (bad options or URL) /
+ * -EIO (the link could not be opened) with the reason in err.  On failure nothing needs undoing.  Non-rt.
  */
 int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, char *err,
 		    size_t errlen);
@@ -353,7 +337,14 @@ void rmd_bridge_stop(struct rmd_bridge *b);
  */
 int rmd_bridge_config_copy(struct rmd_bridge *b, void *out, size_t len);
 
-/* Stop if running, unsubscribe, destroy the LCM instance.  Non-rt. */
+/*
+ * One message as the link hands it over (rmd_lcm_link_receive(): data NULL
+ * for one too long to keep), judged and acted on as the bridge thread
+ * does with each: for a bridge that was not started (fuzzers).  Non-rt.
+ */
+void rmd_bridge_handle(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
+
+/* Stop if running, close the link.  Non-rt. */
 void rmd_bridge_fini(struct rmd_bridge *b);
 
 /* The counters, from any thread.  Non-rt (but lock-free). */

@@ -6,7 +6,6 @@
 #define _GNU_SOURCE /* pthread_setname_np */
 
 #include <ctype.h>
-#include <dirent.h>
 #include <errno.h>
 #include <inttypes.h>
 #include <limits.h>
@@ -21,19 +20,14 @@
 #include <time.h>
 #include <unistd.h>
 
-#include <arpa/inet.h>
-#include <linux/filter.h>
-#include <netinet/in.h>
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
-#include <sys/socket.h>
-#include <sys/stat.h>
 #include <sys/timerfd.h>
 
 #include "rmd/time.h"
 #include "rmd/thread.h"
 #include "rmd/bridge.h"
-#include "rmd/udpm_rx.h"
+#include "rmd/lcm_link.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
@@ -96,7 +90,7 @@ _Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_M
 /* Messages handled per wake-up at most, so the health timer is never starved. */
 #define DRAIN_MAX 4096
 
-/* Queued command messages LCM keeps for us before it drops (its default is 30). */
+/* Not udpm: queued messages LCM keeps for us before it drops (its default is 30). */
 #define COMMAND_QUEUE 4096
 
 /* config_t answers a flood of CONFIG_REQUESTs at most this often (each allocates). */
@@ -104,9 +98,6 @@ _Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_M
 
 /* Room for one encoded state_t or health_t (at most about 2.7 KiB and 1.7 KiB). */
 #define ENC_MAX 8192
-
-/* udpm: the bridge reads the multicast socket itself (LCM's wire format: rmd/udpm_rx.h). */
-_Static_assert(RMD_UDPM_CHANNEL_MAX == LCM_MAX_CHANNEL_NAME_LENGTH, "LCM's channel names");
 
 struct rmd_bridge_buf {
 	rmd_command_t msg;
@@ -126,8 +117,6 @@ struct rmd_bridge_buf {
 	rmd_bus_config_t config_bus[RMD_MAX_BUSES];
 	rmd_motor_config_t config_motor[RMD_MAX_MOTORS];
 	unsigned char enc[ENC_MAX];
-	unsigned char pkt[RMD_UDPM_PKT_MAX]; /* udpm: one datagram */
-	struct rmd_udpm_rx rx;		     /* udpm: messages being put together */
 };
 
 static const char *const reject_names[RMD_REJ_KINDS] = {
@@ -419,17 +408,17 @@ static void fill_command(struct rmd_bridge *b, const rmd_command_t *msg, struct 
  * allocation, and a count beyond MAX_MOTORS is refused before any entry is
  * read).  Returns -1, or the kind it was rejected for.
  */
-static int decode_command(struct rmd_bridge *b, const lcm_recv_buf_t *rbuf, rmd_command_t *msg)
+static int decode_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m, rmd_command_t *msg)
 {
-	const void *d = rbuf->data;
-	int max = (int)rbuf->data_size, pos = 0, r = 0;
+	const void *d = m->data;
+	int max = (int)m->size, pos = 0, r = 0;
 	int64_t hash = 0, want = __rmd_command_t_get_hash();
 
 	memset(msg, 0, sizeof(*msg));
 	msg->motor = b->buf->msg_motor;
-	if (rbuf->data_size < 8)
+	if (m->size < 8)
 		return reject(b, RMD_REJ_DECODE, "%u bytes: too short for any LCM type",
-			      (unsigned)rbuf->data_size);
+			      (unsigned)m->size);
 	pos += __int64_t_decode_array(d, pos, max - pos, &hash, 1);
 	if (hash != want)
 		return reject(b, RMD_REJ_DECODE,
@@ -455,7 +444,7 @@ static int decode_command(struct rmd_bridge *b, const lcm_recv_buf_t *rbuf, rmd_
 		if (msg->count < 0 || msg->count > RMD_MAX_MOTORS)
 			msg->count = 0;
 		return reject(b, RMD_REJ_DECODE, "truncated: %u bytes, an rmd.command_t has %d",
-			      (unsigned)rbuf->data_size, rmd_command_t_encoded_size(msg));
+			      (unsigned)m->size, rmd_command_t_encoded_size(msg));
 	}
 	pos += r;
 	if (pos != max)
@@ -557,14 +546,6 @@ static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg)
 	}
 }
 
-/* LCM's recv_utime (CLOCK_REALTIME, us) in ns; 0 (none) when out of range. */
-static int64_t utime_ns(int64_t us)
-{
-	int64_t ns;
-
-	return us > 0 && !__builtin_mul_overflow(us, RMD_NS_PER_US, &ns) ? ns : 0;
-}
-
 /*
  * When the message being handled arrived, on CLOCK_MONOTONIC: its receive
  * stamp real_ns (CLOCK_REALTIME; 0: none, then now) moved onto
@@ -590,19 +571,17 @@ static int64_t arrival_ns(struct rmd_bridge *b, int64_t real_ns, int64_t now)
 	return t;
 }
 
-static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+static void on_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m)
 {
-	struct rmd_bridge *b = user;
 	struct rmd_bridge_buf *buf = b->buf;
 	rmd_command_t *msg = &buf->msg;
 	struct clamp_note note = { 0 };
-	/* LCM's receive time; on the bridge's own socket, the kernel's stamp (udpm_dispatch()) */
-	int64_t at = arrival_ns(b, utime_ns(rbuf->recv_utime), rmd_now_ns());
+	/* udpm: the kernel's stamp of its last datagram; else LCM's receive time */
+	int64_t at = arrival_ns(b, m->rx_real_ns, rmd_now_ns());
 
-	(void)channel;
 	if (b->probing)
 		return;
-	if (decode_command(b, rbuf, msg) >= 0 || check_entries(b, msg) >= 0 ||
+	if (decode_command(b, m, msg) >= 0 || check_entries(b, msg) >= 0 ||
 	    check_owner(b, msg, at) >= 0)
 		return;
 	/* a different controller starts its own sequence */
@@ -648,16 +627,14 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
  * no position yet) and logs the outcome.  Rare, human-paced: every one is
  * logged.  Bridge thread.
  */
-static void on_home(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+static void on_home(struct rmd_bridge *b, const struct rmd_lcm_msg *m)
 {
-	struct rmd_bridge *b = user;
 	rmd_home_t msg;
 	unsigned i;
 
-	(void)channel;
 	if (b->probing)
 		return;
-	if (rmd_home_t_decode(rbuf->data, 0, (int)rbuf->data_size, &msg) != (int)rbuf->data_size) {
+	if (rmd_home_t_decode(m->data, 0, (int)m->size, &msg) != (int)m->size) {
 		logf_(b, 4, "%s: refused: not an rmd.home_t (fingerprint or length)", b->ch_home);
 		return;
 	}
@@ -699,12 +676,8 @@ static void on_home(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 		      b->ch_home, i, motor_name(b, i), (uint64_t)msg.controller, msg.position);
 }
 
-static void on_config_request(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+static void on_config_request(struct rmd_bridge *b)
 {
-	struct rmd_bridge *b = user;
-
-	(void)rbuf;
-	(void)channel;
 	if (!b->probing)
 		b->config_wanted = true;
 }
@@ -755,7 +728,8 @@ static void foreign_expire(struct rmd_bridge *b, int64_t now)
 
 /*
  * A message on the prefix's STATE (probing only), HEALTH or CONFIG: ours
- * (LCM loops them back unless the socket drops them) or another daemon's.
+ * (LCM loops them back unless the link's filter drops them) or another
+ * daemon's.
  * health_t at ~10 Hz and config_t on request: decoding them is cheap.
  */
 static void on_foreign(struct rmd_bridge *b, const char *channel, const void *data, uint32_t size)
@@ -781,11 +755,6 @@ static void on_foreign(struct rmd_bridge *b, const char *channel, const void *da
 	}
 }
 
-static void on_foreign_lcm(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
-{
-	on_foreign(user, channel, rbuf->data, rbuf->data_size);
-}
-
 /* ---- publishing --------------------------------------------------------- */
 
 static int32_t sat32(int64_t v)
@@ -801,7 +770,7 @@ static int64_t sat64(uint64_t v)
 /* Encoding into our own buffer spares the allocation of the generated X_publish(). */
 static bool publish_encoded(struct rmd_bridge *b, const char *channel, int n)
 {
-	if (n < 0 || lcm_publish(b->lcm, channel, b->buf->enc, (unsigned)n) < 0) {
+	if (n < 0 || rmd_lcm_link_publish(b->link, channel, b->buf->enc, (size_t)n) < 0) {
 		count(&b->n_publish_errors);
 		return false;
 	}
@@ -1027,7 +996,8 @@ static void publish_config(struct rmd_bridge *b)
 	b->buf->config_len = rmd_config_t_encode(b->buf->config_enc, 0, ENC_MAX, c);
 	pthread_mutex_unlock(&b->config_mu);
 	if (b->buf->config_len < 0 ||
-	    lcm_publish(b->lcm, b->ch_config, b->buf->config_enc, (unsigned)b->buf->config_len) < 0)
+	    rmd_lcm_link_publish(b->link, b->ch_config, b->buf->config_enc,
+				 (size_t)b->buf->config_len) < 0)
 		count(&b->n_publish_errors);
 	else
 		count(&b->n_configs);
@@ -1035,114 +1005,49 @@ static void publish_config(struct rmd_bridge *b)
 
 /* ---- the thread --------------------------------------------------------- */
 
-/* ---- udpm: the bridge's own receive socket ------------------------------- */
-
-/*
- * A whole message on `channel`, whose last datagram the kernel stamped at
- * real_ns (CLOCK_REALTIME; 0: none): the subscriptions' handlers, as
- * lcm_handle() would call them.
- */
-static void udpm_dispatch(struct rmd_bridge *b, const char *channel, void *data, uint32_t size,
-			  int64_t real_ns)
+void rmd_bridge_handle(struct rmd_bridge *b, const struct rmd_lcm_msg *m)
 {
-	lcm_recv_buf_t rb = { .data = data,
-			      .data_size = size,
-			      .recv_utime = real_ns / RMD_NS_PER_US,
-			      .lcm = b->lcm };
-
-	if (!strcmp(channel, b->ch_command))
-		on_command(&rb, channel, b);
-	else if (!strcmp(channel, b->ch_config_req))
-		on_config_request(&rb, channel, b);
-	else if (!strcmp(channel, b->ch_home))
-		on_home(&rb, channel, b);
+	if (!m->data) {
+		/* too long to keep: LCM handed these to the bridge, which refused them */
+		if (!strcmp(m->channel, b->ch_command))
+			reject(b, RMD_REJ_DECODE, "%u bytes: longer than any rmd.command_t",
+			       (unsigned)m->size);
+		return;
+	}
+	if (!strcmp(m->channel, b->ch_command))
+		on_command(b, m);
+	else if (!strcmp(m->channel, b->ch_config_req))
+		on_config_request(b);
+	else if (!strcmp(m->channel, b->ch_home))
+		on_home(b, m);
 	else
-		on_foreign(b, channel, data, size);
+		on_foreign(b, m->channel, m->data, m->size);
 }
 
 /*
- * One datagram, stamped at real_ns: a whole message goes to its handler;
- * the rest is put together or dropped.
+ * Take what the link has, looking at the snapshots after each datagram or
+ * message; true when it found nothing more.
  */
-static void udpm_packet(struct rmd_bridge *b, const struct sockaddr_in *from, size_t n,
-			int64_t real_ns)
-{
-	struct rmd_udpm_msg m;
-	enum rmd_udpm_verdict v = rmd_udpm_rx_packet(&b->buf->rx, from->sin_addr.s_addr,
-						     from->sin_port, b->buf->pkt, n, &m);
-
-	if (v == RMD_UDPM_MESSAGE) /* lcm_recv_buf_t's data is not const; no handler writes it */
-		udpm_dispatch(b, m.channel, (void *)m.data, m.size, real_ns);
-	else if (v == RMD_UDPM_TOO_LONG && !strcmp(m.channel, b->ch_command))
-		/* LCM handed these to the bridge, which refused them: so does it */
-		reject(b, RMD_REJ_DECODE, "%u bytes: longer than any rmd.command_t",
-		       (unsigned)m.size);
-}
-
-/* The kernel's receive stamp of a datagram (SO_TIMESTAMPNS), CLOCK_REALTIME ns; 0: none. */
-static int64_t rx_stamp_ns(struct msghdr *mh)
-{
-	for (struct cmsghdr *c = CMSG_FIRSTHDR(mh); c; c = CMSG_NXTHDR(mh, c))
-		if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS &&
-		    c->cmsg_len >= CMSG_LEN(sizeof(struct timespec))) {
-			struct timespec ts;
-
-			memcpy(&ts, CMSG_DATA(c), sizeof(ts));
-			return rmd_timespec_ns(&ts);
-		}
-	return 0;
-}
-
-/* Read what the socket holds, looking at the snapshots after each datagram (as drain()). */
-static bool drain_socket(struct rmd_bridge *b)
+static bool drain_link(struct rmd_bridge *b)
 {
 	for (int n = 0; n < DRAIN_MAX; n++) {
-		struct sockaddr_in from;
-		union {
-			char buf[CMSG_SPACE(sizeof(struct timespec))];
-			struct cmsghdr align;
-		} ctl;
-		struct iovec iov = { .iov_base = b->buf->pkt, .iov_len = RMD_UDPM_PKT_MAX };
-		struct msghdr mh = { .msg_name = &from,
-				     .msg_namelen = sizeof(from),
-				     .msg_iov = &iov,
-				     .msg_iovlen = 1,
-				     .msg_control = ctl.buf,
-				     .msg_controllen = sizeof(ctl.buf) };
-		ssize_t r = recvmsg(b->rx_fd, &mh, MSG_DONTWAIT);
+		struct rmd_lcm_msg m;
+		int r = rmd_lcm_link_receive(b->link, &m);
 
-		if (r < 0) {
-			if (errno == EAGAIN || errno == EWOULDBLOCK)
-				return true;
-			if (errno == EINTR)
-				return false;
+		if (r == -EAGAIN)
+			return true;
+		if (r == -EINTR)
+			return false;
+		if (r == 1 || r == -EMSGSIZE) {
+			rmd_bridge_handle(b, &m);
+		} else if (r < 0) {
 			if (read_count(&b->n_lcm_errors) == 0)
 				logf_(b, 4, "LCM receive failed (%s); further failures are counted",
-				      strerror(errno));
+				      strerror(-r));
 			count(&b->n_lcm_errors);
 			return false;
 		}
-		count(&b->n_datagrams);
-		udpm_packet(b, &from, (size_t)r, rx_stamp_ns(&mh));
 		publish_state(b);
-	}
-	return false;
-}
-
-/* What LCM has queued (not udpm); true when it found nothing more. */
-static bool drain_lcm(struct rmd_bridge *b)
-{
-	for (int n = 0; n < DRAIN_MAX; n++) {
-		int r = lcm_handle_timeout(b->lcm, 0);
-
-		publish_state(b);
-		if (r < 0) {
-			if (read_count(&b->n_lcm_errors) == 0)
-				logf_(b, 4, "LCM receive failed; further failures are counted");
-			count(&b->n_lcm_errors);
-		}
-		if (r <= 0)
-			return r == 0;
 	}
 	return false;
 }
@@ -1167,7 +1072,7 @@ static void drain(struct rmd_bridge *b)
 	 */
 	b->rx_off_ns = off < b->rx_off_last_ns ? off : b->rx_off_last_ns;
 	b->rx_off_last_ns = off;
-	if (b->rx_fd >= 0 ? drain_socket(b) : drain_lcm(b))
+	if (drain_link(b))
 		b->rx_seen_ns = start;
 }
 
@@ -1192,8 +1097,8 @@ enum { WAKE_STOP, WAKE_RX, WAKE_SNAPSHOT, WAKE_TIMER };
 
 /*
  * The bridge's one wait, set up once (rmd_bridge_init): an epoll set of
- * rmd_bridge_stop()'s eventfd, the receive descriptor (udpm: the bridge's
- * socket; else LCM's), the loop's notify_fd and a timerfd for the health
+ * rmd_bridge_stop()'s eventfd, the link's descriptor (rmd/lcm_link.h),
+ * the loop's notify_fd and a timerfd for the health
  * timer and a pending config_t.  The registrations persist, and notify_fd
  * is edge-triggered and never read: a snapshot costs one epoll_wait, not a
  * poll set built and torn down, a timer armed and cancelled and a read.
@@ -1206,8 +1111,7 @@ static int wait_setup(struct rmd_bridge *b)
 		uint32_t events, what;
 	} w[] = {
 		{ b->stop_fd, EPOLLIN, WAKE_STOP },
-		/* udpm: our own socket (lcm_get_fileno() would start LCM's receive thread) */
-		{ b->rx_fd >= 0 ? b->rx_fd : lcm_get_fileno(b->lcm), EPOLLIN, WAKE_RX },
+		{ rmd_lcm_link_fd(b->link), EPOLLIN, WAKE_RX },
 		{ -1, EPOLLIN, WAKE_TIMER },
 		/* no state_t to publish: the loop's pokes need not wake us */
 		{ b->state_listeners ? b->opts.notify_fd : -1, EPOLLIN | EPOLLET, WAKE_SNAPSHOT },
@@ -1316,19 +1220,6 @@ static bool prefix_ok(const char *p)
 	return true;
 }
 
-/* LCM subscribes by regular expression: escape what is not a letter or digit. */
-static void channel_regex(char *out, size_t len, const char *prefix, const char *name)
-{
-	size_t n = 0;
-
-	for (const char *p = prefix; *p && n + 3 < len; p++) {
-		if (!isalnum((unsigned char)*p) && *p != '_')
-			out[n++] = '\\';
-		out[n++] = *p;
-	}
-	snprintf(out + n, len - n, "%s", name);
-}
-
 static bool latest_ok(const struct rmd_latest *l, size_t size, bool optional)
 {
 	return l ? l->size == size : optional;
@@ -1389,56 +1280,12 @@ static int check_opts(const struct rmd_bridge_opts *o, char *err, size_t errlen)
 	return 0;
 }
 
-/* ---- LCM's own threads ---------------------------------------------------- */
-
-#define TASKS_MAX 256
-#define FDS_MAX 1024
+/* ---- threads -------------------------------------------------------------- */
 
 /*
- * The numbers named in /proc/self/<what> ("task": thread ids, "fd": open
- * descriptors, less the one reading it), at most max; returns how many.
- */
-static unsigned list_ids(const char *what, int *id, unsigned max)
-{
-	char path[32];
-	DIR *d;
-	struct dirent *e;
-	unsigned n = 0;
-
-	snprintf(path, sizeof(path), "/proc/self/%s", what);
-	d = opendir(path);
-	if (!d)
-		return 0;
-	while ((e = readdir(d)) && n < max)
-		if (e->d_name[0] != '.' && atoi(e->d_name) != dirfd(d))
-			id[n++] = atoi(e->d_name);
-	closedir(d);
-	return n;
-}
-
-/*
- * The threads that are in the process now and were not in before[]: the
- * ones LCM started (udpm: its receive thread, which reads the socket and
- * signals lcm_get_fileno()'s pipe), which the bridge raises with itself.
- */
-static void find_lcm_threads(struct rmd_bridge *b, const int *before, unsigned n_before)
-{
-	int now[TASKS_MAX];
-	unsigned n = list_ids("task", now, TASKS_MAX);
-
-	for (unsigned i = 0; i < n && b->n_lcm_tid < RMD_BRIDGE_LCM_THREADS; i++) {
-		bool old = false;
-
-		for (unsigned j = 0; j < n_before && !old; j++)
-			old = now[i] == before[j];
-		if (!old)
-			b->lcm_tid[b->n_lcm_tid++] = now[i];
-	}
-}
-
-/*
- * The bridge thread and LCM's receive threads to SCHED_FIFO rt_priority.
- * Refused: all stay at normal priority, and rt_error says why.
+ * The bridge thread, and LCM's receive threads with it (the link's: not on
+ * udpm), to SCHED_FIFO rt_priority.  Refused: all stay at normal
+ * priority, and rt_error says why.
  */
 static void raise_threads(struct rmd_bridge *b)
 {
@@ -1447,7 +1294,6 @@ static void raise_threads(struct rmd_bridge *b)
 
 	b->rt_granted = 0; /* a restart starts over */
 	b->rt_error = 0;
-	b->n_lcm_rt = 0;
 	if (!b->opts.rt_priority)
 		return;
 	r = pthread_setschedparam(b->thread, SCHED_FIFO, &sp);
@@ -1456,162 +1302,51 @@ static void raise_threads(struct rmd_bridge *b)
 		return;
 	}
 	b->rt_granted = b->opts.rt_priority;
-	for (unsigned i = 0; i < b->n_lcm_tid; i++) {
-		if (sched_setscheduler(b->lcm_tid[i], SCHED_FIFO, &sp) == 0)
-			b->n_lcm_rt++;
-		else if (errno != ESRCH) /* gone: nothing to raise */
-			b->rt_error = -errno;
-	}
-}
-
-/* ---- udpm: the bridge's own receive socket ------------------------------- */
-
-/* fd's local IPv4 address, if it is a UDP/IPv4 socket. */
-static bool udp4_name(int fd, struct sockaddr_in *a)
-{
-	struct stat st;
-	socklen_t len = sizeof(*a);
-	int type;
-	socklen_t tlen = sizeof(type);
-
-	return fstat(fd, &st) == 0 && S_ISSOCK(st.st_mode) &&
-	       getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &tlen) == 0 && type == SOCK_DGRAM &&
-	       getsockname(fd, (struct sockaddr *)a, &len) == 0 && a->sin_family == AF_INET;
-}
-
-/* A udpm URL's group and port ("udpm://239.255.76.67:7667?..."; LCM's defaults when empty). */
-static bool udpm_group(const char *url, struct sockaddr_in *group)
-{
-	char host[64];
-	size_t n = strcspn(url + 7, "?:");
-	const char *port = url + 7 + n;
-
-	if (strncmp(url, "udpm://", 7) != 0 || n >= sizeof(host))
-		return false;
-	memcpy(host, url + 7, n);
-	host[n] = '\0';
-	memset(group, 0, sizeof(*group));
-	group->sin_family = AF_INET;
-	group->sin_port = htons(*port == ':' ? (uint16_t)atoi(port + 1) : 7667);
-	return inet_aton(n ? host : "239.255.76.67", &group->sin_addr) != 0;
+	r = rmd_lcm_link_raise(b->link, b->opts.rt_priority);
+	if (r < 0)
+		b->rt_error = r;
 }
 
 /*
- * The bridge's receive socket for a udpm URL, as LCM's provider opens its
- * own: bound to the group's port (shared, SO_REUSEADDR), in the group,
- * with the URL's recv_buf_size.  Reading it in the bridge thread spares a
- * wake-up of LCM's receive thread and its pipe for every command.  Returns
- * the descriptor or -errno.
+ * Once, at start: the link's protections that are not in place, and why
+ * (rmd/lcm_link.h).  memq:// has no socket and no other sender: nothing
+ * to say.
  */
-static int udpm_open(const char *url, const struct sockaddr_in *group)
+static void log_link(struct rmd_bridge *b)
 {
-	const char *rb = strstr(url, "recv_buf_size=");
-	struct ip_mreq mreq = { .imr_multiaddr = group->sin_addr };
-	int one = 1, size = rb ? atoi(rb + 14) : 0;
-	int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+	struct rmd_lcm_link_info in;
 
-	mreq.imr_interface.s_addr = htonl(INADDR_ANY);
-	if (fd < 0)
-		return -errno;
-	/* receive stamps (arrival_ns()); without them a command's arrival is when it is read */
-	setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &one, sizeof(one));
-	if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one)) < 0 ||
-	    (size > 0 && setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &size, sizeof(size)) < 0) ||
-	    bind(fd, (const struct sockaddr *)group, sizeof(*group)) < 0 ||
-	    setsockopt(fd, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof(mreq)) < 0) {
-		int r = -errno;
-
-		close(fd);
-		return r;
+	rmd_lcm_link_info(b->link, &in);
+	if (!in.udpm) {
+		if (b->state_listeners)
+			logf_(b, 5,
+			      "LCM %s: not udpm://: commands come through LCM's own receive path "
+			      "(handled in the bridge thread; of LCM's threads %u found, %u at "
+			      "SCHED_FIFO), stamped by LCM, and our own messages come back to us",
+			      b->opts.url, in.lcm_threads, in.lcm_threads_rt);
+		return;
 	}
-	return fd;
+	if (!in.filter)
+		logf_(b, 4,
+		      "LCM %s: the kernel refused the filter that drops our own datagrams (%s): "
+		      "the bridge reads back and drops each message it sends",
+		      b->opts.url, strerror(-in.filter_error));
+	if (!in.stamps)
+		logf_(b, 4,
+		      "LCM %s: no kernel receive stamps (%s): a command's arrival is when the "
+		      "bridge reads it",
+		      b->opts.url, strerror(-in.stamps_error));
 }
 
-/*
- * LCM's udpm provider loops every datagram it sends back to the host, so
- * each state_t the bridge published came back to its own socket.  A socket
- * filter drops them in the kernel: datagrams from LCM's send socket (the
- * one UDP socket lcm_create() left open since before[]; bound here to the
- * port its first send would take) and the source address the kernel gives
- * a datagram to the group; everything else passes.  Anything unexpected
- * leaves the filter off, which costs a read of each, nothing else.
- * Returns whether it is on.
- */
-static bool drop_own_datagrams(int rx_fd, const struct sockaddr_in *group, const int *before,
-			       unsigned n_before)
-{
-	int now[FDS_MAX], sfd = -1, probe;
-	unsigned n = list_ids("fd", now, FDS_MAX);
-	struct sockaddr_in from = { 0 }, src;
-	socklen_t len = sizeof(src);
-	bool ok;
-
-	for (unsigned i = 0; i < n; i++) {
-		struct sockaddr_in a;
-		bool old = now[i] == rx_fd;
-
-		for (unsigned j = 0; j < n_before && !old; j++)
-			old = now[i] == before[j];
-		if (old || !udp4_name(now[i], &a))
-			continue;
-		if (sfd >= 0)
-			return false; /* not LCM 1.3's udpm: one send socket */
-		sfd = now[i];
-		from = a;
-	}
-	if (sfd < 0)
-		return false;
-	if (!from.sin_port) {
-		struct sockaddr_in any = { .sin_family = AF_INET };
-
-		len = sizeof(from);
-		if (bind(sfd, (struct sockaddr *)&any, sizeof(any)) < 0 ||
-		    getsockname(sfd, (struct sockaddr *)&from, &len) < 0 || !from.sin_port)
-			return false;
-	}
-	/* the source address the kernel gives a datagram to the group */
-	probe = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-	if (probe < 0)
-		return false;
-	len = sizeof(src);
-	ok = connect(probe, (const struct sockaddr *)group, sizeof(*group)) == 0 &&
-	     getsockname(probe, (struct sockaddr *)&src, &len) == 0;
-	close(probe);
-	if (!ok)
-		return false;
-	{
-		/* a UDP socket's filter sees the UDP header at 0 (SKF_NET_OFF: the IP header) */
-		struct sock_filter code[] = {
-			BPF_STMT(BPF_LD | BPF_W | BPF_ABS, (uint32_t)SKF_NET_OFF + 12),
-			BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, ntohl(src.sin_addr.s_addr), 0, 3),
-			BPF_STMT(BPF_LD | BPF_H | BPF_ABS, 0),
-			BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, ntohs(from.sin_port), 0, 1),
-			BPF_STMT(BPF_RET | BPF_K, 0),
-			BPF_STMT(BPF_RET | BPF_K, 0xFFFFFFFF),
-		};
-		struct sock_fprog prog = { .len = sizeof(code) / sizeof(code[0]), .filter = code };
-
-		return setsockopt(rx_fd, SOL_SOCKET, SO_ATTACH_FILTER, &prog, sizeof(prog)) == 0;
-	}
-}
-
-/* A udpm URL gets a receive buffer that rides out a flood, unless it names one. */
-static void lcm_url(char *out, size_t len, const char *url)
-{
-	if (strncmp(url, "udpm://", 7) != 0 || strstr(url, "recv_buf_size="))
-		snprintf(out, len, "%s", url);
-	else
-		snprintf(out, len, "%s%crecv_buf_size=%d", url, strchr(url, '?') ? '&' : '?',
-			 RMD_BRIDGE_UDPM_RCVBUF);
-}
+/* ---- lifecycle, continued ------------------------------------------------- */
 
 int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, char *err,
 		    size_t errlen)
 {
-	char re[2 * RMD_BRIDGE_PREFIX_LEN + 16];
-	int tasks[TASKS_MAX], fds[FDS_MAX];
-	unsigned n_tasks, n_fds;
-	struct sockaddr_in group;
+	struct rmd_lcm_link_opts lo = { .url = opts->url,
+					.prefix = opts->prefix,
+					.recv_buf_size = RMD_BRIDGE_UDPM_RCVBUF,
+					.queue = COMMAND_QUEUE };
 	int r;
 
 	memset(b, 0, sizeof(*b));
@@ -1619,7 +1354,6 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	b->rx_off_last_ns = rmd_realtime_offset_ns(&b->rx_seen_ns);
 	b->rx_at_ns = b->rx_seen_ns; /* nothing can have come before */
 	b->stop_fd = -1;
-	b->rx_fd = -1;
 	b->ep_fd = -1;
 	b->timer_fd = -1;
 	r = check_opts(opts, err, errlen);
@@ -1646,68 +1380,17 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 		snprintf(err, errlen, "eventfd: %s", strerror(-r));
 		goto err_free_buf;
 	}
-	lcm_url(b->url, sizeof(b->url), opts->url);
-	b->state_listeners = strncmp(b->url, "memq://", 7) != 0;
-	n_tasks = list_ids("task", tasks, TASKS_MAX);
-	n_fds = list_ids("fd", fds, FDS_MAX);
-	b->lcm = lcm_create(b->url);
-	if (!b->lcm) {
-		/* the URL as given: b->url adds parameters the user never wrote */
-		snprintf(err, errlen,
-			 "cannot create \"%s\": a bad URL, or multicast has no route (for "
-			 "loopback: ip route add 224.0.0.0/4 dev lo src 127.0.0.1; docs/lcm.md)",
-			 opts->url);
-		r = -EIO;
+	b->state_listeners = strncmp(opts->url, "memq://", 7) != 0;
+	r = rmd_lcm_link_new(&b->link, &lo, err, errlen);
+	if (r < 0)
 		goto err_close_stop;
-	}
-	if (udpm_group(b->url, &group)) {
-		/* no subscription: LCM starts no receive thread, the bridge reads */
-		b->rx_fd = udpm_open(b->url, &group);
-		if (b->rx_fd < 0) {
-			snprintf(err, errlen,
-				 "LCM \"%s\": cannot subscribe: %s (multicast not routable? see "
-				 "docs/lcm.md)",
-				 b->url, strerror(-b->rx_fd));
-			r = -EIO;
-			goto err_destroy_lcm;
-		}
-		b->own_dropped = drop_own_datagrams(b->rx_fd, &group, fds, n_fds);
-		goto wait;
-	}
-	channel_regex(re, sizeof(re), opts->prefix, "COMMAND");
-	b->sub_command = lcm_subscribe(b->lcm, re, on_command, b);
-	channel_regex(re, sizeof(re), opts->prefix, "CONFIG_REQUEST");
-	b->sub_config_req = lcm_subscribe(b->lcm, re, on_config_request, b);
-	channel_regex(re, sizeof(re), opts->prefix, "HOME");
-	b->sub_home = lcm_subscribe(b->lcm, re, on_home, b);
-	channel_regex(re, sizeof(re), opts->prefix, "HEALTH");
-	b->sub_health = lcm_subscribe(b->lcm, re, on_foreign_lcm, b);
-	channel_regex(re, sizeof(re), opts->prefix, "CONFIG");
-	b->sub_config = lcm_subscribe(b->lcm, re, on_foreign_lcm, b);
-	if (!b->sub_command || !b->sub_config_req || !b->sub_home || !b->sub_health ||
-	    !b->sub_config) {
-		snprintf(err, errlen,
-			 "LCM \"%s\": cannot subscribe (multicast not routable? see "
-			 "docs/lcm.md)",
-			 b->url);
-		r = -EIO;
-		goto err_destroy_lcm;
-	}
-	lcm_subscription_set_queue_capacity(b->sub_command, COMMAND_QUEUE);
-	find_lcm_threads(b, tasks, n_tasks);
-wait:
 	r = wait_setup(b);
 	if (r == 0)
 		return 0;
 	snprintf(err, errlen, "epoll, timerfd: %s", strerror(-r));
 	wait_close(b);
-	if (b->rx_fd >= 0)
-		close(b->rx_fd);
-	b->rx_fd = -1;
-
-err_destroy_lcm:
-	lcm_destroy(b->lcm);
-	b->lcm = NULL;
+	rmd_lcm_link_free(b->link);
+	b->link = NULL;
 err_close_stop:
 	close(b->stop_fd);
 	b->stop_fd = -1;
@@ -1721,8 +1404,8 @@ int rmd_bridge_probe(struct rmd_bridge *b, int64_t wait_ns, struct rmd_bridge_pe
 {
 	rmd_config_request_t req = { .utime = rmd_now_ns() / 1000 };
 	int64_t end = rmd_now_ns() + wait_ns;
-	struct pollfd pfd = { .fd = b->rx_fd >= 0 ? b->rx_fd : lcm_get_fileno(b->lcm),
-			      .events = POLLIN };
+	struct pollfd pfd = { .fd = rmd_lcm_link_fd(b->link), .events = POLLIN };
+	int n;
 
 	memset(peer, 0, sizeof(*peer));
 	if (!b->state_listeners || b->running)
@@ -1730,7 +1413,8 @@ int rmd_bridge_probe(struct rmd_bridge *b, int64_t wait_ns, struct rmd_bridge_pe
 	memset(&b->foreign, 0, sizeof(b->foreign));
 	b->probing = true;
 	/* a daemon answers with config_t (within CONFIG_INTERVAL_NS): it names its source */
-	if (rmd_config_request_t_publish(b->lcm, b->ch_config_req, &req) < 0) {
+	n = rmd_config_request_t_encode(b->buf->enc, 0, ENC_MAX, &req);
+	if (n < 0 || rmd_lcm_link_publish(b->link, b->ch_config_req, b->buf->enc, (size_t)n) < 0) {
 		b->probing = false;
 		return -EIO;
 	}
@@ -1766,6 +1450,7 @@ int rmd_bridge_start(struct rmd_bridge *b)
 		return r;
 	b->running = true;
 	raise_threads(b);
+	log_link(b);
 	return 0;
 }
 
@@ -1803,33 +1488,22 @@ int rmd_bridge_config_copy(struct rmd_bridge *b, void *out, size_t len)
 void rmd_bridge_fini(struct rmd_bridge *b)
 {
 	rmd_bridge_stop(b);
-	if (b->lcm) {
-		if (b->sub_command)
-			lcm_unsubscribe(b->lcm, b->sub_command);
-		if (b->sub_config_req)
-			lcm_unsubscribe(b->lcm, b->sub_config_req);
-		if (b->sub_home)
-			lcm_unsubscribe(b->lcm, b->sub_home);
-		if (b->sub_health)
-			lcm_unsubscribe(b->lcm, b->sub_health);
-		if (b->sub_config)
-			lcm_unsubscribe(b->lcm, b->sub_config);
-		lcm_destroy(b->lcm);
-		b->lcm = NULL;
-	}
+	wait_close(b);
+	rmd_lcm_link_free(b->link);
+	b->link = NULL;
 	if (b->stop_fd >= 0)
 		close(b->stop_fd);
 	b->stop_fd = -1;
-	if (b->rx_fd >= 0)
-		close(b->rx_fd);
-	b->rx_fd = -1;
-	wait_close(b);
 	free(b->buf);
 	b->buf = NULL;
 }
 
 void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
 {
+	struct rmd_lcm_link_info in = { 0 };
+
+	if (b->link)
+		rmd_lcm_link_info(b->link, &in);
 	memset(st, 0, sizeof(*st));
 	st->accepted = read_count(&b->n_accepted);
 	for (int k = 0; k < RMD_REJ_KINDS; k++) {
@@ -1849,8 +1523,8 @@ void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
 	st->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);
 	st->rt_priority = b->rt_granted;
 	st->rt_error = b->rt_error;
-	st->lcm_threads = b->n_lcm_tid;
-	st->lcm_threads_rt = b->n_lcm_rt;
-	st->own_dropped = b->own_dropped;
-	st->datagrams = read_count(&b->n_datagrams);
+	st->lcm_threads = in.lcm_threads;
+	st->lcm_threads_rt = in.lcm_threads_rt;
+	st->own_dropped = in.filter;
+	st->datagrams = in.datagrams;
 }

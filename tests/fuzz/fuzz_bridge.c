@@ -4,10 +4,10 @@
  * COMMAND channel are decoded as rmd.command_t and validated (structure,
  * modes, finite values, gain ranges, sequence and timestamp order) before
  * a command reaches the rt loop's hand-over.  The decoder and validator are
- * static, so they are driven through the public path test_bridge uses: a
- * bridge on an in-process LCM (memq://), not started; the harness
- * publishes on the bridge's own instance and dispatches with
- * lcm_handle_timeout(), which runs the bridge's handler in this thread.
+ * static, so they are driven through rmd_bridge_handle(), the step the
+ * bridge thread takes for each message its LCM link hands over: a bridge
+ * on an in-process LCM (memq://), not started, given each datagram as a
+ * message on its COMMAND channel in this thread.
  *
  * Every accepted command must hand over only finite setpoints inside the
  * motor's limits (the rule rmd_motor_clamp() applies).
@@ -30,8 +30,6 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
-
-#include <lcm/lcm.h>
 
 #include "rmd/bridge.h"
 #include "rmd/motor.h"
@@ -174,9 +172,9 @@ static struct rmd_bridge b;
 
 static void publish(const void *buf, int len)
 {
-	FUZZ_CHECK(lcm_publish(b.lcm, b.ch_command, buf, (unsigned)len) == 0);
-	while (lcm_handle_timeout(b.lcm, 0) > 0)
-		;
+	struct rmd_lcm_msg m = { .channel = b.ch_command, .data = buf, .size = (uint32_t)len };
+
+	rmd_bridge_handle(&b, &m);
 	check_handover();
 }
 
@@ -197,7 +195,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	char err[256];
 	int len;
 
-	if (!b.lcm) {
+	if (!b.link) {
 		rmd_latest_init(&commands, cmd_buf, sizeof(cmd_buf[0]));
 		FUZZ_CHECK(rmd_bridge_init(&b, &opts, err, sizeof(err)) == 0);
 	}
