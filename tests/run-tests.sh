@@ -16,6 +16,11 @@
 # SUITEs after --systemd need systemd as PID 1 and vcan0: they run in the
 # guest booted with systemd as init (vm-run --systemd), or are skipped alike.
 #
+# A test that skipped in one place but ran in another (a SocketCAN test
+# skipped on a host without it and run in the guest, or the reverse) ran:
+# it is counted where it ran and listed once as "ran in the other place",
+# never as skipped.  "N skipped" counts the tests that ran nowhere.
+#
 # A skipped test is one cmocka (or tests/docs/check-docs) lists as
 # "[  SKIPPED ] NAME"; its reason is the last line it printed before that
 # saying "SKIP", "skipped:" or "busy machine:", else "skip" or "judged",
@@ -24,8 +29,8 @@
 #
 # A suite that runs longer than RMD_SUITE_TIMEOUT seconds (default 600) is
 # killed and counted as failed: a hang must never stall CI.
-# --tally FILE (internal): write "passed failed skipped" and the skip lines
-# to FILE instead of the summary.
+# --tally FILE (internal): write "passed failed skipped", the skip lines and
+# "ran SUITE TEST" lines to FILE instead of the summary.
 set -euo pipefail
 limit=${RMD_SUITE_TIMEOUT:-600}
 here=$(dirname "$0")
@@ -59,9 +64,16 @@ done
 # else says where: the suites' daemons write into a folder of this run.
 state_home=$(mktemp -d /tmp/rmd-tests-state.XXXXXX)
 export XDG_STATE_HOME="$state_home"
-# One line per skipped test: "SUITE TEST: REASON".
+# One line per skipped test: "SUITE TEST: REASON"; one per test that ran: "SUITE TEST".
 skips=$(mktemp /tmp/rmd-skips.XXXXXX)
-trap 'rm -rf "$state_home" "$skips"' EXIT
+ran=$(mktemp /tmp/rmd-ran.XXXXXX)
+trap 'rm -rf "$state_home" "$skips" "$ran"' EXIT
+
+# ran_in SUITE LOG: "SUITE TEST" for each test of one suite's output that ran (passed or failed).
+ran_in()
+{
+	sed -n 's/^\[\(       OK \|  FAILED  \)\] \([A-Za-z0-9_]*\)$/\2/p' "$2" | sed "s/^/$1 /"
+}
 
 # skipped_in SUITE LOG: the skip lines of one suite's output.
 skipped_in()
@@ -131,6 +143,7 @@ for t in "$@"; do
 		[ -n "$f" ] || failed=$((failed + 1))
 	fi
 	skipped_in "$(basename "$t")" "$out" >>"$skips"
+	ran_in "$(basename "$t")" "$out" >>"$ran"
 	rm -f "$out"
 done
 
@@ -152,7 +165,8 @@ in_vm()
 	if read -r p f _ <"$t" 2>/dev/null; then
 		passed=$((passed + p))
 		failed=$((failed + f))
-		tail -n +2 "$t" | sed "s/^/$label: /" >>"$skips"
+		tail -n +2 "$t" | grep -v '^ran ' | sed "s/^/$label: /" >>"$skips" || true
+		sed -n 's/^ran //p' "$t" >>"$ran"
 	fi
 	if [ "$rc" -ne 0 ]; then
 		bad="$bad $label(rc=$rc)"
@@ -191,27 +205,38 @@ if [ -n "$systemd" ]; then
 	vm_group systemd-suites --systemd --systemd --vcan 1 -- $systemd
 fi
 
-skipped=$(wc -l <"$skips")
 if [ -n "$tally" ]; then
 	{
-		echo "$passed $failed $skipped"
+		echo "$passed $failed $(wc -l <"$skips")"
 		cat "$skips"
+		sed 's/^/ran /' "$ran"
 	} >"$tally"
 	if [ "$failed" -eq 0 ] && [ -z "$bad" ]; then exit 0; fi
 	exit 1
 fi
 
+# A skip whose test ran in the other place (host or guest) is not a skip.
+elsewhere=$(mktemp /tmp/rmd-elsewhere.XXXXXX)
+nowhere=$(mktemp /tmp/rmd-nowhere.XXXXXX)
+trap 'rm -rf "$state_home" "$skips" "$ran" "$elsewhere" "$nowhere"' EXIT
+awk -v ranf="$ran" -v elsewhere="$elsewhere" 'FILENAME == ranf { ran[$0] = 1; next }
+	{ line = $0; sub(/^[a-z]+-suites: /, "", line); split(line, w, /[ :]/)
+	  if ((w[1] " " w[2]) in ran) print > elsewhere; else print }' "$ran" "$skips" >"$nowhere"
+skipped=$(wc -l <"$nowhere")
+
 # CI: every skip must be one tests/expected-skips expects (its patterns,
 # extended regular expressions, without its comments and blank lines).
 unexpected=""
 if [ "${CI:-}" = true ] && [ "$skipped" -gt 0 ]; then
-	unexpected=$(grep -v -E -f <(grep -v -E '^[[:space:]]*(#|$)' "$here/expected-skips") "$skips" ||
+	unexpected=$(grep -v -E -f <(grep -v -E '^[[:space:]]*(#|$)' "$here/expected-skips") "$nowhere" ||
 		true)
 fi
 
 [ -z "$bad" ] || echo "failing suites:$bad"
 echo "tests: $passed passed, $failed failed, $skipped skipped"
-sed 's/^/  skipped: /' "$skips"
+sed 's/^/  skipped: /' "$nowhere"
+[ ! -s "$elsewhere" ] || echo "  ($(wc -l <"$elsewhere") skipped in one place ran in the other: the host or the guest)"
+sed 's/^/  ran in the other place: /' "$elsewhere"
 if [ -n "$unexpected" ]; then
 	echo "CI=true: these skips are not in tests/expected-skips, so they fail the run:"
 	echo "$unexpected" | sed 's/^/  unexpected skip: /'
