@@ -127,6 +127,12 @@ struct rmd_config_loop {
 	unsigned rt_priority;		    /* SCHED_FIFO, 1..RMD_CONFIG_PRIO_MAX */
 	uint16_t cpus[RMD_CONFIG_MAX_CPUS]; /* affinity of the rt thread; none: any */
 	unsigned n_cpus;
+	/*
+	 * While the loop runs, ask the kernel for CPU wake-ups of 0 us (PM QoS,
+	 * /dev/cpu_dma_latency): no CPU enters an idle state it cannot leave
+	 * at once (docs/design.md "The cycle").  false: power management as is.
+	 */
+	bool keep_cpus_awake;
 };
 
 struct rmd_config_safety {

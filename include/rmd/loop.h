@@ -193,9 +193,10 @@ struct rmd_loop_opts {
 
 /* What RMD_EV_RT (rmd/state.h) reports in b: which real-time request failed. */
 enum {
-	RMD_LOOP_RT_MLOCK = 1,	  /* mlockall() failed */
-	RMD_LOOP_RT_FIFO = 2,	  /* SCHED_FIFO refused: normal priority */
-	RMD_LOOP_RT_AFFINITY = 3, /* the CPU affinity could not be set */
+	RMD_LOOP_RT_MLOCK = 1,	   /* mlockall() failed */
+	RMD_LOOP_RT_FIFO = 2,	   /* SCHED_FIFO refused: normal priority */
+	RMD_LOOP_RT_AFFINITY = 3,  /* the CPU affinity could not be set */
+	RMD_LOOP_RT_CPU_AWAKE = 4, /* loop.keep_cpus_awake: /dev/cpu_dma_latency refused */
 };
 
 /* Counters beyond struct rmd_loop_stats (rmd_loop_get_counters()). */

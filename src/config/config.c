@@ -32,6 +32,7 @@ void rmd_config_defaults(struct rmd_config *cfg)
 	memset(cfg, 0, sizeof(*cfg));
 	cfg->loop.rate_hz = RMD_CONFIG_DEFAULT_RATE_HZ;
 	cfg->loop.rt_priority = RMD_CONFIG_DEFAULT_PRIORITY;
+	cfg->loop.keep_cpus_awake = true;
 	cfg->safety.comm_loss_ms = RMD_CONFIG_DEFAULT_COMM_LOSS_MS;
 	cfg->safety.missed_replies_lost = RMD_CONFIG_DEFAULT_MISSED_LOST;
 	cfg->safety.command_timeout_ms = RMD_CONFIG_DEFAULT_COMMAND_TIMEOUT_MS;

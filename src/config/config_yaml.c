@@ -53,6 +53,7 @@ static const struct field loop_fields[] = {
 	  .elem = &(const struct field){ .type = T_UINT, .size = sizeof(uint16_t), .max = 1023 },
 	  .elem_size = sizeof(uint16_t),
 	  .count_off = offsetof(struct rmd_config_loop, n_cpus) },
+	BOOL("keep_cpus_awake", struct rmd_config_loop, keep_cpus_awake),
 	END
 };
 

@@ -838,6 +838,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 	l->n_motors = cfg->n_motors;
 	l->period_ns = plan->period_ns;
 	l->published = true; /* no cycle yet whose state is owed */
+	l->qos_fd = -1;
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		struct lbus *lb = &l->bus[b];
 
@@ -906,5 +907,6 @@ void rmd_loop_free(struct rmd_loop *l)
 		rmd_loop_request_stop(l);
 		rmd_loop_join(l);
 	}
+	loop_release_cpus(l);
 	free(l);
 }

@@ -268,6 +268,7 @@ struct rmd_loop {
 	bool running;
 	bool locked;   /* mlockall done, or refused: */
 	int mlock_err; /* -errno of the refusal, said when the thread starts */
+	int qos_fd;    /* /dev/cpu_dma_latency held at 0 while the thread runs, or -1 */
 };
 
 /* Config index of lm.  rt-safe. */
@@ -373,6 +374,9 @@ void loop_fill_snapshot(struct rmd_loop *l, int64_t now);
 void loop_fill_health(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
 int64_t loop_reply_due(const struct rmd_loop *l, int64_t now, unsigned *owing);
+
+/* rt_thread.c: end loop.keep_cpus_awake's request.  Non-rt. */
+void loop_release_cpus(struct rmd_loop *l);
 
 /* loop_rx.c.  rt-safe. */
 void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to, int64_t now);

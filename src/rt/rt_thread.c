@@ -8,12 +8,14 @@
  */
 #define _GNU_SOURCE /* ppoll, pthread_setaffinity_np */
 #include <errno.h>
+#include <fcntl.h>
 #include <poll.h>
 #include <pthread.h>
 #include <sched.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <unistd.h>
 
 #include "rmd/time.h"
 #include "loop_priv.h"
@@ -215,6 +217,37 @@ static int create_thread(struct rmd_loop *l, bool fifo, bool cpus)
 	return r;
 }
 
+/*
+ * loop.keep_cpus_awake: a PM QoS request of 0 us CPU wake-up latency,
+ * held as long as its descriptor is open (the kernel's
+ * Documentation/power/pm_qos_interface.rst; cyclictest does the same).
+ * Returns 0 or -errno.  Non-rt.
+ */
+static int hold_cpus_awake(struct rmd_loop *l)
+{
+	int32_t zero = 0;
+	int fd = open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+
+	if (fd < 0)
+		return -errno;
+	if (write(fd, &zero, sizeof(zero)) != (ssize_t)sizeof(zero)) {
+		int r = -errno;
+
+		close(fd);
+		return r ? r : -EIO;
+	}
+	l->qos_fd = fd;
+	return 0;
+}
+
+/* The PM QoS request ends with its descriptor.  Non-rt. */
+void loop_release_cpus(struct rmd_loop *l)
+{
+	if (l->qos_fd >= 0)
+		close(l->qos_fd);
+	l->qos_fd = -1;
+}
+
 /* Non-rt. */
 int rmd_loop_lock_memory(struct rmd_loop *l)
 {
@@ -246,6 +279,11 @@ int rmd_loop_start(struct rmd_loop *l)
 		return r;
 	if (l->mlock_err)
 		loop_event(l, now, RMD_EV_RT, 0xFF, 0xFF, l->mlock_err, RMD_LOOP_RT_MLOCK);
+	if (l->cfg->loop.keep_cpus_awake && l->qos_fd < 0) {
+		r = hold_cpus_awake(l);
+		if (r < 0)
+			loop_event(l, now, RMD_EV_RT, 0xFF, 0xFF, r, RMD_LOOP_RT_CPU_AWAKE);
+	}
 	/*
 	 * Every fallback is decided, and said through the event ring, before
 	 * the thread exists: the ring has one producer at a time.
@@ -284,7 +322,9 @@ int rmd_loop_join(struct rmd_loop *l)
 	if (!l->running)
 		return 0;
 	r = -pthread_join(l->thread, NULL);
-	if (!r)
+	if (!r) {
 		l->running = false;
+		loop_release_cpus(l);
+	}
 	return r;
 }

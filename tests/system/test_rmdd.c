@@ -458,6 +458,58 @@ static void stop_with(int sig, const char *name)
 	assert_null(strstr(p.out, "no real-time guarantees"));
 }
 
+/*
+ * loop.keep_cpus_awake (default true): while rmdd runs, the kernel's PM QoS
+ * CPU wake-up latency target (what /dev/cpu_dma_latency reads back) is
+ * 0 us; after it exits the target is what it was before; with false rmdd
+ * leaves it alone.  Needs read access to the device (root).
+ */
+static int32_t cpu_latency_target(void)
+{
+	int32_t v = -1;
+	int fd = open("/dev/cpu_dma_latency", O_RDONLY | O_CLOEXEC);
+
+	if (fd < 0)
+		return -1;
+	if (read(fd, &v, sizeof(v)) != (ssize_t)sizeof(v))
+		v = -1;
+	close(fd);
+	return v;
+}
+
+static void test_cpus_kept_awake(void **state)
+{
+	static struct proc p;
+	static const char *const args[] = { "--sim", "1", "--lcm-url", "memq://", NULL };
+	int32_t before = cpu_latency_target();
+
+	(void)state;
+	if (before < 0) {
+		fprintf(stderr, "SKIP: /dev/cpu_dma_latency not readable here (%s)\n",
+			strerror(errno));
+		skip();
+	}
+	if (before == 0)
+		fail_msg("another process holds the CPU wake-up latency at 0 us: cannot tell");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	assert_int_equal(cpu_latency_target(), 0);
+	assert_null(strstr(p.out, "CPU wake-up latency not held"));
+	kill(p.pid, SIGINT);
+	assert_int_equal(finish(&p, 5000), 0);
+	assert_int_equal(cpu_latency_target(), before);
+
+	spawn(&p, NULL,
+	      config_args("awake.yaml", "loop: {rate_hz: 500, keep_cpus_awake: false}\n"
+					"buses: [{name: s0, type: sim}]\n"
+					"motors: [{name: a, bus: s0, id: 1, mode: torque,"
+					" torque_constant_nm_a: 2}]\n"));
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	assert_int_equal(cpu_latency_target(), before);
+	kill(p.pid, SIGINT);
+	assert_int_equal(finish(&p, 5000), 0);
+}
+
 static void test_sigterm(void **state)
 {
 	(void)state;
@@ -1201,6 +1253,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_bus_error_names_the_bus, reap),
 		cmocka_unit_test_teardown(test_missing_motor_refused, reap),
 		cmocka_unit_test_teardown(test_sigterm, reap),
+		cmocka_unit_test_teardown(test_cpus_kept_awake, reap),
 		cmocka_unit_test_teardown(test_sigint, reap),
 		cmocka_unit_test_teardown(test_sigusr1_and_sighup_keep_running, reap),
 		cmocka_unit_test_teardown(test_lost_motor_logged_with_context, reap),

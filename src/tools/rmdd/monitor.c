@@ -289,7 +289,7 @@ static void log_watchdog(const struct rmd_config *cfg, const struct rmd_event *e
 /* The RMD_EV_RT events of one drain, said in one line. */
 struct rt_note {
 	bool any;
-	int err[4];
+	int err[RMD_LOOP_RT_CPU_AWAKE + 1];
 };
 
 static void log_rt(const struct rt_note *rt)
@@ -297,6 +297,13 @@ static void log_rt(const struct rt_note *rt)
 	char what[256];
 	size_t used = 0;
 
+	if (rt->err[RMD_LOOP_RT_CPU_AWAKE])
+		tool_log(5,
+			 "CPU wake-up latency not held at 0 us (/dev/cpu_dma_latency: %s): on an "
+			 "idle machine the loop and the bridge wake from idle states later. Give "
+			 "rmdd write access to it, or set loop.keep_cpus_awake: false to keep this "
+			 "power saving",
+			 strerror(-rt->err[RMD_LOOP_RT_CPU_AWAKE]));
 	if (!rt->any)
 		return;
 	what[0] = '\0';
@@ -325,7 +332,9 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 
 	switch ((enum rmd_event_kind)e->kind) {
 	case RMD_EV_RT:
-		if (e->b > 0 && e->b < 4) {
+		if (e->b == RMD_LOOP_RT_CPU_AWAKE) {
+			rt->err[e->b] = e->a ? (int)e->a : -EPERM;
+		} else if (e->b > 0 && e->b < RMD_LOOP_RT_CPU_AWAKE) {
 			rt->any = true;
 			rt->err[e->b] = e->a ? (int)e->a : -EPERM;
 		}
