@@ -100,20 +100,6 @@ cfg() {
 	} >"$3"
 }
 
-# hogs_start: one busy process per CPU at normal priority; their pids in $hogs
-hogs_start() {
-	if command -v stress-ng >/dev/null 2>&1; then
-		stress-ng --cpu "$ncpu" --timeout 3600 >/dev/null 2>&1 &
-		hogs=$!
-	else
-		hogs=
-		for _ in $(seq "$ncpu"); do
-			sh -c 'while :; do :; done' &
-			hogs="$hogs $!"
-		done
-	fi
-	sleep 1
-}
 
 # run LOAD RATE MOTORS WHICH(this|base) DIR: rmdd and the controller, files in DIR/TAG.*
 # (TAG = LOAD-RATE-MOTORS.WHICH); on vcan0 when LOAD is vcan, with candump beside it
@@ -192,7 +178,7 @@ ratio() {
 : >"$work/rows"
 for load in $LOADS; do
 	hogs=
-	[ "$load" = hogs ] && hogs_start
+	[ "$load" = hogs ] && bench_hogs_start 3600
 	for c in $CASES; do
 		run "$load" "${c%:*}" "${c#*:}" base "$work"
 		run "$load" "${c%:*}" "${c#*:}" this "$work"

@@ -29,26 +29,12 @@ test=${BUILD:-build}/tests/system/test_latency
 [ -x "$test" ] || make -j2 "$test" >/dev/null
 ncpu=$(nproc)
 
-# hogs_start: one busy process per CPU at normal priority; their pids in $hogs
-hogs_start() {
-	if command -v stress-ng >/dev/null 2>&1; then
-		stress-ng --cpu "$ncpu" --timeout 600 >/dev/null 2>&1 &
-		hogs=$!
-	else
-		hogs=
-		for _ in $(seq "$ncpu"); do
-			sh -c 'while :; do :; done' &
-			hogs="$hogs $!"
-		done
-	fi
-	sleep 1
-}
 
 # run LABEL HOGS(0|1) BRIDGE_PRIO: the test beside cyclictest; samples in $work/LABEL.*
 run() {
 	label=$1
 	hogs=
-	[ "$2" = 1 ] && hogs_start
+	[ "$2" = 1 ] && bench_hogs_start 600
 	cyclictest -m -t1 -p "$PRIO" -i 1000 -q -h 2000 >"$work/$label.ct" 2>&1 &
 	ct=$!
 	rc=0

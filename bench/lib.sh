@@ -10,6 +10,10 @@
 # bench_init NAME         the prologue of a script: BUILD (build) and OUT
 #                         (bench/results) defaults, OUT made, and a work
 #                         directory $work removed when the script exits.
+# bench_hogs_start [SECONDS]
+#                         one busy process per CPU at normal priority
+#                         (stress-ng --cpu NCPU, else shell loops) for at
+#                         most SECONDS (600); their pids in $hogs.
 # bench_plot_png NAME TXT PNG ARGS...
 #                         the epilogue: plot with the Python on stdin (it
 #                         finds sys, plt and PNG = sys.argv[1], ARGS in
@@ -101,4 +105,18 @@ bench_rmdd_start() {
 		fi
 		sleep 0.1
 	done
+}
+
+bench_hogs_start() {
+	if command -v stress-ng >/dev/null 2>&1; then
+		stress-ng --cpu "$(nproc)" --timeout "${1:-600}" >/dev/null 2>&1 &
+		hogs=$!
+	else
+		hogs=
+		for _ in $(seq "$(nproc)"); do
+			sh -c 'while :; do :; done' &
+			hogs="$hogs $!"
+		done
+	fi
+	sleep 1
 }
