@@ -144,41 +144,21 @@ static void give_up_tries(struct lmotor *lm, const struct rmd_txn *t)
 		loop_gone(lm, key, t->first_sent_ns);
 }
 
-/*
- * Whether an answer with key, received for a request lm was sent at
- * sent_ns, may be the late answer of an earlier request given up
- * (loop_gone()) that could still come: within the probe bound of it.
- * Non-rt.
- */
-static bool maybe_earlier(const struct rmd_loop *l, const struct lmotor *lm, uint64_t key,
-			  int64_t sent_ns)
+/* What the answers of t[0..n) on bus lb tell of its round trip.  Non-rt. */
+static void learn_rtt(struct lbus *lb, const struct rmd_txn *t, unsigned n)
 {
-	int64_t bound = (int64_t)l->cfg->probe.reply_timeout_ms * RMD_NS_PER_MS;
+	for (unsigned k = 0; k < n; k++) {
+		int64_t rtt = t[k].rep.t_ns - t[k].first_sent_ns;
 
-	for (unsigned k = 0; k < GONE; k++)
-		if (lm->gone[k].key == key && sent_ns - lm->gone[k].sent_ns < bound)
-			return true;
-	return false;
-}
-
-/* What the answer of t, lm's, tells of the round trip of its bus lb.  Non-rt. */
-static void learn_rtt(const struct rmd_loop *l, struct lbus *lb, const struct lmotor *lm,
-		      const struct rmd_txn *t)
-{
-	int64_t rtt = t->rep.t_ns - t->first_sent_ns;
-
-	/*
-	 * An answer after a retry may be any try's, and one that an earlier
-	 * request of the same kind, given up, may still be owed: not a measure.
-	 */
-	if (!t->done || t->no_reply || t->tries != 1 || rtt < 0 ||
-	    maybe_earlier(l, lm, loop_reply_key(t->reply_id, t->reply_cmd), t->first_sent_ns))
-		return;
-	if (!lb->rtt_n || rtt < lb->rtt_min_ns)
-		lb->rtt_min_ns = rtt;
-	if (!lb->rtt_n || rtt > lb->rtt_max_ns)
-		lb->rtt_max_ns = rtt;
-	lb->rtt_n++;
+		/* an answer after a retry may be any try's: not a measure */
+		if (!t[k].done || t[k].no_reply || t[k].tries != 1 || rtt < 0)
+			continue;
+		if (!lb->rtt_n || rtt < lb->rtt_min_ns)
+			lb->rtt_min_ns = rtt;
+		if (!lb->rtt_n || rtt > lb->rtt_max_ns)
+			lb->rtt_max_ns = rtt;
+		lb->rtt_n++;
+	}
 }
 
 /*
@@ -201,7 +181,7 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_ms
 	r = rmd_txn_run(lb->bus, t, 1, &o);
 	if (r < 0)
 		return r;
-	learn_rtt(l, lb, lm, t);
+	learn_rtt(lb, t, 1);
 	give_up_tries(lm, t);
 	return t->done ? 0 : -ETIMEDOUT;
 }
