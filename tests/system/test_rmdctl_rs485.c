@@ -1229,11 +1229,34 @@ static void test_rmdd_at_rtt_rate(void **state)
 		st = run_rmdd(g, rmdd, rate, rtt_turnaround_us, log, sizeof(log));
 		if (st != 0)
 			fail_msg("rmdd exit %d; its log:\n%s", st, log);
-		if (strstr(log, "longer than the line's reply timeout"))
+		if (strstr(log, "longer than the line's reply timeout")) {
+			/*
+			 * A round trip past the timeout by less than the machine held a
+			 * normal thread off meanwhile (the test's pty relay, which plays
+			 * the converter, is one) is the machine's: run again, said so.
+			 */
+			double up_to = 0, timeout = 0;
+			const char *w = strstr(log, "round trip up to ");
+
+			if (w &&
+			    sscanf(w,
+				   "round trip up to %lf ms, longer than the line's reply "
+				   "timeout %lf ms",
+				   &up_to, &timeout) == 2 &&
+			    k + 1 < RMDD_RUNS &&
+			    ms_of(sleeper_worst_ns(&g->ref)) >= up_to - timeout) {
+				print_message(
+					"busy machine: a bring-up round trip of %.2f ms, past "
+					"the line's %.2f ms, while a normal-priority thread "
+					"was held off %.1f ms: again\n",
+					up_to, timeout, ms_of(sleeper_worst_ns(&g->ref)));
+				continue;
+			}
 			fail_msg(
 				"bring-up: round trips beyond the line's timeout with turnaround_us "
 				"%ld:\n%s",
 				rtt_turnaround_us, log);
+		}
 		matched = num_after(log, "replies: matched ");
 		missed = num_after(log, ", missed ");
 		if (matched < 0 || missed < 0)
