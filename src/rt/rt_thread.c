@@ -81,6 +81,7 @@ static void between_ticks(struct rmd_loop *l)
 {
 	int64_t deadline = l->next_tick_ns - PUBLISH_LEAD_NS;
 	bool waiting = true, looked = false; /* looked: the owing buses were read when due */
+	unsigned deaf = 0; /* buses whose descriptor said more than "readable": not waited on */
 
 	for (;;) {
 		struct pollfd pfd[RMD_MAX_BUSES];
@@ -118,7 +119,8 @@ static void between_ticks(struct rmd_loop *l)
 			struct rmd_bus *bus = l->bus[b].bus;
 			int fd = rmd_bus_fd(bus);
 			bool queue = queues_requests(bus);
-			bool ready = looked && (owing & (1u << b)); /* readiness: what is missing */
+			/* readiness: what is missing */
+			bool ready = looked && (owing & ~deaf & (1u << b));
 
 			if (queue) {
 				int64_t d = rmd_bus_next_due_ns(bus);
@@ -142,11 +144,16 @@ static void between_ticks(struct rmd_loop *l)
 			return;
 		now = rmd_now_ns();
 		/* the buses that have frames, whose queue is due, or (no descriptor) that owe */
-		for (unsigned k = 0; k < n; k++)
+		for (unsigned k = 0; k < n; k++) {
+			struct rmd_bus *bus = l->bus[which[k]].bus;
+
+			/* an error or hang-up would wake every wait: read at the tick, as before */
+			if (r > 0 && (pfd[k].revents & ~POLLIN) && !queues_requests(bus))
+				deaf |= 1u << which[k];
 			if ((r > 0 && pfd[k].revents) ||
-			    (queues_requests(l->bus[which[k]].bus) &&
-			     rmd_bus_next_due_ns(l->bus[which[k]].bus) <= now))
+			    (queues_requests(bus) && rmd_bus_next_due_ns(bus) <= now))
 				loop_drain(l, which[k], now);
+		}
 		for (unsigned b = 0; looked && b < l->n_buses; b++)
 			if ((owing & (1u << b)) && rmd_bus_fd(l->bus[b].bus) < 0)
 				loop_drain(l, b, now);
