@@ -276,16 +276,16 @@ static void test_lcm13_sends(void **state)
 	lcm_destroy(peer);
 }
 
+/* What the link sends the receiving peers: one datagram, two fragments, four fragments. */
+static const struct {
+	const char *channel;
+	size_t size;
+} msgs[] = { { PREFIX "A", SHORT_SIZE }, { PREFIX "B", FRAG_SIZE }, { PREFIX "C", BIG_SIZE } };
+
 /* liblcm 1.3.1 receives what the link sends: short, two fragments, four fragments. */
 static void test_lcm13_receives(void **state)
 {
 	struct fixture *f = fixture_or_skip(state);
-	static const struct {
-		const char *channel;
-		size_t size;
-	} msgs[] = { { PREFIX "A", SHORT_SIZE },
-		     { PREFIX "B", FRAG_SIZE },
-		     { PREFIX "C", BIG_SIZE } };
 	lcm_t *peer = lcm_create(f->peer_url);
 	struct c_rx rx = { 0 };
 
@@ -361,12 +361,6 @@ static void test_lcm15_sends(void **state)
 static void test_lcm15_receives(void **state)
 {
 	struct fixture *f = fixture_or_skip(state);
-	static const struct {
-		const char *channel;
-		size_t size;
-	} msgs[] = { { PREFIX "A", SHORT_SIZE },
-		     { PREFIX "B", FRAG_SIZE },
-		     { PREFIX "C", BIG_SIZE } };
 	char cmd[3 * PATH_MAX], line[256];
 	FILE *p;
 
