@@ -1046,25 +1046,25 @@ static void write_config(void)
 
 /* ---- the system's fixture: rmd-sim per bus, candump, LCM -------------------------- */
 
+/*
+ * One rmd-sim a bus, on the same file rmdd runs (issue 22.7: a bus described
+ * once serves both): rmd-sim picks the bus whose interface --can names and
+ * simulates its motors as the file describes them.
+ */
 static void sims_start(void)
 {
 	for (unsigned b = 0; b < S.nbus; b++) {
-		char list[128] = "", seed[16], name[32];
-		size_t n = 0;
+		char seed[16], name[32];
 		const char *argv[16];
 		unsigned a = 0;
 
-		for (unsigned i = 0; i < S.cfg.n_motors; i++)
-			if (S.cfg.motors[i].bus == b)
-				n += (size_t)snprintf(list + n, sizeof(list) - n, "%s%u",
-						      n ? "," : "", S.cfg.motors[i].id);
 		snprintf(seed, sizeof(seed), "%u", b + 1);
 		snprintf(name, sizeof(name), "rmd-sim %s", iface(b));
 		argv[a++] = S.rmdsim;
+		argv[a++] = "--config";
+		argv[a++] = S.cfgpath;
 		argv[a++] = "--can";
 		argv[a++] = iface(b);
-		argv[a++] = "--motors";
-		argv[a++] = list;
 		argv[a++] = "--seed";
 		argv[a++] = seed;
 		argv[a] = NULL;
