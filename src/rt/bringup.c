@@ -457,7 +457,6 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		return -ENODEV;
 	}
 	lm->consecutive = 0;
-	lm->answers = lm->replied;
 	stop_found(l, lm);
 	now = loop_now(l);
 	if (lm->st->error_code)

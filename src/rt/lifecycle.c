@@ -300,7 +300,6 @@ void loop_miss(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	lm->st->missed_replies++;
 	l->cnt.missed++;
 	lm->consecutive++;
-	lm->answers = false;
 	if (lm->consecutive >= n && lm->st->lifecycle != RMD_LC_LOST)
 		loop_motor_lost(l, lm, now);
 }

@@ -450,7 +450,6 @@ void rmd_loop_tick(struct rmd_loop *l, int64_t now)
 	/* the last cycle's state, if its replies were not in before this tick: with them */
 	if (!l->published)
 		rmd_loop_publish(l, now);
-	l->tick_ns = now;
 	l->published = false;
 	l->await_due_ns = 0;
 	loop_check_deadlines(l, now);
@@ -483,7 +482,7 @@ bool rmd_loop_collect(struct rmd_loop *l, int64_t now)
 /* rmd_loop_reply_due(), and in *owing the buses that owe replies (loop_awaited()).  rt-safe. */
 int64_t loop_reply_due(const struct rmd_loop *l, int64_t now, unsigned *owing)
 {
-	int64_t due = l->await_due_ns, deadline = l->next_tick_ns - PUBLISH_LEAD_NS;
+	int64_t due = l->await_due_ns, deadline = loop_publish_deadline(l);
 
 	*owing = 0;
 	if (l->published || due > deadline)

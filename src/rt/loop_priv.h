@@ -122,7 +122,6 @@ struct lmotor {
 	uint8_t stop_from; /* enum rmd_lifecycle */
 	int64_t next_probe_ns;
 	bool replied;
-	bool answers; /* it answered its last request: replied and no miss since (loop_alive()) */
 	uint64_t last_reply_cycle;
 	/*
 	 * Comm-loss protection (0xB3, lifecycle.c "Comm-loss protection"): its
@@ -205,9 +204,8 @@ struct rmd_loop {
 	bool started;
 	bool stopping; /* rmd_loop_stop_motors() runs: SAFE's entry queues nothing */
 	int64_t next_tick_ns;
-	int64_t tick_ns; /* the running cycle's tick: its requests' sent_ns */
-	uint64_t cycle;	 /* index of the cycle running, from 0 */
-	bool published;	 /* the running cycle's state is out (rmd_loop_publish()) */
+	uint64_t cycle; /* index of the cycle running, from 0 */
+	bool published; /* the running cycle's state is out (rmd_loop_publish()) */
 	/* when the last reply the running cycle waits for is expected (loop_rx.c await_add()) */
 	int64_t await_due_ns;
 
@@ -351,12 +349,26 @@ static inline struct lmotor *loop_motor_of(struct rmd_loop *l, unsigned b, uint3
 	return k ? &l->mot[k - 1] : NULL;
 }
 
+/* It answered its last request: it answered at all, and missed none since.  rt-safe. */
+static inline bool loop_answers(const struct lmotor *lm)
+{
+	return lm->replied & !lm->consecutive;
+}
+
+/*
+ * The cycle's state waits for its replies until PUBLISH_LEAD_NS before the
+ * next tick (rt_thread.c between_ticks()).  rt-safe.
+ */
+static inline int64_t loop_publish_deadline(const struct rmd_loop *l)
+{
+	return l->next_tick_ns - PUBLISH_LEAD_NS;
+}
+
 /* The motor answered something: it is there.  rt-safe. */
 static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	lm->consecutive = 0;
 	lm->replied = true;
-	lm->answers = true;
 	lm->last_reply_cycle = l->cycle;
 	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE)
 		loop_enter(l, lm, RMD_LC_STOPPING, now);

@@ -66,7 +66,7 @@ static inline void os_give_up(struct lmotor *lm, const struct outstanding *o)
  */
 static inline void await_add(struct rmd_loop *l, struct lmotor *lm, const struct outstanding *o)
 {
-	if (lm->answers & ((o->key & 0xFFFF) != 0x9A)) {
+	if (loop_answers(lm) & ((o->key & 0xFFFF) != 0x9A)) {
 		/* when it comes: the motor's mean round trip, each request an eighth of the last */
 		lm->rtt_est_ns += (lm->st->reply_latency_ns - lm->rtt_est_ns) >> 3;
 		lm->await_seq = o->seq + 1;
@@ -440,7 +440,7 @@ unsigned loop_awaited(const struct rmd_loop *l)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		const struct lmotor *lm = &l->mot[i];
 
-		if (lm->answers && lm->heard_seq < lm->await_seq)
+		if (loop_answers(lm) && lm->heard_seq < lm->await_seq)
 			buses |= 1u << lm->m.bus;
 	}
 	return buses;

@@ -79,7 +79,7 @@ static bool blind(const struct rmd_loop *l, unsigned mask)
  */
 static void between_ticks(struct rmd_loop *l)
 {
-	int64_t deadline = l->next_tick_ns - PUBLISH_LEAD_NS;
+	int64_t deadline = loop_publish_deadline(l);
 	bool waiting = true, looked = false; /* looked: the owing buses were read when due */
 	unsigned deaf = 0; /* buses whose descriptor said more than "readable": not waited on */
 
