@@ -829,6 +829,23 @@ static int64_t first_to(unsigned i, int cmd, unsigned from)
 }
 
 /*
+ * Motor i's safe action (0x80) since trace[from], sent 100..101 ms (+ a
+ * frame's time) after its last command at last_ns, in 300 ms of `what`;
+ * its time.
+ */
+static int64_t safe_action_at(unsigned i, int64_t last_ns, unsigned from, const char *what)
+{
+	int64_t t80 = first_to(i, 0x80, from);
+
+	if (t80 == INT64_MAX)
+		fail_msg("motor %u: no safe action (0x80) in 300 ms of %s", i, what);
+	if (t80 < last_ns + 100 * MS || t80 > last_ns + 101 * MS + 300 * US)
+		fail_msg("motor %u: 0x80 at +%lld us after its last command (want +100..101 ms)", i,
+			 (long long)((t80 - last_ns) / US));
+	return t80;
+}
+
+/*
  * Issue 20.2: the host watchdog is per motor.  A controller that keeps
  * streaming commands which carry only motor 0 (its arms loop died) keeps
  * motor 0 driven, but motor 1 gets the safe action command_timeout_ms
@@ -849,12 +866,7 @@ static void test_watchdog_per_motor(void **state)
 	R.cmd.present = 1u << 0;
 	from = trace_n;
 	run(300, true);
-	t80 = first_to(1, 0x80, from);
-	if (t80 == INT64_MAX)
-		fail_msg("motor 1: no safe action (0x80) in 300 ms of commands without it");
-	if (t80 < last1 + 100 * MS || t80 > last1 + 101 * MS + 300 * US)
-		fail_msg("motor 1: 0x80 at +%lld us after its last command (want +100..101 ms)",
-			 (long long)((t80 - last1) / US));
+	t80 = safe_action_at(1, last1, from, "commands without it");
 	for (unsigned k = from; k < trace_n; k++)
 		if (trace[k].t_ns > t80 && trace[k].f.can_id == 0x140u + R.io.cfg.motors[1].id &&
 		    trace[k].f.data[0] == 0xA2)
@@ -873,12 +885,7 @@ static void test_watchdog_per_motor(void **state)
 	R.cmd.present = 0;
 	from = trace_n;
 	run(300, true);
-	t80 = first_to(0, 0x80, from);
-	if (t80 == INT64_MAX)
-		fail_msg("motor 0: no safe action (0x80) in 300 ms of commands with no motor");
-	if (t80 < last0 + 100 * MS || t80 > last0 + 101 * MS + 300 * US)
-		fail_msg("motor 0: 0x80 at +%lld us after its last command (want +100..101 ms)",
-			 (long long)((t80 - last0) / US));
+	t80 = safe_action_at(0, last0, from, "commands with no motor");
 	for (unsigned k = from; k < trace_n; k++)
 		if (trace[k].t_ns > t80 && moves_frame(&trace[k].f))
 			fail_msg(
