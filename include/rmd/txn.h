@@ -98,6 +98,12 @@ struct rmd_txn {
 	unsigned prev_heard; /* its `heard` when this try went out */
 	bool guard_sent;     /* this try went out right behind a guard */
 	bool guard_heard;    /* ... and the guard was answered or echoed */
+	/*
+	 * Guards sent this run and not answered yet: their answers (0x9A on
+	 * reply_id) may still come, after the run, and must not be taken for
+	 * a later request's (rmd_loop's bring-up counts them owed).
+	 */
+	unsigned guards_owed;
 	/* results */
 	bool done;	       /* answered (or, no_reply, sent) */
 	unsigned tries;	       /* sends made */

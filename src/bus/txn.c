@@ -112,6 +112,14 @@ static bool ahead_unheard(const struct rmd_txn *t, const struct rmd_txn *x)
 	return (x->guard_sent || x->prev) && !reached_awake(t, x);
 }
 
+/* x's guard was answered (or echoed). */
+static void guard_answered(struct rmd_txn *x)
+{
+	x->guard_heard = true;
+	if (x->guards_owed)
+		x->guards_owed--;
+}
+
 /*
  * Does rx answer one of t[0..n)?  The first waiting request it matches
  * takes it; a repeat of a request that is only its echo (the comm-loss
@@ -135,7 +143,7 @@ static bool take(struct rmd_txn *t, unsigned n, const struct rmd_bus_rx *rx)
 		 */
 		if (repeats && ahead_unheard(t, x)) {
 			if (x->guard_sent && rx->f.data[0] == RMD_TXN_GUARD_CMD)
-				x->guard_heard = true;
+				guard_answered(x);
 			return true;
 		}
 		x->heard++;
@@ -154,7 +162,7 @@ static bool take(struct rmd_txn *t, unsigned n, const struct rmd_bus_rx *rx)
 
 		if (x->guard_sent && !x->guard_heard && rx->f.can_id == x->reply_id &&
 		    rx->f.len >= 1 && rx->f.data[0] == RMD_TXN_GUARD_CMD) {
-			x->guard_heard = true;
+			guard_answered(x);
 			return true;
 		}
 	}
@@ -251,8 +259,10 @@ static int send_some(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, int64_t
 		struct rmd_txn *x = &t[idx[j] & ~TXN_GUARD_BIT], *a;
 
 		(*k)++; /* a guard holds up what follows like a request */
-		if (idx[j] & TXN_GUARD_BIT)
+		if (idx[j] & TXN_GUARD_BIT) {
+			x->guards_owed++;
 			continue;
+		}
 		a = j ? &t[idx[j - 1] & ~TXN_GUARD_BIT] : NULL;
 		x->guard_sent = a == x;
 		x->guard_heard = false;
@@ -395,6 +405,7 @@ int rmd_txn_run(struct rmd_bus *bus, struct rmd_txn *t, unsigned n, const struct
 		t[i].prev = 0;
 		t[i].guard_sent = false;
 		t[i].guard_heard = false;
+		t[i].guards_owed = 0;
 	}
 	/* Nothing received before the requests left can answer them. */
 	r = collect(bus, t, 0, now_of(opts), opts);

@@ -130,35 +130,54 @@ static int64_t probe_timeout_ns(const struct rmd_loop *l, const struct lbus *lb,
 
 /*
  * The tries of t that were given up -- all of them when it was not
- * answered, all but one when it was -- may still be answered: the loop
- * counts such answers late, not unexpected (loop_gone()).  Non-rt.
+ * answered, all but one when it was -- and the guards sent ahead of them
+ * that were not answered (struct rmd_txn.guards_owed) may still be
+ * answered: the loop counts such answers late, not unexpected, and
+ * bring-up takes no round trip from them (loop_gone()).  Non-rt.
  */
 static void give_up_tries(struct lmotor *lm, const struct rmd_txn *t)
 {
-	unsigned n = t->tries - (t->done ? 1u : 0u);
+	unsigned n = t->no_reply ? 0u : t->tries - (t->done ? 1u : 0u);
 	uint64_t key = loop_reply_key(t->reply_id, t->reply_cmd);
 
-	if (t->no_reply)
-		return;
 	for (unsigned k = 0; k < n && k < GONE; k++)
 		loop_gone(lm, key, t->first_sent_ns);
+	for (unsigned k = 0; k < t->guards_owed && k < GONE; k++)
+		loop_gone(lm, loop_reply_key(t->reply_id, RMD_TXN_GUARD_CMD), t->first_sent_ns);
 }
 
-/* What the answers of t[0..n) on bus lb tell of its round trip.  Non-rt. */
-static void learn_rtt(struct lbus *lb, const struct rmd_txn *t, unsigned n)
+/*
+ * May lm still owe the answer of a try given up (give_up_tries()) that
+ * answers like t?  Bring-up does not tell which of them came (the loop
+ * does, loop_rx.c), and a motor answers in order: what answered t may be
+ * that one.  Non-rt.
+ */
+static bool owes_like(const struct lmotor *lm, const struct rmd_txn *t)
 {
-	for (unsigned k = 0; k < n; k++) {
-		int64_t rtt = t[k].rep.t_ns - t[k].first_sent_ns;
+	uint64_t key = loop_reply_key(t->reply_id, t->reply_cmd);
 
-		/* an answer after a retry may be any try's: not a measure */
-		if (!t[k].done || t[k].no_reply || t[k].tries != 1 || rtt < 0)
-			continue;
-		if (!lb->rtt_n || rtt < lb->rtt_min_ns)
-			lb->rtt_min_ns = rtt;
-		if (!lb->rtt_n || rtt > lb->rtt_max_ns)
-			lb->rtt_max_ns = rtt;
-		lb->rtt_n++;
-	}
+	for (unsigned k = 0; k < GONE; k++)
+		if (lm->gone[k].key == key)
+			return true;
+	return false;
+}
+
+/*
+ * What the answer of t, a request to lm, tells of its bus's round trip.
+ * Not a measure: an answer after a retry (it may be any try's), or one
+ * an earlier request's late answer may have stood in for.  Non-rt.
+ */
+static void learn_rtt(struct lbus *lb, const struct lmotor *lm, const struct rmd_txn *t)
+{
+	int64_t rtt = t->rep.t_ns - t->first_sent_ns;
+
+	if (!t->done || t->no_reply || t->tries != 1 || rtt < 0 || owes_like(lm, t))
+		return;
+	if (!lb->rtt_n || rtt < lb->rtt_min_ns)
+		lb->rtt_min_ns = rtt;
+	if (!lb->rtt_n || rtt > lb->rtt_max_ns)
+		lb->rtt_max_ns = rtt;
+	lb->rtt_n++;
 }
 
 /*
@@ -181,7 +200,7 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_ms
 	r = rmd_txn_run(lb->bus, t, 1, &o);
 	if (r < 0)
 		return r;
-	learn_rtt(lb, t, 1);
+	learn_rtt(lb, lm, t);
 	give_up_tries(lm, t);
 	return t->done ? 0 : -ETIMEDOUT;
 }
