@@ -214,8 +214,9 @@ struct rmd_sim_motor {
 	double vel_rad_s;
 	double iq_a;
 	double temp_c;
-	int64_t t_ns;	 /* physics time reached */
-	int64_t boot_ns; /* last power-on or reset */
+	int64_t t_ns;	     /* physics time reached */
+	int64_t boot_ns;     /* last power-on or reset */
+	int64_t last_due_ns; /* when its latest reply was due (rmd_sim_motor_reply_due()) */
 	/* control */
 	enum rmd_sim_ctrl ctrl;
 	enum rmd_sim_ctrl ctrl_stopped; /* V2 0x81 keeps the mode for 0x88 */
@@ -303,5 +304,14 @@ int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m);
  * the flash write), else 0.  rt-safe.
  */
 int64_t rmd_sim_motor_rom_extra_ns(const struct rmd_sim_motor *m, const struct rmd_frame *req);
+
+/*
+ * When the reply to `req`, received at t_ns, is ready: a turnaround later
+ * (rmd_sim_motor_turnaround_ns(), plus rmd_sim_motor_rom_extra_ns()), and
+ * never before the motor's previous reply: firmware answers its requests
+ * one after the other, in order, whatever the jitter.  Call it once per
+ * reply.  rt-safe.
+ */
+int64_t rmd_sim_motor_reply_due(struct rmd_sim_motor *m, int64_t t_ns, const struct rmd_frame *req);
 
 #endif /* RMD_SIM_H */

@@ -118,6 +118,16 @@ int64_t rmd_sim_motor_rom_extra_ns(const struct rmd_sim_motor *m, const struct r
 	return spec && spec->flags & RMD_CMD_ROM ? (int64_t)m->p.rom_write_ns : 0;
 }
 
+int64_t rmd_sim_motor_reply_due(struct rmd_sim_motor *m, int64_t t_ns, const struct rmd_frame *req)
+{
+	int64_t due = t_ns + rmd_sim_motor_turnaround_ns(m) + rmd_sim_motor_rom_extra_ns(m, req);
+
+	if (due < m->last_due_ns)
+		due = m->last_due_ns;
+	m->last_due_ns = due;
+	return due;
+}
+
 /* Replace nonsense (zero inertia, NaN, ...) by the defaults: never divide by 0. */
 static void sanitize(struct rmd_sim_motor_params *p)
 {

@@ -230,11 +230,7 @@ static void finish_frame(struct rmd_sim_wire *bus)
 			continue;
 		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int j = 0; j < n; j++)
-			motor_emit(bus, i, out[j], t,
-				   t + rmd_sim_motor_turnaround_ns(m) +
-					   (m->p.rom_write_ns > 0 ?
-						    rmd_sim_motor_rom_extra_ns(m, &w->f) :
-						    0));
+			motor_emit(bus, i, out[j], t, rmd_sim_motor_reply_due(m, t, &w->f));
 	}
 	/* a motor's frame reaches the host through its adapter (rmd/sim_adapter.h) */
 	if (w->src >= 0)

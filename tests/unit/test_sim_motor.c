@@ -1018,6 +1018,36 @@ static void test_deterministic_jitter(void **state)
 	assert_int_equal(rmd_sim_motor_rand(&a), rmd_sim_motor_rand(&b));
 }
 
+/*
+ * Replies leave in the order of their requests, whatever the jitter: a
+ * request every 1 ms to a motor that takes 2..10 ms.  Each reply is due a
+ * turnaround after its request at the earliest, never before the previous
+ * one, and the jitter really would have reordered some.
+ */
+static void test_replies_in_order(void **state)
+{
+	struct rmd_sim_motor m;
+	struct rmd_frame f = REQ0(V3, 1, 0x9A);
+	int64_t prev = 0;
+	unsigned held = 0;
+
+	(void)state;
+	motor_init(&m, 1, RMD_PROTO_V3);
+	m.p.turnaround_ns = 6e6;
+	m.p.turnaround_jitter_ns = 4e6;
+	for (int k = 0; k < 200; k++) {
+		int64_t t = (int64_t)k * MS, due = rmd_sim_motor_reply_due(&m, t, &f);
+
+		assert_true(due >= t + 2 * MS && due <= t + 10 * MS);
+		assert_true(due >= prev);
+		held += due == prev;
+		prev = due;
+	}
+	if (held < 10)
+		fail_msg("only %u of 200 replies waited for the one before: the test shows nothing",
+			 held);
+}
+
 /* The next-event hint names when the comm-loss 0xF1 falls due. */
 static void test_next_event(void **state)
 {
@@ -1267,6 +1297,7 @@ int main(void)
 		cmocka_unit_test_setup(test_reads_and_identity, setup),
 		cmocka_unit_test_setup(test_v2_commands, setup),
 		cmocka_unit_test_setup(test_deterministic_jitter, setup),
+		cmocka_unit_test_setup(test_replies_in_order, setup),
 		cmocka_unit_test_setup(test_next_event, setup),
 		cmocka_unit_test_setup(test_v4_gains_and_accel, setup),
 		cmocka_unit_test_setup(test_v4_set_id, setup),

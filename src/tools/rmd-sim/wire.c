@@ -10,7 +10,8 @@
  *
  * - A frame that arrives goes to every present motor at its arrival time
  *   (rmd_sim_motor_receive()).  Each reply is due a turnaround later
- *   (rmd_sim_motor_turnaround_ns()) and waits in a queue ordered by due
+ *   (rmd_sim_motor_turnaround_ns()), never before that motor's previous
+ *   reply (rmd_sim_motor_reply_due()), and waits in a queue ordered by due
  *   time; unsolicited frames (rmd_sim_motor_poll(): 0xF1, 0x9A reports)
  *   are due when the motor says (rmd_sim_motor_next_event_ns()).
  * - The timer is armed for the earliest of: the queue's head, the motors'
@@ -403,9 +404,7 @@ static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 			continue;
 		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_WIRE_MAX_REPLIES);
 		for (int k = 0; k < n; k++)
-			emit(s, i, &out[k], t,
-			     t + rmd_sim_motor_turnaround_ns(&sl->m) +
-				     rmd_sim_motor_rom_extra_ns(&sl->m, f));
+			emit(s, i, &out[k], t, rmd_sim_motor_reply_due(&sl->m, t, f));
 		total += n;
 	}
 	return total;
