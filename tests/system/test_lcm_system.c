@@ -595,17 +595,19 @@ static bool all_at_target(const struct fixture *f, double tol)
 
 /*
  * Publish cmd_all(enable) every CTL_PERIOD_MS, as a controller does, until
- * done(f) or ms pass.  Returns whether done(f) held.
+ * done(f) or ms pass (of the time the machine let a normal thread run).
+ * Returns whether done(f) held.
  */
 static bool stream(struct fixture *f, bool enable, int ms,
 		   bool (*done)(const struct fixture *f, int arg), int arg)
 {
-	int64_t end = rmd_now_ns() + (int64_t)ms * NS_PER_MS, next = 0;
+	int64_t t0 = rmd_now_ns(), h0 = sleeper_held_off_ns(&ref), next = 0;
 
 	while (!done(f, arg)) {
 		int64_t now = rmd_now_ns();
 
-		if (now >= end)
+		/* ms of the time the machine let a normal thread run (WAIT_UNTIL_HELD) */
+		if (now - t0 - (sleeper_held_off_ns(&ref) - h0) >= (int64_t)ms * NS_PER_MS)
 			return false;
 		if (now >= next) {
 			rmd_command_t m = cmd_all(f, enable);
@@ -859,11 +861,11 @@ static unsigned tap_count(const char *path, const char *needle)
 	return n;
 }
 
-static bool done_pos1_enabled(const struct fixture *f, int arg)
+/* Motor `index` is reported enabled. */
+static bool done_enabled(const struct fixture *f, int index)
 {
-	(void)arg;
 	return f->rx.state.count == NMOTORS &&
-	       f->rx.state.motor[0].lifecycle == RMD_STATE_T_LC_ENABLED;
+	       f->rx.state.motor[index].lifecycle == RMD_STATE_T_LC_ENABLED;
 }
 
 /*
@@ -919,6 +921,8 @@ static void test_uncertain_position_refused_until_homed(void **state)
 	/* every motor in position (MIT: kp > 0) mode: motor 0 refused, the rest run */
 	for (int i = 0; i < NMOTORS; i++)
 		f->target[i] = f->rx.state.motor[i].position + (i == 0 ? 0.3 : 0.0);
+	if (!stream(f, true, 2000, done_enabled, 1))
+		fail_msg("motor 1 not enabled; rmdd's output:\n%s", slurp(f->log));
 	stream(f, true, 500, done_never, 0);
 	assert_int_equal(f->rx.state.motor[0].lifecycle, RMD_STATE_T_LC_READY);
 	assert_int_equal(f->rx.state.motor[1].lifecycle, RMD_STATE_T_LC_ENABLED);
@@ -936,7 +940,7 @@ static void test_uncertain_position_refused_until_homed(void **state)
 	home.index = 0;
 	home.as_reported = true;
 	assert_int_equal(rmd_home_t_publish(f->pub, "RMD_HOME", &home), 0);
-	if (!stream(f, true, 2000, done_pos1_enabled, 0))
+	if (!stream(f, true, 2000, done_enabled, 0))
 		fail_msg("motor 0 not enabled after homing; rmdd's output:\n%s", slurp(f->log));
 	assert_true(f->rx.state.motor[0].position_certain);
 	assert_int_equal(f->rx.state.motor[0].position_trust, RMD_STATE_T_POS_HOMED);
