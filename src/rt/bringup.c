@@ -164,14 +164,17 @@ static bool owes_like(const struct lmotor *lm, const struct rmd_txn *t)
 
 /*
  * What the answer of t, a request to lm, tells of its bus's round trip.
- * Not a measure: an answer after a retry (it may be any try's), or one
- * an earlier request's late answer may have stood in for.  Non-rt.
+ * Not a measure: an answer after a retry (it may be any try's), one an
+ * earlier request's late answer may have stood in for, or a request
+ * that went out behind its guard (a half-duplex line writes it only when
+ * the guard is answered: the time holds two round trips).  Non-rt.
  */
 static void learn_rtt(struct lbus *lb, const struct lmotor *lm, const struct rmd_txn *t)
 {
 	int64_t rtt = t->rep.t_ns - t->first_sent_ns;
 
-	if (!t->done || t->no_reply || t->tries != 1 || rtt < 0 || owes_like(lm, t))
+	if (!t->done || t->no_reply || t->tries != 1 || t->guard_sent || rtt < 0 ||
+	    owes_like(lm, t))
 		return;
 	if (!lb->rtt_n || rtt < lb->rtt_min_ns)
 		lb->rtt_min_ns = rtt;
