@@ -405,7 +405,9 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		now = loop_now(l);
 		out->state = RMD_BRINGUP_MISSING;
 		loop_enter(l, lm, RMD_LC_LOST, now);
-		lm->next_probe_ns = now; /* the first cycle probes again, as V3 */
+		/* the first cycle probes again, as V3, its firmware date first */
+		lm->dialect_open = true;
+		lm->next_probe_ns = now;
 		return -ENODEV;
 	}
 	d = lm->m.d;
@@ -475,6 +477,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		}
 		out->state = RMD_BRINGUP_MISMATCH;
 		loop_enter(l, lm, RMD_LC_LOST, now);
+		lm->refused = true;
 		lm->next_probe_ns = INT64_MAX;
 		return -ENODEV;
 	}

@@ -121,6 +121,17 @@ struct lmotor {
 	uint64_t owe_seq;  /* an echo pays only for a request booked from this seq on */
 	uint8_t stop_from; /* enum rmd_lifecycle */
 	int64_t next_probe_ns;
+	/*
+	 * `protocol: auto` and missing at bring-up: the loop took it for V3;
+	 * its re-probe asks the firmware date (0xB2) until the answer settles
+	 * that (loop_rx.c settle_dialect()).
+	 */
+	bool dialect_open;
+	/*
+	 * Left out for good (bring-up's dialect mismatch, or a late answer
+	 * that named another dialect): nothing it says brings it back.
+	 */
+	bool refused;
 	bool replied;
 	uint64_t last_reply_cycle;
 	/*
@@ -364,13 +375,18 @@ static inline int64_t loop_publish_deadline(const struct rmd_loop *l)
 	return l->next_tick_ns - PUBLISH_LEAD_NS;
 }
 
-/* The motor answered something: it is there.  rt-safe. */
+/*
+ * The motor answered something: it is there, and a lost one comes back --
+ * unless it is refused, or its dialect is still open (struct lmotor).
+ * rt-safe.
+ */
 static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	lm->consecutive = 0;
 	lm->replied = true;
 	lm->last_reply_cycle = l->cycle;
-	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE)
+	if ((lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) &&
+	    !lm->refused && !lm->dialect_open)
 		loop_enter(l, lm, RMD_LC_STOPPING, now);
 }
 

@@ -312,6 +312,40 @@ static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmoto
 	return true;
 }
 
+/*
+ * Answer f of a motor whose dialect is open (struct lmotor: `protocol:
+ * auto`, missing at bring-up) to its re-probe, the firmware date 0xB2;
+ * NULL: only echoed (its comm-loss protection had tripped), asked again
+ * at once.  The loop took it for V3 and does not switch dialects (bring-up
+ * does): a date that says V3 lets the next re-probe (0x9A) bring it back
+ * as any lost motor; one that says another dialect, or none, leaves it
+ * out for good, reported (RMD_EV_DIALECT): a motor is never driven in a
+ * dialect its firmware does not speak.  rt-safe.
+ */
+static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, unsigned b,
+							   struct lmotor *lm,
+							   const struct rmd_frame *f, int64_t now)
+{
+	struct rmd_motor_reply r;
+	const struct rmd_dialect *fw = NULL;
+	bool certain = false;
+
+	lm->next_probe_ns = now;
+	if (!f)
+		return;
+	if (f->data[0] == 0xB2 && rmd_motor_decode(&lm->m, f, &r) == 0 &&
+	    (r.have & RMD_MOTOR_HAVE_VERSION))
+		fw = rmd_dialect_for_firmware(r.version_date, &certain);
+	if (fw && certain && fw->table == lm->m.d->table) {
+		lm->dialect_open = false;
+		return;
+	}
+	lm->refused = true;
+	lm->next_probe_ns = INT64_MAX;
+	loop_event(l, now, RMD_EV_DIALECT, loop_idx(l, lm), b, fw ? (int64_t)r.version_date : 0,
+		   fw && certain ? (int64_t)fw->proto : -1);
+}
+
 /* rt-safe. */
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
@@ -343,6 +377,10 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		latency_ns = rx->t_ns - o->sent_ns;
 		lm->st->reply_latency_ns = latency_ns;
 		lat_add(&lm->lat, latency_ns);
+		if (lm->dialect_open) {
+			settle_dialect(l, b, lm, echo ? NULL : f, now);
+			return;
+		}
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */

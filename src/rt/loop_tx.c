@@ -38,7 +38,10 @@ static void push_cmd(struct rmd_loop *l, struct lbus *lb, unsigned i, uint8_t cm
 		loop_push_tx(lb, &f, i, REQ_STATUS);
 }
 
-/* A lost motor's 0x9A re-probe, when one is due.  rt-safe. */
+/*
+ * A lost motor's re-probe, when one is due: 0x9A, or the firmware date
+ * 0xB2 while its dialect is open (struct lmotor).  rt-safe.
+ */
 static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
@@ -46,7 +49,7 @@ static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 	if (now < lm->next_probe_ns)
 		return;
 	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-	push_cmd(l, lb, i, 0x9A);
+	push_cmd(l, lb, i, lm->dialect_open ? 0xB2 : 0x9A);
 }
 
 /* The setpoint's frame, or the safe action's first frame instead of a refused one.  rt-safe. */

@@ -69,7 +69,27 @@ static int tb_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, in
 	return n < 0 ? n : k;
 }
 
-static const struct rmd_bus_ops tamper_ops = RMD_BUS_WRAP_OPS("tamper", rmd_bus_wrap_send, tb_recv);
+/* What the loop sent, (identifier, command byte), from when `sent_log` is set. */
+#define SENT_MAX 4096
+static bool sent_log;
+static unsigned sent_n;
+static struct {
+	uint32_t id;
+	uint8_t cmd;
+} sent[SENT_MAX];
+
+static int tb_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n, int64_t now_ns)
+{
+	int r = rmd_bus_wrap_send(bus, frames, n, now_ns);
+
+	for (int k = 0; sent_log && k < r && sent_n < SENT_MAX; k++, sent_n++) {
+		sent[sent_n].id = frames[k].can_id;
+		sent[sent_n].cmd = frames[k].len ? frames[k].data[0] : 0;
+	}
+	return r;
+}
+
+static const struct rmd_bus_ops tamper_ops = RMD_BUS_WRAP_OPS("tamper", tb_send, tb_recv);
 
 /* ---- the rig: n sim motors (three to a bus) behind the decorator, one loop ---------- */
 
@@ -83,6 +103,8 @@ struct rig {
 	struct rmd_bus bus[RMD_MAX_BUSES]; /* what the loop drives */
 	struct rmd_loop *l;
 	struct rmd_bringup bu;
+	struct rmd_ring events;
+	struct rmd_event ev_buf[256];
 };
 
 static struct rig R;
@@ -98,10 +120,14 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 				   .plan = &R.plan,
 				   .buses = R.bus,
 				   .now_ns = fake_now,
-				   .sleep_ns = fake_sleep };
+				   .sleep_ns = fake_sleep,
+				   .events = &R.events };
 	char err[1024];
 
 	memset(&R, 0, sizeof(R));
+	sent_log = false;
+	sent_n = 0;
+	assert_int_equal(rmd_ring_init(&R.events, R.ev_buf, 256, sizeof(struct rmd_event)), 0);
 	R.how = how;
 	t_now = 1000 * MS;
 	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.simset, n), 0);
@@ -586,6 +612,79 @@ static void test_auto_v2_with_protection_is_refused(void **state)
 	rig_down();
 }
 
+/*
+ * Motors 1 (V3 firmware) and 2 (V4), both `protocol: auto`, both powered
+ * only 1 s after bring-up began (sim time 2 s).
+ */
+static void tweak_auto_late(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	cfg->probe.on_missing = RMD_MISSING_START;
+	cfg->motors[0].proto_auto = true;
+	cfg->motors[1].proto_auto = true;
+	sim->motors[1].proto = RMD_PROTO_V4;
+	for (unsigned k = 0; k < 2; k++)
+		sim->buses[0].faults[k] = (struct rmd_sim_fault){ .kind = RMD_SIM_FAULT_DISAPPEAR,
+								  .motor_id = (uint8_t)(k + 1),
+								  .start_ns = 0,
+								  .end_ns = 2000 * MS };
+	sim->buses[0].n_faults = 2;
+}
+
+/*
+ * `protocol: auto` motors missing at bring-up: the loop takes them for V3
+ * and asks each its firmware date (0xB2) when it answers at last.  The
+ * V3 one comes up; the V4 one is left out, reported, and gets nothing
+ * but that question on the wire: it is never driven as V3.
+ */
+static void test_auto_missing_then_found(void **state)
+{
+	struct rmd_snapshot s;
+	struct rmd_event e;
+	unsigned dialect_events = 0;
+
+	(void)state;
+	rig_cfg_tweak = tweak_auto_late;
+	rig_up(2, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	assert_int_equal(R.bu.missing, 2);
+	sent_log = true;
+	while (t_now < 4000 * MS) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	rmd_loop_get_snapshot(R.l, &s);
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
+	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
+	while (rmd_ring_pop(&R.events, &e)) {
+		if (e.kind != RMD_EV_DIALECT)
+			continue;
+		dialect_events++;
+		assert_int_equal(e.motor, 1);
+		assert_int_equal(e.a, 2025070202);
+		assert_int_equal(e.b, RMD_PROTO_V4);
+	}
+	assert_int_equal(dialect_events, 1);
+	{
+		unsigned b2[2] = { 0, 0 }, other[2] = { 0, 0 };
+
+		for (unsigned k = 0; k < sent_n; k++)
+			for (unsigned i = 0; i < 2; i++)
+				if (sent[k].id == RMD_CAN_REQ_BASE + i + 1) {
+					b2[i] += sent[k].cmd == 0xB2;
+					other[i] += sent[k].cmd != 0xB2;
+				}
+		/* motor 1: asked its date, then run as any motor that came back */
+		if (!b2[0] || !other[0])
+			fail_msg("motor 1: %u 0xB2, %u other frames", b2[0], other[0]);
+		/* motor 2: its date asked until it answered, then nothing */
+		if (!b2[1] || other[1])
+			fail_msg("motor 2 (V4 firmware): %u 0xB2, %u other frames sent to it",
+				 b2[1], other[1]);
+	}
+	rig_down();
+}
+
 /* ---- slow answers (issue 21) ---------------------------------------------------------- */
 
 /* Motors that answer 8 ms late, a 5 ms try, 50 Hz: every probe is tried twice. */
@@ -681,6 +780,7 @@ int main(void)
 		cmocka_unit_test(test_auto_v2_with_protection_is_refused),
 		cmocka_unit_test(test_auto_v4_and_a_mismatch),
 		cmocka_unit_test(test_active_reply_left_on),
+		cmocka_unit_test(test_auto_missing_then_found),
 		cmocka_unit_test(test_slow_motors_are_found_and_measured),
 		cmocka_unit_test(test_late_answers_of_bringup_are_late),
 	};

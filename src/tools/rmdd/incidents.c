@@ -303,6 +303,9 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 	case RMD_EV_HOME_REFUSED:
 		snprintf(buf, len, "%s: homing refused", ctx);
 		break;
+	case RMD_EV_DIALECT:
+		snprintf(buf, len, "%s: left out, firmware %" PRId64 " not V3", ctx, e->a);
+		break;
 	default:
 		snprintf(buf, len, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
@@ -351,6 +354,7 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 	case RMD_EV_POSITION:
 	case RMD_EV_POS_REFUSED:
 	case RMD_EV_HOME_REFUSED:
+	case RMD_EV_DIALECT:
 	default:
 		return false;
 	}

@@ -325,6 +325,27 @@ static void log_rt(const struct rt_note *rt)
 		 what);
 }
 
+/*
+ * A `protocol: auto` motor that was missing at bring-up answered with
+ * firmware of another dialect than the V3 the loop took it for: it stays
+ * out (warning).  docs/faults.md "A motor missing at bring-up".
+ */
+static void log_dialect(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	char ctx[96], fw[64];
+
+	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	if (e->a && e->b >= 0)
+		snprintf(fw, sizeof(fw), "firmware %" PRId64 ", which speaks %s", e->a,
+			 rmd_proto_name((enum rmd_proto)e->b));
+	else
+		snprintf(fw, sizeof(fw), "%s", "no firmware date");
+	tool_log(4,
+		 "%s: answered at last, with %s; rmdd took it for V3 (protocol: auto, missing at "
+		 "bring-up) and leaves it out: restart rmdd to bring it up, or set its protocol",
+		 ctx, fw);
+}
+
 static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct rt_note *rt)
 {
 	const struct rmd_config *cfg = m->cfg;
@@ -355,6 +376,9 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 	case RMD_EV_POS_REFUSED:
 	case RMD_EV_HOME_REFUSED:
 		log_position(cfg, e);
+		break;
+	case RMD_EV_DIALECT:
+		log_dialect(cfg, e);
 		break;
 	case RMD_EV_OVERRUN:
 		/* the first of each second now, the rest summed up by overrun_summary() */
