@@ -481,19 +481,25 @@ static void test_auto_v4_and_a_mismatch(void **state)
 	rig_up(3, TAMPER_NONE, NULL, 0);
 	rig_cfg_tweak = NULL;
 	R.cfg.probe.on_missing = RMD_MISSING_START;
-	/* a previous owner left motor 2 running: brake released (0x77), 100 dps (0xA2) */
+	/*
+	 * a previous owner left motor 2 running: brake released (0x77), 100 dps
+	 * (0xA2), and pushing its status (V4.2 §2.33: 0x9A every 50 ms)
+	 */
 	{
-		struct rmd_frame f[2] = {
+		struct rmd_frame f[3] = {
 			{ .can_id = RMD_CAN_REQ_BASE + 2, .len = 8, .data = { 0x77 } },
 			{ .can_id = RMD_CAN_REQ_BASE + 2,
 			  .len = 8,
 			  .data = { 0xA2, 0, 0, 0, 0x10, 0x27 } },
+			{ .can_id = RMD_CAN_REQ_BASE + 2,
+			  .len = 8,
+			  .data = { 0xB6, 0x9A, 1, 5, 0 } },
 		};
 		const struct rmd_sim_motor *m;
 
 		struct rmd_bus_rx rx[8];
 
-		assert_int_equal(rmd_bus_send(&R.sim[0], f, 2, t_now), 2);
+		assert_int_equal(rmd_bus_send(&R.sim[0], f, 3, t_now), 3);
 		for (unsigned k = 0; k < 10; k++) { /* the sim bus's time moves with its calls */
 			t_now += MS;
 			rmd_bus_recv(&R.sim[0], rx, 8, t_now);
@@ -525,6 +531,17 @@ static void test_auto_v4_and_a_mismatch(void **state)
 	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
 	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
 	assert_int_equal(s.m[2].lifecycle, RMD_LC_READY);
+	/* what it pushes never brings it back: nothing goes to it */
+	sent_log = true;
+	for (unsigned k = 0; k < 500; k++) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	rmd_loop_get_snapshot(R.l, &s);
+	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
+	for (unsigned k = 0; k < sent_n; k++)
+		if (sent[k].id == RMD_CAN_REQ_BASE + 2)
+			fail_msg("0x%02X sent to motor 2, refused at bring-up", sent[k].cmd);
 	rig_down();
 }
 
