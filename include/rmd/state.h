@@ -273,10 +273,11 @@ enum rmd_event_kind {
 	/* A homing request was refused: a = enum rmd_home_refusal, b = 0. */
 	RMD_EV_HOME_REFUSED,
 	/*
-	 * A `protocol: auto` motor missing at bring-up answered the loop's
-	 * re-probe with firmware the loop will not drive as V3, which it took
-	 * it for: a = its firmware date (0: none read), b = the dialect that
-	 * date says (enum rmd_proto), or -1.  It stays out until rmdd restarts.
+	 * A motor missing at bring-up answered the loop's re-probe with
+	 * firmware of another dialect than its own (its entry's, or V3, which
+	 * `protocol: auto` takes it for): a = its firmware version (0xB2),
+	 * b = the dialect that says (enum rmd_proto).  It stays out until
+	 * rmdd restarts.
 	 */
 	RMD_EV_DIALECT,
 };

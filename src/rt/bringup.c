@@ -427,7 +427,9 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 				now = loop_now(l);
 				out->state = RMD_BRINGUP_MISSING;
 				loop_enter(l, lm, RMD_LC_LOST, now);
-				lm->next_probe_ns = now; /* the first cycle probes again */
+				/* the first cycle probes again, its firmware date first */
+				lm->dialect_open = rmd_dialect_has(d, RMD_DIALECT_VERSION_B2);
+				lm->next_probe_ns = now;
 				return -ENODEV;
 			}
 			/* it is there: what it may push unasked goes off before the reads */

@@ -122,9 +122,10 @@ struct lmotor {
 	uint8_t stop_from; /* enum rmd_lifecycle */
 	int64_t next_probe_ns;
 	/*
-	 * `protocol: auto` and missing at bring-up: the loop took it for V3;
-	 * its re-probe asks the firmware date (0xB2) until the answer settles
-	 * that (loop_rx.c settle_dialect()).
+	 * Missing at bring-up, so its firmware date was never checked against
+	 * its dialect (the entry's, or V3 for `protocol: auto`): its re-probe
+	 * asks the date (0xB2) until the answer settles it (loop_rx.c
+	 * settle_dialect()).  Dialects without 0xB2 (V2) have nothing to ask.
 	 */
 	bool dialect_open;
 	/*

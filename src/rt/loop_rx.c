@@ -313,14 +313,14 @@ static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmoto
 }
 
 /*
- * Answer f of a motor whose dialect is open (struct lmotor: `protocol:
- * auto`, missing at bring-up) to its re-probe, the firmware date 0xB2;
- * NULL: only echoed (its comm-loss protection had tripped), asked again
- * at once.  The loop took it for V3 and does not switch dialects (bring-up
- * does): a date that says V3 lets the next re-probe (0x9A) bring it back
- * as any lost motor; one that says another dialect, or none, leaves it
- * out for good, reported (RMD_EV_DIALECT): a motor is never driven in a
- * dialect its firmware does not speak.  rt-safe.
+ * Answer f of a motor whose dialect is open (struct lmotor: missing at
+ * bring-up) to its re-probe's firmware date 0xB2.  The rule
+ * is bring-up's (rmd_dialect_for_firmware()), and the loop does not
+ * switch dialects: a date that says the motor's dialect, or that tells
+ * none (0), lets the next re-probe (0x9A) bring it back as any lost
+ * motor; one that says another dialect leaves it out for good, reported
+ * (RMD_EV_DIALECT): a motor is never driven in a dialect its firmware
+ * does not speak.  An answer with no date is asked again.  rt-safe.
  */
 static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, unsigned b,
 							   struct lmotor *lm,
@@ -330,20 +330,18 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 	const struct rmd_dialect *fw = NULL;
 	bool certain = false;
 
-	lm->next_probe_ns = now;
-	if (!f)
+	if (rmd_motor_decode(&lm->m, f, &r) < 0 || !(r.have & RMD_MOTOR_HAVE_VERSION))
 		return;
-	if (f->data[0] == 0xB2 && rmd_motor_decode(&lm->m, f, &r) == 0 &&
-	    (r.have & RMD_MOTOR_HAVE_VERSION))
-		fw = rmd_dialect_for_firmware(r.version_date, &certain);
-	if (fw && certain && fw->table == lm->m.d->table) {
+	fw = rmd_dialect_for_firmware(r.version_date, &certain);
+	if (!certain || fw->table == lm->m.d->table) {
 		lm->dialect_open = false;
+		lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
 		return;
 	}
 	lm->refused = true;
 	lm->next_probe_ns = INT64_MAX;
-	loop_event(l, now, RMD_EV_DIALECT, loop_idx(l, lm), b, fw ? (int64_t)r.version_date : 0,
-		   fw && certain ? (int64_t)fw->proto : -1);
+	loop_event(l, now, RMD_EV_DIALECT, loop_idx(l, lm), b, (int64_t)r.version_date,
+		   (int64_t)fw->proto);
 }
 
 /* rt-safe. */
@@ -377,14 +375,16 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		latency_ns = rx->t_ns - o->sent_ns;
 		lm->st->reply_latency_ns = latency_ns;
 		lat_add(&lm->lat, latency_ns);
-		if (lm->dialect_open) {
-			settle_dialect(l, b, lm, echo ? NULL : f, now);
-			return;
-		}
 		loop_alive(l, lm, now);
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */
 			l->cnt.echoes++;
+			return;
+		}
+		if (__builtin_expect(lm->dialect_open, 0)) {
+			/* the 0x9A ahead of its 0xB2 tells nothing (settle_dialect()) */
+			if (cmd == 0xB2)
+				settle_dialect(l, b, lm, f, now);
 			return;
 		}
 		if (o->echo_is_reply && owed_echo(l, lm, o, f, now))

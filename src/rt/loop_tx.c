@@ -39,8 +39,11 @@ static void push_cmd(struct rmd_loop *l, struct lbus *lb, unsigned i, uint8_t cm
 }
 
 /*
- * A lost motor's re-probe, when one is due: 0x9A, or the firmware date
- * 0xB2 while its dialect is open (struct lmotor).  rt-safe.
+ * A lost motor's re-probe, when one is due: 0x9A; while its dialect is
+ * open (struct lmotor), the firmware date 0xB2 right behind it, whose
+ * answer settles it: a motor whose comm-loss protection tripped echoes the
+ * first frame it gets, and answers the next (one exchange more than the
+ * plan counts, as push_oneshot()'s).  rt-safe.
  */
 static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
@@ -49,7 +52,9 @@ static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 	if (now < lm->next_probe_ns)
 		return;
 	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-	push_cmd(l, lb, i, lm->dialect_open ? 0xB2 : 0x9A);
+	push_cmd(l, lb, i, 0x9A);
+	if (lm->dialect_open)
+		push_cmd(l, lb, i, 0xB2);
 }
 
 /* The setpoint's frame, or the safe action's first frame instead of a refused one.  rt-safe. */

@@ -630,8 +630,9 @@ static void test_auto_v2_with_protection_is_refused(void **state)
 }
 
 /*
- * Motors 1 (V3 firmware) and 2 (V4), both `protocol: auto`, both powered
- * only 1 s after bring-up began (sim time 2 s).
+ * Motors 1 (V3 firmware) and 2 (V4), both `protocol: auto`, and 3, a v3
+ * entry on V4 firmware, all powered only 1 s after bring-up began (sim
+ * time 2 s).
  */
 static void tweak_auto_late(struct rmd_config *cfg, struct rmd_sim_setup *sim)
 {
@@ -639,19 +640,21 @@ static void tweak_auto_late(struct rmd_config *cfg, struct rmd_sim_setup *sim)
 	cfg->motors[0].proto_auto = true;
 	cfg->motors[1].proto_auto = true;
 	sim->motors[1].proto = RMD_PROTO_V4;
-	for (unsigned k = 0; k < 2; k++)
+	sim->motors[2].proto = RMD_PROTO_V4;
+	for (unsigned k = 0; k < 3; k++)
 		sim->buses[0].faults[k] = (struct rmd_sim_fault){ .kind = RMD_SIM_FAULT_DISAPPEAR,
 								  .motor_id = (uint8_t)(k + 1),
 								  .start_ns = 0,
 								  .end_ns = 2000 * MS };
-	sim->buses[0].n_faults = 2;
+	sim->buses[0].n_faults = 3;
 }
 
 /*
- * `protocol: auto` motors missing at bring-up: the loop takes them for V3
- * and asks each its firmware date (0xB2) when it answers at last.  The
- * V3 one comes up; the V4 one is left out, reported, and gets nothing
- * but that question on the wire: it is never driven as V3.
+ * Motors missing at bring-up: the loop asks each its firmware date (0xB2)
+ * (behind a status read 0x9A) when it answers at last, as bring-up would
+ * have.  The V3 one comes up; the V4 ones -- taken for V3 by `protocol:
+ * auto`, or a v3 entry -- are left out, reported, and get nothing but
+ * those two reads on the wire: they are never driven as V3.
  */
 static void test_auto_missing_then_found(void **state)
 {
@@ -661,10 +664,10 @@ static void test_auto_missing_then_found(void **state)
 
 	(void)state;
 	rig_cfg_tweak = tweak_auto_late;
-	rig_up(2, TAMPER_NONE, NULL, 0);
+	rig_up(3, TAMPER_NONE, NULL, 0);
 	rig_cfg_tweak = NULL;
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
-	assert_int_equal(R.bu.missing, 2);
+	assert_int_equal(R.bu.missing, 3);
 	sent_log = true;
 	while (t_now < 4000 * MS) {
 		t_now += R.plan.period_ns;
@@ -673,31 +676,36 @@ static void test_auto_missing_then_found(void **state)
 	rmd_loop_get_snapshot(R.l, &s);
 	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
 	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
+	assert_int_equal(s.m[2].lifecycle, RMD_LC_LOST);
 	while (rmd_ring_pop(&R.events, &e)) {
 		if (e.kind != RMD_EV_DIALECT)
 			continue;
 		dialect_events++;
-		assert_int_equal(e.motor, 1);
+		assert_true(e.motor == 1 || e.motor == 2);
 		assert_int_equal(e.a, 2025070202);
 		assert_int_equal(e.b, RMD_PROTO_V4);
 	}
-	assert_int_equal(dialect_events, 1);
+	assert_int_equal(dialect_events, 2);
 	{
-		unsigned b2[2] = { 0, 0 }, other[2] = { 0, 0 };
+		unsigned b2[3] = { 0, 0, 0 }, st[3] = { 0, 0, 0 }, other[3] = { 0, 0, 0 };
 
 		for (unsigned k = 0; k < sent_n; k++)
-			for (unsigned i = 0; i < 2; i++)
+			for (unsigned i = 0; i < 3; i++)
 				if (sent[k].id == RMD_CAN_REQ_BASE + i + 1) {
 					b2[i] += sent[k].cmd == 0xB2;
-					other[i] += sent[k].cmd != 0xB2;
+					st[i] += sent[k].cmd == 0x9A;
+					other[i] += sent[k].cmd != 0xB2 && sent[k].cmd != 0x9A;
 				}
 		/* motor 1: asked its date, then run as any motor that came back */
 		if (!b2[0] || !other[0])
 			fail_msg("motor 1: %u 0xB2, %u other frames", b2[0], other[0]);
-		/* motor 2: its date asked until it answered, then nothing */
-		if (!b2[1] || other[1])
-			fail_msg("motor 2 (V4 firmware): %u 0xB2, %u other frames sent to it",
-				 b2[1], other[1]);
+		/* motors 2 and 3: their date asked until they answered, then nothing more */
+		for (unsigned i = 1; i < 3; i++)
+			if (!b2[i] || st[i] != b2[i] || other[i])
+				fail_msg(
+					"motor %u (V4 firmware): %u 0xB2, %u 0x9A, %u other frames "
+					"sent to it",
+					i + 1, b2[i], st[i], other[i]);
 	}
 	rig_down();
 }

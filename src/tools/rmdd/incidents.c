@@ -304,7 +304,8 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 		snprintf(buf, len, "%s: homing refused", ctx);
 		break;
 	case RMD_EV_DIALECT:
-		snprintf(buf, len, "%s: left out, firmware %" PRId64 " not V3", ctx, e->a);
+		snprintf(buf, len, "%s: left out, its firmware %" PRId64 " is %s", ctx, e->a,
+			 rmd_proto_key((enum rmd_proto)e->b));
 		break;
 	default:
 		snprintf(buf, len, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);

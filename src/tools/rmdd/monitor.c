@@ -326,24 +326,30 @@ static void log_rt(const struct rt_note *rt)
 }
 
 /*
- * A `protocol: auto` motor that was missing at bring-up answered with
- * firmware of another dialect than the V3 the loop took it for: it stays
- * out (warning).  docs/faults.md "A motor missing at bring-up".
+ * A motor missing at bring-up answered with firmware of another dialect
+ * than its own: it stays out (warning).  docs/protocol-v4.md "Which dialect
+ * a motor speaks".
  */
 static void log_dialect(const struct rmd_config *cfg, const struct rmd_event *e)
 {
-	char ctx[96], fw[64];
+	const struct rmd_config_motor *c = e->motor < cfg->n_motors ? &cfg->motors[e->motor] : NULL;
+	char ctx[96];
 
 	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
-	if (e->a && e->b >= 0)
-		snprintf(fw, sizeof(fw), "firmware %" PRId64 ", which speaks %s", e->a,
-			 rmd_proto_name((enum rmd_proto)e->b));
+	if (c && c->proto_auto)
+		tool_log(4,
+			 "%s: answered at last: its firmware %" PRId64 " is %s, but with protocol: "
+			 "auto a motor missing at bring-up is taken for v3; left out: restart rmdd "
+			 "to bring it up (or set protocol: %s)",
+			 ctx, e->a, rmd_proto_key((enum rmd_proto)e->b),
+			 rmd_proto_key((enum rmd_proto)e->b));
 	else
-		snprintf(fw, sizeof(fw), "%s", "no firmware date");
-	tool_log(4,
-		 "%s: answered at last, with %s; rmdd took it for V3 (protocol: auto, missing at "
-		 "bring-up) and leaves it out: restart rmdd to bring it up, or set its protocol",
-		 ctx, fw);
+		tool_log(4,
+			 "%s: answered at last: its firmware %" PRId64
+			 " is %s, but its protocol is "
+			 "%s; left out (set protocol: %s, or auto)",
+			 ctx, e->a, rmd_proto_key((enum rmd_proto)e->b),
+			 c ? rmd_proto_key(c->proto) : "?", rmd_proto_key((enum rmd_proto)e->b));
 }
 
 static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct rt_note *rt)
