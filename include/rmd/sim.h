@@ -145,6 +145,12 @@ struct rmd_sim_motor_params {
 	unsigned comm_loss_rom_ms;
 	bool comm_loss_tripped;
 	/*
+	 * V4.2 §2.33 (0xB6), V4 only: at first power-on the motor already
+	 * pushes its 0x9C reply every this many ms (rounded up to 10 ms), as
+	 * another tool left it, and does not answer 0x9C reads; 0: off.
+	 */
+	unsigned active_reply_9c_ms;
+	/*
 	 * 0x20 index 4 (V3 §2.33.4) already in ROM at first power-on: the
 	 * multi-turn count survives power-off and 0x76 (V3.5+ firmware).
 	 */

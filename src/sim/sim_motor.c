@@ -214,6 +214,15 @@ static void rom_defaults(struct rmd_sim_motor *m)
 	r->multiturn_save = m->p.multi_turn_save; /* an earlier 0x20 index 4 */
 }
 
+/* The slot of command `cmd` in the dialect's 0xB6 list (V4.2 §2.33.2), or -1. */
+static int report_slot(const struct rmd_dialect *d, int64_t cmd)
+{
+	for (unsigned k = 0; k < d->n_report_cmds; k++)
+		if (d->report_cmds[k] == cmd)
+			return (int)k;
+	return -1;
+}
+
 /*
  * Start the firmware: power-on or 0x76.  RAM settings come from ROM, the
  * multi-turn count is lost (docs/design.md) unless 0x20 index 4 saved it and
@@ -281,6 +290,16 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 		m->comm_lost = true;
 		m->echo_next = true;
 		m->next_f1_ns = now_ns;
+	}
+	/* another tool's active reply (V4.2 §2.33), until 0xB6 or a reset ends it */
+	if (m->p.active_reply_9c_ms && rmd_dialect_has(m->d, RMD_DIALECT_ACTIVE_REPLY)) {
+		int k = report_slot(m->d, 0x9C);
+
+		if (k >= 0) {
+			m->report_steps[k] = (uint16_t)((m->p.active_reply_9c_ms + 9) / 10);
+			m->report_next_ns[k] =
+				now_ns + (int64_t)m->report_steps[k] * ACTIVE_REPLY_STEP_NS;
+		}
 	}
 }
 
@@ -701,15 +720,6 @@ static int float_gain(struct rmd_sim_motor *m, enum rmd_proto proto, const struc
 			m->rom.gain[i] = (float)g;
 	}
 	return echo(f, reply_id, out, max);
-}
-
-/* The slot of command `cmd` in the dialect's 0xB6 list (V4.2 §2.33.2), or -1. */
-static int report_slot(const struct rmd_dialect *d, int64_t cmd)
-{
-	for (unsigned k = 0; k < d->n_report_cmds; k++)
-		if (d->report_cmds[k] == cmd)
-			return (int)k;
-	return -1;
 }
 
 /*

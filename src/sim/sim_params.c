@@ -94,6 +94,11 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    "0xB3 time already in ROM at first power-on (an earlier run's); 0: off", 0),
 	ROW("comm_loss_tripped", "comm-loss-tripped", BOOL, comm_loss_tripped, 0, 0, false, "",
 	    "that protection has tripped already: the first command is only echoed (yes/no)", 0),
+	ROW("active_reply_9c_ms", "active-reply-9c", UINT, active_reply_9c_ms, 0, 655350, false,
+	    "ms",
+	    "V4: left by another tool pushing 0x9C every this many ms (0xB6), not answering 0x9C "
+	    "reads; 0: off",
+	    0),
 	ROW("multi_turn_save", "multi-turn-save", BOOL, multi_turn_save, 0, 0, false, "",
 	    "0x20 index 4 set in ROM: the multi-turn count survives power-off (yes/no)", 0),
 	ROW("wrap_rotor", "wrap-rotor", BOOL, wrap_rotor, 0, 0, false, "",

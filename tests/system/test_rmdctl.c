@@ -888,6 +888,52 @@ static void test_rtt_sim(void **state)
 		;
 }
 
+/*
+ * V4 motors left pushing 0x9C every 20 ms by another tool (V4.2 §2.33):
+ * they do not answer 0x9C, and a push must not pass for an answer.  rtt
+ * says so and measures the other commands; the rate follows from those.
+ */
+static void test_rtt_pushed(void **state)
+{
+	struct run r;
+	char line[1024], cmd[16];
+	unsigned n;
+
+	(void)state;
+	RUN(&r, "", "rtt", "1-2", "--bus", "sim:1-2", "--protocol", "v4", "--count", "5", "--sim",
+	    "active_reply_9c_ms=20", "--json");
+	assert_status(&r, 0, "rtt --json, motors pushing 0x9C");
+	for (n = 0; json_line(r.out, n, line, sizeof(line)); n++)
+		;
+	if (n != 7)
+		fail_msg("%u JSON lines, expected 7:\n%s", n, r.out);
+	for (unsigned i = 0; i < 6; i++) {
+		bool pushed;
+
+		json_line(r.out, i, line, sizeof(line));
+		json_str(line, "cmd", cmd, sizeof(cmd));
+		pushed = json_bool(line, "pushed");
+		if (pushed != !strcmp(cmd, "0x9C"))
+			fail_msg("pushed says %d: %s", pushed, line);
+		if (json_num(line, "answered") != (pushed ? 0 : 5) || json_num(line, "lost") != 0)
+			fail_msg("answered or lost: %s", line);
+		/* what was measured is the motor's own turnaround, 500 +- 100 us and the frames */
+		if (!pushed && !(json_num(line, "max_ms") < 5.0))
+			fail_msg("a round trip beyond 5 ms: %s", line);
+	}
+	json_line(r.out, 6, line, sizeof(line));
+	if (json_num(line, "rate_hz") < 200)
+		fail_msg("the rate follows from the pushes: %s", line);
+	for (unsigned id = 1; id <= 2; id++) {
+		char want[64];
+
+		snprintf(want, sizeof(want), "motor %u pushes 0x9C unasked", id);
+		if (!strstr(r.err, want))
+			fail_msg("no \"%s\" on stderr:\n%s", want, r.err);
+	}
+	run_free(&r);
+}
+
 /* --sim takes the parameter table's keys only, with their ranges. */
 static void test_rtt_usage(void **state)
 {
@@ -1116,6 +1162,7 @@ int main(void)
 		cmocka_unit_test(test_usage_error_is_short),
 		cmocka_unit_test(test_yes_everywhere),
 		cmocka_unit_test(test_rtt_sim),
+		cmocka_unit_test(test_rtt_pushed),
 		cmocka_unit_test(test_rtt_usage),
 		cmocka_unit_test(test_trace_is_candump_l),
 		cmocka_unit_test(test_move_progress_on_terminal),

@@ -16,6 +16,11 @@
  * motor at a time; as the rt loop sends them, a CAN bus carries one
  * request of every motor at once, a half-duplex line one after the other.
  *
+ * A motor left pushing the reply of one of them unasked (V4.2 §2.33: 0xB6
+ * active reply, set by another tool) does not answer that read, and each
+ * push would pass for an answer: rtt first listens RTT_LISTEN_MS to a
+ * quiet bus, and a command a motor pushes is not measured on it, said so.
+ *
  * The supported rate is the planner's arithmetic (rmd/plan.h) with the
  * measured p99 in place of the assumed turnaround, one request per motor
  * per cycle, and the rule that every reply arrives before the next cycle:
@@ -42,6 +47,8 @@
 
 /* Wait per try when --timeout is not given: a 16 ms latency timer and slow firmware fit. */
 #define RTT_TIMEOUT_MS 100.0
+/* Listening before the first request: pushes every n x 10 ms (V4.2 §2.33) show in it. */
+#define RTT_LISTEN_MS 250
 /* A bus whose rate neither the transport nor the spec says (vcan): assumed, and said so. */
 #define RTT_ASSUMED_BITRATE 1000000u
 
@@ -54,6 +61,7 @@ struct series {
 	int64_t *ns; /* first-try round trips, sorted once measured */
 	unsigned n;  /* answered */
 	unsigned lost;
+	bool pushed; /* the motor pushes this reply unasked: not measured */
 	int64_t min_ns, median_ns, p99_ns, max_ns;
 };
 
@@ -98,6 +106,44 @@ static void summarize(struct series *s)
  * on a half-duplex bus, one after the other; each first-try answer's round
  * trip goes into s[i].  Returns 0, or an exit status (reported).
  */
+/*
+ * Listen RTT_LISTEN_MS before asking anything: s[c][i].pushed for each
+ * measured command c that motor ids[i] sends unasked meanwhile.  Returns
+ * 0 or -errno.
+ */
+static int listen_pushes(struct dev *d, const uint8_t *ids, unsigned n,
+			 struct series s[][RMD_MAX_MOTORS])
+{
+	struct rmd_txn t[N_CLASSES][RMD_MAX_MOTORS];
+	int64_t end = rmd_now_ns() + RTT_LISTEN_MS * RMD_NS_PER_MS;
+
+	for (unsigned c = 0; c < N_CLASSES; c++)
+		for (unsigned i = 0; i < n; i++) {
+			struct rmd_msg m = { .cmd = rtt_cmds[c] };
+
+			if (rmd_txn_prepare(&t[c][i], d->proto, ids[i], &m) < 0)
+				t[c][i].reply_id = UINT32_MAX; /* matches nothing */
+		}
+	while (rmd_now_ns() < end) {
+		struct rmd_bus_rx rx[16];
+		int r = rmd_bus_recv(d->b, rx, 16, rmd_now_ns());
+
+		if (r < 0)
+			return r;
+		for (int k = 0; k < r; k++)
+			for (unsigned c = 0; c < N_CLASSES; c++)
+				for (unsigned i = 0; i < n; i++)
+					s[c][i].pushed |= rmd_txn_matches(&t[c][i], &rx[k].f);
+		if (r < 16)
+			rmdctl_sleep_until(rmd_now_ns() + RMD_NS_PER_MS);
+	}
+	return 0;
+}
+
+/* round_trip() on the motors of ids[0..n) that do not push cmd's reply (s[i].pushed). */
+static int round_trip_asked(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n,
+			    bool half_duplex, struct series *s);
+
 static int round_trip(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n, bool half_duplex,
 		      struct series *s)
 {
@@ -149,6 +195,28 @@ static int round_trip(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n
 	return 0;
 }
 
+static int round_trip_asked(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n,
+			    bool half_duplex, struct series *s)
+{
+	uint8_t asked[RMD_MAX_MOTORS];
+	struct series sub[RMD_MAX_MOTORS];
+	unsigned map[RMD_MAX_MOTORS], m = 0;
+	int r;
+
+	for (unsigned i = 0; i < n; i++)
+		if (!s[i].pushed) {
+			map[m] = i;
+			asked[m] = ids[i];
+			sub[m++] = s[i];
+		}
+	if (!m)
+		return 0;
+	r = round_trip(d, cmd, asked, m, half_duplex, sub);
+	for (unsigned j = 0; j < m; j++)
+		s[map[j]] = sub[j];
+	return r;
+}
+
 /*
  * The shortest cycle in which every motor of s[0..n) gets one request of
  * the class and its reply, on a bus of the timing t (see the top of the
@@ -198,8 +266,9 @@ static void print_series(const struct dev *d, uint8_t id, uint8_t cmd, const str
 
 	if (d->json) {
 		rmdctl_json_begin(d, id);
-		printf(",\"cmd\":\"0x%02X\",\"name\":\"%s\",\"answered\":%u,\"lost\":%u", cmd,
-		       spec->name, s->n, s->lost);
+		printf(",\"cmd\":\"0x%02X\",\"name\":\"%s\",\"answered\":%u,\"lost\":%u,"
+		       "\"pushed\":%s",
+		       cmd, spec->name, s->n, s->lost, s->pushed ? "true" : "false");
 		if (s->n)
 			printf(",\"min_ms\":%.3f,\"median_ms\":%.3f,\"p99_ms\":%.3f,\"max_ms\":%.3f",
 			       ms(s->min_ns), ms(s->median_ns), ms(s->p99_ns), ms(s->max_ns));
@@ -207,6 +276,11 @@ static void print_series(const struct dev *d, uint8_t id, uint8_t cmd, const str
 			fputs(",\"min_ms\":null,\"median_ms\":null,\"p99_ms\":null,\"max_ms\":null",
 			      stdout);
 		fputs("}\n", stdout);
+		return;
+	}
+	if (s->pushed) {
+		printf("%3u  0x%02X %-21s %8s %9s %8s %8s %6s\n", id, cmd, spec->name, "pushed",
+		       "-", "-", "-", "-");
 		return;
 	}
 	if (!s->n) {
@@ -288,11 +362,26 @@ int rmdctl_run_rtt(struct dev *d, int argc, char **argv)
 		for (unsigned i = 0; i < n; i++)
 			s[c][i].ns = pool + ((size_t)c * n + i) * d->count;
 
+	r = listen_pushes(d, found, n, s);
+	if (r < 0) {
+		tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
+		r = RMDCTL_EXIT_DATA;
+	}
+	for (unsigned c = 0; c < N_CLASSES; c++)
+		for (unsigned i = 0; i < n && rmdctl_spec(d, rtt_cmds[c]); i++)
+			if (s[c][i].pushed)
+				tool_log(
+					TOOL_LOG_WARNING,
+					"%s: motor %u pushes 0x%02X unasked (V4.2 §2.33 active reply, "
+					"left on by another tool) and does not answer it: its 0x%02X "
+					"round trip is not measured. rmdd's bring-up turns it off "
+					"(0xB6)",
+					d->name, found[i], rtt_cmds[c], rtt_cmds[c]);
 	for (unsigned c = 0; c < N_CLASSES && !r; c++) {
 		if (!rmdctl_spec(d, rtt_cmds[c]))
 			continue;
 		for (unsigned k = 0; k < d->count && !r; k++)
-			r = round_trip(d, rtt_cmds[c], found, n, half_duplex, s[c]);
+			r = round_trip_asked(d, rtt_cmds[c], found, n, half_duplex, s[c]);
 		for (unsigned i = 0; i < n; i++)
 			summarize(&s[c][i]);
 		judge(&bt, half_duplex, s[c], n, &v[c]);
