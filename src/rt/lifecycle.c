@@ -241,6 +241,9 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			lm->need_edge = false;
 		else if (old == RMD_LC_LOST || old == RMD_LC_FAULT)
 			lm->need_edge = true;
+		/* back: pushes another tool may have left on go off, as at bring-up */
+		if (old == RMD_LC_LOST && rmd_dialect_has(lm->m.d, RMD_DIALECT_ACTIVE_REPLY))
+			lm->reports_off = (uint8_t)((1u << lm->m.d->n_report_cmds) - 1u);
 		break;
 	case RMD_LC_READY:
 		lm->st->mode = (uint8_t)lm->m.mode;

@@ -62,10 +62,11 @@ enum {
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {
 	REQ_CONTROL = 0, /* a setpoint, or a safe action's streamed frame */
-	REQ_STATUS,	 /* a status read (0x9A, 0x9C) */
+	REQ_STATUS,	 /* a status read (0x9A, 0x9C); the kinds below are rare (loop_commit()) */
 	REQ_ONESHOT,	 /* the head of the motor's one-shot queue */
 	REQ_BATCH,	 /* V2 0x280: one request, every batched motor answers */
 	REQ_OWED,	 /* an owed 0x80 or 0x78, sent until its echo comes */
+	REQ_NO_REPLY,	 /* a frame nothing answers (0xB6 off): not awaited */
 };
 
 /* A request in flight (its bit in struct lmotor.os_used says it is). */
@@ -128,6 +129,12 @@ struct lmotor {
 	 * settle_dialect()).  Dialects without 0xB2 (V2) have nothing to ask.
 	 */
 	bool dialect_open;
+	/*
+	 * 0xB6 offs still to send (V4.2 §2.33), bit k: m.d->report_cmds[k]:
+	 * a motor that comes back may have been left pushing replies, as
+	 * bring-up assumes of every motor it finds (lifecycle.c).
+	 */
+	uint8_t reports_off;
 	/*
 	 * Left out for good (bring-up's dialect mismatch, or a late answer
 	 * that named another dialect): nothing it says brings it back.

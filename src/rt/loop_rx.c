@@ -125,16 +125,21 @@ void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to
 		const struct txmeta *mt = &lb->meta[k];
 		const struct rmd_frame *f = &lb->tx[k];
 
-		if (mt->kind == REQ_BATCH) {
-			for (unsigned j = 0; j < lb->pb->n_motors; j++)
-				if (lb->pb->batched & (1u << j))
-					os_add(l, &l->mot[lb->pb->motors[j]], f, now);
-			continue;
+		/* setpoints and status reads take the short way */
+		if (__builtin_expect(mt->kind > REQ_STATUS, 0)) {
+			if (mt->kind == REQ_BATCH) {
+				for (unsigned j = 0; j < lb->pb->n_motors; j++)
+					if (lb->pb->batched & (1u << j))
+						os_add(l, &l->mot[lb->pb->motors[j]], f, now);
+				continue;
+			}
+			if (mt->kind == REQ_NO_REPLY)
+				continue;
+			if (mt->kind == REQ_ONESHOT)
+				oneshot_pop(&l->mot[mt->motor]);
+			else if (mt->kind == REQ_OWED)
+				loop_owed_sent(l, &l->mot[mt->motor], f->data[0]);
 		}
-		if (mt->kind == REQ_ONESHOT)
-			oneshot_pop(&l->mot[mt->motor]);
-		else if (mt->kind == REQ_OWED)
-			loop_owed_sent(l, &l->mot[mt->motor], f->data[0]);
 		os_add(l, &l->mot[mt->motor], f, now);
 	}
 }

@@ -119,9 +119,28 @@ static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 }
 
 /*
+ * One of lm's 0xB6 offs (struct lmotor.reports_off), the lowest first.
+ * The manual gives no answer to it: none is awaited, and one the bus does
+ * not take is not sent again (bring-up's are as unchecked).  rt-safe.
+ */
+static __attribute__((cold)) void push_report_off(struct lbus *lb, struct lmotor *lm, unsigned i)
+{
+	unsigned k = (unsigned)__builtin_ctz(lm->reports_off);
+	struct rmd_msg msg = { .cmd = 0xB6 };
+	struct rmd_frame f;
+
+	lm->reports_off &= (uint8_t) ~(1u << k);
+	rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, lm->m.d->report_cmds[k]);
+	rmd_msg_set(&msg, RMD_FLD_REPORT_ON, 0);
+	rmd_msg_set(&msg, RMD_FLD_REPORT_MS, 0);
+	if (rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, &f) == 0)
+		loop_push_tx(lb, &f, i, REQ_NO_REPLY);
+}
+
+/*
  * What waits for lm's control slot: an owed 0x80 or 0x78 first (the
  * motor's output and brake, lifecycle.c "Owed frames"), else the head of
- * its one-shot queue.  rt-safe.
+ * its one-shot queue, else a 0xB6 off.  rt-safe.
  */
 static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
@@ -132,6 +151,8 @@ static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t no
 		loop_push_tx(lb, &f, i, REQ_OWED);
 	else if (lm->n_oneshot)
 		push_oneshot(l, lb, i, now);
+	else if (lm->reports_off)
+		push_report_off(lb, lm, i);
 }
 
 /* rt-safe. */
@@ -141,7 +162,7 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t
 	struct rmd_frame f[2];
 
 	/* owed frames and one-shots first: an ENABLED motor's brake release, the others' stops */
-	if (lm->owe || lm->n_oneshot) {
+	if (lm->owe || lm->n_oneshot || lm->reports_off) {
 		push_due(l, lb, i, now);
 		return;
 	}

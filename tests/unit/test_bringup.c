@@ -631,8 +631,8 @@ static void test_auto_v2_with_protection_is_refused(void **state)
 
 /*
  * Motors 1 (V3 firmware) and 2 (V4), both `protocol: auto`, and 3, a v3
- * entry on V4 firmware, all powered only 1 s after bring-up began (sim
- * time 2 s).
+ * entry on V4 firmware, all powered only 2 s after bring-up began (the
+ * window is the sim bus's time, which begins with it).
  */
 static void tweak_auto_late(struct rmd_config *cfg, struct rmd_sim_setup *sim)
 {
@@ -707,6 +707,70 @@ static void test_auto_missing_then_found(void **state)
 					"sent to it",
 					i + 1, b2[i], st[i], other[i]);
 	}
+	rig_down();
+}
+
+/*
+ * Three V4 motors; motor 1 left by another tool pushing 0x9C every 20 ms
+ * (V4.2 §2.33), its cable cut for the first 2 s of the sim bus's time.
+ */
+static void tweak_v4_pushing_late(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	tweak_all_v4(cfg, sim);
+	cfg->probe.on_missing = RMD_MISSING_START;
+	sim->motors[0].active_reply_9c_ms = 20;
+	sim->buses[0].faults[0] = (struct rmd_sim_fault){
+		.kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 1, .start_ns = 0, .end_ns = 2000 * MS
+	};
+	sim->buses[0].n_faults = 1;
+}
+
+/*
+ * A V4 motor that comes back during the run gets bring-up's 0xB6 offs: it
+ * stops pushing 0x9C and answers the loop's reads again, READY for good.
+ */
+static void test_v4_back_reports_off(void **state)
+{
+	struct rmd_loop_counters c0, c1;
+	struct rmd_snapshot s;
+	struct rmd_event e;
+	unsigned offs = 0, lost = 0;
+	const struct rmd_sim_motor *m;
+
+	(void)state;
+	rig_cfg_tweak = tweak_v4_pushing_late;
+	rig_up(3, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	assert_int_equal(R.bu.motor[0].state, RMD_BRINGUP_MISSING);
+	sent_log = true;
+	/* the window is the sim bus's time, which began with bring-up: it is back at 3 s */
+	while (t_now < 4000 * MS) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 1);
+	for (unsigned k = 0; k < RMD_DIALECT_REPORTS_MAX; k++)
+		if (m->report_steps[k])
+			fail_msg("motor 1 still pushes 0x%02X", m->d->report_cmds[k]);
+	for (unsigned k = 0; k < sent_n; k++)
+		offs += sent[k].id == RMD_CAN_REQ_BASE + 1 && sent[k].cmd == 0xB6;
+	assert_int_equal(offs, m->d->n_report_cmds);
+	/* from now on every read is answered, and it stays */
+	rmd_loop_get_counters(R.l, &c0);
+	while (rmd_ring_pop(&R.events, &e))
+		;
+	while (t_now < 5000 * MS) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	rmd_loop_get_counters(R.l, &c1);
+	while (rmd_ring_pop(&R.events, &e))
+		lost += e.kind == RMD_EV_MOTOR_STATE && e.b == RMD_LC_LOST;
+	rmd_loop_get_snapshot(R.l, &s);
+	if (s.m[0].lifecycle != RMD_LC_READY || c1.missed != c0.missed || lost)
+		fail_msg("motor 1: lifecycle %u, %llu missed, lost %u times in the last second",
+			 s.m[0].lifecycle, (unsigned long long)(c1.missed - c0.missed), lost);
 	rig_down();
 }
 
@@ -806,6 +870,7 @@ int main(void)
 		cmocka_unit_test(test_auto_v4_and_a_mismatch),
 		cmocka_unit_test(test_active_reply_left_on),
 		cmocka_unit_test(test_auto_missing_then_found),
+		cmocka_unit_test(test_v4_back_reports_off),
 		cmocka_unit_test(test_slow_motors_are_found_and_measured),
 		cmocka_unit_test(test_late_answers_of_bringup_are_late),
 	};
