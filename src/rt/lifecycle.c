@@ -263,6 +263,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			if (old == RMD_LC_ENABLED)
 				queue_safe(l, lm, false, now);
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
+			lm->reports_off = 0; /* sent again when it is back */
 			cl_forget(l, lm);
 			pos_forget(lm);
 		} else {
