@@ -586,6 +586,48 @@ static void test_lost_motor_logged_with_context(void **state)
 }
 
 /*
+ * Motors missing at bring-up, found later, whose firmware is V4: a v3
+ * entry and a `protocol: auto` one (taken for V3).  Each is left out
+ * with a warning that says what to set; the run goes on.
+ */
+static void test_found_late_other_dialect(void **state)
+{
+	static struct proc p;
+	const char *const *args;
+
+	(void)state;
+	args = config_args("late.yaml",
+			   "probe: {on_missing: start}\n"
+			   "buses:\n"
+			   "  - name: s0\n"
+			   "    type: sim\n"
+			   "    sim:\n"
+			   "      faults:\n"
+			   "        - {kind: disappear, motor: 2, start_s: 0, end_s: 1.0}\n"
+			   "        - {kind: disappear, motor: 3, start_s: 0, end_s: 1.0}\n"
+			   "motors:\n"
+			   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+			   "  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2,"
+			   " sim: {firmware: v4}}\n"
+			   "  - {name: hip, bus: s0, id: 3, protocol: auto, mode: torque,"
+			   " torque_constant_nm_a: 2, sim: {firmware: v4}}\n");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	wait_for(&p,
+		 "<4>rmdd: s0: motor 2 (knee): answered at last: its firmware 2025070202 is v4, "
+		 "but its protocol is v3; left out (set protocol: v4, or auto)",
+		 5000);
+	wait_for(&p,
+		 "<4>rmdd: s0: motor 3 (hip): answered at last: its firmware 2025070202 is v4, "
+		 "but with protocol: auto a motor missing at bring-up is taken for v3",
+		 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	assert_null(strstr(p.out, "(knee): back"));
+	assert_null(strstr(p.out, "(hip): back"));
+}
+
+/*
  * Started at SCHED_FIFO, as CPUSchedulingPolicy=fifo does: only the rt loop
  * and the LCM bridge (one below it, lcm.rt_priority's default) are
  * real-time; main, the monitor and the incident writer inherit nothing.
@@ -1257,6 +1299,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_sigint, reap),
 		cmocka_unit_test_teardown(test_sigusr1_and_sighup_keep_running, reap),
 		cmocka_unit_test_teardown(test_lost_motor_logged_with_context, reap),
+		cmocka_unit_test_teardown(test_found_late_other_dialect, reap),
 		cmocka_unit_test_teardown(test_started_fifo_only_the_loop_stays, reap),
 		cmocka_unit_test_teardown(test_notify_ready_watchdog_and_stall, reap),
 		cmocka_unit_test_teardown(test_notify_without_watchdog, reap),
