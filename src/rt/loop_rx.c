@@ -338,8 +338,8 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 	if (rmd_motor_decode(&lm->m, f, &r) < 0 || !(r.have & RMD_MOTOR_HAVE_VERSION))
 		return;
 	fw = rmd_dialect_for_firmware(r.version_date, &certain);
+	lm->dialect_open = false;
 	if (!certain || fw->table == lm->m.d->table) {
-		lm->dialect_open = false;
 		lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
 		return;
 	}
