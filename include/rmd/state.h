@@ -275,9 +275,9 @@ enum rmd_event_kind {
 	/*
 	 * A motor missing at bring-up answered the loop's re-probe with
 	 * firmware of another dialect than its own (its entry's, or V3, which
-	 * `protocol: auto` takes it for): a = its firmware version (0xB2),
-	 * b = the dialect that says (enum rmd_proto).  It stays out until
-	 * rmdd restarts.
+	 * `protocol: auto` takes it for): a = its firmware version (0xB2; 0:
+	 * none, a V2 motor's status answer told), b = that dialect (enum
+	 * rmd_proto).  It stays out until rmdd restarts.
 	 */
 	RMD_EV_DIALECT,
 };

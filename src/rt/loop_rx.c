@@ -349,6 +349,43 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 		   (int64_t)fw->proto);
 }
 
+/*
+ * Is f a V2 motor's status answer (0x9A on 0x140 + ID: V2 answers on its
+ * request's identifier, V2 §1; a request has zeros after its command
+ * byte, an answer its temperature and voltage) from a `protocol: auto`
+ * motor still taken for V3 (its dialect open, struct lmotor)?  It has no
+ * firmware date to ask; its answer tells the dialect.  Left out for good,
+ * reported (RMD_EV_DIALECT, no date): the loop does not switch dialects.
+ * rt-safe.
+ */
+static __attribute__((cold, noinline)) bool v2_answer(struct rmd_loop *l, unsigned b,
+						      const struct rmd_frame *f, int64_t now)
+{
+	uint32_t id = f->can_id - RMD_CAN_REQ_BASE;
+	bool zeros = true;
+
+	if (f->can_id <= RMD_CAN_REQ_BASE || id > RMD_MAX_MOTORS || f->len != RMD_FRAME_LEN ||
+	    f->data[0] != 0x9A)
+		return false;
+	for (unsigned k = 1; k < RMD_FRAME_LEN; k++)
+		zeros &= !f->data[k];
+	if (zeros)
+		return false;
+	for (unsigned i = 0; i < l->n_motors; i++) {
+		struct lmotor *lm = &l->mot[i];
+
+		if (lm->m.bus != b || lm->m.id != id || !lm->dialect_open ||
+		    !l->cfg->motors[i].proto_auto)
+			continue;
+		lm->dialect_open = false;
+		lm->refused = true;
+		lm->next_probe_ns = INT64_MAX;
+		loop_event(l, now, RMD_EV_DIALECT, i, b, 0, RMD_PROTO_V2);
+		return true;
+	}
+	return false;
+}
+
 /* rt-safe. */
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
@@ -360,7 +397,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	int k;
 
 	if (!lm || !f->len) {
-		if (!lm && scan_late(l, b, f, now))
+		if (!lm && (scan_late(l, b, f, now) || v2_answer(l, b, f, now)))
 			return;
 		loop_unexpected(l, b, f, now);
 		return;

@@ -710,6 +710,66 @@ static void test_auto_missing_then_found(void **state)
 	rig_down();
 }
 
+/* Motor 1 `protocol: auto` (comm_loss_ms 0) on V2 firmware, powered 2 s late. */
+static void tweak_auto_v2_late(struct rmd_config *cfg, struct rmd_sim_setup *sim)
+{
+	cfg->probe.on_missing = RMD_MISSING_START;
+	cfg->motors[0].proto_auto = true;
+	cfg->motors[0].comm_loss_ms = 0;
+	sim->motors[0].proto = RMD_PROTO_V2;
+	sim->buses[0].faults[0] = (struct rmd_sim_fault){
+		.kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 1, .start_ns = 0, .end_ns = 2000 * MS
+	};
+	sim->buses[0].n_faults = 1;
+}
+
+/*
+ * A `protocol: auto` motor found late on V2 firmware: V2 has no firmware
+ * date, but its status answer comes on 0x140 + ID, which tells.  It is
+ * left out, reported once, not counted as unexpected frames, and no more
+ * is sent to it.
+ */
+static void test_auto_v2_found_late(void **state)
+{
+	struct rmd_loop_counters c;
+	struct rmd_snapshot s;
+	struct rmd_event e;
+	unsigned dialect_events = 0, after = 0;
+
+	(void)state;
+	rig_cfg_tweak = tweak_auto_v2_late;
+	rig_up(3, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
+	assert_int_equal(R.bu.missing, 1);
+	while (t_now < 4000 * MS) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	while (rmd_ring_pop(&R.events, &e))
+		if (e.kind == RMD_EV_DIALECT) {
+			dialect_events++;
+			assert_int_equal(e.motor, 0);
+			assert_int_equal(e.a, 0);
+			assert_int_equal(e.b, RMD_PROTO_V2);
+		}
+	assert_int_equal(dialect_events, 1);
+	rmd_loop_get_snapshot(R.l, &s);
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_LOST);
+	rmd_loop_get_counters(R.l, &c);
+	assert_int_equal(c.unexpected, 0);
+	sent_log = true;
+	while (t_now < 5000 * MS) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+	for (unsigned k = 0; k < sent_n; k++)
+		after += sent[k].id == RMD_CAN_REQ_BASE + 1;
+	if (after)
+		fail_msg("%u frames sent to motor 1 after it was left out", after);
+	rig_down();
+}
+
 /*
  * Three V4 motors; motor 1 left by another tool pushing 0x9C every 20 ms
  * (V4.2 §2.33), its cable cut for the first 2 s of the sim bus's time.
@@ -870,6 +930,7 @@ int main(void)
 		cmocka_unit_test(test_auto_v4_and_a_mismatch),
 		cmocka_unit_test(test_active_reply_left_on),
 		cmocka_unit_test(test_auto_missing_then_found),
+		cmocka_unit_test(test_auto_v2_found_late),
 		cmocka_unit_test(test_v4_back_reports_off),
 		cmocka_unit_test(test_slow_motors_are_found_and_measured),
 		cmocka_unit_test(test_late_answers_of_bringup_are_late),

@@ -304,7 +304,7 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 		snprintf(buf, len, "%s: homing refused", ctx);
 		break;
 	case RMD_EV_DIALECT:
-		snprintf(buf, len, "%s: left out, its firmware %" PRId64 " is %s", ctx, e->a,
+		snprintf(buf, len, "%s: left out, its firmware (%" PRId64 ") is %s", ctx, e->a,
 			 rmd_proto_key((enum rmd_proto)e->b));
 		break;
 	default:

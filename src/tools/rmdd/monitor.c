@@ -336,7 +336,14 @@ static void log_dialect(const struct rmd_config *cfg, const struct rmd_event *e)
 	char ctx[96];
 
 	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
-	if (c && c->proto_auto)
+	if (!e->a)
+		tool_log(4,
+			 "%s: answered at last, in %s (its status on 0x%03X), but with protocol: "
+			 "auto a motor missing at bring-up is taken for v3; left out: restart rmdd "
+			 "to bring it up (or set protocol: %s)",
+			 ctx, rmd_proto_key((enum rmd_proto)e->b), c ? RMD_CAN_REQ_BASE + c->id : 0,
+			 rmd_proto_key((enum rmd_proto)e->b));
+	else if (c && c->proto_auto)
 		tool_log(4,
 			 "%s: answered at last: its firmware %" PRId64 " is %s, but with protocol: "
 			 "auto a motor missing at bring-up is taken for v3; left out: restart rmdd "
