@@ -1126,7 +1126,8 @@ static long num_after(const char *text, const char *key)
 
 /*
  * rmdd on the line for RMDD_RUN_MS at rate_hz with turnaround_us: its log
- * (statistics at SIGTERM) into log.  Returns its exit status.
+ * (statistics at SIGTERM) into log.  Returns its exit status, or -1 when it
+ * did not start (its log says why).
  */
 static int run_rmdd(struct rig *g, const char *rmdd, unsigned rate_hz, long turnaround_us,
 		    char *log, size_t cap)
@@ -1196,9 +1197,11 @@ static int run_rmdd(struct rig *g, const char *rmdd, unsigned rate_hz, long turn
 	unlink(cfg);
 	rmdir(lockdir);
 	unsetenv("RMD_LOCK_DIR");
-	if (phase == STARTING)
-		fail_msg("rmdd did not start on %s at %u Hz (status %#x); its log:\n%s", g->b.path,
-			 rate_hz, st, log);
+	if (phase == STARTING) {
+		print_message("rmdd did not start on %s at %u Hz (status %#x)\n", g->b.path,
+			      rate_hz, st);
+		return -1;
+	}
 	return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
 }
 
@@ -1227,6 +1230,30 @@ static void test_rmdd_at_rtt_rate(void **state)
 		need_sim(g);
 		sleeper_mark(&g->ref);
 		st = run_rmdd(g, rmdd, rate, rtt_turnaround_us, log, sizeof(log));
+		if (st == -1 && strstr(log, "missing (no answer to ")) {
+			/*
+			 * Bring-up gave motors up after its tries: the machine's when
+			 * it held a normal thread off (the test's relay, which plays
+			 * the converter, is one) at least a try's wait meanwhile.
+			 */
+			double try_ms = 0;
+			const char *w = strstr(log, " tries of ");
+
+			if (w && sscanf(w, " tries of %lf ms", &try_ms) == 1 &&
+			    ms_of(sleeper_worst_ns(&g->ref)) >= try_ms) {
+				print_message("busy machine: bring-up gave up motors after tries "
+					      "of %.0f ms while a normal-priority thread was held "
+					      "off %.1f ms%s\n",
+					      try_ms, ms_of(sleeper_worst_ns(&g->ref)),
+					      k + 1 < RMDD_RUNS ?
+						      ": again" :
+						      ", every run: cannot be judged on "
+						      "this machine now");
+				if (k + 1 < RMDD_RUNS)
+					continue;
+				skip();
+			}
+		}
 		if (st != 0)
 			fail_msg("rmdd exit %d; its log:\n%s", st, log);
 		if (strstr(log, "longer than the line's reply timeout")) {
