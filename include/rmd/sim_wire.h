@@ -18,9 +18,10 @@
  *   time stamp.  Host frames are not echoed back.
  * - A motor's reply is ready a turnaround (rmd_sim_motor_turnaround_ns(),
  *   mean +- jitter) after the end of the request, never before its
- *   previous reply (rmd_sim_motor_reply_due(): firmware answers in order); its unsolicited frames
- *   (rmd_sim_motor_poll()) are ready when they fall due.  A ROM write's
- *   answer comes rom_write_ns later (rmd_sim_motor_rom_extra_ns()).
+ *   previous reply (rmd_sim_motor_reply_due(): firmware answers in order);
+ *   its unsolicited frames (rmd_sim_motor_poll()) are ready when they fall
+ *   due.  A ROM write's answer comes rom_write_ns later
+ *   (rmd_sim_motor_rom_extra_ns()).
  * - The host gets a motor's frame through its adapter (rmd/sim_adapter.h:
  *   a converter's latency timer, USB frames, a fixed delay): later than
  *   its end of frame, and rmd_sim_wire_recv() holds it until then.

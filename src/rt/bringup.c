@@ -366,15 +366,9 @@ static bool reports_off(struct rmd_loop *l, struct lmotor *lm)
 	unsigned n = 0;
 	int sent = 0;
 
-	for (unsigned k = 0; k < d->n_report_cmds && k < 8; k++) {
-		struct rmd_msg msg = { .cmd = 0xB6 };
-
-		rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, d->report_cmds[k]);
-		rmd_msg_set(&msg, RMD_FLD_REPORT_ON, 0);
-		rmd_msg_set(&msg, RMD_FLD_REPORT_MS, 0);
-		if (rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, &f[n]) == 0)
+	for (unsigned k = 0; k < d->n_report_cmds && k < 8; k++)
+		if (loop_report_off(lm, k, &f[n]) == 0)
 			n++;
-	}
 	/* the bus takes what it can now, the rest as it drains (bounded) */
 	for (unsigned tries = 0; (unsigned)sent < n && tries < 100; tries++) {
 		int r = rmd_bus_send(lb->bus, f + sent, n - (unsigned)sent, loop_now(l));
@@ -386,6 +380,22 @@ static bool reports_off(struct rmd_loop *l, struct lmotor *lm)
 			loop_wait_bus(l, lb->bus, RMD_NS_PER_MS);
 	}
 	return n == d->n_report_cmds && (unsigned)sent == n;
+}
+
+/*
+ * lm did not answer its first probe: missing, LOST, probed again by the
+ * first cycle -- its firmware date first where its dialect has one, never
+ * checked here (struct lmotor.dialect_open).  Returns -ENODEV.  Non-rt.
+ */
+static int missing(struct rmd_loop *l, struct lmotor *lm, struct rmd_bringup_motor *out)
+{
+	int64_t now = loop_now(l);
+
+	out->state = RMD_BRINGUP_MISSING;
+	loop_enter(l, lm, RMD_LC_LOST, now);
+	lm->dialect_open = rmd_dialect_has(lm->m.d, RMD_DIALECT_VERSION_B2);
+	lm->next_probe_ns = now;
+	return -ENODEV;
 }
 
 /* Probe motor i into *out.  Returns 0, or -ENODEV when it is missing.  Non-rt. */
@@ -402,13 +412,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 	out->proto_auto = l->cfg->motors[i].proto_auto;
 	if (out->proto_auto && resolve_auto(l, i, out) < 0) {
 		out->probe_cmd = lm->m.d->probe[0];
-		now = loop_now(l);
-		out->state = RMD_BRINGUP_MISSING;
-		loop_enter(l, lm, RMD_LC_LOST, now);
-		/* the first cycle probes again, as V3, its firmware date first */
-		lm->dialect_open = true;
-		lm->next_probe_ns = now;
-		return -ENODEV;
+		return missing(l, lm, out); /* taken for V3 until it answers */
 	}
 	d = lm->m.d;
 	out->proto = lm->m.proto;
@@ -423,15 +427,8 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 
 		if (k == 0) {
 			out->probe_cmd = cmd;
-			if (pr < 0) {
-				now = loop_now(l);
-				out->state = RMD_BRINGUP_MISSING;
-				loop_enter(l, lm, RMD_LC_LOST, now);
-				/* the first cycle probes again, its firmware date first */
-				lm->dialect_open = rmd_dialect_has(d, RMD_DIALECT_VERSION_B2);
-				lm->next_probe_ns = now;
-				return -ENODEV;
-			}
+			if (pr < 0)
+				return missing(l, lm, out);
 			/* it is there: what it may push unasked goes off before the reads */
 			if (rmd_dialect_has(d, RMD_DIALECT_ACTIVE_REPLY))
 				out->reports_off = reports_off(l, lm);

@@ -334,6 +334,12 @@ static inline void loop_gone(struct lmotor *lm, uint64_t key, int64_t sent_ns)
 	g->sent_ns = sent_ns;
 }
 
+/*
+ * loop_tx.c: the frame that turns lm's pushed reply report_cmds[k] off
+ * (0xB6, V4.2 §2.33).  0 or rmd_encode()'s error.  rt-safe.
+ */
+int loop_report_off(const struct lmotor *lm, unsigned k, struct rmd_frame *f);
+
 /* lifecycle.c: a position received while pos_settle decides the motor's (rmd/multiturn.h).  rt-safe. */
 __attribute__((cold)) void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 

@@ -318,6 +318,19 @@ static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmoto
 }
 
 /*
+ * lm, found late, speaks dialect `proto` (firmware version `version`, 0:
+ * none read), not its own: left out for good, reported (RMD_EV_DIALECT).
+ * rt-safe.
+ */
+static void refuse_dialect(struct rmd_loop *l, unsigned b, struct lmotor *lm, int64_t version,
+			   enum rmd_proto proto, int64_t now)
+{
+	lm->refused = true;
+	lm->next_probe_ns = INT64_MAX;
+	loop_event(l, now, RMD_EV_DIALECT, loop_idx(l, lm), b, version, proto);
+}
+
+/*
  * Answer f of a motor whose dialect is open (struct lmotor: missing at
  * bring-up) to its re-probe's firmware date 0xB2.  The rule
  * is bring-up's (rmd_dialect_for_firmware()), and the loop does not
@@ -343,10 +356,7 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 		lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
 		return;
 	}
-	lm->refused = true;
-	lm->next_probe_ns = INT64_MAX;
-	loop_event(l, now, RMD_EV_DIALECT, loop_idx(l, lm), b, (int64_t)r.version_date,
-		   (int64_t)fw->proto);
+	refuse_dialect(l, b, lm, (int64_t)r.version_date, fw->proto, now);
 }
 
 /*
@@ -378,9 +388,7 @@ static __attribute__((cold, noinline)) bool v2_answer(struct rmd_loop *l, unsign
 		    !l->cfg->motors[i].proto_auto)
 			continue;
 		lm->dialect_open = false;
-		lm->refused = true;
-		lm->next_probe_ns = INT64_MAX;
-		loop_event(l, now, RMD_EV_DIALECT, i, b, 0, RMD_PROTO_V2);
+		refuse_dialect(l, b, lm, 0, RMD_PROTO_V2, now);
 		return true;
 	}
 	return false;

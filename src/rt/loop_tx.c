@@ -118,6 +118,17 @@ static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 	loop_push_tx(lb, &lm->oneshot[0], i, REQ_ONESHOT);
 }
 
+/* rt-safe. */
+int loop_report_off(const struct lmotor *lm, unsigned k, struct rmd_frame *f)
+{
+	struct rmd_msg msg = { .cmd = 0xB6 };
+
+	rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, lm->m.d->report_cmds[k]);
+	rmd_msg_set(&msg, RMD_FLD_REPORT_ON, 0);
+	rmd_msg_set(&msg, RMD_FLD_REPORT_MS, 0);
+	return rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, f);
+}
+
 /*
  * One of lm's 0xB6 offs (struct lmotor.reports_off), the lowest first.
  * The manual gives no answer to it: none is awaited, and one the bus does
@@ -126,14 +137,10 @@ static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 static __attribute__((cold)) void push_report_off(struct lbus *lb, struct lmotor *lm, unsigned i)
 {
 	unsigned k = (unsigned)__builtin_ctz(lm->reports_off);
-	struct rmd_msg msg = { .cmd = 0xB6 };
 	struct rmd_frame f;
 
 	lm->reports_off &= (uint8_t) ~(1u << k);
-	rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, lm->m.d->report_cmds[k]);
-	rmd_msg_set(&msg, RMD_FLD_REPORT_ON, 0);
-	rmd_msg_set(&msg, RMD_FLD_REPORT_MS, 0);
-	if (rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, &f) == 0)
+	if (loop_report_off(lm, k, &f) == 0)
 		loop_push_tx(lb, &f, i, REQ_NO_REPLY);
 }
 
