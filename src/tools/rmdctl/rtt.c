@@ -102,11 +102,6 @@ static void summarize(struct series *s)
 }
 
 /*
- * One round: requests `cmd` to motors ids[0..n) (one each), all at once or,
- * on a half-duplex bus, one after the other; each first-try answer's round
- * trip goes into s[i].  Returns 0, or an exit status (reported).
- */
-/*
  * Listen RTT_LISTEN_MS before asking anything: s[c][i].pushed for each
  * measured command c that motor ids[i] sends unasked meanwhile.  Returns
  * 0 or -errno.
@@ -140,10 +135,11 @@ static int listen_pushes(struct dev *d, const uint8_t *ids, unsigned n,
 	return 0;
 }
 
-/* round_trip() on the motors of ids[0..n) that do not push cmd's reply (s[i].pushed). */
-static int round_trip_asked(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n,
-			    bool half_duplex, struct series *s);
-
+/*
+ * One round: requests `cmd` to motors ids[0..n) (one each), all at once or,
+ * on a half-duplex bus, one after the other; each first-try answer's round
+ * trip goes into s[i].  Returns 0, or an exit status (reported).
+ */
 static int round_trip(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n, bool half_duplex,
 		      struct series *s)
 {
@@ -195,6 +191,7 @@ static int round_trip(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n
 	return 0;
 }
 
+/* round_trip() on the motors of ids[0..n) that do not push cmd's reply (s[i].pushed). */
 static int round_trip_asked(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n,
 			    bool half_duplex, struct series *s)
 {

@@ -333,30 +333,27 @@ static void log_rt(const struct rt_note *rt)
 static void log_dialect(const struct rmd_config *cfg, const struct rmd_event *e)
 {
 	const struct rmd_config_motor *c = e->motor < cfg->n_motors ? &cfg->motors[e->motor] : NULL;
-	char ctx[96];
+	const char *key = rmd_proto_key((enum rmd_proto)e->b);
+	char ctx[96], how[96];
 
 	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
-	if (!e->a)
-		tool_log(4,
-			 "%s: answered at last, in %s (its status on 0x%03X), but with protocol: "
-			 "auto a motor missing at bring-up is taken for v3; left out: restart rmdd "
-			 "to bring it up (or set protocol: %s)",
-			 ctx, rmd_proto_key((enum rmd_proto)e->b), c ? RMD_CAN_REQ_BASE + c->id : 0,
-			 rmd_proto_key((enum rmd_proto)e->b));
-	else if (c && c->proto_auto)
-		tool_log(4,
-			 "%s: answered at last: its firmware %" PRId64 " is %s, but with protocol: "
-			 "auto a motor missing at bring-up is taken for v3; left out: restart rmdd "
-			 "to bring it up (or set protocol: %s)",
-			 ctx, e->a, rmd_proto_key((enum rmd_proto)e->b),
-			 rmd_proto_key((enum rmd_proto)e->b));
+	/* a firmware date said it, or (none) a V2 status answer on the request's identifier */
+	if (e->a)
+		snprintf(how, sizeof(how), ": its firmware %" PRId64 " is %s", e->a, key);
 	else
+		snprintf(how, sizeof(how), ", in %s (its status on 0x%03X)", key,
+			 c ? RMD_CAN_REQ_BASE + c->id : 0);
+	if (!c || c->proto_auto)
 		tool_log(4,
-			 "%s: answered at last: its firmware %" PRId64
-			 " is %s, but its protocol is "
-			 "%s; left out (set protocol: %s, or auto)",
-			 ctx, e->a, rmd_proto_key((enum rmd_proto)e->b),
-			 c ? rmd_proto_key(c->proto) : "?", rmd_proto_key((enum rmd_proto)e->b));
+			 "%s: answered at last%s, but with protocol: auto a motor missing at "
+			 "bring-up is taken for v3; left out: restart rmdd to bring it up (or set "
+			 "protocol: %s)",
+			 ctx, how, key);
+	else
+		tool_log(
+			4,
+			"%s: answered at last%s, but its protocol is %s; left out (set protocol: %s, or auto)",
+			ctx, how, rmd_proto_key(c->proto), key);
 }
 
 static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct rt_note *rt)
