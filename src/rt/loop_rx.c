@@ -360,22 +360,22 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 }
 
 /*
- * Is f a V2 motor's status answer (0x9A on 0x140 + ID: V2 answers on its
- * request's identifier, V2 §1; a request has zeros after its command
- * byte, an answer its temperature and voltage) from a `protocol: auto`
- * motor still taken for V3 (its dialect open, struct lmotor)?  It has no
- * firmware date to ask; its answer tells the dialect.  Left out for good,
- * reported (RMD_EV_DIALECT, no date): the loop does not switch dialects.
- * rt-safe.
+ * Is f the status answer (0x9A) of a `protocol: auto` motor still taken
+ * for V3 (its dialect open, struct lmotor), on the reply identifier of
+ * another dialect of the list -- V2's is the request's own, V2 §1, so a
+ * frame of zeros after its command byte is a request, not an answer?
+ * Such a motor has no firmware date to ask (V2); its answer tells the
+ * dialect.  Left out for good, reported (RMD_EV_DIALECT, no date): the
+ * loop does not switch dialects.  rt-safe.
  */
-static __attribute__((cold, noinline)) bool v2_answer(struct rmd_loop *l, unsigned b,
-						      const struct rmd_frame *f, int64_t now)
+static __attribute__((cold, noinline)) bool
+other_dialect_answer(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, int64_t now)
 {
-	uint32_t id = f->can_id - RMD_CAN_REQ_BASE;
+	size_t nd;
+	const struct rmd_dialect *list = rmd_dialect_list(&nd);
 	bool zeros = true;
 
-	if (f->can_id <= RMD_CAN_REQ_BASE || id > RMD_MAX_MOTORS || f->len != RMD_FRAME_LEN ||
-	    f->data[0] != 0x9A)
+	if (f->len != RMD_FRAME_LEN || f->data[0] != 0x9A)
 		return false;
 	for (unsigned k = 1; k < RMD_FRAME_LEN; k++)
 		zeros &= !f->data[k];
@@ -384,12 +384,19 @@ static __attribute__((cold, noinline)) bool v2_answer(struct rmd_loop *l, unsign
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		if (lm->m.bus != b || lm->m.id != id || !lm->dialect_open ||
-		    !l->cfg->motors[i].proto_auto)
+		if (lm->m.bus != b || !lm->dialect_open || !l->cfg->motors[i].proto_auto)
 			continue;
-		lm->dialect_open = false;
-		refuse_dialect(l, b, lm, 0, RMD_PROTO_V2, now);
-		return true;
+		for (size_t k = 0; k < nd; k++) {
+			const struct rmd_dialect *d = &list[k];
+
+			/* MIT is a way of driving V3 firmware, not a dialect of its own */
+			if (d->table != d->proto || d->reply_base == lm->m.d->reply_base ||
+			    f->can_id != d->reply_base + (uint32_t)lm->m.id)
+				continue;
+			lm->dialect_open = false;
+			refuse_dialect(l, b, lm, 0, d->proto, now);
+			return true;
+		}
 	}
 	return false;
 }
@@ -405,7 +412,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	int k;
 
 	if (!lm || !f->len) {
-		if (!lm && (scan_late(l, b, f, now) || v2_answer(l, b, f, now)))
+		if (!lm && (scan_late(l, b, f, now) || other_dialect_answer(l, b, f, now)))
 			return;
 		loop_unexpected(l, b, f, now);
 		return;

@@ -30,6 +30,7 @@
 #include "rmd/motor.h"
 #include "rmd/thread.h"
 #include "rmd/codec.h"
+#include "rmd/dialect.h"
 #include "rmdd.h"
 #include "tools/common/names.h"
 
@@ -333,16 +334,17 @@ static void log_rt(const struct rt_note *rt)
 static void log_dialect(const struct rmd_config *cfg, const struct rmd_event *e)
 {
 	const struct rmd_config_motor *c = e->motor < cfg->n_motors ? &cfg->motors[e->motor] : NULL;
+	const struct rmd_dialect *d = rmd_dialect((enum rmd_proto)e->b); /* what it speaks */
 	const char *key = rmd_proto_key((enum rmd_proto)e->b);
 	char ctx[96], how[96];
 
 	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
-	/* a firmware date said it, or (none) a V2 status answer on the request's identifier */
-	if (e->a)
+	/* a firmware date said it, or (none) its status answer on that dialect's identifier */
+	if (e->a || !d)
 		snprintf(how, sizeof(how), ": its firmware %" PRId64 " is %s", e->a, key);
 	else
 		snprintf(how, sizeof(how), ", in %s (its status on 0x%03X)", key,
-			 c ? RMD_CAN_REQ_BASE + c->id : 0);
+			 d->reply_base + (c ? c->id : 0u));
 	if (!c || c->proto_auto)
 		tool_log(4,
 			 "%s: answered at last%s, but with protocol: auto a motor missing at "
