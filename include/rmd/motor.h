@@ -37,8 +37,11 @@
  * replies carry the output angle in whole degrees (V3 §2.13.3, int16);
  * V2's carry the rotor's single-turn encoder (V2 §3.32, 16 bits a rotor
  * turn), which rmd_motor_decode() unwraps into a multi-turn output angle
- * from a reference set with rmd_motor_set_v2_reference() (the 0x92 angle
- * read at bring-up; without one V2 positions start at 0).
+ * from a reference: the 0x92 angle (rmd_motor_set_v2_reference() at
+ * bring-up, or the first 0x92 answer decoded without one).  Without a
+ * reference a V2 reply carries no position: an encoder counts within one
+ * rotor turn, and a motor that was silent (LOST) may have turned further
+ * or been powered off (rmd_motor_forget_v2_reference()).
  *
  * Everything here is rt-safe: no allocation, no I/O, no clock.
  */
@@ -170,7 +173,7 @@ struct rmd_motor {
 	/* feedback.position multi_turn: the position comes from 0x92 replies only */
 	bool fine_pos;
 	/* V2 position: the rotor encoder unwrapped from a reference */
-	bool v2_have_ref;      /* a reference angle was set */
+	bool v2_have_ref;      /* a reference angle was set (else no V2 position) */
 	double v2_ref_rad;     /* native output angle at the anchor */
 	bool v2_anchored;      /* the first encoder value after the reference is seen */
 	uint16_t v2_enc_last;  /* last encoder value */
@@ -410,6 +413,16 @@ double rmd_motor_pos_resolution_rad(const struct rmd_motor *m);
  * encoder value decoded is taken to be there.
  */
 void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad);
+
+/*
+ * V2: the encoder no longer continues from the reference (the motor was
+ * silent: it may have turned more than half a rotor turn, or lost its
+ * count): no position until the next 0x92 angle.
+ */
+void rmd_motor_forget_v2_reference(struct rmd_motor *m);
+
+/* Whether m is a V2 motor whose replies carry no position until a 0x92 angle. */
+bool rmd_motor_needs_v2_reference(const struct rmd_motor *m);
 
 /* The native output position (rad) of a reported position, and back. */
 double rmd_motor_to_native_pos(const struct rmd_motor *m, double pos_rad);

@@ -266,6 +266,8 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			lm->reports_off = 0; /* sent again when it is back */
 			cl_forget(l, lm);
 			pos_forget(lm);
+			/* V2: the encoder cannot tell what turned while it was silent */
+			rmd_motor_forget_v2_reference(&lm->m);
 		} else {
 			owe(lm, OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? OWE_BRAKE : 0));
 		}

@@ -193,8 +193,12 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t
 	case RMD_LC_READY:
 	case RMD_LC_STOPPING:
 	case RMD_LC_FAULT:
-		/* read only: V3 §2.13 / V2 §3.32 status 2 (MIT motors answer V3) */
-		push_cmd(l, lb, i, 0x9C);
+		/*
+		 * read only: V3 §2.13 / V2 §3.32 status 2 (MIT motors answer
+		 * V3); a V2 motor's 0x92 angle first, its encoder's reference
+		 */
+		push_cmd(l, lb, i,
+			 rmd_motor_needs_v2_reference(&lm->m) ? RMD_MOTOR_CMD_FINE_POS : 0x9C);
 		break;
 	case RMD_LC_LOST:
 		push_reprobe(l, lb, i, now);
@@ -221,6 +225,10 @@ static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t 
 	}
 	if (lm->st->lifecycle == RMD_LC_LOST)
 		push_reprobe(l, lb, i, now);
+	else if (__builtin_expect(rmd_motor_needs_v2_reference(&lm->m), 0) &&
+		 (lm->v2_ask_angle = !lm->v2_ask_angle))
+		/* an enabled V2 motor without its 0x92 angle: every other status slot */
+		push_cmd(l, lb, i, RMD_MOTOR_CMD_FINE_POS);
 	else
 		push_cmd(l, lb, i, 0x9A);
 }

@@ -602,6 +602,19 @@ void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad)
 	m->v2_anchored = false;
 }
 
+/* rt-safe. */
+void rmd_motor_forget_v2_reference(struct rmd_motor *m)
+{
+	m->v2_have_ref = false;
+	m->v2_anchored = false;
+}
+
+/* rt-safe. */
+bool rmd_motor_needs_v2_reference(const struct rmd_motor *m)
+{
+	return (m->caps & RMD_DIALECT_ENCODER_UNWRAP) && !m->v2_have_ref;
+}
+
 /* V2 §3.32: rotor single-turn encoder -> native multi-turn output angle.  rt-safe. */
 static __attribute__((noinline)) double v2_unwrap(struct rmd_motor *m, uint16_t enc)
 {
@@ -653,17 +666,23 @@ static void take_speed(const struct rmd_motor *m, double x, struct rmd_motor_rep
 /*
  * The position of a reply: its angle (V3 status 2 in whole degrees, 0x92 in
  * 0.01 deg: the output angle), else a V2 encoder value unwrapped (not the
- * 0x60 raw read).  rt-safe.
+ * 0x60 raw read) from a reference; a V2 0x92 angle is the reference when
+ * there is none.  rt-safe.
  */
 static inline __attribute__((always_inline)) void
 take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_enc, uint16_t enc,
 	      uint8_t cmd, struct rmd_motor_reply *r)
 {
 	if (have_angle) {
-		r->pos_rad = rmd_motor_from_native_pos(m, angle_deg / DEG_PER_RAD /
-								  m->native_per_output);
+		double native = angle_deg / DEG_PER_RAD / m->native_per_output;
+
+		if (__builtin_expect(!m->v2_have_ref, 0) && cmd == RMD_MOTOR_CMD_FINE_POS &&
+		    (m->caps & RMD_DIALECT_ENCODER_UNWRAP))
+			rmd_motor_set_v2_reference(m, native);
+		r->pos_rad = rmd_motor_from_native_pos(m, native);
 		r->have |= RMD_MOTOR_HAVE_POS;
-	} else if ((m->caps & RMD_DIALECT_ENCODER_UNWRAP) && have_enc && cmd != 0x60) {
+	} else if ((m->caps & RMD_DIALECT_ENCODER_UNWRAP) && have_enc && cmd != 0x60 &&
+		   m->v2_have_ref) {
 		r->pos_rad = rmd_motor_from_native_pos(m, v2_unwrap(m, enc));
 		r->have |= RMD_MOTOR_HAVE_POS;
 	}

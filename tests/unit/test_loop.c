@@ -2305,6 +2305,87 @@ static void test_pos_uncertain_mit_kp(void **state)
 	rig_down();
 }
 
+/*
+ * A V2 motor reports its rotor's encoder, one rotor turn of it (V2 §3.32);
+ * rmdd counts the turns from the 0x92 angle.  Silent (LOST) while it runs
+ * to its last target more than half a turn away, it cannot be counted:
+ * back, its position is the motor's 0x92 angle again, and a position
+ * command puts the shaft where the controller means, not a turn off.
+ * Judged on the simulated shaft and on the 0xA4 frames on the wire.
+ */
+static void v2_pos_tweak(struct rmd_config *cfg)
+{
+	struct rmd_config_motor *m = &cfg->motors[0];
+
+	m->proto = RMD_PROTO_V2;
+	m->mode = RMD_MODE_POSITION;
+	m->comm_loss_ms = 0; /* V2 has no 0xB3 (the loader insists) */
+	m->gear_ratio = 1.0;
+	m->multi_turn_saved = false;
+	m->n_travel = 0;
+	m->limits.velocity_rad_s = 5.0;
+	m->limits.position_min_rad = -2.5;
+	m->limits.position_max_rad = 2.5;
+}
+
+static void test_v2_silent_turn_recounted(void **state)
+{
+	struct rmd_sim_fault gone = { .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 1 };
+	struct rmd_setpoint *sp;
+	struct rmd_snapshot s;
+	unsigned from;
+
+	(void)state;
+	rig_up(3, v2_pos_tweak);
+	bring_up();
+	run(50, false);
+	cmd_clear();
+	sp = cmd_motor(0, true, RMD_MODE_POSITION);
+	sp->pos_rad = -2.0;
+	sp->max_vel_rad_s = 5.0;
+	run(1000, true);
+	assert_float_equal(sim_motor(0)->pos_rad, -2.0, 0.01);
+	/* the last target, 4.3 rad on: the motor runs there while it is silent */
+	sp->pos_rad = 2.3;
+	run(2, true);
+	fault_now(&gone, 1500 * MS);
+	run(1400, true);
+	assert_int_equal(lifecycle(0), RMD_LC_LOST);
+	assert_float_equal(sim_motor(0)->pos_rad, 2.3, 0.01);
+	run(1500, true);
+	set_faults(0, NULL, 0);
+	s = snap();
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
+	if (!s.m[0].pos_certain || fabs(s.m[0].pos_rad - 2.3) > 0.01)
+		fail_msg("back: certain %d, position %.4f rad (trust %d); the shaft is at 2.3",
+			 s.m[0].pos_certain, s.m[0].pos_rad, s.m[0].pos_trust);
+	/* enable = 0, then 1, to a target near where it is */
+	cmd_motor(0, false, RMD_MODE_POSITION);
+	run(2, true);
+	from = trace_n;
+	sp = cmd_motor(0, true, RMD_MODE_POSITION);
+	sp->pos_rad = 2.0;
+	sp->max_vel_rad_s = 5.0;
+	run(500, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_true(sent_to(0, 0xA4, from) > 400);
+	for (unsigned k = from; k < trace_n; k++) {
+		const struct rmd_frame *f = &trace[k].f;
+		int32_t centideg;
+
+		if (f->can_id != 0x141 || f->data[0] != 0xA4)
+			continue;
+		/* V2 §3.40: the angle, int32 0.01 deg at bytes 4..7 */
+		centideg = (int32_t)((uint32_t)f->data[4] | (uint32_t)f->data[5] << 8 |
+				     (uint32_t)f->data[6] << 16 | (uint32_t)f->data[7] << 24);
+		if (fabs(centideg / 100.0 - 2.0 * 180.0 / M_PI) > 0.02)
+			fail_msg("frame %u: 0xA4 to %.2f deg, want %.2f", k, centideg / 100.0,
+				 2.0 * 180.0 / M_PI);
+	}
+	assert_float_equal(sim_motor(0)->pos_rad, 2.0, 0.01);
+	rig_down();
+}
+
 static struct rmd_home homes;
 
 /* Motor i homed: at pos_rad now, or as reported. */
@@ -3029,6 +3110,7 @@ int main(void)
 		cmocka_unit_test(test_fine_position_at_zero),
 		cmocka_unit_test(test_polls_two_a_cycle),
 		cmocka_unit_test(test_pos_cycle_in_band),
+		cmocka_unit_test(test_v2_silent_turn_recounted),
 		cmocka_unit_test(test_pos_ambiguous_refused),
 		cmocka_unit_test(test_pos_homed),
 		cmocka_unit_test(test_pos_uncertain_mit_kp),

@@ -617,8 +617,6 @@ static void test_decode_v2_unwrap(void **state)
 	c.torque_constant_nm_a = 0.5;
 	c.direction = -1;
 	m = motor_of(&c);
-	rmd_motor_set_v2_reference(&m, 1.0); /* the 0x92 angle at bring-up */
-
 	memset(&msg, 0, sizeof(msg));
 	msg.cmd = 0xA1;
 	rmd_msg_set(&msg, RMD_FLD_TEMP, 30);
@@ -627,6 +625,14 @@ static void test_decode_v2_unwrap(void **state)
 	rmd_msg_set(&msg, RMD_FLD_ENCODER, 65000);
 	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &msg, &f), 0);
 	assert_int_equal(f.can_id, 0x142);
+	/* no reference: the encoder alone is no position */
+	assert_true(rmd_motor_needs_v2_reference(&m));
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_false(r.have & RMD_MOTOR_HAVE_POS);
+	assert_true(r.have & RMD_MOTOR_HAVE_VEL);
+
+	rmd_motor_set_v2_reference(&m, 1.0); /* the 0x92 angle at bring-up */
+	assert_false(rmd_motor_needs_v2_reference(&m));
 	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
 	assert_float_equal(r.current_a, -33.0, 1e-9);
 	assert_float_equal(r.torque_nm, -16.5, 1e-9);
@@ -643,6 +649,26 @@ static void test_decode_v2_unwrap(void **state)
 	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &msg, &f), 0);
 	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
 	assert_float_equal(r.pos_rad, -(1.0 + 535 * per_count), 1e-12);
+
+	/* silent (LOST): the count is forgotten until a 0x92 angle, which anchors it */
+	rmd_motor_forget_v2_reference(&m);
+	assert_true(rmd_motor_needs_v2_reference(&m));
+	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+	assert_false(r.have & RMD_MOTOR_HAVE_POS);
+	{
+		struct rmd_msg a = { .cmd = 0x92 };
+		struct rmd_frame g;
+
+		/* V2 §3.29: 0.01 deg at the rotor (rotor units): 720 deg is 120 at the output */
+		rmd_msg_set(&a, RMD_FLD_ANGLE, 72000);
+		assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &a, &g), 0);
+		assert_int_equal(rmd_motor_decode(&m, &g, &r), 0);
+		assert_true(r.have & RMD_MOTOR_HAVE_POS);
+		assert_false(rmd_motor_needs_v2_reference(&m));
+		/* the next encoder value is there, and counts from it */
+		assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
+		assert_float_equal(r.pos_rad, -(720.0 / 6.0 * DEG), 1e-9);
+	}
 
 	/* V2 replies come on 0x140 + ID, not 0x240 + ID */
 	f.can_id = 0x242;

@@ -642,7 +642,7 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 					    "the generation: the conservative one taken)",
 			 d->key);
 	if (rmd_dialect_has(d, RMD_DIALECT_ENCODER_UNWRAP) && !bm->v2_angle)
-		line_add(ln, ", no 0x92 angle: positions start at 0");
+		line_add(ln, ", no 0x92 angle: no position until it answers one");
 	if (!rmd_dialect_has(d, RMD_DIALECT_COMM_LOSS_B3))
 		line_add(ln, ", no 0xB3 in %s (no comm-loss protection)", d->name);
 	if (bm->state == RMD_BRINGUP_MISMATCH) {
