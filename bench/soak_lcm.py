@@ -276,6 +276,8 @@ class Monitor:
         # between (the two are a period apart unless rmdd's bridge was kept waiting)
         self.trans = []
         self.missed_ev = []  # (utime_s, motor, missed total) when it changed
+        self.certain = [None] * n
+        self.certain_ev = []  # (utime_s, motor, position_certain) when it changed
         self.late = []  # (utime_s, motor) of a reply later than LATE_US
         self.states = 0
         self.first_state = None
@@ -314,6 +316,9 @@ class Monitor:
                 self.trans.append((t, i, m.lifecycle, prev))
             if m.reply_latency_us >= LATE_US and m.reply_age_cycles < STATE_EVERY_N:
                 self.late.append((t, i))
+            if m.position_certain != self.certain[i]:
+                self.certain[i] = m.position_certain
+                self.certain_ev.append((t, i, bool(m.position_certain)))
             if m.missed_replies != self.missed[i]:
                 self.missed[i] = m.missed_replies
                 self.missed_ev.append((t, i, m.missed_replies))
@@ -448,7 +453,7 @@ def drive(d, seed, duration):
     c.wait(1.0)
     out = {
         "sends": sends[0], "enables": enables, "events": events, "gaps": gaps,
-        "trans": mon.trans, "missed": mon.missed_ev, "late": mon.late, "health": mon.health,
+        "trans": mon.trans, "missed": mon.missed_ev, "certain": mon.certain_ev, "late": mon.late, "health": mon.health,
         "states": mon.states, "first_state": mon.first_state, "last_state": mon.last_state,
         "max_state_gap": mon.max_state_gap, "stalls": mon.stalls, "accepted": mon.accepted,
         "loop_stalls": mon.loop_stalls,
@@ -686,13 +691,28 @@ def judge(d):
         sure = k + 1 < len(acc) and acc[k + 1][1] == acc[k][1]
         return (acc[m - 1][0] if m > 0 else float("-inf")), acc[m][0], sure
 
+    certain_ev = [tuple(x) for x in dr["certain"]]
+
+    def uncertain_at(i, tt):
+        """Whether motor i's position was uncertain in the state_t that showed tt."""
+        ev = [c for t, j, c in certain_ev if j == i and t <= tt]
+        return bool(ev) and not ev[-1]
+
     wd_checked = [0, 0]  # trips judged early-or-not, late-or-not
+    refused_safe = 0  # SAFE for a setpoint refused on an uncertain position, not judged
     for tt, i, lc, _ in trans:
         if lc != LC_SAFE:
             continue
         prev = [x for x in trans if x[1] == i and x[0] < tt]
         if prev and prev[-1][2] in (LC_LOST, LC_FAULT):
             continue  # lost_motor_action: the safe action of a LOST motor
+        if MOTORS[i][4] in ("position", "mit") and uncertain_at(i, tt):
+            # after a power cycle outside its travel band (the MIT feedforward
+            # drives it there): a setpoint that needs the position is refused,
+            # and the motor made safe (docs/faults.md "Position uncertain after
+            # power-off")
+            refused_safe += 1
+            continue
         b = last_accept(tt)
         if b is None:
             continue
@@ -878,8 +898,10 @@ def judge(d):
              max([x[2] for x in loop_stalls], default=0) / RATE_HZ * 1e3,
              disturbed[0]))
     print("controller: %d sends, %d enables, %d wild stamps; %d commands not accepted "
-          "(lost on a busy host's LCM); watchdog trips judged: %d early-or-not, %d late-or-not"
-          % (dr["sends"], dr["enables"], stamps, lost, wd_checked[0], wd_checked[1]))
+          "(lost on a busy host's LCM); watchdog trips judged: %d early-or-not, %d late-or-not; "
+          "made safe for a setpoint refused on an uncertain position: %d"
+          % (dr["sends"], dr["enables"], stamps, lost, wd_checked[0], wd_checked[1],
+             refused_safe))
     print("lcm: commands accepted %d, rejected %d (%s), clamped %d; hostile bursts %d"
           % (last["commands_accepted"], last["commands_rejected"],
              " ".join("%s %d" % (REJ[k], rej[k]) for k in range(8) if rej[k]),
