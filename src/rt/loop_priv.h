@@ -112,7 +112,7 @@ struct lmotor {
 	struct rmd_frame oneshot[ONESHOTS];
 	unsigned n_oneshot;
 	bool damp_stream;  /* SAFE with MIT damp: the damp frame in every control slot */
-	bool v2_ask_angle; /* V2 without its 0x92 reference: this status slot asks 0x92 */
+	bool v2_ask_angle; /* V2 without its 0x92 reference: the last read asked 0x92 */
 	/*
 	 * Owed frames (lifecycle.c "Owed frames"): OWE_* bits not yet echoed,
 	 * how many were sent, and the state STOPPING was entered from.

@@ -162,6 +162,18 @@ static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t no
 		push_report_off(lb, lm, i);
 }
 
+/*
+ * Whether this read of lm asks its 0x92 angle: a V2 motor whose encoder
+ * has no reference (rmd/motor.h), every other read.  rt-safe.
+ */
+static inline bool ask_v2_angle(struct lmotor *lm)
+{
+	if (__builtin_expect(!rmd_motor_needs_v2_reference(&lm->m), 1))
+		return false;
+	lm->v2_ask_angle = !lm->v2_ask_angle;
+	return lm->v2_ask_angle;
+}
+
 /* rt-safe. */
 static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
@@ -195,10 +207,11 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t
 	case RMD_LC_FAULT:
 		/*
 		 * read only: V3 §2.13 / V2 §3.32 status 2 (MIT motors answer
-		 * V3); a V2 motor's 0x92 angle first, its encoder's reference
+		 * V3); a V2 motor without its encoder's reference asks its
+		 * 0x92 angle every other time (firmware that never answers it
+		 * misses half, never ten in a row)
 		 */
-		push_cmd(l, lb, i,
-			 rmd_motor_needs_v2_reference(&lm->m) ? RMD_MOTOR_CMD_FINE_POS : 0x9C);
+		push_cmd(l, lb, i, ask_v2_angle(lm) ? RMD_MOTOR_CMD_FINE_POS : 0x9C);
 		break;
 	case RMD_LC_LOST:
 		push_reprobe(l, lb, i, now);
@@ -225,9 +238,7 @@ static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t 
 	}
 	if (lm->st->lifecycle == RMD_LC_LOST)
 		push_reprobe(l, lb, i, now);
-	else if (__builtin_expect(rmd_motor_needs_v2_reference(&lm->m), 0) &&
-		 (lm->v2_ask_angle = !lm->v2_ask_angle))
-		/* an enabled V2 motor without its 0x92 angle: every other status slot */
+	else if (ask_v2_angle(lm)) /* as in add_control() */
 		push_cmd(l, lb, i, RMD_MOTOR_CMD_FINE_POS);
 	else
 		push_cmd(l, lb, i, 0x9A);
