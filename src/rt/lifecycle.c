@@ -772,7 +772,7 @@ uint8_t rmd_loop_comm_loss(const struct rmd_loop *l, unsigned i)
  * rmd/multiturn.h: a motor that appears (bring-up) or returns from LOST may
  * have been powered off, and its multi-turn count with it.  Its position is
  * then trusted when the config says it keeps its count, or decided on the
- * first position received (loop_pos_settle()): shifted into its travel
+ * first two positions received that agree (loop_pos_settle()): shifted into its travel
  * band when the band admits one position, else uncertain until homed.
  */
 
@@ -781,6 +781,7 @@ static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t,
 		    int64_t now)
 {
 	lm->pos_settle = false;
+	lm->pos_cand = false;
 	lm->st->pos_trust = (uint8_t)t;
 	lm->st->pos_certain = rmd_pos_trusted(t);
 	if (lm->st->pos_certain)
@@ -793,6 +794,7 @@ static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t,
 static void pos_forget(struct lmotor *lm)
 {
 	lm->pos_settle = false;
+	lm->pos_cand = false;
 	lm->pos_warned = false;
 	lm->st->pos_trust = RMD_POS_UNKNOWN;
 	lm->st->pos_certain = false;
@@ -815,6 +817,18 @@ void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	double shift;
 	enum rmd_pos_trust t = rmd_multiturn_settle(&lm->m.mt, lm->st->pos_rad, &shift);
 
+	/*
+	 * Two readings in a row decide, when they come to the same: one frame
+	 * that decodes but is not the motor's (garbled, or another node on its
+	 * identifier) would shift the command frame by whole turns for good.
+	 */
+	if (!lm->pos_cand || lm->pos_cand_trust != (uint8_t)t || lm->pos_cand_shift != shift) {
+		lm->pos_cand = true;
+		lm->pos_cand_trust = (uint8_t)t;
+		lm->pos_cand_shift = shift;
+		lm->pos_settle_ns = lm->st->pos_rx_ns + 1; /* a later reading */
+		return;
+	}
 	if (t == RMD_POS_IN_BAND && shift != 0.0) {
 		rmd_motor_shift_pos(&lm->m, shift);
 		lm->st->pos_rad += shift;

@@ -76,11 +76,43 @@ static void (*rig_sim_tweak)(struct rmd_sim_setup *sim);
 static struct rmd_event evs[EVENTS_MAX];
 static unsigned nev;
 
+/*
+ * A forged reply (test_pos_settle_one_bad_reading): once motor 1 on bus 0
+ * (a V3 entry) has echoed 0x80 and 0x78, the next status 2 reply it sends
+ * reads a rotor turn more (V3 §2.13.3: int16 whole degrees at DATA[6..7]),
+ * as a frame garbled into another valid one, or another node's, would.
+ */
+static struct {
+	bool armed;
+	bool saw_80, saw_78;
+	bool done;
+} forge;
+
+static void forge_reply(unsigned b, const struct rmd_sim_pending *p)
+{
+	struct rmd_frame *f = (struct rmd_frame *)&p->f; /* the wire's own frame, not const */
+	int16_t deg;
+
+	if (!forge.armed || forge.done || b != 0 || p->src == RMD_SIM_SRC_HOST ||
+	    f->can_id != 0x241)
+		return;
+	forge.saw_80 |= f->data[0] == 0x80;
+	forge.saw_78 |= f->data[0] == 0x78;
+	if (!forge.saw_80 || !forge.saw_78 || f->data[0] != 0x9C)
+		return;
+	deg = (int16_t)(uint16_t)(f->data[6] | f->data[7] << 8);
+	deg = (int16_t)(deg + 360);
+	f->data[6] = (uint8_t)((uint16_t)deg & 0xFF);
+	f->data[7] = (uint8_t)((uint16_t)deg >> 8);
+	forge.done = true;
+}
+
 static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
 {
 	unsigned b = (unsigned)(uintptr_t)ctx;
 
 	(void)eof_ns;
+	forge_reply(b, p);
 	if (p->src != RMD_SIM_SRC_HOST || trace_n >= TRACE_MAX)
 		return;
 	trace[trace_n++] = (struct sent){ .bus = b, .f = p->f, .t_ns = start_ns + R.epoch[b] };
@@ -2199,6 +2231,42 @@ static void test_pos_cycle_in_band(void **state)
 }
 
 /*
+ * The first position of a motor back from a power cycle is a reply that
+ * reads a turn off (forge above): one reading alone would shift the frame
+ * its commands are sent in by a turn for good; two that agree decide.
+ */
+static void test_pos_settle_one_bad_reading(void **state)
+{
+	static const struct pc_case c = { .name = "direct drive, 400 deg, band 200 deg",
+					  .gear = 1.0,
+					  .dir = 1,
+					  .start_deg = 400.0,
+					  .below = 100.0,
+					  .above = 100.0 };
+	struct rmd_snapshot s;
+
+	(void)state;
+	pc = c;
+	pc_rig();
+	assert_true(snap().m[0].pos_certain);
+	cmd_clear();
+	cmd_motor(0, false, RMD_MODE_TORQUE);
+	memset(&forge, 0, sizeof(forge));
+	forge.armed = true;
+	pc_power_cycle();
+	run(20, true);
+	forge.armed = false;
+	assert_true(forge.done);
+	s = snap();
+	if (!s.m[0].pos_certain || s.m[0].pos_trust != RMD_POS_IN_BAND ||
+	    fabs(s.m[0].pos_rad - pc_truth_rad()) > PC_TOL)
+		fail_msg("after the power cycle and one forged reply: certain %d trust %d pos %g, "
+			 "truth %g",
+			 s.m[0].pos_certain, s.m[0].pos_trust, s.m[0].pos_rad, pc_truth_rad());
+	rig_down();
+}
+
+/*
  * A joint without a band narrower than one turn: uncertain after the power
  * cycle; a position-mode enable is refused on the wire (no 0xA4 reaches
  * the bus), counted and reported once; torque mode still runs; switching
@@ -3111,6 +3179,7 @@ int main(void)
 		cmocka_unit_test(test_polls_two_a_cycle),
 		cmocka_unit_test(test_pos_cycle_in_band),
 		cmocka_unit_test(test_v2_silent_turn_recounted),
+		cmocka_unit_test(test_pos_settle_one_bad_reading),
 		cmocka_unit_test(test_pos_ambiguous_refused),
 		cmocka_unit_test(test_pos_homed),
 		cmocka_unit_test(test_pos_uncertain_mit_kp),
