@@ -173,7 +173,7 @@ struct rmd_motor {
 	/* feedback.position multi_turn: the position comes from 0x92 replies only */
 	bool fine_pos;
 	/* V2 position: the rotor encoder unwrapped from a reference */
-	bool v2_have_ref;      /* a reference angle was set (else no V2 position) */
+	bool v2_have_ref;      /* a reference angle was set, or none is needed (not V2) */
 	double v2_ref_rad;     /* native output angle at the anchor */
 	bool v2_anchored;      /* the first encoder value after the reference is seen */
 	uint16_t v2_enc_last;  /* last encoder value */
@@ -421,8 +421,11 @@ void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad);
  */
 void rmd_motor_forget_v2_reference(struct rmd_motor *m);
 
-/* Whether m is a V2 motor whose replies carry no position until a 0x92 angle. */
-bool rmd_motor_needs_v2_reference(const struct rmd_motor *m);
+/* Whether m is a V2 motor whose replies carry no position until a 0x92 angle.  rt-safe. */
+static inline bool rmd_motor_needs_v2_reference(const struct rmd_motor *m)
+{
+	return !m->v2_have_ref;
+}
 
 /* The native output position (rad) of a reported position, and back. */
 double rmd_motor_to_native_pos(const struct rmd_motor *m, double pos_rad);

@@ -194,6 +194,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->proto = c->proto;
 	m->d = d;
 	m->caps = d->caps;
+	m->v2_have_ref = !(m->caps & RMD_DIALECT_ENCODER_UNWRAP); /* the others need none */
 	m->table = d->table;
 	m->mode = c->mode;
 	m->dir = c->direction;
@@ -605,14 +606,10 @@ void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad)
 /* rt-safe. */
 void rmd_motor_forget_v2_reference(struct rmd_motor *m)
 {
+	if (!(m->caps & RMD_DIALECT_ENCODER_UNWRAP))
+		return;
 	m->v2_have_ref = false;
 	m->v2_anchored = false;
-}
-
-/* rt-safe. */
-bool rmd_motor_needs_v2_reference(const struct rmd_motor *m)
-{
-	return (m->caps & RMD_DIALECT_ENCODER_UNWRAP) && !m->v2_have_ref;
 }
 
 /* V2 §3.32: rotor single-turn encoder -> native multi-turn output angle.  rt-safe. */
@@ -676,8 +673,7 @@ take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_
 	if (have_angle) {
 		double native = angle_deg / DEG_PER_RAD / m->native_per_output;
 
-		if (__builtin_expect(!m->v2_have_ref, 0) && cmd == RMD_MOTOR_CMD_FINE_POS &&
-		    (m->caps & RMD_DIALECT_ENCODER_UNWRAP))
+		if (__builtin_expect(!m->v2_have_ref, 0) && cmd == RMD_MOTOR_CMD_FINE_POS)
 			rmd_motor_set_v2_reference(m, native);
 		r->pos_rad = rmd_motor_from_native_pos(m, native);
 		r->have |= RMD_MOTOR_HAVE_POS;
