@@ -426,7 +426,10 @@ def drive(d, seed, duration):
         # one enable per mode: the motors of each mode together
         for mode in sorted(set(m[4] for m in MOTORS)):
             idx = [i for i, m in enumerate(MOTORS) if m[4] == mode]
-            c.enable(idx, modes[mode], timeout=0.5, strict=False)
+            try:
+                c.enable(idx, modes[mode], timeout=0.5, strict=False)
+            except rmd.RmdError as e:  # another motor lost while these were enabled
+                events.append(("stopped", time.monotonic(), str(e)))
         enables += 1
         events.append(("enable", t_en, time.monotonic()))
         run = rng.uniform(2.0, 8.0)
