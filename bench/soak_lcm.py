@@ -410,10 +410,22 @@ def drive(d, seed, duration):
         events.append(("stamp", time.monotonic(), kind))
 
     orig_send = c.send
+    # rmdd's watchdog is per motor: the spans in which this controller's sends
+    # carried a motor's command, (motor, first, last send), for the judge
+    feeding, spans = {}, []
+
+    def note_feed(now):
+        cur = set(c._cmd) - set(c.stopped)
+        for i in list(feeding):
+            if i not in cur:
+                spans.append((i,) + tuple(feeding.pop(i)))
+        for i in cur:
+            feeding.setdefault(i, [now, now])[1] = now
 
     def send():
         r = orig_send()
         note_send()
+        note_feed(time.monotonic())
         return r
     c.send = send
 
@@ -454,12 +466,13 @@ def drive(d, seed, duration):
             last_send[0] = time.monotonic()
     c.disable(timeout=0.5)
     c.wait(1.0)
+    spans.extend((i,) + tuple(v) for i, v in feeding.items())
     out = {
         "sends": sends[0], "enables": enables, "events": events, "gaps": gaps,
         "trans": mon.trans, "missed": mon.missed_ev, "certain": mon.certain_ev, "late": mon.late, "health": mon.health,
         "states": mon.states, "first_state": mon.first_state, "last_state": mon.last_state,
         "max_state_gap": mon.max_state_gap, "stalls": mon.stalls, "accepted": mon.accepted,
-        "loop_stalls": mon.loop_stalls,
+        "loop_stalls": mon.loop_stalls, "fed": spans,
         "first_health": health_dict(mon.first_health) if mon.first_health else None,
         "last_health": health_dict(mon.last_health) if mon.last_health else None,
         "names": [m.name for m in cfg.motor],
@@ -695,6 +708,7 @@ def judge(d):
         return (acc[m - 1][0] if m > 0 else float("-inf")), acc[m][0], sure
 
     certain_ev = [tuple(x) for x in dr["certain"]]
+    fed_spans = [tuple(x) for x in dr["fed"]]
 
     def uncertain_at(i, tt):
         """Whether motor i's position was uncertain in the state_t that showed tt."""
@@ -720,6 +734,11 @@ def judge(d):
         if b is None:
             continue
         wd_checked[0] += 1
+        # the controller's last send that carried this motor (its own deadline):
+        # a trip is early only if both it and some accepted command are recent
+        fed = max((min(e, tt) for j, s0, e in fed_spans if j == i and s0 <= tt), default=None)
+        if fed is None or tt - fed >= tmo - 2 * cyc:
+            continue
         if tt - b[0] < tmo - 2 * cyc:
             viol.append("watchdog: %s SAFE at %.3f s, %.0f ms after a command rmdd accepted"
                         % (names[i], tt - dr["first_state"], (tt - b[0]) * 1e3))
