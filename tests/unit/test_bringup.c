@@ -155,6 +155,32 @@ static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faul
 		fail_msg("rmd_loop_new: %s", err);
 }
 
+/* rig_up(n, TAMPER_NONE, NULL, 0) with tweak handed the configuration and simulators. */
+static void rig_up_tweaked(unsigned n, void (*tweak)(struct rmd_config *, struct rmd_sim_setup *))
+{
+	rig_cfg_tweak = tweak;
+	rig_up(n, TAMPER_NONE, NULL, 0);
+	rig_cfg_tweak = NULL;
+}
+
+/* n of the loop's cycles, a period apart on the rig's clock. */
+static void cycles(unsigned n)
+{
+	for (unsigned k = 0; k < n; k++) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+}
+
+/* The loop's cycles, a period apart, until the rig's clock reaches t_ns. */
+static void cycle_until(int64_t t_ns)
+{
+	while (t_now < t_ns) {
+		t_now += R.plan.period_ns;
+		rmd_loop_cycle(R.l, t_now);
+	}
+}
+
 static void rig_down(void)
 {
 	rmd_loop_free(R.l);
@@ -437,9 +463,7 @@ static void test_auto_picks_each_dialect(void **state)
 	struct rmd_snapshot s;
 
 	(void)state;
-	rig_cfg_tweak = tweak_auto;
-	rig_up(3, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(3, tweak_auto);
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
 	/* motor 1: V3 firmware dated 20220206, a date that tells */
 	assert_true(R.bu.motor[0].proto_auto);
@@ -458,10 +482,7 @@ static void test_auto_picks_each_dialect(void **state)
 	assert_int_equal(R.bu.mismatched, 0);
 	assert_int_equal(R.bu.missing, 0);
 	/* the loop takes each motor's answers on its dialect's identifiers */
-	for (unsigned k = 0; k < 300; k++) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycles(300);
 	rmd_loop_get_snapshot(R.l, &s);
 	for (unsigned k = 0; k < 3; k++)
 		if (s.m[k].lifecycle != RMD_LC_READY || s.m[k].reply_age_cycles > 200 ||
@@ -477,9 +498,7 @@ static void test_auto_v4_and_a_mismatch(void **state)
 	struct rmd_snapshot s;
 
 	(void)state;
-	rig_cfg_tweak = tweak_v4;
-	rig_up(3, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(3, tweak_v4);
 	R.cfg.probe.on_missing = RMD_MISSING_START;
 	/*
 	 * a previous owner left motor 2 running: brake released (0x77), 100 dps
@@ -533,10 +552,7 @@ static void test_auto_v4_and_a_mismatch(void **state)
 	assert_int_equal(s.m[2].lifecycle, RMD_LC_READY);
 	/* what it pushes never brings it back: nothing goes to it */
 	sent_log = true;
-	for (unsigned k = 0; k < 500; k++) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycles(500);
 	rmd_loop_get_snapshot(R.l, &s);
 	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
 	for (unsigned k = 0; k < sent_n; k++)
@@ -572,9 +588,7 @@ static void test_active_reply_left_on(void **state)
 	unsigned pushed = 0;
 
 	(void)state;
-	rig_cfg_tweak = tweak_all_v4;
-	rig_up(3, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(3, tweak_all_v4);
 	assert_int_equal(rmd_bus_send(&R.sim[0], f, 2, t_now), 2);
 	for (unsigned k = 0; k < 100; k++) { /* 100 ms of the sim bus: pushes come */
 		int n;
@@ -595,10 +609,7 @@ static void test_active_reply_left_on(void **state)
 	for (unsigned k = 0; k < RMD_DIALECT_REPORTS_MAX; k++)
 		if (m->report_steps[k])
 			fail_msg("0x%02X still pushed after bring-up", m->d->report_cmds[k]);
-	for (unsigned k = 0; k < 300; k++) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycles(300);
 	rmd_loop_get_counters(R.l, &c);
 	rmd_loop_get_snapshot(R.l, &s);
 	if (c.unexpected || c.missed || s.m[0].lifecycle != RMD_LC_READY)
@@ -613,9 +624,7 @@ static void test_auto_v2_with_protection_is_refused(void **state)
 	struct rmd_snapshot s;
 
 	(void)state;
-	rig_cfg_tweak = tweak_auto_v2_protected;
-	rig_up(3, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(3, tweak_auto_v2_protected);
 	/* whatever probe.on_missing says: the configuration must change */
 	R.cfg.probe.on_missing = RMD_MISSING_START;
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), -EPROTO);
@@ -663,16 +672,11 @@ static void test_auto_missing_then_found(void **state)
 	unsigned dialect_events = 0;
 
 	(void)state;
-	rig_cfg_tweak = tweak_auto_late;
-	rig_up(3, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(3, tweak_auto_late);
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
 	assert_int_equal(R.bu.missing, 3);
 	sent_log = true;
-	while (t_now < 4000 * MS) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycle_until(4000 * MS);
 	rmd_loop_get_snapshot(R.l, &s);
 	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
 	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
@@ -737,15 +741,10 @@ static void test_auto_v2_found_late(void **state)
 	unsigned dialect_events = 0, after = 0;
 
 	(void)state;
-	rig_cfg_tweak = tweak_auto_v2_late;
-	rig_up(3, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(3, tweak_auto_v2_late);
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
 	assert_int_equal(R.bu.missing, 1);
-	while (t_now < 4000 * MS) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycle_until(4000 * MS);
 	while (rmd_ring_pop(&R.events, &e))
 		if (e.kind == RMD_EV_DIALECT) {
 			dialect_events++;
@@ -759,10 +758,7 @@ static void test_auto_v2_found_late(void **state)
 	rmd_loop_get_counters(R.l, &c);
 	assert_int_equal(c.unexpected, 0);
 	sent_log = true;
-	while (t_now < 5000 * MS) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycle_until(5000 * MS);
 	for (unsigned k = 0; k < sent_n; k++)
 		after += sent[k].id == RMD_CAN_REQ_BASE + 1;
 	if (after)
@@ -798,17 +794,12 @@ static void test_v4_back_reports_off(void **state)
 	const struct rmd_sim_motor *m;
 
 	(void)state;
-	rig_cfg_tweak = tweak_v4_pushing_late;
-	rig_up(3, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(3, tweak_v4_pushing_late);
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
 	assert_int_equal(R.bu.motor[0].state, RMD_BRINGUP_MISSING);
 	sent_log = true;
 	/* the window is the sim bus's time, which began with bring-up: it is back at 3 s */
-	while (t_now < 4000 * MS) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycle_until(4000 * MS);
 	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 1);
 	for (unsigned k = 0; k < RMD_DIALECT_REPORTS_MAX; k++)
 		if (m->report_steps[k])
@@ -820,10 +811,7 @@ static void test_v4_back_reports_off(void **state)
 	rmd_loop_get_counters(R.l, &c0);
 	while (rmd_ring_pop(&R.events, &e))
 		;
-	while (t_now < 5000 * MS) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycle_until(5000 * MS);
 	rmd_loop_get_counters(R.l, &c1);
 	while (rmd_ring_pop(&R.events, &e))
 		lost += e.kind == RMD_EV_MOTOR_STATE && e.b == RMD_LC_LOST;
@@ -866,9 +854,7 @@ static void tweak_20ms(struct rmd_config *cfg, struct rmd_sim_setup *sim)
 static void test_slow_motors_are_found_and_measured(void **state)
 {
 	(void)state;
-	rig_cfg_tweak = tweak_20ms;
-	rig_up(2, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(2, tweak_20ms);
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
 	for (unsigned i = 0; i < 2; i++) {
 		assert_int_equal(R.bu.motor[i].state, RMD_BRINGUP_FOUND);
@@ -891,9 +877,7 @@ static void test_late_answers_of_bringup_are_late(void **state)
 	struct rmd_loop_counters c;
 
 	(void)state;
-	rig_cfg_tweak = tweak_slow;
-	rig_up(2, TAMPER_NONE, NULL, 0);
-	rig_cfg_tweak = NULL;
+	rig_up_tweaked(2, tweak_slow);
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
 	/* an answer to an earlier try is no measure of a later request's round trip */
 	if (R.bu.bus[0].n && R.bu.bus[0].rtt_min_ns < 8 * MS)
@@ -901,10 +885,7 @@ static void test_late_answers_of_bringup_are_late(void **state)
 			 "answer 8 ms late",
 			 (double)R.bu.bus[0].rtt_min_ns / 1e6, (double)R.bu.bus[0].rtt_max_ns / 1e6,
 			 R.bu.bus[0].n);
-	for (unsigned k = 0; k < 50; k++) {
-		t_now += R.plan.period_ns;
-		rmd_loop_cycle(R.l, t_now);
-	}
+	cycles(50);
 	rmd_loop_get_counters(R.l, &c);
 	if (c.unexpected || !c.late || c.missed)
 		fail_msg("unexpected %llu, late %llu (the latest %.1f ms), missed %llu: bring-up's "
