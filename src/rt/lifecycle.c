@@ -781,7 +781,7 @@ static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t,
 		    int64_t now)
 {
 	lm->pos_settle = false;
-	lm->pos_cand = false;
+	lm->pos_cand_trust = RMD_POS_UNKNOWN;
 	lm->st->pos_trust = (uint8_t)t;
 	lm->st->pos_certain = rmd_pos_trusted(t);
 	if (lm->st->pos_certain)
@@ -794,7 +794,7 @@ static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t,
 static void pos_forget(struct lmotor *lm)
 {
 	lm->pos_settle = false;
-	lm->pos_cand = false;
+	lm->pos_cand_trust = RMD_POS_UNKNOWN;
 	lm->pos_warned = false;
 	lm->st->pos_trust = RMD_POS_UNKNOWN;
 	lm->st->pos_certain = false;
@@ -822,9 +822,8 @@ void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	 * that decodes but is not the motor's (garbled, or another node on its
 	 * identifier) would shift the command frame by whole turns for good.
 	 */
-	if (!lm->pos_cand || lm->pos_cand_trust != (uint8_t)t || lm->pos_cand_shift != shift) {
-		lm->pos_cand = true;
-		lm->pos_cand_trust = (uint8_t)t;
+	if (lm->pos_cand_trust != (uint8_t)t || lm->pos_cand_shift != shift) {
+		lm->pos_cand_trust = (uint8_t)t; /* never RMD_POS_UNKNOWN */
 		lm->pos_cand_shift = shift;
 		lm->pos_settle_ns = lm->st->pos_rx_ns + 1; /* a later reading */
 		return;

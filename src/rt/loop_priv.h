@@ -161,11 +161,10 @@ struct lmotor {
 	 * Multi-turn position after a power cycle (rmd/multiturn.h; the flag
 	 * is st->pos_certain, the facts m.mt): whether the next position
 	 * received after pos_settle_ns decides it, with the earlier reading's
-	 * decision when there was one (pos_cand: two must agree).
+	 * decision (two must agree; RMD_POS_UNKNOWN: no earlier reading).
 	 */
 	bool pos_settle;
 	int64_t pos_settle_ns;
-	bool pos_cand;
 	uint8_t pos_cand_trust; /* enum rmd_pos_trust */
 	double pos_cand_shift;
 	bool pos_warned;	/* this episode's refusal was reported */
