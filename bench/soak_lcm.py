@@ -733,12 +733,12 @@ def judge(d):
         b = last_accept(tt)
         if b is None:
             continue
-        wd_checked[0] += 1
         # the controller's last send that carried this motor (its own deadline):
         # a trip is early only if both it and some accepted command are recent
         fed = max((min(e, tt) for j, s0, e in fed_spans if j == i and s0 <= tt), default=None)
         if fed is None or tt - fed >= tmo - 2 * cyc:
             continue
+        wd_checked[0] += 1
         if tt - b[0] < tmo - 2 * cyc:
             viol.append("watchdog: %s SAFE at %.3f s, %.0f ms after a command rmdd accepted"
                         % (names[i], tt - dr["first_state"], (tt - b[0]) * 1e3))
