@@ -131,6 +131,12 @@ struct rmd_sim_motor_params {
 	 */
 	bool v2_angle_magnitude;
 	/*
+	 * A command byte the firmware does not know (an older generation
+	 * without it, e.g. V2 firmware without 0x92): requests of it addressed
+	 * to this motor get no answer; 0: none.
+	 */
+	unsigned ignores_cmd;
+	/*
 	 * V3 §2.30: answer 0xB3 with the command byte and zeros (the manual's
 	 * example 2) instead of repeating the request (its text).
 	 */

@@ -1174,6 +1174,10 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 	if (note_rx(m, now_ns))
 		return echo(f, reply_id, out, max);
 
+	/* firmware without the command: no answer (rmd/sim.h ignores_cmd) */
+	if (m->p.ignores_cmd && f->data[0] == m->p.ignores_cmd &&
+	    (r == R_SINGLE || r == R_BROADCAST))
+		return 0;
 	switch (r) {
 	case R_MIT:
 		return mit_command(m, f, out, max);

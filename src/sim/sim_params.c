@@ -88,6 +88,10 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    "output angle at first power-on, multi-turn", 0),
 	ROW("v2_angle_magnitude", "v2-angle-magnitude", BOOL, v2_angle_magnitude, 0, 0, false, "",
 	    "V2 0x92/0x60..0x62: a negative value as magnitude + sign flag 1 (yes/no)", 0),
+	ROW("ignores_cmd", "ignores-cmd", UINT, ignores_cmd, 0, 255, false, "",
+	    "a command byte the firmware does not know (e.g. 0x92 on old V2 firmware): never "
+	    "answered; 0: none",
+	    0),
 	ROW("b3_answer_zeros", "b3-answer-zeros", BOOL, b3_answer_zeros, 0, 0, false, "",
 	    "answer 0xB3 with zeros (V3 §2.30 example 2), not its echo (yes/no)", 0),
 	ROW("comm_loss_rom_ms", "comm-loss-rom", UINT, comm_loss_rom_ms, 0, 600000, false, "ms",

@@ -2454,6 +2454,62 @@ static void test_v2_silent_turn_recounted(void **state)
 	rig_down();
 }
 
+/*
+ * V2 firmware that does not know 0x92 (rmd/sim.h ignores_cmd): the
+ * encoder has no reference, so the motor reports no position, and every
+ * other read asks 0x92 again.  The reads in between keep it fed: never
+ * LOST, a speed command streams on the wire; a position command, which
+ * needs the position, is refused and no 0xA4 goes out.
+ */
+static void test_v2_without_angle_command(void **state)
+{
+	struct rmd_snapshot s;
+	unsigned from, asks, reads, a2;
+
+	(void)state;
+	rig_up(3, v2_pos_tweak);
+	sim_motor(0)->p.ignores_cmd = 0x92;
+	bring_up();
+	assert_false(R.report.motor[0].v2_angle);
+	from = trace_n;
+	run(400, false);
+	s = snap();
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
+	assert_false(s.m[0].pos_certain);
+	assert_int_equal(s.m[0].pos_rx_ns, 0);
+	asks = sent_to(0, 0x92, from);
+	reads = sent_to(0, 0x9C, from) + sent_to(0, 0x9A, from) + asks;
+	if (asks < reads / 3 || asks > reads * 2 / 3)
+		fail_msg("READY: %u of %u reads ask 0x92, want about half", asks, reads);
+	/* enabled in speed mode: fed by the reads that answer */
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
+	from = trace_n;
+	for (unsigned k = 0; k < 10; k++) {
+		run(100, true);
+		assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	}
+	a2 = sent_to(0, 0xA2, from);
+	asks = sent_to(0, 0x92, from);
+	/* one frame a cycle: the setpoint, or now and then the status read in its place */
+	reads = sent_to(0, 0x9A, from) + sent_to(0, 0x9C, from);
+	if (a2 + reads + asks < 995 || a2 < 950 || !asks || asks > reads + 1)
+		fail_msg("ENABLED: %u 0xA2, %u status reads and %u 0x92 in 1000 cycles", a2, reads,
+			 asks);
+	assert_float_equal(sim_motor(0)->vel_rad_s, 1.0, 0.05);
+	assert_false(snap().m[0].pos_certain);
+	/* a position command needs a position: refused, nothing moves the shaft there */
+	cmd_motor(0, false, RMD_MODE_SPEED);
+	run(20, true);
+	from = trace_n;
+	cmd_motor(0, true, RMD_MODE_POSITION)->pos_rad = 1.0;
+	run(200, true);
+	assert_int_not_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(sent_to(0, 0xA4, from), 0);
+	assert_int_equal(sent_to(0, 0xA3, from), 0);
+	rig_down();
+}
+
 static struct rmd_home homes;
 
 /* Motor i homed: at pos_rad now, or as reported. */
@@ -3179,6 +3235,7 @@ int main(void)
 		cmocka_unit_test(test_polls_two_a_cycle),
 		cmocka_unit_test(test_pos_cycle_in_band),
 		cmocka_unit_test(test_v2_silent_turn_recounted),
+		cmocka_unit_test(test_v2_without_angle_command),
 		cmocka_unit_test(test_pos_settle_one_bad_reading),
 		cmocka_unit_test(test_pos_ambiguous_refused),
 		cmocka_unit_test(test_pos_homed),
