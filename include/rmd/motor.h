@@ -67,6 +67,18 @@
 
 /* V2 §3.32: the single-turn encoder counts 2^16 a rotor turn. */
 #define RMD_MOTOR_V2_ENCODER_COUNTS 65536
+/*
+ * V2 (docs/feedback.md): an encoder value is counted from the previous one
+ * only when the rotor, at the faster of the two replies' speeds, turned
+ * less than this many turns between them (the count is ambiguous from
+ * half a turn; the margin covers acceleration between the two), and is
+ * anchored to a 0x92 angle only when the output turned less than
+ * RMD_MOTOR_V2_ANCHOR_RAD between the two answers.  Otherwise the reply
+ * carries no position and the reference is dropped: counted again from
+ * the next 0x92 angle.
+ */
+#define RMD_MOTOR_V2_STEP_TURNS 0.25
+#define RMD_MOTOR_V2_ANCHOR_RAD 0.00872664625997165 /* 0.5 deg */
 
 /*
  * Pseudo command of MIT replies (0x500 + ID carries no command byte), for
@@ -172,14 +184,25 @@ struct rmd_motor {
 	uint8_t echo[32]; /* bit c: command c's answer repeats it (RMD_CMD_ECHO of its row) */
 	/* feedback.position multi_turn: the position comes from 0x92 replies only */
 	bool fine_pos;
+	/* fine_pos or V2: take() looks at a reply's position first (pos_check()) */
+	bool pos_check;
 	/* V2 position: the rotor encoder unwrapped from a reference */
 	bool v2_have_ref;      /* a reference angle was set, or none is needed (not V2) */
 	double v2_ref_rad;     /* native output angle at the anchor */
 	bool v2_anchored;      /* the first encoder value after the reference is seen */
+	uint8_t v2_took;       /* what decoding the last reply did with it: V2_TOOK_* (motor.c) */
 	uint16_t v2_enc_last;  /* last encoder value */
 	int64_t v2_enc_counts; /* unwrapped counts since the anchor */
 	/* whether its position survives a power cycle (rmd/multiturn.h), from the config */
 	struct rmd_multiturn mt;
+	/*
+	 * V2: whether the count can be trusted (RMD_MOTOR_V2_STEP_TURNS): when
+	 * the reference angle and the last encoder value counted were
+	 * received, and that reply's rotor speed (rad/s).
+	 */
+	int64_t v2_ref_ns;
+	int64_t v2_enc_ns;
+	double v2_rotor_speed;
 };
 
 /* The row of command `cmd` in the motor's table, or NULL (rmd_cmd_find(), checked at init).  rt-safe. */
@@ -388,13 +411,14 @@ void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st
  * takes its position from 0x92 replies only: a control reply's coarser
  * angle never replaces it, and nothing is extrapolated.  rt-safe.
  */
-void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
+void rmd_motor_take(struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
 		    struct rmd_motor_state *st);
 
 /*
  * rmd_motor_decode() and rmd_motor_take() of one reply in one call, as the
  * rt loop takes every reply: returns what rmd_motor_decode() returns, and
- * on 0 the reply's RMD_MOTOR_HAVE_* in *have (st untouched otherwise).
+ * on 0 the RMD_MOTOR_HAVE_* taken into st in *have (a position the checks
+ * of rmd_motor_take() refused is not; st untouched on an error).
  * rt-safe.
  */
 int rmd_motor_receive(struct rmd_motor *m, const struct rmd_frame *f, int64_t t_ns,
@@ -409,10 +433,11 @@ int rmd_motor_receive(struct rmd_motor *m, const struct rmd_frame *f, int64_t t_
 double rmd_motor_pos_resolution_rad(const struct rmd_motor *m);
 
 /*
- * V2: the native output angle (rad) read with 0x92 at bring-up; the next
- * encoder value decoded is taken to be there.
+ * V2: the native output angle (rad) read with 0x92 at bring-up, received
+ * at t_ns; the next encoder value decoded is taken to be there (when the
+ * motor cannot have moved more than RMD_MOTOR_V2_ANCHOR_RAD since).
  */
-void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad);
+void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad, int64_t t_ns);
 
 /*
  * V2: the encoder no longer continues from the reference (the motor was

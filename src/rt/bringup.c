@@ -452,8 +452,8 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 	if (rmd_dialect_has(d, RMD_DIALECT_ENCODER_UNWRAP)) {
 		/* V2 §3.29: the multi-turn angle anchors the unwrapped encoder */
 		if (probe_cmd(l, lm, 0x92, &r) == 0 && (r.have & RMD_MOTOR_HAVE_POS)) {
-			rmd_motor_set_v2_reference(&lm->m,
-						   rmd_motor_to_native_pos(&lm->m, r.pos_rad));
+			rmd_motor_set_v2_reference(
+				&lm->m, rmd_motor_to_native_pos(&lm->m, r.pos_rad), loop_now(l));
 			out->v2_angle = true;
 		}
 	}

@@ -207,6 +207,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->damp_kd = RMD_MOTOR_DAMP_KD;
 	m->reply_id = d->reply_base + (uint32_t)m->id;
 	m->fine_pos = c->feedback.position == RMD_FEEDBACK_MULTI_TURN;
+	m->pos_check = m->fine_pos || (m->caps & RMD_DIALECT_ENCODER_UNWRAP);
 	row_resolve(m, 0xA1, RMD_FLD_CURRENT, RMD_FLD_COUNT, &m->torque_row);
 	row_resolve(m, 0xA2, RMD_FLD_SPEED, RMD_FLD_COUNT, &m->speed_row);
 	row_resolve(m, 0xA4, RMD_FLD_ANGLE, RMD_FLD_MAX_SPEED, &m->pos_row);
@@ -595,12 +596,17 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
 	return 0;
 }
 
+/* What take_position() did with a V2 reply's position (rmd_motor.v2_took). */
+enum { V2_TOOK_NONE, V2_TOOK_REF, V2_TOOK_ANCHOR, V2_TOOK_STEP };
+
 /* rt-safe. */
-void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad)
+void rmd_motor_set_v2_reference(struct rmd_motor *m, double native_rad, int64_t t_ns)
 {
 	m->v2_have_ref = true;
 	m->v2_ref_rad = native_rad;
+	m->v2_ref_ns = t_ns;
 	m->v2_anchored = false;
+	m->v2_took = V2_TOOK_NONE;
 }
 
 /* rt-safe. */
@@ -610,6 +616,7 @@ void rmd_motor_forget_v2_reference(struct rmd_motor *m)
 		return;
 	m->v2_have_ref = false;
 	m->v2_anchored = false;
+	m->v2_took = V2_TOOK_NONE;
 }
 
 /* V2 §3.32: rotor single-turn encoder -> native multi-turn output angle.  rt-safe. */
@@ -618,8 +625,10 @@ static __attribute__((noinline)) double v2_unwrap(struct rmd_motor *m, uint16_t 
 	if (!m->v2_anchored) {
 		m->v2_anchored = true;
 		m->v2_enc_counts = 0;
+		m->v2_took = V2_TOOK_ANCHOR;
 	} else {
 		m->v2_enc_counts += (int16_t)(uint16_t)(enc - m->v2_enc_last);
+		m->v2_took = V2_TOOK_STEP;
 	}
 	m->v2_enc_last = enc;
 	return m->v2_ref_rad + (double)m->v2_enc_counts / RMD_MOTOR_V2_ENCODER_COUNTS *
@@ -673,8 +682,10 @@ take_position(struct rmd_motor *m, bool have_angle, double angle_deg, bool have_
 	if (have_angle) {
 		double native = angle_deg / DEG_PER_RAD / m->native_per_output;
 
-		if (__builtin_expect(!m->v2_have_ref, 0) && cmd == RMD_MOTOR_CMD_FINE_POS)
-			rmd_motor_set_v2_reference(m, native);
+		if (__builtin_expect(!m->v2_have_ref, 0) && cmd == RMD_MOTOR_CMD_FINE_POS) {
+			rmd_motor_set_v2_reference(m, native, 0); /* its time: pos_check() */
+			m->v2_took = V2_TOOK_REF;
+		}
 		r->pos_rad = rmd_motor_from_native_pos(m, native);
 		r->have |= RMD_MOTOR_HAVE_POS;
 	} else if ((m->caps & RMD_DIALECT_ENCODER_UNWRAP) && have_enc && cmd != 0x60 &&
@@ -877,20 +888,66 @@ void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st
 }
 
 /* rmd_motor_take(), inlined into its two callers.  rt-safe. */
-static inline __attribute__((always_inline)) void take(const struct rmd_motor *m,
-						       const struct rmd_motor_reply *r,
-						       int64_t t_ns, struct rmd_motor_state *st)
+/*
+ * Whether the V2 position v2_unwrap() just gave reply r (received at t_ns)
+ * can be trusted (RMD_MOTOR_V2_STEP_TURNS, RMD_MOTOR_V2_ANCHOR_RAD): the
+ * rotor speeds of the replies bound how far it turned between them.
+ * A reply without a speed cannot tell.  rt-safe.
+ */
+static bool v2_count_trusted(struct rmd_motor *m, const struct rmd_motor_reply *r, uint8_t took,
+			     int64_t t_ns)
 {
-	unsigned have = r->have;
+	double speed = fabs(r->vel_rad_s) * m->gear_ratio, before = m->v2_rotor_speed;
+	double dt = (double)(t_ns - (took == V2_TOOK_ANCHOR ? m->v2_ref_ns : m->v2_enc_ns)) * 1e-9;
+	bool known = (r->have & RMD_MOTOR_HAVE_VEL) && isfinite(speed) && dt >= 0.0;
+
+	m->v2_enc_ns = t_ns;
+	m->v2_rotor_speed = known ? speed : INFINITY;
+	if (!known)
+		return false;
+	if (took == V2_TOOK_ANCHOR)
+		return speed / m->gear_ratio * dt <= RMD_MOTOR_V2_ANCHOR_RAD;
+	return (speed > before ? speed : before) * dt <= RMD_MOTOR_V2_STEP_TURNS * 2.0 * M_PI;
+}
+
+/*
+ * The position checks of a fine_pos or V2 motor, on the RMD_MOTOR_HAVE_*
+ * of reply r: what take() applies.  Out of line: most motors need none.
+ * rt-safe.
+ */
+static __attribute__((noinline)) unsigned
+pos_check(struct rmd_motor *m, const struct rmd_motor_reply *r, unsigned have, int64_t t_ns)
+{
+	uint8_t took = m->v2_took;
 
 	/* V3 §2.11: 0x92 is the one reply with the 0.01 deg multi-turn angle */
 	if (m->fine_pos && r->cmd != RMD_MOTOR_CMD_FINE_POS)
 		have &= ~(unsigned)RMD_MOTOR_HAVE_POS;
+	m->v2_took = V2_TOOK_NONE;
+	if (took == V2_TOOK_REF) {
+		m->v2_ref_ns = t_ns;
+	} else if (took != V2_TOOK_NONE && !v2_count_trusted(m, r, took, t_ns)) {
+		/* ambiguous: no position until the next 0x92 angle anchors the count */
+		rmd_motor_forget_v2_reference(m);
+		have &= ~(unsigned)RMD_MOTOR_HAVE_POS;
+	}
+	return have;
+}
+
+/* What r carried into st; returns the RMD_MOTOR_HAVE_* taken.  rt-safe. */
+static inline __attribute__((always_inline)) unsigned
+take(struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns, struct rmd_motor_state *st)
+{
+	unsigned have = r->have;
+
+	if (__builtin_expect(m->pos_check, 0))
+		have = pos_check(m, r, have, t_ns);
 	apply_have(r, have, true, t_ns, st);
+	return have;
 }
 
 /* rt-safe. */
-void rmd_motor_take(const struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
+void rmd_motor_take(struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns,
 		    struct rmd_motor_state *st)
 {
 	take(m, r, t_ns, st);
@@ -905,8 +962,7 @@ int rmd_motor_receive(struct rmd_motor *m, const struct rmd_frame *f, int64_t t_
 
 	if (ret < 0)
 		return ret;
-	take(m, &r, t_ns, st);
-	*have = r.have;
+	*have = take(m, &r, t_ns, st);
 	return 0;
 }
 

@@ -2510,6 +2510,78 @@ static void test_v2_without_angle_command(void **state)
 	rig_down();
 }
 
+/*
+ * V2 §3.32: each reply carries one rotor turn of encoder, so the count
+ * holds only while the rotor turns less than half a turn between two.  At
+ * 100 Hz a rotor at 60 turns/s turns 0.6 of one: the step is ambiguous.
+ * The reported position is then absent, never a count that aliased
+ * backwards: during the spin every position reported is where the shaft
+ * was (within the motion of one cycle), and stopped again the position is
+ * the shaft's, counted from a fresh 0x92 angle.
+ */
+static void v2_fast_tweak(struct rmd_config *cfg)
+{
+	v2_pos_tweak(cfg);
+	cfg->loop.rate_hz = 100;
+	cfg->motors[0].mode = RMD_MODE_SPEED;
+	cfg->motors[0].limits.velocity_rad_s = 500.0;
+	cfg->motors[0].limits.position_min_rad = -1e5;
+	cfg->motors[0].limits.position_max_rad = 1e5;
+}
+
+static void v2_fast_sim(struct rmd_sim_setup *sim)
+{
+	sim->motors[0].max_speed_dps = 1e5;
+	sim->motors[0].fw_max_speed_dps = 1e5;
+	/* the no-load speed grows with the supply (back EMF) */
+	sim->motors[0].supply_v = 900.0;
+	sim->motors[0].over_voltage_v = 1000.0;
+}
+
+static void test_v2_count_at_speed(void **state)
+{
+	const double vel = 60.0 * 2.0 * M_PI; /* 60 rotor turns a second, gear 1 */
+	unsigned shown = 0, fast = 0;
+	struct rmd_snapshot s;
+	int64_t last_rx = 0;
+
+	(void)state;
+	rig_sim_tweak = v2_fast_sim;
+	rig_up(3, v2_fast_tweak);
+	rig_sim_tweak = NULL;
+	bring_up();
+	run(20, false);
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = vel;
+	for (unsigned k = 0; k < 400; k++) {
+		double v, err;
+
+		run(1, true);
+		s = snap();
+		v = sim_motor(0)->vel_rad_s;
+		if (fabs(v) > M_PI * 100.0) /* over half a rotor turn a cycle */
+			fast++;
+		if (!s.m[0].pos_rx_ns || s.m[0].pos_rx_ns == last_rx)
+			continue;
+		last_rx = s.m[0].pos_rx_ns;
+		shown++;
+		err = fabs(s.m[0].pos_rad - sim_motor(0)->pos_rad);
+		if (err > fabs(v) * 0.01 + 0.05)
+			fail_msg("cycle %u at %.0f rad/s: position %.3f rad, the shaft at %.3f", k,
+				 v, s.m[0].pos_rad, sim_motor(0)->pos_rad);
+	}
+	if (fast < 100)
+		fail_msg("the rotor ran over half a turn a cycle in only %u of 400 cycles", fast);
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 0.0;
+	run(300, true);
+	s = snap();
+	assert_int_equal(s.m[0].lifecycle, RMD_LC_ENABLED);
+	if (fabs(s.m[0].pos_rad - sim_motor(0)->pos_rad) > 0.01)
+		fail_msg("stopped: position %.4f rad, the shaft at %.4f (%u positions in the spin)",
+			 s.m[0].pos_rad, sim_motor(0)->pos_rad, shown);
+	rig_down();
+}
+
 static struct rmd_home homes;
 
 /* Motor i homed: at pos_rad now, or as reported. */
@@ -3236,6 +3308,7 @@ int main(void)
 		cmocka_unit_test(test_pos_cycle_in_band),
 		cmocka_unit_test(test_v2_silent_turn_recounted),
 		cmocka_unit_test(test_v2_without_angle_command),
+		cmocka_unit_test(test_v2_count_at_speed),
 		cmocka_unit_test(test_pos_settle_one_bad_reading),
 		cmocka_unit_test(test_pos_ambiguous_refused),
 		cmocka_unit_test(test_pos_homed),

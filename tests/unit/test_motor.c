@@ -631,7 +631,7 @@ static void test_decode_v2_unwrap(void **state)
 	assert_false(r.have & RMD_MOTOR_HAVE_POS);
 	assert_true(r.have & RMD_MOTOR_HAVE_VEL);
 
-	rmd_motor_set_v2_reference(&m, 1.0); /* the 0x92 angle at bring-up */
+	rmd_motor_set_v2_reference(&m, 1.0, 0); /* the 0x92 angle at bring-up */
 	assert_false(rmd_motor_needs_v2_reference(&m));
 	assert_int_equal(rmd_motor_decode(&m, &f, &r), 0);
 	assert_float_equal(r.current_a, -33.0, 1e-9);
@@ -673,6 +673,61 @@ static void test_decode_v2_unwrap(void **state)
 	/* V2 replies come on 0x140 + ID, not 0x240 + ID */
 	f.can_id = 0x242;
 	assert_int_equal(rmd_motor_decode(&m, &f, &r), -EINVAL);
+}
+
+/* A V2 reply at t_ms: speed in rotor dps, the encoder; its position, if it has one. */
+static bool v2_at(struct rmd_motor *m, double t_ms, int speed_dps, unsigned enc,
+		  struct rmd_motor_state *st)
+{
+	struct rmd_msg msg = { .cmd = 0xA1 };
+	struct rmd_frame f;
+	unsigned have;
+	int64_t before = st->pos_rx_ns;
+
+	rmd_msg_set(&msg, RMD_FLD_SPEED, speed_dps);
+	rmd_msg_set(&msg, RMD_FLD_ENCODER, enc);
+	assert_int_equal(rmd_encode(RMD_PROTO_V2, RMD_DIR_REPLY, 2, &msg, &f), 0);
+	assert_int_equal(rmd_motor_receive(m, &f, (int64_t)(t_ms * 1e6), st, &have), 0);
+	assert_true((st->pos_rx_ns != before) == !!(have & RMD_MOTOR_HAVE_POS));
+	return have & RMD_MOTOR_HAVE_POS;
+}
+
+/*
+ * The V2 count's trust (rmd/motor.h RMD_MOTOR_V2_STEP_TURNS,
+ * RMD_MOTOR_V2_ANCHOR_RAD), by the replies' rotor speeds and times: a step
+ * over a quarter rotor turn, or an anchor over half a degree of output
+ * motion after the 0x92 angle, gives no position and drops the reference.
+ */
+static void test_v2_count_trust(void **state)
+{
+	struct rmd_config_motor c = cfg_motor(2, RMD_PROTO_V2, RMD_MODE_TORQUE);
+	struct rmd_motor_state st = { 0 };
+	struct rmd_motor m;
+
+	(void)state;
+	c.gear_ratio = 6.0;
+	c.units = RMD_UNITS_ROTOR;
+	m = motor_of(&c);
+	rmd_motor_set_v2_reference(&m, 1.0, 1000000);
+	/* 10 ms later at 60 rotor dps: 0.1 deg at the output, anchored */
+	assert_true(v2_at(&m, 11.0, 60, 0, &st));
+	/* 10 ms at 7200 rotor dps: 0.2 rotor turns, counted */
+	assert_true(v2_at(&m, 21.0, 7200, 13107, &st));
+	assert_true(v2_at(&m, 31.0, 7200, 26214, &st));
+	/* 10 ms at up to 10000 rotor dps: 0.28 of a turn, no longer sure */
+	assert_false(v2_at(&m, 41.0, 10000, 44418, &st));
+	assert_true(rmd_motor_needs_v2_reference(&m));
+	assert_false(v2_at(&m, 51.0, 0, 44418, &st));
+	/* anchored again: a 0x92 angle, then 10 ms at 600 rotor dps (1 deg): not anchored */
+	rmd_motor_set_v2_reference(&m, 2.0, 52000000);
+	assert_false(v2_at(&m, 62.0, 600, 100, &st));
+	assert_true(rmd_motor_needs_v2_reference(&m));
+	/* ... and at 200 rotor dps (0.33 deg): anchored, then counted at rest */
+	rmd_motor_set_v2_reference(&m, 2.0, 63000000);
+	assert_true(v2_at(&m, 73.0, 200, 100, &st));
+	assert_true(v2_at(&m, 83.0, 0, 100, &st));
+	assert_float_equal(st.pos_rad, 2.0, 1e-9);
+	assert_false(rmd_motor_needs_v2_reference(&m));
 }
 
 static void test_decode_mit(void **state)
@@ -1058,6 +1113,7 @@ int main(void)
 		cmocka_unit_test(test_decode_v3),
 		cmocka_unit_test(test_decode_v3_rotor),
 		cmocka_unit_test(test_decode_v2_unwrap),
+		cmocka_unit_test(test_v2_count_trust),
 		cmocka_unit_test(test_decode_mit),
 		cmocka_unit_test(test_position_round_trip),
 		cmocka_unit_test(test_clamp_rule),
