@@ -177,6 +177,7 @@ class Client:
         self.stopped = {}  # index -> why: enabled, then SAFE/LOST/FAULT or taken over
         self._was_enabled = set()  # driven motors state_t has shown ENABLED
         self._newly_stopped = {}  # index -> (lifecycle name, s since the last send)
+        self._report_only = None  # enable(): the motors whose stops its send()s raise
         self._last_send = time.monotonic()
         self._subs = [
             self.lc.subscribe(prefix + "CONFIG", self._on_config),
@@ -505,9 +506,14 @@ class Client:
                     self._was_enabled.discard(i)
                 raise NotOwner(f"send: {self._owner_text()}",
                                h.owner)
-        # those still driven (a caller may have dropped some meanwhile)
-        bad = {i: v for i, v in self._newly_stopped.items() if i in self._cmd}
-        self._newly_stopped = {}
+        # those still driven (a caller may have dropped some meanwhile); while
+        # enable() runs, only its motors: the others' stops wait for the next
+        # send() after it, never lost
+        only = self._report_only
+        later = {i: v for i, v in self._newly_stopped.items()
+                 if i in self._cmd and only is not None and i not in only}
+        bad = {i: v for i, v in self._newly_stopped.items() if i in self._cmd and i not in later}
+        self._newly_stopped = later
         if not bad:
             return
         gap = max(g for _lc, g in bad.values())
@@ -573,6 +579,10 @@ class Client:
         A motor this client has already enabled goes through enable = 0 too
         (its output is off for a few cycles).
 
+        MotorStopped from enable() names only these motors: another motor
+        this client drives that stops meanwhile is raised by the next send()
+        or spin() after it (the client stops driving it at once all the same).
+
         strict (the default): a motor that does not become READY, then
         ENABLED, within `timeout` s each raises RmdError (after enable = 0 to
         the motors).  strict=False: returns a list of (name, lifecycle name)
@@ -615,17 +625,23 @@ class Client:
                     return False
                 self.wait(period)
 
-        # enable = 0 until READY, in a state_t from after two cycles of it
-        ready = stream_until(lambda since: self._all_in(idx, state_t.LC_READY, since),
-                             time.monotonic() + 2 * self.period_s)
-        enabled = False
-        if ready or not strict:
-            for i in idx:
-                self._cmd[i][0] = True
-                self._enabled.add(i)
-        if ready:
-            enabled = stream_until(lambda since: self._all_in(idx, state_t.LC_ENABLED, since),
-                                   time.monotonic())
+        # a stop of another motor this client drives is raised by the next
+        # send() after enable(), not here: these motors are enabled all the same
+        self._report_only = set(idx)
+        try:
+            # enable = 0 until READY, in a state_t from after two cycles of it
+            ready = stream_until(lambda since: self._all_in(idx, state_t.LC_READY, since),
+                                 time.monotonic() + 2 * self.period_s)
+            enabled = False
+            if ready or not strict:
+                for i in idx:
+                    self._cmd[i][0] = True
+                    self._enabled.add(i)
+            if ready:
+                enabled = stream_until(
+                    lambda since: self._all_in(idx, state_t.LC_ENABLED, since), time.monotonic())
+        finally:
+            self._report_only = None
         if enabled:
             self._was_enabled.update(idx)
             return []

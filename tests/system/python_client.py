@@ -5,7 +5,8 @@
     python_client.py track URL   enable motor1, make it track a position, leave
                                  the `with` block (enable = 0)
     python_client.py trip URL    enable motor1, go quiet until rmdd's watchdog
-                                 latches the safe action (LC_SAFE): the next
+                                 latches the safe action (LC_SAFE); enable
+                                 motor2 (no exception for motor1): the next
                                  spin() raises MotorStopped, nothing
                                  re-enables motor1; enable() it again:
                                  enable = 0 first, READY, then ENABLED;
@@ -198,6 +199,12 @@ def main():
                 fail(f"no LC_SAFE 2 s after the commands stopped: lifecycle {c.lifecycle(m)}")
             print("tripped: motor1 is safe", flush=True)
             c.wait(0.3)  # health_t (10 Hz) says the watchdog tripped
+            # another group: enable() raises nothing for motor1, and enables motor2
+            m2 = c.index("motor2")
+            c.enable([m2], rmd.command_t.MODE_POSITION)
+            if c.lifecycle(m2) != rmd.state_t.LC_ENABLED:
+                fail(f"enable() returned with motor2 in lifecycle {c.lifecycle(m2)}")
+            print("enabled: motor2 beside the stopped motor1", flush=True)
             try:
                 c.spin(0.1)
                 fail("spin() after the watchdog trip did not raise MotorStopped")

@@ -449,6 +449,8 @@ static void test_enable_after_the_watchdog_tripped(void **state)
 	const char *out = enable_and_track(f, "trip", 2, 1);
 
 	assert_non_null(strstr(out, "tripped: motor1 is safe"));
+	/* enable() of another motor meanwhile: motor1's stop waits for the next send() */
+	assert_non_null(strstr(out, "enabled: motor2 beside the stopped motor1"));
 	/* issue 20.12: the next spin() says so, and nothing re-enables motor1 */
 	assert_non_null(strstr(out, "stopped: motors stopped: motor1 is safe: rmdd's watchdog "
 				    "tripped"));
