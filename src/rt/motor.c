@@ -887,7 +887,6 @@ void rmd_motor_apply(const struct rmd_motor_reply *r, struct rmd_motor_state *st
 	apply_have(r, r->have, false, 0, st);
 }
 
-/* rmd_motor_take(), inlined into its two callers.  rt-safe. */
 /*
  * Whether the V2 position v2_unwrap() just gave reply r (received at t_ns)
  * can be trusted (RMD_MOTOR_V2_STEP_TURNS, RMD_MOTOR_V2_ANCHOR_RAD): the
@@ -934,7 +933,10 @@ pos_check(struct rmd_motor *m, const struct rmd_motor_reply *r, unsigned have, i
 	return have;
 }
 
-/* What r carried into st; returns the RMD_MOTOR_HAVE_* taken.  rt-safe. */
+/*
+ * rmd_motor_take(), inlined into its two callers: what r carried into st;
+ * returns the RMD_MOTOR_HAVE_* taken.  rt-safe.
+ */
 static inline __attribute__((always_inline)) unsigned
 take(struct rmd_motor *m, const struct rmd_motor_reply *r, int64_t t_ns, struct rmd_motor_state *st)
 {
