@@ -57,6 +57,7 @@ fileno() lets a select() loop wait for messages.
 """
 
 import math
+import functools
 import os
 import select
 import time
@@ -65,8 +66,6 @@ DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
 CONFIG_REQUEST_PERIOD_S = 0.25
 POLL_MAX = 1000  # messages one poll() handles at most: a flood cannot hold it
 
-LC_NAMES = ["probe", "ready", "enabled", "fault", "lost", "safe", "stopping"]
-LC_STOPPED = (3, 4, 5)  # state_t.LC_FAULT, LC_LOST, LC_SAFE
 SEND_GAP_S = 0.05  # sends further apart than this: check state_t before the next
 FRESH_STATE_WAIT_S = 0.1  # how long send() waits for that state_t
 SETPOINT_FIELDS = ("position", "velocity", "torque", "kp", "kd", "max_velocity")
@@ -108,9 +107,17 @@ class NotOwner(RmdError):
         self.owner = owner
 
 
+@functools.lru_cache(maxsize=None)
+def _lc_names():
+    """{value: name} of state_t's LC_* constants (lcm_types/state_t.lcm, the one list)."""
+    from . import state_t
+    return {v: k[3:].lower() for k, v in vars(state_t).items()
+            if k.startswith("LC_") and isinstance(v, int)}
+
+
 def lifecycle_name(lc):
     """'ready', 'enabled', ... for a state_t lifecycle (LC_*)."""
-    return LC_NAMES[lc] if 0 <= lc < len(LC_NAMES) else "unknown"
+    return _lc_names().get(lc, "unknown")
 
 
 def _now_us():
@@ -226,7 +233,7 @@ class Client:
             lc = s.motor[i].lifecycle
             if lc == s.LC_ENABLED:
                 self._was_enabled.add(i)
-            elif lc in LC_STOPPED and i in self._was_enabled:
+            elif lc in (s.LC_FAULT, s.LC_LOST, s.LC_SAFE) and i in self._was_enabled:
                 # stop driving it now: the next send() says so, and carries
                 # enable = 0 (after a watchdog trip enable = 1 restarts it)
                 e[0] = False
