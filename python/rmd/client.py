@@ -56,8 +56,8 @@ command_timeout_ms (100 ms by default), and state_t arrives every cycle.
 fileno() lets a select() loop wait for messages.
 """
 
-import math
 import functools
+import math
 import os
 import select
 import time
@@ -517,8 +517,8 @@ class Client:
         # enable() runs, only its motors: the others' stops wait for the next
         # send() after it, never lost
         only = self._report_only
-        later = {i: v for i, v in self._newly_stopped.items()
-                 if i in self._cmd and only is not None and i not in only}
+        later = {} if only is None else {i: v for i, v in self._newly_stopped.items()
+                                         if i in self._cmd and i not in only}
         bad = {i: v for i, v in self._newly_stopped.items() if i in self._cmd and i not in later}
         self._newly_stopped = later
         if not bad:
