@@ -119,11 +119,13 @@
  * owes one, else a one-shot if one waits, else a status read (0x9C on
  * 0x140 + ID; for MIT motors too: it cannot move the motor, while even a
  * zero-gain MIT frame would take it out of its brake-held stand-still).
- * The V2 0x280 frame goes out only while one of its motors is ENABLED (the
- * others' slots carry 0 A: the frame cannot skip a motor) and none of them
- * has an owed frame or a one-shot waiting; those take the slot first, as
- * many as its budget holds, and with nobody to drive it carries a
- * round-robin 0x9C.
+ * The V2 0x280 frame is a torque command to every batched motor (V2 §4.1:
+ * it cannot skip one, and 0 A switches a motor's output on), so it goes
+ * out only while every batched motor is ENABLED, past its brake release,
+ * in torque mode and owes nothing (issue 33 point 1).  Otherwise
+ * the slot carries the batched motors' own frames, each as its lifecycle
+ * says (the control slot above), rmd_plan_bus.batch_own of them a cycle
+ * in turn.
  *
  * Measured values not yet received are NaN in the snapshot.
  */

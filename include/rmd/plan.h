@@ -32,7 +32,11 @@
  *   two, all in torque mode with one rate divisor, and no V3 or MIT motor
  *   shares the bus (a V3 motor whose CAN-ID filter is off takes 0x280 as a
  *   broadcast command, V3 §3, and would read a torque byte as the command).
- *   4 V2 motors then cost 5 frames instead of 8.
+ *   4 V2 motors then cost 5 frames instead of 8.  The frame is a torque
+ *   command to each of them, so it goes out only while all of them are
+ *   driven in torque mode; otherwise the cycle gives them their own
+ *   frames, batch_own of them a cycle, in turn, whose extra frames the
+ *   budget counts (4 motors at 1 kHz: 2 or 3 a cycle).
  * - Status polls: 0x9A (V3 §2.12, V2 §3.31: temperature, voltage, error
  *   flags; MIT replies carry none of these, V2/V3 control replies carry
  *   only the temperature) at each motor's status_poll_hz.  A poll cycle
@@ -160,6 +164,15 @@ struct rmd_plan_bus {
 	double avg_frames;     /* frames per cycle over the hyperperiod */
 	double avg_ns;	       /* wire time per cycle over the hyperperiod */
 	bool feasible;
+	/*
+	 * The batched motors that a cycle of the 0x280 frame gives their own
+	 * frames instead (a request and its reply each), in turn, while the
+	 * frame must not go out (rmd/loop.h "Frames": one of them is not
+	 * driven in torque mode): the most that fit in the cycle, never fewer
+	 * than the frame's own 1 + n frames hold.  Its extra frames are in
+	 * the budget below.
+	 */
+	unsigned batch_own;
 };
 
 struct rmd_plan {

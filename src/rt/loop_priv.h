@@ -196,7 +196,7 @@ struct lbus {
 	struct rmd_frame tx[TX_MAX];
 	struct txmeta meta[TX_MAX];
 	unsigned ntx;
-	unsigned batch_rr; /* round robin of the 0x280 slot's status reads */
+	unsigned batch_rr; /* round robin of the 0x280 slot's own frames (loop_tx.c batch_own()) */
 	uint8_t state_seen;
 	bool failing;
 	int64_t ev_send_ns, ev_unexpected_ns, ev_late_ns;

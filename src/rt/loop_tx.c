@@ -57,8 +57,14 @@ static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 		push_cmd(l, lb, i, 0xB2);
 }
 
-/* The setpoint's frame, or the safe action's first frame instead of a refused one.  rt-safe. */
-static void push_setpoint(struct rmd_loop *l, struct lbus *lb, unsigned i)
+/*
+ * The setpoint's frame, or the safe action's first frame instead of a
+ * refused one.  Inline, as add_control(): the cycle takes every setpoint
+ * through it, and a call costs ~15 instructions a motor (insn-guard).
+ * rt-safe.
+ */
+static inline __attribute__((always_inline)) void push_setpoint(struct rmd_loop *l, struct lbus *lb,
+								unsigned i)
 {
 	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f, safe[2];
@@ -174,8 +180,13 @@ static inline bool ask_v2_angle(struct lmotor *lm)
 	return lm->v2_ask_angle;
 }
 
-/* rt-safe. */
-static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
+/*
+ * A motor's control slot.  Inline into both its callers, the cycle's loop
+ * over the plan's control slots and batch_own(): as a call it costs the
+ * cycle ~15 instructions a motor (bench/insn-guard.sh).  rt-safe.
+ */
+static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l, struct lbus *lb,
+							      unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f[2];
@@ -256,70 +267,73 @@ static void add_fine(struct rmd_loop *l, struct lbus *lb, unsigned i)
 		push_cmd(l, lb, i, RMD_MOTOR_CMD_FINE_POS);
 }
 
+/*
+ * Whether bus lb's 0x280 frame may go out this cycle.  It is a torque
+ * command to every V2 motor with ID 1..4 on the bus (V2 §4.1; 0 A is a
+ * torque too: it switches the output on), and a command of its own to a
+ * V3/V4 motor whose CAN-ID filter is off (V3 §3.1): so only while every
+ * batched motor is ENABLED, past its brake release, in torque mode and
+ * owes no frame of its own.  rt-safe.
+ */
+static bool batch_allowed(const struct rmd_loop *l, const struct lbus *lb, int64_t now)
+{
+	const struct rmd_plan_bus *pb = lb->pb;
+
+	for (uint32_t m = pb->batched; m; m &= m - 1) {
+		const struct lmotor *lm = &l->mot[pb->motors[__builtin_ctz(m)]];
+
+		if (lm->st->lifecycle != RMD_LC_ENABLED || now < lm->st->release_until_ns ||
+		    lm->sp.mode != RMD_MODE_TORQUE || lm->owe || lm->n_oneshot || lm->reports_off)
+			return false;
+	}
+	return true;
+}
+
+/*
+ * Instead of the 0x280 frame: the batched motors' own frames, as their
+ * lifecycle says (add_control()), batch_own of them a cycle (what the plan
+ * has room for), in turn; a motor that has nothing to send (LOST between
+ * its re-probes) does not take a turn.  rt-safe.
+ */
+static void batch_own(struct rmd_loop *l, struct lbus *lb, int64_t now)
+{
+	const struct rmd_plan_bus *pb = lb->pb;
+	unsigned served = 0;
+
+	for (unsigned n = 0; n < pb->n_motors && served < pb->batch_own; n++) {
+		unsigned k = lb->batch_rr++ % pb->n_motors, before = lb->ntx;
+
+		if (!(pb->batched & (1u << k)))
+			continue;
+		add_control(l, lb, pb->motors[k], now);
+		served += lb->ntx != before;
+	}
+}
+
 /* The V2 0x280 slot (rmd/loop.h "Frames").  rt-safe. */
-static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
+static __attribute__((noinline)) void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 {
 	const struct rmd_plan_bus *pb = lb->pb;
 	const struct rmd_motor *ms[4] = { NULL };
 	double torque[4] = { 0 };
-	bool any = false, queued = false;
 	struct rmd_frame f;
-	unsigned fl = 0, bad = 0, room = (1u + (unsigned)__builtin_popcount(pb->batched)) / 2u;
+	unsigned fl = 0, bad = 0;
 
-	/*
-	 * One-shots first (brake releases, stops), as many as fit in the
-	 * frame's budget (1 + n frames; a one-shot and its answer are 2).
-	 */
-	for (unsigned k = 0; k < pb->n_motors && room; k++) {
-		unsigned i = pb->motors[k];
-
-		if ((pb->batched & (1u << k)) && (l->mot[i].owe || l->mot[i].n_oneshot)) {
-			push_due(l, lb, i, now);
-			queued = true;
-			room--;
-		}
-	}
-	if (queued)
+	if (!batch_allowed(l, lb, now)) {
+		batch_own(l, lb, now);
 		return;
-	for (unsigned k = 0; k < pb->n_motors; k++) {
-		struct lmotor *lm = &l->mot[pb->motors[k]];
+	}
+	for (uint32_t m = pb->batched; m; m &= m - 1) {
+		const struct lmotor *lm = &l->mot[pb->motors[__builtin_ctz(m)]];
 
-		if (!(pb->batched & (1u << k)) || lm->m.id < 1 || lm->m.id > 4)
-			continue;
 		ms[lm->m.id - 1] = &lm->m;
-		if (lm->st->lifecycle != RMD_LC_ENABLED || now < lm->st->release_until_ns)
-			continue; /* 0 A for it meanwhile: no torque against its brake */
-		any = true;
-		if (lm->sp.mode == RMD_MODE_TORQUE) {
-			torque[lm->m.id - 1] = lm->sp.torque_nm;
-		} else {
-			l->cnt.unsupported++; /* 0 A: the frame carries torques only */
-		}
+		torque[lm->m.id - 1] = lm->sp.torque_nm;
 	}
-	if (any) {
-		if (rmd_motor_encode_v2_batch(ms, torque, &f, &fl, &bad) == 0) {
-			l->cnt.nonfinite += bad;
-			if (fl & RMD_MOTOR_CLAMPED)
-				l->cnt.clamped++;
-			loop_push_tx(lb, &f, 0, REQ_BATCH);
-		}
-		return;
-	}
-	/* Nobody to drive: one status read, the motors in turn. */
-	for (unsigned n = 0; n < pb->n_motors; n++) {
-		unsigned k = lb->batch_rr++ % pb->n_motors, i = pb->motors[k];
-		struct lmotor *lm = &l->mot[i];
-
-		if (!(pb->batched & (1u << k)))
-			continue;
-		if (lm->st->lifecycle == RMD_LC_LOST) {
-			if (now < lm->next_probe_ns)
-				continue;
-			push_reprobe(l, lb, i, now);
-		} else {
-			push_cmd(l, lb, i, 0x9C);
-		}
-		return;
+	if (rmd_motor_encode_v2_batch(ms, torque, &f, &fl, &bad) == 0) {
+		l->cnt.nonfinite += bad;
+		if (fl & RMD_MOTOR_CLAMPED)
+			l->cnt.clamped++;
+		loop_push_tx(lb, &f, 0, REQ_BATCH);
 	}
 }
 

@@ -565,6 +565,33 @@ static void plan_totals(struct rmd_plan_bus *pb)
 	}
 }
 
+/*
+ * The batched motors a cycle of bus pb's 0x280 frame can give their own
+ * frames instead (struct rmd_plan_bus.batch_own): the most whose frames,
+ * beyond the 1 + n the frame and its replies take, still fit in the
+ * busiest cycle; never fewer than those 1 + n frames hold, which fit
+ * already.  The budget grows by the extra frames.  Non-rt.
+ */
+static void plan_batch_own(struct rmd_plan_bus *pb, int64_t period_ns)
+{
+	unsigned n = (unsigned)__builtin_popcount(pb->batched), budget = 1u + n;
+
+	pb->batch_own = 0;
+	for (unsigned k = n; k > 0; k--) {
+		unsigned frames = EXCHANGE_FRAMES * k;
+		int64_t extra = frames > budget ? rmd_plan_cost_ns(pb, frames - budget, k - 1u) : 0;
+
+		if (frames > budget && pb->worst_ns + extra > period_ns)
+			continue;
+		pb->batch_own = k;
+		pb->worst_ns += extra;
+		if (frames > budget)
+			pb->max_frames += frames - budget;
+		pb->max_requests += k - 1u;
+		return;
+	}
+}
+
 /* "can0: 5 motors at 1000 Hz need 1350 µs ...: use ≤ 3 motors, or a rate ≤ 740 Hz" */
 static void report_overload(const struct rmd_config *cfg, struct rmd_plan *plan, unsigned b,
 			    struct errbuf *e)
@@ -719,6 +746,7 @@ int rmd_plan_build(const struct rmd_config *cfg, struct rmd_plan *plan, char *er
 			continue;
 		}
 		plan_totals(pb);
+		plan_batch_own(pb, plan->period_ns);
 		pb->feasible = true;
 	}
 	return ret;
@@ -873,6 +901,19 @@ static void print_fine(const struct rmd_plan *plan, const struct rmd_config *cfg
 		pm->pos_hz, res * 180.0 / M_PI, res * 1e6);
 }
 
+/* What bus pb's 0x280 cycles send while one of its motors is not driven.  Non-rt. */
+static void own_line(const struct rmd_plan_bus *pb, FILE *out)
+{
+	unsigned n = (unsigned)__builtin_popcount(pb->batched);
+
+	fprintf(out, "  while one of them is not enabled in torque mode: no 0x280; ");
+	if (pb->batch_own >= n)
+		fprintf(out, "each its own frames, every cycle of the frame\n");
+	else
+		fprintf(out, "their own frames, %u of the %u a cycle of the frame, in turn\n",
+			pb->batch_own, n);
+}
+
 static void print_bus(const struct rmd_plan *plan, const struct rmd_config *cfg, unsigned b,
 		      FILE *out)
 {
@@ -925,6 +966,7 @@ static void print_bus(const struct rmd_plan *plan, const struct rmd_config *cfg,
 			if (pb->batched & (1u << l))
 				fprintf(out, " %s", cfg->motors[pb->motors[l]].name);
 		fprintf(out, " (V2 §4.1)\n");
+		own_line(pb, out);
 	}
 	if (note)
 		fprintf(out, "  %s\n", note);

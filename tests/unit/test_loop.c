@@ -1296,6 +1296,8 @@ static void test_v2_batch(void **state)
 	cmd_clear();
 	cmd_motor(0, true, RMD_MODE_TORQUE)->torque_nm = 0.5;
 	cmd_motor(1, true, RMD_MODE_TORQUE)->torque_nm = -0.5;
+	cmd_motor(2, true, RMD_MODE_TORQUE)->torque_nm = 0.0;
+	cmd_motor(3, true, RMD_MODE_TORQUE)->torque_nm = 0.0;
 	from = trace_n;
 	run(200, true);
 	for (unsigned k = from; k < trace_n; k++)
@@ -1312,8 +1314,140 @@ static void test_v2_batch(void **state)
 		assert_true(s.m[i].reply_age_cycles <= 1);
 		assert_int_equal(s.m[i].missed_replies, 0);
 	}
-	/* the motors not enabled get 0 A in their slots: no torque */
+	/* the motors driven at 0 N·m stay put */
 	assert_float_equal(sim_motor(2)->vel_rad_s, 0.0, 1e-6);
+	rig_down();
+}
+
+/*
+ * Issue 33 point 1: a 0x280 frame is a torque command to every batched
+ * motor (V2 §4.1: 0 A switches the output on at 0 A), so it goes out only
+ * while all of them are driven in torque mode.  Judged on the wire and on
+ * the simulated motors: a motor READY, SAFE (hold, under a 1 N·m load) or
+ * LOST never gets one, and keeps its own action; the driven ones get their
+ * torques in frames of their own meanwhile.
+ */
+static void v2_batch_loaded(struct rmd_sim_setup *sim)
+{
+	sim->motors[1].load_nm = 1.0; /* the knee: gravity pulls it */
+}
+
+/* 0x280 frames since trace[from]. */
+static unsigned batches_since(unsigned from)
+{
+	unsigned n = 0;
+
+	for (unsigned k = from; k < trace_n; k++)
+		n += trace[k].f.can_id == 0x280;
+	return n;
+}
+
+static void test_v2_batch_only_enabled(void **state)
+{
+	unsigned from, most_apart, last[4], c0;
+
+	(void)state;
+	rig_sim_tweak = v2_batch_loaded;
+	rig_up(4, v2_batch);
+	rig_sim_tweak = NULL;
+	R.io.cfg.safety.safe_action = RMD_SAFE_HOLD;
+	assert_int_equal(R.io.plan.bus[0].batch, RMD_BATCH_ON);
+	assert_true(R.io.plan.bus[0].batch_own >= 2);
+	bring_up();
+	run(50, false);
+
+	/* two driven, two READY: no 0x280, the READY ones stay off */
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_TORQUE)->torque_nm = 0.5;
+	cmd_motor(2, true, RMD_MODE_TORQUE)->torque_nm = -0.5;
+	from = trace_n;
+	run(200, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(lifecycle(1), RMD_LC_READY);
+	if (batches_since(from))
+		fail_msg("%u 0x280 frames while motors 2 and 4 are READY", batches_since(from));
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_OFF);
+	assert_int_equal(sim_motor(3)->ctrl, RMD_SIM_OFF);
+	assert_true(sim_motor(0)->vel_rad_s > 0.5);
+	assert_true(sim_motor(2)->vel_rad_s < -0.5);
+	assert_true(sent_to(0, 0xA1, from) >= 200 / 4);
+
+	/* all four driven: the 0x280 frame */
+	cmd_motor(1, true, RMD_MODE_TORQUE)->torque_nm = 1.0; /* holds the knee up */
+	cmd_motor(3, true, RMD_MODE_TORQUE)->torque_nm = 0.0;
+	from = trace_n;
+	run(200, true);
+	assert_true(batches_since(from) >= 150);
+
+	/*
+	 * The controller stops commanding the knee: its watchdog holds it
+	 * (0x81), under its load, while the others run on.  No 0x280 may
+	 * take the hold back with a torque of 0 A.
+	 */
+	R.cmd.present &= ~(1u << 1);
+	for (c0 = 0; c0 < 300 && lifecycle(1) != RMD_LC_SAFE; c0++)
+		run(1, true);
+	assert_int_equal(lifecycle(1), RMD_LC_SAFE);
+	from = trace_n;
+	memset(last, 0, sizeof(last));
+	most_apart = 0;
+	for (unsigned c = 1; c <= 500; c++) {
+		unsigned before = trace_n;
+
+		run(1, true);
+		for (unsigned k = before; k < trace_n; k++) {
+			unsigned id = trace[k].f.can_id - 0x140u;
+
+			if (trace[k].f.can_id == 0x280)
+				fail_msg("cycle %u after the hold: a 0x280 frame (%02X %02X ...) "
+					 "while the knee is SAFE",
+					 c, trace[k].f.data[0], trace[k].f.data[1]);
+			if (id >= 1 && id <= 4 && trace[k].f.data[0] == 0xA1) {
+				if (c - last[id - 1] > most_apart && last[id - 1])
+					most_apart = c - last[id - 1];
+				last[id - 1] = c;
+			}
+		}
+		assert_int_equal(lifecycle(1), RMD_LC_SAFE);
+	}
+	assert_int_equal(sim_motor(1)->ctrl, RMD_SIM_HOLD);
+	if (fabs(sim_motor(1)->vel_rad_s) > 0.05)
+		fail_msg("the held knee turns at %g rad/s", sim_motor(1)->vel_rad_s);
+	/* the driven ones: their torques in their own frames, each at least every other cycle */
+	assert_int_equal(sent_to(1, 0xA1, from), 0);
+	assert_true(most_apart >= 1 && most_apart <= 2);
+	assert_true(sent_to(0, 0xA1, from) >= 500 / 2 - 1);
+	rig_down();
+}
+
+/* A batched motor LOST (lost_motor_action: motor): no 0x280 while it is. */
+static void test_v2_batch_lost_motor(void **state)
+{
+	struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 3 };
+	unsigned from;
+
+	(void)state;
+	rig_up(4, v2_batch);
+	bring_up();
+	run(20, false);
+	cmd_clear();
+	for (unsigned i = 0; i < 4; i++)
+		cmd_motor(i, true, RMD_MODE_TORQUE)->torque_nm = 0.2;
+	run(100, true);
+	assert_true(batches_since(0) >= 50);
+	f.start_ns = rmd_bus_sim_time_ns(&R.io.buses[0], t_now);
+	f.end_ns = f.start_ns + 300 * MS;
+	set_faults(0, &f, 1);
+	for (unsigned c = 0; c < 100 && lifecycle(2) != RMD_LC_LOST; c++)
+		run(1, true);
+	assert_int_equal(lifecycle(2), RMD_LC_LOST);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	from = trace_n;
+	for (unsigned c = 0; c < 200 && lifecycle(2) == RMD_LC_LOST; c++)
+		run(1, true);
+	if (batches_since(from))
+		fail_msg("%u 0x280 frames while motor 3 is LOST", batches_since(from));
+	assert_true(sent_to(0, 0xA1, from) > 0);
 	rig_down();
 }
 
@@ -3278,6 +3412,8 @@ int main(void)
 		cmocka_unit_test(test_overrun),
 		cmocka_unit_test(test_overrun_burst_is_one_skip),
 		cmocka_unit_test(test_v2_batch),
+		cmocka_unit_test(test_v2_batch_only_enabled),
+		cmocka_unit_test(test_v2_batch_lost_motor),
 		cmocka_unit_test(test_bus_off),
 		cmocka_unit_test(test_stop_motors_bus_off),
 		cmocka_unit_test(test_health),

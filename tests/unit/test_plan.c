@@ -411,6 +411,43 @@ static void test_v2_unbatched_refused(void **state)
 	assert_int_equal(plan.bus[0].batch, RMD_BATCH_NONE);
 }
 
+/*
+ * Issue 33 point 1: while a batched motor is not driven, a cycle of the
+ * 0x280 frame gives the batched motors their own frames instead, as many
+ * as fit (never fewer than the frame's own 1 + n frames hold), and the
+ * budget counts them: the busiest cycle is the frame's or theirs.
+ */
+static void test_v2_batch_own(void **state)
+{
+	static const struct {
+		unsigned n, rate_hz;
+		double poll_hz;
+		unsigned own, worst_frames;
+	} cases[] = {
+		{ 4, 1000, 0, 3, 6 },  /* 5 frames, 2 more fit: 3 of 4 a cycle */
+		{ 4, 1000, 10, 2, 7 }, /* a poll beside the frame: 2 (4 frames), no more */
+		{ 4, 500, 10, 4, 10 }, /* all of them, and the poll */
+		{ 3, 1000, 0, 3, 6 },  { 2, 1000, 0, 2, 4 },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		can0(cases[k].rate_hz);
+		for (unsigned i = 1; i <= cases[k].n; i++)
+			add_motor(0, i, RMD_PROTO_V2, RMD_MODE_TORQUE, 1, cases[k].poll_hz);
+		expect_ok();
+		assert_int_equal(plan.bus[0].batch, RMD_BATCH_ON);
+		if (plan.bus[0].batch_own != cases[k].own ||
+		    plan.bus[0].worst_ns != (int64_t)cases[k].worst_frames * FRAME_NS)
+			fail_msg(
+				"%u V2 motors at %u Hz, polls %g Hz: %u of them a cycle, worst %lld "
+				"ns; want %u, %lld",
+				cases[k].n, cases[k].rate_hz, cases[k].poll_hz,
+				plan.bus[0].batch_own, (long long)plan.bus[0].worst_ns,
+				cases[k].own, (long long)cases[k].worst_frames * FRAME_NS);
+	}
+}
+
 /* No 0x280 frame when a motor would misread it. */
 static const struct batch_case {
 	const char *why;
@@ -679,7 +716,10 @@ static void test_print(void **state)
 	fclose(f);
 	expect_in(buf, "bus can0 (socketcan can0, 1000000 bit/s): 4 motors");
 	expect_in(buf, "0x280 frame: torques of m1 m2 m3 m4");
-	expect_in(buf, "frames per cycle: busiest 7 (2 requests)");
+	expect_in(buf, "while one of them is not enabled in torque mode: no 0x280; their own "
+		       "frames, 2 of the 4 a cycle of the frame, in turn");
+	/* the poll's cycle, and the cycle that gives two motors their own frames and a poll */
+	expect_in(buf, "frames per cycle: busiest 7 (3 requests)");
 	expect_in(buf, "worst case: 945 µs per cycle of 1000 µs, load 94.5%");
 	expect_in(buf, "verdict: ok");
 	expect_in(buf, "verdict: every bus fits");
@@ -1040,6 +1080,7 @@ int main(void)
 		cmocka_unit_test(test_v2_ids_2_to_5),
 		cmocka_unit_test(test_v2_unbatched_refused),
 		cmocka_unit_test(test_v2_batch_conditions),
+		cmocka_unit_test(test_v2_batch_own),
 		cmocka_unit_test(test_divisors_spread),
 		cmocka_unit_test(test_polls_spread),
 		cmocka_unit_test(test_poll_no_room),
