@@ -113,6 +113,16 @@ struct rmd_bringup {
 	struct rmd_bringup_motor motor[RMD_MAX_MOTORS]; /* config order */
 	/* per bus: ids that answered but are not configured, bit id - 1 */
 	uint32_t unexpected_ids[RMD_MAX_BUSES];
+	/*
+	 * per bus whose V2 motors share a 0x280 frame (and whose entry does not
+	 * say can_id_filter): those of them that answered as firmware the
+	 * frame would command (rmd_dialect_takes_280(): a V3/V4/MIT motor, a
+	 * V2 one with ID 1..4), bit id - 1; the bus then sends no 0x280
+	 * frame (issue 33 point 2)
+	 */
+	uint32_t stray_ids[RMD_MAX_BUSES];
+	/* buses refused for them (struct rmd_bringup_bus.stray_refused) */
+	unsigned strays_refused;
 	/* per bus: what its answers took */
 	struct rmd_bringup_bus {
 		/*
@@ -127,13 +137,22 @@ struct rmd_bringup {
 		 * also take from) means replies will be missed.
 		 */
 		bool exceeds_period;
+		/* the identifier the first of stray_ids[] answered on */
+		uint32_t stray_id;
+		/*
+		 * Without the 0x280 frame the cycle cannot give each of the
+		 * bus's batched motors its own frames (rmd_plan_bus.batch_own):
+		 * refused, whatever probe.on_missing says.
+		 */
+		bool stray_refused;
 	} bus[RMD_MAX_BUSES];
 };
 
 /*
  * Bring the motors of l up (see the top of this file) and describe what
  * was found in *out.  Returns 0, -EPROTO when a motor's configuration does
- * not fit what it answered (RMD_BRINGUP_MISMATCH), -ENODEV when a motor
+ * not fit what it answered (RMD_BRINGUP_MISMATCH) or a stray motor refused
+ * a bus (struct rmd_bringup_bus.stray_refused), -ENODEV when a motor
  * is missing or unarmed and probe.on_missing is refuse (out is filled all
  * the same), or -EBUSY while the thread runs.  Non-rt.
  */

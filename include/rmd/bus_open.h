@@ -40,8 +40,14 @@ struct rmd_bus_open_opts {
 	const uint8_t *ids;
 	unsigned n_ids;
 	bool set_id_replies; /* SocketCAN: also admit 0x300 (V3 §4: 0x79 replies) */
-	unsigned burst;	     /* SocketCAN: frames per cycle the txqueuelen must hold; 0: no check */
-	uint32_t baud;	     /* RS485; 0: RMD_BUS_OPEN_BAUD */
+	/*
+	 * SocketCAN: also admit the replies of motors the caller does not
+	 * drive that a V2 0x280 frame would command (struct
+	 * rmd_socketcan_opts.watch_strays): a bus whose plan batches
+	 */
+	bool watch_strays;
+	unsigned burst; /* SocketCAN: frames per cycle the txqueuelen must hold; 0: no check */
+	uint32_t baud;	/* RS485; 0: RMD_BUS_OPEN_BAUD */
 	int64_t reply_timeout_ns;   /* RS485; 0: its default */
 	unsigned broadcast_replies; /* RS485: see struct rmd_rs485_opts */
 	bool local_echo;	    /* RS485: the adapter hears itself (struct rmd_rs485_opts) */
@@ -75,6 +81,12 @@ struct rmd_bus_open_ctx {
 	unsigned n_motors;
 	unsigned burst;	     /* SocketCAN: frames per cycle the txqueuelen must hold; 0: no check */
 	bool set_id_replies; /* SocketCAN: also admit 0x300 (V3 §4: 0x79 replies) */
+	/*
+	 * SocketCAN: also admit the replies of motors the caller does not
+	 * drive that a V2 0x280 frame would command (struct
+	 * rmd_socketcan_opts.watch_strays): a bus whose plan batches
+	 */
+	bool watch_strays;
 	int64_t reply_timeout_ns;   /* RS485; 0: its default */
 	unsigned broadcast_replies; /* RS485 (struct rmd_rs485_opts); 0: n_motors */
 	bool local_echo;	    /* RS485: the adapter hears itself (struct rmd_rs485_opts) */

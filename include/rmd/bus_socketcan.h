@@ -48,6 +48,13 @@ struct rmd_socketcan_opts {
 	unsigned n_motors;
 	bool set_id_replies; /* also admit 0x300 (V3 §4: 0x79 replies on 0x300) */
 	/*
+	 * Also admit the replies of every ID that a V2 0x280 frame would
+	 * command (rmd_dialect_takes_280()), the motors' own or not: a bus
+	 * whose V2 motors share that frame must see a motor it does not drive
+	 * (issue 33 point 2).  Nothing more is received while none answers.
+	 */
+	bool watch_strays;
+	/*
 	 * Most frames the caller sends on this bus in one cycle.  The
 	 * interface's txqueuelen must hold them or the tail of every burst
 	 * is refused; 0 skips the check.

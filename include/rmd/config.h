@@ -207,7 +207,15 @@ struct rmd_config_bus {
 	uint32_t bitrate;		       /* socketcan, sim: bit/s */
 	uint32_t baud;			       /* rs485: bit/s (V3 §1.2.1) */
 	int64_t turnaround_ns; /* rs485: request end to reply start, budgeted per request */
-	unsigned line;	       /* of the entry in the file, for messages */
+	/*
+	 * socketcan, sim: the motors on the bus that the file does not list
+	 * (spares, entries left out) have their CAN-ID filter on (0x20 index 2
+	 * = 1, V3 §2.33.4), so a V2 0x280 frame does not reach them; without
+	 * it a bus whose V2 motors share one 0x280 frame does not send it
+	 * while such a motor answers (issue 33 point 2, docs/design.md).
+	 */
+	bool can_id_filter;
+	unsigned line; /* of the entry in the file, for messages */
 	/*
 	 * socketcan, rs485: the file gives the bus or a motor on it a `sim:`
 	 * section.  It is rmd-sim's, which simulates the bus's motors on the

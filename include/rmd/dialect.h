@@ -222,4 +222,14 @@ static inline uint32_t rmd_dialect_set_id_can(const struct rmd_dialect *d)
 	return rmd_dialect_has(d, RMD_DIALECT_ID_300) ? RMD_CAN_SET_ID : 0;
 }
 
+/*
+ * Whether the firmware of a motor that answers on identifier can_id (its
+ * reply or control reply identifier in some dialect) takes a 0x280 frame
+ * for a command of its own: a V2 motor with ID 1..4 its slot's torque (V2
+ * §4.1), any other dialect's motor the frame's bytes as a command to
+ * itself while its CAN-ID filter is off (V3 §3; 0x20 index 2, V3 §2.33.4).
+ * *id: the ID the identifier names (0: none).  rt-safe.
+ */
+bool rmd_dialect_takes_280(uint32_t can_id, uint8_t *id);
+
 #endif /* RMD_DIALECT_H */

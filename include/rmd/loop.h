@@ -122,7 +122,9 @@
  * The V2 0x280 frame is a torque command to every batched motor (V2 §4.1:
  * it cannot skip one, and 0 A switches a motor's output on), so it goes
  * out only while every batched motor is ENABLED, past its brake release,
- * in torque mode and owes nothing (issue 33 point 1).  Otherwise
+ * in torque mode and owes nothing, and no motor the configuration does
+ * not list has answered on the bus (issue 33 points 1 and 2; a bus entry's
+ * can_id_filter says such motors ignore the frame).  Otherwise
  * the slot carries the batched motors' own frames, each as its lifecycle
  * says (the control slot above), rmd_plan_bus.batch_own of them a cycle
  * in turn.

@@ -21,6 +21,9 @@
 /* SocketCAN's default txqueuelen (docs/design.md), a sim bus's host queue too. */
 #define RMD_SIM_DEFAULT_TXQUEUELEN 10
 
+/* Motors of a sim bus that the configuration does not list (struct rmd_sim_bus_setup.strays). */
+#define RMD_SIM_MAX_STRAYS 8
+
 /* Room for a wire tap's path (struct rmd_sim_bus_setup.tap), NUL included. */
 #define RMD_SIM_TAP_PATH_LEN 128
 
@@ -36,6 +39,14 @@ struct rmd_sim_bus_setup {
 	struct rmd_sim_motor_params motor;
 	struct rmd_sim_fault faults[RMD_SIM_MAX_FAULTS];
 	unsigned n_faults;
+	/*
+	 * Motors on this wire that the configuration does not list (a spare, an
+	 * entry commented out): the simulator's default motor with the keys
+	 * each gives (its id, its firmware, ...).  rmdd does not drive them; a
+	 * V2 0x280 frame would (issue 33 point 2).
+	 */
+	struct rmd_sim_motor_params strays[RMD_SIM_MAX_STRAYS];
+	unsigned n_strays;
 	/*
 	 * Wire tap (rmd/bus_sim.h): every frame on this bus's wire, as a
 	 * `candump -l` line, to this file or FIFO; "" (default): none.

@@ -280,6 +280,13 @@ enum rmd_event_kind {
 	 * rmd_proto).  It stays out until rmdd restarts.
 	 */
 	RMD_EV_DIALECT,
+	/*
+	 * A motor the configuration does not list answered, on a bus whose V2
+	 * motors share a 0x280 frame, as firmware the frame would command
+	 * (rmd_dialect_takes_280()): a = the identifier, b = its ID.  The bus
+	 * sends each batched motor its own frames from then on (issue 33 point 2).
+	 */
+	RMD_EV_STRAY,
 };
 
 /* Why the rt loop refused a homing request (RMD_EV_HOME_REFUSED). */

@@ -106,6 +106,11 @@ static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		motors[i] = (struct rmd_bus_sim_motor){ .id = ctx->motors[i].id,
 							.proto = ctx->motors[i].proto,
 							.params = ctx->motors[i].sim };
+	/* the motors on the wire that the configuration does not list */
+	for (unsigned k = 0; k < sim->n_strays && so.n_motors < RMD_MAX_MOTORS; k++)
+		motors[so.n_motors++] = (struct rmd_bus_sim_motor){ .id = sim->strays[k].id,
+								    .proto = sim->strays[k].proto,
+								    .params = &sim->strays[k] };
 	return rmd_bus_sim_open(bus, cb->name, &so, err, errlen);
 }
 
@@ -148,6 +153,7 @@ static int open_socketcan(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.motors = motors,
 		.n_motors = ctx->n_motors,
 		.set_id_replies = ctx->set_id_replies,
+		.watch_strays = ctx->watch_strays,
 		.burst = ctx->burst,
 		.device = ctx->device,
 	};

@@ -87,6 +87,51 @@ static int add_filter(struct can_filter *f, int n, canid_t id)
 	return n + 1;
 }
 
+/* Filters a stray watch adds at most: two ranges of 32 ids per identifier base. */
+#define STRAY_FILTERS (4 * RMD_PROTO_COUNT)
+
+/* The identifiers base + 1 .. base + 32 (ID 1..32): base .. base + 31, and base + 32.  Non-rt. */
+static int add_ids(struct can_filter *f, int n, canid_t base)
+{
+	const canid_t mask = SFF_EXACT_MASK & ~0x1Fu;
+	bool have = false;
+
+	for (int i = 0; i < n; i++)
+		have |= f[i].can_id == base && f[i].can_mask == mask;
+	if (!have) {
+		f[n].can_id = base;
+		f[n].can_mask = mask;
+		n++;
+	}
+	return add_filter(f, n, base + RMD_MAX_MOTORS);
+}
+
+/*
+ * struct rmd_socketcan_opts.watch_strays: the reply identifiers of every ID
+ * a V2 0x280 frame would command (rmd_dialect_takes_280()): V2 motors 1..4
+ * (V2 §4.1), any ID of the other dialects, on their replies and control
+ * replies (V3 §3).  Non-rt.
+ */
+static int add_stray_filters(struct can_filter *f, int n)
+{
+	size_t nd;
+	const struct rmd_dialect *all = rmd_dialect_list(&nd);
+
+	for (size_t k = 0; k < nd; k++) {
+		const struct rmd_dialect *d = &all[k];
+
+		if (rmd_dialect_has(d, RMD_DIALECT_BATCH_280)) {
+			for (canid_t id = 1; id <= 4; id++)
+				n = add_filter(f, n, d->reply_base + id);
+			continue;
+		}
+		n = add_ids(f, n, d->reply_base);
+		if (d->ctl_reply_base != d->reply_base)
+			n = add_ids(f, n, d->ctl_reply_base);
+	}
+	return n;
+}
+
 /* Reply identifiers of the configured motors -> kernel filters.  Non-rt. */
 static int build_filters(const char *ifname, const struct rmd_socketcan_opts *opts,
 			 struct can_filter *f, char *err, size_t errlen)
@@ -147,6 +192,8 @@ static int build_filters(const char *ifname, const struct rmd_socketcan_opts *op
 	}
 	if (opts->set_id_replies)
 		n = add_filter(f, n, RMD_CAN_SET_ID); /* V3 §4.4: 0x79 replies on 0x300 */
+	if (opts->watch_strays)
+		n = add_stray_filters(f, n);
 	return n;
 }
 
@@ -233,7 +280,7 @@ static int setup_socket(int fd, const char *ifname, unsigned ifindex,
 			const struct rmd_socketcan_opts *opts, int *rcvbuf, char *err,
 			size_t errlen)
 {
-	struct can_filter filters[3 * RMD_MAX_MOTORS + 1];
+	struct can_filter filters[3 * RMD_MAX_MOTORS + 1 + STRAY_FILTERS];
 	struct sockaddr_can addr;
 	can_err_mask_t err_mask = ERR_CLASSES;
 	int want = opts && opts->rcvbuf_bytes > 0 ? opts->rcvbuf_bytes :

@@ -105,6 +105,8 @@ static const struct field incidents_fields[] = {
  */
 #define SIM_MOTOR_FIELDS 64
 static struct field sim_motor_fields[SIM_MOTOR_FIELDS];
+/* buses[].sim.strays[]: the same keys and the motor's id (sim_motor_fields_build()) */
+static struct field stray_fields[SIM_MOTOR_FIELDS + 1];
 
 /* T_TEXT: a parameter row's own parser (model, version_date). */
 static int sim_param_text(const struct field *f, const char *text, void *dst, char *allowed,
@@ -167,7 +169,18 @@ static void sim_motor_fields_build(void)
 	sim_motor_fields[n++] = (struct field)UINT("seed", struct rmd_sim_motor_params, seed, 0,
 						   18446744073709551615.0, 0);
 	sim_motor_fields[n] = (struct field)END;
+	stray_fields[0] = (struct field)UINT("id", struct rmd_sim_motor_params, id, 1,
+					     RMD_MAX_MOTORS, F_REQUIRED);
+	memcpy(stray_fields + 1, sim_motor_fields, (n + 1) * sizeof(sim_motor_fields[0]));
 }
+
+/* A stray motor of a sim bus: the simulator's default (V3), id from its entry. */
+static void stray_init(void *elem)
+{
+	rmd_sim_motor_params_default(elem, 1, RMD_PROTO_V3);
+}
+
+static const struct field stray_elem = { .type = T_MAP, .sub = stray_fields };
 
 static void fault_init(void *elem)
 {
@@ -200,6 +213,7 @@ static const struct field sim_fields[] = {
 	BOOL("host_fifo", S, host_fifo),
 	MAP("motor", S, motor, sim_motor_fields),
 	SEQ("faults", S, faults, n_faults, &fault_elem, fault_init),
+	SEQ("strays", S, strays, n_strays, &stray_elem, stray_init),
 	STR("tap", S, tap, 0),
 	END
 };
@@ -213,6 +227,7 @@ static const struct field bus_fields[] = { STR("name", B, name, F_REQUIRED | F_I
 					   UINT("baud", B, baud, 1, 100000000, 0),
 					   UINT("bitrate", B, bitrate, 1, 100000000, 0),
 					   NS("turnaround_us", B, turnaround_ns, 0, 1e6, 1000.0),
+					   BOOL("can_id_filter", B, can_id_filter),
 					   LATER("sim"),
 					   END };
 #undef B
@@ -457,6 +472,42 @@ static void name_unique(struct yctx *c, const struct ynode *seq, unsigned i, con
 			seq->kids[first]->line);
 }
 
+/*
+ * buses[b].sim.strays (node sn): each a model of its own, and an id that
+ * no motor of the file on that bus has, nor another stray.  Non-rt.
+ */
+static void validate_strays(struct yctx *c, const struct rmd_config *cfg,
+			    const struct rmd_sim_setup *sim, unsigned b, const struct ynode *sn,
+			    const char *path)
+{
+	const struct rmd_sim_bus_setup *s = &sim->buses[b];
+	char sp[PATH_LEN], ip[PATH_LEN], kp[PATH_LEN];
+
+	if (!sn || sn->kind != Y_SEQ)
+		return;
+	rmd_yaml_path_key(sp, path, "sim.strays");
+	for (unsigned k = 0; k < s->n_strays && k < sn->n; k++) {
+		const struct rmd_sim_motor_params *p = &s->strays[k];
+		const struct ynode *in = sn->kids[k];
+
+		rmd_yaml_path_idx(ip, sp, k);
+		rmd_yaml_path_key(kp, ip, "id");
+		for (unsigned i = 0; i < cfg->n_motors; i++)
+			if (cfg->motors[i].bus == b && cfg->motors[i].id == p->id)
+				rmd_yaml_report(
+					c, rmd_yaml_line_of(in, "id"), kp,
+					"%u is the id of motors[%u] (%s): a stray is a motor "
+					"the file does not list",
+					p->id, i, cfg->motors[i].name);
+		for (unsigned j = 0; j < k; j++)
+			if (s->strays[j].id == p->id)
+				rmd_yaml_report(c, rmd_yaml_line_of(in, "id"), kp,
+						"%u is already the id of strays[%u] (line %u)",
+						p->id, j, sn->kids[j]->line);
+		validate_sim_model(c, p, in, ip);
+	}
+}
+
 static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_sim_setup *sim,
 			   const struct ynode *seq)
 {
@@ -500,6 +551,7 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 		case RMD_BUS_KIND_RS485:
 			bus_key_unused(c, bn, path, "interface", b, "socketcan");
 			bus_key_unused(c, bn, path, "bitrate", b, "socketcan or sim");
+			bus_key_unused(c, bn, path, "can_id_filter", b, "socketcan or sim");
 			real_bus_sim(c, bn, path, b);
 			rmd_yaml_path_key(kp, path, "device");
 			if (!rmd_yaml_get(bn, "device", NULL))
@@ -534,6 +586,8 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 		rmd_yaml_path_key(kp, path, "sim.motor");
 		validate_sim_model(c, &sim->buses[i].motor,
 				   rmd_yaml_get(rmd_yaml_get(bn, "sim", NULL), "motor", NULL), kp);
+		validate_strays(c, cfg, sim, i,
+				rmd_yaml_get(rmd_yaml_get(bn, "sim", NULL), "strays", NULL), path);
 	}
 }
 

@@ -257,3 +257,25 @@ const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certa
 	*certain = date != 0;
 	return &rmd_dialects[date >= V4_FLOAT_PID_DATE ? RMD_PROTO_V4 : RMD_PROTO_V3];
 }
+
+bool rmd_dialect_takes_280(uint32_t can_id, uint8_t *id)
+{
+	for (unsigned p = 0; p < RMD_PROTO_COUNT; p++) {
+		const struct rmd_dialect *d = &rmd_dialects[p];
+		uint32_t base = 0;
+
+		if (can_id > d->reply_base && can_id <= d->reply_base + (uint32_t)RMD_MAX_MOTORS)
+			base = d->reply_base;
+		else if (can_id > d->ctl_reply_base &&
+			 can_id <= d->ctl_reply_base + (uint32_t)RMD_MAX_MOTORS)
+			base = d->ctl_reply_base;
+		if (!base)
+			continue;
+		*id = (uint8_t)(can_id - base);
+		/* V2 §4.1: motors 1..4 take their slot's torque; V3 §3: any other a command */
+		if (!rmd_dialect_has(d, RMD_DIALECT_BATCH_280) || *id <= 4)
+			return true;
+	}
+	*id = 0;
+	return false;
+}

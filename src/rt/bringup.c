@@ -48,6 +48,22 @@ static bool bringup_asks(const struct lmotor *lm, uint8_t cmd)
 			       rmd_dialect_has(lm->m.d, RMD_DIALECT_ENCODER_UNWRAP));
 }
 
+/*
+ * A motor the configuration does not list answered on identifier id: one a
+ * 0x280 frame would command (rmd_dialect_takes_280()) is a stray of the
+ * bus, the first one's identifier kept.  Non-rt.
+ */
+static void note_stray(struct lbus *lb, uint32_t id)
+{
+	uint8_t sid;
+
+	if (!rmd_dialect_takes_280(id, &sid))
+		return;
+	lb->stray_ids |= 1u << (sid - 1);
+	if (!lb->stray_id)
+		lb->stray_id = id;
+}
+
 /* A frame that answers no request: remember ids that are not configured.  Non-rt. */
 static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
 {
@@ -83,6 +99,7 @@ static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
 		mid = id - RMD_CAN_MIT_REPLY_BASE;
 	if (mid)
 		pc->l->bus[pc->bus].unexpected_ids |= 1u << (mid - 1);
+	note_stray(&pc->l->bus[pc->bus], id);
 }
 
 /* Options of one bring-up transaction on bus b: the loop's clock, strays noted.  Non-rt. */
@@ -493,14 +510,17 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
  * Ask every id that is not configured on bus b for its status (0x9A, read
  * only; V3 §2.12 on 0x140 + ID, which V2 motors take as well), all at
  * once, and note who answers, on whatever identifier.  Bounded: one try,
- * RMD_LOOP_PROBE_TIMEOUT_NS plus the requests' spacing on the bus.
- * Non-rt.
+ * RMD_LOOP_PROBE_TIMEOUT_NS plus the requests' spacing on the bus; on a
+ * bus whose V2 motors share a 0x280 frame, which a motor found here would
+ * take for its own command, RMD_LOOP_PROBE_TRIES of them: one late answer
+ * must not leave a spare motor unseen (issue 33 point 2).  Non-rt.
  */
 static int scan_bus(struct rmd_loop *l, unsigned b)
 {
 	struct lbus *lb = &l->bus[b];
 	struct probe_ctx pc = { .l = l, .bus = b };
-	struct rmd_txn_opts o = txn_opts(&pc, 1, probe_timeout_ns(l, lb, false));
+	struct rmd_txn_opts o = txn_opts(&pc, lb->pb->batched ? RMD_LOOP_PROBE_TRIES : 1,
+					 probe_timeout_ns(l, lb, false));
 	struct rmd_txn t[RMD_MAX_MOTORS];
 	struct rmd_msg msg = { .cmd = 0x9A };
 	unsigned n = 0;
@@ -520,6 +540,7 @@ static int scan_bus(struct rmd_loop *l, unsigned b)
 
 		if (t[k].done) {
 			lb->unexpected_ids |= bit;
+			note_stray(lb, t[k].rep.f.can_id);
 		} else {
 			/* an answer that still comes is late (loop_rx.c) */
 			lb->scan_gone_ids |= bit;
@@ -642,6 +663,30 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 	}
 }
 
+/*
+ * Bus b's strays (note_stray()), where its V2 motors share a 0x280 frame
+ * and its entry does not say such motors have their CAN-ID filter on: the
+ * frame never goes out (struct lbus.stray); and when the cycle cannot give
+ * each batched motor its own frames instead (the plan's batch_own), the
+ * bus is refused: its motors would run slower than configured for good.
+ * Non-rt.
+ */
+static void strays_of(struct rmd_loop *l, unsigned b, struct rmd_bringup *out)
+{
+	struct lbus *lb = &l->bus[b];
+	unsigned n = (unsigned)__builtin_popcount(lb->pb->batched);
+
+	if (!n || !lb->stray_ids || lb->cb->can_id_filter)
+		return;
+	lb->stray = true;
+	out->stray_ids[b] = lb->stray_ids;
+	out->bus[b].stray_id = lb->stray_id;
+	if (lb->pb->batch_own < n) {
+		out->bus[b].stray_refused = true;
+		out->strays_refused++;
+	}
+}
+
 /* Every bus: what came before the first request answers none of them.  Non-rt. */
 static void flush_buses(struct rmd_loop *l)
 {
@@ -650,6 +695,8 @@ static void flush_buses(struct rmd_loop *l)
 		int64_t now = loop_now(l);
 
 		lb->unexpected_ids = 0;
+		lb->stray_ids = 0;
+		lb->stray_id = 0;
 		while (rmd_bus_recv(lb->bus, lb->rx, RX_BATCH, now) == RX_BATCH)
 			;
 	}
@@ -687,6 +734,7 @@ int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out)
 			.rtt_max_ns = lb->rtt_max_ns,
 			.exceeds_period = lb->rtt_n && lb->rtt_max_ns >= l->period_ns,
 		};
+		strays_of(l, b, out);
 	}
 	/* what bring-up found is the state before the first cycle */
 	loop_fill_snapshot(l, loop_now(l));
@@ -694,7 +742,7 @@ int rmd_loop_bringup(struct rmd_loop *l, struct rmd_bringup *out)
 	loop_pub_write(l);
 	if (l->o.health)
 		rmd_latest_put(l->o.health, &l->health);
-	if (out->mismatched)
+	if (out->mismatched || out->strays_refused)
 		return -EPROTO; /* whatever probe.on_missing says: the configuration is wrong */
 	if ((out->missing || out->unarmed) && l->cfg->probe.on_missing == RMD_MISSING_REFUSE)
 		return -ENODEV;

@@ -197,6 +197,15 @@ struct lbus {
 	struct txmeta meta[TX_MAX];
 	unsigned ntx;
 	unsigned batch_rr; /* round robin of the 0x280 slot's own frames (loop_tx.c batch_own()) */
+	/*
+	 * A motor the configuration does not list answered on an identifier
+	 * whose firmware takes the 0x280 frame for a command of its own
+	 * (rmd_dialect_takes_280()), and the bus's entry does not say such
+	 * motors have their CAN-ID filter on: the frame never goes out again
+	 * (loop_tx.c batch_allowed()).  stray_id: the identifier it answered on.
+	 */
+	bool stray;
+	uint32_t stray_id;
 	uint8_t state_seen;
 	bool failing;
 	int64_t ev_send_ns, ev_unexpected_ns, ev_late_ns;
@@ -206,6 +215,7 @@ struct lbus {
 	int64_t load_t0;
 	double load;
 	uint32_t unexpected_ids; /* bring-up: ids that answered but are not configured */
+	uint32_t stray_ids;	 /* bring-up: of those, the ones a 0x280 frame would command */
 	/* bring-up's scan: ids asked (0x9A) that did not answer in time, bit id - 1, and when */
 	uint32_t scan_gone_ids;
 	int64_t scan_sent_ns;

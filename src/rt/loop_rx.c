@@ -12,6 +12,7 @@
 #include <errno.h>
 #include <string.h>
 
+#include "rmd/dialect.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "loop_priv.h"
@@ -401,6 +402,28 @@ other_dialect_answer(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 	return false;
 }
 
+/*
+ * f came on bus b from no motor the configuration lists.  One whose
+ * firmware takes the 0x280 frame for a command of its own
+ * (rmd_dialect_takes_280()), on a bus whose V2 motors share that frame,
+ * stops the frame at once and for good (struct lbus.stray), reported --
+ * unless the bus's entry says such motors have their CAN-ID filter on.
+ * rt-safe.
+ */
+static __attribute__((cold, noinline)) void stray_answered(struct rmd_loop *l, unsigned b,
+							   const struct rmd_frame *f, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+	uint8_t id;
+
+	if (lb->stray || !lb->pb->batched || lb->cb->can_id_filter ||
+	    !rmd_dialect_takes_280(f->can_id, &id))
+		return;
+	lb->stray = true;
+	lb->stray_id = f->can_id;
+	loop_event(l, now, RMD_EV_STRAY, 0xFF, b, f->can_id, id);
+}
+
 /* rt-safe. */
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
@@ -412,6 +435,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	int k;
 
 	if (!lm || !f->len) {
+		if (!lm && l->bus[b].pb->batched)
+			stray_answered(l, b, f, now);
 		if (!lm && (scan_late(l, b, f, now) || other_dialect_answer(l, b, f, now)))
 			return;
 		loop_unexpected(l, b, f, now);

@@ -273,12 +273,15 @@ static void add_fine(struct rmd_loop *l, struct lbus *lb, unsigned i)
  * torque too: it switches the output on), and a command of its own to a
  * V3/V4 motor whose CAN-ID filter is off (V3 §3.1): so only while every
  * batched motor is ENABLED, past its brake release, in torque mode and
- * owes no frame of its own.  rt-safe.
+ * owes no frame of its own, and no motor the configuration does not list
+ * answered on the bus (struct lbus.stray).  rt-safe.
  */
 static bool batch_allowed(const struct rmd_loop *l, const struct lbus *lb, int64_t now)
 {
 	const struct rmd_plan_bus *pb = lb->pb;
 
+	if (__builtin_expect(lb->stray, 0))
+		return false;
 	for (uint32_t m = pb->batched; m; m &= m - 1) {
 		const struct lmotor *lm = &l->mot[pb->motors[__builtin_ctz(m)]];
 

@@ -317,6 +317,7 @@ struct bad_str {
 
 #define BUS "buses:\n  - {name: can0, type: socketcan}\n"
 #define MOTORS "motors:\n  - {name: m1, bus: can0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+#define MOTORS_S "motors:\n  - {name: m1, bus: s, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
 
 static const struct bad_str bad_strs[] = {
 	{ "duplicate-key",
@@ -605,6 +606,50 @@ static void test_too_many_motors(void **state)
 }
 
 /* Values that must load, and how they are stored. */
+/*
+ * Issue 33 point 2: buses[].can_id_filter (the spares on a bus ignore a
+ * 0x280 frame) and a sim bus's strays (motors on its wire the file does
+ * not list), each checked with its line.
+ */
+static void test_strays_and_filter(void **state)
+{
+	static const struct bad_str bad[] = {
+		{ "stray-is-a-motor",
+		  "buses:\n  - {name: s, type: sim, sim: {strays: [{id: 3}, {id: 1}]}}\n" MOTORS_S,
+		  { ":2: buses[0].sim.strays[1].id: 1 is the id of motors[0] (m1): a stray is a "
+		    "motor the file does not list" } },
+		{ "stray-twice",
+		  "buses:\n  - {name: s, type: sim,\n     sim: {strays: [{id: 5},\n"
+		  "                   {id: 5}]}}\n" MOTORS_S,
+		  { ":4: buses[0].sim.strays[1].id: 5 is already the id of strays[0] (line 3)" } },
+		{ "stray-without-id",
+		  "buses:\n  - {name: s, type: sim, sim: {strays: [{firmware: v3}]}}\n" MOTORS_S,
+		  { ":2: buses[0].sim.strays[0].id: required key missing" } },
+		{ "filter-on-rs485",
+		  "buses:\n  - {name: s, type: rs485, device: /dev/ttyUSB0, can_id_filter: true}\n" MOTORS_S,
+		  { ":2: buses[0].can_id_filter: only for type socketcan or sim (this bus is rs485)" } },
+	};
+
+	(void)state;
+	assert_int_equal(
+		load_str("good", "buses:\n"
+				 "  - {name: s, type: sim, can_id_filter: true,\n"
+				 "     sim: {strays: [{id: 5, firmware: v3, start_angle_deg: 90},\n"
+				 "                    {id: 3, firmware: v2}]}}\n" MOTORS_S),
+		0);
+	assert_true(cfg.buses[0].can_id_filter);
+	assert_int_equal(sim.buses[0].n_strays, 2);
+	assert_int_equal(sim.buses[0].strays[0].id, 5);
+	assert_int_equal(sim.buses[0].strays[0].proto, RMD_PROTO_V3);
+	assert_float_equal(sim.buses[0].strays[0].start_angle_deg, 90.0, 0.0);
+	assert_int_equal(sim.buses[0].strays[1].proto, RMD_PROTO_V2);
+	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
+		if (load_str(bad[k].name, bad[k].yaml) != -EINVAL)
+			fail_msg("%s: accepted", bad[k].name);
+		expect_in(err, bad[k].expect[0]);
+	}
+}
+
 static void test_good_values(void **state)
 {
 	(void)state;
@@ -1231,6 +1276,7 @@ int main(void)
 		cmocka_unit_test(test_sim_on_real_bus),
 		cmocka_unit_test(test_too_many_motors),
 		cmocka_unit_test(test_good_values),
+		cmocka_unit_test(test_strays_and_filter),
 		cmocka_unit_test(test_small_err_buffer),
 		cmocka_unit_test(test_sim_default),
 		cmocka_unit_test(test_names),

@@ -107,12 +107,18 @@ static void forge_reply(unsigned b, const struct rmd_sim_pending *p)
 	forge.done = true;
 }
 
+/* The first frame a motor put on the wire with identifier watch_id (caller's clock; 0: none). */
+static uint32_t watch_id;
+static int64_t watch_first_ns;
+
 static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
 {
 	unsigned b = (unsigned)(uintptr_t)ctx;
 
 	(void)eof_ns;
 	forge_reply(b, p);
+	if (p->src != RMD_SIM_SRC_HOST && watch_id && p->f.can_id == watch_id && !watch_first_ns)
+		watch_first_ns = start_ns + R.epoch[b];
 	if (p->src != RMD_SIM_SRC_HOST || trace_n >= TRACE_MAX)
 		return;
 	trace[trace_n++] = (struct sent){ .bus = b, .f = p->f, .t_ns = start_ns + R.epoch[b] };
@@ -1417,6 +1423,164 @@ static void test_v2_batch_only_enabled(void **state)
 	assert_int_equal(sent_to(1, 0xA1, from), 0);
 	assert_true(most_apart >= 1 && most_apart <= 2);
 	assert_true(sent_to(0, 0xA1, from) >= 500 / 2 - 1);
+	rig_down();
+}
+
+/*
+ * Issue 33 point 2: a V3 motor on the bus that the configuration does not
+ * list (a spare) takes 0x280 as a command of its own (V3 §3): the frame
+ * the loop builds for its V2 motors' torques.  The torques below make the
+ * frame begin 77 00 (V3 §2.26: brake release).
+ */
+static void stray_v3(struct rmd_sim_setup *sim)
+{
+	struct rmd_sim_motor_params *p = &sim->buses[0].strays[0];
+
+	rmd_sim_motor_params_default(p, 5, RMD_PROTO_V3);
+	p->start_angle_deg = 90.0;
+	sim->buses[0].n_strays = 1;
+}
+
+static void v2_batch_500(struct rmd_config *cfg)
+{
+	v2_batch(cfg);
+	cfg->loop.rate_hz = 500; /* room for each motor's own frames */
+}
+
+/* The torque of motor 1 that makes a 0x280 frame begin with `cmd` 00 (the others at 0). */
+static double torque_for_first_byte(uint8_t cmd)
+{
+	const struct rmd_motor *ms[4];
+	double t[4] = { 0 };
+	struct rmd_frame f;
+
+	for (unsigned i = 0; i < 4; i++)
+		ms[i] = rmd_loop_motor(R.l, i);
+	for (t[0] = 0.0; t[0] < 10.0; t[0] += 0.0005)
+		if (rmd_motor_encode_v2_batch(ms, t, &f, NULL, NULL) == 0 && f.data[0] == cmd &&
+		    f.data[1] == 0)
+			return t[0];
+	fail_msg("no torque makes a 0x280 frame begin %02X 00", cmd);
+	return 0.0;
+}
+
+/* Every V2 motor driven in torque mode, motor 1 at t1: the 0x280 frame is allowed. */
+static void drive_all(double t1)
+{
+	cmd_clear();
+	cmd_motor(0, true, RMD_MODE_TORQUE)->torque_nm = t1;
+	for (unsigned i = 1; i < 4; i++)
+		cmd_motor(i, true, RMD_MODE_TORQUE)->torque_nm = 0.0;
+}
+
+static void test_v2_batch_stray(void **state)
+{
+	const struct rmd_sim_motor *stray;
+	unsigned from;
+
+	(void)state;
+	rig_sim_tweak = stray_v3;
+	rig_up(4, v2_batch_500);
+	rig_sim_tweak = NULL;
+	assert_int_equal(R.io.plan.bus[0].batch, RMD_BATCH_ON);
+	bring_up();
+	/* bring-up saw it, said so, and the bus will not batch */
+	assert_int_equal(R.report.stray_ids[0], 1u << 4);
+	assert_int_equal(R.report.bus[0].stray_id, 0x245);
+	assert_false(R.report.bus[0].stray_refused);
+	stray = rmd_sim_wire_motor(rmd_bus_sim_get(&R.io.buses[0]), 5);
+	assert_non_null(stray);
+	drive_all(torque_for_first_byte(0x77));
+	from = trace_n;
+	run(500, true);
+	for (unsigned i = 0; i < 4; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_ENABLED);
+	if (batches_since(from))
+		fail_msg("%u 0x280 frames with a V3 motor on the bus", batches_since(from));
+	/* the driven motors get their torques in their own frames, every cycle */
+	for (unsigned i = 0; i < 4; i++)
+		assert_true(sent_to(i, 0xA1, from) >= 500 - 20);
+	assert_true(stray->brake_locked);
+	assert_int_equal(stray->ctrl, RMD_SIM_OFF);
+	assert_float_equal(stray->pos_rad, 90.0 * M_PI / 180.0, 1e-6);
+	rig_down();
+}
+
+/*
+ * The spare powered on only after bring-up: its first answer (to the
+ * first 0x280 frame it heard and took for a command: there is no earlier
+ * sign of it) stops the frame at once, for good, and is reported.  One
+ * frame more may be on its way when that answer lands after the next
+ * tick's receive.
+ */
+static void test_v2_batch_stray_later(void **state)
+{
+	struct rmd_sim_fault f = {
+		.kind = RMD_SIM_FAULT_DISAPPEAR,
+		.motor_id = 5,
+		.start_ns = 0,
+		.end_ns = 0, /* set below */
+	};
+	unsigned from;
+	int64_t after;
+
+	(void)state;
+	rig_sim_tweak = stray_v3;
+	rig_up(4, v2_batch_500);
+	rig_sim_tweak = NULL;
+	f.end_ns = 3000 * MS; /* off through bring-up, on 3 s into the sim's time */
+	set_faults(0, &f, 1);
+	bring_up();
+	assert_int_equal(R.report.stray_ids[0], 0);
+	/* a frame the spare executes and answers (one that is no V3 command it ignores) */
+	drive_all(torque_for_first_byte(0x77));
+	run(200, true);
+	assert_true(batches_since(0) >= 150);
+	watch_id = 0x245;
+	watch_first_ns = 0;
+	from = trace_n;
+	for (unsigned c = 0; c < 2000 && !watch_first_ns; c++)
+		run(1, true);
+	assert_true(watch_first_ns > 0);
+	run(500, true);
+	after = 0;
+	for (unsigned k = from; k < trace_n; k++)
+		if (trace[k].f.can_id == 0x280 && trace[k].t_ns > watch_first_ns)
+			after++;
+	watch_id = 0;
+	if (after > 1)
+		fail_msg("%lld 0x280 frames after the V3 motor answered", (long long)after);
+	assert_int_equal(count_ev(RMD_EV_STRAY, -1), 1);
+	assert_int_equal(evs[nev - 1].kind == RMD_EV_STRAY ? evs[nev - 1].a : 0x245, 0x245);
+	for (unsigned i = 0; i < 4; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_ENABLED);
+	rig_down();
+}
+
+/*
+ * 4 V2 motors at 1 kHz with a poll fit only with the 0x280 frame: a spare
+ * V3 motor refuses the bus at bring-up (it would run slower for good);
+ * with can_id_filter (its filter is on: the frame does not reach it) the
+ * bus batches.
+ */
+static void test_v2_batch_stray_refused(void **state)
+{
+	(void)state;
+	rig_sim_tweak = stray_v3;
+	rig_up(4, v2_batch);
+	assert_true(R.io.plan.bus[0].batch_own < 4);
+	assert_int_equal(rmd_loop_bringup(R.l, &R.report), -EPROTO);
+	assert_int_equal(R.report.strays_refused, 1);
+	assert_true(R.report.bus[0].stray_refused);
+	assert_int_equal(R.report.stray_ids[0], 1u << 4);
+	rig_down();
+
+	rig_up(4, v2_batch);
+	rig_sim_tweak = NULL;
+	R.io.cfg.buses[0].can_id_filter = true;
+	bring_up();
+	assert_int_equal(R.report.stray_ids[0], 0);
+	assert_int_equal(R.report.strays_refused, 0);
 	rig_down();
 }
 
@@ -3414,6 +3578,9 @@ int main(void)
 		cmocka_unit_test(test_v2_batch),
 		cmocka_unit_test(test_v2_batch_only_enabled),
 		cmocka_unit_test(test_v2_batch_lost_motor),
+		cmocka_unit_test(test_v2_batch_stray),
+		cmocka_unit_test(test_v2_batch_stray_later),
+		cmocka_unit_test(test_v2_batch_stray_refused),
 		cmocka_unit_test(test_bus_off),
 		cmocka_unit_test(test_stop_motors_bus_off),
 		cmocka_unit_test(test_health),

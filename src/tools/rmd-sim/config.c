@@ -1058,6 +1058,16 @@ int sim_config_yaml(struct sim_config *c, const char *path, const char *bus, con
 			k += (size_t)snprintf(list + k, sizeof(list) - k, "%s%u %s", k ? ", " : "",
 					      m->id, m->name);
 	}
+	/* motors on the wire the file does not list (buses[].sim.strays) */
+	for (unsigned j = 0; j < sim->buses[bi].n_strays; j++) {
+		const struct rmd_sim_motor_params *p = &sim->buses[bi].strays[j];
+
+		mask |= UINT32_C(1) << (p->id - 1);
+		c->base[p->id - 1] = *p;
+		if (k < sizeof(list))
+			k += (size_t)snprintf(list + k, sizeof(list) - k, "%s%u (a stray)",
+					      k ? ", " : "", p->id);
+	}
 	if (!mask) {
 		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: no motor is on it", where);
 		r = -EINVAL;

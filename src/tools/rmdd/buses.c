@@ -57,6 +57,7 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *si
 
 		rmd_bus_open_ctx_of(cfg, sim, b, motors, &ctx);
 		ctx.burst = plan->bus[b].max_requests;
+		ctx.watch_strays = plan->bus[b].batched && !cb->can_id_filter;
 		r = rmd_bus_open(&buses[b], cb, &ctx, err, sizeof(err));
 		if (r < 0) {
 			if (cb->line)

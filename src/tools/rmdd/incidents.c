@@ -307,6 +307,12 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 		snprintf(buf, len, "%s: left out, its firmware (%" PRId64 ") is %s", ctx, e->a,
 			 rmd_proto_key((enum rmd_proto)e->b));
 		break;
+	case RMD_EV_STRAY:
+		snprintf(buf, len,
+			 "%s: motor %" PRId64 ", not in the configuration, answered on 0x%03" PRIX64
+			 ": no 0x280 frame from now on",
+			 rmdd_bus_name(cfg, e->bus), e->b, (uint64_t)e->a);
+		break;
 	default:
 		snprintf(buf, len, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
@@ -345,6 +351,9 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 		if (e->a == RMD_BUS_ACTIVE)
 			return false;
 		*kind = "bus";
+		break;
+	case RMD_EV_STRAY: /* it may have taken a 0x280 frame for its own command */
+		*kind = "stray";
 		break;
 	case RMD_EV_MOTOR_ERROR: /* the FAULT or LOST that follows is the incident */
 	case RMD_EV_SEND_FAILED:

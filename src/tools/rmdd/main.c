@@ -879,6 +879,44 @@ static void line_timeout_line(const struct rmd_config *cfg, unsigned b,
 		 (double)caps->reply_timeout_ns / 1e6, (long long)(bb->rtt_max_ns / 1000));
 }
 
+/*
+ * Bus b's motors that the file does not list and a 0x280 frame would
+ * command (issue 33 point 2): no 0x280 frame on that bus, and a refusal
+ * when its batched motors' own frames cannot all go every cycle.
+ */
+static void stray_line(const struct rmdd *d, unsigned b, const struct rmd_bringup *bu)
+{
+	const struct rmd_config *cfg = &d->cfg;
+	const struct rmd_plan_bus *pb = &d->plan.bus[b];
+	const char *bus = cfg->buses[b].name;
+	unsigned n = (unsigned)__builtin_popcount(pb->batched);
+
+	if (!bu->stray_ids[b])
+		return;
+	for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++)
+		if (bu->stray_ids[b] & (1u << (id - 1)))
+			tool_log(
+				bu->bus[b].stray_refused ? 3 : 4,
+				"  %s: motor %u answers as firmware that takes the bus's 0x280 frame "
+				"for its own command (first on 0x%03X), and %s does not list it",
+				bus, id, (unsigned)bu->bus[b].stray_id, cfg->source);
+	if (bu->bus[b].stray_refused)
+		tool_log(
+			3,
+			"  %s: no 0x280 frame then, and without it %u of its %u V2 motors get their "
+			"own frames a cycle at %u Hz: refused.  Add the motor to the file (as the "
+			"motor it is), take it off the bus, or turn its CAN-ID filter on (0x20 "
+			"index 2 = 1, V3 §2.33.4) and set can_id_filter: true for bus %s",
+			bus, pb->batch_own, n, d->plan.rate_hz, bus);
+	else
+		tool_log(
+			4,
+			"  %s: no 0x280 frame: its %u V2 motors get frames of their own every cycle "
+			"(add the motor to the file, or turn its CAN-ID filter on and set "
+			"can_id_filter: true for bus %s, to batch them again)",
+			bus, n, bus);
+}
+
 /* Bring-up with its report.  Returns an exit status. */
 static int bringup(struct rmdd *d)
 {
@@ -902,6 +940,8 @@ static int bringup(struct rmdd *d)
 						 "  %s: motor %u: unexpected (answers, but is not "
 						 "configured)",
 						 cfg->buses[b].name, id);
+		for (unsigned b = 0; b < bu.n_buses; b++)
+			stray_line(d, b, &bu);
 		for (unsigned b = 0; b < bu.n_buses; b++) {
 			ln.n = 0;
 			level = b3_line(cfg, b, &bu, &ln);
@@ -915,13 +955,19 @@ static int bringup(struct rmdd *d)
 	}
 	/* what bring-up reported through the ring goes out now */
 	rmdd_monitor_drain(&d->mon);
-	if (r == -EPROTO) {
+	if (r == -EPROTO && bu.mismatched)
 		tool_log(3,
 			 "%u motor(s) answered as another dialect than %s says, or one that cannot "
 			 "do what it asks (above)",
 			 bu.mismatched, cfg->source);
+	if (r == -EPROTO && bu.strays_refused)
+		tool_log(
+			3,
+			"%u bus(es) of %s refused: a motor the file does not list would take their "
+			"0x280 frame for its own command (above)",
+			bu.strays_refused, cfg->source);
+	if (r == -EPROTO)
 		return RMDD_EXIT_FAIL;
-	}
 	if (r == -ENODEV && !bu.unarmed) {
 		tool_log(
 			3,

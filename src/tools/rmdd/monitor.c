@@ -392,6 +392,17 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 	case RMD_EV_DIALECT:
 		log_dialect(cfg, e);
 		break;
+	case RMD_EV_STRAY:
+		tool_log(4,
+			 "%s: motor %" PRId64 " answered on 0x%03" PRIX64
+			 ", and the configuration does not list it: a 0x280 frame would command "
+			 "it; %s sends each batched motor frames of its own from now on (fewer "
+			 "a cycle: rmdd --check-config says how many); add it to the file, take it "
+			 "off the bus, or turn its CAN-ID filter on (0x20 index 2 = 1) and set "
+			 "can_id_filter: true for the bus",
+			 rmdd_bus_name(cfg, e->bus), e->b, (uint64_t)e->a,
+			 rmdd_bus_name(cfg, e->bus));
+		break;
 	case RMD_EV_OVERRUN:
 		/* the first of each second now, the rest summed up by overrun_summary() */
 		if (!m->overruns_pending && !m->overruns_logged) {
