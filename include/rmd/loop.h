@@ -225,6 +225,7 @@ struct rmd_loop_counters {
 	uint64_t safe_actions;		 /* safe actions applied, per motor */
 	uint64_t owed_resends;		 /* owed 0x80/0x78 sent again: no echo yet (lifecycle.c) */
 	uint64_t ignored[RMD_IGN_KINDS]; /* enable = 1 entries not acted on, by enum rmd_ignore */
+	uint64_t homes_refused;		 /* homing requests refused (RMD_EV_HOME_REFUSED) */
 };
 
 /* Allocate and prefault everything the loop will touch.  NULL + err on failure.  Non-rt. */

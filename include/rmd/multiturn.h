@@ -72,6 +72,13 @@ double rmd_multiturn_period_rad(double gear_ratio);
 bool rmd_multiturn_band_unique(const struct rmd_multiturn *mt);
 
 /*
+ * Whether position pos_rad (finite) lies in the travel band widened by
+ * the reading's step; a band that is infinite on a side admits anything
+ * on that side.  rt-safe.
+ */
+bool rmd_multiturn_in_band(const struct rmd_multiturn *mt, double pos_rad);
+
+/*
  * Decide on position pos_rad as the motor reports it now.  *shift_rad gets
  * what to add to the reported position (a whole number of periods; 0
  * unless RMD_POS_IN_BAND).  Returns RMD_POS_SAVED, RMD_POS_IN_BAND,

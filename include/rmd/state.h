@@ -207,6 +207,7 @@ struct rmd_health {
 	uint8_t watchdog;		 /* enum rmd_watchdog_state */
 	uint64_t safe_action_events;	 /* times a safe action was applied */
 	uint64_t ignored[RMD_IGN_KINDS]; /* command entries not acted on, by enum rmd_ignore */
+	uint64_t homes_refused;		 /* homing requests refused (RMD_EV_HOME_REFUSED) */
 	/* per motor, config order, nmotors of them */
 	uint32_t nmotors;
 	uint8_t comm_loss[RMD_MAX_MOTORS];	  /* enum rmd_comm_loss */
@@ -270,7 +271,10 @@ enum rmd_event_kind {
 	 * or it is lost): a = enum rmd_pos_trust, b = the setpoint's mode.
 	 */
 	RMD_EV_POS_REFUSED,
-	/* A homing request was refused: a = enum rmd_home_refusal, b = 0. */
+	/*
+	 * A homing request was refused: a = enum rmd_home_refusal, b = the
+	 * position it asked for, in microradians (RMD_HOME_OUTSIDE; else 0).
+	 */
 	RMD_EV_HOME_REFUSED,
 	/*
 	 * A motor missing at bring-up answered the loop's re-probe with
@@ -293,6 +297,12 @@ enum rmd_event_kind {
 enum rmd_home_refusal {
 	RMD_HOME_ENABLED = 1, /* the motor is enabled: its position must not jump under it */
 	RMD_HOME_NO_POS,      /* it has not reported a position since it (re)appeared */
+	/*
+	 * the position it would be homed at lies outside its travel band
+	 * (travel_rad, else its position limits, widened by the reading's step):
+	 * in-limit setpoints would then drive it past them (issue 33 point 6)
+	 */
+	RMD_HOME_OUTSIDE,
 };
 
 struct rmd_event {

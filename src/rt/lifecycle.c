@@ -835,11 +835,22 @@ void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	pos_set(l, lm, t, shift, now);
 }
 
+/* A homing request of lm refused, reported and counted.  rt-safe. */
+static void home_refuse(struct rmd_loop *l, struct lmotor *lm, enum rmd_home_refusal why,
+			double pos_rad, int64_t now)
+{
+	l->cnt.homes_refused++;
+	loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus, why,
+		   why == RMD_HOME_OUTSIDE ? (int64_t)llround(pos_rad * 1e6) : 0);
+}
+
 /*
  * A controller homed lm (rmd.home_t): it is at pos_rad now, or where it
  * reports (as_reported).  The reported frame shifts, the motor does not
  * move; refused while it is enabled (the position would jump under a
- * running loop) or before it reported a position.  rt-safe.
+ * running loop), before it reported a position, or at a position outside
+ * its travel band (rmd_multiturn_in_band(): the frame would move so that
+ * setpoints within its limits drive it past them).  rt-safe.
  */
 static void pos_home(struct rmd_loop *l, struct lmotor *lm, bool as_reported, double pos_rad,
 		     int64_t now)
@@ -847,17 +858,21 @@ static void pos_home(struct rmd_loop *l, struct lmotor *lm, bool as_reported, do
 	double shift;
 
 	if (lm->st->lifecycle == RMD_LC_ENABLED) {
-		loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus,
-			   RMD_HOME_ENABLED, 0);
+		home_refuse(l, lm, RMD_HOME_ENABLED, 0.0, now);
 		return;
 	}
 	if (lm->pos_settle || !lm->st->pos_rx_ns || !isfinite(lm->st->pos_rad) ||
 	    lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) {
-		loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus, RMD_HOME_NO_POS,
-			   0);
+		home_refuse(l, lm, RMD_HOME_NO_POS, 0.0, now);
 		return;
 	}
-	shift = as_reported ? 0.0 : pos_rad - lm->st->pos_rad;
+	if (as_reported)
+		pos_rad = lm->st->pos_rad;
+	if (!rmd_multiturn_in_band(&lm->m.mt, pos_rad)) {
+		home_refuse(l, lm, RMD_HOME_OUTSIDE, pos_rad, now);
+		return;
+	}
+	shift = pos_rad - lm->st->pos_rad;
 	rmd_motor_shift_pos(&lm->m, shift);
 	lm->st->pos_rad += shift;
 	pos_set(l, lm, RMD_POS_HOMED, shift, now);

@@ -285,6 +285,7 @@ void loop_fill_health(struct rmd_loop *l, int64_t now)
 	h->watchdog = l->wd;
 	h->safe_action_events = l->cnt.safe_actions;
 	memcpy(h->ignored, l->cnt.ignored, sizeof(h->ignored));
+	h->homes_refused = l->cnt.homes_refused;
 	h->nmotors = l->n_motors;
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		h->comm_loss[i] = l->mot[i].cl;

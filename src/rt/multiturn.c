@@ -21,6 +21,12 @@ bool rmd_multiturn_band_unique(const struct rmd_multiturn *mt)
 	return isfinite(w) && w >= 0.0 && mt->period_rad > 0.0 && w < mt->period_rad;
 }
 
+bool rmd_multiturn_in_band(const struct rmd_multiturn *mt, double pos_rad)
+{
+	return isfinite(pos_rad) && pos_rad >= mt->lo_rad - mt->tol_rad &&
+	       pos_rad <= mt->hi_rad + mt->tol_rad;
+}
+
 enum rmd_pos_trust rmd_multiturn_settle(const struct rmd_multiturn *mt, double pos_rad,
 					double *shift_rad)
 {

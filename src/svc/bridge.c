@@ -894,6 +894,7 @@ static void publish_health(struct rmd_bridge *b, int64_t now)
 	o->commands_clamped = sat64(read_count(&b->n_clamped));
 	for (int k = 0; k < RMD_IGN_KINDS; k++)
 		o->ignored_by_kind[k] = sat64(h->ignored[k]);
+	o->homes_refused = sat64(h->homes_refused);
 	o->owned = b->owned;
 	o->owner = b->owned ? b->owner : 0;
 	o->intruder = atomic_load_explicit(&b->pub_intruder, memory_order_relaxed);

@@ -2399,6 +2399,9 @@ static struct pc_case {
 	bool wrap_rotor;     /* the simulated motor wraps within one rotor turn */
 } pc;
 
+/* > 0: the motor's position limits, this far either side of its truth (else none) */
+static double pc_limits_rad;
+
 static double pc_truth_rad(void)
 {
 	return pc.dir * (pc.start_deg * M_PI / 180.0 - pc.zero_rad);
@@ -2422,8 +2425,8 @@ static void pc_tweak(struct rmd_config *cfg)
 	m->zero_offset_rad = pc.zero_rad;
 	m->multi_turn_saved = false;
 	/* no position limits: the joint turns past rmdd --sim's one turn */
-	m->limits.position_min_rad = -INFINITY;
-	m->limits.position_max_rad = INFINITY;
+	m->limits.position_min_rad = pc_limits_rad ? t - pc_limits_rad : -INFINITY;
+	m->limits.position_max_rad = pc_limits_rad ? t + pc_limits_rad : INFINITY;
 	m->n_travel = 0;
 	if (pc.below != -1) {
 		m->n_travel = 2;
@@ -2957,6 +2960,74 @@ static void test_pos_homed(void **state)
 		assert_true(sent_to(0, 0xA4, from) > 900);
 		assert_float_equal(snap().m[0].pos_rad, pc_truth_rad() + 0.2, PC_TOL + 0.01);
 		assert_float_equal(sim_motor(0)->pos_rad - native0, pc.dir * 0.2, 0.02);
+		rig_down();
+	}
+}
+
+/*
+ * Issue 33 point 6: a home outside the joint's travel (90 sent for 1.57
+ * rad, degrees for radians) would move the frame so that setpoints within
+ * the limits drive the joint past them.  Refused, reported and counted,
+ * with a travel band and with position limits alone; a position command
+ * afterwards goes where the controller means (the simulated shaft).
+ */
+static void test_home_outside_travel(void **state)
+{
+	/* 1:6 (a 60 deg period at the output), its band 100 deg: homing decides it */
+	static const struct pc_case cases[] = {
+		{ "travel band", 6.0, 1, 0.0, 460.0, 50.0, 50.0, false, false, false },
+		{ "limits only", 6.0, 1, 0.0, 460.0, -1, 0, false, false, false },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_setpoint *sp;
+		struct rmd_health h;
+		unsigned from;
+		double native0;
+
+		pc = cases[k];
+		memset(&homes, 0, sizeof(homes));
+		pc_limits_rad = pc.below == -1 ? 0.9 : 0.0; /* the limits are the band */
+		pc_rig();
+		pc_limits_rad = 0.0;
+		cmd_clear();
+		cmd_motor(0, false, RMD_MODE_POSITION);
+		cmd_motor(1, false, RMD_MODE_TORQUE);
+		run(20, true);
+		/* homed where it is: certain */
+		home(0, false, pc_truth_rad());
+		run(5, true);
+		assert_int_equal(snap().m[0].pos_trust, RMD_POS_HOMED);
+		/* degrees for radians: refused, the frame stays */
+		nev = 0;
+		home(0, false, pc_truth_rad() * 180.0 / M_PI);
+		run(5, true);
+		assert_int_equal(count_ev(RMD_EV_HOME_REFUSED, 0), 1);
+		for (unsigned e = 0; e < nev; e++)
+			if (evs[e].kind == RMD_EV_HOME_REFUSED)
+				assert_int_equal(evs[e].a, RMD_HOME_OUTSIDE);
+		assert_float_equal(snap().m[0].pos_rad, pc_truth_rad(), PC_TOL);
+		assert_true(rmd_loop_get_health(R.l, &h));
+		run((unsigned)(R.io.cfg.lcm.health_period_ms + 10), true);
+		assert_true(rmd_loop_get_health(R.l, &h));
+		assert_int_equal(h.homes_refused, 1);
+		/* as reported: the same rule, on what it reports (here: inside) */
+		home(0, true, 0.0);
+		run(5, true);
+		assert_int_equal(count_ev(RMD_EV_HOME_REFUSED, 0), 1);
+		/* a position 0.2 rad on goes 0.2 rad on */
+		native0 = sim_motor(0)->pos_rad;
+		from = trace_n;
+		sp = cmd_motor(0, true, RMD_MODE_POSITION);
+		sp->pos_rad = pc_truth_rad() + 0.2;
+		sp->max_vel_rad_s = 2.0;
+		run(1000, true);
+		assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+		assert_true(sent_to(0, 0xA4, from) > 900);
+		if (fabs(sim_motor(0)->pos_rad - native0 - 0.2) > 0.02)
+			fail_msg("%s: the shaft turned %g rad, not 0.2", pc.name,
+				 sim_motor(0)->pos_rad - native0);
 		rig_down();
 	}
 }
@@ -3615,6 +3686,7 @@ int main(void)
 		cmocka_unit_test(test_pos_settle_one_bad_reading),
 		cmocka_unit_test(test_pos_ambiguous_refused),
 		cmocka_unit_test(test_pos_homed),
+		cmocka_unit_test(test_home_outside_travel),
 		cmocka_unit_test(test_pos_uncertain_mit_kp),
 	};
 

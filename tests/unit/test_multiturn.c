@@ -196,6 +196,38 @@ static void check_cycle(int dir, double gear, double zero, double truth, double 
 			native_now);
 }
 
+/* A home's position against the band (issue 33 point 6): the band widened by the step. */
+static void test_in_band(void **state)
+{
+	static const struct {
+		double lo, hi, tol, pos;
+		bool in;
+	} cases[] = {
+		{ -0.3, 2.4, 0.01, 1.0, true },
+		{ -0.3, 2.4, 0.01, 2.405, true }, /* within the step */
+		{ -0.3, 2.4, 0.01, 2.42, false },
+		{ -0.3, 2.4, 0.01, -0.311, false },
+		{ -0.3, 2.4, 0.01, 90.0, false },	  /* degrees sent for radians */
+		{ -INFINITY, INFINITY, 0.01, 1e5, true }, /* no band, no limits */
+		{ -INFINITY, 1.0, 0.01, -1e5, true },	  /* open below */
+		{ -0.3, 2.4, 0.01, NAN, false },
+		{ -INFINITY, INFINITY, 0.01, INFINITY, false },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_multiturn mt = { .period_rad = 1.0,
+					    .lo_rad = cases[k].lo,
+					    .hi_rad = cases[k].hi,
+					    .tol_rad = cases[k].tol };
+
+		if (rmd_multiturn_in_band(&mt, cases[k].pos) != cases[k].in)
+			fail_msg("case %zu: %g in [%g, %g] +- %g: %s, want %s", k, cases[k].pos,
+				 cases[k].lo, cases[k].hi, cases[k].tol, cases[k].in ? "out" : "in",
+				 cases[k].in ? "in" : "out");
+	}
+}
+
 static void test_motor_cycles(void **state)
 {
 	static const double gears[] = { 1.0, 6.0, 9.0, 36.0 };
@@ -226,6 +258,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_period),
 		cmocka_unit_test(test_settle_table),
+		cmocka_unit_test(test_in_band),
 		cmocka_unit_test(test_motor_cycles),
 	};
 

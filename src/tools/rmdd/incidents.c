@@ -301,7 +301,11 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 			 rmd_mode_name((enum rmd_mode)e->b));
 		break;
 	case RMD_EV_HOME_REFUSED:
-		snprintf(buf, len, "%s: homing refused", ctx);
+		if (e->a == RMD_HOME_OUTSIDE)
+			snprintf(buf, len, "%s: homing at %g rad refused, outside its travel", ctx,
+				 (double)e->b / 1e6);
+		else
+			snprintf(buf, len, "%s: homing refused", ctx);
 		break;
 	case RMD_EV_DIALECT:
 		snprintf(buf, len, "%s: left out, its firmware (%" PRId64 ") is %s", ctx, e->a,

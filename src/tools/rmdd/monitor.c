@@ -15,6 +15,7 @@
 #define _GNU_SOURCE /* pthread_setname_np */
 #include <errno.h>
 #include <inttypes.h>
+#include <math.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -188,6 +189,19 @@ static void log_position(const struct rmd_config *cfg, const struct rmd_event *e
 	char ctx[96];
 
 	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	if (e->kind == RMD_EV_HOME_REFUSED && e->a == RMD_HOME_OUTSIDE) {
+		double lo = -INFINITY, hi = INFINITY;
+
+		if (c)
+			rmd_config_travel(c, &lo, &hi);
+		tool_log(4,
+			 "%s: homing refused: %g rad (%g deg) is outside its travel [%g, %g] rad "
+			 "(travel_rad, else its position limits): the frame would move so that "
+			 "setpoints within its limits drive it past them (degrees sent for "
+			 "radians?); refusals are counted in health_t",
+			 ctx, (double)e->b / 1e6, (double)e->b / 1e6 * 180.0 / M_PI, lo, hi);
+		return;
+	}
 	if (e->kind == RMD_EV_HOME_REFUSED) {
 		tool_log(4, "%s: homing refused: %s", ctx,
 			 e->a == RMD_HOME_ENABLED ?
