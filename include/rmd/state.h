@@ -242,9 +242,14 @@ enum rmd_event_kind {
 	RMD_EV_BUS_STATE,	/* a = enum rmd_bus_state */
 	RMD_EV_OVERRUN,		/* a = cycles skipped, b = the most of them at once */
 	RMD_EV_WATCHDOG,	/* a = enum rmd_watchdog_state */
-	RMD_EV_SAFE_ACTION,	/* a = enum rmd_safe_action (rmd/config.h) */
-	RMD_EV_SEND_FAILED,	/* a = -errno, b = frames not sent */
-	RMD_EV_UNEXPECTED,	/* a = CAN id, b = first data byte */
+	/*
+	 * a = enum rmd_safe_action (rmd/config.h); b = 1: the shutdown's stop
+	 * or hold that rmd_loop_stop_motors() sent, right before the motor's
+	 * ENABLED -> SAFE (else 0)
+	 */
+	RMD_EV_SAFE_ACTION,
+	RMD_EV_SEND_FAILED, /* a = -errno, b = frames not sent */
+	RMD_EV_UNEXPECTED,  /* a = CAN id, b = first data byte */
 	RMD_EV_RT, /* real-time scheduling not granted, once: a = -errno, b = RMD_LOOP_RT_* */
 	/*
 	 * A motor's comm-loss protection: a = enum rmd_comm_loss, b = 1 when

@@ -362,15 +362,8 @@ static void publish(struct rmd_loop *l, int64_t now)
 /* rt-safe. */
 static void bus_states(struct rmd_loop *l, int64_t now)
 {
-	for (unsigned b = 0; b < l->n_buses; b++) {
-		struct lbus *lb = &l->bus[b];
-		enum rmd_bus_state st = rmd_bus_state(lb->bus);
-
-		if (st != lb->state_seen) {
-			lb->state_seen = (uint8_t)st;
-			loop_event(l, now, RMD_EV_BUS_STATE, 0xFF, b, lb->state_seen, 0);
-		}
-	}
+	for (unsigned b = 0; b < l->n_buses; b++)
+		loop_bus_state(l, b, now);
 }
 
 /* ------------------------------------------------------------------ */
@@ -759,10 +752,14 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 		/*
 		 * stop and hold leave a driven motor SAFE: output off with its
 		 * brake open, or held by its drive (docs/lcm.md "Shutdown"),
-		 * which READY would deny; nothing more is sent.
+		 * which READY would deny; nothing more is sent.  The event
+		 * names what was sent, not the configured safe action.
 		 */
-		if (lm->st->lifecycle == RMD_LC_ENABLED)
+		if (lm->st->lifecycle == RMD_LC_ENABLED) {
+			loop_event(l, now, RMD_EV_SAFE_ACTION, i, lm->m.bus,
+				   a == RMD_SHUTDOWN_HOLD ? RMD_SAFE_HOLD : RMD_SAFE_STOP, 1);
 			loop_enter(l, lm, RMD_LC_SAFE, now);
+		}
 		/* the stop frames went out above: nothing waits any more (hold must not be undone) */
 		loop_frames_drop(lm);
 	}

@@ -431,6 +431,18 @@ void loop_fill_health(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
 int64_t loop_reply_due(const struct rmd_loop *l, int64_t now, unsigned *owing);
 
+/* RMD_EV_BUS_STATE when bus b's state changed since the last look.  rt-safe. */
+static inline void loop_bus_state(struct rmd_loop *l, unsigned b, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+	enum rmd_bus_state st = rmd_bus_state(lb->bus);
+
+	if (st != lb->state_seen) {
+		lb->state_seen = (uint8_t)st;
+		loop_event(l, now, RMD_EV_BUS_STATE, 0xFF, b, lb->state_seen, 0);
+	}
+}
+
 /* rt_thread.c: end loop.keep_cpus_awake's request.  Non-rt. */
 void loop_release_cpus(struct rmd_loop *l);
 

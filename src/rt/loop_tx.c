@@ -385,6 +385,8 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 			if (lb->pb->batched & (1u << j))
 				loop_miss(l, &l->mot[lb->pb->motors[j]], now);
 	}
+	/* what the send found first: a bus-off is the cause of the failure (issue 33 point 7) */
+	loop_bus_state(l, b, now);
 	if (!lb->failing || !lb->ev_send_any || now - lb->ev_send_ns >= EVENT_INTERVAL_NS) {
 		lb->ev_send_any = true;
 		lb->ev_send_ns = now;

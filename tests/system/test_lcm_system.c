@@ -2390,24 +2390,30 @@ static void test_owner_kept_through_a_stall(void **state)
  * for 300 ms, then brake) and says so on exit; the frames themselves are
  * checked on the simulated wire by tests/unit/test_loop.c.
  */
-static void test_sigterm_sends_the_configured_action(void **state)
+/* The suite's configuration with `safety_keys` added to its safety section, at path. */
+static void safety_config(char *path, size_t size, const char *name, const char *safety_keys)
 {
-	struct fixture *f = fixture(state);
 	static const char from[] = "lost_motor_action: all}";
 	const char *at = strstr(config_yaml, from);
-	char path[400];
-	int64_t t0, took;
 	FILE *fp;
 
 	assert_non_null(at);
-	snprintf(path, sizeof(path), "%s/shutdown.yaml", tmpdir);
+	snprintf(path, size, "%s/%s.yaml", tmpdir, name);
 	fp = fopen(path, "w");
 	assert_non_null(fp);
-	fprintf(fp, "%.*s", (int)(at - config_yaml), config_yaml);
-	fputs("lost_motor_action: all, shutdown_action: damp, shutdown_damp_ms: 300}", fp);
-	fputs(at + strlen(from), fp);
+	fprintf(fp, "%.*slost_motor_action: all, %s}%s", (int)(at - config_yaml), config_yaml,
+		safety_keys, at + strlen(from));
 	assert_int_equal(fclose(fp), 0);
+}
 
+static void test_sigterm_sends_the_configured_action(void **state)
+{
+	struct fixture *f = fixture(state);
+	char path[400];
+	int64_t t0, took;
+
+	safety_config(path, sizeof(path), "shutdown",
+		      "shutdown_action: damp, shutdown_damp_ms: 300");
 	start_rmdd_with(f, path);
 	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
 	f->controller = 0x5157;
@@ -2421,6 +2427,40 @@ static void test_sigterm_sends_the_configured_action(void **state)
 		fail_msg("no exit line for damp; rmdd's output:\n%s", slurp(f->log));
 	/* it damped for the configured time before it exited */
 	assert_true(took >= 300 * NS_PER_MS);
+}
+
+/*
+ * Issue 33 point 7: with shutdown_action hold the driven motors get hold
+ * (0x81) and are SAFE; the journal names that, not the configured safe
+ * action (damp here), which they never got.
+ */
+static void test_sigterm_hold_logs_what_was_sent(void **state)
+{
+	struct fixture *f = fixture(state);
+	char path[400];
+	const char *log;
+
+	safety_config(path, sizeof(path), "shutdown-hold", "shutdown_action: hold");
+	start_rmdd_with(f, path);
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = 0x5158;
+	enable_in_place(f);
+	assert_int_equal(stop_child(&f->rmdd, SIGTERM, 5000), 0);
+	log = slurp(f->log);
+	for (unsigned i = 0; i < NMOTORS; i++) {
+		static const char *const names[NMOTORS] = { "pos_1", "pos_2", "pos_3",
+							    "mit_1", "mit_2", "mit_3" };
+		char want[160];
+
+		snprintf(want, sizeof(want), "(%s): shutdown: hold (0x81) sent, held by its drive",
+			 names[i]);
+		if (!strstr(log, want))
+			fail_msg("no \"%s\"; rmdd's output:\n%s", want, log);
+	}
+	if (strstr(log, "safe action damp"))
+		fail_msg("the journal names damp, which no motor got:\n%s", log);
+	assert_non_null(strstr(log, "the driven motors were sent hold (0x81), the others stop "
+				    "(0x80)"));
 }
 
 /*
@@ -2741,6 +2781,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_python_example_after_a_loss, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_second_controller_rejected, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_owner_kept_through_a_stall, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_sigterm_hold_logs_what_was_sent, setup,
+						teardown),
 		cmocka_unit_test_setup_teardown(test_sigterm_sends_the_configured_action, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_ignored_enable_reported, setup, teardown),

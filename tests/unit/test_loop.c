@@ -1631,6 +1631,13 @@ static void test_bus_off(void **state)
 	assert_int_equal(count_ev(RMD_EV_BUS_STATE, -1), 1);
 	assert_true(count_ev(RMD_EV_SEND_FAILED, -1) >= 1);
 	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 1);
+	/* the cause before what it caused: an incident's summary keeps this order */
+	for (unsigned k = 0; k < nev; k++) {
+		if (evs[k].kind == RMD_EV_SEND_FAILED)
+			fail_msg("a send failure (event %u) before the bus-off that caused it", k);
+		if (evs[k].kind == RMD_EV_BUS_STATE)
+			break;
+	}
 	rmd_loop_get_stats(R.l, &st);
 	rmd_loop_get_counters(R.l, &c);
 	assert_true(st.plan_misses >= 25);

@@ -269,7 +269,7 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 						  "idle");
 		break;
 	case RMD_EV_SAFE_ACTION:
-		snprintf(buf, len, "%s: safe action %s sent", ctx,
+		snprintf(buf, len, "%s: %s %s sent", ctx, e->b == 1 ? "shutdown:" : "safe action",
 			 rmd_safe_action_name((enum rmd_safe_action)e->a));
 		break;
 	case RMD_EV_SEND_FAILED:
@@ -344,6 +344,8 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 		*kind = "watchdog";
 		break;
 	case RMD_EV_SAFE_ACTION:
+		if (e->b == 1) /* the shutdown's stop or hold, not a safety event */
+			return false;
 		*kind = "safe";
 		break;
 	case RMD_EV_OVERRUN:

@@ -60,7 +60,12 @@ const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b)
 	return b < cfg->n_buses ? cfg->buses[b].name : "?";
 }
 
-static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event *e)
+/*
+ * A motor's change of state.  shutdown_sent: the shutdown's stop or hold
+ * sent to it just before (enum rmd_safe_action), or -1.
+ */
+static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event *e,
+			    int shutdown_sent)
 {
 	const char *action = rmd_safe_action_name(cfg->safety.safe_action);
 	unsigned from = (unsigned)e->a, to = (unsigned)e->b;
@@ -90,8 +95,15 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 			 rmd_config_fault_brakes(cfg) ? ", brake locked (0x78)" : "");
 		break;
 	case RMD_LC_SAFE:
-		tool_log(4, "%s: safe action %s, held until the controller enables it again", ctx,
-			 action);
+		if (shutdown_sent == RMD_SAFE_HOLD)
+			tool_log(5, "%s: shutdown: hold (0x81) sent, held by its drive", ctx);
+		else if (shutdown_sent >= 0)
+			tool_log(5, "%s: shutdown: stop (0x80) sent, output off, brake as it was",
+				 ctx);
+		else
+			tool_log(4,
+				 "%s: safe action %s, held until the controller enables it again",
+				 ctx, action);
 		break;
 	case RMD_LC_STOPPING:
 		if (from == RMD_LC_LOST || from == RMD_LC_FAULT)
@@ -387,7 +399,9 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		}
 		break;
 	case RMD_EV_MOTOR_STATE:
-		log_motor_state(cfg, e);
+		log_motor_state(cfg, e, e->b == RMD_LC_SAFE ? m->shutdown_sent : -1);
+		if (e->b == RMD_LC_SAFE)
+			m->shutdown_sent = -1;
 		break;
 	case RMD_EV_MOTOR_ERROR:
 		log_motor_error(cfg, e);
@@ -434,6 +448,10 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		log_watchdog(cfg, e);
 		break;
 	case RMD_EV_SAFE_ACTION:
+		if (e->b == 1) { /* the shutdown's: its SAFE line, next, says it */
+			m->shutdown_sent = (int)e->a;
+			break;
+		}
 		rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
 		tool_log(7, "%s: safe action %s sent", ctx,
 			 rmd_safe_action_name((enum rmd_safe_action)e->a));
@@ -577,6 +595,7 @@ int rmdd_monitor_init(struct rmdd_monitor *m, const struct rmd_config *cfg, stru
 	m->loop = loop;
 	m->events = events;
 	m->wake_fd = -1;
+	m->shutdown_sent = -1;
 	m->stop_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
 	if (m->stop_fd < 0)
 		return -errno;

@@ -141,6 +141,11 @@ struct rmdd_monitor {
 	uint64_t ring_dropped;
 	int64_t overrun_window_ns; /* start of the current one-second overrun summary */
 	uint64_t overruns_logged, overruns_pending, skipped_pending;
+	/*
+	 * The shutdown's stop or hold sent to a driven motor (RMD_EV_SAFE_ACTION
+	 * with b = 1) ahead of its SAFE, which then names it; -1: none
+	 */
+	int shutdown_sent;
 };
 
 /* Set up (no thread yet).  Returns 0 or -errno. */
