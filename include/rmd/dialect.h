@@ -176,7 +176,7 @@ struct rmd_mit_scaling {
 	 * entry's value is taken for them, said in the bring-up report
 	 */
 	unsigned disputed;
-	const char *source; /* "V4.4 (firmware 2026042402)": for messages */
+	const char *source; /* "V4.4 X6", "V3 §5.1": for messages */
 };
 
 struct rmd_dialect {

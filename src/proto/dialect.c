@@ -143,13 +143,13 @@ static const struct rmd_mit_scaling v4_mit[] = {
 	  .kind = RMD_MIT_ROW_FIXED,
 	  .r = V44_RANGES(60.0),
 	  .disputed = RMD_MIT_BOUND(9),
-	  .source = "V4.4 (firmware 2026042402), X6" },
+	  .source = "V4.4 X6" },
 	{ .since = V44_DATE,
 	  .series = 8,
 	  .kind = RMD_MIT_ROW_FIXED,
 	  .r = V44_RANGES(129.0),
 	  .disputed = RMD_MIT_BOUND(9),
-	  .source = "V4.4 (firmware 2026042402), X8" },
+	  .source = "V4.4 X8" },
 };
 
 /* What V3.x and its MIT motors share: the V3 command set, ids and probes. */

@@ -422,6 +422,19 @@ static int check_config(const char *path)
 	for (unsigned b = 0; b < cfg.n_buses; b++)
 		if (*sim_note(&cfg, b, note, sizeof(note)))
 			printf("\n%s\n", note);
+	/* the firmware decides the MIT scaling: only bring-up can read it */
+	for (unsigned i = 0, first = 1; i < cfg.n_motors; i++) {
+		char mit[1024];
+
+		if (!rmd_config_mit_mode(&cfg.motors[i]))
+			continue;
+		if (first)
+			printf("\nMIT scaling, decided at bring-up from each motor's firmware date "
+			       "(0xB2) and model (0xB5) (docs/protocol-v4.md \"MIT scaling\"):\n");
+		first = 0;
+		rmdd_mit_config_note(&cfg, i, mit, sizeof(mit));
+		printf("  %s\n", mit);
+	}
 	fflush(stdout);
 	if (r) {
 		fprintf(stderr, "%s\n", err);

@@ -110,24 +110,25 @@ void rmdd_mit_text(const struct rmd_dialect *d, const struct rmd_mit_decision *d
 	rmdd_mit_ranges_text(&dec->r, r, sizeof(r));
 	switch (dec->source) {
 	case RMD_MIT_FROM_PRESET:
-		add(buf, len, &n, "MIT scaling %s: the %s preset for ", r, dec->row->source);
-		facts(buf, len, &n, version, model);
-		add(buf, len, &n, " (no mit ranges in its entry)");
+		add(buf, len, &n, "MIT scaling %s: the %s preset (no mit ranges in its entry", r,
+		    dec->row->source);
+		if (since)
+			add(buf, len, &n, "; firmware before %u", (unsigned)since);
+		add(buf, len, &n, ")");
 		break;
 	case RMD_MIT_FROM_ENTRY:
 		add(buf, len, &n, "MIT scaling %s: its entry's mit ranges", r);
-		if (dec->row)
+		if (dec->row) {
 			add(buf, len, &n, " over the %s preset", dec->row->source);
-		else
-			add(buf, len, &n,
-			    ", all ten given (rmdd knows no scaling of this firmware)");
-		add(buf, len, &n, ", for ");
+			break;
+		}
+		add(buf, len, &n, ", all ten given (rmdd knows no scaling of its firmware: ");
 		facts(buf, len, &n, version, model);
+		add(buf, len, &n, ")");
 		break;
 	case RMD_MIT_FROM_FIRMWARE:
-		add(buf, len, &n, "MIT scaling %s: its firmware's own, %s, for ", r,
-		    dec->row->source);
-		facts(buf, len, &n, version, model);
+		add(buf, len, &n, "MIT scaling %s: its firmware's own (%s, from firmware %u)", r,
+		    dec->row->source, (unsigned)dec->row->since);
 		if (dec->overrides) {
 			add(buf, len, &n, "; ");
 			bounds(buf, len, &n, dec->overrides);
@@ -167,11 +168,73 @@ void rmdd_mit_text(const struct rmd_dialect *d, const struct rmd_mit_decision *d
 		double fw_v = rmd_mit_bound(&dec->row->r, k);
 
 		add(buf, len, &n,
-		    "MIT refused: its entry's mit %s %g contradicts its firmware's %g (%s; ",
-		    rmd_mit_bound_key(k), dec->entry_value, fw_v, dec->row->source);
+		    "MIT refused: its entry's mit %s %g contradicts its firmware's %g (%s, from "
+		    "firmware %u; this one: ",
+		    rmd_mit_bound_key(k), dec->entry_value, fw_v, dec->row->source,
+		    (unsigned)dec->row->since);
 		facts(buf, len, &n, version, model);
 		add(buf, len, &n, "): set %s: %g or leave it out", rmd_mit_bound_key(k), fw_v);
 		break;
 	}
 	}
+}
+
+void rmdd_mit_config_note(const struct rmd_config *cfg, unsigned i, char *buf, size_t len)
+{
+	const struct rmd_config_motor *c = &cfg->motors[i];
+	const struct rmd_dialect *fw = rmd_dialect_firmware(rmd_dialect(c->proto));
+	uint32_t later = 0;
+	size_t n = 0;
+	char r[160];
+
+	/* protocol: auto may find any firmware: the one whose scaling goes by date says most */
+	if (c->proto_auto) {
+		size_t nd;
+		const struct rmd_dialect *list = rmd_dialect_list(&nd);
+
+		for (size_t k = 0; k < nd; k++)
+			if (rmd_dialect_is_firmware(&list[k]) && rmd_dialect_offers_mit(&list[k]) &&
+			    list[k].n_mit_scaling > fw->n_mit_scaling)
+				fw = &list[k];
+	}
+	for (unsigned k = 0; k < fw->n_mit_scaling; k++)
+		if (fw->mit_scaling[k].since && (!later || fw->mit_scaling[k].since < later))
+			later = fw->mit_scaling[k].since;
+
+	buf[0] = '\0';
+	add(buf, len, &n, "%s: ", c->name);
+	if (c->mit_given == RMD_MIT_BOUNDS_ALL) {
+		rmdd_mit_ranges_text(&c->mit, r, sizeof(r));
+		add(buf, len, &n, "its entry's mit ranges (%s)", r);
+	} else if (c->mit_given) {
+		add(buf, len, &n, "its entry's mit ");
+		bounds(buf, len, &n, c->mit_given);
+	} else {
+		add(buf, len, &n, "no mit ranges in its entry");
+	}
+	/* what each row of its firmware's table would make of them */
+	for (unsigned k = 0; k < fw->n_mit_scaling; k++) {
+		const struct rmd_mit_scaling *row = &fw->mit_scaling[k];
+
+		rmdd_mit_ranges_text(&row->r, r, sizeof(r));
+		if (row->kind == RMD_MIT_ROW_PRESET && later)
+			add(buf, len, &n, "; %s%s firmware before %u: %s%s",
+			    c->proto_auto ? "v3 firmware, and " : "", fw->key, (unsigned)later,
+			    c->mit_given ? "over the preset " : "the preset ", r);
+		else if (row->kind == RMD_MIT_ROW_PRESET)
+			add(buf, len, &n, "; %s firmware: %s%s", fw->key,
+			    c->mit_given ? "over the preset " : "the preset ", r);
+		else
+			add(buf, len, &n, "; from firmware %u, X%u: %s, %s", (unsigned)row->since,
+			    row->series, r,
+			    c->mit_given ? "the entry must agree" : "the firmware's");
+	}
+	if (rmd_dialect_mit_dated(fw) || c->proto_auto)
+		add(buf, len, &n, "; %s",
+		    c->mit_given == RMD_MIT_BOUNDS_ALL ?
+			    "other models of such firmware: the entry's" :
+			    "other models of such firmware, or no firmware date: refused at "
+			    "bring-up");
+	else if (c->mit_given != RMD_MIT_BOUNDS_ALL)
+		add(buf, len, &n, "; no firmware date: refused at bring-up");
 }

@@ -176,6 +176,13 @@ void rmdd_mit_ranges_text(const struct rmd_mit_ranges *r, char *buf, size_t len)
  */
 void rmdd_mit_text(const struct rmd_dialect *d, const struct rmd_mit_decision *dec,
 		   uint32_t version, const char *model, char *buf, size_t len);
+
+/*
+ * What `rmdd --check-config` can say of motor i's MIT scaling, which
+ * bring-up decides from the firmware it reads: what its entry names, and
+ * what each firmware of its dialect would make of it (mit.c).  Non-rt.
+ */
+void rmdd_mit_config_note(const struct rmd_config *cfg, unsigned i, char *buf, size_t len);
 /* Bus b's name, "?" when out of range. */
 const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
 
