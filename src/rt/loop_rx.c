@@ -354,7 +354,7 @@ static bool settle_mit(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32
 }
 
 /*
- * Answer f (command cmd) of a motor whose dialect is open (struct lmotor:
+ * Answer f of a motor whose dialect is open (struct lmotor:
  * missing at bring-up) to its re-probe: a model (0xB5) is kept for its
  * MIT scaling, the firmware date 0xB2 settles it.  The rule is bring-up's
  * (rmd_dialect_for_firmware()), and the loop does not switch dialects: a
@@ -366,14 +366,16 @@ static bool settle_mit(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32
  * date is asked again.  rt-safe.
  */
 static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, unsigned b,
-							   struct lmotor *lm, uint16_t cmd,
+							   struct lmotor *lm,
 							   const struct rmd_frame *f, int64_t now)
 {
 	struct rmd_motor_reply r;
 	const struct rmd_dialect *fw = NULL;
 	bool certain = false;
 
-	if ((cmd != 0xB2 && cmd != 0xB5) || rmd_motor_decode(&lm->m, f, &r) < 0)
+	/* answers on the motor's reply identifier (an MIT reply carries no command byte) */
+	if (f->can_id != lm->m.reply_id || (f->data[0] != 0xB2 && f->data[0] != 0xB5) ||
+	    rmd_motor_decode(&lm->m, f, &r) < 0)
 		return;
 	if (r.have & RMD_MOTOR_HAVE_MODEL)
 		memcpy(lm->model, r.model, sizeof(lm->model));
@@ -471,7 +473,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		}
 		if (__builtin_expect(lm->dialect_open, 0)) {
 			/* the 0x9A ahead of its 0xB5 and 0xB2 tells nothing (settle_dialect()) */
-			settle_dialect(l, b, lm, cmd, f, now);
+			settle_dialect(l, b, lm, f, now);
 			return;
 		}
 		if (o->echo_is_reply && owed_echo(l, lm, o, f, now))
