@@ -304,8 +304,9 @@ struct rmd_motor_reply {
 /*
  * Take a validated config entry.  Returns 0, or -EINVAL for a direction
  * other than +-1, a gear ratio <= 0, an id outside 1..32, invalid MIT
- * ranges for a motor in MIT mode, `mode: mit` on firmware without it (V2),
- * or a motor not in MIT mode without torque constant.
+ * ranges for an entry in mode mit, or one in another mode without torque
+ * constant.  `mode: mit` on firmware without MIT (V2, as `protocol: auto`
+ * may find) is not in MIT mode: no MIT frame is encoded for it.
  */
 int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c);
 

@@ -252,6 +252,7 @@ static int use_dialect(struct rmd_loop *l, unsigned i, enum rmd_proto proto)
 {
 	struct lmotor *lm = &l->mot[i];
 	struct lbus *lb = &l->bus[lm->m.bus];
+	enum rmd_proto was = lm->m.proto;
 	int r;
 
 	if (lm->m.proto == proto)
@@ -259,6 +260,9 @@ static int use_dialect(struct rmd_loop *l, unsigned i, enum rmd_proto proto)
 	*lbus_slot(lb, lm->m.reply_id) = 0;
 	*lbus_slot(lb, rmd_motor_ctl_reply_id(&lm->m)) = 0;
 	r = rmd_motor_set_dialect(&lm->m, &l->cfg->motors[i], proto);
+	/* a record that cannot be built leaves the one it had, not a cleared one */
+	if (r < 0)
+		rmd_motor_set_dialect(&lm->m, &l->cfg->motors[i], was);
 	*lbus_slot(lb, lm->m.reply_id) = (uint8_t)(i + 1);
 	*lbus_slot(lb, rmd_motor_ctl_reply_id(&lm->m)) = (uint8_t)(i + 1);
 	return r;

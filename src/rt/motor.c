@@ -182,10 +182,14 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	d = rmd_dialect(c->proto);
 	if (!d)
 		return -EINVAL;
-	/* MIT is a mode of the firmware (rmd/dialect.h); `mit` names V3's */
+	/*
+	 * MIT is a mode of the firmware (rmd/dialect.h); `mit` names V3's.
+	 * Firmware without it (V2, found by `protocol: auto`) gets a record
+	 * that sends no MIT frame, which bring-up refuses as a mismatch.
+	 */
 	d = rmd_dialect_firmware(d);
 	if (rmd_config_mit_mode(c)) {
-		if (!rmd_dialect_offers_mit(d) || !rmd_mit_ranges_valid(&c->mit))
+		if (!rmd_mit_ranges_valid(&c->mit))
 			return -EINVAL;
 	} else if (!(c->torque_constant_nm_a > 0.0) || !isfinite(c->torque_constant_nm_a)) {
 		return -EINVAL;
@@ -195,7 +199,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->id = c->id;
 	m->proto = c->proto;
 	m->d = d;
-	m->mit_mode = rmd_config_mit_mode(c);
+	m->mit_mode = rmd_config_mit_mode(c) && rmd_dialect_offers_mit(d);
 	m->caps = d->caps;
 	m->v2_have_ref = !(m->caps & RMD_DIALECT_ENCODER_UNWRAP); /* the others need none */
 	m->table = d->table;

@@ -313,6 +313,38 @@ static void test_v44_entry_agrees(void **state)
 	rig_down();
 }
 
+/*
+ * kd on V4.4, where the sources disagree (0..50 its changelog, 0..5 a
+ * measurement): the entry's kd_max is taken, the rest is the X6's.
+ */
+static void test_v44_entry_kd_taken(void **state)
+{
+	static const struct rmd_mit_ranges x6_kd5 = { -12.566, 12.566, -45, 45, -60,
+						      60,      0,      500, 0,	5 };
+
+	(void)state;
+	rig_up(BUS MOTOR "protocol: v4, mode: mit, mit: {kd_max: 5},\n"
+			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
+	       true);
+	ask_mit();
+	run(400);
+	assert_int_equal(mstate().lifecycle, RMD_LC_ENABLED);
+	frames_carry(&x6_kd5, 0, "V4.4 X6, kd_max 5 in its entry");
+	rig_down();
+}
+
+/* protocol: auto finding V2 firmware, which has no MIT mode: refused. */
+static void test_auto_finds_v2_refused(void **state)
+{
+	(void)state;
+	rig_up(BUS MOTOR "protocol: auto, mode: mit, comm_loss_ms: 0,\n"
+			 "     sim: {firmware: v2, load_nm: 5}}\n",
+	       true);
+	assert_int_equal(R.bu.motor[0].mismatch, RMD_BRINGUP_MISMATCH_NO_MIT);
+	refused("auto, V2 firmware");
+	rig_down();
+}
+
 /* A model rmdd has no V4.4 scaling of: refused, nothing on 0x400 + ID. */
 static void test_v44_unknown_model_refused(void **state)
 {
@@ -463,6 +495,8 @@ int main(void)
 		cmocka_unit_test(test_auto_finds_v44),
 		cmocka_unit_test(test_protocol_mit_on_v3),
 		cmocka_unit_test(test_v44_entry_agrees),
+		cmocka_unit_test(test_v44_entry_kd_taken),
+		cmocka_unit_test(test_auto_finds_v2_refused),
 		cmocka_unit_test(test_v44_unknown_model_refused),
 		cmocka_unit_test(test_no_date_refused),
 		cmocka_unit_test(test_v44_entry_contradicts),
