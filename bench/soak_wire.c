@@ -217,8 +217,7 @@ int main(int argc, char **argv)
 		    (i = motor_of((unsigned)b, f->can_id - 0x140)) >= 0)
 			check_cmd(line, &motors[i], &info[i], f);
 		else if (f->can_id > 0x400 && f->can_id <= 0x420 &&
-			 (i = motor_of((unsigned)b, f->can_id - 0x400)) >= 0 &&
-			 (motors[i].caps & RMD_DIALECT_MIT))
+			 (i = motor_of((unsigned)b, f->can_id - 0x400)) >= 0 && motors[i].mit_mode)
 			check_mit(line, &motors[i], &info[i], f);
 		else if (f->can_id != 0x280 && f->can_id != 0x300 && f->len &&
 			 (f->data[0] == 0xA1 || f->data[0] == 0xA2 || f->data[0] == 0xA4 ||

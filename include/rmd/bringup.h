@@ -44,6 +44,14 @@ enum rmd_bringup_mismatch {
 	RMD_BRINGUP_MISMATCH_NO_COMM_LOSS,
 	/* feedback.position multi_turn, and its dialect's 0x92 is not the fine position */
 	RMD_BRINGUP_MISMATCH_NO_FINE_ANGLE,
+	/* mode mit, and its dialect has no MIT mode (V2, found by `protocol: auto`) */
+	RMD_BRINGUP_MISMATCH_NO_MIT,
+	/*
+	 * mode mit, and its MIT scaling cannot be decided: the firmware's
+	 * date or model is unknown, or the entry's `mit` ranges contradict
+	 * the firmware's (struct rmd_bringup_motor.mit says which)
+	 */
+	RMD_BRINGUP_MISMATCH_MIT_SCALING,
 };
 
 /* What came of the 0xB3 write (V3 §2.30). */
@@ -88,6 +96,13 @@ struct rmd_bringup_motor {
 	double temp_c;
 	uint16_t error_code;
 	bool v2_angle; /* V2: 0x92 answered, positions continue from the motor's angle */
+	/*
+	 * Driven in MIT mode: the MIT scaling decided from its firmware's
+	 * date and model and its entry (rmd/dialect.h rmd_mit_scaling_decide()),
+	 * or why none could be (then mismatch is RMD_BRINGUP_MISMATCH_MIT_SCALING)
+	 */
+	bool mit_mode;
+	struct rmd_mit_decision mit;
 	enum rmd_bringup_b3 b3;
 	uint32_t comm_loss_ms; /* what 0xB3 wrote (its own key or safety.comm_loss_ms; 0: off) */
 	/*

@@ -67,6 +67,7 @@ struct rmd_bus_open_motor {
 	uint8_t id;	      /* 1..32 */
 	enum rmd_proto proto; /* its dialect (rmd/dialect.h) */
 	bool any_dialect;     /* `protocol: auto`: the replies of every dialect are admitted */
+	bool mit;	      /* driven in MIT mode: its MIT replies (0x500 + ID) are admitted */
 	/* sim buses: the simulated motor; NULL: rmd_sim_motor_params_default() */
 	const struct rmd_sim_motor_params *sim;
 };

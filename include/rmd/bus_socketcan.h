@@ -46,6 +46,11 @@ struct rmd_socketcan_motor {
 struct rmd_socketcan_opts {
 	const struct rmd_socketcan_motor *motors;
 	unsigned n_motors;
+	/*
+	 * Bit id - 1: that motor is driven in MIT mode (V3 §5, V4.2 §5), its
+	 * MIT replies on 0x500 + ID are admitted too
+	 */
+	uint32_t mit_ids;
 	bool set_id_replies; /* also admit 0x300 (V3 §4: 0x79 replies on 0x300) */
 	/*
 	 * Also admit the replies of every ID that a V2 0x280 frame would

@@ -24,6 +24,7 @@
 #include <stdint.h>
 
 #include "rmd/codec.h"
+#include "rmd/dialect.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmd/mode.h"
@@ -270,9 +271,16 @@ struct rmd_config_motor {
 	double zero_offset_rad;	     /* output-shaft position that rmdd reports as 0 */
 	double torque_constant_nm_a; /* output N·m per A of iq; 0: unknown (MIT only) */
 	struct rmd_config_limits limits;
-	struct rmd_mit_ranges mit; /* MIT packing ranges (V3 §5.1) */
-	unsigned rate_divisor;	   /* commanded every n-th cycle, 1.. */
-	double status_poll_hz;	   /* 0x9A polls per second; 0: none */
+	/*
+	 * MIT packing ranges: its `mit` keys over V3 §5.1's preset; which of
+	 * them the entry names, RMD_MIT_BOUND() bits (rmd/mit.h).  Bring-up
+	 * decides the scaling from them and the firmware (rmd/dialect.h
+	 * rmd_mit_scaling_decide()).
+	 */
+	struct rmd_mit_ranges mit;
+	unsigned mit_given;
+	unsigned rate_divisor; /* commanded every n-th cycle, 1.. */
+	double status_poll_hz; /* 0x9A polls per second; 0: none */
 	/*
 	 * This motor's 0xB3 time (V3 §2.30), ms; 0: its protection off, by
 	 * choice; RMD_CONFIG_COMM_LOSS_INHERIT: safety.comm_loss_ms.  Read it
@@ -299,6 +307,19 @@ struct rmd_config_motor {
 	unsigned n_travel; /* 0: none, or 2 */
 	unsigned line;	   /* of the entry in the file, for messages */
 };
+
+/*
+ * Whether motor c is driven in MIT mode (V3 §5, V4.2 §5): `mode: mit`, or
+ * the key `protocol: mit`, V3 firmware driven in MIT (rmd/dialect.h).
+ * The one copy of the rule: the motor record, the buses' filters and
+ * bring-up ask it.  rt-safe.
+ */
+static inline bool rmd_config_mit_mode(const struct rmd_config_motor *c)
+{
+	const struct rmd_dialect *d = rmd_dialect(c->proto);
+
+	return c->mode == RMD_MODE_MIT || (d && !rmd_dialect_is_firmware(d));
+}
 
 /*
  * Motor c's travel band, rad in the reported frame: travel_rad when set,

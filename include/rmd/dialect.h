@@ -1,9 +1,17 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Firmware dialects as data: one record per protocol generation (V2.0,
- * V3.x, MIT, V4.x), with everything the layers above the codec need to know about
+ * V3.x, V4.x), with everything the layers above the codec need to know about
  * it -- its command table, the CAN identifiers it uses, what it can do
- * (capability bits), its error flags and its bring-up probes.
+ * (capability bits), its error flags, its bring-up probes and its MIT
+ * scaling by firmware date and model.
+ *
+ * MIT is a way of driving V3 and V4 firmware (V3 §5, V4.2 §5), not a
+ * firmware of its own: a record offers it (rmd_dialect_offers_mit()) and a
+ * motor's `mode: mit` takes it (rmd/motor.h).  The `mit` key stays in the
+ * list for the configurations and tools that name it: V3 firmware driven in
+ * MIT, whose firmware is rmd_dialect_firmware() of it; the one question
+ * that tells it from a firmware is rmd_dialect_is_firmware().
  *
  * This is the proto layer's answer to "what does this motor speak?".  A
  * motor record points at its dialect once, at init (rmd/motor.h); rt, bus,
@@ -27,6 +35,7 @@
 #include <stdint.h>
 
 #include "rmd/codec.h"
+#include "rmd/mit.h"
 
 /* struct rmd_dialect.caps: what the motors of a dialect can do. */
 enum {
@@ -50,7 +59,11 @@ enum {
 	 * output angle (V2 §3.32): the host unwraps it from a reference
 	 */
 	RMD_DIALECT_ENCODER_UNWRAP = 1u << 5,
-	/* MIT motion mode on 0x400 + ID, replies on 0x500 + ID (V3 §5) */
+	/*
+	 * The `mit` key's record: V3 firmware driven in MIT, its control
+	 * frames on 0x400 + ID, replies on 0x500 + ID (V3 §5); what tools
+	 * decode MIT frames as.  A motor's MIT mode is its own (rmd/motor.h).
+	 */
 	RMD_DIALECT_MIT = 1u << 6,
 	/* 0x20 function control (V3 §2.33): index 3 turns on 0x9A error reports */
 	RMD_DIALECT_FUNC_CTRL = 1u << 7,
@@ -62,8 +75,8 @@ enum {
 	 */
 	RMD_DIALECT_TRACK_A3_A5 = 1u << 9,
 	/*
-	 * the firmware takes MIT frames on 0x400 + ID (V3 §5) whether or not
-	 * the motor is driven by them (RMD_DIALECT_MIT)
+	 * the firmware takes MIT frames on 0x400 + ID (V3 §5, V4.2 §5): it
+	 * offers MIT mode (rmd_dialect_offers_mit()), scaled by mit_scaling
 	 */
 	RMD_DIALECT_MIT_FRAMES = 1u << 10,
 	/* 0x79 sets and reads the CAN ID on 0x300, both ways (V3 §4, V4.2 §4) */
@@ -130,6 +143,42 @@ struct rmd_flag_name {
 #define RMD_DIALECT_PROBES_MAX 4
 #define RMD_DIALECT_REPORTS_MAX 8
 
+/* What a row of a dialect's MIT scaling is (struct rmd_mit_scaling.kind). */
+enum rmd_mit_row_kind {
+	/*
+	 * The manual's preset ranges (V3 §5.1, V4.2 §5.1), which firmware
+	 * may be set up otherwise: an entry's `mit` ranges win over it.
+	 */
+	RMD_MIT_ROW_PRESET = 0,
+	/*
+	 * The firmware's own ranges for the motor's model: an entry's `mit`
+	 * ranges must agree with them, but for the bounds of `disputed`
+	 */
+	RMD_MIT_ROW_FIXED,
+};
+
+/*
+ * One row of a dialect's MIT scaling (struct rmd_dialect.mit_scaling):
+ * the ranges MIT frames are scaled by on firmware dated `since` and later
+ * (its 0xB2 answer, yyyymmddNN: rmd_mit_scaling_decide() reads an
+ * eight-digit date as build 00), for motors whose 0xB5 model names the X
+ * series `series` (X6: 6; 0: any model).  Where rows of one date name
+ * series, a model of another series is unknown at that date.
+ * docs/protocol-v4.md "MIT scaling" gives the table and its sources.
+ */
+struct rmd_mit_scaling {
+	uint32_t since;
+	uint8_t series;
+	uint8_t kind; /* enum rmd_mit_row_kind */
+	struct rmd_mit_ranges r;
+	/*
+	 * RMD_MIT_BOUND() bits whose value the sources contradict: an
+	 * entry's value is taken for them, said in the bring-up report
+	 */
+	unsigned disputed;
+	const char *source; /* "V4.4 X6", "V3 §5.1": for messages */
+};
+
 struct rmd_dialect {
 	enum rmd_proto proto; /* its key; rmd_dialect(proto) returns this record */
 	const char *key;      /* "v3": config files and command lines */
@@ -179,6 +228,12 @@ struct rmd_dialect {
 	 * the simulator reports unless told another; 0: the dialect has no 0xB2.
 	 */
 	uint32_t example_version;
+	/*
+	 * RMD_DIALECT_MIT_FRAMES: the ranges its MIT frames are scaled by, by
+	 * firmware date and model, oldest first (rmd_mit_scaling_decide())
+	 */
+	const struct rmd_mit_scaling *mit_scaling;
+	unsigned n_mit_scaling;
 };
 
 /*
@@ -209,6 +264,83 @@ static inline bool rmd_dialect_has(const struct rmd_dialect *d, uint32_t caps)
 {
 	return (d->caps & caps) == caps;
 }
+
+/*
+ * Whether d is a firmware generation; false for the `mit` key, V3 firmware
+ * driven in MIT: MIT is not a firmware of its own.  rt-safe.
+ */
+static inline bool rmd_dialect_is_firmware(const struct rmd_dialect *d)
+{
+	return d->table == d->proto;
+}
+
+/* The firmware d's motors run: d, or V3 for the `mit` key.  rt-safe. */
+static inline const struct rmd_dialect *rmd_dialect_firmware(const struct rmd_dialect *d)
+{
+	return &rmd_dialects[d->table];
+}
+
+/* Whether d's firmware can be driven in MIT mode (V3 §5, V4.2 §5).  rt-safe. */
+static inline bool rmd_dialect_offers_mit(const struct rmd_dialect *d)
+{
+	return rmd_dialect_has(d, RMD_DIALECT_MIT_FRAMES);
+}
+
+/*
+ * Whether the MIT scaling of d's firmware depends on the firmware's date
+ * and model (V4: V4.4 widens it); false: one preset (V3).  rt-safe.
+ */
+static inline bool rmd_dialect_mit_dated(const struct rmd_dialect *d)
+{
+	return rmd_dialect_firmware(d)->n_mit_scaling > 1;
+}
+
+/* Where a motor's MIT scaling comes from, or why it has none (struct rmd_mit_decision). */
+enum rmd_mit_source {
+	RMD_MIT_FROM_PRESET = 0, /* the manual's preset (V3 §5.1, V4.2 §5.1) */
+	RMD_MIT_FROM_ENTRY,	 /* the entry's `mit` ranges (over a preset, or all ten given) */
+	RMD_MIT_FROM_FIRMWARE,	 /* the firmware's own for its model (V4.4) */
+	/* refused: */
+	RMD_MIT_NO_MIT,	    /* the firmware offers no MIT mode (V2) */
+	RMD_MIT_NO_DATE,    /* no plausible firmware date (0xB2 unanswered) */
+	RMD_MIT_NO_MODEL,   /* firmware that scales by model, a model not in its table */
+	RMD_MIT_CONTRADICTS /* a bound of the entry differs from the firmware's */
+};
+
+/* What rmd_mit_scaling_decide() decided. */
+struct rmd_mit_decision {
+	enum rmd_mit_source source;
+	struct rmd_mit_ranges r; /* decided: what the frames are scaled by */
+	/* the firmware's row that applies (FROM_PRESET, FROM_FIRMWARE, CONTRADICTS), else NULL */
+	const struct rmd_mit_scaling *row;
+	unsigned bound;	    /* CONTRADICTS: the first bound that differs (rmd_mit_bound()) */
+	double entry_value; /* CONTRADICTS: the entry's value of it (the firmware's: row->r) */
+	unsigned overrides; /* FROM_FIRMWARE: the disputed bounds taken from the entry */
+	unsigned missing;   /* NO_DATE, NO_MODEL: the bounds the entry does not give */
+	unsigned series;    /* the X series the model names (0: none) */
+};
+
+/* Whether dec decided a scaling (else it refuses MIT: dec->source says why).  rt-safe. */
+static inline bool rmd_mit_decided(const struct rmd_mit_decision *dec)
+{
+	return dec->source <= RMD_MIT_FROM_FIRMWARE;
+}
+
+/*
+ * The MIT scaling of a motor of dialect d (its firmware: rmd_dialect_firmware())
+ * with firmware version `version` (0xB2; 0 or implausible: unknown) and
+ * model `model` (0xB5; "" or NULL: unknown), whose config entry's ranges
+ * are `entry` with the bounds of `given` (RMD_MIT_BOUND() bits) named in
+ * it: the firmware's row for that date and model (the newest `since` not
+ * after the version; among its rows the model's series, else one for any
+ * model).  A preset row takes the entry's named bounds over it; a fixed
+ * row refuses a named bound that differs from it (relative 1e-4) unless
+ * disputed, whose entry value is taken; with no row for the model, or no
+ * date, the entry must name all ten bounds.  Pure, rt-safe.
+ */
+void rmd_mit_scaling_decide(const struct rmd_dialect *d, uint32_t version, const char *model,
+			    const struct rmd_mit_ranges *entry, unsigned given,
+			    struct rmd_mit_decision *out);
 
 /* Whether d's requests and replies share one identifier (V2 §1).  rt-safe. */
 static inline bool rmd_dialect_shared_ids(const struct rmd_dialect *d)

@@ -39,6 +39,23 @@ struct rmd_mit_ranges {
 /* V3 §5.1: p ±12.5 rad, v ±45 rad/s, t ±24 N·m, kp 0..500, kd 0..5. */
 extern const struct rmd_mit_ranges rmd_mit_default_ranges;
 
+/*
+ * The ten bounds of struct rmd_mit_ranges by index, in its order (p_min,
+ * p_max, v_min, .. kd_max): a config entry says which it names as a mask
+ * of RMD_MIT_BOUND(k) bits, and a firmware's scaling is compared with it
+ * bound by bound (rmd/dialect.h rmd_mit_scaling_decide()).
+ */
+#define RMD_MIT_BOUNDS 10
+#define RMD_MIT_BOUND(k) (1u << (k))
+#define RMD_MIT_BOUNDS_ALL ((1u << RMD_MIT_BOUNDS) - 1)
+
+/* The config key of bound k ("p_min" .. "kd_max"), or "?" for k out of range.  Pure. */
+const char *rmd_mit_bound_key(unsigned k);
+
+/* Bound k of r (NaN for k out of range), and r's bound k set to v (ignored out of range).  Pure. */
+double rmd_mit_bound(const struct rmd_mit_ranges *r, unsigned k);
+void rmd_mit_bound_set(struct rmd_mit_ranges *r, unsigned k, double v);
+
 struct rmd_mit_cmd {
 	double p_des_rad;
 	double v_des_rad_s;

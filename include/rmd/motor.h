@@ -27,10 +27,15 @@
  *             V2 32 A / 2000); V2 §4.1 0x280 for batched motors
  *   speed     V3 §2.18 / V2 §3.38 0xA2: 0.01 dps
  *   position  V3 §2.20 / V2 §3.40 0xA4: 0.01 deg, maxSpeed 1 dps
- *   mit       V3 §5 on 0x400 + ID (rmd_mit_encode_cmd(), the motor's ranges)
+ *   mit       V3 §5 / V4.2 §5 on 0x400 + ID (rmd_mit_encode_cmd(), the
+ *             motor's ranges), only once its MIT scaling is decided
  *
- * MIT motors also answer the V3 command set on 0x140 + ID (V3 §5), so every
- * non-MIT frame for them (status reads, 0x80, 0xB3, ...) is a V3 frame.
+ * MIT is a mode of V3 and V4 firmware (rmd/dialect.h): a motor driven in
+ * it (mit_mode) answers its firmware's command set on 0x140 + ID, so every
+ * non-MIT frame for it (status reads, 0x80, 0xB3, ...) is a frame of its
+ * dialect.  Its MIT ranges are decided from its firmware's date and model
+ * (rmd_mit_scaling_decide(), at bring-up): until then (mit_scaled false)
+ * no MIT frame is encoded for it, and its damp safe action is 0xA2 speed 0.
  *
  * Replies.  rmd_motor_decode() turns a reply (V3 0x240 + ID, V2 0x140 + ID,
  * MIT 0x500 + ID) into SI values and says which it carried.  V3 control
@@ -165,8 +170,17 @@ struct rmd_motor {
 	double zero_offset_rad;
 	double kt_nm_a; /* output N·m per A of iq; 0: unknown */
 	struct rmd_config_limits limits;
+	/* driven in MIT mode: `mode: mit`, on firmware that offers it (rmd_dialect_offers_mit()) */
+	bool mit_mode;
+	/*
+	 * mit holds its decided MIT scaling (rmd_motor_set_mit()): MIT frames
+	 * may be encoded and decoded.  rmd_motor_init() decides it from the
+	 * entry alone only where no firmware date changes the scaling (V3,
+	 * not `protocol: auto`); bring-up decides every motor again.
+	 */
+	bool mit_scaled;
 	struct rmd_mit_ranges mit;
-	struct rmd_mit_valid_ranges mit_ok; /* mit, validated once (MIT motors) */
+	struct rmd_mit_valid_ranges mit_ok; /* mit, validated once (mit_scaled) */
 	/*
 	 * MIT encode state: the last setpoint's gains (NaN: none yet), their
 	 * codes and whether clamping them changed them (RMD_MOTOR_CLAMPED).
@@ -290,9 +304,25 @@ struct rmd_motor_reply {
 /*
  * Take a validated config entry.  Returns 0, or -EINVAL for a direction
  * other than +-1, a gear ratio <= 0, an id outside 1..32, invalid MIT
- * ranges for an MIT motor, or a V2/V3 motor without torque constant.
+ * ranges for an entry in mode mit, or one in another mode without torque
+ * constant.  `mode: mit` on firmware without MIT (V2, as `protocol: auto`
+ * may find) is not in MIT mode: no MIT frame is encoded for it.
  */
 int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c);
+
+/*
+ * The motor's MIT scaling is decided: r (rmd_mit_scaling_decide()) from now
+ * on, for its frames, its damping and its position's resolution; or, with
+ * r NULL, not decided (no MIT frame is encoded).  Returns 0, or -EINVAL for
+ * a motor not driven in MIT or invalid ranges (nothing changed).  rt-safe.
+ */
+int rmd_motor_set_mit(struct rmd_motor *m, const struct rmd_mit_ranges *r);
+
+/* The identifier of the replies to the motor's setpoints: 0x500 + ID in MIT mode.  rt-safe. */
+static inline uint32_t rmd_motor_ctl_reply_id(const struct rmd_motor *m)
+{
+	return m->mit_mode ? RMD_CAN_MIT_REPLY_BASE + (uint32_t)m->id : m->reply_id;
+}
 
 /*
  * Rebuild the record for dialect `proto` from the same config entry c:
@@ -306,7 +336,7 @@ int rmd_motor_set_dialect(struct rmd_motor *m, const struct rmd_config_motor *c,
  * The modes the motor can be commanded in, RMD_MOTOR_MODE_BIT()s: torque
  * only with a torque constant; speed and position unless `batched` (a
  * motor in a V2 0x280 frame takes torques only: the frame carries nothing
- * else); MIT only on an MIT motor.  rmd_motor_encode() refuses the others.
+ * else); MIT only in MIT mode.  rmd_motor_encode() refuses the others.
  */
 unsigned rmd_motor_modes(const struct rmd_motor *m, bool batched);
 
@@ -330,8 +360,8 @@ unsigned rmd_motor_clamp(const struct rmd_config_limits *lim, struct rmd_setpoin
  * rmd_mode), as one frame; m keeps its encode state (the MIT gains' codes).
  * Values are clamped (RMD_MOTOR_CLAMPED in *flags, which may be NULL).  Returns 0; -EDOM when a value the mode uses
  * is NaN or infinite (nothing encoded); -EOPNOTSUPP for a mode the
- * protocol cannot do (MIT on a V2/V3 motor, an unknown mode) or torque
- * without a torque constant.
+ * motor cannot do (MIT out of MIT mode or before its scaling is decided,
+ * an unknown mode) or torque without a torque constant.
  */
 int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct rmd_frame *out,
 		     unsigned *flags);
@@ -340,15 +370,16 @@ int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct 
  * The frames of safe action `a` for this motor (1 or 2, returned):
  * stop 0x80 (V3 §2.15, V2 §3.34); hold 0x81 (V3 §2.16, V2 §3.35); damp: MIT
  * kp 0, kd RMD_MOTOR_DAMP_KD, zero velocity and torque on 0x400 + ID for
- * MIT motors, 0xA2 speed 0 for the others (neither V2 nor V3 0xA2 has a
- * torque limit); brake 0x80 then 0x78 (V3 §2.27, V2 §3.51).
+ * motors in MIT mode whose scaling is decided, 0xA2 speed 0 for the others
+ * (neither V2 nor V3 0xA2 has a torque limit); brake 0x80 then 0x78 (V3
+ * §2.27, V2 §3.51).
  */
 int rmd_motor_encode_safe(const struct rmd_motor *m, enum rmd_safe_action a,
 			  struct rmd_frame out[2]);
 
 /*
  * A request without fields (0x80, 0x81, 0x78, 0x9A, 0x9C, 0x92, 0xB2,
- * 0xB5, ...) on 0x140 + ID, from the motor's table (V3 for MIT motors).
+ * 0xB5, ...) on 0x140 + ID, from the motor's table.
  * Returns 0, or -ENOENT when the protocol has no such command.
  */
 int rmd_motor_encode_cmd(const struct rmd_motor *m, uint8_t cmd, struct rmd_frame *out);
@@ -370,7 +401,7 @@ int rmd_motor_encode_v2_batch(const struct rmd_motor *const m[4], const double t
 
 /*
  * The identifier and command a reply to `req` (a frame of this motor)
- * comes with: V3 and MIT-as-V3 on 0x240 + ID, V2 on 0x140 + ID, MIT on
+ * comes with: V3 and V4 on 0x240 + ID, V2 on 0x140 + ID, MIT on
  * 0x500 + ID (cmd RMD_MOTOR_CMD_MIT); a V2 0x280 frame is answered like
  * 0xA1 (V2 §4.2).  rt-safe (inline: the loop books every frame with it).
  */

@@ -8,7 +8,9 @@
  *
  * struct rmd_sim_motor: one motor behind its frame interface.  Physics at
  * the output shaft, integrated at a fixed step (<= 100 us) whatever the
- * host's command rate; V3, V2 or MIT protocol as configured.
+ * host's command rate; V3, V2 or V4 firmware as configured, V3 and V4
+ * taking MIT frames too (V3 §5, V4.2 §5) scaled as their date and model
+ * say (V4.4 from firmware 2026042402: rmd/dialect.h).
  *
  * struct rmd_sim_wire (rmd/sim_wire.h): a wire of motors with a wire-time
  * model: every frame, the host's and the motors', occupies the wire for its
@@ -106,6 +108,11 @@ struct rmd_sim_motor_params {
 	double stall_time_s;	  /* near-limit current at ~zero speed this long: stall */
 	bool has_brake;		  /* false: 0x77/0x78 echo, the shaft is never held */
 	unsigned encoder_bits;	  /* motor-side single-turn resolution, 8..24 */
+	/*
+	 * MIT ranges of firmware that takes them as set (V3 §5.1's preset,
+	 * or an entry's); firmware whose date and model fix its own (V4.4:
+	 * rmd_mit_scaling_decide()) scales by those instead
+	 */
 	struct rmd_mit_ranges mit;
 	char model[8];	       /* 0xB5, e.g. "X8S2V10" */
 	uint32_t version_date; /* 0xB2, e.g. 20220206 */
@@ -243,6 +250,11 @@ struct rmd_sim_motor {
 	double speed_int_a;				      /* speed-loop integrator */
 	double tf_current_a;				      /* V2 0x73 feed-forward */
 	struct rmd_mit_cmd mit;
+	/*
+	 * What its firmware scales MIT frames by (V3 §5, V4.2 §5): its
+	 * dialect's own for its version_date and model (V4.4), else p.mit
+	 */
+	struct rmd_mit_ranges mit_ranges;
 	bool brake_locked;
 	/* faults */
 	uint16_t errors;	 /* reported: live | latched | injected */

@@ -190,6 +190,12 @@ enum rmd_ignore {
 	 * the motor's position is uncertain (rmd/multiturn.h)
 	 */
 	RMD_IGN_POS_UNCERTAIN,
+	/*
+	 * MIT for a motor in MIT mode whose MIT scaling is not decided (its
+	 * firmware's date and model not read yet: rmd/dialect.h
+	 * rmd_mit_scaling_decide())
+	 */
+	RMD_IGN_MIT_SCALING,
 	RMD_IGN_KINDS
 };
 
@@ -296,6 +302,20 @@ enum rmd_event_kind {
 	 * sends each batched motor its own frames from then on (issue 33 point 2).
 	 */
 	RMD_EV_STRAY,
+	/*
+	 * A motor in MIT mode missing at bring-up answered the loop's
+	 * re-probe, and its MIT scaling cannot be decided (rmd/dialect.h
+	 * rmd_mit_scaling_decide()): a = its firmware version (0xB2), b =
+	 * why (enum rmd_mit_source) | the X series its model names << 8.
+	 * It stays out until rmdd restarts.
+	 */
+	RMD_EV_MIT_SCALING,
+	/*
+	 * MIT was refused for a motor whose MIT scaling is not decided
+	 * (RMD_IGN_MIT_SCALING), once: a = its firmware version as read (0:
+	 * none), b = 0.
+	 */
+	RMD_EV_MIT_REFUSED,
 };
 
 /* Why the rt loop refused a homing request (RMD_EV_HOME_REFUSED). */

@@ -158,11 +158,15 @@ static int open_socketcan(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.device = ctx->device,
 	};
 
-	for (unsigned i = 0; i < ctx->n_motors; i++)
+	for (unsigned i = 0; i < ctx->n_motors; i++) {
 		motors[i] =
 			(struct rmd_socketcan_motor){ .id = ctx->motors[i].id,
 						      .proto = ctx->motors[i].proto,
 						      .any_dialect = ctx->motors[i].any_dialect };
+		if (ctx->motors[i].mit && ctx->motors[i].id >= 1 &&
+		    ctx->motors[i].id <= RMD_MAX_MOTORS)
+			so.mit_ids |= UINT32_C(1) << (ctx->motors[i].id - 1);
+	}
 	return rmd_socketcan_open(bus, cb->interface[0] ? cb->interface : cb->name, &so, err,
 				  errlen);
 }
@@ -206,6 +210,7 @@ void rmd_bus_open_ctx_of(const struct rmd_config *cfg, const struct rmd_sim_setu
 				.id = m->id,
 				.proto = m->proto,
 				.any_dialect = m->proto_auto,
+				.mit = rmd_config_mit_mode(m),
 				.sim = sim ? &sim->motors[i] : NULL,
 			};
 	}

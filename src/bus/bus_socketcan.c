@@ -180,15 +180,15 @@ static int build_filters(const char *ifname, const struct rmd_socketcan_opts *op
 			const struct rmd_dialect *all = rmd_dialect_list(&nd);
 
 			for (size_t k = 0; k < nd; k++)
-				if (!rmd_dialect_has(&all[k], RMD_DIALECT_MIT))
+				if (rmd_dialect_is_firmware(&all[k]))
 					n = add_filter(f, n, all[k].reply_base + m->id);
 		}
 		/*
-		 * V3 §5: MIT replies on 0x500 + ID; the motor's V3 firmware
-		 * still answers probes (0xB5, 0x9A) on 0x240 + ID.
+		 * V3 §5, V4.2 §5: MIT replies on 0x500 + ID; the motor's
+		 * firmware still answers probes (0xB5, 0x9A) on 0x240 + ID.
 		 */
-		if (d->ctl_reply_base != d->reply_base)
-			n = add_filter(f, n, d->ctl_reply_base + m->id);
+		if (((opts->mit_ids >> (m->id - 1)) & 1) || d->ctl_reply_base != d->reply_base)
+			n = add_filter(f, n, RMD_CAN_MIT_REPLY_BASE + m->id);
 	}
 	if (opts->set_id_replies)
 		n = add_filter(f, n, RMD_CAN_SET_ID); /* V3 §4.4: 0x79 replies on 0x300 */

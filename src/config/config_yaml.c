@@ -805,6 +805,20 @@ static void validate_mit(struct yctx *c, const struct rmd_mit_ranges *r, const s
 	}
 }
 
+/*
+ * The bounds a motor's `mit` mapping names (RMD_MIT_BOUND() bits): the
+ * others are V3 §5.1's preset, or its firmware's (rmd_mit_scaling_decide()).
+ */
+static unsigned mit_given(const struct ynode *n)
+{
+	unsigned given = 0;
+
+	for (unsigned k = 0; n && k < RMD_MIT_BOUNDS; k++)
+		if (rmd_yaml_get(n, rmd_mit_bound_key(k), NULL))
+			given |= RMD_MIT_BOUND(k);
+	return given;
+}
+
 static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_sim_setup *sim,
 			    const struct ynode *seq)
 {
@@ -865,50 +879,57 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 		if (m->proto == RMD_CONFIG_PROTO_AUTO) {
 			m->proto_auto = true;
 			m->proto = RMD_PROTO_V3;
-			if (m->mode == RMD_MODE_MIT) {
-				rmd_yaml_path_key(kp, path, "protocol");
-				rmd_yaml_report(c, rmd_yaml_line_of(mn, "protocol"), kp,
-						"auto cannot tell an MIT motor: mode mit needs "
-						"protocol mit");
-			}
 		}
 		d = rmd_dialect(m->proto);
-		if (rmd_dialect_has(d, RMD_DIALECT_MIT) && m->mode != RMD_MODE_MIT) {
+		/*
+		 * MIT is a mode of V3 and V4 firmware (V3 §5, V4.2 §5); the
+		 * key mit names V3 firmware driven in it, as earlier files did
+		 */
+		if (!rmd_dialect_is_firmware(d) && m->mode != RMD_MODE_MIT) {
 			rmd_yaml_path_key(kp, path, "mode");
-			rmd_yaml_report(c, rmd_yaml_line_of(mn, "mode"), kp,
-					"%s: a mit protocol motor runs in mode mit (V3 §5)",
-					rmd_mode_name(m->mode));
-		} else if (m->mode == RMD_MODE_MIT && !rmd_dialect_has(d, RMD_DIALECT_MIT)) {
+			rmd_yaml_report(
+				c, rmd_yaml_line_of(mn, "mode"), kp,
+				"%s: protocol mit is V3 firmware driven in mode mit (V3 §5): "
+				"set mode: mit, or protocol: v3 for mode %s",
+				rmd_mode_name(m->mode), rmd_mode_name(m->mode));
+		} else if (m->mode == RMD_MODE_MIT && !rmd_dialect_offers_mit(d)) {
 			rmd_yaml_path_key(kp, path, "mode");
-			rmd_yaml_report(c, rmd_yaml_line_of(mn, "mode"), kp,
-					"mit needs protocol mit (this motor is %s)",
-					rmd_proto_key(m->proto));
+			rmd_yaml_report(
+				c, rmd_yaml_line_of(mn, "mode"), kp,
+				"mit: %s firmware has no MIT mode (V2 has no 0x400 frames): "
+				"mode mit is for protocol v3, v4 or auto",
+				rmd_proto_key(m->proto));
 		}
 		/*
 		 * MIT frames carry the motor's own position and speed (V3 §5):
 		 * a rotor/output ratio applied to its 0x92 reads but not to its
 		 * MIT frames would report one angle two ways (issue 20.7)
 		 */
-		if (rmd_dialect_has(d, RMD_DIALECT_MIT) && m->units == RMD_UNITS_ROTOR) {
+		if (rmd_config_mit_mode(m) && m->units == RMD_UNITS_ROTOR) {
 			rmd_yaml_path_key(kp, path, "units");
 			rmd_yaml_report(
 				c, rmd_yaml_line_of(mn, "units"), kp,
-				"rotor is not for protocol mit: its MIT frames carry the "
+				"rotor is not for mode mit: its MIT frames carry the "
 				"position the motor reports, which rmdd cannot divide by the "
 				"gear ratio in one place for both frame kinds; leave units at "
 				"output and set the MIT ranges (p_min, p_max) in those units");
 		}
 		if (cfg->buses[bi].kind == RMD_BUS_KIND_RS485 &&
-		    (!rmd_dialect_has(d, RMD_DIALECT_RS485) ||
-		     rmd_dialect_has(d, RMD_DIALECT_MIT))) {
+		    !rmd_dialect_has(d, RMD_DIALECT_RS485)) {
 			rmd_yaml_path_key(kp, path, "protocol");
 			rmd_yaml_report(
 				c, rmd_yaml_line_of(mn, "protocol"), kp,
 				"%s has no RS485 form (V3 §1.2: RS485 carries v3 frames); bus %s is "
 				"rs485",
 				rmd_proto_key(m->proto), cfg->buses[bi].name);
+		} else if (cfg->buses[bi].kind == RMD_BUS_KIND_RS485 && rmd_config_mit_mode(m)) {
+			rmd_yaml_path_key(kp, path, "mode");
+			rmd_yaml_report(c, rmd_yaml_line_of(mn, "mode"), kp,
+					"mit has no RS485 form (V3 §5: MIT frames travel on CAN "
+					"only); bus %s is rs485",
+					cfg->buses[bi].name);
 		}
-		if (!rmd_dialect_has(d, RMD_DIALECT_MIT) && !(m->torque_constant_nm_a > 0)) {
+		if (!rmd_config_mit_mode(m) && !(m->torque_constant_nm_a > 0)) {
 			rmd_yaml_path_key(kp, path, "torque_constant_nm_a");
 			rmd_yaml_report(
 				c, mn->line, kp,
@@ -927,6 +948,7 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 		}
 		rmd_yaml_path_key(kp, path, "mit");
 		validate_mit(c, &m->mit, rmd_yaml_get(mn, "mit", NULL), kp);
+		m->mit_given = mit_given(rmd_yaml_get(mn, "mit", NULL));
 		/* rates */
 		/* the default never asks more than the motor's command rate (rate_hz below 10) */
 		if (!rmd_yaml_get(mn, "status_poll_hz", NULL) &&

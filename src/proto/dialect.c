@@ -4,9 +4,11 @@
  * command table, identifiers, capabilities, error flags and probes.
  * Adding a dialect is its table and one row here (docs/design.md).
  */
+#include <math.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "rmd/dialect.h"
 #include "codec_tables.h"
@@ -108,6 +110,48 @@ static const struct rmd_pid_slot v4_pid[] = {
 	{ RMD_FLD_POS_KD, 9 },
 };
 
+/*
+ * MIT scaling (docs/protocol-v4.md "MIT scaling").  V3 §5.1 and V4.2 §5.1
+ * print one preset: p ±12.5 rad, v ±45 rad/s, t ±24 N·m, kp 0..500, kd
+ * 0..5 (rmd_mit_default_ranges).  Firmware dated 2026042402 and later
+ * (V4.4) scales by the motor's model: p ±12.566 rad, t ±(the model's
+ * maximum torque), kd 0..50 as its changelog says, v and kp unchanged;
+ * public sources key the torque by the model's X series (X6 60 N·m, X8
+ * 129 N·m) and one of them reports kd still 0..5 on that firmware: kd is
+ * disputed.
+ */
+static const struct rmd_mit_scaling v3_mit[] = {
+	{ .since = 0,
+	  .kind = RMD_MIT_ROW_PRESET,
+	  .source = "V3 §5.1",
+	  .r = { -12.5, 12.5, -45.0, 45.0, -24.0, 24.0, 0.0, 500.0, 0.0, 5.0 } },
+};
+
+#define V44_DATE 2026042402u
+#define V44_RANGES(t)                                                          \
+	{                                                                      \
+		-12.566, 12.566, -45.0, 45.0, -(t), (t), 0.0, 500.0, 0.0, 50.0 \
+	}
+
+static const struct rmd_mit_scaling v4_mit[] = {
+	{ .since = 0,
+	  .kind = RMD_MIT_ROW_PRESET,
+	  .source = "V4.2 §5.1",
+	  .r = { -12.5, 12.5, -45.0, 45.0, -24.0, 24.0, 0.0, 500.0, 0.0, 5.0 } },
+	{ .since = V44_DATE,
+	  .series = 6,
+	  .kind = RMD_MIT_ROW_FIXED,
+	  .r = V44_RANGES(60.0),
+	  .disputed = RMD_MIT_BOUND(9),
+	  .source = "V4.4 X6" },
+	{ .since = V44_DATE,
+	  .series = 8,
+	  .kind = RMD_MIT_ROW_FIXED,
+	  .r = V44_RANGES(129.0),
+	  .disputed = RMD_MIT_BOUND(9),
+	  .source = "V4.4 X8" },
+};
+
 /* What V3.x and its MIT motors share: the V3 command set, ids and probes. */
 #define V3_COMMON                                                                              \
 	.table = RMD_PROTO_V3, .rows = rmd_v3_cmds, .n_rows = &rmd_v3_ncmds,                   \
@@ -116,7 +160,7 @@ static const struct rmd_pid_slot v4_pid[] = {
 	.n_pid_slots = ARRAY_SIZE(v3_pid), .error_bits = v3_error_bits,                        \
 	.n_error_bits = ARRAY_SIZE(v3_error_bits), .run_modes = v3_run_modes,                  \
 	.n_run_modes = ARRAY_SIZE(v3_run_modes), .probe = { 0xB5, 0xB2, 0x9A }, .n_probes = 3, \
-	.example_version = 20220206
+	.example_version = 20220206, .mit_scaling = v3_mit, .n_mit_scaling = ARRAY_SIZE(v3_mit)
 
 /* What V3.x and V4.x motors can both do (V4.2 §9: V4 removes 0xA3, merges 0xA5). */
 #define V3X_CAPS                                                                    \
@@ -166,6 +210,11 @@ const struct rmd_dialect rmd_dialects[RMD_PROTO_COUNT] = {
 		.probe = { 0x9A },
 		.n_probes = 1,
 	},
+	/*
+	 * Not a firmware: V3 firmware driven in MIT mode, the key earlier
+	 * configurations name and tools decode MIT frames with
+	 * (rmd_dialect_is_firmware())
+	 */
 	[RMD_PROTO_MIT] = {
 		.proto = RMD_PROTO_MIT,
 		.key = "mit",
@@ -208,6 +257,8 @@ const struct rmd_dialect rmd_dialects[RMD_PROTO_COUNT] = {
 		.n_probes = 3,
 		/* an X4-36's answer, 0x78B41E7A (a public issue thread of 2025) */
 		.example_version = 2025070202,
+		.mit_scaling = v4_mit,
+		.n_mit_scaling = ARRAY_SIZE(v4_mit),
 	},
 };
 
@@ -278,4 +329,124 @@ bool rmd_dialect_takes_280(uint32_t can_id, uint8_t *id)
 	}
 	*id = 0;
 	return false;
+}
+
+/*
+ * A version as yyyymmddNN, the form of V4.4's threshold (2026042402): an
+ * eight-digit date is build 00; 0 when there is no plausible date.
+ */
+static uint32_t version_key(uint32_t version)
+{
+	uint32_t date = rmd_version_date(version);
+
+	if (!date)
+		return 0;
+	return date * 100u + (version >= 2000000000u ? version % 100u : 0u);
+}
+
+/*
+ * The X series a 0xB5 model names: the number after its first X ("X8S2V10",
+ * "RMD-X6-P20": 8, 6); 0 when it names none.
+ */
+static unsigned model_series(const char *model)
+{
+	for (const char *p = model; p && *p; p++) {
+		unsigned n = 0, digits = 0;
+
+		if (*p != 'X' && *p != 'x')
+			continue;
+		while (p[1 + digits] >= '0' && p[1 + digits] <= '9' && digits < 3)
+			n = n * 10 + (unsigned)(p[1 + digits++] - '0');
+		if (digits)
+			return n;
+	}
+	return 0;
+}
+
+/* Whether a and b are one bound: within 1e-4 of the larger (1 for small ones). */
+static bool bound_same(double a, double b)
+{
+	double m = fabs(a) > fabs(b) ? fabs(a) : fabs(b);
+
+	return fabs(a - b) <= 1e-4 * (m > 1.0 ? m : 1.0);
+}
+
+/* The row of d's MIT scaling for (key, series), or NULL: no row for that model. */
+static const struct rmd_mit_scaling *scaling_row(const struct rmd_dialect *d, uint32_t key,
+						 unsigned series)
+{
+	const struct rmd_mit_scaling *any = NULL, *mine = NULL;
+	uint32_t since = 0;
+	bool found = false;
+
+	for (unsigned k = 0; k < d->n_mit_scaling; k++)
+		if (d->mit_scaling[k].since <= key && d->mit_scaling[k].since >= since) {
+			since = d->mit_scaling[k].since;
+			found = true;
+		}
+	if (!found)
+		return NULL;
+	for (unsigned k = 0; k < d->n_mit_scaling; k++) {
+		const struct rmd_mit_scaling *row = &d->mit_scaling[k];
+
+		if (row->since != since)
+			continue;
+		if (!row->series)
+			any = row;
+		else if (row->series == series)
+			mine = row;
+	}
+	return mine ? mine : any;
+}
+
+void rmd_mit_scaling_decide(const struct rmd_dialect *d, uint32_t version, const char *model,
+			    const struct rmd_mit_ranges *entry, unsigned given,
+			    struct rmd_mit_decision *out)
+{
+	const struct rmd_dialect *fw = rmd_dialect_firmware(d);
+	uint32_t key = version_key(version);
+	const struct rmd_mit_scaling *row;
+
+	given &= RMD_MIT_BOUNDS_ALL;
+	memset(out, 0, sizeof(*out));
+	out->series = model_series(model);
+	out->missing = RMD_MIT_BOUNDS_ALL & ~given;
+	if (!rmd_dialect_offers_mit(fw) || !fw->n_mit_scaling) {
+		out->source = RMD_MIT_NO_MIT;
+		return;
+	}
+	row = key ? scaling_row(fw, key, out->series) : NULL;
+	if (!row) {
+		/* nothing rmdd knows of this firmware: only the entry's whole say */
+		out->source = !key ? RMD_MIT_NO_DATE : RMD_MIT_NO_MODEL;
+		if (given == RMD_MIT_BOUNDS_ALL) {
+			out->source = RMD_MIT_FROM_ENTRY;
+			out->r = *entry;
+		}
+		return;
+	}
+	out->row = row;
+	out->r = row->r;
+	out->missing = 0;
+	for (unsigned k = 0; k < RMD_MIT_BOUNDS; k++) {
+		double v = rmd_mit_bound(entry, k);
+
+		if (!(given & RMD_MIT_BOUND(k)))
+			continue;
+		if (row->kind == RMD_MIT_ROW_FIXED && !(row->disputed & RMD_MIT_BOUND(k))) {
+			if (bound_same(v, rmd_mit_bound(&row->r, k)))
+				continue;
+			out->source = RMD_MIT_CONTRADICTS;
+			out->bound = k;
+			out->entry_value = v;
+			return;
+		}
+		if (row->kind == RMD_MIT_ROW_FIXED && !bound_same(v, rmd_mit_bound(&row->r, k)))
+			out->overrides |= RMD_MIT_BOUND(k);
+		rmd_mit_bound_set(&out->r, k, v);
+	}
+	if (row->kind == RMD_MIT_ROW_FIXED)
+		out->source = RMD_MIT_FROM_FIRMWARE;
+	else
+		out->source = given ? RMD_MIT_FROM_ENTRY : RMD_MIT_FROM_PRESET;
 }

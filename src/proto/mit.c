@@ -16,6 +16,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -41,6 +42,41 @@ const struct rmd_mit_ranges rmd_mit_default_ranges = {
 	.kd_min = 0.0,
 	.kd_max = 5.0,
 };
+
+/* The bounds by index (rmd_mit_bound()), in the struct's order. */
+static const struct {
+	const char *key;
+	size_t off;
+} bounds[RMD_MIT_BOUNDS] = {
+#define BOUND(f)                                       \
+	{                                              \
+#f, offsetof(struct rmd_mit_ranges, f) \
+	}
+	BOUND(p_min), BOUND(p_max),  BOUND(v_min),  BOUND(v_max),  BOUND(t_min),
+	BOUND(t_max), BOUND(kp_min), BOUND(kp_max), BOUND(kd_min), BOUND(kd_max),
+#undef BOUND
+};
+
+const char *rmd_mit_bound_key(unsigned k)
+{
+	return k < RMD_MIT_BOUNDS ? bounds[k].key : "?";
+}
+
+double rmd_mit_bound(const struct rmd_mit_ranges *r, unsigned k)
+{
+	double v;
+
+	if (k >= RMD_MIT_BOUNDS)
+		return NAN;
+	memcpy(&v, (const char *)r + bounds[k].off, sizeof(v));
+	return v;
+}
+
+void rmd_mit_bound_set(struct rmd_mit_ranges *r, unsigned k, double v)
+{
+	if (k < RMD_MIT_BOUNDS)
+		memcpy((char *)r + bounds[k].off, &v, sizeof(v));
+}
 
 static bool range_ok(double min, double max)
 {

@@ -269,22 +269,26 @@ static int use_dialect(struct rmd_loop *l, unsigned i, enum rmd_proto proto)
 {
 	struct lmotor *lm = &l->mot[i];
 	struct lbus *lb = &l->bus[lm->m.bus];
+	enum rmd_proto was = lm->m.proto;
 	int r;
 
 	if (lm->m.proto == proto)
 		return 0;
 	*lbus_slot(lb, lm->m.reply_id) = 0;
-	*lbus_slot(lb, lm->m.d->ctl_reply_base + (uint32_t)lm->m.id) = 0;
+	*lbus_slot(lb, rmd_motor_ctl_reply_id(&lm->m)) = 0;
 	r = rmd_motor_set_dialect(&lm->m, &l->cfg->motors[i], proto);
+	/* a record that cannot be built leaves the one it had, not a cleared one */
+	if (r < 0)
+		rmd_motor_set_dialect(&lm->m, &l->cfg->motors[i], was);
 	*lbus_slot(lb, lm->m.reply_id) = (uint8_t)(i + 1);
-	*lbus_slot(lb, lm->m.d->ctl_reply_base + (uint32_t)lm->m.id) = (uint8_t)(i + 1);
+	*lbus_slot(lb, rmd_motor_ctl_reply_id(&lm->m)) = (uint8_t)(i + 1);
 	return r;
 }
 
 /*
- * `protocol: auto`: which dialect motor i answers in.  Each dialect that
- * is not told by configuration alone (MIT is a way of driving V3
- * firmware) asks its first probe, one request per distinct probe and
+ * `protocol: auto`: which dialect motor i answers in.  Each firmware
+ * dialect (MIT is a way of driving firmware, rmd_dialect_is_firmware())
+ * asks its first probe, one request per distinct probe and
  * reply identifier, in the list's order; the first to be answered is the
  * motor's family, and its firmware date (0xB2) picks the generation
  * within it (rmd_dialect_for_firmware()).  Returns 0 with the motor
@@ -305,7 +309,7 @@ static int resolve_auto(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor
 		uint32_t key = (uint32_t)d->reply_base << 8 | d->probe[0];
 		bool seen = false;
 
-		if (rmd_dialect_has(d, RMD_DIALECT_MIT) || d->table != d->proto)
+		if (!rmd_dialect_is_firmware(d))
 			continue;
 		for (unsigned j = 0; j < n_tried; j++)
 			seen |= tried[j] == key;
@@ -334,9 +338,9 @@ static int resolve_auto(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor
 /*
  * What in the configuration of motor i its dialect cannot do, or
  * RMD_BRINGUP_MISMATCH_NONE: the configured dialect against the one its
- * firmware date says; for `protocol: auto`, what the loader would have
- * refused had the file named the dialect found (comm-loss protection,
- * fine feedback).  Non-rt.
+ * firmware date says (`protocol: mit` is V3 firmware's); for `protocol:
+ * auto`, what the loader would have refused had the file named the
+ * dialect found (comm-loss protection, fine feedback, MIT mode).  Non-rt.
  */
 static enum rmd_bringup_mismatch mismatch_of(const struct rmd_loop *l, unsigned i,
 					     const struct rmd_bringup_motor *bm)
@@ -363,7 +367,31 @@ static enum rmd_bringup_mismatch mismatch_of(const struct rmd_loop *l, unsigned 
 	if (c->feedback.position == RMD_FEEDBACK_MULTI_TURN &&
 	    !rmd_dialect_has(d, RMD_DIALECT_FINE_ANGLE))
 		return RMD_BRINGUP_MISMATCH_NO_FINE_ANGLE;
+	if (rmd_config_mit_mode(c) && !rmd_dialect_offers_mit(d))
+		return RMD_BRINGUP_MISMATCH_NO_MIT;
 	return RMD_BRINGUP_MISMATCH_NONE;
+}
+
+/*
+ * Motor i in MIT mode: its MIT scaling, decided from its firmware's date
+ * and model as the probes read them (out->version, out->model) and its
+ * entry's `mit` ranges (rmd_mit_scaling_decide()), into its record and
+ * out->mit; no MIT frame goes out before.  False when none can be
+ * decided.  Non-rt.
+ */
+static bool decide_mit(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor *out)
+{
+	const struct rmd_config_motor *c = &l->cfg->motors[i];
+	struct rmd_motor *m = &l->mot[i].m;
+
+	if (!m->mit_mode)
+		return true;
+	out->mit_mode = true;
+	rmd_mit_scaling_decide(m->d, out->version, out->model, &c->mit, c->mit_given, &out->mit);
+	if (rmd_mit_decided(&out->mit) && rmd_motor_set_mit(m, &out->mit.r) == 0)
+		return true;
+	rmd_motor_set_mit(m, NULL);
+	return false;
 }
 
 /*
@@ -411,6 +439,9 @@ static int missing(struct rmd_loop *l, struct lmotor *lm, struct rmd_bringup_mot
 	out->state = RMD_BRINGUP_MISSING;
 	loop_enter(l, lm, RMD_LC_LOST, now);
 	lm->dialect_open = rmd_dialect_has(lm->m.d, RMD_DIALECT_VERSION_B2);
+	/* decided from its firmware when it answers (loop_rx.c settle_dialect()) */
+	if (lm->m.mit_mode)
+		rmd_motor_set_mit(&lm->m, NULL);
 	lm->next_probe_ns = now;
 	return -ENODEV;
 }
@@ -477,7 +508,11 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 	now = loop_now(l);
 	out->pushed = lm->pushed;
 	out->mismatch = mismatch_of(l, i, out);
+	if (out->mismatch == RMD_BRINGUP_MISMATCH_NONE && !decide_mit(l, i, out))
+		out->mismatch = RMD_BRINGUP_MISMATCH_MIT_SCALING;
 	if (out->mismatch != RMD_BRINGUP_MISMATCH_NONE) {
+		if (lm->m.mit_mode)
+			rmd_motor_set_mit(&lm->m, NULL);
 		/*
 		 * Never driven, never re-probed: the configuration must change.
 		 * What it may run for a previous owner stops all the same: 0x80

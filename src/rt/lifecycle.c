@@ -48,7 +48,7 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 	struct rmd_frame f[2];
 	int n;
 
-	if (a == RMD_SAFE_DAMP && (lm->m.caps & RMD_DIALECT_MIT) && stream) {
+	if (a == RMD_SAFE_DAMP && lm->m.mit_scaled && stream) {
 		lm->damp_stream = true;
 	} else {
 		n = rmd_motor_encode_safe(&lm->m, a, f);
@@ -372,6 +372,22 @@ static __attribute__((noinline)) int pos_uncertain_setpoint(struct rmd_loop *l, 
 	return -1;
 }
 
+/*
+ * An MIT setpoint for a motor in MIT mode whose MIT scaling is not decided
+ * (rmd/motor.h mit_scaled): never enabled, as no MIT frame may go out over
+ * ranges its firmware may not scale by; reported once.  Returns
+ * RMD_IGN_MIT_SCALING.  rt-safe.
+ */
+static __attribute__((cold, noinline)) int mit_refuse(struct rmd_loop *l, struct lmotor *lm,
+						      int64_t now)
+{
+	if (!lm->mit_warned) {
+		lm->mit_warned = true;
+		loop_event(l, now, RMD_EV_MIT_REFUSED, loop_idx(l, lm), lm->m.bus, lm->version, 0);
+	}
+	return RMD_IGN_MIT_SCALING;
+}
+
 /* Returns -1 when acted on, else the enum rmd_ignore reason it was not.  rt-safe. */
 static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			int64_t now)
@@ -381,6 +397,8 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 	case RMD_LC_SAFE:
 		if (lm->need_edge)
 			return RMD_IGN_EDGE;
+		if (sp->mode == RMD_MODE_MIT && lm->m.mit_mode && !lm->m.mit_scaled)
+			return mit_refuse(l, lm, now);
 		if (!lm->st->pos_certain && rmd_setpoint_needs_pos(sp))
 			return pos_refuse(l, lm, sp, now);
 		if (!rmd_comm_loss_allows_motion(lm->cl)) {

@@ -865,7 +865,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 		lb = &l->bus[c->bus];
 		/* the identifiers its dialect answers on: its replies, its control replies */
 		*lbus_slot(lb, lm->m.reply_id) = (uint8_t)(i + 1);
-		*lbus_slot(lb, lm->m.d->ctl_reply_base + (uint32_t)c->id) = (uint8_t)(i + 1);
+		*lbus_slot(lb, rmd_motor_ctl_reply_id(&lm->m)) = (uint8_t)(i + 1);
 		lm->st = &l->snap.m[i];
 		lm->st->lifecycle = RMD_LC_PROBE;
 		lm->st->mode = (uint8_t)c->mode;

@@ -127,7 +127,9 @@ struct lmotor {
 	 * Missing at bring-up, so its firmware date was never checked against
 	 * its dialect (the entry's, or V3 for `protocol: auto`): its re-probe
 	 * asks the date (0xB2) until the answer settles it (loop_rx.c
-	 * settle_dialect()).  Dialects without 0xB2 (V2) have nothing to ask.
+	 * settle_dialect()), and for a motor in MIT mode its model (0xB5)
+	 * first, which with the date decides its MIT scaling.  Dialects
+	 * without 0xB2 (V2) have nothing to ask.
 	 */
 	bool dialect_open;
 	/*
@@ -168,6 +170,7 @@ struct lmotor {
 	uint8_t pos_cand_trust; /* enum rmd_pos_trust */
 	double pos_cand_shift;
 	bool pos_warned;	/* this episode's refusal was reported */
+	bool mit_warned;	/* an MIT enable was refused, its scaling not decided: reported */
 	uint32_t homes_seen;	/* rmd_home.seq[] of this motor, acted on */
 	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
 	/* bring-up */
@@ -188,7 +191,7 @@ struct lbus {
 	const struct rmd_plan_bus *pb;
 	const struct rmd_config_bus *cb;
 	/* reply identifier -> config index + 1 (0: no motor) */
-	uint8_t by_v3[RMD_MAX_MOTORS + 1];  /* 0x240 + ID: V3 and MIT motors */
+	uint8_t by_v3[RMD_MAX_MOTORS + 1];  /* 0x240 + ID: V3 and V4 motors (MIT mode too) */
 	uint8_t by_v2[RMD_MAX_MOTORS + 1];  /* 0x140 + ID: V2 motors */
 	uint8_t by_mit[RMD_MAX_MOTORS + 1]; /* 0x500 + ID */
 	int64_t reply_ns;		    /* reply deadline after the send */

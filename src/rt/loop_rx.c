@@ -332,14 +332,39 @@ static void refuse_dialect(struct rmd_loop *l, unsigned b, struct lmotor *lm, in
 }
 
 /*
- * Answer f of a motor whose dialect is open (struct lmotor: missing at
- * bring-up) to its re-probe's firmware date 0xB2.  The rule
- * is bring-up's (rmd_dialect_for_firmware()), and the loop does not
- * switch dialects: a date that says the motor's dialect, or that tells
- * none (0), lets the next re-probe (0x9A) bring it back as any lost
- * motor; one that says another dialect leaves it out for good, reported
- * (RMD_EV_DIALECT): a motor is never driven in a dialect its firmware
- * does not speak.  An answer with no date is asked again.  rt-safe.
+ * The MIT scaling of lm, a motor in MIT mode found late, from its firmware
+ * version and the model its re-probe's 0xB5 answered (rmd/dialect.h
+ * rmd_mit_scaling_decide(), bring-up's rule): decided, or it is left out
+ * for good, reported (RMD_EV_MIT_SCALING): no MIT frame goes out over
+ * ranges its firmware may not scale by.  True when decided.  rt-safe.
+ */
+static bool settle_mit(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32_t version,
+		       int64_t now)
+{
+	const struct rmd_config_motor *c = &l->cfg->motors[loop_idx(l, lm)];
+	struct rmd_mit_decision dec;
+
+	rmd_mit_scaling_decide(lm->m.d, version, lm->model, &c->mit, c->mit_given, &dec);
+	if (rmd_mit_decided(&dec) && rmd_motor_set_mit(&lm->m, &dec.r) == 0)
+		return true;
+	lm->refused = true;
+	lm->next_probe_ns = INT64_MAX;
+	loop_event(l, now, RMD_EV_MIT_SCALING, loop_idx(l, lm), b, version,
+		   dec.source | (int64_t)(dec.series & 0xFF) << 8);
+	return false;
+}
+
+/*
+ * Answer f of a motor whose dialect is open (struct lmotor:
+ * missing at bring-up) to its re-probe: a model (0xB5) is kept for its
+ * MIT scaling, the firmware date 0xB2 settles it.  The rule is bring-up's
+ * (rmd_dialect_for_firmware()), and the loop does not switch dialects: a
+ * date that says the motor's dialect, or that tells none (0), lets the
+ * next re-probe (0x9A) bring it back as any lost motor -- in MIT mode once
+ * its MIT scaling is decided (settle_mit()); one that says another dialect
+ * leaves it out for good, reported (RMD_EV_DIALECT): a motor is never
+ * driven in a dialect its firmware does not speak.  An answer with no
+ * date is asked again.  rt-safe.
  */
 static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, unsigned b,
 							   struct lmotor *lm,
@@ -349,15 +374,23 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 	const struct rmd_dialect *fw = NULL;
 	bool certain = false;
 
-	if (rmd_motor_decode(&lm->m, f, &r) < 0 || !(r.have & RMD_MOTOR_HAVE_VERSION))
+	/* answers on the motor's reply identifier (an MIT reply carries no command byte) */
+	if (f->can_id != lm->m.reply_id || (f->data[0] != 0xB2 && f->data[0] != 0xB5) ||
+	    rmd_motor_decode(&lm->m, f, &r) < 0)
 		return;
+	if (r.have & RMD_MOTOR_HAVE_MODEL)
+		memcpy(lm->model, r.model, sizeof(lm->model));
+	if (!(r.have & RMD_MOTOR_HAVE_VERSION))
+		return;
+	lm->version = r.version_date;
 	fw = rmd_dialect_for_firmware(r.version_date, &certain);
 	lm->dialect_open = false;
-	if (!certain || fw->table == lm->m.d->table) {
-		lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
+	if (certain && fw->table != lm->m.d->table) {
+		refuse_dialect(l, b, lm, (int64_t)r.version_date, fw->proto, now);
 		return;
 	}
-	refuse_dialect(l, b, lm, (int64_t)r.version_date, fw->proto, now);
+	if (!lm->m.mit_mode || settle_mit(l, b, lm, r.version_date, now))
+		lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
 }
 
 /*
@@ -391,7 +424,7 @@ other_dialect_answer(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 			const struct rmd_dialect *d = &list[k];
 
 			/* MIT is a way of driving V3 firmware, not a dialect of its own */
-			if (d->table != d->proto || d->reply_base == lm->m.d->reply_base ||
+			if (!rmd_dialect_is_firmware(d) || d->reply_base == lm->m.d->reply_base ||
 			    f->can_id != d->reply_base + (uint32_t)lm->m.id)
 				continue;
 			lm->dialect_open = false;
@@ -464,9 +497,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			return;
 		}
 		if (__builtin_expect(lm->dialect_open, 0)) {
-			/* the 0x9A ahead of its 0xB2 tells nothing (settle_dialect()) */
-			if (cmd == 0xB2)
-				settle_dialect(l, b, lm, f, now);
+			/* the 0x9A ahead of its 0xB5 and 0xB2 tells nothing (settle_dialect()) */
+			settle_dialect(l, b, lm, f, now);
 			return;
 		}
 		if (o->echo_is_reply && owed_echo(l, lm, o, f, now))

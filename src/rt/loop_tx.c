@@ -41,9 +41,12 @@ static void push_cmd(struct rmd_loop *l, struct lbus *lb, unsigned i, uint8_t cm
 /*
  * A lost motor's re-probe, when one is due: 0x9A; while its dialect is
  * open (struct lmotor), the firmware date 0xB2 right behind it, whose
- * answer settles it: a motor whose comm-loss protection tripped echoes the
- * first frame it gets, and answers the next (one exchange more than the
- * plan counts, as push_oneshot()'s).  rt-safe.
+ * answer settles it, and ahead of that, in MIT mode, the model 0xB5 that
+ * decides its MIT scaling with the date: a motor whose comm-loss
+ * protection tripped echoes the first frame it gets, and answers the next
+ * (one or two exchanges more than the plan counts, as push_oneshot()'s;
+ * what a full cycle does not take is asked at the next re-probe).
+ * rt-safe.
  */
 static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
@@ -53,8 +56,11 @@ static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 		return;
 	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 	push_cmd(l, lb, i, 0x9A);
-	if (lm->dialect_open)
-		push_cmd(l, lb, i, 0xB2);
+	if (!lm->dialect_open)
+		return;
+	if (lm->m.mit_mode)
+		push_cmd(l, lb, i, 0xB5);
+	push_cmd(l, lb, i, 0xB2);
 }
 
 /*

@@ -182,7 +182,13 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	d = rmd_dialect(c->proto);
 	if (!d)
 		return -EINVAL;
-	if (rmd_dialect_has(d, RMD_DIALECT_MIT)) {
+	/*
+	 * MIT is a mode of the firmware (rmd/dialect.h); `mit` names V3's.
+	 * Firmware without it (V2, found by `protocol: auto`) gets a record
+	 * that sends no MIT frame, which bring-up refuses as a mismatch.
+	 */
+	d = rmd_dialect_firmware(d);
+	if (rmd_config_mit_mode(c)) {
 		if (!rmd_mit_ranges_valid(&c->mit))
 			return -EINVAL;
 	} else if (!(c->torque_constant_nm_a > 0.0) || !isfinite(c->torque_constant_nm_a)) {
@@ -193,6 +199,7 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->id = c->id;
 	m->proto = c->proto;
 	m->d = d;
+	m->mit_mode = rmd_config_mit_mode(c) && rmd_dialect_offers_mit(d);
 	m->caps = d->caps;
 	m->v2_have_ref = !(m->caps & RMD_DIALECT_ENCODER_UNWRAP); /* the others need none */
 	m->table = d->table;
@@ -218,18 +225,38 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 		if (spec && (spec->flags & RMD_CMD_ECHO))
 			m->echo[k / 8] |= (uint8_t)(1u << (k % 8));
 	}
-	if (m->caps & RMD_DIALECT_MIT) {
-		m->mit_kp = m->mit_kd = NAN; /* no gains' codes yet (encode_mit()) */
-		if (rmd_mit_ranges_validate(&m->mit, &m->mit_ok) < 0)
-			return -EINVAL;
-		if (m->damp_kd > m->mit.kd_max)
-			m->damp_kd = m->mit.kd_max;
-		if (m->damp_kd < m->mit.kd_min)
-			m->damp_kd = m->mit.kd_min;
-	}
 	m->mt.saved = c->multi_turn_saved;
 	m->mt.period_rad = rmd_multiturn_period_rad(c->gear_ratio);
 	rmd_config_travel(c, &m->mt.lo_rad, &m->mt.hi_rad);
+	m->mt.tol_rad = rmd_motor_pos_resolution_rad(m);
+	/* the entry's scaling, decided where no firmware date can change it */
+	if (m->mit_mode && !c->proto_auto && !rmd_dialect_mit_dated(d))
+		return rmd_motor_set_mit(m, &c->mit);
+	return 0;
+}
+
+/* rt-safe. */
+int rmd_motor_set_mit(struct rmd_motor *m, const struct rmd_mit_ranges *r)
+{
+	struct rmd_mit_valid_ranges ok;
+
+	if (!m->mit_mode)
+		return -EINVAL;
+	if (!r) {
+		m->mit_scaled = false;
+		return 0;
+	}
+	if (rmd_mit_ranges_validate(r, &ok) < 0)
+		return -EINVAL;
+	m->mit = *r;
+	m->mit_ok = ok;
+	m->mit_kp = m->mit_kd = NAN; /* no gains' codes yet (encode_mit()) */
+	m->damp_kd = RMD_MOTOR_DAMP_KD;
+	if (m->damp_kd > m->mit.kd_max)
+		m->damp_kd = m->mit.kd_max;
+	if (m->damp_kd < m->mit.kd_min)
+		m->damp_kd = m->mit.kd_min;
+	m->mit_scaled = true;
 	m->mt.tol_rad = rmd_motor_pos_resolution_rad(m);
 	return 0;
 }
@@ -257,7 +284,7 @@ unsigned rmd_motor_modes(const struct rmd_motor *m, bool batched)
 	if (batched)
 		return modes;
 	modes |= RMD_MOTOR_MODE_BIT(RMD_MODE_SPEED) | RMD_MOTOR_MODE_BIT(RMD_MODE_POSITION);
-	if (m->caps & RMD_DIALECT_MIT)
+	if (m->mit_mode)
 		modes |= RMD_MOTOR_MODE_BIT(RMD_MODE_MIT);
 	return modes;
 }
@@ -265,7 +292,7 @@ unsigned rmd_motor_modes(const struct rmd_motor *m, bool batched)
 /* Non-rt. */
 void rmd_motor_info(const struct rmd_motor *m, bool batched, struct rmd_motor_info *out)
 {
-	bool mit = m->caps & RMD_DIALECT_MIT;
+	bool mit = m->mit_mode;
 
 	memset(out, 0, sizeof(*out));
 	snprintf(out->name, sizeof(out->name), "%s", m->name ? m->name : "");
@@ -445,7 +472,8 @@ static int encode_mit(struct rmd_motor *m, const struct rmd_setpoint *sp, struct
 	const struct rmd_mit_ranges *r = &m->mit_ok.r;
 	struct rmd_mit_cmd c;
 
-	if (!(m->caps & RMD_DIALECT_MIT))
+	/* never a frame over ranges the motor's firmware may not scale by */
+	if (!m->mit_scaled)
 		return -EOPNOTSUPP;
 	c.p_des_rad = clampf(rmd_motor_to_native_pos(m, sp->pos_rad), r->p_min, r->p_max, fl);
 	c.v_des_rad_s = clampf(m->dir * sp->vel_rad_s, r->v_min, r->v_max, fl);
@@ -525,7 +553,7 @@ int rmd_motor_encode_safe(const struct rmd_motor *m, enum rmd_safe_action a,
 	case RMD_SAFE_HOLD:
 		return rmd_motor_encode_cmd(m, 0x81, &out[0]) < 0 ? -EINVAL : 1;
 	case RMD_SAFE_DAMP:
-		if (m->caps & RMD_DIALECT_MIT) {
+		if (m->mit_scaled) {
 			/* kp 0: no position target; kd > 0 resists motion; no torque. */
 			struct rmd_mit_cmd c = { .kd = m->damp_kd };
 
@@ -641,7 +669,7 @@ static int decode_mit(struct rmd_motor *m, const struct rmd_frame *f, struct rmd
 	struct rmd_mit_reply rep;
 	int ret;
 
-	if (!(m->caps & RMD_DIALECT_MIT))
+	if (!m->mit_scaled)
 		return -EINVAL;
 	ret = rmd_mit_unpack_reply(&m->mit_ok, f, &rep);
 	if (ret < 0)
@@ -977,7 +1005,7 @@ double rmd_motor_pos_resolution_rad(const struct rmd_motor *m)
 	if (m->fine_pos) {
 		spec = rmd_motor_row(m, RMD_MOTOR_CMD_FINE_POS);
 		fs = spec ? rmd_layout_field(spec, RMD_DIR_REPLY, RMD_FLD_ANGLE) : NULL;
-	} else if (m->caps & RMD_DIALECT_MIT) {
+	} else if (m->mit_mode) {
 		return (m->mit.p_max - m->mit.p_min) / (double)((1u << RMD_MIT_POS_BITS) - 1);
 	} else if (m->st2.angle) {
 		fs = m->st2.angle;

@@ -258,6 +258,20 @@ static void boot(struct rmd_sim_motor *m, int64_t now_ns)
 	rmd_sim_detect_faults(m, 0.0);
 }
 
+/*
+ * What the simulated firmware scales MIT frames by: its dialect's own
+ * ranges for its date and model where they are fixed (V4.4), else the
+ * ranges set (p.mit): the table is the one rmdd decides by
+ * (rmd_mit_scaling_decide()), asked without an entry.
+ */
+static struct rmd_mit_ranges firmware_mit(const struct rmd_sim_motor *m)
+{
+	struct rmd_mit_decision dec;
+
+	rmd_mit_scaling_decide(m->d, m->p.version_date, m->p.model, &m->p.mit, 0, &dec);
+	return dec.source == RMD_MIT_FROM_FIRMWARE ? dec.r : m->p.mit;
+}
+
 void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_params *p,
 			int64_t now_ns)
 {
@@ -265,6 +279,7 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 	m->p = *p;
 	sanitize(&m->p);
 	m->d = rmd_dialect(m->p.proto);
+	m->mit_ranges = firmware_mit(m);
 	/* V4.2 §2.1.4: the index of each PI gain, by its key ("current_kp") */
 	for (unsigned i = 0; i < RMD_SIM_NPID; i++) {
 		m->gain_index[i] = -1;
@@ -1074,7 +1089,7 @@ static int v2_multi_torque(struct rmd_sim_motor *m, const struct rmd_frame *f,
 	return emit(m, m->d->proto, &rep, out, max);
 }
 
-/* V3 §5: MIT motion mode; the reply on 0x500 + ID. */
+/* V3 §5, V4.2 §5: MIT motion mode; the reply on 0x500 + ID. */
 static int mit_command(struct rmd_sim_motor *m, const struct rmd_frame *f, struct rmd_frame *out,
 		       int max)
 {
@@ -1082,7 +1097,7 @@ static int mit_command(struct rmd_sim_motor *m, const struct rmd_frame *f, struc
 	struct rmd_mit_reply rep;
 	uint8_t id;
 
-	if (rmd_mit_decode_cmd(&m->p.mit, f, &id, &cmd) < 0)
+	if (rmd_mit_decode_cmd(&m->mit_ranges, f, &id, &cmd) < 0)
 		return 0;
 	if (!m->errors) {
 		enter(m, RMD_SIM_MIT);
@@ -1095,7 +1110,7 @@ static int mit_command(struct rmd_sim_motor *m, const struct rmd_frame *f, struc
 	rep.pos_rad = rmd_sim_angle_rad(m);
 	rep.vel_rad_s = m->vel_rad_s;
 	rep.torque_nm = m->p.kt_nm_a * m->iq_a;
-	return rmd_mit_encode_reply(&m->p.mit, &rep, out) < 0 ? 0 : 1;
+	return rmd_mit_encode_reply(&m->mit_ranges, &rep, out) < 0 ? 0 : 1;
 }
 
 /*
@@ -1132,7 +1147,8 @@ static enum route route_of(const struct rmd_sim_motor *m, uint32_t can_id)
 	/* V3 §4.1: every motor takes 0x300, unless its filter is on (§2.33.4). */
 	if (can_id == rmd_dialect_set_id_can(m->d) && can_id)
 		return m->ram.can_filter ? R_NONE : R_SET_ID;
-	if (can_id == m->d->ctl_req_base + id && rmd_dialect_has(m->d, RMD_DIALECT_MIT))
+	/* V3 §5, V4.2 §5: the firmware takes MIT frames, driven in MIT or not */
+	if (can_id == RMD_CAN_MIT_REQ_BASE + id && rmd_dialect_offers_mit(m->d))
 		return R_MIT;
 	return R_NONE;
 }

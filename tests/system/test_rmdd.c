@@ -1016,6 +1016,104 @@ static void test_check_config_v2_protection(void **state)
 	assert_null(strstr(p.out, "comm_loss_ms"));
 }
 
+/*
+ * Issue 33.5: MIT on V4 firmware, its scaling the firmware's.  The
+ * bring-up report says the scaling chosen per motor and why: an X6 on
+ * V4.4 firmware its own, a V4.2 motor found by protocol: auto the preset,
+ * V3 firmware of protocol: mit the V3 preset.
+ */
+static void test_mit_scaling_reported(void **state)
+{
+	static struct proc p;
+	const char *const *args;
+
+	(void)state;
+	args = config_args("mit.yaml",
+			   "buses: [{name: s0, type: sim}]\n"
+			   "motors:\n"
+			   "  - {name: x6, bus: s0, id: 1, protocol: v4, mode: mit,"
+			   " sim: {version_date: 2026042402, model: X6S2V3}}\n"
+			   "  - {name: knee, bus: s0, id: 2, protocol: auto, mode: mit,"
+			   " sim: {firmware: v4}}\n"
+			   "  - {name: hip, bus: s0, id: 3, protocol: mit, mode: mit}\n");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	expect_in(&p,
+		  "(x6): X6S2V3, firmware 2026042402, 48.0 V, 25 °C, MIT scaling p ±12.566 rad, "
+		  "v ±45 rad/s, t ±60 N·m, kp 0..500, kd 0..50: its firmware's own (V4.4 X6, "
+		  "from firmware 2026042402)");
+	expect_in(&p, "(knee): X8S2V10, firmware 2025070202, 48.0 V, 25 °C, protocol auto: v4, MIT "
+		      "scaling p ±12.5 rad, v ±45 rad/s, t ±24 N·m, kp 0..500, kd 0..5: the V4.2 "
+		      "§5.1 preset (no mit ranges in its entry; firmware before 2026042402)");
+	expect_in(&p, "(hip): X8S2V10, firmware 20220206, 48.0 V, 25 °C, MIT scaling p ±12.5 rad, "
+		      "v ±45 rad/s, t ±24 N·m, kp 0..500, kd 0..5: the V3 §5.1 preset");
+}
+
+/*
+ * MIT whose scaling cannot be decided is refused at bring-up (exit 1),
+ * naming firmware date and model and what to write: a model with no V4.4
+ * scaling, an entry that contradicts the firmware's (both values), and
+ * protocol: mit (V3 firmware) on a V4 motor, which keeps mode mit.
+ */
+static void test_mit_scaling_refused(void **state)
+{
+	static struct proc p;
+	const char *const *args;
+
+	(void)state;
+	args = config_args("mit-bad.yaml",
+			   "buses: [{name: s0, type: sim}]\n"
+			   "motors:\n"
+			   "  - {name: x4, bus: s0, id: 1, protocol: v4, mode: mit,"
+			   " sim: {version_date: 2026042402, model: X4-36}}\n"
+			   "  - {name: x6, bus: s0, id: 2, protocol: v4, mode: mit,"
+			   " mit: {t_min: -24, t_max: 24}, sim: {version_date: 2026042402, model: "
+			   "X6S2V3}}\n"
+			   "  - {name: old, bus: s0, id: 3, protocol: mit, mode: mit,"
+			   " sim: {firmware: v4}}\n");
+	assert_int_equal(run(&p, args), 1);
+	expect_in(&p, "(x4): X4-36, firmware 2026042402, 48.0 V, 25 °C; refused: MIT refused, its "
+		      "scaling unknown: firmware 2026042402, model X4-36; from 2026042402 V4 "
+		      "firmware scales MIT by model and rmdd knows X6, X8 only: give its entry all "
+		      "ten mit ranges as its firmware scales them (missing: p_min, p_max, v_min, "
+		      "v_max, t_min, t_max, kp_min, kp_max, kd_min, kd_max)");
+	expect_in(&p,
+		  "(x6): X6S2V3, firmware 2026042402, 48.0 V, 25 °C; refused: MIT refused: its "
+		  "entry's mit t_min -24 contradicts its firmware's -60 (V4.4 X6, from firmware "
+		  "2026042402; this one: firmware 2026042402, model X6S2V3): set t_min: -60 or "
+		  "leave it out");
+	expect_in(&p, "(old): X8S2V10, firmware 2025070202, 48.0 V, 25 °C; refused: its firmware "
+		      "2025070202 is v4, but its protocol is mit (set protocol: v4, or auto, and "
+		      "keep mode: mit)");
+	assert_null(strstr(p.out, "running:"));
+}
+
+/*
+ * --check-config cannot read the firmware: it says what each firmware of
+ * the motor's dialect would make of its entry.
+ */
+static void test_check_config_mit(void **state)
+{
+	static struct proc p;
+	char path[512];
+	const char *argv[] = { "--check-config", path, NULL };
+
+	(void)state;
+	config_file(path, "mit-check.yaml",
+		    "buses: [{name: s0, type: sim}]\n"
+		    "motors: [{name: x6, bus: s0, id: 1, protocol: v4, mode: mit}]\n");
+	assert_int_equal(run(&p, argv), 0);
+	expect_in(&p, "MIT scaling, decided at bring-up from each motor's firmware date (0xB2) and "
+		      "model (0xB5)");
+	expect_in(&p, "x6: no mit ranges in its entry; v4 firmware before 2026042402: the preset p "
+		      "±12.5 rad, v ±45 rad/s, t ±24 N·m, kp 0..500, kd 0..5; from firmware "
+		      "2026042402, X6: p ±12.566 rad, v ±45 rad/s, t ±60 N·m, kp 0..500, kd 0..50, "
+		      "the firmware's");
+	expect_in(&p, "other models of such firmware, or no firmware date: refused at bring-up");
+}
+
 /* ---- set-up ----------------------------------------------------------------------- */
 
 static int setup(void **state)
@@ -1319,6 +1417,9 @@ int main(void)
 		cmocka_unit_test_teardown(test_lcm_error_is_clean, reap),
 		cmocka_unit_test_teardown(test_config_directory, reap),
 		cmocka_unit_test_teardown(test_check_config_v2_protection, reap),
+		cmocka_unit_test_teardown(test_mit_scaling_reported, reap),
+		cmocka_unit_test_teardown(test_mit_scaling_refused, reap),
+		cmocka_unit_test_teardown(test_check_config_mit, reap),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_cpu_affinity_missing */

@@ -442,6 +442,40 @@ static void test_filter(void **state)
 	rmd_bus_close(&bus);
 }
 
+/*
+ * Issue 33.5: a V4 motor driven in MIT mode (opts.mit_ids) has its MIT
+ * replies on 0x500 + ID admitted beside its 0x240 + ID; a V4 motor not in
+ * MIT mode has not.
+ */
+static void test_filter_mit_mode(void **state)
+{
+	static const struct rmd_socketcan_motor motors[] = { { 1, RMD_PROTO_V4, false },
+							     { 2, RMD_PROTO_V4, false } };
+	const struct rmd_socketcan_opts opts = { .motors = motors,
+						 .n_motors = 2,
+						 .mit_ids = 1u << 1 };
+	const struct rmd_frame want[] = { frame(0x502, 8, 1), frame(0x241, 8, 2),
+					  frame(0x242, 8, 3) };
+	struct rmd_bus_rx rx[8];
+	struct rmd_bus bus;
+	int peer, n;
+
+	(void)state;
+	open_ok(&bus, "vcan0", &opts);
+	peer = peer_open("vcan0");
+	peer_send_raw(peer, 0x501, 8, NULL); /* motor 1 is not in MIT mode */
+	peer_send(peer, &want[0]);
+	peer_send(peer, &want[1]);
+	peer_send(peer, &want[2]);
+	n = recv_until(&bus, rx, 3, 2000);
+	assert_int_equal(n, 3);
+	for (int i = 0; i < n; i++)
+		assert_frame_equal(&rx[i].f, &want[i], i);
+	assert_int_equal(bus_recv(&bus, rx, 8), 0);
+	close(peer);
+	rmd_bus_close(&bus);
+}
+
 /* Kernel receive stamps, converted to CLOCK_MONOTONIC, fall between send and receive. */
 static void test_timestamps(void **state)
 {
@@ -901,6 +935,7 @@ int main(void)
 		cmocka_unit_test(test_open_small_txqueuelen),
 		cmocka_unit_test(test_open_bad_motor),
 		cmocka_unit_test(test_filter),
+		cmocka_unit_test(test_filter_mit_mode),
 		cmocka_unit_test(test_timestamps),
 		cmocka_unit_test(test_burst_over_txqueuelen),
 		cmocka_unit_test(test_error_frames_on_vcan),

@@ -23,6 +23,7 @@
 
 #include "rmd/codec.h"
 #include "rmd/dialect.h"
+#include "rmd/mit.h"
 
 #include "harness/hex.h"
 #include "harness/rng.h"
@@ -892,13 +893,13 @@ static void test_round_trip(void **state)
 	print_message("codec: round-trip seed %llu (set RMD_TEST_SEED to repeat)\n",
 		      (unsigned long long)seed_used);
 	rng = seed_used;
-	/* every dialect with a table of its own (MIT's is V3's) */
+	/* every firmware dialect, each with a table of its own (the mit key's is V3's) */
 	{
 		size_t nd, walked = 0;
 		const struct rmd_dialect *dl = rmd_dialect_list(&nd);
 
 		for (size_t i = 0; i < nd; i++) {
-			if (dl[i].table != dl[i].proto)
+			if (!rmd_dialect_is_firmware(&dl[i]))
 				continue;
 			round_trip_table(dl[i].proto, &rng);
 			walked++;
@@ -1413,6 +1414,141 @@ static void test_version_date(void **state)
  * 2024-05-28 (V4.2 §9) is the first that gives V4; earlier plausible dates
  * give V3; no date gives V3, uncertain.
  */
+/*
+ * Issue 33.5: MIT is a mode the firmware records offer, not a firmware;
+ * the `mit` key is V3 firmware's.  One predicate tells it.
+ */
+static void test_mit_is_a_mode(void **state)
+{
+	const struct rmd_dialect *v3 = rmd_dialect(RMD_PROTO_V3), *v4 = rmd_dialect(RMD_PROTO_V4);
+	const struct rmd_dialect *v2 = rmd_dialect(RMD_PROTO_V2), *mit = rmd_dialect(RMD_PROTO_MIT);
+
+	(void)state;
+	assert_true(rmd_dialect_is_firmware(v3) && rmd_dialect_is_firmware(v4) &&
+		    rmd_dialect_is_firmware(v2));
+	assert_false(rmd_dialect_is_firmware(mit));
+	assert_ptr_equal(rmd_dialect_firmware(mit), v3);
+	assert_ptr_equal(rmd_dialect_firmware(v4), v4);
+	assert_true(rmd_dialect_offers_mit(v3) && rmd_dialect_offers_mit(v4) &&
+		    rmd_dialect_offers_mit(mit));
+	assert_false(rmd_dialect_offers_mit(v2));
+	assert_false(rmd_dialect_mit_dated(v3));
+	assert_true(rmd_dialect_mit_dated(v4));
+}
+
+/*
+ * The MIT scaling table (docs/protocol-v4.md "MIT scaling") as
+ * rmd_mit_scaling_decide() reads it: by dialect, firmware version, model
+ * and the entry's named bounds.
+ */
+static void test_mit_scaling_decide(void **state)
+{
+	static const struct rmd_mit_ranges v42 = { -12.5, 12.5, -45, 45, -24, 24, 0, 500, 0, 5 };
+	static const struct rmd_mit_ranges x6 = { -12.566, 12.566, -45, 45, -60, 60, 0, 500, 0, 50 };
+	static const struct rmd_mit_ranges x8 = {
+		-12.566, 12.566, -45, 45, -129, 129, 0, 500, 0, 50
+	};
+	static const struct rmd_mit_ranges mine = { -3, 3, -10, 10, -40, 40, 0, 100, 0, 8 };
+	static const struct {
+		enum rmd_proto proto;
+		uint32_t version;
+		const char *model;
+		const struct rmd_mit_ranges *entry; /* NULL: the preset, none named */
+		unsigned given;
+		enum rmd_mit_source source;
+		const struct rmd_mit_ranges *want; /* decided: what frames are scaled by */
+		double t_max;			   /* when want is NULL: t_max expected */
+	} rows[] = {
+		{ RMD_PROTO_V3, 20220206, "X8S2V10", NULL, 0, RMD_MIT_FROM_PRESET, &v42, 0 },
+		{ RMD_PROTO_MIT, 20220206, "X8S2V10", NULL, 0, RMD_MIT_FROM_PRESET, &v42, 0 },
+		{ RMD_PROTO_V4, 2025070202, "X6S2V3", NULL, 0, RMD_MIT_FROM_PRESET, &v42, 0 },
+		/* V4.4 from 2026042402: build 01 of that day, or the eight-digit date, is before */
+		{ RMD_PROTO_V4, 2026042401, "X6S2V3", NULL, 0, RMD_MIT_FROM_PRESET, &v42, 0 },
+		{ RMD_PROTO_V4, 20260424, "X6S2V3", NULL, 0, RMD_MIT_FROM_PRESET, &v42, 0 },
+		{ RMD_PROTO_V4, 2026042402, "X6S2V3", NULL, 0, RMD_MIT_FROM_FIRMWARE, &x6, 0 },
+		{ RMD_PROTO_V4, 2026042402, "RMD-X6-", NULL, 0, RMD_MIT_FROM_FIRMWARE, &x6, 0 },
+		{ RMD_PROTO_V4, 20260425, "X8ProV2", NULL, 0, RMD_MIT_FROM_FIRMWARE, &x8, 0 },
+		{ RMD_PROTO_V4, 2027010101, "x8", NULL, 0, RMD_MIT_FROM_FIRMWARE, &x8, 0 },
+		/* models rmdd has no V4.4 scaling of, and no date: the whole entry, or refused */
+		{ RMD_PROTO_V4, 2026042402, "X4-36", NULL, 0, RMD_MIT_NO_MODEL, NULL, 0 },
+		{ RMD_PROTO_V4, 2026042402, "X10S2", NULL, 0, RMD_MIT_NO_MODEL, NULL, 0 },
+		{ RMD_PROTO_V4, 2026042402, "", NULL, 0, RMD_MIT_NO_MODEL, NULL, 0 },
+		{ RMD_PROTO_V4, 2026042402, "X4-36", &mine, RMD_MIT_BOUNDS_ALL, RMD_MIT_FROM_ENTRY,
+		  &mine, 0 },
+		{ RMD_PROTO_V4, 2026042402, "X4-36", &mine, RMD_MIT_BOUNDS_ALL & ~RMD_MIT_BOUND(0),
+		  RMD_MIT_NO_MODEL, NULL, 0 },
+		{ RMD_PROTO_V4, 0, "X6S2V3", NULL, 0, RMD_MIT_NO_DATE, NULL, 0 },
+		{ RMD_PROTO_V3, 0, "X8S2V10", NULL, 0, RMD_MIT_NO_DATE, NULL, 0 },
+		{ RMD_PROTO_V4, 19991231, "X6S2V3", NULL, 0, RMD_MIT_NO_DATE, NULL, 0 },
+		{ RMD_PROTO_V3, 0, "X8S2V10", &mine, RMD_MIT_BOUNDS_ALL, RMD_MIT_FROM_ENTRY, &mine,
+		  0 },
+		/* an entry over a preset wins; against a fixed scaling it must agree */
+		{ RMD_PROTO_V3, 20220206, "X8S2V10", &mine, RMD_MIT_BOUND(5), RMD_MIT_FROM_ENTRY,
+		  NULL, 40 },
+		{ RMD_PROTO_V4, 2026042402, "X6S2V3", &v42, RMD_MIT_BOUND(5), RMD_MIT_CONTRADICTS,
+		  NULL, 0 },
+		{ RMD_PROTO_V4, 2026042402, "X6S2V3", &x6, RMD_MIT_BOUNDS_ALL,
+		  RMD_MIT_FROM_FIRMWARE, &x6, 0 },
+		{ RMD_PROTO_V2, 20220206, "", NULL, 0, RMD_MIT_NO_MIT, NULL, 0 },
+	};
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(rows) / sizeof(rows[0]); i++) {
+		struct rmd_mit_decision dec;
+		const struct rmd_mit_ranges *entry = rows[i].entry ? rows[i].entry : &v42;
+
+		rmd_mit_scaling_decide(rmd_dialect(rows[i].proto), rows[i].version, rows[i].model,
+				       entry, rows[i].given, &dec);
+		if (dec.source != rows[i].source)
+			fail_msg("row %zu (%s %u %s): source %d, expected %d", i,
+				 rmd_proto_key(rows[i].proto), (unsigned)rows[i].version,
+				 rows[i].model, dec.source, rows[i].source);
+		assert_int_equal(rmd_mit_decided(&dec), rows[i].source <= RMD_MIT_FROM_FIRMWARE);
+		if (rows[i].want)
+			for (unsigned k = 0; k < RMD_MIT_BOUNDS; k++)
+				if (rmd_mit_bound(&dec.r, k) != rmd_mit_bound(rows[i].want, k))
+					fail_msg("row %zu: %s %g, expected %g", i,
+						 rmd_mit_bound_key(k), rmd_mit_bound(&dec.r, k),
+						 rmd_mit_bound(rows[i].want, k));
+		if (rows[i].t_max)
+			assert_true(dec.r.t_max == rows[i].t_max && dec.r.t_min == -24);
+	}
+}
+
+/*
+ * The bounds the sources disagree on (kd on V4.4: its changelog 0..50, a
+ * measurement 0..5) are the entry's to say; the others it must match.
+ */
+static void test_mit_scaling_entry(void **state)
+{
+	struct rmd_mit_ranges e = rmd_mit_default_ranges;
+	const struct rmd_dialect *v4 = rmd_dialect(RMD_PROTO_V4);
+	struct rmd_mit_decision dec;
+
+	(void)state;
+	/* kd_max 5 on a V4.4 X6: the entry's, said; the rest the X6's */
+	rmd_mit_scaling_decide(v4, 2026042402, "X6S2V3", &e, RMD_MIT_BOUND(9), &dec);
+	assert_int_equal(dec.source, RMD_MIT_FROM_FIRMWARE);
+	assert_true(dec.r.kd_max == 5.0 && dec.r.t_max == 60.0 && dec.r.p_max == 12.566);
+	assert_int_equal(dec.overrides, RMD_MIT_BOUND(9));
+	/* 4 pi is 12.566 (within 1e-4); 12.5 is not */
+	e.p_max = 4 * M_PI;
+	rmd_mit_scaling_decide(v4, 2026042402, "X6S2V3", &e, RMD_MIT_BOUND(1), &dec);
+	assert_int_equal(dec.source, RMD_MIT_FROM_FIRMWARE);
+	assert_int_equal(dec.overrides, 0);
+	e.p_max = 12.5;
+	rmd_mit_scaling_decide(v4, 2026042402, "X6S2V3", &e, RMD_MIT_BOUND(1), &dec);
+	assert_int_equal(dec.source, RMD_MIT_CONTRADICTS);
+	assert_int_equal(dec.bound, 1);
+	assert_true(dec.entry_value == 12.5 && dec.row->r.p_max == 12.566);
+	/* no date, a partial entry: what it lacks is named */
+	rmd_mit_scaling_decide(v4, 0, "X6S2V3", &e, RMD_MIT_BOUND(4) | RMD_MIT_BOUND(5), &dec);
+	assert_int_equal(dec.source, RMD_MIT_NO_DATE);
+	assert_int_equal(dec.missing, RMD_MIT_BOUNDS_ALL & ~(RMD_MIT_BOUND(4) | RMD_MIT_BOUND(5)));
+	assert_string_equal(rmd_mit_bound_key(4), "t_min");
+	assert_string_equal(rmd_mit_bound_key(9), "kd_max");
+}
+
 static void test_dialect_for_firmware(void **state)
 {
 	static const struct {
@@ -1585,6 +1721,9 @@ int main(void)
 		cmocka_unit_test(test_model),
 		cmocka_unit_test(test_version_date),
 		cmocka_unit_test(test_dialect_for_firmware),
+		cmocka_unit_test(test_mit_is_a_mode),
+		cmocka_unit_test(test_mit_scaling_decide),
+		cmocka_unit_test(test_mit_scaling_entry),
 		cmocka_unit_test(test_float_field),
 		cmocka_unit_test(test_v4_single_turn),
 		cmocka_unit_test(test_v2_multi_turn_sign),

@@ -275,7 +275,8 @@ static const struct bad_file bad_files[] = {
 	  { "bus-type.yaml:6: buses[1].type: \"canbus\" is not one of socketcan, rs485, sim" } },
 	{ "mit-mode.yaml",
 	  -EINVAL,
-	  { "mit-mode.yaml:5: motors[0].mode: torque: a mit protocol motor runs in mode mit",
+	  { "mit-mode.yaml:5: motors[0].mode: torque: protocol mit is V3 firmware driven in mode "
+	    "mit (V3 §5): set mode: mit, or protocol: v3 for mode torque",
 	    "mit-mode.yaml:7: motors[2].protocol: v2 has no RS485 form",
 	    "mit-mode.yaml:8: motors[3].limits.position_min_rad: 1 must be below "
 	    "position_max_rad" } },
@@ -1215,7 +1216,7 @@ static void test_lcm_rt_priority(void **state)
 	expect_in(err, "lcm.rt_priority: 49 is out of range (0..48)");
 }
 
-/* protocol: v4 (docs/protocol-v4.md) on CAN and on RS485 (V4.2 §1.2); not in mode mit. */
+/* protocol: v4 (docs/protocol-v4.md) on CAN and on RS485 (V4.2 §1.2). */
 static void test_protocol_v4(void **state)
 {
 	(void)state;
@@ -1232,15 +1233,11 @@ static void test_protocol_v4(void **state)
 		fail_msg("%s", err);
 	assert_int_equal(cfg.motors[0].proto, RMD_PROTO_V4);
 	assert_int_equal(cfg.motors[1].proto, RMD_PROTO_V4);
-	assert_int_not_equal(load_str("v4-mit", BUS "motors:\n  - {name: m1, bus: can0, id: 1, "
-						    "protocol: v4, mode: mit}\n"),
-			     0);
-	expect_in(err, "mit needs protocol mit (this motor is v4)");
 }
 
 /*
  * Issue 19 protocol auto and issue 20.7: auto makes a V3 motor until
- * bring-up; auto cannot tell MIT; units rotor is refused for MIT motors.
+ * bring-up; units rotor is refused for motors in mode mit.
  */
 static void test_protocol_auto_and_mit_units(void **state)
 {
@@ -1251,15 +1248,71 @@ static void test_protocol_auto_and_mit_units(void **state)
 			 0);
 	assert_true(cfg.motors[0].proto_auto);
 	assert_int_equal(cfg.motors[0].proto, RMD_PROTO_V3);
-	assert_int_not_equal(load_str("auto-mit", BUS "motors:\n  - {name: m1, bus: can0, id: 1, "
-						      "protocol: auto, mode: mit}\n"),
-			     0);
-	expect_in(err, "auto cannot tell an MIT motor: mode mit needs protocol mit");
 	assert_int_not_equal(load_str("mit-rotor", BUS "motors:\n  - {name: m1, bus: can0, id: 1, "
 						       "protocol: mit, mode: mit, units: rotor, "
 						       "gear_ratio: 6}\n"),
 			     0);
-	expect_in(err, "motors[0].units: rotor is not for protocol mit");
+	expect_in(err, "motors[0].units: rotor is not for mode mit");
+	assert_int_not_equal(load_str("v4-mit-rotor", BUS "motors:\n  - {name: m1, bus: can0, "
+							  "id: 1, protocol: v4, mode: mit, "
+							  "units: rotor, gear_ratio: 6}\n"),
+			     0);
+	expect_in(err, "motors[0].units: rotor is not for mode mit");
+}
+
+/*
+ * Issue 33.5: MIT is a mode of V3 and V4 firmware.  mode mit loads with
+ * protocol v3, v4 and auto (no torque constant needed, as its frames carry
+ * torque); protocol: mit stays V3 firmware driven in MIT; the mit keys an
+ * entry names are recorded, for bring-up to hold them against the
+ * firmware's scaling; V2 (no 0x400 frames) and RS485 (MIT is CAN only)
+ * are refused at FILE:LINE, saying what to write.
+ */
+static void test_mit_mode_spellings(void **state)
+{
+	(void)state;
+	assert_int_equal(load_str("mit-mode-ok", BUS
+				  "motors:\n"
+				  "  - {name: a, bus: can0, id: 1, protocol: v3, mode: mit}\n"
+				  "  - {name: b, bus: can0, id: 2, protocol: v4, mode: mit,\n"
+				  "     mit: {t_min: -60, t_max: 60, kd_max: 50}}\n"
+				  "  - {name: c, bus: can0, id: 3, protocol: auto, mode: mit}\n"
+				  "  - {name: d, bus: can0, id: 4, protocol: mit, mode: mit}\n"),
+			 0);
+	if (cfg.n_motors != 4)
+		fail_msg("%s", err);
+	assert_int_equal(cfg.motors[0].proto, RMD_PROTO_V3);
+	assert_int_equal(cfg.motors[1].proto, RMD_PROTO_V4);
+	assert_true(cfg.motors[2].proto_auto);
+	for (unsigned i = 0; i < 4; i++) {
+		assert_int_equal(cfg.motors[i].mode, RMD_MODE_MIT);
+		assert_true(rmd_config_mit_mode(&cfg.motors[i]));
+	}
+	assert_int_equal(cfg.motors[0].mit_given, 0);
+	assert_int_equal(cfg.motors[1].mit_given,
+			 RMD_MIT_BOUND(4) | RMD_MIT_BOUND(5) | RMD_MIT_BOUND(9));
+	assert_true(cfg.motors[1].mit.t_max == 60.0 && cfg.motors[1].mit.kd_max == 50.0);
+	assert_true(cfg.motors[1].mit.p_max == 12.5); /* the preset where it names none */
+
+	assert_int_not_equal(load_str("v2-mit",
+				      BUS "motors:\n  - {name: m1, bus: can0, id: 1,\n"
+					  "     protocol: v2, mode: mit, comm_loss_ms: 0}\n"),
+			     0);
+	expect_in(err, ":5: motors[0].mode: mit: v2 firmware has no MIT mode (V2 has no 0x400 "
+		       "frames): mode mit is for protocol v3, v4 or auto");
+	assert_int_not_equal(load_str("rs485-mit", "buses:\n  - {name: rs0, type: rs485, "
+						   "device: /dev/ttyS0}\n"
+						   "motors:\n  - {name: m1, bus: rs0, id: 1, "
+						   "protocol: v4, mode: mit}\n"),
+			     0);
+	expect_in(err, ":4: motors[0].mode: mit has no RS485 form (V3 §5: MIT frames travel "
+		       "on CAN only); bus rs0 is rs485");
+	assert_int_not_equal(load_str("mit-speed", BUS "motors:\n  - {name: m1, bus: can0, id: 1, "
+						       "protocol: mit, mode: speed, "
+						       "torque_constant_nm_a: 2}\n"),
+			     0);
+	expect_in(err, ":4: motors[0].mode: speed: protocol mit is V3 firmware driven in mode "
+		       "mit (V3 §5): set mode: mit, or protocol: v3 for mode speed");
 }
 
 int main(void)
@@ -1267,6 +1320,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_examples_load),
 		cmocka_unit_test(test_protocol_auto_and_mit_units),
+		cmocka_unit_test(test_mit_mode_spellings),
 		cmocka_unit_test(test_example_sim12),
 		cmocka_unit_test(test_example_rmdd),
 		cmocka_unit_test(test_defaults),

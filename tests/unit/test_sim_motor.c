@@ -507,6 +507,59 @@ static void test_mit_pd_law(void **state)
 	assert_int_equal(read_v(&m, RMD_PROTO_V3, 1, 0x70, RMD_FLD_MODE), 1);
 }
 
+/*
+ * Issue 33.5: V3 and V4 firmware take MIT frames (V3 §5, V4.2 §5), scaled
+ * as their firmware says: the manual's preset, and from firmware
+ * 2026042402 (V4.4) the model's own (X6: p ±12.566 rad, t ±60 N·m, kd
+ * 0..50; docs/protocol-v4.md).  The preset's frame of t 10 N·m is 25 N·m
+ * to an X6 of V4.4.
+ */
+static void test_mit_scaling_by_firmware(void **state)
+{
+	static const struct rmd_mit_ranges x6 = { -12.566, 12.566, -45, 45, -60, 60, 0, 500, 0, 50 };
+	static const struct {
+		enum rmd_proto proto;
+		uint32_t version;
+		const char *model;
+		const struct rmd_mit_ranges *scale; /* NULL: the preset (V3 §5.1) */
+	} rows[] = {
+		{ RMD_PROTO_V3, 20220206, "X8S2V10", NULL },
+		{ RMD_PROTO_V4, 2025070202, "X6S2V3", NULL },
+		{ RMD_PROTO_V4, 2026042402, "X6S2V3", &x6 },
+		{ RMD_PROTO_V4, 2026042402, "X4-36", NULL }, /* a model of no V4.4 row: as set */
+	};
+	struct rmd_mit_cmd cmd = { .p_des_rad = 2.0, .kd = 1.0, .t_ff_nm = 10.0 };
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(rows) / sizeof(rows[0]); i++) {
+		const struct rmd_mit_ranges *r = rows[i].scale ? rows[i].scale :
+								 &rmd_mit_default_ranges;
+		struct rmd_sim_motor_params p;
+		struct rmd_sim_motor m;
+		struct rmd_frame f, out[MAXREP];
+		struct rmd_mit_reply rep;
+
+		rmd_sim_motor_params_default(&p, 1, rows[i].proto);
+		p.version_date = rows[i].version;
+		snprintf(p.model, sizeof(p.model), "%s", rows[i].model);
+		rmd_sim_motor_init(&m, &p, now);
+		brake_release(&m, rows[i].proto, 1);
+		assert_int_equal(rmd_mit_encode_cmd(r, 1, &cmd, &f), 0);
+		assert_int_equal(send(&m, &f, out), 1);
+		assert_int_equal(m.ctrl, RMD_SIM_MIT);
+		if (fabs(m.mit.t_ff_nm - 10.0) > (r->t_max - r->t_min) / 4095 ||
+		    fabs(m.mit.p_des_rad - 2.0) > (r->p_max - r->p_min) / 65535 ||
+		    fabs(m.mit.kd - 1.0) > (r->kd_max - r->kd_min) / 4095)
+			fail_msg("row %zu: the motor took p %g kd %g t %g", i, m.mit.p_des_rad,
+				 m.mit.kd, m.mit.t_ff_nm);
+		/* its reply is on the same scale */
+		assert_int_equal(out[0].can_id, 0x501);
+		assert_int_equal(rmd_mit_decode_reply(r, &out[0], &rep), 0);
+		assert_true(fabs(rep.torque_nm - m.p.kt_nm_a * m.iq_a) <=
+			    (r->t_max - r->t_min) / 4095);
+	}
+}
+
 /* ---- (g) power cycle ---------------------------------------------------- */
 
 static void test_power_cycle_ram_rom(void **state)
@@ -810,14 +863,18 @@ static void test_garbage_no_reply(void **state)
 		f = (struct rmd_frame){ .can_id = 0x141, .len = 8, .data = { unknown_v2[i] } };
 		expect_silence(&v2, &f);
 	}
-	/* Identifiers not addressed to motor 1 (or not requests). */
+	/*
+	 * Identifiers not addressed to motor 1 (or not requests); 0x401 is
+	 * addressed to V3 firmware too (V3 §5: it takes MIT frames), not V2.
+	 */
 	static const uint32_t ids[] = { 0x140, 0x142, 0x160, 0x241, 0x501, 0x401, 0x7FF, 0 };
 	for (size_t i = 0; i < sizeof(ids) / sizeof(ids[0]); i++) {
 		f = (struct rmd_frame){ .can_id = ids[i], .len = 8, .data = { 0x9C } };
-		expect_silence(&v3, &f);
 		expect_silence(&v2, &f);
-		if (ids[i] != 0x401)
+		if (ids[i] != 0x401) {
+			expect_silence(&v3, &f);
 			expect_silence(&mit, &f);
+		}
 	}
 	/* 0x300 carries 0x79 only (V3 §4); V2 has no 0x300 at all. */
 	f = (struct rmd_frame){ .can_id = 0x300, .len = 8, .data = { 0x9C } };
@@ -1289,6 +1346,7 @@ int main(void)
 		cmocka_unit_test_setup(test_comm_loss_sequence, setup),
 		cmocka_unit_test_setup(test_v2_multi_torque, setup),
 		cmocka_unit_test_setup(test_mit_pd_law, setup),
+		cmocka_unit_test_setup(test_mit_scaling_by_firmware, setup),
 		cmocka_unit_test_setup(test_power_cycle_ram_rom, setup),
 		cmocka_unit_test_setup(test_can_filter, setup),
 		cmocka_unit_test_setup(test_error_reports, setup),

@@ -237,11 +237,12 @@ static enum rmd_proto request_proto(struct sim *s, uint32_t can_id,
 		sl = &s->slots[0];
 	if (!sl)
 		return RMD_PROTO_V3;
-	if (rmd_dialect_has(sl->m.d, RMD_DIALECT_MIT)) {
-		*mit = &sl->m.p.mit;
-		return can_id > sl->m.d->ctl_req_base ? sl->m.d->proto : sl->m.d->table;
+	/* V3 §5, V4.2 §5: its firmware takes MIT frames; its others are its table's */
+	if (can_id > RMD_CAN_MIT_REQ_BASE && rmd_dialect_offers_mit(sl->m.d)) {
+		*mit = &sl->m.mit_ranges;
+		return RMD_PROTO_MIT;
 	}
-	return sl->m.p.proto;
+	return sl->m.d->table;
 }
 
 static void hex(char *buf, size_t size, const uint8_t *b, size_t n)
@@ -295,13 +296,12 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 	if (e->src >= 0) {
 		const struct slot *sl = &s->slots[e->src];
 
-		proto = sl->m.p.proto;
-		mit = &sl->m.p.mit;
-		/* an MIT motor's other frames are its table's (V3 §5) */
-		if (rmd_dialect_has(sl->m.d, RMD_DIALECT_MIT) &&
-		    !(e->f.can_id > sl->m.d->ctl_reply_base &&
-		      e->f.can_id <= sl->m.d->ctl_reply_base + (uint32_t)RMD_MAX_MOTORS))
-			proto = sl->m.d->table;
+		mit = &sl->m.mit_ranges;
+		/* its MIT replies on 0x500 + ID (V3 §5), its others its table's */
+		proto = e->f.can_id > RMD_CAN_MIT_REPLY_BASE &&
+					e->f.can_id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS ?
+				RMD_PROTO_MIT :
+				sl->m.d->table;
 		snprintf(who, sizeof(who), "motor %u", sl->id);
 		describe(desc, sizeof(desc), proto, RMD_DIR_REPLY, mit, wire);
 	} else {
@@ -924,7 +924,7 @@ static void log_startup(const struct sim *s)
 			 list, desc[i]);
 	}
 	for (unsigned i = 0; i < s->n; i++)
-		if (s->serial && rmd_dialect_has(s->slots[i].m.d, RMD_DIALECT_MIT))
+		if (s->serial && !rmd_dialect_is_firmware(s->slots[i].m.d))
 			tool_log(TOOL_LOG_INFO,
 				 "rmd-sim: motor %u: MIT frames have no RS485 form; it "
 				 "answers V3 commands",

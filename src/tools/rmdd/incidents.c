@@ -206,9 +206,9 @@ static const char *decode_proto(const struct rmd_config *cfg, unsigned b)
 
 		if (cfg->motors[i].bus != b || !d)
 			continue;
-		if (t && t->proto != d->table)
+		if (t && t != rmd_dialect_firmware(d))
 			return "v3";
-		t = rmd_dialect(d->table);
+		t = rmd_dialect_firmware(d);
 	}
 	return t ? t->key : "v3";
 }
@@ -317,6 +317,13 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 			 ": no 0x280 frame from now on",
 			 rmdd_bus_name(cfg, e->bus), e->b, (uint64_t)e->a);
 		break;
+	case RMD_EV_MIT_SCALING:
+		snprintf(buf, len, "%s: left out, its MIT scaling undecided (firmware %" PRId64 ")",
+			 ctx, e->a);
+		break;
+	case RMD_EV_MIT_REFUSED:
+		snprintf(buf, len, "%s: MIT refused, its MIT scaling not decided", ctx);
+		break;
 	default:
 		snprintf(buf, len, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
@@ -371,6 +378,8 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 	case RMD_EV_POS_REFUSED:
 	case RMD_EV_HOME_REFUSED:
 	case RMD_EV_DIALECT:
+	case RMD_EV_MIT_SCALING:
+	case RMD_EV_MIT_REFUSED:
 	default:
 		return false;
 	}

@@ -422,6 +422,19 @@ static int check_config(const char *path)
 	for (unsigned b = 0; b < cfg.n_buses; b++)
 		if (*sim_note(&cfg, b, note, sizeof(note)))
 			printf("\n%s\n", note);
+	/* the firmware decides the MIT scaling: only bring-up can read it */
+	for (unsigned i = 0, first = 1; i < cfg.n_motors; i++) {
+		char mit[1024];
+
+		if (!rmd_config_mit_mode(&cfg.motors[i]))
+			continue;
+		if (first)
+			printf("\nMIT scaling, decided at bring-up from each motor's firmware date "
+			       "(0xB2) and model (0xB5) (docs/protocol-v4.md \"MIT scaling\"):\n");
+		first = 0;
+		rmdd_mit_config_note(&cfg, i, mit, sizeof(mit));
+		printf("  %s\n", mit);
+	}
 	fflush(stdout);
 	if (r) {
 		fprintf(stderr, "%s\n", err);
@@ -645,6 +658,13 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		line_add(ln, ", no 0x92 angle: no position until it answers one");
 	if (!rmd_dialect_has(d, RMD_DIALECT_COMM_LOSS_B3))
 		line_add(ln, ", no 0xB3 in %s (no comm-loss protection)", d->name);
+	/* the scaling chosen for its MIT frames, and why (docs/protocol-v4.md "MIT scaling") */
+	if (bm->mit_mode && bm->mismatch == RMD_BRINGUP_MISMATCH_NONE) {
+		char mit[512];
+
+		rmdd_mit_text(d, &bm->mit, bm->version, bm->model, mit, sizeof(mit));
+		line_add(ln, ", %s", mit);
+	}
 	if (bm->state == RMD_BRINGUP_MISMATCH) {
 		line_add(ln, "; refused: ");
 		switch (bm->mismatch) {
@@ -654,8 +674,27 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 
 			line_add(ln,
 				 "its firmware %u is %s, but its protocol is %s (set protocol: %s, "
-				 "or auto)",
+				 "or auto",
 				 (unsigned)bm->version, fw, rmd_proto_key(c->proto), fw);
+			/* `mit` names V3 firmware driven in MIT: the mode stays */
+			if (!rmd_dialect_is_firmware(rmd_dialect(c->proto)))
+				line_add(ln, ", and keep mode: mit");
+			line_add(ln, ")");
+			break;
+		}
+		case RMD_BRINGUP_MISMATCH_NO_MIT:
+			line_add(
+				ln,
+				"it answers as %s, which has no MIT mode (V2 has no 0x400 frames), "
+				"and its mode is mit (set protocol: %s and another mode, as for a "
+				"%s motor)",
+				d->name, d->key, d->name);
+			break;
+		case RMD_BRINGUP_MISMATCH_MIT_SCALING: {
+			char mit[512];
+
+			rmdd_mit_text(d, &bm->mit, bm->version, bm->model, mit, sizeof(mit));
+			line_add(ln, "%s", mit);
 			break;
 		}
 		case RMD_BRINGUP_MISMATCH_NO_COMM_LOSS:

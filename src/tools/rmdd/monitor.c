@@ -384,6 +384,38 @@ static void log_dialect(const struct rmd_config *cfg, const struct rmd_event *e)
 			ctx, how, rmd_proto_key(c->proto), key);
 }
 
+/*
+ * A motor in MIT mode: missing at bring-up, its MIT scaling undecided when
+ * it answered at last (left out), or an MIT enable refused while its
+ * scaling is not decided.  docs/protocol-v4.md "MIT scaling".
+ */
+static void log_mit(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	const struct rmd_config_motor *c = e->motor < cfg->n_motors ? &cfg->motors[e->motor] : NULL;
+	struct rmd_mit_decision dec;
+	char ctx[96], model[8], why[512];
+	unsigned series = (unsigned)(e->b >> 8) & 0xFF;
+
+	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	if (e->kind == RMD_EV_MIT_REFUSED || !c) {
+		tool_log(4,
+			 "%s: MIT refused: its MIT scaling is not decided (its firmware's date and "
+			 "model not read: bring-up decides it); counted in "
+			 "health_t.ignored_by_kind[IGN_MIT_SCALING]",
+			 ctx);
+		return;
+	}
+	/* the loop's decision again, on the series it saw (RMD_EV_MIT_SCALING) */
+	model[0] = '\0';
+	if (series)
+		snprintf(model, sizeof(model), "X%u", series % 1000u);
+	rmd_mit_scaling_decide(rmd_dialect(c->proto), (uint32_t)e->a, model, &c->mit, c->mit_given,
+			       &dec);
+	rmdd_mit_text(rmd_dialect(c->proto), &dec, (uint32_t)e->a, model, why, sizeof(why));
+	tool_log(4, "%s: answered at last, %s; left out (restart rmdd once its entry says it)", ctx,
+		 why);
+}
+
 static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct rt_note *rt)
 {
 	const struct rmd_config *cfg = m->cfg;
@@ -430,6 +462,10 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 			 "can_id_filter: true for the bus",
 			 rmdd_bus_name(cfg, e->bus), e->b, (uint64_t)e->a,
 			 rmdd_bus_name(cfg, e->bus));
+		break;
+	case RMD_EV_MIT_SCALING:
+	case RMD_EV_MIT_REFUSED:
+		log_mit(cfg, e);
 		break;
 	case RMD_EV_OVERRUN:
 		/* the first of each second now, the rest summed up by overrun_summary() */

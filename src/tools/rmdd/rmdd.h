@@ -30,6 +30,7 @@
 #include "rmd/bridge.h"
 #include "rmd/bus.h"
 #include "rmd/config.h"
+#include "rmd/dialect.h"
 #include "rmd/loop.h"
 #include "rmd/plan.h"
 #include "rmd/spsc.h"
@@ -168,6 +169,25 @@ const char *rmdd_lifecycle_name(unsigned lc);
 
 /* "can0: motor 3 (knee_l)" for motor index i ("motor #40" when out of range). */
 void rmdd_motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t len);
+
+/* MIT ranges in a few words: "p ±12.566 rad, v ±45 rad/s, t ±60 N·m, kp 0..500, kd 0..50". */
+void rmdd_mit_ranges_text(const struct rmd_mit_ranges *r, char *buf, size_t len);
+
+/*
+ * What was decided of the MIT scaling of a motor of dialect d in MIT mode
+ * (dec, for firmware `version` and model `model`; mit.c), as a clause of
+ * its line: "MIT scaling ...: ..." and why, or "MIT refused ..." and what
+ * to write.  Non-rt.
+ */
+void rmdd_mit_text(const struct rmd_dialect *d, const struct rmd_mit_decision *dec,
+		   uint32_t version, const char *model, char *buf, size_t len);
+
+/*
+ * What `rmdd --check-config` can say of motor i's MIT scaling, which
+ * bring-up decides from the firmware it reads: what its entry names, and
+ * what each firmware of its dialect would make of it (mit.c).  Non-rt.
+ */
+void rmdd_mit_config_note(const struct rmd_config *cfg, unsigned i, char *buf, size_t len);
 /* Bus b's name, "?" when out of range. */
 const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
 
