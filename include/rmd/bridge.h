@@ -46,6 +46,7 @@
 #include <stdint.h>
 #include <sys/types.h>
 
+#include "rmd/channels.h"
 #include "rmd/config.h"
 #include "rmd/frame.h"
 #include "rmd/lcm_link.h"
@@ -209,12 +210,12 @@ struct rmd_bridge {
 
 	pthread_mutex_t config_mu; /* the newest config_t's encoding (rmd_bridge_config_copy) */
 
-	char ch_command[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_state[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_health[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_config[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_config_req[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_home[RMD_BRIDGE_PREFIX_LEN + 16];
+	char ch_command[RMD_BRIDGE_PREFIX_LEN + RMD_CHANNEL_SUFFIX_SIZE];
+	char ch_state[RMD_BRIDGE_PREFIX_LEN + RMD_CHANNEL_SUFFIX_SIZE];
+	char ch_health[RMD_BRIDGE_PREFIX_LEN + RMD_CHANNEL_SUFFIX_SIZE];
+	char ch_config[RMD_BRIDGE_PREFIX_LEN + RMD_CHANNEL_SUFFIX_SIZE];
+	char ch_config_req[RMD_BRIDGE_PREFIX_LEN + RMD_CHANNEL_SUFFIX_SIZE];
+	char ch_home[RMD_BRIDGE_PREFIX_LEN + RMD_CHANNEL_SUFFIX_SIZE];
 
 	/* Owned by the bridge thread. */
 	int64_t last_seq;

@@ -27,6 +27,7 @@
 #include "rmd/time.h"
 #include "rmd/thread.h"
 #include "rmd/bridge.h"
+#include "rmd/channels.h"
 #include "rmd/lcm_link.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
@@ -1363,12 +1364,13 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 	b->opts = *opts;
 	if (b->opts.state_every == 0)
 		b->opts.state_every = 1;
-	snprintf(b->ch_command, sizeof(b->ch_command), "%sCOMMAND", opts->prefix);
-	snprintf(b->ch_state, sizeof(b->ch_state), "%sSTATE", opts->prefix);
-	snprintf(b->ch_health, sizeof(b->ch_health), "%sHEALTH", opts->prefix);
-	snprintf(b->ch_config, sizeof(b->ch_config), "%sCONFIG", opts->prefix);
-	snprintf(b->ch_config_req, sizeof(b->ch_config_req), "%sCONFIG_REQUEST", opts->prefix);
-	snprintf(b->ch_home, sizeof(b->ch_home), "%sHOME", opts->prefix);
+	snprintf(b->ch_command, sizeof(b->ch_command), "%s" RMD_CHANNEL_COMMAND, opts->prefix);
+	snprintf(b->ch_state, sizeof(b->ch_state), "%s" RMD_CHANNEL_STATE, opts->prefix);
+	snprintf(b->ch_health, sizeof(b->ch_health), "%s" RMD_CHANNEL_HEALTH, opts->prefix);
+	snprintf(b->ch_config, sizeof(b->ch_config), "%s" RMD_CHANNEL_CONFIG, opts->prefix);
+	snprintf(b->ch_config_req, sizeof(b->ch_config_req), "%s" RMD_CHANNEL_CONFIG_REQUEST,
+		 opts->prefix);
+	snprintf(b->ch_home, sizeof(b->ch_home), "%s" RMD_CHANNEL_HOME, opts->prefix);
 
 	b->buf = calloc(1, sizeof(*b->buf));
 	if (!b->buf) {

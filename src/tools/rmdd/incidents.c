@@ -33,6 +33,7 @@
 #include <lcm/eventlog.h>
 
 #include "rmd/bridge.h"
+#include "rmd/channels.h"
 #include "rmd/dialect.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_state_t.h"
@@ -44,12 +45,6 @@
 /* Lines of the summary's "what happened" list: one page. */
 #define SUMMARY_EVENTS 40
 
-/*
- * The commands' channel in window.lcmlog: not the live COMMAND channel, so
- * that lcm-logplayer replaying a recording beside a running rmdd never
- * drives its motors.
- */
-#define LOG_COMMAND_CHANNEL "COMMAND_TAKEN"
 #define LOG_ENC_MAX 16384 /* state_t of 32 motors: some 3.5 kB */
 
 /* ---- where the recordings go ---------------------------------------------- */
@@ -593,8 +588,9 @@ static void write_summary(FILE *f, struct out *o)
 	fprintf(f, "  commands.csv  %zu rows: each motor's entry of each command the loop took\n",
 		w->n_commands);
 	fprintf(f,
-		"  window.lcmlog  an LCM log: %s%zu state_t on %sSTATE, %zu command_t the loop "
-		"took on %s" LOG_COMMAND_CHANNEL "; rmd-plot --log, lcm-logplayer, rmd-spy\n",
+		"  window.lcmlog  an LCM log: %s%zu state_t on %s" RMD_CHANNEL_STATE
+		", %zu command_t the loop took on %s" RMD_CHANNEL_COMMAND_TAKEN
+		"; rmd-plot --log, lcm-logplayer, rmd-spy\n",
 		o->log_config ? "config_t, " : "", o->log_states, cfg->lcm.channel_prefix,
 		o->log_commands, cfg->lcm.channel_prefix);
 	free(items);
@@ -661,7 +657,7 @@ static size_t log_state(struct lcmlog *l, struct out *o, size_t k, rmd_motor_sta
 			.reply_age_cycles = (int32_t)s->reply_age_cycles,
 		};
 	}
-	log_put(l, o->in->cfg->lcm.channel_prefix, "STATE", s0->t_ns + o->off_ns,
+	log_put(l, o->in->cfg->lcm.channel_prefix, RMD_CHANNEL_STATE, s0->t_ns + o->off_ns,
 		rmd_state_t_encode(l->enc, 0, LOG_ENC_MAX, &st));
 	o->log_states++;
 	return j;
@@ -694,7 +690,7 @@ static size_t log_command(struct lcmlog *l, struct out *o, size_t k, rmd_motor_c
 			.max_velocity = c->sp.max_vel_rad_s,
 		};
 	}
-	log_put(l, o->in->cfg->lcm.channel_prefix, LOG_COMMAND_CHANNEL, c0->t_ns + o->off_ns,
+	log_put(l, o->in->cfg->lcm.channel_prefix, RMD_CHANNEL_COMMAND_TAKEN, c0->t_ns + o->off_ns,
 		rmd_command_t_encode(l->enc, 0, LOG_ENC_MAX, &cmd));
 	o->log_commands++;
 	return j;
@@ -727,7 +723,7 @@ static int write_lcmlog(const char *dir, struct out *o)
 	if (n > 0) {
 		int64_t t = w->n_states ? w->states[0].t_ns : o->from_ns;
 
-		log_put(&l, o->in->cfg->lcm.channel_prefix, "CONFIG", t + o->off_ns, n);
+		log_put(&l, o->in->cfg->lcm.channel_prefix, RMD_CHANNEL_CONFIG, t + o->off_ns, n);
 		o->log_config = true;
 	}
 	while (!l.err && (ks < w->n_states || kc < w->n_commands)) {
