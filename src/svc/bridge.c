@@ -26,9 +26,7 @@
 
 #include "rmd/time.h"
 #include "rmd/thread.h"
-#include "rmd/bridge.h"
-#include "rmd/channels.h"
-#include "rmd/lcm_link.h"
+#include "bridge_priv.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
@@ -96,29 +94,6 @@ _Static_assert(RMD_MOTOR_CONFIG_T_MODE_BIT_MIT == RMD_BRIDGE_MODE_BIT(RMD_MODE_M
 
 /* config_t answers a flood of CONFIG_REQUESTs at most this often (each allocates). */
 #define CONFIG_INTERVAL_NS (100 * RMD_NS_PER_MS)
-
-/* Room for one encoded state_t or health_t (at most about 2.7 KiB and 1.7 KiB). */
-#define ENC_MAX 8192
-
-struct rmd_bridge_buf {
-	rmd_command_t msg;
-	rmd_motor_command_t msg_motor[RMD_MAX_MOTORS]; /* msg.motor: decoded in place */
-	struct rmd_command cmd;
-	rmd_state_t state;
-	rmd_motor_state_t state_motor[RMD_MAX_MOTORS]; /* state.motor */
-	rmd_health_t health;
-	int8_t health_cl[RMD_MAX_MOTORS]; /* health_t's per-motor arrays */
-	int32_t health_cl_ms[RMD_MAX_MOTORS];
-	int64_t health_unarmed[RMD_MAX_MOTORS];
-	char bus_name[RMD_MAX_BUSES][RMD_BRIDGE_NAME_LEN];
-	rmd_config_t config;
-	/* the newest config_t as published, for rmd_bridge_config_copy(); under config_mu */
-	unsigned char config_enc[ENC_MAX];
-	int config_len;
-	rmd_bus_config_t config_bus[RMD_MAX_BUSES];
-	rmd_motor_config_t config_motor[RMD_MAX_MOTORS];
-	unsigned char enc[ENC_MAX];
-};
 
 static const char *const reject_names[RMD_REJ_KINDS] = {
 	[RMD_REJ_DECODE] = "decode",	   [RMD_REJ_COUNT] = "count", [RMD_REJ_INDEX] = "index",
@@ -1098,7 +1073,7 @@ static int64_t sleep_ns(const struct rmd_bridge *b, int64_t now, bool notified)
 enum { WAKE_STOP, WAKE_RX, WAKE_SNAPSHOT, WAKE_TIMER };
 
 /*
- * The bridge's one wait, set up once (rmd_bridge_init): an epoll set of
+ * The bridge's one wait, set up once (rmd_bridge_new): an epoll set of
  * rmd_bridge_stop()'s eventfd, the link's descriptor (rmd/lcm_link.h),
  * the loop's notify_fd and a timerfd for the health
  * timer and a pending config_t.  The registrations persist, and notify_fd
@@ -1342,25 +1317,34 @@ static void log_link(struct rmd_bridge *b)
 
 /* ---- lifecycle, continued ------------------------------------------------- */
 
-int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, char *err,
-		    size_t errlen)
+int rmd_bridge_new(struct rmd_bridge **out, const struct rmd_bridge_opts *opts, char *err,
+		   size_t errlen)
 {
 	struct rmd_lcm_link_opts lo = { .url = opts->url,
 					.prefix = opts->prefix,
 					.recv_buf_size = RMD_BRIDGE_UDPM_RCVBUF,
 					.queue = COMMAND_QUEUE };
+	struct rmd_bridge *b;
 	int r;
 
-	memset(b, 0, sizeof(*b));
-	b->config_mu = (pthread_mutex_t)PTHREAD_MUTEX_INITIALIZER;
-	b->rx_off_last_ns = rmd_realtime_offset_ns(&b->rx_seen_ns);
-	b->rx_at_ns = b->rx_seen_ns; /* nothing can have come before */
-	b->stop_fd = -1;
-	b->ep_fd = -1;
-	b->timer_fd = -1;
+	*out = NULL;
 	r = check_opts(opts, err, errlen);
 	if (r < 0)
 		return r;
+	b = calloc(1, sizeof(*b));
+	if (b)
+		b->buf = calloc(1, sizeof(*b->buf));
+	if (!b || !b->buf) {
+		free(b);
+		snprintf(err, errlen, "out of memory");
+		return -ENOMEM;
+	}
+	b->stop_fd = -1;
+	b->ep_fd = -1;
+	b->timer_fd = -1;
+	b->config_mu = (pthread_mutex_t)PTHREAD_MUTEX_INITIALIZER;
+	b->rx_off_last_ns = rmd_realtime_offset_ns(&b->rx_seen_ns);
+	b->rx_at_ns = b->rx_seen_ns; /* nothing can have come before */
 	b->opts = *opts;
 	if (b->opts.state_every == 0)
 		b->opts.state_every = 1;
@@ -1372,34 +1356,25 @@ int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, ch
 		 opts->prefix);
 	snprintf(b->ch_home, sizeof(b->ch_home), "%s" RMD_CHANNEL_HOME, opts->prefix);
 
-	b->buf = calloc(1, sizeof(*b->buf));
-	if (!b->buf) {
-		snprintf(err, errlen, "out of memory");
-		return -ENOMEM;
-	}
 	b->stop_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
 	if (b->stop_fd < 0) {
 		r = -errno;
 		snprintf(err, errlen, "eventfd: %s", strerror(-r));
-		goto err_free_buf;
+		goto err_free_bridge;
 	}
 	b->state_listeners = strncmp(opts->url, "memq://", 7) != 0;
 	r = rmd_lcm_link_new(&b->link, &lo, err, errlen);
 	if (r < 0)
-		goto err_close_stop;
+		goto err_free_bridge;
 	r = wait_setup(b);
-	if (r == 0)
-		return 0;
-	snprintf(err, errlen, "epoll, timerfd: %s", strerror(-r));
-	wait_close(b);
-	rmd_lcm_link_free(b->link);
-	b->link = NULL;
-err_close_stop:
-	close(b->stop_fd);
-	b->stop_fd = -1;
-err_free_buf:
-	free(b->buf);
-	b->buf = NULL;
+	if (r < 0) {
+		snprintf(err, errlen, "epoll, timerfd: %s", strerror(-r));
+		goto err_free_bridge;
+	}
+	*out = b;
+	return 0;
+err_free_bridge:
+	rmd_bridge_free(b);
 	return r;
 }
 
@@ -1477,8 +1452,6 @@ int rmd_bridge_config_copy(struct rmd_bridge *b, void *out, size_t len)
 {
 	int n = 0;
 
-	if (!b->buf)
-		return 0;
 	pthread_mutex_lock(&b->config_mu);
 	if (b->buf->config_len > 0 && (size_t)b->buf->config_len <= len) {
 		n = b->buf->config_len;
@@ -1488,17 +1461,22 @@ int rmd_bridge_config_copy(struct rmd_bridge *b, void *out, size_t len)
 	return n;
 }
 
-void rmd_bridge_fini(struct rmd_bridge *b)
+void rmd_bridge_free(struct rmd_bridge *b)
 {
+	if (!b)
+		return;
 	rmd_bridge_stop(b);
 	wait_close(b);
 	rmd_lcm_link_free(b->link);
-	b->link = NULL;
 	if (b->stop_fd >= 0)
 		close(b->stop_fd);
-	b->stop_fd = -1;
 	free(b->buf);
-	b->buf = NULL;
+	free(b);
+}
+
+const struct rmd_bridge_opts *rmd_bridge_get_opts(const struct rmd_bridge *b)
+{
+	return &b->opts;
 }
 
 void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
