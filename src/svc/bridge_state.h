@@ -1,21 +1,27 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The LCM bridge's private parts, shared by the files of src/svc/ that make
- * up struct rmd_bridge's behaviour (rmd/bridge.h is the public face):
+ * The LCM bridge's state, struct rmd_bridge, and what the files of
+ * src/svc/ that make up its behaviour share (rmd/bridge.h is the public
+ * face):
  *
- *   bridge.c     the object (new, free, start, stop, probe, stats), the
- *                bridge thread and its one wait, the messages it drains
- *                and hands on, publishing, another daemon on the prefix   non-rt
+ *   bridge.c      the object (new, free, start, stop, probe, stats), the
+ *                 bridge thread and its one wait, the messages it drains
+ *                 and hands on, publishing, another daemon on the prefix
+ *   admission.c   command_t and home_t in: decoded, checked, ownership,
+ *                 order, clamped, handed to the rt loop
  *
- * Nothing outside src/svc/ includes this header.
+ * All of it is non-rt; the bridge thread owns what the struct says it
+ * owns.  Nothing outside src/svc/ includes this header.
  */
-#ifndef RMD_BRIDGE_PRIV_H
-#define RMD_BRIDGE_PRIV_H
+#ifndef RMD_BRIDGE_STATE_H
+#define RMD_BRIDGE_STATE_H
 
 #include <pthread.h>
+#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "rmd/bridge.h"
 #include "rmd/channels.h"
@@ -147,4 +153,38 @@ struct rmd_bridge {
 	int64_t rx_off_last_ns;
 };
 
-#endif /* RMD_BRIDGE_PRIV_H */
+/* Counters written by the bridge thread, read by anyone (rmd_bridge_get_stats()). */
+static inline void bridge_count(atomic_uint_fast64_t *c)
+{
+	atomic_fetch_add_explicit(c, 1, memory_order_relaxed);
+}
+
+static inline uint64_t bridge_counted(atomic_uint_fast64_t *c)
+{
+	return atomic_load_explicit(c, memory_order_relaxed);
+}
+
+/* One message to the caller's log sink (opts.log), at syslog level `level`. */
+__attribute__((format(printf, 3, 4))) static inline void bridge_log(struct rmd_bridge *b, int level,
+								    const char *fmt, ...)
+{
+	char msg[512];
+	va_list ap;
+
+	if (!b->opts.log)
+		return;
+	va_start(ap, fmt);
+	vsnprintf(msg, sizeof(msg), fmt, ap);
+	va_end(ap);
+	b->opts.log(b->opts.log_ctx, level, msg);
+}
+
+/*
+ * admission.c: a message on the prefix's COMMAND (m->data NULL: one too long
+ * to keep, refused) or HOME, judged and handed to the rt loop.  Nothing is
+ * acted on while probing (rmd_bridge_probe()).  Bridge thread.
+ */
+void bridge_admit_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
+void bridge_admit_home(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
+
+#endif /* RMD_BRIDGE_STATE_H */
