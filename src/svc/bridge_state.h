@@ -6,9 +6,13 @@
  *
  *   bridge.c      the object (new, free, start, stop, probe, stats), the
  *                 bridge thread and its one wait, the messages it drains
- *                 and hands on, publishing, another daemon on the prefix
+ *                 and hands on, another daemon on the prefix
  *   admission.c   command_t and home_t in: decoded, checked, ownership,
  *                 order, clamped, handed to the rt loop
+ *   publish.c     state_t, health_t and config_t out
+ *
+ * bridge.c calls the other two; they call nothing of each other's or of
+ * bridge.c's.
  *
  * All of it is non-rt; the bridge thread owns what the struct says it
  * owns.  Nothing outside src/svc/ includes this header.
@@ -186,5 +190,15 @@ __attribute__((format(printf, 3, 4))) static inline void bridge_log(struct rmd_b
  */
 void bridge_admit_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
 void bridge_admit_home(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
+
+/*
+ * publish.c: the newest snapshot as state_t, when one came that is due
+ * (opts.state_every; not on memq://); health_t as of now; config_t (its
+ * encoding kept for rmd_bridge_config_copy()).  A failed publish is
+ * counted in n_publish_errors.  Bridge thread.
+ */
+void bridge_publish_state(struct rmd_bridge *b);
+void bridge_publish_health(struct rmd_bridge *b, int64_t now);
+void bridge_publish_config(struct rmd_bridge *b);
 
 #endif /* RMD_BRIDGE_STATE_H */
