@@ -271,9 +271,20 @@ static void fill_command(struct rmd_bridge *b, const rmd_command_t *msg, struct 
 }
 
 /*
- * Decode a command_t in place (msg->motor is the bridge's own array: no
- * allocation, and a count beyond MAX_MOTORS is refused before any entry is
- * read).  Returns -1, or the kind it was rejected for.
+ * Decode a command_t in place: msg->motor is the bridge's own array, so a
+ * command costs no allocation, and a count beyond MAX_MOTORS is refused
+ * (REJ_COUNT) before any entry is read, however long the datagram.
+ * lcm-gen's public rmd_command_t_decode() keeps neither promise: it
+ * allocates motor[count] for the count the datagram names (up to 32767
+ * entries, 1.8 MB, before it finds the datagram short; under rmdd's
+ * mlockall the memory is faulted in) and rmd_command_t_decode_cleanup()
+ * frees it, two allocator calls per command in the bridge thread
+ * (tests/unit/test_bridge.c test_command_decoded_in_place).  So the head's
+ * fields are read here with LCM's own field decoders (lcm_coretypes.h) and
+ * the entries with lcm-gen's __rmd_motor_command_t_decode_array(), which
+ * follows lcm_types/motor_command_t.lcm as it changes.  A field added to
+ * command_t's head is added here too (test_command_roundtrip fails until
+ * it is).  Returns -1, or the kind it was rejected for.
  */
 static int decode_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m, rmd_command_t *msg)
 {

@@ -38,6 +38,7 @@
 #include <lcm/lcm.h>
 
 #include "rmd/time.h"
+#include "harness/alloc_count.h"
 #include "harness/lcm_loopback.h"
 #include "harness/suite.h"
 #include "rmd/bridge.h"
@@ -740,6 +741,87 @@ static void test_stale(void **state)
 			assert_int_equal(c.seq, steps[i].seq);
 	}
 	assert_int_equal(stats(f).rejected_by_kind[RMD_REJ_STALE], 2);
+}
+
+/* The log of a bridge without a fixture: its last message. */
+static void log_last(void *ctx, int level, const char *msg)
+{
+	(void)level;
+	snprintf(ctx, 256, "%s", msg);
+}
+
+/*
+ * command_t is decoded in place (admission.c decode_command()): a command
+ * costs the bridge thread no allocation, and a hostile count is refused
+ * before any entry is read, whatever the datagram's length.  lcm-gen's
+ * rmd_command_t_decode() allocates motor[count] for the count a datagram
+ * names (up to 32767 entries, 1.8 MB) before it finds the datagram short.
+ * On memq://, without multicast: rmd_bridge_handle() is the bridge thread's
+ * step for each message.
+ */
+static void test_command_decoded_in_place(void **state)
+{
+	static rmd_motor_command_t many[INT16_MAX];
+	static unsigned char enc[sizeof(many) + 64];
+	struct rmd_latest commands;
+	struct rmd_command cmd_buf[3];
+	struct rmd_bridge_opts o;
+	struct rmd_bridge_stats st;
+	struct rmd_bridge *b;
+	char err[256], last[256] = "";
+	unsigned long allocs;
+	rmd_command_t m;
+	int n;
+
+	(void)state;
+	if (!alloc_count_available()) {
+		print_message("SKIP: the allocator is AddressSanitizer's: nothing is counted\n");
+		skip();
+	}
+	fill_opts(&o, "memq://");
+	rmd_latest_init(&commands, cmd_buf, sizeof(cmd_buf[0]));
+	o.commands = &commands;
+	o.log = log_last;
+	o.log_ctx = last;
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), 0);
+
+	alloc_count_reset();
+	alloc_count_start();
+	for (int64_t seq = 1; seq <= 100; seq++) {
+		m = base_cmd(seq);
+		n = rmd_command_t_encode(enc, 0, (int)sizeof(enc), &m);
+		assert_true(n > 0);
+		rmd_bridge_handle(b, &(struct rmd_lcm_msg){ .channel = PREFIX "COMMAND",
+							    .data = enc,
+							    .size = (uint32_t)n });
+	}
+	allocs = alloc_count_stop();
+	rmd_bridge_get_stats(b, &st);
+	assert_int_equal(st.accepted, 100);
+	if (allocs)
+		fail_msg("100 commands: %lu allocations", allocs);
+
+	/* count 32767 and one entry of them: the count is what is wrong */
+	m = empty_cmd();
+	m.seq = 101;
+	m.motor = many;
+	m.count = 1;
+	n = rmd_command_t_encoded_size(&m); /* the head and one entry */
+	m.count = INT16_MAX;
+	assert_true(rmd_command_t_encode(enc, 0, (int)sizeof(enc), &m) > n);
+	alloc_count_reset();
+	alloc_count_start();
+	rmd_bridge_handle(b, &(struct rmd_lcm_msg){ .channel = PREFIX "COMMAND",
+						    .data = enc,
+						    .size = (uint32_t)n });
+	allocs = alloc_count_stop();
+	rmd_bridge_get_stats(b, &st);
+	assert_int_equal(st.rejected_by_kind[RMD_REJ_COUNT], 1);
+	assert_int_equal(st.rejected, 1);
+	assert_non_null(strstr(last, "motor count 32767 out of range (0..12 configured motors)"));
+	if (allocs)
+		fail_msg("a count of 32767: %lu allocations", allocs);
+	rmd_bridge_free(b);
 }
 
 /* ---- flood ----------------------------------------------------------------- */
@@ -2131,6 +2213,7 @@ int main(void)
 		cmocka_unit_test(test_clamp),
 		cmocka_unit_test(test_hostile_rejected_by_kind),
 		cmocka_unit_test(test_stale),
+		cmocka_unit_test(test_command_decoded_in_place),
 		cmocka_unit_test(test_flood),
 		cmocka_unit_test(test_state_published),
 		cmocka_unit_test(test_state_every_nth),
