@@ -50,6 +50,7 @@
 #include "rmd/frame.h"
 #include "rmd/lcm_link.h"
 #include "rmd/motor.h"
+#include "rmd/rmd_motor_state_t.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -263,6 +264,14 @@ void rmd_bridge_free(struct rmd_bridge *b);
  * Non-rt.
  */
 const struct rmd_bridge_opts *rmd_bridge_get_opts(const struct rmd_bridge *b);
+
+/*
+ * Motor `index`'s state m as state_t carries it, at t_ns (the snapshot's
+ * time: brake_releasing).  The bridge publishes every motor so, and rmdd's
+ * incident log writes its state_t so.  Pure.  Non-rt.
+ */
+void rmd_bridge_motor_state(rmd_motor_state_t *o, unsigned index, const struct rmd_motor_state *m,
+			    int64_t t_ns);
 
 /* The counters, from any thread.  Non-rt (but lock-free). */
 void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st);

@@ -85,6 +85,32 @@ static bool publish_encoded(struct rmd_bridge *b, const char *channel, int n)
 	return true;
 }
 
+void rmd_bridge_motor_state(rmd_motor_state_t *o, unsigned index, const struct rmd_motor_state *m,
+			    int64_t t_ns)
+{
+	*o = (rmd_motor_state_t){
+		.index = (int16_t)index,
+		.lifecycle = (int8_t)m->lifecycle,
+		.mode = (int8_t)m->mode,
+		.position = m->pos_rad,
+		.velocity = m->vel_rad_s,
+		.torque = m->torque_nm,
+		.current = m->current_a,
+		.temperature = m->temp_c,
+		.voltage = m->voltage_v,
+		.error_code = m->error_code,
+		.reply_age_cycles = sat32(m->reply_age_cycles),
+		.reply_latency_us = sat32(m->reply_latency_ns / 1000),
+		.missed_replies = sat64(m->missed_replies),
+		.rx_time_ns = m->rx_ns,
+		.position_rx_time_ns = m->pos_rx_ns,
+		.status_rx_time_ns = m->status_rx_ns,
+		.position_certain = m->pos_certain,
+		.position_trust = (int8_t)m->pos_trust,
+		.brake_releasing = m->release_until_ns > t_ns,
+	};
+}
+
 void bridge_publish_state(struct rmd_bridge *b)
 {
 	const struct rmd_snapshot *s;
@@ -105,30 +131,8 @@ void bridge_publish_state(struct rmd_bridge *b)
 	st->owner = b->owned ? b->owner : 0;
 	st->count = (int16_t)(s->n < RMD_MAX_MOTORS ? s->n : RMD_MAX_MOTORS);
 	st->motor = b->buf->state_motor;
-	for (int i = 0; i < st->count; i++) {
-		const struct rmd_motor_state *m = &s->m[i];
-		rmd_motor_state_t *o = &st->motor[i];
-
-		o->index = (int16_t)i;
-		o->lifecycle = (int8_t)m->lifecycle;
-		o->mode = (int8_t)m->mode;
-		o->position = m->pos_rad;
-		o->velocity = m->vel_rad_s;
-		o->torque = m->torque_nm;
-		o->current = m->current_a;
-		o->temperature = m->temp_c;
-		o->voltage = m->voltage_v;
-		o->error_code = m->error_code;
-		o->reply_age_cycles = sat32(m->reply_age_cycles);
-		o->reply_latency_us = sat32(m->reply_latency_ns / 1000);
-		o->missed_replies = sat64(m->missed_replies);
-		o->rx_time_ns = m->rx_ns;
-		o->position_rx_time_ns = m->pos_rx_ns;
-		o->status_rx_time_ns = m->status_rx_ns;
-		o->position_certain = m->pos_certain;
-		o->position_trust = (int8_t)m->pos_trust;
-		o->brake_releasing = m->release_until_ns > s->t_ns;
-	}
+	for (int i = 0; i < st->count; i++)
+		rmd_bridge_motor_state(&st->motor[i], (unsigned)i, &s->m[i], s->t_ns);
 	n = rmd_state_t_encode(b->buf->enc, 0, ENC_MAX, st);
 	if (publish_encoded(b, b->ch_state, n))
 		bridge_count(&b->n_states);

@@ -824,6 +824,77 @@ static void test_command_decoded_in_place(void **state)
 	rmd_bridge_free(b);
 }
 
+/*
+ * One motor's state as state_t carries it (rmd_bridge_motor_state(), which
+ * the incident log uses too): fields as they are, counts and times
+ * saturated to the LCM field's range, the brake releasing until its time.
+ */
+static void test_motor_state_projection(void **state)
+{
+	static const struct {
+		const char *name;
+		struct rmd_motor_state m;
+		int64_t t_ns;
+		int32_t age, latency_us;
+		int64_t missed;
+		bool releasing;
+	} cases[] = {
+		{ "plain",
+		  { .reply_age_cycles = 3, .reply_latency_ns = 600999, .missed_replies = 7 },
+		  0,
+		  3,
+		  600,
+		  7,
+		  false },
+		{ "saturated",
+		  { .reply_age_cycles = UINT32_MAX,
+		    .reply_latency_ns = INT64_MAX,
+		    .missed_replies = UINT64_MAX },
+		  0,
+		  INT32_MAX,
+		  INT32_MAX,
+		  INT64_MAX,
+		  false },
+		{ "releasing", { .release_until_ns = 1001 }, 1000, 0, 0, 0, true },
+		{ "released", { .release_until_ns = 1000 }, 1000, 0, 0, 0, false },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_motor_state m = cases[k].m;
+		rmd_motor_state_t o;
+
+		m.lifecycle = RMD_LC_ENABLED;
+		m.mode = RMD_MODE_MIT;
+		m.pos_trust = RMD_POS_HOMED;
+		m.pos_certain = true;
+		m.pos_rad = -1.25;
+		m.vel_rad_s = 2.5;
+		m.torque_nm = 0.75;
+		m.current_a = 1.5;
+		m.temp_c = 41;
+		m.voltage_v = 24.5;
+		m.error_code = 0x0004;
+		m.rx_ns = 11;
+		m.pos_rx_ns = 12;
+		m.status_rx_ns = 13;
+		rmd_bridge_motor_state(&o, 5, &m, cases[k].t_ns);
+		if (o.index != 5 || o.lifecycle != RMD_STATE_T_LC_ENABLED ||
+		    o.mode != RMD_COMMAND_T_MODE_MIT || o.position != -1.25 || o.velocity != 2.5 ||
+		    o.torque != 0.75 || o.current != 1.5 || o.temperature != 41 ||
+		    o.voltage != 24.5 || o.error_code != 4 || o.rx_time_ns != 11 ||
+		    o.position_rx_time_ns != 12 || o.status_rx_time_ns != 13 ||
+		    !o.position_certain || o.position_trust != RMD_STATE_T_POS_HOMED)
+			fail_msg("%s: a field is not the motor's", cases[k].name);
+		if (o.reply_age_cycles != cases[k].age ||
+		    o.reply_latency_us != cases[k].latency_us ||
+		    o.missed_replies != cases[k].missed || o.brake_releasing != cases[k].releasing)
+			fail_msg("%s: age %d, latency %d us, missed %lld, releasing %d",
+				 cases[k].name, o.reply_age_cycles, o.reply_latency_us,
+				 (long long)o.missed_replies, o.brake_releasing);
+	}
+}
+
 /* ---- flood ----------------------------------------------------------------- */
 
 struct fake_rt {
@@ -2214,6 +2285,7 @@ int main(void)
 		cmocka_unit_test(test_hostile_rejected_by_kind),
 		cmocka_unit_test(test_stale),
 		cmocka_unit_test(test_command_decoded_in_place),
+		cmocka_unit_test(test_motor_state_projection),
 		cmocka_unit_test(test_flood),
 		cmocka_unit_test(test_state_published),
 		cmocka_unit_test(test_state_every_nth),

@@ -628,8 +628,9 @@ static void log_put(struct lcmlog *l, const char *prefix, const char *name, int6
 
 /*
  * One state_t from the window's states[k..] of one cycle, as the bridge
- * publishes it but from what the recorder keeps: the receive times and
- * counts the recorder does not hold are 0 (docs/faults.md "Incidents").
+ * publishes it (rmd_bridge_motor_state()) but from what the recorder keeps:
+ * the receive times and counts the recorder does not hold are 0
+ * (docs/faults.md "Incidents").
  * Returns the index after the cycle.
  */
 static size_t log_state(struct lcmlog *l, struct out *o, size_t k, rmd_motor_state_t *ms)
@@ -642,20 +643,21 @@ static size_t log_state(struct lcmlog *l, struct out *o, size_t k, rmd_motor_sta
 	for (; j < w->n_states && w->states[j].cycle == s0->cycle && st.count < RMD_MAX_MOTORS;
 	     j++) {
 		const struct rmd_incident_state *s = &w->states[j];
-
-		ms[st.count++] = (rmd_motor_state_t){
-			.index = s->motor,
-			.lifecycle = (int8_t)s->lifecycle,
-			.mode = (int8_t)s->mode,
-			.position = s->pos_rad,
-			.velocity = s->vel_rad_s,
-			.torque = s->torque_nm,
-			.current = s->current_a,
-			.temperature = s->temp_c,
-			.voltage = s->voltage_v,
+		/* what the recorder keeps of the motor's state (the rest is 0) */
+		const struct rmd_motor_state m = {
+			.lifecycle = s->lifecycle,
+			.mode = s->mode,
+			.pos_rad = s->pos_rad,
+			.vel_rad_s = s->vel_rad_s,
+			.torque_nm = s->torque_nm,
+			.current_a = s->current_a,
+			.temp_c = s->temp_c,
+			.voltage_v = s->voltage_v,
 			.error_code = s->error_code,
-			.reply_age_cycles = (int32_t)s->reply_age_cycles,
+			.reply_age_cycles = s->reply_age_cycles,
 		};
+
+		rmd_bridge_motor_state(&ms[st.count++], s->motor, &m, s0->t_ns);
 	}
 	log_put(l, o->in->cfg->lcm.channel_prefix, RMD_CHANNEL_STATE, s0->t_ns + o->off_ns,
 		rmd_state_t_encode(l->enc, 0, LOG_ENC_MAX, &st));
