@@ -145,7 +145,8 @@ struct rmd_bridge {
 	uint32_t config_firmware[RMD_MAX_MOTORS];
 	/*
 	 * Owned by the bridge thread: when messages arrived (arrival_ns() in
-	 * bridge.c), CLOCK_MONOTONIC unless said.  rx_seen_ns: every message
+	 * admission.c, from what drain() in bridge.c measured), CLOCK_MONOTONIC
+	 * unless said.  rx_seen_ns: every message
 	 * that arrived before it has been looked at; rx_at_ns: the arrival of
 	 * the newest one; rx_off_last_ns: CLOCK_REALTIME - CLOCK_MONOTONIC
 	 * at the last drain, rx_off_ns: the one its stamps are moved by (the

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * The LCM bridge's command path (src/svc/bridge.c): datagrams on its
+ * The LCM bridge's command path (src/svc/admission.c): datagrams on its
  * COMMAND channel are decoded as rmd.command_t and validated (structure,
  * modes, finite values, gain ranges, sequence and timestamp order) before
  * a command reaches the rt loop's hand-over.  The decoder and validator are
