@@ -775,7 +775,7 @@ static void test_command_decoded_in_place(void **state)
 
 	(void)state;
 	if (!alloc_count_available()) {
-		print_message("SKIP: the allocator is AddressSanitizer's: nothing is counted\n");
+		print_message("skipped: ASan owns malloc, so allocations are not counted here\n");
 		skip();
 	}
 	fill_opts(&o, "memq://");
