@@ -27,6 +27,7 @@
 
 #include "rmd/time.h"
 #include "rmd/thread.h"
+#include "rmd/bridge.h"
 #include "bridge_state.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
