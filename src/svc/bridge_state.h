@@ -186,8 +186,8 @@ __attribute__((format(printf, 3, 4))) static inline void bridge_log(struct rmd_b
 
 /*
  * admission.c: a message on the prefix's COMMAND (m->data NULL: one too long
- * to keep, refused) or HOME, judged and handed to the rt loop.  Nothing is
- * acted on while probing (rmd_bridge_probe()).  Bridge thread.
+ * to keep, refused) or HOME, judged and handed to the rt loop; while
+ * rmd_bridge_probe() listens nothing is handed on.  Bridge thread.
  */
 void bridge_admit_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
 void bridge_admit_home(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
