@@ -439,11 +439,13 @@ install: all install-lcm install-man install-docs
 	@echo "install: edit $(SYSCONFDIR)/rmdd/rmdd.yaml, then: systemctl daemon-reload && systemctl enable --now rmdd"
 
 # The LCM types for controllers: the .lcm files; lcm-gen's C as headers
-# <rmd/rmd_<type>.h> under $(INCLUDEDIR)/rmd_lcm and a static library of
+# <rmd/rmd_<type>.h> under $(INCLUDEDIR)/rmd_lcm, beside them the channel
+# names (include/rmd/channels.h: string literals, no library), and a static library of
 # position-independent objects, found by `pkg-config --cflags --libs
 # rmd-lcm`; the jar for lcm-spy; the Python package `rmd` (types and
 # rmd.Client; its `lcm` comes from PyPI: Debian 12 has no python3-lcm).
 RMD_LCM_LIB := $(BUILD)/rmd-lcm/librmd-lcm.a
+LCM_CHANNELS_HDR := include/rmd/channels.h
 RMD_LCM_OBJS := $(GEN_SRCS:$(BUILD)/gen/%.c=$(BUILD)/rmd-lcm/%.o)
 
 $(BUILD)/rmd-lcm/%.o: $(BUILD)/gen/%.c
@@ -459,7 +461,7 @@ install-lcm: $(RMD_LCM_LIB) $(LCM_JAVA) $(LCM_PYTHON)
 	install -d $(DESTDIR)$(LCMDIR) $(DESTDIR)$(INCLUDEDIR)/rmd_lcm/rmd $(DESTDIR)$(PKGCONFIGDIR) \
 		$(DESTDIR)$(PYTHONDIR)/rmd
 	install -m 0644 $(LCM_TYPES) $(DESTDIR)$(LCMDIR)/
-	install -m 0644 $(GEN_HDRS) $(DESTDIR)$(INCLUDEDIR)/rmd_lcm/rmd/
+	install -m 0644 $(GEN_HDRS) $(LCM_CHANNELS_HDR) $(DESTDIR)$(INCLUDEDIR)/rmd_lcm/rmd/
 	install -D -m 0644 $(RMD_LCM_LIB) $(DESTDIR)$(LIBDIR)/librmd-lcm.a
 	printf '%s\n' 'includedir=$(INCLUDEDIR)' 'libdir=$(LIBDIR)' '' 'Name: rmd-lcm' \
 		'Description: rmdd LCM types as lcm-gen C, included as rmd/rmd_<type>.h' \

@@ -71,6 +71,7 @@
 #include <lcm/lcm.h>
 
 #include "rmd/can_timing.h"
+#include "rmd/channels.h"
 #include "rmd/frame.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
@@ -347,10 +348,10 @@ static int run(int argc, char **argv)
 	c.rt_offset_ns = rmd_realtime_offset_ns(&end);
 	for (int i = 0; i < MAX_MOTORS; i++)
 		c.last_lc[i] = -1;
-	snprintf(c.ch_command, sizeof(c.ch_command), "%sCOMMAND", prefix);
-	snprintf(c.ch_state, sizeof(c.ch_state), "%sSTATE", prefix);
-	snprintf(c.ch_config, sizeof(c.ch_config), "%sCONFIG", prefix);
-	snprintf(c.ch_config_req, sizeof(c.ch_config_req), "%sCONFIG_REQUEST", prefix);
+	snprintf(c.ch_command, sizeof(c.ch_command), "%s" RMD_CHANNEL_COMMAND, prefix);
+	snprintf(c.ch_state, sizeof(c.ch_state), "%s" RMD_CHANNEL_STATE, prefix);
+	snprintf(c.ch_config, sizeof(c.ch_config), "%s" RMD_CHANNEL_CONFIG, prefix);
+	snprintf(c.ch_config_req, sizeof(c.ch_config_req), "%s" RMD_CHANNEL_CONFIG_REQUEST, prefix);
 	signal(SIGINT, on_signal);
 	signal(SIGTERM, on_signal);
 	c.lcm = lcm_create(url);

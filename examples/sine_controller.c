@@ -3,7 +3,8 @@
  * sine_controller: an rmdd controller in C.  Every motor that can follows a
  * sine, in position mode or in MIT mode, and the tracking error is printed
  * once a second.  It uses nothing of rmdd but its LCM types (lcm_types/,
- * generated into build/gen) and liblcm:
+ * generated into build/gen), their channel names (rmd/channels.h; both
+ * installed for controllers: pkg-config rmd-lcm) and liblcm:
  *
  *   make build/sine_controller
  *   rmdd --config examples/sim-sine.yaml &
@@ -55,6 +56,7 @@
 
 #include <lcm/lcm.h>
 
+#include "rmd/channels.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmd/rmd_config_t.h"
@@ -765,14 +767,15 @@ static int run(struct ctl *c)
 			c->o.url);
 		return EXIT_FAIL;
 	}
-	snprintf(c->ch_command, sizeof(c->ch_command), "%sCOMMAND", c->o.prefix);
-	snprintf(c->ch_config, sizeof(c->ch_config), "%sCONFIG", c->o.prefix);
-	snprintf(c->ch_config_req, sizeof(c->ch_config_req), "%sCONFIG_REQUEST", c->o.prefix);
-	snprintf(c->ch_state, sizeof(c->ch_state), "%sSTATE", c->o.prefix);
+	snprintf(c->ch_command, sizeof(c->ch_command), "%s" RMD_CHANNEL_COMMAND, c->o.prefix);
+	snprintf(c->ch_config, sizeof(c->ch_config), "%s" RMD_CHANNEL_CONFIG, c->o.prefix);
+	snprintf(c->ch_config_req, sizeof(c->ch_config_req), "%s" RMD_CHANNEL_CONFIG_REQUEST,
+		 c->o.prefix);
+	snprintf(c->ch_state, sizeof(c->ch_state), "%s" RMD_CHANNEL_STATE, c->o.prefix);
 	/* LCM subscribes by regular expression: the prefix is taken as written. */
 	sub_config = rmd_config_t_subscribe(c->lcm, c->ch_config, on_config, c);
 	sub_state = rmd_state_t_subscribe(c->lcm, c->ch_state, on_state, c);
-	snprintf(ch_health, sizeof(ch_health), "%sHEALTH", c->o.prefix);
+	snprintf(ch_health, sizeof(ch_health), "%s" RMD_CHANNEL_HEALTH, c->o.prefix);
 	sub_health = rmd_health_t_subscribe(c->lcm, ch_health, on_health, c);
 	if (!sub_config || !sub_state || !sub_health) {
 		fprintf(stderr, PROG ": LCM %s: cannot subscribe (see docs/lcm.md)\n", c->o.url);

@@ -9,18 +9,20 @@
  * providers LCM's receive threads are raised with the bridge's.  It is the
  * only thread that uses the link.
  *
- *   PREFIX "COMMAND"         in   rmd.command_t: decoded, validated, clamped,
- *                                 handed to the rt loop as struct rmd_command
- *   PREFIX "STATE"           out  rmd.state_t from each struct rmd_snapshot
- *                                 (or every state_every-th cycle)
- *   PREFIX "HEALTH"          out  rmd.health_t, every health_period_ns, from
- *                                 the newest struct rmd_health plus the
- *                                 bridge's own command counters
- *   PREFIX "CONFIG"          out  rmd.config_t, at start and on request
- *   PREFIX "CONFIG_REQUEST"  in   any message: publish config_t again
- *   PREFIX "HOME"            in   rmd.home_t: a controller says where a motor
- *                                 is (docs/lcm.md "Homing"), handed to the rt
- *                                 loop as struct rmd_home; logged
+ * The channels, PREFIX and a suffix of rmd/channels.h:
+ *
+ *   COMMAND         in   rmd.command_t: decoded, validated, clamped,
+ *                        handed to the rt loop as struct rmd_command
+ *   STATE           out  rmd.state_t from each struct rmd_snapshot
+ *                        (or every state_every-th cycle)
+ *   HEALTH          out  rmd.health_t, every health_period_ns, from
+ *                        the newest struct rmd_health plus the
+ *                        bridge's own command counters
+ *   CONFIG          out  rmd.config_t, at start and on request
+ *   CONFIG_REQUEST  in   any message: publish config_t again
+ *   HOME            in   rmd.home_t: a controller says where a motor
+ *                        is (docs/lcm.md "Homing"), handed to the rt
+ *                        loop as struct rmd_home; logged
  *
  * The rt loop and the bridge meet only in three triple buffers (rmd/spsc.h)
  * that the daemon owns and passes to both: the bridge writes commands and
@@ -32,15 +34,13 @@
  * rule the rt loop's encoder applies too) and counted.  The rules are in
  * docs/lcm.md.
  *
- * Lifecycle (chrony style, caller allocates): rmd_bridge_opts_init(),
- * fill in, rmd_bridge_init(), rmd_bridge_start(), ..., rmd_bridge_stop(),
- * rmd_bridge_fini().  All of it is non-rt.
+ * Lifecycle: rmd_bridge_opts_init(), fill in, rmd_bridge_new(),
+ * rmd_bridge_start(), ..., rmd_bridge_stop(), rmd_bridge_free().  All of
+ * it is non-rt.
  */
 #ifndef RMD_BRIDGE_H
 #define RMD_BRIDGE_H
 
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -50,6 +50,7 @@
 #include "rmd/frame.h"
 #include "rmd/lcm_link.h"
 #include "rmd/motor.h"
+#include "rmd/rmd_motor_state_t.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -157,7 +158,7 @@ struct rmd_bridge_opts {
 	void *intruder_ctx;
 };
 
-/* Counters, totals since rmd_bridge_init(). */
+/* Counters, totals since rmd_bridge_new(). */
 struct rmd_bridge_stats {
 	uint64_t accepted;
 	uint64_t rejected;
@@ -192,103 +193,11 @@ struct rmd_bridge_peer {
 	char source[RMD_BRIDGE_SOURCE_LEN]; /* "" unless its config_t came */
 };
 
-struct rmd_bridge_buf; /* decode and encode buffers, bridge thread only */
-
-struct rmd_bridge {
-	struct rmd_bridge_opts opts;
-	struct rmd_lcm_link *link; /* LCM: messages in and out */
-	int stop_fd;		   /* eventfd: rmd_bridge_stop() wakes the thread */
-	pthread_t thread;
-	bool running;
-	struct rmd_bridge_buf *buf;
-	bool state_listeners; /* not memq://: state_t can have a subscriber */
-	int ep_fd, timer_fd;  /* the bridge thread's one wait: epoll set, health timer */
-	/* Set by rmd_bridge_start(), read by rmd_bridge_get_stats(). */
-	unsigned rt_granted;
-	int rt_error;
-
-	pthread_mutex_t config_mu; /* the newest config_t's encoding (rmd_bridge_config_copy) */
-
-	char ch_command[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_state[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_health[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_config[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_config_req[RMD_BRIDGE_PREFIX_LEN + 16];
-	char ch_home[RMD_BRIDGE_PREFIX_LEN + 16];
-
-	/* Owned by the bridge thread. */
-	int64_t last_seq;
-	int64_t newest_utime;
-	bool have_seq;
-	bool have_utime;
-	unsigned logged; /* bit per enum rmd_reject already logged */
-	bool clamp_logged;
-	bool state_sent;
-	uint64_t last_state_cycle;
-	int64_t next_health_ns;
-	bool config_wanted;
-	/* one controller at a time (docs/lcm.md) */
-	bool owned;
-	int64_t owner;	   /* command_t.controller of the owner */
-	uint32_t owner_on; /* motors the owner enabled and has not disabled */
-	/*
-	 * Free motors (!owned) after an owner: the controller that may enable
-	 * them next (the owner that released them, or the newest controller
-	 * to send enable = 0 since).  Before any owner (!had_owner): anyone.
-	 */
-	bool had_owner;
-	int64_t next_owner;
-	bool have_controller;		   /* last_controller is set: */
-	int64_t last_controller;	   /* whose sequence last_seq and newest_utime are */
-	uint32_t disables[RMD_MAX_MOTORS]; /* enable = 0 entries accepted, per motor */
-	struct rmd_home homes;		   /* homing requests accepted (home_t) */
-
-	/*
-	 * Another daemon on the prefix: rmd_bridge_probe() sets probing (no
-	 * command, home or config request is acted on meanwhile); the bridge
-	 * thread owns the rest once started.  foreign_ns: the newest foreign
-	 * message's arrival; foreign_episode: logged, not yet over.
-	 */
-	bool probing;
-	struct rmd_bridge_peer foreign;
-	int64_t foreign_ns;
-	bool foreign_episode;
-
-	/* Written by the bridge thread, read by anyone (rmd_bridge_get_stats). */
-	atomic_uint_fast64_t n_foreign;
-	atomic_uint_fast64_t n_accepted;
-	atomic_uint_fast64_t n_rejected[RMD_REJ_KINDS];
-	atomic_uint_fast64_t n_clamped;
-	atomic_uint_fast64_t n_states;
-	atomic_uint_fast64_t n_health;
-	atomic_uint_fast64_t n_configs;
-	atomic_uint_fast64_t n_publish_errors;
-	atomic_uint_fast64_t n_lcm_errors;
-	atomic_uint_fast64_t n_takeovers;
-	atomic_bool pub_owned;
-	_Atomic int64_t pub_owner;
-	_Atomic int64_t pub_intruder;
-
-	/* Owned by the bridge thread: a stamp refused as a clock jump (check_order). */
-	int64_t utime_jump;
-	bool have_utime_jump;
-	/* Owned by the bridge thread: when the last config_t went out, and with what dialects. */
-	int64_t config_sent_ns;
-	uint8_t config_proto[RMD_MAX_MOTORS];
-	uint32_t config_firmware[RMD_MAX_MOTORS];
-	/*
-	 * Owned by the bridge thread: when messages arrived (arrival_ns() in
-	 * bridge.c), CLOCK_MONOTONIC unless said.  rx_seen_ns: every message
-	 * that arrived before it has been looked at; rx_at_ns: the arrival of
-	 * the newest one; rx_off_last_ns: CLOCK_REALTIME - CLOCK_MONOTONIC
-	 * at the last drain, rx_off_ns: the one its stamps are moved by (the
-	 * smaller of it and the one before).
-	 */
-	int64_t rx_seen_ns;
-	int64_t rx_at_ns;
-	int64_t rx_off_ns;
-	int64_t rx_off_last_ns;
-};
+/*
+ * The bridge: an object of its own (rmd_bridge_new() .. rmd_bridge_free()),
+ * its insides private to src/svc/.
+ */
+struct rmd_bridge;
 
 /*
  * Defaults: URL, prefix, stale_ms and the health period of rmd/config.h
@@ -298,14 +207,16 @@ struct rmd_bridge {
 void rmd_bridge_opts_init(struct rmd_bridge_opts *opts);
 
 /*
- * Check `opts` and open the link (rmd_lcm_link_new()).  Not udpm: the
- * threads that appear in the process meanwhile are taken for LCM's (and
- * raised by rmd_bridge_start()), so no other thread of the caller's may
- * start during the call.  Returns 0, or -EINVAL (bad options or URL) /
- * -EIO (the link could not be opened) with the reason in err.  On failure nothing needs undoing.  Non-rt.
+ * Check `opts` (the bridge keeps a copy) and open the link
+ * (rmd_lcm_link_new()).  Not udpm: the threads that appear in the process
+ * meanwhile are taken for LCM's (and raised by rmd_bridge_start()), so no
+ * other thread of the caller's may start during the call.  Returns 0 and
+ * *out, or -EINVAL (bad options or URL) / -EIO (the link could not be
+ * opened) / -ENOMEM with the reason in err and *out NULL: nothing to undo.
+ * Non-rt.
  */
-int rmd_bridge_init(struct rmd_bridge *b, const struct rmd_bridge_opts *opts, char *err,
-		    size_t errlen);
+int rmd_bridge_new(struct rmd_bridge **out, const struct rmd_bridge_opts *opts, char *err,
+		   size_t errlen);
 
 /*
  * Start the bridge thread (all signals blocked; SCHED_FIFO opts.rt_priority,
@@ -344,8 +255,23 @@ int rmd_bridge_config_copy(struct rmd_bridge *b, void *out, size_t len);
  */
 void rmd_bridge_handle(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
 
-/* Stop if running, close the link.  Non-rt. */
-void rmd_bridge_fini(struct rmd_bridge *b);
+/* Stop if running, close the link, free it; NULL is a no-op.  Non-rt. */
+void rmd_bridge_free(struct rmd_bridge *b);
+
+/*
+ * The options the bridge runs with: its copy of rmd_bridge_new()'s (with
+ * state_every 0 read as 1).  Valid until rmd_bridge_free().  Any thread.
+ * Non-rt.
+ */
+const struct rmd_bridge_opts *rmd_bridge_get_opts(const struct rmd_bridge *b);
+
+/*
+ * Motor `index`'s state m as state_t carries it, at t_ns (the snapshot's
+ * time: brake_releasing).  The bridge publishes every motor so, and rmdd's
+ * incident log writes its state_t so.  Pure.  Non-rt.
+ */
+void rmd_bridge_motor_state(rmd_motor_state_t *o, unsigned index, const struct rmd_motor_state *m,
+			    int64_t t_ns);
 
 /* The counters, from any thread.  Non-rt (but lock-free). */
 void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st);

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * The LCM bridge's command path (src/svc/bridge.c): datagrams on its
+ * The LCM bridge's command path (src/svc/admission.c): datagrams on its
  * COMMAND channel are decoded as rmd.command_t and validated (structure,
  * modes, finite values, gain ranges, sequence and timestamp order) before
  * a command reaches the rt loop's hand-over.  The decoder and validator are
@@ -32,6 +32,7 @@
 #include <string.h>
 
 #include "rmd/bridge.h"
+#include "rmd/channels.h"
 #include "rmd/motor.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/spsc.h"
@@ -40,6 +41,7 @@
 #include "fuzz.h"
 
 #define NMOTORS 6
+#define PREFIX "FUZZ_"
 #define MAX_DATAGRAMS 16
 
 static struct rmd_bridge_opts opts;
@@ -74,7 +76,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 	(void)argv;
 	rmd_bridge_opts_init(&opts);
 	snprintf(opts.url, sizeof(opts.url), "memq://");
-	snprintf(opts.prefix, sizeof(opts.prefix), "FUZZ_");
+	snprintf(opts.prefix, sizeof(opts.prefix), PREFIX);
 	opts.nmotors = NMOTORS;
 	for (unsigned i = 0; i < NMOTORS; i++) {
 		struct rmd_motor_info *m = &opts.motor[i];
@@ -168,13 +170,15 @@ static void check_handover(void)
 	}
 }
 
-static struct rmd_bridge b;
+static struct rmd_bridge *b;
 
 static void publish(const void *buf, int len)
 {
-	struct rmd_lcm_msg m = { .channel = b.ch_command, .data = buf, .size = (uint32_t)len };
+	struct rmd_lcm_msg m = { .channel = PREFIX RMD_CHANNEL_COMMAND,
+				 .data = buf,
+				 .size = (uint32_t)len };
 
-	rmd_bridge_handle(&b, &m);
+	rmd_bridge_handle(b, &m);
 	check_handover();
 }
 
@@ -183,7 +187,7 @@ static uint64_t handled(void)
 {
 	struct rmd_bridge_stats st;
 
-	rmd_bridge_get_stats(&b, &st);
+	rmd_bridge_get_stats(b, &st);
 	return st.accepted + st.rejected;
 }
 
@@ -195,9 +199,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	char err[256];
 	int len;
 
-	if (!b.link) {
+	if (!b) {
 		rmd_latest_init(&commands, cmd_buf, sizeof(cmd_buf[0]));
-		FUZZ_CHECK(rmd_bridge_init(&b, &opts, err, sizeof(err)) == 0);
+		FUZZ_CHECK(rmd_bridge_new(&b, &opts, err, sizeof(err)) == 0);
 	}
 	memset(&msg, 0, sizeof(msg));
 	len = rmd_command_t_encode(enc, 0, sizeof(enc), &msg);

@@ -14,6 +14,7 @@
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
+#include "rmd/channels.h"
 #include "rmd/time.h"
 #include "harness/lcm_loopback.h"
 
@@ -155,14 +156,14 @@ void lcm_rx_listen(struct lcm_rx *rx, lcm_t *lcm, const char *prefix)
 	char ch[96];
 
 	rx->lcm = lcm;
-	snprintf(ch, sizeof(ch), "%sSTATE", prefix);
+	snprintf(ch, sizeof(ch), "%s" RMD_CHANNEL_STATE, prefix);
 	rx->state_sub = rmd_state_t_subscribe(lcm, ch, on_state, rx);
 	assert_non_null(rx->state_sub);
 	rmd_state_t_subscription_set_queue_capacity(rx->state_sub, LCM_RX_STATES);
-	snprintf(ch, sizeof(ch), "%sHEALTH", prefix);
+	snprintf(ch, sizeof(ch), "%s" RMD_CHANNEL_HEALTH, prefix);
 	rx->health_sub = rmd_health_t_subscribe(lcm, ch, on_health, rx);
 	assert_non_null(rx->health_sub);
-	snprintf(ch, sizeof(ch), "%sCONFIG", prefix);
+	snprintf(ch, sizeof(ch), "%s" RMD_CHANNEL_CONFIG, prefix);
 	rx->config_sub = rmd_config_t_subscribe(lcm, ch, on_config, rx);
 	assert_non_null(rx->config_sub);
 }

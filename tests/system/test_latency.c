@@ -328,8 +328,8 @@ struct daemon {
 	struct rig_loop r; /* configuration, plan, buses, channels */
 	unsigned n_open;
 	struct rmd_loop *loop;
-	struct rmd_bridge bridge;
-	bool bridge_init, loop_started;
+	struct rmd_bridge *bridge; /* NULL until made */
+	bool loop_started;
 	bool fifo;		/* the rt loop runs at SCHED_FIFO */
 	struct rmd_motor motor; /* our own copy, to know a setpoint's frame */
 	char url[96];
@@ -432,10 +432,9 @@ static int setup(void **state)
 	d->r.buses[0].ops = &shim_ops;
 
 	bridge_opts(d, &bo);
-	if (rmd_bridge_init(&d->bridge, &bo, err, sizeof(err)) < 0)
-		fail_msg("rmd_bridge_init: %s", err);
-	d->bridge_init = true;
-	assert_int_equal(rmd_bridge_start(&d->bridge), 0);
+	if (rmd_bridge_new(&d->bridge, &bo, err, sizeof(err)) < 0)
+		fail_msg("rmd_bridge_new: %s", err);
+	assert_int_equal(rmd_bridge_start(d->bridge), 0);
 	assert_int_equal(rmd_loop_start(d->loop), 0);
 	d->loop_started = true;
 	/* rmd_loop_start() says in the ring, before the thread runs, what it was refused */
@@ -461,8 +460,7 @@ static int teardown(void **state)
 		rmd_loop_request_stop(d->loop);
 		rmd_loop_join(d->loop);
 	}
-	if (d->bridge_init)
-		rmd_bridge_fini(&d->bridge);
+	rmd_bridge_free(d->bridge);
 	rmd_loop_free(d->loop);
 	if (d->n_open && d->r.buses[0].ops == &shim_ops)
 		d->r.buses[0].ops = real_ops;
@@ -635,7 +633,7 @@ static void test_publish_to_frame_latency(void **state)
 	if (lifecycle(d) != RMD_LC_ENABLED) {
 		struct rmd_bridge_stats bs;
 
-		rmd_bridge_get_stats(&d->bridge, &bs);
+		rmd_bridge_get_stats(d->bridge, &bs);
 		fail_msg("the motor was not enabled within %d s: lifecycle %d; the bridge "
 			 "accepted %llu, rejected %llu commands",
 			 ENABLE_WAIT_S, (int)lifecycle(d), (unsigned long long)bs.accepted,
@@ -647,7 +645,7 @@ static void test_publish_to_frame_latency(void **state)
 	 * The bridge and LCM's receive thread at SCHED_FIFO: the probe at
 	 * their priority (cyclictest's view of it), the controller one below.
 	 */
-	rmd_bridge_get_stats(&d->bridge, &bst);
+	rmd_bridge_get_stats(d->bridge, &bst);
 	bridge_rt = bst.rt_priority && bst.lcm_threads_rt == bst.lcm_threads;
 	jit.prio = bridge_rt ? (int)bst.rt_priority : 0;
 	if (bridge_rt) {

@@ -38,6 +38,7 @@
 #include <lcm/lcm.h>
 
 #include "rmd/time.h"
+#include "harness/alloc_count.h"
 #include "harness/lcm_loopback.h"
 #include "harness/suite.h"
 #include "rmd/bridge.h"
@@ -59,14 +60,13 @@
 #define PREFIX "TEST_"
 
 struct fixture {
-	struct rmd_bridge b;
+	struct rmd_bridge *b; /* NULL until start() */
 	struct rmd_bridge_opts opts;
 	struct rmd_latest commands, snapshots, health, homes;
 	struct rmd_command cmd_buf[3];
 	struct rmd_home home_buf[3];
 	struct rmd_snapshot snap_buf[3];
 	struct rmd_health health_buf[3];
-	bool started;
 	char url[80];
 	FILE *log;
 
@@ -203,8 +203,7 @@ static int teardown(void **state)
 
 	if (!f)
 		return 0;
-	if (f->started)
-		rmd_bridge_fini(&f->b);
+	rmd_bridge_free(f->b);
 	if (f->opts.notify_fd >= 0)
 		close(f->opts.notify_fd);
 	lcm_rx_free(&f->rx);
@@ -223,17 +222,16 @@ static void start(struct fixture *f)
 {
 	char err[256] = "";
 
-	if (rmd_bridge_init(&f->b, &f->opts, err, sizeof(err)) < 0)
-		fail_msg("rmd_bridge_init: %s", err);
-	assert_int_equal(rmd_bridge_start(&f->b), 0);
-	f->started = true;
+	if (rmd_bridge_new(&f->b, &f->opts, err, sizeof(err)) < 0)
+		fail_msg("rmd_bridge_new: %s", err);
+	assert_int_equal(rmd_bridge_start(f->b), 0);
 }
 
 static struct rmd_bridge_stats stats(struct fixture *f)
 {
 	struct rmd_bridge_stats st;
 
-	rmd_bridge_get_stats(&f->b, &st);
+	rmd_bridge_get_stats(f->b, &st);
 	return st;
 }
 
@@ -300,43 +298,44 @@ static void test_init_checks_opts(void **state)
 {
 	struct fixture *f = fixture(state);
 	struct rmd_bridge_opts o = f->opts;
-	struct rmd_bridge b;
+	struct rmd_bridge *b;
 	char err[256];
 
 	o.nmotors = 0;
-	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
 	assert_non_null(strstr(err, "motors"));
 
 	o = f->opts;
 	o.nmotors = RMD_MAX_MOTORS + 1;
-	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
 
 	o = f->opts;
 	o.commands = NULL;
-	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
 
 	o = f->opts;
 	o.motor[3].kp_min = 10;
 	o.motor[3].kp_max = 1;
-	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
 	assert_non_null(strstr(err, "m3"));
 
 	o = f->opts;
 	o.motor[5].pos_min_rad = NAN;
-	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
 
 	o = f->opts;
 	snprintf(o.prefix, sizeof(o.prefix), "RMD *");
-	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
 
 	o = f->opts;
 	snprintf(o.url, sizeof(o.url), "nosuchprovider://x");
-	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EIO);
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EIO);
 	assert_non_null(strstr(err, "nosuchprovider"));
+	assert_null(b); /* a failed new leaves nothing behind */
 
 	o = f->opts;
 	o.rt_priority = 99; /* the kernel's own level */
-	assert_int_equal(rmd_bridge_init(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
 	assert_non_null(strstr(err, "rt_priority"));
 
 	/* The defaults keep traffic on the host. */
@@ -474,7 +473,7 @@ static void test_clamp(void **state)
 	assert_int_equal(stats(f).rejected, 0);
 
 	/* One notice for the first clamp, none for the second. */
-	rmd_bridge_stop(&f->b);
+	rmd_bridge_stop(f->b);
 	rewind(f->log);
 	while (fgets(line, sizeof(line), f->log)) {
 		lines++;
@@ -683,7 +682,7 @@ static void test_hostile_rejected_by_kind(void **state)
 	assert_int_equal(c.seq, 1002);
 
 	/* One line per kind, the first of its kind. */
-	rmd_bridge_stop(&f->b);
+	rmd_bridge_stop(f->b);
 	rewind(f->log);
 	while (fgets(line, sizeof(line), f->log)) {
 		bool known = false;
@@ -744,6 +743,158 @@ static void test_stale(void **state)
 	assert_int_equal(stats(f).rejected_by_kind[RMD_REJ_STALE], 2);
 }
 
+/* The log of a bridge without a fixture: its last message. */
+static void log_last(void *ctx, int level, const char *msg)
+{
+	(void)level;
+	snprintf(ctx, 256, "%s", msg);
+}
+
+/*
+ * command_t is decoded in place (admission.c decode_command()): a command
+ * costs the bridge thread no allocation, and a hostile count is refused
+ * before any entry is read, whatever the datagram's length.  lcm-gen's
+ * rmd_command_t_decode() allocates motor[count] for the count a datagram
+ * names (up to 32767 entries, 1.8 MB) before it finds the datagram short.
+ * On memq://, without multicast: rmd_bridge_handle() is the bridge thread's
+ * step for each message.
+ */
+static void test_command_decoded_in_place(void **state)
+{
+	static rmd_motor_command_t many[INT16_MAX];
+	static unsigned char enc[sizeof(many) + 64];
+	struct rmd_latest commands;
+	struct rmd_command cmd_buf[3];
+	struct rmd_bridge_opts o;
+	struct rmd_bridge_stats st;
+	struct rmd_bridge *b;
+	char err[256], last[256] = "";
+	unsigned long allocs;
+	rmd_command_t m;
+	int n;
+
+	(void)state;
+	if (!alloc_count_available()) {
+		print_message("skipped: ASan owns malloc, so allocations are not counted here\n");
+		skip();
+	}
+	fill_opts(&o, "memq://");
+	rmd_latest_init(&commands, cmd_buf, sizeof(cmd_buf[0]));
+	o.commands = &commands;
+	o.log = log_last;
+	o.log_ctx = last;
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), 0);
+
+	alloc_count_reset();
+	alloc_count_start();
+	for (int64_t seq = 1; seq <= 100; seq++) {
+		m = base_cmd(seq);
+		n = rmd_command_t_encode(enc, 0, (int)sizeof(enc), &m);
+		assert_true(n > 0);
+		rmd_bridge_handle(b, &(struct rmd_lcm_msg){ .channel = PREFIX "COMMAND",
+							    .data = enc,
+							    .size = (uint32_t)n });
+	}
+	allocs = alloc_count_stop();
+	rmd_bridge_get_stats(b, &st);
+	assert_int_equal(st.accepted, 100);
+	if (allocs)
+		fail_msg("100 commands: %lu allocations", allocs);
+
+	/* count 32767 and one entry of them: the count is what is wrong */
+	m = empty_cmd();
+	m.seq = 101;
+	m.motor = many;
+	m.count = 1;
+	n = rmd_command_t_encoded_size(&m); /* the head and one entry */
+	m.count = INT16_MAX;
+	assert_true(rmd_command_t_encode(enc, 0, (int)sizeof(enc), &m) > n);
+	alloc_count_reset();
+	alloc_count_start();
+	rmd_bridge_handle(b, &(struct rmd_lcm_msg){ .channel = PREFIX "COMMAND",
+						    .data = enc,
+						    .size = (uint32_t)n });
+	allocs = alloc_count_stop();
+	rmd_bridge_get_stats(b, &st);
+	assert_int_equal(st.rejected_by_kind[RMD_REJ_COUNT], 1);
+	assert_int_equal(st.rejected, 1);
+	assert_non_null(strstr(last, "motor count 32767 out of range (0..12 configured motors)"));
+	if (allocs)
+		fail_msg("a count of 32767: %lu allocations", allocs);
+	rmd_bridge_free(b);
+}
+
+/*
+ * One motor's state as state_t carries it (rmd_bridge_motor_state(), which
+ * the incident log uses too): fields as they are, counts and times
+ * saturated to the LCM field's range, the brake releasing until its time.
+ */
+static void test_motor_state_projection(void **state)
+{
+	static const struct {
+		const char *name;
+		struct rmd_motor_state m;
+		int64_t t_ns;
+		int32_t age, latency_us;
+		int64_t missed;
+		bool releasing;
+	} cases[] = {
+		{ "plain",
+		  { .reply_age_cycles = 3, .reply_latency_ns = 600999, .missed_replies = 7 },
+		  0,
+		  3,
+		  600,
+		  7,
+		  false },
+		{ "saturated",
+		  { .reply_age_cycles = UINT32_MAX,
+		    .reply_latency_ns = INT64_MAX,
+		    .missed_replies = UINT64_MAX },
+		  0,
+		  INT32_MAX,
+		  INT32_MAX,
+		  INT64_MAX,
+		  false },
+		{ "releasing", { .release_until_ns = 1001 }, 1000, 0, 0, 0, true },
+		{ "released", { .release_until_ns = 1000 }, 1000, 0, 0, 0, false },
+	};
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+		struct rmd_motor_state m = cases[k].m;
+		rmd_motor_state_t o;
+
+		m.lifecycle = RMD_LC_ENABLED;
+		m.mode = RMD_MODE_MIT;
+		m.pos_trust = RMD_POS_HOMED;
+		m.pos_certain = true;
+		m.pos_rad = -1.25;
+		m.vel_rad_s = 2.5;
+		m.torque_nm = 0.75;
+		m.current_a = 1.5;
+		m.temp_c = 41;
+		m.voltage_v = 24.5;
+		m.error_code = 0x0004;
+		m.rx_ns = 11;
+		m.pos_rx_ns = 12;
+		m.status_rx_ns = 13;
+		rmd_bridge_motor_state(&o, 5, &m, cases[k].t_ns);
+		if (o.index != 5 || o.lifecycle != RMD_STATE_T_LC_ENABLED ||
+		    o.mode != RMD_COMMAND_T_MODE_MIT || o.position != -1.25 || o.velocity != 2.5 ||
+		    o.torque != 0.75 || o.current != 1.5 || o.temperature != 41 ||
+		    o.voltage != 24.5 || o.error_code != 4 || o.rx_time_ns != 11 ||
+		    o.position_rx_time_ns != 12 || o.status_rx_time_ns != 13 ||
+		    !o.position_certain || o.position_trust != RMD_STATE_T_POS_HOMED)
+			fail_msg("%s: a field is not the motor's", cases[k].name);
+		if (o.reply_age_cycles != cases[k].age ||
+		    o.reply_latency_us != cases[k].latency_us ||
+		    o.missed_replies != cases[k].missed || o.brake_releasing != cases[k].releasing)
+			fail_msg("%s: age %d, latency %d us, missed %lld, releasing %d",
+				 cases[k].name, o.reply_age_cycles, o.reply_latency_us,
+				 (long long)o.missed_replies, o.brake_releasing);
+	}
+}
+
 /* ---- flood ----------------------------------------------------------------- */
 
 struct fake_rt {
@@ -799,11 +950,9 @@ static void test_flood(void **state)
 	struct rmd_command c;
 	rmd_command_t m;
 	pthread_t th;
-	clockid_t cpu_clock;
-	struct timespec cpu;
 	int64_t t, t0, lag, seq = 1, bad = 0, stall, held_ns = 0;
 	struct sleeper ref = { 0 };
-	struct thread_sched sched0;
+	struct thread_sched sched0, sched1 = { 0 };
 	pid_t bridge_tid;
 
 	start(f);
@@ -849,14 +998,15 @@ static void test_flood(void **state)
 	WAIT_UNTIL(f, stats(f).accepted + stats(f).rejected == (uint64_t)n,
 		   flood_kept_pace(t - t0) ? 5000 : 1000);
 	lag = rmd_now_ns() - t;
-	assert_int_equal(pthread_getcpuclockid(f->b.thread, &cpu_clock), 0);
-	clock_gettime(cpu_clock, &cpu);
+	/* the bridge thread's CPU time: the kernel's account of it (run_ns) */
+	if (bridge_tid > 0)
+		thread_sched_read(getpid(), bridge_tid, &sched1);
 	st = stats(f);
 	print_message(
 		"flood: accepted %llu, rejected %llu; the last handled %.1f ms after the last "
 		"send; bridge CPU %.3f s\n",
 		(unsigned long long)st.accepted, (unsigned long long)st.rejected, lag / 1e6,
-		cpu.tv_sec + cpu.tv_nsec / 1e9);
+		sched1.run_ns / 1e9);
 	print_message("flood: %llu of %llu snapshots published\n",
 		      (unsigned long long)st.states_published, (unsigned long long)rt.puts);
 	/* Nothing is misclassified: every rejection is one of the NaN messages. */
@@ -1242,7 +1392,7 @@ static void test_home(void **state)
 	WAIT_UNTIL(f, take_homes(f, &h) && h.seq[1] == 2, 2000);
 	assert_int_equal(h.seq[1], 2);
 	assert_true(h.pos_rad[1] == -0.5);
-	rmd_bridge_stop(&f->b);
+	rmd_bridge_stop(f->b);
 	rewind(f->log);
 	while (fgets(line, sizeof(line), f->log)) {
 		seen_range |= strstr(line, "<4>rmdd: TEST_HOME: refused: motor index 40 out of "
@@ -1378,7 +1528,7 @@ static void test_one_controller_at_a_time(void **state)
 	assert_true(stats(f).owned);
 	assert_int_equal(stats(f).owner, 0xA);
 
-	rmd_bridge_stop(&f->b);
+	rmd_bridge_stop(f->b);
 	rewind(f->log);
 	while (fgets(line, sizeof(line), f->log)) {
 		if (strstr(line,
@@ -1478,8 +1628,8 @@ static void test_owner_judged_by_arrival(void **state)
 		print_message("busy machine: A's commands %.1f ms apart, past the %d ms command "
 			      "timeout: again with %d ms\n",
 			      gap / 1e6, timeout_ms, 2 * timeout_ms);
-		rmd_bridge_fini(&f->b);
-		f->started = false;
+		rmd_bridge_free(f->b);
+		f->b = NULL;
 	}
 
 	assert_int_equal(stats(f).accepted, seq - 1);
@@ -1728,6 +1878,7 @@ static void test_rt_priority(void **state)
 	struct rmd_bridge_stats st;
 	struct sched_param sp;
 	int policy;
+	pid_t tid;
 
 	f->opts.rt_priority = 7;
 	start(f);
@@ -1741,7 +1892,11 @@ static void test_rt_priority(void **state)
 	assert_int_equal(st.rt_error, 0);
 	assert_int_equal(st.rt_priority, 7);
 	assert_int_equal(st.lcm_threads_rt, 0);
-	assert_int_equal(pthread_getschedparam(f->b.thread, &policy, &sp), 0);
+	/* the bridge thread itself, found by its name as the kernel shows it */
+	tid = thread_named("rmd-bridge");
+	assert_true(tid > 0);
+	policy = sched_getscheduler(tid);
+	assert_int_equal(sched_getparam(tid, &sp), 0);
 	assert_int_equal(policy, SCHED_FIFO);
 	assert_int_equal(sp.sched_priority, 7);
 	/* the test's own thread and LCM's of the controller stay as they were */
@@ -1912,7 +2067,7 @@ static void test_fragments_reassembled(void **state)
 		close(sock[k]);
 
 	/* the trailing bytes were counted whole (the log is written after the count) */
-	rmd_bridge_stop(&f->b);
+	rmd_bridge_stop(f->b);
 	rewind(f->log);
 	while (fgets(line, sizeof(line), f->log))
 		said |= strstr(line, "3000 bytes after the end of an rmd.command_t") != NULL;
@@ -2045,16 +2200,15 @@ static void test_probe_finds_another_daemon(void **state)
 	rmd_command_t m = base_cmd(1);
 
 	f->opts.instance = 7;
-	if (rmd_bridge_init(&f->b, &f->opts, err, sizeof(err)) < 0)
-		fail_msg("rmd_bridge_init: %s", err);
-	f->started = true;
-	assert_int_equal(rmd_bridge_probe(&f->b, 50 * 1000000LL, &p), 0);
+	if (rmd_bridge_new(&f->b, &f->opts, err, sizeof(err)) < 0)
+		fail_msg("rmd_bridge_new: %s", err);
+	assert_int_equal(rmd_bridge_probe(f->b, 50 * 1000000LL, &p), 0);
 	assert_int_equal(p.instance, 0);
 
 	send_cmd(f, &m);
 	send_other_health(f);
 	send_other_config(f);
-	assert_true(rmd_bridge_probe(&f->b, RMD_BRIDGE_PROBE_NS, &p) >= 2);
+	assert_true(rmd_bridge_probe(f->b, RMD_BRIDGE_PROBE_NS, &p) >= 2);
 	assert_true(p.instance == OTHER_INSTANCE);
 	assert_string_equal(p.host, "other");
 	assert_int_equal(p.pid, 42);
@@ -2130,6 +2284,8 @@ int main(void)
 		cmocka_unit_test(test_clamp),
 		cmocka_unit_test(test_hostile_rejected_by_kind),
 		cmocka_unit_test(test_stale),
+		cmocka_unit_test(test_command_decoded_in_place),
+		cmocka_unit_test(test_motor_state_projection),
 		cmocka_unit_test(test_flood),
 		cmocka_unit_test(test_state_published),
 		cmocka_unit_test(test_state_every_nth),

@@ -25,6 +25,7 @@
 
 #include <lcm/lcm.h>
 
+#include "rmd/channels.h"
 #include "rmd/config.h"
 #include "rmd/time.h"
 #include "rmd/rmd_config_request_t.h"
@@ -565,7 +566,7 @@ static int parse(struct top *t, int argc, char **argv)
 		tool_log(TOOL_LOG_ERR, "--json and --once exclude each other");
 		return -1;
 	}
-	if (strlen(t->prefix) + strlen("CONFIG_REQUEST") >= TOP_CHANNEL_LEN) {
+	if (strlen(t->prefix) + strlen(RMD_CHANNEL_CONFIG_REQUEST) >= TOP_CHANNEL_LEN) {
 		tool_log(TOOL_LOG_ERR, "--prefix \"%s\" is too long", t->prefix);
 		return -1;
 	}
@@ -588,7 +589,8 @@ static int run_once(struct top *t)
 		}
 		if (rmdctl_top_stop || rmd_now_ns() - start > (int64_t)(t->wait_s * 1e9)) {
 			tool_log(TOOL_LOG_ERR,
-				 "no complete %sCONFIG, %sHEALTH and %sSTATE within %g s "
+				 "no complete %s" RMD_CHANNEL_CONFIG ", %s" RMD_CHANNEL_HEALTH
+				 " and %s" RMD_CHANNEL_STATE " within %g s "
 				 "(config %s, health %s, state %s): is rmdd running, with "
 				 "--lcm-url %s and prefix %s?",
 				 t->prefix, t->prefix, t->prefix, t->wait_s, t->cfg ? "yes" : "no",
@@ -664,10 +666,10 @@ int rmdctl_top_run(int argc, char **argv)
 	}
 	if (t.interval_ms == 0)
 		t.interval_ms = t.tty ? TTY_INTERVAL_MS : PLAIN_INTERVAL_MS;
-	snprintf(t.ch_state, sizeof(t.ch_state), "%sSTATE", t.prefix);
-	snprintf(t.ch_health, sizeof(t.ch_health), "%sHEALTH", t.prefix);
-	snprintf(t.ch_config, sizeof(t.ch_config), "%sCONFIG", t.prefix);
-	snprintf(t.ch_request, sizeof(t.ch_request), "%sCONFIG_REQUEST", t.prefix);
+	snprintf(t.ch_state, sizeof(t.ch_state), "%s" RMD_CHANNEL_STATE, t.prefix);
+	snprintf(t.ch_health, sizeof(t.ch_health), "%s" RMD_CHANNEL_HEALTH, t.prefix);
+	snprintf(t.ch_config, sizeof(t.ch_config), "%s" RMD_CHANNEL_CONFIG, t.prefix);
+	snprintf(t.ch_request, sizeof(t.ch_request), "%s" RMD_CHANNEL_CONFIG_REQUEST, t.prefix);
 
 	memset(&sa, 0, sizeof(sa));
 	sa.sa_handler = on_signal;

@@ -33,6 +33,7 @@
 #include <lcm/eventlog.h>
 
 #include "rmd/bridge.h"
+#include "rmd/channels.h"
 #include "rmd/dialect.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_state_t.h"
@@ -44,12 +45,6 @@
 /* Lines of the summary's "what happened" list: one page. */
 #define SUMMARY_EVENTS 40
 
-/*
- * The commands' channel in window.lcmlog: not the live COMMAND channel, so
- * that lcm-logplayer replaying a recording beside a running rmdd never
- * drives its motors.
- */
-#define LOG_COMMAND_CHANNEL "COMMAND_TAKEN"
 #define LOG_ENC_MAX 16384 /* state_t of 32 motors: some 3.5 kB */
 
 /* ---- where the recordings go ---------------------------------------------- */
@@ -602,8 +597,9 @@ static void write_summary(FILE *f, struct out *o)
 	fprintf(f, "  commands.csv  %zu rows: each motor's entry of each command the loop took\n",
 		w->n_commands);
 	fprintf(f,
-		"  window.lcmlog  an LCM log: %s%zu state_t on %sSTATE, %zu command_t the loop "
-		"took on %s" LOG_COMMAND_CHANNEL "; rmd-plot --log, lcm-logplayer, rmd-spy\n",
+		"  window.lcmlog  an LCM log: %s%zu state_t on %s" RMD_CHANNEL_STATE
+		", %zu command_t the loop took on %s" RMD_CHANNEL_COMMAND_TAKEN
+		"; rmd-plot --log, lcm-logplayer, rmd-spy\n",
 		o->log_config ? "config_t, " : "", o->log_states, cfg->lcm.channel_prefix,
 		o->log_commands, cfg->lcm.channel_prefix);
 	free(items);
@@ -641,8 +637,9 @@ static void log_put(struct lcmlog *l, const char *prefix, const char *name, int6
 
 /*
  * One state_t from the window's states[k..] of one cycle, as the bridge
- * publishes it but from what the recorder keeps: the receive times and
- * counts the recorder does not hold are 0 (docs/faults.md "Incidents").
+ * publishes it (rmd_bridge_motor_state()) but from what the recorder keeps:
+ * the receive times and counts the recorder does not hold are 0
+ * (docs/faults.md "Incidents").
  * Returns the index after the cycle.
  */
 static size_t log_state(struct lcmlog *l, struct out *o, size_t k, rmd_motor_state_t *ms)
@@ -655,22 +652,23 @@ static size_t log_state(struct lcmlog *l, struct out *o, size_t k, rmd_motor_sta
 	for (; j < w->n_states && w->states[j].cycle == s0->cycle && st.count < RMD_MAX_MOTORS;
 	     j++) {
 		const struct rmd_incident_state *s = &w->states[j];
-
-		ms[st.count++] = (rmd_motor_state_t){
-			.index = s->motor,
-			.lifecycle = (int8_t)s->lifecycle,
-			.mode = (int8_t)s->mode,
-			.position = s->pos_rad,
-			.velocity = s->vel_rad_s,
-			.torque = s->torque_nm,
-			.current = s->current_a,
-			.temperature = s->temp_c,
-			.voltage = s->voltage_v,
+		/* what the recorder keeps of the motor's state (the rest is 0) */
+		const struct rmd_motor_state m = {
+			.lifecycle = s->lifecycle,
+			.mode = s->mode,
+			.pos_rad = s->pos_rad,
+			.vel_rad_s = s->vel_rad_s,
+			.torque_nm = s->torque_nm,
+			.current_a = s->current_a,
+			.temp_c = s->temp_c,
+			.voltage_v = s->voltage_v,
 			.error_code = s->error_code,
-			.reply_age_cycles = (int32_t)s->reply_age_cycles,
+			.reply_age_cycles = s->reply_age_cycles,
 		};
+
+		rmd_bridge_motor_state(&ms[st.count++], s->motor, &m, s0->t_ns);
 	}
-	log_put(l, o->in->cfg->lcm.channel_prefix, "STATE", s0->t_ns + o->off_ns,
+	log_put(l, o->in->cfg->lcm.channel_prefix, RMD_CHANNEL_STATE, s0->t_ns + o->off_ns,
 		rmd_state_t_encode(l->enc, 0, LOG_ENC_MAX, &st));
 	o->log_states++;
 	return j;
@@ -703,7 +701,7 @@ static size_t log_command(struct lcmlog *l, struct out *o, size_t k, rmd_motor_c
 			.max_velocity = c->sp.max_vel_rad_s,
 		};
 	}
-	log_put(l, o->in->cfg->lcm.channel_prefix, LOG_COMMAND_CHANNEL, c0->t_ns + o->off_ns,
+	log_put(l, o->in->cfg->lcm.channel_prefix, RMD_CHANNEL_COMMAND_TAKEN, c0->t_ns + o->off_ns,
 		rmd_command_t_encode(l->enc, 0, LOG_ENC_MAX, &cmd));
 	o->log_commands++;
 	return j;
@@ -736,7 +734,7 @@ static int write_lcmlog(const char *dir, struct out *o)
 	if (n > 0) {
 		int64_t t = w->n_states ? w->states[0].t_ns : o->from_ns;
 
-		log_put(&l, o->in->cfg->lcm.channel_prefix, "CONFIG", t + o->off_ns, n);
+		log_put(&l, o->in->cfg->lcm.channel_prefix, RMD_CHANNEL_CONFIG, t + o->off_ns, n);
 		o->log_config = true;
 	}
 	while (!l.err && (ks < w->n_states || kc < w->n_commands)) {

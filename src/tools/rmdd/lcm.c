@@ -76,6 +76,7 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 /* What the bridge's threads were granted, at info level: refused, commands wait longer. */
 void rmdd_lcm_started(struct rmd_bridge *b)
 {
+	const struct rmd_bridge_opts *o = rmd_bridge_get_opts(b);
 	struct rmd_bridge_stats st;
 
 	rmd_bridge_get_stats(b, &st);
@@ -83,7 +84,7 @@ void rmdd_lcm_started(struct rmd_bridge *b)
 		tool_log(6,
 			 "LCM bridge: SCHED_FIFO %u refused (%s): commands wait for "
 			 "normal-priority wake-ups (docs/design.md, Threads)",
-			 b->opts.rt_priority, strerror(-st.rt_error));
+			 o->rt_priority, strerror(-st.rt_error));
 }
 
 /* The bridge rejected a controller that does not own the motors: an incident. */
@@ -106,17 +107,18 @@ void rmdd_lcm_incidents(struct rmd_bridge_opts *o, struct rmdd_incidents *in)
 
 int rmdd_lcm_alone(struct rmd_bridge *b, bool force)
 {
+	const struct rmd_bridge_opts *o = rmd_bridge_get_opts(b);
 	struct rmd_bridge_peer p;
 	char who[400];
 	int r = rmd_bridge_probe(b, RMD_BRIDGE_PROBE_NS, &p);
 
 	if (r < 0) {
-		tool_log(4, "LCM: could not look for another rmdd on %s* (%s); starting",
-			 b->opts.prefix, strerror(-r));
+		tool_log(4, "LCM: could not look for another rmdd on %s* (%s); starting", o->prefix,
+			 strerror(-r));
 		return 0;
 	}
-	tool_log(7, "LCM: instance %016" PRIx64 " on host %s, pid %d", (uint64_t)b->opts.instance,
-		 b->opts.host, (int)b->opts.pid);
+	tool_log(7, "LCM: instance %016" PRIx64 " on host %s, pid %d", (uint64_t)o->instance,
+		 o->host, (int)o->pid);
 	if (r == 0)
 		return 0;
 	if (p.instance)
@@ -129,13 +131,13 @@ int rmdd_lcm_alone(struct rmd_bridge *b, bool force)
 		tool_log(4,
 			 "another rmdd publishes on %s* of %s (%s); starting anyway (--force): "
 			 "controllers on this prefix will see both daemons and drive both",
-			 b->opts.prefix, b->opts.url, who);
+			 o->prefix, o->url, who);
 		return 0;
 	}
 	tool_log(3,
 		 "another rmdd publishes on %s* of %s (%s); two daemons on one prefix take the "
 		 "same controller's commands. Give this one another lcm.channel_prefix, stop "
 		 "the other, or start with --force",
-		 b->opts.prefix, b->opts.url, who);
+		 o->prefix, o->url, who);
 	return -EEXIST;
 }

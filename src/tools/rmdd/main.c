@@ -121,7 +121,7 @@ struct rmdd {
 	struct rmd_loop *loop;
 	struct rmdd_monitor mon;
 	struct rmdd_incidents inc; /* the incident recorder: ring and writer */
-	struct rmd_bridge bridge;
+	struct rmd_bridge *bridge;
 	struct rmdd_notify notify;
 	struct rmdd_stats_src stats;
 };
@@ -1272,7 +1272,6 @@ static int run(const struct rmdd_opts *o)
 		.plan = &d->plan,
 		.loop = d->loop,
 		.mon = &d->mon,
-		.bridge = &d->bridge,
 		.events = &d->events,
 	};
 	/*
@@ -1294,20 +1293,21 @@ static int run(const struct rmdd_opts *o)
 	bo.homes = &d->homes;
 	bo.notify_fd = d->snapshot_fd;
 	rmdd_lcm_incidents(&bo, d->inc.ring ? &d->inc : NULL);
-	r = rmd_bridge_init(&d->bridge, &bo, err, sizeof(err));
+	r = rmd_bridge_new(&d->bridge, &bo, err, sizeof(err));
 	if (r < 0) {
 		tool_log(3, "LCM: %s; --lcm-url memq:// runs without LCM traffic", err);
 		goto err_fini_monitor;
 	}
+	d->stats.bridge = d->bridge;
 	/* before bring-up: another daemon here would answer our controllers too */
-	if (rmdd_lcm_alone(&d->bridge, o->force) < 0)
-		goto err_fini_bridge;
-	r = rmd_bridge_start(&d->bridge);
+	if (rmdd_lcm_alone(d->bridge, o->force) < 0)
+		goto err_free_bridge;
+	r = rmd_bridge_start(d->bridge);
 	if (r < 0) {
 		tool_log(3, "LCM bridge thread: %s", strerror(-r));
-		goto err_fini_bridge;
+		goto err_free_bridge;
 	}
-	rmdd_lcm_started(&d->bridge);
+	rmdd_lcm_started(d->bridge);
 	if (bringup(d) != RMDD_EXIT_OK)
 		goto err_stop_bridge;
 
@@ -1330,7 +1330,7 @@ static int run(const struct rmdd_opts *o)
 		tool_log(3, "monitor thread: %s", strerror(-r));
 		goto err_stop_loop;
 	}
-	d->inc.bridge = &d->bridge; /* each recording's LCM log starts with its config_t */
+	d->inc.bridge = d->bridge; /* each recording's LCM log starts with its config_t */
 	r = rmdd_incidents_start(&d->inc);
 	if (r < 0) {
 		tool_log(3, "incident writer thread: %s", strerror(-r));
@@ -1379,12 +1379,12 @@ err_stop_loop:
 		exit_line(d);
 	}
 err_stop_bridge:
-	rmd_bridge_stop(&d->bridge);
+	rmd_bridge_stop(d->bridge);
 	rmdd_monitor_stop(&d->mon);
 	/* after the monitor's last drain: its triggers are written now */
 	rmdd_incidents_stop(&d->inc);
-err_fini_bridge:
-	rmd_bridge_fini(&d->bridge);
+err_free_bridge:
+	rmd_bridge_free(d->bridge);
 err_fini_monitor:
 	rmdd_monitor_fini(&d->mon);
 err_free_loop:
