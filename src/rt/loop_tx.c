@@ -145,9 +145,26 @@ static __attribute__((cold)) void push_report_off(struct lbus *lb, struct lmotor
 }
 
 /*
+ * The read that tells whether lm, which missed a reply, rebooted
+ * (rmd/reboot.h), in place of whatever else its slot would carry: a motor
+ * back from a boot hears it first, not a motion command.  rt-safe.
+ */
+static __attribute__((cold, noinline)) void push_reboot_check(struct rmd_loop *l, struct lbus *lb,
+							      unsigned i)
+{
+	uint8_t cmd = rmd_reboot_next(&l->mot[i].rb, loop_reboot_cmd(&l->mot[i]));
+
+	if (cmd)
+		push_cmd(l, lb, i, cmd);
+}
+
+/*
  * What waits for lm's control slot: an owed 0x80 or 0x78 first (the
- * motor's output and brake, lifecycle.c "Owed frames"), else the head of
- * its one-shot queue, else a 0xB6 off.  rt-safe.
+ * motor's output and brake, lifecycle.c "Owed frames"), else the read of
+ * a reboot check -- after a comm-loss round's 0xB3 writes, which move
+ * nothing and which a motor tripping between two frames answers only
+ * right behind the read that takes its echo -- else the head of its
+ * one-shot queue, else a 0xB6 off.  rt-safe.
  */
 static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
@@ -156,6 +173,8 @@ static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t no
 
 	if (loop_owed_frame(lm, &f))
 		loop_push_tx(lb, &f, i, REQ_OWED);
+	else if (lm->rb.pending && !(lm->cl_round && lm->n_oneshot))
+		push_reboot_check(l, lb, i);
 	else if (lm->n_oneshot)
 		push_oneshot(l, lb, i, now);
 	else if (lm->reports_off)
@@ -180,8 +199,11 @@ static void add_control(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t
 	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f[2];
 
-	/* owed frames and one-shots first: an ENABLED motor's brake release, the others' stops */
-	if (lm->owe || lm->n_oneshot || lm->reports_off) {
+	/*
+	 * owed frames, a reboot check's read and one-shots first: an ENABLED
+	 * motor's brake release, the others' stops
+	 */
+	if (lm->n_oneshot || lm->reports_off || lm->owe || lm->rb.pending) {
 		push_due(l, lb, i, now);
 		return;
 	}
@@ -273,7 +295,8 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
 	for (unsigned k = 0; k < pb->n_motors && room; k++) {
 		unsigned i = pb->motors[k];
 
-		if ((pb->batched & (1u << k)) && (l->mot[i].owe || l->mot[i].n_oneshot)) {
+		if ((pb->batched & (1u << k)) &&
+		    (l->mot[i].owe || l->mot[i].n_oneshot || l->mot[i].rb.pending)) {
 			push_due(l, lb, i, now);
 			queued = true;
 			room--;

@@ -307,6 +307,13 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 		snprintf(buf, len, "%s: left out, its firmware (%" PRId64 ") is %s", ctx, e->a,
 			 rmd_proto_key((enum rmd_proto)e->b));
 		break;
+	case RMD_EV_REBOOT: {
+		char what[160];
+
+		rmdd_reboot_text(e, what, sizeof(what));
+		snprintf(buf, len, "%s: %s", ctx, what);
+		break;
+	}
 	default:
 		snprintf(buf, len, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
@@ -347,6 +354,7 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 		*kind = "bus";
 		break;
 	case RMD_EV_MOTOR_ERROR: /* the FAULT or LOST that follows is the incident */
+	case RMD_EV_REBOOT:	 /* ... and the LOST a reboot makes */
 	case RMD_EV_SEND_FAILED:
 	case RMD_EV_UNEXPECTED:
 	case RMD_EV_LATE:
