@@ -487,6 +487,22 @@ static void test_v2_50ms_100hz(void **state)
 	glitch_case(&c);
 }
 
+/* V4 firmware (V4.2 §2.28 has 0xB1 too), 1 kHz, 5 ms. */
+static void test_v4_5ms_1khz(void **state)
+{
+	static const struct glitch_case c = {
+		.name = "V4 1 kHz 5 ms",
+		.proto = RMD_PROTO_V4,
+		.rate_hz = 1000,
+		.glitch_ns = 5 * MS,
+		.boot_ms = 0,
+		.brake = false,
+	};
+
+	(void)state;
+	glitch_case(&c);
+}
+
 /* MIT with kp > 0 holding its place, 1 kHz, 5 ms. */
 static void test_mit_5ms_1khz(void **state)
 {
@@ -738,19 +754,13 @@ static void test_quiet_v3_rest(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v3_5ms_1khz),
-		cmocka_unit_test(test_v3_5ms_1khz_brake),
-		cmocka_unit_test(test_v3_50ms_100hz),
-		cmocka_unit_test(test_v2_5ms_1khz),
-		cmocka_unit_test(test_v2_50ms_100hz),
-		cmocka_unit_test(test_mit_5ms_1khz),
-		cmocka_unit_test(test_v3_2ms_brake_backstop),
-		cmocka_unit_test(test_quiet_v3_fast),
-		cmocka_unit_test(test_quiet_v3_moves),
-		cmocka_unit_test(test_quiet_v2_fast),
-		cmocka_unit_test(test_quiet_v2_homed_fine),
-		cmocka_unit_test(test_quiet_mit),
-		cmocka_unit_test(test_quiet_v3_rest),
+		cmocka_unit_test(test_v3_5ms_1khz),   cmocka_unit_test(test_v3_5ms_1khz_brake),
+		cmocka_unit_test(test_v3_50ms_100hz), cmocka_unit_test(test_v2_5ms_1khz),
+		cmocka_unit_test(test_v2_50ms_100hz), cmocka_unit_test(test_mit_5ms_1khz),
+		cmocka_unit_test(test_v4_5ms_1khz),   cmocka_unit_test(test_v3_2ms_brake_backstop),
+		cmocka_unit_test(test_quiet_v3_fast), cmocka_unit_test(test_quiet_v3_moves),
+		cmocka_unit_test(test_quiet_v2_fast), cmocka_unit_test(test_quiet_v2_homed_fine),
+		cmocka_unit_test(test_quiet_mit),     cmocka_unit_test(test_quiet_v3_rest),
 	};
 
 	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
