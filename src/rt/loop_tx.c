@@ -158,13 +158,22 @@ static __attribute__((cold, noinline)) void push_reboot_check(struct rmd_loop *l
 		push_cmd(l, lb, i, cmd);
 }
 
+/* Whether the head of lm's one-shot queue releases its brake (0x77, V3 §2.26).  rt-safe. */
+static bool oneshot_releases(const struct lmotor *lm)
+{
+	return lm->oneshot[0].can_id == RMD_CAN_REQ_BASE + lm->m.id && lm->oneshot[0].len &&
+	       lm->oneshot[0].data[0] == 0x77;
+}
+
 /*
  * What waits for lm's control slot: an owed 0x80 or 0x78 first (the
  * motor's output and brake, lifecycle.c "Owed frames"), else the read of
- * a reboot check -- after a comm-loss round's 0xB3 writes, which move
- * nothing and which a motor tripping between two frames answers only
- * right behind the read that takes its echo -- else the head of its
- * one-shot queue, else a 0xB6 off.  rt-safe.
+ * a reboot check, unless the head of its one-shot queue goes first -- a
+ * safe action's frames, which stop the motor in whatever frame it counts,
+ * and a comm-loss round's 0xB3 writes, which move nothing and which a
+ * motor tripping between two frames answers only right behind the read
+ * that takes its echo; a brake release (0x77) waits -- else that head,
+ * else a 0xB6 off.  rt-safe.
  */
 static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
@@ -173,7 +182,7 @@ static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t no
 
 	if (loop_owed_frame(lm, &f))
 		loop_push_tx(lb, &f, i, REQ_OWED);
-	else if (lm->rb.pending && !(lm->cl_round && lm->n_oneshot))
+	else if (lm->rb.pending && (!lm->n_oneshot || oneshot_releases(lm)))
 		push_reboot_check(l, lb, i);
 	else if (lm->n_oneshot)
 		push_oneshot(l, lb, i, now);

@@ -583,6 +583,57 @@ static void test_v3_2ms_brake_backstop(void **state)
 	rig_down();
 }
 
+/*
+ * A check holds the motor's setpoints and its brake release back, never
+ * its safe action: motor 1's cable is cut (no reboot) while the host
+ * watchdog trips; the stop goes out in the next control slot, ahead of the
+ * check's reads, though the motor cannot answer them yet.
+ */
+static void test_safe_action_before_check(void **state)
+{
+	static const struct glitch_case c = {
+		.name = "V3, cut while the watchdog trips",
+		.proto = RMD_PROTO_V3,
+		.rate_hz = 1000,
+		.saved = true,
+	};
+	struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 1 };
+	unsigned safe_at = 0, first_stop = 0, checks_before = 0;
+
+	(void)state;
+	rig_up(&c);
+	R.io.cfg.safety.missed_replies_lost = 1000; /* the cut is no loss */
+	run_until(0, RMD_LC_READY, 50);
+	command_hold(true);
+	run_until(0, RMD_LC_ENABLED, 200);
+	run(cycles_of(200 * MS), NULL);
+	/* the controller falls silent; 50 ms before the watchdog trips, the cable goes */
+	R.cmd.present = 0;
+	run(cycles_of(50 * MS), NULL);
+	f.start_ns = rmd_bus_sim_time_ns(&R.io.buses[0], t_now);
+	f.end_ns = f.start_ns + 300 * MS;
+	assert_int_equal(rmd_sim_wire_set_faults(wire(), &f, 1), 0);
+	for (unsigned k = 0; k < cycles_of(200 * MS) && !safe_at; k++) {
+		run(1, NULL);
+		if (lifecycle(0) == RMD_LC_SAFE)
+			safe_at = tx_n;
+	}
+	assert_true(safe_at);
+	run(5, NULL);
+	for (unsigned k = safe_at; k < tx_n && !first_stop; k++) {
+		if (!to_motor(&tx[k].f, 0))
+			continue;
+		if (tx[k].f.data[0] == 0x80)
+			first_stop = k;
+		else if (tx[k].f.data[0] == 0xB1)
+			checks_before++;
+	}
+	if (!first_stop || checks_before > 1)
+		fail_msg("%s: the stop %s, after %u check reads", c.name,
+			 first_stop ? "went" : "did not go", checks_before);
+	rig_down();
+}
+
 /* ---- no false reboot: motions within the motor's limits, replies lost ---- */
 
 struct quiet_case {
@@ -754,13 +805,21 @@ static void test_quiet_v3_rest(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v3_5ms_1khz),   cmocka_unit_test(test_v3_5ms_1khz_brake),
-		cmocka_unit_test(test_v3_50ms_100hz), cmocka_unit_test(test_v2_5ms_1khz),
-		cmocka_unit_test(test_v2_50ms_100hz), cmocka_unit_test(test_mit_5ms_1khz),
-		cmocka_unit_test(test_v4_5ms_1khz),   cmocka_unit_test(test_v3_2ms_brake_backstop),
-		cmocka_unit_test(test_quiet_v3_fast), cmocka_unit_test(test_quiet_v3_moves),
-		cmocka_unit_test(test_quiet_v2_fast), cmocka_unit_test(test_quiet_v2_homed_fine),
-		cmocka_unit_test(test_quiet_mit),     cmocka_unit_test(test_quiet_v3_rest),
+		cmocka_unit_test(test_v3_5ms_1khz),
+		cmocka_unit_test(test_v3_5ms_1khz_brake),
+		cmocka_unit_test(test_v3_50ms_100hz),
+		cmocka_unit_test(test_v2_5ms_1khz),
+		cmocka_unit_test(test_v2_50ms_100hz),
+		cmocka_unit_test(test_mit_5ms_1khz),
+		cmocka_unit_test(test_v4_5ms_1khz),
+		cmocka_unit_test(test_v3_2ms_brake_backstop),
+		cmocka_unit_test(test_safe_action_before_check),
+		cmocka_unit_test(test_quiet_v3_fast),
+		cmocka_unit_test(test_quiet_v3_moves),
+		cmocka_unit_test(test_quiet_v2_fast),
+		cmocka_unit_test(test_quiet_v2_homed_fine),
+		cmocka_unit_test(test_quiet_mit),
+		cmocka_unit_test(test_quiet_v3_rest),
 	};
 
 	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
