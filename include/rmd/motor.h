@@ -111,9 +111,20 @@ enum {
 	RMD_MOTOR_HAVE_VOLTAGE = 1u << 4,
 	RMD_MOTOR_HAVE_ERROR = 1u << 5, /* error_code (0x9A) */
 	RMD_MOTOR_HAVE_BRAKE = 1u << 6,
-	RMD_MOTOR_HAVE_MODEL = 1u << 7,	  /* 0xB5 */
-	RMD_MOTOR_HAVE_VERSION = 1u << 8, /* 0xB2 */
-	RMD_MOTOR_HAVE_TIMEOUT = 1u << 9, /* 0xB3 echo */
+	RMD_MOTOR_HAVE_MODEL = 1u << 7,	   /* 0xB5 */
+	RMD_MOTOR_HAVE_VERSION = 1u << 8,  /* 0xB2 */
+	RMD_MOTOR_HAVE_TIMEOUT = 1u << 9,  /* 0xB3 echo */
+	RMD_MOTOR_HAVE_RUNTIME = 1u << 10, /* 0xB1 (rmd/reboot.h) */
+	/*
+	 * V2: a 0x92 angle, which rmd_motor_take() holds against rmdd's
+	 * count of the motor's encoder when it has one
+	 * (rmd_reboot_turns_says()): RMD_MOTOR_HAVE_COUNT_SAME, they agree;
+	 * RMD_MOTOR_HAVE_COUNT_LOST, they part by whole rotor turns: the
+	 * motor lost its count (it rebooted).
+	 */
+	RMD_MOTOR_HAVE_COUNT_CHECK = 1u << 11,
+	RMD_MOTOR_HAVE_COUNT_SAME = 1u << 12,
+	RMD_MOTOR_HAVE_COUNT_LOST = 1u << 13,
 };
 
 /* A request field of a control row, resolved once by rmd_motor_init(). */
@@ -217,6 +228,8 @@ struct rmd_motor {
 	int64_t v2_ref_ns;
 	int64_t v2_enc_ns;
 	double v2_rotor_speed;
+	/* the count's position the last 0x92 angle was held against (RMD_MOTOR_HAVE_COUNT_*) */
+	double v2_checked_rad;
 };
 
 /* The row of command `cmd` in the motor's table, or NULL (rmd_cmd_find(), checked at init).  rt-safe. */
@@ -299,6 +312,7 @@ struct rmd_motor_reply {
 	char model[8];		  /* 0xB5, NUL-terminated */
 	uint32_t version_date;	  /* 0xB2, yyyymmdd */
 	uint32_t comm_timeout_ms; /* 0xB3 */
+	uint32_t runtime_ms;	  /* 0xB1: ms since power-on */
 };
 
 /*

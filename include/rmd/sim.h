@@ -175,6 +175,14 @@ struct rmd_sim_motor_params {
 	 * does (rmd/multiturn.h).
 	 */
 	bool wrap_rotor;
+	/*
+	 * Its firmware's boot: from power returning (rmd_sim_motor_power_cycle(),
+	 * a DISAPPEAR window with param 1 ending) or a 0x76 reset to its
+	 * first answer, ms; meanwhile it hears nothing and says nothing, the
+	 * drive off and the brake locked.  0: at once.  A 0x76 reset of an
+	 * X-series motor was measured at 1.12 s (docs/rmd-sim.md).
+	 */
+	unsigned boot_ms;
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */
@@ -234,7 +242,8 @@ struct rmd_sim_motor {
 	double iq_a;
 	double temp_c;
 	int64_t t_ns;	     /* physics time reached */
-	int64_t boot_ns;     /* last power-on or reset */
+	int64_t boot_ns;     /* last power-on or reset: 0xB1's runtime counts from it */
+	int64_t awake_ns;    /* its firmware answers from then on (boot_ns + p.boot_ms) */
 	int64_t last_due_ns; /* when its latest reply was due (rmd_sim_motor_reply_due()) */
 	/* control */
 	enum rmd_sim_ctrl ctrl;
@@ -303,7 +312,10 @@ int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame
  */
 int64_t rmd_sim_motor_next_event_ns(const struct rmd_sim_motor *m);
 
-/* Power cycle: RAM lost (multi-turn wraps to +-180 deg), ROM kept, brake locked.  rt-safe. */
+/*
+ * Power cycle: RAM lost (multi-turn wraps to +-180 deg), ROM kept, brake
+ * locked; the firmware boots for p.boot_ms before it answers.  rt-safe.
+ */
 void rmd_sim_motor_power_cycle(struct rmd_sim_motor *m, int64_t now_ns);
 
 /*

@@ -141,6 +141,7 @@ struct rmd_motor_state {
 	double temp_c;
 	double voltage_v;
 	uint16_t error_code;
+	bool brake_released;	   /* its brake as the status answer of error_code says (0x9A) */
 	uint32_t reply_age_cycles; /* cycles since the last reply (0: this cycle) */
 	int64_t reply_latency_ns;  /* request sent -> reply received, last reply */
 	uint64_t missed_replies;   /* replies that never came, total */
@@ -316,6 +317,26 @@ enum rmd_event_kind {
 	 * none), b = 0.
 	 */
 	RMD_EV_MIT_REFUSED,
+	/*
+	 * A motor's reboot check (rmd/reboot.h): a = enum rmd_reboot_report;
+	 * b: RMD_REBOOT_BY_RUNTIME, its 0xB1 runtime in ms << 32 | the ms
+	 * from its last answer to the read (what it would have run at
+	 * least); RMD_REBOOT_BY_TURNS, its 0x92 angle << 32 | rmdd's count
+	 * (int32 each, 0.01 deg, reported frame); RMD_REBOOT_BY_BRAKE, 0;
+	 * the others, the check's command byte.  A reboot makes it lost and
+	 * back at once.
+	 */
+	RMD_EV_REBOOT,
+};
+
+/* What RMD_EV_REBOOT reports (its a). */
+enum rmd_reboot_report {
+	RMD_REBOOT_BY_RUNTIME =
+		1,	     /* 0xB1: its runtime is shorter than the time since it answered */
+	RMD_REBOOT_BY_TURNS, /* V2: its 0x92 angle parts from rmdd's count by whole turns */
+	RMD_REBOOT_BY_BRAKE, /* 0x9A: its brake locked after it reported rmdd's release */
+	RMD_REBOOT_NO_CHECK, /* it does not answer the check read: no checks any more */
+	RMD_REBOOT_UNTOLD,   /* its answers could not tell (no count yet): this check ends */
 };
 
 /* Why the rt loop refused a homing request (RMD_EV_HOME_REFUSED). */

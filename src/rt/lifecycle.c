@@ -241,6 +241,10 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			lm->need_edge = false;
 		else if (old == RMD_LC_LOST || old == RMD_LC_FAULT)
 			lm->need_edge = true;
+		/* found, or back: running in a boot its runtime places (rmd/reboot.h) */
+		if (old == RMD_LC_PROBE || old == RMD_LC_LOST)
+			rmd_reboot_found(&lm->rb, now,
+					 loop_reboot_cmd(lm) == RMD_REBOOT_CMD_RUNTIME);
 		/* back: pushes another tool may have left on go off, as at bring-up */
 		if (old == RMD_LC_LOST && rmd_dialect_has(lm->m.d, RMD_DIALECT_ACTIVE_REPLY))
 			lm->reports_off = (uint8_t)((1u << lm->m.d->n_report_cmds) - 1u);
@@ -263,7 +267,8 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			if (old == RMD_LC_ENABLED)
 				queue_safe(l, lm, false, now);
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-			lm->reports_off = 0; /* sent again when it is back */
+			rmd_reboot_forget(&lm->rb); /* back is found anew */
+			lm->reports_off = 0;	    /* sent again when it is back */
 			cl_forget(l, lm);
 			pos_forget(lm);
 			/* V2: the encoder cannot tell what turned while it was silent */
@@ -296,6 +301,23 @@ void loop_motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 		for (unsigned j = 0; j < l->n_motors; j++)
 			if (&l->mot[j] != lm)
 				make_safe(l, &l->mot[j], now);
+}
+
+/*
+ * lm rebooted, its answers say (rmd/reboot.h): reported, then lost -- its
+ * safe action if it was ENABLED, `lost_motor_action: all` as for any loss,
+ * its comm-loss protection, position and V2 count forgotten -- and, as it
+ * answers, probed at once: back, it is STOPPING, READY once it echoed
+ * output off and brake locked, its 0xB3 written and verified again and
+ * its position decided again before anything moves it, and the
+ * controller enables it again with enable = 0, then 1 (loop_enter()).
+ * rt-safe.
+ */
+void loop_rebooted(struct rmd_loop *l, struct lmotor *lm, unsigned how, int64_t what, int64_t now)
+{
+	loop_event(l, now, RMD_EV_REBOOT, loop_idx(l, lm), lm->m.bus, how, what);
+	loop_motor_lost(l, lm, now);
+	lm->next_probe_ns = now;
 }
 
 /* rt-safe. */

@@ -867,6 +867,7 @@ struct rmd_loop *rmd_loop_new(const struct rmd_loop_opts *opts, char *err, size_
 		*lbus_slot(lb, lm->m.reply_id) = (uint8_t)(i + 1);
 		*lbus_slot(lb, rmd_motor_ctl_reply_id(&lm->m)) = (uint8_t)(i + 1);
 		lm->st = &l->snap.m[i];
+		rmd_reboot_init(&lm->rb);
 		lm->st->lifecycle = RMD_LC_PROBE;
 		lm->st->mode = (uint8_t)c->mode;
 		lm->st->pos_rad = NAN;

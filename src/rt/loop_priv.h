@@ -10,6 +10,7 @@
  *   lifecycle.c  loop_enter(), commands, the host watchdog    rt-safe
  *   loop_tx.c    a cycle's frames, one send                   rt-safe
  *   bringup.c    probing and arming the motors before start  non-rt
+ *   reboot.c     did a motor that missed replies reboot?     pure
  *   rt_thread.c  the SCHED_FIFO thread and its set-up        rt-safe / non-rt
  *
  * Nothing outside src/rt/ includes this header.
@@ -29,6 +30,7 @@
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
+#include "rmd/reboot.h"
 
 #define OUTSTANDING 8 /* requests in flight per motor */
 #define GONE 8	      /* requests given up per motor, whose answers may still come */
@@ -111,14 +113,21 @@ struct lmotor {
 	uint32_t disables_seen; /* rmd_command.disables[] of this motor, acted on */
 	struct rmd_frame oneshot[ONESHOTS];
 	unsigned n_oneshot;
-	bool damp_stream;  /* SAFE with MIT damp: the damp frame in every control slot */
-	bool v2_ask_angle; /* V2 without its 0x92 reference: the last read asked 0x92 */
+	bool damp_stream; /* SAFE with MIT damp: the damp frame in every control slot */
+	/*
+	 * 0xB6 offs still to send (V4.2 §2.33), bit k: m.d->report_cmds[k]:
+	 * a motor that comes back may have been left pushing replies, as
+	 * bring-up assumes of every motor it finds (lifecycle.c).  Beside
+	 * n_oneshot and owe: loop_tx.c add_control() asks all three at once.
+	 */
+	uint8_t reports_off;
 	/*
 	 * Owed frames (lifecycle.c "Owed frames"): OWE_* bits not yet echoed,
 	 * how many were sent, and the state STOPPING was entered from.
 	 */
 	uint8_t owe;
-	uint8_t owe_sent; /* OWE_* bits sent at least once */
+	uint8_t owe_sent;  /* OWE_* bits sent at least once */
+	bool v2_ask_angle; /* V2 without its 0x92 reference: the last read asked 0x92 */
 	unsigned owe_sends;
 	uint64_t owe_seq;  /* an echo pays only for a request booked from this seq on */
 	uint8_t stop_from; /* enum rmd_lifecycle */
@@ -132,12 +141,6 @@ struct lmotor {
 	 * without 0xB2 (V2) have nothing to ask.
 	 */
 	bool dialect_open;
-	/*
-	 * 0xB6 offs still to send (V4.2 §2.33), bit k: m.d->report_cmds[k]:
-	 * a motor that comes back may have been left pushing replies, as
-	 * bring-up assumes of every motor it finds (lifecycle.c).
-	 */
-	uint8_t reports_off;
 	/*
 	 * Left out for good (bring-up's dialect mismatch, or a late answer
 	 * that named another dialect): nothing it says brings it back.
@@ -169,8 +172,15 @@ struct lmotor {
 	int64_t pos_settle_ns;
 	uint8_t pos_cand_trust; /* enum rmd_pos_trust */
 	double pos_cand_shift;
-	bool pos_warned;	/* this episode's refusal was reported */
-	bool mit_warned;	/* an MIT enable was refused, its scaling not decided: reported */
+	bool pos_warned; /* this episode's refusal was reported */
+	bool mit_warned; /* an MIT enable was refused, its scaling not decided: reported */
+	/*
+	 * A short power cycle (rmd/reboot.h): after a missed reply, whether
+	 * it rebooted; while pending, its control slot carries the read that
+	 * tells (loop_tx.c), its answer is judged in loop_rx.c, a reboot
+	 * applied by loop_rebooted().
+	 */
+	struct rmd_reboot rb;
 	uint32_t homes_seen;	/* rmd_home.seq[] of this motor, acted on */
 	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
 	/* bring-up */
@@ -359,6 +369,28 @@ int loop_report_off(const struct lmotor *lm, unsigned k, struct rmd_frame *f);
 
 /* lifecycle.c: a position received while pos_settle decides the motor's (rmd/multiturn.h).  rt-safe. */
 __attribute__((cold)) void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now);
+
+/*
+ * The read that tells whether lm rebooted (rmd/reboot.h): 0xB1, its
+ * runtime, where its table has it; else V2's 0x92 angle, held against the
+ * count of its encoder; 0: none.  rt-safe.
+ */
+static inline uint8_t loop_reboot_cmd(const struct lmotor *lm)
+{
+	if (rmd_motor_row(&lm->m, RMD_REBOOT_CMD_RUNTIME))
+		return RMD_REBOOT_CMD_RUNTIME;
+	if ((lm->m.caps & RMD_DIALECT_ENCODER_UNWRAP) &&
+	    rmd_motor_row(&lm->m, RMD_MOTOR_CMD_FINE_POS))
+		return RMD_MOTOR_CMD_FINE_POS;
+	return 0;
+}
+
+/*
+ * lifecycle.c: lm rebooted (rmd/reboot.h): lost and back at once, its
+ * requests in flight given up (loop_rx.c).  how: enum rmd_reboot_report,
+ * what: its event's b.  rt-safe.
+ */
+void loop_rebooted(struct rmd_loop *l, struct lmotor *lm, unsigned how, int64_t what, int64_t now);
 
 /* lifecycle.c: the homing requests the bridge handed over (rmd/state.h struct rmd_home).  rt-safe. */
 void loop_take_homes(struct rmd_loop *l, int64_t now);

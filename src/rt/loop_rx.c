@@ -10,6 +10,7 @@
  * and bring-up, which wait for replies); no allocation, no lock, no text.
  */
 #include <errno.h>
+#include <math.h>
 #include <string.h>
 
 #include "rmd/dialect.h"
@@ -57,6 +58,24 @@ static inline void os_give_up(struct lmotor *lm, const struct outstanding *o)
 }
 
 /*
+ * Request o of lm went unanswered: a reboot check opens (rmd/reboot.h),
+ * unless the motor is lost or not yet found.  rt-safe.
+ */
+static __attribute__((cold, noinline)) void reboot_missed(struct rmd_loop *l, struct lmotor *lm,
+							  const struct outstanding *o, int64_t now)
+{
+	uint8_t cmd = loop_reboot_cmd(lm);
+
+	if (!cmd || lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE ||
+	    lm->refused || lm->dialect_open)
+		return;
+	if (rmd_reboot_missed(&lm->rb, o->seq, (o->key & 0xFFFF) == cmd, lm->heard_seq, now,
+			      2 * l->bus[lm->m.bus].reply_ns) == RMD_REBOOT_UNCHECKABLE)
+		loop_event(l, now, RMD_EV_REBOOT, loop_idx(l, lm), lm->m.bus, RMD_REBOOT_NO_CHECK,
+			   cmd);
+}
+
+/*
  * The replies the running cycle waits for (loop_awaited()): those to the
  * requests sent at its tick to a motor that answers (it answered its last
  * request, loop_alive()), other than a status read 0x9A (error flags,
@@ -76,6 +95,25 @@ static inline void await_add(struct rmd_loop *l, struct lmotor *lm, const struct
 	}
 }
 
+/*
+ * Every slot of lm is in flight: the oldest request has waited longest,
+ * it counts as missed; its slot is returned.  rt-safe.
+ */
+static __attribute__((cold, noinline)) unsigned os_evict(struct rmd_loop *l, struct lmotor *lm,
+							 int64_t now)
+{
+	unsigned k = 0;
+
+	for (unsigned j = 1; j < OUTSTANDING; j++)
+		if (lm->os[j].seq < lm->os[k].seq)
+			k = j;
+	lm->os_used &= (uint8_t) ~(1u << k);
+	os_give_up(lm, &lm->os[k]);
+	loop_miss(l, lm, now);
+	reboot_missed(l, lm, &lm->os[k], now);
+	return k;
+}
+
 /* Request f of lm, sent at now, is in flight.  rt-safe. */
 static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, struct lmotor *lm,
 							 const struct rmd_frame *f, int64_t now)
@@ -84,18 +122,10 @@ static inline __attribute__((always_inline)) void os_add(struct rmd_loop *l, str
 	unsigned k;
 	struct outstanding *o;
 
-	if (free_mask) {
+	if (free_mask)
 		k = (unsigned)__builtin_ctz(free_mask);
-	} else {
-		/* full: the oldest has waited longest, it counts as missed */
-		k = 0;
-		for (unsigned j = 1; j < OUTSTANDING; j++)
-			if (lm->os[j].seq < lm->os[k].seq)
-				k = j;
-		lm->os_used &= (uint8_t) ~(1u << k);
-		os_give_up(lm, &lm->os[k]);
-		loop_miss(l, lm, now);
-	}
+	else
+		k = os_evict(l, lm, now);
 	o = &lm->os[k];
 	os_key(&lm->m, f, o);
 	o->seq = lm->seq++;
@@ -136,9 +166,14 @@ void loop_commit(struct rmd_loop *l, struct lbus *lb, unsigned from, unsigned to
 			}
 			if (mt->kind == REQ_NO_REPLY)
 				continue;
-			if (mt->kind == REQ_ONESHOT)
-				oneshot_pop(&l->mot[mt->motor]);
-			else if (mt->kind == REQ_OWED)
+			if (mt->kind == REQ_ONESHOT) {
+				struct lmotor *lm = &l->mot[mt->motor];
+
+				/* V3 §2.26: its brake released from this request on (rmd/reboot.h) */
+				if (f->len && f->data[0] == 0x77)
+					rmd_reboot_released(&lm->rb, lm->seq);
+				oneshot_pop(lm);
+			} else if (mt->kind == REQ_OWED)
 				loop_owed_sent(l, &l->mot[mt->motor], f->data[0]);
 		}
 		os_add(l, &l->mot[mt->motor], f, now);
@@ -201,10 +236,11 @@ void loop_unexpected(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 
 /*
  * Is f (id, cmd) the answer of a request of lm given up?  Then it is
- * counted late, with its delay, and the entry used up.  rt-safe.
+ * counted late, with its delay, and the entry used up; *sent_ns: when
+ * that request was sent.  rt-safe.
  */
 static bool took_late(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32_t id, uint16_t cmd,
-		      int64_t now)
+		      int64_t *sent_ns, int64_t now)
 {
 	uint64_t key = os_keyof(id, cmd);
 	struct lbus *lb = &l->bus[b];
@@ -217,6 +253,7 @@ static bool took_late(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32_
 	if (best < 0)
 		return false;
 	lm->gone[best].key = 0;
+	*sent_ns = lm->gone[best].sent_ns;
 	l->cnt.late++;
 	if (now - lm->gone[best].sent_ns > l->cnt.late_max_ns)
 		l->cnt.late_max_ns = now - lm->gone[best].sent_ns;
@@ -264,6 +301,118 @@ static bool pushed_report(const struct lmotor *lm, uint16_t cmd)
 	return false;
 }
 
+/* Give up every request of lm in flight: an answer that still comes is late.  rt-safe. */
+static void os_give_up_all(struct lmotor *lm)
+{
+	for (unsigned m = lm->os_used; m; m &= m - 1)
+		os_give_up(lm, &lm->os[__builtin_ctz(m)]);
+	lm->os_used = 0;
+}
+
+/* An angle in the reported frame as the event's int32 of 0.01 deg.  rt-safe. */
+static int64_t centideg(double rad)
+{
+	double c = rad * (18000.0 / M_PI);
+
+	if (!(c > INT32_MIN))
+		c = INT32_MIN;
+	if (c > INT32_MAX)
+		c = INT32_MAX;
+	return (int64_t)(uint32_t)(int32_t)c;
+}
+
+/*
+ * An answer f of lm that tells whether it rebooted (rmd/reboot.h): 0xB1's
+ * runtime, its brake in 0x9A, or V2's 0x92 angle held against the count
+ * (have), to the request `seq`, sent at `sent`.  A reboot gives up its
+ * requests in flight, whose answers would bring it back before the safe
+ * action went out, and makes it lost and back (loop_rebooted()).
+ * rt-safe.
+ */
+static __attribute__((cold, noinline)) void reboot_answer(struct rmd_loop *l, struct lmotor *lm,
+							  const struct rmd_frame *f, unsigned have,
+							  uint64_t seq, int64_t sent, int64_t now)
+{
+	enum rmd_reboot_verdict v = RMD_REBOOT_SAYS_NOTHING;
+	unsigned how = RMD_REBOOT_BY_TURNS;
+	enum rmd_reboot_outcome out;
+	struct rmd_motor_reply r;
+	int64_t what = 0;
+
+	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE)
+		return;
+	if (have & RMD_MOTOR_HAVE_RUNTIME) {
+		int64_t least = 0;
+
+		if (rmd_motor_decode(&lm->m, f, &r) < 0)
+			return;
+		out = rmd_reboot_runtime(&lm->rb, seq, r.runtime_ms, sent, now, &least);
+		how = RMD_REBOOT_BY_RUNTIME;
+		what = (int64_t)r.runtime_ms << 32 | (uint32_t)(least < 0	   ? 0 :
+								least > UINT32_MAX ? UINT32_MAX :
+										     least);
+	} else if (have & RMD_MOTOR_HAVE_BRAKE) {
+		/* 0x9A: its brake, after the flags that may have made it FAULT */
+		how = RMD_REBOOT_BY_BRAKE;
+		v = rmd_reboot_brake_says(&lm->rb, lm->st->lifecycle == RMD_LC_ENABLED, seq,
+					  lm->st->brake_released);
+		out = v == RMD_REBOOT_SAYS_BOOTED ? rmd_reboot_answer(&lm->rb, seq, v) :
+						    RMD_REBOOT_WAIT;
+	} else {
+		if (have & RMD_MOTOR_HAVE_COUNT_LOST) {
+			v = RMD_REBOOT_SAYS_BOOTED;
+			what = centideg(lm->st->pos_rad) << 32 | centideg(lm->m.v2_checked_rad);
+		} else if (have & RMD_MOTOR_HAVE_COUNT_SAME) {
+			v = RMD_REBOOT_SAYS_RUNNING;
+		}
+		out = rmd_reboot_answer(&lm->rb, seq, v);
+	}
+	switch (out) {
+	case RMD_REBOOT_REBOOTED:
+		os_give_up_all(lm);
+		loop_rebooted(l, lm, how, what, now);
+		break;
+	case RMD_REBOOT_UNDECIDED:
+		loop_event(l, now, RMD_EV_REBOOT, loop_idx(l, lm), lm->m.bus, RMD_REBOOT_UNTOLD,
+			   loop_reboot_cmd(lm));
+		break;
+	case RMD_REBOOT_WAIT:
+	case RMD_REBOOT_FINE:
+	case RMD_REBOOT_UNCHECKABLE:
+		break;
+	}
+}
+
+/*
+ * What a reply carries besides the values taken: error flags (0x9A), and
+ * what tells a reboot.  Its request is the newest answered (heard_seq,
+ * heard_sent_ns): handle_frame() books it first; the reads that tell are
+ * never pushed unasked (a 0x9A pushed by 0xB6 tells its brake all the
+ * same).  Out of line: few replies carry either.  rt-safe.
+ */
+static __attribute__((cold, noinline)) void take_rare(struct rmd_loop *l, struct lmotor *lm,
+						      const struct rmd_frame *f, unsigned have,
+						      uint16_t prev, int64_t now)
+{
+	if (have & RMD_MOTOR_HAVE_ERROR)
+		loop_note_errors(l, lm, prev, now);
+	if ((have & (RMD_MOTOR_HAVE_RUNTIME | RMD_MOTOR_HAVE_COUNT_CHECK | RMD_MOTOR_HAVE_BRAKE)) &&
+	    lm->heard_seq)
+		reboot_answer(l, lm, f, have, lm->heard_seq - 1, lm->heard_sent_ns, now);
+}
+
+/*
+ * The late answer f of lm's request given up, sent at sent_ns: a check's
+ * runtime (0xB1) is judged all the same (replies slower than their
+ * deadline would keep every check from being told).  rt-safe.
+ */
+static __attribute__((cold, noinline)) void reboot_late(struct rmd_loop *l, struct lmotor *lm,
+							const struct rmd_frame *f, int64_t sent_ns,
+							int64_t now)
+{
+	reboot_answer(l, lm, f, RMD_MOTOR_HAVE_RUNTIME, lm->rb.told_seq, sent_ns, now);
+}
+
 /*
  * Decode f into lm's state; false when it cannot be decoded.  Inline: the
  * cycle takes every reply through it.  rt-safe.
@@ -279,8 +428,10 @@ take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, in
 		return false;
 	if (__builtin_expect(lm->pos_settle, 0) && lm->st->pos_rx_ns >= lm->pos_settle_ns)
 		loop_pos_settle(l, lm, now);
-	if (have & RMD_MOTOR_HAVE_ERROR)
-		loop_note_errors(l, lm, prev, now);
+	if (__builtin_expect(have & (RMD_MOTOR_HAVE_ERROR | RMD_MOTOR_HAVE_BRAKE |
+				     RMD_MOTOR_HAVE_RUNTIME | RMD_MOTOR_HAVE_COUNT_CHECK),
+			     0))
+		take_rare(l, lm, f, have, prev, now);
 	return true;
 }
 
@@ -464,6 +615,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	struct lmotor *lm = loop_motor_of(l, b, f->can_id);
 	int64_t now = rx->t_ns;
 	const struct outstanding *o;
+	int64_t sent_ns;
 	uint16_t cmd;
 	int k;
 
@@ -522,8 +674,20 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		}
 		return;
 	}
-	if (took_late(l, b, lm, f->can_id, cmd, now))
+	if (took_late(l, b, lm, f->can_id, cmd, &sent_ns, now)) {
+		/*
+		 * It answers, slowly: no silence.  Not LOST for its late
+		 * answers (while a reboot check holds its setpoints back, no
+		 * newer setpoint is in flight for them to match), and no check
+		 * opens for a while (rmd/reboot.h).
+		 */
+		if (lm->st->lifecycle != RMD_LC_LOST)
+			lm->consecutive = 0;
+		rmd_reboot_slow(&lm->rb, now);
+		if (cmd == RMD_REBOOT_CMD_RUNTIME && lm->rb.pending)
+			reboot_late(l, lm, f, sent_ns, now);
 		return;
+	}
 	/*
 	 * V3 §2.33.4 index 3: error reports (0x9A) every 100 ms, unasked; V4.2
 	 * §2.33: the replies 0xB6 has the motor push, if another tool left it
@@ -575,6 +739,7 @@ void loop_check_deadlines(struct rmd_loop *l, int64_t now)
 				os_done(lm, k);
 				os_give_up(lm, &lm->os[k]);
 				loop_miss(l, lm, now);
+				reboot_missed(l, lm, &lm->os[k], now);
 				loop_owed_unpaid(l, lm, now);
 			}
 		}

@@ -157,9 +157,35 @@ static __attribute__((cold)) void push_report_off(struct lbus *lb, struct lmotor
 }
 
 /*
+ * The read that tells whether lm, which missed a reply, rebooted
+ * (rmd/reboot.h), in place of whatever else its slot would carry: a motor
+ * back from a boot hears it first, not a motion command.  rt-safe.
+ */
+static __attribute__((cold, noinline)) void push_reboot_check(struct rmd_loop *l, struct lbus *lb,
+							      unsigned i)
+{
+	uint8_t cmd = rmd_reboot_next(&l->mot[i].rb, loop_reboot_cmd(&l->mot[i]));
+
+	if (cmd)
+		push_cmd(l, lb, i, cmd);
+}
+
+/* Whether the head of lm's one-shot queue releases its brake (0x77, V3 §2.26).  rt-safe. */
+static bool oneshot_releases(const struct lmotor *lm)
+{
+	return lm->oneshot[0].can_id == RMD_CAN_REQ_BASE + lm->m.id && lm->oneshot[0].len &&
+	       lm->oneshot[0].data[0] == 0x77;
+}
+
+/*
  * What waits for lm's control slot: an owed 0x80 or 0x78 first (the
- * motor's output and brake, lifecycle.c "Owed frames"), else the head of
- * its one-shot queue, else a 0xB6 off.  rt-safe.
+ * motor's output and brake, lifecycle.c "Owed frames"), else the read of
+ * a reboot check, unless the head of its one-shot queue goes first -- a
+ * safe action's frames, which stop the motor in whatever frame it counts,
+ * and a comm-loss round's 0xB3 writes, which move nothing and which a
+ * motor tripping between two frames answers only right behind the read
+ * that takes its echo; a brake release (0x77) waits -- else that head,
+ * else a 0xB6 off.  rt-safe.
  */
 static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
@@ -168,6 +194,8 @@ static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t no
 
 	if (loop_owed_frame(lm, &f))
 		loop_push_tx(lb, &f, i, REQ_OWED);
+	else if (lm->rb.pending && (!lm->n_oneshot || oneshot_releases(lm)))
+		push_reboot_check(l, lb, i);
 	else if (lm->n_oneshot)
 		push_oneshot(l, lb, i, now);
 	else if (lm->reports_off)
@@ -197,8 +225,11 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f[2];
 
-	/* owed frames and one-shots first: an ENABLED motor's brake release, the others' stops */
-	if (lm->owe || lm->n_oneshot || lm->reports_off) {
+	/*
+	 * owed frames, a reboot check's read and one-shots first: an ENABLED
+	 * motor's brake release, the others' stops
+	 */
+	if (lm->n_oneshot || lm->reports_off || lm->owe || lm->rb.pending) {
 		push_due(l, lb, i, now);
 		return;
 	}
@@ -292,7 +323,8 @@ static bool batch_allowed(const struct rmd_loop *l, const struct lbus *lb, int64
 		const struct lmotor *lm = &l->mot[pb->motors[__builtin_ctz(m)]];
 
 		if (lm->st->lifecycle != RMD_LC_ENABLED || now < lm->st->release_until_ns ||
-		    lm->sp.mode != RMD_MODE_TORQUE || lm->owe || lm->n_oneshot || lm->reports_off)
+		    lm->sp.mode != RMD_MODE_TORQUE || lm->owe || lm->n_oneshot || lm->reports_off ||
+		    lm->rb.pending)
 			return false;
 	}
 	return true;

@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "rmd/motor.h"
+#include "rmd/reboot.h"
 
 #define DEG_PER_RAD (180.0 / M_PI)
 
@@ -767,7 +768,7 @@ static const unsigned field_have[256] = {
 	[RMD_FLD_TEMP] = RMD_MOTOR_HAVE_TEMP,	    [RMD_FLD_VOLTAGE] = RMD_MOTOR_HAVE_VOLTAGE,
 	[RMD_FLD_ERROR] = RMD_MOTOR_HAVE_ERROR,	    [RMD_FLD_BRAKE] = RMD_MOTOR_HAVE_BRAKE,
 	[RMD_FLD_MODEL] = RMD_MOTOR_HAVE_MODEL,	    [RMD_FLD_VERSION] = RMD_MOTOR_HAVE_VERSION,
-	[RMD_FLD_TIMEOUT] = RMD_MOTOR_HAVE_TIMEOUT,
+	[RMD_FLD_TIMEOUT] = RMD_MOTOR_HAVE_TIMEOUT, [RMD_FLD_RUNTIME] = RMD_MOTOR_HAVE_RUNTIME,
 };
 
 static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const struct rmd_frame *f,
@@ -825,6 +826,9 @@ static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const str
 			break;
 		case RMD_FLD_TIMEOUT:
 			r->comm_timeout_ms = (uint32_t)raw;
+			break;
+		case RMD_FLD_RUNTIME:
+			r->runtime_ms = (uint32_t)raw;
 			break;
 		default: /* fields a motor's state does not carry */
 			break;
@@ -904,6 +908,9 @@ static inline __attribute__((always_inline)) void apply_have(const struct rmd_mo
 	}
 	if (have & RMD_MOTOR_HAVE_ERROR) {
 		st->error_code = r->error_code;
+		/* V3 §2.12: the brake rides in the status answer beside the flags (not V2's) */
+		if (have & RMD_MOTOR_HAVE_BRAKE)
+			st->brake_released = r->brake_released;
 		if (stamp)
 			st->status_rx_ns = t_ns;
 	}
@@ -938,6 +945,40 @@ static bool v2_count_trusted(struct rmd_motor *m, const struct rmd_motor_reply *
 }
 
 /*
+ * V2: the 0x92 angle of reply r (received at t_ns) against the count's
+ * last position: the motor's own multi-turn angle and rmdd's count of its
+ * encoder part by whole rotor turns when the motor lost its count
+ * (rmd/reboot.h).  RMD_MOTOR_HAVE_COUNT_SAME or RMD_MOTOR_HAVE_COUNT_LOST;
+ * 0 when there is no count to hold it against (none yet, or this angle
+ * is the count's new reference).  rt-safe.
+ */
+static unsigned v2_count_check(struct rmd_motor *m, const struct rmd_motor_reply *r, uint8_t took,
+			       int64_t t_ns)
+{
+	struct rmd_reboot_reading count, angle = { r->pos_rad, t_ns, 0.0 };
+	double native;
+
+	if (took != V2_TOOK_NONE || !m->v2_have_ref || !m->v2_anchored || !m->v2_enc_ns)
+		return 0;
+	native = m->v2_ref_rad + (double)m->v2_enc_counts / RMD_MOTOR_V2_ENCODER_COUNTS *
+					 (2.0 * M_PI) / m->gear_ratio;
+	count.pos_rad = rmd_motor_from_native_pos(m, native);
+	count.t_ns = m->v2_enc_ns;
+	count.vel_rad_s = m->v2_rotor_speed / m->gear_ratio;
+	angle.vel_rad_s = (r->have & RMD_MOTOR_HAVE_VEL) ? r->vel_rad_s : count.vel_rad_s;
+	m->v2_checked_rad = count.pos_rad;
+	switch (rmd_reboot_turns_says(&m->mt, &count, &angle)) {
+	case RMD_REBOOT_SAYS_BOOTED:
+		return RMD_MOTOR_HAVE_COUNT_LOST;
+	case RMD_REBOOT_SAYS_RUNNING:
+		return RMD_MOTOR_HAVE_COUNT_SAME;
+	case RMD_REBOOT_SAYS_NOTHING:
+		break;
+	}
+	return 0;
+}
+
+/*
  * The position checks of a fine_pos or V2 motor, on the RMD_MOTOR_HAVE_*
  * of reply r: what take() applies.  Out of line: most motors need none.
  * rt-safe.
@@ -951,6 +992,9 @@ pos_check(struct rmd_motor *m, const struct rmd_motor_reply *r, unsigned have, i
 	if (m->fine_pos && r->cmd != RMD_MOTOR_CMD_FINE_POS)
 		have &= ~(unsigned)RMD_MOTOR_HAVE_POS;
 	m->v2_took = V2_TOOK_NONE;
+	if ((m->caps & RMD_DIALECT_ENCODER_UNWRAP) && r->cmd == RMD_MOTOR_CMD_FINE_POS &&
+	    (have & RMD_MOTOR_HAVE_POS))
+		have |= RMD_MOTOR_HAVE_COUNT_CHECK | v2_count_check(m, r, took, t_ns);
 	if (took == V2_TOOK_REF) {
 		m->v2_ref_ns = t_ns;
 	} else if (took != V2_TOOK_NONE && !v2_count_trusted(m, r, took, t_ns)) {

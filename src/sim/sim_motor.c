@@ -228,8 +228,10 @@ static int report_slot(const struct rmd_dialect *d, int64_t cmd)
  * multi-turn count is lost (docs/design.md) unless 0x20 index 4 saved it and
  * index 1 did not ask to clear it (V3 §2.33.4), the brake is locked
  * (V3 §2.27.1: the brake state without power) and the shaft is at rest.
+ * It answers boot_time_ns later (rmd_sim_motor_params.boot_ms); its
+ * runtime (0xB1, V3 §2.28) counts from now.
  */
-static void boot(struct rmd_sim_motor *m, int64_t now_ns)
+static void boot(struct rmd_sim_motor *m, int64_t now_ns, int64_t boot_time_ns)
 {
 	m->ram = m->rom;
 	m->error_reports = false;
@@ -255,6 +257,7 @@ static void boot(struct rmd_sim_motor *m, int64_t now_ns)
 	m->next_f1_ns = 0;
 	m->next_9a_ns = 0;
 	m->boot_ns = now_ns;
+	m->awake_ns = now_ns + boot_time_ns;
 	rmd_sim_detect_faults(m, 0.0);
 }
 
@@ -270,6 +273,18 @@ static struct rmd_mit_ranges firmware_mit(const struct rmd_sim_motor *m)
 
 	rmd_mit_scaling_decide(m->d, m->p.version_date, m->p.model, &m->p.mit, 0, &dec);
 	return dec.source == RMD_MIT_FROM_FIRMWARE ? dec.r : m->p.mit;
+}
+
+/* The firmware's boot time, ns (rmd_sim_motor_params.boot_ms). */
+static int64_t boot_time_ns(const struct rmd_sim_motor *m)
+{
+	return (int64_t)m->p.boot_ms * 1000000;
+}
+
+/* Whether the firmware runs: present, and done booting. */
+static bool awake(const struct rmd_sim_motor *m, int64_t now_ns)
+{
+	return m->present && now_ns >= m->awake_ns;
 }
 
 void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_params *p,
@@ -294,7 +309,7 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 	m->t_ns = now_ns;
 	m->present = true;
 	rmd_sim_motor_seed(m, m->p.seed);
-	boot(m, now_ns);
+	boot(m, now_ns, 0); /* the first power-on was before: it answers at once */
 	/* first power-on: where the shaft happens to be, turns included */
 	m->pos_rad = m->p.start_angle_deg * (M_PI / 180.0);
 	/* an earlier run's protection, tripped since (V2 has none) */
@@ -321,7 +336,7 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 void rmd_sim_motor_power_cycle(struct rmd_sim_motor *m, int64_t now_ns)
 {
 	rmd_sim_motor_step(m, now_ns);
-	boot(m, now_ns > m->t_ns ? now_ns : m->t_ns);
+	boot(m, now_ns > m->t_ns ? now_ns : m->t_ns, boot_time_ns(m));
 }
 
 void rmd_sim_motor_set_error(struct rmd_sim_motor *m, uint16_t bits)
@@ -909,7 +924,7 @@ static int answer(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
 		/* V3 §2.25: resets and does not answer; V2 §3.49: echoes first. */
 		int n = spec->flags & RMD_CMD_NO_REPLY ? 0 : echo(f, reply_id, out, max);
 
-		boot(m, now_ns);
+		boot(m, now_ns, boot_time_ns(m));
 		return n;
 	}
 	case 0x77: /* V3 §2.26 / V2 §3.50 */
@@ -1163,7 +1178,7 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 	if (!m || !f)
 		return 0;
 	rmd_sim_motor_step(m, now_ns);
-	if (!m->present || f->len != RMD_FRAME_LEN)
+	if (!awake(m, now_ns) || f->len != RMD_FRAME_LEN)
 		return 0;
 	r = route_of(m, f->can_id);
 	if (r == R_NONE)
@@ -1224,7 +1239,7 @@ int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame
 	if (!m)
 		return 0;
 	rmd_sim_motor_step(m, now_ns);
-	if (!m->present || !out)
+	if (!awake(m, now_ns) || !out)
 		max = 0;
 	/* docs/design.md: 0xF1 each second while the protection holds (V4 firmware). */
 	while (m->comm_lost && m->next_f1_ns <= now_ns) {

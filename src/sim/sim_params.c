@@ -108,6 +108,10 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	ROW("wrap_rotor", "wrap-rotor", BOOL, wrap_rotor, 0, 0, false, "",
 	    "a start without it wraps the angle within one rotor turn, not one output turn (yes/no)",
 	    0),
+	ROW("boot_ms", "boot", UINT, boot_ms, 0, 600000, false, "ms",
+	    "firmware boot after power returns (a disappear fault with param 1 ending) or a "
+	    "0x76 reset: it answers nothing this long (an X-series motor: about 1100); 0: at once",
+	    0),
 	ROW("turnaround_us", NULL, US, turnaround_ns, 0, 1e6, false, "µs",
 	    "request end to reply start, mean", 0),
 	ROW("turnaround_jitter_us", "jitter-us", US, turnaround_jitter_ns, 0, 1e6, false, "µs",

@@ -586,6 +586,43 @@ static void test_lost_motor_logged_with_context(void **state)
 }
 
 /*
+ * A short power cycle (docs/faults.md "A short power cycle"): motor 3
+ * loses power for 50 ms, fewer replies than missed_replies_lost, and
+ * boots at once; the log says it rebooted, how it was seen, and that it
+ * is treated as lost and back; then back.  50 ms, not 5: a loaded machine
+ * that holds rmdd off for a few ms still sends into the window.
+ */
+static void test_short_power_cycle_logged(void **state)
+{
+	static struct proc p;
+	const char *const *args;
+
+	(void)state;
+	args = config_args(
+		"glitch.yaml",
+		"safety: {missed_replies_lost: 200}\n"
+		"buses:\n"
+		"  - name: s0\n"
+		"    type: sim\n"
+		"    sim:\n"
+		"      faults:\n"
+		"        - {kind: disappear, motor: 3, start_s: 0.5, end_s: 0.55, param: 1}\n"
+		"motors:\n"
+		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	wait_for(&p, "<4>rmdd: s0: motor 3 (knee_l): rebooted (runtime ", 5000);
+	wait_for(&p, "ms: 0xB1); treated as lost and back", 5000);
+	wait_for(&p, "<5>rmdd: s0: motor 3 (knee_l): back (lost -> stopping)", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	assert_int_equal(count_of(p.out, "(knee_l): rebooted"), 1);
+	assert_null(strstr(p.out, "(a): rebooted"));
+}
+
+/*
  * Motors missing at bring-up, found later, whose firmware is V4: a v3
  * entry and a `protocol: auto` one (taken for V3).  Each is left out
  * with a warning that says what to set; the run goes on.
@@ -1397,6 +1434,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_sigint, reap),
 		cmocka_unit_test_teardown(test_sigusr1_and_sighup_keep_running, reap),
 		cmocka_unit_test_teardown(test_lost_motor_logged_with_context, reap),
+		cmocka_unit_test_teardown(test_short_power_cycle_logged, reap),
 		cmocka_unit_test_teardown(test_found_late_other_dialect, reap),
 		cmocka_unit_test_teardown(test_started_fifo_only_the_loop_stays, reap),
 		cmocka_unit_test_teardown(test_notify_ready_watchdog_and_stall, reap),

@@ -644,6 +644,65 @@ static void test_power_cycle_ram_rom(void **state)
 	assert_int_equal(read_v(&m, RMD_PROTO_V3, 1, 0x30, RMD_FLD_POS_KI), 30);
 }
 
+/*
+ * The firmware's boot (rmd_sim_motor_params.boot_ms): after power returns
+ * or a 0x76 reset the motor hears and says nothing for boot_ms -- a motion
+ * command meanwhile is not executed -- then answers, its runtime (0xB1,
+ * V3 §2.28) counted from the power's return, its brake locked and its
+ * multi-turn count wrapped.  With 0 it answers at once.
+ */
+static void test_boot_time(void **state)
+{
+	struct rmd_sim_motor m;
+	struct rmd_sim_motor_params p;
+	struct rmd_frame f;
+	int64_t t_on;
+
+	(void)state;
+	rmd_sim_motor_params_default(&p, 1, RMD_PROTO_V3);
+	p.boot_ms = 1100;
+	p.start_angle_deg = 400.0;
+	rmd_sim_motor_init(&m, &p, now);
+	/* the first power-on was before: it answers at once, its runtime from now */
+	assert_true(read_v(&m, RMD_PROTO_V3, 1, 0xB1, RMD_FLD_RUNTIME) < 2);
+	advance(&m, 3000 * MS);
+	assert_true(llabs(read_v(&m, RMD_PROTO_V3, 1, 0xB1, RMD_FLD_RUNTIME) - 3000) <= 1);
+	brake_release(&m, RMD_PROTO_V3, 1);
+
+	rmd_sim_motor_power_cycle(&m, now);
+	t_on = now;
+	f = REQ(V3, 1, 0xA4, KV(MAX_SPEED, 720), KV(ANGLE, 40000));
+	for (int k = 0; k < 109; k++) {
+		expect_silence(&m, &f);
+		advance(&m, 10 * MS);
+	}
+	/* not executed: at rest where the boot left it */
+	assert_true(fabs(m.vel_rad_s) < 1e-9);
+	advance(&m, 10 * MS);
+	assert_true(now - t_on >= 1100 * MS);
+	/* up: 400 deg wrapped to 40, its runtime since the power returned, its brake locked */
+	assert_true(llabs(angle_cdeg(&m, 1) - 4000) <= 1);
+	assert_true(llabs(read_v(&m, RMD_PROTO_V3, 1, 0xB1, RMD_FLD_RUNTIME) - 1100) <= 1);
+	assert_int_equal(read_v(&m, RMD_PROTO_V3, 1, 0x9A, RMD_FLD_BRAKE), 0);
+
+	/* 0x76 boots as long */
+	f = REQ0(V3, 1, 0x76);
+	expect_silence(&m, &f);
+	t_on = now;
+	advance(&m, 1000 * MS);
+	f = REQ0(V3, 1, 0x9C);
+	expect_silence(&m, &f);
+	advance(&m, 100 * MS);
+	assert_true(llabs(read_v(&m, RMD_PROTO_V3, 1, 0xB1, RMD_FLD_RUNTIME) - (now - t_on) / MS) <=
+		    1);
+
+	/* boot_ms 0: at once, its runtime from 0 again */
+	m.p.boot_ms = 0;
+	advance(&m, 500 * MS);
+	rmd_sim_motor_power_cycle(&m, now);
+	assert_true(read_v(&m, RMD_PROTO_V3, 1, 0xB1, RMD_FLD_RUNTIME) < 2);
+}
+
 /* ---- (h) CAN ID filter and 0x300 ---------------------------------------- */
 
 static void test_can_filter(void **state)
@@ -1348,6 +1407,7 @@ int main(void)
 		cmocka_unit_test_setup(test_mit_pd_law, setup),
 		cmocka_unit_test_setup(test_mit_scaling_by_firmware, setup),
 		cmocka_unit_test_setup(test_power_cycle_ram_rom, setup),
+		cmocka_unit_test_setup(test_boot_time, setup),
 		cmocka_unit_test_setup(test_can_filter, setup),
 		cmocka_unit_test_setup(test_error_reports, setup),
 		cmocka_unit_test_setup(test_stall_latches, setup),

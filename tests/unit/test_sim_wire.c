@@ -599,6 +599,59 @@ static void test_fault_disappear_window(void **state)
 	check_trace(true, false);
 }
 
+/*
+ * A glitch: motor 1 loses power during [100.4 ms, 105.4 ms); with
+ * boot_ms 20 it answers nothing until 125.4 ms, then its runtime (0xB1)
+ * counts from the power's return; with 0 (motor 2, the same glitch) at
+ * once.  Requests every 1 ms.
+ */
+static void test_fault_disappear_boot(void **state)
+{
+	const struct rmd_sim_fault f[] = {
+		{ .kind = RMD_SIM_FAULT_DISAPPEAR,
+		  .motor_id = 1,
+		  .start_ns = 100400 * US,
+		  .end_ns = 105400 * US,
+		  .param = 1 },
+		{ .kind = RMD_SIM_FAULT_DISAPPEAR,
+		  .motor_id = 2,
+		  .start_ns = 100400 * US,
+		  .end_ns = 105400 * US,
+		  .param = 1 },
+	};
+	struct rmd_sim_motor_params p;
+	int64_t first = 0;
+
+	(void)state;
+	for (unsigned id = 1; id <= 2; id++) {
+		rmd_sim_motor_params_default(&p, (uint8_t)id, RMD_PROTO_V3);
+		p.boot_ms = id == 1 ? 20 : 0;
+		assert_int_equal(rmd_sim_wire_add_motor(&bus, &p, 0), (int)id - 1);
+	}
+	set_faults(f, 2);
+	assert_int_equal(run_cycles(2, 0xB1, 0, 1 * MS, 200, 5 * MS), 0);
+	assert_int_equal(count_rx(RMD_CAN_V3_REPLY_BASE + 1, 100400 * US, 125400 * US), 0);
+	assert_int_equal(count_rx(RMD_CAN_V3_REPLY_BASE + 2, 100400 * US, 105400 * US), 0);
+	/* requested at 106..124 ms (the 105 ms request fell in the window) */
+	assert_int_equal(count_rx(RMD_CAN_V3_REPLY_BASE + 2, 105400 * US, 125400 * US), 19);
+	/* requested at 126..199 ms: the 125 ms request reached it still booting */
+	assert_int_equal(count_rx(RMD_CAN_V3_REPLY_BASE + 1, 125400 * US, INT64_MAX), 74);
+	for (unsigned k = 0; k < rx_n && !first; k++) {
+		struct rmd_msg msg;
+
+		if (rx_log[k].f.can_id != RMD_CAN_V3_REPLY_BASE + 1 || rx_log[k].t_ns < 125400 * US)
+			continue;
+		assert_int_equal(rmd_decode(RMD_PROTO_V3, RMD_DIR_REPLY, &rx_log[k].f, &msg, NULL),
+				 0);
+		/* asked at 126 ms: 20.7 ms since the power returned */
+		assert_int_equal(msg.v[RMD_FLD_RUNTIME], 20);
+		first = rx_log[k].t_ns;
+	}
+	assert_true(first);
+	assert_int_equal(rmd_sim_wire_motor(&bus, 1)->boot_ns, 105400 * US);
+	assert_int_equal(rmd_sim_wire_motor(&bus, 1)->awake_ns, 125400 * US);
+}
+
 /* Error bits of the 0x9A replies of motor 1 (V3 §2.12). */
 static uint16_t status1_error(const struct rmd_frame *f)
 {
@@ -1173,6 +1226,7 @@ int main(void)
 		cmocka_unit_test(test_fault_corrupt_rate),
 		cmocka_unit_test(test_fault_wrong_id_window),
 		cmocka_unit_test(test_fault_disappear_window),
+		cmocka_unit_test(test_fault_disappear_boot),
 		cmocka_unit_test(test_fault_error_flag_window),
 		cmocka_unit_test(test_fault_bus_off_window),
 		cmocka_unit_test(test_fault_flood_low_id_steals_wire),

@@ -319,6 +319,13 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 	case RMD_EV_MIT_REFUSED:
 		snprintf(buf, len, "%s: MIT refused, its MIT scaling not decided", ctx);
 		break;
+	case RMD_EV_REBOOT: {
+		char what[160];
+
+		rmdd_reboot_text(e, what, sizeof(what));
+		snprintf(buf, len, "%s: %s", ctx, what);
+		break;
+	}
 	default:
 		snprintf(buf, len, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
@@ -364,6 +371,7 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 		*kind = "stray";
 		break;
 	case RMD_EV_MOTOR_ERROR: /* the FAULT or LOST that follows is the incident */
+	case RMD_EV_REBOOT:	 /* ... and the LOST a reboot makes */
 	case RMD_EV_SEND_FAILED:
 	case RMD_EV_UNEXPECTED:
 	case RMD_EV_LATE:

@@ -60,6 +60,73 @@ const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b)
 	return b < cfg->n_buses ? cfg->buses[b].name : "?";
 }
 
+/* An event's b of int32 of 0.01 deg, high and low half, in degrees. */
+static double cdeg_hi(int64_t b)
+{
+	return (double)(int32_t)(uint32_t)((uint64_t)b >> 32) / 100.0;
+}
+
+static double cdeg_lo(int64_t b)
+{
+	return (double)(int32_t)(uint32_t)b / 100.0;
+}
+
+void rmdd_reboot_text(const struct rmd_event *e, char *buf, size_t len)
+{
+	switch ((enum rmd_reboot_report)e->a) {
+	case RMD_REBOOT_BY_RUNTIME:
+		snprintf(buf, len,
+			 "rebooted (runtime %" PRIu32 " ms, it would have run at least %" PRIu32
+			 " ms: 0xB1)",
+			 (uint32_t)((uint64_t)e->b >> 32), (uint32_t)e->b);
+		break;
+	case RMD_REBOOT_BY_TURNS:
+		snprintf(buf, len,
+			 "rebooted (its multi-turn angle %.2f deg, rmdd's count of its encoder "
+			 "%.2f deg: its count lost, 0x92)",
+			 cdeg_hi(e->b), cdeg_lo(e->b));
+		break;
+	case RMD_REBOOT_BY_BRAKE:
+		snprintf(buf, len,
+			 "rebooted (its brake locked after it reported it released: 0x9A)");
+		break;
+	case RMD_REBOOT_NO_CHECK:
+		snprintf(buf, len,
+			 "does not answer 0x%02" PRIX64
+			 ": a short power cycle is seen only by its brake (0x9A) from now on",
+			 (uint64_t)e->b);
+		break;
+	case RMD_REBOOT_UNTOLD:
+		snprintf(buf, len,
+			 "whether it rebooted is untold: its answers to 0x%02" PRIX64
+			 " could not tell",
+			 (uint64_t)e->b);
+		break;
+	default:
+		snprintf(buf, len, "reboot check %" PRId64, e->a);
+		break;
+	}
+}
+
+/*
+ * A motor's reboot check (rmd/reboot.h): a reboot is lost and back at
+ * once (the state events that follow); a check that cannot run.
+ */
+static void log_reboot(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	char ctx[96], what[192];
+
+	rmdd_motor_ctx(cfg, e->motor, ctx, sizeof(ctx));
+	rmdd_reboot_text(e, what, sizeof(what));
+	if (e->a == RMD_REBOOT_NO_CHECK || e->a == RMD_REBOOT_UNTOLD)
+		tool_log(4, "%s: %s", ctx, what);
+	else
+		tool_log(4,
+			 "%s: %s; treated as lost and back: its position and 0xB3 decided "
+			 "again before anything moves it",
+			 ctx, what);
+}
+
 /*
  * A motor's change of state.  shutdown_sent: the shutdown's stop or hold
  * sent to it just before (enum rmd_safe_action), or -1.
@@ -80,14 +147,13 @@ static void log_motor_state(const struct rmd_config *cfg, const struct rmd_event
 				 "is probed again every %d ms",
 				 ctx, (int)(RMD_LOOP_REPROBE_NS / 1000000));
 		else
-			tool_log(
-				4,
-				"%s: lost (%u missed replies in a row, or a 0xF1 above)%s%s; probed "
-				"again every %d ms",
-				ctx, cfg->safety.missed_replies_lost,
-				from == RMD_LC_ENABLED ? "; safe action " : "",
-				from == RMD_LC_ENABLED ? action : "",
-				(int)(RMD_LOOP_REPROBE_NS / 1000000));
+			tool_log(4,
+				 "%s: lost (%u missed replies in a row, or a 0xF1 or a reboot "
+				 "above)%s%s; probed again every %d ms",
+				 ctx, cfg->safety.missed_replies_lost,
+				 from == RMD_LC_ENABLED ? "; safe action " : "",
+				 from == RMD_LC_ENABLED ? action : "",
+				 (int)(RMD_LOOP_REPROBE_NS / 1000000));
 		break;
 	case RMD_LC_FAULT:
 		/* lifecycle.c: a faulted motor runs no control command, so no safe action */
@@ -466,6 +532,9 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 	case RMD_EV_MIT_SCALING:
 	case RMD_EV_MIT_REFUSED:
 		log_mit(cfg, e);
+		break;
+	case RMD_EV_REBOOT:
+		log_reboot(cfg, e);
 		break;
 	case RMD_EV_OVERRUN:
 		/* the first of each second now, the rest summed up by overrun_summary() */

@@ -190,6 +190,11 @@ void rmdd_mit_text(const struct rmd_dialect *d, const struct rmd_mit_decision *d
 void rmdd_mit_config_note(const struct rmd_config *cfg, unsigned i, char *buf, size_t len);
 /* Bus b's name, "?" when out of range. */
 const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
+/*
+ * What an RMD_EV_REBOOT says and the signal that saw it, in a few words:
+ * "rebooted (runtime 3 ms, it would have run at least 5 ms: 0xB1)".
+ */
+void rmdd_reboot_text(const struct rmd_event *e, char *buf, size_t len);
 
 /* ---- buses (rmdd_buses.c) ----------------------------------------------- */
 
