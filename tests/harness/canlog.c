@@ -4,6 +4,8 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <pthread.h>
+#include <sched.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stdbool.h>
@@ -264,6 +266,71 @@ struct rmd_frame canlog_ask(struct canlog *c, int rx_fd, unsigned b, uint32_t re
 		if (service)
 			service(0);
 	}
+}
+
+static void *canwatch_main(void *arg)
+{
+	struct canwatch *w = arg;
+	struct can_frame cf;
+
+	while (!atomic_load(&w->stop)) {
+		struct pollfd p = { .fd = w->fd, .events = POLLIN };
+
+		if (poll(&p, 1, 20) <= 0)
+			continue;
+		while (read(w->fd, &cf, sizeof(cf)) == (ssize_t)sizeof(cf))
+			if (cf.can_id == w->id && !atomic_load(&w->first_ns))
+				atomic_store(&w->first_ns, real_ns());
+	}
+	return NULL;
+}
+
+void canwatch_start(struct canwatch *w, const char *iface, uint32_t id, int fifo)
+{
+	struct can_filter f = { .can_id = id,
+				.can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG };
+	pthread_attr_t attr;
+	int rc;
+
+	memset(w, 0, sizeof(*w));
+	w->id = id;
+	w->fd = can_raw_open(iface, true);
+	if (setsockopt(w->fd, SOL_CAN_RAW, CAN_RAW_FILTER, &f, sizeof(f)) < 0)
+		fail_msg("%s: CAN_RAW_FILTER 0x%03X: %s", iface, (unsigned)id, strerror(errno));
+	pthread_attr_init(&attr);
+	if (fifo > 0) {
+		struct sched_param sp = { .sched_priority = fifo };
+
+		pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
+		pthread_attr_setschedpolicy(&attr, SCHED_FIFO);
+		pthread_attr_setschedparam(&attr, &sp);
+	}
+	rc = pthread_create(&w->thread, &attr, canwatch_main, w);
+	w->is_fifo = rc == 0 && fifo > 0;
+	if (rc != 0 && fifo > 0) { /* not granted: at normal priority, said in is_fifo */
+		pthread_attr_destroy(&attr);
+		pthread_attr_init(&attr);
+		rc = pthread_create(&w->thread, &attr, canwatch_main, w);
+	}
+	pthread_attr_destroy(&attr);
+	if (rc != 0)
+		fail_msg("a watch of 0x%03X: pthread_create: %s", (unsigned)id, strerror(rc));
+	w->started = true;
+}
+
+int64_t canwatch_first_ns(struct canwatch *w)
+{
+	return atomic_load(&w->first_ns);
+}
+
+void canwatch_stop(struct canwatch *w)
+{
+	if (!w->started)
+		return;
+	atomic_store(&w->stop, true);
+	pthread_join(w->thread, NULL);
+	close_fd(&w->fd);
+	w->started = false;
 }
 
 bool cframe_is(const struct cframe *f, unsigned b, unsigned id, int cmd, int64_t t0, int64_t t1)

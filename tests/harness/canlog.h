@@ -11,6 +11,8 @@
 #ifndef RMD_TESTS_CANLOG_H
 #define RMD_TESTS_CANLOG_H
 
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -102,6 +104,36 @@ void canlog_send(struct canlog *c, unsigned b, uint32_t id, const uint8_t data[R
 struct rmd_frame canlog_ask(struct canlog *c, int rx_fd, unsigned b, uint32_t req_id,
 			    const uint8_t req[RMD_FRAME_LEN], uint32_t rep_id, int ms,
 			    service_fn *service);
+
+/*
+ * When a frame is delivered: candump's times are the kernel's receive
+ * times, taken when a frame is queued for the sockets, and on a busy
+ * machine the kernel may deliver it later (its softirq left to ksoftirqd, a
+ * normal-priority thread that the real-time ones hold off).  A watch reads
+ * one identifier on its own socket in a thread at SCHED_FIFO priority
+ * fifo, above everything under test, and notes when the first such frame
+ * reached it: the kernel hands a frame to every socket on the bus in one
+ * pass, so the others had it by then (a little earlier when the watch
+ * itself was held off).
+ */
+struct canwatch {
+	int fd;
+	uint32_t id;
+	pthread_t thread;
+	bool started;
+	bool is_fifo; /* the priority was granted (as root) */
+	atomic_bool stop;
+	atomic_llong first_ns; /* CLOCK_REALTIME when the first frame was read; 0: none yet */
+};
+
+/* Start watching identifier id on iface.  Fails the test when it cannot. */
+void canwatch_start(struct canwatch *w, const char *iface, uint32_t id, int fifo);
+
+/* When the first frame with the watched identifier was read (CLOCK_REALTIME), or 0. */
+int64_t canwatch_first_ns(struct canwatch *w);
+
+/* Stop and join the thread, close the socket (nothing when not started). */
+void canwatch_stop(struct canwatch *w);
 
 /* f is on bus b with identifier id and command byte cmd (-1: any), and t0 <= t < t1. */
 bool cframe_is(const struct cframe *f, unsigned b, unsigned id, int cmd, int64_t t0, int64_t t1);
