@@ -94,6 +94,13 @@ int64_t sleeper_worst_ns(struct sleeper *s)
 	return atomic_load(&s->worst_ns);
 }
 
+double sleeper_stall_ms(struct sleeper *s)
+{
+	int64_t w = sleeper_worst_ns(s);
+
+	return w > 0 ? (double)(w + s->period_ns) / 1e6 : 0;
+}
+
 int64_t sleeper_held_off_ns(struct sleeper *s)
 {
 	return atomic_load(&s->late_sum_ns);

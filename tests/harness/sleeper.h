@@ -44,6 +44,13 @@ void sleeper_mark(struct sleeper *s);
 int64_t sleeper_worst_ns(struct sleeper *s);
 
 /*
+ * The worst scheduling delay s saw since its mark, ms: its latest wake-up
+ * plus its period (a stall that began just after a wake-up shows only as
+ * far as it outlasted the period); 0 before a late wake-up.
+ */
+double sleeper_stall_ms(struct sleeper *s);
+
+/*
  * How long the machine held the sleeper off since the last sleeper_mark(),
  * ns: the sum of its wake-ups' lateness -- the time a thread of its class
  * could not run when it wanted to.

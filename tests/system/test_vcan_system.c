@@ -48,7 +48,7 @@
  *
  * Time: candump -L stamps frames with the kernel's receive time
  * (CLOCK_REALTIME), so the test takes its own reference times from the same
- * clock.  candump's log is read as it grows; a marker frame (MARKER_ID, no
+ * clock.  candump's log is read as it grows (harness/canlog.h); a marker frame (no
  * motor or rmdd listens to it) sent on every bus tells when the log has
  * caught up with "now".
  *
@@ -117,6 +117,7 @@
 #include "rmd/rmd_health_t.h"
 #include "rmd/rmd_state_t.h"
 
+#include "harness/canlog.h"
 #include "harness/gap.h"
 #include "harness/json.h"
 #include "harness/proc.h"
@@ -186,9 +187,8 @@
 #define SLEEPER_PERIOD_MS 5	    /* the reference sleepers wake every 5 ms: cheap in the guest */
 #define CTL_PERIOD_MS 10	    /* the controller publishes at 100 Hz */
 #define KEEPALIVE_MS 50		    /* see keepalive() */
-#define MARKER_ID 0x7E0u	    /* not a motor's, not rmdd's: nobody answers it */
 #define URL_PLACEHOLDER "@LCM_URL@" /* in tests/data/vcan/system.yaml */
-#define NBUS_MAX 3
+#define NBUS_MAX CANLOG_BUSES
 
 #define SETPOINT_RAD 0.2
 #define MAX_VEL_RAD_S 1.0
@@ -197,15 +197,6 @@
 #define SINE_HZ 0.25	     /* issue 13: the slow sine of test_system_fine_position */
 
 /* ---- state ---------------------------------------------------------------- */
-
-/* One frame of candump's log. */
-struct cframe {
-	int64_t t_ns; /* kernel receive time, CLOCK_REALTIME */
-	uint16_t id;
-	uint8_t bus; /* index into the configuration's buses */
-	uint8_t len;
-	uint8_t data[RMD_FRAME_LEN];
-};
 
 struct health {
 	int64_t utime;
@@ -243,17 +234,8 @@ static struct {
 
 	struct kid *sims[NBUS_MAX], *candump, *rmdd_kid;
 
-	/* candump's log */
-	int log_fd;
-	char lbuf[256 * 1024];
-	size_t llen;
-	struct cframe *frames;
-	size_t nframes, cap;
-	unsigned bad_lines, drop_lines;
-	char drop_text[160];
-	int can_fd[NBUS_MAX]; /* markers and the test's own requests */
-	uint32_t marker;
-	uint32_t marker_seen[NBUS_MAX];
+	/* candump's log; markers and the test's own requests */
+	struct canlog log;
 
 	/* LCM */
 	char url[96];
@@ -311,14 +293,6 @@ static struct {
 
 /* ---- small helpers ----------------------------------------------------------- */
 
-static int64_t real_ns(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_REALTIME, &ts);
-	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
-}
-
 static double ms_of(int64_t ns)
 {
 	return (double)ns / 1e6;
@@ -331,18 +305,6 @@ static void sleepers_mark(void)
 	sleeper_mark(&S.sl_sim);
 	sleeper_mark(&S.sl_loop);
 	sleeper_mark(&S.sl_other);
-}
-
-/*
- * The worst scheduling delay s saw since its mark, ms: its latest wake-up
- * plus its period (a stall that began just after a wake-up shows only as
- * far as it outlasted the period).
- */
-static double stall_ms(struct sleeper *s)
-{
-	int64_t w = sleeper_worst_ns(s);
-
-	return w > 0 ? ms_of(w + s->period_ns) : 0;
 }
 
 /* The pace: 1, or how many times the file's times rmdd runs at (write_config()). */
@@ -380,7 +342,7 @@ static double own_gap_ms(void)
 /* The worst delay since the mark at the loop's or at rmd-sim's priority, ms. */
 static double stall_rt_ms(void)
 {
-	double l = stall_ms(&S.sl_loop), m = stall_ms(&S.sl_sim);
+	double l = sleeper_stall_ms(&S.sl_loop), m = sleeper_stall_ms(&S.sl_sim);
 
 	return l > m ? l : m;
 }
@@ -408,20 +370,22 @@ static const char *disable_explained(void)
 			 stall_rt_ms(), S.cfg.safety.comm_loss_ms, period_ms);
 		return why;
 	}
-	if (stall_ms(&S.sl_sim) + period_ms >= S.cfg.safety.missed_replies_lost * period_ms) {
+	if (sleeper_stall_ms(&S.sl_sim) + period_ms >=
+	    S.cfg.safety.missed_replies_lost * period_ms) {
 		snprintf(why, sizeof(why),
 			 "the guest held rmd-sim's priority off %.1f ms (%u missed replies in a "
 			 "row make a motor lost, period %.1f ms)",
-			 stall_ms(&S.sl_sim), S.cfg.safety.missed_replies_lost, period_ms);
+			 sleeper_stall_ms(&S.sl_sim), S.cfg.safety.missed_replies_lost, period_ms);
 		return why;
 	}
-	if (stall_ms(&S.sl_other) + CTL_PERIOD_MS >= S.cfg.safety.command_timeout_ms ||
+	if (sleeper_stall_ms(&S.sl_other) + CTL_PERIOD_MS >= S.cfg.safety.command_timeout_ms ||
 	    own_gap_ms() >= S.cfg.safety.command_timeout_ms) {
 		snprintf(
 			why, sizeof(why),
 			"the guest held the controller (normal priority) off %.1f ms, its commands "
 			"%.1f ms apart (command timeout %u ms)",
-			stall_ms(&S.sl_other), own_gap_ms(), S.cfg.safety.command_timeout_ms);
+			sleeper_stall_ms(&S.sl_other), own_gap_ms(),
+			S.cfg.safety.command_timeout_ms);
 		return why;
 	}
 	return NULL;
@@ -479,115 +443,26 @@ static void kids_kill_all(void)
 
 /* ---- candump's log ---------------------------------------------------------------- */
 
-static int bus_of_iface(const char *name)
-{
-	for (unsigned b = 0; b < S.nbus; b++)
-		if (!strcmp(name, iface(b)))
-			return (int)b;
-	return -1;
-}
-
-static void take_line(const char *line)
-{
-	struct rmd_candump_line cl;
-	struct cframe *f;
-	int64_t frac;
-	int b;
-
-	if (strstr(line, "DROPCOUNT")) {
-		S.drop_lines++;
-		snprintf(S.drop_text, sizeof(S.drop_text), "%.150s", line);
-		return;
-	}
-	if (rmd_candump_parse(line, &cl) < 0 || !cl.has_time) {
-		S.bad_lines++;
-		return;
-	}
-	b = bus_of_iface(cl.iface);
-	if (b < 0)
-		return;
-	if (cl.frame.can_id == MARKER_ID && cl.frame.len == 8 && cl.frame.data[0] == 'M') {
-		uint32_t m;
-
-		memcpy(&m, &cl.frame.data[4], sizeof(m));
-		if (m > S.marker_seen[b])
-			S.marker_seen[b] = m;
-		return;
-	}
-	if (S.nframes == S.cap) {
-		size_t cap = S.cap ? 2 * S.cap : 65536;
-		struct cframe *nf = realloc(S.frames, cap * sizeof(*nf));
-
-		assert_non_null(nf);
-		S.frames = nf;
-		S.cap = cap;
-	}
-	frac = cl.time_frac;
-	for (unsigned d = cl.time_digits; d < 9; d++)
-		frac *= 10;
-	f = &S.frames[S.nframes++];
-	f->t_ns = (int64_t)cl.time_sec * NS_PER_S + frac;
-	f->id = (uint16_t)cl.frame.can_id;
-	f->bus = (uint8_t)b;
-	f->len = cl.frame.len;
-	memcpy(f->data, cl.frame.data, sizeof(f->data));
-}
-
 /* Parse what candump wrote since the last call. */
 static void tail_log(void)
 {
-	if (S.log_fd < 0)
-		return;
-	for (;;) {
-		ssize_t r = read(S.log_fd, S.lbuf + S.llen, sizeof(S.lbuf) - 1 - S.llen);
-		char *p = S.lbuf, *nl;
-
-		if (r <= 0)
-			return;
-		S.llen += (size_t)r;
-		while ((nl = memchr(p, '\n', S.llen - (size_t)(p - S.lbuf)))) {
-			*nl = '\0';
-			take_line(p);
-			p = nl + 1;
-		}
-		S.llen -= (size_t)(p - S.lbuf);
-		memmove(S.lbuf, p, S.llen);
-		if (S.llen >= sizeof(S.lbuf) - 1)
-			S.llen = 0; /* a line this long is no candump line */
-	}
+	canlog_tail(&S.log);
 }
 
 /* Forget the frames logged so far (each step looks at its own). */
 static void log_forget(void)
 {
-	S.nframes = 0;
+	canlog_forget(&S.log);
 }
 
 static void can_send(unsigned b, uint32_t id, const uint8_t data[8])
 {
-	struct can_frame cf = { .can_id = id, .len = 8 };
-	ssize_t w;
-
-	memcpy(cf.data, data, 8);
-	w = write(S.can_fd[b], &cf, sizeof(cf));
-	if (w != (ssize_t)sizeof(cf))
-		fail_msg("%s: write 0x%03X: %s", iface(b), (unsigned)id,
-			 w < 0 ? strerror(errno) : "short write");
+	canlog_send(&S.log, b, id, data);
 }
 
 static int can_open(unsigned b, bool receive)
 {
-	struct sockaddr_can addr = { .can_family = AF_CAN };
-	int fd = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC | SOCK_NONBLOCK, CAN_RAW);
-
-	if (fd < 0)
-		fail_msg("socket(PF_CAN): %s", strerror(errno));
-	if (!receive)
-		setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, NULL, 0);
-	addr.can_ifindex = (int)if_nametoindex(iface(b));
-	if (!addr.can_ifindex || bind(fd, (struct sockaddr *)&addr, sizeof(addr)) < 0)
-		fail_msg("bind %s: %s", iface(b), strerror(errno));
-	return fd;
+	return can_raw_open(iface(b), receive);
 }
 
 /* ---- the controller and the event loop ------------------------------------------------ */
@@ -793,42 +668,10 @@ static void controller(bool on, bool enable)
 	S.ctl_enable = enable;
 }
 
-/*
- * Wait until candump's log holds everything sent on every bus before this
- * call.  The marker goes out again every 200 ms: candump may not listen
- * yet when the first one passes.
- */
+/* Wait until candump's log holds everything sent on every bus before this call. */
 static void sync_log(void)
 {
-	uint8_t d[8] = { 'M', 'R', 'K' };
-	int64_t now = rmd_now_ns(), end = now + SYNC_MS * NS_PER_MS, resend = now;
-	uint32_t want = ++S.marker;
-
-	memcpy(&d[4], &want, sizeof(want));
-	for (;;) {
-		bool all = true;
-
-		for (unsigned b = 0; b < S.nbus; b++)
-			all &= S.marker_seen[b] >= want;
-		if (all)
-			return;
-		now = rmd_now_ns();
-		if (now > end)
-			fail_msg(
-				"candump's log %s did not show marker %u within %d ms (candump %s; "
-				"the guest held a normal-priority thread off %.1f ms meanwhile); "
-				"candump:\n%s",
-				S.logpath, (unsigned)want, SYNC_MS,
-				kid_poll_exit(S.candump) ? "exited" : "running",
-				ms_of(sleeper_held_off_ns(&S.sl_other)), kid_tail(S.candump));
-		if (now >= resend) {
-			for (unsigned b = 0; b < S.nbus; b++)
-				if (S.marker_seen[b] < want)
-					can_send(b, MARKER_ID, d);
-			resend = now + 200 * NS_PER_MS;
-		}
-		service(5);
-	}
+	canlog_sync(&S.log, SYNC_MS, service, &S.sl_other);
 }
 
 /* ---- one tool run ------------------------------------------------------------------ */
@@ -868,8 +711,9 @@ static void run_tool_ok(struct run *r, const char **argv)
 
 		sleepers_mark();
 		run_tool(r, argv);
-		stall = stall_ms(&S.sl_sim) > stall_ms(&S.sl_other) ? stall_ms(&S.sl_sim) :
-								      stall_ms(&S.sl_other);
+		stall = sleeper_stall_ms(&S.sl_sim) > sleeper_stall_ms(&S.sl_other) ?
+				sleeper_stall_ms(&S.sl_sim) :
+				sleeper_stall_ms(&S.sl_other);
 		if (r->status == 0 || !slot || p * 2 > MAX_PACE || stall < base_ms * p)
 			break;
 		p *= 2;
@@ -911,10 +755,8 @@ static void paths_init(void)
 	snprintf(S.dir, sizeof(S.dir), "/dev/shm/rmd-vsys-%d", (int)getpid());
 	snprintf(S.cfgpath, sizeof(S.cfgpath), "%s/rmdd.yaml", S.dir);
 	snprintf(S.logpath, sizeof(S.logpath), "%s/candump.log", S.dir);
-	S.log_fd = -1;
+	canlog_init(&S.log);
 	S.ka_bus = -1;
-	for (unsigned k = 0; k < NBUS_MAX; k++)
-		S.can_fd[k] = -1;
 }
 
 static void need_exec(const char *path)
@@ -1076,30 +918,18 @@ static void sims_start(void)
 
 static void candump_start(void)
 {
-	const char *argv[8 + NBUS_MAX];
-	unsigned a = 0;
+	const char *ifaces[NBUS_MAX];
 
-	argv[a++] = "candump";
-	argv[a++] = "-L";
-	argv[a++] = "-d";
-	argv[a++] = "-r";
-	argv[a++] = "4194304";
 	for (unsigned b = 0; b < S.nbus; b++)
-		argv[a++] = iface(b);
-	argv[a] = NULL;
+		ifaces[b] = iface(b);
 	/*
 	 * candump is the test's instrument: above every thread of the system
 	 * under test, so that a busy guest, whose emulated CPUs the real-time
 	 * threads then fill, never starves it (it only reads and writes).
 	 */
-	S.candump = kid_spawn("candump", argv, S.logpath, CANDUMP_FIFO_PRIO);
-	S.log_fd = open(S.logpath, O_RDONLY | O_CLOEXEC);
-	if (S.log_fd < 0)
-		fail_msg("%s: %s", S.logpath, strerror(errno));
-	for (unsigned b = 0; b < S.nbus; b++)
-		S.can_fd[b] = can_open(b, false);
-	/* candump has no "ready": its first logged marker says it listens */
-	sync_log();
+	canlog_start(&S.log, S.logpath, ifaces, S.nbus, CANDUMP_FIFO_PRIO, SYNC_MS, service,
+		     &S.sl_other);
+	S.candump = S.log.candump;
 }
 
 static void lcm_start(void)
@@ -1204,50 +1034,25 @@ static const char *lc_list(void)
 
 /* ---- frame queries ------------------------------------------------------------------ */
 
-/* f is on bus b with identifier id and command byte cmd (-1: any), and t0 <= t < t1. */
-static bool frame_is(const struct cframe *f, unsigned b, unsigned id, int cmd, int64_t t0,
-		     int64_t t1)
-{
-	return f->bus == b && f->id == id && (cmd < 0 || f->data[0] == cmd) && f->t_ns >= t0 &&
-	       f->t_ns < t1;
-}
-
-/* The earliest (latest; how many) of the frames from index `from` on that frame_is(). */
+/* The earliest (latest; how many) of the frames from index `from` on (harness/canlog.h). */
 static const struct cframe *first_frame(size_t from, unsigned b, unsigned id, int cmd, int64_t t0,
 					int64_t t1)
 {
-	const struct cframe *best = NULL;
-
-	/* the log merges three sockets: not strictly in time order */
-	for (size_t i = from; i < S.nframes; i++)
-		if (frame_is(&S.frames[i], b, id, cmd, t0, t1) &&
-		    (!best || S.frames[i].t_ns < best->t_ns))
-			best = &S.frames[i];
-	return best;
+	return canlog_first(&S.log, from, b, id, cmd, t0, t1);
 }
 
 static const struct cframe *last_frame(size_t from, unsigned b, unsigned id, int cmd, int64_t t0,
 				       int64_t t1)
 {
-	const struct cframe *best = NULL;
-
-	for (size_t i = from; i < S.nframes; i++)
-		if (frame_is(&S.frames[i], b, id, cmd, t0, t1) &&
-		    (!best || S.frames[i].t_ns >= best->t_ns))
-			best = &S.frames[i];
-	return best;
+	return canlog_last(&S.log, from, b, id, cmd, t0, t1);
 }
 
 static unsigned count_frames(size_t from, unsigned b, unsigned id, int cmd, int64_t t0, int64_t t1)
 {
-	unsigned n = 0;
-
-	for (size_t i = from; i < S.nframes; i++)
-		n += frame_is(&S.frames[i], b, id, cmd, t0, t1);
-	return n;
+	return canlog_count(&S.log, from, b, id, cmd, t0, t1);
 }
 
-#define T_END INT64_MAX
+#define T_END CANLOG_T_END
 
 static unsigned req_id(unsigned i)
 {
@@ -1313,8 +1118,9 @@ static double enable_all(void)
 	int st;
 
 	while (!enable_try(&ms)) {
-		stall = stall_ms(&S.sl_loop) > stall_ms(&S.sl_sim) ? stall_ms(&S.sl_loop) :
-								     stall_ms(&S.sl_sim);
+		stall = sleeper_stall_ms(&S.sl_loop) > sleeper_stall_ms(&S.sl_sim) ?
+				sleeper_stall_ms(&S.sl_loop) :
+				sleeper_stall_ms(&S.sl_sim);
 		if (stall < 1000.0 / S.cfg.loop.rate_hz || pace() * 2 > MAX_PACE)
 			fail_msg("not every motor ENABLED %d ms after enable at %u Hz (lifecycles "
 				 "%s; %" PRIu64 " state_t, %" PRIu64 " health_t received; the "
@@ -1356,8 +1162,8 @@ static void report_start(int64_t t_start)
 	unsigned trips = 0;
 
 	sync_log();
-	for (size_t i = 0; i < S.nframes; i++) {
-		const struct cframe *f = &S.frames[i];
+	for (size_t i = 0; i < S.log.nframes; i++) {
+		const struct cframe *f = &S.log.frames[i];
 
 		if (f->t_ns >= t_start && f->id == RMD_CAN_REQ_BASE + RMD_MAX_MOTORS &&
 		    (!scan_end || f->t_ns > scan_end->t_ns))
@@ -1367,12 +1173,12 @@ static void report_start(int64_t t_start)
 		print_message("rmdd start: no bring-up scan (0x160) in candump's log\n");
 		return;
 	}
-	for (size_t i = 0; i < S.nframes; i++) {
-		const struct cframe *f = &S.frames[i];
+	for (size_t i = 0; i < S.log.nframes; i++) {
+		const struct cframe *f = &S.log.frames[i];
 
 		for (unsigned m = 0; m < S.cfg.n_motors; m++)
-			if (frame_is(f, S.cfg.motors[m].bus, req_id(m), -1, scan_end->t_ns + 1,
-				     T_END) &&
+			if (cframe_is(f, S.cfg.motors[m].bus, req_id(m), -1, scan_end->t_ns + 1,
+				      T_END) &&
 			    (!first || f->t_ns < first->t_ns))
 				first = f;
 	}
@@ -1394,12 +1200,12 @@ static void report_start(int64_t t_start)
 	 * still longer.
 	 */
 	if (trips && first &&
-	    ms_of(first->t_ns - scan_end->t_ns) - stall_ms(&S.sl_other) <=
+	    ms_of(first->t_ns - scan_end->t_ns) - sleeper_stall_ms(&S.sl_other) <=
 		    S.cfg.safety.comm_loss_ms) {
 		print_message("busy machine: the guest held a normal-priority thread off for up "
 			      "to %.1f ms during rmdd's start: the trips are the machine's, not "
 			      "rmdd's (it re-probes the motors; enable follows)\n",
-			      stall_ms(&S.sl_other));
+			      sleeper_stall_ms(&S.sl_other));
 		trips = 0;
 	}
 	if (trips)
@@ -1437,13 +1243,13 @@ static const char *motor_frames(unsigned i, int64_t t_ref)
 	const struct rmd_config_motor *m = &S.cfg.motors[i];
 	size_t n = 0, first = 0, count = 0;
 
-	for (size_t k = 0; k < S.nframes; k++)
-		if (S.frames[k].bus == m->bus &&
-		    (S.frames[k].id == req_id(i) || S.frames[k].id == rep_id(i)))
+	for (size_t k = 0; k < S.log.nframes; k++)
+		if (S.log.frames[k].bus == m->bus &&
+		    (S.log.frames[k].id == req_id(i) || S.log.frames[k].id == rep_id(i)))
 			count++;
 	text[0] = '\0';
-	for (size_t k = 0; k < S.nframes && n < sizeof(text) - 64; k++) {
-		const struct cframe *f = &S.frames[k];
+	for (size_t k = 0; k < S.log.nframes && n < sizeof(text) - 64; k++) {
+		const struct cframe *f = &S.log.frames[k];
 
 		if (f->bus != m->bus || (f->id != req_id(i) && f->id != rep_id(i)))
 			continue;
@@ -1962,8 +1768,8 @@ static void rate_window(struct window *w)
 	run_for(WINDOW_MS * (int)pace());
 	next_state(&c1, &t1);
 	h1 = S.h;
-	w->stall_loop_ms = stall_ms(&S.sl_loop);
-	w->stall_sim_ms = stall_ms(&S.sl_sim);
+	w->stall_loop_ms = sleeper_stall_ms(&S.sl_loop);
+	w->stall_sim_ms = sleeper_stall_ms(&S.sl_sim);
 	w->skipped = h1.overruns - h0.overruns;
 	sync_log();
 	t0 += off + (int64_t)(5e8 / rate);
@@ -2179,8 +1985,8 @@ static void test_system_rate(void **state)
 			"%.1f%% of %.0f Hz (at least %.0f/s required)\n",
 			k + 1, rate, w.loop_hz, w.worst_sp, w.max_sp, 100.0 * w.worst_sp / rate,
 			100.0 * w.max_sp / rate, rate, want);
-	print_message("candump: %u unparsed lines, %u DROPCOUNT lines%s%s\n", S.bad_lines,
-		      S.drop_lines, S.drop_lines ? ": " : "", S.drop_text);
+	print_message("candump: %u unparsed lines, %u DROPCOUNT lines%s%s\n", S.log.bad_lines,
+		      S.log.drop_lines, S.log.drop_lines ? ": " : "", S.log.drop_text);
 
 	/* SIGUSR1: the statistics, and rmdd keeps running */
 	kill(S.rmdd_kid->pid, SIGUSR1);
@@ -2225,10 +2031,10 @@ static const struct cframe *first_of_last_setpoint(unsigned i, int64_t t_end)
 
 	if (!last)
 		return NULL;
-	for (size_t k = 0; k < S.nframes; k++) {
-		const struct cframe *f = &S.frames[k];
+	for (size_t k = 0; k < S.log.nframes; k++) {
+		const struct cframe *f = &S.log.frames[k];
 
-		if (!frame_is(f, m->bus, req_id(i), control_cmd(m->mode), 0, t_end))
+		if (!cframe_is(f, m->bus, req_id(i), control_cmd(m->mode), 0, t_end))
 			continue;
 		if (memcmp(f->data, last->data, sizeof(f->data)))
 			first = NULL; /* an earlier command's setpoint */
@@ -2366,7 +2172,7 @@ static void test_system_watchdog(void **state)
 	wake_ms = S.h.wake_max_us / 1000.0;
 	send_ms = S.h.cycle_max_us / 1000.0 > SEND_SLACK_MS ? S.h.cycle_max_us / 1000.0 :
 							      SEND_SLACK_MS;
-	hop_ms = LCM_SLACK_MS + 2 * stall_ms(&S.sl_other);
+	hop_ms = LCM_SLACK_MS + 2 * sleeper_stall_ms(&S.sl_other);
 	limit_ms = S.cfg.safety.command_timeout_ms + period_ms + wake_ms +
 		   (double)skipped * period_ms + send_ms;
 	pub_limit_ms = limit_ms + hop_ms;
@@ -2377,8 +2183,8 @@ static void test_system_watchdog(void **state)
 		      "ms) = %.1f ms; after the test published it: + LCM hop %.1f ms (%d ms + 2 x "
 		      "the guest's worst normal-priority delay %.1f ms) = %.1f ms\n",
 		      sc, S.cfg.safety.command_timeout_ms, period_ms, wake_ms, skipped, period_ms,
-		      send_ms, SEND_SLACK_MS, limit_ms, hop_ms, LCM_SLACK_MS, stall_ms(&S.sl_other),
-		      pub_limit_ms);
+		      send_ms, SEND_SLACK_MS, limit_ms, hop_ms, LCM_SLACK_MS,
+		      sleeper_stall_ms(&S.sl_other), pub_limit_ms);
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
 		const struct rmd_config_motor *m = &S.cfg.motors[i];
 		const struct cframe *f = first_frame(0, m->bus, req_id(i), sc, t_last, T_END);
@@ -2529,29 +2335,8 @@ static void test_system_sigterm(void **state)
 static struct rmd_frame read_9a(int fd, unsigned i, int ms)
 {
 	static const uint8_t req[8] = { 0x9A };
-	const struct rmd_config_motor *m = &S.cfg.motors[i];
-	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
-	struct can_frame cf;
-	struct rmd_frame f = { 0 };
 
-	can_send(m->bus, req_id(i), req);
-	for (;;) {
-		struct pollfd p = { .fd = fd, .events = POLLIN };
-
-		if (rmd_now_ns() > end)
-			fail_msg("%s motor %u: no answer to 0x9A within %d ms", iface(m->bus),
-				 m->id, ms);
-		poll(&p, 1, 10);
-		while (read(fd, &cf, sizeof(cf)) == (ssize_t)sizeof(cf)) {
-			if (cf.can_id == rep_id(i) && cf.len == 8 && cf.data[0] == 0x9A) {
-				f.can_id = cf.can_id;
-				f.len = cf.len;
-				memcpy(f.data, cf.data, 8);
-				return f;
-			}
-		}
-		service(0);
-	}
+	return canlog_ask(&S.log, fd, S.cfg.motors[i].bus, req_id(i), req, rep_id(i), ms, service);
 }
 
 /*
@@ -2641,8 +2426,8 @@ static void test_system_kill9(void **state)
 	 * 0.6 s in one such interval on a loaded host).
 	 */
 	stall = ms_of(sleeper_held_off_ns(&S.sl_sim));
-	if (stall < stall_ms(&S.sl_sim))
-		stall = stall_ms(&S.sl_sim);
+	if (stall < sleeper_stall_ms(&S.sl_sim))
+		stall = sleeper_stall_ms(&S.sl_sim);
 	limit = loss + COMM_SLACK_MS + stall;
 	print_message("kill -9 rmdd: each motor's 0xF1 after the last frame it heard (limit "
 		      "comm_loss %.0f ms + %d ms + the time the guest held rmd-sim's priority off "
@@ -2815,11 +2600,11 @@ static const struct cframe *first_move(unsigned i, int64_t t0)
 {
 	const struct cframe *best = NULL;
 
-	for (size_t k = 0; k < S.nframes; k++) {
-		const struct cframe *f = &S.frames[k];
+	for (size_t k = 0; k < S.log.nframes; k++) {
+		const struct cframe *f = &S.log.frames[k];
 		uint8_t c = f->data[0];
 
-		if (!frame_is(f, S.cfg.motors[i].bus, req_id(i), -1, t0, T_END) ||
+		if (!cframe_is(f, S.cfg.motors[i].bus, req_id(i), -1, t0, T_END) ||
 		    !((c >= 0xA1 && c <= 0xA8) || c == 0x77 || c == 0x88))
 			continue;
 		if (!best || f->t_ns < best->t_ns)
@@ -3006,10 +2791,10 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 	sync_log();
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
 		n_own = n_other = 0;
-		for (size_t k = 0; k < S.nframes; k++) {
-			const struct cframe *f = &S.frames[k];
+		for (size_t k = 0; k < S.log.nframes; k++) {
+			const struct cframe *f = &S.log.frames[k];
 
-			if (!frame_is(f, S.cfg.motors[i].bus, req_id(i), 0xA4, *t0, *t1))
+			if (!cframe_is(f, S.cfg.motors[i].bus, req_id(i), 0xA4, *t0, *t1))
 				continue;
 			n_own += v3_angle(f) == owner;
 			n_other += v3_angle(f) == other;
@@ -3021,14 +2806,14 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 		 * the loop past the comm-loss time (disable_explained()).
 		 */
 		if (!n_own && !n_other &&
-		    (stall_ms(&S.sl_loop) >= period_ms || stall_ms(&S.sl_sim) >= period_ms ||
-		     disable_explained())) {
+		    (sleeper_stall_ms(&S.sl_loop) >= period_ms ||
+		     sleeper_stall_ms(&S.sl_sim) >= period_ms || disable_explained())) {
 			print_message(
 				"busy machine: %s got no setpoint %s (%s), the guest stalling "
 				"the loop, rmd-sim and the controllers by %.1f, %.1f and %.1f "
 				"ms%s; rmdd:\n%s\n",
-				S.cfg.motors[i].name, when, lc_list(), stall_ms(&S.sl_loop),
-				stall_ms(&S.sl_sim), stall_ms(&S.sl_other),
+				S.cfg.motors[i].name, when, lc_list(), sleeper_stall_ms(&S.sl_loop),
+				sleeper_stall_ms(&S.sl_sim), sleeper_stall_ms(&S.sl_other),
 				pace() * 2 <= MAX_PACE ? ".  Again at a slower pace" :
 							 ": not judged",
 				kid_tail(S.rmdd_kid));
@@ -3041,14 +2826,14 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 		 * (docs/lcm.md): when the guest held the test's own thread off
 		 * that long, the other controller's setpoints are rmdd's rule.
 		 */
-		if (n_other && (stall_ms(&S.sl_other) >= S.cfg.safety.command_timeout_ms ||
+		if (n_other && (sleeper_stall_ms(&S.sl_other) >= S.cfg.safety.command_timeout_ms ||
 				own_gap_ms() >= S.cfg.safety.command_timeout_ms)) {
 			print_message(
 				"busy machine: %s got %u setpoints of the other controller "
 				"%s, the guest holding the owner's thread off for %.1f ms, its "
 				"commands %.1f ms apart (command_timeout_ms %u: ownership "
 				"lapses, as documented)%s\n",
-				S.cfg.motors[i].name, n_other, when, stall_ms(&S.sl_other),
+				S.cfg.motors[i].name, n_other, when, sleeper_stall_ms(&S.sl_other),
 				own_gap_ms(), S.cfg.safety.command_timeout_ms,
 				pace() * 2 <= MAX_PACE ? ".  Again at a slower pace" :
 							 ": not judged");
@@ -3064,9 +2849,10 @@ static bool owner_alone(int32_t owner, int32_t other, const char *when, int64_t 
 				 " takeovers %" PRId64 " rejected (owner) %" PRId64
 				 "; its frames:\n%s",
 				 S.cfg.motors[i].name, when, n_own, (int)owner, n_other, (int)other,
-				 own_gap_ms(), stall_ms(&S.sl_loop), stall_ms(&S.sl_sim),
-				 stall_ms(&S.sl_other), S.h.owned, S.h.owner, S.h.takeovers,
-				 S.h.rejected_owner, motor_frames(i, *t0));
+				 own_gap_ms(), sleeper_stall_ms(&S.sl_loop),
+				 sleeper_stall_ms(&S.sl_sim), sleeper_stall_ms(&S.sl_other),
+				 S.h.owned, S.h.owner, S.h.takeovers, S.h.rejected_owner,
+				 motor_frames(i, *t0));
 	}
 	*n = n_own;
 	return true;
@@ -3173,12 +2959,14 @@ static void test_system_two_controllers(void **state)
 		 * first after the stall, owns the motors again (docs/lcm.md).
 		 */
 		if (S.h.owned && S.h.owner == OWNER_A && S.h.takeovers == 1 &&
-		    stall_ms(&S.sl_other) + CTL_PERIOD_MS >= S.cfg.safety.command_timeout_ms) {
+		    sleeper_stall_ms(&S.sl_other) + CTL_PERIOD_MS >=
+			    S.cfg.safety.command_timeout_ms) {
 			print_message("busy machine: after the takeover controller a0a owns the "
 				      "motors again, the guest holding the controllers off %.1f ms "
 				      "(command timeout %u ms: ownership lapses, as documented): "
 				      "not judged\n",
-				      stall_ms(&S.sl_other), S.cfg.safety.command_timeout_ms);
+				      sleeper_stall_ms(&S.sl_other),
+				      S.cfg.safety.command_timeout_ms);
 			rmdd_stop();
 			S.ctl_id = 0;
 			return;
@@ -3315,13 +3103,14 @@ again:
 		double period_ms = 1000.0 / S.cfg.loop.rate_hz;
 
 		print_message("rmdd:\n%s\n", kid_tail(S.rmdd_kid));
-		if ((stall_ms(&S.sl_loop) >= period_ms || stall_ms(&S.sl_sim) >= period_ms) &&
+		if ((sleeper_stall_ms(&S.sl_loop) >= period_ms ||
+		     sleeper_stall_ms(&S.sl_sim) >= period_ms) &&
 		    pace() * 2 <= MAX_PACE) {
 			print_message("busy machine: a1 not ENABLED by %s (%s), the "
 				      "guest stalling the loop and rmd-sim by %.1f and %.1f ms.  "
 				      "Again at %u times the file's times\n",
-				      who, lc_list(), stall_ms(&S.sl_loop), stall_ms(&S.sl_sim),
-				      pace() * 2);
+				      who, lc_list(), sleeper_stall_ms(&S.sl_loop),
+				      sleeper_stall_ms(&S.sl_sim), pace() * 2);
 			kid_free(ctl);
 			rmdd_stop();
 			S.pace = pace() * 2;
@@ -3337,7 +3126,8 @@ again:
 	took_ms = ms_of(enabled_ns - first_cmd_ns);
 	/* state_t comes every state_every cycles: a1's ENABLED shows that much later */
 	state_ms = 1000.0 * S.cfg.lcm.state_every_n / S.cfg.loop.rate_hz;
-	limit_ms = 1000.0 + state_ms + stall_ms(&S.sl_loop) + 2.0 * stall_ms(&S.sl_other);
+	limit_ms = 1000.0 + state_ms + sleeper_stall_ms(&S.sl_loop) +
+		   2.0 * sleeper_stall_ms(&S.sl_other);
 	print_message("sine after a loss: a1 ENABLED in state_t %.0f ms after %s's "
 		      "first command (limit 1000 ms + a state_t period %.0f ms + the guest's "
 		      "stalls: %.0f ms)\n",
@@ -3349,7 +3139,7 @@ again:
 	if (took_ms > 1000.0 + state_ms)
 		print_message("busy machine: a1 took %.0f ms, the guest stalling the loop's and "
 			      "normal threads by up to %.1f and %.1f ms\n",
-			      took_ms, stall_ms(&S.sl_loop), stall_ms(&S.sl_other));
+			      took_ms, sleeper_stall_ms(&S.sl_loop), sleeper_stall_ms(&S.sl_other));
 	st = kid_wait_exit(ctl, (int)(2 * pace()) * 1000 + TOOL_MS, service);
 	/*
 	 * The example stops (exit 1) when no state_t came for a second: rmdd
@@ -3358,11 +3148,13 @@ again:
 	 * the same to it: said, and not held against either.
 	 */
 	if (st == 1 && strstr(ctl->out, "no state_t from rmdd for") &&
-	    fmax(stall_ms(&S.sl_loop), stall_ms(&S.sl_other)) + state_ms >= 1000.0) {
+	    fmax(sleeper_stall_ms(&S.sl_loop), sleeper_stall_ms(&S.sl_other)) + state_ms >=
+		    1000.0) {
 		print_message("busy machine: %s stopped, no state_t for a second, the guest "
 			      "holding the loop's and normal threads off up to %.1f and %.1f ms "
 			      "(state_t period %.0f ms)\n",
-			      who, stall_ms(&S.sl_loop), stall_ms(&S.sl_other), state_ms);
+			      who, sleeper_stall_ms(&S.sl_loop), sleeper_stall_ms(&S.sl_other),
+			      state_ms);
 		st = 0;
 	}
 	if (st != 0) {
@@ -3472,7 +3264,8 @@ static bool fine_window(double per_cycle)
 	sync_log();
 	for (unsigned i = 0; i < S.cfg.n_motors; i++)
 		tracked &= S.fine[i].enabled * 2 >= S.fine[i].states;
-	stalled = stall_ms(&S.sl_loop) >= period_ms || stall_ms(&S.sl_sim) >= period_ms;
+	stalled = sleeper_stall_ms(&S.sl_loop) >= period_ms ||
+		  sleeper_stall_ms(&S.sl_sim) >= period_ms;
 	if (!tracked && !stalled)
 		fail_msg("the motors fell out of ENABLED (%s) while the guest ran the loop and "
 			 "rmd-sim in time; rmdd:\n%s",
@@ -3482,8 +3275,8 @@ static bool fine_window(double per_cycle)
 			"busy machine: the motors did not stay ENABLED (%s), the guest "
 			"stalling the loop's and rmd-sim's threads by %.1f and %.1f ms (the "
 			"period is %.1f ms).  Again at %u times the file's times; rmdd:\n%s\n",
-			lc_list(), stall_ms(&S.sl_loop), stall_ms(&S.sl_sim), period_ms, pace() * 2,
-			kid_tail(S.rmdd_kid));
+			lc_list(), sleeper_stall_ms(&S.sl_loop), sleeper_stall_ms(&S.sl_sim),
+			period_ms, pace() * 2, kid_tail(S.rmdd_kid));
 		return false;
 	}
 	if (!tracked)
@@ -3491,19 +3284,19 @@ static bool fine_window(double per_cycle)
 			      "loop and rmd-sim by %.1f and %.1f ms and the motors fell out of "
 			      "ENABLED (%s): judged on the positions they reported, without the "
 			      "sine\n",
-			      stall_ms(&S.sl_loop), stall_ms(&S.sl_sim), lc_list());
+			      sleeper_stall_ms(&S.sl_loop), sleeper_stall_ms(&S.sl_sim), lc_list());
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
 		const struct rmd_config_motor *mc = &S.cfg.motors[i];
 		const struct fine_stats *fs = &S.fine[i];
 		unsigned reads, slots, answers, fine_wire = 0;
 		double age_limit_ms = ms_of(fs->vel_age_max) + period_ms / per_cycle +
-				      stall_ms(&S.sl_loop) + stall_ms(&S.sl_sim);
+				      sleeper_stall_ms(&S.sl_loop) + sleeper_stall_ms(&S.sl_sim);
 
 		fine_requests(i, t0, t1, &reads, &slots);
 		answers = count_frames(0, mc->bus, rep_id(i), 0x92, t0, t1);
-		for (size_t k = 0; k < S.nframes; k++)
-			if (frame_is(&S.frames[k], mc->bus, rep_id(i), 0x92, t0, t1))
-				fine_wire += v3_angle(&S.frames[k]) % 100 != 0;
+		for (size_t k = 0; k < S.log.nframes; k++)
+			if (cframe_is(&S.log.frames[k], mc->bus, rep_id(i), 0x92, t0, t1))
+				fine_wire += v3_angle(&S.log.frames[k]) % 100 != 0;
 		print_message("fine position: %s: %u 0x92 reads in %u cycles (%.2f a cycle, "
 			      "promised %.2f), %u answers, %u of them not whole degrees; state_t: "
 			      "%u (%u ENABLED), %u off 0.01 deg, %u not whole degrees, %u new "
@@ -3622,12 +3415,7 @@ static int group_teardown(void **state)
 		lcm_destroy(S.lcm);
 		S.lcm = NULL;
 	}
-	for (unsigned b = 0; b < NBUS_MAX; b++)
-		if (S.can_fd[b] >= 0)
-			close(S.can_fd[b]);
-	if (S.log_fd >= 0)
-		close(S.log_fd);
-	free(S.frames);
+	canlog_free(&S.log);
 	unlink(S.cfgpath);
 	unlink(S.logpath);
 	rmdir(S.dir);

@@ -43,6 +43,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/v2_batch.h"
 
 #define MS INT64_C(1000000)
 #define US INT64_C(1000)
@@ -1451,17 +1452,10 @@ static void v2_batch_500(struct rmd_config *cfg)
 static double torque_for_first_byte(uint8_t cmd)
 {
 	const struct rmd_motor *ms[4];
-	double t[4] = { 0 };
-	struct rmd_frame f;
 
 	for (unsigned i = 0; i < 4; i++)
 		ms[i] = rmd_loop_motor(R.l, i);
-	for (t[0] = 0.0; t[0] < 10.0; t[0] += 0.0005)
-		if (rmd_motor_encode_v2_batch(ms, t, &f, NULL, NULL) == 0 && f.data[0] == cmd &&
-		    f.data[1] == 0)
-			return t[0];
-	fail_msg("no torque makes a 0x280 frame begin %02X 00", cmd);
-	return 0.0;
+	return v2_batch_torque_for(ms, cmd);
 }
 
 /* Every V2 motor driven in torque mode, motor 1 at t1: the 0x280 frame is allowed. */
