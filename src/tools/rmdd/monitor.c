@@ -264,6 +264,10 @@ static void log_bus_state(const struct rmd_config *cfg, const struct rmd_event *
 	case RMD_BUS_ACTIVE:
 		tool_log(5, "%s: error active again", name);
 		break;
+	case RMD_BUS_NO_ACK:
+		tool_log(3, "%s: no node acknowledges (the motors' power is off: an e-stop?)",
+			 name);
+		break;
 	}
 }
 
