@@ -280,6 +280,15 @@ enum rmd_event_kind {
 	 * rmd_proto).  It stays out until rmdd restarts.
 	 */
 	RMD_EV_DIALECT,
+	/*
+	 * A bus nobody acknowledges (RMD_BUS_NO_ACK), at the start of the
+	 * episode: a = what flushing the frames it still held came to (0, or
+	 * -errno: -EPERM, SocketCAN without CAP_NET_ADMIN, -EOPNOTSUPP);
+	 * b = the frames it may have held (low 32 bits; when a != 0 they go
+	 * out when power returns) | the motors of the bus that were driven
+	 * (ENABLED or SAFE, bit = config index) << 32.
+	 */
+	RMD_EV_BUS_FLUSH,
 };
 
 /* Why the rt loop refused a homing request (RMD_EV_HOME_REFUSED). */
