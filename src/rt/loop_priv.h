@@ -205,7 +205,8 @@ struct lbus {
 	 * queued when it cannot (loop_tx.c "No acknowledgement").
 	 */
 	unsigned tx_unheard, tx_last;
-	bool unacked; /* a no-acknowledgement episode is open (loop_tx.c) */
+	bool unacked;	       /* a no-acknowledgement episode is open (loop_tx.c) */
+	uint32_t unacked_lost; /* ... and its motors LOST in it, bit k: pb->motors[k] */
 	bool failing;
 	int64_t ev_send_ns, ev_unexpected_ns, ev_late_ns;
 	bool ev_send_any, ev_unexpected_any, ev_late_any;

@@ -343,11 +343,13 @@ static void add_batch(struct rmd_loop *l, struct lbus *lb, int64_t now)
  *     off and its brake locked with the power);
  *   - a LOST motor's re-probe (0x9A, a read, every RMD_LOOP_REPROBE_NS)
  *     is written: the frame whose acknowledgement says power is back.
- * When the bus is acknowledged again, every motor of it not LOST yet is
- * made LOST (a short cut is a power cycle too), its one-shots dropped: each
- * comes back as a lost motor does, through STOPPING and a verified 0xB3,
- * before anything moves it (lifecycle.c loop_enter()).  rt-safe (the
- * flush may block: rmd/bus.h).
+ * When the bus is acknowledged again, every motor of it that was not LOST
+ * in the episode is made LOST (a cut shorter than missed_replies_lost is a
+ * power cycle too), its one-shots dropped: each comes back as a lost motor
+ * does, through STOPPING and a verified 0xB3, before anything moves it
+ * (lifecycle.c loop_enter()); one LOST in it is on that way already (its
+ * answer may be what ended the episode).  rt-safe (the flush may block:
+ * rmd/bus.h).
  */
 
 /* Every motor of lb: the one-shots dropped; those driven, as a mask.  rt-safe. */
@@ -374,6 +376,7 @@ static void unacked_begin(struct rmd_loop *l, unsigned b, int64_t now)
 	int r = rmd_bus_flush(lb->bus);
 
 	lb->unacked = true;
+	lb->unacked_lost = 0;
 	loop_event(l, now, RMD_EV_BUS_FLUSH, 0xFF, b, r,
 		   (int64_t)((uint64_t)driven << 32 | lb->tx_unheard));
 	lb->tx_unheard = lb->tx_last = 0;
@@ -395,7 +398,8 @@ static __attribute__((cold, noinline)) bool send_unacked(struct rmd_loop *l, uns
 			return false;
 		/* acknowledged again: its motors lost power, whatever they missed */
 		for (unsigned k = 0; k < lb->pb->n_motors; k++)
-			loop_motor_lost(l, &l->mot[lb->pb->motors[k]], now);
+			if (!(lb->unacked_lost >> k & 1))
+				loop_motor_lost(l, &l->mot[lb->pb->motors[k]], now);
 		unacked_drop(l, lb);
 		lb->unacked = false;
 		return false;
@@ -413,6 +417,8 @@ static __attribute__((cold, noinline)) bool send_unacked(struct rmd_loop *l, uns
 			held++;
 			loop_miss(l, lm, now);
 		}
+		if (lm->st->lifecycle == RMD_LC_LOST)
+			lb->unacked_lost |= UINT32_C(1) << k;
 	}
 	/* a motor lost just now queued its safe action: it stays unsent */
 	unacked_drop(l, lb);

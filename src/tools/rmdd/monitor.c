@@ -287,15 +287,17 @@ static void log_bus_flush(const struct rmd_config *cfg, const struct rmd_event *
 	uint64_t b = (uint64_t)e->b;
 	unsigned frames = (unsigned)(b & UINT32_MAX);
 	uint32_t driven = (uint32_t)(b >> 32);
-	char motors[256] = "none", advice[160];
+	char motors[256], advice[160];
 	const char *iface;
 	bool serial = false;
-	size_t used = 0;
+	size_t used = (size_t)snprintf(motors, sizeof(motors), "%s",
+				       driven ? "among them the last setpoints of" :
+						"no motor was driven");
 
-	for (unsigned i = 0; i < cfg->n_motors && i < 32 && used < sizeof(motors); i++)
+	for (unsigned i = 0, k = 0; i < cfg->n_motors && i < 32 && used < sizeof(motors); i++)
 		if (driven >> i & 1)
-			used += (size_t)snprintf(motors + used, sizeof(motors) - used, "%s%s",
-						 used ? ", " : "", cfg->motors[i].name);
+			used += (size_t)snprintf(motors + used, sizeof(motors) - used, "%s %s",
+						 k++ ? "," : "", cfg->motors[i].name);
 	if (!e->a) {
 		tool_log(5,
 			 "%s: the frames it still held are dropped (up to %u): none goes out when "
@@ -314,9 +316,8 @@ static void log_bus_flush(const struct rmd_config *cfg, const struct rmd_event *
 			 "stop rmdd before power returns (its transport's queue goes with it)");
 	tool_log(3,
 		 "%s: the frames it holds could not be dropped (%s): up to %u, written before "
-		 "the bus was found unacknowledged, go out when power returns, the last "
-		 "setpoints of the motors driven then among them (%s); %s (docs/faults.md "
-		 "\"E-stop\")",
+		 "the bus was found unacknowledged, go out when power returns (%s); %s "
+		 "(docs/faults.md \"E-stop\")",
 		 name, strerror((int)-e->a), frames, motors, advice);
 }
 
