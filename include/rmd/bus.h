@@ -20,6 +20,7 @@
 #ifndef RMD_BUS_H
 #define RMD_BUS_H
 
+#include <errno.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -97,6 +98,18 @@ struct rmd_bus_ops {
 	 */
 	enum rmd_bus_state (*state)(const struct rmd_bus *bus);
 	const struct rmd_bus_stats *(*stats)(const struct rmd_bus *bus);
+	/*
+	 * Optional: drop every frame the transport still holds for the wire
+	 * (its own queue, the controller's buffers), so that none of them
+	 * goes out later.  What a caller does when nobody acknowledges
+	 * (RMD_BUS_NO_ACK): the frames it wrote meanwhile must not reach the
+	 * motors when their power returns.  Returns 0 or -errno (-EPERM: the
+	 * transport may not, as SocketCAN without CAP_NET_ADMIN).  NULL: the
+	 * transport cannot (rmd_bus_flush() says -EOPNOTSUPP).  May block
+	 * for as long as the transport takes (SocketCAN restarts the
+	 * interface: milliseconds); rare by contract (once per episode).
+	 */
+	int (*flush)(struct rmd_bus *bus);
 	void (*close)(struct rmd_bus *bus);
 };
 
@@ -151,6 +164,12 @@ static inline const struct rmd_bus_stats *rmd_bus_stats(const struct rmd_bus *bu
 	return bus->ops->stats ? bus->ops->stats(bus) : &bus->stats;
 }
 
+/* See rmd_bus_ops.flush: 0, -errno, or -EOPNOTSUPP when the transport has no flush. */
+static inline int rmd_bus_flush(struct rmd_bus *bus)
+{
+	return bus->ops->flush ? bus->ops->flush(bus) : -EOPNOTSUPP;
+}
+
 /* Close the transport; NULL and an unopened bus are no-ops. */
 static inline void rmd_bus_close(struct rmd_bus *bus)
 {
@@ -174,12 +193,20 @@ int64_t rmd_bus_never_due_ns(const struct rmd_bus *bus);
 		.next_due_ns = (next_due_ns_), .close = prefix##_close,                           \
 	}
 
+/* The same with a flush, PREFIX_flush (rmd_bus_ops.flush). */
+#define RMD_BUS_OPS_FLUSH(prefix, next_due_ns_)                                                   \
+	{                                                                                         \
+		.kind = #prefix, .send = prefix##_send, .recv = prefix##_recv, .fd = prefix##_fd, \
+		.next_due_ns = (next_due_ns_), .flush = prefix##_flush, .close = prefix##_close,  \
+	}
+
 /*
  * A decorator: a bus that hands frames on to another and may look at or
  * change them on the way (rmdctl --trace, tests).  Its priv is a struct
  * rmd_bus_wrap; RMD_BUS_WRAP_OPS() gives it ops that forward fd,
- * next_due_ns, state and stats to the wrapped bus, and a close that leaves
- * the wrapped bus to its owner.  send_/recv_ may be rmd_bus_wrap_send/recv.
+ * next_due_ns, state, stats and flush to the wrapped bus, and a close that
+ * leaves the wrapped bus to its owner.  send_/recv_ may be
+ * rmd_bus_wrap_send/recv.
  */
 struct rmd_bus_wrap {
 	struct rmd_bus *inner; /* the bus it forwards to */
@@ -190,7 +217,8 @@ struct rmd_bus_wrap {
 	{                                                                                 \
 		.kind = (kind_), .send = (send_), .recv = (recv_), .fd = rmd_bus_wrap_fd, \
 		.next_due_ns = rmd_bus_wrap_next_due_ns, .state = rmd_bus_wrap_state,     \
-		.stats = rmd_bus_wrap_stats, .close = rmd_bus_wrap_close,                 \
+		.stats = rmd_bus_wrap_stats, .flush = rmd_bus_wrap_flush,                 \
+		.close = rmd_bus_wrap_close,                                              \
 	}
 
 /* Make `bus` the decorator `ops` over w->inner: its name and caps, priv = w. */
@@ -204,6 +232,7 @@ int rmd_bus_wrap_fd(const struct rmd_bus *bus);
 int64_t rmd_bus_wrap_next_due_ns(const struct rmd_bus *bus);
 enum rmd_bus_state rmd_bus_wrap_state(const struct rmd_bus *bus);
 const struct rmd_bus_stats *rmd_bus_wrap_stats(const struct rmd_bus *bus);
+int rmd_bus_wrap_flush(struct rmd_bus *bus);
 void rmd_bus_wrap_close(struct rmd_bus *bus);
 
 #endif /* RMD_BUS_H */

@@ -64,6 +64,12 @@ struct rmd_bus_sim_opts {
 	unsigned n_faults;
 	const char *tap; /* wire tap: a file or FIFO (below); NULL: none */
 	unsigned burst;	 /* frames per cycle the TX queue must hold; 0: no check */
+	/*
+	 * flush (rmd_bus_flush()) is refused with -EPERM, as SocketCAN's
+	 * without CAP_NET_ADMIN; false: it empties the host queue
+	 * (rmd_sim_wire_flush()).
+	 */
+	bool refuse_flush;
 };
 
 /*

@@ -16,6 +16,27 @@
  * the socket with recvmmsg(2) and stamps each frame with the kernel's
  * receive time, converted to CLOCK_MONOTONIC.  Error frames are never
  * returned: they move bus->state and count in stats.
+ *
+ * No acknowledgement (RMD_BUS_NO_ACK; docs/faults.md "E-stop").  With its
+ * motors unpowered no node acknowledges: the controller tries its frame
+ * again and again and stays error-passive (ISO 11898-1: an ACK error of an
+ * error-passive transmitter does not raise its counter, so it never goes
+ * bus-off), the kernel keeps what is queued behind it, and all of it goes
+ * out when power returns.  The bus says so when its error frames or sends
+ * show it: RMD_SOCKETCAN_NO_ACK_ERRORS ACK errors (CAN_ERR_ACK, which
+ * needs `berr-reporting on`) with no frame received in between, or one
+ * while the transmitter is error-passive (CAN_ERR_CRTL_TX_PASSIVE, which
+ * drivers report without berr-reporting), or a send refused (ENOBUFS,
+ * EAGAIN) while it is.  It ends when a data frame arrives (a powered node
+ * talks, so it acknowledges) or the transmitter leaves error-passive (one
+ * of its frames was acknowledged).  Frames we send are not looped back to
+ * us: the transport cannot see which of its own frames left.
+ * flush (rmd_bus_flush()) restarts the interface (SIOCSIFFLAGS down,
+ * then up): going down resets the queue (net/sched/sch_generic.c
+ * dev_deactivate_many(): qdisc_reset), and the driver's close stops the
+ * controller and frees the frames it held (drivers/net/can/dev
+ * close_candev(): can_flush_echo_skb()).  It needs CAP_NET_ADMIN (-EPERM
+ * without) and blocks for the interface's restart.
  */
 #ifndef RMD_BUS_SOCKETCAN_H
 #define RMD_BUS_SOCKETCAN_H
@@ -102,11 +123,28 @@ int rmd_socketcan_rcvbuf(const struct rmd_bus *bus);
 struct can_frame;
 
 /*
- * Apply one error frame (CAN_ERR_FLAG set) to bus->state and bus->stats:
- * every error frame counts in stats.bus_errors, every change of state in
- * stats.state_changes.  Exposed for tests, which cannot make vcan go
- * bus-off.  Rt-safe.
+ * ACK errors in a row, with no frame received between them, that make a
+ * bus RMD_BUS_NO_ACK: what takes an error-active transmitter to
+ * error-passive (ISO 11898-1: 8 a transmit error, passive at 128).
  */
-void rmd_socketcan_error_frame(struct rmd_bus *bus, const struct can_frame *cf);
+#define RMD_SOCKETCAN_NO_ACK_ERRORS 16
+
+/* What a bus's error frames and sends told (rmd_socketcan_error_frame()). */
+struct rmd_socketcan_errs {
+	enum rmd_bus_state ctrl; /* the controller's: RMD_BUS_ACTIVE .. RMD_BUS_OFF */
+	bool tx_passive;	 /* its transmitter is error-passive */
+	unsigned ack_errors;	 /* ACK errors since the last frame received */
+	bool no_ack;		 /* nobody acknowledges (above) */
+};
+
+/*
+ * Apply one error frame (CAN_ERR_FLAG set) to *e, bus->state (bus-off,
+ * else no-ack, else the controller's state) and bus->stats: every error
+ * frame counts in stats.bus_errors, every change of state in
+ * stats.state_changes.  Exposed for tests, which cannot make vcan go
+ * bus-off or miss an acknowledgement.  Rt-safe.
+ */
+void rmd_socketcan_error_frame(struct rmd_bus *bus, struct rmd_socketcan_errs *e,
+			       const struct can_frame *cf);
 
 #endif /* RMD_BUS_SOCKETCAN_H */

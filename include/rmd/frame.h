@@ -27,12 +27,19 @@
 /*
  * A CAN controller's error state (ISO 11898-1 fault confinement): what a
  * transport reports in struct rmd_bus and the simulated wire models.
+ * RMD_BUS_NO_ACK is not a confinement state but what rmdd must act on: no
+ * node acknowledges the host's frames (every motor unpowered: an e-stop),
+ * so they stay queued and would all go out when power returns
+ * (docs/faults.md "E-stop").  A controller that transmits alone stays
+ * error-passive (ISO 11898-1: an ACK error of an error-passive
+ * transmitter does not raise its counter), never bus-off.
  */
 enum rmd_bus_state {
 	RMD_BUS_ACTIVE = 0,
 	RMD_BUS_WARNING, /* error counters >= 96 */
 	RMD_BUS_PASSIVE, /* error counters >= 128 */
 	RMD_BUS_OFF,	 /* the controller left the bus */
+	RMD_BUS_NO_ACK,	 /* no node acknowledges: frames written stay queued */
 };
 
 struct rmd_frame {

@@ -6,13 +6,16 @@
  *   1. drains every bus (replies that arrived since the last tick, with
  *      their receive times), matches each reply to its motor by
  *      (bus, CAN id, command byte) -- never "the next frame" -- and updates
- *      that motor's state, reply latency and reply age;
+ *      that motor's state, reply latency and reply age, and reads each
+ *      bus's state (a change is an event);
  *   2. counts the requests whose reply deadline passed as missed (N in a
  *      row: the motor is lost and gets the safe action);
  *   3. takes the newest validated command from the bridge, runs the host
  *      watchdog and each motor's lifecycle;
  *   4. sends this cycle's frames (rmd_plan_cycle()) on every bus, setpoints
- *      converted, clamped and encoded by rmd/motor.h;
+ *      converted, clamped and encoded by rmd/motor.h; on a bus nobody
+ *      acknowledges (RMD_BUS_NO_ACK) none that acts on a motor (below,
+ *      "No acknowledgement");
  *   5. waits for the replies to this cycle's requests (a wake when the
  *      last is expected from the motors' recent round trips, then the
  *      buses' readiness) and, as soon as they are in or the next tick is
@@ -129,6 +132,19 @@
  * says (the control slot above), rmd_plan_bus.batch_own of them a cycle
  * in turn.
  *
+ * No acknowledgement (docs/faults.md "E-stop").  A bus whose state is
+ * RMD_BUS_NO_ACK (its motors' power is off) takes nothing that acts on a
+ * motor: what it takes stays queued and goes out first when power
+ * returns.  The first cycle that sees it has the bus flush what it holds
+ * (rmd_bus_flush(): SocketCAN restarts the interface; RMD_EV_BUS_FLUSH
+ * says how that went).  Each control slot of its motors counts as a
+ * missed reply (LOST after missed_replies_lost), their one-shots (a safe
+ * action, a brake release, a 0xB3) are dropped, and only the LOST motors'
+ * re-probes (0x9A, a read) are written.  Acknowledged again, every motor
+ * of the bus that is not LOST is made LOST: all come back as lost motors
+ * do (STOPPING, 0x80 and 0x78 echoed, 0xB3 written and verified, the
+ * position decided again) before anything moves them.
+ *
  * Measured values not yet received are NaN in the snapshot.
  */
 #ifndef RMD_LOOP_H
@@ -243,7 +259,7 @@ void rmd_loop_free(struct rmd_loop *l);
  */
 void rmd_loop_cycle(struct rmd_loop *l, int64_t now_ns);
 
-/* The cycle's steps 1..4 (and the bus states) for the tick at now_ns; nothing published.  rt-safe. */
+/* The cycle's steps 1..4 for the tick at now_ns; nothing published.  rt-safe. */
 void rmd_loop_tick(struct rmd_loop *l, int64_t now_ns);
 
 /*

@@ -48,6 +48,11 @@ enum rmd_sim_fault_kind {
 	RMD_SIM_FAULT_FLOOD,	  /* window: a foreign node sends a frame on can_id
 				   * every param ns (it wins arbitration if can_id
 				   * is low) */
+	RMD_SIM_FAULT_BUS_POWER,  /* window: the motors' supply is cut (an e-stop):
+				   * every motor is unpowered (hears and sends
+				   * nothing, output off and brake locked) and
+				   * boots at the end; no node acknowledges, so
+				   * the host's frames stay queued (rmd/sim_wire.h) */
 	RMD_SIM_FAULT_COUNT
 };
 
@@ -84,6 +89,7 @@ struct rmd_sim_faults {
 	int64_t flood_next_ns[RMD_SIM_MAX_FAULTS]; /* FLOOD: its next frame is due */
 	/* What the open windows do, kept at each change (a wire asks per frame). */
 	bool bus_off;
+	bool bus_unpowered;		     /* a BUS_POWER window is open */
 	uint32_t absent;		     /* bit id - 1: an open DISAPPEAR hits motor id */
 	uint32_t unpowered;		     /* ... one with param 1 (power lost) */
 	uint16_t error_bits[RMD_MAX_MOTORS]; /* open ERROR_FLAG bits of motor id at [id - 1] */
@@ -94,7 +100,7 @@ struct rmd_sim_faults {
 
 /*
  * The kind's name ("drop", "delay", "bad_dlc", "garbage", "wrong_id",
- * "disappear", "error_flag", "bus_off", "flood"), the same in rmdd.yaml's
+ * "disappear", "error_flag", "bus_off", "flood", "bus_power"), the same in rmdd.yaml's
  * fault list and rmd-sim's --fault; NULL for an unknown kind.  rt-safe.
  */
 const char *rmd_sim_fault_kind_name(enum rmd_sim_fault_kind kind);
@@ -109,7 +115,7 @@ extern const char *const rmd_sim_fault_kind_names[RMD_SIM_FAULT_COUNT + 1];
  */
 int rmd_sim_fault_kind_from_name(const char *name);
 
-/* Whether the kind acts over a window (DISAPPEAR..FLOOD) rather than per frame.  rt-safe. */
+/* Whether the kind acts over a window (DISAPPEAR..BUS_POWER) rather than per frame.  rt-safe. */
 bool rmd_sim_fault_is_window(enum rmd_sim_fault_kind kind);
 
 /*
@@ -153,6 +159,11 @@ bool rmd_sim_faults_frame(struct rmd_sim_faults *fs, uint64_t *rng, uint8_t moto
 static inline bool rmd_sim_faults_bus_off(const struct rmd_sim_faults *fs)
 {
 	return fs->bus_off;
+}
+
+static inline bool rmd_sim_faults_bus_unpowered(const struct rmd_sim_faults *fs)
+{
+	return fs->bus_unpowered;
 }
 
 static inline bool rmd_sim_faults_absent(const struct rmd_sim_faults *fs, uint8_t motor_id)

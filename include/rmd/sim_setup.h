@@ -32,6 +32,8 @@ struct rmd_sim_bus_setup {
 	uint64_t seed;	     /* faults' and motors' PRNG; 0: 1 */
 	unsigned txqueuelen; /* host TX queue, 1..RMD_SIM_WIRE_TXQ */
 	bool host_fifo;	     /* RMD_SIM_WIRE_HOST_FIFO: frames leave in send order */
+	/* its flush refused, as SocketCAN's without CAP_NET_ADMIN (rmd/bus_sim.h) */
+	bool refuse_flush;
 	/*
 	 * The model of every motor on this bus (id, proto, kt_nm_a, gear_ratio
 	 * and mit are the motor's own: see struct rmd_sim_setup.motors).

@@ -28,6 +28,15 @@
  * So a cycle that asks for more than the wire carries runs late: frames
  * wait, and replies arrive later.  Nothing is lost unless a queue
  * overflows, a fault drops it, or the bus goes off, and each is counted.
+ * - While a BUS_POWER window is open no node acknowledges: a host frame
+ *   holds the wire for its length and goes back to the head of the host
+ *   queue (an ACK error; the controller tries again at once, as a CAN
+ *   controller does), and the bus reports RMD_BUS_NO_ACK from the first
+ *   such try until a frame completes again.  The queue fills up to its
+ *   length (txqueuelen: a SocketCAN queue and the controller's buffers in
+ *   one) and then refuses (-ENOBUFS); what it holds goes out when power
+ *   returns, unless rmd_sim_wire_flush() dropped it (what restarting a
+ *   CAN interface does).
  *
  * No allocation: fixed arrays sized by RMD_MAX_MOTORS and power-of-two
  * queues; the caller allocates struct rmd_sim_wire (about 48 KiB) before
@@ -78,6 +87,8 @@ struct rmd_sim_wire_stats {
 	uint64_t busoff_lost;	 /* frames discarded or refused by bus-off */
 	uint64_t errors;	 /* sum of the four lines above */
 	uint64_t absent_lost;	 /* frames of a disappeared motor discarded */
+	uint64_t acks_missed;	 /* host frame tries no node acknowledged (BUS_POWER) */
+	uint64_t flushed;	 /* host frames dropped by rmd_sim_wire_flush() */
 	unsigned txq_hwm;	 /* queue high-water marks */
 	unsigned motq_hwm;
 	unsigned rxq_hwm;
@@ -120,11 +131,18 @@ struct rmd_sim_wire {
 	unsigned n_motors;
 	uint16_t injected[RMD_MAX_MOTORS]; /* error bits applied by faults */
 
-	/* Frames waiting for the wire: unordered pools, arbitration picks. */
-	struct rmd_sim_pending txq[RMD_SIM_WIRE_TXQ];
+	/*
+	 * Frames waiting for the wire: unordered pools, arbitration picks.
+	 * The host's has one more slot: the frame its controller tries again
+	 * while its queue is full (BUS_POWER).
+	 */
+	struct rmd_sim_pending txq[RMD_SIM_WIRE_TXQ + 1];
 	unsigned txq_n;
 	struct rmd_sim_pending motq[RMD_SIM_WIRE_MOTQ];
 	unsigned motq_n;
+
+	/* A host frame went unacknowledged since the last frame that completed. */
+	bool no_ack;
 
 	/* The frame on the wire. */
 	bool wire_busy;
@@ -220,8 +238,21 @@ int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns);
  */
 int rmd_sim_wire_recv(struct rmd_sim_wire *bus, struct rmd_frame *out, unsigned max, int64_t *t_ns);
 
-/* RMD_BUS_OFF while a BUS_OFF fault window is open, else RMD_BUS_ACTIVE.  rt-safe. */
+/*
+ * RMD_BUS_OFF while a BUS_OFF fault window is open; RMD_BUS_NO_ACK from a
+ * host frame no node acknowledged until a frame completes; else
+ * RMD_BUS_ACTIVE.  rt-safe.
+ */
 enum rmd_bus_state rmd_sim_wire_state(const struct rmd_sim_wire *bus);
+
+/*
+ * Drop every host frame still waiting for the wire, the one being tried
+ * included (an interface restarted: its queue and the controller's buffers
+ * emptied).  The frames motors and floods send are not the host's and
+ * stay.  Returns how many were dropped (stats.flushed counts them too).
+ * rt-safe.
+ */
+unsigned rmd_sim_wire_flush(struct rmd_sim_wire *bus);
 
 /*
  * Wire load over the last window_ns before the bus's current time, in

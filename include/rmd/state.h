@@ -327,6 +327,15 @@ enum rmd_event_kind {
 	 * back at once.
 	 */
 	RMD_EV_REBOOT,
+	/*
+	 * A bus nobody acknowledges (RMD_BUS_NO_ACK), at the start of the
+	 * episode: a = what flushing the frames it still held came to (0, or
+	 * -errno: -EPERM, SocketCAN without CAP_NET_ADMIN, -EOPNOTSUPP);
+	 * b = the frames it may have held (low 32 bits; when a != 0 they go
+	 * out when power returns) | the motors of the bus that were driven
+	 * (ENABLED or SAFE, bit = config index) << 32.
+	 */
+	RMD_EV_BUS_FLUSH,
 };
 
 /* What RMD_EV_REBOOT reports (its a). */

@@ -16,6 +16,8 @@ const char *rmd_bus_state_name(enum rmd_bus_state state)
 		return "error-passive";
 	case RMD_BUS_OFF:
 		return "bus-off";
+	case RMD_BUS_NO_ACK:
+		return "no-ack";
 	}
 	return "unknown";
 }
@@ -75,6 +77,13 @@ const struct rmd_bus_stats *rmd_bus_wrap_stats(const struct rmd_bus *bus)
 	const struct rmd_bus_wrap *w = bus->priv;
 
 	return rmd_bus_stats(w->inner);
+}
+
+int rmd_bus_wrap_flush(struct rmd_bus *bus)
+{
+	const struct rmd_bus_wrap *w = bus->priv;
+
+	return rmd_bus_flush(w->inner);
 }
 
 void rmd_bus_wrap_close(struct rmd_bus *bus)

@@ -100,6 +100,7 @@ static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.n_faults = sim->n_faults,
 		.tap = sim->tap[0] ? sim->tap : NULL,
 		.burst = ctx->burst,
+		.refuse_flush = sim->refuse_flush,
 	};
 
 	for (unsigned i = 0; i < ctx->n_motors; i++)

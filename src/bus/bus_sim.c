@@ -32,8 +32,9 @@ struct bus_tap {
 
 struct bus_sim {
 	struct rmd_sim_wire sim;
-	bool started;	  /* the epoch is set */
-	int64_t epoch_ns; /* caller's now_ns at sim time 0 */
+	bool refuse_flush; /* opts.refuse_flush */
+	bool started;	   /* the epoch is set */
+	int64_t epoch_ns;  /* caller's now_ns at sim time 0 */
 	struct bus_tap tap;
 };
 
@@ -128,7 +129,7 @@ static int tap_open(struct bus_sim *p, const char *name, const char *path, char 
 	return 0;
 }
 
-/* Follow the sim bus's bus-off windows.  Rt-safe. */
+/* Follow the sim bus's state: bus-off windows, no acknowledgement.  Rt-safe. */
 static void sync_state(struct rmd_bus *bus, struct bus_sim *p)
 {
 	enum rmd_bus_state st = rmd_sim_wire_state(&p->sim);
@@ -185,6 +186,21 @@ static int sim_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, i
 	return (int)count;
 }
 
+/*
+ * The host queue emptied, as restarting a CAN interface empties its queue
+ * and controller (rmd_sim_wire_flush()); -EPERM with opts.refuse_flush,
+ * as SocketCAN without CAP_NET_ADMIN.  rt-safe.
+ */
+static int sim_flush(struct rmd_bus *bus)
+{
+	struct bus_sim *p = priv(bus);
+
+	if (p->refuse_flush)
+		return -EPERM;
+	rmd_sim_wire_flush(&p->sim);
+	return 0;
+}
+
 static int sim_fd(const struct rmd_bus *bus)
 {
 	(void)bus;
@@ -206,7 +222,7 @@ static void sim_close(struct rmd_bus *bus)
 	memset(bus, 0, sizeof(*bus));
 }
 
-static const struct rmd_bus_ops sim_ops = RMD_BUS_OPS(sim, rmd_bus_never_due_ns);
+static const struct rmd_bus_ops sim_ops = RMD_BUS_OPS_FLUSH(sim, rmd_bus_never_due_ns);
 
 /* Power on the motors of opts at sim time 0.  Non-rt. */
 static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_sim_opts *opts,
@@ -276,6 +292,7 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 	if (!p)
 		return rmd_errf(err, errlen, -ENOMEM, "%s: out of memory", name);
 	p->tap.fd = -1;
+	p->refuse_flush = opts->refuse_flush;
 	r = rmd_sim_wire_init(&p->sim, opts->bitrate ? opts->bitrate : RMD_BUS_SIM_BITRATE,
 			      opts->seed ? opts->seed : RMD_BUS_SIM_SEED, opts->flags);
 	if (r < 0) {

@@ -66,6 +66,8 @@ union ctrl_buf {
 
 struct socketcan {
 	int fd;
+	char ifname[IFNAMSIZ];
+	struct rmd_socketcan_errs errs;
 	int rcvbuf;	     /* bytes the kernel granted */
 	uint32_t drops_seen; /* last SO_RXQ_OVFL value: frames the kernel dropped */
 	struct mmsghdr tx_msg[BATCH];
@@ -347,6 +349,38 @@ static void init_batches(struct socketcan *p)
 	}
 }
 
+/* bus->state from what e says: bus-off, else no-ack, else the controller's.  Rt-safe. */
+static void fold_state(struct rmd_bus *bus, const struct rmd_socketcan_errs *e)
+{
+	enum rmd_bus_state st = e->ctrl == RMD_BUS_OFF ? RMD_BUS_OFF :
+				e->no_ack	       ? RMD_BUS_NO_ACK :
+							 e->ctrl;
+
+	if (st != bus->state) {
+		bus->state = st;
+		bus->stats.state_changes++;
+	}
+}
+
+/* The queue refused frames: while the transmitter is error-passive, nobody acknowledges.  Rt-safe. */
+static void queue_full(struct rmd_bus *bus, struct socketcan *p)
+{
+	if (p->errs.tx_passive && !p->errs.no_ack) {
+		p->errs.no_ack = true;
+		fold_state(bus, &p->errs);
+	}
+}
+
+/* A data frame arrived: a powered node talks, so it acknowledges.  Rt-safe. */
+static void heard(struct rmd_bus *bus, struct socketcan *p)
+{
+	if (__builtin_expect(p->errs.no_ack | (p->errs.ack_errors != 0), 0)) {
+		p->errs.no_ack = false;
+		p->errs.ack_errors = 0;
+		fold_state(bus, &p->errs);
+	}
+}
+
 /* rt-safe */
 static int socketcan_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n,
 			  int64_t now_ns)
@@ -375,6 +409,7 @@ static int socketcan_send(struct rmd_bus *bus, const struct rmd_frame *frames, u
 	if (r < 0) {
 		if (errno == ENOBUFS || errno == EAGAIN) {
 			bus->stats.tx_busy += n;
+			queue_full(bus, p);
 			return 0;
 		}
 		return -errno;
@@ -382,6 +417,8 @@ static int socketcan_send(struct rmd_bus *bus, const struct rmd_frame *frames, u
 	/* A short count means frame r was refused; the kernel does not say why. */
 	bus->stats.tx_frames += (unsigned)r;
 	bus->stats.tx_busy += n - (unsigned)r;
+	if ((unsigned)r < n)
+		queue_full(bus, p);
 	return r;
 }
 
@@ -457,7 +494,7 @@ static int socketcan_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned 
 				continue;
 			}
 			if (cf->can_id & CAN_ERR_FLAG) {
-				rmd_socketcan_error_frame(bus, cf);
+				rmd_socketcan_error_frame(bus, &p->errs, cf);
 				continue;
 			}
 			/*
@@ -477,6 +514,7 @@ static int socketcan_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned 
 			memcpy(rx->f.data, cf->data, cf->len);
 			rx->t_ns = t_ns;
 			bus->stats.rx_frames++;
+			heard(bus, p);
 		}
 		if ((unsigned)r < want)
 			break; /* drained */
@@ -567,33 +605,87 @@ static void socketcan_close(struct rmd_bus *bus)
 	memset(bus, 0, sizeof(*bus));
 }
 
-static const struct rmd_bus_ops socketcan_ops = RMD_BUS_OPS(socketcan, rmd_bus_never_due_ns);
+/*
+ * Restart the interface (rmd/bus_socketcan.h "No acknowledgement"): down
+ * drops the queue and what the controller held, up starts the controller
+ * afresh, error-active; nobody acknowledged yet, so no_ack stays.  The
+ * socket stays bound (only an unregistered device unbinds it); the
+ * ENETDOWN the kernel left on it for the down is taken.  Blocks for the
+ * restart (a RCU grace period, the driver's close and open); -EPERM
+ * without CAP_NET_ADMIN, the interface untouched.
+ */
+static int socketcan_flush(struct rmd_bus *bus)
+{
+	struct socketcan *p = bus->priv;
+	struct ifreq ifr;
+	socklen_t len = sizeof(int);
+	int soerr;
 
-void rmd_socketcan_error_frame(struct rmd_bus *bus, const struct can_frame *cf)
+	memset(&ifr, 0, sizeof(ifr));
+	memcpy(ifr.ifr_name, p->ifname, sizeof(ifr.ifr_name));
+	if (ioctl(p->fd, SIOCGIFFLAGS, &ifr) < 0)
+		return -errno;
+	if (!(ifr.ifr_flags & IFF_UP))
+		return 0; /* down already: the kernel holds nothing for it */
+	ifr.ifr_flags = (short)(ifr.ifr_flags & ~IFF_UP);
+	if (ioctl(p->fd, SIOCSIFFLAGS, &ifr) < 0)
+		return -errno;
+	ifr.ifr_flags = (short)(ifr.ifr_flags | IFF_UP);
+	if (ioctl(p->fd, SIOCSIFFLAGS, &ifr) < 0)
+		return -errno;
+	(void)getsockopt(p->fd, SOL_SOCKET, SO_ERROR, &soerr, &len);
+	p->errs.ctrl = RMD_BUS_ACTIVE;
+	p->errs.tx_passive = false;
+	p->errs.ack_errors = 0;
+	fold_state(bus, &p->errs);
+	return 0;
+}
+
+static const struct rmd_bus_ops socketcan_ops = RMD_BUS_OPS_FLUSH(socketcan, rmd_bus_never_due_ns);
+
+void rmd_socketcan_error_frame(struct rmd_bus *bus, struct rmd_socketcan_errs *e,
+			       const struct can_frame *cf)
 {
 	canid_t cls = cf->can_id & CAN_ERR_MASK;
-	enum rmd_bus_state st = bus->state;
+	const uint8_t states = CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING |
+			       CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE |
+			       CAN_ERR_CRTL_ACTIVE;
 
 	bus->stats.bus_errors++;
 	/* Least severe first, so the most severe news in one frame wins. */
-	if (cls & CAN_ERR_RESTARTED)
-		st = RMD_BUS_ACTIVE;
-	if ((cls & CAN_ERR_CRTL) && cf->len >= 2) {
+	if (cls & CAN_ERR_RESTARTED) {
+		e->ctrl = RMD_BUS_ACTIVE;
+		e->tx_passive = false;
+	}
+	if ((cls & CAN_ERR_CRTL) && cf->len >= 2 && (cf->data[1] & states)) {
 		uint8_t c = cf->data[1];
+		bool tx_passive = c & CAN_ERR_CRTL_TX_PASSIVE;
 
 		if (c & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))
-			st = RMD_BUS_PASSIVE;
+			e->ctrl = RMD_BUS_PASSIVE;
 		else if (c & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING))
-			st = RMD_BUS_WARNING;
-		else if (c & CAN_ERR_CRTL_ACTIVE)
-			st = RMD_BUS_ACTIVE;
+			e->ctrl = RMD_BUS_WARNING;
+		else
+			e->ctrl = RMD_BUS_ACTIVE;
+		/*
+		 * The transmitter left error-passive: its counter fell, so a
+		 * frame of ours was acknowledged (a driver reports the larger
+		 * of the two sides, so a passive one is always named).
+		 */
+		if (e->tx_passive && !tx_passive) {
+			e->no_ack = false;
+			e->ack_errors = 0;
+		}
+		e->tx_passive = tx_passive;
+	}
+	if (cls & CAN_ERR_ACK) {
+		e->ack_errors++;
+		if (e->tx_passive || e->ack_errors >= RMD_SOCKETCAN_NO_ACK_ERRORS)
+			e->no_ack = true;
 	}
 	if (cls & CAN_ERR_BUSOFF)
-		st = RMD_BUS_OFF;
-	if (st != bus->state) {
-		bus->state = st;
-		bus->stats.state_changes++;
-	}
+		e->ctrl = RMD_BUS_OFF;
+	fold_state(bus, e);
 }
 
 int rmd_socketcan_rcvbuf(const struct rmd_bus *bus)
@@ -663,6 +755,8 @@ int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 		goto err_close_socket;
 	}
 	p->fd = fd;
+	memcpy(p->ifname, ifname, strlen(ifname) + 1);
+	p->errs.ctrl = carrier ? RMD_BUS_ACTIVE : RMD_BUS_OFF;
 	p->rcvbuf = rcvbuf;
 	init_batches(p);
 

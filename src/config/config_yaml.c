@@ -211,6 +211,7 @@ static const struct field sim_fields[] = {
 	UINT("seed", S, seed, 0, 18446744073709551615.0, 0),
 	UINT("txqueuelen", S, txqueuelen, 1, RMD_SIM_WIRE_TXQ, 0),
 	BOOL("host_fifo", S, host_fifo),
+	BOOL("refuse_flush", S, refuse_flush),
 	MAP("motor", S, motor, sim_motor_fields),
 	SEQ("faults", S, faults, n_faults, &fault_elem, fault_init),
 	SEQ("strays", S, strays, n_strays, &stray_elem, stray_init),
@@ -403,6 +404,7 @@ static void real_bus_sim(struct yctx *c, const struct ynode *bn, const char *pat
 		{ "tap", "candump IFACE or rmd-sim -v logs a real wire's frames" },
 		{ "txqueuelen", "the interface's own (ip link set IFACE txqueuelen N)" },
 		{ "host_fifo", "the kernel's queue sends in order" },
+		{ "refuse_flush", "rmdd's capabilities decide (docs/faults.md \"E-stop\")" },
 	};
 	const struct ynode *sn = rmd_yaml_get(bn, "sim", NULL);
 	char sp[PATH_LEN], kp[PATH_LEN];
@@ -646,7 +648,9 @@ static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 		const struct rmd_sim_fault *f = &sb->faults[i];
 		const struct ynode *fn = faults->kids[i];
 		const char *kind = rmd_sim_fault_kind_names[f->kind];
-		bool bus_wide = f->kind == RMD_SIM_FAULT_BUS_OFF || f->kind == RMD_SIM_FAULT_FLOOD;
+		bool bus_wide = f->kind == RMD_SIM_FAULT_BUS_OFF ||
+				f->kind == RMD_SIM_FAULT_FLOOD ||
+				f->kind == RMD_SIM_FAULT_BUS_POWER;
 		bool found = false;
 		int64_t lo = 0, hi = 0;
 		const char *what = NULL;
@@ -708,6 +712,9 @@ static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 			break;
 		case RMD_SIM_FAULT_FLOOD:
 			lo = 1, hi = INT64_C(10000000000), what = "the interval in ns";
+			break;
+		case RMD_SIM_FAULT_BUS_POWER:
+			lo = 0, hi = 0, what = "bus_power takes none";
 			break;
 		}
 		if (what && (f->param < lo || f->param > hi)) {

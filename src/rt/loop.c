@@ -359,7 +359,7 @@ static void publish(struct rmd_loop *l, int64_t now)
 		rmd_latest_put(l->o.health, &l->health);
 }
 
-/* rt-safe. */
+/* Each bus's state, an event when it changed (lbus.state_seen).  rt-safe. */
 static void bus_states(struct rmd_loop *l, int64_t now)
 {
 	for (unsigned b = 0; b < l->n_buses; b++)
@@ -446,6 +446,8 @@ void rmd_loop_tick(struct rmd_loop *l, int64_t now)
 		rmd_loop_publish(l, now);
 	l->published = false;
 	l->await_due_ns = 0;
+	/* as the drain left them: the sends below act on a bus nobody acknowledges (loop_tx.c) */
+	bus_states(l, now);
 	loop_check_deadlines(l, now);
 	loop_take_command(l, now);
 	loop_take_homes(l, now);
@@ -456,7 +458,6 @@ void rmd_loop_tick(struct rmd_loop *l, int64_t now)
 		all_sent &= loop_send_bus(l, b, now);
 	if (!all_sent)
 		l->stats.plan_misses++;
-	bus_states(l, now);
 	overrun_event(l, now);
 	l->stats.cycles = l->cycle + 1;
 	end = loop_now(l);
@@ -679,6 +680,15 @@ static void queue_stop(struct rmd_loop *l, int driven, uint8_t cmd, bool brake)
 				  lm->st->lifecycle == RMD_LC_SAFE;
 			struct rmd_frame f[2];
 			int n = 0;
+
+			/*
+			 * nobody acknowledges (loop_tx.c): a stop reaches no motor now,
+			 * and would go out when power returns, after rmdd is gone
+			 */
+			if (lb->unacked) {
+				lm->stop_unreached = true;
+				continue;
+			}
 
 			if (on && driven >= 0)
 				n = rmd_motor_encode_safe(&lm->m, (enum rmd_safe_action)driven, f);

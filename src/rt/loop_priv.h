@@ -220,6 +220,15 @@ struct lbus {
 	bool stray;
 	uint32_t stray_id;
 	uint8_t state_seen;
+	/*
+	 * Frames the bus took that may not have left yet: those taken since
+	 * the last drain that received a frame, and the cycle before it
+	 * (tx_last: the last send's); what a flush drops, or what stays
+	 * queued when it cannot (loop_tx.c "No acknowledgement").
+	 */
+	unsigned tx_unheard, tx_last;
+	bool unacked;	       /* a no-acknowledgement episode is open (loop_tx.c) */
+	uint32_t unacked_lost; /* ... and its motors LOST in it, bit k: pb->motors[k] */
 	bool failing;
 	int64_t ev_send_ns, ev_unexpected_ns, ev_late_ns;
 	bool ev_send_any, ev_unexpected_any, ev_late_any;

@@ -378,6 +378,123 @@ static __attribute__((noinline)) void add_batch(struct rmd_loop *l, struct lbus 
 	}
 }
 
+/* ------------------------------------------------------------------ */
+/* No acknowledgement */
+
+/*
+ * A bus nobody acknowledges (RMD_BUS_NO_ACK: its motors' power is off, an
+ * e-stop; docs/faults.md "E-stop").  Whatever is written to it stays
+ * queued, and goes out first when power returns: the setpoints of the
+ * moment power died would reach motors that just booted.  So, from the
+ * first cycle the bus says so:
+ *   - once, what it still holds is dropped (rmd_bus_flush(): SocketCAN
+ *     restarts the interface); RMD_EV_BUS_FLUSH says how that went and,
+ *     when it could not, how many frames stay queued;
+ *   - nothing that acts on a motor is written: no setpoint, safe action,
+ *     owed 0x80/0x78, brake release or 0xB3.  Each control slot counts as
+ *     a missed reply, as a request a bus-off bus does not take, so the
+ *     motors are LOST within missed_replies_lost slots; their one-shots
+ *     are dropped (a LOST motor's safe action among them: its output went
+ *     off and its brake locked with the power);
+ *   - a LOST motor's re-probe (0x9A, a read, every RMD_LOOP_REPROBE_NS)
+ *     is written: the frame whose acknowledgement says power is back.
+ * When the bus is acknowledged again, every motor of it that was not LOST
+ * in the episode is made LOST (a cut shorter than missed_replies_lost is a
+ * power cycle too), its one-shots dropped: each comes back as a lost motor
+ * does, through STOPPING and a verified 0xB3, before anything moves it
+ * (lifecycle.c loop_enter()); one LOST in it is on that way already (its
+ * answer may be what ended the episode).  rt-safe (the flush may block:
+ * rmd/bus.h).
+ */
+
+/* Every motor of lb: the one-shots dropped; those driven, as a mask.  rt-safe. */
+static uint32_t unacked_drop(struct rmd_loop *l, struct lbus *lb)
+{
+	uint32_t driven = 0;
+
+	for (unsigned k = 0; k < lb->pb->n_motors; k++) {
+		unsigned i = lb->pb->motors[k];
+		struct lmotor *lm = &l->mot[i];
+
+		if (lm->st->lifecycle == RMD_LC_ENABLED || lm->st->lifecycle == RMD_LC_SAFE)
+			driven |= UINT32_C(1) << i;
+		loop_frames_drop(lm);
+	}
+	return driven;
+}
+
+/* The episode begins: the bus's state said, what it held flushed.  rt-safe. */
+static void unacked_begin(struct rmd_loop *l, unsigned b, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+	uint32_t driven = unacked_drop(l, lb);
+	int r = rmd_bus_flush(lb->bus);
+
+	lb->unacked = true;
+	lb->unacked_lost = 0;
+	loop_event(l, now, RMD_EV_BUS_FLUSH, 0xFF, b, r,
+		   (int64_t)((uint64_t)driven << 32 | lb->tx_unheard));
+	lb->tx_unheard = lb->tx_last = 0;
+}
+
+/*
+ * Bus b's cycle while its episode is open.  False when the episode just
+ * ended: the caller sends the cycle as usual.  rt-safe.
+ */
+static __attribute__((cold, noinline)) bool send_unacked(struct rmd_loop *l, unsigned b,
+							 const struct rmd_plan_due *d, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+	unsigned held = 0, taken;
+	int r;
+
+	if (lb->state_seen != RMD_BUS_NO_ACK) {
+		if (!lb->unacked)
+			return false;
+		/* acknowledged again: its motors lost power, whatever they missed */
+		for (unsigned k = 0; k < lb->pb->n_motors; k++)
+			if (!(lb->unacked_lost >> k & 1))
+				loop_motor_lost(l, &l->mot[lb->pb->motors[k]], now);
+		unacked_drop(l, lb);
+		lb->unacked = false;
+		return false;
+	}
+	if (!lb->unacked)
+		unacked_begin(l, b, now);
+	for (unsigned k = 0; k < lb->pb->n_motors; k++) {
+		unsigned i = lb->pb->motors[k];
+		struct lmotor *lm = &l->mot[i];
+		bool slot = (d->control >> k & 1) || (d->batch && (lb->pb->batched >> k & 1));
+
+		if (lm->st->lifecycle == RMD_LC_LOST) {
+			push_reprobe(l, lb, i, now);
+		} else if (slot) {
+			held++;
+			loop_miss(l, lm, now);
+		}
+		if (lm->st->lifecycle == RMD_LC_LOST)
+			lb->unacked_lost |= UINT32_C(1) << k;
+	}
+	/* a motor lost just now queued its safe action: it stays unsent */
+	unacked_drop(l, lb);
+	l->cnt.frames_not_sent += held;
+	if (!lb->ntx)
+		return true;
+	r = rmd_bus_send(lb->bus, lb->tx, lb->ntx, now);
+	taken = r > 0 ? (unsigned)r : 0;
+	if (taken > lb->ntx)
+		taken = lb->ntx;
+	loop_commit(l, lb, 0, taken, now);
+	lb->tx_last = taken;
+	lb->tx_unheard += taken;
+	l->cnt.frames_not_sent += lb->ntx - taken;
+	for (unsigned k = taken; k < lb->ntx; k++)
+		loop_miss(l, &l->mot[lb->meta[k].motor], now);
+	return true;
+}
+
+/* ------------------------------------------------------------------ */
+
 /* Send the cycle's frames of bus b in one call.  False when it did not take them all.  rt-safe. */
 bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 {
@@ -389,6 +506,9 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 	lb->ntx = 0;
 	if (!rmd_plan_due(l->plan, b, l->cycle, &d))
 		return true;
+	if (__builtin_expect(lb->unacked | (lb->state_seen == RMD_BUS_NO_ACK), 0) &&
+	    send_unacked(l, b, &d, now))
+		return false;
 	/* in rmd_plan_cycle()'s order: 0x280, control, 0x92 reads, status reads */
 	if (d.batch)
 		add_batch(l, lb, now);
@@ -404,6 +524,8 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 	r = rmd_bus_send(lb->bus, lb->tx, lb->ntx, now);
 	taken = r > 0 ? (unsigned)r : 0;
 	loop_commit(l, lb, 0, taken < lb->ntx ? taken : lb->ntx, now);
+	lb->tx_last = taken;
+	lb->tx_unheard += taken;
 	if (taken >= lb->ntx) {
 		lb->failing = false;
 		return true;

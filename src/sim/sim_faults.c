@@ -22,6 +22,7 @@ const char *const rmd_sim_fault_kind_names[RMD_SIM_FAULT_COUNT + 1] = {
 	[RMD_SIM_FAULT_ERROR_FLAG] = "error_flag",
 	[RMD_SIM_FAULT_BUS_OFF] = "bus_off",
 	[RMD_SIM_FAULT_FLOOD] = "flood",
+	[RMD_SIM_FAULT_BUS_POWER] = "bus_power",
 	[RMD_SIM_FAULT_COUNT] = NULL,
 };
 
@@ -55,6 +56,7 @@ bool rmd_sim_fault_is_window(enum rmd_sim_fault_kind kind)
 	case RMD_SIM_FAULT_ERROR_FLAG:
 	case RMD_SIM_FAULT_BUS_OFF:
 	case RMD_SIM_FAULT_FLOOD:
+	case RMD_SIM_FAULT_BUS_POWER:
 		return true;
 	case RMD_SIM_FAULT_DROP:
 	case RMD_SIM_FAULT_DELAY:
@@ -88,6 +90,8 @@ int rmd_sim_fault_check(const struct rmd_sim_fault *f)
 		return f->param >= 0 && f->param <= 0xFFFF ? 0 : -EINVAL;
 	case RMD_SIM_FAULT_BUS_OFF:
 		return f->motor_id == 0 ? 0 : -EINVAL;
+	case RMD_SIM_FAULT_BUS_POWER:
+		return f->motor_id == 0 && f->param == 0 ? 0 : -EINVAL;
 	case RMD_SIM_FAULT_FLOOD:
 		return f->motor_id == 0 && f->param > 0 && f->can_id <= 0x7FF ? 0 : -EINVAL;
 	case RMD_SIM_FAULT_DROP:
@@ -136,6 +140,7 @@ static int64_t next_edge(const struct rmd_sim_faults *fs, int64_t t)
 static void refresh(struct rmd_sim_faults *fs)
 {
 	fs->bus_off = false;
+	fs->bus_unpowered = false;
 	fs->absent = fs->unpowered = 0;
 	memset(fs->error_bits, 0, sizeof(fs->error_bits));
 	for (unsigned k = 0; k < fs->n; k++) {
@@ -146,6 +151,10 @@ static void refresh(struct rmd_sim_faults *fs)
 			continue;
 		if (f->kind == RMD_SIM_FAULT_BUS_OFF) {
 			fs->bus_off = true;
+		} else if (f->kind == RMD_SIM_FAULT_BUS_POWER) {
+			/* every motor is off the supply: absent and unpowered, as DISAPPEAR 1 */
+			fs->bus_unpowered = true;
+			fs->absent = fs->unpowered = UINT32_MAX;
 		} else if (f->kind == RMD_SIM_FAULT_DISAPPEAR) {
 			fs->absent |= hit;
 			if (f->param == 1)
@@ -261,6 +270,7 @@ bool rmd_sim_faults_frame(struct rmd_sim_faults *fs, uint64_t *rng, uint8_t moto
 		case RMD_SIM_FAULT_ERROR_FLAG:
 		case RMD_SIM_FAULT_BUS_OFF:
 		case RMD_SIM_FAULT_FLOOD:
+		case RMD_SIM_FAULT_BUS_POWER:
 		case RMD_SIM_FAULT_COUNT:
 			continue;
 		}

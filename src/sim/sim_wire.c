@@ -30,6 +30,11 @@ static bool is_bus_off(const struct rmd_sim_wire *bus)
 	return bus->faults.n && rmd_sim_faults_bus_off(&bus->faults);
 }
 
+static bool is_unpowered_bus(const struct rmd_sim_wire *bus)
+{
+	return bus->faults.n && rmd_sim_faults_bus_unpowered(&bus->faults);
+}
+
 static bool is_absent(const struct rmd_sim_wire *bus, unsigned i)
 {
 	return bus->faults.n && rmd_sim_faults_absent(&bus->faults, bus->motors[i].p.id);
@@ -133,12 +138,12 @@ static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 {
 	const struct rmd_sim_fault *f = &bus->faults.f[k];
 
-	if (f->kind == RMD_SIM_FAULT_DISAPPEAR) {
+	if (f->kind == RMD_SIM_FAULT_DISAPPEAR || f->kind == RMD_SIM_FAULT_BUS_POWER) {
 		for (unsigned i = 0; i < bus->n_motors; i++) {
 			if (!rmd_sim_fault_hits(f, bus->motors[i].p.id))
 				continue;
 			/* Without power the drive lets go and the brake locks. */
-			if (f->param == 1)
+			if (f->param == 1 || f->kind == RMD_SIM_FAULT_BUS_POWER)
 				rmd_sim_motor_power_cycle(&bus->motors[i], t);
 			bus->stats.absent_lost += discard_motor_frames(bus, (int)i);
 			if (bus->wire_busy && bus->wire.src == (int)i) {
@@ -160,7 +165,8 @@ static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
 
 static void close_window(struct rmd_sim_wire *bus, const struct rmd_sim_fault *f, int64_t t)
 {
-	if (f->kind != RMD_SIM_FAULT_DISAPPEAR || f->param != 1)
+	if ((f->kind != RMD_SIM_FAULT_DISAPPEAR || f->param != 1) &&
+	    f->kind != RMD_SIM_FAULT_BUS_POWER)
 		return;
 	/* It lost power: it boots when it comes back. */
 	for (unsigned i = 0; i < bus->n_motors; i++)
@@ -201,6 +207,18 @@ static inline int64_t adapter_ns(struct rmd_sim_wire *bus, const struct rmd_sim_
 	return rmd_sim_adapter_ns(&bus->adapter, p, t);
 }
 
+/*
+ * A host frame no node acknowledged (BUS_POWER): an ACK error; it goes back
+ * to the head of the queue (its seq kept) and is tried again at once.
+ */
+static void ack_missed(struct rmd_sim_wire *bus, const struct rmd_sim_pending *w)
+{
+	bus->stats.acks_missed++;
+	bus->no_ack = true;
+	if (bus->txq_n < sizeof(bus->txq) / sizeof(bus->txq[0]))
+		bus->txq[bus->txq_n++] = *w;
+}
+
 static void finish_frame(struct rmd_sim_wire *bus)
 {
 	const struct rmd_sim_pending *w = &bus->wire;
@@ -213,6 +231,11 @@ static void finish_frame(struct rmd_sim_wire *bus)
 	bus->stats.busy_ns += bus->wire_free_ns - bus->wire_start_ns;
 	bus->hist_start_ns[h] = bus->wire_start_ns;
 	bus->hist_free_ns[h] = bus->wire_free_ns;
+	if (w->src == RMD_SIM_SRC_HOST && is_unpowered_bus(bus)) {
+		ack_missed(bus, w);
+		return;
+	}
+	bus->no_ack = false; /* a frame completed: some node acknowledged it */
 	if (bus->tap)
 		bus->tap(bus->tap_ctx, w, bus->wire_start_ns, t);
 	if (w->src == RMD_SIM_SRC_HOST)
@@ -552,7 +575,22 @@ int rmd_sim_wire_recv(struct rmd_sim_wire *bus, struct rmd_frame *out, unsigned 
 
 enum rmd_bus_state rmd_sim_wire_state(const struct rmd_sim_wire *bus)
 {
-	return is_bus_off(bus) ? RMD_BUS_OFF : RMD_BUS_ACTIVE;
+	if (is_bus_off(bus))
+		return RMD_BUS_OFF;
+	return bus->no_ack ? RMD_BUS_NO_ACK : RMD_BUS_ACTIVE;
+}
+
+unsigned rmd_sim_wire_flush(struct rmd_sim_wire *bus)
+{
+	unsigned n = bus->txq_n;
+
+	bus->txq_n = 0;
+	if (bus->wire_busy && bus->wire.src == RMD_SIM_SRC_HOST) {
+		abort_wire(bus, bus->now_ns);
+		n++;
+	}
+	bus->stats.flushed += n;
+	return n;
 }
 
 /* Length of [a0, a1) inside [b0, b1). */

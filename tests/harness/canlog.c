@@ -154,6 +154,9 @@ void canlog_send(struct canlog *c, unsigned b, uint32_t id, const uint8_t data[R
 
 	memcpy(cf.data, data, 8);
 	w = write(c->can_fd[b], &cf, sizeof(cf));
+	/* a socket keeps the ENETDOWN of a link that went down (rmdd restarts it): stale once up */
+	if (w < 0 && errno == ENETDOWN)
+		w = write(c->can_fd[b], &cf, sizeof(cf));
 	if (w != (ssize_t)sizeof(cf))
 		fail_msg("%s: write 0x%03X: %s", c->iface[b], (unsigned)id,
 			 w < 0 ? strerror(errno) : "short write");
@@ -201,7 +204,7 @@ void canlog_sync(struct canlog *c, int ms, service_fn *service, struct sleeper *
 void canlog_start(struct canlog *c, const char *path, const char *const *ifaces, unsigned n,
 		  int fifo, int sync_ms, service_fn *service, struct sleeper *ref)
 {
-	const char *argv[8 + CANLOG_BUSES];
+	const char *argv[9 + CANLOG_BUSES];
 	unsigned a = 0;
 
 	if (n > CANLOG_BUSES)
@@ -211,6 +214,7 @@ void canlog_start(struct canlog *c, const char *path, const char *const *ifaces,
 	argv[a++] = "candump";
 	argv[a++] = "-L";
 	argv[a++] = "-d";
+	argv[a++] = "-D"; /* on through an interface's restart (rmdd's, test_system_no_ack) */
 	argv[a++] = "-r";
 	argv[a++] = "4194304";
 	for (unsigned b = 0; b < n; b++) {

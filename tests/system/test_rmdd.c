@@ -623,6 +623,61 @@ static void test_short_power_cycle_logged(void **state)
 }
 
 /*
+ * An e-stop on two sim buses (bus_power from 0.5 s to 1.0 s): the journal
+ * says that nobody acknowledges, what was done with the frames each bus
+ * held (s0 flushes; s1 refuses, as SocketCAN without CAP_NET_ADMIN, and
+ * says what stays queued and what to do), and the motors come back.  The
+ * lines docs/troubleshooting.md "E-stop" quotes.
+ */
+static void test_estop_logged(void **state)
+{
+	static struct proc p;
+	const char *const *args;
+
+	(void)state;
+	args = config_args(
+		"estop.yaml",
+		"buses:\n"
+		"  - name: s0\n"
+		"    type: sim\n"
+		"    sim:\n"
+		"      faults: [{kind: bus_power, start_s: 0.5, end_s: 1.0}]\n"
+		"  - name: s1\n"
+		"    type: sim\n"
+		"    sim:\n"
+		"      refuse_flush: true\n"
+		"      faults: [{kind: bus_power, start_s: 0.5, end_s: 1.0}]\n"
+		"motors:\n"
+		"  - {name: knee, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		"  - {name: hip, bus: s1, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
+	spawn(&p, NULL, args);
+	wait_for(&p, "<5>rmdd: running:", 5000);
+	wait_for(&p,
+		 "<3>rmdd: s0: no node acknowledges (the motors' power is off: an e-stop?): no "
+		 "frame that acts on a motor is written to it; its motors are lost, and each "
+		 "moves again only after it answered, echoed 0x80 and 0x78 and its 0xB3 "
+		 "(docs/faults.md \"E-stop\")",
+		 5000);
+	wait_for(&p, "<5>rmdd: s0: the frames it still held are dropped (up to ", 5000);
+	wait_for(&p,
+		 "<3>rmdd: s1: the frames it holds could not be dropped (Operation not "
+		 "permitted): up to ",
+		 5000);
+	wait_for(&p,
+		 ", written before the bus was found unacknowledged, go out when power returns (no "
+		 "motor was driven); stop rmdd before power returns (its transport's queue goes "
+		 "with it) (docs/faults.md \"E-stop\")",
+		 5000);
+	wait_for(&p, "<4>rmdd: s0: motor 1 (knee): lost", 5000);
+	wait_for(&p, "<5>rmdd: s0: error active again", 5000);
+	wait_for(&p, "<5>rmdd: s0: motor 1 (knee): back (lost -> stopping)", 5000);
+	wait_for(&p, "<5>rmdd: s1: motor 1 (hip): back (lost -> stopping)", 5000);
+	kill(p.pid, SIGTERM);
+	assert_int_equal(finish(&p, 5000), 0);
+	assert_int_equal(count_of(p.out, "no node acknowledges"), 2);
+}
+
+/*
  * Motors missing at bring-up, found later, whose firmware is V4: a v3
  * entry and a `protocol: auto` one (taken for V3).  Each is left out
  * with a warning that says what to set; the run goes on.
@@ -1434,6 +1489,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_sigint, reap),
 		cmocka_unit_test_teardown(test_sigusr1_and_sighup_keep_running, reap),
 		cmocka_unit_test_teardown(test_lost_motor_logged_with_context, reap),
+		cmocka_unit_test_teardown(test_estop_logged, reap),
 		cmocka_unit_test_teardown(test_short_power_cycle_logged, reap),
 		cmocka_unit_test_teardown(test_found_late_other_dialect, reap),
 		cmocka_unit_test_teardown(test_started_fifo_only_the_loop_stays, reap),

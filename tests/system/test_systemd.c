@@ -12,11 +12,11 @@
  * /etc/rmdd/rmdd.yaml, rmd-sim simulates motors 1-3 on vcan0 and candump
  * logs vcan0.  Then, in order, on that one hardened unit:
  *   security  `systemd-analyze security rmdd.service` (the loaded unit, not
- *             the offline file) rates its exposure 2.0 or lower;
+ *             the offline file) rates its exposure 2.1 or lower;
  *   start     `systemctl start` returns (Type=notify: after READY=1), the
  *             unit is active with a STATUS= text; the daemon runs as a
- *             dynamic user, not root, in group dialout (serial adapters,
- *             through PrivateUsers=), with its memory locked and a thread at
+ *             dynamic user, not root, in group dialout (serial adapters),
+ *             holding CAP_NET_ADMIN alone, with its memory locked and a thread at
  *             SCHED_FIFO (the filter and namespaces let real time through),
  *             and publishes state_t over LCM multicast (IPAddressAllow=);
  *   watchdog  it stays up, same process, no restart, through 3 WatchdogSec
@@ -40,6 +40,8 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include <linux/capability.h>
 
 #include "rmd/time.h"
 #include "harness/lcm_loopback.h"
@@ -348,8 +350,12 @@ static void test_security(void **state)
 	exposure = strtod(at + strlen("Overall exposure level for rmdd.service:"), NULL);
 	fprintf(stderr, "test_systemd: systemd-analyze security rmdd.service: exposure %.1f\n",
 		exposure);
-	if (!(exposure <= 2.0))
-		fail_msg("exposure %.1f > 2.0:\n%s", exposure, r.out);
+	/*
+	 * 2.0 until issue 33.4: CAP_NET_ADMIN, and PrivateUsers=no for it to
+	 * reach the host's interfaces, add 0.5 (rmdd.service.in says why)
+	 */
+	if (!(exposure <= 2.1))
+		fail_msg("exposure %.1f > 2.1:\n%s", exposure, r.out);
 	run_free(&r);
 }
 
@@ -426,6 +432,24 @@ static const char *groups_of(long pid)
 	fclose(f);
 	groups[strcspn(groups, "\n")] = '\0';
 	return groups;
+}
+
+/* pid's effective capabilities (/proc/pid/status CapEff:, hex), or all ones when unread. */
+static uint64_t cap_eff(long pid)
+{
+	char path[64], line[256];
+	uint64_t v = UINT64_MAX;
+	FILE *f;
+
+	snprintf(path, sizeof(path), "/proc/%ld/status", pid);
+	f = fopen(path, "r");
+	if (!f)
+		return v;
+	while (fgets(line, sizeof(line), f))
+		if (strncmp(line, "CapEff:", 7) == 0)
+			v = strtoull(line + 7, NULL, 16);
+	fclose(f);
+	return v;
 }
 
 /* Whether pid's supplementary groups hold dialout (serial adapters' group). */
@@ -525,6 +549,11 @@ static void test_start(void **state)
 			 pid, journal());
 	if (thread_policy_fifo(pid) != 1)
 		fail_msg("no thread of rmdd (pid %ld) runs at SCHED_FIFO\n%s", pid, journal());
+	/* the one capability (an e-stop's interface restart), and no other */
+	if (cap_eff(pid) != UINT64_C(1) << CAP_NET_ADMIN)
+		fail_msg("rmdd (pid %ld) holds capabilities %#llx, not CAP_NET_ADMIN alone "
+			 "(AmbientCapabilities=)\n%s",
+			 pid, (unsigned long long)cap_eff(pid), journal());
 
 	/* state_t over LCM: IPAddressAllow= lets the multicast group through */
 	lcm = lcm_create(S.url);

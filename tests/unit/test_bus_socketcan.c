@@ -10,8 +10,9 @@
  * those tests are skipped with one loud line.
  *
  * Interface use: vcan0 filters, timestamps, lifecycle; vcan1 bursts
- * (netem); vcan2 error frames and candump; vcan7/can7/vcan8 are made and
- * deleted by the open tests.
+ * (netem); vcan2 error frames, no acknowledgement (netem) and candump;
+ * vcan7/can7/vcan8 are made and deleted by the open tests, the vxcan pair
+ * vxcan8/vxcan9 by the flush test.
  */
 #define _GNU_SOURCE
 
@@ -32,7 +33,10 @@
 
 #include <net/if.h>
 #include <sys/socket.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
+
+#include <linux/capability.h>
 
 #include <linux/can.h>
 #include <linux/can/error.h>
@@ -223,13 +227,14 @@ static void test_error_frame_states(void **state)
 		{ "ack error", CAN_ERR_ACK, 0, RMD_BUS_OFF, false },
 	};
 	struct rmd_bus bus = { .state = RMD_BUS_ACTIVE };
+	struct rmd_socketcan_errs e = { .ctrl = RMD_BUS_ACTIVE };
 	uint64_t changes = 0;
 
 	(void)state;
 	for (size_t i = 0; i < sizeof(steps) / sizeof(steps[0]); i++) {
 		struct can_frame cf = err_frame(steps[i].cls, steps[i].ctrl);
 
-		rmd_socketcan_error_frame(&bus, &cf);
+		rmd_socketcan_error_frame(&bus, &e, &cf);
 		changes += steps[i].changes;
 		if (bus.state != steps[i].want)
 			fail_msg("%s: state %s, want %s", steps[i].name,
@@ -241,6 +246,63 @@ static void test_error_frame_states(void **state)
 		assert_int_equal(bus.stats.bus_errors, i + 1);
 	}
 	assert_int_equal(bus.stats.rx_frames, 0);
+}
+
+/*
+ * Nobody acknowledges (rmd/bus_socketcan.h): RMD_SOCKETCAN_NO_ACK_ERRORS
+ * ACK errors in a row, or one while the transmitter is error-passive; it
+ * ends when the transmitter leaves error-passive (a frame of ours was
+ * acknowledged), and a bus-off, or a restart after it, does not end it.
+ */
+static void test_no_ack_states(void **state)
+{
+	static const struct {
+		const char *name;
+		canid_t cls;
+		uint8_t ctrl;
+		unsigned times;
+		enum rmd_bus_state want;
+		bool changes;
+	} steps[] = {
+		{ "15 ack errors: not yet", CAN_ERR_ACK, 0, RMD_SOCKETCAN_NO_ACK_ERRORS - 1,
+		  RMD_BUS_ACTIVE, false },
+		{ "the 16th: nobody acknowledges", CAN_ERR_ACK, 0, 1, RMD_BUS_NO_ACK, true },
+		{ "tx passive: still nobody", CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE, 1,
+		  RMD_BUS_NO_ACK, false },
+		{ "an rx overflow says nothing", CAN_ERR_CRTL, CAN_ERR_CRTL_RX_OVERFLOW, 1,
+		  RMD_BUS_NO_ACK, false },
+		{ "tx back to warning: acknowledged", CAN_ERR_CRTL, CAN_ERR_CRTL_TX_WARNING, 1,
+		  RMD_BUS_WARNING, true },
+		{ "tx passive again", CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE, 1, RMD_BUS_PASSIVE,
+		  true },
+		{ "one ack error while passive", CAN_ERR_ACK, 0, 1, RMD_BUS_NO_ACK, true },
+		{ "rx passive too: still nobody", CAN_ERR_CRTL,
+		  CAN_ERR_CRTL_TX_PASSIVE | CAN_ERR_CRTL_RX_PASSIVE, 1, RMD_BUS_NO_ACK, false },
+		{ "bus-off wins", CAN_ERR_BUSOFF, 0, 1, RMD_BUS_OFF, true },
+		{ "restarted: nothing acknowledged yet", CAN_ERR_RESTARTED, 0, 1, RMD_BUS_NO_ACK,
+		  true },
+		{ "error active again is no acknowledgement", CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE, 1,
+		  RMD_BUS_NO_ACK, false },
+	};
+	struct rmd_bus bus = { .state = RMD_BUS_ACTIVE };
+	struct rmd_socketcan_errs e = { .ctrl = RMD_BUS_ACTIVE };
+	uint64_t changes = 0, errors = 0;
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(steps) / sizeof(steps[0]); i++) {
+		struct can_frame cf = err_frame(steps[i].cls, steps[i].ctrl);
+
+		for (unsigned k = 0; k < steps[i].times; k++)
+			rmd_socketcan_error_frame(&bus, &e, &cf);
+		changes += steps[i].changes;
+		errors += steps[i].times;
+		if (bus.state != steps[i].want || bus.stats.state_changes != changes)
+			fail_msg("%s: state %s after %llu changes, want %s after %llu",
+				 steps[i].name, rmd_bus_state_name(bus.state),
+				 (unsigned long long)bus.stats.state_changes,
+				 rmd_bus_state_name(steps[i].want), (unsigned long long)changes);
+		assert_int_equal(bus.stats.bus_errors, errors);
+	}
 }
 
 static void test_open_bad_name(void **state)
@@ -649,6 +711,175 @@ static void test_error_frames_on_vcan(void **state)
 	rmd_bus_close(&bus);
 }
 
+/* Receive (nothing but error frames come) until the bus counted `errors` of them. */
+static void recv_errors(struct rmd_bus *bus, uint64_t errors)
+{
+	struct rmd_bus_rx rx[4];
+
+	for (int k = 0; k < 2000 && bus->stats.bus_errors < errors; k++) {
+		struct pollfd pfd = { .fd = rmd_bus_fd(bus), .events = POLLIN };
+
+		if (poll(&pfd, 1, 1) > 0)
+			assert_int_equal(bus_recv(bus, rx, 4), 0);
+	}
+	assert_int_equal(bus->stats.bus_errors, errors);
+}
+
+/*
+ * Nobody acknowledges, on vcan: the error frames a controller sends when
+ * no node acknowledges (CAN_ERR_ACK with berr-reporting, the transmitter's
+ * error-passive state without), written by a second socket, make the bus
+ * RMD_BUS_NO_ACK; a data frame from a motor ends it.  Then the other way
+ * in: error-passive and a queue that refuses frames (a netem qdisc that
+ * holds what it takes, as a controller nobody acknowledges holds its queue).
+ * What vcan cannot show: a real controller's own error frames and its
+ * buffers (docs/faults.md "E-stop").
+ */
+static void test_no_ack_on_vcan(void **state)
+{
+	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3, false };
+	const struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1 };
+	const struct rmd_frame reply = frame(0x241, 8, 0x9C);
+	struct can_frame ack = err_frame(CAN_ERR_ACK, 0);
+	struct can_frame passive = err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE);
+	struct rmd_frame tx[8];
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus bus;
+	int peer, sent = 0;
+
+	(void)state;
+	for (int i = 0; i < 8; i++)
+		tx[i] = frame(0x141, 8, (uint8_t)i);
+	open_ok(&bus, "vcan2", &opts);
+	peer = peer_open("vcan2");
+	for (int i = 0; i < RMD_SOCKETCAN_NO_ACK_ERRORS; i++)
+		peer_send_raw(peer, ack.can_id, ack.len, ack.data);
+	recv_errors(&bus, RMD_SOCKETCAN_NO_ACK_ERRORS);
+	assert_int_equal(rmd_bus_state(&bus), RMD_BUS_NO_ACK);
+	assert_int_equal(bus.stats.state_changes, 1);
+	/* motor 1 answers: a powered node, which acknowledges */
+	peer_send(peer, &reply);
+	assert_int_equal(recv_until(&bus, rx, 1, 2000), 1);
+	assert_int_equal(rmd_bus_state(&bus), RMD_BUS_ACTIVE);
+	assert_int_equal(bus.stats.state_changes, 2);
+
+	if (system("modprobe sch_netem 2>/dev/null; "
+		   "tc qdisc replace dev vcan2 root netem delay 10s limit 4") != 0) {
+		printf("SKIP no-ack by ENOBUFS: cannot add a netem qdisc to vcan2 (sch_netem, tc)\n");
+		close(peer);
+		rmd_bus_close(&bus);
+		skip();
+	}
+	peer_send_raw(peer, passive.can_id, passive.len, passive.data);
+	recv_errors(&bus, RMD_SOCKETCAN_NO_ACK_ERRORS + 1);
+	assert_int_equal(rmd_bus_state(&bus), RMD_BUS_PASSIVE);
+	for (int k = 0; k < 8 && sent < 8; k++) {
+		int r = bus_send(&bus, tx + sent, (unsigned)(8 - sent));
+
+		assert_true(r >= 0);
+		sent += r;
+		if (r == 0)
+			break;
+	}
+	assert_true(sent <= 5); /* the qdisc's 4, and one in flight */
+	assert_int_equal(rmd_bus_state(&bus), RMD_BUS_NO_ACK);
+	sh("tc qdisc del dev vcan2 root");
+	assert_int_equal(alloc_count(), 0);
+	close(peer);
+	rmd_bus_close(&bus);
+}
+
+/* Drop CAP_NET_ADMIN from this process: SocketCAN without it (a service without the grant). */
+static void drop_net_admin(void)
+{
+	struct __user_cap_header_struct h = { .version = _LINUX_CAPABILITY_VERSION_3 };
+	struct __user_cap_data_struct d[2];
+
+	assert_int_equal(syscall(SYS_capget, &h, d), 0);
+	d[CAP_NET_ADMIN / 32].effective &= ~(1u << (CAP_NET_ADMIN % 32));
+	d[CAP_NET_ADMIN / 32].permitted &= ~(1u << (CAP_NET_ADMIN % 32));
+	assert_int_equal(syscall(SYS_capset, &h, d), 0);
+}
+
+/*
+ * What flush drops.  A vxcan pair, because vcan hands every frame to the
+ * host's other sockets as it is sent (the CAN core's loopback), before its
+ * queue: on vxcan8 -> vxcan9 a frame reaches the peer's end only when it
+ * leaves vxcan8's queue, as a frame reaches the wire when it leaves a
+ * controller's.  A netem qdisc on vxcan8 holds each frame for 1 s, as the
+ * queue behind a controller nobody acknowledges holds them.  After
+ * rmd_bus_flush() none of the four held frames reaches vxcan9: restarting
+ * the interface reset its queue; it is up again, its qdisc in place, and
+ * the same socket sends and receives.  Without CAP_NET_ADMIN (a child that
+ * dropped it) flush says -EPERM and changes nothing: the four go out, the
+ * replay.  The driver's and controller's own buffers, which virtual
+ * interfaces lack, are not tested here (docs/faults.md "E-stop").
+ */
+static void test_flush_on_vcan(void **state)
+{
+	const struct rmd_socketcan_motor m = { 1, RMD_PROTO_V3, false };
+	const struct rmd_socketcan_opts opts = { .motors = &m, .n_motors = 1 };
+	const struct rmd_frame reply = frame(0x241, 8, 0x9C);
+	struct rmd_frame tx[4], rx[8];
+	struct rmd_bus_rx brx[4];
+	struct rmd_bus bus;
+	int64_t t;
+	int peer, status;
+	pid_t pid;
+
+	(void)state;
+	for (int i = 0; i < 4; i++)
+		tx[i] = frame(0x141, 8, (uint8_t)(0x40 + i));
+	if (system("modprobe vxcan 2>/dev/null; modprobe sch_netem 2>/dev/null; "
+		   "ip link add vxcan8 type vxcan peer name vxcan9 && ip link set vxcan8 up && "
+		   "ip link set vxcan9 up && "
+		   "tc qdisc replace dev vxcan8 root netem delay 1s limit 16") != 0) {
+		printf("SKIP flush: cannot make a vxcan pair with a netem qdisc (vxcan, sch_netem, "
+		       "tc)\n");
+		sh_try("ip link del vxcan8 2>/dev/null");
+		skip();
+	}
+	open_ok(&bus, "vxcan8", &opts);
+	peer = peer_open("vxcan9");
+	assert_int_equal(bus_send(&bus, tx, 4), 4);
+	t = rmd_now_ns();
+	assert_int_equal(rmd_bus_flush(&bus), 0);
+	t = rmd_now_ns() - t;
+	printf("flush: vxcan8 restarted in %lld us\n", (long long)(t / 1000));
+	sh("ip link show vxcan8 | grep -q ',UP'");
+	sh("tc qdisc show dev vxcan8 | grep -q netem");
+	/* the socket works on: a frame out (1 s late, through netem), a reply in */
+	assert_int_equal(bus_send(&bus, tx + 3, 1), 1);
+	assert_int_equal(peer_recv(peer, rx, 8, 3000), 1); /* none of the four held */
+	assert_frame_equal(&rx[0], &tx[3], 0);
+	peer_send(peer, &reply);
+	assert_int_equal(recv_until(&bus, brx, 1, 2000), 1);
+	rmd_bus_close(&bus);
+
+	/* without CAP_NET_ADMIN: refused, and the queue replays */
+	pid = fork();
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		struct rmd_bus b;
+		char err[256];
+
+		drop_net_admin();
+		if (rmd_socketcan_open(&b, "vxcan8", &opts, err, sizeof(err)) != 0)
+			_exit(2);
+		if (rmd_bus_send(&b, tx, 4, 0) != 4)
+			_exit(3);
+		_exit(rmd_bus_flush(&b) == -EPERM ? 0 : 4);
+	}
+	assert_int_equal(waitpid(pid, &status, 0), pid);
+	assert_true(WIFEXITED(status));
+	assert_int_equal(WEXITSTATUS(status), 0);
+	assert_int_equal(peer_recv(peer, rx, 8, 3000), 4);
+	for (int i = 0; i < 4; i++)
+		assert_frame_equal(&rx[i], &tx[i], i);
+	close(peer);
+	sh_try("ip link del vxcan8");
+}
+
 /* True once some socket listens to every frame of `ifname` (candump is bound). */
 static bool all_frames_listener(const char *ifname)
 {
@@ -927,6 +1158,7 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_error_frame_states),
+		cmocka_unit_test(test_no_ack_states),
 		cmocka_unit_test(test_open_bad_name),
 		cmocka_unit_test(test_open_no_socketcan),
 		cmocka_unit_test(test_open_missing_interface),
@@ -939,6 +1171,8 @@ int main(void)
 		cmocka_unit_test(test_timestamps),
 		cmocka_unit_test(test_burst_over_txqueuelen),
 		cmocka_unit_test(test_error_frames_on_vcan),
+		cmocka_unit_test(test_no_ack_on_vcan),
+		cmocka_unit_test(test_flush_on_vcan),
 		cmocka_unit_test(test_candump_sees_sent_frames),
 		cmocka_unit_test(test_recv_batches),
 		cmocka_unit_test(test_rx_overflow_counted),
@@ -949,6 +1183,7 @@ int main(void)
 	};
 	const struct CMUnitTest host_tests[] = {
 		cmocka_unit_test(test_error_frame_states),
+		cmocka_unit_test(test_no_ack_states),
 		cmocka_unit_test(test_open_bad_name),
 		cmocka_unit_test(test_open_no_socketcan),
 		cmocka_unit_test(test_vcan_suite_needs_socketcan),

@@ -11,7 +11,8 @@
  * lost and found again, an error flag, the host watchdog tripping and
  * lifted, an overrun, health snapshots, events drained, the V2 0x280 frame,
  * a position settled into its travel band, position enables refused for an
- * uncertain one until it is homed,
+ * uncertain one until it is homed, a bus nobody acknowledges (its queue
+ * flushed, its motors lost and back),
  * the incident recorder's ring filled and wrapped (rmd/incident.h), and
  * rmd_loop_stop_motors().  Not one allocation may happen.
  *
@@ -128,6 +129,7 @@ static void test_cycle_allocates_nothing(void **state)
 	struct rmd_sim_fault hot = { .kind = RMD_SIM_FAULT_ERROR_FLAG,
 				     .motor_id = 1,
 				     .param = RMD_SIM_ERR_OVER_TEMP };
+	struct rmd_sim_fault estop = { .kind = RMD_SIM_FAULT_BUS_POWER };
 	struct rmd_loop_counters c;
 	struct rmd_loop_stats st;
 	struct rmd_loop_opts o;
@@ -191,6 +193,12 @@ static void test_cycle_allocates_nothing(void **state)
 			hot.end_ns = hot.start_ns + 300 * MS;
 			rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.buses[1]), &hot, 1);
 		}
+		if (k ==
+		    5000) { /* sim0's motors lose power: nobody acknowledges, the queue is flushed */
+			estop.start_ns = rmd_bus_sim_time_ns(&R.buses[0], t_now) + 20000;
+			estop.end_ns = estop.start_ns + 100 * MS;
+			rmd_sim_wire_set_faults(rmd_bus_sim_get(&R.buses[0]), &estop, 1);
+		}
 		if (k == 3000) { /* motor 5's position-mode enables were refused until now */
 			homes.seq[5]++;
 			homes.as_reported[5] = true;
@@ -232,6 +240,8 @@ static void test_cycle_allocates_nothing(void **state)
 	assert_true(c.replies > 40000);
 	assert_true(nev > 20);
 	assert_true(c.ignored[RMD_IGN_POS_UNCERTAIN] > 1000);
+	assert_int_equal(rmd_bus_sim_get(&R.buses[0])->stats.faults[RMD_SIM_FAULT_BUS_POWER], 1);
+	assert_true(rmd_bus_sim_get(&R.buses[0])->stats.flushed > 0);
 	assert_int_equal(snap.m[4].pos_trust, RMD_POS_IN_BAND);
 	assert_int_equal(snap.m[5].pos_trust, RMD_POS_HOMED);
 	for (unsigned i = 0; i < R.cfg.n_motors; i++)

@@ -69,6 +69,9 @@ static void test_check(void **state)
 		{ { .kind = RMD_SIM_FAULT_DISAPPEAR, .param = 2 }, -EINVAL },
 		{ { .kind = RMD_SIM_FAULT_ERROR_FLAG, .param = 0x10000 }, -EINVAL },
 		{ { .kind = RMD_SIM_FAULT_BUS_OFF, .motor_id = 1 }, -EINVAL },
+		{ { .kind = RMD_SIM_FAULT_BUS_POWER }, 0 },
+		{ { .kind = RMD_SIM_FAULT_BUS_POWER, .motor_id = 2 }, -EINVAL },
+		{ { .kind = RMD_SIM_FAULT_BUS_POWER, .param = 1 }, -EINVAL },
 		{ { .kind = RMD_SIM_FAULT_FLOOD, .param = 0 }, -EINVAL },
 		{ { .kind = RMD_SIM_FAULT_FLOOD, .param = 1, .can_id = 0x800 }, -EINVAL },
 		{ { .kind = RMD_SIM_FAULT_FLOOD, .param = 1, .start_ns = 5, .end_ns = 5 },
@@ -135,6 +138,40 @@ static void run_windows(int64_t origin)
 	assert_int_equal(counts[RMD_SIM_FAULT_ERROR_FLAG], 1);
 	assert_int_equal(counts[RMD_SIM_FAULT_BUS_OFF], 1);
 #undef AT
+}
+
+/* A bus power cut: every motor absent and unpowered while it lasts, counted once. */
+static void test_bus_power(void **state)
+{
+	const struct rmd_sim_fault f[] = {
+		{ .kind = RMD_SIM_FAULT_DISAPPEAR, .motor_id = 3, .start_ns = 0, .param = 0 },
+		{ .kind = RMD_SIM_FAULT_BUS_POWER, .start_ns = 1 * S_NS, .end_ns = 3 * S_NS },
+	};
+	uint64_t counts[RMD_SIM_FAULT_COUNT] = { 0 };
+	struct rmd_sim_faults fs;
+
+	(void)state;
+	assert_true(rmd_sim_fault_is_window(RMD_SIM_FAULT_BUS_POWER));
+	assert_int_equal(rmd_sim_fault_kind_from_name("bus-power"), RMD_SIM_FAULT_BUS_POWER);
+	rmd_sim_faults_init(&fs);
+	assert_int_equal(rmd_sim_faults_set(&fs, f, 2), 0);
+	rmd_sim_faults_update(&fs, S_NS / 2, counts);
+	assert_false(rmd_sim_faults_bus_unpowered(&fs));
+	assert_true(rmd_sim_faults_absent(&fs, 3));
+	assert_false(rmd_sim_faults_unpowered(&fs, 3));
+	assert_false(rmd_sim_faults_absent(&fs, 1));
+	assert_int_equal(rmd_sim_faults_update(&fs, S_NS, counts), 1u << 1);
+	assert_true(rmd_sim_faults_bus_unpowered(&fs));
+	for (uint8_t id = 1; id <= RMD_MAX_MOTORS; id++) {
+		assert_true(rmd_sim_faults_absent(&fs, id));
+		assert_true(rmd_sim_faults_unpowered(&fs, id));
+	}
+	assert_int_equal(rmd_sim_faults_next_ns(&fs, S_NS), 3 * S_NS);
+	assert_int_equal(rmd_sim_faults_update(&fs, 3 * S_NS, counts), 1u << 1);
+	assert_false(rmd_sim_faults_bus_unpowered(&fs));
+	assert_false(rmd_sim_faults_unpowered(&fs, 1));
+	assert_true(rmd_sim_faults_absent(&fs, 3)); /* its own cable cut stays */
+	assert_int_equal(counts[RMD_SIM_FAULT_BUS_POWER], 1);
 }
 
 static void test_windows(void **state)
@@ -265,9 +302,9 @@ static void test_cmd_and_count(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_names),	      cmocka_unit_test(test_check),
-		cmocka_unit_test(test_windows),	      cmocka_unit_test(test_per_frame),
-		cmocka_unit_test(test_cmd_and_count),
+		cmocka_unit_test(test_names),	  cmocka_unit_test(test_check),
+		cmocka_unit_test(test_bus_power), cmocka_unit_test(test_windows),
+		cmocka_unit_test(test_per_frame), cmocka_unit_test(test_cmd_and_count),
 	};
 
 	return cmocka_run_group_tests_name("sim_faults", tests, NULL, NULL);

@@ -737,6 +737,122 @@ static void test_fault_bus_off_window(void **state)
 }
 
 /*
+ * The motors' supply cut during [10.4 ms, 30.4 ms) (an e-stop): no node
+ * acknowledges, so the host's requests of 11..30 ms are tried again and
+ * again and never complete; they wait in its FIFO queue (16 frames, and
+ * the one being tried) and the rest is refused, as SocketCAN's queue
+ * refuses with ENOBUFS.  The bus says RMD_BUS_NO_ACK from the first try
+ * on.  At power's return the motors boot, and the frames held go out
+ * first, in the order they were written: the replay a restart of the
+ * interface (rmd_sim_wire_flush()) prevents.
+ */
+/* Host frames done on the wire in [from, to). */
+static unsigned count_host(int64_t from_ns, int64_t to_ns)
+{
+	unsigned n = 0;
+
+	for (unsigned k = 0; k < trace_n; k++)
+		n += trace[k].p.src == RMD_SIM_SRC_HOST && trace[k].eof_ns >= from_ns &&
+		     trace[k].eof_ns < to_ns;
+	return n;
+}
+
+static unsigned bus_power_cycles(unsigned from, unsigned to, unsigned *taken_in_window)
+{
+	unsigned refused = 0;
+
+	for (unsigned k = from; k < to; k++) {
+		struct rmd_frame f[2] = { request(1, 0x9C), request(2, 0x9C) };
+		int r = rmd_sim_wire_send(&bus, (int64_t)k * MS, f, 2);
+
+		if (k >= 11 && k <= 30)
+			*taken_in_window += r > 0 ? (unsigned)r : 0;
+		refused += r < 0 ? 2 : 2 - (unsigned)r;
+		rmd_sim_wire_advance(&bus, (int64_t)k * MS + 300 * US);
+		/*
+		 * The state a host sees: no acknowledgement from the first try
+		 * in the window until the first frame after it is done (30.5 ms).
+		 */
+		assert_int_equal(rmd_sim_wire_state(&bus),
+				 k >= 11 && k <= 30 ? RMD_BUS_NO_ACK : RMD_BUS_ACTIVE);
+		drain();
+	}
+	return refused;
+}
+
+static void test_fault_bus_power_window(void **state)
+{
+	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_BUS_POWER,
+					 .start_ns = 10400 * US,
+					 .end_ns = 30400 * US };
+	unsigned taken = 0, refused, replayed = 0, k;
+
+	(void)state;
+	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, seed, RMD_SIM_WIRE_HOST_FIFO), 0);
+	rmd_sim_wire_set_tap(&bus, tap, NULL);
+	assert_int_equal(rmd_sim_wire_set_txqueuelen(&bus, 16), 0);
+	add_motors(2);
+	set_faults(&f, 1);
+	refused = bus_power_cycles(0, 32, &taken);
+	assert_int_equal(refused, 40 - taken);
+	/* the queue's 16 frames, and the one a try holds when the next cycle's send comes */
+	if (taken < 16 || taken > 17)
+		fail_msg("seed %#llx: %u frames taken while nobody acknowledged",
+			 (unsigned long long)seed, taken);
+	assert_true(bus.stats.acks_missed > 100); /* tried back to back for 20 ms */
+	assert_int_equal(count_rx(RMD_CAN_V3_REPLY_BASE + 1, 10400 * US, 30400 * US), 0);
+	rmd_sim_wire_advance(&bus, 40 * MS);
+	/* every motor lost power and booted at the end */
+	assert_int_equal(rmd_sim_wire_motor(&bus, 1)->boot_ns, 30400 * US);
+	assert_int_equal(rmd_sim_wire_motor(&bus, 2)->boot_ns, 30400 * US);
+	assert_int_equal(bus.stats.faults[RMD_SIM_FAULT_BUS_POWER], 1);
+	/* what was held went out first, in order: written in the window, done after it */
+	for (k = 0; k < trace_n && trace[k].eof_ns < 30400 * US; k++)
+		assert_true(trace[k].p.src != RMD_SIM_SRC_HOST || trace[k].p.ready_ns < 10400 * US);
+	assert_int_equal(count_host(0, 10400 * US), 2 * 11); /* cycles 0..10 */
+	for (; k < trace_n; k++) {
+		if (trace[k].p.src != RMD_SIM_SRC_HOST)
+			continue;
+		if (trace[k].p.ready_ns >= 30400 * US)
+			break;
+		replayed++;
+	}
+	assert_int_equal(replayed, taken);
+	assert_int_equal(rmd_sim_wire_state(&bus), RMD_BUS_ACTIVE);
+	check_trace(false, true);
+}
+
+/* The same cut with the host queue flushed at 20 ms: nothing written before it goes out. */
+static void test_fault_bus_power_flush(void **state)
+{
+	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_BUS_POWER,
+					 .start_ns = 10400 * US,
+					 .end_ns = 30400 * US };
+	unsigned taken = 0, after = 0, n;
+
+	(void)state;
+	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, seed, RMD_SIM_WIRE_HOST_FIFO), 0);
+	rmd_sim_wire_set_tap(&bus, tap, NULL);
+	assert_int_equal(rmd_sim_wire_set_txqueuelen(&bus, 16), 0);
+	add_motors(2);
+	set_faults(&f, 1);
+	bus_power_cycles(0, 20, &taken);
+	rmd_sim_wire_advance(&bus, 20500 * US);
+	n = rmd_sim_wire_flush(&bus);
+	assert_int_equal(n, taken); /* the frame being tried too */
+	assert_int_equal(bus.stats.flushed, n);
+	/* flushed, still nobody acknowledges: the state stays */
+	assert_int_equal(rmd_sim_wire_state(&bus), RMD_BUS_NO_ACK);
+	bus_power_cycles(21, 40, &after);
+	rmd_sim_wire_advance(&bus, 45 * MS);
+	for (unsigned k = 0; k < trace_n; k++)
+		if (trace[k].p.src == RMD_SIM_SRC_HOST && trace[k].eof_ns >= 10400 * US)
+			assert_true(trace[k].p.ready_ns > 20500 * US);
+	assert_int_equal(rmd_sim_wire_flush(&bus), 0);
+	assert_int_equal(bus.stats.flushed, n);
+}
+
+/*
  * A flood on 0x000 every 50 us during [10 ms, 30 ms) wins every
  * arbitration: it takes the whole wire, the host's requests wait, and
  * their replies come after the window.  Late, not lost.
@@ -1214,6 +1330,47 @@ static void test_bus_sim_burst_needs_queue(void **state)
 	rmd_bus_close(&b);
 }
 
+/*
+ * The sim bus behind the ops table: its state says no acknowledgement, its
+ * flush empties the host queue (nothing held goes out at power's return),
+ * or is refused as SocketCAN's without CAP_NET_ADMIN (refuse_flush).
+ */
+static void test_bus_sim_flush(void **state)
+{
+	const struct rmd_bus_sim_motor m = { .id = 1, .proto = RMD_PROTO_V3 };
+	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_BUS_POWER,
+					 .start_ns = 0,
+					 .end_ns = 50 * MS };
+	struct rmd_bus_sim_opts o = { .motors = &m,
+				      .n_motors = 1,
+				      .flags = RMD_SIM_WIRE_HOST_FIFO,
+				      .txqueuelen = 16,
+				      .faults = &f,
+				      .n_faults = 1 };
+	const struct rmd_frame req = request(1, 0x9C);
+	struct rmd_bus_rx rx[4];
+	struct rmd_bus b;
+	char err[256];
+	int64_t t0 = 5000 * MS;
+
+	(void)state;
+	for (int refuse = 0; refuse <= 1; refuse++) {
+		o.refuse_flush = refuse;
+		assert_int_equal(rmd_bus_sim_open(&b, "s0", &o, err, sizeof(err)), 0);
+		assert_int_equal(rmd_bus_state(&b), RMD_BUS_ACTIVE);
+		assert_int_equal(rmd_bus_send(&b, &req, 1, t0), 1);
+		assert_int_equal(rmd_bus_recv(&b, rx, 4, t0 + MS), 0);
+		assert_int_equal(rmd_bus_state(&b), RMD_BUS_NO_ACK);
+		assert_int_equal(rmd_bus_flush(&b), refuse ? -EPERM : 0);
+		assert_int_equal(rmd_bus_sim_get(&b)->stats.flushed, refuse ? 0 : 1);
+		/* power back: what the queue still holds goes out (the motor may still boot) */
+		assert_true(rmd_bus_recv(&b, rx, 4, t0 + 60 * MS) >= 0);
+		assert_int_equal(rmd_bus_sim_get(&b)->stats.frames_host, refuse ? 1 : 0);
+		assert_int_equal(rmd_bus_state(&b), refuse ? RMD_BUS_ACTIVE : RMD_BUS_NO_ACK);
+		rmd_bus_close(&b);
+	}
+}
+
 int main(void)
 {
 	struct CMUnitTest tests[] = {
@@ -1229,6 +1386,8 @@ int main(void)
 		cmocka_unit_test(test_fault_disappear_boot),
 		cmocka_unit_test(test_fault_error_flag_window),
 		cmocka_unit_test(test_fault_bus_off_window),
+		cmocka_unit_test(test_fault_bus_power_window),
+		cmocka_unit_test(test_fault_bus_power_flush),
 		cmocka_unit_test(test_fault_flood_low_id_steals_wire),
 		cmocka_unit_test(test_fault_flood_high_id_yields),
 		cmocka_unit_test(test_txqueuelen_enobufs),
@@ -1243,6 +1402,7 @@ int main(void)
 		cmocka_unit_test(test_config_validation),
 		cmocka_unit_test(test_bus_sim_tap),
 		cmocka_unit_test(test_bus_sim_burst_needs_queue),
+		cmocka_unit_test(test_bus_sim_flush),
 	};
 
 	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);

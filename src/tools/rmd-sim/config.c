@@ -211,7 +211,8 @@ void sim_format_motors(uint32_t mask, char *buf, size_t size)
 	"drop:ID:P, delay:ID:US:P, bad_dlc:ID:DLC:P, garbage:ID:P, wrong_id:ID:OTHER:P " \
 	"(each with an optional /CMD[,COUNT] filter and @START_S-END_S window), "        \
 	"disappear:ID:START_S:END_S[:reboot], "                                          \
-	"error_flag:ID:BITS:AT_S[:END_S], flood:CANID:PERIOD_US:START_S[:END_S]"
+	"error_flag:ID:BITS:AT_S[:END_S], flood:CANID:PERIOD_US:START_S[:END_S], "       \
+	"bus_power:START_S:END_S"
 
 struct fault_syntax {
 	enum rmd_sim_fault_kind kind;
@@ -227,6 +228,7 @@ static const struct fault_syntax fault_syntaxes[] = {
 	{ RMD_SIM_FAULT_DISAPPEAR, "disappear:ID:START_S:END_S[:reboot]" },
 	{ RMD_SIM_FAULT_ERROR_FLAG, "error_flag:ID:BITS:AT_S[:END_S]" },
 	{ RMD_SIM_FAULT_FLOOD, "flood:CANID:PERIOD_US:START_S[:END_S]" },
+	{ RMD_SIM_FAULT_BUS_POWER, "bus_power:START_S:END_S" },
 };
 
 static const char *fault_syntax(enum rmd_sim_fault_kind kind)
@@ -497,6 +499,13 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 			return -EINVAL;
 		break;
 	}
+	case RMD_SIM_FAULT_BUS_POWER:
+		/* every motor: it cannot make the wire refuse acknowledgements (docs/rmd-sim.md) */
+		if (n != 3)
+			return fault_error(where, spec, "expected 3 fields", f.kind);
+		if (parse_fault_times(where, spec, &f, "START_S", fld[1], fld[2]) < 0)
+			return -EINVAL;
+		break;
 	case RMD_SIM_FAULT_BUS_OFF:
 		tool_log(
 			TOOL_LOG_ERR,
@@ -510,7 +519,8 @@ static int parse_fault(struct sim_config *c, const char *spec, const char *where
 		return fault_error(where, spec, "unknown fault", f.kind);
 	}
 
-	if (f.kind != RMD_SIM_FAULT_FLOOD && parse_fault_motor(fld[1], &f.motor_id) < 0)
+	if (f.kind != RMD_SIM_FAULT_FLOOD && f.kind != RMD_SIM_FAULT_BUS_POWER &&
+	    parse_fault_motor(fld[1], &f.motor_id) < 0)
 		return fault_error(where, spec, "ID must be a motor id 1..32 or * (every motor)",
 				   f.kind);
 	if (window && !per_frame)

@@ -89,6 +89,7 @@ static void usage(void)
 	       "                            reboot: it lost power and boots at END_S\n"
 	       "  error_flag:ID:BITS:AT_S[:END_S]  error flags (0x0004, or low_voltage+over_temp...)\n"
 	       "  flood:CANID:PERIOD_US:START_S[:END_S]  a foreign node's frames (CAN only)\n"
+	       "  bus_power:START_S:END_S   every motor loses power (an e-stop) and boots at END_S\n"
 	       "Times count from rmd-sim's start.  The kinds are those of rmdd.yaml's sim faults\n"
 	       "(US, PERIOD_US there: delay_us, period_us); older spellings stay aliases: error,\n"
 	       "bad-dlc, wrong-id, any case.\n"

@@ -265,8 +265,9 @@ const char *top_mode_name(int mode)
 
 const char *top_bus_state_name(int s)
 {
-	return s >= RMD_BUS_ACTIVE && s <= RMD_BUS_OFF ? rmd_bus_state_name((enum rmd_bus_state)s) :
-							 "?";
+	return s >= RMD_BUS_ACTIVE && s <= RMD_BUS_NO_ACK ?
+		       rmd_bus_state_name((enum rmd_bus_state)s) :
+		       "?";
 }
 
 /* The state's motor i, by index (state_t.motor[i] is motor i, but check). */

@@ -248,6 +248,10 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 		snprintf(buf, len, "%s: bus %s", rmdd_bus_name(cfg, e->bus),
 			 rmd_bus_state_name((enum rmd_bus_state)e->a));
 		break;
+	case RMD_EV_BUS_FLUSH:
+		snprintf(buf, len, "%s: queued frames %s", rmdd_bus_name(cfg, e->bus),
+			 e->a ? "could not be dropped" : "dropped");
+		break;
 	case RMD_EV_OVERRUN:
 		if (e->b > 0 && e->b < e->a)
 			snprintf(buf, len,
@@ -372,6 +376,7 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 		break;
 	case RMD_EV_MOTOR_ERROR: /* the FAULT or LOST that follows is the incident */
 	case RMD_EV_REBOOT:	 /* ... and the LOST a reboot makes */
+	case RMD_EV_BUS_FLUSH:	 /* its RMD_EV_BUS_STATE is */
 	case RMD_EV_SEND_FAILED:
 	case RMD_EV_UNEXPECTED:
 	case RMD_EV_LATE:

@@ -356,7 +356,61 @@ static void log_bus_state(const struct rmd_config *cfg, const struct rmd_event *
 	case RMD_BUS_ACTIVE:
 		tool_log(5, "%s: error active again", name);
 		break;
+	case RMD_BUS_NO_ACK:
+		tool_log(3,
+			 "%s: no node acknowledges (the motors' power is off: an e-stop?): no "
+			 "frame that acts on a motor is written to it; its motors are lost, and "
+			 "each moves again only after it answered, echoed 0x80 and 0x78 and its "
+			 "0xB3 (docs/faults.md \"E-stop\")",
+			 name);
+		break;
 	}
+}
+
+/*
+ * RMD_EV_BUS_FLUSH: what a bus nobody acknowledges still held was dropped,
+ * or (refused) what stays queued and what to do (docs/faults.md "E-stop";
+ * docs/troubleshooting.md quotes both).
+ */
+static void log_bus_flush(const struct rmd_config *cfg, const struct rmd_event *e)
+{
+	const struct rmd_config_bus *cb = e->bus < cfg->n_buses ? &cfg->buses[e->bus] : NULL;
+	const char *name = rmdd_bus_name(cfg, e->bus);
+	uint64_t b = (uint64_t)e->b;
+	unsigned frames = (unsigned)(b & UINT32_MAX);
+	uint32_t driven = (uint32_t)(b >> 32);
+	char motors[256], advice[160];
+	const char *iface;
+	bool serial = false;
+	size_t used = (size_t)snprintf(motors, sizeof(motors), "%s",
+				       driven ? "among them the last setpoints of" :
+						"no motor was driven");
+
+	for (unsigned i = 0, k = 0; i < cfg->n_motors && i < 32 && used < sizeof(motors); i++)
+		if (driven >> i & 1)
+			used += (size_t)snprintf(motors + used, sizeof(motors) - used, "%s %s",
+						 k++ ? "," : "", cfg->motors[i].name);
+	if (!e->a) {
+		tool_log(5,
+			 "%s: the frames it still held are dropped (up to %u): none goes out when "
+			 "power returns",
+			 name, frames);
+		return;
+	}
+	iface = cb ? rmd_config_bus_wire(cb, &serial) : NULL;
+	if (iface && !serial)
+		snprintf(advice, sizeof(advice),
+			 "restart the interface before power returns (ip link set %s down; ip "
+			 "link set %s up), or give rmdd CAP_NET_ADMIN",
+			 iface, iface);
+	else
+		snprintf(advice, sizeof(advice),
+			 "stop rmdd before power returns (its transport's queue goes with it)");
+	tool_log(3,
+		 "%s: the frames it holds could not be dropped (%s): up to %u, written before "
+		 "the bus was found unacknowledged, go out when power returns (%s); %s "
+		 "(docs/faults.md \"E-stop\")",
+		 name, strerror((int)-e->a), frames, motors, advice);
 }
 
 static void log_watchdog(const struct rmd_config *cfg, const struct rmd_event *e)
@@ -506,6 +560,9 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e, struct 
 		break;
 	case RMD_EV_BUS_STATE:
 		log_bus_state(cfg, e);
+		break;
+	case RMD_EV_BUS_FLUSH:
+		log_bus_flush(cfg, e);
 		break;
 	case RMD_EV_COMM_LOSS:
 		log_comm_loss(cfg, e);
