@@ -6,8 +6,11 @@
  *              serve, tear down)
  *   buses.c    open every configured bus
  *   lcm.c      the LCM bridge's options from the configuration
+ *   events.c   what rmdd says of the rt loop's events, and the names the
+ *              monitor and the incident writer share
  *   monitor.c  the monitor thread: drains the rt loop's event ring and logs
  *              on change, samples each motor's reply latency
+ *   incidents.c  the incident writer: a recording after a safety event
  *   stats.c    the statistics (SIGUSR1, exit) and the STATUS= line
  *   notify.c   systemd: READY=1, STATUS=, WATCHDOG=1, STOPPING=1
  *
@@ -48,6 +51,23 @@ enum {
 
 /* Event ring between the rt loop and the monitor: 4096 records of 32 bytes. */
 #define RMDD_EVENT_SLOTS 4096
+
+/* ---- what rmdd says of the loop's events (events.c) ----------------------- */
+
+/* Name of a lifecycle state ("ready", "lost", ...). */
+const char *rmdd_lifecycle_name(unsigned lc);
+
+/* "can0: motor 3 (knee_l)" for motor index i ("motor #40" when out of range). */
+void rmdd_motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t len);
+
+/* Bus b's name, "?" when out of range. */
+const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
+
+/*
+ * What an RMD_EV_REBOOT says and the signal that saw it, in a few words:
+ * "rebooted (runtime 3 ms, it would have run at least 5 ms: 0xB1)".
+ */
+void rmdd_reboot_text(const struct rmd_event *e, char *buf, size_t len);
 
 /* ---- the incident writer (incidents.c) ------------------------------------ */
 
@@ -164,12 +184,6 @@ void rmdd_monitor_stop(struct rmdd_monitor *m);
 
 void rmdd_monitor_fini(struct rmdd_monitor *m);
 
-/* Name of a lifecycle state ("ready", "lost", ...). */
-const char *rmdd_lifecycle_name(unsigned lc);
-
-/* "can0: motor 3 (knee_l)" for motor index i ("motor #40" when out of range). */
-void rmdd_motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t len);
-
 /* MIT ranges in a few words: "p ±12.566 rad, v ±45 rad/s, t ±60 N·m, kp 0..500, kd 0..50". */
 void rmdd_mit_ranges_text(const struct rmd_mit_ranges *r, char *buf, size_t len);
 
@@ -188,13 +202,6 @@ void rmdd_mit_text(const struct rmd_dialect *d, const struct rmd_mit_decision *d
  * what each firmware of its dialect would make of it (mit.c).  Non-rt.
  */
 void rmdd_mit_config_note(const struct rmd_config *cfg, unsigned i, char *buf, size_t len);
-/* Bus b's name, "?" when out of range. */
-const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
-/*
- * What an RMD_EV_REBOOT says and the signal that saw it, in a few words:
- * "rebooted (runtime 3 ms, it would have run at least 5 ms: 0xB1)".
- */
-void rmdd_reboot_text(const struct rmd_event *e, char *buf, size_t len);
 
 /* ---- buses (rmdd_buses.c) ----------------------------------------------- */
 
