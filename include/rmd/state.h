@@ -336,6 +336,11 @@ enum rmd_event_kind {
 	 * (ENABLED or SAFE, bit = config index) << 32.
 	 */
 	RMD_EV_BUS_FLUSH,
+	/*
+	 * How many kinds there are (a new one goes above): rmdd words each
+	 * by its row, one per kind (src/tools/rmdd/events.c).
+	 */
+	RMD_EV_COUNT
 };
 
 /* What RMD_EV_REBOOT reports (its a). */

@@ -1538,7 +1538,7 @@ static unsigned whole_run_rms(const char *out, double *max_rms)
 	return n;
 }
 
-/* rmdd's line when its watchdog trips (src/tools/rmdd/monitor.c). */
+/* rmdd's line when its watchdog trips (src/tools/rmdd/events.c). */
 #define WD_TRIP_LINE "controller: no command for"
 
 /* Run an example controller to its end (--duration) and check what it printed. */

@@ -330,6 +330,7 @@ static void event_text(const struct rmd_config *cfg, const struct rmd_event *e, 
 		snprintf(buf, len, "%s: %s", ctx, what);
 		break;
 	}
+	case RMD_EV_COUNT:
 	default:
 		snprintf(buf, len, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 		break;
@@ -388,6 +389,7 @@ bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e,
 	case RMD_EV_DIALECT:
 	case RMD_EV_MIT_SCALING:
 	case RMD_EV_MIT_REFUSED:
+	case RMD_EV_COUNT:
 	default:
 		return false;
 	}

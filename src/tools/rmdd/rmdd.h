@@ -69,6 +69,56 @@ const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
  */
 void rmdd_reboot_text(const struct rmd_event *e, char *buf, size_t len);
 
+/* A journal line's room: the logger's (tools/common/log.c), so none is cut shorter. */
+#define RMDD_EVENT_LINE_LEN 2048
+
+/*
+ * What the monitor keeps between the events it words: the rows of
+ * RMD_EV_MOTOR_STATE, RMD_EV_SAFE_ACTION, RMD_EV_OVERRUN and RMD_EV_RT note
+ * into it (events.c).  Owned by the monitor's thread.
+ */
+struct rmdd_event_notes {
+	const struct rmd_config *cfg;
+	int64_t overrun_window_ns; /* start of the current one-second overrun summary */
+	uint64_t overruns_logged, overruns_pending, skipped_pending;
+	/*
+	 * The shutdown's stop or hold sent to a driven motor (RMD_EV_SAFE_ACTION
+	 * with b = 1) ahead of its SAFE, which then names it; -1: none
+	 */
+	int shutdown_sent;
+	/* The RMD_EV_RT of one drain: one refused (but CPU_AWAKE), and each one's -errno. */
+	bool rt_any;
+	int rt_err[RMD_LOOP_RT_CPU_AWAKE + 1];
+};
+
+/* Notes of nothing yet, for events of cfg. */
+void rmdd_event_notes_init(struct rmdd_event_notes *n, const struct rmd_config *cfg);
+
+/*
+ * Event e's journal line into buf (RMDD_EVENT_LINE_LEN holds any), by its
+ * kind's row; returns its syslog level, or 0 when it has none now (noted
+ * into n, or nothing to say).  A kind without a row: "event K (a A, b B)",
+ * debug.
+ */
+int rmdd_event_journal(struct rmdd_event_notes *n, const struct rmd_event *e, char *buf,
+		       size_t len);
+
+/*
+ * At now: the line that sums up the overruns after the first of the
+ * second that ended (level, or 0: none due, or none to sum up).
+ */
+int rmdd_event_overruns(struct rmdd_event_notes *n, int64_t now, char *buf, size_t len);
+
+/*
+ * After a drain, the lines its RMD_EV_RT events come to, one a call, each
+ * forgotten once said: the CPU wake-up latency, then the real-time
+ * guarantees.  Level, or 0: no more.
+ */
+int rmdd_event_rt_lines(struct rmdd_event_notes *n, char *buf, size_t len);
+
+/* Kind's name in its row ("MOTOR_STATE"); NULL: a kind the table has no row for. */
+const char *rmdd_event_name(unsigned kind);
+
 /* ---- the incident writer (incidents.c) ------------------------------------ */
 
 /* Triggers one recording holds (the events of its window are all in it anyway). */
@@ -160,13 +210,7 @@ struct rmdd_monitor {
 
 	/* Owned by the thread. */
 	uint64_t ring_dropped;
-	int64_t overrun_window_ns; /* start of the current one-second overrun summary */
-	uint64_t overruns_logged, overruns_pending, skipped_pending;
-	/*
-	 * The shutdown's stop or hold sent to a driven motor (RMD_EV_SAFE_ACTION
-	 * with b = 1) ahead of its SAFE, which then names it; -1: none
-	 */
-	int shutdown_sent;
+	struct rmdd_event_notes notes; /* what events.c's rows note between events */
 };
 
 /* Set up (no thread yet).  Returns 0 or -errno. */
