@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: MIT
 /*
  * What rmdd says of the rt loop's events (rmd/state.h enum rmd_event_kind),
- * one row per kind (rows[], at the end): the line the monitor logs for it
- * (level and text), as src/sim/sim_params.c holds one row per parameter.
- * A new kind is a row here: the build refuses a table shorter than the
- * enum.
+ * one row per kind (rows[], at the end), as src/sim/sim_params.c holds one
+ * row per parameter: the line the monitor logs for it (level and text),
+ * its line in an incident's summary (incidents.c), and whether it starts
+ * an incident and under which name.  A new kind is its row here: the
+ * build refuses a table shorter than the enum.
  *
  * A few rows keep notes between events, in the monitor's struct
  * rmdd_event_notes: the shutdown's stop or hold is said in the SAFE line
@@ -65,7 +66,11 @@ static double cdeg_lo(int64_t b)
 	return (double)(int32_t)(uint32_t)b / 100.0;
 }
 
-void rmdd_reboot_text(const struct rmd_event *e, char *buf, size_t len)
+/*
+ * What an RMD_EV_REBOOT says and the signal that saw it, in a few words:
+ * "rebooted (runtime 3 ms, it would have run at least 5 ms: 0xB1)".
+ */
+static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
 {
 	switch ((enum rmd_reboot_report)e->a) {
 	case RMD_REBOOT_BY_RUNTIME:
@@ -192,6 +197,24 @@ static int motor_state_line(const struct ev *v, char *buf, size_t len)
 	return 0;
 }
 
+static void motor_state_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: %s -> %s", v->ctx, rmdd_lifecycle_name((unsigned)v->e->a),
+		 rmdd_lifecycle_name((unsigned)v->e->b));
+}
+
+/* A motor lost, faulted or made safe; one missing at bring-up is the report's, not an incident. */
+static const char *motor_state_incident(const struct ev *v)
+{
+	if (v->e->b == RMD_LC_LOST && v->e->a != RMD_LC_PROBE)
+		return "lost";
+	if (v->e->b == RMD_LC_FAULT)
+		return "fault";
+	if (v->e->b == RMD_LC_SAFE)
+		return "safe";
+	return NULL;
+}
+
 /* ---- RMD_EV_MOTOR_ERROR ---------------------------------------------------------- */
 
 static int motor_error_line(const struct ev *v, char *buf, size_t len)
@@ -223,6 +246,16 @@ static int motor_error_line(const struct ev *v, char *buf, size_t len)
 		   n ? list : "unknown bits");
 }
 
+static void motor_error_text(const struct ev *v, char *buf, size_t len)
+{
+	if (v->e->b == RMD_MOTOR_CMD_COMM_LOST)
+		snprintf(buf, len, "%s: 0xF1, its comm-loss protection tripped", v->ctx);
+	else if (v->e->a)
+		snprintf(buf, len, "%s: error flags 0x%04X", v->ctx, (unsigned)(uint16_t)v->e->a);
+	else
+		snprintf(buf, len, "%s: error flags cleared", v->ctx);
+}
+
 /* ---- RMD_EV_BUS_STATE ------------------------------------------------------------ */
 
 static int bus_state_line(const struct ev *v, char *buf, size_t len)
@@ -249,6 +282,17 @@ static int bus_state_line(const struct ev *v, char *buf, size_t len)
 			   v->bus);
 	}
 	return 0;
+}
+
+static void bus_state_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: bus %s", v->bus, rmd_bus_state_name((enum rmd_bus_state)v->e->a));
+}
+
+/* A bus leaving error-active. */
+static const char *bus_state_incident(const struct ev *v)
+{
+	return v->e->a == RMD_BUS_ACTIVE ? NULL : "bus";
 }
 
 /* ---- RMD_EV_BUS_FLUSH ------------------------------------------------------------ */
@@ -299,6 +343,12 @@ static int bus_flush_line(const struct ev *v, char *buf, size_t len)
 		   v->bus, strerror((int)-e->a), frames, motors, advice);
 }
 
+static void bus_flush_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: queued frames %s", v->bus,
+		 v->e->a ? "could not be dropped" : "dropped");
+}
+
 /* ---- RMD_EV_OVERRUN -------------------------------------------------------------- */
 
 /* The first of each second now, the rest summed up by rmdd_event_overruns(). */
@@ -336,6 +386,25 @@ int rmdd_event_overruns(struct rmdd_event_notes *n, int64_t now, char *buf, size
 	return level;
 }
 
+static void overrun_text(const struct ev *v, char *buf, size_t len)
+{
+	const struct rmd_event *e = v->e;
+
+	if (e->b > 0 && e->b < e->a)
+		snprintf(buf, len,
+			 "rt loop: overrun, %" PRId64 " period(s) skipped, at most %" PRId64
+			 " at once",
+			 e->a, e->b);
+	else
+		snprintf(buf, len, "rt loop: overrun, %" PRId64 " period(s) skipped", e->a);
+}
+
+/* An overrun of incidents.overrun_burst periods at once. */
+static const char *overrun_incident(const struct ev *v)
+{
+	return v->e->b < (int64_t)v->cfg->incidents.overrun_burst ? NULL : "overrun";
+}
+
 /* ---- RMD_EV_WATCHDOG ------------------------------------------------------------- */
 
 static int watchdog_line(const struct ev *v, char *buf, size_t len)
@@ -359,6 +428,19 @@ static int watchdog_line(const struct ev *v, char *buf, size_t len)
 	return 0;
 }
 
+static void watchdog_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "host watchdog: %s",
+		 v->e->a == RMD_WD_TRIPPED ? "tripped (no command in time)" :
+		 v->e->a == RMD_WD_OK	   ? "ok (commands arrive)" :
+					     "idle");
+}
+
+static const char *watchdog_incident(const struct ev *v)
+{
+	return v->e->a == RMD_WD_TRIPPED ? "watchdog" : NULL;
+}
+
 /* ---- RMD_EV_SAFE_ACTION ---------------------------------------------------------- */
 
 /* The shutdown's (b = 1) is noted: its SAFE line, next, says it. */
@@ -372,12 +454,30 @@ static int safe_action_line(const struct ev *v, char *buf, size_t len)
 		   rmd_safe_action_name((enum rmd_safe_action)v->e->a));
 }
 
+static void safe_action_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: %s %s sent", v->ctx, v->e->b == 1 ? "shutdown:" : "safe action",
+		 rmd_safe_action_name((enum rmd_safe_action)v->e->a));
+}
+
+/* The shutdown's stop or hold is not a safety event. */
+static const char *safe_action_incident(const struct ev *v)
+{
+	return v->e->b == 1 ? NULL : "safe";
+}
+
 /* ---- RMD_EV_SEND_FAILED ---------------------------------------------------------- */
 
 static int send_failed_line(const struct ev *v, char *buf, size_t len)
 {
 	return say(buf, len, 4, "%s: send failed (%s): %" PRId64 " frame(s) not sent", v->bus,
 		   v->e->a ? strerror((int)-v->e->a) : "queue full", v->e->b);
+}
+
+static void send_failed_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: send failed (%s), %" PRId64 " frame(s) not sent", v->bus,
+		 v->e->a ? strerror((int)-v->e->a) : "queue full", v->e->b);
 }
 
 /* ---- RMD_EV_UNEXPECTED ----------------------------------------------------------- */
@@ -392,6 +492,11 @@ static int unexpected_line(const struct ev *v, char *buf, size_t len)
 			   " (neither a reply nor a report; at most one such line a second)",
 			   v->bus, (uint64_t)e->a, (uint64_t)e->b);
 	return say(buf, len, 5, "%s: unexpected empty frame 0x%03" PRIX64, v->bus, (uint64_t)e->a);
+}
+
+static void unexpected_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: unexpected frame 0x%03" PRIX64, v->bus, (uint64_t)v->e->a);
 }
 
 /* ---- RMD_EV_RT ------------------------------------------------------------------- */
@@ -455,6 +560,11 @@ int rmdd_event_rt_lines(struct rmdd_event_notes *n, char *buf, size_t len)
 		   what);
 }
 
+static void rt_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "rt loop: real-time request %" PRId64 " refused", v->e->b);
+}
+
 /* ---- RMD_EV_COMM_LOSS ------------------------------------------------------------ */
 
 /* Armed by the loop (info), or not, and an enable refused (warning). */
@@ -480,6 +590,28 @@ static int comm_loss_line(const struct ev *v, char *buf, size_t len)
 		   v->ctx, why);
 }
 
+/* enum rmd_comm_loss in a few words. */
+static const char *comm_loss_words(int64_t cl)
+{
+	static const char *const names[RMD_CL_COUNT] = {
+		[RMD_CL_PENDING] = "pending",
+		[RMD_CL_ARMED] = "armed (echo verified)",
+		[RMD_CL_ARMED_ZEROS] = "armed (answered zeros)",
+		[RMD_CL_NO_ANSWER] = "not set: no answer",
+		[RMD_CL_DIFFERS] = "not set: answered another time",
+		[RMD_CL_OFF] = "off by config",
+		[RMD_CL_UNSUPPORTED] = "unsupported (V2)",
+	};
+
+	return cl >= 0 && cl < RMD_CL_COUNT ? names[cl] : "?";
+}
+
+static void comm_loss_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: comm-loss protection %s%s", v->ctx, comm_loss_words(v->e->a),
+		 v->e->b ? ", enable refused" : "");
+}
+
 /* ---- RMD_EV_LATE ----------------------------------------------------------------- */
 
 static int late_line(const struct ev *v, char *buf, size_t len)
@@ -496,6 +628,12 @@ static int late_line(const struct ev *v, char *buf, size_t len)
 		   "%s: the answer to 0x%02" PRIX64 " came %.1f ms after it was sent, after rmdd "
 		   "gave it up: counted late, not used (at most one such line a second)",
 		   v->ctx, (uint64_t)e->b, (double)e->a / 1e6);
+}
+
+static void late_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: a late answer, %.1f ms after its request", v->ctx,
+		 (double)v->e->a / 1e6);
 }
 
 /* ---- RMD_EV_POSITION, RMD_EV_POS_REFUSED, RMD_EV_HOME_REFUSED -------------------- */
@@ -583,6 +721,27 @@ static int home_refused_line(const struct ev *v, char *buf, size_t len)
 			   "it has not reported a position since it (re)appeared; try again");
 }
 
+static void position_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: position %s", v->ctx,
+		 rmd_pos_trusted((unsigned)v->e->a) ? "certain" : "uncertain");
+}
+
+static void pos_refused_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: %s refused, position uncertain", v->ctx,
+		 rmd_mode_name((enum rmd_mode)v->e->b));
+}
+
+static void home_refused_text(const struct ev *v, char *buf, size_t len)
+{
+	if (v->e->a == RMD_HOME_OUTSIDE)
+		snprintf(buf, len, "%s: homing at %g rad refused, outside its travel", v->ctx,
+			 (double)v->e->b / 1e6);
+	else
+		snprintf(buf, len, "%s: homing refused", v->ctx);
+}
+
 /* ---- RMD_EV_DIALECT -------------------------------------------------------------- */
 
 /*
@@ -618,6 +777,12 @@ static int dialect_line(const struct ev *v, char *buf, size_t len)
 		   v->ctx, how, rmd_proto_key(c->proto), key);
 }
 
+static void dialect_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: left out, its firmware (%" PRId64 ") is %s", v->ctx, v->e->a,
+		 rmd_proto_key((enum rmd_proto)v->e->b));
+}
+
 /* ---- RMD_EV_STRAY ---------------------------------------------------------------- */
 
 static int stray_line(const struct ev *v, char *buf, size_t len)
@@ -630,6 +795,21 @@ static int stray_line(const struct ev *v, char *buf, size_t len)
 		"--check-config says how many); add it to the file, take it off the bus, or turn "
 		"its CAN-ID filter on (0x20 index 2 = 1) and set can_id_filter: true for the bus",
 		v->bus, v->e->b, (uint64_t)v->e->a, v->bus);
+}
+
+static void stray_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len,
+		 "%s: motor %" PRId64 ", not in the configuration, answered on 0x%03" PRIX64
+		 ": no 0x280 frame from now on",
+		 v->bus, v->e->b, (uint64_t)v->e->a);
+}
+
+/* It may have taken a 0x280 frame for its own command. */
+static const char *stray_incident(const struct ev *v)
+{
+	(void)v;
+	return "stray";
 }
 
 /* ---- RMD_EV_MIT_SCALING, RMD_EV_MIT_REFUSED -------------------------------------- */
@@ -668,6 +848,17 @@ static int mit_scaling_line(const struct ev *v, char *buf, size_t len)
 		   v->ctx, why);
 }
 
+static void mit_scaling_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: left out, its MIT scaling undecided (firmware %" PRId64 ")", v->ctx,
+		 v->e->a);
+}
+
+static void mit_refused_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: MIT refused, its MIT scaling not decided", v->ctx);
+}
+
 /* ---- RMD_EV_REBOOT --------------------------------------------------------------- */
 
 /*
@@ -678,7 +869,7 @@ static int reboot_line(const struct ev *v, char *buf, size_t len)
 {
 	char what[192];
 
-	rmdd_reboot_text(v->e, what, sizeof(what));
+	reboot_text(v->e, what, sizeof(what));
 	if (v->e->a == RMD_REBOOT_NO_CHECK || v->e->a == RMD_REBOOT_UNTOLD)
 		return say(buf, len, 4, "%s: %s", v->ctx, what);
 	return say(buf, len, 4,
@@ -687,46 +878,83 @@ static int reboot_line(const struct ev *v, char *buf, size_t len)
 		   v->ctx, what);
 }
 
+static void reboot_summary(const struct ev *v, char *buf, size_t len)
+{
+	char what[160];
+
+	reboot_text(v->e, what, sizeof(what));
+	snprintf(buf, len, "%s: %s", v->ctx, what);
+}
+
 /* ---- the table ------------------------------------------------------------------- */
 
 struct row {
 	const char *name;
 	/* The journal line: its level (0: none) and text; stateful rows note into v->notes. */
 	int (*journal)(const struct ev *v, char *buf, size_t len);
+	/* Its line in an incident's summary ("what happened"), in a few words. */
+	void (*summary)(const struct ev *v, char *buf, size_t len);
+	/* Whether it starts an incident: the recording's kind ("lost"), or NULL; NULL: never. */
+	const char *(*incident)(const struct ev *v);
 };
 
-#define ROW(kind, j) [RMD_EV_##kind] = { .name = #kind, .journal = j }
+#define ROW(kind, j, s, i) \
+	[RMD_EV_##kind] = { .name = #kind, .journal = j, .summary = s, .incident = i }
 
 static const struct row rows[] = {
-	ROW(MOTOR_STATE, motor_state_line),
-	ROW(MOTOR_ERROR, motor_error_line),
-	ROW(BUS_STATE, bus_state_line),
-	ROW(OVERRUN, overrun_line),
-	ROW(WATCHDOG, watchdog_line),
-	ROW(SAFE_ACTION, safe_action_line),
-	ROW(SEND_FAILED, send_failed_line),
-	ROW(UNEXPECTED, unexpected_line),
-	ROW(RT, rt_line),
-	ROW(COMM_LOSS, comm_loss_line),
-	ROW(LATE, late_line),
-	ROW(POSITION, position_line),
-	ROW(POS_REFUSED, pos_refused_line),
-	ROW(HOME_REFUSED, home_refused_line),
-	ROW(DIALECT, dialect_line),
-	ROW(STRAY, stray_line),
-	ROW(MIT_SCALING, mit_scaling_line),
-	ROW(MIT_REFUSED, mit_refused_line),
-	ROW(REBOOT, reboot_line),
-	ROW(BUS_FLUSH, bus_flush_line),
+	ROW(MOTOR_STATE, motor_state_line, motor_state_text, motor_state_incident),
+	/* the FAULT or LOST that follows is the incident */
+	ROW(MOTOR_ERROR, motor_error_line, motor_error_text, NULL),
+	ROW(BUS_STATE, bus_state_line, bus_state_text, bus_state_incident),
+	ROW(OVERRUN, overrun_line, overrun_text, overrun_incident),
+	ROW(WATCHDOG, watchdog_line, watchdog_text, watchdog_incident),
+	ROW(SAFE_ACTION, safe_action_line, safe_action_text, safe_action_incident),
+	ROW(SEND_FAILED, send_failed_line, send_failed_text, NULL),
+	ROW(UNEXPECTED, unexpected_line, unexpected_text, NULL),
+	ROW(RT, rt_line, rt_text, NULL),
+	ROW(COMM_LOSS, comm_loss_line, comm_loss_text, NULL),
+	ROW(LATE, late_line, late_text, NULL),
+	ROW(POSITION, position_line, position_text, NULL),
+	ROW(POS_REFUSED, pos_refused_line, pos_refused_text, NULL),
+	ROW(HOME_REFUSED, home_refused_line, home_refused_text, NULL),
+	ROW(DIALECT, dialect_line, dialect_text, NULL),
+	ROW(STRAY, stray_line, stray_text, stray_incident),
+	ROW(MIT_SCALING, mit_scaling_line, mit_scaling_text, NULL),
+	ROW(MIT_REFUSED, mit_refused_line, mit_refused_text, NULL),
+	/* the LOST a reboot makes is the incident */
+	ROW(REBOOT, reboot_line, reboot_summary, NULL),
+	/* its RMD_EV_BUS_STATE is the incident */
+	ROW(BUS_FLUSH, bus_flush_line, bus_flush_text, NULL),
 };
 
 _Static_assert(sizeof(rows) / sizeof(rows[0]) == RMD_EV_COUNT,
 	       "one row per enum rmd_event_kind (rmd/state.h)");
 
-/* Kind k's row; NULL for a kind the table has no row for. */
+/* Kind k's row; NULL for a kind the table has no (whole) row for. */
 static const struct row *row_of(unsigned k)
 {
-	return k < RMD_EV_COUNT && rows[k].journal ? &rows[k] : NULL;
+	return k < RMD_EV_COUNT && rows[k].journal && rows[k].summary ? &rows[k] : NULL;
+}
+
+/* What e is worded from, into *v; ctx: CTX_LEN bytes for its motor's context. */
+#define CTX_LEN 96
+static void ev_init(struct ev *v, const struct rmd_config *cfg, const struct rmd_event *e,
+		    struct rmdd_event_notes *n, char *ctx)
+{
+	rmdd_motor_ctx(cfg, e->motor, ctx, CTX_LEN);
+	*v = (struct ev){
+		.cfg = cfg,
+		.e = e,
+		.ctx = ctx,
+		.bus = rmdd_bus_name(cfg, e->bus),
+		.notes = n,
+	};
+}
+
+/* A kind without a row, in the journal (debug) and in a summary. */
+static int no_row(const struct rmd_event *e, char *buf, size_t len)
+{
+	return say(buf, len, 7, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a, e->b);
 }
 
 const char *rmdd_event_name(unsigned kind)
@@ -746,18 +974,45 @@ void rmdd_event_notes_init(struct rmdd_event_notes *n, const struct rmd_config *
 int rmdd_event_journal(struct rmdd_event_notes *n, const struct rmd_event *e, char *buf, size_t len)
 {
 	const struct row *r = row_of(e->kind);
-	char ctx[96];
-	const struct ev v = {
-		.cfg = n->cfg,
-		.e = e,
-		.ctx = ctx,
-		.bus = rmdd_bus_name(n->cfg, e->bus),
-		.notes = n,
-	};
+	char ctx[CTX_LEN];
+	struct ev v;
 
 	if (!r)
-		return say(buf, len, 7, "event %u (a %" PRId64 ", b %" PRId64 ")", e->kind, e->a,
-			   e->b);
-	rmdd_motor_ctx(n->cfg, e->motor, ctx, sizeof(ctx));
+		return no_row(e, buf, len);
+	ev_init(&v, n->cfg, e, n, ctx);
 	return r->journal(&v, buf, len);
+}
+
+void rmdd_event_summary(const struct rmd_config *cfg, const struct rmd_event *e, char *buf,
+			size_t len)
+{
+	const struct row *r = row_of(e->kind);
+	char ctx[CTX_LEN];
+	struct ev v;
+
+	if (!r) {
+		no_row(e, buf, len);
+		return;
+	}
+	ev_init(&v, cfg, e, NULL, ctx);
+	r->summary(&v, buf, len);
+}
+
+bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e, char *what,
+			size_t len, const char **kind)
+{
+	const struct row *r = row_of(e->kind);
+	const char *k;
+	char ctx[CTX_LEN];
+	struct ev v;
+
+	if (!r || !r->incident)
+		return false;
+	ev_init(&v, cfg, e, NULL, ctx);
+	k = r->incident(&v);
+	if (!k)
+		return false;
+	*kind = k;
+	r->summary(&v, what, len);
+	return true;
 }

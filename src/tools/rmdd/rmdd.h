@@ -63,12 +63,6 @@ void rmdd_motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t 
 /* Bus b's name, "?" when out of range. */
 const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
 
-/*
- * What an RMD_EV_REBOOT says and the signal that saw it, in a few words:
- * "rebooted (runtime 3 ms, it would have run at least 5 ms: 0xB1)".
- */
-void rmdd_reboot_text(const struct rmd_event *e, char *buf, size_t len);
-
 /* A journal line's room: the logger's (tools/common/log.c), so none is cut shorter. */
 #define RMDD_EVENT_LINE_LEN 2048
 
@@ -115,6 +109,20 @@ int rmdd_event_overruns(struct rmdd_event_notes *n, int64_t now, char *buf, size
  * guarantees.  Level, or 0: no more.
  */
 int rmdd_event_rt_lines(struct rmdd_event_notes *n, char *buf, size_t len);
+
+/* Event e's line in an incident's summary, in a few words, by its kind's row. */
+void rmdd_event_summary(const struct rmd_config *cfg, const struct rmd_event *e, char *buf,
+			size_t len);
+
+/*
+ * Whether loop event e is a safety event that makes an incident (a motor
+ * lost, faulted or made safe, a watchdog trip, a safe action, an overrun
+ * of incidents.overrun_burst periods, a bus leaving error-active, a motor
+ * the configuration does not list), by its kind's row; its summary line
+ * into what and its short name into *kind (untouched when not).
+ */
+bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e, char *what,
+			size_t len, const char **kind);
 
 /* Kind's name in its row ("MOTOR_STATE"); NULL: a kind the table has no row for. */
 const char *rmdd_event_name(unsigned kind);
@@ -182,15 +190,6 @@ void rmdd_incidents_fini(struct rmdd_incidents *in);
  */
 void rmdd_incidents_trigger(struct rmdd_incidents *in, int64_t t_ns, const char *kind,
 			    const char *what, bool outside);
-
-/*
- * Whether loop event e is a safety event that makes an incident (a motor
- * lost, faulted or made safe, a watchdog trip, a safe action, an overrun
- * of incidents.overrun_burst periods, a bus leaving error-active); its
- * description into what and its short name into *kind.
- */
-bool rmdd_incident_kind(const struct rmd_config *cfg, const struct rmd_event *e, char *what,
-			size_t len, const char **kind);
 
 /* Where recordings go: incidents.dir, else $STATE_DIRECTORY/incidents, $XDG_STATE_HOME/rmdd/... */
 void rmdd_incidents_dir(const struct rmd_config *cfg, char *out, size_t len);
