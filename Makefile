@@ -329,6 +329,13 @@ $(BUILD)/tests/unit/test_sim_params: $(BUILD)/tests/unit/test_sim_params.o \
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)
 
+# test_rmdd_events holds rmdd's wording of the loop's events (src/tools/rmdd/events.c) through
+# its monitor: the daemon's parts, but its main().
+$(BUILD)/tests/unit/test_rmdd_events: $(BUILD)/tests/unit/test_rmdd_events.o \
+		$(filter-out %/rmdd/main.o,$(RMDD_SRCS:%.c=$(BUILD)/%.o)) $(HARNESS_OBJS) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)
+
 # STYLE.md: suites are linked with malloc & co. wrapped, so that
 # tests/harness/alloc_count.c can count them (the rt cycle allocates nothing).
 $(BUILD)/tests/%: override LDFLAGS += -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free

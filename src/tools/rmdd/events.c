@@ -4,8 +4,9 @@
  * one row per kind (rows[], at the end), as src/sim/sim_params.c holds one
  * row per parameter: the line the monitor logs for it (level and text),
  * its line in an incident's summary (incidents.c), and whether it starts
- * an incident and under which name.  A new kind is its row here: the
- * build refuses a table shorter than the enum.
+ * an incident and under which name.  A new kind is its row here and its
+ * lines in tests/unit/test_rmdd_events.c: the build refuses a table
+ * shorter than the enum, that test a kind without a row.
  *
  * A few rows keep notes between events, in the monitor's struct
  * rmdd_event_notes: the shutdown's stop or hold is said in the SAFE line
