@@ -33,6 +33,8 @@
 #include "rmdd.h"
 #include "tools/common/names.h"
 
+/* ---- names ------------------------------------------------------------------------ */
+
 const char *rmdd_lifecycle_name(unsigned lc)
 {
 	return tool_lifecycle_name(lc);
@@ -56,58 +58,6 @@ const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b)
 	return b < cfg->n_buses ? cfg->buses[b].name : "?";
 }
 
-/* An event's b of int32 of 0.01 deg, high and low half, in degrees. */
-static double cdeg_hi(int64_t b)
-{
-	return (double)(int32_t)(uint32_t)((uint64_t)b >> 32) / 100.0;
-}
-
-static double cdeg_lo(int64_t b)
-{
-	return (double)(int32_t)(uint32_t)b / 100.0;
-}
-
-/*
- * What an RMD_EV_REBOOT says and the signal that saw it, in a few words:
- * "rebooted (runtime 3 ms, it would have run at least 5 ms: 0xB1)".
- */
-static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
-{
-	switch ((enum rmd_reboot_report)e->a) {
-	case RMD_REBOOT_BY_RUNTIME:
-		snprintf(buf, len,
-			 "rebooted (runtime %" PRIu32 " ms, it would have run at least %" PRIu32
-			 " ms: 0xB1)",
-			 (uint32_t)((uint64_t)e->b >> 32), (uint32_t)e->b);
-		break;
-	case RMD_REBOOT_BY_TURNS:
-		snprintf(buf, len,
-			 "rebooted (its multi-turn angle %.2f deg, rmdd's count of its encoder "
-			 "%.2f deg: its count lost, 0x92)",
-			 cdeg_hi(e->b), cdeg_lo(e->b));
-		break;
-	case RMD_REBOOT_BY_BRAKE:
-		snprintf(buf, len,
-			 "rebooted (its brake locked after it reported it released: 0x9A)");
-		break;
-	case RMD_REBOOT_NO_CHECK:
-		snprintf(buf, len,
-			 "does not answer 0x%02" PRIX64
-			 ": a short power cycle is seen only by its brake (0x9A) from now on",
-			 (uint64_t)e->b);
-		break;
-	case RMD_REBOOT_UNTOLD:
-		snprintf(buf, len,
-			 "whether it rebooted is untold: its answers to 0x%02" PRIX64
-			 " could not tell",
-			 (uint64_t)e->b);
-		break;
-	default:
-		snprintf(buf, len, "reboot check %" PRId64, e->a);
-		break;
-	}
-}
-
 /* ---- what a row words an event from ------------------------------------------ */
 
 struct ev {
@@ -115,7 +65,7 @@ struct ev {
 	const struct rmd_event *e;
 	const char *ctx;		/* its motor's rmdd_motor_ctx() */
 	const char *bus;		/* its bus's rmdd_bus_name() */
-	struct rmdd_event_notes *notes; /* the monitor's */
+	struct rmdd_event_notes *notes; /* the monitor's (NULL but for journal lines) */
 };
 
 /* Text into buf; the line's level back. */
@@ -228,8 +178,8 @@ static int motor_error_line(const struct ev *v, char *buf, size_t len)
 	enum rmd_proto proto = RMD_PROTO_V3;
 	size_t n, used = 0;
 
-	if (e->b ==
-	    RMD_MOTOR_CMD_COMM_LOST) /* docs/design.md: it heard nothing for its 0xB3 time */
+	/* docs/design.md: the motor heard nothing for its 0xB3 time */
+	if (e->b == RMD_MOTOR_CMD_COMM_LOST)
 		return say(buf, len, 4,
 			   "%s: its comm-loss protection tripped (0xF1): output off, brake locked; "
 			   "treated as lost",
@@ -639,16 +589,17 @@ static void late_text(const struct ev *v, char *buf, size_t len)
 
 /* ---- RMD_EV_POSITION, RMD_EV_POS_REFUSED, RMD_EV_HOME_REFUSED -------------------- */
 
-/*
- * Whether a motor's position can be trusted after it (re)appeared, or was
- * homed.  docs/faults.md "Position uncertain after power-off".
- */
+/* One rotor turn at the motor's output, in degrees (360 for a motor out of range). */
 static double turn_deg(const struct ev *v)
 {
 	return v->e->motor < v->cfg->n_motors ? 360.0 / v->cfg->motors[v->e->motor].gear_ratio :
 						360.0;
 }
 
+/*
+ * Whether a motor's position can be trusted after it (re)appeared, or was
+ * homed.  docs/faults.md "Position uncertain after power-off".
+ */
 static int position_line(const struct ev *v, char *buf, size_t len)
 {
 	const struct rmd_event *e = v->e;
@@ -861,6 +812,58 @@ static void mit_refused_text(const struct ev *v, char *buf, size_t len)
 }
 
 /* ---- RMD_EV_REBOOT --------------------------------------------------------------- */
+
+/* An event's b of int32 of 0.01 deg, high and low half, in degrees. */
+static double cdeg_hi(int64_t b)
+{
+	return (double)(int32_t)(uint32_t)((uint64_t)b >> 32) / 100.0;
+}
+
+static double cdeg_lo(int64_t b)
+{
+	return (double)(int32_t)(uint32_t)b / 100.0;
+}
+
+/*
+ * What an RMD_EV_REBOOT says and the signal that saw it, in a few words:
+ * "rebooted (runtime 3 ms, it would have run at least 5 ms: 0xB1)".
+ */
+static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
+{
+	switch ((enum rmd_reboot_report)e->a) {
+	case RMD_REBOOT_BY_RUNTIME:
+		snprintf(buf, len,
+			 "rebooted (runtime %" PRIu32 " ms, it would have run at least %" PRIu32
+			 " ms: 0xB1)",
+			 (uint32_t)((uint64_t)e->b >> 32), (uint32_t)e->b);
+		break;
+	case RMD_REBOOT_BY_TURNS:
+		snprintf(buf, len,
+			 "rebooted (its multi-turn angle %.2f deg, rmdd's count of its encoder "
+			 "%.2f deg: its count lost, 0x92)",
+			 cdeg_hi(e->b), cdeg_lo(e->b));
+		break;
+	case RMD_REBOOT_BY_BRAKE:
+		snprintf(buf, len,
+			 "rebooted (its brake locked after it reported it released: 0x9A)");
+		break;
+	case RMD_REBOOT_NO_CHECK:
+		snprintf(buf, len,
+			 "does not answer 0x%02" PRIX64
+			 ": a short power cycle is seen only by its brake (0x9A) from now on",
+			 (uint64_t)e->b);
+		break;
+	case RMD_REBOOT_UNTOLD:
+		snprintf(buf, len,
+			 "whether it rebooted is untold: its answers to 0x%02" PRIX64
+			 " could not tell",
+			 (uint64_t)e->b);
+		break;
+	default:
+		snprintf(buf, len, "reboot check %" PRId64, e->a);
+		break;
+	}
+}
 
 /*
  * A motor's reboot check (rmd/reboot.h): a reboot is lost and back at
