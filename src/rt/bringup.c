@@ -254,9 +254,11 @@ static void stop_found(struct rmd_loop *l, struct lmotor *lm)
 		struct rmd_msg msg = { .cmd = cmds[k] };
 		struct rmd_txn t;
 
-		if (probe_xfer(l, lm, &msg, &t) == 0 && t.rep.f.len == t.req.len &&
-		    !memcmp(t.rep.f.data, t.req.data, t.req.len))
-			loop_owed_ack(l, lm, cmds[k], loop_now(l));
+		if (probe_xfer(l, lm, &msg, &t) == 0)
+			loop_owed_answer(l, lm, cmds[k], lm->owed.seq,
+					 t.rep.f.len == t.req.len &&
+						 !memcmp(t.rep.f.data, t.req.data, t.req.len),
+					 loop_now(l));
 	}
 }
 

@@ -79,20 +79,9 @@ static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
 /* Owed frames */
 
 /*
- * A motor is READY only after it echoed output off (0x80, V3 §2.15 / V2
- * §3.34) and brake locked (0x78, V3 §2.27 / V2 §3.51), and a FAULT motor
- * gets output off (and the brake, rmd_config_fault_brakes()) the same way: those
- * frames are *owed* (lm->owe) from the entry of STOPPING or FAULT on.
- * Each control slot of the motor carries one of them (0x80 and 0x78 in
- * turn) until the motor's echo of it comes: a reply on its own reply
- * identifier, matched to that request by the loop's matching (loop_rx.c),
- * repeating it byte for byte, to a request sent after the debt began
- * (an older 0x80 proves nothing about the setpoints that followed it).
- * An echo a motor whose comm-loss protection tripped gives without
- * executing the frame is still true: the trip cut its output and locked
- * its brake (V3 §2.30.1).  Bounded: OWED_SENDS_MAX sends without the
- * debt paid and the motor is LOST (it does not do what rmdd asks); every
- * send after a frame's first is counted (owed_resends).
+ * rmd/proc_owed.h decides what a motor owes and when it paid; here its
+ * outcomes are applied: a STOPPING motor that owes nothing more is READY,
+ * one that leaves its debt unpaid for RMD_OWED_SENDS_MAX sends is LOST.
  */
 
 /* lm owes the frames of `bits` from now on (those its dialect has).  rt-safe. */
@@ -100,66 +89,65 @@ static void owe(struct lmotor *lm, unsigned bits)
 {
 	struct rmd_frame f;
 
-	if ((bits & OWE_OFF) && rmd_motor_encode_cmd(&lm->m, 0x80, &f) < 0)
-		bits &= ~(unsigned)OWE_OFF;
-	if ((bits & OWE_BRAKE) && rmd_motor_encode_cmd(&lm->m, 0x78, &f) < 0)
-		bits &= ~(unsigned)OWE_BRAKE;
-	lm->owe = (uint8_t)bits;
-	lm->owe_sent = 0;
-	lm->owe_sends = 0;
-	lm->owe_seq = lm->seq; /* the requests booked from now on */
+	if ((bits & RMD_OWE_OFF) && rmd_motor_encode_cmd(&lm->m, 0x80, &f) < 0)
+		bits &= ~(unsigned)RMD_OWE_OFF;
+	if ((bits & RMD_OWE_BRAKE) && rmd_motor_encode_cmd(&lm->m, 0x78, &f) < 0)
+		bits &= ~(unsigned)RMD_OWE_BRAKE;
+	rmd_owed_begin(&lm->owed, bits, lm->seq); /* the requests booked from now on */
 }
 
 /* The owed frame lm's next control slot carries, if it owes one.  rt-safe. */
 bool loop_owed_frame(const struct lmotor *lm, struct rmd_frame *f)
 {
-	unsigned bit = lm->owe;
+	uint8_t cmd = rmd_owed_next(&lm->owed);
 
-	if (!bit)
-		return false;
-	if (bit == (OWE_OFF | OWE_BRAKE))
-		bit = lm->owe_sends % 2 ? OWE_BRAKE : OWE_OFF;
-	return rmd_motor_encode_cmd(&lm->m, bit == OWE_OFF ? 0x80 : 0x78, f) == 0;
+	return cmd && rmd_motor_encode_cmd(&lm->m, cmd, f) == 0;
 }
 
 /* An owed frame (command byte cmd) of lm was taken by its bus.  rt-safe. */
 void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd)
 {
-	unsigned bit = cmd == 0x80 ? OWE_OFF : OWE_BRAKE;
-
-	lm->owe_sends++;
-	if (lm->owe_sent & bit)
+	if (rmd_owed_sent(&lm->owed, cmd))
 		l->cnt.owed_resends++;
-	lm->owe_sent |= (uint8_t)bit;
 }
 
 /*
  * A request of lm went unanswered, or an owed frame was answered with
- * other bytes than its own: after OWED_SENDS_MAX owed sends the motor is
- * LOST (loop_rx.c, while it drains or checks deadlines: never while a
+ * other bytes than its own: after RMD_OWED_SENDS_MAX owed sends the motor
+ * is LOST (loop_rx.c, while it drains or checks deadlines: never while a
  * send is booked, whose one-shots a lifecycle change would reorder).
  * rt-safe.
  */
 void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	if (lm->owe && lm->owe_sends >= OWED_SENDS_MAX && lm->st->lifecycle != RMD_LC_LOST)
+	if (rmd_owed_exhausted(&lm->owed) && lm->st->lifecycle != RMD_LC_LOST)
 		loop_motor_lost(l, lm, now);
 }
 
 /*
- * lm echoed the owed 0x80 or 0x78 (loop_rx.c; bring-up's own for its
- * frames): that debt is paid, and a STOPPING motor that owes nothing more
- * is READY.  rt-safe.
+ * lm answered its request req_seq, command byte cmd, repeating it or not
+ * (loop_rx.c; bring-up's own for its frames): the debt's outcome applied.
+ * True when the answer was an owed frame's echo (it carries no values).
+ * rt-safe.
  */
-void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now)
+bool loop_owed_answer(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, uint64_t req_seq,
+		      bool repeats, int64_t now)
 {
-	unsigned bit = cmd == 0x80 ? OWE_OFF : cmd == 0x78 ? OWE_BRAKE : 0;
-
-	if (!(lm->owe & bit))
-		return;
-	lm->owe &= (uint8_t)~bit;
-	if (!lm->owe && lm->st->lifecycle == RMD_LC_STOPPING)
-		loop_enter(l, lm, RMD_LC_READY, now);
+	switch (rmd_owed_answer(&lm->owed, cmd, req_seq, repeats)) {
+	case RMD_OWED_NONE:
+		return false;
+	case RMD_OWED_UNPAID:
+		loop_owed_unpaid(l, lm, now);
+		return false;
+	case RMD_OWED_CLEAR:
+		if (lm->st->lifecycle == RMD_LC_STOPPING)
+			loop_enter(l, lm, RMD_LC_READY, now);
+		return true;
+	case RMD_OWED_PAID:
+	case RMD_OWED_AGAIN:
+		return true;
+	}
+	return false;
 }
 
 /*
@@ -203,7 +191,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	enum rmd_lifecycle old = (enum rmd_lifecycle)lm->st->lifecycle;
 
 	/* READY is STOPPING's debt paid, never a jump */
-	if (lc == RMD_LC_READY && (old != RMD_LC_STOPPING || lm->owe))
+	if (lc == RMD_LC_READY && (old != RMD_LC_STOPPING || lm->owed.bits))
 		lc = RMD_LC_STOPPING;
 	if (old == lc)
 		return;
@@ -211,7 +199,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	if (lc != RMD_LC_READY) {
 		/* READY keeps what waits: STOPPING queued nothing but a 0xB3 round's writes */
 		loop_frames_drop(lm);
-		lm->owe = 0;
+		rmd_owed_drop(&lm->owed);
 	}
 	/*
 	 * The events in the order things happened (issue 20.11): the error
@@ -234,7 +222,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		lm->need_edge = true; /* the host watchdog's too: the latch (rmd/loop.h) */
 		break;
 	case RMD_LC_STOPPING:
-		owe(lm, OWE_OFF | OWE_BRAKE);
+		owe(lm, RMD_OWE_OFF | RMD_OWE_BRAKE);
 		if (old != RMD_LC_FAULT) /* FAULT on the way keeps where it came from */
 			lm->stop_from = (uint8_t)old;
 		if (old == RMD_LC_PROBE)
@@ -274,7 +262,8 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			/* V2: the encoder cannot tell what turned while it was silent */
 			rmd_motor_forget_v2_reference(&lm->m);
 		} else {
-			owe(lm, OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? OWE_BRAKE : 0));
+			owe(lm,
+			    RMD_OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? RMD_OWE_BRAKE : 0));
 		}
 		break;
 	case RMD_LC_PROBE:

@@ -698,7 +698,7 @@ static void queue_stop(struct rmd_loop *l, int driven, uint8_t cmd, bool brake)
 			for (int j = 0; j < n; j++)
 				loop_push_tx(lb, &f[j], loop_idx(l, lm), REQ_STATUS);
 			/* V3 §2.27 / V2 §3.51 brake locked */
-			if ((brake || (lm->owe & OWE_BRAKE)) &&
+			if ((brake || (lm->owed.bits & RMD_OWE_BRAKE)) &&
 			    rmd_motor_encode_cmd(&lm->m, 0x78, &f[0]) == 0)
 				loop_push_tx(lb, &f[0], loop_idx(l, lm), REQ_STATUS);
 		}

@@ -30,6 +30,7 @@
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
+#include "rmd/proc_owed.h"
 #include "rmd/reboot.h"
 
 #define OUTSTANDING 8 /* requests in flight per motor */
@@ -53,13 +54,6 @@
 #define STOP_STEP_NS 200000	  /* ... this far apart */
 #define ARM_TRIES 3		  /* 0xB3 writes of one round in the loop */
 #define ARM_ROUND_NS RMD_NS_PER_S /* a refused enable starts a new round this long after */
-#define OWED_SENDS_MAX 16	  /* owed 0x80/0x78 sends unechoed: the motor is lost */
-
-/* Frames a motor owes an echo of (struct lmotor.owe; lifecycle.c "Owed frames"). */
-enum {
-	OWE_OFF = 1u << 0,   /* 0x80 output off, V3 §2.15 / V2 §3.34 */
-	OWE_BRAKE = 1u << 1, /* 0x78 brake locked, V3 §2.27 / V2 §3.51 */
-};
 
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {
@@ -121,16 +115,10 @@ struct lmotor {
 	 * n_oneshot and owe: loop_tx.c add_control() asks all three at once.
 	 */
 	uint8_t reports_off;
-	/*
-	 * Owed frames (lifecycle.c "Owed frames"): OWE_* bits not yet echoed,
-	 * how many were sent, and the state STOPPING was entered from.
-	 */
-	uint8_t owe;
-	uint8_t owe_sent;  /* OWE_* bits sent at least once */
 	bool v2_ask_angle; /* V2 without its 0x92 reference: the last read asked 0x92 */
-	unsigned owe_sends;
-	uint64_t owe_seq;  /* an echo pays only for a request booked from this seq on */
-	uint8_t stop_from; /* enum rmd_lifecycle */
+	/* the frames it owes an echo of (rmd/proc_owed.h) */
+	struct rmd_owed owed;
+	uint8_t stop_from; /* enum rmd_lifecycle: the state STOPPING was entered from */
 	int64_t next_probe_ns;
 	/*
 	 * Missing at bring-up, so its firmware date was never checked against
@@ -507,7 +495,8 @@ void loop_watchdog(struct rmd_loop *l, int64_t now);
 void loop_comm_loss(struct rmd_loop *l, int64_t now);
 bool loop_owed_frame(const struct lmotor *lm, struct rmd_frame *f);
 void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd);
-void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now);
+bool loop_owed_answer(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, uint64_t req_seq,
+		      bool repeats, int64_t now);
 void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
 		    const struct rmd_frame *rep, int64_t now);

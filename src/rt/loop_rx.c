@@ -456,17 +456,10 @@ static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmoto
 						const struct outstanding *o,
 						const struct rmd_frame *f, int64_t now)
 {
-	uint8_t cmd = f->data[0];
-
-	if (!lm->owe || (cmd != 0x80 && cmd != 0x78) || o->seq < lm->owe_seq ||
-	    f->can_id > RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+	if (!lm->owed.bits || f->can_id > RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
 		return false;
-	if (!rmd_frame_repeats(o->data, false, f)) {
-		loop_owed_unpaid(l, lm, now); /* an answer, but not the echo */
-		return false;
-	}
-	loop_owed_ack(l, lm, cmd, now);
-	return true;
+	return loop_owed_answer(l, lm, f->data[0], o->seq, rmd_frame_repeats(o->data, false, f),
+				now);
 }
 
 /*

@@ -229,7 +229,7 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 	 * owed frames, a reboot check's read and one-shots first: an ENABLED
 	 * motor's brake release, the others' stops
 	 */
-	if (lm->n_oneshot || lm->reports_off || lm->owe || lm->rb.pending) {
+	if (lm->n_oneshot || lm->reports_off || lm->owed.bits || lm->rb.pending) {
 		push_due(l, lb, i, now);
 		return;
 	}
@@ -280,7 +280,7 @@ static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t 
 {
 	struct lmotor *lm = &l->mot[i];
 
-	if (__builtin_expect(lm->owe || lm->n_oneshot, 0)) {
+	if (__builtin_expect(lm->owed.bits || lm->n_oneshot, 0)) {
 		push_due(l, lb, i, now);
 		return;
 	}
@@ -323,8 +323,8 @@ static bool batch_allowed(const struct rmd_loop *l, const struct lbus *lb, int64
 		const struct lmotor *lm = &l->mot[pb->motors[__builtin_ctz(m)]];
 
 		if (lm->st->lifecycle != RMD_LC_ENABLED || now < lm->st->release_until_ns ||
-		    lm->sp.mode != RMD_MODE_TORQUE || lm->owe || lm->n_oneshot || lm->reports_off ||
-		    lm->rb.pending)
+		    lm->sp.mode != RMD_MODE_TORQUE || lm->owed.bits || lm->n_oneshot ||
+		    lm->reports_off || lm->rb.pending)
 			return false;
 	}
 	return true;
