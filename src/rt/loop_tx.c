@@ -39,6 +39,19 @@ static void push_cmd(struct rmd_loop *l, struct lbus *lb, unsigned i, uint8_t cm
 }
 
 /*
+ * The status read 0x9C (V3 §2.13 / V2 §3.32; MIT motors answer V3), the
+ * frame of every control slot of a motor that is not driven: encoded once
+ * (rmd_motor.status2_req).  rt-safe.
+ */
+static inline void push_status2(struct rmd_loop *l, struct lbus *lb, unsigned i)
+{
+	const struct rmd_frame *f = &l->mot[i].m.status2_req;
+
+	if (__builtin_expect(f->len != 0, 1))
+		loop_push_tx(lb, f, i, REQ_STATUS);
+}
+
+/*
  * A lost motor's re-probe, when one is due: 0x9A; while its dialect is
  * open (struct lmotor), the firmware date 0xB2 right behind it, whose
  * answer settles it, and ahead of that, in MIT mode, the model 0xB5 that
@@ -236,7 +249,7 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 	if (lm->st->lifecycle == RMD_LC_ENABLED) {
 		/* issue 20.13: while the brake opens, status reads keep the motor fed */
 		if (__builtin_expect(now < lm->st->release_until_ns, 0))
-			push_cmd(l, lb, i, 0x9C);
+			push_status2(l, lb, i);
 		else
 			push_setpoint(l, lb, i);
 		return;
@@ -247,7 +260,7 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 			loop_push_tx(lb, &f[0], i, REQ_CONTROL);
 			break;
 		}
-		push_cmd(l, lb, i, 0x9C);
+		push_status2(l, lb, i);
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_READY:
@@ -259,7 +272,10 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 		 * 0x92 angle every other time (firmware that never answers it
 		 * misses half, never ten in a row)
 		 */
-		push_cmd(l, lb, i, ask_v2_angle(lm) ? RMD_MOTOR_CMD_FINE_POS : 0x9C);
+		if (ask_v2_angle(lm))
+			push_cmd(l, lb, i, RMD_MOTOR_CMD_FINE_POS);
+		else
+			push_status2(l, lb, i);
 		break;
 	case RMD_LC_LOST:
 		push_reprobe(l, lb, i, now);

@@ -230,6 +230,8 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->mt.period_rad = rmd_multiturn_period_rad(c->gear_ratio);
 	rmd_config_travel(c, &m->mt.lo_rad, &m->mt.hi_rad);
 	m->mt.tol_rad = rmd_motor_pos_resolution_rad(m);
+	if (rmd_motor_encode_cmd(m, 0x9C, &m->status2_req) < 0)
+		m->status2_req.len = 0;
 	/* the entry's scaling, decided where no firmware date can change it */
 	if (m->mit_mode && !c->proto_auto && !rmd_dialect_mit_dated(d))
 		return rmd_motor_set_mit(m, &c->mit);
