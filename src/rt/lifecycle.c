@@ -358,8 +358,7 @@ static inline void take_setpoint(struct lmotor *lm, const struct rmd_setpoint *s
 static __attribute__((cold, noinline)) int pos_refuse(struct rmd_loop *l, struct lmotor *lm,
 						      const struct rmd_setpoint *sp, int64_t now)
 {
-	if (!lm->pos_warned) {
-		lm->pos_warned = true;
+	if (rmd_settle_warn_once(&lm->settle)) {
 		loop_event(l, now, RMD_EV_POS_REFUSED, loop_idx(l, lm), lm->m.bus,
 			   lm->st->pos_trust, sp->mode);
 	}
@@ -798,23 +797,19 @@ uint8_t rmd_loop_comm_loss(const struct rmd_loop *l, unsigned i)
 /* Position after a power cycle */
 
 /*
- * rmd/multiturn.h: a motor that appears (bring-up) or returns from LOST may
- * have been powered off, and its multi-turn count with it.  Its position is
- * then trusted when the config says it keeps its count, or decided on the
- * first two positions received that agree (loop_pos_settle()): shifted into its travel
- * band when the band admits one position, else uncertain until homed.
+ * rmd/proc_settle.h decides whether a motor that appears (bring-up) or
+ * returns from LOST can trust its position, on the rule of
+ * rmd/multiturn.h; here its decisions are applied: the state's trust, the
+ * reported frame's shift into the travel band, the events.
  */
 
-/* rt-safe. */
+/* Decision t of lm's position applied, shifted by shift.  rt-safe. */
 static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t, double shift,
 		    int64_t now)
 {
-	lm->pos_settle = false;
-	lm->pos_cand_trust = RMD_POS_UNKNOWN;
+	rmd_settle_decided(&lm->settle, t);
 	lm->st->pos_trust = (uint8_t)t;
 	lm->st->pos_certain = rmd_pos_trusted(t);
-	if (lm->st->pos_certain)
-		lm->pos_warned = false;
 	loop_event(l, now, RMD_EV_POSITION, loop_idx(l, lm), lm->m.bus, t,
 		   (int64_t)llround(shift * 1e6));
 }
@@ -822,9 +817,7 @@ static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t,
 /* Lost: nothing is known of its position any more.  rt-safe. */
 static void pos_forget(struct lmotor *lm)
 {
-	lm->pos_settle = false;
-	lm->pos_cand_trust = RMD_POS_UNKNOWN;
-	lm->pos_warned = false;
+	rmd_settle_forget(&lm->settle);
 	lm->st->pos_trust = RMD_POS_UNKNOWN;
 	lm->st->pos_certain = false;
 }
@@ -833,30 +826,18 @@ static void pos_forget(struct lmotor *lm)
 static void pos_begin(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	pos_forget(lm);
-	if (lm->m.mt.saved) {
+	if (rmd_settle_begin(&lm->settle, &lm->m.mt, now) == RMD_POS_SAVED)
 		pos_set(l, lm, RMD_POS_SAVED, 0.0, now);
-		return;
-	}
-	lm->pos_settle = true;
-	lm->pos_settle_ns = now;
 }
 
 void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	double shift;
-	enum rmd_pos_trust t = rmd_multiturn_settle(&lm->m.mt, lm->st->pos_rad, &shift);
+	enum rmd_pos_trust t = rmd_settle_reading(&lm->settle, &lm->m.mt, lm->st->pos_rad,
+						  lm->st->pos_rx_ns, &shift);
 
-	/*
-	 * Two readings in a row decide, when they come to the same: one frame
-	 * that decodes but is not the motor's (garbled, or another node on its
-	 * identifier) would shift the command frame by whole turns for good.
-	 */
-	if (lm->pos_cand_trust != (uint8_t)t || lm->pos_cand_shift != shift) {
-		lm->pos_cand_trust = (uint8_t)t; /* never RMD_POS_UNKNOWN */
-		lm->pos_cand_shift = shift;
-		lm->pos_settle_ns = lm->st->pos_rx_ns + 1; /* a later reading */
-		return;
-	}
+	if (t == RMD_POS_UNKNOWN)
+		return; /* the first of two readings */
 	if (t == RMD_POS_IN_BAND && shift != 0.0) {
 		rmd_motor_shift_pos(&lm->m, shift);
 		lm->st->pos_rad += shift;
@@ -864,44 +845,29 @@ void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	pos_set(l, lm, t, shift, now);
 }
 
-/* A homing request of lm refused, reported and counted.  rt-safe. */
-static void home_refuse(struct rmd_loop *l, struct lmotor *lm, enum rmd_home_refusal why,
-			double pos_rad, int64_t now)
-{
-	l->cnt.homes_refused++;
-	loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus, why,
-		   why == RMD_HOME_OUTSIDE ? (int64_t)llround(pos_rad * 1e6) : 0);
-}
-
 /*
  * A controller homed lm (rmd.home_t): it is at pos_rad now, or where it
  * reports (as_reported).  The reported frame shifts, the motor does not
- * move; refused while it is enabled (the position would jump under a
- * running loop), before it reported a position, or at a position outside
- * its travel band (rmd_multiturn_in_band(): the frame would move so that
- * setpoints within its limits drive it past them).  rt-safe.
+ * move; a refusal (rmd_settle_home()) is reported and counted.  rt-safe.
  */
 static void pos_home(struct rmd_loop *l, struct lmotor *lm, bool as_reported, double pos_rad,
 		     int64_t now)
 {
-	double shift;
+	const struct rmd_settle_home_facts f = {
+		.enabled = lm->st->lifecycle == RMD_LC_ENABLED,
+		.reachable = lm->st->lifecycle != RMD_LC_LOST && lm->st->lifecycle != RMD_LC_PROBE,
+		.have_pos = lm->st->pos_rx_ns != 0,
+		.reported = lm->st->pos_rad,
+	};
+	double shift, at;
+	int why = rmd_settle_home(&lm->settle, &lm->m.mt, &f, as_reported, pos_rad, &shift, &at);
 
-	if (lm->st->lifecycle == RMD_LC_ENABLED) {
-		home_refuse(l, lm, RMD_HOME_ENABLED, 0.0, now);
+	if (why) {
+		l->cnt.homes_refused++;
+		loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus, why,
+			   why == RMD_HOME_OUTSIDE ? (int64_t)llround(at * 1e6) : 0);
 		return;
 	}
-	if (lm->pos_settle || !lm->st->pos_rx_ns || !isfinite(lm->st->pos_rad) ||
-	    lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) {
-		home_refuse(l, lm, RMD_HOME_NO_POS, 0.0, now);
-		return;
-	}
-	if (as_reported)
-		pos_rad = lm->st->pos_rad;
-	if (!rmd_multiturn_in_band(&lm->m.mt, pos_rad)) {
-		home_refuse(l, lm, RMD_HOME_OUTSIDE, pos_rad, now);
-		return;
-	}
-	shift = pos_rad - lm->st->pos_rad;
 	rmd_motor_shift_pos(&lm->m, shift);
 	lm->st->pos_rad += shift;
 	pos_set(l, lm, RMD_POS_HOMED, shift, now);

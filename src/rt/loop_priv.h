@@ -31,6 +31,7 @@
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
 #include "rmd/proc_owed.h"
+#include "rmd/proc_settle.h"
 #include "rmd/reboot.h"
 
 #define OUTSTANDING 8 /* requests in flight per motor */
@@ -151,16 +152,10 @@ struct lmotor {
 	struct rmd_setpoint cl_sp; /* ... with this setpoint */
 	uint64_t unarmed_rejects;  /* enables refused: protection not set */
 	/*
-	 * Multi-turn position after a power cycle (rmd/multiturn.h; the flag
-	 * is st->pos_certain, the facts m.mt): whether the next position
-	 * received after pos_settle_ns decides it, with the earlier reading's
-	 * decision (two must agree; RMD_POS_UNKNOWN: no earlier reading).
+	 * Multi-turn position after a power cycle (rmd/proc_settle.h; the
+	 * decision is st->pos_certain and st->pos_trust, the facts m.mt)
 	 */
-	bool pos_settle;
-	int64_t pos_settle_ns;
-	uint8_t pos_cand_trust; /* enum rmd_pos_trust */
-	double pos_cand_shift;
-	bool pos_warned; /* this episode's refusal was reported */
+	struct rmd_settle settle;
 	bool mit_warned; /* an MIT enable was refused, its scaling not decided: reported */
 	/*
 	 * A short power cycle (rmd/reboot.h): after a missed reply, whether
@@ -364,7 +359,7 @@ static inline void loop_gone(struct lmotor *lm, uint64_t key, int64_t sent_ns)
  */
 int loop_report_off(const struct lmotor *lm, unsigned k, struct rmd_frame *f);
 
-/* lifecycle.c: a position received while pos_settle decides the motor's (rmd/multiturn.h).  rt-safe. */
+/* lifecycle.c: a position received while the settle decides the motor's (rmd/proc_settle.h).  rt-safe. */
 __attribute__((cold)) void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 
 /*

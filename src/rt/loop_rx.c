@@ -426,7 +426,7 @@ take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, in
 	/* now: the reply's rmd_bus_rx.t_ns */
 	if (rmd_motor_receive(&lm->m, f, now, lm->st, &have) < 0)
 		return false;
-	if (__builtin_expect(lm->pos_settle, 0) && lm->st->pos_rx_ns >= lm->pos_settle_ns)
+	if (__builtin_expect(rmd_settle_due(&lm->settle, lm->st->pos_rx_ns), 0))
 		loop_pos_settle(l, lm, now);
 	if (__builtin_expect(have & (RMD_MOTOR_HAVE_ERROR | RMD_MOTOR_HAVE_BRAKE |
 				     RMD_MOTOR_HAVE_RUNTIME | RMD_MOTOR_HAVE_COUNT_CHECK),
