@@ -594,7 +594,7 @@ static enum rmd_bringup_b3 b3_outcome(const struct rmd_frame *req, const struct 
 
 	if (!rep)
 		return RMD_B3_NO_ANSWER;
-	cl = loop_b3_outcome(req->data, rep);
+	cl = rmd_arm_b3_outcome(req->data, rep);
 	if (cl == RMD_CL_ARMED)
 		return RMD_B3_SET;
 	return cl == RMD_CL_ARMED_ZEROS ? RMD_B3_ZEROS : RMD_B3_DIFFERS;
@@ -661,14 +661,14 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
-		struct rmd_msg msg = { .cmd = 0xB3 };
+		struct rmd_msg msg;
 
 		out->motor[i].comm_loss_ms = rmd_config_comm_loss_ms(l->cfg, i);
 		if (lm->m.bus != b || !rmd_dialect_has(lm->m.d, RMD_DIALECT_COMM_LOSS_B3) ||
 		    lm->st->lifecycle == RMD_LC_LOST)
 			continue;
 		out->motor[i].b3 = RMD_B3_NO_ANSWER;
-		rmd_msg_set(&msg, RMD_FLD_TIMEOUT, out->motor[i].comm_loss_ms);
+		rmd_arm_request(out->motor[i].comm_loss_ms, &msg);
 		/*
 		 * A motor whose protection tripped (it may have, while bring-up
 		 * probed the others) only echoes the first command it gets, and
@@ -694,8 +694,8 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 
 		if (lm->m.bus != b)
 			continue;
-		out->motor[i].comm_loss = lm->cl;
-		if (!rmd_comm_loss_allows_motion(lm->cl) && lm->st->lifecycle != RMD_LC_LOST)
+		out->motor[i].comm_loss = lm->arm.cl;
+		if (!rmd_comm_loss_allows_motion(lm->arm.cl) && lm->st->lifecycle != RMD_LC_LOST)
 			out->unarmed++;
 	}
 }

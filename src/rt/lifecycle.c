@@ -62,7 +62,7 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 }
 
 static void cl_forget(struct rmd_loop *l, struct lmotor *lm);
-static void cl_start_round(struct lmotor *lm);
+static void cl_busy(struct rmd_loop *l, struct lmotor *lm);
 static void pos_forget(struct lmotor *lm);
 static void pos_begin(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 
@@ -241,8 +241,10 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		lm->st->mode = (uint8_t)lm->m.mode;
 		if (lm->stop_from == RMD_LC_PROBE || lm->stop_from == RMD_LC_LOST) {
 			cl_forget(l, lm);
-			if (lm->cl == RMD_CL_PENDING)
-				cl_start_round(lm);
+			if (rmd_arm_pending(&lm->arm)) {
+				rmd_arm_start_round(&lm->arm);
+				cl_busy(l, lm);
+			}
 			pos_begin(l, lm, now); /* it may have been powered off */
 		}
 		lm->stop_from = RMD_LC_READY;
@@ -250,7 +252,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	case RMD_LC_LOST:
 	case RMD_LC_FAULT:
 		lm->need_edge = true;
-		lm->cl_want = false;
+		lm->arm.want = false;
 		if (lc == RMD_LC_LOST) {
 			if (old == RMD_LC_ENABLED)
 				queue_safe(l, lm, false, now);
@@ -411,7 +413,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 			return mit_refuse(l, lm, now);
 		if (!lm->st->pos_certain && rmd_setpoint_needs_pos(sp))
 			return pos_refuse(l, lm, sp, now);
-		if (!rmd_comm_loss_allows_motion(lm->cl)) {
+		if (!rmd_comm_loss_allows_motion(lm->arm.cl)) {
 			/* armed first, then enabled, or refused with a reason (unarmed_rejects) */
 			cl_enable_wanted(l, lm, sp, now);
 			return -1;
@@ -436,7 +438,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	lm->need_edge = false; /* the enable = 0 the edge rule waits for */
-	lm->cl_want = false;
+	lm->arm.want = false;
 	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_ENABLED:
 	case RMD_LC_SAFE:
@@ -592,20 +594,20 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
  * Each motor's 0xB3 (V3 §2.30) is a precondition of motion (enum
  * rmd_comm_loss, rmd/state.h).  Bring-up writes it last and hands its
  * outcome to loop_cl_outcome().  The loop writes it again, in rounds of up
- * to ARM_TRIES writes (each a one-shot in the motor's control slot, its
+ * to RMD_ARM_TRIES writes (each a one-shot in the motor's control slot, its
  * answer awaited for the bus's reply deadline after the slot comes; a
  * status read goes ahead of it in that slot, loop_tx.c, so that a motor
  * that tripped since its last frame echoes the read, not the write):
  *   - when a motor answers after PROBE or LOST (loop_enter()): found after
  *     bring-up, or back, and perhaps swapped or reflashed;
  *   - when an enable arrives for a motor that is not armed, at most one
- *     round per ARM_ROUND_NS: 0xB3 writes the motor's ROM, so it is never
+ *     round per RMD_ARM_ROUND_NS: 0xB3 writes the motor's ROM, so it is never
  *     written in a loop of its own.
  * An enable that arrives during a round waits for it and is applied once
  * the motor is armed, unless the controller has gone quiet for
  * command_timeout_ms meanwhile or the watchdog tripped; a round that fails
  * refuses it.  An enable for a motor whose round failed less than
- * ARM_ROUND_NS ago is refused (a later one starts a new round).  A
+ * RMD_ARM_ROUND_NS ago is refused (a later one starts a new round).  A
  * refusal is counted per motor (unarmed_rejects, in health) and reported
  * through the event ring once per episode (until the motor is armed or
  * lost).  Motors whose protection is off by config are not written by
@@ -624,92 +626,68 @@ static uint32_t cl_ms(const struct rmd_loop *l, const struct lmotor *lm)
 /* Forget the protection: the motor may not be the one that was armed.  rt-safe. */
 static void cl_forget(struct rmd_loop *l, struct lmotor *lm)
 {
-	if (!cl_ms(l, lm))
-		lm->cl = RMD_CL_OFF;
-	else if (!(lm->m.caps & RMD_DIALECT_COMM_LOSS_B3))
-		lm->cl = RMD_CL_UNSUPPORTED;
-	else
-		lm->cl = RMD_CL_PENDING;
-	lm->cl_round = false;
-	lm->cl_want = false;
-	lm->cl_warned = false;
+	rmd_arm_forget(&lm->arm, cl_ms(l, lm), lm->m.caps & RMD_DIALECT_COMM_LOSS_B3);
 }
 
-/* rt-safe. */
-static void cl_start_round(struct lmotor *lm)
+/* lm's round runs, or an enable waits for one: loop_comm_loss() looks at it.  rt-safe. */
+static void cl_busy(struct rmd_loop *l, struct lmotor *lm)
 {
-	lm->cl_round = true;
-	lm->cl_differs = false;
-	lm->cl_tries = 0;
-	lm->cl_try_end_ns = INT64_MIN; /* the first write goes out at once */
+	l->arm_busy |= UINT32_C(1) << loop_idx(l, lm);
 }
 
 /* An enable refused for lm: counted, reported once per episode.  rt-safe. */
 static void cl_refuse(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	lm->unarmed_rejects++;
-	if (lm->cl_warned)
-		return;
-	lm->cl_warned = true;
-	loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->cl, 1);
+	if (rmd_arm_refused(&lm->arm))
+		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->arm.cl, 1);
 }
 
 /* An enable for a READY or SAFE motor that is not armed (enable_motor()).  rt-safe. */
 static void cl_enable_wanted(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			     int64_t now)
 {
-	if (lm->cl == RMD_CL_UNSUPPORTED) {
-		cl_refuse(l, lm, now); /* nothing to write */
-		return;
-	}
-	if (!lm->cl_round && now - lm->cl_round_end_ns < ARM_ROUND_NS) {
+	if (rmd_arm_enable_wanted(&lm->arm, sp, now) == RMD_ARM_REFUSE)
 		cl_refuse(l, lm, now);
-		return;
-	}
-	if (!lm->cl_round)
-		cl_start_round(lm);
-	lm->cl_want = true;
-	lm->cl_sp = *sp;
+	else
+		cl_busy(l, lm);
 }
 
 /* Queue the next write of lm's round.  False when its one-shot queue is full.  rt-safe. */
 static bool cl_push(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	struct rmd_msg msg = { .cmd = 0xB3 };
 	unsigned div = l->cfg->motors[loop_idx(l, lm)].rate_divisor;
 	struct rmd_frame f;
 
-	if (lm->n_oneshot >= ONESHOTS)
-		return false;
-	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, cl_ms(l, lm));
-	if (rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, &f) < 0)
+	if (lm->n_oneshot >= ONESHOTS ||
+	    rmd_motor_encode_comm_timeout(&lm->m, cl_ms(l, lm), &f) < 0)
 		return false;
 	oneshot_push(lm, &f);
 	/* it goes out after the one-shots before it, one per control slot */
-	lm->cl_try_end_ns = now + l->bus[lm->m.bus].reply_ns +
-			    (int64_t)lm->n_oneshot * (div ? div : 1u) * l->period_ns;
+	rmd_arm_written(&lm->arm, now + l->bus[lm->m.bus].reply_ns +
+					  (int64_t)lm->n_oneshot * (div ? div : 1u) * l->period_ns);
 	return true;
 }
 
 /* One step of lm's round: the next write, or its end.  rt-safe. */
 static void cl_round_step(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE ||
-	    now < lm->cl_try_end_ns)
-		return;
-	if (lm->cl_tries < ARM_TRIES) {
-		if (cl_push(l, lm, now))
-			lm->cl_tries++;
-		return;
-	}
-	lm->cl_round = false;
-	lm->cl = lm->cl_differs ? RMD_CL_DIFFERS : RMD_CL_NO_ANSWER;
-	lm->cl_round_end_ns = now;
-	if (lm->cl_want) {
-		lm->cl_want = false;
-		cl_refuse(l, lm, now);
-	} else {
-		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->cl, 0);
+	bool reachable = lm->st->lifecycle != RMD_LC_LOST && lm->st->lifecycle != RMD_LC_PROBE;
+
+	switch (rmd_arm_step(&lm->arm, reachable, now)) {
+	case RMD_ARM_IDLE:
+		break;
+	case RMD_ARM_WRITE:
+		cl_push(l, lm, now);
+		break;
+	case RMD_ARM_FAILED:
+		if (lm->arm.want) {
+			lm->arm.want = false;
+			cl_refuse(l, lm, now);
+		} else {
+			loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->arm.cl,
+				   0);
+		}
+		break;
 	}
 }
 
@@ -718,79 +696,51 @@ static void cl_apply_enable(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	int64_t due = l->cmd_due_ns[loop_idx(l, lm)];
 
-	lm->cl_want = false;
+	lm->arm.want = false;
 	if (l->wd == RMD_WD_TRIPPED || now > due)
 		return; /* the controller went quiet meanwhile */
-	enable_motor(l, lm, &lm->cl_sp, now);
+	enable_motor(l, lm, &lm->arm.sp, now);
 	if (lm->st->lifecycle == RMD_LC_ENABLED && due < l->wd_due_ns)
 		l->wd_due_ns = due;
 }
 
-/* Every motor's round, and the enables waiting for one: step 3 of the cycle.  rt-safe. */
+/*
+ * Every motor's round, and the enables waiting for one: step 3 of the
+ * cycle; only the motors that have either are looked at (arm_busy).
+ * rt-safe.
+ */
 void loop_comm_loss(struct rmd_loop *l, int64_t now)
 {
-	for (unsigned i = 0; i < l->n_motors; i++) {
+	for (uint32_t m = l->arm_busy; m; m &= m - 1) {
+		unsigned i = (unsigned)__builtin_ctz(m);
 		struct lmotor *lm = &l->mot[i];
 
-		if (lm->cl_round)
+		if (lm->arm.round)
 			cl_round_step(l, lm, now);
-		else if (lm->cl_want)
+		else if (lm->arm.want)
 			cl_apply_enable(l, lm, now);
+		if (!lm->arm.round && !lm->arm.want)
+			l->arm_busy &= ~(UINT32_C(1) << i);
 	}
-}
-
-/*
- * What an answer to the 0xB3 request `req` says: the request repeated
- * (armed, echo-verified), the command byte and zeros (V3 §2.30 example 2),
- * or something else.  Pure.
- */
-enum rmd_comm_loss loop_b3_outcome(const uint8_t *req, const struct rmd_frame *rep)
-{
-	static const uint8_t zeros[RMD_FRAME_LEN - 1];
-
-	if (rep->len == RMD_FRAME_LEN && !memcmp(rep->data, req, RMD_FRAME_LEN))
-		return RMD_CL_ARMED;
-	if (rep->len == RMD_FRAME_LEN && rep->data[0] == req[0] &&
-	    !memcmp(rep->data + 1, zeros, sizeof(zeros)))
-		return RMD_CL_ARMED_ZEROS;
-	return RMD_CL_DIFFERS;
 }
 
 /* An answer to a 0xB3 the loop wrote (loop_rx.c).  rt-safe. */
 void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
 		    const struct rmd_frame *rep, int64_t now)
 {
-	enum rmd_comm_loss cl = loop_b3_outcome(req, rep);
-	bool was = rmd_comm_loss_set(lm->cl);
-
-	if (lm->cl == RMD_CL_OFF || lm->cl == RMD_CL_UNSUPPORTED)
-		return;
-	if (!rmd_comm_loss_set(cl)) {
-		lm->cl_differs = true;
-		if (!lm->cl_round)
-			lm->cl = RMD_CL_DIFFERS;
-		return;
-	}
-	lm->cl = (uint8_t)cl;
-	lm->cl_round = false;
-	lm->cl_warned = false;
-	lm->cl_round_end_ns = now;
-	if (!was)
-		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, cl, 0);
+	if (rmd_arm_answer(&lm->arm, req, rep, now) == RMD_ARM_NOW_ARMED)
+		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->arm.cl, 0);
 }
 
 /* Bring-up's outcome for lm (bringup.c): what its own writes came to.  rt-safe. */
 void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss cl, int64_t now)
 {
-	cl_forget(l, lm);
-	if (lm->cl == RMD_CL_PENDING)
-		lm->cl = (uint8_t)cl;
-	lm->cl_round_end_ns = now;
+	rmd_arm_took_over(&lm->arm, cl_ms(l, lm), lm->m.caps & RMD_DIALECT_COMM_LOSS_B3, cl, now);
 }
 
 uint8_t rmd_loop_comm_loss(const struct rmd_loop *l, unsigned i)
 {
-	return i < l->n_motors ? l->mot[i].cl : RMD_CL_PENDING;
+	return i < l->n_motors ? l->mot[i].arm.cl : RMD_CL_PENDING;
 }
 
 /* ------------------------------------------------------------------ */

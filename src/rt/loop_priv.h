@@ -30,6 +30,7 @@
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
+#include "rmd/proc_arm.h"
 #include "rmd/proc_owed.h"
 #include "rmd/proc_settle.h"
 #include "rmd/reboot.h"
@@ -53,8 +54,6 @@
 #define COLLECT_SIM_STEP_NS 20000 /* a bus without a descriptor (sim): looked at this often */
 #define STOP_TRIES 50		  /* rmd_loop_stop_motors(): sends per bus ... */
 #define STOP_STEP_NS 200000	  /* ... this far apart */
-#define ARM_TRIES 3		  /* 0xB3 writes of one round in the loop */
-#define ARM_ROUND_NS RMD_NS_PER_S /* a refused enable starts a new round this long after */
 
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {
@@ -137,20 +136,8 @@ struct lmotor {
 	bool refused;
 	bool replied;
 	uint64_t last_reply_cycle;
-	/*
-	 * Comm-loss protection (0xB3, lifecycle.c "Comm-loss protection"): its
-	 * state, the round of writes in progress, an enable waiting for it.
-	 */
-	uint8_t cl;		   /* enum rmd_comm_loss */
-	bool cl_round;		   /* a round of writes runs */
-	bool cl_differs;	   /* this round had an answer with another time */
-	bool cl_warned;		   /* this episode's refusal was reported */
-	unsigned cl_tries;	   /* writes of this round */
-	int64_t cl_try_end_ns;	   /* the current write's answer is awaited until then */
-	int64_t cl_round_end_ns;   /* when the last round ended */
-	bool cl_want;		   /* an enable waits for the round */
-	struct rmd_setpoint cl_sp; /* ... with this setpoint */
-	uint64_t unarmed_rejects;  /* enables refused: protection not set */
+	/* its comm-loss protection, 0xB3 (rmd/proc_arm.h; lifecycle.c applies it) */
+	struct rmd_arm arm;
 	/*
 	 * Multi-turn position after a power cycle (rmd/proc_settle.h; the
 	 * decision is st->pos_certain and st->pos_trust, the facts m.mt)
@@ -257,7 +244,9 @@ struct rmd_loop {
 	/* motor i, ENABLED: its last command's arrival + command_timeout_ms */
 	int64_t cmd_due_ns[RMD_MAX_MOTORS];
 	int64_t wd_due_ns; /* the earliest cmd_due_ns[] of the ENABLED motors, or later */
-	uint8_t wd;	   /* enum rmd_watchdog_state */
+	/* bit i: motor i's 0xB3 round runs, or an enable waits for one (lifecycle.c) */
+	uint32_t arm_busy;
+	uint8_t wd; /* enum rmd_watchdog_state */
 	int64_t trip_ns;
 
 	/* statistics */
@@ -496,7 +485,6 @@ void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
 		    const struct rmd_frame *rep, int64_t now);
 void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss cl, int64_t now);
-enum rmd_comm_loss loop_b3_outcome(const uint8_t *req, const struct rmd_frame *rep);
 
 /* loop_tx.c.  rt-safe. */
 void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind);

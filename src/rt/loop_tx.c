@@ -122,7 +122,7 @@ static bool oneshot_echo_verified(const struct lmotor *lm, const struct rmd_fram
  * a status read (0x9A) in the same slot: that read takes the echo of a
  * motor that tripped since its last frame, whatever the gap between its
  * frames, and the write is done.  That is one exchange more than the plan
- * counts, only for these writes (at most ARM_TRIES in a round; TX_MAX has
+ * counts, only for these writes (at most RMD_ARM_TRIES in a round; TX_MAX has
  * room for a second frame in every slot).  rt-safe.
  */
 static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)

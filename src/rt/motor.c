@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "rmd/motor.h"
+#include "rmd/proc_arm.h"
 #include "rmd/reboot.h"
 
 #define DEG_PER_RAD (180.0 / M_PI)
@@ -416,9 +417,7 @@ int rmd_motor_encode_comm_timeout(const struct rmd_motor *m, uint32_t ms, struct
 	/* V3 §2.30; V2 has no comm-loss protection command. */
 	if (!(m->caps & RMD_DIALECT_COMM_LOSS_B3))
 		return -EOPNOTSUPP;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = 0xB3;
-	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, ms);
+	rmd_arm_request(ms, &msg);
 	return encode_msg(m, &msg, out);
 }
 
