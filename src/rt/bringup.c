@@ -79,10 +79,10 @@ static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
 		 * (0xB6)?  Not one bring-up asks for itself (0x9A, its
 		 * probes): those may be the late answer of an earlier try.
 		 */
-		for (unsigned k = 0; k < lm->m.d->n_report_cmds && rx->f.len; k++)
-			if (rx->f.data[0] == lm->m.d->report_cmds[k] &&
-			    !bringup_asks(lm, rx->f.data[0]))
-				lm->pushed |= (uint8_t)(1u << k);
+		int k = rx->f.len ? rmd_silence_pushable(lm->m.d, rx->f.data[0]) : -1;
+
+		if (k >= 0 && !bringup_asks(lm, rx->f.data[0]))
+			lm->sil.pushed |= (uint8_t)(1u << k);
 		return;
 	}
 	/* a configured motor answering in another dialect than asked (protocol: auto) */
@@ -508,7 +508,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		}
 	}
 	now = loop_now(l);
-	out->pushed = lm->pushed;
+	out->pushed = lm->sil.pushed;
 	out->mismatch = mismatch_of(l, i, out);
 	if (out->mismatch == RMD_BRINGUP_MISMATCH_NONE && !decide_mit(l, i, out))
 		out->mismatch = RMD_BRINGUP_MISMATCH_MIT_SCALING;

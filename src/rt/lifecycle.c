@@ -234,8 +234,8 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			rmd_reboot_found(&lm->rb, now,
 					 loop_reboot_cmd(lm) == RMD_REBOOT_CMD_RUNTIME);
 		/* back: pushes another tool may have left on go off, as at bring-up */
-		if (old == RMD_LC_LOST && rmd_dialect_has(lm->m.d, RMD_DIALECT_ACTIVE_REPLY))
-			lm->reports_off = (uint8_t)((1u << lm->m.d->n_report_cmds) - 1u);
+		if (old == RMD_LC_LOST)
+			rmd_silence_begin(&lm->sil, lm->m.d);
 		break;
 	case RMD_LC_READY:
 		lm->st->mode = (uint8_t)lm->m.mode;
@@ -257,8 +257,8 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			if (old == RMD_LC_ENABLED)
 				queue_safe(l, lm, false, now);
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-			rmd_reboot_forget(&lm->rb); /* back is found anew */
-			lm->reports_off = 0;	    /* sent again when it is back */
+			rmd_reboot_forget(&lm->rb);   /* back is found anew */
+			rmd_silence_forget(&lm->sil); /* sent again when it is back */
 			cl_forget(l, lm);
 			pos_forget(lm);
 			/* V2: the encoder cannot tell what turned while it was silent */

@@ -33,6 +33,7 @@
 #include "rmd/proc_arm.h"
 #include "rmd/proc_owed.h"
 #include "rmd/proc_settle.h"
+#include "rmd/proc_silence.h"
 #include "rmd/reboot.h"
 
 #define OUTSTANDING 8 /* requests in flight per motor */
@@ -109,13 +110,11 @@ struct lmotor {
 	unsigned n_oneshot;
 	bool damp_stream; /* SAFE with MIT damp: the damp frame in every control slot */
 	/*
-	 * 0xB6 offs still to send (V4.2 §2.33), bit k: m.d->report_cmds[k]:
-	 * a motor that comes back may have been left pushing replies, as
-	 * bring-up assumes of every motor it finds (lifecycle.c).  Beside
-	 * n_oneshot and owe: loop_tx.c add_control() asks all three at once.
+	 * The replies it may push unasked, to turn off (rmd/proc_silence.h).
+	 * Beside n_oneshot and owed: loop_tx.c add_control() asks them at once.
 	 */
-	uint8_t reports_off;
 	bool v2_ask_angle; /* V2 without its 0x92 reference: the last read asked 0x92 */
+	struct rmd_silence sil;
 	/* the frames it owes an echo of (rmd/proc_owed.h) */
 	struct rmd_owed owed;
 	uint8_t stop_from; /* enum rmd_lifecycle: the state STOPPING was entered from */
@@ -156,7 +155,6 @@ struct lmotor {
 	/* bring-up */
 	char model[8];
 	uint32_t version;
-	uint8_t pushed; /* bring-up: replies pushed unasked, bit k: m.d->report_cmds[k] */
 	/* rmd_loop_stop_motors(): a final frame of it the bus did not take, or that went unanswered */
 	bool stop_unreached;
 };

@@ -292,15 +292,6 @@ static bool scan_late(struct rmd_loop *l, unsigned b, const struct rmd_frame *f,
 	return true;
 }
 
-/* Whether lm's dialect can push reply `cmd` unasked (0xB6, V4.2 §2.33).  rt-safe. */
-static bool pushed_report(const struct lmotor *lm, uint16_t cmd)
-{
-	for (unsigned k = 0; k < lm->m.d->n_report_cmds; k++)
-		if (cmd == lm->m.d->report_cmds[k])
-			return true;
-	return false;
-}
-
 /* Give up every request of lm in flight: an answer that still comes is late.  rt-safe. */
 static void os_give_up_all(struct lmotor *lm)
 {
@@ -686,7 +677,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	 * §2.33: the replies 0xB6 has the motor push, if another tool left it
 	 * on after bring-up turned it off.  What they say is the motor's.
 	 */
-	if (cmd == 0x9A || pushed_report(lm, cmd)) {
+	if (cmd == 0x9A || rmd_silence_pushable(lm->m.d, cmd) >= 0) {
 		l->cnt.unsolicited++;
 		loop_alive(l, lm, now);
 		if (!take_values(l, lm, f, now))

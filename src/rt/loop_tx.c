@@ -146,26 +146,23 @@ static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 /* rt-safe. */
 int loop_report_off(const struct lmotor *lm, unsigned k, struct rmd_frame *f)
 {
-	struct rmd_msg msg = { .cmd = 0xB6 };
+	struct rmd_msg msg;
 
-	rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, lm->m.d->report_cmds[k]);
-	rmd_msg_set(&msg, RMD_FLD_REPORT_ON, 0);
-	rmd_msg_set(&msg, RMD_FLD_REPORT_MS, 0);
+	rmd_silence_request(lm->m.d, k, &msg);
 	return rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, f);
 }
 
 /*
- * One of lm's 0xB6 offs (struct lmotor.reports_off), the lowest first.
- * The manual gives no answer to it: none is awaited, and one the bus does
+ * One of lm's 0xB6 offs (rmd/proc_silence.h), the lowest first.  The
+ * manual gives no answer to it: none is awaited, and one the bus does
  * not take is not sent again (bring-up's are as unchecked).  rt-safe.
  */
 static __attribute__((cold)) void push_report_off(struct lbus *lb, struct lmotor *lm, unsigned i)
 {
-	unsigned k = (unsigned)__builtin_ctz(lm->reports_off);
+	int k = rmd_silence_next(&lm->sil);
 	struct rmd_frame f;
 
-	lm->reports_off &= (uint8_t) ~(1u << k);
-	if (loop_report_off(lm, k, &f) == 0)
+	if (k >= 0 && loop_report_off(lm, (unsigned)k, &f) == 0)
 		loop_push_tx(lb, &f, i, REQ_NO_REPLY);
 }
 
@@ -211,7 +208,7 @@ static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t no
 		push_reboot_check(l, lb, i);
 	else if (lm->n_oneshot)
 		push_oneshot(l, lb, i, now);
-	else if (lm->reports_off)
+	else if (lm->sil.off)
 		push_report_off(lb, lm, i);
 }
 
@@ -242,7 +239,7 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 	 * owed frames, a reboot check's read and one-shots first: an ENABLED
 	 * motor's brake release, the others' stops
 	 */
-	if (lm->n_oneshot || lm->reports_off || lm->owed.bits || lm->rb.pending) {
+	if (lm->n_oneshot || lm->sil.off || lm->owed.bits || lm->rb.pending) {
 		push_due(l, lb, i, now);
 		return;
 	}
@@ -340,7 +337,7 @@ static bool batch_allowed(const struct rmd_loop *l, const struct lbus *lb, int64
 
 		if (lm->st->lifecycle != RMD_LC_ENABLED || now < lm->st->release_until_ns ||
 		    lm->sp.mode != RMD_MODE_TORQUE || lm->owed.bits || lm->n_oneshot ||
-		    lm->reports_off || lm->rb.pending)
+		    lm->sil.off || lm->rb.pending)
 			return false;
 	}
 	return true;
