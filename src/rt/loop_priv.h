@@ -37,7 +37,7 @@
 #include "rmd/reboot.h"
 
 #define OUTSTANDING 8 /* requests in flight per motor */
-#define GONE 8	      /* requests given up per motor, whose answers may still come */
+#define GONE 32	      /* requests given up per motor, whose answers may still come */
 #define ONESHOTS 4    /* one-shot frames waiting per motor */
 #define RX_BATCH 64   /* frames per recv() call */
 #define RX_ROUNDS 8   /* recv() calls per bus per drain: bounded work */
