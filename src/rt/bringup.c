@@ -348,15 +348,10 @@ static enum rmd_bringup_mismatch mismatch_of(const struct rmd_loop *l, unsigned 
 					     const struct rmd_bringup_motor *bm)
 {
 	const struct rmd_config_motor *c = &l->cfg->motors[i];
-	const struct rmd_dialect *d = l->mot[i].m.d;
-	bool certain;
+	const struct rmd_dialect *d = l->mot[i].m.d, *fw;
 
-	if (!c->proto_auto && bm->version) {
-		const struct rmd_dialect *fw = rmd_dialect_for_firmware(bm->version, &certain);
-
-		if (certain && fw->table != d->table)
-			return RMD_BRINGUP_MISMATCH_FIRMWARE;
-	}
+	if (!c->proto_auto && bm->version && rmd_ident_other(d, bm->version, &fw))
+		return RMD_BRINGUP_MISMATCH_FIRMWARE;
 	/*
 	 * The loader refuses these for a configured dialect; a program that
 	 * builds such a configuration gets the loop's own answer (an
@@ -440,7 +435,7 @@ static int missing(struct rmd_loop *l, struct lmotor *lm, struct rmd_bringup_mot
 
 	out->state = RMD_BRINGUP_MISSING;
 	loop_enter(l, lm, RMD_LC_LOST, now);
-	lm->dialect_open = rmd_dialect_has(lm->m.d, RMD_DIALECT_VERSION_B2);
+	rmd_ident_open(&lm->ident, lm->m.d);
 	/* decided from its firmware when it answers (loop_rx.c settle_dialect()) */
 	if (lm->m.mit_mode)
 		rmd_motor_set_mit(&lm->m, NULL);
@@ -486,11 +481,11 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		if (pr < 0)
 			continue;
 		if (r.have & RMD_MOTOR_HAVE_MODEL) {
-			snprintf(lm->model, sizeof(lm->model), "%s", r.model);
-			memcpy(out->model, lm->model, sizeof(out->model));
+			snprintf(lm->ident.model, sizeof(lm->ident.model), "%s", r.model);
+			memcpy(out->model, lm->ident.model, sizeof(out->model));
 		}
 		if (r.have & RMD_MOTOR_HAVE_VERSION)
-			out->version = lm->version = r.version_date;
+			out->version = lm->ident.version = r.version_date;
 		if (cmd == 0x9A) { /* V3 §2.12 / V2 §3.31 status 1 */
 			rmd_motor_apply(&r, lm->st);
 			out->status = true;
@@ -530,7 +525,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		}
 		out->state = RMD_BRINGUP_MISMATCH;
 		loop_enter(l, lm, RMD_LC_LOST, now);
-		lm->refused = true;
+		lm->ident.refused = true;
 		lm->next_probe_ns = INT64_MAX;
 		return -ENODEV;
 	}

@@ -393,9 +393,9 @@ static __attribute__((noinline)) int pos_uncertain_setpoint(struct rmd_loop *l, 
 static __attribute__((cold, noinline)) int mit_refuse(struct rmd_loop *l, struct lmotor *lm,
 						      int64_t now)
 {
-	if (!lm->mit_warned) {
-		lm->mit_warned = true;
-		loop_event(l, now, RMD_EV_MIT_REFUSED, loop_idx(l, lm), lm->m.bus, lm->version, 0);
+	if (rmd_ident_mit_warn_once(&lm->ident)) {
+		loop_event(l, now, RMD_EV_MIT_REFUSED, loop_idx(l, lm), lm->m.bus,
+			   lm->ident.version, 0);
 	}
 	return RMD_IGN_MIT_SCALING;
 }

@@ -291,7 +291,7 @@ void loop_fill_health(struct rmd_loop *l, int64_t now)
 		h->comm_loss[i] = l->mot[i].arm.cl;
 		h->comm_loss_ms[i] = rmd_config_comm_loss_ms(l->cfg, i);
 		h->proto[i] = (uint8_t)l->mot[i].m.proto;
-		h->firmware[i] = l->mot[i].version;
+		h->firmware[i] = l->mot[i].ident.version;
 		h->unarmed_rejects[i] = l->mot[i].arm.rejects;
 	}
 	l->health_fresh = true;

@@ -31,6 +31,7 @@
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
 #include "rmd/proc_arm.h"
+#include "rmd/proc_ident.h"
 #include "rmd/proc_owed.h"
 #include "rmd/proc_settle.h"
 #include "rmd/proc_silence.h"
@@ -120,19 +121,11 @@ struct lmotor {
 	uint8_t stop_from; /* enum rmd_lifecycle: the state STOPPING was entered from */
 	int64_t next_probe_ns;
 	/*
-	 * Missing at bring-up, so its firmware date was never checked against
-	 * its dialect (the entry's, or V3 for `protocol: auto`): its re-probe
-	 * asks the date (0xB2) until the answer settles it (loop_rx.c
-	 * settle_dialect()), and for a motor in MIT mode its model (0xB5)
-	 * first, which with the date decides its MIT scaling.  Dialects
-	 * without 0xB2 (V2) have nothing to ask.
+	 * Its firmware (rmd/proc_ident.h): model and date as read, open while
+	 * a motor missing at bring-up has not told its date, refused when it
+	 * was left out for good (nothing it says brings it back).
 	 */
-	bool dialect_open;
-	/*
-	 * Left out for good (bring-up's dialect mismatch, or a late answer
-	 * that named another dialect): nothing it says brings it back.
-	 */
-	bool refused;
+	struct rmd_ident ident;
 	bool replied;
 	uint64_t last_reply_cycle;
 	/* its comm-loss protection, 0xB3 (rmd/proc_arm.h; lifecycle.c applies it) */
@@ -142,7 +135,6 @@ struct lmotor {
 	 * decision is st->pos_certain and st->pos_trust, the facts m.mt)
 	 */
 	struct rmd_settle settle;
-	bool mit_warned; /* an MIT enable was refused, its scaling not decided: reported */
 	/*
 	 * A short power cycle (rmd/reboot.h): after a missed reply, whether
 	 * it rebooted; while pending, its control slot carries the read that
@@ -152,9 +144,6 @@ struct lmotor {
 	struct rmd_reboot rb;
 	uint32_t homes_seen;	/* rmd_home.seq[] of this motor, acted on */
 	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
-	/* bring-up */
-	char model[8];
-	uint32_t version;
 	/* rmd_loop_stop_motors(): a final frame of it the bus did not take, or that went unanswered */
 	bool stop_unreached;
 };
@@ -428,7 +417,7 @@ static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now
 	lm->replied = true;
 	lm->last_reply_cycle = l->cycle;
 	if ((lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) &&
-	    !lm->refused && !lm->dialect_open)
+	    !lm->ident.refused && !lm->ident.open)
 		loop_enter(l, lm, RMD_LC_STOPPING, now);
 }
 

@@ -67,7 +67,7 @@ static __attribute__((cold, noinline)) void reboot_missed(struct rmd_loop *l, st
 	uint8_t cmd = loop_reboot_cmd(lm);
 
 	if (!cmd || lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE ||
-	    lm->refused || lm->dialect_open)
+	    lm->ident.refused || lm->ident.open)
 		return;
 	if (rmd_reboot_missed(&lm->rb, o->seq, (o->key & 0xFFFF) == cmd, lm->heard_seq, now,
 			      2 * l->bus[lm->m.bus].reply_ns) == RMD_REBOOT_UNCHECKABLE)
@@ -461,7 +461,7 @@ static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmoto
 static void refuse_dialect(struct rmd_loop *l, unsigned b, struct lmotor *lm, int64_t version,
 			   enum rmd_proto proto, int64_t now)
 {
-	lm->refused = true;
+	lm->ident.refused = true;
 	lm->next_probe_ns = INT64_MAX;
 	loop_event(l, now, RMD_EV_DIALECT, loop_idx(l, lm), b, version, proto);
 }
@@ -479,10 +479,10 @@ static bool settle_mit(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32
 	const struct rmd_config_motor *c = &l->cfg->motors[loop_idx(l, lm)];
 	struct rmd_mit_decision dec;
 
-	rmd_mit_scaling_decide(lm->m.d, version, lm->model, &c->mit, c->mit_given, &dec);
+	rmd_mit_scaling_decide(lm->m.d, version, lm->ident.model, &c->mit, c->mit_given, &dec);
 	if (rmd_mit_decided(&dec) && rmd_motor_set_mit(&lm->m, &dec.r) == 0)
 		return true;
-	lm->refused = true;
+	lm->ident.refused = true;
 	lm->next_probe_ns = INT64_MAX;
 	loop_event(l, now, RMD_EV_MIT_SCALING, loop_idx(l, lm), b, version,
 		   dec.source | (int64_t)(dec.series & 0xFF) << 8);
@@ -493,7 +493,7 @@ static bool settle_mit(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32
  * Answer f of a motor whose dialect is open (struct lmotor:
  * missing at bring-up) to its re-probe: a model (0xB5) is kept for its
  * MIT scaling, the firmware date 0xB2 settles it.  The rule is bring-up's
- * (rmd_dialect_for_firmware()), and the loop does not switch dialects: a
+ * (rmd_ident_answer(), rmd/proc_ident.h), and the loop does not switch dialects: a
  * date that says the motor's dialect, or that tells none (0), lets the
  * next re-probe (0x9A) bring it back as any lost motor -- in MIT mode once
  * its MIT scaling is decided (settle_mit()); one that says another dialect
@@ -506,26 +506,23 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 							   const struct rmd_frame *f, int64_t now)
 {
 	struct rmd_motor_reply r;
-	const struct rmd_dialect *fw = NULL;
-	bool certain = false;
+	const struct rmd_dialect *fw;
 
 	/* answers on the motor's reply identifier (an MIT reply carries no command byte) */
 	if (f->can_id != lm->m.reply_id || (f->data[0] != 0xB2 && f->data[0] != 0xB5) ||
 	    rmd_motor_decode(&lm->m, f, &r) < 0)
 		return;
-	if (r.have & RMD_MOTOR_HAVE_MODEL)
-		memcpy(lm->model, r.model, sizeof(lm->model));
-	if (!(r.have & RMD_MOTOR_HAVE_VERSION))
-		return;
-	lm->version = r.version_date;
-	fw = rmd_dialect_for_firmware(r.version_date, &certain);
-	lm->dialect_open = false;
-	if (certain && fw->table != lm->m.d->table) {
+	switch (rmd_ident_answer(&lm->ident, lm->m.d, &r, &fw)) {
+	case RMD_IDENT_WAIT:
+		break;
+	case RMD_IDENT_OTHER:
 		refuse_dialect(l, b, lm, (int64_t)r.version_date, fw->proto, now);
-		return;
+		break;
+	case RMD_IDENT_SAME:
+		if (!lm->m.mit_mode || settle_mit(l, b, lm, r.version_date, now))
+			lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
+		break;
 	}
-	if (!lm->m.mit_mode || settle_mit(l, b, lm, r.version_date, now))
-		lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
 }
 
 /*
@@ -553,7 +550,7 @@ other_dialect_answer(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		if (lm->m.bus != b || !lm->dialect_open || !l->cfg->motors[i].proto_auto)
+		if (lm->m.bus != b || !lm->ident.open || !l->cfg->motors[i].proto_auto)
 			continue;
 		for (size_t k = 0; k < nd; k++) {
 			const struct rmd_dialect *d = &list[k];
@@ -562,7 +559,7 @@ other_dialect_answer(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 			if (!rmd_dialect_is_firmware(d) || d->reply_base == lm->m.d->reply_base ||
 			    f->can_id != d->reply_base + (uint32_t)lm->m.id)
 				continue;
-			lm->dialect_open = false;
+			lm->ident.open = false;
 			refuse_dialect(l, b, lm, 0, d->proto, now);
 			return true;
 		}
@@ -632,7 +629,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			l->cnt.echoes++;
 			return;
 		}
-		if (__builtin_expect(lm->dialect_open, 0)) {
+		if (__builtin_expect(lm->ident.open, 0)) {
 			/* the 0x9A ahead of its 0xB5 and 0xB2 tells nothing (settle_dialect()) */
 			settle_dialect(l, b, lm, f, now);
 			return;

@@ -64,16 +64,16 @@ static inline void push_status2(struct rmd_loop *l, struct lbus *lb, unsigned i)
 static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
+	uint8_t asks[2];
+	unsigned n;
 
 	if (now < lm->next_probe_ns)
 		return;
 	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 	push_cmd(l, lb, i, 0x9A);
-	if (!lm->dialect_open)
-		return;
-	if (lm->m.mit_mode)
-		push_cmd(l, lb, i, 0xB5);
-	push_cmd(l, lb, i, 0xB2);
+	n = rmd_ident_asks(&lm->ident, lm->m.mit_mode, asks);
+	for (unsigned k = 0; k < n; k++)
+		push_cmd(l, lb, i, asks[k]);
 }
 
 /*
