@@ -230,6 +230,11 @@ struct rmd_motor {
 	double v2_rotor_speed;
 	/* the count's position the last 0x92 angle was held against (RMD_MOTOR_HAVE_COUNT_*) */
 	double v2_checked_rad;
+	/*
+	 * The status read 0x9C (V3 §2.13, V2 §3.32), encoded once: the frame a
+	 * motor that is not driven gets in every control slot (len 0: none).
+	 */
+	struct rmd_frame status2_req;
 };
 
 /* The row of command `cmd` in the motor's table, or NULL (rmd_cmd_find(), checked at init).  rt-safe. */

@@ -79,10 +79,10 @@ static void probe_stray(void *ctx, const struct rmd_bus_rx *rx)
 		 * (0xB6)?  Not one bring-up asks for itself (0x9A, its
 		 * probes): those may be the late answer of an earlier try.
 		 */
-		for (unsigned k = 0; k < lm->m.d->n_report_cmds && rx->f.len; k++)
-			if (rx->f.data[0] == lm->m.d->report_cmds[k] &&
-			    !bringup_asks(lm, rx->f.data[0]))
-				lm->pushed |= (uint8_t)(1u << k);
+		int k = rx->f.len ? rmd_silence_pushable(lm->m.d, rx->f.data[0]) : -1;
+
+		if (k >= 0 && !bringup_asks(lm, rx->f.data[0]))
+			lm->sil.pushed |= (uint8_t)(1u << k);
 		return;
 	}
 	/* a configured motor answering in another dialect than asked (protocol: auto) */
@@ -254,9 +254,11 @@ static void stop_found(struct rmd_loop *l, struct lmotor *lm)
 		struct rmd_msg msg = { .cmd = cmds[k] };
 		struct rmd_txn t;
 
-		if (probe_xfer(l, lm, &msg, &t) == 0 && t.rep.f.len == t.req.len &&
-		    !memcmp(t.rep.f.data, t.req.data, t.req.len))
-			loop_owed_ack(l, lm, cmds[k], loop_now(l));
+		if (probe_xfer(l, lm, &msg, &t) == 0)
+			loop_owed_answer(l, lm, cmds[k], lm->owed.seq,
+					 t.rep.f.len == t.req.len &&
+						 !memcmp(t.rep.f.data, t.req.data, t.req.len),
+					 loop_now(l));
 	}
 }
 
@@ -346,15 +348,10 @@ static enum rmd_bringup_mismatch mismatch_of(const struct rmd_loop *l, unsigned 
 					     const struct rmd_bringup_motor *bm)
 {
 	const struct rmd_config_motor *c = &l->cfg->motors[i];
-	const struct rmd_dialect *d = l->mot[i].m.d;
-	bool certain;
+	const struct rmd_dialect *d = l->mot[i].m.d, *fw;
 
-	if (!c->proto_auto && bm->version) {
-		const struct rmd_dialect *fw = rmd_dialect_for_firmware(bm->version, &certain);
-
-		if (certain && fw->table != d->table)
-			return RMD_BRINGUP_MISMATCH_FIRMWARE;
-	}
+	if (!c->proto_auto && bm->version && rmd_ident_other(d, bm->version, &fw))
+		return RMD_BRINGUP_MISMATCH_FIRMWARE;
 	/*
 	 * The loader refuses these for a configured dialect; a program that
 	 * builds such a configuration gets the loop's own answer (an
@@ -438,7 +435,7 @@ static int missing(struct rmd_loop *l, struct lmotor *lm, struct rmd_bringup_mot
 
 	out->state = RMD_BRINGUP_MISSING;
 	loop_enter(l, lm, RMD_LC_LOST, now);
-	lm->dialect_open = rmd_dialect_has(lm->m.d, RMD_DIALECT_VERSION_B2);
+	rmd_ident_open(&lm->ident, lm->m.d);
 	/* decided from its firmware when it answers (loop_rx.c settle_dialect()) */
 	if (lm->m.mit_mode)
 		rmd_motor_set_mit(&lm->m, NULL);
@@ -484,11 +481,11 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		if (pr < 0)
 			continue;
 		if (r.have & RMD_MOTOR_HAVE_MODEL) {
-			snprintf(lm->model, sizeof(lm->model), "%s", r.model);
-			memcpy(out->model, lm->model, sizeof(out->model));
+			snprintf(lm->ident.model, sizeof(lm->ident.model), "%s", r.model);
+			memcpy(out->model, lm->ident.model, sizeof(out->model));
 		}
 		if (r.have & RMD_MOTOR_HAVE_VERSION)
-			out->version = lm->version = r.version_date;
+			out->version = lm->ident.version = r.version_date;
 		if (cmd == 0x9A) { /* V3 §2.12 / V2 §3.31 status 1 */
 			rmd_motor_apply(&r, lm->st);
 			out->status = true;
@@ -506,7 +503,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		}
 	}
 	now = loop_now(l);
-	out->pushed = lm->pushed;
+	out->pushed = lm->sil.pushed;
 	out->mismatch = mismatch_of(l, i, out);
 	if (out->mismatch == RMD_BRINGUP_MISMATCH_NONE && !decide_mit(l, i, out))
 		out->mismatch = RMD_BRINGUP_MISMATCH_MIT_SCALING;
@@ -528,7 +525,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		}
 		out->state = RMD_BRINGUP_MISMATCH;
 		loop_enter(l, lm, RMD_LC_LOST, now);
-		lm->refused = true;
+		lm->ident.refused = true;
 		lm->next_probe_ns = INT64_MAX;
 		return -ENODEV;
 	}
@@ -592,7 +589,7 @@ static enum rmd_bringup_b3 b3_outcome(const struct rmd_frame *req, const struct 
 
 	if (!rep)
 		return RMD_B3_NO_ANSWER;
-	cl = loop_b3_outcome(req->data, rep);
+	cl = rmd_arm_b3_outcome(req->data, rep);
 	if (cl == RMD_CL_ARMED)
 		return RMD_B3_SET;
 	return cl == RMD_CL_ARMED_ZEROS ? RMD_B3_ZEROS : RMD_B3_DIFFERS;
@@ -659,14 +656,14 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
-		struct rmd_msg msg = { .cmd = 0xB3 };
+		struct rmd_msg msg;
 
 		out->motor[i].comm_loss_ms = rmd_config_comm_loss_ms(l->cfg, i);
 		if (lm->m.bus != b || !rmd_dialect_has(lm->m.d, RMD_DIALECT_COMM_LOSS_B3) ||
 		    lm->st->lifecycle == RMD_LC_LOST)
 			continue;
 		out->motor[i].b3 = RMD_B3_NO_ANSWER;
-		rmd_msg_set(&msg, RMD_FLD_TIMEOUT, out->motor[i].comm_loss_ms);
+		rmd_arm_request(out->motor[i].comm_loss_ms, &msg);
 		/*
 		 * A motor whose protection tripped (it may have, while bring-up
 		 * probed the others) only echoes the first command it gets, and
@@ -692,8 +689,8 @@ static void arm_comm_loss(struct rmd_loop *l, unsigned b, struct rmd_bringup *ou
 
 		if (lm->m.bus != b)
 			continue;
-		out->motor[i].comm_loss = lm->cl;
-		if (!rmd_comm_loss_allows_motion(lm->cl) && lm->st->lifecycle != RMD_LC_LOST)
+		out->motor[i].comm_loss = lm->arm.cl;
+		if (!rmd_comm_loss_allows_motion(lm->arm.cl) && lm->st->lifecycle != RMD_LC_LOST)
 			out->unarmed++;
 	}
 }

@@ -62,7 +62,7 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 }
 
 static void cl_forget(struct rmd_loop *l, struct lmotor *lm);
-static void cl_start_round(struct lmotor *lm);
+static void cl_busy(struct rmd_loop *l, struct lmotor *lm);
 static void pos_forget(struct lmotor *lm);
 static void pos_begin(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 
@@ -79,20 +79,9 @@ static void push_oneshot_cmd(struct lmotor *lm, uint8_t cmd)
 /* Owed frames */
 
 /*
- * A motor is READY only after it echoed output off (0x80, V3 §2.15 / V2
- * §3.34) and brake locked (0x78, V3 §2.27 / V2 §3.51), and a FAULT motor
- * gets output off (and the brake, rmd_config_fault_brakes()) the same way: those
- * frames are *owed* (lm->owe) from the entry of STOPPING or FAULT on.
- * Each control slot of the motor carries one of them (0x80 and 0x78 in
- * turn) until the motor's echo of it comes: a reply on its own reply
- * identifier, matched to that request by the loop's matching (loop_rx.c),
- * repeating it byte for byte, to a request sent after the debt began
- * (an older 0x80 proves nothing about the setpoints that followed it).
- * An echo a motor whose comm-loss protection tripped gives without
- * executing the frame is still true: the trip cut its output and locked
- * its brake (V3 §2.30.1).  Bounded: OWED_SENDS_MAX sends without the
- * debt paid and the motor is LOST (it does not do what rmdd asks); every
- * send after a frame's first is counted (owed_resends).
+ * rmd/proc_owed.h decides what a motor owes and when it paid; here its
+ * outcomes are applied: a STOPPING motor that owes nothing more is READY,
+ * one that leaves its debt unpaid for RMD_OWED_SENDS_MAX sends is LOST.
  */
 
 /* lm owes the frames of `bits` from now on (those its dialect has).  rt-safe. */
@@ -100,66 +89,65 @@ static void owe(struct lmotor *lm, unsigned bits)
 {
 	struct rmd_frame f;
 
-	if ((bits & OWE_OFF) && rmd_motor_encode_cmd(&lm->m, 0x80, &f) < 0)
-		bits &= ~(unsigned)OWE_OFF;
-	if ((bits & OWE_BRAKE) && rmd_motor_encode_cmd(&lm->m, 0x78, &f) < 0)
-		bits &= ~(unsigned)OWE_BRAKE;
-	lm->owe = (uint8_t)bits;
-	lm->owe_sent = 0;
-	lm->owe_sends = 0;
-	lm->owe_seq = lm->seq; /* the requests booked from now on */
+	if ((bits & RMD_OWE_OFF) && rmd_motor_encode_cmd(&lm->m, 0x80, &f) < 0)
+		bits &= ~(unsigned)RMD_OWE_OFF;
+	if ((bits & RMD_OWE_BRAKE) && rmd_motor_encode_cmd(&lm->m, 0x78, &f) < 0)
+		bits &= ~(unsigned)RMD_OWE_BRAKE;
+	rmd_owed_begin(&lm->owed, bits, lm->seq); /* the requests booked from now on */
 }
 
 /* The owed frame lm's next control slot carries, if it owes one.  rt-safe. */
 bool loop_owed_frame(const struct lmotor *lm, struct rmd_frame *f)
 {
-	unsigned bit = lm->owe;
+	uint8_t cmd = rmd_owed_next(&lm->owed);
 
-	if (!bit)
-		return false;
-	if (bit == (OWE_OFF | OWE_BRAKE))
-		bit = lm->owe_sends % 2 ? OWE_BRAKE : OWE_OFF;
-	return rmd_motor_encode_cmd(&lm->m, bit == OWE_OFF ? 0x80 : 0x78, f) == 0;
+	return cmd && rmd_motor_encode_cmd(&lm->m, cmd, f) == 0;
 }
 
 /* An owed frame (command byte cmd) of lm was taken by its bus.  rt-safe. */
 void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd)
 {
-	unsigned bit = cmd == 0x80 ? OWE_OFF : OWE_BRAKE;
-
-	lm->owe_sends++;
-	if (lm->owe_sent & bit)
+	if (rmd_owed_sent(&lm->owed, cmd))
 		l->cnt.owed_resends++;
-	lm->owe_sent |= (uint8_t)bit;
 }
 
 /*
  * A request of lm went unanswered, or an owed frame was answered with
- * other bytes than its own: after OWED_SENDS_MAX owed sends the motor is
- * LOST (loop_rx.c, while it drains or checks deadlines: never while a
+ * other bytes than its own: after RMD_OWED_SENDS_MAX owed sends the motor
+ * is LOST (loop_rx.c, while it drains or checks deadlines: never while a
  * send is booked, whose one-shots a lifecycle change would reorder).
  * rt-safe.
  */
 void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	if (lm->owe && lm->owe_sends >= OWED_SENDS_MAX && lm->st->lifecycle != RMD_LC_LOST)
+	if (rmd_owed_exhausted(&lm->owed) && lm->st->lifecycle != RMD_LC_LOST)
 		loop_motor_lost(l, lm, now);
 }
 
 /*
- * lm echoed the owed 0x80 or 0x78 (loop_rx.c; bring-up's own for its
- * frames): that debt is paid, and a STOPPING motor that owes nothing more
- * is READY.  rt-safe.
+ * lm answered its request req_seq, command byte cmd, repeating it or not
+ * (loop_rx.c; bring-up's own for its frames): the debt's outcome applied.
+ * True when the answer was an owed frame's echo (it carries no values).
+ * rt-safe.
  */
-void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now)
+bool loop_owed_answer(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, uint64_t req_seq,
+		      bool repeats, int64_t now)
 {
-	unsigned bit = cmd == 0x80 ? OWE_OFF : cmd == 0x78 ? OWE_BRAKE : 0;
-
-	if (!(lm->owe & bit))
-		return;
-	lm->owe &= (uint8_t)~bit;
-	if (!lm->owe && lm->st->lifecycle == RMD_LC_STOPPING)
-		loop_enter(l, lm, RMD_LC_READY, now);
+	switch (rmd_owed_answer(&lm->owed, cmd, req_seq, repeats)) {
+	case RMD_OWED_NONE:
+		return false;
+	case RMD_OWED_UNPAID:
+		loop_owed_unpaid(l, lm, now);
+		return false;
+	case RMD_OWED_CLEAR:
+		if (lm->st->lifecycle == RMD_LC_STOPPING)
+			loop_enter(l, lm, RMD_LC_READY, now);
+		return true;
+	case RMD_OWED_PAID:
+	case RMD_OWED_AGAIN:
+		return true;
+	}
+	return false;
 }
 
 /*
@@ -203,7 +191,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	enum rmd_lifecycle old = (enum rmd_lifecycle)lm->st->lifecycle;
 
 	/* READY is STOPPING's debt paid, never a jump */
-	if (lc == RMD_LC_READY && (old != RMD_LC_STOPPING || lm->owe))
+	if (lc == RMD_LC_READY && (old != RMD_LC_STOPPING || lm->owed.bits))
 		lc = RMD_LC_STOPPING;
 	if (old == lc)
 		return;
@@ -211,7 +199,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	if (lc != RMD_LC_READY) {
 		/* READY keeps what waits: STOPPING queued nothing but a 0xB3 round's writes */
 		loop_frames_drop(lm);
-		lm->owe = 0;
+		rmd_owed_drop(&lm->owed);
 	}
 	/*
 	 * The events in the order things happened (issue 20.11): the error
@@ -234,7 +222,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		lm->need_edge = true; /* the host watchdog's too: the latch (rmd/loop.h) */
 		break;
 	case RMD_LC_STOPPING:
-		owe(lm, OWE_OFF | OWE_BRAKE);
+		owe(lm, RMD_OWE_OFF | RMD_OWE_BRAKE);
 		if (old != RMD_LC_FAULT) /* FAULT on the way keeps where it came from */
 			lm->stop_from = (uint8_t)old;
 		if (old == RMD_LC_PROBE)
@@ -246,15 +234,17 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			rmd_reboot_found(&lm->rb, now,
 					 loop_reboot_cmd(lm) == RMD_REBOOT_CMD_RUNTIME);
 		/* back: pushes another tool may have left on go off, as at bring-up */
-		if (old == RMD_LC_LOST && rmd_dialect_has(lm->m.d, RMD_DIALECT_ACTIVE_REPLY))
-			lm->reports_off = (uint8_t)((1u << lm->m.d->n_report_cmds) - 1u);
+		if (old == RMD_LC_LOST)
+			rmd_silence_begin(&lm->sil, lm->m.d);
 		break;
 	case RMD_LC_READY:
 		lm->st->mode = (uint8_t)lm->m.mode;
 		if (lm->stop_from == RMD_LC_PROBE || lm->stop_from == RMD_LC_LOST) {
 			cl_forget(l, lm);
-			if (lm->cl == RMD_CL_PENDING)
-				cl_start_round(lm);
+			if (rmd_arm_pending(&lm->arm)) {
+				rmd_arm_start_round(&lm->arm);
+				cl_busy(l, lm);
+			}
 			pos_begin(l, lm, now); /* it may have been powered off */
 		}
 		lm->stop_from = RMD_LC_READY;
@@ -262,19 +252,20 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	case RMD_LC_LOST:
 	case RMD_LC_FAULT:
 		lm->need_edge = true;
-		lm->cl_want = false;
+		lm->arm.want = false;
 		if (lc == RMD_LC_LOST) {
 			if (old == RMD_LC_ENABLED)
 				queue_safe(l, lm, false, now);
 			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
-			rmd_reboot_forget(&lm->rb); /* back is found anew */
-			lm->reports_off = 0;	    /* sent again when it is back */
+			rmd_reboot_forget(&lm->rb);   /* back is found anew */
+			rmd_silence_forget(&lm->sil); /* sent again when it is back */
 			cl_forget(l, lm);
 			pos_forget(lm);
 			/* V2: the encoder cannot tell what turned while it was silent */
 			rmd_motor_forget_v2_reference(&lm->m);
 		} else {
-			owe(lm, OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? OWE_BRAKE : 0));
+			owe(lm,
+			    RMD_OWE_OFF | (rmd_config_fault_brakes(l->cfg) ? RMD_OWE_BRAKE : 0));
 		}
 		break;
 	case RMD_LC_PROBE:
@@ -369,8 +360,7 @@ static inline void take_setpoint(struct lmotor *lm, const struct rmd_setpoint *s
 static __attribute__((cold, noinline)) int pos_refuse(struct rmd_loop *l, struct lmotor *lm,
 						      const struct rmd_setpoint *sp, int64_t now)
 {
-	if (!lm->pos_warned) {
-		lm->pos_warned = true;
+	if (rmd_settle_warn_once(&lm->settle)) {
 		loop_event(l, now, RMD_EV_POS_REFUSED, loop_idx(l, lm), lm->m.bus,
 			   lm->st->pos_trust, sp->mode);
 	}
@@ -403,9 +393,9 @@ static __attribute__((noinline)) int pos_uncertain_setpoint(struct rmd_loop *l, 
 static __attribute__((cold, noinline)) int mit_refuse(struct rmd_loop *l, struct lmotor *lm,
 						      int64_t now)
 {
-	if (!lm->mit_warned) {
-		lm->mit_warned = true;
-		loop_event(l, now, RMD_EV_MIT_REFUSED, loop_idx(l, lm), lm->m.bus, lm->version, 0);
+	if (rmd_ident_mit_warn_once(&lm->ident)) {
+		loop_event(l, now, RMD_EV_MIT_REFUSED, loop_idx(l, lm), lm->m.bus,
+			   lm->ident.version, 0);
 	}
 	return RMD_IGN_MIT_SCALING;
 }
@@ -423,7 +413,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 			return mit_refuse(l, lm, now);
 		if (!lm->st->pos_certain && rmd_setpoint_needs_pos(sp))
 			return pos_refuse(l, lm, sp, now);
-		if (!rmd_comm_loss_allows_motion(lm->cl)) {
+		if (!rmd_comm_loss_allows_motion(lm->arm.cl)) {
 			/* armed first, then enabled, or refused with a reason (unarmed_rejects) */
 			cl_enable_wanted(l, lm, sp, now);
 			return -1;
@@ -448,7 +438,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	lm->need_edge = false; /* the enable = 0 the edge rule waits for */
-	lm->cl_want = false;
+	lm->arm.want = false;
 	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_ENABLED:
 	case RMD_LC_SAFE:
@@ -604,20 +594,20 @@ void loop_watchdog(struct rmd_loop *l, int64_t now)
  * Each motor's 0xB3 (V3 §2.30) is a precondition of motion (enum
  * rmd_comm_loss, rmd/state.h).  Bring-up writes it last and hands its
  * outcome to loop_cl_outcome().  The loop writes it again, in rounds of up
- * to ARM_TRIES writes (each a one-shot in the motor's control slot, its
+ * to RMD_ARM_TRIES writes (each a one-shot in the motor's control slot, its
  * answer awaited for the bus's reply deadline after the slot comes; a
  * status read goes ahead of it in that slot, loop_tx.c, so that a motor
  * that tripped since its last frame echoes the read, not the write):
  *   - when a motor answers after PROBE or LOST (loop_enter()): found after
  *     bring-up, or back, and perhaps swapped or reflashed;
  *   - when an enable arrives for a motor that is not armed, at most one
- *     round per ARM_ROUND_NS: 0xB3 writes the motor's ROM, so it is never
+ *     round per RMD_ARM_ROUND_NS: 0xB3 writes the motor's ROM, so it is never
  *     written in a loop of its own.
  * An enable that arrives during a round waits for it and is applied once
  * the motor is armed, unless the controller has gone quiet for
  * command_timeout_ms meanwhile or the watchdog tripped; a round that fails
  * refuses it.  An enable for a motor whose round failed less than
- * ARM_ROUND_NS ago is refused (a later one starts a new round).  A
+ * RMD_ARM_ROUND_NS ago is refused (a later one starts a new round).  A
  * refusal is counted per motor (unarmed_rejects, in health) and reported
  * through the event ring once per episode (until the motor is armed or
  * lost).  Motors whose protection is off by config are not written by
@@ -636,92 +626,68 @@ static uint32_t cl_ms(const struct rmd_loop *l, const struct lmotor *lm)
 /* Forget the protection: the motor may not be the one that was armed.  rt-safe. */
 static void cl_forget(struct rmd_loop *l, struct lmotor *lm)
 {
-	if (!cl_ms(l, lm))
-		lm->cl = RMD_CL_OFF;
-	else if (!(lm->m.caps & RMD_DIALECT_COMM_LOSS_B3))
-		lm->cl = RMD_CL_UNSUPPORTED;
-	else
-		lm->cl = RMD_CL_PENDING;
-	lm->cl_round = false;
-	lm->cl_want = false;
-	lm->cl_warned = false;
+	rmd_arm_forget(&lm->arm, cl_ms(l, lm), lm->m.caps & RMD_DIALECT_COMM_LOSS_B3);
 }
 
-/* rt-safe. */
-static void cl_start_round(struct lmotor *lm)
+/* lm's round runs, or an enable waits for one: loop_comm_loss() looks at it.  rt-safe. */
+static void cl_busy(struct rmd_loop *l, struct lmotor *lm)
 {
-	lm->cl_round = true;
-	lm->cl_differs = false;
-	lm->cl_tries = 0;
-	lm->cl_try_end_ns = INT64_MIN; /* the first write goes out at once */
+	l->arm_busy |= UINT32_C(1) << loop_idx(l, lm);
 }
 
 /* An enable refused for lm: counted, reported once per episode.  rt-safe. */
 static void cl_refuse(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	lm->unarmed_rejects++;
-	if (lm->cl_warned)
-		return;
-	lm->cl_warned = true;
-	loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->cl, 1);
+	if (rmd_arm_refused(&lm->arm))
+		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->arm.cl, 1);
 }
 
 /* An enable for a READY or SAFE motor that is not armed (enable_motor()).  rt-safe. */
 static void cl_enable_wanted(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			     int64_t now)
 {
-	if (lm->cl == RMD_CL_UNSUPPORTED) {
-		cl_refuse(l, lm, now); /* nothing to write */
-		return;
-	}
-	if (!lm->cl_round && now - lm->cl_round_end_ns < ARM_ROUND_NS) {
+	if (rmd_arm_enable_wanted(&lm->arm, sp, now) == RMD_ARM_REFUSE)
 		cl_refuse(l, lm, now);
-		return;
-	}
-	if (!lm->cl_round)
-		cl_start_round(lm);
-	lm->cl_want = true;
-	lm->cl_sp = *sp;
+	else
+		cl_busy(l, lm);
 }
 
 /* Queue the next write of lm's round.  False when its one-shot queue is full.  rt-safe. */
 static bool cl_push(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	struct rmd_msg msg = { .cmd = 0xB3 };
 	unsigned div = l->cfg->motors[loop_idx(l, lm)].rate_divisor;
 	struct rmd_frame f;
 
-	if (lm->n_oneshot >= ONESHOTS)
-		return false;
-	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, cl_ms(l, lm));
-	if (rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, &f) < 0)
+	if (lm->n_oneshot >= ONESHOTS ||
+	    rmd_motor_encode_comm_timeout(&lm->m, cl_ms(l, lm), &f) < 0)
 		return false;
 	oneshot_push(lm, &f);
 	/* it goes out after the one-shots before it, one per control slot */
-	lm->cl_try_end_ns = now + l->bus[lm->m.bus].reply_ns +
-			    (int64_t)lm->n_oneshot * (div ? div : 1u) * l->period_ns;
+	rmd_arm_written(&lm->arm, now + l->bus[lm->m.bus].reply_ns +
+					  (int64_t)lm->n_oneshot * (div ? div : 1u) * l->period_ns);
 	return true;
 }
 
 /* One step of lm's round: the next write, or its end.  rt-safe. */
 static void cl_round_step(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE ||
-	    now < lm->cl_try_end_ns)
-		return;
-	if (lm->cl_tries < ARM_TRIES) {
-		if (cl_push(l, lm, now))
-			lm->cl_tries++;
-		return;
-	}
-	lm->cl_round = false;
-	lm->cl = lm->cl_differs ? RMD_CL_DIFFERS : RMD_CL_NO_ANSWER;
-	lm->cl_round_end_ns = now;
-	if (lm->cl_want) {
-		lm->cl_want = false;
-		cl_refuse(l, lm, now);
-	} else {
-		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->cl, 0);
+	bool reachable = lm->st->lifecycle != RMD_LC_LOST && lm->st->lifecycle != RMD_LC_PROBE;
+
+	switch (rmd_arm_step(&lm->arm, reachable, now)) {
+	case RMD_ARM_IDLE:
+		break;
+	case RMD_ARM_WRITE:
+		cl_push(l, lm, now);
+		break;
+	case RMD_ARM_FAILED:
+		if (lm->arm.want) {
+			lm->arm.want = false;
+			cl_refuse(l, lm, now);
+		} else {
+			loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->arm.cl,
+				   0);
+		}
+		break;
 	}
 }
 
@@ -730,102 +696,70 @@ static void cl_apply_enable(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	int64_t due = l->cmd_due_ns[loop_idx(l, lm)];
 
-	lm->cl_want = false;
+	lm->arm.want = false;
 	if (l->wd == RMD_WD_TRIPPED || now > due)
 		return; /* the controller went quiet meanwhile */
-	enable_motor(l, lm, &lm->cl_sp, now);
+	enable_motor(l, lm, &lm->arm.sp, now);
 	if (lm->st->lifecycle == RMD_LC_ENABLED && due < l->wd_due_ns)
 		l->wd_due_ns = due;
 }
 
-/* Every motor's round, and the enables waiting for one: step 3 of the cycle.  rt-safe. */
+/*
+ * Every motor's round, and the enables waiting for one: step 3 of the
+ * cycle; only the motors that have either are looked at (arm_busy).
+ * rt-safe.
+ */
 void loop_comm_loss(struct rmd_loop *l, int64_t now)
 {
-	for (unsigned i = 0; i < l->n_motors; i++) {
+	for (uint32_t m = l->arm_busy; m; m &= m - 1) {
+		unsigned i = (unsigned)__builtin_ctz(m);
 		struct lmotor *lm = &l->mot[i];
 
-		if (lm->cl_round)
+		if (lm->arm.round)
 			cl_round_step(l, lm, now);
-		else if (lm->cl_want)
+		else if (lm->arm.want)
 			cl_apply_enable(l, lm, now);
+		if (!lm->arm.round && !lm->arm.want)
+			l->arm_busy &= ~(UINT32_C(1) << i);
 	}
-}
-
-/*
- * What an answer to the 0xB3 request `req` says: the request repeated
- * (armed, echo-verified), the command byte and zeros (V3 §2.30 example 2),
- * or something else.  Pure.
- */
-enum rmd_comm_loss loop_b3_outcome(const uint8_t *req, const struct rmd_frame *rep)
-{
-	static const uint8_t zeros[RMD_FRAME_LEN - 1];
-
-	if (rep->len == RMD_FRAME_LEN && !memcmp(rep->data, req, RMD_FRAME_LEN))
-		return RMD_CL_ARMED;
-	if (rep->len == RMD_FRAME_LEN && rep->data[0] == req[0] &&
-	    !memcmp(rep->data + 1, zeros, sizeof(zeros)))
-		return RMD_CL_ARMED_ZEROS;
-	return RMD_CL_DIFFERS;
 }
 
 /* An answer to a 0xB3 the loop wrote (loop_rx.c).  rt-safe. */
 void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
 		    const struct rmd_frame *rep, int64_t now)
 {
-	enum rmd_comm_loss cl = loop_b3_outcome(req, rep);
-	bool was = rmd_comm_loss_set(lm->cl);
-
-	if (lm->cl == RMD_CL_OFF || lm->cl == RMD_CL_UNSUPPORTED)
-		return;
-	if (!rmd_comm_loss_set(cl)) {
-		lm->cl_differs = true;
-		if (!lm->cl_round)
-			lm->cl = RMD_CL_DIFFERS;
-		return;
-	}
-	lm->cl = (uint8_t)cl;
-	lm->cl_round = false;
-	lm->cl_warned = false;
-	lm->cl_round_end_ns = now;
-	if (!was)
-		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, cl, 0);
+	if (rmd_arm_answer(&lm->arm, req, rep, now) == RMD_ARM_NOW_ARMED)
+		loop_event(l, now, RMD_EV_COMM_LOSS, loop_idx(l, lm), lm->m.bus, lm->arm.cl, 0);
 }
 
 /* Bring-up's outcome for lm (bringup.c): what its own writes came to.  rt-safe. */
 void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss cl, int64_t now)
 {
-	cl_forget(l, lm);
-	if (lm->cl == RMD_CL_PENDING)
-		lm->cl = (uint8_t)cl;
-	lm->cl_round_end_ns = now;
+	rmd_arm_took_over(&lm->arm, cl_ms(l, lm), lm->m.caps & RMD_DIALECT_COMM_LOSS_B3, cl, now);
 }
 
 uint8_t rmd_loop_comm_loss(const struct rmd_loop *l, unsigned i)
 {
-	return i < l->n_motors ? l->mot[i].cl : RMD_CL_PENDING;
+	return i < l->n_motors ? l->mot[i].arm.cl : RMD_CL_PENDING;
 }
 
 /* ------------------------------------------------------------------ */
 /* Position after a power cycle */
 
 /*
- * rmd/multiturn.h: a motor that appears (bring-up) or returns from LOST may
- * have been powered off, and its multi-turn count with it.  Its position is
- * then trusted when the config says it keeps its count, or decided on the
- * first two positions received that agree (loop_pos_settle()): shifted into its travel
- * band when the band admits one position, else uncertain until homed.
+ * rmd/proc_settle.h decides whether a motor that appears (bring-up) or
+ * returns from LOST can trust its position, on the rule of
+ * rmd/multiturn.h; here its decisions are applied: the state's trust, the
+ * reported frame's shift into the travel band, the events.
  */
 
-/* rt-safe. */
+/* Decision t of lm's position applied, shifted by shift.  rt-safe. */
 static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t, double shift,
 		    int64_t now)
 {
-	lm->pos_settle = false;
-	lm->pos_cand_trust = RMD_POS_UNKNOWN;
+	rmd_settle_decided(&lm->settle, t);
 	lm->st->pos_trust = (uint8_t)t;
 	lm->st->pos_certain = rmd_pos_trusted(t);
-	if (lm->st->pos_certain)
-		lm->pos_warned = false;
 	loop_event(l, now, RMD_EV_POSITION, loop_idx(l, lm), lm->m.bus, t,
 		   (int64_t)llround(shift * 1e6));
 }
@@ -833,9 +767,7 @@ static void pos_set(struct rmd_loop *l, struct lmotor *lm, enum rmd_pos_trust t,
 /* Lost: nothing is known of its position any more.  rt-safe. */
 static void pos_forget(struct lmotor *lm)
 {
-	lm->pos_settle = false;
-	lm->pos_cand_trust = RMD_POS_UNKNOWN;
-	lm->pos_warned = false;
+	rmd_settle_forget(&lm->settle);
 	lm->st->pos_trust = RMD_POS_UNKNOWN;
 	lm->st->pos_certain = false;
 }
@@ -844,30 +776,18 @@ static void pos_forget(struct lmotor *lm)
 static void pos_begin(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	pos_forget(lm);
-	if (lm->m.mt.saved) {
+	if (rmd_settle_begin(&lm->settle, &lm->m.mt, now) == RMD_POS_SAVED)
 		pos_set(l, lm, RMD_POS_SAVED, 0.0, now);
-		return;
-	}
-	lm->pos_settle = true;
-	lm->pos_settle_ns = now;
 }
 
 void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
 	double shift;
-	enum rmd_pos_trust t = rmd_multiturn_settle(&lm->m.mt, lm->st->pos_rad, &shift);
+	enum rmd_pos_trust t = rmd_settle_reading(&lm->settle, &lm->m.mt, lm->st->pos_rad,
+						  lm->st->pos_rx_ns, &shift);
 
-	/*
-	 * Two readings in a row decide, when they come to the same: one frame
-	 * that decodes but is not the motor's (garbled, or another node on its
-	 * identifier) would shift the command frame by whole turns for good.
-	 */
-	if (lm->pos_cand_trust != (uint8_t)t || lm->pos_cand_shift != shift) {
-		lm->pos_cand_trust = (uint8_t)t; /* never RMD_POS_UNKNOWN */
-		lm->pos_cand_shift = shift;
-		lm->pos_settle_ns = lm->st->pos_rx_ns + 1; /* a later reading */
-		return;
-	}
+	if (t == RMD_POS_UNKNOWN)
+		return; /* the first of two readings */
 	if (t == RMD_POS_IN_BAND && shift != 0.0) {
 		rmd_motor_shift_pos(&lm->m, shift);
 		lm->st->pos_rad += shift;
@@ -875,44 +795,29 @@ void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 	pos_set(l, lm, t, shift, now);
 }
 
-/* A homing request of lm refused, reported and counted.  rt-safe. */
-static void home_refuse(struct rmd_loop *l, struct lmotor *lm, enum rmd_home_refusal why,
-			double pos_rad, int64_t now)
-{
-	l->cnt.homes_refused++;
-	loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus, why,
-		   why == RMD_HOME_OUTSIDE ? (int64_t)llround(pos_rad * 1e6) : 0);
-}
-
 /*
  * A controller homed lm (rmd.home_t): it is at pos_rad now, or where it
  * reports (as_reported).  The reported frame shifts, the motor does not
- * move; refused while it is enabled (the position would jump under a
- * running loop), before it reported a position, or at a position outside
- * its travel band (rmd_multiturn_in_band(): the frame would move so that
- * setpoints within its limits drive it past them).  rt-safe.
+ * move; a refusal (rmd_settle_home()) is reported and counted.  rt-safe.
  */
 static void pos_home(struct rmd_loop *l, struct lmotor *lm, bool as_reported, double pos_rad,
 		     int64_t now)
 {
-	double shift;
+	const struct rmd_settle_home_facts f = {
+		.enabled = lm->st->lifecycle == RMD_LC_ENABLED,
+		.reachable = lm->st->lifecycle != RMD_LC_LOST && lm->st->lifecycle != RMD_LC_PROBE,
+		.have_pos = lm->st->pos_rx_ns != 0,
+		.reported = lm->st->pos_rad,
+	};
+	double shift, at;
+	int why = rmd_settle_home(&lm->settle, &lm->m.mt, &f, as_reported, pos_rad, &shift, &at);
 
-	if (lm->st->lifecycle == RMD_LC_ENABLED) {
-		home_refuse(l, lm, RMD_HOME_ENABLED, 0.0, now);
+	if (why) {
+		l->cnt.homes_refused++;
+		loop_event(l, now, RMD_EV_HOME_REFUSED, loop_idx(l, lm), lm->m.bus, why,
+			   why == RMD_HOME_OUTSIDE ? (int64_t)llround(at * 1e6) : 0);
 		return;
 	}
-	if (lm->pos_settle || !lm->st->pos_rx_ns || !isfinite(lm->st->pos_rad) ||
-	    lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) {
-		home_refuse(l, lm, RMD_HOME_NO_POS, 0.0, now);
-		return;
-	}
-	if (as_reported)
-		pos_rad = lm->st->pos_rad;
-	if (!rmd_multiturn_in_band(&lm->m.mt, pos_rad)) {
-		home_refuse(l, lm, RMD_HOME_OUTSIDE, pos_rad, now);
-		return;
-	}
-	shift = pos_rad - lm->st->pos_rad;
 	rmd_motor_shift_pos(&lm->m, shift);
 	lm->st->pos_rad += shift;
 	pos_set(l, lm, RMD_POS_HOMED, shift, now);

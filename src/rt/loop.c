@@ -288,11 +288,11 @@ void loop_fill_health(struct rmd_loop *l, int64_t now)
 	h->homes_refused = l->cnt.homes_refused;
 	h->nmotors = l->n_motors;
 	for (unsigned i = 0; i < l->n_motors; i++) {
-		h->comm_loss[i] = l->mot[i].cl;
+		h->comm_loss[i] = l->mot[i].arm.cl;
 		h->comm_loss_ms[i] = rmd_config_comm_loss_ms(l->cfg, i);
 		h->proto[i] = (uint8_t)l->mot[i].m.proto;
-		h->firmware[i] = l->mot[i].version;
-		h->unarmed_rejects[i] = l->mot[i].unarmed_rejects;
+		h->firmware[i] = l->mot[i].ident.version;
+		h->unarmed_rejects[i] = l->mot[i].arm.rejects;
 	}
 	l->health_fresh = true;
 }
@@ -698,7 +698,7 @@ static void queue_stop(struct rmd_loop *l, int driven, uint8_t cmd, bool brake)
 			for (int j = 0; j < n; j++)
 				loop_push_tx(lb, &f[j], loop_idx(l, lm), REQ_STATUS);
 			/* V3 §2.27 / V2 §3.51 brake locked */
-			if ((brake || (lm->owe & OWE_BRAKE)) &&
+			if ((brake || (lm->owed.bits & RMD_OWE_BRAKE)) &&
 			    rmd_motor_encode_cmd(&lm->m, 0x78, &f[0]) == 0)
 				loop_push_tx(lb, &f[0], loop_idx(l, lm), REQ_STATUS);
 		}

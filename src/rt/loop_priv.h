@@ -30,10 +30,15 @@
 #include "rmd/loop.h"
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
+#include "rmd/proc_arm.h"
+#include "rmd/proc_ident.h"
+#include "rmd/proc_owed.h"
+#include "rmd/proc_settle.h"
+#include "rmd/proc_silence.h"
 #include "rmd/reboot.h"
 
 #define OUTSTANDING 8 /* requests in flight per motor */
-#define GONE 8	      /* requests given up per motor, whose answers may still come */
+#define GONE 32	      /* requests given up per motor, whose answers may still come */
 #define ONESHOTS 4    /* one-shot frames waiting per motor */
 #define RX_BATCH 64   /* frames per recv() call */
 #define RX_ROUNDS 8   /* recv() calls per bus per drain: bounded work */
@@ -51,15 +56,6 @@
 #define COLLECT_SIM_STEP_NS 20000 /* a bus without a descriptor (sim): looked at this often */
 #define STOP_TRIES 50		  /* rmd_loop_stop_motors(): sends per bus ... */
 #define STOP_STEP_NS 200000	  /* ... this far apart */
-#define ARM_TRIES 3		  /* 0xB3 writes of one round in the loop */
-#define ARM_ROUND_NS RMD_NS_PER_S /* a refused enable starts a new round this long after */
-#define OWED_SENDS_MAX 16	  /* owed 0x80/0x78 sends unechoed: the motor is lost */
-
-/* Frames a motor owes an echo of (struct lmotor.owe; lifecycle.c "Owed frames"). */
-enum {
-	OWE_OFF = 1u << 0,   /* 0x80 output off, V3 §2.15 / V2 §3.34 */
-	OWE_BRAKE = 1u << 1, /* 0x78 brake locked, V3 §2.27 / V2 §3.51 */
-};
 
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {
@@ -115,65 +111,30 @@ struct lmotor {
 	unsigned n_oneshot;
 	bool damp_stream; /* SAFE with MIT damp: the damp frame in every control slot */
 	/*
-	 * 0xB6 offs still to send (V4.2 §2.33), bit k: m.d->report_cmds[k]:
-	 * a motor that comes back may have been left pushing replies, as
-	 * bring-up assumes of every motor it finds (lifecycle.c).  Beside
-	 * n_oneshot and owe: loop_tx.c add_control() asks all three at once.
+	 * The replies it may push unasked, to turn off (rmd/proc_silence.h).
+	 * Beside n_oneshot and owed: loop_tx.c add_control() asks them at once.
 	 */
-	uint8_t reports_off;
-	/*
-	 * Owed frames (lifecycle.c "Owed frames"): OWE_* bits not yet echoed,
-	 * how many were sent, and the state STOPPING was entered from.
-	 */
-	uint8_t owe;
-	uint8_t owe_sent;  /* OWE_* bits sent at least once */
 	bool v2_ask_angle; /* V2 without its 0x92 reference: the last read asked 0x92 */
-	unsigned owe_sends;
-	uint64_t owe_seq;  /* an echo pays only for a request booked from this seq on */
-	uint8_t stop_from; /* enum rmd_lifecycle */
+	struct rmd_silence sil;
+	/* the frames it owes an echo of (rmd/proc_owed.h) */
+	struct rmd_owed owed;
+	uint8_t stop_from; /* enum rmd_lifecycle: the state STOPPING was entered from */
 	int64_t next_probe_ns;
 	/*
-	 * Missing at bring-up, so its firmware date was never checked against
-	 * its dialect (the entry's, or V3 for `protocol: auto`): its re-probe
-	 * asks the date (0xB2) until the answer settles it (loop_rx.c
-	 * settle_dialect()), and for a motor in MIT mode its model (0xB5)
-	 * first, which with the date decides its MIT scaling.  Dialects
-	 * without 0xB2 (V2) have nothing to ask.
+	 * Its firmware (rmd/proc_ident.h): model and date as read, open while
+	 * a motor missing at bring-up has not told its date, refused when it
+	 * was left out for good (nothing it says brings it back).
 	 */
-	bool dialect_open;
-	/*
-	 * Left out for good (bring-up's dialect mismatch, or a late answer
-	 * that named another dialect): nothing it says brings it back.
-	 */
-	bool refused;
+	struct rmd_ident ident;
 	bool replied;
 	uint64_t last_reply_cycle;
+	/* its comm-loss protection, 0xB3 (rmd/proc_arm.h; lifecycle.c applies it) */
+	struct rmd_arm arm;
 	/*
-	 * Comm-loss protection (0xB3, lifecycle.c "Comm-loss protection"): its
-	 * state, the round of writes in progress, an enable waiting for it.
+	 * Multi-turn position after a power cycle (rmd/proc_settle.h; the
+	 * decision is st->pos_certain and st->pos_trust, the facts m.mt)
 	 */
-	uint8_t cl;		   /* enum rmd_comm_loss */
-	bool cl_round;		   /* a round of writes runs */
-	bool cl_differs;	   /* this round had an answer with another time */
-	bool cl_warned;		   /* this episode's refusal was reported */
-	unsigned cl_tries;	   /* writes of this round */
-	int64_t cl_try_end_ns;	   /* the current write's answer is awaited until then */
-	int64_t cl_round_end_ns;   /* when the last round ended */
-	bool cl_want;		   /* an enable waits for the round */
-	struct rmd_setpoint cl_sp; /* ... with this setpoint */
-	uint64_t unarmed_rejects;  /* enables refused: protection not set */
-	/*
-	 * Multi-turn position after a power cycle (rmd/multiturn.h; the flag
-	 * is st->pos_certain, the facts m.mt): whether the next position
-	 * received after pos_settle_ns decides it, with the earlier reading's
-	 * decision (two must agree; RMD_POS_UNKNOWN: no earlier reading).
-	 */
-	bool pos_settle;
-	int64_t pos_settle_ns;
-	uint8_t pos_cand_trust; /* enum rmd_pos_trust */
-	double pos_cand_shift;
-	bool pos_warned; /* this episode's refusal was reported */
-	bool mit_warned; /* an MIT enable was refused, its scaling not decided: reported */
+	struct rmd_settle settle;
 	/*
 	 * A short power cycle (rmd/reboot.h): after a missed reply, whether
 	 * it rebooted; while pending, its control slot carries the read that
@@ -183,10 +144,6 @@ struct lmotor {
 	struct rmd_reboot rb;
 	uint32_t homes_seen;	/* rmd_home.seq[] of this motor, acted on */
 	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
-	/* bring-up */
-	char model[8];
-	uint32_t version;
-	uint8_t pushed; /* bring-up: replies pushed unasked, bit k: m.d->report_cmds[k] */
 	/* rmd_loop_stop_motors(): a final frame of it the bus did not take, or that went unanswered */
 	bool stop_unreached;
 };
@@ -274,7 +231,9 @@ struct rmd_loop {
 	/* motor i, ENABLED: its last command's arrival + command_timeout_ms */
 	int64_t cmd_due_ns[RMD_MAX_MOTORS];
 	int64_t wd_due_ns; /* the earliest cmd_due_ns[] of the ENABLED motors, or later */
-	uint8_t wd;	   /* enum rmd_watchdog_state */
+	/* bit i: motor i's 0xB3 round runs, or an enable waits for one (lifecycle.c) */
+	uint32_t arm_busy;
+	uint8_t wd; /* enum rmd_watchdog_state */
 	int64_t trip_ns;
 
 	/* statistics */
@@ -376,7 +335,7 @@ static inline void loop_gone(struct lmotor *lm, uint64_t key, int64_t sent_ns)
  */
 int loop_report_off(const struct lmotor *lm, unsigned k, struct rmd_frame *f);
 
-/* lifecycle.c: a position received while pos_settle decides the motor's (rmd/multiturn.h).  rt-safe. */
+/* lifecycle.c: a position received while the settle decides the motor's (rmd/proc_settle.h).  rt-safe. */
 __attribute__((cold)) void loop_pos_settle(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 
 /*
@@ -458,7 +417,7 @@ static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now
 	lm->replied = true;
 	lm->last_reply_cycle = l->cycle;
 	if ((lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) &&
-	    !lm->refused && !lm->dialect_open)
+	    !lm->ident.refused && !lm->ident.open)
 		loop_enter(l, lm, RMD_LC_STOPPING, now);
 }
 
@@ -507,12 +466,12 @@ void loop_watchdog(struct rmd_loop *l, int64_t now);
 void loop_comm_loss(struct rmd_loop *l, int64_t now);
 bool loop_owed_frame(const struct lmotor *lm, struct rmd_frame *f);
 void loop_owed_sent(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd);
-void loop_owed_ack(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, int64_t now);
+bool loop_owed_answer(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, uint64_t req_seq,
+		      bool repeats, int64_t now);
 void loop_owed_unpaid(struct rmd_loop *l, struct lmotor *lm, int64_t now);
 void loop_cl_answer(struct rmd_loop *l, struct lmotor *lm, const uint8_t *req,
 		    const struct rmd_frame *rep, int64_t now);
 void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss cl, int64_t now);
-enum rmd_comm_loss loop_b3_outcome(const uint8_t *req, const struct rmd_frame *rep);
 
 /* loop_tx.c.  rt-safe. */
 void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind);

@@ -67,7 +67,7 @@ static __attribute__((cold, noinline)) void reboot_missed(struct rmd_loop *l, st
 	uint8_t cmd = loop_reboot_cmd(lm);
 
 	if (!cmd || lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE ||
-	    lm->refused || lm->dialect_open)
+	    lm->ident.refused || lm->ident.open)
 		return;
 	if (rmd_reboot_missed(&lm->rb, o->seq, (o->key & 0xFFFF) == cmd, lm->heard_seq, now,
 			      2 * l->bus[lm->m.bus].reply_ns) == RMD_REBOOT_UNCHECKABLE)
@@ -292,15 +292,6 @@ static bool scan_late(struct rmd_loop *l, unsigned b, const struct rmd_frame *f,
 	return true;
 }
 
-/* Whether lm's dialect can push reply `cmd` unasked (0xB6, V4.2 §2.33).  rt-safe. */
-static bool pushed_report(const struct lmotor *lm, uint16_t cmd)
-{
-	for (unsigned k = 0; k < lm->m.d->n_report_cmds; k++)
-		if (cmd == lm->m.d->report_cmds[k])
-			return true;
-	return false;
-}
-
 /* Give up every request of lm in flight: an answer that still comes is late.  rt-safe. */
 static void os_give_up_all(struct lmotor *lm)
 {
@@ -426,7 +417,7 @@ take_values(struct rmd_loop *l, struct lmotor *lm, const struct rmd_frame *f, in
 	/* now: the reply's rmd_bus_rx.t_ns */
 	if (rmd_motor_receive(&lm->m, f, now, lm->st, &have) < 0)
 		return false;
-	if (__builtin_expect(lm->pos_settle, 0) && lm->st->pos_rx_ns >= lm->pos_settle_ns)
+	if (__builtin_expect(rmd_settle_due(&lm->settle, lm->st->pos_rx_ns), 0))
 		loop_pos_settle(l, lm, now);
 	if (__builtin_expect(have & (RMD_MOTOR_HAVE_ERROR | RMD_MOTOR_HAVE_BRAKE |
 				     RMD_MOTOR_HAVE_RUNTIME | RMD_MOTOR_HAVE_COUNT_CHECK),
@@ -456,17 +447,10 @@ static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmoto
 						const struct outstanding *o,
 						const struct rmd_frame *f, int64_t now)
 {
-	uint8_t cmd = f->data[0];
-
-	if (!lm->owe || (cmd != 0x80 && cmd != 0x78) || o->seq < lm->owe_seq ||
-	    f->can_id > RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
+	if (!lm->owed.bits || f->can_id > RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS)
 		return false;
-	if (!rmd_frame_repeats(o->data, false, f)) {
-		loop_owed_unpaid(l, lm, now); /* an answer, but not the echo */
-		return false;
-	}
-	loop_owed_ack(l, lm, cmd, now);
-	return true;
+	return loop_owed_answer(l, lm, f->data[0], o->seq, rmd_frame_repeats(o->data, false, f),
+				now);
 }
 
 /*
@@ -477,7 +461,7 @@ static __attribute__((noinline)) bool owed_echo(struct rmd_loop *l, struct lmoto
 static void refuse_dialect(struct rmd_loop *l, unsigned b, struct lmotor *lm, int64_t version,
 			   enum rmd_proto proto, int64_t now)
 {
-	lm->refused = true;
+	lm->ident.refused = true;
 	lm->next_probe_ns = INT64_MAX;
 	loop_event(l, now, RMD_EV_DIALECT, loop_idx(l, lm), b, version, proto);
 }
@@ -495,10 +479,10 @@ static bool settle_mit(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32
 	const struct rmd_config_motor *c = &l->cfg->motors[loop_idx(l, lm)];
 	struct rmd_mit_decision dec;
 
-	rmd_mit_scaling_decide(lm->m.d, version, lm->model, &c->mit, c->mit_given, &dec);
+	rmd_mit_scaling_decide(lm->m.d, version, lm->ident.model, &c->mit, c->mit_given, &dec);
 	if (rmd_mit_decided(&dec) && rmd_motor_set_mit(&lm->m, &dec.r) == 0)
 		return true;
-	lm->refused = true;
+	lm->ident.refused = true;
 	lm->next_probe_ns = INT64_MAX;
 	loop_event(l, now, RMD_EV_MIT_SCALING, loop_idx(l, lm), b, version,
 		   dec.source | (int64_t)(dec.series & 0xFF) << 8);
@@ -509,7 +493,7 @@ static bool settle_mit(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32
  * Answer f of a motor whose dialect is open (struct lmotor:
  * missing at bring-up) to its re-probe: a model (0xB5) is kept for its
  * MIT scaling, the firmware date 0xB2 settles it.  The rule is bring-up's
- * (rmd_dialect_for_firmware()), and the loop does not switch dialects: a
+ * (rmd_ident_answer(), rmd/proc_ident.h), and the loop does not switch dialects: a
  * date that says the motor's dialect, or that tells none (0), lets the
  * next re-probe (0x9A) bring it back as any lost motor -- in MIT mode once
  * its MIT scaling is decided (settle_mit()); one that says another dialect
@@ -522,26 +506,23 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 							   const struct rmd_frame *f, int64_t now)
 {
 	struct rmd_motor_reply r;
-	const struct rmd_dialect *fw = NULL;
-	bool certain = false;
+	const struct rmd_dialect *fw;
 
 	/* answers on the motor's reply identifier (an MIT reply carries no command byte) */
 	if (f->can_id != lm->m.reply_id || (f->data[0] != 0xB2 && f->data[0] != 0xB5) ||
 	    rmd_motor_decode(&lm->m, f, &r) < 0)
 		return;
-	if (r.have & RMD_MOTOR_HAVE_MODEL)
-		memcpy(lm->model, r.model, sizeof(lm->model));
-	if (!(r.have & RMD_MOTOR_HAVE_VERSION))
-		return;
-	lm->version = r.version_date;
-	fw = rmd_dialect_for_firmware(r.version_date, &certain);
-	lm->dialect_open = false;
-	if (certain && fw->table != lm->m.d->table) {
+	switch (rmd_ident_answer(&lm->ident, lm->m.d, &r, &fw)) {
+	case RMD_IDENT_WAIT:
+		break;
+	case RMD_IDENT_OTHER:
 		refuse_dialect(l, b, lm, (int64_t)r.version_date, fw->proto, now);
-		return;
+		break;
+	case RMD_IDENT_SAME:
+		if (!lm->m.mit_mode || settle_mit(l, b, lm, r.version_date, now))
+			lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
+		break;
 	}
-	if (!lm->m.mit_mode || settle_mit(l, b, lm, r.version_date, now))
-		lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
 }
 
 /*
@@ -569,7 +550,7 @@ other_dialect_answer(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		if (lm->m.bus != b || !lm->dialect_open || !l->cfg->motors[i].proto_auto)
+		if (lm->m.bus != b || !lm->ident.open || !l->cfg->motors[i].proto_auto)
 			continue;
 		for (size_t k = 0; k < nd; k++) {
 			const struct rmd_dialect *d = &list[k];
@@ -578,7 +559,7 @@ other_dialect_answer(struct rmd_loop *l, unsigned b, const struct rmd_frame *f, 
 			if (!rmd_dialect_is_firmware(d) || d->reply_base == lm->m.d->reply_base ||
 			    f->can_id != d->reply_base + (uint32_t)lm->m.id)
 				continue;
-			lm->dialect_open = false;
+			lm->ident.open = false;
 			refuse_dialect(l, b, lm, 0, d->proto, now);
 			return true;
 		}
@@ -648,7 +629,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			l->cnt.echoes++;
 			return;
 		}
-		if (__builtin_expect(lm->dialect_open, 0)) {
+		if (__builtin_expect(lm->ident.open, 0)) {
 			/* the 0x9A ahead of its 0xB5 and 0xB2 tells nothing (settle_dialect()) */
 			settle_dialect(l, b, lm, f, now);
 			return;
@@ -693,7 +674,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 	 * §2.33: the replies 0xB6 has the motor push, if another tool left it
 	 * on after bring-up turned it off.  What they say is the motor's.
 	 */
-	if (cmd == 0x9A || pushed_report(lm, cmd)) {
+	if (cmd == 0x9A || rmd_silence_pushable(lm->m.d, cmd) >= 0) {
 		l->cnt.unsolicited++;
 		loop_alive(l, lm, now);
 		if (!take_values(l, lm, f, now))

@@ -39,6 +39,19 @@ static void push_cmd(struct rmd_loop *l, struct lbus *lb, unsigned i, uint8_t cm
 }
 
 /*
+ * The status read 0x9C (V3 §2.13 / V2 §3.32; MIT motors answer V3), the
+ * frame of every control slot of a motor that is not driven: encoded once
+ * (rmd_motor.status2_req).  rt-safe.
+ */
+static inline void push_status2(struct rmd_loop *l, struct lbus *lb, unsigned i)
+{
+	const struct rmd_frame *f = &l->mot[i].m.status2_req;
+
+	if (__builtin_expect(f->len != 0, 1))
+		loop_push_tx(lb, f, i, REQ_STATUS);
+}
+
+/*
  * A lost motor's re-probe, when one is due: 0x9A; while its dialect is
  * open (struct lmotor), the firmware date 0xB2 right behind it, whose
  * answer settles it, and ahead of that, in MIT mode, the model 0xB5 that
@@ -51,16 +64,16 @@ static void push_cmd(struct rmd_loop *l, struct lbus *lb, unsigned i, uint8_t cm
 static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
+	uint8_t asks[2];
+	unsigned n;
 
 	if (now < lm->next_probe_ns)
 		return;
 	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 	push_cmd(l, lb, i, 0x9A);
-	if (!lm->dialect_open)
-		return;
-	if (lm->m.mit_mode)
-		push_cmd(l, lb, i, 0xB5);
-	push_cmd(l, lb, i, 0xB2);
+	n = rmd_ident_asks(&lm->ident, lm->m.mit_mode, asks);
+	for (unsigned k = 0; k < n; k++)
+		push_cmd(l, lb, i, asks[k]);
 }
 
 /*
@@ -109,7 +122,7 @@ static bool oneshot_echo_verified(const struct lmotor *lm, const struct rmd_fram
  * a status read (0x9A) in the same slot: that read takes the echo of a
  * motor that tripped since its last frame, whatever the gap between its
  * frames, and the write is done.  That is one exchange more than the plan
- * counts, only for these writes (at most ARM_TRIES in a round; TX_MAX has
+ * counts, only for these writes (at most RMD_ARM_TRIES in a round; TX_MAX has
  * room for a second frame in every slot).  rt-safe.
  */
 static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t now)
@@ -133,26 +146,23 @@ static void push_oneshot(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 /* rt-safe. */
 int loop_report_off(const struct lmotor *lm, unsigned k, struct rmd_frame *f)
 {
-	struct rmd_msg msg = { .cmd = 0xB6 };
+	struct rmd_msg msg;
 
-	rmd_msg_set(&msg, RMD_FLD_REPORT_CMD, lm->m.d->report_cmds[k]);
-	rmd_msg_set(&msg, RMD_FLD_REPORT_ON, 0);
-	rmd_msg_set(&msg, RMD_FLD_REPORT_MS, 0);
+	rmd_silence_request(lm->m.d, k, &msg);
 	return rmd_encode(lm->m.proto, RMD_DIR_REQUEST, lm->m.id, &msg, f);
 }
 
 /*
- * One of lm's 0xB6 offs (struct lmotor.reports_off), the lowest first.
- * The manual gives no answer to it: none is awaited, and one the bus does
+ * One of lm's 0xB6 offs (rmd/proc_silence.h), the lowest first.  The
+ * manual gives no answer to it: none is awaited, and one the bus does
  * not take is not sent again (bring-up's are as unchecked).  rt-safe.
  */
 static __attribute__((cold)) void push_report_off(struct lbus *lb, struct lmotor *lm, unsigned i)
 {
-	unsigned k = (unsigned)__builtin_ctz(lm->reports_off);
+	int k = rmd_silence_next(&lm->sil);
 	struct rmd_frame f;
 
-	lm->reports_off &= (uint8_t) ~(1u << k);
-	if (loop_report_off(lm, k, &f) == 0)
+	if (k >= 0 && loop_report_off(lm, (unsigned)k, &f) == 0)
 		loop_push_tx(lb, &f, i, REQ_NO_REPLY);
 }
 
@@ -198,7 +208,7 @@ static void push_due(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t no
 		push_reboot_check(l, lb, i);
 	else if (lm->n_oneshot)
 		push_oneshot(l, lb, i, now);
-	else if (lm->reports_off)
+	else if (lm->sil.off)
 		push_report_off(lb, lm, i);
 }
 
@@ -229,14 +239,14 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 	 * owed frames, a reboot check's read and one-shots first: an ENABLED
 	 * motor's brake release, the others' stops
 	 */
-	if (lm->n_oneshot || lm->reports_off || lm->owe || lm->rb.pending) {
+	if (lm->n_oneshot || lm->sil.off || lm->owed.bits || lm->rb.pending) {
 		push_due(l, lb, i, now);
 		return;
 	}
 	if (lm->st->lifecycle == RMD_LC_ENABLED) {
 		/* issue 20.13: while the brake opens, status reads keep the motor fed */
 		if (__builtin_expect(now < lm->st->release_until_ns, 0))
-			push_cmd(l, lb, i, 0x9C);
+			push_status2(l, lb, i);
 		else
 			push_setpoint(l, lb, i);
 		return;
@@ -247,7 +257,7 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 			loop_push_tx(lb, &f[0], i, REQ_CONTROL);
 			break;
 		}
-		push_cmd(l, lb, i, 0x9C);
+		push_status2(l, lb, i);
 		break;
 	case RMD_LC_PROBE:
 	case RMD_LC_READY:
@@ -259,7 +269,10 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 		 * 0x92 angle every other time (firmware that never answers it
 		 * misses half, never ten in a row)
 		 */
-		push_cmd(l, lb, i, ask_v2_angle(lm) ? RMD_MOTOR_CMD_FINE_POS : 0x9C);
+		if (ask_v2_angle(lm))
+			push_cmd(l, lb, i, RMD_MOTOR_CMD_FINE_POS);
+		else
+			push_status2(l, lb, i);
 		break;
 	case RMD_LC_LOST:
 		push_reprobe(l, lb, i, now);
@@ -280,7 +293,7 @@ static void add_status(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_t 
 {
 	struct lmotor *lm = &l->mot[i];
 
-	if (__builtin_expect(lm->owe || lm->n_oneshot, 0)) {
+	if (__builtin_expect(lm->owed.bits || lm->n_oneshot, 0)) {
 		push_due(l, lb, i, now);
 		return;
 	}
@@ -323,8 +336,8 @@ static bool batch_allowed(const struct rmd_loop *l, const struct lbus *lb, int64
 		const struct lmotor *lm = &l->mot[pb->motors[__builtin_ctz(m)]];
 
 		if (lm->st->lifecycle != RMD_LC_ENABLED || now < lm->st->release_until_ns ||
-		    lm->sp.mode != RMD_MODE_TORQUE || lm->owe || lm->n_oneshot || lm->reports_off ||
-		    lm->rb.pending)
+		    lm->sp.mode != RMD_MODE_TORQUE || lm->owed.bits || lm->n_oneshot ||
+		    lm->sil.off || lm->rb.pending)
 			return false;
 	}
 	return true;

@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "rmd/motor.h"
+#include "rmd/proc_arm.h"
 #include "rmd/reboot.h"
 
 #define DEG_PER_RAD (180.0 / M_PI)
@@ -230,6 +231,8 @@ int rmd_motor_init(struct rmd_motor *m, const struct rmd_config_motor *c)
 	m->mt.period_rad = rmd_multiturn_period_rad(c->gear_ratio);
 	rmd_config_travel(c, &m->mt.lo_rad, &m->mt.hi_rad);
 	m->mt.tol_rad = rmd_motor_pos_resolution_rad(m);
+	if (rmd_motor_encode_cmd(m, 0x9C, &m->status2_req) < 0)
+		m->status2_req.len = 0;
 	/* the entry's scaling, decided where no firmware date can change it */
 	if (m->mit_mode && !c->proto_auto && !rmd_dialect_mit_dated(d))
 		return rmd_motor_set_mit(m, &c->mit);
@@ -414,9 +417,7 @@ int rmd_motor_encode_comm_timeout(const struct rmd_motor *m, uint32_t ms, struct
 	/* V3 §2.30; V2 has no comm-loss protection command. */
 	if (!(m->caps & RMD_DIALECT_COMM_LOSS_B3))
 		return -EOPNOTSUPP;
-	memset(&msg, 0, sizeof(msg));
-	msg.cmd = 0xB3;
-	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, ms);
+	rmd_arm_request(ms, &msg);
 	return encode_msg(m, &msg, out);
 }
 

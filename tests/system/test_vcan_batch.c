@@ -692,9 +692,38 @@ static void next_state(int64_t *cycle, int64_t *t_ns)
 	*t_ns = S.rx.state.utime * 1000;
 }
 
+/* Replies the motors missed so far, as state_t says. */
+static int64_t missed_total(void)
+{
+	int64_t n = 0;
+
+	for (int i = 0; i < S.rx.state.count && i < NMOT; i++)
+		n += S.rx.state_motor[i].missed_replies;
+	return n;
+}
+
+/*
+ * The machine, not rmdd, when replies missed their deadline in a window
+ * that missed counted: each miss opens the motor's reboot check, whose
+ * reads take its control slots until an answer tells (docs/faults.md "A
+ * short power cycle"), so a motor's own frames are not its setpoints
+ * alone then; and MISSED_REPLIES_LOST of them in a row make it lost.  ""
+ * when none was missed.
+ */
+static void explain_missed(int64_t missed, char *why, size_t len)
+{
+	why[0] = '\0';
+	if (missed > 0)
+		snprintf(why, len,
+			 "%" PRId64 " replies came after their deadline (the guest held rmd-sim "
+			 "off up to %.1f ms): each opens a reboot check, whose reads take the "
+			 "motor's slots, and %d in a row make a motor lost",
+			 missed, sleeper_stall_ms(&S.sl_sim), MISSED_REPLIES_LOST);
+}
+
 /* One window: the cycles rmdd ran in it, and when (candump's clock). */
 struct window {
-	int64_t cycles, overruns;
+	int64_t cycles, overruns, missed;
 	int64_t t0, t1; /* the frames of its cycles lie between, CLOCK_REALTIME */
 	double secs;
 	bool held;     /* the lifecycles stayed as the controller asks throughout */
@@ -750,6 +779,7 @@ static void window_run(struct window *w)
 	sync_log();
 	off = real_ns() - rmd_now_ns();
 	next_state(&c0, &w->t0);
+	w->missed = -missed_total();
 	o0 = overruns();
 	sleepers_mark();
 	w->held = true;
@@ -759,9 +789,16 @@ static void window_run(struct window *w)
 		w->held &= lcs_are(want);
 	}
 	next_state(&c1, &w->t1);
+	w->missed += missed_total();
 	w->held &= lcs_are(want);
 	if (!w->held)
 		explain(w->why, sizeof(w->why));
+	/*
+	 * replies late for as many requests in a row as make a motor lost,
+	 * or late at all while the motors stayed (their reboot checks)
+	 */
+	if (!w->why[0] && (w->held || w->missed >= MISSED_REPLIES_LOST))
+		explain_missed(w->missed, w->why, sizeof(w->why));
 	sync_log();
 	w->overruns = overruns() - o0;
 	w->t0 += off + half;
@@ -807,12 +844,13 @@ static void judge_windows(const char *what, judge_fn *judge)
 			print_message("%s: window %u passed\n", what, k);
 			return;
 		}
-		if (w.held || !w.why[0])
+		if (!w.why[0])
 			fail_msg("%s: %s (lifecycles %s%s); rmdd:\n%s", what, bad, lc_list(),
 				 w.held ? ", as the controller asks" : "", kid_tail(S.rmdd_kid));
-		print_message("busy machine: %s: %s, the motors left the states the controller "
-			      "asks for (%s): %s; enabling them again\n",
-			      what, bad, lc_list(), w.why);
+		print_message("busy machine: %s: %s, %s (%s): %s; %s\n", what, bad,
+			      w.held ? "the motors as the controller asks" :
+				       "the motors left the states the controller asks for",
+			      lc_list(), w.why, w.held ? "measuring again" : "enabling them again");
 		drive(S.enable, S.torque_nm);
 		run_for(SETTLE_MS);
 	}
@@ -993,10 +1031,9 @@ static const char *unbatched_judge(const struct window *w)
 {
 	static char why[256];
 
-	if (batches(w->t0, w->t1)) {
-		snprintf(why, sizeof(why), "%u 0x280 frames", batches(w->t0, w->t1));
-		return why;
-	}
+	if (batches(w->t0, w->t1))
+		fail_msg("%u 0x280 frames with a spare on the bus; rmdd:\n%s",
+			 batches(w->t0, w->t1), kid_tail(S.rmdd_kid));
 	for (unsigned i = 0; i < NMOT; i++) {
 		unsigned n = v2_requests(i + 1, 0xA1, w->t0, w->t1);
 
@@ -1103,11 +1140,9 @@ static const char *two_of_four_judge(const struct window *w)
 	static char why[256];
 	double share = (double)S.plan.bus[0].batch_own / NMOT;
 
-	if (batches(w->t0, w->t1)) {
-		snprintf(why, sizeof(why), "%u 0x280 frames while m2 and m4 are READY",
-			 batches(w->t0, w->t1));
-		return why;
-	}
+	if (batches(w->t0, w->t1))
+		fail_msg("%u 0x280 frames while m2 and m4 are READY; rmdd:\n%s",
+			 batches(w->t0, w->t1), kid_tail(S.rmdd_kid));
 	for (unsigned i = 0; i < NMOT; i++) {
 		unsigned n = v2_requests(i + 1, 0xA1, w->t0, w->t1);
 		bool on = i == 0 || i == 2;
@@ -1201,6 +1236,10 @@ static const char *stray_later_try(char *why, size_t len)
 	run_for(SETTLE_MS);
 	sync_log();
 	before = batches(t_drive, CANLOG_T_END);
+	if (before == 0 && missed_total() > 0) {
+		explain_missed(missed_total(), why, len);
+		return why;
+	}
 	if (before == 0)
 		fail_msg("no 0x280 frame in %d ms with all four motors enabled (lifecycles %s); "
 			 "rmdd:\n%s",

@@ -1526,9 +1526,12 @@ static void test_slow_answers_restarts(void **state)
 		sim = kid_spawn("rmd-sim vcan0", sim_argv, NULL, SIM_FIFO_PRIO);
 		kid_wait_output(sim, ": ready", READY_MS, service);
 		for (unsigned run = 0; run < (k == 1 ? 3u : 1u); run++) {
-			struct kid *d = kid_spawn("rmdd", argv, NULL, 0);
+			struct kid *d;
 			long unexpected, missed, overruns, late;
 			int st;
+
+			sleepers_mark();
+			d = kid_spawn("rmdd", argv, NULL, 0);
 
 			kid_wait_output(d, "running:", READY_MS, service);
 			if (k == 2) {
@@ -1576,10 +1579,21 @@ static void test_slow_answers_restarts(void **state)
 			if (st != 0 || unexpected != 0)
 				fail_msg("%s, run %u: exit %d, %ld unexpected frame(s):\n%s",
 					 what[k], run + 1, st, unexpected, d->out);
-			/* k 2: motor 3's re-probes while it was away are missed, rightly */
-			if (missed != 0 && overruns == 0 && k != 2)
+			/*
+			 * k 2: motor 3's re-probes while it was away are missed,
+			 * rightly; else a miss needs rmdd held off (an overrun) or
+			 * rmd-sim held off past the reply deadline (2 periods at
+			 * 10 Hz, less its own lateness): the machine, said so
+			 */
+			if (missed != 0 && overruns == 0 && k != 2 &&
+			    sleeper_stall_ms(&S.sl_sim) + 20.0 < 200.0)
 				fail_msg("%s, run %u: %ld missed replies with no overrun:\n%s",
 					 what[k], run + 1, missed, d->out);
+			if (missed != 0 && overruns == 0 && k != 2)
+				print_message(
+					"busy machine: %s, run %u: %ld missed replies with no "
+					"overrun, the guest holding rmd-sim off %.1f ms\n",
+					what[k], run + 1, missed, sleeper_stall_ms(&S.sl_sim));
 			print_message("%s, run %u: armed, 0 unexpected, %ld late, %ld missed (%ld "
 				      "overruns)\n",
 				      what[k], run + 1, late, missed, overruns);
