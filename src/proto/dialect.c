@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 /*
  * The list of firmware dialects (rmd/dialect.h): one row each, with its
- * command table, identifiers, capabilities, error flags and probes.
+ * command table, identifiers, capabilities, error flags and probes; and
+ * what is decided from a motor's answers by them (its firmware date,
+ * rmd_dialect_for_firmware(), and MIT scaling).
  * Adding a dialect is its table and one row here (docs/design.md).
  */
 #include <math.h>
@@ -288,6 +290,32 @@ const struct rmd_dialect *rmd_dialect_list(size_t *n)
 {
 	*n = RMD_PROTO_COUNT;
 	return rmd_dialects;
+}
+
+/*
+ * V3 §2.29: yyyymmdd, e.g. 20220206.  Newer firmware appends a two-digit
+ * build number: yyyymmddNN (2025070202 = 0x78B41E7A from an X4-36), which
+ * still fits a uint32 (up to 4294967295).  Ten digits in 2000000000 ..
+ * 2099123199 are that form; eight are the first.  Plausible: a real date
+ * in 2000..2099.
+ */
+uint32_t rmd_version_date(uint32_t version)
+{
+	static const uint8_t mdays[12] = { 31, 29, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31 };
+	uint32_t date = version >= 2000000000u ? version / 100 : version;
+	uint32_t y = date / 10000, m = date / 100 % 100, d = date % 100;
+	bool leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+
+	if (y < 2000 || y > 2099 || m < 1 || m > 12 || d < 1 || d > mdays[m - 1])
+		return 0;
+	if (m == 2 && d == 29 && !leap)
+		return 0;
+	return date;
+}
+
+bool rmd_version_date_valid(uint32_t version)
+{
+	return rmd_version_date(version) != 0;
 }
 
 /*
