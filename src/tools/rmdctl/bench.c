@@ -699,7 +699,7 @@ static int set_option(struct dev *d, size_t k, const char *v)
 		d->baud = (uint32_t)u;
 	} else if (!strcmp(name, "protocol")) {
 		if (rmd_proto_parse(v, &d->proto) < 0 ||
-		    rmd_dialect_has(rmd_dialect(d->proto), RMD_DIALECT_MIT)) {
+		    !rmd_dialect_is_firmware(rmd_dialect(d->proto))) {
 			tool_log(TOOL_LOG_ERR,
 				 "bad --protocol \"%s\" (v3, v2 or v4; MIT motors answer v3)", v);
 			return -EINVAL;

@@ -460,7 +460,7 @@ static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 		/* the dialects whose tables have it */
 		for (size_t i = 0; i < nd; i++)
 			for (size_t j = 0; j < sizeof(ec->v) / sizeof(ec->v[0]); j++)
-				if (dl[i].table == dl[i].proto &&
+				if (rmd_dialect_is_firmware(&dl[i]) &&
 				    (ec->v[j].protos & (1u << dl[i].proto))) {
 					k += (size_t)snprintf(keys + k, sizeof(keys) - k, "%s%s",
 							      k ? " or " : "", dl[i].key);
