@@ -445,6 +445,8 @@ int rmd_proto_parse(const char *s, enum rmd_proto *proto);
  * it returns (cut short when small).  Non-rt.
  */
 const char *rmd_proto_keys_text(char *buf, size_t size, const char *sep, const char *last);
+/* The same of the firmware dialects only, "v3, v2 or v4" (not `mit`: rmd_dialect_is_firmware()). */
+const char *rmd_firmware_keys_text(char *buf, size_t size, const char *sep, const char *last);
 
 /* Name of a 0x70 run mode value ("current_loop", ...), or NULL. */
 const char *rmd_run_mode_name(enum rmd_proto proto, uint8_t mode);

@@ -44,25 +44,44 @@ int rmd_proto_parse(const char *s, enum rmd_proto *proto)
 	return -EINVAL;
 }
 
-const char *rmd_proto_keys_text(char *buf, size_t size, const char *sep, const char *last)
+/* The keys (firmware_only: the firmware dialects'), sep between two, last before the last. */
+static const char *keys_text(char *buf, size_t size, const char *sep, const char *last,
+			     bool firmware_only)
 {
-	size_t k = 0;
+	size_t k = 0, n = 0, have = 0;
 
 	if (!size)
 		return buf;
 	buf[0] = '\0';
+	for (unsigned i = 0; i < RMD_PROTO_COUNT; i++)
+		n += !firmware_only || rmd_dialect_is_firmware(rmd_dialect((enum rmd_proto)i));
 	for (unsigned i = 0; i < RMD_PROTO_COUNT && k < size; i++) {
-		int n = snprintf(buf + k, size - k, "%s%s",
-				 !i			  ? "" :
-				 i + 1 == RMD_PROTO_COUNT ? last :
-							    sep,
-				 rmd_dialect((enum rmd_proto)i)->key);
+		const struct rmd_dialect *d = rmd_dialect((enum rmd_proto)i);
+		int w;
 
-		if (n < 0)
+		if (firmware_only && !rmd_dialect_is_firmware(d))
+			continue;
+		have++;
+		w = snprintf(buf + k, size - k, "%s%s",
+			     have == 1 ? "" :
+			     have == n ? last :
+					 sep,
+			     d->key);
+		if (w < 0)
 			break;
-		k += (size_t)n;
+		k += (size_t)w;
 	}
 	return buf;
+}
+
+const char *rmd_proto_keys_text(char *buf, size_t size, const char *sep, const char *last)
+{
+	return keys_text(buf, size, sep, last, false);
+}
+
+const char *rmd_firmware_keys_text(char *buf, size_t size, const char *sep, const char *last)
+{
+	return keys_text(buf, size, sep, last, true);
 }
 
 /* A bit no table names keeps a name of its own, so no flag goes unreported. */

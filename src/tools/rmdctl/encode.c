@@ -36,7 +36,7 @@ enum {
 };
 
 struct enc_ctx {
-	enum rmd_proto proto;	 /* as given: v3, v2, mit or v4 */
+	enum rmd_proto proto;	 /* as given (--protocol) */
 	enum rmd_proto table;	 /* V3, V2 or V4: whose rows (mit uses V3's) */
 	int motor_id;		 /* 1..32, or -1 when --id was not given */
 	struct rmd_mit_ranges r; /* for `mit` */
@@ -271,15 +271,17 @@ static const struct limit {
 
 void rmdctl_encode_usage(FILE *f)
 {
+	char keys[64], phrase[128];
+
 	fprintf(f,
-		"usage: rmdctl encode [--protocol v3|v2|mit|v4] [--id N] [--mit-ranges P,V,T,KP,KD]\n"
-		"                     COMMAND [ARGS...]\n"
+		"usage: rmdctl encode [--protocol %s] [--id N] [--mit-ranges P,V,T,KP,KD]\n"
+		"                     " RMDCTL_ENCODE_ARGS "\n"
 		"\n"
 		"Prints one request frame in cansend syntax (\"141#A100000064000000\"):\n"
 		"  cansend can0 $(rmdctl encode --id 1 torque 1.0)\n"
 		"Options come before COMMAND, so negative values need no quoting.\n"
 		"\n"
-		"  --protocol P    v3 (default), v2, mit (= v3 tables plus `mit`), or v4\n"
+		"  --protocol P    %s\n"
 		"  --id N          motor 1..32 (every command but multi-torque)\n"
 		"  --mit-ranges P,V,T,KP,KD\n"
 		"                  MIT ranges: position ±P rad, velocity ±V rad/s, torque\n"
@@ -288,7 +290,9 @@ void rmdctl_encode_usage(FILE *f)
 		"Values are in the unit named (A, dps, deg, ms, dps/s) and are rounded to\n"
 		"the protocol's resolution; a value the frame cannot carry is refused.\n"
 		"\n"
-		"commands:\n");
+		"commands:\n",
+		rmd_proto_keys_text(keys, sizeof(keys), "|", "|"),
+		rmdctl_proto_help(phrase, sizeof(phrase), false));
 	for (size_t i = 0; i < NENC; i++) {
 		const struct enc_cmd *ec = &enc_cmds[i];
 		const char *h = ec->help;
@@ -859,7 +863,7 @@ const size_t rmdctl_n_encode_opts = sizeof(rmdctl_encode_opts) / sizeof(rmdctl_e
 int rmdctl_encode_run(int argc, char **argv)
 {
 	struct enc_ctx ctx = {
-		.proto = RMD_PROTO_V3,
+		.proto = RMDCTL_PROTO_DEFAULT,
 		.motor_id = -1,
 		.r = rmd_mit_default_ranges,
 	};
@@ -871,6 +875,8 @@ int rmdctl_encode_run(int argc, char **argv)
 	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
 	r = rmdctl_codec_getopt(argc, argv, rmdctl_encode_opts, rmdctl_n_encode_opts, true,
 				&ctx.proto, &ctx.r, rmdctl_encode_usage, encode_opt, &ctx);
+	if (r == RMDCTL_EXIT_USAGE)
+		goto usage;
 	if (r >= 0)
 		return r;
 	ctx.table = rmd_proto_table(ctx.proto);
@@ -908,6 +914,6 @@ int rmdctl_encode_run(int argc, char **argv)
 	return RMDCTL_EXIT_OK;
 
 usage:
-	rmdctl_usage_hint_name("encode");
+	rmdctl_usage_hint_args("encode", RMDCTL_ENCODE_ARGS);
 	return RMDCTL_EXIT_USAGE;
 }

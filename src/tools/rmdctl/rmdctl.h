@@ -87,6 +87,15 @@ extern const size_t rmdctl_n_top_opts;
 extern const struct tool_opt rmdctl_decode_opts[], rmdctl_encode_opts[];
 extern const size_t rmdctl_n_decode_opts, rmdctl_n_encode_opts;
 
+/* ---- command lines (parse.c) ------------------------------------------------------------ */
+
+/* decode's and encode's operands (their usage lines and main.c's table). */
+#define RMDCTL_DECODE_ARGS "[FILE]"
+#define RMDCTL_ENCODE_ARGS "COMMAND [ARGS...]"
+
+/* The protocol of every command that is not told one (--protocol). */
+#define RMDCTL_PROTO_DEFAULT RMD_PROTO_V3
+
 /*
  * The command line of decode and encode, up to their operands, from their
  * option table o[0..n): the options both have (-p/--protocol into *proto,
@@ -96,19 +105,31 @@ extern const size_t rmdctl_n_decode_opts, rmdctl_n_encode_opts;
  * stop_at_operand: options end at the first operand (encode's values may
  * be negative).  Returns -1 to go on (optind at the first operand), or the
  * exit status: RMDCTL_EXIT_OK after --help, or RMDCTL_EXIT_USAGE after a
- * bad option (reported, with the usage line).
+ * bad option (reported; the caller adds its usage line).
  */
 int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t n,
 			bool stop_at_operand, enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
 			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx);
 
-/* After a usage error of command c (NULL: no command): the usage line and "see --help". */
+/*
+ * After a usage error of command `name` with operands `args` (NULL: none;
+ * name NULL: no command): the usage line and "see --help".
+ */
+void rmdctl_usage_hint_args(const char *name, const char *args);
+/* The same for command c (NULL: no command). */
 void rmdctl_usage_hint(const struct rmdctl_cmd *c);
-/* The same for the command named name (decode, encode). */
+/* The same for the command named name (main.c's table: top). */
 void rmdctl_usage_hint_name(const char *name);
 
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
+
+/*
+ * The protocol keys as help texts list them, from the dialect list: "v3
+ * (default), v2, mit (= v3 tables plus `mit`), or v4"; firmware_only: the
+ * firmware dialects, "v3 (default), v2 or v4".  In buf, which it returns.
+ */
+const char *rmdctl_proto_help(char *buf, size_t size, bool firmware_only);
 
 /* ---- device commands (bench.c) ---------------------------------------------------------- */
 
