@@ -3,11 +3,15 @@
  * rmdctl encode: one command in native units -> one frame in cansend syntax,
  * so that `cansend can0 $(rmdctl encode --id 1 torque 1.0)` works.
  *
- * Each command below names, per protocol, a command byte and which field of
- * that byte's table row each argument fills; the value is converted with the
- * row's scale, so the codec tables stay the one place that knows the wire.
- * Values that do not fit the field, or a range the manual documents, are
- * refused: never wrapped, never clamped.  Non-rt.
+ * A command is the rows of the protocol's codec table spelled with its word
+ * (struct rmd_spelling): which dialects have it, the command byte, which
+ * field each argument fills and the ranges the manual gives all come from
+ * the row, and a value is converted with the row's scale, so the codec
+ * tables stay the one place that knows the wire.  The list below adds the
+ * help texts and the commands that parse their own arguments; a word only
+ * a table spells is a command too.  Values that do not fit the field, or a
+ * range the manual documents, are refused: never wrapped, never clamped.
+ * Non-rt.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -24,31 +28,11 @@
 #include "rmd/mit.h"
 #include "rmdctl.h"
 
-#define MAX_ARGS 4
-
-enum {
-	P_V3 = 1u << RMD_PROTO_V3,
-	P_V2 = 1u << RMD_PROTO_V2,
-	P_V4 = 1u << RMD_PROTO_V4,
-	P_BOTH = P_V3 | P_V2, /* V3 and V2, not V4 */
-	P_V34 = P_V3 | P_V4,
-	P_ALL = P_V3 | P_V2 | P_V4,
-};
-
 struct enc_ctx {
 	enum rmd_proto proto;	 /* as given (--protocol) */
-	enum rmd_proto table;	 /* V3, V2 or V4: whose rows (mit uses V3's) */
+	enum rmd_proto table;	 /* whose rows: its firmware's (mit uses V3's) */
 	int motor_id;		 /* 1..32, or -1 when --id was not given */
 	struct rmd_mit_ranges r; /* for `mit` */
-};
-
-/* One way to spell a command: protocols, argument count, command byte, fields filled. */
-struct variant {
-	unsigned protos;
-	unsigned nargs;
-	uint8_t cmd;
-	bool multi; /* V2 §4.1 0x280 frame: no --id */
-	enum rmd_field fld[MAX_ARGS];
 };
 
 struct enc_cmd;
@@ -59,19 +43,8 @@ struct enc_cmd {
 	const char *name;
 	const char *args;
 	const char *help;
-	enc_custom_fn custom; /* parses its own arguments; variants unused */
-	struct variant v[3];
+	enc_custom_fn custom; /* parses its own arguments; NULL: the rows spelled name */
 };
-
-#define V(p, c, n, ...)                                                         \
-	{                                                                       \
-		.protos = (p), .cmd = (c), .nargs = (n), .fld = { __VA_ARGS__ } \
-	}
-#define V0(p, c)                                      \
-	{                                             \
-		.protos = (p), .cmd = (c), .nargs = 0 \
-	}
-#define F(x) RMD_FLD_##x
 
 static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
 		   struct rmd_frame *out);
@@ -86,192 +59,169 @@ static int enc_active_reply(const struct enc_ctx *ctx, const struct enc_cmd *ec,
 
 /* Command bytes: V3 §2.x, V2 §3.x and V4.2 §2.x of the manuals, named in each help text. */
 static const struct enc_cmd enc_cmds[] = {
-	{ "torque",
-	  "AMPS",
-	  "torque current setpoint (0xA1)",
-	  NULL,
-	  { V(P_ALL, 0xA1, 1, F(CURRENT)) } },
-	{ "speed", "DPS", "speed setpoint (0xA2)", NULL, { V(P_ALL, 0xA2, 1, F(SPEED)) } },
-	{ "position",
-	  "DEG [MAX_DPS]",
+	{ "torque", "AMPS", "torque current setpoint (0xA1)", NULL },
+	{ "speed", "DPS", "speed setpoint (0xA2)", NULL },
+	{ "position", "DEG [MAX_DPS]",
 	  "absolute multi-turn position: V3/V4 0xA4 (MAX_DPS required: the manual\n"
 	  "gives no \"unlimited\" value, use position-track); V2 0xA3, or 0xA4 with\n"
 	  "MAX_DPS",
-	  NULL,
-	  { V(P_V34, 0xA4, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA3, 1, F(ANGLE)),
-	    V(P_V2, 0xA4, 2, F(ANGLE), F(MAX_SPEED)) } },
-	{ "position-track",
-	  "DEG",
-	  "position tracking, no speed limit (V3/V2 0xA3; V4 removed it)",
-	  NULL,
-	  { V(P_BOTH, 0xA3, 1, F(ANGLE)) } },
-	{ "position-track-limited",
-	  "DEG MAX_DPS",
-	  "position tracking with a speed limit (V3 0xA5)",
-	  NULL,
-	  { V(P_V3, 0xA5, 2, F(ANGLE), F(MAX_SPEED)) } },
-	{ "position-single",
-	  "DEG MAX_DPS DIR",
+	  NULL },
+	{ "position-track", "DEG", "position tracking, no speed limit (V3/V2 0xA3; V4 removed it)",
+	  NULL },
+	{ "position-track-limited", "DEG MAX_DPS", "position tracking with a speed limit (V3 0xA5)",
+	  NULL },
+	{ "position-single", "DEG MAX_DPS DIR",
 	  "single-turn position 0..360 deg at up to MAX_DPS, DIR 0 clockwise or\n"
 	  "1 counterclockwise (V4 0xA6)",
-	  NULL,
-	  { V(P_V4, 0xA6, 3, F(ANGLE), F(MAX_SPEED), F(SPIN_DIR)) } },
-	{ "increment",
-	  "DEG [MAX_DPS]",
+	  NULL },
+	{ "increment", "DEG [MAX_DPS]",
 	  "relative move from the current position: V3/V4 0xA8 (MAX_DPS required);\n"
 	  "V2 0xA7, or 0xA8 with MAX_DPS",
-	  NULL,
-	  { V(P_V34, 0xA8, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA7, 1, F(ANGLE)),
-	    V(P_V2, 0xA8, 2, F(ANGLE), F(MAX_SPEED)) } },
-	{ "stop", "", "stop the motor, keep its state (0x81)", NULL, { V0(P_ALL, 0x81) } },
-	{ "off", "", "output off, state cleared (0x80)", NULL, { V0(P_ALL, 0x80) } },
-	{ "run", "", "resume after stop (V2 0x88)", NULL, { V0(P_V2, 0x88) } },
-	{ "brake-release", "", "release the brake (0x77)", NULL, { V0(P_ALL, 0x77) } },
-	{ "brake-lock", "", "lock the brake (0x78)", NULL, { V0(P_ALL, 0x78) } },
-	{ "reset", "", "reset the motor's controller; no reply (0x76)", NULL, { V0(P_ALL, 0x76) } },
-	{ "status1",
-	  "",
-	  "read temperature, voltage, brake, errors (0x9A)",
-	  NULL,
-	  { V0(P_ALL, 0x9A) } },
-	{ "status2",
-	  "",
-	  "read temperature, current, speed, angle (0x9C)",
-	  NULL,
-	  { V0(P_ALL, 0x9C) } },
-	{ "status3", "", "read phase currents (0x9D)", NULL, { V0(P_ALL, 0x9D) } },
-	{ "read-angle", "", "read the multi-turn angle (0x92)", NULL, { V0(P_ALL, 0x92) } },
-	{ "read-angle-single",
-	  "",
-	  "read the single-turn angle (V4 0x94)",
-	  NULL,
-	  { V0(P_V4, 0x94) } },
-	{ "read-encoder-single",
-	  "",
-	  "read the single-turn encoder, raw and offset (V4 0x90)",
-	  NULL,
-	  { V0(P_V4, 0x90) } },
-	{ "model", "", "read the model string (V3/V4 0xB5)", NULL, { V0(P_V34, 0xB5) } },
-	{ "version", "", "read the firmware date (V3/V4 0xB2)", NULL, { V0(P_V34, 0xB2) } },
-	{ "runtime", "", "read the time since power-up (V3/V4 0xB1)", NULL, { V0(P_V34, 0xB1) } },
-	{ "mode", "", "read the run mode (0x70)", NULL, { V0(P_ALL, 0x70) } },
-	{ "power", "", "read the power (V3/V2 0x71)", NULL, { V0(P_BOTH, 0x71) } },
-	{ "timeout",
-	  "MS",
+	  NULL },
+	{ "stop", "", "stop the motor, keep its state (0x81)", NULL },
+	{ "off", "", "output off, state cleared (0x80)", NULL },
+	{ "run", "", "resume after stop (V2 0x88)", NULL },
+	{ "brake-release", "", "release the brake (0x77)", NULL },
+	{ "brake-lock", "", "lock the brake (0x78)", NULL },
+	{ "reset", "", "reset the motor's controller; no reply (0x76)", NULL },
+	{ "status1", "", "read temperature, voltage, brake, errors (0x9A)", NULL },
+	{ "status2", "", "read temperature, current, speed, angle (0x9C)", NULL },
+	{ "status3", "", "read phase currents (0x9D)", NULL },
+	{ "read-angle", "", "read the multi-turn angle (0x92)", NULL },
+	{ "read-angle-single", "", "read the single-turn angle (V4 0x94)", NULL },
+	{ "read-encoder-single", "", "read the single-turn encoder, raw and offset (V4 0x90)",
+	  NULL },
+	{ "model", "", "read the model string (V3/V4 0xB5)", NULL },
+	{ "version", "", "read the firmware date (V3/V4 0xB2)", NULL },
+	{ "runtime", "", "read the time since power-up (V3/V4 0xB1)", NULL },
+	{ "mode", "", "read the run mode (0x70)", NULL },
+	{ "power", "", "read the power (V3/V2 0x71)", NULL },
+	{ "timeout", "MS",
 	  "set the comm-loss protection time, 0 = off; stored in ROM, set it once\n"
 	  "(V3/V4 0xB3)",
-	  NULL,
-	  { V(P_V34, 0xB3, 1, F(TIMEOUT)) } },
-	{ "accel-read",
-	  "[INDEX]",
+	  NULL },
+	{ "accel-read", "[INDEX]",
 	  "read the acceleration (0x42); V4 reads the one of INDEX 0..3 (position\n"
 	  "accel/decel, speed accel/decel)",
-	  NULL,
-	  { V0(P_BOTH, 0x42), V(P_V4, 0x42, 1, F(INDEX)) } },
-	{ "accel",
-	  "[INDEX] DPS2",
+	  NULL },
+	{ "accel", "[INDEX] DPS2",
 	  "write an acceleration: V3/V4 0x43 takes INDEX 0..3 (position accel/decel,\n"
 	  "speed accel/decel) and DPS2 100..60000; V2 0x43 takes DPS2 only",
-	  NULL,
-	  { V(P_V34, 0x43, 2, F(INDEX), F(ACCEL)), V(P_V2, 0x43, 1, F(ACCEL)) } },
-	{ "pid-read",
-	  "[LOOP]",
+	  NULL },
+	{ "pid-read", "[LOOP]",
 	  "read PID gains: V3 0x30 reads all six; V2 reads one, LOOP = position-kp,\n"
 	  "position-ki, speed-kp, speed-ki, current-kp or current-ki (0x30..0x35);\n"
 	  "V4 0x30 reads one, LOOP as V2's or position-kd",
-	  enc_pid_read,
-	  { { 0 } } },
-	{ "pid",
-	  "LOOP GAIN",
+	  enc_pid_read },
+	{ "pid", "LOOP GAIN",
 	  "write one gain to RAM, lost at power off (V4 0x31): LOOP as pid-read's,\n"
 	  "GAIN a real (a float on the wire)",
-	  enc_pid_write,
-	  { { 0 } } },
-	{ "pid-rom",
-	  "LOOP GAIN",
-	  "write one gain to ROM, kept at power off (V4 0x32)",
-	  enc_pid_write,
-	  { { 0 } } },
-	{ "function",
-	  "INDEX VALUE",
+	  enc_pid_write },
+	{ "pid-rom", "LOOP GAIN", "write one gain to ROM, kept at power off (V4 0x32)",
+	  enc_pid_write },
+	{ "function", "INDEX VALUE",
 	  "function control (V3/V4 0x20): 1 clear multi-turn and save, 2 CAN ID\n"
 	  "filter on/off, 3 0x9A error reports on/off, 4 keep multi-turn at power\n"
 	  "off; V4 also 5 set the CAN ID (ROM, after a reset), 6/7 positive/negative\n"
 	  "position limit (ROM)",
-	  NULL,
-	  { V(P_V34, 0x20, 2, F(INDEX), F(VALUE)) } },
-	{ "active-reply",
-	  "CMD ON MS",
+	  NULL },
+	{ "active-reply", "CMD ON MS",
 	  "have the motor push CMD's reply every MS ms (10 ms steps), ON 1, or\n"
 	  "stop, ON 0; CMD in hex: 60 61 62 92 9A 9C 9D 9E; CAN only; no reply\n"
 	  "(V4 0xB6)",
-	  enc_active_reply,
-	  { { 0 } } },
-	{ "multi-torque",
-	  "A1 A2 A3 A4",
-	  "torque currents of motors 1..4 in one 0x280 frame (V2 only; no --id)",
-	  NULL,
-	  { { .protos = P_V2,
-	      .cmd = RMD_V2_CMD_MULTI_TORQUE,
-	      .nargs = 4,
-	      .multi = true,
-	      .fld = { F(CURRENT_1), F(CURRENT_2), F(CURRENT_3), F(CURRENT_4) } } } },
-	{ "mit",
-	  "P V KP KD T",
+	  enc_active_reply },
+	{ "multi-torque", "A1 A2 A3 A4",
+	  "torque currents of motors 1..4 in one 0x280 frame (V2 only; no --id)", NULL },
+	{ "mit", "P V KP KD T",
 	  "MIT motion mode on 0x400+ID: position rad, velocity rad/s, kp, kd,\n"
 	  "feed-forward torque N·m, each within --mit-ranges (V3 and V4 firmware)",
-	  enc_mit,
-	  { { 0 } } },
-	{ "raw",
-	  "CMD [FIELD=VALUE ...]",
+	  enc_mit },
+	{ "raw", "CMD [FIELD=VALUE ...]",
 	  "any command of the protocol's table: CMD is its byte in hex (9A or 0x9A)\n"
 	  "or its row name (read_status_1); FIELD is a request field key as\n"
 	  "`rmdctl decode --json` prints it (current_a, angle_deg, ...), VALUE in\n"
 	  "that key's native unit; fields not given are 0",
-	  enc_raw,
-	  { { 0 } } },
+	  enc_raw },
 };
 #define NENC (sizeof(enc_cmds) / sizeof(enc_cmds[0]))
 
 /*
- * Ranges the manuals document beyond the width of a field.  Checked by every
- * command, `raw` included.
+ * Commands the list above does not name: a word a row of a firmware
+ * dialect's table spells (a dialect's own command needs nothing here).
  */
-static const struct limit {
-	unsigned protos;
-	uint8_t cmd;
-	enum rmd_field fld;
-	double lo, hi; /* native units */
-	const char *cite;
-} limits[] = {
-	{ P_V2, 0xA1, F(CURRENT), -32, 32, "V2 §3.37: iqControl -2000..2000 is -32..32 A" },
-	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_1), -32, 32,
-	  "V2 §4.1: -2000..2000 is -32..32 A" },
-	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_2), -32, 32,
-	  "V2 §4.1: -2000..2000 is -32..32 A" },
-	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_3), -32, 32,
-	  "V2 §4.1: -2000..2000 is -32..32 A" },
-	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_4), -32, 32,
-	  "V2 §4.1: -2000..2000 is -32..32 A" },
-	{ P_V2, 0x43, F(ACCEL), 0, 10000, "V2 §3.20: 0..10000 dps/s" },
-	{ P_V3, 0x43, F(ACCEL), 100, 60000, "V3 §2.5.1: 100..60000 dps/s" },
-	{ P_V3, 0x43, F(INDEX), 0, 3, "V3 §2.5.4: index 0..3" },
-	{ P_V3, 0x20, F(INDEX), 1, 4, "V3 §2.33.4: index 1..4" },
-	{ P_V4, 0x43, F(ACCEL), 100, 60000, "V4.2 §2.5.1: 100..60000 dps/s" },
-	{ P_V4, 0x43, F(INDEX), 0, 3, "V4.2 §2.5.4: index 0..3" },
-	{ P_V4, 0x42, F(INDEX), 0, 3, "V4.2 §2.4.4: index 0..3" },
-	{ P_V4, 0x20, F(INDEX), 1, 7, "V4.2 §2.34.4: index 1..7" },
-	{ P_V4, 0x30, F(INDEX), 1, 9, "V4.2 §2.1.4: index 1..9" },
-	{ P_V4, 0x31, F(INDEX), 1, 9, "V4.2 §2.2.4: index 1..9" },
-	{ P_V4, 0x32, F(INDEX), 1, 9, "V4.2 §2.3.4: index 1..9" },
-	{ P_V4, 0xA6, F(ANGLE), 0, 360, "V4.2 §2.22: 0..359.99 deg, and 360 as its example sends" },
-	{ P_V4, 0xA6, F(SPIN_DIR), 0, 1, "V4.2 §2.22.1: 0 clockwise, 1 counterclockwise" },
-	{ P_V4, 0xB6, F(REPORT_ON), 0, 1, "V4.2 §2.33.2: 1 on, 0 off" },
+#define UNLISTED_MAX 32
+#define WORD_MAX 32
+
+struct unlisted {
+	char word[WORD_MAX];
+	const struct rmd_cmd_spec *row; /* the first row spelled so */
+	const struct rmd_dialect *d;	/* whose table it is in */
 };
+
+static const struct enc_cmd *listed(const char *word)
+{
+	for (size_t i = 0; i < NENC; i++)
+		if (!strcmp(enc_cmds[i].name, word))
+			return &enc_cmds[i];
+	return NULL;
+}
+
+/* The words rows spell that enc_cmds does not name, once each, into u[]; their count. */
+static size_t unlisted_words(struct unlisted *u, size_t max)
+{
+	const struct rmd_dialect *dl;
+	size_t nd, n = 0;
+
+	dl = rmd_dialect_list(&nd);
+	for (size_t i = 0; i < nd; i++) {
+		const struct rmd_cmd_spec *rows;
+		size_t nr = rmd_dialect_is_firmware(&dl[i]) ? rmd_cmd_table(dl[i].proto, &rows) : 0;
+
+		for (size_t j = 0; j < nr; j++) {
+			for (const char *w = rows[j].spell.words; w && *w;) {
+				size_t len = strcspn(w, " "), k;
+
+				if (len < WORD_MAX && n < max) {
+					memcpy(u[n].word, w, len);
+					u[n].word[len] = '\0';
+					for (k = 0; k < n && strcmp(u[k].word, u[n].word); k++)
+						;
+					if (k == n && !listed(u[n].word)) {
+						u[n].row = &rows[j];
+						u[n].d = &dl[i];
+						n++;
+					}
+				}
+				w += len + (w[len] == ' ');
+			}
+		}
+	}
+	return n;
+}
+
+/* An unlisted word's arguments for usage lines: its row's field keys, "CURRENT_A SPEED_DPS". */
+static const char *unlisted_args(const struct unlisted *u, char *buf, size_t size)
+{
+	size_t k = 0;
+
+	buf[0] = '\0';
+	for (unsigned i = 0; i < u->row->spell.n_args && k + 1 < size; i++) {
+		const char *key = rmd_field_key((enum rmd_field)u->row->spell.args[i]);
+
+		if (i)
+			buf[k++] = ' ';
+		for (; *key && k + 1 < size; key++)
+			buf[k++] = *key >= 'a' && *key <= 'z' ? (char)(*key - 'a' + 'A') : *key;
+		buf[k] = '\0';
+	}
+	return buf;
+}
 
 void rmdctl_encode_usage(FILE *f)
 {
+	struct unlisted u[UNLISTED_MAX];
 	char keys[64], phrase[128];
+	size_t n_u;
 
 	fprintf(f,
 		"usage: rmdctl encode [--protocol %s] [--id N] [--mit-ranges P,V,T,KP,KD]\n"
@@ -305,6 +255,14 @@ void rmdctl_encode_usage(FILE *f)
 			h += n + (h[n] == '\n');
 		}
 	}
+	n_u = unlisted_words(u, UNLISTED_MAX);
+	for (size_t i = 0; i < n_u; i++) {
+		char args[96];
+
+		unlisted_args(&u[i], args, sizeof(args));
+		fprintf(f, "  %s%s%s\n      %s (0x%02X), protocol %s\n", u[i].word,
+			*args ? " " : "", args, u[i].row->name, u[i].row->cmd, u[i].d->name);
+	}
 	fprintf(f, "\n"
 		   "exit status: 0 frame printed; 1 the codec table lacks the command or refused\n"
 		   "the frame; 2 usage error (unknown command, bad or out-of-range value).\n");
@@ -319,15 +277,6 @@ static void cmd_usage(const struct enc_cmd *ec)
 
 /* ---- values -> fields ----------------------------------------------------------------- */
 
-static const struct limit *find_limit(enum rmd_proto table, uint8_t cmd, enum rmd_field fld)
-{
-	for (size_t i = 0; i < sizeof(limits) / sizeof(limits[0]); i++)
-		if (limits[i].protos & (1u << table) && limits[i].cmd == cmd &&
-		    limits[i].fld == fld)
-			return &limits[i];
-	return NULL;
-}
-
 /*
  * Native value v -> raw integer of field `fld` of `spec`'s request, stored in
  * msg.  Refuses what the field cannot carry or the manual rules out.
@@ -336,7 +285,7 @@ static int set_field(const struct enc_ctx *ctx, const char *what, const struct r
 		     enum rmd_field fld, double v, struct rmd_msg *msg)
 {
 	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, fld);
-	const struct limit *lim = find_limit(ctx->table, spec->cmd, fld);
+	const struct rmd_field_range *lim = rmd_cmd_range(spec, fld);
 	const char *unit;
 	char label[40], vs[48], los[48], his[48];
 	unsigned bits;
@@ -438,66 +387,66 @@ static int parse_value(const struct enc_cmd *ec, const char *s, double *v)
 
 /* ---- commands ------------------------------------------------------------------------- */
 
-static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
-			struct rmd_frame *out)
+/* The row of `table` spelled `word` with n_args arguments (any count: -1), or NULL. */
+static const struct rmd_cmd_spec *spelled_row(enum rmd_proto table, const char *word, int n_args)
 {
-	const struct variant *v = NULL;
-	const struct rmd_cmd_spec *spec;
+	const struct rmd_cmd_spec *rows;
+	size_t n = rmd_cmd_table(table, &rows);
+
+	for (size_t i = 0; i < n; i++)
+		if (rmd_cmd_spelled(&rows[i], word) &&
+		    (n_args < 0 || rows[i].spell.n_args == n_args))
+			return &rows[i];
+	return NULL;
+}
+
+/* A command of the rows spelled ec->name (struct rmd_spelling). */
+static int enc_spelled(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+		       struct rmd_frame *out)
+{
+	const struct rmd_cmd_spec *spec = spelled_row(ctx->table, ec->name, argc);
 	struct rmd_msg msg = { 0 };
-	bool in_proto = false;
+	bool multi;
 	int r;
 
-	for (size_t i = 0; i < sizeof(ec->v) / sizeof(ec->v[0]) && ec->v[i].protos; i++) {
-		if (!(ec->v[i].protos & (1u << ctx->table)))
-			continue;
-		in_proto = true;
-		if (ec->v[i].nargs == (unsigned)argc) {
-			v = &ec->v[i];
-			break;
-		}
-	}
-	if (!in_proto) {
+	if (!spelled_row(ctx->table, ec->name, -1)) {
 		char keys[64] = "";
 		size_t nd, k = 0;
 		const struct rmd_dialect *dl = rmd_dialect_list(&nd);
 
 		/* the dialects whose tables have it */
-		for (size_t i = 0; i < nd; i++)
-			for (size_t j = 0; j < sizeof(ec->v) / sizeof(ec->v[0]); j++)
-				if (rmd_dialect_is_firmware(&dl[i]) &&
-				    (ec->v[j].protos & (1u << dl[i].proto))) {
-					k += (size_t)snprintf(keys + k, sizeof(keys) - k, "%s%s",
-							      k ? " or " : "", dl[i].key);
-					break;
-				}
+		for (size_t i = 0; i < nd && k < sizeof(keys); i++)
+			if (rmd_dialect_is_firmware(&dl[i]) &&
+			    spelled_row(dl[i].proto, ec->name, -1))
+				k += (size_t)snprintf(keys + k, sizeof(keys) - k, "%s%s",
+						      k ? " or " : "", dl[i].key);
 		tool_log(TOOL_LOG_ERR, "%s: not a command of protocol %s (--protocol %s)", ec->name,
 			 rmd_proto_name(ctx->proto), keys);
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (!v) {
+	if (!spec) {
 		tool_log(TOOL_LOG_ERR, "%s: wrong number of arguments for protocol %s", ec->name,
 			 rmd_proto_name(ctx->proto));
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (!v->multi && (r = need_id(ctx, ec)) != 0)
+	/* V2 §4.1: the 0x280 frame carries no command byte and goes to no one motor */
+	multi = spec->flags & RMD_CMD_NO_CMD_BYTE;
+	if (!multi && (r = need_id(ctx, ec)) != 0)
 		return r;
-	spec = find_row(ctx, ec->name, v->cmd);
-	if (!spec)
-		return RMDCTL_EXIT_DATA;
-	msg.cmd = v->cmd;
-	for (unsigned i = 0; i < v->nargs; i++) {
+	msg.cmd = spec->cmd;
+	for (unsigned i = 0; i < spec->spell.n_args; i++) {
 		double val;
 
 		r = parse_value(ec, argv[i], &val);
 		if (r)
 			return r;
-		r = set_field(ctx, ec->name, spec, v->fld[i], val, &msg);
+		r = set_field(ctx, ec->name, spec, (enum rmd_field)spec->spell.args[i], val, &msg);
 		if (r)
 			return r;
 	}
-	return finish(ctx, ec->name, spec, v->multi, &msg, out);
+	return finish(ctx, ec->name, spec, multi, &msg, out);
 }
 
 /*
@@ -867,9 +816,13 @@ int rmdctl_encode_run(int argc, char **argv)
 		.motor_id = -1,
 		.r = rmd_mit_default_ranges,
 	};
+	struct unlisted u[UNLISTED_MAX];
 	const struct enc_cmd *ec = NULL;
+	struct enc_cmd own = { 0 };
 	struct tool_near near;
 	struct rmd_frame frame;
+	char args[96];
+	size_t n;
 	int r;
 
 	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
@@ -890,6 +843,16 @@ int rmdctl_encode_run(int argc, char **argv)
 			ec = &enc_cmds[i];
 		tool_near_try(&near, enc_cmds[i].name);
 	}
+	n = unlisted_words(u, UNLISTED_MAX);
+	for (size_t i = 0; i < n; i++) {
+		if (!ec && !strcmp(u[i].word, argv[optind])) {
+			own = (struct enc_cmd){ .name = u[i].word,
+						.args = unlisted_args(&u[i], args, sizeof(args)),
+						.help = "" };
+			ec = &own;
+		}
+		tool_near_try(&near, u[i].word);
+	}
 	if (!ec && near.best) {
 		tool_log(TOOL_LOG_ERR, "unknown command \"%s\" (did you mean %s?)", argv[optind],
 			 near.best);
@@ -903,7 +866,7 @@ int rmdctl_encode_run(int argc, char **argv)
 	if (ec->custom)
 		r = ec->custom(&ctx, ec, argc - optind, argv + optind, &frame);
 	else
-		r = enc_variants(&ctx, ec, argc - optind, argv + optind, &frame);
+		r = enc_spelled(&ctx, ec, argc - optind, argv + optind, &frame);
 	if (r)
 		return r;
 	print_frame(&frame);
