@@ -84,16 +84,9 @@ const struct rmd_cmd_spec rmd_v3_cmds[] = {
 	/*
 	 * §2.33: function index (§2.33.4: 1 clear multi-turn and save, 2 CAN ID
 	 * filter, saved in flash, 3 0x9A error reports, 4 save multi-turn at
-	 * power off) and an int32 value; the reply echoes.  Flagged ROM
-	 * because indexes 1 and 2 write flash.
+	 * power off) and an int32 value; the reply echoes.
 	 */
-	{ 0x20,
-	  "function_control",
-	  RMD_CMD_ECHO | RMD_CMD_ROM,
-	  V3X_FUNC_CTRL,
-	  { 0 },
-	  RMD_SAY2("function", INDEX, VALUE),
-	  RMD_RANGES(RMD_RANGE(INDEX, 1, 4, "V3 §2.33.4: index 1..4")) },
+	V3X_ROW_20(4, "V3 §2.33.4: index 1..4"),
 };
 RMD_ROWS_END
 const size_t rmd_v3_ncmds = sizeof(rmd_v3_cmds) / sizeof(rmd_v3_cmds[0]);

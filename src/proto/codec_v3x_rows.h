@@ -209,7 +209,17 @@
 			RMD_SAY0("model")                                                    \
 	}
 
-/* V3 §2.33, V4.2 §2.34: 0x20's function index and int32 value; the reply echoes. */
-#define V3X_FUNC_CTRL RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_S(VALUE, 4, 4, 1.0))
+/*
+ * V3 §2.33, V4.2 §2.34: 0x20's function index and int32 value; the reply
+ * echoes.  Flagged ROM because indexes 1 and 2 (V4.2 also 5, 6, 7) write
+ * flash.  Its indexes run 1..last, as `cite` says (the tables list them).
+ */
+#define V3X_ROW_20(last, cite)                                                        \
+	{                                                                             \
+		0x20, "function_control", RMD_CMD_ECHO | RMD_CMD_ROM,                 \
+			RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_S(VALUE, 4, 4, 1.0)), \
+			RMD_LAYOUT_NONE, RMD_SAY2("function", INDEX, VALUE),          \
+			RMD_RANGES(RMD_RANGE(INDEX, 1, last, cite))                   \
+	}
 
 #endif /* RMD_CODEC_V3X_ROWS_H */

@@ -179,13 +179,7 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	 * value; the reply echoes.  Flagged ROM because indexes 1, 2, 5, 6, 7
 	 * write flash.
 	 */
-	{ 0x20,
-	  "function_control",
-	  RMD_CMD_ECHO | RMD_CMD_ROM,
-	  V3X_FUNC_CTRL,
-	  { 0 },
-	  RMD_SAY2("function", INDEX, VALUE),
-	  RMD_RANGES(RMD_RANGE(INDEX, 1, 7, "V4.2 §2.34.4: index 1..7")) },
+	V3X_ROW_20(7, "V4.2 §2.34.4: index 1..7"),
 };
 RMD_ROWS_END
 const size_t rmd_v4_ncmds = sizeof(rmd_v4_cmds) / sizeof(rmd_v4_cmds[0]);
