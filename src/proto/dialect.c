@@ -93,23 +93,36 @@ static const struct rmd_flag_name v2_run_modes[] = {
 	{ 0xFF, "init" },
 };
 
+/* V3 §2.1 .. §2.3, V4.2 §2.1 .. §2.3: read, write to RAM, write to ROM. */
+#define V3X_PID_CMDS             \
+	{                        \
+		0x30, 0x31, 0x32 \
+	}
+
 /* V3 §2.1.3: six uint8 gains in one frame, in this order. */
 static const struct rmd_pid_slot v3_pid[] = {
-	{ RMD_FLD_CURR_KP, 0 }, { RMD_FLD_CURR_KI, 0 }, { RMD_FLD_SPD_KP, 0 },
-	{ RMD_FLD_SPD_KI, 0 },	{ RMD_FLD_POS_KP, 0 },	{ RMD_FLD_POS_KI, 0 },
+	{ RMD_FLD_CURR_KP, 0, V3X_PID_CMDS }, { RMD_FLD_CURR_KI, 0, V3X_PID_CMDS },
+	{ RMD_FLD_SPD_KP, 0, V3X_PID_CMDS },  { RMD_FLD_SPD_KI, 0, V3X_PID_CMDS },
+	{ RMD_FLD_POS_KP, 0, V3X_PID_CMDS },  { RMD_FLD_POS_KI, 0, V3X_PID_CMDS },
 };
 
-/* V2 §3.1 .. §3.6: one Q24 gain a command, in this order. */
+/*
+ * V2 §3.1 .. §3.18: one Q24 gain a command, in this order; each has a
+ * read (§3.1 .. §3.6), a RAM write (§3.7 .. §3.12) and a ROM write
+ * (§3.13 .. §3.18) of its own.
+ */
 static const struct rmd_pid_slot v2_pid[] = {
-	{ RMD_FLD_CURR_KP, 0 }, { RMD_FLD_CURR_KI, 0 }, { RMD_FLD_SPD_KP, 0 },
-	{ RMD_FLD_SPD_KI, 0 },	{ RMD_FLD_POS_KP, 0 },	{ RMD_FLD_POS_KI, 0 },
+	{ RMD_FLD_CURR_KP, 0, { 0x34, 0x3A, 0x40 } }, { RMD_FLD_CURR_KI, 0, { 0x35, 0x3B, 0x41 } },
+	{ RMD_FLD_SPD_KP, 0, { 0x32, 0x38, 0x3E } },  { RMD_FLD_SPD_KI, 0, { 0x33, 0x39, 0x3F } },
+	{ RMD_FLD_POS_KP, 0, { 0x30, 0x36, 0x3C } },  { RMD_FLD_POS_KI, 0, { 0x31, 0x37, 0x3D } },
 };
 
 /* V4.2 §2.1.4: one float gain a frame, addressed by index. */
 static const struct rmd_pid_slot v4_pid[] = {
-	{ RMD_FLD_CURR_KP, 1 }, { RMD_FLD_CURR_KI, 2 }, { RMD_FLD_SPD_KP, 4 },
-	{ RMD_FLD_SPD_KI, 5 },	{ RMD_FLD_POS_KP, 7 },	{ RMD_FLD_POS_KI, 8 },
-	{ RMD_FLD_POS_KD, 9 },
+	{ RMD_FLD_CURR_KP, 1, V3X_PID_CMDS }, { RMD_FLD_CURR_KI, 2, V3X_PID_CMDS },
+	{ RMD_FLD_SPD_KP, 4, V3X_PID_CMDS },  { RMD_FLD_SPD_KI, 5, V3X_PID_CMDS },
+	{ RMD_FLD_POS_KP, 7, V3X_PID_CMDS },  { RMD_FLD_POS_KI, 8, V3X_PID_CMDS },
+	{ RMD_FLD_POS_KD, 9, V3X_PID_CMDS },
 };
 
 /*
