@@ -497,7 +497,8 @@ unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n)
 
 	for (unsigned i = 0; i < n; i++) {
 		bool told = false;
-		char more[64] = "";
+		char more[128] =
+			""; /* ", nor 0x.." for the others of a batch to the motor (12 at most) */
 		size_t o = 0;
 
 		if (q[i].ok)

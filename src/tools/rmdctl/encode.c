@@ -449,13 +449,10 @@ static int enc_spelled(const struct enc_ctx *ctx, const struct enc_cmd *ec, int 
 	return finish(ctx, ec->name, spec, multi, &msg, out);
 }
 
-/*
- * The index of gain LOOP ("position-kd" or "position_kd") in a dialect that
- * reads and writes one gain by index (V4.2 §2.1.4), or -1.
- */
-static int gain_index(const struct rmd_dialect *dl, const char *loop)
+/* The slot of gain LOOP ("position-kd" or "position_kd") of a dialect, or -1. */
+static int gain_slot(const struct rmd_dialect *dl, const char *loop)
 {
-	for (size_t i = 0; i < dl->n_pid_slots && dl->pid == RMD_PID_FLOAT_INDEXED; i++) {
+	for (size_t i = 0; i < dl->n_pid_slots; i++) {
 		const char *a = rmd_field_key((enum rmd_field)dl->pid_slots[i].field), *b = loop;
 
 		while (*a && (*a == *b || (*a == '_' && *b == '-'))) {
@@ -463,7 +460,7 @@ static int gain_index(const struct rmd_dialect *dl, const char *loop)
 			b++;
 		}
 		if (!*a && !*b)
-			return dl->pid_slots[i].index;
+			return (int)i;
 	}
 	return -1;
 }
@@ -483,67 +480,70 @@ static int bad_loop(const struct enc_ctx *ctx, const struct enc_cmd *ec, const c
 	return RMDCTL_EXIT_USAGE;
 }
 
+/* The request that does op to gain `slot` alone (rmd_pid_requests()), or -1 when none does. */
+static int one_gain(const struct rmd_dialect *dl, enum rmd_pid_op op, int slot, struct rmd_msg *m)
+{
+	struct rmd_pid_set set = { .slots = UINT32_C(1) << slot }, carried;
+	struct rmd_msg reqs[RMD_PID_SLOTS_MAX];
+	uint32_t named;
+
+	if (slot < 0 || rmd_pid_requests(dl, op, &set, reqs) != 1 ||
+	    !rmd_pid_parse(dl, &reqs[0], &op, &named, &carried) || named != set.slots)
+		return -1;
+	*m = reqs[0];
+	return 0;
+}
+
 static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
 			struct rmd_frame *out)
 {
-	/* V2 §2: one read command per gain, in this order from 0x30. */
-	static const char *const loops[] = { "position-kp", "position-ki", "speed-kp",
-					     "speed-ki",    "current-kp",  "current-ki" };
 	const struct rmd_dialect *dl = rmd_dialect(ctx->table);
+	struct rmd_pid_set all = { .slots = UINT32_MAX };
+	struct rmd_msg reqs[RMD_PID_SLOTS_MAX];
 	const struct rmd_cmd_spec *spec;
-	struct rmd_msg msg = { 0 };
-	uint8_t cmd = 0x30;
-	int r, index = -1;
-
+	int r, n = rmd_pid_requests(dl, RMD_PID_READ, &all, reqs);
 	/* V2 §3.1: a command a gain; V4.2 §2.1: 0x30 and the gain's index; V3 §2.1: all six */
-	bool one = dl->pid == RMD_PID_V2_PER_GAIN || dl->pid == RMD_PID_FLOAT_INDEXED;
+	bool one = n > 1;
 
+	if (n < 1) {
+		tool_log(TOOL_LOG_ERR, "%s: protocol %s has no PID commands", ec->name,
+			 rmd_proto_name(ctx->proto));
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
 	if (argc != (one ? 1 : 0)) {
 		tool_log(TOOL_LOG_ERR, "%s: protocol %s takes %s", ec->name,
 			 rmd_proto_name(ctx->proto), one ? "one LOOP" : "no argument");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (argc == 1 && dl->pid == RMD_PID_FLOAT_INDEXED) {
-		index = gain_index(dl, argv[0]);
-		if (index < 0)
-			return bad_loop(ctx, ec, argv[0]);
-	} else if (argc == 1) {
-		size_t i;
-
-		for (i = 0; i < sizeof(loops) / sizeof(loops[0]); i++)
-			if (!strcmp(argv[0], loops[i]))
-				break;
-		if (i == sizeof(loops) / sizeof(loops[0])) {
-			tool_log(TOOL_LOG_ERR, "%s: unknown LOOP \"%s\"", ec->name, argv[0]);
-			cmd_usage(ec);
-			return RMDCTL_EXIT_USAGE;
-		}
-		cmd = (uint8_t)(0x30 + i);
-	}
+	if (argc == 1 && one_gain(dl, RMD_PID_READ, gain_slot(dl, argv[0]), &reqs[0]) < 0)
+		return bad_loop(ctx, ec, argv[0]);
 	if ((r = need_id(ctx, ec)) != 0)
 		return r;
-	spec = find_row(ctx, ec->name, cmd);
+	spec = find_row(ctx, ec->name, reqs[0].cmd);
 	if (!spec)
 		return RMDCTL_EXIT_DATA;
-	msg.cmd = cmd;
-	if (index >= 0 && (r = set_field(ctx, ec->name, spec, RMD_FLD_INDEX, index, &msg)) != 0)
-		return r;
-	return finish(ctx, ec->name, spec, false, &msg, out);
+	return finish(ctx, ec->name, spec, false, &reqs[0], out);
 }
 
-/* V4.2 §2.2 (pid, 0x31, RAM) and §2.3 (pid-rom, 0x32, ROM): one float gain by index. */
+/*
+ * V4.2 §2.2 (pid, 0x31, RAM) and §2.3 (pid-rom, 0x32, ROM): one gain alone,
+ * a real (a float on the wire); a dialect that writes its gains otherwise
+ * is refused.
+ */
 static int enc_pid_write(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
 			 struct rmd_frame *out)
 {
 	const struct rmd_dialect *dl = rmd_dialect(ctx->table);
-	uint8_t cmd = strcmp(ec->name, "pid-rom") ? 0x31 : 0x32;
+	enum rmd_pid_op op = strcmp(ec->name, "pid-rom") ? RMD_PID_WRITE_RAM : RMD_PID_WRITE_ROM;
+	const struct rmd_field_spec *fs = rmd_pid_spec(dl, 0);
 	const struct rmd_cmd_spec *spec;
-	struct rmd_msg msg = { 0 };
+	struct rmd_msg msg;
 	double gain;
-	int r, index;
+	int r, slot;
 
-	if (dl->pid != RMD_PID_FLOAT_INDEXED) {
+	if (!fs || !fs->is_float || one_gain(dl, op, 0, &msg) < 0) {
 		tool_log(TOOL_LOG_ERR,
 			 "%s: protocol %s writes its gains otherwise (`raw`: six in 0x31 in V3, "
 			 "one a command from 0x36 in V2)",
@@ -556,19 +556,18 @@ static int enc_pid_write(const struct enc_ctx *ctx, const struct enc_cmd *ec, in
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	index = gain_index(dl, argv[0]);
-	if (index < 0)
+	slot = gain_slot(dl, argv[0]);
+	if (one_gain(dl, op, slot, &msg) < 0)
 		return bad_loop(ctx, ec, argv[0]);
 	if ((r = parse_value(ec, argv[1], &gain)) != 0)
 		return r;
 	if ((r = need_id(ctx, ec)) != 0)
 		return r;
-	spec = find_row(ctx, ec->name, cmd);
+	spec = find_row(ctx, ec->name, msg.cmd);
 	if (!spec)
 		return RMDCTL_EXIT_DATA;
-	msg.cmd = cmd;
-	if ((r = set_field(ctx, ec->name, spec, RMD_FLD_INDEX, index, &msg)) != 0 ||
-	    (r = set_field(ctx, ec->name, spec, RMD_FLD_GAIN, gain, &msg)) != 0)
+	r = set_field(ctx, ec->name, spec, rmd_pid_field(dl, (unsigned)slot), gain, &msg);
+	if (r)
 		return r;
 	return finish(ctx, ec->name, spec, false, &msg, out);
 }

@@ -192,11 +192,26 @@ struct rec {
 	double scale[RMD_FLD_COUNT];
 };
 
-/* V4.2 §2.1: the dialect's gains read one 0x30 by index each into rec (the bus open); an exit status. */
-int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec);
+/*
+ * The requests that read every gain of --protocol's dialect from motor id
+ * (rmd_pid_requests()) into q[] (RMD_PID_SLOTS_MAX); their count, 0 when
+ * it has no PID commands.
+ */
+unsigned rmdctl_pid_read_reqs(const struct dev *d, uint8_t id, struct req *q);
 
-/* Field f of r is the binary32 whose bits are `bits` (a V4 gain, read by index). */
-void rmdctl_rec_set_float(struct rec *r, enum rmd_field f, int64_t bits);
+/*
+ * The gains the answers to q[0..n) carry, into *got (its slots those
+ * found); requests that are no PID read are passed over.  An answer that
+ * lacks a gain its request named (V4.2 §2.1.3: another index) is reported;
+ * returns how many did.
+ */
+unsigned rmdctl_pid_gather(struct dev *d, const struct req *q, unsigned n, struct rmd_pid_set *got);
+
+/* Field f of r is `raw` as fs reads it (its scale; is_float: binary32 bits). */
+void rmdctl_rec_set(struct rec *r, enum rmd_field f, const struct rmd_field_spec *fs, int64_t raw);
+
+/* The gains of g (the dialect's slots), into r under their fields. */
+void rmdctl_rec_add_gains(struct rec *r, const struct dev *d, const struct rmd_pid_set *g);
 
 /* Set by SIGINT/SIGTERM: waits end early, move stops the motor, monitor exits. */
 extern volatile sig_atomic_t rmdctl_interrupted;
@@ -280,9 +295,6 @@ void rmdctl_print_rec(const struct dev *d, uint8_t id, const struct rec *r,
 		      const enum rmd_field *order, size_t n);
 
 /* ---- the commands (read.c, settings.c, motion.c) ---------------------------------------- */
-
-/* V2 §3.15..§3.20: the six PI gain reads, current/speed/position kp, ki order. */
-extern const uint8_t rmdctl_v2_pid_read[6];
 
 int rmdctl_run_scan(struct dev *d, int argc, char **argv);
 int rmdctl_run_info(struct dev *d, int argc, char **argv);
