@@ -674,9 +674,10 @@ static void settle(struct rmd_sim_motor *m)
 /* Commands                                                                   */
 
 /*
- * Where the simulated firmware keeps gain k of its dialect (the one place
- * it models the layout): a binary32 by index (V4.2 §2.1.4), or the wire's
- * integer per gain (V3 §2.1 uint8, V2 §3.1 Q24); NULL: nowhere.
+ * Where the simulated firmware keeps gain k of its dialect: a binary32 by
+ * index (V4.2 §2.1.4), or the wire's integer per gain (V3 §2.1 uint8, V2
+ * §3.1 Q24); NULL: nowhere.  With the factory values
+ * (rmd_sim_pid_default()) the places the firmware's layout is modelled.
  */
 static float *gain_float(struct rmd_sim_settings *st, const struct rmd_dialect *d, unsigned k)
 {
