@@ -38,7 +38,15 @@ enum rmd_proto {
 	RMD_PROTO_V2,	  /* replies on 0x140 + ID */
 	RMD_PROTO_MIT,	  /* 0x400 + ID / 0x500 + ID, see rmd/mit.h */
 	RMD_PROTO_V4,	  /* replies on 0x240 + ID; float PID gains by index */
-	RMD_PROTO_COUNT	  /* not a dialect: how many there are */
+#ifdef RMD_PROTO_MORE
+	/*
+	 * A build's own keys beyond these, their rows in RMD_DIALECTS_MORE
+	 * (dialect.c): tests/unit/test_new_dialect.c adds one so, standing
+	 * in for a new value here (docs/design.md "How to add a dialect")
+	 */
+	RMD_PROTO_MORE,
+#endif
+	RMD_PROTO_COUNT /* not a dialect: how many there are */
 };
 
 enum rmd_dir {

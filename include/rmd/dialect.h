@@ -21,9 +21,11 @@
  * into the list, the value a config file names.
  *
  * How to add a dialect (docs/design.md "How to add a dialect"): its value
- * in enum rmd_proto (codec.h), its command table (src/proto/codec_<key>.c),
- * one row of the list in src/proto/dialect.c, and the simulated motor's
- * behaviour where it differs (src/sim/, read through the same bits).
+ * in enum rmd_proto (codec.h), its command table (src/proto/codec_<key>.c,
+ * the rows with their words and ranges for tools), one row of the list in
+ * src/proto/dialect.c, and the simulated motor's behaviour where it differs
+ * (src/sim/, read through the same bits); tests/unit/test_new_dialect.c
+ * adds one so and runs rmdctl encode and decode on it.
  *
  * Pure, const after the program is loaded, rt-safe.
  */

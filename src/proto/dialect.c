@@ -275,6 +275,9 @@ const struct rmd_dialect rmd_dialects[RMD_PROTO_COUNT] = {
 		.mit_scaling = v4_mit,
 		.n_mit_scaling = ARRAY_SIZE(v4_mit),
 	},
+#ifdef RMD_DIALECTS_MORE
+	RMD_DIALECTS_MORE /* the rows of RMD_PROTO_MORE's keys (codec.h) */
+#endif
 };
 
 /* Config keys in enum order, NULL-terminated (codec.h). */
