@@ -100,52 +100,32 @@ static void test_record(void **state)
 	assert_null(rmd_cmd_find(RMD_PROTO_V5, 0xA2));
 }
 
-struct enc_case {
-	const char *args[8];
+/* `rmdctl encode ARGS`: its exit status, stdout exactly (or NULL), a part of stderr (or NULL). */
+static const struct enc_case {
+	const char *args, *out, *err;
 	int status;
-	const char *out; /* stdout exactly, or NULL */
-	const char *err; /* in stderr, or NULL */
-};
-
-static const struct enc_case enc_cases[] = {
-	/* V5 §1: 1 A is 1000 mA at data[2..3], to 0x600 + ID */
-	{ { "--protocol", "v5", "--id", "1", "torque", "1" }, 0, "601#A100E80300000000\n", NULL },
-	{ { "--protocol", "v5", "--id", "3", "torque", "-2.5" }, 0, "603#A1003CF600000000\n", NULL },
-	/* its range, cited from its row */
-	{ { "--protocol", "v5", "--id", "1", "torque", "25" }, 2, "", "(V5 §1: -20..20 A)" },
-	{ { "--protocol", "v5", "--id", "2", "stop" }, 0, "602#8100000000000000\n", NULL },
-	{ { "--protocol", "v5", "--id", "1", "status1" }, 0, "601#9A00000000000000\n", NULL },
-	/* a command of V5 alone: rmdctl's list has no word of it */
-	{ { "--protocol", "v5", "--id", "1", "board-temp" }, 0, "601#C100000000000000\n", NULL },
-	{ { "--protocol", "v5", "--id", "1", "current-limit", "12.5" },
-	  0,
-	  "601#C200000000007D00\n",
-	  NULL },
-	{ { "--protocol", "v5", "--id", "1", "current-limit", "51" }, 2, "", "(V5 §5: 0..50 A)" },
-	{ { "--protocol", "v5", "--id", "1", "raw", "read_board_temperature" },
-	  0,
-	  "601#C100000000000000\n",
-	  NULL },
-	/* what V5's table lacks, and who has it */
-	{ { "--protocol", "v5", "--id", "1", "speed", "1" },
-	  2,
-	  "",
-	  "speed: not a command of protocol V5 (--protocol v3 or v2 or v4)" },
-	{ { "--protocol", "v3", "--id", "1", "board-temp" },
-	  2,
-	  "",
-	  "board-temp: not a command of protocol V3 (--protocol v5)" },
-	{ { "--protocol", "v5", "--id", "1", "pid-read" },
-	  2,
-	  "",
-	  "protocol V5 has no PID commands" },
-	{ { "--protocol", "v6", "--id", "1", "stop" }, 2, "", "(v3, v2, mit, v4 or v5)" },
-	/* the dialects the tree has read as before */
-	{ { "--id", "1", "torque", "1" }, 0, "141#A100000064000000\n", NULL },
-	{ { "--protocol", "v4", "--id", "1", "pid", "current-kp", "1.5" },
-	  0,
-	  "141#310100000000C03F\n",
-	  NULL },
+} enc_cases[] = {
+	/* V5 §1: 1 A is 1000 mA at data[2..3], to 0x600 + ID; its range cited from its row */
+	{ "--protocol v5 --id 1 torque 1", "601#A100E80300000000\n", NULL, 0 },
+	{ "--protocol v5 --id 3 torque -2.5", "603#A1003CF600000000\n", NULL, 0 },
+	{ "--protocol v5 --id 1 torque 25", "", "(V5 §1: -20..20 A)", 2 },
+	{ "--protocol v5 --id 2 stop", "602#8100000000000000\n", NULL, 0 },
+	{ "--protocol v5 --id 1 status1", "601#9A00000000000000\n", NULL, 0 },
+	/* commands of V5 alone: rmdctl's list has no word of them */
+	{ "--protocol v5 --id 1 board-temp", "601#C100000000000000\n", NULL, 0 },
+	{ "--protocol v5 --id 1 current-limit 12.5", "601#C200000000007D00\n", NULL, 0 },
+	{ "--protocol v5 --id 1 current-limit 51", "", "(V5 §5: 0..50 A)", 2 },
+	{ "--protocol v5 --id 1 raw read_board_temperature", "601#C100000000000000\n", NULL, 0 },
+	/* what V5's table lacks, and which tables have it */
+	{ "--protocol v5 --id 1 speed 1", "",
+	  "speed: not a command of protocol V5 (--protocol v3 or v2 or v4)", 2 },
+	{ "--protocol v3 --id 1 board-temp", "",
+	  "board-temp: not a command of protocol V3 (--protocol v5)", 2 },
+	{ "--protocol v5 --id 1 pid-read", "", "protocol V5 has no PID commands", 2 },
+	{ "--protocol v6 --id 1 stop", "", "(v3, v2, mit, v4 or v5)", 2 },
+	/* the dialects the tree has, as before */
+	{ "--id 1 torque 1", "141#A100000064000000\n", NULL, 0 },
+	{ "--protocol v4 --id 1 pid current-kp 1.5", "141#310100000000C03F\n", NULL, 0 },
 };
 
 static void test_encode(void **state)
@@ -153,20 +133,21 @@ static void test_encode(void **state)
 	(void)state;
 	for (size_t i = 0; i < sizeof(enc_cases) / sizeof(enc_cases[0]); i++) {
 		const struct enc_case *c = &enc_cases[i];
-		const char *args[10] = { "encode" };
+		char words[160], *argv[12] = { "encode" }, *save = NULL;
 		struct run r;
 		size_t n = 1;
 
-		for (; n < 9 && c->args[n - 1]; n++)
-			args[n] = c->args[n - 1];
-		args[n] = NULL;
-		run_cmd(&r, rmdctl_encode_run, args);
+		snprintf(words, sizeof(words), "%s", c->args);
+		for (char *w = strtok_r(words, " ", &save); w && n < 11;
+		     w = strtok_r(NULL, " ", &save))
+			argv[n++] = w;
+		argv[n] = NULL;
+		run_cmd(&r, rmdctl_encode_run, (const char *const *)argv);
 		if (r.status != c->status || (c->out && strcmp(r.out, c->out)) ||
 		    (c->err && !strstr(r.err, c->err)))
-			fail_msg("encode %s %s %s %s %s: exit %d (want %d), printed \"%s\" (want "
-				 "\"%s\"), said:\n%s",
-				 args[1], args[2], args[3], args[4], args[5] ? args[5] : "",
-				 r.status, c->status, r.out, c->out ? c->out : "", r.err);
+			fail_msg("encode %s: exit %d (want %d), printed \"%s\" (want \"%s\"), "
+				 "said:\n%s",
+				 c->args, r.status, c->status, r.out, c->out ? c->out : "", r.err);
 	}
 }
 
