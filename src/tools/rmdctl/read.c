@@ -38,7 +38,8 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS], info[2 * RMD_MAX_MOTORS];
 	/* V3 §2.32, §2.29: model and firmware date */
-	bool v3 = rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2);
+	bool ident =
+		rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2);
 	int64_t t0 = rmd_now_ns();
 	unsigned n, ni = 0;
 	int m, r;
@@ -54,7 +55,7 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 		rmdctl_close_bus(d);
 		return -m;
 	}
-	if (v3) {
+	if (ident) {
 		for (int i = 0; i < m; i++) {
 			rmdctl_req_init(&info[ni++], found[i], 0xB5);
 			rmdctl_req_init(&info[ni++], found[i], 0xB2);

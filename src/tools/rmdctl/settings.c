@@ -50,7 +50,7 @@ static int others_renumbered(struct dev *d, const uint8_t *before, unsigned n, u
 	return RMDCTL_EXIT_DATA;
 }
 
-/* An echo of `data` from one of ids[] (set_id_func_20()). */
+/* An echo of `data` from one of ids[] (set_id_then_reset()). */
 struct echo_cap {
 	uint32_t ids[2];
 	uint8_t data[RMD_FRAME_LEN];
@@ -449,7 +449,7 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 {
 	const struct rmd_cmd_spec *w = rmd_cmd_find(d->proto, 0x43);
 	/* V3 §2.5 writes by index; V2 §3.20 writes its one acceleration */
-	bool v2 = w && !rmd_layout_field(w, RMD_DIR_REQUEST, RMD_FLD_INDEX);
+	bool one_accel = w && !rmd_layout_field(w, RMD_DIR_REQUEST, RMD_FLD_INDEX);
 	struct rec rec = { 0 };
 	uint64_t index = 0, dps2;
 	const char *sval;
@@ -471,12 +471,12 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 		rmdctl_print_rec(d, id, &rec, (const enum rmd_field[]){ RMD_FLD_ACCEL }, 1);
 		return RMDCTL_EXIT_OK;
 	}
-	if (v2 != (argc == 2)) {
-		tool_log(TOOL_LOG_ERR, v2 ? "V2 writes one acceleration: accel ID DPS2" :
-					    "V3 writes by index: accel ID INDEX DPS2");
+	if (one_accel != (argc == 2)) {
+		tool_log(TOOL_LOG_ERR, one_accel ? "V2 writes one acceleration: accel ID DPS2" :
+						   "V3 writes by index: accel ID INDEX DPS2");
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (!v2) {
+	if (!one_accel) {
 		for (index = 0; index < 4 && strcmp(argv[1], accel_names[index]); index++)
 			;
 		if (index == 4 && rmdctl_parse_uint(argv[1], 0, 3, &index) < 0) {
@@ -495,10 +495,11 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 			 ACCEL_MIN_DPS2, ACCEL_MAX_DPS2);
 		return RMDCTL_EXIT_USAGE;
 	}
-	r = rmdctl_open_bus_for(d, !v2, "write an acceleration of motor %u on %s", id, d->bus_spec);
+	r = rmdctl_open_bus_for(d, !one_accel, "write an acceleration of motor %u on %s", id,
+				d->bus_spec);
 	if (r)
 		return r;
-	if (!v2) {
+	if (!one_accel) {
 		r = rmdctl_confirm(d, "set %s of motor %u on %s to %" PRIu64 " dps/s (RAM and ROM)",
 				   accel_names[index], id, d->name, dps2);
 		if (r)
@@ -506,7 +507,7 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 	}
 	/* V3 §2.5: RAM and ROM, by index; V2 §3.20: RAM.  Both echo. */
 	rmdctl_req_init(&q, id, 0x43);
-	if (!v2)
+	if (!one_accel)
 		rmd_msg_set(&q.msg, RMD_FLD_INDEX, (int64_t)index);
 	rmd_msg_set(&q.msg, RMD_FLD_ACCEL, (int64_t)dps2);
 	r = rmdctl_ask(d, &q);
@@ -518,8 +519,8 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 		       d->name, id, rmd_proto_name(d->proto), index, dps2);
 	else
 		printf("%s: motor %u: %s %" PRIu64 " dps/s written (%s), echo verified\n", d->name,
-		       id, v2 ? "acceleration" : accel_names[index], dps2,
-		       v2 ? "RAM" : "RAM and ROM");
+		       id, one_accel ? "acceleration" : accel_names[index], dps2,
+		       one_accel ? "RAM" : "RAM and ROM");
 out:
 	rmdctl_close_bus(d);
 	return r;
