@@ -450,7 +450,13 @@ const struct tool_opt rmdctl_decode_opts[] = {
 	  .value = TOOL_VAL_WORDS,
 	  .words = "request reply" },
 };
-const size_t rmdctl_n_decode_opts = sizeof(rmdctl_decode_opts) / sizeof(rmdctl_decode_opts[0]);
+#define NOPTS (sizeof(rmdctl_decode_opts) / sizeof(rmdctl_decode_opts[0]))
+const size_t rmdctl_n_decode_opts = NOPTS;
+
+/* name, operands, options, whether options end at the first operand, --help */
+static const struct rmdctl_codec_cmd decode_cmd = {
+	"decode", RMDCTL_DECODE_ARGS, rmdctl_decode_opts, NOPTS, false, rmdctl_decode_usage
+};
 
 int rmdctl_decode_run(int argc, char **argv)
 {
@@ -463,10 +469,8 @@ int rmdctl_decode_run(int argc, char **argv)
 	FILE *in = stdin;
 	int r, status;
 
-	r = rmdctl_codec_getopt(argc, argv, rmdctl_decode_opts, rmdctl_n_decode_opts, false,
-				&opts.proto, &opts.ranges, rmdctl_decode_usage, decode_opt, &opts);
-	if (r == RMDCTL_EXIT_USAGE)
-		goto usage;
+	r = rmdctl_codec_getopt(argc, argv, &decode_cmd, &opts.proto, &opts.ranges, decode_opt,
+				&opts);
 	if (r >= 0)
 		return r;
 	if (argc - optind > 1) {
@@ -493,6 +497,6 @@ int rmdctl_decode_run(int argc, char **argv)
 	return status;
 
 usage:
-	rmdctl_usage_hint_args("decode", RMDCTL_DECODE_ARGS);
+	rmdctl_usage_hint_args(decode_cmd.name, decode_cmd.args);
 	return RMDCTL_EXIT_USAGE;
 }

@@ -806,7 +806,13 @@ const struct tool_opt rmdctl_encode_opts[] = {
 	RMDCTL_CODEC_OPTS,
 	{ .name = "id", .shortc = 'i', .has_arg = required_argument, .arg = "N", .help = "" },
 };
-const size_t rmdctl_n_encode_opts = sizeof(rmdctl_encode_opts) / sizeof(rmdctl_encode_opts[0]);
+#define NOPTS (sizeof(rmdctl_encode_opts) / sizeof(rmdctl_encode_opts[0]))
+const size_t rmdctl_n_encode_opts = NOPTS;
+
+/* Options end at COMMAND, so "torque -1.5" is a value, not an option. */
+static const struct rmdctl_codec_cmd encode_cmd = {
+	"encode", RMDCTL_ENCODE_ARGS, rmdctl_encode_opts, NOPTS, true, rmdctl_encode_usage
+};
 
 int rmdctl_encode_run(int argc, char **argv)
 {
@@ -824,11 +830,7 @@ int rmdctl_encode_run(int argc, char **argv)
 	size_t n;
 	int r;
 
-	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
-	r = rmdctl_codec_getopt(argc, argv, rmdctl_encode_opts, rmdctl_n_encode_opts, true,
-				&ctx.proto, &ctx.r, rmdctl_encode_usage, encode_opt, &ctx);
-	if (r == RMDCTL_EXIT_USAGE)
-		goto usage;
+	r = rmdctl_codec_getopt(argc, argv, &encode_cmd, &ctx.proto, &ctx.r, encode_opt, &ctx);
 	if (r >= 0)
 		return r;
 	ctx.table = rmd_proto_table(ctx.proto);
@@ -876,6 +878,6 @@ int rmdctl_encode_run(int argc, char **argv)
 	return RMDCTL_EXIT_OK;
 
 usage:
-	rmdctl_usage_hint_args("encode", RMDCTL_ENCODE_ARGS);
+	rmdctl_usage_hint_args(encode_cmd.name, encode_cmd.args);
 	return RMDCTL_EXIT_USAGE;
 }

@@ -36,10 +36,12 @@ void rmdctl_usage_hint(const struct rmdctl_cmd *c)
 		rmdctl_usage_hint_args(c->name, c->args);
 }
 
-int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t n,
-			bool stop_at_operand, enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
-			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx)
+int rmdctl_codec_getopt(int argc, char **argv, const struct rmdctl_codec_cmd *cmd,
+			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+			int (*own)(int c, void *ctx), void *ctx)
 {
+	const struct tool_opt *o = cmd->opts;
+	size_t n = cmd->n_opts;
 	struct option longopts[16];
 	char shorts[40], msg[160];
 	int c;
@@ -51,7 +53,7 @@ int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t 
 	tool_opts_getopt(o, n, longopts, shorts + 1, sizeof(shorts) - 1);
 	optind = 0; /* glibc: full re-initialisation */
 	opterr = 0;
-	while ((c = getopt_long(argc, argv, stop_at_operand ? shorts : shorts + 1, longopts,
+	while ((c = getopt_long(argc, argv, cmd->stop_at_operand ? shorts : shorts + 1, longopts,
 				NULL)) != -1) {
 		switch (c) {
 		case 'p':
@@ -60,7 +62,7 @@ int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t 
 
 				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (%s)", optarg,
 					 rmd_proto_keys_text(keys, sizeof(keys), ", ", " or "));
-				return RMDCTL_EXIT_USAGE;
+				goto usage;
 			}
 			break;
 		case 'm':
@@ -69,11 +71,11 @@ int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t 
 					 "bad --mit-ranges \"%s\" (five positive numbers "
 					 "P,V,T,KP,KD, each at most %g)",
 					 optarg, RMD_MIT_RANGE_LIMIT);
-				return RMDCTL_EXIT_USAGE;
+				goto usage;
 			}
 			break;
 		case 'h':
-			usage(stdout);
+			cmd->usage(stdout);
 			return RMDCTL_EXIT_OK;
 		case 'y':
 			break; /* nothing to confirm */
@@ -81,14 +83,17 @@ int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t 
 		case '?':
 			tool_log(TOOL_LOG_ERR, "%s",
 				 tool_getopt_error(msg, sizeof(msg), c, argv, o, n));
-			return RMDCTL_EXIT_USAGE;
+			goto usage;
 		default:
 			if (own(c, ctx) < 0)
-				return RMDCTL_EXIT_USAGE;
+				goto usage;
 			break;
 		}
 	}
 	return -1;
+usage:
+	rmdctl_usage_hint_args(cmd->name, cmd->args);
+	return RMDCTL_EXIT_USAGE;
 }
 
 int rmdctl_parse_double(const char *s, double *v)

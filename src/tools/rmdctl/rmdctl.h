@@ -96,20 +96,28 @@ extern const size_t rmdctl_n_decode_opts, rmdctl_n_encode_opts;
 /* The protocol of every command that is not told one (--protocol). */
 #define RMDCTL_PROTO_DEFAULT RMD_PROTO_V3
 
+/* decode's and encode's command lines (rmdctl_codec_getopt()). */
+struct rmdctl_codec_cmd {
+	const char *name;	     /* "encode" */
+	const char *args;	     /* its operands, for the usage hint: RMDCTL_ENCODE_ARGS */
+	const struct tool_opt *opts; /* its option table, RMDCTL_CODEC_OPTS first */
+	size_t n_opts;
+	bool stop_at_operand; /* options end at the first operand (encode's values may be negative) */
+	void (*usage)(FILE *f); /* --help */
+};
+
 /*
- * The command line of decode and encode, up to their operands, from their
- * option table o[0..n): the options both have (-p/--protocol into *proto,
- * -m/--mit-ranges into *ranges, -h/--help, and -y/--yes, which every
- * rmdctl command accepts and these ignore) here, each other option's
- * short letter through own(c, ctx), which returns 0 or -1 (reported).
- * stop_at_operand: options end at the first operand (encode's values may
- * be negative).  Returns -1 to go on (optind at the first operand), or the
- * exit status: RMDCTL_EXIT_OK after --help, or RMDCTL_EXIT_USAGE after a
- * bad option (reported; the caller adds its usage line).
+ * The command line of decode or encode, up to its operands: the options
+ * both have (-p/--protocol into *proto, -m/--mit-ranges into *ranges,
+ * -h/--help, and -y/--yes, which every rmdctl command accepts and these
+ * ignore) here, each other option's short letter through own(c, ctx),
+ * which returns 0 or -1 (reported).  Returns -1 to go on (optind at the
+ * first operand), or the exit status: RMDCTL_EXIT_OK after --help, or
+ * RMDCTL_EXIT_USAGE after a bad option (reported, with the usage line).
  */
-int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t n,
-			bool stop_at_operand, enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
-			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx);
+int rmdctl_codec_getopt(int argc, char **argv, const struct rmdctl_codec_cmd *c,
+			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+			int (*own)(int c, void *ctx), void *ctx);
 
 /*
  * After a usage error of command `name` with operands `args` (NULL: none;
