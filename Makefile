@@ -336,6 +336,28 @@ $(BUILD)/tests/unit/test_rmdd_events: $(BUILD)/tests/unit/test_rmdd_events.o \
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS)
 
+# test_new_dialect: a dialect with a table of its own (tests/unit/new_dialect/),
+# added as docs/design.md "How to add a dialect" says, given to every file the
+# suite compiles (-include): the proto layer and rmdctl's encode and decode,
+# built from their sources as they are, into a folder of their own.
+NEW_DIALECT := tests/unit/new_dialect/dialect_v5.h
+NEW_DIALECT_DIR := $(BUILD)/new-dialect
+NEW_DIALECT_SRCS := $(wildcard src/proto/*.c) src/tools/rmdctl/encode.c \
+	src/tools/rmdctl/decode.c src/tools/rmdctl/parse.c src/tools/common/cli.c \
+	src/tools/common/log.c src/util/err.c tests/unit/new_dialect/codec_v5.c \
+	tests/unit/test_new_dialect.c
+NEW_DIALECT_OBJS := $(NEW_DIALECT_SRCS:%.c=$(NEW_DIALECT_DIR)/%.o)
+
+$(NEW_DIALECT_DIR)/%.o: %.c $(NEW_DIALECT) | $(GEN_HDRS) $(VERSION_HDR)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $< (V5)")
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -Itests -include $(NEW_DIALECT) -c -o $@ $<
+
+$(BUILD)/tests/unit/test_new_dialect: $(NEW_DIALECT_OBJS) $(BUILD)/tests/harness/alloc_count.o
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) -lm
+
 # STYLE.md: suites are linked with malloc & co. wrapped, so that
 # tests/harness/alloc_count.c can count them (the rt cycle allocates nothing).
 $(BUILD)/tests/%: override LDFLAGS += -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free

@@ -38,7 +38,15 @@ enum rmd_proto {
 	RMD_PROTO_V2,	  /* replies on 0x140 + ID */
 	RMD_PROTO_MIT,	  /* 0x400 + ID / 0x500 + ID, see rmd/mit.h */
 	RMD_PROTO_V4,	  /* replies on 0x240 + ID; float PID gains by index */
-	RMD_PROTO_COUNT	  /* not a dialect: how many there are */
+#ifdef RMD_PROTO_MORE
+	/*
+	 * A build's own keys beyond these, their rows in RMD_DIALECTS_MORE
+	 * (dialect.c): tests/unit/test_new_dialect.c adds one so, standing
+	 * in for a new value here (docs/design.md "How to add a dialect")
+	 */
+	RMD_PROTO_MORE,
+#endif
+	RMD_PROTO_COUNT /* not a dialect: how many there are */
 };
 
 enum rmd_dir {
@@ -152,13 +160,49 @@ enum {
 	RMD_CMD_MOVES = 1u << 5,	/* may move the motor */
 };
 
+/*
+ * A range the manual gives a request field within its width (V2 §3.37:
+ * iqControl -2000..2000), in the field's native unit: what tools let a
+ * user ask for (rmdctl encode refuses a value outside it, citing it).
+ */
+struct rmd_field_range {
+	uint8_t field; /* enum rmd_field */
+	double lo, hi;
+	const char *cite; /* "V2 §3.37: iqControl -2000..2000 is -32..32 A" */
+};
+
+#define RMD_SPELL_ARGS_MAX 4
+
+/*
+ * How tools spell a row (`rmdctl encode WORD ARGS...`): the words that name
+ * it, and the request fields its arguments fill, in order (the rest are 0).
+ * Rows of one table may share a word, told apart by their argument count
+ * (V2 "position DEG" 0xA3, "position DEG MAX_DPS" 0xA4); a dialect has the
+ * command a word names when a row of its table is spelled so.
+ */
+struct rmd_spelling {
+	const char *words; /* "torque", or several: "position position-track"; NULL: none */
+	uint8_t n_args;
+	uint8_t args[RMD_SPELL_ARGS_MAX]; /* enum rmd_field */
+};
+
 struct rmd_cmd_spec {
 	uint8_t cmd;	  /* command byte, data[0] */
 	const char *name; /* short snake_case name, e.g. "read_status_1" */
 	uint8_t flags;
-	struct rmd_layout req; /* fields of the host's request */
-	struct rmd_layout rep; /* fields of the motor's reply */
+	struct rmd_layout req;	   /* fields of the host's request */
+	struct rmd_layout rep;	   /* fields of the motor's reply */
+	struct rmd_spelling spell; /* tools' words for it */
+	/* the manual's ranges of request fields (rmd_cmd_range()), n_ranges of them */
+	const struct rmd_field_range *ranges;
+	uint8_t n_ranges;
 };
+
+/* Whether `word` is one of spec's words (struct rmd_spelling).  Pure. */
+bool rmd_cmd_spelled(const struct rmd_cmd_spec *spec, const char *word);
+
+/* The manual's range of request field `fld` of spec, or NULL when it gives none. */
+const struct rmd_field_range *rmd_cmd_range(const struct rmd_cmd_spec *spec, enum rmd_field fld);
 
 /*
  * A decoded message.  `present` has bit F set when v[F] was decoded; encode
@@ -445,6 +489,8 @@ int rmd_proto_parse(const char *s, enum rmd_proto *proto);
  * it returns (cut short when small).  Non-rt.
  */
 const char *rmd_proto_keys_text(char *buf, size_t size, const char *sep, const char *last);
+/* The same of the firmware dialects only, "v3, v2 or v4" (not `mit`: rmd_dialect_is_firmware()). */
+const char *rmd_firmware_keys_text(char *buf, size_t size, const char *sep, const char *last);
 
 /* Name of a 0x70 run mode value ("current_loop", ...), or NULL. */
 const char *rmd_run_mode_name(enum rmd_proto proto, uint8_t mode);

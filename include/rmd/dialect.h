@@ -21,9 +21,11 @@
  * into the list, the value a config file names.
  *
  * How to add a dialect (docs/design.md "How to add a dialect"): its value
- * in enum rmd_proto (codec.h), its command table (src/proto/codec_<key>.c),
- * one row of the list in src/proto/dialect.c, and the simulated motor's
- * behaviour where it differs (src/sim/, read through the same bits).
+ * in enum rmd_proto (codec.h), its command table (src/proto/codec_<key>.c,
+ * the rows with their words and ranges for tools), one row of the list in
+ * src/proto/dialect.c, and the simulated motor's behaviour where it differs
+ * (src/sim/, read through the same bits); tests/unit/test_new_dialect.c
+ * adds one so and runs rmdctl encode and decode on it.
  *
  * Pure, const after the program is loaded, rt-safe.
  */
@@ -121,14 +123,26 @@ enum rmd_pid_layout {
 	RMD_PID_FLOAT_INDEXED,
 };
 
+/* What a PID request does (struct rmd_pid_slot.cmd, rmd_pid_requests()). */
+enum rmd_pid_op {
+	RMD_PID_READ = 0,
+	RMD_PID_WRITE_RAM, /* lost at power off (V3 §2.2, V2 §3.7, V4.2 §2.2) */
+	RMD_PID_WRITE_ROM, /* kept at power off (V3 §2.3, V2 §3.13, V4.2 §2.3) */
+	RMD_PID_OPS
+};
+
 /*
  * One PID gain of a dialect's layout: the enum rmd_field it is known by
- * (its JSON and dump key, rmd_field_key()), and the index that addresses
- * it where gains go one a frame (RMD_PID_FLOAT_INDEXED; 0 otherwise).
+ * (its JSON and dump key, rmd_field_key()), the index that addresses it
+ * where gains go one a frame by index (RMD_PID_FLOAT_INDEXED; 0 otherwise),
+ * and the commands that read it, write it to RAM and to ROM (enum
+ * rmd_pid_op).  Gains without an index that share a command travel in
+ * one frame (V3 §2.1: six); each other gain in a frame of its own.
  */
 struct rmd_pid_slot {
 	uint8_t field;
 	uint8_t index;
+	uint8_t cmd[RMD_PID_OPS];
 };
 
 /* The most gains a layout has (V4.2 §2.1.4: seven). */
@@ -353,6 +367,91 @@ static inline uint32_t rmd_dialect_set_id_can(const struct rmd_dialect *d)
 {
 	return rmd_dialect_has(d, RMD_DIALECT_ID_300) ? RMD_CAN_SET_ID : 0;
 }
+
+/*
+ * ---- The requests of a motor's settings (src/proto/dialect_req.c) ----
+ *
+ * How a dialect's PID gains are read and written, and how a motor's CAN ID
+ * is set, as requests built from its record: rmdctl sends them, the
+ * simulated motor answers them; neither asks which layout a dialect has.
+ * Pure and rt-safe.
+ */
+
+/* Gains of a dialect by slot (struct rmd_dialect.pid_slots): which, and their raw values. */
+struct rmd_pid_set {
+	uint32_t slots; /* bit k: pid_slots[k] */
+	/* as the wire carries them: V3 uint8 units, V2 Q24, V4 binary32 bits */
+	int64_t raw[RMD_PID_SLOTS_MAX];
+};
+
+/*
+ * The field that carries gain k of d in a frame: the gain's own (V3 §2.1,
+ * V2 §3.1), or RMD_FLD_GAIN beside its index (V4.2 §2.1).
+ */
+enum rmd_field rmd_pid_field(const struct rmd_dialect *d, unsigned k);
+
+/*
+ * Gain k's field as the answer to its read carries it (its scale, and
+ * is_float for a binary32), or NULL when d's table lacks the row.
+ */
+const struct rmd_field_spec *rmd_pid_spec(const struct rmd_dialect *d, unsigned k);
+
+/*
+ * The requests of d that do `op` to the gains of set->slots, in slot
+ * order, into reqs[] (RMD_PID_SLOTS_MAX of them): gains that share a frame
+ * share a request (V3 §2.1: one 0x30 reads all six), each other gain has
+ * its own (V2 §3.1: 0x30 .. 0x35; V4.2 §2.1: 0x30 by index).  A write
+ * carries set->raw[k] of each gain it holds: a frame that holds gains
+ * beyond set->slots (V3: all six) carries theirs from set->raw too.
+ * Returns the count, or -EINVAL (op), -ENOTSUP (d has no PID commands).
+ */
+int rmd_pid_requests(const struct rmd_dialect *d, enum rmd_pid_op op, const struct rmd_pid_set *set,
+		     struct rmd_msg *reqs);
+
+/*
+ * Whether msg, decoded from d's table, is one of d's PID requests or the
+ * answer to one: then *op, the gains it names in *named (bits; a read
+ * request: those it asks for; none for an index d does not list), and
+ * those it carries, with their values, in *carried.
+ */
+bool rmd_pid_parse(const struct rmd_dialect *d, const struct rmd_msg *msg, enum rmd_pid_op *op,
+		   uint32_t *named, struct rmd_pid_set *carried);
+
+/*
+ * A motor's answer to PID read req of d, with the gains of set that req
+ * names: rep (its command and fields; those of gains set lacks are 0).
+ */
+void rmd_pid_answer(const struct rmd_dialect *d, const struct rmd_msg *req,
+		    const struct rmd_pid_set *set, struct rmd_msg *rep);
+
+/* How a motor is renumbered (rmd_set_id_request()). */
+struct rmd_set_id_req {
+	struct rmd_msg write; /* to the motor's ID now: 0x79 (V3 §4, V2 §3.52) or 0x20 index 5 */
+	/* it rides on 0x300: every motor whose CAN-ID filter is off takes it (V3 §4) */
+	bool every_motor;
+	/* its echo may come from the new ID's reply identifier (firmware 2025070202) */
+	bool echo_from_new;
+	/* the ID holds after `reset` to the old ID (V4.2 §2.34.4: 0x76); else at once */
+	bool then_reset;
+	struct rmd_msg reset;
+};
+
+/*
+ * The requests of d that give a motor the ID new_id (struct
+ * rmd_dialect.set_id), into *out.  Returns 0, -EINVAL for an ID outside
+ * 1..RMD_MAX_MOTORS, -ENOTSUP when d sets no ID.
+ */
+int rmd_set_id_request(const struct rmd_dialect *d, uint8_t new_id, struct rmd_set_id_req *out);
+
+/* Whether req, decoded from d's table, is d's ID write; the ID it gives in *id (unchecked). */
+bool rmd_set_id_parse(const struct rmd_dialect *d, const struct rmd_msg *req, int64_t *id);
+
+/*
+ * What 0x79 with the read flag answers for a motor of ID id (V3 §4.4
+ * example 2: its reply identifier 0x240 + ID; V2 §3.52: the ID), or -1 when
+ * d's firmware takes no 0x79 (it sets its ID by 0x20: docs/protocol-v4.md).
+ */
+int64_t rmd_set_id_read_answer(const struct rmd_dialect *d, uint8_t id);
 
 /*
  * Whether the firmware of a motor that answers on identifier can_id (its

@@ -27,7 +27,7 @@ enum rmd_sim_param_type {
 	RMD_SIM_PARAM_US,      /* double ns field, given in µs */
 	RMD_SIM_PARAM_UINT,    /* unsigned */
 	RMD_SIM_PARAM_BOOL,    /* bool: yes/no, true/false, on/off, 1/0 */
-	RMD_SIM_PARAM_PROTO,   /* enum rmd_proto: v3, v2, mit */
+	RMD_SIM_PARAM_PROTO,   /* enum rmd_proto: a protocol key (rmd_proto_parse()) */
 	RMD_SIM_PARAM_MODEL,   /* char[8]: 1..7 printable ASCII characters (0xB5) */
 	RMD_SIM_PARAM_VERSION, /* uint32_t yyyymmdd (0xB2) */
 	RMD_SIM_PARAM_MIT,     /* struct rmd_mit_ranges from "P,V,T,KP,KD" */
@@ -40,6 +40,8 @@ enum {
 	 * its `sim:` section: rmd-sim only.
 	 */
 	RMD_SIM_PARAM_MOTOR_KEY = 1u << 0,
+	/* help follows the protocol keys, "v3, v2, mit or v4 " (rmd_proto_keys_text()) */
+	RMD_SIM_PARAM_KEYS_FIRST = 1u << 1,
 };
 
 struct rmd_sim_param {

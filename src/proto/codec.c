@@ -138,6 +138,28 @@ int rmd_addr_from_id(enum rmd_proto proto, uint32_t can_id, struct rmd_addr *add
 	return -EINVAL;
 }
 
+bool rmd_cmd_spelled(const struct rmd_cmd_spec *spec, const char *word)
+{
+	size_t n = strlen(word);
+
+	for (const char *w = spec->spell.words; n && w && *w;) {
+		size_t len = strcspn(w, " ");
+
+		if (len == n && !strncmp(w, word, n))
+			return true;
+		w += len + (w[len] == ' ');
+	}
+	return false;
+}
+
+const struct rmd_field_range *rmd_cmd_range(const struct rmd_cmd_spec *spec, enum rmd_field fld)
+{
+	for (unsigned i = 0; i < spec->n_ranges; i++)
+		if (spec->ranges[i].field == fld)
+			return &spec->ranges[i];
+	return NULL;
+}
+
 const struct rmd_layout *rmd_cmd_layout(const struct rmd_cmd_spec *spec, enum rmd_dir dir)
 {
 	if (dir == RMD_DIR_REPLY && !(spec->flags & RMD_CMD_ECHO))

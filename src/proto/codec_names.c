@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
 /*
- * Names and checks for codec values: protocols, error flags, run modes, the
- * 0xB5 model string and the 0xB2 version date.  Pure and rt-safe; every
- * string returned is static.
+ * Names for codec values: protocols, error flags, run modes and the 0xB5
+ * model string (the 0xB2 version date is read where the dialect is decided
+ * by it, dialect.c).  Pure and rt-safe; every string returned is static.
  */
 #include <errno.h>
 #include <stdbool.h>
@@ -44,25 +44,44 @@ int rmd_proto_parse(const char *s, enum rmd_proto *proto)
 	return -EINVAL;
 }
 
-const char *rmd_proto_keys_text(char *buf, size_t size, const char *sep, const char *last)
+/* The keys (firmware_only: the firmware dialects'), sep between two, last before the last. */
+static const char *keys_text(char *buf, size_t size, const char *sep, const char *last,
+			     bool firmware_only)
 {
-	size_t k = 0;
+	size_t k = 0, n = 0, have = 0;
 
 	if (!size)
 		return buf;
 	buf[0] = '\0';
+	for (unsigned i = 0; i < RMD_PROTO_COUNT; i++)
+		n += !firmware_only || rmd_dialect_is_firmware(rmd_dialect((enum rmd_proto)i));
 	for (unsigned i = 0; i < RMD_PROTO_COUNT && k < size; i++) {
-		int n = snprintf(buf + k, size - k, "%s%s",
-				 !i			  ? "" :
-				 i + 1 == RMD_PROTO_COUNT ? last :
-							    sep,
-				 rmd_dialect((enum rmd_proto)i)->key);
+		const struct rmd_dialect *d = rmd_dialect((enum rmd_proto)i);
+		int w;
 
-		if (n < 0)
+		if (firmware_only && !rmd_dialect_is_firmware(d))
+			continue;
+		have++;
+		w = snprintf(buf + k, size - k, "%s%s",
+			     have == 1 ? "" :
+			     have == n ? last :
+					 sep,
+			     d->key);
+		if (w < 0)
 			break;
-		k += (size_t)n;
+		k += (size_t)w;
 	}
 	return buf;
+}
+
+const char *rmd_proto_keys_text(char *buf, size_t size, const char *sep, const char *last)
+{
+	return keys_text(buf, size, sep, last, false);
+}
+
+const char *rmd_firmware_keys_text(char *buf, size_t size, const char *sep, const char *last)
+{
+	return keys_text(buf, size, sep, last, true);
 }
 
 /* A bit no table names keeps a name of its own, so no flag goes unreported. */
@@ -144,30 +163,4 @@ int64_t rmd_model_raw(const char *s)
 	for (unsigned i = 0; i < 7 && s[i]; i++)
 		u |= (uint64_t)(uint8_t)s[i] << (8 * i);
 	return (int64_t)u;
-}
-
-/*
- * V3 §2.29: yyyymmdd, e.g. 20220206.  Newer firmware appends a two-digit
- * build number: yyyymmddNN (2025070202 = 0x78B41E7A from an X4-36), which
- * still fits a uint32 (up to 4294967295).  Ten digits in 2000000000 ..
- * 2099123199 are that form; eight are the first.  Plausible: a real date
- * in 2000..2099.
- */
-uint32_t rmd_version_date(uint32_t version)
-{
-	static const uint8_t mdays[12] = { 31, 29, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31 };
-	uint32_t date = version >= 2000000000u ? version / 100 : version;
-	uint32_t y = date / 10000, m = date / 100 % 100, d = date % 100;
-	bool leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
-
-	if (y < 2000 || y > 2099 || m < 1 || m > 12 || d < 1 || d > mdays[m - 1])
-		return 0;
-	if (m == 2 && d == 29 && !leap)
-		return 0;
-	return date;
-}
-
-bool rmd_version_date_valid(uint32_t version)
-{
-	return rmd_version_date(version) != 0;
 }

@@ -14,6 +14,16 @@ extern const size_t rmd_v2_ncmds;
 extern const struct rmd_cmd_spec rmd_v4_cmds[];
 extern const size_t rmd_v4_ncmds;
 
+/*
+ * Around a table: a row's last members, its words for tools (RMD_SAY*) and
+ * its ranges (RMD_RANGES), may be left out of its initializer, and are
+ * then none (zero).
+ */
+#define RMD_ROWS_BEGIN                 \
+	_Pragma("GCC diagnostic push") \
+		_Pragma("GCC diagnostic ignored \"-Wmissing-field-initializers\"")
+#define RMD_ROWS_END _Pragma("GCC diagnostic pop")
+
 /* Table-writing shorthands: signed / unsigned little-endian fields. */
 #define RMD_S(fld, off, size, scale)                                      \
 	{                                                                 \
@@ -38,6 +48,49 @@ extern const size_t rmd_v4_ncmds;
 	{               \
 		0       \
 	}
+/*
+ * A row's words for tools and the fields their arguments fill, in order
+ * (struct rmd_spelling): RMD_SAY2("position", ANGLE, MAX_SPEED).
+ */
+#define RMD_SAY0(w)                       \
+	{                                 \
+		.words = (w), .n_args = 0 \
+	}
+#define RMD_SAY1(w, a)                                             \
+	{                                                          \
+		.words = (w), .n_args = 1, .args = { RMD_FLD_##a } \
+	}
+#define RMD_SAY2(w, a, b)                                                       \
+	{                                                                       \
+		.words = (w), .n_args = 2, .args = { RMD_FLD_##a, RMD_FLD_##b } \
+	}
+#define RMD_SAY3(w, a, b, c)                                                                 \
+	{                                                                                    \
+		.words = (w), .n_args = 3, .args = { RMD_FLD_##a, RMD_FLD_##b, RMD_FLD_##c } \
+	}
+#define RMD_SAY4(w, a, b, c, d)                      \
+	{                                            \
+		.words = (w), .n_args = 4, .args = { \
+			RMD_FLD_##a,                 \
+			RMD_FLD_##b,                 \
+			RMD_FLD_##c,                 \
+			RMD_FLD_##d                  \
+		}                                    \
+	}
+/* A row tools do not name (rmdctl encode reaches it as `raw`). */
+#define RMD_SAY_NONE \
+	{            \
+		0    \
+	}
+/* The manual's range of a request field, native units (struct rmd_field_range). */
+#define RMD_RANGE(fld, lo, hi, cite)              \
+	{                                         \
+		RMD_FLD_##fld, (lo), (hi), (cite) \
+	}
+/* A row's ranges: the last two members of struct rmd_cmd_spec. */
+#define RMD_RANGES(...)                                  \
+	(const struct rmd_field_range[]){ __VA_ARGS__ }, \
+		sizeof((struct rmd_field_range[]){ __VA_ARGS__ }) / sizeof(struct rmd_field_range)
 #define RMD_LAYOUT(...)                                                 \
 	{                                                               \
 		.n = sizeof((struct rmd_field_spec[]){ __VA_ARGS__ }) / \

@@ -29,6 +29,7 @@
 #define V2_IQ_A (33.0 / 2048.0)
 /* §3.37, §4.1: iqControl -2000..2000 is -32..32 A. */
 #define V2_IQ_SET_A (32.0 / 2000.0)
+#define V2_MULTI_CITE "V2 §4.1: -2000..2000 is -32..32 A"
 /* §3.1 .. §3.18: PI gains are Q24 fixed point, 1.0 = 16777216. */
 #define V2_Q24 (1.0 / 16777216.0)
 /* §3.33: phase current 1 A per 64 LSB. */
@@ -45,6 +46,7 @@
 /* §3.21 .. §3.25, §3.29: 48-bit multi-turn value at data[1..6], sign at data[7] (see above). */
 #define V2_MULTI(fld, scale) RMD_LAYOUT(RMD_SF(fld, 1, 6, scale))
 
+RMD_ROWS_BEGIN
 const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	/* §3.1 .. §3.6: read one gain; the reply carries it at data[4..7]. */
 	{ 0x30, "read_pos_kp", 0, { 0 }, V2_GAIN(POS_KP) },
@@ -68,9 +70,15 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	{ 0x40, "write_current_kp_rom", RMD_CMD_ECHO | RMD_CMD_ROM, V2_GAIN(CURR_KP), { 0 } },
 	{ 0x41, "write_current_ki_rom", RMD_CMD_ECHO | RMD_CMD_ROM, V2_GAIN(CURR_KI), { 0 } },
 	/* §3.19: acceleration, int32 1 dps/s at data[4..7], no index. */
-	{ 0x42, "read_accel", 0, { 0 }, RMD_LAYOUT(RMD_S(ACCEL, 4, 4, 1.0)) },
+	{ 0x42, "read_accel", 0, { 0 }, RMD_LAYOUT(RMD_S(ACCEL, 4, 4, 1.0)), RMD_SAY0("accel-read") },
 	/* §3.20: acceleration to RAM, int32 1 dps/s; echoes. */
-	{ 0x43, "write_accel_ram", RMD_CMD_ECHO, RMD_LAYOUT(RMD_S(ACCEL, 4, 4, 1.0)), { 0 } },
+	{ 0x43,
+	  "write_accel_ram",
+	  RMD_CMD_ECHO,
+	  RMD_LAYOUT(RMD_S(ACCEL, 4, 4, 1.0)),
+	  { 0 },
+	  RMD_SAY1("accel", ACCEL),
+	  RMD_RANGES(RMD_RANGE(ACCEL, 0, 10000, "V2 §3.20: 0..10000 dps/s")) },
 	/* §3.21: multi-turn encoder position (raw minus zero offset). */
 	{ 0x60, "read_encoder_multi", 0, { 0 }, V2_MULTI(ENCODER, 1.0) },
 	/* §3.22: multi-turn encoder position without the offset. */
@@ -92,9 +100,9 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	 * §3.45: run mode at data[7] (0 current, 1 speed, 2 position, 0xFF
 	 * power-on initialisation).
 	 */
-	{ 0x70, "read_run_mode", 0, { 0 }, RMD_LAYOUT(RMD_U(MODE, 7, 1, 1.0)) },
+	{ 0x70, "read_run_mode", 0, { 0 }, RMD_LAYOUT(RMD_U(MODE, 7, 1, 1.0)), RMD_SAY0("mode") },
 	/* §3.46: motor power, uint16 0.1 W. */
-	{ 0x71, "read_power", 0, { 0 }, RMD_LAYOUT(RMD_U(POWER, 6, 2, 0.1)) },
+	{ 0x71, "read_power", 0, { 0 }, RMD_LAYOUT(RMD_U(POWER, 6, 2, 0.1)), RMD_SAY0("power") },
 	/* §3.47: auxiliary battery voltage, uint8 0.1 V at data[7]. */
 	{ 0x72, "read_battery", 0, { 0 }, RMD_LAYOUT(RMD_U(BATTERY, 7, 1, 0.1)) },
 	/*
@@ -107,11 +115,16 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	  RMD_LAYOUT(RMD_S(CURRENT, 0, 2, 0.01), RMD_S(SPEED, 2, 2, 1.0),
 		     RMD_S(ENCODER, 4, 4, 1.0)) },
 	/* §3.49: system reset; unlike V3, the V2 reply echoes. */
-	{ 0x76, "reset", RMD_CMD_ECHO, { 0 }, { 0 } },
+	{ 0x76, "reset", RMD_CMD_ECHO, { 0 }, { 0 }, RMD_SAY0("reset") },
 	/* §3.50: brake released; echoes.  MOVES: the load may move the shaft. */
-	{ 0x77, "brake_release", RMD_CMD_ECHO | RMD_CMD_MOVES, { 0 }, { 0 } },
+	{ 0x77,
+	  "brake_release",
+	  RMD_CMD_ECHO | RMD_CMD_MOVES,
+	  { 0 },
+	  { 0 },
+	  RMD_SAY0("brake-release") },
 	/* §3.51: brake closed; echoes.  (§3.51 says "open": a copy-paste typo.) */
-	{ 0x78, "brake_lock", RMD_CMD_ECHO, { 0 }, { 0 } },
+	{ 0x78, "brake_lock", RMD_CMD_ECHO, { 0 }, { 0 }, RMD_SAY0("brake-lock") },
 	/*
 	 * §3.52: CAN ID set/read on 0x140 + ID: read flag (1 read, 0 write) at
 	 * data[2], ID 1..32 at data[4..7] (called uint16, sent as 4 bytes).  A
@@ -122,11 +135,11 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	  RMD_LAYOUT(RMD_U(READ_FLAG, 2, 1, 1.0), RMD_U(CAN_ID, 4, 4, 1.0)),
 	  RMD_LAYOUT(RMD_U(READ_FLAG, 2, 1, 1.0), RMD_U(CAN_ID, 4, 4, 1.0)) },
 	/* §3.34: output off, state and commands cleared; echoes. */
-	{ 0x80, "motor_off", RMD_CMD_ECHO, { 0 }, { 0 } },
+	{ 0x80, "motor_off", RMD_CMD_ECHO, { 0 }, { 0 }, RMD_SAY0("off") },
 	/* §3.35: stop, state kept; echoes. */
-	{ 0x81, "motor_stop", RMD_CMD_ECHO, { 0 }, { 0 } },
+	{ 0x81, "motor_stop", RMD_CMD_ECHO, { 0 }, { 0 }, RMD_SAY0("stop") },
 	/* §3.36: resume the mode held before 0x81; echoes. */
-	{ 0x88, "motor_run", RMD_CMD_ECHO | RMD_CMD_MOVES, { 0 }, { 0 } },
+	{ 0x88, "motor_run", RMD_CMD_ECHO | RMD_CMD_MOVES, { 0 }, { 0 }, RMD_SAY0("run") },
 	/*
 	 * §3.26: single-turn encoder position, raw position and zero offset,
 	 * 0..65535 each (the text calls the first int16_t; its range is
@@ -151,7 +164,7 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	  { 0 },
 	  RMD_LAYOUT(RMD_U(ENCODER_OFF, 6, 2, 1.0)) },
 	/* §3.29: multi-turn angle, 0.01 deg, 48 bits and a sign byte (see the top of this file). */
-	{ 0x92, "read_multi_turn_angle", 0, { 0 }, V2_MULTI(ANGLE, 0.01) },
+	{ 0x92, "read_multi_turn_angle", 0, { 0 }, V2_MULTI(ANGLE, 0.01), RMD_SAY0("read-angle") },
 	/*
 	 * §3.30: single-turn angle 0..35999, 0.01 deg, at data[6..7].  The
 	 * text says int16_t, but 35999 does not fit: uint16.
@@ -167,26 +180,32 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	  "read_status_1",
 	  0,
 	  { 0 },
-	  RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_U(VOLTAGE, 4, 2, 0.1), RMD_U(ERROR, 6, 2, 1.0)) },
+	  RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_U(VOLTAGE, 4, 2, 0.1), RMD_U(ERROR, 6, 2, 1.0)),
+	  RMD_SAY0("status1") },
 	/* §3.32: temperature, iq (33 A / 2048), speed, encoder. */
-	{ 0x9C, "read_status_2", 0, { 0 }, V2_STATUS2 },
+	{ 0x9C, "read_status_2", 0, { 0 }, V2_STATUS2, RMD_SAY0("status2") },
 	/* §3.33: temperature and phase currents, int16 1 A / 64 LSB. */
 	{ 0x9D,
 	  "read_status_3",
 	  0,
 	  { 0 },
 	  RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_S(PHASE_A, 2, 2, V2_PHASE_A),
-		     RMD_S(PHASE_B, 4, 2, V2_PHASE_A), RMD_S(PHASE_C, 6, 2, V2_PHASE_A)) },
+		     RMD_S(PHASE_B, 4, 2, V2_PHASE_A), RMD_S(PHASE_C, 6, 2, V2_PHASE_A)),
+	  RMD_SAY0("status3") },
 	/* §3.37: iqControl int16, -2000..2000 is -32..32 A. */
-	{ 0xA1, "torque", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(CURRENT, 4, 2, V2_IQ_SET_A)),
-	  V2_STATUS2 },
+	{ 0xA1, "torque", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(CURRENT, 4, 2, V2_IQ_SET_A)), V2_STATUS2,
+	  RMD_SAY1("torque", CURRENT),
+	  RMD_RANGES(RMD_RANGE(CURRENT, -32, 32, "V2 §3.37: iqControl -2000..2000 is -32..32 A")) },
 	/* §3.38: speedControl int32 0.01 dps. */
-	{ 0xA2, "speed", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(SPEED, 4, 4, 0.01)), V2_STATUS2 },
+	{ 0xA2, "speed", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(SPEED, 4, 4, 0.01)), V2_STATUS2,
+	  RMD_SAY1("speed", SPEED) },
 	/* §3.39: multi-turn angleControl int32 0.01 deg. */
-	{ 0xA3, "position_abs", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(ANGLE, 4, 4, 0.01)), V2_STATUS2 },
+	{ 0xA3, "position_abs", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(ANGLE, 4, 4, 0.01)), V2_STATUS2,
+	  RMD_SAY1("position position-track", ANGLE) },
 	/* §3.40: maxSpeed uint16 1 dps, multi-turn angleControl int32 0.01 deg. */
 	{ 0xA4, "position_abs_limited", RMD_CMD_MOVES,
-	  RMD_LAYOUT(RMD_U(MAX_SPEED, 2, 2, 1.0), RMD_S(ANGLE, 4, 4, 0.01)), V2_STATUS2 },
+	  RMD_LAYOUT(RMD_U(MAX_SPEED, 2, 2, 1.0), RMD_S(ANGLE, 4, 4, 0.01)), V2_STATUS2,
+	  RMD_SAY2("position", ANGLE, MAX_SPEED) },
 	/* §3.41: spinDirection (0 cw, 1 ccw), single-turn angle uint16 0.01 deg. */
 	{ 0xA5, "position_single", RMD_CMD_MOVES,
 	  RMD_LAYOUT(RMD_U(SPIN_DIR, 1, 1, 1.0), RMD_U(ANGLE, 4, 2, 0.01)), V2_STATUS2 },
@@ -196,10 +215,12 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 		     RMD_U(ANGLE, 4, 2, 0.01)),
 	  V2_STATUS2 },
 	/* §3.43: incremental angle int32 0.01 deg. */
-	{ 0xA7, "position_inc", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(ANGLE, 4, 4, 0.01)), V2_STATUS2 },
+	{ 0xA7, "position_inc", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(ANGLE, 4, 4, 0.01)), V2_STATUS2,
+	  RMD_SAY1("increment", ANGLE) },
 	/* §3.44: maxSpeed uint16 1 dps, incremental angle int32 0.01 deg. */
 	{ 0xA8, "position_inc_limited", RMD_CMD_MOVES,
-	  RMD_LAYOUT(RMD_U(MAX_SPEED, 2, 2, 1.0), RMD_S(ANGLE, 4, 4, 0.01)), V2_STATUS2 },
+	  RMD_LAYOUT(RMD_U(MAX_SPEED, 2, 2, 1.0), RMD_S(ANGLE, 4, 4, 0.01)), V2_STATUS2,
+	  RMD_SAY2("increment", ANGLE, MAX_SPEED) },
 	/*
 	 * §4.1: four torque setpoints for motors 1..4, no command byte.  Each
 	 * motor answers on its own 0x140 + ID; §4.2 gives the identifier only,
@@ -210,6 +231,12 @@ const struct rmd_cmd_spec rmd_v2_cmds[] = {
 	  RMD_CMD_NO_CMD_BYTE | RMD_CMD_MOVES,
 	  RMD_LAYOUT(RMD_S(CURRENT_1, 0, 2, V2_IQ_SET_A), RMD_S(CURRENT_2, 2, 2, V2_IQ_SET_A),
 		     RMD_S(CURRENT_3, 4, 2, V2_IQ_SET_A), RMD_S(CURRENT_4, 6, 2, V2_IQ_SET_A)),
-	  { 0 } },
+	  { 0 },
+	  RMD_SAY4("multi-torque", CURRENT_1, CURRENT_2, CURRENT_3, CURRENT_4),
+	  RMD_RANGES(RMD_RANGE(CURRENT_1, -32, 32, V2_MULTI_CITE),
+		     RMD_RANGE(CURRENT_2, -32, 32, V2_MULTI_CITE),
+		     RMD_RANGE(CURRENT_3, -32, 32, V2_MULTI_CITE),
+		     RMD_RANGE(CURRENT_4, -32, 32, V2_MULTI_CITE)) },
 };
+RMD_ROWS_END
 const size_t rmd_v2_ncmds = sizeof(rmd_v2_cmds) / sizeof(rmd_v2_cmds[0]);

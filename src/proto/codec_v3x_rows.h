@@ -4,7 +4,8 @@
  * "V3 §") and V4.2 (rmd-servo-protocol-v4.2-en.txt, "V4.2 §") print byte
  * for byte alike, written once for both tables (codec_v3.c, codec_v4.c).
  * Each row names its section in both manuals; a row that differs in either
- * is written in its own table, not here.
+ * is written in its own table, not here.  A row's words for tools
+ * (RMD_SAY*) and ranges (RMD_RANGES) are part of it.
  */
 #ifndef RMD_CODEC_V3X_ROWS_H
 #define RMD_CODEC_V3X_ROWS_H
@@ -22,13 +23,16 @@
 
 /*
  * V3 §2.5, V4.2 §2.5: index (0 position accel, 1 position decel, 2 speed
- * accel, 3 speed decel) and uint32 1 dps/s, to RAM and ROM; echoes.
+ * accel, 3 speed decel) and uint32 1 dps/s, to RAM and ROM; echoes.  The
+ * manuals' ranges are cited from `man` ("V3", "V4.2"): the same sections.
  */
-#define V3X_ROW_43                                                                    \
-	{                                                                             \
-		0x43, "write_accel", RMD_CMD_ECHO | RMD_CMD_ROM,                      \
-			RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_U(ACCEL, 4, 4, 1.0)), \
-			RMD_LAYOUT_NONE                                               \
+#define V3X_ROW_43(man)                                                                           \
+	{                                                                                         \
+		0x43, "write_accel", RMD_CMD_ECHO | RMD_CMD_ROM,                                  \
+			RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_U(ACCEL, 4, 4, 1.0)),             \
+			RMD_LAYOUT_NONE, RMD_SAY2("accel", INDEX, ACCEL),                         \
+			RMD_RANGES(RMD_RANGE(ACCEL, 100, 60000, man " §2.5.1: 100..60000 dps/s"), \
+				   RMD_RANGE(INDEX, 0, 3, man " §2.5.4: index 0..3"))             \
 	}
 /* V3 §2.6, V4.2 §2.6: multi-turn encoder position, int32 counts (raw minus zero offset). */
 #define V3X_ROW_60                                              \
@@ -65,14 +69,16 @@
 			RMD_LAYOUT(RMD_S(ENCODER_OFF, 4, 4, 1.0))                   \
 	}
 /* V3 §2.23, V4.2 §2.24: run mode, uint8 at data[7] (1 current, 2 speed, 3 position). */
-#define V3X_ROW_70                                                                            \
-	{                                                                                     \
-		0x70, "read_run_mode", 0, RMD_LAYOUT_NONE, RMD_LAYOUT(RMD_U(MODE, 7, 1, 1.0)) \
+#define V3X_ROW_70                                                                             \
+	{                                                                                      \
+		0x70, "read_run_mode", 0, RMD_LAYOUT_NONE, RMD_LAYOUT(RMD_U(MODE, 7, 1, 1.0)), \
+			RMD_SAY0("mode")                                                       \
 	}
 /* V3 §2.25, V4.2 §2.25: the motor resets and does not answer. */
-#define V3X_ROW_76                                                                \
-	{                                                                         \
-		0x76, "reset", RMD_CMD_NO_REPLY, RMD_LAYOUT_NONE, RMD_LAYOUT_NONE \
+#define V3X_ROW_76                                                                 \
+	{                                                                          \
+		0x76, "reset", RMD_CMD_NO_REPLY, RMD_LAYOUT_NONE, RMD_LAYOUT_NONE, \
+			RMD_SAY0("reset")                                          \
 	}
 /*
  * V3 §2.26, V4.2 §2.26: brake released, the reply echoes.  Flagged MOVES:
@@ -81,12 +87,13 @@
 #define V3X_ROW_77                                                                    \
 	{                                                                             \
 		0x77, "brake_release", RMD_CMD_ECHO | RMD_CMD_MOVES, RMD_LAYOUT_NONE, \
-			RMD_LAYOUT_NONE                                               \
+			RMD_LAYOUT_NONE, RMD_SAY0("brake-release")                    \
 	}
 /* V3 §2.27, V4.2 §2.27: brake locked; the reply echoes. */
-#define V3X_ROW_78                                                                 \
-	{                                                                          \
-		0x78, "brake_lock", RMD_CMD_ECHO, RMD_LAYOUT_NONE, RMD_LAYOUT_NONE \
+#define V3X_ROW_78                                                                  \
+	{                                                                           \
+		0x78, "brake_lock", RMD_CMD_ECHO, RMD_LAYOUT_NONE, RMD_LAYOUT_NONE, \
+			RMD_SAY0("brake-lock")                                      \
 	}
 /*
  * V3 §4, V4.2 §4: CAN ID set/read on 0x300 (codec.c routes it).  Request:
@@ -106,37 +113,40 @@
 			RMD_LAYOUT(RMD_U(READ_FLAG, 2, 1, 1.0), RMD_U(CAN_ID, 6, 2, 1.0))  \
 	}
 /* V3 §2.15, V4.2 §2.17: output off, state cleared; the reply echoes. */
-#define V3X_ROW_80                                                                \
-	{                                                                         \
-		0x80, "motor_off", RMD_CMD_ECHO, RMD_LAYOUT_NONE, RMD_LAYOUT_NONE \
+#define V3X_ROW_80                                                                                 \
+	{                                                                                          \
+		0x80, "motor_off", RMD_CMD_ECHO, RMD_LAYOUT_NONE, RMD_LAYOUT_NONE, RMD_SAY0("off") \
 	}
 /* V3 §2.16, V4.2 §2.18: stop and hold position; the reply echoes. */
-#define V3X_ROW_81                                                                 \
-	{                                                                          \
-		0x81, "motor_stop", RMD_CMD_ECHO, RMD_LAYOUT_NONE, RMD_LAYOUT_NONE \
+#define V3X_ROW_81                                                                  \
+	{                                                                           \
+		0x81, "motor_stop", RMD_CMD_ECHO, RMD_LAYOUT_NONE, RMD_LAYOUT_NONE, \
+			RMD_SAY0("stop")                                            \
 	}
 /* V3 §2.11, V4.2 §2.12: output shaft multi-turn angle, int32 0.01 deg. */
-#define V3X_ROW_92                                                 \
-	{                                                          \
-		0x92, "read_multi_turn_angle", 0, RMD_LAYOUT_NONE, \
-			RMD_LAYOUT(RMD_S(ANGLE, 4, 4, 0.01))       \
+#define V3X_ROW_92                                                                   \
+	{                                                                            \
+		0x92, "read_multi_turn_angle", 0, RMD_LAYOUT_NONE,                   \
+			RMD_LAYOUT(RMD_S(ANGLE, 4, 4, 0.01)), RMD_SAY0("read-angle") \
 	}
 /* V3 §2.13, V4.2 §2.15: temperature, iq, speed, angle. */
-#define V3X_ROW_9C                                                     \
-	{                                                              \
-		0x9C, "read_status_2", 0, RMD_LAYOUT_NONE, V3X_STATUS2 \
+#define V3X_ROW_9C                                                                          \
+	{                                                                                   \
+		0x9C, "read_status_2", 0, RMD_LAYOUT_NONE, V3X_STATUS2, RMD_SAY0("status2") \
 	}
 /* V3 §2.14, V4.2 §2.16: temperature and phase currents, int16 0.01 A. */
-#define V3X_ROW_9D                                                                         \
-	{                                                                                  \
-		0x9D, "read_status_3", 0, RMD_LAYOUT_NONE,                                 \
-			RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_S(PHASE_A, 2, 2, 0.01),     \
-				   RMD_S(PHASE_B, 4, 2, 0.01), RMD_S(PHASE_C, 6, 2, 0.01)) \
+#define V3X_ROW_9D                                                                          \
+	{                                                                                   \
+		0x9D, "read_status_3", 0, RMD_LAYOUT_NONE,                                  \
+			RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_S(PHASE_A, 2, 2, 0.01),      \
+				   RMD_S(PHASE_B, 4, 2, 0.01), RMD_S(PHASE_C, 6, 2, 0.01)), \
+			RMD_SAY0("status3")                                                 \
 	}
 /* V3 §2.17, V4.2 §2.19: iqControl int16 0.01 A. */
-#define V3X_ROW_A1                                                                                 \
-	{                                                                                          \
-		0xA1, "torque", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(CURRENT, 4, 2, 0.01)), V3X_STATUS2 \
+#define V3X_ROW_A1                                                                     \
+	{                                                                              \
+		0xA1, "torque", RMD_CMD_MOVES, RMD_LAYOUT(RMD_S(CURRENT, 4, 2, 0.01)), \
+			V3X_STATUS2, RMD_SAY1("torque", CURRENT)                       \
 	}
 /*
  * V3 §2.20, V4.2 §2.21: absolute position, maxSpeed uint16 1 dps,
@@ -146,27 +156,29 @@
 	{                                                                                  \
 		0xA4, "position_abs_limited", RMD_CMD_MOVES,                               \
 			RMD_LAYOUT(RMD_U(MAX_SPEED, 2, 2, 1.0), RMD_S(ANGLE, 4, 4, 0.01)), \
-			V3X_STATUS2                                                        \
+			V3X_STATUS2, RMD_SAY2("position", ANGLE, MAX_SPEED)                \
 	}
 /* V3 §2.22, V4.2 §2.23: incremental position, maxSpeed uint16 1 dps, int32 0.01 deg. */
 #define V3X_ROW_A8                                                                         \
 	{                                                                                  \
 		0xA8, "position_inc_limited", RMD_CMD_MOVES,                               \
 			RMD_LAYOUT(RMD_U(MAX_SPEED, 2, 2, 1.0), RMD_S(ANGLE, 4, 4, 0.01)), \
-			V3X_STATUS2                                                        \
+			V3X_STATUS2, RMD_SAY2("increment", ANGLE, MAX_SPEED)               \
 	}
 /* V3 §2.28, V4.2 §2.28: time since power-on or reset, uint32 ms. */
-#define V3X_ROW_B1                                                                              \
-	{                                                                                       \
-		0xB1, "read_runtime", 0, RMD_LAYOUT_NONE, RMD_LAYOUT(RMD_U(RUNTIME, 4, 4, 1.0)) \
+#define V3X_ROW_B1                                                                               \
+	{                                                                                        \
+		0xB1, "read_runtime", 0, RMD_LAYOUT_NONE, RMD_LAYOUT(RMD_U(RUNTIME, 4, 4, 1.0)), \
+			RMD_SAY0("runtime")                                                      \
 	}
 /*
  * V3 §2.29, V4.2 §2.29: software version date, uint32 yyyymmdd (newer
  * firmware: yyyymmddNN, rmd_version_date()).
  */
-#define V3X_ROW_B2                                                                              \
-	{                                                                                       \
-		0xB2, "read_version", 0, RMD_LAYOUT_NONE, RMD_LAYOUT(RMD_U(VERSION, 4, 4, 1.0)) \
+#define V3X_ROW_B2                                                                               \
+	{                                                                                        \
+		0xB2, "read_version", 0, RMD_LAYOUT_NONE, RMD_LAYOUT(RMD_U(VERSION, 4, 4, 1.0)), \
+			RMD_SAY0("version")                                                      \
 	}
 /*
  * V3 §2.30, V4.2 §2.30: comm-loss protection time, uint32 ms, 0 disables;
@@ -174,10 +186,11 @@
  * reply printed in example 2 is example 1's all-zero frame, in both
  * manuals: a typo.
  */
-#define V3X_ROW_B3                                                             \
-	{                                                                      \
-		0xB3, "comm_timeout", RMD_CMD_ECHO | RMD_CMD_ROM,              \
-			RMD_LAYOUT(RMD_U(TIMEOUT, 4, 4, 1.0)), RMD_LAYOUT_NONE \
+#define V3X_ROW_B3                                                              \
+	{                                                                       \
+		0xB3, "comm_timeout", RMD_CMD_ECHO | RMD_CMD_ROM,               \
+			RMD_LAYOUT(RMD_U(TIMEOUT, 4, 4, 1.0)), RMD_LAYOUT_NONE, \
+			RMD_SAY1("timeout", TIMEOUT)                            \
 	}
 /*
  * V3 §2.31, V4.2 §2.31: baud code at data[7] (0: CAN 500k / RS485 115200,
@@ -190,12 +203,23 @@
 			RMD_LAYOUT(RMD_U(BAUD, 7, 1, 1.0)), RMD_LAYOUT_NONE \
 	}
 /* V3 §2.32, V4.2 §2.32: seven ASCII bytes at data[1..7], first in the LSB. */
-#define V3X_ROW_B5                                                                          \
-	{                                                                                   \
-		0xB5, "read_model", 0, RMD_LAYOUT_NONE, RMD_LAYOUT(RMD_U(MODEL, 1, 7, 1.0)) \
+#define V3X_ROW_B5                                                                           \
+	{                                                                                    \
+		0xB5, "read_model", 0, RMD_LAYOUT_NONE, RMD_LAYOUT(RMD_U(MODEL, 1, 7, 1.0)), \
+			RMD_SAY0("model")                                                    \
 	}
 
-/* V3 §2.33, V4.2 §2.34: 0x20's function index and int32 value; the reply echoes. */
-#define V3X_FUNC_CTRL RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_S(VALUE, 4, 4, 1.0))
+/*
+ * V3 §2.33, V4.2 §2.34: 0x20's function index and int32 value; the reply
+ * echoes.  Flagged ROM because indexes 1 and 2 (V4.2 also 5, 6, 7) write
+ * flash.  Its indexes run 1..last, as `cite` says (the tables list them).
+ */
+#define V3X_ROW_20(last, cite)                                                        \
+	{                                                                             \
+		0x20, "function_control", RMD_CMD_ECHO | RMD_CMD_ROM,                 \
+			RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_S(VALUE, 4, 4, 1.0)), \
+			RMD_LAYOUT_NONE, RMD_SAY2("function", INDEX, VALUE),          \
+			RMD_RANGES(RMD_RANGE(INDEX, 1, last, cite))                   \
+	}
 
 #endif /* RMD_CODEC_V3X_ROWS_H */

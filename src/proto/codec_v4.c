@@ -40,21 +40,37 @@
 	RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_S(CURRENT, 2, 2, 0.01), RMD_S(SPEED, 4, 2, 1.0), \
 		   RMD_U(ENCODER, 6, 2, 1.0))
 
+RMD_ROWS_BEGIN
 const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	/* §2.1: read the gain of an index; the reply carries both. */
-	{ 0x30, "read_pid", 0, RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0)), V4_PID },
+	{ 0x30, "read_pid", 0, RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0)), V4_PID, RMD_SAY_NONE,
+	  RMD_RANGES(RMD_RANGE(INDEX, 1, 9, "V4.2 §2.1.4: index 1..9")) },
 	/* §2.2: one gain to RAM, lost at power off; the reply echoes. */
-	{ 0x31, "write_pid_ram", RMD_CMD_ECHO, V4_PID, { 0 } },
+	{ 0x31,
+	  "write_pid_ram",
+	  RMD_CMD_ECHO,
+	  V4_PID,
+	  { 0 },
+	  RMD_SAY_NONE,
+	  RMD_RANGES(RMD_RANGE(INDEX, 1, 9, "V4.2 §2.2.4: index 1..9")) },
 	/* §2.3: one gain to ROM, kept at power off; the reply echoes. */
-	{ 0x32, "write_pid_rom", RMD_CMD_ECHO | RMD_CMD_ROM, V4_PID, { 0 } },
+	{ 0x32,
+	  "write_pid_rom",
+	  RMD_CMD_ECHO | RMD_CMD_ROM,
+	  V4_PID,
+	  { 0 },
+	  RMD_SAY_NONE,
+	  RMD_RANGES(RMD_RANGE(INDEX, 1, 9, "V4.2 §2.3.4: index 1..9")) },
 	/*
 	 * §2.4: the index (as 0x43's, §2.4.4) at data[1] of the request and
 	 * of the reply; accel int32 1 dps/s.  Firmware before V3.9 answers
 	 * without an index (data[1] 0, read as index 0).
 	 */
 	{ 0x42, "read_accel", 0, RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0)),
-	  RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_S(ACCEL, 4, 4, 1.0)) },
-	V3X_ROW_43,
+	  RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_S(ACCEL, 4, 4, 1.0)),
+	  RMD_SAY1("accel-read", INDEX),
+	  RMD_RANGES(RMD_RANGE(INDEX, 0, 3, "V4.2 §2.4.4: index 0..3")) },
+	V3X_ROW_43("V4.2"),
 	V3X_ROW_60,
 	V3X_ROW_61,
 	V3X_ROW_62,
@@ -78,14 +94,20 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	  0,
 	  { 0 },
 	  RMD_LAYOUT(RMD_U(ENCODER, 2, 2, 1.0), RMD_U(ENCODER_RAW, 4, 2, 1.0),
-		     RMD_U(ENCODER_OFF, 6, 2, 1.0)) },
+		     RMD_U(ENCODER_OFF, 6, 2, 1.0)),
+	  RMD_SAY0("read-encoder-single") },
 	V3X_ROW_92,
 	/*
 	 * §2.13: single-turn angle circleAngle at data[6..7], 0.01 deg,
 	 * 0..35999.  §2.13.3 still calls it int16_t, which cannot hold 35999;
 	 * §9 V4.1 made it uint16_t: read as uint16, as firmware sends it.
 	 */
-	{ 0x94, "read_angle_single", 0, { 0 }, RMD_LAYOUT(RMD_U(ANGLE, 6, 2, 0.01)) },
+	{ 0x94,
+	  "read_angle_single",
+	  0,
+	  { 0 },
+	  RMD_LAYOUT(RMD_U(ANGLE, 6, 2, 0.01)),
+	  RMD_SAY0("read-angle-single") },
 	/*
 	 * §2.14: temperature, brake, voltage 0.1 V, error flags (§2.14 table
 	 * 1; dialect.c).  data[2], NULL in V4.2, is the MOS temperature in
@@ -96,7 +118,8 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	  0,
 	  { 0 },
 	  RMD_LAYOUT(RMD_S(TEMP, 1, 1, 1.0), RMD_S(MOS_TEMP, 2, 1, 1.0), RMD_U(BRAKE, 3, 1, 1.0),
-		     RMD_U(VOLTAGE, 4, 2, 0.1), RMD_U(ERROR, 6, 2, 1.0)) },
+		     RMD_U(VOLTAGE, 4, 2, 0.1), RMD_U(ERROR, 6, 2, 1.0)),
+	  RMD_SAY0("status1") },
 	V3X_ROW_9C,
 	V3X_ROW_9D,
 	V3X_ROW_A1,
@@ -106,7 +129,8 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	 * unverified); 0 there is what a V4.2 host sends.
 	 */
 	{ 0xA2, "speed", RMD_CMD_MOVES,
-	  RMD_LAYOUT(RMD_U(MAX_TORQUE, 1, 1, 1.0), RMD_S(SPEED, 4, 4, 0.01)), V3X_STATUS2 },
+	  RMD_LAYOUT(RMD_U(MAX_TORQUE, 1, 1, 1.0), RMD_S(SPEED, 4, 4, 0.01)), V3X_STATUS2,
+	  RMD_SAY1("speed", SPEED) },
 	V3X_ROW_A4,
 	/*
 	 * §2.22: single-turn position: spinDirection at data[1] (0 clockwise,
@@ -119,7 +143,10 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	{ 0xA6, "position_single", RMD_CMD_MOVES,
 	  RMD_LAYOUT(RMD_U(SPIN_DIR, 1, 1, 1.0), RMD_U(MAX_SPEED, 2, 2, 1.0),
 		     RMD_U(ANGLE, 4, 2, 0.01)),
-	  V4_STATUS2_ENCODER },
+	  V4_STATUS2_ENCODER, RMD_SAY3("position-single", ANGLE, MAX_SPEED, SPIN_DIR),
+	  RMD_RANGES(RMD_RANGE(ANGLE, 0, 360,
+			       "V4.2 §2.22: 0..359.99 deg, and 360 as its example sends"),
+		     RMD_RANGE(SPIN_DIR, 0, 1, "V4.2 §2.22.1: 0 clockwise, 1 counterclockwise")) },
 	V3X_ROW_A8,
 	V3X_ROW_B1,
 	V3X_ROW_B2,
@@ -140,7 +167,9 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	  RMD_CMD_NO_REPLY,
 	  RMD_LAYOUT(RMD_U(REPORT_CMD, 1, 1, 1.0), RMD_U(REPORT_ON, 2, 1, 1.0),
 		     RMD_U(REPORT_MS, 3, 2, 10.0)),
-	  { 0 } },
+	  { 0 },
+	  RMD_SAY_NONE,
+	  RMD_RANGES(RMD_RANGE(REPORT_ON, 0, 1, "V4.2 §2.33.2: 1 on, 0 off")) },
 	/*
 	 * §2.34: function index (§2.34.4: 1 clear multi-turn and save, 2 CAN
 	 * ID filter, saved in flash, 3 0x9A error reports, 4 save multi-turn
@@ -150,6 +179,7 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	 * value; the reply echoes.  Flagged ROM because indexes 1, 2, 5, 6, 7
 	 * write flash.
 	 */
-	{ 0x20, "function_control", RMD_CMD_ECHO | RMD_CMD_ROM, V3X_FUNC_CTRL, { 0 } },
+	V3X_ROW_20(7, "V4.2 §2.34.4: index 1..7"),
 };
+RMD_ROWS_END
 const size_t rmd_v4_ncmds = sizeof(rmd_v4_cmds) / sizeof(rmd_v4_cmds[0]);

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "rmd/describe.h"
+#include "rmd/dialect.h"
 
 #define MAX_ERROR_NAMES 16
 
@@ -333,6 +334,7 @@ static bool describe_mit(struct rmd_text *t, enum rmd_dir dir, const struct rmd_
 int rmd_describe_frame(char *buf, size_t size, enum rmd_proto proto, enum rmd_dir dir,
 		       const struct rmd_mit_ranges *mit, const struct rmd_frame *f)
 {
+	const struct rmd_dialect *d = rmd_dialect(proto);
 	const struct rmd_cmd_spec *spec;
 	struct rmd_text t;
 	struct rmd_msg msg;
@@ -340,13 +342,10 @@ int rmd_describe_frame(char *buf, size_t size, enum rmd_proto proto, enum rmd_di
 	int r;
 
 	rmd_text_init(&t, buf, size);
-	if (proto == RMD_PROTO_MIT && mit) {
-		if (describe_mit(&t, dir, mit, f))
-			return 0;
-		proto = RMD_PROTO_V3; /* MIT motors also speak V3 */
-	}
-	if (proto == RMD_PROTO_MIT)
-		proto = RMD_PROTO_V3;
+	if (d && rmd_dialect_has(d, RMD_DIALECT_MIT) && mit && describe_mit(&t, dir, mit, f))
+		return 0;
+	/* the rest in its firmware's table: MIT motors also speak V3 */
+	proto = rmd_proto_table(proto);
 	r = rmd_decode(proto, dir, f, &msg, &used);
 	spec = r == 0 ? rmd_cmd_find(proto, msg.cmd) : NULL;
 	if (spec) {

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 /*
  * The list of firmware dialects (rmd/dialect.h): one row each, with its
- * command table, identifiers, capabilities, error flags and probes.
+ * command table, identifiers, capabilities, error flags and probes; and
+ * what is decided from a motor's answers by them (its firmware date,
+ * rmd_dialect_for_firmware(), and MIT scaling).
  * Adding a dialect is its table and one row here (docs/design.md).
  */
 #include <math.h>
@@ -91,23 +93,36 @@ static const struct rmd_flag_name v2_run_modes[] = {
 	{ 0xFF, "init" },
 };
 
+/* V3 §2.1 .. §2.3, V4.2 §2.1 .. §2.3: read, write to RAM, write to ROM. */
+#define V3X_PID_CMDS             \
+	{                        \
+		0x30, 0x31, 0x32 \
+	}
+
 /* V3 §2.1.3: six uint8 gains in one frame, in this order. */
 static const struct rmd_pid_slot v3_pid[] = {
-	{ RMD_FLD_CURR_KP, 0 }, { RMD_FLD_CURR_KI, 0 }, { RMD_FLD_SPD_KP, 0 },
-	{ RMD_FLD_SPD_KI, 0 },	{ RMD_FLD_POS_KP, 0 },	{ RMD_FLD_POS_KI, 0 },
+	{ RMD_FLD_CURR_KP, 0, V3X_PID_CMDS }, { RMD_FLD_CURR_KI, 0, V3X_PID_CMDS },
+	{ RMD_FLD_SPD_KP, 0, V3X_PID_CMDS },  { RMD_FLD_SPD_KI, 0, V3X_PID_CMDS },
+	{ RMD_FLD_POS_KP, 0, V3X_PID_CMDS },  { RMD_FLD_POS_KI, 0, V3X_PID_CMDS },
 };
 
-/* V2 §3.1 .. §3.6: one Q24 gain a command, in this order. */
+/*
+ * V2 §3.1 .. §3.18: one Q24 gain a command, in this order; each has a
+ * read (§3.1 .. §3.6), a RAM write (§3.7 .. §3.12) and a ROM write
+ * (§3.13 .. §3.18) of its own.
+ */
 static const struct rmd_pid_slot v2_pid[] = {
-	{ RMD_FLD_CURR_KP, 0 }, { RMD_FLD_CURR_KI, 0 }, { RMD_FLD_SPD_KP, 0 },
-	{ RMD_FLD_SPD_KI, 0 },	{ RMD_FLD_POS_KP, 0 },	{ RMD_FLD_POS_KI, 0 },
+	{ RMD_FLD_CURR_KP, 0, { 0x34, 0x3A, 0x40 } }, { RMD_FLD_CURR_KI, 0, { 0x35, 0x3B, 0x41 } },
+	{ RMD_FLD_SPD_KP, 0, { 0x32, 0x38, 0x3E } },  { RMD_FLD_SPD_KI, 0, { 0x33, 0x39, 0x3F } },
+	{ RMD_FLD_POS_KP, 0, { 0x30, 0x36, 0x3C } },  { RMD_FLD_POS_KI, 0, { 0x31, 0x37, 0x3D } },
 };
 
 /* V4.2 §2.1.4: one float gain a frame, addressed by index. */
 static const struct rmd_pid_slot v4_pid[] = {
-	{ RMD_FLD_CURR_KP, 1 }, { RMD_FLD_CURR_KI, 2 }, { RMD_FLD_SPD_KP, 4 },
-	{ RMD_FLD_SPD_KI, 5 },	{ RMD_FLD_POS_KP, 7 },	{ RMD_FLD_POS_KI, 8 },
-	{ RMD_FLD_POS_KD, 9 },
+	{ RMD_FLD_CURR_KP, 1, V3X_PID_CMDS }, { RMD_FLD_CURR_KI, 2, V3X_PID_CMDS },
+	{ RMD_FLD_SPD_KP, 4, V3X_PID_CMDS },  { RMD_FLD_SPD_KI, 5, V3X_PID_CMDS },
+	{ RMD_FLD_POS_KP, 7, V3X_PID_CMDS },  { RMD_FLD_POS_KI, 8, V3X_PID_CMDS },
+	{ RMD_FLD_POS_KD, 9, V3X_PID_CMDS },
 };
 
 /*
@@ -260,6 +275,9 @@ const struct rmd_dialect rmd_dialects[RMD_PROTO_COUNT] = {
 		.mit_scaling = v4_mit,
 		.n_mit_scaling = ARRAY_SIZE(v4_mit),
 	},
+#ifdef RMD_DIALECTS_MORE
+	RMD_DIALECTS_MORE /* the rows of RMD_PROTO_MORE's keys (codec.h) */
+#endif
 };
 
 /* Config keys in enum order, NULL-terminated (codec.h). */
@@ -288,6 +306,32 @@ const struct rmd_dialect *rmd_dialect_list(size_t *n)
 {
 	*n = RMD_PROTO_COUNT;
 	return rmd_dialects;
+}
+
+/*
+ * V3 §2.29: yyyymmdd, e.g. 20220206.  Newer firmware appends a two-digit
+ * build number: yyyymmddNN (2025070202 = 0x78B41E7A from an X4-36), which
+ * still fits a uint32 (up to 4294967295).  Ten digits in 2000000000 ..
+ * 2099123199 are that form; eight are the first.  Plausible: a real date
+ * in 2000..2099.
+ */
+uint32_t rmd_version_date(uint32_t version)
+{
+	static const uint8_t mdays[12] = { 31, 29, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31 };
+	uint32_t date = version >= 2000000000u ? version / 100 : version;
+	uint32_t y = date / 10000, m = date / 100 % 100, d = date % 100;
+	bool leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+
+	if (y < 2000 || y > 2099 || m < 1 || m > 12 || d < 1 || d > mdays[m - 1])
+		return 0;
+	if (m == 2 && d == 29 && !leap)
+		return 0;
+	return date;
+}
+
+bool rmd_version_date_valid(uint32_t version)
+{
+	return rmd_version_date(version) != 0;
 }
 
 /*

@@ -295,12 +295,12 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 	sanitize(&m->p);
 	m->d = rmd_dialect(m->p.proto);
 	m->mit_ranges = firmware_mit(m);
-	/* V4.2 §2.1.4: the index of each PI gain, by its key ("current_kp") */
+	/* V4.2 §2.1.4: the index of each PI gain addressed by one, by its key ("current_kp") */
 	for (unsigned i = 0; i < RMD_SIM_NPID; i++) {
 		m->gain_index[i] = -1;
-		for (size_t k = 0; m->d->pid == RMD_PID_FLOAT_INDEXED && k < m->d->n_pid_slots; k++)
+		for (size_t k = 0; k < m->d->n_pid_slots; k++)
 			if (m->d->pid_slots[k].field == RMD_FLD_CURR_KP + i &&
-			    m->d->pid_slots[k].index < RMD_SIM_NGAIN)
+			    m->d->pid_slots[k].index && m->d->pid_slots[k].index < RMD_SIM_NGAIN)
 				m->gain_index[i] = (int8_t)m->d->pid_slots[k].index;
 	}
 	rom_defaults(m);
@@ -688,68 +688,83 @@ static void settle(struct rmd_sim_motor *m)
 /* -------------------------------------------------------------------------- */
 /* Commands                                                                   */
 
-static void put_pid(const struct rmd_sim_motor *m, struct rmd_msg *msg,
-		    const struct rmd_cmd_spec *spec)
+/*
+ * Where the simulated firmware keeps gain k of its dialect: a binary32 by
+ * index (V4.2 §2.1.4), or the wire's integer per gain (V3 §2.1 uint8, V2
+ * §3.1 Q24); NULL: nowhere.  With the factory values
+ * (rmd_sim_pid_default()) the places the firmware's layout is modelled.
+ */
+static float *gain_float(struct rmd_sim_settings *st, const struct rmd_dialect *d, unsigned k)
 {
-	for (unsigned i = 0; i < RMD_SIM_NPID; i++)
-		put_int(msg, spec, (enum rmd_field)(RMD_FLD_CURR_KP + i), m->ram.pid[i]);
+	unsigned i = d->pid_slots[k].index;
+
+	return i && i < RMD_SIM_NGAIN ? &st->gain[i] : NULL;
 }
 
-/* V3 §2.2/§2.3, V2 §3.7..§3.18: the gains the request carries, to RAM (and ROM). */
-static void store_pid(struct rmd_sim_motor *m, const struct rmd_msg *msg, bool rom)
+static int64_t *gain_int(struct rmd_sim_settings *st, const struct rmd_dialect *d, unsigned k)
 {
-	for (unsigned i = 0; i < RMD_SIM_NPID; i++) {
-		enum rmd_field fld = (enum rmd_field)(RMD_FLD_CURR_KP + i);
+	unsigned i = (unsigned)d->pid_slots[k].field - RMD_FLD_CURR_KP;
 
-		if (!rmd_msg_has(msg, fld))
-			continue;
-		m->ram.pid[i] = msg->v[fld];
+	return !d->pid_slots[k].index && i < RMD_SIM_NPID ? &st->pid[i] : NULL;
+}
+
+/* Gain k as the wire carries it (rmd_pid_answer()). */
+static int64_t gain_raw(struct rmd_sim_motor *m, unsigned k)
+{
+	const struct rmd_field_spec *fs = rmd_pid_spec(m->d, k);
+	float *g = gain_float(&m->ram, m->d, k);
+	int64_t *v = gain_int(&m->ram, m->d, k), raw = 0;
+
+	if (g && fs)
+		rmd_field_from_native(fs, *g, &raw);
+	return v ? *v : raw;
+}
+
+/* Gain k written from the wire to RAM (and ROM); a float gain only when finite. */
+static void gain_store(struct rmd_sim_motor *m, unsigned k, int64_t raw, bool rom)
+{
+	const struct rmd_field_spec *fs = rmd_pid_spec(m->d, k);
+	double x = fs ? rmd_field_to_native(fs, raw) : NAN;
+
+	if (gain_int(&m->ram, m->d, k)) {
+		*gain_int(&m->ram, m->d, k) = raw;
 		if (rom)
-			m->rom.pid[i] = msg->v[fld];
+			*gain_int(&m->rom, m->d, k) = raw;
+	} else if (gain_float(&m->ram, m->d, k) && isfinite(x)) {
+		*gain_float(&m->ram, m->d, k) = (float)x;
+		if (rom)
+			*gain_float(&m->rom, m->d, k) = (float)x;
 	}
-}
-
-/* Whether `index` is a gain index of the dialect (V4.2 §2.1.4). */
-static bool gain_known(const struct rmd_dialect *d, int64_t index)
-{
-	for (size_t k = 0; d->pid == RMD_PID_FLOAT_INDEXED && k < d->n_pid_slots; k++)
-		if (d->pid_slots[k].index == index && index < RMD_SIM_NGAIN)
-			return true;
-	return false;
 }
 
 /*
- * V4.2 §2.1 .. §2.3: 0x30 reads the float gain of an index, 0x31 writes it
- * to RAM, 0x32 to RAM and ROM (both echoed).  An index §2.1.4 does not
- * list gets no answer (the manual says nothing; the simulator stays quiet).
+ * The dialect's PID requests (rmd_pid_parse()): V3 §2.1 .. §2.3 six gains
+ * in one frame, V2 §3.1 .. §3.18 one command a gain, V4.2 §2.1 .. §2.3 one
+ * gain by index.  A read is answered with the gains it names, a write
+ * stores them (0x32 and V2's ROM writes in ROM too) and is echoed.  An
+ * index §2.1.4 does not list gets no answer (the manual says nothing; the
+ * simulator stays quiet).
  */
-static int float_gain(struct rmd_sim_motor *m, enum rmd_proto proto, const struct rmd_frame *f,
-		      uint32_t reply_id, struct rmd_frame *out, int max)
+static int pid_request(struct rmd_sim_motor *m, enum rmd_proto proto, const struct rmd_msg *req,
+		       enum rmd_pid_op op, uint32_t named, const struct rmd_pid_set *carried,
+		       const struct rmd_frame *f, uint32_t reply_id, struct rmd_frame *out, int max)
 {
-	const struct rmd_cmd_spec *spec, *rspec;
-	struct rmd_msg req, rep;
-	int64_t i;
-	double g;
+	struct rmd_pid_set now = { .slots = named };
+	struct rmd_msg rep;
 
-	if (rmd_decode(proto, RMD_DIR_REQUEST, f, &req, NULL) < 0)
+	if (!named)
 		return 0;
-	spec = rmd_cmd_find(proto, req.cmd);
-	i = req.v[RMD_FLD_INDEX];
-	if (!spec || !gain_known(m->d, i))
-		return 0;
-	if (req.cmd == 0x30) {
-		msg_for(proto, 0x30, &rep, &rspec);
-		put_int(&rep, rspec, RMD_FLD_INDEX, i);
-		put(&rep, rspec, RMD_FLD_GAIN, m->ram.gain[i]);
-		return emit(m, proto, &rep, out, max);
+	if (op != RMD_PID_READ) {
+		for (unsigned k = 0; k < m->d->n_pid_slots; k++)
+			if (carried->slots & (UINT32_C(1) << k))
+				gain_store(m, k, carried->raw[k], op == RMD_PID_WRITE_ROM);
+		return echo(f, reply_id, out, max);
 	}
-	g = get(spec, &req, RMD_FLD_GAIN, NAN);
-	if (isfinite(g)) {
-		m->ram.gain[i] = (float)g;
-		if (req.cmd == 0x32)
-			m->rom.gain[i] = (float)g;
-	}
-	return echo(f, reply_id, out, max);
+	for (unsigned k = 0; k < m->d->n_pid_slots; k++)
+		if (named & (UINT32_C(1) << k))
+			now.raw[k] = gain_raw(m, k);
+	rmd_pid_answer(m->d, req, &now, &rep);
+	return emit(m, proto, &rep, out, max);
 }
 
 /*
@@ -825,6 +840,10 @@ static int answer(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
 	const struct rmd_cmd_spec *spec, *rspec;
 	struct rmd_msg req, rep;
 	const struct rmd_dialect *d = m->d;
+	struct rmd_pid_set carried;
+	enum rmd_pid_op op;
+	uint32_t named;
+	int64_t id;
 	uint8_t cmd;
 
 	if (rmd_decode(proto, RMD_DIR_REQUEST, f, &req, NULL) < 0)
@@ -835,27 +854,10 @@ static int answer(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
 		return 0;
 	msg_for(proto, cmd, &rep, &rspec);
 
-	/* V4.2 §2.1 .. §2.3: one float gain by index. */
-	if (d->pid == RMD_PID_FLOAT_INDEXED && cmd >= 0x30 && cmd <= 0x32)
-		return float_gain(m, proto, f, reply_id, out, max);
-	/* V2 §3.1 .. §3.18: one Q24 gain per command. */
-	if (d->pid == RMD_PID_V2_PER_GAIN && cmd >= 0x30 && cmd <= 0x41) {
-		if (cmd <= 0x35) {
-			put_pid(m, &rep, rspec);
-			return emit(m, proto, &rep, out, max);
-		}
-		store_pid(m, &req, cmd >= 0x3C);
-		return echo(f, reply_id, out, max);
-	}
+	if (rmd_pid_parse(d, &req, &op, &named, &carried))
+		return pid_request(m, proto, &req, op, named, &carried, f, reply_id, out, max);
 
 	switch (cmd) {
-	case 0x30: /* V3 §2.1 */
-		put_pid(m, &rep, rspec);
-		return emit(m, proto, &rep, out, max);
-	case 0x31: /* V3 §2.2: RAM */
-	case 0x32: /* V3 §2.3: RAM and ROM */
-		store_pid(m, &req, cmd == 0x32);
-		return echo(f, reply_id, out, max);
 	case 0x42: {
 		/* V4.2 §2.4: the index asked, echoed; V3 §2.4 / V2 §3.19: none, index 0 */
 		int64_t i = rmd_dialect_has(d, RMD_DIALECT_ACCEL_INDEX) ? req.v[RMD_FLD_INDEX] : 0;
@@ -934,20 +936,17 @@ static int answer(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
 		return echo(f, reply_id, out, max);
 	case 0x79: {
 		/* V3 §4 (on 0x300, routed by the caller) / V2 §3.52: 1 read, 0 write. */
-		int64_t id = req.v[RMD_FLD_CAN_ID];
+		int64_t now = rmd_set_id_read_answer(d, m->ram.can_id);
 
 		/* docs/protocol-v4.md: firmware that sets its ID by 0x20 no longer answers */
-		if (d->set_id == RMD_SET_ID_FUNC_20)
+		if (now < 0)
 			return 0;
 		if (req.v[RMD_FLD_READ_FLAG] == 1) {
 			put_int(&rep, rspec, RMD_FLD_READ_FLAG, 1);
-			/* V3 §4.4 example 2: the reply identifier 0x240 + ID; V2: the ID. */
-			put_int(&rep, rspec, RMD_FLD_CAN_ID,
-				d->set_id == RMD_SET_ID_79_OWN ? m->ram.can_id :
-								 d->reply_base + m->ram.can_id);
+			put_int(&rep, rspec, RMD_FLD_CAN_ID, now);
 			return emit(m, proto, &rep, out, max);
 		}
-		if (req.v[RMD_FLD_READ_FLAG] != 0 || id < 1 || id > RMD_MAX_MOTORS)
+		if (!rmd_set_id_parse(d, &req, &id) || id < 1 || id > RMD_MAX_MOTORS)
 			return 0;
 		/* §4.3 / §3.52: a write returns the request, then the new ID holds. */
 		{
@@ -1051,9 +1050,7 @@ static int answer(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
 		 * firmware 2025070202 echoes from the new 0x240 + ID at once and
 		 * takes requests on the old one until the reset.
 		 */
-		if (d->set_id == RMD_SET_ID_FUNC_20 && req.v[RMD_FLD_INDEX] == 5) {
-			int64_t id = req.v[RMD_FLD_VALUE];
-
+		if (rmd_set_id_parse(d, &req, &id)) {
 			if (id >= 1 && id <= RMD_MAX_MOTORS) {
 				m->rom.can_id = (uint8_t)id;
 				reply_id = d->reply_base + (uint32_t)id;

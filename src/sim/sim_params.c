@@ -28,8 +28,8 @@
  */
 const struct rmd_sim_param rmd_sim_params[] = {
 	ROW("protocol", NULL, PROTO, proto, 0, 0, false, "",
-	    "v3, v2, mit or v4 (MIT motors also speak V3); rmdd.yaml: the motor's protocol",
-	    RMD_SIM_PARAM_MOTOR_KEY),
+	    "(MIT motors also speak V3); rmdd.yaml: the motor's protocol",
+	    RMD_SIM_PARAM_MOTOR_KEY | RMD_SIM_PARAM_KEYS_FIRST),
 	ROW("firmware", NULL, PROTO, proto, 0, 0, false, "",
 	    "the simulated firmware's dialect (a protocol key); rmdd.yaml motors[].sim: what a "
 	    "motor with protocol auto turns out to speak (or another than its protocol, to see "

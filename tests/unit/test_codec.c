@@ -780,6 +780,87 @@ static void test_tables(void **state)
 	assert_int_equal(rmd_proto_table(RMD_PROTO_V2), RMD_PROTO_V2);
 }
 
+/*
+ * What tools read from a row (rmdctl encode): its words fill request fields
+ * of that row, a word names one row per argument count in a table, and a
+ * range lies within its field's width, on a field of the request.
+ */
+static void check_spellings(enum rmd_proto proto)
+{
+	const struct rmd_cmd_spec *rows;
+	size_t n = rmd_cmd_table(proto, &rows), spelled = 0;
+
+	for (size_t i = 0; i < n; i++) {
+		const struct rmd_cmd_spec *r = &rows[i];
+
+		assert_true(r->spell.n_args <= RMD_SPELL_ARGS_MAX);
+		if (!r->spell.words && r->spell.n_args)
+			fail_msg("%s 0x%02X: arguments without a word", rmd_proto_name(proto),
+				 r->cmd);
+		for (unsigned a = 0; a < r->spell.n_args; a++)
+			if (!rmd_layout_field(r, RMD_DIR_REQUEST, (enum rmd_field)r->spell.args[a]))
+				fail_msg("%s 0x%02X: argument %u is not a request field",
+					 rmd_proto_name(proto), r->cmd, a);
+		for (unsigned k = 0; k < r->n_ranges; k++) {
+			const struct rmd_field_range *g = &r->ranges[k];
+			const struct rmd_field_spec *fs =
+				rmd_layout_field(r, RMD_DIR_REQUEST, (enum rmd_field)g->field);
+			int64_t lo, hi;
+
+			if (!fs || !g->cite || !*g->cite || !(g->lo < g->hi))
+				fail_msg("%s 0x%02X: range %u is no range of a request field",
+					 rmd_proto_name(proto), r->cmd, k);
+			assert_ptr_equal(rmd_cmd_range(r, (enum rmd_field)g->field), g);
+			rmd_field_range(fs, &lo, &hi);
+			if (g->lo < (double)lo * fs->scale || g->hi > (double)hi * fs->scale)
+				fail_msg("%s 0x%02X: range %u beyond the field's width",
+					 rmd_proto_name(proto), r->cmd, k);
+		}
+		for (const char *w = r->spell.words; w && *w;) {
+			size_t len = strcspn(w, " ");
+			char word[32];
+
+			assert_true(len > 0 && len < sizeof(word));
+			memcpy(word, w, len);
+			word[len] = '\0';
+			assert_true(rmd_cmd_spelled(r, word));
+			for (size_t j = i + 1; j < n; j++)
+				if (rmd_cmd_spelled(&rows[j], word) &&
+				    rows[j].spell.n_args == r->spell.n_args)
+					fail_msg(
+						"%s: \"%s\" with %u arguments is 0x%02X and 0x%02X",
+						rmd_proto_name(proto), word, r->spell.n_args,
+						r->cmd, rows[j].cmd);
+			spelled++;
+			w += len + (w[len] == ' ');
+		}
+	}
+	assert_true(spelled > 0);
+}
+
+static void test_spellings(void **state)
+{
+	size_t nd;
+	const struct rmd_dialect *dl = rmd_dialect_list(&nd);
+
+	(void)state;
+	for (size_t i = 0; i < nd; i++)
+		check_spellings(dl[i].proto);
+	/* V2's 0xA3 is both "position DEG" and "position-track DEG" (V2 §3.39) */
+	assert_true(rmd_cmd_spelled(rmd_cmd_find(RMD_PROTO_V2, 0xA3), "position"));
+	assert_true(rmd_cmd_spelled(rmd_cmd_find(RMD_PROTO_V2, 0xA3), "position-track"));
+	assert_false(rmd_cmd_spelled(rmd_cmd_find(RMD_PROTO_V2, 0xA3), "positio"));
+	assert_false(rmd_cmd_spelled(rmd_cmd_find(RMD_PROTO_V2, 0xA3), ""));
+	assert_false(rmd_cmd_spelled(rmd_cmd_find(RMD_PROTO_V3, 0x79), "can_id"));
+	/* the manual's ranges, each cited from its own manual */
+	assert_string_equal(rmd_cmd_range(rmd_cmd_find(RMD_PROTO_V3, 0x43), RMD_FLD_ACCEL)->cite,
+			    "V3 §2.5.1: 100..60000 dps/s");
+	assert_string_equal(rmd_cmd_range(rmd_cmd_find(RMD_PROTO_V4, 0x43), RMD_FLD_ACCEL)->cite,
+			    "V4.2 §2.5.1: 100..60000 dps/s");
+	assert_null(rmd_cmd_range(rmd_cmd_find(RMD_PROTO_V3, 0xA1), RMD_FLD_CURRENT));
+	assert_true(rmd_cmd_range(rmd_cmd_find(RMD_PROTO_V2, 0xA1), RMD_FLD_CURRENT)->hi == 32);
+}
+
 /* ---- Seeded random round trips ----------------------------------------- */
 
 static uint64_t seed_used;
@@ -1706,6 +1787,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_manual_vectors),
 		cmocka_unit_test(test_tables),
+		cmocka_unit_test(test_spellings),
 		cmocka_unit_test(test_round_trip),
 		cmocka_unit_test(test_bad_length),
 		cmocka_unit_test(test_bad_id),

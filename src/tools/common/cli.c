@@ -198,11 +198,14 @@ static void compl_values(FILE *f, const char *in, const struct tool_opt *o, size
 			fprintf(f, "%s\tCOMPREPLY=($(compgen -W \"%s\" -- \"$cur\"))\n", in,
 				o[i].words ? o[i].words : "");
 			break;
-		case TOOL_VAL_PROTO: {
+		case TOOL_VAL_PROTO:
+		case TOOL_VAL_FIRMWARE: {
 			char keys[64];
 
 			fprintf(f, "%s\tCOMPREPLY=($(compgen -W \"%s\" -- \"$cur\"))\n", in,
-				rmd_proto_keys_text(keys, sizeof(keys), " ", " "));
+				o[i].value == TOOL_VAL_PROTO ?
+					rmd_proto_keys_text(keys, sizeof(keys), " ", " ") :
+					rmd_firmware_keys_text(keys, sizeof(keys), " ", " "));
 			break;
 		}
 		case TOOL_VAL_NONE:

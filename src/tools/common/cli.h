@@ -26,7 +26,8 @@ enum tool_value {
 	TOOL_VAL_CAN,	   /* a CAN interface (/sys/class/net, type 280) */
 	TOOL_VAL_SERIAL,   /* a serial device (/dev/ttyUSB*, /dev/ttyACM*, /dev/serial/by-id/) */
 	TOOL_VAL_WORDS,	   /* one of tool_opt.words */
-	TOOL_VAL_PROTO,	   /* a firmware dialect's key (rmd_proto_keys, rmd/codec.h) */
+	TOOL_VAL_PROTO,	   /* a dialect's key (rmd_proto_keys, rmd/codec.h) */
+	TOOL_VAL_FIRMWARE, /* a firmware dialect's key, not mit's (rmd_firmware_keys_text()) */
 };
 
 /* One option of a program. */

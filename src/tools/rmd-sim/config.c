@@ -137,7 +137,13 @@ void sim_config_help(void)
 		printf("  --%s VALUE", p->key);
 		if (p->alias)
 			printf("  (alias: --%s)", p->alias);
-		printf("\n      %s", p->help);
+		printf("\n      ");
+		if (p->flags & RMD_SIM_PARAM_KEYS_FIRST) {
+			char keys[64];
+
+			printf("%s ", rmd_proto_keys_text(keys, sizeof(keys), ", ", " or "));
+		}
+		printf("%s", p->help);
 		if (p->type == RMD_SIM_PARAM_REAL || p->type == RMD_SIM_PARAM_US ||
 		    p->type == RMD_SIM_PARAM_UINT)
 			printf(", %s%g..%g", p->min_excl ? ">" : "", p->min, p->max);

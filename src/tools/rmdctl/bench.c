@@ -497,7 +497,8 @@ unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n)
 
 	for (unsigned i = 0; i < n; i++) {
 		bool told = false;
-		char more[64] = "";
+		char more[128] =
+			""; /* ", nor 0x.." for the others of a batch to the motor (12 at most) */
 		size_t o = 0;
 
 		if (q[i].ok)
@@ -569,9 +570,8 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .shortc = 'p',
 	  .has_arg = required_argument,
 	  .arg = "P",
-	  .help = "v3 (default), v2 or v4",
-	  .value = TOOL_VAL_WORDS,
-	  .words = "v3 v2 v4" },
+	  .help = "", /* the firmware keys (rmdctl_dev_usage()) */
+	  .value = TOOL_VAL_FIRMWARE },
 	{ .name = "timeout",
 	  .has_arg = required_argument,
 	  .arg = "MS",
@@ -631,17 +631,24 @@ const size_t rmdctl_n_dev_opts = sizeof(rmdctl_dev_opts) / sizeof(rmdctl_dev_opt
 
 void rmdctl_dev_usage(FILE *f, const struct rmdctl_cmd *c)
 {
+	struct tool_opt every[sizeof(rmdctl_dev_opts) / sizeof(rmdctl_dev_opts[0])];
 	struct tool_opt own[sizeof(rmdctl_dev_opts) / sizeof(rmdctl_dev_opts[0])];
 	size_t n_every = 0, n_own = 0;
+	char keys[96];
 
 	fprintf(f, "usage: rmdctl %s [OPTIONS] %s\n\n%s\n", c->name, c->args, c->help);
-	for (size_t k = 0; k < NOPTS; k++)
-		if (!rmdctl_dev_opts[k].flag)
+	for (size_t k = 0; k < NOPTS; k++) {
+		every[k] = rmdctl_dev_opts[k];
+		/* --protocol: the firmware dialects' keys, from the list */
+		if (every[k].value == TOOL_VAL_FIRMWARE)
+			every[k].help = rmdctl_proto_help(keys, sizeof(keys), true);
+		if (!every[k].flag)
 			n_every = k + 1;
-		else if (c->opts & rmdctl_dev_opts[k].flag)
-			own[n_own++] = rmdctl_dev_opts[k];
+		else if (c->opts & every[k].flag)
+			own[n_own++] = every[k];
+	}
 	fprintf(f, "options of every device command:\n");
-	tool_opts_help(f, rmdctl_dev_opts, n_every);
+	tool_opts_help(f, every, n_every);
 	if (n_own) {
 		fprintf(f, "%s options:\n", c->name);
 		tool_opts_help(f, own, n_own);
@@ -681,6 +688,28 @@ static bool *switch_of(struct dev *d, const char *name)
 	return NULL;
 }
 
+/* "bad --protocol "v9" (v3, v2 or v4; MIT motors answer v3)": the firmware keys, from the list. */
+static void bad_protocol(const char *v)
+{
+	const struct rmd_dialect *list;
+	char keys[64], more[96] = "";
+	size_t n, k = 0;
+
+	list = rmd_dialect_list(&n);
+	for (size_t i = 0; i < n && k < sizeof(more); i++) {
+		int w;
+
+		if (rmd_dialect_is_firmware(&list[i]))
+			continue;
+		w = snprintf(more + k, sizeof(more) - k, "; %s motors answer %s", list[i].name,
+			     rmd_dialect_firmware(&list[i])->key);
+		if (w > 0)
+			k += (size_t)w;
+	}
+	tool_log(TOOL_LOG_ERR, "bad --protocol \"%s\" (%s%s)", v,
+		 rmd_firmware_keys_text(keys, sizeof(keys), ", ", " or "), more);
+}
+
 /* Apply option k with value v.  Returns 0, 1 (--help printed) or -EINVAL (reported). */
 static int set_option(struct dev *d, size_t k, const char *v)
 {
@@ -699,9 +728,8 @@ static int set_option(struct dev *d, size_t k, const char *v)
 		d->baud = (uint32_t)u;
 	} else if (!strcmp(name, "protocol")) {
 		if (rmd_proto_parse(v, &d->proto) < 0 ||
-		    rmd_dialect_has(rmd_dialect(d->proto), RMD_DIALECT_MIT)) {
-			tool_log(TOOL_LOG_ERR,
-				 "bad --protocol \"%s\" (v3, v2 or v4; MIT motors answer v3)", v);
+		    !rmd_dialect_is_firmware(rmd_dialect(d->proto))) {
+			bad_protocol(v);
 			return -EINVAL;
 		}
 	} else if (!strcmp(name, "timeout")) {
@@ -821,7 +849,7 @@ int rmdctl_dev_run(const struct rmdctl_cmd *cmd, int argc, char **argv)
 	memset(&d, 0, sizeof(d));
 	d.cmd = cmd;
 	d.bus_spec = getenv(BUS_ENV) && *getenv(BUS_ENV) ? getenv(BUS_ENV) : DEFAULT_BUS;
-	d.proto = RMD_PROTO_V3;
+	d.proto = RMDCTL_PROTO_DEFAULT;
 	d.timeout_ms = RMD_TXN_TIMEOUT_NS / 1e6;
 	d.tries = RMD_TXN_TRIES;
 	d.count = RMDCTL_RTT_COUNT;

@@ -54,9 +54,11 @@ struct decoded {
 
 void rmdctl_decode_usage(FILE *f)
 {
+	char keys[64];
+
 	fprintf(f,
-		"usage: rmdctl decode [--protocol v3|v2|mit|v4] [--json] [--mit-ranges P,V,T,KP,KD]\n"
-		"                     [--direction request|reply] [FILE]\n"
+		"usage: rmdctl decode [--protocol %s] [--json] [--mit-ranges P,V,T,KP,KD]\n"
+		"                     [--direction request|reply] " RMDCTL_DECODE_ARGS "\n"
 		"\n"
 		"Reads candump output from FILE (or stdin, or \"-\") and prints each frame\n"
 		"decoded, one line per frame.  Accepted line shapes (hex in either case):\n"
@@ -87,7 +89,8 @@ void rmdctl_decode_usage(FILE *f)
 		"exit status: 0 every line parsed; 1 some line could not be parsed (each is\n"
 		"reported on stderr as \"rmdctl decode: line N: reason\") or I/O failed;\n"
 		"2 usage error.  Frames the protocol does not know are not errors: they\n"
-		"print as \"unknown\" with their bytes.\n");
+		"print as \"unknown\" with their bytes.\n",
+		rmd_proto_keys_text(keys, sizeof(keys), "|", "|"));
 }
 
 /* ---- one frame ------------------------------------------------------------------------ */
@@ -447,12 +450,18 @@ const struct tool_opt rmdctl_decode_opts[] = {
 	  .value = TOOL_VAL_WORDS,
 	  .words = "request reply" },
 };
-const size_t rmdctl_n_decode_opts = sizeof(rmdctl_decode_opts) / sizeof(rmdctl_decode_opts[0]);
+#define NOPTS (sizeof(rmdctl_decode_opts) / sizeof(rmdctl_decode_opts[0]))
+const size_t rmdctl_n_decode_opts = NOPTS;
+
+/* name, operands, options, whether options end at the first operand, --help */
+static const struct rmdctl_codec_cmd decode_cmd = {
+	"decode", RMDCTL_DECODE_ARGS, rmdctl_decode_opts, NOPTS, false, rmdctl_decode_usage
+};
 
 int rmdctl_decode_run(int argc, char **argv)
 {
 	struct decode_opts opts = {
-		.proto = RMD_PROTO_V3,
+		.proto = RMDCTL_PROTO_DEFAULT,
 		.dir = RMD_DIR_UNKNOWN,
 		.ranges = rmd_mit_default_ranges,
 	};
@@ -460,8 +469,8 @@ int rmdctl_decode_run(int argc, char **argv)
 	FILE *in = stdin;
 	int r, status;
 
-	r = rmdctl_codec_getopt(argc, argv, rmdctl_decode_opts, rmdctl_n_decode_opts, false,
-				&opts.proto, &opts.ranges, rmdctl_decode_usage, decode_opt, &opts);
+	r = rmdctl_codec_getopt(argc, argv, &decode_cmd, &opts.proto, &opts.ranges, decode_opt,
+				&opts);
 	if (r >= 0)
 		return r;
 	if (argc - optind > 1) {
@@ -488,6 +497,6 @@ int rmdctl_decode_run(int argc, char **argv)
 	return status;
 
 usage:
-	rmdctl_usage_hint_name("decode");
+	rmdctl_usage_hint_args(decode_cmd.name, decode_cmd.args);
 	return RMDCTL_EXIT_USAGE;
 }

@@ -50,7 +50,9 @@ struct settings {
 /* Whether the dialect's gains are reals (V4.2 §2.1: binary32), not integers (V3 §2.1). */
 static bool float_gains(const struct rmd_dialect *dl)
 {
-	return dl->pid == RMD_PID_FLOAT_INDEXED;
+	const struct rmd_field_spec *fs = rmd_pid_spec(dl, 0);
+
+	return fs && fs->is_float;
 }
 
 /* Gain k of the dialect's layout: its key ("speed_kp"). */
@@ -63,9 +65,8 @@ static int dialect_ok(const struct dev *d)
 {
 	const struct rmd_dialect *dl = rmdctl_dialect(d);
 
-	/* the gains in one frame (V3 §2.1) or by index (V4.2 §2.1), 0xB5 and 0xB2 */
-	if ((dl->pid == RMD_PID_U8_SIX || dl->pid == RMD_PID_FLOAT_INDEXED) &&
-	    rmd_dialect_has(dl, RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2))
+	/* gains to read (V3 §2.1 in one frame, V4.2 §2.1 by index), 0xB5 and 0xB2 */
+	if (dl->n_pid_slots && rmd_dialect_has(dl, RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2))
 		return 0;
 	tool_log(TOOL_LOG_ERR, "%s speaks protocols V3 and V4 only (not %s)", d->cmd->name,
 		 dl->name);
@@ -73,44 +74,35 @@ static int dialect_ok(const struct dev *d)
 }
 
 /*
- * Read motor s->id's settings (0x30, 0x42, 0x62; 0xB5 and 0xB2 into rec
- * when given; V4: the gains by index, 0x42 index 0).
+ * Read motor s->id's settings (the gains, 0x42, 0x62; 0xB5 and 0xB2 into
+ * info when given), in one batch.
  */
 static int read_settings(struct dev *d, struct settings *s, struct rec *info)
 {
-	static const uint8_t cmds[] = { 0x30, 0x42, 0x62, 0xB5, 0xB2 };
+	static const uint8_t cmds[] = { 0x42, 0x62, 0xB5, 0xB2 };
 	const struct rmd_dialect *dl = rmdctl_dialect(d);
-	struct req q[sizeof(cmds)];
-	unsigned n = info ? 5 : 3;
-	struct rec gains = { 0 };
+	struct req q[RMD_PID_SLOTS_MAX + sizeof(cmds)];
+	unsigned n_pid = rmdctl_pid_read_reqs(d, s->id, q), n = n_pid + (info ? 4 : 2);
+	struct rmd_pid_set gains;
 	int r;
 
 	/* V4.2 §2.4: 0x42 asks for an index, 0 the position-planning acceleration */
-	for (unsigned i = 0; i < n; i++) {
-		rmdctl_req_init(&q[i], s->id, cmds[i]);
+	for (unsigned i = n_pid; i < n; i++) {
+		rmdctl_req_init(&q[i], s->id, cmds[i - n_pid]);
 		rmd_msg_set(&q[i].msg, RMD_FLD_INDEX, 0);
 	}
-	if (float_gains(dl)) {
-		r = rmdctl_pid_read_indexed(d, s->id, &gains);
-		if (r)
-			return r;
-		for (unsigned k = 0; k < dl->n_pid_slots; k++)
-			s->pid[k] = gains.raw[dl->pid_slots[k].field];
-	}
-	/* the V3 gains are q[0]'s; V4 read them above: q[0] is not sent */
-	r = rmdctl_run_reqs(d, q + float_gains(dl), n - float_gains(dl));
+	r = rmdctl_run_reqs(d, q, n);
 	if (r)
 		return r;
-	if (rmdctl_report_failed(d, q + float_gains(dl), n - float_gains(dl)))
+	if (rmdctl_report_failed(d, q, n) || rmdctl_pid_gather(d, q, n, &gains))
 		return RMDCTL_EXIT_DATA;
-	if (!float_gains(dl))
-		for (unsigned k = 0; k < dl->n_pid_slots; k++)
-			s->pid[k] = q[0].rep.v[dl->pid_slots[k].field];
-	s->accel_dps2 = q[1].rep.v[RMD_FLD_ACCEL];
-	s->zero_offset = q[2].rep.v[RMD_FLD_ENCODER_OFF];
+	for (unsigned k = 0; k < dl->n_pid_slots; k++)
+		s->pid[k] = gains.raw[k];
+	s->accel_dps2 = q[n_pid].rep.v[RMD_FLD_ACCEL];
+	s->zero_offset = q[n_pid + 1].rep.v[RMD_FLD_ENCODER_OFF];
 	s->has_pid = s->has_accel = s->has_zero = true;
 	if (info)
-		for (unsigned i = 3; i < n; i++)
+		for (unsigned i = n_pid + 2; i < n; i++)
 			rmdctl_rec_add_req(info, d, &q[i], true);
 	return 0;
 }
@@ -434,38 +426,41 @@ struct change {
 static unsigned diff(const struct rmd_dialect *dl, const struct settings *want,
 		     const struct settings *now, struct change *c)
 {
-	unsigned n = 0, o = 0;
-	bool pid_differs = false;
+	struct rmd_pid_set set = { 0 };
+	struct rmd_msg m[RMD_PID_SLOTS_MAX];
+	unsigned n = 0;
+	int nq = 0;
 
-	if (want->has_pid && !float_gains(dl)) {
-		for (unsigned i = 0; i < dl->n_pid_slots; i++)
-			pid_differs |= want->pid[i] != now->pid[i];
-		if (pid_differs) {
-			rmdctl_req_init(&c[n].q, want->id, 0x32); /* V3 §2.3: ROM */
-			for (unsigned i = 0; i < dl->n_pid_slots; i++) {
-				rmd_msg_set(&c[n].q.msg, dl->pid_slots[i].field, want->pid[i]);
-				if (want->pid[i] != now->pid[i])
-					o += (unsigned)snprintf(c[n].text + o,
-								sizeof(c[n].text) - o,
-								"%s %s %" PRId64 " -> %" PRId64,
-								o ? "," : "pid:", pid_key(dl, i),
-								now->pid[i], want->pid[i]);
-			}
-			n++;
-		}
+	/*
+	 * The gains that differ, to ROM: V3 §2.3 one frame, all six; V4.2 §2.3
+	 * one a frame by index, a change each
+	 */
+	for (unsigned i = 0; want->has_pid && i < dl->n_pid_slots; i++) {
+		set.raw[i] = want->pid[i];
+		if (want->pid[i] != now->pid[i])
+			set.slots |= UINT32_C(1) << i;
 	}
-	/* V4.2 §2.3: one gain a frame, by index, to ROM: a change each */
-	for (unsigned i = 0; want->has_pid && float_gains(dl) && i < dl->n_pid_slots; i++) {
-		char a[32], b[32];
+	if (set.slots)
+		nq = rmd_pid_requests(dl, RMD_PID_WRITE_ROM, &set, m);
+	for (int j = 0; j < nq; j++, n++) {
+		struct rmd_pid_set carried;
+		enum rmd_pid_op op;
+		uint32_t named;
+		unsigned o = 0;
 
-		if (want->pid[i] == now->pid[i])
-			continue;
-		rmdctl_req_init(&c[n].q, want->id, 0x32);
-		rmd_msg_set(&c[n].q.msg, RMD_FLD_INDEX, dl->pid_slots[i].index);
-		rmd_msg_set(&c[n].q.msg, RMD_FLD_GAIN, want->pid[i]);
-		snprintf(c[n++].text, sizeof(c->text), "pid: %s %s -> %s", pid_key(dl, i),
-			 gain_text(dl, now->pid[i], a, sizeof(a)),
-			 gain_text(dl, want->pid[i], b, sizeof(b)));
+		rmdctl_req_init(&c[n].q, want->id, m[j].cmd);
+		c[n].q.msg = m[j];
+		rmd_pid_parse(dl, &m[j], &op, &named, &carried);
+		for (unsigned i = 0; i < dl->n_pid_slots; i++) {
+			char a[32], b[32];
+
+			if (!(carried.slots & set.slots & (UINT32_C(1) << i)))
+				continue;
+			o += (unsigned)snprintf(c[n].text + o, sizeof(c[n].text) - o,
+						"%s %s %s -> %s", o ? "," : "pid:", pid_key(dl, i),
+						gain_text(dl, now->pid[i], a, sizeof(a)),
+						gain_text(dl, want->pid[i], b, sizeof(b)));
+		}
 	}
 	if (want->has_accel && want->accel_dps2 != now->accel_dps2) {
 		rmdctl_req_init(&c[n].q, want->id, 0x43); /* V3 §2.5: index 0, RAM and ROM */

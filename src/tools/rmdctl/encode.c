@@ -3,11 +3,15 @@
  * rmdctl encode: one command in native units -> one frame in cansend syntax,
  * so that `cansend can0 $(rmdctl encode --id 1 torque 1.0)` works.
  *
- * Each command below names, per protocol, a command byte and which field of
- * that byte's table row each argument fills; the value is converted with the
- * row's scale, so the codec tables stay the one place that knows the wire.
- * Values that do not fit the field, or a range the manual documents, are
- * refused: never wrapped, never clamped.  Non-rt.
+ * A command is the rows of the protocol's codec table spelled with its word
+ * (struct rmd_spelling): which dialects have it, the command byte, which
+ * field each argument fills and the ranges the manual gives all come from
+ * the row, and a value is converted with the row's scale, so the codec
+ * tables stay the one place that knows the wire.  The list below adds the
+ * help texts and the commands that parse their own arguments; a word only
+ * a table spells is a command too.  Values that do not fit the field, or a
+ * range the manual documents, are refused: never wrapped, never clamped.
+ * Non-rt.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -24,31 +28,11 @@
 #include "rmd/mit.h"
 #include "rmdctl.h"
 
-#define MAX_ARGS 4
-
-enum {
-	P_V3 = 1u << RMD_PROTO_V3,
-	P_V2 = 1u << RMD_PROTO_V2,
-	P_V4 = 1u << RMD_PROTO_V4,
-	P_BOTH = P_V3 | P_V2, /* V3 and V2, not V4 */
-	P_V34 = P_V3 | P_V4,
-	P_ALL = P_V3 | P_V2 | P_V4,
-};
-
 struct enc_ctx {
-	enum rmd_proto proto;	 /* as given: v3, v2, mit or v4 */
-	enum rmd_proto table;	 /* V3, V2 or V4: whose rows (mit uses V3's) */
+	enum rmd_proto proto;	 /* as given (--protocol) */
+	enum rmd_proto table;	 /* whose rows: its firmware's (mit uses V3's) */
 	int motor_id;		 /* 1..32, or -1 when --id was not given */
 	struct rmd_mit_ranges r; /* for `mit` */
-};
-
-/* One way to spell a command: protocols, argument count, command byte, fields filled. */
-struct variant {
-	unsigned protos;
-	unsigned nargs;
-	uint8_t cmd;
-	bool multi; /* V2 §4.1 0x280 frame: no --id */
-	enum rmd_field fld[MAX_ARGS];
 };
 
 struct enc_cmd;
@@ -59,19 +43,8 @@ struct enc_cmd {
 	const char *name;
 	const char *args;
 	const char *help;
-	enc_custom_fn custom; /* parses its own arguments; variants unused */
-	struct variant v[3];
+	enc_custom_fn custom; /* parses its own arguments; NULL: the rows spelled name */
 };
-
-#define V(p, c, n, ...)                                                         \
-	{                                                                       \
-		.protos = (p), .cmd = (c), .nargs = (n), .fld = { __VA_ARGS__ } \
-	}
-#define V0(p, c)                                      \
-	{                                             \
-		.protos = (p), .cmd = (c), .nargs = 0 \
-	}
-#define F(x) RMD_FLD_##x
 
 static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
 		   struct rmd_frame *out);
@@ -86,200 +59,179 @@ static int enc_active_reply(const struct enc_ctx *ctx, const struct enc_cmd *ec,
 
 /* Command bytes: V3 §2.x, V2 §3.x and V4.2 §2.x of the manuals, named in each help text. */
 static const struct enc_cmd enc_cmds[] = {
-	{ "torque",
-	  "AMPS",
-	  "torque current setpoint (0xA1)",
-	  NULL,
-	  { V(P_ALL, 0xA1, 1, F(CURRENT)) } },
-	{ "speed", "DPS", "speed setpoint (0xA2)", NULL, { V(P_ALL, 0xA2, 1, F(SPEED)) } },
-	{ "position",
-	  "DEG [MAX_DPS]",
+	{ "torque", "AMPS", "torque current setpoint (0xA1)", NULL },
+	{ "speed", "DPS", "speed setpoint (0xA2)", NULL },
+	{ "position", "DEG [MAX_DPS]",
 	  "absolute multi-turn position: V3/V4 0xA4 (MAX_DPS required: the manual\n"
 	  "gives no \"unlimited\" value, use position-track); V2 0xA3, or 0xA4 with\n"
 	  "MAX_DPS",
-	  NULL,
-	  { V(P_V34, 0xA4, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA3, 1, F(ANGLE)),
-	    V(P_V2, 0xA4, 2, F(ANGLE), F(MAX_SPEED)) } },
-	{ "position-track",
-	  "DEG",
-	  "position tracking, no speed limit (V3/V2 0xA3; V4 removed it)",
-	  NULL,
-	  { V(P_BOTH, 0xA3, 1, F(ANGLE)) } },
-	{ "position-track-limited",
-	  "DEG MAX_DPS",
-	  "position tracking with a speed limit (V3 0xA5)",
-	  NULL,
-	  { V(P_V3, 0xA5, 2, F(ANGLE), F(MAX_SPEED)) } },
-	{ "position-single",
-	  "DEG MAX_DPS DIR",
+	  NULL },
+	{ "position-track", "DEG", "position tracking, no speed limit (V3/V2 0xA3; V4 removed it)",
+	  NULL },
+	{ "position-track-limited", "DEG MAX_DPS", "position tracking with a speed limit (V3 0xA5)",
+	  NULL },
+	{ "position-single", "DEG MAX_DPS DIR",
 	  "single-turn position 0..360 deg at up to MAX_DPS, DIR 0 clockwise or\n"
 	  "1 counterclockwise (V4 0xA6)",
-	  NULL,
-	  { V(P_V4, 0xA6, 3, F(ANGLE), F(MAX_SPEED), F(SPIN_DIR)) } },
-	{ "increment",
-	  "DEG [MAX_DPS]",
+	  NULL },
+	{ "increment", "DEG [MAX_DPS]",
 	  "relative move from the current position: V3/V4 0xA8 (MAX_DPS required);\n"
 	  "V2 0xA7, or 0xA8 with MAX_DPS",
-	  NULL,
-	  { V(P_V34, 0xA8, 2, F(ANGLE), F(MAX_SPEED)), V(P_V2, 0xA7, 1, F(ANGLE)),
-	    V(P_V2, 0xA8, 2, F(ANGLE), F(MAX_SPEED)) } },
-	{ "stop", "", "stop the motor, keep its state (0x81)", NULL, { V0(P_ALL, 0x81) } },
-	{ "off", "", "output off, state cleared (0x80)", NULL, { V0(P_ALL, 0x80) } },
-	{ "run", "", "resume after stop (V2 0x88)", NULL, { V0(P_V2, 0x88) } },
-	{ "brake-release", "", "release the brake (0x77)", NULL, { V0(P_ALL, 0x77) } },
-	{ "brake-lock", "", "lock the brake (0x78)", NULL, { V0(P_ALL, 0x78) } },
-	{ "reset", "", "reset the motor's controller; no reply (0x76)", NULL, { V0(P_ALL, 0x76) } },
-	{ "status1",
-	  "",
-	  "read temperature, voltage, brake, errors (0x9A)",
-	  NULL,
-	  { V0(P_ALL, 0x9A) } },
-	{ "status2",
-	  "",
-	  "read temperature, current, speed, angle (0x9C)",
-	  NULL,
-	  { V0(P_ALL, 0x9C) } },
-	{ "status3", "", "read phase currents (0x9D)", NULL, { V0(P_ALL, 0x9D) } },
-	{ "read-angle", "", "read the multi-turn angle (0x92)", NULL, { V0(P_ALL, 0x92) } },
-	{ "read-angle-single",
-	  "",
-	  "read the single-turn angle (V4 0x94)",
-	  NULL,
-	  { V0(P_V4, 0x94) } },
-	{ "read-encoder-single",
-	  "",
-	  "read the single-turn encoder, raw and offset (V4 0x90)",
-	  NULL,
-	  { V0(P_V4, 0x90) } },
-	{ "model", "", "read the model string (V3/V4 0xB5)", NULL, { V0(P_V34, 0xB5) } },
-	{ "version", "", "read the firmware date (V3/V4 0xB2)", NULL, { V0(P_V34, 0xB2) } },
-	{ "runtime", "", "read the time since power-up (V3/V4 0xB1)", NULL, { V0(P_V34, 0xB1) } },
-	{ "mode", "", "read the run mode (0x70)", NULL, { V0(P_ALL, 0x70) } },
-	{ "power", "", "read the power (V3/V2 0x71)", NULL, { V0(P_BOTH, 0x71) } },
-	{ "timeout",
-	  "MS",
+	  NULL },
+	{ "stop", "", "stop the motor, keep its state (0x81)", NULL },
+	{ "off", "", "output off, state cleared (0x80)", NULL },
+	{ "run", "", "resume after stop (V2 0x88)", NULL },
+	{ "brake-release", "", "release the brake (0x77)", NULL },
+	{ "brake-lock", "", "lock the brake (0x78)", NULL },
+	{ "reset", "", "reset the motor's controller; no reply (0x76)", NULL },
+	{ "status1", "", "read temperature, voltage, brake, errors (0x9A)", NULL },
+	{ "status2", "", "read temperature, current, speed, angle (0x9C)", NULL },
+	{ "status3", "", "read phase currents (0x9D)", NULL },
+	{ "read-angle", "", "read the multi-turn angle (0x92)", NULL },
+	{ "read-angle-single", "", "read the single-turn angle (V4 0x94)", NULL },
+	{ "read-encoder-single", "", "read the single-turn encoder, raw and offset (V4 0x90)",
+	  NULL },
+	{ "model", "", "read the model string (V3/V4 0xB5)", NULL },
+	{ "version", "", "read the firmware date (V3/V4 0xB2)", NULL },
+	{ "runtime", "", "read the time since power-up (V3/V4 0xB1)", NULL },
+	{ "mode", "", "read the run mode (0x70)", NULL },
+	{ "power", "", "read the power (V3/V2 0x71)", NULL },
+	{ "timeout", "MS",
 	  "set the comm-loss protection time, 0 = off; stored in ROM, set it once\n"
 	  "(V3/V4 0xB3)",
-	  NULL,
-	  { V(P_V34, 0xB3, 1, F(TIMEOUT)) } },
-	{ "accel-read",
-	  "[INDEX]",
+	  NULL },
+	{ "accel-read", "[INDEX]",
 	  "read the acceleration (0x42); V4 reads the one of INDEX 0..3 (position\n"
 	  "accel/decel, speed accel/decel)",
-	  NULL,
-	  { V0(P_BOTH, 0x42), V(P_V4, 0x42, 1, F(INDEX)) } },
-	{ "accel",
-	  "[INDEX] DPS2",
+	  NULL },
+	{ "accel", "[INDEX] DPS2",
 	  "write an acceleration: V3/V4 0x43 takes INDEX 0..3 (position accel/decel,\n"
 	  "speed accel/decel) and DPS2 100..60000; V2 0x43 takes DPS2 only",
-	  NULL,
-	  { V(P_V34, 0x43, 2, F(INDEX), F(ACCEL)), V(P_V2, 0x43, 1, F(ACCEL)) } },
-	{ "pid-read",
-	  "[LOOP]",
+	  NULL },
+	{ "pid-read", "[LOOP]",
 	  "read PID gains: V3 0x30 reads all six; V2 reads one, LOOP = position-kp,\n"
 	  "position-ki, speed-kp, speed-ki, current-kp or current-ki (0x30..0x35);\n"
 	  "V4 0x30 reads one, LOOP as V2's or position-kd",
-	  enc_pid_read,
-	  { { 0 } } },
-	{ "pid",
-	  "LOOP GAIN",
+	  enc_pid_read },
+	{ "pid", "LOOP GAIN",
 	  "write one gain to RAM, lost at power off (V4 0x31): LOOP as pid-read's,\n"
 	  "GAIN a real (a float on the wire)",
-	  enc_pid_write,
-	  { { 0 } } },
-	{ "pid-rom",
-	  "LOOP GAIN",
-	  "write one gain to ROM, kept at power off (V4 0x32)",
-	  enc_pid_write,
-	  { { 0 } } },
-	{ "function",
-	  "INDEX VALUE",
+	  enc_pid_write },
+	{ "pid-rom", "LOOP GAIN", "write one gain to ROM, kept at power off (V4 0x32)",
+	  enc_pid_write },
+	{ "function", "INDEX VALUE",
 	  "function control (V3/V4 0x20): 1 clear multi-turn and save, 2 CAN ID\n"
 	  "filter on/off, 3 0x9A error reports on/off, 4 keep multi-turn at power\n"
 	  "off; V4 also 5 set the CAN ID (ROM, after a reset), 6/7 positive/negative\n"
 	  "position limit (ROM)",
-	  NULL,
-	  { V(P_V34, 0x20, 2, F(INDEX), F(VALUE)) } },
-	{ "active-reply",
-	  "CMD ON MS",
+	  NULL },
+	{ "active-reply", "CMD ON MS",
 	  "have the motor push CMD's reply every MS ms (10 ms steps), ON 1, or\n"
 	  "stop, ON 0; CMD in hex: 60 61 62 92 9A 9C 9D 9E; CAN only; no reply\n"
 	  "(V4 0xB6)",
-	  enc_active_reply,
-	  { { 0 } } },
-	{ "multi-torque",
-	  "A1 A2 A3 A4",
-	  "torque currents of motors 1..4 in one 0x280 frame (V2 only; no --id)",
-	  NULL,
-	  { { .protos = P_V2,
-	      .cmd = RMD_V2_CMD_MULTI_TORQUE,
-	      .nargs = 4,
-	      .multi = true,
-	      .fld = { F(CURRENT_1), F(CURRENT_2), F(CURRENT_3), F(CURRENT_4) } } } },
-	{ "mit",
-	  "P V KP KD T",
+	  enc_active_reply },
+	{ "multi-torque", "A1 A2 A3 A4",
+	  "torque currents of motors 1..4 in one 0x280 frame (V2 only; no --id)", NULL },
+	{ "mit", "P V KP KD T",
 	  "MIT motion mode on 0x400+ID: position rad, velocity rad/s, kp, kd,\n"
 	  "feed-forward torque N·m, each within --mit-ranges (V3 and V4 firmware)",
-	  enc_mit,
-	  { { 0 } } },
-	{ "raw",
-	  "CMD [FIELD=VALUE ...]",
+	  enc_mit },
+	{ "raw", "CMD [FIELD=VALUE ...]",
 	  "any command of the protocol's table: CMD is its byte in hex (9A or 0x9A)\n"
 	  "or its row name (read_status_1); FIELD is a request field key as\n"
 	  "`rmdctl decode --json` prints it (current_a, angle_deg, ...), VALUE in\n"
 	  "that key's native unit; fields not given are 0",
-	  enc_raw,
-	  { { 0 } } },
+	  enc_raw },
 };
 #define NENC (sizeof(enc_cmds) / sizeof(enc_cmds[0]))
 
 /*
- * Ranges the manuals document beyond the width of a field.  Checked by every
- * command, `raw` included.
+ * Commands the list above does not name: a word a row of a firmware
+ * dialect's table spells (a dialect's own command needs nothing here).
  */
-static const struct limit {
-	unsigned protos;
-	uint8_t cmd;
-	enum rmd_field fld;
-	double lo, hi; /* native units */
-	const char *cite;
-} limits[] = {
-	{ P_V2, 0xA1, F(CURRENT), -32, 32, "V2 §3.37: iqControl -2000..2000 is -32..32 A" },
-	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_1), -32, 32,
-	  "V2 §4.1: -2000..2000 is -32..32 A" },
-	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_2), -32, 32,
-	  "V2 §4.1: -2000..2000 is -32..32 A" },
-	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_3), -32, 32,
-	  "V2 §4.1: -2000..2000 is -32..32 A" },
-	{ P_V2, RMD_V2_CMD_MULTI_TORQUE, F(CURRENT_4), -32, 32,
-	  "V2 §4.1: -2000..2000 is -32..32 A" },
-	{ P_V2, 0x43, F(ACCEL), 0, 10000, "V2 §3.20: 0..10000 dps/s" },
-	{ P_V3, 0x43, F(ACCEL), 100, 60000, "V3 §2.5.1: 100..60000 dps/s" },
-	{ P_V3, 0x43, F(INDEX), 0, 3, "V3 §2.5.4: index 0..3" },
-	{ P_V3, 0x20, F(INDEX), 1, 4, "V3 §2.33.4: index 1..4" },
-	{ P_V4, 0x43, F(ACCEL), 100, 60000, "V4.2 §2.5.1: 100..60000 dps/s" },
-	{ P_V4, 0x43, F(INDEX), 0, 3, "V4.2 §2.5.4: index 0..3" },
-	{ P_V4, 0x42, F(INDEX), 0, 3, "V4.2 §2.4.4: index 0..3" },
-	{ P_V4, 0x20, F(INDEX), 1, 7, "V4.2 §2.34.4: index 1..7" },
-	{ P_V4, 0x30, F(INDEX), 1, 9, "V4.2 §2.1.4: index 1..9" },
-	{ P_V4, 0x31, F(INDEX), 1, 9, "V4.2 §2.2.4: index 1..9" },
-	{ P_V4, 0x32, F(INDEX), 1, 9, "V4.2 §2.3.4: index 1..9" },
-	{ P_V4, 0xA6, F(ANGLE), 0, 360, "V4.2 §2.22: 0..359.99 deg, and 360 as its example sends" },
-	{ P_V4, 0xA6, F(SPIN_DIR), 0, 1, "V4.2 §2.22.1: 0 clockwise, 1 counterclockwise" },
-	{ P_V4, 0xB6, F(REPORT_ON), 0, 1, "V4.2 §2.33.2: 1 on, 0 off" },
+#define UNLISTED_MAX 32
+#define WORD_MAX 32
+
+struct unlisted {
+	char word[WORD_MAX];
+	const struct rmd_cmd_spec *row; /* the first row spelled so */
+	const struct rmd_dialect *d;	/* whose table it is in */
 };
+
+static const struct enc_cmd *listed(const char *word)
+{
+	for (size_t i = 0; i < NENC; i++)
+		if (!strcmp(enc_cmds[i].name, word))
+			return &enc_cmds[i];
+	return NULL;
+}
+
+/* The words rows spell that enc_cmds does not name, once each, into u[]; their count. */
+static size_t unlisted_words(struct unlisted *u, size_t max)
+{
+	const struct rmd_dialect *dl;
+	size_t nd, n = 0;
+
+	dl = rmd_dialect_list(&nd);
+	for (size_t i = 0; i < nd; i++) {
+		const struct rmd_cmd_spec *rows;
+		size_t nr = rmd_dialect_is_firmware(&dl[i]) ? rmd_cmd_table(dl[i].proto, &rows) : 0;
+
+		for (size_t j = 0; j < nr; j++) {
+			for (const char *w = rows[j].spell.words; w && *w;) {
+				size_t len = strcspn(w, " "), k;
+
+				if (len < WORD_MAX && n < max) {
+					memcpy(u[n].word, w, len);
+					u[n].word[len] = '\0';
+					for (k = 0; k < n && strcmp(u[k].word, u[n].word); k++)
+						;
+					if (k == n && !listed(u[n].word)) {
+						u[n].row = &rows[j];
+						u[n].d = &dl[i];
+						n++;
+					}
+				}
+				w += len + (w[len] == ' ');
+			}
+		}
+	}
+	return n;
+}
+
+/* An unlisted word's arguments for usage lines: its row's field keys, "CURRENT_A SPEED_DPS". */
+static const char *unlisted_args(const struct unlisted *u, char *buf, size_t size)
+{
+	size_t k = 0;
+
+	buf[0] = '\0';
+	for (unsigned i = 0; i < u->row->spell.n_args && k + 1 < size; i++) {
+		const char *key = rmd_field_key((enum rmd_field)u->row->spell.args[i]);
+
+		if (i)
+			buf[k++] = ' ';
+		for (; *key && k + 1 < size; key++)
+			buf[k++] = *key >= 'a' && *key <= 'z' ? (char)(*key - 'a' + 'A') : *key;
+		buf[k] = '\0';
+	}
+	return buf;
+}
 
 void rmdctl_encode_usage(FILE *f)
 {
+	struct unlisted u[UNLISTED_MAX];
+	char keys[64], phrase[128];
+	size_t n_u;
+
 	fprintf(f,
-		"usage: rmdctl encode [--protocol v3|v2|mit|v4] [--id N] [--mit-ranges P,V,T,KP,KD]\n"
-		"                     COMMAND [ARGS...]\n"
+		"usage: rmdctl encode [--protocol %s] [--id N] [--mit-ranges P,V,T,KP,KD]\n"
+		"                     " RMDCTL_ENCODE_ARGS "\n"
 		"\n"
 		"Prints one request frame in cansend syntax (\"141#A100000064000000\"):\n"
 		"  cansend can0 $(rmdctl encode --id 1 torque 1.0)\n"
 		"Options come before COMMAND, so negative values need no quoting.\n"
 		"\n"
-		"  --protocol P    v3 (default), v2, mit (= v3 tables plus `mit`), or v4\n"
+		"  --protocol P    %s\n"
 		"  --id N          motor 1..32 (every command but multi-torque)\n"
 		"  --mit-ranges P,V,T,KP,KD\n"
 		"                  MIT ranges: position ±P rad, velocity ±V rad/s, torque\n"
@@ -288,7 +240,9 @@ void rmdctl_encode_usage(FILE *f)
 		"Values are in the unit named (A, dps, deg, ms, dps/s) and are rounded to\n"
 		"the protocol's resolution; a value the frame cannot carry is refused.\n"
 		"\n"
-		"commands:\n");
+		"commands:\n",
+		rmd_proto_keys_text(keys, sizeof(keys), "|", "|"),
+		rmdctl_proto_help(phrase, sizeof(phrase), false));
 	for (size_t i = 0; i < NENC; i++) {
 		const struct enc_cmd *ec = &enc_cmds[i];
 		const char *h = ec->help;
@@ -300,6 +254,14 @@ void rmdctl_encode_usage(FILE *f)
 			fprintf(f, "      %.*s\n", (int)n, h);
 			h += n + (h[n] == '\n');
 		}
+	}
+	n_u = unlisted_words(u, UNLISTED_MAX);
+	for (size_t i = 0; i < n_u; i++) {
+		char args[96];
+
+		unlisted_args(&u[i], args, sizeof(args));
+		fprintf(f, "  %s%s%s\n      %s (0x%02X), protocol %s\n", u[i].word,
+			*args ? " " : "", args, u[i].row->name, u[i].row->cmd, u[i].d->name);
 	}
 	fprintf(f, "\n"
 		   "exit status: 0 frame printed; 1 the codec table lacks the command or refused\n"
@@ -315,15 +277,6 @@ static void cmd_usage(const struct enc_cmd *ec)
 
 /* ---- values -> fields ----------------------------------------------------------------- */
 
-static const struct limit *find_limit(enum rmd_proto table, uint8_t cmd, enum rmd_field fld)
-{
-	for (size_t i = 0; i < sizeof(limits) / sizeof(limits[0]); i++)
-		if (limits[i].protos & (1u << table) && limits[i].cmd == cmd &&
-		    limits[i].fld == fld)
-			return &limits[i];
-	return NULL;
-}
-
 /*
  * Native value v -> raw integer of field `fld` of `spec`'s request, stored in
  * msg.  Refuses what the field cannot carry or the manual rules out.
@@ -332,7 +285,7 @@ static int set_field(const struct enc_ctx *ctx, const char *what, const struct r
 		     enum rmd_field fld, double v, struct rmd_msg *msg)
 {
 	const struct rmd_field_spec *fs = rmd_layout_field(spec, RMD_DIR_REQUEST, fld);
-	const struct limit *lim = find_limit(ctx->table, spec->cmd, fld);
+	const struct rmd_field_range *lim = rmd_cmd_range(spec, fld);
 	const char *unit;
 	char label[40], vs[48], los[48], his[48];
 	unsigned bits;
@@ -434,75 +387,72 @@ static int parse_value(const struct enc_cmd *ec, const char *s, double *v)
 
 /* ---- commands ------------------------------------------------------------------------- */
 
-static int enc_variants(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
-			struct rmd_frame *out)
+/* The row of `table` spelled `word` with n_args arguments (any count: -1), or NULL. */
+static const struct rmd_cmd_spec *spelled_row(enum rmd_proto table, const char *word, int n_args)
 {
-	const struct variant *v = NULL;
-	const struct rmd_cmd_spec *spec;
+	const struct rmd_cmd_spec *rows;
+	size_t n = rmd_cmd_table(table, &rows);
+
+	for (size_t i = 0; i < n; i++)
+		if (rmd_cmd_spelled(&rows[i], word) &&
+		    (n_args < 0 || rows[i].spell.n_args == n_args))
+			return &rows[i];
+	return NULL;
+}
+
+/* A command of the rows spelled ec->name (struct rmd_spelling). */
+static int enc_spelled(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
+		       struct rmd_frame *out)
+{
+	const struct rmd_cmd_spec *spec = spelled_row(ctx->table, ec->name, argc);
 	struct rmd_msg msg = { 0 };
-	bool in_proto = false;
+	bool multi;
 	int r;
 
-	for (size_t i = 0; i < sizeof(ec->v) / sizeof(ec->v[0]) && ec->v[i].protos; i++) {
-		if (!(ec->v[i].protos & (1u << ctx->table)))
-			continue;
-		in_proto = true;
-		if (ec->v[i].nargs == (unsigned)argc) {
-			v = &ec->v[i];
-			break;
-		}
-	}
-	if (!in_proto) {
+	if (!spelled_row(ctx->table, ec->name, -1)) {
 		char keys[64] = "";
 		size_t nd, k = 0;
 		const struct rmd_dialect *dl = rmd_dialect_list(&nd);
 
 		/* the dialects whose tables have it */
-		for (size_t i = 0; i < nd; i++)
-			for (size_t j = 0; j < sizeof(ec->v) / sizeof(ec->v[0]); j++)
-				if (dl[i].table == dl[i].proto &&
-				    (ec->v[j].protos & (1u << dl[i].proto))) {
-					k += (size_t)snprintf(keys + k, sizeof(keys) - k, "%s%s",
-							      k ? " or " : "", dl[i].key);
-					break;
-				}
+		for (size_t i = 0; i < nd && k < sizeof(keys); i++)
+			if (rmd_dialect_is_firmware(&dl[i]) &&
+			    spelled_row(dl[i].proto, ec->name, -1))
+				k += (size_t)snprintf(keys + k, sizeof(keys) - k, "%s%s",
+						      k ? " or " : "", dl[i].key);
 		tool_log(TOOL_LOG_ERR, "%s: not a command of protocol %s (--protocol %s)", ec->name,
 			 rmd_proto_name(ctx->proto), keys);
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (!v) {
+	if (!spec) {
 		tool_log(TOOL_LOG_ERR, "%s: wrong number of arguments for protocol %s", ec->name,
 			 rmd_proto_name(ctx->proto));
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (!v->multi && (r = need_id(ctx, ec)) != 0)
+	/* V2 §4.1: the 0x280 frame carries no command byte and goes to no one motor */
+	multi = spec->flags & RMD_CMD_NO_CMD_BYTE;
+	if (!multi && (r = need_id(ctx, ec)) != 0)
 		return r;
-	spec = find_row(ctx, ec->name, v->cmd);
-	if (!spec)
-		return RMDCTL_EXIT_DATA;
-	msg.cmd = v->cmd;
-	for (unsigned i = 0; i < v->nargs; i++) {
+	msg.cmd = spec->cmd;
+	for (unsigned i = 0; i < spec->spell.n_args; i++) {
 		double val;
 
 		r = parse_value(ec, argv[i], &val);
 		if (r)
 			return r;
-		r = set_field(ctx, ec->name, spec, v->fld[i], val, &msg);
+		r = set_field(ctx, ec->name, spec, (enum rmd_field)spec->spell.args[i], val, &msg);
 		if (r)
 			return r;
 	}
-	return finish(ctx, ec->name, spec, v->multi, &msg, out);
+	return finish(ctx, ec->name, spec, multi, &msg, out);
 }
 
-/*
- * The index of gain LOOP ("position-kd" or "position_kd") in a dialect that
- * reads and writes one gain by index (V4.2 §2.1.4), or -1.
- */
-static int gain_index(const struct rmd_dialect *dl, const char *loop)
+/* The slot of gain LOOP ("position-kd" or "position_kd") of a dialect, or -1. */
+static int gain_slot(const struct rmd_dialect *dl, const char *loop)
 {
-	for (size_t i = 0; i < dl->n_pid_slots && dl->pid == RMD_PID_FLOAT_INDEXED; i++) {
+	for (size_t i = 0; i < dl->n_pid_slots; i++) {
 		const char *a = rmd_field_key((enum rmd_field)dl->pid_slots[i].field), *b = loop;
 
 		while (*a && (*a == *b || (*a == '_' && *b == '-'))) {
@@ -510,7 +460,7 @@ static int gain_index(const struct rmd_dialect *dl, const char *loop)
 			b++;
 		}
 		if (!*a && !*b)
-			return dl->pid_slots[i].index;
+			return (int)i;
 	}
 	return -1;
 }
@@ -530,67 +480,70 @@ static int bad_loop(const struct enc_ctx *ctx, const struct enc_cmd *ec, const c
 	return RMDCTL_EXIT_USAGE;
 }
 
+/* The request that does op to gain `slot` alone (rmd_pid_requests()), or -1 when none does. */
+static int one_gain(const struct rmd_dialect *dl, enum rmd_pid_op op, int slot, struct rmd_msg *m)
+{
+	struct rmd_pid_set set = { .slots = UINT32_C(1) << slot }, carried;
+	struct rmd_msg reqs[RMD_PID_SLOTS_MAX];
+	uint32_t named;
+
+	if (slot < 0 || rmd_pid_requests(dl, op, &set, reqs) != 1 ||
+	    !rmd_pid_parse(dl, &reqs[0], &op, &named, &carried) || named != set.slots)
+		return -1;
+	*m = reqs[0];
+	return 0;
+}
+
 static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
 			struct rmd_frame *out)
 {
-	/* V2 §2: one read command per gain, in this order from 0x30. */
-	static const char *const loops[] = { "position-kp", "position-ki", "speed-kp",
-					     "speed-ki",    "current-kp",  "current-ki" };
 	const struct rmd_dialect *dl = rmd_dialect(ctx->table);
+	struct rmd_pid_set all = { .slots = UINT32_MAX };
+	struct rmd_msg reqs[RMD_PID_SLOTS_MAX];
 	const struct rmd_cmd_spec *spec;
-	struct rmd_msg msg = { 0 };
-	uint8_t cmd = 0x30;
-	int r, index = -1;
-
+	int r, n = rmd_pid_requests(dl, RMD_PID_READ, &all, reqs);
 	/* V2 §3.1: a command a gain; V4.2 §2.1: 0x30 and the gain's index; V3 §2.1: all six */
-	bool one = dl->pid == RMD_PID_V2_PER_GAIN || dl->pid == RMD_PID_FLOAT_INDEXED;
+	bool one = n > 1;
 
+	if (n < 1) {
+		tool_log(TOOL_LOG_ERR, "%s: protocol %s has no PID commands", ec->name,
+			 rmd_proto_name(ctx->proto));
+		cmd_usage(ec);
+		return RMDCTL_EXIT_USAGE;
+	}
 	if (argc != (one ? 1 : 0)) {
 		tool_log(TOOL_LOG_ERR, "%s: protocol %s takes %s", ec->name,
 			 rmd_proto_name(ctx->proto), one ? "one LOOP" : "no argument");
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (argc == 1 && dl->pid == RMD_PID_FLOAT_INDEXED) {
-		index = gain_index(dl, argv[0]);
-		if (index < 0)
-			return bad_loop(ctx, ec, argv[0]);
-	} else if (argc == 1) {
-		size_t i;
-
-		for (i = 0; i < sizeof(loops) / sizeof(loops[0]); i++)
-			if (!strcmp(argv[0], loops[i]))
-				break;
-		if (i == sizeof(loops) / sizeof(loops[0])) {
-			tool_log(TOOL_LOG_ERR, "%s: unknown LOOP \"%s\"", ec->name, argv[0]);
-			cmd_usage(ec);
-			return RMDCTL_EXIT_USAGE;
-		}
-		cmd = (uint8_t)(0x30 + i);
-	}
+	if (argc == 1 && one_gain(dl, RMD_PID_READ, gain_slot(dl, argv[0]), &reqs[0]) < 0)
+		return bad_loop(ctx, ec, argv[0]);
 	if ((r = need_id(ctx, ec)) != 0)
 		return r;
-	spec = find_row(ctx, ec->name, cmd);
+	spec = find_row(ctx, ec->name, reqs[0].cmd);
 	if (!spec)
 		return RMDCTL_EXIT_DATA;
-	msg.cmd = cmd;
-	if (index >= 0 && (r = set_field(ctx, ec->name, spec, RMD_FLD_INDEX, index, &msg)) != 0)
-		return r;
-	return finish(ctx, ec->name, spec, false, &msg, out);
+	return finish(ctx, ec->name, spec, false, &reqs[0], out);
 }
 
-/* V4.2 §2.2 (pid, 0x31, RAM) and §2.3 (pid-rom, 0x32, ROM): one float gain by index. */
+/*
+ * V4.2 §2.2 (pid, 0x31, RAM) and §2.3 (pid-rom, 0x32, ROM): one gain alone,
+ * a real (a float on the wire); a dialect that writes its gains otherwise
+ * is refused.
+ */
 static int enc_pid_write(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc, char **argv,
 			 struct rmd_frame *out)
 {
 	const struct rmd_dialect *dl = rmd_dialect(ctx->table);
-	uint8_t cmd = strcmp(ec->name, "pid-rom") ? 0x31 : 0x32;
+	enum rmd_pid_op op = strcmp(ec->name, "pid-rom") ? RMD_PID_WRITE_RAM : RMD_PID_WRITE_ROM;
+	const struct rmd_field_spec *fs = rmd_pid_spec(dl, 0);
 	const struct rmd_cmd_spec *spec;
-	struct rmd_msg msg = { 0 };
+	struct rmd_msg msg;
 	double gain;
-	int r, index;
+	int r, slot;
 
-	if (dl->pid != RMD_PID_FLOAT_INDEXED) {
+	if (!fs || !fs->is_float || one_gain(dl, op, 0, &msg) < 0) {
 		tool_log(TOOL_LOG_ERR,
 			 "%s: protocol %s writes its gains otherwise (`raw`: six in 0x31 in V3, "
 			 "one a command from 0x36 in V2)",
@@ -603,19 +556,18 @@ static int enc_pid_write(const struct enc_ctx *ctx, const struct enc_cmd *ec, in
 		cmd_usage(ec);
 		return RMDCTL_EXIT_USAGE;
 	}
-	index = gain_index(dl, argv[0]);
-	if (index < 0)
+	slot = gain_slot(dl, argv[0]);
+	if (one_gain(dl, op, slot, &msg) < 0)
 		return bad_loop(ctx, ec, argv[0]);
 	if ((r = parse_value(ec, argv[1], &gain)) != 0)
 		return r;
 	if ((r = need_id(ctx, ec)) != 0)
 		return r;
-	spec = find_row(ctx, ec->name, cmd);
+	spec = find_row(ctx, ec->name, msg.cmd);
 	if (!spec)
 		return RMDCTL_EXIT_DATA;
-	msg.cmd = cmd;
-	if ((r = set_field(ctx, ec->name, spec, RMD_FLD_INDEX, index, &msg)) != 0 ||
-	    (r = set_field(ctx, ec->name, spec, RMD_FLD_GAIN, gain, &msg)) != 0)
+	r = set_field(ctx, ec->name, spec, rmd_pid_field(dl, (unsigned)slot), gain, &msg);
+	if (r)
 		return r;
 	return finish(ctx, ec->name, spec, false, &msg, out);
 }
@@ -854,23 +806,31 @@ const struct tool_opt rmdctl_encode_opts[] = {
 	RMDCTL_CODEC_OPTS,
 	{ .name = "id", .shortc = 'i', .has_arg = required_argument, .arg = "N", .help = "" },
 };
-const size_t rmdctl_n_encode_opts = sizeof(rmdctl_encode_opts) / sizeof(rmdctl_encode_opts[0]);
+#define NOPTS (sizeof(rmdctl_encode_opts) / sizeof(rmdctl_encode_opts[0]))
+const size_t rmdctl_n_encode_opts = NOPTS;
+
+/* Options end at COMMAND, so "torque -1.5" is a value, not an option. */
+static const struct rmdctl_codec_cmd encode_cmd = {
+	"encode", RMDCTL_ENCODE_ARGS, rmdctl_encode_opts, NOPTS, true, rmdctl_encode_usage
+};
 
 int rmdctl_encode_run(int argc, char **argv)
 {
 	struct enc_ctx ctx = {
-		.proto = RMD_PROTO_V3,
+		.proto = RMDCTL_PROTO_DEFAULT,
 		.motor_id = -1,
 		.r = rmd_mit_default_ranges,
 	};
+	struct unlisted u[UNLISTED_MAX];
 	const struct enc_cmd *ec = NULL;
+	struct enc_cmd own = { 0 };
 	struct tool_near near;
 	struct rmd_frame frame;
+	char args[96];
+	size_t n;
 	int r;
 
-	/* '+': stop at COMMAND, so "torque -1.5" is a value, not an option. */
-	r = rmdctl_codec_getopt(argc, argv, rmdctl_encode_opts, rmdctl_n_encode_opts, true,
-				&ctx.proto, &ctx.r, rmdctl_encode_usage, encode_opt, &ctx);
+	r = rmdctl_codec_getopt(argc, argv, &encode_cmd, &ctx.proto, &ctx.r, encode_opt, &ctx);
 	if (r >= 0)
 		return r;
 	ctx.table = rmd_proto_table(ctx.proto);
@@ -883,6 +843,16 @@ int rmdctl_encode_run(int argc, char **argv)
 		if (!strcmp(enc_cmds[i].name, argv[optind]))
 			ec = &enc_cmds[i];
 		tool_near_try(&near, enc_cmds[i].name);
+	}
+	n = unlisted_words(u, UNLISTED_MAX);
+	for (size_t i = 0; i < n; i++) {
+		if (!ec && !strcmp(u[i].word, argv[optind])) {
+			own = (struct enc_cmd){ .name = u[i].word,
+						.args = unlisted_args(&u[i], args, sizeof(args)),
+						.help = "" };
+			ec = &own;
+		}
+		tool_near_try(&near, u[i].word);
 	}
 	if (!ec && near.best) {
 		tool_log(TOOL_LOG_ERR, "unknown command \"%s\" (did you mean %s?)", argv[optind],
@@ -897,7 +867,7 @@ int rmdctl_encode_run(int argc, char **argv)
 	if (ec->custom)
 		r = ec->custom(&ctx, ec, argc - optind, argv + optind, &frame);
 	else
-		r = enc_variants(&ctx, ec, argc - optind, argv + optind, &frame);
+		r = enc_spelled(&ctx, ec, argc - optind, argv + optind, &frame);
 	if (r)
 		return r;
 	print_frame(&frame);
@@ -908,6 +878,6 @@ int rmdctl_encode_run(int argc, char **argv)
 	return RMDCTL_EXIT_OK;
 
 usage:
-	rmdctl_usage_hint_name("encode");
+	rmdctl_usage_hint_args(encode_cmd.name, encode_cmd.args);
 	return RMDCTL_EXIT_USAGE;
 }

@@ -13,6 +13,8 @@
  *               ncurses screen on a terminal
  *   bench.c     what the device commands share: command line, bus, --trace,
  *               confirmation, transactions; output.c prints their results
+ *   parse.c     what every command's command line shares: decode's and
+ *               encode's options, numbers, usage hints, protocol phrases
  *
  * Commands are the rows of `cmds` below: name, one-line summary, arguments,
  * options, help and run.  decode, encode and top parse their own command
@@ -193,90 +195,6 @@ static const struct tool_opt main_opts[] = {
 	TOOL_OPT_COMPLETION,
 };
 #define NMAIN (sizeof(main_opts) / sizeof(main_opts[0]))
-
-void rmdctl_usage_hint(const struct rmdctl_cmd *c)
-{
-	char line[160], help[64];
-
-	if (!c) {
-		tool_usage_hint("rmdctl COMMAND [ARGS...]  (rmdctl help lists the commands)",
-				"rmdctl --help");
-		return;
-	}
-	snprintf(line, sizeof(line), "rmdctl %s [OPTIONS]%s%s", c->name, c->args ? " " : "",
-		 c->args ? c->args : "");
-	snprintf(help, sizeof(help), "rmdctl %s --help", c->name);
-	tool_usage_hint(line, help);
-}
-
-int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t n,
-			bool stop_at_operand, enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
-			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx)
-{
-	struct option longopts[16];
-	char shorts[40], msg[160];
-	int c;
-
-	if (n >= sizeof(longopts) / sizeof(longopts[0]))
-		n = sizeof(longopts) / sizeof(longopts[0]) - 1;
-	/* '+': stop at the first operand */
-	shorts[0] = '+';
-	tool_opts_getopt(o, n, longopts, shorts + 1, sizeof(shorts) - 1);
-	optind = 0; /* glibc: full re-initialisation */
-	opterr = 0;
-	while ((c = getopt_long(argc, argv, stop_at_operand ? shorts : shorts + 1, longopts,
-				NULL)) != -1) {
-		switch (c) {
-		case 'p':
-			if (rmd_proto_parse(optarg, proto) < 0) {
-				char keys[64];
-
-				tool_log(TOOL_LOG_ERR, "unknown protocol \"%s\" (%s)", optarg,
-					 rmd_proto_keys_text(keys, sizeof(keys), ", ", " or "));
-				goto usage;
-			}
-			break;
-		case 'm':
-			if (rmd_mit_ranges_parse(optarg, ranges) < 0) {
-				tool_log(TOOL_LOG_ERR,
-					 "bad --mit-ranges \"%s\" (five positive numbers "
-					 "P,V,T,KP,KD, each at most %g)",
-					 optarg, RMD_MIT_RANGE_LIMIT);
-				goto usage;
-			}
-			break;
-		case 'h':
-			usage(stdout);
-			return RMDCTL_EXIT_OK;
-		case 'y':
-			break; /* nothing to confirm */
-		case ':':
-		case '?':
-			tool_log(TOOL_LOG_ERR, "%s",
-				 tool_getopt_error(msg, sizeof(msg), c, argv, o, n));
-			goto usage;
-		default:
-			if (own(c, ctx) < 0)
-				goto usage;
-			break;
-		}
-	}
-	return -1;
-usage:
-	rmdctl_usage_hint_name(argv[0]);
-	return RMDCTL_EXIT_USAGE;
-}
-
-int rmdctl_parse_double(const char *s, double *v)
-{
-	char *end;
-
-	errno = 0;
-	*v = strtod(s, &end);
-	if (end == s || *end != '\0' || errno == ERANGE || !isfinite(*v))
-		return -EINVAL;
-	return 0;
-}
 
 static void usage(FILE *f)
 {

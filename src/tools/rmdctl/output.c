@@ -35,12 +35,15 @@ double rmdctl_rec_val(const struct rec *r, enum rmd_field f)
 	return (double)r->raw[f] * r->scale[f];
 }
 
-void rmdctl_rec_set_float(struct rec *r, enum rmd_field f, int64_t bits)
+void rmdctl_rec_set(struct rec *r, enum rmd_field f, const struct rmd_field_spec *fs, int64_t raw)
 {
 	r->present |= UINT64_C(1) << f;
-	r->is_float |= UINT64_C(1) << f;
-	r->raw[f] = bits;
-	r->scale[f] = 1.0;
+	r->raw[f] = raw;
+	r->scale[f] = fs->is_float ? 1.0 : fs->scale;
+	if (fs->is_float)
+		r->is_float |= UINT64_C(1) << f;
+	else
+		r->is_float &= ~(UINT64_C(1) << f);
 }
 
 /* Fold the fields of an answer into r; keep what r has unless overwrite. */
@@ -54,13 +57,19 @@ void rmdctl_rec_add(struct rec *r, const struct rmd_cmd_spec *spec, const struct
 
 		if (!rmd_msg_has(m, f) || (rmdctl_rec_has(r, f) && !overwrite))
 			continue;
-		r->present |= UINT64_C(1) << f;
-		r->raw[f] = m->v[f];
-		r->scale[f] = l->f[i].scale;
-		if (l->f[i].is_float)
-			r->is_float |= UINT64_C(1) << f;
-		else
-			r->is_float &= ~(UINT64_C(1) << f);
+		rmdctl_rec_set(r, f, &l->f[i], m->v[f]);
+	}
+}
+
+void rmdctl_rec_add_gains(struct rec *r, const struct dev *d, const struct rmd_pid_set *g)
+{
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
+
+	for (unsigned k = 0; k < dl->n_pid_slots && k < RMD_PID_SLOTS_MAX; k++) {
+		const struct rmd_field_spec *fs = rmd_pid_spec(dl, k);
+
+		if (fs && (g->slots >> k) & 1)
+			rmdctl_rec_set(r, (enum rmd_field)dl->pid_slots[k].field, fs, g->raw[k]);
 	}
 }
 

@@ -38,7 +38,8 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS], info[2 * RMD_MAX_MOTORS];
 	/* V3 §2.32, §2.29: model and firmware date */
-	bool v3 = rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2);
+	bool ident =
+		rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_MODEL_B5 | RMD_DIALECT_VERSION_B2);
 	int64_t t0 = rmd_now_ns();
 	unsigned n, ni = 0;
 	int m, r;
@@ -54,7 +55,7 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 		rmdctl_close_bus(d);
 		return -m;
 	}
-	if (v3) {
+	if (ident) {
 		for (int i = 0; i < m; i++) {
 			rmdctl_req_init(&info[ni++], found[i], 0xB5);
 			rmdctl_req_init(&info[ni++], found[i], 0xB2);
@@ -110,9 +111,6 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 
 /* ---- info, status --------------------------------------------------------------------- */
 
-/* V2 §3.1 .. §3.6: one Q24 gain per command, in the order of enum rmd_field CURR_KP.. */
-const uint8_t rmdctl_v2_pid_read[6] = { 0x34, 0x35, 0x32, 0x33, 0x30, 0x31 };
-
 int rmdctl_run_info(struct dev *d, int argc, char **argv)
 {
 	static const enum rmd_field order[] = {
@@ -121,10 +119,12 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 		RMD_FLD_POS_KP,	 RMD_FLD_POS_KI,  RMD_FLD_POS_KD,  RMD_FLD_MODE,
 	};
 	const struct rmd_dialect *dl = rmdctl_dialect(d);
-	struct req q[12];
+	struct req q[5 + RMD_PID_SLOTS_MAX];
+	struct rmd_pid_set gains;
 	struct rec rec = { 0 };
 	unsigned n = 0, bad;
 	uint8_t id = d->id;
+	bool has_kd = false;
 	int r;
 
 	(void)argc;
@@ -134,12 +134,8 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 		rmdctl_req_init(&q[n++], id, 0xB2); /* V3 §2.29 */
 		rmdctl_req_init(&q[n++], id, 0xB1); /* V3 §2.28 */
 	}
-	if (dl->pid == RMD_PID_U8_SIX) {
-		rmdctl_req_init(&q[n++], id, 0x30); /* V3 §2.1: six gains */
-	} else if (dl->pid == RMD_PID_V2_PER_GAIN) {
-		for (unsigned i = 0; i < 6; i++)
-			rmdctl_req_init(&q[n++], id, rmdctl_v2_pid_read[i]);
-	}
+	/* V3 §2.1: one 0x30, six gains; V2 §3.1: a read a gain; V4.2 §2.1: 0x30 by index */
+	n += rmdctl_pid_read_reqs(d, id, q + n);
 	/* V3 §2.4 / V2 §3.19; V4.2 §2.4: index 0, the position-planning acceleration */
 	rmdctl_req_init(&q[n], id, 0x42);
 	rmd_msg_set(&q[n++].msg, RMD_FLD_INDEX, 0);
@@ -148,24 +144,25 @@ int rmdctl_run_info(struct dev *d, int argc, char **argv)
 	if (r)
 		return r;
 	r = rmdctl_run_reqs(d, q, n);
-	/* V4.2 §2.1: the gains one by index */
-	if (!r && dl->pid == RMD_PID_FLOAT_INDEXED)
-		r = rmdctl_pid_read_indexed(d, id, &rec);
 	rmdctl_close_bus(d);
 	if (r)
 		return r;
 	bad = rmdctl_report_failed(d, q, n);
 	if (bad == n)
 		return RMDCTL_EXIT_DATA;
+	bad += rmdctl_pid_gather(d, q, n, &gains);
 	for (unsigned i = 0; i < n; i++)
 		rmdctl_rec_add_req(&rec, d, &q[i], true);
+	rmdctl_rec_add_gains(&rec, d, &gains);
 	/* position KD only where the layout has it (V4.2 §2.1.4 index 9) */
 	size_t n_order = sizeof(order) / sizeof(order[0]);
 	enum rmd_field shown[sizeof(order) / sizeof(order[0])];
 	size_t k = 0;
 
+	for (unsigned i = 0; i < dl->n_pid_slots; i++)
+		has_kd |= dl->pid_slots[i].field == RMD_FLD_POS_KD;
 	for (size_t i = 0; i < n_order; i++)
-		if (order[i] != RMD_FLD_POS_KD || dl->pid == RMD_PID_FLOAT_INDEXED)
+		if (order[i] != RMD_FLD_POS_KD || has_kd)
 			shown[k++] = order[i];
 	if (d->json) {
 		rmdctl_json_begin(d, id);

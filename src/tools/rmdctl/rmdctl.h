@@ -87,28 +87,57 @@ extern const size_t rmdctl_n_top_opts;
 extern const struct tool_opt rmdctl_decode_opts[], rmdctl_encode_opts[];
 extern const size_t rmdctl_n_decode_opts, rmdctl_n_encode_opts;
 
-/*
- * The command line of decode and encode, up to their operands, from their
- * option table o[0..n): the options both have (-p/--protocol into *proto,
- * -m/--mit-ranges into *ranges, -h/--help, and -y/--yes, which every
- * rmdctl command accepts and these ignore) here, each other option's
- * short letter through own(c, ctx), which returns 0 or -1 (reported).
- * stop_at_operand: options end at the first operand (encode's values may
- * be negative).  Returns -1 to go on (optind at the first operand), or the
- * exit status: RMDCTL_EXIT_OK after --help, or RMDCTL_EXIT_USAGE after a
- * bad option (reported, with the usage line).
- */
-int rmdctl_codec_getopt(int argc, char **argv, const struct tool_opt *o, size_t n,
-			bool stop_at_operand, enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
-			void (*usage)(FILE *f), int (*own)(int c, void *ctx), void *ctx);
+/* ---- command lines (parse.c) ------------------------------------------------------------ */
 
-/* After a usage error of command c (NULL: no command): the usage line and "see --help". */
+/* decode's and encode's operands (their usage lines and main.c's table). */
+#define RMDCTL_DECODE_ARGS "[FILE]"
+#define RMDCTL_ENCODE_ARGS "COMMAND [ARGS...]"
+
+/* The protocol of every command that is not told one (--protocol). */
+#define RMDCTL_PROTO_DEFAULT RMD_PROTO_V3
+
+/* decode's and encode's command lines (rmdctl_codec_getopt()). */
+struct rmdctl_codec_cmd {
+	const char *name;	     /* "encode" */
+	const char *args;	     /* its operands, for the usage hint: RMDCTL_ENCODE_ARGS */
+	const struct tool_opt *opts; /* its option table, RMDCTL_CODEC_OPTS first */
+	size_t n_opts;
+	bool stop_at_operand; /* options end at the first operand (encode's values may be negative) */
+	void (*usage)(FILE *f); /* --help */
+};
+
+/*
+ * The command line of decode or encode, up to its operands: the options
+ * both have (-p/--protocol into *proto, -m/--mit-ranges into *ranges,
+ * -h/--help, and -y/--yes, which every rmdctl command accepts and these
+ * ignore) here, each other option's short letter through own(c, ctx),
+ * which returns 0 or -1 (reported).  Returns -1 to go on (optind at the
+ * first operand), or the exit status: RMDCTL_EXIT_OK after --help, or
+ * RMDCTL_EXIT_USAGE after a bad option (reported, with the usage line).
+ */
+int rmdctl_codec_getopt(int argc, char **argv, const struct rmdctl_codec_cmd *c,
+			enum rmd_proto *proto, struct rmd_mit_ranges *ranges,
+			int (*own)(int c, void *ctx), void *ctx);
+
+/*
+ * After a usage error of command `name` with operands `args` (NULL: none;
+ * name NULL: no command): the usage line and "see --help".
+ */
+void rmdctl_usage_hint_args(const char *name, const char *args);
+/* The same for command c (NULL: no command). */
 void rmdctl_usage_hint(const struct rmdctl_cmd *c);
-/* The same for the command named name (decode, encode). */
+/* The same for the command named name (main.c's table: top). */
 void rmdctl_usage_hint_name(const char *name);
 
 /* A whole-string finite number (C locale).  Returns 0 or -EINVAL. */
 int rmdctl_parse_double(const char *s, double *v);
+
+/*
+ * The protocol keys as help texts list them, from the dialect list: "v3
+ * (default), v2, mit (= v3 tables plus `mit`), or v4"; firmware_only: the
+ * firmware dialects, "v3 (default), v2 or v4".  In buf, which it returns.
+ */
+const char *rmdctl_proto_help(char *buf, size_t size, bool firmware_only);
 
 /* ---- device commands (bench.c) ---------------------------------------------------------- */
 
@@ -171,11 +200,26 @@ struct rec {
 	double scale[RMD_FLD_COUNT];
 };
 
-/* V4.2 §2.1: the dialect's gains read one 0x30 by index each into rec (the bus open); an exit status. */
-int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec);
+/*
+ * The requests that read every gain of --protocol's dialect from motor id
+ * (rmd_pid_requests()) into q[] (RMD_PID_SLOTS_MAX); their count, 0 when
+ * it has no PID commands.
+ */
+unsigned rmdctl_pid_read_reqs(const struct dev *d, uint8_t id, struct req *q);
 
-/* Field f of r is the binary32 whose bits are `bits` (a V4 gain, read by index). */
-void rmdctl_rec_set_float(struct rec *r, enum rmd_field f, int64_t bits);
+/*
+ * The gains the answers to q[0..n) carry, into *got (its slots those
+ * found); requests that are no PID read are passed over.  An answer that
+ * lacks a gain its request named (V4.2 §2.1.3: another index) is reported;
+ * returns how many did.
+ */
+unsigned rmdctl_pid_gather(struct dev *d, const struct req *q, unsigned n, struct rmd_pid_set *got);
+
+/* Field f of r is `raw` as fs reads it (its scale; is_float: binary32 bits). */
+void rmdctl_rec_set(struct rec *r, enum rmd_field f, const struct rmd_field_spec *fs, int64_t raw);
+
+/* The gains of g (the dialect's slots), into r under their fields. */
+void rmdctl_rec_add_gains(struct rec *r, const struct dev *d, const struct rmd_pid_set *g);
 
 /* Set by SIGINT/SIGTERM: waits end early, move stops the motor, monitor exits. */
 extern volatile sig_atomic_t rmdctl_interrupted;
@@ -259,9 +303,6 @@ void rmdctl_print_rec(const struct dev *d, uint8_t id, const struct rec *r,
 		      const enum rmd_field *order, size_t n);
 
 /* ---- the commands (read.c, settings.c, motion.c) ---------------------------------------- */
-
-/* V2 §3.15..§3.20: the six PI gain reads, current/speed/position kp, ki order. */
-extern const uint8_t rmdctl_v2_pid_read[6];
 
 int rmdctl_run_scan(struct dev *d, int argc, char **argv);
 int rmdctl_run_info(struct dev *d, int argc, char **argv);

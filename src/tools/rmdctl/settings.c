@@ -50,7 +50,7 @@ static int others_renumbered(struct dev *d, const uint8_t *before, unsigned n, u
 	return RMDCTL_EXIT_DATA;
 }
 
-/* An echo of `data` from one of ids[] (set_id_func_20()). */
+/* An echo of `data` from one of ids[] (set_id_then_reset()). */
 struct echo_cap {
 	uint32_t ids[2];
 	uint8_t data[RMD_FRAME_LEN];
@@ -66,35 +66,50 @@ static void cap_echo(void *ctx, const struct rmd_bus_rx *rx)
 		c->from = rx->f.can_id;
 }
 
+/* A request as messages name it: "0x20 index 5", "0x79". */
+static const char *req_name(const struct rmd_msg *m, char *buf, size_t size)
+{
+	if (rmd_msg_has(m, RMD_FLD_INDEX))
+		snprintf(buf, size, "0x%02X index %" PRId64, m->cmd, m->v[RMD_FLD_INDEX]);
+	else
+		snprintf(buf, size, "0x%02X", m->cmd);
+	return buf;
+}
+
 /*
- * V4.2 §2.34.4: the ID is 0x20 index 5, written to ROM, taken after a
- * reset (0x76).  The reply is the request (§2.34.3), but firmware
- * 2025070202 (X4-36) sends it from the NEW id, while it still takes
- * requests on the old one until the reset: either is the answer.  Then
- * 0x76 to the old id.  Returns an exit status.
+ * A write of the ID that holds after a reset (how->then_reset; V4.2
+ * §2.34.4: 0x20 index 5, to ROM, then 0x76).  The reply is the request
+ * (§2.34.3), but firmware 2025070202 (X4-36) sends it from the NEW id
+ * (how->echo_from_new), while it still takes requests on the old one until
+ * the reset: either is the answer.  Then the reset to the old id.  Returns
+ * an exit status.
  */
-static int set_id_func_20(struct dev *d, uint8_t old_id, uint8_t new_id)
+static int set_id_then_reset(struct dev *d, uint8_t old_id, uint8_t new_id,
+			     const struct rmd_set_id_req *how)
 {
 	const struct rmd_dialect *dl = rmdctl_dialect(d);
+	uint8_t echo_id = how->echo_from_new ? new_id :
+					       old_id; /* the other id it may answer from */
 	struct rmd_txn_opts o = d->txn;
 	struct echo_cap cap = { .ids = { dl->reply_base + (uint32_t)old_id,
-					 dl->reply_base + (uint32_t)new_id } };
-	struct rmd_msg msg = { .cmd = 0x20 };
+					 dl->reply_base + (uint32_t)echo_id } };
 	struct rmd_txn t;
 	struct req rst;
+	char what[32], rname[16];
 	int r;
 
-	r = rmdctl_confirm(d,
-			   "write CAN id %u to motor %u on %s (0x20 index 5, ROM), then reset it "
-			   "(0x76) so that it takes the id",
-			   new_id, old_id, d->name);
+	req_name(&how->write, what, sizeof(what));
+	req_name(&how->reset, rname, sizeof(rname));
+	r = rmdctl_confirm(
+		d,
+		"write CAN id %u to motor %u on %s (%s, ROM), then reset it (%s) so that "
+		"it takes the id",
+		new_id, old_id, d->name, what, rname);
 	if (r)
 		return r;
-	rmd_msg_set(&msg, RMD_FLD_INDEX, 5);
-	rmd_msg_set(&msg, RMD_FLD_VALUE, new_id);
-	r = rmd_txn_prepare(&t, d->proto, old_id, &msg);
+	r = rmd_txn_prepare(&t, d->proto, old_id, &how->write);
 	if (r < 0) {
-		tool_log(TOOL_LOG_ERR, "motor %u: cannot encode 0x20 index 5: %s", old_id,
+		tool_log(TOOL_LOG_ERR, "motor %u: cannot encode %s: %s", old_id, what,
 			 strerror(-r));
 		return RMDCTL_EXIT_DATA;
 	}
@@ -110,15 +125,16 @@ static int set_id_func_20(struct dev *d, uint8_t old_id, uint8_t new_id)
 		cap.from = t.reply_id;
 	if (!cap.from) {
 		tool_log(TOOL_LOG_ERR,
-			 "%s: motor %u did not answer 0x20 index 5 (from id %u or %u): the id may "
-			 "not have changed; not reset",
-			 d->name, old_id, old_id, new_id);
+			 "%s: motor %u did not answer %s (from id %u or %u): the id may not have "
+			 "changed; not reset",
+			 d->name, old_id, what, old_id, echo_id);
 		return RMDCTL_EXIT_DATA;
 	}
 	tool_log(TOOL_LOG_INFO, "%s: motor %u took id %u (answered from id %u); resetting it",
 		 d->name, old_id, new_id, (unsigned)(cap.from - dl->reply_base));
 	/* V4.2 §2.25: 0x76 does not answer */
-	rmdctl_req_init(&rst, old_id, 0x76);
+	rmdctl_req_init(&rst, old_id, how->reset.cmd);
+	rst.msg = how->reset;
 	return rmdctl_run_reqs(d, &rst, 1);
 }
 
@@ -126,9 +142,8 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 {
 	uint8_t old_id, new_id, all[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS], q;
-	/* V3 §4: 0x79 rides on 0x300, to every motor */
-	bool v3 = rmdctl_dialect(d)->set_id == RMD_SET_ID_79_300, old_seen = false,
-	     new_seen = false;
+	struct rmd_set_id_req how;
+	bool old_seen = false, new_seen = false;
 	int64_t until;
 	int m, r;
 
@@ -138,6 +153,10 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 		return RMDCTL_EXIT_USAGE;
 	if (old_id == new_id) {
 		tool_log(TOOL_LOG_ERR, "OLD and NEW are both %u", old_id);
+		return RMDCTL_EXIT_USAGE;
+	}
+	if (rmd_set_id_request(rmdctl_dialect(d), new_id, &how) < 0) {
+		tool_log(TOOL_LOG_ERR, "protocol %s sets no CAN ID", rmdctl_dialect(d)->name);
 		return RMDCTL_EXIT_USAGE;
 	}
 	r = rmdctl_open_bus_for(d, true, "write CAN id %u to motor %u on %s", new_id, old_id,
@@ -165,7 +184,8 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 			 new_id);
 		goto out;
 	}
-	if (v3) {
+	/* V3 §4: 0x79 rides on 0x300, to every motor */
+	if (how.every_motor) {
 		tool_log(TOOL_LOG_ERR,
 			 "warning: V3 §4 sends 0x79 on 0x300: every motor on %s whose CAN-ID "
 			 "filter is off (0x20 index 2) takes id %u, not only motor %u",
@@ -178,23 +198,23 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 			goto out;
 		}
 	}
-	if (rmdctl_dialect(d)->set_id == RMD_SET_ID_FUNC_20) {
-		r = set_id_func_20(d, old_id, new_id);
+	if (how.then_reset) {
+		r = set_id_then_reset(d, old_id, new_id, &how);
 		if (r)
 			goto out;
 		goto renumbered;
 	}
 	r = rmdctl_confirm(d, "write CAN id %u to motor %u on %s (ROM%s)", new_id, old_id, d->name,
-			   v3 ? "; every motor with the CAN-ID filter off hears it" : "");
+			   how.every_motor ? "; every motor with the CAN-ID filter off hears it" :
+					     "");
 	if (r)
 		goto out;
-	rmdctl_req_init(&q, old_id, 0x79);
-	rmd_msg_set(&q.msg, RMD_FLD_READ_FLAG, 0); /* V3 §4.2 / V2 §3.52: 0 writes */
-	rmd_msg_set(&q.msg, RMD_FLD_CAN_ID, new_id);
+	rmdctl_req_init(&q, old_id, how.write.cmd);
+	q.msg = how.write;
 	r = rmdctl_run_reqs(d, &q, 1);
 	if (r)
 		goto out;
-	/* V3 §4.3: the answer of a write is the request itself (the row's reply layout is a read's). */
+	/* V3 §4.3, V2 §3.52: a write is answered with the request itself (the row's reply layout is a read's). */
 	if (!q.answered) {
 		rmdctl_report_missing(d, &q, "");
 		r = RMDCTL_EXIT_DATA;
@@ -202,9 +222,9 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 	}
 	if (memcmp(q.t.rep.f.data, q.t.req.data, RMD_FRAME_LEN)) {
 		tool_log(TOOL_LOG_ERR,
-			 "%s: the answer to 0x79 is not the echo of the request: the id "
+			 "%s: the answer to 0x%02X is not the echo of the request: the id "
 			 "may not have changed",
-			 d->name);
+			 d->name, how.write.cmd);
 		r = RMDCTL_EXIT_DATA;
 		goto out;
 	}
@@ -429,7 +449,7 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 {
 	const struct rmd_cmd_spec *w = rmd_cmd_find(d->proto, 0x43);
 	/* V3 §2.5 writes by index; V2 §3.20 writes its one acceleration */
-	bool v2 = w && !rmd_layout_field(w, RMD_DIR_REQUEST, RMD_FLD_INDEX);
+	bool one_accel = w && !rmd_layout_field(w, RMD_DIR_REQUEST, RMD_FLD_INDEX);
 	struct rec rec = { 0 };
 	uint64_t index = 0, dps2;
 	const char *sval;
@@ -451,12 +471,12 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 		rmdctl_print_rec(d, id, &rec, (const enum rmd_field[]){ RMD_FLD_ACCEL }, 1);
 		return RMDCTL_EXIT_OK;
 	}
-	if (v2 != (argc == 2)) {
-		tool_log(TOOL_LOG_ERR, v2 ? "V2 writes one acceleration: accel ID DPS2" :
-					    "V3 writes by index: accel ID INDEX DPS2");
+	if (one_accel != (argc == 2)) {
+		tool_log(TOOL_LOG_ERR, one_accel ? "V2 writes one acceleration: accel ID DPS2" :
+						   "V3 writes by index: accel ID INDEX DPS2");
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (!v2) {
+	if (!one_accel) {
 		for (index = 0; index < 4 && strcmp(argv[1], accel_names[index]); index++)
 			;
 		if (index == 4 && rmdctl_parse_uint(argv[1], 0, 3, &index) < 0) {
@@ -475,10 +495,11 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 			 ACCEL_MIN_DPS2, ACCEL_MAX_DPS2);
 		return RMDCTL_EXIT_USAGE;
 	}
-	r = rmdctl_open_bus_for(d, !v2, "write an acceleration of motor %u on %s", id, d->bus_spec);
+	r = rmdctl_open_bus_for(d, !one_accel, "write an acceleration of motor %u on %s", id,
+				d->bus_spec);
 	if (r)
 		return r;
-	if (!v2) {
+	if (!one_accel) {
 		r = rmdctl_confirm(d, "set %s of motor %u on %s to %" PRIu64 " dps/s (RAM and ROM)",
 				   accel_names[index], id, d->name, dps2);
 		if (r)
@@ -486,7 +507,7 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 	}
 	/* V3 §2.5: RAM and ROM, by index; V2 §3.20: RAM.  Both echo. */
 	rmdctl_req_init(&q, id, 0x43);
-	if (!v2)
+	if (!one_accel)
 		rmd_msg_set(&q.msg, RMD_FLD_INDEX, (int64_t)index);
 	rmd_msg_set(&q.msg, RMD_FLD_ACCEL, (int64_t)dps2);
 	r = rmdctl_ask(d, &q);
@@ -498,45 +519,62 @@ int rmdctl_run_accel(struct dev *d, int argc, char **argv)
 		       d->name, id, rmd_proto_name(d->proto), index, dps2);
 	else
 		printf("%s: motor %u: %s %" PRIu64 " dps/s written (%s), echo verified\n", d->name,
-		       id, v2 ? "acceleration" : accel_names[index], dps2,
-		       v2 ? "RAM" : "RAM and ROM");
+		       id, one_accel ? "acceleration" : accel_names[index], dps2,
+		       one_accel ? "RAM" : "RAM and ROM");
 out:
 	rmdctl_close_bus(d);
 	return r;
 }
 
-static const enum rmd_field pid_fields[6] = { RMD_FLD_CURR_KP, RMD_FLD_CURR_KI, RMD_FLD_SPD_KP,
-					      RMD_FLD_SPD_KI,  RMD_FLD_POS_KP,	RMD_FLD_POS_KI };
+unsigned rmdctl_pid_read_reqs(const struct dev *d, uint8_t id, struct req *q)
+{
+	struct rmd_pid_set all = { .slots = UINT32_MAX };
+	struct rmd_msg m[RMD_PID_SLOTS_MAX];
+	int n = rmd_pid_requests(rmdctl_dialect(d), RMD_PID_READ, &all, m);
 
-/* V4.2 §2.1: the dialect's gains, one 0x30 by index each, into rec (the bus open).  Non-rt. */
-int rmdctl_pid_read_indexed(struct dev *d, uint8_t id, struct rec *rec)
+	for (int i = 0; i < n; i++) {
+		rmdctl_req_init(&q[i], id, m[i].cmd);
+		q[i].msg = m[i];
+	}
+	return n > 0 ? (unsigned)n : 0;
+}
+
+unsigned rmdctl_pid_gather(struct dev *d, const struct req *q, unsigned n, struct rmd_pid_set *got)
 {
 	const struct rmd_dialect *dl = rmdctl_dialect(d);
-	struct req q[RMD_PID_SLOTS_MAX];
-	unsigned n = 0;
-	int r;
+	unsigned bad = 0;
 
-	for (unsigned i = 0; i < dl->n_pid_slots && n < RMD_PID_SLOTS_MAX; i++) {
-		rmdctl_req_init(&q[n], id, 0x30);
-		rmd_msg_set(&q[n++].msg, RMD_FLD_INDEX, dl->pid_slots[i].index);
-	}
-	r = rmdctl_run_reqs(d, q, n);
-	if (r)
-		return r;
-	if (rmdctl_report_failed(d, q, n))
-		return RMDCTL_EXIT_DATA;
+	got->slots = 0;
 	for (unsigned i = 0; i < n; i++) {
-		/* the answer names its index (§2.1.3): it must be the one asked */
-		if (q[i].rep.v[RMD_FLD_INDEX] != dl->pid_slots[i].index) {
-			tool_log(TOOL_LOG_ERR,
-				 "%s: motor %u answered 0x30 index %u with index %" PRId64, d->name,
-				 id, dl->pid_slots[i].index, q[i].rep.v[RMD_FLD_INDEX]);
-			return RMDCTL_EXIT_DATA;
+		struct rmd_pid_set asked, carried;
+		uint32_t named, has;
+		enum rmd_pid_op op;
+
+		if (!q[i].ok || !rmd_pid_parse(dl, &q[i].msg, &op, &named, &asked) ||
+		    op != RMD_PID_READ)
+			continue;
+		rmd_pid_parse(dl, &q[i].rep, &op, &has, &carried);
+		if (named & ~carried.slots) {
+			/* V4.2 §2.1.3: the answer names its index: it must be the one asked */
+			if (rmd_msg_has(&q[i].msg, RMD_FLD_INDEX))
+				tool_log(TOOL_LOG_ERR,
+					 "%s: motor %u answered 0x%02X index %" PRId64
+					 " with index %" PRId64,
+					 d->name, q[i].id, q[i].msg.cmd, q[i].msg.v[RMD_FLD_INDEX],
+					 q[i].rep.v[RMD_FLD_INDEX]);
+			else
+				tool_log(TOOL_LOG_ERR,
+					 "%s: motor %u answered 0x%02X without its gains", d->name,
+					 q[i].id, q[i].msg.cmd);
+			bad++;
+			continue;
 		}
-		rmdctl_rec_set_float(rec, (enum rmd_field)dl->pid_slots[i].field,
-				     q[i].rep.v[RMD_FLD_GAIN]);
+		for (unsigned k = 0; k < dl->n_pid_slots && k < RMD_PID_SLOTS_MAX; k++)
+			if (named & (UINT32_C(1) << k))
+				got->raw[k] = carried.raw[k];
+		got->slots |= named;
 	}
-	return RMDCTL_EXIT_OK;
+	return bad;
 }
 
 /* The fields of the dialect's gains, in its order, into f; their count. */
@@ -549,112 +587,71 @@ static unsigned pid_order(const struct rmd_dialect *dl, enum rmd_field f[RMD_PID
 	return n;
 }
 
+/* V3 §2.1 (one 0x30), V2 §3.1 (a read a gain), V4.2 §2.1 (0x30 by index): every gain. */
 static int pid_read(struct dev *d, uint8_t id)
 {
+	enum rmd_field order[RMD_PID_SLOTS_MAX];
+	struct req q[RMD_PID_SLOTS_MAX];
+	struct rmd_pid_set got;
 	struct rec rec = { 0 };
-	struct req q[6];
-	unsigned n = 0;
+	unsigned n = rmdctl_pid_read_reqs(d, id, q);
 	int r;
 
-	if (rmdctl_dialect(d)->pid == RMD_PID_FLOAT_INDEXED) {
-		enum rmd_field order[RMD_PID_SLOTS_MAX];
-
-		r = rmdctl_open_bus(d);
-		if (r)
-			return r;
-		r = rmdctl_pid_read_indexed(d, id, &rec);
-		rmdctl_close_bus(d);
-		if (!r)
-			rmdctl_print_rec(d, id, &rec, order, pid_order(rmdctl_dialect(d), order));
-		return r;
+	if (!n) {
+		tool_log(TOOL_LOG_ERR, "protocol %s has no PID commands", rmdctl_dialect(d)->name);
+		return RMDCTL_EXIT_USAGE;
 	}
-	if (rmdctl_dialect(d)->pid == RMD_PID_V2_PER_GAIN)
-		for (unsigned i = 0; i < 6; i++)
-			rmdctl_req_init(&q[n++], id, rmdctl_v2_pid_read[i]);
-	else
-		rmdctl_req_init(&q[n++], id, 0x30);
 	r = rmdctl_exchange(d, q, n);
 	if (r)
 		return r;
-	if (rmdctl_report_failed(d, q, n))
+	if (rmdctl_report_failed(d, q, n) || rmdctl_pid_gather(d, q, n, &got))
 		return RMDCTL_EXIT_DATA;
-	for (unsigned i = 0; i < n; i++)
-		rmdctl_rec_add_req(&rec, d, &q[i], true);
-	rmdctl_print_rec(d, id, &rec, pid_fields, 6);
+	rmdctl_rec_add_gains(&rec, d, &got);
+	rmdctl_print_rec(d, id, &rec, order, pid_order(rmdctl_dialect(d), order));
 	return RMDCTL_EXIT_OK;
 }
 
-/*
- * V4.2 §2.2 / §2.3: gains[0..n) (six, or seven with POS_KD) written one
- * 0x31 (RAM) or 0x32 (ROM) frame by index each, echo checked.  Non-rt.
- */
-static int pid_write_indexed(struct dev *d, uint8_t id, int n, char **gains)
+/* Whether dl's gains go one a frame by index (V4.2 §2.1.4): its messages count them. */
+static bool gains_by_index(const struct rmd_dialect *dl)
 {
-	const struct rmd_dialect *dl = rmdctl_dialect(d);
-	uint8_t cmd = d->rom ? 0x32 : 0x31;
-	struct req q[RMD_PID_SLOTS_MAX];
-	double g[RMD_PID_SLOTS_MAX];
-	enum rmd_field order[RMD_PID_SLOTS_MAX];
-	int r;
+	return dl->n_pid_slots && dl->pid_slots[0].index;
+}
 
-	if (n != (int)dl->n_pid_slots - 1 && n != (int)dl->n_pid_slots) {
-		tool_log(TOOL_LOG_ERR,
-			 "give the gains: CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI [POS_KD] "
-			 "(%s: reals)",
-			 dl->name);
-		return RMDCTL_EXIT_USAGE;
-	}
-	for (int i = 0; i < n; i++) {
-		/* V4.2 §2.2.2: a binary32; negative or non-finite gains make no sense */
-		if (rmdctl_parse_double(gains[i], &g[i]) < 0 || !(g[i] >= 0) || g[i] > 3.4e38) {
-			tool_log(TOOL_LOG_ERR, "bad gain \"%s\" (a real >= 0)", gains[i]);
-			return RMDCTL_EXIT_USAGE;
-		}
-		rmdctl_req_init(&q[i], id, cmd);
-		rmd_msg_set(&q[i].msg, RMD_FLD_INDEX, dl->pid_slots[i].index);
-		rmd_msg_set_native(&q[i].msg, rmdctl_spec(d, cmd), RMD_DIR_REQUEST, RMD_FLD_GAIN,
-				   g[i]);
-	}
-	r = rmdctl_open_bus_for(d, d->rom, "write the PID gains of motor %u on %s to ROM", id,
-				d->bus_spec);
-	if (r)
-		return r;
-	if (d->rom) {
-		r = rmdctl_confirm(d, "write %d PID gains to motor %u on %s (ROM)", n, id, d->name);
-		if (r)
-			goto out;
-	}
-	r = rmdctl_run_reqs(d, q, (unsigned)n);
-	if (r)
-		goto out;
-	if (rmdctl_report_failed(d, q, (unsigned)n)) {
-		r = RMDCTL_EXIT_DATA;
-		goto out;
-	}
-	if (d->json) {
-		struct rec rec = { 0 };
+/*
+ * Gain g in the unit of field fs: V4.2 §2.2.2 a binary32 (negative or
+ * non-finite gains make no sense), V3 §2.2 uint8 integers, V2 §3.7 Q24
+ * reals; what is allowed in `allowed` when it is not.
+ */
+static bool gain_ok(const struct rmd_field_spec *fs, double g, char *allowed, size_t size)
+{
+	int64_t lo, hi;
 
-		for (int i = 0; i < n; i++)
-			rmdctl_rec_set_float(&rec, (enum rmd_field)dl->pid_slots[i].field,
-					     q[i].msg.v[RMD_FLD_GAIN]);
-		pid_order(dl, order);
-		rmdctl_print_rec(d, id, &rec, order, (size_t)n);
-	} else {
-		printf("%s: motor %u: %d PID gains written to %s, each echoed\n", d->name, id, n,
-		       d->rom ? "RAM and ROM" : "RAM (lost at power off; --rom keeps them)");
+	if (fs->is_float) {
+		snprintf(allowed, size, "a real >= 0");
+		return g >= 0 && g <= 3.4e38;
 	}
-out:
-	rmdctl_close_bus(d);
-	return r;
+	rmd_field_range(fs, &lo, &hi);
+	if (fs->scale == 1.0) {
+		snprintf(allowed, size, "an integer 0..%" PRId64, hi);
+		return g >= 0 && g <= (double)hi && g == floor(g);
+	}
+	snprintf(allowed, size, "a real 0..%" PRId64 " (Q%.0f)",
+		 (int64_t)floor((double)hi * fs->scale), -log2(fs->scale));
+	return g >= 0 && g < ((double)hi + 1.0) * fs->scale;
 }
 
 int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 {
-	/* V2 §3.1 .. §3.18: one Q24 gain a command; V3 §2.2: six uint8 gains in one */
-	bool v2 = rmdctl_dialect(d)->pid == RMD_PID_V2_PER_GAIN;
-	double g[6];
-	struct req q[6];
-	unsigned n = 0;
+	const struct rmd_dialect *dl = rmdctl_dialect(d);
+	/* V4.2 §2.1.4: the seventh gain, the position KD, may be left out */
+	bool kd_optional = dl->n_pid_slots &&
+			   dl->pid_slots[dl->n_pid_slots - 1].field == RMD_FLD_POS_KD;
+	enum rmd_field order[RMD_PID_SLOTS_MAX];
+	struct rmd_msg m[RMD_PID_SLOTS_MAX];
+	struct req q[RMD_PID_SLOTS_MAX];
+	double g[RMD_PID_SLOTS_MAX];
+	struct rmd_pid_set set = { 0 };
+	int n = argc - 1, nq;
 	uint8_t id = d->id;
 	int r;
 
@@ -665,65 +662,73 @@ int rmdctl_run_pid(struct dev *d, int argc, char **argv)
 		}
 		return pid_read(d, id);
 	}
-	if (rmdctl_dialect(d)->pid == RMD_PID_FLOAT_INDEXED)
-		return pid_write_indexed(d, id, argc - 1, argv + 1);
-	if (argc != 7) {
-		tool_log(TOOL_LOG_ERR,
-			 "give all six gains: CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI");
+	if (!dl->n_pid_slots) {
+		tool_log(TOOL_LOG_ERR, "protocol %s has no PID commands", dl->name);
 		return RMDCTL_EXIT_USAGE;
 	}
-	for (unsigned i = 0; i < 6; i++) {
-		/* V3 §2.2: uint8 gains; V2 §3.7: Q24 reals. */
-		if (rmdctl_parse_double(argv[1 + i], &g[i]) < 0 || g[i] < 0 ||
-		    (!v2 && (g[i] > 255 || g[i] != floor(g[i]))) || (v2 && g[i] >= 128)) {
-			tool_log(TOOL_LOG_ERR, "bad gain \"%s\" (%s)", argv[1 + i],
-				 v2 ? "a real 0..127 (Q24)" : "an integer 0..255");
+	if (n != (int)dl->n_pid_slots && !(kd_optional && n == (int)dl->n_pid_slots - 1)) {
+		if (kd_optional)
+			tool_log(TOOL_LOG_ERR,
+				 "give the gains: CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI "
+				 "[POS_KD] (%s: reals)",
+				 dl->name);
+		else
+			tool_log(TOOL_LOG_ERR,
+				 "give all six gains: CURR_KP CURR_KI SPD_KP SPD_KI POS_KP POS_KI");
+		return RMDCTL_EXIT_USAGE;
+	}
+	for (int i = 0; i < n; i++) {
+		const struct rmd_field_spec *fs = rmd_pid_spec(dl, (unsigned)i);
+		char allowed[48] = "";
+
+		if (rmdctl_parse_double(argv[1 + i], &g[i]) < 0 || !fs ||
+		    !gain_ok(fs, g[i], allowed, sizeof(allowed))) {
+			tool_log(TOOL_LOG_ERR, "bad gain \"%s\" (%s)", argv[1 + i], allowed);
 			return RMDCTL_EXIT_USAGE;
 		}
 	}
-	if (v2) {
-		for (unsigned i = 0; i < 6; i++) {
-			/* V2 §3.7 .. §3.18: RAM 0x36.., ROM 0x3C.., six after each read. */
-			uint8_t cmd = (uint8_t)(rmdctl_v2_pid_read[i] + (d->rom ? 12 : 6));
-
-			rmdctl_req_init(&q[n], id, cmd);
-			if (rmd_msg_set_native(&q[n].msg, rmdctl_spec(d, cmd), RMD_DIR_REQUEST,
-					       pid_fields[i], g[i]) < 0) {
-				tool_log(TOOL_LOG_ERR, "gain %g does not fit 0x%02X", g[i], cmd);
-				return RMDCTL_EXIT_USAGE;
-			}
-			n++;
+	for (int i = 0; i < n; i++) {
+		if (rmd_field_from_native(rmd_pid_spec(dl, (unsigned)i), g[i], &set.raw[i]) < 0) {
+			tool_log(TOOL_LOG_ERR, "gain %g does not fit 0x%02X", g[i],
+				 dl->pid_slots[i]
+					 .cmd[d->rom ? RMD_PID_WRITE_ROM : RMD_PID_WRITE_RAM]);
+			return RMDCTL_EXIT_USAGE;
 		}
-	} else {
-		/* V3 §2.2 (0x31, RAM) / §2.3 (0x32, ROM). */
-		rmdctl_req_init(&q[n], id, d->rom ? 0x32 : 0x31);
-		for (unsigned i = 0; i < 6; i++)
-			rmd_msg_set(&q[n].msg, pid_fields[i], (int64_t)g[i]);
-		n++;
+		set.slots |= UINT32_C(1) << i;
+	}
+	/* V3 §2.2 / §2.3: six in one frame; V2 §3.7 .. §3.18, V4.2 §2.2 / §2.3: one a frame */
+	nq = rmd_pid_requests(dl, d->rom ? RMD_PID_WRITE_ROM : RMD_PID_WRITE_RAM, &set, m);
+	for (int i = 0; i < nq; i++) {
+		rmdctl_req_init(&q[i], id, m[i].cmd);
+		q[i].msg = m[i];
 	}
 	r = rmdctl_open_bus_for(d, d->rom, "write the PID gains of motor %u on %s to ROM", id,
 				d->bus_spec);
 	if (r)
 		return r;
-	if (d->rom) {
+	if (d->rom && (gains_by_index(dl) || n != 6))
+		r = rmdctl_confirm(d, "write %d PID gains to motor %u on %s (ROM)", n, id, d->name);
+	else if (d->rom)
 		r = rmdctl_confirm(d, "write PID gains %g %g %g %g %g %g to motor %u on %s (ROM)",
 				   g[0], g[1], g[2], g[3], g[4], g[5], id, d->name);
-		if (r)
-			goto out;
-	}
-	r = rmdctl_run_reqs(d, q, n);
 	if (r)
 		goto out;
-	if (rmdctl_report_failed(d, q, n)) {
+	r = rmdctl_run_reqs(d, q, (unsigned)nq);
+	if (r)
+		goto out;
+	if (rmdctl_report_failed(d, q, (unsigned)nq)) {
 		r = RMDCTL_EXIT_DATA;
 		goto out;
 	}
 	if (d->json) {
 		struct rec rec = { 0 };
 
-		for (unsigned i = 0; i < n; i++)
-			rmdctl_rec_add(&rec, rmdctl_spec(d, q[i].msg.cmd), &q[i].msg, true);
-		rmdctl_print_rec(d, id, &rec, pid_fields, 6);
+		rmdctl_rec_add_gains(&rec, d, &set);
+		pid_order(dl, order);
+		rmdctl_print_rec(d, id, &rec, order, (size_t)n);
+	} else if (gains_by_index(dl)) {
+		printf("%s: motor %u: %d PID gains written to %s, each echoed\n", d->name, id, n,
+		       d->rom ? "RAM and ROM" : "RAM (lost at power off; --rom keeps them)");
 	} else {
 		printf("%s: motor %u: PID gains written to %s, echo verified\n", d->name, id,
 		       d->rom ? "RAM and ROM" : "RAM (lost at power off; --rom keeps them)");
