@@ -16,7 +16,8 @@
 #include "rmd/bringup.h"
 #include "rmd/time.h"
 #include "rmd/txn.h"
-#include "loop_priv.h"
+#include "loop_state.h"
+#include "loop_env.h"
 
 /* What the txn hooks need: the loop's clock, and the bus for stray frames. */
 struct probe_ctx {

@@ -5,7 +5,7 @@
  * flags, the host's commands and the host watchdog), and each motor's
  * comm-loss protection (0xB3), a precondition of leaving READY.  See
  * rmd/loop.h "Lifecycle", "Safe actions" and "Comm-loss protection"; the
- * shared state is loop_priv.h.
+ * shared state is loop_state.h.
  *
  * Execution context: rt-safe: called from the cycle (loop_enter() also from bring-up
  * and rmd_loop_stop_motors()); no allocation, no lock, no text.
@@ -18,7 +18,8 @@
 #include "rmd/dialect.h"
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
-#include "loop_priv.h"
+#include "loop_state.h"
+#include "loop_env.h"
 
 /* Forget the one-shots waiting and the damp stream.  rt-safe. */
 void loop_frames_drop(struct lmotor *lm)

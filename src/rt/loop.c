@@ -6,7 +6,7 @@
  * stopping the motors.  See rmd/loop.h for the behaviour.  Receiving is
  * loop_rx.c, the lifecycle and commands lifecycle.c, sending loop_tx.c,
  * bring-up bringup.c, the thread rt_thread.c; what they share is
- * loop_priv.h.
+ * loop_state.h.
  *
  * Execution context: the cycle's functions and what they call are rt-safe;
  * rmd_loop_stop_motors() is bounded but blocking (it sleeps between
@@ -39,79 +39,8 @@
 #include "rmd/incident.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
-#include "loop_priv.h"
-
-/* ------------------------------------------------------------------ */
-/* Small helpers (rt-safe) */
-
-/* rt-safe. */
-int64_t loop_now(const struct rmd_loop *l)
-{
-	return l->o.now_ns ? l->o.now_ns(l->o.now_ctx) : rmd_now_ns();
-}
-
-/* rt-safe. */
-struct timespec loop_ts(int64_t ns)
-{
-	struct timespec ts = { .tv_sec = ns / RMD_NS_PER_S, .tv_nsec = ns % RMD_NS_PER_S };
-
-	return ts;
-}
-
-/* Sleep ns: the injected sleep, or clock_nanosleep.  Bounded.  rt-safe. */
-static void sleep_plain(const struct rmd_loop *l, int64_t ns)
-{
-	struct timespec ts;
-
-	if (ns <= 0)
-		return;
-	if (l->o.sleep_ns) {
-		l->o.sleep_ns(l->o.now_ctx, ns);
-		return;
-	}
-	ts = loop_ts(ns);
-	clock_nanosleep(CLOCK_MONOTONIC, 0, &ts, NULL);
-}
-
-/* Wait up to ns for frames on bus (poll(2) on its fd when it has one).  Non-rt. */
-void loop_wait_bus(const struct rmd_loop *l, struct rmd_bus *bus, int64_t ns)
-{
-	int fd;
-
-	if (ns <= 0)
-		return;
-	fd = rmd_bus_fd(bus);
-	if (l->o.sleep_ns || fd < 0) {
-		sleep_plain(l, ns);
-	} else {
-		struct pollfd pfd = { .fd = fd, .events = POLLIN };
-		struct timespec ts = loop_ts(ns);
-
-		ppoll(&pfd, 1, &ts, NULL);
-	}
-}
-
-/* rt-safe. */
-void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, unsigned bus,
-		int64_t a, int64_t b)
-{
-	struct rmd_event e = {
-		.t_ns = t,
-		.kind = (uint16_t)kind,
-		.motor = (uint8_t)motor,
-		.bus = (uint8_t)bus,
-		.a = a,
-		.b = b,
-	};
-
-	if (l->o.events) {
-		rmd_ring_push(l->o.events, &e);
-		l->ev_pushed = true;
-	}
-	/* incident recorder: the events beside the frames */
-	if (l->o.incidents)
-		rmd_incident_event(l->o.incidents, &e);
-}
+#include "loop_state.h"
+#include "loop_env.h"
 
 /* Wake the events' reader when events came (one eventfd write a cycle at most).  rt-safe. */
 static void events_wake(struct rmd_loop *l)
@@ -644,7 +573,7 @@ static int64_t send_queued(struct rmd_loop *l, int64_t now)
 		}
 		if (!left)
 			break;
-		sleep_plain(l, STOP_STEP_NS);
+		loop_sleep(l, STOP_STEP_NS);
 		now = loop_now(l);
 		/* the sim and RS485 queues advance as they are read */
 		for (unsigned b = 0; b < l->n_buses; b++)
@@ -724,7 +653,7 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 		while (now < end) {
 			queue_stop(l, RMD_SAFE_DAMP, 0x9C, false);
 			now = send_queued(l, now);
-			sleep_plain(l, l->period_ns);
+			loop_sleep(l, l->period_ns);
 			now = loop_now(l);
 			for (unsigned b = 0; b < l->n_buses; b++)
 				loop_drain(l, b, now);
@@ -748,7 +677,7 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	/* Wait for the echoes (a reply deadline at most): the frames are out. */
 	for (int64_t waited = 0; waited < max_reply_ns(l) && outstanding_any(l);
 	     waited += STOP_STEP_NS) {
-		sleep_plain(l, STOP_STEP_NS);
+		loop_sleep(l, STOP_STEP_NS);
 		now = loop_now(l);
 		for (unsigned b = 0; b < l->n_buses; b++)
 			loop_drain(l, b, now);

@@ -4,7 +4,7 @@
  * frame the bus took is booked here, loop_commit()), the matching of a
  * received frame to its motor and request, decoding into the motor's
  * state, and the reply deadlines.  See rmd/loop.h "Matching and
- * deadlines"; the shared state is loop_priv.h.
+ * deadlines"; the shared state is loop_state.h.
  *
  * Execution context: rt-safe: called from the cycle (and from rmd_loop_stop_motors()
  * and bring-up, which wait for replies); no allocation, no lock, no text.
@@ -16,7 +16,23 @@
 #include "rmd/dialect.h"
 #include "rmd/loop.h"
 #include "rmd/motor.h"
-#include "loop_priv.h"
+#include "loop_state.h"
+#include "loop_env.h"
+
+/*
+ * The motor answered something: it is there, and a lost one comes back --
+ * unless it is refused, or its dialect is still open (struct lmotor).
+ * rt-safe.
+ */
+static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
+{
+	lm->consecutive = 0;
+	lm->replied = true;
+	lm->last_reply_cycle = l->cycle;
+	if ((lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) &&
+	    !lm->ident.refused && !lm->ident.open)
+		loop_enter(l, lm, RMD_LC_STOPPING, now);
+}
 
 /* ------------------------------------------------------------------ */
 /* Requests in flight */

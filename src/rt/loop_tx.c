@@ -3,7 +3,7 @@
  * The rt loop's sending side: one cycle's frames of a bus from its plan
  * slots (setpoints, one-shots, status reads, the V2 0x280 frame) and one
  * send call; loop_commit() (loop_rx.c) books what the bus took.  See
- * rmd/loop.h "Frames"; the shared state is loop_priv.h.
+ * rmd/loop.h "Frames"; the shared state is loop_state.h.
  *
  * Execution context: rt-safe: called from the cycle (loop_push_tx() also
  * from rmd_loop_stop_motors()); no allocation, no lock, no text.
@@ -13,7 +13,8 @@
 
 #include "rmd/loop.h"
 #include "rmd/motor.h"
-#include "loop_priv.h"
+#include "loop_state.h"
+#include "loop_env.h"
 
 /* ------------------------------------------------------------------ */
 /* Sending */

@@ -18,7 +18,8 @@
 #include <unistd.h>
 
 #include "rmd/time.h"
-#include "loop_priv.h"
+#include "loop_state.h"
+#include "loop_env.h"
 
 /* rt thread, before its first cycle. */
 static void __attribute__((noinline)) prefault_stack(void)

@@ -1,22 +1,33 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The rt loop's private parts, shared by the files of src/rt/ that make up
- * struct rmd_loop's behaviour (rmd/loop.h is the public face):
+ * The rt loop's state: struct rmd_loop, struct lmotor and struct lbus, and
+ * the declarations the files of src/rt/ that make up the loop's behaviour
+ * share (rmd/loop.h is the public face).  From the top down, each file
+ * calls only those below it, except loop.c and rt_thread.c, which call
+ * each other:
  *
- *   loop.c       construction, the cycle, schedule, publishing,
- *                getters, stopping the motors                 rt-safe / non-rt
- *   loop_rx.c    requests in flight (booking, loop_commit()),
- *                matching, deadlines                          rt-safe
- *   lifecycle.c  loop_enter(), commands, the host watchdog    rt-safe
- *   loop_tx.c    a cycle's frames, one send                   rt-safe
- *   bringup.c    probing and arming the motors before start  non-rt
- *   reboot.c     did a motor that missed replies reboot?     pure
- *   rt_thread.c  the SCHED_FIFO thread and its set-up        rt-safe / non-rt
+ *   bringup.c      probing and arming the motors before start   non-rt
+ *   rt_thread.c    the SCHED_FIFO thread and its set-up         rt-safe / non-rt
+ *   loop.c         construction, the cycle, schedule, publishing,
+ *                  getters, stopping the motors                 rt-safe / non-rt
+ *   loop_tx.c      a cycle's frames, one send                   rt-safe
+ *   loop_rx.c      requests in flight (booking, loop_commit()),
+ *                  matching, deadlines                          rt-safe
+ *   lifecycle.c    loop_enter(), commands, the host watchdog;
+ *                  applies the procedures' outcomes             rt-safe
+ *   loop_env.c     the clock, sleeps and waits, events (loop_env.h)  rt-safe
+ *   this header    the state, and helpers that call nothing above it
+ *
+ * The exchanges with a motor's firmware are records of their own, pure,
+ * which bring-up and the loop both drive (each file's header says how):
+ * proc_ident.c (which dialect), proc_silence.c (pushed replies off),
+ * proc_arm.c (0xB3), proc_settle.c (a position after a power cycle),
+ * proc_owed.c (the stop frames owed an echo) and reboot.c (did it reboot).
  *
  * Nothing outside src/rt/ includes this header.
  */
-#ifndef RMD_LOOP_PRIV_H
-#define RMD_LOOP_PRIV_H
+#ifndef RMD_LOOP_STATE_H
+#define RMD_LOOP_STATE_H
 
 #include <pthread.h>
 #include <stdatomic.h>
@@ -406,45 +417,12 @@ static inline int64_t loop_publish_deadline(const struct rmd_loop *l)
 	return l->next_tick_ns - PUBLISH_LEAD_NS;
 }
 
-/*
- * The motor answered something: it is there, and a lost one comes back --
- * unless it is refused, or its dialect is still open (struct lmotor).
- * rt-safe.
- */
-static inline void loop_alive(struct rmd_loop *l, struct lmotor *lm, int64_t now)
-{
-	lm->consecutive = 0;
-	lm->replied = true;
-	lm->last_reply_cycle = l->cycle;
-	if ((lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE) &&
-	    !lm->ident.refused && !lm->ident.open)
-		loop_enter(l, lm, RMD_LC_STOPPING, now);
-}
-
 /* loop.c.  rt-safe unless said. */
-int64_t loop_now(const struct rmd_loop *l);
-struct timespec loop_ts(int64_t ns);
-/* Wait up to ns for frames on bus (ppoll on its fd when it has one).  Non-rt. */
-void loop_wait_bus(const struct rmd_loop *l, struct rmd_bus *bus, int64_t ns);
-void loop_event(struct rmd_loop *l, int64_t t, unsigned kind, unsigned motor, unsigned bus,
-		int64_t a, int64_t b);
 void loop_pub_write(struct rmd_loop *l);
 void loop_fill_snapshot(struct rmd_loop *l, int64_t now);
 void loop_fill_health(struct rmd_loop *l, int64_t now);
 void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
 int64_t loop_reply_due(const struct rmd_loop *l, int64_t now, unsigned *owing);
-
-/* RMD_EV_BUS_STATE when bus b's state changed since the last look.  rt-safe. */
-static inline void loop_bus_state(struct rmd_loop *l, unsigned b, int64_t now)
-{
-	struct lbus *lb = &l->bus[b];
-	enum rmd_bus_state st = rmd_bus_state(lb->bus);
-
-	if (st != lb->state_seen) {
-		lb->state_seen = (uint8_t)st;
-		loop_event(l, now, RMD_EV_BUS_STATE, 0xFF, b, lb->state_seen, 0);
-	}
-}
 
 /* rt_thread.c: end loop.keep_cpus_awake's request.  Non-rt. */
 void loop_release_cpus(struct rmd_loop *l);
@@ -477,4 +455,4 @@ void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss c
 void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind);
 bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now);
 
-#endif /* RMD_LOOP_PRIV_H */
+#endif /* RMD_LOOP_STATE_H */
