@@ -262,6 +262,16 @@ struct rmd_dialect {
  */
 const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certain);
 
+/*
+ * Whether firmware version `version` certainly runs another firmware than
+ * dialect d's (the `mit` key: V3's); *fw: the firmware it names.  The one
+ * rule a motor's date is held to: bring-up and the loop refuse such a
+ * motor (rmd/proc_ident.h), rmdctl says which --protocol it needs.
+ * rt-safe.
+ */
+bool rmd_dialect_other_firmware(const struct rmd_dialect *d, uint32_t version,
+				const struct rmd_dialect **fw);
+
 /* The record of dialect `proto`, or NULL when there is none.  rt-safe. */
 extern const struct rmd_dialect rmd_dialects[RMD_PROTO_COUNT]; /* read through rmd_dialect() */
 

@@ -6,8 +6,8 @@
  * A motor is driven only in a dialect its firmware speaks.  Its firmware
  * date (0xB2, V3 §2.29) says which generation it runs
  * (rmd_dialect_for_firmware()); a date that certainly names another
- * firmware than the motor's dialect's is a mismatch (rmd_ident_other(),
- * the one copy of that rule): bring-up refuses the motor, the loop leaves
+ * firmware than the motor's dialect's is a mismatch (rmd_dialect_other_firmware(),
+ * rmd/dialect.h, the one copy of that rule, which rmdctl shares): bring-up refuses the motor, the loop leaves
  * one found late out for good.  A motor in MIT mode has its MIT scaling
  * decided from the same date and its model (0xB5, V3 §2.32) before any MIT
  * frame (rmd_mit_scaling_decide(), rmd/dialect.h).
@@ -41,13 +41,6 @@ struct rmd_ident {
 	uint32_t version; /* 0xB2's answer (yyyymmdd[NN]); 0: none */
 };
 
-/*
- * Whether firmware version `version` certainly runs another firmware than
- * dialect d's (the `mit` key: V3's); *fw: the firmware it names.  The one
- * rule bring-up and the loop hold a motor's date to.  rt-safe.
- */
-bool rmd_ident_other(const struct rmd_dialect *d, uint32_t version, const struct rmd_dialect **fw);
-
 /* A motor of dialect d missing at bring-up: open when d has a date to ask.  rt-safe. */
 void rmd_ident_open(struct rmd_ident *id, const struct rmd_dialect *d);
 
@@ -62,7 +55,7 @@ unsigned rmd_ident_asks(const struct rmd_ident *id, bool mit_mode, uint8_t cmds[
 enum rmd_ident_outcome {
 	RMD_IDENT_WAIT = 0, /* no date in it (a model is kept): asked again */
 	RMD_IDENT_SAME,	    /* settled: the date agrees, or tells nothing certain */
-	RMD_IDENT_OTHER,    /* settled: the date names another firmware (rmd_ident_other()) */
+	RMD_IDENT_OTHER, /* settled: the date names another firmware (rmd_dialect_other_firmware()) */
 };
 
 /*

@@ -353,6 +353,15 @@ const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certa
 	return &rmd_dialects[date >= V4_FLOAT_PID_DATE ? RMD_PROTO_V4 : RMD_PROTO_V3];
 }
 
+bool rmd_dialect_other_firmware(const struct rmd_dialect *d, uint32_t version,
+				const struct rmd_dialect **fw)
+{
+	bool certain;
+
+	*fw = rmd_dialect_for_firmware(version, &certain);
+	return certain && (*fw)->table != d->table;
+}
+
 bool rmd_dialect_takes_280(uint32_t can_id, uint8_t *id)
 {
 	for (unsigned p = 0; p < RMD_PROTO_COUNT; p++) {

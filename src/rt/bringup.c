@@ -351,7 +351,7 @@ static enum rmd_bringup_mismatch mismatch_of(const struct rmd_loop *l, unsigned 
 	const struct rmd_config_motor *c = &l->cfg->motors[i];
 	const struct rmd_dialect *d = l->mot[i].m.d, *fw;
 
-	if (!c->proto_auto && bm->version && rmd_ident_other(d, bm->version, &fw))
+	if (!c->proto_auto && bm->version && rmd_dialect_other_firmware(d, bm->version, &fw))
 		return RMD_BRINGUP_MISMATCH_FIRMWARE;
 	/*
 	 * The loader refuses these for a configured dialect; a program that

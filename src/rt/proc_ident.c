@@ -8,14 +8,6 @@
 
 #include "rmd/proc_ident.h"
 
-bool rmd_ident_other(const struct rmd_dialect *d, uint32_t version, const struct rmd_dialect **fw)
-{
-	bool certain;
-
-	*fw = rmd_dialect_for_firmware(version, &certain);
-	return certain && (*fw)->table != d->table;
-}
-
 void rmd_ident_open(struct rmd_ident *id, const struct rmd_dialect *d)
 {
 	id->open = rmd_dialect_has(d, RMD_DIALECT_VERSION_B2);
@@ -45,7 +37,8 @@ enum rmd_ident_outcome rmd_ident_answer(struct rmd_ident *id, const struct rmd_d
 		return RMD_IDENT_WAIT;
 	id->version = r->version_date;
 	id->open = false;
-	return rmd_ident_other(d, r->version_date, fw) ? RMD_IDENT_OTHER : RMD_IDENT_SAME;
+	return rmd_dialect_other_firmware(d, r->version_date, fw) ? RMD_IDENT_OTHER :
+								    RMD_IDENT_SAME;
 }
 
 bool rmd_ident_mit_warn_once(struct rmd_ident *id)

@@ -697,6 +697,13 @@ static const struct run_case other_commands[] = {
 	/* info on a V4 motor: its seven gains by index, its 10-digit firmware date */
 	{ .args = { "info", "1", "--bus", "sim:1-3", "--protocol", "v4" },
 	  .out_has = { "sim:1-3 motor 1 (v4)", "firmware date    2025070202", "position kd" } },
+	/* a firmware date that names another generation says which --protocol it needs */
+	{ .args = { "info", "1", "--bus", "sim:1", "--protocol", "v4", "--sim",
+		    "version_date=20220206" },
+	  .out_has = { "sim:1 motor 1 (v4; its firmware date says v3: --protocol v3)" } },
+	{ .args = { "info", "1", "--bus", "sim:1", "--protocol", "v3", "--sim",
+		    "version_date=2025070202" },
+	  .out_has = { "sim:1 motor 1 (v3; its firmware date says v4: --protocol v4)" } },
 	{ .args = { "pid", "1", "1", "2", "--bus", "sim:1-3", "--protocol", "v4" },
 	  .status = 2,
 	  .err_has = { "POS_KI [POS_KD]" } },

@@ -41,7 +41,8 @@ static void test_other(void **state)
 	(void)state;
 	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
 		const struct rmd_dialect *fw = NULL;
-		bool other = rmd_ident_other(rmd_dialect(cases[k].proto), cases[k].version, &fw);
+		bool other = rmd_dialect_other_firmware(rmd_dialect(cases[k].proto),
+							cases[k].version, &fw);
 
 		if (other != cases[k].other || !fw || fw->proto != cases[k].fw)
 			fail_msg("case %zu: %s, version %u: other %d (fw %s); want %d (%s)", k,

@@ -257,7 +257,8 @@ void rmdctl_print_rec(const struct dev *d, uint8_t id, const struct rec *r,
 		return;
 	}
 	printf("%s motor %u (%s", d->name, id, rmd_proto_key(d->proto));
-	if (fw && fw->table != rmdctl_dialect(d)->table)
+	if (fw &&
+	    rmd_dialect_other_firmware(rmdctl_dialect(d), (uint32_t)r->raw[RMD_FLD_VERSION], &fw))
 		printf("; its firmware date says %s: --protocol %s", fw->key, fw->key);
 	else if (fw && !certain)
 		printf("; its firmware date tells no generation");
