@@ -44,7 +44,8 @@
 #include "rmd/frame.h"
 #include "rmd/state.h"
 
-#define RMD_ARM_TRIES 3 /* writes of one round */
+#define RMD_ARM_CMD 0xB3 /* V3 §2.30: write the comm-loss time, ms; kept in ROM */
+#define RMD_ARM_TRIES 3	 /* writes of one round */
 #define RMD_ARM_ROUND_NS \
 	(INT64_C(1000000000)) /* a refused enable starts a new round this long after */
 

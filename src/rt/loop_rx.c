@@ -652,7 +652,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		}
 		if (o->echo_is_reply && owed_echo(l, lm, o, f, now))
 			return;
-		if (cmd == 0xB3 && f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
+		if (cmd == RMD_ARM_CMD && f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
 			/* V3 §2.30: the loop's own write of the comm-loss time */
 			loop_cl_answer(l, lm, o->data, f, now);
 			return;

@@ -115,7 +115,7 @@ static inline __attribute__((always_inline)) void push_setpoint(struct rmd_loop 
  */
 static bool oneshot_echo_verified(const struct lmotor *lm, const struct rmd_frame *f)
 {
-	return f->can_id == RMD_CAN_REQ_BASE + lm->m.id && f->len && f->data[0] == 0xB3;
+	return f->can_id == RMD_CAN_REQ_BASE + lm->m.id && f->len && f->data[0] == RMD_ARM_CMD;
 }
 
 /*

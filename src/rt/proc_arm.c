@@ -115,6 +115,6 @@ void rmd_arm_took_over(struct rmd_arm *a, uint32_t comm_loss_ms, bool has_b3, en
 void rmd_arm_request(uint32_t comm_loss_ms, struct rmd_msg *msg)
 {
 	memset(msg, 0, sizeof(*msg));
-	msg->cmd = 0xB3; /* V3 §2.30: write the comm-loss time, ms; kept in ROM */
+	msg->cmd = RMD_ARM_CMD;
 	rmd_msg_set(msg, RMD_FLD_TIMEOUT, comm_loss_ms);
 }

@@ -652,6 +652,12 @@ static void test_set_timeout(void **state)
 
 	CHECK_RUN(.args = { "set-timeout", "7", "500", "--yes", "--bus", "sim:1-3" }, .status = 1,
 		  .err_has = { "motor 7 did not answer 0xB3" });
+	/* V3 §2.30 example 2: an answer of zeros is taken, the time said unverified */
+	CHECK_RUN(.args = { "set-timeout", "2", "500", "--yes", "--bus", "sim:1-3", "--sim",
+			    "b3_answer_zeros=yes" },
+		  .out_has = { "answered with zeros (V3 §2.30 example 2): accepted, the time is "
+			       "not verified" },
+		  .out_lacks = "echo verified");
 }
 
 static const struct run_case other_commands[] = {

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "rmd/proc_arm.h"
 #include "rmd/time.h"
 #include "rmd/codec.h"
 #include "rmd/describe.h"
@@ -414,11 +415,15 @@ int rmdctl_run_set_timeout(struct dev *d, int argc, char **argv)
 			   id, d->name, ms);
 	if (r)
 		goto out;
-	/* V3 §2.30: stored in ROM; the answer echoes the request, or (example 2) is zeros. */
-	rmdctl_req_init(&q, id, 0xB3);
-	rmd_msg_set(&q.msg, RMD_FLD_TIMEOUT, (int64_t)ms);
+	/*
+	 * V3 §2.30: stored in ROM; the answer echoes the request, or (example
+	 * 2) is zeros: the same request and judgement as rmdd's (rmd/proc_arm.h).
+	 */
+	rmdctl_req_init(&q, id, 0);
+	rmd_arm_request((uint32_t)ms, &q.msg);
 	r = rmdctl_run_reqs(d, &q, 1);
-	if (!r && q.answered && !q.ok && !memcmp(q.t.rep.f.data, "\xB3\0\0\0\0\0\0", 8)) {
+	if (!r && q.answered && !q.ok &&
+	    rmd_arm_b3_outcome(q.t.req.data, &q.t.rep.f) == RMD_CL_ARMED_ZEROS) {
 		printf("%s: motor %u: comm-loss protection written to ROM; answered with zeros "
 		       "(V3 §2.30 example 2): accepted, the time is not verified\n",
 		       d->name, id);
