@@ -6,8 +6,9 @@
  * A motor is driven only in a dialect its firmware speaks.  Its firmware
  * date (0xB2, V3 §2.29) says which generation it runs
  * (rmd_dialect_for_firmware()); a date that certainly names another
- * firmware than the motor's dialect's is a mismatch (rmd_dialect_other_firmware(),
- * rmd/dialect.h, the one copy of that rule, which rmdctl shares): bring-up refuses the motor, the loop leaves
+ * firmware than the motor's dialect's is a mismatch
+ * (rmd_dialect_other_firmware(), rmd/dialect.h, the one copy of that
+ * rule, which rmdctl shares): bring-up refuses the motor, the loop leaves
  * one found late out for good.  A motor in MIT mode has its MIT scaling
  * decided from the same date and its model (0xB5, V3 §2.32) before any MIT
  * frame (rmd_mit_scaling_decide(), rmd/dialect.h).
