@@ -115,6 +115,21 @@ extern const char *const rmd_sim_fault_kind_names[RMD_SIM_FAULT_COUNT + 1];
  */
 int rmd_sim_fault_kind_from_name(const char *name);
 
+/*
+ * What a kind is, beside its name: the one copy rmd_sim_fault_check(),
+ * rmd-sim's --fault and rmdd.yaml's faults are held to.
+ */
+struct rmd_sim_fault_rule {
+	bool window;   /* acts over its window, not per frame (its probability ignored) */
+	bool bus_wide; /* acts on the whole bus: its motor_id must be 0 */
+	/* the param it takes, lo..hi, and what it is; param_what NULL: it takes none, ignored */
+	int64_t param_lo, param_hi;
+	const char *param_what;
+};
+
+/* The rule of `kind`, or NULL for an unknown kind.  rt-safe. */
+const struct rmd_sim_fault_rule *rmd_sim_fault_rule(enum rmd_sim_fault_kind kind);
+
 /* Whether the kind acts over a window (DISAPPEAR..BUS_POWER) rather than per frame.  rt-safe. */
 bool rmd_sim_fault_is_window(enum rmd_sim_fault_kind kind);
 

@@ -376,17 +376,33 @@ static void rate_in(struct yctx *c, const struct ynode *bn, const char *path, co
 }
 
 /* A key that the bus's type does not use. */
-static void bus_key_unused(struct yctx *c, const struct ynode *bn, const char *path,
-			   const char *key, const struct rmd_config_bus *b, const char *which)
+/* A bus entry's keys that only some types take: each one another type has is refused. */
+static void bus_keys_unused(struct yctx *c, const struct ynode *bn, const char *path,
+			    const struct rmd_config_bus *b)
 {
+#define KIND(k) (1u << RMD_BUS_KIND_##k)
+	static const struct {
+		const char *key, *which;
+		unsigned kinds;
+	} keys[] = {
+		{ "interface", "socketcan", KIND(SOCKETCAN) },
+		{ "bitrate", "socketcan or sim", KIND(SOCKETCAN) | KIND(SIM) },
+		{ "can_id_filter", "socketcan or sim", KIND(SOCKETCAN) | KIND(SIM) },
+		{ "device", "rs485", KIND(RS485) },
+		{ "baud", "rs485", KIND(RS485) },
+		{ "turnaround_us", "rs485", KIND(RS485) },
+	};
+#undef KIND
 	unsigned kl;
 	char kp[PATH_LEN];
 
-	if (!rmd_yaml_get(bn, key, &kl))
-		return;
-	rmd_yaml_path_key(kp, path, key);
-	rmd_yaml_report(c, kl, kp, "only for type %s (this bus is %s)", which,
-			rmd_bus_kind_name(b->kind));
+	for (size_t k = 0; k < sizeof(keys) / sizeof(keys[0]); k++) {
+		if (keys[k].kinds & (1u << b->kind) || !rmd_yaml_get(bn, keys[k].key, &kl))
+			continue;
+		rmd_yaml_path_key(kp, path, keys[k].key);
+		rmd_yaml_report(c, kl, kp, "only for type %s (this bus is %s)", keys[k].which,
+				rmd_bus_kind_name(b->kind));
+	}
 }
 
 /*
@@ -525,11 +541,9 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 		name_unique(c, seq, i, path, "buses", b->name, rmd_config_bus_find(cfg, b->name));
 		if (c->bad[MARK_BUS - 1] & (1u << i))
 			continue;
+		bus_keys_unused(c, bn, path, b);
 		switch (b->kind) {
 		case RMD_BUS_KIND_SOCKETCAN:
-			bus_key_unused(c, bn, path, "device", b, "rs485");
-			bus_key_unused(c, bn, path, "baud", b, "rs485");
-			bus_key_unused(c, bn, path, "turnaround_us", b, "rs485");
 			real_bus_sim(c, bn, path, b);
 			rmd_yaml_path_key(kp, path, "interface");
 			if (!rmd_yaml_get(bn, "interface", NULL)) {
@@ -551,9 +565,6 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 				"a bitrate RMD motors speak (V3 §2.31: 500000 or 1000000)");
 			break;
 		case RMD_BUS_KIND_RS485:
-			bus_key_unused(c, bn, path, "interface", b, "socketcan");
-			bus_key_unused(c, bn, path, "bitrate", b, "socketcan or sim");
-			bus_key_unused(c, bn, path, "can_id_filter", b, "socketcan or sim");
 			real_bus_sim(c, bn, path, b);
 			rmd_yaml_path_key(kp, path, "device");
 			if (!rmd_yaml_get(bn, "device", NULL))
@@ -573,10 +584,6 @@ static void validate_buses(struct yctx *c, struct rmd_config *cfg, struct rmd_si
 			}
 			break;
 		case RMD_BUS_KIND_SIM:
-			bus_key_unused(c, bn, path, "interface", b, "socketcan");
-			bus_key_unused(c, bn, path, "device", b, "rs485");
-			bus_key_unused(c, bn, path, "baud", b, "rs485");
-			bus_key_unused(c, bn, path, "turnaround_us", b, "rs485");
 			if (b->bitrate < 10000 || b->bitrate > 1000000) {
 				rmd_yaml_path_key(kp, path, "bitrate");
 				rmd_yaml_report(c, rmd_yaml_line_of(bn, "bitrate"), kp,
@@ -648,12 +655,9 @@ static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 		const struct rmd_sim_fault *f = &sb->faults[i];
 		const struct ynode *fn = faults->kids[i];
 		const char *kind = rmd_sim_fault_kind_names[f->kind];
-		bool bus_wide = f->kind == RMD_SIM_FAULT_BUS_OFF ||
-				f->kind == RMD_SIM_FAULT_FLOOD ||
-				f->kind == RMD_SIM_FAULT_BUS_POWER;
+		const struct rmd_sim_fault_rule *rule = rmd_sim_fault_rule(f->kind);
+		bool bus_wide = rule->bus_wide;
 		bool found = false;
-		int64_t lo = 0, hi = 0;
-		const char *what = NULL;
 
 		snprintf(path, sizeof(path), "buses[%u].sim.faults[%u]", bi, i);
 		/* rmd-sim's faults on a real wire (docs/rmd-sim.md "Faults") */
@@ -689,35 +693,7 @@ static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 			rmd_yaml_report(c, rmd_yaml_line_of(fn, "end_s"), kp,
 					"must be after start_s, or 0 to leave the window open");
 		}
-		switch (f->kind) {
-		case RMD_SIM_FAULT_DROP:
-		case RMD_SIM_FAULT_GARBAGE:
-		case RMD_SIM_FAULT_BUS_OFF:
-		case RMD_SIM_FAULT_COUNT:
-			break;
-		case RMD_SIM_FAULT_DELAY:
-			lo = 0, hi = INT64_C(10000000000), what = "the delay in ns";
-			break;
-		case RMD_SIM_FAULT_BAD_DLC:
-			lo = 0, hi = 7, what = "the DLC";
-			break;
-		case RMD_SIM_FAULT_WRONG_ID:
-			lo = 1, hi = RMD_MAX_MOTORS, what = "the motor id whose identifier is used";
-			break;
-		case RMD_SIM_FAULT_DISAPPEAR:
-			lo = 0, hi = 1, what = "1 when the motor loses power";
-			break;
-		case RMD_SIM_FAULT_ERROR_FLAG:
-			lo = 1, hi = 0xFFFF, what = "the error bits (V3 §2.12)";
-			break;
-		case RMD_SIM_FAULT_FLOOD:
-			lo = 1, hi = INT64_C(10000000000), what = "the interval in ns";
-			break;
-		case RMD_SIM_FAULT_BUS_POWER:
-			lo = 0, hi = 0, what = "bus_power takes none";
-			break;
-		}
-		if (what && (f->param < lo || f->param > hi)) {
+		if (rule->param_what && (f->param < rule->param_lo || f->param > rule->param_hi)) {
 			const char *pk = rmd_yaml_get(fn, "delay_us", NULL)  ? "delay_us" :
 					 rmd_yaml_get(fn, "period_us", NULL) ? "period_us" :
 									       "param";
@@ -725,8 +701,8 @@ static void validate_faults(struct yctx *c, const struct rmd_config *cfg,
 			rmd_yaml_path_key(kp, path, pk);
 			rmd_yaml_report(c, rmd_yaml_line_of(fn, pk), kp,
 					"%lld is out of range for %s (%lld..%lld: %s)",
-					(long long)f->param, kind, (long long)lo, (long long)hi,
-					what);
+					(long long)f->param, kind, (long long)rule->param_lo,
+					(long long)rule->param_hi, rule->param_what);
 		}
 		only_for(c, fn, path, "can_id", f->kind, RMD_SIM_FAULT_FLOOD);
 		only_for(c, fn, path, "delay_us", f->kind, RMD_SIM_FAULT_DELAY);

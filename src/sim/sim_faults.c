@@ -49,56 +49,69 @@ int rmd_sim_fault_kind_from_name(const char *name)
 	return -EINVAL;
 }
 
+#define FAULT_MAX_NS INT64_C(10000000000) /* a delay or a flood's interval: 10 s at most */
+
+static const struct rmd_sim_fault_rule rules[RMD_SIM_FAULT_COUNT] = {
+	[RMD_SIM_FAULT_DROP] = { 0 },
+	[RMD_SIM_FAULT_DELAY] = { .param_lo = 0,
+				  .param_hi = FAULT_MAX_NS,
+				  .param_what = "the delay in ns" },
+	[RMD_SIM_FAULT_BAD_DLC] = { .param_lo = 0,
+				    .param_hi = RMD_FRAME_LEN - 1,
+				    .param_what = "the DLC" },
+	[RMD_SIM_FAULT_GARBAGE] = { 0 },
+	[RMD_SIM_FAULT_WRONG_ID] = { .param_lo = 1,
+				     .param_hi = RMD_MAX_MOTORS,
+				     .param_what = "the motor id whose identifier is used" },
+	[RMD_SIM_FAULT_DISAPPEAR] = { .window = true,
+				      .param_lo = 0,
+				      .param_hi = 1,
+				      .param_what = "1 when the motor loses power" },
+	[RMD_SIM_FAULT_ERROR_FLAG] = { .window = true,
+				       .param_lo = 1,
+				       .param_hi = 0xFFFF,
+				       .param_what = "the error bits (V3 §2.12)" },
+	[RMD_SIM_FAULT_BUS_OFF] = { .window = true, .bus_wide = true },
+	[RMD_SIM_FAULT_FLOOD] = { .window = true,
+				  .bus_wide = true,
+				  .param_lo = 1,
+				  .param_hi = FAULT_MAX_NS,
+				  .param_what = "the interval in ns" },
+	[RMD_SIM_FAULT_BUS_POWER] = { .window = true,
+				      .bus_wide = true,
+				      .param_lo = 0,
+				      .param_hi = 0,
+				      .param_what = "bus_power takes none" },
+};
+
+const struct rmd_sim_fault_rule *rmd_sim_fault_rule(enum rmd_sim_fault_kind kind)
+{
+	return (unsigned)kind < RMD_SIM_FAULT_COUNT ? &rules[kind] : NULL;
+}
+
 bool rmd_sim_fault_is_window(enum rmd_sim_fault_kind kind)
 {
-	switch (kind) {
-	case RMD_SIM_FAULT_DISAPPEAR:
-	case RMD_SIM_FAULT_ERROR_FLAG:
-	case RMD_SIM_FAULT_BUS_OFF:
-	case RMD_SIM_FAULT_FLOOD:
-	case RMD_SIM_FAULT_BUS_POWER:
-		return true;
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_DELAY:
-	case RMD_SIM_FAULT_BAD_DLC:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_WRONG_ID:
-	case RMD_SIM_FAULT_COUNT:
-		break;
-	}
-	return false;
+	const struct rmd_sim_fault_rule *r = rmd_sim_fault_rule(kind);
+
+	return r && r->window;
 }
 
 int rmd_sim_fault_check(const struct rmd_sim_fault *f)
 {
-	if ((unsigned)f->kind >= RMD_SIM_FAULT_COUNT || f->motor_id > RMD_MAX_MOTORS)
+	const struct rmd_sim_fault_rule *r = rmd_sim_fault_rule(f->kind);
+
+	if (!r || f->motor_id > RMD_MAX_MOTORS)
 		return -EINVAL;
 	if (f->end_ns != 0 && f->end_ns <= f->start_ns)
 		return -EINVAL;
-	if (!rmd_sim_fault_is_window(f->kind) && !(f->probability >= 0.0 && f->probability <= 1.0))
+	if (!r->window && !(f->probability >= 0.0 && f->probability <= 1.0))
 		return -EINVAL;
-	switch (f->kind) {
-	case RMD_SIM_FAULT_DELAY:
-		return f->param >= 0 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_BAD_DLC:
-		return f->param >= 0 && f->param < RMD_FRAME_LEN ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_WRONG_ID:
-		return f->param >= 1 && f->param <= RMD_MAX_MOTORS ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_DISAPPEAR:
-		return f->param == 0 || f->param == 1 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_ERROR_FLAG:
-		return f->param >= 0 && f->param <= 0xFFFF ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_BUS_OFF:
-		return f->motor_id == 0 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_BUS_POWER:
-		return f->motor_id == 0 && f->param == 0 ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_FLOOD:
-		return f->motor_id == 0 && f->param > 0 && f->can_id <= 0x7FF ? 0 : -EINVAL;
-	case RMD_SIM_FAULT_DROP:
-	case RMD_SIM_FAULT_GARBAGE:
-	case RMD_SIM_FAULT_COUNT:
-		break;
-	}
+	if (r->bus_wide && f->motor_id != 0)
+		return -EINVAL;
+	if (r->param_what && (f->param < r->param_lo || f->param > r->param_hi))
+		return -EINVAL;
+	if (f->kind == RMD_SIM_FAULT_FLOOD && f->can_id > 0x7FF) /* an 11-bit identifier */
+		return -EINVAL;
 	return 0;
 }
 
