@@ -366,26 +366,41 @@ static void decode_fields(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 	}
 }
 
+/*
+ * What rmd_decode() and rmd_decode_as() start with: msg cleared, an 8-byte
+ * frame, the dialect's table, the identifier's address, and a direction
+ * asked (not RMD_DIR_UNKNOWN) that is the identifier's.  0 or -errno.
+ */
+static int decode_begin(enum rmd_proto *proto, enum rmd_dir dir, const struct rmd_frame *f,
+			struct rmd_msg *msg, struct rmd_addr *addr)
+{
+	int r;
+
+	memset(msg, 0, sizeof(*msg));
+	if (f->len != RMD_FRAME_LEN)
+		return -EBADMSG;
+	*proto = rmd_proto_table(*proto);
+	r = rmd_addr_from_id(*proto, f->can_id, addr);
+	if (r < 0)
+		return r;
+	if (dir != RMD_DIR_UNKNOWN && addr->dir != RMD_DIR_UNKNOWN && addr->dir != dir)
+		return -EINVAL;
+	return 0;
+}
+
 int rmd_decode(enum rmd_proto proto, enum rmd_dir dir, const struct rmd_frame *f,
 	       struct rmd_msg *msg, enum rmd_dir *dir_out)
 {
 	const struct rmd_dialect *d;
 	const struct rmd_cmd_spec *spec;
 	struct rmd_addr addr;
-	int r;
+	int r = decode_begin(&proto, dir, f, msg, &addr);
 
-	memset(msg, 0, sizeof(*msg));
-	if (f->len != RMD_FRAME_LEN)
-		return -EBADMSG;
-	proto = rmd_proto_table(proto);
-	d = rmd_dialect(proto);
-	r = rmd_addr_from_id(proto, f->can_id, &addr);
 	if (r < 0)
 		return r;
+	d = rmd_dialect(proto);
 	if (dir == RMD_DIR_UNKNOWN)
 		dir = addr.dir;
-	else if (addr.dir != RMD_DIR_UNKNOWN && addr.dir != dir)
-		return -EINVAL;
 
 	if (rmd_dialect_has(d, RMD_DIALECT_BATCH_280) && f->can_id == RMD_CAN_MULTI)
 		spec = rmd_cmd_find(proto, RMD_V2_CMD_MULTI_TORQUE);
@@ -416,18 +431,11 @@ int rmd_decode_as(enum rmd_proto proto, enum rmd_dir dir, uint8_t cmd, const str
 {
 	const struct rmd_cmd_spec *spec;
 	struct rmd_addr addr;
-	int r;
+	int r = decode_begin(&proto, dir, f, msg, &addr);
 
-	memset(msg, 0, sizeof(*msg));
-	if (f->len != RMD_FRAME_LEN)
-		return -EBADMSG;
-	proto = rmd_proto_table(proto);
-	if (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY)
-		return -EINVAL;
-	r = rmd_addr_from_id(proto, f->can_id, &addr);
 	if (r < 0)
 		return r;
-	if (addr.dir != RMD_DIR_UNKNOWN && addr.dir != dir)
+	if (dir != RMD_DIR_REQUEST && dir != RMD_DIR_REPLY)
 		return -EINVAL;
 	spec = rmd_cmd_find(proto, cmd);
 	if (!spec) {

@@ -34,20 +34,10 @@ const struct rmd_cmd_spec rmd_v3_cmds[] = {
 	 */
 	{ 0x42, "read_accel", 0, { 0 }, RMD_LAYOUT(RMD_S(ACCEL, 4, 4, 1.0)), RMD_SAY0("accel-read") },
 	V3X_ROW_43("V3"),
-	V3X_ROW_60,
-	V3X_ROW_61,
-	V3X_ROW_62,
-	V3X_ROW_63,
-	V3X_ROW_64,
-	V3X_ROW_70,
+	V3X_ROWS_60_70,
 	/* §2.24: motor power, uint16 0.1 W. */
 	{ 0x71, "read_power", 0, { 0 }, RMD_LAYOUT(RMD_U(POWER, 6, 2, 0.1)), RMD_SAY0("power") },
-	V3X_ROW_76,
-	V3X_ROW_77,
-	V3X_ROW_78,
-	V3X_ROW_79,
-	V3X_ROW_80,
-	V3X_ROW_81,
+	V3X_ROWS_76_81,
 	V3X_ROW_92,
 	/* §2.12: temperature, brake, voltage 0.1 V, error flags (table 1). */
 	{ 0x9A,
@@ -76,11 +66,7 @@ const struct rmd_cmd_spec rmd_v3_cmds[] = {
 	  RMD_LAYOUT(RMD_U(MAX_SPEED, 2, 2, 0.01), RMD_S(ANGLE, 4, 4, 0.01)), V3X_STATUS2,
 	  RMD_SAY2("position-track-limited", ANGLE, MAX_SPEED) },
 	V3X_ROW_A8,
-	V3X_ROW_B1,
-	V3X_ROW_B2,
-	V3X_ROW_B3,
-	V3X_ROW_B4,
-	V3X_ROW_B5,
+	V3X_ROWS_B1_B5,
 	/*
 	 * §2.33: function index (§2.33.4: 1 clear multi-turn and save, 2 CAN ID
 	 * filter, saved in flash, 3 0x9A error reports, 4 save multi-turn at

@@ -222,4 +222,12 @@
 			RMD_RANGES(RMD_RANGE(INDEX, 1, last, cite))                   \
 	}
 
+/*
+ * The runs of rows both tables hold in the same order, so that each table
+ * says what it shares in one line a run.
+ */
+#define V3X_ROWS_60_70 V3X_ROW_60, V3X_ROW_61, V3X_ROW_62, V3X_ROW_63, V3X_ROW_64, V3X_ROW_70
+#define V3X_ROWS_76_81 V3X_ROW_76, V3X_ROW_77, V3X_ROW_78, V3X_ROW_79, V3X_ROW_80, V3X_ROW_81
+#define V3X_ROWS_B1_B5 V3X_ROW_B1, V3X_ROW_B2, V3X_ROW_B3, V3X_ROW_B4, V3X_ROW_B5
+
 #endif /* RMD_CODEC_V3X_ROWS_H */

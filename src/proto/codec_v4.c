@@ -71,18 +71,8 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	  RMD_SAY1("accel-read", INDEX),
 	  RMD_RANGES(RMD_RANGE(INDEX, 0, 3, "V4.2 §2.4.4: index 0..3")) },
 	V3X_ROW_43("V4.2"),
-	V3X_ROW_60,
-	V3X_ROW_61,
-	V3X_ROW_62,
-	V3X_ROW_63,
-	V3X_ROW_64,
-	V3X_ROW_70,
-	V3X_ROW_76,
-	V3X_ROW_77,
-	V3X_ROW_78,
-	V3X_ROW_79,
-	V3X_ROW_80,
-	V3X_ROW_81,
+	V3X_ROWS_60_70,
+	V3X_ROWS_76_81,
 	/*
 	 * §2.11: single-turn encoder: position (raw minus offset), raw
 	 * position and zero offset, uint16 counts at data[2..7].  (§2.11.3's
@@ -148,11 +138,7 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 			       "V4.2 §2.22: 0..359.99 deg, and 360 as its example sends"),
 		     RMD_RANGE(SPIN_DIR, 0, 1, "V4.2 §2.22.1: 0 clockwise, 1 counterclockwise")) },
 	V3X_ROW_A8,
-	V3X_ROW_B1,
-	V3X_ROW_B2,
-	V3X_ROW_B3,
-	V3X_ROW_B4,
-	V3X_ROW_B5,
+	V3X_ROWS_B1_B5,
 	/*
 	 * §2.33: active reply, CAN only.  data[1] the command whose reply
 	 * the motor pushes (0x60 0x61 0x62 0x92 0x9A 0x9C 0x9D 0x9E), data[2]
