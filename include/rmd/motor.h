@@ -120,11 +120,14 @@ enum {
 	 * count of the motor's encoder when it has one
 	 * (rmd_reboot_turns_says()): RMD_MOTOR_HAVE_COUNT_SAME, they agree;
 	 * RMD_MOTOR_HAVE_COUNT_LOST, they part by whole rotor turns: the
-	 * motor lost its count (it rebooted).
+	 * motor lost its count (it rebooted); RMD_MOTOR_HAVE_COUNT_ASTRAY,
+	 * they part by other than whole turns: rmdd's count was wrong, it is
+	 * dropped and taken again from the next 0x92 angle.
 	 */
 	RMD_MOTOR_HAVE_COUNT_CHECK = 1u << 11,
 	RMD_MOTOR_HAVE_COUNT_SAME = 1u << 12,
 	RMD_MOTOR_HAVE_COUNT_LOST = 1u << 13,
+	RMD_MOTOR_HAVE_COUNT_ASTRAY = 1u << 14,
 };
 
 /* A request field of a control row, resolved once by rmd_motor_init(). */

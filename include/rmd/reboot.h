@@ -85,6 +85,12 @@ enum rmd_reboot_verdict {
 	RMD_REBOOT_SAYS_NOTHING = 0, /* it cannot tell (V2: no count; a runtime about to wrap) */
 	RMD_REBOOT_SAYS_RUNNING,     /* it has run since it was known running */
 	RMD_REBOOT_SAYS_BOOTED,	     /* it booted since */
+	/*
+	 * V2: its angle and rmdd's count part by other than whole rotor turns,
+	 * which no boot does: the count is wrong (a gear ratio not the
+	 * motor's, a step it missed); it tells nothing of a boot
+	 */
+	RMD_REBOOT_SAYS_COUNT_ASTRAY,
 };
 
 /* One motor's check (in struct lmotor). */
@@ -107,7 +113,21 @@ struct rmd_reboot {
 	/* rmdd's last brake release (0x77) went out as this request; since, it reported it open */
 	uint64_t release_seq;
 	bool brake_open;
+	/* V2: its count went astray since it was found: it judges no boot, no check opens */
+	bool astray;
 };
+
+/*
+ * V2: what a count check's verdict v (rmd_reboot_turns_says()) tells the
+ * check.  A count gone astray judges no boot from then on: a wrong scale
+ * (a gear_ratio not the motor's) would in time part by whole turns by
+ * chance and be taken for one.  So the episode ends, no check opens and
+ * every count verdict says nothing until the motor is found again
+ * (rmd_reboot_found()); *news is true the first time (to report it).
+ * rt-safe.
+ */
+enum rmd_reboot_verdict rmd_reboot_count(struct rmd_reboot *r, enum rmd_reboot_verdict v,
+					 bool *news);
 
 /* Not found, no check.  rt-safe. */
 void rmd_reboot_init(struct rmd_reboot *r);
@@ -204,22 +224,30 @@ void rmd_reboot_released(struct rmd_reboot *r, uint64_t seq);
 enum rmd_reboot_verdict rmd_reboot_brake_says(struct rmd_reboot *r, bool held, uint64_t seq,
 					      bool released);
 
-/* A position reading: where (rad at the output, reported frame), when (ns), how fast (rad/s). */
+/*
+ * A position reading: where (rad at the output, reported frame), when
+ * (ns), how fast (rad/s), and how far off it may be besides its step
+ * (rad; rmdd's V2 count: the motion its anchor allows).
+ */
 struct rmd_reboot_reading {
 	double pos_rad;
 	int64_t t_ns;
 	double vel_rad_s;
+	double err_rad;
 };
 
 /*
  * The motor's own multi-turn angle `now` against rmdd's count `before`
- * (V2): booted when they part by at least half a rotor turn at the output
- * (mt->period_rad / 2, the least a lost count shifts it by: whole
- * periods) plus twice the reading's step (mt->tol_rad), and by more than
- * the speeds can explain: twice the faster of the two readings' speeds
- * over the time between them, plus twice the step.  Says nothing without
- * a period, with a reading not finite, or `now` before `before`.
- * rt-safe.
+ * (V2).  What the readings may part by while it runs: twice the faster
+ * of the two readings' speeds over the time between them, twice the
+ * reading's step (mt->tol_rad) and both readings' err_rad.  Running when
+ * they part by no more, or by less than half a rotor turn at the output
+ * (mt->period_rad / 2) plus twice the step.  Otherwise a lost count
+ * shifts the angle by whole periods: booted when they part by whole
+ * periods give or take what they may part by; by anything else, the
+ * count went astray (RMD_REBOOT_SAYS_COUNT_ASTRAY), which no boot
+ * explains.  Says nothing without a period, with a reading not finite,
+ * or `now` before `before`.  rt-safe.
  */
 enum rmd_reboot_verdict rmd_reboot_turns_says(const struct rmd_multiturn *mt,
 					      const struct rmd_reboot_reading *before,

@@ -321,8 +321,8 @@ enum rmd_event_kind {
 	 * A motor's reboot check (rmd/reboot.h): a = enum rmd_reboot_report;
 	 * b: RMD_REBOOT_BY_RUNTIME, its 0xB1 runtime in ms << 32 | the ms
 	 * from its last answer to the read (what it would have run at
-	 * least); RMD_REBOOT_BY_TURNS, its 0x92 angle << 32 | rmdd's count
-	 * (int32 each, 0.01 deg, reported frame); RMD_REBOOT_BY_BRAKE, 0;
+	 * least); RMD_REBOOT_BY_TURNS and RMD_REBOOT_COUNT_ASTRAY, its 0x92
+	 * angle << 32 | rmdd's count (int32 each, 0.01 deg, reported frame); RMD_REBOOT_BY_BRAKE, 0;
 	 * the others, the check's command byte.  A reboot makes it lost and
 	 * back at once.
 	 */
@@ -351,6 +351,8 @@ enum rmd_reboot_report {
 	RMD_REBOOT_BY_BRAKE, /* 0x9A: its brake locked after it reported rmdd's release */
 	RMD_REBOOT_NO_CHECK, /* it does not answer the check read: no checks any more */
 	RMD_REBOOT_UNTOLD,   /* its answers could not tell (no count yet): this check ends */
+	/* V2: its 0x92 angle parts from rmdd's count by other than whole turns: count dropped */
+	RMD_REBOOT_COUNT_ASTRAY,
 };
 
 /* Why the rt loop refused a homing request (RMD_EV_HOME_REFUSED). */

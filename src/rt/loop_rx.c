@@ -345,6 +345,7 @@ static __attribute__((cold, noinline)) void reboot_answer(struct rmd_loop *l, st
 	enum rmd_reboot_outcome out;
 	struct rmd_motor_reply r;
 	int64_t what = 0;
+	bool news;
 
 	if (lm->st->lifecycle == RMD_LC_LOST || lm->st->lifecycle == RMD_LC_PROBE)
 		return;
@@ -366,12 +367,18 @@ static __attribute__((cold, noinline)) void reboot_answer(struct rmd_loop *l, st
 		out = v == RMD_REBOOT_SAYS_BOOTED ? rmd_reboot_answer(&lm->rb, seq, v) :
 						    RMD_REBOOT_WAIT;
 	} else {
+		what = centideg(lm->st->pos_rad) << 32 | centideg(lm->m.v2_checked_rad);
 		if (have & RMD_MOTOR_HAVE_COUNT_LOST) {
 			v = RMD_REBOOT_SAYS_BOOTED;
-			what = centideg(lm->st->pos_rad) << 32 | centideg(lm->m.v2_checked_rad);
 		} else if (have & RMD_MOTOR_HAVE_COUNT_SAME) {
 			v = RMD_REBOOT_SAYS_RUNNING;
+		} else if (have & RMD_MOTOR_HAVE_COUNT_ASTRAY) {
+			v = RMD_REBOOT_SAYS_COUNT_ASTRAY;
 		}
+		v = rmd_reboot_count(&lm->rb, v, &news);
+		if (news)
+			loop_event(l, now, RMD_EV_REBOOT, loop_idx(l, lm), lm->m.bus,
+				   RMD_REBOOT_COUNT_ASTRAY, what);
 		out = rmd_reboot_answer(&lm->rb, seq, v);
 	}
 	switch (out) {

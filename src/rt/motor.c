@@ -950,13 +950,15 @@ static bool v2_count_trusted(struct rmd_motor *m, const struct rmd_motor_reply *
  * last position: the motor's own multi-turn angle and rmdd's count of its
  * encoder part by whole rotor turns when the motor lost its count
  * (rmd/reboot.h).  RMD_MOTOR_HAVE_COUNT_SAME or RMD_MOTOR_HAVE_COUNT_LOST;
- * 0 when there is no count to hold it against (none yet, or this angle
- * is the count's new reference).  rt-safe.
+ * RMD_MOTOR_HAVE_COUNT_ASTRAY when they part by what no boot explains:
+ * the count is dropped (the next 0x92 angle is its reference).  0 when
+ * there is no count to hold it against (none yet, or this angle is the
+ * count's new reference).  rt-safe.
  */
 static unsigned v2_count_check(struct rmd_motor *m, const struct rmd_motor_reply *r, uint8_t took,
 			       int64_t t_ns)
 {
-	struct rmd_reboot_reading count, angle = { r->pos_rad, t_ns, 0.0 };
+	struct rmd_reboot_reading count, angle = { r->pos_rad, t_ns, 0.0, 0.0 };
 	double native;
 
 	if (took != V2_TOOK_NONE || !m->v2_have_ref || !m->v2_anchored || !m->v2_enc_ns)
@@ -966,6 +968,7 @@ static unsigned v2_count_check(struct rmd_motor *m, const struct rmd_motor_reply
 	count.pos_rad = rmd_motor_from_native_pos(m, native);
 	count.t_ns = m->v2_enc_ns;
 	count.vel_rad_s = m->v2_rotor_speed / m->gear_ratio;
+	count.err_rad = RMD_MOTOR_V2_ANCHOR_RAD; /* the motion its anchor allows */
 	angle.vel_rad_s = (r->have & RMD_MOTOR_HAVE_VEL) ? r->vel_rad_s : count.vel_rad_s;
 	m->v2_checked_rad = count.pos_rad;
 	switch (rmd_reboot_turns_says(&m->mt, &count, &angle)) {
@@ -973,6 +976,9 @@ static unsigned v2_count_check(struct rmd_motor *m, const struct rmd_motor_reply
 		return RMD_MOTOR_HAVE_COUNT_LOST;
 	case RMD_REBOOT_SAYS_RUNNING:
 		return RMD_MOTOR_HAVE_COUNT_SAME;
+	case RMD_REBOOT_SAYS_COUNT_ASTRAY:
+		rmd_motor_forget_v2_reference(m);
+		return RMD_MOTOR_HAVE_COUNT_ASTRAY;
 	case RMD_REBOOT_SAYS_NOTHING:
 		break;
 	}

@@ -32,6 +32,19 @@ void rmd_reboot_found(struct rmd_reboot *r, int64_t now_ns, bool first_check)
 	r->boot_known = false;
 	r->pending = r->first = first_check && !r->off;
 	r->ignored = 0;
+	r->astray = false;
+}
+
+enum rmd_reboot_verdict rmd_reboot_count(struct rmd_reboot *r, enum rmd_reboot_verdict v,
+					 bool *news)
+{
+	*news = false;
+	if (v == RMD_REBOOT_SAYS_COUNT_ASTRAY) {
+		*news = !r->astray;
+		r->astray = true;
+		episode_end(r);
+	}
+	return r->astray ? RMD_REBOOT_SAYS_NOTHING : v;
 }
 
 void rmd_reboot_forget(struct rmd_reboot *r)
@@ -49,7 +62,7 @@ void rmd_reboot_slow(struct rmd_reboot *r, int64_t now_ns)
 enum rmd_reboot_outcome rmd_reboot_missed(struct rmd_reboot *r, uint64_t seq, bool check,
 					  uint64_t heard_seq, int64_t now_ns, int64_t slow_hold_ns)
 {
-	if (r->off || !r->since_ns || seq < r->told_seq)
+	if (r->off || r->astray || !r->since_ns || seq < r->told_seq)
 		return RMD_REBOOT_WAIT;
 	/* found, it answered a later request, not this check read: its firmware may not know it */
 	if (check && r->first && heard_seq > seq + 1 && ++r->ignored >= RMD_REBOOT_IGNORED_MAX) {
@@ -85,7 +98,7 @@ enum rmd_reboot_outcome rmd_reboot_answer(struct rmd_reboot *r, uint64_t seq,
 	if (!r->pending)
 		return RMD_REBOOT_WAIT;
 	r->ignored = 0;
-	if (v == RMD_REBOOT_SAYS_NOTHING && ++r->undecided < RMD_REBOOT_UNDECIDED_MAX)
+	if (v != RMD_REBOOT_SAYS_RUNNING && ++r->undecided < RMD_REBOOT_UNDECIDED_MAX)
 		return RMD_REBOOT_WAIT;
 	episode_end(r);
 	r->told_seq = seq;
@@ -160,12 +173,15 @@ enum rmd_reboot_verdict rmd_reboot_turns_says(const struct rmd_multiturn *mt,
 {
 	double dt = (double)(now->t_ns - before->t_ns) * 1e-9;
 	double v = fmax(fabs(before->vel_rad_s), fabs(now->vel_rad_s));
-	double jump = fabs(now->pos_rad - before->pos_rad), step = 2.0 * mt->tol_rad;
+	double d = now->pos_rad - before->pos_rad, step = 2.0 * mt->tol_rad;
+	double may = 2.0 * v * dt + step + fabs(before->err_rad) + fabs(now->err_rad);
+	double p = mt->period_rad;
 
-	if (!(mt->period_rad > 0.0) || !isfinite(jump) || !isfinite(v) || !isfinite(step) ||
-	    dt < 0.0)
+	if (!(p > 0.0) || !isfinite(d) || !isfinite(may) || dt < 0.0)
 		return RMD_REBOOT_SAYS_NOTHING;
-	if (jump >= mt->period_rad / 2.0 + step && jump > 2.0 * v * dt + step)
+	if (fabs(d) <= may || fabs(d) < p / 2.0 + step)
+		return RMD_REBOOT_SAYS_RUNNING;
+	if (fabs(d - round(d / p) * p) <= may)
 		return RMD_REBOOT_SAYS_BOOTED;
-	return RMD_REBOOT_SAYS_RUNNING;
+	return RMD_REBOOT_SAYS_COUNT_ASTRAY;
 }

@@ -137,9 +137,10 @@ struct glitch_case {
 	unsigned rate_hz;
 	int64_t glitch_ns;
 	unsigned boot_ms;
-	bool brake; /* the motor has a brake (the boot locks it) */
-	bool saved; /* motor 1 keeps its count (no band needed: it may travel) */
-	bool fine;  /* motor 1: feedback.position multi_turn */
+	bool brake;	 /* the motor has a brake (the boot locks it) */
+	bool saved;	 /* motor 1 keeps its count (no band needed: it may travel) */
+	bool fine;	 /* motor 1: feedback.position multi_turn */
+	double cfg_gear; /* motor 1's gear_ratio in rmdd's config, not the motor's (0: the motor's) */
 };
 
 static const struct glitch_case *gc;
@@ -194,6 +195,8 @@ static void rig_up(const struct glitch_case *c)
 	}
 	if (c->fine)
 		R.io.cfg.motors[0].feedback.position = RMD_FEEDBACK_MULTI_TURN;
+	if (c->cfg_gear > 0)
+		R.io.cfg.motors[0].gear_ratio = c->cfg_gear;
 	if (rmd_plan_build(&R.io.cfg, &R.io.plan, err, sizeof(err)))
 		fail_msg("%s: plan: %s", c->name, err);
 	rig_open_buses(&R.io.cfg, &R.io.sim, R.io.buses);
@@ -644,20 +647,25 @@ struct quiet_case {
 	double drop;	  /* the chance of each frame of motor 1 to be lost */
 	bool fine; /* feedback.position: multi_turn (0x92 reads, V2: each against the count) */
 	bool home; /* homed first (the reported frame shifted) */
+	/* motor 1's gear_ratio in rmdd's config, not the motor's: its count goes astray */
+	double cfg_gear;
 };
 
 /*
  * Motor 1 runs `c` for 4 s while its frames are lost now and then: every
- * loss opens a check, and none may say it rebooted; the checks did run.
+ * loss opens a check, and none may say it rebooted; the checks did run,
+ * and on the wire it got no safe action (0x80, 0x81) and its setpoints
+ * throughout.  A count gone astray (c->cfg_gear) is said, once.
  */
 static void quiet_case(const struct quiet_case *c)
 {
 	struct glitch_case gg = { .rate_hz = 1000 };
 	struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_DROP, .motor_id = 1 };
 	struct rmd_setpoint *a = &R.cmd.m[0];
-	unsigned from, checks = 0;
+	unsigned from, checks = 0, stops = 0, astray;
 
 	gg.name = c->name;
+	gg.cfg_gear = c->cfg_gear;
 	gg.proto = c->proto;
 	gg.brake = true;
 	gg.saved = true;
@@ -694,16 +702,31 @@ static void quiet_case(const struct quiet_case *c)
 		else
 			a->torque_nm = k % 2 ? -1.0 : 1.0;
 		run(cycles_of(500 * MS), NULL);
-		if (lifecycle(0) != RMD_LC_ENABLED)
+		if (lifecycle(0) != RMD_LC_ENABLED) {
+			events_pump();
+			for (unsigned e = 0; e < nev && getenv("RMD_TEST_VERBOSE"); e++)
+				print_message("event %u motor %d a %lld b %lld\n", evs[e].kind,
+					      evs[e].motor, (long long)evs[e].a,
+					      (long long)evs[e].b);
 			fail_msg("%s: not ENABLED (%u) at step %u", c->name, lifecycle(0), k);
+		}
 	}
-	if (count_ev(RMD_EV_REBOOT, 0, -1))
+	astray = count_ev(RMD_EV_REBOOT, 0, RMD_REBOOT_COUNT_ASTRAY);
+	if (count_ev(RMD_EV_REBOOT, 0, -1) != astray)
 		fail_msg("%s: a reboot reported (a %lld)", c->name, (long long)evs[0].a);
-	for (unsigned k = from; k < tx_n; k++)
-		checks += to_motor(&tx[k].f, 0) &&
-			  tx[k].f.data[0] == (c->proto == RMD_PROTO_V2 ? 0x92 : 0xB1);
+	if (astray != (c->cfg_gear > 0))
+		fail_msg("%s: the count went astray %u times, said %s", c->name, astray,
+			 c->cfg_gear > 0 ? "once" : "never");
+	for (unsigned k = from; k < tx_n; k++) {
+		if (tx[k].f.can_id != 0x141)
+			continue;
+		checks += tx[k].f.data[0] == (c->proto == RMD_PROTO_V2 ? 0x92 : 0xB1);
+		stops += tx[k].f.data[0] == 0x80 || tx[k].f.data[0] == 0x81;
+	}
 	if (!checks)
 		fail_msg("%s: no check ran", c->name);
+	if (stops)
+		fail_msg("%s: %u stop frames (0x80, 0x81) reached it", c->name, stops);
 	if (getenv("RMD_TEST_VERBOSE"))
 		print_message("%s: %u check reads, at %.0f deg/s at the last\n", c->name, checks,
 			      sim_motor(0)->vel_rad_s / DEG);
@@ -749,6 +772,27 @@ static void test_quiet_v2_fast(void **state)
 		.mode = RMD_MODE_SPEED,
 		.vel_rad_s = 15.0,
 		.drop = 0.02,
+	};
+
+	(void)state;
+	quiet_case(&c);
+}
+
+/*
+ * V2 at speed with rmdd's gear_ratio 1 for a 1:6 motor (CI, 2026-12-02:
+ * the test's config named none): rmdd counts its encoder six times too
+ * fast, and a check's 0x92 parts from the count by what no boot does.
+ * Said once; the count is taken again; never a reboot, never a stop.
+ */
+static void test_quiet_v2_gear_astray(void **state)
+{
+	static const struct quiet_case c = {
+		.name = "V2, gear_ratio not the motor's",
+		.proto = RMD_PROTO_V2,
+		.mode = RMD_MODE_SPEED,
+		.vel_rad_s = 4.0,
+		.drop = 0.02,
+		.cfg_gear = 1.0,
 	};
 
 	(void)state;
@@ -817,6 +861,7 @@ int main(void)
 		cmocka_unit_test(test_quiet_v3_fast),
 		cmocka_unit_test(test_quiet_v3_moves),
 		cmocka_unit_test(test_quiet_v2_fast),
+		cmocka_unit_test(test_quiet_v2_gear_astray),
 		cmocka_unit_test(test_quiet_v2_homed_fine),
 		cmocka_unit_test(test_quiet_mit),
 		cmocka_unit_test(test_quiet_v3_rest),

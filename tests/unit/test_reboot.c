@@ -23,7 +23,7 @@
 #define S INT64_C(1000000000)
 #define DEG (M_PI / 180.0)
 
-static const char *const verdict_name[] = { "nothing", "running", "booted" };
+static const char *const verdict_name[] = { "nothing", "running", "booted", "count astray" };
 static const char *const outcome_name[] = { "wait", "fine", "rebooted", "uncheckable",
 					    "undecided" };
 
@@ -102,80 +102,115 @@ static void test_turns_table(void **state)
 		{ "direct drive, 400 deg counted, 40 deg read, at rest",
 		  1.0,
 		  1e-4,
-		  { 400 * DEG, t, 0.0 },
-		  { 40 * DEG, t + MS, 0.0 },
+		  { 400 * DEG, t, 0.0, 0.0 },
+		  { 40 * DEG, t + MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_BOOTED },
 		{ "1:6, one rotor turn (60 deg) off, at rest",
 		  6.0,
 		  1e-4,
-		  { 400 * DEG, t, 0.0 },
-		  { 340 * DEG, t + MS, 0.0 },
+		  { 400 * DEG, t, 0.0, 0.0 },
+		  { 340 * DEG, t + MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_BOOTED },
 		{ "1:36, 10 deg off at rest",
 		  36.0,
 		  1e-5,
-		  { 100 * DEG, t, 0.0 },
-		  { 90 * DEG, t + MS, 0.0 },
+		  { 100 * DEG, t, 0.0, 0.0 },
+		  { 90 * DEG, t + MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_BOOTED },
 		{ "1:36, 4 deg off: less than half a rotor turn",
 		  36.0,
 		  1e-5,
-		  { 100 * DEG, t, 0.0 },
-		  { 96 * DEG, t + MS, 0.0 },
+		  { 100 * DEG, t, 0.0, 0.0 },
+		  { 96 * DEG, t + MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_RUNNING },
 		{ "1:6 at 20 rad/s, 1 ms apart",
 		  6.0,
 		  1e-4,
-		  { 1.0, t, 20.0 },
-		  { 1.02, t + MS, 20.0 },
+		  { 1.0, t, 20.0, 0.0 },
+		  { 1.02, t + MS, 20.0, 0.0 },
 		  RMD_REBOOT_SAYS_RUNNING },
 		{ "1:6 braking from 20 rad/s to 0 over 40 ms: 0.4 rad",
 		  6.0,
 		  1e-4,
-		  { 1.0, t, 20.0 },
-		  { 1.4, t + 40 * MS, 0.0 },
+		  { 1.0, t, 20.0, 0.0 },
+		  { 1.4, t + 40 * MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_RUNNING },
 		{ "1:6, a turn of the rotor that 2 x its speed explains",
 		  6.0,
 		  1e-4,
-		  { 0.0, t, 6.0 },
-		  { 60 * DEG, t + 100 * MS, 6.0 },
+		  { 0.0, t, 6.0, 0.0 },
+		  { 60 * DEG, t + 100 * MS, 6.0, 0.0 },
 		  RMD_REBOOT_SAYS_RUNNING },
 		{ "1:6, a turn its speed explains only once over",
 		  6.0,
 		  1e-4,
-		  { 0.0, t, 11.0 },
-		  { 60 * DEG, t + 100 * MS, 0.0 },
+		  { 0.0, t, 11.0, 0.0 },
+		  { 60 * DEG, t + 100 * MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_RUNNING },
 		{ "1:6, a turn no speed explains",
 		  6.0,
 		  1e-4,
-		  { 0.0, t, 2.0 },
-		  { -60 * DEG, t + 100 * MS, 2.0 },
+		  { 0.0, t, 2.0, 0.0 },
+		  { -60 * DEG, t + 100 * MS, 2.0, 0.0 },
 		  RMD_REBOOT_SAYS_BOOTED },
+		/*
+		 * a count at the wrong scale (rmdd's gear_ratio 1, the motor's 6: the
+		 * CI run of 2026-12-02, at 250 deg/s one reply apart): no boot moves
+		 * the angle by 4.43 rotor turns
+		 */
+		{ "1:6, 265.73 deg apart at 250 deg/s, 3 ms apart",
+		  6.0,
+		  1e-4,
+		  { 319.73 * DEG, t, 250 * DEG, 0.0 },
+		  { 54.00 * DEG, t + 3 * MS, 250 * DEG, 0.0 },
+		  RMD_REBOOT_SAYS_COUNT_ASTRAY },
+		{ "direct drive, 300 deg apart at rest",
+		  1.0,
+		  1e-4,
+		  { 340 * DEG, t, 0.0, 0.0 },
+		  { 40 * DEG, t + MS, 0.0, 0.0 },
+		  RMD_REBOOT_SAYS_COUNT_ASTRAY },
+		{ "1:6, two rotor turns and 1 deg at 250 deg/s, 3 ms apart: booted",
+		  6.0,
+		  1e-4,
+		  { 121.0 * DEG, t, 250 * DEG, 0.0 },
+		  { 0.0, t + 3 * MS, 250 * DEG, 0.0 },
+		  RMD_REBOOT_SAYS_BOOTED },
+		{ "1:6, two rotor turns and 0.4 deg at rest: the anchor's error allowed",
+		  6.0,
+		  1e-4,
+		  { 120.4 * DEG, t, 0.0, 0.5 * DEG },
+		  { 0.0, t + MS, 0.0, 0.0 },
+		  RMD_REBOOT_SAYS_BOOTED },
+		{ "1:6, two rotor turns and 0.4 deg at rest, no anchor error: astray",
+		  6.0,
+		  1e-4,
+		  { 120.4 * DEG, t, 0.0, 0.0 },
+		  { 0.0, t + MS, 0.0, 0.0 },
+		  RMD_REBOOT_SAYS_COUNT_ASTRAY },
 		{ "a reading not finite",
 		  6.0,
 		  1e-4,
-		  { NAN, t, 0.0 },
-		  { 1.0, t + MS, 0.0 },
+		  { NAN, t, 0.0, 0.0 },
+		  { 1.0, t + MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_NOTHING },
 		{ "a speed not finite",
 		  6.0,
 		  1e-4,
-		  { 0.0, t, INFINITY },
-		  { 3.0, t + MS, 0.0 },
+		  { 0.0, t, INFINITY, 0.0 },
+		  { 3.0, t + MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_NOTHING },
 		{ "now before before",
 		  6.0,
 		  1e-4,
-		  { 0.0, t, 0.0 },
-		  { 3.0, t - MS, 0.0 },
+		  { 0.0, t, 0.0, 0.0 },
+		  { 3.0, t - MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_NOTHING },
 		{ "no gear ratio",
 		  0.0,
 		  1e-4,
-		  { 0.0, t, 0.0 },
-		  { 3.0, t + MS, 0.0 },
+		  { 0.0, t, 0.0, 0.0 },
+		  { 3.0, t + MS, 0.0, 0.0 },
 		  RMD_REBOOT_SAYS_NOTHING },
 	};
 
@@ -205,6 +240,7 @@ enum op {
 	ANSWER,	  /* rmd_reboot_answer(seq a, verdict b) */
 	RELEASED, /* rmd_reboot_released(seq a) */
 	BRAKE,	  /* rmd_reboot_brake_says(held b, seq a, released c): want_v */
+	COUNT,	  /* rmd_reboot_count(verdict b): want_v, and news c */
 };
 
 struct step {
@@ -214,7 +250,7 @@ struct step {
 	enum rmd_reboot_outcome want;	/* MISSED, RUNTIME, ANSWER */
 	int want_pending;		/* -1: not checked */
 	unsigned want_cmd;		/* NEXT */
-	enum rmd_reboot_verdict want_v; /* BRAKE */
+	enum rmd_reboot_verdict want_v; /* BRAKE, COUNT */
 };
 
 struct seq_case {
@@ -229,6 +265,11 @@ struct seq_case {
 #define ST(o, t_, a_, b_, c_, w, p)                                                       \
 	{                                                                                 \
 		.op = o, .t = t_, .a = a_, .b = b_, .c = c_, .want = w, .want_pending = p \
+	}
+/* rmd_reboot_count(v) says want, news or not; then pending p. */
+#define CT(v, want, news, p)                                                      \
+	{                                                                         \
+		.op = COUNT, .b = v, .c = news, .want_v = want, .want_pending = p \
 	}
 /* rmd_reboot_next() sends cmd. */
 #define NX(cmd)                                                 \
@@ -300,6 +341,23 @@ static const struct seq_case seqs[] = {
 	    ST(ANSWER, 0, 12, RMD_REBOOT_SAYS_NOTHING, 0, RMD_REBOOT_WAIT, 1),
 	    ST(ANSWER, 0, 13, RMD_REBOOT_SAYS_NOTHING, 0, RMD_REBOOT_UNDECIDED, 0) },
 	  5 },
+	{ "V2: a count gone astray tells nothing, and is no reboot",
+	  { ST(FOUND, 1 * S, 0, 0, 0, 0, 0), ST(MISSED, 2 * S, 10, 0, 10, RMD_REBOOT_WAIT, 1),
+	    ST(ANSWER, 0, 11, RMD_REBOOT_SAYS_COUNT_ASTRAY, 0, RMD_REBOOT_WAIT, 1),
+	    ST(ANSWER, 0, 12, RMD_REBOOT_SAYS_COUNT_ASTRAY, 0, RMD_REBOOT_WAIT, 1),
+	    ST(ANSWER, 0, 13, RMD_REBOOT_SAYS_COUNT_ASTRAY, 0, RMD_REBOOT_UNDECIDED, 0) },
+	  5 },
+	{ "V2: a count gone astray judges no boot and opens no check until found again",
+	  { ST(FOUND, 1 * S, 0, 0, 0, 0, 0), ST(MISSED, 2 * S, 10, 0, 10, RMD_REBOOT_WAIT, 1),
+	    CT(RMD_REBOOT_SAYS_RUNNING, RMD_REBOOT_SAYS_RUNNING, 0, 1),
+	    CT(RMD_REBOOT_SAYS_COUNT_ASTRAY, RMD_REBOOT_SAYS_NOTHING, 1, 0), NX(0),
+	    ST(MISSED, 3 * S, 20, 0, 20, RMD_REBOOT_WAIT, 0), NX(0),
+	    CT(RMD_REBOOT_SAYS_BOOTED, RMD_REBOOT_SAYS_NOTHING, 0, 0),
+	    CT(RMD_REBOOT_SAYS_COUNT_ASTRAY, RMD_REBOOT_SAYS_NOTHING, 0, 0),
+	    ST(FOUND, 4 * S, 0, 0, 0, 0, 0),
+	    CT(RMD_REBOOT_SAYS_BOOTED, RMD_REBOOT_SAYS_BOOTED, 0, 0),
+	    ST(MISSED, 5 * S, 30, 0, 30, RMD_REBOOT_WAIT, 1) },
+	  12 },
 	{ "V2: a count that parted is a reboot, pending or not",
 	  { ST(FOUND, 1 * S, 0, 0, 0, 0, 0),
 	    ST(ANSWER, 0, 11, RMD_REBOOT_SAYS_RUNNING, 0, RMD_REBOOT_WAIT, 0),
@@ -338,6 +396,7 @@ static void test_check_steps(void **state)
 			const struct step *s = &c->steps[i];
 			enum rmd_reboot_outcome out = RMD_REBOOT_WAIT;
 			enum rmd_reboot_verdict v;
+			bool news;
 			unsigned cmd;
 
 			switch (s->op) {
@@ -368,6 +427,12 @@ static void test_check_steps(void **state)
 				break;
 			case RELEASED:
 				rmd_reboot_released(&r, s->a);
+				break;
+			case COUNT:
+				v = rmd_reboot_count(&r, (enum rmd_reboot_verdict)s->b, &news);
+				if (v != s->want_v || news != (bool)s->c)
+					fail_msg("%s, step %u: says %s (news %d), not %s", c->name,
+						 i, verdict_name[v], news, verdict_name[s->want_v]);
 				break;
 			case BRAKE:
 				v = rmd_reboot_brake_says(&r, s->b, s->a, s->c);

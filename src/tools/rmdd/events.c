@@ -859,6 +859,13 @@ static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
 			 " could not tell",
 			 (uint64_t)e->b);
 		break;
+	case RMD_REBOOT_COUNT_ASTRAY:
+		snprintf(buf, len,
+			 "its multi-turn angle %.2f deg and rmdd's count %.2f deg part by other "
+			 "than whole rotor turns: no reboot; not judged by it until found again "
+			 "(gear_ratio?)",
+			 cdeg_hi(e->b), cdeg_lo(e->b));
+		break;
 	default:
 		snprintf(buf, len, "reboot check %" PRId64, e->a);
 		break;
@@ -871,10 +878,11 @@ static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
  */
 static int reboot_line(const struct ev *v, char *buf, size_t len)
 {
-	char what[192];
+	char what[320];
 
 	reboot_text(v->e, what, sizeof(what));
-	if (v->e->a == RMD_REBOOT_NO_CHECK || v->e->a == RMD_REBOOT_UNTOLD)
+	if (v->e->a == RMD_REBOOT_NO_CHECK || v->e->a == RMD_REBOOT_UNTOLD ||
+	    v->e->a == RMD_REBOOT_COUNT_ASTRAY)
 		return say(buf, len, 4, "%s: %s", v->ctx, what);
 	return say(buf, len, 4,
 		   "%s: %s; treated as lost and back: its position and 0xB3 decided again before "
@@ -884,7 +892,7 @@ static int reboot_line(const struct ev *v, char *buf, size_t len)
 
 static void reboot_summary(const struct ev *v, char *buf, size_t len)
 {
-	char what[160];
+	char what[320];
 
 	reboot_text(v->e, what, sizeof(what));
 	snprintf(buf, len, "%s: %s", v->ctx, what);
