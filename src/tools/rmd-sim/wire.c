@@ -393,7 +393,7 @@ static int64_t next_fault_event(const struct sim *s, int64_t now)
 /* A frame arrived at t: every present motor sees it.  Returns the replies scheduled. */
 static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 {
-	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
+	struct rmd_frame out[RMD_SIM_NODE_MAX_REPLIES];
 	int total = 0;
 
 	for (unsigned i = 0; i < s->n; i++) {
@@ -402,7 +402,7 @@ static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 
 		if (sl->absent)
 			continue;
-		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_WIRE_MAX_REPLIES);
+		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_NODE_MAX_REPLIES);
 		for (int k = 0; k < n; k++)
 			emit(s, i, &out[k], t, rmd_sim_motor_reply_due(&sl->m, t, f));
 		total += n;
