@@ -152,12 +152,12 @@ static inline bool rmd_sim_node_absent(const struct rmd_sim_node *n, unsigned i)
 /*
  * Replace the fault table by `count` entries at time t: the old table's
  * windows close (a motor it left without power boots, injected error bits
- * clear), then the new one's open as of t (rmd_sim_node_update(), its
- * result in *ch).  Returns 0, -E2BIG, or -EINVAL for an entry
- * rmd_sim_fault_check() refuses (nothing changed).  rt-safe.
+ * clear); the new one's open at the next rmd_sim_node_update().  Returns
+ * 0, -E2BIG, or -EINVAL for an entry rmd_sim_fault_check() refuses
+ * (nothing changed).  rt-safe.
  */
 int rmd_sim_node_set_faults(struct rmd_sim_node *n, const struct rmd_sim_fault *faults,
-			    unsigned count, int64_t t, struct rmd_sim_node_change *ch);
+			    unsigned count, int64_t t);
 
 /*
  * Open and close the fault windows as of t and act on the motors (see the

@@ -325,24 +325,16 @@ bool rmd_sim_node_update(struct rmd_sim_node *n, int64_t t, struct rmd_sim_node_
 }
 
 int rmd_sim_node_set_faults(struct rmd_sim_node *n, const struct rmd_sim_fault *faults,
-			    unsigned count, int64_t t, struct rmd_sim_node_change *ch)
+			    unsigned count, int64_t t)
 {
 	uint32_t was_unpowered = n->faults.unpowered;
-	struct rmd_sim_node_change opened;
+	struct rmd_sim_node_change closed = { 0 };
 	int r;
 
 	r = rmd_sim_faults_set(&n->faults, faults, count);
 	if (r < 0)
 		return r;
 	/* The old table's windows close now: its motors without power boot. */
-	memset(ch, 0, sizeof(*ch));
-	act(n, t, 0, was_unpowered, ch);
-	if (rmd_sim_node_update(n, t, &opened)) {
-		ch->windows = opened.windows;
-		ch->silenced |= opened.silenced;
-		ch->power_off |= opened.power_off;
-		ch->power_on |= opened.power_on;
-		ch->bus_off = opened.bus_off;
-	}
+	act(n, t, 0, was_unpowered, &closed);
 	return 0;
 }

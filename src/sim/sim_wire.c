@@ -363,15 +363,14 @@ struct rmd_sim_motor *rmd_sim_wire_motor(struct rmd_sim_wire *bus, uint8_t id)
 
 int rmd_sim_wire_set_faults(struct rmd_sim_wire *bus, const struct rmd_sim_fault *faults, size_t n)
 {
-	struct rmd_sim_node_change ch;
 	int r;
 
 	if (n > RMD_SIM_MAX_FAULTS)
 		return -E2BIG;
-	r = rmd_sim_node_set_faults(&bus->node, faults, (unsigned)n, bus->now_ns, &ch);
+	r = rmd_sim_node_set_faults(&bus->node, faults, (unsigned)n, bus->now_ns);
 	if (r < 0)
 		return r;
-	windows_changed(bus, &ch, bus->now_ns);
+	apply_windows(bus, bus->now_ns);
 	sync_stats(bus);
 	return 0;
 }
