@@ -33,15 +33,10 @@
  * writes a foreign frame every period (CAN only); BUS_OFF is refused by the
  * config (the kernel owns a real bus's state).
  *
- * RS485 (V3 §1.2.2, §6, §7) maps to the CAN identifiers the motors speak
- * with the map the host's RS485 transport uses (rmd/rs485.h), from the
- * motors' side (the transport's device role does it, rmd/bus_rs485.h):
- *   rx  id 1..32               -> 0x140 + id
- *   rx  id 0xCD, D0 = 0x79     -> 0x300 (V3 §7: RS485-ID setting)
- *   rx  id 0xCD, other D0      -> 0x280 (V3 §6: every motor)
- *   tx  0x240 + ID             -> id ID
- *   tx  0x300 (0x79 reply)     -> id 0xCD (V3 §7.3); a read's value 0x240 + ID
- *                                 becomes ID (§7.4 example 2 answers "0x0002")
+ * The motors speak CAN identifiers on both wires: on an RS485 line the
+ * transport's device role gives each frame its RS485 form both ways (V3
+ * §1.2.2, §6, §7: rmd/bus_rs485.h), and the log shows that form
+ * (rmd_rs485_from_can()).
  *
  * Non-rt: a normal process; it logs from the loop.
  */
@@ -63,15 +58,12 @@
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
 #include <sys/signalfd.h>
-#include <sys/socket.h>
 #include <sys/timerfd.h>
-
-#include <linux/can.h>
-#include <linux/can/raw.h>
 
 #include "rmd/time.h"
 #include "rmd/bus.h"
 #include "rmd/bus_open.h"
+#include "rmd/bus_rs485.h"
 #include "rmd/codec.h"
 #include "rmd/describe.h"
 #include "rmd/rs485.h"
@@ -181,7 +173,7 @@ static void describe(char *buf, size_t size, enum rmd_proto proto, enum rmd_dir 
 		snprintf(buf, size, "comm_lost (0xF1, unsolicited)");
 }
 
-static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_t rs485_id)
+static void log_rx(struct sim *s, const struct rmd_frame *f, int answers)
 {
 	char desc[512], data[32];
 	const struct rmd_mit_ranges *mit;
@@ -195,23 +187,27 @@ static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_
 	if (s->serial)
 		tool_log(TOOL_LOG_DEBUG,
 			 "rmd-sim: %s: rx id 0x%02X [%u] %s  (0x%03X) %s; %d repl%s", s->name,
-			 rs485_id, f->len, data, f->can_id, desc, answers,
-			 answers == 1 ? "y" : "ies");
+			 (unsigned)rmd_rs485_id_of_can(f->can_id, true), f->len, data, f->can_id,
+			 desc, answers, answers == 1 ? "y" : "ies");
 	else
 		tool_log(TOOL_LOG_DEBUG, "rmd-sim: %s: rx %03X [%u] %s  %s; %d repl%s", s->name,
 			 f->can_id, f->len, data, desc, answers, answers == 1 ? "y" : "ies");
 }
 
-/* e: the frame as scheduled; wire: its data as written (RS485: after the id mapping). */
-static void log_tx(struct sim *s, const struct rmd_sim_pending *e, const struct rmd_frame *wire,
-		   int rs485_id)
+/* e: the frame as scheduled and written; on a line its RS485 form (rmd_rs485_from_can()). */
+static void log_tx(struct sim *s, const struct rmd_sim_pending *e)
 {
 	char desc[512], data[32], who[32];
 	const struct rmd_mit_ranges *mit = NULL;
 	enum rmd_proto proto = RMD_PROTO_V3;
+	struct rmd_frame as_sent = e->f;
+	const struct rmd_frame *wire = &as_sent;
+	int rs485_id = 0;
 
 	if (!tool_log_enabled(TOOL_LOG_DEBUG))
 		return;
+	if (s->serial)
+		rs485_id = rmd_rs485_from_can(&e->f, false, &as_sent);
 	if (e->src >= 0) {
 		const struct rmd_sim_motor *m = &s->node.motors[e->src];
 
@@ -357,34 +353,6 @@ static int can_open(struct sim *s)
 	return 0;
 }
 
-/* Write one frame: 0, -EAGAIN to retry later, or -errno when it is lost. */
-static int can_write(struct sim *s, const struct rmd_frame *f)
-{
-	struct rmd_frame cf = *f;
-	int r;
-
-	/* Classical CAN: a DLC of 9..15 still carries 8 bytes. */
-	cf.can_id &= CAN_SFF_MASK;
-	if (cf.len > RMD_FRAME_LEN)
-		cf.len = RMD_FRAME_LEN;
-	r = rmd_bus_send(&s->bus, &cf, 1, rmd_now_ns());
-	if (r == -ENETDOWN) {
-		/* A socket keeps the ENETDOWN of a link that went down: once up, it is stale. */
-		check_interface(s);
-		if (!s->if_down)
-			r = rmd_bus_send(&s->bus, &cf, 1, rmd_now_ns());
-	}
-	if (r == 1) {
-		set_down(s, false, "");
-		return 0;
-	}
-	if (r == 0) /* ENOBUFS or EAGAIN: no room */
-		return -EAGAIN;
-	if (r == -ENETDOWN)
-		set_down(s, true, "write: ENETDOWN");
-	return r < 0 ? r : -EIO;
-}
-
 /* ---- the serial wire ------------------------------------------------------------------- */
 
 /* The line, through the bus layer's RS485 transport on the motors' side.  Non-rt. */
@@ -419,41 +387,6 @@ static int serial_open(struct sim *s)
 		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
 	s->fd = rmd_bus_fd(&s->bus);
 	return 0;
-}
-
-/*
- * Send f's RS485 form: 0, -EAGAIN (no room, retry later), -EINVAL (no
- * RS485 form) or -errno (lost).  *id_out and *wire: the RS485 id and the
- * frame as sent, for the log.
- */
-static int serial_write(struct sim *s, const struct rmd_frame *f, uint8_t *id_out,
-			struct rmd_frame *wire)
-{
-	uint8_t *data = wire->data;
-	int r;
-
-	r = rmd_rs485_id_of_can(f->can_id, false);
-	if (r < 0) {
-		s->st.unmappable++;
-		return -EINVAL;
-	}
-	*id_out = (uint8_t)r;
-	*wire = *f;
-	/* V3 §7.4 example 2: the RS485 read answers the ID itself, not 0x240 + ID. */
-	if (f->can_id == RMD_CAN_SET_ID && data[0] == RMD_RS485_CMD_SET_ID && data[2] == 1) {
-		unsigned v = (unsigned)data[6] | (unsigned)data[7] << 8;
-
-		if (v > RMD_CAN_V3_REPLY_BASE && v <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
-			v -= RMD_CAN_V3_REPLY_BASE;
-			data[6] = (uint8_t)v;
-			data[7] = 0;
-		}
-	}
-	/* A BAD_DLC frame goes out short: its length byte says len (rmd/bus_rs485.h). */
-	r = rmd_bus_send(&s->bus, wire, 1, rmd_now_ns());
-	if (r == 0)
-		return -EAGAIN;
-	return r < 0 ? r : 0;
 }
 
 /* Line noise the transport skipped since the last look: warned once, then at debug level. */
@@ -517,7 +450,6 @@ static void wire_read(struct sim *s, bool hup)
 			continue;
 		}
 		for (int k = 0; k < n; k++) {
-			int id = s->serial ? rmd_rs485_id_of_can(rx[k].f.can_id, true) : 0;
 			int answers;
 
 			set_down(s, false, "");
@@ -525,10 +457,9 @@ static void wire_read(struct sim *s, bool hup)
 			answers = deliver(s, &rx[k].f, rx[k].t_ns);
 			if (answers)
 				s->st.rx_taken++;
-			log_rx(s, &rx[k].f, answers, (uint8_t)id);
+			log_rx(s, &rx[k].f, answers);
 		}
-		if (s->serial)
-			note_noise(s);
+		note_noise(s);
 		if (n < RX_BATCH)
 			return;
 		i += (unsigned)n;
@@ -536,6 +467,32 @@ static void wire_read(struct sim *s, bool hup)
 }
 
 /* ---- writing due frames ---------------------------------------------------------------- */
+
+/*
+ * Write one frame through the transport's device role, which gives it its
+ * form on the wire (on a line: rmd_rs485_from_can()): 0, -EAGAIN to retry
+ * later, -EINVAL when the wire has no form for it, or -errno when it is lost.
+ */
+static int wire_write(struct sim *s, const struct rmd_frame *f)
+{
+	int r = rmd_bus_send(&s->bus, f, 1, rmd_now_ns());
+
+	if (r == -ENETDOWN) {
+		/* A socket keeps the ENETDOWN of a link that went down: once up, it is stale. */
+		check_interface(s);
+		if (!s->if_down)
+			r = rmd_bus_send(&s->bus, f, 1, rmd_now_ns());
+	}
+	if (r == 1) {
+		set_down(s, false, "");
+		return 0;
+	}
+	if (r == 0) /* ENOBUFS or EAGAIN: no room */
+		return -EAGAIN;
+	if (r == -ENETDOWN)
+		set_down(s, true, "write: ENETDOWN");
+	return r < 0 ? r : -EIO;
+}
 
 /* A write that failed with r (-errno): frames lost, logged at 1, 3, 7, ... */
 static void tx_lost(struct sim *s, int r)
@@ -550,8 +507,8 @@ static void tx_lost(struct sim *s, int r)
 	}
 }
 
-/* Serial bytes that wait: the tty is writable again. */
-static void serial_flush(struct sim *s)
+/* Replies the transport holds (a line's bytes the tty refused): the wire is writable again. */
+static void wire_flush(struct sim *s)
 {
 	int r = rmd_bus_send(&s->bus, NULL, 0, rmd_now_ns());
 
@@ -567,18 +524,16 @@ static void write_due(struct sim *s, int64_t now)
 	for (const struct rmd_sim_pending *h;
 	     (h = rmd_sim_node_head(&s->node)) && h->ready_ns <= now;) {
 		struct rmd_sim_pending e = *h;
-		struct rmd_frame wire = e.f;
-		uint8_t id = 0;
-		int r;
+		int r = wire_write(s, &e.f);
 
-		r = s->serial ? serial_write(s, &e.f, &id, &wire) : can_write(s, &e.f);
 		if (r == -EAGAIN) {
 			s->st.tx_busy++;
 			s->retry_ns = now + RETRY_NS;
 			break;
 		}
 		rmd_sim_node_take(&s->node, 0);
-		if (r == -EINVAL && s->serial) {
+		if (r == -EINVAL) {
+			s->st.unmappable++;
 			if (tool_log_enabled(TOOL_LOG_DEBUG))
 				tool_log(TOOL_LOG_DEBUG,
 					 "rmd-sim: %s: 0x%03X has no RS485 form; not sent", s->name,
@@ -590,7 +545,7 @@ static void write_due(struct sim *s, int64_t now)
 			continue;
 		}
 		s->st.tx_frames++;
-		log_tx(s, &e, &wire, id);
+		log_tx(s, &e);
 	}
 }
 
@@ -624,7 +579,7 @@ static int64_t replies_due(const struct sim *s, unsigned *n)
 static void finish(struct sim *s)
 {
 	int64_t end = rmd_now_ns() + FINISH_NS;
-	bool held = false; /* serial: reply bytes the tty has not taken */
+	bool held = false; /* replies the transport holds (a line's bytes the tty has not taken) */
 	unsigned n;
 
 	if (s->gone) /* in the same wake-up as the signal: nothing to read or write */
@@ -639,7 +594,7 @@ static void finish(struct sim *s)
 
 		write_due(s, now);
 		due = replies_due(s, &n);
-		held = s->serial && rmd_bus_next_due_ns(&s->bus) != INT64_MAX;
+		held = rmd_bus_next_due_ns(&s->bus) != INT64_MAX;
 		if ((!n && !held) || now >= end)
 			break;
 		if (n) {
@@ -653,7 +608,7 @@ static void finish(struct sim *s)
 		ts.tv_sec = (time_t)((next - now) / RMD_NS_PER_S);
 		ts.tv_nsec = (long)((next - now) % RMD_NS_PER_S);
 		if (ppoll(&p, 1, &ts, NULL) > 0 && (p.revents & POLLOUT))
-			serial_flush(s);
+			wire_flush(s);
 	}
 	s->st.unsent = n;
 	if (held)
@@ -669,7 +624,7 @@ static int64_t next_deadline(const struct sim *s, int64_t now)
 	const struct rmd_sim_pending *h = rmd_sim_node_head(&s->node);
 	int64_t t = s->next_tick_ns, e;
 
-	if (!s->serial && s->next_house_ns < t)
+	if (s->next_house_ns < t)
 		t = s->next_house_ns;
 	if (h) {
 		e = h->ready_ns;
@@ -711,7 +666,7 @@ static void process(struct sim *s, int64_t now)
 {
 	update_faults(s, now);
 	run_motors(s, now);
-	if (!s->serial && now >= s->next_house_ns) {
+	if (now >= s->next_house_ns) {
 		check_interface(s);
 		s->next_house_ns = now + HOUSEKEEPING_NS;
 	}
@@ -891,7 +846,8 @@ int sim_run(const struct sim_config *c)
 	rmd_sim_node_set_faults(&s->node, c->faults, c->n_faults, s->t0);
 	s->motors_ns = INT64_MAX;
 	s->next_tick_ns = s->t0 + TICK_NS;
-	s->next_house_ns = s->t0 + HOUSEKEEPING_NS;
+	/* a CAN interface's state is looked at; a line's is its hang-up */
+	s->next_house_ns = s->serial ? INT64_MAX : s->t0 + HOUSEKEEPING_NS;
 	log_startup(s);
 	tool_log(TOOL_LOG_INFO, "rmd-sim: %s: ready", s->name);
 
@@ -904,8 +860,7 @@ int sim_run(const struct sim_config *c)
 		if (s->stop)
 			break;
 		/* Replies the tty refused wait in the transport until it is writable. */
-		if (s->serial)
-			watch_out(s, rmd_bus_next_due_ns(&s->bus) != INT64_MAX);
+		watch_out(s, rmd_bus_next_due_ns(&s->bus) != INT64_MAX);
 		arm(s, next_deadline(s, now));
 		n = epoll_wait(s->epfd, ev, 4, -1);
 		if (n < 0) {
@@ -930,14 +885,12 @@ int sim_run(const struct sim_config *c)
 				break;
 			}
 			case TAG_WIRE:
-				if (s->serial) {
-					if (e & EPOLLOUT)
-						serial_flush(s);
-					if (e & (EPOLLIN | EPOLLHUP | EPOLLERR))
-						wire_read(s, (e & EPOLLHUP) != 0);
-				} else if (e & (EPOLLIN | EPOLLERR)) {
-					wire_read(s, false);
-				}
+				/* EPOLLOUT is asked for only while the transport holds replies */
+				if (e & EPOLLOUT)
+					wire_flush(s);
+				/* a line hung up (a raw CAN socket has no hang-up) */
+				if (e & (EPOLLIN | EPOLLHUP | EPOLLERR))
+					wire_read(s, (e & EPOLLHUP) != 0);
 				break;
 			default:
 				break;
