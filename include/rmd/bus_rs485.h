@@ -46,7 +46,10 @@
  *   recv  RS485 id ID (1..32)    ->  0x140 + ID
  *   recv  RS485 id 0xCD          ->  0x300 when D0 is 0x79 (V3 §7), else 0x280
  *   send  0x240 + ID or 0x140 + ID  ->  RS485 id ID
- *   send  0x300                  ->  RS485 id 0xCD (V3 §7.3)
+ *   send  0x300                  ->  RS485 id 0xCD (V3 §7.3); the read's
+ *                                    reply carries the ID itself where CAN
+ *                                    carries 0x240 + ID (V3 §7.4 example 2
+ *                                    answers "0x0002"): rmd_rs485_from_can()
  * Replies have no queue to wait in: send() appends them to an output
  * buffer (RMD_RS485_DEVICE_TXBUF bytes) and writes what the tty takes;
  * while bytes wait, next_due_ns() is the time of the write the tty refused
@@ -171,6 +174,17 @@ int64_t rmd_rs485_frame_ns(uint32_t baud);
  * goes out while a motor answers; `rmdctl rtt` measures it.  Pure.
  */
 int64_t rmd_rs485_reply_timeout_ns(uint32_t baud, int64_t turnaround_ns);
+
+/*
+ * Frame f, in the CAN identifiers the layers above speak, as an RS485 line
+ * carries it in direction request (host to motor) or reply: returns its
+ * RS485 id (rmd_rs485_id_of_can()), or -EINVAL when it has none, and puts
+ * the frame as sent in *out (f may be out).  The data are f's, but for the
+ * reply to the read of V3 §7.4 (0x79 on 0x300, D2 = 1), whose value, the
+ * motor's CAN reply identifier 0x240 + ID, goes out as ID.  The device
+ * role sends every reply so; rmd-sim logs what it wrote by it.  Pure.
+ */
+int rmd_rs485_from_can(const struct rmd_frame *f, bool request, struct rmd_frame *out);
 
 /*
  * Copy this transport's own counters.  Returns 0, or -EINVAL when bus is

@@ -2,7 +2,10 @@
 /*
  * The simulated CAN wire (docs/design.md, layer sim): up to RMD_MAX_MOTORS simulated
  * motors (rmd/sim.h) on one wire with a timing model and fault injection.
- * The bus layer's transport over it is rmd/bus_sim.h.
+ * The bus layer's transport over it is rmd/bus_sim.h.  The motors' side
+ * (the motors, their frames by ready time, what fault windows do to them)
+ * is a node, rmd/sim_node.h, the one rmd-sim runs on a real wire; the wire
+ * adds the host's queue, arbitration, frame times and delivery to the host.
  *
  * Time is injected: the bus never reads a clock.  rmd_sim_wire_advance()
  * runs the wire from where it stopped to a given time:
@@ -39,7 +42,7 @@
  *   CAN interface does).
  *
  * No allocation: fixed arrays sized by RMD_MAX_MOTORS and power-of-two
- * queues; the caller allocates struct rmd_sim_wire (about 48 KiB) before
+ * queues; the caller allocates struct rmd_sim_wire (about 60 KiB) before
  * the rt thread starts.  Every function is rt-safe: bounded work per frame
  * and per event (no syscalls, no locks, no stdio).  Not thread-safe: one
  * owner.
@@ -60,12 +63,12 @@
 #include "rmd/sim.h"
 #include "rmd/sim_adapter.h"
 #include "rmd/sim_faults.h"
+#include "rmd/sim_node.h"
 
-#define RMD_SIM_WIRE_TXQ 64	   /* host frames waiting for the wire (power of two) */
-#define RMD_SIM_WIRE_MOTQ 128	   /* motor frames waiting for the wire (power of two) */
-#define RMD_SIM_WIRE_RXQ 256	   /* frames waiting for the host (power of two) */
-#define RMD_SIM_WIRE_HIST 512	   /* recent frames kept for rmd_sim_wire_load() */
-#define RMD_SIM_WIRE_MAX_REPLIES 4 /* frames one motor may answer one frame with */
+#define RMD_SIM_WIRE_TXQ 64   /* host frames waiting for the wire (power of two) */
+#define RMD_SIM_WIRE_MOTQ 128 /* motor frames waiting for the wire (power of two) */
+#define RMD_SIM_WIRE_RXQ 256  /* frames waiting for the host (power of two) */
+#define RMD_SIM_WIRE_HIST 512 /* recent frames kept for rmd_sim_wire_load() */
 
 /* rmd_sim_wire_init() flags */
 enum {
@@ -99,17 +102,6 @@ struct rmd_sim_wire_stats {
 	uint64_t faults[RMD_SIM_FAULT_COUNT];
 };
 
-/* A frame waiting for the wire (internal, public for the struct's size). */
-struct rmd_sim_pending {
-	struct rmd_frame f;
-	int64_t ready_ns;
-	uint64_t seq; /* order of arrival, breaks ties */
-	int src;      /* motor index, or RMD_SIM_SRC_HOST / RMD_SIM_SRC_FOREIGN */
-};
-
-#define RMD_SIM_SRC_HOST (-1)
-#define RMD_SIM_SRC_FOREIGN (-2)
-
 /*
  * Called for every frame that completes on the wire, at its end of frame,
  * with its start time: a candump of the simulated wire for tools and tests.
@@ -123,23 +115,31 @@ struct rmd_sim_wire {
 	unsigned flags;
 	unsigned txq_len; /* host TX queue capacity, <= RMD_SIM_WIRE_TXQ */
 	uint64_t seed;
-	uint64_t rng;
 	int64_t now_ns; /* the wire has run up to here */
-	uint64_t seq;
-
-	struct rmd_sim_motor motors[RMD_MAX_MOTORS];
-	unsigned n_motors;
-	uint16_t injected[RMD_MAX_MOTORS]; /* error bits applied by faults */
 
 	/*
-	 * Frames waiting for the wire: unordered pools, arbitration picks.
-	 * The host's has one more slot: the frame its controller tries again
-	 * while its queue is full (BUS_POWER).
+	 * The motors' side (rmd/sim_node.h): the motors, their frames waiting
+	 * for the wire (in motq), the fault table and its PRNG, on the wire's
+	 * time axis.  The node's first two fields are named here too, for
+	 * readers of the motors.
+	 */
+	union {
+		struct rmd_sim_node node;
+		struct {
+			struct rmd_sim_motor motors[RMD_MAX_MOTORS];
+			unsigned n_motors;
+		};
+	};
+	struct rmd_sim_pending motq[RMD_SIM_WIRE_MOTQ];
+
+	/*
+	 * Host frames waiting for the wire: an unordered pool, arbitration
+	 * picks (among them and the motors' ready frames).  It has one more
+	 * slot: the frame the controller tries again while its queue is full
+	 * (BUS_POWER).
 	 */
 	struct rmd_sim_pending txq[RMD_SIM_WIRE_TXQ + 1];
 	unsigned txq_n;
-	struct rmd_sim_pending motq[RMD_SIM_WIRE_MOTQ];
-	unsigned motq_n;
 
 	/* A host frame went unacknowledged since the last frame that completed. */
 	bool no_ack;
@@ -162,7 +162,6 @@ struct rmd_sim_wire {
 	int64_t hist_free_ns[RMD_SIM_WIRE_HIST];
 	unsigned hist_n; /* free-running */
 
-	struct rmd_sim_faults faults; /* on the wire's time axis */
 	/* between the wire and the host: the motors' adapter_* parameters */
 	struct rmd_sim_adapter adapter;
 

@@ -693,12 +693,32 @@ static void remember_echo(struct device *d, const uint8_t *wire, int64_t now_ns)
 	d->echo_n++;
 }
 
-/* The RS485 id a reply maps to (see the top of rmd/bus_rs485.h), or -EINVAL. */
-static int reply_id(const struct rmd_frame *f)
+int rmd_rs485_from_can(const struct rmd_frame *f, bool request, struct rmd_frame *out)
+{
+	int id = rmd_rs485_id_of_can(f->can_id, request);
+	unsigned v;
+
+	if (id < 0)
+		return id;
+	*out = *f;
+	if (request || f->can_id != RMD_CAN_SET_ID || f->data[0] != RMD_RS485_CMD_SET_ID ||
+	    f->data[2] != 1)
+		return id;
+	/* V3 §7.4 example 2: the RS485 read answers the ID itself, not 0x240 + ID. */
+	v = (unsigned)f->data[6] | (unsigned)f->data[7] << 8;
+	if (v > RMD_CAN_V3_REPLY_BASE && v <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
+		out->data[6] = (uint8_t)(v - RMD_CAN_V3_REPLY_BASE);
+		out->data[7] = 0;
+	}
+	return id;
+}
+
+/* A reply's RS485 form (see the top of rmd/bus_rs485.h) into *out: its id, or -EINVAL. */
+static int reply_form(const struct rmd_frame *f, struct rmd_frame *out)
 {
 	if (f->len > RMD_FRAME_LEN)
 		return -EINVAL;
-	return rmd_rs485_id_of_can(f->can_id, false);
+	return rmd_rs485_from_can(f, false, out);
 }
 
 /* Bytes on the wire of a frame of len data bytes: header, id, length, data, CRC. */
@@ -768,21 +788,22 @@ static int device_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsi
 {
 	struct rs485 *p = priv(bus);
 	struct device *d = p->dev;
+	struct rmd_frame f;
 	unsigned taken = 0;
 	int r;
 
 	for (unsigned i = 0; i < n; i++)
-		if (reply_id(&frames[i]) < 0)
+		if (reply_form(&frames[i], &f) < 0)
 			return -EINVAL;
 
 	for (; taken < n; taken++) {
-		const struct rmd_frame *f = &frames[taken];
 		uint8_t *b = d->tx + d->txn;
-		size_t k = wire_len(f->len);
+		size_t k = wire_len(frames[taken].len);
+		int id = reply_form(&frames[taken], &f);
 
 		if (k > sizeof(d->tx) - d->txn)
 			break;
-		build_reply(b, (uint8_t)reply_id(f), f);
+		build_reply(b, (uint8_t)id, &f);
 		if (p->local_echo && k == RMD_RS485_FRAME_LEN)
 			remember_echo(d, b, now_ns);
 		d->txn += k;

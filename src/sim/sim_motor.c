@@ -4,7 +4,7 @@
  * lifecycle, settings (RAM/ROM), comm-loss protection, unsolicited frames
  * and every command of the V2.0 and V3.6 manuals.  Under them, the
  * mechanics, the firmware's control loops, temperature and fault detection
- * are sim_physics.c (over sim_motor_priv.h).
+ * are sim_physics.c (its face for this file: sim_physics.h).
  *
  * Requests are decoded and replies encoded by the codec's tables
  * (rmd_decode / rmd_encode), so the motor speaks exactly the bytes the
@@ -25,7 +25,7 @@
 #include "rmd/codec.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
-#include "sim_motor_priv.h"
+#include "sim_physics.h"
 
 /* docs/design.md (seen on V4 firmware): a 0xF1 frame each second after a trip. */
 #define COMM_LOST_PERIOD_NS INT64_C(1000000000)

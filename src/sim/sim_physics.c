@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /*
- * A simulated RMD motor's physics (sim_motor_priv.h): units and encoder,
+ * A simulated RMD motor's physics (sim_physics.h): units and encoder,
  * fault detection, the firmware's control loops, mechanics and
  * temperature, stepped at RMD_SIM_STEP_NS.  The protocol side is
  * sim_motor.c.  Section numbers (§) are the manuals' (see sim_motor.c).
@@ -13,7 +13,7 @@
 #include <string.h>
 
 #include "rmd/sim.h"
-#include "sim_motor_priv.h"
+#include "sim_physics.h"
 
 /* -------------------------------------------------------------------------- */
 /* Model: units and encoder                                                   */
@@ -453,7 +453,7 @@ void rmd_sim_motor_step(struct rmd_sim_motor *m, int64_t now_ns)
 	}
 }
 
-/* The exported faces of the two the step inlines (sim_motor_priv.h). */
+/* The exported faces of the two the step inlines (sim_physics.h). */
 void rmd_sim_detect_faults(struct rmd_sim_motor *m, double dt)
 {
 	detect_faults(m, dt);

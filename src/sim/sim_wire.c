@@ -5,7 +5,9 @@
  * a motor's unsolicited frame due, a fault window opening or closing);
  * at each it does, in this order: open/close fault windows, deliver the
  * frame whose end of frame it is, collect the motors' unsolicited frames,
- * and, if the wire is idle, start the arbitration winner.
+ * and, if the wire is idle, start the arbitration winner.  The motors, their
+ * queue and what the faults do to them are the node's (rmd/sim_node.h); the
+ * wire is the host's queue, arbitration, frame times, delivery to the host.
  *
  * All of it is rt-safe: fixed arrays, linear scans bounded by their sizes.
  */
@@ -15,6 +17,7 @@
 #include "rmd/rng.h"
 #include "rmd/can_timing.h"
 #include "rmd/sim_adapter.h"
+#include "rmd/sim_node.h"
 #include "rmd/sim_wire.h"
 
 _Static_assert((RMD_SIM_WIRE_TXQ & (RMD_SIM_WIRE_TXQ - 1)) == 0, "TXQ: power of two");
@@ -27,17 +30,29 @@ _Static_assert((RMD_SIM_WIRE_HIST & (RMD_SIM_WIRE_HIST - 1)) == 0, "HIST: power 
 /* The wire asks these per frame and per event: no table, no call. */
 static bool is_bus_off(const struct rmd_sim_wire *bus)
 {
-	return bus->faults.n && rmd_sim_faults_bus_off(&bus->faults);
+	return bus->node.faults.n && rmd_sim_faults_bus_off(&bus->node.faults);
 }
 
 static bool is_unpowered_bus(const struct rmd_sim_wire *bus)
 {
-	return bus->faults.n && rmd_sim_faults_bus_unpowered(&bus->faults);
+	return bus->node.faults.n && rmd_sim_faults_bus_unpowered(&bus->node.faults);
 }
 
-static bool is_absent(const struct rmd_sim_wire *bus, unsigned i)
+/*
+ * The counters the node keeps, into the wire's statistics (errors is the
+ * sum of its four causes).
+ */
+static void sync_stats(struct rmd_sim_wire *bus)
 {
-	return bus->faults.n && rmd_sim_faults_absent(&bus->faults, bus->motors[i].p.id);
+	const struct rmd_sim_node_stats *n = &bus->node.stats;
+	struct rmd_sim_wire_stats *st = &bus->stats;
+
+	st->motq_dropped = n->dropped;
+	st->absent_lost = n->absent_lost;
+	st->busoff_lost = n->busoff_lost;
+	st->motq_hwm = n->q_hwm;
+	memcpy(st->faults, n->faults, sizeof(st->faults));
+	st->errors = st->tx_refused + st->motq_dropped + st->rxq_dropped + st->busoff_lost;
 }
 
 /* ---- queues --------------------------------------------------------------- */
@@ -49,7 +64,6 @@ static void deliver_host(struct rmd_sim_wire *bus, const struct rmd_frame *f, in
 
 	if (used >= RMD_SIM_WIRE_RXQ) {
 		bus->stats.rxq_dropped++;
-		bus->stats.errors++;
 		return;
 	}
 	bus->rxq[i] = *f;
@@ -62,37 +76,6 @@ static void deliver_host(struct rmd_sim_wire *bus, const struct rmd_frame *f, in
 		bus->stats.rxq_hwm = used + 1;
 }
 
-static void push_motor_frame(struct rmd_sim_wire *bus, unsigned src, const struct rmd_frame *f,
-			     int64_t ready_ns)
-{
-	struct rmd_sim_pending *p;
-
-	if (bus->motq_n >= RMD_SIM_WIRE_MOTQ) {
-		bus->stats.motq_dropped++;
-		bus->stats.errors++;
-		return;
-	}
-	p = &bus->motq[bus->motq_n++];
-	p->f = *f;
-	p->ready_ns = ready_ns;
-	p->seq = bus->seq++;
-	p->src = (int)src;
-	if (bus->motq_n > bus->stats.motq_hwm)
-		bus->stats.motq_hwm = bus->motq_n;
-}
-
-/*
- * A frame motor i transmits, produced at t: the per-frame faults act on it,
- * then it waits for the wire from ready_ns on.
- */
-static void motor_emit(struct rmd_sim_wire *bus, unsigned i, struct rmd_frame f, int64_t t,
-		       int64_t ready_ns)
-{
-	if (!bus->faults.n || rmd_sim_faults_frame(&bus->faults, &bus->rng, bus->motors[i].p.id, t,
-						   &f, &ready_ns, bus->stats.faults))
-		push_motor_frame(bus, i, &f, ready_ns);
-}
-
 /* ---- the wire ------------------------------------------------------------- */
 
 /* Take the frame off the wire unfinished (bus-off, sender gone). */
@@ -102,99 +85,33 @@ static void abort_wire(struct rmd_sim_wire *bus, int64_t t)
 	bus->wire_free_ns = t;
 }
 
-/* Discard the waiting frames of motor i (i < 0: of every motor). */
-static unsigned discard_motor_frames(struct rmd_sim_wire *bus, int i)
+/*
+ * What the fault windows that changed did to the wire: the frame of a motor
+ * that fell silent leaves it unfinished; bus-off drops what the host's
+ * controller holds, the frame on the wire too.
+ */
+static void windows_changed(struct rmd_sim_wire *bus, const struct rmd_sim_node_change *ch,
+			    int64_t t)
 {
-	unsigned n = 0;
-
-	for (unsigned j = 0; j < bus->motq_n;) {
-		if (i < 0 || bus->motq[j].src == i) {
-			bus->motq[j] = bus->motq[--bus->motq_n];
-			n++;
-		} else {
-			j++;
-		}
+	if (bus->wire_busy && bus->wire.src >= 0 && ((ch->silenced >> bus->wire.src) & 1)) {
+		abort_wire(bus, t);
+		bus->node.stats.absent_lost++;
 	}
-	return n;
-}
-
-/* Make the motors' injected error bits those of the open ERROR_FLAG windows. */
-static void sync_error_flags(struct rmd_sim_wire *bus, int64_t t)
-{
-	for (unsigned i = 0; i < bus->n_motors; i++) {
-		struct rmd_sim_motor *m = &bus->motors[i];
-		uint16_t bits = rmd_sim_faults_error_bits(&bus->faults, m->p.id);
-
-		if (bits != bus->injected[i]) {
-			rmd_sim_motor_step(m, t);
-			rmd_sim_motor_set_error(m, bits);
-			bus->injected[i] = bits;
-		}
-	}
-}
-
-/* What a window does as it opens (ERROR_FLAG: sync_error_flags(); FLOOD: start_frame()). */
-static void open_window(struct rmd_sim_wire *bus, unsigned k, int64_t t)
-{
-	const struct rmd_sim_fault *f = &bus->faults.f[k];
-
-	if (f->kind == RMD_SIM_FAULT_DISAPPEAR || f->kind == RMD_SIM_FAULT_BUS_POWER) {
-		for (unsigned i = 0; i < bus->n_motors; i++) {
-			if (!rmd_sim_fault_hits(f, bus->motors[i].p.id))
-				continue;
-			/* Without power the drive lets go and the brake locks. */
-			if (f->param == 1 || f->kind == RMD_SIM_FAULT_BUS_POWER)
-				rmd_sim_motor_power_cycle(&bus->motors[i], t);
-			bus->stats.absent_lost += discard_motor_frames(bus, (int)i);
-			if (bus->wire_busy && bus->wire.src == (int)i) {
-				abort_wire(bus, t);
-				bus->stats.absent_lost++;
-			}
-		}
-	} else if (f->kind == RMD_SIM_FAULT_BUS_OFF) {
-		/* The controllers drop what they hold, like a SocketCAN restart. */
-		unsigned lost = bus->txq_n + discard_motor_frames(bus, -1) + bus->wire_busy;
-
+	if (ch->bus_off) {
+		bus->node.stats.busoff_lost += bus->txq_n + bus->wire_busy;
 		bus->txq_n = 0;
 		if (bus->wire_busy)
 			abort_wire(bus, t);
-		bus->stats.busoff_lost += lost;
-		bus->stats.errors += lost;
 	}
-}
-
-static void close_window(struct rmd_sim_wire *bus, const struct rmd_sim_fault *f, int64_t t)
-{
-	if ((f->kind != RMD_SIM_FAULT_DISAPPEAR || f->param != 1) &&
-	    f->kind != RMD_SIM_FAULT_BUS_POWER)
-		return;
-	/* It lost power: it boots when it comes back. */
-	for (unsigned i = 0; i < bus->n_motors; i++)
-		if (rmd_sim_fault_hits(f, bus->motors[i].p.id))
-			rmd_sim_motor_power_cycle(&bus->motors[i], t);
 }
 
 /* Open and close the windows as of time t, and act on what changed. */
 static void apply_windows(struct rmd_sim_wire *bus, int64_t t)
 {
-	uint32_t changed;
-	bool errors_changed = false;
+	struct rmd_sim_node_change ch;
 
-	if (!bus->faults.n)
-		return;
-	changed = rmd_sim_faults_update(&bus->faults, t, bus->stats.faults);
-
-	for (unsigned k = 0; changed && k < bus->faults.n; k++) {
-		if (!(changed & (UINT32_C(1) << k)))
-			continue;
-		if (bus->faults.open[k])
-			open_window(bus, k, t);
-		else
-			close_window(bus, &bus->faults.f[k], t);
-		errors_changed |= bus->faults.f[k].kind == RMD_SIM_FAULT_ERROR_FLAG;
-	}
-	if (errors_changed)
-		sync_error_flags(bus, t);
+	if (bus->node.faults.n && rmd_sim_node_update(&bus->node, t, &ch))
+		windows_changed(bus, &ch, t);
 }
 
 /* The frame on the wire reaches its end of frame: everyone takes it. */
@@ -223,7 +140,6 @@ static void finish_frame(struct rmd_sim_wire *bus)
 {
 	const struct rmd_sim_pending *w = &bus->wire;
 	int64_t t = bus->wire_eof_ns;
-	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
 	unsigned h = bus->hist_n++ & (RMD_SIM_WIRE_HIST - 1);
 
 	bus->wire_busy = false;
@@ -245,52 +161,12 @@ static void finish_frame(struct rmd_sim_wire *bus)
 	else
 		bus->stats.frames_motor++;
 
-	for (unsigned i = 0; i < bus->n_motors; i++) {
-		struct rmd_sim_motor *m = &bus->motors[i];
-		int n;
-
-		if ((int)i == w->src || is_absent(bus, i))
-			continue;
-		n = rmd_sim_motor_receive(m, t, &w->f, out, RMD_SIM_WIRE_MAX_REPLIES);
-		for (int j = 0; j < n; j++)
-			motor_emit(bus, i, out[j], t, rmd_sim_motor_reply_due(m, t, &w->f));
-	}
+	rmd_sim_node_receive(&bus->node, &w->f, t, w->src);
 	/* a motor's frame reaches the host through its adapter (rmd/sim_adapter.h) */
 	if (w->src >= 0)
-		deliver_host(bus, &w->f, adapter_ns(bus, &bus->motors[w->src].p, t));
+		deliver_host(bus, &w->f, adapter_ns(bus, &bus->node.motors[w->src].p, t));
 	else if (w->src != RMD_SIM_SRC_HOST)
 		deliver_host(bus, &w->f, t);
-}
-
-/* The motors' unsolicited frames due by t. */
-static void poll_motors(struct rmd_sim_wire *bus, int64_t t)
-{
-	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
-	bool off = is_bus_off(bus);
-
-	for (unsigned i = 0; i < bus->n_motors; i++) {
-		struct rmd_sim_motor *m = &bus->motors[i];
-		bool absent = is_absent(bus, i);
-
-		/* Frames that did not fit stay due: a few rounds take them all. */
-		for (unsigned round = 0; round < 8 && rmd_sim_motor_next_event_ns(m) <= t;
-		     round++) {
-			int n = rmd_sim_motor_poll(m, t, out, RMD_SIM_WIRE_MAX_REPLIES);
-
-			for (int j = 0; j < n; j++) {
-				if (absent) {
-					bus->stats.absent_lost++;
-				} else if (off) {
-					bus->stats.busoff_lost++;
-					bus->stats.errors++;
-				} else {
-					motor_emit(bus, i, out[j], t, t);
-				}
-			}
-			if (n < RMD_SIM_WIRE_MAX_REPLIES)
-				break;
-		}
-	}
 }
 
 /* a goes before b in arbitration. */
@@ -319,55 +195,54 @@ static bool host_competes(const struct rmd_sim_wire *bus, unsigned j)
 /* Arbitration at t on an idle wire: the winner goes on the wire. */
 static void start_frame(struct rmd_sim_wire *bus, int64_t t)
 {
+	struct rmd_sim_node *n = &bus->node;
 	struct rmd_sim_pending flood;
 	const struct rmd_sim_pending *best = NULL;
-	struct rmd_sim_pending *pool = NULL;
-	unsigned *pool_n = NULL;
-	unsigned best_j = 0, best_flood = 0;
+	enum { FROM_HOST, FROM_NODE, FROM_FLOOD } from = FROM_HOST;
+	unsigned best_j = 0;
 
 	for (unsigned j = 0; j < bus->txq_n; j++) {
 		if (bus->txq[j].ready_ns <= t && host_competes(bus, j) &&
 		    (!best || wins(&bus->txq[j], best))) {
 			best = &bus->txq[j];
-			pool = bus->txq;
-			pool_n = &bus->txq_n;
 			best_j = j;
 		}
 	}
-	for (unsigned j = 0; j < bus->motq_n; j++) {
-		if (bus->motq[j].ready_ns <= t && (!best || wins(&bus->motq[j], best))) {
-			best = &bus->motq[j];
-			pool = bus->motq;
-			pool_n = &bus->motq_n;
+	/* the node's queue is a heap on ready time: nothing is ready when its head is not */
+	for (unsigned j = 0; n->qn && n->q[0].ready_ns <= t && j < n->qn; j++) {
+		if (n->q[j].ready_ns <= t && (!best || wins(&n->q[j], best))) {
+			best = &n->q[j];
+			from = FROM_NODE;
 			best_j = j;
 		}
 	}
-	for (unsigned k = 0; k < bus->faults.n; k++) {
+	for (unsigned k = 0; k < n->faults.n; k++) {
 		struct rmd_sim_pending c = { 0 };
 
-		if (!rmd_sim_faults_flood_due(&bus->faults, k, t))
+		if (!rmd_sim_faults_flood_due(&n->faults, k, t))
 			continue;
-		c.f.can_id = bus->faults.f[k].can_id;
+		c.f.can_id = n->faults.f[k].can_id;
 		c.f.len = RMD_FRAME_LEN;
-		c.ready_ns = bus->faults.flood_next_ns[k];
+		c.ready_ns = n->faults.flood_next_ns[k];
 		c.src = RMD_SIM_SRC_FOREIGN;
 		if (!best || wins(&c, best)) {
 			flood = c;
 			best = &flood;
-			pool = NULL;
-			best_flood = k;
+			from = FROM_FLOOD;
+			best_j = k;
 		}
 	}
 	if (!best)
 		return;
 
 	bus->wire = *best;
-	if (pool) {
-		pool[best_j] = pool[--*pool_n];
-	} else {
-		rmd_sim_faults_flood_take(&bus->faults, best_flood, &bus->rng, &bus->wire.f,
-					  bus->stats.faults);
-	}
+	if (from == FROM_HOST)
+		bus->txq[best_j] = bus->txq[--bus->txq_n];
+	else if (from == FROM_NODE)
+		rmd_sim_node_take(n, best_j);
+	else
+		rmd_sim_faults_flood_take(&n->faults, best_j, &n->rng, &bus->wire.f,
+					  n->stats.faults);
 	bus->wire_busy = true;
 	bus->wire_bits = rmd_can_frame_bits(&bus->wire.f);
 	bus->wire_start_ns = t;
@@ -380,10 +255,14 @@ static int64_t min64(int64_t a, int64_t b)
 	return a < b ? a : b;
 }
 
-/* The next time after t at which something happens, capped at until. */
-static int64_t next_event(const struct rmd_sim_wire *bus, int64_t t, int64_t until)
+/*
+ * The next time after t at which something happens, capped at until;
+ * motors_ns: when a motor's next unsolicited frame falls due.
+ */
+static int64_t next_event(const struct rmd_sim_wire *bus, int64_t t, int64_t until,
+			  int64_t motors_ns)
 {
-	int64_t n = until;
+	int64_t n = min64(until, motors_ns);
 
 	if (bus->wire_busy) {
 		n = min64(n, bus->wire_eof_ns);
@@ -393,20 +272,10 @@ static int64_t next_event(const struct rmd_sim_wire *bus, int64_t t, int64_t unt
 		for (unsigned j = 0; j < bus->txq_n; j++)
 			if (bus->txq[j].ready_ns > t)
 				n = min64(n, bus->txq[j].ready_ns);
-		for (unsigned j = 0; j < bus->motq_n; j++)
-			if (bus->motq[j].ready_ns > t)
-				n = min64(n, bus->motq[j].ready_ns);
+		n = min64(n, rmd_sim_node_next_ready_ns(&bus->node, t));
 	}
 	/* window edges, and a flood's next frame (a no-op step while the wire is busy) */
-	if (bus->faults.n)
-		n = min64(n, rmd_sim_faults_next_ns(&bus->faults, t));
-	for (unsigned i = 0; i < bus->n_motors; i++) {
-		int64_t e = rmd_sim_motor_next_event_ns(&bus->motors[i]);
-
-		if (e > t)
-			n = min64(n, e);
-	}
-	return n;
+	return min64(n, rmd_sim_node_faults_next_ns(&bus->node, t));
 }
 
 int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns)
@@ -417,21 +286,21 @@ int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns)
 		return 0;
 	for (;;) {
 		int64_t t = bus->now_ns;
-		int64_t next;
+		int64_t next, motors_ns;
 
 		apply_windows(bus, t);
 		if (bus->wire_busy && bus->wire_eof_ns <= t)
 			finish_frame(bus);
-		poll_motors(bus, t);
+		motors_ns = rmd_sim_node_poll(&bus->node, t);
 		if (!bus->wire_busy && t >= bus->wire_free_ns && t < until_ns && !is_bus_off(bus))
 			start_frame(bus, t);
-		next = next_event(bus, t, until_ns);
+		next = next_event(bus, t, until_ns, motors_ns);
 		if (next <= t)
 			break;
 		bus->now_ns = next;
 	}
-	for (unsigned i = 0; i < bus->n_motors; i++)
-		rmd_sim_motor_step(&bus->motors[i], until_ns);
+	rmd_sim_node_step(&bus->node, until_ns);
+	sync_stats(bus);
 	return (int)(bus->stats.rx_delivered - delivered);
 }
 
@@ -446,7 +315,7 @@ int rmd_sim_wire_init(struct rmd_sim_wire *bus, uint32_t bitrate, uint64_t seed,
 	bus->flags = flags;
 	bus->txq_len = RMD_SIM_WIRE_TXQ;
 	bus->seed = seed;
-	bus->rng = rmd_rng_seed(seed);
+	rmd_sim_node_init(&bus->node, bus->motq, RMD_SIM_WIRE_MOTQ, rmd_rng_seed(seed), 0, 0);
 	rmd_sim_adapter_init(&bus->adapter);
 	return 0;
 }
@@ -468,22 +337,17 @@ int rmd_sim_wire_add_motor(struct rmd_sim_wire *bus, const struct rmd_sim_motor_
 			   int64_t now_ns)
 {
 	struct rmd_sim_motor_params q = *p;
-	unsigned i = bus->n_motors;
 
 	if (p->id < 1 || p->id > RMD_MAX_MOTORS)
 		return -EINVAL;
 	if (rmd_sim_wire_motor(bus, p->id))
 		return -EEXIST;
-	if (i >= RMD_MAX_MOTORS)
+	if (bus->node.n_motors >= RMD_MAX_MOTORS)
 		return -ENOSPC;
 	rmd_sim_wire_advance(bus, now_ns);
 	if (q.seed == 0)
 		q.seed = rmd_rng_seed(bus->seed ^ ((uint64_t)p->id << 56));
-	rmd_sim_motor_init(&bus->motors[i], &q, bus->now_ns);
-	bus->injected[i] = 0;
-	bus->n_motors++;
-	sync_error_flags(bus, bus->now_ns);
-	return (int)i;
+	return rmd_sim_node_add(&bus->node, &q, bus->now_ns);
 }
 
 void rmd_sim_wire_set_tap(struct rmd_sim_wire *bus, rmd_sim_wire_tap_fn *fn, void *ctx)
@@ -494,26 +358,20 @@ void rmd_sim_wire_set_tap(struct rmd_sim_wire *bus, rmd_sim_wire_tap_fn *fn, voi
 
 struct rmd_sim_motor *rmd_sim_wire_motor(struct rmd_sim_wire *bus, uint8_t id)
 {
-	for (unsigned i = 0; i < bus->n_motors; i++)
-		if (bus->motors[i].p.id == id)
-			return &bus->motors[i];
-	return NULL;
+	return rmd_sim_node_motor(&bus->node, id);
 }
 
 int rmd_sim_wire_set_faults(struct rmd_sim_wire *bus, const struct rmd_sim_fault *faults, size_t n)
 {
-	struct rmd_sim_faults old = bus->faults;
 	int r;
 
-	r = rmd_sim_faults_set(&bus->faults, faults, n);
+	if (n > RMD_SIM_MAX_FAULTS)
+		return -E2BIG;
+	r = rmd_sim_node_set_faults(&bus->node, faults, (unsigned)n, bus->now_ns);
 	if (r < 0)
 		return r;
-	/* Close the old table's open windows now. */
-	for (unsigned k = 0; k < old.n; k++)
-		if (old.open[k])
-			close_window(bus, &old.f[k], bus->now_ns);
-	sync_error_flags(bus, bus->now_ns);
 	apply_windows(bus, bus->now_ns);
+	sync_stats(bus);
 	return 0;
 }
 
@@ -524,8 +382,8 @@ int rmd_sim_wire_send(struct rmd_sim_wire *bus, int64_t now_ns, const struct rmd
 
 	rmd_sim_wire_advance(bus, now_ns);
 	if (is_bus_off(bus)) {
-		bus->stats.busoff_lost += n;
-		bus->stats.errors += n;
+		bus->node.stats.busoff_lost += n;
+		sync_stats(bus);
 		return -ENETDOWN;
 	}
 	while (taken < n && bus->txq_n < bus->txq_len) {
@@ -537,7 +395,7 @@ int rmd_sim_wire_send(struct rmd_sim_wire *bus, int64_t now_ns, const struct rmd
 		p = &bus->txq[bus->txq_n++];
 		p->f = frames[taken++];
 		p->ready_ns = bus->now_ns;
-		p->seq = bus->seq++;
+		p->seq = bus->node.seq++; /* one order of arrival with the motors' frames */
 		p->src = RMD_SIM_SRC_HOST;
 	}
 	if (bus->txq_n > bus->stats.txq_hwm)
@@ -546,7 +404,7 @@ int rmd_sim_wire_send(struct rmd_sim_wire *bus, int64_t now_ns, const struct rmd
 		if (bus->txq_n < bus->txq_len) /* stopped at a bad frame */
 			return taken ? (int)taken : -EINVAL;
 		bus->stats.tx_refused += n - taken;
-		bus->stats.errors += n - taken;
+		sync_stats(bus);
 		if (taken == 0)
 			return -ENOBUFS;
 	}
@@ -621,5 +479,5 @@ int rmd_sim_wire_load(const struct rmd_sim_wire *bus, int64_t window_ns, double 
 
 unsigned rmd_sim_wire_pending(const struct rmd_sim_wire *bus)
 {
-	return bus->txq_n + bus->motq_n;
+	return bus->txq_n + bus->node.qn;
 }

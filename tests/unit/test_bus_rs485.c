@@ -1086,6 +1086,64 @@ static void test_device_role(void **state)
 	close_bus(&bus, &pt);
 }
 
+/*
+ * V3 §7.4: the reply to the RS485-ID read carries the ID itself (example 2
+ * answers "0x0002") where CAN carries the reply identifier 0x240 + ID; a
+ * motor speaks CAN, the device role gives it the line's form.  Every other
+ * frame goes out as it is, the write's reply and a value that is no reply
+ * identifier included.
+ */
+static void test_device_set_id_read(void **state)
+{
+	/* 0x79 replies: D2 (1: read, 0: write), D6..D7 as the motor says them and on the line */
+	static const struct {
+		const char *name;
+		uint8_t d2;
+		uint16_t value, on_line;
+	} cases[] = {
+		{ "read of motor 2", 1, 0x0242, 0x0002 },
+		{ "read of motor 32", 1, 0x0260, 0x0020 },
+		{ "write", 0, 0x0242, 0x0242 },
+		{ "read, no reply id", 1, 0x0240, 0x0240 },
+	};
+	uint8_t wire[RMD_RS485_FRAME_LEN], id, data[RMD_FRAME_LEN], want[RMD_FRAME_LEN];
+	struct rmd_frame f = { .can_id = RMD_CAN_SET_ID, .len = RMD_FRAME_LEN }, form;
+	struct rmd_bus bus;
+	struct pty pt;
+
+	(void)state;
+	open_device(&bus, &pt, false);
+	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+		memset(f.data, 0, sizeof(f.data));
+		f.data[0] = RMD_RS485_CMD_SET_ID;
+		f.data[2] = cases[i].d2;
+		memcpy(want, f.data, sizeof(want));
+		f.data[6] = (uint8_t)cases[i].value;
+		f.data[7] = (uint8_t)(cases[i].value >> 8);
+		want[6] = (uint8_t)cases[i].on_line;
+		want[7] = (uint8_t)(cases[i].on_line >> 8);
+		assert_int_equal(rmd_rs485_from_can(&f, false, &form), RMD_RS485_BROADCAST);
+		if (memcmp(form.data, want, RMD_FRAME_LEN))
+			fail_msg("%s: rmd_rs485_from_can() data differ", cases[i].name);
+		assert_int_equal(rmd_bus_send(&bus, &f, 1, rmd_now_ns()), 1);
+		master_read(pt.master, wire, sizeof(wire));
+		assert_int_equal(rmd_rs485_parse(wire, sizeof(wire), &id, data),
+				 RMD_RS485_FRAME_LEN);
+		assert_int_equal(id, RMD_RS485_BROADCAST);
+		if (memcmp(data, want, RMD_FRAME_LEN))
+			fail_msg("%s: the line carried other data", cases[i].name);
+	}
+	/* A request is never rewritten; a frame with no RS485 form has no id. */
+	f.data[2] = 1;
+	f.data[6] = 0x42;
+	f.data[7] = 0x02;
+	assert_int_equal(rmd_rs485_from_can(&f, true, &form), RMD_RS485_BROADCAST);
+	assert_memory_equal(form.data, f.data, RMD_FRAME_LEN);
+	f.can_id = 0x501;
+	assert_int_equal(rmd_rs485_from_can(&f, false, &form), -EINVAL);
+	close_bus(&bus, &pt);
+}
+
 /* --local-echo: a frame we sent, heard back, is dropped once, in order, within 500 ms. */
 static void test_device_local_echo(void **state)
 {
@@ -1185,6 +1243,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_latency_timer_set, teardown),
 		cmocka_unit_test_teardown(test_open_config_equals_spec, teardown),
 		cmocka_unit_test_teardown(test_device_role, teardown),
+		cmocka_unit_test_teardown(test_device_set_id_read, teardown),
 		cmocka_unit_test_teardown(test_device_local_echo, teardown),
 		cmocka_unit_test_teardown(test_device_backlog, teardown),
 	};

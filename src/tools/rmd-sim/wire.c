@@ -8,12 +8,13 @@
  * signalfd for SIGINT/SIGTERM.
  * Motor time is CLOCK_MONOTONIC in ns.
  *
- * - A frame that arrives goes to every present motor at its arrival time
- *   (rmd_sim_motor_receive()).  Each reply is due a turnaround later
- *   (rmd_sim_motor_turnaround_ns()), never before that motor's previous
- *   reply (rmd_sim_motor_reply_due()), and waits in a queue ordered by due
- *   time; unsolicited frames (rmd_sim_motor_poll(): 0xF1, 0x9A reports)
- *   are due when the motor says (rmd_sim_motor_next_event_ns()).
+ * - The motors, their frames by due time and what fault windows do to them
+ *   are a node (rmd/sim_node.h), the one the in-process wire runs: a frame
+ *   that arrives goes to every present motor at its arrival time
+ *   (rmd_sim_node_receive()); each reply is due a turnaround later, never
+ *   before that motor's previous reply, and when the host's adapter would
+ *   hand it on (RMD_SIM_NODE_HOST_ADAPTER); unsolicited frames (0xF1, 0x9A
+ *   reports) are due when the motor says (rmd_sim_node_poll()).
  * - The timer is armed for the earliest of: the queue's head, the motors'
  *   next unsolicited frame, a fault window's edge, a flood frame, a write
  *   retry, the physics tick (every motor stepped every 10 ms, so a long
@@ -26,21 +27,16 @@
  *   line, are answered at their due time (up to FINISH_NS), then it stops.
  *
  * Faults are struct rmd_sim_fault entries, with the semantics of
- * rmd/sim_wire.h where they apply to a real wire: per-frame kinds act on
- * each frame a motor transmits (evaluated when it becomes ready), in table
- * order, a drop ending the list; DISAPPEAR and ERROR_FLAG act over their
- * window; FLOOD writes a foreign frame every period (CAN only); BUS_OFF is
- * refused by the config (the kernel owns a real bus's state).
+ * rmd/sim_wire.h where they apply to a real wire (the node's: the same code):
+ * per-frame kinds act on each frame a motor makes, in table order, a drop
+ * ending the list; DISAPPEAR and ERROR_FLAG act over their window; FLOOD
+ * writes a foreign frame every period (CAN only); BUS_OFF is refused by the
+ * config (the kernel owns a real bus's state).
  *
- * RS485 (V3 §1.2.2, §6, §7) maps to the CAN identifiers the motors speak
- * with the map the host's RS485 transport uses (rmd/rs485.h), from the
- * motors' side (the transport's device role does it, rmd/bus_rs485.h):
- *   rx  id 1..32               -> 0x140 + id
- *   rx  id 0xCD, D0 = 0x79     -> 0x300 (V3 §7: RS485-ID setting)
- *   rx  id 0xCD, other D0      -> 0x280 (V3 §6: every motor)
- *   tx  0x240 + ID             -> id ID
- *   tx  0x300 (0x79 reply)     -> id 0xCD (V3 §7.3); a read's value 0x240 + ID
- *                                 becomes ID (§7.4 example 2 answers "0x0002")
+ * The motors speak CAN identifiers on both wires: on an RS485 line the
+ * transport's device role gives each frame its RS485 form both ways (V3
+ * §1.2.2, §6, §7: rmd/bus_rs485.h), and the log shows that form
+ * (rmd_rs485_from_can()).
  *
  * Non-rt: a normal process; it logs from the loop.
  */
@@ -62,23 +58,18 @@
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
 #include <sys/signalfd.h>
-#include <sys/socket.h>
 #include <sys/timerfd.h>
-
-#include <linux/can.h>
-#include <linux/can/raw.h>
 
 #include "rmd/time.h"
 #include "rmd/bus.h"
 #include "rmd/bus_open.h"
-#include "rmd/rng.h"
+#include "rmd/bus_rs485.h"
 #include "rmd/codec.h"
 #include "rmd/describe.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
-#include "rmd/sim_adapter.h"
 #include "rmd/sim_faults.h"
-#include "rmd/sim_wire.h"
+#include "rmd/sim_node.h"
 #include "rmd-sim.h"
 
 #define TXQ 1024			/* frames waiting for their due time */
@@ -89,33 +80,16 @@
 #define RX_BATCH 64			/* frames per rmd_bus_recv() */
 #define FINISH_NS (250 * RMD_NS_PER_MS) /* SIGINT/SIGTERM: replies still due go out within */
 
-struct slot {
-	struct rmd_sim_motor m;
-	uint8_t id;   /* params id: the one faults and messages name */
-	bool absent;  /* a DISAPPEAR window is open */
-	bool powered; /* false while a DISAPPEAR:reboot window is open */
-	uint16_t injected;
-};
-
-struct txe {
-	int64_t due_ns;
-	uint64_t seq;
-	int src; /* slot index, or RMD_SIM_SRC_FOREIGN */
-	struct rmd_frame f;
-};
-
+/* What the node (its stats: queue overflows, frames lost while absent, faults) does not count. */
 struct stats {
-	uint64_t rx_frames; /* frames received (serial: valid frames) */
-	uint64_t rx_taken;  /* ... that at least one motor answered */
-	uint64_t tx_frames; /* frames written */
-	uint64_t tx_busy;   /* writes refused for lack of room, retried */
-	uint64_t tx_errors; /* writes that failed otherwise (frame lost) */
-	uint64_t txq_overflow;
-	uint64_t rx_errors;   /* read errors */
-	uint64_t absent_lost; /* frames of a disappeared motor */
-	uint64_t unmappable;  /* frames with no RS485 form */
-	uint64_t unsent;      /* frames still waiting when rmd-sim stopped */
-	uint64_t faults[RMD_SIM_FAULT_COUNT];
+	uint64_t rx_frames;  /* frames received (serial: valid frames) */
+	uint64_t rx_taken;   /* ... that at least one motor answered */
+	uint64_t tx_frames;  /* frames written */
+	uint64_t tx_busy;    /* writes refused for lack of room, retried */
+	uint64_t tx_errors;  /* writes that failed otherwise (frame lost) */
+	uint64_t rx_errors;  /* read errors */
+	uint64_t unmappable; /* frames with no RS485 form */
+	uint64_t unsent;     /* frames still waiting when rmd-sim stopped */
 };
 
 struct sim {
@@ -123,17 +97,12 @@ struct sim {
 	struct rmd_bus bus; /* the wire (ops set once open) */
 	const char *name;   /* the wire, for messages */
 	int64_t t0;
-	struct slot slots[RMD_MAX_MOTORS];
-	unsigned n;
-	struct rmd_sim_faults faults; /* times since t0 */
-	uint64_t rng;
-	/* the host's adapter, as the motors' adapter_* parameters make it (rmd/sim_adapter.h) */
-	struct rmd_sim_adapter adapter;
-
-	struct txe q[TXQ]; /* binary heap on (due_ns, seq) */
-	unsigned qn;
-	uint64_t seq;
-	int64_t retry_ns; /* 0: the head may be written now */
+	/* The motors and their frames waiting in q[] for their due time; fault times since t0. */
+	struct rmd_sim_node node;
+	struct rmd_sim_pending q[TXQ];
+	int64_t motors_ns; /* a motor's next unsolicited frame (rmd_sim_node_poll()) */
+	int64_t retry_ns;  /* 0: the head may be written now */
+	bool overflow_warned;
 
 	int fd, epfd, tfd, sfd;
 	bool serial;
@@ -152,73 +121,14 @@ struct sim {
 	bool gone; /* the line hung up, or the interface was removed */
 };
 
-/* ---- the queue of due frames ----------------------------------------------------------- */
-
-static bool before(const struct txe *a, const struct txe *b)
-{
-	return a->due_ns < b->due_ns || (a->due_ns == b->due_ns && a->seq < b->seq);
-}
-
-static bool q_push(struct sim *s, int src, const struct rmd_frame *f, int64_t due_ns)
-{
-	unsigned i;
-
-	if (s->qn >= TXQ) {
-		if (!s->st.txq_overflow++)
-			tool_log(TOOL_LOG_WARNING,
-				 "rmd-sim: %s: more than %d frames waiting to be sent; dropping "
-				 "(counted in the exit summary)",
-				 s->name, TXQ);
-		return false;
-	}
-	i = s->qn++;
-	s->q[i] = (struct txe){ .due_ns = due_ns, .seq = s->seq++, .src = src, .f = *f };
-	while (i > 0) {
-		unsigned parent = (i - 1) / 2;
-		struct txe t;
-
-		if (!before(&s->q[i], &s->q[parent]))
-			break;
-		t = s->q[i];
-		s->q[i] = s->q[parent];
-		s->q[parent] = t;
-		i = parent;
-	}
-	return true;
-}
-
-static void q_pop(struct sim *s)
-{
-	unsigned i = 0;
-
-	if (!s->qn)
-		return;
-	s->q[0] = s->q[--s->qn];
-	for (;;) {
-		unsigned l = 2 * i + 1, r = l + 1, m = i;
-		struct txe t;
-
-		if (l < s->qn && before(&s->q[l], &s->q[m]))
-			m = l;
-		if (r < s->qn && before(&s->q[r], &s->q[m]))
-			m = r;
-		if (m == i)
-			break;
-		t = s->q[i];
-		s->q[i] = s->q[m];
-		s->q[m] = t;
-		i = m;
-	}
-}
-
 /* ---- logging of frames ----------------------------------------------------------------- */
 
-/* The slot whose current ID is `id`, or NULL. */
-static struct slot *slot_by_can_id(struct sim *s, unsigned id)
+/* The motor whose current ID is `id`, or NULL. */
+static const struct rmd_sim_motor *motor_by_can_id(const struct sim *s, unsigned id)
 {
-	for (unsigned i = 0; i < s->n; i++)
-		if (s->slots[i].m.ram.can_id == id)
-			return &s->slots[i];
+	for (unsigned i = 0; i < s->node.n_motors; i++)
+		if (s->node.motors[i].ram.can_id == id)
+			return &s->node.motors[i];
 	return NULL;
 }
 
@@ -226,23 +136,23 @@ static struct slot *slot_by_can_id(struct sim *s, unsigned id)
 static enum rmd_proto request_proto(struct sim *s, uint32_t can_id,
 				    const struct rmd_mit_ranges **mit)
 {
-	struct slot *sl = NULL;
+	const struct rmd_sim_motor *m = NULL;
 
 	*mit = NULL;
 	if (can_id > RMD_CAN_REQ_BASE && can_id <= RMD_CAN_REQ_BASE + RMD_MAX_MOTORS)
-		sl = slot_by_can_id(s, can_id - RMD_CAN_REQ_BASE);
+		m = motor_by_can_id(s, can_id - RMD_CAN_REQ_BASE);
 	else if (can_id > RMD_CAN_MIT_REQ_BASE && can_id <= RMD_CAN_MIT_REQ_BASE + RMD_MAX_MOTORS)
-		sl = slot_by_can_id(s, can_id - RMD_CAN_MIT_REQ_BASE);
-	else if (can_id == RMD_CAN_MULTI)
-		sl = &s->slots[0];
-	if (!sl)
+		m = motor_by_can_id(s, can_id - RMD_CAN_MIT_REQ_BASE);
+	else if (can_id == RMD_CAN_MULTI && s->node.n_motors)
+		m = &s->node.motors[0];
+	if (!m)
 		return RMD_PROTO_V3;
 	/* V3 §5, V4.2 §5: its firmware takes MIT frames; its others are its table's */
-	if (can_id > RMD_CAN_MIT_REQ_BASE && rmd_dialect_offers_mit(sl->m.d)) {
-		*mit = &sl->m.mit_ranges;
+	if (can_id > RMD_CAN_MIT_REQ_BASE && rmd_dialect_offers_mit(m->d)) {
+		*mit = &m->mit_ranges;
 		return RMD_PROTO_MIT;
 	}
-	return sl->m.d->table;
+	return m->d->table;
 }
 
 static void hex(char *buf, size_t size, const uint8_t *b, size_t n)
@@ -263,7 +173,7 @@ static void describe(char *buf, size_t size, enum rmd_proto proto, enum rmd_dir 
 		snprintf(buf, size, "comm_lost (0xF1, unsolicited)");
 }
 
-static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_t rs485_id)
+static void log_rx(struct sim *s, const struct rmd_frame *f, int answers)
 {
 	char desc[512], data[32];
 	const struct rmd_mit_ranges *mit;
@@ -277,32 +187,37 @@ static void log_rx(struct sim *s, const struct rmd_frame *f, int answers, uint8_
 	if (s->serial)
 		tool_log(TOOL_LOG_DEBUG,
 			 "rmd-sim: %s: rx id 0x%02X [%u] %s  (0x%03X) %s; %d repl%s", s->name,
-			 rs485_id, f->len, data, f->can_id, desc, answers,
-			 answers == 1 ? "y" : "ies");
+			 (unsigned)rmd_rs485_id_of_can(f->can_id, true), f->len, data, f->can_id,
+			 desc, answers, answers == 1 ? "y" : "ies");
 	else
 		tool_log(TOOL_LOG_DEBUG, "rmd-sim: %s: rx %03X [%u] %s  %s; %d repl%s", s->name,
 			 f->can_id, f->len, data, desc, answers, answers == 1 ? "y" : "ies");
 }
 
-/* e: the frame as scheduled; wire: its data as written (RS485: after the id mapping). */
-static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *wire, int rs485_id)
+/* e: the frame as scheduled and written; on a line its RS485 form (rmd_rs485_from_can()). */
+static void log_tx(struct sim *s, const struct rmd_sim_pending *e)
 {
 	char desc[512], data[32], who[32];
 	const struct rmd_mit_ranges *mit = NULL;
 	enum rmd_proto proto = RMD_PROTO_V3;
+	struct rmd_frame as_sent = e->f;
+	const struct rmd_frame *wire = &as_sent;
+	int rs485_id = 0;
 
 	if (!tool_log_enabled(TOOL_LOG_DEBUG))
 		return;
+	if (s->serial)
+		rs485_id = rmd_rs485_from_can(&e->f, false, &as_sent);
 	if (e->src >= 0) {
-		const struct slot *sl = &s->slots[e->src];
+		const struct rmd_sim_motor *m = &s->node.motors[e->src];
 
-		mit = &sl->m.mit_ranges;
+		mit = &m->mit_ranges;
 		/* its MIT replies on 0x500 + ID (V3 §5), its others its table's */
 		proto = e->f.can_id > RMD_CAN_MIT_REPLY_BASE &&
 					e->f.can_id <= RMD_CAN_MIT_REPLY_BASE + RMD_MAX_MOTORS ?
 				RMD_PROTO_MIT :
-				sl->m.d->table;
-		snprintf(who, sizeof(who), "motor %u", sl->id);
+				m->d->table;
+		snprintf(who, sizeof(who), "motor %u", m->p.id);
 		describe(desc, sizeof(desc), proto, RMD_DIR_REPLY, mit, wire);
 	} else {
 		snprintf(who, sizeof(who), "flood");
@@ -317,124 +232,65 @@ static void log_tx(struct sim *s, const struct txe *e, const struct rmd_frame *w
 			 e->f.can_id, e->f.len, data, who, desc);
 }
 
-/* ---- faults (rmd/sim_faults.h: the wire's engine, on the axis of time since t0) ------------ */
+/* ---- the motors (rmd/sim_node.h) ----------------------------------------------------------- */
 
-/* A motor's frame, produced at t and ready at `ready`: faults, then the queue. */
-static void emit(struct sim *s, unsigned idx, struct rmd_frame *f, int64_t t, int64_t ready)
+/* The first overflow of the queue of due frames, warned once. */
+static void note_overflow(struct sim *s)
 {
-	if (!rmd_sim_faults_frame(&s->faults, &s->rng, s->slots[idx].id, t - s->t0, f, &ready,
-				  s->st.faults))
+	if (!s->node.stats.dropped || s->overflow_warned)
 		return;
-	/*
-	 * rmd-sim writes the frame when the host's adapter would hand it on:
-	 * from the host's side of a pty or a line, the same thing.
-	 */
-	ready = rmd_sim_adapter_ns(&s->adapter, &s->slots[idx].m.p, ready);
-	q_push(s, (int)idx, f, ready);
+	s->overflow_warned = true;
+	tool_log(TOOL_LOG_WARNING,
+		 "rmd-sim: %s: more than %d frames waiting to be sent; dropping "
+		 "(counted in the exit summary)",
+		 s->name, TXQ);
 }
 
-/* Open/close fault windows at now; flood frames that fell due. */
+/* Open/close fault windows at now, said in the log; flood frames that fell due. */
 static void update_faults(struct sim *s, int64_t now)
 {
 	const struct sim_config *c = s->cfg;
-	uint32_t changed = rmd_sim_faults_update(&s->faults, now - s->t0, s->st.faults);
+	struct rmd_sim_node_change ch;
 
-	for (unsigned i = 0; i < s->faults.n; i++) {
-		struct rmd_frame fr;
+	if (rmd_sim_node_update(&s->node, now, &ch)) {
+		for (unsigned k = 0; k < s->node.faults.n; k++)
+			if ((ch.windows >> k) & 1)
+				tool_log(TOOL_LOG_NOTICE, "rmd-sim: fault \"%s\" %s at %.3f s",
+					 c->fault_text[k],
+					 s->node.faults.open[k] ? "begins" : "ends",
+					 (double)(now - s->t0) / 1e9);
+		for (unsigned i = 0; i < s->node.n_motors; i++) {
+			unsigned id = s->node.motors[i].p.id;
 
-		if (changed & (UINT32_C(1) << i))
-			tool_log(TOOL_LOG_NOTICE, "rmd-sim: fault \"%s\" %s at %.3f s",
-				 c->fault_text[i], s->faults.open[i] ? "begins" : "ends",
-				 (double)(now - s->t0) / 1e9);
-		while (rmd_sim_faults_flood_due(&s->faults, i, now - s->t0)) {
-			int64_t due = rmd_sim_faults_flood_take(&s->faults, i, &s->rng, &fr,
-								s->st.faults);
-
-			q_push(s, RMD_SIM_SRC_FOREIGN, &fr, s->t0 + due);
+			if ((ch.power_off >> i) & 1)
+				tool_log(TOOL_LOG_INFO, "rmd-sim: motor %u loses power", id);
+			if ((ch.power_on >> i) & 1)
+				tool_log(TOOL_LOG_INFO, "rmd-sim: motor %u powered again: boots",
+					 id);
 		}
 	}
-
-	/* Each motor's state from the windows open now. */
-	for (unsigned k = 0; k < s->n; k++) {
-		struct slot *sl = &s->slots[k];
-		bool powered = !rmd_sim_faults_unpowered(&s->faults, sl->id);
-		uint16_t bits = rmd_sim_faults_error_bits(&s->faults, sl->id);
-
-		if (bits != sl->injected) {
-			rmd_sim_motor_step(&sl->m, now);
-			rmd_sim_motor_set_error(&sl->m, bits);
-			sl->injected = bits;
-		}
-		if (!powered && sl->powered) {
-			/* Without power the drive lets go and the brake locks (as rmd/sim_wire.h). */
-			rmd_sim_motor_power_cycle(&sl->m, now);
-			tool_log(TOOL_LOG_INFO, "rmd-sim: motor %u loses power", sl->id);
-		}
-		if (powered && !sl->powered) {
-			/* sim_faults.h DISAPPEAR param 1: it boots at the end of the window. */
-			rmd_sim_motor_power_cycle(&sl->m, now);
-			tool_log(TOOL_LOG_INFO, "rmd-sim: motor %u powered again: boots", sl->id);
-		}
-		sl->absent = rmd_sim_faults_absent(&s->faults, sl->id);
-		sl->powered = powered;
-	}
+	rmd_sim_node_queue_floods(&s->node, now);
+	note_overflow(s);
 }
 
-/* When a fault window opens or closes next, or a flood frame falls due (INT64_MAX: never). */
-static int64_t next_fault_event(const struct sim *s, int64_t now)
-{
-	int64_t t = rmd_sim_faults_next_ns(&s->faults, now - s->t0);
-
-	return t == INT64_MAX ? INT64_MAX : s->t0 + t;
-}
-
-/* ---- the motors ------------------------------------------------------------------------ */
-
-/* A frame arrived at t: every present motor sees it.  Returns the replies scheduled. */
+/* A frame arrived at t: every present motor sees it.  Returns the replies they made. */
 static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 {
-	struct rmd_frame out[RMD_SIM_WIRE_MAX_REPLIES];
-	int total = 0;
+	int n = rmd_sim_node_receive(&s->node, f, t, RMD_SIM_SRC_HOST);
 
-	for (unsigned i = 0; i < s->n; i++) {
-		struct slot *sl = &s->slots[i];
-		int n;
-
-		if (sl->absent)
-			continue;
-		n = rmd_sim_motor_receive(&sl->m, t, f, out, RMD_SIM_WIRE_MAX_REPLIES);
-		for (int k = 0; k < n; k++)
-			emit(s, i, &out[k], t, rmd_sim_motor_reply_due(&sl->m, t, f));
-		total += n;
-	}
-	return total;
+	note_overflow(s);
+	return n;
 }
 
 /* Unsolicited frames due by now, and the physics tick. */
 static void run_motors(struct sim *s, int64_t now)
 {
-	struct rmd_frame out[8];
-	bool tick = now >= s->next_tick_ns;
-
-	for (unsigned i = 0; i < s->n; i++) {
-		struct slot *sl = &s->slots[i];
-		int n;
-
-		if (rmd_sim_motor_next_event_ns(&sl->m) <= now) {
-			n = rmd_sim_motor_poll(&sl->m, now, out,
-					       (int)(sizeof(out) / sizeof(out[0])));
-			for (int k = 0; k < n; k++) {
-				if (sl->absent)
-					s->st.absent_lost++;
-				else
-					emit(s, i, &out[k], now, now);
-			}
-		}
-		if (tick)
-			rmd_sim_motor_step(&sl->m, now);
-	}
-	if (tick)
+	s->motors_ns = rmd_sim_node_poll(&s->node, now);
+	if (now >= s->next_tick_ns) {
+		rmd_sim_node_step(&s->node, now);
 		s->next_tick_ns = now + TICK_NS;
+	}
+	note_overflow(s);
 }
 
 /* ---- the CAN wire ---------------------------------------------------------------------- */
@@ -497,34 +353,6 @@ static int can_open(struct sim *s)
 	return 0;
 }
 
-/* Write one frame: 0, -EAGAIN to retry later, or -errno when it is lost. */
-static int can_write(struct sim *s, const struct rmd_frame *f)
-{
-	struct rmd_frame cf = *f;
-	int r;
-
-	/* Classical CAN: a DLC of 9..15 still carries 8 bytes. */
-	cf.can_id &= CAN_SFF_MASK;
-	if (cf.len > RMD_FRAME_LEN)
-		cf.len = RMD_FRAME_LEN;
-	r = rmd_bus_send(&s->bus, &cf, 1, rmd_now_ns());
-	if (r == -ENETDOWN) {
-		/* A socket keeps the ENETDOWN of a link that went down: once up, it is stale. */
-		check_interface(s);
-		if (!s->if_down)
-			r = rmd_bus_send(&s->bus, &cf, 1, rmd_now_ns());
-	}
-	if (r == 1) {
-		set_down(s, false, "");
-		return 0;
-	}
-	if (r == 0) /* ENOBUFS or EAGAIN: no room */
-		return -EAGAIN;
-	if (r == -ENETDOWN)
-		set_down(s, true, "write: ENETDOWN");
-	return r < 0 ? r : -EIO;
-}
-
 /* ---- the serial wire ------------------------------------------------------------------- */
 
 /* The line, through the bus layer's RS485 transport on the motors' side.  Non-rt. */
@@ -559,41 +387,6 @@ static int serial_open(struct sim *s)
 		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: kernel RS485 mode on", s->name);
 	s->fd = rmd_bus_fd(&s->bus);
 	return 0;
-}
-
-/*
- * Send f's RS485 form: 0, -EAGAIN (no room, retry later), -EINVAL (no
- * RS485 form) or -errno (lost).  *id_out and *wire: the RS485 id and the
- * frame as sent, for the log.
- */
-static int serial_write(struct sim *s, const struct rmd_frame *f, uint8_t *id_out,
-			struct rmd_frame *wire)
-{
-	uint8_t *data = wire->data;
-	int r;
-
-	r = rmd_rs485_id_of_can(f->can_id, false);
-	if (r < 0) {
-		s->st.unmappable++;
-		return -EINVAL;
-	}
-	*id_out = (uint8_t)r;
-	*wire = *f;
-	/* V3 §7.4 example 2: the RS485 read answers the ID itself, not 0x240 + ID. */
-	if (f->can_id == RMD_CAN_SET_ID && data[0] == RMD_RS485_CMD_SET_ID && data[2] == 1) {
-		unsigned v = (unsigned)data[6] | (unsigned)data[7] << 8;
-
-		if (v > RMD_CAN_V3_REPLY_BASE && v <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
-			v -= RMD_CAN_V3_REPLY_BASE;
-			data[6] = (uint8_t)v;
-			data[7] = 0;
-		}
-	}
-	/* A BAD_DLC frame goes out short: its length byte says len (rmd/bus_rs485.h). */
-	r = rmd_bus_send(&s->bus, wire, 1, rmd_now_ns());
-	if (r == 0)
-		return -EAGAIN;
-	return r < 0 ? r : 0;
 }
 
 /* Line noise the transport skipped since the last look: warned once, then at debug level. */
@@ -657,7 +450,6 @@ static void wire_read(struct sim *s, bool hup)
 			continue;
 		}
 		for (int k = 0; k < n; k++) {
-			int id = s->serial ? rmd_rs485_id_of_can(rx[k].f.can_id, true) : 0;
 			int answers;
 
 			set_down(s, false, "");
@@ -665,10 +457,9 @@ static void wire_read(struct sim *s, bool hup)
 			answers = deliver(s, &rx[k].f, rx[k].t_ns);
 			if (answers)
 				s->st.rx_taken++;
-			log_rx(s, &rx[k].f, answers, (uint8_t)id);
+			log_rx(s, &rx[k].f, answers);
 		}
-		if (s->serial)
-			note_noise(s);
+		note_noise(s);
 		if (n < RX_BATCH)
 			return;
 		i += (unsigned)n;
@@ -676,6 +467,32 @@ static void wire_read(struct sim *s, bool hup)
 }
 
 /* ---- writing due frames ---------------------------------------------------------------- */
+
+/*
+ * Write one frame through the transport's device role, which gives it its
+ * form on the wire (on a line: rmd_rs485_from_can()): 0, -EAGAIN to retry
+ * later, -EINVAL when the wire has no form for it, or -errno when it is lost.
+ */
+static int wire_write(struct sim *s, const struct rmd_frame *f)
+{
+	int r = rmd_bus_send(&s->bus, f, 1, rmd_now_ns());
+
+	if (r == -ENETDOWN) {
+		/* A socket keeps the ENETDOWN of a link that went down: once up, it is stale. */
+		check_interface(s);
+		if (!s->if_down)
+			r = rmd_bus_send(&s->bus, f, 1, rmd_now_ns());
+	}
+	if (r == 1) {
+		set_down(s, false, "");
+		return 0;
+	}
+	if (r == 0) /* ENOBUFS or EAGAIN: no room */
+		return -EAGAIN;
+	if (r == -ENETDOWN)
+		set_down(s, true, "write: ENETDOWN");
+	return r < 0 ? r : -EIO;
+}
 
 /* A write that failed with r (-errno): frames lost, logged at 1, 3, 7, ... */
 static void tx_lost(struct sim *s, int r)
@@ -690,8 +507,8 @@ static void tx_lost(struct sim *s, int r)
 	}
 }
 
-/* Serial bytes that wait: the tty is writable again. */
-static void serial_flush(struct sim *s)
+/* Replies the transport holds (a line's bytes the tty refused): the wire is writable again. */
+static void wire_flush(struct sim *s)
 {
 	int r = rmd_bus_send(&s->bus, NULL, 0, rmd_now_ns());
 
@@ -704,26 +521,19 @@ static void write_due(struct sim *s, int64_t now)
 	if (s->retry_ns && now < s->retry_ns)
 		return;
 	s->retry_ns = 0;
-	while (s->qn && s->q[0].due_ns <= now) {
-		struct txe e = s->q[0];
-		struct rmd_frame wire = e.f;
-		uint8_t id = 0;
-		int r;
+	for (const struct rmd_sim_pending *h;
+	     (h = rmd_sim_node_head(&s->node)) && h->ready_ns <= now;) {
+		struct rmd_sim_pending e = *h;
+		int r = wire_write(s, &e.f);
 
-		if (e.src >= 0 && s->slots[e.src].absent) {
-			/* It disappeared after the frame was scheduled. */
-			s->st.absent_lost++;
-			q_pop(s);
-			continue;
-		}
-		r = s->serial ? serial_write(s, &e.f, &id, &wire) : can_write(s, &e.f);
 		if (r == -EAGAIN) {
 			s->st.tx_busy++;
 			s->retry_ns = now + RETRY_NS;
 			break;
 		}
-		q_pop(s);
-		if (r == -EINVAL && s->serial) {
+		rmd_sim_node_take(&s->node, 0);
+		if (r == -EINVAL) {
+			s->st.unmappable++;
 			if (tool_log_enabled(TOOL_LOG_DEBUG))
 				tool_log(TOOL_LOG_DEBUG,
 					 "rmd-sim: %s: 0x%03X has no RS485 form; not sent", s->name,
@@ -735,7 +545,7 @@ static void write_due(struct sim *s, int64_t now)
 			continue;
 		}
 		s->st.tx_frames++;
-		log_tx(s, &e, &wire, id);
+		log_tx(s, &e);
 	}
 }
 
@@ -747,12 +557,12 @@ static int64_t replies_due(const struct sim *s, unsigned *n)
 	int64_t t = INT64_MAX;
 
 	*n = 0;
-	for (unsigned i = 0; i < s->qn; i++) {
-		if (s->q[i].src < 0)
+	for (unsigned i = 0; i < s->node.qn; i++) {
+		if (s->node.q[i].src < 0)
 			continue;
 		(*n)++;
-		if (s->q[i].due_ns < t)
-			t = s->q[i].due_ns;
+		if (s->node.q[i].ready_ns < t)
+			t = s->node.q[i].ready_ns;
 	}
 	return t;
 }
@@ -769,7 +579,7 @@ static int64_t replies_due(const struct sim *s, unsigned *n)
 static void finish(struct sim *s)
 {
 	int64_t end = rmd_now_ns() + FINISH_NS;
-	bool held = false; /* serial: reply bytes the tty has not taken */
+	bool held = false; /* replies the transport holds (a line's bytes the tty has not taken) */
 	unsigned n;
 
 	if (s->gone) /* in the same wake-up as the signal: nothing to read or write */
@@ -784,7 +594,7 @@ static void finish(struct sim *s)
 
 		write_due(s, now);
 		due = replies_due(s, &n);
-		held = s->serial && rmd_bus_next_due_ns(&s->bus) != INT64_MAX;
+		held = rmd_bus_next_due_ns(&s->bus) != INT64_MAX;
 		if ((!n && !held) || now >= end)
 			break;
 		if (n) {
@@ -798,7 +608,7 @@ static void finish(struct sim *s)
 		ts.tv_sec = (time_t)((next - now) / RMD_NS_PER_S);
 		ts.tv_nsec = (long)((next - now) % RMD_NS_PER_S);
 		if (ppoll(&p, 1, &ts, NULL) > 0 && (p.revents & POLLOUT))
-			serial_flush(s);
+			wire_flush(s);
 	}
 	s->st.unsent = n;
 	if (held)
@@ -811,23 +621,21 @@ static void finish(struct sim *s)
 
 static int64_t next_deadline(const struct sim *s, int64_t now)
 {
+	const struct rmd_sim_pending *h = rmd_sim_node_head(&s->node);
 	int64_t t = s->next_tick_ns, e;
 
-	if (!s->serial && s->next_house_ns < t)
+	if (s->next_house_ns < t)
 		t = s->next_house_ns;
-	if (s->qn) {
-		e = s->q[0].due_ns;
+	if (h) {
+		e = h->ready_ns;
 		if (s->retry_ns > e)
 			e = s->retry_ns;
 		if (e < t)
 			t = e;
 	}
-	for (unsigned i = 0; i < s->n; i++) {
-		e = rmd_sim_motor_next_event_ns(&s->slots[i].m);
-		if (e < t)
-			t = e;
-	}
-	e = next_fault_event(s, now);
+	if (s->motors_ns < t)
+		t = s->motors_ns;
+	e = rmd_sim_node_faults_next_ns(&s->node, now);
 	return e < t ? e : t;
 }
 
@@ -858,7 +666,7 @@ static void process(struct sim *s, int64_t now)
 {
 	update_faults(s, now);
 	run_motors(s, now);
-	if (!s->serial && now >= s->next_house_ns) {
+	if (now >= s->next_house_ns) {
 		check_interface(s);
 		s->next_house_ns = now + HOUSEKEEPING_NS;
 	}
@@ -873,10 +681,10 @@ static void summary_faults(const struct sim *s, char *buf, size_t size)
 	for (int k = 0; k < RMD_SIM_FAULT_COUNT && n < size; k++) {
 		const char *name = rmd_sim_fault_kind_name((enum rmd_sim_fault_kind)k);
 
-		if (s->st.faults[k])
+		if (s->node.stats.faults[k])
 			n += (size_t)snprintf(buf + n, size - n, "%s %s %" PRIu64,
 					      n ? "," : "; faults:", name ? name : "?",
-					      s->st.faults[k]);
+					      s->node.stats.faults[k]);
 	}
 }
 
@@ -884,20 +692,22 @@ static void log_startup(const struct sim *s)
 {
 	static char desc[RMD_MAX_MOTORS][256];
 	const struct sim_config *c = s->cfg;
+	const struct rmd_sim_motor *motors = s->node.motors;
+	unsigned n = s->node.n_motors;
 	uint32_t done = 0;
 
 	if (!tool_log_enabled(TOOL_LOG_INFO))
 		return;
 	tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %s, %u motor%s, seed %" PRIu64, s->name,
-		 s->serial ? "RS485 line" : "SocketCAN", s->n, s->n == 1 ? "" : "s", c->seed);
+		 s->serial ? "RS485 line" : "SocketCAN", n, n == 1 ? "" : "s", c->seed);
 	if (c->yaml_bus[0])
 		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %s", s->name, c->yaml_bus);
 	if (s->serial)
 		tool_log(TOOL_LOG_INFO, "rmd-sim: %s: %u baud 8N1%s", s->name, c->baud,
 			 c->local_echo ? ", local echo dropped" : "");
 	/* One line per set of motors that are alike. */
-	for (unsigned i = 0; i < s->n; i++) {
-		const struct rmd_sim_motor_params *p = &s->slots[i].m.p;
+	for (unsigned i = 0; i < n; i++) {
+		const struct rmd_sim_motor_params *p = &motors[i].p;
 
 		snprintf(desc[i], sizeof(desc[i]),
 			 "%s %s (fw %u), inertia %g kg·m², kt %g N·m/A, gear %g, load %g N·m, "
@@ -907,15 +717,15 @@ static void log_startup(const struct sim *s)
 			 p->has_brake ? "" : "no ", p->turnaround_ns / 1e3,
 			 p->turnaround_jitter_ns / 1e3);
 	}
-	for (unsigned i = 0; i < s->n; i++) {
+	for (unsigned i = 0; i < n; i++) {
 		uint32_t same = 0;
 		char list[128];
 
 		if (done & (UINT32_C(1) << i))
 			continue;
-		for (unsigned j = i; j < s->n; j++) {
+		for (unsigned j = i; j < n; j++) {
 			if (!strcmp(desc[i], desc[j])) {
-				same |= UINT32_C(1) << (s->slots[j].id - 1);
+				same |= UINT32_C(1) << (motors[j].p.id - 1);
 				done |= UINT32_C(1) << j;
 			}
 		}
@@ -923,12 +733,12 @@ static void log_startup(const struct sim *s)
 		tool_log(TOOL_LOG_INFO, "rmd-sim: motor%s %s: %s", (same & (same - 1)) ? "s" : "",
 			 list, desc[i]);
 	}
-	for (unsigned i = 0; i < s->n; i++)
-		if (s->serial && !rmd_dialect_is_firmware(s->slots[i].m.d))
+	for (unsigned i = 0; i < n; i++)
+		if (s->serial && !rmd_dialect_is_firmware(motors[i].d))
 			tool_log(TOOL_LOG_INFO,
 				 "rmd-sim: motor %u: MIT frames have no RS485 form; it "
 				 "answers V3 commands",
-				 s->slots[i].id);
+				 motors[i].p.id);
 	for (unsigned i = 0; i < c->n_faults; i++)
 		tool_log(TOOL_LOG_INFO, "rmd-sim: fault %u: %s", i + 1, c->fault_text[i]);
 }
@@ -952,8 +762,8 @@ static void log_summary(const struct sim *s, int64_t now)
 		 ", without RS485 form %" PRIu64 "%s%s",
 		 s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
 		 s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors,
-		 s->st.txq_overflow, rx_errors, bs->rx_noise_bytes, bs->echoes, s->st.absent_lost,
-		 s->st.unmappable, faults, unsent);
+		 s->node.stats.dropped, rx_errors, bs->rx_noise_bytes, bs->echoes,
+		 s->node.stats.absent_lost, s->st.unmappable, faults, unsent);
 }
 
 static void handle_signal(struct sim *s)
@@ -982,6 +792,7 @@ int sim_run(const struct sim_config *c)
 	static struct sim sim;
 	struct sim *s = &sim;
 	sigset_t mask;
+	uint64_t rng;
 	int r;
 
 	memset(s, 0, sizeof(*s));
@@ -989,13 +800,12 @@ int sim_run(const struct sim_config *c)
 	s->name = c->device;
 	s->serial = c->wire == SIM_WIRE_SERIAL;
 	s->fd = s->epfd = s->tfd = s->sfd = -1;
-	s->rng = c->seed * UINT64_C(0x9E3779B97F4A7C15) + UINT64_C(0x2545F4914F6CDD1D);
-	if (!s->rng)
-		s->rng = 1;
-	rmd_sim_adapter_init(&s->adapter);
-	if (rmd_sim_faults_set(&s->faults, c->faults, c->n_faults) < 0) {
-		tool_log(TOOL_LOG_ERR, "rmd-sim: the fault table does not hold together");
-		return SIM_EXIT_USAGE;
+	rng = c->seed * UINT64_C(0x9E3779B97F4A7C15) + UINT64_C(0x2545F4914F6CDD1D);
+	for (unsigned k = 0; k < c->n_faults; k++) {
+		if (rmd_sim_fault_check(&c->faults[k]) < 0) {
+			tool_log(TOOL_LOG_ERR, "rmd-sim: the fault table does not hold together");
+			return SIM_EXIT_USAGE;
+		}
 	}
 
 	/* Replies are due within a turnaround: keep the kernel's timer slack at 1 µs. */
@@ -1029,18 +839,15 @@ int sim_run(const struct sim_config *c)
 	}
 
 	s->t0 = rmd_now_ns();
-	for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++) {
-		struct slot *sl;
-
-		if (!(c->motors & (UINT32_C(1) << (id - 1))))
-			continue;
-		sl = &s->slots[s->n++];
-		sl->id = (uint8_t)id;
-		sl->powered = true;
-		rmd_sim_motor_init(&sl->m, &c->params[id - 1], s->t0);
-	}
+	rmd_sim_node_init(&s->node, s->q, TXQ, rng ? rng : 1, s->t0, RMD_SIM_NODE_HOST_ADAPTER);
+	for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++)
+		if (c->motors & (UINT32_C(1) << (id - 1)))
+			rmd_sim_node_add(&s->node, &c->params[id - 1], s->t0);
+	rmd_sim_node_set_faults(&s->node, c->faults, c->n_faults, s->t0);
+	s->motors_ns = INT64_MAX;
 	s->next_tick_ns = s->t0 + TICK_NS;
-	s->next_house_ns = s->t0 + HOUSEKEEPING_NS;
+	/* a CAN interface's state is looked at; a line's is its hang-up */
+	s->next_house_ns = s->serial ? INT64_MAX : s->t0 + HOUSEKEEPING_NS;
 	log_startup(s);
 	tool_log(TOOL_LOG_INFO, "rmd-sim: %s: ready", s->name);
 
@@ -1053,8 +860,7 @@ int sim_run(const struct sim_config *c)
 		if (s->stop)
 			break;
 		/* Replies the tty refused wait in the transport until it is writable. */
-		if (s->serial)
-			watch_out(s, rmd_bus_next_due_ns(&s->bus) != INT64_MAX);
+		watch_out(s, rmd_bus_next_due_ns(&s->bus) != INT64_MAX);
 		arm(s, next_deadline(s, now));
 		n = epoll_wait(s->epfd, ev, 4, -1);
 		if (n < 0) {
@@ -1079,14 +885,12 @@ int sim_run(const struct sim_config *c)
 				break;
 			}
 			case TAG_WIRE:
-				if (s->serial) {
-					if (e & EPOLLOUT)
-						serial_flush(s);
-					if (e & (EPOLLIN | EPOLLHUP | EPOLLERR))
-						wire_read(s, (e & EPOLLHUP) != 0);
-				} else if (e & (EPOLLIN | EPOLLERR)) {
-					wire_read(s, false);
-				}
+				/* EPOLLOUT is asked for only while the transport holds replies */
+				if (e & EPOLLOUT)
+					wire_flush(s);
+				/* a line hung up (a raw CAN socket has no hang-up) */
+				if (e & (EPOLLIN | EPOLLHUP | EPOLLERR))
+					wire_read(s, (e & EPOLLHUP) != 0);
 				break;
 			default:
 				break;

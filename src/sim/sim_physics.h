@@ -1,11 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * What the simulated motor's protocol side (sim_motor.c) and its physics
- * (sim_physics.c) share: unit helpers, the factory PI gains, and the
- * physics the commands call.  Private to src/sim/; every function rt-safe.
+ * The simulated motor's physics (sim_physics.c) as its protocol side
+ * (sim_motor.c) calls it, and what both use: unit helpers and the factory
+ * PI gains the control loops scale by.  Private to src/sim/; every
+ * function rt-safe.
  */
-#ifndef RMD_SIM_MOTOR_PRIV_H
-#define RMD_SIM_MOTOR_PRIV_H
+#ifndef RMD_SIM_PHYSICS_H
+#define RMD_SIM_PHYSICS_H
 
 #include <math.h>
 #include <stdint.h>
@@ -74,4 +75,4 @@ void rmd_sim_detect_faults(struct rmd_sim_motor *m, double dt);
 /* The firmware's control loops over dt seconds (0: settle): the iq to apply, A. */
 double rmd_sim_control(struct rmd_sim_motor *m, double dt);
 
-#endif /* RMD_SIM_MOTOR_PRIV_H */
+#endif /* RMD_SIM_PHYSICS_H */
