@@ -382,7 +382,7 @@ static void walk(const struct row *row)
 		else if (row->shutdown == RMD_SHUTDOWN_HOLD)
 			R.in_force = RMD_SAFE_HOLD;
 		rmd_loop_stop_motors(R.l, t_now);
-		/* the shutdown's own frames: test_loop's test_shutdown_actions checks them */
+		/* the shutdown's own frames: test_loop_stop's test_shutdown_actions checks them */
 		for (; R.tx_from < tx_n; R.tx_from++) {
 			R.off_sent += tx[R.tx_from].data[0] == 0x80;
 			R.brake_sent += tx[R.tx_from].data[0] == 0x78;
