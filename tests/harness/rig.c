@@ -113,7 +113,8 @@ void rig_run(struct rig *r, unsigned n, bool with_cmd)
 		if (r->each)
 			r->each();
 	}
-	rig_events(r);
+	if (!r->events_in_ring)
+		rig_events(r);
 }
 
 void rig_events(struct rig *r)

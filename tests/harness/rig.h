@@ -52,9 +52,10 @@ struct rig {
 	struct rmd_bringup report;    /* of the last rig_bring_up() */
 	int64_t epoch[RMD_MAX_BUSES]; /* caller time at sim time 0, per bus (rig_bring_up()) */
 	/* options, after rig_reset() */
-	bool real_clock;    /* rig_start(): the loop on CLOCK_MONOTONIC, not the injected clock */
-	bool rt;	    /* rig_run(): each cycle as the rt thread runs it (rig_loop_cycle()) */
-	void (*each)(void); /* rig_run(): called after each cycle, when set */
+	bool real_clock;     /* rig_start(): the loop on CLOCK_MONOTONIC, not the injected clock */
+	bool rt;	     /* rig_run(): each cycle as the rt thread runs it (rig_loop_cycle()) */
+	void (*each)(void);  /* rig_run(): called after each cycle, when set */
+	bool events_in_ring; /* rig_run(): leave the events in io.events for the test to pop */
 	/* the loop's events so far (rig_events()); a test may set nev to 0 to forget them */
 	struct rmd_event ev[RIG_EVENTS_MAX];
 	unsigned nev;
@@ -84,7 +85,7 @@ void rig_stop(struct rig *r);
 /*
  * n cycles, one period apart on the injected clock: r->cmd published before
  * each when with_cmd (its rx_ns now, seq one more), r->each after each;
- * then the events taken in (rig_events()).
+ * then the events taken in (rig_events()) unless r->events_in_ring.
  */
 void rig_run(struct rig *r, unsigned n, bool with_cmd);
 
