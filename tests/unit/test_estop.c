@@ -471,6 +471,5 @@ int main(void)
 		cmocka_unit_test(test_estop_flush_refused),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("estop", tests, NULL, NULL);
 }

@@ -507,6 +507,5 @@ int main(void)
 		cmocka_unit_test(test_v2_protection_off_by_config),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("loop_comm_loss", tests, NULL, NULL);
 }

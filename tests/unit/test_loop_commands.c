@@ -476,6 +476,5 @@ int main(void)
 		cmocka_unit_test(test_enable_edge_latched),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("loop_commands", tests, NULL, NULL);
 }

@@ -744,6 +744,5 @@ int main(void)
 		cmocka_unit_test(test_polls_two_a_cycle),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("loop_frames", tests, NULL, NULL);
 }

@@ -714,6 +714,5 @@ int main(void)
 	};
 
 	rig_tap_hook = forge_reply;
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("loop_position", tests, NULL, NULL);
 }

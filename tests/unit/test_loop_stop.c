@@ -244,6 +244,5 @@ int main(void)
 		cmocka_unit_test(test_shutdown_actions),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("loop_stop", tests, NULL, NULL);
 }

@@ -388,6 +388,5 @@ int main(void)
 	};
 
 	rig_tap_hook = watch;
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("loop_v2_batch", tests, NULL, NULL);
 }

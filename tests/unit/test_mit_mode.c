@@ -476,6 +476,5 @@ int main(void)
 		cmocka_unit_test(test_late_motor_unknown_model),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("mit_mode", tests, NULL, NULL);
 }

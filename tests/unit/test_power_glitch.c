@@ -764,6 +764,5 @@ int main(void)
 		cmocka_unit_test(test_quiet_v3_rest),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("power_glitch", tests, NULL, NULL);
 }
