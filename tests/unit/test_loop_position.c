@@ -699,6 +699,14 @@ static void test_home_outside_travel(void **state)
 	}
 }
 
+/* Group setup: the tap forges a reply when test_pos_settle_one_bad_reading arms it. */
+static int hook_tap(void **state)
+{
+	(void)state;
+	rig_tap_hook = forge_reply;
+	return 0;
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -713,6 +721,5 @@ int main(void)
 		cmocka_unit_test(test_pos_uncertain_mit_kp),
 	};
 
-	rig_tap_hook = forge_reply;
-	return cmocka_run_group_tests_name("loop_position", tests, NULL, NULL);
+	return cmocka_run_group_tests_name("loop_position", tests, hook_tap, NULL);
 }

@@ -376,6 +376,14 @@ static void test_v2_batch_lost_motor(void **state)
 	rig_down();
 }
 
+/* Group setup: the tap notes the first frame on watch_id. */
+static int hook_tap(void **state)
+{
+	(void)state;
+	rig_tap_hook = watch;
+	return 0;
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -387,6 +395,5 @@ int main(void)
 		cmocka_unit_test(test_v2_batch_stray_refused),
 	};
 
-	rig_tap_hook = watch;
-	return cmocka_run_group_tests_name("loop_v2_batch", tests, NULL, NULL);
+	return cmocka_run_group_tests_name("loop_v2_batch", tests, hook_tap, NULL);
 }
