@@ -119,7 +119,7 @@
 /* rmdd started its loop on the refused file: this long more shows what it sends */
 #define RAN_ON_MS 1000
 
-/* as test_vcan_system.c: the motors above the loop (40), candump above them */
+/* as harness/vsys.c: the motors above the loop (40), candump above them */
 #define LOOP_FIFO_PRIO 40
 #define SIM_FIFO_PRIO 45
 #define CANDUMP_FIFO_PRIO (SIM_FIFO_PRIO + 1)
@@ -644,7 +644,7 @@ static void disable_taken(void)
  * shows it.  A motor that rmdd took as lost or tripped on its watchdog
  * (the guest held rmd-sim or the controller off) takes enable = 1 only
  * after an enable = 0 (include/rmd/loop.h "need_edge"): one not there
- * within a second gets that, as test_vcan_system.c enable_try() does.
+ * within a second gets that, as harness/vsys.c enable_try() does.
  */
 static void drive(const bool enable_in[NMOT], const double torque_in[NMOT])
 {
