@@ -35,6 +35,7 @@
 #include "rmd/rmd_health_t.h"
 #include "rmd/rmd_state_t.h"
 
+#include "harness/evloop.h"
 #include "harness/vsys.h"
 
 #define SYNC_MS 60000			      /* candump's log catches up with a marker (a wait) */
@@ -310,66 +311,23 @@ static void keepalive(int64_t now)
 
 void service(int max_ms)
 {
-	struct pollfd p[KID_MAX + 1];
-	struct kid *who[KID_MAX + 1];
-	int64_t now = rmd_now_ns();
-	int n = 0, t = max_ms;
-
-	if (S.ctl_on) {
-		int64_t due = (S.next_pub - now + NS_PER_MS - 1) / NS_PER_MS;
-
-		if (due < t)
-			t = due < 0 ? 0 : (int)due;
-	}
-	if (S.ka_bus >= 0) {
-		int64_t due = (S.ka_next - now + NS_PER_MS - 1) / NS_PER_MS;
-
-		if (due < t)
-			t = due < 0 ? 0 : (int)due;
-	}
-	if (S.lcm) {
-		p[n] = (struct pollfd){ .fd = lcm_get_fileno(S.lcm), .events = POLLIN };
-		who[n++] = NULL;
-	}
-	n += (int)kid_pollfds(p + n, who + n, KID_MAX);
-	if (poll(p, (nfds_t)n, t) > 0) {
-		for (int i = 0; i < n; i++) {
-			if (!p[i].revents)
-				continue;
-			if (who[i]) {
-				kid_read(who[i]);
-				continue;
-			}
-			for (int k = 0; k < 200 && lcm_handle_timeout(S.lcm, 0) > 0; k++)
-				;
-		}
-	}
-	now = rmd_now_ns();
-	if (S.ctl_on && now >= S.next_pub) {
-		publish();
-		S.next_pub += CTL_PERIOD_MS * NS_PER_MS;
-		if (S.next_pub <= now) /* late: skip ahead, no burst */
-			S.next_pub = now + CTL_PERIOD_MS * NS_PER_MS;
-	}
-	keepalive(now);
+	evloop_turn(S.lcm, &S.ctl, S.ka_bus >= 0 ? S.ka_next : INT64_MAX, max_ms);
+	keepalive(rmd_now_ns());
 	tail_log();
 }
 
 void run_for(int ms)
 {
-	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
-
-	for (int64_t now = rmd_now_ns(); now < end; now = rmd_now_ns())
-		service((int)((end - now + NS_PER_MS - 1) / NS_PER_MS));
+	evloop_run_for(service, ms);
 }
 
 void controller(bool on, bool enable)
 {
-	if (on && !S.ctl_on) {
-		S.next_pub = rmd_now_ns();
+	if (on && !S.ctl.on) {
+		S.ctl.next_ns = rmd_now_ns();
 		gap_pause(&S.own); /* a pause of its own is no gap (own_gap_ms()) */
 	}
-	S.ctl_on = on;
+	S.ctl.on = on;
 	S.ctl_enable = enable;
 }
 
@@ -415,6 +373,8 @@ static void paths_init(void)
 	snprintf(S.logpath, sizeof(S.logpath), "%s/candump.log", S.dir);
 	canlog_init(&S.log);
 	S.ka_bus = -1;
+	S.ctl.period_ns = CTL_PERIOD_MS * NS_PER_MS;
+	S.ctl.publish = publish;
 }
 
 void need_exec(const char *path)

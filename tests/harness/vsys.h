@@ -51,6 +51,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/canlog.h"
+#include "harness/evloop.h"
 #include "harness/gap.h"
 #include "harness/proc.h"
 #include "harness/sleeper.h"
@@ -154,10 +155,9 @@ struct vsys {
 	struct health h;
 
 	/* the controller */
-	bool ctl_on;
+	struct ctl_clock ctl; /* publishing at CTL_PERIOD_MS while on */
 	bool ctl_enable;
 	int64_t seq;
-	int64_t next_pub;      /* CLOCK_MONOTONIC */
 	int64_t last_pub_real; /* CLOCK_REALTIME just before the last publish */
 	uint64_t n_pub;
 	/* the owner's (ctl_id's) commands: how long rmdd heard nothing of it (harness/gap.h) */
