@@ -365,14 +365,15 @@ $(BUILD)/tests/%: override LDFLAGS += -Wl,--wrap=malloc,--wrap=calloc,--wrap=rea
 # Suites that need real SocketCAN (vcan0..vcan2): run on this host when its
 # kernel has vcan, else in a QEMU guest (tests/vm/README.md), else skipped
 # with one loud line.  They also run (and skip their CAN parts) on the host.
-VCAN_TESTS := $(filter %/test_bus_socketcan %/test_rmd_sim %/test_vcan_system %/test_vcan_batch,\
-	$(TESTS))
+# VCAN_SYSTEM_TESTS: the whole system on vcan, every tests/system/test_vcan_* suite.
+VCAN_SYSTEM_TESTS := $(filter $(BUILD)/tests/system/test_vcan_%,$(TESTS))
+VCAN_TESTS := $(filter %/test_bus_socketcan %/test_rmd_sim,$(TESTS)) $(VCAN_SYSTEM_TESTS)
 # The system suites check rates and delays of real processes; an emulated
 # guest running sanitizer builds is ~20x slower than they assume, so under
 # SANITIZE=1 they run on the host only (where they skip their CAN parts) and
 # the daemon's memory safety is checked by its host suites.
 ifeq ($(SANITIZE),1)
-VCAN_TESTS := $(filter-out %/test_vcan_system %/test_vcan_batch,$(VCAN_TESTS))
+VCAN_TESTS := $(filter-out $(VCAN_SYSTEM_TESTS),$(VCAN_TESTS))
 endif
 # The docs test (tests/docs/check-docs): every command README.md and docs/
 # show is run, as users type it, by a scenario or a named test; the

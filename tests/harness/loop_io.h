@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The configuration, plan, buses and channels of a loop of the rigs (test_loop, test_loop_alloc, test_latency,
+ * The configuration, plan, buses and channels of a loop of the rigs
+ * (harness/rig.h's struct rig, test_loop_alloc, test_latency,
  * bench/insn_rig.c): commands in, snapshots and health out, events to the
  * logger, and the loop's options on them with the injected clock
  * (harness/clock.h).  No cmocka: bench/insn_rig.c links it, also against

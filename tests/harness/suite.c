@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 /* A suite's main() (suite.h). */
 #include <stdio.h>
+#include <stdlib.h>
 
 #include "harness/suite.h"
 
@@ -10,10 +11,14 @@
  * would land after the reasons the tests print to stderr.  Line-buffered,
  * each line lands where it was written, so the runner finds a skipped test's
  * reason between its RUN and SKIPPED lines.  Every suite links this file.
+ *
+ * RMD_TEST_FILTER=PATTERN runs only the tests whose names match it
+ * (cmocka's pattern: * and ?), in every suite.
  */
-__attribute__((constructor)) static void suite_line_buffered(void)
+__attribute__((constructor)) static void suite_start(void)
 {
 	setvbuf(stdout, NULL, _IOLBF, 0);
+	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 }
 
 void suite_fixture(struct CMUnitTest *tests, size_t n, CMFixtureFunction setup,

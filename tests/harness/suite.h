@@ -2,7 +2,9 @@
 /*
  * What a suite's main() shares: a suite whose every test runs between the
  * same setup and teardown lists its tests with cmocka's plain test macro
- * and says which fixture once, instead of on every line.
+ * and says which fixture once, instead of on every line.  Every suite
+ * (this file's suite.c is linked into each) runs only the tests
+ * RMD_TEST_FILTER names, when it is set.
  */
 #ifndef RMD_TESTS_SUITE_H
 #define RMD_TESTS_SUITE_H

@@ -2388,7 +2388,7 @@ static void test_owner_kept_through_a_stall(void **state)
 /*
  * Issue 13: SIGTERM sends the configured safety.shutdown_action (here damp
  * for 300 ms, then brake) and says so on exit; the frames themselves are
- * checked on the simulated wire by tests/unit/test_loop.c.
+ * checked on the simulated wire by tests/unit/test_loop_stop.c.
  */
 /* The suite's configuration with `safety_keys` added to its safety section, at path. */
 static void safety_config(char *path, size_t size, const char *name, const char *safety_keys)

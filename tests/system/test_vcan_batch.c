@@ -96,6 +96,7 @@
 #include "rmd/txn.h"
 
 #include "harness/canlog.h"
+#include "harness/evloop.h"
 #include "harness/gap.h"
 #include "harness/lcm_loopback.h"
 #include "harness/proc.h"
@@ -119,7 +120,7 @@
 /* rmdd started its loop on the refused file: this long more shows what it sends */
 #define RAN_ON_MS 1000
 
-/* as test_vcan_system.c: the motors above the loop (40), candump above them */
+/* as harness/vsys.c: the motors above the loop (40), candump above them */
 #define LOOP_FIFO_PRIO 40
 #define SIM_FIFO_PRIO 45
 #define CANDUMP_FIFO_PRIO (SIM_FIFO_PRIO + 1)
@@ -172,10 +173,10 @@ static struct {
 	struct lcm_rx rx;
 
 	/* the controller */
-	bool ctl_on;
+	struct ctl_clock ctl; /* publishing at CTL_PERIOD_MS while on */
 	bool enable[NMOT];
 	double torque_nm[NMOT];
-	int64_t seq, next_pub;
+	int64_t seq;
 	struct gap own; /* its commands: how long rmdd heard nothing from it */
 
 	/* reference sleepers: at rmd-sim's priority, the loop's, and normal (the controller) */
@@ -223,51 +224,14 @@ static void publish(void)
  */
 static void service(int max_ms)
 {
-	struct pollfd p[KID_MAX + 1];
-	struct kid *who[KID_MAX + 1];
-	int64_t now = rmd_now_ns();
-	int n = 0, t = max_ms;
-
-	if (S.ctl_on) {
-		int64_t due = (S.next_pub - now + NS_PER_MS - 1) / NS_PER_MS;
-
-		if (due < t)
-			t = due < 0 ? 0 : (int)due;
-	}
-	if (S.lcm) {
-		p[n] = (struct pollfd){ .fd = lcm_get_fileno(S.lcm), .events = POLLIN };
-		who[n++] = NULL;
-	}
-	n += (int)kid_pollfds(p + n, who + n, KID_MAX);
-	if (poll(p, (nfds_t)n, t) > 0) {
-		for (int i = 0; i < n; i++) {
-			if (!p[i].revents)
-				continue;
-			if (who[i]) {
-				kid_read(who[i]);
-				continue;
-			}
-			for (int k = 0; k < 200 && lcm_handle_timeout(S.lcm, 0) > 0; k++)
-				;
-		}
-	}
-	now = rmd_now_ns();
-	if (S.ctl_on && now >= S.next_pub) {
-		publish();
-		S.next_pub += CTL_PERIOD_MS * NS_PER_MS;
-		if (S.next_pub <= now) /* late: skip ahead, no burst */
-			S.next_pub = now + CTL_PERIOD_MS * NS_PER_MS;
-	}
+	evloop_turn(S.lcm, &S.ctl, INT64_MAX, max_ms);
 	canlog_tail(&S.log);
 }
 
 /* Let everything run for ms milliseconds (a measurement window, not a wait for a result). */
 static void run_for(int ms)
 {
-	int64_t end = rmd_now_ns() + ms * NS_PER_MS;
-
-	for (int64_t now = rmd_now_ns(); now < end; now = rmd_now_ns())
-		service((int)((end - now + NS_PER_MS - 1) / NS_PER_MS));
+	evloop_run_for(service, ms);
 }
 
 /*
@@ -276,11 +240,11 @@ static void run_for(int ms)
  */
 static void controller(bool on, const bool enable[NMOT], const double torque_nm[NMOT])
 {
-	if (on && !S.ctl_on) {
-		S.next_pub = rmd_now_ns();
+	if (on && !S.ctl.on) {
+		S.ctl.next_ns = rmd_now_ns();
 		gap_pause(&S.own);
 	}
-	S.ctl_on = on;
+	S.ctl.on = on;
 	for (unsigned i = 0; i < NMOT; i++) {
 		S.enable[i] = enable ? enable[i] : false;
 		S.torque_nm[i] = torque_nm ? torque_nm[i] : 0.0;
@@ -549,7 +513,7 @@ static void rmdd_stop(void)
 static int test_teardown(void **state)
 {
 	(void)state;
-	S.ctl_on = false;
+	S.ctl.on = false;
 	kid_free(S.rmdd_kid);
 	kid_free(S.sim2);
 	kid_free(S.sim);
@@ -644,7 +608,7 @@ static void disable_taken(void)
  * shows it.  A motor that rmdd took as lost or tripped on its watchdog
  * (the guest held rmd-sim or the controller off) takes enable = 1 only
  * after an enable = 0 (include/rmd/loop.h "need_edge"): one not there
- * within a second gets that, as test_vcan_system.c enable_try() does.
+ * within a second gets that, as harness/vsys.c enable_try() does.
  */
 static void drive(const bool enable_in[NMOT], const double torque_in[NMOT])
 {
@@ -1369,6 +1333,8 @@ int main(void)
 
 	signal(SIGPIPE, SIG_IGN);
 	canlog_init(&S.log);
+	S.ctl.period_ns = CTL_PERIOD_MS * NS_PER_MS;
+	S.ctl.publish = publish;
 	if (find_prog(S.rmdd, sizeof(S.rmdd), "RMD_RMDD", "rmdd") < 0 ||
 	    find_prog(S.rmdsim, sizeof(S.rmdsim), "RMD_RMDSIM", "rmd-sim") < 0)
 		return 1;

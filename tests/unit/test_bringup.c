@@ -23,6 +23,7 @@
 #include <cmocka.h>
 
 #include "harness/clock.h"
+#include "harness/loop_io.h"
 #include "harness/rig.h"
 #include "rmd/bringup.h"
 #include "rmd/bus_open.h"
@@ -93,21 +94,14 @@ static const struct rmd_bus_ops tamper_ops = RMD_BUS_WRAP_OPS("tamper", tb_send,
 
 /* ---- the rig: n sim motors (three to a bus) behind the decorator, one loop ---------- */
 
-struct rig {
-	struct rmd_config cfg;
-	struct rmd_sim_setup simset;
-	struct rmd_plan plan;
-	struct rmd_bus sim[RMD_MAX_BUSES]; /* as rmd_bus_open() opened them */
+static struct {
+	struct rig_loop io; /* configuration, sim setup, plan, the sim buses as opened */
 	struct rmd_bus_wrap tb[RMD_MAX_BUSES];
 	enum tamper how;
 	struct rmd_bus bus[RMD_MAX_BUSES]; /* what the loop drives */
 	struct rmd_loop *l;
 	struct rmd_bringup bu;
-	struct rmd_ring events;
-	struct rmd_event ev_buf[256];
-};
-
-static struct rig R;
+} R;
 /* when set, rig_up() hands it the simulated motors' setup before it opens the buses */
 static void (*rig_sim_tweak)(struct rmd_sim_setup *sim);
 /* when set, rig_up() hands it the configuration and the simulated motors' setup, first */
@@ -116,40 +110,31 @@ static void (*rig_cfg_tweak)(struct rmd_config *cfg, struct rmd_sim_setup *sim);
 static void rig_up(unsigned n, enum tamper how, const struct rmd_sim_fault *faults,
 		   unsigned n_faults)
 {
-	struct rmd_loop_opts o = { .cfg = &R.cfg,
-				   .plan = &R.plan,
-				   .buses = R.bus,
-				   .now_ns = fake_now,
-				   .sleep_ns = fake_sleep,
-				   .events = &R.events };
+	struct rmd_loop_opts o;
 	char err[1024];
 
 	memset(&R, 0, sizeof(R));
 	sent_log = false;
 	sent_n = 0;
-	assert_int_equal(rmd_ring_init(&R.events, R.ev_buf, 256, sizeof(struct rmd_event)), 0);
 	R.how = how;
 	t_now = 1000 * MS;
-	assert_int_equal(rmd_config_sim_default(&R.cfg, &R.simset, n), 0);
+	assert_int_equal(rmd_config_sim_default(&R.io.cfg, &R.io.sim, n), 0);
 	if (n_faults)
-		memcpy(R.simset.buses[0].faults, faults, n_faults * sizeof(*faults));
-	R.simset.buses[0].n_faults = n_faults;
+		memcpy(R.io.sim.buses[0].faults, faults, n_faults * sizeof(*faults));
+	R.io.sim.buses[0].n_faults = n_faults;
 	if (rig_cfg_tweak)
-		rig_cfg_tweak(&R.cfg, &R.simset);
+		rig_cfg_tweak(&R.io.cfg, &R.io.sim);
 	if (rig_sim_tweak)
-		rig_sim_tweak(&R.simset);
-	if (rmd_plan_build(&R.cfg, &R.plan, err, sizeof(err)))
+		rig_sim_tweak(&R.io.sim);
+	if (rmd_plan_build(&R.io.cfg, &R.io.plan, err, sizeof(err)))
 		fail_msg("plan: %s", err);
-	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
-		struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
-		struct rmd_bus_open_ctx ctx;
-
-		rmd_bus_open_ctx_of(&R.cfg, &R.simset, b, motors, &ctx);
-		if (rmd_bus_open(&R.sim[b], &R.cfg.buses[b], &ctx, err, sizeof(err)))
-			fail_msg("%s: %s", R.cfg.buses[b].name, err);
-		R.tb[b] = (struct rmd_bus_wrap){ .inner = &R.sim[b], .ctx = &R.how };
+	rig_open_buses(&R.io.cfg, &R.io.sim, R.io.buses);
+	for (unsigned b = 0; b < R.io.cfg.n_buses; b++) {
+		R.tb[b] = (struct rmd_bus_wrap){ .inner = &R.io.buses[b], .ctx = &R.how };
 		rmd_bus_wrap_init(&R.bus[b], &tamper_ops, &R.tb[b]);
 	}
+	assert_int_equal(rig_loop_opts(&R.io, &o), 0);
+	o.buses = R.bus;
 	R.l = rmd_loop_new(&o, err, sizeof(err));
 	if (!R.l)
 		fail_msg("rmd_loop_new: %s", err);
@@ -167,7 +152,7 @@ static void rig_up_tweaked(unsigned n, void (*tweak)(struct rmd_config *, struct
 static void cycles(unsigned n)
 {
 	for (unsigned k = 0; k < n; k++) {
-		t_now += R.plan.period_ns;
+		t_now += R.io.plan.period_ns;
 		rmd_loop_cycle(R.l, t_now);
 	}
 }
@@ -176,7 +161,7 @@ static void cycles(unsigned n)
 static void cycle_until(int64_t t_ns)
 {
 	while (t_now < t_ns) {
-		t_now += R.plan.period_ns;
+		t_now += R.io.plan.period_ns;
 		rmd_loop_cycle(R.l, t_now);
 	}
 }
@@ -184,9 +169,9 @@ static void cycle_until(int64_t t_ns)
 static void rig_down(void)
 {
 	rmd_loop_free(R.l);
-	for (unsigned b = 0; b < R.cfg.n_buses; b++) {
+	for (unsigned b = 0; b < R.io.cfg.n_buses; b++) {
 		rmd_bus_close(&R.bus[b]);
-		rmd_bus_close(&R.sim[b]);
+		rmd_bus_close(&R.io.buses[b]);
 	}
 }
 
@@ -200,7 +185,7 @@ static void test_found(void **state)
 	assert_int_equal(R.bu.n_motors, 4);
 	assert_int_equal(R.bu.n_buses, 2);
 	assert_int_equal(R.bu.missing, 0);
-	assert_int_equal(R.bu.comm_loss_ms, R.cfg.safety.comm_loss_ms);
+	assert_int_equal(R.bu.comm_loss_ms, R.io.cfg.safety.comm_loss_ms);
 	for (unsigned i = 0; i < 4; i++)
 		rig_assert_default_motor(&R.bu.motor[i]);
 	assert_int_equal(R.bu.unexpected_ids[0], 0);
@@ -222,7 +207,7 @@ static void test_missing_fault_unexpected(void **state)
 	(void)state;
 	rig_up(3, TAMPER_NONE, faults, 2);
 	rmd_sim_motor_params_default(&p, 9, RMD_PROTO_V3);
-	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.sim[0]), &p, 0) >= 0);
+	assert_true(rmd_sim_wire_add_motor(rmd_bus_sim_get(&R.io.buses[0]), &p, 0) >= 0);
 	/* on_missing: refuse still refuses, and says what it found all the same */
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), -ENODEV);
 	assert_int_equal(R.bu.missing, 1);
@@ -259,7 +244,7 @@ static void test_b3_outcomes(void **state)
 		bool unarmed = cases[k].want == RMD_B3_NO_ANSWER || cases[k].want == RMD_B3_DIFFERS;
 
 		rig_up(2, cases[k].how, NULL, 0);
-		R.cfg.safety.comm_loss_ms = cases[k].comm_loss_ms;
+		R.io.cfg.safety.comm_loss_ms = cases[k].comm_loss_ms;
 		assert_int_equal(rmd_loop_bringup(R.l, &R.bu), unarmed ? -ENODEV : 0);
 		assert_int_equal(R.bu.unarmed, unarmed ? 2 : 0);
 		assert_int_equal(R.bu.missing, 0);
@@ -284,7 +269,7 @@ static void test_decorator_forwards(void **state)
 	(void)state;
 	rig_up(1, TAMPER_NONE, NULL, 0);
 	assert_int_equal(rmd_bus_send(&R.bus[0], &f, 1, t_now), 1);
-	assert_ptr_equal(rmd_bus_stats(&R.bus[0]), &R.sim[0].stats);
+	assert_ptr_equal(rmd_bus_stats(&R.bus[0]), &R.io.buses[0].stats);
 	assert_int_equal(rmd_bus_stats(&R.bus[0])->tx_frames, 1);
 	assert_int_equal(rmd_bus_state(&R.bus[0]), RMD_BUS_ACTIVE);
 	assert_int_equal(rmd_bus_next_due_ns(&R.bus[0]), INT64_MAX);
@@ -414,17 +399,17 @@ static void test_b3_after_trip(void **state)
 	rig_sim_tweak = rom_1ms_motor1;
 	rig_up(3, TAMPER_NONE, NULL, 0);
 	rig_sim_tweak = NULL;
-	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 1);
+	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.io.buses[0]), 1);
 	assert_int_equal(m->rom.comm_timeout_ms, 1);
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
 	for (unsigned i = 0; i < 3; i++) {
-		m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[R.cfg.motors[i].bus]),
-				       R.cfg.motors[i].id);
+		m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.io.buses[R.io.cfg.motors[i].bus]),
+				       R.io.cfg.motors[i].id);
 		assert_int_equal(R.bu.motor[i].b3, RMD_B3_SET);
-		if (m->rom.comm_timeout_ms != R.cfg.safety.comm_loss_ms)
+		if (m->rom.comm_timeout_ms != R.io.cfg.safety.comm_loss_ms)
 			fail_msg(
 				"motor %u: ROM keeps %u ms, configured %u: its echo passed for the write",
-				i + 1, m->rom.comm_timeout_ms, R.cfg.safety.comm_loss_ms);
+				i + 1, m->rom.comm_timeout_ms, R.io.cfg.safety.comm_loss_ms);
 	}
 	rig_down();
 }
@@ -499,7 +484,7 @@ static void test_auto_v4_and_a_mismatch(void **state)
 
 	(void)state;
 	rig_up_tweaked(3, tweak_v4);
-	R.cfg.probe.on_missing = RMD_MISSING_START;
+	R.io.cfg.probe.on_missing = RMD_MISSING_START;
 	/*
 	 * a previous owner left motor 2 running: brake released (0x77), 100 dps
 	 * (0xA2), and pushing its status (V4.2 §2.33: 0x9A every 50 ms)
@@ -518,12 +503,12 @@ static void test_auto_v4_and_a_mismatch(void **state)
 
 		struct rmd_bus_rx rx[8];
 
-		assert_int_equal(rmd_bus_send(&R.sim[0], f, 3, t_now), 3);
+		assert_int_equal(rmd_bus_send(&R.io.buses[0], f, 3, t_now), 3);
 		for (unsigned k = 0; k < 10; k++) { /* the sim bus's time moves with its calls */
 			t_now += MS;
-			rmd_bus_recv(&R.sim[0], rx, 8, t_now);
+			rmd_bus_recv(&R.io.buses[0], rx, 8, t_now);
 		}
-		m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 2);
+		m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.io.buses[0]), 2);
 		assert_int_equal(m->ctrl, RMD_SIM_SPEED);
 		assert_false(m->brake_locked);
 	}
@@ -538,7 +523,8 @@ static void test_auto_v4_and_a_mismatch(void **state)
 	assert_int_equal(R.bu.motor[1].state, RMD_BRINGUP_MISMATCH);
 	/* ... and stopped, in case a previous owner left it running: output off, brake locked */
 	{
-		const struct rmd_sim_motor *m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 2);
+		const struct rmd_sim_motor *m =
+			rmd_sim_wire_motor(rmd_bus_sim_get(&R.io.buses[0]), 2);
 
 		assert_non_null(m);
 		assert_int_equal(m->ctrl, RMD_SIM_OFF);
@@ -589,12 +575,12 @@ static void test_active_reply_left_on(void **state)
 
 	(void)state;
 	rig_up_tweaked(3, tweak_all_v4);
-	assert_int_equal(rmd_bus_send(&R.sim[0], f, 2, t_now), 2);
+	assert_int_equal(rmd_bus_send(&R.io.buses[0], f, 2, t_now), 2);
 	for (unsigned k = 0; k < 100; k++) { /* 100 ms of the sim bus: pushes come */
 		int n;
 
 		t_now += MS;
-		n = rmd_bus_recv(&R.sim[0], rx, 16, t_now);
+		n = rmd_bus_recv(&R.io.buses[0], rx, 16, t_now);
 		for (int j = 0; j < n; j++)
 			pushed += rx[j].f.can_id == RMD_CAN_V3_REPLY_BASE + 1;
 	}
@@ -605,7 +591,7 @@ static void test_active_reply_left_on(void **state)
 	assert_true(R.bu.motor[0].reports_off);
 	for (unsigned i = 0; i < 3; i++)
 		assert_int_equal(R.bu.motor[i].b3, RMD_B3_SET);
-	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 1);
+	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.io.buses[0]), 1);
 	for (unsigned k = 0; k < RMD_DIALECT_REPORTS_MAX; k++)
 		if (m->report_steps[k])
 			fail_msg("0x%02X still pushed after bring-up", m->d->report_cmds[k]);
@@ -626,7 +612,7 @@ static void test_auto_v2_with_protection_is_refused(void **state)
 	(void)state;
 	rig_up_tweaked(3, tweak_auto_v2_protected);
 	/* whatever probe.on_missing says: the configuration must change */
-	R.cfg.probe.on_missing = RMD_MISSING_START;
+	R.io.cfg.probe.on_missing = RMD_MISSING_START;
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), -EPROTO);
 	assert_int_equal(R.bu.mismatched, 1);
 	assert_int_equal(R.bu.motor[1].state, RMD_BRINGUP_MISMATCH);
@@ -681,7 +667,7 @@ static void test_auto_missing_then_found(void **state)
 	assert_int_equal(s.m[0].lifecycle, RMD_LC_READY);
 	assert_int_equal(s.m[1].lifecycle, RMD_LC_LOST);
 	assert_int_equal(s.m[2].lifecycle, RMD_LC_LOST);
-	while (rmd_ring_pop(&R.events, &e)) {
+	while (rmd_ring_pop(&R.io.events, &e)) {
 		if (e.kind != RMD_EV_DIALECT)
 			continue;
 		dialect_events++;
@@ -745,7 +731,7 @@ static void test_auto_v2_found_late(void **state)
 	assert_int_equal(rmd_loop_bringup(R.l, &R.bu), 0);
 	assert_int_equal(R.bu.missing, 1);
 	cycle_until(4000 * MS);
-	while (rmd_ring_pop(&R.events, &e))
+	while (rmd_ring_pop(&R.io.events, &e))
 		if (e.kind == RMD_EV_DIALECT) {
 			dialect_events++;
 			assert_int_equal(e.motor, 0);
@@ -800,7 +786,7 @@ static void test_v4_back_reports_off(void **state)
 	sent_log = true;
 	/* the window is the sim bus's time, which began with bring-up: it is back at 3 s */
 	cycle_until(4000 * MS);
-	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.sim[0]), 1);
+	m = rmd_sim_wire_motor(rmd_bus_sim_get(&R.io.buses[0]), 1);
 	for (unsigned k = 0; k < RMD_DIALECT_REPORTS_MAX; k++)
 		if (m->report_steps[k])
 			fail_msg("motor 1 still pushes 0x%02X", m->d->report_cmds[k]);
@@ -809,11 +795,11 @@ static void test_v4_back_reports_off(void **state)
 	assert_int_equal(offs, m->d->n_report_cmds);
 	/* from now on every read is answered, and it stays */
 	rmd_loop_get_counters(R.l, &c0);
-	while (rmd_ring_pop(&R.events, &e))
+	while (rmd_ring_pop(&R.io.events, &e))
 		;
 	cycle_until(5000 * MS);
 	rmd_loop_get_counters(R.l, &c1);
-	while (rmd_ring_pop(&R.events, &e))
+	while (rmd_ring_pop(&R.io.events, &e))
 		lost += e.kind == RMD_EV_MOTOR_STATE && e.b == RMD_LC_LOST;
 	rmd_loop_get_snapshot(R.l, &s);
 	if (s.m[0].lifecycle != RMD_LC_READY || c1.missed != c0.missed || lost)

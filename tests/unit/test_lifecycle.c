@@ -82,11 +82,10 @@ struct row {
 
 /* ---- the rig: one motor on one sim bus, the frames it carried ---------------- */
 
+static struct rig R; /* the loop, its configuration and bus, the controller's command */
+
+/* What the wire and the states showed so far, against what the state in force promises. */
 static struct {
-	struct rig_loop io;
-	struct rmd_loop *l;
-	struct rmd_command cmd;
-	struct rmd_bringup report;
 	const struct row *row;
 	/* the promise in force: the SAFE action (a shutdown's stop and hold are SAFE too) */
 	enum rmd_safe_action in_force;
@@ -97,7 +96,7 @@ static struct {
 	unsigned off_sent, brake_sent; /* 0x80, 0x78 on the wire since it last left READY */
 	bool seen[RMD_LC_COUNT];
 	unsigned tx_from; /* frames of the wire not yet judged */
-} R;
+} T;
 
 #define TX_MAX 16384
 static struct rmd_frame tx[TX_MAX];
@@ -139,78 +138,78 @@ static bool moves(const struct rmd_frame *f)
 	do {                                                                                      \
 		if (!(cond))                                                                      \
 			fail_msg("%s %s (shutdown %d) %s, cycle %u, state %u for %u cycles: %s",  \
-				 proto_name[R.row->proto], action_name[R.row->action],            \
-				 (int)R.row->shutdown, transition_name[R.row->t], R.cycles, R.lc, \
-				 R.in_state, #cond);                                              \
+				 proto_name[T.row->proto], action_name[T.row->action],            \
+				 (int)T.row->shutdown, transition_name[T.row->t], T.cycles, T.lc, \
+				 T.in_state, #cond);                                              \
 	} while (0)
 
 /* What the state shown promises, against the simulated motor.  After each cycle. */
 static void check_truth(void)
 {
 	const struct rmd_sim_motor *m = sim();
-	bool mit = R.row->proto == RMD_PROTO_MIT;
-	unsigned lc = lifecycle(), prev = R.lc;
+	bool mit = T.row->proto == RMD_PROTO_MIT;
+	unsigned lc = lifecycle(), prev = T.lc;
 
-	R.cycles++;
-	if (lc != R.lc) {
-		R.lc = lc;
-		R.in_state = 0;
+	T.cycles++;
+	if (lc != T.lc) {
+		T.lc = lc;
+		T.in_state = 0;
 	}
-	R.in_state++;
+	T.in_state++;
 	if (lc < RMD_LC_COUNT)
-		R.seen[lc] = true;
+		T.seen[lc] = true;
 	/*
 	 * The frames on the wire since the last check: decided in this cycle
 	 * or, queued behind others, in the one before: judged when both ended
 	 * in the same state.
 	 */
 	if (prev == RMD_LC_READY && lc != RMD_LC_READY)
-		R.off_sent = R.brake_sent = 0;
-	for (; R.tx_from < tx_n; R.tx_from++) {
-		R.off_sent += tx[R.tx_from].data[0] == 0x80 && tx[R.tx_from].can_id < 0x400;
-		R.brake_sent += tx[R.tx_from].data[0] == 0x78 && tx[R.tx_from].can_id < 0x400;
-		if (!moves(&tx[R.tx_from]) || lc != prev)
+		T.off_sent = T.brake_sent = 0;
+	for (; T.tx_from < tx_n; T.tx_from++) {
+		T.off_sent += tx[T.tx_from].data[0] == 0x80 && tx[T.tx_from].can_id < 0x400;
+		T.brake_sent += tx[T.tx_from].data[0] == 0x78 && tx[T.tx_from].can_id < 0x400;
+		if (!moves(&tx[T.tx_from]) || lc != prev)
 			continue;
-		R.moving_in_fault += lc == RMD_LC_FAULT;
-		R.moving_in_ready += lc == RMD_LC_READY;
+		T.moving_in_fault += lc == RMD_LC_FAULT;
+		T.moving_in_ready += lc == RMD_LC_READY;
 	}
 	if (lc == RMD_LC_READY) {
 		/* V3 §2.15, §2.27: READY is output off and brake locked, on the wire first */
-		TRUTH(R.off_sent && R.brake_sent);
+		TRUTH(T.off_sent && T.brake_sent);
 		TRUTH(m->ctrl == RMD_SIM_OFF);
 		TRUTH(m->brake_locked);
-		TRUTH(R.moving_in_ready == 0);
+		TRUTH(T.moving_in_ready == 0);
 	} else if (lc == RMD_LC_ENABLED) {
-		if (R.in_state < GRACE)
+		if (T.in_state < GRACE)
 			return;
 		TRUTH(!m->brake_locked);
 		TRUTH(m->ctrl == (mit ? RMD_SIM_MIT : RMD_SIM_SPEED));
 	} else if (lc == RMD_LC_SAFE) {
-		if (R.in_state < GRACE)
+		if (T.in_state < GRACE)
 			return;
 		/* V3 §2.16 / V2 §3.35: 0x81 holds; stop and brake: output off */
-		TRUTH(m->ctrl == (R.in_force == RMD_SAFE_HOLD ? RMD_SIM_HOLD :
-				  R.in_force != RMD_SAFE_DAMP ? RMD_SIM_OFF :
+		TRUTH(m->ctrl == (T.in_force == RMD_SAFE_HOLD ? RMD_SIM_HOLD :
+				  T.in_force != RMD_SAFE_DAMP ? RMD_SIM_OFF :
 				  mit			      ? RMD_SIM_MIT :
 								RMD_SIM_SPEED));
-		if (R.in_force == RMD_SAFE_DAMP)
+		if (T.in_force == RMD_SAFE_DAMP)
 			TRUTH(mit ? m->mit.kp == 0.0 && m->mit.kd > 0.0 : m->sp_speed_rad_s == 0.0);
 		/* the brake: locked by the brake action only; ENABLED had opened it */
-		TRUTH(m->brake_locked == (R.in_force == RMD_SAFE_BRAKE));
+		TRUTH(m->brake_locked == (T.in_force == RMD_SAFE_BRAKE));
 	} else if (lc == RMD_LC_FAULT) {
 		TRUTH(m->errors || m->ctrl == RMD_SIM_OFF);
-		TRUTH(R.moving_in_fault == 0);
-		if (R.in_state < GRACE)
+		TRUTH(T.moving_in_fault == 0);
+		if (T.in_state < GRACE)
 			return;
 		TRUTH(m->ctrl == RMD_SIM_OFF);
-		if (R.row->action != RMD_SAFE_STOP || R.row->shutdown == RMD_SHUTDOWN_BRAKE ||
-		    R.row->shutdown == RMD_SHUTDOWN_DAMP)
+		if (T.row->action != RMD_SAFE_STOP || T.row->shutdown == RMD_SHUTDOWN_BRAKE ||
+		    T.row->shutdown == RMD_SHUTDOWN_DAMP)
 			TRUTH(m->brake_locked);
 	} else if (lc != RMD_LC_PROBE && lc != RMD_LC_LOST) {
 		/* on the way to READY */
-		if (R.in_state > R.stopping_longest)
-			R.stopping_longest = R.in_state;
-		TRUTH(R.in_state <= STOPPING_MAX);
+		if (T.in_state > T.stopping_longest)
+			T.stopping_longest = T.in_state;
+		TRUTH(T.in_state <= STOPPING_MAX);
 	}
 }
 
@@ -233,58 +232,27 @@ static void tweak_row(const struct row *row)
 
 static void rig_up(const struct row *row)
 {
-	struct rmd_loop_opts o;
-	char err[1024];
-
-	memset(&R, 0, sizeof(R));
+	rig_reset(&R);
+	memset(&T, 0, sizeof(T));
 	tx_n = 0;
-	t_now = 1000 * MS;
-	R.row = row;
-	R.in_force = row->action;
-	R.lc = RMD_LC_PROBE;
+	T.row = row;
+	T.in_force = row->action;
+	T.lc = RMD_LC_PROBE;
 	assert_int_equal(rmd_config_sim_default(&R.io.cfg, &R.io.sim, 1), 0);
 	R.io.cfg.safety.lost_motor_action = RMD_LOST_MOTOR;
 	tweak_row(row);
-	if (rmd_plan_build(&R.io.cfg, &R.io.plan, err, sizeof(err)))
-		fail_msg("plan: %s", err);
-	rig_open_buses(&R.io.cfg, &R.io.sim, R.io.buses);
-	rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.io.buses[0]), tap, NULL);
-	assert_int_equal(rig_loop_opts(&R.io, &o), 0);
-	R.l = rmd_loop_new(&o, err, sizeof(err));
-	if (!R.l)
-		fail_msg("rmd_loop_new: %s", err);
-}
-
-static void rig_down(void)
-{
-	rmd_loop_free(R.l);
-	R.l = NULL;
-	rmd_bus_close(&R.io.buses[0]);
-}
-
-/* n cycles, each checked; with_cmd: R.cmd published before each. */
-static void run(unsigned n, bool with_cmd)
-{
-	for (unsigned k = 0; k < n; k++) {
-		if (with_cmd) {
-			R.cmd.rx_ns = t_now;
-			R.cmd.seq++;
-			rmd_latest_put(&R.io.cmds, &R.cmd);
-		}
-		rmd_loop_cycle(R.l, t_now);
-		t_now += R.io.plan.period_ns;
-		check_truth();
-	}
+	R.each = check_truth; /* after every cycle */
+	rig_start(&R, tap);
 }
 
 /* Run until the state is lc (at most max cycles, each checked). */
 static void run_until(unsigned lc, unsigned max, bool with_cmd)
 {
 	for (unsigned k = 0; k < max && lifecycle() != lc; k++)
-		run(1, with_cmd);
+		rig_run(&R, 1, with_cmd);
 	if (lifecycle() != lc)
-		fail_msg("%s %s %s: state %u, not %u, after %u cycles", proto_name[R.row->proto],
-			 action_name[R.row->action], transition_name[R.row->t], lifecycle(), lc,
+		fail_msg("%s %s %s: state %u, not %u, after %u cycles", proto_name[T.row->proto],
+			 action_name[T.row->action], transition_name[T.row->t], lifecycle(), lc,
 			 max);
 }
 
@@ -296,7 +264,7 @@ static void command(bool enable)
 	R.cmd.present = 1;
 	memset(sp, 0, sizeof(*sp));
 	sp->enable = enable;
-	if (R.row->proto == RMD_PROTO_MIT) {
+	if (T.row->proto == RMD_PROTO_MIT) {
 		sp->mode = RMD_MODE_MIT;
 		sp->vel_rad_s = 1.0;
 		sp->kd = 1.0;
@@ -314,7 +282,7 @@ static void reenable(void)
 	run_until(RMD_LC_READY, 200, true);
 	command(true);
 	run_until(RMD_LC_ENABLED, 200, true);
-	run(100, true);
+	rig_run(&R, 100, true);
 }
 
 static void fault_window(enum rmd_sim_fault_kind kind, int64_t param, int64_t for_ns)
@@ -341,17 +309,17 @@ static void walk(const struct row *row)
 		m->brake_locked = false;
 	} else {
 		/* a motor at rest: how bring-up gets it to READY is the T_FOUND rows' to judge */
-		R.off_sent = R.brake_sent = 1;
+		T.off_sent = T.brake_sent = 1;
 	}
 	if (rmd_loop_bringup(R.l, &R.report))
 		fail_msg("bring-up failed");
 	t_now = (t_now / MS + 1) * MS;
 	check_truth();
 	run_until(RMD_LC_READY, STOPPING_MAX, false);
-	run(50, false);
+	rig_run(&R, 50, false);
 	command(true);
 	run_until(RMD_LC_ENABLED, 200, true);
-	run(200, true);
+	rig_run(&R, 200, true);
 
 	switch (row->t) {
 	case T_FOUND:
@@ -361,49 +329,49 @@ static void walk(const struct row *row)
 		/* V3 §2.12 table 1: over-temperature, a level-2 error: the output stops while it lasts */
 		fault_window(RMD_SIM_FAULT_ERROR_FLAG, RMD_SIM_ERR_OVER_TEMP, 300 * MS);
 		run_until(RMD_LC_FAULT, 200, true);
-		run(500, true); /* the flags clear; enable = 1 streams on */
-		assert_true(R.seen[RMD_LC_FAULT]);
+		rig_run(&R, 500, true); /* the flags clear; enable = 1 streams on */
+		assert_true(T.seen[RMD_LC_FAULT]);
 		run_until(RMD_LC_READY, 200, true);
-		run(50, true);
+		rig_run(&R, 50, true);
 		break;
 	case T_LOST:
 		fault_window(RMD_SIM_FAULT_DISAPPEAR, 0, 300 * MS);
 		run_until(RMD_LC_LOST, 200, true);
 		run_until(RMD_LC_READY, 1500, true);
-		run(50, true);
+		rig_run(&R, 50, true);
 		break;
 	case T_WATCHDOG:
 		run_until(RMD_LC_SAFE, 300, false);
-		run(200, false);
+		rig_run(&R, 200, false);
 		break;
 	case T_SHUTDOWN:
 		if (row->shutdown == RMD_SHUTDOWN_STOP)
-			R.in_force = RMD_SAFE_STOP;
+			T.in_force = RMD_SAFE_STOP;
 		else if (row->shutdown == RMD_SHUTDOWN_HOLD)
-			R.in_force = RMD_SAFE_HOLD;
+			T.in_force = RMD_SAFE_HOLD;
 		rmd_loop_stop_motors(R.l, t_now);
-		/* the shutdown's own frames: test_loop's test_shutdown_actions checks them */
-		for (; R.tx_from < tx_n; R.tx_from++) {
-			R.off_sent += tx[R.tx_from].data[0] == 0x80;
-			R.brake_sent += tx[R.tx_from].data[0] == 0x78;
+		/* the shutdown's own frames: test_loop_stop's test_shutdown_actions checks them */
+		for (; T.tx_from < tx_n; T.tx_from++) {
+			T.off_sent += tx[T.tx_from].data[0] == 0x80;
+			T.brake_sent += tx[T.tx_from].data[0] == 0x78;
 		}
-		R.in_state = GRACE; /* its frames are out: the promise holds at once */
+		T.in_state = GRACE; /* its frames are out: the promise holds at once */
 		check_truth();
-		run(50, false);
+		rig_run(&R, 50, false);
 		assert_int_equal(lifecycle(), row->shutdown == RMD_SHUTDOWN_STOP ||
 							      row->shutdown == RMD_SHUTDOWN_HOLD ?
 						      RMD_LC_SAFE :
 						      RMD_LC_READY);
-		rig_down();
+		rig_stop(&R);
 		return;
 	}
 	reenable();
-	assert_true(R.seen[RMD_LC_READY] && R.seen[RMD_LC_ENABLED]);
+	assert_true(T.seen[RMD_LC_READY] && T.seen[RMD_LC_ENABLED]);
 	if (getenv("RMD_TEST_VERBOSE"))
 		print_message("%s %s %s: %u cycles, STOPPING at most %u\n", proto_name[row->proto],
-			      action_name[row->action], transition_name[row->t], R.cycles,
-			      R.stopping_longest);
-	rig_down();
+			      action_name[row->action], transition_name[row->t], T.cycles,
+			      T.stopping_longest);
+	rig_stop(&R);
 }
 
 /*
@@ -426,27 +394,27 @@ static void test_unechoed_is_lost(void **state)
 
 	(void)state;
 	rig_up(&row);
-	R.off_sent = R.brake_sent = 1;
+	T.off_sent = T.brake_sent = 1;
 	if (rmd_loop_bringup(R.l, &R.report))
 		fail_msg("bring-up failed");
 	run_until(RMD_LC_READY, STOPPING_MAX, false);
 	command(true);
 	run_until(RMD_LC_ENABLED, 200, true);
-	run(100, true);
+	rig_run(&R, 100, true);
 	bus = &R.io.buses[0];
 	f.start_ns = rmd_bus_sim_time_ns(bus, t_now);
 	assert_int_equal(rmd_sim_wire_set_faults(rmd_bus_sim_get(bus), &f, 1), 0);
 	command(false);
 	R.cmd.disables[0]++;
-	memset(R.seen, 0, sizeof(R.seen));
+	memset(T.seen, 0, sizeof(T.seen));
 	run_until(RMD_LC_LOST, STOPPING_MAX, true);
-	assert_false(R.seen[RMD_LC_READY]); /* the sim did stop: rmdd could not know it */
+	assert_false(T.seen[RMD_LC_READY]); /* the sim did stop: rmdd could not know it */
 	rmd_loop_get_counters(R.l, &c);
 	assert_true(c.owed_resends >= 14);
 	assert_int_equal(rmd_sim_wire_set_faults(rmd_bus_sim_get(bus), &f, 0), 0);
 	run_until(RMD_LC_READY, 1500, true);
-	run(50, true);
-	rig_down();
+	rig_run(&R, 50, true);
+	rig_stop(&R);
 }
 
 /* ---- the table ------------------------------------------------------------- */

@@ -58,13 +58,8 @@ static const struct rmd_mit_ranges V44_X8 = { -12.566, 12.566, -45, 45, -129, 12
 #define ASK_KD 2.0
 #define ASK_T 5.0
 
-static struct {
-	struct rig_loop io;
-	struct rmd_loop *l;
-	struct rmd_bringup bu;
-	int bu_ret;
-	struct rmd_command cmd;
-} R;
+static struct rig R; /* R.report: the bring-up's, bu_ret what it returned */
+static int bu_ret;
 
 #define TAP_MAX 65536
 static struct rmd_frame host[TAP_MAX], motor[TAP_MAX];
@@ -85,12 +80,11 @@ static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, in
 static void rig_up(const char *yaml, bool bringup)
 {
 	char path[] = "/tmp/rmd-test-mit-mode-XXXXXX", err[4096];
-	struct rmd_loop_opts o;
 	int fd = mkstemp(path);
 
-	memset(&R, 0, sizeof(R));
+	rig_reset(&R);
+	bu_ret = 0;
 	host_n = motor_n = 0;
-	t_now = 1000 * MS;
 	assert_true(fd >= 0);
 	assert_int_equal(write(fd, yaml, strlen(yaml)), (ssize_t)strlen(yaml));
 	close(fd);
@@ -99,24 +93,11 @@ static void rig_up(const char *yaml, bool bringup)
 		fail_msg("the configuration is refused:\n%s", err);
 	}
 	unlink(path);
-	if (rmd_plan_build(&R.io.cfg, &R.io.plan, err, sizeof(err)))
-		fail_msg("plan: %s", err);
-	rig_open_buses(&R.io.cfg, &R.io.sim, R.io.buses);
-	rmd_sim_wire_set_tap(rmd_bus_sim_get(&R.io.buses[0]), tap, NULL);
-	assert_int_equal(rig_loop_opts(&R.io, &o), 0);
-	R.l = rmd_loop_new(&o, err, sizeof(err));
-	if (!R.l)
-		fail_msg("rmd_loop_new: %s", err);
+	R.rt = true;		 /* cycles as the rt thread runs them */
+	R.events_in_ring = true; /* the tests pop them */
+	rig_start(&R, tap);
 	if (bringup)
-		R.bu_ret = rmd_loop_bringup(R.l, &R.bu);
-}
-
-static void rig_down(void)
-{
-	rmd_loop_free(R.l);
-	R.l = NULL;
-	for (unsigned b = 0; b < R.io.cfg.n_buses; b++)
-		rmd_bus_close(&R.io.buses[b]);
+		bu_ret = rmd_loop_bringup(R.l, &R.report);
 }
 
 static struct rmd_sim_motor *sim(void)
@@ -130,18 +111,6 @@ static struct rmd_motor_state mstate(void)
 
 	rmd_loop_get_snapshot(R.l, &s);
 	return s.m[0];
-}
-
-/* n cycles as the rt thread runs them, the controller's command published before each. */
-static void run(unsigned n)
-{
-	for (unsigned k = 0; k < n; k++) {
-		R.cmd.rx_ns = t_now;
-		R.cmd.seq++;
-		rmd_latest_put(&R.io.cmds, &R.cmd);
-		rig_loop_cycle(R.l, t_now, R.io.plan.period_ns);
-		t_now += R.io.plan.period_ns;
-	}
 }
 
 /* The controller's MIT setpoint for motor 1 (ASK_*), enable = 1. */
@@ -202,14 +171,14 @@ static void runs_with(const struct rmd_mit_ranges *r, const char *what)
 	const struct rmd_sim_motor *m;
 	unsigned replies = 0;
 
-	if (R.bu_ret != 0)
-		fail_msg("%s: bring-up returned %d (motor state %d)", what, R.bu_ret,
-			 R.bu.motor[0].state);
+	if (bu_ret != 0)
+		fail_msg("%s: bring-up returned %d (motor state %d)", what, bu_ret,
+			 R.report.motor[0].state);
 	ask_mit();
-	run(100);
+	rig_run(&R, 100, true);
 	assert_int_equal(mstate().lifecycle, RMD_LC_ENABLED);
 	from = host_n;
-	run(300);
+	rig_run(&R, 300, true);
 	frames_carry(r, from, what);
 	m = sim();
 	/* the firmware's own reading of them, and what it did: 5 N·m holds the load */
@@ -231,8 +200,8 @@ static void runs_with(const struct rmd_mit_ranges *r, const char *what)
 static void refused(const char *what)
 {
 	ask_mit();
-	run(500);
-	if (R.bu_ret == 0 && R.bu.motor[0].state != RMD_BRINGUP_MISMATCH)
+	rig_run(&R, 500, true);
+	if (bu_ret == 0 && R.report.motor[0].state != RMD_BRINGUP_MISMATCH)
 		fail_msg("%s: bring-up accepted it", what);
 	assert_int_not_equal(mstate().lifecycle, RMD_LC_ENABLED);
 	assert_int_equal(mit_requests(0), 0);
@@ -253,7 +222,7 @@ static void test_v42_motor_in_mit(void **state)
 			 "     sim: {version_date: 2025070202, model: X6S2V3, load_nm: 5}}\n",
 	       true);
 	runs_with(&V42, "V4.2 X6");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* An X6 on V4.4 firmware, no mit ranges in its entry: the X6's V4.4 scaling. */
@@ -264,7 +233,7 @@ static void test_v44_x6_its_scaling(void **state)
 			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
 	       true);
 	runs_with(&V44_X6, "V4.4 X6");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* An X8 on later V4.4 firmware (an eight-digit date is build 00 of that day). */
@@ -275,7 +244,7 @@ static void test_v44_x8_its_scaling(void **state)
 			 "     sim: {version_date: 20260601, model: X8ProV2, load_nm: 5}}\n",
 	       true);
 	runs_with(&V44_X8, "V4.4 X8");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* protocol: auto finds the firmware; MIT is how it is driven. */
@@ -287,7 +256,7 @@ static void test_auto_finds_v44(void **state)
 			 "load_nm: 5}}\n",
 	       true);
 	runs_with(&V44_X6, "auto, V4.4 X6");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* Today's protocol: mit on V3 firmware keeps working, on today's scaling. */
@@ -298,7 +267,7 @@ static void test_protocol_mit_on_v3(void **state)
 			 "     sim: {version_date: 20220206, load_nm: 5}}\n",
 	       true);
 	runs_with(&V42, "protocol mit, V3");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* An entry whose ranges agree with V4.4's (4 pi for 12.566) runs on them. */
@@ -310,7 +279,7 @@ static void test_v44_entry_agrees(void **state)
 			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
 	       true);
 	runs_with(&V44_X6, "V4.4 X6, agreeing entry");
-	rig_down();
+	rig_stop(&R);
 }
 
 /*
@@ -327,10 +296,10 @@ static void test_v44_entry_kd_taken(void **state)
 			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
 	       true);
 	ask_mit();
-	run(400);
+	rig_run(&R, 400, true);
 	assert_int_equal(mstate().lifecycle, RMD_LC_ENABLED);
 	frames_carry(&x6_kd5, 0, "V4.4 X6, kd_max 5 in its entry");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* protocol: auto finding V2 firmware, which has no MIT mode: refused. */
@@ -340,9 +309,9 @@ static void test_auto_finds_v2_refused(void **state)
 	rig_up(BUS MOTOR "protocol: auto, mode: mit, comm_loss_ms: 0,\n"
 			 "     sim: {firmware: v2, load_nm: 5}}\n",
 	       true);
-	assert_int_equal(R.bu.motor[0].mismatch, RMD_BRINGUP_MISMATCH_NO_MIT);
+	assert_int_equal(R.report.motor[0].mismatch, RMD_BRINGUP_MISMATCH_NO_MIT);
 	refused("auto, V2 firmware");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* A model rmdd has no V4.4 scaling of: refused, nothing on 0x400 + ID. */
@@ -353,8 +322,8 @@ static void test_v44_unknown_model_refused(void **state)
 			 "     sim: {version_date: 2026042402, model: X4-36, load_nm: 5}}\n",
 	       true);
 	refused("V4.4 X4-36");
-	assert_int_equal(R.bu_ret, -EPROTO);
-	rig_down();
+	assert_int_equal(bu_ret, -EPROTO);
+	rig_stop(&R);
 }
 
 /* Firmware that does not answer 0xB2: its date unknown, MIT refused. */
@@ -366,7 +335,7 @@ static void test_no_date_refused(void **state)
 			 "ignores_cmd: 0xB2}}\n",
 	       true);
 	refused("V4.4 X6, no 0xB2");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* The entry's legacy ranges contradict the X6's V4.4 scaling: refused. */
@@ -378,7 +347,7 @@ static void test_v44_entry_contradicts(void **state)
 			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
 	       true);
 	refused("V4.4 X6, t ±24 in its entry");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* protocol: mit (V3 firmware) on a motor whose date says V4: refused, as V3's. */
@@ -390,7 +359,7 @@ static void test_protocol_mit_on_v4_refused(void **state)
 			 "load_nm: 5}}\n",
 	       true);
 	refused("protocol mit, V4.4 firmware");
-	rig_down();
+	rig_stop(&R);
 }
 
 /*
@@ -409,10 +378,10 @@ static void test_loop_refuses_undecided(void **state)
 			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
 	       false);
 	R.cmd.present = 1;
-	run(200);
+	rig_run(&R, 200, true);
 	assert_int_equal(mstate().lifecycle, RMD_LC_READY);
 	ask_mit();
-	run(300);
+	rig_run(&R, 300, true);
 	assert_int_equal(mstate().lifecycle, RMD_LC_READY);
 	assert_int_equal(mit_requests(0), 0);
 	rmd_loop_get_counters(R.l, &c);
@@ -420,7 +389,7 @@ static void test_loop_refuses_undecided(void **state)
 	while (rmd_ring_pop(&R.io.events, &e))
 		seen += e.kind == RMD_EV_MIT_REFUSED;
 	assert_int_equal(seen, 1);
-	rig_down();
+	rig_stop(&R);
 }
 
 /*
@@ -440,14 +409,14 @@ static void test_late_motor_decided(void **state)
 	       "protocol: v4, mode: mit,\n"
 	       "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
 	       true);
-	assert_int_equal(R.bu.motor[0].state, RMD_BRINGUP_MISSING);
-	R.bu_ret = 0;
+	assert_int_equal(R.report.motor[0].state, RMD_BRINGUP_MISSING);
+	bu_ret = 0;
 	R.cmd.present = 1;
 	{
 		unsigned from = host_n, b5 = 0;
 
 		for (unsigned k = 0; k < 3000 && mstate().lifecycle != RMD_LC_READY; k++)
-			run(1);
+			rig_run(&R, 1, true);
 		assert_int_equal(mstate().lifecycle, RMD_LC_READY);
 		/* the loop's re-probe asked the model, not bring-up alone */
 		for (unsigned k = from; k < host_n; k++)
@@ -456,7 +425,7 @@ static void test_late_motor_decided(void **state)
 	}
 	assert_int_equal(mit_requests(0), 0);
 	runs_with(&V44_X6, "late V4.4 X6");
-	rig_down();
+	rig_stop(&R);
 }
 
 /* Missing at bring-up, found later with a model rmdd knows no V4.4 scaling of: left out. */
@@ -475,16 +444,16 @@ static void test_late_motor_unknown_model(void **state)
 	       "protocol: v4, mode: mit,\n"
 	       "     sim: {version_date: 2026042402, model: X4-36, load_nm: 5}}\n",
 	       true);
-	assert_int_equal(R.bu.motor[0].state, RMD_BRINGUP_MISSING);
+	assert_int_equal(R.report.motor[0].state, RMD_BRINGUP_MISSING);
 	ask_mit();
-	run(2000);
+	rig_run(&R, 2000, true);
 	assert_int_equal(mstate().lifecycle, RMD_LC_LOST);
 	assert_int_equal(mit_requests(0), 0);
 	assert_int_not_equal(sim()->ctrl, RMD_SIM_MIT);
 	while (rmd_ring_pop(&R.io.events, &e))
 		seen += e.kind == RMD_EV_MIT_SCALING && e.a == 2026042402;
 	assert_int_equal(seen, 1);
-	rig_down();
+	rig_stop(&R);
 }
 
 int main(void)
@@ -507,6 +476,5 @@ int main(void)
 		cmocka_unit_test(test_late_motor_unknown_model),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("mit_mode", tests, NULL, NULL);
 }
