@@ -782,6 +782,27 @@ bool rmd_plan_due(const struct rmd_plan *plan, unsigned bus, uint64_t n, struct 
 	return true;
 }
 
+/*
+ * A slot of kind for each motor of pb in mask, one reply each, to its
+ * identifier in ids: the set bits in order, the motors in file order as
+ * the masks' bits are.  Appended at out[cnt]; returns the new count.
+ */
+static unsigned add_slots(struct rmd_plan_slot *out, unsigned cnt, enum rmd_slot_kind kind,
+			  uint32_t mask, const struct rmd_plan_bus *pb, const uint16_t *ids)
+{
+	for (uint32_t m = mask; m; m &= m - 1) {
+		unsigned l = (unsigned)__builtin_ctz(m);
+
+		out[cnt++] = (struct rmd_plan_slot){
+			.kind = kind,
+			.motor = pb->motors[l],
+			.replies = 1,
+			.can_id = ids[l],
+		};
+	}
+	return cnt;
+}
+
 unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			struct rmd_plan_slot out[RMD_PLAN_MAX_SLOTS])
 {
@@ -799,27 +820,8 @@ unsigned rmd_plan_cycle(const struct rmd_plan *plan, unsigned bus, uint64_t n,
 			.replies = (uint8_t)__builtin_popcount(pb->batched),
 			.can_id = RMD_CAN_MULTI,
 		};
-	/* the set bits in order: the motors in file order, as the masks' bits are */
-	for (uint32_t m = d.control; m; m &= m - 1) {
-		unsigned l = (unsigned)__builtin_ctz(m);
-
-		out[cnt++] = (struct rmd_plan_slot){
-			.kind = RMD_SLOT_CONTROL,
-			.motor = pb->motors[l],
-			.replies = 1,
-			.can_id = pb->ctl_id[l],
-		};
-	}
-	for (uint32_t m = d.fine; m; m &= m - 1) {
-		unsigned l = (unsigned)__builtin_ctz(m);
-
-		out[cnt++] = (struct rmd_plan_slot){
-			.kind = RMD_SLOT_FINE,
-			.motor = pb->motors[l],
-			.replies = 1,
-			.can_id = pb->req_id[l],
-		};
-	}
+	cnt = add_slots(out, cnt, RMD_SLOT_CONTROL, d.control, pb, pb->ctl_id);
+	cnt = add_slots(out, cnt, RMD_SLOT_FINE, d.fine, pb, pb->req_id);
 	for (unsigned j = 0; j < d.n_polls; j++) {
 		if (d.polls[j].cycle != d.at)
 			continue;

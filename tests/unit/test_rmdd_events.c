@@ -483,12 +483,12 @@ static const struct single {
 	  NULL },
 	{ "reboot check, count astray", false,
 	  EV(RMD_EV_REBOOT, 1, X, RMD_REBOOT_COUNT_ASTRAY, CDEG(5400, 31973)),
-	  "<4>rmdd: can0: motor 1 (grip_l): its multi-turn angle 54.00 deg and rmdd's count 319.73 "
-	  "deg part by other than whole rotor turns: no reboot; not judged by it until found again "
-	  "(gear_ratio?)\n",
-	  "can0: motor 1 (grip_l): its multi-turn angle 54.00 deg and rmdd's count 319.73 deg part "
-	  "by other than whole rotor turns: no reboot; not judged by it until found again "
-	  "(gear_ratio?)",
+	  "<4>rmdd: can0: motor 1 (grip_l): count astray (its multi-turn angle 54.00 deg, rmdd's "
+	  "count of its encoder 319.73 deg: not whole turns apart, so no reboot; none judged by it "
+	  "until found again (gear_ratio?))\n",
+	  "can0: motor 1 (grip_l): count astray (its multi-turn angle 54.00 deg, rmdd's count of its "
+	  "encoder 319.73 deg: not whole turns apart, so no reboot; none judged by it until found "
+	  "again (gear_ratio?))",
 	  NULL },
 	{ "reboot, report out of range", false, EV(RMD_EV_REBOOT, 1, X, 77, 0),
 	  "<4>rmdd: can0: motor 1 (grip_l): reboot check 77; treated as lost and back: its "

@@ -830,6 +830,8 @@ static double cdeg_lo(int64_t b)
  */
 static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
 {
+	bool lost;
+
 	switch ((enum rmd_reboot_report)e->a) {
 	case RMD_REBOOT_BY_RUNTIME:
 		snprintf(buf, len,
@@ -838,10 +840,14 @@ static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
 			 (uint32_t)((uint64_t)e->b >> 32), (uint32_t)e->b);
 		break;
 	case RMD_REBOOT_BY_TURNS:
-		snprintf(buf, len,
-			 "rebooted (its multi-turn angle %.2f deg, rmdd's count of its encoder "
-			 "%.2f deg: its count lost, 0x92)",
-			 cdeg_hi(e->b), cdeg_lo(e->b));
+	case RMD_REBOOT_COUNT_ASTRAY:
+		lost = e->a == RMD_REBOOT_BY_TURNS;
+		snprintf(buf, len, "%s (its multi-turn angle %.2f deg, rmdd's count of its encoder "
+			 "%.2f deg: %s)",
+			 lost ? "rebooted" : "count astray", cdeg_hi(e->b), cdeg_lo(e->b),
+			 lost ? "its count lost, 0x92" :
+				"not whole turns apart, so no reboot; none judged by it until found "
+				"again (gear_ratio?)");
 		break;
 	case RMD_REBOOT_BY_BRAKE:
 		snprintf(buf, len,
@@ -858,13 +864,6 @@ static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
 			 "whether it rebooted is untold: its answers to 0x%02" PRIX64
 			 " could not tell",
 			 (uint64_t)e->b);
-		break;
-	case RMD_REBOOT_COUNT_ASTRAY:
-		snprintf(buf, len,
-			 "its multi-turn angle %.2f deg and rmdd's count %.2f deg part by other "
-			 "than whole rotor turns: no reboot; not judged by it until found again "
-			 "(gear_ratio?)",
-			 cdeg_hi(e->b), cdeg_lo(e->b));
 		break;
 	default:
 		snprintf(buf, len, "reboot check %" PRId64, e->a);
