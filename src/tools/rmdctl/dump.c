@@ -138,14 +138,9 @@ int rmdctl_run_dump(struct dev *d, int argc, char **argv)
 	n = rmdctl_ids_open(d, argc, argv, ids);
 	if (n < 0)
 		return -n;
-	m = rmdctl_probe(d, ids, (unsigned)n, found, st);
-	if (m <= 0) {
-		if (m == 0)
-			tool_log(TOOL_LOG_ERR, "%s: no motor answered 0x9A: nothing to dump",
-				 d->name);
-		r = m < 0 ? -m : RMDCTL_EXIT_DATA;
-		goto out;
-	}
+	m = rmdctl_probe_some(d, ids, (unsigned)n, found, st, ": nothing to dump");
+	if (m < 0)
+		return -m;
 	strftime(stamp, sizeof(stamp), "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));
 	printf("# rmdctl dump: the settings of the motors on %s (protocol %s), %s.\n"
 	       "# Read back: PID gains (0x30%s), position-planning acceleration (0x42, the\n"

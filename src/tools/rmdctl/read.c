@@ -290,14 +290,12 @@ int rmdctl_run_monitor(struct dev *d, int argc, char **argv)
 	n = (unsigned)m;
 	if (argc == 0) {
 		/* No list: the motors that answer a probe. */
-		m = rmdctl_probe(d, ids, n, found, q);
-		if (m <= 0) {
-			if (m == 0)
-				tool_log(TOOL_LOG_ERR, "%s: no motor answered 0x9A (ids 1..%d)",
-					 d->name, RMD_MAX_MOTORS);
-			rmdctl_close_bus(d);
-			return m < 0 ? -m : RMDCTL_EXIT_DATA;
-		}
+		char none[24];
+
+		snprintf(none, sizeof(none), " (ids 1..%d)", RMD_MAX_MOTORS);
+		m = rmdctl_probe_some(d, ids, n, found, q, none);
+		if (m < 0)
+			return -m;
 		n = (unsigned)m;
 		memcpy(ids, found, n);
 	}
