@@ -558,10 +558,15 @@ int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, 
 	return m;
 }
 
-int rmdctl_probe_some(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st,
-		      const char *none)
+int rmdctl_ids_probe(struct dev *d, int argc, char **argv, uint8_t *found, struct req *st,
+		     const char *none)
 {
-	int m = rmdctl_probe(d, ids, n, found, st);
+	uint8_t ids[RMD_MAX_MOTORS];
+	int m = rmdctl_ids_open(d, argc, argv, ids);
+
+	if (m < 0)
+		return m;
+	m = rmdctl_probe(d, ids, (unsigned)m, found, st);
 
 	if (m > 0)
 		return m;

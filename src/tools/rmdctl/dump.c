@@ -126,19 +126,16 @@ static const char *gain_text(const struct rmd_dialect *dl, int64_t raw, char *bu
 
 int rmdctl_run_dump(struct dev *d, int argc, char **argv)
 {
-	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
+	uint8_t found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS];
 	char stamp[32];
 	time_t now = time(NULL);
-	int n, m, r;
+	int m, r;
 
 	r = dialect_ok(d);
 	if (r)
 		return r;
-	n = rmdctl_ids_open(d, argc, argv, ids);
-	if (n < 0)
-		return -n;
-	m = rmdctl_probe_some(d, ids, (unsigned)n, found, st, ": nothing to dump");
+	m = rmdctl_ids_probe(d, argc, argv, found, st, ": nothing to dump");
 	if (m < 0)
 		return -m;
 	strftime(stamp, sizeof(stamp), "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));

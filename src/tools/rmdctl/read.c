@@ -277,28 +277,25 @@ static void monitor_table(struct dev *d, const uint8_t *ids, unsigned n, const s
 
 int rmdctl_run_monitor(struct dev *d, int argc, char **argv)
 {
-	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
+	uint8_t ids[RMD_MAX_MOTORS];
 	struct req q[MAX_REQS];
 	bool clear = !d->once && isatty(STDOUT_FILENO);
 	int64_t period = (int64_t)llround(d->interval_ms * 1e6), next;
 	unsigned n;
 	int m, r, status = RMDCTL_EXIT_OK;
 
-	m = rmdctl_ids_open(d, argc, argv, ids);
-	if (m < 0)
-		return -m;
-	n = (unsigned)m;
 	if (argc == 0) {
 		/* No list: the motors that answer a probe. */
 		char none[24];
 
 		snprintf(none, sizeof(none), " (ids 1..%d)", RMD_MAX_MOTORS);
-		m = rmdctl_probe_some(d, ids, n, found, q, none);
-		if (m < 0)
-			return -m;
-		n = (unsigned)m;
-		memcpy(ids, found, n);
+		m = rmdctl_ids_probe(d, argc, argv, ids, q, none);
+	} else {
+		m = rmdctl_ids_open(d, argc, argv, ids);
 	}
+	if (m < 0)
+		return -m;
+	n = (unsigned)m;
 	next = rmd_now_ns();
 	while (!rmdctl_interrupted) {
 		for (unsigned i = 0; i < n; i++)

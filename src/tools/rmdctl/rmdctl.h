@@ -281,12 +281,13 @@ int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids);
 /* Probe ids[0..n) with 0x9A; found[] gets those that answered (one that only echoed is reported).  The count or -exit. */
 int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st);
 /*
- * rmdctl_probe() where some motor must answer: none is reported as "BUS: no
- * motor answered 0x9A" and `none` after it.  Returns the count (1 or more),
- * or minus the exit status with the bus closed.
+ * rmdctl_ids_open(), then rmdctl_probe() of those ids, where some motor must
+ * answer: none is reported as "BUS: no motor answered 0x9A" and `none` after
+ * it.  Returns the count in found[] (1 or more), or minus the exit status
+ * with the bus closed.
  */
-int rmdctl_probe_some(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st,
-		      const char *none);
+int rmdctl_ids_probe(struct dev *d, int argc, char **argv, uint8_t *found, struct req *st,
+		     const char *none);
 
 /* ---- output (output.c) ------------------------------------------------------------------ */
 

@@ -312,7 +312,7 @@ static bool bus_timing(const struct dev *d, struct rmd_bus_timing *t)
 
 int rmdctl_run_rtt(struct dev *d, int argc, char **argv)
 {
-	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
+	uint8_t found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS];
 	struct series s[N_CLASSES][RMD_MAX_MOTORS];
 	struct verdict v[N_CLASSES];
@@ -325,10 +325,7 @@ int rmdctl_run_rtt(struct dev *d, int argc, char **argv)
 	if (!d->timeout_set)
 		d->timeout_ms = RTT_TIMEOUT_MS;
 	d->line_timeout = true; /* an RS485 line waits as long (rmdctl_open_bus()) */
-	m = rmdctl_ids_open(d, argc, argv, ids);
-	if (m < 0)
-		return -m;
-	m = rmdctl_probe_some(d, ids, (unsigned)m, found, st, "");
+	m = rmdctl_ids_probe(d, argc, argv, found, st, "");
 	if (m < 0)
 		return -m;
 	n = (unsigned)m;
