@@ -289,15 +289,24 @@ static int need_caps(struct dev *d, uint32_t caps, const char *what)
 	return RMDCTL_EXIT_USAGE;
 }
 
-/* arg is word a (0) or word b (1); else "bad "ARG" (A or B)" is reported: -1. */
-static int one_of(const char *arg, const char *a, const char *b)
+/*
+ * The WORD argument of a 0x20 function that d's dialect has when it has
+ * caps: 0 for word a, 1 for word b; minus the exit status after a refusal
+ * ("protocol P has no WHAT", "bad "ARG" (A or B)").
+ */
+static int function_word(struct dev *d, uint32_t caps, const char *what, const char *arg,
+			 const char *a, const char *b)
 {
+	int r = need_caps(d, caps, what);
+
+	if (r)
+		return -r;
 	if (!strcmp(arg, a))
 		return 0;
 	if (!strcmp(arg, b))
 		return 1;
 	tool_log(TOOL_LOG_ERR, "bad \"%s\" (%s or %s)", arg, a, b);
-	return -1;
+	return -RMDCTL_EXIT_USAGE;
 }
 
 /*
@@ -312,12 +321,10 @@ int rmdctl_run_multiturn_save(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	r = need_caps(d, RMD_DIALECT_MULTI_TURN_SAVE, "multi-turn save (0x20 index 4)");
-	if (r)
-		return r;
-	r = one_of(argv[1], "on", "off");
+	r = function_word(d, RMD_DIALECT_MULTI_TURN_SAVE, "multi-turn save (0x20 index 4)", argv[1],
+			  "on", "off");
 	if (r < 0)
-		return RMDCTL_EXIT_USAGE;
+		return -r;
 	on = r == 0;
 	snprintf(what, sizeof(what),
 		 "%s multi-turn save at power off of motor %u on %s (0x20 index 4, ROM; after "
@@ -345,12 +352,10 @@ int rmdctl_run_angle_limit(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	r = need_caps(d, RMD_DIALECT_ANGLE_LIMITS, "angle limits (V4.2 0x20 index 6/7)");
-	if (r)
-		return r;
-	r = one_of(argv[1], "positive", "negative");
+	r = function_word(d, RMD_DIALECT_ANGLE_LIMITS, "angle limits (V4.2 0x20 index 6/7)",
+			  argv[1], "positive", "negative");
 	if (r < 0)
-		return RMDCTL_EXIT_USAGE;
+		return -r;
 	index = (uint8_t)(6 + r);
 	if (rmdctl_parse_double(argv[2], &deg) < 0 || !(fabs(deg) <= 2e7)) {
 		tool_log(TOOL_LOG_ERR, "bad DEG \"%s\" (degrees at the output)", argv[2]);
