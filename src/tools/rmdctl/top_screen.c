@@ -67,14 +67,15 @@ static const struct {
 	const char *head;
 	int width; /* on a wide terminal (NAME: from the names) */
 	bool left; /* text; numbers are right-aligned */
+	int prec;  /* numbers (number()): decimals, fewer when the width needs it */
 } cols[NCOLS] = {
-	[C_IDX] = { "IDX", 3, false },	   [C_NAME] = { "NAME", 12, true },
-	[C_BUS] = { "BUS", 8, true },	   [C_ID] = { "ID", 3, false },
-	[C_STATE] = { "STATE", 7, true },  [C_MODE] = { "MODE", 8, true },
-	[C_POS] = { "POS", 8, false },	   [C_VEL] = { "VEL", 8, false },
-	[C_TORQUE] = { "TORQ", 7, false }, [C_TEMP] = { "TEMP", 4, false },
-	[C_ERR] = { "ERR", 4, false },	   [C_LAT] = { "LAT_US", 6, false },
-	[C_AGE] = { "AGE_MS", 6, false },  [C_MISSED] = { "MISSED", 6, false },
+	[C_IDX] = { "IDX", 3, false },	      [C_NAME] = { "NAME", 12, true },
+	[C_BUS] = { "BUS", 8, true },	      [C_ID] = { "ID", 3, false },
+	[C_STATE] = { "STATE", 7, true },     [C_MODE] = { "MODE", 8, true },
+	[C_POS] = { "POS", 8, false, 3 },     [C_VEL] = { "VEL", 8, false, 3 },
+	[C_TORQUE] = { "TORQ", 7, false, 2 }, [C_TEMP] = { "TEMP", 4, false, 0 },
+	[C_ERR] = { "ERR", 4, false },	      [C_LAT] = { "LAT_US", 6, false },
+	[C_AGE] = { "AGE_MS", 6, false, 1 },  [C_MISSED] = { "MISSED", 6, false },
 	[C_PROT] = { "PROT", 11, true },
 };
 
@@ -268,6 +269,20 @@ static enum att motor_state_text(const struct top_view *t, const rmd_motor_state
 	}
 }
 
+/* The value of motor state ms in numeric column c (POS, VEL, TORQ, TEMP, AGE_MS). */
+static double number(const rmd_config_t *cf, const rmd_motor_state_t *ms, enum col c)
+{
+	const double v[NCOLS] = {
+		[C_POS] = ms->position,
+		[C_VEL] = ms->velocity,
+		[C_TORQUE] = ms->torque,
+		[C_TEMP] = ms->temperature,
+		[C_AGE] = ms->reply_age_cycles * cf->period_us / 1000.0,
+	};
+
+	return v[c];
+}
+
 /* Cell c of motor i in at most width characters; returns how urgent it is. */
 static enum att cell(const struct top_view *t, int i, enum col c, int width, char *buf, size_t size)
 {
@@ -305,16 +320,12 @@ static enum att cell(const struct top_view *t, int i, enum col c, int width, cha
 		snprintf(buf, size, "%s", top_mode_name(ms->mode));
 		break;
 	case C_POS:
-		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->position, 3));
-		break;
 	case C_VEL:
-		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->velocity, 3));
-		break;
 	case C_TORQUE:
-		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->torque, 2));
-		break;
 	case C_TEMP:
-		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->temperature, 0));
+	case C_AGE:
+		snprintf(buf, size, "%s",
+			 fit_num(num, sizeof(num), width, number(cf, ms, c), cols[c].prec));
 		break;
 	case C_ERR:
 		snprintf(buf, size, "%x", (unsigned)ms->error_code);
@@ -322,11 +333,6 @@ static enum att cell(const struct top_view *t, int i, enum col c, int width, cha
 		break;
 	case C_LAT:
 		snprintf(buf, size, "%d", ms->reply_latency_us);
-		break;
-	case C_AGE:
-		snprintf(buf, size, "%s",
-			 fit_num(num, sizeof(num), width,
-				 ms->reply_age_cycles * cf->period_us / 1000.0, 1));
 		break;
 	case C_MISSED:
 		snprintf(buf, size, "%" PRId64, ms->missed_replies);
