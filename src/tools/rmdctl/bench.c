@@ -558,6 +558,20 @@ int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, 
 	return m;
 }
 
+int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids)
+{
+	int n = argc ? rmd_bus_open_parse_ids(argv[0], ids) : (int)rmdctl_all_ids(ids);
+	int r;
+
+	if (n < 0) {
+		tool_log(TOOL_LOG_ERR, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", argv[0],
+			 RMD_MAX_MOTORS);
+		return -RMDCTL_EXIT_USAGE;
+	}
+	r = rmdctl_open_bus(d);
+	return r ? -r : n;
+}
+
 int rmdctl_ids_probe(struct dev *d, int argc, char **argv, uint8_t *found, struct req *st,
 		     const char *none)
 {

@@ -10,26 +10,11 @@
 #include <unistd.h>
 
 #include "rmd/time.h"
-#include "rmd/bus_open.h"
 #include "rmd/codec.h"
 #include "rmd/describe.h"
 #include "rmdctl.h"
 
 /* ---- scan ----------------------------------------------------------------------------- */
-
-int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids)
-{
-	int n = argc ? rmd_bus_open_parse_ids(argv[0], ids) : (int)rmdctl_all_ids(ids);
-	int r;
-
-	if (n < 0) {
-		tool_log(TOOL_LOG_ERR, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", argv[0],
-			 RMD_MAX_MOTORS);
-		return -RMDCTL_EXIT_USAGE;
-	}
-	r = rmdctl_open_bus(d);
-	return r ? -r : n;
-}
 
 int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 {
