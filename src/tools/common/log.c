@@ -82,14 +82,18 @@ __attribute__((format(printf, 2, 0))) static void vlog(int level, const char *fm
 	}
 }
 
+void tool_vlog(int level, const char *fmt, va_list ap)
+{
+	if (level <= log_level)
+		vlog(level, fmt, ap);
+}
+
 void tool_log(int level, const char *fmt, ...)
 {
 	va_list ap;
 
-	if (level > log_level)
-		return;
 	va_start(ap, fmt);
-	vlog(level, fmt, ap);
+	tool_vlog(level, fmt, ap);
 	va_end(ap);
 }
 

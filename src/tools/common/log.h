@@ -17,6 +17,7 @@
 #ifndef RMD_TOOL_LOG_H
 #define RMD_TOOL_LOG_H
 
+#include <stdarg.h>
 #include <stdbool.h>
 
 /* Log levels: the journal's <N> prefixes (sd-daemon(3)). */
@@ -53,6 +54,8 @@ bool tool_log_enabled(int level);
 
 /* One line, when level <= the level set. */
 void tool_log(int level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* tool_log() of a va_list (a caller's own variadic helper). */
+void tool_vlog(int level, const char *fmt, va_list ap) __attribute__((format(printf, 2, 0)));
 
 /* One line whatever the level set (statistics that were asked for). */
 void tool_log_always(int level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

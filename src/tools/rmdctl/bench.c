@@ -400,6 +400,33 @@ static void report_bad(struct dev *d, const struct req *q)
 			 "does not decode");
 }
 
+int rmdctl_txn_prepare(struct rmd_txn *t, const struct dev *d, uint8_t id, const struct rmd_msg *m)
+{
+	int r = rmd_txn_prepare(t, d->proto, id, m);
+
+	if (r < 0) {
+		tool_log(TOOL_LOG_ERR, "motor %u: cannot encode 0x%02X: %s", id, m->cmd,
+			 strerror(-r));
+		return RMDCTL_EXIT_DATA;
+	}
+	return 0;
+}
+
+int rmdctl_txn_run(struct dev *d, struct rmd_txn *t, unsigned n, const struct rmd_txn_opts *o)
+{
+	int r = rmd_txn_run(d->b, t, n, o);
+
+	if (r == -EINTR) {
+		tool_log(TOOL_LOG_ERR, "interrupted");
+		return RMDCTL_EXIT_DATA;
+	}
+	if (r < 0) {
+		tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
+		return RMDCTL_EXIT_DATA;
+	}
+	return 0;
+}
+
 /*
  * Run q[0..n) as one pipelined batch.  Returns 0 when the bus worked
  * (each q[i].ok says whether its motor answered), RMDCTL_EXIT_DATA on a
@@ -413,22 +440,13 @@ int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n)
 	if (n > MAX_REQS)
 		n = MAX_REQS;
 	for (unsigned i = 0; i < n; i++) {
-		r = rmd_txn_prepare(&t[i], d->proto, q[i].id, &q[i].msg);
-		if (r < 0) {
-			tool_log(TOOL_LOG_ERR, "motor %u: cannot encode 0x%02X: %s", q[i].id,
-				 q[i].msg.cmd, strerror(-r));
-			return RMDCTL_EXIT_DATA;
-		}
+		r = rmdctl_txn_prepare(&t[i], d, q[i].id, &q[i].msg);
+		if (r)
+			return r;
 	}
-	r = rmd_txn_run(d->b, t, n, &d->txn);
-	if (r == -EINTR) {
-		tool_log(TOOL_LOG_ERR, "interrupted");
-		return RMDCTL_EXIT_DATA;
-	}
-	if (r < 0) {
-		tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
-		return RMDCTL_EXIT_DATA;
-	}
+	r = rmdctl_txn_run(d, t, n, &d->txn);
+	if (r)
+		return r;
 	for (unsigned i = 0; i < n; i++) {
 		const struct rmd_cmd_spec *spec = rmdctl_spec(d, q[i].msg.cmd);
 		const struct rmd_frame *f = &t[i].rep.f;
@@ -538,6 +556,38 @@ int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, 
 			rmdctl_report_missing(d, &st[i], "");
 	}
 	return m;
+}
+
+int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids)
+{
+	int n = argc ? rmd_bus_open_parse_ids(argv[0], ids) : (int)rmdctl_all_ids(ids);
+	int r;
+
+	if (n < 0) {
+		tool_log(TOOL_LOG_ERR, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", argv[0],
+			 RMD_MAX_MOTORS);
+		return -RMDCTL_EXIT_USAGE;
+	}
+	r = rmdctl_open_bus(d);
+	return r ? -r : n;
+}
+
+int rmdctl_ids_probe(struct dev *d, int argc, char **argv, uint8_t *found, struct req *st,
+		     const char *none)
+{
+	uint8_t ids[RMD_MAX_MOTORS];
+	int m = rmdctl_ids_open(d, argc, argv, ids);
+
+	if (m < 0)
+		return m;
+	m = rmdctl_probe(d, ids, (unsigned)m, found, st);
+
+	if (m > 0)
+		return m;
+	if (m == 0)
+		tool_log(TOOL_LOG_ERR, "%s: no motor answered 0x9A%s", d->name, none);
+	rmdctl_close_bus(d);
+	return m < 0 ? m : -RMDCTL_EXIT_DATA;
 }
 
 /* ---- the command line ----------------------------------------------------------------- */

@@ -126,26 +126,18 @@ static const char *gain_text(const struct rmd_dialect *dl, int64_t raw, char *bu
 
 int rmdctl_run_dump(struct dev *d, int argc, char **argv)
 {
-	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
+	uint8_t found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS];
 	char stamp[32];
 	time_t now = time(NULL);
-	int n, m, r;
+	int m, r;
 
 	r = dialect_ok(d);
 	if (r)
 		return r;
-	n = rmdctl_ids_open(d, argc, argv, ids);
-	if (n < 0)
-		return -n;
-	m = rmdctl_probe(d, ids, (unsigned)n, found, st);
-	if (m <= 0) {
-		if (m == 0)
-			tool_log(TOOL_LOG_ERR, "%s: no motor answered 0x9A: nothing to dump",
-				 d->name);
-		r = m < 0 ? -m : RMDCTL_EXIT_DATA;
-		goto out;
-	}
+	m = rmdctl_ids_probe(d, argc, argv, found, st, ": nothing to dump");
+	if (m < 0)
+		return -m;
 	strftime(stamp, sizeof(stamp), "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));
 	printf("# rmdctl dump: the settings of the motors on %s (protocol %s), %s.\n"
 	       "# Read back: PID gains (0x30%s), position-planning acceleration (0x42, the\n"

@@ -17,6 +17,7 @@
 #include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -275,6 +276,21 @@ static void cmd_usage(const struct enc_cmd *ec)
 	fprintf(stderr, "       (`rmdctl encode --help` lists every command)\n");
 }
 
+/* A usage error of command ec: the message, then its usage line.  Returns RMDCTL_EXIT_USAGE. */
+static int usage_error(const struct enc_cmd *ec, const char *fmt, ...)
+	__attribute__((format(printf, 2, 3)));
+
+static int usage_error(const struct enc_cmd *ec, const char *fmt, ...)
+{
+	va_list ap;
+
+	va_start(ap, fmt);
+	tool_vlog(TOOL_LOG_ERR, fmt, ap);
+	va_end(ap);
+	cmd_usage(ec);
+	return RMDCTL_EXIT_USAGE;
+}
+
 /* ---- values -> fields ----------------------------------------------------------------- */
 
 /*
@@ -347,9 +363,7 @@ static int need_id(const struct enc_ctx *ctx, const struct enc_cmd *ec)
 {
 	if (ctx->motor_id > 0)
 		return 0;
-	tool_log(TOOL_LOG_ERR, "%s needs --id N (motor 1..%d)", ec->name, RMD_MAX_MOTORS);
-	cmd_usage(ec);
-	return RMDCTL_EXIT_USAGE;
+	return usage_error(ec, "%s needs --id N (motor 1..%d)", ec->name, RMD_MAX_MOTORS);
 }
 
 static const struct rmd_cmd_spec *find_row(const struct enc_ctx *ctx, const char *what, uint8_t cmd)
@@ -380,9 +394,7 @@ static int parse_value(const struct enc_cmd *ec, const char *s, double *v)
 {
 	if (rmdctl_parse_double(s, v) == 0)
 		return 0;
-	tool_log(TOOL_LOG_ERR, "%s: \"%s\" is not a number", ec->name, s);
-	cmd_usage(ec);
-	return RMDCTL_EXIT_USAGE;
+	return usage_error(ec, "%s: \"%s\" is not a number", ec->name, s);
 }
 
 /* ---- commands ------------------------------------------------------------------------- */
@@ -420,17 +432,12 @@ static int enc_spelled(const struct enc_ctx *ctx, const struct enc_cmd *ec, int 
 			    spelled_row(dl[i].proto, ec->name, -1))
 				k += (size_t)snprintf(keys + k, sizeof(keys) - k, "%s%s",
 						      k ? " or " : "", dl[i].key);
-		tool_log(TOOL_LOG_ERR, "%s: not a command of protocol %s (--protocol %s)", ec->name,
-			 rmd_proto_name(ctx->proto), keys);
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
+		return usage_error(ec, "%s: not a command of protocol %s (--protocol %s)", ec->name,
+				   rmd_proto_name(ctx->proto), keys);
 	}
-	if (!spec) {
-		tool_log(TOOL_LOG_ERR, "%s: wrong number of arguments for protocol %s", ec->name,
-			 rmd_proto_name(ctx->proto));
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
+	if (!spec)
+		return usage_error(ec, "%s: wrong number of arguments for protocol %s", ec->name,
+				   rmd_proto_name(ctx->proto));
 	/* V2 §4.1: the 0x280 frame carries no command byte and goes to no one motor */
 	multi = spec->flags & RMD_CMD_NO_CMD_BYTE;
 	if (!multi && (r = need_id(ctx, ec)) != 0)
@@ -505,18 +512,12 @@ static int enc_pid_read(const struct enc_ctx *ctx, const struct enc_cmd *ec, int
 	/* V2 §3.1: a command a gain; V4.2 §2.1: 0x30 and the gain's index; V3 §2.1: all six */
 	bool one = n > 1;
 
-	if (n < 1) {
-		tool_log(TOOL_LOG_ERR, "%s: protocol %s has no PID commands", ec->name,
-			 rmd_proto_name(ctx->proto));
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
-	if (argc != (one ? 1 : 0)) {
-		tool_log(TOOL_LOG_ERR, "%s: protocol %s takes %s", ec->name,
-			 rmd_proto_name(ctx->proto), one ? "one LOOP" : "no argument");
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
+	if (n < 1)
+		return usage_error(ec, "%s: protocol %s has no PID commands", ec->name,
+				   rmd_proto_name(ctx->proto));
+	if (argc != (one ? 1 : 0))
+		return usage_error(ec, "%s: protocol %s takes %s", ec->name,
+				   rmd_proto_name(ctx->proto), one ? "one LOOP" : "no argument");
 	if (argc == 1 && one_gain(dl, RMD_PID_READ, gain_slot(dl, argv[0]), &reqs[0]) < 0)
 		return bad_loop(ctx, ec, argv[0]);
 	if ((r = need_id(ctx, ec)) != 0)
@@ -543,19 +544,14 @@ static int enc_pid_write(const struct enc_ctx *ctx, const struct enc_cmd *ec, in
 	double gain;
 	int r, slot;
 
-	if (!fs || !fs->is_float || one_gain(dl, op, 0, &msg) < 0) {
-		tool_log(TOOL_LOG_ERR,
-			 "%s: protocol %s writes its gains otherwise (`raw`: six in 0x31 in V3, "
-			 "one a command from 0x36 in V2)",
-			 ec->name, rmd_proto_name(ctx->proto));
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
-	if (argc != 2) {
-		tool_log(TOOL_LOG_ERR, "%s: needs LOOP and GAIN", ec->name);
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
+	if (!fs || !fs->is_float || one_gain(dl, op, 0, &msg) < 0)
+		return usage_error(
+			ec,
+			"%s: protocol %s writes its gains otherwise (`raw`: six in 0x31 in V3, "
+			"one a command from 0x36 in V2)",
+			ec->name, rmd_proto_name(ctx->proto));
+	if (argc != 2)
+		return usage_error(ec, "%s: needs LOOP and GAIN", ec->name);
 	slot = gain_slot(dl, argv[0]);
 	if (one_gain(dl, op, slot, &msg) < 0)
 		return bad_loop(ctx, ec, argv[0]);
@@ -585,17 +581,11 @@ static int enc_active_reply(const struct enc_ctx *ctx, const struct enc_cmd *ec,
 	char *end;
 	int r;
 
-	if (!rmd_dialect_has(dl, RMD_DIALECT_ACTIVE_REPLY)) {
-		tool_log(TOOL_LOG_ERR, "%s: protocol %s has no active reply (V4.2 §2.33: 0xB6)",
-			 ec->name, rmd_proto_name(ctx->proto));
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
-	if (argc != 3) {
-		tool_log(TOOL_LOG_ERR, "%s: needs CMD, ON and MS", ec->name);
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
+	if (!rmd_dialect_has(dl, RMD_DIALECT_ACTIVE_REPLY))
+		return usage_error(ec, "%s: protocol %s has no active reply (V4.2 §2.33: 0xB6)",
+				   ec->name, rmd_proto_name(ctx->proto));
+	if (argc != 3)
+		return usage_error(ec, "%s: needs CMD, ON and MS", ec->name);
 	errno = 0;
 	cmd = strtoul(argv[0], &end, 16);
 	for (unsigned i = 0; i < dl->n_report_cmds; i++)
@@ -635,16 +625,10 @@ static int enc_mit(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 	struct rmd_mit_cmd mc;
 	int ret;
 
-	if (!rmd_dialect_has(rmd_dialect(ctx->proto), RMD_DIALECT_MIT_FRAMES)) {
-		tool_log(TOOL_LOG_ERR, "mit: MIT mode is V3 firmware's (use --protocol v3 or mit)");
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
-	if (argc != 5) {
-		tool_log(TOOL_LOG_ERR, "mit: needs 5 values");
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
+	if (!rmd_dialect_has(rmd_dialect(ctx->proto), RMD_DIALECT_MIT_FRAMES))
+		return usage_error(ec, "mit: MIT mode is V3 firmware's (use --protocol v3 or mit)");
+	if (argc != 5)
+		return usage_error(ec, "mit: needs 5 values");
 	if ((ret = need_id(ctx, ec)) != 0)
 		return ret;
 	for (int i = 0; i < 5; i++) {
@@ -711,11 +695,8 @@ static int enc_raw(const struct enc_ctx *ctx, const struct enc_cmd *ec, int argc
 	bool multi;
 	int r;
 
-	if (argc < 1) {
-		tool_log(TOOL_LOG_ERR, "raw: needs CMD");
-		cmd_usage(ec);
-		return RMDCTL_EXIT_USAGE;
-	}
+	if (argc < 1)
+		return usage_error(ec, "raw: needs CMD");
 	spec = raw_row(ctx, argv[0]);
 	if (!spec)
 		return RMDCTL_EXIT_USAGE;

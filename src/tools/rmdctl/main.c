@@ -9,8 +9,9 @@
  *   settings.c  set-id, set-zero, set-timeout, accel, pid
  *   dump.c      dump, restore: every readable setting as YAML, and back
  *   motion.c    brake, stop, off, reset, move
- *   top.c       a running rmdd, over LCM (no bus); top_screen.c its
- *               ncurses screen on a terminal
+ *   top.c       a running rmdd, over LCM (no bus): fills a top_view
+ *               (top_view.c) that its table, its JSON and top_screen.c
+ *               (the ncurses screen on a terminal) only read
  *   bench.c     what the device commands share: command line, bus, --trace,
  *               confirmation, transactions; output.c prints their results
  *   parse.c     what every command's command line shares: decode's and

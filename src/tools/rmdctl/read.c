@@ -10,26 +10,11 @@
 #include <unistd.h>
 
 #include "rmd/time.h"
-#include "rmd/bus_open.h"
 #include "rmd/codec.h"
 #include "rmd/describe.h"
 #include "rmdctl.h"
 
 /* ---- scan ----------------------------------------------------------------------------- */
-
-int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids)
-{
-	int n = argc ? rmd_bus_open_parse_ids(argv[0], ids) : (int)rmdctl_all_ids(ids);
-	int r;
-
-	if (n < 0) {
-		tool_log(TOOL_LOG_ERR, "bad motor list \"%s\" (ids 1..%d, e.g. 1-3,7)", argv[0],
-			 RMD_MAX_MOTORS);
-		return -RMDCTL_EXIT_USAGE;
-	}
-	r = rmdctl_open_bus(d);
-	return r ? -r : n;
-}
 
 int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 {
@@ -277,30 +262,25 @@ static void monitor_table(struct dev *d, const uint8_t *ids, unsigned n, const s
 
 int rmdctl_run_monitor(struct dev *d, int argc, char **argv)
 {
-	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
+	uint8_t ids[RMD_MAX_MOTORS];
 	struct req q[MAX_REQS];
 	bool clear = !d->once && isatty(STDOUT_FILENO);
 	int64_t period = (int64_t)llround(d->interval_ms * 1e6), next;
 	unsigned n;
 	int m, r, status = RMDCTL_EXIT_OK;
 
-	m = rmdctl_ids_open(d, argc, argv, ids);
+	if (argc == 0) {
+		/* No list: the motors that answer a probe. */
+		char none[24];
+
+		snprintf(none, sizeof(none), " (ids 1..%d)", RMD_MAX_MOTORS);
+		m = rmdctl_ids_probe(d, argc, argv, ids, q, none);
+	} else {
+		m = rmdctl_ids_open(d, argc, argv, ids);
+	}
 	if (m < 0)
 		return -m;
 	n = (unsigned)m;
-	if (argc == 0) {
-		/* No list: the motors that answer a probe. */
-		m = rmdctl_probe(d, ids, n, found, q);
-		if (m <= 0) {
-			if (m == 0)
-				tool_log(TOOL_LOG_ERR, "%s: no motor answered 0x9A (ids 1..%d)",
-					 d->name, RMD_MAX_MOTORS);
-			rmdctl_close_bus(d);
-			return m < 0 ? -m : RMDCTL_EXIT_DATA;
-		}
-		n = (unsigned)m;
-		memcpy(ids, found, n);
-	}
 	next = rmd_now_ns();
 	while (!rmdctl_interrupted) {
 		for (unsigned i = 0; i < n; i++)

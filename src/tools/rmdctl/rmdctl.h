@@ -257,6 +257,10 @@ int rmdctl_open_bus_for(struct dev *d, bool confirm, const char *fmt, ...)
 void rmdctl_close_bus(struct dev *d);
 
 void rmdctl_req_init(struct req *q, uint8_t id, uint8_t cmd);
+/* rmd_txn_prepare() of m to motor id in d's dialect; failure reported.  0 or RMDCTL_EXIT_DATA. */
+int rmdctl_txn_prepare(struct rmd_txn *t, const struct dev *d, uint8_t id, const struct rmd_msg *m);
+/* rmd_txn_run() on d's bus; Ctrl-C or a bus error reported.  0 or RMDCTL_EXIT_DATA. */
+int rmdctl_txn_run(struct dev *d, struct rmd_txn *t, unsigned n, const struct rmd_txn_opts *o);
 /* q[0..n) as one pipelined batch: 0 (each q[i].ok says), RMDCTL_EXIT_DATA on a bus error. */
 int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n);
 /* Open the bus, rmdctl_run_reqs(), close it: 0 or an exit status. */
@@ -276,6 +280,14 @@ unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n);
 int rmdctl_ids_open(struct dev *d, int argc, char **argv, uint8_t *ids);
 /* Probe ids[0..n) with 0x9A; found[] gets those that answered (one that only echoed is reported).  The count or -exit. */
 int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st);
+/*
+ * rmdctl_ids_open(), then rmdctl_probe() of those ids, where some motor must
+ * answer: none is reported as "BUS: no motor answered 0x9A" and `none` after
+ * it.  Returns the count in found[] (1 or more), or minus the exit status
+ * with the bus closed.
+ */
+int rmdctl_ids_probe(struct dev *d, int argc, char **argv, uint8_t *found, struct req *st,
+		     const char *none);
 
 /* ---- output (output.c) ------------------------------------------------------------------ */
 

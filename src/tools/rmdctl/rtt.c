@@ -151,25 +151,16 @@ static int round_trip(struct dev *d, uint8_t cmd, const uint8_t *ids, unsigned n
 	o.tries = 1;
 	for (unsigned i = 0; i < n; i++) {
 		struct rmd_msg m = { .cmd = cmd };
-		int r = rmd_txn_prepare(&t[i], d->proto, ids[i], &m);
+		int r = rmdctl_txn_prepare(&t[i], d, ids[i], &m);
 
-		if (r < 0) {
-			tool_log(TOOL_LOG_ERR, "motor %u: cannot encode 0x%02X: %s", ids[i], cmd,
-				 strerror(-r));
-			return RMDCTL_EXIT_DATA;
-		}
+		if (r)
+			return r;
 	}
 	for (unsigned i = 0; i < n; i += step) {
-		int r = rmd_txn_run(d->b, &t[i], step, &o);
+		int r = rmdctl_txn_run(d, &t[i], step, &o);
 
-		if (r == -EINTR) {
-			tool_log(TOOL_LOG_ERR, "interrupted");
-			return RMDCTL_EXIT_DATA;
-		}
-		if (r < 0) {
-			tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
-			return RMDCTL_EXIT_DATA;
-		}
+		if (r)
+			return r;
 	}
 	for (unsigned i = 0; i < n; i++) {
 		/*
@@ -321,7 +312,7 @@ static bool bus_timing(const struct dev *d, struct rmd_bus_timing *t)
 
 int rmdctl_run_rtt(struct dev *d, int argc, char **argv)
 {
-	uint8_t ids[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
+	uint8_t found[RMD_MAX_MOTORS];
 	struct req st[RMD_MAX_MOTORS];
 	struct series s[N_CLASSES][RMD_MAX_MOTORS];
 	struct verdict v[N_CLASSES];
@@ -334,16 +325,9 @@ int rmdctl_run_rtt(struct dev *d, int argc, char **argv)
 	if (!d->timeout_set)
 		d->timeout_ms = RTT_TIMEOUT_MS;
 	d->line_timeout = true; /* an RS485 line waits as long (rmdctl_open_bus()) */
-	m = rmdctl_ids_open(d, argc, argv, ids);
+	m = rmdctl_ids_probe(d, argc, argv, found, st, "");
 	if (m < 0)
 		return -m;
-	m = rmdctl_probe(d, ids, (unsigned)m, found, st);
-	if (m <= 0) {
-		if (m == 0)
-			tool_log(TOOL_LOG_ERR, "%s: no motor answered 0x9A", d->name);
-		rmdctl_close_bus(d);
-		return m < 0 ? -m : RMDCTL_EXIT_DATA;
-	}
 	n = (unsigned)m;
 	half_duplex = rmd_bus_caps(d->b)->half_duplex;
 	assumed = bus_timing(d, &bt);

@@ -280,6 +280,35 @@ out:
 	return r;
 }
 
+/* d's dialect has caps; else "protocol P has no WHAT" is reported.  0 or RMDCTL_EXIT_USAGE. */
+static int need_caps(struct dev *d, uint32_t caps, const char *what)
+{
+	if (rmd_dialect_has(rmdctl_dialect(d), caps))
+		return 0;
+	tool_log(TOOL_LOG_ERR, "protocol %s has no %s", rmdctl_dialect(d)->name, what);
+	return RMDCTL_EXIT_USAGE;
+}
+
+/*
+ * The WORD argument of a 0x20 function that d's dialect has when it has
+ * caps: 0 for word a, 1 for word b; minus the exit status after a refusal
+ * ("protocol P has no WHAT", "bad "ARG" (A or B)").
+ */
+static int function_word(struct dev *d, uint32_t caps, const char *what, const char *arg,
+			 const char *a, const char *b)
+{
+	int r = need_caps(d, caps, what);
+
+	if (r)
+		return -r;
+	if (!strcmp(arg, a))
+		return 0;
+	if (!strcmp(arg, b))
+		return 1;
+	tool_log(TOOL_LOG_ERR, "bad \"%s\" (%s or %s)", arg, a, b);
+	return -RMDCTL_EXIT_USAGE;
+}
+
 /*
  * V3 §2.33.4 / V4.2 §2.34.4 index 4: the motor keeps its multi-turn count
  * across power off (1), or starts single-turn (0); either after a restart.
@@ -292,19 +321,11 @@ int rmdctl_run_multiturn_save(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (!rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_MULTI_TURN_SAVE)) {
-		tool_log(TOOL_LOG_ERR, "protocol %s has no multi-turn save (0x20 index 4)",
-			 rmdctl_dialect(d)->name);
-		return RMDCTL_EXIT_USAGE;
-	}
-	if (!strcmp(argv[1], "on"))
-		on = true;
-	else if (!strcmp(argv[1], "off"))
-		on = false;
-	else {
-		tool_log(TOOL_LOG_ERR, "bad \"%s\" (on or off)", argv[1]);
-		return RMDCTL_EXIT_USAGE;
-	}
+	r = function_word(d, RMD_DIALECT_MULTI_TURN_SAVE, "multi-turn save (0x20 index 4)", argv[1],
+			  "on", "off");
+	if (r < 0)
+		return -r;
+	on = r == 0;
 	snprintf(what, sizeof(what),
 		 "%s multi-turn save at power off of motor %u on %s (0x20 index 4, ROM; after "
 		 "a restart)",
@@ -331,19 +352,11 @@ int rmdctl_run_angle_limit(struct dev *d, int argc, char **argv)
 	int r;
 
 	(void)argc;
-	if (!rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_ANGLE_LIMITS)) {
-		tool_log(TOOL_LOG_ERR, "protocol %s has no angle limits (V4.2 0x20 index 6/7)",
-			 rmdctl_dialect(d)->name);
-		return RMDCTL_EXIT_USAGE;
-	}
-	if (!strcmp(argv[1], "positive"))
-		index = 6;
-	else if (!strcmp(argv[1], "negative"))
-		index = 7;
-	else {
-		tool_log(TOOL_LOG_ERR, "bad \"%s\" (positive or negative)", argv[1]);
-		return RMDCTL_EXIT_USAGE;
-	}
+	r = function_word(d, RMD_DIALECT_ANGLE_LIMITS, "angle limits (V4.2 0x20 index 6/7)",
+			  argv[1], "positive", "negative");
+	if (r < 0)
+		return -r;
+	index = (uint8_t)(6 + r);
 	if (rmdctl_parse_double(argv[2], &deg) < 0 || !(fabs(deg) <= 2e7)) {
 		tool_log(TOOL_LOG_ERR, "bad DEG \"%s\" (degrees at the output)", argv[2]);
 		return RMDCTL_EXIT_USAGE;
@@ -401,11 +414,9 @@ int rmdctl_run_set_timeout(struct dev *d, int argc, char **argv)
 			 argv[1], UINT32_MAX);
 		return RMDCTL_EXIT_USAGE;
 	}
-	if (!rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_COMM_LOSS_B3)) {
-		tool_log(TOOL_LOG_ERR, "protocol %s has no comm-loss protection (0xB3 is V3 §2.30)",
-			 rmdctl_dialect(d)->name);
-		return RMDCTL_EXIT_USAGE;
-	}
+	r = need_caps(d, RMD_DIALECT_COMM_LOSS_B3, "comm-loss protection (0xB3 is V3 §2.30)");
+	if (r)
+		return r;
 	r = rmdctl_open_bus_for(d, true, "write the comm timeout of motor %u on %s", id,
 				d->bus_spec);
 	if (r)

@@ -16,6 +16,7 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
+#include <poll.h>
 #include <signal.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -30,7 +31,7 @@
 #include "rmd/time.h"
 #include "rmd/rmd_config_request_t.h"
 #include "rmdctl.h"
-#include "top.h"
+#include "top_screen.h"
 #include "tools/common/names.h"
 
 #define DEFAULT_PREFIX "RMD_"
@@ -39,7 +40,24 @@
 #define WAIT_S 3.0
 #define TOP_MIXED_WAIT_NS INT64_C(250000000) /* 2.5 health_t periods */
 #define ASK_EVERY_NS INT64_C(500000000)	     /* config_t requests until one comes */
-volatile sig_atomic_t rmdctl_top_stop;
+#define POLL_MAX_MS 100 /* the screen's keys and config_t requests: at least this often */
+#define TOP_CHANNEL_LEN 96
+
+/* top: its options, its LCM link and what it shows (filled from LCM, read by the views). */
+struct top {
+	bool json, once, tty;
+	double interval_ms, wait_s;
+
+	lcm_t *lcm;
+	char ch_state[TOP_CHANNEL_LEN], ch_health[TOP_CHANNEL_LEN], ch_config[TOP_CHANNEL_LEN],
+		ch_request[TOP_CHANNEL_LEN];
+	uint64_t n_states;
+	int64_t next_ask_ns; /* the next config_t request while none came */
+	struct top_view v;
+};
+
+/* Set by SIGINT and SIGTERM: every loop of top ends. */
+static volatile sig_atomic_t rmdctl_top_stop;
 
 static void on_signal(int sig)
 {
@@ -118,15 +136,15 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 
 	(void)rbuf;
 	(void)channel;
-	if (t->paused && t->state) {
+	if (t->v.paused && t->v.state) {
 		/* the screen keeps what it showed; that rmdd lives is still news */
-		t->state_rx_ns = rmd_now_ns();
+		t->v.state_rx_ns = rmd_now_ns();
 		return;
 	}
-	if (t->state)
-		rmd_state_t_destroy(t->state);
-	t->state = rmd_state_t_copy(msg);
-	t->state_rx_ns = rmd_now_ns();
+	if (t->v.state)
+		rmd_state_t_destroy(t->v.state);
+	t->v.state = rmd_state_t_copy(msg);
+	t->v.state_rx_ns = rmd_now_ns();
 	t->n_states++;
 }
 
@@ -137,37 +155,19 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 static bool same_daemon(struct top *t, int64_t instance, const char *host, int32_t pid,
 			const char *source)
 {
-	if (!t->instance)
-		t->instance = instance;
-	if (instance == t->instance)
+	if (!t->v.instance)
+		t->v.instance = instance;
+	if (instance == t->v.instance)
 		return true;
-	t->mixed = true;
-	if (instance != t->other_instance)
-		t->other_source[0] = '\0';
-	t->other_instance = instance;
-	t->other_pid = pid;
-	snprintf(t->other_host, sizeof(t->other_host), "%s", host ? host : "");
+	t->v.mixed = true;
+	if (instance != t->v.other_instance)
+		t->v.other_source[0] = '\0';
+	t->v.other_instance = instance;
+	t->v.other_pid = pid;
+	snprintf(t->v.other_host, sizeof(t->v.other_host), "%s", host ? host : "");
 	if (source)
-		snprintf(t->other_source, sizeof(t->other_source), "%s", source);
+		snprintf(t->v.other_source, sizeof(t->v.other_source), "%s", source);
 	return false;
-}
-
-void top_mixed_line(const struct top *t, char *buf, size_t len)
-{
-	snprintf(buf, len,
-		 "MIXED: two rmdd on this prefix: shown instance %016" PRIx64
-		 " (host %s, pid %d); also instance %016" PRIx64
-		 " (host %s, pid %d%s%s); state_t mixes both: stop one, or give one another "
-		 "lcm.channel_prefix",
-		 (uint64_t)t->instance,
-		 t->cfg	   ? t->cfg->host :
-		 t->health ? t->health->host :
-			     "?",
-		 t->cfg	   ? (int)t->cfg->pid :
-		 t->health ? (int)t->health->pid :
-			     0,
-		 (uint64_t)t->other_instance, t->other_host, (int)t->other_pid,
-		 t->other_source[0] ? ", " : "", t->other_source);
 }
 
 static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_health_t *msg,
@@ -179,14 +179,14 @@ static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 	(void)channel;
 	if (!same_daemon(t, msg->instance, msg->host, msg->pid, NULL))
 		return;
-	if (t->paused && t->health) {
-		t->health_rx_ns = rmd_now_ns();
+	if (t->v.paused && t->v.health) {
+		t->v.health_rx_ns = rmd_now_ns();
 		return;
 	}
-	if (t->health)
-		rmd_health_t_destroy(t->health);
-	t->health = rmd_health_t_copy(msg);
-	t->health_rx_ns = rmd_now_ns();
+	if (t->v.health)
+		rmd_health_t_destroy(t->v.health);
+	t->v.health = rmd_health_t_copy(msg);
+	t->v.health_rx_ns = rmd_now_ns();
 }
 
 static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
@@ -198,19 +198,20 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 	(void)channel;
 	if (!same_daemon(t, msg->instance, msg->host, msg->pid, msg->source))
 		return;
-	if (t->paused && t->cfg)
+	if (t->v.paused && t->v.cfg)
 		return;
-	if (t->cfg)
-		rmd_config_t_destroy(t->cfg);
-	t->cfg = rmd_config_t_copy(msg);
-	t->cfg_rx_ns = rmd_now_ns();
+	if (t->v.cfg)
+		rmd_config_t_destroy(t->v.cfg);
+	t->v.cfg = rmd_config_t_copy(msg);
+	t->v.cfg_rx_ns = rmd_now_ns();
 }
 
 /* config_t, health_t and state_t have come, and agree on the motors. */
 static bool complete(const struct top *t)
 {
-	return t->cfg && t->health && t->state && t->state->count == t->cfg->motor_count &&
-	       t->health->motor_count == t->cfg->motor_count;
+	return t->v.cfg && t->v.health && t->v.state &&
+	       t->v.state->count == t->v.cfg->motor_count &&
+	       t->v.health->motor_count == t->v.cfg->motor_count;
 }
 
 /* Ask rmdd for config_t (docs/lcm.md: any message on PREFIX CONFIG_REQUEST). */
@@ -221,11 +222,12 @@ static void ask_config(struct top *t)
 	rmd_config_request_t_publish(t->lcm, t->ch_request, &req);
 }
 
-void top_ask_config_due(struct top *t)
+/* Ask for config_t when none came and the last request is 500 ms old. */
+static void ask_config_due(struct top *t)
 {
 	int64_t now = rmd_now_ns();
 
-	if (!t->cfg && now >= t->next_ask_ns) {
+	if (!t->v.cfg && now >= t->next_ask_ns) {
 		ask_config(t);
 		t->next_ask_ns = now + ASK_EVERY_NS;
 	}
@@ -238,7 +240,7 @@ static int pump(struct top *t, int64_t deadline_ns)
 		int64_t now = rmd_now_ns();
 		int ms, r;
 
-		top_ask_config_due(t);
+		ask_config_due(t);
 		if (now >= deadline_ns || rmdctl_top_stop)
 			return 0;
 		ms = (int)((deadline_ns - now + 999999) / 1000000);
@@ -258,61 +260,34 @@ static const char *num(char *buf, size_t size, double v, int prec)
 	return buf;
 }
 
-const char *top_mode_name(int mode)
-{
-	return mode >= 0 && mode < RMD_MODE_COUNT ? rmd_mode_name((enum rmd_mode)mode) : "?";
-}
-
-const char *top_bus_state_name(int s)
-{
-	return s >= RMD_BUS_ACTIVE && s <= RMD_BUS_NO_ACK ?
-		       rmd_bus_state_name((enum rmd_bus_state)s) :
-		       "?";
-}
-
-/* The state's motor i, by index (state_t.motor[i] is motor i, but check). */
-const rmd_motor_state_t *top_motor_state(const struct top *t, int i)
-{
-	if (t->state && i < t->state->count && t->state->motor[i].index == i)
-		return &t->state->motor[i];
-	return NULL;
-}
-
-bool top_stale(const struct top *t)
-{
-	int64_t now = rmd_now_ns();
-
-	return now - t->health_rx_ns > TOP_STALE_NS || now - t->state_rx_ns > TOP_STALE_NS;
-}
-
 static void print_table(const struct top *t, FILE *f)
 {
-	const rmd_config_t *c = t->cfg;
-	const rmd_health_t *h = t->health;
+	const rmd_config_t *c = t->v.cfg;
+	const rmd_health_t *h = t->v.health;
 	int64_t now = rmd_now_ns();
 	char b[6][32];
 
-	fprintf(f, "rmdd on %s, prefix %s", t->url, t->prefix);
+	fprintf(f, "rmdd on %s, prefix %s", t->v.url, t->v.prefix);
 	if (c)
 		fprintf(f, ", period %d us, state every %d", c->period_us, c->state_every);
-	if (t->state)
-		fprintf(f, ", cycle %" PRId64, t->state->cycle);
+	if (t->v.state)
+		fprintf(f, ", cycle %" PRId64, t->v.state->cycle);
 	fputc('\n', f);
-	if (!c || !h || !t->state) {
+	if (!c || !h || !t->v.state) {
 		fprintf(f, "waiting for rmdd: config %s, health %s, state %s\n", c ? "yes" : "no",
-			h ? "yes" : "no", t->state ? "yes" : "no");
+			h ? "yes" : "no", t->v.state ? "yes" : "no");
 		return;
 	}
-	if (t->mixed) {
+	if (t->v.mixed) {
 		char line[640];
 
-		top_mixed_line(t, line, sizeof(line));
+		top_mixed_line(&t->v, line, sizeof(line));
 		fprintf(f, "%s\n", line);
 	}
-	if (top_stale(t))
+	if (top_stale(&t->v))
 		fprintf(f, "STALE: no health for %.1f s, no state for %.1f s (rmdd stopped?)\n",
-			(double)(now - t->health_rx_ns) / 1e9,
-			(double)(now - t->state_rx_ns) / 1e9);
+			(double)(now - t->v.health_rx_ns) / 1e9,
+			(double)(now - t->v.state_rx_ns) / 1e9);
 	fprintf(f,
 		"loop: cycles %" PRId64 ", overruns %" PRId64 ", plan misses %" PRId64
 		"; wake-up us min %s avg %s p99 %s max %s; cycle max %s us\n",
@@ -343,7 +318,7 @@ static void print_table(const struct top *t, FILE *f)
 		"ERR", "LAT_US", "AGE_MS", "MISSED", "PROTECTION");
 	for (int i = 0; i < c->motor_count; i++) {
 		const rmd_motor_config_t *mc = &c->motor[i];
-		const rmd_motor_state_t *ms = top_motor_state(t, i);
+		const rmd_motor_state_t *ms = top_motor_state(&t->v, i);
 		char prot[32];
 
 		snprintf(prot, sizeof(prot), "%s %dms",
@@ -414,24 +389,24 @@ static void json_kint(FILE *f, const char *key, int64_t v)
 
 static void print_json(const struct top *t, FILE *f)
 {
-	const rmd_config_t *c = t->cfg;
-	const rmd_health_t *h = t->health;
-	const rmd_state_t *s = t->state;
+	const rmd_config_t *c = t->v.cfg;
+	const rmd_health_t *h = t->v.health;
+	const rmd_state_t *s = t->v.state;
 
 	fputs("{\"url\":", f);
-	json_str(f, t->url);
+	json_str(f, t->v.url);
 	json_kstr(f, "prefix", c->prefix);
 	fprintf(f, ",\"instance\":\"%016" PRIx64 "\"", (uint64_t)c->instance);
 	json_kstr(f, "host", c->host);
 	json_kint(f, "pid", c->pid);
 	json_kstr(f, "source", c->source);
 	/* another daemon on the prefix: null, or who it is */
-	if (t->mixed) {
+	if (t->v.mixed) {
 		fprintf(f, ",\"mixed\":{\"instance\":\"%016" PRIx64 "\"",
-			(uint64_t)t->other_instance);
-		json_kstr(f, "host", t->other_host);
-		json_kint(f, "pid", t->other_pid);
-		json_kstr(f, "source", t->other_source);
+			(uint64_t)t->v.other_instance);
+		json_kstr(f, "host", t->v.other_host);
+		json_kint(f, "pid", t->v.other_pid);
+		json_kstr(f, "source", t->v.other_source);
 		fputc('}', f);
 	} else {
 		fputs(",\"mixed\":null", f);
@@ -475,7 +450,7 @@ static void print_json(const struct top *t, FILE *f)
 	fputs("],\"motors\":[", f);
 	for (int i = 0; i < c->motor_count; i++) {
 		const rmd_motor_config_t *mc = &c->motor[i];
-		const rmd_motor_state_t *ms = top_motor_state(t, i);
+		const rmd_motor_state_t *ms = top_motor_state(&t->v, i);
 
 		fprintf(f, "%s{\"index\":%d", i ? "," : "", i);
 		json_kstr(f, "name", mc->name);
@@ -522,10 +497,10 @@ static int parse(struct top *t, int argc, char **argv)
 	while ((c = getopt_long(argc, argv, shorts, longopts, NULL)) != -1) {
 		switch (c) {
 		case TOOL_OPT_BASE + OPT_URL:
-			t->url = optarg;
+			t->v.url = optarg;
 			break;
 		case TOOL_OPT_BASE + OPT_PREFIX:
-			t->prefix = optarg;
+			t->v.prefix = optarg;
 			break;
 		case 'j':
 			t->json = true;
@@ -567,8 +542,8 @@ static int parse(struct top *t, int argc, char **argv)
 		tool_log(TOOL_LOG_ERR, "--json and --once exclude each other");
 		return -1;
 	}
-	if (strlen(t->prefix) + strlen(RMD_CHANNEL_CONFIG_REQUEST) >= TOP_CHANNEL_LEN) {
-		tool_log(TOOL_LOG_ERR, "--prefix \"%s\" is too long", t->prefix);
+	if (strlen(t->v.prefix) + strlen(RMD_CHANNEL_CONFIG_REQUEST) >= TOP_CHANNEL_LEN) {
+		tool_log(TOOL_LOG_ERR, "--prefix \"%s\" is too long", t->v.prefix);
 		return -1;
 	}
 	return 0;
@@ -594,9 +569,9 @@ static int run_once(struct top *t)
 				 " and %s" RMD_CHANNEL_STATE " within %g s "
 				 "(config %s, health %s, state %s): is rmdd running, with "
 				 "--lcm-url %s and prefix %s?",
-				 t->prefix, t->prefix, t->prefix, t->wait_s, t->cfg ? "yes" : "no",
-				 t->health ? "yes" : "no", t->state ? "yes" : "no", t->url,
-				 t->prefix);
+				 t->v.prefix, t->v.prefix, t->v.prefix, t->wait_s,
+				 t->v.cfg ? "yes" : "no", t->v.health ? "yes" : "no",
+				 t->v.state ? "yes" : "no", t->v.url, t->v.prefix);
 			return -ETIMEDOUT;
 		}
 	}
@@ -624,6 +599,60 @@ static int run_plain(struct top *t)
 	}
 }
 
+/*
+ * On a terminal: the screen, redrawn every --interval and at each key, until
+ * q, Ctrl-C or SIGTERM.  Returns 0, -EIO when LCM failed, or -ENOTTY when
+ * curses cannot drive this terminal (the caller prints plain tables instead).
+ */
+static int run_screen(struct top *t)
+{
+	int64_t period = (int64_t)(t->interval_ms * 1e6), next_draw = rmd_now_ns();
+	struct top_screen *scr = top_screen_open();
+	bool dirty = false;
+	int r = 0;
+
+	if (!scr)
+		return -ENOTTY;
+	while (!rmdctl_top_stop) {
+		struct pollfd p[2] = {
+			{ .fd = lcm_get_fileno(t->lcm), .events = POLLIN },
+			{ .fd = STDIN_FILENO, .events = POLLIN },
+		};
+		int64_t now = rmd_now_ns();
+		unsigned int keys;
+		int ms;
+
+		ask_config_due(t);
+		if (now >= next_draw || dirty) {
+			top_screen_draw(scr, &t->v);
+			dirty = false;
+			if (now >= next_draw)
+				next_draw = now + period; /* late draws are not caught up */
+		}
+		ms = (int)((next_draw - now) / 1000000) + 1;
+		if (ms > POLL_MAX_MS)
+			ms = POLL_MAX_MS;
+		/* a signal (Ctrl-C, a resize) interrupts the wait: the loop looks again */
+		if (poll(p, 2, ms) < 0 && errno != EINTR) {
+			r = -EIO;
+			break;
+		}
+		if ((p[0].revents & POLLIN) && lcm_handle(t->lcm) < 0) {
+			r = -EIO;
+			break;
+		}
+		keys = top_screen_keys(scr, &t->v);
+		if (keys & TOP_SCREEN_PAUSE)
+			t->v.paused = !t->v.paused;
+		if (keys & TOP_SCREEN_KEYED)
+			dirty = true;
+		if (keys & TOP_SCREEN_QUIT)
+			break;
+	}
+	top_screen_close(scr);
+	return r;
+}
+
 /* The screen wants a terminal that is more than a teletype. */
 static bool screen_terminal(void)
 {
@@ -640,7 +669,7 @@ static int run(struct top *t)
 	if (t->json || t->once)
 		return run_once(t);
 	if (t->tty) {
-		r = top_screen_run(t);
+		r = run_screen(t);
 		if (r != -ENOTTY)
 			return r;
 		tool_log(TOOL_LOG_WARNING, "curses cannot drive TERM=%s: plain tables",
@@ -651,12 +680,12 @@ static int run(struct top *t)
 
 int rmdctl_top_run(int argc, char **argv)
 {
-	struct top t = { .prefix = DEFAULT_PREFIX, .wait_s = WAIT_S };
+	struct top t = { .v.prefix = DEFAULT_PREFIX, .wait_s = WAIT_S };
 	struct sigaction sa;
 	const char *env = getenv("LCM_DEFAULT_URL");
 	int r;
 
-	t.url = env && *env ? env : RMD_CONFIG_DEFAULT_LCM_URL;
+	t.v.url = env && *env ? env : RMD_CONFIG_DEFAULT_LCM_URL;
 	t.tty = screen_terminal();
 	r = parse(&t, argc, argv);
 	if (r > 0)
@@ -667,10 +696,10 @@ int rmdctl_top_run(int argc, char **argv)
 	}
 	if (t.interval_ms == 0)
 		t.interval_ms = t.tty ? TTY_INTERVAL_MS : PLAIN_INTERVAL_MS;
-	snprintf(t.ch_state, sizeof(t.ch_state), "%s" RMD_CHANNEL_STATE, t.prefix);
-	snprintf(t.ch_health, sizeof(t.ch_health), "%s" RMD_CHANNEL_HEALTH, t.prefix);
-	snprintf(t.ch_config, sizeof(t.ch_config), "%s" RMD_CHANNEL_CONFIG, t.prefix);
-	snprintf(t.ch_request, sizeof(t.ch_request), "%s" RMD_CHANNEL_CONFIG_REQUEST, t.prefix);
+	snprintf(t.ch_state, sizeof(t.ch_state), "%s" RMD_CHANNEL_STATE, t.v.prefix);
+	snprintf(t.ch_health, sizeof(t.ch_health), "%s" RMD_CHANNEL_HEALTH, t.v.prefix);
+	snprintf(t.ch_config, sizeof(t.ch_config), "%s" RMD_CHANNEL_CONFIG, t.v.prefix);
+	snprintf(t.ch_request, sizeof(t.ch_request), "%s" RMD_CHANNEL_CONFIG_REQUEST, t.v.prefix);
 
 	memset(&sa, 0, sizeof(sa));
 	sa.sa_handler = on_signal;
@@ -678,10 +707,11 @@ int rmdctl_top_run(int argc, char **argv)
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
 
-	t.lcm = lcm_create(t.url);
+	t.lcm = lcm_create(t.v.url);
 	if (!t.lcm) {
 		tool_log(TOOL_LOG_ERR,
-			 "LCM: cannot open %s (docs/lcm.md: a robot PC without a network)", t.url);
+			 "LCM: cannot open %s (docs/lcm.md: a robot PC without a network)",
+			 t.v.url);
 		return RMDCTL_EXIT_DATA;
 	}
 	/* the generated subscriptions are the caller's to free (lcm-gen's C) */
@@ -693,17 +723,17 @@ int rmdctl_top_run(int argc, char **argv)
 		rmd_config_t_subscribe(t.lcm, t.ch_config, on_config, &t);
 	r = run(&t);
 	if (r == -EIO)
-		tool_log(TOOL_LOG_ERR, "LCM: receiving on %s failed", t.url);
+		tool_log(TOOL_LOG_ERR, "LCM: receiving on %s failed", t.v.url);
 	rmd_state_t_unsubscribe(t.lcm, s_state);
 	rmd_health_t_unsubscribe(t.lcm, s_health);
 	rmd_config_t_unsubscribe(t.lcm, s_config);
 	lcm_destroy(t.lcm);
-	if (t.cfg)
-		rmd_config_t_destroy(t.cfg);
-	if (t.health)
-		rmd_health_t_destroy(t.health);
-	if (t.state)
-		rmd_state_t_destroy(t.state);
+	if (t.v.cfg)
+		rmd_config_t_destroy(t.v.cfg);
+	if (t.v.health)
+		rmd_health_t_destroy(t.v.health);
+	if (t.v.state)
+		rmd_state_t_destroy(t.v.state);
 	if (fflush(stdout) != 0 || ferror(stdout)) {
 		tool_log(TOOL_LOG_ERR, "write error: %s", strerror(errno));
 		return RMDCTL_EXIT_DATA;

@@ -22,22 +22,19 @@
  */
 #include <ctype.h>
 #include <curses.h>
-#include <errno.h>
 #include <inttypes.h>
 #include <math.h>
-#include <poll.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "rmd/frame.h"
 #include "rmd/time.h"
-#include "top.h"
+#include "top_screen.h"
 #include "tools/common/names.h"
 
-#define POLL_MAX_MS 100 /* keys and config_t requests are served at least this often */
-#define NAME_MIN 4	/* the NAME column: from the longest name, within these */
+#define NAME_MIN 4 /* the NAME column: from the longest name, within these */
 #define NAME_MAX 16
 #define DETAIL_ROWS 2 /* the picked motor's details */
 #define ITEM_LEN 96
@@ -70,14 +67,15 @@ static const struct {
 	const char *head;
 	int width; /* on a wide terminal (NAME: from the names) */
 	bool left; /* text; numbers are right-aligned */
+	int prec;  /* numbers (number()): decimals, fewer when the width needs it */
 } cols[NCOLS] = {
-	[C_IDX] = { "IDX", 3, false },	   [C_NAME] = { "NAME", 12, true },
-	[C_BUS] = { "BUS", 8, true },	   [C_ID] = { "ID", 3, false },
-	[C_STATE] = { "STATE", 7, true },  [C_MODE] = { "MODE", 8, true },
-	[C_POS] = { "POS", 8, false },	   [C_VEL] = { "VEL", 8, false },
-	[C_TORQUE] = { "TORQ", 7, false }, [C_TEMP] = { "TEMP", 4, false },
-	[C_ERR] = { "ERR", 4, false },	   [C_LAT] = { "LAT_US", 6, false },
-	[C_AGE] = { "AGE_MS", 6, false },  [C_MISSED] = { "MISSED", 6, false },
+	[C_IDX] = { "IDX", 3, false },	      [C_NAME] = { "NAME", 12, true },
+	[C_BUS] = { "BUS", 8, true },	      [C_ID] = { "ID", 3, false },
+	[C_STATE] = { "STATE", 7, true },     [C_MODE] = { "MODE", 8, true },
+	[C_POS] = { "POS", 8, false, 3 },     [C_VEL] = { "VEL", 8, false, 3 },
+	[C_TORQUE] = { "TORQ", 7, false, 2 }, [C_TEMP] = { "TEMP", 4, false, 0 },
+	[C_ERR] = { "ERR", 4, false },	      [C_LAT] = { "LAT_US", 6, false },
+	[C_AGE] = { "AGE_MS", 6, false, 1 },  [C_MISSED] = { "MISSED", 6, false },
 	[C_PROT] = { "PROT", 11, true },
 };
 
@@ -101,8 +99,9 @@ static const struct {
 
 #define MARK_W 3 /* '>' picked, '!' needs attention, a space */
 
-struct ui {
-	bool colour, quit, dirty;
+struct top_screen {
+	SCREEN *scr;
+	bool colour;
 	int sel, first; /* the picked motor, the table's first line */
 	int width[NCOLS];
 };
@@ -133,7 +132,7 @@ static void add(struct items *l, enum att att, const char *fmt, ...)
 	l->it[l->n++].att = att;
 }
 
-static attr_t att_attr(const struct ui *u, enum att a)
+static attr_t att_attr(const struct top_screen *u, enum att a)
 {
 	switch (a) {
 	case ATT_NONE:
@@ -173,7 +172,7 @@ static void bar(int y, attr_t attr)
  * does not fit the rest of a row starts the next; one longer than a row is
  * left out.
  */
-static void flow(const struct ui *u, int y, int rows, const struct items *l, attr_t base)
+static void flow(const struct top_screen *u, int y, int rows, const struct items *l, attr_t base)
 {
 	int x = 0, row = 0;
 
@@ -248,7 +247,7 @@ static const char *upper(char *buf, size_t size, const char *s)
 }
 
 /* Motor i's lifecycle as the table shows it, and how urgent it is. */
-static enum att motor_state_text(const struct top *t, const rmd_motor_state_t *ms, char *buf,
+static enum att motor_state_text(const struct top_view *t, const rmd_motor_state_t *ms, char *buf,
 				 size_t size)
 {
 	if (top_stale(t)) {
@@ -270,8 +269,22 @@ static enum att motor_state_text(const struct top *t, const rmd_motor_state_t *m
 	}
 }
 
+/* The value of motor state ms in numeric column c (POS, VEL, TORQ, TEMP, AGE_MS). */
+static double number(const rmd_config_t *cf, const rmd_motor_state_t *ms, enum col c)
+{
+	const double v[NCOLS] = {
+		[C_POS] = ms->position,
+		[C_VEL] = ms->velocity,
+		[C_TORQUE] = ms->torque,
+		[C_TEMP] = ms->temperature,
+		[C_AGE] = ms->reply_age_cycles * cf->period_us / 1000.0,
+	};
+
+	return v[c];
+}
+
 /* Cell c of motor i in at most width characters; returns how urgent it is. */
-static enum att cell(const struct top *t, int i, enum col c, int width, char *buf, size_t size)
+static enum att cell(const struct top_view *t, int i, enum col c, int width, char *buf, size_t size)
 {
 	const rmd_config_t *cf = t->cfg;
 	const rmd_health_t *h = t->health;
@@ -307,16 +320,12 @@ static enum att cell(const struct top *t, int i, enum col c, int width, char *bu
 		snprintf(buf, size, "%s", top_mode_name(ms->mode));
 		break;
 	case C_POS:
-		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->position, 3));
-		break;
 	case C_VEL:
-		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->velocity, 3));
-		break;
 	case C_TORQUE:
-		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->torque, 2));
-		break;
 	case C_TEMP:
-		snprintf(buf, size, "%s", fit_num(num, sizeof(num), width, ms->temperature, 0));
+	case C_AGE:
+		snprintf(buf, size, "%s",
+			 fit_num(num, sizeof(num), width, number(cf, ms, c), cols[c].prec));
 		break;
 	case C_ERR:
 		snprintf(buf, size, "%x", (unsigned)ms->error_code);
@@ -324,11 +333,6 @@ static enum att cell(const struct top *t, int i, enum col c, int width, char *bu
 		break;
 	case C_LAT:
 		snprintf(buf, size, "%d", ms->reply_latency_us);
-		break;
-	case C_AGE:
-		snprintf(buf, size, "%s",
-			 fit_num(num, sizeof(num), width,
-				 ms->reply_age_cycles * cf->period_us / 1000.0, 1));
 		break;
 	case C_MISSED:
 		snprintf(buf, size, "%" PRId64, ms->missed_replies);
@@ -349,7 +353,7 @@ static enum att cell(const struct top *t, int i, enum col c, int width, char *bu
 }
 
 /* How urgent motor i is: the most urgent of its cells. */
-static enum att motor_att(const struct top *t, int i)
+static enum att motor_att(const struct top_view *t, int i)
 {
 	static const enum col watched[] = { C_STATE, C_ERR, C_PROT };
 	enum att worst = ATT_NONE;
@@ -365,7 +369,7 @@ static enum att motor_att(const struct top *t, int i)
 }
 
 /* The columns' widths for this terminal: u->width[c], 0 when left out. */
-static void layout(const struct top *t, struct ui *u)
+static void layout(const struct top_view *t, struct top_screen *u)
 {
 	int total = MARK_W, name = NAME_MIN;
 
@@ -391,7 +395,7 @@ static void layout(const struct top *t, struct ui *u)
 }
 
 /* One table row (motor i, or the column heads when i < 0) at line y. */
-static void table_row(const struct top *t, const struct ui *u, int y, int i)
+static void table_row(const struct top_view *t, const struct top_screen *u, int y, int i)
 {
 	bool picked = i >= 0 && i == u->sel;
 	attr_t base = picked ? A_REVERSE : A_NORMAL;
@@ -423,7 +427,7 @@ static void table_row(const struct top *t, const struct ui *u, int y, int i)
 	}
 }
 
-static void title(const struct top *t, const struct ui *u, int y)
+static void title(const struct top_view *t, const struct top_screen *u, int y)
 {
 	struct items l = { .n = 0 };
 	int64_t now = rmd_now_ns();
@@ -474,7 +478,7 @@ static void title(const struct top *t, const struct ui *u, int y)
 	flow(u, y, 1, &l, A_REVERSE);
 }
 
-static void loop_line(const struct top *t, const struct ui *u, int y)
+static void loop_line(const struct top_view *t, const struct top_screen *u, int y)
 {
 	const rmd_health_t *h = t->health;
 	struct items l = { .n = 0 };
@@ -490,7 +494,7 @@ static void loop_line(const struct top *t, const struct ui *u, int y)
 	flow(u, y, 1, &l, A_NORMAL);
 }
 
-static void control_line(const struct top *t, const struct ui *u, int y)
+static void control_line(const struct top_view *t, const struct top_screen *u, int y)
 {
 	const rmd_health_t *h = t->health;
 	struct items l = { .n = 0 };
@@ -508,7 +512,7 @@ static void control_line(const struct top *t, const struct ui *u, int y)
 	flow(u, y, 1, &l, A_NORMAL);
 }
 
-static void bus_line(const struct top *t, const struct ui *u, int y, int b)
+static void bus_line(const struct top_view *t, const struct top_screen *u, int y, int b)
 {
 	const rmd_bus_health_t *bh = &t->health->bus[b];
 	struct items l = { .n = 0 };
@@ -529,7 +533,7 @@ static void bus_line(const struct top *t, const struct ui *u, int y, int b)
 }
 
 /* The picked motor, everything the table has no room for. */
-static void details(const struct top *t, const struct ui *u, int y, int rows)
+static void details(const struct top_view *t, const struct top_screen *u, int y, int rows)
 {
 	const rmd_config_t *c = t->cfg;
 	const rmd_health_t *h = t->health;
@@ -566,7 +570,7 @@ static void details(const struct top *t, const struct ui *u, int y, int rows)
 	flow(u, y, rows, &l, A_NORMAL);
 }
 
-static void footer(const struct ui *u, int y)
+static void footer(const struct top_screen *u, int y)
 {
 	struct items l = { .n = 0 };
 
@@ -583,7 +587,7 @@ static void footer(const struct ui *u, int y)
  * always; then the loop line, the details and the motors, the watchdog
  * line and the buses, as many of each as the height leaves.
  */
-static void draw(const struct top *t, struct ui *u)
+void top_screen_draw(struct top_screen *u, const struct top_view *t)
 {
 	int y = 0, avail, n, lrows, mrows, drows, crow, brows;
 
@@ -647,20 +651,20 @@ static void draw(const struct top *t, struct ui *u)
 	refresh();
 }
 
-/* Every key typed since the last call. */
-static void keys(struct top *t, struct ui *u)
+unsigned int top_screen_keys(struct top_screen *u, const struct top_view *t)
 {
+	unsigned int r = 0;
 	int ch;
 
 	while ((ch = getch()) != ERR) {
 		switch (ch) {
 		case 'q':
 		case 'Q':
-			u->quit = true;
+			r |= TOP_SCREEN_QUIT;
 			break;
 		case 'p':
 		case ' ':
-			t->paused = !t->paused;
+			r ^= TOP_SCREEN_PAUSE;
 			break;
 		case KEY_UP:
 		case 'k':
@@ -681,27 +685,29 @@ static void keys(struct top *t, struct ui *u)
 		default: /* KEY_RESIZE too: curses has the new size, a redraw uses it */
 			break;
 		}
-		u->dirty = true;
+		r |= TOP_SCREEN_KEYED;
 	}
+	return r;
 }
 
-int top_screen_run(struct top *t)
+struct top_screen *top_screen_open(void)
 {
-	struct ui u = { .sel = 0 };
-	int64_t period = (int64_t)(t->interval_ms * 1e6), next_draw = rmd_now_ns();
-	SCREEN *scr;
-	int r = 0;
+	struct top_screen *u = calloc(1, sizeof(*u));
 
+	if (!u)
+		return NULL;
 	/*
 	 * newterm, not initscr: a terminal curses does not know is reported,
 	 * not fatal.  rmdctl's SIGINT and SIGTERM handlers are in place, so
-	 * curses keeps them (and adds its SIGWINCH one): Ctrl-C ends the loop
-	 * below, and endwin() restores the terminal.
+	 * curses keeps them (and adds its SIGWINCH one): Ctrl-C ends top's
+	 * loop, and endwin() restores the terminal.
 	 */
-	scr = newterm(NULL, stdout, stdin);
-	if (!scr)
-		return -ENOTTY;
-	set_term(scr);
+	u->scr = newterm(NULL, stdout, stdin);
+	if (!u->scr) {
+		free(u);
+		return NULL;
+	}
+	set_term(u->scr);
 	cbreak();
 	noecho();
 	keypad(stdscr, TRUE);
@@ -710,41 +716,17 @@ int top_screen_run(struct top *t)
 	if (has_colors() && start_color() == OK) {
 		short bg = use_default_colors() == OK ? -1 : COLOR_BLACK;
 
-		u.colour = true;
+		u->colour = true;
 		init_pair(PAIR_OK, COLOR_GREEN, bg);
 		init_pair(PAIR_WARN, COLOR_YELLOW, bg);
 		init_pair(PAIR_ALARM, COLOR_RED, bg);
 	}
-	while (!rmdctl_top_stop && !u.quit) {
-		struct pollfd p[2] = {
-			{ .fd = lcm_get_fileno(t->lcm), .events = POLLIN },
-			{ .fd = STDIN_FILENO, .events = POLLIN },
-		};
-		int64_t now = rmd_now_ns();
-		int ms;
+	return u;
+}
 
-		top_ask_config_due(t);
-		if (now >= next_draw || u.dirty) {
-			draw(t, &u);
-			u.dirty = false;
-			if (now >= next_draw)
-				next_draw = now + period; /* late draws are not caught up */
-		}
-		ms = (int)((next_draw - now) / 1000000) + 1;
-		if (ms > POLL_MAX_MS)
-			ms = POLL_MAX_MS;
-		/* a signal (Ctrl-C, a resize) interrupts the wait: the loop looks again */
-		if (poll(p, 2, ms) < 0 && errno != EINTR) {
-			r = -EIO;
-			break;
-		}
-		if ((p[0].revents & POLLIN) && lcm_handle(t->lcm) < 0) {
-			r = -EIO;
-			break;
-		}
-		keys(t, &u);
-	}
+void top_screen_close(struct top_screen *u)
+{
 	endwin();
-	delscreen(scr);
-	return r;
+	delscreen(u->scr);
+	free(u);
 }
