@@ -842,12 +842,14 @@ static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
 	case RMD_REBOOT_BY_TURNS:
 	case RMD_REBOOT_COUNT_ASTRAY:
 		lost = e->a == RMD_REBOOT_BY_TURNS;
-		snprintf(buf, len, "%s (its multi-turn angle %.2f deg, rmdd's count of its encoder "
-			 "%.2f deg: %s)",
-			 lost ? "rebooted" : "count astray", cdeg_hi(e->b), cdeg_lo(e->b),
-			 lost ? "its count lost, 0x92" :
-				"not whole turns apart, so no reboot; none judged by it until found "
-				"again (gear_ratio?)");
+		snprintf(
+			buf, len,
+			"%s (its multi-turn angle %.2f deg, rmdd's count of its encoder "
+			"%.2f deg: %s)",
+			lost ? "rebooted" : "count astray", cdeg_hi(e->b), cdeg_lo(e->b),
+			lost ? "its count lost, 0x92" :
+			       "not whole turns apart, so no reboot; none judged by it until found "
+			       "again (gear_ratio?)");
 		break;
 	case RMD_REBOOT_BY_BRAKE:
 		snprintf(buf, len,
