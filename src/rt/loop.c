@@ -550,6 +550,22 @@ static enum rmd_shutdown_action shutdown_action(const struct rmd_loop *l)
 	return a;
 }
 
+/*
+ * One step of stop_motors()'s waits: STOP_STEP_NS asleep, then every bus
+ * read (the sim and RS485 queues advance as they are read).  Returns the
+ * time after.  Blocking.
+ */
+static int64_t stop_step(struct rmd_loop *l)
+{
+	int64_t now;
+
+	loop_sleep(l, STOP_STEP_NS);
+	now = loop_now(l);
+	for (unsigned b = 0; b < l->n_buses; b++)
+		loop_drain(l, b, now);
+	return now;
+}
+
 /* Every bus's tx list sent, retried for ~10 ms while a bus refuses.  Bounded, blocking. */
 static int64_t send_queued(struct rmd_loop *l, int64_t now)
 {
@@ -573,11 +589,7 @@ static int64_t send_queued(struct rmd_loop *l, int64_t now)
 		}
 		if (!left)
 			break;
-		loop_sleep(l, STOP_STEP_NS);
-		now = loop_now(l);
-		/* the sim and RS485 queues advance as they are read */
-		for (unsigned b = 0; b < l->n_buses; b++)
-			loop_drain(l, b, now);
+		now = stop_step(l);
 	}
 	for (unsigned b = 0; b < l->n_buses; b++) {
 		struct lbus *lb = &l->bus[b];
@@ -676,12 +688,8 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 	now = send_queued(l, now);
 	/* Wait for the echoes (a reply deadline at most): the frames are out. */
 	for (int64_t waited = 0; waited < max_reply_ns(l) && outstanding_any(l);
-	     waited += STOP_STEP_NS) {
-		loop_sleep(l, STOP_STEP_NS);
-		now = loop_now(l);
-		for (unsigned b = 0; b < l->n_buses; b++)
-			loop_drain(l, b, now);
-	}
+	     waited += STOP_STEP_NS)
+		now = stop_step(l);
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 

@@ -52,6 +52,24 @@ struct tool_opt {
 		.value = TOOL_VAL_WORDS, .words = "bash"                            \
 	}
 
+/* The options every tool spells alike: their names and letters, once. */
+#define TOOL_OPT_HELP                                              \
+	{                                                          \
+		.name = "help", .shortc = 'h', .help = "this text" \
+	}
+#define TOOL_OPT_VERBOSE(text)                                 \
+	{                                                      \
+		.name = "verbose", .shortc = 'v', .help = text \
+	}
+#define TOOL_OPT_QUIET(text)                                 \
+	{                                                    \
+		.name = "quiet", .shortc = 'q', .help = text \
+	}
+#define TOOL_OPT_VERSION(text)                                 \
+	{                                                      \
+		.name = "version", .shortc = 'V', .help = text \
+	}
+
 /* getopt_long returns shortc, or TOOL_OPT_BASE + the row's index for a row without one. */
 #define TOOL_OPT_BASE 0x100
 

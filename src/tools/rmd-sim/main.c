@@ -47,13 +47,11 @@ static const struct tool_opt prog_opts[] = {
 	  .has_arg = required_argument,
 	  .arg = "[ID:]KEY=VALUE",
 	  .help = "a motor parameter, for motor ID or every motor" },
-	{ .name = "verbose", .shortc = 'v', .help = "also log every frame, decoded" },
-	{ .name = "quiet", .shortc = 'q', .help = "log errors and warnings only" },
-	{ .name = "help", .shortc = 'h', .help = "this text" },
-	{ .name = "version",
-	  .shortc = 'V',
-	  .help = "print \"rmd-sim VERSION\" and exit (the simulated\n"
-		  "firmware date is --version-date)" },
+	TOOL_OPT_VERBOSE("also log every frame, decoded"),
+	TOOL_OPT_QUIET("log errors and warnings only"),
+	TOOL_OPT_HELP,
+	TOOL_OPT_VERSION("print \"rmd-sim VERSION\" and exit (the simulated\n"
+			 "firmware date is --version-date)"),
 	TOOL_OPT_COMPLETION,
 };
 #define NPROG (sizeof(prog_opts) / sizeof(prog_opts[0]))

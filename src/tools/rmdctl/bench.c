@@ -651,7 +651,7 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .help = "talk on a bus that a running rmdd drives (refused\n"
 		  "otherwise); set-id, accel and move: also skip their\n"
 		  "safety limits described above" },
-	{ .name = "help", .shortc = 'h', .help = "this text" },
+	TOOL_OPT_HELP,
 	{ .name = "json",
 	  .shortc = 'j',
 	  .help = "one JSON object per motor and line (keys of\n"

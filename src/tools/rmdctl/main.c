@@ -192,7 +192,7 @@ static const struct rmdctl_cmd cmds[] = {
 /* rmdctl's own options, before any command. */
 static const struct tool_opt main_opts[] = {
 	{ .name = "help", .shortc = 'h', .help = "" },
-	{ .name = "version", .shortc = 'V', .help = "" },
+	TOOL_OPT_VERSION(""),
 	TOOL_OPT_COMPLETION,
 };
 #define NMAIN (sizeof(main_opts) / sizeof(main_opts[0]))

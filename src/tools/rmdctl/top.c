@@ -93,7 +93,7 @@ const struct tool_opt rmdctl_top_opts[] = {
 	  .arg = "S",
 	  .help = "with --json or --once: give up after S seconds without\n"
 		  "config, health and state (default 3)" },
-	{ .name = "help", .shortc = 'h', .help = "this text" },
+	TOOL_OPT_HELP,
 };
 const size_t rmdctl_n_top_opts = sizeof(rmdctl_top_opts) / sizeof(rmdctl_top_opts[0]);
 

@@ -830,7 +830,7 @@ static double cdeg_lo(int64_t b)
  */
 static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
 {
-	bool lost;
+	bool lost, no_check;
 
 	switch ((enum rmd_reboot_report)e->a) {
 	case RMD_REBOOT_BY_RUNTIME:
@@ -856,16 +856,16 @@ static void reboot_text(const struct rmd_event *e, char *buf, size_t len)
 			 "rebooted (its brake locked after it reported it released: 0x9A)");
 		break;
 	case RMD_REBOOT_NO_CHECK:
-		snprintf(buf, len,
-			 "does not answer 0x%02" PRIX64
-			 ": a short power cycle is seen only by its brake (0x9A) from now on",
-			 (uint64_t)e->b);
-		break;
 	case RMD_REBOOT_UNTOLD:
-		snprintf(buf, len,
-			 "whether it rebooted is untold: its answers to 0x%02" PRIX64
-			 " could not tell",
-			 (uint64_t)e->b);
+		no_check = e->a == RMD_REBOOT_NO_CHECK;
+		snprintf(
+			buf, len, "%s0x%02" PRIX64 "%s",
+			no_check ? "does not answer " :
+				   "whether it rebooted is untold: its answers to ",
+			(uint64_t)e->b,
+			no_check ?
+				": a short power cycle is seen only by its brake (0x9A) from now on" :
+				" could not tell");
 		break;
 	default:
 		snprintf(buf, len, "reboot check %" PRId64, e->a);
