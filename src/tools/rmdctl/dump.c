@@ -202,6 +202,19 @@ static int bad(const struct file *f, const yaml_node_t *node, const char *what)
 	return -EINVAL;
 }
 
+/* Pair i of mapping n (a YAML_MAPPING_NODE): its key *k and value *v; false past the last. */
+static bool pair_at(struct file *f, const yaml_node_t *n, size_t i, yaml_node_t **k,
+		    yaml_node_t **v)
+{
+	const yaml_node_pair_t *p = n->data.mapping.pairs.start + i;
+
+	if (p >= n->data.mapping.pairs.top)
+		return false;
+	*k = yaml_document_get_node(&f->doc, p->key);
+	*v = yaml_document_get_node(&f->doc, p->value);
+	return true;
+}
+
 static const char *scalar(const yaml_node_t *n)
 {
 	return n && n->type == YAML_SCALAR_NODE ? (const char *)n->data.scalar.value : NULL;
@@ -251,6 +264,7 @@ static int parse_pid(struct file *f, yaml_node_t *n, struct settings *s)
 {
 	const struct rmd_dialect *dl = f->dl;
 	bool seen[RMD_PID_SLOTS_MAX] = { false };
+	yaml_node_t *k, *v;
 	char keys[160];
 	size_t o = 0;
 
@@ -259,10 +273,7 @@ static int parse_pid(struct file *f, yaml_node_t *n, struct settings *s)
 				      pid_key(dl, i));
 	if (n->type != YAML_MAPPING_NODE)
 		return bad(f, n, "pid: want a mapping of the gains");
-	for (yaml_node_pair_t *p = n->data.mapping.pairs.start; p < n->data.mapping.pairs.top;
-	     p++) {
-		yaml_node_t *k = yaml_document_get_node(&f->doc, p->key);
-		yaml_node_t *v = yaml_document_get_node(&f->doc, p->value);
+	for (size_t pi = 0; pair_at(f, n, pi, &k, &v); pi++) {
 		char msg[200];
 		unsigned i;
 
@@ -294,16 +305,14 @@ static int parse_pid(struct file *f, yaml_node_t *n, struct settings *s)
 
 static int parse_motor(struct file *f, yaml_node_t *n, struct settings *s)
 {
+	yaml_node_t *k, *v;
 	int64_t id = 0;
 
 	s->comm_loss_ms = -1;
 	s->line = (unsigned)n->start_mark.line + 1;
 	if (n->type != YAML_MAPPING_NODE)
 		return bad(f, n, "a motor: want a mapping (id: N, pid: {...}, ...)");
-	for (yaml_node_pair_t *p = n->data.mapping.pairs.start; p < n->data.mapping.pairs.top;
-	     p++) {
-		yaml_node_t *k = yaml_document_get_node(&f->doc, p->key);
-		yaml_node_t *v = yaml_document_get_node(&f->doc, p->value);
+	for (size_t pi = 0; pair_at(f, n, pi, &k, &v); pi++) {
 		const char *key = scalar(k) ? scalar(k) : "";
 		int r = 0;
 
@@ -334,7 +343,7 @@ static int parse_motor(struct file *f, yaml_node_t *n, struct settings *s)
 
 static int parse_file(struct file *f)
 {
-	yaml_node_t *root, *motors = NULL;
+	yaml_node_t *root, *motors = NULL, *k, *v;
 	yaml_parser_t parser;
 	FILE *fp = fopen(f->path, "r");
 	int r = -EINVAL;
@@ -355,25 +364,23 @@ static int parse_file(struct file *f)
 	yaml_parser_delete(&parser);
 	fclose(fp);
 	root = yaml_document_get_root_node(&f->doc);
-	if (root && root->type == YAML_MAPPING_NODE)
-		for (yaml_node_pair_t *p = root->data.mapping.pairs.start;
-		     p < root->data.mapping.pairs.top; p++) {
-			const char *key = scalar(yaml_document_get_node(&f->doc, p->key));
-			yaml_node_t *v = yaml_document_get_node(&f->doc, p->value);
-			enum rmd_proto proto;
+	for (size_t pi = 0; root && root->type == YAML_MAPPING_NODE && pair_at(f, root, pi, &k, &v);
+	     pi++) {
+		const char *key = scalar(k);
+		enum rmd_proto proto;
 
-			if (key && !strcmp(key, "motors"))
-				motors = v;
-			if (key && !strcmp(key, "bus") && scalar(v))
-				snprintf(f->bus, sizeof(f->bus), "%s", scalar(v));
-			if (key && !strcmp(key, "protocol")) {
-				if (!scalar(v) || rmd_proto_parse(scalar(v), &proto) < 0) {
-					bad(f, v, "protocol: not a protocol key (v3, v4, ...)");
-					goto out;
-				}
-				f->dl = rmd_dialect(proto);
+		if (key && !strcmp(key, "motors"))
+			motors = v;
+		if (key && !strcmp(key, "bus") && scalar(v))
+			snprintf(f->bus, sizeof(f->bus), "%s", scalar(v));
+		if (key && !strcmp(key, "protocol")) {
+			if (!scalar(v) || rmd_proto_parse(scalar(v), &proto) < 0) {
+				bad(f, v, "protocol: not a protocol key (v3, v4, ...)");
+				goto out;
 			}
+			f->dl = rmd_dialect(proto);
 		}
+	}
 	if (!motors || motors->type != YAML_SEQUENCE_NODE) {
 		tool_log(TOOL_LOG_ERR, "%s: no `motors:` list (write one with rmdctl dump)",
 			 f->path);
