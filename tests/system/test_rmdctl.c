@@ -1114,6 +1114,46 @@ static void test_move_progress_on_terminal(void **state)
  * The bash completion the build wrote is `rmdctl --completion bash`: the
  * commands, each command's own options, --bus from the CAN interfaces.
  */
+/*
+ * restore refuses a bad file before it touches a bus, naming the file, the
+ * line and what is wrong (exit 1): a pid that is not a mapping, an unknown
+ * key, missing gains, an unknown protocol, no motors list.
+ */
+static void test_restore_bad_files(void **state)
+{
+	static const struct {
+		const char *yaml, *want;
+	} cases[] = {
+		{ "protocol: v3\nmotors:\n  - id: 1\n    pid: 3\n",
+		  ".yaml:4: pid: want a mapping of the gains\n" },
+		{ "protocol: v3\nmotors:\n  - id: 1\n    speed: 3\n",
+		  ".yaml:4: unknown key (id, pid, accel_dps2, zero_offset, comm_loss_ms;" },
+		{ "protocol: v3\nmotors:\n  - id: 1\n    pid: {current_kp: 1}\n",
+		  ".yaml:4: pid: give all the gains of protocol v3 (current_kp, current_ki," },
+		{ "protocol: v9\nmotors: []\n", ".yaml:1: protocol: not a protocol key" },
+		{ "protocol: v3\n", ".yaml: no `motors:` list (write one with rmdctl dump)\n" },
+		{ "motors:\n  - {accel_dps2: 1000}\n", ".yaml:2: a motor without id\n" },
+	};
+	char path[64];
+
+	(void)state;
+	snprintf(path, sizeof(path), "/tmp/rmdctl-restore-%d.yaml", (int)getpid());
+	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+		FILE *f = fopen(path, "w");
+		struct run r;
+
+		assert_non_null(f);
+		fputs(cases[i].yaml, f);
+		assert_int_equal(fclose(f), 0);
+		RUN(&r, NULL, "restore", "--bus", "sim", "--yes", path);
+		if (r.status != 1 || !strstr(r.err, cases[i].want) || !strstr(r.err, path))
+			fail_msg("case %zu: exit %d, stderr:\n%s\nwant \"%s\" after the path", i,
+				 r.status, r.err, cases[i].want);
+		run_free(&r);
+	}
+	unlink(path);
+}
+
 static void test_completion(void **state)
 {
 	char net[64], path[600];
@@ -1179,6 +1219,7 @@ int main(void)
 		cmocka_unit_test(test_rtt_usage),
 		cmocka_unit_test(test_trace_is_candump_l),
 		cmocka_unit_test(test_move_progress_on_terminal),
+		cmocka_unit_test(test_restore_bad_files),
 		cmocka_unit_test(test_completion),
 	};
 
