@@ -51,7 +51,6 @@ struct top {
 	lcm_t *lcm;
 	char ch_state[TOP_CHANNEL_LEN], ch_health[TOP_CHANNEL_LEN], ch_config[TOP_CHANNEL_LEN],
 		ch_request[TOP_CHANNEL_LEN];
-	uint64_t n_states;
 	int64_t next_ask_ns; /* the next config_t request while none came */
 	struct top_view v;
 };
@@ -129,6 +128,21 @@ void rmdctl_top_usage(FILE *f)
 
 /* ---- LCM ------------------------------------------------------------------------------ */
 
+/*
+ * msg, of lcm-gen type T, becomes the view's newest in slot, heard now
+ * (rx_ns); paused, a view that has one keeps it -- the screen keeps what
+ * it showed -- and only the time is news (that rmdd lives).
+ */
+#define TOP_KEEP(T, paused, slot, rx_ns, msg)      \
+	do {                                       \
+		if (!((paused) && (slot))) {       \
+			if (slot)                  \
+				T##_destroy(slot); \
+			(slot) = T##_copy(msg);    \
+		}                                  \
+		(rx_ns) = rmd_now_ns();            \
+	} while (0)
+
 static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
 		     void *user)
 {
@@ -136,16 +150,7 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 
 	(void)rbuf;
 	(void)channel;
-	if (t->v.paused && t->v.state) {
-		/* the screen keeps what it showed; that rmdd lives is still news */
-		t->v.state_rx_ns = rmd_now_ns();
-		return;
-	}
-	if (t->v.state)
-		rmd_state_t_destroy(t->v.state);
-	t->v.state = rmd_state_t_copy(msg);
-	t->v.state_rx_ns = rmd_now_ns();
-	t->n_states++;
+	TOP_KEEP(rmd_state_t, t->v.paused, t->v.state, t->v.state_rx_ns, msg);
 }
 
 /*
@@ -177,16 +182,8 @@ static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 
 	(void)rbuf;
 	(void)channel;
-	if (!same_daemon(t, msg->instance, msg->host, msg->pid, NULL))
-		return;
-	if (t->v.paused && t->v.health) {
-		t->v.health_rx_ns = rmd_now_ns();
-		return;
-	}
-	if (t->v.health)
-		rmd_health_t_destroy(t->v.health);
-	t->v.health = rmd_health_t_copy(msg);
-	t->v.health_rx_ns = rmd_now_ns();
+	if (same_daemon(t, msg->instance, msg->host, msg->pid, NULL))
+		TOP_KEEP(rmd_health_t, t->v.paused, t->v.health, t->v.health_rx_ns, msg);
 }
 
 static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
@@ -196,14 +193,8 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 
 	(void)rbuf;
 	(void)channel;
-	if (!same_daemon(t, msg->instance, msg->host, msg->pid, msg->source))
-		return;
-	if (t->v.paused && t->v.cfg)
-		return;
-	if (t->v.cfg)
-		rmd_config_t_destroy(t->v.cfg);
-	t->v.cfg = rmd_config_t_copy(msg);
-	t->v.cfg_rx_ns = rmd_now_ns();
+	if (same_daemon(t, msg->instance, msg->host, msg->pid, msg->source))
+		TOP_KEEP(rmd_config_t, t->v.paused, t->v.cfg, t->v.cfg_rx_ns, msg);
 }
 
 /* config_t, health_t and state_t have come, and agree on the motors. */
