@@ -132,6 +132,19 @@ static void add(struct items *l, enum att att, const char *fmt, ...)
 	l->it[l->n++].att = att;
 }
 
+/* A counter of health_t: its words and its value. */
+struct count {
+	const char *label;
+	int64_t v;
+};
+
+/* Each of c[0..n-1] as "label N", plain. */
+static void add_counts(struct items *l, const struct count *c, size_t n)
+{
+	for (size_t i = 0; i < n; i++)
+		add(l, ATT_NONE, "%s %" PRId64, c[i].label, c[i].v);
+}
+
 static attr_t att_attr(const struct top_screen *u, enum att a)
 {
 	switch (a) {
@@ -505,10 +518,12 @@ static void control_line(const struct top_view *t, const struct top_screen *u, i
 		add(&l, ATT_NONE, "owner %" PRId64, h->owner);
 	else
 		add(&l, ATT_NONE, "no owner");
-	add(&l, ATT_NONE, "commands %" PRId64, h->commands_accepted);
-	add(&l, ATT_NONE, "rejected %" PRId64, h->commands_rejected);
-	add(&l, ATT_NONE, "clamped %" PRId64, h->commands_clamped);
-	add(&l, ATT_NONE, "safe actions %" PRId64, h->safe_action_events);
+	add_counts(&l,
+		   (const struct count[]){ { "commands", h->commands_accepted },
+					   { "rejected", h->commands_rejected },
+					   { "clamped", h->commands_clamped },
+					   { "safe actions", h->safe_action_events } },
+		   4);
 	flow(u, y, 1, &l, A_NORMAL);
 }
 
@@ -523,12 +538,14 @@ static void bus_line(const struct top_view *t, const struct top_screen *u, int y
 	add(&l, ATT_NONE, "%s (%s)", bh->name, b < t->cfg->bus_count ? t->cfg->bus[b].kind : "?");
 	add(&l, a, "%s", top_bus_state_name(bh->state));
 	add(&l, ATT_NONE, "load %.1f%%", bh->load * 100.0);
-	add(&l, ATT_NONE, "tx %" PRId64, bh->tx_frames);
-	add(&l, ATT_NONE, "rx %" PRId64, bh->rx_frames);
-	add(&l, ATT_NONE, "tx busy %" PRId64, bh->tx_busy);
-	add(&l, ATT_NONE, "rx errors %" PRId64, bh->rx_errors);
-	add(&l, ATT_NONE, "bus errors %" PRId64, bh->bus_errors);
-	add(&l, ATT_NONE, "state changes %" PRId64, bh->state_changes);
+	add_counts(&l,
+		   (const struct count[]){ { "tx", bh->tx_frames },
+					   { "rx", bh->rx_frames },
+					   { "tx busy", bh->tx_busy },
+					   { "rx errors", bh->rx_errors },
+					   { "bus errors", bh->bus_errors },
+					   { "state changes", bh->state_changes } },
+		   6);
 	flow(u, y, 1, &l, A_NORMAL);
 }
 
