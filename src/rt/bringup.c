@@ -240,6 +240,31 @@ static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, struct 
 }
 
 /*
+ * The frames debt o owes (rmd/proc_owed.h: 0x80, 0x78), each sent once in
+ * its turn and its echo judged; `apply`: o is lm's own, whose outcomes
+ * the lifecycle applies (loop_owed_answer()).  Non-rt.
+ */
+static void send_owed(struct rmd_loop *l, struct lmotor *lm, struct rmd_owed *o, bool apply)
+{
+	uint8_t cmd;
+
+	for (unsigned k = 0; k < 2 && (cmd = rmd_owed_next(o)); k++) {
+		struct rmd_msg msg = { .cmd = cmd };
+		struct rmd_txn t;
+		bool echo;
+
+		rmd_owed_sent(o, cmd);
+		if (probe_xfer(l, lm, &msg, &t) < 0)
+			continue;
+		echo = t.rep.f.len == t.req.len && !memcmp(t.rep.f.data, t.req.data, t.req.len);
+		if (apply)
+			loop_owed_answer(l, lm, cmd, o->seq, echo, loop_now(l));
+		else
+			rmd_owed_answer(o, cmd, o->seq, echo);
+	}
+}
+
+/*
  * A motor found may run for a previous owner: output off (0x80, V3 §2.15)
  * and brake locked (0x78, V3 §2.27), each awaited for its echo (txn puts
  * a status read ahead of it, rmd/txn.h), pay what STOPPING owes
@@ -248,19 +273,8 @@ static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, struct 
  */
 static void stop_found(struct rmd_loop *l, struct lmotor *lm)
 {
-	static const uint8_t cmds[] = { 0x80, 0x78 };
-
 	loop_enter(l, lm, RMD_LC_STOPPING, loop_now(l));
-	for (unsigned k = 0; k < sizeof(cmds); k++) {
-		struct rmd_msg msg = { .cmd = cmds[k] };
-		struct rmd_txn t;
-
-		if (probe_xfer(l, lm, &msg, &t) == 0)
-			loop_owed_answer(l, lm, cmds[k], lm->owed.seq,
-					 t.rep.f.len == t.req.len &&
-						 !memcmp(t.rep.f.data, t.req.data, t.req.len),
-					 loop_now(l));
-	}
+	send_owed(l, lm, &lm->owed, true);
 }
 
 /*
@@ -513,17 +527,14 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 			rmd_motor_set_mit(&lm->m, NULL);
 		/*
 		 * Never driven, never re-probed: the configuration must change.
-		 * What it may run for a previous owner stops all the same: 0x80
-		 * and 0x78 are the same in every dialect (V2 §3.34, §3.51).
+		 * What it may run for a previous owner stops all the same: the
+		 * stop frames are the same in every dialect (V2 §3.34, §3.51),
+		 * a debt of its own that no lifecycle applies.
 		 */
-		static const uint8_t off[] = { 0x80, 0x78 };
+		struct rmd_owed off;
 
-		for (unsigned k = 0; k < sizeof(off); k++) {
-			struct rmd_msg msg = { .cmd = off[k] };
-			struct rmd_txn t;
-
-			probe_xfer(l, lm, &msg, &t);
-		}
+		rmd_owed_begin(&off, RMD_OWE_OFF | RMD_OWE_BRAKE, lm->seq);
+		send_owed(l, lm, &off, false);
 		out->state = RMD_BRINGUP_MISMATCH;
 		loop_enter(l, lm, RMD_LC_LOST, now);
 		lm->ident.refused = true;
