@@ -454,7 +454,7 @@ static int missing(struct rmd_loop *l, struct lmotor *lm, struct rmd_bringup_mot
 	/* decided from its firmware when it answers (loop_rx.c settle_dialect()) */
 	if (lm->m.mit_mode)
 		rmd_motor_set_mit(&lm->m, NULL);
-	lm->next_probe_ns = now;
+	lm->life.next_probe_ns = now;
 	return -ENODEV;
 }
 
@@ -538,7 +538,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		out->state = RMD_BRINGUP_MISMATCH;
 		loop_enter(l, lm, RMD_LC_LOST, now);
 		lm->ident.refused = true;
-		lm->next_probe_ns = INT64_MAX;
+		lm->life.next_probe_ns = INT64_MAX;
 		return -ENODEV;
 	}
 	lm->consecutive = 0;

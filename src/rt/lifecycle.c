@@ -25,7 +25,7 @@
 void loop_frames_drop(struct lmotor *lm)
 {
 	lm->n_oneshot = 0;
-	lm->damp_stream = false;
+	lm->life.damp_stream = false;
 }
 
 /* rt-safe. */
@@ -50,7 +50,7 @@ static void queue_safe(struct rmd_loop *l, struct lmotor *lm, bool stream, int64
 	int n;
 
 	if (a == RMD_SAFE_DAMP && lm->m.mit_scaled && stream) {
-		lm->damp_stream = true;
+		lm->life.damp_stream = true;
 	} else {
 		n = rmd_motor_encode_safe(&lm->m, a, f);
 		for (int k = 0; k < n; k++)
@@ -220,16 +220,16 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 	case RMD_LC_SAFE:
 		if (!l->stopping) /* rmd_loop_stop_motors() sent its own */
 			queue_safe(l, lm, true, now);
-		lm->need_edge = true; /* the host watchdog's too: the latch (rmd/loop.h) */
+		lm->life.need_edge = true; /* the host watchdog's too: the latch (rmd/loop.h) */
 		break;
 	case RMD_LC_STOPPING:
 		owe(lm, RMD_OWE_OFF | RMD_OWE_BRAKE);
 		if (old != RMD_LC_FAULT) /* FAULT on the way keeps where it came from */
-			lm->stop_from = (uint8_t)old;
+			lm->life.stop_from = (uint8_t)old;
 		if (old == RMD_LC_PROBE)
-			lm->need_edge = false;
+			lm->life.need_edge = false;
 		else if (old == RMD_LC_LOST || old == RMD_LC_FAULT)
-			lm->need_edge = true;
+			lm->life.need_edge = true;
 		/* found, or back: running in a boot its runtime places (rmd/reboot.h) */
 		if (old == RMD_LC_PROBE || old == RMD_LC_LOST)
 			rmd_reboot_found(&lm->rb, now,
@@ -240,7 +240,7 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 		break;
 	case RMD_LC_READY:
 		lm->st->mode = (uint8_t)lm->m.mode;
-		if (lm->stop_from == RMD_LC_PROBE || lm->stop_from == RMD_LC_LOST) {
+		if (lm->life.stop_from == RMD_LC_PROBE || lm->life.stop_from == RMD_LC_LOST) {
 			cl_forget(l, lm);
 			if (rmd_arm_pending(&lm->arm)) {
 				rmd_arm_start_round(&lm->arm);
@@ -248,16 +248,16 @@ void loop_enter(struct rmd_loop *l, struct lmotor *lm, enum rmd_lifecycle lc, in
 			}
 			pos_begin(l, lm, now); /* it may have been powered off */
 		}
-		lm->stop_from = RMD_LC_READY;
+		lm->life.stop_from = RMD_LC_READY;
 		break;
 	case RMD_LC_LOST:
 	case RMD_LC_FAULT:
-		lm->need_edge = true;
+		lm->life.need_edge = true;
 		lm->arm.want = false;
 		if (lc == RMD_LC_LOST) {
 			if (old == RMD_LC_ENABLED)
 				queue_safe(l, lm, false, now);
-			lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
+			lm->life.next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 			rmd_reboot_forget(&lm->rb);   /* back is found anew */
 			rmd_silence_forget(&lm->sil); /* sent again when it is back */
 			cl_forget(l, lm);
@@ -309,7 +309,7 @@ void loop_rebooted(struct rmd_loop *l, struct lmotor *lm, unsigned how, int64_t 
 {
 	loop_event(l, now, RMD_EV_REBOOT, loop_idx(l, lm), lm->m.bus, how, what);
 	loop_motor_lost(l, lm, now);
-	lm->next_probe_ns = now;
+	lm->life.next_probe_ns = now;
 }
 
 /* rt-safe. */
@@ -408,7 +408,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_READY:
 	case RMD_LC_SAFE:
-		if (lm->need_edge)
+		if (lm->life.need_edge)
 			return RMD_IGN_EDGE;
 		if (sp->mode == RMD_MODE_MIT && lm->m.mit_mode && !lm->m.mit_scaled)
 			return mit_refuse(l, lm, now);
@@ -438,7 +438,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 /* rt-safe. */
 static void disable_motor(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 {
-	lm->need_edge = false; /* the enable = 0 the edge rule waits for */
+	lm->life.need_edge = false; /* the enable = 0 the edge rule waits for */
 	lm->arm.want = false;
 	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_ENABLED:
@@ -497,8 +497,8 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		if (c->disables[i] != lm->disables_seen) {
-			lm->disables_seen = c->disables[i];
+		if (c->disables[i] != lm->life.disables_seen) {
+			lm->life.disables_seen = c->disables[i];
 			disable_motor(l, lm, now);
 		}
 	}
@@ -835,9 +835,9 @@ void loop_take_homes(struct rmd_loop *l, int64_t now)
 	for (unsigned i = 0; i < l->n_motors; i++) {
 		struct lmotor *lm = &l->mot[i];
 
-		if (h->seq[i] == lm->homes_seen)
+		if (h->seq[i] == lm->life.homes_seen)
 			continue;
-		lm->homes_seen = h->seq[i];
+		lm->life.homes_seen = h->seq[i];
 		pos_home(l, lm, h->as_reported[i], h->pos_rad[i], now);
 	}
 }

@@ -485,7 +485,7 @@ static void refuse_dialect(struct rmd_loop *l, unsigned b, struct lmotor *lm, in
 			   enum rmd_proto proto, int64_t now)
 {
 	lm->ident.refused = true;
-	lm->next_probe_ns = INT64_MAX;
+	lm->life.next_probe_ns = INT64_MAX;
 	loop_event(l, now, RMD_EV_DIALECT, loop_idx(l, lm), b, version, proto);
 }
 
@@ -506,7 +506,7 @@ static bool settle_mit(struct rmd_loop *l, unsigned b, struct lmotor *lm, uint32
 	if (rmd_mit_decided(&dec) && rmd_motor_set_mit(&lm->m, &dec.r) == 0)
 		return true;
 	lm->ident.refused = true;
-	lm->next_probe_ns = INT64_MAX;
+	lm->life.next_probe_ns = INT64_MAX;
 	loop_event(l, now, RMD_EV_MIT_SCALING, loop_idx(l, lm), b, version,
 		   dec.source | (int64_t)(dec.series & 0xFF) << 8);
 	return false;
@@ -543,7 +543,7 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 		break;
 	case RMD_IDENT_SAME:
 		if (!lm->m.mit_mode || settle_mit(l, b, lm, r.version_date, now))
-			lm->next_probe_ns = now; /* the next cycle's 0x9A brings it back */
+			lm->life.next_probe_ns = now; /* the next cycle's 0x9A brings it back */
 		break;
 	}
 }

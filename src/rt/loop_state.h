@@ -116,11 +116,17 @@ struct lmotor {
 	int64_t rtt_est_ns;	/* the mean round trip of its answers, an eighth each */
 	unsigned consecutive;	/* missed replies in a row */
 	struct rmd_setpoint sp; /* in force while ENABLED */
-	bool need_edge;		/* enable = 1 counts only after an enable = 0 */
-	uint32_t disables_seen; /* rmd_command.disables[] of this motor, acted on */
+	/* what its lifecycle keeps from one state to the next (lifecycle.c) */
+	struct lm_life {
+		bool need_edge;	   /* enable = 1 counts only after an enable = 0 */
+		bool damp_stream;  /* SAFE with MIT damp: the damp frame in every control slot */
+		uint8_t stop_from; /* enum rmd_lifecycle: the state STOPPING was entered from */
+		int64_t next_probe_ns;	/* LOST, or missing at bring-up: its next probe */
+		uint32_t disables_seen; /* rmd_command.disables[] of this motor, acted on */
+		uint32_t homes_seen;	/* rmd_home.seq[] of this motor, acted on */
+	} life;
 	struct rmd_frame oneshot[ONESHOTS];
 	unsigned n_oneshot;
-	bool damp_stream; /* SAFE with MIT damp: the damp frame in every control slot */
 	/*
 	 * The replies it may push unasked, to turn off (rmd/proc_silence.h).
 	 * Beside n_oneshot and owed: loop_tx.c add_control() asks them at once.
@@ -129,8 +135,6 @@ struct lmotor {
 	struct rmd_silence sil;
 	/* the frames it owes an echo of (rmd/proc_owed.h) */
 	struct rmd_owed owed;
-	uint8_t stop_from; /* enum rmd_lifecycle: the state STOPPING was entered from */
-	int64_t next_probe_ns;
 	/*
 	 * Its firmware (rmd/proc_ident.h): model and date as read, open while
 	 * a motor missing at bring-up has not told its date, refused when it
@@ -153,7 +157,6 @@ struct lmotor {
 	 * applied by loop_rebooted().
 	 */
 	struct rmd_reboot rb;
-	uint32_t homes_seen;	/* rmd_home.seq[] of this motor, acted on */
 	struct rmd_latency lat; /* every matched reply; under rmd_loop.stat_seq */
 	/* rmd_loop_stop_motors(): a final frame of it the bus did not take, or that went unanswered */
 	bool stop_unreached;

@@ -68,9 +68,9 @@ static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
 	uint8_t asks[2];
 	unsigned n;
 
-	if (now < lm->next_probe_ns)
+	if (now < lm->life.next_probe_ns)
 		return;
-	lm->next_probe_ns = now + RMD_LOOP_REPROBE_NS;
+	lm->life.next_probe_ns = now + RMD_LOOP_REPROBE_NS;
 	push_cmd(l, lb, i, 0x9A);
 	n = rmd_ident_asks(&lm->ident, lm->m.mit_mode, asks);
 	for (unsigned k = 0; k < n; k++)
@@ -254,7 +254,7 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 	}
 	switch ((enum rmd_lifecycle)lm->st->lifecycle) {
 	case RMD_LC_SAFE:
-		if (lm->damp_stream && rmd_motor_encode_safe(&lm->m, RMD_SAFE_DAMP, f) == 1) {
+		if (lm->life.damp_stream && rmd_motor_encode_safe(&lm->m, RMD_SAFE_DAMP, f) == 1) {
 			loop_push_tx(lb, &f[0], i, REQ_CONTROL);
 			break;
 		}
