@@ -2274,39 +2274,32 @@ static void test_foreign_counted_and_logged_per_episode(void **state)
 	assert_int_equal(count_in(log_text(f), "another rmdd publishes"), 2);
 }
 
-int main(void)
-{
-	struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_init_checks_opts),
-		cmocka_unit_test(test_command_roundtrip),
-		cmocka_unit_test(test_prefix_is_not_a_pattern),
-		cmocka_unit_test(test_home),
-		cmocka_unit_test(test_clamp),
-		cmocka_unit_test(test_hostile_rejected_by_kind),
-		cmocka_unit_test(test_stale),
-		cmocka_unit_test(test_command_decoded_in_place),
-		cmocka_unit_test(test_motor_state_projection),
-		cmocka_unit_test(test_flood),
-		cmocka_unit_test(test_state_published),
-		cmocka_unit_test(test_state_every_nth),
-		cmocka_unit_test(test_health_10hz),
-		cmocka_unit_test(test_config_on_request),
-		cmocka_unit_test(test_one_controller_at_a_time),
-		cmocka_unit_test(test_owner_judged_by_arrival),
-		cmocka_unit_test(test_utime_full_width),
-		cmocka_unit_test(test_config_request_flood),
-		cmocka_unit_test(test_comm_loss_published),
-		cmocka_unit_test(test_rt_priority),
-		cmocka_unit_test(test_sleeps_when_idle),
-		cmocka_unit_test(test_memq_encodes_no_state),
-		cmocka_unit_test(test_own_datagrams_dropped),
-		cmocka_unit_test(test_fragments_reassembled),
-		cmocka_unit_test(test_probe_finds_another_daemon),
-		cmocka_unit_test(test_foreign_counted_and_logged_per_episode),
-	};
-
-	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
-	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood */
-		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
-	return cmocka_run_group_tests(tests, group_setup, NULL);
-}
+SUITE_MAIN_FIXTURE("bridge", setup, teardown, group_setup, NULL,
+		   {
+			   cmocka_unit_test(test_init_checks_opts),
+			   cmocka_unit_test(test_command_roundtrip),
+			   cmocka_unit_test(test_prefix_is_not_a_pattern),
+			   cmocka_unit_test(test_home),
+			   cmocka_unit_test(test_clamp),
+			   cmocka_unit_test(test_hostile_rejected_by_kind),
+			   cmocka_unit_test(test_stale),
+			   cmocka_unit_test(test_command_decoded_in_place),
+			   cmocka_unit_test(test_motor_state_projection),
+			   cmocka_unit_test(test_flood),
+			   cmocka_unit_test(test_state_published),
+			   cmocka_unit_test(test_state_every_nth),
+			   cmocka_unit_test(test_health_10hz),
+			   cmocka_unit_test(test_config_on_request),
+			   cmocka_unit_test(test_one_controller_at_a_time),
+			   cmocka_unit_test(test_owner_judged_by_arrival),
+			   cmocka_unit_test(test_utime_full_width),
+			   cmocka_unit_test(test_config_request_flood),
+			   cmocka_unit_test(test_comm_loss_published),
+			   cmocka_unit_test(test_rt_priority),
+			   cmocka_unit_test(test_sleeps_when_idle),
+			   cmocka_unit_test(test_memq_encodes_no_state),
+			   cmocka_unit_test(test_own_datagrams_dropped),
+			   cmocka_unit_test(test_fragments_reassembled),
+			   cmocka_unit_test(test_probe_finds_another_daemon),
+			   cmocka_unit_test(test_foreign_counted_and_logged_per_episode),
+		   })

@@ -51,6 +51,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 #define GRACE 10	/* cycles for frames in flight to arrive and act */
@@ -475,5 +476,5 @@ int main(void)
 						.test_func = test_row,
 						.initial_state = &rows[k] };
 	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_unechoed_is_lost);
-	return _cmocka_run_group_tests("lifecycle truth", tests, n, NULL, NULL);
+	return suite_run("lifecycle truth", tests, n, NULL, NULL);
 }

@@ -18,6 +18,7 @@
 #include <cmocka.h>
 
 #include "harness/loop_rig.h"
+#include "harness/suite.h"
 
 /*
  * A forged reply (test_pos_settle_one_bad_reading): once motor 1 on bus 0
@@ -707,19 +708,15 @@ static int hook_tap(void **state)
 	return 0;
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_pos_cycle_in_band),
-		cmocka_unit_test(test_v2_silent_turn_recounted),
-		cmocka_unit_test(test_v2_without_angle_command),
-		cmocka_unit_test(test_v2_count_at_speed),
-		cmocka_unit_test(test_pos_settle_one_bad_reading),
-		cmocka_unit_test(test_pos_ambiguous_refused),
-		cmocka_unit_test(test_pos_homed),
-		cmocka_unit_test(test_home_outside_travel),
-		cmocka_unit_test(test_pos_uncertain_mit_kp),
-	};
-
-	return cmocka_run_group_tests_name("loop_position", tests, hook_tap, NULL);
-}
+SUITE_MAIN("loop_position", hook_tap, NULL,
+	   {
+		   cmocka_unit_test(test_pos_cycle_in_band),
+		   cmocka_unit_test(test_v2_silent_turn_recounted),
+		   cmocka_unit_test(test_v2_without_angle_command),
+		   cmocka_unit_test(test_v2_count_at_speed),
+		   cmocka_unit_test(test_pos_settle_one_bad_reading),
+		   cmocka_unit_test(test_pos_ambiguous_refused),
+		   cmocka_unit_test(test_pos_homed),
+		   cmocka_unit_test(test_home_outside_travel),
+		   cmocka_unit_test(test_pos_uncertain_mit_kp),
+	   })

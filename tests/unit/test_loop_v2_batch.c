@@ -19,6 +19,7 @@
 
 #include "harness/loop_rig.h"
 #include "harness/v2_batch.h"
+#include "harness/suite.h"
 
 /* The first frame a motor put on the wire with identifier watch_id (caller's clock; 0: none). */
 static uint32_t watch_id;
@@ -384,16 +385,12 @@ static int hook_tap(void **state)
 	return 0;
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v2_batch),
-		cmocka_unit_test(test_v2_batch_only_enabled),
-		cmocka_unit_test(test_v2_batch_lost_motor),
-		cmocka_unit_test(test_v2_batch_stray),
-		cmocka_unit_test(test_v2_batch_stray_later),
-		cmocka_unit_test(test_v2_batch_stray_refused),
-	};
-
-	return cmocka_run_group_tests_name("loop_v2_batch", tests, hook_tap, NULL);
-}
+SUITE_MAIN("loop_v2_batch", hook_tap, NULL,
+	   {
+		   cmocka_unit_test(test_v2_batch),
+		   cmocka_unit_test(test_v2_batch_only_enabled),
+		   cmocka_unit_test(test_v2_batch_lost_motor),
+		   cmocka_unit_test(test_v2_batch_stray),
+		   cmocka_unit_test(test_v2_batch_stray_later),
+		   cmocka_unit_test(test_v2_batch_stray_refused),
+	   })

@@ -45,6 +45,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 
@@ -456,25 +457,21 @@ static void test_late_motor_unknown_model(void **state)
 	rig_stop(&R);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v42_motor_in_mit),
-		cmocka_unit_test(test_v44_x6_its_scaling),
-		cmocka_unit_test(test_v44_x8_its_scaling),
-		cmocka_unit_test(test_auto_finds_v44),
-		cmocka_unit_test(test_protocol_mit_on_v3),
-		cmocka_unit_test(test_v44_entry_agrees),
-		cmocka_unit_test(test_v44_entry_kd_taken),
-		cmocka_unit_test(test_auto_finds_v2_refused),
-		cmocka_unit_test(test_v44_unknown_model_refused),
-		cmocka_unit_test(test_no_date_refused),
-		cmocka_unit_test(test_v44_entry_contradicts),
-		cmocka_unit_test(test_protocol_mit_on_v4_refused),
-		cmocka_unit_test(test_loop_refuses_undecided),
-		cmocka_unit_test(test_late_motor_decided),
-		cmocka_unit_test(test_late_motor_unknown_model),
-	};
-
-	return cmocka_run_group_tests_name("mit_mode", tests, NULL, NULL);
-}
+SUITE_MAIN("mit_mode", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_v42_motor_in_mit),
+		   cmocka_unit_test(test_v44_x6_its_scaling),
+		   cmocka_unit_test(test_v44_x8_its_scaling),
+		   cmocka_unit_test(test_auto_finds_v44),
+		   cmocka_unit_test(test_protocol_mit_on_v3),
+		   cmocka_unit_test(test_v44_entry_agrees),
+		   cmocka_unit_test(test_v44_entry_kd_taken),
+		   cmocka_unit_test(test_auto_finds_v2_refused),
+		   cmocka_unit_test(test_v44_unknown_model_refused),
+		   cmocka_unit_test(test_no_date_refused),
+		   cmocka_unit_test(test_v44_entry_contradicts),
+		   cmocka_unit_test(test_protocol_mit_on_v4_refused),
+		   cmocka_unit_test(test_loop_refuses_undecided),
+		   cmocka_unit_test(test_late_motor_decided),
+		   cmocka_unit_test(test_late_motor_unknown_model),
+	   })

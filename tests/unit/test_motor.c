@@ -24,6 +24,7 @@
 #include "rmd/motor.h"
 
 #include "harness/hex.h"
+#include "harness/suite.h"
 
 #define DEG (M_PI / 180.0)
 
@@ -1097,31 +1098,27 @@ static void test_position_resolution(void **state)
 	assert_float_equal(rmd_motor_pos_resolution_rad(&m), 0.01 * DEG, 1e-15);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_init_refuses),
-		cmocka_unit_test(test_encode_vectors),
-		cmocka_unit_test(test_clamp),
-		cmocka_unit_test(test_clamp_mit),
-		cmocka_unit_test(test_nonfinite_refused),
-		cmocka_unit_test(test_mit_gain_codes_kept),
-		cmocka_unit_test(test_unsupported),
-		cmocka_unit_test(test_v2_batch),
-		cmocka_unit_test(test_safe_frames),
-		cmocka_unit_test(test_commands_and_keys),
-		cmocka_unit_test(test_decode_v3),
-		cmocka_unit_test(test_decode_v3_rotor),
-		cmocka_unit_test(test_decode_v2_unwrap),
-		cmocka_unit_test(test_v2_count_trust),
-		cmocka_unit_test(test_decode_mit),
-		cmocka_unit_test(test_position_round_trip),
-		cmocka_unit_test(test_clamp_rule),
-		cmocka_unit_test(test_modes_and_info),
-		cmocka_unit_test(test_resolved_rows_match_interpreter),
-		cmocka_unit_test(test_fine_feedback_fusion),
-		cmocka_unit_test(test_position_resolution),
-	};
-
-	return cmocka_run_group_tests_name("motor", tests, NULL, NULL);
-}
+SUITE_MAIN("motor", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_init_refuses),
+		   cmocka_unit_test(test_encode_vectors),
+		   cmocka_unit_test(test_clamp),
+		   cmocka_unit_test(test_clamp_mit),
+		   cmocka_unit_test(test_nonfinite_refused),
+		   cmocka_unit_test(test_mit_gain_codes_kept),
+		   cmocka_unit_test(test_unsupported),
+		   cmocka_unit_test(test_v2_batch),
+		   cmocka_unit_test(test_safe_frames),
+		   cmocka_unit_test(test_commands_and_keys),
+		   cmocka_unit_test(test_decode_v3),
+		   cmocka_unit_test(test_decode_v3_rotor),
+		   cmocka_unit_test(test_decode_v2_unwrap),
+		   cmocka_unit_test(test_v2_count_trust),
+		   cmocka_unit_test(test_decode_mit),
+		   cmocka_unit_test(test_position_round_trip),
+		   cmocka_unit_test(test_clamp_rule),
+		   cmocka_unit_test(test_modes_and_info),
+		   cmocka_unit_test(test_resolved_rows_match_interpreter),
+		   cmocka_unit_test(test_fine_feedback_fusion),
+		   cmocka_unit_test(test_position_resolution),
+	   })

@@ -20,6 +20,7 @@
 #include "rmd/mit.h"
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
+#include "harness/suite.h"
 
 #define DEG (M_PI / 180.0)
 
@@ -253,14 +254,10 @@ static void test_motor_cycles(void **state)
 					}
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_period),
-		cmocka_unit_test(test_settle_table),
-		cmocka_unit_test(test_in_band),
-		cmocka_unit_test(test_motor_cycles),
-	};
-
-	return cmocka_run_group_tests_name("multiturn", tests, NULL, NULL);
-}
+SUITE_MAIN("multiturn", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_period),
+		   cmocka_unit_test(test_settle_table),
+		   cmocka_unit_test(test_in_band),
+		   cmocka_unit_test(test_motor_cycles),
+	   })

@@ -45,6 +45,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 #define DEG (M_PI / 180.0)
@@ -782,26 +783,22 @@ static void test_quiet_v3_rest(void **state)
 	quiet_case(&c);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v3_5ms_1khz),
-		cmocka_unit_test(test_v3_5ms_1khz_brake),
-		cmocka_unit_test(test_v3_50ms_100hz),
-		cmocka_unit_test(test_v2_5ms_1khz),
-		cmocka_unit_test(test_v2_50ms_100hz),
-		cmocka_unit_test(test_mit_5ms_1khz),
-		cmocka_unit_test(test_v4_5ms_1khz),
-		cmocka_unit_test(test_v3_2ms_brake_backstop),
-		cmocka_unit_test(test_safe_action_before_check),
-		cmocka_unit_test(test_quiet_v3_fast),
-		cmocka_unit_test(test_quiet_v3_moves),
-		cmocka_unit_test(test_quiet_v2_fast),
-		cmocka_unit_test(test_quiet_v2_gear_astray),
-		cmocka_unit_test(test_quiet_v2_homed_fine),
-		cmocka_unit_test(test_quiet_mit),
-		cmocka_unit_test(test_quiet_v3_rest),
-	};
-
-	return cmocka_run_group_tests_name("power_glitch", tests, NULL, NULL);
-}
+SUITE_MAIN("power_glitch", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_v3_5ms_1khz),
+		   cmocka_unit_test(test_v3_5ms_1khz_brake),
+		   cmocka_unit_test(test_v3_50ms_100hz),
+		   cmocka_unit_test(test_v2_5ms_1khz),
+		   cmocka_unit_test(test_v2_50ms_100hz),
+		   cmocka_unit_test(test_mit_5ms_1khz),
+		   cmocka_unit_test(test_v4_5ms_1khz),
+		   cmocka_unit_test(test_v3_2ms_brake_backstop),
+		   cmocka_unit_test(test_safe_action_before_check),
+		   cmocka_unit_test(test_quiet_v3_fast),
+		   cmocka_unit_test(test_quiet_v3_moves),
+		   cmocka_unit_test(test_quiet_v2_fast),
+		   cmocka_unit_test(test_quiet_v2_gear_astray),
+		   cmocka_unit_test(test_quiet_v2_homed_fine),
+		   cmocka_unit_test(test_quiet_mit),
+		   cmocka_unit_test(test_quiet_v3_rest),
+	   })

@@ -1371,40 +1371,35 @@ static void test_bus_sim_flush(void **state)
 	}
 }
 
-int main(void)
-{
-	struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_acceptance_8_pairs),
-		cmocka_unit_test(test_arbitration_lowest_id_first),
-		cmocka_unit_test(test_arbitration_replies_overtake),
-		cmocka_unit_test(test_overload_runs_late),
-		cmocka_unit_test(test_fault_drop_rate),
-		cmocka_unit_test(test_fault_delay_rate),
-		cmocka_unit_test(test_fault_corrupt_rate),
-		cmocka_unit_test(test_fault_wrong_id_window),
-		cmocka_unit_test(test_fault_disappear_window),
-		cmocka_unit_test(test_fault_disappear_boot),
-		cmocka_unit_test(test_fault_error_flag_window),
-		cmocka_unit_test(test_fault_bus_off_window),
-		cmocka_unit_test(test_fault_bus_power_window),
-		cmocka_unit_test(test_fault_bus_power_flush),
-		cmocka_unit_test(test_fault_flood_low_id_steals_wire),
-		cmocka_unit_test(test_fault_flood_high_id_yields),
-		cmocka_unit_test(test_txqueuelen_enobufs),
-		cmocka_unit_test(test_send_rejects_bad_frames),
-		cmocka_unit_test(test_unsolicited_frames),
-		cmocka_unit_test(test_adapter_latency_timer),
-		cmocka_unit_test(test_adapter_usb_frames_and_delay),
-		cmocka_unit_test(test_rom_write_answers_late),
-		cmocka_unit_test(test_rx_overflow_counted),
-		cmocka_unit_test(test_load_window),
-		cmocka_unit_test(test_deterministic),
-		cmocka_unit_test(test_config_validation),
-		cmocka_unit_test(test_bus_sim_tap),
-		cmocka_unit_test(test_bus_sim_burst_needs_queue),
-		cmocka_unit_test(test_bus_sim_flush),
-	};
-
-	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
-	return cmocka_run_group_tests_name("sim_wire", tests, NULL, NULL);
-}
+SUITE_MAIN_FIXTURE("sim_wire", setup, teardown, NULL, NULL,
+		   {
+			   cmocka_unit_test(test_acceptance_8_pairs),
+			   cmocka_unit_test(test_arbitration_lowest_id_first),
+			   cmocka_unit_test(test_arbitration_replies_overtake),
+			   cmocka_unit_test(test_overload_runs_late),
+			   cmocka_unit_test(test_fault_drop_rate),
+			   cmocka_unit_test(test_fault_delay_rate),
+			   cmocka_unit_test(test_fault_corrupt_rate),
+			   cmocka_unit_test(test_fault_wrong_id_window),
+			   cmocka_unit_test(test_fault_disappear_window),
+			   cmocka_unit_test(test_fault_disappear_boot),
+			   cmocka_unit_test(test_fault_error_flag_window),
+			   cmocka_unit_test(test_fault_bus_off_window),
+			   cmocka_unit_test(test_fault_bus_power_window),
+			   cmocka_unit_test(test_fault_bus_power_flush),
+			   cmocka_unit_test(test_fault_flood_low_id_steals_wire),
+			   cmocka_unit_test(test_fault_flood_high_id_yields),
+			   cmocka_unit_test(test_txqueuelen_enobufs),
+			   cmocka_unit_test(test_send_rejects_bad_frames),
+			   cmocka_unit_test(test_unsolicited_frames),
+			   cmocka_unit_test(test_adapter_latency_timer),
+			   cmocka_unit_test(test_adapter_usb_frames_and_delay),
+			   cmocka_unit_test(test_rom_write_answers_late),
+			   cmocka_unit_test(test_rx_overflow_counted),
+			   cmocka_unit_test(test_load_window),
+			   cmocka_unit_test(test_deterministic),
+			   cmocka_unit_test(test_config_validation),
+			   cmocka_unit_test(test_bus_sim_tap),
+			   cmocka_unit_test(test_bus_sim_burst_needs_queue),
+			   cmocka_unit_test(test_bus_sim_flush),
+		   })
