@@ -34,6 +34,11 @@ int suite_run(const char *name, const struct CMUnitTest *tests, size_t n,
 #define SUITE_RUN(name, tests, group_setup, group_teardown) \
 	suite_run(name, tests, SUITE_N(tests), group_setup, group_teardown)
 
+/* A test named test_name that runs func with *state its table row (a table-driven suite). */
+#define SUITE_ROW(test_name, func, row) \
+	((struct CMUnitTest){           \
+		.name = (test_name), .test_func = (func), .initial_state = (void *)(row) })
+
 /*
  * A suite's whole main(): runs the braced list of CMUnitTest entries that
  * follows, e.g. SUITE_MAIN("x", NULL, NULL, { cmocka_unit_test(test_x), }),
