@@ -235,15 +235,21 @@ static struct rmd_bridge_stats stats(struct fixture *f)
 	return st;
 }
 
-/* The newest command handed to the rt loop, if one came since the last call. */
-static bool take_command(struct fixture *f, struct rmd_command *out)
+/* The newest of q's records (size bytes) into out, if one came since the last call. */
+static bool take_latest(struct rmd_latest *q, void *out, size_t size)
 {
 	const void *p;
 
-	if (!rmd_latest_get(&f->commands, &p))
+	if (!rmd_latest_get(q, &p))
 		return false;
-	memcpy(out, p, sizeof(*out));
+	memcpy(out, p, size);
 	return true;
+}
+
+/* The newest command handed to the rt loop, if one came since the last call. */
+static bool take_command(struct fixture *f, struct rmd_command *out)
+{
+	return take_latest(&f->commands, out, sizeof(*out));
 }
 
 static void send_cmd(struct fixture *f, const rmd_command_t *msg)
@@ -1334,12 +1340,7 @@ static rmd_command_t ctl_cmd(int64_t id, int64_t seq, bool enable)
 /* The newest homing requests handed to the rt loop, if any came since the last call. */
 static bool take_homes(struct fixture *f, struct rmd_home *out)
 {
-	const void *p;
-
-	if (!rmd_latest_get(&f->homes, &p))
-		return false;
-	memcpy(out, p, sizeof(*out));
-	return true;
+	return take_latest(&f->homes, out, sizeof(*out));
 }
 
 static void send_home(struct fixture *f, int64_t controller, int index, bool as_reported,
