@@ -298,6 +298,7 @@ static void test_v2_batch_stray_later(void **state)
 	drive_all(torque_for_first_byte(0x77));
 	run(200, true);
 	assert_true(batches_since(0) >= 150);
+	rig_tap_hook = watch;
 	watch_id = 0x245;
 	watch_first_ns = 0;
 	from = trace_n;
@@ -377,15 +378,7 @@ static void test_v2_batch_lost_motor(void **state)
 	rig_down();
 }
 
-/* Group setup: the tap notes the first frame on watch_id. */
-static int hook_tap(void **state)
-{
-	(void)state;
-	rig_tap_hook = watch;
-	return 0;
-}
-
-SUITE_MAIN("loop_v2_batch", hook_tap, NULL,
+SUITE_MAIN("loop_v2_batch", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_v2_batch),
 		   cmocka_unit_test(test_v2_batch_only_enabled),
