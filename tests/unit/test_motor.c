@@ -42,21 +42,12 @@ static struct rmd_config_motor cfg_motor(uint8_t id, enum rmd_proto proto, enum 
 {
 	struct rmd_config_motor c;
 
-	memset(&c, 0, sizeof(c));
+	rmd_config_motor_defaults(&c);
 	snprintf(c.name, sizeof(c.name), "m%u", id);
 	c.id = id;
 	c.proto = proto;
 	c.mode = mode;
-	c.direction = 1;
-	c.gear_ratio = 1.0;
-	c.units = RMD_UNITS_OUTPUT;
 	c.torque_constant_nm_a = 2.0;
-	c.limits.position_min_rad = -INFINITY;
-	c.limits.position_max_rad = INFINITY;
-	c.limits.velocity_rad_s = INFINITY;
-	c.limits.torque_nm = INFINITY;
-	c.mit = rmd_mit_default_ranges;
-	c.rate_divisor = 1;
 	return c;
 }
 

@@ -140,22 +140,15 @@ static struct rmd_config_motor v3_motor(int dir, double gear, double zero_rad)
 {
 	struct rmd_config_motor c;
 
-	memset(&c, 0, sizeof(c));
+	rmd_config_motor_defaults(&c);
 	snprintf(c.name, sizeof(c.name), "knee");
 	c.id = 1;
 	c.proto = RMD_PROTO_V3;
 	c.mode = RMD_MODE_POSITION;
 	c.direction = dir;
 	c.gear_ratio = gear;
-	c.units = RMD_UNITS_OUTPUT;
 	c.zero_offset_rad = zero_rad;
 	c.torque_constant_nm_a = 2.0;
-	c.limits.position_min_rad = -INFINITY;
-	c.limits.position_max_rad = INFINITY;
-	c.limits.velocity_rad_s = INFINITY;
-	c.limits.torque_nm = INFINITY;
-	c.mit = rmd_mit_default_ranges;
-	c.rate_divisor = 1;
 	return c;
 }
 
