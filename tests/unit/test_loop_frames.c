@@ -367,12 +367,7 @@ static void test_state_when_replies_are_in(void **state)
 	int64_t tick, t, worst = 0;
 
 	(void)state;
-	rig_up(2, NULL);
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 2; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(50, true);
+	motors_at_speed(2, NULL, 2, 1.0, 50);
 	s0 = snap();
 	tick = t_now;
 	rmd_loop_tick(R.l, tick);
