@@ -62,21 +62,6 @@ static const struct rmd_mit_ranges V44_X8 = { -12.566, 12.566, -45, 45, -129, 12
 static struct rig R; /* R.report: the bring-up's, bu_ret what it returned */
 static int bu_ret;
 
-#define TAP_MAX 65536
-static struct rmd_frame host[TAP_MAX], motor[TAP_MAX];
-static unsigned host_n, motor_n;
-
-static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
-{
-	(void)ctx;
-	(void)start_ns;
-	(void)eof_ns;
-	if (p->src == RMD_SIM_SRC_HOST && host_n < TAP_MAX)
-		host[host_n++] = p->f;
-	else if (p->src != RMD_SIM_SRC_HOST && motor_n < TAP_MAX)
-		motor[motor_n++] = p->f;
-}
-
 /* The yaml's motor 1 on bus s0, loaded and opened, the loop built; bring-up when asked. */
 static void rig_up(const char *yaml, bool bringup)
 {
@@ -85,7 +70,6 @@ static void rig_up(const char *yaml, bool bringup)
 
 	rig_reset(&R);
 	bu_ret = 0;
-	host_n = motor_n = 0;
 	assert_true(fd >= 0);
 	assert_int_equal(write(fd, yaml, strlen(yaml)), (ssize_t)strlen(yaml));
 	close(fd);
@@ -96,7 +80,7 @@ static void rig_up(const char *yaml, bool bringup)
 	unlink(path);
 	R.rt = true;		 /* cycles as the rt thread runs them */
 	R.events_in_ring = true; /* the tests pop them */
-	rig_start(&R, tap);
+	rig_start(&R, rig_wire_tap);
 	if (bringup)
 		bu_ret = rmd_loop_bringup(R.l, &R.report);
 }
@@ -127,18 +111,18 @@ static void ask_mit(void)
 				     .torque_nm = ASK_T };
 }
 
-/* Host frames on 0x400 + ID (MIT requests) from host[from]. */
+/* Host frames on 0x400 + ID (MIT requests) from rig_host[from]. */
 static unsigned mit_requests(unsigned from)
 {
 	unsigned n = 0;
 
-	for (unsigned k = from; k < host_n; k++)
-		n += host[k].can_id >= 0x400 && host[k].can_id <= 0x41F;
+	for (unsigned k = from; k < rig_host_n; k++)
+		n += rig_host[k].can_id >= 0x400 && rig_host[k].can_id <= 0x41F;
 	return n;
 }
 
 /*
- * Every MIT request on the wire from host[from], decoded with r, carries
+ * Every MIT request on the wire from rig_host[from], decoded with r, carries
  * what the controller asked (within r's step); and there are some.
  */
 static void frames_carry(const struct rmd_mit_ranges *r, unsigned from, const char *what)
@@ -147,13 +131,13 @@ static void frames_carry(const struct rmd_mit_ranges *r, unsigned from, const ch
 	double p_step = (r->p_max - r->p_min) / 65535;
 	unsigned n = 0;
 
-	for (unsigned k = from; k < host_n; k++) {
+	for (unsigned k = from; k < rig_host_n; k++) {
 		struct rmd_mit_cmd c;
 		uint8_t id;
 
-		if (host[k].can_id != 0x401)
+		if (rig_host[k].can_id != 0x401)
 			continue;
-		assert_int_equal(rmd_mit_decode_cmd(r, &host[k], &id, &c), 0);
+		assert_int_equal(rmd_mit_decode_cmd(r, &rig_host[k], &id, &c), 0);
 		if (fabs(c.t_ff_nm - ASK_T) > t_step || fabs(c.kd - ASK_KD) > kd_step ||
 		    fabs(c.p_des_rad - ASK_P) > p_step || c.kp != 0.0)
 			fail_msg("%s: frame %u decodes to p %g kd %g t %g (asked p %g kd %g t %g)",
@@ -178,7 +162,7 @@ static void runs_with(const struct rmd_mit_ranges *r, const char *what)
 	ask_mit();
 	rig_run(&R, 100, true);
 	assert_int_equal(mstate().lifecycle, RMD_LC_ENABLED);
-	from = host_n;
+	from = rig_host_n;
 	rig_run(&R, 300, true);
 	frames_carry(r, from, what);
 	m = sim();
@@ -188,8 +172,8 @@ static void runs_with(const struct rmd_mit_ranges *r, const char *what)
 		fail_msg("%s: the simulated motor took t_ff %g and makes %g N·m (asked %g)", what,
 			 m->mit.t_ff_nm, m->p.kt_nm_a * m->iq_a, ASK_T);
 	/* its MIT replies (0x501) were taken: rmdd's torque is the motor's */
-	for (unsigned k = 0; k < motor_n; k++)
-		replies += motor[k].can_id == 0x501;
+	for (unsigned k = 0; k < rig_motor_n; k++)
+		replies += rig_motor[k].can_id == 0x501;
 	assert_true(replies >= 50);
 	st = mstate();
 	if (fabs(st.torque_nm - m->p.kt_nm_a * m->iq_a) > 0.2)
@@ -392,14 +376,14 @@ static void test_late_motor_decided(void **state)
 	bu_ret = 0;
 	R.cmd.present = 1;
 	{
-		unsigned from = host_n, b5 = 0;
+		unsigned from = rig_host_n, b5 = 0;
 
 		for (unsigned k = 0; k < 3000 && mstate().lifecycle != RMD_LC_READY; k++)
 			rig_run(&R, 1, true);
 		assert_int_equal(mstate().lifecycle, RMD_LC_READY);
 		/* the loop's re-probe asked the model, not bring-up alone */
-		for (unsigned k = from; k < host_n; k++)
-			b5 += host[k].can_id == 0x141 && host[k].data[0] == 0xB5;
+		for (unsigned k = from; k < rig_host_n; k++)
+			b5 += rig_host[k].can_id == 0x141 && rig_host[k].data[0] == 0xB5;
 		assert_true(b5 >= 1);
 	}
 	assert_int_equal(mit_requests(0), 0);
