@@ -353,7 +353,8 @@ $(NEW_DIALECT_DIR)/%.o: %.c $(NEW_DIALECT) | $(GEN_HDRS) $(VERSION_HDR)
 	@$(if $(Q),echo "  CC      $< (V5)")
 	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -Itests -include $(NEW_DIALECT) -c -o $@ $<
 
-$(BUILD)/tests/unit/test_new_dialect: $(NEW_DIALECT_OBJS) $(BUILD)/tests/harness/alloc_count.o
+$(BUILD)/tests/unit/test_new_dialect: $(NEW_DIALECT_OBJS) $(BUILD)/tests/harness/alloc_count.o \
+	$(BUILD)/tests/harness/suite.o
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) -lm

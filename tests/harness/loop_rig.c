@@ -196,9 +196,10 @@ unsigned fault_now(struct rmd_sim_fault *f, int64_t for_ns)
 	return trace_n;
 }
 
-void up_at_speed(tweak_fn *tweak, unsigned n, double vel_rad_s, unsigned cycles)
+void motors_at_speed(unsigned motors, tweak_fn *tweak, unsigned n, double vel_rad_s,
+		     unsigned cycles)
 {
-	rig_up(3, tweak);
+	rig_up(motors, tweak);
 	bring_up();
 	cmd_clear();
 	for (unsigned i = 0; i < n; i++)
@@ -206,14 +207,14 @@ void up_at_speed(tweak_fn *tweak, unsigned n, double vel_rad_s, unsigned cycles)
 	run(cycles, true);
 }
 
+void up_at_speed(tweak_fn *tweak, unsigned n, double vel_rad_s, unsigned cycles)
+{
+	motors_at_speed(3, tweak, n, vel_rad_s, cycles);
+}
+
 void three_at_speed(void)
 {
-	rig_up(3, NULL);
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 3; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(200, true);
+	up_at_speed(NULL, 3, 1.0, 200);
 	assert_int_equal(lifecycle(1), RMD_LC_ENABLED);
 }
 

@@ -111,6 +111,10 @@ int64_t sim_time(unsigned bus);
  */
 unsigned fault_now(struct rmd_sim_fault *f, int64_t for_ns);
 
+/* `motors` brought up (rig_up()), the first n running in speed mode at vel_rad_s for `cycles`. */
+void motors_at_speed(unsigned motors, tweak_fn *tweak, unsigned n, double vel_rad_s,
+		     unsigned cycles);
+
 /* Three motors brought up, the first n running in speed mode at vel_rad_s for `cycles`. */
 void up_at_speed(tweak_fn *tweak, unsigned n, double vel_rad_s, unsigned cycles);
 

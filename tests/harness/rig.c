@@ -47,10 +47,25 @@ void rig_assert_default_motor(const struct rmd_bringup_motor *m)
 	assert_int_equal(m->b3, RMD_B3_SET);
 }
 
+struct rmd_frame rig_host[RIG_WIRE_MAX], rig_motor[RIG_WIRE_MAX];
+unsigned rig_host_n, rig_motor_n;
+
 void rig_reset(struct rig *r)
 {
 	memset(r, 0, sizeof(*r));
+	rig_host_n = rig_motor_n = 0;
 	t_now = 1000 * MS;
+}
+
+void rig_wire_tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
+{
+	(void)ctx;
+	(void)start_ns;
+	(void)eof_ns;
+	if (p->src == RMD_SIM_SRC_HOST && rig_host_n < RIG_WIRE_MAX)
+		rig_host[rig_host_n++] = p->f;
+	else if (p->src != RMD_SIM_SRC_HOST && rig_motor_n < RIG_WIRE_MAX)
+		rig_motor[rig_motor_n++] = p->f;
 }
 
 void rig_start(struct rig *r, rmd_sim_wire_tap_fn *tap)

@@ -61,8 +61,17 @@ struct rig {
 	unsigned nev;
 };
 
-/* r zeroed and the injected clock at 1 s. */
+/* r zeroed, the wire log (rig_wire_tap()) emptied and the injected clock at 1 s. */
 void rig_reset(struct rig *r);
+
+#define RIG_WIRE_MAX 65536
+
+/* The frames the host put on the sim buses, and the motors', in order (rig_wire_tap()). */
+extern struct rmd_frame rig_host[RIG_WIRE_MAX], rig_motor[RIG_WIRE_MAX];
+extern unsigned rig_host_n, rig_motor_n;
+
+/* A tap for rig_start() that logs every frame into rig_host[] or rig_motor[] while there is room. */
+void rig_wire_tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns);
 
 /*
  * r's plan built from r->io.cfg, its buses opened (rig_open()) and the loop

@@ -29,3 +29,9 @@ void suite_fixture(struct CMUnitTest *tests, size_t n, CMFixtureFunction setup,
 		tests[i].teardown_func = teardown;
 	}
 }
+
+int suite_run(const char *name, const struct CMUnitTest *tests, size_t n,
+	      CMFixtureFunction group_setup, CMFixtureFunction group_teardown)
+{
+	return _cmocka_run_group_tests(name, tests, n, group_setup, group_teardown);
+}

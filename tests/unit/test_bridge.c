@@ -235,15 +235,21 @@ static struct rmd_bridge_stats stats(struct fixture *f)
 	return st;
 }
 
-/* The newest command handed to the rt loop, if one came since the last call. */
-static bool take_command(struct fixture *f, struct rmd_command *out)
+/* The newest of q's records (size bytes) into out, if one came since the last call. */
+static bool take_latest(struct rmd_latest *q, void *out, size_t size)
 {
 	const void *p;
 
-	if (!rmd_latest_get(&f->commands, &p))
+	if (!rmd_latest_get(q, &p))
 		return false;
-	memcpy(out, p, sizeof(*out));
+	memcpy(out, p, size);
 	return true;
+}
+
+/* The newest command handed to the rt loop, if one came since the last call. */
+static bool take_command(struct fixture *f, struct rmd_command *out)
+{
+	return take_latest(&f->commands, out, sizeof(*out));
 }
 
 static void send_cmd(struct fixture *f, const rmd_command_t *msg)
@@ -1334,12 +1340,7 @@ static rmd_command_t ctl_cmd(int64_t id, int64_t seq, bool enable)
 /* The newest homing requests handed to the rt loop, if any came since the last call. */
 static bool take_homes(struct fixture *f, struct rmd_home *out)
 {
-	const void *p;
-
-	if (!rmd_latest_get(&f->homes, &p))
-		return false;
-	memcpy(out, p, sizeof(*out));
-	return true;
+	return take_latest(&f->homes, out, sizeof(*out));
 }
 
 static void send_home(struct fixture *f, int64_t controller, int index, bool as_reported,
@@ -2274,39 +2275,32 @@ static void test_foreign_counted_and_logged_per_episode(void **state)
 	assert_int_equal(count_in(log_text(f), "another rmdd publishes"), 2);
 }
 
-int main(void)
-{
-	struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_init_checks_opts),
-		cmocka_unit_test(test_command_roundtrip),
-		cmocka_unit_test(test_prefix_is_not_a_pattern),
-		cmocka_unit_test(test_home),
-		cmocka_unit_test(test_clamp),
-		cmocka_unit_test(test_hostile_rejected_by_kind),
-		cmocka_unit_test(test_stale),
-		cmocka_unit_test(test_command_decoded_in_place),
-		cmocka_unit_test(test_motor_state_projection),
-		cmocka_unit_test(test_flood),
-		cmocka_unit_test(test_state_published),
-		cmocka_unit_test(test_state_every_nth),
-		cmocka_unit_test(test_health_10hz),
-		cmocka_unit_test(test_config_on_request),
-		cmocka_unit_test(test_one_controller_at_a_time),
-		cmocka_unit_test(test_owner_judged_by_arrival),
-		cmocka_unit_test(test_utime_full_width),
-		cmocka_unit_test(test_config_request_flood),
-		cmocka_unit_test(test_comm_loss_published),
-		cmocka_unit_test(test_rt_priority),
-		cmocka_unit_test(test_sleeps_when_idle),
-		cmocka_unit_test(test_memq_encodes_no_state),
-		cmocka_unit_test(test_own_datagrams_dropped),
-		cmocka_unit_test(test_fragments_reassembled),
-		cmocka_unit_test(test_probe_finds_another_daemon),
-		cmocka_unit_test(test_foreign_counted_and_logged_per_episode),
-	};
-
-	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
-	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood */
-		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
-	return cmocka_run_group_tests(tests, group_setup, NULL);
-}
+SUITE_MAIN_FIXTURE("bridge", setup, teardown, group_setup, NULL,
+		   {
+			   cmocka_unit_test(test_init_checks_opts),
+			   cmocka_unit_test(test_command_roundtrip),
+			   cmocka_unit_test(test_prefix_is_not_a_pattern),
+			   cmocka_unit_test(test_home),
+			   cmocka_unit_test(test_clamp),
+			   cmocka_unit_test(test_hostile_rejected_by_kind),
+			   cmocka_unit_test(test_stale),
+			   cmocka_unit_test(test_command_decoded_in_place),
+			   cmocka_unit_test(test_motor_state_projection),
+			   cmocka_unit_test(test_flood),
+			   cmocka_unit_test(test_state_published),
+			   cmocka_unit_test(test_state_every_nth),
+			   cmocka_unit_test(test_health_10hz),
+			   cmocka_unit_test(test_config_on_request),
+			   cmocka_unit_test(test_one_controller_at_a_time),
+			   cmocka_unit_test(test_owner_judged_by_arrival),
+			   cmocka_unit_test(test_utime_full_width),
+			   cmocka_unit_test(test_config_request_flood),
+			   cmocka_unit_test(test_comm_loss_published),
+			   cmocka_unit_test(test_rt_priority),
+			   cmocka_unit_test(test_sleeps_when_idle),
+			   cmocka_unit_test(test_memq_encodes_no_state),
+			   cmocka_unit_test(test_own_datagrams_dropped),
+			   cmocka_unit_test(test_fragments_reassembled),
+			   cmocka_unit_test(test_probe_finds_another_daemon),
+			   cmocka_unit_test(test_foreign_counted_and_logged_per_episode),
+		   })

@@ -36,6 +36,7 @@
 #include "rmd/plan.h"
 #include "rmd/sim.h"
 #include "rmd/sim_wire.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 
@@ -881,27 +882,23 @@ static void test_late_answers_of_bringup_are_late(void **state)
 	rig_down();
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_found),
-		cmocka_unit_test(test_missing_fault_unexpected),
-		cmocka_unit_test(test_b3_outcomes),
-		cmocka_unit_test(test_decorator_forwards),
-		cmocka_unit_test(test_sim_caps_and_accessors),
-		cmocka_unit_test(test_open_config_equals_spec),
-		cmocka_unit_test(test_config_timing),
-		cmocka_unit_test(test_b3_after_trip),
-		cmocka_unit_test(test_auto_picks_each_dialect),
-		cmocka_unit_test(test_auto_v2_with_protection_is_refused),
-		cmocka_unit_test(test_auto_v4_and_a_mismatch),
-		cmocka_unit_test(test_active_reply_left_on),
-		cmocka_unit_test(test_auto_missing_then_found),
-		cmocka_unit_test(test_auto_v2_found_late),
-		cmocka_unit_test(test_v4_back_reports_off),
-		cmocka_unit_test(test_slow_motors_are_found_and_measured),
-		cmocka_unit_test(test_late_answers_of_bringup_are_late),
-	};
-
-	return cmocka_run_group_tests_name("bringup", tests, NULL, NULL);
-}
+SUITE_MAIN("bringup", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_found),
+		   cmocka_unit_test(test_missing_fault_unexpected),
+		   cmocka_unit_test(test_b3_outcomes),
+		   cmocka_unit_test(test_decorator_forwards),
+		   cmocka_unit_test(test_sim_caps_and_accessors),
+		   cmocka_unit_test(test_open_config_equals_spec),
+		   cmocka_unit_test(test_config_timing),
+		   cmocka_unit_test(test_b3_after_trip),
+		   cmocka_unit_test(test_auto_picks_each_dialect),
+		   cmocka_unit_test(test_auto_v2_with_protection_is_refused),
+		   cmocka_unit_test(test_auto_v4_and_a_mismatch),
+		   cmocka_unit_test(test_active_reply_left_on),
+		   cmocka_unit_test(test_auto_missing_then_found),
+		   cmocka_unit_test(test_auto_v2_found_late),
+		   cmocka_unit_test(test_v4_back_reports_off),
+		   cmocka_unit_test(test_slow_motors_are_found_and_measured),
+		   cmocka_unit_test(test_late_answers_of_bringup_are_late),
+	   })

@@ -36,6 +36,7 @@
 #include "rmd/bus_sim.h"
 #include "rmd/bus_socketcan.h"
 #include "rmd/rs485.h"
+#include "harness/suite.h"
 
 #define MS 1000000LL
 #define LIMIT_NS (10000 * MS) /* no test waits longer than this for anything */
@@ -1221,32 +1222,28 @@ static void test_device_backlog(void **state)
 	close_bus(&bus, &pt);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_teardown(test_frame_time, teardown),
-		cmocka_unit_test_teardown(test_open_errors, teardown),
-		cmocka_unit_test_teardown(test_open_pty, teardown),
-		cmocka_unit_test_teardown(test_round_trip, teardown),
-		cmocka_unit_test_teardown(test_one_request_at_a_time, teardown),
-		cmocka_unit_test_teardown(test_silent_motor_times_out, teardown),
-		cmocka_unit_test_teardown(test_bad_crc_dropped, teardown),
-		cmocka_unit_test_teardown(test_garbage_skipped, teardown),
-		cmocka_unit_test_teardown(test_broadcast, teardown),
-		cmocka_unit_test_teardown(test_broadcast_unknown_count, teardown),
-		cmocka_unit_test_teardown(test_set_id_mapping, teardown),
-		cmocka_unit_test_teardown(test_local_echo, teardown),
-		cmocka_unit_test_teardown(test_partial_and_late_frames, teardown),
-		cmocka_unit_test_teardown(test_send_refusals, teardown),
-		cmocka_unit_test_teardown(test_caps_and_accessors, teardown),
-		cmocka_unit_test_teardown(test_reply_timeout_follows_turnaround, teardown),
-		cmocka_unit_test_teardown(test_latency_timer_set, teardown),
-		cmocka_unit_test_teardown(test_open_config_equals_spec, teardown),
-		cmocka_unit_test_teardown(test_device_role, teardown),
-		cmocka_unit_test_teardown(test_device_set_id_read, teardown),
-		cmocka_unit_test_teardown(test_device_local_echo, teardown),
-		cmocka_unit_test_teardown(test_device_backlog, teardown),
-	};
-
-	return cmocka_run_group_tests_name("bus_rs485", tests, NULL, NULL);
-}
+SUITE_MAIN("bus_rs485", NULL, NULL,
+	   {
+		   cmocka_unit_test_teardown(test_frame_time, teardown),
+		   cmocka_unit_test_teardown(test_open_errors, teardown),
+		   cmocka_unit_test_teardown(test_open_pty, teardown),
+		   cmocka_unit_test_teardown(test_round_trip, teardown),
+		   cmocka_unit_test_teardown(test_one_request_at_a_time, teardown),
+		   cmocka_unit_test_teardown(test_silent_motor_times_out, teardown),
+		   cmocka_unit_test_teardown(test_bad_crc_dropped, teardown),
+		   cmocka_unit_test_teardown(test_garbage_skipped, teardown),
+		   cmocka_unit_test_teardown(test_broadcast, teardown),
+		   cmocka_unit_test_teardown(test_broadcast_unknown_count, teardown),
+		   cmocka_unit_test_teardown(test_set_id_mapping, teardown),
+		   cmocka_unit_test_teardown(test_local_echo, teardown),
+		   cmocka_unit_test_teardown(test_partial_and_late_frames, teardown),
+		   cmocka_unit_test_teardown(test_send_refusals, teardown),
+		   cmocka_unit_test_teardown(test_caps_and_accessors, teardown),
+		   cmocka_unit_test_teardown(test_reply_timeout_follows_turnaround, teardown),
+		   cmocka_unit_test_teardown(test_latency_timer_set, teardown),
+		   cmocka_unit_test_teardown(test_open_config_equals_spec, teardown),
+		   cmocka_unit_test_teardown(test_device_role, teardown),
+		   cmocka_unit_test_teardown(test_device_set_id_read, teardown),
+		   cmocka_unit_test_teardown(test_device_local_echo, teardown),
+		   cmocka_unit_test_teardown(test_device_backlog, teardown),
+	   })

@@ -51,6 +51,7 @@
 #include "rmd/bus_socketcan.h"
 
 #include "harness/alloc_count.h"
+#include "harness/suite.h"
 
 #define NS_PER_MS 1000000LL
 
@@ -1195,8 +1196,8 @@ int main(void)
 		close(fd);
 	if (!have_socketcan) {
 		printf("SKIP: no SocketCAN in this kernel (run via tests/vm/vm-run)\n");
-		return cmocka_run_group_tests_name("bus_socketcan", host_tests, NULL, NULL);
+		return SUITE_RUN("bus_socketcan", host_tests, NULL, NULL);
 	}
 	pin_to_one_cpu();
-	return cmocka_run_group_tests_name("bus_socketcan", tests, NULL, NULL);
+	return SUITE_RUN("bus_socketcan", tests, NULL, NULL);
 }

@@ -19,6 +19,7 @@
 #include "rmd/can_timing.h"
 
 #include "harness/rng.h"
+#include "harness/suite.h"
 
 #define SEED_DEFAULT 0x5eed0001u
 #define RANDOM_FRAMES 20000
@@ -397,5 +398,5 @@ int main(void)
 	};
 
 	rng_state = test_seed();
-	return cmocka_run_group_tests_name("can_timing", tests, NULL, NULL);
+	return SUITE_RUN("can_timing", tests, NULL, NULL);
 }

@@ -18,6 +18,7 @@
 #include "rmd/candump.h"
 
 #include "harness/hex.h"
+#include "harness/suite.h"
 
 struct good_vector {
 	const char *name;
@@ -194,14 +195,10 @@ static void test_every_prefix(void **state)
 	}
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_good_lines),
-		cmocka_unit_test(test_bad_lines),
-		cmocka_unit_test(test_strerror),
-		cmocka_unit_test(test_every_prefix),
-	};
-
-	return cmocka_run_group_tests_name("candump", tests, NULL, NULL);
-}
+SUITE_MAIN("candump", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_good_lines),
+		   cmocka_unit_test(test_bad_lines),
+		   cmocka_unit_test(test_strerror),
+		   cmocka_unit_test(test_every_prefix),
+	   })

@@ -27,6 +27,7 @@
 
 #include "harness/hex.h"
 #include "harness/rng.h"
+#include "harness/suite.h"
 
 #define ARRAY_SIZE(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -1782,34 +1783,30 @@ static void test_v2_multi_turn_sign(void **state)
 	assert_int_equal(m.v[RMD_FLD_ENCODER], -10000);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_manual_vectors),
-		cmocka_unit_test(test_tables),
-		cmocka_unit_test(test_spellings),
-		cmocka_unit_test(test_round_trip),
-		cmocka_unit_test(test_bad_length),
-		cmocka_unit_test(test_bad_id),
-		cmocka_unit_test(test_unknown_command),
-		cmocka_unit_test(test_encode_errors),
-		cmocka_unit_test(test_v2_multi_torque),
-		cmocka_unit_test(test_v2_direction_guess),
-		cmocka_unit_test(test_v2_multi_turn_56bit),
-		cmocka_unit_test(test_v2_tf_reply),
-		cmocka_unit_test(test_v2_unsafe_reply),
-		cmocka_unit_test(test_error_names),
-		cmocka_unit_test(test_run_mode_names),
-		cmocka_unit_test(test_model),
-		cmocka_unit_test(test_version_date),
-		cmocka_unit_test(test_dialect_for_firmware),
-		cmocka_unit_test(test_mit_is_a_mode),
-		cmocka_unit_test(test_mit_scaling_decide),
-		cmocka_unit_test(test_mit_scaling_entry),
-		cmocka_unit_test(test_float_field),
-		cmocka_unit_test(test_v4_single_turn),
-		cmocka_unit_test(test_v2_multi_turn_sign),
-	};
-
-	return cmocka_run_group_tests_name("codec", tests, NULL, NULL);
-}
+SUITE_MAIN("codec", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_manual_vectors),
+		   cmocka_unit_test(test_tables),
+		   cmocka_unit_test(test_spellings),
+		   cmocka_unit_test(test_round_trip),
+		   cmocka_unit_test(test_bad_length),
+		   cmocka_unit_test(test_bad_id),
+		   cmocka_unit_test(test_unknown_command),
+		   cmocka_unit_test(test_encode_errors),
+		   cmocka_unit_test(test_v2_multi_torque),
+		   cmocka_unit_test(test_v2_direction_guess),
+		   cmocka_unit_test(test_v2_multi_turn_56bit),
+		   cmocka_unit_test(test_v2_tf_reply),
+		   cmocka_unit_test(test_v2_unsafe_reply),
+		   cmocka_unit_test(test_error_names),
+		   cmocka_unit_test(test_run_mode_names),
+		   cmocka_unit_test(test_model),
+		   cmocka_unit_test(test_version_date),
+		   cmocka_unit_test(test_dialect_for_firmware),
+		   cmocka_unit_test(test_mit_is_a_mode),
+		   cmocka_unit_test(test_mit_scaling_decide),
+		   cmocka_unit_test(test_mit_scaling_entry),
+		   cmocka_unit_test(test_float_field),
+		   cmocka_unit_test(test_v4_single_turn),
+		   cmocka_unit_test(test_v2_multi_turn_sign),
+	   })

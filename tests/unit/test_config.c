@@ -28,6 +28,7 @@
 #include "rmd/motor.h"
 
 #include "harness/proc.h"
+#include "harness/suite.h"
 
 #define ERR_LEN 8192
 
@@ -1351,7 +1352,5 @@ int main(void)
 
 	if (dir && *dir)
 		snprintf(srcdir, sizeof(srcdir), "%s", dir);
-	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_special_files */
-		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
-	return cmocka_run_group_tests(tests, NULL, NULL);
+	return SUITE_RUN("config", tests, NULL, NULL);
 }

@@ -19,6 +19,7 @@
 #include "rmd/describe.h"
 #include "rmd/mit.h"
 #include "rmd/rs485.h"
+#include "harness/suite.h"
 
 /* V3 §2.12: a 0x9A reply, 25 °C, brake locked, 48.0 V, error flags as given. */
 static struct rmd_frame status_reply(uint16_t errors)
@@ -223,15 +224,15 @@ static void test_rs485_bauds(void **state)
 		assert_int_equal(rmd_rs485_baud_speed(RMD_RS485_BAUDS[i].baud, NULL), 0);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_frame_keys),  cmocka_unit_test(test_frame_undecoded),
-		cmocka_unit_test(test_frame_mit),   cmocka_unit_test(test_styles),
-		cmocka_unit_test(test_text),	    cmocka_unit_test(test_field_conversion),
-		cmocka_unit_test(test_msg_native),  cmocka_unit_test(test_proto_names),
-		cmocka_unit_test(test_rs485_bauds),
-	};
-
-	return cmocka_run_group_tests_name("describe", tests, NULL, NULL);
-}
+SUITE_MAIN("describe", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_frame_keys),
+		   cmocka_unit_test(test_frame_undecoded),
+		   cmocka_unit_test(test_frame_mit),
+		   cmocka_unit_test(test_styles),
+		   cmocka_unit_test(test_text),
+		   cmocka_unit_test(test_field_conversion),
+		   cmocka_unit_test(test_msg_native),
+		   cmocka_unit_test(test_proto_names),
+		   cmocka_unit_test(test_rs485_bauds),
+	   })

@@ -19,6 +19,7 @@
 #include "rmd/codec.h"
 #include "rmd/dialect.h"
 #include "harness/hex.h"
+#include "harness/suite.h"
 
 #define ALL_SLOTS UINT32_MAX
 #define MAX_FRAMES RMD_PID_SLOTS_MAX
@@ -303,15 +304,11 @@ static void test_set_id(void **state)
 	}
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_pid_requests),
-		cmocka_unit_test(test_pid_parse_round_trip),
-		cmocka_unit_test(test_pid_parse_replies),
-		cmocka_unit_test(test_pid_answer),
-		cmocka_unit_test(test_set_id),
-	};
-
-	return cmocka_run_group_tests(tests, NULL, NULL);
-}
+SUITE_MAIN("dialect_req", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_pid_requests),
+		   cmocka_unit_test(test_pid_parse_round_trip),
+		   cmocka_unit_test(test_pid_parse_replies),
+		   cmocka_unit_test(test_pid_answer),
+		   cmocka_unit_test(test_set_id),
+	   })

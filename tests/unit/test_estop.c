@@ -55,6 +55,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 #define US INT64_C(1000)
@@ -463,13 +464,9 @@ static void test_estop_flush_refused(void **state)
 	rig_stop(&R);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_estop_2s),
-		cmocka_unit_test(test_estop_5ms),
-		cmocka_unit_test(test_estop_flush_refused),
-	};
-
-	return cmocka_run_group_tests_name("estop", tests, NULL, NULL);
-}
+SUITE_MAIN("estop", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_estop_2s),
+		   cmocka_unit_test(test_estop_5ms),
+		   cmocka_unit_test(test_estop_flush_refused),
+	   })

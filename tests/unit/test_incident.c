@@ -24,6 +24,7 @@
 #include "rmd/plan.h"
 #include "rmd/sim_setup.h"
 #include "rmd/time.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 
@@ -290,14 +291,10 @@ static void test_no_torn_record_while_the_loop_writes(void **state)
 	rmd_incident_ring_free(torn_ring);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_sized_from_the_plan_and_window),
-		cmocka_unit_test(test_overwrites_and_reads_from_a_time),
-		cmocka_unit_test(test_batches_read_as_single_records),
-		cmocka_unit_test(test_no_torn_record_while_the_loop_writes),
-	};
-
-	return cmocka_run_group_tests_name("incident", tests, setup, NULL);
-}
+SUITE_MAIN("incident", setup, NULL,
+	   {
+		   cmocka_unit_test(test_sized_from_the_plan_and_window),
+		   cmocka_unit_test(test_overwrites_and_reads_from_a_time),
+		   cmocka_unit_test(test_batches_read_as_single_records),
+		   cmocka_unit_test(test_no_torn_record_while_the_loop_writes),
+	   })

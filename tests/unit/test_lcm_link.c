@@ -37,6 +37,7 @@
 #include "harness/lcm_loopback.h"
 #include "rmd/lcm_link.h"
 #include "rmd/time.h"
+#include "harness/suite.h"
 
 #define PREFIX "LINK_"
 /* One datagram: channel, NUL and bytes fit LCM_SHORT_MESSAGE_MAX_SIZE. */
@@ -509,20 +510,18 @@ static void test_receive_and_publish_allocate_nothing(void **state)
 	rmd_lcm_link_free(other);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_url_checked),
-		cmocka_unit_test_setup_teardown(test_lcm13_sends, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_lcm13_receives, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_lcm15_sends, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_lcm15_receives, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_own_datagrams_filtered, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_too_long_said, setup, teardown),
-		cmocka_unit_test(test_memq_through_lcm),
-		cmocka_unit_test_setup_teardown(test_receive_and_publish_allocate_nothing, setup,
-						teardown),
-	};
+/* A test between setup() and teardown(): a link made for it. */
+#define LINKED(f) cmocka_unit_test_setup_teardown(f, setup, teardown)
 
-	return cmocka_run_group_tests(tests, group_setup, NULL);
-}
+SUITE_MAIN("lcm_link", group_setup, NULL,
+	   {
+		   cmocka_unit_test(test_url_checked),
+		   LINKED(test_lcm13_sends),
+		   LINKED(test_lcm13_receives),
+		   LINKED(test_lcm15_sends),
+		   LINKED(test_lcm15_receives),
+		   LINKED(test_own_datagrams_filtered),
+		   LINKED(test_too_long_said),
+		   cmocka_unit_test(test_memq_through_lcm),
+		   LINKED(test_receive_and_publish_allocate_nothing),
+	   })

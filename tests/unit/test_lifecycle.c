@@ -51,6 +51,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 #define GRACE 10	/* cycles for frames in flight to arrive and act */
@@ -97,19 +98,6 @@ static struct {
 	bool seen[RMD_LC_COUNT];
 	unsigned tx_from; /* frames of the wire not yet judged */
 } T;
-
-#define TX_MAX 16384
-static struct rmd_frame tx[TX_MAX];
-static unsigned tx_n;
-
-static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
-{
-	(void)ctx;
-	(void)start_ns;
-	(void)eof_ns;
-	if (p->src == RMD_SIM_SRC_HOST && tx_n < TX_MAX)
-		tx[tx_n++] = p->f;
-}
 
 static struct rmd_sim_motor *sim(void)
 {
@@ -165,10 +153,12 @@ static void check_truth(void)
 	 */
 	if (prev == RMD_LC_READY && lc != RMD_LC_READY)
 		T.off_sent = T.brake_sent = 0;
-	for (; T.tx_from < tx_n; T.tx_from++) {
-		T.off_sent += tx[T.tx_from].data[0] == 0x80 && tx[T.tx_from].can_id < 0x400;
-		T.brake_sent += tx[T.tx_from].data[0] == 0x78 && tx[T.tx_from].can_id < 0x400;
-		if (!moves(&tx[T.tx_from]) || lc != prev)
+	for (; T.tx_from < rig_host_n; T.tx_from++) {
+		T.off_sent += rig_host[T.tx_from].data[0] == 0x80 &&
+			      rig_host[T.tx_from].can_id < 0x400;
+		T.brake_sent += rig_host[T.tx_from].data[0] == 0x78 &&
+				rig_host[T.tx_from].can_id < 0x400;
+		if (!moves(&rig_host[T.tx_from]) || lc != prev)
 			continue;
 		T.moving_in_fault += lc == RMD_LC_FAULT;
 		T.moving_in_ready += lc == RMD_LC_READY;
@@ -234,7 +224,6 @@ static void rig_up(const struct row *row)
 {
 	rig_reset(&R);
 	memset(&T, 0, sizeof(T));
-	tx_n = 0;
 	T.row = row;
 	T.in_force = row->action;
 	T.lc = RMD_LC_PROBE;
@@ -242,7 +231,7 @@ static void rig_up(const struct row *row)
 	R.io.cfg.safety.lost_motor_action = RMD_LOST_MOTOR;
 	tweak_row(row);
 	R.each = check_truth; /* after every cycle */
-	rig_start(&R, tap);
+	rig_start(&R, rig_wire_tap);
 }
 
 /* Run until the state is lc (at most max cycles, each checked). */
@@ -351,9 +340,9 @@ static void walk(const struct row *row)
 			T.in_force = RMD_SAFE_HOLD;
 		rmd_loop_stop_motors(R.l, t_now);
 		/* the shutdown's own frames: test_loop_stop's test_shutdown_actions checks them */
-		for (; T.tx_from < tx_n; T.tx_from++) {
-			T.off_sent += tx[T.tx_from].data[0] == 0x80;
-			T.brake_sent += tx[T.tx_from].data[0] == 0x78;
+		for (; T.tx_from < rig_host_n; T.tx_from++) {
+			T.off_sent += rig_host[T.tx_from].data[0] == 0x80;
+			T.brake_sent += rig_host[T.tx_from].data[0] == 0x78;
 		}
 		T.in_state = GRACE; /* its frames are out: the promise holds at once */
 		check_truth();
@@ -475,5 +464,5 @@ int main(void)
 						.test_func = test_row,
 						.initial_state = &rows[k] };
 	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_unechoed_is_lost);
-	return _cmocka_run_group_tests("lifecycle truth", tests, n, NULL, NULL);
+	return suite_run("lifecycle truth", tests, n, NULL, NULL);
 }

@@ -48,6 +48,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 #define CYCLES 12000
@@ -279,5 +280,5 @@ int main(void)
 	if (!alloc_count_available())
 		fprintf(stderr, "test_loop_alloc: AddressSanitizer intercepts malloc; "
 				"skipped (run the build without SANITIZE=1)\n");
-	return cmocka_run_group_tests_name("loop_alloc", tests, NULL, NULL);
+	return SUITE_RUN("loop_alloc", tests, NULL, NULL);
 }

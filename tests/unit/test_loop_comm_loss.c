@@ -19,6 +19,7 @@
 #include <cmocka.h>
 
 #include "harness/loop_rig.h"
+#include "harness/suite.h"
 
 static void test_comm_loss_trip(void **state)
 {
@@ -493,19 +494,15 @@ static void test_v2_protection_off_by_config(void **state)
 	rig_down();
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_comm_loss_trip),
-		cmocka_unit_test(test_cl_reproducer),
-		cmocka_unit_test(test_cl_refused),
-		cmocka_unit_test(test_cl_late_motor),
-		cmocka_unit_test(test_cl_off_by_config),
-		cmocka_unit_test(test_v2_start_angle),
-		cmocka_unit_test(test_cl_zeros_answer),
-		cmocka_unit_test(test_cl_round_after_trip),
-		cmocka_unit_test(test_v2_protection_off_by_config),
-	};
-
-	return cmocka_run_group_tests_name("loop_comm_loss", tests, NULL, NULL);
-}
+SUITE_MAIN("loop_comm_loss", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_comm_loss_trip),
+		   cmocka_unit_test(test_cl_reproducer),
+		   cmocka_unit_test(test_cl_refused),
+		   cmocka_unit_test(test_cl_late_motor),
+		   cmocka_unit_test(test_cl_off_by_config),
+		   cmocka_unit_test(test_v2_start_angle),
+		   cmocka_unit_test(test_cl_zeros_answer),
+		   cmocka_unit_test(test_cl_round_after_trip),
+		   cmocka_unit_test(test_v2_protection_off_by_config),
+	   })

@@ -17,6 +17,7 @@
 #include <cmocka.h>
 
 #include "harness/loop_rig.h"
+#include "harness/suite.h"
 
 static void test_watchdog(void **state)
 {
@@ -463,18 +464,14 @@ static void test_enable_edge_latched(void **state)
 	rig_down();
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_watchdog),
-		cmocka_unit_test(test_safe_frames_take_polls_place),
-		cmocka_unit_test(test_events_cause_before_effect),
-		cmocka_unit_test(test_watchdog_per_motor),
-		cmocka_unit_test(test_brake_release_holds_setpoints),
-		cmocka_unit_test(test_commands_queued_in_a_stall),
-		cmocka_unit_test(test_nan_never_on_wire),
-		cmocka_unit_test(test_enable_edge_latched),
-	};
-
-	return cmocka_run_group_tests_name("loop_commands", tests, NULL, NULL);
-}
+SUITE_MAIN("loop_commands", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_watchdog),
+		   cmocka_unit_test(test_safe_frames_take_polls_place),
+		   cmocka_unit_test(test_events_cause_before_effect),
+		   cmocka_unit_test(test_watchdog_per_motor),
+		   cmocka_unit_test(test_brake_release_holds_setpoints),
+		   cmocka_unit_test(test_commands_queued_in_a_stall),
+		   cmocka_unit_test(test_nan_never_on_wire),
+		   cmocka_unit_test(test_enable_edge_latched),
+	   })

@@ -14,6 +14,7 @@
 #include <cmocka.h>
 
 #include "harness/loop_rig.h"
+#include "harness/suite.h"
 
 static void test_fault_flags(void **state)
 {
@@ -299,18 +300,14 @@ static void test_fault_over_temperature(void **state)
 	rig_down();
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_fault_flags),
-		cmocka_unit_test(test_fault_garbage),
-		cmocka_unit_test(test_fault_bad_dlc_empty),
-		cmocka_unit_test(test_fault_wrong_id),
-		cmocka_unit_test(test_fault_bad_dlc_short),
-		cmocka_unit_test(test_fault_delay),
-		cmocka_unit_test(test_fault_flood),
-		cmocka_unit_test(test_fault_over_temperature),
-	};
-
-	return cmocka_run_group_tests_name("loop_faults", tests, NULL, NULL);
-}
+SUITE_MAIN("loop_faults", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_fault_flags),
+		   cmocka_unit_test(test_fault_garbage),
+		   cmocka_unit_test(test_fault_bad_dlc_empty),
+		   cmocka_unit_test(test_fault_wrong_id),
+		   cmocka_unit_test(test_fault_bad_dlc_short),
+		   cmocka_unit_test(test_fault_delay),
+		   cmocka_unit_test(test_fault_flood),
+		   cmocka_unit_test(test_fault_over_temperature),
+	   })

@@ -23,6 +23,7 @@
 #include <cmocka.h>
 
 #include "harness/loop_rig.h"
+#include "harness/suite.h"
 
 static void test_bringup_ready_not_moved(void **state)
 {
@@ -366,12 +367,7 @@ static void test_state_when_replies_are_in(void **state)
 	int64_t tick, t, worst = 0;
 
 	(void)state;
-	rig_up(2, NULL);
-	bring_up();
-	cmd_clear();
-	for (unsigned i = 0; i < 2; i++)
-		cmd_motor(i, true, RMD_MODE_SPEED)->vel_rad_s = 1.0;
-	run(50, true);
+	motors_at_speed(2, NULL, 2, 1.0, 50);
 	s0 = snap();
 	tick = t_now;
 	rmd_loop_tick(R.l, tick);
@@ -725,24 +721,20 @@ static void test_polls_two_a_cycle(void **state)
 	rig_down();
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_bringup_ready_not_moved),
-		cmocka_unit_test(test_bringup_missing),
-		cmocka_unit_test(test_bringup_unexpected),
-		cmocka_unit_test(test_enable_position_moves),
-		cmocka_unit_test(test_overrun),
-		cmocka_unit_test(test_overrun_burst_is_one_skip),
-		cmocka_unit_test(test_health),
-		cmocka_unit_test(test_thread),
-		cmocka_unit_test(test_state_when_replies_are_in),
-		cmocka_unit_test(test_health_getter),
-		cmocka_unit_test(test_wake_hist_and_reply_latency),
-		cmocka_unit_test(test_fine_position_sine),
-		cmocka_unit_test(test_fine_position_at_zero),
-		cmocka_unit_test(test_polls_two_a_cycle),
-	};
-
-	return cmocka_run_group_tests_name("loop_frames", tests, NULL, NULL);
-}
+SUITE_MAIN("loop_frames", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_bringup_ready_not_moved),
+		   cmocka_unit_test(test_bringup_missing),
+		   cmocka_unit_test(test_bringup_unexpected),
+		   cmocka_unit_test(test_enable_position_moves),
+		   cmocka_unit_test(test_overrun),
+		   cmocka_unit_test(test_overrun_burst_is_one_skip),
+		   cmocka_unit_test(test_health),
+		   cmocka_unit_test(test_thread),
+		   cmocka_unit_test(test_state_when_replies_are_in),
+		   cmocka_unit_test(test_health_getter),
+		   cmocka_unit_test(test_wake_hist_and_reply_latency),
+		   cmocka_unit_test(test_fine_position_sine),
+		   cmocka_unit_test(test_fine_position_at_zero),
+		   cmocka_unit_test(test_polls_two_a_cycle),
+	   })

@@ -13,6 +13,7 @@
 #include <cmocka.h>
 
 #include "harness/loop_rig.h"
+#include "harness/suite.h"
 
 static void test_lost_and_recovery(void **state)
 {
@@ -129,13 +130,9 @@ static void test_bus_off(void **state)
 	rig_down();
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_lost_and_recovery),
-		cmocka_unit_test(test_lost_all),
-		cmocka_unit_test(test_bus_off),
-	};
-
-	return cmocka_run_group_tests_name("loop_lost", tests, NULL, NULL);
-}
+SUITE_MAIN("loop_lost", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_lost_and_recovery),
+		   cmocka_unit_test(test_lost_all),
+		   cmocka_unit_test(test_bus_off),
+	   })

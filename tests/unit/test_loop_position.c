@@ -18,6 +18,7 @@
 #include <cmocka.h>
 
 #include "harness/loop_rig.h"
+#include "harness/suite.h"
 
 /*
  * A forged reply (test_pos_settle_one_bad_reading): once motor 1 on bus 0
@@ -135,6 +136,27 @@ static void pc_power_cycle(void)
 /* V3 control replies carry whole degrees (V3 §2.13.3) */
 #define PC_TOL (0.5 * M_PI / 180.0 + 1e-6)
 
+/* The in-band cases (test_pos_cycle_in_band()): at several angles, gear ratios, directions. */
+static const struct pc_case in_band[] = {
+	{ "direct drive, 400 deg", 1.0, 1, 0.0, 400.0, 100.0, 100.0, false, false, false },
+	{ "direct drive reversed, -500 deg, zero 0.3", 1.0, -1, 0.3, -500.0, 20.0, 300.0, false,
+	  false, false },
+	{ "1:6, -100 deg, band 40 deg", 6.0, 1, 0.0, -100.0, 20.0, 20.0, false, false, false },
+	{ "1:9 reversed, 725 deg, zero -0.5, band 30 deg", 9.0, -1, -0.5, 725.0, 5.0, 25.0, false,
+	  false, false },
+	{ "1:9, 10 deg (no wrap), band at its edge", 9.0, 1, 0.0, 10.0, 0.0, 30.0, false, false,
+	  false },
+	{ "V2 1:6, 250 deg (rmdd unwraps the encoder)", 6.0, 1, 0.0, 250.0, 10.0, 20.0, true, false,
+	  false },
+	{ "MIT direct drive reversed, 300 deg", 1.0, -1, 0.1, 300.0, 90.0, 90.0, false, true,
+	  false },
+	/* firmware that keeps only the rotor's angle: 727 deg comes back as 7 deg */
+	{ "1:9 rotor wrap, 727 deg, band 30 deg", 9.0, 1, 0.0, 727.0, 10.0, 20.0, false, false,
+	  true },
+	{ "1:6 rotor wrap reversed, -95 deg, zero 0.2", 6.0, -1, 0.2, -95.0, 25.0, 25.0, false,
+	  false, true },
+};
+
 /*
  * A joint whose travel band is narrower than one rotor turn at the output
  * (2 pi / gear_ratio) reports its true position after a power cycle, which
@@ -143,32 +165,11 @@ static void pc_power_cycle(void)
  */
 static void test_pos_cycle_in_band(void **state)
 {
-	static const struct pc_case cases[] = {
-		{ "direct drive, 400 deg", 1.0, 1, 0.0, 400.0, 100.0, 100.0, false, false, false },
-		{ "direct drive reversed, -500 deg, zero 0.3", 1.0, -1, 0.3, -500.0, 20.0, 300.0,
-		  false, false, false },
-		{ "1:6, -100 deg, band 40 deg", 6.0, 1, 0.0, -100.0, 20.0, 20.0, false, false,
-		  false },
-		{ "1:9 reversed, 725 deg, zero -0.5, band 30 deg", 9.0, -1, -0.5, 725.0, 5.0, 25.0,
-		  false, false, false },
-		{ "1:9, 10 deg (no wrap), band at its edge", 9.0, 1, 0.0, 10.0, 0.0, 30.0, false,
-		  false, false },
-		{ "V2 1:6, 250 deg (rmdd unwraps the encoder)", 6.0, 1, 0.0, 250.0, 10.0, 20.0,
-		  true, false, false },
-		{ "MIT direct drive reversed, 300 deg", 1.0, -1, 0.1, 300.0, 90.0, 90.0, false,
-		  true, false },
-		/* firmware that keeps only the rotor's angle: 727 deg comes back as 7 deg */
-		{ "1:9 rotor wrap, 727 deg, band 30 deg", 9.0, 1, 0.0, 727.0, 10.0, 20.0, false,
-		  false, true },
-		{ "1:6 rotor wrap reversed, -95 deg, zero 0.2", 6.0, -1, 0.2, -95.0, 25.0, 25.0,
-		  false, false, true },
-	};
-
 	(void)state;
-	for (size_t k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+	for (size_t k = 0; k < SUITE_N(in_band); k++) {
 		struct rmd_snapshot s;
 
-		pc = cases[k];
+		pc = in_band[k];
 		pc_rig();
 		s = snap();
 		if (!s.m[0].pos_certain || s.m[0].pos_trust != RMD_POS_IN_BAND ||
@@ -205,21 +206,16 @@ static void test_pos_cycle_in_band(void **state)
  */
 static void test_pos_settle_one_bad_reading(void **state)
 {
-	static const struct pc_case c = { .name = "direct drive, 400 deg, band 200 deg",
-					  .gear = 1.0,
-					  .dir = 1,
-					  .start_deg = 400.0,
-					  .below = 100.0,
-					  .above = 100.0 };
 	struct rmd_snapshot s;
 
 	(void)state;
-	pc = c;
+	pc = in_band[0]; /* direct drive, 400 deg, band 200 deg */
 	pc_rig();
 	assert_true(snap().m[0].pos_certain);
 	cmd_clear();
 	cmd_motor(0, false, RMD_MODE_TORQUE);
 	memset(&forge, 0, sizeof(forge));
+	rig_tap_hook = forge_reply;
 	forge.armed = true;
 	pc_power_cycle();
 	run(20, true);
@@ -309,17 +305,11 @@ static void test_pos_ambiguous_refused(void **state)
  */
 static void test_pos_uncertain_mit_kp(void **state)
 {
-	static const struct pc_case c = { .name = "MIT, no band",
-					  .gear = 1.0,
-					  .dir = 1,
-					  .start_deg = 500.0,
-					  .below = -1,
-					  .mit = true };
 	struct rmd_setpoint *sp;
 	unsigned from;
 
 	(void)state;
-	pc = c;
+	pc = (struct pc_case){ "MIT, no band", 1.0, 1, 0.0, 500.0, -1, 0, false, true, false };
 	pc_rig();
 	assert_false(snap().m[0].pos_certain);
 	cmd_clear();
@@ -699,27 +689,15 @@ static void test_home_outside_travel(void **state)
 	}
 }
 
-/* Group setup: the tap forges a reply when test_pos_settle_one_bad_reading arms it. */
-static int hook_tap(void **state)
-{
-	(void)state;
-	rig_tap_hook = forge_reply;
-	return 0;
-}
-
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_pos_cycle_in_band),
-		cmocka_unit_test(test_v2_silent_turn_recounted),
-		cmocka_unit_test(test_v2_without_angle_command),
-		cmocka_unit_test(test_v2_count_at_speed),
-		cmocka_unit_test(test_pos_settle_one_bad_reading),
-		cmocka_unit_test(test_pos_ambiguous_refused),
-		cmocka_unit_test(test_pos_homed),
-		cmocka_unit_test(test_home_outside_travel),
-		cmocka_unit_test(test_pos_uncertain_mit_kp),
-	};
-
-	return cmocka_run_group_tests_name("loop_position", tests, hook_tap, NULL);
-}
+SUITE_MAIN("loop_position", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_pos_cycle_in_band),
+		   cmocka_unit_test(test_v2_silent_turn_recounted),
+		   cmocka_unit_test(test_v2_without_angle_command),
+		   cmocka_unit_test(test_v2_count_at_speed),
+		   cmocka_unit_test(test_pos_settle_one_bad_reading),
+		   cmocka_unit_test(test_pos_ambiguous_refused),
+		   cmocka_unit_test(test_pos_homed),
+		   cmocka_unit_test(test_home_outside_travel),
+		   cmocka_unit_test(test_pos_uncertain_mit_kp),
+	   })

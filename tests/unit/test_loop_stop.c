@@ -13,6 +13,7 @@
 #include <cmocka.h>
 
 #include "harness/loop_rig.h"
+#include "harness/suite.h"
 
 static void brake_safe(struct rmd_config *cfg)
 {
@@ -234,15 +235,11 @@ static void test_shutdown_actions(void **state)
 	rig_down();
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_shutdown_damp_feeds_the_others),
-		cmocka_unit_test(test_stop_motors),
-		cmocka_unit_test(test_health_after_stop_counts_the_stops),
-		cmocka_unit_test(test_stop_motors_bus_off),
-		cmocka_unit_test(test_shutdown_actions),
-	};
-
-	return cmocka_run_group_tests_name("loop_stop", tests, NULL, NULL);
-}
+SUITE_MAIN("loop_stop", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_shutdown_damp_feeds_the_others),
+		   cmocka_unit_test(test_stop_motors),
+		   cmocka_unit_test(test_health_after_stop_counts_the_stops),
+		   cmocka_unit_test(test_stop_motors_bus_off),
+		   cmocka_unit_test(test_shutdown_actions),
+	   })

@@ -19,6 +19,7 @@
 
 #include "harness/loop_rig.h"
 #include "harness/v2_batch.h"
+#include "harness/suite.h"
 
 /* The first frame a motor put on the wire with identifier watch_id (caller's clock; 0: none). */
 static uint32_t watch_id;
@@ -297,6 +298,7 @@ static void test_v2_batch_stray_later(void **state)
 	drive_all(torque_for_first_byte(0x77));
 	run(200, true);
 	assert_true(batches_since(0) >= 150);
+	rig_tap_hook = watch;
 	watch_id = 0x245;
 	watch_first_ns = 0;
 	from = trace_n;
@@ -376,24 +378,12 @@ static void test_v2_batch_lost_motor(void **state)
 	rig_down();
 }
 
-/* Group setup: the tap notes the first frame on watch_id. */
-static int hook_tap(void **state)
-{
-	(void)state;
-	rig_tap_hook = watch;
-	return 0;
-}
-
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v2_batch),
-		cmocka_unit_test(test_v2_batch_only_enabled),
-		cmocka_unit_test(test_v2_batch_lost_motor),
-		cmocka_unit_test(test_v2_batch_stray),
-		cmocka_unit_test(test_v2_batch_stray_later),
-		cmocka_unit_test(test_v2_batch_stray_refused),
-	};
-
-	return cmocka_run_group_tests_name("loop_v2_batch", tests, hook_tap, NULL);
-}
+SUITE_MAIN("loop_v2_batch", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_v2_batch),
+		   cmocka_unit_test(test_v2_batch_only_enabled),
+		   cmocka_unit_test(test_v2_batch_lost_motor),
+		   cmocka_unit_test(test_v2_batch_stray),
+		   cmocka_unit_test(test_v2_batch_stray_later),
+		   cmocka_unit_test(test_v2_batch_stray_refused),
+	   })

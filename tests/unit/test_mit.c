@@ -24,6 +24,7 @@
 
 #include "harness/hex.h"
 #include "harness/rng.h"
+#include "harness/suite.h"
 
 static uint64_t seed;
 
@@ -781,5 +782,5 @@ int main(void)
 	ranges_t18.t_min = -18.0;
 	ranges_t18.t_max = 18.0;
 	seed = env && *env ? strtoull(env, NULL, 0) : (uint64_t)time(NULL);
-	return cmocka_run_group_tests_name("mit", tests, NULL, NULL);
+	return SUITE_RUN("mit", tests, NULL, NULL);
 }

@@ -45,6 +45,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 
@@ -61,21 +62,6 @@ static const struct rmd_mit_ranges V44_X8 = { -12.566, 12.566, -45, 45, -129, 12
 static struct rig R; /* R.report: the bring-up's, bu_ret what it returned */
 static int bu_ret;
 
-#define TAP_MAX 65536
-static struct rmd_frame host[TAP_MAX], motor[TAP_MAX];
-static unsigned host_n, motor_n;
-
-static void tap(void *ctx, const struct rmd_sim_pending *p, int64_t start_ns, int64_t eof_ns)
-{
-	(void)ctx;
-	(void)start_ns;
-	(void)eof_ns;
-	if (p->src == RMD_SIM_SRC_HOST && host_n < TAP_MAX)
-		host[host_n++] = p->f;
-	else if (p->src != RMD_SIM_SRC_HOST && motor_n < TAP_MAX)
-		motor[motor_n++] = p->f;
-}
-
 /* The yaml's motor 1 on bus s0, loaded and opened, the loop built; bring-up when asked. */
 static void rig_up(const char *yaml, bool bringup)
 {
@@ -84,7 +70,6 @@ static void rig_up(const char *yaml, bool bringup)
 
 	rig_reset(&R);
 	bu_ret = 0;
-	host_n = motor_n = 0;
 	assert_true(fd >= 0);
 	assert_int_equal(write(fd, yaml, strlen(yaml)), (ssize_t)strlen(yaml));
 	close(fd);
@@ -95,7 +80,7 @@ static void rig_up(const char *yaml, bool bringup)
 	unlink(path);
 	R.rt = true;		 /* cycles as the rt thread runs them */
 	R.events_in_ring = true; /* the tests pop them */
-	rig_start(&R, tap);
+	rig_start(&R, rig_wire_tap);
 	if (bringup)
 		bu_ret = rmd_loop_bringup(R.l, &R.report);
 }
@@ -126,18 +111,18 @@ static void ask_mit(void)
 				     .torque_nm = ASK_T };
 }
 
-/* Host frames on 0x400 + ID (MIT requests) from host[from]. */
+/* Host frames on 0x400 + ID (MIT requests) from rig_host[from]. */
 static unsigned mit_requests(unsigned from)
 {
 	unsigned n = 0;
 
-	for (unsigned k = from; k < host_n; k++)
-		n += host[k].can_id >= 0x400 && host[k].can_id <= 0x41F;
+	for (unsigned k = from; k < rig_host_n; k++)
+		n += rig_host[k].can_id >= 0x400 && rig_host[k].can_id <= 0x41F;
 	return n;
 }
 
 /*
- * Every MIT request on the wire from host[from], decoded with r, carries
+ * Every MIT request on the wire from rig_host[from], decoded with r, carries
  * what the controller asked (within r's step); and there are some.
  */
 static void frames_carry(const struct rmd_mit_ranges *r, unsigned from, const char *what)
@@ -146,13 +131,13 @@ static void frames_carry(const struct rmd_mit_ranges *r, unsigned from, const ch
 	double p_step = (r->p_max - r->p_min) / 65535;
 	unsigned n = 0;
 
-	for (unsigned k = from; k < host_n; k++) {
+	for (unsigned k = from; k < rig_host_n; k++) {
 		struct rmd_mit_cmd c;
 		uint8_t id;
 
-		if (host[k].can_id != 0x401)
+		if (rig_host[k].can_id != 0x401)
 			continue;
-		assert_int_equal(rmd_mit_decode_cmd(r, &host[k], &id, &c), 0);
+		assert_int_equal(rmd_mit_decode_cmd(r, &rig_host[k], &id, &c), 0);
 		if (fabs(c.t_ff_nm - ASK_T) > t_step || fabs(c.kd - ASK_KD) > kd_step ||
 		    fabs(c.p_des_rad - ASK_P) > p_step || c.kp != 0.0)
 			fail_msg("%s: frame %u decodes to p %g kd %g t %g (asked p %g kd %g t %g)",
@@ -177,7 +162,7 @@ static void runs_with(const struct rmd_mit_ranges *r, const char *what)
 	ask_mit();
 	rig_run(&R, 100, true);
 	assert_int_equal(mstate().lifecycle, RMD_LC_ENABLED);
-	from = host_n;
+	from = rig_host_n;
 	rig_run(&R, 300, true);
 	frames_carry(r, from, what);
 	m = sim();
@@ -187,8 +172,8 @@ static void runs_with(const struct rmd_mit_ranges *r, const char *what)
 		fail_msg("%s: the simulated motor took t_ff %g and makes %g N·m (asked %g)", what,
 			 m->mit.t_ff_nm, m->p.kt_nm_a * m->iq_a, ASK_T);
 	/* its MIT replies (0x501) were taken: rmdd's torque is the motor's */
-	for (unsigned k = 0; k < motor_n; k++)
-		replies += motor[k].can_id == 0x501;
+	for (unsigned k = 0; k < rig_motor_n; k++)
+		replies += rig_motor[k].can_id == 0x501;
 	assert_true(replies >= 50);
 	st = mstate();
 	if (fabs(st.torque_nm - m->p.kt_nm_a * m->iq_a) > 0.2)
@@ -214,71 +199,82 @@ static void refused(const char *what)
 	"  - {name: s0, type: sim}\n"
 #define MOTOR "motors:\n  - {name: m1, bus: s0, id: 1, multi_turn_saved: true, "
 
-/* A V4.2 motor (firmware 2025070202) in mode mit: today's scaling, on 0x401 / 0x501. */
-static void test_v42_motor_in_mit(void **state)
-{
-	(void)state;
-	rig_up(BUS MOTOR "protocol: v4, mode: mit,\n"
-			 "     sim: {version_date: 2025070202, model: X6S2V3, load_nm: 5}}\n",
-	       true);
-	runs_with(&V42, "V4.2 X6");
-	rig_stop(&R);
-}
+/*
+ * A motor's entry, from an rmdd.yaml text, that bring-up runs in MIT on
+ * ranges r (runs_with()), or, r NULL, refuses (refused()): a test each.
+ */
+struct entry_case {
+	const char *test;
+	const char *yaml;
+	const struct rmd_mit_ranges *r;
+	const char *what;
+};
 
-/* An X6 on V4.4 firmware, no mit ranges in its entry: the X6's V4.4 scaling. */
-static void test_v44_x6_its_scaling(void **state)
-{
-	(void)state;
-	rig_up(BUS MOTOR "protocol: v4, mode: mit,\n"
-			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
-	       true);
-	runs_with(&V44_X6, "V4.4 X6");
-	rig_stop(&R);
-}
+static const struct entry_case runs_rows[] = {
+	/* A V4.2 motor (firmware 2025070202) in mode mit: today's scaling, on 0x401 / 0x501. */
+	{ "test_v42_motor_in_mit",
+	  BUS MOTOR "protocol: v4, mode: mit,\n"
+		    "     sim: {version_date: 2025070202, model: X6S2V3, load_nm: 5}}\n",
+	  &V42, "V4.2 X6" },
+	/* An X6 on V4.4 firmware, no mit ranges in its entry: the X6's V4.4 scaling. */
+	{ "test_v44_x6_its_scaling",
+	  BUS MOTOR "protocol: v4, mode: mit,\n"
+		    "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
+	  &V44_X6, "V4.4 X6" },
+	/* An X8 on later V4.4 firmware (an eight-digit date is build 00 of that day). */
+	{ "test_v44_x8_its_scaling",
+	  BUS MOTOR "protocol: v4, mode: mit,\n"
+		    "     sim: {version_date: 20260601, model: X8ProV2, load_nm: 5}}\n",
+	  &V44_X8, "V4.4 X8" },
+	/* protocol: auto finds the firmware; MIT is how it is driven. */
+	{ "test_auto_finds_v44",
+	  BUS MOTOR "protocol: auto, mode: mit,\n"
+		    "     sim: {firmware: v4, version_date: 2026042402, model: X6S2V3, "
+		    "load_nm: 5}}\n",
+	  &V44_X6, "auto, V4.4 X6" },
+	/* Today's protocol: mit on V3 firmware keeps working, on today's scaling. */
+	{ "test_protocol_mit_on_v3",
+	  BUS MOTOR "protocol: mit, mode: mit,\n"
+		    "     sim: {version_date: 20220206, load_nm: 5}}\n",
+	  &V42, "protocol mit, V3" },
+	/* An entry whose ranges agree with V4.4's (4 pi for 12.566) runs on them. */
+	{ "test_v44_entry_agrees",
+	  BUS MOTOR "protocol: v4, mode: mit,\n"
+		    "     mit: {p_min: -12.56637, p_max: 12.56637, t_min: -60, t_max: 60},\n"
+		    "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
+	  &V44_X6, "V4.4 X6, agreeing entry" },
+};
 
-/* An X8 on later V4.4 firmware (an eight-digit date is build 00 of that day). */
-static void test_v44_x8_its_scaling(void **state)
-{
-	(void)state;
-	rig_up(BUS MOTOR "protocol: v4, mode: mit,\n"
-			 "     sim: {version_date: 20260601, model: X8ProV2, load_nm: 5}}\n",
-	       true);
-	runs_with(&V44_X8, "V4.4 X8");
-	rig_stop(&R);
-}
+static const struct entry_case refused_rows[] = {
+	/* Firmware that does not answer 0xB2: its date unknown, MIT refused. */
+	{ "test_no_date_refused",
+	  BUS MOTOR "protocol: v4, mode: mit,\n"
+		    "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5, "
+		    "ignores_cmd: 0xB2}}\n",
+	  NULL, "V4.4 X6, no 0xB2" },
+	/* The entry's legacy ranges contradict the X6's V4.4 scaling: refused. */
+	{ "test_v44_entry_contradicts",
+	  BUS MOTOR "protocol: v4, mode: mit,\n"
+		    "     mit: {t_min: -24, t_max: 24},\n"
+		    "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
+	  NULL, "V4.4 X6, t ±24 in its entry" },
+	/* protocol: mit (V3 firmware) on a motor whose date says V4: refused, as V3's. */
+	{ "test_protocol_mit_on_v4_refused",
+	  BUS MOTOR "protocol: mit, mode: mit,\n"
+		    "     sim: {firmware: v4, version_date: 2026042402, model: X6S2V3, "
+		    "load_nm: 5}}\n",
+	  NULL, "protocol mit, V4.4 firmware" },
+};
 
-/* protocol: auto finds the firmware; MIT is how it is driven. */
-static void test_auto_finds_v44(void **state)
+static void test_entry_row(void **state)
 {
-	(void)state;
-	rig_up(BUS MOTOR "protocol: auto, mode: mit,\n"
-			 "     sim: {firmware: v4, version_date: 2026042402, model: X6S2V3, "
-			 "load_nm: 5}}\n",
-	       true);
-	runs_with(&V44_X6, "auto, V4.4 X6");
-	rig_stop(&R);
-}
+	const struct entry_case *c = *state;
 
-/* Today's protocol: mit on V3 firmware keeps working, on today's scaling. */
-static void test_protocol_mit_on_v3(void **state)
-{
-	(void)state;
-	rig_up(BUS MOTOR "protocol: mit, mode: mit,\n"
-			 "     sim: {version_date: 20220206, load_nm: 5}}\n",
-	       true);
-	runs_with(&V42, "protocol mit, V3");
-	rig_stop(&R);
-}
-
-/* An entry whose ranges agree with V4.4's (4 pi for 12.566) runs on them. */
-static void test_v44_entry_agrees(void **state)
-{
-	(void)state;
-	rig_up(BUS MOTOR "protocol: v4, mode: mit,\n"
-			 "     mit: {p_min: -12.56637, p_max: 12.56637, t_min: -60, t_max: 60},\n"
-			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
-	       true);
-	runs_with(&V44_X6, "V4.4 X6, agreeing entry");
+	rig_up(c->yaml, true);
+	if (c->r)
+		runs_with(c->r, c->what);
+	else
+		refused(c->what);
 	rig_stop(&R);
 }
 
@@ -326,42 +322,6 @@ static void test_v44_unknown_model_refused(void **state)
 	rig_stop(&R);
 }
 
-/* Firmware that does not answer 0xB2: its date unknown, MIT refused. */
-static void test_no_date_refused(void **state)
-{
-	(void)state;
-	rig_up(BUS MOTOR "protocol: v4, mode: mit,\n"
-			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5, "
-			 "ignores_cmd: 0xB2}}\n",
-	       true);
-	refused("V4.4 X6, no 0xB2");
-	rig_stop(&R);
-}
-
-/* The entry's legacy ranges contradict the X6's V4.4 scaling: refused. */
-static void test_v44_entry_contradicts(void **state)
-{
-	(void)state;
-	rig_up(BUS MOTOR "protocol: v4, mode: mit,\n"
-			 "     mit: {t_min: -24, t_max: 24},\n"
-			 "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
-	       true);
-	refused("V4.4 X6, t ±24 in its entry");
-	rig_stop(&R);
-}
-
-/* protocol: mit (V3 firmware) on a motor whose date says V4: refused, as V3's. */
-static void test_protocol_mit_on_v4_refused(void **state)
-{
-	(void)state;
-	rig_up(BUS MOTOR "protocol: mit, mode: mit,\n"
-			 "     sim: {firmware: v4, version_date: 2026042402, model: X6S2V3, "
-			 "load_nm: 5}}\n",
-	       true);
-	refused("protocol mit, V4.4 firmware");
-	rig_stop(&R);
-}
-
 /*
  * The loop alone (no bring-up: nothing read the firmware): a V4 motor in
  * mode mit becomes READY, but MIT is never enabled for it, counted and
@@ -392,6 +352,16 @@ static void test_loop_refuses_undecided(void **state)
 	rig_stop(&R);
 }
 
+/* Motor 1 in mode mit on V4 firmware, missing for the first 0.5 s: found by the re-probe. */
+#define LATE_MOTOR                                                                         \
+	"loop: {rate_hz: 500}\n"                                                           \
+	"probe: {on_missing: start}\n"                                                     \
+	"buses:\n"                                                                         \
+	"  - name: s0\n"                                                                   \
+	"    type: sim\n"                                                                  \
+	"    sim: {faults: [{kind: disappear, motor: 1, start_s: 0, end_s: 0.5}]}\n" MOTOR \
+	"protocol: v4, mode: mit,\n"
+
 /*
  * Missing at bring-up, found later by the loop's re-probe: it asks the
  * model (0xB5) and the date (0xB2), decides the V4.4 scaling, and only then
@@ -400,27 +370,20 @@ static void test_loop_refuses_undecided(void **state)
 static void test_late_motor_decided(void **state)
 {
 	(void)state;
-	rig_up("loop: {rate_hz: 500}\n"
-	       "probe: {on_missing: start}\n"
-	       "buses:\n"
-	       "  - name: s0\n"
-	       "    type: sim\n"
-	       "    sim: {faults: [{kind: disappear, motor: 1, start_s: 0, end_s: 0.5}]}\n" MOTOR
-	       "protocol: v4, mode: mit,\n"
-	       "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
+	rig_up(LATE_MOTOR "     sim: {version_date: 2026042402, model: X6S2V3, load_nm: 5}}\n",
 	       true);
 	assert_int_equal(R.report.motor[0].state, RMD_BRINGUP_MISSING);
 	bu_ret = 0;
 	R.cmd.present = 1;
 	{
-		unsigned from = host_n, b5 = 0;
+		unsigned from = rig_host_n, b5 = 0;
 
 		for (unsigned k = 0; k < 3000 && mstate().lifecycle != RMD_LC_READY; k++)
 			rig_run(&R, 1, true);
 		assert_int_equal(mstate().lifecycle, RMD_LC_READY);
 		/* the loop's re-probe asked the model, not bring-up alone */
-		for (unsigned k = from; k < host_n; k++)
-			b5 += host[k].can_id == 0x141 && host[k].data[0] == 0xB5;
+		for (unsigned k = from; k < rig_host_n; k++)
+			b5 += rig_host[k].can_id == 0x141 && rig_host[k].data[0] == 0xB5;
 		assert_true(b5 >= 1);
 	}
 	assert_int_equal(mit_requests(0), 0);
@@ -435,14 +398,7 @@ static void test_late_motor_unknown_model(void **state)
 	unsigned seen = 0;
 
 	(void)state;
-	rig_up("loop: {rate_hz: 500}\n"
-	       "probe: {on_missing: start}\n"
-	       "buses:\n"
-	       "  - name: s0\n"
-	       "    type: sim\n"
-	       "    sim: {faults: [{kind: disappear, motor: 1, start_s: 0, end_s: 0.5}]}\n" MOTOR
-	       "protocol: v4, mode: mit,\n"
-	       "     sim: {version_date: 2026042402, model: X4-36, load_nm: 5}}\n",
+	rig_up(LATE_MOTOR "     sim: {version_date: 2026042402, model: X4-36, load_nm: 5}}\n",
 	       true);
 	assert_int_equal(R.report.motor[0].state, RMD_BRINGUP_MISSING);
 	ask_mit();
@@ -458,23 +414,18 @@ static void test_late_motor_unknown_model(void **state)
 
 int main(void)
 {
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v42_motor_in_mit),
-		cmocka_unit_test(test_v44_x6_its_scaling),
-		cmocka_unit_test(test_v44_x8_its_scaling),
-		cmocka_unit_test(test_auto_finds_v44),
-		cmocka_unit_test(test_protocol_mit_on_v3),
-		cmocka_unit_test(test_v44_entry_agrees),
-		cmocka_unit_test(test_v44_entry_kd_taken),
-		cmocka_unit_test(test_auto_finds_v2_refused),
-		cmocka_unit_test(test_v44_unknown_model_refused),
-		cmocka_unit_test(test_no_date_refused),
-		cmocka_unit_test(test_v44_entry_contradicts),
-		cmocka_unit_test(test_protocol_mit_on_v4_refused),
-		cmocka_unit_test(test_loop_refuses_undecided),
-		cmocka_unit_test(test_late_motor_decided),
-		cmocka_unit_test(test_late_motor_unknown_model),
-	};
+	struct CMUnitTest tests[SUITE_N(runs_rows) + SUITE_N(refused_rows) + 6];
+	size_t n = 0;
 
-	return cmocka_run_group_tests_name("mit_mode", tests, NULL, NULL);
+	for (size_t k = 0; k < SUITE_N(runs_rows); k++)
+		tests[n++] = SUITE_ROW(runs_rows[k].test, test_entry_row, &runs_rows[k]);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_v44_entry_kd_taken);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_auto_finds_v2_refused);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_v44_unknown_model_refused);
+	for (size_t k = 0; k < SUITE_N(refused_rows); k++)
+		tests[n++] = SUITE_ROW(refused_rows[k].test, test_entry_row, &refused_rows[k]);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_loop_refuses_undecided);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_late_motor_decided);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_late_motor_unknown_model);
+	return suite_run("mit_mode", tests, n, NULL, NULL);
 }

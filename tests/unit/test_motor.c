@@ -24,6 +24,7 @@
 #include "rmd/motor.h"
 
 #include "harness/hex.h"
+#include "harness/suite.h"
 
 #define DEG (M_PI / 180.0)
 
@@ -41,21 +42,12 @@ static struct rmd_config_motor cfg_motor(uint8_t id, enum rmd_proto proto, enum 
 {
 	struct rmd_config_motor c;
 
-	memset(&c, 0, sizeof(c));
+	rmd_config_motor_defaults(&c);
 	snprintf(c.name, sizeof(c.name), "m%u", id);
 	c.id = id;
 	c.proto = proto;
 	c.mode = mode;
-	c.direction = 1;
-	c.gear_ratio = 1.0;
-	c.units = RMD_UNITS_OUTPUT;
 	c.torque_constant_nm_a = 2.0;
-	c.limits.position_min_rad = -INFINITY;
-	c.limits.position_max_rad = INFINITY;
-	c.limits.velocity_rad_s = INFINITY;
-	c.limits.torque_nm = INFINITY;
-	c.mit = rmd_mit_default_ranges;
-	c.rate_divisor = 1;
 	return c;
 }
 
@@ -1097,31 +1089,27 @@ static void test_position_resolution(void **state)
 	assert_float_equal(rmd_motor_pos_resolution_rad(&m), 0.01 * DEG, 1e-15);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_init_refuses),
-		cmocka_unit_test(test_encode_vectors),
-		cmocka_unit_test(test_clamp),
-		cmocka_unit_test(test_clamp_mit),
-		cmocka_unit_test(test_nonfinite_refused),
-		cmocka_unit_test(test_mit_gain_codes_kept),
-		cmocka_unit_test(test_unsupported),
-		cmocka_unit_test(test_v2_batch),
-		cmocka_unit_test(test_safe_frames),
-		cmocka_unit_test(test_commands_and_keys),
-		cmocka_unit_test(test_decode_v3),
-		cmocka_unit_test(test_decode_v3_rotor),
-		cmocka_unit_test(test_decode_v2_unwrap),
-		cmocka_unit_test(test_v2_count_trust),
-		cmocka_unit_test(test_decode_mit),
-		cmocka_unit_test(test_position_round_trip),
-		cmocka_unit_test(test_clamp_rule),
-		cmocka_unit_test(test_modes_and_info),
-		cmocka_unit_test(test_resolved_rows_match_interpreter),
-		cmocka_unit_test(test_fine_feedback_fusion),
-		cmocka_unit_test(test_position_resolution),
-	};
-
-	return cmocka_run_group_tests_name("motor", tests, NULL, NULL);
-}
+SUITE_MAIN("motor", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_init_refuses),
+		   cmocka_unit_test(test_encode_vectors),
+		   cmocka_unit_test(test_clamp),
+		   cmocka_unit_test(test_clamp_mit),
+		   cmocka_unit_test(test_nonfinite_refused),
+		   cmocka_unit_test(test_mit_gain_codes_kept),
+		   cmocka_unit_test(test_unsupported),
+		   cmocka_unit_test(test_v2_batch),
+		   cmocka_unit_test(test_safe_frames),
+		   cmocka_unit_test(test_commands_and_keys),
+		   cmocka_unit_test(test_decode_v3),
+		   cmocka_unit_test(test_decode_v3_rotor),
+		   cmocka_unit_test(test_decode_v2_unwrap),
+		   cmocka_unit_test(test_v2_count_trust),
+		   cmocka_unit_test(test_decode_mit),
+		   cmocka_unit_test(test_position_round_trip),
+		   cmocka_unit_test(test_clamp_rule),
+		   cmocka_unit_test(test_modes_and_info),
+		   cmocka_unit_test(test_resolved_rows_match_interpreter),
+		   cmocka_unit_test(test_fine_feedback_fusion),
+		   cmocka_unit_test(test_position_resolution),
+	   })

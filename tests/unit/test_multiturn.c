@@ -20,6 +20,7 @@
 #include "rmd/mit.h"
 #include "rmd/motor.h"
 #include "rmd/multiturn.h"
+#include "harness/suite.h"
 
 #define DEG (M_PI / 180.0)
 
@@ -139,22 +140,15 @@ static struct rmd_config_motor v3_motor(int dir, double gear, double zero_rad)
 {
 	struct rmd_config_motor c;
 
-	memset(&c, 0, sizeof(c));
+	rmd_config_motor_defaults(&c);
 	snprintf(c.name, sizeof(c.name), "knee");
 	c.id = 1;
 	c.proto = RMD_PROTO_V3;
 	c.mode = RMD_MODE_POSITION;
 	c.direction = dir;
 	c.gear_ratio = gear;
-	c.units = RMD_UNITS_OUTPUT;
 	c.zero_offset_rad = zero_rad;
 	c.torque_constant_nm_a = 2.0;
-	c.limits.position_min_rad = -INFINITY;
-	c.limits.position_max_rad = INFINITY;
-	c.limits.velocity_rad_s = INFINITY;
-	c.limits.torque_nm = INFINITY;
-	c.mit = rmd_mit_default_ranges;
-	c.rate_divisor = 1;
 	return c;
 }
 
@@ -253,14 +247,10 @@ static void test_motor_cycles(void **state)
 					}
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_period),
-		cmocka_unit_test(test_settle_table),
-		cmocka_unit_test(test_in_band),
-		cmocka_unit_test(test_motor_cycles),
-	};
-
-	return cmocka_run_group_tests_name("multiturn", tests, NULL, NULL);
-}
+SUITE_MAIN("multiturn", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_period),
+		   cmocka_unit_test(test_settle_table),
+		   cmocka_unit_test(test_in_band),
+		   cmocka_unit_test(test_motor_cycles),
+	   })

@@ -23,6 +23,7 @@
 #include "rmd/dialect.h"
 #include "tools/common/log.h"
 #include "tools/rmdctl/rmdctl.h"
+#include "harness/suite.h"
 
 #define OUT_MAX 16384
 
@@ -209,14 +210,10 @@ static void test_decode(void **state)
 	unlink(path);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_record),
-		cmocka_unit_test(test_encode),
-		cmocka_unit_test(test_encode_help),
-		cmocka_unit_test(test_decode),
-	};
-
-	return cmocka_run_group_tests(tests, NULL, NULL);
-}
+SUITE_MAIN("new_dialect", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_record),
+		   cmocka_unit_test(test_encode),
+		   cmocka_unit_test(test_encode_help),
+		   cmocka_unit_test(test_decode),
+	   })

@@ -30,6 +30,7 @@
 #include "rmd/plan.h"
 
 #include "harness/proc.h"
+#include "harness/suite.h"
 
 static struct rmd_config cfg; /* large: off the stack */
 static struct rmd_plan plan;
@@ -1106,7 +1107,7 @@ int main(void)
 
 	if (dir && *dir)
 		snprintf(srcdir, sizeof(srcdir), "%s", dir);
-	fails = cmocka_run_group_tests_name("plan", tests, NULL, NULL);
-	fails += cmocka_run_group_tests_name("rmdd --check-config", proc_tests, find_rmdd, NULL);
+	fails = SUITE_RUN("plan", tests, NULL, NULL);
+	fails += SUITE_RUN("rmdd --check-config", proc_tests, find_rmdd, NULL);
 	return fails;
 }

@@ -45,6 +45,7 @@
 #include "harness/clock.h"
 #include "harness/loop_io.h"
 #include "harness/rig.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 #define DEG (M_PI / 180.0)
@@ -114,6 +115,7 @@ static bool to_motor(const struct rmd_frame *f, unsigned i)
 }
 
 struct glitch_case {
+	const char *test; /* the test's name, for a row of glitch_rows[] */
 	const char *name;
 	enum rmd_proto proto;
 	unsigned rate_hz;
@@ -352,116 +354,58 @@ static void glitch_case(const struct glitch_case *c)
 	rig_stop(&R);
 }
 
-/* V3, 1 kHz, a 5 ms glitch, no brake: the field report's joint that turned a turn. */
-static void test_v3_5ms_1khz(void **state)
+/*
+ * The glitch cases, each a test of its own (named by .test):
+ * - V3, 1 kHz, a 5 ms glitch, no brake: the field report's joint that turned a turn;
+ * - the same with a brake: the boot locks it, which rmdd must not leave ENABLED;
+ * - V3, 100 Hz, a 50 ms glitch and a 3 ms boot;
+ * - V2 (no 0xB1: its 0x92 angle against rmdd's count), 1 kHz, 5 ms; and at 100 Hz, 50 ms;
+ * - MIT with kp > 0 holding its place, 1 kHz, 5 ms;
+ * - V4 firmware (V4.2 §2.28 has 0xB1 too), 1 kHz, 5 ms.
+ */
+static const struct glitch_case glitch_rows[] = {
+	{ .test = "test_v3_5ms_1khz",
+	  .name = "V3 1 kHz 5 ms",
+	  .proto = RMD_PROTO_V3,
+	  .rate_hz = 1000,
+	  .glitch_ns = 5 * MS },
+	{ .test = "test_v3_5ms_1khz_brake",
+	  .name = "V3 1 kHz 5 ms, brake",
+	  .proto = RMD_PROTO_V3,
+	  .rate_hz = 1000,
+	  .glitch_ns = 5 * MS,
+	  .brake = true },
+	{ .test = "test_v3_50ms_100hz",
+	  .name = "V3 100 Hz 50 ms",
+	  .proto = RMD_PROTO_V3,
+	  .rate_hz = 100,
+	  .glitch_ns = 50 * MS,
+	  .boot_ms = 3 },
+	{ .test = "test_v2_5ms_1khz",
+	  .name = "V2 1 kHz 5 ms",
+	  .proto = RMD_PROTO_V2,
+	  .rate_hz = 1000,
+	  .glitch_ns = 5 * MS },
+	{ .test = "test_v2_50ms_100hz",
+	  .name = "V2 100 Hz 50 ms",
+	  .proto = RMD_PROTO_V2,
+	  .rate_hz = 100,
+	  .glitch_ns = 50 * MS },
+	{ .test = "test_mit_5ms_1khz",
+	  .name = "MIT 1 kHz 5 ms",
+	  .proto = RMD_PROTO_MIT,
+	  .rate_hz = 1000,
+	  .glitch_ns = 5 * MS },
+	{ .test = "test_v4_5ms_1khz",
+	  .name = "V4 1 kHz 5 ms",
+	  .proto = RMD_PROTO_V4,
+	  .rate_hz = 1000,
+	  .glitch_ns = 5 * MS },
+};
+
+static void test_glitch_row(void **state)
 {
-	static const struct glitch_case c = {
-		.name = "V3 1 kHz 5 ms",
-		.proto = RMD_PROTO_V3,
-		.rate_hz = 1000,
-		.glitch_ns = 5 * MS,
-		.boot_ms = 0,
-		.brake = false,
-	};
-
-	(void)state;
-	glitch_case(&c);
-}
-
-/* The same with a brake: the boot locks it, which rmdd must not leave ENABLED. */
-static void test_v3_5ms_1khz_brake(void **state)
-{
-	static const struct glitch_case c = {
-		.name = "V3 1 kHz 5 ms, brake",
-		.proto = RMD_PROTO_V3,
-		.rate_hz = 1000,
-		.glitch_ns = 5 * MS,
-		.boot_ms = 0,
-		.brake = true,
-	};
-
-	(void)state;
-	glitch_case(&c);
-}
-
-/* V3, 100 Hz, a 50 ms glitch and a 3 ms boot. */
-static void test_v3_50ms_100hz(void **state)
-{
-	static const struct glitch_case c = {
-		.name = "V3 100 Hz 50 ms",
-		.proto = RMD_PROTO_V3,
-		.rate_hz = 100,
-		.glitch_ns = 50 * MS,
-		.boot_ms = 3,
-		.brake = false,
-	};
-
-	(void)state;
-	glitch_case(&c);
-}
-
-/* V2 (no 0xB1: its 0x92 angle against rmdd's count), 1 kHz, 5 ms. */
-static void test_v2_5ms_1khz(void **state)
-{
-	static const struct glitch_case c = {
-		.name = "V2 1 kHz 5 ms",
-		.proto = RMD_PROTO_V2,
-		.rate_hz = 1000,
-		.glitch_ns = 5 * MS,
-		.boot_ms = 0,
-		.brake = false,
-	};
-
-	(void)state;
-	glitch_case(&c);
-}
-
-/* V2, 100 Hz, 50 ms. */
-static void test_v2_50ms_100hz(void **state)
-{
-	static const struct glitch_case c = {
-		.name = "V2 100 Hz 50 ms",
-		.proto = RMD_PROTO_V2,
-		.rate_hz = 100,
-		.glitch_ns = 50 * MS,
-		.boot_ms = 0,
-		.brake = false,
-	};
-
-	(void)state;
-	glitch_case(&c);
-}
-
-/* V4 firmware (V4.2 §2.28 has 0xB1 too), 1 kHz, 5 ms. */
-static void test_v4_5ms_1khz(void **state)
-{
-	static const struct glitch_case c = {
-		.name = "V4 1 kHz 5 ms",
-		.proto = RMD_PROTO_V4,
-		.rate_hz = 1000,
-		.glitch_ns = 5 * MS,
-		.boot_ms = 0,
-		.brake = false,
-	};
-
-	(void)state;
-	glitch_case(&c);
-}
-
-/* MIT with kp > 0 holding its place, 1 kHz, 5 ms. */
-static void test_mit_5ms_1khz(void **state)
-{
-	static const struct glitch_case c = {
-		.name = "MIT 1 kHz 5 ms",
-		.proto = RMD_PROTO_MIT,
-		.rate_hz = 1000,
-		.glitch_ns = 5 * MS,
-		.boot_ms = 0,
-		.brake = false,
-	};
-
-	(void)state;
-	glitch_case(&c);
+	glitch_case(*state);
 }
 
 /*
@@ -582,6 +526,7 @@ static void test_safe_action_before_check(void **state)
 /* ---- no false reboot: motions within the motor's limits, replies lost ---- */
 
 struct quiet_case {
+	const char *test; /* the test's name */
 	const char *name;
 	enum rmd_proto proto;
 	enum rmd_mode mode;
@@ -669,139 +614,82 @@ static void quiet_case(const struct quiet_case *c)
 	rig_stop(&R);
 }
 
-/* V3 in speed mode at 19 rad/s (its limit 20), turning about, 2 % of frames lost. */
-static void test_quiet_v3_fast(void **state)
-{
-	static const struct quiet_case c = {
-		.name = "V3 fast",
-		.proto = RMD_PROTO_V3,
-		.mode = RMD_MODE_SPEED,
-		.vel_rad_s = 19.0,
-		.drop = 0.02,
-	};
-
-	(void)state;
-	quiet_case(&c);
-}
-
-/* V3 position moves of 1.5 turns at its speed limit, 2 % lost. */
-static void test_quiet_v3_moves(void **state)
-{
-	static const struct quiet_case c = {
-		.name = "V3 moves",
-		.proto = RMD_PROTO_V3,
-		.mode = RMD_MODE_POSITION,
-		.vel_rad_s = 20.0,
-		.drop = 0.02,
-	};
-
-	(void)state;
-	quiet_case(&c);
-}
-
-/* V2 at speed: each check's 0x92 against the count of a turning rotor. */
-static void test_quiet_v2_fast(void **state)
-{
-	static const struct quiet_case c = {
-		.name = "V2 fast",
-		.proto = RMD_PROTO_V2,
-		.mode = RMD_MODE_SPEED,
-		.vel_rad_s = 15.0,
-		.drop = 0.02,
-	};
-
-	(void)state;
-	quiet_case(&c);
-}
-
 /*
- * V2 at speed with rmdd's gear_ratio 1 for a 1:6 motor (CI, 2026-12-02:
- * the test's config named none): rmdd counts its encoder six times too
- * fast, and a check's 0x92 parts from the count by what no boot does.
- * Said once; the count is taken again; never a reboot, never a stop.
+ * The quiet cases, each a test of its own (named by .test):
+ * - V3 in speed mode at 19 rad/s (its limit 20), turning about, 2 % of frames lost;
+ * - V3 position moves of 1.5 turns at its speed limit, 2 % lost;
+ * - V2 at speed: each check's 0x92 against the count of a turning rotor;
+ * - V2 at speed with rmdd's gear_ratio 1 for a 1:6 motor (CI, 2026-12-02: the test's
+ *   config named none): rmdd counts its encoder six times too fast, and a check's 0x92
+ *   parts from the count by what no boot does.  Said once; the count is taken again;
+ *   never a reboot, never a stop;
+ * - V2 homed (its frame shifted) then moving, with multi-turn feedback: every 0x92 is checked;
+ * - MIT motors in MIT mode (kp 0), driven by torque both ways, 2 % lost;
+ * - at rest, holding, 10 % of frames lost: noise.
  */
-static void test_quiet_v2_gear_astray(void **state)
+static const struct quiet_case quiet_rows[] = {
+	{ .test = "test_quiet_v3_fast",
+	  .name = "V3 fast",
+	  .proto = RMD_PROTO_V3,
+	  .mode = RMD_MODE_SPEED,
+	  .vel_rad_s = 19.0,
+	  .drop = 0.02 },
+	{ .test = "test_quiet_v3_moves",
+	  .name = "V3 moves",
+	  .proto = RMD_PROTO_V3,
+	  .mode = RMD_MODE_POSITION,
+	  .vel_rad_s = 20.0,
+	  .drop = 0.02 },
+	{ .test = "test_quiet_v2_fast",
+	  .name = "V2 fast",
+	  .proto = RMD_PROTO_V2,
+	  .mode = RMD_MODE_SPEED,
+	  .vel_rad_s = 15.0,
+	  .drop = 0.02 },
+	{ .test = "test_quiet_v2_gear_astray",
+	  .name = "V2, gear_ratio not the motor's",
+	  .proto = RMD_PROTO_V2,
+	  .mode = RMD_MODE_SPEED,
+	  .vel_rad_s = 4.0,
+	  .drop = 0.02,
+	  .cfg_gear = 1.0 },
+	{ .test = "test_quiet_v2_homed_fine",
+	  .name = "V2 homed, fine",
+	  .proto = RMD_PROTO_V2,
+	  .mode = RMD_MODE_POSITION,
+	  .vel_rad_s = 10.0,
+	  .drop = 0.02,
+	  .fine = true,
+	  .home = true },
+	{ .test = "test_quiet_mit",
+	  .name = "MIT torque",
+	  .proto = RMD_PROTO_MIT,
+	  .mode = RMD_MODE_MIT,
+	  .vel_rad_s = 0.0,
+	  .drop = 0.02 },
+	{ .test = "test_quiet_v3_rest",
+	  .name = "V3 at rest",
+	  .proto = RMD_PROTO_V3,
+	  .mode = RMD_MODE_SPEED,
+	  .vel_rad_s = 0.0,
+	  .drop = 0.10 },
+};
+
+static void test_quiet_row(void **state)
 {
-	static const struct quiet_case c = {
-		.name = "V2, gear_ratio not the motor's",
-		.proto = RMD_PROTO_V2,
-		.mode = RMD_MODE_SPEED,
-		.vel_rad_s = 4.0,
-		.drop = 0.02,
-		.cfg_gear = 1.0,
-	};
-
-	(void)state;
-	quiet_case(&c);
-}
-
-/* V2 homed (its frame shifted) then moving, with multi-turn feedback: every 0x92 is checked. */
-static void test_quiet_v2_homed_fine(void **state)
-{
-	static const struct quiet_case c = {
-		.name = "V2 homed, fine",
-		.proto = RMD_PROTO_V2,
-		.mode = RMD_MODE_POSITION,
-		.vel_rad_s = 10.0,
-		.drop = 0.02,
-		.fine = true,
-		.home = true,
-	};
-
-	(void)state;
-	quiet_case(&c);
-}
-
-/* MIT motors in MIT mode (kp 0), driven by torque both ways, 2 % lost. */
-static void test_quiet_mit(void **state)
-{
-	static const struct quiet_case c = {
-		.name = "MIT torque",
-		.proto = RMD_PROTO_MIT,
-		.mode = RMD_MODE_MIT,
-		.vel_rad_s = 0.0,
-		.drop = 0.02,
-	};
-
-	(void)state;
-	quiet_case(&c);
-}
-
-/* At rest, holding, 10 % of frames lost: noise. */
-static void test_quiet_v3_rest(void **state)
-{
-	static const struct quiet_case c = {
-		.name = "V3 at rest",
-		.proto = RMD_PROTO_V3,
-		.mode = RMD_MODE_SPEED,
-		.vel_rad_s = 0.0,
-		.drop = 0.10,
-	};
-
-	(void)state;
-	quiet_case(&c);
+	quiet_case(*state);
 }
 
 int main(void)
 {
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_v3_5ms_1khz),
-		cmocka_unit_test(test_v3_5ms_1khz_brake),
-		cmocka_unit_test(test_v3_50ms_100hz),
-		cmocka_unit_test(test_v2_5ms_1khz),
-		cmocka_unit_test(test_v2_50ms_100hz),
-		cmocka_unit_test(test_mit_5ms_1khz),
-		cmocka_unit_test(test_v4_5ms_1khz),
-		cmocka_unit_test(test_v3_2ms_brake_backstop),
-		cmocka_unit_test(test_safe_action_before_check),
-		cmocka_unit_test(test_quiet_v3_fast),
-		cmocka_unit_test(test_quiet_v3_moves),
-		cmocka_unit_test(test_quiet_v2_fast),
-		cmocka_unit_test(test_quiet_v2_gear_astray),
-		cmocka_unit_test(test_quiet_v2_homed_fine),
-		cmocka_unit_test(test_quiet_mit),
-		cmocka_unit_test(test_quiet_v3_rest),
-	};
+	struct CMUnitTest tests[SUITE_N(glitch_rows) + 2 + SUITE_N(quiet_rows)];
+	size_t n = 0;
 
-	return cmocka_run_group_tests_name("power_glitch", tests, NULL, NULL);
+	for (size_t k = 0; k < SUITE_N(glitch_rows); k++)
+		tests[n++] = SUITE_ROW(glitch_rows[k].test, test_glitch_row, &glitch_rows[k]);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_v3_2ms_brake_backstop);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_safe_action_before_check);
+	for (size_t k = 0; k < SUITE_N(quiet_rows); k++)
+		tests[n++] = SUITE_ROW(quiet_rows[k].test, test_quiet_row, &quiet_rows[k]);
+	return suite_run("power_glitch", tests, n, NULL, NULL);
 }

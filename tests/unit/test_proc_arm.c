@@ -20,6 +20,7 @@
 
 #include "rmd/codec.h"
 #include "rmd/proc_arm.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 
@@ -199,13 +200,12 @@ static void test_took_over(void **state)
 	assert_int_equal(a.cl, RMD_CL_UNSUPPORTED);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_forget),		 cmocka_unit_test(test_request_and_outcome),
-		cmocka_unit_test(test_round_unanswered), cmocka_unit_test(test_answers),
-		cmocka_unit_test(test_enables),		 cmocka_unit_test(test_took_over),
-	};
-
-	return cmocka_run_group_tests(tests, NULL, NULL);
-}
+SUITE_MAIN("proc_arm", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_forget),
+		   cmocka_unit_test(test_request_and_outcome),
+		   cmocka_unit_test(test_round_unanswered),
+		   cmocka_unit_test(test_answers),
+		   cmocka_unit_test(test_enables),
+		   cmocka_unit_test(test_took_over),
+	   })

@@ -19,6 +19,7 @@
 
 #include "rmd/dialect.h"
 #include "rmd/proc_ident.h"
+#include "harness/suite.h"
 
 static void test_other(void **state)
 {
@@ -106,14 +107,10 @@ static void test_mit_warn_once(void **state)
 	assert_false(rmd_ident_mit_warn_once(&id));
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_other),
-		cmocka_unit_test(test_asks),
-		cmocka_unit_test(test_answers),
-		cmocka_unit_test(test_mit_warn_once),
-	};
-
-	return cmocka_run_group_tests(tests, NULL, NULL);
-}
+SUITE_MAIN("proc_ident", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_other),
+		   cmocka_unit_test(test_asks),
+		   cmocka_unit_test(test_answers),
+		   cmocka_unit_test(test_mit_warn_once),
+	   })

@@ -15,6 +15,7 @@
 #include <cmocka.h>
 
 #include "rmd/proc_owed.h"
+#include "harness/suite.h"
 
 /* Control slots of a motor that owes `bits`, none answered: the frames they carry. */
 static void test_next_in_turn(void **state)
@@ -120,14 +121,10 @@ static void test_resends_and_bound(void **state)
 	assert_true(rmd_owed_sent(&o, 0x78));
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_next_in_turn),
-		cmocka_unit_test(test_answers),
-		cmocka_unit_test(test_paid_in_full),
-		cmocka_unit_test(test_resends_and_bound),
-	};
-
-	return cmocka_run_group_tests(tests, NULL, NULL);
-}
+SUITE_MAIN("proc_owed", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_next_in_turn),
+		   cmocka_unit_test(test_answers),
+		   cmocka_unit_test(test_paid_in_full),
+		   cmocka_unit_test(test_resends_and_bound),
+	   })

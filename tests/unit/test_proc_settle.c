@@ -19,6 +19,7 @@
 #include <cmocka.h>
 
 #include "rmd/proc_settle.h"
+#include "harness/suite.h"
 
 #define DEG (M_PI / 180.0)
 
@@ -164,14 +165,10 @@ static void test_home(void **state)
 	}
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_begin),
-		cmocka_unit_test(test_readings),
-		cmocka_unit_test(test_warn_once),
-		cmocka_unit_test(test_home),
-	};
-
-	return cmocka_run_group_tests(tests, NULL, NULL);
-}
+SUITE_MAIN("proc_settle", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_begin),
+		   cmocka_unit_test(test_readings),
+		   cmocka_unit_test(test_warn_once),
+		   cmocka_unit_test(test_home),
+	   })

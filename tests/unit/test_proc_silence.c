@@ -17,6 +17,7 @@
 #include "rmd/codec.h"
 #include "rmd/dialect.h"
 #include "rmd/proc_silence.h"
+#include "harness/suite.h"
 
 static void test_every_dialect(void **state)
 {
@@ -76,12 +77,8 @@ static void test_pushable(void **state)
 	assert_int_equal(rmd_silence_pushable(v3, 0x9C), -1);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_every_dialect),
-		cmocka_unit_test(test_pushable),
-	};
-
-	return cmocka_run_group_tests(tests, NULL, NULL);
-}
+SUITE_MAIN("proc_silence", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_every_dialect),
+		   cmocka_unit_test(test_pushable),
+	   })

@@ -18,6 +18,7 @@
 #include <cmocka.h>
 
 #include "rmd/reboot.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 #define S INT64_C(1000000000)
@@ -450,13 +451,9 @@ static void test_check_steps(void **state)
 	}
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_runtime_table),
-		cmocka_unit_test(test_turns_table),
-		cmocka_unit_test(test_check_steps),
-	};
-
-	return cmocka_run_group_tests_name("reboot", tests, NULL, NULL);
-}
+SUITE_MAIN("reboot", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_runtime_table),
+		   cmocka_unit_test(test_turns_table),
+		   cmocka_unit_test(test_check_steps),
+	   })

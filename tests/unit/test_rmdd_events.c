@@ -28,6 +28,7 @@
 #include "rmd/config_yaml.h"
 #include "rmd/motor.h"
 #include "tools/rmdd/rmdd.h"
+#include "harness/suite.h"
 
 /*
  * Motors: 0 knee_l (can0, v3), 1 grip_l (can0, v2), 2 pan (rs0, v4),
@@ -762,6 +763,5 @@ int main(void)
 		cmocka_unit_test(test_sequences),
 	};
 
-	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
-	return cmocka_run_group_tests_name("rmdd_events", tests, setup, teardown);
+	return SUITE_RUN("rmdd_events", tests, setup, teardown);
 }

@@ -20,6 +20,7 @@
 
 #include "harness/hex.h"
 #include "harness/rng.h"
+#include "harness/suite.h"
 
 static uint64_t seed;
 
@@ -408,5 +409,5 @@ int main(void)
 	};
 
 	seed = env && *env ? strtoull(env, NULL, 0) : (uint64_t)time(NULL);
-	return cmocka_run_group_tests_name("rs485", tests, NULL, NULL);
+	return SUITE_RUN("rs485", tests, NULL, NULL);
 }

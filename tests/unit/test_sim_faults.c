@@ -17,6 +17,7 @@
 #include <cmocka.h>
 
 #include "rmd/sim_faults.h"
+#include "harness/suite.h"
 
 #define S_NS INT64_C(1000000000)
 
@@ -299,13 +300,12 @@ static void test_cmd_and_count(void **state)
 	assert_false(rmd_sim_faults_frame(&fs, &rng, 1, 0, &b3, &ready, counts));
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_names),	  cmocka_unit_test(test_check),
-		cmocka_unit_test(test_bus_power), cmocka_unit_test(test_windows),
-		cmocka_unit_test(test_per_frame), cmocka_unit_test(test_cmd_and_count),
-	};
-
-	return cmocka_run_group_tests_name("sim_faults", tests, NULL, NULL);
-}
+SUITE_MAIN("sim_faults", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_names),
+		   cmocka_unit_test(test_check),
+		   cmocka_unit_test(test_bus_power),
+		   cmocka_unit_test(test_windows),
+		   cmocka_unit_test(test_per_frame),
+		   cmocka_unit_test(test_cmd_and_count),
+	   })

@@ -27,6 +27,7 @@
 #include "rmd/codec.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 #define MAXREP 8
@@ -1425,5 +1426,5 @@ int main(void)
 
 	seed = env ? strtoull(env, NULL, 0) : (uint64_t)time(NULL);
 	printf("test_sim_motor: RMD_TEST_SEED=%llu\n", (unsigned long long)seed);
-	return cmocka_run_group_tests(tests, NULL, NULL);
+	return SUITE_RUN("sim_motor", tests, NULL, NULL);
 }

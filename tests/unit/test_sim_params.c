@@ -21,6 +21,7 @@
 #include "rmd/config_yaml.h"
 #include "rmd/sim_params.h"
 #include "tools/rmd-sim/rmd-sim.h"
+#include "harness/suite.h"
 
 /* The programs' logger (src/tools/common/log.c) is not linked: here it collects the messages. */
 static char logbuf[4096];
@@ -242,13 +243,9 @@ static void test_help(void **state)
 	}
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_both_readers),
-		cmocka_unit_test(test_both_refuse),
-		cmocka_unit_test(test_help),
-	};
-
-	return cmocka_run_group_tests_name("sim_params", tests, NULL, NULL);
-}
+SUITE_MAIN("sim_params", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_both_readers),
+		   cmocka_unit_test(test_both_refuse),
+		   cmocka_unit_test(test_help),
+	   })

@@ -436,15 +436,25 @@ static void test_overload_runs_late(void **state)
 
 /* ---- (d) faults ----------------------------------------------------------- */
 
+/* A window of kind for motor_id (0: bus-wide) over [start_ns, end_ns), with param. */
+static struct rmd_sim_fault window(enum rmd_sim_fault_kind kind, uint8_t motor_id, int64_t start_ns,
+				   int64_t end_ns, int64_t param)
+{
+	return (struct rmd_sim_fault){ .kind = kind,
+				       .motor_id = motor_id,
+				       .start_ns = start_ns,
+				       .end_ns = end_ns,
+				       .param = param };
+}
+
 /* Frames on can_id every period_ns during [start_ns, end_ns). */
 static struct rmd_sim_fault flood(uint32_t can_id, int64_t period_ns, int64_t start_ns,
 				  int64_t end_ns)
 {
-	return (struct rmd_sim_fault){ .kind = RMD_SIM_FAULT_FLOOD,
-				       .start_ns = start_ns,
-				       .end_ns = end_ns,
-				       .param = period_ns,
-				       .can_id = can_id };
+	struct rmd_sim_fault f = window(RMD_SIM_FAULT_FLOOD, 0, start_ns, end_ns, period_ns);
+
+	f.can_id = can_id;
+	return f;
 }
 
 static void set_faults(const struct rmd_sim_fault *f, size_t n)
@@ -568,16 +578,8 @@ static void test_fault_wrong_id_window(void **state)
 static void test_fault_disappear_window(void **state)
 {
 	const struct rmd_sim_fault f[] = {
-		{ .kind = RMD_SIM_FAULT_DISAPPEAR,
-		  .motor_id = 1,
-		  .start_ns = 200400 * US,
-		  .end_ns = 400400 * US,
-		  .param = 1 },
-		{ .kind = RMD_SIM_FAULT_DISAPPEAR,
-		  .motor_id = 2,
-		  .start_ns = 300400 * US,
-		  .end_ns = 500400 * US,
-		  .param = 0 },
+		window(RMD_SIM_FAULT_DISAPPEAR, 1, 200400 * US, 400400 * US, 1),
+		window(RMD_SIM_FAULT_DISAPPEAR, 2, 300400 * US, 500400 * US, 0),
 	};
 
 	(void)state;
@@ -608,16 +610,8 @@ static void test_fault_disappear_window(void **state)
 static void test_fault_disappear_boot(void **state)
 {
 	const struct rmd_sim_fault f[] = {
-		{ .kind = RMD_SIM_FAULT_DISAPPEAR,
-		  .motor_id = 1,
-		  .start_ns = 100400 * US,
-		  .end_ns = 105400 * US,
-		  .param = 1 },
-		{ .kind = RMD_SIM_FAULT_DISAPPEAR,
-		  .motor_id = 2,
-		  .start_ns = 100400 * US,
-		  .end_ns = 105400 * US,
-		  .param = 1 },
+		window(RMD_SIM_FAULT_DISAPPEAR, 1, 100400 * US, 105400 * US, 1),
+		window(RMD_SIM_FAULT_DISAPPEAR, 2, 100400 * US, 105400 * US, 1),
 	};
 	struct rmd_sim_motor_params p;
 	int64_t first = 0;
@@ -780,19 +774,25 @@ static unsigned bus_power_cycles(unsigned from, unsigned to, unsigned *taken_in_
 	return refused;
 }
 
-static void test_fault_bus_power_window(void **state)
+/* A host FIFO bus of two motors, its queue 16 frames, without power in [10.4 ms, 30.4 ms). */
+static void bus_power_rig(void)
 {
-	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_BUS_POWER,
-					 .start_ns = 10400 * US,
-					 .end_ns = 30400 * US };
-	unsigned taken = 0, refused, replayed = 0, k;
+	const struct rmd_sim_fault f =
+		window(RMD_SIM_FAULT_BUS_POWER, 0, 10400 * US, 30400 * US, 0);
 
-	(void)state;
 	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, seed, RMD_SIM_WIRE_HOST_FIFO), 0);
 	rmd_sim_wire_set_tap(&bus, tap, NULL);
 	assert_int_equal(rmd_sim_wire_set_txqueuelen(&bus, 16), 0);
 	add_motors(2);
 	set_faults(&f, 1);
+}
+
+static void test_fault_bus_power_window(void **state)
+{
+	unsigned taken = 0, refused, replayed = 0, k;
+
+	(void)state;
+	bus_power_rig();
 	refused = bus_power_cycles(0, 32, &taken);
 	assert_int_equal(refused, 40 - taken);
 	/* the queue's 16 frames, and the one a try holds when the next cycle's send comes */
@@ -825,17 +825,10 @@ static void test_fault_bus_power_window(void **state)
 /* The same cut with the host queue flushed at 20 ms: nothing written before it goes out. */
 static void test_fault_bus_power_flush(void **state)
 {
-	const struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_BUS_POWER,
-					 .start_ns = 10400 * US,
-					 .end_ns = 30400 * US };
 	unsigned taken = 0, after = 0, n;
 
 	(void)state;
-	assert_int_equal(rmd_sim_wire_init(&bus, BITRATE, seed, RMD_SIM_WIRE_HOST_FIFO), 0);
-	rmd_sim_wire_set_tap(&bus, tap, NULL);
-	assert_int_equal(rmd_sim_wire_set_txqueuelen(&bus, 16), 0);
-	add_motors(2);
-	set_faults(&f, 1);
+	bus_power_rig();
 	bus_power_cycles(0, 20, &taken);
 	rmd_sim_wire_advance(&bus, 20500 * US);
 	n = rmd_sim_wire_flush(&bus);
@@ -1371,40 +1364,35 @@ static void test_bus_sim_flush(void **state)
 	}
 }
 
-int main(void)
-{
-	struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_acceptance_8_pairs),
-		cmocka_unit_test(test_arbitration_lowest_id_first),
-		cmocka_unit_test(test_arbitration_replies_overtake),
-		cmocka_unit_test(test_overload_runs_late),
-		cmocka_unit_test(test_fault_drop_rate),
-		cmocka_unit_test(test_fault_delay_rate),
-		cmocka_unit_test(test_fault_corrupt_rate),
-		cmocka_unit_test(test_fault_wrong_id_window),
-		cmocka_unit_test(test_fault_disappear_window),
-		cmocka_unit_test(test_fault_disappear_boot),
-		cmocka_unit_test(test_fault_error_flag_window),
-		cmocka_unit_test(test_fault_bus_off_window),
-		cmocka_unit_test(test_fault_bus_power_window),
-		cmocka_unit_test(test_fault_bus_power_flush),
-		cmocka_unit_test(test_fault_flood_low_id_steals_wire),
-		cmocka_unit_test(test_fault_flood_high_id_yields),
-		cmocka_unit_test(test_txqueuelen_enobufs),
-		cmocka_unit_test(test_send_rejects_bad_frames),
-		cmocka_unit_test(test_unsolicited_frames),
-		cmocka_unit_test(test_adapter_latency_timer),
-		cmocka_unit_test(test_adapter_usb_frames_and_delay),
-		cmocka_unit_test(test_rom_write_answers_late),
-		cmocka_unit_test(test_rx_overflow_counted),
-		cmocka_unit_test(test_load_window),
-		cmocka_unit_test(test_deterministic),
-		cmocka_unit_test(test_config_validation),
-		cmocka_unit_test(test_bus_sim_tap),
-		cmocka_unit_test(test_bus_sim_burst_needs_queue),
-		cmocka_unit_test(test_bus_sim_flush),
-	};
-
-	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
-	return cmocka_run_group_tests_name("sim_wire", tests, NULL, NULL);
-}
+SUITE_MAIN_FIXTURE("sim_wire", setup, teardown, NULL, NULL,
+		   {
+			   cmocka_unit_test(test_acceptance_8_pairs),
+			   cmocka_unit_test(test_arbitration_lowest_id_first),
+			   cmocka_unit_test(test_arbitration_replies_overtake),
+			   cmocka_unit_test(test_overload_runs_late),
+			   cmocka_unit_test(test_fault_drop_rate),
+			   cmocka_unit_test(test_fault_delay_rate),
+			   cmocka_unit_test(test_fault_corrupt_rate),
+			   cmocka_unit_test(test_fault_wrong_id_window),
+			   cmocka_unit_test(test_fault_disappear_window),
+			   cmocka_unit_test(test_fault_disappear_boot),
+			   cmocka_unit_test(test_fault_error_flag_window),
+			   cmocka_unit_test(test_fault_bus_off_window),
+			   cmocka_unit_test(test_fault_bus_power_window),
+			   cmocka_unit_test(test_fault_bus_power_flush),
+			   cmocka_unit_test(test_fault_flood_low_id_steals_wire),
+			   cmocka_unit_test(test_fault_flood_high_id_yields),
+			   cmocka_unit_test(test_txqueuelen_enobufs),
+			   cmocka_unit_test(test_send_rejects_bad_frames),
+			   cmocka_unit_test(test_unsolicited_frames),
+			   cmocka_unit_test(test_adapter_latency_timer),
+			   cmocka_unit_test(test_adapter_usb_frames_and_delay),
+			   cmocka_unit_test(test_rom_write_answers_late),
+			   cmocka_unit_test(test_rx_overflow_counted),
+			   cmocka_unit_test(test_load_window),
+			   cmocka_unit_test(test_deterministic),
+			   cmocka_unit_test(test_config_validation),
+			   cmocka_unit_test(test_bus_sim_tap),
+			   cmocka_unit_test(test_bus_sim_burst_needs_queue),
+			   cmocka_unit_test(test_bus_sim_flush),
+		   })

@@ -14,6 +14,7 @@
 #include <cmocka.h>
 
 #include "rmd/spsc.h"
+#include "harness/suite.h"
 
 struct rec {
 	uint64_t seq;
@@ -145,14 +146,10 @@ static void test_latest_threads(void **state)
 	assert_true(fresh >= 1);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_ring_order_and_full),
-		cmocka_unit_test(test_ring_threads),
-		cmocka_unit_test(test_latest_newest_wins),
-		cmocka_unit_test(test_latest_threads),
-	};
-
-	return cmocka_run_group_tests_name("spsc", tests, NULL, NULL);
-}
+SUITE_MAIN("spsc", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_ring_order_and_full),
+		   cmocka_unit_test(test_ring_threads),
+		   cmocka_unit_test(test_latest_newest_wins),
+		   cmocka_unit_test(test_latest_threads),
+	   })

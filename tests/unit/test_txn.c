@@ -20,6 +20,7 @@
 #include "rmd/codec.h"
 #include "rmd/txn.h"
 #include "harness/clock.h"
+#include "harness/suite.h"
 
 #define MS INT64_C(1000000)
 /* The comm-loss time test_rmdctl_rs485's dump/restore writes to motor 2. */
@@ -285,19 +286,15 @@ static void test_tripped_write_executes(void **state)
 	rmd_bus_close(&x.bus);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_tripped_echo_is_no_answer),
-		cmocka_unit_test(test_tripped_status_read),
-		cmocka_unit_test(test_only_echoed),
-		cmocka_unit_test(test_zero_answer_alone),
-		cmocka_unit_test(test_zero_answer_in_batch),
-		cmocka_unit_test(test_set_id_repeat),
-		cmocka_unit_test(test_late_zero_answer),
-		cmocka_unit_test(test_late_echo),
-		cmocka_unit_test(test_tripped_write_executes),
-	};
-
-	return cmocka_run_group_tests(tests, NULL, NULL);
-}
+SUITE_MAIN("txn", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_tripped_echo_is_no_answer),
+		   cmocka_unit_test(test_tripped_status_read),
+		   cmocka_unit_test(test_only_echoed),
+		   cmocka_unit_test(test_zero_answer_alone),
+		   cmocka_unit_test(test_zero_answer_in_batch),
+		   cmocka_unit_test(test_set_id_repeat),
+		   cmocka_unit_test(test_late_zero_answer),
+		   cmocka_unit_test(test_late_echo),
+		   cmocka_unit_test(test_tripped_write_executes),
+	   })

@@ -21,6 +21,7 @@
 #include "harness/hex.h"
 #include "harness/rng.h"
 #include "rmd/udpm_rx.h"
+#include "harness/suite.h"
 
 /* Senders: (address, port) as sockaddr_in carries them; only their equality matters. */
 #define A_ADDR 0x0100007fu
@@ -511,20 +512,16 @@ static void test_unfinished_messages(void **state)
 	assert_message(&m, "CH", payload, 10);
 }
 
-int main(void)
-{
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup(test_short_message, setup),
-		cmocka_unit_test_setup(test_bad_datagrams, setup),
-		cmocka_unit_test_setup(test_fragment_vector, setup),
-		cmocka_unit_test_setup(test_long_in_order, setup),
-		cmocka_unit_test_setup(test_long_out_of_order, setup),
-		cmocka_unit_test_setup(test_two_senders_interleaved, setup),
-		cmocka_unit_test_setup(test_duplicate_fragment, setup),
-		cmocka_unit_test_setup(test_inconsistent_fragments, setup),
-		cmocka_unit_test_setup(test_too_long, setup),
-		cmocka_unit_test_setup(test_unfinished_messages, setup),
-	};
-
-	return cmocka_run_group_tests_name("udpm_rx", tests, NULL, NULL);
-}
+SUITE_MAIN("udpm_rx", NULL, NULL,
+	   {
+		   cmocka_unit_test_setup(test_short_message, setup),
+		   cmocka_unit_test_setup(test_bad_datagrams, setup),
+		   cmocka_unit_test_setup(test_fragment_vector, setup),
+		   cmocka_unit_test_setup(test_long_in_order, setup),
+		   cmocka_unit_test_setup(test_long_out_of_order, setup),
+		   cmocka_unit_test_setup(test_two_senders_interleaved, setup),
+		   cmocka_unit_test_setup(test_duplicate_fragment, setup),
+		   cmocka_unit_test_setup(test_inconsistent_fragments, setup),
+		   cmocka_unit_test_setup(test_too_long, setup),
+		   cmocka_unit_test_setup(test_unfinished_messages, setup),
+	   })
