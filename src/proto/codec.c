@@ -301,6 +301,24 @@ static uint32_t frame_id(const struct rmd_dialect *d, enum rmd_dir dir, uint8_t 
 	return d->reply_base + (uint32_t)motor_id;
 }
 
+/*
+ * The layout of a frame of spec in direction dir: its own, but V3 §4.3,
+ * V4.2 §4.3: the reply to a 0x79 write (read flag 0) is the write itself,
+ * the ID at data[7]; only a read's reply carries the reply identifier.
+ * The read flag: frame f's (decoding) or msg's (encoding).
+ */
+static const struct rmd_layout *layout_for(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
+					   const struct rmd_frame *f, const struct rmd_msg *msg)
+{
+	const struct rmd_layout *l = rmd_cmd_layout(spec, dir);
+
+	for (unsigned i = 0; dir == RMD_DIR_REPLY && i < l->n; i++)
+		if (l->f[i].field == RMD_FLD_READ_FLAG &&
+		    (f ? rmd_field_read(&l->f[i], f->data) : msg->v[RMD_FLD_READ_FLAG]) == 0)
+			return rmd_cmd_layout(spec, RMD_DIR_REQUEST);
+	return l;
+}
+
 int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const struct rmd_msg *msg,
 	       struct rmd_frame *out)
 {
@@ -320,7 +338,7 @@ int rmd_encode(enum rmd_proto proto, enum rmd_dir dir, uint8_t motor_id, const s
 	    (motor_id == 0) != (spec->cmd == RMD_V2_CMD_MULTI_TORQUE))
 		return -EINVAL;
 
-	l = rmd_cmd_layout(spec, dir);
+	l = layout_for(spec, dir, NULL, msg);
 	memset(out, 0, sizeof(*out));
 	out->can_id = frame_id(d, dir, motor_id, spec);
 	out->len = RMD_FRAME_LEN;
@@ -356,7 +374,7 @@ static bool reserved_bytes_zero(const struct rmd_cmd_spec *spec, const struct rm
 static void decode_fields(const struct rmd_cmd_spec *spec, enum rmd_dir dir,
 			  const struct rmd_frame *f, struct rmd_msg *msg)
 {
-	const struct rmd_layout *l = rmd_cmd_layout(spec, dir);
+	const struct rmd_layout *l = layout_for(spec, dir, f, NULL);
 
 	msg->cmd = spec->cmd;
 	for (unsigned i = 0; i < l->n; i++) {

@@ -345,6 +345,15 @@ static void test_decode_v4(void **state)
 	assert_int_equal(r.status, 0);
 	assert_has(r.out, "\"position_kp\":128", "v3 0x30");
 	run_free(&r);
+	/* §4.3-4.4: asked as replies, a write's echo carries its ID at D7, a read's 0x240 + ID */
+	RUN(&r, "300#7900000000000002\n300#7900010000004202\n", "decode", "--json", "--protocol",
+	    "v4", "--direction", "reply");
+	assert_int_equal(r.status, 0);
+	line_with(r.out, "\"raw\":\"7900000000000002\"", line, sizeof(line));
+	assert_has(line, "\"read_flag\":0,\"can_id_value\":2}", "0x79 write reply");
+	line_with(r.out, "\"raw\":\"7900010000004202\"", line, sizeof(line));
+	assert_has(line, "\"read_flag\":1,\"can_id_value\":578}", "0x79 read reply");
+	run_free(&r);
 }
 
 /* Every line of --json output is a JSON object Python's parser accepts. */

@@ -252,12 +252,12 @@ static const struct vec vectors[] = {
 	  F(ENCODER, 40000, 40000)),
 	/*
 	 * V3 §4.4: 0x79 on 0x300.  A write's reply is the request itself
-	 * (§4.3) and reads with the request layout; a read's reply carries
-	 * the reply identifier 0x242 at data[6..7].
+	 * (§4.3): a reply whose read flag is 0 reads with the request layout;
+	 * a read's reply carries the reply identifier 0x242 at data[6..7].
 	 */
 	V("v3 §4.4 ex1 request", V3, REQUEST, "300#7900000000000002", 0x79, F(READ_FLAG, 0, 0),
 	  F(CAN_ID, 2, 2)),
-	V("v3 §4.4 ex1 reply (write echo)", V3, REQUEST, "300#7900000000000002", 0x79,
+	V("v3 §4.4 ex1 reply (write echo)", V3, REPLY, "300#7900000000000002", 0x79,
 	  F(READ_FLAG, 0, 0), F(CAN_ID, 2, 2)),
 	V("v3 §4.4 ex2 request", V3, REQUEST, "300#7900010000000000", 0x79, F(READ_FLAG, 1, 1),
 	  F(CAN_ID, 0, 0)),
@@ -435,7 +435,7 @@ static const struct vec vectors[] = {
 	/* V4.2 §4.4: 0x79 on 0x300, as V3 §4.4 */
 	V("v4 §4.4 ex1 request", V4, REQUEST, "300#7900000000000002", 0x79, F(READ_FLAG, 0, 0),
 	  F(CAN_ID, 2, 2)),
-	V("v4 §4.4 ex1 reply (write echo)", V4, REQUEST, "300#7900000000000002", 0x79,
+	V("v4 §4.4 ex1 reply (write echo)", V4, REPLY, "300#7900000000000002", 0x79,
 	  F(READ_FLAG, 0, 0), F(CAN_ID, 2, 2)),
 	V("v4 §4.4 ex2 request", V4, REQUEST, "300#7900010000000000", 0x79, F(READ_FLAG, 1, 1),
 	  F(CAN_ID, 0, 0)),
@@ -921,6 +921,9 @@ static void round_trip_row(enum rmd_proto proto, const struct rmd_cmd_spec *s, e
 			/* V2 §3.48: a TF reply is found only when data[0] is 0x73. */
 			if (l->f[i].off == 0 && !multi)
 				raw = (int64_t)(((uint64_t)raw & ~UINT64_C(0xFF)) | s->cmd);
+			/* V3/V4.2 §4.3: a 0x79 reply of read flag 0 is its write (the vectors) */
+			if (dir == RMD_DIR_REPLY && l->f[i].field == RMD_FLD_READ_FLAG)
+				raw = 1;
 			rmd_msg_set(&in, l->f[i].field, raw);
 		}
 		r = rmd_encode(proto, dir, motor, &in, &f);
