@@ -69,6 +69,11 @@ struct tool_opt {
 	{                                                      \
 		.name = "version", .shortc = 'V', .help = text \
 	}
+/* A long option that takes a value named arg. */
+#define TOOL_OPT_ARG(name_, arg_, text)                                                \
+	{                                                                              \
+		.name = name_, .has_arg = required_argument, .arg = arg_, .help = text \
+	}
 
 /* getopt_long returns shortc, or TOOL_OPT_BASE + the row's index for a row without one. */
 #define TOOL_OPT_BASE 0x100

@@ -38,15 +38,10 @@ static const struct tool_opt prog_opts[] = {
 		  "Other FILE: KEY = VALUE lines, [motor N] sections,\n"
 		  "read here; later options override its global values",
 	  .value = TOOL_VAL_FILE },
-	{ .name = "bus",
-	  .has_arg = required_argument,
-	  .arg = "NAME",
-	  .help = "the rmdd.yaml's bus to simulate (default: the one on\n"
-		  "the wire of --can or --serial, else its only one)" },
-	{ .name = "set",
-	  .has_arg = required_argument,
-	  .arg = "[ID:]KEY=VALUE",
-	  .help = "a motor parameter, for motor ID or every motor" },
+	TOOL_OPT_ARG("bus", "NAME",
+		     "the rmdd.yaml's bus to simulate (default: the one on\n"
+		     "the wire of --can or --serial, else its only one)"),
+	TOOL_OPT_ARG("set", "[ID:]KEY=VALUE", "a motor parameter, for motor ID or every motor"),
 	TOOL_OPT_VERBOSE("also log every frame, decoded"),
 	TOOL_OPT_QUIET("log errors and warnings only"),
 	TOOL_OPT_HELP,

@@ -622,22 +622,14 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .arg = "P",
 	  .help = "", /* the firmware keys (rmdctl_dev_usage()) */
 	  .value = TOOL_VAL_FIRMWARE },
-	{ .name = "timeout",
-	  .has_arg = required_argument,
-	  .arg = "MS",
-	  .help = "wait per try for each answer (default 5)" },
-	{ .name = "tries",
-	  .has_arg = required_argument,
-	  .arg = "N",
-	  .help = "sends per request before giving up (default 3)" },
-	{ .name = "sim",
-	  .has_arg = required_argument,
-	  .arg = "KEY=VALUE",
-	  .help = "simulated buses: set a parameter of every\n"
-		  "simulated motor, as rmdd.yaml's sim.motor and\n"
-		  "rmd-sim spell it (docs/rmd-sim.md), e.g.\n"
-		  "turnaround_us=20000 or adapter_latency_timer_us=16000;\n"
-		  "repeatable" },
+	TOOL_OPT_ARG("timeout", "MS", "wait per try for each answer (default 5)"),
+	TOOL_OPT_ARG("tries", "N", "sends per request before giving up (default 3)"),
+	TOOL_OPT_ARG("sim", "KEY=VALUE",
+		     "simulated buses: set a parameter of every\n"
+		     "simulated motor, as rmdd.yaml's sim.motor and\n"
+		     "rmd-sim spell it (docs/rmd-sim.md), e.g.\n"
+		     "turnaround_us=20000 or adapter_latency_timer_us=16000;\n"
+		     "repeatable"),
 	{ .name = "trace",
 	  .help = "print every frame sent and received on stderr as\n"
 		  "`candump -l` lines (canplayer and `rmdctl decode`\n"

@@ -83,15 +83,10 @@ const struct tool_opt rmdctl_top_opts[] = {
 	  .help = "rmdd's channel prefix (default " DEFAULT_PREFIX ")" },
 	{ .name = "json", .shortc = 'j', .help = "print one JSON object and exit (scripts)" },
 	{ .name = "once", .help = "print one table and exit" },
-	{ .name = "interval",
-	  .has_arg = required_argument,
-	  .arg = "MS",
-	  .help = "refresh period (default 100 on a terminal, else 1000)" },
-	{ .name = "wait",
-	  .has_arg = required_argument,
-	  .arg = "S",
-	  .help = "with --json or --once: give up after S seconds without\n"
-		  "config, health and state (default 3)" },
+	TOOL_OPT_ARG("interval", "MS", "refresh period (default 100 on a terminal, else 1000)"),
+	TOOL_OPT_ARG("wait", "S",
+		     "with --json or --once: give up after S seconds without\n"
+		     "config, health and state (default 3)"),
 	TOOL_OPT_HELP,
 };
 const size_t rmdctl_n_top_opts = sizeof(rmdctl_top_opts) / sizeof(rmdctl_top_opts[0]);
