@@ -1211,14 +1211,13 @@ static void test_check_config_mit(void **state)
 static int setup(void **state)
 {
 	(void)state;
-	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0 ||
-	    find_prog(rmdd_test, sizeof(rmdd_test), "RMDD_TEST", "rmdd-test") < 0)
-		return -1;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_rmdd.XXXXXX");
-	if (!mkdtemp(tmpdir))
-		return -1;
 	/* a daemon that outlives a failed test must not keep a pipe of ours */
 	signal(SIGPIPE, SIG_IGN);
+	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_rmdd.XXXXXX");
+	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0 ||
+	    find_prog(rmdd_test, sizeof(rmdd_test), "RMDD_TEST", "rmdd-test") < 0 ||
+	    !mkdtemp(tmpdir))
+		return -1;
 	return 0;
 }
 
