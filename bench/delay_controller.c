@@ -55,7 +55,6 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
-#include <poll.h>
 #include <sched.h>
 #include <signal.h>
 #include <stdbool.h>
@@ -229,25 +228,19 @@ static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_
 	}
 }
 
-/* Handle messages until deadline (CLOCK_MONOTONIC ns) or a signal.  Returns 0 or -EIO. */
+/*
+ * Handle messages until deadline (CLOCK_MONOTONIC ns) or a signal, each as it
+ * comes (lcm_handle_timeout() returns on the first; the wait, the time left
+ * rounded up to a millisecond, only bounds a quiet spell).  0 or -EIO.
+ */
 static int handle_until(struct ctl *c, int64_t deadline)
 {
-	struct pollfd pfd = { .fd = lcm_get_fileno(c->lcm), .events = POLLIN };
+	int64_t left;
 
-	while (!stop_signal) {
-		int64_t left = deadline - rmd_now_ns();
-		struct timespec ts;
-		int r;
-
-		if (left <= 0)
-			return 0;
-		ts = (struct timespec){ .tv_sec = left / NS_PER_S, .tv_nsec = left % NS_PER_S };
-		r = ppoll(&pfd, 1, &ts, NULL);
-		if (r < 0 && errno != EINTR)
+	while (!stop_signal && (left = deadline - rmd_now_ns()) > 0)
+		if (lcm_handle_timeout(c->lcm, (int)((left + NS_PER_MS - 1) / NS_PER_MS)) < 0 &&
+		    errno != EINTR)
 			return -EIO;
-		if (r > 0 && lcm_handle(c->lcm) < 0)
-			return -EIO;
-	}
 	return 0;
 }
 

@@ -293,7 +293,6 @@ void canwatch_start(struct canwatch *w, const char *iface, uint32_t id, int fifo
 {
 	struct can_filter f = { .can_id = id,
 				.can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG };
-	pthread_attr_t attr;
 	int rc;
 
 	memset(w, 0, sizeof(*w));
@@ -301,22 +300,7 @@ void canwatch_start(struct canwatch *w, const char *iface, uint32_t id, int fifo
 	w->fd = can_raw_open(iface, true);
 	if (setsockopt(w->fd, SOL_CAN_RAW, CAN_RAW_FILTER, &f, sizeof(f)) < 0)
 		fail_msg("%s: CAN_RAW_FILTER 0x%03X: %s", iface, (unsigned)id, strerror(errno));
-	pthread_attr_init(&attr);
-	if (fifo > 0) {
-		struct sched_param sp = { .sched_priority = fifo };
-
-		pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
-		pthread_attr_setschedpolicy(&attr, SCHED_FIFO);
-		pthread_attr_setschedparam(&attr, &sp);
-	}
-	rc = pthread_create(&w->thread, &attr, canwatch_main, w);
-	w->is_fifo = rc == 0 && fifo > 0;
-	if (rc != 0 && fifo > 0) { /* not granted: at normal priority, said in is_fifo */
-		pthread_attr_destroy(&attr);
-		pthread_attr_init(&attr);
-		rc = pthread_create(&w->thread, &attr, canwatch_main, w);
-	}
-	pthread_attr_destroy(&attr);
+	rc = watcher_start(&w->thread, canwatch_main, w, fifo, &w->is_fifo);
 	if (rc != 0)
 		fail_msg("a watch of 0x%03X: pthread_create: %s", (unsigned)id, strerror(rc));
 	w->started = true;
@@ -329,12 +313,8 @@ int64_t canwatch_first_ns(struct canwatch *w)
 
 void canwatch_stop(struct canwatch *w)
 {
-	if (!w->started)
-		return;
-	atomic_store(&w->stop, true);
-	pthread_join(w->thread, NULL);
-	close_fd(&w->fd);
-	w->started = false;
+	if (watcher_stop(w->thread, &w->stop, &w->started))
+		close_fd(&w->fd);
 }
 
 bool cframe_is(const struct cframe *f, unsigned b, unsigned id, int cmd, int64_t t0, int64_t t1)

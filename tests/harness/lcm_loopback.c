@@ -11,12 +11,15 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <limits.h>
+
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
 #include "rmd/channels.h"
 #include "rmd/time.h"
 #include "harness/lcm_loopback.h"
+#include "harness/proc.h"
 
 static int lcm_loopback_got;
 
@@ -75,6 +78,27 @@ bool lcm_loopback_ready(const char *suite)
 		"*** As root: ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo src 127.0.0.1\n\n",
 		suite, geteuid() ? " and this is not root" : " even after routing it");
 	return false;
+}
+
+static const char *tools_dir;
+
+int lcm_tools_setup(const char *suite, char *rmdd, char *rmdctl, char *dir, bool *multicast)
+{
+	if (find_prog(rmdd, PATH_MAX, "RMDD", "rmdd") < 0 ||
+	    find_prog(rmdctl, PATH_MAX, "RMDCTL", "rmdctl") < 0 || !mkdtemp(dir))
+		return -1;
+	tools_dir = dir;
+	unsetenv("LCM_DEFAULT_URL");
+	unsetenv("NOTIFY_SOCKET");
+	*multicast = lcm_loopback_ready(suite);
+	return 0;
+}
+
+int lcm_tools_teardown(void **state)
+{
+	(void)state;
+	kid_kill_all();
+	return tools_dir ? rm_tree(tools_dir) : 0;
 }
 
 void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no)
@@ -187,4 +211,20 @@ void lcm_rx_free(struct lcm_rx *rx)
 		rmd_config_t_destroy(rx->config);
 	rx->health = NULL;
 	rx->config = NULL;
+}
+
+static void on_first(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	int64_t *first_ns = user;
+
+	(void)rbuf;
+	(void)channel;
+	if (!*first_ns)
+		*first_ns = rmd_now_ns();
+}
+
+lcm_subscription_t *lcm_first_listen(lcm_t *lcm, const char *channel, int64_t *first_ns)
+{
+	*first_ns = 0;
+	return lcm_subscribe(lcm, channel, on_first, first_ns);
 }

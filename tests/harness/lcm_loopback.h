@@ -26,6 +26,19 @@
 bool lcm_loopback_ready(const char *suite);
 
 /*
+ * The group set-up of a suite that runs rmdd and rmdctl over LCM (suite: its
+ * name, for lcm_loopback_ready()): both found (find_prog() into rmdd and
+ * rmdctl, PATH_MAX each), dir (a mkdtemp() template) made, and what a
+ * user's shell may have set that would steer them (LCM_DEFAULT_URL,
+ * NOTIFY_SOCKET) unset; *multicast: whether multicast on loopback works.
+ * 0, or -1.
+ */
+int lcm_tools_setup(const char *suite, char *rmdd, char *rmdctl, char *dir, bool *multicast);
+
+/* Its group teardown: every child killed (kid_kill_all()), then its dir removed. */
+int lcm_tools_teardown(void **state);
+
+/*
  * url = a udpm URL (TTL 0) on a port of this process and test: base_port +
  * (pid % pids) * 40 + test_no % 40, so that suites running in parallel do
  * not hear each other.
@@ -71,5 +84,12 @@ void lcm_rx_stop(struct lcm_rx *rx);
 
 /* Unsubscribe and free the messages kept. */
 void lcm_rx_free(struct lcm_rx *rx);
+
+/*
+ * Zero *first_ns, then stamp it (rmd_now_ns()) with the arrival of the first
+ * message on channel: when a controller's first command came.  The
+ * subscription, for lcm_unsubscribe(); NULL on failure.
+ */
+lcm_subscription_t *lcm_first_listen(lcm_t *lcm, const char *channel, int64_t *first_ns);
 
 #endif /* RMD_TESTS_LCM_LOOPBACK_H */

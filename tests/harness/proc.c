@@ -68,6 +68,19 @@ void temp_file(char *path, const char *text)
 	assert_int_equal(fclose(f), 0);
 }
 
+const char *file_text(const char *path, char *buf, size_t size)
+{
+	FILE *f = fopen(path, "r");
+	size_t n = 0;
+
+	if (f) {
+		n = fread(buf, 1, size - 1, f);
+		fclose(f);
+	}
+	buf[n] = '\0';
+	return buf;
+}
+
 void close_fd(int *fd)
 {
 	if (*fd >= 0)

@@ -35,6 +35,12 @@ void temp_file(char *path, const char *text);
 #define DIR_NAME_MAX 256
 unsigned dir_sorted(const char *dir, const char *first, char names[][DIR_NAME_MAX], unsigned max);
 
+/*
+ * Path's whole text (at most size - 1 bytes), NUL-terminated into buf; ""
+ * when it cannot be read.  buf.
+ */
+const char *file_text(const char *path, char *buf, size_t size);
+
 /* rm -rf dir (a suite's temporary folder): 0, or -1 when that failed. */
 int rm_tree(const char *dir);
 

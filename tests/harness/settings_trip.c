@@ -77,19 +77,46 @@ static void edit(char *buf, const char *s, const char *after, const char *from, 
 	snprintf(buf, TEXT_MAX, "%.*s%s%s", (int)(p - s), s, to, p + strlen(from));
 }
 
+/*
+ * path[0] = dir/<name>.yaml, path[1] = dir/<name>-edited.yaml (a round
+ * trip's own two files); the dump of both motors as it starts, into orig
+ * and written to path[0].
+ */
+static void first_dump(struct trip *t, const char *dir, const char *name, char path[2][512],
+		       char *orig)
+{
+	snprintf(path[0], 512, "%s/%s.yaml", dir, name);
+	snprintf(path[1], 512, "%s/%s-edited.yaml", dir, name);
+	TRIP(t, 0, "dump", "1-2");
+	snprintf(orig, TEXT_MAX, "%s", t->out);
+	write_file(path[0], orig);
+}
+
+/* A dump of both motors now holds the motors of the dump `want` (a and b: scratch buffers). */
+static void dump_is(struct trip *t, const char *want, char *a, char *b)
+{
+	TRIP(t, 0, "dump", "1-2");
+	motors_of(t, a);
+	motors_of(&(struct trip){ .out = want }, b);
+	assert_string_equal(a, b);
+}
+
+/* The motors hold the first dump again (a, b: scratch); the round trip's files go. */
+static void back_to_first(struct trip *t, char path[2][512], const char *orig, char *a, char *b)
+{
+	dump_is(t, orig, a, b);
+	assert_int_equal(remove(path[0]), 0);
+	assert_int_equal(remove(path[1]), 0);
+}
+
 void settings_round_trip(settings_run_fn *run, void *ctx, const char *const *bus_args,
 			 const char *dir)
 {
 	static char orig[TEXT_MAX], text[TEXT_MAX], a[TEXT_MAX], b[TEXT_MAX], path[2][512];
 	struct trip t = { .run = run, .ctx = ctx, .bus_args = bus_args };
 
-	snprintf(path[0], sizeof(path[0]), "%s/motors.yaml", dir);
-	snprintf(path[1], sizeof(path[1]), "%s/edited.yaml", dir);
-
 	/* dump: both motors, rmd-sim's defaults (src/sim) */
-	TRIP(&t, 0, "dump", "1-2");
-	snprintf(orig, sizeof(orig), "%s", t.out);
-	write_file(path[0], orig);
+	first_dump(&t, dir, "motors", path, orig);
 	has(&t, orig, "protocol: v3\n");
 	has(&t, orig, "  - id: 1\n");
 	has(&t, orig, "  - id: 2\n");
@@ -116,10 +143,7 @@ void settings_round_trip(settings_run_fn *run, void *ctx, const char *const *bus
 	if (strstr(t.out, "motor 2: pid") || strstr(t.out, "motor 2: accel"))
 		fail_msg("motor 2's unchanged values in the diff:\n%s", t.out);
 	has(&t, t.err, "refusing to write these 4 changes to 2 motors on ");
-	TRIP(&t, 0, "dump", "1-2");
-	motors_of(&t, a);
-	motors_of(&(struct trip){ .out = orig }, b);
-	assert_string_equal(a, b);
+	dump_is(&t, orig, a, b);
 
 	/*
 	 * --yes: written; read back; the zero offset after a reset.  A runner
@@ -152,12 +176,7 @@ void settings_round_trip(settings_run_fn *run, void *ctx, const char *const *bus
 	TRIP(&t, 0, "restore", path[0], "--yes");
 	has(&t, t.out, "motor 2: unchanged\n");
 	TRIP(&t, 0, "reset", "1");
-	TRIP(&t, 0, "dump", "1-2");
-	motors_of(&t, a);
-	motors_of(&(struct trip){ .out = orig }, b);
-	assert_string_equal(a, b);
-	assert_int_equal(remove(path[0]), 0);
-	assert_int_equal(remove(path[1]), 0);
+	back_to_first(&t, path, orig, a, b);
 }
 
 void settings_round_trip_v4(settings_run_fn *run, void *ctx, const char *const *bus_args,
@@ -167,13 +186,8 @@ void settings_round_trip_v4(settings_run_fn *run, void *ctx, const char *const *
 	struct trip t = { .run = run, .ctx = ctx, .bus_args = bus_args };
 	struct trip t3 = { .run = run, .ctx = ctx, .bus_args = v3_bus_args };
 
-	snprintf(path[0], sizeof(path[0]), "%s/v4.yaml", dir);
-	snprintf(path[1], sizeof(path[1]), "%s/v4-edited.yaml", dir);
-
 	/* dump: the simulator's gains, 1.0 each, seven of them (V4.2 §2.1.4) */
-	TRIP(&t, 0, "dump", "1-2");
-	snprintf(orig, sizeof(orig), "%s", t.out);
-	write_file(path[0], orig);
+	first_dump(&t, dir, "v4", path, orig);
 	has(&t, orig, "protocol: v4\n");
 	has(&t, orig, "    firmware: 2025070202  # not restored\n");
 	has(&t, orig,
@@ -204,10 +218,5 @@ void settings_round_trip_v4(settings_run_fn *run, void *ctx, const char *const *
 
 	/* and back to the first dump */
 	TRIP(&t, 0, "restore", path[0], "--yes");
-	TRIP(&t, 0, "dump", "1-2");
-	motors_of(&t, a);
-	motors_of(&(struct trip){ .out = orig }, b);
-	assert_string_equal(a, b);
-	assert_int_equal(remove(path[0]), 0);
-	assert_int_equal(remove(path[1]), 0);
+	back_to_first(&t, path, orig, a, b);
 }

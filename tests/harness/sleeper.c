@@ -17,6 +17,38 @@ static int64_t mono(void)
 	return (int64_t)ts.tv_sec * NS_PER_S + ts.tv_nsec;
 }
 
+int watcher_start(pthread_t *thread, void *(*main)(void *), void *arg, int fifo, bool *is_fifo)
+{
+	pthread_attr_t attr;
+	int rc = -1;
+
+	*is_fifo = false;
+	if (fifo > 0) {
+		struct sched_param sp = { .sched_priority = fifo };
+
+		pthread_attr_init(&attr);
+		pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
+		pthread_attr_setschedpolicy(&attr, SCHED_FIFO);
+		pthread_attr_setschedparam(&attr, &sp);
+		rc = pthread_create(thread, &attr, main, arg);
+		pthread_attr_destroy(&attr);
+		*is_fifo = rc == 0;
+	}
+	if (rc != 0) /* fifo 0, or not granted: at normal priority, said in is_fifo */
+		rc = pthread_create(thread, NULL, main, arg);
+	return rc;
+}
+
+bool watcher_stop(pthread_t thread, atomic_bool *stop, bool *started)
+{
+	if (!*started)
+		return false;
+	atomic_store(stop, true);
+	pthread_join(thread, NULL);
+	*started = false;
+	return true;
+}
+
 static void *sleeper_main(void *arg)
 {
 	struct sleeper *s = arg;
@@ -48,36 +80,16 @@ static void *sleeper_main(void *arg)
 
 int sleeper_start(struct sleeper *s, int64_t period_ns, int fifo)
 {
-	pthread_attr_t attr;
 	int rc;
 
 	s->period_ns = period_ns;
 	s->fifo = fifo;
-	s->is_fifo = false;
 	atomic_store(&s->stop, false);
 	atomic_store(&s->worst_ns, 0);
 	atomic_store(&s->total_worst_ns, 0);
 	atomic_store(&s->wakes, 0);
 	atomic_store(&s->late_sum_ns, 0);
-	pthread_attr_init(&attr);
-	if (fifo > 0) {
-		struct sched_param sp = { .sched_priority = fifo };
-
-		pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED);
-		pthread_attr_setschedpolicy(&attr, SCHED_FIFO);
-		pthread_attr_setschedparam(&attr, &sp);
-		rc = pthread_create(&s->thread, &attr, sleeper_main, s);
-		if (rc == 0)
-			s->is_fifo = true;
-		else
-			fifo = 0; /* not granted: at normal priority, said in is_fifo */
-	}
-	if (fifo <= 0) {
-		pthread_attr_destroy(&attr);
-		pthread_attr_init(&attr);
-		rc = pthread_create(&s->thread, &attr, sleeper_main, s);
-	}
-	pthread_attr_destroy(&attr);
+	rc = watcher_start(&s->thread, sleeper_main, s, fifo, &s->is_fifo);
 	s->started = rc == 0;
 	return -rc;
 }
@@ -108,11 +120,7 @@ int64_t sleeper_held_off_ns(struct sleeper *s)
 
 void sleeper_stop(struct sleeper *s)
 {
-	if (!s->started)
-		return;
-	atomic_store(&s->stop, true);
-	pthread_join(s->thread, NULL);
-	s->started = false;
+	watcher_stop(s->thread, &s->stop, &s->started);
 }
 
 void held_deadline_start(struct held_deadline *d, struct sleeper *s, int64_t ms)

@@ -31,6 +31,17 @@ struct sleeper {
 };
 
 /*
+ * A watcher thread, the sleeper's and canlog.h's canwatch: pthread_create()
+ * of main(arg) into *thread at SCHED_FIFO priority fifo when granted (root),
+ * else at normal priority (and for fifo 0); *is_fifo says which.  0, or
+ * pthread_create()'s error.
+ */
+int watcher_start(pthread_t *thread, void *(*main)(void *), void *arg, int fifo, bool *is_fifo);
+
+/* Set *stop and join thread, when *started; *started is false after.  Whether it was. */
+bool watcher_stop(pthread_t thread, atomic_bool *stop, bool *started);
+
+/*
  * Start s: wake every period_ns at SCHED_FIFO priority fifo (when granted:
  * root; else at normal priority, said in is_fifo), or at normal priority
  * for fifo 0.  Returns 0 or -errno.

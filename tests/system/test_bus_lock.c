@@ -114,15 +114,7 @@ static void wait_locked(struct kid *k)
 
 	snprintf(want, sizeof(want), "%ld\n", (long)k->pid);
 	for (;;) {
-		FILE *f = fopen(lock_path, "r");
-		size_t n = 0;
-
-		if (f) {
-			n = fread(got, 1, sizeof(got) - 1, f);
-			fclose(f);
-		}
-		got[n] = '\0';
-		if (!strcmp(got, want))
+		if (!strcmp(file_text(lock_path, got, sizeof(got)), want))
 			return;
 		if (kid_poll_exit(k) || rmd_now_ns() > end)
 			fail_msg("rmdd did not lock %s within %d ms; its output:\n%s", lock_path,

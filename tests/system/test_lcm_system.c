@@ -63,6 +63,7 @@
 #include "harness/lcm_loopback.h"
 #include "harness/proc.h"
 #include "harness/sleeper.h"
+#include "harness/suite.h"
 #include "harness/thread_sched.h"
 #include "rmd/time.h"
 #include "rmd/rmd_command_t.h"
@@ -1974,15 +1975,6 @@ static void start_rmdd_lossy(struct fixture *f, char *path, size_t len)
 
 static int64_t first_command_ns;
 
-static void on_any_command(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
-{
-	(void)rbuf;
-	(void)channel;
-	(void)user;
-	if (!first_command_ns)
-		first_command_ns = rmd_now_ns();
-}
-
 static bool motor_in(const struct fixture *f, int i, int lc)
 {
 	return f->rx.state.count > i && f->rx.state.motor[i].lifecycle == lc;
@@ -2014,8 +2006,7 @@ static void example_after_a_loss(struct fixture *f, const char *const *argv, boo
 	if (!back_from_loss(f) || !strstr(slurp(f->log), "(pos_1): lost"))
 		fail_msg("pos_1 not lost and back; rmdd's output:\n%s", slurp(f->log));
 
-	first_command_ns = 0;
-	sub = lcm_subscribe(f->sub, "RMD_COMMAND", on_any_command, NULL);
+	sub = lcm_first_listen(f->sub, "RMD_COMMAND", &first_command_ns);
 	assert_non_null(sub);
 	f->child = spawn(argv, f->child_log, python);
 	end = rmd_now_ns() + 10 * NS_PER_S;
@@ -2077,6 +2068,15 @@ static bool all_near(const struct fixture *f, const double *target, double off, 
 
 #define CTL_A 0x0a0a /* two controllers: A, the owner, drives every motor to home + 0.3 */
 #define CTL_B 0x0b0b /* B, the intruder, to home - 0.3 */
+
+/* Once every motor is READY: controller A enables them in place; home is where they stand. */
+static void owner_a_enabled(struct fixture *f)
+{
+	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
+	f->controller = CTL_A;
+	enable_in_place(f);
+	memcpy(f->home, f->target, sizeof(f->home));
+}
 
 /* One command with enable = 1 from controller A or B (CTL_*), towards its target. */
 static void send_as(struct fixture *f, int64_t who)
@@ -2142,10 +2142,7 @@ static void test_second_controller_rejected(void **state)
 	const char *log;
 
 	start_rmdd(f);
-	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
-	f->controller = CTL_A;
-	enable_in_place(f);
-	memcpy(f->home, f->target, sizeof(f->home));
+	owner_a_enabled(f);
 
 	/* A drives every motor 0.3 rad up, B (started later) 0.3 rad down, at once */
 	both_publish(f, 1500, false, done_never, 0, &near_b);
@@ -2241,10 +2238,7 @@ static void test_intruder_never_inherits_after_a_trip(void **state)
 	snprintf(path, sizeof(path), "%s/tapped.%u.yaml", tmpdir, test_no);
 	write_tapped_config(path, tap);
 	start_rmdd_with(f, path);
-	WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
-	f->controller = CTL_A;
-	enable_in_place(f);
-	memcpy(f->home, f->target, sizeof(f->home));
+	owner_a_enabled(f);
 	both_publish(f, 500, false, done_never, 0, &near_b);
 	assert_false(near_b);
 	assert_true(tap_count(tap, "#A4") > 100);
@@ -2302,10 +2296,7 @@ static void test_owner_kept_through_a_stall(void **state)
 
 	for (;;) {
 		restart_rmdd_timed(f, 5000, COMMAND_TIMEOUT_MS * pace);
-		WAIT_UNTIL(f, all_in(f, RMD_STATE_T_LC_READY), 2000);
-		f->controller = CTL_A;
-		enable_in_place(f);
-		memcpy(f->home, f->target, sizeof(f->home));
+		owner_a_enabled(f);
 		f->fresh_after_ns = rmd_now_ns();
 		if (!both_publish(f, 3000 * (int)pace, false, done_a_drives, 0, &near_b))
 			fail_msg("the motors did not follow the owner; rmdd's output:\n%s",
@@ -2762,39 +2753,31 @@ static void test_second_daemon_refused_then_forced(void **state)
 
 int main(void)
 {
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup_teardown(test_setpoints_move_the_motors, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_uncertain_position_refused_until_homed, setup,
-						teardown),
-		cmocka_unit_test_setup_teardown(test_hostile_messages_rejected_and_counted, setup,
-						teardown),
-		cmocka_unit_test_setup_teardown(test_flood_counted_while_the_loop_keeps_its_cycle,
-						setup, teardown),
-		cmocka_unit_test_setup_teardown(
-			test_silence_trips_the_watchdog_and_enable_clears_it, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_c_example_tracks_a_sine, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_python_example_tracks_a_sine, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_ctrl_c_stops_cleanly, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_examples_refuse_without_rmdd, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_logger_records_state, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_c_example_after_a_loss, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_python_example_after_a_loss, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_second_controller_rejected, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_owner_kept_through_a_stall, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_sigterm_hold_logs_what_was_sent, setup,
-						teardown),
-		cmocka_unit_test_setup_teardown(test_sigterm_sends_the_configured_action, setup,
-						teardown),
-		cmocka_unit_test_setup_teardown(test_ignored_enable_reported, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_intruder_never_inherits_after_a_trip, setup,
-						teardown),
-		cmocka_unit_test_setup_teardown(test_incidents_record_intruder_and_watchdog, setup,
-						teardown),
-		cmocka_unit_test_setup_teardown(test_second_daemon_refused_then_forced, setup,
-						teardown),
+	struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_setpoints_move_the_motors),
+		cmocka_unit_test(test_uncertain_position_refused_until_homed),
+		cmocka_unit_test(test_hostile_messages_rejected_and_counted),
+		cmocka_unit_test(test_flood_counted_while_the_loop_keeps_its_cycle),
+		cmocka_unit_test(test_silence_trips_the_watchdog_and_enable_clears_it),
+		cmocka_unit_test(test_c_example_tracks_a_sine),
+		cmocka_unit_test(test_python_example_tracks_a_sine),
+		cmocka_unit_test(test_ctrl_c_stops_cleanly),
+		cmocka_unit_test(test_examples_refuse_without_rmdd),
+		cmocka_unit_test(test_logger_records_state),
+		cmocka_unit_test(test_c_example_after_a_loss),
+		cmocka_unit_test(test_python_example_after_a_loss),
+		cmocka_unit_test(test_second_controller_rejected),
+		cmocka_unit_test(test_owner_kept_through_a_stall),
+		cmocka_unit_test(test_sigterm_hold_logs_what_was_sent),
+		cmocka_unit_test(test_sigterm_sends_the_configured_action),
+		cmocka_unit_test(test_ignored_enable_reported),
+		cmocka_unit_test(test_intruder_never_inherits_after_a_trip),
+		cmocka_unit_test(test_incidents_record_intruder_and_watchdog),
+		cmocka_unit_test(test_second_daemon_refused_then_forced),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood* */
 		cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
+	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
 	return cmocka_run_group_tests_name("lcm_system", tests, group_setup, group_teardown);
 }

@@ -45,6 +45,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/lcm_loopback.h"
+#include "harness/proc.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_health_t.h"
 #include "rmd/rmd_state_t.h"
@@ -84,18 +85,11 @@ static double mono_s(void)
 }
 
 /* A whole (small) file, NUL-terminated; "" when unreadable.  Static buffer. */
-static const char *file_text(const char *path)
+static const char *log_text(const char *path)
 {
 	static char text[64 * 1024];
-	FILE *fp = fopen(path, "r");
-	size_t n = 0;
 
-	if (fp) {
-		n = fread(text, 1, sizeof(text) - 1, fp);
-		fclose(fp);
-	}
-	text[n] = '\0';
-	return text;
+	return file_text(path, text, sizeof(text));
 }
 
 /* ---- LCM: what the client sends and rmdd answers -------------------------------------------- */
@@ -351,10 +345,10 @@ static void start_rmdd(struct fixture *f)
 
 		if (st >= 0)
 			fail_msg("rmdd exited (%d) at start; its output:\n%s", st,
-				 file_text(f->rmdd_log));
+				 log_text(f->rmdd_log));
 		if (mono_s() >= end)
 			fail_msg("rmdd: motor1 not READY on %s within 10 s; its output:\n%s",
-				 f->url, file_text(f->rmdd_log));
+				 f->url, log_text(f->rmdd_log));
 	}
 }
 
@@ -367,11 +361,11 @@ static const char *run_script(struct fixture *f, const char *what)
 
 	f->py = start(argv, f->py_log);
 	st = reap(f, &f->py, SCRIPT_TIMEOUT_S);
-	out = file_text(f->py_log);
+	out = log_text(f->py_log);
 	if (st != 0)
 		fail_msg("python_client.py %s: %s %d; its output:\n%s\nrmdd's:\n%s", what,
 			 st < 0 ? "still running after" : "exit", st < 0 ? SCRIPT_TIMEOUT_S : st,
-			 out, file_text(f->rmdd_log));
+			 out, log_text(f->rmdd_log));
 	print_message("python_client.py %s:\n%s", what, out);
 	/* the installed package, not the checkout's python/ or build/python */
 	if (!strstr(out, "site-packages/rmd/"))
@@ -461,7 +455,7 @@ static void test_enable_after_the_watchdog_tripped(void **state)
 	 * from the trip on (safe -> stopping -> ready), then enable() enables
 	 */
 	{
-		const char *log = file_text(f->rmdd_log), *left = strstr(log, "(motor1): safe -> ");
+		const char *log = log_text(f->rmdd_log), *left = strstr(log, "(motor1): safe -> ");
 
 		if (!left || !strstr(left, "(motor1): enabled"))
 			fail_msg("want motor1 to leave SAFE, then be enabled, in rmdd's log:\n%s",
@@ -499,7 +493,7 @@ static void test_second_client_rejected_then_takes_over(void **state)
 	/* and the old owner's next send() after the takeover */
 	assert_non_null(strstr(out, "a told: send: controller "));
 	assert_non_null(strstr(out, "takeover: b drives motor1, a is rejected"));
-	assert_non_null(strstr(file_text(f->rmdd_log), "takes the motors over from controller"));
+	assert_non_null(strstr(log_text(f->rmdd_log), "takes the motors over from controller"));
 }
 
 /*
@@ -517,10 +511,10 @@ static void test_two_daemons_are_a_clear_error(void **state)
 
 	start_rmdd(f);
 	f->rmdd2 = start(argv, f->rmdd2_log);
-	for (end = mono_s() + 10; !strstr(file_text(f->rmdd2_log), "running:");) {
+	for (end = mono_s() + 10; !strstr(log_text(f->rmdd2_log), "running:");) {
 		if (reap(f, &f->rmdd2, 0.05) >= 0 || mono_s() >= end)
 			fail_msg("the second rmdd (--force) not running; its output:\n%s",
-				 file_text(f->rmdd2_log));
+				 log_text(f->rmdd2_log));
 	}
 	snprintf(pid1, sizeof(pid1), "pid %d", (int)f->rmdd);
 	snprintf(pid2, sizeof(pid2), "pid %d", (int)f->rmdd2);

@@ -223,19 +223,33 @@ static int teardown(void **state)
 
 /* ---- RS485 over a pseudo-terminal ------------------------------------------------------ */
 
-static void pty_open(struct child *c)
+/* fd raw: no echo, no line editing, no CR/NL mapping. */
+static void tty_raw(int fd)
 {
 	struct termios tio;
 
-	c->master = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
-	assert_true(c->master >= 0);
-	assert_int_equal(grantpt(c->master), 0);
-	assert_int_equal(unlockpt(c->master), 0);
-	assert_int_equal(ptsname_r(c->master, c->pts, sizeof(c->pts)), 0);
-	assert_int_equal(tcgetattr(c->master, &tio), 0);
+	assert_int_equal(tcgetattr(fd, &tio), 0);
 	cfmakeraw(&tio);
-	assert_int_equal(tcsetattr(c->master, TCSANOW, &tio), 0);
-	fcntl(c->master, F_SETFL, O_NONBLOCK);
+	assert_int_equal(tcsetattr(fd, TCSANOW, &tio), 0);
+}
+
+/* A new pseudo-terminal's master (raw, non-blocking); its slave's path into path. */
+static int pty_master(char *path, size_t size)
+{
+	int fd = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+
+	assert_true(fd >= 0);
+	assert_int_equal(grantpt(fd), 0);
+	assert_int_equal(unlockpt(fd), 0);
+	assert_int_equal(ptsname_r(fd, path, size), 0);
+	tty_raw(fd);
+	fcntl(fd, F_SETFL, O_NONBLOCK);
+	return fd;
+}
+
+static void pty_open(struct child *c)
+{
+	c->master = pty_master(c->pts, sizeof(c->pts));
 	c->rxn = 0;
 }
 
@@ -919,23 +933,10 @@ static void test_open_failure(void **state)
 
 static void line_end_open(struct line_end *e)
 {
-	struct termios tio;
-
-	e->master = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
-	assert_true(e->master >= 0);
-	assert_int_equal(grantpt(e->master), 0);
-	assert_int_equal(unlockpt(e->master), 0);
-	assert_int_equal(ptsname_r(e->master, e->path, sizeof(e->path)), 0);
+	e->master = pty_master(e->path, sizeof(e->path));
 	e->hold = open(e->path, O_RDWR | O_NOCTTY | O_CLOEXEC | O_NONBLOCK);
 	assert_true(e->hold >= 0);
-	for (int i = 0; i < 2; i++) {
-		int fd = i ? e->hold : e->master;
-
-		assert_int_equal(tcgetattr(fd, &tio), 0);
-		cfmakeraw(&tio);
-		assert_int_equal(tcsetattr(fd, TCSANOW, &tio), 0);
-	}
-	fcntl(e->master, F_SETFL, O_NONBLOCK);
+	tty_raw(e->hold);
 }
 
 /* Copy what one master has to the other, unchanged. */

@@ -853,12 +853,9 @@ static bool rtt_sim_once(bool last)
 		    json_num(line, "max_ms") < p99)
 			fail_msg("round trips below the 20 ms turnaround or out of order: %s",
 				 line);
-		if (med > worst_median)
-			worst_median = med;
-		if (p99 < min_p99)
-			min_p99 = p99;
-		if (p99 > max_p99)
-			max_p99 = p99;
+		worst_median = fmax(worst_median, med);
+		min_p99 = fmin(min_p99, p99);
+		max_p99 = fmax(max_p99, p99);
 	}
 	json_line(r.out, 9, sum, sizeof(sum));
 	if (worst_median > RTT_SIM_TURNAROUND_MS + RTT_SLACK_MS && !last) {

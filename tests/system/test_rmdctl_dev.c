@@ -797,15 +797,6 @@ static void test_bus_errors(void **state)
 	run_cases_dev(bus_errors, sizeof(bus_errors) / sizeof(bus_errors[0]));
 }
 
-/* Process tests need the built binary. */
-static int need_rmdctl(void **state)
-{
-	(void)state;
-	return find_prog(rmdctl, sizeof(rmdctl), "RMDCTL", "rmdctl");
-}
-
-#define PROC_TEST(f) cmocka_unit_test_setup(f, need_rmdctl)
-
 static int group_setup(void **state)
 {
 	(void)state;
@@ -818,6 +809,15 @@ static int group_teardown(void **state)
 	sleeper_stop(&ref);
 	return 0;
 }
+
+/* Process tests need the built binary. */
+static int need_rmdctl(void **state)
+{
+	(void)state;
+	return find_prog(rmdctl, sizeof(rmdctl), "RMDCTL", "rmdctl");
+}
+
+#define PROC_TEST(f) cmocka_unit_test_setup(f, need_rmdctl)
 
 int main(void)
 {

@@ -210,6 +210,20 @@ static int finish(struct proc *p, int timeout_ms)
 	return WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
 }
 
+/* rmdd started (spawn()) and up: its "running:" line within 5 s. */
+static void spawn_running(struct proc *p, const struct spawn_opts *so, const char *const *args)
+{
+	spawn(p, so, args);
+	wait_for(p, "<5>rmdd: running:", 5000);
+}
+
+/* SIGTERM: rmdd stops within 5 s, exit status 0. */
+static void stop_ok(struct proc *p)
+{
+	kill(p->pid, SIGTERM);
+	assert_int_equal(finish(p, 5000), 0);
+}
+
 /* Run to the end; returns the exit status. */
 static int run(struct proc *p, const char *const *args)
 {
@@ -256,6 +270,18 @@ static const char *const *config_args(const char *name, const char *text)
 
 	config_file(path, name, text);
 	return args;
+}
+
+/* spawn_running() without options on the configuration text (config file name). */
+static void spawn_config(struct proc *p, const char *name, const char *text)
+{
+	spawn_running(p, NULL, config_args(name, text));
+}
+
+/* rmdd on the configuration text (config file name) refuses to start: exit status 1. */
+static void refused(struct proc *p, const char *name, const char *text)
+{
+	assert_int_equal(run(p, config_args(name, text)), 1);
 }
 
 static const char *const SIM3[] = { "--sim", "3", "--lcm-url", "memq://", NULL };
@@ -322,11 +348,9 @@ static void test_bad_config(void **state)
 static void test_infeasible_plan(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args(
-		"five.yaml",
+	refused(&p, "five.yaml",
 		"loop: {rate_hz: 1000}\n"
 		"buses:\n"
 		"  - {name: s0, type: sim}\n"
@@ -336,7 +360,6 @@ static void test_infeasible_plan(void **state)
 		"  - {name: c, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n"
 		"  - {name: d, bus: s0, id: 4, mode: torque, torque_constant_nm_a: 2}\n"
 		"  - {name: e, bus: s0, id: 5, mode: torque, torque_constant_nm_a: 2}\n");
-	assert_int_equal(run(&p, args), 1);
 	expect_in(&p, "s0: 5 motors at 1000 Hz need");
 	expect_in(&p, "the cycle is 1000 µs");
 	expect_in(&p, "--check-config");
@@ -347,18 +370,15 @@ static void test_infeasible_plan(void **state)
 static void test_bus_error_names_the_bus(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args(
-		"nocan.yaml",
+	refused(&p, "nocan.yaml",
 		"buses:\n"
 		"  - {name: s0, type: sim}\n"
 		"  - {name: rmdtest9, type: socketcan}\n"
 		"motors:\n"
 		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
 		"  - {name: b, bus: rmdtest9, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
-	assert_int_equal(run(&p, args), 1);
 	/* file:line of the bus entry, its name and kind, the transport's fix */
 	expect_in(&p, "nocan.yaml:3: bus rmdtest9 (socketcan): ");
 	expect_in(&p, "rmdtest9");
@@ -367,11 +387,9 @@ static void test_bus_error_names_the_bus(void **state)
 static void test_missing_motor_refused(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args(
-		"missing.yaml",
+	refused(&p, "missing.yaml",
 		"probe: {on_missing: refuse}\n"
 		"buses:\n"
 		"  - name: s0\n"
@@ -382,7 +400,6 @@ static void test_missing_motor_refused(void **state)
 		"motors:\n"
 		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
 		"  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n");
-	assert_int_equal(run(&p, args), 1);
 	expect_in(&p, "<4>rmdd:   s0: motor 2 (knee): missing");
 	expect_in(&p, "1 motor(s) missing and probe.on_missing is refuse");
 	assert_null(strstr(p.out, "running:"));
@@ -459,6 +476,31 @@ static void stop_with(int sig, const char *name)
 }
 
 /*
+ * rmdd running on sim bus s0 with motors a, b and knee_l (IDs 1..3), the
+ * third of which disappears (sim fault `window`: its start_s, end_s and
+ * param), lost after `lost` missed replies in a row; config file name.
+ */
+static void knee_disappears(struct proc *p, const char *name, unsigned lost, const char *window)
+{
+	static char text[1024];
+
+	snprintf(text, sizeof(text),
+		 "safety: {missed_replies_lost: %u}\n"
+		 "buses:\n"
+		 "  - name: s0\n"
+		 "    type: sim\n"
+		 "    sim:\n"
+		 "      faults:\n"
+		 "        - {kind: disappear, motor: 3, %s}\n"
+		 "motors:\n"
+		 "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		 "  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
+		 "  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n",
+		 lost, window);
+	spawn_config(p, name, text);
+}
+
+/*
  * loop.keep_cpus_awake (default true): while rmdd runs, the kernel's PM QoS
  * CPU wake-up latency target (what /dev/cpu_dma_latency reads back) is
  * 0 us; after it exits the target is what it was before; with false rmdd
@@ -491,20 +533,18 @@ static void test_cpus_kept_awake(void **state)
 	}
 	if (before == 0)
 		fail_msg("another process holds the CPU wake-up latency at 0 us: cannot tell");
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	spawn_running(&p, NULL, args);
 	assert_int_equal(cpu_latency_target(), 0);
 	assert_null(strstr(p.out, "CPU wake-up latency not held"));
 	kill(p.pid, SIGINT);
 	assert_int_equal(finish(&p, 5000), 0);
 	assert_int_equal(cpu_latency_target(), before);
 
-	spawn(&p, NULL,
-	      config_args("awake.yaml", "loop: {rate_hz: 500, keep_cpus_awake: false}\n"
-					"buses: [{name: s0, type: sim}]\n"
-					"motors: [{name: a, bus: s0, id: 1, mode: torque,"
-					" torque_constant_nm_a: 2}]\n"));
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	spawn_running(&p, NULL,
+		      config_args("awake.yaml", "loop: {rate_hz: 500, keep_cpus_awake: false}\n"
+						"buses: [{name: s0, type: sim}]\n"
+						"motors: [{name: a, bus: s0, id: 1, mode: torque,"
+						" torque_constant_nm_a: 2}]\n"));
 	assert_int_equal(cpu_latency_target(), before);
 	kill(p.pid, SIGINT);
 	assert_int_equal(finish(&p, 5000), 0);
@@ -530,8 +570,7 @@ static void test_sigusr1_and_sighup_keep_running(void **state)
 
 	(void)state;
 
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	spawn_running(&p, NULL, args);
 	/* the first STATUS summary comes after a second: health is in by then */
 	wait_for(&p, "<7>rmdd: status: ", 5000);
 	kill(p.pid, SIGUSR1);
@@ -550,39 +589,32 @@ static void test_sigusr1_and_sighup_keep_running(void **state)
 		assert_int_equal(count_of(p.out, "statistics (SIGUSR1)"), 2);
 	}
 	assert_int_equal(waitpid(p.pid, &ws, WNOHANG), 0);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	expect_statistics(&p, "exit");
+}
+
+/* knee_l back; rmdd stops; what happened to it (`what`: "lost") logged once, of it alone. */
+static void knee_back(struct proc *p, const char *what)
+{
+	char knee[64], a[64];
+
+	wait_for(p, "<5>rmdd: s0: motor 3 (knee_l): back (lost -> stopping)", 5000);
+	stop_ok(p);
+	/* logged on change: once each */
+	snprintf(knee, sizeof(knee), "(knee_l): %s", what);
+	snprintf(a, sizeof(a), "(a): %s", what);
+	assert_int_equal(count_of(p->out, knee), 1);
+	assert_null(strstr(p->out, a));
 }
 
 static void test_lost_motor_logged_with_context(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args(
-		"lose.yaml",
-		"safety: {missed_replies_lost: 10}\n"
-		"buses:\n"
-		"  - name: s0\n"
-		"    type: sim\n"
-		"    sim:\n"
-		"      faults:\n"
-		"        - {kind: disappear, motor: 3, start_s: 0.3, end_s: 0.6, param: 0}\n"
-		"motors:\n"
-		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n");
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	knee_disappears(&p, "lose.yaml", 10, "start_s: 0.3, end_s: 0.6, param: 0");
 	wait_for(&p, "<4>rmdd: s0: motor 3 (knee_l): lost (10 missed replies in a row", 5000);
-	wait_for(&p, "<5>rmdd: s0: motor 3 (knee_l): back (lost -> stopping)", 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
-	/* logged on change: once each */
-	assert_int_equal(count_of(p.out, "(knee_l): lost"), 1);
-	assert_null(strstr(p.out, "(a): lost"));
+	knee_back(&p, "lost");
 }
 
 /*
@@ -595,31 +627,12 @@ static void test_lost_motor_logged_with_context(void **state)
 static void test_short_power_cycle_logged(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args(
-		"glitch.yaml",
-		"safety: {missed_replies_lost: 200}\n"
-		"buses:\n"
-		"  - name: s0\n"
-		"    type: sim\n"
-		"    sim:\n"
-		"      faults:\n"
-		"        - {kind: disappear, motor: 3, start_s: 0.5, end_s: 0.55, param: 1}\n"
-		"motors:\n"
-		"  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: b, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: knee_l, bus: s0, id: 3, mode: torque, torque_constant_nm_a: 2}\n");
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	knee_disappears(&p, "glitch.yaml", 200, "start_s: 0.5, end_s: 0.55, param: 1");
 	wait_for(&p, "<4>rmdd: s0: motor 3 (knee_l): rebooted (runtime ", 5000);
 	wait_for(&p, "ms: 0xB1); treated as lost and back", 5000);
-	wait_for(&p, "<5>rmdd: s0: motor 3 (knee_l): back (lost -> stopping)", 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
-	assert_int_equal(count_of(p.out, "(knee_l): rebooted"), 1);
-	assert_null(strstr(p.out, "(a): rebooted"));
+	knee_back(&p, "rebooted");
 }
 
 /*
@@ -632,26 +645,22 @@ static void test_short_power_cycle_logged(void **state)
 static void test_estop_logged(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args(
-		"estop.yaml",
-		"buses:\n"
-		"  - name: s0\n"
-		"    type: sim\n"
-		"    sim:\n"
-		"      faults: [{kind: bus_power, start_s: 0.5, end_s: 1.0}]\n"
-		"  - name: s1\n"
-		"    type: sim\n"
-		"    sim:\n"
-		"      refuse_flush: true\n"
-		"      faults: [{kind: bus_power, start_s: 0.5, end_s: 1.0}]\n"
-		"motors:\n"
-		"  - {name: knee, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-		"  - {name: hip, bus: s1, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	spawn_config(&p, "estop.yaml",
+		     "buses:\n"
+		     "  - name: s0\n"
+		     "    type: sim\n"
+		     "    sim:\n"
+		     "      faults: [{kind: bus_power, start_s: 0.5, end_s: 1.0}]\n"
+		     "  - name: s1\n"
+		     "    type: sim\n"
+		     "    sim:\n"
+		     "      refuse_flush: true\n"
+		     "      faults: [{kind: bus_power, start_s: 0.5, end_s: 1.0}]\n"
+		     "motors:\n"
+		     "  - {name: knee, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		     "  - {name: hip, bus: s1, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
 	wait_for(&p,
 		 "<3>rmdd: s0: no node acknowledges (the motors' power is off: an e-stop?): no "
 		 "frame that acts on a motor is written to it; its motors are lost, and each "
@@ -672,8 +681,7 @@ static void test_estop_logged(void **state)
 	wait_for(&p, "<5>rmdd: s0: error active again", 5000);
 	wait_for(&p, "<5>rmdd: s0: motor 1 (knee): back (lost -> stopping)", 5000);
 	wait_for(&p, "<5>rmdd: s1: motor 1 (hip): back (lost -> stopping)", 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	assert_int_equal(count_of(p.out, "no node acknowledges"), 2);
 }
 
@@ -685,26 +693,23 @@ static void test_estop_logged(void **state)
 static void test_found_late_other_dialect(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args("late.yaml",
-			   "probe: {on_missing: start}\n"
-			   "buses:\n"
-			   "  - name: s0\n"
-			   "    type: sim\n"
-			   "    sim:\n"
-			   "      faults:\n"
-			   "        - {kind: disappear, motor: 2, start_s: 0, end_s: 1.0}\n"
-			   "        - {kind: disappear, motor: 3, start_s: 0, end_s: 1.0}\n"
-			   "motors:\n"
-			   "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
-			   "  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2,"
-			   " sim: {firmware: v4}}\n"
-			   "  - {name: hip, bus: s0, id: 3, protocol: auto, mode: torque,"
-			   " torque_constant_nm_a: 2, sim: {firmware: v4}}\n");
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	spawn_config(&p, "late.yaml",
+		     "probe: {on_missing: start}\n"
+		     "buses:\n"
+		     "  - name: s0\n"
+		     "    type: sim\n"
+		     "    sim:\n"
+		     "      faults:\n"
+		     "        - {kind: disappear, motor: 2, start_s: 0, end_s: 1.0}\n"
+		     "        - {kind: disappear, motor: 3, start_s: 0, end_s: 1.0}\n"
+		     "motors:\n"
+		     "  - {name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+		     "  - {name: knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2,"
+		     " sim: {firmware: v4}}\n"
+		     "  - {name: hip, bus: s0, id: 3, protocol: auto, mode: torque,"
+		     " torque_constant_nm_a: 2, sim: {firmware: v4}}\n");
 	wait_for(&p,
 		 "<4>rmdd: s0: motor 2 (knee): answered at last: its firmware 2025070202 is v4, "
 		 "but its protocol is v3; left out (set protocol: v4, or auto)",
@@ -713,8 +718,7 @@ static void test_found_late_other_dialect(void **state)
 		 "<4>rmdd: s0: motor 3 (hip): answered at last: its firmware 2025070202 is v4, "
 		 "but with protocol: auto a motor missing at bring-up is taken for v3",
 		 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	assert_null(strstr(p.out, "(knee): back"));
 	assert_null(strstr(p.out, "(hip): back"));
 }
@@ -746,8 +750,7 @@ static void test_started_fifo_only_the_loop_stays(void **state)
 	assert_int_equal(fifo_threads(p.pid, 0), 2); /* memq://: LCM starts no thread */
 	assert_int_equal(fifo_threads(p.pid, 40), 1);
 	assert_int_equal(fifo_threads(p.pid, 39), 1);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 }
 
 /* ---- systemd ------------------------------------------------------------------- */
@@ -858,8 +861,7 @@ static void test_notify_ready_watchdog_and_stall(void **state)
 	wait_for(&p, "<3>rmdd: rt loop: no cycle completed", 2000);
 	expect_in(&p, "the systemd watchdog is no longer fed");
 
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	notify_close(&n);
 }
 
@@ -918,8 +920,7 @@ static void test_no_rt_warns_once_and_runs(void **state)
 	if (!MLOCK_IS_NOOP)
 		expect_in(&p, "mlockall failed");
 	assert_false(has_fifo_thread(p.pid, 40));
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	assert_int_equal(count_of(p.out, "no real-time guarantees"), 1);
 }
 
@@ -969,14 +970,12 @@ static void test_no_stall_hook_in_rmdd(void **state)
 	assert_true(n > 0 && n < sizeof(bin));
 	if (memmem(bin, n, "RMDD_TEST_STALL_AFTER_MS", 24))
 		fail_msg("%s holds the test hook RMDD_TEST_STALL_AFTER_MS", rmdd);
-	spawn(&p, &so, SIM3);
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	spawn_running(&p, &so, SIM3);
 	for (int64_t end = now_ms() + 600; now_ms() < end;)
 		pump(&p, 50);
 	if (strstr(p.out, "test hook"))
 		fail_msg("the installed rmdd ran the test hook:\n%s", p.out);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 }
 
 /* rmdd-test's hook takes 1..86400000 ms; before, 2^63 - 1 overflowed. */
@@ -1046,8 +1045,7 @@ static void test_lcm_default_url(void **state)
 	/* no file: the environment's URL */
 	spawn(&p, &so, sim1);
 	wait_for(&p, "; LCM memq://, channels", 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	/* a file that writes lcm.url: the file's (memq:// with a query LCM ignores) */
 	so.env_extra = "LCM_DEFAULT_URL=udpm://239.255.76.67:7667?ttl=0";
 	config_file(path, "url.yaml",
@@ -1055,8 +1053,7 @@ static void test_lcm_default_url(void **state)
 		    "motors: [{name: a, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}]\n");
 	spawn(&p, &so, file);
 	wait_for(&p, "; LCM memq://?from=file, channels", 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 }
 
 /* --check-config of a FIFO or a directory: refused by name at once (a FIFO blocked). */
@@ -1117,21 +1114,17 @@ static void test_check_config_v2_protection(void **state)
 static void test_mit_scaling_reported(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args("mit.yaml",
-			   "buses: [{name: s0, type: sim}]\n"
-			   "motors:\n"
-			   "  - {name: x6, bus: s0, id: 1, protocol: v4, mode: mit,"
-			   " sim: {version_date: 2026042402, model: X6S2V3}}\n"
-			   "  - {name: knee, bus: s0, id: 2, protocol: auto, mode: mit,"
-			   " sim: {firmware: v4}}\n"
-			   "  - {name: hip, bus: s0, id: 3, protocol: mit, mode: mit}\n");
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	spawn_config(&p, "mit.yaml",
+		     "buses: [{name: s0, type: sim}]\n"
+		     "motors:\n"
+		     "  - {name: x6, bus: s0, id: 1, protocol: v4, mode: mit,"
+		     " sim: {version_date: 2026042402, model: X6S2V3}}\n"
+		     "  - {name: knee, bus: s0, id: 2, protocol: auto, mode: mit,"
+		     " sim: {firmware: v4}}\n"
+		     "  - {name: hip, bus: s0, id: 3, protocol: mit, mode: mit}\n");
+	stop_ok(&p);
 	expect_in(&p,
 		  "(x6): X6S2V3, firmware 2026042402, 48.0 V, 25 °C, MIT scaling p ±12.566 rad, "
 		  "v ±45 rad/s, t ±60 N·m, kp 0..500, kd 0..50: its firmware's own (V4.4 X6, "
@@ -1152,20 +1145,18 @@ static void test_mit_scaling_reported(void **state)
 static void test_mit_scaling_refused(void **state)
 {
 	static struct proc p;
-	const char *const *args;
 
 	(void)state;
-	args = config_args("mit-bad.yaml",
-			   "buses: [{name: s0, type: sim}]\n"
-			   "motors:\n"
-			   "  - {name: x4, bus: s0, id: 1, protocol: v4, mode: mit,"
-			   " sim: {version_date: 2026042402, model: X4-36}}\n"
-			   "  - {name: x6, bus: s0, id: 2, protocol: v4, mode: mit,"
-			   " mit: {t_min: -24, t_max: 24}, sim: {version_date: 2026042402, model: "
-			   "X6S2V3}}\n"
-			   "  - {name: old, bus: s0, id: 3, protocol: mit, mode: mit,"
-			   " sim: {firmware: v4}}\n");
-	assert_int_equal(run(&p, args), 1);
+	refused(&p, "mit-bad.yaml",
+		"buses: [{name: s0, type: sim}]\n"
+		"motors:\n"
+		"  - {name: x4, bus: s0, id: 1, protocol: v4, mode: mit,"
+		" sim: {version_date: 2026042402, model: X4-36}}\n"
+		"  - {name: x6, bus: s0, id: 2, protocol: v4, mode: mit,"
+		" mit: {t_min: -24, t_max: 24}, sim: {version_date: 2026042402, model: "
+		"X6S2V3}}\n"
+		"  - {name: old, bus: s0, id: 3, protocol: mit, mode: mit,"
+		" sim: {firmware: v4}}\n");
 	expect_in(&p, "(x4): X4-36, firmware 2026042402, 48.0 V, 25 °C; refused: MIT refused, its "
 		      "scaling unknown: firmware 2026042402, model X4-36; from 2026042402 V4 "
 		      "firmware scales MIT by model and rmdd knows X6, X8 only: give its entry all "
@@ -1211,14 +1202,13 @@ static void test_check_config_mit(void **state)
 static int setup(void **state)
 {
 	(void)state;
-	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0 ||
-	    find_prog(rmdd_test, sizeof(rmdd_test), "RMDD_TEST", "rmdd-test") < 0)
-		return -1;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_rmdd.XXXXXX");
-	if (!mkdtemp(tmpdir))
-		return -1;
 	/* a daemon that outlives a failed test must not keep a pipe of ours */
 	signal(SIGPIPE, SIG_IGN);
+	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_rmdd.XXXXXX");
+	if (find_prog(rmdd, sizeof(rmdd), "RMDD", "rmdd") < 0 ||
+	    find_prog(rmdd_test, sizeof(rmdd_test), "RMDD_TEST", "rmdd-test") < 0 ||
+	    !mkdtemp(tmpdir))
+		return -1;
 	return 0;
 }
 
@@ -1289,14 +1279,12 @@ static void test_comm_loss_reproducer(void **state)
 	assert_null(strstr(p.out, "running:"));
 
 	write_cl_config(path, sizeof(path), "cl-start.yaml", "start", drop, "");
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
+	spawn_running(&p, NULL, args);
 	wait_for(&p,
 		 "<6>rmdd: s0: motor 1 (a): comm-loss protection (0xB3) 100 ms set, echo "
 		 "verified",
 		 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	expect_in(&p, "every motor was sent stop (0x80); their comm-loss protection (0xB3) stays "
 		      "set");
 }
@@ -1315,10 +1303,8 @@ static void test_comm_loss_exit_line(void **state)
 	(void)state;
 	write_cl_config(path, sizeof(path), "cl-exit.yaml", "start",
 			"{kind: drop, motor: 1, probability: 1, cmd: 179}", ", comm_loss_ms: 0");
-	spawn(&p, NULL, args);
-	wait_for(&p, "<5>rmdd: running:", 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	spawn_running(&p, NULL, args);
+	stop_ok(&p);
 	expect_in(&p, "motor 3 (c) off (its comm_loss_ms: 0);");
 	expect_in(&p, "<5>rmdd: every motor was sent stop (0x80); comm-loss protection (0xB3) "
 		      "stays set on b; not set on a (did not answer 0xB3), c (off by config)\n");
@@ -1414,8 +1400,7 @@ static void test_log_plain_off_journald(void **state)
 	/* and with journald: the levels */
 	spawn(&p, NULL, SIM3);
 	wait_for(&p, "<5>rmdd: running: 3 motor(s)", 5000);
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	expect_in(&p, "<6>rmdd: statistics (exit)");
 }
 
@@ -1434,8 +1419,7 @@ static void test_quiet_is_quiet(void **state)
 	spawn(&p, &so, args);
 	assert_true(notify_recv(&n, buf, sizeof(buf), 5000));
 	assert_non_null(strstr(buf, "READY=1"));
-	kill(p.pid, SIGTERM);
-	assert_int_equal(finish(&p, 5000), 0);
+	stop_ok(&p);
 	notify_close(&n);
 	for (int level = 5; level <= 7; level++) {
 		char tag[8];

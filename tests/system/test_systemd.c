@@ -396,60 +396,50 @@ static int thread_policy_fifo(long pid)
 	return fifo;
 }
 
-/* A line of /proc/pid/status as a number (VmLck: kB, Uid: the real one). */
-static long status_field(long pid, const char *key)
+/* The text after key on its line of /proc/pid/status, without the newline, into buf; or NULL. */
+static const char *status_line(long pid, const char *key, char *buf, size_t size)
 {
 	char path[64], line[256];
-	long v = -1;
+	const char *found = NULL;
 	FILE *f;
 
 	snprintf(path, sizeof(path), "/proc/%ld/status", pid);
 	f = fopen(path, "r");
 	if (!f)
-		return -1;
-	while (fgets(line, sizeof(line), f))
-		if (strncmp(line, key, strlen(key)) == 0)
-			v = strtol(line + strlen(key), NULL, 10);
+		return NULL;
+	while (!found && fgets(line, sizeof(line), f))
+		if (strncmp(line, key, strlen(key)) == 0) {
+			snprintf(buf, size, "%s", line + strlen(key));
+			buf[strcspn(buf, "\n")] = '\0';
+			found = buf;
+		}
 	fclose(f);
-	return v;
+	return found;
 }
 
-/* The Groups: line of /proc/pid/status (static buffer). */
+/* A line of /proc/pid/status as a number (VmLck: kB, Uid: the real one), or -1. */
+static long status_field(long pid, const char *key)
+{
+	char text[256];
+
+	return status_line(pid, key, text, sizeof(text)) ? strtol(text, NULL, 10) : -1;
+}
+
+/* The Groups: line of /proc/pid/status (static buffer; "" when unread). */
 static const char *groups_of(long pid)
 {
 	static char groups[256];
-	char path[64], line[256];
-	FILE *f;
 
-	groups[0] = '\0';
-	snprintf(path, sizeof(path), "/proc/%ld/status", pid);
-	f = fopen(path, "r");
-	if (!f)
-		return groups;
-	while (fgets(line, sizeof(line), f))
-		if (strncmp(line, "Groups:", 7) == 0)
-			snprintf(groups, sizeof(groups), "%s", line + 7);
-	fclose(f);
-	groups[strcspn(groups, "\n")] = '\0';
-	return groups;
+	return status_line(pid, "Groups:", groups, sizeof(groups)) ?: "";
 }
 
 /* pid's effective capabilities (/proc/pid/status CapEff:, hex), or all ones when unread. */
 static uint64_t cap_eff(long pid)
 {
-	char path[64], line[256];
-	uint64_t v = UINT64_MAX;
-	FILE *f;
+	char text[256];
 
-	snprintf(path, sizeof(path), "/proc/%ld/status", pid);
-	f = fopen(path, "r");
-	if (!f)
-		return v;
-	while (fgets(line, sizeof(line), f))
-		if (strncmp(line, "CapEff:", 7) == 0)
-			v = strtoull(line + 7, NULL, 16);
-	fclose(f);
-	return v;
+	return status_line(pid, "CapEff:", text, sizeof(text)) ? strtoull(text, NULL, 16) :
+								 UINT64_MAX;
 }
 
 /* Whether pid's supplementary groups hold dialout (serial adapters' group). */

@@ -55,7 +55,7 @@ struct fixture {
 
 static char rmdd_bin[PATH_MAX], rmdctl_bin[PATH_MAX], tmux_bin[PATH_MAX];
 static char dir[] = "/tmp/test_top_tty.XXXXXX";
-static bool no_multicast, no_tmux;
+static bool multicast, no_tmux;
 static unsigned test_no;
 
 /* tmux from PATH, as a user's shell would find it. */
@@ -80,26 +80,15 @@ static bool find_tmux(void)
 static int group_setup(void **state)
 {
 	(void)state;
-	if (find_prog(rmdd_bin, sizeof(rmdd_bin), "RMDD", "rmdd") < 0 ||
-	    find_prog(rmdctl_bin, sizeof(rmdctl_bin), "RMDCTL", "rmdctl") < 0 || !mkdtemp(dir))
+	if (lcm_tools_setup("test_top_tty", rmdd_bin, rmdctl_bin, dir, &multicast) < 0)
 		return -1;
-	unsetenv("LCM_DEFAULT_URL");
-	unsetenv("NOTIFY_SOCKET");
 	unsetenv("TMUX"); /* a run from inside tmux must not reach the user's server */
 	no_tmux = !find_tmux();
 	if (no_tmux)
 		fprintf(stderr,
 			"\n*** test_top_tty: SKIPPING every test: no tmux on PATH (make deps "
 			"installs it: apt-get install tmux)\n\n");
-	no_multicast = !lcm_loopback_ready("test_top_tty");
 	return 0;
-}
-
-static int group_teardown(void **state)
-{
-	(void)state;
-	kid_kill_all();
-	return rm_tree(dir);
 }
 
 /* tmux with args (NULL-terminated) on the test's own server; its output in r. */
@@ -125,7 +114,7 @@ static void tmux_ok(struct fixture *f, const char *const *args, const char *what
 
 static int setup(void **state)
 {
-	struct fixture *f = lcm_fixture_new(state, sizeof(*f), !no_multicast && !no_tmux);
+	struct fixture *f = lcm_fixture_new(state, sizeof(*f), multicast && !no_tmux);
 
 	if (!f)
 		return 0;
@@ -330,27 +319,67 @@ static void assert_fits(const char *screen, size_t cols, const char *what)
 			 what, longest_line(screen), cols, screen);
 }
 
+/* rmdd, and top at 80x24 up to its table of every motor, ready (that screen stays in r). */
+static void top_up(struct fixture *f, struct run *r, const char *what)
+{
+	start_rmdd(f);
+	start_top(f, 80, 24);
+	wait_screen(f, r, motors_ok, NULL, what);
+}
+
+/* One key (a tmux send-keys name) typed into top. */
+static void press(struct fixture *f, const char *key)
+{
+	char what[32];
+
+	snprintf(what, sizeof(what), "send %s", key);
+	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", key, NULL }, what);
+}
+
+/* p pauses: the title says PAUSED. */
+static void pause_top(struct fixture *f)
+{
+	struct run r;
+
+	press(f, "p");
+	wait_screen(f, &r, has, "PAUSED", "p pauses");
+	run_free(&r);
+}
+
+/*
+ * key ends top with exit status 0 and gives the shell its screen back: no
+ * row of motor is left on it.
+ */
+static void quit_top(struct fixture *f, const char *key, const char *motor)
+{
+	char what[64];
+	struct run r;
+
+	press(f, key);
+	snprintf(what, sizeof(what), "%s ends top", key);
+	wait_screen(f, &r, has, "top exited", what);
+	snprintf(what, sizeof(what), "%s: exit status 0", key);
+	assert_has(r.out, "top exited 0", what);
+	/* endwin() left the alternate screen: no table is left on the shell's */
+	snprintf(what, sizeof(what), "the terminal restored after %s", key);
+	assert_lacks(r.out, motor, what);
+	run_free(&r);
+}
+
 /* The whole table at 80x24, nothing wrapped; q quits and gives the shell its screen back. */
 static void test_fits_80x24(void **state)
 {
 	struct fixture *f = fixture_or_skip(state);
 	struct run r;
 
-	start_rmdd(f);
-	start_top(f, 80, 24);
-	wait_screen(f, &r, motors_ok, NULL, "12 motors, each on its own line, at 80x24");
+	top_up(f, &r, "12 motors, each on its own line, at 80x24");
 	assert_fits(r.out, 80, "80x24");
 	assert_true(count_lines(r.out) <= 24);
 	/* the first motor is picked: its row is marked, its details follow the table */
 	assert_true(picked(r.out, "motor1"));
 	run_free(&r);
 
-	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "q", NULL }, "send q");
-	wait_screen(f, &r, has, "top exited", "q quits");
-	assert_has(r.out, "top exited 0", "q: exit status 0");
-	/* endwin() left the alternate screen: no table is left on the shell's */
-	assert_lacks(r.out, "motor1", "the terminal restored after q");
-	run_free(&r);
+	quit_top(f, "q", "motor1");
 }
 
 static bool fits_60(const char *screen, const char *name)
@@ -365,9 +394,7 @@ static void test_keys_resize(void **state)
 	struct fixture *f = fixture_or_skip(state);
 	struct run r;
 
-	start_rmdd(f);
-	start_top(f, 80, 24);
-	wait_screen(f, &r, motors_ok, NULL, "12 motors at 80x24");
+	top_up(f, &r, "12 motors at 80x24");
 	run_free(&r);
 
 	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "j", "j", "j", NULL },
@@ -376,9 +403,7 @@ static void test_keys_resize(void **state)
 	assert_fits(r.out, 80, "after j");
 	run_free(&r);
 
-	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "p", NULL }, "send p");
-	wait_screen(f, &r, has, "PAUSED", "p pauses");
-	run_free(&r);
+	pause_top(f);
 
 	/* wider: the columns 80 had no room for come back */
 	tmux_ok(f,
@@ -399,11 +424,7 @@ static void test_keys_resize(void **state)
 	assert_true(count_lines(r.out) <= 16);
 	run_free(&r);
 
-	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "C-c", NULL }, "send Ctrl-C");
-	wait_screen(f, &r, has, "top exited", "Ctrl-C ends top");
-	assert_has(r.out, "top exited 0", "Ctrl-C: exit status 0");
-	assert_lacks(r.out, "motor4", "the terminal restored after Ctrl-C");
-	run_free(&r);
+	quit_top(f, "C-c", "motor4");
 }
 
 /* Every motor's row marked '!' and STALE, and the title says so. */
@@ -435,14 +456,10 @@ static void test_stale(void **state)
 	struct fixture *f = fixture_or_skip(state);
 	struct run r;
 
-	start_rmdd(f);
-	start_top(f, 80, 24);
-	wait_screen(f, &r, motors_ok, NULL, "12 motors at 80x24");
+	top_up(f, &r, "12 motors at 80x24");
 	run_free(&r);
 	/* paused: the view is kept, but a daemon gone is still news */
-	tmux_ok(f, (const char *const[]){ "send-keys", "-t", "top", "p", NULL }, "send p");
-	wait_screen(f, &r, has, "PAUSED", "p pauses");
-	run_free(&r);
+	pause_top(f);
 	kill(f->rmdd->pid, SIGTERM);
 	assert_int_equal(kid_wait_exit(f->rmdd, 10000, NULL), 0);
 	wait_screen(f, &r, all_stale, NULL, "STALE on every motor after rmdd stopped");
@@ -458,5 +475,5 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_stale, setup, teardown),
 	};
 
-	return cmocka_run_group_tests_name("top_tty", tests, group_setup, group_teardown);
+	return cmocka_run_group_tests_name("top_tty", tests, group_setup, lcm_tools_teardown);
 }

@@ -1308,14 +1308,14 @@ static int group_teardown(void **state)
 {
 	(void)state;
 	kid_kill_all();
-	sleeper_stop(&S.sl_sim);
-	sleeper_stop(&S.sl_loop);
-	sleeper_stop(&S.sl_other);
 	lcm_rx_free(&S.rx);
 	if (S.lcm)
 		lcm_destroy(S.lcm);
 	S.lcm = NULL;
 	canlog_free(&S.log);
+	sleeper_stop(&S.sl_sim);
+	sleeper_stop(&S.sl_loop);
+	sleeper_stop(&S.sl_other);
 	rm_tree(S.dir);
 	return 0;
 }

@@ -56,6 +56,7 @@
 #include "rmd/rmd_state_t.h"
 
 #include "harness/json.h"
+#include "harness/lcm_loopback.h"
 #include "harness/vsys.h"
 
 /*
@@ -590,14 +591,10 @@ static void test_system_watchdog(void **state)
 			      "setpoints after it: %u\n",
 			      iface(m->bus), m->id, ms_of(arrived->t_ns - t_last), sc, d, d_pub,
 			      echo ? "yes" : "NO", after);
-		if (d > max_ms)
-			max_ms = d;
-		if (d < min_ms)
-			min_ms = d;
-		if (d_pub > max_pub)
-			max_pub = d_pub;
-		if (d_pub < min_pub)
-			min_pub = d_pub;
+		max_ms = fmax(max_ms, d);
+		min_ms = fmin(min_ms, d);
+		max_pub = fmax(max_pub, d_pub);
+		min_pub = fmin(min_pub, d_pub);
 		if (d_pub < S.cfg.safety.command_timeout_ms - 1.0)
 			fail_msg("%s motor %u: safe action %.2f ms after the last command, before "
 				 "the %u ms timeout",
@@ -807,18 +804,16 @@ static void test_system_kill9(void **state)
 	 * its trip, not by the worst alone (measured: stalls of 1.35 s and
 	 * 0.6 s in one such interval on a loaded host).
 	 */
-	stall = ms_of(sleeper_held_off_ns(&S.sl_sim));
-	if (stall < sleeper_stall_ms(&S.sl_sim))
-		stall = sleeper_stall_ms(&S.sl_sim);
+	stall = fmax(ms_of(sleeper_held_off_ns(&S.sl_sim)), sleeper_stall_ms(&S.sl_sim));
 	limit = loss + COMM_SLACK_MS + stall;
-	print_message("kill -9 rmdd: each motor's 0xF1 after the last frame it heard (limit "
-		      "comm_loss %.0f ms + %d ms + the time the guest held rmd-sim's priority off "
-		      "%.1f ms = %.1f ms):\n",
-		      loss, COMM_SLACK_MS, stall, limit);
 	if (stall > COMM_SLACK_MS)
 		print_message("busy machine: the guest held rmd-sim's priority off %.1f ms "
 			      "around the kill\n",
 			      stall);
+	print_message("kill -9 rmdd: each motor's 0xF1 after the last frame it heard (limit "
+		      "comm_loss %.0f ms + %d ms + the time the guest held rmd-sim's priority off "
+		      "%.1f ms = %.1f ms):\n",
+		      loss, COMM_SLACK_MS, stall, limit);
 	for (unsigned i = 0; i < S.cfg.n_motors; i++) {
 		const struct rmd_config_motor *m = &S.cfg.motors[i];
 		const struct cframe *last;
@@ -836,10 +831,8 @@ static void test_system_kill9(void **state)
 			      f1->t_ns < t_kill ? " (before the kill: rmdd's loop left the motor "
 						  "unheard that long)" :
 						  "");
-		if (d > max_ms)
-			max_ms = d;
-		if (d < min_ms)
-			min_ms = d;
+		max_ms = fmax(max_ms, d);
+		min_ms = fmin(min_ms, d);
 		if (d < loss - 1.0 || d > limit)
 			fail_msg("%s motor %u: 0xF1 %.2f ms after the last frame, expected %.0f .. "
 				 "%.1f ms; its last frames (ms after the kill):\n%s",
@@ -1226,15 +1219,6 @@ static void test_system_two_controllers(void **state)
 
 static int64_t first_cmd_ns; /* the first RMD_COMMAND the test heard, rmd_now_ns() */
 
-static void on_any_command(const lcm_recv_buf_t *rb, const char *ch, void *u)
-{
-	(void)rb;
-	(void)ch;
-	(void)u;
-	if (!first_cmd_ns)
-		first_cmd_ns = rmd_now_ns();
-}
-
 /* Every motor of bus b was seen LOST and is READY now. */
 static bool bus_back(unsigned b)
 {
@@ -1299,8 +1283,7 @@ again:
 	print_message("sine after a loss: vcan0's motors lost and READY again (%s)\n", lc_list());
 
 	/* the example controller, as documented */
-	first_cmd_ns = 0;
-	sub = lcm_subscribe(S.lcm, "RMD_COMMAND", on_any_command, NULL);
+	sub = lcm_first_listen(S.lcm, "RMD_COMMAND", &first_cmd_ns);
 	assert_non_null(sub);
 	sleepers_mark();
 	setenv("PYTHONUNBUFFERED", "1", 1); /* sine.py's lines as they come */

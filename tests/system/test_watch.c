@@ -57,6 +57,7 @@
 #include "harness/json.h"
 #include "harness/lcm_loopback.h"
 #include "harness/proc.h"
+#include "harness/suite.h"
 #include "rmd/time.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_request_t.h"
@@ -102,7 +103,7 @@ struct fixture {
 
 static char rmdd_bin[PATH_MAX], rmdctl_bin[PATH_MAX], plot_bin[PATH_MAX];
 static char dir[] = "/tmp/test_watch.XXXXXX";
-static bool no_multicast, no_plot, no_logger;
+static bool multicast, no_plot, no_logger;
 static unsigned test_no;
 static struct fixture *F; /* for service(): run_prog() and kid waits call it */
 
@@ -196,28 +197,17 @@ static void find_plot(void)
 static int group_setup(void **state)
 {
 	(void)state;
-	if (find_prog(rmdd_bin, sizeof(rmdd_bin), "RMDD", "rmdd") < 0 ||
-	    find_prog(rmdctl_bin, sizeof(rmdctl_bin), "RMDCTL", "rmdctl") < 0 || !mkdtemp(dir))
+	if (lcm_tools_setup("test_watch", rmdd_bin, rmdctl_bin, dir, &multicast) < 0)
 		return -1;
-	unsetenv("LCM_DEFAULT_URL");
-	unsetenv("NOTIFY_SOCKET");
 	unsetenv("PYTHONPATH");
 	unsetenv("DISPLAY");
 	find_plot();
-	no_multicast = !lcm_loopback_ready("test_watch");
 	return 0;
-}
-
-static int group_teardown(void **state)
-{
-	(void)state;
-	kid_kill_all();
-	return rm_tree(dir);
 }
 
 static int setup(void **state)
 {
-	struct fixture *f = lcm_fixture_new(state, sizeof(*f), !no_multicast);
+	struct fixture *f = lcm_fixture_new(state, sizeof(*f), multicast);
 
 	if (!f)
 		return 0;
@@ -604,6 +594,15 @@ static void read_log(const char *path, struct logged *l)
 	lcm_eventlog_destroy(log);
 }
 
+/* SIGINT the logger, which must exit 0; stop rmdd; read what the logger wrote to path. */
+static void stop_logger(struct kid *logger, const char *path, struct logged *l)
+{
+	kill(logger->pid, SIGINT);
+	assert_int_equal(kid_wait_exit(logger, 5000, NULL), 0);
+	kid_kill_all();
+	read_log(path, l);
+}
+
 /* Every CSV row of `series`, against the log's values and times (t0: the first point's). */
 static void check_csv(const char *csv, const char *series, const int64_t *t_us, const double *v,
 		      unsigned n, int64_t t0_us)
@@ -689,11 +688,7 @@ static void test_plot_log(void **state)
 		       rmd_now_ns() < end)
 			service(100);
 	}
-	kill(logger->pid, SIGINT);
-	assert_int_equal(kid_wait_exit(logger, 5000, NULL), 0);
-	kid_kill_all();
-
-	read_log(f->log, &l);
+	stop_logger(logger, f->log, &l);
 	assert_true(l.config);
 	assert_true(l.n_pos > 100);
 	assert_true(l.n_wake >= 5);
@@ -748,11 +743,7 @@ static void test_plot_log_late_config(void **state)
 	req.utime = rmd_now_ns() / 1000;
 	assert_int_equal(rmd_config_request_t_publish(F->lcm, "RMD_CONFIG_REQUEST", &req), 0);
 	service(300);
-	kill(logger->pid, SIGINT);
-	assert_int_equal(kid_wait_exit(logger, 5000, NULL), 0);
-	kid_kill_all();
-
-	read_log(f->log, &l);
+	stop_logger(logger, f->log, &l);
 	assert_true(l.config);
 	if (l.pos_before_config < 10)
 		fail_msg("only %u state_t before the config_t in the log", l.pos_before_config);
@@ -813,16 +804,13 @@ static void test_plot_errors(void **state)
 
 int main(void)
 {
-	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup_teardown(test_json, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_live_plain, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_no_rmdd, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_mixed, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_plot_log, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_plot_log_late_config, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_plot_live, setup, teardown),
-		cmocka_unit_test_setup_teardown(test_plot_errors, setup, teardown),
+	struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_json),	  cmocka_unit_test(test_live_plain),
+		cmocka_unit_test(test_no_rmdd),	  cmocka_unit_test(test_mixed),
+		cmocka_unit_test(test_plot_log),  cmocka_unit_test(test_plot_log_late_config),
+		cmocka_unit_test(test_plot_live), cmocka_unit_test(test_plot_errors),
 	};
 
-	return cmocka_run_group_tests_name("watch", tests, group_setup, group_teardown);
+	suite_fixture(tests, sizeof(tests) / sizeof(tests[0]), setup, teardown);
+	return cmocka_run_group_tests_name("watch", tests, group_setup, lcm_tools_teardown);
 }
