@@ -69,6 +69,12 @@ struct tool_opt {
 	{                                                      \
 		.name = "version", .shortc = 'V', .help = text \
 	}
+/* A long option that takes a value named arg (and one the program flags, flag_). */
+#define TOOL_OPT_ARG_FLAG(name_, arg_, text, flag_)                                     \
+	{                                                                               \
+		.name = name_, .has_arg = required_argument, .arg = arg_, .help = text, \
+		.flag = flag_                                                           \
+	}
 /* A long option that takes a value named arg. */
 #define TOOL_OPT_ARG(name_, arg_, text)                                                \
 	{                                                                              \
