@@ -356,9 +356,10 @@ static __attribute__((cold, noinline)) void reboot_answer(struct rmd_loop *l, st
 			return;
 		out = rmd_reboot_runtime(&lm->rb, seq, r.runtime_ms, sent, now, &least);
 		how = RMD_REBOOT_BY_RUNTIME;
-		what = (int64_t)r.runtime_ms << 32 | (uint32_t)(least < 0	   ? 0 :
-								least > UINT32_MAX ? UINT32_MAX :
-										     least);
+		what = (int64_t)((uint64_t)r.runtime_ms << 32) |
+		       (uint32_t)(least < 0	     ? 0 :
+				  least > UINT32_MAX ? UINT32_MAX :
+						       least);
 	} else if (have & RMD_MOTOR_HAVE_BRAKE) {
 		/* 0x9A: its brake, after the flags that may have made it FAULT */
 		how = RMD_REBOOT_BY_BRAKE;
@@ -367,7 +368,8 @@ static __attribute__((cold, noinline)) void reboot_answer(struct rmd_loop *l, st
 		out = v == RMD_REBOOT_SAYS_BOOTED ? rmd_reboot_answer(&lm->rb, seq, v) :
 						    RMD_REBOOT_WAIT;
 	} else {
-		what = centideg(lm->st->pos_rad) << 32 | centideg(lm->m.v2_checked_rad);
+		what = (int64_t)((uint64_t)centideg(lm->st->pos_rad) << 32 |
+				 (uint64_t)centideg(lm->m.v2_checked_rad));
 		if (have & RMD_MOTOR_HAVE_COUNT_LOST) {
 			v = RMD_REBOOT_SAYS_BOOTED;
 		} else if (have & RMD_MOTOR_HAVE_COUNT_SAME) {

@@ -490,11 +490,14 @@ static int bad_loop(const struct enc_ctx *ctx, const struct enc_cmd *ec, const c
 /* The request that does op to gain `slot` alone (rmd_pid_requests()), or -1 when none does. */
 static int one_gain(const struct rmd_dialect *dl, enum rmd_pid_op op, int slot, struct rmd_msg *m)
 {
-	struct rmd_pid_set set = { .slots = UINT32_C(1) << slot }, carried;
+	struct rmd_pid_set set = { 0 }, carried;
 	struct rmd_msg reqs[RMD_PID_SLOTS_MAX];
 	uint32_t named;
 
-	if (slot < 0 || rmd_pid_requests(dl, op, &set, reqs) != 1 ||
+	if (slot < 0 || slot >= 32)
+		return -1; /* not a gain of dl (UB to shift by) */
+	set.slots = UINT32_C(1) << slot;
+	if (rmd_pid_requests(dl, op, &set, reqs) != 1 ||
 	    !rmd_pid_parse(dl, &reqs[0], &op, &named, &carried) || named != set.slots)
 		return -1;
 	*m = reqs[0];
