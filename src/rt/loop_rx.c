@@ -640,7 +640,13 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		bool echo;
 
 		o = &lm->os[k];
-		echo = rmd_frame_repeats(o->data, o->echo_is_reply, f) && !ahead_heard(lm, o);
+		/*
+		 * only a motor with a comm-loss protection echoes (after a
+		 * trip); a V2 motor's answer that repeats its request (0x92 at
+		 * exactly 0.00 deg) is its answer
+		 */
+		echo = (lm->m.caps & RMD_DIALECT_COMM_LOSS_B3) &&
+		       rmd_frame_repeats(o->data, o->echo_is_reply, f) && !ahead_heard(lm, o);
 		lm->heard_seq = o->seq + 1;
 		lm->heard_sent_ns = o->sent_ns;
 		os_done(lm, (unsigned)k);

@@ -125,6 +125,7 @@ struct glitch_case {
 	bool saved;	 /* motor 1 keeps its count (no band needed: it may travel) */
 	bool fine;	 /* motor 1: feedback.position multi_turn */
 	double cfg_gear; /* motor 1's gear_ratio in rmdd's config, not the motor's (0: the motor's) */
+	bool at_zero;	 /* motor 1 starts at exactly 0.00 deg (its 0x92 answer repeats the read) */
 };
 
 static const struct glitch_case *gc;
@@ -176,6 +177,8 @@ static void rig_up(const struct glitch_case *c)
 		R.io.cfg.motors[0].feedback.position = RMD_FEEDBACK_MULTI_TURN;
 	if (c->cfg_gear > 0)
 		R.io.cfg.motors[0].gear_ratio = c->cfg_gear;
+	if (c->at_zero)
+		R.io.sim.motors[0].start_angle_deg = 0.0;
 	rig_start(&R, tap);
 	rig_bring_up(&R);
 }
@@ -473,6 +476,58 @@ static void test_v3_2ms_brake_backstop(void **state)
 }
 
 /*
+ * A V2 motor at rest at exactly 0.00 deg answers a 0x92 read with the
+ * read's own bytes.  V2 has no comm-loss protection, so it never echoes:
+ * that answer is its answer, and tells the reboot check a lost reply
+ * opened.  Taken for an echo, the check never ended and the ENABLED
+ * motor got no setpoint again (seen on vcan: 0 of 500 cycles).  Judged on
+ * the wire: its setpoints keep going out while replies are lost.
+ */
+static void test_v2_at_zero_checked(void **state)
+{
+	static const struct glitch_case gg = { .name = "V2 at 0.00 deg",
+					       .proto = RMD_PROTO_V2,
+					       .rate_hz = 1000,
+					       .brake = true,
+					       .saved = true,
+					       .at_zero = true };
+	struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_DROP, .motor_id = 1, .probability = 0.02 };
+	struct rmd_setpoint *a = &R.cmd.m[0];
+	unsigned from, n, setpoints = 0, checks = 0;
+
+	(void)state;
+	rig_up(&gg);
+	run_until(0, RMD_LC_READY, 50);
+	run(cycles_of(100 * MS), NULL);
+	R.cmd.present = 1;
+	memset(a, 0, sizeof(*a));
+	a->enable = 1;
+	a->mode = RMD_MODE_SPEED; /* speed 0: it stays at 0.00 deg */
+	run_until(0, RMD_LC_ENABLED, 200);
+	f.start_ns = rmd_bus_sim_time_ns(&R.io.buses[0], t_now);
+	assert_int_equal(rmd_sim_wire_set_faults(wire(), &f, 1), 0);
+	from = tx_n;
+	n = cycles_of(1000 * MS);
+	run(n, NULL);
+	for (unsigned k = from; k < tx_n; k++) {
+		if (tx[k].f.can_id != 0x141)
+			continue;
+		setpoints += tx[k].f.data[0] == 0xA2;
+		checks += tx[k].f.data[0] == 0x92;
+	}
+	if (getenv("RMD_TEST_VERBOSE"))
+		print_message("%s: %u speed setpoints, %u check reads in %u cycles\n", gg.name,
+			      setpoints, checks, n);
+	if (!checks)
+		fail_msg("%s: no check read went out (no lost reply opened one)", gg.name);
+	if (lifecycle(0) != RMD_LC_ENABLED || setpoints < n * 8 / 10)
+		fail_msg("%s: lifecycle %u, %u speed setpoints in %u cycles (%u check reads): the "
+			 "check held them back",
+			 gg.name, lifecycle(0), setpoints, n, checks);
+	rig_stop(&R);
+}
+
+/*
  * A check holds the motor's setpoints and its brake release back, never
  * its safe action: motor 1's cable is cut (no reboot) while the host
  * watchdog trips; the stop goes out in the next control slot, ahead of the
@@ -682,13 +737,14 @@ static void test_quiet_row(void **state)
 
 int main(void)
 {
-	struct CMUnitTest tests[SUITE_N(glitch_rows) + 2 + SUITE_N(quiet_rows)];
+	struct CMUnitTest tests[SUITE_N(glitch_rows) + 3 + SUITE_N(quiet_rows)];
 	size_t n = 0;
 
 	for (size_t k = 0; k < SUITE_N(glitch_rows); k++)
 		tests[n++] = SUITE_ROW(glitch_rows[k].test, test_glitch_row, &glitch_rows[k]);
 	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_v3_2ms_brake_backstop);
 	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_safe_action_before_check);
+	tests[n++] = (struct CMUnitTest)cmocka_unit_test(test_v2_at_zero_checked);
 	for (size_t k = 0; k < SUITE_N(quiet_rows); k++)
 		tests[n++] = SUITE_ROW(quiet_rows[k].test, test_quiet_row, &quiet_rows[k]);
 	return suite_run("power_glitch", tests, n, NULL, NULL);
