@@ -256,7 +256,7 @@ static void send_owed(struct rmd_loop *l, struct lmotor *lm, struct rmd_owed *o,
 		rmd_owed_sent(o, cmd);
 		if (probe_xfer(l, lm, &msg, &t) < 0)
 			continue;
-		echo = t.rep.f.len == t.req.len && !memcmp(t.rep.f.data, t.req.data, t.req.len);
+		echo = rmd_frame_repeats(t.req.data, false, &t.rep.f);
 		if (apply)
 			loop_owed_answer(l, lm, cmd, o->seq, echo, loop_now(l));
 		else
