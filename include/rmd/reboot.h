@@ -25,7 +25,14 @@
  *   - the brake, locked by the boot (V3 §2.27: locked without power), in a
  *     status answer (0x9A, V3 §2.12) after the motor reported it released
  *     by rmdd's 0x77 (rmd_reboot_brake_says()): seen at the next status
- *     poll, whether or not a reply was missed.
+ *     poll, whether or not a reply was missed.  It opens a check
+ *     (rmd_reboot_brake()) rather than deciding: one frame on the motor's
+ *     reply identifier may be another node's (a second motor set to the
+ *     same ID, a converter that mixes up answers; seen in the soak as a
+ *     neighbour's locked brake made an ENABLED motor LOST), and the check
+ *     read decides within a cycle or two while its setpoints are held
+ *     back.  Only a motor whose firmware answers no check read is judged
+ *     by its brake alone.
  *   - V2, which has no 0xB1 (its replies carry the rotor's single-turn
  *     encoder, which rmdd counts from a 0x92 angle, rmd/motor.h): the
  *     motor's own multi-turn angle (0x92, V2 §3.29) against rmdd's count;
@@ -223,6 +230,18 @@ void rmd_reboot_released(struct rmd_reboot *r, uint64_t seq);
  */
 enum rmd_reboot_verdict rmd_reboot_brake_says(struct rmd_reboot *r, bool held, uint64_t seq,
 					      bool released);
+
+/*
+ * What a brake verdict v (rmd_reboot_brake_says()) of the answer to
+ * request `seq` does.  Booted opens an episode (its setpoints are held
+ * back and the check read decides, rmd_reboot_next()) and forgets the
+ * release's report, so the next locked answer opens none; with
+ * `checkable` false (the motor answers no check read, or its firmware has
+ * none) or the checks off, it decides: RMD_REBOOT_REBOOTED.  Anything else
+ * is RMD_REBOOT_WAIT.  rt-safe.
+ */
+enum rmd_reboot_outcome rmd_reboot_brake(struct rmd_reboot *r, uint64_t seq,
+					 enum rmd_reboot_verdict v, bool checkable);
 
 /*
  * A position reading: where (rad at the output, reported frame), when

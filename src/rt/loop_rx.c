@@ -361,12 +361,11 @@ static __attribute__((cold, noinline)) void reboot_answer(struct rmd_loop *l, st
 				  least > UINT32_MAX ? UINT32_MAX :
 						       least);
 	} else if (have & RMD_MOTOR_HAVE_BRAKE) {
-		/* 0x9A: its brake, after the flags that may have made it FAULT */
+		/* 0x9A: its brake, after the flags that may have made it FAULT; a check decides */
 		how = RMD_REBOOT_BY_BRAKE;
 		v = rmd_reboot_brake_says(&lm->rb, lm->st->lifecycle == RMD_LC_ENABLED, seq,
 					  lm->st->brake_released);
-		out = v == RMD_REBOOT_SAYS_BOOTED ? rmd_reboot_answer(&lm->rb, seq, v) :
-						    RMD_REBOOT_WAIT;
+		out = rmd_reboot_brake(&lm->rb, seq, v, loop_reboot_cmd(lm) != 0);
 	} else {
 		what = (int64_t)((uint64_t)centideg(lm->st->pos_rad) << 32 |
 				 (uint64_t)centideg(lm->m.v2_checked_rad));

@@ -167,6 +167,22 @@ enum rmd_reboot_verdict rmd_reboot_brake_says(struct rmd_reboot *r, bool held, u
 	return r->brake_open ? RMD_REBOOT_SAYS_BOOTED : RMD_REBOOT_SAYS_NOTHING;
 }
 
+enum rmd_reboot_outcome rmd_reboot_brake(struct rmd_reboot *r, uint64_t seq,
+					 enum rmd_reboot_verdict v, bool checkable)
+{
+	if (v != RMD_REBOOT_SAYS_BOOTED)
+		return RMD_REBOOT_WAIT;
+	if (!checkable || r->off || !r->since_ns)
+		return rmd_reboot_answer(r, seq, v);
+	r->brake_open = false;
+	if (!r->pending) {
+		r->pending = true;
+		r->tries = 0;
+		r->undecided = 0;
+	}
+	return RMD_REBOOT_WAIT;
+}
+
 enum rmd_reboot_verdict rmd_reboot_turns_says(const struct rmd_multiturn *mt,
 					      const struct rmd_reboot_reading *before,
 					      const struct rmd_reboot_reading *now)

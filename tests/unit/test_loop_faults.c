@@ -135,6 +135,62 @@ static void test_fault_wrong_id(void **state)
 		.kind = RMD_SIM_FAULT_WRONG_ID, .motor_id = 2, .probability = 1.0, .param = 1 });
 }
 
+/* Motor 2's status answers (0x9A) on motor 1's identifier that say its brake is locked. */
+static unsigned locked_on_1;
+
+static void count_locked_on_1(unsigned b, const struct rmd_sim_pending *p, int64_t start_ns)
+{
+	(void)start_ns;
+	if (b == 0 && p->src == 1 && p->f.can_id == 0x241 && p->f.len == 8 &&
+	    p->f.data[0] == 0x9A && p->f.data[3] == 0)
+		locked_on_1++;
+}
+
+/*
+ * wrong_id beside a locked brake: motor 2, READY with its brake locked,
+ * answers now and then on motor 1's identifier while motor 1 runs with its
+ * brake released.  A 0x9A on 0x241 that says locked is motor 2's, not
+ * motor 1's boot: it opens a reboot check, and motor 1 answers the check
+ * read (0xB1) with a runtime that says it ran on.  Judged on the wire:
+ * motor 1 gets the check read, no stop and no safe action, and its
+ * setpoints go on.  (The soak, seed 45963: taken for a boot, motor 1 was
+ * made LOST and damped for its neighbour's brake.)
+ */
+static void test_fault_wrong_id_locked_brake(void **state)
+{
+	struct rmd_sim_fault f = {
+		.kind = RMD_SIM_FAULT_WRONG_ID, .motor_id = 2, .probability = 0.5, .param = 1
+	};
+	const unsigned cycles = 3000;
+	unsigned from, setpoints;
+
+	(void)state;
+	up_at_speed(NULL, 1, 1.0, 300);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_false(sim_motor(0)->brake_locked);
+	assert_true(sim_motor(1)->brake_locked);
+	R.nev = 0;
+	locked_on_1 = 0;
+	rig_tap_hook = count_locked_on_1;
+	from = fault_now(&f, 0);
+	run(cycles, true);
+	rig_tap_hook = NULL;
+	if (locked_on_1 < 3)
+		fail_msg("motor 2 said its brake locked on 0x241 %u times: not tested",
+			 locked_on_1);
+	assert_int_equal(count_ev(RMD_EV_REBOOT, 0), 0);
+	assert_int_equal(count_ev(RMD_EV_SAFE_ACTION, 0), 0);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(sent_to(0, 0x80, from), 0);
+	assert_int_equal(sent_to(0, 0x81, from), 0);
+	assert_true(sent_to(0, 0xB1, from) >= 1);
+	setpoints = sent_to(0, 0xA2, from);
+	if (setpoints < cycles * 9 / 10)
+		fail_msg("motor 1 got %u speed setpoints in %u cycles", setpoints, cycles);
+	assert_false(sim_motor(0)->brake_locked);
+	rig_down();
+}
+
 /*
  * bad_dlc 1..7: the answer carries its command byte, so it matches its
  * request (the motor is there) but cannot be decoded: each is counted
@@ -306,6 +362,7 @@ SUITE_MAIN("loop_faults", NULL, NULL,
 		   cmocka_unit_test(test_fault_garbage),
 		   cmocka_unit_test(test_fault_bad_dlc_empty),
 		   cmocka_unit_test(test_fault_wrong_id),
+		   cmocka_unit_test(test_fault_wrong_id_locked_brake),
 		   cmocka_unit_test(test_fault_bad_dlc_short),
 		   cmocka_unit_test(test_fault_delay),
 		   cmocka_unit_test(test_fault_flood),

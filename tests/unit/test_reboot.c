@@ -242,6 +242,7 @@ enum op {
 	RELEASED, /* rmd_reboot_released(seq a) */
 	BRAKE,	  /* rmd_reboot_brake_says(held b, seq a, released c): want_v */
 	COUNT,	  /* rmd_reboot_count(verdict b): want_v, and news c */
+	LOCKED,	  /* rmd_reboot_brake(seq a, the brake_says() of held, released b, checkable c) */
 };
 
 struct step {
@@ -281,6 +282,11 @@ struct seq_case {
 #define BR(seq, held, rel, v)                                                               \
 	{                                                                                   \
 		.op = BRAKE, .a = seq, .b = held, .c = rel, .want_pending = -1, .want_v = v \
+	}
+/* An answer to seq says released rel (held); rmd_reboot_brake(checkable chk): w, pending p. */
+#define BK(seq, rel, chk, w, p)                                                          \
+	{                                                                                \
+		.op = LOCKED, .a = seq, .b = rel, .c = chk, .want = w, .want_pending = p \
 	}
 /* rmd_reboot_released(seq). */
 #define RL(seq)                                              \
@@ -380,6 +386,22 @@ static const struct seq_case seqs[] = {
 	  { RL(10), BR(12, 1, 1, RMD_REBOOT_SAYS_RUNNING), RL(20),
 	    BR(19, 1, 0, RMD_REBOOT_SAYS_NOTHING) },
 	  4 },
+	{ "the brake: a lock opens a check, whose runtime says it booted",
+	  { ST(FOUND, 1 * S, 0, 0, 0, 0, 0), RL(10), BK(12, 1, 1, RMD_REBOOT_WAIT, 0),
+	    BK(13, 0, 1, RMD_REBOOT_WAIT, 1), NX(0xB1),
+	    ST(RUNTIME, 5 * S, 14, 2, 0, RMD_REBOOT_REBOOTED, 0) },
+	  6 },
+	{ "the brake: a lock another node's frame said; the runtime says running, and the next "
+	  "lock opens none until it is reported released again",
+	  { ST(FOUND, 1 * S, 0, 0, 0, 0, 0), RL(10), BK(12, 1, 1, RMD_REBOOT_WAIT, 0),
+	    BK(13, 0, 1, RMD_REBOOT_WAIT, 1), NX(0xB1),
+	    ST(RUNTIME, 5 * S, 14, 64000, 0, RMD_REBOOT_FINE, 0), BK(15, 0, 1, RMD_REBOOT_WAIT, 0),
+	    BK(16, 1, 1, RMD_REBOOT_WAIT, 0), BK(17, 0, 1, RMD_REBOOT_WAIT, 1) },
+	  9 },
+	{ "the brake: firmware that answers no check read is judged by its brake alone",
+	  { ST(FOUND, 1 * S, 0, 0, 0, 0, 0), RL(10), BK(12, 1, 0, RMD_REBOOT_WAIT, 0),
+	    BK(13, 0, 0, RMD_REBOOT_REBOOTED, 0) },
+	  4 },
 	{ "the brake: firmware that never reports it released never fires",
 	  { RL(10), BR(12, 1, 0, RMD_REBOOT_SAYS_NOTHING), BR(13, 1, 0, RMD_REBOOT_SAYS_NOTHING) },
 	  3 },
@@ -434,6 +456,10 @@ static void test_check_steps(void **state)
 				if (v != s->want_v || news != (bool)s->c)
 					fail_msg("%s, step %u: says %s (news %d), not %s", c->name,
 						 i, verdict_name[v], news, verdict_name[s->want_v]);
+				break;
+			case LOCKED:
+				v = rmd_reboot_brake_says(&r, true, s->a, s->b);
+				out = rmd_reboot_brake(&r, s->a, v, s->c);
 				break;
 			case BRAKE:
 				v = rmd_reboot_brake_says(&r, s->b, s->a, s->c);
