@@ -98,15 +98,15 @@ static void fault_keys(char *out, size_t len, const char *inc, const char *more,
 		 inc, more, seed, faults);
 }
 
-/* Start rmdd on motors_yaml plus `keys` (incidents:, buses:), wait until it runs. */
-static struct kid *start(const char *dir, const char *keys)
+/* Start rmdd on `motors` plus `keys` (incidents:, buses:), wait until it runs. */
+static struct kid *start_on(const char *dir, const char *keys, const char *motors)
 {
 	char path[512], text[4096];
 	struct kid *k;
 	FILE *f;
 
 	snprintf(path, sizeof(path), "%s/rmdd.yaml", dir);
-	snprintf(text, sizeof(text), "%s%s", keys, motors_yaml);
+	snprintf(text, sizeof(text), "%s%s", keys, motors);
 	f = fopen(path, "w");
 	assert_non_null(f);
 	fputs(text, f);
@@ -115,6 +115,12 @@ static struct kid *start(const char *dir, const char *keys)
 	assert_non_null(k);
 	kid_wait_output(k, "rmdd: running:", START_MS, NULL);
 	return k;
+}
+
+/* Start rmdd on motors_yaml plus `keys` (incidents:, buses:), wait until it runs. */
+static struct kid *start(const char *dir, const char *keys)
+{
+	return start_on(dir, keys, motors_yaml);
 }
 
 static void stop(struct kid *k)
@@ -530,6 +536,43 @@ static void test_lost_fault_and_bus_off_recorded(void **state)
 	}
 }
 
+/*
+ * Issue 32 point 14: a motor `protocol: auto` found speaking V4 is named
+ * and decoded as V4, not as its entry's protocol: its error flags by V4's
+ * names (0x0800, V4.3, is no V3 bit), its incident's decode hint
+ * `--protocol v4`, its statistics line `v4`.
+ */
+static void test_found_dialect_named(void **state)
+{
+	static const char v4_motor[] =
+		"loop: {rate_hz: 1000}\n"
+		"lcm: {url: \"memq://\"}\n"
+		"motors:\n"
+		"  - {name: a, bus: sim0, id: 1, protocol: auto, mode: torque,"
+		" torque_constant_nm_a: 2.0, sim: {firmware: v4}}\n";
+	char dir[512], inc[600], keys[1024], rec[700], sum[800];
+	struct kid *k;
+	char *summary;
+
+	(void)state;
+	test_dir(dir, sizeof(dir), "dialect");
+	snprintf(inc, sizeof(inc), "%s/incidents", dir);
+	fault_keys(keys, sizeof(keys), inc, "seconds_before: 0.5, seconds_after: 0.2", 7,
+		   "        - {kind: error_flag, motor: 1, start_s: 1.0, end_s: 1.3, "
+		   "param: 0x0800}\n");
+	k = start_on(dir, keys, v4_motor);
+	kid_wait_output(k, "-fault: sim0: motor 1 (a): ready -> fault", INCIDENT_MS, NULL);
+	assert_has(k->out, "protocol auto: v4", "rmdd's bring-up report");
+	assert_has(k->out, "error flags 0x0800 (component_over_temperature)", "rmdd's log");
+	stop(k);
+	assert_has(k->out, "motor a (sim0 id 1, v4): ", "rmdd's statistics at exit");
+	recording_of(inc, "fault", rec, sizeof(rec));
+	snprintf(sum, sizeof(sum), "%s/summary.txt", rec);
+	summary = slurp(sum);
+	assert_has(summary, "rmdctl decode --protocol v4 frames-sim0.log", sum);
+	free(summary);
+}
+
 /* The CLOCK_MONOTONIC time of a summary's When:, ns. */
 static int64_t summary_when_ns(const char *summary)
 {
@@ -915,6 +958,7 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test_teardown(test_lost_fault_and_bus_off_recorded, teardown),
+		cmocka_unit_test_teardown(test_found_dialect_named, teardown),
 		cmocka_unit_test_teardown(test_overrun_burst_goes_to_the_state_directory, teardown),
 		cmocka_unit_test_teardown(test_overruns_recorded_once_a_minute, teardown),
 		cmocka_unit_test_teardown(test_keep_bounds_the_recordings, teardown),

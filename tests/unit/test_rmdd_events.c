@@ -694,6 +694,31 @@ static void test_journal(void **state)
 	}
 }
 
+/*
+ * A motor of `protocol: auto` is named by the dialect it was found to
+ * speak: V4's error bit 0x0800 (V4.3) is no V3 bit.  (An independent V4
+ * check found the monitor naming a found V4 motor's flags by V3's table.)
+ */
+static void test_found_dialect(void **state)
+{
+	const struct rmd_event e = EV(RMD_EV_MOTOR_ERROR, 3, X, 0x0800, 0);
+	char out[1024];
+
+	(void)state;
+	config_for(false);
+	assert_true(cfg.motors[3].proto_auto);
+	journal_of(&e, 1, out, sizeof(out));
+	assert_string_equal(out, "<4>rmdd: sim0: motor 1 (wrist): error flags 0x0800 "
+				 "(unknown_0x0800)\n");
+	rmdd_dialect_found(3, RMD_PROTO_V4);
+	assert_int_equal(rmdd_motor_dialect(&cfg, 3), RMD_PROTO_V4);
+	journal_of(&e, 1, out, sizeof(out));
+	rmdd_dialect_found(3, cfg.motors[3].proto);
+	assert_string_equal(out, "<4>rmdd: sim0: motor 1 (wrist): error flags 0x0800 "
+				 "(component_over_temperature)\n");
+	assert_int_equal(rmdd_motor_dialect(&cfg, 40), RMD_PROTO_V3);
+}
+
 static void test_summary(void **state)
 {
 	char out[200]; /* an incident summary's line (incidents.c struct item) */
@@ -758,6 +783,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_every_kind_has_a_row),
 		cmocka_unit_test(test_journal),
+		cmocka_unit_test(test_found_dialect),
 		cmocka_unit_test(test_summary),
 		cmocka_unit_test(test_incident),
 		cmocka_unit_test(test_sequences),

@@ -58,6 +58,24 @@ const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b)
 	return b < cfg->n_buses ? cfg->buses[b].name : "?";
 }
 
+/* The dialect each motor was found to speak, + 1 (0: none yet, its protocol's). */
+static _Atomic uint8_t found_dialect[RMD_MAX_MOTORS];
+
+void rmdd_dialect_found(unsigned i, enum rmd_proto p)
+{
+	if (i < RMD_MAX_MOTORS && rmd_dialect(p))
+		found_dialect[i] = (uint8_t)(p + 1);
+}
+
+enum rmd_proto rmdd_motor_dialect(const struct rmd_config *cfg, unsigned i)
+{
+	unsigned f = i < RMD_MAX_MOTORS ? found_dialect[i] : 0;
+
+	if (f)
+		return (enum rmd_proto)(f - 1);
+	return i < cfg->n_motors ? cfg->motors[i].proto : RMD_PROTO_V3;
+}
+
 /* ---- what a row words an event from ------------------------------------------ */
 
 struct ev {
@@ -175,7 +193,6 @@ static int motor_error_line(const struct ev *v, char *buf, size_t len)
 	const char *names[8];
 	char list[256];
 	uint16_t code = (uint16_t)e->a;
-	enum rmd_proto proto = RMD_PROTO_V3;
 	size_t n, used = 0;
 
 	/* docs/design.md: the motor heard nothing for its 0xB3 time */
@@ -186,9 +203,7 @@ static int motor_error_line(const struct ev *v, char *buf, size_t len)
 			   v->ctx);
 	if (!code)
 		return say(buf, len, 5, "%s: error flags cleared", v->ctx);
-	if (e->motor < cfg->n_motors)
-		proto = cfg->motors[e->motor].proto; /* its dialect's flags */
-	n = rmd_error_names(proto, code, names, 8);
+	n = rmd_error_names(rmdd_motor_dialect(cfg, e->motor), code, names, 8);
 	list[0] = '\0';
 	for (size_t k = 0; k < n && k < 8 && used < sizeof(list); k++)
 		used += (size_t)snprintf(list + used, sizeof(list) - used, "%s%s", k ? ", " : "",
@@ -782,6 +797,7 @@ static int mit_scaling_line(const struct ev *v, char *buf, size_t len)
 	const struct rmd_event *e = v->e;
 	const struct rmd_config_motor *c = e->motor < v->cfg->n_motors ? &v->cfg->motors[e->motor] :
 									 NULL;
+	const struct rmd_dialect *d;
 	struct rmd_mit_decision dec;
 	char model[8], why[512];
 	unsigned series = (unsigned)(e->b >> 8) & 0xFF;
@@ -792,9 +808,9 @@ static int mit_scaling_line(const struct ev *v, char *buf, size_t len)
 	model[0] = '\0';
 	if (series)
 		snprintf(model, sizeof(model), "X%u", series % 1000u);
-	rmd_mit_scaling_decide(rmd_dialect(c->proto), (uint32_t)e->a, model, &c->mit, c->mit_given,
-			       &dec);
-	rmdd_mit_text(rmd_dialect(c->proto), &dec, (uint32_t)e->a, model, why, sizeof(why));
+	d = rmd_dialect(rmdd_motor_dialect(v->cfg, e->motor));
+	rmd_mit_scaling_decide(d, (uint32_t)e->a, model, &c->mit, c->mit_given, &dec);
+	rmdd_mit_text(d, &dec, (uint32_t)e->a, model, why, sizeof(why));
 	return say(buf, len, 4,
 		   "%s: answered at last, %s; left out (restart rmdd once its entry says it)",
 		   v->ctx, why);

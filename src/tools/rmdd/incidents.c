@@ -189,15 +189,16 @@ static void iface_of(const struct rmd_config *cfg, unsigned b, char out[16])
 }
 
 /*
- * The rmdctl decode protocol of bus b's motors: the key of the table they
- * all share (MIT motors: V3's), else "v3".
+ * The rmdctl decode protocol of bus b's motors: the key of the table the
+ * dialects they were found to speak all share (MIT motors: V3's), else
+ * "v3".
  */
 static const char *decode_proto(const struct rmd_config *cfg, unsigned b)
 {
 	const struct rmd_dialect *t = NULL;
 
 	for (unsigned i = 0; i < cfg->n_motors; i++) {
-		const struct rmd_dialect *d = rmd_dialect(cfg->motors[i].proto);
+		const struct rmd_dialect *d = rmd_dialect(rmdd_motor_dialect(cfg, i));
 
 		if (cfg->motors[i].bus != b || !d)
 			continue;

@@ -969,6 +969,8 @@ static int bringup(struct rmdd *d)
 	if (r != -EBUSY) {
 		for (unsigned i = 0; i < bu.n_motors; i++) {
 			ln.n = 0;
+			if (bu.motor[i].state != RMD_BRINGUP_MISSING)
+				rmdd_dialect_found(i, bu.motor[i].proto);
 			level = motor_line(cfg, i, &bu.motor[i], &ln);
 			tool_log(level, "  %s", ln.s);
 		}

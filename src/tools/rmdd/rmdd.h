@@ -63,6 +63,19 @@ void rmdd_motor_ctx(const struct rmd_config *cfg, unsigned i, char *buf, size_t 
 /* Bus b's name, "?" when out of range. */
 const char *rmdd_bus_name(const struct rmd_config *cfg, unsigned b);
 
+/*
+ * Motor i speaks dialect p, as bring-up found it (`protocol: auto`) or the
+ * loop's health says (rmd_health.proto[]).  Any thread.
+ */
+void rmdd_dialect_found(unsigned i, enum rmd_proto p);
+
+/*
+ * The dialect motor i was found to speak (rmdd_dialect_found()), its
+ * entry's protocol until then: what its error flags, commands and frames
+ * are named and decoded by.  Any thread.
+ */
+enum rmd_proto rmdd_motor_dialect(const struct rmd_config *cfg, unsigned i);
+
 /* A journal line's room: the logger's (tools/common/log.c), so none is cut shorter. */
 #define RMDD_EVENT_LINE_LEN 2048
 

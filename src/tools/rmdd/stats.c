@@ -140,8 +140,9 @@ static void print_motors(const struct rmdd_stats_src *s, const struct rmd_snapsh
 				 (unsigned)ms->reply_age_cycles);
 		tool_log_always(6, "  motor %s (%s id %u, %s): %s; %s; missed %" PRIu64 "; %s",
 				c->name, c->bus < cfg->n_buses ? cfg->buses[c->bus].name : "?",
-				c->id, rmd_proto_key(c->proto), rmdd_lifecycle_name(ms->lifecycle),
-				latency, ms->missed_replies, age);
+				c->id, rmd_proto_key(rmdd_motor_dialect(cfg, i)),
+				rmdd_lifecycle_name(ms->lifecycle), latency, ms->missed_replies,
+				age);
 	}
 }
 
@@ -158,6 +159,8 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 	rmd_loop_get_counters(s->loop, &c);
 	rmd_loop_get_snapshot(s->loop, &snap);
 	have_h = rmd_loop_get_health(s->loop, &h);
+	for (unsigned i = 0; have_h && i < h.nmotors && i < RMD_MAX_MOTORS; i++)
+		rmdd_dialect_found(i, (enum rmd_proto)h.proto[i]);
 	flockfile(stderr);
 	tool_log_always(
 		6, "statistics (%s) after %.1f s: %" PRIu64 " cycles at %u Hz (%.1f Hz measured)",
