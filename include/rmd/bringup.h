@@ -91,7 +91,9 @@ struct rmd_bringup_motor {
 	int64_t timeout_ns;
 	char model[8];	  /* 0xB5 (V3, MIT); "" when it answered none */
 	uint32_t version; /* 0xB2 firmware date yyyymmdd; 0: no answer (or V2) */
-	bool status;	  /* 0x9A answered: voltage, temperature and errors below */
+	/* its 0xB2 went unanswered in its tries and was asked once more, waiting longer */
+	bool version_again;
+	bool status; /* 0x9A answered: voltage, temperature and errors below */
 	double voltage_v;
 	double temp_c;
 	uint16_t error_code;

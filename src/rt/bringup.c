@@ -203,11 +203,11 @@ static void learn_rtt(struct lbus *lb, const struct lmotor *lm, const struct rmd
 
 /*
  * One request msg to motor lm and its answer (t->req, t->rep), tried
- * RMD_LOOP_PROBE_TRIES times.  Returns 0, -ETIMEDOUT, or another -errno.
- * Non-rt.
+ * `tries` times, waiting timeout_ns each.  Returns 0, -ETIMEDOUT, or
+ * another -errno.  Non-rt.
  */
-static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_msg *msg,
-		      struct rmd_txn *t)
+static int probe_xfer_as(struct rmd_loop *l, struct lmotor *lm, const struct rmd_msg *msg,
+			 struct rmd_txn *t, unsigned tries, int64_t timeout_ns)
 {
 	struct probe_ctx pc = { .l = l, .bus = lm->m.bus };
 	struct lbus *lb = &l->bus[lm->m.bus];
@@ -217,7 +217,7 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_ms
 	r = rmd_txn_prepare(t, lm->m.proto, lm->m.id, msg);
 	if (r < 0)
 		return r;
-	o = txn_opts(&pc, RMD_LOOP_PROBE_TRIES, probe_timeout_ns(l, lb, false));
+	o = txn_opts(&pc, tries, timeout_ns);
 	r = rmd_txn_run(lb->bus, t, 1, &o);
 	if (r < 0)
 		return r;
@@ -226,17 +226,54 @@ static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_ms
 	return t->done ? 0 : -ETIMEDOUT;
 }
 
-/* Ask lm for `cmd` (no arguments) and decode the answer.  Non-rt. */
-static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, struct rmd_motor_reply *r)
+/* probe_xfer_as() RMD_LOOP_PROBE_TRIES times, the bus's probe wait each.  Non-rt. */
+static int probe_xfer(struct rmd_loop *l, struct lmotor *lm, const struct rmd_msg *msg,
+		      struct rmd_txn *t)
+{
+	return probe_xfer_as(l, lm, msg, t, RMD_LOOP_PROBE_TRIES,
+			     probe_timeout_ns(l, &l->bus[lm->m.bus], false));
+}
+
+/* Ask lm for `cmd` (no arguments), as probe_xfer_as(), and decode the answer.  Non-rt. */
+static int probe_cmd_as(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, unsigned tries,
+			int64_t timeout_ns, struct rmd_motor_reply *r)
 {
 	struct rmd_msg msg = { .cmd = cmd };
 	struct rmd_txn t;
 	int ret;
 
-	ret = probe_xfer(l, lm, &msg, &t);
+	ret = probe_xfer_as(l, lm, &msg, &t, tries, timeout_ns);
 	if (ret < 0)
 		return ret;
 	return rmd_motor_decode(&lm->m, &t.rep.f, r) < 0 ? -EBADMSG : 0;
+}
+
+/* Ask lm for `cmd` (no arguments) and decode the answer.  Non-rt. */
+static int probe_cmd(struct rmd_loop *l, struct lmotor *lm, uint8_t cmd, struct rmd_motor_reply *r)
+{
+	return probe_cmd_as(l, lm, cmd, RMD_LOOP_PROBE_TRIES,
+			    probe_timeout_ns(l, &l->bus[lm->m.bus], false), r);
+}
+
+/*
+ * lm's firmware date (0xB2, V3 §2.29) into out->version.  The date decides its dialect and the V4.4 MIT scaling: an answer that
+ * came after its tries (a slow adapter, a busy motor) is no reason to go
+ * on without it, so it is asked once more, waiting the whole
+ * probe.reply_timeout_ms (out->version_again; issue 32 point 17).  Returns
+ * 0 when read (r holds the answer).  Non-rt.
+ */
+static int read_date(struct rmd_loop *l, struct lmotor *lm, struct rmd_bringup_motor *out,
+		     struct rmd_motor_reply *r)
+{
+	if (probe_cmd(l, lm, 0xB2, r) < 0 || !(r->have & RMD_MOTOR_HAVE_VERSION)) {
+		out->version_again = true;
+		if (probe_cmd_as(l, lm, 0xB2, 1, probe_timeout_ns(l, &l->bus[lm->m.bus], true), r) <
+			    0 ||
+		    !(r->have & RMD_MOTOR_HAVE_VERSION))
+			return -ETIMEDOUT;
+	}
+	out->version = lm->ident.version = r->version_date;
+	return 0;
 }
 
 /*
@@ -338,8 +375,7 @@ static int resolve_auto(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor
 		if (probe_cmd(l, lm, d->probe[0], &r) < 0)
 			continue;
 		out->auto_certain = !rmd_dialect_has(d, RMD_DIALECT_VERSION_B2);
-		if (rmd_dialect_has(d, RMD_DIALECT_VERSION_B2) && probe_cmd(l, lm, 0xB2, &r) == 0 &&
-		    (r.have & RMD_MOTOR_HAVE_VERSION)) {
+		if (rmd_dialect_has(d, RMD_DIALECT_VERSION_B2) && read_date(l, lm, out, &r) == 0) {
 			const struct rmd_dialect *fw =
 				rmd_dialect_for_firmware(r.version_date, &out->auto_certain);
 
@@ -483,7 +519,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 	 */
 	for (unsigned k = 0; k < d->n_probes; k++) {
 		uint8_t cmd = d->probe[k];
-		int pr = probe_cmd(l, lm, cmd, &r);
+		int pr = cmd == 0xB2 && k ? read_date(l, lm, out, &r) : probe_cmd(l, lm, cmd, &r);
 
 		if (k == 0) {
 			out->probe_cmd = cmd;

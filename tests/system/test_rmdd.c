@@ -1137,6 +1137,38 @@ static void test_mit_scaling_reported(void **state)
 }
 
 /*
+ * Issue 32 point 17: a V4.4 X6 whose 0xB2 answers come 20 ms late (its
+ * three tries given up) is asked once more, waiting the whole
+ * probe.reply_timeout_ms: its date read, its MIT scaling the firmware's,
+ * and the report says it was asked again.  (Before: brought up with date
+ * 0, its MIT refused.)  A motor that never answers 0xB2 is said to have
+ * been asked again.
+ */
+static void test_late_date_asked_again(void **state)
+{
+	static struct proc p;
+
+	(void)state;
+	spawn_config(
+		&p, "late-date.yaml",
+		"buses:\n"
+		"  - {name: s0, type: sim, sim: {faults: [{kind: delay, motor: 1, "
+		"probability: 1, delay_us: 20000, cmd: 0xB2, count: 3}]}}\n"
+		"motors:\n"
+		"  - {name: x6, bus: s0, id: 1, protocol: v4, mode: mit,"
+		" sim: {version_date: 2026042402, model: X6S2V3}}\n"
+		"  - {name: mute, bus: s0, id: 2, protocol: v4, mode: torque, torque_constant_nm_a: 2,"
+		" sim: {ignores_cmd: 0xB2}}\n");
+	stop_ok(&p);
+	expect_in(&p, "(x6): X6S2V3, firmware 2026042402 (its 0xB2 answered only when asked "
+		      "again, waiting up to 100 ms: probe.reply_timeout_ms), 48.0 V, 25 °C, MIT "
+		      "scaling p ±12.566 rad, v ±45 rad/s, t ±60 N·m, kp 0..500, kd 0..50: its "
+		      "firmware's own (V4.4 X6, from firmware 2026042402)");
+	expect_in(&p, "(mute): X8S2V10, no answer to 0xB2 (asked again, waiting 100 ms: "
+		      "probe.reply_timeout_ms), 48.0 V");
+}
+
+/*
  * MIT whose scaling cannot be decided is refused at bring-up (exit 1),
  * naming firmware date and model and what to write: a model with no V4.4
  * scaling, an entry that contradicts the firmware's (both values), and
@@ -1496,6 +1528,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_config_directory, reap),
 		cmocka_unit_test_teardown(test_check_config_v2_protection, reap),
 		cmocka_unit_test_teardown(test_mit_scaling_reported, reap),
+		cmocka_unit_test_teardown(test_late_date_asked_again, reap),
 		cmocka_unit_test_teardown(test_mit_scaling_refused, reap),
 		cmocka_unit_test_teardown(test_check_config_mit, reap),
 	};

@@ -618,6 +618,14 @@ static int motor_line(const struct rmd_config *cfg, unsigned i, const struct rmd
 		} else {
 			line_add(ln, ", firmware date %u implausible", (unsigned)bm->version);
 		}
+		/* issue 32 point 17: the date decides its dialect and MIT scaling */
+		if (bm->version_again)
+			line_add(ln,
+				 bm->version ?
+					 " (its 0xB2 answered only when asked again, waiting "
+					 "up to %u ms: probe.reply_timeout_ms)" :
+					 " (asked again, waiting %u ms: probe.reply_timeout_ms)",
+				 cfg->probe.reply_timeout_ms);
 	}
 	if (bm->status) {
 		line_add(ln, ", %.1f V, %.0f °C", bm->voltage_v, bm->temp_c);
