@@ -242,13 +242,21 @@ enum rmd_reject {
 	RMD_REJ_KINDS
 };
 
+/* RMD_EV_MOTOR_ERROR's a of a trip told by the echo of a command (a's low byte). */
+#define RMD_EV_TRIP_ECHOED 0x10000
+
 /* Things the rt loop reports; a normal thread logs them on change. */
 enum rmd_event_kind {
 	RMD_EV_MOTOR_STATE = 0, /* a = old lifecycle, b = new lifecycle */
-	RMD_EV_MOTOR_ERROR,	/* a = error code */
-	RMD_EV_BUS_STATE,	/* a = enum rmd_bus_state */
-	RMD_EV_OVERRUN,		/* a = cycles skipped, b = the most of them at once */
-	RMD_EV_WATCHDOG,	/* a = enum rmd_watchdog_state */
+	/*
+	 * a = error code; b = RMD_MOTOR_CMD_COMM_LOST (0xF1): its comm-loss
+	 * protection tripped, a = RMD_EV_TRIP_ECHOED | the command byte when
+	 * an echo of that command told it (its 0xF1 unheard)
+	 */
+	RMD_EV_MOTOR_ERROR,
+	RMD_EV_BUS_STATE, /* a = enum rmd_bus_state */
+	RMD_EV_OVERRUN,	  /* a = cycles skipped, b = the most of them at once */
+	RMD_EV_WATCHDOG,  /* a = enum rmd_watchdog_state */
 	/*
 	 * a = enum rmd_safe_action (rmd/config.h); b = 1: the shutdown's stop
 	 * or hold that rmd_loop_stop_motors() sent, right before the motor's

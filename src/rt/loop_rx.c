@@ -613,6 +613,37 @@ static __attribute__((cold, noinline)) void stray_answered(struct rmd_loop *l, u
 	loop_event(l, now, RMD_EV_STRAY, 0xFF, b, f->can_id, id);
 }
 
+/*
+ * lm echoed its request `cmd` instead of running it: the first command a
+ * motor hears after its comm-loss protection tripped (docs/design.md).
+ * From a motor driven with its protection armed that is the trip itself,
+ * its 0xF1 unheard (lost on the wire, or firmware that sends none): its
+ * output went off, so it is lost, as for the 0xF1 -- never taken for
+ * running, and never driven again before the controller enables it anew
+ * (issue 32 point 3).  A motor coming back (the read ahead of its 0xB3
+ * round takes such an echo, proc_arm.c) is not driven: nothing to tell.
+ * Left: a setpoint whose real answer is all zeros where it has zeros (0
+ * degC, at rest at 0.00 deg) is taken for a trip too -- lost, the safe
+ * side.  rt-safe.
+ */
+static __attribute__((cold, noinline)) void echo_tripped(struct rmd_loop *l, struct lmotor *lm,
+							 uint16_t cmd, int64_t now)
+{
+	const struct rmd_cmd_spec *row = cmd <= 0xFF ? rmd_motor_row(&lm->m, (uint8_t)cmd) : NULL;
+
+	/*
+	 * A read's answer may repeat it for real (0xB1 just after a boot:
+	 * runtime 0), and tells nothing run or not: only a command with
+	 * arguments (a setpoint, a safe action) is judged
+	 */
+	if ((lm->st->lifecycle != RMD_LC_ENABLED && lm->st->lifecycle != RMD_LC_SAFE) ||
+	    lm->arm.cl != RMD_CL_ARMED || !row || !row->req.n)
+		return;
+	loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
+		   RMD_EV_TRIP_ECHOED | (cmd & 0xFF), RMD_MOTOR_CMD_COMM_LOST);
+	loop_motor_lost(l, lm, now);
+}
+
 /* rt-safe. */
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
@@ -657,6 +688,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		if (echo) {
 			/* docs/design.md: after a comm-loss trip the first command is only echoed */
 			l->cnt.echoes++;
+			echo_tripped(l, lm, cmd, now);
 			return;
 		}
 		if (__builtin_expect(lm->ident.open, 0)) {

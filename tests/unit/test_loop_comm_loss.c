@@ -48,6 +48,83 @@ static void test_comm_loss_trip(void **state)
 	rig_down();
 }
 
+/*
+ * Issue 32 point 3: a trip whose 0xF1 is not heard.  The loop stalls for
+ * 300 ms while the motors run; their 0xB3 (100 ms) trips, and every 0xF1
+ * is lost on the wire.  The first command each hears after the stall is
+ * only echoed, not run: that echo is the motor saying it tripped (its
+ * output off), so it is treated as the 0xF1 would be -- lost, reported,
+ * and no setpoint reaches it again until the controller enables it anew.
+ * Judged on the wire: before, the echo was counted and the next setpoint
+ * ran the motor again, reported ENABLED all along.
+ */
+/* Where the host's frames stood (trace_n) when each motor's first echo of a 0xA2 went out. */
+static unsigned echo_at[3];
+
+static void note_echo(unsigned b, const struct rmd_sim_pending *p, int64_t start_ns)
+{
+	(void)start_ns;
+	/* a speed reply carries its temperature in DATA[1]; the request, zeros */
+	if (b == 0 && p->src >= 0 && p->src < 3 && p->f.data[0] == 0xA2 && !p->f.data[1] &&
+	    !p->f.data[2] && !p->f.data[3] && echo_at[p->src] == UINT32_MAX)
+		echo_at[p->src] = trace_n;
+}
+
+static void test_trip_seen_by_echo(void **state)
+{
+	struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_DROP,
+				   .probability = 1.0,
+				   .cmd = RMD_MOTOR_CMD_COMM_LOST };
+	struct rmd_loop_counters c;
+	unsigned tripped = 0;
+
+	(void)state;
+	up_at_speed(NULL, 3, 1.0, 200);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_ENABLED);
+	fault_now(&f, 0);
+	R.nev = 0;
+	for (unsigned i = 0; i < 3; i++)
+		echo_at[i] = UINT32_MAX;
+	rig_tap_hook = note_echo;
+	t_now += 300 * MS;
+	run(1, true);
+	for (unsigned i = 0; i < 3; i++)
+		assert_true(sim_motor(i)->echo_next || sim_motor(i)->ctrl == RMD_SIM_OFF);
+	run(30, true);
+	rig_tap_hook = NULL;
+	rmd_loop_get_counters(R.l, &c);
+	assert_true(c.echoes >= 3);
+	for (unsigned i = 0; i < 3; i++) {
+		unsigned after;
+
+		if (echo_at[i] == UINT32_MAX)
+			fail_msg("motor %u echoed no 0xA2 after the stall: not tested", i + 1);
+		/*
+		 * After its echo went out, at most the setpoint already on its
+		 * way before rmdd could take the echo (the next cycle's, sent
+		 * ahead of the reply's arrival), then none: its safe action
+		 */
+		after = sent_to(i, 0xA2, echo_at[i]);
+		if (after > 1)
+			fail_msg("motor %u: %u speed setpoints after its echo (the trip)", i + 1,
+				 after);
+		assert_int_not_equal(sim_motor(i)->ctrl, RMD_SIM_SPEED);
+		assert_int_not_equal(lifecycle(i), RMD_LC_ENABLED);
+		for (unsigned k = 0; k < R.nev; k++)
+			tripped += R.ev[k].kind == RMD_EV_MOTOR_ERROR && R.ev[k].motor == i &&
+				   R.ev[k].b == RMD_MOTOR_CMD_COMM_LOST;
+	}
+	assert_int_equal(tripped, 3);
+	/* enabled anew, it runs */
+	run(700, true);
+	cl_reenable(0);
+	run(30, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(sim_motor(0)->ctrl, RMD_SIM_SPEED);
+	rig_down();
+}
+
 /* ---- issue 13: comm-loss protection is a precondition of motion ------------------- */
 
 /* The loop's and the health's view of motor i's protection. */
@@ -497,6 +574,7 @@ static void test_v2_protection_off_by_config(void **state)
 SUITE_MAIN("loop_comm_loss", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_comm_loss_trip),
+		   cmocka_unit_test(test_trip_seen_by_echo),
 		   cmocka_unit_test(test_cl_reproducer),
 		   cmocka_unit_test(test_cl_refused),
 		   cmocka_unit_test(test_cl_late_motor),

@@ -196,6 +196,12 @@ static int motor_error_line(const struct ev *v, char *buf, size_t len)
 	size_t n, used = 0;
 
 	/* docs/design.md: the motor heard nothing for its 0xB3 time */
+	if (e->b == RMD_MOTOR_CMD_COMM_LOST && (e->a & RMD_EV_TRIP_ECHOED))
+		return say(buf, len, 4,
+			   "%s: its comm-loss protection tripped: it echoed 0x%02X instead of "
+			   "running it (its 0xF1 not heard): output off, brake locked; treated as "
+			   "lost",
+			   v->ctx, (unsigned)(e->a & 0xFF));
 	if (e->b == RMD_MOTOR_CMD_COMM_LOST)
 		return say(buf, len, 4,
 			   "%s: its comm-loss protection tripped (0xF1): output off, brake locked; "
@@ -214,7 +220,10 @@ static int motor_error_line(const struct ev *v, char *buf, size_t len)
 
 static void motor_error_text(const struct ev *v, char *buf, size_t len)
 {
-	if (v->e->b == RMD_MOTOR_CMD_COMM_LOST)
+	if (v->e->b == RMD_MOTOR_CMD_COMM_LOST && (v->e->a & RMD_EV_TRIP_ECHOED))
+		snprintf(buf, len, "%s: its comm-loss protection tripped (0x%02X echoed)", v->ctx,
+			 (unsigned)(v->e->a & 0xFF));
+	else if (v->e->b == RMD_MOTOR_CMD_COMM_LOST)
 		snprintf(buf, len, "%s: 0xF1, its comm-loss protection tripped", v->ctx);
 	else if (v->e->a)
 		snprintf(buf, len, "%s: error flags 0x%04X", v->ctx, (unsigned)(uint16_t)v->e->a);
