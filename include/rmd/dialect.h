@@ -272,6 +272,31 @@ const struct rmd_dialect *rmd_dialect_for_firmware(uint32_t version, bool *certa
 bool rmd_dialect_other_firmware(const struct rmd_dialect *d, uint32_t version,
 				const struct rmd_dialect **fw);
 
+/*
+ * What firmware seen in the field does that no manual says (issue 32;
+ * docs/protocol-v4.md "Firmware in the field"): one report each, by the
+ * 0xB2 version the report names.  rmdd and the tools ask
+ * rmd_firmware_quirks(); the simulator's personalities are the motors.
+ */
+enum rmd_quirk {
+	/* 0x9A DATA[3] reads 1 while the motor runs commands, not "brake released" (V3 §2.12) */
+	RMD_QUIRK_9A_BYTE3_RUNNING = 1u << 0,
+	/* 0x79 answered with a 0xB2-shaped frame, the ID unchanged: 0x20 index 5 sets it */
+	RMD_QUIRK_79_ANSWERS_B2 = 1u << 1,
+	/* after 0x20 index 5 the new ID echoes and answers before 0x76, the old one too */
+	RMD_QUIRK_NEW_ID_EARLY = 1u << 2,
+	/* 0xA4 (position) ignored after an MIT frame until the motor is reset (0x76) */
+	RMD_QUIRK_A4_AFTER_MIT = 1u << 3,
+};
+
+/*
+ * The quirks (enum rmd_quirk) of firmware version `version` (0xB2, as
+ * answered: yyyymmdd or yyyymmddNN).  A report names a model or two; a
+ * quirk is taken for every model of that build, the side that refuses
+ * rather than trusts.  0: none known.  rt-safe.
+ */
+unsigned rmd_firmware_quirks(uint32_t version);
+
 /* The record of dialect `proto`, or NULL when there is none.  rt-safe. */
 extern const struct rmd_dialect rmd_dialects[RMD_PROTO_COUNT]; /* read through rmd_dialect() */
 

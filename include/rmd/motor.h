@@ -186,6 +186,8 @@ struct rmd_motor {
 	struct rmd_config_limits limits;
 	/* driven in MIT mode: `mode: mit`, on firmware that offers it (rmd_dialect_offers_mit()) */
 	bool mit_mode;
+	/* what its firmware does that no manual says: rmd_firmware_quirks() of its 0xB2 date */
+	unsigned quirks;
 	/*
 	 * mit holds its decided MIT scaling (rmd_motor_set_mit()): MIT frames
 	 * may be encoded and decoded.  rmd_motor_init() decides it from the

@@ -362,6 +362,28 @@ bool rmd_dialect_other_firmware(const struct rmd_dialect *d, uint32_t version,
 	return certain && (*fw)->table != d->table;
 }
 
+/*
+ * Field reports (issue 32), by the version the motors answered: X4-36,
+ * X4-64 and X6-P20 on 2025070202 (0x79 as 0xB2, the new ID early, 0xA4
+ * after MIT, 0x9A DATA[3]); an X8-P20 on 2026042402 switches from MIT to
+ * position freely.
+ */
+static const struct {
+	uint32_t version;
+	unsigned quirks;
+} firmware_quirks[] = {
+	{ 2025070202u, RMD_QUIRK_9A_BYTE3_RUNNING | RMD_QUIRK_79_ANSWERS_B2 |
+			       RMD_QUIRK_NEW_ID_EARLY | RMD_QUIRK_A4_AFTER_MIT },
+};
+
+unsigned rmd_firmware_quirks(uint32_t version)
+{
+	for (size_t k = 0; k < ARRAY_SIZE(firmware_quirks); k++)
+		if (firmware_quirks[k].version == version)
+			return firmware_quirks[k].quirks;
+	return 0;
+}
+
 bool rmd_dialect_takes_280(uint32_t can_id, uint8_t *id)
 {
 	for (unsigned p = 0; p < RMD_PROTO_COUNT; p++) {

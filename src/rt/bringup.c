@@ -273,6 +273,8 @@ static int read_date(struct rmd_loop *l, struct lmotor *lm, struct rmd_bringup_m
 			return -ETIMEDOUT;
 	}
 	out->version = lm->ident.version = r->version_date;
+	/* before its status read: what its 0x9A says depends on them */
+	lm->m.quirks = rmd_firmware_quirks(r->version_date);
 	return 0;
 }
 
@@ -554,6 +556,7 @@ static int probe_motor(struct rmd_loop *l, unsigned i, struct rmd_bringup_motor 
 		}
 	}
 	now = loop_now(l);
+	lm->m.quirks = rmd_firmware_quirks(out->version);
 	out->pushed = lm->sil.pushed;
 	out->mismatch = mismatch_of(l, i, out);
 	if (out->mismatch == RMD_BRINGUP_MISMATCH_NONE && !decide_mit(l, i, out))

@@ -543,6 +543,7 @@ static __attribute__((cold, noinline)) void settle_dialect(struct rmd_loop *l, u
 		refuse_dialect(l, b, lm, (int64_t)r.version_date, fw->proto, now);
 		break;
 	case RMD_IDENT_SAME:
+		lm->m.quirks = rmd_firmware_quirks(r.version_date);
 		if (!lm->m.mit_mode || settle_mit(l, b, lm, r.version_date, now))
 			lm->life.next_probe_ns = now; /* the next cycle's 0x9A brings it back */
 		break;
@@ -611,6 +612,18 @@ static __attribute__((cold, noinline)) void stray_answered(struct rmd_loop *l, u
 	lb->stray = true;
 	lb->stray_id = f->can_id;
 	loop_event(l, now, RMD_EV_STRAY, 0xFF, b, f->can_id, id);
+}
+
+/*
+ * An answer (its request's echo) to lm's `cmd`, of firmware with quirks:
+ * where 0x9A DATA[3] tells that it runs commands, not its brake, the
+ * brake is what it acknowledged: 0x77 released, 0x78 locked (V3 §2.26,
+ * §2.27).  rt-safe.
+ */
+static __attribute__((cold, noinline)) void quirk_answer(struct lmotor *lm, uint16_t cmd)
+{
+	if ((lm->m.quirks & RMD_QUIRK_9A_BYTE3_RUNNING) && (cmd == 0x77 || cmd == 0x78))
+		lm->st->brake_released = cmd == 0x77;
 }
 
 /*
@@ -696,6 +709,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			settle_dialect(l, b, lm, f, now);
 			return;
 		}
+		if (__builtin_expect(lm->m.quirks != 0, 0))
+			quirk_answer(lm, cmd);
 		if (o->echo_is_reply && owed_echo(l, lm, o, f, now))
 			return;
 		if (cmd == RMD_ARM_CMD && f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {

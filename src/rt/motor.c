@@ -836,6 +836,9 @@ static __attribute__((noinline)) int reply_fields(struct rmd_motor *m, const str
 		}
 		r->have |= field_have[fs->field];
 	}
+	/* docs/protocol-v4.md "Firmware in the field": its DATA[3] says it runs, not its brake */
+	if (m->quirks & RMD_QUIRK_9A_BYTE3_RUNNING)
+		r->have &= ~(unsigned)RMD_MOTOR_HAVE_BRAKE;
 	take_position(m, have_angle, angle, have_enc, enc, spec->cmd, r);
 	return 0;
 }

@@ -1,0 +1,122 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The rt loop against firmware as the field reports it (issue 32;
+ * harness/loop_rig.h; docs/protocol-v4.md "Firmware in the field"): what
+ * rmdd reports and does for the quirks rmd_firmware_quirks() knows, and
+ * that firmware without them is taken as the manual says.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#include <cmocka.h>
+
+#include "harness/loop_rig.h"
+#include "harness/suite.h"
+#include "rmd/dialect.h"
+
+/* The version of the field reports (X4-36, X4-64, X6-P20). */
+#define FIELD_FW 2025070202u
+
+static uint32_t fw_version;
+
+/* Motor 1 V4 in both the entry and the simulated firmware. */
+static void v4_entry(struct rmd_config *cfg)
+{
+	cfg->motors[0].proto = RMD_PROTO_V4;
+}
+
+static void v4_firmware(struct rmd_sim_setup *sim)
+{
+	sim->motors[0].proto = RMD_PROTO_V4;
+	sim->motors[0].version_date = fw_version;
+}
+
+/*
+ * A tap hook: motor 1's status answers (0x9A) carry in DATA[3] the
+ * opposite of its brake.  On 2025070202 firmware the byte says whether it
+ * runs commands (issue 32 point 5), which is not the brake: it may say
+ * either; this makes it say the one thing it must not be taken for.
+ */
+static void byte3_not_brake(unsigned b, const struct rmd_sim_pending *p, int64_t start_ns)
+{
+	struct rmd_frame *f = (struct rmd_frame *)&p->f;
+
+	(void)start_ns;
+	if (b == 0 && p->src == 0 && f->len == 8 && f->data[0] == 0x9A)
+		f->data[3] = sim_motor(0)->brake_locked;
+}
+
+/* Motor 1 up on firmware `version`, its 0x9A answers rewritten by byte3_not_brake(). */
+static void up_on(uint32_t version)
+{
+	fw_version = version;
+	rig_sim_tweak = v4_firmware;
+	rig_up(1, v4_entry);
+	rig_sim_tweak = NULL;
+	rig_tap_hook = byte3_not_brake;
+	bring_up();
+	assert_int_equal(R.report.motor[0].version, version);
+	cmd_clear();
+}
+
+/*
+ * On 2025070202 firmware 0x9A DATA[3] tells that the motor runs, not its
+ * brake: state_t's brake_released is what the motor acknowledged -- 0x77
+ * released, 0x78 locked -- judged against the simulated brake, while the
+ * byte says the opposite: READY (locked), enabled (released), disabled
+ * (STOPPING's 0x78 echoed: locked).
+ */
+static void test_byte3_is_not_the_brake(void **state)
+{
+	(void)state;
+	assert_true(rmd_firmware_quirks(FIELD_FW) & RMD_QUIRK_9A_BYTE3_RUNNING);
+	up_on(FIELD_FW);
+	run(300, true);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_true(sim_motor(0)->brake_locked);
+	assert_false(snap().m[0].brake_released);
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 0.5;
+	run(300, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_false(sim_motor(0)->brake_locked);
+	assert_true(snap().m[0].brake_released);
+	cmd_motor(0, false, RMD_MODE_SPEED);
+	run(300, true);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_true(sim_motor(0)->brake_locked);
+	assert_false(snap().m[0].brake_released);
+	rig_tap_hook = NULL;
+	rig_down();
+}
+
+/*
+ * The same byte on firmware without the quirk is its brake, as V3 §2.12
+ * says, and rmdd reports what it says (here the opposite of the
+ * simulated brake): the test above is not passed by ignoring the byte.
+ */
+static void test_byte3_is_the_brake_elsewhere(void **state)
+{
+	(void)state;
+	assert_int_equal(rmd_firmware_quirks(2026042402u), 0);
+	up_on(2026042402u);
+	run(300, true);
+	assert_int_equal(lifecycle(0), RMD_LC_READY);
+	assert_true(sim_motor(0)->brake_locked);
+	assert_true(snap().m[0].brake_released);
+	cmd_motor(0, true, RMD_MODE_SPEED)->vel_rad_s = 0.5;
+	run(300, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_false(sim_motor(0)->brake_locked);
+	assert_false(snap().m[0].brake_released);
+	rig_tap_hook = NULL;
+	rig_down();
+}
+
+SUITE_MAIN("loop_field", NULL, NULL,
+	   {
+		   cmocka_unit_test(test_byte3_is_not_the_brake),
+		   cmocka_unit_test(test_byte3_is_the_brake_elsewhere),
+	   })
