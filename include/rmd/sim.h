@@ -41,8 +41,11 @@
  * - Comm-loss protection (V3 §2.30, 0xB3, ROM) arms at the first frame
  *   addressed to the motor after a start.  When it trips: output off,
  *   mode cleared, brake locked, a 0xF1 frame at once and then every
- *   second (seen on V4 firmware, docs/design.md); the first frame after that is
- *   echoed on the reply identifier and not executed.
+ *   second (seen on V4 firmware, docs/design.md; p.comm_loss_f1_ms and
+ *   p.comm_loss_silent change it); the first frame after that is echoed on
+ *   the reply identifier and not executed (unless p.comm_loss_executes_first).
+ * - Personalities (rmd/sim_personality.h): firmware of a model and date
+ *   that departs from its manual, by parameters that are off by default.
  * - V4 (docs/protocol-v4.md), read through the dialect's record: one float
  *   gain by index in 0x30..0x32 (RMD_PID_FLOAT_INDEXED), 0x42 by index,
  *   no answer to 0x79; 0x20 index 5 writes the new ID to ROM and is
