@@ -716,6 +716,15 @@ static void log_startup(const struct sim *s)
 			 p->kt_nm_a, p->gear_ratio, p->load_nm, p->supply_v,
 			 p->has_brake ? "" : "no ", p->turnaround_ns / 1e3,
 			 p->turnaround_jitter_ns / 1e3);
+		/* the firmware's personality in effect (rmd/sim_personality.h) */
+		if (p->personality.source == RMD_PERSONALITY_BUILTIN ||
+		    p->personality.source == RMD_PERSONALITY_FILE) {
+			size_t at = strlen(desc[i]);
+
+			snprintf(desc[i] + at, sizeof(desc[i]) - at, ", personality %s%s",
+				 p->personality.name,
+				 p->personality.n_turnaround ? " (turnaround per command)" : "");
+		}
 	}
 	for (unsigned i = 0; i < n; i++) {
 		uint32_t same = 0;
