@@ -37,6 +37,7 @@
 #include "harness/proc.h"
 #include "harness/run_bound.h"
 #include "harness/sleeper.h"
+#include "tools/rmdctl/rmdctl.h"
 
 #define MS 1000000LL
 #define US 1000LL
@@ -501,6 +502,16 @@ static int64_t silent_ns(unsigned n)
 	return txn_silent_ns(n, RMD_TXN_TIMEOUT_NS, RMD_TXN_TRIES, RMD_TXN_CAN_SPACING_NS);
 }
 
+/* Without --timeout the first 0x9A of a run waits this long for a silent motor (rmdctl.h). */
+#define WAIT_PROBE_NS ((int64_t)RMDCTL_WAIT_PROBE_MS * MS)
+
+/* A probe of n ids without --timeout, all silent: the measuring try, then the others. */
+static int64_t silent_probe_ns(unsigned n)
+{
+	return WAIT_PROBE_NS +
+	       txn_silent_ns(n, RMD_TXN_TIMEOUT_NS, RMD_TXN_TRIES - 1, RMD_TXN_CAN_SPACING_NS);
+}
+
 static void test_scan(void **state)
 {
 	struct run r;
@@ -508,12 +519,13 @@ static void test_scan(void **state)
 
 	(void)state;
 	/*
-	 * Pipelined probes of 32 ids (29 silent), then 0xB5 and 0xB2 of the
-	 * three that answered: two batches of 3 tries, each try a wait; one
-	 * more for this test to see rmdctl's end.
+	 * Pipelined probes of 32 ids (29 silent): the try that measures the
+	 * wait, then two more; then 0xB5 and 0xB2 of the three that answered
+	 * (3 tries), each try a wait; one more for this test to see rmdctl's
+	 * end, one for the lone 0x9A that may follow the measuring try.
 	 */
 	run_timed(&r, "scan", (const char *const[]){ "scan", "--bus", "sim:1-3", "--json", NULL },
-		  silent_ns(RMD_MAX_MOTORS) + silent_ns(6), 2 * RMD_TXN_TRIES + 1);
+		  silent_probe_ns(RMD_MAX_MOTORS) + silent_ns(6), 2 * RMD_TXN_TRIES + 2);
 	assert_status(&r, 0, "scan");
 	assert_int_equal(count_lines(r.out), 3);
 	for (int id = 1; id <= 3; id++) {
@@ -560,16 +572,88 @@ static void test_status_missing(void **state)
 	struct run r;
 
 	(void)state;
-	/* One batch of 3 requests (0x9A, 0x92, 0x9C), 3 tries of 5 ms; one wait each, one more. */
+	/*
+	 * The 0x9A that measures the wait (100 ms), then one batch of 3
+	 * requests (0x9A, 0x92, 0x9C), 3 tries of 5 ms; one wait each, one more.
+	 */
 	run_timed(&r, "status 9", (const char *const[]){ "status", "9", "--bus", "sim:1-3", NULL },
-		  silent_ns(3), RMD_TXN_TRIES + 1);
+		  WAIT_PROBE_NS + silent_ns(3), RMD_TXN_TRIES + 2);
 	assert_status(&r, 1, "status 9");
-	assert_has(r.err, "sim:1-3: motor 9 did not answer 0x9A within 5 ms (3 tries)", "status 9");
+	assert_has(r.err,
+		   "sim:1-3: motor 9 did not answer 0x9A within 5 ms (3 tries; nor 0x9A in 100 ms "
+		   "before)",
+		   "status 9");
 	assert_string_equal(r.out, "");
 	run_free(&r);
 
 	CHECK_RUN(.args = { "status", "9", "--bus", "sim:1-3", "--timeout", "2", "--tries", "1" },
 		  .status = 1, .err_has = { "motor 9 did not answer 0x9A within 2 ms (1 try)" });
+}
+
+/* How many times needle is in hay. */
+static unsigned count_of(const char *hay, const char *needle)
+{
+	unsigned n = 0;
+
+	for (const char *p = strstr(hay, needle); p; p = strstr(p + 1, needle))
+		n++;
+	return n;
+}
+
+/*
+ * Issue 32 point 10: motors behind a slow USB adapter (answers held by a
+ * 16 ms latency timer, or 8 or 48 ms late) are found by scan, and answer a
+ * device command, without --timeout: the wait is measured first and said
+ * on stderr, in bounded time.  A write goes out once: every try of 0xB3 is
+ * a ROM write (the wire, --trace, says how many went out).
+ */
+static void test_slow_adapter(void **state)
+{
+	static const char *const slow[] = { "adapter_latency_timer_us=16000",
+					    "adapter_delay_us=8000", "adapter_delay_us=48000" };
+	/*
+	 * The measuring 0x9A (29 ids silent), the lone one to the slowest, two
+	 * more tries of the silent ids and the 0xB5/0xB2 batch, each try at
+	 * most the longest wait; one wait each, one more for the test.
+	 */
+	int64_t design = 2 * WAIT_PROBE_NS +
+			 txn_silent_ns(RMD_MAX_MOTORS, WAIT_PROBE_NS, RMD_TXN_TRIES - 1,
+				       RMD_TXN_CAN_SPACING_NS) +
+			 txn_silent_ns(6, WAIT_PROBE_NS, RMD_TXN_TRIES, RMD_TXN_CAN_SPACING_NS);
+	struct run r;
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(slow) / sizeof(slow[0]); i++) {
+		run_timed(&r, slow[i],
+			  (const char *const[]){ "scan", "--bus", "sim:1-3", "--json", "--sim",
+						 slow[i], NULL },
+			  design, 2 * RMD_TXN_TRIES + 3);
+		assert_status(&r, 0, slow[i]);
+		if (count_lines(r.out) != 3)
+			fail_msg("%s: scan found %zu motors, not 3:\n%s%s", slow[i],
+				 count_lines(r.out), r.out, r.err);
+		ASSERT_HAS_ALL(r.err, slow[i], "answered 0x9A after ",
+			       " ms per try (--timeout sets it)");
+		run_free(&r);
+	}
+	RUN(&r, "set-timeout", "2", "500", "--yes", "--bus", "sim:1-3", "--trace", "--sim",
+	    "adapter_delay_us=30000");
+	assert_status(&r, 0, "set-timeout, 30 ms adapter");
+	assert_has(r.out, "echo verified", "set-timeout, 30 ms adapter");
+	if (count_of(r.err, " sim:1-3 142#B3000000F4010000\n# TX ") != 1)
+		fail_msg("0xB3 went out %u times, not once:\n%s",
+			 count_of(r.err, " sim:1-3 142#B3000000F4010000\n# TX "), r.err);
+	run_free(&r);
+	CHECK_RUN(.args = { "status", "2", "--bus", "sim:1-3", "--json", "--sim",
+			    "adapter_latency_timer_us=16000" },
+		  .out_has = { "\"motor_id\":2," });
+	/* the old fixed wait: nothing found behind the 48 ms adapter */
+	CHECK_RUN(.args = { "scan", "--bus", "sim:1-3", "--timeout", "5", "--sim",
+			    "adapter_delay_us=48000" },
+		  .status = 1,
+		  .err_has = { "no motor answered 0x9A (32 ids probed, V3, 5 ms x 3" });
+	/* a fast bus: no wait widened, nothing said */
+	CHECK_RUN(.args = { "scan", "--bus", "sim:1-3" }, .err_lacks = "ms per try");
 }
 
 static void test_move(void **state)
@@ -835,6 +919,7 @@ int main(void)
 		PROC_TEST(test_scan),
 		PROC_TEST(test_status),
 		PROC_TEST(test_status_missing),
+		PROC_TEST(test_slow_adapter),
 		PROC_TEST(test_move),
 		PROC_TEST(test_move_unconfirmed),
 		PROC_TEST(test_move_limits),
@@ -845,5 +930,6 @@ int main(void)
 		PROC_TEST(test_bus_errors),
 	};
 
+	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("rmdctl_dev", tests, group_setup, group_teardown);
 }
