@@ -656,6 +656,27 @@ static void test_slow_adapter(void **state)
 	CHECK_RUN(.args = { "scan", "--bus", "sim:1-3" }, .err_lacks = "ms per try");
 }
 
+/*
+ * Issue 32 point 16: firmware that echoes 0x20 index 5 from the NEW id
+ * (2025070202) gets the write once, not once per try: each is a flash
+ * write.  The wire (--trace) counts the writes.
+ */
+static void test_set_id_writes_once(void **state)
+{
+	static const char write_tx[] = " sim:1-3 142#2005000009000000\n# TX ";
+	struct run r;
+
+	(void)state;
+	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:1-3", "--protocol", "v4", "--trace");
+	assert_status(&r, 0, "set-id v4");
+	assert_has(r.out, "motor 2 is now motor 9", "set-id v4");
+	assert_has(r.err, " sim:1-3 249#2005000009000000\n# RX ", "set-id v4: the new id's echo");
+	if (count_of(r.err, write_tx) != 1)
+		fail_msg("0x20 index 5 went out %u times, not once:\n%s", count_of(r.err, write_tx),
+			 r.err);
+	run_free(&r);
+}
+
 static void test_move(void **state)
 {
 	struct run r;
@@ -920,6 +941,7 @@ int main(void)
 		PROC_TEST(test_status),
 		PROC_TEST(test_status_missing),
 		PROC_TEST(test_slow_adapter),
+		PROC_TEST(test_set_id_writes_once),
 		PROC_TEST(test_move),
 		PROC_TEST(test_move_unconfirmed),
 		PROC_TEST(test_move_limits),

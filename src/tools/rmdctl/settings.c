@@ -82,8 +82,8 @@ static const char *req_name(const struct rmd_msg *m, char *buf, size_t size)
  * §2.34.4: 0x20 index 5, to ROM, then 0x76).  The reply is the request
  * (§2.34.3), but firmware 2025070202 (X4-36) sends it from the NEW id
  * (how->echo_from_new), while it still takes requests on the old one until
- * the reset: either is the answer.  Then the reset to the old id.  Returns
- * an exit status.
+ * the reset: either is the answer, the first time (each try writes flash).
+ * Then the reset to the old id.  Returns an exit status.
  */
 static int set_id_then_reset(struct dev *d, uint8_t old_id, uint8_t new_id,
 			     const struct rmd_set_id_req *how)
@@ -117,13 +117,25 @@ static int set_id_then_reset(struct dev *d, uint8_t old_id, uint8_t new_id,
 	memcpy(cap.data, t.req.data, RMD_FRAME_LEN);
 	o.unmatched = cap_echo;
 	o.unmatched_ctx = &cap;
-	r = rmd_txn_run(d->b, &t, 1, &o);
-	if (r < 0) {
-		tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
-		return RMDCTL_EXIT_DATA;
+	/*
+	 * Every try is a write to flash: one at a time, and the echo from
+	 * either id ends them.  The txn matches only the old id's, so the
+	 * new id's echo (cap_echo()) is looked for after each try, and among
+	 * the frames that came after it (a run with no request takes them)
+	 * before the next.
+	 */
+	o.tries = 1;
+	for (unsigned k = 0; k < d->tries && !cap.from; k++) {
+		r = k ? rmd_txn_run(d->b, &t, 0, &o) : 0;
+		if (r >= 0 && !cap.from)
+			r = rmd_txn_run(d->b, &t, 1, &o);
+		if (r < 0) {
+			tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
+			return RMDCTL_EXIT_DATA;
+		}
+		if (t.done)
+			cap.from = t.reply_id;
 	}
-	if (t.done)
-		cap.from = t.reply_id;
 	if (!cap.from) {
 		tool_log(TOOL_LOG_ERR,
 			 "%s: motor %u did not answer %s (from id %u or %u): the id may not have "
