@@ -677,6 +677,33 @@ static void test_set_id_writes_once(void **state)
 	run_free(&r);
 }
 
+/*
+ * Issue 32 point 2: 0x20 index 5 takes effect at the reset (0x76), and the
+ * motor boots for 1.1 s (1.12 s was measured) before it answers: set-id
+ * waits for the boot, then judges by what the motor says -- the new id's
+ * runtime (0xB1) restarted, the old id silent -- and says so.  On the
+ * wire: one write, one reset, then the new id's 0xB1 answer.
+ */
+static void test_set_id_reboot(void **state)
+{
+	struct run r;
+	const char *reset, *runtime;
+
+	(void)state;
+	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:1-3", "--protocol", "v4", "--trace",
+	    "--sim", "boot_ms=1100");
+	assert_status(&r, 0, "set-id across a 1.1 s boot");
+	ASSERT_HAS_ALL(r.out, "set-id across a 1.1 s boot", "motor 2 is now motor 9 (ROM)",
+		       "after the reset id 9 answers", "its runtime restarted",
+		       "id 2 no longer does");
+	reset = strstr(r.err, " sim:1-3 142#7600000000000000\n# TX ");
+	runtime = strstr(r.err, " sim:1-3 249#B1");
+	if (!reset || !runtime || runtime < reset ||
+	    count_of(r.err, " sim:1-3 142#7600000000000000\n# TX ") != 1)
+		fail_msg("expected one 0x76 to id 2, then 0xB1 answered from id 9:\n%s", r.err);
+	run_free(&r);
+}
+
 static void test_move(void **state)
 {
 	struct run r;
@@ -942,6 +969,7 @@ int main(void)
 		PROC_TEST(test_status_missing),
 		PROC_TEST(test_slow_adapter),
 		PROC_TEST(test_set_id_writes_once),
+		PROC_TEST(test_set_id_reboot),
 		PROC_TEST(test_move),
 		PROC_TEST(test_move_unconfirmed),
 		PROC_TEST(test_move_limits),

@@ -116,11 +116,18 @@ static const struct rmdctl_cmd cmds[] = {
 	    "writes all but the gains.  V3 and V4 only.\n",
 	    rmdctl_run_restore),
 	DEV("set-id", "renumber a motor (ROM)", "OLD NEW", 2, 2, O_YES | O_FORCE,
-	    "Renumbers motor OLD to NEW (0x79, ROM) and checks that NEW answers.  V3\n"
-	    "sends 0x79 on 0x300, which every motor on the bus with its CAN-ID filter\n"
-	    "off (0x20 index 2) obeys: with other motors answering, set-id refuses\n"
-	    "unless --force.  V4 (--protocol v4) writes NEW with 0x20 index 5 to OLD\n"
-	    "alone and resets it (0x76).  Asks for confirmation.\n",
+	    "Renumbers motor OLD to NEW (ROM) and checks that NEW answers and OLD no\n"
+	    "longer does; refuses a NEW that a motor answers on.  V3 sends 0x79 on\n"
+	    "0x300, which every motor on the bus with its CAN-ID filter off (0x20\n"
+	    "index 2) obeys: with other motors answering, set-id refuses unless\n"
+	    "--force.  V4 (--protocol v4) writes NEW with 0x20 index 5 to OLD alone\n"
+	    "(its echo comes from OLD or, firmware 2025070202, NEW: either is taken\n"
+	    "the first time, as each try writes flash), resets it (0x76), and waits up\n"
+	    "to 3 s for the boot (1.12 s measured): NEW's runtime (0xB1) must have\n"
+	    "restarted.  OLD's firmware date (0xB2) is asked first: a motor whose\n"
+	    "date says another dialect's way (2025070202: 0x20 index 5, not 0x79) is\n"
+	    "renumbered that way, said on stderr; so is one that answers 0x79 with a\n"
+	    "0xB2 frame.  Asks for confirmation.\n",
 	    rmdctl_run_set_id),
 	DEV("set-zero", "make the current position the zero (ROM)", "ID", 1, 1, O_YES,
 	    "Makes the current position the zero (0x64, ROM).  It applies after a reset\n"
