@@ -62,6 +62,7 @@
 #include "rmd/dialect.h"
 #include "rmd/frame.h"
 #include "rmd/mit.h"
+#include "rmd/sim_personality.h"
 
 #define RMD_SIM_STEP_NS 50000 /* physics step: 50 us */
 
@@ -183,10 +184,49 @@ struct rmd_sim_motor_params {
 	 * X-series motor was measured at 1.12 s (docs/rmd-sim.md).
 	 */
 	unsigned boot_ms;
+	/*
+	 * Firmware behaviour seen in the field (issue 32), each off by
+	 * default; a personality (below) switches them on.
+	 * answers_79_as_b2: 0x79, read or write, is answered with the 0xB2
+	 * reply and changes nothing (X4-64 on 2025070202).
+	 * set_id_replies_new: after 0x20 index 5 every reply comes from the
+	 * new ID while requests are still taken on the old one, until 0x76
+	 * (X4-36/X4-64 on 2025070202).
+	 */
+	bool answers_79_as_b2;
+	bool set_id_replies_new;
+	/*
+	 * After a comm-loss trip (V3 §2.30): 0xF1 every comm_loss_f1_ms
+	 * (1..60000; 0 taken as 1000, the period seen on V4 firmware), none
+	 * with comm_loss_silent; the first command then only echoed unless
+	 * comm_loss_executes_first.
+	 */
+	unsigned comm_loss_f1_ms;
+	bool comm_loss_silent;
+	bool comm_loss_executes_first;
+	/* 0xA4 not executed (answered as it stands) after an MIT frame until a reset (X6-P20) */
+	bool a4_ignored_after_mit;
+	/* 0x9A data[3]: 1 while a control mode runs, not the brake's state (2025070202) */
+	bool status1_executing;
+	/*
+	 * The firmware's personality (rmd/sim_personality.h): auto (zero, the
+	 * default) picks the built-in one of model, version_date and proto;
+	 * rmd_sim_motor_init() applies it over the fields above.
+	 */
+	struct rmd_personality personality;
 };
 
 /* Parameters of a typical X8 actuator; id and proto set by the caller. */
 void rmd_sim_motor_params_default(struct rmd_sim_motor_params *p, uint8_t id, enum rmd_proto proto);
+
+/*
+ * Resolve p->personality (auto: the built-in one of p's model, version_date
+ * and proto, if any) and give p what it sets: model, date, dialect, boot
+ * time, MIT ranges, 0xF1 period, flags.  p->personality is then the record
+ * applied (source auto left: none matched).  rmd_sim_motor_init() calls it.
+ * rt-safe (no allocation), not cheap.
+ */
+void rmd_personality_apply(struct rmd_sim_motor_params *p);
 
 enum rmd_sim_ctrl {
 	RMD_SIM_OFF = 0,   /* output off (0x80, power-on, comm-loss) */
@@ -279,6 +319,11 @@ struct rmd_sim_motor {
 	int64_t next_f1_ns;
 	int64_t next_9a_ns;
 	bool present; /* false: disappeared, answers nothing */
+	/* p.set_id_replies_new: the ID its replies come from after 0x20 index 5; 0 its own */
+	uint8_t reply_as;
+	bool mit_seen; /* an MIT frame was executed since the last start (p.a4_ignored_after_mit) */
+	/* p.personality's turnaround line index + 1 by command byte (256: MIT); 0 none */
+	uint8_t turnaround_row[257];
 	uint64_t rng;
 };
 

@@ -31,6 +31,12 @@ enum rmd_sim_param_type {
 	RMD_SIM_PARAM_MODEL,   /* char[8]: 1..7 printable ASCII characters (0xB5) */
 	RMD_SIM_PARAM_VERSION, /* uint32_t yyyymmdd (0xB2) */
 	RMD_SIM_PARAM_MIT,     /* struct rmd_mit_ranges from "P,V,T,KP,KD" */
+	/*
+	 * struct rmd_personality: auto, none or a built-in name
+	 * (rmd/sim_personality.h); a file where a reader of files parses it
+	 * (rmd_sim_param_parse_file(), rmd/personality_load.h)
+	 */
+	RMD_SIM_PARAM_PERSONALITY,
 };
 
 /* Row flags */

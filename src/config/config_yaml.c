@@ -20,6 +20,7 @@
 
 #include "rmd/config_yaml.h"
 #include "rmd/dialect.h"
+#include "rmd/personality_load.h"
 #include "rmd/rs485.h"
 #include "rmd/sim_params.h"
 #include "rmd/sim_wire.h"
@@ -117,7 +118,7 @@ static int sim_param_text(const struct field *f, const char *text, void *dst, ch
 	int r;
 
 	rmd_sim_motor_params_default(&scratch, 1, RMD_PROTO_V3);
-	r = rmd_sim_param_parse(&scratch, row, text, allowed, size);
+	r = rmd_sim_param_parse_file(&scratch, row, text, allowed, size);
 	if (r == 0)
 		memcpy(dst, (const char *)&scratch + row->off, rmd_sim_param_size(row));
 	return r;
@@ -159,6 +160,7 @@ static void sim_motor_fields_build(void)
 		case RMD_SIM_PARAM_MODEL:
 		case RMD_SIM_PARAM_VERSION:
 		case RMD_SIM_PARAM_MIT:
+		case RMD_SIM_PARAM_PERSONALITY:
 			f->type = T_TEXT;
 			f->parse = sim_param_text;
 			f->ctx = row;

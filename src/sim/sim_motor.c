@@ -28,7 +28,7 @@
 #include "sim_physics.h"
 
 /* docs/design.md (seen on V4 firmware): a 0xF1 frame each second after a trip. */
-#define COMM_LOST_PERIOD_NS INT64_C(1000000000)
+#define COMM_LOST_PERIOD_MS 1000u
 /* V3 §2.33.4 index 3: while faulted, 0x9A every 100 ms. */
 #define ERROR_REPORT_PERIOD_NS INT64_C(100000000)
 /* V4.2 §2.33.2: 0xB6's interval counts 10 ms steps. */
@@ -72,6 +72,7 @@ static const struct rmd_sim_motor_params default_params = {
 	/* docs/design.md: motors answer 0.5-0.8 ms after a request. */
 	.turnaround_ns = 500000.0,
 	.turnaround_jitter_ns = 100000.0,
+	.comm_loss_f1_ms = COMM_LOST_PERIOD_MS,
 };
 
 void rmd_sim_motor_params_default(struct rmd_sim_motor_params *p, uint8_t id, enum rmd_proto proto)
@@ -95,9 +96,15 @@ uint64_t rmd_sim_motor_rand(struct rmd_sim_motor *m)
 	return rmd_rng_next(&m->rng);
 }
 
+/* [0, 1) from the motor's PRNG */
+static double rand_unit(struct rmd_sim_motor *m)
+{
+	return (double)(rmd_sim_motor_rand(m) >> 11) * 0x1.0p-53;
+}
+
 int64_t rmd_sim_motor_turnaround_ns(struct rmd_sim_motor *m)
 {
-	double u = (double)(rmd_sim_motor_rand(m) >> 11) * 0x1.0p-53; /* [0, 1) */
+	double u = rand_unit(m);
 	double t = m->p.turnaround_ns + (2.0 * u - 1.0) * m->p.turnaround_jitter_ns;
 
 	if (!(t > 0.0))
@@ -118,9 +125,23 @@ int64_t rmd_sim_motor_rom_extra_ns(const struct rmd_sim_motor *m, const struct r
 	return spec && spec->flags & RMD_CMD_ROM ? (int64_t)m->p.rom_write_ns : 0;
 }
 
+/*
+ * The turnaround of the reply to req: drawn from its personality's line for
+ * the command (a recording, rmd/sim_personality.h), else mean +- jitter.
+ */
+static int64_t turnaround_for(struct rmd_sim_motor *m, const struct rmd_frame *req)
+{
+	unsigned key = req->can_id >= RMD_CAN_MIT_REQ_BASE ? 256u : req->len ? req->data[0] : 0u;
+	unsigned row = m->turnaround_row[key];
+
+	if (!row)
+		return rmd_sim_motor_turnaround_ns(m);
+	return rmd_personality_turnaround_ns(&m->p.personality.turnaround[row - 1], rand_unit(m));
+}
+
 int64_t rmd_sim_motor_reply_due(struct rmd_sim_motor *m, int64_t t_ns, const struct rmd_frame *req)
 {
-	int64_t due = t_ns + rmd_sim_motor_turnaround_ns(m) + rmd_sim_motor_rom_extra_ns(m, req);
+	int64_t due = t_ns + turnaround_for(m, req) + rmd_sim_motor_rom_extra_ns(m, req);
 
 	if (due < m->last_due_ns)
 		due = m->last_due_ns;
@@ -140,6 +161,16 @@ static void sanitize(struct rmd_sim_motor_params *p)
 		p->proto = RMD_PROTO_V3;
 	if (!p->version_date)
 		p->version_date = rmd_dialect(p->proto)->example_version;
+	/* the firmware's personality: chosen by model and date, or named */
+	rmd_personality_apply(p);
+	if (!rmd_dialect(p->proto))
+		p->proto = RMD_PROTO_V3;
+	if (!p->version_date)
+		p->version_date = rmd_dialect(p->proto)->example_version;
+	if (!p->comm_loss_f1_ms)
+		p->comm_loss_f1_ms = COMM_LOST_PERIOD_MS;
+	if (p->comm_loss_f1_ms > 60000)
+		p->comm_loss_f1_ms = 60000;
 #define POSITIVE(f)                                   \
 	do {                                          \
 		if (!(p->f > 0.0) || !isfinite(p->f)) \
@@ -256,6 +287,8 @@ static void boot(struct rmd_sim_motor *m, int64_t now_ns, int64_t boot_time_ns)
 	m->echo_next = false;
 	m->next_f1_ns = 0;
 	m->next_9a_ns = 0;
+	m->reply_as = 0; /* 0x76: the ID 0x20 index 5 wrote holds now (ROM) */
+	m->mit_seen = false;
 	m->boot_ns = now_ns;
 	m->awake_ns = now_ns + boot_time_ns;
 	rmd_sim_detect_faults(m, 0.0);
@@ -303,6 +336,13 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 			    m->d->pid_slots[k].index && m->d->pid_slots[k].index < RMD_SIM_NGAIN)
 				m->gain_index[i] = (int8_t)m->d->pid_slots[k].index;
 	}
+	/* the personality's turnaround lines by command (rmd_sim_motor_reply_due()) */
+	for (unsigned c = 0; c < 257; c++) {
+		const struct rmd_personality_turnaround *t = rmd_personality_turnaround_for(
+			&m->p.personality, c < 256 ? c : RMD_PERSONALITY_CMD_MIT);
+
+		m->turnaround_row[c] = t ? (uint8_t)(t - m->p.personality.turnaround + 1) : 0;
+	}
 	rom_defaults(m);
 	m->pos_rad = 0.0;
 	m->temp_c = m->p.ambient_c;
@@ -318,7 +358,7 @@ void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_para
 		m->comm_armed = true;
 		m->last_rx_ns = now_ns;
 		m->comm_lost = true;
-		m->echo_next = true;
+		m->echo_next = !m->p.comm_loss_executes_first;
 		m->next_f1_ns = now_ns;
 	}
 	/* another tool's active reply (V4.2 §2.33), until 0xB6 or a reset ends it */
@@ -412,6 +452,15 @@ static void v2_sign_magnitude(enum rmd_proto proto, const struct rmd_msg *msg, s
 	fr->data[l->f[0].off + l->f[0].size] = 1;
 }
 
+/*
+ * The ID its replies carry: its own, or after 0x20 index 5 on firmware that
+ * answers from the new one at once (p.set_id_replies_new) that one.
+ */
+static uint8_t reply_can_id(const struct rmd_sim_motor *m)
+{
+	return m->reply_as ? m->reply_as : m->ram.can_id;
+}
+
 static int emit(const struct rmd_sim_motor *m, enum rmd_proto proto, const struct rmd_msg *msg,
 		struct rmd_frame *out, int max)
 {
@@ -419,7 +468,7 @@ static int emit(const struct rmd_sim_motor *m, enum rmd_proto proto, const struc
 
 	if (max < 1 || !out)
 		return 0;
-	if (rmd_encode(proto, RMD_DIR_REPLY, m->ram.can_id, msg, &fr) < 0)
+	if (rmd_encode(proto, RMD_DIR_REPLY, reply_can_id(m), msg, &fr) < 0)
 		return 0;
 	if (m->p.v2_angle_magnitude)
 		v2_sign_magnitude(proto, msg, &fr);
@@ -484,8 +533,14 @@ static void fill_status1(const struct rmd_sim_motor *m, struct rmd_msg *msg,
 			 const struct rmd_cmd_spec *spec)
 {
 	put(msg, spec, RMD_FLD_TEMP, m->temp_c);
-	/* V3 §2.12.3: data[3] is the brake command state, 1 released. */
-	put_int(msg, spec, RMD_FLD_BRAKE, m->brake_locked ? 0 : 1);
+	/*
+	 * V3 §2.12.3: data[3] is the brake command state, 1 released; firmware
+	 * 2025070202 says 1 while it executes commands (p.status1_executing).
+	 */
+	if (m->p.status1_executing)
+		put_int(msg, spec, RMD_FLD_BRAKE, m->ctrl != RMD_SIM_OFF);
+	else
+		put_int(msg, spec, RMD_FLD_BRAKE, m->brake_locked ? 0 : 1);
 	put(msg, spec, RMD_FLD_VOLTAGE, m->p.supply_v);
 	put_int(msg, spec, RMD_FLD_ERROR, m->errors);
 }
@@ -655,6 +710,9 @@ static void motion(struct rmd_sim_motor *m, enum rmd_proto proto, const struct r
 		aim(m, RMD_SIM_POS_TRACK, ang + off, vmax);
 		break;
 	case 0xA4:
+		/* X6-P20 2025070202: ignored after an MIT frame until a reset */
+		if (m->p.a4_ignored_after_mit && m->mit_seen)
+			break;
 		/* V3 §2.20 / V2 §3.40: absolute, planned with 0x43 index 0/1. */
 		move_to(m, ang + off, vmax);
 		break;
@@ -1054,6 +1112,9 @@ static int answer(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns,
 			if (id >= 1 && id <= RMD_MAX_MOTORS) {
 				m->rom.can_id = (uint8_t)id;
 				reply_id = d->reply_base + (uint32_t)id;
+				/* and every reply after it, until the reset (PR 28's scan) */
+				if (m->p.set_id_replies_new)
+					m->reply_as = (uint8_t)id;
 			}
 			return echo(f, reply_id, out, max);
 		}
@@ -1073,6 +1134,17 @@ static int command(struct rmd_sim_motor *m, enum rmd_proto proto, int64_t now_ns
 {
 	if (pushed(m, f->data[0]))
 		return 0;
+	/* X4-64 2025070202: 0x79, whatever its bytes, answered as 0xB2 (p.answers_79_as_b2) */
+	if (m->p.answers_79_as_b2 && f->data[0] == 0x79) {
+		const struct rmd_cmd_spec *spec;
+		struct rmd_msg rep;
+
+		msg_for(proto, 0xB2, &rep, &spec);
+		if (!spec)
+			return 0;
+		put_int(&rep, spec, RMD_FLD_VERSION, m->p.version_date);
+		return emit(m, proto, &rep, out, max);
+	}
 	return answer(m, proto, now_ns, f, reply_id, out, max);
 }
 
@@ -1114,11 +1186,12 @@ static int mit_command(struct rmd_sim_motor *m, const struct rmd_frame *f, struc
 	if (!m->errors) {
 		enter(m, RMD_SIM_MIT);
 		m->mit = cmd;
+		m->mit_seen = true;
 	}
 	settle(m);
 	if (max < 1 || !out)
 		return 0;
-	rep.motor_id = m->ram.can_id;
+	rep.motor_id = reply_can_id(m);
 	rep.pos_rad = rmd_sim_angle_rad(m);
 	rep.vel_rad_s = m->vel_rad_s;
 	rep.torque_nm = m->p.kt_nm_a * m->iq_a;
@@ -1187,14 +1260,14 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 		reply_id = RMD_CAN_SET_ID;
 		break;
 	case R_MIT:
-		reply_id = RMD_CAN_MIT_REPLY_BASE + m->ram.can_id;
+		reply_id = RMD_CAN_MIT_REPLY_BASE + reply_can_id(m);
 		break;
 	case R_NONE:
 	case R_SINGLE:
 	case R_BROADCAST:
 	case R_V2_MULTI:
 	default:
-		reply_id = m->d->reply_base + m->ram.can_id;
+		reply_id = m->d->reply_base + reply_can_id(m);
 		break;
 	}
 
@@ -1202,8 +1275,9 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 	if (note_rx(m, now_ns))
 		return echo(f, reply_id, out, max);
 
-	/* firmware without the command: no answer (rmd/sim.h ignores_cmd) */
-	if (m->p.ignores_cmd && f->data[0] == m->p.ignores_cmd &&
+	/* firmware without the command: no answer (rmd/sim.h ignores_cmd, a recording's list) */
+	if (((m->p.ignores_cmd && f->data[0] == m->p.ignores_cmd) ||
+	     rmd_personality_ignores(&m->p.personality, f->data[0])) &&
 	    (r == R_SINGLE || r == R_BROADCAST))
 		return 0;
 	switch (r) {
@@ -1224,6 +1298,19 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 /* -------------------------------------------------------------------------- */
 /* Unsolicited frames                                                         */
 
+/* The 0xF1 period after a trip (p.comm_loss_f1_ms, sanitized to 1..60000 ms). */
+static int64_t f1_period_ns(const struct rmd_sim_motor *m)
+{
+	return (int64_t)(m->p.comm_loss_f1_ms ? m->p.comm_loss_f1_ms : COMM_LOST_PERIOD_MS) *
+	       1000000;
+}
+
+/* Whether 0xF1 frames come: tripped, and the firmware sends them (p.comm_loss_silent). */
+static bool f1_due(const struct rmd_sim_motor *m)
+{
+	return m->comm_lost && !m->p.comm_loss_silent;
+}
+
 static bool reporting(const struct rmd_sim_motor *m)
 {
 	return rmd_dialect_has(m->d, RMD_DIALECT_FUNC_CTRL) && m->error_reports && m->errors;
@@ -1239,19 +1326,19 @@ int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame
 	if (!awake(m, now_ns) || !out)
 		max = 0;
 	/* docs/design.md: 0xF1 each second while the protection holds (V4 firmware). */
-	while (m->comm_lost && m->next_f1_ns <= now_ns) {
+	while (f1_due(m) && m->next_f1_ns <= now_ns) {
 		if (n >= max) {
 			if (m->present && out)
 				break;
-			m->next_f1_ns += COMM_LOST_PERIOD_NS; /* lost: nobody hears it */
+			m->next_f1_ns += f1_period_ns(m); /* lost: nobody hears it */
 			continue;
 		}
 		memset(&out[n], 0, sizeof(out[n]));
-		out[n].can_id = RMD_CAN_V3_REPLY_BASE + m->ram.can_id;
+		out[n].can_id = RMD_CAN_V3_REPLY_BASE + reply_can_id(m);
 		out[n].len = RMD_FRAME_LEN;
 		out[n].data[0] = RMD_SIM_CMD_COMM_LOST;
 		n++;
-		m->next_f1_ns += COMM_LOST_PERIOD_NS;
+		m->next_f1_ns += f1_period_ns(m);
 	}
 	/* V3 §2.33.4 index 3: the 0x9A reply every 100 ms while faulted. */
 	while (reporting(m) && m->next_9a_ns <= now_ns) {
@@ -1299,7 +1386,8 @@ int64_t rmd_sim_motor_next_event_ns(const struct rmd_sim_motor *m)
 	int64_t t = INT64_MAX;
 
 	if (m->comm_lost) {
-		t = m->next_f1_ns;
+		if (f1_due(m))
+			t = m->next_f1_ns;
 	} else if (m->comm_armed && m->ram.comm_timeout_ms &&
 		   rmd_dialect_has(m->d, RMD_DIALECT_COMM_LOSS_B3)) {
 		/* The trip, and its first 0xF1, at the first step past the timeout. */

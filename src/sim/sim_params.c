@@ -14,6 +14,7 @@
 #include "rmd/codec.h"
 #include "rmd/mit.h"
 #include "rmd/sim_params.h"
+#include "rmd/sim_personality.h"
 
 #define ROW(k, a, t, field, lo, hi, excl, u, h, fl)                                        \
 	{                                                                                  \
@@ -112,6 +113,33 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    "firmware boot after power returns (a disappear fault with param 1 ending) or a "
 	    "0x76 reset: it answers nothing this long (an X-series motor: about 1100); 0: at once",
 	    0),
+	ROW("personality", NULL, PERSONALITY, personality, 0, 0, false, "",
+	    "the firmware's personality (docs/rmd-sim.md \"Personalities\"): auto (the built-in "
+	    "one of model, version_date and protocol, if any), none, a built-in name, or a "
+	    "personality file; what it gives replaces the keys of the same name",
+	    0),
+	ROW("answers_79_as_b2", NULL, BOOL, answers_79_as_b2, 0, 0, false, "",
+	    "0x79 (read or write) answered with the 0xB2 reply, the ID unchanged (X4-64 "
+	    "2025070202) (yes/no)",
+	    0),
+	ROW("set_id_replies_new", NULL, BOOL, set_id_replies_new, 0, 0, false, "",
+	    "after 0x20 index 5 every reply comes from the new ID, requests still on the old one, "
+	    "until 0x76 (X4-36/X4-64 2025070202) (yes/no)",
+	    0),
+	ROW("comm_loss_f1_ms", NULL, UINT, comm_loss_f1_ms, 1, 60000, false, "ms",
+	    "after a comm-loss trip, a 0xF1 frame this often (as V4 firmware: 1000)", 0),
+	ROW("comm_loss_silent", NULL, BOOL, comm_loss_silent, 0, 0, false, "",
+	    "after a comm-loss trip, no 0xF1 frames (yes/no)", 0),
+	ROW("comm_loss_executes_first", NULL, BOOL, comm_loss_executes_first, 0, 0, false, "",
+	    "after a comm-loss trip, the first command is executed, not only echoed (yes/no)", 0),
+	ROW("a4_ignored_after_mit", NULL, BOOL, a4_ignored_after_mit, 0, 0, false, "",
+	    "0xA4 not executed after an MIT frame until a reset, answered as the motor stands "
+	    "(X6-P20 2025070202) (yes/no)",
+	    0),
+	ROW("status1_executing", NULL, BOOL, status1_executing, 0, 0, false, "",
+	    "0x9A data[3] is 1 while a control mode runs, not the brake's state (2025070202) "
+	    "(yes/no)",
+	    0),
 	ROW("turnaround_us", NULL, US, turnaround_ns, 0, 1e6, false, "µs",
 	    "request end to reply start, mean", 0),
 	ROW("turnaround_jitter_us", "jitter-us", US, turnaround_jitter_ns, 0, 1e6, false, "µs",
@@ -177,6 +205,8 @@ size_t rmd_sim_param_size(const struct rmd_sim_param *spec)
 		return sizeof(p->version_date);
 	case RMD_SIM_PARAM_MIT:
 		return sizeof(p->mit);
+	case RMD_SIM_PARAM_PERSONALITY:
+		return sizeof(p->personality);
 	}
 	return 0;
 }
@@ -240,6 +270,26 @@ static int parse_mit(const char *s, struct rmd_mit_ranges *r)
 		return -EINVAL;
 	*r = t;
 	return 0;
+}
+
+/* auto, none or a built-in personality's name (a file: rmd_sim_param_parse_file()). */
+static int parse_personality(const char *s, struct rmd_personality *out, char *allowed, size_t size)
+{
+	const struct rmd_personality *b = rmd_personality_builtin(s);
+	char names[256];
+
+	if (!strcasecmp(s, "auto") || !strcasecmp(s, "none")) {
+		memset(out, 0, sizeof(*out));
+		out->source = strcasecmp(s, "auto") ? RMD_PERSONALITY_NONE : RMD_PERSONALITY_AUTO;
+		return 0;
+	}
+	if (b) {
+		*out = *b;
+		return 0;
+	}
+	snprintf(allowed, size, "auto, none, a built-in personality (%s) or a personality file",
+		 rmd_personality_names(names, sizeof(names)));
+	return -EINVAL;
 }
 
 int rmd_sim_param_parse(struct rmd_sim_motor_params *p, const struct rmd_sim_param *spec,
@@ -337,6 +387,8 @@ int rmd_sim_param_parse(struct rmd_sim_motor_params *p, const struct rmd_sim_par
 		memcpy(field, &r, sizeof(r));
 		return 0;
 	}
+	case RMD_SIM_PARAM_PERSONALITY:
+		return parse_personality(value, &p->personality, allowed, size);
 	}
 	snprintf(allowed, size, "?");
 	return -EINVAL;

@@ -388,7 +388,7 @@ static void check_comm(struct rmd_sim_motor *m)
 	rmd_sim_off_state(m);
 	m->brake_locked = true;
 	m->comm_lost = true;
-	m->echo_next = true;
+	m->echo_next = !m->p.comm_loss_executes_first;
 	m->next_f1_ns = m->t_ns;
 }
 

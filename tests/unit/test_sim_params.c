@@ -60,6 +60,7 @@ static void sample(const struct rmd_sim_param *row, char *out, size_t size)
 		[RMD_SIM_PARAM_MODEL] = "T3ST",
 		[RMD_SIM_PARAM_VERSION] = "20230102",
 		[RMD_SIM_PARAM_MIT] = "10,40,20,400,4",
+		[RMD_SIM_PARAM_PERSONALITY] = "x8-p20-2026042402",
 	};
 	struct rmd_sim_motor_params d;
 	const char *field;
@@ -89,6 +90,7 @@ static void sample(const struct rmd_sim_param *row, char *out, size_t size)
 	case RMD_SIM_PARAM_MODEL:
 	case RMD_SIM_PARAM_VERSION:
 	case RMD_SIM_PARAM_MIT:
+	case RMD_SIM_PARAM_PERSONALITY:
 		snprintf(out, size, "%s", text[row->type]);
 		break;
 	}

@@ -30,6 +30,7 @@
 #include "rmd/config_yaml.h"
 #include "rmd/dialect.h"
 #include "rmd/mit.h"
+#include "rmd/personality_load.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
 #include "rmd/sim_params.h"
@@ -712,7 +713,7 @@ int sim_config_set(struct sim_config *c, uint8_t motor, const char *key, const c
 		return -EINVAL;
 	}
 	rmd_sim_motor_params_default(&scratch, motor ? motor : 1, RMD_PROTO_V3);
-	if (rmd_sim_param_parse(&scratch, spec, value, allowed, sizeof(allowed)) < 0)
+	if (rmd_sim_param_parse_file(&scratch, spec, value, allowed, sizeof(allowed)) < 0)
 		return expected(where, value, "%s", allowed);
 	if (strlen(value) >= SIM_VALUE_MAX) {
 		tool_log(TOOL_LOG_ERR, "rmd-sim: %s: value longer than %d characters", where,
@@ -1140,8 +1141,8 @@ static int build_motor(struct sim_config *c, uint8_t id)
 
 			if (pass == 0 ? s->motor != 0 : s->motor != id)
 				continue;
-			if (rmd_sim_param_parse(p, rmd_sim_param_find(s->key), s->value, allowed,
-						sizeof(allowed)) < 0)
+			if (rmd_sim_param_parse_file(p, rmd_sim_param_find(s->key), s->value,
+						     allowed, sizeof(allowed)) < 0)
 				return -EINVAL; /* checked when recorded */
 		}
 	}
