@@ -33,6 +33,7 @@
 #include "rmd/bus_open.h"
 #include "rmd/codec.h"
 #include "rmd/describe.h"
+#include "rmd/personality_load.h"
 #include "rmd/sim_params.h"
 #include "rmd/txn.h"
 #include "rmdctl.h"
@@ -175,13 +176,18 @@ static void trace_frame(struct dev *d, const char *dir, const struct rmd_frame *
 	char desc[512], iface[16], line[sizeof(desc) + 96];
 	int n;
 
-	rmd_describe_frame(desc, sizeof(desc), d->proto,
-			   dir[0] == 'T' ? RMD_DIR_REQUEST : RMD_DIR_REPLY, NULL, f);
 	n = snprintf(line, sizeof(line), "(%010" PRId64 ".%06" PRId64 ") %s %03" PRIX32 "#",
 		     wall / 1000000000, (wall % 1000000000) / 1000,
 		     trace_iface(d, iface, sizeof(iface)), f->can_id);
 	for (unsigned i = 0; i < f->len && i < RMD_FRAME_LEN; i++)
 		n += snprintf(line + n, sizeof(line) - (size_t)n, "%02X", f->data[i]);
+	/* characterize's log: the `candump -l` line alone */
+	if (d->log)
+		fprintf(d->log, "%s\n", line);
+	if (!d->trace)
+		return;
+	rmd_describe_frame(desc, sizeof(desc), d->proto,
+			   dir[0] == 'T' ? RMD_DIR_REQUEST : RMD_DIR_REPLY, NULL, f);
 	snprintf(line + n, sizeof(line) - (size_t)n, "\n# %s %s\n", dir, desc);
 	fputs(line, stderr);
 }
@@ -262,7 +268,8 @@ static int sim_model(struct dev *d, struct rmd_sim_motor_params *p)
 				 key);
 			return RMDCTL_EXIT_USAGE;
 		}
-		if (rmd_sim_param_parse(p, spec, eq + 1, allowed, sizeof(allowed)) < 0) {
+		/* personality=FILE: a file rmdctl characterize wrote, or a built-in name */
+		if (rmd_sim_param_parse_file(p, spec, eq + 1, allowed, sizeof(allowed)) < 0) {
 			tool_log(TOOL_LOG_ERR, "--sim %s \"%s\": expected %s", key, eq + 1,
 				 allowed);
 			return RMDCTL_EXIT_USAGE;
@@ -326,7 +333,7 @@ int rmdctl_open_bus(struct dev *d)
 	d->txn.stop = &rmdctl_interrupted;
 	/* Half duplex RS485 queues requests behind each other's answers. */
 	d->txn.spacing_ns = rmd_bus_caps(&d->bus)->request_spacing_ns;
-	if (d->trace) {
+	if (d->trace || d->log) {
 		d->twrap = (struct rmd_bus_wrap){ .inner = &d->bus, .ctx = d };
 		rmd_bus_wrap_init(&d->tbus, &trace_ops, &d->twrap);
 		d->b = &d->tbus;
@@ -824,6 +831,19 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	{ .name = "once", .help = "print one table and exit", .flag = O_ONCE },
 	TOOL_OPT_ARG_FLAG("interval", "MS", "refresh period (default 200)", O_INTERVAL),
 	TOOL_OPT_ARG_FLAG("count", "N", "requests per motor and command (default 200)", O_COUNT),
+	TOOL_OPT_ARG_FLAG("out", "PREFIX",
+			  "write PREFIX.log (candump -l) and PREFIX.personality\n"
+			  "(default: rmd-ID)",
+			  O_OUT),
+	TOOL_OPT_ARG_FLAG("move", "DEG",
+			  "also move the motor DEG degrees (at most 10) and\n"
+			  "back, at --speed (at most 10 dps); without it\n"
+			  "nothing moves",
+			  O_MOVE),
+	{ .name = "power-cycle",
+	  .help = "also ask (on the terminal) for a power cycle, for\n"
+		  "the position after power off",
+	  .flag = O_POWER },
 };
 const size_t rmdctl_n_dev_opts = sizeof(rmdctl_dev_opts) / sizeof(rmdctl_dev_opts[0]);
 #define NOPTS rmdctl_n_dev_opts
@@ -879,6 +899,7 @@ static bool *switch_of(struct dev *d, const char *name)
 		{ "force", offsetof(struct dev, force) },
 		{ "no-wait", offsetof(struct dev, no_wait) },
 		{ "once", offsetof(struct dev, once) },
+		{ "power-cycle", offsetof(struct dev, power_cycle) },
 	};
 
 	for (size_t i = 0; i < sizeof(sw) / sizeof(sw[0]); i++)
@@ -957,6 +978,15 @@ static int set_option(struct dev *d, size_t k, const char *v)
 		if (rmdctl_parse_double(v, &x) < 0)
 			goto bad;
 		d->speed_dps = x;
+		d->speed_set = true;
+	} else if (!strcmp(name, "out")) {
+		if (!*v)
+			goto bad;
+		d->out = v;
+	} else if (!strcmp(name, "move")) {
+		if (rmdctl_parse_double(v, &x) < 0 || x == 0)
+			goto bad;
+		d->move_deg = x;
 	} else if (!strcmp(name, "interval")) {
 		if (rmdctl_parse_double(v, &x) < 0 || x < 10 || x > 3600000)
 			goto bad;

@@ -9,6 +9,7 @@
  *   settings.c  set-id, set-zero, set-timeout, accel, pid
  *   dump.c      dump, restore: every readable setting as YAML, and back
  *   motion.c    brake, stop, off, reset, move
+ *   characterize.c  one motor recorded as a personality file and a log
  *   top.c       a running rmdd, over LCM (no bus): fills a top_view
  *               (top_view.c) that its table, its JSON and top_screen.c
  *               (the ncurses screen on a terminal) only read
@@ -129,6 +130,24 @@ static const struct rmdctl_cmd cmds[] = {
 	    "renumbered that way, said on stderr; so is one that answers 0x79 with a\n"
 	    "0xB2 frame.  Asks for confirmation.\n",
 	    rmdctl_run_set_id),
+	DEV("characterize", "record one motor: a personality file and a candump log (ROM)", "ID", 1,
+	    1, O_YES | O_COUNT | O_OUT | O_MOVE | O_SPEED | O_POWER,
+	    "Runs a fixed exchange with motor ID and writes PREFIX.log (every frame as\n"
+	    "a `candump -l` line, the bus's receive times) and PREFIX.personality (the\n"
+	    "file `rmd-sim --personality` and the sim bus replay, docs/rmd-sim.md):\n"
+	    "model (0xB5), firmware date (0xB2) and the dialect it says; every read\n"
+	    "command of that dialect --count times, one outstanding: the turnaround\n"
+	    "distribution of each (round trip less the frames on the wire), and the\n"
+	    "ones never answered; 0x79 read on its own id (answered by a 0xB2 frame:\n"
+	    "firmware 2025070202); 0xB3 written 1000 ms (ROM) and its echo checked,\n"
+	    "then 0 (off); a reset (0x76) and the time to its first answer.  Nothing\n"
+	    "moves unless --move DEG (at most 10 deg, and back, at --speed, default\n"
+	    "and at most 10 dps; stopped with 0x81 on anything odd).  --power-cycle\n"
+	    "asks for a power cycle (a terminal) and notes the angle before and\n"
+	    "after.  The MIT ranges written are the table's for the date and model,\n"
+	    "not measured.  CAN and sim buses.  Takes about --count x the commands x\n"
+	    "a round trip, plus the boot.  Asks for confirmation.\n",
+	    rmdctl_run_characterize),
 	DEV("set-zero", "make the current position the zero (ROM)", "ID", 1, 1, O_YES,
 	    "Makes the current position the zero (0x64, ROM).  It applies after a reset\n"
 	    "(`rmdctl reset ID`, 0x76) or a power cycle.  Asks for confirmation.\n",

@@ -39,6 +39,9 @@ enum {
 	O_ONCE = 1u << 6,
 	O_INTERVAL = 1u << 7,
 	O_COUNT = 1u << 8,
+	O_OUT = 1u << 9,
+	O_MOVE = 1u << 10,
+	O_POWER = 1u << 11,
 };
 
 struct dev;
@@ -191,7 +194,13 @@ struct dev {
 	unsigned n_sim;
 	bool json, yes, rom, force, no_wait, once, trace;
 	double speed_dps;
+	bool speed_set; /* --speed given */
 	double interval_ms;
+	/* characterize: --out, --move (0: none), --power-cycle, its candump log (NULL: none) */
+	const char *out;
+	double move_deg;
+	bool power_cycle;
+	FILE *log;
 	/* the bus */
 	struct rmd_bus bus;	   /* the transport */
 	struct rmd_bus tbus;	   /* --trace: prints every frame, then calls bus */
@@ -356,6 +365,12 @@ int rmdctl_run_reset(struct dev *d, int argc, char **argv);
 int rmdctl_run_move(struct dev *d, int argc, char **argv);
 /* rtt.c */
 int rmdctl_run_rtt(struct dev *d, int argc, char **argv);
+/* characterize.c */
+int rmdctl_run_characterize(struct dev *d, int argc, char **argv);
+/* motion.c, for characterize's move: 0x81 (reported), and the wait for arrival */
+void rmdctl_stop_motor(struct dev *d, uint8_t id);
+int rmdctl_move_wait(struct dev *d, uint8_t id, double from, double target, double *final,
+		     const char **why);
 /* dump.c */
 int rmdctl_run_dump(struct dev *d, int argc, char **argv);
 int rmdctl_run_restore(struct dev *d, int argc, char **argv);

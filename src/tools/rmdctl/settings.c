@@ -172,8 +172,8 @@ static int set_id_then_reset(struct dev *d, uint8_t old_id, uint8_t new_id,
 		return RMDCTL_EXIT_DATA;
 	}
 	tool_log(TOOL_LOG_INFO,
-		 "%s: motor %u took id %u (answered from id %u; until the reset it answers on id "
-		 "%u too); resetting it",
+		 "%s: motor %u took id %u (echoed from id %u; until the reset it still takes "
+		 "requests on id %u); resetting it",
 		 d->name, old_id, new_id, (unsigned)(cap.from - dl->reply_base), old_id);
 	/* V4.2 §2.25: 0x76 does not answer */
 	rmdctl_req_init(&rst, old_id, how->reset.cmd);
