@@ -30,6 +30,8 @@
 #include "rmd/bus_open.h"
 #include "rmd/bus_sim.h"
 #include "rmd/codec.h"
+#include "rmd/candump.h"
+#include "rmd/sim_personality.h"
 #include "rmd/sim_wire.h"
 #include "rmd/txn.h"
 
@@ -37,6 +39,7 @@
 #include "harness/proc.h"
 #include "harness/run_bound.h"
 #include "harness/sleeper.h"
+#include "tools/rmdctl/rmdctl.h"
 
 #define MS 1000000LL
 #define US 1000LL
@@ -501,6 +504,16 @@ static int64_t silent_ns(unsigned n)
 	return txn_silent_ns(n, RMD_TXN_TIMEOUT_NS, RMD_TXN_TRIES, RMD_TXN_CAN_SPACING_NS);
 }
 
+/* Without --timeout the first 0x9A of a run waits this long for a silent motor (rmdctl.h). */
+#define WAIT_PROBE_NS ((int64_t)RMDCTL_WAIT_PROBE_MS * MS)
+
+/* A probe of n ids without --timeout, all silent: the measuring try, then the others. */
+static int64_t silent_probe_ns(unsigned n)
+{
+	return WAIT_PROBE_NS +
+	       txn_silent_ns(n, RMD_TXN_TIMEOUT_NS, RMD_TXN_TRIES - 1, RMD_TXN_CAN_SPACING_NS);
+}
+
 static void test_scan(void **state)
 {
 	struct run r;
@@ -508,12 +521,13 @@ static void test_scan(void **state)
 
 	(void)state;
 	/*
-	 * Pipelined probes of 32 ids (29 silent), then 0xB5 and 0xB2 of the
-	 * three that answered: two batches of 3 tries, each try a wait; one
-	 * more for this test to see rmdctl's end.
+	 * Pipelined probes of 32 ids (29 silent): the try that measures the
+	 * wait, then two more; then 0xB5 and 0xB2 of the three that answered
+	 * (3 tries), each try a wait; one more for this test to see rmdctl's
+	 * end, one for the lone 0x9A that may follow the measuring try.
 	 */
 	run_timed(&r, "scan", (const char *const[]){ "scan", "--bus", "sim:1-3", "--json", NULL },
-		  silent_ns(RMD_MAX_MOTORS) + silent_ns(6), 2 * RMD_TXN_TRIES + 1);
+		  silent_probe_ns(RMD_MAX_MOTORS) + silent_ns(6), 2 * RMD_TXN_TRIES + 2);
 	assert_status(&r, 0, "scan");
 	assert_int_equal(count_lines(r.out), 3);
 	for (int id = 1; id <= 3; id++) {
@@ -560,16 +574,354 @@ static void test_status_missing(void **state)
 	struct run r;
 
 	(void)state;
-	/* One batch of 3 requests (0x9A, 0x92, 0x9C), 3 tries of 5 ms; one wait each, one more. */
+	/*
+	 * The 0x9A that measures the wait (100 ms), then one batch of 3
+	 * requests (0x9A, 0x92, 0x9C), 3 tries of 5 ms; one wait each, one more.
+	 */
 	run_timed(&r, "status 9", (const char *const[]){ "status", "9", "--bus", "sim:1-3", NULL },
-		  silent_ns(3), RMD_TXN_TRIES + 1);
+		  WAIT_PROBE_NS + silent_ns(3), RMD_TXN_TRIES + 2);
 	assert_status(&r, 1, "status 9");
-	assert_has(r.err, "sim:1-3: motor 9 did not answer 0x9A within 5 ms (3 tries)", "status 9");
+	assert_has(r.err,
+		   "sim:1-3: motor 9 did not answer 0x9A within 5 ms (3 tries; nor 0x9A in 100 ms "
+		   "before)",
+		   "status 9");
 	assert_string_equal(r.out, "");
 	run_free(&r);
 
 	CHECK_RUN(.args = { "status", "9", "--bus", "sim:1-3", "--timeout", "2", "--tries", "1" },
 		  .status = 1, .err_has = { "motor 9 did not answer 0x9A within 2 ms (1 try)" });
+}
+
+/* How many times needle is in hay. */
+static unsigned count_of(const char *hay, const char *needle)
+{
+	unsigned n = 0;
+
+	for (const char *p = strstr(hay, needle); p; p = strstr(p + 1, needle))
+		n++;
+	return n;
+}
+
+/*
+ * Issue 32 point 10: motors behind a slow USB adapter (answers held by a
+ * 16 ms latency timer, or 8 or 48 ms late) are found by scan, and answer a
+ * device command, without --timeout: the wait is measured first and said
+ * on stderr, in bounded time.  A write goes out once: every try of 0xB3 is
+ * a ROM write (the wire, --trace, says how many went out).
+ */
+static void test_slow_adapter(void **state)
+{
+	static const char *const slow[] = { "adapter_latency_timer_us=16000",
+					    "adapter_delay_us=8000", "adapter_delay_us=48000" };
+	/*
+	 * The measuring 0x9A (29 ids silent), the lone one to the slowest, two
+	 * more tries of the silent ids and the 0xB5/0xB2 batch, each try at
+	 * most the longest wait; one wait each, one more for the test.
+	 */
+	int64_t design = 2 * WAIT_PROBE_NS +
+			 txn_silent_ns(RMD_MAX_MOTORS, WAIT_PROBE_NS, RMD_TXN_TRIES - 1,
+				       RMD_TXN_CAN_SPACING_NS) +
+			 txn_silent_ns(6, WAIT_PROBE_NS, RMD_TXN_TRIES, RMD_TXN_CAN_SPACING_NS);
+	struct run r;
+
+	(void)state;
+	for (size_t i = 0; i < sizeof(slow) / sizeof(slow[0]); i++) {
+		run_timed(&r, slow[i],
+			  (const char *const[]){ "scan", "--bus", "sim:1-3", "--json", "--sim",
+						 slow[i], NULL },
+			  design, 2 * RMD_TXN_TRIES + 3);
+		assert_status(&r, 0, slow[i]);
+		if (count_lines(r.out) != 3)
+			fail_msg("%s: scan found %zu motors, not 3:\n%s%s", slow[i],
+				 count_lines(r.out), r.out, r.err);
+		ASSERT_HAS_ALL(r.err, slow[i], "answered 0x9A after ",
+			       " ms per try (--timeout sets it)");
+		run_free(&r);
+	}
+	RUN(&r, "set-timeout", "2", "500", "--yes", "--bus", "sim:1-3", "--trace", "--sim",
+	    "adapter_delay_us=30000");
+	assert_status(&r, 0, "set-timeout, 30 ms adapter");
+	assert_has(r.out, "echo verified", "set-timeout, 30 ms adapter");
+	if (count_of(r.err, " sim:1-3 142#B3000000F4010000\n# TX ") != 1)
+		fail_msg("0xB3 went out %u times, not once:\n%s",
+			 count_of(r.err, " sim:1-3 142#B3000000F4010000\n# TX "), r.err);
+	run_free(&r);
+	CHECK_RUN(.args = { "status", "2", "--bus", "sim:1-3", "--json", "--sim",
+			    "adapter_latency_timer_us=16000" },
+		  .out_has = { "\"motor_id\":2," });
+	/* the old fixed wait: nothing found behind the 48 ms adapter */
+	CHECK_RUN(.args = { "scan", "--bus", "sim:1-3", "--timeout", "5", "--sim",
+			    "adapter_delay_us=48000" },
+		  .status = 1,
+		  .err_has = { "no motor answered 0x9A (32 ids probed, V3, 5 ms x 3" });
+	/* a fast bus: no wait widened, nothing said */
+	CHECK_RUN(.args = { "scan", "--bus", "sim:1-3" }, .err_lacks = "ms per try");
+}
+
+/*
+ * Issue 32 point 16: firmware that echoes 0x20 index 5 from the NEW id
+ * (2025070202) gets the write once, not once per try: each is a flash
+ * write.  The wire (--trace) counts the writes.
+ */
+static void test_set_id_writes_once(void **state)
+{
+	static const char write_tx[] = " sim:1-3 142#2005000009000000\n# TX ";
+	struct run r;
+
+	(void)state;
+	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:1-3", "--protocol", "v4", "--trace");
+	assert_status(&r, 0, "set-id v4");
+	assert_has(r.out, "motor 2 is now motor 9", "set-id v4");
+	assert_has(r.err, " sim:1-3 249#2005000009000000\n# RX ", "set-id v4: the new id's echo");
+	if (count_of(r.err, write_tx) != 1)
+		fail_msg("0x20 index 5 went out %u times, not once:\n%s", count_of(r.err, write_tx),
+			 r.err);
+	run_free(&r);
+}
+
+/*
+ * Issue 32 point 2: 0x20 index 5 takes effect at the reset (0x76), and the
+ * motor boots for 1.1 s (1.12 s was measured) before it answers: set-id
+ * waits for the boot, then judges by what the motor says -- the new id's
+ * runtime (0xB1) restarted, the old id silent -- and says so.  On the
+ * wire: one write, one reset, then the new id's 0xB1 answer.
+ */
+static void test_set_id_reboot(void **state)
+{
+	struct run r;
+	const char *reset, *runtime;
+
+	(void)state;
+	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:1-3", "--protocol", "v4", "--trace",
+	    "--sim", "boot_ms=1100");
+	assert_status(&r, 0, "set-id across a 1.1 s boot");
+	ASSERT_HAS_ALL(r.out, "set-id across a 1.1 s boot", "motor 2 is now motor 9 (ROM)",
+		       "after the reset id 9 answers", "its runtime restarted",
+		       "id 2 no longer does");
+	reset = strstr(r.err, " sim:1-3 142#7600000000000000\n# TX ");
+	runtime = strstr(r.err, " sim:1-3 249#B1");
+	if (!reset || !runtime || runtime < reset ||
+	    count_of(r.err, " sim:1-3 142#7600000000000000\n# TX ") != 1)
+		fail_msg("expected one 0x76 to id 2, then 0xB1 answered from id 9:\n%s", r.err);
+	run_free(&r);
+}
+
+/*
+ * Issue 32 points 1 and 2 on the simulator's personalities (rmd/sim_personality.h):
+ * - an X4-64 of 2025070202 driven with the default --protocol v3: set-id
+ *   asks its 0xB2, renumbers it by 0x20 index 5 and 0x76 (never 0x79,
+ *   which it answers with a 0xB2 frame), waits out its 1.12 s boot and
+ *   says the new id answers and the old does not;
+ * - a 0x79 answered by a 0xB2 frame is no ID answer: said, exit 1, and
+ *   0x79 went out once;
+ * - an X4-36 (echo from the new id, the old id's requests answered from
+ *   it until the reset) is renumbered; an id another motor answers on is
+ *   refused before anything is written.
+ */
+static void test_set_id_personalities(void **state)
+{
+	struct run r;
+
+	(void)state;
+	RUN(&r, "set-id", "1", "2", "--yes", "--bus", "sim:1", "--trace", "--sim",
+	    "personality=x4-64-2025070202");
+	assert_status(&r, 0, "set-id on an X4-64 2025070202");
+	ASSERT_HAS_ALL(r.err, "set-id X4-64", "firmware (date 2025070202) is V4",
+		       " sim:1 141#2005000002000000\n# TX ", " sim:1 242#2005000002000000\n# RX ",
+		       " sim:1 141#7600000000000000\n# TX ");
+	assert_lacks(r.err, "#79", "set-id X4-64: no 0x79");
+	ASSERT_HAS_ALL(r.out, "set-id X4-64", "motor 1 is now motor 2 (ROM)",
+		       "its runtime restarted", "id 1 no longer does");
+	if (count_of(r.err, " sim:1 141#2005000002000000\n# TX ") != 1)
+		fail_msg("0x20 index 5 went out more than once:\n%s", r.err);
+	run_free(&r);
+
+	RUN(&r, "set-id", "2", "9", "--yes", "--bus", "sim:2", "--trace", "--sim",
+	    "answers_79_as_b2=yes");
+	assert_status(&r, 1, "set-id, 0x79 answered by 0xB2");
+	ASSERT_HAS_ALL(r.err, "set-id, 0x79 answered by 0xB2", "motor 2 answered 0x79 with 242#B2",
+		       "it takes no 0x79, the id did not change");
+	assert_lacks(r.out, "is now motor", "set-id, 0x79 answered by 0xB2");
+	if (count_of(r.err, " sim:2 300#7900000000000009\n# TX ") != 1)
+		fail_msg("0x79 went out %u times, not once:\n%s",
+			 count_of(r.err, " sim:2 300#7900000000000009\n# TX "), r.err);
+	run_free(&r);
+
+	CHECK_RUN(.args = { "set-id", "2", "1", "--yes", "--bus", "sim:2", "--protocol", "v4",
+			    "--sim", "personality=x4-36-2025070202" },
+		  .out_has = { "motor 2 is now motor 1 (ROM): after the reset id 1 answers",
+			       "id 2 no longer does" });
+	CHECK_RUN(.args = { "set-id", "1", "2", "--yes", "--bus", "sim:1-2", "--protocol", "v4",
+			    "--trace", "--sim", "personality=x4-36-2025070202" },
+		  .status = 1, .err_has = { "id 2 is taken" }, .err_lacks = "#2005");
+}
+
+/* ---- characterize (issue 32 point 12) --------------------------------------------------- */
+
+/* The recorded motor: its own 0x9A distribution, another for the rest, quirks to find. */
+static const char recorded[] = "format = rmd-personality 1\n"
+			       "name = test-x4-64\n"
+			       "model = X4-64\n"
+			       "version_date = 2025070202\n"
+			       "dialect = v4\n"
+			       "boot_ms = 300\n"
+			       "answers_79_as_b2 = yes\n"
+			       "ignores = 0x94\n"
+			       "turnaround 0x9A = 300 350 400 600 900 1000\n"
+			       "turnaround * = 500 600 800 1200 1500 1600\n";
+
+/* A personality file's record; fails the test on a parse error. */
+static void load_personality(const char *path, struct rmd_personality *p)
+{
+	char text[RMD_PERSONALITY_FILE_MAX], err[256];
+	FILE *f = fopen(path, "r");
+	size_t n;
+
+	if (!f)
+		fail_msg("%s: %s", path, strerror(errno));
+	n = fread(text, 1, sizeof(text), f);
+	fclose(f);
+	if (rmd_personality_parse(text, n, path, p, err, sizeof(err)) < 0)
+		fail_msg("%s", err);
+}
+
+/* Median and p90 of line got within 10 % of want's. */
+static void assert_close(const char *what, unsigned cmd,
+			 const struct rmd_personality_turnaround *got,
+			 const struct rmd_personality_turnaround *want)
+{
+	static const unsigned qk[] = { 2, 3 }; /* p50, p90 (rmd_personality_quantiles) */
+
+	if (!got || !want)
+		fail_msg("%s: 0x%02X: no turnaround line", what, cmd);
+	for (size_t k = 0; k < sizeof(qk) / sizeof(qk[0]); k++) {
+		double g = got->q_us[qk[k]], w = want->q_us[qk[k]];
+
+		if (fabs(g - w) > 0.1 * w)
+			fail_msg("%s: 0x%02X: p%.0f %g us, expected %g us +- 10 %%", what, cmd,
+				 rmd_personality_quantiles[qk[k]] * 100, g, w);
+	}
+}
+
+/* The same answers: model, date, dialect, the quirk, what it ignores, its boot (10 %). */
+static void assert_same_motor(const char *what, const struct rmd_personality *got,
+			      const struct rmd_personality *want)
+{
+	assert_string_equal(got->model, want->model);
+	assert_int_equal(got->version_date, want->version_date);
+	assert_int_equal(got->proto, want->proto);
+	assert_true(rmd_personality_gives(got, RMD_PERSONALITY_ANSWERS_79_AS_B2));
+	assert_true(got->flags & (1u << RMD_PERSONALITY_ANSWERS_79_AS_B2));
+	assert_memory_equal(got->ignores, want->ignores, sizeof(got->ignores));
+	if (fabs((double)got->boot_ms - want->boot_ms) > 0.1 * want->boot_ms + 10)
+		fail_msg("%s: boot_ms %u, expected %u", what, got->boot_ms, want->boot_ms);
+}
+
+/* Every read the dialect has, judged against the turnaround lines of want. */
+static void assert_turnarounds(const char *what, const struct rmd_personality *got,
+			       const struct rmd_personality *want)
+{
+	unsigned n = 0;
+
+	for (unsigned i = 0; i < got->n_turnaround; i++) {
+		unsigned cmd = got->turnaround[i].cmd;
+
+		if (cmd == RMD_PERSONALITY_CMD_ANY)
+			continue;
+		assert_close(what, cmd, &got->turnaround[i],
+			     rmd_personality_turnaround_for(want, cmd));
+		n++;
+	}
+	if (n < 10)
+		fail_msg("%s: %u commands measured, expected every read of V4", what, n);
+}
+
+/*
+ * characterize against a simulated motor with a recorded personality
+ * writes a file from which the simulator gives the same answers and a
+ * turnaround distribution within 10 % (median, p90) -- of the recording
+ * and of the file itself, characterized again; its log is `candump -l`
+ * that `rmdctl decode` reads; nothing moves without --move.
+ */
+static void test_characterize(void **state)
+{
+	char dir[] = "/tmp/rmdctl-char-XXXXXX", in[64], f1[64], f2[64], arg[128], path[96];
+	struct rmd_personality want, p1, p2;
+	struct run r;
+	FILE *f;
+
+	(void)state;
+	assert_non_null(mkdtemp(dir));
+	snprintf(in, sizeof(in), "%s/in.personality", dir);
+	snprintf(f1, sizeof(f1), "%s/f1", dir);
+	snprintf(f2, sizeof(f2), "%s/f2", dir);
+	f = fopen(in, "w");
+	assert_non_null(f);
+	fputs(recorded, f);
+	fclose(f);
+	load_personality(in, &want);
+
+	snprintf(arg, sizeof(arg), "personality=%s", in);
+	RUN(&r, "characterize", "1", "--yes", "--bus", "sim:1", "--sim", arg, "--out", f1);
+	assert_status(&r, 0, "characterize");
+	ASSERT_HAS_ALL(r.out, "characterize", "model X4-64, firmware 2025070202, V4",
+		       "answers 0x79 with a 0xB2 frame", "0x94 never answered", "wrote ");
+	run_free(&r);
+	snprintf(path, sizeof(path), "%s.personality", f1);
+	load_personality(path, &p1);
+	assert_same_motor("recorded", &p1, &want);
+	assert_turnarounds("recorded", &p1, &want);
+
+	/* the file replayed: the same motor again */
+	snprintf(arg, sizeof(arg), "personality=%s", path);
+	RUN(&r, "characterize", "1", "--yes", "--bus", "sim:1", "--sim", arg, "--out", f2);
+	assert_status(&r, 0, "characterize the replay");
+	run_free(&r);
+	snprintf(path, sizeof(path), "%s.personality", f2);
+	load_personality(path, &p2);
+	assert_same_motor("replayed", &p2, &p1);
+	assert_turnarounds("replayed", &p2, &p1);
+
+	/* the log: candump -l lines, each request of a read there, no motion */
+	{
+		char line[256];
+		unsigned n = 0, a4 = 0, b5 = 0;
+
+		snprintf(path, sizeof(path), "%s.log", f1);
+		f = fopen(path, "r");
+		assert_non_null(f);
+		while (fgets(line, sizeof(line), f)) {
+			struct rmd_candump_line l;
+
+			if (rmd_candump_parse(line, &l) < 0)
+				fail_msg("%s: not candump -l: %s", path, line);
+			n++;
+			a4 += strstr(line, " sim:1 141#A4") != NULL;
+			b5 += strstr(line, " sim:1 141#B5") != NULL;
+		}
+		fclose(f);
+		if (n < 1000 || a4 || !b5)
+			fail_msg("%s: %u lines, %u 0xA4, %u 0xB5", path, n, a4, b5);
+	}
+	CHECK_RUN(.args = { "decode", path }, .out_has = { "read_model" });
+	/* --move: bounded, and then it moves and comes back */
+	CHECK_RUN(.args = { "characterize", "1", "--yes", "--bus", "sim:1", "--move", "20", "--out",
+			    f2 },
+		  .status = 2, .err_has = { "at most 10 deg" });
+	CHECK_RUN(.args = { "characterize", "1", "--yes", "--bus", "sim:1", "--move", "5",
+			    "--speed", "30", "--out", f2 },
+		  .status = 2, .err_has = { "1..10 dps" });
+	CHECK_RUN(.args = { "characterize", "1", "--yes", "--bus", "sim:1", "--move", "3",
+			    "--count", "5", "--out", f2 },
+		  .out_has = { "at 3.", "at 0.", "wrote " });
+	/* docs/characterize.md's example: a built-in personality */
+	CHECK_RUN(.args = { "characterize", "1", "--bus", "sim:1", "--sim",
+			    "personality=x4-64-2025070202", "--yes", "--count", "5", "--out", f2 },
+		  .out_has = { "model X4-64", "reset (0x76), answering again after 11" });
+	CHECK_RUN(.args = { "characterize", "1", "--bus", "sim:1", "--out", f2 }, .status = 2,
+		  .err_has = { "--yes" });
+	snprintf(path, sizeof(path), "rm -rf %s", dir);
+	assert_int_equal(system(path), 0);
 }
 
 static void test_move(void **state)
@@ -835,6 +1187,11 @@ int main(void)
 		PROC_TEST(test_scan),
 		PROC_TEST(test_status),
 		PROC_TEST(test_status_missing),
+		PROC_TEST(test_slow_adapter),
+		PROC_TEST(test_set_id_writes_once),
+		PROC_TEST(test_set_id_reboot),
+		PROC_TEST(test_set_id_personalities),
+		PROC_TEST(test_characterize),
 		PROC_TEST(test_move),
 		PROC_TEST(test_move_unconfirmed),
 		PROC_TEST(test_move_limits),
@@ -845,5 +1202,6 @@ int main(void)
 		PROC_TEST(test_bus_errors),
 	};
 
+	cmocka_set_test_filter(getenv("RMD_TEST_FILTER"));
 	return cmocka_run_group_tests_name("rmdctl_dev", tests, group_setup, group_teardown);
 }

@@ -9,7 +9,9 @@
  * Every exchange is a transaction of rmd/txn.h: requests are pipelined,
  * each answer is matched by reply identifier and command byte, and a
  * silent motor fails after --tries sends of --timeout each, with a message
- * that names the bus, the motor and the command.  Whatever writes ROM or
+ * that names the bus, the motor and the command.  Without --timeout the
+ * wait is measured before the first exchange (measure_wait()), so that a
+ * motor behind a slow adapter is found and a write goes out once.  Whatever writes ROM or
  * may move a motor asks on the terminal first, unless --yes; with no
  * terminal and no --yes it refuses (exit 2).  Non-rt.
  */
@@ -31,6 +33,7 @@
 #include "rmd/bus_open.h"
 #include "rmd/codec.h"
 #include "rmd/describe.h"
+#include "rmd/personality_load.h"
 #include "rmd/sim_params.h"
 #include "rmd/txn.h"
 #include "rmdctl.h"
@@ -173,13 +176,18 @@ static void trace_frame(struct dev *d, const char *dir, const struct rmd_frame *
 	char desc[512], iface[16], line[sizeof(desc) + 96];
 	int n;
 
-	rmd_describe_frame(desc, sizeof(desc), d->proto,
-			   dir[0] == 'T' ? RMD_DIR_REQUEST : RMD_DIR_REPLY, NULL, f);
 	n = snprintf(line, sizeof(line), "(%010" PRId64 ".%06" PRId64 ") %s %03" PRIX32 "#",
 		     wall / 1000000000, (wall % 1000000000) / 1000,
 		     trace_iface(d, iface, sizeof(iface)), f->can_id);
 	for (unsigned i = 0; i < f->len && i < RMD_FRAME_LEN; i++)
 		n += snprintf(line + n, sizeof(line) - (size_t)n, "%02X", f->data[i]);
+	/* characterize's log: the `candump -l` line alone */
+	if (d->log)
+		fprintf(d->log, "%s\n", line);
+	if (!d->trace)
+		return;
+	rmd_describe_frame(desc, sizeof(desc), d->proto,
+			   dir[0] == 'T' ? RMD_DIR_REQUEST : RMD_DIR_REPLY, NULL, f);
 	snprintf(line + n, sizeof(line) - (size_t)n, "\n# %s %s\n", dir, desc);
 	fputs(line, stderr);
 }
@@ -260,7 +268,8 @@ static int sim_model(struct dev *d, struct rmd_sim_motor_params *p)
 				 key);
 			return RMDCTL_EXIT_USAGE;
 		}
-		if (rmd_sim_param_parse(p, spec, eq + 1, allowed, sizeof(allowed)) < 0) {
+		/* personality=FILE: a file rmdctl characterize wrote, or a built-in name */
+		if (rmd_sim_param_parse_file(p, spec, eq + 1, allowed, sizeof(allowed)) < 0) {
 			tool_log(TOOL_LOG_ERR, "--sim %s \"%s\": expected %s", key, eq + 1,
 				 allowed);
 			return RMDCTL_EXIT_USAGE;
@@ -310,12 +319,21 @@ int rmdctl_open_bus(struct dev *d)
 		tool_log(TOOL_LOG_ERR, "note: %s", err);
 	snprintf(d->name, sizeof(d->name), "%s", d->bus.name);
 	d->b = &d->bus;
+	/*
+	 * No --timeout: the wait is measured before the first exchange
+	 * (measure_wait()), unless the command waits its own (rtt:
+	 * line_timeout) or the transport has a reply timeout of its own
+	 * (RS485: the line waits that long for every answer).
+	 */
+	if (!d->wait_known)
+		d->wait_auto = !d->timeout_set && !d->line_timeout &&
+			       !rmd_bus_caps(&d->bus)->reply_timeout_ns;
 	d->txn.timeout_ns = (int64_t)llround(d->timeout_ms * 1e6);
 	d->txn.tries = d->tries;
 	d->txn.stop = &rmdctl_interrupted;
 	/* Half duplex RS485 queues requests behind each other's answers. */
 	d->txn.spacing_ns = rmd_bus_caps(&d->bus)->request_spacing_ns;
-	if (d->trace) {
+	if (d->trace || d->log) {
 		d->twrap = (struct rmd_bus_wrap){ .inner = &d->bus, .ctx = d };
 		rmd_bus_wrap_init(&d->tbus, &trace_ops, &d->twrap);
 		d->b = &d->tbus;
@@ -365,7 +383,7 @@ void rmdctl_req_init(struct req *q, uint8_t id, uint8_t cmd)
  */
 void rmdctl_report_missing(struct dev *d, const struct req *q, const char *more)
 {
-	char ms[32];
+	char ms[32], first[64] = "";
 
 	if (q->t.echo_seen) {
 		tool_log(TOOL_LOG_ERR,
@@ -381,9 +399,14 @@ void rmdctl_report_missing(struct dev *d, const struct req *q, const char *more)
 			 d->name, q->msg.cmd, q->id, rmd_bus_state_name(rmd_bus_state(d->b)));
 		return;
 	}
-	tool_log(TOOL_LOG_ERR, "%s: motor %u did not answer 0x%02X within %s ms (%u %s)%s", d->name,
-		 q->id, q->msg.cmd, rmdctl_ms_str(ms, sizeof(ms), d->timeout_ms), q->t.tries,
-		 q->t.tries == 1 ? "try" : "tries", more);
+	/* the wait was measured: its 0x9A waited longer, and said so */
+	if (q->probed)
+		snprintf(first, sizeof(first), ", the first %d ms", RMDCTL_WAIT_PROBE_MS);
+	else if (d->wait_auto && d->wait_known && !d->wait_rtt_ns)
+		snprintf(first, sizeof(first), "; nor 0x9A in %d ms before", RMDCTL_WAIT_PROBE_MS);
+	tool_log(TOOL_LOG_ERR, "%s: motor %u did not answer 0x%02X within %s ms (%u %s%s)%s",
+		 d->name, q->id, q->msg.cmd, rmdctl_ms_str(ms, sizeof(ms), d->timeout_ms),
+		 q->t.tries, q->t.tries == 1 ? "try" : "tries", first, more);
 }
 
 static void report_bad(struct dev *d, const struct req *q)
@@ -427,12 +450,8 @@ int rmdctl_txn_run(struct dev *d, struct rmd_txn *t, unsigned n, const struct rm
 	return 0;
 }
 
-/*
- * Run q[0..n) as one pipelined batch.  Returns 0 when the bus worked
- * (each q[i].ok says whether its motor answered), RMDCTL_EXIT_DATA on a
- * bus error or Ctrl-C (message printed).
- */
-int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n)
+/* rmdctl_run_reqs() with opts o. */
+static int run_batch(struct dev *d, struct req *q, unsigned n, const struct rmd_txn_opts *o)
 {
 	struct rmd_txn t[MAX_REQS];
 	int r;
@@ -444,7 +463,7 @@ int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n)
 		if (r)
 			return r;
 	}
-	r = rmdctl_txn_run(d, t, n, &d->txn);
+	r = rmdctl_txn_run(d, t, n, o);
 	if (r)
 		return r;
 	for (unsigned i = 0; i < n; i++) {
@@ -464,6 +483,114 @@ int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n)
 						&q[i].rep) == 0;
 	}
 	return 0;
+}
+
+/*
+ * No --timeout (d->wait_auto): the wait per try, measured.  One 0x9A to
+ * each of ids[0..n) (st[] gets the results), one try that waits up to
+ * RMDCTL_WAIT_PROBE_MS; then the wait per try is RMDCTL_WAIT_RTTS times
+ * the slowest round trip heard (an echo counts: rmd/txn.h heard_ns) plus
+ * RMDCTL_WAIT_SLACK_MS, at least the default and at most
+ * RMDCTL_WAIT_PROBE_MS, said on stderr when it is longer than the default.
+ * Nothing heard: the default stays.  Returns 0 or RMDCTL_EXIT_DATA.
+ */
+/* The wait per try for answers that took rtt_ns: RMDCTL_WAIT_RTTS of them and the slack, bounded. */
+static int64_t wait_of(int64_t rtt_ns)
+{
+	int64_t wait = RMDCTL_WAIT_RTTS * rtt_ns + (int64_t)RMDCTL_WAIT_SLACK_MS * 1000000;
+
+	return wait < (int64_t)RMDCTL_WAIT_PROBE_MS * 1000000 ?
+		       wait :
+		       (int64_t)RMDCTL_WAIT_PROBE_MS * 1000000;
+}
+
+static int measure_wait(struct dev *d, const uint8_t *ids, unsigned n, struct req *st)
+{
+	struct rmd_txn_opts o = d->txn;
+	int64_t worst = 0, wait;
+	uint8_t worst_id = 0;
+	char ms[2][32];
+	int r;
+
+	o.tries = 1;
+	o.timeout_ns = (int64_t)RMDCTL_WAIT_PROBE_MS * 1000000;
+	for (unsigned i = 0; i < n; i++) {
+		rmdctl_req_init(&st[i], ids[i], 0x9A); /* V3 §2.12, V2 §3.31, V4.2 §2.13 */
+		st[i].probed = true;
+	}
+	r = run_batch(d, st, n, &o);
+	if (r)
+		return r;
+	d->wait_known = true;
+	for (unsigned i = 0; i < n; i++) {
+		int64_t rtt = st[i].t.heard_ns - st[i].t.first_sent_ns;
+
+		if (st[i].t.heard && rtt > worst) {
+			worst = rtt;
+			worst_id = ids[i];
+		}
+	}
+	/*
+	 * In a batch the answers wait for the wire to carry every request
+	 * (theirs lose the arbitration, V3 §1.1): a round trip of the slowest
+	 * motor alone says what the motor and the adapter add.
+	 */
+	if (n > 1 && worst && wait_of(worst) > d->txn.timeout_ns) {
+		struct req lone;
+
+		rmdctl_req_init(&lone, worst_id, 0x9A);
+		r = run_batch(d, &lone, 1, &o);
+		if (r)
+			return r;
+		if (lone.t.heard)
+			worst = lone.t.heard_ns - lone.t.first_sent_ns;
+	}
+	d->wait_rtt_ns = worst;
+	d->wait_rtt_id = worst_id;
+	if (!worst)
+		return 0;
+	wait = wait_of(worst);
+	if (wait <= d->txn.timeout_ns)
+		return 0;
+	d->txn.timeout_ns = wait;
+	d->timeout_ms = (double)wait / 1e6;
+	tool_log(TOOL_LOG_NOTICE,
+		 "%s: motor %u answered 0x9A after %s ms (a slow adapter or converter?): waiting "
+		 "%s ms per try (--timeout sets it)",
+		 d->name, worst_id, rmdctl_ms_str(ms[0], sizeof(ms[0]), round(worst / 1e4) / 100),
+		 rmdctl_ms_str(ms[1], sizeof(ms[1]), round(d->timeout_ms * 10) / 10));
+	return 0;
+}
+
+/* Before the first exchange of a run without --timeout: measure_wait() on q's motors. */
+static int need_wait(struct dev *d, const struct req *q, unsigned n)
+{
+	uint8_t ids[RMD_MAX_MOTORS];
+	struct req st[RMD_MAX_MOTORS];
+	uint64_t seen = 0;
+	unsigned k = 0;
+
+	if (!d->wait_auto || d->wait_known)
+		return 0;
+	for (unsigned i = 0; i < n && k < RMD_MAX_MOTORS; i++) {
+		if (q[i].id < 1 || q[i].id > RMD_MAX_MOTORS || seen & (1ull << q[i].id))
+			continue;
+		seen |= 1ull << q[i].id;
+		ids[k++] = q[i].id;
+	}
+	return k ? measure_wait(d, ids, k, st) : 0;
+}
+
+/*
+ * Run q[0..n) as one pipelined batch.  Returns 0 when the bus worked
+ * (each q[i].ok says whether its motor answered), RMDCTL_EXIT_DATA on a
+ * bus error or Ctrl-C (message printed).
+ */
+int rmdctl_run_reqs(struct dev *d, struct req *q, unsigned n)
+{
+	int r = need_wait(d, q, n);
+
+	return r ? r : run_batch(d, q, n, &d->txn);
 }
 
 int rmdctl_exchange(struct dev *d, struct req *q, unsigned n)
@@ -539,16 +666,60 @@ unsigned rmdctl_report_failed(struct dev *d, const struct req *q, unsigned n)
 	return bad;
 }
 
+/*
+ * rmdctl_probe()'s 0x9A as measure_wait() sends it, then the ids that did
+ * not answer it again, the tries left at the wait it measured; st[] gets
+ * the last result of each id, its tries counting the first.
+ */
+static int probe_measured(struct dev *d, const uint8_t *ids, unsigned n, struct req *st)
+{
+	struct req again[RMD_MAX_MOTORS];
+	unsigned idx[RMD_MAX_MOTORS], k = 0;
+	struct rmd_txn_opts o = d->txn;
+	int r = measure_wait(d, ids, n, st);
+
+	if (r || d->tries < 2)
+		return r;
+	o.tries = d->tries - 1;
+	for (unsigned i = 0; i < n && k < RMD_MAX_MOTORS; i++) {
+		if (st[i].ok)
+			continue;
+		idx[k] = i;
+		rmdctl_req_init(&again[k++], ids[i], 0x9A);
+	}
+	if (!k)
+		return 0;
+	r = run_batch(d, again, k, &o);
+	if (r)
+		return r;
+	for (unsigned j = 0; j < k; j++) {
+		struct req *q = &st[idx[j]];
+		unsigned tries = q->t.tries + again[j].t.tries;
+
+		*q = again[j];
+		q->t.tries = tries;
+		q->probed = true;
+	}
+	return 0;
+}
+
 /* Probe ids[0..n) with 0x9A; found[] gets those that answered (one that only echoed is reported).  Returns the count or -exit. */
 int rmdctl_probe(struct dev *d, const uint8_t *ids, unsigned n, uint8_t *found, struct req *st)
 {
 	int r, m = 0;
 
-	for (unsigned i = 0; i < n; i++)
-		rmdctl_req_init(&st[i], ids[i], 0x9A);
-	r = rmdctl_run_reqs(d, st, n);
-	if (r)
-		return -r;
+	if (d->wait_auto && !d->wait_known) {
+		/* the 0x9A that measures the wait is the probe's first try */
+		r = probe_measured(d, ids, n, st);
+		if (r)
+			return -r;
+	} else {
+		for (unsigned i = 0; i < n; i++)
+			rmdctl_req_init(&st[i], ids[i], 0x9A);
+		r = rmdctl_run_reqs(d, st, n);
+		if (r)
+			return -r;
+	}
 	for (unsigned i = 0; i < n; i++) {
 		if (st[i].ok)
 			found[m++] = ids[i];
@@ -622,7 +793,12 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	  .arg = "P",
 	  .help = "", /* the firmware keys (rmdctl_dev_usage()) */
 	  .value = TOOL_VAL_FIRMWARE },
-	TOOL_OPT_ARG("timeout", "MS", "wait per try for each answer (default 5)"),
+	TOOL_OPT_ARG("timeout", "MS",
+		     "wait per try for each answer.  Default: measured;\n"
+		     "the first 0x9A of a run waits up to 100 ms, then\n"
+		     "each try twice the slowest round trip it heard\n"
+		     "plus 1 ms, 5..100 ms (a slow USB adapter is\n"
+		     "found; a silent motor costs 100 ms more)"),
 	TOOL_OPT_ARG("tries", "N", "sends per request before giving up (default 3)"),
 	TOOL_OPT_ARG("sim", "KEY=VALUE",
 		     "simulated buses: set a parameter of every\n"
@@ -655,6 +831,19 @@ const struct tool_opt rmdctl_dev_opts[] = {
 	{ .name = "once", .help = "print one table and exit", .flag = O_ONCE },
 	TOOL_OPT_ARG_FLAG("interval", "MS", "refresh period (default 200)", O_INTERVAL),
 	TOOL_OPT_ARG_FLAG("count", "N", "requests per motor and command (default 200)", O_COUNT),
+	TOOL_OPT_ARG_FLAG("out", "PREFIX",
+			  "write PREFIX.log (candump -l) and PREFIX.personality\n"
+			  "(default: rmd-ID)",
+			  O_OUT),
+	TOOL_OPT_ARG_FLAG("move", "DEG",
+			  "also move the motor DEG degrees (at most 10) and\n"
+			  "back, at --speed (at most 10 dps); without it\n"
+			  "nothing moves",
+			  O_MOVE),
+	{ .name = "power-cycle",
+	  .help = "also ask (on the terminal) for a power cycle, for\n"
+		  "the position after power off",
+	  .flag = O_POWER },
 };
 const size_t rmdctl_n_dev_opts = sizeof(rmdctl_dev_opts) / sizeof(rmdctl_dev_opts[0]);
 #define NOPTS rmdctl_n_dev_opts
@@ -710,6 +899,7 @@ static bool *switch_of(struct dev *d, const char *name)
 		{ "force", offsetof(struct dev, force) },
 		{ "no-wait", offsetof(struct dev, no_wait) },
 		{ "once", offsetof(struct dev, once) },
+		{ "power-cycle", offsetof(struct dev, power_cycle) },
 	};
 
 	for (size_t i = 0; i < sizeof(sw) / sizeof(sw[0]); i++)
@@ -788,6 +978,15 @@ static int set_option(struct dev *d, size_t k, const char *v)
 		if (rmdctl_parse_double(v, &x) < 0)
 			goto bad;
 		d->speed_dps = x;
+		d->speed_set = true;
+	} else if (!strcmp(name, "out")) {
+		if (!*v)
+			goto bad;
+		d->out = v;
+	} else if (!strcmp(name, "move")) {
+		if (rmdctl_parse_double(v, &x) < 0 || x == 0)
+			goto bad;
+		d->move_deg = x;
 	} else if (!strcmp(name, "interval")) {
 		if (rmdctl_parse_double(v, &x) < 0 || x < 10 || x > 3600000)
 			goto bad;

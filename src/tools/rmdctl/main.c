@@ -9,6 +9,7 @@
  *   settings.c  set-id, set-zero, set-timeout, accel, pid
  *   dump.c      dump, restore: every readable setting as YAML, and back
  *   motion.c    brake, stop, off, reset, move
+ *   characterize.c  one motor recorded as a personality file and a log
  *   top.c       a running rmdd, over LCM (no bus): fills a top_view
  *               (top_view.c) that its table, its JSON and top_screen.c
  *               (the ncurses screen on a terminal) only read
@@ -116,12 +117,37 @@ static const struct rmdctl_cmd cmds[] = {
 	    "writes all but the gains.  V3 and V4 only.\n",
 	    rmdctl_run_restore),
 	DEV("set-id", "renumber a motor (ROM)", "OLD NEW", 2, 2, O_YES | O_FORCE,
-	    "Renumbers motor OLD to NEW (0x79, ROM) and checks that NEW answers.  V3\n"
-	    "sends 0x79 on 0x300, which every motor on the bus with its CAN-ID filter\n"
-	    "off (0x20 index 2) obeys: with other motors answering, set-id refuses\n"
-	    "unless --force.  V4 (--protocol v4) writes NEW with 0x20 index 5 to OLD\n"
-	    "alone and resets it (0x76).  Asks for confirmation.\n",
+	    "Renumbers motor OLD to NEW (ROM) and checks that NEW answers and OLD no\n"
+	    "longer does; refuses a NEW that a motor answers on.  V3 sends 0x79 on\n"
+	    "0x300, which every motor on the bus with its CAN-ID filter off (0x20\n"
+	    "index 2) obeys: with other motors answering, set-id refuses unless\n"
+	    "--force.  V4 (--protocol v4) writes NEW with 0x20 index 5 to OLD alone\n"
+	    "(its echo comes from OLD or, firmware 2025070202, NEW: either is taken\n"
+	    "the first time, as each try writes flash), resets it (0x76), and waits up\n"
+	    "to 3 s for the boot (1.12 s measured): NEW's runtime (0xB1) must have\n"
+	    "restarted.  OLD's firmware date (0xB2) is asked first: a motor whose\n"
+	    "date says another dialect's way (2025070202: 0x20 index 5, not 0x79) is\n"
+	    "renumbered that way, said on stderr; so is one that answers 0x79 with a\n"
+	    "0xB2 frame.  Asks for confirmation.\n",
 	    rmdctl_run_set_id),
+	DEV("characterize", "record one motor: a personality file and a candump log (ROM)", "ID", 1,
+	    1, O_YES | O_COUNT | O_OUT | O_MOVE | O_SPEED | O_POWER,
+	    "Runs a fixed exchange with motor ID and writes PREFIX.log (every frame as\n"
+	    "a `candump -l` line, the bus's receive times) and PREFIX.personality (the\n"
+	    "file `rmd-sim --personality` and the sim bus replay, docs/rmd-sim.md):\n"
+	    "model (0xB5), firmware date (0xB2) and the dialect it says; every read\n"
+	    "command of that dialect --count times, one outstanding: the turnaround\n"
+	    "distribution of each (round trip less the frames on the wire), and the\n"
+	    "ones never answered; 0x79 read on its own id (answered by a 0xB2 frame:\n"
+	    "firmware 2025070202); 0xB3 written 1000 ms (ROM) and its echo checked,\n"
+	    "then 0 (off); a reset (0x76) and the time to its first answer.  Nothing\n"
+	    "moves unless --move DEG (at most 10 deg, and back, at --speed, default\n"
+	    "and at most 10 dps; stopped with 0x81 on anything odd).  --power-cycle\n"
+	    "asks for a power cycle (a terminal) and notes the angle before and\n"
+	    "after.  The MIT ranges written are the table's for the date and model,\n"
+	    "not measured.  CAN and sim buses.  Takes about --count x the commands x\n"
+	    "a round trip, plus the boot.  Asks for confirmation.\n",
+	    rmdctl_run_characterize),
 	DEV("set-zero", "make the current position the zero (ROM)", "ID", 1, 1, O_YES,
 	    "Makes the current position the zero (0x64, ROM).  It applies after a reset\n"
 	    "(`rmdctl reset ID`, 0x76) or a power cycle.  Asks for confirmation.\n",

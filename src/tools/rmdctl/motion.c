@@ -167,7 +167,7 @@ static int read_angle(struct dev *d, uint8_t id, double *deg)
 }
 
 /* Ctrl-C or a move gone wrong: V3 §2.16 stop and hold, whatever rmdctl_interrupted the rest. */
-static void stop_motor(struct dev *d, uint8_t id)
+void rmdctl_stop_motor(struct dev *d, uint8_t id)
 {
 	struct rmd_txn_opts o = d->txn;
 	struct rmd_txn t;
@@ -248,7 +248,7 @@ static int move_poll(struct dev *d, uint8_t id, double from, double target, doub
 }
 
 /* move_poll(), with the progress line of a terminal erased after it. */
-static int move_wait(struct dev *d, uint8_t id, double from, double target, double *final,
+int rmdctl_move_wait(struct dev *d, uint8_t id, double from, double target, double *final,
 		     const char **why)
 {
 	int r = move_poll(d, id, from, target, final, why);
@@ -355,10 +355,10 @@ int rmdctl_run_move(struct dev *d, int argc, char **argv)
 		}
 		goto out;
 	}
-	r = move_wait(d, id, from, target, &final, &why);
+	r = rmdctl_move_wait(d, id, from, target, &final, &why);
 	if (r) {
 		/* Make sure nothing keeps moving after we stop watching. */
-		stop_motor(d, id);
+		rmdctl_stop_motor(d, id);
 		tool_log(TOOL_LOG_ERR, "%s: motor %u: %s at %.2f deg (target %.2f deg)", d->name,
 			 id, why, final, target);
 		goto out;

@@ -82,7 +82,14 @@ int rmdctl_run_scan(struct dev *d, int argc, char **argv)
 		printf("%3u  %-8s %-10s %-5s %6s %9s  %-8s %s\n", ids[i], c[0], c[1], pk, c[2],
 		       c[3], c[4], c[5]);
 	}
-	if (m == 0)
+	if (m == 0 && d->wait_auto)
+		tool_log(TOOL_LOG_ERR,
+			 "%s: no motor answered 0x9A (%u ids probed, %s, %u %s, the first %d ms, "
+			 "then %s ms each)",
+			 d->name, n, rmd_proto_name(d->proto), d->tries,
+			 d->tries == 1 ? "try" : "tries", RMDCTL_WAIT_PROBE_MS,
+			 rmdctl_ms_str(ms, sizeof(ms), d->timeout_ms));
+	else if (m == 0)
 		tool_log(TOOL_LOG_ERR,
 			 "%s: no motor answered 0x9A (%u ids probed, %s, %s ms x %u tries)",
 			 d->name, n, rmd_proto_name(d->proto),

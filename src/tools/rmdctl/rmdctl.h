@@ -39,6 +39,9 @@ enum {
 	O_ONCE = 1u << 6,
 	O_INTERVAL = 1u << 7,
 	O_COUNT = 1u << 8,
+	O_OUT = 1u << 9,
+	O_MOVE = 1u << 10,
+	O_POWER = 1u << 11,
 };
 
 struct dev;
@@ -151,6 +154,18 @@ const char *rmdctl_proto_help(char *buf, size_t size, bool firmware_only);
 /* Defaults of --interval (monitor) and --speed (move). */
 #define MONITOR_INTERVAL_MS 200.0
 #define MOVE_SPEED_DPS 30.0
+/*
+ * Without --timeout the wait per try is measured (rmdctl_open_bus()): the
+ * first exchange of a run is preceded by one 0x9A to its motors that waits
+ * up to RMDCTL_WAIT_PROBE_MS; the wait per try is then RMDCTL_WAIT_RTTS
+ * times the slowest round trip heard plus RMDCTL_WAIT_SLACK_MS, within
+ * the default (RMD_TXN_TIMEOUT_NS) and RMDCTL_WAIT_PROBE_MS.  A motor behind
+ * a slow adapter (a USB latency timer of 16 ms, answers 8-48 ms late) is
+ * found; a silent one costs RMDCTL_WAIT_PROBE_MS more.
+ */
+#define RMDCTL_WAIT_PROBE_MS 100
+#define RMDCTL_WAIT_RTTS 2
+#define RMDCTL_WAIT_SLACK_MS 1
 
 /* Everything one run of a device command holds. */
 struct dev {
@@ -161,8 +176,17 @@ struct dev {
 	uint32_t baud;
 	enum rmd_proto proto; /* its record: rmdctl_dialect() */
 	double timeout_ms;
-	bool timeout_set;  /* --timeout given */
-	bool line_timeout; /* rtt: --timeout is RS485's own reply timeout too */
+	bool timeout_set; /* --timeout given */
+	/*
+	 * The wait follows the turnaround measured (RMDCTL_WAIT_PROBE_MS):
+	 * no --timeout, a command without a wait of its own (rtt has one), a
+	 * bus without a reply timeout of its own (RS485 has one)
+	 */
+	bool wait_auto;
+	bool wait_known;     /* ... and it was measured */
+	int64_t wait_rtt_ns; /* the slowest round trip that measurement heard; 0: none */
+	uint8_t wait_rtt_id; /* ... of this motor */
+	bool line_timeout;   /* rtt: --timeout is RS485's own reply timeout too */
 	unsigned tries;
 	unsigned count; /* rtt --count */
 	/* --sim KEY=VALUE: the simulated motors' model, applied at open in order */
@@ -170,7 +194,13 @@ struct dev {
 	unsigned n_sim;
 	bool json, yes, rom, force, no_wait, once, trace;
 	double speed_dps;
+	bool speed_set; /* --speed given */
 	double interval_ms;
+	/* characterize: --out, --move (0: none), --power-cycle, its candump log (NULL: none) */
+	const char *out;
+	double move_deg;
+	bool power_cycle;
+	FILE *log;
 	/* the bus */
 	struct rmd_bus bus;	   /* the transport */
 	struct rmd_bus tbus;	   /* --trace: prints every frame, then calls bus */
@@ -187,6 +217,7 @@ struct req {
 	uint8_t id;
 	struct rmd_msg msg; /* request */
 	struct rmd_txn t;
+	bool probed;	    /* its first try was the 0x9A that measured the wait */
 	bool answered;	    /* a frame matched */
 	bool ok;	    /* ... and decoded (echo rows: equal to the request) */
 	struct rmd_msg rep; /* decoded answer */
@@ -334,6 +365,12 @@ int rmdctl_run_reset(struct dev *d, int argc, char **argv);
 int rmdctl_run_move(struct dev *d, int argc, char **argv);
 /* rtt.c */
 int rmdctl_run_rtt(struct dev *d, int argc, char **argv);
+/* characterize.c */
+int rmdctl_run_characterize(struct dev *d, int argc, char **argv);
+/* motion.c, for characterize's move: 0x81 (reported), and the wait for arrival */
+void rmdctl_stop_motor(struct dev *d, uint8_t id);
+int rmdctl_move_wait(struct dev *d, uint8_t id, double from, double target, double *final,
+		     const char **why);
 /* dump.c */
 int rmdctl_run_dump(struct dev *d, int argc, char **argv);
 int rmdctl_run_restore(struct dev *d, int argc, char **argv);

@@ -18,8 +18,9 @@
 /* accel: V3 §2.5.1 range */
 #define ACCEL_MIN_DPS2 100
 #define ACCEL_MAX_DPS2 60000
-/* set-id: how long the new id may take to answer */
-#define SET_ID_WAIT_NS 1000000000
+/* set-id: how long the new id may take to answer (a reset's boot: 1.12 s was measured) */
+#define SET_ID_WAIT_NS 3000000000
+#define SET_ID_POLL_NS 50000000
 
 /* ---- set-id, set-zero, set-timeout ---------------------------------------------------- */
 
@@ -51,20 +52,66 @@ static int others_renumbered(struct dev *d, const uint8_t *before, unsigned n, u
 	return RMDCTL_EXIT_DATA;
 }
 
-/* An echo of `data` from one of ids[] (set_id_then_reset()). */
-struct echo_cap {
-	uint32_t ids[2];
-	uint8_t data[RMD_FRAME_LEN];
-	uint32_t from; /* 0: none seen */
+/*
+ * What came back to an ID write besides its own answer (cap_frame()): its
+ * echo from one of echo_ids[], or a 0xB2-shaped frame on b2_id (X4-64
+ * firmware 2025070202 answers 0x79 so: `241#B20000007A1EB478`, its
+ * firmware date, for read and write alike; it takes no 0x79).
+ */
+struct id_cap {
+	uint32_t echo_ids[2];
+	uint8_t data[RMD_FRAME_LEN]; /* the request: its echo */
+	uint32_t from;		     /* the echo came on this identifier; 0: none */
+	uint32_t b2_id;		     /* the motor's reply identifier; 0: no 0xB2 is looked for */
+	struct rmd_frame b2;	     /* ... the 0xB2 frame that came there (len 0: none) */
 };
 
-static void cap_echo(void *ctx, const struct rmd_bus_rx *rx)
+static void cap_frame(void *ctx, const struct rmd_bus_rx *rx)
 {
-	struct echo_cap *c = ctx;
+	struct id_cap *c = ctx;
 
-	if ((rx->f.can_id == c->ids[0] || rx->f.can_id == c->ids[1]) &&
+	if ((rx->f.can_id == c->echo_ids[0] || rx->f.can_id == c->echo_ids[1]) &&
 	    rx->f.len == RMD_FRAME_LEN && !memcmp(rx->f.data, c->data, RMD_FRAME_LEN))
 		c->from = rx->f.can_id;
+	/* V3 §2.29: 0xB2's answer */
+	if (c->b2_id && rx->f.can_id == c->b2_id && rx->f.len == RMD_FRAME_LEN &&
+	    rx->f.data[0] == 0xB2)
+		c->b2 = rx->f;
+}
+
+/*
+ * Send the ID write t, one try at a time (each writes flash), until its
+ * answer, its echo from either id or a 0xB2 frame (cap) came, at most
+ * --tries times: the txn matches the request's own answer only, so the
+ * others are looked for after each try, and among the frames that came
+ * after it (a run with no request takes them) before the next.  A write's
+ * answer is the request (V3 §4.3, V4.2 §2.34.3): a repeat the txn holds
+ * for an echo (rmd/txn.h check_echo: V3's 0x79 on 0x300 cannot go behind
+ * a guard) is the answer too; the motor answered the probe and 0xB2 just
+ * before, so it is awake, and check_renumbered() judges what it did.
+ * Returns 0 or RMDCTL_EXIT_DATA (a bus error, reported).
+ */
+static int write_id(struct dev *d, struct rmd_txn *t, struct id_cap *cap)
+{
+	struct rmd_txn_opts o = d->txn;
+	int r = 0;
+
+	memcpy(cap->data, t->req.data, RMD_FRAME_LEN);
+	o.unmatched = cap_frame;
+	o.unmatched_ctx = cap;
+	o.tries = 1;
+	for (unsigned k = 0; k < d->tries && !cap->from && !cap->b2.len; k++) {
+		r = k ? rmd_txn_run(d->b, t, 0, &o) : 0;
+		if (r >= 0 && !cap->from && !cap->b2.len)
+			r = rmd_txn_run(d->b, t, 1, &o);
+		if (r < 0) {
+			tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
+			return RMDCTL_EXIT_DATA;
+		}
+		if (t->done || t->echo_seen)
+			cap->from = t->reply_id;
+	}
+	return 0;
 }
 
 /* A request as messages name it: "0x20 index 5", "0x79". */
@@ -80,20 +127,20 @@ static const char *req_name(const struct rmd_msg *m, char *buf, size_t size)
 /*
  * A write of the ID that holds after a reset (how->then_reset; V4.2
  * §2.34.4: 0x20 index 5, to ROM, then 0x76).  The reply is the request
- * (§2.34.3), but firmware 2025070202 (X4-36) sends it from the NEW id
- * (how->echo_from_new), while it still takes requests on the old one until
- * the reset: either is the answer.  Then the reset to the old id.  Returns
- * an exit status.
+ * (§2.34.3), but firmware 2025070202 (X4-36, X4-64) sends it from the NEW
+ * id (how->echo_from_new), while it still takes requests on the old one
+ * until the reset: either is the answer, the first time (each try writes
+ * flash).  Then the reset to the old id, whose time goes in *t_reset_ns.
+ * Returns an exit status.
  */
 static int set_id_then_reset(struct dev *d, uint8_t old_id, uint8_t new_id,
-			     const struct rmd_set_id_req *how)
+			     const struct rmd_set_id_req *how, int64_t *t_reset_ns)
 {
 	const struct rmd_dialect *dl = rmdctl_dialect(d);
 	uint8_t echo_id = how->echo_from_new ? new_id :
 					       old_id; /* the other id it may answer from */
-	struct rmd_txn_opts o = d->txn;
-	struct echo_cap cap = { .ids = { dl->reply_base + (uint32_t)old_id,
-					 dl->reply_base + (uint32_t)echo_id } };
+	struct id_cap cap = { .echo_ids = { dl->reply_base + (uint32_t)old_id,
+					    dl->reply_base + (uint32_t)echo_id } };
 	struct rmd_txn t;
 	struct req rst;
 	char what[32], rname[16];
@@ -114,16 +161,9 @@ static int set_id_then_reset(struct dev *d, uint8_t old_id, uint8_t new_id,
 			 strerror(-r));
 		return RMDCTL_EXIT_DATA;
 	}
-	memcpy(cap.data, t.req.data, RMD_FRAME_LEN);
-	o.unmatched = cap_echo;
-	o.unmatched_ctx = &cap;
-	r = rmd_txn_run(d->b, &t, 1, &o);
-	if (r < 0) {
-		tool_log(TOOL_LOG_ERR, "%s: %s", d->name, strerror(-r));
-		return RMDCTL_EXIT_DATA;
-	}
-	if (t.done)
-		cap.from = t.reply_id;
+	r = write_id(d, &t, &cap);
+	if (r)
+		return r;
 	if (!cap.from) {
 		tool_log(TOOL_LOG_ERR,
 			 "%s: motor %u did not answer %s (from id %u or %u): the id may not have "
@@ -131,21 +171,143 @@ static int set_id_then_reset(struct dev *d, uint8_t old_id, uint8_t new_id,
 			 d->name, old_id, what, old_id, echo_id);
 		return RMDCTL_EXIT_DATA;
 	}
-	tool_log(TOOL_LOG_INFO, "%s: motor %u took id %u (answered from id %u); resetting it",
-		 d->name, old_id, new_id, (unsigned)(cap.from - dl->reply_base));
+	tool_log(TOOL_LOG_INFO,
+		 "%s: motor %u took id %u (echoed from id %u; until the reset it still takes "
+		 "requests on id %u); resetting it",
+		 d->name, old_id, new_id, (unsigned)(cap.from - dl->reply_base), old_id);
 	/* V4.2 §2.25: 0x76 does not answer */
 	rmdctl_req_init(&rst, old_id, how->reset.cmd);
 	rst.msg = how->reset;
-	return rmdctl_run_reqs(d, &rst, 1);
+	r = rmdctl_run_reqs(d, &rst, 1);
+	*t_reset_ns = rmd_now_ns();
+	return r;
+}
+
+/*
+ * The ID rule of motor id's firmware: when --protocol's dialect has 0xB2
+ * and the date it answers names (certainly) a dialect that sets IDs
+ * another way (firmware 2025070202: 0x20 index 5, not 0x79), that
+ * dialect's requests in *how and d->proto, said on stderr.  No answer:
+ * --protocol's rule stays.  Returns 0 or an exit status.
+ */
+static int firmware_rule(struct dev *d, uint8_t id, uint8_t new_id, struct rmd_set_id_req *how)
+{
+	const struct rmd_dialect *fw;
+	struct rec rec = { 0 };
+	struct req q;
+	bool certain;
+	int r;
+
+	if (!rmd_dialect_has(rmdctl_dialect(d), RMD_DIALECT_VERSION_B2))
+		return 0;
+	rmdctl_req_init(&q, id, 0xB2); /* V3 §2.29, V4.2 §2.30 */
+	r = rmdctl_run_reqs(d, &q, 1);
+	if (r || !q.ok)
+		return r;
+	rmdctl_rec_add_req(&rec, d, &q, true);
+	fw = rmdctl_rec_dialect(d, &rec, &certain);
+	if (!fw || !certain || fw->set_id == rmdctl_dialect(d)->set_id ||
+	    rmd_set_id_request(fw, new_id, how) < 0)
+		return 0;
+	tool_log(TOOL_LOG_NOTICE,
+		 "%s: motor %u's firmware (date %" PRId64 ") is %s: it sets its id as %s does, "
+		 "not as --protocol %s (docs/protocol-v4.md)",
+		 d->name, id, q.rep.v[RMD_FLD_VERSION], fw->name, fw->key, rmd_proto_key(d->proto));
+	d->proto = fw->proto;
+	return 0;
+}
+
+/*
+ * A 0x79 write answered by a 0xB2 frame (struct id_cap): firmware that
+ * takes no 0x79.  The dialect its date names, when that one sets IDs
+ * otherwise, in *how and d->proto (said); returns false when the date
+ * names none.
+ */
+static bool b2_rule(struct dev *d, uint8_t id, uint8_t new_id, const struct rmd_frame *b2,
+		    struct rmd_set_id_req *how)
+{
+	const struct rmd_dialect *fw;
+	struct rmd_msg m;
+	bool certain;
+	char hex[2 * RMD_FRAME_LEN + 1];
+
+	for (unsigned i = 0; i < RMD_FRAME_LEN; i++)
+		snprintf(hex + 2 * i, sizeof(hex) - 2 * i, "%02X", b2->data[i]);
+	tool_log(TOOL_LOG_ERR,
+		 "%s: motor %u answered 0x79 with %03" PRIX32 "#%s, a 0xB2 frame (firmware "
+		 "2025070202 does): it takes no 0x79, the id did not change",
+		 d->name, id, b2->can_id, hex);
+	if (rmd_decode_as(d->proto, RMD_DIR_REPLY, 0xB2, b2, &m) < 0 ||
+	    !rmd_msg_has(&m, RMD_FLD_VERSION))
+		return false;
+	fw = rmd_dialect_for_firmware((uint32_t)m.v[RMD_FLD_VERSION], &certain);
+	if (!certain || fw->set_id == rmdctl_dialect(d)->set_id ||
+	    rmd_set_id_request(fw, new_id, how) < 0)
+		return false;
+	tool_log(TOOL_LOG_NOTICE, "%s: its date %" PRId64 " says %s: setting the id as %s does",
+		 d->name, m.v[RMD_FLD_VERSION], fw->name, fw->key);
+	d->proto = fw->proto;
+	return true;
+}
+
+/*
+ * After the ID write (and the reset, t_reset_ns; 0: none): NEW answers and
+ * OLD does not, within SET_ID_WAIT_NS (the boot after a reset: 1.12 s was
+ * measured); after a reset NEW's runtime (0xB1, where the dialect has it)
+ * must have restarted, so that an answer from before the reset is not
+ * taken.  Says which.  Returns an exit status.
+ */
+static int check_renumbered(struct dev *d, uint8_t old_id, uint8_t new_id, int64_t t_reset_ns)
+{
+	bool runtime = t_reset_ns && rmd_cmd_find(d->proto, 0xB1);
+	int64_t t0 = rmd_now_ns(), until = t0 + SET_ID_WAIT_NS, now;
+	bool new_ok = false, old_ok = true;
+
+	do {
+		struct req v[2];
+
+		/* V3 §2.28: the runtime restarts at 0 with the firmware */
+		rmdctl_req_init(&v[0], new_id, runtime ? 0xB1 : 0x9A);
+		rmdctl_req_init(&v[1], old_id, 0x9A);
+		if (rmdctl_run_reqs(d, v, 2))
+			return RMDCTL_EXIT_DATA;
+		now = rmd_now_ns();
+		new_ok = v[0].ok && (!runtime || v[0].rep.v[RMD_FLD_RUNTIME] <=
+							 (now - t_reset_ns) / 1000000 + 100);
+		old_ok = v[1].ok;
+		if (new_ok && !old_ok) {
+			if (t_reset_ns)
+				printf("%s: motor %u is now motor %u (ROM): after the reset id %u "
+				       "answers (%.0f ms later%s) and id %u no longer does\n",
+				       d->name, old_id, new_id, new_id,
+				       (double)(now - t_reset_ns) / 1e6,
+				       runtime ? ", its runtime restarted" : "", old_id);
+			else
+				printf("%s: motor %u is now motor %u (ROM): id %u answers and id %u "
+				       "no longer does\n",
+				       d->name, old_id, new_id, new_id, old_id);
+			return RMDCTL_EXIT_OK;
+		}
+		if (!new_ok)
+			rmdctl_sleep_until(now + SET_ID_POLL_NS);
+	} while (now < until && !rmdctl_interrupted);
+	tool_log(TOOL_LOG_ERR,
+		 "%s: motor %u echoed the new id %u, but within %.1f s%s id %u %s and id %u %s",
+		 d->name, old_id, new_id, SET_ID_WAIT_NS / 1e9, t_reset_ns ? " of the reset" : "",
+		 new_id, new_ok ? "answers" : "does not answer", old_id,
+		 old_ok ? "still answers" : "does not");
+	return RMDCTL_EXIT_DATA;
 }
 
 int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 {
 	uint8_t old_id, new_id, all[RMD_MAX_MOTORS], found[RMD_MAX_MOTORS];
-	struct req st[RMD_MAX_MOTORS], q;
+	struct req st[RMD_MAX_MOTORS];
 	struct rmd_set_id_req how;
+	struct id_cap cap = { 0 };
+	struct rmd_txn t;
 	bool old_seen = false, new_seen = false;
-	int64_t until;
+	int64_t t_reset = 0;
 	int m, r;
 
 	(void)argc;
@@ -185,6 +347,9 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 			 new_id);
 		goto out;
 	}
+	r = firmware_rule(d, old_id, new_id, &how);
+	if (r)
+		goto out;
 	/* V3 §4: 0x79 rides on 0x300, to every motor */
 	if (how.every_motor) {
 		tool_log(TOOL_LOG_ERR,
@@ -196,11 +361,12 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 				 "%s: %d motors answer; connect motor %u alone, or turn the "
 				 "others' CAN-ID filter on and add --force",
 				 d->name, m, old_id);
+			r = RMDCTL_EXIT_DATA;
 			goto out;
 		}
 	}
 	if (how.then_reset) {
-		r = set_id_then_reset(d, old_id, new_id, &how);
+		r = set_id_then_reset(d, old_id, new_id, &how, &t_reset);
 		if (r)
 			goto out;
 		goto renumbered;
@@ -210,18 +376,31 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 					     "");
 	if (r)
 		goto out;
-	rmdctl_req_init(&q, old_id, how.write.cmd);
-	q.msg = how.write;
-	r = rmdctl_run_reqs(d, &q, 1);
+	r = rmdctl_txn_prepare(&t, d, old_id, &how.write);
 	if (r)
 		goto out;
+	cap.b2_id = rmdctl_dialect(d)->reply_base + old_id;
+	r = write_id(d, &t, &cap);
+	if (r)
+		goto out;
+	if (!cap.from && cap.b2.len) {
+		r = RMDCTL_EXIT_DATA;
+		if (!b2_rule(d, old_id, new_id, &cap.b2, &how) || !how.then_reset)
+			goto out;
+		r = set_id_then_reset(d, old_id, new_id, &how, &t_reset);
+		if (r)
+			goto out;
+		goto renumbered;
+	}
 	/* V3 §4.3, V2 §3.52: a write is answered with the request itself (the row's reply layout is a read's). */
-	if (!q.answered) {
+	if (!cap.from) {
+		struct req q = { .id = old_id, .msg = how.write, .t = t };
+
 		rmdctl_report_missing(d, &q, "");
 		r = RMDCTL_EXIT_DATA;
 		goto out;
 	}
-	if (memcmp(q.t.rep.f.data, q.t.req.data, RMD_FRAME_LEN)) {
+	if (t.done && memcmp(t.rep.f.data, t.req.data, RMD_FRAME_LEN)) {
 		tool_log(TOOL_LOG_ERR,
 			 "%s: the answer to 0x%02X is not the echo of the request: the id "
 			 "may not have changed",
@@ -230,26 +409,9 @@ int rmdctl_run_set_id(struct dev *d, int argc, char **argv)
 		goto out;
 	}
 renumbered:
-	/* The new id answers, the old one no longer does. */
-	until = rmd_now_ns() + SET_ID_WAIT_NS;
-	do {
-		struct req v[2];
-
-		rmdctl_req_init(&v[0], new_id, 0x9A);
-		rmdctl_req_init(&v[1], old_id, 0x9A);
-		r = rmdctl_run_reqs(d, v, 2);
-		if (r)
-			goto out;
-		if (v[0].ok && !v[1].ok) {
-			printf("%s: motor %u is now motor %u (ROM)\n", d->name, old_id, new_id);
-			r = others_renumbered(d, found, (unsigned)m, old_id, new_id);
-			goto out;
-		}
-	} while (rmd_now_ns() < until && !rmdctl_interrupted);
-	tool_log(TOOL_LOG_ERR, "%s: motor %u echoed the new id %u, but id %u %s and id %u %s",
-		 d->name, old_id, new_id, new_id, "does not answer as expected", old_id,
-		 "may still answer");
-	r = RMDCTL_EXIT_DATA;
+	r = check_renumbered(d, old_id, new_id, t_reset);
+	if (!r)
+		r = others_renumbered(d, found, (unsigned)m, old_id, new_id);
 out:
 	rmdctl_close_bus(d);
 	return r;
