@@ -47,6 +47,13 @@ struct rmd_bus_stats {
 	/* Byte-stream transports (RS485); 0 on the others: */
 	uint64_t rx_noise_bytes; /* skipped to find the next frame (a run is one rx_error) */
 	uint64_t echoes;	 /* own frames heard back and dropped (local echo) */
+	/*
+	 * Of tx_busy, frames the rt loop got onto the bus by trying again
+	 * within their cycle (a full queue on a bus that carries frames,
+	 * issue 32 point 8); kept by the loop, in its health's copy: the
+	 * transports leave it 0.
+	 */
+	uint64_t tx_retried;
 };
 
 /* What a caller needs to know of a transport, filled by its open. */

@@ -726,6 +726,7 @@ void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
 			return;
 		/* the bus carries frames: what the last send put on it may still wait */
 		lb->tx_unheard = lb->tx_last;
+		lb->heard_ns = now;
 		/* incident recorder: every frame received */
 		if (l->o.incidents)
 			rmd_incident_rx(l->o.incidents, b, lb->rx, (unsigned)n);

@@ -52,7 +52,7 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 		const struct rmd_plan_bus *pb = &s->plan->bus[b];
 		double period = (double)s->plan->period_ns;
 		char load[96] = "load: no health yet";
-		char counters[192] = "";
+		char counters[256] = "";
 
 		if (have_h && b < h->nbuses) {
 			const struct rmd_bus_stats *st = &h->bus[b].stats;
@@ -67,9 +67,10 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 				 100.0 * h->bus[b].load, 100.0 * run);
 			snprintf(counters, sizeof(counters),
 				 "; frames tx %" PRIu64 ", rx %" PRIu64 ", tx busy %" PRIu64
-				 ", rx errors %" PRIu64 ", bus errors %" PRIu64 ", %s",
-				 st->tx_frames, st->rx_frames, st->tx_busy, st->rx_errors,
-				 st->bus_errors,
+				 " (%" PRIu64 " retried in their cycle), rx errors %" PRIu64
+				 ", bus errors %" PRIu64 ", %s",
+				 st->tx_frames, st->rx_frames, st->tx_busy, st->tx_retried,
+				 st->rx_errors, st->bus_errors,
 				 rmd_bus_state_name((enum rmd_bus_state)h->bus[b].state));
 		}
 		tool_log_always(
