@@ -42,8 +42,9 @@ struct bus_sim {
 	bool refuse_flush; /* opts.refuse_flush */
 	bool refusing;	   /* a struct tx_refusal window is set */
 	struct tx_refusal refusal;
-	bool started;	  /* the epoch is set */
-	int64_t epoch_ns; /* caller's now_ns at sim time 0 */
+	bool started;			  /* the epoch is set */
+	int64_t epoch_ns;		  /* caller's now_ns at sim time 0 */
+	int64_t last_rx_ns, stamp_gap_ns; /* rmd_bus_stamp_seen() */
 	struct bus_tap tap;
 };
 
@@ -212,6 +213,8 @@ static int sim_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, i
 		for (int i = 0; i < r; i++) {
 			out[count].f = f[i];
 			out[count].t_ns = t[i] + p->epoch_ns;
+			rmd_bus_stamp_seen(&bus->stats, &p->last_rx_ns, out[count].t_ns,
+					   p->stamp_gap_ns);
 			count++;
 		}
 		if ((unsigned)r < want)
@@ -374,6 +377,7 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 					   .bitrate = p->sim.bitrate };
 	bus->state = RMD_BUS_ACTIVE;
 	bus->priv = p;
+	p->stamp_gap_ns = rmd_bus_stamp_gap_ns(p->sim.bitrate);
 	return 0;
 
 err_fini:

@@ -211,6 +211,7 @@ void loop_fill_health(struct rmd_loop *l, int64_t now)
 		bh->load = lb->load;
 		bh->stats = *bs;
 		bh->stats.tx_retried = lb->tx_retried;
+		bh->stats.rx_stamps_early = lb->rx_early;
 	}
 	h->watchdog = l->wd;
 	h->safe_action_events = l->cnt.safe_actions;

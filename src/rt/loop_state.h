@@ -211,6 +211,7 @@ struct lbus {
 	unsigned tx_off;
 	int64_t retry_until_ns, heard_ns;
 	uint64_t tx_retried;
+	uint64_t rx_early;     /* replies stamped before their request's send (rmd_bus_stats) */
 	bool unacked;	       /* a no-acknowledgement episode is open (loop_tx.c) */
 	uint32_t unacked_lost; /* ... and its motors LOST in it, bit k: pb->motors[k] */
 	bool failing;

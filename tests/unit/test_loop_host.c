@@ -18,6 +18,7 @@
 
 #include "harness/loop_rig.h"
 #include "harness/suite.h"
+#include "rmd/sim_adapter.h"
 
 /* Three motors on bus 0, cycles as the rt thread runs them, in speed mode at 1 rad/s. */
 static void three_rt_at_speed(tweak_fn *tweak)
@@ -133,8 +134,161 @@ static void test_enobufs_persistent_is_bus_fault(void **state)
 	rig_down();
 }
 
+/* ---- point 9: adapters that batch receive stamps ------------------------------------ */
+
+/* The host's adapter of every motor: PCAN-USB-like, 8 frames to a packet of the 1 ms USB frame. */
+static void pcan_usb(struct rmd_sim_setup *sim)
+{
+	for (unsigned i = 0; i < RMD_MAX_MOTORS; i++) {
+		sim->motors[i].adapter_usb_frame_ns = 1.0 * MS;
+		sim->motors[i].adapter_rx_batch = 8;
+	}
+}
+
+/*
+ * The adapter's arithmetic (rmd/sim_adapter.h): a packet of 3 goes at the
+ * end of the USB frame after its first frame's; a full one, or one gone,
+ * leaves the next frame to a new packet; never back in time.
+ */
+static void test_sim_adapter_rx_batch(void **state)
+{
+	static const struct {
+		int64_t wire_us, host_us;
+	} v[] = {
+		{ 200, 2000 },	{ 500, 2000 },	{ 900, 2000 },	/* one packet, full */
+		{ 1100, 3000 }, { 1500, 3000 }, { 2500, 3000 }, /* the next, full */
+		{ 2900, 4000 }, { 4100, 6000 },			/* one gone at 4000: a new one */
+	};
+	struct rmd_sim_motor_params p;
+	struct rmd_sim_adapter a;
+
+	(void)state;
+	memset(&p, 0, sizeof(p));
+	p.adapter_usb_frame_ns = 1.0 * MS;
+	p.adapter_rx_batch = 3;
+	rmd_sim_adapter_init(&a);
+	for (size_t k = 0; k < sizeof(v) / sizeof(v[0]); k++) {
+		int64_t t = rmd_sim_adapter_ns(&a, &p, v[k].wire_us * US);
+
+		if (t != v[k].host_us * US)
+			fail_msg(
+				"frame %zu, on the wire at %lld us: to the host at %lld us, not %lld",
+				k, (long long)v[k].wire_us, (long long)(t / US),
+				(long long)v[k].host_us);
+	}
+}
+
+/* Motor i's reply latencies so far. */
+static struct rmd_latency latency(unsigned i)
+{
+	struct rmd_latency lat;
+
+	assert_true(rmd_loop_get_reply_latency(R.l, i, &lat));
+	return lat;
+}
+
+/*
+ * Replies reach the host in packets, several stamped at one instant,
+ * replies to requests a cycle apart among them: the motors run (the wire:
+ * their setpoints, what they do), no reply is missed, every latency lies
+ * between the send and the reply deadline, and the shared stamps are
+ * counted in the bus's health.
+ */
+static void test_batched_stamps(void **state)
+{
+	struct rmd_loop_counters c0, c1;
+	struct rmd_bus_health bh;
+	unsigned from;
+
+	(void)state;
+	rig_sim_tweak = pcan_usb;
+	three_rt_at_speed(NULL);
+	rig_sim_tweak = NULL;
+	rmd_loop_get_counters(R.l, &c0);
+	from = trace_n;
+	run(500, true);
+	rmd_loop_get_counters(R.l, &c1);
+	assert_int_equal(c1.missed - c0.missed, 0);
+	for (unsigned i = 0; i < 3; i++) {
+		struct rmd_latency lat = latency(i);
+
+		assert_true(sent_to(i, 0xA2, from) >= 490); /* status polls take a few slots */
+		assert_int_equal(lifecycle(i), RMD_LC_ENABLED);
+		assert_float_equal(sim_motor(i)->vel_rad_s, 1.0, 0.05);
+		if (lat.min_ns < 0 || lat.max_ns > 3 * MS)
+			fail_msg("motor %u: reply latency %lld..%lld us", i,
+				 (long long)(lat.min_ns / US), (long long)(lat.max_ns / US));
+	}
+	bh = bus_health(0);
+	assert_true(bh.stats.rx_stamps_shared > 3 * 300);
+	assert_int_equal(bh.stats.rx_stamps_early, 0);
+	rig_down();
+}
+
+/*
+ * A decorator over the sim bus: every receive stamp 1.5 ms early, as an
+ * adapter's hardware stamps converted by a clock estimate that lags
+ * (stamps a packet's frames with its first one's time).
+ */
+static struct rmd_bus early_inner;
+static struct rmd_bus_wrap early_wrap = { .inner = &early_inner };
+
+static int early_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, int64_t now)
+{
+	int n = rmd_bus_wrap_recv(bus, out, max, now);
+
+	for (int k = 0; k < n; k++)
+		out[k].t_ns -= 1500 * US;
+	return n;
+}
+
+static const struct rmd_bus_ops early_ops =
+	RMD_BUS_WRAP_OPS("early", rmd_bus_wrap_send, early_recv);
+
+/*
+ * Replies stamped before their requests were sent: no latency is negative
+ * (each is taken as received at its send), they are counted, and the
+ * motors run on without a missed reply.
+ */
+static void test_stamps_before_send_bounded(void **state)
+{
+	struct rmd_loop_counters c0, c1;
+	struct rmd_latency lat0[3];
+	struct rmd_bus_health bh;
+	unsigned from;
+
+	(void)state;
+	three_rt_at_speed(NULL);
+	for (unsigned i = 0; i < 3; i++)
+		lat0[i] = latency(i);
+	early_inner = R.io.buses[0];
+	rmd_bus_wrap_init(&R.io.buses[0], &early_ops, &early_wrap);
+	rmd_loop_get_counters(R.l, &c0);
+	from = trace_n;
+	run(300, true);
+	rmd_loop_get_counters(R.l, &c1);
+	R.io.buses[0] = early_inner;
+	assert_int_equal(c1.missed - c0.missed, 0);
+	for (unsigned i = 0; i < 3; i++) {
+		struct rmd_latency lat = latency(i);
+
+		assert_true(sent_to(i, 0xA2, from) >= 290);
+		assert_int_equal(lifecycle(i), RMD_LC_ENABLED);
+		assert_true(lat.n - lat0[i].n >= 299);
+		if (lat.min_ns < 0)
+			fail_msg("motor %u: a reply latency of %lld us", i,
+				 (long long)(lat.min_ns / US));
+	}
+	bh = bus_health(0);
+	assert_true(bh.stats.rx_stamps_early >= 3 * 150); /* the health is ~100 cycles old */
+	rig_down();
+}
+
 SUITE_MAIN("loop_host", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_enobufs_transient_retried),
 		   cmocka_unit_test(test_enobufs_persistent_is_bus_fault),
+		   cmocka_unit_test(test_sim_adapter_rx_batch),
+		   cmocka_unit_test(test_batched_stamps),
+		   cmocka_unit_test(test_stamps_before_send_bounded),
 	   })

@@ -52,7 +52,7 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 		const struct rmd_plan_bus *pb = &s->plan->bus[b];
 		double period = (double)s->plan->period_ns;
 		char load[96] = "load: no health yet";
-		char counters[256] = "";
+		char counters[320] = "";
 
 		if (have_h && b < h->nbuses) {
 			const struct rmd_bus_stats *st = &h->bus[b].stats;
@@ -68,9 +68,11 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 			snprintf(counters, sizeof(counters),
 				 "; frames tx %" PRIu64 ", rx %" PRIu64 ", tx busy %" PRIu64
 				 " (%" PRIu64 " retried in their cycle), rx errors %" PRIu64
-				 ", bus errors %" PRIu64 ", %s",
+				 ", bus errors %" PRIu64 ", rx stamps batched %" PRIu64
+				 ", before their request %" PRIu64 ", %s",
 				 st->tx_frames, st->rx_frames, st->tx_busy, st->tx_retried,
-				 st->rx_errors, st->bus_errors,
+				 st->rx_errors, st->bus_errors, st->rx_stamps_shared,
+				 st->rx_stamps_early,
 				 rmd_bus_state_name((enum rmd_bus_state)h->bus[b].state));
 		}
 		tool_log_always(
