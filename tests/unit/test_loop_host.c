@@ -284,6 +284,69 @@ static void test_stamps_before_send_bounded(void **state)
 	rig_down();
 }
 
+/* ---- point 11: host stalls ---------------------------------------------------------- */
+
+/*
+ * The host stalls 40 ms at 1 kHz right after a cycle's send (a dataset
+ * writer flushing): the replies of that cycle wait in the bus's queue with
+ * their receive stamps.  The next tick skips the 40 periods, never catches
+ * up: on the wire, one setpoint a motor per period from then on, none
+ * within half a period of the one before; the delayed replies are matched
+ * (no miss, no motor LOST or out of ENABLED); the stall is reported once
+ * (RMD_EV_OVERRUN, the 39 ticks missed at once), in the overruns and the wake-up
+ * lateness.
+ */
+static void test_host_stall_40ms(void **state)
+{
+	struct rmd_loop_counters c0, c1;
+	struct rmd_loop_stats st;
+	int64_t stall_end, last[3] = { 0 };
+	unsigned from, n_ev = 0;
+
+	(void)state;
+	three_rt_at_speed(NULL);
+	rmd_loop_get_counters(R.l, &c0);
+	events_pump();
+	R.nev = 0;
+	/* a cycle, then nothing of rmdd runs for 40 ms */
+	rmd_loop_tick(R.l, t_now);
+	t_now += 40 * MS;
+	stall_end = t_now;
+	from = trace_n;
+	run(200, true);
+	rmd_loop_get_counters(R.l, &c1);
+	for (unsigned i = 0; i < 3; i++)
+		assert_int_equal(lifecycle(i), RMD_LC_ENABLED);
+	assert_int_equal(c1.missed - c0.missed, 0);
+	assert_int_equal(c1.late - c0.late, 0);
+	/* the wire after the stall: at most a frame a motor a period, no burst */
+	for (unsigned k = from; k < trace_n; k++) {
+		unsigned id = trace[k].f.can_id - 0x141;
+
+		if (trace[k].t_ns < stall_end || id >= 3 || trace[k].f.data[0] != 0xA2)
+			continue;
+		/* a catch-up would put several a period, a frame's wire time apart */
+		if (last[id] && trace[k].t_ns - last[id] < period() / 2)
+			fail_msg("motor %u: frames %lld us apart, %lld us after the stall", id,
+				 (long long)((trace[k].t_ns - last[id]) / US),
+				 (long long)((trace[k].t_ns - stall_end) / US));
+		last[id] = trace[k].t_ns;
+	}
+	for (unsigned i = 0; i < 3; i++)
+		assert_true(sent_to(i, 0xA2, from) >= 190);
+	/* reported: one overrun event for the 40 periods, the lateness measured */
+	for (unsigned k = 0; k < R.nev; k++)
+		if (R.ev[k].kind == RMD_EV_OVERRUN) {
+			n_ev++;
+			assert_int_equal(R.ev[k].b, 39); /* the ticks 1..39 ms after the last */
+		}
+	assert_int_equal(n_ev, 1);
+	rmd_loop_get_stats(R.l, &st);
+	assert_true(st.overruns >= 39);
+	assert_true(st.wake_max_ns >= 39 * MS);
+	rig_down();
+}
+
 SUITE_MAIN("loop_host", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_enobufs_transient_retried),
@@ -291,4 +354,5 @@ SUITE_MAIN("loop_host", NULL, NULL,
 		   cmocka_unit_test(test_sim_adapter_rx_batch),
 		   cmocka_unit_test(test_batched_stamps),
 		   cmocka_unit_test(test_stamps_before_send_bounded),
+		   cmocka_unit_test(test_host_stall_40ms),
 	   })

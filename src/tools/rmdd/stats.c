@@ -85,6 +85,23 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 }
 
 /*
+ * Host stalls (issue 32 point 11: a dataset writer flushing, a loaded
+ * host): the wake-ups RMD_LOOP_WAKE_US_BUCKETS us or more late, and the
+ * longest; each skipped its periods (an overrun), none caught up.
+ */
+static void print_stalls(const struct rmdd_stats_src *s, const struct rmd_loop_stats *st)
+{
+	static struct rmd_loop_wake_hist wh; /* main thread only */
+
+	rmd_loop_get_wake_hist(s->loop, &wh);
+	tool_log_always(6,
+			"  loop: host stalls (wake-ups %u us or more late) %" PRIu64
+			", the longest %.1f ms, their periods skipped, none caught up",
+			RMD_LOOP_WAKE_US_BUCKETS, wh.over,
+			wh.over ? (double)st->wake_max_ns / 1e6 : 0.0);
+}
+
+/*
  * The wake-up lateness histogram in cyclictest's buckets (1 us, [k, k+1)
  * us, to 1000 us): the non-empty ones as "us:count", a few lines of them.
  */
@@ -175,6 +192,7 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 			"  loop: overruns %" PRIu64 ", plan misses %" PRIu64
 			", frames not sent %" PRIu64,
 			st.overruns, st.plan_misses, c.frames_not_sent);
+	print_stalls(s, &st);
 	print_wake_hist(s);
 	tool_log_always(6,
 			"  replies: matched %" PRIu64 ", missed %" PRIu64 ", echoed %" PRIu64
