@@ -47,7 +47,46 @@ struct rmd_bus_stats {
 	/* Byte-stream transports (RS485); 0 on the others: */
 	uint64_t rx_noise_bytes; /* skipped to find the next frame (a run is one rx_error) */
 	uint64_t echoes;	 /* own frames heard back and dropped (local echo) */
+	/*
+	 * Of tx_busy, frames the rt loop got onto the bus by trying again
+	 * within their cycle (a full queue on a bus that carries frames,
+	 * issue 32 point 8); kept by the loop, in its health's copy: the
+	 * transports leave it 0.
+	 */
+	uint64_t tx_retried;
+	/*
+	 * Receive stamps (issue 32 point 9).  rx_stamps_shared, the
+	 * transport's (CAN): frames stamped closer to the frame before them
+	 * than RMD_BUS_STAMP_GAP_BITS bit times, which no two frames on the
+	 * wire can be: the adapter hands them over in batches (PCAN-USB), its
+	 * reply latencies are its packets'.  rx_stamps_early, kept by the rt
+	 * loop as tx_retried: replies stamped before their request was sent
+	 * (taken as received at the send).
+	 */
+	uint64_t rx_stamps_shared;
+	uint64_t rx_stamps_early;
 };
+
+/* No two frames end closer on a CAN wire: an RMD frame is 108 bits and more (docs/design.md). */
+#define RMD_BUS_STAMP_GAP_BITS 100
+
+/* The gap of rmd_bus_stamp_seen() at bitrate bit/s (0: unknown, none).  Rt-safe. */
+static inline int64_t rmd_bus_stamp_gap_ns(uint32_t bitrate)
+{
+	return bitrate ? (int64_t)RMD_BUS_STAMP_GAP_BITS * 1000000000 / bitrate : 0;
+}
+
+/*
+ * A frame received, stamped t_ns: counted in stats->rx_stamps_shared when
+ * it is closer than gap_ns to the one before (*last_ns, updated).  For
+ * the transports.  Rt-safe.
+ */
+static inline void rmd_bus_stamp_seen(struct rmd_bus_stats *stats, int64_t *last_ns, int64_t t_ns,
+				      int64_t gap_ns)
+{
+	stats->rx_stamps_shared += (uint64_t)(t_ns - *last_ns) < (uint64_t)gap_ns;
+	*last_ns = t_ns;
+}
 
 /* What a caller needs to know of a transport, filled by its open. */
 struct rmd_bus_caps {

@@ -104,4 +104,20 @@ int64_t rmd_bus_sim_time_ns(const struct rmd_bus *bus, int64_t now_ns);
 /* Lines of the wire tap lost to a full FIFO or a failed write so far (0: no tap).  Rt-safe. */
 uint64_t rmd_bus_sim_tap_lost(const struct rmd_bus *bus);
 
+/*
+ * The host's adapter refuses sends (issue 32 point 8), as a USB-CAN
+ * adapter sharing its USB with cameras does (gs_usb: every TX URB in
+ * flight, the queue full: sendmsg() says ENOBUFS while the bus is
+ * healthy).  From start_ns to end_ns (sim time, rmd_bus_sim_time_ns(); 0:
+ * open), a send() that finds the adapter busy takes nothing (0 returned,
+ * the frames counted in stats.tx_busy, as SocketCAN's ENOBUFS): the first
+ * send() of a run is refused and makes it busy for hold_ns; the first
+ * send() after that is taken and ends the run, so the next one is refused
+ * again (transient: each cycle's first try refused, a try hold_ns later
+ * taken).  hold_ns 0: every send() of the window is refused (persistent).
+ * Replaces an earlier window; 0 or -EINVAL (not a sim bus, end before
+ * start, hold_ns < 0).  Rt-safe.
+ */
+int rmd_bus_sim_refuse_tx(struct rmd_bus *bus, int64_t start_ns, int64_t end_ns, int64_t hold_ns);
+
 #endif /* RMD_BUS_SIM_H */

@@ -133,6 +133,12 @@ struct rmd_sim_motor_params {
 	double adapter_latency_timer_ns;
 	double adapter_usb_frame_ns;
 	double adapter_delay_ns;
+	/*
+	 * With adapter_usb_frame_ns: frames the adapter packs into one USB
+	 * packet, all reaching the host (stamped) at one instant (PCAN-USB);
+	 * 0 or 1: none (rmd/sim_adapter.h).
+	 */
+	unsigned adapter_rx_batch;
 	uint64_t seed;		/* PRNG seed; 0: derived from id */
 	double start_angle_deg; /* output angle at first power-on (multi-turn, not wrapped) */
 	/*

@@ -11,6 +11,12 @@
  *   frame is 13 bytes of the chip's 62, so one exchange never fills it);
  * - USB batching (a USB-CAN adapter, full-speed USB): frames go to the host
  *   in the packets of the 1 ms USB frame, at the end of the one they fell in;
+ *   an adapter that packs several frames into one packet (PCAN-USB,
+ *   adapter_rx_batch) sends a packet at the end of the USB frame after the
+ *   one its first frame fell in, or starts a new one when it is full, so
+ *   that up to adapter_rx_batch frames, replies to requests sent apart,
+ *   reach the host at one instant and a kernel stamps them alike (issue 32
+ *   point 9);
  * - a fixed delay: driver, bridge, a slow converter.
  *
  * In that order, each after the one before.  The parameters are simulator
@@ -26,10 +32,12 @@
 
 #include "rmd/sim.h"
 
-/* One adapter's state: the latency timer's. */
+/* One adapter's state: the latency timer's and the USB packet's. */
 struct rmd_sim_adapter {
-	bool holding;	  /* bytes are held ... */
-	int64_t flush_ns; /* ... until the timer expires at this time */
+	bool holding;	   /* bytes are held ... */
+	int64_t flush_ns;  /* ... until the timer expires at this time */
+	unsigned packet_n; /* frames in the packet being filled ... */
+	int64_t packet_ns; /* ... which goes to the host at this time */
 };
 
 /* Nothing held.  rt-safe. */

@@ -30,11 +30,21 @@ struct bus_tap {
 	char buf[PIPE_BUF];
 };
 
+/* Sends the adapter refuses (rmd_bus_sim_refuse_tx()), in sim time. */
+struct tx_refusal {
+	int64_t start_ns, end_ns, hold_ns; /* end_ns 0: open; hold_ns 0: every send */
+	bool busy;			   /* a run of refusals is on ... */
+	int64_t busy_until_ns;		   /* ... until this time */
+};
+
 struct bus_sim {
 	struct rmd_sim_wire sim;
 	bool refuse_flush; /* opts.refuse_flush */
-	bool started;	   /* the epoch is set */
-	int64_t epoch_ns;  /* caller's now_ns at sim time 0 */
+	bool refusing;	   /* a struct tx_refusal window is set */
+	struct tx_refusal refusal;
+	bool started;			  /* the epoch is set */
+	int64_t epoch_ns;		  /* caller's now_ns at sim time 0 */
+	int64_t last_rx_ns, stamp_gap_ns; /* rmd_bus_stamp_seen() */
 	struct bus_tap tap;
 };
 
@@ -140,13 +150,39 @@ static void sync_state(struct rmd_bus *bus, struct bus_sim *p)
 	}
 }
 
+/* Whether the adapter refuses a send() at sim time t (rmd_bus_sim_refuse_tx()).  Rt-safe. */
+static bool tx_refused(struct tx_refusal *rf, int64_t t)
+{
+	if (t < rf->start_ns || (rf->end_ns && t >= rf->end_ns)) {
+		rf->busy = false;
+		return false;
+	}
+	if (!rf->hold_ns)
+		return true;
+	if (!rf->busy) {
+		rf->busy = true;
+		rf->busy_until_ns = t + rf->hold_ns;
+		return true;
+	}
+	if (t < rf->busy_until_ns)
+		return true;
+	rf->busy = false;
+	return false;
+}
+
 /* rt-safe */
 static int sim_send(struct rmd_bus *bus, const struct rmd_frame *frames, unsigned n, int64_t now_ns)
 {
 	struct bus_sim *p = priv(bus);
+	int64_t t = to_sim(p, now_ns);
 	int r;
 
-	r = rmd_sim_wire_send(&p->sim, to_sim(p, now_ns), frames, n);
+	if (__builtin_expect(p->refusing, 0) && n && tx_refused(&p->refusal, t)) {
+		/* the adapter's queue is full: ENOBUFS, the caller keeps the frames */
+		bus->stats.tx_busy += n;
+		return 0;
+	}
+	r = rmd_sim_wire_send(&p->sim, t, frames, n);
 	sync_state(bus, p);
 	if (r == -ENOBUFS) {
 		/* The TX queue is full: the caller keeps the frames, as with SocketCAN. */
@@ -177,6 +213,8 @@ static int sim_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned max, i
 		for (int i = 0; i < r; i++) {
 			out[count].f = f[i];
 			out[count].t_ns = t[i] + p->epoch_ns;
+			rmd_bus_stamp_seen(&bus->stats, &p->last_rx_ns, out[count].t_ns,
+					   p->stamp_gap_ns);
 			count++;
 		}
 		if ((unsigned)r < want)
@@ -339,6 +377,7 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 					   .bitrate = p->sim.bitrate };
 	bus->state = RMD_BUS_ACTIVE;
 	bus->priv = p;
+	p->stamp_gap_ns = rmd_bus_stamp_gap_ns(p->sim.bitrate);
 	return 0;
 
 err_fini:
@@ -370,4 +409,17 @@ uint64_t rmd_bus_sim_tap_lost(const struct rmd_bus *bus)
 	if (!bus || bus->ops != &sim_ops)
 		return 0;
 	return priv(bus)->tap.lost;
+}
+
+int rmd_bus_sim_refuse_tx(struct rmd_bus *bus, int64_t start_ns, int64_t end_ns, int64_t hold_ns)
+{
+	struct bus_sim *p;
+
+	if (!bus || bus->ops != &sim_ops || hold_ns < 0 || (end_ns && end_ns < start_ns))
+		return -EINVAL;
+	p = priv(bus);
+	p->refusal =
+		(struct tx_refusal){ .start_ns = start_ns, .end_ns = end_ns, .hold_ns = hold_ns };
+	p->refusing = true;
+	return 0;
 }

@@ -68,8 +68,9 @@ struct socketcan {
 	int fd;
 	char ifname[IFNAMSIZ];
 	struct rmd_socketcan_errs errs;
-	int rcvbuf;	     /* bytes the kernel granted */
-	uint32_t drops_seen; /* last SO_RXQ_OVFL value: frames the kernel dropped */
+	int rcvbuf;			  /* bytes the kernel granted */
+	uint32_t drops_seen;		  /* last SO_RXQ_OVFL value: frames the kernel dropped */
+	int64_t last_rx_ns, stamp_gap_ns; /* rmd_bus_stamp_seen() */
 	struct mmsghdr tx_msg[BATCH];
 	struct iovec tx_iov[BATCH];
 	struct can_frame tx_cf[BATCH];
@@ -513,6 +514,7 @@ static int socketcan_recv(struct rmd_bus *bus, struct rmd_bus_rx *out, unsigned 
 			rx->f.len = cf->len;
 			memcpy(rx->f.data, cf->data, cf->len);
 			rx->t_ns = t_ns;
+			rmd_bus_stamp_seen(&bus->stats, &p->last_rx_ns, t_ns, p->stamp_gap_ns);
 			bus->stats.rx_frames++;
 			heard(bus, p);
 		}
@@ -767,6 +769,7 @@ int rmd_socketcan_open(struct rmd_bus *bus, const char *ifname,
 					   .bitrate = link_bitrate(ifindex) };
 	bus->state = carrier ? RMD_BUS_ACTIVE : RMD_BUS_OFF;
 	bus->priv = p;
+	p->stamp_gap_ns = rmd_bus_stamp_gap_ns(bus->caps.bitrate);
 	return 0;
 
 err_close_socket:

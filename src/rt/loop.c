@@ -210,6 +210,8 @@ void loop_fill_health(struct rmd_loop *l, int64_t now)
 		bh->state = (uint8_t)rmd_bus_state(lb->bus);
 		bh->load = lb->load;
 		bh->stats = *bs;
+		bh->stats.tx_retried = lb->tx_retried;
+		bh->stats.rx_stamps_early = lb->rx_early;
 	}
 	h->watchdog = l->wd;
 	h->safe_action_events = l->cnt.safe_actions;
@@ -370,6 +372,9 @@ void rmd_loop_tick(struct rmd_loop *l, int64_t now)
 	schedule(l, now);
 	for (unsigned b = 0; b < l->n_buses; b++)
 		loop_drain(l, b, now);
+	/* what the last cycle's retries did not get onto a bus never left (loop_tx.c) */
+	if (__builtin_expect(l->retry_buses != 0, 0))
+		loop_retry_sends(l, now, true);
 	/* the last cycle's state, if its replies were not in before this tick: with them */
 	if (!l->published)
 		rmd_loop_publish(l, now);
@@ -398,9 +403,11 @@ void rmd_loop_tick(struct rmd_loop *l, int64_t now)
 /* rt-safe. */
 bool rmd_loop_collect(struct rmd_loop *l, int64_t now)
 {
+	if (l->retry_buses && now >= l->retry_next_ns)
+		loop_retry_sends(l, now, false);
 	for (unsigned b = 0; b < l->n_buses; b++)
 		loop_drain(l, b, now);
-	return !loop_awaited(l);
+	return !loop_awaited(l) && !l->retry_buses;
 }
 
 /* rmd_loop_reply_due(), and in *owing the buses that owe replies (loop_awaited()).  rt-safe. */
@@ -423,8 +430,16 @@ int64_t loop_reply_due(const struct rmd_loop *l, int64_t now, unsigned *owing)
 int64_t rmd_loop_reply_due(const struct rmd_loop *l, int64_t now)
 {
 	unsigned owing;
+	int64_t due = loop_reply_due(l, now, &owing);
 
-	return loop_reply_due(l, now, &owing);
+	/* a refused send to try again (loop_tx.c loop_retry_sends()) is due too */
+	if (l->retry_buses && !l->published) {
+		int64_t retry = l->retry_next_ns > now ? l->retry_next_ns : now;
+
+		if (due <= 0 || retry < due)
+			due = retry;
+	}
+	return due;
 }
 
 /* rt-safe. */
@@ -651,6 +666,9 @@ void rmd_loop_stop_motors(struct rmd_loop *l, int64_t now)
 {
 	enum rmd_shutdown_action a = shutdown_action(l);
 
+	/* the stops below take the buses' frame lists: a retry still pending never left */
+	if (l->retry_buses)
+		loop_retry_sends(l, now, true);
 	for (unsigned i = 0; i < l->n_motors; i++)
 		l->mot[i].stop_unreached = false;
 	if (a == RMD_SHUTDOWN_DAMP) {

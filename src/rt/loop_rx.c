@@ -657,6 +657,20 @@ static __attribute__((cold, noinline)) void echo_tripped(struct rmd_loop *l, str
 	loop_motor_lost(l, lm, now);
 }
 
+/*
+ * A reply stamped before its request o was sent (issue 32 point 9: an
+ * adapter that stamps a packet of frames with one time, a clock
+ * conversion that lags): counted, and taken as received at the send, so
+ * that no latency is negative and no round-trip estimate (await_add())
+ * runs ahead of the replies.  rt-safe.
+ */
+static __attribute__((cold, noinline)) int64_t stamp_early(struct rmd_loop *l, unsigned b,
+							   const struct outstanding *o)
+{
+	l->bus[b].rx_early++;
+	return o->sent_ns;
+}
+
 /* rt-safe. */
 static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx *rx)
 {
@@ -683,6 +697,8 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		bool echo;
 
 		o = &lm->os[k];
+		if (__builtin_expect(now < o->sent_ns, 0))
+			now = stamp_early(l, b, o);
 		/*
 		 * only a motor with a comm-loss protection echoes (after a
 		 * trip); a V2 motor's answer that repeats its request (0x92 at
@@ -694,7 +710,7 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 		lm->heard_sent_ns = o->sent_ns;
 		os_done(lm, (unsigned)k);
 		l->cnt.replies++;
-		latency_ns = rx->t_ns - o->sent_ns;
+		latency_ns = now - o->sent_ns;
 		lm->st->reply_latency_ns = latency_ns;
 		lat_add(&lm->lat, latency_ns);
 		loop_alive(l, lm, now);
@@ -773,6 +789,7 @@ void loop_drain(struct rmd_loop *l, unsigned b, int64_t now)
 			return;
 		/* the bus carries frames: what the last send put on it may still wait */
 		lb->tx_unheard = lb->tx_last;
+		lb->heard_ns = now;
 		/* incident recorder: every frame received */
 		if (l->o.incidents)
 			rmd_incident_rx(l->o.incidents, b, lb->rx, (unsigned)n);

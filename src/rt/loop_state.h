@@ -67,6 +67,8 @@
 #define COLLECT_SIM_STEP_NS 20000 /* a bus without a descriptor (sim): looked at this often */
 #define STOP_TRIES 50		  /* rmd_loop_stop_motors(): sends per bus ... */
 #define STOP_STEP_NS 200000	  /* ... this far apart */
+#define RETRY_STEP_NS 100000	  /* a send refused on a healthy bus: tried again this often ... */
+#define RETRY_SHARE 2		  /* ... for at most a period / RETRY_SHARE after its tick */
 
 /* What a frame of a cycle is, to book it once the bus took it. */
 enum req_kind {
@@ -198,6 +200,18 @@ struct lbus {
 	 * queued when it cannot (loop_tx.c "No acknowledgement").
 	 */
 	unsigned tx_unheard, tx_last;
+	/*
+	 * A send of the cycle refused (ENOBUFS/EAGAIN) by a bus that carries
+	 * frames (issue 32 point 8): its frames from tx_off on are sent again
+	 * until retry_until_ns (loop_tx.c loop_retry_sends(); bit b of
+	 * rmd_loop.retry_buses); heard_ns: the last drain that received a
+	 * frame; tx_retried: frames a retry got onto the bus (health:
+	 * rmd_bus_stats.tx_retried).
+	 */
+	unsigned tx_off;
+	int64_t retry_until_ns, heard_ns;
+	uint64_t tx_retried;
+	uint64_t rx_early;     /* replies stamped before their request's send (rmd_bus_stats) */
 	bool unacked;	       /* a no-acknowledgement episode is open (loop_tx.c) */
 	uint32_t unacked_lost; /* ... and its motors LOST in it, bit k: pb->motors[k] */
 	bool failing;
@@ -234,6 +248,8 @@ struct rmd_loop {
 	bool published; /* the running cycle's state is out (rmd_loop_publish()) */
 	/* when the last reply the running cycle waits for is expected (loop_rx.c await_add()) */
 	int64_t await_due_ns;
+	unsigned retry_buses; /* bit b: bus b's refused frames are tried again (struct lbus.tx_off) */
+	int64_t retry_next_ns; /* ... next at this time (loop_retry_sends()) */
 
 	/* commands and the host watchdog */
 	/*
@@ -457,5 +473,11 @@ void loop_cl_outcome(struct rmd_loop *l, struct lmotor *lm, enum rmd_comm_loss c
 /* loop_tx.c.  rt-safe. */
 void loop_push_tx(struct lbus *lb, const struct rmd_frame *f, unsigned motor, enum req_kind kind);
 bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now);
+/*
+ * The frames refused on a healthy bus (rmd_loop.retry_buses) sent again;
+ * what is still refused at its bus's retry_until_ns, or with give_up (the
+ * next tick), fails as a refused send does.  rt-safe.
+ */
+void loop_retry_sends(struct rmd_loop *l, int64_t now, bool give_up);
 
 #endif /* RMD_LOOP_STATE_H */

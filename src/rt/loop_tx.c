@@ -509,6 +509,54 @@ static __attribute__((cold, noinline)) bool send_unacked(struct rmd_loop *l, uns
 
 /* ------------------------------------------------------------------ */
 
+/*
+ * Frames from..ntx-1 of bus b's cycle never left (r: what the send said):
+ * the next cycle sends fresh setpoints; one-shots stay queued.  A request
+ * that never left gets no reply either: it counts as missed, so a bus that
+ * takes nothing (bus-off) loses its motors.  rt-safe.
+ */
+static void send_failed(struct rmd_loop *l, unsigned b, unsigned from, int r, int64_t now)
+{
+	struct lbus *lb = &l->bus[b];
+
+	l->cnt.frames_not_sent += lb->ntx - from;
+	for (unsigned k = from; k < lb->ntx; k++) {
+		if (lb->meta[k].kind != REQ_BATCH) {
+			loop_miss(l, &l->mot[lb->meta[k].motor], now);
+			continue;
+		}
+		for (unsigned j = 0; j < lb->pb->n_motors; j++)
+			if (lb->pb->batched & (1u << j))
+				loop_miss(l, &l->mot[lb->pb->motors[j]], now);
+	}
+	/* what the send found first: a bus-off is the cause of the failure (issue 33 point 7) */
+	loop_bus_state(l, b, now);
+	if (!lb->failing || !lb->ev_send_any || now - lb->ev_send_ns >= EVENT_INTERVAL_NS) {
+		lb->ev_send_any = true;
+		lb->ev_send_ns = now;
+		loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, r < 0 ? r : -ENOBUFS,
+			   lb->ntx - from);
+	}
+	lb->failing = true;
+}
+
+/*
+ * Whether bus b's refusal (r frames taken, r >= 0: ENOBUFS/EAGAIN, the
+ * queue full) is worth a retry within the cycle: the bus is error-active
+ * or warning and frames came from it within a reply deadline, so the queue
+ * drains (a USB adapter whose transfers wait behind a camera's).  A bus
+ * that stays silent, goes passive or off, or that nobody acknowledges is
+ * not retried: its frames would only wait there for the motors' power to
+ * return (loop_tx.c "No acknowledgement").  rt-safe.
+ */
+static bool may_retry(const struct rmd_loop *l, const struct lbus *lb, int r, int64_t now)
+{
+	enum rmd_bus_state st = rmd_bus_state(lb->bus);
+
+	return r >= 0 && (st == RMD_BUS_ACTIVE || st == RMD_BUS_WARNING) && lb->heard_ns &&
+	       now - lb->heard_ns <= lb->reply_ns && l->period_ns > 0;
+}
+
 /* Send the cycle's frames of bus b in one call.  False when it did not take them all.  rt-safe. */
 bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 {
@@ -537,36 +585,63 @@ bool loop_send_bus(struct rmd_loop *l, unsigned b, int64_t now)
 		return true;
 	r = rmd_bus_send(lb->bus, lb->tx, lb->ntx, now);
 	taken = r > 0 ? (unsigned)r : 0;
-	loop_commit(l, lb, 0, taken < lb->ntx ? taken : lb->ntx, now);
+	if (taken > lb->ntx)
+		taken = lb->ntx;
+	loop_commit(l, lb, 0, taken, now);
 	lb->tx_last = taken;
 	lb->tx_unheard += taken;
 	if (taken >= lb->ntx) {
 		lb->failing = false;
 		return true;
 	}
-	/*
-	 * Dropped: the next cycle sends fresh setpoints; one-shots stay
-	 * queued.  A request that never left gets no reply either: it counts
-	 * as missed, so a bus that takes nothing (bus-off) loses its motors.
-	 */
-	l->cnt.frames_not_sent += lb->ntx - taken;
-	for (unsigned k = taken; k < lb->ntx; k++) {
-		if (lb->meta[k].kind != REQ_BATCH) {
-			loop_miss(l, &l->mot[lb->meta[k].motor], now);
-			continue;
-		}
-		for (unsigned j = 0; j < lb->pb->n_motors; j++)
-			if (lb->pb->batched & (1u << j))
-				loop_miss(l, &l->mot[lb->pb->motors[j]], now);
+	if (__builtin_expect(may_retry(l, lb, r, now), 1)) {
+		/* issue 32 point 8: a full queue on a bus that carries frames drains; try again */
+		lb->tx_off = taken;
+		lb->retry_until_ns = now + l->period_ns / RETRY_SHARE;
+		l->retry_buses |= 1u << b;
+		l->retry_next_ns = now + RETRY_STEP_NS;
+		return true;
 	}
-	/* what the send found first: a bus-off is the cause of the failure (issue 33 point 7) */
-	loop_bus_state(l, b, now);
-	if (!lb->failing || !lb->ev_send_any || now - lb->ev_send_ns >= EVENT_INTERVAL_NS) {
-		lb->ev_send_any = true;
-		lb->ev_send_ns = now;
-		loop_event(l, now, RMD_EV_SEND_FAILED, 0xFF, b, r < 0 ? r : -ENOBUFS,
-			   lb->ntx - taken);
-	}
-	lb->failing = true;
+	send_failed(l, b, taken, r, now);
 	return false;
+}
+
+/*
+ * Issue 32 point 8.  Within a period / RETRY_SHARE of its tick, so that a
+ * frame sent late leaves half a period ahead of its motor's next: no two
+ * frames to one motor bunch up.  rt-safe.
+ */
+void loop_retry_sends(struct rmd_loop *l, int64_t now, bool give_up)
+{
+	l->retry_next_ns = now + RETRY_STEP_NS;
+	for (unsigned m = l->retry_buses; m; m &= m - 1) {
+		unsigned b = (unsigned)__builtin_ctz(m);
+		struct lbus *lb = &l->bus[b];
+		int r = 0;
+
+		if (!give_up) {
+			unsigned taken;
+
+			r = rmd_bus_send(lb->bus, lb->tx + lb->tx_off, lb->ntx - lb->tx_off, now);
+			taken = r > 0 ? (unsigned)r : 0;
+			if (taken > lb->ntx - lb->tx_off)
+				taken = lb->ntx - lb->tx_off;
+			loop_commit(l, lb, lb->tx_off, lb->tx_off + taken, now);
+			lb->tx_off += taken;
+			lb->tx_last += taken;
+			lb->tx_unheard += taken;
+			lb->tx_retried += taken;
+			if (lb->tx_off >= lb->ntx) {
+				lb->failing = false;
+				l->retry_buses &= ~(1u << b);
+				continue;
+			}
+			if (r >= 0 && now < lb->retry_until_ns)
+				continue;
+		}
+		/* still refused at the end of its share of the cycle: a failed send */
+		l->retry_buses &= ~(1u << b);
+		l->stats.plan_misses++;
+		send_failed(l, b, lb->tx_off, r, now);
+	}
 }

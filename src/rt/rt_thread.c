@@ -76,7 +76,9 @@ static bool blind(const struct rmd_loop *l, unsigned mask)
  * which publishes after its receive (rmd_loop_tick()): no wake-up near the
  * tick for a state no controller could answer in time.  Meanwhile and
  * after, the buses that queue their own requests (RS485) are served as
- * their frames come, until COLLECT_GUARD_NS before the tick.  rt-safe.
+ * their frames come, until COLLECT_GUARD_NS before the tick; and a send a
+ * healthy bus refused is tried again every RETRY_STEP_NS (loop_tx.c
+ * loop_retry_sends()).  rt-safe.
  */
 static void between_ticks(struct rmd_loop *l)
 {
@@ -109,6 +111,9 @@ static void between_ticks(struct rmd_loop *l)
 				continue;
 			}
 		}
+		/* a send refused on a healthy bus, tried again (loop_tx.c loop_retry_sends()) */
+		if (__builtin_expect(l->retry_buses != 0, 0) && now >= l->retry_next_ns)
+			loop_retry_sends(l, now, false);
 		if (now >= until || stopping(l))
 			return;
 		if (owing && due > now)
@@ -137,7 +142,9 @@ static void between_ticks(struct rmd_loop *l)
 				which[n++] = b;
 			}
 		}
-		if (!waiting && !queues)
+		if (l->retry_buses)
+			wake = min64(wake, l->retry_next_ns);
+		if (!waiting && !queues && !l->retry_buses)
 			return;
 		ts = loop_ts(wake - now);
 		r = ppoll(pfd, n, &ts, NULL);

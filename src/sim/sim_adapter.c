@@ -10,6 +10,8 @@ void rmd_sim_adapter_init(struct rmd_sim_adapter *a)
 {
 	a->holding = false;
 	a->flush_ns = 0;
+	a->packet_n = 0;
+	a->packet_ns = 0;
 }
 
 int64_t rmd_sim_adapter_ns(struct rmd_sim_adapter *a, const struct rmd_sim_motor_params *p,
@@ -27,8 +29,19 @@ int64_t rmd_sim_adapter_ns(struct rmd_sim_adapter *a, const struct rmd_sim_motor
 		}
 		t = a->flush_ns;
 	}
-	/* the end of the USB frame the frame fell in (time 0 starts one) */
-	if (usb > 0 && t % usb)
+	if (usb > 0 && p->adapter_rx_batch > 1) {
+		/* a packet with room that has not gone yet takes the frame */
+		if (a->packet_n && a->packet_n < p->adapter_rx_batch && t < a->packet_ns) {
+			a->packet_n++;
+		} else {
+			/* a new one: it goes at the end of the USB frame after this one */
+			a->packet_n = 1;
+			a->packet_ns = t - t % usb + 2 * usb;
+		}
+		t = a->packet_ns;
+	} else if (usb > 0 && t % usb) {
+		/* the end of the USB frame the frame fell in (time 0 starts one) */
 		t += usb - t % usb;
+	}
 	return t + (int64_t)p->adapter_delay_ns;
 }

@@ -156,6 +156,11 @@ const struct rmd_sim_param rmd_sim_params[] = {
 	    0),
 	ROW("adapter_delay_us", NULL, US, adapter_delay_ns, 0, 1e6, false, "µs",
 	    "the host's adapter: a fixed delay on every frame to the host; 0: none", 0),
+	ROW("adapter_rx_batch", NULL, UINT, adapter_rx_batch, 0, 64, false, "frames",
+	    "the host's adapter, with adapter_usb_frame_us: up to this many received frames "
+	    "packed into one USB packet, sent at the end of the USB frame after the one its "
+	    "first frame fell in, all stamped at once (PCAN-USB); 0: none",
+	    0),
 };
 #undef ROW
 

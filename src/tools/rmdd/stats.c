@@ -52,7 +52,7 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 		const struct rmd_plan_bus *pb = &s->plan->bus[b];
 		double period = (double)s->plan->period_ns;
 		char load[96] = "load: no health yet";
-		char counters[192] = "";
+		char counters[320] = "";
 
 		if (have_h && b < h->nbuses) {
 			const struct rmd_bus_stats *st = &h->bus[b].stats;
@@ -67,9 +67,12 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 				 100.0 * h->bus[b].load, 100.0 * run);
 			snprintf(counters, sizeof(counters),
 				 "; frames tx %" PRIu64 ", rx %" PRIu64 ", tx busy %" PRIu64
-				 ", rx errors %" PRIu64 ", bus errors %" PRIu64 ", %s",
-				 st->tx_frames, st->rx_frames, st->tx_busy, st->rx_errors,
-				 st->bus_errors,
+				 " (%" PRIu64 " retried in their cycle), rx errors %" PRIu64
+				 ", bus errors %" PRIu64 ", rx stamps batched %" PRIu64
+				 ", before their request %" PRIu64 ", %s",
+				 st->tx_frames, st->rx_frames, st->tx_busy, st->tx_retried,
+				 st->rx_errors, st->bus_errors, st->rx_stamps_shared,
+				 st->rx_stamps_early,
 				 rmd_bus_state_name((enum rmd_bus_state)h->bus[b].state));
 		}
 		tool_log_always(
@@ -79,6 +82,23 @@ static void print_buses(const struct rmdd_stats_src *s, const struct rmd_health 
 			100.0 * (double)pb->worst_ns / period, 100.0 * pb->avg_ns / period,
 			counters);
 	}
+}
+
+/*
+ * Host stalls (issue 32 point 11: a dataset writer flushing, a loaded
+ * host): the wake-ups RMD_LOOP_WAKE_US_BUCKETS us or more late, and the
+ * longest; each skipped its periods (an overrun), none caught up.
+ */
+static void print_stalls(const struct rmdd_stats_src *s, const struct rmd_loop_stats *st)
+{
+	static struct rmd_loop_wake_hist wh; /* main thread only */
+
+	rmd_loop_get_wake_hist(s->loop, &wh);
+	tool_log_always(6,
+			"  loop: host stalls (wake-ups %u us or more late) %" PRIu64
+			", the longest %.1f ms, their periods skipped, none caught up",
+			RMD_LOOP_WAKE_US_BUCKETS, wh.over,
+			wh.over ? (double)st->wake_max_ns / 1e6 : 0.0);
 }
 
 /*
@@ -175,6 +195,7 @@ void rmdd_stats_print(const struct rmdd_stats_src *s, const char *why)
 			"  loop: overruns %" PRIu64 ", plan misses %" PRIu64
 			", frames not sent %" PRIu64,
 			st.overruns, st.plan_misses, c.frames_not_sent);
+	print_stalls(s, &st);
 	print_wake_hist(s);
 	tool_log_always(6,
 			"  replies: matched %" PRIu64 ", missed %" PRIu64 ", echoed %" PRIu64
