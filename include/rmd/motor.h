@@ -188,6 +188,9 @@ struct rmd_motor {
 	bool mit_mode;
 	/* what its firmware does that no manual says: rmd_firmware_quirks() of its 0xB2 date */
 	unsigned quirks;
+	/* an MIT frame was encoded for it since it was found or rebooted (RMD_QUIRK_A4_AFTER_MIT) */
+	bool mit_sent;
+	bool fw_warned; /* its RMD_EV_FW_REFUSED was reported since then */
 	/*
 	 * mit holds its decided MIT scaling (rmd_motor_set_mit()): MIT frames
 	 * may be encoded and decoded.  rmd_motor_init() decides it from the
@@ -284,6 +287,17 @@ struct rmd_motor_info {
 	double travel_max_rad;
 	double turn_period_rad; /* one rotor turn at the output: 2 pi / gear_ratio */
 };
+
+/*
+ * Whether the motor's firmware runs `mode` now: not position (0xA4) after
+ * an MIT frame on firmware that ignores it until it is reset
+ * (RMD_QUIRK_A4_AFTER_MIT, rmd/dialect.h; mit_sent).  rmd_motor_encode()
+ * refuses such a setpoint (-EPERM).  rt-safe.
+ */
+static inline bool rmd_motor_runs(const struct rmd_motor *m, enum rmd_mode mode)
+{
+	return mode != RMD_MODE_POSITION || !m->mit_sent || !(m->quirks & RMD_QUIRK_A4_AFTER_MIT);
+}
 
 /* Which setpoint values a mode uses (the others are not read).  rt-safe. */
 static inline bool rmd_mode_uses_pos(unsigned mode)

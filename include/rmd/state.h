@@ -197,6 +197,12 @@ enum rmd_ignore {
 	 * rmd_mit_scaling_decide())
 	 */
 	RMD_IGN_MIT_SCALING,
+	/*
+	 * a mode the motor's firmware does not run now: position (0xA4) after
+	 * an MIT frame on firmware that ignores it until a reset
+	 * (RMD_QUIRK_A4_AFTER_MIT, rmd/dialect.h)
+	 */
+	RMD_IGN_FIRMWARE,
 	RMD_IGN_KINDS
 };
 
@@ -291,6 +297,12 @@ enum rmd_event_kind {
 	 * or it is lost): a = enum rmd_pos_trust, b = the setpoint's mode.
 	 */
 	RMD_EV_POS_REFUSED,
+	/*
+	 * A setpoint in a mode the motor's firmware does not run now was
+	 * refused (RMD_IGN_FIRMWARE), once until it is reset: a = its firmware
+	 * version, b = the mode (position after MIT, RMD_QUIRK_A4_AFTER_MIT).
+	 */
+	RMD_EV_FW_REFUSED,
 	/*
 	 * A homing request was refused: a = enum rmd_home_refusal, b = the
 	 * position it asked for, in microradians (RMD_HOME_OUTSIDE; else 0).

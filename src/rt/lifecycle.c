@@ -308,6 +308,9 @@ void loop_motor_lost(struct rmd_loop *l, struct lmotor *lm, int64_t now)
 void loop_rebooted(struct rmd_loop *l, struct lmotor *lm, unsigned how, int64_t what, int64_t now)
 {
 	loop_event(l, now, RMD_EV_REBOOT, loop_idx(l, lm), lm->m.bus, how, what);
+	/* a boot resets what its firmware remembers of MIT frames (RMD_QUIRK_A4_AFTER_MIT) */
+	lm->m.mit_sent = false;
+	lm->m.fw_warned = false;
 	loop_motor_lost(l, lm, now);
 	lm->life.next_probe_ns = now;
 }
@@ -371,21 +374,6 @@ static __attribute__((cold, noinline)) int pos_refuse(struct rmd_loop *l, struct
 }
 
 /*
- * An ENABLED motor's setpoint while its position is uncertain: taken when
- * it needs no trusted position, else refused (pos_refuse()).  Returns -1
- * or RMD_IGN_POS_UNCERTAIN.  rt-safe.
- */
-static __attribute__((noinline)) int pos_uncertain_setpoint(struct rmd_loop *l, struct lmotor *lm,
-							    const struct rmd_setpoint *sp,
-							    int64_t now)
-{
-	if (rmd_setpoint_needs_pos(sp))
-		return pos_refuse(l, lm, sp, now);
-	take_setpoint(lm, sp);
-	return -1;
-}
-
-/*
  * An MIT setpoint for a motor in MIT mode whose MIT scaling is not decided
  * (rmd/motor.h mit_scaled): never enabled, as no MIT frame may go out over
  * ranges its firmware may not scale by; reported once.  Returns
@@ -401,6 +389,46 @@ static __attribute__((cold, noinline)) int mit_refuse(struct rmd_loop *l, struct
 	return RMD_IGN_MIT_SCALING;
 }
 
+/*
+ * Whether lm's firmware does not run sp's mode now (rmd_motor_runs()):
+ * position (0xA4) after an MIT frame, on firmware that ignores it until
+ * it is reset (RMD_QUIRK_A4_AFTER_MIT: a field report).  rt-safe.
+ */
+static inline bool fw_cannot(const struct lmotor *lm, const struct rmd_setpoint *sp)
+{
+	return !rmd_motor_runs(&lm->m, sp->mode);
+}
+
+int loop_fw_refuse(struct rmd_loop *l, struct lmotor *lm, enum rmd_mode mode, int64_t now)
+{
+	if (!lm->m.fw_warned) {
+		lm->m.fw_warned = true;
+		loop_event(l, now, RMD_EV_FW_REFUSED, loop_idx(l, lm), lm->m.bus, lm->ident.version,
+			   mode);
+	}
+	if (lm->st->lifecycle == RMD_LC_ENABLED)
+		loop_enter(l, lm, RMD_LC_SAFE, now);
+	return RMD_IGN_FIRMWARE;
+}
+
+/*
+ * An ENABLED motor's setpoint while its position is uncertain or its
+ * firmware has quirks: refused when its firmware does not run its mode
+ * now (fw_refuse()), or when it needs a trusted position the motor has not
+ * (pos_refuse()); else taken.  Returns -1 or the enum rmd_ignore reason.
+ * rt-safe.
+ */
+static __attribute__((noinline)) int slow_setpoint(struct rmd_loop *l, struct lmotor *lm,
+						   const struct rmd_setpoint *sp, int64_t now)
+{
+	if (fw_cannot(lm, sp))
+		return loop_fw_refuse(l, lm, sp->mode, now);
+	if (!lm->st->pos_certain && rmd_setpoint_needs_pos(sp))
+		return pos_refuse(l, lm, sp, now);
+	take_setpoint(lm, sp);
+	return -1;
+}
+
 /* Returns -1 when acted on, else the enum rmd_ignore reason it was not.  rt-safe. */
 static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_setpoint *sp,
 			int64_t now)
@@ -414,6 +442,8 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 			return mit_refuse(l, lm, now);
 		if (!lm->st->pos_certain && rmd_setpoint_needs_pos(sp))
 			return pos_refuse(l, lm, sp, now);
+		if (__builtin_expect(fw_cannot(lm, sp), 0))
+			return loop_fw_refuse(l, lm, sp->mode, now);
 		if (!rmd_comm_loss_allows_motion(lm->arm.cl)) {
 			/* armed first, then enabled, or refused with a reason (unarmed_rejects) */
 			cl_enable_wanted(l, lm, sp, now);
@@ -423,8 +453,7 @@ static int enable_motor(struct rmd_loop *l, struct lmotor *lm, const struct rmd_
 		loop_enter(l, lm, RMD_LC_ENABLED, now);
 		break;
 	case RMD_LC_ENABLED:
-		take_setpoint(lm, sp);
-		break;
+		return slow_setpoint(l, lm, sp, now);
 	case RMD_LC_PROBE:
 	case RMD_LC_STOPPING:
 	case RMD_LC_FAULT:
@@ -527,7 +556,7 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 				if (__builtin_expect(lm->st->pos_certain, 1))
 					take_setpoint(lm, &c->m[i]);
 				else
-					why = pos_uncertain_setpoint(l, lm, &c->m[i], now);
+					why = slow_setpoint(l, lm, &c->m[i], now);
 			} else {
 				why = enable_motor(l, lm, &c->m[i], now);
 			}

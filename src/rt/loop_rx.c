@@ -725,10 +725,12 @@ static void handle_frame(struct rmd_loop *l, unsigned b, const struct rmd_bus_rx
 			settle_dialect(l, b, lm, f, now);
 			return;
 		}
-		if (__builtin_expect(lm->m.quirks != 0, 0))
-			quirk_answer(lm, cmd);
-		if (o->echo_is_reply && owed_echo(l, lm, o, f, now))
-			return;
+		if (o->echo_is_reply) {
+			if (lm->m.quirks)
+				quirk_answer(lm, cmd);
+			if (owed_echo(l, lm, o, f, now))
+				return;
+		}
 		if (cmd == RMD_ARM_CMD && f->can_id <= RMD_CAN_V3_REPLY_BASE + RMD_MAX_MOTORS) {
 			/* V3 §2.30: the loop's own write of the comm-loss time */
 			loop_cl_answer(l, lm, o->data, f, now);

@@ -384,6 +384,16 @@ static inline uint8_t loop_reboot_cmd(const struct lmotor *lm)
 }
 
 /*
+ * lifecycle.c: a setpoint in `mode`, which lm's firmware does not run now
+ * (rmd_motor_runs()), refused -- the motor would hold its last output
+ * while rmdd reported the target asked: an ENABLED motor gets the safe
+ * action (SAFE) and waits for an enable = 0; reported once until it is
+ * reset (RMD_EV_FW_REFUSED).  Returns RMD_IGN_FIRMWARE.  Cold.  rt-safe.
+ */
+__attribute__((cold, noinline)) int loop_fw_refuse(struct rmd_loop *l, struct lmotor *lm,
+						   enum rmd_mode mode, int64_t now);
+
+/*
  * lifecycle.c: lm rebooted (rmd/reboot.h): lost and back at once, its
  * requests in flight given up (loop_rx.c).  how: enum rmd_reboot_report,
  * what: its event's b.  rt-safe.

@@ -84,7 +84,7 @@ static void push_reprobe(struct rmd_loop *l, struct lbus *lb, unsigned i, int64_
  * rt-safe.
  */
 static inline __attribute__((always_inline)) void push_setpoint(struct rmd_loop *l, struct lbus *lb,
-								unsigned i)
+								unsigned i, int64_t now)
 {
 	struct lmotor *lm = &l->mot[i];
 	struct rmd_frame f, safe[2];
@@ -99,6 +99,8 @@ static inline __attribute__((always_inline)) void push_setpoint(struct rmd_loop 
 	}
 	if (r == -EDOM)
 		l->cnt.nonfinite++;
+	else if (r == -EPERM) /* its firmware does not run the mode now (rmd_motor_runs()) */
+		l->cnt.ignored[loop_fw_refuse(l, lm, lm->sp.mode, now)]++;
 	else
 		l->cnt.unsupported++;
 	if (rmd_motor_encode_safe(&lm->m, loop_safe_action(l), safe) > 0)
@@ -249,7 +251,7 @@ static inline __attribute__((always_inline)) void add_control(struct rmd_loop *l
 		if (__builtin_expect(now < lm->st->release_until_ns, 0))
 			push_status2(l, lb, i);
 		else
-			push_setpoint(l, lb, i);
+			push_setpoint(l, lb, i, now);
 		return;
 	}
 	switch ((enum rmd_lifecycle)lm->st->lifecycle) {

@@ -521,6 +521,8 @@ int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct 
 	case RMD_MODE_POSITION:
 		if (!isfinite(sp->pos_rad) || !isfinite(sp->max_vel_rad_s))
 			return -EDOM;
+		if (__builtin_expect(m->mit_sent, 0) && !rmd_motor_runs(m, RMD_MODE_POSITION))
+			return -EPERM;
 		c.max_vel_rad_s = fabs(c.max_vel_rad_s);
 		if (clamp_mode(&m->limits, RMD_MODE_POSITION, &c, NULL))
 			fl |= RMD_MOTOR_CLAMPED;
@@ -533,6 +535,7 @@ int rmd_motor_encode(struct rmd_motor *m, const struct rmd_setpoint *sp, struct 
 		if (clamp_mode(&m->limits, RMD_MODE_MIT, &c, NULL))
 			fl |= RMD_MOTOR_CLAMPED;
 		r = encode_mit(m, &c, out, &fl);
+		m->mit_sent = true;
 		break;
 	case RMD_MODE_COUNT:
 	default:

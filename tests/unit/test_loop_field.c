@@ -5,10 +5,12 @@
  * rmdd reports and does for the quirks rmd_firmware_quirks() knows, and
  * that firmware without them is taken as the manual says.
  */
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #include <cmocka.h>
@@ -115,8 +117,99 @@ static void test_byte3_is_the_brake_elsewhere(void **state)
 	rig_down();
 }
 
+/* ---- 0xA4 after MIT (issue 32 point 4) --------------------------------------------- */
+
+static const char *fw_model;
+
+/* Motor 1 V4 firmware of fw_version and fw_model (its personality picked by them). */
+static void v4_model_firmware(struct rmd_sim_setup *sim)
+{
+	sim->motors[0].proto = RMD_PROTO_V4;
+	sim->motors[0].version_date = fw_version;
+	snprintf(sim->motors[0].model, sizeof(sim->motors[0].model), "%s", fw_model);
+}
+
+/* Motor 1 V4 in MIT mode, its position kept through a power cycle (certain). */
+static void v4_mit_entry(struct rmd_config *cfg)
+{
+	cfg->motors[0].proto = RMD_PROTO_V4;
+	cfg->motors[0].mode = RMD_MODE_MIT;
+	cfg->motors[0].multi_turn_saved = true;
+}
+
+/*
+ * Motor 1 of fw_model on fw_version driven in MIT for 200 cycles, then
+ * asked for position 0.5 rad for 300; returns where the trace stood when
+ * position was asked.
+ */
+static unsigned mit_then_position(const char *model, uint32_t version)
+{
+	struct rmd_setpoint *sp;
+	unsigned from;
+
+	fw_model = model;
+	fw_version = version;
+	rig_sim_tweak = v4_model_firmware;
+	rig_up(1, v4_mit_entry);
+	rig_sim_tweak = NULL;
+	bring_up();
+	assert_int_equal(R.report.motor[0].version, version);
+	cmd_clear();
+	sp = cmd_motor(0, true, RMD_MODE_MIT);
+	sp->kp = 5.0;
+	sp->kd = 0.5;
+	run(200, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_true(sent_to(0, 0x400, 0) > 150);
+	from = trace_n;
+	sp = cmd_motor(0, true, RMD_MODE_POSITION);
+	sp->pos_rad = 0.5;
+	sp->max_vel_rad_s = 2.0;
+	R.nev = 0;
+	run(300, true);
+	return from;
+}
+
+/*
+ * X6-P20 on 2025070202 ignores 0xA4 after an MIT frame until it is reset:
+ * rmdd does not send it one -- the motor would hold its MIT output while
+ * rmdd reported the target asked -- and says why, once: refused, counted
+ * (IGN_FIRMWARE), the motor SAFE.  Judged on the wire: no 0xA4.
+ */
+static void test_a4_after_mit_refused(void **state)
+{
+	struct rmd_loop_counters c;
+	unsigned from;
+
+	(void)state;
+	assert_true(rmd_firmware_quirks(FIELD_FW) & RMD_QUIRK_A4_AFTER_MIT);
+	from = mit_then_position("X6-P20", FIELD_FW);
+	assert_int_equal(sent_to(0, 0xA4, from), 0);
+	assert_int_equal(count_ev(RMD_EV_FW_REFUSED, 0), 1);
+	assert_int_equal(lifecycle(0), RMD_LC_SAFE);
+	rmd_loop_get_counters(R.l, &c);
+	assert_true(c.ignored[RMD_IGN_FIRMWARE] >= 1);
+	rig_down();
+}
+
+/* An X8-P20 on 2026042402 switches freely: 0xA4 goes out, the joint goes to 0.5 rad. */
+static void test_a4_after_mit_elsewhere(void **state)
+{
+	unsigned from;
+
+	(void)state;
+	from = mit_then_position("X8-P20", 2026042402u);
+	assert_true(sent_to(0, 0xA4, from) > 250);
+	assert_int_equal(count_ev(RMD_EV_FW_REFUSED, 0), 0);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_true(fabs(sim_motor(0)->pos_rad - 0.5) < 0.05);
+	rig_down();
+}
+
 SUITE_MAIN("loop_field", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_byte3_is_not_the_brake),
 		   cmocka_unit_test(test_byte3_is_the_brake_elsewhere),
+		   cmocka_unit_test(test_a4_after_mit_refused),
+		   cmocka_unit_test(test_a4_after_mit_elsewhere),
 	   })

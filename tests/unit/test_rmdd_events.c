@@ -364,6 +364,13 @@ static const struct single {
 	  "360 deg or multi_turn_saved (docs/faults.md); further refusals are counted in "
 	  "health_t\n",
 	  "sim0: motor 2 (elbow): mit refused, position uncertain", NULL },
+	{ "position refused by its firmware", false,
+	  EV(RMD_EV_FW_REFUSED, 3, X, 2025070202, RMD_MODE_POSITION),
+	  "<4>rmdd: sim0: motor 1 (wrist): position refused: its firmware (2025070202) ignores "
+	  "0xA4 after an MIT frame until it is reset (a field report), and it has had MIT frames: "
+	  "reset it (rmdctl reset, or a power cycle) to run position mode, or keep to MIT, torque "
+	  "and speed; further refusals are counted in health_t.ignored_by_kind[IGN_FIRMWARE]\n",
+	  "sim0: motor 1 (wrist): position refused, its firmware ignores 0xA4 after MIT", NULL },
 	{ "home outside", false, EV(RMD_EV_HOME_REFUSED, 0, X, RMD_HOME_OUTSIDE, 180000000),
 	  "<4>rmdd: can0: motor 3 (knee_l): homing refused: 180 rad (10313.2 deg) is outside its "
 	  "travel [-3, 3] rad (travel_rad, else its position limits): the frame would move so that "

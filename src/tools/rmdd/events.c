@@ -709,6 +709,24 @@ static void pos_refused_text(const struct ev *v, char *buf, size_t len)
 		 rmd_mode_name((enum rmd_mode)v->e->b));
 }
 
+/* docs/protocol-v4.md "Firmware in the field": 0xA4 ignored after an MIT frame */
+static int fw_refused_line(const struct ev *v, char *buf, size_t len)
+{
+	return say(buf, len, 4,
+		   "%s: %s refused: its firmware (%" PRId64 ") ignores 0xA4 after an MIT frame "
+		   "until it is reset (a field report), and it has had MIT frames: reset it "
+		   "(rmdctl reset, or a power cycle) to run position mode, or keep to MIT, "
+		   "torque and speed; further refusals are counted in "
+		   "health_t.ignored_by_kind[IGN_FIRMWARE]",
+		   v->ctx, rmd_mode_name((enum rmd_mode)v->e->b), v->e->a);
+}
+
+static void fw_refused_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: %s refused, its firmware ignores 0xA4 after MIT", v->ctx,
+		 rmd_mode_name((enum rmd_mode)v->e->b));
+}
+
 static void home_refused_text(const struct ev *v, char *buf, size_t len)
 {
 	if (v->e->a == RMD_HOME_OUTSIDE)
@@ -954,6 +972,7 @@ static const struct row rows[] = {
 	ROW(LATE, late_line, late_text, NULL),
 	ROW(POSITION, position_line, position_text, NULL),
 	ROW(POS_REFUSED, pos_refused_line, pos_refused_text, NULL),
+	ROW(FW_REFUSED, fw_refused_line, fw_refused_text, NULL),
 	ROW(HOME_REFUSED, home_refused_line, home_refused_text, NULL),
 	ROW(DIALECT, dialect_line, dialect_text, NULL),
 	ROW(STRAY, stray_line, stray_text, stray_incident),
