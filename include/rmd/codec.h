@@ -83,7 +83,7 @@ enum rmd_field {
 	RMD_FLD_POS_KP,	     /* position_kp */
 	RMD_FLD_POS_KI,	     /* position_ki */
 	RMD_FLD_ACCEL,	     /* accel_dps2 */
-	RMD_FLD_INDEX,	     /* index: 0x43 accel index, 0x20 function */
+	RMD_FLD_INDEX,	     /* index: 0x43 accel index, 0x20 function, V4 0xC0 parameter */
 	RMD_FLD_VALUE,	     /* value: 0x20 function parameter */
 	RMD_FLD_MODE,	     /* mode: 0x70 run mode (rmd_run_mode_name) */
 	RMD_FLD_POWER,	     /* power_w */
@@ -92,7 +92,7 @@ enum rmd_field {
 	RMD_FLD_TIMEOUT,     /* timeout_ms: 0xB3 comm-loss protection */
 	RMD_FLD_BAUD,	     /* baud_code: 0xB4 */
 	RMD_FLD_MODEL,	     /* model: up to 7 ASCII bytes, first in LSB */
-	RMD_FLD_READ_FLAG,   /* read_flag: 0x79, 1 read, 0 write */
+	RMD_FLD_READ_FLAG,   /* read_flag: 0x79 and V4 0xC0, 1 read, 0 write */
 	RMD_FLD_CAN_ID,	     /* can_id_value: 0x79 */
 	RMD_FLD_CURRENT_1,   /* current_1_a: V2 0x280, motor 1 */
 	RMD_FLD_CURRENT_2,   /* current_2_a */
@@ -100,12 +100,13 @@ enum rmd_field {
 	RMD_FLD_CURRENT_4,   /* current_4_a */
 	RMD_FLD_BATTERY,     /* battery_v: V2 0x72 */
 	RMD_FLD_GAIN,	     /* gain: V4 0x30..0x32, one PID gain (float) */
-	RMD_FLD_MOS_TEMP,    /* mos_temperature_c: V4.3 0x9A (unverified) */
-	RMD_FLD_MAX_TORQUE,  /* max_torque_pct: V4.3 0xA2, % rated current (unverified) */
+	RMD_FLD_MOS_TEMP,    /* mos_temperature_c: V4.3 0x9A (one source, unverified) */
+	RMD_FLD_MAX_TORQUE,  /* max_torque_pct: V4.3 0xA2, 0xA9, % rated current (unverified) */
 	RMD_FLD_REPORT_CMD,  /* report_command: V4 0xB6, the reply pushed */
 	RMD_FLD_REPORT_ON,   /* report_enable: V4 0xB6, 1 on, 0 off */
 	RMD_FLD_REPORT_MS,   /* report_interval_ms: V4 0xB6, 10 ms a step */
 	RMD_FLD_POS_KD,	     /* position_kd: V4 0x30 index 9 (as a struct rmd_pid_slot's field) */
+	RMD_FLD_PARAM,	     /* param_value: V4 0xC0, a parameter (float; one source, unverified) */
 	RMD_FLD_COUNT
 };
 

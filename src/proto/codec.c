@@ -55,6 +55,7 @@ static const char *const field_keys[RMD_FLD_COUNT] = {
 	[RMD_FLD_BATTERY] = "battery_v",
 	[RMD_FLD_GAIN] = "gain",
 	[RMD_FLD_POS_KD] = "position_kd",
+	[RMD_FLD_PARAM] = "param_value",
 	[RMD_FLD_MOS_TEMP] = "mos_temperature_c",
 	[RMD_FLD_MAX_TORQUE] = "max_torque_pct",
 	[RMD_FLD_REPORT_CMD] = "report_command",

@@ -13,9 +13,12 @@
  * (V4.2).  V4.2 prints no 0x71 (motor power): it is left out.  The rows
  * both manuals print alike are codec_v3x_rows.h.
  *
- * Fields marked "V4.3, unverified" come from a V4.3 manual no motor here
- * has confirmed: decoded when present, never depended on; V4.2 firmware
- * sends zero there.
+ * Fields and rows marked "V4.3" or "unverified" come from public code
+ * that cites a V4.3 or V4.4 manual, or from a vendor tool read back, no
+ * motor here has confirmed (docs/protocol-v4.md, "What is verified and
+ * what is one report", names each source): decoded and named when they
+ * come, never sent by rmdd, never depended on.  V4.2 firmware sends zero
+ * in such fields.
  *
  * Every row is checked against the manual's worked examples in
  * tests/unit/test_codec.c.  Where the text contradicts itself, the row
@@ -31,6 +34,16 @@
  * (0x3F800000 = 1.0, §2.1.5).
  */
 #define V4_PID RMD_LAYOUT(RMD_U(INDEX, 1, 1, 1.0), RMD_F(GAIN, 4))
+
+/*
+ * 0xC0, a parameter of the vendor setup software (unverified, one source:
+ * almond-bot/axol almond_axol/motor/myactuator.py, recovered from that
+ * software; in no manual): data[1] 0, the parameter's index at data[2],
+ * 1 read / 0 write at data[3], the value a little-endian float32 in the
+ * parameter's unit at data[4..7] (a write's, or 0 for a read).  The reply
+ * has the same layout, a read's with the stored value.
+ */
+#define V4_PARAM RMD_LAYOUT(RMD_U(INDEX, 2, 1, 1.0), RMD_U(READ_FLAG, 3, 1, 1.0), RMD_F(PARAM, 4))
 
 /*
  * §2.22.3: 0xA6 answers temperature, iq, speed and the single-turn
@@ -101,7 +114,8 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	/*
 	 * §2.14: temperature, brake, voltage 0.1 V, error flags (§2.14 table
 	 * 1; dialect.c).  data[2], NULL in V4.2, is the MOS temperature in
-	 * V4.3 (int8 1 degC, unverified).
+	 * V4.3 (int8 1 degC; unverified, one source: Nitish05/myactuator
+	 * myactuator_rmd/src/protocol/responses.cpp).
 	 */
 	{ 0x9A,
 	  "read_status_1",
@@ -115,8 +129,9 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	V3X_ROW_A1,
 	/*
 	 * §2.20: speedControl int32 0.01 dps.  data[1], NULL in V4.2, is the
-	 * maximum torque in % of the rated current in V4.3 (uint8,
-	 * unverified); 0 there is what a V4.2 host sends.
+	 * maximum torque in % of the rated current in V4.3 (uint8; unverified,
+	 * one source: Nitish05/myactuator, as 0xA9's); 0 there is what a V4.2
+	 * host sends, and "no limit" in that source.
 	 */
 	{ 0xA2, "speed", RMD_CMD_MOVES,
 	  RMD_LAYOUT(RMD_U(MAX_TORQUE, 1, 1, 1.0), RMD_S(SPEED, 4, 4, 0.01)), V3X_STATUS2,
@@ -138,6 +153,18 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 			       "V4.2 §2.22: 0..359.99 deg, and 360 as its example sends"),
 		     RMD_RANGE(SPIN_DIR, 0, 1, "V4.2 §2.22.1: 0 clockwise, 1 counterclockwise")) },
 	V3X_ROW_A8,
+	/*
+	 * 0xA9, force position (V4.3, unverified, one source: Nitish05/myactuator
+	 * myactuator_rmd/src/protocol/requests.cpp): as 0xA4, with the maximum
+	 * torque in % of the rated current at data[1] (uint8, as 0xA2's; the same
+	 * project's Python wrapper scales it as 255 = 100 %).  The reply is taken
+	 * to be 0xA4's.  No words: rmdctl decodes and names it, and offers no
+	 * command that sends it.
+	 */
+	{ 0xA9, "position_force", RMD_CMD_MOVES,
+	  RMD_LAYOUT(RMD_U(MAX_TORQUE, 1, 1, 1.0), RMD_U(MAX_SPEED, 2, 2, 1.0),
+		     RMD_S(ANGLE, 4, 4, 0.01)),
+	  V3X_STATUS2 },
 	V3X_ROWS_B1_B5,
 	/*
 	 * §2.33: active reply, CAN only.  data[1] the command whose reply
@@ -166,6 +193,15 @@ const struct rmd_cmd_spec rmd_v4_cmds[] = {
 	 * write flash.
 	 */
 	V3X_ROW_20(7, "V4.2 §2.34.4: index 1..7"),
+	/*
+	 * 0xC0 and 0xC1, the setup software's parameter access (unverified, one
+	 * source, above V4_PARAM).  A 0xC0 write changes a setting in RAM (motor
+	 * direction, pole pairs, voltage limits among them); 0xC1, no data, writes
+	 * every one written since to ROM.  Its reply's layout is not given.  No
+	 * words, and rmdd sends neither: rmdctl decodes and names them.
+	 */
+	{ 0xC0, "param_access", 0, V4_PARAM, V4_PARAM },
+	{ 0xC1, "param_save_rom", RMD_CMD_ROM },
 };
 RMD_ROWS_END
 const size_t rmd_v4_ncmds = sizeof(rmd_v4_cmds) / sizeof(rmd_v4_cmds[0]);

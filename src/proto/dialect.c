@@ -35,13 +35,16 @@
 static const struct rmd_flag_name v3_error_bits[] = { V3X_ERROR_BITS };
 
 /*
- * V4.2 §2.14 table 1, and two bits of the V4.3 manual, unverified: named
- * when they come, never relied on.
+ * V4.2 §2.14 table 1, and two bits it does not print, unverified: two code
+ * sources, no manual text here and no motor (Nitish05/myactuator
+ * error_code.hpp, "V4.3"; almond-bot/axol myactuator.py, "V4.4 §2.13":
+ * component (PCB) over temperature, encoder data abnormal).  Named when
+ * they come, never relied on.
  */
 static const struct rmd_flag_name v4_error_bits[] = {
 	V3X_ERROR_BITS,
-	{ 0x0800, "component_over_temperature" }, /* V4.3, unverified */
-	{ 0x4000, "encoder_data_error" },	  /* V4.3, unverified */
+	{ 0x0800, "component_over_temperature" },
+	{ 0x4000, "encoder_data_error" },
 };
 
 /*

@@ -592,6 +592,62 @@ static void test_manual_vectors(void **state)
 		      ARRAY_SIZE(vectors), n[RMD_PROTO_V3], n[RMD_PROTO_V4], n[RMD_PROTO_V2]);
 }
 
+/*
+ * Frames of V4 firmware from sources other than the V4.2 manual
+ * (docs/protocol-v4.md, "What is verified and what is one report"): each
+ * names its source, and says whether a motor sent it (a capture) or the
+ * source's code or text only builds it (unverified).  Kept apart from the
+ * manual's vectors above, which they do not count among.
+ */
+static const struct vec report_vectors[] = {
+	/* 2b-t/myactuator_rmd PR 28, captured from an X4-36 of 2025070202: ID 2 -> 1 */
+	V("PR 28 capture: 0x20 index 5 to old ID 2", V4, REQUEST, "142#2005000001000000", 0x20,
+	  F(INDEX, 5, 5), F(VALUE, 1, 1)),
+	V("PR 28 capture: its echo from new ID 1", V4, REPLY, "241#2005000001000000", 0x20,
+	  F(INDEX, 5, 5), F(VALUE, 1, 1)),
+	/* Nitish05/myactuator responses_test.cpp ("V4.3"): V4.2 §2.14.4's reply, MOS 40 degC */
+	V("Nitish05 0x9A reply with MOS temperature", V4, REPLY, "241#9A322801E5010400", 0x9A,
+	  F(TEMP, 50, 50), F(MOS_TEMP, 40, 40), F(BRAKE, 1, 1), F(VOLTAGE, 485, 48.5),
+	  F(ERROR, 4, 4)),
+	/* Nitish05/myactuator README: sendForcePositionSetpoint(90.0, 500.0, 128) */
+	V("Nitish05 0xA9 90 deg 500 dps torque 128", V4, REQUEST, "141#A980F40128230000", 0xA9,
+	  F(MAX_TORQUE, 128, 128), F(MAX_SPEED, 500, 500), F(ANGLE, 9000, 90.0)),
+	/*
+	 * almond-bot/axol myactuator.py: the undervoltage threshold (parameter
+	 * 0x55) read, written to -2 V (float32 0xC0000000) and saved to ROM; the
+	 * read's reply as that source says it comes (its value at data[4..7]).
+	 */
+	V("axol 0xC0 read parameter 0x55", V4, REQUEST, "141#C000550100000000", 0xC0,
+	  F(INDEX, 0x55, 0x55), F(READ_FLAG, 1, 1), F(PARAM, 0, 0.0)),
+	V("axol 0xC0 reply: parameter 0x55 is -2 V", V4, REPLY, "241#C0005501000000C0", 0xC0,
+	  F(INDEX, 0x55, 0x55), F(READ_FLAG, 1, 1), F(PARAM, 0xC0000000, -2.0)),
+	V("axol 0xC0 write parameter 0x55 = -2 V", V4, REQUEST, "141#C0005500000000C0", 0xC0,
+	  F(INDEX, 0x55, 0x55), F(READ_FLAG, 0, 0), F(PARAM, 0xC0000000, -2.0)),
+	V0("axol 0xC1 save the parameters to ROM", V4, REQUEST, "141#C100000000000000", 0xC1),
+};
+
+static void test_report_vectors(void **state)
+{
+	(void)state;
+	for (size_t i = 0; i < ARRAY_SIZE(report_vectors); i++) {
+		const struct vec *v = &report_vectors[i];
+		struct rmd_frame f = frame_from(v->frame);
+
+		assert_int_equal(f.len, RMD_FRAME_LEN);
+		check_decode(v, &f, v->dir);
+		check_decode(v, &f, RMD_DIR_UNKNOWN);
+		check_encode(v, &f);
+	}
+	/* rmdd sends none of the unverified commands: no tool offers a word for them */
+	assert_null(rmd_cmd_find(RMD_PROTO_V4, 0xA9)->spell.words);
+	assert_null(rmd_cmd_find(RMD_PROTO_V4, 0xC0)->spell.words);
+	assert_null(rmd_cmd_find(RMD_PROTO_V4, 0xC1)->spell.words);
+	/* nor does any other dialect know them */
+	assert_null(rmd_cmd_find(RMD_PROTO_V3, 0xA9));
+	assert_null(rmd_cmd_find(RMD_PROTO_V3, 0xC0));
+	assert_null(rmd_cmd_find(RMD_PROTO_V3, 0xC1));
+}
+
 /* ---- Table consistency ------------------------------------------------- */
 
 static const uint8_t v3_cmds[] = {
@@ -602,9 +658,9 @@ static const uint8_t v3_cmds[] = {
 
 /* V4.2 §2.1 .. §2.34, §4: no 0xA3, 0xA5 (§9, V3.7) nor 0x71; 0x90, 0x94, 0xA6, 0xB6 new. */
 static const uint8_t v4_cmds[] = {
-	0x30, 0x31, 0x32, 0x42, 0x43, 0x60, 0x61, 0x62, 0x63, 0x64, 0x90, 0x92,
-	0x94, 0x9A, 0x9C, 0x9D, 0x80, 0x81, 0xA1, 0xA2, 0xA4, 0xA6, 0xA8, 0x70,
-	0x76, 0x77, 0x78, 0xB1, 0xB2, 0xB3, 0xB4, 0xB5, 0xB6, 0x20, 0x79,
+	0x30, 0x31, 0x32, 0x42, 0x43, 0x60, 0x61, 0x62, 0x63, 0x64, 0x90, 0x92, 0x94,
+	0x9A, 0x9C, 0x9D, 0x80, 0x81, 0xA1, 0xA2, 0xA4, 0xA6, 0xA8, 0x70, 0x76, 0x77,
+	0x78, 0xB1, 0xB2, 0xB3, 0xB4, 0xB5, 0xB6, 0x20, 0x79, 0xA9, 0xC0, 0xC1,
 };
 
 static const uint8_t v2_cmds[] = {
@@ -756,6 +812,13 @@ static void test_tables(void **state)
 	assert_false(rmd_cmd_find(RMD_PROTO_V4, 0x31)->flags & RMD_CMD_ROM);
 	assert_true(rmd_cmd_find(RMD_PROTO_V4, 0xA6)->flags & RMD_CMD_MOVES);
 	assert_true(rmd_cmd_find(RMD_PROTO_V4, 0xB6)->flags & RMD_CMD_NO_REPLY);
+	/* unverified rows (codec_v4.c): 0xA9 moves, 0xC1 writes ROM, 0xC0 writes RAM only */
+	assert_true(rmd_cmd_find(RMD_PROTO_V4, 0xA9)->flags & RMD_CMD_MOVES);
+	assert_true(rmd_cmd_find(RMD_PROTO_V4, 0xC1)->flags & RMD_CMD_ROM);
+	assert_false(rmd_cmd_find(RMD_PROTO_V4, 0xC0)->flags & RMD_CMD_ROM);
+	/* 0xC0's read/write byte is a request field: no walk of "reads" sends it zeroed */
+	assert_non_null(rmd_layout_field(rmd_cmd_find(RMD_PROTO_V4, 0xC0), RMD_DIR_REQUEST,
+					 RMD_FLD_READ_FLAG));
 	assert_int_equal(rmd_proto_table(RMD_PROTO_V4), RMD_PROTO_V4);
 	assert_true(RMD_FLD_COUNT <= 64);
 	for (int f = 0; f < RMD_FLD_COUNT; f++)
@@ -1789,6 +1852,7 @@ static void test_v2_multi_turn_sign(void **state)
 SUITE_MAIN("codec", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_manual_vectors),
+		   cmocka_unit_test(test_report_vectors),
 		   cmocka_unit_test(test_tables),
 		   cmocka_unit_test(test_spellings),
 		   cmocka_unit_test(test_round_trip),

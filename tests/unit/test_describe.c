@@ -67,6 +67,45 @@ static void test_frame_undecoded(void **state)
 	assert_string_equal(buf, "(DLC 5: not a protocol frame)");
 }
 
+/*
+ * V4 frames of the unverified items (docs/protocol-v4.md, "What is verified
+ * and what is one report"): named and decoded by the V4 table, the V3 table
+ * knows none of them.
+ */
+static void test_frame_v4_reports(void **state)
+{
+	/* Nitish05/myactuator's 0x9A: MOS 40 degC; flags 0x0804 (V4 names 0x0800) */
+	struct rmd_frame st = { .can_id = 0x241,
+				.len = 8,
+				.data = { 0x9A, 0x32, 0x28, 0x01, 0xE5, 0x01, 0x04, 0x08 } };
+	/* almond-bot/axol's 0xC0: parameter 0x55 (undervoltage) read back as -2 V */
+	struct rmd_frame pa = { .can_id = 0x241,
+				.len = 8,
+				.data = { 0xC0, 0x00, 0x55, 0x01, 0x00, 0x00, 0x00, 0xC0 } };
+	/* Nitish05/myactuator's 0xA9: 90 deg at up to 500 dps, torque byte 128 */
+	struct rmd_frame fp = { .can_id = 0x141,
+				.len = 8,
+				.data = { 0xA9, 0x80, 0xF4, 0x01, 0x28, 0x23, 0x00, 0x00 } };
+	char buf[256];
+
+	(void)state;
+	assert_int_equal(
+		rmd_describe_frame(buf, sizeof(buf), RMD_PROTO_V4, RMD_DIR_REPLY, NULL, &st), 0);
+	assert_string_equal(buf, "read_status_1 temperature_c=50 mos_temperature_c=40 "
+				 "brake_released=1 voltage_v=48.5 error_code=0x0804 "
+				 "(low_voltage+component_over_temperature)");
+	assert_int_equal(
+		rmd_describe_frame(buf, sizeof(buf), RMD_PROTO_V4, RMD_DIR_REPLY, NULL, &pa), 0);
+	assert_string_equal(buf, "param_access index=85 read_flag=1 param_value=-2");
+	assert_int_equal(
+		rmd_describe_frame(buf, sizeof(buf), RMD_PROTO_V4, RMD_DIR_REQUEST, NULL, &fp), 0);
+	assert_string_equal(buf, "position_force max_torque_pct=128 max_speed_dps=500 "
+				 "angle_deg=90");
+	assert_int_equal(rmd_describe_frame(buf, sizeof(buf), RMD_PROTO_V3, RMD_DIR_REPLY, NULL,
+					    &pa),
+			 -ENOENT);
+}
+
 static void test_frame_mit(void **state)
 {
 	const struct rmd_mit_cmd cmd = { .p_des_rad = 1.0, .kp = 10.0 };
@@ -228,6 +267,7 @@ SUITE_MAIN("describe", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_frame_keys),
 		   cmocka_unit_test(test_frame_undecoded),
+		   cmocka_unit_test(test_frame_v4_reports),
 		   cmocka_unit_test(test_frame_mit),
 		   cmocka_unit_test(test_styles),
 		   cmocka_unit_test(test_text),
