@@ -641,6 +641,9 @@ static void test_a4_after_mit(void **state)
 
 	(void)state;
 	t_pos = mit_then_position("x6-p20-2025070202", &a4, &mit);
+	if (a4) /* the wire first: what the motor was sent */
+		fail_msg("x6-p20 2025070202: %u 0xA4 frames after MIT:\n%s", a4,
+			 frames_text(t_pos, CANLOG_T_END));
 	kid_wait_output_held(S.rmdd_kid, want, EXIT_MS, service, &S.sl_other);
 	if (!wait_lc(RMD_STATE_T_LC_SAFE, ENABLE_MS))
 		fail_msg("x6-p20: refused, but not SAFE (lifecycle %d)", lc());
