@@ -248,7 +248,7 @@ enum rmd_reject {
 	RMD_REJ_KINDS
 };
 
-/* RMD_EV_MOTOR_ERROR's a of a trip told by the echo of a command (a's low byte). */
+/* RMD_EV_MOTOR_ERROR's a of a trip told by the echo of a command (a's low 9 bits). */
 #define RMD_EV_TRIP_ECHOED 0x10000
 
 /* Things the rt loop reports; a normal thread logs them on change. */
@@ -256,8 +256,9 @@ enum rmd_event_kind {
 	RMD_EV_MOTOR_STATE = 0, /* a = old lifecycle, b = new lifecycle */
 	/*
 	 * a = error code; b = RMD_MOTOR_CMD_COMM_LOST (0xF1): its comm-loss
-	 * protection tripped, a = RMD_EV_TRIP_ECHOED | the command byte when
-	 * an echo of that command told it (its 0xF1 unheard)
+	 * protection tripped, a = RMD_EV_TRIP_ECHOED | the command byte (or
+	 * RMD_MOTOR_CMD_MIT, 0x100) when an echo of that command told it (its
+	 * 0xF1 unheard)
 	 */
 	RMD_EV_MOTOR_ERROR,
 	RMD_EV_BUS_STATE, /* a = enum rmd_bus_state */

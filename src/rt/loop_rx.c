@@ -647,13 +647,14 @@ static __attribute__((cold, noinline)) void echo_tripped(struct rmd_loop *l, str
 	/*
 	 * A read's answer may repeat it for real (0xB1 just after a boot:
 	 * runtime 0), and tells nothing run or not: only a command with
-	 * arguments (a setpoint, a safe action) is judged
+	 * arguments (a setpoint, a safe action; an MIT frame, answered on
+	 * 0x500 + ID) is judged
 	 */
 	if ((lm->st->lifecycle != RMD_LC_ENABLED && lm->st->lifecycle != RMD_LC_SAFE) ||
-	    lm->arm.cl != RMD_CL_ARMED || !row || !row->req.n)
+	    lm->arm.cl != RMD_CL_ARMED || (cmd != RMD_MOTOR_CMD_MIT && (!row || !row->req.n)))
 		return;
 	loop_event(l, now, RMD_EV_MOTOR_ERROR, loop_idx(l, lm), lm->m.bus,
-		   RMD_EV_TRIP_ECHOED | (cmd & 0xFF), RMD_MOTOR_CMD_COMM_LOST);
+		   RMD_EV_TRIP_ECHOED | (cmd & 0x1FF), RMD_MOTOR_CMD_COMM_LOST);
 	loop_motor_lost(l, lm, now);
 }
 

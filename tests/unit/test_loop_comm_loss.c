@@ -125,6 +125,69 @@ static void test_trip_seen_by_echo(void **state)
 	rig_down();
 }
 
+/* Motor 1's first MIT echo after the stall: where the host's frames stood (trace_n). */
+static unsigned mit_echo_at;
+
+static void note_mit_echo(unsigned b, const struct rmd_sim_pending *p, int64_t start_ns)
+{
+	(void)start_ns;
+	if (b != 0 || p->src != 0 || p->f.can_id != 0x501 || mit_echo_at != UINT32_MAX)
+		return;
+	/* the echo: the bytes of the newest MIT frame the host sent it */
+	for (unsigned k = trace_n; k-- > 0;)
+		if (trace[k].f.can_id == 0x401) {
+			if (!memcmp(trace[k].f.data, p->f.data, 8))
+				mit_echo_at = trace_n;
+			return;
+		}
+}
+
+static void mit_first(struct rmd_config *cfg)
+{
+	cfg->motors[0].proto = RMD_PROTO_MIT;
+	cfg->motors[0].mode = RMD_MODE_MIT;
+}
+
+/*
+ * The same in MIT mode: the echo of an MIT frame (on 0x500 + ID, its
+ * request's bytes) is the trip; after it at most the frame already on its
+ * way, then no MIT frame until the controller enables it anew.
+ */
+static void test_trip_seen_by_mit_echo(void **state)
+{
+	struct rmd_sim_fault f = { .kind = RMD_SIM_FAULT_DROP,
+				   .probability = 1.0,
+				   .cmd = RMD_MOTOR_CMD_COMM_LOST };
+	struct rmd_setpoint *sp;
+	unsigned after;
+
+	(void)state;
+	rig_up(1, mit_first);
+	bring_up();
+	cmd_clear();
+	sp = cmd_motor(0, true, RMD_MODE_MIT);
+	sp->kd = 0.5;
+	sp->vel_rad_s = 1.0;
+	run(200, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_true(sent_to(0, 0x400, 0) > 150);
+	fault_now(&f, 0);
+	R.nev = 0;
+	mit_echo_at = UINT32_MAX;
+	rig_tap_hook = note_mit_echo;
+	t_now += 300 * MS;
+	run(30, true);
+	rig_tap_hook = NULL;
+	if (mit_echo_at == UINT32_MAX)
+		fail_msg("motor 1 echoed no MIT frame after the stall: not tested");
+	after = sent_to(0, 0x400, mit_echo_at);
+	if (after > 1)
+		fail_msg("motor 1: %u MIT frames after its echo (the trip)", after);
+	assert_int_not_equal(lifecycle(0), RMD_LC_ENABLED);
+	assert_int_equal(count_ev(RMD_EV_MOTOR_ERROR, 0), 1);
+	rig_down();
+}
+
 /* ---- issue 13: comm-loss protection is a precondition of motion ------------------- */
 
 /* The loop's and the health's view of motor i's protection. */
@@ -575,6 +638,7 @@ SUITE_MAIN("loop_comm_loss", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_comm_loss_trip),
 		   cmocka_unit_test(test_trip_seen_by_echo),
+		   cmocka_unit_test(test_trip_seen_by_mit_echo),
 		   cmocka_unit_test(test_cl_reproducer),
 		   cmocka_unit_test(test_cl_refused),
 		   cmocka_unit_test(test_cl_late_motor),

@@ -141,6 +141,13 @@ static const struct single {
 	  "<4>rmdd: can0: motor 3 (knee_l): its comm-loss protection tripped: it echoed 0xA4 "
 	  "instead of running it (its 0xF1 not heard): output off, brake locked; treated as lost\n",
 	  "can0: motor 3 (knee_l): its comm-loss protection tripped (0xA4 echoed)", NULL },
+	{ "trip told by an MIT echo", false,
+	  EV(RMD_EV_MOTOR_ERROR, 4, X, RMD_EV_TRIP_ECHOED | RMD_MOTOR_CMD_MIT,
+	     RMD_MOTOR_CMD_COMM_LOST),
+	  "<4>rmdd: sim0: motor 2 (elbow): its comm-loss protection tripped: it echoed an MIT "
+	  "frame instead of running it (its 0xF1 not heard): output off, brake locked; treated as "
+	  "lost\n",
+	  "sim0: motor 2 (elbow): its comm-loss protection tripped (an MIT frame echoed)", NULL },
 	{ "error flags cleared", false, EV(RMD_EV_MOTOR_ERROR, 0, X, 0, 0),
 	  "<5>rmdd: can0: motor 3 (knee_l): error flags cleared\n",
 	  "can0: motor 3 (knee_l): error flags cleared", NULL },

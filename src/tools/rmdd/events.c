@@ -186,8 +186,18 @@ static const char *motor_state_incident(const struct ev *v)
 
 /* ---- RMD_EV_MOTOR_ERROR ---------------------------------------------------------- */
 
+/* "0xA2", or "an MIT frame": the command whose echo told a trip (RMD_EV_TRIP_ECHOED). */
+static const char *echoed_name(int64_t a, char *buf, size_t len)
+{
+	if ((a & 0x1FF) == RMD_MOTOR_CMD_MIT)
+		return "an MIT frame";
+	snprintf(buf, len, "0x%02X", (unsigned)(a & 0xFF));
+	return buf;
+}
+
 static int motor_error_line(const struct ev *v, char *buf, size_t len)
 {
+	char cmd[16];
 	const struct rmd_config *cfg = v->cfg;
 	const struct rmd_event *e = v->e;
 	const char *names[8];
@@ -198,10 +208,9 @@ static int motor_error_line(const struct ev *v, char *buf, size_t len)
 	/* docs/design.md: the motor heard nothing for its 0xB3 time */
 	if (e->b == RMD_MOTOR_CMD_COMM_LOST && (e->a & RMD_EV_TRIP_ECHOED))
 		return say(buf, len, 4,
-			   "%s: its comm-loss protection tripped: it echoed 0x%02X instead of "
-			   "running it (its 0xF1 not heard): output off, brake locked; treated as "
-			   "lost",
-			   v->ctx, (unsigned)(e->a & 0xFF));
+			   "%s: its comm-loss protection tripped: it echoed %s instead of running "
+			   "it (its 0xF1 not heard): output off, brake locked; treated as lost",
+			   v->ctx, echoed_name(e->a, cmd, sizeof(cmd)));
 	if (e->b == RMD_MOTOR_CMD_COMM_LOST)
 		return say(buf, len, 4,
 			   "%s: its comm-loss protection tripped (0xF1): output off, brake locked; "
@@ -220,9 +229,11 @@ static int motor_error_line(const struct ev *v, char *buf, size_t len)
 
 static void motor_error_text(const struct ev *v, char *buf, size_t len)
 {
+	char cmd[16];
+
 	if (v->e->b == RMD_MOTOR_CMD_COMM_LOST && (v->e->a & RMD_EV_TRIP_ECHOED))
-		snprintf(buf, len, "%s: its comm-loss protection tripped (0x%02X echoed)", v->ctx,
-			 (unsigned)(v->e->a & 0xFF));
+		snprintf(buf, len, "%s: its comm-loss protection tripped (%s echoed)", v->ctx,
+			 echoed_name(v->e->a, cmd, sizeof(cmd)));
 	else if (v->e->b == RMD_MOTOR_CMD_COMM_LOST)
 		snprintf(buf, len, "%s: 0xF1, its comm-loss protection tripped", v->ctx);
 	else if (v->e->a)
