@@ -305,6 +305,11 @@ enum rmd_event_kind {
 	 */
 	RMD_EV_FW_REFUSED,
 	/*
+	 * A motor driven to a position does not move (rmd/proc_effect.h):
+	 * a = how far its target is, microradians; b = for how long, ms.
+	 */
+	RMD_EV_NO_EFFECT,
+	/*
 	 * A homing request was refused: a = enum rmd_home_refusal, b = the
 	 * position it asked for, in microradians (RMD_HOME_OUTSIDE; else 0).
 	 */

@@ -409,8 +409,17 @@ static __attribute__((cold, noinline)) void take_rare(struct rmd_loop *l, struct
 						      const struct rmd_frame *f, unsigned have,
 						      uint16_t prev, int64_t now)
 {
-	if (have & RMD_MOTOR_HAVE_ERROR)
+	if (have & RMD_MOTOR_HAVE_ERROR) {
 		loop_note_errors(l, lm, prev, now);
+		/* a status poll: do its position commands show an effect (rmd/proc_effect.h) */
+		if (rmd_effect_watch(&lm->effect,
+				     lm->st->lifecycle == RMD_LC_ENABLED &&
+					     lm->sp.mode == RMD_MODE_POSITION,
+				     lm->sp.pos_rad, lm->sp.max_vel_rad_s, lm->st->pos_rad, now))
+			loop_event(l, now, RMD_EV_NO_EFFECT, loop_idx(l, lm), lm->m.bus,
+				   (int64_t)lround(fabs(lm->sp.pos_rad - lm->st->pos_rad) * 1e6),
+				   (now - lm->effect.since_ns) / RMD_NS_PER_MS);
+	}
 	if ((have & (RMD_MOTOR_HAVE_RUNTIME | RMD_MOTOR_HAVE_COUNT_CHECK | RMD_MOTOR_HAVE_BRAKE)) &&
 	    lm->heard_seq)
 		reboot_answer(l, lm, f, have, lm->heard_seq - 1, lm->heard_sent_ns, now);

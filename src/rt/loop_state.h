@@ -44,6 +44,7 @@
 #include "rmd/proc_arm.h"
 #include "rmd/proc_ident.h"
 #include "rmd/proc_owed.h"
+#include "rmd/proc_effect.h"
 #include "rmd/proc_settle.h"
 #include "rmd/proc_silence.h"
 #include "rmd/reboot.h"
@@ -152,6 +153,8 @@ struct lmotor {
 	 * decision is st->pos_certain and st->pos_trust, the facts m.mt)
 	 */
 	struct rmd_settle settle;
+	/* whether its position commands have an effect (rmd/proc_effect.h), at its status polls */
+	struct rmd_effect effect;
 	/*
 	 * A short power cycle (rmd/reboot.h): after a missed reply, whether
 	 * it rebooted; while pending, its control slot carries the read that

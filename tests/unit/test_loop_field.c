@@ -206,10 +206,85 @@ static void test_a4_after_mit_elsewhere(void **state)
 	rig_down();
 }
 
+/* ---- a position command with no effect (rmd/proc_effect.h) --------------------------- */
+
+/* Motor 1 V3 firmware rmdd knows nothing odd of, that ignores 0xA4 after an MIT frame. */
+static void v3_ignores_a4(struct rmd_sim_setup *sim)
+{
+	sim->motors[0].a4_ignored_after_mit = true;
+}
+
+static void mit_entry(struct rmd_config *cfg)
+{
+	cfg->motors[0].proto = RMD_PROTO_MIT;
+	cfg->motors[0].mode = RMD_MODE_MIT;
+	cfg->motors[0].multi_turn_saved = true;
+}
+
+/* MIT for 200 cycles, then position 0.5 rad for 1000: the trace index at the switch. */
+static unsigned mit_then_far(void)
+{
+	struct rmd_setpoint *sp;
+	unsigned from;
+
+	bring_up();
+	cmd_clear();
+	sp = cmd_motor(0, true, RMD_MODE_MIT);
+	sp->kp = 5.0;
+	sp->kd = 0.5;
+	run(200, true);
+	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
+	from = trace_n;
+	sp = cmd_motor(0, true, RMD_MODE_POSITION);
+	sp->pos_rad = 0.5;
+	sp->max_vel_rad_s = 2.0;
+	R.nev = 0;
+	run(1000, true);
+	return from;
+}
+
+/*
+ * Firmware not in rmdd's table that takes 0xA4 and does not run it: rmdd
+ * sends the position commands (nothing refuses them), the motor's answers
+ * say it stays where it was, and rmdd tells it once -- within a hold and a
+ * status poll -- rather than let the target pass for reached.  Judged by
+ * the simulated shaft: it did not move, and the report says how far.
+ */
+static void test_no_effect_told(void **state)
+{
+	unsigned from;
+
+	(void)state;
+	rig_sim_tweak = v3_ignores_a4;
+	rig_up(1, mit_entry);
+	rig_sim_tweak = NULL;
+	from = mit_then_far();
+	assert_true(sent_to(0, 0xA4, from) > 900);
+	assert_true(fabs(sim_motor(0)->pos_rad) < 0.05);
+	assert_int_equal(count_ev(RMD_EV_NO_EFFECT, 0), 1);
+	for (unsigned k = 0; k < R.nev; k++)
+		if (R.ev[k].kind == RMD_EV_NO_EFFECT)
+			assert_true(fabs((double)R.ev[k].a / 1e6 - 0.5) < 0.06);
+	rig_down();
+}
+
+/* The same motor without the quirk goes to 0.5 rad: nothing told. */
+static void test_no_effect_not_told(void **state)
+{
+	(void)state;
+	rig_up(1, mit_entry);
+	mit_then_far();
+	assert_true(fabs(sim_motor(0)->pos_rad - 0.5) < 0.05);
+	assert_int_equal(count_ev(RMD_EV_NO_EFFECT, 0), 0);
+	rig_down();
+}
+
 SUITE_MAIN("loop_field", NULL, NULL,
 	   {
 		   cmocka_unit_test(test_byte3_is_not_the_brake),
 		   cmocka_unit_test(test_byte3_is_the_brake_elsewhere),
 		   cmocka_unit_test(test_a4_after_mit_refused),
 		   cmocka_unit_test(test_a4_after_mit_elsewhere),
+		   cmocka_unit_test(test_no_effect_told),
+		   cmocka_unit_test(test_no_effect_not_told),
 	   })

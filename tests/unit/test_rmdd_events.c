@@ -378,6 +378,12 @@ static const struct single {
 	  "reset it (rmdctl reset, or a power cycle) to run position mode, or keep to MIT, torque "
 	  "and speed; further refusals are counted in health_t.ignored_by_kind[IGN_FIRMWARE]\n",
 	  "sim0: motor 1 (wrist): position refused, its firmware ignores 0xA4 after MIT", NULL },
+	{ "position commands with no effect", false, EV(RMD_EV_NO_EFFECT, 0, X, 500000, 510),
+	  "<4>rmdd: can0: motor 3 (knee_l): its position commands show no effect: it has not moved "
+	  "0.5 deg in 510 ms while its target is 28.6 deg away (blocked, or firmware that takes "
+	  "0xA4 and does not run it: docs/faults.md); state_t says where it is, not the target\n",
+	  "can0: motor 3 (knee_l): position commands show no effect (28.6 deg from its target)",
+	  NULL },
 	{ "home outside", false, EV(RMD_EV_HOME_REFUSED, 0, X, RMD_HOME_OUTSIDE, 180000000),
 	  "<4>rmdd: can0: motor 3 (knee_l): homing refused: 180 rad (10313.2 deg) is outside its "
 	  "travel [-3, 3] rad (travel_rad, else its position limits): the frame would move so that "

@@ -29,6 +29,7 @@
 #include "rmd/codec.h"
 #include "rmd/dialect.h"
 #include "rmd/motor.h"
+#include "rmd/proc_effect.h"
 #include "rmd/time.h"
 #include "rmdd.h"
 #include "tools/common/names.h"
@@ -738,6 +739,23 @@ static void fw_refused_text(const struct ev *v, char *buf, size_t len)
 		 rmd_mode_name((enum rmd_mode)v->e->b));
 }
 
+/* rmd/proc_effect.h: a motor driven to a position that does not move */
+static int no_effect_line(const struct ev *v, char *buf, size_t len)
+{
+	return say(buf, len, 4,
+		   "%s: its position commands show no effect: it has not moved %.1f deg in %" PRId64
+		   " ms while its target is %.1f deg away (blocked, or firmware that takes 0xA4 "
+		   "and does not run it: docs/faults.md); state_t says where it is, not the target",
+		   v->ctx, RMD_EFFECT_MOVE_RAD * 180.0 / M_PI, v->e->b,
+		   (double)v->e->a / 1e6 * 180.0 / M_PI);
+}
+
+static void no_effect_text(const struct ev *v, char *buf, size_t len)
+{
+	snprintf(buf, len, "%s: position commands show no effect (%.1f deg from its target)",
+		 v->ctx, (double)v->e->a / 1e6 * 180.0 / M_PI);
+}
+
 static void home_refused_text(const struct ev *v, char *buf, size_t len)
 {
 	if (v->e->a == RMD_HOME_OUTSIDE)
@@ -984,6 +1002,7 @@ static const struct row rows[] = {
 	ROW(POSITION, position_line, position_text, NULL),
 	ROW(POS_REFUSED, pos_refused_line, pos_refused_text, NULL),
 	ROW(FW_REFUSED, fw_refused_line, fw_refused_text, NULL),
+	ROW(NO_EFFECT, no_effect_line, no_effect_text, NULL),
 	ROW(HOME_REFUSED, home_refused_line, home_refused_text, NULL),
 	ROW(DIALECT, dialect_line, dialect_text, NULL),
 	ROW(STRAY, stray_line, stray_text, stray_incident),
