@@ -2,7 +2,7 @@
 """rmd-export: an rmdd LCM log, or an incident recording, as MCAP or a wide CSV.
 
     rmd-export run.lcmlog -o run.mcap          # Foxglove, PlotJuggler
-    rmd-export incidents/2026-12-01T10:00:00-lost -o lost.mcap
+    rmd-export /var/lib/rmdd/incidents/20261124-024241-610-lost -o lost.mcap
     rmd-export run.lcmlog -o run.csv           # one column per series
 
 LOG is a log lcm-logger wrote, or an incident folder (its window.lcmlog).
