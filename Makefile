@@ -10,7 +10,8 @@
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
-#   make python-venv     build/venv: a venv with `pip install './python[plot]'` (lcm, matplotlib from PyPI)
+#   make python-venv     build/venv: a venv with `pip install './python[plot,mcap,test]'`
+#                        (lcm, matplotlib, mcap, jsonschema from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
 #   make fuzz            build the libFuzzer harnesses (tests/fuzz/) into build/fuzz
 #                        with clang and run each FUZZ_SECONDS (10) on its corpus
@@ -187,13 +188,14 @@ python-venv: $(VENV_STAMP)
 
 # `make test` needs it: when it cannot be made, say why and what to install.
 $(VENV_STAMP): $(LCM_TYPES) $(PYTHON_SRCS)
-	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot]')")
+	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot,mcap,test]')")
 	$(Q)test -x $(VENV)/bin/pip || { rm -rf $(VENV) && python3 -m venv $(VENV); } || { \
 		rm -rf $(VENV); echo "make python-venv: python3 -m venv $(VENV) failed:" \
 		"install python3 and python3-venv (sudo make deps)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
-		'./python[plot]' || { echo "make python-venv: pip install './python[plot]' into" \
-		"$(VENV) failed: it fetches lcm and matplotlib from PyPI, so it needs the network" \
+		'./python[plot,mcap,test]' || { echo "make python-venv: pip install" \
+		"'./python[plot,mcap,test]' into $(VENV) failed: it fetches lcm, matplotlib, mcap" \
+		"and jsonschema from PyPI, so it needs the network" \
 		"(or a mirror: PIP_INDEX_URL, PIP_FIND_LINKS)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
 		--force-reinstall --no-deps ./python
