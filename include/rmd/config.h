@@ -306,6 +306,11 @@ struct rmd_config_motor {
 	double travel_rad[2];
 	unsigned n_travel; /* 0: none, or 2 */
 	unsigned line;	   /* of the entry in the file, for messages */
+	/*
+	 * Of limits.position_min_rad, limits.position_max_rad and travel_rad
+	 * in the file, for rmdd --check-config's warnings; 0: not written.
+	 */
+	unsigned pos_min_line, pos_max_line, travel_line;
 };
 
 /*

@@ -923,6 +923,16 @@ static void validate_motors(struct yctx *c, struct rmd_config *cfg, struct rmd_s
 				rmd_proto_key(m->proto));
 		}
 		/* limits */
+		{
+			const struct ynode *ln = rmd_yaml_get(mn, "limits", NULL);
+
+			if (ln && rmd_yaml_get(ln, "position_min_rad", NULL))
+				m->pos_min_line = rmd_yaml_line_of(ln, "position_min_rad");
+			if (ln && rmd_yaml_get(ln, "position_max_rad", NULL))
+				m->pos_max_line = rmd_yaml_line_of(ln, "position_max_rad");
+			if (rmd_yaml_get(mn, "travel_rad", NULL))
+				m->travel_line = rmd_yaml_line_of(mn, "travel_rad");
+		}
 		if (!(m->limits.position_min_rad < m->limits.position_max_rad)) {
 			const struct ynode *ln = rmd_yaml_get(mn, "limits", NULL);
 

@@ -1229,6 +1229,96 @@ static void test_check_config_mit(void **state)
 	expect_in(&p, "other models of such firmware, or no firmware date: refused at bring-up");
 }
 
+/*
+ * Issue 31 point 5: --check-config warns of a geared motor in mode position
+ * or mit that will be position uncertain after every power cycle (no count
+ * kept, travel band not narrower than one rotor turn at the output, the
+ * reading's step included), naming the motor and the fixes; and the daemon
+ * on the same file (its simulated motors keep no count unless the entry
+ * says so) decides the same: uncertain where it warned, certain where not.
+ */
+struct geared_row {
+	const char *entry; /* the motor's keys after name, bus, id */
+	const char *warn;  /* in --check-config's output; NULL: no warning */
+	const char *trust; /* the daemon's bring-up line for knee; NULL: not run */
+};
+
+#define UNCERTAIN "(knee): position uncertain: its travel band is not narrower than one rotor turn"
+
+static const struct geared_row geared_rows[] = {
+	/* 1:9, nothing said: 40 deg per rotor turn, no band */
+	{ "mode: position, gear_ratio: 9",
+	  "geared.yaml:2: motors[0]: warning: knee (mode position, gear_ratio 9) will be position "
+	  "uncertain after every power cycle: one rotor turn is 40 deg at the output, and its "
+	  "travel band (no travel_rad, no position limits) is not narrower",
+	  UNCERTAIN },
+	/* 34 deg of travel: under 40 deg with V3's 1 deg step either way */
+	{ "mode: position, gear_ratio: 9, travel_rad: [-0.3, 0.3]", NULL,
+	  "(knee): position certain: one position in its travel band fits" },
+	/* 39 deg of travel: under 40 deg, but not with the reading's step */
+	{ "mode: position, gear_ratio: 9, travel_rad: [-0.34, 0.34]",
+	  "knee (mode position, gear_ratio 9) will be position uncertain", UNCERTAIN },
+	/* the position limits are the band without travel_rad */
+	{ "mode: position, gear_ratio: 9, limits: {position_min_rad: -1, position_max_rad: 1}",
+	  "and its travel band (its position limits) is not narrower", UNCERTAIN },
+	{ "mode: position, gear_ratio: 9, multi_turn_saved: true", NULL,
+	  "(knee): position certain: the motor keeps its multi-turn count" },
+	{ "mode: mit, gear_ratio: 9", "knee (mode mit, gear_ratio 9) will be position uncertain",
+	  UNCERTAIN },
+	/* torque and speed never need the position: no warning */
+	{ "mode: torque, gear_ratio: 9", NULL, NULL },
+	/* direct drive: the brief's point is geared joints */
+	{ "mode: position", NULL, NULL },
+	/* limits written in degrees (two output turns and more) */
+	{ "mode: torque, limits: {position_min_rad: -90, position_max_rad: 90}",
+	  "geared.yaml:2: motors[0].limits.position_max_rad: warning: knee: 90 rad is 14.3 output "
+	  "turns from zero: if degrees were meant, write 1.5708",
+	  NULL },
+	{ "mode: torque, travel_rad: [0, 180], gear_ratio: 1",
+	  "motors[0].travel_rad: warning: knee: 180 rad is 28.6 output turns", NULL },
+	/* 12 rad (under 4 pi) is a joint's travel in rad, and a motor keeping its count may turn */
+	{ "mode: torque, limits: {position_min_rad: -12, position_max_rad: 12}", NULL, NULL },
+	{ "mode: torque, multi_turn_saved: true, limits: {position_min_rad: -90, "
+	  "position_max_rad: 90}",
+	  NULL, NULL },
+};
+
+static void test_check_config_geared(void **state)
+{
+	static struct proc p;
+	char path[512], yaml[1024];
+	const char *argv[] = { "--check-config", path, NULL };
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(geared_rows) / sizeof(geared_rows[0]); k++) {
+		const struct geared_row *r = &geared_rows[k];
+
+		snprintf(yaml, sizeof(yaml),
+			 "buses: [{name: s0, type: sim}]\n"
+			 "motors: [{name: knee, bus: s0, id: 1, torque_constant_nm_a: 2, %s}]\n",
+			 r->entry);
+		config_file(path, "geared.yaml", yaml);
+		assert_int_equal(run(&p, argv), 0); /* a warning, not an error */
+		if (r->warn) {
+			expect_in(&p, r->warn);
+			if (strstr(r->warn, "uncertain"))
+				expect_in(&p,
+					  "Fix: travel_rad: [min, max] narrower than 40 deg (360 / "
+					  "gear_ratio, less the reading's step), or "
+					  "multi_turn_saved: true if its firmware saves the count "
+					  "(0x20 index 4, V3 §2.33.4), or home it at each start "
+					  "(rmd.home_t, the Python client's home()");
+		} else if (strstr(p.out, "warning")) {
+			fail_msg("row %zu (%s): no warning expected:\n%s", k, r->entry, p.out);
+		}
+		if (!r->trust)
+			continue;
+		spawn_config(&p, "geared.yaml", yaml);
+		wait_for(&p, r->trust, 5000);
+		stop_ok(&p);
+	}
+}
+
 /* ---- set-up ----------------------------------------------------------------------- */
 
 static int setup(void **state)
@@ -1531,6 +1621,7 @@ int main(void)
 		cmocka_unit_test_teardown(test_late_date_asked_again, reap),
 		cmocka_unit_test_teardown(test_mit_scaling_refused, reap),
 		cmocka_unit_test_teardown(test_check_config_mit, reap),
+		cmocka_unit_test_teardown(test_check_config_geared, reap),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_cpu_affinity_missing */

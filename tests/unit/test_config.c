@@ -1316,6 +1316,48 @@ static void test_mit_mode_spellings(void **state)
 		       "mit (V3 §5): set mode: mit, or protocol: v3 for mode speed");
 }
 
+/*
+ * Issue 31 point 5: the lines of a motor's position limits and travel_rad,
+ * for rmdd --check-config's warnings (FILE:LINE of the key); 0 when the
+ * entry does not write them.
+ */
+static void test_position_key_lines(void **state)
+{
+	static const struct {
+		const char *keys; /* after the entry's first line */
+		unsigned min_line, max_line, travel_line;
+	} rows[] = {
+		{ "", 0, 0, 0 },
+		{ "    limits:\n      position_min_rad: -90\n      position_max_rad: 90\n", 9, 10,
+		  0 },
+		{ "    limits: {position_max_rad: 90}\n    travel_rad: [0, 180]\n", 0, 8, 9 },
+		{ "    travel_rad: [0, 1]\n", 0, 0, 8 },
+	};
+	char yaml[1024];
+
+	(void)state;
+	for (size_t k = 0; k < sizeof(rows) / sizeof(rows[0]); k++) {
+		snprintf(
+			yaml, sizeof(yaml),
+			"buses: [{name: s0, type: sim}]\n"
+			"motors:\n"
+			"  - {name: knee, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n");
+		if (rows[k].keys[0])
+			snprintf(
+				yaml, sizeof(yaml),
+				"buses: [{name: s0, type: sim}]\n"
+				"motors:\n"
+				"  - name: knee\n"
+				"    bus: s0\n    id: 1\n    mode: torque\n    torque_constant_nm_a: 2\n%s",
+				rows[k].keys);
+		if (load_str("lines", yaml) != 0)
+			fail_msg("row %zu: %s", k, err);
+		assert_int_equal(cfg.motors[0].pos_min_line, rows[k].min_line);
+		assert_int_equal(cfg.motors[0].pos_max_line, rows[k].max_line);
+		assert_int_equal(cfg.motors[0].travel_line, rows[k].travel_line);
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1347,6 +1389,7 @@ int main(void)
 		cmocka_unit_test(test_feedback_keys),
 		cmocka_unit_test(test_lcm_rt_priority),
 		cmocka_unit_test(test_protocol_v4),
+		cmocka_unit_test(test_position_key_lines),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

@@ -45,6 +45,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <inttypes.h>
+#include <math.h>
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
@@ -63,6 +64,8 @@
 #include "rmd/bus_open.h"
 #include "rmd/codec.h"
 #include "rmd/dialect.h"
+#include "rmd/motor.h"
+#include "rmd/multiturn.h"
 #include "rmd/time.h"
 #include "rmd/config.h"
 #include "rmd/config_yaml.h"
@@ -402,6 +405,92 @@ static const char *sim_note(const struct rmd_config *cfg, unsigned b, char *buf,
 	return buf;
 }
 
+/*
+ * Position limits (and travel_rad) above this many rad, in a motor that
+ * does not keep its multi-turn count, look like degrees: two output turns
+ * either way of zero.  A joint's travel in rad is a few rad; 15 "rad" and
+ * more is 15 deg and more written for rad.  Conservative: a joint that
+ * really turns further keeps its count, or is told otherwise in its own
+ * words (docs/faults.md "Position uncertain after power-off").
+ */
+#define DEGREES_LOOK_RAD (4.0 * M_PI)
+
+/* One limit of motor i that looks like degrees: a warning line on stderr. */
+static unsigned degrees_warning(const struct rmd_config *cfg, unsigned i, const char *key,
+				unsigned line, double v)
+{
+	if (!line || !isfinite(v) || fabs(v) <= DEGREES_LOOK_RAD)
+		return 0;
+	fprintf(stderr,
+		"%s:%u: motors[%u].%s: warning: %s: %g rad is %.1f output turns from zero: if "
+		"degrees were meant, write %.4f; rmdd's positions are rad at the output shaft "
+		"(whatever units says)\n",
+		cfg->source, line, i, key, cfg->motors[i].name, v, fabs(v) / (2.0 * M_PI),
+		v * M_PI / 180.0);
+	return 1;
+}
+
+/*
+ * What --check-config warns of, motor by motor, on stderr (FILE:LINE:
+ * key: warning: ...; the exit status stays the plan's):
+ *   - a geared motor in mode position or mit that will be position
+ *     uncertain after every power cycle: it keeps no multi-turn count and
+ *     its travel band is not narrower than one rotor turn at the output,
+ *     decided by the rule the loop applies (rmd_multiturn_band_unique() on
+ *     the motor record rmd_motor_init() builds, the reading's step
+ *     included);
+ *   - position limits or travel_rad that look like degrees
+ *     (DEGREES_LOOK_RAD), for a motor that keeps no count.
+ * Returns the number of warnings.  Non-rt.
+ */
+static unsigned position_warnings(const struct rmd_config *cfg)
+{
+	static struct rmd_motor rec; /* large: off the stack */
+	unsigned n = 0;
+
+	for (unsigned i = 0; i < cfg->n_motors; i++) {
+		const struct rmd_config_motor *c = &cfg->motors[i];
+		bool drives_position = c->mode == RMD_MODE_POSITION || rmd_config_mit_mode(c);
+		double turn_deg = 360.0 / c->gear_ratio;
+
+		if (c->multi_turn_saved)
+			continue;
+		n += degrees_warning(cfg, i, "limits.position_min_rad", c->pos_min_line,
+				     c->limits.position_min_rad);
+		n += degrees_warning(cfg, i, "limits.position_max_rad", c->pos_max_line,
+				     c->limits.position_max_rad);
+		if (c->n_travel == 2) {
+			n += degrees_warning(cfg, i, "travel_rad", c->travel_line,
+					     c->travel_rad[0]);
+			n += degrees_warning(cfg, i, "travel_rad", c->travel_line,
+					     c->travel_rad[1]);
+		}
+		if (!drives_position || !(c->gear_ratio > 1.0) || rmd_motor_init(&rec, c) < 0 ||
+		    rmd_multiturn_band_unique(&rec.mt))
+			continue;
+		fprintf(stderr,
+			"%s:%u: motors[%u]: warning: %s (mode %s, gear_ratio %g) will be position "
+			"uncertain after every power cycle: one rotor turn is %g deg at the output, "
+			"and its travel band (%s) is not narrower, nor does it keep its count; rmdd "
+			"refuses position mode and MIT with kp > 0 for it after each power-on until "
+			"it is homed. Fix: travel_rad: [min, max] narrower than %g deg (360 / "
+			"gear_ratio, less the reading's step), or multi_turn_saved: true if its "
+			"firmware saves the count (0x20 index 4, V3 §2.33.4), or home it at each "
+			"start (rmd.home_t, the Python client's home(); docs/faults.md \"Position "
+			"uncertain after power-off\")\n",
+			cfg->source, c->line, i, c->name, rmd_mode_name(c->mode), c->gear_ratio,
+			turn_deg,
+			c->n_travel == 2 ? "travel_rad" :
+			isfinite(c->limits.position_min_rad) &&
+					isfinite(c->limits.position_max_rad) ?
+					   "its position limits" :
+					   "no travel_rad, no position limits",
+			turn_deg);
+		n++;
+	}
+	return n;
+}
+
 /* --check-config: exit status 0 when every bus fits. */
 static int check_config(const char *path)
 {
@@ -436,6 +525,7 @@ static int check_config(const char *path)
 		printf("  %s\n", mit);
 	}
 	fflush(stdout);
+	position_warnings(&cfg);
 	if (r) {
 		fprintf(stderr, "%s\n", err);
 		return RMDD_EXIT_FAIL;
