@@ -1805,8 +1805,8 @@ static void test_comm_loss_published(void **state)
 
 /* ---- threads ------------------------------------------------------------- */
 
-/* The id of our thread named comm, or 0. */
-static pid_t thread_named(const char *comm)
+/* The id of our thread named comm now, or 0. */
+static pid_t thread_named_now(const char *comm)
 {
 	DIR *d = opendir("/proc/self/task");
 	struct dirent *e;
@@ -1828,6 +1828,20 @@ static pid_t thread_named(const char *comm)
 			fclose(fp);
 	}
 	closedir(d);
+	return tid;
+}
+
+/*
+ * The id of our thread named comm, or 0 after 2 s: a thread names itself
+ * when it runs (bridge_main()), which may be after its start returned
+ * (seen under the sanitizers).
+ */
+static pid_t thread_named(const char *comm)
+{
+	pid_t tid = 0;
+
+	for (unsigned k = 0; k < 200 && !(tid = thread_named_now(comm)); k++)
+		usleep(10000);
 	return tid;
 }
 
