@@ -138,22 +138,15 @@ static void v4_mit_entry(struct rmd_config *cfg)
 }
 
 /*
- * Motor 1 of fw_model on fw_version driven in MIT for 200 cycles, then
- * asked for position 0.5 rad for 300; returns where the trace stood when
+ * Motor 1, brought up, driven in MIT for 200 cycles, then asked for
+ * position 0.5 rad for `cycles`; returns where the trace stood when
  * position was asked.
  */
-static unsigned mit_then_position(const char *model, uint32_t version)
+static unsigned drive_mit_then_position(unsigned cycles)
 {
 	struct rmd_setpoint *sp;
 	unsigned from;
 
-	fw_model = model;
-	fw_version = version;
-	rig_sim_tweak = v4_model_firmware;
-	rig_up(1, v4_mit_entry);
-	rig_sim_tweak = NULL;
-	bring_up();
-	assert_int_equal(R.report.motor[0].version, version);
 	cmd_clear();
 	sp = cmd_motor(0, true, RMD_MODE_MIT);
 	sp->kp = 5.0;
@@ -166,8 +159,21 @@ static unsigned mit_then_position(const char *model, uint32_t version)
 	sp->pos_rad = 0.5;
 	sp->max_vel_rad_s = 2.0;
 	R.nev = 0;
-	run(300, true);
+	run(cycles, true);
 	return from;
+}
+
+/* Motor 1 of fw_model on fw_version, drive_mit_then_position() for 300 cycles. */
+static unsigned mit_then_position(const char *model, uint32_t version)
+{
+	fw_model = model;
+	fw_version = version;
+	rig_sim_tweak = v4_model_firmware;
+	rig_up(1, v4_mit_entry);
+	rig_sim_tweak = NULL;
+	bring_up();
+	assert_int_equal(R.report.motor[0].version, version);
+	return drive_mit_then_position(300);
 }
 
 /*
@@ -221,26 +227,11 @@ static void mit_entry(struct rmd_config *cfg)
 	cfg->motors[0].multi_turn_saved = true;
 }
 
-/* MIT for 200 cycles, then position 0.5 rad for 1000: the trace index at the switch. */
+/* Brought up, drive_mit_then_position() for 1000 cycles. */
 static unsigned mit_then_far(void)
 {
-	struct rmd_setpoint *sp;
-	unsigned from;
-
 	bring_up();
-	cmd_clear();
-	sp = cmd_motor(0, true, RMD_MODE_MIT);
-	sp->kp = 5.0;
-	sp->kd = 0.5;
-	run(200, true);
-	assert_int_equal(lifecycle(0), RMD_LC_ENABLED);
-	from = trace_n;
-	sp = cmd_motor(0, true, RMD_MODE_POSITION);
-	sp->pos_rad = 0.5;
-	sp->max_vel_rad_s = 2.0;
-	R.nev = 0;
-	run(1000, true);
-	return from;
+	return drive_mit_then_position(1000);
 }
 
 /*
