@@ -10,7 +10,7 @@
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
-#   make python-venv     build/venv: a venv with `pip install './python[plot,mcap,test]'`
+#   make python-venv     build/venv: a venv with `pip install './python[plot,mcap,foxglove,test]'`
 #                        (lcm, matplotlib, mcap, jsonschema from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
 #   make fuzz            build the libFuzzer harnesses (tests/fuzz/) into build/fuzz
@@ -188,14 +188,14 @@ python-venv: $(VENV_STAMP)
 
 # `make test` needs it: when it cannot be made, say why and what to install.
 $(VENV_STAMP): $(LCM_TYPES) $(PYTHON_SRCS)
-	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot,mcap,test]')")
+	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot,mcap,foxglove,test]')")
 	$(Q)test -x $(VENV)/bin/pip || { rm -rf $(VENV) && python3 -m venv $(VENV); } || { \
 		rm -rf $(VENV); echo "make python-venv: python3 -m venv $(VENV) failed:" \
 		"install python3 and python3-venv (sudo make deps)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
-		'./python[plot,mcap,test]' || { echo "make python-venv: pip install" \
-		"'./python[plot,mcap,test]' into $(VENV) failed: it fetches lcm, matplotlib, mcap" \
-		"and jsonschema from PyPI, so it needs the network" \
+		'./python[plot,mcap,foxglove,test]' || { echo "make python-venv: pip install" \
+		"'./python[plot,mcap,foxglove,test]' into $(VENV) failed: it fetches lcm, matplotlib, mcap," \
+		"foxglove-sdk, jsonschema and websockets from PyPI, so it needs the network" \
 		"(or a mirror: PIP_INDEX_URL, PIP_FIND_LINKS)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
 		--force-reinstall --no-deps ./python
@@ -450,6 +450,20 @@ $(RMDD_SCHEMA): $(RMDD)
 	$(Q)$(RMDD) --schema >$@.tmp && mv $@.tmp $@
 all: $(RMDD_SCHEMA)
 
+# The Python package's commands, PROGRAM:MODULE: each a wrapper in BINDIR that
+# runs the installed module (PYTHONDIR) with $$RMD_PYTHON or the python3 on
+# PATH: an active venv with lcm and the command's extra (Debian 12 has no
+# python3-lcm; rmd-plot(1), docs/logs.md).
+PY_TOOLS := rmd-plot:rmd.plot rmd-export:rmd.export rmd-foxglove:rmd.foxglove_live
+define py_wrapper
+printf '%s\n' '#!/bin/sh' \
+		'# $(1): the installed module $(2) ($(PYTHONDIR)), run by $$RMD_PYTHON' \
+		'# or the python3 on PATH (a venv with lcm: Debian 12 has no python3-lcm).' \
+		'PYTHONPATH="$(PYTHONDIR)$${PYTHONPATH:+:$$PYTHONPATH}" exec "$${RMD_PYTHON:-python3}" -m $(2) "$$@"' \
+		>$(DESTDIR)$(BINDIR)/$(1) && chmod 0755 $(DESTDIR)$(BINDIR)/$(1)
+	
+endef
+
 install: all install-lcm install-man install-docs
 	install -D -m 0755 $(RMDCTL) $(DESTDIR)$(BINDIR)/rmdctl
 	$(if $(RMDSIM_SRCS),install -D -m 0755 $(RMDSIM) $(DESTDIR)$(BINDIR)/rmd-sim)
@@ -504,13 +518,7 @@ install-lcm: $(RMD_LCM_LIB) $(LCM_JAVA) $(LCM_PYTHON)
 	install -D -m 0644 $(LCM_JAVA) $(DESTDIR)$(JAVADIR)/rmd-types.jar
 	install -m 0644 $(BUILD)/python/rmd/*.py $(DESTDIR)$(PYTHONDIR)/rmd/
 	install -d $(DESTDIR)$(BINDIR)
-	printf '%s\n' '#!/bin/sh' \
-		'# rmd-plot: the installed module rmd.plot ($(PYTHONDIR)), run by' \
-		'# $$RMD_PYTHON or the python3 on PATH: an active venv with lcm and' \
-		'# matplotlib (Debian 12 has no python3-lcm; rmd-plot(1)).' \
-		'PYTHONPATH="$(PYTHONDIR)$${PYTHONPATH:+:$$PYTHONPATH}" exec "$${RMD_PYTHON:-python3}" -m rmd.plot "$$@"' \
-		>$(DESTDIR)$(BINDIR)/rmd-plot
-	chmod 0755 $(DESTDIR)$(BINDIR)/rmd-plot
+	$(foreach t,$(PY_TOOLS),$(call py_wrapper,$(firstword $(subst :, ,$(t))),$(lastword $(subst :, ,$(t)))))
 
 # Man pages: help2man makes rmdd(8), rmdctl(1) and rmd-sim(1) from the
 # program's own --help (the options have one copy) and
@@ -565,7 +573,8 @@ install-docs:
 
 uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
-	rm -f $(DESTDIR)$(BINDIR)/rmd-plot $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
+	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(foreach t,$(PY_TOOLS),$(firstword $(subst :, ,$(t)))))
+	rm -f $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))

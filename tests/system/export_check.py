@@ -12,6 +12,14 @@ build/venv's Python, where `make python-venv` installed './python[plot,mcap,test
   export_check.py csv LOG OUT.csv MOTOR...   Python's csv module: one row per
       state_t, t_s from the first state_t's utime, a column per motor (by
       config_t's names, given here) and field, each cell the state_t's value
+  export_check.py foxglove LCM_URL WS_URL SECONDS   rmd-foxglove's server as
+      Foxglove meets it (the `websockets` library speaking Foxglove's
+      WebSocket protocol, foxglove.sdk.v1): serverInfo, an advertised channel
+      per LCM channel with its rmd type's JSON Schema, a subscription to
+      RMD_STATE and RMD_HEALTH; every message received in SECONDS passes its
+      schema and equals, field by field, a message heard on LCM_URL directly
+      (matched by utime), and 98 % of the state_t published while subscribed
+      arrive (run rmd-foxglove with --max-rate 0)
 
 Exit 0 when all holds, else 1 with the first difference.
 """
@@ -19,11 +27,15 @@ Exit 0 when all holds, else 1 with the first difference.
 import csv
 import json
 import math
+import struct
 import sys
+import threading
+import time
 
 import jsonschema
 import lcm
 from mcap.reader import make_reader
+from websockets.sync.client import connect
 
 import rmd
 
@@ -138,9 +150,95 @@ def check_csv(log, out, motors):
     print(f"export_check: {out}: {len(rows)} rows, motors {', '.join(motors)}: as in the log")
 
 
+def check_foxglove(lcm_url, ws_url, seconds):
+    heard, lock, done = {}, threading.Lock(), threading.Event()
+    lc = lcm.LCM(lcm_url)
+
+    def keep(channel, data):
+        msg = CHANNEL_TYPES[channel[len("RMD_"):]].decode(data)
+        with lock:
+            heard[(channel, msg.utime)] = msg
+
+    for ch in ("RMD_STATE", "RMD_HEALTH"):
+        lc.subscribe(ch, keep)
+
+    def listen():
+        while not done.is_set():
+            lc.handle_timeout(50)
+
+    t = threading.Thread(target=listen, daemon=True)
+    t.start()
+    got = []
+    with connect(ws_url, subprotocols=["foxglove.sdk.v1"], open_timeout=10) as ws:
+        info = json.loads(ws.recv(timeout=10))
+        if info.get("op") != "serverInfo":
+            fail(f"{ws_url}: first message {info}, not serverInfo")
+        channels, validators, subs = {}, {}, {}
+        deadline = time.monotonic() + 10
+        while not {"RMD_STATE", "RMD_HEALTH"} <= set(channels) and time.monotonic() < deadline:
+            m = ws.recv(timeout=10)
+            if isinstance(m, bytes):
+                continue
+            m = json.loads(m)
+            for c in m.get("channels", []) if m.get("op") == "advertise" else []:
+                if c["encoding"] != "json" or c["schemaEncoding"] != "jsonschema":
+                    fail(f"{ws_url}: channel {c['topic']}: {c['encoding']}/{c['schemaEncoding']}")
+                doc = json.loads(c["schema"])
+                jsonschema.Draft7Validator.check_schema(doc)
+                channels[c["topic"]] = c
+                validators[c["id"]] = (c["topic"], c["schemaName"], jsonschema.Draft7Validator(doc))
+        for topic in ("RMD_STATE", "RMD_HEALTH"):
+            if topic not in channels:
+                fail(f"{ws_url}: no {topic} advertised in 10 s (got {sorted(channels)})")
+            want = "rmd." + CHANNEL_TYPES[topic[len("RMD_"):]].__name__
+            if channels[topic]["schemaName"] != want:
+                fail(f"{ws_url}: {topic}'s schema {channels[topic]['schemaName']}, not {want}")
+            subs[len(subs) + 1] = channels[topic]["id"]
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+            {"id": sid, "channelId": cid} for sid, cid in subs.items()]}))
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            try:
+                m = ws.recv(timeout=max(0.01, end - time.monotonic()))
+            except TimeoutError:
+                break
+            if isinstance(m, bytes) and m[:1] == b"\x01":
+                sid, log_time = struct.unpack_from("<IQ", m, 1)
+                got.append((subs[sid], log_time, json.loads(m[13:])))
+    time.sleep(0.3)  # what the server sent last, heard on LCM as well
+    done.set()
+    t.join()
+    counts = {}
+    for cid, _log_time, value in got:
+        topic, _name, validator = validators[cid]
+        where = f"{ws_url}: {topic} utime {value.get('utime')}"
+        errors = [e.message for e in validator.iter_errors(value)]
+        if errors:
+            fail(f"{where}: does not pass its schema: {errors[:3]}")
+        with lock:
+            lcm_msg = heard.get((topic, value["utime"]))
+        if lcm_msg is None:
+            fail(f"{where}: no such message heard on LCM")
+        same(lcm_msg, value, where)
+        counts[topic] = counts.get(topic, 0) + 1
+    if counts.get("RMD_STATE", 0) < 10 or not counts.get("RMD_HEALTH"):
+        fail(f"{ws_url}: received {counts} in {seconds} s: too few")
+    # every state_t rmdd published while subscribed reached the viewer (--max-rate 0)
+    span = [u for cid, _t, v in got for u in [v["utime"]] if validators[cid][0] == "RMD_STATE"]
+    with lock:
+        states = sum(1 for ch, u in heard if ch == "RMD_STATE" and min(span) <= u <= max(span))
+    if counts["RMD_STATE"] < 0.98 * states:
+        fail(f"{ws_url}: {counts['RMD_STATE']} state_t received, {states} published on LCM in "
+             "the same time")
+    print(f"export_check: {ws_url}: {counts} received, each as on LCM ({states} state_t published "
+          "meanwhile)")
+
+
 if __name__ == "__main__":
     if len(sys.argv) >= 4 and sys.argv[1] == "mcap":
         check_mcap(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) == 5 and sys.argv[1] == "foxglove":
+        check_foxglove(sys.argv[2], sys.argv[3], float(sys.argv[4]))
     elif len(sys.argv) >= 5 and sys.argv[1] == "csv":
         check_csv(sys.argv[2], sys.argv[3], sys.argv[4:])
     else:
