@@ -51,6 +51,8 @@ static void *load(const char *path, char *err, size_t errlen)
 		for (char *c = why; *c; c++)
 			if (*c == '\n')
 				*c = ' ';
+		for (size_t n = strlen(why); n && why[n - 1] == ' ';)
+			why[--n] = '\0';
 		snprintf(err, errlen, "%s", why[0] ? why : "MuJoCo could not load it");
 		free(w);
 		return NULL;
