@@ -295,6 +295,115 @@ static void test_deterministic(void **state)
 	assert_memory_equal(a1, a2, sizeof(a1));
 }
 
+/* The triple pendulum, its shoulder and elbow motors (configuration motors 0 and 1). */
+static void two_motors(struct rmd_sim_body **b, struct rmd_sim_motor m[2])
+{
+	struct rmd_sim_physics_setup ps;
+	struct rmd_sim_motor_params p;
+	char err[512], path[PATH_MAX];
+
+	if (!have_module)
+		skip();
+	data_path(path, sizeof(path), "double.xml");
+	setup_of(&ps, path, "shoulder");
+	ps.joints[1] = (struct rmd_sim_physics_joint){ .motor = 1, .line = 10 };
+	snprintf(ps.joints[1].joint, sizeof(ps.joints[1].joint), "elbow");
+	ps.n_joints = 2;
+	assert_int_equal(rmd_sim_body_load(b, &ps, err, sizeof(err)), 0);
+	now = 0;
+	for (int i = 0; i < 2; i++) {
+		rmd_sim_motor_params_default(&p, 1, RMD_PROTO_V3);
+		p.has_brake = false;
+		p.kt_nm_a = KT;
+		p.start_angle_deg = i ? -20.0 : 40.0;
+		rmd_sim_motor_init(&m[i], &p, now);
+		assert_int_equal(rmd_sim_body_attach(*b, (unsigned)i, &m[i]), 1);
+	}
+}
+
+/*
+ * One world for two motors (as on two buses): whichever is stepped or
+ * asked first, and however far one runs ahead of the other, the world
+ * advances only with both, so the replies are the same.  And the model's
+ * coupling moves the elbow (its motor off) when the shoulder is driven.
+ */
+static void test_two_motors_lockstep(void **state)
+{
+	static double a[3][2][3000];
+	struct rmd_sim_body *b = NULL;
+	struct rmd_sim_motor m[2];
+
+	(void)state;
+	for (int run = 0; run < 3; run++) {
+		two_motors(&b, m);
+		torque(&m[0], 1.5);
+		for (int k = 0; k < 3000; k++) {
+			now += MS;
+			if (run == 0) {
+				a[run][0][k] = angle_deg(&m[0]);
+				a[run][1][k] = angle_deg(&m[1]);
+			} else if (run == 1) {
+				a[run][1][k] = angle_deg(&m[1]);
+				a[run][0][k] = angle_deg(&m[0]);
+			} else {
+				/* motor 1 stepped 0.3 ms ahead of each read, motor 0 left behind */
+				rmd_sim_motor_step(&m[1], now + 300000);
+				a[run][1][k] = angle_deg(&m[1]);
+				a[run][0][k] = angle_deg(&m[0]);
+			}
+		}
+		rmd_sim_body_free(b);
+	}
+	assert_memory_equal(a[0], a[1], sizeof(a[0]));
+	assert_memory_equal(a[0], a[2], sizeof(a[0]));
+	/* the elbow's motor is off, yet its joint swings with the shoulder's */
+	{
+		double lo = 1e9, hi = -1e9;
+
+		for (int k = 0; k < 3000; k++) {
+			lo = fmin(lo, a[0][1][k]);
+			hi = fmax(hi, a[0][1][k]);
+		}
+		print_message("elbow (motor off) between %.2f and %.2f deg\n", lo, hi);
+		assert_true(hi - lo > 10.0);
+	}
+}
+
+/* A locked brake (power-on, V3 §2.27.1) holds the joint against gravity; 0x77 lets it swing. */
+static void test_brake_holds_joint(void **state)
+{
+	struct rmd_sim_physics_setup ps;
+	struct rmd_sim_motor_params p;
+	struct rmd_sim_body *b = NULL;
+	struct rmd_sim_motor m;
+	struct rmd_msg release = { .cmd = 0x77 };
+	char err[512];
+	double lo = 1e9;
+
+	(void)state;
+	if (!have_module)
+		skip();
+	setup_of(&ps, model_path, "swing");
+	assert_int_equal(rmd_sim_body_load(&b, &ps, err, sizeof(err)), 0);
+	rmd_sim_motor_params_default(&p, 1, RMD_PROTO_V3);
+	p.has_brake = true;
+	p.start_angle_deg = 60.0;
+	now = 0;
+	rmd_sim_motor_init(&m, &p, now);
+	assert_int_equal(rmd_sim_body_attach(b, 0, &m), 1);
+	for (int k = 0; k < 1000; k++) {
+		now += MS;
+		assert_true(fabs(angle_deg(&m) - 60.0) < 0.01);
+	}
+	(void)ask(&m, &release);
+	for (int k = 0; k < 1000; k++) {
+		now += MS;
+		lo = fmin(lo, angle_deg(&m));
+	}
+	assert_true(lo < 0.0);
+	rmd_sim_body_free(b);
+}
+
 /* Load ps; expect ret and every piece of want[] in the one-line message. */
 static void expect_load_error(const struct rmd_sim_physics_setup *ps, int ret,
 			      const char *const *want)
@@ -462,6 +571,8 @@ SUITE_MAIN("sim_body", group_setup, NULL,
 		   cmocka_unit_test(test_pendulum_static_torque),
 		   cmocka_unit_test(test_pendulum_energy),
 		   cmocka_unit_test(test_deterministic),
+		   cmocka_unit_test(test_two_motors_lockstep),
+		   cmocka_unit_test(test_brake_holds_joint),
 		   cmocka_unit_test(test_load_errors),
 		   cmocka_unit_test(test_no_module),
 		   cmocka_unit_test(test_config_errors),
