@@ -319,6 +319,14 @@ $(INSN_RIG): $(BUILD)/bench/insn_rig.o $(BUILD)/tests/harness/clock.o $(BUILD)/t
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# bench/physics-rtf.sh's rig: motors on a model's joints, stepped as fast as they go.
+PHYSICS_RTF := $(BUILD)/bench/physics_rtf
+all: $(PHYSICS_RTF)
+$(BUILD)/bench/physics_rtf.o: | $(GEN_HDRS)
+$(PHYSICS_RTF): $(BUILD)/bench/physics_rtf.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 # bench/soak.sh's wire checker: every setpoint on the sim buses' tap against the limits.
 SOAK_WIRE := $(BUILD)/bench/soak_wire
 all: $(SOAK_WIRE)
