@@ -137,7 +137,8 @@ DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib python3-jsonschema python3-yaml \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
-	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux
+	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux \
+	libmujoco-dev
 
 deps:
 	apt-get update -qq
@@ -261,6 +262,30 @@ $(RMDD): $(RMDD_SRCS:%.c=$(BUILD)/%.o) $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# The physics module (docs/physics.md): src/physics/ against MuJoCo
+# (libmujoco-dev), a shared object the simulator dlopen()s only when a
+# configuration asks for physics; nothing else links libmujoco.  Without
+# MuJoCo's headers it is not built, and such a configuration says so.
+# It goes to $(RMD_PHYSICS_DIR), where the simulator looks for it
+# (RMD_PHYSICS_MODULE_PATH; in a build tree it finds build/lib/ first).
+RMD_PHYSICS_DIR ?= $(LIBDIR)/rmdd
+MUJOCO_H := $(wildcard /usr/include/mujoco/mujoco.h)
+PHYSICS_SO := $(BUILD)/lib/rmd-physics.so
+PHYSICS_OBJS := $(patsubst %.c,$(BUILD)/pic/%.o,$(wildcard src/physics/*.c))
+$(BUILD)/src/sim/sim_body.o: CPPFLAGS += -DRMD_PHYSICS_MODULE_PATH='"$(RMD_PHYSICS_DIR)/rmd-physics.so"'
+ifneq ($(MUJOCO_H),)
+all: $(PHYSICS_SO)
+endif
+$(BUILD)/pic/%.o: %.c
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $< (PIC)")
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -fPIC -c -o $@ $<
+
+$(PHYSICS_SO): $(PHYSICS_OBJS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) -shared $(SAN_FLAGS) -Wl,-z,relro,-z,now -o $@ $^ -lmujoco -lm
+
 # rmdd with its test hooks (RMDD_TEST_STALL_AFTER_MS), for the suites that
 # need them; the installed rmdd has none.  Only main.c differs.
 RMDD_TEST := $(BUILD)/rmdd-test
@@ -291,6 +316,14 @@ all: $(INSN_RIG)
 $(BUILD)/bench/insn_rig.o: override CFLAGS += -Itests
 $(BUILD)/bench/insn_rig.o: | $(GEN_HDRS)
 $(INSN_RIG): $(BUILD)/bench/insn_rig.o $(BUILD)/tests/harness/clock.o $(BUILD)/tests/harness/loop_io.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
+# bench/physics-rtf.sh's rig: motors on a model's joints, stepped as fast as they go.
+PHYSICS_RTF := $(BUILD)/bench/physics_rtf
+all: $(PHYSICS_RTF)
+$(BUILD)/bench/physics_rtf.o: | $(GEN_HDRS)
+$(PHYSICS_RTF): $(BUILD)/bench/physics_rtf.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
@@ -468,6 +501,7 @@ install: all install-lcm install-man install-docs
 	install -D -m 0755 $(RMDCTL) $(DESTDIR)$(BINDIR)/rmdctl
 	$(if $(RMDSIM_SRCS),install -D -m 0755 $(RMDSIM) $(DESTDIR)$(BINDIR)/rmd-sim)
 	install -D -m 0755 $(RMDD) $(DESTDIR)$(BINDIR)/rmdd
+	$(if $(MUJOCO_H),install -D -m 0644 $(PHYSICS_SO) $(DESTDIR)$(RMD_PHYSICS_DIR)/rmd-physics.so)
 	install -D -m 0644 $(RMDD_SCHEMA) $(DESTDIR)$(DATADIR)/rmdd/rmdd.schema.json
 	install -D -m 0755 src/tools/rmd-spy/rmd-spy $(DESTDIR)$(BINDIR)/rmd-spy
 	install -d $(DESTDIR)$(SYSTEMDUNITDIR) $(DESTDIR)$(EXAMPLESDIR)

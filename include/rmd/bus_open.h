@@ -70,6 +70,7 @@ struct rmd_bus_open_motor {
 	bool mit;	      /* driven in MIT mode: its MIT replies (0x500 + ID) are admitted */
 	/* sim buses: the simulated motor; NULL: rmd_sim_motor_params_default() */
 	const struct rmd_sim_motor_params *sim;
+	int cfg_motor; /* its index in rmd_config.motors[] (rmd_bus_open_ctx_of()), < 0: none */
 };
 
 /* What rmd_bus_open() needs beside the config entry. */
@@ -93,6 +94,8 @@ struct rmd_bus_open_ctx {
 	bool local_echo;	    /* RS485: the adapter hears itself (struct rmd_rs485_opts) */
 	/* sim buses: wire settings and faults (sim time); NULL: the defaults */
 	const struct rmd_sim_bus_setup *sim;
+	/* sim buses: the world of sim.physics (rmd/sim_body.h); NULL: none */
+	struct rmd_sim_body *body;
 	/*
 	 * The motors' side of the wire, for a simulator of them (rmd-sim):
 	 * SocketCAN admits the requests to every id instead of the motors'
@@ -173,6 +176,12 @@ int rmd_bus_open_parse_ids(const char *list, uint8_t ids[RMD_MAX_MOTORS]);
 
 /* True when spec names the simulated bus ("sim" or "sim:..."). Pure. */
 bool rmd_bus_open_is_sim(const char *spec);
+
+/*
+ * True when motor i of cfg is simulated in this process: its bus is an
+ * in-process sim bus (rmd/bus_sim.h), not a wire rmd-sim answers on.  Pure.
+ */
+bool rmd_bus_config_motor_in_process(const struct rmd_config *cfg, unsigned i);
 
 /*
  * A simulated bus's time 0 in the caller's clock (now_ns's, CLOCK_MONOTONIC

@@ -51,6 +51,8 @@ struct rmd_bus_sim_motor {
 	uint8_t id;				   /* 1..32 */
 	enum rmd_proto proto;			   /* V3, V2 or MIT */
 	const struct rmd_sim_motor_params *params; /* NULL: rmd_sim_motor_params_default() */
+	/* with opts.body: its index in rmd_config.motors[], whose joint it drives; < 0: none */
+	int cfg_motor;
 };
 
 struct rmd_bus_sim_opts {
@@ -70,6 +72,12 @@ struct rmd_bus_sim_opts {
 	 * (rmd_sim_wire_flush()).
 	 */
 	bool refuse_flush;
+	/*
+	 * The world the motors' shafts are joints of (rmd/sim_body.h), shared
+	 * with the other buses of the process; NULL: none, each motor turns
+	 * its own inertia.  The bus must close before it is freed.
+	 */
+	struct rmd_sim_body *body;
 };
 
 /*

@@ -334,13 +334,24 @@ struct rmd_sim_motor {
 	/* p.personality's turnaround line index + 1 by command byte (256: MIT); 0 none */
 	uint8_t turnaround_row[257];
 	uint64_t rng;
+	/*
+	 * The world whose joint is this motor's shaft (rmd/sim_body.h), and
+	 * its slot there; NULL: the motor turns its own inertia.  Set by
+	 * rmd_sim_body_attach() after rmd_sim_motor_init().
+	 */
+	struct rmd_sim_body *body;
+	unsigned body_slot;
 };
 
 /* Power the motor on at now_ns: ROM defaults, brake locked.  rt-safe. */
 void rmd_sim_motor_init(struct rmd_sim_motor *m, const struct rmd_sim_motor_params *p,
 			int64_t now_ns);
 
-/* Advance physics to now_ns in fixed steps (earlier times: no-op).  rt-safe. */
+/*
+ * Advance physics to now_ns in fixed steps (earlier times: no-op); a motor
+ * on a world (m->body) steps with it, and may step its other motors and
+ * the world too (rmd/sim_body.h).  rt-safe.
+ */
 void rmd_sim_motor_step(struct rmd_sim_motor *m, int64_t now_ns);
 
 /*

@@ -56,6 +56,39 @@ struct rmd_sim_bus_setup {
 	char tap[RMD_SIM_TAP_PATH_LEN];
 };
 
+/* Room for a physics model's path (struct rmd_sim_physics_setup.model), NUL included. */
+#define RMD_SIM_MODEL_PATH_LEN 256
+/* Room for a joint's name in the model, NUL included. */
+#define RMD_SIM_JOINT_NAME_LEN 64
+/* The physics rate when the configuration gives none (docs/physics.md "Rate"). */
+#define RMD_SIM_PHYSICS_RATE_HZ 2000
+
+/* One motor driving one joint of the model (sim.physics.joints). */
+struct rmd_sim_physics_joint {
+	unsigned motor; /* index in rmd_config.motors[] */
+	char joint[RMD_SIM_JOINT_NAME_LEN];
+	unsigned line; /* of its entry in the configuration, for messages */
+};
+
+/*
+ * The physics behind the simulated motors (docs/physics.md): an MJCF
+ * model, the joints the motors drive, the rate the world and the motors
+ * exchange torque and state at, and the model's integration steps in each
+ * exchange.  model "" (the default): none, each motor turns its own
+ * inertia.  The model is loaded (and its joints checked) when the
+ * simulator starts (rmd/sim_body.h), not by the configuration's loader.
+ */
+struct rmd_sim_physics_setup {
+	char model[RMD_SIM_MODEL_PATH_LEN]; /* resolved against the configuration's folder */
+	unsigned model_line;
+	char source[256];   /* the configuration file, for messages */
+	unsigned rate_hz;   /* exchanges per second; 20 kHz divisible by it */
+	unsigned substeps;  /* integration steps of the model per exchange, >= 1 */
+	unsigned rate_line; /* 0: rate_hz not given */
+	struct rmd_sim_physics_joint joints[RMD_MAX_MOTORS];
+	unsigned n_joints;
+};
+
 struct rmd_sim_setup {
 	struct rmd_sim_bus_setup buses[RMD_MAX_BUSES]; /* as rmd_config.buses[] */
 	/*
@@ -65,6 +98,8 @@ struct rmd_sim_setup {
 	 * socketcan or rs485 bus it simulates.
 	 */
 	struct rmd_sim_motor_params motors[RMD_MAX_MOTORS];
+	/* sim.physics: one world for every simulated motor of the process that maps a joint */
+	struct rmd_sim_physics_setup physics;
 };
 
 /*

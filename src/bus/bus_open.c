@@ -101,15 +101,18 @@ static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.tap = sim->tap[0] ? sim->tap : NULL,
 		.burst = ctx->burst,
 		.refuse_flush = sim->refuse_flush,
+		.body = ctx->body,
 	};
 
 	for (unsigned i = 0; i < ctx->n_motors; i++)
-		motors[i] = (struct rmd_bus_sim_motor){ .id = ctx->motors[i].id,
+		motors[i] = (struct rmd_bus_sim_motor){ .cfg_motor = ctx->motors[i].cfg_motor,
+							.id = ctx->motors[i].id,
 							.proto = ctx->motors[i].proto,
 							.params = ctx->motors[i].sim };
 	/* the motors on the wire that the configuration does not list */
 	for (unsigned k = 0; k < sim->n_strays && so.n_motors < RMD_MAX_MOTORS; k++)
-		motors[so.n_motors++] = (struct rmd_bus_sim_motor){ .id = sim->strays[k].id,
+		motors[so.n_motors++] = (struct rmd_bus_sim_motor){ .cfg_motor = -1,
+								    .id = sim->strays[k].id,
 								    .proto = sim->strays[k].proto,
 								    .params = &sim->strays[k] };
 	return rmd_bus_sim_open(bus, cb->name, &so, err, errlen);
@@ -196,6 +199,12 @@ int rmd_bus_open(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 	return rmd_errf(err, errlen, -EINVAL, "%s: unknown bus kind %d", cb->name, (int)cb->kind);
 }
 
+bool rmd_bus_config_motor_in_process(const struct rmd_config *cfg, unsigned i)
+{
+	return i < cfg->n_motors && cfg->motors[i].bus < cfg->n_buses &&
+	       cfg->buses[cfg->motors[i].bus].kind == RMD_BUS_KIND_SIM;
+}
+
 void rmd_bus_open_ctx_of(const struct rmd_config *cfg, const struct rmd_sim_setup *sim, unsigned b,
 			 struct rmd_bus_open_motor motors[RMD_MAX_MOTORS],
 			 struct rmd_bus_open_ctx *ctx)
@@ -213,6 +222,7 @@ void rmd_bus_open_ctx_of(const struct rmd_config *cfg, const struct rmd_sim_setu
 				.any_dialect = m->proto_auto,
 				.mit = rmd_config_mit_mode(m),
 				.sim = sim ? &sim->motors[i] : NULL,
+				.cfg_motor = (int)i,
 			};
 	}
 	if (sim && cfg->buses[b].kind == RMD_BUS_KIND_SIM)
@@ -336,9 +346,9 @@ int rmd_bus_open_spec(struct rmd_bus *bus, const char *spec, const struct rmd_bu
 			ids[n] = (uint8_t)(n + 1);
 	}
 	for (int i = 0; i < n; i++)
-		motors[i] = (struct rmd_bus_open_motor){ .id = ids[i],
-							 .proto = o->proto,
-							 .sim = o->sim_motor };
+		motors[i] = (struct rmd_bus_open_motor){
+			.cfg_motor = -1, .id = ids[i], .proto = o->proto, .sim = o->sim_motor
+		};
 	ctx.n_motors = (unsigned)n;
 	r = rmd_bus_open(bus, &cb, &ctx, err, errlen);
 	free(sim);

@@ -17,6 +17,7 @@
 #include "rmd/err.h"
 #include "rmd/bus_sim.h"
 #include "rmd/dialect.h"
+#include "rmd/sim_body.h"
 
 /* Frames moved from the sim bus per rmd_sim_wire_recv() call (stack buffer). */
 #define RX_CHUNK 32
@@ -289,6 +290,14 @@ static int add_motors(struct bus_sim *p, const char *name, const struct rmd_bus_
 		if (r < 0)
 			return rmd_errf(err, errlen, r, "%s: motor %u: %s", name, m->id,
 					strerror(-r));
+		if (opts->body && m->cfg_motor >= 0) {
+			r = rmd_sim_body_attach(opts->body, (unsigned)m->cfg_motor,
+						rmd_sim_wire_motor(&p->sim, m->id));
+			if (r < 0)
+				return rmd_errf(err, errlen, r,
+						"%s: motor %u: its joint has a motor already", name,
+						m->id);
+		}
 	}
 	return 0;
 }

@@ -322,9 +322,25 @@ static const struct field top_fields[] = {
 	MAP("incidents", C, incidents, incidents_fields),
 	SEQM("buses", C, buses, n_buses, &bus_elem, bus_init, MARK_BUS),
 	SEQM("motors", C, motors, n_motors, &motor_elem, motor_init, MARK_MOTOR),
+	LATER("sim"),
 	END
 };
 #undef C
+
+/* The top-level sim: section, the simulator's across buses: the physics (docs/physics.md). */
+#define P struct rmd_sim_physics_setup
+static const struct field physics_fields[] = {
+	STR("model", P, model, F_REQUIRED),
+	UINT("rate_hz", P, rate_hz, 1, 20000, 0),
+	UINT("substeps", P, substeps, 1, 100, 0),
+	LATER("joints"),
+	END,
+};
+#undef P
+
+#define T struct rmd_sim_setup
+static const struct field sim_top_fields[] = { MAP("physics", T, physics, physics_fields), END };
+#undef T
 
 /* ------------------------------------------------------------------ */
 /* The simulator's settings */
@@ -336,6 +352,7 @@ static void sim_setup_default(struct rmd_sim_setup *sim)
 		rmd_sim_bus_setup_default(&sim->buses[b], 1);
 	for (unsigned i = 0; i < RMD_MAX_MOTORS; i++)
 		sim->motors[i] = sim->buses[0].motor;
+	memset(&sim->physics, 0, sizeof(sim->physics));
 }
 
 /*
@@ -359,6 +376,127 @@ static void walk_bus_sims(struct yctx *c, const struct rmd_config *cfg, struct r
 		if (c->nerr != before)
 			c->bad[MARK_BUS - 1] |= 1u << i;
 	}
+}
+
+/* The model's path as given, relative ones against the configuration file's folder. */
+static void physics_model_path(struct yctx *c, const char *cfg_path, const struct ynode *pn,
+			       struct rmd_sim_physics_setup *ps)
+{
+	const char *slash = strrchr(cfg_path, '/');
+	char given[RMD_SIM_MODEL_PATH_LEN];
+	int n;
+
+	if (!ps->model[0] || ps->model[0] == '/' || !slash)
+		return;
+	snprintf(given, sizeof(given), "%s", ps->model);
+	n = snprintf(ps->model, sizeof(ps->model), "%.*s/%s", (int)(slash - cfg_path), cfg_path,
+		     given);
+	if (n < 0 || (size_t)n >= sizeof(ps->model))
+		rmd_yaml_report(c, rmd_yaml_line_of(pn, "model"), "sim.physics.model",
+				"\"%s\" beside %s: the path is longer than %d bytes", given,
+				cfg_path, RMD_SIM_MODEL_PATH_LEN - 1);
+}
+
+/*
+ * sim.physics.joints: motor name -> joint name.  Every motor a motor of
+ * motors[], each joint for one motor; whether the model has those joints
+ * is known when the simulator loads it (rmd/sim_body.h).
+ */
+static void physics_joints(struct yctx *c, const struct rmd_config *cfg, const struct ynode *pn,
+			   struct rmd_sim_physics_setup *ps)
+{
+	unsigned kl;
+	const struct ynode *jn = rmd_yaml_get(pn, "joints", &kl);
+	char kp[PATH_LEN];
+
+	if (!jn) {
+		rmd_yaml_report(c, pn->line, "sim.physics.joints",
+				"required key missing: which motor drives which joint of the "
+				"model (motor_name: joint_name)");
+		return;
+	}
+	if (jn->kind != Y_MAP) {
+		rmd_yaml_report(c, jn->line, "sim.physics.joints",
+				"expected a mapping of motor names to joint names, got %s",
+				rmd_yaml_kind_desc(jn));
+		return;
+	}
+	for (unsigned k = 0; k + 1 < jn->n; k += 2) {
+		const struct ynode *key = jn->kids[k], *v = jn->kids[k + 1];
+		struct rmd_sim_physics_joint *pj = &ps->joints[ps->n_joints];
+		unsigned i;
+
+		rmd_yaml_path_key(kp, "sim.physics.joints", key->str ? key->str : "?");
+		for (i = 0; i < cfg->n_motors; i++)
+			if (key->str && !strcmp(cfg->motors[i].name, key->str))
+				break;
+		if (i == cfg->n_motors) {
+			rmd_yaml_report(c, key->line, kp, "no motor of that name in motors[]");
+			continue;
+		}
+		if (v->kind != Y_SCALAR || !v->str || !v->str[0] ||
+		    strlen(v->str) >= RMD_SIM_JOINT_NAME_LEN) {
+			rmd_yaml_report(
+				c, v->line, kp,
+				"expected the name of a joint of the model (1..%d characters)",
+				RMD_SIM_JOINT_NAME_LEN - 1);
+			continue;
+		}
+		for (unsigned o = 0; o < ps->n_joints; o++)
+			if (!strcmp(ps->joints[o].joint, v->str)) {
+				rmd_yaml_report(
+					c, v->line, kp,
+					"joint \"%s\" is mapped twice (motor %s, line %u, too): "
+					"one motor per joint",
+					v->str, cfg->motors[ps->joints[o].motor].name,
+					ps->joints[o].line);
+				break;
+			}
+		if (ps->n_joints >= RMD_MAX_MOTORS)
+			break;
+		pj->motor = i;
+		pj->line = v->line;
+		snprintf(pj->joint, sizeof(pj->joint), "%s", v->str);
+		ps->n_joints++;
+	}
+}
+
+/* The top-level `sim:` section (sim.physics) into the simulator's settings. */
+static void walk_top_sim(struct yctx *c, const struct rmd_config *cfg, struct rmd_sim_setup *sim,
+			 const struct ynode *root, const char *cfg_path)
+{
+	static const struct field f = { .type = T_MAP, .sub = sim_top_fields };
+	const unsigned step_hz = 1000000000 / RMD_SIM_STEP_NS;
+	struct rmd_sim_physics_setup *ps = &sim->physics;
+	const struct ynode *sn = rmd_yaml_get(root, "sim", NULL), *pn;
+	unsigned before = c->nerr;
+
+	if (!sn)
+		return;
+	rmd_yaml_walk_value(c, sn, &f, sim, "sim");
+	pn = sn->kind == Y_MAP ? rmd_yaml_get(sn, "physics", NULL) : NULL;
+	if (!pn || pn->kind != Y_MAP || c->nerr != before)
+		return;
+	snprintf(ps->source, sizeof(ps->source), "%s", cfg_path);
+	ps->model_line = rmd_yaml_line_of(pn, "model");
+	if (!ps->rate_hz)
+		ps->rate_hz = RMD_SIM_PHYSICS_RATE_HZ;
+	else
+		ps->rate_line = rmd_yaml_line_of(pn, "rate_hz");
+	if (!ps->substeps)
+		ps->substeps = 1;
+	if (step_hz % ps->rate_hz)
+		rmd_yaml_report(c, ps->rate_line, "sim.physics.rate_hz",
+				"%u Hz does not divide the motors' step rate (%u Hz): e.g. 1000, "
+				"2000, 4000, 5000, 10000",
+				ps->rate_hz, step_hz);
+	else if (ps->rate_hz < cfg->loop.rate_hz)
+		rmd_yaml_report(c, ps->rate_line ? ps->rate_line : pn->line, "sim.physics.rate_hz",
+				"%u Hz is below loop.rate_hz (%u Hz): the physics steps at least "
+				"once a cycle",
+				ps->rate_hz, cfg->loop.rate_hz);
+	physics_model_path(c, cfg_path, pn, ps);
+	physics_joints(c, cfg, pn, ps);
 }
 
 /* ------------------------------------------------------------------ */
@@ -1156,6 +1294,7 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 	}
 	rmd_yaml_walk_map(&c, root, top_fields, cfg, "");
 	walk_bus_sims(&c, cfg, sim, rmd_yaml_get(root, "buses", NULL));
+	walk_top_sim(&c, cfg, sim, root, path);
 	if (!rmd_yaml_get(root, "buses", NULL))
 		rmd_yaml_report(&c, root->line, "buses", "required key missing");
 	if (!rmd_yaml_get(root, "motors", NULL))
@@ -1261,8 +1400,10 @@ static const struct field *schema_later(const struct field *table, const struct 
 
 	if (!strcmp(f->key, "bus"))
 		return &bus_name;
+	static const struct field top_sim = { .type = T_MAP, .sub = sim_top_fields };
+
 	if (!strcmp(f->key, "sim"))
-		return table == bus_fields ? &bus_sim : &motor_sim;
+		return table == bus_fields ? &bus_sim : table == top_fields ? &top_sim : &motor_sim;
 	return NULL;
 }
 

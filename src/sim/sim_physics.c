@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "rmd/sim.h"
+#include "rmd/sim_body.h"
 #include "sim_physics.h"
 
 /* -------------------------------------------------------------------------- */
@@ -433,8 +434,40 @@ static int64_t idle_steps(const struct rmd_sim_motor *m, int64_t n)
 	return n;
 }
 
+/*
+ * A motor on a world: the same firmware step, the mechanics the world's.
+ * Its torque at the output is kt iq less the constant load; the friction
+ * and the rotor's inertia are the joint's (rmd_sim_body_attach()).
+ */
+void rmd_sim_motor_substep(struct rmd_sim_motor *m)
+{
+	m->t_ns += RMD_SIM_STEP_NS;
+	check_comm(m);
+	m->iq_a = control(m, STEP_S);
+	rmd_sim_body_push(m->body, m->body_slot, m->p.kt_nm_a * m->iq_a - m->p.load_nm);
+	thermal(m, STEP_S);
+	detect_faults(m, STEP_S);
+}
+
+/* Through the world: no idle skipping, the world may move a shaft at rest. */
+static void step_on_body(struct rmd_sim_motor *m, int64_t now_ns)
+{
+	while (now_ns - m->t_ns >= RMD_SIM_STEP_NS) {
+		if (!rmd_sim_body_room(m->body, m->body_slot))
+			rmd_sim_body_advance(m->body);
+		rmd_sim_motor_substep(m);
+		/* at once, so that what it reports at the exchange's end is the world's then */
+		if (!rmd_sim_body_room(m->body, m->body_slot))
+			rmd_sim_body_advance(m->body);
+	}
+}
+
 void rmd_sim_motor_step(struct rmd_sim_motor *m, int64_t now_ns)
 {
+	if (m->body) {
+		step_on_body(m, now_ns);
+		return;
+	}
 	while (now_ns - m->t_ns >= RMD_SIM_STEP_NS) {
 		int64_t n = idle_steps(m, (now_ns - m->t_ns) / RMD_SIM_STEP_NS);
 
@@ -462,4 +495,9 @@ void rmd_sim_detect_faults(struct rmd_sim_motor *m, double dt)
 double rmd_sim_control(struct rmd_sim_motor *m, double dt)
 {
 	return control(m, dt);
+}
+
+bool rmd_sim_motor_held(const struct rmd_sim_motor *m)
+{
+	return held(m);
 }

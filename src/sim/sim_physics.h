@@ -75,4 +75,15 @@ void rmd_sim_detect_faults(struct rmd_sim_motor *m, double dt);
 /* The firmware's control loops over dt seconds (0: settle): the iq to apply, A. */
 double rmd_sim_control(struct rmd_sim_motor *m, double dt);
 
+/* The shaft is held by the brake (V3 §2.27.1). */
+bool rmd_sim_motor_held(const struct rmd_sim_motor *m);
+
+/*
+ * One motor step of a motor on a world (rmd/sim_body.h): its firmware
+ * over RMD_SIM_STEP_NS with the shaft the world last gave it, its output
+ * torque pushed to the world.  sim_body.c calls it for the motors it
+ * brings up to an exchange.
+ */
+void rmd_sim_motor_substep(struct rmd_sim_motor *m);
+
 #endif /* RMD_SIM_PHYSICS_H */

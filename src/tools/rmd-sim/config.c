@@ -1090,6 +1090,17 @@ int sim_config_yaml(struct sim_config *c, const char *path, const char *bus, con
 		r = -EINVAL;
 		goto out;
 	}
+	/* the joints of this bus's motors, by id (the same world code as rmdd's sim buses) */
+	c->physics = sim->physics;
+	c->physics.n_joints = 0;
+	for (unsigned j = 0; j < sim->physics.n_joints; j++) {
+		const struct rmd_sim_physics_joint *pj = &sim->physics.joints[j];
+
+		if (cfg->motors[pj->motor].bus != (unsigned)bi)
+			continue;
+		c->physics.joints[c->physics.n_joints] = *pj;
+		c->physics.joints[c->physics.n_joints++].motor = cfg->motors[pj->motor].id - 1u;
+	}
 	c->motors = mask;
 	c->base_set = mask;
 	c->seed = sim->buses[bi].seed ? sim->buses[bi].seed : 1;

@@ -16,6 +16,7 @@
 #include "rmd/frame.h"
 #include "rmd/mit.h"
 #include "rmd/sim.h"
+#include "rmd/sim_setup.h"
 #include "rmd/sim_wire.h"
 #include "tools/common/log.h"
 
@@ -84,6 +85,11 @@ struct sim_config {
 	struct rmd_sim_motor_params base[RMD_MAX_MOTORS];
 	uint32_t base_set;
 	char yaml_bus[512]; /* "rmdd.yaml: bus rs0, motors 1 pan, 2 tilt", for the startup log */
+	/*
+	 * The rmdd.yaml's sim.physics for this bus's motors (docs/physics.md):
+	 * its joints' .motor is the motor's id - 1 here; n_joints 0: none.
+	 */
+	struct rmd_sim_physics_setup physics;
 
 	/* Filled by sim_config_finish(): the parameters of motor id i + 1. */
 	struct rmd_sim_motor_params params[RMD_MAX_MOTORS];

@@ -68,6 +68,7 @@
 #include "rmd/describe.h"
 #include "rmd/rs485.h"
 #include "rmd/sim.h"
+#include "rmd/sim_body.h"
 #include "rmd/sim_faults.h"
 #include "rmd/sim_node.h"
 #include "rmd-sim.h"
@@ -94,8 +95,9 @@ struct stats {
 
 struct sim {
 	const struct sim_config *cfg;
-	struct rmd_bus bus; /* the wire (ops set once open) */
-	const char *name;   /* the wire, for messages */
+	struct rmd_sim_body *body; /* sim.physics (rmd/sim_body.h); NULL: none */
+	struct rmd_bus bus;	   /* the wire (ops set once open) */
+	const char *name;	   /* the wire, for messages */
 	int64_t t0;
 	/* The motors and their frames waiting in q[] for their due time; fault times since t0. */
 	struct rmd_sim_node node;
@@ -817,6 +819,16 @@ int sim_run(const struct sim_config *c)
 		}
 	}
 
+	/* the physics first: a model that does not load leaves the wire alone */
+	if (c->physics.n_joints) {
+		char err[1024];
+
+		if (rmd_sim_body_load(&s->body, &c->physics, err, sizeof(err)) < 0) {
+			tool_log(TOOL_LOG_ERR, "rmd-sim: %s", err);
+			return SIM_EXIT_USAGE;
+		}
+	}
+
 	/* Replies are due within a turnaround: keep the kernel's timer slack at 1 µs. */
 	(void)prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0);
 	signal(SIGPIPE, SIG_IGN);
@@ -852,6 +864,16 @@ int sim_run(const struct sim_config *c)
 	for (unsigned id = 1; id <= RMD_MAX_MOTORS; id++)
 		if (c->motors & (UINT32_C(1) << (id - 1)))
 			rmd_sim_node_add(&s->node, &c->params[id - 1], s->t0);
+	for (unsigned id = 1; s->body && id <= RMD_MAX_MOTORS; id++)
+		if (c->motors & (UINT32_C(1) << (id - 1)))
+			(void)rmd_sim_body_attach(s->body, id - 1,
+						  rmd_sim_node_motor(&s->node, id));
+	if (s->body) {
+		char what[512];
+
+		rmd_sim_body_describe(s->body, what, sizeof(what));
+		tool_log(TOOL_LOG_INFO, "rmd-sim: physics: %s", what);
+	}
 	rmd_sim_node_set_faults(&s->node, c->faults, c->n_faults, s->t0);
 	s->motors_ns = INT64_MAX;
 	s->next_tick_ns = s->t0 + TICK_NS;
@@ -920,5 +942,7 @@ err_close_fds:
 		close(s->tfd);
 	if (s->sfd >= 0)
 		close(s->sfd);
+	rmd_sim_body_free(s->body);
+	s->body = NULL;
 	return r;
 }

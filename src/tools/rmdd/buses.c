@@ -11,10 +11,37 @@
 #include <string.h>
 
 #include "rmd/bus_open.h"
+#include "rmd/sim_body.h"
 #include "rmdd.h"
 #include "tools/common/buslock.h"
 
-/* Each real bus's lock (tools/common/buslock.h), held while rmdd runs; -1: none. */
+/* The world of sim.physics (rmd/sim_body.h) its sim buses' motors drive; NULL: none. */
+static struct rmd_sim_body *body;
+
+/*
+ * Load sim.physics when a motor of a sim bus drives a joint (a socketcan
+ * or rs485 bus's motors are rmd-sim's, which loads it itself).
+ */
+static int body_open(const struct rmd_config *cfg, const struct rmd_sim_setup *sim)
+{
+	const struct rmd_sim_physics_setup *ps = sim ? &sim->physics : NULL;
+	char err[1024];
+	bool used = false;
+	int r;
+
+	for (unsigned k = 0; ps && ps->model[0] && k < ps->n_joints; k++)
+		if (rmd_bus_config_motor_in_process(cfg, ps->joints[k].motor))
+			used = true;
+	if (!used)
+		return 0;
+	r = rmd_sim_body_load(&body, ps, err, sizeof(err));
+	if (r < 0) {
+		tool_log(3, "%s", err);
+		return r;
+	}
+	return 0;
+}
+
 static int lock_fd[RMD_MAX_BUSES] = { [0 ... RMD_MAX_BUSES - 1] = -1 };
 
 /*
@@ -49,15 +76,18 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *si
 	struct rmd_bus_open_motor motors[RMD_MAX_MOTORS];
 	struct rmd_bus_open_ctx ctx;
 	char err[512];
-	unsigned b;
-	int r = 0;
+	unsigned b = 0;
+	int r = body_open(cfg, sim);
 
+	if (r < 0)
+		return r;
 	for (b = 0; b < cfg->n_buses; b++) {
 		const struct rmd_config_bus *cb = &cfg->buses[b];
 
 		rmd_bus_open_ctx_of(cfg, sim, b, motors, &ctx);
 		ctx.burst = plan->bus[b].max_requests;
 		ctx.watch_strays = plan->bus[b].batched && !cb->can_id_filter;
+		ctx.body = body;
 		r = rmd_bus_open(&buses[b], cb, &ctx, err, sizeof(err));
 		if (r < 0) {
 			if (cb->line)
@@ -78,6 +108,12 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *si
 			tool_log(5, "bus %s: %s", cb->name, err);
 		tool_log(7, "bus %s: open (%s)", cb->name, buses[b].ops->kind);
 	}
+	if (body) {
+		char what[512];
+
+		rmd_sim_body_describe(body, what, sizeof(what));
+		tool_log(6, "physics: %s", what);
+	}
 	return 0;
 
 err_close_opened:
@@ -91,4 +127,6 @@ void rmdd_buses_close(struct rmd_bus *buses, unsigned n)
 		rmd_bus_close(&buses[b]);
 		tool_buslock_release(&lock_fd[b]);
 	}
+	rmd_sim_body_free(body);
+	body = NULL;
 }
