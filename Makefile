@@ -137,7 +137,8 @@ DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib python3-jsonschema python3-yaml \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
-	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux
+	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux \
+	cyclonedds-dev cyclonedds-tools
 
 deps:
 	apt-get update -qq
@@ -283,6 +284,50 @@ $(BUILD)/examples/sine_controller.o: | $(GEN_HDRS)
 $(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
+# rmd-ros2 (docs/ros2.md): rmdd on ROS 2's wire, a program of its own on
+# Cyclone DDS (cyclonedds-dev, and idlc from cyclonedds-tools, in
+# DEB_PACKAGES).  idlc writes the C of the ROS 2 messages
+# (src/tools/rmd-ros2/ros2_msgs.idl) into $(BUILD)/gen-ros2.  Without Cyclone
+# DDS everything else builds and `make` says the bridge is not built.
+IDLC ?= idlc
+DDS_CFLAGS := $(shell pkg-config --cflags CycloneDDS 2>/dev/null)
+DDS_LIBS := $(shell pkg-config --libs CycloneDDS 2>/dev/null)
+HAVE_DDS := $(if $(DDS_LIBS),$(if $(shell command -v $(IDLC) 2>/dev/null),1))
+ROS2_IDL := src/tools/rmd-ros2/ros2_msgs.idl
+ROS2_GEN := $(BUILD)/gen-ros2
+ROS2_MSGS_OBJ := $(ROS2_GEN)/ros2_msgs.o
+ROS2_OBJS := $(patsubst %.c,$(BUILD)/%.o,$(wildcard src/tools/rmd-ros2/*.c) $(TOOL_COMMON_SRCS))
+RMD_ROS2 := $(BUILD)/rmd-ros2
+# tests/ros2/: the suites that need Cyclone DDS (not in TESTS' wildcard).
+ROS2_TESTS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/ros2/test_*.c))
+.PHONY: ros2-not-built
+ifeq ($(HAVE_DDS),1)
+all: $(RMD_ROS2) $(ROS2_TESTS)
+$(ROS2_GEN)/ros2_msgs.c $(ROS2_GEN)/ros2_msgs.h &: $(ROS2_IDL)
+	@mkdir -p $(ROS2_GEN)
+	@$(if $(Q),echo "  IDLC    $<")
+	$(Q)cd $(ROS2_GEN) && $(IDLC) -Wno-implicit-extensibility $(abspath $<)
+# idlc's C, like lcm-gen's, is compiled as it comes.
+$(ROS2_MSGS_OBJ): $(ROS2_GEN)/ros2_msgs.c $(ROS2_GEN)/ros2_msgs.h
+	@$(if $(Q),echo "  CC      $<")
+	$(Q)$(CC) $(CPPFLAGS) -O2 -g -fPIE $(DDS_CFLAGS) -c -o $@ $<
+$(BUILD)/src/tools/rmd-ros2/%.o $(BUILD)/tests/ros2/%.o: override CFLAGS += $(DDS_CFLAGS) \
+	-I$(ROS2_GEN) -Isrc/tools/rmd-ros2
+$(ROS2_OBJS) $(ROS2_TESTS:%=%.o): | $(ROS2_GEN)/ros2_msgs.h $(GEN_HDRS)
+$(RMD_ROS2): $(ROS2_OBJS) $(ROS2_MSGS_OBJ) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS) $(DDS_LIBS)
+$(BUILD)/tests/ros2/%: $(BUILD)/tests/ros2/%.o $(BUILD)/src/tools/rmd-ros2/map.o \
+		$(BUILD)/src/tools/common/names.o $(ROS2_MSGS_OBJ) $(HARNESS_OBJS) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS) $(DDS_LIBS)
+else
+ROS2_TESTS :=
+all: ros2-not-built
+ros2-not-built:
+	@echo "rmd-ros2: not built: no Cyclone DDS (pkg-config CycloneDDS, $(IDLC)); sudo apt install cyclonedds-dev cyclonedds-tools"
+endif
 
 # bench/insn-per-cycle.sh and bench/insn-guard.sh run this rig under
 # callgrind: the loop on simulated buses with an injected clock.
