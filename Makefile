@@ -454,7 +454,7 @@ $(SYSTEMD_ROOT).installed: $(PROGS) systemd/rmdd.service.in
 TEST_PATH = PATH="$(abspath $(VENV_PATH)):$$PATH"
 test: all $(VENV_PATH)/python3 $(LCM_PYTHON) $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) --systemd $(SYSTEMD_TESTS) \
-		-- $(TESTS) $(DOCS_TESTS)
+		-- $(TESTS) $(ROS2_TESTS) $(DOCS_TESTS)
 ifneq ($(SANITIZE),1)
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) bench/insn-guard.sh
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) MAKE="$(MAKE)" tests/package/check-install
