@@ -501,6 +501,7 @@ install: all install-lcm install-man install-docs
 	install -D -m 0755 $(RMDD) $(DESTDIR)$(BINDIR)/rmdd
 	install -D -m 0644 $(RMDD_SCHEMA) $(DESTDIR)$(DATADIR)/rmdd/rmdd.schema.json
 	install -D -m 0755 src/tools/rmd-spy/rmd-spy $(DESTDIR)$(BINDIR)/rmd-spy
+	$(if $(HAVE_DDS),install -D -m 0755 $(RMD_ROS2) $(DESTDIR)$(BINDIR)/rmd-ros2)
 	install -d $(DESTDIR)$(SYSTEMDUNITDIR) $(DESTDIR)$(EXAMPLESDIR)
 	sed -e 's|@BINDIR@|$(BINDIR)|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' \
 		systemd/rmdd.service.in >$(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
@@ -611,6 +612,7 @@ install-docs:
 uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
 	rm -f $(DESTDIR)$(BINDIR)/rmd-plot $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
+	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
