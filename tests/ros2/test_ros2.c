@@ -372,7 +372,10 @@ static bool at(const struct fixture *f, const double *target, double tol)
 	return true;
 }
 
-/* Commands at 100 Hz to target until state_t shows both motors ENABLED there. */
+/*
+ * Commands at 100 Hz, where the motors are until they are ENABLED, then to
+ * target, until state_t shows both there.
+ */
 static void drive_to(struct fixture *f, const double *target)
 {
 	const char *names[MOTORS] = { f->cfg->motor[0].name, f->cfg->motor[1].name };
@@ -380,8 +383,11 @@ static void drive_to(struct fixture *f, const double *target)
 
 	while (!at(f, target, 0.01)) {
 		const struct seen_state *s = last_state(f);
+		bool enabled = s && s->lc[0] == RMD_STATE_T_LC_ENABLED &&
+			       s->lc[1] == RMD_STATE_T_LC_ENABLED;
 
-		send_command(f, names, target, MOTORS, MOTORS);
+		/* as a joint trajectory controller starts: where the motors are, then the target */
+		send_command(f, names, enabled ? target : s->pos, MOTORS, MOTORS);
 		pump_ms(f, 10);
 		if (rmd_now_ns() > end)
 			fail_msg("motors not ENABLED at %.3f %.3f within %d ms (now %d %.3f, %d "
@@ -469,6 +475,7 @@ static void test_joint_states_are_state_t(void **state)
 	start(f, extra);
 	wait_matched(f, f->w_cmds, f->r_states, "the joint states and commands");
 	drive_to(f, target);
+	pump_ms(f, 300);
 	for (;;) {
 		void *samples[64] = { NULL };
 		dds_sample_info_t info[64];
@@ -515,14 +522,16 @@ static void test_joint_states_are_state_t(void **state)
 	print_message("%u JointState samples matched a state_t, %u older than the kept ones; "
 		      "positions %.3f .. %.3f rad\n",
 		      matched, unmatched, lo, hi);
-	assert_true(matched >= 100);
+	/* a state_t this suite's LCM lost on a busy machine leaves its sample unjudged, no more */
+	assert_true(matched >= 200 && unmatched * 10 <= matched);
 	/* they moved while judged: from near 0 to the targets */
 	assert_true(hi - lo > 1.0);
 }
 
 /*
- * A joint command with a name rmdd has no motor of, a NaN, or a position
- * array shorter than its names is refused whole: the bridge sends rmdd no
+ * A joint command with a name rmdd has no motor of, a NaN, a position
+ * array shorter than its names, or a first position 2.5 rad from where a
+ * motor is (--max-jump 0.2) is refused whole: the bridge sends rmdd no
  * command_t at all, the motors stay READY where they were, and rt/diagnostics
  * counts each kind.
  */
@@ -532,10 +541,11 @@ static void test_bad_commands_move_nothing(void **state)
 	const char *extra[] = { "--enable", NULL };
 	const char *unknown[MOTORS] = { "no_such_joint", NULL };
 	const char *names[MOTORS];
-	const double nan_pos[MOTORS] = { NAN, 0.3 }, pos[MOTORS] = { 0.3, 0.3 };
+	const double nan_pos[MOTORS] = { NAN, 0.0 }, pos[MOTORS] = { 0.0, 0.0 };
+	const double leap[MOTORS] = { 2.5, 0.0 };
 	const struct seen_state *s;
 	double before[MOTORS];
-	bool name = false, nonfinite = false, shape = false;
+	bool name = false, nonfinite = false, shape = false, jump = false;
 
 	start(f, extra);
 	names[0] = f->cfg->motor[0].name;
@@ -549,6 +559,7 @@ static void test_bad_commands_move_nothing(void **state)
 		send_command(f, unknown, pos, MOTORS, MOTORS);
 		send_command(f, names, nan_pos, MOTORS, MOTORS);
 		send_command(f, names, pos, MOTORS, 1);
+		send_command(f, names, leap, MOTORS, MOTORS);
 		pump_ms(f, 10);
 	}
 	pump_ms(f, 300);
@@ -560,9 +571,10 @@ static void test_bad_commands_move_nothing(void **state)
 	kid_wait_output(f->bridge, "refused (name): name \"no_such_joint\"", LIMIT_MS, service);
 	kid_wait_output(f->bridge, "refused (non-finite)", LIMIT_MS, service);
 	kid_wait_output(f->bridge, "refused (shape)", LIMIT_MS, service);
+	kid_wait_output(f->bridge, "refused (leap): position 2.5 of", LIMIT_MS, service);
 	/* the counts, as a ROS node reads them on /diagnostics */
 	for (int64_t end = rmd_now_ns() + LIMIT_MS * RMD_NS_PER_MS;
-	     !(name && nonfinite && shape) && rmd_now_ns() < end;) {
+	     !(name && nonfinite && shape && jump) && rmd_now_ns() < end;) {
 		void *samples[16] = { NULL };
 		dds_sample_info_t info[16];
 		int n = dds_take(f->r_diag, samples, info, 16, 16);
@@ -582,13 +594,14 @@ static void test_bad_commands_move_nothing(void **state)
 				name |= !strcmp(key, "ros_rejected_name") && v == 30;
 				nonfinite |= !strcmp(key, "ros_rejected_nonfinite") && v == 30;
 				shape |= !strcmp(key, "ros_rejected_shape") && v == 30;
+				jump |= !strcmp(key, "ros_rejected_jump") && v == 30;
 			}
 		}
 		if (n > 0)
 			dds_return_loan(f->r_diag, samples, n);
 		pump_ms(f, 20);
 	}
-	assert_true(name && nonfinite && shape);
+	assert_true(name && nonfinite && shape && jump);
 }
 
 /* Without --enable the bridge publishes but sends rmdd nothing: the motors stay READY. */
@@ -689,7 +702,7 @@ static void test_cdr_read_by_rosbags(void **state)
 	const char *args[41];
 	const char *extra[] = { "--enable", NULL };
 	const double target[MOTORS] = { 0.4, 0.4 };
-	unsigned n, lines = 0;
+	unsigned n, lines = 0, unmatched = 0;
 	char *out, *line, *save;
 
 	start(f, extra);
@@ -716,8 +729,11 @@ static void test_cdr_read_by_rosbags(void **state)
 			fail_msg("ros2_cdr.py: unexpected line \"%s\"", line);
 		assert_int_equal(cnt, MOTORS);
 		s = state_of_stamp(f, sec, nsec);
-		if (!s)
-			fail_msg("stamp %" PRId32 ".%09" PRIu32 " is no kept state_t's", sec, nsec);
+		lines++;
+		if (!s) {
+			unmatched++;
+			continue;
+		}
 		for (int k = 0; k < MOTORS; k++) {
 			assert_string_equal(name[k], f->cfg->motor[k].name);
 			if (!same(p[k], s->pos[k]) || !same(v[k], s->vel[k]) ||
@@ -727,10 +743,11 @@ static void test_cdr_read_by_rosbags(void **state)
 					"%.17g",
 					name[k], p[k], v[k], t[k], s->pos[k], s->vel[k], s->tq[k]);
 		}
-		lines++;
 	}
 	free(out);
 	assert_int_equal(lines, n);
+	/* a state_t this suite's LCM lost leaves its sample unjudged, no more */
+	assert_true(unmatched * 10 <= n);
 
 	n = take_raw(f, f->r_diag, "da", 3, files);
 	assert_int_equal(n, 3);
@@ -761,6 +778,7 @@ static void test_rosbags_command_moves(void **state)
 	struct fixture *f = rosbags_or_skip(state);
 	const char *extra[] = { "--enable", NULL };
 	const double target[MOTORS] = { -0.3, 0.45 };
+	double here[MOTORS];
 	char path[PATH_MAX], p0[32], p1[32];
 	const char *args[7];
 	unsigned char buf[4096];
@@ -790,6 +808,13 @@ static void test_rosbags_command_moves(void **state)
 	fclose(in);
 	assert_true(len > 4 && len < sizeof(buf));
 
+	/*
+	 * Enabled where they are first, the bytes are then a move (and sent at
+	 * once after: a pause past rmdd's command timeout would trip them SAFE,
+	 * and rmd-ros2 does not enable a motor twice).
+	 */
+	memcpy(here, last_state(f)->pos, sizeof(here));
+	drive_to(f, here);
 	/* the JointState sertype of this participant: from a sample of a topic of its own */
 	scratch = dds_create_topic(f->pp, &sensor_msgs_msg_dds__JointState__desc,
 				   "rmd_ros2_scratch", NULL, NULL);

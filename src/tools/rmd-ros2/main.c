@@ -50,6 +50,7 @@ enum {
 	OPT_ENABLE,
 	OPT_HOLD,
 	OPT_SENSOR_QOS,
+	OPT_MAX_JUMP,
 	OPT_HELP = 'h',
 	OPT_VERBOSE = 'v',
 	OPT_QUIET = 'q',
@@ -78,6 +79,9 @@ static const struct tool_opt opts[] = {
 	TOOL_OPT_ARG("hold-ms", "MS",
 		     "repeat the last joint command to rmdd for MS after it came (default 0:\n"
 		     "each command once, so rmdd's watchdog sees ROS's silence)"),
+	TOOL_OPT_ARG("max-jump", "RAD",
+		     "position mode: enable a motor only with a first command within RAD of where\n"
+		     "it is (default 0.2)"),
 	{ .name = "sensor-qos",
 	  .help = "publish joint states with ROS 2's sensor-data QoS (best effort, keep last 5)\n"
 		  "instead of the default QoS (reliable, volatile, keep last 10)" },
@@ -97,6 +101,7 @@ struct bridge {
 	int mode;
 	bool enable, sensor_qos;
 	int64_t hold_ns;
+	double max_jump;
 
 	lcm_t *lcm;
 	char ch_state[64], ch_health[64], ch_config[64], ch_request[64], ch_command[64];
@@ -173,7 +178,7 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *ch, const rmd_conf
 		}
 		return;
 	}
-	if (ros2_map_config(&b->map, msg, b->mode, b->enable, err, sizeof(err)) < 0) {
+	if (ros2_map_config(&b->map, msg, b->mode, b->enable, b->max_jump, err, sizeof(err)) < 0) {
 		tool_log(TOOL_LOG_ERR, "rmdd's configuration (%s): %s", msg->source, err);
 		stop = 2;
 		return;
@@ -331,6 +336,8 @@ static const char *reject_word(int kind)
 		return "non-finite";
 	case ROS2_REJ_DISABLED:
 		return "not enabled";
+	case ROS2_REJ_JUMP:
+		return "leap";
 	default:
 		return "?";
 	}
@@ -465,6 +472,7 @@ int main(int argc, char **argv)
 	tool_log_init("rmd-ros2", TOOL_LOG_INFO, 0);
 	b.prefix = "RMD_";
 	b.mode = RMD_COMMAND_T_MODE_POSITION;
+	b.max_jump = 0.2;
 	if (env && *env && parse_u32(env, 232, &b.domain) < 0) {
 		tool_log(TOOL_LOG_ERR, "ROS_DOMAIN_ID=%s: not a domain id (0..232)", env);
 		return EXIT_USAGE;
@@ -505,6 +513,14 @@ int main(int argc, char **argv)
 				return bad_arg("hold-ms", optarg, "not a time in ms (0..60000)");
 			b.hold_ns = (int64_t)u * RMD_NS_PER_MS;
 			break;
+		case OPT_MAX_JUMP: {
+			char *end;
+
+			b.max_jump = strtod(optarg, &end);
+			if (end == optarg || *end || !(b.max_jump >= 0))
+				return bad_arg("max-jump", optarg, "not a distance in rad (>= 0)");
+			break;
+		}
 		case OPT_SENSOR_QOS:
 			b.sensor_qos = true;
 			break;

@@ -51,12 +51,13 @@ static int mode_bit(int mode)
 	return 0;
 }
 
-int ros2_map_config(struct ros2_map *map, const rmd_config_t *cfg, int mode, bool enable, char *err,
-		    size_t size)
+int ros2_map_config(struct ros2_map *map, const rmd_config_t *cfg, int mode, bool enable,
+		    double max_jump, char *err, size_t size)
 {
 	memset(map, 0, sizeof(*map));
 	map->mode = (int8_t)mode;
 	map->enable = enable;
+	map->max_jump = max_jump;
 	if (cfg->motor_count < 0 || cfg->motor_count > ROS2_MAX_MOTORS) {
 		snprintf(err, size, "config_t has %d motors (at most %d)", cfg->motor_count,
 			 ROS2_MAX_MOTORS);
@@ -73,6 +74,7 @@ int ros2_map_config(struct ros2_map *map, const rmd_config_t *cfg, int mode, boo
 		snprintf(m->name, sizeof(m->name), "%s", mc->name);
 		m->modes = mc->modes;
 		m->lifecycle = -1;
+		m->position = NAN;
 		if (!(mc->modes & mode_bit(mode))) {
 			snprintf(err, size, "motor %s is not configured for mode %s (--mode)",
 				 m->name, ros2_mode_word(mode));
@@ -139,6 +141,17 @@ int ros2_map_take(struct ros2_map *map, const sensor_msgs_msg_dds__JointState_ *
 			return refuse(map, ROS2_REJ_NONFINITE);
 		}
 	}
+	for (uint32_t i = 0; i < n && map->mode == RMD_COMMAND_T_MODE_POSITION; i++) {
+		const struct ros2_motor *m = &map->m[index[i]];
+
+		if (m->phase == ROS2_IDLE &&
+		    !(fabs(field->_buffer[i] - m->position) <= map->max_jump)) {
+			snprintf(why, size,
+				 "position %g of %s, which is at %g: more than %g rad away",
+				 field->_buffer[i], m->name, m->position, map->max_jump);
+			return refuse(map, ROS2_REJ_JUMP);
+		}
+	}
 	for (uint32_t i = 0; i < n; i++) {
 		struct ros2_motor *m = &map->m[index[i]];
 
@@ -157,6 +170,7 @@ void ros2_map_state(struct ros2_map *map, const rmd_state_t *st)
 		int8_t lc = st->motor[i].lifecycle;
 
 		m->lifecycle = lc;
+		m->position = st->motor[i].position;
 		if (m->phase == ROS2_RUNNING && lc == RMD_STATE_T_LC_ENABLED)
 			m->seen_enabled = true;
 		if (m->phase == ROS2_RUNNING && m->seen_enabled && lc != RMD_STATE_T_LC_ENABLED) {
@@ -362,6 +376,7 @@ void ros2_diagnostics(const struct ros2_map *map, const rmd_config_t *cfg, const
 	kv(buf, 0, "ros_rejected_shape", "%" PRId64, map->rejected[ROS2_REJ_SHAPE]);
 	kv(buf, 0, "ros_rejected_nonfinite", "%" PRId64, map->rejected[ROS2_REJ_NONFINITE]);
 	kv(buf, 0, "ros_rejected_disabled", "%" PRId64, map->rejected[ROS2_REJ_DISABLED]);
+	kv(buf, 0, "ros_rejected_jump", "%" PRId64, map->rejected[ROS2_REJ_JUMP]);
 	for (unsigned i = 0; i < map->count; i++, n++) {
 		const struct ros2_motor *m = &map->m[i];
 		const rmd_motor_state_t *ms = st && (int)i < st->count ? &st->motor[i] : NULL;

@@ -46,6 +46,7 @@ enum ros2_reject {
 	ROS2_REJ_SHAPE,	    /* the driven field's array is not one value per name */
 	ROS2_REJ_NONFINITE, /* a NaN or infinite value in the driven field */
 	ROS2_REJ_DISABLED,  /* commands came, but rmd-ros2 runs without --enable */
+	ROS2_REJ_JUMP, /* a position command that would enable a motor this far from where it is */
 	ROS2_REJ_KINDS,
 };
 
@@ -53,6 +54,7 @@ struct ros2_motor {
 	char name[ROS2_NAME_MAX];
 	int8_t modes;	  /* config_t MODE_BIT_* */
 	int8_t lifecycle; /* the newest state_t's LC_*, -1 before one */
+	double position;  /* the newest state_t's, rad (NaN: none yet) */
 	enum ros2_phase phase;
 	bool seen_enabled; /* LC_ENABLED seen while RUNNING */
 	double setpoint;   /* rad, rad/s or N*m, as `field` says */
@@ -61,8 +63,9 @@ struct ros2_motor {
 struct ros2_map {
 	unsigned count;
 	struct ros2_motor m[ROS2_MAX_MOTORS];
-	int8_t mode; /* command_t MODE_POSITION, _SPEED or _TORQUE: what ROS drives */
-	bool enable; /* --enable: ROS's commands may enable the motors */
+	int8_t mode;	 /* command_t MODE_POSITION, _SPEED or _TORQUE: what ROS drives */
+	bool enable;	 /* --enable: ROS's commands may enable the motors */
+	double max_jump; /* --max-jump: rad between a motor and the position that enables it */
 	int64_t accepted;
 	int64_t rejected[ROS2_REJ_KINDS];
 	unsigned stopped_new; /* motors that went STOPPED since ros2_map_stopped() was asked */
@@ -82,15 +85,17 @@ const char *ros2_mode_word(int mode);
  * -EINVAL with the reason ("motor knee: not configured for velocity
  * (modes: position)") in err.
  */
-int ros2_map_config(struct ros2_map *map, const rmd_config_t *cfg, int mode, bool enable, char *err,
-		    size_t size);
+int ros2_map_config(struct ros2_map *map, const rmd_config_t *cfg, int mode, bool enable,
+		    double max_jump, char *err, size_t size);
 
 /*
  * A joint command: all or nothing.  Each name must be a motor's, once; the
  * driven field's array (position for MODE_POSITION, velocity for
  * MODE_SPEED, effort for MODE_TORQUE) must hold one finite value per name;
  * the other arrays are not read (topic_based_ros2_control fills them with
- * 0, its successor leaves them empty).  Taken: the named motors' setpoints
+ * 0, its successor leaves them empty).  In position mode a motor not yet
+ * driven (IDLE) is enabled only by a position within max_jump of where
+ * state_t says it is: a first command is never a leap.  Taken: the named motors' setpoints
  * change, an IDLE one goes ENABLING, and 1 is returned.  Refused: nothing
  * changes, the kind is counted and returned as -1 - kind, with the culprit
  * (a name, an index) in why.
@@ -136,7 +141,7 @@ void ros2_stamp(builtin_interfaces_msg_dds__Time_ *t, int64_t mono_ns, int64_t r
 void ros2_joint_state(const struct ros2_map *map, const rmd_state_t *st, int64_t realtime_offset_ns,
 		      struct ros2_js_buf *buf, sensor_msgs_msg_dds__JointState_ *js);
 
-#define ROS2_DIAG_VALUES 12
+#define ROS2_DIAG_VALUES 16
 
 /* Storage a DiagnosticArray borrows from. */
 struct ros2_diag_buf {
