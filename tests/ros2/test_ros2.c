@@ -289,6 +289,13 @@ static bool all_ready(const struct fixture *f)
 	return true;
 }
 
+static bool all_enabled(const struct fixture *f)
+{
+	const struct seen_state *s = last_state(f);
+
+	return s && s->lc[0] == RMD_STATE_T_LC_ENABLED && s->lc[1] == RMD_STATE_T_LC_ENABLED;
+}
+
 /* rmdd --sim 2 with every motor READY and its config_t; then rmd-ros2 (args after its own). */
 static void start(struct fixture *f, const char *const *extra)
 {
@@ -441,6 +448,7 @@ static void test_joint_commands_move_motors(void **state)
 	const char *extra[] = { "--enable", NULL };
 	const double target[MOTORS] = { 0.6, -0.4 };
 	int64_t end;
+	unsigned n;
 
 	start(f, extra);
 	wait_matched(f, f->w_cmds, 0, "the joint-command writer");
@@ -449,6 +457,11 @@ static void test_joint_commands_move_motors(void **state)
 		assert_int_equal(f->first_enable[i], 0);
 		assert_int_equal(f->last_enable[i], 1);
 	}
+	/* no --hold-ms: one command_t per ROS command, none when ROS is silent */
+	pump_ms(f, 20);
+	n = f->n_cmds;
+	pump_ms(f, 200);
+	assert_int_equal(f->n_cmds, n);
 	kill(f->bridge->pid, SIGTERM);
 	kid_wait_exit(f->bridge, LIMIT_MS, service);
 	end = rmd_now_ns() + LIMIT_MS * RMD_NS_PER_MS;
@@ -622,6 +635,44 @@ static void test_no_enable_no_motion(void **state)
 	kid_wait_output(f->bridge, "refused: rmd-ros2 runs without --enable", LIMIT_MS, service);
 	assert_int_equal(f->n_cmds, 0);
 	assert_true(all_ready(f));
+}
+
+/*
+ * --hold-ms: the last command goes to rmdd again (every 10 ms) for the hold
+ * after ROS fell silent, then no more, and rmdd's own watchdog applies its
+ * safe action; without it (every other test) nothing follows ROS's last
+ * command.  Judged on the command_t rmdd receives.
+ */
+static void test_hold_repeats_then_stops(void **state)
+{
+	struct fixture *f = bridge_or_skip(state);
+	const char *extra[] = { "--enable", "--hold-ms", "1000", NULL };
+	const double here[MOTORS] = { 0.0, 0.0 };
+	unsigned n0, n1, n2;
+	int64_t end;
+
+	start(f, extra);
+	wait_matched(f, f->w_cmds, 0, "the joint-command writer");
+	drive_to(f, here);
+	n0 = f->n_cmds;
+	pump_ms(f, 300);
+	n1 = f->n_cmds;
+	/* about 30; a busy machine may hold rmd-ros2 off some of the time */
+	if (n1 - n0 < 5)
+		fail_msg("%u command_t in the 300 ms after ROS's last command, with --hold-ms 1000",
+			 n1 - n0);
+	assert_true(all_enabled(f));
+	pump_ms(f, 1200);
+	n1 = f->n_cmds;
+	pump_ms(f, 300);
+	n2 = f->n_cmds;
+	if (n2 != n1)
+		fail_msg("%u command_t 1.5 s after ROS's last command (--hold-ms 1000)", n2 - n1);
+	end = rmd_now_ns() + LIMIT_MS * RMD_NS_PER_MS;
+	while (last_state(f)->lc[0] != RMD_STATE_T_LC_SAFE && rmd_now_ns() < end)
+		pump_ms(f, 10);
+	assert_int_equal(last_state(f)->lc[0], RMD_STATE_T_LC_SAFE);
+	kid_wait_output(f->bridge, "left enabled (now safe)", LIMIT_MS, service);
 }
 
 /* ---- rosbags: the bytes on the wire, read and written by ROS 2's own definitions --------- */
@@ -857,6 +908,7 @@ int main(void)
 		cmocka_unit_test(test_joint_states_are_state_t),
 		cmocka_unit_test(test_bad_commands_move_nothing),
 		cmocka_unit_test(test_no_enable_no_motion),
+		cmocka_unit_test(test_hold_repeats_then_stops),
 		cmocka_unit_test(test_cdr_read_by_rosbags),
 		cmocka_unit_test(test_rosbags_command_moves),
 	};
