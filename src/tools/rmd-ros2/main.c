@@ -407,11 +407,15 @@ static void hold(struct bridge *b)
 static int run(struct bridge *b)
 {
 	rmd_motor_command_t e[ROS2_MAX_MOTORS];
+	rmd_config_t_subscription_t *sc;
+	rmd_state_t_subscription_t *ss;
+	rmd_health_t_subscription_t *sh;
 	unsigned n;
+	int rc = 0;
 
-	rmd_config_t_subscribe(b->lcm, b->ch_config, on_config, b);
-	rmd_state_t_subscribe(b->lcm, b->ch_state, on_state, b);
-	rmd_health_t_subscribe(b->lcm, b->ch_health, on_health, b);
+	sc = rmd_config_t_subscribe(b->lcm, b->ch_config, on_config, b);
+	ss = rmd_state_t_subscribe(b->lcm, b->ch_state, on_state, b);
+	sh = rmd_health_t_subscribe(b->lcm, b->ch_health, on_health, b);
 	while (!stop) {
 		int64_t now = rmd_now_ns();
 
@@ -423,20 +427,24 @@ static int run(struct bridge *b)
 		}
 		if (lcm_handle_timeout(b->lcm, 1) < 0 && !stop) {
 			tool_log(TOOL_LOG_ERR, "LCM: receive failed on %s", b->url ? b->url : "");
-			return EXIT_FAIL;
+			rc = EXIT_FAIL;
+			break;
 		}
 		take_commands(b);
 		hold(b);
 	}
 	if (stop == 2)
-		return EXIT_FAIL;
+		rc = EXIT_FAIL;
 	n = ros2_map_release(&b->map, e);
 	if (n) {
 		publish_command(b, e, n);
 		tool_log(TOOL_LOG_NOTICE, "stopping: enable = 0 sent for the %u motors ROS drove",
 			 n);
 	}
-	return 0;
+	rmd_config_t_unsubscribe(b->lcm, sc);
+	rmd_state_t_unsubscribe(b->lcm, ss);
+	rmd_health_t_unsubscribe(b->lcm, sh);
+	return rc;
 }
 
 static int parse_u32(const char *s, uint32_t max, uint32_t *out)
