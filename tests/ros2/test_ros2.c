@@ -56,6 +56,10 @@ struct fixture {
 	uint32_t domain;
 	struct kid *rmdd, *bridge;
 	lcm_t *lcm;
+	rmd_state_t_subscription_t *s_state;
+	rmd_config_t_subscription_t *s_config;
+	rmd_health_t_subscription_t *s_health;
+	rmd_command_t_subscription_t *s_command;
 	rmd_config_t *cfg;
 	struct seen_state ring[RING];
 	unsigned n_states;
@@ -220,10 +224,10 @@ static int setup(void **state)
 		f->first_enable[i] = f->last_enable[i] = -1;
 	f->lcm = lcm_create(f->url);
 	assert_non_null(f->lcm);
-	rmd_state_t_subscribe(f->lcm, "RMD_STATE", on_state, f);
-	rmd_config_t_subscribe(f->lcm, "RMD_CONFIG", on_config, f);
-	rmd_health_t_subscribe(f->lcm, "RMD_HEALTH", on_health, f);
-	rmd_command_t_subscribe(f->lcm, "RMD_COMMAND", on_command, f);
+	f->s_state = rmd_state_t_subscribe(f->lcm, "RMD_STATE", on_state, f);
+	f->s_config = rmd_config_t_subscribe(f->lcm, "RMD_CONFIG", on_config, f);
+	f->s_health = rmd_health_t_subscribe(f->lcm, "RMD_HEALTH", on_health, f);
+	f->s_command = rmd_command_t_subscribe(f->lcm, "RMD_COMMAND", on_command, f);
 
 	f->pp = dds_create_participant(f->domain, NULL, NULL);
 	assert_true(f->pp > 0);
@@ -255,8 +259,13 @@ static int teardown(void **state)
 	kid_kill_all();
 	if (f->pp > 0)
 		dds_delete(f->pp);
-	if (f->lcm)
+	if (f->lcm) {
+		rmd_state_t_unsubscribe(f->lcm, f->s_state);
+		rmd_config_t_unsubscribe(f->lcm, f->s_config);
+		rmd_health_t_unsubscribe(f->lcm, f->s_health);
+		rmd_command_t_unsubscribe(f->lcm, f->s_command);
 		lcm_destroy(f->lcm);
+	}
 	if (f->cfg)
 		rmd_config_t_destroy(f->cfg);
 	if (f->health)
@@ -463,7 +472,9 @@ static void test_joint_commands_move_motors(void **state)
 	pump_ms(f, 200);
 	assert_int_equal(f->n_cmds, n);
 	kill(f->bridge->pid, SIGTERM);
-	kid_wait_exit(f->bridge, LIMIT_MS, service);
+	if (kid_wait_exit(f->bridge, LIMIT_MS, service) != 0)
+		fail_msg("rmd-ros2 exited %d after SIGTERM:\n%s", f->bridge->status,
+			 kid_tail(f->bridge));
 	end = rmd_now_ns() + LIMIT_MS * RMD_NS_PER_MS;
 	while (!all_ready(f) && rmd_now_ns() < end)
 		pump_ms(f, 10);
