@@ -138,7 +138,7 @@ DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib python3-jsonschema python3-yaml \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
 	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux \
-	libmujoco-dev
+	libmujoco-dev cyclonedds-dev cyclonedds-tools
 
 deps:
 	apt-get update -qq
@@ -309,6 +309,50 @@ $(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# rmd-ros2 (docs/ros2.md): rmdd on ROS 2's wire, a program of its own on
+# Cyclone DDS (cyclonedds-dev, and idlc from cyclonedds-tools, in
+# DEB_PACKAGES).  idlc writes the C of the ROS 2 messages
+# (src/tools/rmd-ros2/ros2_msgs.idl) into $(BUILD)/gen-ros2.  Without Cyclone
+# DDS everything else builds and `make` says the bridge is not built.
+IDLC ?= idlc
+DDS_CFLAGS := $(shell pkg-config --cflags CycloneDDS 2>/dev/null)
+DDS_LIBS := $(shell pkg-config --libs CycloneDDS 2>/dev/null)
+HAVE_DDS := $(if $(DDS_LIBS),$(if $(shell command -v $(IDLC) 2>/dev/null),1))
+ROS2_IDL := src/tools/rmd-ros2/ros2_msgs.idl
+ROS2_GEN := $(BUILD)/gen-ros2
+ROS2_MSGS_OBJ := $(ROS2_GEN)/ros2_msgs.o
+ROS2_OBJS := $(patsubst %.c,$(BUILD)/%.o,$(wildcard src/tools/rmd-ros2/*.c) $(TOOL_COMMON_SRCS))
+RMD_ROS2 := $(BUILD)/rmd-ros2
+# tests/ros2/: the suites that need Cyclone DDS (not in TESTS' wildcard).
+ROS2_TESTS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/ros2/test_*.c))
+.PHONY: ros2-not-built
+ifeq ($(HAVE_DDS),1)
+all: $(RMD_ROS2) $(ROS2_TESTS)
+$(ROS2_GEN)/ros2_msgs.c $(ROS2_GEN)/ros2_msgs.h &: $(ROS2_IDL)
+	@mkdir -p $(ROS2_GEN)
+	@$(if $(Q),echo "  IDLC    $<")
+	$(Q)cd $(ROS2_GEN) && $(IDLC) -Wno-implicit-extensibility $(abspath $<)
+# idlc's C, like lcm-gen's, is compiled as it comes.
+$(ROS2_MSGS_OBJ): $(ROS2_GEN)/ros2_msgs.c $(ROS2_GEN)/ros2_msgs.h
+	@$(if $(Q),echo "  CC      $<")
+	$(Q)$(CC) $(CPPFLAGS) -O2 -g -fPIE $(DDS_CFLAGS) -c -o $@ $<
+$(BUILD)/src/tools/rmd-ros2/%.o $(BUILD)/tests/ros2/%.o: override CFLAGS += $(DDS_CFLAGS) \
+	-I$(ROS2_GEN) -Isrc/tools/rmd-ros2
+$(ROS2_OBJS) $(ROS2_TESTS:%=%.o): | $(ROS2_GEN)/ros2_msgs.h $(GEN_HDRS)
+$(RMD_ROS2): $(ROS2_OBJS) $(ROS2_MSGS_OBJ) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS) $(DDS_LIBS)
+$(BUILD)/tests/ros2/%: $(BUILD)/tests/ros2/%.o $(BUILD)/src/tools/rmd-ros2/map.o \
+		$(BUILD)/src/tools/common/names.o $(ROS2_MSGS_OBJ) $(HARNESS_OBJS) $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(TEST_LIBS) $(LIBS) $(DDS_LIBS)
+else
+ROS2_TESTS :=
+all: ros2-not-built
+ros2-not-built:
+	@echo "rmd-ros2: not built: no Cyclone DDS (pkg-config CycloneDDS, $(IDLC)); sudo apt install cyclonedds-dev cyclonedds-tools"
+endif
+
 # bench/insn-per-cycle.sh and bench/insn-guard.sh run this rig under
 # callgrind: the loop on simulated buses with an injected clock.
 INSN_RIG := $(BUILD)/bench/insn_rig
@@ -442,7 +486,7 @@ $(SYSTEMD_ROOT).installed: $(PROGS) systemd/rmdd.service.in
 TEST_PATH = PATH="$(abspath $(VENV_PATH)):$$PATH"
 test: all $(VENV_PATH)/python3 $(LCM_PYTHON) $(if $(SYSTEMD_TESTS),$(SYSTEMD_ROOT).installed)
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) tests/run-tests.sh --vcan $(VCAN_TESTS) --systemd $(SYSTEMD_TESTS) \
-		-- $(TESTS) $(DOCS_TESTS)
+		-- $(TESTS) $(ROS2_TESTS) $(DOCS_TESTS)
 ifneq ($(SANITIZE),1)
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) bench/insn-guard.sh
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) MAKE="$(MAKE)" tests/package/check-install
@@ -504,6 +548,7 @@ install: all install-lcm install-man install-docs
 	$(if $(MUJOCO_H),install -D -m 0644 $(PHYSICS_SO) $(DESTDIR)$(RMD_PHYSICS_DIR)/rmd-physics.so)
 	install -D -m 0644 $(RMDD_SCHEMA) $(DESTDIR)$(DATADIR)/rmdd/rmdd.schema.json
 	install -D -m 0755 src/tools/rmd-spy/rmd-spy $(DESTDIR)$(BINDIR)/rmd-spy
+	$(if $(HAVE_DDS),install -D -m 0755 $(RMD_ROS2) $(DESTDIR)$(BINDIR)/rmd-ros2)
 	install -d $(DESTDIR)$(SYSTEMDUNITDIR) $(DESTDIR)$(EXAMPLESDIR)
 	sed -e 's|@BINDIR@|$(BINDIR)|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' \
 		systemd/rmdd.service.in >$(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
@@ -609,6 +654,7 @@ uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(foreach t,$(PY_TOOLS),$(firstword $(subst :, ,$(t)))))
 	rm -f $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
+	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
