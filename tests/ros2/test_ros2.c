@@ -306,13 +306,12 @@ static bool all_enabled(const struct fixture *f)
 }
 
 /* rmdd --sim 2 with every motor READY and its config_t; then rmd-ros2 (args after its own). */
+static void start_bridge(struct fixture *f, const char *const *extra);
+
 static void start(struct fixture *f, const char *const *extra)
 {
-	char domain[16];
 	const char *rargv[] = { rmdd_bin, "--sim", "2", "--lcm-url", f->url, NULL };
-	const char *bargv[16] = { bridge_bin, "--lcm-url", f->url, "--domain", domain };
 	int64_t end = rmd_now_ns() + LIMIT_MS * RMD_NS_PER_MS;
-	unsigned n = 5;
 
 	f->rmdd = kid_spawn("rmdd", rargv, NULL, 0);
 	while (!f->cfg || !all_ready(f)) {
@@ -327,6 +326,16 @@ static void start(struct fixture *f, const char *const *extra)
 				 LIMIT_MS, kid_tail(f->rmdd));
 	}
 	assert_int_equal(f->cfg->motor_count, MOTORS);
+	start_bridge(f, extra);
+}
+
+/* rmd-ros2 on this test's URL and domain, with extra after its own arguments. */
+static void start_bridge(struct fixture *f, const char *const *extra)
+{
+	char domain[16];
+	const char *bargv[16] = { bridge_bin, "--lcm-url", f->url, "--domain", domain };
+	unsigned n = 5;
+
 	snprintf(domain, sizeof(domain), "%" PRIu32, f->domain);
 	for (; extra && *extra && n < 15; extra++)
 		bargv[n++] = *extra;
@@ -555,14 +564,14 @@ static void test_joint_states_are_state_t(void **state)
 /*
  * A joint command with a name rmdd has no motor of, a NaN, a position
  * array shorter than its names, or a first position 2.5 rad from where a
- * motor is (--max-jump 0.2) is refused whole: the bridge sends rmdd no
+ * motor is (--max-jump 2) is refused whole: the bridge sends rmdd no
  * command_t at all, the motors stay READY where they were, and rt/diagnostics
  * counts each kind.
  */
 static void test_bad_commands_move_nothing(void **state)
 {
 	struct fixture *f = bridge_or_skip(state);
-	const char *extra[] = { "--enable", NULL };
+	const char *extra[] = { "--enable", "--max-jump", "2", NULL };
 	const char *unknown[MOTORS] = { "no_such_joint", NULL };
 	const char *names[MOTORS];
 	const double nan_pos[MOTORS] = { NAN, 0.0 }, pos[MOTORS] = { 0.0, 0.0 };
@@ -596,6 +605,7 @@ static void test_bad_commands_move_nothing(void **state)
 	kid_wait_output(f->bridge, "refused (non-finite)", LIMIT_MS, service);
 	kid_wait_output(f->bridge, "refused (shape)", LIMIT_MS, service);
 	kid_wait_output(f->bridge, "refused (leap): position 2.5 of", LIMIT_MS, service);
+	kid_wait_output(f->bridge, "more than 2 rad away", LIMIT_MS, service);
 	/* the counts, as a ROS node reads them on /diagnostics */
 	for (int64_t end = rmd_now_ns() + LIMIT_MS * RMD_NS_PER_MS;
 	     !(name && nonfinite && shape && jump) && rmd_now_ns() < end;) {
@@ -684,6 +694,92 @@ static void test_hold_repeats_then_stops(void **state)
 		pump_ms(f, 10);
 	assert_int_equal(last_state(f)->lc[0], RMD_STATE_T_LC_SAFE);
 	kid_wait_output(f->bridge, "left enabled (now safe)", LIMIT_MS, service);
+}
+
+/* What discovery says of the one endpoint of the bridge matched with ours. */
+static dds_builtintopic_endpoint_t *bridge_endpoint(dds_entity_t ours, bool ours_is_reader)
+{
+	dds_instance_handle_t h[4];
+	int n = ours_is_reader ? dds_get_matched_publications(ours, h, 4) :
+				 dds_get_matched_subscriptions(ours, h, 4);
+	dds_builtintopic_endpoint_t *ep;
+
+	assert_int_equal(n, 1);
+	ep = ours_is_reader ? dds_get_matched_publication_data(ours, h[0]) :
+			      dds_get_matched_subscription_data(ours, h[0]);
+	assert_non_null(ep);
+	return ep;
+}
+
+/* ep: topic, type, reliability and durability as a ROS 2 node on rmw_cyclonedds_cpp sees them. */
+static void assert_endpoint(const dds_builtintopic_endpoint_t *ep, const char *topic,
+			    const char *type, dds_reliability_kind_t rel)
+{
+	dds_reliability_kind_t r;
+	dds_durability_kind_t d;
+	dds_duration_t block;
+
+	assert_string_equal(ep->topic_name, topic);
+	assert_string_equal(ep->type_name, type);
+	assert_true(dds_qget_reliability(ep->qos, &r, &block));
+	assert_int_equal(r, rel);
+	assert_true(dds_qget_durability(ep->qos, &d));
+	assert_int_equal(d, DDS_DURABILITY_VOLATILE);
+}
+
+/*
+ * The bridge's endpoints as discovery announces them to other participants:
+ * ROS 2's topic and type names, the default QoS (reliable, volatile) for the
+ * joint states and diagnostics, a best-effort command reader; with
+ * --sensor-qos, best-effort joint states, which a reliable reader (ROS 2's
+ * default subscription) then does not match.
+ */
+static void test_endpoints_as_ros2_sees_them(void **state)
+{
+	struct fixture *f = bridge_or_skip(state);
+	const char *extra[] = { "--sensor-qos", NULL };
+	dds_builtintopic_endpoint_t *ep;
+	dds_entity_t be;
+	dds_qos_t *q;
+
+	start(f, NULL);
+	wait_matched(f, f->w_cmds, f->r_states, "the joint states and commands");
+	wait_matched(f, 0, f->r_diag, "the diagnostics");
+	ep = bridge_endpoint(f->r_states, true);
+	assert_endpoint(ep, "rt/joint_states", "sensor_msgs::msg::dds_::JointState_",
+			DDS_RELIABILITY_RELIABLE);
+	dds_builtintopic_free_endpoint(ep);
+	ep = bridge_endpoint(f->r_diag, true);
+	assert_endpoint(ep, "rt/diagnostics", "diagnostic_msgs::msg::dds_::DiagnosticArray_",
+			DDS_RELIABILITY_RELIABLE);
+	dds_builtintopic_free_endpoint(ep);
+	ep = bridge_endpoint(f->w_cmds, false);
+	assert_endpoint(ep, "rt/joint_commands", "sensor_msgs::msg::dds_::JointState_",
+			DDS_RELIABILITY_BEST_EFFORT);
+	dds_builtintopic_free_endpoint(ep);
+
+	kill(f->bridge->pid, SIGTERM);
+	assert_int_equal(kid_wait_exit(f->bridge, LIMIT_MS, service), 0);
+	kid_free(f->bridge);
+	f->bridge = NULL;
+	q = qos(false, 5);
+	be = dds_create_reader(f->pp, f->t_states, q, NULL);
+	dds_delete_qos(q);
+	assert_true(be > 0);
+	start_bridge(f, extra);
+	wait_matched(f, 0, be, "a best-effort joint-state reader");
+	ep = bridge_endpoint(be, true);
+	assert_endpoint(ep, "rt/joint_states", "sensor_msgs::msg::dds_::JointState_",
+			DDS_RELIABILITY_BEST_EFFORT);
+	dds_builtintopic_free_endpoint(ep);
+	/* the reliable reader: still no writer (QoS mismatch), while the other is served */
+	pump_ms(f, 300);
+	{
+		dds_subscription_matched_status_t sm;
+
+		dds_get_subscription_matched_status(f->r_states, &sm);
+		assert_int_equal(sm.current_count, 0);
+	}
 }
 
 /* ---- rosbags: the bytes on the wire, read and written by ROS 2's own definitions --------- */
@@ -920,6 +1016,7 @@ int main(void)
 		cmocka_unit_test(test_bad_commands_move_nothing),
 		cmocka_unit_test(test_no_enable_no_motion),
 		cmocka_unit_test(test_hold_repeats_then_stops),
+		cmocka_unit_test(test_endpoints_as_ros2_sees_them),
 		cmocka_unit_test(test_cdr_read_by_rosbags),
 		cmocka_unit_test(test_rosbags_command_moves),
 	};

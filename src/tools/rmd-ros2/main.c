@@ -39,6 +39,7 @@
 #define RESEND_NS (10 * RMD_NS_PER_MS)	   /* --hold-ms: the last command again this often */
 #define TAKE_MAX 16
 
+/* getopt_long's values: TOOL_OPT_BASE + the row of opts[] below, in its order. */
 enum {
 	OPT_LCM_URL = TOOL_OPT_BASE,
 	OPT_PREFIX,
@@ -49,8 +50,8 @@ enum {
 	OPT_MODE,
 	OPT_ENABLE,
 	OPT_HOLD,
-	OPT_SENSOR_QOS,
 	OPT_MAX_JUMP,
+	OPT_SENSOR_QOS,
 	OPT_HELP = 'h',
 	OPT_VERBOSE = 'v',
 	OPT_QUIET = 'q',
