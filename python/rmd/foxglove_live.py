@@ -119,7 +119,11 @@ def main(argv=None):
           "Foxglove WebSocket)", file=sys.stderr, flush=True)
     try:
         while not stop:
-            lc.handle_timeout(200)
+            try:
+                lc.handle_timeout(200)
+            except OSError:
+                if not stop:  # a SIGTERM can interrupt the wait: that is the stop
+                    raise
     except KeyboardInterrupt:
         pass
     finally:
