@@ -38,6 +38,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/lcm_loopback.h"
+#include "harness/pendulum.h"
 #include "harness/proc.h"
 #include "harness/suite.h"
 #include "rmd/rmd_state_t.h"
@@ -145,26 +146,13 @@ static void write_config(char *path, size_t len, const char *name, const char *j
 	assert_int_equal(fclose(f), 0);
 }
 
-static double ellip_k(double k)
-{
-	double a = 1.0, g = sqrt(1.0 - k * k);
-
-	for (int i = 0; i < 40; i++) {
-		double an = 0.5 * (a + g);
-
-		g = sqrt(a * g);
-		a = an;
-	}
-	return M_PI / (2.0 * a);
-}
-
 /* (a) through rmdd: the period in state_t. */
 static void test_period_in_state(void **state)
 {
 	static struct trace tr;
 	char cfg[PATH_MAX + 32], url[128];
 	const char *argv[] = { rmdd_bin, "--config", cfg, "--lcm-url", url, NULL };
-	double want = 4.0 * sqrt(I_TOTAL / (MASS * G * LEN)) * ellip_k(sin(M_PI / 6.0));
+	double want = pendulum_period_s(I_TOTAL, MASS, LEN, G, M_PI / 3.0);
 	double cross[16], got, first = NAN;
 	unsigned k = 0;
 	struct kid *rmdd;

@@ -32,6 +32,7 @@
 #include "rmd/sim.h"
 #include "rmd/sim_body.h"
 #include "rmd/sim_setup.h"
+#include "harness/pendulum.h"
 #include "harness/suite.h"
 
 #define MS INT64_C(1000000)
@@ -146,20 +147,6 @@ static void torque(struct rmd_sim_motor *m, double tau_nm)
 	(void)ask(m, &req);
 }
 
-/* The complete elliptic integral of the first kind K(k), by the arithmetic-geometric mean. */
-static double ellip_k(double k)
-{
-	double a = 1.0, g = sqrt(1.0 - k * k);
-
-	for (int i = 0; i < 40; i++) {
-		double an = 0.5 * (a + g);
-
-		g = sqrt(a * g);
-		a = an;
-	}
-	return M_PI / (2.0 * a);
-}
-
 /* A swing's angle every ms for `s` seconds (n samples into out). */
 static unsigned record(struct rmd_sim_motor *m, double s, double *out, unsigned max)
 {
@@ -204,7 +191,7 @@ static void test_pendulum_period(void **state)
 	k = crossings(a, n, t, 32);
 	assert_true(k >= 5);
 	got = (t[k - 1] - t[0]) / (k - 1) * 1e-3;
-	want = 4.0 * sqrt((I_BOB + J_MOTOR) / (MASS * G * LEN)) * ellip_k(sin(M_PI / 6.0));
+	want = pendulum_period_s(I_BOB + J_MOTOR, MASS, LEN, G, M_PI / 3.0);
 	print_message("period %.5f s, formula %.5f s (%+.3f %%), small-angle %.5f s\n", got, want,
 		      100.0 * (got / want - 1.0),
 		      2.0 * M_PI * sqrt((I_BOB + J_MOTOR) / (MASS * G * LEN)));
