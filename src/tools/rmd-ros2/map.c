@@ -249,13 +249,14 @@ void ros2_stamp(builtin_interfaces_msg_dds__Time_ *t, int64_t mono_ns, int64_t r
 	t->nanosec = (uint32_t)(ns % RMD_NS_PER_S);
 }
 
-static void seq_of(dds_sequence_double *s, double *buf, uint32_t n)
-{
-	s->_buffer = buf;
-	s->_length = n;
-	s->_maximum = n;
-	s->_release = false;
-}
+/* A Cyclone DDS sequence (any element type: they share the four fields) lent n of buf. */
+#define SEQ_LEND(seq, buf, n)           \
+	do {                            \
+		(seq)._buffer = (buf);  \
+		(seq)._length = (n);    \
+		(seq)._maximum = (n);   \
+		(seq)._release = false; \
+	} while (0)
 
 void ros2_joint_state(const struct ros2_map *map, const rmd_state_t *st, int64_t realtime_offset_ns,
 		      struct ros2_js_buf *buf, sensor_msgs_msg_dds__JointState_ *js)
@@ -273,13 +274,10 @@ void ros2_joint_state(const struct ros2_map *map, const rmd_state_t *st, int64_t
 	}
 	ros2_stamp(&js->header.stamp, st->utime * RMD_NS_PER_US, realtime_offset_ns);
 	js->header.frame_id = (char *)"";
-	js->name._buffer = buf->names;
-	js->name._length = n;
-	js->name._maximum = n;
-	js->name._release = false;
-	seq_of(&js->position, buf->position, n);
-	seq_of(&js->velocity, buf->velocity, n);
-	seq_of(&js->effort, buf->effort, n);
+	SEQ_LEND(js->name, buf->names, n);
+	SEQ_LEND(js->position, buf->position, n);
+	SEQ_LEND(js->velocity, buf->velocity, n);
+	SEQ_LEND(js->effort, buf->effort, n);
 }
 
 /* One key/value of status s. */
@@ -408,8 +406,5 @@ void ros2_diagnostics(const struct ros2_map *map, const rmd_config_t *cfg, const
 	}
 	ros2_stamp(&da->header.stamp, h->utime * RMD_NS_PER_US, realtime_offset_ns);
 	da->header.frame_id = (char *)"";
-	da->status._buffer = buf->status;
-	da->status._length = n;
-	da->status._maximum = n;
-	da->status._release = false;
+	SEQ_LEND(da->status, buf->status, n);
 }
