@@ -169,3 +169,19 @@ paced() {
 		secs=$((secs * 2))
 	done
 }
+
+# legs_yaml [URL]: legs.yaml, two motors on the simulated bus (knee_l in
+# torque mode, hip_l in position), on LCM URL when given (a scenario's
+# private port: other tests and a developer's rmdd use 7667).
+legs_yaml() {
+	{
+		[ -z "${1:-}" ] || echo "lcm: {url: \"$1\"}"
+		cat <<EOY
+buses:
+  - {name: sim0, type: sim}
+motors:
+  - {name: knee_l, bus: sim0, id: 1, mode: torque, torque_constant_nm_a: 2.0}
+  - {name: hip_l, bus: sim0, id: 2, mode: position, torque_constant_nm_a: 2.0}
+EOY
+	} > legs.yaml
+}

@@ -10,14 +10,7 @@
 # a private LCM port and WebSocket port: other tests and a developer's rmdd use 7667 and 8765
 url='udpm://239.255.76.67:7695?ttl=0'
 port=$((20000 + $$ % 20000))
-cat > legs.yaml <<EOY
-lcm: {url: "$url"}
-buses:
-  - {name: sim0, type: sim}
-motors:
-  - {name: knee_l, bus: sim0, id: 1, mode: torque, torque_constant_nm_a: 2.0}
-  - {name: hip_l, bus: sim0, id: 2, mode: position, torque_constant_nm_a: 2.0}
-EOY
+legs_yaml "$url"
 rmdd --config legs.yaml > rmdd.log 2>&1 &
 pid=$!
 wait_for rmdd.log 'running' 20

@@ -10,14 +10,7 @@ check() { ~/rmd-venv/bin/python3 "$RMD_REPO/tests/system/export_check.py" "$@"; 
 
 # a private LCM port: other tests and a developer's rmdd use 7667
 url='udpm://239.255.76.67:7694?ttl=0'
-cat > legs.yaml <<EOY
-lcm: {url: "$url"}
-buses:
-  - {name: sim0, type: sim}
-motors:
-  - {name: knee_l, bus: sim0, id: 1, mode: torque, torque_constant_nm_a: 2.0}
-  - {name: hip_l, bus: sim0, id: 2, mode: position, torque_constant_nm_a: 2.0}
-EOY
+legs_yaml "$url"
 lcm-logger --lcm-url="$url" -c 'RMD_.*' run1.lcmlog > logger.out 2>&1 &
 lp=$!
 sleep 0.5

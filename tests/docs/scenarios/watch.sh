@@ -5,13 +5,7 @@
 [ -x ~/rmd-venv/bin/rmd-plot ] || skip "no rmd-plot in build/venv: make python-venv"
 png() { [ "$(head -c 8 "$1" | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a ] || { echo "$1 is no PNG"; exit 1; }; }
 
-cat > legs.yaml <<EOY
-buses:
-  - {name: sim0, type: sim}
-motors:
-  - {name: knee_l, bus: sim0, id: 1, mode: torque, torque_constant_nm_a: 2.0}
-  - {name: hip_l, bus: sim0, id: 2, mode: position, torque_constant_nm_a: 2.0}
-EOY
+legs_yaml
 # the log starts first, so that it holds rmdd's config_t (motor names)
 lcm-logger --lcm-url='udpm://239.255.76.67:7667?ttl=0' -c 'RMD_.*' run.lcmlog > logger.out 2>&1 &
 lp=$!
