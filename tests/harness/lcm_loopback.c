@@ -105,6 +105,11 @@ void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned 
 {
 	int port = base_port + (int)((unsigned)getpid() % pids) * 40 + (int)(test_no % 40);
 
+	/* judged on the range, not this pid's port: a range past 65535 fails every run, not 1 in N */
+	if (pids == 0 || base_port < 1024 || base_port + (long)pids * 40 > 65536)
+		fail_msg(
+			"lcm_test_url: ports %d..%ld are not all UDP ports (base %d, %u pids of 40)",
+			base_port, base_port + (long)pids * 40 - 1, base_port, pids);
 	snprintf(url, len, "udpm://239.255.76.67:%d?ttl=0", port);
 }
 

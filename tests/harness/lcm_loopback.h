@@ -41,7 +41,8 @@ int lcm_tools_teardown(void **state);
 /*
  * url = a udpm URL (TTL 0) on a port of this process and test: base_port +
  * (pid % pids) * 40 + test_no % 40, so that suites running in parallel do
- * not hear each other.
+ * not hear each other. The whole range must be UDP ports (a test fails
+ * otherwise, whatever its pid).
  */
 void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no);
 

@@ -164,7 +164,7 @@ static void test_period_in_state(void **state)
 		skip();
 	memset(&tr, 0, sizeof(tr));
 	write_config(cfg, sizeof(cfg), "pendulum.yaml", "swing");
-	lcm_test_url(url, sizeof(url), 46400, 500, test_no++);
+	lcm_test_url(url, sizeof(url), 54000, 100, test_no++);
 	lcm = lcm_create(url);
 	assert_non_null(lcm);
 	rmd_state_t_subscribe(lcm, "RMD_STATE", on_state, &tr);
@@ -208,7 +208,7 @@ static void test_bad_joint_refused(void **state)
 	if (!have_module)
 		skip();
 	write_config(cfg, sizeof(cfg), "bad-joint.yaml", "knee");
-	lcm_test_url(url, sizeof(url), 46400, 500, test_no++);
+	lcm_test_url(url, sizeof(url), 54000, 100, test_no++);
 	rmdd = kid_spawn("rmdd", argv, NULL, 0);
 	st = kid_wait_exit(rmdd, 20000, NULL);
 	assert_int_not_equal(st, 0);
