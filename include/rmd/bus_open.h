@@ -96,6 +96,8 @@ struct rmd_bus_open_ctx {
 	const struct rmd_sim_bus_setup *sim;
 	/* sim buses: the world of sim.physics (rmd/sim_body.h); NULL: none */
 	struct rmd_sim_body *body;
+	/* sim buses: gaps the caller was held away for (struct rmd_bus_sim_opts); 0: none */
+	int64_t sim_hold_after_ns;
 	/*
 	 * The motors' side of the wire, for a simulator of them (rmd-sim):
 	 * SocketCAN admits the requests to every id instead of the motors'

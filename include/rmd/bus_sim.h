@@ -15,6 +15,14 @@
  * once, and only to a caller that calls recv() again later: fd() is -1,
  * the caller steps its clock forward (rmd/txn.h sleeps in small steps).
  *
+ * Host gaps.  With opts.hold_after_ns, the bus judges the caller in its
+ * own time: a send() or recv() that comes more than hold_after_ns after
+ * the last one ends a gap the caller did not choose (a busy host, a
+ * stopped process), and the motors' comm-loss protection does not count
+ * the rest of it (rmd_sim_wire_set_hold_after()).  A caller that keeps
+ * calling and sends nothing is silent and trips it as before.  A real
+ * wire has no such thing: there a late host is a silent one.
+ *
  * Wire tap.  With opts.tap, every frame that finishes on the wire (the
  * host's, the motors', a flood's) is written to that path as a `candump -l`
  * line, "(SECONDS.MICROSECONDS) NAME ID#DATA T|R" (T: the host sent it), stamped with its end of frame
@@ -78,6 +86,13 @@ struct rmd_bus_sim_opts {
 	 * its own inertia.  The bus must close before it is freed.
 	 */
 	struct rmd_sim_body *body;
+	/*
+	 * Host gaps (rmd/sim_wire.h): a send() or recv() more than this after
+	 * the one before ends a gap the caller was held away for (its thread
+	 * preempted, the process stopped), which the motors' comm-loss
+	 * timers do not count; 0: none, every gap is silence, as on a wire.
+	 */
+	int64_t hold_after_ns;
 };
 
 /*

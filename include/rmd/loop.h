@@ -369,6 +369,14 @@ void rmd_loop_get_counters(const struct rmd_loop *l, struct rmd_loop_counters *o
  * rmd/hist.h).
  */
 #define RMD_LOOP_WAKE_US_BUCKETS 1000
+/*
+ * The health's wake_p99_ns (struct rmd_health, health_t.wake_p99_us) is the
+ * p99 of the wake-ups of the last RMD_LOOP_WAKE_WIN_S seconds (whole
+ * seconds of CLOCK_MONOTONIC: the current one and the nine before it), so
+ * that it follows the load; the stats' (rmd_loop_get_stats(), the exit
+ * statistics) is since start.
+ */
+#define RMD_LOOP_WAKE_WIN_S 10
 struct rmd_loop_wake_hist {
 	uint64_t n;
 	uint64_t us[RMD_LOOP_WAKE_US_BUCKETS];

@@ -378,6 +378,14 @@ int rmd_sim_motor_poll(struct rmd_sim_motor *m, int64_t now_ns, struct rmd_frame
 int64_t rmd_sim_motor_next_event_ns(const struct rmd_sim_motor *m);
 
 /*
+ * The host was away for held_ns, not silent (rmd/sim_wire.h "Host gaps"):
+ * the comm-loss timer (V3 §2.30) does not count that time, as if the last
+ * frame had come held_ns later.  A tripped or unarmed protection is left
+ * as it is.  rt-safe.
+ */
+void rmd_sim_motor_hold_comm(struct rmd_sim_motor *m, int64_t held_ns);
+
+/*
  * Power cycle: RAM lost (multi-turn wraps to +-180 deg), ROM kept, brake
  * locked; the firmware boots for p.boot_ms before it answers.  rt-safe.
  */

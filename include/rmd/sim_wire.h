@@ -92,6 +92,8 @@ struct rmd_sim_wire_stats {
 	uint64_t absent_lost;	 /* frames of a disappeared motor discarded */
 	uint64_t acks_missed;	 /* host frame tries no node acknowledged (BUS_POWER) */
 	uint64_t flushed;	 /* host frames dropped by rmd_sim_wire_flush() */
+	uint64_t host_gaps;	 /* calls after a host gap (rmd_sim_wire_set_hold_after()) */
+	int64_t host_held_ns;	 /* their time the motors' comm-loss timers did not count */
 	unsigned txq_hwm;	 /* queue high-water marks */
 	unsigned motq_hwm;
 	unsigned rxq_hwm;
@@ -165,6 +167,9 @@ struct rmd_sim_wire {
 	/* between the wire and the host: the motors' adapter_* parameters */
 	struct rmd_sim_adapter adapter;
 
+	/* host gaps (rmd_sim_wire_set_hold_after()): 0 none; the host's last call */
+	int64_t hold_after_ns, host_ns;
+
 	struct rmd_sim_wire_stats stats;
 	rmd_sim_wire_tap_fn *tap;
 	void *tap_ctx;
@@ -229,6 +234,24 @@ int rmd_sim_wire_send(struct rmd_sim_wire *bus, int64_t now_ns, const struct rmd
  * the count of frames put into the host's receive queue.  rt-safe.
  */
 int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns);
+
+/*
+ * Host gaps.  A simulated bus in the host's own process (rmd/bus_sim.h) is
+ * stepped only when the host calls it: time the host spent away (its
+ * thread preempted, the process stopped) is not time it chose to be
+ * silent.  With hold_after_ns > 0, every rmd_sim_wire_advance() (send()
+ * and recv() included) is the host's call; when one comes more than
+ * hold_after_ns after the one before, the wire and the motors first run to
+ * hold_after_ns after that call (frames sent before the gap arrive in
+ * time), and the rest of the gap does not count on the motors' comm-loss
+ * timers (rmd_sim_motor_hold_comm()): a host that calls at least every
+ * hold_after_ns, sending or not, trips them as before; a host held away
+ * for 300 ms does not.  Everything else (physics, replies, unsolicited
+ * frames, fault windows) runs through the gap in full.  Counted in
+ * stats.host_gaps and host_held_ns.  hold_after_ns 0 (the default): no
+ * gap is the host's, as on a real wire.  rt-safe.
+ */
+void rmd_sim_wire_set_hold_after(struct rmd_sim_wire *bus, int64_t hold_after_ns);
 
 /*
  * Pop up to max received frames, oldest first, with their end-of-frame

@@ -23,7 +23,8 @@ else motorN by index.  position, velocity and torque come with the
 controller's setpoints from command_t (dashed, "motor1.position.cmd"), for
 the motors it enables in a mode that uses them, so tracking error shows.
 health.* counters that only grow (cycles, wake_max_us, the totals) show
-trends; wake_p99_us, wake_avg_us and bus.load show a run's real-time health.
+trends; wake_p99_us (the last 10 s), wake_avg_us and bus.load show a run's
+real-time health.
 
 --csv writes every point plotted as `t_s,series,value` rows (series as in
 the legend: "motor1.position", "health.wake_max_us", "can0.load"), to check

@@ -102,6 +102,7 @@ static int open_sim(struct rmd_bus *bus, const struct rmd_config_bus *cb,
 		.burst = ctx->burst,
 		.refuse_flush = sim->refuse_flush,
 		.body = ctx->body,
+		.hold_after_ns = ctx->sim_hold_after_ns,
 	};
 
 	for (unsigned i = 0; i < ctx->n_motors; i++)

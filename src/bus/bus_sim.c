@@ -373,6 +373,7 @@ int rmd_bus_sim_open(struct rmd_bus *bus, const char *name, const struct rmd_bus
 			goto err_fini;
 		}
 	}
+	rmd_sim_wire_set_hold_after(&p->sim, opts->hold_after_ns);
 	if (opts->tap) {
 		r = tap_open(p, name, opts->tap, err, errlen);
 		if (r < 0)

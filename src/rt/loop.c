@@ -63,19 +63,61 @@ void rmd_loop_set_events_fd(struct rmd_loop *l, int fd)
 }
 
 /* ------------------------------------------------------------------ */
-/* One wake-up `lat` late (under stat_begin()).  rt-safe. */
-static void wake_record(struct rmd_loop *l, int64_t lat)
+/*
+ * The window's slots that ended by now leave it, oldest first; after a
+ * stall of a whole window or more, every one.  Once a second.  rt-safe.
+ */
+static void __attribute__((noinline)) wake_win_roll(struct loop_wake_win *w, int64_t now)
 {
+	for (unsigned k = 0; k < RMD_LOOP_WAKE_WIN_S && now >= w->slot_end_ns; k++) {
+		unsigned next = (w->cur + 1) % RMD_LOOP_WAKE_WIN_S;
+		struct loop_wake_slot *sl = &w->slot[next];
+
+		if (sl->n) {
+			w->n -= sl->n;
+			for (unsigned b = 0; b < RMD_HIST_BUCKETS; b++)
+				w->hist[b] -= sl->hist[b];
+			for (unsigned b = 0; b < RMD_LOOP_WAKE_US_BUCKETS; b++)
+				w->us[b] -= sl->us[b];
+			memset(sl, 0, sizeof(*sl));
+		}
+		w->cur = next;
+		w->slot_end_ns += RMD_NS_PER_S;
+	}
+	if (now >= w->slot_end_ns)
+		w->slot_end_ns = now + RMD_NS_PER_S;
+}
+
+/* One wake-up `lat` late at now (under stat_begin()).  rt-safe. */
+static void wake_record(struct rmd_loop *l, int64_t lat, int64_t now)
+{
+	struct loop_wake_win *w = &l->wake_win;
+	unsigned h;
 	uint64_t us;
 
 	if (lat < 0)
 		lat = 0;
-	l->wake.hist[rmd_hist_bucket(lat)]++;
+	h = rmd_hist_bucket(lat);
+	l->wake.hist[h]++;
 	us = (uint64_t)lat / RMD_NS_PER_US;
 	if (us < RMD_LOOP_WAKE_US_BUCKETS)
 		l->wake.us[us]++;
 	else
 		l->wake.over++;
+	if (__builtin_expect(now >= w->slot_end_ns, 0)) {
+		if (!w->slot_end_ns)
+			w->slot_end_ns = now + RMD_NS_PER_S;
+		else
+			wake_win_roll(w, now);
+	}
+	w->n++;
+	w->slot[w->cur].n++;
+	w->hist[h]++;
+	w->slot[w->cur].hist[h]++;
+	if (us < RMD_LOOP_WAKE_US_BUCKETS) {
+		w->us[us]++;
+		w->slot[w->cur].us[us]++;
+	}
 	l->wake.n++;
 	l->wake.sum += lat;
 	if (l->wake.n == 1 || lat < l->stats.wake_min_ns)
@@ -116,14 +158,18 @@ static int64_t p99_of(uint64_t n, const uint64_t *us, const uint64_t *logh, cons
 	return max;
 }
 
-/* Average and p99 of the wake-ups so far, into l->stats (with the health: ~10 Hz).  rt-safe. */
+/*
+ * Average of the wake-ups so far and p99 of the last RMD_LOOP_WAKE_WIN_S
+ * seconds' (rmd/loop.h), into l->stats (with the health: ~10 Hz).  rt-safe.
+ */
 static void wake_summary(struct rmd_loop *l)
 {
+	const struct loop_wake_win *w = &l->wake_win;
+
 	if (!l->wake.n)
 		return;
 	l->stats.wake_avg_ns = l->wake.sum / (int64_t)l->wake.n;
-	l->stats.wake_p99_ns =
-		p99_of(l->wake.n, l->wake.us, l->wake.hist, NULL, l->stats.wake_max_ns);
+	l->stats.wake_p99_ns = p99_of(w->n, w->us, w->hist, NULL, l->stats.wake_max_ns);
 }
 
 /* Non-rt. */
@@ -346,7 +392,7 @@ static void schedule(struct rmd_loop *l, int64_t now)
 	}
 	/* true lateness: from the tick intended, however many periods it skipped */
 	stat_begin(l);
-	wake_record(l, now - l->next_tick_ns);
+	wake_record(l, now - l->next_tick_ns, now);
 	stat_end(l);
 	if (now - l->next_tick_ns >= l->period_ns)
 		loop_skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns);

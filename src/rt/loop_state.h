@@ -281,6 +281,24 @@ struct rmd_loop {
 		uint64_t us[RMD_LOOP_WAKE_US_BUCKETS]; /* 1 us buckets */
 		uint64_t over;			       /* at RMD_LOOP_WAKE_US_BUCKETS us or later */
 	} wake;
+	/*
+	 * The same wake-ups over the last RMD_LOOP_WAKE_WIN_S seconds (health's
+	 * wake_p99: a plot follows the load): one slot a second of CLOCK_MONOTONIC
+	 * (uint16: at most RMD_CONFIG_RATE_MAX_HZ a second), and their sums.
+	 * The rt thread's alone.
+	 */
+	struct loop_wake_win {
+		int64_t slot_end_ns; /* the current slot's end; 0: no wake-up yet */
+		unsigned cur;	     /* the current slot */
+		uint64_t n;
+		uint64_t hist[RMD_HIST_BUCKETS];
+		uint64_t us[RMD_LOOP_WAKE_US_BUCKETS];
+		struct loop_wake_slot {
+			uint16_t n;
+			uint16_t hist[RMD_HIST_BUCKETS];
+			uint16_t us[RMD_LOOP_WAKE_US_BUCKETS];
+		} slot[RMD_LOOP_WAKE_WIN_S];
+	} wake_win;
 	uint64_t ov_pending; /* ticks skipped, not yet reported */
 	uint64_t ov_worst;   /* the most of them skipped at once */
 	bool ov_any;

@@ -1298,6 +1298,12 @@ int rmd_sim_motor_receive(struct rmd_sim_motor *m, int64_t now_ns, const struct 
 /* -------------------------------------------------------------------------- */
 /* Unsolicited frames                                                         */
 
+void rmd_sim_motor_hold_comm(struct rmd_sim_motor *m, int64_t held_ns)
+{
+	if (m->comm_armed && !m->comm_lost && held_ns > 0)
+		m->last_rx_ns += held_ns;
+}
+
 /* The 0xF1 period after a trip (p.comm_loss_f1_ms, sanitized to 1..60000 ms). */
 static int64_t f1_period_ns(const struct rmd_sim_motor *m)
 {

@@ -278,12 +278,9 @@ static int64_t next_event(const struct rmd_sim_wire *bus, int64_t t, int64_t unt
 	return min64(n, rmd_sim_node_faults_next_ns(&bus->node, t));
 }
 
-int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns)
+/* Run the wire and the motors to until_ns (>= now_ns). */
+static void run_to(struct rmd_sim_wire *bus, int64_t until_ns)
 {
-	uint64_t delivered = bus->stats.rx_delivered;
-
-	if (until_ns < bus->now_ns)
-		return 0;
 	for (;;) {
 		int64_t t = bus->now_ns;
 		int64_t next, motors_ns;
@@ -300,8 +297,48 @@ int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns)
 		bus->now_ns = next;
 	}
 	rmd_sim_node_step(&bus->node, until_ns);
+}
+
+/*
+ * The host calls at until_ns, gap after its last call: past hold_after_ns
+ * the rest of the gap is the host's (rmd/sim_wire.h "Host gaps").  The
+ * wire and the motors run to the end of the gap's first hold_after_ns, so
+ * that what the host sent before it reaches them in time; the motors'
+ * comm-loss timers then skip the rest.
+ */
+static void host_gap(struct rmd_sim_wire *bus, int64_t until_ns)
+{
+	int64_t from = bus->host_ns + bus->hold_after_ns, held;
+
+	if (from > bus->now_ns)
+		run_to(bus, from);
+	held = until_ns - (from > bus->now_ns ? from : bus->now_ns);
+	if (held <= 0)
+		return;
+	for (unsigned i = 0; i < bus->node.n_motors; i++)
+		rmd_sim_motor_hold_comm(&bus->node.motors[i], held);
+	bus->stats.host_gaps++;
+	bus->stats.host_held_ns += held;
+}
+
+int rmd_sim_wire_advance(struct rmd_sim_wire *bus, int64_t until_ns)
+{
+	uint64_t delivered = bus->stats.rx_delivered;
+
+	if (until_ns < bus->now_ns)
+		return 0;
+	if (bus->hold_after_ns && until_ns - bus->host_ns > bus->hold_after_ns)
+		host_gap(bus, until_ns);
+	bus->host_ns = until_ns;
+	run_to(bus, until_ns);
 	sync_stats(bus);
 	return (int)(bus->stats.rx_delivered - delivered);
+}
+
+void rmd_sim_wire_set_hold_after(struct rmd_sim_wire *bus, int64_t hold_after_ns)
+{
+	bus->hold_after_ns = hold_after_ns > 0 ? hold_after_ns : 0;
+	bus->host_ns = bus->now_ns;
 }
 
 /* ---- API ----------------------------------------------------------------- */

@@ -472,7 +472,8 @@ static void stop_with(int sig, const char *name)
 	expect_in(&p, line);
 	expect_statistics(&p, "exit");
 	expect_in(&p, "every motor was sent stop (0x80)");
-	assert_null(strstr(p.out, "no real-time guarantees"));
+	assert_null(strstr(p.out, "no real-time priority"));
+	assert_null(strstr(p.out, "no memory lock"));
 }
 
 /*
@@ -916,12 +917,16 @@ static void test_no_rt_warns_once_and_runs(void **state)
 		}
 		fail_msg("rmdd exited (%d) without the rt privilege:\n%s", st, p.out);
 	}
-	wait_for(&p, "<4>rmdd: no real-time guarantees: SCHED_FIFO refused", 2000);
-	if (!MLOCK_IS_NOOP)
-		expect_in(&p, "mlockall failed");
+	wait_for(&p, "<4>rmdd: no real-time priority: SCHED_FIFO refused", 2000);
+	expect_in(&p, "Give the user rtprio 49 in /etc/security/limits.d/");
+	if (!MLOCK_IS_NOOP) {
+		wait_for(&p, "<4>rmdd: no memory lock: mlockall failed", 2000);
+		expect_in(&p, "Give the user memlock unlimited in /etc/security/limits.d/");
+		assert_int_equal(count_of(p.out, "no memory lock"), 1);
+	}
 	assert_false(has_fifo_thread(p.pid, 40));
 	stop_ok(&p);
-	assert_int_equal(count_of(p.out, "no real-time guarantees"), 1);
+	assert_int_equal(count_of(p.out, "no real-time priority"), 1);
 }
 
 static void test_require_rt_refuses(void **state)

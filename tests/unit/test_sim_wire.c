@@ -1364,6 +1364,86 @@ static void test_bus_sim_flush(void **state)
 	}
 }
 
+/*
+ * Host gaps (issue 31 point 3, rmd/sim_wire.h): the bus in rmdd's own
+ * process judges rmdd in its own time.  Motor 1 armed at 100 ms, then a
+ * host that calls every millisecond with a request, then a 300 ms gap in
+ * which it never calls (its thread preempted, the process stopped):
+ * with hold_after_ns the motor does not trip, the request sent just
+ * before the gap is answered in time, and the gap is counted; then the
+ * host keeps calling but sends nothing (a silence it chose): 0xF1 100 ms
+ * after the last frame, as on a wire.  hold_after_ns 0 is a wire: the
+ * same gap trips the motor (what rmdd --sim did beside two CPU hogs).
+ */
+static void test_bus_sim_host_gap(void **state)
+{
+	const struct rmd_bus_sim_motor m = { .id = 1, .proto = RMD_PROTO_V3 };
+	struct rmd_bus_sim_opts o = { .motors = &m, .n_motors = 1 };
+	const struct rmd_frame req = request(1, 0x9C);
+	struct rmd_msg msg = { .cmd = 0xB3 };
+	struct rmd_frame arm;
+	char err[256];
+
+	(void)state;
+	rmd_msg_set(&msg, RMD_FLD_TIMEOUT, 100);
+	assert_int_equal(rmd_encode(RMD_PROTO_V3, RMD_DIR_REQUEST, 1, &msg, &arm), 0);
+	for (int hold = 0; hold <= 1; hold++) {
+		struct rmd_bus_rx rx[16];
+		struct rmd_bus b;
+		struct rmd_sim_wire *w;
+		int64_t t0 = 1000 * MS, t = t0, sent, last_heard = 0, f1_at = 0;
+		unsigned f1 = 0, answered = 0;
+
+		o.hold_after_ns = hold ? 2 * MS : 0;
+		assert_int_equal(rmd_bus_sim_open(&b, "s0", &o, err, sizeof(err)), 0);
+		w = rmd_bus_sim_get(&b);
+		assert_int_equal(rmd_bus_send(&b, &arm, 1, t), 1);
+		for (; t < t0 + 50 * MS; t += MS) {
+			assert_true(rmd_bus_recv(&b, rx, 16, t) >= 0);
+			assert_int_equal(rmd_bus_send(&b, &req, 1, t), 1);
+		}
+		sent = t - MS;
+		/* the gap: no call for 300 ms */
+		t = sent + 300 * MS;
+		for (int n = rmd_bus_recv(&b, rx, 16, t), i = 0; i < n; i++) {
+			f1 += rx[i].f.data[0] == RMD_SIM_CMD_COMM_LOST;
+			if (rx[i].f.data[0] == 0x9C) {
+				answered++;
+				/* its reply in time: a turnaround after the request, not at the call */
+				assert_in_range(rx[i].t_ns, sent, sent + 2 * MS);
+			}
+		}
+		assert_int_equal(answered, 1);
+		if (!hold) {
+			/* a wire: 300 ms of silence, the motor tripped (0xF1) */
+			assert_true(f1 >= 1);
+			assert_true(w->motors[0].comm_lost);
+			assert_int_equal(w->stats.host_gaps, 0);
+			rmd_bus_close(&b);
+			continue;
+		}
+		assert_int_equal(f1, 0);
+		assert_false(w->motors[0].comm_lost);
+		assert_int_equal(w->stats.host_gaps, 1);
+		assert_int_equal(w->stats.host_held_ns, 298 * MS);
+		/* the host keeps calling, sends one request, then nothing: a silence it chose */
+		assert_int_equal(rmd_bus_send(&b, &req, 1, t), 1);
+		last_heard = t;
+		for (t += MS; t < last_heard + 400 * MS && !f1; t += MS) {
+			int n = rmd_bus_recv(&b, rx, 16, t);
+
+			for (int i = 0; i < n; i++)
+				if (rx[i].f.data[0] == RMD_SIM_CMD_COMM_LOST && !f1++)
+					f1_at = rx[i].t_ns;
+		}
+		assert_int_equal(f1, 1);
+		/* 100 ms after the request reached it, at a physics step, alone on the wire */
+		assert_in_range(f1_at, last_heard + 100 * MS, last_heard + 100 * MS + 500 * US);
+		assert_int_equal(w->stats.host_gaps, 1);
+		rmd_bus_close(&b);
+	}
+}
+
 SUITE_MAIN_FIXTURE("sim_wire", setup, teardown, NULL, NULL,
 		   {
 			   cmocka_unit_test(test_acceptance_8_pairs),
@@ -1395,4 +1475,5 @@ SUITE_MAIN_FIXTURE("sim_wire", setup, teardown, NULL, NULL,
 			   cmocka_unit_test(test_bus_sim_tap),
 			   cmocka_unit_test(test_bus_sim_burst_needs_queue),
 			   cmocka_unit_test(test_bus_sim_flush),
+			   cmocka_unit_test(test_bus_sim_host_gap),
 		   })

@@ -15,6 +15,17 @@
 #include "rmdd.h"
 #include "tools/common/buslock.h"
 
+/*
+ * A sim bus is rmdd's own and judges it in rmdd's time (rmd/bus_sim.h
+ * "Host gaps"): the loop calls it at least once a period (every tick
+ * drains it, sending or not), so a call later than two periods after the
+ * one before ends a gap the host held the loop away for.  Each such gap
+ * counts two periods on the motors' comm-loss timers, never the seconds
+ * of a stopped process; and a loop that runs but sends nothing trips them
+ * as on a wire.
+ */
+#define SIM_HOLD_AFTER_PERIODS 2
+
 /* The world of sim.physics (rmd/sim_body.h) its sim buses' motors drive; NULL: none. */
 static struct rmd_sim_body *body;
 
@@ -88,6 +99,7 @@ int rmdd_buses_open(const struct rmd_config *cfg, const struct rmd_sim_setup *si
 		ctx.burst = plan->bus[b].max_requests;
 		ctx.watch_strays = plan->bus[b].batched && !cb->can_id_filter;
 		ctx.body = body;
+		ctx.sim_hold_after_ns = SIM_HOLD_AFTER_PERIODS * plan->period_ns;
 		r = rmd_bus_open(&buses[b], cb, &ctx, err, sizeof(err));
 		if (r < 0) {
 			if (cb->line)

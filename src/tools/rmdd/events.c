@@ -10,8 +10,8 @@
  *
  * A few rows keep notes between events, in the monitor's struct
  * rmdd_event_notes: the shutdown's stop or hold is said in the SAFE line
- * that follows it, overruns after the first of a second are summed up once
- * a second (rmdd_event_overruns()), and the real-time refusals of one drain
+ * that follows it, overruns after the first of a window are summed up once
+ * every RMDD_OVERRUN_SUMMARY_S (rmdd_event_overruns()), and the real-time refusals of one drain
  * are said together after it (rmdd_event_rt_lines()).
  *
  * Also the names the monitor (monitor.c) and the incident writer
@@ -338,7 +338,7 @@ static void bus_flush_text(const struct ev *v, char *buf, size_t len)
 
 /* ---- RMD_EV_OVERRUN -------------------------------------------------------------- */
 
-/* The first of each second now, the rest summed up by rmdd_event_overruns(). */
+/* The first of each RMDD_OVERRUN_SUMMARY_S now, the rest summed up by rmdd_event_overruns(). */
 static int overrun_line(const struct ev *v, char *buf, size_t len)
 {
 	struct rmdd_event_notes *n = v->notes;
@@ -359,13 +359,14 @@ int rmdd_event_overruns(struct rmdd_event_notes *n, int64_t now, char *buf, size
 {
 	int level = 0;
 
-	if (!n->overruns_logged || now - n->overrun_window_ns < RMD_NS_PER_S)
+	if (!n->overruns_logged ||
+	    now - n->overrun_window_ns < RMDD_OVERRUN_SUMMARY_S * RMD_NS_PER_S)
 		return 0;
 	if (n->overruns_pending)
 		level = say(buf, len, 4,
-			    "rt loop: %" PRIu64 " more overrun(s) in the last second, %" PRIu64
+			    "rt loop: %" PRIu64 " more overrun(s) in the last %d s, %" PRIu64
 			    " period(s) skipped",
-			    n->overruns_pending, n->skipped_pending);
+			    n->overruns_pending, RMDD_OVERRUN_SUMMARY_S, n->skipped_pending);
 	n->overrun_window_ns = now;
 	n->overruns_logged = n->overruns_pending ? 1 : 0;
 	n->overruns_pending = 0;
@@ -505,15 +506,25 @@ static int rt_line(const struct ev *v, char *buf, size_t len)
 	return 0;
 }
 
+/* Take refusal k's error out of the notes (0: none). */
+static int rt_take(struct rmdd_event_notes *n, unsigned k)
+{
+	int err = n->rt_err[k];
+
+	n->rt_err[k] = 0;
+	return err;
+}
+
+/*
+ * One line a refusal, in this order, each saying what follows from it and
+ * what gives it (docs/troubleshooting.md "Real-time limits": limits.d for a
+ * user, the unit's limits under systemd).
+ */
 int rmdd_event_rt_lines(struct rmdd_event_notes *n, char *buf, size_t len)
 {
-	size_t used = 0;
-	char what[256];
 	int err;
 
-	if (n->rt_err[RMD_LOOP_RT_CPU_AWAKE]) {
-		err = n->rt_err[RMD_LOOP_RT_CPU_AWAKE];
-		n->rt_err[RMD_LOOP_RT_CPU_AWAKE] = 0;
+	if ((err = rt_take(n, RMD_LOOP_RT_CPU_AWAKE)))
 		return say(
 			buf, len, 5,
 			"CPU wake-up latency not held at 0 us (/dev/cpu_dma_latency: %s): on an "
@@ -521,30 +532,38 @@ int rmdd_event_rt_lines(struct rmdd_event_notes *n, char *buf, size_t len)
 			"rmdd write access to it, or set loop.keep_cpus_awake: false to keep this "
 			"power saving",
 			strerror(-err));
-	}
 	if (!n->rt_any) {
 		memset(n->rt_err, 0, sizeof(n->rt_err));
 		return 0;
 	}
-	what[0] = '\0';
-	if (n->rt_err[RMD_LOOP_RT_FIFO])
-		used += (size_t)snprintf(
-			what + used, sizeof(what) - used,
-			"SCHED_FIFO refused (%s), the loop runs at normal priority",
-			strerror(-n->rt_err[RMD_LOOP_RT_FIFO]));
-	if (n->rt_err[RMD_LOOP_RT_MLOCK] && used < sizeof(what))
-		used += (size_t)snprintf(what + used, sizeof(what) - used, "%smlockall failed (%s)",
-					 used ? "; " : "", strerror(-n->rt_err[RMD_LOOP_RT_MLOCK]));
-	if (n->rt_err[RMD_LOOP_RT_AFFINITY] && used < sizeof(what))
-		snprintf(what + used, sizeof(what) - used, "%sCPU affinity refused (%s)",
-			 used ? "; " : "", strerror(-n->rt_err[RMD_LOOP_RT_AFFINITY]));
+	if ((err = rt_take(n, RMD_LOOP_RT_FIFO)))
+		return say(
+			buf, len, 4,
+			"no real-time priority: SCHED_FIFO refused (%s): the loop runs at normal "
+			"priority, so a busy machine wakes it late (overruns, slower replies; "
+			"the simulated motors are not lost for it). Give the user rtprio 49 in "
+			"/etc/security/limits.d/ and log in again (docs/troubleshooting.md "
+			"\"Real-time limits\"), or run it as rmdd.service (LimitRTPRIO=49); "
+			"--require-rt refuses to run without it",
+			strerror(-err));
+	if ((err = rt_take(n, RMD_LOOP_RT_MLOCK)))
+		return say(buf, len, 4,
+			   "no memory lock: mlockall failed (%s): a page of the loop's that the "
+			   "kernel pages out stalls it when touched again. Give the user memlock "
+			   "unlimited in /etc/security/limits.d/ and log in again "
+			   "(docs/troubleshooting.md \"Real-time limits\"), or run it as "
+			   "rmdd.service (LimitMEMLOCK=infinity); --require-rt refuses to run "
+			   "without it",
+			   strerror(-err));
+	if ((err = rt_take(n, RMD_LOOP_RT_AFFINITY)))
+		return say(buf, len, 4,
+			   "no CPU affinity: it was refused (%s): the loop runs on whichever CPU "
+			   "the kernel picks. loop.cpu_affinity must name CPUs rmdd may use "
+			   "(taskset -cp $$ lists them)",
+			   strerror(-err));
 	n->rt_any = false;
 	memset(n->rt_err, 0, sizeof(n->rt_err));
-	return say(buf, len, 4,
-		   "no real-time guarantees: %s. Run as root, or with LimitRTPRIO=49 and "
-		   "LimitMEMLOCK=infinity (systemd/rmdd.service); --require-rt refuses to run "
-		   "without them",
-		   what);
+	return 0;
 }
 
 static void rt_text(const struct ev *v, char *buf, size_t len)

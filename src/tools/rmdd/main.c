@@ -1382,8 +1382,10 @@ static int run(const struct rmdd_opts *o)
 	r = rmd_loop_lock_memory(d->loop);
 	if (r < 0) {
 		tool_log(3,
-			 "--require-rt: mlockall refused (%s): run as root, or with "
-			 "LimitMEMLOCK=infinity (systemd/rmdd.service)",
+			 "--require-rt: mlockall refused (%s): run as root, as a user with "
+			 "memlock unlimited in /etc/security/limits.d/ (docs/troubleshooting.md "
+			 "\"Real-time limits\"), or with LimitMEMLOCK=infinity "
+			 "(systemd/rmdd.service)",
 			 strerror(-r));
 		goto err_fini_monitor;
 	}
@@ -1416,7 +1418,9 @@ static int run(const struct rmdd_opts *o)
 	if (r == -EPERM && o->require_rt) {
 		tool_log(3,
 			 "--require-rt: SCHED_FIFO priority %u or mlockall refused (%s): run as "
-			 "root, or with LimitRTPRIO=49 and LimitMEMLOCK=infinity "
+			 "root, as a user with rtprio 49 and memlock unlimited in "
+			 "/etc/security/limits.d/ (docs/troubleshooting.md \"Real-time "
+			 "limits\"), or with LimitRTPRIO=49 and LimitMEMLOCK=infinity "
 			 "(systemd/rmdd.service)",
 			 d->cfg.loop.rt_priority, strerror(-r));
 		goto err_stop_bridge;

@@ -8,7 +8,7 @@
  * no polling) and then drains the loop's event ring and logs each event
  * as its kind's row in events.c words it, with its context ("can0: motor
  * 3 (knee_l): lost (10 missed replies in a row)"); the loop sends events
- * only on change, and overruns are summed up to one line a second here
+ * only on change, and overruns are summed up to one line every RMDD_OVERRUN_SUMMARY_S here
  * (the only timed wake-up, while a summary is open).  Reply latencies are
  * the loop's own (rmd_loop_get_reply_latency()).  Everything here is
  * non-rt.
@@ -46,7 +46,7 @@ static void log_event(struct rmdd_monitor *m, const struct rmd_event *e)
 	}
 }
 
-/* Once a second: the overruns that followed the first one. */
+/* Every RMDD_OVERRUN_SUMMARY_S: the overruns that followed the first one. */
 static void overrun_summary(struct rmdd_monitor *m, int64_t now)
 {
 	char line[RMDD_EVENT_LINE_LEN];
@@ -80,7 +80,7 @@ void rmdd_monitor_drain(struct rmdd_monitor *m)
 /*
  * The wait until there is something to do: the loop's event eventfd (or
  * a stop) without a timeout; with overruns summed up, until the end of
- * their one-second window.
+ * their RMDD_OVERRUN_SUMMARY_S window.
  */
 static int monitor_wait(struct rmdd_monitor *m)
 {
@@ -91,7 +91,8 @@ static int monitor_wait(struct rmdd_monitor *m)
 	struct timespec ts, *tsp = NULL;
 
 	if (m->notes.overruns_logged) {
-		int64_t left = m->notes.overrun_window_ns + RMD_NS_PER_S - rmd_now_ns();
+		int64_t left = m->notes.overrun_window_ns + RMDD_OVERRUN_SUMMARY_S * RMD_NS_PER_S -
+			       rmd_now_ns();
 
 		if (left < 0)
 			left = 0;

@@ -84,9 +84,16 @@ enum rmd_proto rmdd_motor_dialect(const struct rmd_config *cfg, unsigned i);
  * RMD_EV_MOTOR_STATE, RMD_EV_SAFE_ACTION, RMD_EV_OVERRUN and RMD_EV_RT note
  * into it (events.c).  Owned by the monitor's thread.
  */
+/*
+ * Overruns: the first is said at once, the rest summed up in one line
+ * every RMDD_OVERRUN_SUMMARY_S while they go on (a busy machine overruns
+ * all the time: its lines must not drown the log).
+ */
+#define RMDD_OVERRUN_SUMMARY_S 10
+
 struct rmdd_event_notes {
 	const struct rmd_config *cfg;
-	int64_t overrun_window_ns; /* start of the current one-second overrun summary */
+	int64_t overrun_window_ns; /* start of the current overrun summary's window */
 	uint64_t overruns_logged, overruns_pending, skipped_pending;
 	/*
 	 * The shutdown's stop or hold sent to a driven motor (RMD_EV_SAFE_ACTION
@@ -112,7 +119,8 @@ int rmdd_event_journal(struct rmdd_event_notes *n, const struct rmd_event *e, ch
 
 /*
  * At now: the line that sums up the overruns after the first of the
- * second that ended (level, or 0: none due, or none to sum up).
+ * RMDD_OVERRUN_SUMMARY_S window that ended (level, or 0: none due, or
+ * none to sum up).
  */
 int rmdd_event_overruns(struct rmdd_event_notes *n, int64_t now, char *buf, size_t len);
 
