@@ -138,7 +138,7 @@ DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib python3-jsonschema python3-yaml \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
 	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux \
-	libmujoco-dev cyclonedds-dev cyclonedds-tools
+	libmujoco-dev cyclonedds-dev cyclonedds-tools nftables
 
 deps:
 	apt-get update -qq
@@ -370,6 +370,15 @@ $(BUILD)/bench/physics_rtf.o: | $(GEN_HDRS)
 $(PHYSICS_RTF): $(BUILD)/bench/physics_rtf.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
+# bench/robot-delay.sh's separate machines: tests/harness/netns.c's namespaces, held up.
+NETNS_RIG := $(BUILD)/bench/netns_rig
+all: $(NETNS_RIG)
+$(BUILD)/bench/netns_rig.o: override CFLAGS += -Itests
+$(NETNS_RIG): $(BUILD)/bench/netns_rig.o $(BUILD)/tests/harness/netns.o \
+		$(BUILD)/tests/harness/proc.o $(BUILD)/tests/harness/sleeper.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS) $(TEST_LIBS)
 
 # bench/soak.sh's wire checker: every setpoint on the sim buses' tap against the limits.
 SOAK_WIRE := $(BUILD)/bench/soak_wire

@@ -103,9 +103,15 @@ int lcm_tools_teardown(void **state)
 
 void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no)
 {
+	lcm_test_url_ttl(url, len, base_port, pids, test_no, 0);
+}
+
+void lcm_test_url_ttl(char *url, size_t len, int base_port, unsigned pids, unsigned test_no,
+		      unsigned ttl)
+{
 	int port = base_port + (int)((unsigned)getpid() % pids) * 40 + (int)(test_no % 40);
 
-	snprintf(url, len, "udpm://239.255.76.67:%d?ttl=0", port);
+	snprintf(url, len, "udpm://239.255.76.67:%d?ttl=%u", port, ttl);
 }
 
 void *lcm_fixture_new(void **state, size_t size, bool multicast)
