@@ -138,7 +138,7 @@ DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib python3-jsonschema python3-yaml \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
 	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux \
-	libmujoco-dev cyclonedds-dev cyclonedds-tools
+	libmujoco-dev cyclonedds-dev cyclonedds-tools nftables
 
 deps:
 	apt-get update -qq
@@ -371,6 +371,15 @@ $(PHYSICS_RTF): $(BUILD)/bench/physics_rtf.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# bench/robot-delay.sh's separate machines: tests/harness/netns.c's namespaces, held up.
+NETNS_RIG := $(BUILD)/bench/netns_rig
+all: $(NETNS_RIG)
+$(BUILD)/bench/netns_rig.o: override CFLAGS += -Itests
+$(NETNS_RIG): $(BUILD)/bench/netns_rig.o $(BUILD)/tests/harness/netns.o \
+		$(BUILD)/tests/harness/proc.o $(BUILD)/tests/harness/sleeper.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS) $(TEST_LIBS)
+
 # bench/soak.sh's wire checker: every setpoint on the sim buses' tap against the limits.
 SOAK_WIRE := $(BUILD)/bench/soak_wire
 all: $(SOAK_WIRE)
@@ -492,6 +501,18 @@ ifneq ($(SANITIZE),1)
 	$(Q)$(TEST_PATH) BUILD=$(BUILD) MAKE="$(MAKE)" tests/package/check-install
 endif
 
+# rmdd.service and the instances' template rmdd@.service, both from
+# systemd/rmdd.service.in (one copy of every rule): $(call rmdd_unit,NAME,
+# STATE,DESCRIPTION,UNIT) fills in the prefix, the configuration
+# $(SYSCONFDIR)/rmdd/NAME.yaml, the StateDirectory= STATE and the
+# Description='s tail.
+define rmdd_unit
+	sed -e 's|@BINDIR@|$(BINDIR)|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' -e 's|@NAME@|$(1)|g' \
+		-e 's|@STATE@|$(2)|g' -e 's|@DESCRIPTION@|$(3)|g' \
+		systemd/rmdd.service.in >$(DESTDIR)$(SYSTEMDUNITDIR)/$(4)
+	chmod 0644 $(DESTDIR)$(SYSTEMDUNITDIR)/$(4)
+endef
+
 # ---- install (README.md "Install"; debian/rules packages `make install`) ----
 # rmdd's systemd units (systemd also searches /usr/local/lib/systemd/system),
 # its configuration (an existing one is never overwritten: a user's edits
@@ -550,9 +571,8 @@ install: all install-lcm install-man install-docs
 	install -D -m 0755 src/tools/rmd-spy/rmd-spy $(DESTDIR)$(BINDIR)/rmd-spy
 	$(if $(HAVE_DDS),install -D -m 0755 $(RMD_ROS2) $(DESTDIR)$(BINDIR)/rmd-ros2)
 	install -d $(DESTDIR)$(SYSTEMDUNITDIR) $(DESTDIR)$(EXAMPLESDIR)
-	sed -e 's|@BINDIR@|$(BINDIR)|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' \
-		systemd/rmdd.service.in >$(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
-	chmod 0644 $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
+	$(call rmdd_unit,rmdd,rmdd,,rmdd.service)
+	$(call rmdd_unit,%i,rmdd-%i, (instance %i),rmdd@.service)
 	install -m 0644 systemd/rmdd-can@.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	install -m 0644 $(RMDD_EXAMPLES) $(DESTDIR)$(EXAMPLESDIR)/
 	install -d $(DESTDIR)$(BASHCOMPDIR)
@@ -655,7 +675,10 @@ uninstall:
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(foreach t,$(PY_TOOLS),$(firstword $(subst :, ,$(t)))))
 	rm -f $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
 	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2
-	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
+	rm -f $(DESTDIR)$(RMD_PHYSICS_DIR)/rmd-physics.so
+	-rmdir $(DESTDIR)$(RMD_PHYSICS_DIR) 2>/dev/null
+	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd@.service \
+		$(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/,$(foreach m,$(MAN_PAGES),man$(subst .,,$(suffix $(m)))/$(notdir $(m))))

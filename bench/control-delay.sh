@@ -163,18 +163,6 @@ base_dir=$(bench_base build/rmdd) || { echo "control-delay: cannot build $BASE";
 this_rev=$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)
 ncpu=$(nproc)
 
-# stats FILE: "p50 p99 max" of sorted values (us)
-stats() {
-	awk '{ v[NR] = $1 } END {
-		if (!NR) { print "- - -"; exit }
-		i50 = int(0.5 * NR + 0.999999); i99 = int(0.99 * NR + 0.999999)
-		printf "%.0f %.0f %.0f\n", v[i50], v[i99], v[NR] }' "$1"
-}
-
-ratio() {
-	awk -v a="$1" -v b="$2" 'BEGIN { if (a == "-" || b == "-" || b == 0) print "-"; else printf "%.2f", a / b }'
-}
-
 : >"$work/rows"
 for load in $LOADS; do
 	hogs=
@@ -212,9 +200,9 @@ txt=$OUT/control-delay.txt
 		"n b/t, superseded b/t, overruns b/t"
 	while read -r load rate m; do
 		k=$work/$load-$rate-$m
-		set -- $(stats "$k.base")
+		set -- $(bench_stats "$k.base")
 		b50=$1 b99=$2 bmax=$3
-		set -- $(stats "$k.this")
+		set -- $(bench_stats "$k.this")
 		t50=$1 t99=$2 tmax=$3
 		half=$((500000 / rate))
 		goal=-
@@ -225,7 +213,7 @@ txt=$OUT/control-delay.txt
 		set -- $(cat "$k.base.n" "$k.this.n" 2>/dev/null)
 		printf '%-5s %4s %2s | %5s %5s %5s | %5s %5s %5s | %5s %5s | %5s %-4s | %s/%s, %s/%s, %s/%s\n' \
 			"$load" "$rate" "$m" "$b50" "$b99" "$bmax" "$t50" "$t99" "$tmax" \
-			"$(ratio "$t50" "$b50")" "$(ratio "$t99" "$b99")" "$half" "$goal" \
+			"$(bench_ratio "$t50" "$b50")" "$(bench_ratio "$t99" "$b99")" "$half" "$goal" \
 			"${1:-0}" "${3:-0}" "${2:-0}" "${4:-0}" "$(cat "$k.base.over" 2>/dev/null)" "$(cat "$k.this.over" 2>/dev/null)"
 	done <"$work/rows"
 	echo "# b: base ($BASE), t: this ($this_rev); r: this / base; T/2: half a period (us)"

@@ -59,14 +59,6 @@ run() {
 		sort -n >"$work/$label.ctlat"
 }
 
-# stats FILE: "p50 p99 max" of sorted values (us)
-stats() {
-	awk '{ v[NR] = $1 } END {
-		if (!NR) { print "- - -"; exit }
-		i50 = int(0.5 * NR + 0.999999); i99 = int(0.99 * NR + 0.999999)
-		printf "%.0f %.0f %.0f\n", v[i50], v[i99], v[NR] }' "$1"
-}
-
 run quiet 0 $PRIO
 run hogs 1 $PRIO
 # the same with the bridge and LCM's receive thread at normal priority (before issue 11)
@@ -79,16 +71,16 @@ txt=$OUT/lcm-latency.txt
 	echo "# target: p99 <= 1000 + 100 us (+ cyclictest's p99); ratio: p99 / (1100 + cyclictest p99)"
 	printf '%-8s %-26s %7s %7s %7s %10s %7s %s\n' run what p50 p99 max bound ratio test
 	for l in quiet hogs hogs-old; do
-		set -- $(stats "$work/$l.lat")
+		set -- $(bench_stats "$work/$l.lat")
 		h50=$1 h99=$2 hmax=$3
-		set -- $(stats "$work/$l.ctlat")
+		set -- $(bench_stats "$work/$l.ctlat")
 		c50=$1 c99=$2 cmax=$3
-		set -- $(stats "$work/$l.wire")
+		set -- $(bench_stats "$work/$l.wire")
 		w50=$1 w99=$2 wmax=$3
 		bound=$((1100 + c99))
 		ratio=$(awk -v a="$h99" -v b="$bound" 'BEGIN { printf "%.2f", a / b }')
 		verdict=$([ "$(cat "$work/$l.rc")" = 0 ] && echo pass || echo FAIL)
-		set -- $(stats "$work/$l.ideal")
+		set -- $(bench_stats "$work/$l.ideal")
 		printf '%-8s %-26s %7s %7s %7s %10s %7s %s\n' "$l" "LCM -> hand-over" "$h50" "$h99" "$hmax" "$bound" "$ratio" "$verdict"
 		printf '%-8s %-26s %7s %7s %7s\n' "" "LCM -> sim wire start" "$w50" "$w99" "$wmax"
 		printf '%-8s %-26s %7s %7s %7s\n' "" "a bridge of no delay" "$1" "$2" "$3"

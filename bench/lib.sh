@@ -19,6 +19,8 @@
 #                         finds sys, plt and PNG = sys.argv[1], ARGS in
 #                         sys.argv[2:], and makes fig), save PNG and say
 #                         what was written.
+# bench_stats FILE        "p50 p99 max" of FILE's sorted values, one a line ("- - -": none).
+# bench_ratio A B         A / B to two decimals ("-" when either is "-" or B is 0).
 BASE=${BASE:-8c261d5}
 # The motor counts the scaling benches sweep (insn-per-cycle.sh, scale.sh).
 COUNTS=${COUNTS:-3 6 12 18 24 32}
@@ -119,4 +121,15 @@ bench_hogs_start() {
 		done
 	fi
 	sleep 1
+}
+
+bench_stats() {
+	awk '{ v[NR] = $1 } END {
+		if (!NR) { print "- - -"; exit }
+		i50 = int(0.5 * NR + 0.999999); i99 = int(0.99 * NR + 0.999999)
+		printf "%.0f %.0f %.0f\n", v[i50], v[i99], v[NR] }' "$1"
+}
+
+bench_ratio() {
+	awk -v a="$1" -v b="$2" 'BEGIN { if (a == "-" || b == "-" || b == 0) print "-"; else printf "%.2f", a / b }'
 }

@@ -103,14 +103,21 @@ int lcm_tools_teardown(void **state)
 
 void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no)
 {
-	int port = base_port + (int)((unsigned)getpid() % pids) * 40 + (int)(test_no % 40);
+	lcm_test_url_ttl(url, len, base_port, pids, test_no, 0);
+}
+
+void lcm_test_url_ttl(char *url, size_t len, int base_port, unsigned pids, unsigned test_no,
+		      unsigned ttl)
+{
+	int port;
 
 	/* judged on the range, not this pid's port: a range past 65535 fails every run, not 1 in N */
 	if (pids == 0 || base_port < 1024 || base_port + (long)pids * 40 > 65536)
 		fail_msg(
 			"lcm_test_url: ports %d..%ld are not all UDP ports (base %d, %u pids of 40)",
 			base_port, base_port + (long)pids * 40 - 1, base_port, pids);
-	snprintf(url, len, "udpm://239.255.76.67:%d?ttl=0", port);
+	port = base_port + (int)((unsigned)getpid() % pids) * 40 + (int)(test_no % 40);
+	snprintf(url, len, "udpm://239.255.76.67:%d?ttl=%u", port, ttl);
 }
 
 void *lcm_fixture_new(void **state, size_t size, bool multicast)

@@ -46,6 +46,10 @@ int lcm_tools_teardown(void **state);
  */
 void lcm_test_url(char *url, size_t len, int base_port, unsigned pids, unsigned test_no);
 
+/* lcm_test_url() with ttl=ttl: 1 for LCM between network namespaces (netns.h). */
+void lcm_test_url_ttl(char *url, size_t len, int base_port, unsigned pids, unsigned test_no,
+		      unsigned ttl);
+
 /*
  * A zeroed fixture of size bytes for a set-up to fill and store in *state
  * (NULL until then); NULL when multicast does not work (the tests then skip:

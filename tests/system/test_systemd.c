@@ -26,6 +26,15 @@
  *   kill9     SIGKILL: restarted, NRestarts+1;
  *   stop      `systemctl stop`: inactive, Result=success, and candump shows
  *             each motor's 0x80 (motor shutdown) after the stop began.
+ * Then instances (rmdd@.service, docs/systemd.md "Instances"), after the
+ * stop:
+ *   instances rmdd@a (motors 1-3 on vcan0, and a sim bus) and rmdd@b (a
+ *             sim bus) run at once, each on /etc/rmdd/NAME.yaml with its own
+ *             channel prefix; rmdd@c on vcan0 too is refused while rmdd@a
+ *             holds it (the instances see each other's bus locks); each
+ *             records its sim motor's disappearance under its own
+ *             /var/lib/rmdd-NAME/incidents; stopping rmdd@b leaves /run/rmdd
+ *             and rmdd@a's lock on vcan0, held, and rmdd@a running.
  * Times are deadlines for slow emulated guests, never margins: the only
  * bound judged is the watchdog's lower one, WatchdogSec, which no slowness
  * shortens.
@@ -33,11 +42,13 @@
 #define _GNU_SOURCE
 #include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <grp.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -87,13 +98,13 @@ static void sh_ok(const char *cmd, int limit_ms)
 	run_free(&r);
 }
 
-/* `systemctl show -p prop --value rmdd` into buf (trailing newline cut). */
-static const char *prop(const char *name, char *buf, size_t size)
+/* `systemctl show -p prop --value unit` into buf (trailing newline cut). */
+static const char *prop_of(const char *unit, const char *name, char *buf, size_t size)
 {
-	char cmd[128];
+	char cmd[160];
 	struct run r = { 0 };
 
-	snprintf(cmd, sizeof(cmd), "systemctl show -p %s --value rmdd.service", name);
+	snprintf(cmd, sizeof(cmd), "systemctl show -p %s --value %s", name, unit);
 	sh(&r, cmd, 30000);
 	if (r.status != 0)
 		fail_msg("`%s`: exit %d\n%s", cmd, r.status, r.err);
@@ -101,6 +112,12 @@ static const char *prop(const char *name, char *buf, size_t size)
 	buf[strcspn(buf, "\n")] = '\0';
 	run_free(&r);
 	return buf;
+}
+
+/* prop_of() rmdd.service. */
+static const char *prop(const char *name, char *buf, size_t size)
+{
+	return prop_of("rmdd.service", name, buf, size);
 }
 
 static long prop_long(const char *name)
@@ -308,7 +325,7 @@ static int group_teardown(void **state)
 	if (!S.skip) {
 		struct run r = { 0 };
 
-		sh(&r, "systemctl stop rmdd.service", 30000);
+		sh(&r, "systemctl stop rmdd.service 'rmdd@*.service'", 120000);
 		run_free(&r);
 	}
 	kid_kill_all();
@@ -718,12 +735,159 @@ static void test_stop_stops_motors(void **state)
 	free(log);
 }
 
+/* The configuration of instance name: prefix P_, a sim bus whose motor 1 disappears, and vcan0's. */
+static void write_instance(const char *name, const char *prefix, bool vcan)
+{
+	char path[64], cfg[2048];
+	FILE *f;
+
+	snprintf(path, sizeof(path), "/etc/rmdd/%s.yaml", name);
+	snprintf(
+		cfg, sizeof(cfg),
+		"# test_systemd: instance %s\n"
+		"loop: {rate_hz: 100, rt_priority: 40}\n"
+		"safety: {comm_loss_ms: 500, missed_replies_lost: 5, lost_motor_action: motor,\n"
+		"         command_timeout_ms: 1000, shutdown_action: stop}\n"
+		"probe: {on_missing: start}\n"
+		/* no recording of an overrun of the slow guest's: the lost motor's is the one */
+		"incidents: {seconds_before: 0.5, seconds_after: 0.2, overrun_burst: 1000000}\n"
+		"lcm: {url: \"%s\", channel_prefix: \"%s\", state_every_n: 10}\n"
+		"buses:\n"
+		"  - {name: sim0, type: sim, sim: {seed: 1, faults: [\n"
+		"      {kind: disappear, motor: 9, start_s: 2.0, end_s: 2.5, param: 1}]}}\n"
+		"%s"
+		"motors:\n"
+		"  - {name: %s_s9, bus: sim0, id: 9, mode: position, torque_constant_nm_a: 2}\n"
+		"%s",
+		name, S.url, prefix, vcan ? "  - {name: vcan0, type: socketcan}\n" : "", name,
+		vcan ? "  - {name: m1, bus: vcan0, id: 1, mode: position, torque_constant_nm_a: 2, "
+		       "gear_ratio: 6}\n"
+		       "  - {name: m2, bus: vcan0, id: 2, mode: position, torque_constant_nm_a: 2, "
+		       "gear_ratio: 6}\n"
+		       "  - {name: m3, bus: vcan0, id: 3, mode: position, torque_constant_nm_a: 2, "
+		       "gear_ratio: 6}\n" :
+		       "");
+	f = fopen(path, "w");
+	if (!f || fputs(cfg, f) < 0 || fclose(f) != 0)
+		fail_msg("%s: %s", path, strerror(errno));
+}
+
+/* What systemd and the instance said, on stderr whole; "" for a failure message's end. */
+static const char *journal_of(const char *unit)
+{
+	char cmd[160];
+	struct run r = { 0 };
+
+	snprintf(cmd, sizeof(cmd), "journalctl -o short-monotonic --no-pager -n 30 -u %s", unit);
+	sh(&r, cmd, 30000);
+	fprintf(stderr, "---- journal of %s:\n%s%s----\n", unit, r.out, r.err);
+	run_free(&r);
+	return "(journal above)";
+}
+
+static void expect_active_unit(const char *unit, const char *when)
+{
+	char state[64];
+
+	if (strcmp(prop_of(unit, "ActiveState", state, sizeof(state)), "active") != 0)
+		fail_msg("%s: %s is %s, not active\n%s", when, unit, state, journal_of(unit));
+}
+
+/* True when a process holds an exclusive flock(2) on path (rmdd's bus lock). */
+static bool lock_held(const char *path)
+{
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	bool held;
+
+	if (fd < 0)
+		return false;
+	held = flock(fd, LOCK_SH | LOCK_NB) < 0 && errno == EWOULDBLOCK;
+	close(fd);
+	return held;
+}
+
+/* Wait for a recording in /var/lib/rmdd-NAME/incidents (its sim motor's disappearance). */
+static void expect_incident(const char *name)
+{
+	int64_t deadline = rmd_now_ns() + (int64_t)LCM_WAIT_MS * 1000000;
+	char dir[64], names[4][DIR_NAME_MAX], unit[32];
+	unsigned n = 0;
+
+	snprintf(dir, sizeof(dir), "/var/lib/rmdd-%s/incidents", name);
+	snprintf(unit, sizeof(unit), "rmdd@%s.service", name);
+	while ((n = dir_sorted(dir, "0123456789", names, 4)) == 0 && rmd_now_ns() < deadline)
+		usleep(200 * 1000);
+	if (n == 0)
+		fail_msg("no recording in %s within %d ms\n%s", dir, LCM_WAIT_MS, journal_of(unit));
+	assert_has(names[0], "-lost", dir);
+}
+
+/* After test_instances, whatever failed: no instance left running (nor rmdd@c restarting). */
+static int instances_teardown(void **state)
+{
+	struct run r = { 0 };
+
+	(void)state;
+	if (!S.skip) {
+		sh(&r, "systemctl stop 'rmdd@*.service'; systemctl reset-failed 'rmdd@*.service'",
+		   120000);
+		run_free(&r);
+	}
+	return 0;
+}
+
+static void test_instances(void **state)
+{
+	struct run r = { 0 };
+	char buf[64];
+
+	(void)state;
+	need_setup();
+	write_instance("a", "A_", true);
+	write_instance("b", "B_", false);
+	write_instance("c", "C_", true);
+	sh_ok("systemctl start rmdd@a.service rmdd@b.service", START_MS);
+	expect_active_unit("rmdd@a.service", "after systemctl start");
+	expect_active_unit("rmdd@b.service", "after systemctl start");
+	assert_string_equal(prop_of("rmdd@a.service", "StateDirectory", buf, sizeof(buf)),
+			    "rmdd-a");
+	if (!lock_held("/run/rmdd/rmdd-bus-vcan0.lock"))
+		fail_msg("rmdd@a holds no lock on vcan0 in /run/rmdd\n%s",
+			 journal_of("rmdd@a.service"));
+
+	/* another instance on vcan0: refused, it sees rmdd@a's lock */
+	sh(&r, "systemctl start rmdd@c.service", START_MS);
+	if (r.status == 0)
+		fail_msg("rmdd@c started on vcan0 beside rmdd@a\n%s", journal_of("rmdd@c.service"));
+	run_free(&r);
+	sh(&r, "journalctl --no-pager -u rmdd@c.service", 120000);
+	assert_has(r.out, "vcan0 is in use by another rmdd", "rmdd@c's journal");
+	run_free(&r);
+	sh_ok("systemctl stop rmdd@c.service; systemctl reset-failed rmdd@c.service || true",
+	      120000);
+
+	expect_incident("a");
+	expect_incident("b");
+
+	sh_ok("systemctl stop rmdd@b.service", 120000);
+	expect_active_unit("rmdd@a.service", "after systemctl stop rmdd@b");
+	if (access("/run/rmdd", F_OK) != 0 || !lock_held("/run/rmdd/rmdd-bus-vcan0.lock"))
+		fail_msg("stopping rmdd@b took rmdd@a's lock on vcan0 with it");
+	sh_ok("systemctl stop rmdd@a.service", 120000);
+	if (lock_held("/run/rmdd/rmdd-bus-vcan0.lock"))
+		fail_msg("vcan0's lock still held after every rmdd stopped");
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_security),       cmocka_unit_test(test_start),
-		cmocka_unit_test(test_watchdog_fed),   cmocka_unit_test(test_stall_restarts),
-		cmocka_unit_test(test_kill9_restarts), cmocka_unit_test(test_stop_stops_motors),
+		cmocka_unit_test(test_security),
+		cmocka_unit_test(test_start),
+		cmocka_unit_test(test_watchdog_fed),
+		cmocka_unit_test(test_stall_restarts),
+		cmocka_unit_test(test_kill9_restarts),
+		cmocka_unit_test(test_stop_stops_motors),
+		cmocka_unit_test_teardown(test_instances, instances_teardown),
 	};
 
 	if (getenv("RMD_TEST_FILTER"))
