@@ -520,6 +520,36 @@ static int32_t cpu_latency_target(void)
 	return v;
 }
 
+/* Whether process pid has /dev/cpu_dma_latency open (its request stands while it does). */
+static bool holds_cpu_latency(pid_t pid)
+{
+	char dir[64], fd_path[PATH_MAX + 80], target[PATH_MAX];
+	struct dirent *e;
+	bool found = false;
+	DIR *d;
+
+	snprintf(dir, sizeof(dir), "/proc/%ld/fd", (long)pid);
+	d = opendir(dir);
+	assert_non_null(d);
+	while (!found && (e = readdir(d))) {
+		ssize_t n;
+
+		snprintf(fd_path, sizeof(fd_path), "%s/%s", dir, e->d_name);
+		n = readlink(fd_path, target, sizeof(target) - 1);
+		if (n > 0) {
+			target[n] = '\0';
+			found = !strcmp(target, "/dev/cpu_dma_latency");
+		}
+	}
+	closedir(d);
+	return found;
+}
+
+/*
+ * The machine's target is the least of every open request: another rmdd
+ * running here (a developer's, rmdd.service) holds it at 0 already, and
+ * then rmdd's own request is judged by its open device alone.
+ */
 static void test_cpus_kept_awake(void **state)
 {
 	static struct proc p;
@@ -533,8 +563,10 @@ static void test_cpus_kept_awake(void **state)
 		skip();
 	}
 	if (before == 0)
-		fail_msg("another process holds the CPU wake-up latency at 0 us: cannot tell");
+		fprintf(stderr, "another process holds the CPU wake-up latency at 0 us: rmdd's "
+				"request is judged by its open /dev/cpu_dma_latency alone\n");
 	spawn_running(&p, NULL, args);
+	assert_true(holds_cpu_latency(p.pid));
 	assert_int_equal(cpu_latency_target(), 0);
 	assert_null(strstr(p.out, "CPU wake-up latency not held"));
 	kill(p.pid, SIGINT);
@@ -546,6 +578,7 @@ static void test_cpus_kept_awake(void **state)
 						"buses: [{name: s0, type: sim}]\n"
 						"motors: [{name: a, bus: s0, id: 1, mode: torque,"
 						" torque_constant_nm_a: 2}]\n"));
+	assert_false(holds_cpu_latency(p.pid));
 	assert_int_equal(cpu_latency_target(), before);
 	kill(p.pid, SIGINT);
 	assert_int_equal(finish(&p, 5000), 0);
