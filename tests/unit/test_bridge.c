@@ -2157,6 +2157,8 @@ static void send_other_health(struct fixture *f)
 			   .host = "other",
 			   .pid = 42,
 			   .foreign_host = "",
+			   .instance_name = "",
+			   .robot_reason = "",
 			   .motor_count = 1,
 			   .comm_loss = cl,
 			   .comm_loss_ms = cl_ms,
@@ -2175,6 +2177,7 @@ static void send_other_config(struct fixture *f)
 			   .host = "other",
 			   .pid = 42,
 			   .source = "/etc/rmdd/other.yaml",
+			   .instance_name = "",
 			   .version = "0.3.0" };
 
 	assert_int_equal(rmd_config_t_publish(f->ctl, PREFIX "CONFIG", &c), 0);

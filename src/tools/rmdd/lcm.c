@@ -60,6 +60,7 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	o->state_every = cfg->lcm.state_every_n;
 	o->stale_ms = (int)cfg->lcm.stale_ms;
 	o->command_timeout_ms = (int)cfg->safety.command_timeout_ms;
+	o->robot = cfg->robot; /* instance "": alone, as before (docs/robot.md) */
 	if (cfg->lcm.health_period_ms)
 		o->health_period_ns = (int64_t)cfg->lcm.health_period_ms * 1000000;
 	/* one below the loop unless configured: never holds the loop off */
