@@ -23,6 +23,8 @@
  *   test_future_clock_warns_absurd_trips  a peer 500 ms ahead: a warning,
  *                         nothing moves; an hour ahead (beyond
  *                         max_clock_offset_ms): the safe action, said so
+ *   test_motor_names_clash_reported_by_both  two instances with the same
+ *                         motor names: both say so, health_t counts them
  *   test_alone_as_before  no robot: section: no heartbeat on the wire, and a
  *                         robot stop is not this daemon's
  *
@@ -151,9 +153,12 @@ static int group_teardown(void **state)
 	return lcm_tools_teardown(state);
 }
 
-/* dir/NAME.yaml: instance inst on prefix, its robot: section `robot` ("" none). */
+/*
+ * dir/NAME.yaml: instance inst on prefix, its robot: section `robot` ("" none),
+ * its motors `names`_hip and `names`_knee.
+ */
 static void write_config(char *path, size_t len, const char *inst, const char *prefix,
-			 const char *robot)
+			 const char *robot, const char *names)
 {
 	FILE *f;
 
@@ -171,12 +176,13 @@ static void write_config(char *path, size_t len, const char *inst, const char *p
 		"motors:\n"
 		"  - {name: %s_hip, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
 		"  - {name: %s_knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n",
-		prefix, robot, inst, inst);
+		prefix, robot, names, names);
 	assert_int_equal(fclose(f), 0);
 }
 
-/* Start daemon i: instance inst on prefix with robot: section robot. */
-static void start_side(unsigned i, const char *inst, const char *prefix, const char *robot)
+/* Start daemon i: instance inst on prefix with robot: section robot, motors named after names. */
+static void start_side_named(unsigned i, const char *inst, const char *prefix, const char *robot,
+			     const char *names)
 {
 	struct side *s = &R.s[i];
 	char cfg[PATH_MAX + 64], ch[64];
@@ -187,12 +193,17 @@ static void start_side(unsigned i, const char *inst, const char *prefix, const c
 	s->prefix = prefix;
 	s->controller = 0x1000 + i;
 	snprintf(s->ch_cmd, sizeof(s->ch_cmd), "%s" RMD_CHANNEL_COMMAND, prefix);
-	write_config(cfg, sizeof(cfg), inst, prefix, robot);
+	write_config(cfg, sizeof(cfg), inst, prefix, robot, names);
 	snprintf(ch, sizeof(ch), "%s" RMD_CHANNEL_STATE, prefix);
 	s->ssub = rmd_state_t_subscribe(R.lcm, ch, on_state, s);
 	snprintf(ch, sizeof(ch), "%s" RMD_CHANNEL_HEALTH, prefix);
 	s->hsub = rmd_health_t_subscribe(R.lcm, ch, on_health, s);
 	s->kid = kid_spawn(inst, argv, NULL, 0);
+}
+
+static void start_side(unsigned i, const char *inst, const char *prefix, const char *robot)
+{
+	start_side_named(i, inst, prefix, robot, inst);
 }
 
 static void setup_url(void)
@@ -224,8 +235,8 @@ static void teardown_all(void)
 	R.lcm = NULL;
 }
 
-/* The two daemons: left and right, each the other's peer. */
-static void start_pair(void)
+/* The two daemons: left and right, each the other's peer; motors named after names[i]. */
+static void start_pair_named(const char *const names[2])
 {
 	char rl[256], rr[256];
 
@@ -235,8 +246,13 @@ static void start_pair(void)
 	snprintf(rr, sizeof(rr),
 		 "robot: {instance: right, peers: [left], heartbeat_ms: %d, peer_timeout_ms: %d}\n",
 		 HEARTBEAT_MS, PEER_TIMEOUT_MS);
-	start_side(0, "left", "LEFT_", rl);
-	start_side(1, "right", "RIGHT_", rr);
+	start_side_named(0, "left", "LEFT_", rl, names[0]);
+	start_side_named(1, "right", "RIGHT_", rr, names[1]);
+}
+
+static void start_pair(void)
+{
+	start_pair_named((const char *const[]){ "left", "right" });
 }
 
 /* Every motor of s: enable as given, torque 0 (torque mode needs no certain position). */
@@ -416,7 +432,7 @@ static void test_kill_one_makes_the_other_safe(void **state)
 static void test_robot_stop_stops_both(void **state)
 {
 	const char *args[] = { "stop",	   "--robot",	  "--lcm-url", R.url,
-			       "--reason", "test e-stop", NULL };
+			       "--reason", "e-stop test", NULL };
 	const struct run_opts o = { .service = pump };
 	struct run r;
 	int64_t t0;
@@ -436,7 +452,7 @@ static void test_robot_stop_stops_both(void **state)
 		      (R.s[0].safe_rx_ns - t0) / 1e6, (R.s[1].safe_rx_ns - t0) / 1e6);
 	for (unsigned i = 0; i < 2; i++) {
 		kid_wait_output(R.s[i].kid, "robot: robot stop from rmdctl@", 2000, NULL);
-		assert_has(R.s[i].kid->out, "test e-stop: the safe action", R.s[i].inst);
+		assert_has(R.s[i].kid->out, "e-stop test: the safe action", R.s[i].inst);
 	}
 	pump(150);
 	for (unsigned i = 0; i < 2; i++) {
@@ -590,6 +606,29 @@ static void test_future_clock_warns_absurd_trips(void **state)
 	teardown_all();
 }
 
+/* Both daemons name their motors leg_hip and leg_knee: both say so; nothing else changes. */
+static void test_motor_names_clash_reported_by_both(void **state)
+{
+	(void)state;
+	if (!multicast)
+		skip();
+	setup_url();
+	start_pair_named((const char *const[]){ "leg", "leg" });
+	if (!drive_until(false, 20000, peers_ok))
+		fail_msg("the peers never saw each other");
+	for (unsigned i = 0; i < 2; i++)
+		kid_wait_output(R.s[i].kid, "robot: 2 motor name(s) of this daemon are peer ", 5000,
+				NULL);
+	assert_has(R.s[0].kid->out, "are peer right's too (\"leg_hip\"...)", "left");
+	assert_has(R.s[1].kid->out, "are peer left's too (\"leg_hip\"...)", "right");
+	pump(150);
+	for (unsigned i = 0; i < 2; i++) {
+		assert_non_null(R.s[i].health);
+		assert_int_equal(R.s[i].health->name_clashes, 2);
+	}
+	teardown_all();
+}
+
 static void test_alone_as_before(void **state)
 {
 	const char *args[] = { "stop", "--robot", "--lcm-url", R.url, NULL };
@@ -624,5 +663,6 @@ SUITE_MAIN("robot_system", group_setup, group_teardown,
 		   cmocka_unit_test(test_robot_stop_stops_both),
 		   cmocka_unit_test(test_spoofed_heartbeats_change_nothing),
 		   cmocka_unit_test(test_future_clock_warns_absurd_trips),
+		   cmocka_unit_test(test_motor_names_clash_reported_by_both),
 		   cmocka_unit_test(test_alone_as_before),
 	   })
