@@ -32,6 +32,9 @@ _Static_assert(RMD_ROBOT_PEER_T_PEER_UNSEEN == RMD_PEER_UNSEEN &&
 		       RMD_ROBOT_PEER_T_PEER_STOPPING == RMD_PEER_STOPPING,
 	       "peer status");
 
+/* The rt loop publishes its health every health period: this many missed, it has stopped. */
+#define LOOP_QUIET 5
+
 static int64_t realtime_ns(void)
 {
 	struct timespec ts;
@@ -277,7 +280,14 @@ void bridge_robot_tick(struct rmd_bridge *b, int64_t now)
 		bridge_log(b, 5, "robot: enabled again after the robot-wide stop");
 	}
 	tripped = b->robot_tripped || h->watchdog == RMD_WD_TRIPPED;
-	publish_heartbeat(b, h, tripped ? RMD_HEARTBEAT_T_HB_TRIPPED : RMD_HEARTBEAT_T_HB_OK);
+	/*
+	 * The heartbeat says the daemon runs, not just its bridge: while the rt
+	 * loop's health is missing or older than LOOP_QUIET health periods it is
+	 * withheld, and the peers lose this daemon.
+	 */
+	if (h->t_ns > 0 && now - h->t_ns <= LOOP_QUIET * b->opts.health_period_ns)
+		publish_heartbeat(b, h,
+				  tripped ? RMD_HEARTBEAT_T_HB_TRIPPED : RMD_HEARTBEAT_T_HB_OK);
 	if (b->config_robot_wanted) {
 		b->config_robot_wanted = false;
 		if (b->buf->config_len > 0 &&
