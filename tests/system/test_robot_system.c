@@ -547,6 +547,11 @@ static void test_spoofed_heartbeats_change_nothing(void **state)
 	}
 	assert_has(R.s[1].kid->out, "heartbeat naming peer \"left\" from host evil", "right");
 	assert_has(R.s[0].kid->out, "heartbeat naming peer \"right\" from host evil", "left");
+	/* its own name from elsewhere: a duplicate instance on the network */
+	assert_has(R.s[1].kid->out,
+		   "heartbeat naming this daemon, \"right\" from host evil, pid 4242: another "
+		   "daemon uses this instance name (duplicate robot.instance on the network)",
+		   "right");
 	teardown_all();
 }
 
