@@ -390,6 +390,11 @@ static void test_kill_one_makes_the_other_safe(void **state)
 
 	(void)state;
 	pair_or_skip();
+	/* the start says what the daemon is a part of */
+	assert_has(R.s[1].kid->out,
+		   "robot: instance right, peers left; a heartbeat every 10 ms on "
+		   "RMD_ROBOT_HEARTBEAT, a peer silent 100 ms is lost: the safe action",
+		   "right's start");
 	/* clocks: both state_t carry the host's clock, within a second of ours */
 	assert_true(llabs(R.s[1].host_utime - (int64_t)time(NULL) * 1000000) < 2000000);
 
