@@ -160,6 +160,7 @@ struct rmd_bridge {
 	uint32_t robot_stops;
 	bool robot_tripped;
 	char robot_reason[RMD_PEERS_REASON_LEN];
+	char robot_said[RMD_PEERS_REASON_LEN]; /* the newest reason logged: said once */
 	bool hb_bad_logged;
 	bool spoof_logged[2]; /* [0] a peer's name, [1] this daemon's */
 	bool config_robot_wanted;

@@ -60,25 +60,33 @@ void bridge_robot_command(const struct rmd_bridge *b, struct rmd_command *cmd)
 }
 
 /*
- * A robot-wide stop for the reason fmt says: logged; handed to the loop
- * unless `apply` is false (on_peer_lost: report), in a command of its own
- * that carries no setpoint (so it refreshes no motor's command deadline).
+ * A robot-wide stop for the reason fmt says: logged (once while the same
+ * reason stands: rmdctl sends its stop three times, a peer's bad clock
+ * comes with every heartbeat); handed to the loop unless `apply` is false
+ * (on_peer_lost: report), in a command of its own that carries no setpoint
+ * (so it refreshes no motor's command deadline).
  */
 __attribute__((format(printf, 4, 5))) static void robot_trip(struct rmd_bridge *b, int64_t now,
 							     bool apply, const char *fmt, ...)
 {
 	struct rmd_command *cmd = &b->buf->robot_cmd;
 	char why[RMD_PEERS_REASON_LEN];
+	bool repeat;
 	va_list ap;
 
 	va_start(ap, fmt);
 	vsnprintf(why, sizeof(why), fmt, ap);
 	va_end(ap);
+	repeat = !strcmp(why, b->robot_said);
+	snprintf(b->robot_said, sizeof(b->robot_said), "%s", why);
 	if (!apply) {
-		bridge_log(b, 4, "robot: %s (robot.on_peer_lost: report: the motors go on)", why);
+		if (!repeat)
+			bridge_log(b, 4, "robot: %s (robot.on_peer_lost: report: the motors go on)",
+				   why);
 		return;
 	}
-	bridge_log(b, 3, "robot: %s: the safe action for every driven motor", why);
+	if (!b->robot_tripped || !repeat)
+		bridge_log(b, 3, "robot: %s: the safe action for every driven motor", why);
 	snprintf(b->robot_reason, sizeof(b->robot_reason), "%s", why);
 	b->robot_tripped = true;
 	b->robot_stops++;
@@ -147,6 +155,7 @@ void bridge_robot_heartbeat_in(struct rmd_bridge *b, const struct rmd_lcm_msg *m
 		peer_desc(p, d, sizeof(d));
 		if (v & RMD_PEERS_FIRST) {
 			bridge_log(b, 5, "robot: peer %s is here", d);
+			b->robot_said[0] = '\0'; /* what it does next is news */
 			b->config_robot_wanted = true;
 		}
 		if (v & RMD_PEERS_CLOCK_WARN)
@@ -157,9 +166,8 @@ void bridge_robot_heartbeat_in(struct rmd_bridge *b, const struct rmd_lcm_msg *m
 		if (v & RMD_PEERS_CLOCK_TRIP)
 			robot_trip(b, now, b->robot_safe,
 				   "peer %s: its clock differs from this host's by more than "
-				   "robot.max_clock_offset_ms (%u; its t_ns %" PRId64 ")",
-				   p->instance, b->opts.robot.max_clock_offset_ms,
-				   (int64_t)hb.t_ns);
+				   "robot.max_clock_offset_ms (%u)",
+				   p->instance, b->opts.robot.max_clock_offset_ms);
 		if (v & RMD_PEERS_TRIP)
 			robot_trip(b, now, b->robot_safe, "peer %s tripped: %s", p->instance,
 				   hb.reason && hb.reason[0] ? hb.reason : "its command watchdog");
@@ -276,7 +284,7 @@ void bridge_robot_tick(struct rmd_bridge *b, int64_t now)
 	/* the loop acted on every stop, and a controller enabled since: the trip is over */
 	if (b->robot_tripped && h->robot_stops == b->robot_stops && h->watchdog == RMD_WD_OK) {
 		b->robot_tripped = false;
-		b->robot_reason[0] = '\0';
+		b->robot_reason[0] = b->robot_said[0] = '\0';
 		bridge_log(b, 5, "robot: enabled again after the robot-wide stop");
 	}
 	tripped = b->robot_tripped || h->watchdog == RMD_WD_TRIPPED;
