@@ -99,6 +99,13 @@ struct rmd_bridge_opts {
 	int32_t pid;
 	char source[RMD_BRIDGE_SOURCE_LEN];
 
+	/*
+	 * This daemon as a part of a robot (docs/robot.md; src/svc/robot.c):
+	 * robot.instance "" (rmd_bridge_opts_init()'s): none, no heartbeat
+	 * sent or awaited, robot-wide channels ignored.
+	 */
+	struct rmd_config_robot robot;
+
 	unsigned nmotors;			     /* 1..RMD_MAX_MOTORS */
 	struct rmd_motor_info motor[RMD_MAX_MOTORS]; /* rmd_motor_info() fills them */
 	unsigned nbuses;			     /* 0..RMD_MAX_BUSES */
@@ -168,12 +175,13 @@ struct rmd_bridge_stats {
 	uint64_t health_published;
 	uint64_t configs_published;
 	uint64_t publish_errors;
-	uint64_t foreign;    /* another daemon's health_t and config_t on the prefix */
-	uint64_t lcm_errors; /* the link's receive failures */
-	uint64_t takeovers;  /* command_t.takeover honoured */
-	bool owned;	     /* a controller owns the motors: */
-	int64_t owner;	     /* its command_t.controller */
-	int64_t intruder;    /* newest controller rejected for not owning them; 0: none */
+	uint64_t foreign;     /* another daemon's health_t and config_t on the prefix */
+	uint64_t lcm_errors;  /* the link's receive failures */
+	uint64_t takeovers;   /* command_t.takeover honoured */
+	uint64_t robot_stops; /* robot-wide safe actions handed to the loop (docs/robot.md) */
+	bool owned;	      /* a controller owns the motors: */
+	int64_t owner;	      /* its command_t.controller */
+	int64_t intruder;     /* newest controller rejected for not owning them; 0: none */
 	/* After rmd_bridge_start(): */
 	unsigned rt_priority;	 /* the bridge thread's SCHED_FIFO priority; 0: normal */
 	int rt_error;		 /* 0, or -errno of the refused SCHED_FIFO */

@@ -20,6 +20,17 @@
 #define RMD_CHANNEL_CONFIG_REQUEST "CONFIG_REQUEST" /* any message, anyone -> rmdd */
 #define RMD_CHANNEL_HOME "HOME"			    /* rmd.home_t, controller -> rmdd */
 /*
+ * The robot's channels (docs/robot.md), spelled whole, without the prefix:
+ * the daemons of one robot each have a prefix of their own, and these are
+ * what they share.  A daemon receives what starts with
+ * RMD_CHANNEL_ROBOT_PREFIX beside its own prefix.
+ */
+#define RMD_CHANNEL_ROBOT_PREFIX "RMD_ROBOT_"
+#define RMD_CHANNEL_ROBOT_HEARTBEAT "RMD_ROBOT_HEARTBEAT" /* rmd.heartbeat_t, rmdd -> all */
+#define RMD_CHANNEL_ROBOT_STOP "RMD_ROBOT_STOP"		  /* rmd.robot_stop_t, anyone -> rmdd */
+/* rmd.config_t again, when a peer appears: the robot's motor names side by side */
+#define RMD_CHANNEL_ROBOT_CONFIG "RMD_ROBOT_CONFIG"
+/*
  * Only in an incident recording's window.lcmlog (docs/design.md
  * "Incidents"): the command_t the rt loop took.  Not COMMAND, so that
  * lcm-logplayer replaying a recording beside a running rmdd never drives

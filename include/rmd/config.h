@@ -77,6 +77,12 @@
 #define RMD_CONFIG_DEFAULT_CHANNEL_PREFIX "RMD_"
 #define RMD_CONFIG_DEFAULT_STALE_MS 100
 #define RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS 100
+/* robot: (docs/robot.md): instance names, peers, heartbeats. */
+#define RMD_CONFIG_INSTANCE_LEN 32 /* robot.instance and each peer's name, NUL included */
+#define RMD_CONFIG_MAX_PEERS 16	   /* robot.peers: entries, itself not among them */
+#define RMD_CONFIG_DEFAULT_HEARTBEAT_MS 10
+#define RMD_CONFIG_DEFAULT_PEER_TIMEOUT_MS 100
+#define RMD_CONFIG_DEFAULT_MAX_CLOCK_OFFSET_MS 1000
 
 enum rmd_bus_kind {
 	RMD_BUS_KIND_SOCKETCAN = 0, /* "socketcan": a CAN netdev */
@@ -103,6 +109,12 @@ enum rmd_shutdown_action {
 	RMD_SHUTDOWN_HOLD,	  /* "hold": 0x81 to driven motors (0x80 to the others) */
 	RMD_SHUTDOWN_DAMP,	  /* "damp": damp driven motors shutdown_damp_ms, then brake */
 	RMD_SHUTDOWN_BRAKE,	  /* "brake": 0x80 + 0x78 to every motor */
+};
+
+/* What a daemon does when a peer of its robot is lost or reports a trip (robot.on_peer_lost). */
+enum rmd_peer_lost {
+	RMD_PEER_LOST_SAFE = 0, /* "safe": every driven motor gets the safe action */
+	RMD_PEER_LOST_REPORT,	/* "report": said in the journal and health_t, nothing moves */
 };
 
 /* Whom a lost motor's safe action applies to. */
@@ -198,6 +210,21 @@ struct rmd_config_lcm {
 	 * RMD_CONFIG_LCM_PRIO_AUTO: loop.rt_priority - 1 (docs/design.md).
 	 */
 	unsigned rt_priority;
+};
+
+/*
+ * robot: (docs/robot.md): this daemon as one named part of a robot.  No
+ * section (instance ""): a daemon alone, as before: no heartbeat, no peers.
+ */
+struct rmd_config_robot {
+	char instance[RMD_CONFIG_INSTANCE_LEN]; /* [a-z0-9_], unique on the robot; "": none */
+	char peers[RMD_CONFIG_MAX_PEERS][RMD_CONFIG_INSTANCE_LEN];
+	unsigned n_peers;
+	uint32_t heartbeat_ms;	  /* heartbeat_t period */
+	uint32_t peer_timeout_ms; /* a peer silent this long is lost */
+	enum rmd_peer_lost on_peer_lost;
+	/* a peer whose clock differs by more than this is tripped on: it cannot be compared */
+	uint32_t max_clock_offset_ms;
 };
 
 struct rmd_config_bus {
@@ -349,6 +376,7 @@ struct rmd_config {
 	struct rmd_config_safety safety;
 	struct rmd_config_probe probe;
 	struct rmd_config_lcm lcm;
+	struct rmd_config_robot robot;
 	struct rmd_config_incidents incidents;
 	struct rmd_config_bus buses[RMD_MAX_BUSES];
 	unsigned n_buses;
@@ -414,6 +442,7 @@ extern const char *const rmd_lost_action_names[];
 extern const char *const rmd_shutdown_action_names[];
 extern const char *const rmd_on_missing_names[];
 extern const char *const rmd_feedback_pos_names[];
+extern const char *const rmd_peer_lost_names[];
 
 /*
  * Names as the file spells them ("socketcan", "torque", "damp", ...;

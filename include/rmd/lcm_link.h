@@ -48,6 +48,8 @@ struct rmd_lcm_link_opts {
 	const char *url; /* an LCM URL */
 	/* only messages on channels that start with it are received; "" or NULL: every one */
 	const char *prefix;
+	/* and those that start with this one too (the robot's channels); NULL or "": none */
+	const char *prefix2;
 	/* udpm: receive buffer asked of the kernel when the URL names no recv_buf_size; 0: none */
 	int recv_buf_size;
 	/* other providers: messages LCM queues before it drops (its default: 30); 0: LCM's */

@@ -231,15 +231,16 @@ struct rmd_loop_counters {
 	 * reply the cycle gave up on, a bring-up try retried): counted, not used
 	 */
 	uint64_t late;
-	int64_t late_max_ns;		 /* the latest of them, request sent to answer received */
-	uint64_t bad_replies;		 /* matched, but could not be decoded */
-	uint64_t nonfinite;		 /* setpoints with NaN/Inf: safe frame sent instead */
-	uint64_t unsupported;		 /* setpoints in a mode the motor cannot take: same */
-	uint64_t clamped;		 /* setpoints clamped to a limit */
-	uint64_t frames_not_sent;	 /* frames a bus did not take */
-	uint64_t commands;		 /* commands taken from the bridge */
-	uint64_t safe_actions;		 /* safe actions applied, per motor */
-	uint64_t owed_resends;		 /* owed 0x80/0x78 sent again: no echo yet (lifecycle.c) */
+	int64_t late_max_ns;	  /* the latest of them, request sent to answer received */
+	uint64_t bad_replies;	  /* matched, but could not be decoded */
+	uint64_t nonfinite;	  /* setpoints with NaN/Inf: safe frame sent instead */
+	uint64_t unsupported;	  /* setpoints in a mode the motor cannot take: same */
+	uint64_t clamped;	  /* setpoints clamped to a limit */
+	uint64_t frames_not_sent; /* frames a bus did not take */
+	uint64_t commands;	  /* commands taken from the bridge */
+	uint64_t safe_actions;	  /* safe actions applied, per motor */
+	uint64_t watchdog_trips;  /* the command watchdog tripped (robot stops not counted) */
+	uint64_t owed_resends;	  /* owed 0x80/0x78 sent again: no echo yet (lifecycle.c) */
 	uint64_t ignored[RMD_IGN_KINDS]; /* enable = 1 entries not acted on, by enum rmd_ignore */
 	uint64_t homes_refused;		 /* homing requests refused (RMD_EV_HOME_REFUSED) */
 };

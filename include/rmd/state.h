@@ -109,6 +109,17 @@ struct rmd_command {
 	 * latched until the loop consumes it).
 	 */
 	uint32_t disables[RMD_MAX_MOTORS];
+	/*
+	 * Robot-wide stops (docs/robot.md) the bridge decided on, total: a
+	 * peer lost or tripped, a robot_stop_t.  A change is the stop, latched
+	 * as disables[] is, so a command handed over right behind it does not
+	 * hide it: the loop gives every ENABLED motor the safe action and
+	 * latches the trip as its watchdog does.  robot_hold: a peer is lost,
+	 * unseen or stopping (robot.on_peer_lost: safe): enable = 1 entries
+	 * are not acted on.
+	 */
+	uint32_t robot_stops;
+	bool robot_hold;
 };
 
 /*
@@ -219,6 +230,8 @@ struct rmd_health {
 	struct rmd_bus_health bus[RMD_MAX_BUSES];
 	uint8_t watchdog;		 /* enum rmd_watchdog_state */
 	uint64_t safe_action_events;	 /* times a safe action was applied */
+	uint64_t watchdog_trips;	 /* the command watchdog's own trips (not robot stops) */
+	uint32_t robot_stops;		 /* rmd_command.robot_stops the loop acted on, newest */
 	uint64_t ignored[RMD_IGN_KINDS]; /* command entries not acted on, by enum rmd_ignore */
 	uint64_t homes_refused;		 /* homing requests refused (RMD_EV_HOME_REFUSED) */
 	/* per motor, config order, nmotors of them */

@@ -11,3 +11,4 @@ from ._version import __version__  # noqa: F401  (generated: rmdd's version, as 
 from ._types import *  # noqa: F401,F403  (generated: one class per lcm_types/*.lcm)
 from .client import (DEFAULT_URL, Client, MixedStreamError, MotorStopped,  # noqa: F401
                      NotOwner, RmdError, lifecycle_name)
+from .robot import Robot, discover  # noqa: F401

@@ -149,6 +149,9 @@ class Client:
       mixed     None, or the message naming both daemons
       stopped   {index: why} of the motors this client enabled and stopped
                 driving (MotorStopped, NotOwner) until enable() them again
+      beside    None, or a function called after each command enable() and
+                disable() stream (rmd.Robot sends the other instances' there,
+                so that their watchdogs do not trip meanwhile)
     """
 
     def __init__(self, url=None, prefix="RMD_", on_state=None, controller=None):
@@ -178,6 +181,7 @@ class Client:
         self.instances = {}
         self.allow_mixed = False
         self.mixed = None
+        self.beside = None
         # index -> [enable, mode, position, velocity, torque, kp, kd, max_velocity]
         self._cmd = {}
         self._enabled = set()  # motors enable() enabled and disable() has not disabled
@@ -625,6 +629,8 @@ class Client:
             end = time.monotonic() + timeout
             while True:
                 self.send()
+                if self.beside:
+                    self.beside()
                 if done(since):
                     return True
                 if time.monotonic() >= end or (self._owned_by_other() and not self.takeover
@@ -687,6 +693,8 @@ class Client:
         n = 0
         while True:
             self.send()
+            if self.beside:
+                self.beside()
             n += 1
             s = self.state
             off = s is not None and self.state_rx >= t0 + period and all(

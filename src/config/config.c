@@ -25,6 +25,7 @@ const char *const rmd_lost_action_names[] = { "motor", "all", NULL };
 const char *const rmd_shutdown_action_names[] = { "default", "stop", "hold", "damp", "brake", NULL };
 const char *const rmd_on_missing_names[] = { "refuse", "start", NULL };
 const char *const rmd_feedback_pos_names[] = { "control", "multi_turn", NULL };
+const char *const rmd_peer_lost_names[] = { "safe", "report", NULL };
 _Static_assert(RMD_MODE_COUNT == 4, "rmd_mode_names[] follows enum rmd_mode");
 
 void rmd_config_defaults(struct rmd_config *cfg)
@@ -48,6 +49,10 @@ void rmd_config_defaults(struct rmd_config *cfg)
 	cfg->lcm.stale_ms = RMD_CONFIG_DEFAULT_STALE_MS;
 	cfg->lcm.health_period_ms = RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS;
 	cfg->lcm.rt_priority = RMD_CONFIG_LCM_PRIO_AUTO;
+	cfg->robot.heartbeat_ms = RMD_CONFIG_DEFAULT_HEARTBEAT_MS;
+	cfg->robot.peer_timeout_ms = RMD_CONFIG_DEFAULT_PEER_TIMEOUT_MS;
+	cfg->robot.on_peer_lost = RMD_PEER_LOST_SAFE;
+	cfg->robot.max_clock_offset_ms = RMD_CONFIG_DEFAULT_MAX_CLOCK_OFFSET_MS;
 	cfg->incidents.enabled = true;
 	cfg->incidents.seconds_before = RMD_CONFIG_DEFAULT_INCIDENT_BEFORE_S;
 	cfg->incidents.seconds_after = RMD_CONFIG_DEFAULT_INCIDENT_AFTER_S;

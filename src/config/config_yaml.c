@@ -86,6 +86,24 @@ static const struct field lcm_fields[] = {
 	END
 };
 
+static const struct field robot_fields[] = {
+	STR("instance", struct rmd_config_robot, instance, F_IDENT),
+	{ .key = "peers",
+	  .type = T_SEQ,
+	  .off = offsetof(struct rmd_config_robot, peers),
+	  .size = RMD_CONFIG_MAX_PEERS,
+	  .elem = &(const struct field){ .type = T_STR,
+					 .flags = F_IDENT,
+					 .size = RMD_CONFIG_INSTANCE_LEN },
+	  .elem_size = RMD_CONFIG_INSTANCE_LEN,
+	  .count_off = offsetof(struct rmd_config_robot, n_peers) },
+	UINT("heartbeat_ms", struct rmd_config_robot, heartbeat_ms, 1, 10000, 0),
+	UINT("peer_timeout_ms", struct rmd_config_robot, peer_timeout_ms, 2, 600000, 0),
+	ENUM("on_peer_lost", struct rmd_config_robot, on_peer_lost, rmd_peer_lost_names, 0),
+	UINT("max_clock_offset_ms", struct rmd_config_robot, max_clock_offset_ms, 1, 3600000, 0),
+	END
+};
+
 static const struct field incidents_fields[] = {
 	BOOL("enabled", struct rmd_config_incidents, enabled),
 	STR("dir", struct rmd_config_incidents, dir, 0),
@@ -319,6 +337,7 @@ static const struct field top_fields[] = {
 	MAP("safety", C, safety, safety_fields),
 	MAP("probe", C, probe, probe_fields),
 	MAP("lcm", C, lcm, lcm_fields),
+	MAP("robot", C, robot, robot_fields),
 	MAP("incidents", C, incidents, incidents_fields),
 	SEQM("buses", C, buses, n_buses, &bus_elem, bus_init, MARK_BUS),
 	SEQM("motors", C, motors, n_motors, &motor_elem, motor_init, MARK_MOTOR),
@@ -1139,6 +1158,47 @@ static void validate_lcm(struct yctx *c, const struct rmd_config *cfg, const str
 				cfg->lcm.rt_priority, cfg->loop.rt_priority);
 }
 
+/*
+ * robot: a named instance to list peers; none of them itself or twice; a
+ * timeout a heartbeat fits into more than once (one lost heartbeat is not
+ * a lost peer).  docs/robot.md.
+ */
+static void validate_robot(struct yctx *c, const struct rmd_config *cfg, const struct ynode *root)
+{
+	const struct ynode *rn = rmd_yaml_get(root, "robot", NULL);
+	const struct ynode *pn = rmd_yaml_get(rn, "peers", NULL);
+	const struct rmd_config_robot *r = &cfg->robot;
+	char path[64];
+
+	if (!rn || rn->kind != Y_MAP)
+		return;
+	if (!r->instance[0])
+		rmd_yaml_report(c, rmd_yaml_line_of(rn, "instance"), "robot.instance",
+				"a robot: section needs this daemon's instance name (unique on "
+				"the robot, e.g. left_leg)");
+	for (unsigned i = 0; i < r->n_peers; i++) {
+		unsigned line = pn && pn->kind == Y_SEQ && i < pn->n ?
+					pn->kids[i]->line :
+					rmd_yaml_line_of(rn, "peers");
+
+		snprintf(path, sizeof(path), "robot.peers[%u]", i);
+		if (r->instance[0] && !strcmp(r->peers[i], r->instance))
+			rmd_yaml_report(c, line, path,
+					"\"%s\" is this daemon's own instance: list the other "
+					"instances of the robot",
+					r->peers[i]);
+		for (unsigned j = 0; j < i; j++)
+			if (!strcmp(r->peers[i], r->peers[j]))
+				rmd_yaml_report(c, line, path, "\"%s\" is listed twice (also [%u])",
+						r->peers[i], j);
+	}
+	if (r->peer_timeout_ms < 2 * r->heartbeat_ms)
+		rmd_yaml_report(c, rmd_yaml_line_of(rn, "peer_timeout_ms"), "robot.peer_timeout_ms",
+				"%u ms: at least two heartbeats (2 x heartbeat_ms = %u ms), so "
+				"that one lost datagram does not stop the robot",
+				r->peer_timeout_ms, 2 * r->heartbeat_ms);
+}
+
 /* The recorder's window: the loop keeps it in memory. */
 static void validate_incidents(struct yctx *c, const struct rmd_config *cfg,
 			       const struct ynode *root)
@@ -1318,6 +1378,7 @@ int rmd_config_load(const char *path, struct rmd_config *cfg, struct rmd_sim_set
 				validate_faults(&c, cfg, sim, i, bs->kids[i]);
 	}
 	validate_lcm(&c, cfg, root);
+	validate_robot(&c, cfg, root);
 	validate_incidents(&c, cfg, root);
 	validate_timing(&c, cfg, root);
 	validate_v2_protection(&c, cfg, root);

@@ -494,6 +494,20 @@ static void set_watchdog(struct rmd_loop *l, enum rmd_watchdog_state s, int64_t 
 }
 
 /*
+ * A robot-wide stop (rmd_command.robot_stops, docs/robot.md): every
+ * ENABLED motor gets the safe action, and the trip is latched as the
+ * watchdog's is, so a command that arrived before it lifts nothing and
+ * each motor takes enable = 1 only after an enable = 0.  rt-safe.
+ */
+static __attribute__((cold, noinline)) void robot_stop(struct rmd_loop *l, int64_t now)
+{
+	l->trip_ns = now;
+	set_watchdog(l, RMD_WD_TRIPPED, now);
+	for (unsigned i = 0; i < l->n_motors; i++)
+		make_safe(l, &l->mot[i], now);
+}
+
+/*
  * The newest command.  An enable = 0 the loop did not see (the bridge
  * handed a newer command over before this cycle) shows as a change of
  * disables[]: it is acted on first, so enable = 0 then enable = 1 works
@@ -531,7 +545,11 @@ void loop_take_command(struct rmd_loop *l, int64_t now)
 			disable_motor(l, lm, now);
 		}
 	}
-	if ((l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns) ||
+	if (__builtin_expect(c->robot_stops != l->robot_stops_seen, 0)) {
+		l->robot_stops_seen = c->robot_stops;
+		robot_stop(l, now);
+	}
+	if (c->robot_hold || (l->wd == RMD_WD_TRIPPED && c->rx_ns <= l->trip_ns) ||
 	    (timeout > 0 && now - c->rx_ns > timeout)) {
 		for (unsigned i = 0; i < l->n_motors; i++)
 			if (present & (1u << i) && c->m[i].enable)
@@ -600,6 +618,7 @@ static __attribute__((cold, noinline)) void watchdog_expire(struct rmd_loop *l, 
 	if (!trip)
 		return;
 	l->trip_ns = now;
+	l->cnt.watchdog_trips++;
 	set_watchdog(l, RMD_WD_TRIPPED, now);
 	for (unsigned i = 0; i < l->n_motors; i++)
 		if (now > l->cmd_due_ns[i])

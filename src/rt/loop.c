@@ -261,6 +261,8 @@ void loop_fill_health(struct rmd_loop *l, int64_t now)
 	}
 	h->watchdog = l->wd;
 	h->safe_action_events = l->cnt.safe_actions;
+	h->watchdog_trips = l->cnt.watchdog_trips;
+	h->robot_stops = l->robot_stops_seen;
 	memcpy(h->ignored, l->cnt.ignored, sizeof(h->ignored));
 	h->homes_refused = l->cnt.homes_refused;
 	h->nmotors = l->n_motors;

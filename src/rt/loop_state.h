@@ -268,6 +268,7 @@ struct rmd_loop {
 	uint32_t arm_busy;
 	uint8_t wd; /* enum rmd_watchdog_state */
 	int64_t trip_ns;
+	uint32_t robot_stops_seen; /* the newest command's robot_stops, acted on */
 
 	/* statistics */
 	struct rmd_loop_stats stats;

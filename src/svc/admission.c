@@ -339,7 +339,7 @@ static int decode_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m, rmd
  * enabled only by the controller that released them or one that sent
  * enable = 0 since: a controller rejected while another drove never
  * inherits the motors by waiting.  at: when the command arrived
- * (arrival_ns()).  Returns -1 or RMD_REJ_OWNER.  Bridge thread.
+ * (bridge_arrival_ns()).  Returns -1 or RMD_REJ_OWNER.  Bridge thread.
  */
 static int check_owner(struct rmd_bridge *b, const rmd_command_t *msg, int64_t at)
 {
@@ -435,7 +435,7 @@ static void note_accepted(struct rmd_bridge *b, const rmd_command_t *msg)
  * clock step moves a stamp at most to those bounds, and each command's
  * rx_ns is its own.  Bridge thread.
  */
-static int64_t arrival_ns(struct rmd_bridge *b, int64_t real_ns, int64_t now)
+int64_t bridge_arrival_ns(struct rmd_bridge *b, int64_t real_ns, int64_t now)
 {
 	int64_t t = real_ns > 0 ? sub_sat(real_ns, b->rx_off_ns) : now;
 
@@ -464,7 +464,7 @@ void bridge_admit_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m)
 		return;
 	}
 	/* udpm: the kernel's stamp of its last datagram; else LCM's receive time */
-	at = arrival_ns(b, m->rx_real_ns, rmd_now_ns());
+	at = bridge_arrival_ns(b, m->rx_real_ns, rmd_now_ns());
 	if (b->probing)
 		return;
 	if (decode_command(b, m, msg) >= 0 || check_entries(b, msg) >= 0 ||
@@ -491,6 +491,7 @@ void bridge_admit_command(struct rmd_bridge *b, const struct rmd_lcm_msg *m)
 	note_accepted(b, msg);
 	fill_command(b, msg, &buf->cmd, &note);
 	memcpy(buf->cmd.disables, b->disables, sizeof(buf->cmd.disables));
+	bridge_robot_command(b, &buf->cmd);
 	buf->cmd.rx_ns = at;
 	rmd_latest_put(b->opts.commands, &buf->cmd);
 	bridge_count(&b->n_accepted);

@@ -54,6 +54,9 @@ void rmd_bridge_opts_init(struct rmd_bridge_opts *opts)
 	opts->health_period_ns = (int64_t)RMD_CONFIG_DEFAULT_HEALTH_PERIOD_MS * RMD_NS_PER_MS;
 	opts->poll_ns = RMD_BRIDGE_DEFAULT_POLL_NS;
 	opts->notify_fd = -1;
+	opts->robot.heartbeat_ms = RMD_CONFIG_DEFAULT_HEARTBEAT_MS;
+	opts->robot.peer_timeout_ms = RMD_CONFIG_DEFAULT_PEER_TIMEOUT_MS;
+	opts->robot.max_clock_offset_ms = RMD_CONFIG_DEFAULT_MAX_CLOCK_OFFSET_MS;
 }
 
 static void on_config_request(struct rmd_bridge *b)
@@ -146,9 +149,17 @@ void rmd_bridge_handle(struct rmd_bridge *b, const struct rmd_lcm_msg *m)
 		bridge_admit_command(b, m); /* one too long to keep as well: it is refused */
 		return;
 	}
+	if (!strcmp(m->channel, RMD_CHANNEL_ROBOT_STOP)) {
+		bridge_robot_stop_in(b, m); /* any message stops, even one too long */
+		return;
+	}
 	if (!m->data) /* too long to keep, and not a command: dropped */
 		return;
-	if (!strcmp(m->channel, b->ch_config_req))
+	if (!strcmp(m->channel, RMD_CHANNEL_ROBOT_HEARTBEAT))
+		bridge_robot_heartbeat_in(b, m);
+	else if (!strcmp(m->channel, RMD_CHANNEL_ROBOT_CONFIG))
+		bridge_robot_config_in(b, m);
+	else if (!strcmp(m->channel, b->ch_config_req))
 		on_config_request(b);
 	else if (!strcmp(m->channel, b->ch_home))
 		bridge_admit_home(b, m);
@@ -220,6 +231,8 @@ static int64_t sleep_ns(const struct rmd_bridge *b, int64_t now, bool notified)
 
 	if (b->config_wanted && b->config_sent_ns + CONFIG_INTERVAL_NS < due)
 		due = b->config_sent_ns + CONFIG_INTERVAL_NS;
+	if (b->robot && b->next_hb_ns < due)
+		due = b->next_hb_ns;
 	if (!notified && b->state_listeners && b->opts.snapshots && now + b->opts.poll_ns < due)
 		due = now + b->opts.poll_ns;
 	return due > now ? due - now : 0;
@@ -294,6 +307,7 @@ static void *bridge_main(void *arg)
 	bridge_publish_config(b);
 	b->config_sent_ns = now;
 	b->next_health_ns = now + b->opts.health_period_ns;
+	b->next_hb_ns = now;
 	while (!stop) {
 		struct epoll_event ev[4];
 		bool readable = false;
@@ -334,6 +348,13 @@ static void *bridge_main(void *arg)
 			if (b->next_health_ns <= now) /* late: skip, never catch up in a burst */
 				b->next_health_ns = now + b->opts.health_period_ns;
 		}
+		if (b->robot && now >= b->next_hb_ns) {
+			drain(b); /* the peers judged on every heartbeat that came */
+			bridge_robot_tick(b, now);
+			b->next_hb_ns += b->hb_period_ns;
+			if (b->next_hb_ns <= now) /* late: skip, never catch up in a burst */
+				b->next_hb_ns = now + b->hb_period_ns;
+		}
 		/* at most one config_t a CONFIG_INTERVAL_NS; a request in between waits for it */
 		if (b->config_wanted && now - b->config_sent_ns >= CONFIG_INTERVAL_NS) {
 			b->config_wanted = false;
@@ -341,6 +362,7 @@ static void *bridge_main(void *arg)
 			bridge_publish_config(b);
 		}
 	}
+	bridge_robot_goodbye(b);
 	return NULL;
 }
 
@@ -383,6 +405,19 @@ static int check_opts(const struct rmd_bridge_opts *o, char *err, size_t errlen)
 		return snprintf(err, errlen,
 				"stale_ms or command_timeout_ms < 0, or a period <= 0"),
 		       -EINVAL;
+	if (o->robot.instance[0] &&
+	    (o->robot.n_peers > RMD_CONFIG_MAX_PEERS || o->robot.heartbeat_ms == 0 ||
+	     o->robot.peer_timeout_ms == 0 ||
+	     strnlen(o->robot.instance, RMD_CONFIG_INSTANCE_LEN) == RMD_CONFIG_INSTANCE_LEN))
+		return snprintf(err, errlen,
+				"robot: more than %d peers, a period of 0 or an unterminated name",
+				RMD_CONFIG_MAX_PEERS),
+		       -EINVAL;
+	for (unsigned i = 0; o->robot.instance[0] && i < o->robot.n_peers; i++)
+		if (!strcmp(o->robot.peers[i], o->robot.instance))
+			return snprintf(err, errlen, "robot: peer %u is this daemon itself (%s)", i,
+					o->robot.instance),
+			       -EINVAL;
 	if (o->rt_priority > 98)
 		return snprintf(err, errlen, "rt_priority %u (0..98)", o->rt_priority), -EINVAL;
 	for (unsigned i = 0; i < o->nbuses; i++)
@@ -481,6 +516,10 @@ int rmd_bridge_new(struct rmd_bridge **out, const struct rmd_bridge_opts *opts, 
 {
 	struct rmd_lcm_link_opts lo = { .url = opts->url,
 					.prefix = opts->prefix,
+					/* alone, the robot's channels are not even read */
+					.prefix2 = opts->robot.instance[0] ?
+							   RMD_CHANNEL_ROBOT_PREFIX :
+							   NULL,
 					.recv_buf_size = RMD_BRIDGE_UDPM_RCVBUF,
 					.queue = COMMAND_QUEUE };
 	struct rmd_bridge *b;
@@ -514,6 +553,7 @@ int rmd_bridge_new(struct rmd_bridge **out, const struct rmd_bridge_opts *opts, 
 	snprintf(b->ch_config_req, sizeof(b->ch_config_req), "%s" RMD_CHANNEL_CONFIG_REQUEST,
 		 opts->prefix);
 	snprintf(b->ch_home, sizeof(b->ch_home), "%s" RMD_CHANNEL_HOME, opts->prefix);
+	bridge_robot_init(b);
 
 	b->stop_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
 	if (b->stop_fd < 0) {
@@ -657,6 +697,7 @@ void rmd_bridge_get_stats(struct rmd_bridge *b, struct rmd_bridge_stats *st)
 	st->publish_errors = bridge_counted(&b->n_publish_errors);
 	st->foreign = bridge_counted(&b->n_foreign);
 	st->lcm_errors = bridge_counted(&b->n_lcm_errors);
+	st->robot_stops = bridge_counted(&b->n_robot_stops);
 	st->takeovers = bridge_counted(&b->n_takeovers);
 	st->owned = atomic_load_explicit(&b->pub_owned, memory_order_relaxed);
 	st->owner = atomic_load_explicit(&b->pub_owner, memory_order_relaxed);

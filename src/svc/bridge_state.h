@@ -30,6 +30,9 @@
 #include "rmd/bridge.h"
 #include "rmd/channels.h"
 #include "rmd/lcm_link.h"
+#include "rmd/peers.h"
+#include "rmd/rmd_heartbeat_t.h"
+#include "rmd/rmd_robot_peer_t.h"
 #include "rmd/rmd_command_t.h"
 #include "rmd/rmd_config_t.h"
 #include "rmd/rmd_health_t.h"
@@ -59,6 +62,12 @@ struct rmd_bridge_buf {
 	rmd_bus_config_t config_bus[RMD_MAX_BUSES];
 	rmd_motor_config_t config_motor[RMD_MAX_MOTORS];
 	unsigned char enc[ENC_MAX];
+	/* robot.c: a robot-wide stop's own hand-over, the heartbeat, health_t's peers */
+	struct rmd_command robot_cmd;
+	rmd_heartbeat_t hb;
+	rmd_heartbeat_echo_t hb_echo[RMD_CONFIG_MAX_PEERS];
+	rmd_robot_peer_t health_peer[RMD_CONFIG_MAX_PEERS];
+	char *config_peers[RMD_CONFIG_MAX_PEERS];
 };
 
 struct rmd_bridge {
@@ -136,6 +145,28 @@ struct rmd_bridge {
 	_Atomic int64_t pub_owner;
 	_Atomic int64_t pub_intruder;
 
+	/*
+	 * The robot (robot.c), owned by the bridge thread: whether this daemon
+	 * is a part of one, its peers, its heartbeat, the stops handed to the
+	 * loop (rmd_command.robot_stops) and whether the newest is not over
+	 * yet (and why), per peer the motor names it shares with this daemon.
+	 */
+	bool robot;
+	bool robot_safe; /* on_peer_lost: safe */
+	struct rmd_peers peers;
+	int64_t hb_period_ns;
+	int64_t next_hb_ns;
+	int64_t hb_seq;
+	uint32_t robot_stops;
+	bool robot_tripped;
+	char robot_reason[RMD_PEERS_REASON_LEN];
+	char robot_said[RMD_PEERS_REASON_LEN]; /* the newest reason logged: said once */
+	bool hb_bad_logged;
+	bool spoof_logged[2]; /* [0] a peer's name, [1] this daemon's */
+	bool config_robot_wanted;
+	int32_t clash[RMD_CONFIG_MAX_PEERS];
+	atomic_uint_fast64_t n_robot_stops;
+
 	/* Owned by the bridge thread: a stamp refused as a clock jump (check_order). */
 	int64_t utime_jump;
 	bool have_utime_jump;
@@ -201,5 +232,27 @@ void bridge_admit_home(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
 void bridge_publish_state(struct rmd_bridge *b);
 void bridge_publish_health(struct rmd_bridge *b, int64_t now);
 void bridge_publish_config(struct rmd_bridge *b);
+
+/*
+ * admission.c: when a message that arrived at real_ns (CLOCK_REALTIME,
+ * 0: none) did, on CLOCK_MONOTONIC, bounded as its comment says.
+ */
+int64_t bridge_arrival_ns(struct rmd_bridge *b, int64_t real_ns, int64_t now);
+
+/*
+ * robot.c (docs/robot.md): set up from opts.robot; a command hand-over's
+ * robot fields; RMD_ROBOT_HEARTBEAT, RMD_ROBOT_STOP and RMD_ROBOT_CONFIG
+ * in; every heartbeat period, the peers' timeouts and our heartbeat; a
+ * last heartbeat that says this daemon stops; health_t's robot fields.
+ * Bridge thread (init: rmd_bridge_new()).
+ */
+void bridge_robot_init(struct rmd_bridge *b);
+void bridge_robot_command(const struct rmd_bridge *b, struct rmd_command *cmd);
+void bridge_robot_heartbeat_in(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
+void bridge_robot_stop_in(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
+void bridge_robot_config_in(struct rmd_bridge *b, const struct rmd_lcm_msg *m);
+void bridge_robot_tick(struct rmd_bridge *b, int64_t now);
+void bridge_robot_goodbye(struct rmd_bridge *b);
+void bridge_robot_health(struct rmd_bridge *b, int64_t now, rmd_health_t *o);
 
 #endif /* RMD_BRIDGE_STATE_H */

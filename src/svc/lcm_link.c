@@ -51,6 +51,8 @@ struct rmd_lcm_link {
 	bool udpm;
 	char prefix[RMD_UDPM_CHANNEL_MAX + 1];
 	size_t prefix_len;
+	char prefix2[RMD_UDPM_CHANNEL_MAX + 1]; /* "": none */
+	size_t prefix2_len;
 
 	/* udpm */
 	int rx_fd, tx_fd;
@@ -63,7 +65,7 @@ struct rmd_lcm_link {
 
 	/* other providers */
 	lcm_t *lcm;
-	lcm_subscription_t *sub;
+	lcm_subscription_t *sub, *sub2;
 	pid_t tid[RMD_LCM_LINK_THREADS];
 	unsigned n_tid, n_tid_rt;
 	/* the message lcm_handle() handed over (on_lcm), copied: LCM's is gone after it */
@@ -385,6 +387,15 @@ static int open_lcm(struct rmd_lcm_link *l, const struct rmd_lcm_link_opts *o, c
 	}
 	if (o->queue)
 		lcm_subscription_set_queue_capacity(l->sub, (int)o->queue);
+	/* a second prefix inside the first is received already: subscribed twice, twice over */
+	if (l->prefix2[0] && strncmp(l->prefix2, l->prefix, l->prefix_len) != 0) {
+		prefix_regex(re, sizeof(re), l->prefix2);
+		l->sub2 = lcm_subscribe(l->lcm, re, on_lcm, l);
+		if (!l->sub2) {
+			snprintf(err, errlen, "LCM \"%s\": cannot subscribe", o->url);
+			return -EIO;
+		}
+	}
 	find_lcm_threads(l, before, n_before);
 	return 0;
 }
@@ -402,7 +413,8 @@ int rmd_lcm_link_new(struct rmd_lcm_link **out, const struct rmd_lcm_link_opts *
 		snprintf(err, errlen, "no LCM URL, or one longer than %d characters", URL_MAX - 1);
 		return -EINVAL;
 	}
-	if (o->prefix && strlen(o->prefix) > RMD_UDPM_CHANNEL_MAX) {
+	if ((o->prefix && strlen(o->prefix) > RMD_UDPM_CHANNEL_MAX) ||
+	    (o->prefix2 && strlen(o->prefix2) > RMD_UDPM_CHANNEL_MAX)) {
 		snprintf(err, errlen, "channel prefix longer than %d characters",
 			 RMD_UDPM_CHANNEL_MAX);
 		return -EINVAL;
@@ -415,6 +427,8 @@ int rmd_lcm_link_new(struct rmd_lcm_link **out, const struct rmd_lcm_link_opts *
 	l->rx_fd = l->tx_fd = -1;
 	snprintf(l->prefix, sizeof(l->prefix), "%s", o->prefix ? o->prefix : "");
 	l->prefix_len = strlen(l->prefix);
+	snprintf(l->prefix2, sizeof(l->prefix2), "%s", o->prefix2 ? o->prefix2 : "");
+	l->prefix2_len = strlen(l->prefix2);
 	r = strncmp(o->url, "udpm://", 7) == 0 ? open_udpm(l, o, err, errlen) :
 						 open_lcm(l, o, err, errlen);
 	if (r < 0) {
@@ -432,6 +446,8 @@ void rmd_lcm_link_free(struct rmd_lcm_link *l)
 	if (l->lcm) {
 		if (l->sub)
 			lcm_unsubscribe(l->lcm, l->sub);
+		if (l->sub2)
+			lcm_unsubscribe(l->lcm, l->sub2);
 		lcm_destroy(l->lcm);
 	}
 	if (l->rx_fd >= 0)
@@ -462,7 +478,8 @@ static int64_t rx_stamp_ns(struct msghdr *mh)
 
 static bool in_prefix(const struct rmd_lcm_link *l, const char *channel)
 {
-	return strncmp(channel, l->prefix, l->prefix_len) == 0;
+	return strncmp(channel, l->prefix, l->prefix_len) == 0 ||
+	       (l->prefix2_len && strncmp(channel, l->prefix2, l->prefix2_len) == 0);
 }
 
 static int receive_udpm(struct rmd_lcm_link *l, struct rmd_lcm_msg *m)

@@ -129,6 +129,7 @@ void bridge_publish_state(struct rmd_bridge *b)
 	b->last_state_cycle = s->cycle;
 
 	st->utime = s->t_ns / 1000;
+	st->host_utime = (s->t_ns + b->rx_off_last_ns) / 1000; /* the newest drain's offset */
 	st->cycle = sat64(s->cycle);
 	st->owned = b->owned;
 	st->owner = b->owned ? b->owner : 0;
@@ -232,6 +233,7 @@ void bridge_publish_health(struct rmd_bridge *b, int64_t now)
 		o->unarmed_rejects[i] = known ? sat64(h->unarmed_rejects[i]) : 0;
 	}
 
+	bridge_robot_health(b, now, o);
 	n = rmd_health_t_encode(b->buf->enc, 0, ENC_MAX, o);
 	if (publish_encoded(b, b->ch_health, n))
 		bridge_count(&b->n_health);
@@ -251,6 +253,11 @@ void bridge_publish_config(struct rmd_bridge *b)
 	c->host = op->host;
 	c->pid = op->pid;
 	c->source = op->source;
+	c->instance_name = op->robot.instance;
+	c->n_peers = (int16_t)op->robot.n_peers;
+	c->peers = b->buf->config_peers;
+	for (unsigned i = 0; i < op->robot.n_peers && i < RMD_CONFIG_MAX_PEERS; i++)
+		c->peers[i] = op->robot.peers[i];
 	c->period_us = sat32(op->period_ns / 1000);
 	c->state_every = sat32(op->state_every);
 	c->stale_ms = op->stale_ms;

@@ -12,6 +12,15 @@
  * Every accepted command must hand over only finite setpoints inside the
  * motor's limits (the rule rmd_motor_clamp() applies).
  *
+ * The bridge is a part of a robot (instance "fuzz", peer "peer";
+ * docs/robot.md): a raw datagram with tag bit 2 goes to RMD_ROBOT_HEARTBEAT
+ * instead (src/svc/peers.c judges it), with bit 3 to RMD_ROBOT_STOP; a
+ * structured record with tag bit 2 is a heartbeat_t built from the input
+ * (its name, host and echo's name from small sets, so that peers, spoofs
+ * and this daemon's own name all come up; the numbers full width).  None
+ * is a command (not counted as one); whatever they hand over (a robot-wide
+ * stop) must pass the same checks.
+ *
  * Input: a sequence of datagrams, each a tag byte, then
  *   tag bit 0 set:   a length byte and that many raw bytes (any datagram);
  *   tag bit 0 clear: a command_t built from the input and encoded: utime
@@ -35,6 +44,7 @@
 #include "rmd/channels.h"
 #include "rmd/motor.h"
 #include "rmd/rmd_command_t.h"
+#include "rmd/rmd_heartbeat_t.h"
 #include "rmd/spsc.h"
 #include "rmd/state.h"
 
@@ -98,6 +108,9 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 	snprintf(opts.bus[0].name, sizeof(opts.bus[0].name), "fuzzbus");
 	snprintf(opts.bus[0].kind, sizeof(opts.bus[0].kind), "sim");
 	opts.bus[0].bitrate = 1000000;
+	snprintf(opts.robot.instance, sizeof(opts.robot.instance), "fuzz");
+	snprintf(opts.robot.peers[0], sizeof(opts.robot.peers[0]), "peer");
+	opts.robot.n_peers = 1;
 	opts.commands = &commands;
 	opts.log = sink;
 	return 0;
@@ -138,6 +151,31 @@ static int build(struct fuzz_in *in, uint8_t tag, int64_t *utime, int64_t *seq)
 	return rmd_command_t_encode(enc, 0, sizeof(enc), &msg);
 }
 
+/* A heartbeat_t of one structured record. */
+static int build_heartbeat(struct fuzz_in *in)
+{
+	static char *const names[] = { "fuzz", "peer", "other", "" };
+	static char *const hosts[] = { "host-a", "host-b" };
+	rmd_heartbeat_echo_t echo[2];
+	rmd_heartbeat_t hb = { .prefix = "P_", .reason = "fuzz" };
+
+	hb.instance = names[fuzz_u8(in) & 3];
+	hb.host = hosts[fuzz_u8(in) & 1];
+	hb.boot_id = (int64_t)(fuzz_u8(in) & 3);
+	hb.seq = (int64_t)fuzz_u64(in);
+	hb.t_ns = (int64_t)fuzz_u64(in);
+	hb.state = (int8_t)fuzz_u8(in);
+	hb.trips = (int64_t)fuzz_u64(in);
+	hb.n_echoes = (int16_t)(fuzz_u8(in) % 3);
+	hb.echo = echo;
+	for (int k = 0; k < hb.n_echoes; k++)
+		echo[k] = (rmd_heartbeat_echo_t){ .instance = names[fuzz_u8(in) & 3],
+						  .seq = (int64_t)fuzz_u64(in),
+						  .t_sent_ns = (int64_t)fuzz_u64(in),
+						  .t_recv_ns = (int64_t)fuzz_u64(in) };
+	return rmd_heartbeat_t_encode(enc, 0, sizeof(enc), &hb);
+}
+
 static void check_handover(void)
 {
 	const struct rmd_command *c;
@@ -172,14 +210,17 @@ static void check_handover(void)
 
 static struct rmd_bridge *b;
 
-static void publish(const void *buf, int len)
+static void publish_on(const char *channel, const void *buf, int len)
 {
-	struct rmd_lcm_msg m = { .channel = PREFIX RMD_CHANNEL_COMMAND,
-				 .data = buf,
-				 .size = (uint32_t)len };
+	struct rmd_lcm_msg m = { .channel = channel, .data = buf, .size = (uint32_t)len };
 
 	rmd_bridge_handle(b, &m);
 	check_handover();
+}
+
+static void publish(const void *buf, int len)
+{
+	publish_on(PREFIX RMD_CHANNEL_COMMAND, buf, len);
 }
 
 /* Accepted plus rejected commands so far. */
@@ -220,6 +261,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 			memcpy(enc, in.p, (size_t)len);
 			in.p += len;
 			in.n -= (size_t)len;
+			if (tag & 12) {
+				publish_on(tag & 4 ? RMD_CHANNEL_ROBOT_HEARTBEAT :
+						     RMD_CHANNEL_ROBOT_STOP,
+					   enc, len);
+				continue;
+			}
+		} else if (tag & 4) {
+			len = build_heartbeat(&in);
+			FUZZ_CHECK(len > 0);
+			publish_on(RMD_CHANNEL_ROBOT_HEARTBEAT, enc, len);
+			continue;
 		} else {
 			len = build(&in, tag, &utime, &seq);
 			FUZZ_CHECK(len > 0);

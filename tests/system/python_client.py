@@ -19,6 +19,12 @@
                                  it raise MixedStreamError naming both; with
                                  allow_mixed the client keeps the first
                                  daemon's config_t and lists both
+    python_client.py robot URL   two rmdd as one robot (instances left and
+                                 right, docs/robot.md): rmd.Robot finds them
+                                 by their heartbeats, one view of the four
+                                 motors and which instance each is on, one
+                                 send() drives all, clocks comparable;
+                                 stop() makes every motor SAFE
 
 It must run the installed package (pip install ./python), not a checkout:
 it prints where rmd comes from.  Each step prints one line; a failed check
@@ -165,9 +171,53 @@ def mixed(url):
     return 0
 
 
+def robot(url):
+    """rmd.Robot over the daemons left and right (test_python_client's robot test)."""
+    with rmd.Robot(instances=["left", "right"], url=url) as r:
+        want = ["left_hip", "left_knee", "right_hip", "right_knee"]
+        if sorted(r.motors) != want:
+            fail(f"motors {r.motors}, want {want}")
+        where = {m: r.instance_of(m) for m in r.motors}
+        if where["left_knee"] != "left" or where["right_hip"] != "right":
+            fail(f"instance_of: {where}")
+        print(f"robot: motors {where}", flush=True)
+        r.enable(r.motors, rmd.command_t.MODE_TORQUE, timeout=3.0)
+        r.spin(0.5)
+        lcs = {m: r.state[m].lifecycle for m in r.motors}
+        if any(lc != rmd.state_t.LC_ENABLED for lc in lcs.values()):
+            fail(f"not every motor ENABLED after enable() and spin(): {lcs}")
+        print("robot: every motor ENABLED through one send()", flush=True)
+        now_us = time.time() * 1e6
+        for inst, c in r.clients.items():
+            if abs(c.state.host_utime - now_us) > 2e6:
+                fail(f"{inst}: state_t host_utime {c.state.host_utime} vs now {now_us:.0f}")
+        off = r.max_offset_ms()
+        if off is None or off > 100:
+            fail(f"max_offset_ms() {off}: the peers' offsets on one host")
+        print(f"robot: clocks within {off:.3f} ms", flush=True)
+        r.stop("python test")
+        end = time.monotonic() + 2.0
+        while time.monotonic() < end and not all(
+                r.state[m].lifecycle == rmd.state_t.LC_SAFE for m in r.motors):
+            r.poll(0.02)
+        lcs = {m: rmd.lifecycle_name(r.state[m].lifecycle) for m in r.motors}
+        if any(lc != "safe" for lc in lcs.values()):
+            fail(f"after stop(): {lcs}")
+        print(f"robot: stop() -> {lcs}", flush=True)
+        r.poll(0.2)
+        for inst, c in r.clients.items():
+            c.wait(0.15)
+            if "python test" not in c.health.robot_reason:
+                fail(f"{inst}: health_t robot_reason {c.health.robot_reason!r}")
+        print("robot: each daemon says why", flush=True)
+    return 0
+
+
 def main():
     what, url = sys.argv[1], sys.argv[2]
     print(f"rmd from {rmd.__file__}", flush=True)
+    if what == "robot":
+        return robot(url)
     if what == "mixed":
         return mixed(url)
     if what == "takeover":

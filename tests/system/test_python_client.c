@@ -524,6 +524,55 @@ static void test_two_daemons_are_a_clear_error(void **state)
 		fail_msg("want MixedStreamError naming %s and %s in:\n%s", pid1, pid2, out);
 }
 
+/*
+ * Issue 30: two rmdd as one robot (instances left and right, each the
+ * other's peer, prefixes LEFT_ and RIGHT_): python_client.py robot opens
+ * them as one rmd.Robot (docs/robot.md).
+ */
+static void test_robot_one_view(void **state)
+{
+	struct fixture *f = client_or_skip(state);
+	static const char *const side[2][2] = { { "left", "right" }, { "right", "left" } };
+	char cfg[2][PATH_MAX], log2[2][160];
+	const char *out;
+
+	for (int k = 0; k < 2; k++) {
+		FILE *o;
+
+		snprintf(cfg[k], sizeof(cfg[k]), "%s/%s.yaml", tmpdir, side[k][0]);
+		o = fopen(cfg[k], "w");
+		assert_non_null(o);
+		fprintf(o,
+			"lcm: {channel_prefix: %s_}\n"
+			"incidents: {enabled: false}\n"
+			"robot: {instance: %s, peers: [%s]}\n"
+			"buses: [{name: s0, type: sim}]\n"
+			"motors:\n"
+			"  - {name: %s_hip, bus: s0, id: 1, mode: torque, torque_constant_nm_a: 2}\n"
+			"  - {name: %s_knee, bus: s0, id: 2, mode: torque, torque_constant_nm_a: 2}\n",
+			k ? "RIGHT" : "LEFT", side[k][0], side[k][1], side[k][0], side[k][0]);
+		assert_int_equal(fclose(o), 0);
+		snprintf(log2[k], sizeof(log2[k]), "%s/%s.%u.log", tmpdir, side[k][0], test_no);
+	}
+	{
+		const char *a0[] = { rmdd_bin, "--config", cfg[0], "--lcm-url", f->url, NULL };
+		const char *a1[] = { rmdd_bin, "--config", cfg[1], "--lcm-url", f->url, NULL };
+
+		f->rmdd = start(a0, log2[0]);
+		f->rmdd2 = start(a1, log2[1]);
+	}
+	for (double end = mono_s() + 10;
+	     !strstr(log_text(log2[0]), "running:") || !strstr(log_text(log2[1]), "running:");) {
+		if (reap(f, &f->rmdd, 0.02) >= 0 || reap(f, &f->rmdd2, 0.02) >= 0 ||
+		    mono_s() >= end)
+			fail_msg("the robot's two rmdd not running:\n%s\n%s", log_text(log2[0]),
+				 log_text(log2[1]));
+	}
+	out = run_script(f, "robot");
+	assert_has(out, "robot: every motor ENABLED through one send()", "python_client.py robot");
+	assert_has(out, "robot: stop() -> ", "python_client.py robot");
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -532,6 +581,7 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_enable_after_the_watchdog_tripped, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_no_rmdd_is_a_clear_error, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_robot_one_view, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_two_daemons_are_a_clear_error, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_second_client_rejected_then_takes_over, setup,

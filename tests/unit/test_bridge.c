@@ -344,6 +344,18 @@ static void test_init_checks_opts(void **state)
 	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
 	assert_non_null(strstr(err, "rt_priority"));
 
+	/* issue 30: a robot part never has itself as a peer (docs/robot.md) */
+	o = f->opts;
+	snprintf(o.robot.instance, sizeof(o.robot.instance), "left");
+	snprintf(o.robot.peers[0], sizeof(o.robot.peers[0]), "right");
+	snprintf(o.robot.peers[1], sizeof(o.robot.peers[1]), "left");
+	o.robot.n_peers = 2;
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "robot: peer 1 is this daemon itself (left)"));
+	o.robot.n_peers = RMD_CONFIG_MAX_PEERS + 1;
+	assert_int_equal(rmd_bridge_new(&b, &o, err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "robot: more than 16 peers"));
+
 	/* The defaults keep traffic on the host. */
 	rmd_bridge_opts_init(&o);
 	assert_string_equal(o.url, "udpm://239.255.76.67:7667?ttl=0");
@@ -2157,6 +2169,8 @@ static void send_other_health(struct fixture *f)
 			   .host = "other",
 			   .pid = 42,
 			   .foreign_host = "",
+			   .instance_name = "",
+			   .robot_reason = "",
 			   .motor_count = 1,
 			   .comm_loss = cl,
 			   .comm_loss_ms = cl_ms,
@@ -2175,6 +2189,7 @@ static void send_other_config(struct fixture *f)
 			   .host = "other",
 			   .pid = 42,
 			   .source = "/etc/rmdd/other.yaml",
+			   .instance_name = "",
 			   .version = "0.3.0" };
 
 	assert_int_equal(rmd_config_t_publish(f->ctl, PREFIX "CONFIG", &c), 0);

@@ -1358,6 +1358,76 @@ static void test_position_key_lines(void **state)
 	}
 }
 
+/*
+ * Issue 30: robot: keys (docs/robot.md).  No section: alone, the defaults.
+ * A section: its instance, peers and times; a peer list naming the
+ * daemon itself, a peer twice, peers without an instance, a timeout one
+ * heartbeat long, 17 peers, a name that is not one: FILE:LINE errors.
+ */
+static void test_robot_keys(void **state)
+{
+	static const char motors[] = "buses:\n  - {name: s, type: sim}\n"
+				     "motors:\n"
+				     "  - {name: a, bus: s, id: 1, mode: torque, "
+				     "torque_constant_nm_a: 2}\n";
+	static const struct {
+		const char *robot, *expect;
+	} bad[] = {
+		{ "robot:\n  instance: left\n  peers: [right, left]\n",
+		  ":3: robot.peers[1]: \"left\" is this daemon's own instance" },
+		{ "robot:\n  instance: left\n  peers:\n    - right\n    - right\n",
+		  ":5: robot.peers[1]: \"right\" is listed twice (also [0])" },
+		{ "robot:\n  peers: [right]\n",
+		  ":2: robot.instance: a robot: section needs this daemon's instance name" },
+		{ "robot: {instance: left, heartbeat_ms: 50, peer_timeout_ms: 60}\n",
+		  ":1: robot.peer_timeout_ms: 60 ms: at least two heartbeats" },
+		{ "robot: {instance: Left}\n", ":1: robot.instance: \"Left\" is not a name" },
+		{ "robot: {instance: left, on_peer_lost: ignore}\n",
+		  "robot.on_peer_lost: \"ignore\"" },
+		{ "robot: {instance: left, heartbeat_ms: 0}\n",
+		  "robot.heartbeat_ms: 0 is out of range (1..10000)" },
+		{ "robot: {instance: left, peers: [a, b, c, d, e, f, g, h, i, j, k, l, m, n, o, p, "
+		  "q]}\n",
+		  "robot.peers" },
+		{ "robot: {instance: left, peer: [right]}\n",
+		  "robot.peer: unknown key (did you mean peers?)" },
+	};
+	char doc[1024];
+
+	(void)state;
+	assert_int_equal(load_str("robot-none.yaml", motors), 0);
+	assert_string_equal(cfg.robot.instance, "");
+	assert_int_equal(cfg.robot.n_peers, 0);
+	assert_int_equal(cfg.robot.heartbeat_ms, RMD_CONFIG_DEFAULT_HEARTBEAT_MS);
+	assert_int_equal(cfg.robot.peer_timeout_ms, RMD_CONFIG_DEFAULT_PEER_TIMEOUT_MS);
+	assert_int_equal(cfg.robot.on_peer_lost, RMD_PEER_LOST_SAFE);
+
+	snprintf(doc, sizeof(doc),
+		 "robot:\n  instance: left_leg\n  peers: [right_leg, torso]\n"
+		 "  heartbeat_ms: 20\n  peer_timeout_ms: 200\n  on_peer_lost: report\n"
+		 "  max_clock_offset_ms: 5\n%s",
+		 motors);
+	if (load_str("robot-good.yaml", doc) != 0)
+		fail_msg("%s", err);
+	assert_string_equal(cfg.robot.instance, "left_leg");
+	assert_int_equal(cfg.robot.n_peers, 2);
+	assert_string_equal(cfg.robot.peers[0], "right_leg");
+	assert_string_equal(cfg.robot.peers[1], "torso");
+	assert_int_equal(cfg.robot.heartbeat_ms, 20);
+	assert_int_equal(cfg.robot.peer_timeout_ms, 200);
+	assert_int_equal(cfg.robot.on_peer_lost, RMD_PEER_LOST_REPORT);
+	assert_int_equal(cfg.robot.max_clock_offset_ms, 5);
+
+	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
+		snprintf(doc, sizeof(doc), "%s%s", bad[k].robot, motors);
+		if (load_str("robot-bad.yaml", doc) != -EINVAL)
+			fail_msg("case %zu loaded:\n%s", k, bad[k].robot);
+		if (!strstr(err, bad[k].expect))
+			fail_msg("case %zu: expected \"%s\" in:\n%s", k, bad[k].expect, err);
+		expect_in(err, "/tmp/rmd-test-robot-bad.yaml");
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -1390,6 +1460,7 @@ int main(void)
 		cmocka_unit_test(test_lcm_rt_priority),
 		cmocka_unit_test(test_protocol_v4),
 		cmocka_unit_test(test_position_key_lines),
+		cmocka_unit_test(test_robot_keys),
 	};
 	const char *dir = getenv("RMD_SRCDIR");
 

@@ -773,7 +773,7 @@ static void test_rmdd_check_examples(void **state)
 			examples[i], 0, "verdict: every bus fits",
 			/* its two homed joints: the warning says what homing is for */
 			i ? "" :
-			    "rmdd.yaml:451: motors[1]: warning: shoulder_pitch (mode position, "
+			    "rmdd.yaml:470: motors[1]: warning: shoulder_pitch (mode position, "
 			    "gear_ratio 36) will be position uncertain after every power cycle" });
 	snprintf(path, sizeof(path), "%s/examples/sim-12.yaml", srcdir);
 	run_rmdd(&r, "-C", path);

@@ -191,8 +191,11 @@ static const struct rmdctl_cmd cmds[] = {
 	    "on (or lock): brake locked (0x78).  off (or release): brake released\n"
 	    "(0x77); the load may move the shaft, so it asks for confirmation.\n",
 	    rmdctl_run_brake),
-	DEV("stop", "stop and hold position", "ID", 1, 1, 0,
-	    "Stops the motor and holds its position (0x81).\n", rmdctl_run_stop),
+	DEV("stop", "stop and hold position; --robot: stop the whole robot", "ID", 1, 1, 0,
+	    "Stops the motor and holds its position (0x81).\n"
+	    "`rmdctl stop --robot` stops every rmdd of the robot instead, over LCM\n"
+	    "(`rmdctl stop --robot --help`; docs/robot.md).\n",
+	    rmdctl_run_stop),
 	DEV("off", "turn the output off", "ID", 1, 1, 0,
 	    "Turns the output off and clears the running mode (0x80); the shaft is then\n"
 	    "free (a brake, if any, holds it only when locked).\n",
@@ -346,6 +349,8 @@ int main(int argc, char **argv)
 	/* Messages read "rmdctl scan: ...". */
 	snprintf(log_name, sizeof(log_name), "rmdctl %s", cmd->name);
 	tool_log_init(log_name, TOOL_LOG_DEBUG, TOOL_LOG_NO_LEVEL);
+	if (!strcmp(cmd->name, "stop") && rmdctl_is_robot_stop(argc - 1, argv + 1))
+		return rmdctl_robot_stop_run(argc - 1, argv + 1);
 	if (cmd->main)
 		return cmd->main(argc - 1, argv + 1);
 	return rmdctl_dev_run(cmd, argc - 1, argv + 1);

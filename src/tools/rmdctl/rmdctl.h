@@ -71,6 +71,12 @@ void rmdctl_encode_usage(FILE *f);
 /* top.c: a running rmdd over LCM */
 int rmdctl_top_run(int argc, char **argv);
 void rmdctl_top_usage(FILE *f);
+/* robot.c: `rmdctl stop --robot`, a robot-wide stop over LCM (docs/robot.md) */
+bool rmdctl_is_robot_stop(int argc, char **argv);
+int rmdctl_robot_stop_run(int argc, char **argv);
+void rmdctl_robot_stop_usage(FILE *f);
+extern const struct tool_opt rmdctl_robot_stop_opts[];
+extern const size_t rmdctl_n_robot_stop_opts;
 /* top's options (its --help and the bash completion). */
 extern const struct tool_opt rmdctl_top_opts[];
 extern const size_t rmdctl_n_top_opts;

@@ -13,6 +13,7 @@
 
 #include <sys/random.h>
 
+#include "rmd/channels.h"
 #include "rmd/time.h"
 #include "rmd_version.h"
 #include "rmdd.h"
@@ -60,6 +61,7 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	o->state_every = cfg->lcm.state_every_n;
 	o->stale_ms = (int)cfg->lcm.stale_ms;
 	o->command_timeout_ms = (int)cfg->safety.command_timeout_ms;
+	o->robot = cfg->robot; /* instance "": alone, as before (docs/robot.md) */
 	if (cfg->lcm.health_period_ms)
 		o->health_period_ns = (int64_t)cfg->lcm.health_period_ms * 1000000;
 	/* one below the loop unless configured: never holds the loop off */
@@ -71,6 +73,27 @@ void rmdd_lcm_opts(struct rmd_bridge_opts *o, const struct rmd_config *cfg,
 	o->health = health;
 	o->log = bridge_log;
 	o->log_ctx = NULL;
+}
+
+void rmdd_robot_note(const struct rmd_config *cfg, char *buf, size_t len)
+{
+	const struct rmd_config_robot *r = &cfg->robot;
+	size_t n;
+
+	buf[0] = '\0';
+	if (!r->instance[0])
+		return;
+	n = (size_t)snprintf(buf, len, "robot: instance %s, peers", r->instance);
+	for (unsigned i = 0; i < r->n_peers && n < len; i++)
+		n += (size_t)snprintf(buf + n, len - n, "%s %s", i ? "," : "", r->peers[i]);
+	if (n < len)
+		snprintf(buf + n, len - n,
+			 "%s; a heartbeat every %u ms on " RMD_CHANNEL_ROBOT_HEARTBEAT
+			 ", a peer silent %u ms is lost: %s; " RMD_CHANNEL_ROBOT_STOP
+			 " stops every driven motor (docs/robot.md)",
+			 r->n_peers ? "" : " none", r->heartbeat_ms, r->peer_timeout_ms,
+			 r->on_peer_lost == RMD_PEER_LOST_SAFE ? "the safe action" :
+								 "reported only");
 }
 
 /* What the bridge's threads were granted, at info level: refused, commands wait longer. */

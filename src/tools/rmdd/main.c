@@ -524,6 +524,9 @@ static int check_config(const char *path)
 		rmdd_mit_config_note(&cfg, i, mit, sizeof(mit));
 		printf("  %s\n", mit);
 	}
+	rmdd_robot_note(&cfg, note, sizeof(note));
+	if (note[0])
+		printf("\n%s\n", note);
 	fflush(stdout);
 	position_warnings(&cfg);
 	if (r) {
@@ -1310,7 +1313,7 @@ static int run(const struct rmdd_opts *o)
 	struct rmdd *d = calloc(1, sizeof(*d));
 	struct rmd_bridge_opts bo;
 	struct rmd_loop_opts lo;
-	char err[512], status[256];
+	char err[512], status[256], note[512];
 	int r, ret = RMDD_EXIT_FAIL;
 
 	if (!d) {
@@ -1460,6 +1463,9 @@ static int run(const struct rmdd_opts *o)
 		 "SIGUSR1 prints statistics",
 		 d->cfg.n_motors, d->cfg.n_buses, d->cfg.loop.rate_hz, d->cfg.source,
 		 d->cfg.lcm.url, d->cfg.lcm.channel_prefix);
+	rmdd_robot_note(&d->cfg, note, sizeof(note));
+	if (note[0])
+		tool_log(5, "%s", note);
 	rmdd_stats_status(&d->stats, (double)d->plan.rate_hz, false, status, sizeof(status));
 	rmdd_notify_ready(&d->notify, status);
 

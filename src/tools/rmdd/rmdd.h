@@ -294,6 +294,11 @@ void rmdd_lcm_incidents(struct rmd_bridge_opts *o, struct rmdd_incidents *in);
 
 /* After rmd_bridge_start(): says, at info level, when SCHED_FIFO was refused. */
 void rmdd_lcm_started(struct rmd_bridge *b);
+/*
+ * One line on cfg's robot: section (docs/robot.md), for the start and
+ * --check-config; "" for a daemon alone.  Non-rt.
+ */
+void rmdd_robot_note(const struct rmd_config *cfg, char *buf, size_t len);
 
 /*
  * Before bring-up: listen for another daemon on the URL and prefix.
