@@ -450,6 +450,14 @@ static void test_robot_stop_stops_both(void **state)
 	run_prog(&r, rmdctl_bin, args, &o);
 	assert_status(&r, 0, "rmdctl stop --robot");
 	assert_has(r.out, "robot stop sent on RMD_ROBOT_STOP", "rmdctl's output");
+	/* and it names both daemons as tripped, heard on their heartbeats */
+	for (unsigned i = 0; i < 2; i++) {
+		char line[128];
+
+		snprintf(line, sizeof(line), "  %s (host ", R.s[i].inst);
+		assert_has(r.out, line, "rmdctl's output");
+	}
+	assert_int_equal(count_of(r.out, "): tripped: robot stop from rmdctl@"), 2);
 	run_free(&r);
 	if (!drive_until(true, 3000, both_safe))
 		fail_msg("not both SAFE after rmdctl stop --robot:\nleft:\n%s\nright:\n%s",
@@ -664,7 +672,10 @@ static void test_alone_as_before(void **state)
 	R.s[1].armed = true;
 	R.heartbeats = 0;
 	run_prog(&r, rmdctl_bin, args, &o);
-	assert_status(&r, 0, "rmdctl stop --robot");
+	/* sent, and said to have reached no one: a daemon alone takes no robot stop */
+	assert_status(&r, 1, "rmdctl stop --robot");
+	assert_has(r.err, "no rmdd of a robot heard within 300 ms: nothing confirmed the stop",
+		   "rmdctl's errors");
 	run_free(&r);
 	drive_until(true, 300, never);
 	assert_false(R.s[1].left_enabled);
