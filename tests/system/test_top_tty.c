@@ -716,6 +716,14 @@ static void test_instances_json(void **state)
 		{ .args = { "top", "--prefix", "A_,A_", "--json", NULL },
 		  .status = 2,
 		  .err_has = { "\"A_\" twice" } },
+		{ .args = { "top", "--prefix", "A_,", "--json", NULL },
+		  .status = 2,
+		  .err_has = { "an empty prefix" } },
+		/* "" alone stays a prefix (lcm.channel_prefix may be empty): nobody there, exit 1 */
+		{ .args = { "top", "--lcm-url", f->url, "--prefix", "", "--json", "--wait", "0.5",
+			    NULL },
+		  .status = 1,
+		  .err_has = { "no complete CONFIG" } },
 	};
 
 	run_cases(rmdctl_bin, bad, sizeof(bad) / sizeof(bad[0]), NULL);

@@ -556,7 +556,8 @@ static int split_prefixes(struct top *t)
 				 TOP_MAX_INSTANCES);
 			return -1;
 		}
-		if (!*p) {
+		/* "" alone is a prefix (rmdd's lcm.channel_prefix may be empty), not in a list */
+		if (!*p && (comma || t->n)) {
 			tool_log(TOOL_LOG_ERR, "--prefix: an empty prefix in the list");
 			return -1;
 		}
