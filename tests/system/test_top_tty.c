@@ -16,7 +16,13 @@
  *     Ctrl-C exits 0 and restores the terminal;
  *   - rmdd stopped while the screen is paused: the title says STALE and
  *     every motor's row is marked '!' and reads STALE, so an operator sees
- *     it without colour too.
+ *     it without colour too;
+ *   - two rmdd of one robot (prefixes A_ and B_, 3 motors each) in one
+ *     `top --prefix A_,B_` at 80x24: every motor on its line with its
+ *     instance, a line per instance; kill -9 of A: A's line says SILENT
+ *     within 2 s (plus what a capture took), its rows STALE, while B's
+ *     line keeps counting cycles; --json and --once name each motor's
+ *     instance.
  *
  * Without multicast on loopback (routed when root, tests/harness/
  * lcm_loopback.h) or without tmux (`make deps` installs it) every test
@@ -49,7 +55,7 @@
 
 struct fixture {
 	char url[96], sock[PATH_MAX];
-	struct kid *rmdd;
+	struct kid *rmdd, *rmdd_b; /* rmdd_b: the second instance (test_instances) */
 	bool tmux_up;
 };
 
@@ -94,7 +100,7 @@ static int group_setup(void **state)
 /* tmux with args (NULL-terminated) on the test's own server; its output in r. */
 static void tmux_run(struct fixture *f, struct run *r, const char *const *args)
 {
-	const char *argv[24] = { "-S", f->sock, "-f", "/dev/null" };
+	const char *argv[32] = { "-S", f->sock, "-f", "/dev/null" };
 	size_t n = 4;
 
 	for (; *args && n < sizeof(argv) / sizeof(argv[0]) - 1; args++)
@@ -156,7 +162,7 @@ static void start_rmdd(struct fixture *f)
  * and after top the shell says how it ended and waits, so that the test
  * sees the screen top left behind.
  */
-static void start_top(struct fixture *f, int w, int h)
+static void start_top_args(struct fixture *f, int w, int h, const char *extra)
 {
 	char ws[8], hs[8];
 	const char *args[] = { "new-session",
@@ -177,12 +183,19 @@ static void start_top(struct fixture *f, int w, int h)
 			       "top",
 			       "--lcm-url",
 			       f->url,
+			       extra ? "--prefix" : NULL,
+			       extra,
 			       NULL };
 
 	snprintf(ws, sizeof(ws), "%d", w);
 	snprintf(hs, sizeof(hs), "%d", h);
 	tmux_ok(f, args, "tmux new-session");
 	f->tmux_up = true;
+}
+
+static void start_top(struct fixture *f, int w, int h)
+{
+	start_top_args(f, w, h, NULL);
 }
 
 /* The window's text now, wrapped lines joined (-J), into r->out. */
@@ -467,12 +480,263 @@ static void test_stale(void **state)
 	run_free(&r);
 }
 
+/* ---- several instances (--prefix A_,B_) ------------------------------------------------ */
+
+#define INST_MOTORS 3
+
+/*
+ * rmdd on the test's URL with channel prefix P_ (p = 'A': "A_") and 3
+ * simulated motors, a_m1 .. a_m3, from a configuration file (--sim has no
+ * prefix).
+ */
+static struct kid *start_instance(struct fixture *f, char p)
+{
+	char path[PATH_MAX], yaml[1024], name[16];
+	char lo = (char)(p - 'A' + 'a');
+	struct kid *k;
+
+	snprintf(path, sizeof(path), "%s/%c%u.XXXXXX", dir, p, test_no);
+	snprintf(yaml, sizeof(yaml),
+		 "loop: {rate_hz: 1000, rt_priority: 40}\n"
+		 "lcm: {channel_prefix: %c_}\n"
+		 "buses:\n"
+		 "  - {name: sim0, type: sim, sim: {seed: 1}}\n"
+		 "motors:\n"
+		 "  - {name: %c_m1, bus: sim0, id: 1, mode: position, torque_constant_nm_a: 2}\n"
+		 "  - {name: %c_m2, bus: sim0, id: 2, mode: position, torque_constant_nm_a: 2}\n"
+		 "  - {name: %c_m3, bus: sim0, id: 3, mode: position, torque_constant_nm_a: 2}\n",
+		 p, lo, lo, lo);
+	temp_file(path, yaml);
+	snprintf(name, sizeof(name), "rmdd %c_", p);
+	k = kid_spawn(name,
+		      (const char *const[]){ rmdd_bin, "--config", path, "--lcm-url", f->url,
+					     NULL },
+		      NULL, 0);
+	kid_wait_output(k, "running:", START_MS, NULL);
+	return k;
+}
+
+/* Motor m (1..3) of instance p (the row "... A_ a_m1 ..."): the row, or NULL. */
+static const char *inst_row(const char *screen, char p, int m)
+{
+	char name[16];
+	const char *row;
+
+	snprintf(name, sizeof(name), "%c_m%d", p - 'A' + 'a', m);
+	if (lines_with_word(screen, name) != 1)
+		return NULL;
+	row = line_with_word(screen, name);
+	snprintf(name, sizeof(name), " %c_ ", p);
+	return row && strstr(row, name) && strstr(row, name) < strchr(row, '\n') ? row : NULL;
+}
+
+/* The line of instance p ("A_  1000 Hz ..."), copied into buf; NULL when none. */
+static const char *inst_line(const char *screen, char p, char *buf, size_t size)
+{
+	char head[8];
+	const char *l;
+
+	snprintf(head, sizeof(head), "%c_ ", p);
+	l = line_starting(screen, head);
+	if (!l)
+		return NULL;
+	snprintf(buf, size, "%.*s", (int)strcspn(l, "\n"), l);
+	return buf;
+}
+
+/* Instance p's "cycles N" on its line; -1 when not shown. */
+static long long inst_cycles(const char *screen, char p)
+{
+	char line[256];
+	const char *c;
+
+	if (!inst_line(screen, p, line, sizeof(line)) || !(c = strstr(line, "cycles ")))
+		return -1;
+	return atoll(c + strlen("cycles "));
+}
+
+/* Both instances' lines and all 6 motors, ready, each row naming its instance. */
+static bool instances_ok(const char *screen, const char *unused)
+{
+	char line[256];
+
+	(void)unused;
+	if (!line_starting(screen, "rmdctl top") || !has(screen, "2 instances") ||
+	    !lines_with_word(screen, "INST") || has(screen, "SILENT"))
+		return false;
+	for (char p = 'A'; p <= 'B'; p++) {
+		if (!inst_line(screen, p, line, sizeof(line)) || !strstr(line, "watchdog") ||
+		    !strstr(line, "sim0") || inst_cycles(screen, p) < 0)
+			return false;
+		for (int m = 1; m <= INST_MOTORS; m++) {
+			const char *row = inst_row(screen, p, m);
+
+			if (!row || !strstr(row, " ready "))
+				return false;
+		}
+	}
+	return true;
+}
+
+/* A silent: its line says SILENT, its rows STALE, each marked; B's rows not. */
+static bool a_silent(const char *screen, const char *unused)
+{
+	char line[256];
+
+	(void)unused;
+	if (!inst_line(screen, 'A', line, sizeof(line)) || !strstr(line, "SILENT"))
+		return false;
+	for (int m = 1; m <= INST_MOTORS; m++) {
+		const char *a = inst_row(screen, 'A', m), *b = inst_row(screen, 'B', m);
+
+		if (!a || !b)
+			return false;
+		snprintf(line, sizeof(line), "%.*s", (int)strcspn(a, "\n"), a);
+		if (line[1] != '!' || !strstr(line, " STALE "))
+			return false;
+		snprintf(line, sizeof(line), "%.*s", (int)strcspn(b, "\n"), b);
+		if (strstr(line, "STALE") || !strstr(line, " ready "))
+			return false;
+	}
+	return true;
+}
+
+/*
+ * Two rmdd of one robot in one screen at 80x24; kill -9 of one: its line
+ * says SILENT within 2 s while the other's keeps updating.
+ */
+static void test_instances(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	int64_t t0, t_cap, cap_ns, max_cap_ns = 0, end;
+	long long b0, b1;
+	char line[256];
+	struct run r;
+
+	f->rmdd = start_instance(f, 'A');
+	f->rmdd_b = start_instance(f, 'B');
+	start_top_args(f, 80, 24, "A_,B_");
+	wait_screen(f, &r, instances_ok, NULL, "both instances and their 6 motors at 80x24");
+	assert_fits(r.out, 80, "two instances at 80x24");
+	assert_true(count_lines(r.out) <= 24);
+	b0 = inst_cycles(r.out, 'B');
+	run_free(&r);
+
+	kill(f->rmdd->pid, SIGKILL);
+	t0 = rmd_now_ns();
+	end = t0 + (int64_t)SCREEN_MS * 1000000;
+	for (;;) {
+		t_cap = rmd_now_ns();
+		capture(f, &r);
+		cap_ns = rmd_now_ns() - t_cap;
+		if (cap_ns > max_cap_ns)
+			max_cap_ns = cap_ns;
+		if (a_silent(r.out, NULL))
+			break;
+		if (rmd_now_ns() > end)
+			fail_msg("A killed: its line not SILENT within %d ms; the screen:\n%s",
+				 SCREEN_MS, r.out);
+		run_free(&r);
+		nanosleep(&(struct timespec){ .tv_nsec = POLL_NS }, NULL);
+		kid_read(f->rmdd_b);
+	}
+	/* 1 s of silence, a 100 ms redraw: 2 s, plus the slowest capture of this run (twice) */
+	if (rmd_now_ns() - t0 > 2000000000 + 2 * max_cap_ns + POLL_NS)
+		fail_msg("SILENT after %.2f s (a capture took up to %.2f s):\n%s",
+			 (double)(rmd_now_ns() - t0) / 1e9, (double)max_cap_ns / 1e9, r.out);
+	assert_fits(r.out, 80, "one instance silent");
+	b1 = inst_cycles(r.out, 'B');
+	assert_non_null(inst_line(r.out, 'B', line, sizeof(line)));
+	assert_null(strstr(line, "SILENT"));
+	if (b1 <= b0)
+		fail_msg("B's cycles did not move (%lld then %lld):\n%s", b0, b1, r.out);
+	run_free(&r);
+	/* and B keeps updating after A went */
+	nanosleep(&(struct timespec){ .tv_nsec = 300000000 }, NULL);
+	capture(f, &r);
+	if (inst_cycles(r.out, 'B') <= b1 || !a_silent(r.out, NULL))
+		fail_msg("B's line stopped with A silent (cycles %lld):\n%s", b1, r.out);
+	run_free(&r);
+}
+
+/* `rmdctl top --prefix A_,B_ mode` (--json, --once) to its end, exit status 0, into r. */
+static void top_both(struct fixture *f, struct run *r, const char *mode)
+{
+	run_prog(r, rmdctl_bin,
+		 (const char *const[]){ "top", "--lcm-url", f->url, "--prefix", "A_,B_", mode,
+					"--wait", "10", NULL },
+		 NULL);
+	assert_status(r, 0, mode);
+}
+
+/* --json and --once with two prefixes: every motor with its instance. */
+static void test_instances_json(void **state)
+{
+	struct fixture *f = fixture_or_skip(state);
+	struct run r;
+	const char *p;
+	int na = 0, nb = 0;
+
+	f->rmdd = start_instance(f, 'A');
+	f->rmdd_b = start_instance(f, 'B');
+	top_both(f, &r, "--json");
+	assert_has(r.out, ",\"instances\":[{", "--json: the instances");
+	for (p = r.out; (p = strstr(p, "\"instance\":\"A_\",\"name\":\"a_m")); p++)
+		na++;
+	for (p = r.out; (p = strstr(p, "\"instance\":\"B_\",\"name\":\"b_m")); p++)
+		nb++;
+	if (na != INST_MOTORS || nb != INST_MOTORS)
+		fail_msg("--json: %d motors of A_, %d of B_, not %d each:\n%s", na, nb, INST_MOTORS,
+			 r.out);
+	assert_int_equal(count_lines(r.out), 1);
+	run_free(&r);
+
+	top_both(f, &r, "--once");
+	assert_has(r.out, "INST     IDX NAME", "--once: the INST column");
+	for (int m = 1; m <= INST_MOTORS; m++) {
+		char row[32];
+
+		snprintf(row, sizeof(row), "A_         %d a_m%d", m - 1, m);
+		assert_has(r.out, row, "--once: A_'s motor");
+		snprintf(row, sizeof(row), "B_         %d b_m%d", m - 1, m);
+		assert_has(r.out, row, "--once: B_'s motor");
+	}
+	run_free(&r);
+
+	/* a prefix nobody publishes on: the error names that instance, not the others */
+	const struct run_case bad[] = {
+		{ .args = { "top", "--lcm-url", f->url, "--prefix", "A_,C_", "--json", "--wait",
+			    "1", NULL },
+		  .status = 1,
+		  .err_has = { "C_ (config no, health no, state no)" },
+		  .err_lacks = "A_ (config" },
+		{ .args = { "top", "--prefix", "A_,,B_", "--json", NULL },
+		  .status = 2,
+		  .err_has = { "an empty prefix" } },
+		{ .args = { "top", "--prefix", "A_,A_", "--json", NULL },
+		  .status = 2,
+		  .err_has = { "\"A_\" twice" } },
+		{ .args = { "top", "--prefix", "A_,", "--json", NULL },
+		  .status = 2,
+		  .err_has = { "an empty prefix" } },
+		/* "" alone stays a prefix (lcm.channel_prefix may be empty): nobody there, exit 1 */
+		{ .args = { "top", "--lcm-url", f->url, "--prefix", "", "--json", "--wait", "0.5",
+			    NULL },
+		  .status = 1,
+		  .err_has = { "no complete CONFIG" } },
+	};
+
+	run_cases(rmdctl_bin, bad, sizeof(bad) / sizeof(bad[0]), NULL);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test_setup_teardown(test_fits_80x24, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_keys_resize, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_stale, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_instances, setup, teardown),
+		cmocka_unit_test_setup_teardown(test_instances_json, setup, teardown),
 	};
 
 	return cmocka_run_group_tests_name("top_tty", tests, group_setup, lcm_tools_teardown);

@@ -11,7 +11,13 @@
  * (top_screen.c, ncurses) is redrawn every --interval (100 ms); otherwise,
  * or when TERM is dumb, a plain table is printed every --interval (1 s).
  * --once prints one table, --json one JSON object, each once config, health
- * and state have all come.  Non-rt.
+ * and state have all come.
+ *
+ * --prefix A_,B_ names several daemons of one robot (issue 30): one set of
+ * subscriptions per prefix on the one LCM URL, a top_view each; the views
+ * show every motor with its instance (its prefix) and each instance's
+ * health, an instance silent for 1 s said so while the others update.
+ * One prefix shows exactly what it always did.  Non-rt.
  */
 #include <errno.h>
 #include <inttypes.h>
@@ -42,6 +48,18 @@
 #define ASK_EVERY_NS INT64_C(500000000)	     /* config_t requests until one comes */
 #define POLL_MAX_MS 100 /* the screen's keys and config_t requests: at least this often */
 #define TOP_CHANNEL_LEN 96
+#define TOP_MAX_INSTANCES 8 /* --prefix A_,B_,...: daemons in one view */
+#define TOP_PREFIXES_LEN 512
+
+/* One daemon's channels and subscriptions (one per --prefix). */
+struct top_inst {
+	char ch_state[TOP_CHANNEL_LEN], ch_health[TOP_CHANNEL_LEN], ch_config[TOP_CHANNEL_LEN],
+		ch_request[TOP_CHANNEL_LEN];
+	int64_t next_ask_ns; /* the next config_t request while none came */
+	rmd_state_t_subscription_t *s_state;
+	rmd_health_t_subscription_t *s_health;
+	rmd_config_t_subscription_t *s_config;
+};
 
 /* top: its options, its LCM link and what it shows (filled from LCM, read by the views). */
 struct top {
@@ -49,10 +67,10 @@ struct top {
 	double interval_ms, wait_s;
 
 	lcm_t *lcm;
-	char ch_state[TOP_CHANNEL_LEN], ch_health[TOP_CHANNEL_LEN], ch_config[TOP_CHANNEL_LEN],
-		ch_request[TOP_CHANNEL_LEN];
-	int64_t next_ask_ns; /* the next config_t request while none came */
-	struct top_view v;
+	char prefixes[TOP_PREFIXES_LEN]; /* --prefix, split at its commas into v[].prefix */
+	int n;				 /* instances: 1 unless --prefix listed more */
+	struct top_inst in[TOP_MAX_INSTANCES];
+	struct top_view v[TOP_MAX_INSTANCES];
 };
 
 /* Set by SIGINT and SIGTERM: every loop of top ends. */
@@ -79,8 +97,9 @@ const struct tool_opt rmdctl_top_opts[] = {
 		  ")" },
 	{ .name = "prefix",
 	  .has_arg = required_argument,
-	  .arg = "P",
-	  .help = "rmdd's channel prefix (default " DEFAULT_PREFIX ")" },
+	  .arg = "P[,P...]",
+	  .help = "rmdd's channel prefix (default " DEFAULT_PREFIX "); a comma list:\n"
+		  "several rmdd of one robot in one view" },
 	{ .name = "json", .shortc = 'j', .help = "print one JSON object and exit (scripts)" },
 	{ .name = "once", .help = "print one table and exit" },
 	TOOL_OPT_ARG("interval", "MS", "refresh period (default 100 on a terminal, else 1000)"),
@@ -94,8 +113,8 @@ const size_t rmdctl_n_top_opts = sizeof(rmdctl_top_opts) / sizeof(rmdctl_top_opt
 void rmdctl_top_usage(FILE *f)
 {
 	fprintf(f,
-		"usage: rmdctl top [--lcm-url URL] [--prefix P] [--json | --once] [--interval MS]\n"
-		"                  [--wait S]\n"
+		"usage: rmdctl top [--lcm-url URL] [--prefix P[,P...]] [--json | --once]\n"
+		"                  [--interval MS] [--wait S]\n"
 		"\n"
 		"A live view of a running rmdd, from what it publishes on LCM: every motor's\n"
 		"name, bus and id, lifecycle and mode, position (rad; \"?\" after it: uncertain\n"
@@ -116,6 +135,14 @@ void rmdctl_top_usage(FILE *f)
 		   "Otherwise (a pipe, a file, TERM=dumb) a plain table is printed each period.\n"
 		   "JSON numbers are SI (rad, rad/s, N*m, degC, V); a value a motor has not\n"
 		   "reported yet is null.\n"
+		   "\n"
+		   "--prefix A_,B_ shows several rmdd of one robot (each its own prefix, on\n"
+		   "the one --lcm-url): every motor with its instance (INST: the prefix), one\n"
+		   "line per instance with its rate, watchdog and buses, and SILENT on the\n"
+		   "line of one that sent no health for 1 s while the others update.  Plain\n"
+		   "tables get an INST column; --json prints {\"url\", \"instances\": [one\n"
+		   "object each, as above]}, each motor with its \"instance\"; --json and\n"
+		   "--once wait for every instance.\n"
 		   "\n"
 		   "exit status: 0 ok; 1 nothing heard from rmdd within --wait (--json, --once),\n"
 		   "or LCM failed; 2 usage error.\n");
@@ -141,81 +168,88 @@ void rmdctl_top_usage(FILE *f)
 static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
 		     void *user)
 {
-	struct top *t = user;
+	struct top_view *v = user;
 
 	(void)rbuf;
 	(void)channel;
-	TOP_KEEP(rmd_state_t, t->v.paused, t->v.state, t->v.state_rx_ns, msg);
+	TOP_KEEP(rmd_state_t, v->paused, v->state, v->state_rx_ns, msg);
 }
 
 /*
  * Whether a message of daemon `instance` is the one shown: the first heard
  * is; another is noted as the other daemon (and flags the view).
  */
-static bool same_daemon(struct top *t, int64_t instance, const char *host, int32_t pid,
+static bool same_daemon(struct top_view *v, int64_t instance, const char *host, int32_t pid,
 			const char *source)
 {
-	if (!t->v.instance)
-		t->v.instance = instance;
-	if (instance == t->v.instance)
+	if (!v->instance)
+		v->instance = instance;
+	if (instance == v->instance)
 		return true;
-	t->v.mixed = true;
-	if (instance != t->v.other_instance)
-		t->v.other_source[0] = '\0';
-	t->v.other_instance = instance;
-	t->v.other_pid = pid;
-	snprintf(t->v.other_host, sizeof(t->v.other_host), "%s", host ? host : "");
+	v->mixed = true;
+	if (instance != v->other_instance)
+		v->other_source[0] = '\0';
+	v->other_instance = instance;
+	v->other_pid = pid;
+	snprintf(v->other_host, sizeof(v->other_host), "%s", host ? host : "");
 	if (source)
-		snprintf(t->v.other_source, sizeof(t->v.other_source), "%s", source);
+		snprintf(v->other_source, sizeof(v->other_source), "%s", source);
 	return false;
 }
 
 static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_health_t *msg,
 		      void *user)
 {
-	struct top *t = user;
+	struct top_view *v = user;
 
 	(void)rbuf;
 	(void)channel;
-	if (same_daemon(t, msg->instance, msg->host, msg->pid, NULL))
-		TOP_KEEP(rmd_health_t, t->v.paused, t->v.health, t->v.health_rx_ns, msg);
+	if (same_daemon(v, msg->instance, msg->host, msg->pid, NULL))
+		TOP_KEEP(rmd_health_t, v->paused, v->health, v->health_rx_ns, msg);
 }
 
 static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
 		      void *user)
 {
-	struct top *t = user;
+	struct top_view *v = user;
 
 	(void)rbuf;
 	(void)channel;
-	if (same_daemon(t, msg->instance, msg->host, msg->pid, msg->source))
-		TOP_KEEP(rmd_config_t, t->v.paused, t->v.cfg, t->v.cfg_rx_ns, msg);
+	if (same_daemon(v, msg->instance, msg->host, msg->pid, msg->source))
+		TOP_KEEP(rmd_config_t, v->paused, v->cfg, v->cfg_rx_ns, msg);
 }
 
 /* config_t, health_t and state_t have come, and agree on the motors. */
-static bool complete(const struct top *t)
+static bool complete(const struct top_view *v)
 {
-	return t->v.cfg && t->v.health && t->v.state &&
-	       t->v.state->count == t->v.cfg->motor_count &&
-	       t->v.health->motor_count == t->v.cfg->motor_count;
+	return v->cfg && v->health && v->state && v->state->count == v->cfg->motor_count &&
+	       v->health->motor_count == v->cfg->motor_count;
 }
 
-/* Ask rmdd for config_t (docs/lcm.md: any message on PREFIX CONFIG_REQUEST). */
-static void ask_config(struct top *t)
+/* Every instance complete. */
+static bool all_complete(const struct top *t)
 {
-	rmd_config_request_t req = { .utime = rmd_now_ns() / 1000 };
-
-	rmd_config_request_t_publish(t->lcm, t->ch_request, &req);
+	for (int k = 0; k < t->n; k++)
+		if (!complete(&t->v[k]))
+			return false;
+	return true;
 }
 
-/* Ask for config_t when none came and the last request is 500 ms old. */
+/*
+ * Ask each rmdd with no config_t yet for one (docs/lcm.md: any message on
+ * PREFIX CONFIG_REQUEST), when its last request is 500 ms old.
+ */
 static void ask_config_due(struct top *t)
 {
 	int64_t now = rmd_now_ns();
 
-	if (!t->v.cfg && now >= t->next_ask_ns) {
-		ask_config(t);
-		t->next_ask_ns = now + ASK_EVERY_NS;
+	for (int k = 0; k < t->n; k++) {
+		rmd_config_request_t req = { .utime = now / 1000 };
+
+		if (t->v[k].cfg || now < t->in[k].next_ask_ns)
+			continue;
+		rmd_config_request_t_publish(t->lcm, t->in[k].ch_request, &req);
+		t->in[k].next_ask_ns = now + ASK_EVERY_NS;
 	}
 }
 
@@ -246,34 +280,38 @@ static const char *num(char *buf, size_t size, double v, int prec)
 	return buf;
 }
 
-static void print_table(const struct top *t, FILE *f)
+/*
+ * One daemon's table; multi (--prefix A_,B_): each motor's row starts with
+ * its instance (INST).
+ */
+static void print_table(const struct top_view *v, bool multi, FILE *f)
 {
-	const rmd_config_t *c = t->v.cfg;
-	const rmd_health_t *h = t->v.health;
+	const rmd_config_t *c = v->cfg;
+	const rmd_health_t *h = v->health;
 	int64_t now = rmd_now_ns();
 	char b[6][32];
 
-	fprintf(f, "rmdd on %s, prefix %s", t->v.url, t->v.prefix);
+	fprintf(f, "rmdd on %s, prefix %s", v->url, v->prefix);
 	if (c)
 		fprintf(f, ", period %d us, state every %d", c->period_us, c->state_every);
-	if (t->v.state)
-		fprintf(f, ", cycle %" PRId64, t->v.state->cycle);
+	if (v->state)
+		fprintf(f, ", cycle %" PRId64, v->state->cycle);
 	fputc('\n', f);
-	if (!c || !h || !t->v.state) {
+	if (!c || !h || !v->state) {
 		fprintf(f, "waiting for rmdd: config %s, health %s, state %s\n", c ? "yes" : "no",
-			h ? "yes" : "no", t->v.state ? "yes" : "no");
+			h ? "yes" : "no", v->state ? "yes" : "no");
 		return;
 	}
-	if (t->v.mixed) {
+	if (v->mixed) {
 		char line[640];
 
-		top_mixed_line(&t->v, line, sizeof(line));
+		top_mixed_line(v, line, sizeof(line));
 		fprintf(f, "%s\n", line);
 	}
-	if (top_stale(&t->v))
+	if (top_stale(v))
 		fprintf(f, "STALE: no health for %.1f s, no state for %.1f s (rmdd stopped?)\n",
-			(double)(now - t->v.health_rx_ns) / 1e9,
-			(double)(now - t->v.state_rx_ns) / 1e9);
+			(double)(now - v->health_rx_ns) / 1e9,
+			(double)(now - v->state_rx_ns) / 1e9);
 	fprintf(f,
 		"loop: cycles %" PRId64 ", overruns %" PRId64 ", plan misses %" PRId64
 		"; wake-up us min %s avg %s p99 %s max %s; cycle max %s us\n",
@@ -299,17 +337,22 @@ static void print_table(const struct top *t, FILE *f)
 			bh->rx_frames, bh->tx_busy, bh->rx_errors, bh->bus_errors,
 			bh->state_changes);
 	}
-	fprintf(f, "\n%3s %-12s %-8s %3s %-8s %-8s %9s %9s %8s %6s %6s %6s %7s %8s %s\n", "IDX",
+	fputc('\n', f);
+	if (multi)
+		fprintf(f, "%-8s ", "INST");
+	fprintf(f, "%3s %-12s %-8s %3s %-8s %-8s %9s %9s %8s %6s %6s %6s %7s %8s %s\n", "IDX",
 		"NAME", "BUS", "ID", "LIFECYC", "MODE", "POS_RAD", "VEL_RAD_S", "TORQUE", "TEMP",
 		"ERR", "LAT_US", "AGE_MS", "MISSED", "PROTECTION");
 	for (int i = 0; i < c->motor_count; i++) {
 		const rmd_motor_config_t *mc = &c->motor[i];
-		const rmd_motor_state_t *ms = top_motor_state(&t->v, i);
+		const rmd_motor_state_t *ms = top_motor_state(v, i);
 		char prot[32];
 
 		snprintf(prot, sizeof(prot), "%s %dms",
 			 i < h->motor_count ? tool_comm_loss_name((unsigned)h->comm_loss[i]) : "?",
 			 i < h->motor_count ? h->comm_loss_ms[i] : -1);
+		if (multi)
+			fprintf(f, "%-8s ", v->prefix);
 		if (!ms) {
 			fprintf(f, "%3d %-12s (not in state_t)\n", i, mc->name);
 			continue;
@@ -373,26 +416,27 @@ static void json_kint(FILE *f, const char *key, int64_t v)
 	fprintf(f, ",\"%s\":%" PRId64, key, v);
 }
 
-static void print_json(const struct top *t, FILE *f)
+/* One daemon's object; multi (--prefix A_,B_): each motor with its "instance" (the prefix). */
+static void print_json(const struct top_view *v, bool multi, FILE *f)
 {
-	const rmd_config_t *c = t->v.cfg;
-	const rmd_health_t *h = t->v.health;
-	const rmd_state_t *s = t->v.state;
+	const rmd_config_t *c = v->cfg;
+	const rmd_health_t *h = v->health;
+	const rmd_state_t *s = v->state;
 
 	fputs("{\"url\":", f);
-	json_str(f, t->v.url);
+	json_str(f, v->url);
 	json_kstr(f, "prefix", c->prefix);
 	fprintf(f, ",\"instance\":\"%016" PRIx64 "\"", (uint64_t)c->instance);
 	json_kstr(f, "host", c->host);
 	json_kint(f, "pid", c->pid);
 	json_kstr(f, "source", c->source);
 	/* another daemon on the prefix: null, or who it is */
-	if (t->v.mixed) {
+	if (v->mixed) {
 		fprintf(f, ",\"mixed\":{\"instance\":\"%016" PRIx64 "\"",
-			(uint64_t)t->v.other_instance);
-		json_kstr(f, "host", t->v.other_host);
-		json_kint(f, "pid", t->v.other_pid);
-		json_kstr(f, "source", t->v.other_source);
+			(uint64_t)v->other_instance);
+		json_kstr(f, "host", v->other_host);
+		json_kint(f, "pid", v->other_pid);
+		json_kstr(f, "source", v->other_source);
 		fputc('}', f);
 	} else {
 		fputs(",\"mixed\":null", f);
@@ -436,9 +480,11 @@ static void print_json(const struct top *t, FILE *f)
 	fputs("],\"motors\":[", f);
 	for (int i = 0; i < c->motor_count; i++) {
 		const rmd_motor_config_t *mc = &c->motor[i];
-		const rmd_motor_state_t *ms = top_motor_state(&t->v, i);
+		const rmd_motor_state_t *ms = top_motor_state(v, i);
 
 		fprintf(f, "%s{\"index\":%d", i ? "," : "", i);
+		if (multi)
+			json_kstr(f, "instance", v->prefix);
 		json_kstr(f, "name", mc->name);
 		json_kstr(f, "bus",
 			  mc->bus >= 0 && mc->bus < c->bus_count ? c->bus[mc->bus].name : "?");
@@ -465,10 +511,74 @@ static void print_json(const struct top *t, FILE *f)
 		json_kint(f, "unarmed_rejects", h->unarmed_rejects[i]);
 		fputc('}', f);
 	}
-	fputs("]}\n", f);
+	fputs("]}", f);
 }
 
 /* ---- the command ---------------------------------------------------------------------- */
+
+/* Every instance's table or object (one prefix: exactly as before --prefix took a list). */
+static void print_all(const struct top *t, FILE *f)
+{
+	bool multi = t->n > 1;
+
+	if (t->json && multi) {
+		fputs("{\"url\":", f);
+		json_str(f, t->v[0].url);
+		fputs(",\"instances\":[", f);
+	}
+	for (int k = 0; k < t->n; k++) {
+		if (t->json) {
+			if (k)
+				fputc(',', f);
+			print_json(&t->v[k], multi, f);
+		} else {
+			if (k)
+				fputc('\n', f);
+			print_table(&t->v[k], multi, f);
+		}
+	}
+	if (t->json)
+		fputs(multi ? "]}\n" : "\n", f);
+}
+
+/* --prefix's comma list into t->v[].prefix (t->n of them): 0, or -1 (reported). */
+static int split_prefixes(struct top *t)
+{
+	char *p = t->prefixes;
+
+	for (t->n = 0;; t->n++) {
+		char *comma = strchr(p, ',');
+
+		if (comma)
+			*comma = '\0';
+		if (t->n == TOP_MAX_INSTANCES) {
+			tool_log(TOOL_LOG_ERR, "--prefix: more than %d prefixes",
+				 TOP_MAX_INSTANCES);
+			return -1;
+		}
+		/* "" alone is a prefix (rmdd's lcm.channel_prefix may be empty), not in a list */
+		if (!*p && (comma || t->n)) {
+			tool_log(TOOL_LOG_ERR, "--prefix: an empty prefix in the list");
+			return -1;
+		}
+		if (strlen(p) + strlen(RMD_CHANNEL_CONFIG_REQUEST) >= TOP_CHANNEL_LEN) {
+			tool_log(TOOL_LOG_ERR, "--prefix \"%s\" is too long", p);
+			return -1;
+		}
+		for (int k = 0; k < t->n; k++)
+			if (!strcmp(t->v[k].prefix, p)) {
+				tool_log(TOOL_LOG_ERR, "--prefix: \"%s\" twice", p);
+				return -1;
+			}
+		t->v[t->n].prefix = p;
+		t->v[t->n].url = t->v[0].url;
+		if (!comma)
+			break;
+		p = comma + 1;
+	}
+	t->n++;
+	return 0;
+}
 
 /* The command line into t: 0, 1 after --help, or -1 after a usage error (reported). */
 static int parse(struct top *t, int argc, char **argv)
@@ -483,10 +593,14 @@ static int parse(struct top *t, int argc, char **argv)
 	while ((c = getopt_long(argc, argv, shorts, longopts, NULL)) != -1) {
 		switch (c) {
 		case TOOL_OPT_BASE + OPT_URL:
-			t->v.url = optarg;
+			t->v[0].url = optarg;
 			break;
 		case TOOL_OPT_BASE + OPT_PREFIX:
-			t->v.prefix = optarg;
+			if (strlen(optarg) >= sizeof(t->prefixes)) {
+				tool_log(TOOL_LOG_ERR, "--prefix is too long");
+				return -1;
+			}
+			snprintf(t->prefixes, sizeof(t->prefixes), "%s", optarg);
 			break;
 		case 'j':
 			t->json = true;
@@ -528,43 +642,69 @@ static int parse(struct top *t, int argc, char **argv)
 		tool_log(TOOL_LOG_ERR, "--json and --once exclude each other");
 		return -1;
 	}
-	if (strlen(t->v.prefix) + strlen(RMD_CHANNEL_CONFIG_REQUEST) >= TOP_CHANNEL_LEN) {
-		tool_log(TOOL_LOG_ERR, "--prefix \"%s\" is too long", t->v.prefix);
-		return -1;
-	}
-	return 0;
+	return split_prefixes(t);
 }
 
-/* --json and --once: one object or table once config, health and state have come. */
+/* The instances not complete, as "A_ (config no, health yes, state no), ...". */
+static void incomplete(const struct top *t, char *buf, size_t len)
+{
+	size_t n = 0;
+
+	buf[0] = '\0';
+	for (int k = 0; k < t->n && n < len; k++) {
+		const struct top_view *v = &t->v[k];
+
+		if (complete(v))
+			continue;
+		n += (size_t)snprintf(buf + n, len - n, "%s%s (config %s, health %s, state %s)",
+				      n ? ", " : "", v->prefix, v->cfg ? "yes" : "no",
+				      v->health ? "yes" : "no", v->state ? "yes" : "no");
+	}
+}
+
+/*
+ * --json and --once: one object or table once config, health and state
+ * have come (from every instance).
+ */
 static int run_once(struct top *t)
 {
 	int64_t start = rmd_now_ns();
+	bool multi = t->n > 1;
 
 	for (;;) {
 		if (pump(t, rmd_now_ns() + 20000000) < 0)
 			return -EIO;
-		if (complete(t)) {
+		if (all_complete(t)) {
 			/* another daemon's health_t (10 Hz) would come meanwhile: "mixed" */
 			if (pump(t, rmd_now_ns() + TOP_MIXED_WAIT_NS) < 0)
 				return -EIO;
 			break;
 		}
 		if (rmdctl_top_stop || rmd_now_ns() - start > (int64_t)(t->wait_s * 1e9)) {
+			const struct top_view *v = &t->v[0];
+			char which[TOP_MAX_INSTANCES * 64];
+
+			if (!multi) {
+				tool_log(TOOL_LOG_ERR,
+					 "no complete %s" RMD_CHANNEL_CONFIG
+					 ", %s" RMD_CHANNEL_HEALTH " and %s" RMD_CHANNEL_STATE
+					 " within %g s "
+					 "(config %s, health %s, state %s): is rmdd running, with "
+					 "--lcm-url %s and prefix %s?",
+					 v->prefix, v->prefix, v->prefix, t->wait_s,
+					 v->cfg ? "yes" : "no", v->health ? "yes" : "no",
+					 v->state ? "yes" : "no", v->url, v->prefix);
+				return -ETIMEDOUT;
+			}
+			incomplete(t, which, sizeof(which));
 			tool_log(TOOL_LOG_ERR,
-				 "no complete %s" RMD_CHANNEL_CONFIG ", %s" RMD_CHANNEL_HEALTH
-				 " and %s" RMD_CHANNEL_STATE " within %g s "
-				 "(config %s, health %s, state %s): is rmdd running, with "
-				 "--lcm-url %s and prefix %s?",
-				 t->v.prefix, t->v.prefix, t->v.prefix, t->wait_s,
-				 t->v.cfg ? "yes" : "no", t->v.health ? "yes" : "no",
-				 t->v.state ? "yes" : "no", t->v.url, t->v.prefix);
+				 "no complete config, health and state within %g s from %s: are "
+				 "they running, with --lcm-url %s?",
+				 t->wait_s, which, v->url);
 			return -ETIMEDOUT;
 		}
 	}
-	if (t->json)
-		print_json(t, stdout);
-	else
-		print_table(t, stdout);
+	print_all(t, stdout);
 	return 0;
 }
 
@@ -580,7 +720,7 @@ static int run_plain(struct top *t)
 		if (rmdctl_top_stop)
 			return 0;
 		fputc('\n', stdout);
-		print_table(t, stdout);
+		print_all(t, stdout);
 		fflush(stdout);
 	}
 }
@@ -610,7 +750,7 @@ static int run_screen(struct top *t)
 
 		ask_config_due(t);
 		if (now >= next_draw || dirty) {
-			top_screen_draw(scr, &t->v);
+			top_screen_draw(scr, t->v, t->n);
 			dirty = false;
 			if (now >= next_draw)
 				next_draw = now + period; /* late draws are not caught up */
@@ -627,9 +767,10 @@ static int run_screen(struct top *t)
 			r = -EIO;
 			break;
 		}
-		keys = top_screen_keys(scr, &t->v);
+		keys = top_screen_keys(scr, t->v, t->n);
 		if (keys & TOP_SCREEN_PAUSE)
-			t->v.paused = !t->v.paused;
+			for (int k = 0; k < t->n; k++)
+				t->v[k].paused = !t->v[k].paused;
 		if (keys & TOP_SCREEN_KEYED)
 			dirty = true;
 		if (keys & TOP_SCREEN_QUIT)
@@ -666,12 +807,12 @@ static int run(struct top *t)
 
 int rmdctl_top_run(int argc, char **argv)
 {
-	struct top t = { .v.prefix = DEFAULT_PREFIX, .wait_s = WAIT_S };
+	struct top t = { .prefixes = DEFAULT_PREFIX, .wait_s = WAIT_S };
 	struct sigaction sa;
 	const char *env = getenv("LCM_DEFAULT_URL");
 	int r;
 
-	t.v.url = env && *env ? env : RMD_CONFIG_DEFAULT_LCM_URL;
+	t.v[0].url = env && *env ? env : RMD_CONFIG_DEFAULT_LCM_URL;
 	t.tty = screen_terminal();
 	r = parse(&t, argc, argv);
 	if (r > 0)
@@ -682,10 +823,16 @@ int rmdctl_top_run(int argc, char **argv)
 	}
 	if (t.interval_ms == 0)
 		t.interval_ms = t.tty ? TTY_INTERVAL_MS : PLAIN_INTERVAL_MS;
-	snprintf(t.ch_state, sizeof(t.ch_state), "%s" RMD_CHANNEL_STATE, t.v.prefix);
-	snprintf(t.ch_health, sizeof(t.ch_health), "%s" RMD_CHANNEL_HEALTH, t.v.prefix);
-	snprintf(t.ch_config, sizeof(t.ch_config), "%s" RMD_CHANNEL_CONFIG, t.v.prefix);
-	snprintf(t.ch_request, sizeof(t.ch_request), "%s" RMD_CHANNEL_CONFIG_REQUEST, t.v.prefix);
+	for (int k = 0; k < t.n; k++) {
+		struct top_inst *in = &t.in[k];
+		const char *p = t.v[k].prefix;
+
+		snprintf(in->ch_state, sizeof(in->ch_state), "%s" RMD_CHANNEL_STATE, p);
+		snprintf(in->ch_health, sizeof(in->ch_health), "%s" RMD_CHANNEL_HEALTH, p);
+		snprintf(in->ch_config, sizeof(in->ch_config), "%s" RMD_CHANNEL_CONFIG, p);
+		snprintf(in->ch_request, sizeof(in->ch_request), "%s" RMD_CHANNEL_CONFIG_REQUEST,
+			 p);
+	}
 
 	memset(&sa, 0, sizeof(sa));
 	sa.sa_handler = on_signal;
@@ -693,33 +840,39 @@ int rmdctl_top_run(int argc, char **argv)
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
 
-	t.lcm = lcm_create(t.v.url);
+	t.lcm = lcm_create(t.v[0].url);
 	if (!t.lcm) {
 		tool_log(TOOL_LOG_ERR,
 			 "LCM: cannot open %s (docs/lcm.md: a robot PC without a network)",
-			 t.v.url);
+			 t.v[0].url);
 		return RMDCTL_EXIT_DATA;
 	}
-	/* the generated subscriptions are the caller's to free (lcm-gen's C) */
-	rmd_state_t_subscription_t *s_state =
-		rmd_state_t_subscribe(t.lcm, t.ch_state, on_state, &t);
-	rmd_health_t_subscription_t *s_health =
-		rmd_health_t_subscribe(t.lcm, t.ch_health, on_health, &t);
-	rmd_config_t_subscription_t *s_config =
-		rmd_config_t_subscribe(t.lcm, t.ch_config, on_config, &t);
+	/* one set per instance; the generated subscriptions are the caller's to free (lcm-gen's C) */
+	for (int k = 0; k < t.n; k++) {
+		struct top_inst *in = &t.in[k];
+
+		in->s_state = rmd_state_t_subscribe(t.lcm, in->ch_state, on_state, &t.v[k]);
+		in->s_health = rmd_health_t_subscribe(t.lcm, in->ch_health, on_health, &t.v[k]);
+		in->s_config = rmd_config_t_subscribe(t.lcm, in->ch_config, on_config, &t.v[k]);
+	}
 	r = run(&t);
 	if (r == -EIO)
-		tool_log(TOOL_LOG_ERR, "LCM: receiving on %s failed", t.v.url);
-	rmd_state_t_unsubscribe(t.lcm, s_state);
-	rmd_health_t_unsubscribe(t.lcm, s_health);
-	rmd_config_t_unsubscribe(t.lcm, s_config);
+		tool_log(TOOL_LOG_ERR, "LCM: receiving on %s failed", t.v[0].url);
+	for (int k = 0; k < t.n; k++) {
+		struct top_inst *in = &t.in[k];
+		struct top_view *v = &t.v[k];
+
+		rmd_state_t_unsubscribe(t.lcm, in->s_state);
+		rmd_health_t_unsubscribe(t.lcm, in->s_health);
+		rmd_config_t_unsubscribe(t.lcm, in->s_config);
+		if (v->cfg)
+			rmd_config_t_destroy(v->cfg);
+		if (v->health)
+			rmd_health_t_destroy(v->health);
+		if (v->state)
+			rmd_state_t_destroy(v->state);
+	}
 	lcm_destroy(t.lcm);
-	if (t.v.cfg)
-		rmd_config_t_destroy(t.v.cfg);
-	if (t.v.health)
-		rmd_health_t_destroy(t.v.health);
-	if (t.v.state)
-		rmd_state_t_destroy(t.v.state);
 	if (fflush(stdout) != 0 || ferror(stdout)) {
 		tool_log(TOOL_LOG_ERR, "write error: %s", strerror(errno));
 		return RMDCTL_EXIT_DATA;

@@ -11,6 +11,11 @@
  *   knee_l: the picked motor's details, on up to two lines
  *   q quit  p pause  ...                          <- the keys
  *
+ * Several daemons of one robot (--prefix A_,B_): the title counts them,
+ * one line per instance (its rate, wake-up p99, watchdog, buses; SILENT
+ * when its health stopped) replaces the loop, watchdog and bus lines, and
+ * the table's first column, INST, says each motor's instance.
+ *
  * Nothing wraps: the motor table keeps the columns that fit the width,
  * dropping or narrowing the less urgent ones first (shrink[] below), and
  * the other lines are lists of items that leave out what does not fit.
@@ -45,6 +50,7 @@ enum { PAIR_OK = 1, PAIR_WARN, PAIR_ALARM };
 
 /* The motor table's columns, in screen order. */
 enum col {
+	C_INST,
 	C_IDX,
 	C_NAME,
 	C_BUS,
@@ -69,14 +75,14 @@ static const struct {
 	bool left; /* text; numbers are right-aligned */
 	int prec;  /* numbers (number()): decimals, fewer when the width needs it */
 } cols[NCOLS] = {
-	[C_IDX] = { "IDX", 3, false },	      [C_NAME] = { "NAME", 12, true },
-	[C_BUS] = { "BUS", 8, true },	      [C_ID] = { "ID", 3, false },
-	[C_STATE] = { "STATE", 7, true },     [C_MODE] = { "MODE", 8, true },
-	[C_POS] = { "POS", 8, false, 3 },     [C_VEL] = { "VEL", 8, false, 3 },
-	[C_TORQUE] = { "TORQ", 7, false, 2 }, [C_TEMP] = { "TEMP", 4, false, 0 },
-	[C_ERR] = { "ERR", 4, false },	      [C_LAT] = { "LAT_US", 6, false },
-	[C_AGE] = { "AGE_MS", 6, false, 1 },  [C_MISSED] = { "MISSED", 6, false },
-	[C_PROT] = { "PROT", 11, true },
+	[C_INST] = { "INST", 0, true },	     [C_IDX] = { "IDX", 3, false },
+	[C_NAME] = { "NAME", 12, true },     [C_BUS] = { "BUS", 8, true },
+	[C_ID] = { "ID", 3, false },	     [C_STATE] = { "STATE", 7, true },
+	[C_MODE] = { "MODE", 8, true },	     [C_POS] = { "POS", 8, false, 3 },
+	[C_VEL] = { "VEL", 8, false, 3 },    [C_TORQUE] = { "TORQ", 7, false, 2 },
+	[C_TEMP] = { "TEMP", 4, false, 0 },  [C_ERR] = { "ERR", 4, false },
+	[C_LAT] = { "LAT_US", 6, false },    [C_AGE] = { "AGE_MS", 6, false, 1 },
+	[C_MISSED] = { "MISSED", 6, false }, [C_PROT] = { "PROT", 11, true },
 };
 
 /*
@@ -97,7 +103,8 @@ static const struct {
 	{ C_VEL, 0 },  { C_ID, 0 },	{ C_MODE, 0 },	 { C_POS, 0 },	{ C_PROT, 0 },
 };
 
-#define MARK_W 3 /* '>' picked, '!' needs attention, a space */
+#define MARK_W 3   /* '>' picked, '!' needs attention, a space */
+#define INST_MAX 8 /* the INST column (several instances): from the longest prefix, at most */
 
 struct top_screen {
 	SCREEN *scr;
@@ -307,12 +314,15 @@ static enum att cell(const struct top_view *t, int i, enum col c, int width, cha
 	enum att a = ATT_NONE;
 
 	buf[0] = '\0';
-	if (!ms && c != C_IDX && c != C_NAME && c != C_BUS && c != C_ID) {
+	if (!ms && c != C_INST && c != C_IDX && c != C_NAME && c != C_BUS && c != C_ID) {
 		if (c == C_STATE)
 			snprintf(buf, size, "?");
 		return c == C_STATE ? ATT_WARN : ATT_NONE;
 	}
 	switch (c) {
+	case C_INST:
+		snprintf(buf, size, "%s", t->prefix);
+		break;
 	case C_IDX:
 		snprintf(buf, size, "%d", i);
 		break;
@@ -381,20 +391,34 @@ static enum att motor_att(const struct top_view *t, int i)
 	return worst;
 }
 
-/* The columns' widths for this terminal: u->width[c], 0 when left out. */
-static void layout(const struct top_view *t, struct top_screen *u)
+/*
+ * The columns' widths for this terminal, for the motors of v[0..n-1]:
+ * u->width[c], 0 when left out (INST with one instance).
+ */
+static void layout(const struct top_view *v, int n, struct top_screen *u)
 {
-	int total = MARK_W, name = NAME_MIN;
+	int total = MARK_W, name = NAME_MIN, inst = 0;
 
-	for (int i = 0; i < t->cfg->motor_count; i++) {
-		int len = (int)strlen(t->cfg->motor[i].name);
+	for (int k = 0; k < n; k++) {
+		int plen = (int)strlen(v[k].prefix);
 
-		if (len > name)
-			name = len;
+		if (n > 1 && plen > inst)
+			inst = plen < INST_MAX ? plen : INST_MAX;
+		for (int i = 0; v[k].cfg && i < v[k].cfg->motor_count; i++) {
+			int len = (int)strlen(v[k].cfg->motor[i].name);
+
+			if (len > name)
+				name = len;
+		}
 	}
+	if (inst && inst < (int)strlen(cols[C_INST].head))
+		inst = (int)strlen(cols[C_INST].head);
 	for (int c = 0; c < NCOLS; c++) {
-		u->width[c] = c == C_NAME ? (name < NAME_MAX ? name : NAME_MAX) : cols[c].width;
-		total += u->width[c] + 1;
+		u->width[c] = c == C_NAME ? (name < NAME_MAX ? name : NAME_MAX) :
+			      c == C_INST ? inst :
+					    cols[c].width;
+		if (u->width[c])
+			total += u->width[c] + 1;
 	}
 	total--; /* no space after the last column */
 	for (size_t s = 0; s < sizeof(shrink) / sizeof(shrink[0]) && total > COLS; s++) {
@@ -407,10 +431,10 @@ static void layout(const struct top_view *t, struct top_screen *u)
 	}
 }
 
-/* One table row (motor i, or the column heads when i < 0) at line y. */
-static void table_row(const struct top_view *t, const struct top_screen *u, int y, int i)
+/* One table row (motor i of t, or the column heads when i < 0) at line y. */
+static void table_row(const struct top_view *t, const struct top_screen *u, int y, int i,
+		      bool picked)
 {
-	bool picked = i >= 0 && i == u->sel;
 	attr_t base = picked ? A_REVERSE : A_NORMAL;
 	enum att worst = i >= 0 ? motor_att(t, i) : ATT_NONE;
 	char mark[MARK_W + 1] = { picked ? '>' : ' ', worst >= ATT_WARN ? '!' : ' ', ' ', '\0' };
@@ -549,17 +573,17 @@ static void bus_line(const struct top_view *t, const struct top_screen *u, int y
 	flow(u, y, 1, &l, A_NORMAL);
 }
 
-/* The picked motor, everything the table has no room for. */
-static void details(const struct top_view *t, const struct top_screen *u, int y, int rows)
+/* The picked motor (sel of t), everything the table has no room for. */
+static void details(const struct top_view *t, const struct top_screen *u, int sel, int y, int rows)
 {
 	const rmd_config_t *c = t->cfg;
 	const rmd_health_t *h = t->health;
-	const rmd_motor_config_t *mc = &c->motor[u->sel];
-	const rmd_motor_state_t *ms = top_motor_state(t, u->sel);
+	const rmd_motor_config_t *mc = &c->motor[sel];
+	const rmd_motor_state_t *ms = top_motor_state(t, sel);
 	struct items l = { .n = 0 };
 	char b[32], st[32];
 
-	add(&l, ATT_NONE, "%s: index %d, %s id %d, %s", mc->name, u->sel,
+	add(&l, ATT_NONE, "%s: index %d, %s id %d, %s", mc->name, sel,
 	    mc->bus >= 0 && mc->bus < c->bus_count ? c->bus[mc->bus].name : "?", mc->id,
 	    mc->protocol);
 	if (ms) {
@@ -579,10 +603,10 @@ static void details(const struct top_view *t, const struct top_screen *u, int y,
 		    fit_num(b, sizeof(b), 12, ms->reply_age_cycles * c->period_us / 1000.0, 1));
 		add(&l, ATT_NONE, "missed %" PRId64, ms->missed_replies);
 	}
-	if (u->sel < h->motor_count) {
-		add(&l, armed(h->comm_loss[u->sel]) ? ATT_NONE : ATT_WARN, "comm-loss %s %d ms",
-		    tool_comm_loss_name((unsigned)h->comm_loss[u->sel]), h->comm_loss_ms[u->sel]);
-		add(&l, ATT_NONE, "enables refused unarmed %" PRId64, h->unarmed_rejects[u->sel]);
+	if (sel < h->motor_count) {
+		add(&l, armed(h->comm_loss[sel]) ? ATT_NONE : ATT_WARN, "comm-loss %s %d ms",
+		    tool_comm_loss_name((unsigned)h->comm_loss[sel]), h->comm_loss_ms[sel]);
+		add(&l, ATT_NONE, "enables refused unarmed %" PRId64, h->unarmed_rejects[sel]);
 	}
 	flow(u, y, rows, &l, A_NORMAL);
 }
@@ -604,7 +628,7 @@ static void footer(const struct top_screen *u, int y)
  * always; then the loop line, the details and the motors, the watchdog
  * line and the buses, as many of each as the height leaves.
  */
-void top_screen_draw(struct top_screen *u, const struct top_view *t)
+static void draw_one(struct top_screen *u, const struct top_view *t)
 {
 	int y = 0, avail, n, lrows, mrows, drows, crow, brows;
 
@@ -647,9 +671,9 @@ void top_screen_draw(struct top_screen *u, const struct top_view *t)
 		control_line(t, u, y++);
 	for (int b = 0; b < brows; b++)
 		bus_line(t, u, y++, b);
-	layout(t, u);
+	layout(t, 1, u);
 	if (LINES > 2)
-		table_row(t, u, y++, -1);
+		table_row(t, u, y++, -1, false);
 	/* the table scrolls to keep the picked motor in view */
 	if (u->sel < u->first)
 		u->first = u->sel;
@@ -660,15 +684,172 @@ void top_screen_draw(struct top_screen *u, const struct top_view *t)
 	if (u->first < 0)
 		u->first = 0;
 	for (int k = 0; k < mrows; k++)
-		table_row(t, u, y++, u->first + k);
+		table_row(t, u, y++, u->first + k, u->first + k == u->sel);
 	if (drows)
-		details(t, u, y, drows);
+		details(t, u, u->sel, y, drows);
 	if (LINES > 1)
 		footer(u, LINES - 1);
 	refresh();
 }
 
-unsigned int top_screen_keys(struct top_screen *u, const struct top_view *t)
+/* ---- several instances (--prefix A_,B_) ------------------------------------------------ */
+
+/* The motors of v[0..n-1] that config_t named, counted through the instances in order. */
+static int total_motors(const struct top_view *v, int n)
+{
+	int m = 0;
+
+	for (int k = 0; k < n; k++)
+		m += v[k].cfg ? v[k].cfg->motor_count : 0;
+	return m;
+}
+
+/* Motor number j of that count: its instance *k and index *i. */
+static void motor_at(const struct top_view *v, int n, int j, int *k, int *i)
+{
+	for (*k = 0; *k < n; (*k)++) {
+		int m = v[*k].cfg ? v[*k].cfg->motor_count : 0;
+
+		if (j < m)
+			break;
+		j -= m;
+	}
+	*i = j;
+}
+
+/* A whole instance's motors from it: complete enough to draw rows from. */
+static bool drawable(const struct top_view *t)
+{
+	return t->cfg && t->health && t->state;
+}
+
+static void multi_title(const struct top_view *v, int n, const struct top_screen *u, int y)
+{
+	struct items l = { .n = 0 };
+	int silent = 0, need = 0;
+	enum att worst = ATT_NONE;
+
+	add(&l, ATT_NONE, "rmdctl top");
+	if (v[0].paused)
+		add(&l, ATT_WARN, "PAUSED");
+	for (int k = 0; k < n; k++) {
+		silent += top_silent(&v[k]);
+		for (int i = 0; drawable(&v[k]) && i < v[k].cfg->motor_count; i++) {
+			enum att a = motor_att(&v[k], i);
+
+			need += a >= ATT_WARN;
+			if (a > worst)
+				worst = a;
+		}
+	}
+	add(&l, ATT_NONE, "%d instances", n);
+	if (silent)
+		add(&l, ATT_ALARM, "%d silent", silent);
+	add(&l, ATT_NONE, "%d motors", total_motors(v, n));
+	if (need)
+		add(&l, worst, "%d need%s attention", need, need == 1 ? "s" : "");
+	add(&l, ATT_NONE, "%s", v[0].url);
+	bar(y, A_REVERSE);
+	flow(u, y, 1, &l, A_REVERSE);
+}
+
+/* One instance's line: its prefix, SILENT, its rate, watchdog, buses and loop. */
+static void instance_line(const struct top_view *t, const struct top_screen *u, int y)
+{
+	const rmd_health_t *h = t->health;
+	struct items l = { .n = 0 };
+	char b[32];
+
+	add(&l, ATT_NONE, "%s", t->prefix);
+	if (top_silent(t)) {
+		if (h)
+			add(&l, ATT_ALARM, "SILENT: no health for %.1f s (rmdd lost?)",
+			    (double)(rmd_now_ns() - t->health_rx_ns) / 1e9);
+		else
+			add(&l, ATT_WARN, "waiting: config %s, health no, state %s",
+			    t->cfg ? "yes" : "no", t->state ? "yes" : "no");
+	}
+	if (t->mixed)
+		add(&l, ATT_ALARM, "MIXED: 2 rmdd");
+	if (!h)
+		goto draw;
+	if (t->cfg && t->cfg->period_us > 0)
+		add(&l, ATT_NONE, "%.0f Hz", 1e6 / t->cfg->period_us);
+	add(&l, h->watchdog == RMD_HEALTH_T_WD_TRIPPED ? ATT_ALARM : ATT_NONE, "watchdog %s",
+	    tool_watchdog_name((unsigned)h->watchdog));
+	for (int i = 0; i < h->bus_count && i < RMD_HEALTH_T_MAX_BUSES; i++) {
+		const rmd_bus_health_t *bh = &h->bus[i];
+
+		add(&l,
+		    bh->state == RMD_BUS_ACTIVE	 ? ATT_NONE :
+		    bh->state == RMD_BUS_WARNING ? ATT_WARN :
+						   ATT_ALARM,
+		    "%s %s %.0f%%", bh->name, top_bus_state_name(bh->state), bh->load * 100.0);
+	}
+	/* the cycles count shows a live daemon's line moving; what fits after it follows */
+	add(&l, ATT_NONE, "cycles %" PRId64, h->cycles);
+	add(&l, ATT_NONE, "p99 %s us", fit_num(b, sizeof(b), 9, h->wake_p99_us, 1));
+	add(&l, h->overruns ? ATT_WARN : ATT_NONE, "overruns %" PRId64, h->overruns);
+draw:
+	flow(u, y, 1, &l, A_NORMAL);
+}
+
+/*
+ * Rows, most needed first: title, column heads and keys; a line per
+ * instance; the details and the motors of every instance (the table
+ * scrolls to the picked one).
+ */
+static void draw_multi(struct top_screen *u, const struct top_view *v, int n)
+{
+	int y = 0, avail, m = total_motors(v, n), irows, mrows, drows, k, i;
+
+	erase();
+	multi_title(v, n, u, y++);
+	if (u->sel >= m)
+		u->sel = m - 1;
+	if (u->sel < 0)
+		u->sel = 0;
+	avail = LINES - 3 > 0 ? LINES - 3 : 0; /* title, column heads, keys */
+	irows = n < avail ? n : avail;
+	avail -= irows;
+	drows = m && avail >= DETAIL_ROWS + 3 ? DETAIL_ROWS : 0;
+	mrows = m < avail - drows ? m : avail - drows;
+	for (k = 0; k < irows; k++)
+		instance_line(&v[k], u, y++);
+	layout(v, n, u);
+	if (LINES > 2)
+		table_row(&v[0], u, y++, -1, false);
+	if (u->sel < u->first)
+		u->first = u->sel;
+	if (mrows && u->sel >= u->first + mrows)
+		u->first = u->sel - mrows + 1;
+	if (u->first > m - mrows)
+		u->first = m - mrows;
+	if (u->first < 0)
+		u->first = 0;
+	for (int r = 0; r < mrows; r++) {
+		motor_at(v, n, u->first + r, &k, &i);
+		if (drawable(&v[k]))
+			table_row(&v[k], u, y, i, u->first + r == u->sel);
+		y++;
+	}
+	motor_at(v, n, u->sel, &k, &i);
+	if (drows && m && drawable(&v[k]))
+		details(&v[k], u, i, y, drows);
+	if (LINES > 1)
+		footer(u, LINES - 1);
+	refresh();
+}
+
+void top_screen_draw(struct top_screen *u, const struct top_view *v, int n)
+{
+	if (n > 1)
+		draw_multi(u, v, n);
+	else
+		draw_one(u, v);
+}
+
+unsigned int top_screen_keys(struct top_screen *u, const struct top_view *v, int n)
 {
 	unsigned int r = 0;
 	int ch;
@@ -697,7 +878,7 @@ unsigned int top_screen_keys(struct top_screen *u, const struct top_view *t)
 			break;
 		case KEY_END:
 		case 'G':
-			u->sel = t->cfg ? t->cfg->motor_count - 1 : 0;
+			u->sel = total_motors(v, n) > 0 ? total_motors(v, n) - 1 : 0;
 			break;
 		default: /* KEY_RESIZE too: curses has the new size, a redraw uses it */
 			break;

@@ -18,10 +18,13 @@ struct top_screen;
 
 /* The terminal in curses mode; NULL when curses cannot drive it. */
 struct top_screen *top_screen_open(void);
-/* The whole screen from v. */
-void top_screen_draw(struct top_screen *s, const struct top_view *v);
+/*
+ * The whole screen from v[0..n-1]: one daemon (n 1), or several of one
+ * robot (--prefix A_,B_: each motor with its instance, a line each).
+ */
+void top_screen_draw(struct top_screen *s, const struct top_view *v, int n);
 /* Every key typed since the last call: the picked motor moves; returns TOP_SCREEN_* bits. */
-unsigned int top_screen_keys(struct top_screen *s, const struct top_view *v);
+unsigned int top_screen_keys(struct top_screen *s, const struct top_view *v, int n);
 /* The terminal restored; s freed. */
 void top_screen_close(struct top_screen *s);
 

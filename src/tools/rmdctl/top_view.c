@@ -39,6 +39,11 @@ bool top_stale(const struct top_view *v)
 	return now - v->health_rx_ns > TOP_STALE_NS || now - v->state_rx_ns > TOP_STALE_NS;
 }
 
+bool top_silent(const struct top_view *v)
+{
+	return !v->health || rmd_now_ns() - v->health_rx_ns > TOP_STALE_NS;
+}
+
 void top_mixed_line(const struct top_view *v, char *buf, size_t len)
 {
 	snprintf(buf, len,

@@ -52,5 +52,7 @@ const char *top_bus_state_name(int s);
 void top_mixed_line(const struct top_view *v, char *buf, size_t len);
 /* No health_t or state_t for TOP_STALE_NS. */
 bool top_stale(const struct top_view *v);
+/* No health_t for TOP_STALE_NS (or none ever): the daemon is silent. */
+bool top_silent(const struct top_view *v);
 
 #endif /* RMDCTL_TOP_VIEW_H */
