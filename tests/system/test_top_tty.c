@@ -489,15 +489,18 @@ static void test_stale(void **state)
  * simulated motors, a_m1 .. a_m3, from a configuration file (--sim has no
  * prefix).
  */
-static struct kid *start_instance(struct fixture *f, char p)
+static struct kid *start_instance(struct fixture *f, char p, const char *robot)
 {
-	char path[PATH_MAX], yaml[1024], name[16];
+	char path[PATH_MAX], yaml[1024], name[16], rob[96] = "";
 	char lo = (char)(p - 'A' + 'a');
 	struct kid *k;
 
 	snprintf(path, sizeof(path), "%s/%c%u.XXXXXX", dir, p, test_no);
+	if (robot)
+		snprintf(rob, sizeof(rob), "robot: {instance: %s}\n", robot);
 	snprintf(yaml, sizeof(yaml),
 		 "loop: {rate_hz: 1000, rt_priority: 40}\n"
+		 "%s"
 		 "lcm: {channel_prefix: %c_}\n"
 		 "buses:\n"
 		 "  - {name: sim0, type: sim, sim: {seed: 1}}\n"
@@ -505,7 +508,7 @@ static struct kid *start_instance(struct fixture *f, char p)
 		 "  - {name: %c_m1, bus: sim0, id: 1, mode: position, torque_constant_nm_a: 2}\n"
 		 "  - {name: %c_m2, bus: sim0, id: 2, mode: position, torque_constant_nm_a: 2}\n"
 		 "  - {name: %c_m3, bus: sim0, id: 3, mode: position, torque_constant_nm_a: 2}\n",
-		 p, lo, lo, lo);
+		 rob, p, lo, lo, lo);
 	temp_file(path, yaml);
 	snprintf(name, sizeof(name), "rmdd %c_", p);
 	k = kid_spawn(name,
@@ -613,8 +616,8 @@ static void test_instances(void **state)
 	char line[256];
 	struct run r;
 
-	f->rmdd = start_instance(f, 'A');
-	f->rmdd_b = start_instance(f, 'B');
+	f->rmdd = start_instance(f, 'A', NULL);
+	f->rmdd_b = start_instance(f, 'B', NULL);
 	start_top_args(f, 80, 24, "A_,B_");
 	wait_screen(f, &r, instances_ok, NULL, "both instances and their 6 motors at 80x24");
 	assert_fits(r.out, 80, "two instances at 80x24");
@@ -677,17 +680,18 @@ static void test_instances_json(void **state)
 	const char *p;
 	int na = 0, nb = 0;
 
-	f->rmdd = start_instance(f, 'A');
-	f->rmdd_b = start_instance(f, 'B');
+	f->rmdd = start_instance(f, 'A', NULL);
+	/* B is a part of a robot: named by its robot.instance, A by its prefix */
+	f->rmdd_b = start_instance(f, 'B', "b_part");
 	top_both(f, &r, "--json");
 	assert_has(r.out, ",\"instances\":[{", "--json: the instances");
 	for (p = r.out; (p = strstr(p, "\"instance\":\"A_\",\"name\":\"a_m")); p++)
 		na++;
-	for (p = r.out; (p = strstr(p, "\"instance\":\"B_\",\"name\":\"b_m")); p++)
+	for (p = r.out; (p = strstr(p, "\"instance\":\"b_part\",\"name\":\"b_m")); p++)
 		nb++;
 	if (na != INST_MOTORS || nb != INST_MOTORS)
-		fail_msg("--json: %d motors of A_, %d of B_, not %d each:\n%s", na, nb, INST_MOTORS,
-			 r.out);
+		fail_msg("--json: %d motors of A_, %d of b_part, not %d each:\n%s", na, nb,
+			 INST_MOTORS, r.out);
 	assert_int_equal(count_lines(r.out), 1);
 	run_free(&r);
 
@@ -698,7 +702,7 @@ static void test_instances_json(void **state)
 
 		snprintf(row, sizeof(row), "A_         %d a_m%d", m - 1, m);
 		assert_has(r.out, row, "--once: A_'s motor");
-		snprintf(row, sizeof(row), "B_         %d b_m%d", m - 1, m);
+		snprintf(row, sizeof(row), "b_part     %d b_m%d", m - 1, m);
 		assert_has(r.out, row, "--once: B_'s motor");
 	}
 	run_free(&r);

@@ -352,7 +352,7 @@ static void print_table(const struct top_view *v, bool multi, FILE *f)
 			 i < h->motor_count ? tool_comm_loss_name((unsigned)h->comm_loss[i]) : "?",
 			 i < h->motor_count ? h->comm_loss_ms[i] : -1);
 		if (multi)
-			fprintf(f, "%-8s ", v->prefix);
+			fprintf(f, "%-8s ", top_instance_name(v));
 		if (!ms) {
 			fprintf(f, "%3d %-12s (not in state_t)\n", i, mc->name);
 			continue;
@@ -484,7 +484,7 @@ static void print_json(const struct top_view *v, bool multi, FILE *f)
 
 		fprintf(f, "%s{\"index\":%d", i ? "," : "", i);
 		if (multi)
-			json_kstr(f, "instance", v->prefix);
+			json_kstr(f, "instance", top_instance_name(v));
 		json_kstr(f, "name", mc->name);
 		json_kstr(f, "bus",
 			  mc->bus >= 0 && mc->bus < c->bus_count ? c->bus[mc->bus].name : "?");

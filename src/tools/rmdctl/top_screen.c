@@ -321,7 +321,7 @@ static enum att cell(const struct top_view *t, int i, enum col c, int width, cha
 	}
 	switch (c) {
 	case C_INST:
-		snprintf(buf, size, "%s", t->prefix);
+		snprintf(buf, size, "%s", top_instance_name(t));
 		break;
 	case C_IDX:
 		snprintf(buf, size, "%d", i);
@@ -400,7 +400,7 @@ static void layout(const struct top_view *v, int n, struct top_screen *u)
 	int total = MARK_W, name = NAME_MIN, inst = 0;
 
 	for (int k = 0; k < n; k++) {
-		int plen = (int)strlen(v[k].prefix);
+		int plen = (int)strlen(top_instance_name(&v[k]));
 
 		if (n > 1 && plen > inst)
 			inst = plen < INST_MAX ? plen : INST_MAX;
@@ -760,7 +760,7 @@ static void instance_line(const struct top_view *t, const struct top_screen *u, 
 	struct items l = { .n = 0 };
 	char b[32];
 
-	add(&l, ATT_NONE, "%s", t->prefix);
+	add(&l, ATT_NONE, "%s", top_instance_name(t));
 	if (top_silent(t)) {
 		if (h)
 			add(&l, ATT_ALARM, "SILENT: no health for %.1f s (rmdd lost?)",

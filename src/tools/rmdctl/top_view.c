@@ -25,6 +25,15 @@ const char *top_bus_state_name(int s)
 }
 
 /* The state's motor i, by index (state_t.motor[i] is motor i, but check). */
+const char *top_instance_name(const struct top_view *v)
+{
+	if (v->cfg && v->cfg->instance_name && v->cfg->instance_name[0])
+		return v->cfg->instance_name;
+	if (v->health && v->health->instance_name && v->health->instance_name[0])
+		return v->health->instance_name;
+	return v->prefix;
+}
+
 const rmd_motor_state_t *top_motor_state(const struct top_view *v, int i)
 {
 	if (v->state && i < v->state->count && v->state->motor[i].index == i)

@@ -43,6 +43,12 @@ struct top_view {
 	char other_host[64], other_source[256];
 };
 
+/*
+ * What the view's daemon is called: its robot.instance (config_t, else
+ * health_t) when it has one, else the channel prefix it was opened with.
+ */
+const char *top_instance_name(const struct top_view *v);
+
 /* The state's motor i, or NULL when state_t has none at that index. */
 const rmd_motor_state_t *top_motor_state(const struct top_view *v, int i);
 /* Names of a state_t mode and a health_t bus state; "?" when unknown. */
