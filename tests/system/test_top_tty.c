@@ -707,6 +707,17 @@ static void test_instances_json(void **state)
 	}
 	run_free(&r);
 
+	/* --robot: the instances heard on the robot's heartbeats, B alone (A is no robot part) */
+	run_prog(&r, rmdctl_bin,
+		 (const char *const[]){ "top", "--lcm-url", f->url, "--robot", "--once", "--wait",
+					"10", NULL },
+		 NULL);
+	assert_status(&r, 0, "--robot --once");
+	assert_has(r.out, "prefix B_,", "--robot: B, found by its heartbeat");
+	assert_lacks(r.out, "prefix A_,", "--robot: A sends no heartbeat");
+	assert_has(r.out, "b_part     0 b_m1", "--robot: B's motor by its instance name");
+	run_free(&r);
+
 	/* a prefix nobody publishes on: the error names that instance, not the others */
 	const struct run_case bad[] = {
 		{ .args = { "top", "--lcm-url", f->url, "--prefix", "A_,C_", "--json", "--wait",

@@ -36,6 +36,7 @@
 #include "rmd/config.h"
 #include "rmd/time.h"
 #include "rmd/rmd_config_request_t.h"
+#include "rmd/rmd_heartbeat_t.h"
 #include "rmdctl.h"
 #include "top_screen.h"
 #include "tools/common/names.h"
@@ -63,7 +64,7 @@ struct top_inst {
 
 /* top: its options, its LCM link and what it shows (filled from LCM, read by the views). */
 struct top {
-	bool json, once, tty;
+	bool json, once, tty, robot;
 	double interval_ms, wait_s;
 
 	lcm_t *lcm;
@@ -87,7 +88,7 @@ static void on_signal(int sig)
  * `rmdctl --completion bash`.  Its rows, in order: getopt_long returns
  * TOOL_OPT_BASE + row (-j and -h: the letter).
  */
-enum { OPT_URL, OPT_PREFIX, OPT_JSON, OPT_ONCE, OPT_INTERVAL, OPT_WAIT, OPT_HELP };
+enum { OPT_URL, OPT_PREFIX, OPT_JSON, OPT_ONCE, OPT_INTERVAL, OPT_WAIT, OPT_ROBOT, OPT_HELP };
 
 const struct tool_opt rmdctl_top_opts[] = {
 	{ .name = "lcm-url",
@@ -106,6 +107,9 @@ const struct tool_opt rmdctl_top_opts[] = {
 	TOOL_OPT_ARG("wait", "S",
 		     "with --json or --once: give up after S seconds without\n"
 		     "config, health and state (default 3)"),
+	{ .name = "robot",
+	  .help = "every rmdd of the robot: the instances whose heartbeats\n"
+		  "(" RMD_CHANNEL_ROBOT_HEARTBEAT ") are heard at start, instead of --prefix" },
 	TOOL_OPT_HELP,
 };
 const size_t rmdctl_n_top_opts = sizeof(rmdctl_top_opts) / sizeof(rmdctl_top_opts[0]);
@@ -113,7 +117,7 @@ const size_t rmdctl_n_top_opts = sizeof(rmdctl_top_opts) / sizeof(rmdctl_top_opt
 void rmdctl_top_usage(FILE *f)
 {
 	fprintf(f,
-		"usage: rmdctl top [--lcm-url URL] [--prefix P[,P...]] [--json | --once]\n"
+		"usage: rmdctl top [--lcm-url URL] [--prefix P[,P...] | --robot] [--json | --once]\n"
 		"                  [--interval MS] [--wait S]\n"
 		"\n"
 		"A live view of a running rmdd, from what it publishes on LCM: every motor's\n"
@@ -519,7 +523,7 @@ static void print_json(const struct top_view *v, bool multi, FILE *f)
 /* Every instance's table or object (one prefix: exactly as before --prefix took a list). */
 static void print_all(const struct top *t, FILE *f)
 {
-	bool multi = t->n > 1;
+	bool multi = t->n > 1 || t->robot; /* --robot: which part, even of one */
 
 	if (t->json && multi) {
 		fputs("{\"url\":", f);
@@ -624,6 +628,9 @@ static int parse(struct top *t, int argc, char **argv)
 				return -1;
 			}
 			break;
+		case TOOL_OPT_BASE + OPT_ROBOT:
+			t->robot = true;
+			break;
 		case 'h':
 			rmdctl_top_usage(stdout);
 			return 1;
@@ -642,7 +649,89 @@ static int parse(struct top *t, int argc, char **argv)
 		tool_log(TOOL_LOG_ERR, "--json and --once exclude each other");
 		return -1;
 	}
-	return split_prefixes(t);
+	if (t->robot && strcmp(t->prefixes, DEFAULT_PREFIX)) {
+		tool_log(TOOL_LOG_ERR, "--robot and --prefix exclude each other");
+		return -1;
+	}
+	return t->robot ? 0 : split_prefixes(t);
+}
+
+/* The instances --robot heard: prefix and name, from their heartbeats. */
+struct heard {
+	unsigned n, more;
+	char prefix[TOP_MAX_INSTANCES][TOP_CHANNEL_LEN], name[TOP_MAX_INSTANCES][64];
+	int64_t last_new_ns;
+};
+
+static void on_heartbeat(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_heartbeat_t *h,
+			 void *user)
+{
+	struct heard *d = user;
+
+	(void)rbuf;
+	(void)channel;
+	if (strlen(h->prefix) + strlen(RMD_CHANNEL_CONFIG_REQUEST) >= TOP_CHANNEL_LEN)
+		return;
+	for (unsigned k = 0; k < d->n; k++)
+		if (!strcmp(d->prefix[k], h->prefix))
+			return;
+	if (d->n == TOP_MAX_INSTANCES) {
+		d->more++;
+		return;
+	}
+	snprintf(d->prefix[d->n], sizeof(d->prefix[0]), "%s", h->prefix);
+	snprintf(d->name[d->n], sizeof(d->name[0]), "%s", h->instance);
+	d->n++;
+	d->last_new_ns = rmd_now_ns();
+}
+
+/*
+ * --robot: listen to the robot's heartbeats until none new came for
+ * DISCOVER_QUIET_NS (at most --wait s), and view each instance heard, in
+ * the order of their names.  0, or -ETIMEDOUT (reported) when none was.
+ */
+#define DISCOVER_QUIET_NS (300 * RMD_NS_PER_MS)
+
+static int discover(struct top *t)
+{
+	static struct heard d;
+	rmd_heartbeat_t_subscription_t *sub =
+		rmd_heartbeat_t_subscribe(t->lcm, RMD_CHANNEL_ROBOT_HEARTBEAT, on_heartbeat, &d);
+	int64_t start = rmd_now_ns(), end = start + (int64_t)(t->wait_s * 1e9);
+	size_t len = 0;
+
+	memset(&d, 0, sizeof(d));
+	while (!rmdctl_top_stop && rmd_now_ns() < end &&
+	       !(d.n && rmd_now_ns() - d.last_new_ns > DISCOVER_QUIET_NS))
+		lcm_handle_timeout(t->lcm, 20);
+	rmd_heartbeat_t_unsubscribe(t->lcm, sub);
+	if (!d.n) {
+		tool_log(TOOL_LOG_ERR,
+			 "--robot: no rmdd's heartbeat on %s within %g s (an rmdd without a "
+			 "robot: section sends none: name it with --prefix)",
+			 t->v[0].url, t->wait_s);
+		return -ETIMEDOUT;
+	}
+	if (d.more)
+		tool_log(TOOL_LOG_WARNING, "--robot: %u more instances than the %d shown", d.more,
+			 TOP_MAX_INSTANCES);
+	/* by name: the same robot shows the same way each time */
+	for (unsigned i = 1; i < d.n; i++)
+		for (unsigned j = i; j > 0 && strcmp(d.name[j - 1], d.name[j]) > 0; j--) {
+			char tp[TOP_CHANNEL_LEN], tn[64];
+
+			memcpy(tp, d.prefix[j], sizeof(tp));
+			memcpy(tn, d.name[j], sizeof(tn));
+			memcpy(d.prefix[j], d.prefix[j - 1], sizeof(tp));
+			memcpy(d.name[j], d.name[j - 1], sizeof(tn));
+			memcpy(d.prefix[j - 1], tp, sizeof(tp));
+			memcpy(d.name[j - 1], tn, sizeof(tn));
+		}
+	t->prefixes[0] = '\0';
+	for (unsigned k = 0; k < d.n; k++)
+		len += (size_t)snprintf(t->prefixes + len, sizeof(t->prefixes) - len, "%s%s",
+					k ? "," : "", d.prefix[k]);
+	return split_prefixes(t) < 0 ? -EINVAL : 0;
 }
 
 /* The instances not complete, as "A_ (config no, health yes, state no), ...". */
@@ -669,7 +758,7 @@ static void incomplete(const struct top *t, char *buf, size_t len)
 static int run_once(struct top *t)
 {
 	int64_t start = rmd_now_ns();
-	bool multi = t->n > 1;
+	bool multi = t->n > 1 || t->robot;
 
 	for (;;) {
 		if (pump(t, rmd_now_ns() + 20000000) < 0)
@@ -823,16 +912,6 @@ int rmdctl_top_run(int argc, char **argv)
 	}
 	if (t.interval_ms == 0)
 		t.interval_ms = t.tty ? TTY_INTERVAL_MS : PLAIN_INTERVAL_MS;
-	for (int k = 0; k < t.n; k++) {
-		struct top_inst *in = &t.in[k];
-		const char *p = t.v[k].prefix;
-
-		snprintf(in->ch_state, sizeof(in->ch_state), "%s" RMD_CHANNEL_STATE, p);
-		snprintf(in->ch_health, sizeof(in->ch_health), "%s" RMD_CHANNEL_HEALTH, p);
-		snprintf(in->ch_config, sizeof(in->ch_config), "%s" RMD_CHANNEL_CONFIG, p);
-		snprintf(in->ch_request, sizeof(in->ch_request), "%s" RMD_CHANNEL_CONFIG_REQUEST,
-			 p);
-	}
 
 	memset(&sa, 0, sizeof(sa));
 	sa.sa_handler = on_signal;
@@ -846,6 +925,20 @@ int rmdctl_top_run(int argc, char **argv)
 			 "LCM: cannot open %s (docs/lcm.md: a robot PC without a network)",
 			 t.v[0].url);
 		return RMDCTL_EXIT_DATA;
+	}
+	if (t.robot && discover(&t) < 0) {
+		lcm_destroy(t.lcm);
+		return RMDCTL_EXIT_DATA;
+	}
+	for (int k = 0; k < t.n; k++) {
+		struct top_inst *in = &t.in[k];
+		const char *p = t.v[k].prefix;
+
+		snprintf(in->ch_state, sizeof(in->ch_state), "%s" RMD_CHANNEL_STATE, p);
+		snprintf(in->ch_health, sizeof(in->ch_health), "%s" RMD_CHANNEL_HEALTH, p);
+		snprintf(in->ch_config, sizeof(in->ch_config), "%s" RMD_CHANNEL_CONFIG, p);
+		snprintf(in->ch_request, sizeof(in->ch_request), "%s" RMD_CHANNEL_CONFIG_REQUEST,
+			 p);
 	}
 	/* one set per instance; the generated subscriptions are the caller's to free (lcm-gen's C) */
 	for (int k = 0; k < t.n; k++) {
