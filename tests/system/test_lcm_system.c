@@ -464,6 +464,8 @@ static int teardown(void **state)
 	if (!f)
 		return 0;
 	stop_child(&f->child, SIGKILL, 2000);
+	if (f->rmdd_b > 0)
+		kill(f->rmdd_b, SIGCONT); /* a test that stopped it and failed */
 	if (f->rmdd_b > 0 && stop_child(&f->rmdd_b, SIGTERM, 5000) != 0)
 		fprintf(stderr,
 			"test_lcm_system: the second rmdd did not stop cleanly; its "
@@ -2988,6 +2990,41 @@ static void test_sine_controller_refuses_a_name_clash(void **state)
 	print_message("%s", strstr(out, "motor same_1"));
 }
 
+/* An instance that goes quiet (SIGSTOP): named, exit 1, the other instance's motors disabled. */
+static void test_sine_controller_instance_goes_away(void **state)
+{
+	struct fixture *f = fixture(state);
+	const char *argv[] = { sine_bin, "--url", f->url, "--prefix", "A_,B_", NULL };
+	const char *out;
+	int st;
+
+	start_two_instances(f, "a", "b");
+	f->child = spawn(argv, f->child_log, false);
+	WAIT_UNTIL_HELD(f,
+			rx_all_in(&f->rx, RMD_STATE_T_LC_ENABLED) &&
+				rx_all_in(&f->rx_b, RMD_STATE_T_LC_ENABLED),
+			5000);
+	if (!rx_all_in(&f->rx, RMD_STATE_T_LC_ENABLED) ||
+	    !rx_all_in(&f->rx_b, RMD_STATE_T_LC_ENABLED))
+		fail_msg("the controller did not enable both instances' motors; its output:\n%s",
+			 slurp(f->child_log));
+	assert_int_equal(kill(f->rmdd_b, SIGSTOP), 0);
+	/* 1 s without its state_t, seen at the controller's next look (once a second) */
+	st = wait_exit(f->child, 10000);
+	out = slurp(f->child_log);
+	if (st != 1 || !strstr(out, "no state_t from rmdd part_b (prefix B_) for 1 s: stopping") ||
+	    !strstr(out, "enable = 0 sent to 4 motors"))
+		fail_msg("exit %d (want 1, naming part_b, enable = 0 sent); its output:\n%s", st,
+			 out);
+	f->child = 0;
+	WAIT_UNTIL_HELD(f, rx_all_in(&f->rx, RMD_STATE_T_LC_READY), 1000);
+	if (!rx_all_in(&f->rx, RMD_STATE_T_LC_READY))
+		fail_msg("A_'s motors in lifecycle %d and %d after the controller (want ready)",
+			 f->rx.state.motor[0].lifecycle, f->rx.state.motor[1].lifecycle);
+	print_message("%s", strstr(out, "no state_t from rmdd part_b"));
+	kill(f->rmdd_b, SIGCONT);
+}
+
 int main(void)
 {
 	struct CMUnitTest tests[] = {
@@ -3013,6 +3050,7 @@ int main(void)
 		cmocka_unit_test(test_second_daemon_refused_then_forced),
 		cmocka_unit_test(test_sine_controller_two_instances),
 		cmocka_unit_test(test_sine_controller_refuses_a_name_clash),
+		cmocka_unit_test(test_sine_controller_instance_goes_away),
 	};
 
 	if (getenv("RMD_TEST_FILTER")) /* e.g. RMD_TEST_FILTER=test_flood* */
