@@ -1014,10 +1014,12 @@ err_close_instances:
 int main(int argc, char **argv)
 {
 	static struct opts o;
-	static struct ctl c = { .o = &o }; /* ~80 kB of motors and buffers: off the stack */
+	static struct ctl c; /* ~100 kB of instances and motors: off the stack */
 	struct sigaction sa = { .sa_handler = on_signal };
 
 	int r = parse_args(argc, argv, &o);
+
+	c.o = &o;
 
 	if (r)
 		return r < 0 ? EXIT_USAGE : EXIT_OK;
