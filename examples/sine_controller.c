@@ -34,6 +34,15 @@
  *      driven motor, the whole run's error, exit 0.  Exit 1 when rmdd is
  *      not there or goes away, 2 for a bad command line.
  *
+ * Several rmdd instances as one robot (docs/robot.md): --prefix LEFT_,RIGHT_
+ * does all of this for each prefix (struct inst: its channels, its daemon,
+ * its config_t and state_t) on one LCM handle, and drives every motor of
+ * them all: one command_t per instance per tick, motor names unique across
+ * the instances (a clash is refused at start), each motor named with its
+ * instance in what is printed ("LEFT_/hip", or config_t.instance_name
+ * "left_leg/hip"), every instance told enable = 0 at the end, and exit 1
+ * when any of them goes away.
+ *
  * Single-threaded: poll(2) on LCM's descriptor until the next publish.
  * Non-rt (an example: a real controller would run its loop at SCHED_FIFO).
  */
@@ -78,6 +87,8 @@
 #define STOP_GAP_NS (5 * NS_PER_MS)	    /* ... this far apart (UDP may drop one) */
 #define MAX_MOTORS RMD_COMMAND_T_MAX_MOTORS /* 32 */
 #define NAME_LEN 64
+#define PREFIX_LEN 64	/* rmdd's lcm.channel_prefix is at most this long */
+#define MAX_INSTANCES 8 /* prefixes in --prefix P1,P2,... */
 
 enum exit_status {
 	EXIT_OK = 0,
@@ -92,7 +103,9 @@ struct opts {
 	double rate_hz;
 	double kp, kd;
 	const char *url;
-	const char *prefix;
+	const char *prefix; /* as given: one prefix or a comma list */
+	char prefixes[MAX_INSTANCES][PREFIX_LEN + 1];
+	int n_prefixes;
 	double duration_s; /* 0: until Ctrl-C */
 	bool takeover;	   /* command_t.takeover: take the motors from their owner */
 };
@@ -113,19 +126,17 @@ struct err_acc {
 	unsigned long n;
 };
 
-/* A motor we drive. */
-struct motor {
-	const struct motor_cfg *cfg;
-	double center_rad;
-	int lifecycle; /* from state_t, -1 before the first */
-	bool was_enabled;
-	struct err_acc window, total;
-};
+struct ctl;
 
-struct ctl {
-	struct opts o;
-	lcm_t *lcm;
-	char ch_command[96], ch_config[96], ch_config_req[96], ch_state[96];
+/* One rmdd instance: a prefix, its channels, the daemon answering there, its config and state. */
+struct inst {
+	struct ctl *c;
+	const char *prefix;
+	char who[NAME_LEN + 1]; /* config_t.instance_name, else the prefix */
+	char ch_command[96], ch_config[96], ch_config_req[96], ch_state[96], ch_health[96];
+	rmd_config_t_subscription_t *sub_config;
+	rmd_health_t_subscription_t *sub_health;
+	rmd_state_t_subscription_t *sub_state;
 
 	bool have_config;
 	/*
@@ -147,12 +158,30 @@ struct ctl {
 	int state_lc[MAX_MOTORS];
 	double state_pos[MAX_MOTORS];
 	unsigned long n_states;
+	int64_t seq; /* its command_t.seq */
+};
 
-	struct motor m[MAX_MOTORS];
+/* A motor we drive. */
+struct motor {
+	struct inst *in;
+	const struct motor_cfg *cfg;
+	char label[2 * NAME_LEN + 8]; /* its name; "LEFT_/hip" beside other instances */
+	double center_rad;
+	int lifecycle; /* from state_t, -1 before the first */
+	bool was_enabled;
+	struct err_acc window, total;
+};
+
+struct ctl {
+	const struct opts *o;
+	lcm_t *lcm;
+	struct inst in[MAX_INSTANCES]; /* one per prefix */
+	int n_in;
+
+	struct motor m[MAX_INSTANCES * MAX_MOTORS];
 	int n;
 	int64_t t0_ns; /* the sine's time 0; 0: not running yet */
-	int64_t seq;
-	int64_t id; /* command_t.controller: random, chosen at start */
+	int64_t id;    /* command_t.controller: random, chosen at start */
 	rmd_command_t msg;
 	rmd_motor_command_t msg_motor[MAX_MOTORS]; /* msg.motor */
 	uint8_t buf[4096];			   /* an encoded command_t is at most 1.7 kB */
@@ -199,7 +228,9 @@ static void usage(FILE *out)
 		"  -p, --kp KP          MIT stiffness, N*m/rad (default 20)\n"
 		"  -d, --kd KD          MIT damping, N*m*s/rad (default 1)\n"
 		"  -u, --url URL        LCM URL (default $LCM_DEFAULT_URL, else %s)\n"
-		"  -P, --prefix P       rmdd's channel prefix (default " DEFAULT_PREFIX ")\n"
+		"  -P, --prefix P       rmdd's channel prefix (default " DEFAULT_PREFIX
+		"); P1,P2,...:\n"
+		"                       several rmdd instances driven as one robot\n"
 		"  -t, --duration S     stop after S seconds (default 0: until Ctrl-C)\n"
 		"  -T, --takeover       take the motors from the controller that owns them\n"
 		"                       (one that died owning them, say; rmdd logs it)\n"
@@ -239,6 +270,46 @@ static const struct num_opt *num_opt(const struct num_opt *t, size_t n, int c)
 		if (t[i].c == c)
 			return &t[i];
 	return NULL;
+}
+
+/* --prefix P, or P1,P2,... (none empty, none twice): o->prefixes.  0 or -EINVAL after a message. */
+static int parse_prefixes(struct opts *o)
+{
+	const char *s = o->prefix;
+	bool list = strchr(s, ',') != NULL;
+
+	for (;;) {
+		const char *comma = strchr(s, ',');
+		size_t len = comma ? (size_t)(comma - s) : strlen(s);
+		char *p = o->prefixes[o->n_prefixes];
+
+		if (len > PREFIX_LEN) {
+			fprintf(stderr, PROG ": --prefix: at most %d characters\n", PREFIX_LEN);
+			return -EINVAL;
+		}
+		if (o->n_prefixes == MAX_INSTANCES) {
+			fprintf(stderr, PROG ": --prefix %s: at most %d prefixes\n", o->prefix,
+				MAX_INSTANCES);
+			return -EINVAL;
+		}
+		memcpy(p, s, len);
+		p[len] = '\0';
+		if (list && !len) {
+			fprintf(stderr, PROG ": --prefix %s: an empty prefix in the list\n",
+				o->prefix);
+			return -EINVAL;
+		}
+		for (int i = 0; i < o->n_prefixes; i++)
+			if (!strcmp(o->prefixes[i], p)) {
+				fprintf(stderr, PROG ": --prefix %s: %s given twice\n", o->prefix,
+					p);
+				return -EINVAL;
+			}
+		o->n_prefixes++;
+		if (!comma)
+			return 0;
+		s = comma + 1;
+	}
 }
 
 /* Fill o from the command line.  Returns 0, 1 (--help printed) or -EINVAL after a message. */
@@ -315,11 +386,7 @@ static int parse_args(int argc, char **argv, struct opts *o)
 		fprintf(stderr, PROG ": unexpected argument \"%s\"\n", argv[optind]);
 		r = -EINVAL;
 	}
-	if (!r && strlen(o->prefix) > 64) {
-		fprintf(stderr, PROG ": --prefix: at most 64 characters\n");
-		r = -EINVAL;
-	}
-	return r;
+	return r ? r : parse_prefixes(o);
 }
 
 /* ---- LCM ------------------------------------------------------------------ */
@@ -331,17 +398,17 @@ static int motors_in(int count)
 }
 
 /* A message of daemon `instance`: the first one heard is ours; another one is a mixed stream. */
-static void heard(struct ctl *c, int64_t instance, const char *host, int32_t pid)
+static void heard(struct inst *in, int64_t instance, const char *host, int32_t pid)
 {
-	if (!c->instance) {
-		c->instance = instance;
-		c->pid = pid;
-		snprintf(c->host, sizeof(c->host), "%s", host);
-	} else if (instance != c->instance && !c->mixed) {
-		c->mixed = true;
-		c->other_instance = instance;
-		c->other_pid = pid;
-		snprintf(c->other_host, sizeof(c->other_host), "%s", host);
+	if (!in->instance) {
+		in->instance = instance;
+		in->pid = pid;
+		snprintf(in->host, sizeof(in->host), "%s", host);
+	} else if (instance != in->instance && !in->mixed) {
+		in->mixed = true;
+		in->other_instance = instance;
+		in->other_pid = pid;
+		snprintf(in->other_host, sizeof(in->other_host), "%s", host);
 	}
 }
 
@@ -353,38 +420,46 @@ static void on_health(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 	heard(user, msg->instance, msg->host, msg->pid);
 }
 
-/* Two rmdd on our prefix: say who, and that we stop (our commands would drive both). */
+/* Two rmdd on a prefix of ours: say who, and that we stop (our commands would drive both). */
 static bool refuse_mixed(const struct ctl *c)
 {
-	if (!c->mixed)
-		return false;
-	fprintf(stderr,
-		PROG ": two rmdd publish on %s prefix %s: instance %016" PRIx64
-		     " (host %s, pid %d) and %016" PRIx64
-		     " (host %s, pid %d); our commands would drive both: stopping (stop one, or "
-		     "give one another lcm.channel_prefix)\n",
-		c->o.url, c->o.prefix, (uint64_t)c->instance, c->host, (int)c->pid,
-		(uint64_t)c->other_instance, c->other_host, (int)c->other_pid);
-	return true;
+	for (int j = 0; j < c->n_in; j++) {
+		const struct inst *in = &c->in[j];
+
+		if (!in->mixed)
+			continue;
+		fprintf(stderr,
+			PROG
+			": two rmdd publish on %s prefix %s: instance %016" PRIx64
+			" (host %s, pid %d) and %016" PRIx64
+			" (host %s, pid %d); our commands would drive both: stopping (stop one, "
+			"or give one another lcm.channel_prefix)\n",
+			c->o->url, in->prefix, (uint64_t)in->instance, in->host, (int)in->pid,
+			(uint64_t)in->other_instance, in->other_host, (int)in->other_pid);
+		return true;
+	}
+	return false;
 }
 
 static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_config_t *msg,
 		      void *user)
 {
-	struct ctl *c = user;
+	struct inst *in = user;
 
 	(void)rbuf;
 	(void)channel;
-	heard(c, msg->instance, msg->host, msg->pid);
-	if (c->have_config ||
-	    msg->instance != c->instance) /* the motors do not change while rmdd runs */
+	heard(in, msg->instance, msg->host, msg->pid);
+	if (in->have_config ||
+	    msg->instance != in->instance) /* the motors do not change while rmdd runs */
 		return;
-	c->period_us = msg->period_us;
-	c->bus_count = msg->bus_count;
-	c->motor_count = motors_in(msg->motor_count);
-	for (int i = 0; i < c->motor_count; i++) {
+	snprintf(in->who, sizeof(in->who), "%s",
+		 msg->instance_name && *msg->instance_name ? msg->instance_name : in->prefix);
+	in->period_us = msg->period_us;
+	in->bus_count = msg->bus_count;
+	in->motor_count = motors_in(msg->motor_count);
+	for (int i = 0; i < in->motor_count; i++) {
 		const rmd_motor_config_t *mc = &msg->motor[i];
-		struct motor_cfg *m = &c->cfg[i];
+		struct motor_cfg *m = &in->cfg[i];
 
 		m->index = mc->index;
 		snprintf(m->name, sizeof(m->name), "%s", mc->name);
@@ -396,12 +471,12 @@ static void on_config(const lcm_recv_buf_t *rbuf, const char *channel, const rmd
 		m->kd_min = mc->kd_min;
 		m->kd_max = mc->kd_max;
 	}
-	c->have_config = true;
+	in->have_config = true;
 }
 
 static double target_rad(const struct ctl *c, const struct motor *m, double t)
 {
-	return m->center_rad + c->o.amplitude_rad * sin(2 * M_PI * c->o.freq_hz * t);
+	return m->center_rad + c->o->amplitude_rad * sin(2 * M_PI * c->o->freq_hz * t);
 }
 
 static void acc_add(struct err_acc *a, double e)
@@ -412,25 +487,27 @@ static void acc_add(struct err_acc *a, double e)
 	a->n++;
 }
 
-/* Tracking error and lifecycle changes of the driven motors, from one state_t. */
-static void track(struct ctl *c, double t)
+/* Tracking error and lifecycle changes of instance in's driven motors, from its state_t. */
+static void track(struct inst *in, double t)
 {
+	struct ctl *c = in->c;
+
 	for (int k = 0; k < c->n; k++) {
 		struct motor *m = &c->m[k];
 		int i = m->cfg->index, lc;
 
-		if (i < 0 || i >= c->state_count)
+		if (m->in != in || i < 0 || i >= in->state_count)
 			continue;
-		lc = c->state_lc[i];
+		lc = in->state_lc[i];
 		if (lc != m->lifecycle) {
 			/* said once: a motor that leaves ENABLED (safe action, fault, loss) */
 			if (m->was_enabled)
-				printf(PROG ": %s: now %s\n", m->cfg->name, lc_name(lc));
+				printf(PROG ": %s: now %s\n", m->label, lc_name(lc));
 			m->lifecycle = lc;
 			m->was_enabled |= lc == RMD_STATE_T_LC_ENABLED;
 		}
-		if (lc == RMD_STATE_T_LC_ENABLED && isfinite(c->state_pos[i])) {
-			double e = target_rad(c, m, t) - c->state_pos[i];
+		if (lc == RMD_STATE_T_LC_ENABLED && isfinite(in->state_pos[i])) {
+			double e = target_rad(c, m, t) - in->state_pos[i];
 
 			acc_add(&m->window, e);
 			acc_add(&m->total, e);
@@ -441,19 +518,19 @@ static void track(struct ctl *c, double t)
 static void on_state(const lcm_recv_buf_t *rbuf, const char *channel, const rmd_state_t *msg,
 		     void *user)
 {
-	struct ctl *c = user;
+	struct inst *in = user;
 
 	(void)rbuf;
 	(void)channel;
-	c->state_count = motors_in(msg->count);
-	for (int i = 0; i < c->state_count; i++) {
-		c->state_lc[i] = msg->motor[i].lifecycle;
-		c->state_pos[i] = msg->motor[i].position;
+	in->state_count = motors_in(msg->count);
+	for (int i = 0; i < in->state_count; i++) {
+		in->state_lc[i] = msg->motor[i].lifecycle;
+		in->state_pos[i] = msg->motor[i].position;
 	}
-	c->have_state = true;
-	c->n_states++;
-	if (c->t0_ns)
-		track(c, (double)(now_ns() - c->t0_ns) / 1e9);
+	in->have_state = true;
+	in->n_states++;
+	if (in->c->t0_ns)
+		track(in, (double)(now_ns() - in->c->t0_ns) / 1e9);
 }
 
 /* Handle messages until `deadline` (CLOCK_MONOTONIC ns) or a signal.  -errno on failure. */
@@ -478,137 +555,222 @@ static int handle_until(struct ctl *c, int64_t deadline)
 	return 0;
 }
 
-static void request_config(struct ctl *c)
+static void request_config(struct inst *in)
 {
 	rmd_config_request_t req = { .utime = now_ns() / 1000 };
 
-	rmd_config_request_t_publish(c->lcm, c->ch_config_req, &req);
+	rmd_config_request_t_publish(in->c->lcm, in->ch_config_req, &req);
 }
 
 /*
- * One command_t for every driven motor: the sine at time t, or enable = 0.
- * Encoded into our own buffer (the generated _publish() allocates each
- * time).  Returns 0 or -EIO.
+ * One command_t to instance in for each of its driven motors: the sine at
+ * time t, or enable = 0 (none: it has no motor of ours).  Encoded into our
+ * own buffer (the generated _publish() allocates each time).  Returns 0 or
+ * -EIO.
  */
-static int publish(struct ctl *c, bool enable, double t)
+static int publish(struct inst *in, bool enable, double t)
 {
+	struct ctl *c = in->c;
 	rmd_command_t *msg = &c->msg;
-	double w = 2 * M_PI * c->o.freq_hz;
-	int len;
+	double w = 2 * M_PI * c->o->freq_hz;
+	int len, n = 0;
 
 	memset(msg, 0, sizeof(*msg));
-	msg->utime = now_ns() / 1000;
-	msg->seq = c->seq++;
-	msg->controller = c->id;
-	msg->takeover = c->o.takeover;
-	msg->count = (int16_t)c->n;
-	msg->motor = c->msg_motor;
 	memset(c->msg_motor, 0, sizeof(c->msg_motor));
+	msg->motor = c->msg_motor;
 	for (int k = 0; k < c->n; k++) {
-		rmd_motor_command_t *mc = &msg->motor[k];
+		rmd_motor_command_t *mc;
 
+		if (c->m[k].in != in)
+			continue;
+		mc = &msg->motor[n++];
 		mc->index = (int16_t)c->m[k].cfg->index;
 		mc->enable = enable;
-		mc->mode = c->o.mit ? RMD_COMMAND_T_MODE_MIT : RMD_COMMAND_T_MODE_POSITION;
+		mc->mode = c->o->mit ? RMD_COMMAND_T_MODE_MIT : RMD_COMMAND_T_MODE_POSITION;
 		mc->position = target_rad(c, &c->m[k], t);
-		if (c->o.mit) {
-			mc->velocity = c->o.amplitude_rad * w * cos(w * t);
-			mc->kp = c->o.kp;
-			mc->kd = c->o.kd;
+		if (c->o->mit) {
+			mc->velocity = c->o->amplitude_rad * w * cos(w * t);
+			mc->kp = c->o->kp;
+			mc->kd = c->o->kd;
 		}
 		/* position mode: max_velocity 0 = the motor's configured velocity_max */
 	}
+	if (!n)
+		return 0;
+	msg->utime = now_ns() / 1000;
+	msg->seq = in->seq++;
+	msg->controller = c->id;
+	msg->takeover = c->o->takeover;
+	msg->count = (int16_t)n;
 	len = rmd_command_t_encode(c->buf, 0, (int)sizeof(c->buf), msg);
-	if (len < 0 || lcm_publish(c->lcm, c->ch_command, c->buf, (unsigned)len) < 0)
+	if (len < 0 || lcm_publish(c->lcm, in->ch_command, c->buf, (unsigned)len) < 0)
 		return -EIO;
 	return 0;
 }
 
+/* publish() to every instance, each tried whatever the others did.  Returns 0 or -EIO. */
+static int publish_all(struct ctl *c, bool enable, double t)
+{
+	int r = 0;
+
+	for (int j = 0; j < c->n_in; j++)
+		if (publish(&c->in[j], enable, t) < 0)
+			r = -EIO;
+	return r;
+}
+
 /* ---- the run ---------------------------------------------------------------- */
 
+/* Each instance's config_t, asked for until it comes, within CONFIG_WAIT_NS for all. */
 static int wait_config(struct ctl *c)
 {
 	int64_t end = now_ns() + CONFIG_WAIT_NS;
 
-	while (!c->have_config && !stop_signal) {
+	for (;;) {
 		int64_t now = now_ns(), next = now + CONFIG_ASK_NS;
+		int missing = 0;
 
+		for (int j = 0; j < c->n_in; j++)
+			missing += !c->in[j].have_config;
+		if (!missing || stop_signal)
+			return 0;
 		if (now >= end) {
-			fprintf(stderr,
-				PROG ": no rmd.config_t on %s within %.0f s: is rmdd running, with "
-				     "--lcm-url %s and channel prefix %s?\n",
-				c->ch_config, (double)CONFIG_WAIT_NS / 1e9, c->o.url, c->o.prefix);
+			for (int j = 0; j < c->n_in; j++)
+				if (!c->in[j].have_config)
+					fprintf(stderr,
+						PROG
+						": no rmd.config_t on %s within %.0f s: is rmdd "
+						"running, with --lcm-url %s and channel prefix "
+						"%s?\n",
+						c->in[j].ch_config, (double)CONFIG_WAIT_NS / 1e9,
+						c->o->url, c->in[j].prefix);
 			return -ETIMEDOUT;
 		}
-		request_config(c);
+		for (int j = 0; j < c->n_in; j++)
+			if (!c->in[j].have_config)
+				request_config(&c->in[j]);
 		if (handle_until(c, next < end ? next : end) < 0)
 			return -EIO;
 	}
-	return 0;
 }
 
-/* Every motor whose modes allow ours.  Returns an exit status. */
-static int choose_motors(struct ctl *c)
+/* A motor as we name it: its name alone, or "WHO/name" when several instances are driven. */
+static void label_motor(const struct inst *in, const struct motor_cfg *mc, char *out, size_t len)
 {
-	int bit = c->o.mit ? RMD_MOTOR_CONFIG_T_MODE_BIT_MIT : RMD_MOTOR_CONFIG_T_MODE_BIT_POSITION;
-	const char *mode = c->o.mit ? "mit" : "position";
-	char left_out[MAX_MOTORS * (NAME_LEN + 1)] = "";
+	if (in->c->n_in == 1)
+		snprintf(out, len, "%s", mc->name);
+	else
+		snprintf(out, len, "%s/%s", in->who, mc->name);
+}
+
+/* One robot: no motor name in two instances (docs/robot.md).  Returns an exit status. */
+static int check_names(const struct ctl *c)
+{
+	for (int a = 0; a < c->n_in; a++)
+		for (int b = a + 1; b < c->n_in; b++)
+			for (int i = 0; i < c->in[a].motor_count; i++)
+				for (int k = 0; k < c->in[b].motor_count; k++) {
+					const struct inst *x = &c->in[a], *y = &c->in[b];
+
+					if (strcmp(x->cfg[i].name, y->cfg[k].name))
+						continue;
+					fprintf(stderr,
+						PROG ": motor %s is in two instances, %s (prefix "
+						     "%s) and %s (prefix %s): motor names must be "
+						     "unique across the robot\n",
+						x->cfg[i].name, x->who, x->prefix, y->who,
+						y->prefix);
+					return EXIT_FAIL;
+				}
+	return EXIT_OK;
+}
+
+/* Every motor of instance in whose modes allow ours.  Returns an exit status. */
+static int choose_motors_of(struct inst *in)
+{
+	struct ctl *c = in->c;
+	int bit = c->o->mit ? RMD_MOTOR_CONFIG_T_MODE_BIT_MIT :
+			      RMD_MOTOR_CONFIG_T_MODE_BIT_POSITION;
+	const char *mode = c->o->mit ? "mit" : "position";
+	char left_out[MAX_MOTORS * (sizeof(c->m[0].label) + 1)] = "";
 	size_t used = 0;
 
-	printf(PROG ": rmdd at %s: %d motors on %d buses, loop %.0f Hz, prefix %s\n", c->o.url,
-	       c->motor_count, c->bus_count, c->period_us > 0 ? 1e6 / c->period_us : 0.0,
-	       c->o.prefix);
-	for (int i = 0; i < c->motor_count; i++) {
-		const struct motor_cfg *mc = &c->cfg[i];
+	printf(PROG ": rmdd at %s: %d motors on %d buses, loop %.0f Hz, prefix %s\n", c->o->url,
+	       in->motor_count, in->bus_count, in->period_us > 0 ? 1e6 / in->period_us : 0.0,
+	       in->prefix);
+	for (int i = 0; i < in->motor_count; i++) {
+		const struct motor_cfg *mc = &in->cfg[i];
+		struct motor *m = &c->m[c->n];
 
+		*m = (struct motor){ .in = in, .cfg = mc, .lifecycle = -1 };
+		label_motor(in, mc, m->label, sizeof(m->label));
 		if (!(mc->modes & bit)) {
 			used += (size_t)snprintf(left_out + used, sizeof(left_out) - used, " %s",
-						 mc->name);
+						 m->label);
 			continue;
 		}
-		if (c->o.mit && !(c->o.kp >= mc->kp_min && c->o.kp <= mc->kp_max &&
-				  c->o.kd >= mc->kd_min && c->o.kd <= mc->kd_max)) {
+		if (c->o->mit && !(c->o->kp >= mc->kp_min && c->o->kp <= mc->kp_max &&
+				   c->o->kd >= mc->kd_min && c->o->kd <= mc->kd_max)) {
 			fprintf(stderr,
 				PROG ": %s: --kp %g --kd %g outside its ranges kp %g..%g, "
 				     "kd %g..%g\n",
-				mc->name, c->o.kp, c->o.kd, mc->kp_min, mc->kp_max, mc->kd_min,
+				m->label, c->o->kp, c->o->kd, mc->kp_min, mc->kp_max, mc->kd_min,
 				mc->kd_max);
 			return EXIT_USAGE;
 		}
-		c->m[c->n++] = (struct motor){ .cfg = mc, .lifecycle = -1 };
-	}
-	if (!c->n) {
-		fprintf(stderr,
-			PROG ": no motor of rmdd's configuration takes %s mode "
-			     "(examples/sim-sine.yaml has both kinds)\n",
-			mode);
-		return EXIT_FAIL;
+		c->n++;
 	}
 	if (used)
 		printf(PROG ": left alone (no %s mode):%s\n", mode, left_out);
 	return EXIT_OK;
 }
 
+/* Every motor of every instance whose modes allow ours.  Returns an exit status. */
+static int choose_motors(struct ctl *c)
+{
+	int ret = check_names(c);
+
+	for (int j = 0; j < c->n_in && ret == EXIT_OK; j++)
+		ret = choose_motors_of(&c->in[j]);
+	if (ret == EXIT_OK && !c->n) {
+		fprintf(stderr,
+			PROG ": no motor of rmdd's configuration takes %s mode "
+			     "(examples/sim-sine.yaml has both kinds)\n",
+			c->o->mit ? "mit" : "position");
+		return EXIT_FAIL;
+	}
+	return ret;
+}
+
 /* Centre each sine on the motor's position, moved inside its limits.  Returns an exit status. */
 static int set_centers(struct ctl *c)
 {
 	int64_t end = now_ns() + STATE_WAIT_NS;
-	double amp = c->o.amplitude_rad;
+	double amp = c->o->amplitude_rad;
+	int missing;
 
-	while (!c->have_state && !stop_signal && now_ns() < end)
+	for (;;) {
+		missing = 0;
+		for (int j = 0; j < c->n_in; j++)
+			missing += !c->in[j].have_state;
+		if (!missing || stop_signal || now_ns() >= end)
+			break;
 		if (handle_until(c, end) < 0)
 			return EXIT_FAIL;
-	if (!c->have_state) {
+	}
+	if (missing) {
 		if (stop_signal)
 			return EXIT_OK;
-		fprintf(stderr, PROG ": no rmd.state_t on %s within %.0f s\n", c->ch_state,
-			(double)STATE_WAIT_NS / 1e9);
+		for (int j = 0; j < c->n_in; j++)
+			if (!c->in[j].have_state)
+				fprintf(stderr, PROG ": no rmd.state_t on %s within %.0f s\n",
+					c->in[j].ch_state, (double)STATE_WAIT_NS / 1e9);
 		return EXIT_FAIL;
 	}
 	for (int k = 0; k < c->n; k++) {
 		struct motor *m = &c->m[k];
 		int i = m->cfg->index;
-		double p = i >= 0 && i < c->state_count ? c->state_pos[i] : 0;
+		double p = i >= 0 && i < m->in->state_count ? m->in->state_pos[i] : 0;
 		double lo = m->cfg->pos_min + amp, hi = m->cfg->pos_max - amp;
 
 		if (!isfinite(p))
@@ -617,7 +779,7 @@ static int set_centers(struct ctl *c)
 			fprintf(stderr,
 				PROG ": %s: --amplitude %g does not fit its position limits "
 				     "%g..%g rad\n",
-				m->cfg->name, amp, m->cfg->pos_min, m->cfg->pos_max);
+				m->label, amp, m->cfg->pos_min, m->cfg->pos_max);
 			return EXIT_USAGE;
 		}
 		m->center_rad = p < lo ? lo : p > hi ? hi : p;
@@ -625,14 +787,19 @@ static int set_centers(struct ctl *c)
 	return EXIT_OK;
 }
 
+/* A driven motor's lifecycle in its instance's last state_t, -1 when it has none. */
+static int lifecycle_of(const struct motor *m)
+{
+	int i = m->cfg->index;
+
+	return i >= 0 && i < m->in->state_count ? m->in->state_lc[i] : -1;
+}
+
 static bool all_ready(const struct ctl *c)
 {
-	for (int k = 0; k < c->n; k++) {
-		int i = c->m[k].cfg->index;
-
-		if (i < 0 || i >= c->state_count || c->state_lc[i] != RMD_STATE_T_LC_READY)
+	for (int k = 0; k < c->n; k++)
+		if (lifecycle_of(&c->m[k]) != RMD_STATE_T_LC_READY)
 			return false;
-	}
 	return true;
 }
 
@@ -641,17 +808,16 @@ static int disable_first(struct ctl *c)
 {
 	int64_t end = now_ns() + READY_WAIT_NS;
 
-	if (publish(c, false, 0) < 0)
+	if (publish_all(c, false, 0) < 0)
 		return -EIO;
 	while (!stop_signal && now_ns() < end && !all_ready(c))
 		if (handle_until(c, now_ns() + 10 * NS_PER_MS) < 0)
 			return -EIO;
 	for (int k = 0; k < c->n; k++) {
-		int i = c->m[k].cfg->index;
-		int lc = i >= 0 && i < c->state_count ? c->state_lc[i] : -1;
+		int lc = lifecycle_of(&c->m[k]);
 
 		if (lc != RMD_STATE_T_LC_READY)
-			printf(PROG ": %s: %s, not ready: it may not follow\n", c->m[k].cfg->name,
+			printf(PROG ": %s: %s, not ready: it may not follow\n", c->m[k].label,
 			       lc_name(lc));
 	}
 	return 0;
@@ -660,14 +826,14 @@ static int disable_first(struct ctl *c)
 static void print_acc(const struct ctl *c, const struct motor *m, const struct err_acc *a,
 		      const char *head)
 {
-	const char *mode = c->o.mit ? "mit" : "position";
+	const char *mode = c->o->mit ? "mit" : "position";
 
 	if (a->n)
 		printf("%s %-12s %-8s tracking error rms %.5f rad  max %.5f rad  (%lu states)\n",
-		       head, m->cfg->name, mode, sqrt(a->sum_sq / (double)a->n), a->max_abs, a->n);
+		       head, m->label, mode, sqrt(a->sum_sq / (double)a->n), a->max_abs, a->n);
 	else
 		printf("%s %-12s %-8s tracking error none: the motor is %s, not enabled\n", head,
-		       m->cfg->name, mode, lc_name(m->lifecycle));
+		       m->label, mode, lc_name(m->lifecycle));
 }
 
 static void print_window(struct ctl *c, double t)
@@ -681,14 +847,32 @@ static void print_window(struct ctl *c, double t)
 	}
 }
 
-/* Stream the sine until a signal, --duration, or rmdd goes quiet.  Returns an exit status. */
+/* An instance that sent no state_t since *last_states: say so.  True when it went quiet. */
+static bool went_quiet(const struct inst *in, unsigned long *last_states)
+{
+	if (in->n_states != *last_states) {
+		*last_states = in->n_states;
+		return false;
+	}
+	if (in->c->n_in == 1)
+		fprintf(stderr, PROG ": no state_t from rmdd for %.0f s: stopping\n",
+			(double)STATE_WAIT_NS / 1e9);
+	else
+		fprintf(stderr, PROG ": no state_t from rmdd %s (prefix %s) for %.0f s: stopping\n",
+			in->who, in->prefix, (double)STATE_WAIT_NS / 1e9);
+	return true;
+}
+
+/* Stream the sine until a signal, --duration, or an rmdd goes quiet.  Returns an exit status. */
 static int stream(struct ctl *c)
 {
-	int64_t period = (int64_t)(1e9 / c->o.rate_hz);
+	int64_t period = (int64_t)(1e9 / c->o->rate_hz);
 	int64_t t0 = now_ns(), next_pub = t0, next_print = t0 + PRINT_PERIOD_NS;
-	int64_t duration = (int64_t)(c->o.duration_s * 1e9), last_look = t0;
-	unsigned long last_states = c->n_states;
+	int64_t duration = (int64_t)(c->o->duration_s * 1e9), last_look = t0;
+	unsigned long last_states[MAX_INSTANCES];
 
+	for (int j = 0; j < c->n_in; j++)
+		last_states[j] = c->in[j].n_states;
 	c->t0_ns = t0;
 	while (!stop_signal) {
 		int64_t now = now_ns(), next;
@@ -699,7 +883,7 @@ static int stream(struct ctl *c)
 		if (duration && now - t0 >= duration)
 			break;
 		if (now >= next_pub) {
-			if (publish(c, true, t) < 0) {
+			if (publish_all(c, true, t) < 0) {
 				fprintf(stderr, PROG ": LCM publish failed: stopping\n");
 				return EXIT_FAIL;
 			}
@@ -712,13 +896,9 @@ static int stream(struct ctl *c)
 			next_print += PRINT_PERIOD_NS;
 		}
 		if (now - last_look >= STATE_WAIT_NS) {
-			if (c->n_states == last_states) {
-				fprintf(stderr,
-					PROG ": no state_t from rmdd for %.0f s: stopping\n",
-					(double)STATE_WAIT_NS / 1e9);
-				return EXIT_FAIL;
-			}
-			last_states = c->n_states;
+			for (int j = 0; j < c->n_in; j++)
+				if (went_quiet(&c->in[j], &last_states[j]))
+					return EXIT_FAIL;
 			last_look = now;
 		}
 		next = next_pub < next_print ? next_pub : next_print;
@@ -739,7 +919,7 @@ static void shutdown_motors(struct ctl *c)
 	double t = c->t0_ns ? (double)(now_ns() - c->t0_ns) / 1e9 : 0;
 
 	for (int k = 0; k < STOP_REPEAT; k++) {
-		if (publish(c, false, t) < 0)
+		if (publish_all(c, false, t) < 0)
 			fprintf(stderr, PROG ": LCM publish of enable = 0 failed\n");
 		nanosleep(&gap, NULL);
 	}
@@ -748,56 +928,74 @@ static void shutdown_motors(struct ctl *c)
 		print_acc(c, &c->m[k], &c->m[k].total, PROG ": whole run:");
 }
 
+/* Instance in on prefix: its channels and subscriptions.  Returns 0 or -EIO. */
+static int inst_open(struct ctl *c, struct inst *in, const char *prefix)
+{
+	in->c = c;
+	in->prefix = prefix;
+	snprintf(in->who, sizeof(in->who), "%s", prefix);
+	snprintf(in->ch_command, sizeof(in->ch_command), "%s" RMD_CHANNEL_COMMAND, prefix);
+	snprintf(in->ch_config, sizeof(in->ch_config), "%s" RMD_CHANNEL_CONFIG, prefix);
+	snprintf(in->ch_config_req, sizeof(in->ch_config_req), "%s" RMD_CHANNEL_CONFIG_REQUEST,
+		 prefix);
+	snprintf(in->ch_state, sizeof(in->ch_state), "%s" RMD_CHANNEL_STATE, prefix);
+	snprintf(in->ch_health, sizeof(in->ch_health), "%s" RMD_CHANNEL_HEALTH, prefix);
+	/* LCM subscribes by regular expression: the prefix is taken as written. */
+	in->sub_config = rmd_config_t_subscribe(c->lcm, in->ch_config, on_config, in);
+	in->sub_state = rmd_state_t_subscribe(c->lcm, in->ch_state, on_state, in);
+	in->sub_health = rmd_health_t_subscribe(c->lcm, in->ch_health, on_health, in);
+	return in->sub_config && in->sub_state && in->sub_health ? 0 : -EIO;
+}
+
+static void inst_close(struct inst *in)
+{
+	if (in->sub_health)
+		rmd_health_t_unsubscribe(in->c->lcm, in->sub_health);
+	if (in->sub_state)
+		rmd_state_t_unsubscribe(in->c->lcm, in->sub_state);
+	if (in->sub_config)
+		rmd_config_t_unsubscribe(in->c->lcm, in->sub_config);
+}
+
 static int run(struct ctl *c)
 {
-	rmd_config_t_subscription_t *sub_config;
-	rmd_health_t_subscription_t *sub_health;
-	rmd_state_t_subscription_t *sub_state;
-	char ch_health[96];
-	int ret;
+	int ret = EXIT_OK;
 
 	/* docs/lcm.md "One controller at a time": who we are to rmdd */
 	if (getrandom(&c->id, sizeof(c->id), 0) != (ssize_t)sizeof(c->id))
 		c->id = now_ns() ^ ((int64_t)getpid() << 32);
-	c->lcm = lcm_create(c->o.url);
+	c->lcm = lcm_create(c->o->url);
 	if (!c->lcm) {
 		fprintf(stderr,
 			PROG ": LCM %s: cannot create (bad URL, or multicast not routable: see "
 			     "docs/lcm.md)\n",
-			c->o.url);
+			c->o->url);
 		return EXIT_FAIL;
 	}
-	snprintf(c->ch_command, sizeof(c->ch_command), "%s" RMD_CHANNEL_COMMAND, c->o.prefix);
-	snprintf(c->ch_config, sizeof(c->ch_config), "%s" RMD_CHANNEL_CONFIG, c->o.prefix);
-	snprintf(c->ch_config_req, sizeof(c->ch_config_req), "%s" RMD_CHANNEL_CONFIG_REQUEST,
-		 c->o.prefix);
-	snprintf(c->ch_state, sizeof(c->ch_state), "%s" RMD_CHANNEL_STATE, c->o.prefix);
-	/* LCM subscribes by regular expression: the prefix is taken as written. */
-	sub_config = rmd_config_t_subscribe(c->lcm, c->ch_config, on_config, c);
-	sub_state = rmd_state_t_subscribe(c->lcm, c->ch_state, on_state, c);
-	snprintf(ch_health, sizeof(ch_health), "%s" RMD_CHANNEL_HEALTH, c->o.prefix);
-	sub_health = rmd_health_t_subscribe(c->lcm, ch_health, on_health, c);
-	if (!sub_config || !sub_state || !sub_health) {
-		fprintf(stderr, PROG ": LCM %s: cannot subscribe (see docs/lcm.md)\n", c->o.url);
-		ret = EXIT_FAIL;
-		goto err_destroy;
-	}
+	for (c->n_in = 0; c->n_in < c->o->n_prefixes && ret == EXIT_OK; c->n_in++)
+		if (inst_open(c, &c->in[c->n_in], c->o->prefixes[c->n_in]) < 0) {
+			fprintf(stderr, PROG ": LCM %s: cannot subscribe (see docs/lcm.md)\n",
+				c->o->url);
+			ret = EXIT_FAIL;
+		}
+	if (ret != EXIT_OK)
+		goto err_close_instances;
 
 	ret = wait_config(c) < 0 ? EXIT_FAIL : EXIT_OK;
 	if (ret != EXIT_OK || stop_signal)
-		goto err_destroy;
+		goto err_close_instances;
 	ret = choose_motors(c);
 	if (ret == EXIT_OK)
 		ret = set_centers(c);
 	if (ret != EXIT_OK || stop_signal)
-		goto err_destroy;
-	printf(PROG ": %s mode on %d motors:", c->o.mit ? "mit" : "position", c->n);
+		goto err_close_instances;
+	printf(PROG ": %s mode on %d motors:", c->o->mit ? "mit" : "position", c->n);
 	for (int k = 0; k < c->n; k++)
-		printf(" %s", c->m[k].cfg->name);
-	printf("; amplitude %g rad, %g Hz, %g commands/s", c->o.amplitude_rad, c->o.freq_hz,
-	       c->o.rate_hz);
-	if (c->o.mit)
-		printf(", kp %g, kd %g", c->o.kp, c->o.kd);
+		printf(" %s", c->m[k].label);
+	printf("; amplitude %g rad, %g Hz, %g commands/s", c->o->amplitude_rad, c->o->freq_hz,
+	       c->o->rate_hz);
+	if (c->o->mit)
+		printf(", kp %g, kd %g", c->o->kp, c->o->kd);
 	printf("\n");
 
 	if (disable_first(c) < 0 || refuse_mixed(c))
@@ -806,23 +1004,22 @@ static int run(struct ctl *c)
 		ret = stream(c);
 	shutdown_motors(c);
 
-err_destroy:
-	if (sub_health)
-		rmd_health_t_unsubscribe(c->lcm, sub_health);
-	if (sub_state)
-		rmd_state_t_unsubscribe(c->lcm, sub_state);
-	if (sub_config)
-		rmd_config_t_unsubscribe(c->lcm, sub_config);
+err_close_instances:
+	for (int j = c->n_in - 1; j >= 0; j--)
+		inst_close(&c->in[j]);
 	lcm_destroy(c->lcm);
 	return ret;
 }
 
 int main(int argc, char **argv)
 {
-	static struct ctl c; /* ~8 kB of buffers: off the stack */
+	static struct opts o;
+	static struct ctl c; /* ~100 kB of instances and motors: off the stack */
 	struct sigaction sa = { .sa_handler = on_signal };
 
-	int r = parse_args(argc, argv, &c.o);
+	int r = parse_args(argc, argv, &o);
+
+	c.o = &o;
 
 	if (r)
 		return r < 0 ? EXIT_USAGE : EXIT_OK;
