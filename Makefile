@@ -309,6 +309,15 @@ $(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
+# The leg's controller (examples/physics/README.md): the same, beside the
+# leg's kinematics (examples/physics/leg.h).
+LEG_STAND := $(BUILD)/leg_stand
+all: $(LEG_STAND)
+$(BUILD)/examples/physics/leg_stand.o: | $(GEN_HDRS)
+$(LEG_STAND): $(BUILD)/examples/physics/leg_stand.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
 # rmd-ros2 (docs/ros2.md): rmdd on ROS 2's wire, a program of its own on
 # Cyclone DDS (cyclonedds-dev, and idlc from cyclonedds-tools, in
 # DEB_PACKAGES).  idlc writes the C of the ROS 2 messages
@@ -513,7 +522,10 @@ PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
 PYTHONDIR ?= $(if $(filter /usr,$(PREFIX)),/usr/lib/python3/dist-packages,$(PREFIX)/lib/$(shell \
 	python3 -c 'import sys; print("python%d.%d" % sys.version_info[:2])')/dist-packages)
 RMDD_CONF := $(DESTDIR)$(SYSCONFDIR)/rmdd/rmdd.yaml
-RMDD_EXAMPLES := $(wildcard examples/*) systemd/80-can.network systemd/80-can.link
+RMDD_EXAMPLES := $(filter-out examples/physics,$(wildcard examples/*)) systemd/80-can.network \
+	systemd/80-can.link
+# the leg of docs/physics.md, in a folder of its own (its YAML names leg.xml beside it)
+PHYSICS_EXAMPLES := $(wildcard examples/physics/*)
 RMDD_DOCS := $(wildcard docs/*.md)
 
 .PHONY: install-lcm install-man install-docs man deb
@@ -555,6 +567,8 @@ install: all install-lcm install-man install-docs
 	chmod 0644 $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service
 	install -m 0644 systemd/rmdd-can@.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	install -m 0644 $(RMDD_EXAMPLES) $(DESTDIR)$(EXAMPLESDIR)/
+	install -d $(DESTDIR)$(EXAMPLESDIR)/physics
+	install -m 0644 $(PHYSICS_EXAMPLES) $(DESTDIR)$(EXAMPLESDIR)/physics/
 	install -d $(DESTDIR)$(BASHCOMPDIR)
 	install -m 0644 $(COMPLETIONS) $(DESTDIR)$(BASHCOMPDIR)/
 	@if [ -e $(RMDD_CONF) ]; then \
@@ -657,6 +671,8 @@ uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
+	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/physics/,$(notdir $(PHYSICS_EXAMPLES)))
+	-rmdir $(DESTDIR)$(EXAMPLESDIR)/physics 2>/dev/null
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/,$(foreach m,$(MAN_PAGES),man$(subst .,,$(suffix $(m)))/$(notdir $(m))))
 	rm -rf $(DESTDIR)$(LCMDIR) $(DESTDIR)$(DATADIR)/rmdd/rmdd.schema.json $(DESTDIR)$(INCLUDEDIR)/rmd_lcm $(DESTDIR)$(PYTHONDIR)/rmd $(DESTDIR)$(DOCDIR)
