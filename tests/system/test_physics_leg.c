@@ -1,0 +1,86 @@
+// SPDX-License-Identifier: MIT
+/*
+ * The leg of examples/physics/ through the whole chain on rmdd's sim bus
+ * (docs/physics.md "The whole loop"): a real rmdd ($RMDD, else
+ * $BUILD/rmdd) on examples/physics/leg.yaml as shipped, the example
+ * controller build/leg_stand ($LEG_STAND) over LCM on loopback (a URL of
+ * its own), and this suite reading state_t (harness/leg.h):
+ *   - the standing leg holds its height: the hip's height from the joint
+ *     angles and the model's kinematics (examples/physics/leg.h) within
+ *     LEG_STAND_TOL_M of the pose's over 2000 states (2 s of the loop),
+ *     with the knee's current carrying the weight;
+ *   - when the controller dies (SIGKILL) the watchdog's safe action (stop,
+ *     leg.yaml) shows in state_t (both motors SAFE, no current in their
+ *     replies), and the leg falls: the hip drops LEG_FALL_M, the knee folds.
+ * Why the height from the angles: it is what a controller of the real leg
+ * knows too, and the sim puts nothing on the wire (or in state_t) that a
+ * real leg would not; the foot stays on the floor while it stands and
+ * while it falls, so the kinematics hold.
+ *
+ * Multicast on loopback must work (else the test skips, loudly); the
+ * physics module is build/lib beside rmdd (else the suite skips, naming it).
+ */
+#define _GNU_SOURCE
+#include <limits.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "harness/lcm_loopback.h"
+#include "harness/leg.h"
+#include "harness/proc.h"
+#include "harness/suite.h"
+
+static char rmdd_bin[PATH_MAX], rmdctl_bin[PATH_MAX], leg_bin[PATH_MAX], config[PATH_MAX + 64],
+	dir[PATH_MAX] = "/tmp/test_physics_leg.XXXXXX";
+static bool multicast, have_module;
+
+static int group_setup(void **state)
+{
+	char path[PATH_MAX + 32];
+	const char *src = getenv("RMD_SRCDIR");
+
+	(void)state;
+	if (lcm_tools_setup("test_physics_leg", rmdd_bin, rmdctl_bin, dir, &multicast) < 0 ||
+	    find_prog(leg_bin, sizeof(leg_bin), "LEG_STAND", "leg_stand") < 0)
+		return -1;
+	snprintf(path, sizeof(path), "%s", rmdd_bin);
+	if (strrchr(path, '/'))
+		strcpy(strrchr(path, '/'), "/lib/rmd-physics.so");
+	have_module = access(path, R_OK) == 0 || getenv("RMD_PHYSICS_MODULE");
+	if (!have_module)
+		fprintf(stderr,
+			"test_physics_leg: no physics module (%s): built without MuJoCo; "
+			"skipping\n",
+			path);
+	snprintf(config, sizeof(config), "%s/examples/physics/leg.yaml", src && src[0] ? src : ".");
+	return access(config, R_OK);
+}
+
+static void test_stands_and_falls(void **state)
+{
+	char url[128];
+	const char *argv[] = { rmdd_bin, "--config", config, "--lcm-url", url, NULL };
+	struct kid *rmdd;
+
+	(void)state;
+	if (!multicast || !have_module)
+		skip();
+	lcm_test_url(url, sizeof(url), 44100, 20, 0);
+	rmdd = kid_spawn("rmdd", argv, NULL, 0);
+	leg_stand_and_fall(url, leg_bin, rmdd, 2000, 60000);
+	kid_free(rmdd);
+}
+
+SUITE_MAIN("physics_leg", group_setup, lcm_tools_teardown,
+	   {
+		   cmocka_unit_test(test_stands_and_falls),
+	   })
