@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 /* The leg of examples/physics/ judged through state_t (harness/leg.h). */
 #define _GNU_SOURCE
+#include <limits.h>
 #include <math.h>
 #include <setjmp.h>
 #include <signal.h>
@@ -9,7 +10,9 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <cmocka.h>
 #include <lcm/lcm.h>
@@ -18,6 +21,20 @@
 #include "harness/leg.h"
 #include "rmd/rmd_state_t.h"
 #include "rmd/time.h"
+
+bool physics_module_found(const char *rmdd, const char *suite)
+{
+	char path[PATH_MAX + 32];
+	const char *slash = strrchr(rmdd, '/');
+
+	snprintf(path, sizeof(path), "%.*s/lib/rmd-physics.so", slash ? (int)(slash - rmdd) : 1,
+		 slash ? rmdd : ".");
+	if (access(path, R_OK) == 0 || getenv("RMD_PHYSICS_MODULE"))
+		return true;
+	fprintf(stderr, "%s: no physics module (%s): built without MuJoCo; skipping\n", suite,
+		path);
+	return false;
+}
 
 enum { HIP, KNEE, N_JOINTS };
 

@@ -12,6 +12,16 @@
 
 #include "harness/proc.h"
 
+#include <stdbool.h>
+
+/*
+ * Whether rmdd (its path) finds the physics module beside it
+ * (build/lib/rmd-physics.so, as rmdd looks for it) or $RMD_PHYSICS_MODULE
+ * names one; when not, one line on stderr naming suite and the file: the
+ * suite skips (a build without MuJoCo).
+ */
+bool physics_module_found(const char *rmdd, const char *suite);
+
 #define LEG_STAND_TOL_M 0.015 /* standing: the hip's height within this of leg.h's */
 #define LEG_FALL_M 0.08	      /* fallen: at least this far below it */
 

@@ -45,22 +45,13 @@ static bool multicast, have_module;
 
 static int group_setup(void **state)
 {
-	char path[PATH_MAX + 32];
 	const char *src = getenv("RMD_SRCDIR");
 
 	(void)state;
 	if (lcm_tools_setup("test_physics_leg", rmdd_bin, rmdctl_bin, dir, &multicast) < 0 ||
 	    find_prog(leg_bin, sizeof(leg_bin), "LEG_STAND", "leg_stand") < 0)
 		return -1;
-	snprintf(path, sizeof(path), "%s", rmdd_bin);
-	if (strrchr(path, '/'))
-		strcpy(strrchr(path, '/'), "/lib/rmd-physics.so");
-	have_module = access(path, R_OK) == 0 || getenv("RMD_PHYSICS_MODULE");
-	if (!have_module)
-		fprintf(stderr,
-			"test_physics_leg: no physics module (%s): built without MuJoCo; "
-			"skipping\n",
-			path);
+	have_module = physics_module_found(rmdd_bin, "test_physics_leg");
 	snprintf(config, sizeof(config), "%s/examples/physics/leg.yaml", src && src[0] ? src : ".");
 	return access(config, R_OK);
 }
