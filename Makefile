@@ -10,7 +10,7 @@
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
-#   make python-venv     build/venv: a venv with `pip install './python[plot,mcap,foxglove,test]'`
+#   make python-venv     build/venv: a venv with `pip install './python[plot,mcap,foxglove,view,test]'`
 #                        (lcm, matplotlib, mcap, jsonschema from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
 #   make fuzz            build the libFuzzer harnesses (tests/fuzz/) into build/fuzz
@@ -133,12 +133,14 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 .SECONDARY:
 
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
+# libegl1 libegl-mesa0 libgl1-mesa-dri: rmd-view's PNGs without a display
+# (MuJoCo's EGL on Mesa's software renderer; docs/physics.md).
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib python3-jsonschema python3-yaml \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
 	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux \
-	libmujoco-dev cyclonedds-dev cyclonedds-tools
+	libmujoco-dev cyclonedds-dev cyclonedds-tools libegl1 libegl-mesa0 libgl1-mesa-dri
 
 deps:
 	apt-get update -qq
@@ -189,14 +191,14 @@ python-venv: $(VENV_STAMP)
 
 # `make test` needs it: when it cannot be made, say why and what to install.
 $(VENV_STAMP): $(LCM_TYPES) $(PYTHON_SRCS)
-	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot,mcap,foxglove,test]')")
+	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot,mcap,foxglove,view,test]')")
 	$(Q)test -x $(VENV)/bin/pip || { rm -rf $(VENV) && python3 -m venv $(VENV); } || { \
 		rm -rf $(VENV); echo "make python-venv: python3 -m venv $(VENV) failed:" \
 		"install python3 and python3-venv (sudo make deps)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
-		'./python[plot,mcap,foxglove,test]' || { echo "make python-venv: pip install" \
-		"'./python[plot,mcap,foxglove,test]' into $(VENV) failed: it fetches lcm, matplotlib, mcap," \
-		"foxglove-sdk, jsonschema and websockets from PyPI, so it needs the network" \
+		'./python[plot,mcap,foxglove,view,test]' || { echo "make python-venv: pip install" \
+		"'./python[plot,mcap,foxglove,view,test]' into $(VENV) failed: it fetches lcm, matplotlib, mcap," \
+		"foxglove-sdk, mujoco, jsonschema and websockets from PyPI, so it needs the network" \
 		"(or a mirror: PIP_INDEX_URL, PIP_FIND_LINKS)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
 		--force-reinstall --no-deps ./python
@@ -543,7 +545,7 @@ all: $(RMDD_SCHEMA)
 # runs the installed module (PYTHONDIR) with $$RMD_PYTHON or the python3 on
 # PATH: an active venv with lcm and the command's extra (Debian 12 has no
 # python3-lcm; rmd-plot(1), docs/logs.md).
-PY_TOOLS := rmd-plot:rmd.plot rmd-export:rmd.export rmd-foxglove:rmd.foxglove_live
+PY_TOOLS := rmd-plot:rmd.plot rmd-export:rmd.export rmd-foxglove:rmd.foxglove_live rmd-view:rmd.view
 define py_wrapper
 printf '%s\n' '#!/bin/sh' \
 		'# $(1): the installed module $(2) ($(PYTHONDIR)), run by $$RMD_PYTHON' \

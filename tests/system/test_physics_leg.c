@@ -17,6 +17,12 @@
  * real leg would not; the foot stays on the floor while it stands and
  * while it falls, so the kinematics hold.
  *
+ *   - rmd-view (python/rmd/view.py) poses the leg's model headless into PNG
+ *     frames and the picture changes with the joint angle
+ *     (tests/system/view_check.py, run by the venv's Python: $RMD_PYTHON,
+ *     else BUILD/venv/bin/python3, `make python-venv`; without it, or
+ *     without mujoco in it, the test skips, loudly).
+ *
  * Multicast on loopback must work (else the test skips, loudly); the
  * physics module is build/lib beside rmdd (else the suite skips, naming it).
  */
@@ -31,6 +37,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
+
+#include <sys/stat.h>
 
 #include <cmocka.h>
 
@@ -71,7 +79,51 @@ static void test_stands_and_falls(void **state)
 	kid_free(rmdd);
 }
 
+/* rmd-view headless: tests/system/view_check.py. */
+static void test_view_png(void **state)
+{
+	const char *py_env = getenv("RMD_PYTHON"), *build = getenv("BUILD");
+	const char *src = getenv("RMD_SRCDIR");
+	char py[PATH_MAX], script[PATH_MAX + 64], work[PATH_MAX + 16];
+	const char *probe[] = { "-c", "import mujoco, PIL, lcm, rmd.view", NULL };
+	struct run r = { 0 };
+
+	(void)state;
+	snprintf(py, sizeof(py), "%s/venv/bin/python3", build && build[0] ? build : "build");
+	if (py_env && py_env[0])
+		snprintf(py, sizeof(py), "%s", py_env);
+	if (access(py, X_OK)) {
+		print_message("SKIP: %s: no Python venv (make python-venv)\n", py);
+		skip();
+	}
+	run_prog(&r, py, probe, NULL);
+	if (r.status) {
+		print_message("SKIP: %s has no mujoco, Pillow or rmd.view (make python-venv: "
+			      "'./python[view]'): %s\n",
+			      py, r.err);
+		run_free(&r);
+		skip();
+	}
+	run_free(&r);
+	if (!src || !src[0])
+		src = ".";
+	snprintf(script, sizeof(script), "%s/tests/system/view_check.py", src);
+	snprintf(work, sizeof(work), "%s/view", dir);
+	assert_int_equal(mkdir(work, 0755), 0);
+	{
+		const char *args[] = { script, src, work, NULL };
+
+		run_prog(&r, py, args,
+			 &(struct run_opts){ .unset_env = "DISPLAY", .limit_ms = 300000 });
+	}
+	print_message("%s%s", r.out, r.err);
+	assert_int_equal(r.status, 0);
+	assert_has(r.out, "view_check: ok", "view_check.py");
+	run_free(&r);
+}
+
 SUITE_MAIN("physics_leg", group_setup, lcm_tools_teardown,
 	   {
 		   cmocka_unit_test(test_stands_and_falls),
+		   cmocka_unit_test(test_view_png),
 	   })
