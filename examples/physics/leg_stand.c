@@ -30,7 +30,10 @@
  *      not enabled; 2: bad options.
  *
  * Commands go out at --rate Hz with both motors in each (rmdd keeps only
- * the newest).  Single-threaded, non-rt: poll(2) on LCM's descriptor.
+ * the newest).  Single-threaded: poll(2) on LCM's descriptor, at
+ * SCHED_FIFO --rt-priority (default 20, below rmdd's loop) where it may:
+ * a leg falls when its controller is late for command_timeout_ms, and a
+ * busy machine holds a normal process off for that long.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -45,6 +48,7 @@
 #include <string.h>
 #include <time.h>
 
+#include <sched.h>
 #include <sys/random.h>
 #include <unistd.h>
 
@@ -75,7 +79,7 @@ enum { HIP, KNEE, N_JOINTS };
 
 struct opts {
 	const char *url, *prefix, *name[N_JOINTS];
-	double kp, kd, height_m, rise_s, rate_hz, duration_s;
+	double kp, kd, height_m, rise_s, rate_hz, duration_s, rt_priority;
 	unsigned hops;
 };
 
@@ -127,6 +131,7 @@ static void usage(FILE *out)
 		"  --rise S       seconds from where the leg lies to standing (default 1.5)\n"
 		"  --rate HZ      commands per second (default 500)\n"
 		"  --duration S   stop after S seconds (default 0: until Ctrl-C)\n"
+		"  --rt-priority N  SCHED_FIFO priority where allowed (default 20; 0: none)\n"
 		"  --hip, --knee  the motors' names in rmdd's configuration (hip, knee)\n"
 		"  --url URL      LCM URL (default $LCM_DEFAULT_URL, else %s)\n"
 		"  --prefix P     rmdd's channel prefix (default RMD_)\n"
@@ -150,6 +155,7 @@ static int parse_args(int argc, char **argv, struct opts *o)
 		{ "url", required_argument, NULL, 'u' },
 		{ "prefix", required_argument, NULL, 'P' },
 		{ "help", no_argument, NULL, '?' + 256 },
+		{ "rt-priority", required_argument, NULL, 'F' },
 		{ NULL, 0, NULL, 0 },
 	};
 	const char *env = getenv("LCM_DEFAULT_URL");
@@ -163,7 +169,8 @@ static int parse_args(int argc, char **argv, struct opts *o)
 			    .kd = 2,
 			    .height_m = LEG_STAND_M,
 			    .rise_s = 1.5,
-			    .rate_hz = 500 };
+			    .rate_hz = 500,
+			    .rt_priority = 20 };
 	while ((c = getopt_long(argc, argv, "", longopts, NULL)) != -1) {
 		struct {
 			int c;
@@ -171,7 +178,7 @@ static int parse_args(int argc, char **argv, struct opts *o)
 		} nums[] = { { 'H', &o->height_m, 0.10, 0.41 }, { 'n', &hops, 0, 1000 },
 			     { 'p', &o->kp, 0, 500 },		{ 'd', &o->kd, 0, 5 },
 			     { 'r', &o->rise_s, 0.01, 60 },	{ 'R', &o->rate_hz, 10, 5000 },
-			     { 't', &o->duration_s, 0, 1e9 } };
+			     { 't', &o->duration_s, 0, 1e9 },	{ 'F', &o->rt_priority, 0, 99 } };
 		bool done = false;
 
 		if (c == '?' + 256) {
@@ -562,6 +569,13 @@ int main(int argc, char **argv)
 	if (r)
 		return r < 0 ? 2 : 0;
 	setvbuf(stdout, NULL, _IOLBF, 0);
+	if (c.o.rt_priority > 0) {
+		struct sched_param sp = { .sched_priority = (int)c.o.rt_priority };
+
+		if (sched_setscheduler(0, SCHED_FIFO, &sp) < 0)
+			printf(PROG ": SCHED_FIFO %d: %s: running as a normal process\n",
+			       sp.sched_priority, strerror(errno));
+	}
 	sigemptyset(&sa.sa_mask);
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
