@@ -670,11 +670,12 @@ uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(foreach t,$(PY_TOOLS),$(firstword $(subst :, ,$(t)))))
 	rm -f $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
-	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2
+	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2 $(DESTDIR)$(RMD_PHYSICS_DIR)/rmd-physics.so
+	[ ! -d $(DESTDIR)$(RMD_PHYSICS_DIR) ] || rmdir --ignore-fail-on-non-empty $(DESTDIR)$(RMD_PHYSICS_DIR)
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/physics/,$(notdir $(PHYSICS_EXAMPLES)))
-	-rmdir $(DESTDIR)$(EXAMPLESDIR)/physics 2>/dev/null
+	[ ! -d $(DESTDIR)$(EXAMPLESDIR)/physics ] || rmdir --ignore-fail-on-non-empty $(DESTDIR)$(EXAMPLESDIR)/physics
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/,$(foreach m,$(MAN_PAGES),man$(subst .,,$(suffix $(m)))/$(notdir $(m))))
 	rm -rf $(DESTDIR)$(LCMDIR) $(DESTDIR)$(DATADIR)/rmdd/rmdd.schema.json $(DESTDIR)$(INCLUDEDIR)/rmd_lcm $(DESTDIR)$(PYTHONDIR)/rmd $(DESTDIR)$(DOCDIR)
