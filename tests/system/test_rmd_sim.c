@@ -1001,10 +1001,11 @@ static void yaml_remove(const char *dir, const char *path)
 
 /*
  * dir/rig.yaml (yaml_file()): an rmdd.yaml with sim.physics, motor `id` on
- * the pendulum's hinge, exchanges per second, integration steps each.
+ * joint of model (its path in the tree), exchanges per second, integration
+ * steps each.
  */
-static void physics_yaml(char *dir, char *path, size_t size, unsigned id, unsigned rate_hz,
-			 unsigned substeps)
+static void physics_yaml(char *dir, char *path, size_t size, const char *model, const char *joint,
+			 unsigned id, unsigned rate_hz, unsigned substeps)
 {
 	const char *src = getenv("RMD_SRCDIR");
 	char text[PATH_MAX + 1024], cwd[PATH_MAX];
@@ -1021,11 +1022,11 @@ static void physics_yaml(char *dir, char *path, size_t size, unsigned id, unsign
 		 "     sim: {start_angle_deg: 60, has_brake: false, coulomb_nm: 0}}\n"
 		 "sim:\n"
 		 "  physics:\n"
-		 "    model: %s/tests/data/physics/pendulum.xml\n"
+		 "    model: %s/%s\n"
 		 "    rate_hz: %u\n"
 		 "    substeps: %u\n"
-		 "    joints: {arm: swing}\n",
-		 id, cwd, rate_hz, substeps);
+		 "    joints: {arm: %s}\n",
+		 id, cwd, model, rate_hz, substeps, joint);
 	yaml_file(dir, path, size, text);
 }
 
@@ -1045,7 +1046,7 @@ static double angle_deg(struct child *c, uint8_t id)
  * sim.physics behind rmd-sim's wire (docs/physics.md): motor 2 (its id, not
  * the first) on the pendulum, released at 60 deg with the output off,
  * answers on the line, and the angle it reports swings under gravity;
- * a model stepped 2 million times a second (20 kHz, 100 substeps: slower
+ * the leg stepped 2 million times a second (20 kHz, 100 substeps: slower
  * than real time on any machine) makes rmd-sim say so, and count it at
  * exit.
  */
@@ -1060,7 +1061,8 @@ static void test_physics_on_the_wire(void **state)
 
 	if (!physics_module_found(rmdsim, "test_rmd_sim"))
 		skip();
-	physics_yaml(dir, path, sizeof(path), 2, 2000, 1);
+	physics_yaml(dir, path, sizeof(path), "tests/data/physics/pendulum.xml", "swing", 2, 2000,
+		     1);
 	start_serial(c, args);
 	assert_non_null(strstr(c->log, "physics: MuJoCo"));
 	a0 = angle_deg(c, 2);
@@ -1077,7 +1079,8 @@ static void test_physics_on_the_wire(void **state)
 	yaml_remove(dir, path);
 	close(c->master);
 
-	physics_yaml(dir2, path, sizeof(path), 2, 20000, 100);
+	physics_yaml(dir2, path, sizeof(path), "examples/physics/leg.xml", "hip_joint", 2, 20000,
+		     100);
 	start_serial(c, args);
 	if (!wait_log(c, "physics: the model steps slower than real time here", READY_MS))
 		fail_msg("a model stepped 2 million times a second: rmd-sim said nothing; log:\n%s",
