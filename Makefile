@@ -10,7 +10,7 @@
 #   make format-check    clang-format, kernel layout
 #   make check-layers    includes point down the layers (tests/check-layers)
 #   make lcm-python      the Python package `rmd` (types + client) into $(BUILD)/python
-#   make python-venv     build/venv: a venv with `pip install './python[plot,mcap,foxglove,test]'`
+#   make python-venv     build/venv: a venv with `pip install './python[plot,mcap,foxglove,view,test]'`
 #                        (lcm, matplotlib, mcap, jsonschema from PyPI)
 #   make lcm-java        Java LCM types as $(BUILD)/rmd_types.jar, for lcm-spy
 #   make fuzz            build the libFuzzer harnesses (tests/fuzz/) into build/fuzz
@@ -133,12 +133,14 @@ LCM_JAVA := $(BUILD)/rmd_types.jar
 .SECONDARY:
 
 # Debian/Ubuntu packages needed to build, test and run (`sudo make deps`).
+# libegl1 libegl-mesa0 libgl1-mesa-dri: rmd-view's PNGs without a display
+# (MuJoCo's EGL on Mesa's software renderer; docs/physics.md).
 DEB_PACKAGES := build-essential pkg-config clang-format libcmocka-dev libmodbus-dev \
 	libyaml-dev can-utils python3 python3-venv liblcm-dev liblcm-bin libglib2.0-dev \
 	liblcm-java default-jdk-headless libsystemd-dev rt-tests iproute2 valgrind python3-matplotlib python3-jsonschema python3-yaml \
 	clang libclang-rt-dev stress-ng socat xvfb xauth default-jre libjchart2d-java \
 	debhelper dh-python help2man man-db debootstrap libncurses-dev tmux \
-	libmujoco-dev cyclonedds-dev cyclonedds-tools nftables
+	libmujoco-dev cyclonedds-dev cyclonedds-tools nftables libegl1 libegl-mesa0 libgl1-mesa-dri
 
 deps:
 	apt-get update -qq
@@ -189,14 +191,14 @@ python-venv: $(VENV_STAMP)
 
 # `make test` needs it: when it cannot be made, say why and what to install.
 $(VENV_STAMP): $(LCM_TYPES) $(PYTHON_SRCS)
-	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot,mcap,foxglove,test]')")
+	@$(if $(Q),echo "  VENV    $(VENV) (pip install './python[plot,mcap,foxglove,view,test]')")
 	$(Q)test -x $(VENV)/bin/pip || { rm -rf $(VENV) && python3 -m venv $(VENV); } || { \
 		rm -rf $(VENV); echo "make python-venv: python3 -m venv $(VENV) failed:" \
 		"install python3 and python3-venv (sudo make deps)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
-		'./python[plot,mcap,foxglove,test]' || { echo "make python-venv: pip install" \
-		"'./python[plot,mcap,foxglove,test]' into $(VENV) failed: it fetches lcm, matplotlib, mcap," \
-		"foxglove-sdk, jsonschema and websockets from PyPI, so it needs the network" \
+		'./python[plot,mcap,foxglove,view,test]' || { echo "make python-venv: pip install" \
+		"'./python[plot,mcap,foxglove,view,test]' into $(VENV) failed: it fetches lcm, matplotlib, mcap," \
+		"foxglove-sdk, mujoco, jsonschema and websockets from PyPI, so it needs the network" \
 		"(or a mirror: PIP_INDEX_URL, PIP_FIND_LINKS)" >&2; exit 1; }
 	$(Q)LCM_GEN=$(LCM_GEN) $(VENV)/bin/python3 -m pip install --quiet --disable-pip-version-check \
 		--force-reinstall --no-deps ./python
@@ -306,6 +308,15 @@ SINE_CONTROLLER := $(BUILD)/sine_controller
 all: $(SINE_CONTROLLER)
 $(BUILD)/examples/sine_controller.o: | $(GEN_HDRS)
 $(SINE_CONTROLLER): $(BUILD)/examples/sine_controller.o $(LIB)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
+
+# The leg's controller (examples/physics/README.md): the same, beside the
+# leg's kinematics (examples/physics/leg.h).
+LEG_STAND := $(BUILD)/leg_stand
+all: $(LEG_STAND)
+$(BUILD)/examples/physics/leg_stand.o: | $(GEN_HDRS)
+$(LEG_STAND): $(BUILD)/examples/physics/leg_stand.o $(LIB)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(LDFLAGS) -o $@ $^ $(LIBS)
 
@@ -534,7 +545,10 @@ PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
 PYTHONDIR ?= $(if $(filter /usr,$(PREFIX)),/usr/lib/python3/dist-packages,$(PREFIX)/lib/$(shell \
 	python3 -c 'import sys; print("python%d.%d" % sys.version_info[:2])')/dist-packages)
 RMDD_CONF := $(DESTDIR)$(SYSCONFDIR)/rmdd/rmdd.yaml
-RMDD_EXAMPLES := $(wildcard examples/*) systemd/80-can.network systemd/80-can.link
+RMDD_EXAMPLES := $(filter-out examples/physics,$(wildcard examples/*)) systemd/80-can.network \
+	systemd/80-can.link
+# the leg of docs/physics.md, in a folder of its own (its YAML names leg.xml beside it)
+PHYSICS_EXAMPLES := $(wildcard examples/physics/*)
 RMDD_DOCS := $(wildcard docs/*.md)
 
 .PHONY: install-lcm install-man install-docs man deb
@@ -552,7 +566,7 @@ all: $(RMDD_SCHEMA)
 # runs the installed module (PYTHONDIR) with $$RMD_PYTHON or the python3 on
 # PATH: an active venv with lcm and the command's extra (Debian 12 has no
 # python3-lcm; rmd-plot(1), docs/logs.md).
-PY_TOOLS := rmd-plot:rmd.plot rmd-export:rmd.export rmd-foxglove:rmd.foxglove_live
+PY_TOOLS := rmd-plot:rmd.plot rmd-export:rmd.export rmd-foxglove:rmd.foxglove_live rmd-view:rmd.view
 define py_wrapper
 printf '%s\n' '#!/bin/sh' \
 		'# $(1): the installed module $(2) ($(PYTHONDIR)), run by $$RMD_PYTHON' \
@@ -575,6 +589,8 @@ install: all install-lcm install-man install-docs
 	$(call rmdd_unit,%i,rmdd-%i, (instance %i),rmdd@.service)
 	install -m 0644 systemd/rmdd-can@.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	install -m 0644 $(RMDD_EXAMPLES) $(DESTDIR)$(EXAMPLESDIR)/
+	install -d $(DESTDIR)$(EXAMPLESDIR)/physics
+	install -m 0644 $(PHYSICS_EXAMPLES) $(DESTDIR)$(EXAMPLESDIR)/physics/
 	install -d $(DESTDIR)$(BASHCOMPDIR)
 	install -m 0644 $(COMPLETIONS) $(DESTDIR)$(BASHCOMPDIR)/
 	@if [ -e $(RMDD_CONF) ]; then \
@@ -674,12 +690,13 @@ uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(foreach t,$(PY_TOOLS),$(firstword $(subst :, ,$(t)))))
 	rm -f $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
-	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2
-	rm -f $(DESTDIR)$(RMD_PHYSICS_DIR)/rmd-physics.so
-	-rmdir $(DESTDIR)$(RMD_PHYSICS_DIR) 2>/dev/null
+	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2 $(DESTDIR)$(RMD_PHYSICS_DIR)/rmd-physics.so
+	[ ! -d $(DESTDIR)$(RMD_PHYSICS_DIR) ] || rmdir --ignore-fail-on-non-empty $(DESTDIR)$(RMD_PHYSICS_DIR)
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd@.service \
 		$(DESTDIR)$(SYSTEMDUNITDIR)/rmdd-can@.service
 	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/,$(notdir $(RMDD_EXAMPLES)))
+	rm -f $(addprefix $(DESTDIR)$(EXAMPLESDIR)/physics/,$(notdir $(PHYSICS_EXAMPLES)))
+	[ ! -d $(DESTDIR)$(EXAMPLESDIR)/physics ] || rmdir --ignore-fail-on-non-empty $(DESTDIR)$(EXAMPLESDIR)/physics
 	rm -f $(addprefix $(DESTDIR)$(BASHCOMPDIR)/,$(notdir $(COMPLETIONS)))
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/,$(foreach m,$(MAN_PAGES),man$(subst .,,$(suffix $(m)))/$(notdir $(m))))
 	rm -rf $(DESTDIR)$(LCMDIR) $(DESTDIR)$(DATADIR)/rmdd/rmdd.schema.json $(DESTDIR)$(INCLUDEDIR)/rmd_lcm $(DESTDIR)$(PYTHONDIR)/rmd $(DESTDIR)$(DOCDIR)

@@ -38,6 +38,7 @@
 #include <lcm/lcm.h>
 
 #include "harness/lcm_loopback.h"
+#include "harness/leg.h"
 #include "harness/pendulum.h"
 #include "harness/proc.h"
 #include "harness/suite.h"
@@ -110,16 +111,7 @@ static int group_setup(void **state)
 	(void)state;
 	if (lcm_tools_setup("test_physics_system", rmdd_bin, rmdctl_bin, dir, &multicast) < 0)
 		return -1;
-	/* the module beside rmdd (build/rmdd, build/lib/rmd-physics.so), as rmdd looks for it */
-	snprintf(path, sizeof(path), "%s", rmdd_bin);
-	if (strrchr(path, '/'))
-		strcpy(strrchr(path, '/'), "/lib/rmd-physics.so");
-	have_module = access(path, R_OK) == 0 || getenv("RMD_PHYSICS_MODULE");
-	if (!have_module)
-		fprintf(stderr,
-			"test_physics_system: no physics module (%s): built without MuJoCo; "
-			"skipping\n",
-			path);
+	have_module = physics_module_found(rmdd_bin, "test_physics_system");
 	snprintf(model, sizeof(model), "%s/tests/data/physics/pendulum.xml",
 		 src && src[0] ? src : ".");
 	in = fopen(model, "r");

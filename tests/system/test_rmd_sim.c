@@ -18,6 +18,8 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
+#include <math.h>
 #include <poll.h>
 #include <setjmp.h>
 #include <signal.h>
@@ -47,6 +49,7 @@
 #include "rmd/mit.h"
 #include "rmd/rs485.h"
 
+#include "harness/leg.h"
 #include "harness/proc.h"
 #include "harness/suite.h"
 
@@ -997,6 +1000,97 @@ static void yaml_remove(const char *dir, const char *path)
 }
 
 /*
+ * dir/rig.yaml (yaml_file()): an rmdd.yaml with sim.physics, motor `id` on
+ * joint of model (its path in the tree), exchanges per second, integration
+ * steps each.
+ */
+static void physics_yaml(char *dir, char *path, size_t size, const char *model, const char *joint,
+			 unsigned id, unsigned rate_hz, unsigned substeps)
+{
+	const char *src = getenv("RMD_SRCDIR");
+	char text[PATH_MAX + 1024], cwd[PATH_MAX];
+
+	/* the model's path absolute: the file's folder is a temporary one */
+	assert_non_null(realpath(src && src[0] ? src : ".", cwd));
+
+	snprintf(text, sizeof(text),
+		 "buses:\n"
+		 "  - {name: rs0, type: rs485, device: /dev/null, sim: {seed: 1}}\n"
+		 "motors:\n"
+		 "  - {name: arm, bus: rs0, id: %u, mode: torque, multi_turn_saved: true,\n"
+		 "     torque_constant_nm_a: 1.0,\n"
+		 "     sim: {start_angle_deg: 60, has_brake: false, coulomb_nm: 0}}\n"
+		 "sim:\n"
+		 "  physics:\n"
+		 "    model: %s/%s\n"
+		 "    rate_hz: %u\n"
+		 "    substeps: %u\n"
+		 "    joints: {arm: %s}\n",
+		 id, cwd, model, rate_hz, substeps, joint);
+	yaml_file(dir, path, size, text);
+}
+
+/* The multi-turn angle (0x92) motor id reports, deg. */
+static double angle_deg(struct child *c, uint8_t id)
+{
+	uint8_t req[RMD_FRAME_LEN], rep[RMD_FRAME_LEN];
+	struct rmd_msg msg;
+
+	cmd_data(req, 0x92);
+	ask(c, id, req, rep);
+	decode_reply(rep, id, &msg);
+	return native(&msg, RMD_FLD_ANGLE);
+}
+
+/*
+ * sim.physics behind rmd-sim's wire (docs/physics.md): motor 2 (its id, not
+ * the first) on the pendulum, released at 60 deg with the output off,
+ * answers on the line, and the angle it reports swings under gravity;
+ * the leg stepped 2 million times a second (20 kHz, 100 substeps: slower
+ * than real time on any machine) makes rmd-sim say so, and count it at
+ * exit.
+ */
+static void test_physics_on_the_wire(void **state)
+{
+	char dir[] = "/tmp/rmd-sim-physics-XXXXXX", dir2[] = "/tmp/rmd-sim-physics-XXXXXX";
+	char path[128];
+	const char *args[] = { "--config", path, NULL };
+	struct child *c = *state;
+	double a0, a1;
+	int64_t end;
+
+	if (!physics_module_found(rmdsim, "test_rmd_sim"))
+		skip();
+	physics_yaml(dir, path, sizeof(path), "tests/data/physics/pendulum.xml", "swing", 2, 2000,
+		     1);
+	start_serial(c, args);
+	assert_non_null(strstr(c->log, "physics: MuJoCo"));
+	a0 = angle_deg(c, 2);
+	/* a swing of 1.4 s: within it the angle leaves 60 deg */
+	end = mono_ms() + 1000;
+	do
+		a1 = angle_deg(c, 2);
+	while (fabs(a1 - a0) < 10.0 && mono_ms() < end);
+	print_message("motor 2 on the pendulum: %.2f deg, then %.2f deg\n", a0, a1);
+	assert_true(a0 > 50.0 && a0 <= 60.01);
+	assert_true(fabs(a1 - a0) >= 10.0);
+	/* (in the VM even the pendulum may be behind real time: rmd-sim may say so) */
+	stop_ok(c);
+	yaml_remove(dir, path);
+	close(c->master);
+
+	physics_yaml(dir2, path, sizeof(path), "examples/physics/leg.xml", "hip_joint", 2, 20000,
+		     100);
+	start_serial(c, args);
+	if (!wait_log(c, "physics: the model steps slower than real time here", READY_MS))
+		fail_msg("a model stepped 2 million times a second: rmd-sim said nothing; log:\n%s",
+			 c->log);
+	stop_ok(c);
+	assert_non_null(strstr(c->log, "physics behind real time"));
+	yaml_remove(dir2, path);
+}
+
+/*
  * One rmdd.yaml describes an RS485 bus once: its motors (ids 3 and 5, not
  * rmd-sim's default 1) and their simulated models in its sim: sections.
  * rmd-sim simulates them from it (--serial replaces the file's device: the
@@ -1540,6 +1634,7 @@ int main(void)
 		cmocka_unit_test(test_fault_windows),
 		cmocka_unit_test(test_local_echo),
 		cmocka_unit_test(test_config_file),
+		cmocka_unit_test(test_physics_on_the_wire),
 		cmocka_unit_test(test_example_config),
 		cmocka_unit_test(test_verbose_frames),
 		cmocka_unit_test(test_sigterm),

@@ -87,6 +87,8 @@ static void test_examples_load(void **state)
 		"examples/rs485-rig.yaml",
 		"examples/sim-faults.yaml",
 		"examples/sim-fine.yaml",
+		"examples/physics/leg.yaml",
+		"examples/physics/leg-vcan.yaml",
 		"tests/data/config/five-per-bus.yaml", /* loads; the planner refuses it */
 	};
 

@@ -80,6 +80,12 @@
 #define MAX_READS 256			/* frames read per wake-up, then timers */
 #define RX_BATCH 64			/* frames per rmd_bus_recv() */
 #define FINISH_NS (250 * RMD_NS_PER_MS) /* SIGINT/SIGTERM: replies still due go out within */
+/*
+ * A frame the motors took this long after it arrived: the model steps
+ * slower than real time here (sim.physics), and every reply is late.
+ */
+#define BEHIND_NS (5 * RMD_NS_PER_MS)
+#define BEHIND_RUN 3 /* ... so many times in a row (once may be the machine's hiccup) */
 
 /* What the node (its stats: queue overflows, frames lost while absent, faults) does not count. */
 struct stats {
@@ -91,6 +97,10 @@ struct stats {
 	uint64_t rx_errors;  /* read errors */
 	uint64_t unmappable; /* frames with no RS485 form */
 	uint64_t unsent;     /* frames still waiting when rmd-sim stopped */
+	uint64_t behind;     /* frames and ticks the world was behind real time for */
+	int64_t behind_max_ns;
+	unsigned behind_run; /* behind so many times in a row */
+	bool behind_warned;
 };
 
 struct sim {
@@ -284,12 +294,45 @@ static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 	return n;
 }
 
+/*
+ * The world (sim.physics) was stepped up to a frame's arrival, or through
+ * a tick, and that took late_ns of real time: BEHIND_NS or more after the
+ * frame arrived, or a tick's whole period (TICK_NS) for the tick's time,
+ * and the model runs slower than real time on this machine: said once
+ * BEHIND_RUN in a row were (every reply is late, rmdd will miss them),
+ * counted in the summary.  late_ns 0: on time, which ends a run.
+ */
+static void note_behind(struct sim *s, int64_t late_ns, const char *how)
+{
+	if (!late_ns) {
+		s->st.behind_run = 0;
+		return;
+	}
+	s->st.behind++;
+	if (++s->st.behind_run >= BEHIND_RUN && !s->st.behind_warned) {
+		s->st.behind_warned = true;
+		tool_log(TOOL_LOG_WARNING,
+			 "rmd-sim: %s: physics: the model steps slower than real time here (%s "
+			 "%.1f ms): every reply is late; lower sim.physics.rate_hz or substeps, or "
+			 "run on a faster machine (docs/physics.md \"Time and rate\"; counted in "
+			 "the exit summary)",
+			 s->name, how, (double)late_ns / 1e6);
+	}
+	if (late_ns > s->st.behind_max_ns)
+		s->st.behind_max_ns = late_ns;
+}
+
 /* Unsolicited frames due by now, and the physics tick. */
 static void run_motors(struct sim *s, int64_t now)
 {
 	s->motors_ns = rmd_sim_node_poll(&s->node, now);
 	if (now >= s->next_tick_ns) {
+		int64_t took;
+
 		rmd_sim_node_step(&s->node, now);
+		took = rmd_now_ns() - now;
+		if (s->body)
+			note_behind(s, took >= TICK_NS ? took : 0, "10 ms of it took");
 		s->next_tick_ns = now + TICK_NS;
 	}
 	note_overflow(s);
@@ -457,6 +500,12 @@ static void wire_read(struct sim *s, bool hup)
 			set_down(s, false, "");
 			s->st.rx_frames++;
 			answers = deliver(s, &rx[k].f, rx[k].t_ns);
+			if (s->body) {
+				int64_t late = rmd_now_ns() - rx[k].t_ns;
+
+				note_behind(s, late >= BEHIND_NS ? late : 0,
+					    "a frame answered after");
+			}
 			if (answers)
 				s->st.rx_taken++;
 			log_rx(s, &rx[k].f, answers);
@@ -759,9 +808,14 @@ static void log_summary(const struct sim *s, int64_t now)
 	const struct rmd_bus_stats *bs = rmd_bus_stats(&s->bus);
 	/* Serial: the transport's rx_errors are the runs of line noise, counted in bytes. */
 	uint64_t rx_errors = s->st.rx_errors + (s->serial ? 0 : bs->rx_errors);
-	char faults[512], unsent[80] = "";
+	char faults[512], unsent[80] = "", behind[128] = "";
 
 	summary_faults(s, faults, sizeof(faults));
+	if (s->st.behind)
+		snprintf(behind, sizeof(behind),
+			 "; physics behind real time %" PRIu64 " time%s (the worst %.1f ms)",
+			 s->st.behind, s->st.behind == 1 ? "" : "s",
+			 (double)s->st.behind_max_ns / 1e6);
 	if (s->st.unsent)
 		snprintf(unsent, sizeof(unsent), "; %" PRIu64 " frame%s not sent before the stop",
 			 s->st.unsent, s->st.unsent == 1 ? "" : "s");
@@ -770,11 +824,11 @@ static void log_summary(const struct sim *s, int64_t now)
 		 "), out %" PRIu64 "; tx retries %" PRIu64 ", tx errors %" PRIu64
 		 ", queue overflows %" PRIu64 ", rx errors %" PRIu64 ", line noise %" PRIu64
 		 " bytes, echoes %" PRIu64 ", lost while absent %" PRIu64
-		 ", without RS485 form %" PRIu64 "%s%s",
+		 ", without RS485 form %" PRIu64 "%s%s%s",
 		 s->name, s->why ? s->why : "?", (double)(now - s->t0) / 1e9, s->st.rx_frames,
 		 s->st.rx_taken, s->st.tx_frames, s->st.tx_busy, s->st.tx_errors,
 		 s->node.stats.dropped, rx_errors, bs->rx_noise_bytes, bs->echoes,
-		 s->node.stats.absent_lost, s->st.unmappable, faults, unsent);
+		 s->node.stats.absent_lost, s->st.unmappable, faults, unsent, behind);
 }
 
 static void handle_signal(struct sim *s)
