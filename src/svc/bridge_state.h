@@ -158,6 +158,13 @@ struct rmd_bridge {
 	int64_t next_hb_ns;
 	int64_t hb_seq;
 	uint32_t robot_stops;
+	/*
+	 * Robot-wide trips this daemon judged itself (a peer lost, a peer's
+	 * clock): they go in the heartbeat's trips beside its watchdog's, so
+	 * a peer that still hears it follows (a one-way split stops both
+	 * sides); a trip it took from a peer or an all-stop is not counted.
+	 */
+	uint32_t own_trips;
 	bool robot_tripped;
 	char robot_reason[RMD_PEERS_REASON_LEN];
 	char robot_said[RMD_PEERS_REASON_LEN]; /* the newest reason logged: said once */

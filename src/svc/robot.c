@@ -66,17 +66,14 @@ void bridge_robot_command(const struct rmd_bridge *b, struct rmd_command *cmd)
  * (on_peer_lost: report), in a command of its own that carries no setpoint
  * (so it refreshes no motor's command deadline).
  */
-__attribute__((format(printf, 4, 5))) static void robot_trip(struct rmd_bridge *b, int64_t now,
-							     bool apply, const char *fmt, ...)
+static void robot_vtrip(struct rmd_bridge *b, int64_t now, bool apply, bool own, const char *fmt,
+			va_list ap)
 {
 	struct rmd_command *cmd = &b->buf->robot_cmd;
 	char why[RMD_PEERS_REASON_LEN];
 	bool repeat;
-	va_list ap;
 
-	va_start(ap, fmt);
 	vsnprintf(why, sizeof(why), fmt, ap);
-	va_end(ap);
 	repeat = !strcmp(why, b->robot_said);
 	snprintf(b->robot_said, sizeof(b->robot_said), "%s", why);
 	if (!apply) {
@@ -90,6 +87,7 @@ __attribute__((format(printf, 4, 5))) static void robot_trip(struct rmd_bridge *
 	snprintf(b->robot_reason, sizeof(b->robot_reason), "%s", why);
 	b->robot_tripped = true;
 	b->robot_stops++;
+	b->own_trips += own;
 	bridge_count(&b->n_robot_stops);
 	if (!b->opts.commands || b->probing)
 		return;
@@ -98,6 +96,32 @@ __attribute__((format(printf, 4, 5))) static void robot_trip(struct rmd_bridge *
 	memcpy(cmd->disables, b->disables, sizeof(cmd->disables));
 	bridge_robot_command(b, cmd);
 	rmd_latest_put(b->opts.commands, cmd);
+}
+
+/* A stop this daemon takes from others: a peer's trip, its shutdown, an all-stop. */
+__attribute__((format(printf, 4, 5))) static void robot_trip(struct rmd_bridge *b, int64_t now,
+							     bool apply, const char *fmt, ...)
+{
+	va_list ap;
+
+	va_start(ap, fmt);
+	robot_vtrip(b, now, apply, false, fmt, ap);
+	va_end(ap);
+}
+
+/*
+ * A stop of this daemon's own judgment (a peer lost, a peer's clock): when
+ * applied it counts in the heartbeat's trips, so the peers that still hear
+ * this daemon follow it (bridge_state.h own_trips).
+ */
+__attribute__((format(printf, 3, 4))) static void robot_trip_own(struct rmd_bridge *b, int64_t now,
+								 const char *fmt, ...)
+{
+	va_list ap;
+
+	va_start(ap, fmt);
+	robot_vtrip(b, now, b->robot_safe, true, fmt, ap);
+	va_end(ap);
 }
 
 static const char *peer_desc(const struct rmd_peer *p, char *out, size_t len)
@@ -164,10 +188,10 @@ void bridge_robot_heartbeat_in(struct rmd_bridge *b, const struct rmd_lcm_msg *m
 				   "(said once; sync the robot's PCs: docs/robot.md \"Clocks\")",
 				   p->instance, p->offset_ns / 1e6);
 		if (v & RMD_PEERS_CLOCK_TRIP)
-			robot_trip(b, now, b->robot_safe,
-				   "peer %s: its clock differs from this host's by more than "
-				   "robot.max_clock_offset_ms (%u)",
-				   p->instance, b->opts.robot.max_clock_offset_ms);
+			robot_trip_own(b, now,
+				       "peer %s: its clock differs from this host's by more than "
+				       "robot.max_clock_offset_ms (%u)",
+				       p->instance, b->opts.robot.max_clock_offset_ms);
 		if (v & RMD_PEERS_TRIP)
 			robot_trip(b, now, b->robot_safe, "peer %s tripped: %s", p->instance,
 				   hb.reason && hb.reason[0] ? hb.reason : "its command watchdog");
@@ -245,7 +269,7 @@ static void publish_heartbeat(struct rmd_bridge *b, const struct rmd_health *h, 
 		     h->watchdog == RMD_WD_TRIPPED	  ? "command watchdog" :
 		     state == RMD_HEARTBEAT_T_HB_STOPPING ? "shutting down" :
 							    "";
-	hb->trips = (int64_t)h->watchdog_trips;
+	hb->trips = (int64_t)h->watchdog_trips + b->own_trips;
 	hb->echo = b->buf->hb_echo;
 	hb->n_echoes = (int16_t)rmd_peers_echoes(&b->peers, hb->echo, RMD_CONFIG_MAX_PEERS);
 	hb->t_ns = realtime_ns();
@@ -278,8 +302,9 @@ void bridge_robot_tick(struct rmd_bridge *b, int64_t now)
 
 		if (!(lost & (1u << i)))
 			continue;
-		robot_trip(b, now, b->robot_safe, "peer %s lost: no heartbeat for %u ms",
-			   peer_desc(&b->peers.p[i], d, sizeof(d)), b->opts.robot.peer_timeout_ms);
+		robot_trip_own(b, now, "peer %s lost: no heartbeat for %u ms",
+			       peer_desc(&b->peers.p[i], d, sizeof(d)),
+			       b->opts.robot.peer_timeout_ms);
 	}
 	/* the loop acted on every stop, and a controller enabled since: the trip is over */
 	if (b->robot_tripped && h->robot_stops == b->robot_stops && h->watchdog == RMD_WD_OK) {

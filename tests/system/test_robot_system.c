@@ -633,6 +633,69 @@ static void test_future_clock_warns_absurd_trips(void **state)
 	teardown_all();
 }
 
+/*
+ * A one-way split: left watches right and a third part, "ghost" (this test's
+ * heartbeats), right watches left only.  When ghost falls silent left alone
+ * judges it lost and stops; right, which never watched ghost and still hears
+ * left, must follow left's trip: half a robot stopped while the other half
+ * drives is the split the heartbeats are there to prevent.
+ */
+static void test_one_way_split_stops_both(void **state)
+{
+	char rl[256], rr[256];
+	struct held_deadline d;
+	int64_t seq = 0, t0, took, held, bound;
+	const rmd_health_t *h;
+
+	(void)state;
+	if (!multicast)
+		skip();
+	setup_url();
+	snprintf(rl, sizeof(rl),
+		 "robot: {instance: left, peers: [right, ghost], heartbeat_ms: %d, "
+		 "peer_timeout_ms: %d}\n",
+		 HEARTBEAT_MS, PEER_TIMEOUT_MS);
+	snprintf(rr, sizeof(rr),
+		 "robot: {instance: right, peers: [left], heartbeat_ms: %d, peer_timeout_ms: %d}\n",
+		 HEARTBEAT_MS, PEER_TIMEOUT_MS);
+	start_side(0, "left", "LEFT_", rl);
+	start_side(1, "right", "RIGHT_", rr);
+	held_deadline_start(&d, &ref, 20000);
+	while (!both_enabled() && !held_deadline_passed(&d)) {
+		send_heartbeat("ghost", "ghosthost", 9, seq++, 0);
+		send_cmd(&R.s[0], peers_ok());
+		send_cmd(&R.s[1], peers_ok());
+		pump(HEARTBEAT_MS);
+	}
+	if (!both_enabled())
+		fail_msg("not both ENABLED beside ghost:\nleft:\n%s\nright:\n%s",
+			 kid_tail(R.s[0].kid), kid_tail(R.s[1].kid));
+	/* ghost falls silent; the controllers drive on */
+	sleeper_mark(&ref);
+	R.s[0].safe_rx_ns = R.s[1].safe_rx_ns = 0;
+	t0 = rmd_now_ns();
+	if (!drive_until(true, 5000, both_safe))
+		fail_msg("not both SAFE after ghost went silent (right %s):\nleft:\n%s\nright:\n%s",
+			 R.s[1].safe_rx_ns ? "SAFE" : "still driven", kid_tail(R.s[0].kid),
+			 kid_tail(R.s[1].kid));
+	took = R.s[1].safe_rx_ns - t0;
+	held = sleeper_held_off_ns(&ref);
+	/* left's timeout and the tick that sees it, then one heartbeat of left's to right */
+	bound = (PEER_TIMEOUT_MS + 3 * HEARTBEAT_MS + 20) * RMD_NS_PER_MS + held;
+	print_message("ghost silent -> left SAFE %.1f ms, right SAFE %.1f ms (bound %.1f ms)\n",
+		      (R.s[0].safe_rx_ns - t0) / 1e6, took / 1e6, bound / 1e6);
+	assert_true(took <= bound);
+	kid_wait_output(R.s[1].kid, "robot: peer left tripped: peer ghost", 2000, NULL);
+	pump(200);
+	h = R.s[1].health;
+	assert_non_null(h);
+	assert_int_equal(h->robot, RMD_HEALTH_T_ROBOT_TRIPPED);
+	assert_has(h->robot_reason, "peer left tripped: peer ghost", "right's robot_reason");
+	/* and it does not echo: left took no trip back from right's */
+	assert_int_equal(count_of(R.s[0].kid->out, "peer right tripped"), 0);
+	teardown_all();
+}
+
 /* Both daemons name their motors leg_hip and leg_knee: both say so; nothing else changes. */
 static void test_motor_names_clash_reported_by_both(void **state)
 {
@@ -691,6 +754,7 @@ SUITE_MAIN("robot_system", group_setup, group_teardown,
 	   {
 		   cmocka_unit_test(test_kill_one_makes_the_other_safe),
 		   cmocka_unit_test(test_robot_stop_stops_both),
+		   cmocka_unit_test(test_one_way_split_stops_both),
 		   cmocka_unit_test(test_spoofed_heartbeats_change_nothing),
 		   cmocka_unit_test(test_future_clock_warns_absurd_trips),
 		   cmocka_unit_test(test_motor_names_clash_reported_by_both),
