@@ -6,10 +6,12 @@
  * (robot PC A) in namespace a, rmdd "right" (B) in b, each the other's
  * peer, on sim buses whose wires are tapped (sim: {tap: FILE}); the test is
  * their controller in namespace c, and a spoofer in d.  Every safe action
- * is judged on B's wire, not only in its state_t: the tap shows the brake
+ * is judged on the daemon's wire, not only in its state_t: the tap shows the brake
  * safe action (0x80 output off, 0x78 brake locked, docs/lcm.md) to each
  * motor and no torque setpoint (0xA1) after it, while the controller keeps
- * streaming them.
+ * streaming them (the tap read once the daemon ended on SIGTERM, up to that
+ * instant), timed by the tap's own stamps (CLOCK_MONOTONIC, one clock for
+ * every namespace).
  *
  *   test_kill_a_makes_b_safe  kill -9 of A: B's motors SAFE within
  *                         peer_timeout_ms + 2 heartbeats + 20 ms + what the
@@ -17,8 +19,9 @@
  *   test_robot_stop_from_c_stops_both  `rmdctl stop --robot` run in c: both
  *                         daemons' motors SAFE, each within rmdctl's own run
  *                         + 2 loop periods + 20 ms + held off; both wires
- *   test_loss_ridden_out_silence_trips  30 % loss into b for 10 s: no trip;
- *                         then 100 % (a real silence): SAFE within the bound
+ *   test_loss_ridden_out_silence_trips  30 % loss into b for 10 s with
+ *                         peer_timeout_ms 250 (LOSS_PCT): no trip; then
+ *                         100 % (a real silence): SAFE within the bound
  *   test_spoofer_changes_nothing  heartbeats from d claiming A's name (from
  *                         another host, and from A's host as a second
  *                         process) and a stranger's: B's motors stay
@@ -167,8 +170,16 @@ static unsigned tap_lines(const char *path)
 	return (unsigned)count_lines(file_text(path, tap_buf, sizeof(tap_buf)));
 }
 
-/* Motor id's frames on the wire tap at path, with line `from` the mark. */
-static struct wire tap_scan(const char *path, unsigned from, unsigned id)
+/* A tap line's stamp, ns of CLOCK_MONOTONIC ("(SEC.USEC) ..."); 0 if it has none. */
+static int64_t tap_stamp_ns(const char *l)
+{
+	long long sec, usec;
+
+	return sscanf(l, "(%lld.%6lld)", &sec, &usec) == 2 ? sec * RMD_NS_PER_S + usec * 1000 : 0;
+}
+
+/* Motor id's frames on the wire tap at path, with line `from` the mark, stamped before until_ns (0: all). */
+static struct wire tap_scan(const char *path, unsigned from, unsigned id, int64_t until_ns)
 {
 	const char *p = file_text(path, tap_buf, sizeof(tap_buf));
 	char off[16], brake[16], setpoint[16];
@@ -185,69 +196,70 @@ static struct wire tap_scan(const char *path, unsigned from, unsigned id)
 		p = nl ? nl + 1 : p + strlen(p);
 		if (!strstr(l, " T"))
 			continue;
+		if (until_ns && tap_stamp_ns(l) >= until_ns)
+			break;
 		if (line >= from && strstr(l, brake))
 			w.brake = true; /* in the same cycle as the 0x80, either order */
 		if (line >= from && !w.off && strstr(l, off)) {
-			long long sec, usec;
-
 			w.off = true;
-			if (sscanf(l, "(%lld.%6lld)", &sec, &usec) == 2)
-				w.off_ns = sec * RMD_NS_PER_S + usec * 1000;
-		} else if (w.off && strstr(l, brake))
-			w.brake = true;
-		else if (strstr(l, setpoint))
+			w.off_ns = tap_stamp_ns(l);
+		} else if (strstr(l, setpoint)) {
 			*(w.off	      ? &w.setpoints_after :
 			  line < from ? &w.setpoints_before :
 					&w.setpoints) += 1;
+		}
 	}
 	return w;
 }
 
 /*
- * On the tap at path, from line `from` on: each motor (id 1, 2) sent the
- * brake safe action (0x80, then 0x78) and no torque setpoint (0xA1) after
+ * SIGTERM to daemon i, waited for: its tap is written whole at exit.  When
+ * it was sent (what its shutdown sent after is its own, not a stop's).
+ */
+static int64_t end_daemon(unsigned i)
+{
+	struct robot_side *s = &rp.s[i];
+	int64_t end_ns = rmd_now_ns();
+
+	assert_int_equal(kill(s->kid->pid, SIGTERM), 0);
+	kid_wait_exit(s->kid, 10000, NULL);
+	kid_free(s->kid);
+	s->kid = NULL;
+	return end_ns;
+}
+
+/*
+ * On daemon i's tap, from line `from` on: each motor (id 1, 2) sent the
+ * brake safe action (0x80 and 0x78) and no torque setpoint (0xA1) after
  * its 0x80, and setpoints were flowing before the mark (the check can
- * fail).  Fails naming what is missing; else when the later 0x80 was on
+ * fail).  rmdd writes its tap a PIPE_BUF at a time, and after the safe
+ * action its wire is quiet (status reads): the daemon is ended
+ * (end_daemon()) and what its shutdown sent after that instant is not
+ * looked at.  The controller streams setpoints until
+ * then.  Fails naming what is missing; else when the later 0x80 was on
  * the wire.
  */
-static int64_t assert_wire_safe(const char *path, unsigned from, const char *who)
+static int64_t assert_wire_safe(unsigned i, unsigned from, const char *who)
 {
-	struct held_deadline d;
-	int64_t last_ns = 0;
+	struct robot_side *s = &rp.s[i];
+	int64_t end_ns, last_ns = 0;
 
-	/*
-	 * rmdd writes its tap a PIPE_BUF at a time: after the safe action the
-	 * wire is quiet (status reads), so its last lines may take a while;
-	 * the controller streams setpoints on meanwhile.
-	 */
-	held_deadline_start(&d, rp.ref, 10000);
-	while (!held_deadline_passed(&d)) {
-		bool all = true;
-
-		for (unsigned id = 1; id <= RP_NMOT; id++) {
-			struct wire w = tap_scan(path, from, id);
-
-			all &= w.off && w.brake;
-		}
-		if (all)
-			break;
-		robot_drive_until(true, 50, robot_never);
-	}
-
+	robot_drive_until(true, 200, robot_never);
+	end_ns = end_daemon(i);
 	for (unsigned id = 1; id <= RP_NMOT; id++) {
-		struct wire w = tap_scan(path, from, id);
+		struct wire w = tap_scan(s->tap, from, id, end_ns);
 
 		if (w.setpoints_before < 50)
 			fail_msg("%s: motor %u: only %u torque setpoints (0xA1) on the wire before "
 				 "the stop (%s)",
-				 who, id, w.setpoints_before, path);
+				 who, id, w.setpoints_before, s->tap);
 		if (!w.off || !w.brake)
 			fail_msg("%s: motor %u: no %s on the wire after line %u (%s)", who, id,
-				 w.off ? "0x78 (brake locked)" : "0x80 (output off)", from, path);
+				 w.off ? "0x78 (brake locked)" : "0x80 (output off)", from, s->tap);
 		if (w.setpoints_after)
 			fail_msg("%s: motor %u: %u torque setpoints (0xA1) on the wire after its "
 				 "safe action (%s)",
-				 who, id, w.setpoints_after, path);
+				 who, id, w.setpoints_after, s->tap);
 		if (w.off_ns > last_ns)
 			last_ns = w.off_ns;
 	}
@@ -272,9 +284,16 @@ static void judge_silence(const char *what, int timeout_ms, int64_t t_began, int
 	if (!robot_drive_until(true, 5000, robot_right_safe))
 		fail_msg("B's motors not SAFE after %s:\n%s", what, kid_tail(rp.s[RIGHT].kid));
 	held = sleeper_held_off_ns(rp.ref);
-	robot_drive_until(true, 300, robot_never);
+	kid_wait_output(rp.s[RIGHT].kid, "robot: peer left (host ", 2000, NULL);
+	snprintf(why, sizeof(why), "lost: no heartbeat for %d ms: the safe action", timeout_ms);
+	assert_has(rp.s[RIGHT].kid->out, why, "B's log");
+	robot_pump(100);
+	assert_non_null(rp.s[RIGHT].health);
+	assert_int_equal(rp.s[RIGHT].health->robot, RMD_HEALTH_T_ROBOT_TRIPPED);
+	assert_has(rp.s[RIGHT].health->robot_reason, "peer left", "B's health_t robot_reason");
+	assert_int_equal(rp.s[RIGHT].health->peer[0].status, RMD_ROBOT_PEER_T_PEER_LOST);
 	snprintf(why, sizeof(why), "B after %s", what);
-	on_wire = assert_wire_safe(rp.s[RIGHT].tap, from, why) - t0;
+	on_wire = assert_wire_safe(RIGHT, from, why) - t0;
 	bound = (timeout_ms + 2 * RP_HEARTBEAT_MS + 20) * RMD_NS_PER_MS + held;
 	print_message("%s -> B's safe action on its wire %.1f ms, its state_t SAFE in c %.1f ms "
 		      "(bound %.1f ms: peer_timeout_ms %d + 2 heartbeats + 20 ms + %.1f ms held "
@@ -283,13 +302,6 @@ static void judge_silence(const char *what, int timeout_ms, int64_t t_began, int
 		      timeout_ms, held / 1e6);
 	assert_true(on_wire + (t0 - t_began) >= (timeout_ms - 2 * RP_HEARTBEAT_MS) * RMD_NS_PER_MS);
 	assert_true(on_wire <= bound);
-	kid_wait_output(rp.s[RIGHT].kid, "robot: peer left (host ", 2000, NULL);
-	snprintf(why, sizeof(why), "lost: no heartbeat for %d ms: the safe action", timeout_ms);
-	assert_has(rp.s[RIGHT].kid->out, why, "B's log");
-	assert_non_null(rp.s[RIGHT].health);
-	assert_int_equal(rp.s[RIGHT].health->robot, RMD_HEALTH_T_ROBOT_TRIPPED);
-	assert_has(rp.s[RIGHT].health->robot_reason, "peer left", "B's health_t robot_reason");
-	assert_int_equal(rp.s[RIGHT].health->peer[0].status, RMD_ROBOT_PEER_T_PEER_LOST);
 }
 
 /* kill -9 of A (the pair driven): judge_silence(). */
@@ -360,11 +372,17 @@ static void test_robot_stop_from_c_stops_both(void **state)
 		fail_msg("not both SAFE after rmdctl stop --robot in c:\nA:\n%s\nB:\n%s",
 			 kid_tail(rp.s[LEFT].kid), kid_tail(rp.s[RIGHT].kid));
 	held = sleeper_held_off_ns(rp.ref);
-	robot_drive_until(true, 300, robot_never);
+	robot_pump(100);
+	for (unsigned i = 0; i < 2; i++) {
+		kid_wait_output(rp.s[i].kid, "robot: robot stop from rmdctl@", 2000, NULL);
+		assert_has(rp.s[i].kid->out, "netns e-stop: the safe action", rp.s[i].inst);
+		assert_non_null(rp.s[i].health);
+		assert_true(rp.s[i].health->robot_stops >= 1);
+	}
 	for (unsigned i = 0; i < 2; i++) {
 		const char *who = i == LEFT ? "A" : "B";
 		/* judged on each wire: rmdctl's own run (it sends its first stop before it exits), two loop periods at 500 Hz, 20 ms */
-		int64_t on_wire = assert_wire_safe(rp.s[i].tap, from[i], who) - t0,
+		int64_t on_wire = assert_wire_safe(i, from[i], who) - t0,
 			bound = ran + 24 * RMD_NS_PER_MS + held;
 
 		print_message(
@@ -374,10 +392,6 @@ static void test_robot_stop_from_c_stops_both(void **state)
 			who, on_wire / 1e6, (rp.s[i].safe_rx_ns - t0) / 1e6, bound / 1e6, ran / 1e6,
 			held / 1e6);
 		assert_true(on_wire > 0 && on_wire <= bound);
-		kid_wait_output(rp.s[i].kid, "robot: robot stop from rmdctl@", 2000, NULL);
-		assert_has(rp.s[i].kid->out, "netns e-stop: the safe action", rp.s[i].inst);
-		assert_non_null(rp.s[i].health);
-		assert_true(rp.s[i].health->robot_stops >= 1);
 	}
 }
 
@@ -427,6 +441,7 @@ static void test_spoofer_changes_nothing(void **state)
 {
 	char host[256] = "";
 	const rmd_health_t *h;
+	int64_t t_spoof, end_ns;
 	lcm_t *spoofer;
 	unsigned from;
 
@@ -440,6 +455,7 @@ static void test_spoofer_changes_nothing(void **state)
 	assert_non_null(spoofer);
 	robot_pump(100);
 	from = tap_lines(rp.s[RIGHT].tap);
+	t_spoof = rmd_now_ns();
 	rp.s[RIGHT].armed = true;
 	/* 300 ms: A's name from another host and from A's host (a second process), a stranger */
 	for (int k = 0; k < 30; k++) {
@@ -455,16 +471,6 @@ static void test_spoofer_changes_nothing(void **state)
 	if (rp.s[RIGHT].left_enabled)
 		fail_msg("B: a motor left ENABLED during the spoofs:\n%s",
 			 kid_tail(rp.s[RIGHT].kid));
-	/* its wire: setpoints kept flowing to both motors, no safe action */
-	for (unsigned id = 1; id <= RP_NMOT; id++) {
-		struct wire w = tap_scan(rp.s[RIGHT].tap, from, id);
-
-		print_message("spoofer in d: B's wire to motor %u: %u setpoints (0xA1), %s 0x80, "
-			      "over the 450 ms\n",
-			      id, w.setpoints, w.off ? "a" : "no");
-		assert_false(w.off);
-		assert_true(w.setpoints > 100);
-	}
 	/* every spoof B took is counted: 60 naming A, 30 of the stranger (UDP may drop a few under load) */
 	robot_drive_until(true, 1000, spoofs_counted);
 	h = rp.s[RIGHT].health;
@@ -481,6 +487,17 @@ static void test_spoofer_changes_nothing(void **state)
 		   "B's log");
 	assert_has(rp.s[RIGHT].kid->out, "heartbeat naming peer \"left\" from host pc-d",
 		   "B's log");
+	/* its wire, written whole once it ends: setpoints kept flowing to both motors, no safe action */
+	end_ns = end_daemon(RIGHT);
+	for (unsigned id = 1; id <= RP_NMOT; id++) {
+		struct wire w = tap_scan(rp.s[RIGHT].tap, from, id, end_ns);
+
+		print_message("spoofer in d: B's wire to motor %u: %u setpoints (0xA1), %s 0x80, "
+			      "in the %.0f ms from the first spoof to its end\n",
+			      id, w.setpoints, w.off ? "a" : "no", (end_ns - t_spoof) / 1e6);
+		assert_false(w.off);
+		assert_true(w.setpoints > 100);
+	}
 }
 
 SUITE_MAIN_FIXTURE("robot_netns", setup, teardown, group_setup, group_teardown,
