@@ -253,9 +253,29 @@ static int64_t assert_wire_safe(unsigned i, unsigned from, const char *who)
 			fail_msg("%s: motor %u: only %u torque setpoints (0xA1) on the wire before "
 				 "the stop (%s)",
 				 who, id, w.setpoints_before, s->tap);
-		if (!w.off || !w.brake)
+		if (!w.off || !w.brake) {
+			/* what the wire had, to tell a missing frame from a late one */
+			const char *p = file_text(s->tap, tap_buf, sizeof(tap_buf));
+			char needle[8];
+			unsigned line = 0, shown = 0;
+
+			snprintf(needle, sizeof(needle), " 14%u#", id);
+			fprintf(stderr, "%s: motor %u's frames from line %u (end at %.6f s):\n",
+				who, id, from, end_ns / 1e9);
+			for (; *p && shown < 40; line++) {
+				const char *nl = strchr(p, '\n');
+				int len = nl ? (int)(nl - p) : (int)strlen(p);
+
+				if (line >= from &&
+				    memmem(p, (size_t)len, needle, strlen(needle))) {
+					fprintf(stderr, "  %.*s\n", len, p);
+					shown++;
+				}
+				p = nl ? nl + 1 : p + len;
+			}
 			fail_msg("%s: motor %u: no %s on the wire after line %u (%s)", who, id,
 				 w.off ? "0x78 (brake locked)" : "0x80 (output off)", from, s->tap);
+		}
 		if (w.setpoints_after)
 			fail_msg("%s: motor %u: %u torque setpoints (0xA1) on the wire after its "
 				 "safe action (%s)",
@@ -284,9 +304,9 @@ static void judge_silence(const char *what, int timeout_ms, int64_t t_began, int
 	if (!robot_drive_until(true, 5000, robot_right_safe))
 		fail_msg("B's motors not SAFE after %s:\n%s", what, kid_tail(rp.s[RIGHT].kid));
 	held = sleeper_held_off_ns(rp.ref);
-	kid_wait_output(rp.s[RIGHT].kid, "robot: peer left (host ", 2000, NULL);
 	snprintf(why, sizeof(why), "lost: no heartbeat for %d ms: the safe action", timeout_ms);
-	assert_has(rp.s[RIGHT].kid->out, why, "B's log");
+	kid_wait_output(rp.s[RIGHT].kid, why, 2000, NULL);
+	assert_has(rp.s[RIGHT].kid->out, "robot: peer left (host ", "B's log");
 	robot_pump(100);
 	assert_non_null(rp.s[RIGHT].health);
 	assert_int_equal(rp.s[RIGHT].health->robot, RMD_HEALTH_T_ROBOT_TRIPPED);
