@@ -80,7 +80,7 @@
 
 static char rmdctl_bin[PATH_MAX];
 static const char *skip_why;
-static bool multicast;
+static bool multicast; /* on loopback: not this suite's (its multicast crosses the bridge) */
 static unsigned test_no;
 static struct netns_net net;
 
