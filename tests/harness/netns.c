@@ -226,6 +226,8 @@ struct kid *netns_kid_spawn(const struct netns_net *net, unsigned i, const char 
 
 int netns_loss(const struct netns_net *net, unsigned i, unsigned pct)
 {
+	char match[48] = "";
+
 	if (i >= net->n || pct > 100)
 		return -1;
 	if (cmd("ip netns exec %s nft 'add table inet rmdt; flush table inet rmdt'", net->name[i]) <
@@ -233,10 +235,13 @@ int netns_loss(const struct netns_net *net, unsigned i, unsigned pct)
 		return -1;
 	if (pct == 0)
 		return 0;
+	/* numgen's range is 0..99 ("mod 100 < 100" is refused): 100 % is a rule without it */
+	if (pct < 100)
+		snprintf(match, sizeof(match), "numgen random mod 100 < %u ", pct);
 	return cmd("ip netns exec %s nft 'add chain inet rmdt in "
 		   "{ type filter hook input priority 0; policy accept; }; "
-		   "add rule inet rmdt in iifname \"eth0\" numgen random mod 100 < %u drop'",
-		   net->name[i], pct);
+		   "add rule inet rmdt in iifname \"eth0\" %sdrop'",
+		   net->name[i], match);
 }
 
 unsigned netns_listed(const char *prefix, char *out, size_t size)
