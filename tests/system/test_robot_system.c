@@ -171,10 +171,10 @@ static void test_robot_stop_stops_both(void **state)
 	for (unsigned i = 0; i < 2; i++) {
 		char line[128];
 
-		snprintf(line, sizeof(line), "  %s (host ", R.s[i].inst);
+		snprintf(line, sizeof(line), "  %s (host ", rp.s[i].inst);
 		assert_has(r.out, line, "rmdctl's output");
 	}
-	assert_int_equal(count_of(r.out, "): tripped: robot stop from rmdctl@"), 2);
+	assert_int_equal(robot_count_of(r.out, "): tripped: robot stop from rmdctl@"), 2);
 	run_free(&r);
 	if (!robot_drive_until(true, 3000, robot_both_safe))
 		fail_msg("not both SAFE after rmdctl stop --robot:\nleft:\n%s\nright:\n%s",
@@ -353,46 +353,46 @@ static void test_one_way_split_stops_both(void **state)
 	snprintf(rl, sizeof(rl),
 		 "robot: {instance: left, peers: [right, ghost], heartbeat_ms: %d, "
 		 "peer_timeout_ms: %d}\n",
-		 HEARTBEAT_MS, PEER_TIMEOUT_MS);
+		 RP_HEARTBEAT_MS, RP_PEER_TIMEOUT_MS);
 	snprintf(rr, sizeof(rr),
 		 "robot: {instance: right, peers: [left], heartbeat_ms: %d, peer_timeout_ms: %d}\n",
-		 HEARTBEAT_MS, PEER_TIMEOUT_MS);
-	start_side(0, "left", "LEFT_", rl);
-	start_side(1, "right", "RIGHT_", rr);
-	held_deadline_start(&d, &ref, 20000);
-	while (!both_enabled() && !held_deadline_passed(&d)) {
-		send_heartbeat("ghost", "ghosthost", 9, seq++, 0);
-		send_cmd(&R.s[0], peers_ok());
-		send_cmd(&R.s[1], peers_ok());
-		pump(HEARTBEAT_MS);
+		 RP_HEARTBEAT_MS, RP_PEER_TIMEOUT_MS);
+	robot_side_start(0, "left", "LEFT_", rl);
+	robot_side_start(1, "right", "RIGHT_", rr);
+	held_deadline_start(&d, rp.ref, 20000);
+	while (!robot_both_enabled() && !held_deadline_passed(&d)) {
+		robot_send_heartbeat(rp.lcm, "ghost", "ghosthost", 9, seq++, 0);
+		robot_send_cmd(&rp.s[0], robot_peers_ok());
+		robot_send_cmd(&rp.s[1], robot_peers_ok());
+		robot_pump(RP_HEARTBEAT_MS);
 	}
-	if (!both_enabled())
+	if (!robot_both_enabled())
 		fail_msg("not both ENABLED beside ghost:\nleft:\n%s\nright:\n%s",
-			 kid_tail(R.s[0].kid), kid_tail(R.s[1].kid));
+			 kid_tail(rp.s[0].kid), kid_tail(rp.s[1].kid));
 	/* ghost falls silent; the controllers drive on */
-	sleeper_mark(&ref);
-	R.s[0].safe_rx_ns = R.s[1].safe_rx_ns = 0;
+	sleeper_mark(rp.ref);
+	rp.s[0].safe_rx_ns = rp.s[1].safe_rx_ns = 0;
 	t0 = rmd_now_ns();
-	if (!drive_until(true, 5000, both_safe))
+	if (!robot_drive_until(true, 5000, robot_both_safe))
 		fail_msg("not both SAFE after ghost went silent (right %s):\nleft:\n%s\nright:\n%s",
-			 R.s[1].safe_rx_ns ? "SAFE" : "still driven", kid_tail(R.s[0].kid),
-			 kid_tail(R.s[1].kid));
-	took = R.s[1].safe_rx_ns - t0;
-	held = sleeper_held_off_ns(&ref);
+			 rp.s[1].safe_rx_ns ? "SAFE" : "still driven", kid_tail(rp.s[0].kid),
+			 kid_tail(rp.s[1].kid));
+	took = rp.s[1].safe_rx_ns - t0;
+	held = sleeper_held_off_ns(rp.ref);
 	/* left's timeout and the tick that sees it, then one heartbeat of left's to right */
-	bound = (PEER_TIMEOUT_MS + 3 * HEARTBEAT_MS + 20) * RMD_NS_PER_MS + held;
+	bound = (RP_PEER_TIMEOUT_MS + 3 * RP_HEARTBEAT_MS + 20) * RMD_NS_PER_MS + held;
 	print_message("ghost silent -> left SAFE %.1f ms, right SAFE %.1f ms (bound %.1f ms)\n",
-		      (R.s[0].safe_rx_ns - t0) / 1e6, took / 1e6, bound / 1e6);
+		      (rp.s[0].safe_rx_ns - t0) / 1e6, took / 1e6, bound / 1e6);
 	assert_true(took <= bound);
-	kid_wait_output(R.s[1].kid, "robot: peer left tripped: peer ghost", 2000, NULL);
-	pump(200);
-	h = R.s[1].health;
+	kid_wait_output(rp.s[1].kid, "robot: peer left tripped: peer ghost", 2000, NULL);
+	robot_pump(200);
+	h = rp.s[1].health;
 	assert_non_null(h);
 	assert_int_equal(h->robot, RMD_HEALTH_T_ROBOT_TRIPPED);
 	assert_has(h->robot_reason, "peer left tripped: peer ghost", "right's robot_reason");
 	/* and it does not echo: left took no trip back from right's */
-	assert_int_equal(count_of(R.s[0].kid->out, "peer right tripped"), 0);
-	teardown_all();
+	assert_int_equal(robot_count_of(rp.s[0].kid->out, "peer right tripped"), 0);
+	robot_pair_teardown();
 }
 
 /* Both daemons name their motors leg_hip and leg_knee: both say so; nothing else changes. */
