@@ -163,6 +163,7 @@ int rmdctl_robot_stop_run(int argc, char **argv)
 	const char *url = env && *env ? env : RMD_CONFIG_DEFAULT_LCM_URL, *reason = "operator";
 	char shorts[16], msg[160], host[64] = "?", who[96], *end;
 	static struct listen heard;
+	rmd_heartbeat_t_subscription_t *sub = NULL;
 	struct timespec ts;
 	rmd_robot_stop_t s;
 	long wait_ms = WAIT_MS_DEFAULT;
@@ -221,7 +222,8 @@ int rmdctl_robot_stop_run(int argc, char **argv)
 	s = (rmd_robot_stop_t){ .who = who, .reason = (char *)reason };
 	/* listening before the first stop goes out: a daemon's next heartbeat may be 1 ms away */
 	if (wait_ms > 0)
-		rmd_heartbeat_t_subscribe(lcm, RMD_CHANNEL_ROBOT_HEARTBEAT, on_heartbeat, &heard);
+		sub = rmd_heartbeat_t_subscribe(lcm, RMD_CHANNEL_ROBOT_HEARTBEAT, on_heartbeat,
+						&heard);
 	for (int k = 0; k < SENDS; k++) {
 		struct timespec gap = { .tv_nsec = 10 * RMD_NS_PER_MS };
 
@@ -232,6 +234,8 @@ int rmdctl_robot_stop_run(int argc, char **argv)
 			nanosleep(&gap, NULL);
 	}
 	if (failed == SENDS) {
+		if (sub)
+			rmd_heartbeat_t_unsubscribe(lcm, sub);
 		lcm_destroy(lcm);
 		tool_log(TOOL_LOG_ERR, "LCM %s: could not publish on %s", url,
 			 RMD_CHANNEL_ROBOT_STOP);
@@ -240,6 +244,8 @@ int rmdctl_robot_stop_run(int argc, char **argv)
 	printf("robot stop sent on %s (%s): %s\n", RMD_CHANNEL_ROBOT_STOP, url, reason);
 	fflush(stdout);
 	rc = wait_ms > 0 ? listen_report(lcm, &heard, (int)wait_ms) : RMDCTL_EXIT_OK;
+	if (sub) /* lcm-gen's subscriptions are the caller's to free */
+		rmd_heartbeat_t_unsubscribe(lcm, sub);
 	lcm_destroy(lcm);
 	return rc;
 }
