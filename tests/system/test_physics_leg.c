@@ -92,6 +92,8 @@ static void test_view_png(void **state)
 	snprintf(py, sizeof(py), "%s/venv/bin/python3", build && build[0] ? build : "build");
 	if (py_env && py_env[0])
 		snprintf(py, sizeof(py), "%s", py_env);
+	else if (access(py, X_OK)) /* SANITIZE=1: BUILD is build/san, the venv build/venv's */
+		snprintf(py, sizeof(py), "build/venv/bin/python3");
 	if (access(py, X_OK)) {
 		print_message("SKIP: %s: no Python venv (make python-venv)\n", py);
 		skip();

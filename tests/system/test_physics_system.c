@@ -147,6 +147,7 @@ static void test_period_in_state(void **state)
 	double want = pendulum_period_s(I_TOTAL, MASS, LEN, G, M_PI / 3.0);
 	double cross[16], got, first = NAN;
 	unsigned k = 0;
+	rmd_state_t_subscription_t *sub;
 	struct kid *rmdd;
 	lcm_t *lcm;
 	int64_t end;
@@ -159,7 +160,7 @@ static void test_period_in_state(void **state)
 	lcm_test_url(url, sizeof(url), 54000, 100, test_no++);
 	lcm = lcm_create(url);
 	assert_non_null(lcm);
-	rmd_state_t_subscribe(lcm, "RMD_STATE", on_state, &tr);
+	sub = rmd_state_t_subscribe(lcm, "RMD_STATE", on_state, &tr);
 	rmdd = kid_spawn("rmdd", argv, NULL, 0);
 	/* five periods of samples (the sim time, not the wall's, is what is judged) */
 	end = rmd_now_ns() + 30 * RMD_NS_PER_S;
@@ -170,6 +171,7 @@ static void test_period_in_state(void **state)
 			fail_msg("rmdd exited (%d); its output:\n%s", rmdd->status, kid_tail(rmdd));
 	}
 	kid_free(rmdd);
+	rmd_state_t_unsubscribe(lcm, sub); /* lcm-gen's subscriptions are the caller's to free */
 	lcm_destroy(lcm);
 	assert_true(tr.n > 100);
 	/* upward zero crossings, interpolated between samples */
