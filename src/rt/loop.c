@@ -369,7 +369,7 @@ static void overrun_event(struct rmd_loop *l, int64_t now)
 }
 
 /* Overruns: a tick whose whole period passed unserved is skipped and counted.  rt-safe. */
-void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped)
+static void skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped)
 {
 	if (skipped <= 0)
 		return;
@@ -379,6 +379,23 @@ void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped)
 		l->ov_worst = (uint64_t)skipped;
 	l->next_tick_ns += skipped * l->period_ns;
 	overrun_event(l, now);
+}
+
+/*
+ * The tick intended at next_tick_ns, reached at now -- woken for it, or
+ * back from the last one's work (a stall of the process in that work
+ * included): its true lateness recorded, however many periods it skipped,
+ * and the whole periods since skipped; that tick itself too unless it is
+ * served now (the rt thread skips it: never a catch-up burst).  One rule
+ * for both, so a stall shows in wake_max wherever it held the loop.
+ * rt-safe.
+ */
+void loop_reached_tick(struct rmd_loop *l, int64_t now, bool served)
+{
+	stat_begin(l);
+	wake_record(l, now - l->next_tick_ns, now);
+	stat_end(l);
+	skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns + !served);
 }
 
 /* rt-safe. */
@@ -392,12 +409,7 @@ static void schedule(struct rmd_loop *l, int64_t now)
 		l->next_tick_ns = now + l->period_ns;
 		return;
 	}
-	/* true lateness: from the tick intended, however many periods it skipped */
-	stat_begin(l);
-	wake_record(l, now - l->next_tick_ns, now);
-	stat_end(l);
-	if (now - l->next_tick_ns >= l->period_ns)
-		loop_skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns);
+	loop_reached_tick(l, now, true);
 	tick = l->next_tick_ns;
 	l->next_tick_ns = tick + l->period_ns;
 }

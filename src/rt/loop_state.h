@@ -472,7 +472,7 @@ static inline int64_t loop_publish_deadline(const struct rmd_loop *l)
 void loop_pub_write(struct rmd_loop *l);
 void loop_fill_snapshot(struct rmd_loop *l, int64_t now);
 void loop_fill_health(struct rmd_loop *l, int64_t now);
-void loop_skip_ticks(struct rmd_loop *l, int64_t now, int64_t skipped);
+void loop_reached_tick(struct rmd_loop *l, int64_t now, bool served);
 int64_t loop_reply_due(const struct rmd_loop *l, int64_t now, unsigned *owing);
 
 /* rt_thread.c: end loop.keep_cpus_awake's request.  Non-rt. */

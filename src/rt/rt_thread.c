@@ -183,9 +183,9 @@ static void *thread_main(void *arg)
 
 		rmd_loop_tick(l, now);
 		now = rmd_now_ns();
-		/* the work ran past the next tick: skip it, never catch up in a burst */
+		/* the work ran past the next tick: skip it (its lateness recorded) */
 		if (now > l->next_tick_ns)
-			loop_skip_ticks(l, now, (now - l->next_tick_ns) / l->period_ns + 1);
+			loop_reached_tick(l, now, false);
 		between_ticks(l);
 		ts = loop_ts(l->next_tick_ns);
 		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR &&
