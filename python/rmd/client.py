@@ -41,8 +41,10 @@ Mistakes it stops at once instead of leaving to rmdd's safety net:
     than command_timeout_ms), LOST or FAULT: the next send() or spin()
     raises MotorStopped, saying which and why; the client sends enable = 0
     for it from then on and never enables it again until enable() is called
-    (a send() after more than 50 ms without one first waits for a fresh
-    state_t: after a trip rmdd restarts the motors on any enable = 1);
+    (a send() after a pause sends at once: waiting for a fresh state_t would
+    lengthen the silence that trips rmdd's watchdog, and an enable = 1 after
+    a trip restarts nothing -- rmdd's latch wants enable = 0 first; the
+    state_t that shows the trip makes the next send() raise);
   - another controller owning the motors: enable() raises NotOwner naming
     the owner's id (health_t.owner), not "motor1 is enabled"; so does
     send() once health_t shows this client's commands rejected for it (a
@@ -66,8 +68,7 @@ DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
 CONFIG_REQUEST_PERIOD_S = 0.25
 POLL_MAX = 1000  # messages one poll() handles at most: a flood cannot hold it
 
-SEND_GAP_S = 0.05  # sends further apart than this: check state_t before the next
-FRESH_STATE_WAIT_S = 0.1  # how long send() waits for that state_t
+SEND_GAP_S = 0.05  # sends further apart than this: a pause (a trip's likely cause)
 SETPOINT_FIELDS = ("position", "velocity", "torque", "kp", "kd", "max_velocity")
 
 
@@ -187,9 +188,10 @@ class Client:
         self._enabled = set()  # motors enable() enabled and disable() has not disabled
         self.stopped = {}  # index -> why: enabled, then SAFE/LOST/FAULT or taken over
         self._was_enabled = set()  # driven motors state_t has shown ENABLED
-        self._newly_stopped = {}  # index -> (lifecycle name, s since the last send)
+        self._newly_stopped = {}  # index -> (lifecycle name, the silence before it, s)
         self._report_only = None  # enable(): the motors whose stops its send()s raise
         self._last_send = time.monotonic()
+        self._send_gap = 0.0  # the time between the last two sends, s
         self._subs = [
             self.lc.subscribe(prefix + "CONFIG", self._on_config),
             self.lc.subscribe(prefix + "STATE", self._on_state),
@@ -239,12 +241,14 @@ class Client:
                 self._was_enabled.add(i)
             elif lc in (s.LC_FAULT, s.LC_LOST, s.LC_SAFE) and i in self._was_enabled:
                 # stop driving it now: the next send() says so, and carries
-                # enable = 0 (after a watchdog trip enable = 1 restarts it)
+                # enable = 0 (rmdd's latch wants it before an enable = 1)
                 e[0] = False
                 self.stopped[i] = lifecycle_name(lc)
                 self._enabled.discard(i)
                 self._was_enabled.discard(i)
-                self._newly_stopped[i] = (lifecycle_name(lc), self.state_rx - self._last_send)
+                # the silence: since the last send, or the pause that ended with it
+                self._newly_stopped[i] = (lifecycle_name(lc),
+                                          max(self.state_rx - self._last_send, self._send_gap))
         self.n_states += 1
         if self.on_state:
             self.on_state(s)
@@ -457,20 +461,17 @@ class Client:
         because another controller took the motors over (likewise).
         """
         if any(e[0] for e in self._cmd.values()):
-            # what waits first: a trip among it stops the motors here, not
-            # after this command (enable = 1) restarted them
+            # what waits first: a trip among it stops driving the motors here.
+            # After a pause this sends without waiting for a fresh state_t (a
+            # wait would lengthen the silence into a trip); an enable = 1 that
+            # follows a trip rmdd does not act on (the latch), and the state_t
+            # that shows it makes the next send() raise
             while self.poll() >= POLL_MAX:
                 pass
-            if time.monotonic() - self._last_send > SEND_GAP_S:
-                # quiet for a while (paused, busy): what waited may be old (a
-                # full socket buffer keeps the oldest); a state_t that comes
-                # after it says whether rmdd's watchdog tripped meanwhile
-                n = self.n_states
-                end = time.monotonic() + FRESH_STATE_WAIT_S
-                while self.n_states == n and time.monotonic() < end:
-                    self.poll(end - time.monotonic())
         self._check_stopped()
-        self._last_send = time.monotonic()
+        now = time.monotonic()
+        self._send_gap = now - self._last_send
+        self._last_send = now
         command_t = self._types[0]
         msg = command_t()
         msg.utime = _now_us()

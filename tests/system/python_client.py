@@ -12,6 +12,14 @@
                                  enable = 0 first, READY, then ENABLED;
                                  track; leave the block
     python_client.py absent URL  no rmdd: connect() raises RmdError, saying so
+    python_client.py pause URL T  enable motor1 (rmdd's command timeout T ms,
+                                 state_t every 50 ms); pause PAUSES times
+                                 for T - 30 ms between spins: motor1 stays
+                                 ENABLED (the send() after a pause must not
+                                 wait for a state_t); then a pause of 4 T:
+                                 the next spin() raises MotorStopped (the
+                                 watchdog, the silence named), nothing
+                                 re-enables motor1; enable() it, leave
     python_client.py takeover URL  client a enables motor1; client b is
                                  rejected (health_t intruder), then takes it
                                  over (takeover = True) and drives it
@@ -89,6 +97,66 @@ def spin_until(c, done, seconds):
     while not done() and time.monotonic() < end:
         c.spin(0.02)
     return done()
+
+
+PAUSES = 10
+
+
+def pause(c, timeout_ms):
+    """Short pauses keep the motor; a long one trips the watchdog, said (see the top)."""
+    m = connect_and_enable(c)
+    short = (timeout_ms - 30) / 1e3
+    sent = {"last": time.monotonic(), "gap": 0.0}  # the last send, the longest silence
+
+    def before_send(_t=None):
+        now = time.monotonic()
+        sent["gap"] = max(sent["gap"], now - sent["last"])
+        sent["last"] = now
+
+    slowest, worst, busy = 0.0, 0.0, 0
+    for k in range(PAUSES):
+        sent["gap"] = 0.0
+        try:
+            c.spin(0.2, before_send=before_send)
+            time.sleep(short)
+            before_send()
+            c.send()
+            slowest = max(slowest, time.monotonic() - sent["last"])
+            if c.lifecycle(m) != rmd.state_t.LC_ENABLED:
+                fail(f"motor1 in lifecycle {c.lifecycle(m)} after pause {k}")
+        except rmd.MotorStopped as e:
+            # the machine held this client off near the timeout: not the client's doing
+            if sent["gap"] * 1e3 >= timeout_ms - 10:
+                print(f"busy machine: a silence of {sent['gap'] * 1e3:.0f} ms around "
+                      f"pause {k}: {e}", flush=True)
+                busy += 1
+                m = connect_and_enable(c)
+                continue
+            fail(f"pause {k} of {short * 1e3:.0f} ms (the longest silence "
+                 f"{sent['gap'] * 1e3:.0f} ms) stopped the motor: {e}")
+        worst = max(worst, sent["gap"])
+    if busy > PAUSES // 2:
+        fail(f"{busy} of {PAUSES} pauses held past the timeout: the machine is too busy "
+             "to judge")
+    print(f"pauses: {PAUSES - busy} of {short * 1e3:.0f} ms, motor1 ENABLED throughout; the "
+          f"longest silence {worst * 1e3:.0f} ms, the slowest send() after one "
+          f"{slowest * 1e3:.1f} ms (command timeout {timeout_ms} ms)", flush=True)
+    c.spin(0.2)
+    time.sleep(4 * timeout_ms / 1e3)
+    try:
+        c.spin(0.3)
+        fail(f"spin() after a pause of {4 * timeout_ms} ms did not raise MotorStopped")
+    except rmd.MotorStopped as e:
+        if e.motors != [("motor1", "safe")] or not e.watchdog:
+            fail(f"MotorStopped: motors {e.motors} watchdog {e.watchdog}: {e}")
+        print(f"long pause: {e}", flush=True)
+    c.spin(0.3)
+    if c.lifecycle(m) == rmd.state_t.LC_ENABLED:
+        fail("motor1 ENABLED again after the trip without enable()")
+    connect_and_enable(c)
+    c.spin(0.2)
+    print(f"leaving: seq {c.seq}", flush=True)
+    return 0
 
 
 def ownership(h):
@@ -222,6 +290,12 @@ def main():
         return mixed(url)
     if what == "takeover":
         return takeover(url)
+    if what == "pause":
+        with rmd.Client(url) as c:
+            pause(c, int(sys.argv[3]))
+        ms = c.motor_state(c.index("motor1"))
+        print(f"left: motor1 lifecycle {ms.lifecycle}", flush=True)
+        return 0
     if what == "absent":
         c = rmd.Client(url)
         t0 = time.monotonic()

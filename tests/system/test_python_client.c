@@ -16,7 +16,11 @@
  *     watchdog, later spins do not re-enable motor1 and set() refuses it;
  *     enable() brings motor1 back (enable = 0 seen before enable = 1), it
  *     tracks again and ends READY;
- *   - absent: without rmdd, connect() raises RmdError naming the URL.
+ *   - absent: without rmdd, connect() raises RmdError naming the URL;
+ *   - pause: with state_t every 50 ms, pauses 30 ms shorter than the
+ *     command timeout keep motor1 ENABLED (the send() after one goes out
+ *     at once), a pause of four timeouts trips the watchdog and the next
+ *     spin() says so, naming the silence.
  *
  * The Python is $RMD_PYTHON, else BUILD/venv/bin/python3 or build/venv
  * (also found beside this binary); without one that imports rmd.Client,
@@ -333,10 +337,9 @@ static struct fixture *client_or_skip(void **state)
 	return f;
 }
 
-/* rmdd --sim on this test's URL, until its state_t comes (motor 0 READY). */
-static void start_rmdd(struct fixture *f)
+/* rmdd (argv) on this test's URL, until its state_t comes (motor 0 READY). */
+static void start_rmdd_argv(struct fixture *f, const char *const *argv)
 {
-	const char *argv[] = { rmdd_bin, "--sim", SIM_MOTORS, "--lcm-url", f->url, NULL };
 	double end = mono_s() + 10;
 
 	f->rmdd = start(argv, f->rmdd_log);
@@ -352,25 +355,42 @@ static void start_rmdd(struct fixture *f)
 	}
 }
 
-/* python_client.py WHAT URL to its end; returns its output (exit 0 checked). */
-static const char *run_script(struct fixture *f, const char *what)
+/* rmdd --sim on this test's URL, until its state_t comes (motor 0 READY). */
+static void start_rmdd(struct fixture *f)
 {
-	const char *argv[] = { python, script, what, f->url, NULL };
+	const char *argv[] = { rmdd_bin, "--sim", SIM_MOTORS, "--lcm-url", f->url, NULL };
+
+	start_rmdd_argv(f, argv);
+}
+
+/* python_client.py WHAT URL [ARG] to its end; returns its output (exit 0 checked). */
+static const char *run_script_arg(struct fixture *f, const char *what, const char *arg)
+{
+	const char *argv[] = { python, script, what, f->url, arg, NULL };
 	const char *out;
 	int st;
 
 	f->py = start(argv, f->py_log);
 	st = reap(f, &f->py, SCRIPT_TIMEOUT_S);
 	out = log_text(f->py_log);
-	if (st != 0)
-		fail_msg("python_client.py %s: %s %d; its output:\n%s\nrmdd's:\n%s", what,
+	if (st != 0) {
+		/* whole, before log_text() reuses its buffer (cmocka cuts fail_msg() at 1 kB) */
+		printf("python_client.py %s: its output:\n%s\n", what, out);
+		fflush(stdout);
+		fail_msg("python_client.py %s: %s %d (its output above); rmdd's:\n%s", what,
 			 st < 0 ? "still running after" : "exit", st < 0 ? SCRIPT_TIMEOUT_S : st,
-			 out, log_text(f->rmdd_log));
+			 log_text(f->rmdd_log));
+	}
 	print_message("python_client.py %s:\n%s", what, out);
 	/* the installed package, not the checkout's python/ or build/python */
 	if (!strstr(out, "site-packages/rmd/"))
 		fail_msg("python_client.py did not run the installed rmd package:\n%s", out);
 	return out;
+}
+
+static const char *run_script(struct fixture *f, const char *what)
+{
+	return run_script_arg(f, what, NULL);
 }
 
 static unsigned occurrences(const char *s, const char *what)
@@ -461,6 +481,59 @@ static void test_enable_after_the_watchdog_tripped(void **state)
 			fail_msg("want motor1 to leave SAFE, then be enabled, in rmdd's log:\n%s",
 				 log);
 	}
+}
+
+/*
+ * A controller's pauses shorter than the command timeout (a garbage
+ * collection, a slow plot) with state_t every 50 ms: the send() after one
+ * goes out at once and motor1 stays ENABLED.  Before, it first waited up
+ * to 100 ms for a fresh state_t, and that wait lengthened a 60 ms pause
+ * into a trip (CI: examples/sine.py in the VM, "sent nothing for 125 ms").
+ * A pause of four timeouts trips the watchdog: the next spin() raises
+ * MotorStopped naming it and the whole silence, nothing re-enables motor1.
+ */
+static void test_pauses_shorter_than_the_timeout(void **state)
+{
+	struct fixture *f = client_or_skip(state);
+	char cfg[PATH_MAX], timeout[16];
+	const char *argv[] = { rmdd_bin, "--config", cfg, "--lcm-url", f->url, NULL };
+	const char *out, *said;
+	unsigned busy;
+	double silence_ms = 0;
+	FILE *o;
+
+	snprintf(cfg, sizeof(cfg), "%s/pause.yaml", tmpdir);
+	o = fopen(cfg, "w");
+	assert_non_null(o);
+	fprintf(o,
+		"loop: {rate_hz: 100}\n"
+		"safety: {command_timeout_ms: %d}\n"
+		"lcm: {state_every_n: 5}\n"
+		"incidents: {enabled: false}\n"
+		"buses: [{name: s0, type: sim}]\n"
+		"motors:\n"
+		"  - {name: motor1, bus: s0, id: 1, mode: position, torque_constant_nm_a: 2, "
+		"multi_turn_saved: true}\n"
+		"  - {name: motor2, bus: s0, id: 2, mode: position, torque_constant_nm_a: 2, "
+		"multi_turn_saved: true}\n",
+		COMMAND_TIMEOUT_MS);
+	assert_int_equal(fclose(o), 0);
+	start_rmdd_argv(f, argv);
+	snprintf(timeout, sizeof(timeout), "%d", COMMAND_TIMEOUT_MS);
+	out = run_script_arg(f, "pause", timeout);
+	assert_has(out, "pauses: ", "python_client.py pause");
+	said = strstr(out, "long pause: motors stopped: motor1 is safe: rmdd's watchdog tripped "
+			   "(this client sent nothing for ");
+	if (!said || sscanf(strstr(said, "for ") + 4, "%lf", &silence_ms) != 1)
+		fail_msg("want the long pause's MotorStopped naming the watchdog in:\n%s", out);
+	/* the silence said is the pause's, not the time since the send after it */
+	if (silence_ms < 4 * COMMAND_TIMEOUT_MS)
+		fail_msg("MotorStopped says %.0f ms of silence after a pause of %d ms:\n%s",
+			 silence_ms, 4 * COMMAND_TIMEOUT_MS, out);
+	assert_non_null(strstr(out, "left: motor1 lifecycle 1"));
+	/* one trip, the long pause's, and one more for each pause the machine held too long */
+	busy = occurrences(out, "busy machine:");
+	check_after(f, 1 + (int64_t)busy);
 }
 
 static void test_no_rmdd_is_a_clear_error(void **state)
@@ -579,6 +652,8 @@ int main(void)
 		cmocka_unit_test_setup_teardown(test_enable_track_and_disable_on_exit, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_enable_after_the_watchdog_tripped, setup,
+						teardown),
+		cmocka_unit_test_setup_teardown(test_pauses_shorter_than_the_timeout, setup,
 						teardown),
 		cmocka_unit_test_setup_teardown(test_no_rmdd_is_a_clear_error, setup, teardown),
 		cmocka_unit_test_setup_teardown(test_robot_one_view, setup, teardown),
