@@ -80,12 +80,15 @@
 #define MAX_READS 256			/* frames read per wake-up, then timers */
 #define RX_BATCH 64			/* frames per rmd_bus_recv() */
 #define FINISH_NS (250 * RMD_NS_PER_MS) /* SIGINT/SIGTERM: replies still due go out within */
+/* Steps of the world slower than real time so many times in a row: said (once may be a hiccup). */
+#define BEHIND_RUN 3
 /*
- * A frame the motors took this long after it arrived: the model steps
- * slower than real time here (sim.physics), and every reply is late.
+ * With physics, the world's present (rmd-sim's clock less the slip) stays
+ * within this of the time the world was last stepped to; what a step took
+ * beyond it is added to the slip.  A model slower than real time then runs
+ * slower than real time, instead of every frame stepping the whole backlog.
  */
-#define BEHIND_NS (5 * RMD_NS_PER_MS)
-#define BEHIND_RUN 3 /* ... so many times in a row (once may be the machine's hiccup) */
+#define SLIP_AFTER_NS (2 * TICK_NS)
 
 /* What the node (its stats: queue overflows, frames lost while absent, faults) does not count. */
 struct stats {
@@ -99,6 +102,7 @@ struct stats {
 	uint64_t unsent;     /* frames still waiting when rmd-sim stopped */
 	uint64_t behind;     /* frames and ticks the world was behind real time for */
 	int64_t behind_max_ns;
+	uint64_t slips;	     /* times the world fell further behind real time (slip_ns) */
 	unsigned behind_run; /* behind so many times in a row */
 	bool behind_warned;
 };
@@ -125,7 +129,16 @@ struct sim {
 	bool noise_warned;
 
 	int64_t next_tick_ns, next_house_ns;
-	int64_t ticked_ns; /* with physics: the time the idle motors' last tick stepped them to */
+	/*
+	 * With physics: the time the world was last stepped to (a tick, a
+	 * frame), and how far the world runs behind real time.  The motors'
+	 * times (the node's, a frame's arrival, a reply's due time, a fault's
+	 * window) are world times: rmd-sim's clock less slip_ns (world()).
+	 */
+	int64_t world_ns, slip_ns;
+	/* ... when the last step ended (rmd-sim's clock), and what steps cost: wall ns, world ns */
+	int64_t step_end_ns;
+	double cost_took, cost_span;
 	uint64_t tx_errors_logged;
 	struct stats st;
 	int status;	 /* exit status once stopping */
@@ -286,22 +299,92 @@ static void update_faults(struct sim *s, int64_t now)
 	note_overflow(s);
 }
 
-/* A frame arrived at t: every present motor sees it.  Returns the replies they made. */
+/* The world's time at rmd-sim's clock `wall`: the same without physics. */
+static int64_t world(const struct sim *s, int64_t wall)
+{
+	return wall - s->slip_ns;
+}
+
+/*
+ * With physics, the world time up to which the world may be stepped now,
+ * asked for t: at most two ticks past where it is, and no more than the
+ * time since the last step ended buys at what steps cost lately -- the
+ * model then takes at most about half of rmd-sim's time, and the frames
+ * are answered in the other half.  The world falls behind real time by the
+ * rest (the slip), so world(t) is what this returns.  A frame, when the
+ * model costs more than half of real time, steps nothing: it is answered
+ * at once from the world as the last tick left it, and only the ticks
+ * step the world, between the frames.  Without this a model
+ * slower than real time made every frame step the world through all the
+ * time since the last, longer each time (measured in the TCG guest:
+ * replies 0.2-1.1 s late, rmdd lost both motors of the leg).
+ */
+static int64_t may_step_to(struct sim *s, int64_t t, bool frame)
+{
+	int64_t span = t - s->world_ns, allowed = 2 * TICK_NS;
+
+	if (!s->body || span <= 0)
+		return t;
+	if (s->cost_took > 0 && !frame) {
+		double buys = (double)(rmd_now_ns() - s->step_end_ns) * s->cost_span / s->cost_took;
+
+		if (buys < (double)allowed)
+			allowed = buys > 0 ? (int64_t)buys : 0;
+	}
+	if (span > allowed) {
+		s->slip_ns += span - allowed;
+		s->st.slips++;
+		t = s->world_ns + allowed;
+	}
+	return t;
+}
+
+/*
+ * With physics, the world was stepped to t, from rmd-sim's clock `from` on:
+ * what it cost, into the recent cost (decaying), and where the world is.
+ * A step that took longer than real time allows leaves the world behind by
+ * the rest (SLIP_AFTER_NS): the frames that waited meanwhile then lie in
+ * the world's past, and are answered without stepping it again.
+ */
+static void note_behind(struct sim *s, int64_t late_ns, const char *how);
+
+static void stepped_to(struct sim *s, int64_t t, int64_t from)
+{
+	int64_t now = rmd_now_ns(), ahead;
+
+	if (!s->body || t <= s->world_ns)
+		return;
+	/* slower than real time: it took longer than the world time it stepped */
+	note_behind(s, now - from > t - s->world_ns ? now - from : 0,
+		    "a step took longer than the world time it stepped:");
+	s->cost_took = s->cost_took * 0.875 + (double)(now - from);
+	s->cost_span = s->cost_span * 0.875 + (double)(t - s->world_ns);
+	s->world_ns = t;
+	s->step_end_ns = now;
+	ahead = world(s, now) - s->world_ns;
+	if (ahead > SLIP_AFTER_NS) {
+		s->slip_ns += ahead - SLIP_AFTER_NS;
+		s->st.slips++;
+	}
+}
+
+/* A frame arrived at rmd-sim's clock t: every present motor sees it.  Returns the replies they made. */
 static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
 {
-	int n = rmd_sim_node_receive(&s->node, f, t, RMD_SIM_SRC_HOST);
+	int64_t from = rmd_now_ns(), w = may_step_to(s, world(s, t), true);
+	int n = rmd_sim_node_receive(&s->node, f, w, RMD_SIM_SRC_HOST);
 
+	stepped_to(s, w, from);
 	note_overflow(s);
 	return n;
 }
 
 /*
  * The world (sim.physics) was stepped up to a frame's arrival, or through
- * a tick, and that took late_ns of real time: BEHIND_NS or more after the
- * frame arrived, or a tick's whole period (TICK_NS) for the tick's time,
- * and the model runs slower than real time on this machine: said once
- * BEHIND_RUN in a row were (every reply is late, rmdd will miss them),
- * counted in the summary.  late_ns 0: on time, which ends a run.
+ * a tick, and that took late_ns of real time, longer than the world time
+ * it stepped: the model runs slower than real time on this machine: said once
+ * BEHIND_RUN in a row were (the world falls behind real time, replies may
+ * be late), counted in the summary.  late_ns 0: on time, which ends a run.
  */
 static void note_behind(struct sim *s, int64_t late_ns, const char *how)
 {
@@ -314,40 +397,38 @@ static void note_behind(struct sim *s, int64_t late_ns, const char *how)
 		s->st.behind_warned = true;
 		tool_log(TOOL_LOG_WARNING,
 			 "rmd-sim: %s: physics: the model steps slower than real time here (%s "
-			 "%.1f ms): every reply is late; lower sim.physics.rate_hz or substeps, or "
-			 "run on a faster machine (docs/physics.md \"Time and rate\"; counted in "
-			 "the exit summary)",
+			 "%.1f ms): the world falls behind real time (its motion slower than the "
+			 "clocks say) and replies may be late; lower sim.physics.rate_hz or "
+			 "substeps, or run on a faster machine (docs/physics.md \"Time and rate\"; "
+			 "counted in the exit summary)",
 			 s->name, how, (double)late_ns / 1e6);
 	}
 	if (late_ns > s->st.behind_max_ns)
 		s->st.behind_max_ns = late_ns;
 }
 
-/* Unsolicited frames due by now, and the physics tick. */
-static void run_motors(struct sim *s, int64_t now)
+/* The physics tick, and unsolicited frames due by now (rmd-sim's clock). */
+static void run_motors(struct sim *s, int64_t wall)
 {
-	s->motors_ns = rmd_sim_node_poll(&s->node, now);
+	int64_t now = world(s, wall);
+
 	if (now >= s->next_tick_ns) {
-		int64_t took, to = now;
+		int64_t from = rmd_now_ns(), to;
 
 		/*
 		 * A model slower than real time: a tick that stepped the world
 		 * through all the time since the last would take longer each
 		 * time (each tick's time is the last one's times the slowness),
 		 * and rmd-sim would neither say so nor heed SIGTERM.  A tick
-		 * steps at most two of its periods; the rest is left behind,
-		 * counted as late (note_behind).  A frame still steps its
-		 * motors to its arrival.
+		 * steps what may_step_to() allows; the world falls behind
+		 * real time by the rest (counted by note_behind).
 		 */
-		if (s->body && s->ticked_ns && to - s->ticked_ns > 2 * TICK_NS)
-			to = s->ticked_ns + 2 * TICK_NS;
+		to = may_step_to(s, now, false);
 		rmd_sim_node_step(&s->node, to);
-		s->ticked_ns = to;
-		took = rmd_now_ns() - now;
-		if (s->body)
-			note_behind(s, took >= TICK_NS ? took : 0, "10 ms of it took");
-		s->next_tick_ns = now + TICK_NS;
+		stepped_to(s, to, from);
+		s->next_tick_ns = to + TICK_NS;
 	}
+	s->motors_ns = rmd_sim_node_poll(&s->node, world(s, wall));
 	note_overflow(s);
 }
 
@@ -513,12 +594,6 @@ static void wire_read(struct sim *s, bool hup)
 			set_down(s, false, "");
 			s->st.rx_frames++;
 			answers = deliver(s, &rx[k].f, rx[k].t_ns);
-			if (s->body) {
-				int64_t late = rmd_now_ns() - rx[k].t_ns;
-
-				note_behind(s, late >= BEHIND_NS ? late : 0,
-					    "a frame answered after");
-			}
 			if (answers)
 				s->st.rx_taken++;
 			log_rx(s, &rx[k].f, answers);
@@ -642,7 +717,7 @@ static int64_t replies_due(const struct sim *s, unsigned *n)
  */
 static void finish(struct sim *s)
 {
-	int64_t end = rmd_now_ns() + FINISH_NS;
+	int64_t end = world(s, rmd_now_ns()) + FINISH_NS; /* the world's times, as the replies' */
 	bool held = false; /* replies the transport holds (a line's bytes the tty has not taken) */
 	unsigned n;
 
@@ -652,7 +727,7 @@ static void finish(struct sim *s)
 	if (s->gone)
 		return;
 	for (;;) {
-		int64_t now = rmd_now_ns(), next = end, due;
+		int64_t now = world(s, rmd_now_ns()), next = end, due;
 		struct pollfd p = { .fd = s->fd, .events = 0 };
 		struct timespec ts;
 
@@ -683,13 +758,14 @@ static void finish(struct sim *s)
 
 /* ---- the loop -------------------------------------------------------------------------- */
 
-static int64_t next_deadline(const struct sim *s, int64_t now)
+/* The next thing due, on rmd-sim's clock (`wall` is now on it). */
+static int64_t next_deadline(const struct sim *s, int64_t wall)
 {
 	const struct rmd_sim_pending *h = rmd_sim_node_head(&s->node);
-	int64_t t = s->next_tick_ns, e;
+	int64_t now = world(s, wall), t = s->next_tick_ns, e;
 
-	if (s->next_house_ns < t)
-		t = s->next_house_ns;
+	if (world(s, s->next_house_ns) < t)
+		t = world(s, s->next_house_ns);
 	if (h) {
 		e = h->ready_ns;
 		if (s->retry_ns > e)
@@ -700,7 +776,7 @@ static int64_t next_deadline(const struct sim *s, int64_t now)
 	if (s->motors_ns < t)
 		t = s->motors_ns;
 	e = rmd_sim_node_faults_next_ns(&s->node, now);
-	return e < t ? e : t;
+	return (e < t ? e : t) + s->slip_ns;
 }
 
 static void arm(struct sim *s, int64_t t)
@@ -726,15 +802,16 @@ static void watch_out(struct sim *s, bool on)
 		s->ep_events = ev;
 }
 
+/* What is due at rmd-sim's clock `now`. */
 static void process(struct sim *s, int64_t now)
 {
-	update_faults(s, now);
+	update_faults(s, world(s, now));
 	run_motors(s, now);
 	if (now >= s->next_house_ns) {
 		check_interface(s);
 		s->next_house_ns = now + HOUSEKEEPING_NS;
 	}
-	write_due(s, now);
+	write_due(s, world(s, now));
 }
 
 static void summary_faults(const struct sim *s, char *buf, size_t size)
@@ -821,7 +898,7 @@ static void log_summary(const struct sim *s, int64_t now)
 	const struct rmd_bus_stats *bs = rmd_bus_stats(&s->bus);
 	/* Serial: the transport's rx_errors are the runs of line noise, counted in bytes. */
 	uint64_t rx_errors = s->st.rx_errors + (s->serial ? 0 : bs->rx_errors);
-	char faults[512], unsent[80] = "", behind[128] = "";
+	char faults[512], unsent[80] = "", behind[192] = "";
 
 	summary_faults(s, faults, sizeof(faults));
 	if (s->st.behind)
@@ -829,6 +906,11 @@ static void log_summary(const struct sim *s, int64_t now)
 			 "; physics behind real time %" PRIu64 " time%s (the worst %.1f ms)",
 			 s->st.behind, s->st.behind == 1 ? "" : "s",
 			 (double)s->st.behind_max_ns / 1e6);
+	if (s->slip_ns)
+		snprintf(behind + strlen(behind), sizeof(behind) - strlen(behind),
+			 "; the world %.1f ms behind real time at the end (it fell behind %" PRIu64
+			 " time%s)",
+			 (double)s->slip_ns / 1e6, s->st.slips, s->st.slips == 1 ? "" : "s");
 	if (s->st.unsent)
 		snprintf(unsent, sizeof(unsent), "; %" PRIu64 " frame%s not sent before the stop",
 			 s->st.unsent, s->st.unsent == 1 ? "" : "s");
@@ -943,6 +1025,7 @@ int sim_run(const struct sim_config *c)
 	}
 	rmd_sim_node_set_faults(&s->node, c->faults, c->n_faults, s->t0);
 	s->motors_ns = INT64_MAX;
+	s->world_ns = s->step_end_ns = s->t0; /* the motors' time from rmd_sim_node_add() */
 	s->next_tick_ns = s->t0 + TICK_NS;
 	/* a CAN interface's state is looked at; a line's is its hang-up */
 	s->next_house_ns = s->serial ? INT64_MAX : s->t0 + HOUSEKEEPING_NS;
