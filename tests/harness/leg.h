@@ -35,7 +35,13 @@ bool physics_module_found(const char *rmdd, const char *suite);
  *     motors go SAFE (the watchdog's safe action, stop: their replies show
  *     no current), and the hip then drops LEG_FALL_M with the knee folding.
  * wait_ms: the longest wait for each step (the guest is slow).
+ *
+ * A judgement that fails asks leg_busy first, when set: a machine too busy
+ * to judge (it says why into why) makes the test skip, "busy machine: ...
+ * not judged", instead of failing.
  */
+extern bool (*leg_busy)(char *why, size_t size);
+
 void leg_stand_and_fall(const char *url, const char *leg_stand, struct kid *rmdd,
 			unsigned stand_states, int wait_ms);
 
