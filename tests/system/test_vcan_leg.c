@@ -112,14 +112,17 @@ static int group_setup(void **state)
 	return access(config, R_OK);
 }
 
-/* text with its one `from` replaced by `to`, into out; fails when `from` is not there once. */
-static void replace_once(char *out, size_t size, const char *text, const char *from, const char *to)
+/* The one `from` in text (size bytes) replaced by `to`; fails when `from` is not there once. */
+static void replace_once(char *text, size_t size, const char *from, const char *to)
 {
+	static char was[16384];
 	const char *at = strstr(text, from);
 
 	if (!at || strstr(at + 1, from))
 		fail_msg("leg-vcan.yaml: want \"%s\" once in it", from);
-	snprintf(out, size, "%.*s%s%s", (int)(at - text), text, to, at + strlen(from));
+	snprintf(was, sizeof(was), "%s", text);
+	snprintf(text + (at - text), size - (size_t)(at - text), "%s%s", to,
+		 was + (at - text) + strlen(from));
 }
 
 /*
@@ -129,26 +132,26 @@ static void replace_once(char *out, size_t size, const char *text, const char *f
  */
 static void guest_config(void)
 {
-	static char text[16384], a[16384], b[16384], c[16384];
-	char model[PATH_MAX], to[3][PATH_MAX + 64];
+	static char text[16384];
+	char leg[PATH_MAX + 16], model[PATH_MAX], to[PATH_MAX + 64];
 	const char *slash = strrchr(config, '/');
 	FILE *f;
 
 	if (!file_text(config, text, sizeof(text))[0])
 		fail_msg("%s: unreadable", config);
-	snprintf(to[2], sizeof(to[2]), "%.*s/leg.xml", (int)(slash - config), config);
-	if (!realpath(to[2], model))
-		fail_msg("%s: not found", to[2]);
-	snprintf(to[0], sizeof(to[0]), "loop:\n  rate_hz: %d\n", GUEST_LOOP_HZ);
-	replace_once(a, sizeof(a), text, "loop:\n  rate_hz: 1000\n", to[0]);
-	snprintf(to[1], sizeof(to[1]), "    model: %s\n", model);
-	replace_once(b, sizeof(b), a, "    model: leg.xml\n", to[1]);
-	snprintf(to[1], sizeof(to[1]), "\n    rate_hz: %d\n", GUEST_PHYSICS_HZ);
-	replace_once(c, sizeof(c), b, "\n    rate_hz: 1000\n", to[1]);
+	snprintf(leg, sizeof(leg), "%.*s/leg.xml", (int)(slash - config), config);
+	if (!realpath(leg, model))
+		fail_msg("%s: not found", leg);
+	snprintf(to, sizeof(to), "loop:\n  rate_hz: %d\n", GUEST_LOOP_HZ);
+	replace_once(text, sizeof(text), "loop:\n  rate_hz: 1000\n", to);
+	snprintf(to, sizeof(to), "    model: %s\n", model);
+	replace_once(text, sizeof(text), "    model: leg.xml\n", to);
+	snprintf(to, sizeof(to), "\n    rate_hz: %d\n", GUEST_PHYSICS_HZ);
+	replace_once(text, sizeof(text), "\n    rate_hz: 1000\n", to);
 	snprintf(guest, sizeof(guest), "%s/leg-guest.yaml", dir);
 	f = fopen(guest, "w");
 	assert_non_null(f);
-	fputs(c, f);
+	fputs(text, f);
 	assert_int_equal(fclose(f), 0);
 }
 

@@ -100,7 +100,7 @@ struct stats {
 	uint64_t rx_errors;  /* read errors */
 	uint64_t unmappable; /* frames with no RS485 form */
 	uint64_t unsent;     /* frames still waiting when rmd-sim stopped */
-	uint64_t behind;     /* frames and ticks the world was behind real time for */
+	uint64_t behind;     /* steps of the world slower than real time */
 	int64_t behind_max_ns;
 	uint64_t slips;	     /* times the world fell further behind real time (slip_ns) */
 	unsigned behind_run; /* behind so many times in a row */
@@ -306,80 +306,6 @@ static int64_t world(const struct sim *s, int64_t wall)
 }
 
 /*
- * With physics, the world time up to which the world may be stepped now,
- * asked for t: at most two ticks past where it is, and no more than the
- * time since the last step ended buys at what steps cost lately -- the
- * model then takes at most about half of rmd-sim's time, and the frames
- * are answered in the other half.  The world falls behind real time by the
- * rest (the slip), so world(t) is what this returns.  A frame, when the
- * model costs more than half of real time, steps nothing: it is answered
- * at once from the world as the last tick left it, and only the ticks
- * step the world, between the frames.  Without this a model
- * slower than real time made every frame step the world through all the
- * time since the last, longer each time (measured in the TCG guest:
- * replies 0.2-1.1 s late, rmdd lost both motors of the leg).
- */
-static int64_t may_step_to(struct sim *s, int64_t t, bool frame)
-{
-	int64_t span = t - s->world_ns, allowed = 2 * TICK_NS;
-
-	if (!s->body || span <= 0)
-		return t;
-	if (s->cost_took > 0 && !frame) {
-		double buys = (double)(rmd_now_ns() - s->step_end_ns) * s->cost_span / s->cost_took;
-
-		if (buys < (double)allowed)
-			allowed = buys > 0 ? (int64_t)buys : 0;
-	}
-	if (span > allowed) {
-		s->slip_ns += span - allowed;
-		s->st.slips++;
-		t = s->world_ns + allowed;
-	}
-	return t;
-}
-
-/*
- * With physics, the world was stepped to t, from rmd-sim's clock `from` on:
- * what it cost, into the recent cost (decaying), and where the world is.
- * A step that took longer than real time allows leaves the world behind by
- * the rest (SLIP_AFTER_NS): the frames that waited meanwhile then lie in
- * the world's past, and are answered without stepping it again.
- */
-static void note_behind(struct sim *s, int64_t late_ns, const char *how);
-
-static void stepped_to(struct sim *s, int64_t t, int64_t from)
-{
-	int64_t now = rmd_now_ns(), ahead;
-
-	if (!s->body || t <= s->world_ns)
-		return;
-	/* slower than real time: it took longer than the world time it stepped */
-	note_behind(s, now - from > t - s->world_ns ? now - from : 0,
-		    "a step took longer than the world time it stepped:");
-	s->cost_took = s->cost_took * 0.875 + (double)(now - from);
-	s->cost_span = s->cost_span * 0.875 + (double)(t - s->world_ns);
-	s->world_ns = t;
-	s->step_end_ns = now;
-	ahead = world(s, now) - s->world_ns;
-	if (ahead > SLIP_AFTER_NS) {
-		s->slip_ns += ahead - SLIP_AFTER_NS;
-		s->st.slips++;
-	}
-}
-
-/* A frame arrived at rmd-sim's clock t: every present motor sees it.  Returns the replies they made. */
-static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
-{
-	int64_t from = rmd_now_ns(), w = may_step_to(s, world(s, t), true);
-	int n = rmd_sim_node_receive(&s->node, f, w, RMD_SIM_SRC_HOST);
-
-	stepped_to(s, w, from);
-	note_overflow(s);
-	return n;
-}
-
-/*
  * The world (sim.physics) was stepped up to a frame's arrival, or through
  * a tick, and that took late_ns of real time, longer than the world time
  * it stepped: the model runs slower than real time on this machine: said once
@@ -407,6 +333,76 @@ static void note_behind(struct sim *s, int64_t late_ns, const char *how)
 		s->st.behind_max_ns = late_ns;
 }
 
+/*
+ * With physics, the world time up to which the world may be stepped now,
+ * asked for t: at most two ticks past where it is, and for a tick
+ * (`budget`) no more than the time since the last step ended buys at what
+ * steps cost lately -- the model then takes at most about half of
+ * rmd-sim's time, and the frames are answered in the other half.  The
+ * world falls behind real time by the rest (the slip), so world(t) is what
+ * this returns.  Without this a model slower than real time made every
+ * frame step the world through all the time since the last, longer each
+ * time (measured in the TCG guest: replies 0.2-1.1 s late, rmdd lost both
+ * motors of the leg).
+ */
+static int64_t may_step_to(struct sim *s, int64_t t, bool budget)
+{
+	int64_t span = t - s->world_ns, allowed = 2 * TICK_NS;
+
+	if (!s->body || span <= 0)
+		return t;
+	if (budget && s->cost_took > 0) {
+		double buys = (double)(rmd_now_ns() - s->step_end_ns) * s->cost_span / s->cost_took;
+
+		if (buys < (double)allowed)
+			allowed = buys > 0 ? (int64_t)buys : 0;
+	}
+	if (span > allowed) {
+		s->slip_ns += span - allowed;
+		s->st.slips++;
+		t = s->world_ns + allowed;
+	}
+	return t;
+}
+
+/*
+ * With physics, the world was stepped to t, from rmd-sim's clock `from` on:
+ * what it cost, into the recent cost (decaying), and where the world is.
+ * A step that took longer than real time allows leaves the world behind by
+ * the rest (SLIP_AFTER_NS): the frames that waited meanwhile then lie in
+ * the world's past, and are answered without stepping it again.
+ */
+static void stepped_to(struct sim *s, int64_t t, int64_t from)
+{
+	int64_t now = rmd_now_ns(), ahead;
+
+	if (!s->body || t <= s->world_ns)
+		return;
+	/* slower than real time: it took longer than the world time it stepped */
+	note_behind(s, now - from > t - s->world_ns ? now - from : 0,
+		    "a step took longer than the world time it stepped:");
+	s->cost_took = s->cost_took * 0.875 + (double)(now - from);
+	s->cost_span = s->cost_span * 0.875 + (double)(t - s->world_ns);
+	s->world_ns = t;
+	s->step_end_ns = now;
+	ahead = world(s, now) - s->world_ns;
+	if (ahead > SLIP_AFTER_NS) {
+		s->slip_ns += ahead - SLIP_AFTER_NS;
+		s->st.slips++;
+	}
+}
+
+/* A frame arrived at rmd-sim's clock t: every present motor sees it.  Returns the replies they made. */
+static int deliver(struct sim *s, const struct rmd_frame *f, int64_t t)
+{
+	int64_t from = rmd_now_ns(), w = may_step_to(s, world(s, t), false);
+	int n = rmd_sim_node_receive(&s->node, f, w, RMD_SIM_SRC_HOST);
+
+	stepped_to(s, w, from);
+	note_overflow(s);
+	return n;
+}
+
 /* The physics tick, and unsolicited frames due by now (rmd-sim's clock). */
 static void run_motors(struct sim *s, int64_t wall)
 {
@@ -423,7 +419,7 @@ static void run_motors(struct sim *s, int64_t wall)
 		 * steps what may_step_to() allows; the world falls behind
 		 * real time by the rest (counted by note_behind).
 		 */
-		to = may_step_to(s, now, false);
+		to = may_step_to(s, now, true);
 		rmd_sim_node_step(&s->node, to);
 		stepped_to(s, to, from);
 		s->next_tick_ns = to + TICK_NS;
