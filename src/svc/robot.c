@@ -66,8 +66,8 @@ void bridge_robot_command(const struct rmd_bridge *b, struct rmd_command *cmd)
  * (on_peer_lost: report), in a command of its own that carries no setpoint
  * (so it refreshes no motor's command deadline).
  */
-static void robot_vtrip(struct rmd_bridge *b, int64_t now, bool apply, bool own, const char *fmt,
-			va_list ap)
+__attribute__((format(printf, 5, 0))) static void
+robot_vtrip(struct rmd_bridge *b, int64_t now, bool apply, bool own, const char *fmt, va_list ap)
 {
 	struct rmd_command *cmd = &b->buf->robot_cmd;
 	char why[RMD_PEERS_REASON_LEN];
