@@ -638,17 +638,33 @@ install-lcm: $(RMD_LCM_LIB) $(LCM_JAVA) $(LCM_PYTHON)
 	install -d $(DESTDIR)$(BINDIR)
 	$(foreach t,$(PY_TOOLS),$(call py_wrapper,$(firstword $(subst :, ,$(t))),$(lastword $(subst :, ,$(t)))))
 
-# Man pages: help2man makes rmdd(8), rmdctl(1) and rmd-sim(1) from the
-# program's own --help (the options have one copy) and
-# docs/man/<program>.h2m (description, files, examples, see also);
-# rmdd.yaml(5) is docs/man/rmdd.yaml.5.in around examples/rmdd.yaml.
+# Man pages: help2man makes each program's page from its own --help (the
+# options have one copy) and docs/man/<program>.h2m (description, files,
+# examples, see also): rmdd(8), rmdctl(1), rmd-sim(1), rmd-spy(1),
+# rmd-ros2(1) where it is built, and the Python tools (PY_TOOLS), whose
+# --help needs neither lcm nor their extras (the package build's python3
+# makes them); rmdd.yaml(5) is docs/man/rmdd.yaml.5.in around
+# examples/rmdd.yaml.
 HELP2MAN ?= help2man
+PY_TOOL_NAMES := $(foreach t,$(PY_TOOLS),$(firstword $(subst :, ,$(t))))
+PY_MAN_PAGES := $(PY_TOOL_NAMES:%=$(BUILD)/man/%.1)
 MAN_PAGES := $(BUILD)/man/rmdd.8 $(BUILD)/man/rmdctl.1 $(BUILD)/man/rmd-sim.1 $(BUILD)/man/rmd-spy.1 \
-	$(BUILD)/man/rmdd.yaml.5
+	$(BUILD)/man/rmdd.yaml.5 $(PY_MAN_PAGES) $(if $(HAVE_DDS),$(BUILD)/man/rmd-ros2.1)
+# the command help2man runs (with --help, --version): the program itself
+MAN_CMD = $<
 MAN_H2M = $(HELP2MAN) --no-info --no-discard-stderr --version-string='$(RMD_VERSION)' \
-	--section=$(subst .,,$(suffix $@)) --include=$(filter %.h2m,$^) --output=$@ "docs/man/gnu-help $<"
+	--section=$(subst .,,$(suffix $@)) --include=$(filter %.h2m,$^) --output=$@ \
+	"docs/man/gnu-help $(MAN_CMD)"
 
 man: $(MAN_PAGES)
+
+# a Python tool: its module (PY_TOOLS) from the build's copy of the package
+$(PY_MAN_PAGES): MAN_CMD = env PYTHONPATH=$(BUILD)/python python3 -m \
+	$(lastword $(subst :, ,$(filter $*:%,$(PY_TOOLS))))
+$(PY_MAN_PAGES): $(BUILD)/man/%.1: docs/man/%.h2m docs/man/gnu-help $(LCM_PYTHON)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)$(MAN_H2M)
 
 $(BUILD)/man/%.1: $(BUILD)/% docs/man/%.h2m docs/man/gnu-help
 	@mkdir -p $(dir $@)
@@ -677,7 +693,7 @@ $(BUILD)/man/rmdd.yaml.5: docs/man/rmdd.yaml.5.in examples/rmdd.yaml
 
 install-man: $(MAN_PAGES)
 	install -d $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man5 $(DESTDIR)$(MANDIR)/man8
-	install -m 0644 $(filter %.1,$(MAN_PAGES)) docs/man/rmd-plot.1 $(DESTDIR)$(MANDIR)/man1/
+	install -m 0644 $(filter %.1,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man1/
 	install -m 0644 $(filter %.5,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man5/
 	install -m 0644 $(filter %.8,$(MAN_PAGES)) $(DESTDIR)$(MANDIR)/man8/
 
@@ -692,7 +708,7 @@ install-docs:
 uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(foreach t,$(PY_TOOLS),$(firstword $(subst :, ,$(t)))))
-	rm -f $(DESTDIR)$(MANDIR)/man1/rmd-plot.1
+	rm -f $(DESTDIR)$(MANDIR)/man1/rmd-ros2.1
 	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2 $(DESTDIR)$(RMD_PHYSICS_DIR)/rmd-physics.so
 	[ ! -d $(DESTDIR)$(RMD_PHYSICS_DIR) ] || rmdir --ignore-fail-on-non-empty $(DESTDIR)$(RMD_PHYSICS_DIR)
 	rm -f $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd.service $(DESTDIR)$(SYSTEMDUNITDIR)/rmdd@.service \

@@ -41,6 +41,8 @@ import signal
 import sys
 import time
 
+from .client import DEFAULT_URL
+
 MOTOR_FIELDS = (
     "position", "velocity", "torque", "current", "temperature", "voltage", "error_code",
     "lifecycle", "mode", "reply_latency_us", "reply_age_cycles", "missed_replies",
@@ -56,7 +58,6 @@ UNITS = {
     "temperature": "degC", "voltage": "V", "reply_latency_us": "us",
     "reply_age_cycles": "cycles", "load": "fraction",
 }
-DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
 
 
 class Usage(Exception):

@@ -16,7 +16,7 @@ base settles under gravity and its contacts (--no-settle: they stay at the
 model's start).  The same works for a real robot's joints from the real
 daemon.
 
-Sources: live over LCM (--url, --prefix; the default), an lcm-logger log or
+Sources: live over LCM (--lcm-url, --prefix; the default), an lcm-logger log or
 an incident recording (--log: a .lcmlog or an incident folder, as
 rmd-export reads them).  Output: a window where there is a display
 ($DISPLAY or $WAYLAND_DISPLAY, and no --png), else PNG frames into a folder
@@ -35,10 +35,10 @@ import sys
 import time
 import zlib
 
+from .client import DEFAULT_URL
 from .export import Failure, events, log_path
 
 PROG = "rmd-view"
-DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
 
 
 def write_png(path, rgb):
@@ -205,8 +205,10 @@ def main(argv=None):
     p.add_argument("--size", default="640x480", metavar="WxH", help="PNG size (default 640x480)")
     p.add_argument("--no-settle", dest="settle", action="store_false",
                    help="leave the unmapped joints at the model's start")
-    p.add_argument("--url", default=os.environ.get("LCM_DEFAULT_URL", DEFAULT_URL))
-    p.add_argument("--prefix", default="RMD_")
+    p.add_argument("--lcm-url", "--url", dest="url", metavar="URL",
+                   default=os.environ.get("LCM_DEFAULT_URL", DEFAULT_URL),
+                   help="live: rmdd's LCM URL (default $LCM_DEFAULT_URL, else %s)" % DEFAULT_URL)
+    p.add_argument("--prefix", default="RMD_", help="rmdd's channel prefix (default RMD_)")
     a = p.parse_args(argv)
     try:
         w, h = (int(x) for x in a.size.lower().split("x"))
