@@ -707,7 +707,7 @@ install-docs:
 
 uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rmdctl $(DESTDIR)$(BINDIR)/rmd-sim $(DESTDIR)$(BINDIR)/rmdd $(DESTDIR)$(BINDIR)/rmd-spy
-	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(foreach t,$(PY_TOOLS),$(firstword $(subst :, ,$(t)))))
+	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(PY_TOOL_NAMES))
 	rm -f $(DESTDIR)$(MANDIR)/man1/rmd-ros2.1
 	rm -f $(DESTDIR)$(BINDIR)/rmd-ros2 $(DESTDIR)$(RMD_PHYSICS_DIR)/rmd-physics.so
 	[ ! -d $(DESTDIR)$(RMD_PHYSICS_DIR) ] || rmdir --ignore-fail-on-non-empty $(DESTDIR)$(RMD_PHYSICS_DIR)
